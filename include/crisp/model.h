@@ -1,0 +1,95 @@
+/* crisp model: what a CAD file becomes in memory. A model is a list of faces; a face is a NURBS
+ * surface cut by trim loops in its (u, v) domain. Every loop is closed, lies in the surface's
+ * domain, and is oriented: outer loops counter-clockwise, holes clockwise (normalised on load).
+ * A face without loops is the whole domain rectangle.
+ *
+ * Offers:
+ *   crisp_model_create / _destroy / _add_face / _bbox / _stats
+ *   crisp_trim_loop_* helpers: signed area, closure gap, orientation, domain check
+ *
+ * A loop is a sequence of 2D curves (crisp_curve, dim 2), each used over its whole domain and
+ * in loop order: the end of curve k meets the start of curve k + 1 and the last meets the first
+ * (within the closure tolerance). Readers trim and reverse source curves to reach this form.
+ */
+#ifndef CRISP_MODEL_H
+#define CRISP_MODEL_H
+
+#include "crisp/nurbs.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct crisp_trim_loop {
+    int is_outer;         /* 1: outer boundary (CCW), 0: hole (CW) */
+    int curve_count;
+    crisp_curve **curves; /* owned; dim 2 */
+} crisp_trim_loop;
+
+typedef struct crisp_face {
+    crisp_surface *surface; /* owned */
+    int loop_count;
+    crisp_trim_loop *loops; /* owned */
+    int has_color;
+    float color[4];         /* RGBA in [0, 1] when has_color */
+    int source_id;          /* entity number / DE pointer / line in the source file, for messages */
+    int reversed;           /* 1 when the face's outward normal is -(S_u x S_v) */
+} crisp_face;
+
+/* One counted kind of thing a reader skipped, with why ("entity 116 point: not a surface"). */
+typedef struct crisp_skip_note {
+    char what[96];
+    int count;
+} crisp_skip_note;
+
+typedef struct crisp_model {
+    int face_count, face_cap;
+    crisp_face *faces;
+    char format[16];       /* "IGES", "STEP", "OBJ" */
+    double unit_to_mm;     /* model units in millimetres (1 when unknown) */
+    int skip_count;
+    crisp_skip_note *skips; /* what the reader skipped and why */
+} crisp_model;
+
+crisp_status crisp_model_create(crisp_model **dest);
+void crisp_model_destroy(crisp_model *m);
+/* Moves *face into the model (the model owns its surface and loops afterwards). */
+crisp_status crisp_model_add_face(crisp_model *m, crisp_face *face);
+/* Count one skipped item under `what` (merged with earlier notes of the same text). */
+crisp_status crisp_model_note_skip(crisp_model *m, const char *what);
+/* Box of all faces' control hulls: xmin, ymin, zmin, xmax, ymax, zmax. */
+void crisp_model_bbox(const crisp_model *m, double *dest);
+
+/* Frees the loops and surface of a face that was not added to a model. */
+void crisp_face_free(crisp_face *face);
+void crisp_trim_loop_free(crisp_trim_loop *loop);
+
+typedef struct crisp_model_stats {
+    int faces;
+    int bezier_patches;   /* after Bézier extraction of every surface */
+    int outer_loops, hole_loops;
+    int trim_curves;      /* B-spline trim curves */
+    int trim_pieces;      /* Bézier trim pieces after extraction */
+    int rational_surfaces;
+    int max_degree_u, max_degree_v, max_trim_degree;
+    unsigned degrees_seen; /* bit d set when some surface has degree d in u or v */
+} crisp_model_stats;
+
+crisp_status crisp_model_stats_compute(const crisp_model *m, crisp_model_stats *dest);
+
+/* Signed area of the loop (shoelace on a dense polyline of its curves): > 0 when CCW. */
+double crisp_trim_loop_signed_area(const crisp_trim_loop *loop);
+/* Largest gap between the end of a curve and the start of the next (including last -> first). */
+double crisp_trim_loop_closure_gap(const crisp_trim_loop *loop);
+/* Reverse the loop's direction (curve order and each curve). */
+void crisp_trim_loop_reverse(crisp_trim_loop *loop);
+/* Largest distance by which the loop's control polygons leave the domain box (0 when inside). */
+double crisp_trim_loop_domain_excess(const crisp_trim_loop *loop, const double domain[4]);
+/* Orient every loop of the face (outer CCW, holes CW) and close gaps up to tol by moving the
+ * end points; fails with a message naming the face when a gap is larger. */
+crisp_status crisp_face_normalize_loops(crisp_face *face, double tol);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

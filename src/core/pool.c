@@ -1,0 +1,169 @@
+/* A pthread pool shared by the modules. parallel_for hands out chunks through an atomic counter,
+ * so uneven work (subdivision cells, patches of different cost) balances dynamically. */
+#include "crisp/core.h"
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+struct crisp_pool {
+    int threads;
+    pthread_t *tids;
+    pthread_mutex_t lock;
+    pthread_cond_t wake, done;
+    /* current job */
+    crisp_pool_fn fn;
+    void *ctx;
+    size_t count, grain;
+    atomic_size_t next;
+    unsigned long generation; /* bumped per job; workers run each generation once */
+    int busy;                 /* workers still in the current job */
+    int quit;
+};
+
+typedef struct {
+    crisp_pool *pool;
+    int worker;
+} worker_arg;
+
+static void run_chunks(crisp_pool *p, int worker)
+{
+    for (;;) {
+        size_t b = atomic_fetch_add(&p->next, p->grain);
+        if (b >= p->count) break;
+        size_t e = b + p->grain < p->count ? b + p->grain : p->count;
+        p->fn(p->ctx, b, e, worker);
+    }
+}
+
+static void *worker_main(void *varg)
+{
+    worker_arg *wa = varg;
+    crisp_pool *p = wa->pool;
+    int worker = wa->worker;
+    free(wa);
+    unsigned long seen = 0;
+    pthread_mutex_lock(&p->lock);
+    for (;;) {
+        while (!p->quit && p->generation == seen) pthread_cond_wait(&p->wake, &p->lock);
+        if (p->quit) break;
+        seen = p->generation;
+        pthread_mutex_unlock(&p->lock);
+        run_chunks(p, worker);
+        pthread_mutex_lock(&p->lock);
+        if (--p->busy == 0) pthread_cond_signal(&p->done);
+    }
+    pthread_mutex_unlock(&p->lock);
+    return NULL;
+}
+
+int crisp_pool_default_threads(void)
+{
+    const char *env = getenv("CRISP_THREADS");
+    if (env && *env) {
+        char *end;
+        long n = strtol(env, &end, 10);
+        if (*end == '\0' && n >= 1 && n <= 1024) return (int)n;
+    }
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n >= 1 ? (int)(n > 1024 ? 1024 : n) : 1;
+}
+
+crisp_status crisp_pool_create(int threads, crisp_pool **dest)
+{
+    if (threads <= 0) threads = crisp_pool_default_threads();
+    if (threads > 1024)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "thread count %d is above the limit of 1024", threads);
+    crisp_pool *p = calloc(1, sizeof *p);
+    if (!p) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating a thread pool");
+    p->threads = threads;
+    pthread_mutex_init(&p->lock, NULL);
+    pthread_cond_init(&p->wake, NULL);
+    pthread_cond_init(&p->done, NULL);
+    atomic_init(&p->next, 0);
+    if (threads > 1) {
+        p->tids = calloc((size_t)threads - 1, sizeof *p->tids);
+        if (!p->tids) {
+            crisp_pool_destroy(p);
+            return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating a thread pool");
+        }
+        for (int i = 1; i < threads; i++) {
+            worker_arg *wa = malloc(sizeof *wa);
+            if (!wa || pthread_create(&p->tids[i - 1], NULL, worker_main,
+                                      (*wa = (worker_arg){p, i}, wa)) != 0) {
+                free(wa);
+                p->threads = i; /* destroy joins only the started ones */
+                crisp_pool_destroy(p);
+                return crisp_error(CRISP_ERR_NO_MEMORY, "could not start thread %d of %d", i, threads);
+            }
+        }
+    }
+    *dest = p;
+    return CRISP_OK;
+}
+
+void crisp_pool_destroy(crisp_pool *p)
+{
+    if (!p) return;
+    pthread_mutex_lock(&p->lock);
+    p->quit = 1;
+    pthread_cond_broadcast(&p->wake);
+    pthread_mutex_unlock(&p->lock);
+    for (int i = 1; i < p->threads; i++) pthread_join(p->tids[i - 1], NULL);
+    pthread_mutex_destroy(&p->lock);
+    pthread_cond_destroy(&p->wake);
+    pthread_cond_destroy(&p->done);
+    free(p->tids);
+    free(p);
+}
+
+int crisp_pool_threads(const crisp_pool *p)
+{
+    return p ? p->threads : 1;
+}
+
+void crisp_pool_parallel_for(crisp_pool *p, size_t count, size_t grain, crisp_pool_fn fn, void *ctx)
+{
+    if (count == 0) return;
+    if (grain == 0) grain = 1;
+    if (!p || p->threads == 1 || count <= grain) {
+        for (size_t b = 0; b < count; b += grain) fn(ctx, b, b + grain < count ? b + grain : count, 0);
+        return;
+    }
+    pthread_mutex_lock(&p->lock);
+    p->fn = fn;
+    p->ctx = ctx;
+    p->count = count;
+    p->grain = grain;
+    atomic_store(&p->next, 0);
+    p->busy = p->threads - 1;
+    p->generation++;
+    pthread_cond_broadcast(&p->wake);
+    pthread_mutex_unlock(&p->lock);
+    run_chunks(p, 0);
+    pthread_mutex_lock(&p->lock);
+    while (p->busy > 0) pthread_cond_wait(&p->done, &p->lock);
+    pthread_mutex_unlock(&p->lock);
+}
+
+static crisp_pool *shared_pool;
+static pthread_once_t shared_once = PTHREAD_ONCE_INIT;
+
+static void shared_init(void)
+{
+    if (crisp_pool_create(0, &shared_pool) != CRISP_OK) shared_pool = NULL;
+}
+
+static void shared_cleanup(void) __attribute__((destructor));
+static void shared_cleanup(void)
+{
+    crisp_pool_destroy(shared_pool);
+    shared_pool = NULL;
+}
+
+crisp_pool *crisp_pool_shared(void)
+{
+    pthread_once(&shared_once, shared_init);
+    return shared_pool;
+}
