@@ -1,0 +1,66 @@
+/* The CPU rasterizer: triangles in clip space -> depth, perspective-correct attributes and face
+ * ids per sample, with a per-fragment test (the trim test) before the depth test.
+ *
+ * Tile-binned and multithreaded: triangles are clipped (near plane, far plane, a guard band) and
+ * set up once, binned to 64x64-pixel tiles in submission order, and the tiles are rasterised in
+ * parallel, each by one worker, so no two threads write the same pixel and the result does not
+ * depend on the thread count. Vertices snap to 1/256 px and edge functions are exact 64-bit
+ * integers with a top-left rule, so triangles that share an edge cover every sample on it
+ * exactly once (watertight). */
+#ifndef CRISP_RENDER_RASTER_H
+#define CRISP_RENDER_RASTER_H
+
+#include <stdint.h>
+
+#include "crisp/core.h"
+
+#define CRISP_RASTER_ATTRS 5 /* u, v, nx, ny, nz */
+#define CRISP_RASTER_SUBPIXEL_BITS 8
+
+typedef struct crisp_raster_vertex {
+    double clip[4];                 /* clip-space X, Y, Z, W */
+    double attr[CRISP_RASTER_ATTRS]; /* interpolated perspective-correctly */
+} crisp_raster_vertex;
+
+typedef struct crisp_raster_tri {
+    uint32_t v[3];
+    uint32_t face;
+} crisp_raster_tri;
+
+/* Keep (1) or discard (0) a fragment of `face` at surface parameters (u, v). */
+typedef int (*crisp_raster_test_fn)(void *ctx, uint32_t face, double u, double v);
+
+/* Per-sample results; sample s of pixel (i, j) is at index (j * width + i) * samples + s. */
+typedef struct crisp_raster_target {
+    int width, height, samples;
+    double *inv_w;  /* 1 / W of the visible fragment, 0 where nothing was drawn */
+    float *attr;    /* CRISP_RASTER_ATTRS per sample */
+    int32_t *face;  /* -1 where nothing was drawn */
+} crisp_raster_target;
+
+typedef struct crisp_raster crisp_raster; /* reusable scratch (setup, bins) */
+
+crisp_status crisp_raster_create(crisp_raster **dest);
+void crisp_raster_destroy(crisp_raster *r);
+
+/* samples: 1, 4 or 16. Reuses the target's buffers when the size is unchanged. */
+crisp_status crisp_raster_target_init(crisp_raster_target *t, int width, int height, int samples);
+void crisp_raster_target_free(crisp_raster_target *t);
+void crisp_raster_target_clear(crisp_raster_target *t);
+
+/* Offsets of the samples inside a pixel, in [0, 1)^2 (x right, y down). */
+void crisp_raster_sample_offset(int samples, int s, double dest[2]);
+
+typedef struct crisp_raster_stats {
+    size_t triangles_in, triangles_setup, fragments_tested, fragments_discarded;
+} crisp_raster_stats;
+
+/* Draw triangles into the target (depth test: nearer = larger 1/W wins; ties keep the earlier
+ * triangle). test may be NULL (keep all). pool may be NULL (one thread). */
+crisp_status crisp_raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+                               const crisp_raster_vertex *verts, size_t vert_count,
+                               const crisp_raster_tri *tris, size_t tri_count,
+                               crisp_raster_test_fn test, void *test_ctx,
+                               crisp_raster_stats *stats);
+
+#endif
