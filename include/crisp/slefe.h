@@ -1,0 +1,146 @@
+/* crisp slefe: subdividable linear efficient function enclosures (Lutterkort & Peters 2001) of
+ * Bézier functions, curve pieces and tensor-product patches, in object space and, for rational
+ * patches, in screen space through a perspective camera (homogeneous SLEFE + interval division).
+ * The tables are generated in code on first use (NOTES.md A.1.4); no published table is copied.
+ *
+ * Offers:
+ *   crisp_slefe_table_get          upper/lower tables of the anti-differences a_j^d on m segments
+ *   crisp_slefe_bezier             univariate Bézier function -> lo[m+1], up[m+1]
+ *   crisp_slefe_curve              per-component enclosure of a (homogeneous) Bézier curve piece
+ *   crisp_slefe_curve_boxes        per-segment Euclidean boxes of a curve piece (rational: divided)
+ *   crisp_slefe_patch              two-pass tensor-product enclosure: (m+1)^2 grid of [lo, up] per
+ *                                  homogeneous coordinate
+ *   crisp_slefe_patch_tiles        per-tile Euclidean boxes of a patch (rational: divided)
+ *   crisp_slefe_patch_screen       view-projected patch: per-tile NDC boxes and the screen width
+ *                                  w_px of the enclosure, for tau = ceil(m * sqrt(w_px / eps))
+ *   crisp_slefe_boxes_screen_width screen width of object-space boxes seen through a camera
+ *   crisp_slefe_tess_level         tau = ceil(m * sqrt(w_px / eps))
+ *
+ * Enclosure semantics. For a polynomial p of degree d on [0, 1] and breakpoints t_k = k/m, the
+ * piecewise-linear interpolants of lo[k] and up[k] satisfy lo(t) <= p(t) <= up(t) for all t,
+ * including floating-point rounding (the tables carry a safety margin and every result is widened
+ * by a bound on its own rounding error). For a patch the same holds for the bilinear interpolants
+ * of the grid values on each tile [ku/m, (ku+1)/m] x [kv/m, (kv+1)/m]. A triangulation of a tile
+ * is not bilinear; the tile boxes (min of the four lower corners, max of the four upper corners)
+ * enclose the patch over the tile and are what a tessellator can use to bound triangle-versus-
+ * surface distance without further assumptions.
+ *
+ * Rational geometry is enclosed in homogeneous form (w*P, w): each homogeneous coordinate is a
+ * polynomial and gets its own SLEFE; Euclidean (or NDC) coordinates are then bounded per segment
+ * or tile by interval division, which needs the lower bound of W to be positive. Where it is not,
+ * the functions return CRISP_ERR_NUMERIC and the caller splits (or culls) the piece.
+ *
+ * Hot paths (everything except the first table access) allocate nothing; outputs are caller-owned
+ * arrays whose sizes are given by the macros below.
+ */
+#ifndef CRISP_SLEFE_H
+#define CRISP_SLEFE_H
+
+#include "crisp/core.h"
+#include "crisp/nurbs.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define CRISP_SLEFE_MIN_DEGREE 1 /* degree 1 is its own chord: width 0, no table needed */
+#define CRISP_SLEFE_MAX_DEGREE 15
+#define CRISP_SLEFE_MAX_SEGMENTS 16
+/* Number of grid points of a patch enclosure on m segments per direction. */
+#define CRISP_SLEFE_GRID(m) (((m) + 1) * ((m) + 1))
+
+/* ---- tables ---------------------------------------------------------------------------------- */
+
+/* Tables of a_j^d (j = 1..d-1) on the breakpoints k/m: entry (j - 1) * (m + 1) + k. upper is the
+ * interpolant a_j(k/m); lower is a valid lower piecewise-linear bound (L_j[k] = a_j(k/m) -
+ * max(e_{k-1}, e_k), e_k the largest gap between a_j and its chord on segment k, plus a margin
+ * that covers rounding). guard: relative rounding margin applied to results (times max |b_i|). */
+typedef struct crisp_slefe_table {
+    int degree, segments;
+    const double *upper;
+    const double *lower;
+    double guard;
+} crisp_slefe_table;
+
+/* degree 2..15, segments 1..16. Thread-safe; the first call builds every table (~1 ms). */
+crisp_status crisp_slefe_table_get(int degree, int segments, crisp_slefe_table *dest);
+
+/* ---- univariate ------------------------------------------------------------------------------ */
+
+/* Enclose p(t) = sum_i coef[i * stride] B_i^degree(t) on [0, 1] with m = segments pieces.
+ * degree 1..15, segments 1..16, stride >= 1. lo, up: segments + 1 values each. Non-finite
+ * coefficients give CRISP_ERR_NUMERIC. */
+crisp_status crisp_slefe_bezier(int degree, const double *coef, int stride, int segments,
+                                double *lo, double *up);
+
+/* ---- curve pieces ---------------------------------------------------------------------------- */
+
+/* Number of components crisp_slefe_curve writes per breakpoint: dim for a polynomial piece,
+ * dim + 1 (homogeneous, w last) for a rational one. */
+#define CRISP_SLEFE_CURVE_COMPONENTS(c) ((c)->dim + ((c)->rational ? 1 : 0))
+
+/* Per-component enclosure of a Bézier curve piece: polynomial pieces in Euclidean coordinates,
+ * rational ones in homogeneous coordinates (w*x, w*y[, w*z], w). lo, up: (segments + 1) *
+ * CRISP_SLEFE_CURVE_COMPONENTS(c) values, breakpoint k component i at [k * ncomp + i]. */
+crisp_status crisp_slefe_curve(const crisp_bezier_curve *c, int segments, double *lo, double *up);
+
+/* Per-segment Euclidean boxes that contain the curve over [k/m, (k+1)/m]: box_lo, box_hi get
+ * segments * dim values ([k * dim + i]). Rational pieces: homogeneous SLEFE then interval division;
+ * CRISP_ERR_NUMERIC when the lower bound of w is not positive on some segment. */
+crisp_status crisp_slefe_curve_boxes(const crisp_bezier_curve *c, int segments, double *box_lo,
+                                     double *box_hi);
+
+/* ---- tensor-product patches ------------------------------------------------------------------ */
+
+/* Two-pass enclosure (NOTES.md A.1.5) of each homogeneous coordinate X, Y, Z, W of a patch
+ * (degrees 1..15 each). lo, up: CRISP_SLEFE_GRID(segments) * 4 values, grid point (ku, kv) (u
+ * fastest) coordinate i at [(kv * (segments + 1) + ku) * 4 + i]. For a polynomial patch
+ * (rational == 0) X, Y, Z are the Euclidean coordinates and W is exactly [1, 1]. */
+crisp_status crisp_slefe_patch(const crisp_bezier_patch *p, int segments, double *lo, double *up);
+
+/* Per-tile Euclidean boxes from a crisp_slefe_patch result: tile (ku, kv), coordinate i at
+ * [(kv * segments + ku) * 3 + i] of box_lo, box_hi (segments^2 * 3 values each). A polynomial
+ * result (W exactly 1) is taken as is; otherwise X/W etc. by interval division, and
+ * CRISP_ERR_NUMERIC when the lower bound of W on a tile is not positive. */
+crisp_status crisp_slefe_patch_tiles(int segments, const double *lo, const double *up,
+                                     double *box_lo, double *box_hi);
+
+/* A camera for screen-space enclosures: view_proj maps model coordinates to OpenGL clip space
+ * (column-major, as crisp_mat4_perspective * crisp_mat4_lookat); width, height: viewport in
+ * pixels. NDC x in [-1, 1] spans width pixels. */
+typedef struct crisp_slefe_view {
+    crisp_mat4 view_proj;
+    double width, height;
+} crisp_slefe_view;
+
+/* Screen-space enclosure of a patch (polynomial or rational): the homogeneous control points
+ * (w*P, w) are mapped by view_proj, each of the clip coordinates X, Y, Z, W gets a SLEFE, and
+ * per tile X/W, Y/W, Z/W are bounded by interval division.
+ *   ndc_lo, ndc_hi: segments^2 * 3 values (tile (ku, kv) at [(kv * segments + ku) * 3 + i]), NDC
+ *                   boxes that contain the projected patch over each tile; either may be NULL.
+ *   w_px: the largest screen extent in pixels (max of the x and y extents) over the grid points of
+ *         the divided enclosure boxes [X]/[W], [Y]/[W]: the width the tessellator turns into
+ *         tau = ceil(m * sqrt(w_px / eps)). May be NULL.
+ * Returns CRISP_ERR_NUMERIC when the lower bound of W is not positive somewhere (the patch
+ * reaches the eye plane: split or cull); the outputs are then unspecified. */
+crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
+                                      const crisp_slefe_view *view, double *ndc_lo, double *ndc_hi,
+                                      double *w_px);
+
+/* The iPASS measure for object-space boxes (e.g. cached crisp_slefe_patch results of polynomial
+ * patches with stride 4, or crisp_slefe_patch_tiles boxes with stride 3): box b is
+ * [lo + b * stride, hi + b * stride] (3 coordinates); it is mapped by view_proj, divided by W, and
+ * its NDC extent converted to pixels; *w_px gets the largest x or y extent. CRISP_ERR_NUMERIC when
+ * some box reaches W <= 0. */
+crisp_status crisp_slefe_boxes_screen_width(const crisp_slefe_view *view, int count,
+                                            const double *lo, const double *hi, int stride,
+                                            double *w_px);
+
+/* tau = ceil(segments * sqrt(w_px / eps)), at least 1 (not clamped above: a value over the
+ * tessellator's limit tells it to split). */
+int crisp_slefe_tess_level(double w_px, int segments, double eps);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

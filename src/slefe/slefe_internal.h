@@ -1,0 +1,98 @@
+/* Private helpers of the slefe module: table access without checks, the univariate enclosure
+ * kernel shared by curves and patches, and outward-rounded interval division. */
+#ifndef CRISP_SLEFE_INTERNAL_H
+#define CRISP_SLEFE_INTERNAL_H
+
+#include "crisp/slefe.h"
+
+#include <float.h>
+#include <math.h>
+
+/* Builds the tables once (pthread_once); cheap after the first call. */
+void crisp__slefe_tables_init(void);
+/* Table of (degree, segments) after crisp__slefe_tables_init; degree 1 gives NULL tables. */
+crisp_slefe_table crisp__slefe_table(int degree, int segments);
+/* Nonzero when the n values v[i * stride] are all finite. */
+int crisp__slefe_all_finite(const double *v, int n, int stride);
+/* Degree and segment count in range, else an error naming fn. */
+crisp_status crisp__slefe_check(const char *fn, int degree, int segments);
+
+/* Enclosure of sum_i b[i * stride] B_i^d on m segments with table t (d >= 1; t.upper may be NULL
+ * for d == 1). Writes lo[k * ostride], up[k * ostride] for k = 0..m. No checks. */
+static inline void crisp__slefe_kernel(int d, const double *b, int stride,
+                                       const crisp_slefe_table *t, int m, double *lo, int lstride,
+                                       double *up, int ustride)
+{
+    double pos[CRISP_SLEFE_MAX_DEGREE], neg[CRISP_SLEFE_MAX_DEGREE];
+    double b0 = b[0], bd = b[d * stride];
+    double bmax = fabs(b0) > fabs(bd) ? fabs(b0) : fabs(bd);
+    for (int j = 1; j < d; j++) {
+        double bj = b[j * stride];
+        double dd = b[(j - 1) * stride] - 2.0 * bj + b[(j + 1) * stride];
+        pos[j - 1] = dd > 0.0 ? dd : 0.0;
+        neg[j - 1] = dd < 0.0 ? dd : 0.0;
+        if (fabs(bj) > bmax) bmax = fabs(bj);
+    }
+    double margin = t->guard * bmax;
+    double inv_m = 1.0 / m;
+    for (int k = 0; k <= m; k++) {
+        double tk = k * inv_m;
+        double line = (1.0 - tk) * b0 + tk * bd;
+        double u = line, l = line;
+        for (int j = 1; j < d; j++) {
+            double uj = t->upper[(j - 1) * (m + 1) + k], lj = t->lower[(j - 1) * (m + 1) + k];
+            u += pos[j - 1] * uj + neg[j - 1] * lj;
+            l += pos[j - 1] * lj + neg[j - 1] * uj;
+        }
+        up[k * ustride] = u + margin;
+        lo[k * lstride] = l - margin;
+    }
+}
+
+/* Validates a patch (degrees, finite control points) for the public entry point fn. */
+crisp_status crisp__slefe_check_patch(const char *fn, const crisp_bezier_patch *p, int segments);
+/* Two-pass enclosure of the first ncomp homogeneous coordinates of p into the (m + 1)^2 * 4
+ * layout of crisp_slefe_patch (other coordinates untouched). Tables must be initialised. */
+void crisp__slefe_patch_nocheck(const crisp_bezier_patch *p, int m, int ncomp, double *lo,
+                                double *up);
+
+/* One side of the enclosure: with (first, second) = (upper, lower) tables and sign = +1 this is
+ * up[k]; with (lower, upper) and sign = -1 it is lo[k]. */
+static inline void crisp__slefe_side(int d, const double *b, int stride, double guard,
+                                     const double *first, const double *second, double sign, int m,
+                                     double *out, int ostride)
+{
+    double pos[CRISP_SLEFE_MAX_DEGREE], neg[CRISP_SLEFE_MAX_DEGREE];
+    double b0 = b[0], bd = b[d * stride];
+    double bmax = fabs(b0) > fabs(bd) ? fabs(b0) : fabs(bd);
+    for (int j = 1; j < d; j++) {
+        double bj = b[j * stride];
+        double dd = b[(j - 1) * stride] - 2.0 * bj + b[(j + 1) * stride];
+        pos[j - 1] = dd > 0.0 ? dd : 0.0;
+        neg[j - 1] = dd < 0.0 ? dd : 0.0;
+        if (fabs(bj) > bmax) bmax = fabs(bj);
+    }
+    double margin = sign * guard * bmax;
+    double inv_m = 1.0 / m;
+    for (int k = 0; k <= m; k++) {
+        double tk = k * inv_m;
+        double v = (1.0 - tk) * b0 + tk * bd;
+        for (int j = 1; j < d; j++)
+            v += pos[j - 1] * first[(j - 1) * (m + 1) + k] +
+                 neg[j - 1] * second[(j - 1) * (m + 1) + k];
+        out[k * ostride] = v + margin;
+    }
+}
+
+/* Outward-rounded [xl, xu] / [wl, wu] for wl > 0. */
+static inline void crisp__slefe_divide(double xl, double xu, double wl, double wu, double *ql,
+                                       double *qu)
+{
+    /* x / w is monotone in x and, for fixed sign of x, in w: the extremes are at corners. */
+    double a = xl / (xl >= 0.0 ? wu : wl);
+    double b = xu / (xu >= 0.0 ? wl : wu);
+    *ql = a - fabs(a) * DBL_EPSILON;
+    *qu = b + fabs(b) * DBL_EPSILON;
+}
+
+#endif
