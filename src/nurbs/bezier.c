@@ -1,0 +1,217 @@
+/* Homogeneous Bézier pieces and patches: evaluation, derivatives, subdivision and control boxes
+ * by de Casteljau's algorithm (The NURBS Book A1.5 and section 5.3; Farin, "Curves and Surfaces
+ * for CAGD", ch. 4). Parameters are local, in [0, 1]; derivatives are with respect to them.
+ */
+#include "nurbs_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+/* de Casteljau on n + 1 points of nc doubles (packed), in place: leaves the point at t in q[0]. */
+static void decasteljau(double *q, int n, int nc, double t)
+{
+    const double s = 1.0 - t;
+    for (int r = 1; r <= n; r++)
+        for (int i = 0; i <= n - r; i++)
+            for (int c = 0; c < nc; c++)
+                q[i * nc + c] = s * q[i * nc + c] + t * q[(i + 1) * nc + c];
+}
+
+void crisp_bezier_curve_eval(const crisp_bezier_curve *b, double t, double *dest)
+{
+    const int nc = b->dim + 1;
+    double q[(CRISP_MAX_DEGREE + 1) * 4];
+    memcpy(q, b->cpw, (size_t)(b->degree + 1) * nc * sizeof *q);
+    decasteljau(q, b->degree, nc, t);
+    for (int d = 0; d < b->dim; d++)
+        dest[d] = q[d] / q[b->dim];
+}
+
+/* Homogeneous derivatives h[r] (r = 0..nd) of a Bézier polynomial of degree n at t: de Casteljau
+ * down to m + 1 points (m = min(nd, n)), then r-th differences of those, reduced to one point,
+ * times n! / (n - r)!. */
+static void homogeneous_derivs(const double *cpw, int n, int nc, double t, int nd, double *h)
+{
+    double q[(CRISP_MAX_DEGREE + 1) * 4];
+    double e[(CRISP__MAX_DERIV + 1) * 4];
+    int m = nd < n ? nd : n;
+    const double s = 1.0 - t;
+    memcpy(q, cpw, (size_t)(n + 1) * nc * sizeof *q);
+    for (int r = 1; r <= n - m; r++)
+        for (int i = 0; i <= n - r; i++)
+            for (int c = 0; c < nc; c++)
+                q[i * nc + c] = s * q[i * nc + c] + t * q[(i + 1) * nc + c];
+    double f = 1.0;
+    for (int r = 0; r <= nd; r++) {
+        if (r > m) {
+            for (int c = 0; c < nc; c++)
+                h[r * nc + c] = 0.0;
+            continue;
+        }
+        memcpy(e, q, (size_t)(m + 1) * nc * sizeof *e);
+        for (int k = 1; k <= r; k++) /* r-th forward difference */
+            for (int i = 0; i <= m - k; i++)
+                for (int c = 0; c < nc; c++)
+                    e[i * nc + c] = e[(i + 1) * nc + c] - e[i * nc + c];
+        decasteljau(e, m - r, nc, t);
+        for (int c = 0; c < nc; c++)
+            h[r * nc + c] = f * e[c];
+        f *= n - r;
+    }
+}
+
+void crisp_bezier_curve_derivs(const crisp_bezier_curve *b, double t, int nderiv, double *dest)
+{
+    static const double binom[CRISP__MAX_DERIV + 1][CRISP__MAX_DERIV + 1] = {
+        {1, 0, 0, 0, 0}, {1, 1, 0, 0, 0}, {1, 2, 1, 0, 0}, {1, 3, 3, 1, 0}, {1, 4, 6, 4, 1}};
+    const int dim = b->dim, nc = dim + 1;
+    double h[(CRISP__MAX_DERIV + 1) * 4];
+    if (nderiv < 0) nderiv = 0;
+    if (nderiv > CRISP__MAX_DERIV) nderiv = CRISP__MAX_DERIV;
+    homogeneous_derivs(b->cpw, b->degree, nc, t, nderiv, h);
+    double w = h[dim];
+    for (int r = 0; r <= nderiv; r++)
+        for (int d = 0; d < dim; d++) {
+            double v = h[r * nc + d];
+            for (int i = 1; i <= r; i++)
+                v -= binom[r][i] * h[i * nc + dim] * dest[(r - i) * dim + d];
+            dest[r * dim + d] = v / w;
+        }
+}
+
+/* Split n + 1 points at t: left gets the first point of every level, right the last. */
+static void split_points(const double *src, ptrdiff_t src_stride, int n, int nc, double t,
+                         double *left, double *right, ptrdiff_t dst_stride)
+{
+    double q[(CRISP_MAX_DEGREE + 1) * 4];
+    const double s = 1.0 - t;
+    for (int i = 0; i <= n; i++)
+        memcpy(q + i * nc, src + i * src_stride, (size_t)nc * sizeof *q);
+    memcpy(left, q, (size_t)nc * sizeof *q);
+    memcpy(right + n * dst_stride, q + n * nc, (size_t)nc * sizeof *q);
+    for (int r = 1; r <= n; r++) {
+        for (int i = 0; i <= n - r; i++)
+            for (int c = 0; c < nc; c++)
+                q[i * nc + c] = s * q[i * nc + c] + t * q[(i + 1) * nc + c];
+        memcpy(left + r * dst_stride, q, (size_t)nc * sizeof *q);
+        memcpy(right + (n - r) * dst_stride, q + (n - r) * nc, (size_t)nc * sizeof *q);
+    }
+}
+
+void crisp_bezier_curve_split(const crisp_bezier_curve *b, double t, crisp_bezier_curve *left,
+                              crisp_bezier_curve *right)
+{
+    crisp_bezier_curve l = *b, r = *b;
+    const int nc = b->dim + 1;
+    split_points(b->cpw, nc, b->degree, nc, t, l.cpw, r.cpw, nc);
+    double tm = b->t0 + t * (b->t1 - b->t0);
+    l.t1 = tm;
+    r.t0 = tm;
+    *left = l;
+    *right = r;
+}
+
+void crisp_bezier_curve_bbox(const crisp_bezier_curve *b, double *dest)
+{
+    const int dim = b->dim, nc = dim + 1;
+    for (int d = 0; d < dim; d++) {
+        dest[d] = INFINITY;
+        dest[dim + d] = -INFINITY;
+    }
+    for (int i = 0; i <= b->degree; i++)
+        for (int d = 0; d < dim; d++) {
+            double x = b->cpw[i * nc + d] / b->cpw[i * nc + dim];
+            if (x < dest[d]) dest[d] = x;
+            if (x > dest[dim + d]) dest[dim + d] = x;
+        }
+}
+
+void crisp_bezier_patch_eval(const crisp_bezier_patch *p, double s, double t, double *dest)
+{
+    double row[(CRISP_MAX_DEGREE + 1) * 4], col[(CRISP_MAX_DEGREE + 1) * 4];
+    const int nu = p->du + 1;
+    for (int j = 0; j <= p->dv; j++) {
+        memcpy(row, p->cpw + (size_t)j * nu * 4, (size_t)nu * 4 * sizeof *row);
+        decasteljau(row, p->du, 4, s);
+        memcpy(col + j * 4, row, 4 * sizeof *col);
+    }
+    decasteljau(col, p->dv, 4, t);
+    for (int d = 0; d < 3; d++)
+        dest[d] = col[d] / col[3];
+}
+
+void crisp_bezier_patch_derivs(const crisp_bezier_patch *p, double s, double t, double *point,
+                               double *d_s, double *d_t)
+{
+    double val[(CRISP_MAX_DEGREE + 1) * 4], dsv[(CRISP_MAX_DEGREE + 1) * 4];
+    double h[2 * 4];
+    const int nu = p->du + 1;
+    for (int j = 0; j <= p->dv; j++) {
+        homogeneous_derivs(p->cpw + (size_t)j * nu * 4, p->du, 4, s, 1, h);
+        memcpy(val + j * 4, h, 4 * sizeof *val);
+        memcpy(dsv + j * 4, h + 4, 4 * sizeof *dsv);
+    }
+    double a[2 * 4], as[4];
+    homogeneous_derivs(val, p->dv, 4, t, 1, a); /* a: A, A_t */
+    decasteljau(dsv, p->dv, 4, t);
+    memcpy(as, dsv, sizeof as);
+    double w = a[3], x[3];
+    for (int d = 0; d < 3; d++)
+        x[d] = a[d] / w;
+    for (int d = 0; d < 3; d++) {
+        if (point) point[d] = x[d];
+        if (d_s) d_s[d] = (as[d] - as[3] * x[d]) / w;
+        if (d_t) d_t[d] = (a[4 + d] - a[7] * x[d]) / w;
+    }
+}
+
+void crisp_bezier_patch_split_u(const crisp_bezier_patch *p, double s, crisp_bezier_patch *lo,
+                                crisp_bezier_patch *hi)
+{
+    crisp_bezier_patch l = *p, h = *p;
+    l.cpw = lo->cpw;
+    h.cpw = hi->cpw;
+    const int nu = p->du + 1;
+    for (int j = 0; j <= p->dv; j++)
+        split_points(p->cpw + (size_t)j * nu * 4, 4, p->du, 4, s, l.cpw + (size_t)j * nu * 4,
+                     h.cpw + (size_t)j * nu * 4, 4);
+    double um = p->u0 + s * (p->u1 - p->u0);
+    l.u1 = um;
+    h.u0 = um;
+    *lo = l;
+    *hi = h;
+}
+
+void crisp_bezier_patch_split_v(const crisp_bezier_patch *p, double t, crisp_bezier_patch *lo,
+                                crisp_bezier_patch *hi)
+{
+    crisp_bezier_patch l = *p, h = *p;
+    l.cpw = lo->cpw;
+    h.cpw = hi->cpw;
+    const int nu = p->du + 1;
+    for (int i = 0; i < nu; i++)
+        split_points(p->cpw + (size_t)i * 4, (ptrdiff_t)nu * 4, p->dv, 4, t, l.cpw + (size_t)i * 4,
+                     h.cpw + (size_t)i * 4, (ptrdiff_t)nu * 4);
+    double vm = p->v0 + t * (p->v1 - p->v0);
+    l.v1 = vm;
+    h.v0 = vm;
+    *lo = l;
+    *hi = h;
+}
+
+void crisp_bezier_patch_bbox(const crisp_bezier_patch *p, double *dest)
+{
+    for (int d = 0; d < 3; d++) {
+        dest[d] = INFINITY;
+        dest[3 + d] = -INFINITY;
+    }
+    size_t n = (size_t)(p->du + 1) * (size_t)(p->dv + 1);
+    for (size_t i = 0; i < n; i++) {
+        const double *q = p->cpw + i * 4;
+        for (int d = 0; d < 3; d++) {
+            double x = q[d] / q[3];
+            if (x < dest[d]) dest[d] = x;
+            if (x > dest[3 + d]) dest[3 + d] = x;
+        }
+    }
+}

@@ -1,0 +1,138 @@
+/* The in-memory model: a growable list of faces (NURBS surface + trim loops), the notes of what a
+ * reader skipped, the model's box and its statistics. Bézier patch and trim piece counts come
+ * from counting non-empty knot spans, so computing stats extracts nothing.
+ */
+#include "crisp/model.h"
+
+#include "nurbs_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+crisp_status crisp_model_create(crisp_model **dest)
+{
+    *dest = NULL;
+    crisp_model *m = crisp_calloc_array(1, sizeof *m);
+    if (!m) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory allocating a model");
+    m->unit_to_mm = 1.0;
+    *dest = m;
+    return CRISP_OK;
+}
+
+void crisp_trim_loop_free(crisp_trim_loop *loop)
+{
+    if (!loop) return;
+    for (int i = 0; i < loop->curve_count; i++)
+        if (loop->curves) crisp_curve_destroy(loop->curves[i]);
+    crisp_free(loop->curves);
+    memset(loop, 0, sizeof *loop);
+}
+
+void crisp_face_free(crisp_face *face)
+{
+    if (!face) return;
+    crisp_surface_destroy(face->surface);
+    for (int i = 0; i < face->loop_count; i++)
+        if (face->loops) crisp_trim_loop_free(&face->loops[i]);
+    crisp_free(face->loops);
+    memset(face, 0, sizeof *face);
+}
+
+void crisp_model_destroy(crisp_model *m)
+{
+    if (!m) return;
+    for (int i = 0; i < m->face_count; i++)
+        crisp_face_free(&m->faces[i]);
+    crisp_free(m->faces);
+    crisp_free(m->skips);
+    crisp_free(m);
+}
+
+crisp_status crisp_model_add_face(crisp_model *m, crisp_face *face)
+{
+    if (!face->surface)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "face %d has no surface", face->source_id);
+    if (m->face_count == m->face_cap) {
+        size_t cap = (size_t)m->face_cap;
+        crisp_status st =
+            crisp_grow((void **)&m->faces, &cap, (size_t)m->face_count + 1, sizeof *m->faces);
+        if (st) return st;
+        if (cap > (size_t)INT32_MAX) cap = INT32_MAX;
+        m->face_cap = (int)cap;
+    }
+    m->faces[m->face_count++] = *face;
+    memset(face, 0, sizeof *face);
+    return CRISP_OK;
+}
+
+crisp_status crisp_model_note_skip(crisp_model *m, const char *what)
+{
+    char key[sizeof m->skips[0].what];
+    snprintf(key, sizeof key, "%s", what ? what : "");
+    for (int i = 0; i < m->skip_count; i++)
+        if (strcmp(m->skips[i].what, key) == 0) {
+            m->skips[i].count++;
+            return CRISP_OK;
+        }
+    crisp_skip_note *s = crisp_realloc_array(m->skips, (size_t)m->skip_count + 1, sizeof *s);
+    if (!s) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory noting a skipped item");
+    m->skips = s;
+    memcpy(s[m->skip_count].what, key, sizeof key);
+    s[m->skip_count].count = 1;
+    m->skip_count++;
+    return CRISP_OK;
+}
+
+void crisp_model_bbox(const crisp_model *m, double *dest)
+{
+    for (int d = 0; d < 3; d++) {
+        dest[d] = INFINITY;
+        dest[3 + d] = -INFINITY;
+    }
+    for (int i = 0; i < m->face_count; i++) {
+        double b[6];
+        crisp_surface_bbox(m->faces[i].surface, b);
+        for (int d = 0; d < 3; d++) {
+            if (b[d] < dest[d]) dest[d] = b[d];
+            if (b[3 + d] > dest[3 + d]) dest[3 + d] = b[3 + d];
+        }
+    }
+    if (m->face_count == 0)
+        for (int d = 0; d < 6; d++)
+            dest[d] = 0.0;
+}
+
+crisp_status crisp_model_stats_compute(const crisp_model *m, crisp_model_stats *dest)
+{
+    memset(dest, 0, sizeof *dest);
+    dest->faces = m->face_count;
+    for (int i = 0; i < m->face_count; i++) {
+        const crisp_face *f = &m->faces[i];
+        const crisp_surface *s = f->surface;
+        if (!s)
+            return crisp_error(CRISP_ERR_INVALID_ARG, "face %d (index %d) has no surface",
+                               f->source_id, i);
+        dest->bezier_patches += crisp__count_spans(s->knots_u, s->degree_u, s->count_u) *
+                                crisp__count_spans(s->knots_v, s->degree_v, s->count_v);
+        if (s->rational) dest->rational_surfaces++;
+        if (s->degree_u > dest->max_degree_u) dest->max_degree_u = s->degree_u;
+        if (s->degree_v > dest->max_degree_v) dest->max_degree_v = s->degree_v;
+        dest->degrees_seen |= 1u << s->degree_u;
+        dest->degrees_seen |= 1u << s->degree_v;
+        for (int l = 0; l < f->loop_count; l++) {
+            const crisp_trim_loop *loop = &f->loops[l];
+            if (loop->is_outer)
+                dest->outer_loops++;
+            else
+                dest->hole_loops++;
+            for (int c = 0; c < loop->curve_count; c++) {
+                const crisp_curve *cv = loop->curves[c];
+                dest->trim_curves++;
+                dest->trim_pieces += crisp__count_spans(cv->knots, cv->degree, cv->count);
+                if (cv->degree > dest->max_trim_degree) dest->max_trim_degree = cv->degree;
+            }
+        }
+    }
+    return CRISP_OK;
+}
