@@ -1,0 +1,444 @@
+/* Point inversion on NURBS surfaces and projection of 3D curves into a surface's (u, v) domain.
+ * Follows Piegl & Tiller, "The NURBS Book", section 6.1 (point inversion: a coarse global search
+ * for the start, then Newton on (S - P).S_u = 0, (S - P).S_v = 0 with the domain clamped), made
+ * robust with Gauss-Newton / Levenberg-Marquardt damping so that poles (S_u = 0) and collapsed
+ * edges give a finite answer instead of a singular system.
+ *
+ * Projection: sample the 3D curve, invert the samples in order (each seeded from the previous
+ * (u, v), so the path stays continuous), unwrap across the seam of surfaces closed in u or v (the
+ * u0 and u1 boundary curves coincide) by choosing the representative nearest the previous one,
+ * take u from the neighbours where it is undefined (a pole), then fit a cubic in (u, v) with the
+ * adaptive fitter, whose error is measured in 3D: |S(fitted uv) - C(t)|. The uv curve of a seam
+ * crossing is continuous and so leaves [u0, u1] by up to a period; evaluate S at u wrapped into
+ * the domain. */
+#include "fit_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+#define GRID_MAX 24    /* global search grid per direction */
+#define NEWTON_ITERS 40
+
+typedef struct surf_info {
+    const crisp_surface *s;
+    double dom[4];
+    int closed[2];    /* closed in u, in v */
+    double period[2]; /* domain widths */
+    double scale;     /* bounding box diagonal */
+} surf_info;
+
+static double dist3(const double *a, const double *b)
+{
+    double x = a[0] - b[0], y = a[1] - b[1], z = a[2] - b[2];
+    return sqrt(x * x + y * y + z * z);
+}
+
+/* A parameter of a closed direction wrapped into the domain, others clamped. */
+static double wrap(const surf_info *si, int dir, double x)
+{
+    double lo = si->dom[2 * dir], hi = si->dom[2 * dir + 1];
+    if (si->closed[dir]) {
+        if (x < lo || x > hi) {
+            double p = si->period[dir];
+            x = lo + fmod(x - lo, p);
+            if (x < lo) x += p;
+            if (x > hi) x = hi;
+        }
+        return x;
+    }
+    return x < lo ? lo : x > hi ? hi : x;
+}
+
+static void eval_wrapped(const surf_info *si, const double uv[2], double *p, double *su,
+                         double *sv)
+{
+    crisp_surface_derivs(si->s, wrap(si, 0, uv[0]), wrap(si, 1, uv[1]), p, su, sv, NULL, NULL,
+                         NULL);
+}
+
+static void surf_info_init(const crisp_surface *s, surf_info *si)
+{
+    si->s = s;
+    crisp_surface_domain(s, si->dom);
+    double box[6];
+    crisp_surface_bbox(s, box);
+    si->scale = sqrt((box[3] - box[0]) * (box[3] - box[0]) + (box[4] - box[1]) * (box[4] - box[1]) +
+                     (box[5] - box[2]) * (box[5] - box[2]));
+    if (!(si->scale > 0)) si->scale = 1;
+    for (int dir = 0; dir < 2; dir++) {
+        si->period[dir] = si->dom[2 * dir + 1] - si->dom[2 * dir];
+        si->closed[dir] = 0;
+    }
+    /* Closed in u when the boundary curves S(u0, v) and S(u1, v) coincide (likewise in v). */
+    for (int dir = 0; dir < 2; dir++) {
+        double worst = 0;
+        for (int k = 0; k <= 8; k++) {
+            double o = si->dom[2 * (1 - dir)] + si->period[1 - dir] * k / 8.0, a[3], b[3];
+            if (dir == 0) {
+                crisp_surface_eval(s, si->dom[0], o, a);
+                crisp_surface_eval(s, si->dom[1], o, b);
+            } else {
+                crisp_surface_eval(s, o, si->dom[2], a);
+                crisp_surface_eval(s, o, si->dom[3], b);
+            }
+            double d = dist3(a, b);
+            if (!(d <= worst)) worst = d;
+        }
+        /* A collapsed boundary pair (both ends one point for all v) is not a seam. */
+        double mid_a[3], mid_b[3];
+        if (dir == 0) {
+            crisp_surface_eval(s, si->dom[0], si->dom[2], mid_a);
+            crisp_surface_eval(s, si->dom[0], si->dom[3], mid_b);
+        } else {
+            crisp_surface_eval(s, si->dom[0], si->dom[2], mid_a);
+            crisp_surface_eval(s, si->dom[1], si->dom[2], mid_b);
+        }
+        si->closed[dir] = worst <= 1e-7 * si->scale && dist3(mid_a, mid_b) > 1e-7 * si->scale;
+    }
+}
+
+/* Damped Gauss-Newton from uv (in place, unwrapped in closed directions, clamped otherwise):
+ * minimises |S(u, v) - P|^2. Returns the distance reached. */
+static double newton(const surf_info *si, const double p[3], double uv[2])
+{
+    double s[3], su[3], sv[3];
+    for (int dir = 0; dir < 2; dir++)
+        if (!si->closed[dir]) uv[dir] = wrap(si, dir, uv[dir]);
+    eval_wrapped(si, uv, s, su, sv);
+    double r[3] = {s[0] - p[0], s[1] - p[1], s[2] - p[2]};
+    double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
+    double lam = 0;
+    double tiny = 1e-300;
+    for (int it = 0; it < NEWTON_ITERS && d2 > 0; it++) {
+        double a = crisp_vec3_dot(su, su), b = crisp_vec3_dot(su, sv), c = crisp_vec3_dot(sv, sv);
+        double gu = crisp_vec3_dot(r, su), gv = crisp_vec3_dot(r, sv);
+        double tr = a + c;
+        if (!(tr > tiny)) break; /* S_u = S_v = 0: nothing to follow */
+        double mu = lam * tr + 1e-14 * tr;
+        double a2 = a + mu, c2 = c + mu, det = a2 * c2 - b * b;
+        if (!(det > 0)) {
+            lam = lam > 0 ? lam * 10 : 1e-6;
+            continue;
+        }
+        double du = -(c2 * gu - b * gv) / det, dv = -(a2 * gv - b * gu) / det;
+        if (!isfinite(du) || !isfinite(dv)) break;
+        double cand[2] = {uv[0] + du, uv[1] + dv};
+        for (int dir = 0; dir < 2; dir++)
+            if (!si->closed[dir]) cand[dir] = wrap(si, dir, cand[dir]);
+        double step = fabs(cand[0] - uv[0]) / si->period[0] + fabs(cand[1] - uv[1]) / si->period[1];
+        double s2[3], su2[3], sv2[3];
+        eval_wrapped(si, cand, s2, su2, sv2);
+        double r2[3] = {s2[0] - p[0], s2[1] - p[1], s2[2] - p[2]};
+        double e2 = r2[0] * r2[0] + r2[1] * r2[1] + r2[2] * r2[2];
+        if (e2 <= d2) {
+            uv[0] = cand[0];
+            uv[1] = cand[1];
+            memcpy(s, s2, sizeof s);
+            memcpy(su, su2, sizeof su);
+            memcpy(sv, sv2, sizeof sv);
+            memcpy(r, r2, sizeof r);
+            int converged = step < 1e-15 || d2 - e2 <= 1e-30 * si->scale * si->scale;
+            d2 = e2;
+            lam *= 0.25;
+            if (lam < 1e-12) lam = 0;
+            if (converged) break;
+        } else {
+            if (step < 1e-15) break;
+            lam = lam > 0 ? lam * 8 : 1e-4;
+            if (lam > 1e12) break;
+        }
+    }
+    return sqrt(d2);
+}
+
+/* Sample positions of one direction: per knot span (degree + 1) samples when they fit in
+ * GRID_MAX, else GRID_MAX uniform samples. Returns the count. */
+static int grid_params(const double *knots, int degree, int count, double lo, double hi,
+                       double *dest)
+{
+    int spans = 0;
+    for (int i = degree; i < count; i++)
+        if (knots[i + 1] > knots[i]) spans++;
+    int per = degree + 1;
+    if (spans >= 1 && spans * per + 1 <= GRID_MAX) {
+        int n = 0;
+        for (int i = degree; i < count; i++) {
+            if (!(knots[i + 1] > knots[i])) continue;
+            for (int k = 0; k < per; k++)
+                dest[n++] = knots[i] + (knots[i + 1] - knots[i]) * (k + 0.5) / per;
+        }
+        dest[n++] = lo;
+        dest[n++] = hi;
+        return n;
+    }
+    for (int k = 0; k < GRID_MAX; k++) dest[k] = lo + (hi - lo) * k / (GRID_MAX - 1);
+    return GRID_MAX;
+}
+
+/* Global search: the best few grid points, each refined by Newton; the closest wins. */
+static double invert_global(const surf_info *si, const double p[3], double uv[2])
+{
+    const crisp_surface *s = si->s;
+    double gu[GRID_MAX + 2], gv[GRID_MAX + 2];
+    int nu = grid_params(s->knots_u, s->degree_u, s->count_u, si->dom[0], si->dom[1], gu);
+    int nv = grid_params(s->knots_v, s->degree_v, s->count_v, si->dom[2], si->dom[3], gv);
+    enum { KEEP = 3 };
+    double best_d[KEEP], best_uv[KEEP][2];
+    int kept = 0;
+    for (int j = 0; j < nv; j++)
+        for (int i = 0; i < nu; i++) {
+            double q[3];
+            crisp_surface_eval(s, gu[i], gv[j], q);
+            double d = dist3(q, p);
+            if (!(d == d)) continue;
+            int at = kept < KEEP ? kept++ : KEEP;
+            if (at == KEEP) {
+                if (!(d < best_d[KEEP - 1])) continue;
+                at = KEEP - 1;
+            }
+            while (at > 0 && best_d[at - 1] > d) {
+                best_d[at] = best_d[at - 1];
+                best_uv[at][0] = best_uv[at - 1][0];
+                best_uv[at][1] = best_uv[at - 1][1];
+                at--;
+            }
+            best_d[at] = d;
+            best_uv[at][0] = gu[i];
+            best_uv[at][1] = gv[j];
+        }
+    double bd = INFINITY;
+    uv[0] = si->dom[0];
+    uv[1] = si->dom[2];
+    for (int k = 0; k < kept; k++) {
+        double t[2] = {best_uv[k][0], best_uv[k][1]};
+        double d = newton(si, p, t);
+        if (d < bd) {
+            bd = d;
+            uv[0] = t[0];
+            uv[1] = t[1];
+        }
+        if (bd <= 1e-12 * si->scale) break;
+    }
+    return bd;
+}
+
+crisp_status crisp_surface_closest_point(const crisp_surface *s, const double p[3], double uv[2],
+                                         double *dist)
+{
+    if (!s || !p || !uv)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_surface_closest_point: NULL argument");
+    if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_surface_closest_point: point (%g, %g, %g) is not finite", p[0],
+                           p[1], p[2]);
+    surf_info si;
+    surf_info_init(s, &si);
+    double d = invert_global(&si, p, uv);
+    uv[0] = wrap(&si, 0, uv[0]);
+    uv[1] = wrap(&si, 1, uv[1]);
+    if (!isfinite(d) || !isfinite(uv[0]) || !isfinite(uv[1]))
+        return crisp_error(CRISP_ERR_NUMERIC,
+                           "crisp_surface_closest_point: no finite closest point for (%g, %g, %g)",
+                           p[0], p[1], p[2]);
+    if (dist) *dist = d;
+    return CRISP_OK;
+}
+
+/* ---- curve projection -------------------------------------------------------------------------- */
+
+typedef struct proj_ctx {
+    surf_info si;
+    const crisp_curve *c;
+    double t0, t1, tol;
+    int n;          /* samples */
+    double *st;     /* sample parameters */
+    double *suv;    /* sample (u, v), continuous */
+} proj_ctx;
+
+/* The representative of x (in a closed direction) nearest ref. */
+static double unwrap_near(const surf_info *si, int dir, double x, double ref)
+{
+    if (!si->closed[dir]) return x;
+    double p = si->period[dir];
+    return x - p * floor((x - ref) / p + 0.5);
+}
+
+/* Is direction dir degenerate at uv (S_u or S_v vanishing: a pole or collapsed edge)? */
+static int degenerate_dir(const surf_info *si, const double uv[2], int dir)
+{
+    double su[3], sv[3];
+    eval_wrapped(si, uv, NULL, su, sv);
+    double n = crisp_vec3_norm(dir == 0 ? su : sv);
+    return !(n * si->period[dir] > 1e-7 * si->scale);
+}
+
+/* Invert C(t) seeded from seed; falls back to the global search when the local answer is far. */
+static void invert_seeded(const proj_ctx *pc, double t, const double seed[2], double uv[2])
+{
+    double p[3];
+    crisp_curve_eval(pc->c, t, p);
+    uv[0] = seed[0];
+    uv[1] = seed[1];
+    double d = newton(&pc->si, p, uv);
+    if (d > pc->tol) {
+        double g[2];
+        double dg = invert_global(&pc->si, p, g);
+        if (dg < 0.5 * d) {
+            uv[0] = unwrap_near(&pc->si, 0, g[0], seed[0]);
+            uv[1] = unwrap_near(&pc->si, 1, g[1], seed[1]);
+        }
+    }
+    uv[0] = unwrap_near(&pc->si, 0, uv[0], seed[0]);
+    uv[1] = unwrap_near(&pc->si, 1, uv[1], seed[1]);
+}
+
+/* Where a parameter is undefined (pole), take it from the nearest defined neighbours. */
+static void fill_poles(proj_ctx *pc, const unsigned char *bad, int dir)
+{
+    int n = pc->n;
+    for (int i = 0; i < n; i++) {
+        if (!bad[i]) continue;
+        int lo = i - 1, hi = i + 1;
+        while (lo >= 0 && bad[lo]) lo--;
+        while (hi < n && bad[hi]) hi++;
+        double x;
+        if (lo >= 0 && hi < n) {
+            double w = (pc->st[i] - pc->st[lo]) / (pc->st[hi] - pc->st[lo]);
+            x = (1 - w) * pc->suv[2 * lo + dir] + w * pc->suv[2 * hi + dir];
+        } else if (lo >= 0) {
+            x = pc->suv[2 * lo + dir];
+        } else if (hi < n) {
+            x = pc->suv[2 * hi + dir];
+        } else {
+            continue;
+        }
+        pc->suv[2 * i + dir] = x;
+    }
+}
+
+/* The sample nearest t (samples are sorted by parameter). */
+static int nearest_sample(const proj_ctx *pc, double t)
+{
+    int lo = 0, hi = pc->n - 1;
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (pc->st[mid] <= t) lo = mid;
+        else hi = mid;
+    }
+    return fabs(pc->st[hi] - t) < fabs(t - pc->st[lo]) ? hi : lo;
+}
+
+static void proj_fn(void *ctx, double t, double *dest)
+{
+    const proj_ctx *pc = ctx;
+    int k = nearest_sample(pc, t);
+    const double *seed = pc->suv + 2 * k;
+    invert_seeded(pc, t, seed, dest);
+    for (int dir = 0; dir < 2; dir++)
+        if (degenerate_dir(&pc->si, dest, dir)) {
+            /* u undefined here: interpolate the neighbouring samples' value. */
+            int lo = k, hi = k;
+            if (pc->st[k] <= t && k + 1 < pc->n) hi = k + 1;
+            else if (k > 0) lo = k - 1;
+            double w = hi > lo ? (t - pc->st[lo]) / (pc->st[hi] - pc->st[lo]) : 0;
+            dest[dir] = (1 - w) * pc->suv[2 * lo + dir] + w * pc->suv[2 * hi + dir];
+        }
+}
+
+static double proj_error(void *ctx, double t, const double *fitted)
+{
+    const proj_ctx *pc = ctx;
+    double p[3], q[3];
+    crisp_curve_eval(pc->c, t, p);
+    eval_wrapped(&pc->si, fitted, q, NULL, NULL);
+    double e = dist3(p, q);
+    if (e <= pc->tol) return e;
+    /* The curve may lie off the surface: compare with the image of its own projection. */
+    double uv[2] = {fitted[0], fitted[1]};
+    double d = newton(&pc->si, p, uv);
+    if (d <= 0.5 * pc->tol) return e;
+    double r[3];
+    eval_wrapped(&pc->si, uv, r, NULL, NULL);
+    return dist3(q, r);
+}
+
+crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_curve *c, double t0,
+                                         double t1, double tol, crisp_curve **dest)
+{
+    const char *fn = "crisp_surface_project_curve";
+    if (!s || !c || !dest || c->dim != 3)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: NULL argument or curve not 3D", fn);
+    if (!isfinite(t0) || !isfinite(t1) || !(t1 > t0) || !isfinite(tol) || !(tol > 0))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "%s: range [%g, %g] must be non-empty and tol %g positive", fn, t0, t1,
+                           tol);
+    proj_ctx pc = {.c = c, .t0 = t0, .t1 = t1, .tol = tol};
+    surf_info_init(s, &pc.si);
+    /* The curve's interior knots in (t0, t1) start the fit's spans (kinks sit there). */
+    int nk = 0, spans = 1;
+    double *breaks = crisp_malloc_array((size_t)c->count + 1, sizeof *breaks);
+    if (!breaks) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", fn);
+    for (int i = c->degree + 1; i < c->count; i++) {
+        double k = c->knots[i];
+        if (k > t0 && k < t1 && (nk == 0 || k > breaks[nk - 1])) breaks[nk++] = k;
+    }
+    spans = nk + 1;
+    /* Samples: 8 per span of the curve, 16 at least, bounded. */
+    int n = spans * 8 + 1;
+    if (n < 17) n = 17;
+    if (n > 8193) n = 8193;
+    pc.n = n;
+    pc.st = crisp_malloc_array((size_t)n, sizeof *pc.st);
+    pc.suv = crisp_malloc_array((size_t)n, 2 * sizeof *pc.suv);
+    unsigned char *bad = crisp_malloc_array((size_t)n, 2);
+    crisp_status st = CRISP_OK;
+    if (!pc.st || !pc.suv || !bad) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", fn);
+        goto out;
+    }
+    {
+        int any_bad[2] = {0, 0};
+        double ref[2] = {0, 0}; /* last reliable (u, v) for unwrapping */
+        for (int i = 0; i < n; i++) {
+            double t = t0 + (t1 - t0) * i / (n - 1), p[3], *uv = pc.suv + 2 * i;
+            pc.st[i] = t;
+            if (i == 0) {
+                crisp_curve_eval(c, t, p);
+                invert_global(&pc.si, p, uv);
+            } else {
+                invert_seeded(&pc, t, pc.suv + 2 * (i - 1), uv);
+                uv[0] = unwrap_near(&pc.si, 0, uv[0], ref[0]);
+                uv[1] = unwrap_near(&pc.si, 1, uv[1], ref[1]);
+            }
+            for (int dir = 0; dir < 2; dir++) {
+                bad[2 * i + dir] = (unsigned char)degenerate_dir(&pc.si, uv, dir);
+                any_bad[dir] |= bad[2 * i + dir];
+                if (!bad[2 * i + dir] || i == 0) ref[dir] = uv[dir];
+            }
+        }
+        for (int dir = 0; dir < 2; dir++) {
+            if (!any_bad[dir]) continue;
+            unsigned char *b1 = crisp_malloc_array((size_t)n, 1);
+            if (!b1) {
+                st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", fn);
+                goto out;
+            }
+            for (int i = 0; i < n; i++) b1[i] = bad[2 * i + dir];
+            fill_poles(&pc, b1, dir);
+            crisp_free(b1);
+        }
+    }
+    {
+        crisp__fit_desc d = {.dim = 2, .f = proj_fn, .ctx = &pc, .error = proj_error,
+                             .error_ctx = &pc, .t0 = t0, .t1 = t1, .tol = tol,
+                             .max_spans = 4096 + spans, .breaks = breaks, .break_count = nk};
+        st = crisp__fit_adaptive(&d, dest);
+        if (st) crisp_error_prefix("%s", fn);
+    }
+out:
+    crisp_free(breaks);
+    crisp_free(pc.st);
+    crisp_free(pc.suv);
+    crisp_free(bad);
+    return st;
+}
