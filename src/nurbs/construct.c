@@ -23,7 +23,8 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-/* ---- placement --------------------------------------------------------------------------------- */
+/* ---- placement ---------------------------------------------------------------------------------
+ */
 
 crisp_status crisp_placement_make(const double origin[3], const double axis[3], const double *ref,
                                   crisp_placement *dest)
@@ -38,7 +39,8 @@ crisp_status crisp_placement_make(const double origin[3], const double axis[3], 
     double r[3];
     if (ref) {
         double d = crisp_vec3_dot(ref, z);
-        for (int k = 0; k < 3; k++) r[k] = ref[k] - d * z[k];
+        for (int k = 0; k < 3; k++)
+            r[k] = ref[k] - d * z[k];
         double n = crisp_vec3_norm(r), nr = crisp_vec3_norm(ref);
         if (!(nr > 0) || !(n > 1e-12 * nr))
             return crisp_error(CRISP_ERR_INVALID_ARG,
@@ -53,7 +55,8 @@ crisp_status crisp_placement_make(const double origin[3], const double axis[3], 
         double e[3] = {0, 0, 0};
         e[m] = 1;
         double d = z[m];
-        for (int k = 0; k < 3; k++) r[k] = e[k] - d * z[k];
+        for (int k = 0; k < 3; k++)
+            r[k] = e[k] - d * z[k];
     }
     double x[3], y[3];
     crisp_vec3_normalize(r, x);
@@ -67,7 +70,8 @@ crisp_status crisp_placement_make(const double origin[3], const double axis[3], 
     return CRISP_OK;
 }
 
-/* ---- angle <-> parameter ---------------------------------------------------------------------- */
+/* ---- angle <-> parameter ----------------------------------------------------------------------
+ */
 
 /* Segments of an arc over [a0, a1]: equal sweeps of at most 90 degrees (a hair of slack so that
  * exactly 90 degrees is one segment). */
@@ -110,7 +114,8 @@ double crisp_param_to_angle(double a0, double a1, double t)
     return start + phi + theta;
 }
 
-/* ---- helpers ----------------------------------------------------------------------------------- */
+/* ---- helpers -----------------------------------------------------------------------------------
+ */
 
 static int finite_n(const double *v, int n)
 {
@@ -136,7 +141,8 @@ static void unit_arc(double a0, double a1, int n, double *cs, double *w, double 
         }
     }
     knots[0] = knots[1] = knots[2] = a0;
-    for (int k = 1; k < n; k++) knots[1 + 2 * k] = knots[2 + 2 * k] = a0 + k * delta;
+    for (int k = 1; k < n; k++)
+        knots[1 + 2 * k] = knots[2 + 2 * k] = a0 + k * delta;
     knots[2 * n + 1] = knots[2 * n + 2] = knots[2 * n + 3] = a1;
 }
 
@@ -151,14 +157,17 @@ static crisp_status check_sweep(const char *fn, double a0, double a1)
     return CRISP_OK;
 }
 
-/* ---- curves ------------------------------------------------------------------------------------ */
+/* ---- curves ------------------------------------------------------------------------------------
+ */
 
 crisp_status crisp_make_line(int dim, const double *p0, const double *p1, double t0, double t1,
                              crisp_curve **dest)
 {
     if (!p0 || !p1 || !dest || (dim != 2 && dim != 3))
-        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_make_line: dim %d (expected 2 or 3) or "
-                                                  "NULL argument", dim);
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_make_line: dim %d (expected 2 or 3) or "
+                           "NULL argument",
+                           dim);
     if (!isfinite(t0) || !isfinite(t1) || !(t1 > t0))
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "crisp_make_line: parameter range [%g, %g] is empty", t0, t1);
@@ -220,7 +229,8 @@ crisp_status crisp_make_conic_arc(int dim, const double *p0, const double *t0, c
                            "parallel (a single rational quadratic arc cannot span it)");
     double al = (-c * d + b * e) / det, be = (a * e - b * d) / det;
     double p1[3], q[3];
-    for (int k = 0; k < dim; k++) p1[k] = 0.5 * (p0[k] + al * t0[k] + p2[k] + be * t2[k]);
+    for (int k = 0; k < dim; k++)
+        p1[k] = 0.5 * (p0[k] + al * t0[k] + p2[k] + be * t2[k]);
     /* The line from P1 through P meets the chord P0 P2 at Q = (1 - s) P0 + s P2. */
     double m[3], a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0;
     for (int k = 0; k < dim; k++) {
@@ -263,7 +273,8 @@ crisp_status crisp_make_conic_arc(int dim, const double *p0, const double *t0, c
     return crisp_curve_create(dim, 2, 3, knots, pts, w, dest);
 }
 
-/* ---- surfaces ---------------------------------------------------------------------------------- */
+/* ---- surfaces ----------------------------------------------------------------------------------
+ */
 
 static crisp_status check_placement(const char *fn, const crisp_placement *pl)
 {
@@ -274,8 +285,8 @@ static crisp_status check_placement(const char *fn, const crisp_placement *pl)
     return CRISP_OK;
 }
 
-crisp_status crisp_make_plane(const crisp_placement *pl, double u0, double u1, double v0,
-                              double v1, crisp_surface **dest)
+crisp_status crisp_make_plane(const crisp_placement *pl, double u0, double u1, double v0, double v1,
+                              crisp_surface **dest)
 {
     crisp_status st = check_placement("crisp_make_plane", pl);
     if (st) return st;
@@ -309,8 +320,10 @@ static crisp_status revolve(const char *fn, int pdeg, int pcount, const double *
     unit_arc(a0, a1, n, cs, aw, aknots);
     size_t total = (size_t)na * (size_t)pcount;
     if (pcount > CRISP_MAX_CONTROL_POINTS / na)
-        return crisp_error(CRISP_ERR_LIMIT, "%s: %d profile points x %d arc points exceed the "
-                                            "control point limit", fn, pcount, na);
+        return crisp_error(CRISP_ERR_LIMIT,
+                           "%s: %d profile points x %d arc points exceed the "
+                           "control point limit",
+                           fn, pcount, na);
     double *pts = crisp_malloc_array(total, 3 * sizeof(double));
     double *w = crisp_malloc_array(total, sizeof(double));
     if (!pts || !w) {
@@ -322,7 +335,8 @@ static crisp_status revolve(const char *fn, int pdeg, int pcount, const double *
         const double *h = pcpw + 4 * j;
         double pw = h[3], p[3] = {h[0] / pw, h[1] / pw, h[2] / pw}, foot[3], rx[3], ry[3];
         double t = 0;
-        for (int k = 0; k < 3; k++) t += (p[k] - origin[k]) * z[k];
+        for (int k = 0; k < 3; k++)
+            t += (p[k] - origin[k]) * z[k];
         for (int k = 0; k < 3; k++) {
             foot[k] = origin[k] + t * z[k];
             rx[k] = p[k] - foot[k];
@@ -419,8 +433,8 @@ static int arc_profile(const double center[3], const double x[3], const double z
     return 2 * n + 1;
 }
 
-crisp_status crisp_make_sphere(const crisp_placement *pl, double r, double a0, double a1,
-                               double v0, double v1, crisp_surface **dest)
+crisp_status crisp_make_sphere(const crisp_placement *pl, double r, double a0, double a1, double v0,
+                               double v1, crisp_surface **dest)
 {
     const char *fn = "crisp_make_sphere";
     crisp_status st = check_placement(fn, pl);
@@ -430,8 +444,8 @@ crisp_status crisp_make_sphere(const crisp_placement *pl, double r, double a0, d
     double lim = 0.5 * M_PI * (1 + 1e-12);
     if (!isfinite(v0) || !isfinite(v1) || !(v1 > v0) || v0 < -lim || v1 > lim)
         return crisp_error(CRISP_ERR_INVALID_ARG,
-                           "%s: latitude range [%g, %g] must be non-empty within [-pi/2, pi/2]",
-                           fn, v0, v1);
+                           "%s: latitude range [%g, %g] must be non-empty within [-pi/2, pi/2]", fn,
+                           v0, v1);
     double knots[ARC_MAX_PTS + 3], cpw[4 * ARC_MAX_PTS];
     int count = arc_profile(pl->origin, pl->x, pl->z, r, v0, v1, knots, cpw);
     return revolve(fn, 2, count, knots, cpw, pl->origin, pl->z, a0, a1, 1, dest);
@@ -445,10 +459,11 @@ crisp_status crisp_make_torus(const crisp_placement *pl, double major, double mi
     if (!st) st = check_sweep(fn, v0, v1);
     if (st) return st;
     if (!dest || !isfinite(major) || !isfinite(minor) || !(minor > 0) || !(major > 0))
-        return crisp_error(CRISP_ERR_INVALID_ARG,
-                           "%s: radii major %g, minor %g must be positive", fn, major, minor);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: radii major %g, minor %g must be positive",
+                           fn, major, minor);
     double c[3], knots[ARC_MAX_PTS + 3], cpw[4 * ARC_MAX_PTS];
-    for (int k = 0; k < 3; k++) c[k] = pl->origin[k] + major * pl->x[k];
+    for (int k = 0; k < 3; k++)
+        c[k] = pl->origin[k] + major * pl->x[k];
     int count = arc_profile(c, pl->x, pl->z, minor, v0, v1, knots, cpw);
     return revolve(fn, 2, count, knots, cpw, pl->origin, pl->z, a0, a1, 1, dest);
 }
@@ -479,8 +494,7 @@ static double *cpw4(const crisp_curve *c)
 }
 
 crisp_status crisp_make_revolution(const crisp_curve *profile, const double point[3],
-                                   const double axis[3], double a0, double a1,
-                                   crisp_surface **dest)
+                                   const double axis[3], double a0, double a1, crisp_surface **dest)
 {
     const char *fn = "crisp_make_revolution";
     crisp_status st = check_curve(fn, profile);
@@ -491,8 +505,7 @@ crisp_status crisp_make_revolution(const crisp_curve *profile, const double poin
         return crisp_error(CRISP_ERR_INVALID_ARG, "%s: NULL argument or zero axis", fn);
     double *h = cpw4(profile);
     if (!h) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", fn);
-    st = revolve(fn, profile->degree, profile->count, profile->knots, h, point, z, a0, a1, 0,
-                 dest);
+    st = revolve(fn, profile->degree, profile->count, profile->knots, h, point, z, a0, a1, 0, dest);
     crisp_free(h);
     return st;
 }
@@ -520,7 +533,8 @@ crisp_status crisp_make_extrusion(const crisp_curve *c, const double dir[3], dou
     for (int j = 0; j < 2; j++)
         for (int i = 0; i < n; i++) {
             double hw = h[4 * i + 3];
-            for (int k = 0; k < 3; k++) pts[3 * (j * n + i) + k] = h[4 * i + k] / hw + vv[j] * dir[k];
+            for (int k = 0; k < 3; k++)
+                pts[3 * (j * n + i) + k] = h[4 * i + k] / hw + vv[j] * dir[k];
             w[j * n + i] = hw;
         }
     double kv[4] = {v0, v0, v1, v1};
@@ -532,14 +546,16 @@ crisp_status crisp_make_extrusion(const crisp_curve *c, const double dir[3], dou
     return st;
 }
 
-/* ---- ruled surfaces ---------------------------------------------------------------------------- */
+/* ---- ruled surfaces ----------------------------------------------------------------------------
+ */
 
 /* Bernstein coefficients of the product of f (degree a) and g (degree b), 4-vectors times
  * scalars: dest[k] = sum_{i+j=k} C(a,i) C(b,j) / C(a+b,k) f_i g_j. */
 static double binom(int n, int k)
 {
     double r = 1;
-    for (int i = 1; i <= k; i++) r = r * (n - k + i) / i;
+    for (int i = 1; i <= k; i++)
+        r = r * (n - k + i) / i;
     return r;
 }
 
@@ -568,7 +584,8 @@ static void bezier_times_weight(const double *x, int a, const double *w, int b, 
         for (int i = (k - b > 0 ? k - b : 0); i <= a && i <= k; i++) {
             int j = k - i;
             double f = binom(a, i) * binom(b, j) / binom(a + b, k) * w[j];
-            for (int m = 0; m < 4; m++) acc[m] += f * x[4 * i + m];
+            for (int m = 0; m < 4; m++)
+                acc[m] += f * x[4 * i + m];
         }
         memcpy(dest + 4 * k, acc, sizeof acc);
     }
@@ -591,7 +608,8 @@ static crisp_status pieces_at(const crisp_curve *c, const double *breaks, int nb
         /* Find the source piece holding (lo + hi) / 2 and cut [lo, hi] out of it. */
         double mid = t0 + 0.5 * (lo + hi) * (t1 - t0);
         int k = 0;
-        while (k < count - 1 && bz[k].t1 <= mid) k++;
+        while (k < count - 1 && bz[k].t1 <= mid)
+            k++;
         crisp_bezier_curve cur = bz[k], left, right;
         double s0 = bz[k].t0, s1 = bz[k].t1;
         double a = (t0 + lo * (t1 - t0) - s0) / (s1 - s0);
@@ -685,8 +703,10 @@ crisp_status crisp_make_ruled(const crisp_curve *c0, const crisp_curve *c1, cris
         double r0[4 * (CRISP_MAX_DEGREE + 1)], r1[4 * (CRISP_MAX_DEGREE + 1)];
         double w0[CRISP_MAX_DEGREE + 1], w1[CRISP_MAX_DEGREE + 1];
         const double *x0 = b0 + (size_t)4 * (p0 + 1) * k, *x1 = b1 + (size_t)4 * (p1 + 1) * k;
-        for (int i = 0; i <= p0; i++) w0[i] = x0[4 * i + 3];
-        for (int i = 0; i <= p1; i++) w1[i] = x1[4 * i + 3];
+        for (int i = 0; i <= p0; i++)
+            w0[i] = x0[4 * i + 3];
+        for (int i = 0; i <= p1; i++)
+            w1[i] = x1[4 * i + 3];
         /* (1 - v) X0/w0 + v X1/w1 = ((1 - v) X0 w1 + v X1 w0) / (w0 w1): both rows share the
          * weight w0 w1, so the rulings are parametrised as the header promises. */
         double one = 1.0;
@@ -699,7 +719,8 @@ crisp_status crisp_make_ruled(const crisp_curve *c0, const crisp_curve *c1, cris
             double *rows[2] = {r0, r1};
             for (int j = 0; j < 2; j++) {
                 double hw = rows[j][4 * i + 3];
-                for (int q = 0; q < 3; q++) pts[3 * (j * cu + idx) + q] = rows[j][4 * i + q] / hw;
+                for (int q = 0; q < 3; q++)
+                    pts[3 * (j * cu + idx) + q] = rows[j][4 * i + q] / hw;
                 w[j * cu + idx] = hw;
             }
         }
@@ -709,7 +730,8 @@ crisp_status crisp_make_ruled(const crisp_curve *c0, const crisp_curve *c1, cris
         ku[cu + i] = 1;
     }
     for (int b = 0; b < nb; b++)
-        for (int i = 0; i < deg; i++) ku[deg + 1 + b * deg + i] = breaks[b];
+        for (int i = 0; i < deg; i++)
+            ku[deg + 1 + b * deg + i] = breaks[b];
     {
         double kv[4] = {0, 0, 1, 1};
         int rat = c0->rational || c1->rational;

@@ -13,13 +13,16 @@
 #include <math.h>
 #include <string.h>
 
+/* Spans are accepted at this fraction of tol: margin for the error between the check points. */
+#define ACCEPT 0.8
+
 typedef struct span {
     double a, b;
     double fa[3], fb[3];
 } span;
 
 /* Error sample positions: twelfths of the span other than the nodes 0, 1/3, 2/3, 1. */
-static const double check_s[9] = {1.0 / 12, 2.0 / 12, 3.0 / 12, 5.0 / 12, 6.0 / 12,
+static const double check_s[9] = {1.0 / 12, 2.0 / 12, 3.0 / 12,  5.0 / 12, 6.0 / 12,
                                   7.0 / 12, 9.0 / 12, 10.0 / 12, 11.0 / 12};
 
 static int finite_dim(const double *v, int dim)
@@ -40,8 +43,9 @@ static crisp_status eval_f(const crisp__fit_desc *d, double t, double *dest)
 {
     d->f(d->ctx, t, dest);
     if (!finite_dim(dest, d->dim))
-        return crisp_error(CRISP_ERR_NUMERIC, "crisp_fit_curve: the function is not finite at "
-                                              "t = %.17g",
+        return crisp_error(CRISP_ERR_NUMERIC,
+                           "crisp_fit_curve: the function is not finite at "
+                           "t = %.17g",
                            t);
     return CRISP_OK;
 }
@@ -71,7 +75,8 @@ static crisp_status fit_span(const crisp__fit_desc *d, const span *sp, double *b
             double ft[3];
             if ((st = eval_f(d, t, ft))) return st;
             e = 0;
-            for (int k = 0; k < dim; k++) e += (fit[k] - ft[k]) * (fit[k] - ft[k]);
+            for (int k = 0; k < dim; k++)
+                e += (fit[k] - ft[k]) * (fit[k] - ft[k]);
             e = sqrt(e);
         }
         if (!(e >= 0) || !isfinite(e)) {
@@ -118,7 +123,7 @@ crisp_status crisp__fit_adaptive(const crisp__fit_desc *d, crisp_curve **dest)
         span sp = stack[--top];
         double piece[12], err;
         if ((st = fit_span(d, &sp, piece, &err))) goto out;
-        if (err >= 0 && err <= d->tol) {
+        if (err >= 0 && err <= ACCEPT * d->tol) {
             if ((st = crisp_grow((void **)&bez, &bez_cap, (size_t)(done + 1) * 4 * dim,
                                  sizeof *bez)))
                 goto fail_mem;
@@ -162,7 +167,8 @@ crisp_status crisp__fit_adaptive(const crisp__fit_desc *d, crisp_curve **dest)
             kv[count + i] = d->t1;
         }
         for (int s = 1; s < done; s++)
-            for (int i = 0; i < 3; i++) kv[1 + 3 * s + i] = knots[s];
+            for (int i = 0; i < 3; i++)
+                kv[1 + 3 * s + i] = knots[s];
         for (int s = 0; s < done; s++)
             memcpy(pts + (size_t)3 * s * dim, bez + (size_t)4 * s * dim, 4 * dim * sizeof *pts);
         st = crisp_curve_create(dim, 3, count, kv, pts, NULL, dest);
@@ -179,8 +185,8 @@ out:
     return st;
 }
 
-crisp_status crisp_fit_curve(int dim, crisp_curve_fn f, void *ctx, double t0, double t1,
-                             double tol, int max_spans, crisp_curve **dest)
+crisp_status crisp_fit_curve(int dim, crisp_curve_fn f, void *ctx, double t0, double t1, double tol,
+                             int max_spans, crisp_curve **dest)
 {
     if (!f || !dest || (dim != 2 && dim != 3))
         return crisp_error(CRISP_ERR_INVALID_ARG,
@@ -192,7 +198,7 @@ crisp_status crisp_fit_curve(int dim, crisp_curve_fn f, void *ctx, double t0, do
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "crisp_fit_curve: tol %g must be positive and max_spans %d in 1..%d",
                            tol, max_spans, CRISP_MAX_CONTROL_POINTS / 3);
-    crisp__fit_desc d = {.dim = dim, .f = f, .ctx = ctx, .t0 = t0, .t1 = t1, .tol = tol,
-                         .max_spans = max_spans};
+    crisp__fit_desc d = {
+        .dim = dim, .f = f, .ctx = ctx, .t0 = t0, .t1 = t1, .tol = tol, .max_spans = max_spans};
     return crisp__fit_adaptive(&d, dest);
 }

@@ -10,14 +10,14 @@
 typedef double (*crisp__fit_error_fn)(void *ctx, double t, const double *fitted);
 
 typedef struct crisp__fit_desc {
-    int dim;               /* 2 or 3 */
-    crisp_curve_fn f;      /* the function, evaluated at the interpolation nodes */
+    int dim;          /* 2 or 3 */
+    crisp_curve_fn f; /* the function, evaluated at the interpolation nodes */
     void *ctx;
     crisp__fit_error_fn error; /* NULL: |fitted - f(t)| */
     void *error_ctx;
     double t0, t1, tol;
     int max_spans;
-    const double *breaks;  /* optional initial span ends inside (t0, t1), increasing */
+    const double *breaks; /* optional initial span ends inside (t0, t1), increasing */
     int break_count;
 } crisp__fit_desc;
 

@@ -16,7 +16,7 @@
 #include <math.h>
 #include <string.h>
 
-#define GRID_MAX 24    /* global search grid per direction */
+#define GRID_MAX 24 /* global search grid per direction */
 #define NEWTON_ITERS 40
 
 typedef struct surf_info {
@@ -49,8 +49,7 @@ static double wrap(const surf_info *si, int dir, double x)
     return x < lo ? lo : x > hi ? hi : x;
 }
 
-static void eval_wrapped(const surf_info *si, const double uv[2], double *p, double *su,
-                         double *sv)
+static void eval_wrapped(const surf_info *si, const double uv[2], double *p, double *su, double *sv)
 {
     crisp_surface_derivs(si->s, wrap(si, 0, uv[0]), wrap(si, 1, uv[1]), p, su, sv, NULL, NULL,
                          NULL);
@@ -114,13 +113,23 @@ static double newton(const surf_info *si, const double p[3], double uv[2])
         double gu = crisp_vec3_dot(r, su), gv = crisp_vec3_dot(r, sv);
         double tr = a + c;
         if (!(tr > tiny)) break; /* S_u = S_v = 0: nothing to follow */
-        double mu = lam * tr + 1e-14 * tr;
-        double a2 = a + mu, c2 = c + mu, det = a2 * c2 - b * b;
-        if (!(det > 0)) {
-            lam = lam > 0 ? lam * 10 : 1e-6;
-            continue;
+        /* Marquardt scaling (damp each direction by its own size); a direction whose derivative
+         * vanishes (pole, collapsed edge) is left alone and the other solved in 1D. */
+        double du, dv, a2 = a * (1 + lam), c2 = c * (1 + lam);
+        int u_dead = !(a > 1e-28 * tr), v_dead = !(c > 1e-28 * tr);
+        if (u_dead || v_dead) {
+            du = u_dead ? 0 : -gu / a2;
+            dv = v_dead ? 0 : -gv / c2;
+        } else {
+            double det = a2 * c2 - b * b;
+            if (!(det > 1e-15 * a2 * c2)) {
+                lam = lam > 0 ? lam * 10 : 1e-6;
+                if (lam > 1e12) break;
+                continue;
+            }
+            du = -(c2 * gu - b * gv) / det;
+            dv = -(a2 * gv - b * gu) / det;
         }
-        double du = -(c2 * gu - b * gv) / det, dv = -(a2 * gv - b * gu) / det;
         if (!isfinite(du) || !isfinite(dv)) break;
         double cand[2] = {uv[0] + du, uv[1] + dv};
         for (int dir = 0; dir < 2; dir++)
@@ -171,7 +180,8 @@ static int grid_params(const double *knots, int degree, int count, double lo, do
         dest[n++] = hi;
         return n;
     }
-    for (int k = 0; k < GRID_MAX; k++) dest[k] = lo + (hi - lo) * k / (GRID_MAX - 1);
+    for (int k = 0; k < GRID_MAX; k++)
+        dest[k] = lo + (hi - lo) * k / (GRID_MAX - 1);
     return GRID_MAX;
 }
 
@@ -244,15 +254,16 @@ crisp_status crisp_surface_closest_point(const crisp_surface *s, const double p[
     return CRISP_OK;
 }
 
-/* ---- curve projection -------------------------------------------------------------------------- */
+/* ---- curve projection --------------------------------------------------------------------------
+ */
 
 typedef struct proj_ctx {
     surf_info si;
     const crisp_curve *c;
     double t0, t1, tol;
-    int n;          /* samples */
-    double *st;     /* sample parameters */
-    double *suv;    /* sample (u, v), continuous */
+    int n;       /* samples */
+    double *st;  /* sample parameters */
+    double *suv; /* sample (u, v), continuous */
 } proj_ctx;
 
 /* The representative of x (in a closed direction) nearest ref. */
@@ -299,8 +310,10 @@ static void fill_poles(proj_ctx *pc, const unsigned char *bad, int dir)
     for (int i = 0; i < n; i++) {
         if (!bad[i]) continue;
         int lo = i - 1, hi = i + 1;
-        while (lo >= 0 && bad[lo]) lo--;
-        while (hi < n && bad[hi]) hi++;
+        while (lo >= 0 && bad[lo])
+            lo--;
+        while (hi < n && bad[hi])
+            hi++;
         double x;
         if (lo >= 0 && hi < n) {
             double w = (pc->st[i] - pc->st[lo]) / (pc->st[hi] - pc->st[lo]);
@@ -322,8 +335,10 @@ static int nearest_sample(const proj_ctx *pc, double t)
     int lo = 0, hi = pc->n - 1;
     while (hi - lo > 1) {
         int mid = (lo + hi) / 2;
-        if (pc->st[mid] <= t) lo = mid;
-        else hi = mid;
+        if (pc->st[mid] <= t)
+            lo = mid;
+        else
+            hi = mid;
     }
     return fabs(pc->st[hi] - t) < fabs(t - pc->st[lo]) ? hi : lo;
 }
@@ -338,8 +353,10 @@ static void proj_fn(void *ctx, double t, double *dest)
         if (degenerate_dir(&pc->si, dest, dir)) {
             /* u undefined here: interpolate the neighbouring samples' value. */
             int lo = k, hi = k;
-            if (pc->st[k] <= t && k + 1 < pc->n) hi = k + 1;
-            else if (k > 0) lo = k - 1;
+            if (pc->st[k] <= t && k + 1 < pc->n)
+                hi = k + 1;
+            else if (k > 0)
+                lo = k - 1;
             double w = hi > lo ? (t - pc->st[lo]) / (pc->st[hi] - pc->st[lo]) : 0;
             dest[dir] = (1 - w) * pc->suv[2 * lo + dir] + w * pc->suv[2 * hi + dir];
         }
@@ -423,15 +440,24 @@ crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_cur
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", fn);
                 goto out;
             }
-            for (int i = 0; i < n; i++) b1[i] = bad[2 * i + dir];
+            for (int i = 0; i < n; i++)
+                b1[i] = bad[2 * i + dir];
             fill_poles(&pc, b1, dir);
             crisp_free(b1);
         }
     }
     {
-        crisp__fit_desc d = {.dim = 2, .f = proj_fn, .ctx = &pc, .error = proj_error,
-                             .error_ctx = &pc, .t0 = t0, .t1 = t1, .tol = tol,
-                             .max_spans = 4096 + spans, .breaks = breaks, .break_count = nk};
+        crisp__fit_desc d = {.dim = 2,
+                             .f = proj_fn,
+                             .ctx = &pc,
+                             .error = proj_error,
+                             .error_ctx = &pc,
+                             .t0 = t0,
+                             .t1 = t1,
+                             .tol = tol,
+                             .max_spans = 4096 + spans,
+                             .breaks = breaks,
+                             .break_count = nk};
         st = crisp__fit_adaptive(&d, dest);
         if (st) crisp_error_prefix("%s", fn);
     }

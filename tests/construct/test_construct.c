@@ -66,7 +66,8 @@ static void test_placement(void **state)
         crisp_placement pl = random_placement();
         double c[3];
         crisp_vec3_cross(pl.x, pl.y, c);
-        for (int k = 0; k < 3; k++) assert_true(fabs(c[k] - pl.z[k]) < 1e-14);
+        for (int k = 0; k < 3; k++)
+            assert_true(fabs(c[k] - pl.z[k]) < 1e-14);
         assert_true(fabs(crisp_vec3_norm(pl.x) - 1) < 1e-14);
         assert_true(fabs(crisp_vec3_dot(pl.x, pl.y)) < 1e-14);
     }
@@ -100,7 +101,8 @@ static void test_arcs_and_ellipses(void **state)
             crisp_curve_eval(c, crisp_angle_to_param(a0, a1, a), p);
             for (int m = 0; m < dim; m++)
                 q[m] = pl.origin[m] + rx * cos(a) * pl.x[m] + ry * sin(a) * pl.y[m];
-            for (int m = 0; m < dim; m++) assert_true(fabs(p[m] - q[m]) < EXACT * 10);
+            for (int m = 0; m < dim; m++)
+                assert_true(fabs(p[m] - q[m]) < EXACT * 10);
         }
         crisp_curve_destroy(c);
     }
@@ -119,7 +121,8 @@ static void test_line(void **state)
     crisp_curve *c;
     assert_int_equal(crisp_make_line(3, p0, p1, 2, 4, &c), CRISP_OK);
     crisp_curve_eval(c, 3, p);
-    for (int k = 0; k < 3; k++) assert_true(fabs(p[k] - 0.5 * (p0[k] + p1[k])) < EXACT);
+    for (int k = 0; k < 3; k++)
+        assert_true(fabs(p[k] - 0.5 * (p0[k] + p1[k])) < EXACT);
     crisp_curve_destroy(c);
     assert_int_equal(crisp_make_line(3, p0, p1, 4, 4, &c), CRISP_ERR_INVALID_ARG);
 }
@@ -148,8 +151,10 @@ static void check_conic(const double *p0, const double *t0, const double *p2, co
         double m1 = a + (b - a) * 0.381966, m2 = a + (b - a) * 0.618034, q1[2], q2[2];
         crisp_curve_eval(c, m1, q1);
         crisp_curve_eval(c, m2, q2);
-        if (hypot(q1[0] - p[0], q1[1] - p[1]) < hypot(q2[0] - p[0], q2[1] - p[1])) b = m2;
-        else a = m1;
+        if (hypot(q1[0] - p[0], q1[1] - p[1]) < hypot(q2[0] - p[0], q2[1] - p[1]))
+            b = m2;
+        else
+            a = m1;
     }
     crisp_curve_eval(c, 0.5 * (a + b), q);
     assert_true(hypot(q[0] - p[0], q[1] - p[1]) < 1e-9);
@@ -215,7 +220,8 @@ static void sphere_fn(const crisp_placement *pl, const double *prm, double u, do
 static void torus_fn(const crisp_placement *pl, const double *prm, double u, double v, double *d)
 {
     for (int k = 0; k < 3; k++)
-        d[k] = pl->origin[k] + (prm[0] + prm[1] * cos(v)) * (cos(u) * pl->x[k] + sin(u) * pl->y[k]) +
+        d[k] = pl->origin[k] +
+               (prm[0] + prm[1] * cos(v)) * (cos(u) * pl->x[k] + sin(u) * pl->y[k]) +
                prm[1] * sin(v) * pl->z[k];
 }
 
@@ -233,7 +239,8 @@ static void check_surface(const crisp_surface *s, const crisp_placement *pl, con
             double tv = v_angle ? crisp_angle_to_param(v0, v1, v) : v;
             crisp_surface_eval(s, tu, tv, p);
             fn(pl, prm, u, v, q);
-            for (int k = 0; k < 3; k++) assert_true(fabs(p[k] - q[k]) < EXACT * scale);
+            for (int k = 0; k < 3; k++)
+                assert_true(fabs(p[k] - q[k]) < EXACT * scale);
         }
 }
 
@@ -316,7 +323,8 @@ static void test_revolution(void **state)
             crisp_curve_eval(prof, t, c);
             rotate(c, point, axis, a, q);
             crisp_surface_eval(s, t, crisp_angle_to_param(a0, a1, a), p);
-            for (int m = 0; m < 3; m++) assert_true(fabs(p[m] - q[m]) < 1e-11);
+            for (int m = 0; m < 3; m++)
+                assert_true(fabs(p[m] - q[m]) < 1e-11);
         }
         crisp_surface_destroy(s);
         crisp_curve_destroy(prof);
@@ -336,7 +344,8 @@ static void test_extrusion(void **state)
             double t = rnd(t0, t1), v = rnd(-1, 2), q[3] = {0, 0, 0}, p[3];
             crisp_curve_eval(c, t, q);
             crisp_surface_eval(s, t, v, p);
-            for (int m = 0; m < 3; m++) assert_true(fabs(p[m] - (q[m] + v * dir[m])) < 1e-12);
+            for (int m = 0; m < 3; m++)
+                assert_true(fabs(p[m] - (q[m] + v * dir[m])) < 1e-12);
         }
         crisp_surface_destroy(s);
         crisp_curve_destroy(c);
@@ -374,11 +383,16 @@ static void test_ruled(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_angle_param_inverse), cmocka_unit_test(test_placement),
-        cmocka_unit_test(test_arcs_and_ellipses),   cmocka_unit_test(test_line),
-        cmocka_unit_test(test_conic_arcs),          cmocka_unit_test(test_quadrics),
-        cmocka_unit_test(test_plane),               cmocka_unit_test(test_revolution),
-        cmocka_unit_test(test_extrusion),           cmocka_unit_test(test_ruled),
+        cmocka_unit_test(test_angle_param_inverse),
+        cmocka_unit_test(test_placement),
+        cmocka_unit_test(test_arcs_and_ellipses),
+        cmocka_unit_test(test_line),
+        cmocka_unit_test(test_conic_arcs),
+        cmocka_unit_test(test_quadrics),
+        cmocka_unit_test(test_plane),
+        cmocka_unit_test(test_revolution),
+        cmocka_unit_test(test_extrusion),
+        cmocka_unit_test(test_ruled),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -43,7 +43,8 @@ static inline crisp_curve *random_curve(int dim, int degree, int count, int rati
         knots[i] = x;
     }
     for (int i = 0; i < count; i++) {
-        for (int k = 0; k < dim; k++) pts[dim * i + k] = rnd(-2, 2);
+        for (int k = 0; k < dim; k++)
+            pts[dim * i + k] = rnd(-2, 2);
         w[i] = rational ? rnd(0.3, 3) : 1;
     }
     crisp_curve *c = NULL;

@@ -1,0 +1,404 @@
+/* Tests for curve fitting (src/nurbs/fit.c) and point inversion / curve projection onto surfaces
+ * (src/nurbs/project.c): fits stay within tolerance on hard functions, the span bound is an
+ * error, closest points recover the (u, v) of random surface points (rational, near a pole, on a
+ * seam), projected curves stay within tolerance in 3D and are continuous across seams. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <string.h>
+
+#include "crisp/construct.h"
+#include "construct/test_util.h"
+
+/* ---- fitting ----------------------------------------------------------------------------------
+ */
+
+static void fn_spiral(void *ctx, double t, double *d)
+{
+    (void)ctx;
+    d[0] = cos(50 * t) * (1 + t);
+    d[1] = sin(50 * t) * (1 + t);
+}
+
+/* A hyperbola-like corner: curvature 1/eps at t = 0 (near-cusp). */
+static void fn_corner(void *ctx, double t, double *d)
+{
+    double eps = *(const double *)ctx;
+    d[0] = t;
+    d[1] = sqrt(t * t + eps * eps);
+    d[2] = 0.3 * t * t;
+}
+
+/* A genuine cusp of the function: sqrt(|t|) has unbounded derivative at 0. */
+static void fn_sqrt(void *ctx, double t, double *d)
+{
+    (void)ctx;
+    d[0] = t;
+    d[1] = sqrt(fabs(t));
+}
+
+static double max_fit_error(const crisp_curve *c, int dim, crisp_curve_fn f, void *ctx, double t0,
+                            double t1, int n)
+{
+    double worst = 0;
+    for (int i = 0; i <= n; i++) {
+        double t = t0 + (t1 - t0) * i / n, a[3], b[3], e = 0;
+        crisp_curve_eval(c, t, a);
+        f(ctx, t, b);
+        for (int k = 0; k < dim; k++)
+            e += (a[k] - b[k]) * (a[k] - b[k]);
+        if (sqrt(e) > worst) worst = sqrt(e);
+    }
+    return worst;
+}
+
+static void check_fit(int dim, crisp_curve_fn f, void *ctx, double t0, double t1, double tol)
+{
+    crisp_curve *c;
+    assert_int_equal(crisp_fit_curve(dim, f, ctx, t0, t1, tol, 100000, &c), CRISP_OK);
+    assert_int_equal(c->degree, 3);
+    assert_int_equal(c->rational, 0);
+    double a, b, p[3], q[3];
+    crisp_curve_domain(c, &a, &b);
+    assert_true(a == t0 && b == t1);
+    /* Ends interpolated exactly. */
+    crisp_curve_eval(c, t0, p);
+    f(ctx, t0, q);
+    for (int k = 0; k < dim; k++)
+        assert_true(p[k] == q[k]);
+    crisp_curve_eval(c, t1, p);
+    f(ctx, t1, q);
+    for (int k = 0; k < dim; k++)
+        assert_true(p[k] == q[k]);
+    /* Within tol on a dense sample unrelated to the fitter's own check points (a little slack:
+     * the fitter samples each span at twelfths, not everywhere). */
+    double e = max_fit_error(c, dim, f, ctx, t0, t1, 20011);
+    assert_true(e <= tol);
+    crisp_curve_destroy(c);
+}
+
+static void test_fit_hard_functions(void **state)
+{
+    (void)state;
+    check_fit(2, fn_spiral, NULL, 0, 1, 1e-6);
+    check_fit(2, fn_spiral, NULL, -0.3, 0.7, 1e-9);
+    double eps = 1e-4;
+    check_fit(3, fn_corner, &eps, -1, 1, 1e-7);
+    eps = 1e-8;
+    check_fit(3, fn_corner, &eps, -1, 1, 1e-6);
+    check_fit(2, fn_sqrt, NULL, -1, 1, 1e-5);
+}
+
+static void test_fit_span_bound(void **state)
+{
+    (void)state;
+    crisp_curve *c = NULL;
+    crisp_error_clear();
+    assert_int_equal(crisp_fit_curve(2, fn_spiral, NULL, 0, 1, 1e-9, 10, &c), CRISP_ERR_LIMIT);
+    assert_null(c);
+    assert_non_null(strstr(crisp_error_message(), "max_spans"));
+    /* The same fit with room succeeds, using more than 10 spans. */
+    assert_int_equal(crisp_fit_curve(2, fn_spiral, NULL, 0, 1, 1e-9, 100000, &c), CRISP_OK);
+    assert_true(c->count > 3 * 10 + 1);
+    crisp_curve_destroy(c);
+    c = NULL;
+    assert_int_equal(crisp_fit_curve(2, fn_spiral, NULL, 1, 1, 1e-6, 10, &c),
+                     CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp_fit_curve(2, fn_spiral, NULL, 0, 1, 0, 10, &c), CRISP_ERR_INVALID_ARG);
+    assert_null(c);
+}
+
+static void fn_nan(void *ctx, double t, double *d)
+{
+    (void)ctx;
+    d[0] = t;
+    d[1] = t > 0.5 ? NAN : t;
+}
+
+static void test_fit_bad_function(void **state)
+{
+    (void)state;
+    crisp_curve *c = NULL;
+    assert_int_equal(crisp_fit_curve(2, fn_nan, NULL, 0, 1, 1e-6, 1000, &c), CRISP_ERR_NUMERIC);
+    assert_null(c);
+}
+
+/* ---- point inversion --------------------------------------------------------------------------
+ */
+
+/* A random non-rational or rational height-field-like surface (so points have one preimage). */
+static crisp_surface *random_surface(int du, int dv, int nu, int nv, int rational)
+{
+    double ku[40], kv[40], pts[3 * 400], w[400];
+    for (int i = 0; i <= du; i++) {
+        ku[i] = 0;
+        ku[nu + i] = 1;
+    }
+    for (int i = du + 1; i < nu; i++)
+        ku[i] = (i - du + rnd(-0.3, 0.3)) / (nu - du);
+    for (int i = 0; i <= dv; i++) {
+        kv[i] = -1;
+        kv[nv + i] = 2;
+    }
+    for (int i = dv + 1; i < nv; i++)
+        kv[i] = -1 + 3 * (i - dv + rnd(-0.3, 0.3)) / (nv - dv);
+    for (int j = 0; j < nv; j++)
+        for (int i = 0; i < nu; i++) {
+            double *p = pts + 3 * (j * nu + i);
+            p[0] = 4.0 * i / (nu - 1) + rnd(-0.2, 0.2);
+            p[1] = 3.0 * j / (nv - 1) + rnd(-0.2, 0.2);
+            p[2] = rnd(-1, 1);
+            w[j * nu + i] = rational ? rnd(0.5, 2) : 1;
+        }
+    crisp_surface *s = NULL;
+    assert_int_equal(crisp_surface_create(du, dv, nu, nv, ku, kv, pts, rational ? w : NULL, &s),
+                     CRISP_OK);
+    return s;
+}
+
+static double dist3(const double *a, const double *b)
+{
+    return sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+static void test_closest_point_random_surfaces(void **state)
+{
+    (void)state;
+    for (int it = 0; it < 8; it++) {
+        crisp_surface *s = random_surface(1 + it % 4, 1 + (it / 2) % 3, 6, 5, it % 2);
+        for (int k = 0; k < 100; k++) {
+            double u = rnd(0, 1), v = rnd(-1, 2), p[3], uv[2], dist, q[3];
+            crisp_surface_eval(s, u, v, p);
+            assert_int_equal(crisp_surface_closest_point(s, p, uv, &dist), CRISP_OK);
+            crisp_surface_eval(s, uv[0], uv[1], q);
+            assert_true(dist < 1e-9);
+            assert_true(dist3(p, q) < 1e-9);
+            assert_true(fabs(uv[0] - u) < 1e-6 && fabs(uv[1] - v) < 1e-6);
+        }
+        /* Off the surface along the normal: the foot is recovered, dist is the offset. */
+        for (int k = 0; k < 50; k++) {
+            double u = rnd(0.05, 0.95), v = rnd(-0.9, 1.9), p[3], su[3], sv[3], n[3], uv[2], d;
+            crisp_surface_derivs(s, u, v, p, su, sv, NULL, NULL, NULL);
+            crisp_vec3_cross(su, sv, n);
+            if (!crisp_vec3_normalize(n, n)) continue;
+            double off = 1e-3;
+            for (int m = 0; m < 3; m++)
+                p[m] += off * n[m];
+            assert_int_equal(crisp_surface_closest_point(s, p, uv, &d), CRISP_OK);
+            assert_true(fabs(d - off) < 1e-9);
+            assert_true(fabs(uv[0] - u) < 1e-5 && fabs(uv[1] - v) < 1e-5);
+        }
+        crisp_surface_destroy(s);
+    }
+}
+
+static void test_closest_point_sphere_and_seam(void **state)
+{
+    (void)state;
+    double o[3] = {1, -2, 0.5}, ax[3] = {0.2, 0.1, 1};
+    crisp_placement pl;
+    assert_int_equal(crisp_placement_make(o, ax, NULL, &pl), CRISP_OK);
+    crisp_surface *sph, *cyl;
+    assert_int_equal(crisp_make_sphere(&pl, 2, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sph), CRISP_OK);
+    assert_int_equal(crisp_make_cylinder(&pl, 1.5, 0, 2 * M_PI, -1, 3, &cyl), CRISP_OK);
+    for (int k = 0; k < 200; k++) {
+        /* Rational sphere, including points within 1e-7 of a pole and the poles themselves. */
+        double u = rnd(0, 2 * M_PI), v = rnd(-M_PI / 2, M_PI / 2);
+        if (k % 4 == 1) v = M_PI / 2 - rnd(0, 1e-7);
+        if (k % 4 == 2) v = -M_PI / 2 + rnd(0, 1e-7);
+        if (k == 3) v = M_PI / 2;
+        double p[3], q[3], uv[2], d;
+        crisp_surface_eval(sph, u, v, p);
+        assert_int_equal(crisp_surface_closest_point(sph, p, uv, &d), CRISP_OK);
+        assert_true(isfinite(uv[0]) && isfinite(uv[1]));
+        crisp_surface_eval(sph, uv[0], uv[1], q);
+        assert_true(dist3(p, q) < 1e-9 && d < 1e-9);
+        if (k % 4 == 0) assert_true(fabs(uv[1] - v) < 1e-6 && fabs(uv[0] - u) < 1e-6);
+        /* Cylinder, points on the seam (u = 0 = 2 pi) and next to it from both sides. */
+        double cu = (k % 3 == 0) ? 0 : (k % 3 == 1) ? 2 * M_PI - rnd(0, 1e-6) : rnd(0, 1e-6);
+        double cv = rnd(-1, 3);
+        crisp_surface_eval(cyl, cu, cv, p);
+        assert_int_equal(crisp_surface_closest_point(cyl, p, uv, &d), CRISP_OK);
+        crisp_surface_eval(cyl, uv[0], uv[1], q);
+        assert_true(dist3(p, q) < 1e-9 && d < 1e-9);
+        assert_true(uv[0] >= 0 && uv[0] <= 2 * M_PI);
+        assert_true(fabs(uv[1] - cv) < 1e-9);
+    }
+    /* The sphere's centre: every point is closest; the answer must be finite. */
+    double uv[2], d;
+    assert_int_equal(crisp_surface_closest_point(sph, o, uv, &d), CRISP_OK);
+    assert_true(isfinite(uv[0]) && isfinite(uv[1]) && fabs(d - 2) < 1e-9);
+    double bad[3] = {NAN, 0, 0};
+    assert_int_equal(crisp_surface_closest_point(sph, bad, uv, &d), CRISP_ERR_INVALID_ARG);
+    crisp_surface_destroy(sph);
+    crisp_surface_destroy(cyl);
+}
+
+/* ---- curve projection -------------------------------------------------------------------------
+ */
+
+typedef struct helix {
+    const crisp_placement *pl;
+    double r, pitch;
+} helix;
+
+static void fn_helix(void *ctx, double t, double *d)
+{
+    const helix *h = ctx;
+    for (int k = 0; k < 3; k++)
+        d[k] = h->pl->origin[k] + h->r * (cos(t) * h->pl->x[k] + sin(t) * h->pl->y[k]) +
+               h->pitch * t * h->pl->z[k];
+}
+
+/* Image of the uv curve (u wrapped into the surface's domain where the surface is closed, which
+ * is what the evaluation clamps otherwise) against the 3D curve on a dense sample; also returns
+ * the largest jump of the uv curve between consecutive samples. */
+static double image_error(const crisp_surface *s, const crisp_curve *uvc, const crisp_curve *c,
+                          double t0, double t1, double period_u, double *max_jump)
+{
+    double dom[4], worst = 0, prev[2] = {0, 0};
+    crisp_surface_domain(s, dom);
+    *max_jump = 0;
+    for (int i = 0; i <= 4000; i++) {
+        double t = t0 + (t1 - t0) * i / 4000.0, uv[2], p[3], q[3];
+        crisp_curve_eval(uvc, t, uv);
+        if (i > 0) {
+            double j = hypot(uv[0] - prev[0], uv[1] - prev[1]);
+            if (j > *max_jump) *max_jump = j;
+        }
+        prev[0] = uv[0];
+        prev[1] = uv[1];
+        double u = uv[0];
+        if (period_u > 0) {
+            u = dom[0] + fmod(u - dom[0], period_u);
+            if (u < dom[0]) u += period_u;
+        }
+        crisp_surface_eval(s, u, uv[1], p);
+        crisp_curve_eval(c, t, q);
+        double e = dist3(p, q);
+        if (e > worst) worst = e;
+    }
+    return worst;
+}
+
+static void test_project_helix_on_cylinder(void **state)
+{
+    (void)state;
+    double o[3] = {0.5, 0.25, -1}, ax[3] = {0.3, -0.2, 1};
+    crisp_placement pl;
+    assert_int_equal(crisp_placement_make(o, ax, NULL, &pl), CRISP_OK);
+    crisp_surface *cyl;
+    assert_int_equal(crisp_make_cylinder(&pl, 2, 0, 2 * M_PI, -5, 10, &cyl), CRISP_OK);
+    helix h = {&pl, 2, 0.3};
+    crisp_curve *c, *uvc;
+    /* The helix from angle 4 to 14: crosses the seam twice. A tight 3D fit keeps it on the
+     * cylinder within 1e-10. */
+    assert_int_equal(crisp_fit_curve(3, fn_helix, &h, 4, 14, 1e-10, 100000, &c), CRISP_OK);
+    double tol = 1e-6;
+    assert_int_equal(crisp_surface_project_curve(cyl, c, 4, 14, tol, &uvc), CRISP_OK);
+    assert_int_equal(uvc->dim, 2);
+    double jump, e = image_error(cyl, uvc, c, 4, 14, 2 * M_PI, &jump);
+    assert_true(e <= tol);
+    assert_true(jump < 0.05); /* continuous: no 2 pi jumps at the seam */
+    /* u follows the angle (up to the seam's multiples of 2 pi), v the height. */
+    double uv0[2], uv1[2];
+    crisp_curve_eval(uvc, 4, uv0);
+    crisp_curve_eval(uvc, 14, uv1);
+    double du = uv1[0] - uv0[0];
+    double expect = crisp_angle_to_param(0, 2 * M_PI, fmod(14, 2 * M_PI)) + 4 * M_PI -
+                    crisp_angle_to_param(0, 2 * M_PI, 4);
+    assert_true(fabs(fabs(du) - expect) < 1e-5);
+    assert_true(fabs(uv1[1] - uv0[1] - 0.3 * 10) < 1e-5);
+    crisp_curve_destroy(uvc);
+    crisp_curve_destroy(c);
+    crisp_surface_destroy(cyl);
+}
+
+static void test_project_circle_on_sphere(void **state)
+{
+    (void)state;
+    double o[3] = {0, 0, 0}, ax[3] = {0, 0, 1};
+    crisp_placement pl;
+    assert_int_equal(crisp_placement_make(o, ax, NULL, &pl), CRISP_OK);
+    crisp_surface *sph;
+    double R = 3;
+    assert_int_equal(crisp_make_sphere(&pl, R, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sph), CRISP_OK);
+    /* Tilted small circles: the plane through h * n cuts the sphere in a circle of radius
+     * sqrt(R^2 - h^2); the full circle crosses the seam. One passes close to the pole. */
+    const double tilts[3] = {0.4, 1.2, 0.05};
+    for (int it = 0; it < 3; it++) {
+        double n[3] = {sin(tilts[it]), 0.1, cos(tilts[it])}, h = 1.1, nn[3];
+        crisp_vec3_normalize(n, nn);
+        crisp_placement cp;
+        double ctr[3] = {h * nn[0], h * nn[1], h * nn[2]};
+        assert_int_equal(crisp_placement_make(ctr, nn, NULL, &cp), CRISP_OK);
+        double rr = sqrt(R * R - h * h);
+        crisp_curve *c, *uvc;
+        assert_int_equal(crisp_make_arc(3, cp.origin, cp.x, cp.y, rr, rr, 0, 2 * M_PI, &c),
+                         CRISP_OK);
+        double tol = 1e-7;
+        assert_int_equal(crisp_surface_project_curve(sph, c, 0, 2 * M_PI, tol, &uvc), CRISP_OK);
+        double jump, e = image_error(sph, uvc, c, 0, 2 * M_PI, 2 * M_PI, &jump);
+        assert_true(e <= tol);
+        assert_true(jump < 1); /* fast near the pole, but no 2 pi seam jump */
+        crisp_curve_destroy(uvc);
+        crisp_curve_destroy(c);
+    }
+    crisp_surface_destroy(sph);
+}
+
+typedef struct iso {
+    const crisp_surface *s;
+    double u;
+} iso;
+
+static void fn_iso(void *ctx, double t, double *d)
+{
+    const iso *is = ctx;
+    crisp_surface_eval(is->s, is->u, t, d);
+}
+
+static void test_project_iso_curves(void **state)
+{
+    (void)state;
+    for (int it = 0; it < 4; it++) {
+        crisp_surface *s = random_surface(3, 2 + it % 2, 7, 6, it % 2);
+        for (int k = 0; k < 4; k++) {
+            iso is = {s, rnd(0.05, 0.95)};
+            crisp_curve *c, *uvc;
+            assert_int_equal(crisp_fit_curve(3, fn_iso, &is, -1, 2, 1e-11, 100000, &c), CRISP_OK);
+            double tol = 1e-6;
+            assert_int_equal(crisp_surface_project_curve(s, c, -0.5, 1.5, tol, &uvc), CRISP_OK);
+            double jump, e = image_error(s, uvc, c, -0.5, 1.5, 0, &jump);
+            assert_true(e <= tol);
+            for (int m = 0; m <= 100; m++) {
+                double t = -0.5 + 2 * m / 100.0, uv[2];
+                crisp_curve_eval(uvc, t, uv);
+                assert_true(fabs(uv[0] - is.u) < 1e-5 && fabs(uv[1] - t) < 1e-5);
+            }
+            crisp_curve_destroy(uvc);
+            crisp_curve_destroy(c);
+        }
+        crisp_surface_destroy(s);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_fit_hard_functions),
+        cmocka_unit_test(test_fit_span_bound),
+        cmocka_unit_test(test_fit_bad_function),
+        cmocka_unit_test(test_closest_point_random_surfaces),
+        cmocka_unit_test(test_closest_point_sphere_and_seam),
+        cmocka_unit_test(test_project_helix_on_cylinder),
+        cmocka_unit_test(test_project_circle_on_sphere),
+        cmocka_unit_test(test_project_iso_curves),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
