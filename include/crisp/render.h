@@ -8,11 +8,15 @@
  *   crisp_camera_ray        the ray through a point of the image (pixel centre = (i+0.5, j+0.5))
  *   crisp_camera_frame_box  the default camera that frames a box (looking along -Z, +Y up, fov 30)
  *   crisp_camera_to_pixel   clip-space point -> pixel coordinates
+ *   crisp_scene             a model prepared for rendering (Bézier patches, trim pieces, boxes)
+ *   crisp_image             colour and AOVs (depth, normal, u, v, face)
+ *   crisp_render_exact      the exact reference renderer (ray casting + exact trim classifier)
  */
 #ifndef CRISP_RENDER_H
 #define CRISP_RENDER_H
 
 #include "crisp/core.h"
+#include "crisp/model.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -41,6 +45,84 @@ void crisp_camera_to_pixel(const crisp_camera *cam, const double clip[4], double
  * (xmin, ymin, zmin, xmax, ymax, zmax) with a small margin; near and far enclose it. */
 crisp_status crisp_camera_frame_box(const double box[6], int width, int height,
                                     crisp_camera *dest);
+
+/* ---- scene --------------------------------------------------------------------------------- */
+
+/* One Bézier patch of a face, with its box (control hull; contains the patch). */
+typedef struct crisp_scene_patch {
+    crisp_bezier_patch bez;
+    uint32_t face;
+    uint32_t iu, iv; /* position in the face's grid of patches */
+    double box[6];
+} crisp_scene_patch;
+
+typedef struct crisp_scene_face {
+    const crisp_face *src;
+    uint32_t first_patch, patch_count;
+    uint32_t grid_u, grid_v;   /* patches per direction (u fastest) */
+    double domain[4];          /* u0, u1, v0, v1 of the surface */
+    uint32_t first_piece, piece_count; /* Bézier trim pieces of all loops, loop after loop */
+    uint32_t first_loop, loop_count;
+    float color[4];
+} crisp_scene_face;
+
+typedef struct crisp_scene_loop {
+    uint32_t first_piece, piece_count;
+    int is_outer;
+} crisp_scene_loop;
+
+/* The view-independent preparation of a model: Bézier patches of every face, Bézier pieces of
+ * every trim loop, boxes. Built once per model edit; the model must outlive it. */
+typedef struct crisp_scene {
+    const crisp_model *model;
+    uint32_t face_count, patch_count, piece_count, loop_count;
+    crisp_scene_face *faces;
+    crisp_scene_patch *patches;
+    crisp_bezier_curve *pieces;
+    crisp_scene_loop *loops;
+    crisp_bezier_patches *face_patches; /* storage, one per face */
+    double box[6];
+} crisp_scene;
+
+crisp_status crisp_scene_prepare(const crisp_model *model, crisp_scene **dest);
+void crisp_scene_destroy(crisp_scene *scene);
+
+/* ---- images ------------------------------------------------------------------------------- */
+
+typedef struct crisp_image {
+    int width, height;
+    float *rgba;   /* 4 per pixel, straight alpha = coverage */
+    float *depth;  /* camera-space depth (distance along the view axis), +inf for background */
+    float *normal; /* 3 per pixel, world space, unit; 0 for background */
+    float *uv;     /* 2 per pixel, surface parameters of the face */
+    int32_t *face; /* face index, -1 for background */
+} crisp_image;
+
+crisp_status crisp_image_init(crisp_image *img, int width, int height);
+void crisp_image_free(crisp_image *img);
+
+/* ---- exact reference renderer ---------------------------------------------------------------- */
+
+/* Decides whether (u, v) of a face is inside its trim (1) or not (0); the exact renderer uses the
+ * exact classifier on the true curves when this is NULL. */
+typedef int (*crisp_trim_classify_fn)(void *ctx, const crisp_scene *scene, uint32_t face,
+                                      double u, double v);
+
+typedef struct crisp_exact_desc {
+    int threads;                    /* 0: default */
+    crisp_trim_classify_fn classify; /* NULL: every point of a face counts as inside */
+    void *classify_ctx;
+} crisp_exact_desc;
+
+/* The nearest surface point inside its trim along the ray (origin, unit dir) with parameter t in
+ * [tmin, tmax]; returns 1 and fills the outputs (any may be NULL) when there is one. */
+int crisp_exact_ray(const crisp_scene *scene, const crisp_exact_desc *desc,
+                    const double origin[3], const double dir[3], double tmin, double tmax,
+                    double *t, uint32_t *face, double uv[2], double normal[3]);
+
+/* One ray per pixel centre (DESIGN.md section 6); near and far bound the camera-space depth. */
+crisp_status crisp_render_exact(const crisp_scene *scene, const crisp_camera *cam,
+                                const crisp_exact_desc *desc, crisp_image *img);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,158 @@
+/* Preparing a model for rendering (DESIGN.md section 2, "prepare"): Bézier extraction of every
+ * face's surface and trim curves, patch boxes, and the scene box. View-independent; rebuilt only
+ * when the model changes. */
+#include "crisp/render.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static uint32_t distinct_spans(const double *knots, int count, int degree)
+{
+    uint32_t n = 0;
+    for (int i = degree; i < count; i++)
+        if (knots[i + 1] > knots[i]) n++;
+    return n;
+}
+
+void crisp_scene_destroy(crisp_scene *s)
+{
+    if (!s) return;
+    if (s->face_patches)
+        for (uint32_t f = 0; f < s->face_count; f++) crisp_bezier_patches_free(&s->face_patches[f]);
+    free(s->face_patches);
+    free(s->faces);
+    free(s->patches);
+    free(s->pieces);
+    free(s->loops);
+    free(s);
+}
+
+crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
+{
+    crisp_status st = CRISP_OK;
+    crisp_scene *s = calloc(1, sizeof *s);
+    if (!s) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory preparing the scene");
+    s->model = m;
+    s->face_count = (uint32_t)m->face_count;
+    s->faces = crisp_calloc_array(s->face_count, sizeof *s->faces);
+    s->face_patches = crisp_calloc_array(s->face_count, sizeof *s->face_patches);
+    if (!s->faces || !s->face_patches) goto oom;
+    size_t patch_total = 0, loop_total = 0;
+    for (uint32_t f = 0; f < s->face_count; f++) {
+        const crisp_face *src = &m->faces[f];
+        if ((st = crisp_surface_to_bezier(src->surface, &s->face_patches[f]))) {
+            crisp_error_prefix("face %u (source entity %d)", f, src->source_id);
+            goto fail;
+        }
+        patch_total += (size_t)s->face_patches[f].count;
+        loop_total += (size_t)src->loop_count;
+    }
+    if (patch_total > UINT32_MAX / 2) {
+        st = crisp_error(CRISP_ERR_LIMIT, "%zu Bézier patches: too many", patch_total);
+        goto fail;
+    }
+    s->patches = crisp_calloc_array(patch_total, sizeof *s->patches);
+    s->loops = crisp_calloc_array(loop_total, sizeof *s->loops);
+    if (!s->patches || !s->loops) goto oom;
+    size_t piece_cap = 0;
+    for (int k = 0; k < 3; k++) {
+        s->box[k] = INFINITY;
+        s->box[k + 3] = -INFINITY;
+    }
+    for (uint32_t f = 0; f < s->face_count; f++) {
+        const crisp_face *src = &m->faces[f];
+        const crisp_surface *surf = src->surface;
+        crisp_scene_face *sf = &s->faces[f];
+        sf->src = src;
+        sf->first_patch = s->patch_count;
+        sf->patch_count = (uint32_t)s->face_patches[f].count;
+        sf->grid_u = distinct_spans(surf->knots_u, surf->count_u, surf->degree_u);
+        sf->grid_v = distinct_spans(surf->knots_v, surf->count_v, surf->degree_v);
+        crisp_surface_domain(surf, sf->domain);
+        static const float grey[4] = {0.72f, 0.74f, 0.78f, 1.0f};
+        memcpy(sf->color, src->has_color ? src->color : grey, sizeof sf->color);
+        for (uint32_t k = 0; k < sf->patch_count; k++) {
+            crisp_scene_patch *p = &s->patches[s->patch_count++];
+            p->bez = s->face_patches[f].patches[k];
+            p->face = f;
+            p->iu = sf->grid_u ? k % sf->grid_u : 0;
+            p->iv = sf->grid_u ? k / sf->grid_u : 0;
+            crisp_bezier_patch_bbox(&p->bez, p->box);
+            for (int c = 0; c < 3; c++) {
+                s->box[c] = fmin(s->box[c], p->box[c]);
+                s->box[c + 3] = fmax(s->box[c + 3], p->box[c + 3]);
+            }
+        }
+        sf->first_loop = s->loop_count;
+        sf->loop_count = (uint32_t)src->loop_count;
+        sf->first_piece = s->piece_count;
+        for (int l = 0; l < src->loop_count; l++) {
+            const crisp_trim_loop *loop = &src->loops[l];
+            crisp_scene_loop *sl = &s->loops[s->loop_count++];
+            sl->first_piece = s->piece_count;
+            sl->is_outer = loop->is_outer;
+            for (int c = 0; c < loop->curve_count; c++) {
+                crisp_bezier_curve *pieces = NULL;
+                int n = 0;
+                if ((st = crisp_curve_to_bezier(loop->curves[c], &pieces, &n))) {
+                    crisp_error_prefix("face %u (source entity %d), loop %d, curve %d", f,
+                                       src->source_id, l, c);
+                    goto fail;
+                }
+                st = crisp_grow((void **)&s->pieces, &piece_cap, (size_t)s->piece_count + (size_t)n,
+                                sizeof *s->pieces);
+                if (st) {
+                    crisp_free(pieces);
+                    goto fail;
+                }
+                memcpy(s->pieces + s->piece_count, pieces, (size_t)n * sizeof *pieces);
+                s->piece_count += (uint32_t)n;
+                crisp_free(pieces);
+            }
+            sl->piece_count = s->piece_count - sl->first_piece;
+        }
+        sf->piece_count = s->piece_count - sf->first_piece;
+    }
+    *dest = s;
+    return CRISP_OK;
+oom:
+    st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory preparing the scene");
+fail:
+    crisp_scene_destroy(s);
+    return st;
+}
+
+crisp_status crisp_image_init(crisp_image *img, int width, int height)
+{
+    if (width <= 0 || height <= 0 || width > 65536 || height > 65536)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected 1..65536", width, height);
+    size_t n = (size_t)width * height;
+    memset(img, 0, sizeof *img);
+    img->width = width;
+    img->height = height;
+    img->rgba = crisp_calloc_array(n, 4 * sizeof(float));
+    img->depth = crisp_malloc_array(n, sizeof(float));
+    img->normal = crisp_calloc_array(n, 3 * sizeof(float));
+    img->uv = crisp_calloc_array(n, 2 * sizeof(float));
+    img->face = crisp_malloc_array(n, sizeof(int32_t));
+    if (!img->rgba || !img->depth || !img->normal || !img->uv || !img->face) {
+        crisp_image_free(img);
+        return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for a %dx%d image", width, height);
+    }
+    for (size_t i = 0; i < n; i++) {
+        img->depth[i] = INFINITY;
+        img->face[i] = -1;
+    }
+    return CRISP_OK;
+}
+
+void crisp_image_free(crisp_image *img)
+{
+    free(img->rgba);
+    free(img->depth);
+    free(img->normal);
+    free(img->uv);
+    free(img->face);
+    memset(img, 0, sizeof *img);
+}
