@@ -84,7 +84,8 @@ crisp_status crisp_slefe_bezier(int degree, const double *coef, int stride, int 
  * CRISP_SLEFE_CURVE_COMPONENTS(c) values, breakpoint k component i at [k * ncomp + i]. */
 crisp_status crisp_slefe_curve(const crisp_bezier_curve *c, int segments, double *lo, double *up);
 
-/* Per-segment Euclidean boxes that contain the curve over [k/m, (k+1)/m]: box_lo, box_hi get
+/* Per-segment Euclidean boxes that contain the curve over [k/m, (k+1)/m] (SLEFE bounds of the
+ * segment intersected with the control points' range): box_lo, box_hi get
  * segments * dim values ([k * dim + i]). Rational pieces: homogeneous SLEFE then interval division;
  * CRISP_ERR_NUMERIC when the lower bound of w is not positive on some segment. */
 crisp_status crisp_slefe_curve_boxes(const crisp_bezier_curve *c, int segments, double *box_lo,

@@ -101,15 +101,11 @@ crisp_status crisp_slefe_patch(const crisp_bezier_patch *p, int segments, double
     return CRISP_OK;
 }
 
-crisp_status crisp_slefe_patch_tiles(int segments, const double *lo, const double *up,
-                                     double *box_lo, double *box_hi)
+crisp_status crisp__slefe_tiles(const char *fn, int m, const double *lo, const double *up,
+                                const double *hull_lo, const double *hull_hi, double *box_lo,
+                                double *box_hi)
 {
-    if (segments < 1 || segments > MAXM)
-        return crisp_error(CRISP_ERR_LIMIT, "crisp_slefe_patch_tiles: segments %d outside 1..%d",
-                           segments, MAXM);
-    if (!lo || !up || !box_lo || !box_hi)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_slefe_patch_tiles: NULL argument");
-    int m = segments, n = m + 1;
+    int n = m + 1;
     for (int kv = 0; kv < m; kv++) {
         for (int ku = 0; ku < m; ku++) {
             int g[4] = {kv * n + ku, kv * n + ku + 1, (kv + 1) * n + ku, (kv + 1) * n + ku + 1};
@@ -119,6 +115,11 @@ crisp_status crisp_slefe_patch_tiles(int segments, const double *lo, const doubl
                              fmin(lo[g[2] * 4 + i], lo[g[3] * 4 + i]));
                 cu[i] = fmax(fmax(up[g[0] * 4 + i], up[g[1] * 4 + i]),
                              fmax(up[g[2] * 4 + i], up[g[3] * 4 + i]));
+                if (hull_lo) {
+                    /* convex hull property: constant bounds valid over the whole patch */
+                    cl[i] = fmax(cl[i], hull_lo[i]);
+                    cu[i] = fmin(cu[i], hull_hi[i]);
+                }
             }
             double *bl = box_lo + (kv * m + ku) * 3, *bh = box_hi + (kv * m + ku) * 3;
             if (cl[3] == 1.0 && cu[3] == 1.0) {
@@ -128,12 +129,23 @@ crisp_status crisp_slefe_patch_tiles(int segments, const double *lo, const doubl
             }
             if (!(cl[3] > 0.0))
                 return crisp_error(CRISP_ERR_NUMERIC,
-                                   "crisp_slefe_patch_tiles: lower bound %g of W on tile (%d, %d) "
-                                   "is not positive",
-                                   cl[3], ku, kv);
+                                   "%s: lower bound %g of W on tile (%d, %d) is not positive (the "
+                                   "patch reaches the eye plane: split or cull it)",
+                                   fn, cl[3], ku, kv);
             for (int i = 0; i < 3; i++)
                 crisp__slefe_divide(cl[i], cu[i], cl[3], cu[3], bl + i, bh + i);
         }
     }
     return CRISP_OK;
+}
+
+crisp_status crisp_slefe_patch_tiles(int segments, const double *lo, const double *up,
+                                     double *box_lo, double *box_hi)
+{
+    const char *fn = "crisp_slefe_patch_tiles";
+    if (segments < 1 || segments > MAXM)
+        return crisp_error(CRISP_ERR_LIMIT, "%s: segments %d outside 1..%d", fn, segments, MAXM);
+    if (!lo || !up || !box_lo || !box_hi)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: NULL argument", fn);
+    return crisp__slefe_tiles(fn, segments, lo, up, NULL, NULL, box_lo, box_hi);
 }

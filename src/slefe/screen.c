@@ -34,6 +34,8 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
     int count = (p->du + 1) * (p->dv + 1);
     double clip[(MAXD + 1) * (MAXD + 1) * 4];
     double err[4] = {0, 0, 0, 0};
+    double hl[4] = {INFINITY, INFINITY, INFINITY, INFINITY};
+    double hh[4] = {-INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (int i = 0; i < count; i++) {
         const double *v = p->cpw + i * 4;
         for (int r = 0; r < 4; r++) {
@@ -45,6 +47,8 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
             }
             clip[i * 4 + r] = x;
             if (a > err[r]) err[r] = a;
+            hl[r] = fmin(hl[r], x);
+            hh[r] = fmax(hh[r], x);
         }
     }
     for (int r = 0; r < 4; r++)
@@ -56,13 +60,15 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
     int m = segments, n = CRISP_SLEFE_GRID(m);
     double lo[CRISP_SLEFE_GRID(MAXM) * 4], up[CRISP_SLEFE_GRID(MAXM) * 4];
     crisp__slefe_patch_nocheck(&q, m, 4, lo, up);
+    /* Grid bounds widened by the transform's rounding; at the grid points (not in between) they
+     * may also be clipped to the control points' range (convex hull). */
     double wmin = INFINITY;
     for (int g = 0; g < n; g++) {
         for (int r = 0; r < 4; r++) {
             lo[g * 4 + r] -= err[r];
             up[g * 4 + r] += err[r];
         }
-        if (lo[g * 4 + 3] < wmin) wmin = lo[g * 4 + 3];
+        wmin = fmin(wmin, fmax(lo[g * 4 + 3], hl[3]));
     }
     if (!(wmin > 0.0))
         return crisp_error(CRISP_ERR_NUMERIC,
@@ -72,8 +78,11 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
     if (w_px) {
         double best = 0.0;
         for (int g = 0; g < n; g++) {
-            const double *l = lo + g * 4, *u = up + g * 4;
-            double xl, xu, yl, yu;
+            double l[4], u[4], xl, xu, yl, yu;
+            for (int r = 0; r < 4; r++) {
+                l[r] = fmax(lo[g * 4 + r], hl[r]);
+                u[r] = fmin(up[g * 4 + r], hh[r]);
+            }
             crisp__slefe_divide(l[0], u[0], l[3], u[3], &xl, &xu);
             crisp__slefe_divide(l[1], u[1], l[3], u[3], &yl, &yu);
             double wx = 0.5 * (xu - xl) * view->width, wy = 0.5 * (yu - yl) * view->height;
@@ -82,7 +91,7 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
         }
         *w_px = best;
     }
-    if (ndc_lo && ndc_hi) return crisp_slefe_patch_tiles(m, lo, up, ndc_lo, ndc_hi);
+    if (ndc_lo && ndc_hi) return crisp__slefe_tiles(fn, m, lo, up, hl, hh, ndc_lo, ndc_hi);
     return CRISP_OK;
 }
 

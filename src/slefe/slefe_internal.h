@@ -56,6 +56,13 @@ crisp_status crisp__slefe_check_patch(const char *fn, const crisp_bezier_patch *
 void crisp__slefe_patch_nocheck(const crisp_bezier_patch *p, int m, int ncomp, double *lo,
                                 double *up);
 
+/* Per-tile boxes of a grid result (layout of crisp_slefe_patch); hull_lo/hull_hi (4 values each,
+ * or NULL) are bounds of each homogeneous coordinate over the whole patch (its control points'
+ * range), intersected with the tile bounds. Divides by W unless W is exactly [1, 1]. */
+crisp_status crisp__slefe_tiles(const char *fn, int m, const double *lo, const double *up,
+                                const double *hull_lo, const double *hull_hi, double *box_lo,
+                                double *box_hi);
+
 /* One side of the enclosure: with (first, second) = (upper, lower) tables and sign = +1 this is
  * up[k]; with (lower, upper) and sign = -1 it is lo[k]. */
 static inline void crisp__slefe_side(int d, const double *b, int stride, double guard,
