@@ -17,14 +17,33 @@ static void decasteljau(double *q, int n, int nc, double t)
                 q[i * nc + c] = s * q[i * nc + c] + t * q[(i + 1) * nc + c];
 }
 
+/* All Bernstein polynomials of degree n at t (The NURBS Book A1.3): positive weights, so the
+ * sum over them is as stable as de Casteljau at O(n^2) for the basis and O(n) per point. */
+static void all_bernstein(int n, double t, double *dest)
+{
+    const double s = 1.0 - t;
+    dest[0] = 1.0;
+    for (int j = 1; j <= n; j++) {
+        double saved = 0.0;
+        for (int k = 0; k < j; k++) {
+            double tmp = dest[k];
+            dest[k] = saved + s * tmp;
+            saved = t * tmp;
+        }
+        dest[j] = saved;
+    }
+}
+
 void crisp_bezier_curve_eval(const crisp_bezier_curve *b, double t, double *dest)
 {
     const int nc = b->dim + 1;
-    double q[(CRISP_MAX_DEGREE + 1) * 4];
-    memcpy(q, b->cpw, (size_t)(b->degree + 1) * nc * sizeof *q);
-    decasteljau(q, b->degree, nc, t);
+    double bern[CRISP_MAX_DEGREE + 1], h[4] = {0, 0, 0, 0};
+    all_bernstein(b->degree, t, bern);
+    for (int i = 0; i <= b->degree; i++)
+        for (int c = 0; c < nc; c++)
+            h[c] += bern[i] * b->cpw[i * nc + c];
     for (int d = 0; d < b->dim; d++)
-        dest[d] = q[d] / q[b->dim];
+        dest[d] = h[d] / h[b->dim];
 }
 
 /* Homogeneous derivatives h[r] (r = 0..nd) of a Bézier polynomial of degree n at t: de Casteljau
@@ -128,16 +147,21 @@ void crisp_bezier_curve_bbox(const crisp_bezier_curve *b, double *dest)
 
 void crisp_bezier_patch_eval(const crisp_bezier_patch *p, double s, double t, double *dest)
 {
-    double row[(CRISP_MAX_DEGREE + 1) * 4], col[(CRISP_MAX_DEGREE + 1) * 4];
+    double bs[CRISP_MAX_DEGREE + 1], bt[CRISP_MAX_DEGREE + 1], h[4] = {0, 0, 0, 0};
     const int nu = p->du + 1;
+    all_bernstein(p->du, s, bs);
+    all_bernstein(p->dv, t, bt);
     for (int j = 0; j <= p->dv; j++) {
-        memcpy(row, p->cpw + (size_t)j * nu * 4, (size_t)nu * 4 * sizeof *row);
-        decasteljau(row, p->du, 4, s);
-        memcpy(col + j * 4, row, 4 * sizeof *col);
+        const double *row = p->cpw + (size_t)j * nu * 4;
+        double r[4] = {0, 0, 0, 0};
+        for (int i = 0; i < nu; i++)
+            for (int c = 0; c < 4; c++)
+                r[c] += bs[i] * row[i * 4 + c];
+        for (int c = 0; c < 4; c++)
+            h[c] += bt[j] * r[c];
     }
-    decasteljau(col, p->dv, 4, t);
     for (int d = 0; d < 3; d++)
-        dest[d] = col[d] / col[3];
+        dest[d] = h[d] / h[3];
 }
 
 void crisp_bezier_patch_derivs(const crisp_bezier_patch *p, double s, double t, double *point,

@@ -185,6 +185,14 @@ crisp_status crisp_curve_insert_knot(crisp_curve *c, double t, int times)
     return CRISP_OK;
 }
 
+/* a + b - x, exact at the domain ends. */
+static double mirror(double a, double b, double x)
+{
+    if (x == a) return b;
+    if (x == b) return a;
+    return a + b - x;
+}
+
 void crisp_curve_reverse(crisp_curve *c)
 {
     const int nc = c->dim + 1;
@@ -192,23 +200,23 @@ void crisp_curve_reverse(crisp_curve *c)
     double a = c->knots[c->degree], b = c->knots[c->count];
     for (int i = 0, j = n - 1; i < j; i++, j--) {
         double ki = c->knots[i], kj = c->knots[j];
-        c->knots[i] = a + b - kj;
-        c->knots[j] = a + b - ki;
+        c->knots[i] = mirror(a, b, kj);
+        c->knots[j] = mirror(a, b, ki);
     }
-    if (n % 2) c->knots[n / 2] = a + b - c->knots[n / 2];
+    if (n % 2) c->knots[n / 2] = mirror(a, b, c->knots[n / 2]);
+    /* Rounding in a + b - x may break monotonicity by an ulp or leave [a, b]; repair both. */
+    for (int i = c->degree + 1; i < c->count; i++) {
+        if (c->knots[i] < a) c->knots[i] = a;
+        if (c->knots[i] > b) c->knots[i] = b;
+    }
+    for (int i = 1; i < n; i++)
+        if (c->knots[i] < c->knots[i - 1]) c->knots[i] = c->knots[i - 1];
     for (int i = 0, j = c->count - 1; i < j; i++, j--) {
         for (int d = 0; d < nc; d++) {
             double tmp = c->cpw[i * nc + d];
             c->cpw[i * nc + d] = c->cpw[j * nc + d];
             c->cpw[j * nc + d] = tmp;
         }
-    }
-    /* a + b - x rounds; keep the domain ends exact. */
-    c->knots[c->degree] = a;
-    c->knots[c->count] = b;
-    for (int i = 0; i < c->degree; i++) {
-        if (c->knots[i] > a) c->knots[i] = a;
-        if (c->knots[n - 1 - i] < b) c->knots[n - 1 - i] = b;
     }
 }
 
