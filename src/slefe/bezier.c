@@ -85,15 +85,15 @@ crisp_status crisp_slefe_curve_boxes(const crisp_bezier_curve *c, int segments, 
     double hh[4] = {-INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (int j = 0; j <= c->degree; j++)
         for (int i = 0; i < ncomp; i++) {
-            hl[i] = fmin(hl[i], c->cpw[j * (dim + 1) + i]);
-            hh[i] = fmax(hh[i], c->cpw[j * (dim + 1) + i]);
+            hl[i] = crisp__min(hl[i], c->cpw[j * (dim + 1) + i]);
+            hh[i] = crisp__max(hh[i], c->cpw[j * (dim + 1) + i]);
         }
     for (int k = 0; k < m; k++) {
         /* The piecewise-linear bounds on segment k lie between their end values. */
         double cl[4] = {0, 0, 0, 0}, cu[4] = {0, 0, 0, 0};
         for (int i = 0; i < ncomp; i++) {
-            cl[i] = fmax(fmin(lo[k * ncomp + i], lo[(k + 1) * ncomp + i]), hl[i]);
-            cu[i] = fmin(fmax(up[k * ncomp + i], up[(k + 1) * ncomp + i]), hh[i]);
+            cl[i] = crisp__max(crisp__min(lo[k * ncomp + i], lo[(k + 1) * ncomp + i]), hl[i]);
+            cu[i] = crisp__min(crisp__max(up[k * ncomp + i], up[(k + 1) * ncomp + i]), hh[i]);
         }
         if (c->rational && !(cl[dim] > 0.0))
             return crisp_error(CRISP_ERR_NUMERIC,

@@ -111,14 +111,14 @@ crisp_status crisp__slefe_tiles(const char *fn, int m, const double *lo, const d
             int g[4] = {kv * n + ku, kv * n + ku + 1, (kv + 1) * n + ku, (kv + 1) * n + ku + 1};
             double cl[4], cu[4];
             for (int i = 0; i < 4; i++) {
-                cl[i] = fmin(fmin(lo[g[0] * 4 + i], lo[g[1] * 4 + i]),
-                             fmin(lo[g[2] * 4 + i], lo[g[3] * 4 + i]));
-                cu[i] = fmax(fmax(up[g[0] * 4 + i], up[g[1] * 4 + i]),
-                             fmax(up[g[2] * 4 + i], up[g[3] * 4 + i]));
+                cl[i] = crisp__min(crisp__min(lo[g[0] * 4 + i], lo[g[1] * 4 + i]),
+                                   crisp__min(lo[g[2] * 4 + i], lo[g[3] * 4 + i]));
+                cu[i] = crisp__max(crisp__max(up[g[0] * 4 + i], up[g[1] * 4 + i]),
+                                   crisp__max(up[g[2] * 4 + i], up[g[3] * 4 + i]));
                 if (hull_lo) {
                     /* convex hull property: constant bounds valid over the whole patch */
-                    cl[i] = fmax(cl[i], hull_lo[i]);
-                    cu[i] = fmin(cu[i], hull_hi[i]);
+                    cl[i] = crisp__max(cl[i], hull_lo[i]);
+                    cu[i] = crisp__min(cu[i], hull_hi[i]);
                 }
             }
             double *bl = box_lo + (kv * m + ku) * 3, *bh = box_hi + (kv * m + ku) * 3;

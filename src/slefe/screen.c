@@ -47,8 +47,8 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
             }
             clip[i * 4 + r] = x;
             if (a > err[r]) err[r] = a;
-            hl[r] = fmin(hl[r], x);
-            hh[r] = fmax(hh[r], x);
+            hl[r] = crisp__min(hl[r], x);
+            hh[r] = crisp__max(hh[r], x);
         }
     }
     for (int r = 0; r < 4; r++)
@@ -68,7 +68,7 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
             lo[g * 4 + r] -= err[r];
             up[g * 4 + r] += err[r];
         }
-        wmin = fmin(wmin, fmax(lo[g * 4 + 3], hl[3]));
+        wmin = crisp__min(wmin, crisp__max(lo[g * 4 + 3], hl[3]));
     }
     if (!(wmin > 0.0))
         return crisp_error(CRISP_ERR_NUMERIC,
@@ -80,8 +80,8 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
         for (int g = 0; g < n; g++) {
             double l[4], u[4], xl, xu, yl, yu;
             for (int r = 0; r < 4; r++) {
-                l[r] = fmax(lo[g * 4 + r], hl[r]);
-                u[r] = fmin(up[g * 4 + r], hh[r]);
+                l[r] = crisp__max(lo[g * 4 + r], hl[r]);
+                u[r] = crisp__min(up[g * 4 + r], hh[r]);
             }
             crisp__slefe_divide(l[0], u[0], l[3], u[3], &xl, &xu);
             crisp__slefe_divide(l[1], u[1], l[3], u[3], &yl, &yu);
@@ -124,10 +124,10 @@ crisp_status crisp_slefe_boxes_screen_width(const crisp_slefe_view *view, int co
                                    "%s: box %d reaches the eye plane (W = %g at a corner)", fn, b,
                                    q[3]);
             double x = q[0] / q[3], y = q[1] / q[3];
-            xl = fmin(xl, x);
-            xu = fmax(xu, x);
-            yl = fmin(yl, y);
-            yu = fmax(yu, y);
+            xl = crisp__min(xl, x);
+            xu = crisp__max(xu, x);
+            yl = crisp__min(yl, y);
+            yu = crisp__max(yu, y);
         }
         double wx = 0.5 * (xu - xl) * view->width, wy = 0.5 * (yu - yl) * view->height;
         if (wx > best) best = wx;

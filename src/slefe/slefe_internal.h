@@ -8,6 +8,17 @@
 #include <float.h>
 #include <math.h>
 
+/* min and max without the NaN rules of fmin/fmax (which are library calls at -O2); inputs are
+ * checked finite at the entry points. */
+static inline double crisp__min(double a, double b)
+{
+    return a < b ? a : b;
+}
+static inline double crisp__max(double a, double b)
+{
+    return a > b ? a : b;
+}
+
 /* Builds the tables once (pthread_once); cheap after the first call. */
 void crisp__slefe_tables_init(void);
 /* Table of (degree, segments) after crisp__slefe_tables_init; degree 1 gives NULL tables. */
