@@ -1,0 +1,73 @@
+/* Private to the OBJ reader: the parsed (not yet converted) content of a Wavefront OBJ file.
+ * obj_parse.c fills it from the text (statements, state, references resolved to 0-based
+ * indices); obj_build.c turns it into crisp faces. */
+#ifndef CRISP_IO_OBJ_INTERNAL_H
+#define CRISP_IO_OBJ_INTERNAL_H
+
+#include "crisp/io.h"
+
+enum { OBJ_BSPLINE = 1, OBJ_BEZIER = 2 };
+
+/* A span of entries in one of the shared arrays. */
+typedef struct obj_span {
+    int off, count;
+} obj_span;
+
+typedef struct obj_curv2 {
+    int type, rational, degree;
+    int line;
+    obj_span refs;  /* into obj_data.refs: vp indices */
+    obj_span knots; /* into obj_data.reals: parm u (B-spline knots or Bézier breakpoints) */
+    crisp_curve *curve; /* converted on first use (owned) */
+    int failed;         /* conversion failed once: the error was already reported */
+} obj_curv2;
+
+typedef struct obj_loop {
+    int is_outer;
+    int line;
+    obj_span triples; /* into obj_data.reals: u0, u1, curv2 index (0-based), 3 per piece */
+} obj_loop;
+
+typedef struct obj_surf {
+    int type, rational, degree_u, degree_v;
+    int line;
+    double range[4]; /* s0 s1 t0 t1 */
+    obj_span refs;   /* v indices, u fastest */
+    obj_span knots_u, knots_v;
+    obj_span loops;  /* into obj_data.loops */
+} obj_surf;
+
+typedef struct obj_polygon {
+    int line;
+    obj_span refs; /* v indices */
+} obj_polygon;
+
+typedef struct obj_data {
+    const char *name;
+    double *v;  /* 4 per vertex: x y z w */
+    int v_count, v_cap;
+    double *vp; /* 3 per parameter vertex: u v w (w = 1 when absent) */
+    int vp_count, vp_cap;
+    int *refs;
+    int ref_count, ref_cap;
+    double *reals;
+    int real_count, real_cap;
+    obj_curv2 *curv2;
+    int curv2_count, curv2_cap;
+    obj_surf *surfs;
+    int surf_count, surf_cap;
+    obj_loop *loops;
+    int loop_count, loop_cap;
+    obj_polygon *polys;
+    int poly_count, poly_cap;
+} obj_data;
+
+/* Parse the text (size bytes, need not be NUL-terminated) into d (zeroed by the caller); skipped
+ * statements are noted in m. */
+crisp_status crisp__obj_parse(const char *name, const char *text, size_t size, obj_data *d,
+                              crisp_model *m);
+/* Convert everything parsed into faces of m. */
+crisp_status crisp__obj_build(obj_data *d, const crisp_read_options *options, crisp_model *m);
+void crisp__obj_data_free(obj_data *d);
+
+#endif
