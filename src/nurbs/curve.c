@@ -38,15 +38,17 @@ crisp_status crisp_curve_create(int dim, int degree, int count, const double *kn
     if (st) return st;
     if (!points) return crisp_error(CRISP_ERR_INVALID_ARG, "curve has no control points");
     for (int i = 0; i < count; i++) {
-        for (int d = 0; d < dim; d++)
-            if (!isfinite(points[i * dim + d]))
-                return crisp_error(CRISP_ERR_INVALID_ARG,
-                                   "curve control point %d coordinate %d is %g: expected a finite "
-                                   "number",
-                                   i, d, points[i * dim + d]);
         if (weights && !(isfinite(weights[i]) && weights[i] > 0.0))
             return crisp_error(CRISP_ERR_INVALID_ARG,
                                "curve weight %d is %g: weights must be positive", i, weights[i]);
+        for (int d = 0; d < dim; d++)
+            if (!isfinite(points[i * dim + d]) ||
+                (weights && !isfinite(points[i * dim + d] * weights[i])))
+                return crisp_error(
+                    CRISP_ERR_INVALID_ARG,
+                    "curve control point %d coordinate %d is %g: expected a finite number "
+                    "(also once multiplied by its weight)",
+                    i, d, points[i * dim + d]);
     }
     crisp_curve *c;
     st = curve_alloc(dim, degree, count, &c);

@@ -37,6 +37,10 @@ crisp_status crisp__check_knots(const char *what, int degree, int count, const d
                                "%s knot %d (%.17g) is less than knot %d (%.17g)", what, i, knots[i],
                                i - 1, knots[i - 1]);
     }
+    if (!isfinite(knots[n - 1] - knots[0]))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "%s knots span [%g, %g]: the range overflows a double", what, knots[0],
+                           knots[n - 1]);
     if (!(knots[degree] < knots[count]))
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "%s domain is empty: knot %d (%.17g) equals knot %d (%.17g)", what,

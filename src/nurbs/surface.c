@@ -47,16 +47,17 @@ crisp_status crisp_surface_create(int degree_u, int degree_v, int count_u, int c
     if (!points) return crisp_error(CRISP_ERR_INVALID_ARG, "surface has no control points");
     int n = count_u * count_v;
     for (int i = 0; i < n; i++) {
-        for (int d = 0; d < 3; d++)
-            if (!isfinite(points[i * 3 + d]))
-                return crisp_error(CRISP_ERR_INVALID_ARG,
-                                   "surface control point %d (u %d, v %d) coordinate %d is %g: "
-                                   "expected a finite number",
-                                   i, i % count_u, i / count_u, d, points[i * 3 + d]);
         if (weights && !(isfinite(weights[i]) && weights[i] > 0.0))
             return crisp_error(CRISP_ERR_INVALID_ARG,
                                "surface weight %d (u %d, v %d) is %g: weights must be positive", i,
                                i % count_u, i / count_u, weights[i]);
+        for (int d = 0; d < 3; d++)
+            if (!isfinite(points[i * 3 + d]) ||
+                (weights && !isfinite(points[i * 3 + d] * weights[i])))
+                return crisp_error(CRISP_ERR_INVALID_ARG,
+                                   "surface control point %d (u %d, v %d) coordinate %d is %g: "
+                                   "expected a finite number (also once multiplied by its weight)",
+                                   i, i % count_u, i / count_u, d, points[i * 3 + d]);
     }
     crisp_surface *s;
     st = surface_alloc(degree_u, degree_v, count_u, count_v, &s);

@@ -506,6 +506,13 @@ static void test_invalid_curves(void **state)
                        "limit");
     const double empty_k[5] = {1, 1, 1, 1, 1};
     expect_curve_error(2, 2, 2, empty_k, p, NULL, CRISP_ERR_INVALID_ARG, "at least 3");
+    double huge[12];
+    memcpy(huge, p, sizeof huge);
+    huge[6] = 1.5e308; /* finite, but w * x overflows with weight 2 */
+    const double w2[6] = {1, 1, 1, 2, 1, 1};
+    expect_curve_error(2, 2, 6, good_k, huge, w2, CRISP_ERR_INVALID_ARG, "control point 3");
+    const double wide_k[9] = {-1.5e308, 0, 0, 0.2, 0.5, 0.5, 1, 1, 1.5e308};
+    expect_curve_error(2, 2, 6, wide_k, p, NULL, CRISP_ERR_INVALID_ARG, "overflows");
     const double flat_k[6] = {0, 1, 1, 1, 1, 2};
     expect_curve_error(2, 2, 3, flat_k, p, NULL, CRISP_ERR_INVALID_ARG, "domain is empty");
 
@@ -532,14 +539,105 @@ static void test_invalid_curves(void **state)
     crisp_curve_destroy(NULL);
 }
 
+/* ---- knot vectors beyond the usual: multiplicity degree + 1 inside, degree + 2 at an end ---- */
+
+static void test_extreme_multiplicities(void **state)
+{
+    (void)state;
+    /* degree 2, start knot 0 four times (an empty first span), interior 2 three times (a
+     * break), domain [0, 3] */
+    const double k[11] = {0, 0, 0, 0, 1, 2, 2, 2, 3, 3, 3};
+    const double p[16] = {0, 0, 1, 0, 1, 1, 2, 1, 2, 2, 3, 5, 4, 4, 5, 3};
+    const double w[8] = {1, 2, 1, 0.5, 1, 3, 1, 1};
+    crisp_curve *c;
+    assert_int_equal(crisp_curve_create(2, 2, 8, k, p, w, &c), CRISP_OK);
+    crisp_bezier_curve *b;
+    int n;
+    assert_int_equal(crisp_curve_to_bezier(c, &b, &n), CRISP_OK);
+    assert_int_equal(n, 3);
+    double q[2], r[2], e[2];
+    crisp_curve_eval(c, 0.0, q);
+    crisp_bezier_curve_eval(&b[0], 0.0, r);
+    assert_true(dist_n(q, r, 2) < 1e-14);
+    rng_seed(3);
+    for (int i = 0; i < 1000; i++) {
+        double t = 3.0 * rng_uniform();
+        int m = find_piece(b, n, t);
+        crisp_curve_eval(c, t, q);
+        crisp_bezier_curve_eval(&b[m], (t - b[m].t0) / (b[m].t1 - b[m].t0), r);
+        ref_curve(c, t, e);
+        assert_true(dist_n(q, r, 2) < 1e-13 && dist_n(q, e, 2) < 1e-13);
+    }
+    crisp_free(b);
+    /* trimming across the break keeps both sides */
+    crisp_curve *t;
+    assert_int_equal(crisp_curve_trim(c, 0.5, 2.5, &t), CRISP_OK);
+    for (int i = 0; i <= 40; i++) {
+        double x = 0.5 + 2.0 * i / 40.0;
+        if (x == 2.0) continue; /* the break: either side's value is right */
+        crisp_curve_eval(c, x, q);
+        crisp_curve_eval(t, x, r);
+        assert_true(dist_n(q, r, 2) < 1e-13);
+    }
+    crisp_curve_destroy(t);
+    crisp_curve_destroy(c);
+}
+
+/* Random, mostly invalid definitions: every call returns an error or a curve that evaluates to
+ * finite points; nothing crashes (run under the sanitizers). */
+static void test_hostile_definitions(void **state)
+{
+    (void)state;
+    rng_seed(59);
+    static const double pool[] = {0,      1,   -1,       0.5,       1e300, -1e300,
+                                  1e-300, NAN, INFINITY, -INFINITY, 2};
+    int accepted = 0;
+    for (int it = 0; it < 5000; it++) {
+        int degree = rng_int(-2, 17), count = rng_int(-1, 20), dim = rng_int(1, 4);
+        double k[64], pts[64 * 4], w[64];
+        double t = 0.0;
+        for (int i = 0; i < 64; i++) {
+            t += rng_uniform() < 0.3 ? 0.0 : rng_uniform();
+            k[i] = rng_uniform() < 0.02 ? pool[rng_int(0, 10)] : t;
+        }
+        for (int i = 0; i < 64 * 4; i++)
+            pts[i] = rng_uniform() < 0.01 ? pool[rng_int(0, 10)] : rng_uniform();
+        for (int i = 0; i < 64; i++)
+            w[i] = rng_uniform() < 0.02 ? pool[rng_int(0, 10)] : 1 + rng_uniform();
+        crisp_curve *c = NULL;
+        crisp_status st = crisp_curve_create(dim, degree, count, k, pts, w, &c);
+        if (st != CRISP_OK) {
+            assert_null(c);
+            assert_true(strlen(crisp_error_message()) > 0);
+            continue;
+        }
+        accepted++;
+        double t0, t1, x[3];
+        crisp_curve_domain(c, &t0, &t1);
+        for (int i = 0; i <= 10; i++) {
+            crisp_curve_eval(c, t0 + (t1 - t0) * i / 10.0, x);
+            for (int d = 0; d < dim; d++)
+                assert_true(isfinite(x[d]));
+        }
+        crisp_curve_eval(c, NAN, x); /* no crash; value unspecified */
+        crisp_bezier_curve *b;
+        int n;
+        assert_int_equal(crisp_curve_to_bezier(c, &b, &n), CRISP_OK);
+        crisp_free(b);
+        crisp_curve_destroy(c);
+    }
+    assert_true(accepted > 100);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_circle_exact),         cmocka_unit_test(test_cylinder_exact),
-        cmocka_unit_test(test_curve_eval_reference), cmocka_unit_test(test_curve_derivs_fd),
-        cmocka_unit_test(test_surface_derivs_fd),    cmocka_unit_test(test_curve_to_bezier),
-        cmocka_unit_test(test_surface_to_bezier),    cmocka_unit_test(test_curve_insert_knot),
-        cmocka_unit_test(test_surface_insert_knot),  cmocka_unit_test(test_invalid_curves),
+        cmocka_unit_test(test_circle_exact),           cmocka_unit_test(test_cylinder_exact),
+        cmocka_unit_test(test_curve_eval_reference),   cmocka_unit_test(test_curve_derivs_fd),
+        cmocka_unit_test(test_surface_derivs_fd),      cmocka_unit_test(test_curve_to_bezier),
+        cmocka_unit_test(test_surface_to_bezier),      cmocka_unit_test(test_curve_insert_knot),
+        cmocka_unit_test(test_surface_insert_knot),    cmocka_unit_test(test_invalid_curves),
+        cmocka_unit_test(test_extreme_multiplicities), cmocka_unit_test(test_hostile_definitions),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
