@@ -97,8 +97,9 @@ static void surf_info_init(const crisp_surface *s, surf_info *si)
 }
 
 /* Damped Gauss-Newton from uv (in place, unwrapped in closed directions, clamped otherwise):
- * minimises |S(u, v) - P|^2. Returns the distance reached. */
-static double newton(const surf_info *si, const double p[3], double uv[2])
+ * minimises |S(u, v) - P|^2. Returns the distance reached; norms (may be NULL) gets |S_u|, |S_v|
+ * there. */
+static double newton(const surf_info *si, const double p[3], double uv[2], double norms[2])
 {
     double s[3], su[3], sv[3];
     for (int dir = 0; dir < 2; dir++)
@@ -146,7 +147,8 @@ static double newton(const surf_info *si, const double p[3], double uv[2])
             memcpy(su, su2, sizeof su);
             memcpy(sv, sv2, sizeof sv);
             memcpy(r, r2, sizeof r);
-            int converged = step < 1e-15 || d2 - e2 <= 1e-30 * si->scale * si->scale;
+            double sc2 = si->scale * si->scale;
+            int converged = step < 1e-15 || d2 - e2 <= 1e-30 * sc2 || e2 <= 1e-26 * sc2;
             d2 = e2;
             lam *= 0.25;
             if (lam < 1e-12) lam = 0;
@@ -156,6 +158,10 @@ static double newton(const surf_info *si, const double p[3], double uv[2])
             lam = lam > 0 ? lam * 8 : 1e-4;
             if (lam > 1e12) break;
         }
+    }
+    if (norms) {
+        norms[0] = crisp_vec3_norm(su);
+        norms[1] = crisp_vec3_norm(sv);
     }
     return sqrt(d2);
 }
@@ -221,7 +227,7 @@ static double invert_global(const surf_info *si, const double p[3], double uv[2]
     uv[1] = si->dom[2];
     for (int k = 0; k < kept; k++) {
         double t[2] = {best_uv[k][0], best_uv[k][1]};
-        double d = newton(si, p, t);
+        double d = newton(si, p, t, NULL);
         if (d < bd) {
             bd = d;
             uv[0] = t[0];
@@ -274,33 +280,39 @@ static double unwrap_near(const surf_info *si, int dir, double x, double ref)
     return x - p * floor((x - ref) / p + 0.5);
 }
 
-/* Is direction dir degenerate at uv (S_u or S_v vanishing: a pole or collapsed edge)? */
-static int degenerate_dir(const surf_info *si, const double uv[2], int dir)
+/* Is direction dir degenerate (S_u or S_v vanishing: a pole or collapsed edge), given the
+ * derivative norms there? */
+static int dead_dir(const surf_info *si, const double norms[2], int dir)
 {
-    double su[3], sv[3];
-    eval_wrapped(si, uv, NULL, su, sv);
-    double n = crisp_vec3_norm(dir == 0 ? su : sv);
-    return !(n * si->period[dir] > 1e-7 * si->scale);
+    return !(norms[dir] * si->period[dir] > 1e-7 * si->scale);
 }
 
-/* Invert C(t) seeded from seed; falls back to the global search when the local answer is far. */
-static void invert_seeded(const proj_ctx *pc, double t, const double seed[2], double uv[2])
+/* Invert C(t) seeded from seed; falls back to the global search when the local answer is far.
+ * dead gets which parameters are undefined at the answer. */
+static void invert_seeded(const proj_ctx *pc, double t, const double seed[2], double uv[2],
+                          int dead[2])
 {
-    double p[3];
+    double p[3], norms[2];
     crisp_curve_eval(pc->c, t, p);
     uv[0] = seed[0];
     uv[1] = seed[1];
-    double d = newton(&pc->si, p, uv);
+    double d = newton(&pc->si, p, uv, norms);
     if (d > pc->tol) {
         double g[2];
         double dg = invert_global(&pc->si, p, g);
         if (dg < 0.5 * d) {
-            uv[0] = unwrap_near(&pc->si, 0, g[0], seed[0]);
-            uv[1] = unwrap_near(&pc->si, 1, g[1], seed[1]);
+            uv[0] = g[0];
+            uv[1] = g[1];
+            double su[3], sv[3];
+            eval_wrapped(&pc->si, uv, NULL, su, sv);
+            norms[0] = crisp_vec3_norm(su);
+            norms[1] = crisp_vec3_norm(sv);
         }
     }
     uv[0] = unwrap_near(&pc->si, 0, uv[0], seed[0]);
     uv[1] = unwrap_near(&pc->si, 1, uv[1], seed[1]);
+    dead[0] = dead_dir(&pc->si, norms, 0);
+    dead[1] = dead_dir(&pc->si, norms, 1);
 }
 
 /* Where a parameter is undefined (pole), take it from the nearest defined neighbours. */
@@ -348,9 +360,10 @@ static void proj_fn(void *ctx, double t, double *dest)
     const proj_ctx *pc = ctx;
     int k = nearest_sample(pc, t);
     const double *seed = pc->suv + 2 * k;
-    invert_seeded(pc, t, seed, dest);
+    int dead[2];
+    invert_seeded(pc, t, seed, dest, dead);
     for (int dir = 0; dir < 2; dir++)
-        if (degenerate_dir(&pc->si, dest, dir)) {
+        if (dead[dir]) {
             /* u undefined here: interpolate the neighbouring samples' value. */
             int lo = k, hi = k;
             if (pc->st[k] <= t && k + 1 < pc->n)
@@ -372,7 +385,7 @@ static double proj_error(void *ctx, double t, const double *fitted)
     if (e <= pc->tol) return e;
     /* The curve may lie off the surface: compare with the image of its own projection. */
     double uv[2] = {fitted[0], fitted[1]};
-    double d = newton(&pc->si, p, uv);
+    double d = newton(&pc->si, p, uv, NULL);
     if (d <= 0.5 * pc->tol) return e;
     double r[3];
     eval_wrapped(&pc->si, uv, r, NULL, NULL);
@@ -391,19 +404,27 @@ crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_cur
                            tol);
     proj_ctx pc = {.c = c, .t0 = t0, .t1 = t1, .tol = tol};
     surf_info_init(s, &pc.si);
-    /* The curve's interior knots in (t0, t1) start the fit's spans (kinks sit there). */
+    /* The curve's kinks (interior knots of multiplicity >= degree) in (t0, t1) start the fit's
+     * spans; smooth knots are left to the adaptive refinement. */
     int nk = 0, spans = 1;
     double *breaks = crisp_malloc_array((size_t)c->count + 1, sizeof *breaks);
     if (!breaks) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", fn);
-    for (int i = c->degree + 1; i < c->count; i++) {
+    for (int i = c->degree + 1; i < c->count;) {
+        int m = 1;
+        while (i + m < c->count && c->knots[i + m] == c->knots[i])
+            m++;
         double k = c->knots[i];
-        if (k > t0 && k < t1 && (nk == 0 || k > breaks[nk - 1])) breaks[nk++] = k;
+        if (k > t0 && k < t1) {
+            spans++;
+            if (m >= c->degree) breaks[nk++] = k;
+        }
+        i += m;
     }
-    spans = nk + 1;
-    /* Samples: 8 per span of the curve, 16 at least, bounded. */
-    int n = spans * 8 + 1;
+    /* Samples (seeds for the fit, and the continuous path across seams): 4 per span of the
+     * curve, 17 at least, bounded. */
+    int n = spans * 4 + 1;
     if (n < 17) n = 17;
-    if (n > 8193) n = 8193;
+    if (n > 4097) n = 4097;
     pc.n = n;
     pc.st = crisp_malloc_array((size_t)n, sizeof *pc.st);
     pc.suv = crisp_malloc_array((size_t)n, 2 * sizeof *pc.suv);
@@ -417,18 +438,21 @@ crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_cur
         int any_bad[2] = {0, 0};
         double ref[2] = {0, 0}; /* last reliable (u, v) for unwrapping */
         for (int i = 0; i < n; i++) {
-            double t = t0 + (t1 - t0) * i / (n - 1), p[3], *uv = pc.suv + 2 * i;
+            double t = t0 + (t1 - t0) * i / (n - 1), *uv = pc.suv + 2 * i;
+            int dead[2];
             pc.st[i] = t;
             if (i == 0) {
+                double first[2], p[3];
                 crisp_curve_eval(c, t, p);
-                invert_global(&pc.si, p, uv);
+                invert_global(&pc.si, p, first);
+                invert_seeded(&pc, t, first, uv, dead);
             } else {
-                invert_seeded(&pc, t, pc.suv + 2 * (i - 1), uv);
+                invert_seeded(&pc, t, pc.suv + 2 * (i - 1), uv, dead);
                 uv[0] = unwrap_near(&pc.si, 0, uv[0], ref[0]);
                 uv[1] = unwrap_near(&pc.si, 1, uv[1], ref[1]);
             }
             for (int dir = 0; dir < 2; dir++) {
-                bad[2 * i + dir] = (unsigned char)degenerate_dir(&pc.si, uv, dir);
+                bad[2 * i + dir] = (unsigned char)dead[dir];
                 any_bad[dir] |= bad[2 * i + dir];
                 if (!bad[2 * i + dir] || i == 0) ref[dir] = uv[dir];
             }
@@ -455,7 +479,7 @@ crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_cur
                              .t0 = t0,
                              .t1 = t1,
                              .tol = tol,
-                             .max_spans = 4096 + spans,
+                             .max_spans = 4096 + nk,
                              .breaks = breaks,
                              .break_count = nk};
         st = crisp__fit_adaptive(&d, dest);

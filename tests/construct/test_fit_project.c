@@ -352,6 +352,60 @@ static void test_project_circle_on_sphere(void **state)
     crisp_surface_destroy(sph);
 }
 
+/* A meridian from pole to pole (a sphere's seam edge): u is undefined at both ends and the curve
+ * runs along the seam; and a helix 1e-4 off a cylinder, projected with tol 1e-6 (the image is
+ * compared with the curve's own projection, not the curve). */
+static void test_project_pole_and_offset(void **state)
+{
+    (void)state;
+    double o[3] = {0, 0, 0}, ax[3] = {0, 0, 1};
+    crisp_placement pl;
+    assert_int_equal(crisp_placement_make(o, ax, NULL, &pl), CRISP_OK);
+    crisp_surface *sph, *cyl;
+    assert_int_equal(crisp_make_sphere(&pl, 2, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sph), CRISP_OK);
+    const double mer[2] = {0, 1.3}; /* on the seam, and elsewhere */
+    for (int k = 0; k < 2; k++) {
+        double mx[3] = {cos(mer[k]), sin(mer[k]), 0};
+        crisp_curve *c, *uvc;
+        assert_int_equal(crisp_make_arc(3, o, mx, pl.z, 2, 2, -M_PI / 2, M_PI / 2, &c), CRISP_OK);
+        double tol = 1e-7;
+        assert_int_equal(crisp_surface_project_curve(sph, c, -M_PI / 2, M_PI / 2, tol, &uvc),
+                         CRISP_OK);
+        double jump, e = image_error(sph, uvc, c, -M_PI / 2, M_PI / 2, 2 * M_PI, &jump);
+        assert_true(e <= tol);
+        /* u is constant along the meridian, poles included (taken from the neighbours). */
+        for (int m = 0; m <= 50; m++) {
+            double uv[2], u_exp = crisp_angle_to_param(0, 2 * M_PI, mer[k]);
+            crisp_curve_eval(uvc, -M_PI / 2 + M_PI * m / 50, uv);
+            double du = fmod(fabs(uv[0] - u_exp), 2 * M_PI);
+            assert_true(du < 1e-6 || 2 * M_PI - du < 1e-6);
+        }
+        crisp_curve_destroy(uvc);
+        crisp_curve_destroy(c);
+    }
+    assert_int_equal(crisp_make_cylinder(&pl, 2, 0, 2 * M_PI, -5, 10, &cyl), CRISP_OK);
+    helix h = {&pl, 2 + 1e-4, 0.3};
+    crisp_curve *c, *uvc;
+    assert_int_equal(crisp_fit_curve(3, fn_helix, &h, 1, 8, 1e-10, 100000, &c), CRISP_OK);
+    double tol = 1e-6;
+    assert_int_equal(crisp_surface_project_curve(cyl, c, 1, 8, tol, &uvc), CRISP_OK);
+    for (int m = 0; m <= 2000; m++) {
+        double t = 1 + 7 * m / 2000.0, uv[2], p[3], q[3];
+        crisp_curve_eval(uvc, t, uv);
+        double u = fmod(uv[0], 2 * M_PI);
+        if (u < 0) u += 2 * M_PI;
+        crisp_surface_eval(cyl, u, uv[1], p);
+        crisp_curve_eval(c, t, q);
+        /* The foot of q on the cylinder: radial projection. */
+        double r = hypot(q[0], q[1]), f[3] = {2 * q[0] / r, 2 * q[1] / r, q[2]};
+        assert_true(dist3(p, f) <= tol);
+    }
+    crisp_curve_destroy(uvc);
+    crisp_curve_destroy(c);
+    crisp_surface_destroy(sph);
+    crisp_surface_destroy(cyl);
+}
+
 typedef struct iso {
     const crisp_surface *s;
     double u;
@@ -399,6 +453,7 @@ int main(void)
         cmocka_unit_test(test_project_helix_on_cylinder),
         cmocka_unit_test(test_project_circle_on_sphere),
         cmocka_unit_test(test_project_iso_curves),
+        cmocka_unit_test(test_project_pole_and_offset),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
