@@ -11,6 +11,7 @@
  *   crisp_slefe_patch              two-pass tensor-product enclosure: (m+1)^2 grid of [lo, up] per
  *                                  homogeneous coordinate
  *   crisp_slefe_patch_tiles        per-tile Euclidean boxes of a patch (rational: divided)
+ *   crisp_slefe_patch_points       per-grid-point Euclidean boxes (the iPASS "slefe boxes")
  *   crisp_slefe_patch_screen       view-projected patch: per-tile NDC boxes and the screen width
  *                                  w_px of the enclosure, for tau = ceil(m * sqrt(w_px / eps))
  *   crisp_slefe_boxes_screen_width screen width of object-space boxes seen through a camera
@@ -105,6 +106,15 @@ crisp_status crisp_slefe_patch(const crisp_bezier_patch *p, int segments, double
  * CRISP_ERR_NUMERIC when the lower bound of W on a tile is not positive. */
 crisp_status crisp_slefe_patch_tiles(int segments, const double *lo, const double *up,
                                      double *box_lo, double *box_hi);
+
+/* Per-grid-point Euclidean boxes from a crisp_slefe_patch result: the surface point at (ku/m,
+ * kv/m) lies in box (ku, kv), coordinate i at [(kv * (segments + 1) + ku) * 3 + i] of box_lo,
+ * box_hi (CRISP_SLEFE_GRID(segments) * 3 values each); rational results divided by W. These are
+ * the boxes whose projected size iPASS turns into the tessellation level: pass them to
+ * crisp_slefe_boxes_screen_width with stride 3. CRISP_ERR_NUMERIC when W's lower bound at a grid
+ * point is not positive. */
+crisp_status crisp_slefe_patch_points(int segments, const double *lo, const double *up,
+                                      double *box_lo, double *box_hi);
 
 /* A camera for screen-space enclosures: view_proj maps model coordinates to OpenGL clip space
  * (column-major, as crisp_mat4_perspective * crisp_mat4_lookat); width, height: viewport in

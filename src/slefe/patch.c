@@ -149,3 +149,30 @@ crisp_status crisp_slefe_patch_tiles(int segments, const double *lo, const doubl
         return crisp_error(CRISP_ERR_INVALID_ARG, "%s: NULL argument", fn);
     return crisp__slefe_tiles(fn, segments, lo, up, NULL, NULL, box_lo, box_hi);
 }
+
+crisp_status crisp_slefe_patch_points(int segments, const double *lo, const double *up,
+                                      double *box_lo, double *box_hi)
+{
+    const char *fn = "crisp_slefe_patch_points";
+    if (segments < 1 || segments > MAXM)
+        return crisp_error(CRISP_ERR_LIMIT, "%s: segments %d outside 1..%d", fn, segments, MAXM);
+    if (!lo || !up || !box_lo || !box_hi)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: NULL argument", fn);
+    int n = CRISP_SLEFE_GRID(segments);
+    for (int g = 0; g < n; g++) {
+        const double *l = lo + g * 4, *u = up + g * 4;
+        double *bl = box_lo + g * 3, *bh = box_hi + g * 3;
+        if (l[3] == 1.0 && u[3] == 1.0) {
+            memcpy(bl, l, 3 * sizeof *bl);
+            memcpy(bh, u, 3 * sizeof *bh);
+            continue;
+        }
+        if (!(l[3] > 0.0))
+            return crisp_error(CRISP_ERR_NUMERIC,
+                               "%s: lower bound %g of W at grid point (%d, %d) is not positive", fn,
+                               l[3], g % (segments + 1), g / (segments + 1));
+        for (int i = 0; i < 3; i++)
+            crisp__slefe_divide(l[i], u[i], l[3], u[3], bl + i, bh + i);
+    }
+    return CRISP_OK;
+}

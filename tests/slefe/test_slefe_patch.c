@@ -80,6 +80,22 @@ static void check_patch_enclosure(rng *r, int du, int dv, int rational, int m, i
     crisp_bezier_patch p;
     random_patch(r, du, dv, rational, cpw, &p);
     assert_int_equal(crisp_slefe_patch(&p, m, lo, up), CRISP_OK);
+    /* grid-point boxes contain the surface point at each breakpoint */
+    double pl[GRID4], ph[GRID4];
+    if (crisp_slefe_patch_points(m, lo, up, pl, ph) == CRISP_OK) {
+        for (int kv = 0; kv <= m; kv++)
+            for (int ku = 0; ku <= m; ku++) {
+                long double s = (long double)ku / m, t = (long double)kv / m;
+                long double w = ref_patch(&p, 3, s, t);
+                for (int c = 0; c < 3; c++) {
+                    long double e = ref_patch(&p, c, s, t) / w;
+                    int g = (kv * (m + 1) + ku) * 3 + c;
+                    assert_true(pl[g] <= e && e <= ph[g]);
+                }
+            }
+    } else {
+        assert_true(rational);
+    }
     crisp_status ts = crisp_slefe_patch_tiles(m, lo, up, bl, bh);
     if (!rational) assert_int_equal(ts, CRISP_OK);
     for (int i = 0; i < samples; i++) {
