@@ -270,6 +270,7 @@ typedef struct proj_ctx {
     int n;       /* samples */
     double *st;  /* sample parameters */
     double *suv; /* sample (u, v), continuous */
+    double *sd;  /* sample distances to the surface */
 } proj_ctx;
 
 /* The representative of x (in a closed direction) nearest ref. */
@@ -287,20 +288,23 @@ static int dead_dir(const surf_info *si, const double norms[2], int dir)
     return !(norms[dir] * si->period[dir] > 1e-7 * si->scale);
 }
 
-/* Invert C(t) seeded from seed; falls back to the global search when the local answer is far.
- * dead gets which parameters are undefined at the answer. */
-static void invert_seeded(const proj_ctx *pc, double t, const double seed[2], double uv[2],
-                          int dead[2])
+/* Invert C(t) seeded from seed, whose own distance was seed_dist; falls back to the global search
+ * when the local answer is much farther than the seed was (a curve lying off the surface by more
+ * than tol does not trigger it everywhere). dead gets which parameters are undefined at the
+ * answer. Returns the distance. */
+static double invert_seeded(const proj_ctx *pc, double t, const double seed[2], double seed_dist,
+                            double uv[2], int dead[2])
 {
     double p[3], norms[2];
     crisp_curve_eval(pc->c, t, p);
     uv[0] = seed[0];
     uv[1] = seed[1];
     double d = newton(&pc->si, p, uv, norms);
-    if (d > pc->tol) {
+    if (d > 2 * seed_dist + pc->tol) {
         double g[2];
         double dg = invert_global(&pc->si, p, g);
         if (dg < 0.5 * d) {
+            d = dg;
             uv[0] = g[0];
             uv[1] = g[1];
             double su[3], sv[3];
@@ -313,6 +317,7 @@ static void invert_seeded(const proj_ctx *pc, double t, const double seed[2], do
     uv[1] = unwrap_near(&pc->si, 1, uv[1], seed[1]);
     dead[0] = dead_dir(&pc->si, norms, 0);
     dead[1] = dead_dir(&pc->si, norms, 1);
+    return d;
 }
 
 /* Where a parameter is undefined (pole), take it from the nearest defined neighbours. */
@@ -361,7 +366,7 @@ static void proj_fn(void *ctx, double t, double *dest)
     int k = nearest_sample(pc, t);
     const double *seed = pc->suv + 2 * k;
     int dead[2];
-    invert_seeded(pc, t, seed, dest, dead);
+    invert_seeded(pc, t, seed, pc->sd[k], dest, dead);
     for (int dir = 0; dir < 2; dir++)
         if (dead[dir]) {
             /* u undefined here: interpolate the neighbouring samples' value. */
@@ -428,9 +433,10 @@ crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_cur
     pc.n = n;
     pc.st = crisp_malloc_array((size_t)n, sizeof *pc.st);
     pc.suv = crisp_malloc_array((size_t)n, 2 * sizeof *pc.suv);
+    pc.sd = crisp_malloc_array((size_t)n, sizeof *pc.sd);
     unsigned char *bad = crisp_malloc_array((size_t)n, 2);
     crisp_status st = CRISP_OK;
-    if (!pc.st || !pc.suv || !bad) {
+    if (!pc.st || !pc.suv || !pc.sd || !bad) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", fn);
         goto out;
     }
@@ -444,10 +450,10 @@ crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_cur
             if (i == 0) {
                 double first[2], p[3];
                 crisp_curve_eval(c, t, p);
-                invert_global(&pc.si, p, first);
-                invert_seeded(&pc, t, first, uv, dead);
+                double d0 = invert_global(&pc.si, p, first);
+                pc.sd[i] = invert_seeded(&pc, t, first, d0, uv, dead);
             } else {
-                invert_seeded(&pc, t, pc.suv + 2 * (i - 1), uv, dead);
+                pc.sd[i] = invert_seeded(&pc, t, pc.suv + 2 * (i - 1), pc.sd[i - 1], uv, dead);
                 uv[0] = unwrap_near(&pc.si, 0, uv[0], ref[0]);
                 uv[1] = unwrap_near(&pc.si, 1, uv[1], ref[1]);
             }
@@ -470,6 +476,24 @@ crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_cur
             crisp_free(b1);
         }
     }
+    /* Of the continuous path's representatives (shifts by a period in closed directions), take
+     * the one whose middle lies in [lo, hi): deterministic, and inside the domain when it fits. */
+    for (int dir = 0; dir < 2; dir++) {
+        if (!pc.si.closed[dir]) continue;
+        double lo = INFINITY, hi = -INFINITY;
+        for (int i = 0; i < n; i++) {
+            double x = pc.suv[2 * i + dir];
+            if (x < lo) lo = x;
+            if (x > hi) hi = x;
+        }
+        double per = pc.si.period[dir], mid = 0.5 * (lo + hi);
+        double k = floor((mid - pc.si.dom[2 * dir]) / per);
+        /* a path on the seam itself (mid == hi end) goes to the low side */
+        if (fabs(mid - (pc.si.dom[2 * dir] + (k + 1) * per)) <= 1e-12 * per) k += 1;
+        if (k != 0)
+            for (int i = 0; i < n; i++)
+                pc.suv[2 * i + dir] -= k * per;
+    }
     {
         crisp__fit_desc d = {.dim = 2,
                              .f = proj_fn,
@@ -489,6 +513,7 @@ out:
     crisp_free(breaks);
     crisp_free(pc.st);
     crisp_free(pc.suv);
+    crisp_free(pc.sd);
     crisp_free(bad);
     return st;
 }
