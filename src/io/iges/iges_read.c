@@ -1,0 +1,163 @@
+/* The IGES reader's entry points: parse the file, find the faces (144 trimmed surfaces, 143
+ * bounded surfaces, 510 B-rep faces, bounded 108 planes, and surfaces no face refers to), convert
+ * them, and count what was skipped and why. IGES 5.3.
+ *
+ * Which surfaces are faces of their own: the standard says independent ones (subordinate status
+ * 00), but real files mark free patches "physically dependent" (gpucast_teapot.igs), so crisp
+ * takes every surface that no 144, 142, 143, 141 or 510 refers to and that is not blanked.
+ */
+#include "iges_internal.h"
+
+#include <stdio.h>
+#include <string.h>
+
+static void consume(iges_file *f, int e, int k)
+{
+    int de = 0;
+    if (k > iges_nparams(f, e)) return;
+    if (iges_int(f, e, k, &de)) {
+        crisp_error_clear();
+        return;
+    }
+    int i = iges_index(f, de < 0 ? -de : de);
+    if (i >= 0) f->ents[i].consumed = 1;
+}
+
+static void mark_consumed(iges_file *f)
+{
+    for (int i = 0; i < f->entity_count; i++) {
+        switch (f->ents[i].type) {
+        case 144: consume(f, i, 1); break;
+        case 142: consume(f, i, 2); break;
+        case 143: consume(f, i, 2); break;
+        case 141: consume(f, i, 3); break;
+        case 510: consume(f, i, 1); break;
+        case 140: consume(f, i, 4); break;
+        default: break;
+        }
+    }
+}
+
+static void note(iges_file *f, int type, const char *why)
+{
+    char what[96];
+    snprintf(what, sizeof what, "entity %d %s: %s", type, iges_type_name(type), why);
+    crisp_model_note_skip(f->model, what);
+}
+
+/* A face whose geometry crisp does not handle is skipped with a note; other errors are fatal. */
+static crisp_status soften(iges_file *f, int e, crisp_status st)
+{
+    if (st != CRISP_ERR_UNSUPPORTED) return st;
+    char what[96];
+    const char *msg = crisp_error_message(), *p = strstr(msg, "): ");
+    snprintf(what, sizeof what, "DE %d entity %d: %s", iges_de(e), f->ents[e].type,
+             p ? p + 3 : msg);
+    crisp_model_note_skip(f->model, what);
+    crisp_error_clear();
+    return CRISP_OK;
+}
+
+static crisp_status convert(iges_file *f)
+{
+    crisp_status st = CRISP_OK;
+    mark_consumed(f);
+    for (int i = 0; i < f->entity_count && !st; i++) {
+        iges_entity *x = &f->ents[i];
+        switch (x->type) {
+        case 144:
+        case 143:
+            if (x->blank == 1) {
+                x->used = 1;
+                note(f, x->type, "blanked (not displayed)");
+                break;
+            }
+            st = soften(f, i, x->type == 144 ? iges_face_trimmed(f, i) : iges_face_bounded(f, i));
+            break;
+        case 186:
+        case 514:
+            st = soften(f, i, iges_brep_faces(f, i));
+            break;
+        case 108:
+        case 114:
+        case 118:
+        case 120:
+        case 122:
+        case 128:
+            if (x->consumed) break;
+            if (x->blank == 1) {
+                x->used = 1;
+                note(f, x->type, "blanked (not displayed)");
+                break;
+            }
+            x->used = 1;
+            st = soften(f, i, x->type == 108 ? iges_face_plane(f, i) : iges_face_untrimmed(f, i));
+            break;
+        default: break;
+        }
+    }
+    if (st) return st;
+    /* 510 faces that no shell took */
+    for (int i = 0; i < f->entity_count && !st; i++)
+        if (f->ents[i].type == 510 && !f->ents[i].used) st = soften(f, i, iges_face_brep(f, i, 0));
+    if (st) return st;
+    for (int i = 0; i < f->entity_count; i++) {
+        const iges_entity *x = &f->ents[i];
+        if (x->used || x->consumed) continue;
+        if (iges_is_curve_type(x->type) || x->type == 116 || x->type == 142 || x->type == 141)
+            note(f, x->type, "free curve or point, not part of a face");
+        else if (x->type == 124 || x->type == 314 || x->type == 502 || x->type == 504 ||
+                 x->type == 508)
+            continue; /* supporting data no face used: nothing to draw */
+        else
+            note(f, x->type, "not geometry crisp draws");
+    }
+    return CRISP_OK;
+}
+
+crisp_status crisp_read_iges_mem(const char *name, const char *data, size_t size,
+                                 const crisp_read_options *options, crisp_model **dest)
+{
+    if (!dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_iges_mem: dest is NULL");
+    *dest = NULL;
+    if (!name) name = "<memory>";
+    if (!data && size) return crisp_error(CRISP_ERR_INVALID_ARG, "%s: data is NULL", name);
+    iges_file f;
+    crisp_status st = iges_file_parse(name, data ? data : "", size, &f);
+    if (st) return st;
+    crisp_model *m = NULL;
+    if ((st = crisp_model_create(&m))) {
+        iges_file_free(&f);
+        return st;
+    }
+    snprintf(m->format, sizeof m->format, "IGES");
+    m->unit_to_mm = f.unit_to_mm;
+    f.model = m;
+    f.projection_fraction =
+        options && options->projection_tolerance > 0 ? options->projection_tolerance : 1e-5;
+    f.closure_fraction =
+        options && options->closure_tolerance > 0 ? options->closure_tolerance : 1e-6;
+    st = convert(&f);
+    iges_file_free(&f);
+    if (st) {
+        crisp_model_destroy(m);
+        return st;
+    }
+    *dest = m;
+    return CRISP_OK;
+}
+
+crisp_status crisp_read_iges(const char *path, const crisp_read_options *options,
+                             crisp_model **dest)
+{
+    if (!dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_iges: dest is NULL");
+    *dest = NULL;
+    if (!path) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_iges: path is NULL");
+    char *data = NULL;
+    size_t size = 0;
+    crisp_status st = crisp_read_file(path, &data, &size);
+    if (st) return st;
+    st = crisp_read_iges_mem(path, data, size, options, dest);
+    crisp_free(data);
+    return st;
+}
