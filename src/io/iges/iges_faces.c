@@ -227,6 +227,9 @@ static crisp_status finish_plane(iges_file *f, int e, iges_surface *s, iges_curv
     return st;
 }
 
+static crisp_status pull_into_domain(iges_file *f, int e, crisp_face *face, const double dom[4],
+                                     double size);
+
 static void note_dropped(iges_file *f, int e, const char *why)
 {
     char what[96];
@@ -291,23 +294,9 @@ crisp_status iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
             if (crisp_vec3_norm(d3) <= 10 * f->tol3d) tol = gap * (1 + 1e-9);
         }
     }
-    /* Control points just outside the domain (by up to 1e-4 of its size: the file's trims end
-     * a hair beyond the surface's knot range, occt_hammer.iges) are moved onto its edge. Points
-     * farther out are left: a control polygon may leave the domain while its curve stays in. */
-    double eps = 1e-4 * size;
-    for (int l = 0; l < face.loop_count; l++) {
-        const crisp_trim_loop *t = &face.loops[l];
-        for (int c = 0; c < t->curve_count; c++) {
-            crisp_curve *cv = t->curves[c];
-            for (int i = 0; i < cv->count; i++) {
-                double *q = cv->cpw + 3 * i;
-                for (int k = 0; k < 2; k++) {
-                    double x = q[k] / q[2], lo = dom[2 * k], hi = dom[2 * k + 1];
-                    if (x < lo && x >= lo - eps) q[k] = lo * q[2];
-                    else if (x > hi && x <= hi + eps) q[k] = hi * q[2];
-                }
-            }
-        }
+    if ((st = pull_into_domain(f, e, &face, dom, size))) {
+        crisp_face_free(&face);
+        return st;
     }
     st = crisp_face_normalize_loops(&face, tol);
     if (st) {
@@ -321,6 +310,60 @@ crisp_status iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
         return CRISP_OK;
     }
     return crisp_model_add_face(f->model, &face);
+}
+
+static double polygon_excess(const crisp_curve *c, const double dom[4])
+{
+    double worst = 0;
+    for (int i = 0; i < c->count; i++) {
+        const double *q = c->cpw + 3 * i;
+        double u = q[0] / q[2], v = q[1] / q[2];
+        worst = fmax(worst, fmax(fmax(dom[0] - u, u - dom[1]), fmax(dom[2] - v, v - dom[3])));
+    }
+    return worst;
+}
+
+/* model.h wants every loop's control polygons inside the domain. A trim whose polygon leaves the
+ * domain while the curve stays inside (occt_bearing.iges: 2% of the domain) is refined by knot
+ * insertion, which keeps the curve and pulls the polygon onto it; control points then left
+ * outside by at most 1e-4 of the domain size (the curve itself dips that far: occt_hammer.iges)
+ * are moved onto the domain's edge. */
+static crisp_status pull_into_domain(iges_file *f, int e, crisp_face *face, const double dom[4],
+                                     double size)
+{
+    double eps = 1e-4 * size;
+    for (int l = 0; l < face->loop_count; l++) {
+        const crisp_trim_loop *t = &face->loops[l];
+        for (int c = 0; c < t->curve_count; c++) {
+            crisp_curve *cv = t->curves[c];
+            for (int round = 0; round < 6 && polygon_excess(cv, dom) > eps; round++) {
+                if (cv->count > 4096) break;
+                int spans = cv->count - cv->degree;
+                double *mid = crisp_malloc_array((size_t)spans, sizeof *mid);
+                if (!mid) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+                int n = 0;
+                for (int k = cv->degree; k < cv->count; k++)
+                    if (cv->knots[k + 1] > cv->knots[k])
+                        mid[n++] = 0.5 * (cv->knots[k] + cv->knots[k + 1]);
+                crisp_status st = CRISP_OK;
+                for (int k = 0; k < n && !st; k++) st = crisp_curve_insert_knot(cv, mid[k], 1);
+                crisp_free(mid);
+                if (st) {
+                    crisp_error_prefix("%s: DE %d", f->name, iges_de(e));
+                    return st;
+                }
+            }
+            for (int i = 0; i < cv->count; i++) {
+                double *q = cv->cpw + 3 * i;
+                for (int k = 0; k < 2; k++) {
+                    double x = q[k] / q[2], lo = dom[2 * k], hi = dom[2 * k + 1];
+                    if (x < lo && x >= lo - eps) q[k] = lo * q[2];
+                    else if (x > hi && x <= hi + eps) q[k] = hi * q[2];
+                }
+            }
+        }
+    }
+    return CRISP_OK;
 }
 
 static double uv_tolerance(const iges_surface *s)
