@@ -1,0 +1,153 @@
+/* crisp info MODEL [--json]: what a CAD file holds once crisp has loaded it: format, faces,
+ * Bézier patches after extraction, trim loops (outer, holes), trim curves and their Bézier
+ * pieces, degrees, rational or not, the bounding box, and what the reader skipped and why.
+ * Exit 0 on success; 1 with the reader's message (file, line or entity, problem) otherwise;
+ * 2 on a usage error. */
+#include <stdio.h>
+#include <string.h>
+
+#include "crisp/io.h"
+
+const char crisp_cmd_info_help[] = "info MODEL [--json]         summarise a CAD model (IGES, STEP, OBJ)";
+
+static void usage(FILE *out)
+{
+    fprintf(out, "usage: crisp info MODEL [--json]\n"
+                 "  Loads MODEL (IGES, STEP or OBJ, detected by content) and prints its format,\n"
+                 "  faces, Bezier patches, trim loops and curves, degrees, rationality, bounding\n"
+                 "  box and what was skipped. --json prints the same as one JSON object.\n");
+}
+
+static void json_string(FILE *out, const char *s)
+{
+    fputc('"', out);
+    for (const unsigned char *p = (const unsigned char *)s; *p; p++) {
+        if (*p == '"' || *p == '\\')
+            fprintf(out, "\\%c", *p);
+        else if (*p < 0x20)
+            fprintf(out, "\\u%04x", *p);
+        else
+            fputc(*p, out);
+    }
+    fputc('"', out);
+}
+
+static void degrees_list(FILE *out, unsigned seen, const char *sep)
+{
+    int first = 1;
+    for (int d = 0; d <= 31; d++)
+        if (seen & (1u << d)) {
+            fprintf(out, "%s%d", first ? "" : sep, d);
+            first = 0;
+        }
+}
+
+static void print_text(const char *path, const crisp_model *m, const crisp_model_stats *s,
+                       const double *box, double seconds)
+{
+    printf("file:            %s\n", path);
+    printf("format:          %s\n", m->format);
+    printf("units:           %g mm per model unit\n", m->unit_to_mm);
+    printf("faces:           %d\n", s->faces);
+    printf("bezier patches:  %d\n", s->bezier_patches);
+    printf("trim loops:      %d (%d outer, %d holes)\n", s->outer_loops + s->hole_loops,
+           s->outer_loops, s->hole_loops);
+    printf("trim curves:     %d (%d Bezier pieces)\n", s->trim_curves, s->trim_pieces);
+    printf("surface degrees: ");
+    degrees_list(stdout, s->degrees_seen, ", ");
+    printf(" (max %d x %d)\n", s->max_degree_u, s->max_degree_v);
+    printf("trim degree:     max %d\n", s->max_trim_degree);
+    printf("rational:        %s (%d of %d surfaces)\n", s->rational_surfaces ? "yes" : "no",
+           s->rational_surfaces, s->faces);
+    if (s->faces)
+        printf("bounding box:    [%g, %g, %g] - [%g, %g, %g]\n", box[0], box[1], box[2], box[3],
+               box[4], box[5]);
+    else
+        printf("bounding box:    (empty)\n");
+    int skipped = 0;
+    for (int i = 0; i < m->skip_count; i++) skipped += m->skips[i].count;
+    printf("skipped:         %d\n", skipped);
+    for (int i = 0; i < m->skip_count; i++)
+        printf("  %6d x %s\n", m->skips[i].count, m->skips[i].what);
+    printf("load time:       %.3f s\n", seconds);
+}
+
+static void print_json(const char *path, const crisp_model *m, const crisp_model_stats *s,
+                       const double *box, double seconds)
+{
+    printf("{\"file\": ");
+    json_string(stdout, path);
+    printf(", \"format\": ");
+    json_string(stdout, m->format);
+    printf(", \"unit_to_mm\": %.17g", m->unit_to_mm);
+    printf(", \"faces\": %d, \"bezier_patches\": %d", s->faces, s->bezier_patches);
+    printf(", \"loops\": {\"outer\": %d, \"holes\": %d}", s->outer_loops, s->hole_loops);
+    printf(", \"trim_curves\": %d, \"trim_pieces\": %d", s->trim_curves, s->trim_pieces);
+    printf(", \"degrees_seen\": [");
+    degrees_list(stdout, s->degrees_seen, ", ");
+    printf("], \"max_degree\": {\"u\": %d, \"v\": %d, \"trim\": %d}", s->max_degree_u,
+           s->max_degree_v, s->max_trim_degree);
+    printf(", \"rational\": %s, \"rational_surfaces\": %d", s->rational_surfaces ? "true" : "false",
+           s->rational_surfaces);
+    if (s->faces)
+        printf(", \"bbox\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g]", box[0], box[1], box[2],
+               box[3], box[4], box[5]);
+    else
+        printf(", \"bbox\": null");
+    printf(", \"skipped\": [");
+    for (int i = 0; i < m->skip_count; i++) {
+        printf("%s{\"what\": ", i ? ", " : "");
+        json_string(stdout, m->skips[i].what);
+        printf(", \"count\": %d}", m->skips[i].count);
+    }
+    printf("], \"load_seconds\": %.6f}\n", seconds);
+}
+
+int crisp_cmd_info(int argc, char **argv)
+{
+    const char *path = NULL;
+    int json = 0;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--json"))
+            json = 1;
+        else if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage(stdout);
+            return 0;
+        } else if (argv[i][0] == '-' && argv[i][1]) {
+            fprintf(stderr, "crisp info: unknown option '%s'\n", argv[i]);
+            usage(stderr);
+            return 2;
+        } else if (path) {
+            fprintf(stderr, "crisp info: one MODEL expected, got '%s' and '%s'\n", path, argv[i]);
+            return 2;
+        } else
+            path = argv[i];
+    }
+    if (!path) {
+        usage(stderr);
+        return 2;
+    }
+    crisp_model *m = NULL;
+    double t0 = crisp_time_now();
+    crisp_status st = crisp_model_load(path, NULL, &m);
+    double seconds = crisp_time_now() - t0;
+    if (st != CRISP_OK) {
+        fprintf(stderr, "crisp info: %s\n", crisp_error_message());
+        return 1;
+    }
+    crisp_model_stats stats;
+    st = crisp_model_stats_compute(m, &stats);
+    if (st != CRISP_OK) {
+        fprintf(stderr, "crisp info: %s: %s\n", path, crisp_error_message());
+        crisp_model_destroy(m);
+        return 1;
+    }
+    double box[6] = {0, 0, 0, 0, 0, 0};
+    if (m->face_count) crisp_model_bbox(m, box);
+    if (json)
+        print_json(path, m, &stats, box, seconds);
+    else
+        print_text(path, m, &stats, box, seconds);
+    crisp_model_destroy(m);
+    return 0;
+}
