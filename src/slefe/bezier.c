@@ -3,13 +3,12 @@
  * DESIGN.md section 3: p(t) = l(t) + sum_j second_difference_{j-1} a_j(t). */
 #include "slefe_internal.h"
 
-/* Zero when every value is finite: x * 0 is 0 for finite x and NaN otherwise. */
 int crisp__slefe_all_finite(const double *v, int n, int stride)
 {
-    double z = 0.0;
+    int ok = 1;
     for (int i = 0; i < n; i++)
-        z += v[i * stride] * 0.0;
-    return z == 0.0;
+        ok &= fabs(v[i * stride]) <= CRISP_SLEFE_MAX_MAGNITUDE;
+    return ok;
 }
 
 crisp_status crisp__slefe_check(const char *fn, int degree, int segments)
@@ -34,7 +33,8 @@ crisp_status crisp_slefe_bezier(int degree, const double *coef, int stride, int 
     if (stride < 1)
         return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_slefe_bezier: stride %d < 1", stride);
     if (!crisp__slefe_all_finite(coef, degree + 1, stride))
-        return crisp_error(CRISP_ERR_NUMERIC, "crisp_slefe_bezier: non-finite coefficient");
+        return crisp_error(CRISP_ERR_NUMERIC,
+                           "crisp_slefe_bezier: non-finite or huge (above 1e300) coefficient");
     crisp__slefe_tables_init();
     crisp_slefe_table t = crisp__slefe_table(degree, segments);
     crisp__slefe_kernel(degree, coef, stride, &t, segments, lo, 1, up, 1);
@@ -52,7 +52,8 @@ static crisp_status check_curve(const char *fn, const crisp_bezier_curve *c, int
     crisp_status s = crisp__slefe_check(fn, c->degree, segments);
     if (s) return s;
     if (!crisp__slefe_all_finite(c->cpw, (c->degree + 1) * (c->dim + 1), 1))
-        return crisp_error(CRISP_ERR_NUMERIC, "%s: non-finite control point", fn);
+        return crisp_error(CRISP_ERR_NUMERIC, "%s: non-finite or huge (above 1e300) control point",
+                           fn);
     return CRISP_OK;
 }
 

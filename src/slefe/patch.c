@@ -17,7 +17,8 @@ crisp_status crisp__slefe_check_patch(const char *fn, const crisp_bezier_patch *
     if (!s) s = crisp__slefe_check(fn, p->dv, segments);
     if (s) return s;
     if (!crisp__slefe_all_finite(p->cpw, (p->du + 1) * (p->dv + 1) * 4, 1))
-        return crisp_error(CRISP_ERR_NUMERIC, "%s: non-finite control point", fn);
+        return crisp_error(CRISP_ERR_NUMERIC, "%s: non-finite or huge (above 1e300) control point",
+                           fn);
     return CRISP_OK;
 }
 

@@ -14,7 +14,7 @@ static crisp_status check_view(const char *fn, const crisp_slefe_view *view)
         return crisp_error(CRISP_ERR_INVALID_ARG, "%s: viewport %g x %g, expected positive sizes",
                            fn, view->width, view->height);
     if (!crisp__slefe_all_finite(&view->view_proj[0][0], 16, 1))
-        return crisp_error(CRISP_ERR_NUMERIC, "%s: non-finite view-projection matrix", fn);
+        return crisp_error(CRISP_ERR_NUMERIC, "%s: non-finite or huge view-projection matrix", fn);
     return CRISP_OK;
 }
 
@@ -51,8 +51,16 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
             hh[r] = crisp__max(hh[r], x);
         }
     }
-    for (int r = 0; r < 4; r++)
+    for (int r = 0; r < 4; r++) {
+        if (!(err[r] <= CRISP_SLEFE_MAX_MAGNITUDE))
+            return crisp_error(CRISP_ERR_NUMERIC,
+                               "%s: clip-space coordinates overflow (view-projection or control "
+                               "points too large)",
+                               fn);
         err[r] *= 4.0 * DBL_EPSILON;
+        hl[r] -= err[r];
+        hh[r] += err[r];
+    }
     crisp_bezier_patch q = *p;
     q.cpw = clip;
     q.rational = 1;

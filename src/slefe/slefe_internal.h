@@ -23,7 +23,11 @@ static inline double crisp__max(double a, double b)
 void crisp__slefe_tables_init(void);
 /* Table of (degree, segments) after crisp__slefe_tables_init; degree 1 gives NULL tables. */
 crisp_slefe_table crisp__slefe_table(int degree, int segments);
-/* Nonzero when the n values v[i * stride] are all finite. */
+/* Largest accepted input magnitude: second differences and table products of such values stay
+ * far from overflow. */
+#define CRISP_SLEFE_MAX_MAGNITUDE 1e300
+/* Nonzero when the n values v[i * stride] are all finite and at most CRISP_SLEFE_MAX_MAGNITUDE in
+ * magnitude (NaN fails the comparison). */
 int crisp__slefe_all_finite(const double *v, int n, int stride);
 /* Degree and segment count in range, else an error naming fn. */
 crisp_status crisp__slefe_check(const char *fn, int degree, int segments);

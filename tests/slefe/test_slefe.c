@@ -288,6 +288,12 @@ static void test_bad_input(void **state)
     assert_int_equal(crisp_slefe_bezier(3, b, 1, 2, lo, up), CRISP_ERR_NUMERIC);
     b[2] = INFINITY;
     assert_int_equal(crisp_slefe_bezier(3, b, 1, 2, lo, up), CRISP_ERR_NUMERIC);
+    b[2] = -1e305; /* would overflow in the second differences */
+    assert_int_equal(crisp_slefe_bezier(3, b, 1, 2, lo, up), CRISP_ERR_NUMERIC);
+    b[2] = 1e300;
+    assert_int_equal(crisp_slefe_bezier(3, b, 1, 2, lo, up), CRISP_OK);
+    for (int k = 0; k <= 2; k++)
+        assert_true(isfinite(lo[k]) && isfinite(up[k]) && lo[k] <= up[k]);
     crisp_slefe_table t;
     assert_int_equal(crisp_slefe_table_get(1, 2, &t), CRISP_ERR_LIMIT);
     assert_int_equal(crisp_slefe_table_get(3, 2, NULL), CRISP_ERR_INVALID_ARG);

@@ -292,6 +292,10 @@ static void test_screen_eye_plane(void **state)
     assert_non_null(strstr(crisp_error_message(), "eye plane"));
     double lo[3] = {-1, -1, -1}, hi[3] = {1, 1, 1};
     assert_int_equal(crisp_slefe_boxes_screen_width(&v, 1, lo, hi, 3, &w), CRISP_ERR_NUMERIC);
+    /* huge coordinates: an error, not infinities */
+    cpw[5] = 1e300;
+    v.view_proj[0][0] = 1e100;
+    assert_int_equal(crisp_slefe_patch_screen(&p, 3, &v, NULL, NULL, &w), CRISP_ERR_NUMERIC);
 }
 
 /* The iPASS measure on a hand-computed case: identity view-projection, so NDC = object x, y. */
