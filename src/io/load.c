@@ -91,8 +91,7 @@ crisp_status crisp_model_load(const char *path, const crisp_read_options *option
     if (st != CRISP_OK) return st;
     switch (detect(path, data, size)) {
     case FMT_IGES:
-        st = crisp_error(CRISP_ERR_UNSUPPORTED, "%s: IGES file, but this build has no IGES reader",
-                         path);
+        st = crisp_read_iges_mem(path, data, size, options, dest);
         break;
     case FMT_STEP:
         st = crisp_error(CRISP_ERR_UNSUPPORTED, "%s: STEP file, but this build has no STEP reader",

@@ -224,6 +224,16 @@ static void test_iges_gpucast_part(void **state)
     (void)state;
     round_trip_file("gpucast_part.igs");
 }
+
+/* the rest of the bundled IGES files: rational high-degree (impeller), B-rep (bearing), and the
+ * standard-bending teapot */
+static void test_iges_others(void **state)
+{
+    (void)state;
+    round_trip_file("impeller.igs");
+    round_trip_file("occt_bearing.iges");
+    round_trip_file("gpucast_teapot.igs");
+}
 #endif
 
 int main(void)
@@ -234,6 +244,7 @@ int main(void)
 #ifdef CRISP_TEST_HAVE_IGES
         cmocka_unit_test(test_iges_hammer),
         cmocka_unit_test(test_iges_gpucast_part),
+        cmocka_unit_test(test_iges_others),
 #endif
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
