@@ -1,0 +1,213 @@
+/* crisp trim: correct-resolution trimming after Wu & Peters, "Correct resolution rendering of
+ * trimmed spline surfaces" (CAD 2015), with the per-frame density computed as a guaranteed bound
+ * instead of read back from the previous frame (DESIGN.md section 5).
+ *
+ * Offers:
+ *   crisp_trim_pieces_check          validate a face's trim pieces (2D homogeneous Bézier)
+ *   crisp_trim_scan_density          per strip, a guaranteed upper bound of the v- and u-scan
+ *                                    densities (pixels per unit parameter) over the visible part
+ *   crisp_trim_rows_from_density     mu_i = ceil((nu_{i+1} - nu_i) rho_i) scan lines per strip
+ *   crisp_trim_tessellate            trim pieces -> polylines within a quarter scan line (v) and a
+ *                                    quarter pixel's worth of u of the true curves
+ *   crisp_trim_table_build / _test / _bytes / _free
+ *                                    the two-level u-intercept table (CSR) and the trim test
+ *   crisp_trim_plan_face / crisp_trim_plan_free
+ *                                    all of the above for one face and one frame, reusing buffers
+ *   crisp_trim_exact_classify / crisp_trim_exact_distance
+ *                                    reference decision and distance on the true rational curves
+ *
+ * Conventions.
+ *   Pieces are crisp_bezier_curve with dim 2 and homogeneous control points (w u, w v, w), w > 0,
+ *   local parameter [0, 1]. They come from the face's loops (crisp_curve_to_bezier); together they
+ *   form closed loops. Inside/outside is decided by parity (even-odd), so loop orientation does not
+ *   matter as long as loops do not cross (outer CCW, holes CW as normalised on load).
+ *   Scan lines are horizontal (constant v); a crossing is counted with the half-open rule: an edge
+ *   from v_a to v_b crosses scan line v_s iff min(v_a, v_b) < v_s <= max(v_a, v_b) (bottom open,
+ * top closed), so a vertex lying on a scan line gives 0 or 2 crossings, never 1. A point (u, v) is
+ *   inside iff the number of crossings of its scan line strictly left of u (u_c < u) is odd.
+ *   Strips: the face's v-range [v0, v1] is cut into strip_count uniform strips
+ *   nu_i = v0 + i (v1 - v0) / strip_count; strip i owns [nu_i, nu_{i+1}) and the last strip also
+ *   owns v1. Strip i has mu_i rows; row j of strip i covers v in [nu_i + j h_i, nu_i + (j + 1) h_i)
+ *   with h_i = (nu_{i+1} - nu_i) / mu_i, and its scan line sits at the centre of that interval, so
+ * a pixel's v is never more than h_i / 2 from the scan line that decides it. The screen is the
+ * viewport of desc.width x desc.height pixels, pixel (i, j) with j = 0 the top row (DESIGN.md
+ * section 6): x~ = (X/W + 1) width / 2, y~ = (1 - Y/W) height / 2 from OpenGL clip coordinates (X,
+ * Y, Z, W) = view_proj * (homogeneous point).
+ *
+ * The guarantee (why the constants are what they are): with rho_v bounding the Euclidean screen
+ * length of d(x~, y~)/dv and rho_u that of d(x~, y~)/du over the visible part of a strip, a pixel
+ * is decided by a scan line at most h/2 away in v (<= 0.5 px on screen), and the polyline deviates
+ * from the true curve by at most h/4 in v (<= 0.25 px) and 1/(4 rho_u) in u (<= 0.25 px). So the
+ * table disagrees with the true curves only where the true curve passes within 1.0 px (Euclidean)
+ * of the pixel's surface point.
+ */
+#ifndef CRISP_TRIM_H
+#define CRISP_TRIM_H
+
+#include "crisp/core.h"
+#include "crisp/nurbs.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Limits that keep a hostile camera or model from asking for unbounded memory. */
+#define CRISP_TRIM_MAX_ROWS (1u << 24)          /* scan lines in one face's table */
+#define CRISP_TRIM_MAX_SEGMENTS_PER_PIECE 65536 /* polyline segments of one Bézier piece */
+
+/* Checks what every function below assumes of pieces: dim 2, degree 1..15, finite coordinates,
+ * positive weights. The message names the piece index and what was expected. */
+crisp_status crisp_trim_pieces_check(const crisp_bezier_curve *pieces, int piece_count);
+
+/* ---- v-scan and u-scan density --------------------------------------------------------------- */
+
+typedef struct crisp_trim_density_desc {
+    const crisp_bezier_patch *patches; /* the face's Bézier patches (homogeneous, object space) */
+    int patch_count;
+    crisp_mat4 *view_proj; /* projection * view, column-major, OpenGL clip space */
+    int width, height;     /* viewport in pixels */
+    double v0, v1;         /* the face's v-range, cut into strip_count strips */
+    int strip_count;
+    int max_depth; /* levels of 2x2 subdivision per patch and strip; 0 means 8 */
+    double slack;  /* refine while the bound exceeds slack times the sampled value; 0 means 1.5 */
+    double margin_px;     /* the frustum is widened by this many pixels on each side; 0 means 2 */
+    crisp_arena *scratch; /* reset by the caller between frames; NULL: an internal one is made */
+} crisp_trim_density_desc;
+
+typedef struct crisp_trim_density_stats {
+    long subpatches; /* sub-patches examined */
+    long culled;     /* sub-patches dropped as outside the (widened) frustum */
+    int unbounded;   /* strips whose bound could not be made finite (W not provably > 0 at the
+                        depth limit); their rho is set to HUGE_VAL */
+} crisp_trim_density_stats;
+
+/* For each strip i: rho_v[i] >= sup |d(x~, y~)/dv| (Euclidean, pixels per unit v) and
+ * rho_u[i] >= sup |d(x~, y~)/du| over the points of the strip's part of the face that lie in the
+ * widened frustum (between the near and far planes); both 0 when no such point exists (the strip
+ * is invisible). The bound comes from Bézier coefficients of the numerators X_v W - X W_v (products
+ * of Bernstein forms) and the smallest coefficient of W, on sub-patches refined where W is not
+ * provably positive or the bound is loose. rho_v, rho_u: strip_count values each. stats may be
+ * NULL. */
+crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double *rho_v,
+                                     double *rho_u, crisp_trim_density_stats *stats);
+
+/* mu[i] = ceil((nu_{i+1} - nu_i) rho_v[i]) for visible strips (at least 1), 0 for rho_v[i] == 0.
+ * The total is clamped to CRISP_TRIM_MAX_ROWS by scaling down (then the 1 px guarantee is lost;
+ * *clamped, if not NULL, is set to 1). */
+void crisp_trim_rows_from_density(const double *rho_v, int strip_count, double v0, double v1,
+                                  uint32_t *mu, int *clamped);
+
+/* ---- trim curve tessellation ----------------------------------------------------------------- */
+
+/* Caller-owned and reused across frames: buffers grow, never shrink (free with
+ * crisp_trim_polyline_free). Piece k's polyline is points first[k] .. first[k + 1] - 1 (uv pairs in
+ * uv), its segments join consecutive points. */
+typedef struct crisp_trim_polyline {
+    int piece_count;
+    int *first; /* piece_count + 1 */
+    double *uv; /* 2 * first[piece_count] */
+    int capped; /* pieces that needed more than CRISP_TRIM_MAX_SEGMENTS_PER_PIECE */
+    size_t cap_first, cap_uv;
+} crisp_trim_polyline;
+
+typedef struct crisp_trim_tess_desc {
+    const crisp_bezier_curve *pieces;
+    int piece_count;
+    double v0, v1; /* strips as for the density */
+    int strip_count;
+    const uint32_t *mu;  /* rows per strip */
+    const double *rho_u; /* u-density per strip */
+    /* Tolerances as fractions: v within tol_v * h_i, u within tol_u / rho_u; 0 means 0.25. */
+    double tol_v, tol_u;
+} crisp_trim_tess_desc;
+
+/* Each piece gets n uniform segments in t, n the smallest count for which the Filip et al. bound
+ * (max deviation of a degree-d polynomial from its chords <= d (d - 1) max|Δ²b| / (8 n²)), applied
+ * to the homogeneous form and divided by the smallest weight, keeps the polyline within the
+ * tolerances of every visible strip the piece's control polygon overlaps. Pieces over invisible
+ * strips only get one segment. */
+crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_polyline *dest);
+void crisp_trim_polyline_free(crisp_trim_polyline *p);
+
+/* ---- the two-level u-intercept table --------------------------------------------------------- */
+
+typedef struct crisp_trim_table {
+    double v0, v1;
+    int strip_count;
+    int all_inside;       /* 1: the face has no trim loops, every (u, v) in the v-range is inside */
+    uint32_t row_count;   /* sum of mu */
+    uint32_t *row_base;   /* strip_count + 1: strip i owns rows row_base[i] .. row_base[i+1] - 1 */
+    uint32_t *row_offset; /* row_count + 1: row r holds u[row_offset[r] .. row_offset[r+1] - 1] */
+    double *u;            /* crossings, sorted within each row */
+    size_t cap_strips, cap_rows, cap_u;
+} crisp_trim_table;
+
+typedef struct crisp_trim_table_desc {
+    const crisp_trim_polyline *polyline; /* NULL or no pieces: a face without loops */
+    double v0, v1;
+    int strip_count;
+    const uint32_t *mu; /* rows per strip */
+} crisp_trim_table_desc;
+
+/* Builds the table in O(segments + crossings) with a counting pass and a filling pass; rows are
+ * then sorted. Reuses dest's buffers (growing only). */
+crisp_status crisp_trim_table_build(const crisp_trim_table_desc *desc, crisp_trim_table *dest);
+/* 1 when (u, v) is inside the trimmed face. v outside [v0, v1], in a strip with no rows
+ * (invisible) or NaN: 0. v exactly on a strip boundary belongs to the strip above it (the
+ * boundary is the strip's bottom), v1 to the last strip; u equal to a crossing counts that
+ * crossing as not left of u. */
+int crisp_trim_table_test(const crisp_trim_table *t, double u, double v);
+/* Bytes the table's content occupies: row bases, row offsets and crossings (4, 4 and 8 bytes). */
+size_t crisp_trim_table_bytes(const crisp_trim_table *t);
+void crisp_trim_table_free(crisp_trim_table *t);
+
+/* ---- per-face, per-frame plan ---------------------------------------------------------------- */
+
+/* Everything one face needs per frame, kept across frames: planning the same face at the same
+ * image size again allocates nothing unless the densities grow. Zero-initialise before first use.
+ */
+typedef struct crisp_trim_plan {
+    int strip_count;
+    double *rho_v, *rho_u;
+    uint32_t *mu;
+    int clamped; /* rows were clamped to CRISP_TRIM_MAX_ROWS */
+    crisp_trim_density_stats density_stats;
+    crisp_trim_polyline polyline;
+    crisp_trim_table table;
+    crisp_arena *scratch;
+    int cap_strips;
+} crisp_trim_plan;
+
+typedef struct crisp_trim_plan_desc {
+    const crisp_bezier_patch *patches;
+    int patch_count;
+    const crisp_bezier_curve *pieces; /* may be NULL with piece_count 0: no trimming */
+    int piece_count;
+    crisp_mat4 *view_proj;
+    int width, height;
+    double v0, v1;   /* the face's v-range */
+    int strip_count; /* n_V; 0 means 16 */
+} crisp_trim_plan_desc;
+
+crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_plan *dest);
+void crisp_trim_plan_free(crisp_trim_plan *plan);
+
+/* ---- exact reference ------------------------------------------------------------------------- */
+
+/* 1 when (u, v) is inside by parity against the true rational curves, with the same half-open
+ * rule as the table (a crossing at v(t) = v counts where the curve passes from v(t) < v to
+ * v(t) >= v or back) and counting crossings with u(t) < u. Roots are isolated by de Casteljau
+ * subdivision with the convex hull property down to the precision of doubles; no tolerance of its
+ * own. Pieces must pass crisp_trim_pieces_check. Slow; for tests and the exact renderer. */
+int crisp_trim_exact_classify(const crisp_bezier_curve *pieces, int piece_count, double u,
+                              double v);
+/* Euclidean uv distance from (u, v) to the nearest point of the true curves, within a relative
+ * 1e-9 or 1e-12 times the curves' coordinate extent, whichever is larger (branch and bound on
+ * control-point boxes). */
+double crisp_trim_exact_distance(const crisp_bezier_curve *pieces, int piece_count, double u,
+                                 double v);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,334 @@
+/* The v-scan (and u-scan) density bound of Wu & Peters 2015 (eqs. 6-8), computed for the current
+ * frame as a guaranteed upper bound instead of being read back from the previous frame.
+ *
+ * In clip space the face's homogeneous patch is four polynomial patches X, Y, Z, W, and
+ * x~ = w_x X / W + c_x, so x~_v = w_x (X_v W - X W_v) / W^2. The numerator is a polynomial patch of
+ * degree (2du, 2dv - 1) whose Bernstein coefficients come from products of Bernstein forms; by the
+ * convex hull property |numerator| <= its largest |coefficient| and W >= its smallest coefficient.
+ * The bound of the Euclidean screen speed sqrt(x~_v^2 + y~_v^2) is
+ *   sqrt((w_x max|N_x|)^2 + (w_y max|N_y|)^2) / min(W)^2.
+ * Sub-patches whose coefficients put them wholly outside one plane of the (slightly widened)
+ * frustum are dropped; where min(W) is not positive or the bound is well above the values sampled
+ * on the sub-patch, it is split 2x2 and examined again (DESIGN.md section 5).
+ */
+#include "trim_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+typedef struct density_ctx {
+    int du, dv;
+    size_t n;       /* (du + 1) * (dv + 1) coefficients per plane */
+    double wx, wy;  /* pixels per NDC unit: width / 2, height / 2 */
+    double mx, my;  /* widened frustum: |X| <= (1 + mx) W */
+    double floor_v; /* a v-bound below this gives mu = 1 anyway */
+    double slack;
+    int max_depth;
+    double *levels;  /* (max_depth + 1) * 4 children * 4 planes * n */
+    double *scratch; /* derivative and product work space */
+    double cur_v, cur_u;
+    int visible, unbounded;
+    long budget;
+    crisp_trim_density_stats *stats;
+} density_ctx;
+
+/* 1 when every coefficient of a*W + b*P (P one of X, Y, Z) is negative: the sub-patch lies
+ * strictly outside that frustum plane. */
+static int outside_plane(const double *P, const double *W, size_t n, double a, double b)
+{
+    for (size_t k = 0; k < n; k++)
+        if (a * W[k] + b * P[k] >= 0.0) return 0;
+    return 1;
+}
+
+static int culled(const density_ctx *c, const double *s)
+{
+    const double *X = s, *Y = s + c->n, *Z = s + 2 * c->n, *W = s + 3 * c->n;
+    return outside_plane(X, W, c->n, 1.0 + c->mx, -1.0) ||
+           outside_plane(X, W, c->n, 1.0 + c->mx, 1.0) ||
+           outside_plane(Y, W, c->n, 1.0 + c->my, -1.0) ||
+           outside_plane(Y, W, c->n, 1.0 + c->my, 1.0) || outside_plane(Z, W, c->n, 1.0, 1.0) ||
+           outside_plane(Z, W, c->n, 1.0, -1.0);
+}
+
+/* Derivative coefficients in v (dir 1: degrees (du, dv - 1)) or u (dir 0: (du - 1, dv)). */
+static void derivative(const double *c, int du, int dv, int dir, double *dest)
+{
+    if (dir) {
+        for (int j = 0; j < dv; j++)
+            for (int i = 0; i <= du; i++)
+                dest[j * (du + 1) + i] = dv * (c[(j + 1) * (du + 1) + i] - c[j * (du + 1) + i]);
+    } else {
+        for (int j = 0; j <= dv; j++)
+            for (int i = 0; i < du; i++)
+                dest[j * du + i] = du * (c[j * (du + 1) + i + 1] - c[j * (du + 1) + i]);
+    }
+}
+
+/* max |P_dir W - P W_dir| over the coefficients of the numerator. */
+static double numerator_bound(density_ctx *c, const double *P, const double *W, int dir)
+{
+    int du = c->du, dv = c->dv;
+    int ddu = dir ? du : du - 1, ddv = dir ? dv - 1 : dv;
+    if (ddu < 0 || ddv < 0) return 0.0; /* degree 0 in that direction: constant */
+    double *Pd = c->scratch, *Wd = Pd + c->n;
+    double *p1 = Wd + c->n;
+    size_t pn = (size_t)(du + ddu + 1) * (size_t)(dv + ddv + 1);
+    double *p2 = p1 + pn;
+    derivative(P, du, dv, dir, Pd);
+    derivative(W, du, dv, dir, Wd);
+    crisp__trim_product2(Pd, ddu, ddv, W, du, dv, p1);
+    crisp__trim_product2(P, du, dv, Wd, ddu, ddv, p2);
+    double m = 0.0;
+    for (size_t k = 0; k < pn; k++)
+        m = fmax(m, fabs(p1[k] - p2[k]));
+    return m;
+}
+
+/* Value and partials of a tensor-product Bernstein patch at (s, t). */
+static void eval_tp(const double *c, int du, int dv, double s, double t, double out[3])
+{
+    double r[CRISP_MAX_DEGREE + 1], rs[CRISP_MAX_DEGREE + 1];
+    for (int j = 0; j <= dv; j++)
+        crisp__trim_eval_d(c + j * (du + 1), du, 1, s, &r[j], &rs[j]);
+    crisp__trim_eval_d(r, dv, 1, t, &out[0], &out[2]);
+    out[1] = crisp__trim_eval(rs, dv, 1, t);
+}
+
+/* Largest screen speeds sampled on a 3 x 3 grid of the sub-patch's points inside the widened
+ * frustum; returns the number of such points. */
+static int sample_speeds(const density_ctx *c, const double *s, double sv, double su, double *ev,
+                         double *eu)
+{
+    int seen = 0;
+    *ev = *eu = 0.0;
+    for (int b = 0; b <= 2; b++) {
+        for (int a = 0; a <= 2; a++) {
+            double X[3], Y[3], Z[3], W[3];
+            eval_tp(s, c->du, c->dv, 0.5 * a, 0.5 * b, X);
+            eval_tp(s + c->n, c->du, c->dv, 0.5 * a, 0.5 * b, Y);
+            eval_tp(s + 2 * c->n, c->du, c->dv, 0.5 * a, 0.5 * b, Z);
+            eval_tp(s + 3 * c->n, c->du, c->dv, 0.5 * a, 0.5 * b, W);
+            if (!(W[0] > 0.0) || fabs(X[0]) > (1 + c->mx) * W[0] ||
+                fabs(Y[0]) > (1 + c->my) * W[0] || fabs(Z[0]) > W[0])
+                continue;
+            seen++;
+            double w2 = W[0] * W[0];
+            double xu = c->wx * (X[1] * W[0] - X[0] * W[1]) / w2;
+            double yu = c->wy * (Y[1] * W[0] - Y[0] * W[1]) / w2;
+            double xv = c->wx * (X[2] * W[0] - X[0] * W[2]) / w2;
+            double yv = c->wy * (Y[2] * W[0] - Y[0] * W[2]) / w2;
+            *eu = fmax(*eu, hypot(xu, yu) * su);
+            *ev = fmax(*ev, hypot(xv, yv) * sv);
+        }
+    }
+    return seen;
+}
+
+static void split_half(const density_ctx *c, const double *s, double *kids)
+{
+    int du = c->du, dv = c->dv;
+    size_t block = 4 * c->n;
+    double lo[CRISP_MAX_DEGREE + 1], hi[CRISP_MAX_DEGREE + 1];
+    for (int q = 0; q < 4; q++) {
+        const double *src = s + q * c->n;
+        double *k0 = kids + q * c->n, *k1 = kids + block + q * c->n;
+        for (int j = 0; j <= dv; j++) {
+            crisp__trim_split(src + j * (du + 1), du, 1, 0.5, lo, hi);
+            memcpy(k0 + j * (du + 1), lo, sizeof(double) * (size_t)(du + 1));
+            memcpy(k1 + j * (du + 1), hi, sizeof(double) * (size_t)(du + 1));
+        }
+        /* Now split each u-half in v into the lower (kid 0, 1) and upper (kid 2, 3) halves. */
+        double *k2 = kids + 2 * block + q * c->n, *k3 = kids + 3 * block + q * c->n;
+        for (int i = 0; i <= du; i++) {
+            crisp__trim_split(k0 + i, dv, du + 1, 0.5, lo, hi);
+            for (int j = 0; j <= dv; j++) {
+                k0[j * (du + 1) + i] = lo[j];
+                k2[j * (du + 1) + i] = hi[j];
+            }
+            crisp__trim_split(k1 + i, dv, du + 1, 0.5, lo, hi);
+            for (int j = 0; j <= dv; j++) {
+                k1[j * (du + 1) + i] = lo[j];
+                k3[j * (du + 1) + i] = hi[j];
+            }
+        }
+    }
+}
+
+/* s: the sub-patch (4 planes); su, sv: d(local)/d(global) scale factors. */
+static void refine(density_ctx *c, const double *s, int depth, double su, double sv)
+{
+    if (c->stats) c->stats->subpatches++;
+    c->budget--;
+    if (culled(c, s)) {
+        if (c->stats) c->stats->culled++;
+        return;
+    }
+    const double *X = s, *Y = s + c->n, *W = s + 3 * c->n;
+    double wmin = HUGE_VAL;
+    for (size_t k = 0; k < c->n; k++)
+        wmin = fmin(wmin, W[k]);
+    int last = depth >= c->max_depth || c->budget <= 0;
+    if (wmin > 0.0) {
+        double w2 = wmin * wmin;
+        double bv =
+            sv * hypot(c->wx * numerator_bound(c, X, W, 1), c->wy * numerator_bound(c, Y, W, 1)) /
+            w2;
+        double bu =
+            su * hypot(c->wx * numerator_bound(c, X, W, 0), c->wy * numerator_bound(c, Y, W, 0)) /
+            w2;
+        /* Rounding in the products is relative ~1e-15; widen so the bound stays an upper bound. */
+        bv *= 1.0 + 1e-9;
+        bu *= 1.0 + 1e-9;
+        int accept = last;
+        if (!accept) {
+            double ev, eu;
+            int seen = sample_speeds(c, s, sv, su, &ev, &eu);
+            int ok_v = bv <= fmax(fmax(c->slack * ev, c->cur_v), c->floor_v);
+            int ok_u = bu <= fmax(c->slack * eu, c->cur_u);
+            accept = seen > 0 && ok_v && ok_u;
+            /* Nothing to gain: the bound is already covered by what other parts need. */
+            if (bv <= fmax(c->cur_v, c->floor_v) && bu <= c->cur_u) accept = 1;
+        }
+        if (accept) {
+            c->cur_v = fmax(c->cur_v, bv);
+            c->cur_u = fmax(c->cur_u, bu);
+            c->visible = 1;
+            return;
+        }
+    } else if (last) {
+        c->unbounded = 1;
+        c->visible = 1;
+        return;
+    }
+    double *kids = c->levels + (size_t)(depth + 1) * 16 * c->n;
+    split_half(c, s, kids);
+    for (int k = 0; k < 4; k++)
+        refine(c, kids + (size_t)k * 4 * c->n, depth + 1, 2 * su, 2 * sv);
+}
+
+crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double *rho_v,
+                                     double *rho_u, crisp_trim_density_stats *stats)
+{
+    if (!desc || !rho_v || !rho_u)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_trim_scan_density: NULL argument");
+    if (desc->strip_count < 1 || desc->strip_count > (1 << 20))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_trim_scan_density: strip_count %d, expected 1..1048576",
+                           desc->strip_count);
+    if (desc->width < 1 || desc->height < 1)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_trim_scan_density: viewport %dx%d, expected positive sizes",
+                           desc->width, desc->height);
+    if (!(desc->v1 > desc->v0) || !isfinite(desc->v0) || !isfinite(desc->v1))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_trim_scan_density: v-range [%g, %g] is empty or not finite",
+                           desc->v0, desc->v1);
+    if (!desc->view_proj || (desc->patch_count > 0 && !desc->patches) || desc->patch_count < 0)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_trim_scan_density: missing view_proj or patches");
+    int maxdu = 1, maxdv = 1;
+    for (int p = 0; p < desc->patch_count; p++) {
+        const crisp_bezier_patch *bp = &desc->patches[p];
+        if (bp->du < 1 || bp->du > CRISP_MAX_DEGREE || bp->dv < 1 || bp->dv > CRISP_MAX_DEGREE ||
+            !bp->cpw || !(bp->u1 > bp->u0) || !(bp->v1 > bp->v0))
+            return crisp_error(CRISP_ERR_INVALID_ARG,
+                               "crisp_trim_scan_density: patch %d: degrees (%d, %d) or parameter "
+                               "box invalid, expected degrees 1..%d and a non-empty box",
+                               p, bp->du, bp->dv, CRISP_MAX_DEGREE);
+        if (bp->du > maxdu) maxdu = bp->du;
+        if (bp->dv > maxdv) maxdv = bp->dv;
+    }
+    crisp_trim_density_stats local_stats = {0};
+    if (!stats) stats = &local_stats;
+    memset(stats, 0, sizeof *stats);
+    for (int i = 0; i < desc->strip_count; i++)
+        rho_v[i] = rho_u[i] = 0.0;
+
+    crisp_arena *arena = desc->scratch, *own = NULL;
+    if (!arena) {
+        crisp_status st = crisp_arena_create(0, &own);
+        if (st) return st;
+        arena = own;
+    }
+    density_ctx c = {0};
+    c.max_depth = desc->max_depth > 0 ? desc->max_depth : 8;
+    if (c.max_depth > 20) c.max_depth = 20;
+    c.slack = desc->slack > 1.0 ? desc->slack : 1.5;
+    double margin = desc->margin_px > 0.0 ? desc->margin_px : 2.0;
+    c.wx = 0.5 * desc->width;
+    c.wy = 0.5 * desc->height;
+    c.mx = 2.0 * margin / desc->width;
+    c.my = 2.0 * margin / desc->height;
+    c.stats = stats;
+    size_t nmax = (size_t)(maxdu + 1) * (size_t)(maxdv + 1);
+    size_t pmax = (size_t)(2 * maxdu + 1) * (size_t)(2 * maxdv + 1);
+    double *clip = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
+    double *strip = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
+    c.levels = crisp_arena_alloc(arena, (size_t)(c.max_depth + 2) * 16 * nmax, sizeof(double));
+    c.scratch = crisp_arena_alloc(arena, 2 * nmax + 2 * pmax, sizeof(double));
+    crisp_status st = CRISP_OK;
+    if (!clip || !strip || !c.levels || !c.scratch) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_scan_density: out of memory");
+        goto done;
+    }
+    double hv = (desc->v1 - desc->v0) / desc->strip_count;
+    crisp_mat4 *m = desc->view_proj;
+    for (int p = 0; p < desc->patch_count; p++) {
+        const crisp_bezier_patch *bp = &desc->patches[p];
+        c.du = bp->du;
+        c.dv = bp->dv;
+        c.n = (size_t)(bp->du + 1) * (size_t)(bp->dv + 1);
+        for (size_t k = 0; k < c.n; k++) {
+            const double *h = bp->cpw + 4 * k;
+            for (int r = 0; r < 4; r++)
+                clip[r * c.n + k] =
+                    (*m)[0][r] * h[0] + (*m)[1][r] * h[1] + (*m)[2][r] * h[2] + (*m)[3][r] * h[3];
+            for (int r = 0; r < 4; r++)
+                if (!isfinite(clip[r * c.n + k])) {
+                    st = crisp_error(CRISP_ERR_NUMERIC,
+                                     "crisp_trim_scan_density: patch %d control point %zu is not "
+                                     "finite in clip space",
+                                     p, k);
+                    goto done;
+                }
+        }
+        int i0 = (int)floor((bp->v0 - desc->v0) / hv), i1 = (int)floor((bp->v1 - desc->v0) / hv);
+        if (i0 < 0) i0 = 0;
+        if (i1 > desc->strip_count - 1) i1 = desc->strip_count - 1;
+        for (int i = i0; i <= i1; i++) {
+            double nu0 = desc->v0 + i * hv, nu1 = desc->v0 + (i + 1) * hv;
+            double ta = (nu0 - bp->v0) / (bp->v1 - bp->v0), tb = (nu1 - bp->v0) / (bp->v1 - bp->v0);
+            if (ta < 0.0) ta = 0.0;
+            if (tb > 1.0) tb = 1.0;
+            if (!(tb > ta)) continue;
+            memcpy(strip, clip, sizeof(double) * 4 * c.n);
+            for (int q = 0; q < 4; q++)
+                for (int col = 0; col <= c.du; col++)
+                    crisp__trim_restrict(strip + q * c.n + col, c.dv, c.du + 1, ta, tb);
+            c.cur_v = rho_v[i];
+            c.cur_u = rho_u[i];
+            c.visible = rho_v[i] > 0.0 || rho_u[i] > 0.0;
+            c.unbounded = 0;
+            c.floor_v = 1.0 / hv;
+            c.budget = 4096;
+            /* The strip's levels start at level 0 of c.levels; refine copies children deeper. */
+            double *root = c.levels;
+            memcpy(root, strip, sizeof(double) * 4 * c.n);
+            refine(&c, root, 0, 1.0 / (bp->u1 - bp->u0), 1.0 / ((bp->v1 - bp->v0) * (tb - ta)));
+            if (c.unbounded) {
+                rho_v[i] = rho_u[i] = HUGE_VAL;
+                stats->unbounded++;
+            } else if (c.visible) {
+                rho_v[i] = c.cur_v;
+                rho_u[i] = c.cur_u;
+                /* A visible strip always needs a row, even if the surface is edge-on in v. */
+                if (!(rho_v[i] > 0.0)) rho_v[i] = 1e-300;
+                if (!(rho_u[i] > 0.0)) rho_u[i] = 1e-300;
+            }
+        }
+    }
+done:
+    if (own) crisp_arena_destroy(own);
+    return st;
+}

@@ -1,0 +1,29 @@
+/* trim module internals: Bernstein-form helpers shared by the density bound, the tessellator and
+ * the exact classifier (de Casteljau restriction, products of Bernstein forms, evaluation). */
+#ifndef CRISP_TRIM_INTERNAL_H
+#define CRISP_TRIM_INTERNAL_H
+
+#include "crisp/trim.h"
+
+/* Binomial coefficient C(n, k) for 0 <= k <= n <= 2 * CRISP_MAX_DEGREE + 1, as a double. */
+double crisp__trim_binom(int n, int k);
+
+/* Restrict a univariate Bernstein polynomial of degree d (coefficients c[0], c[stride], ...) to the
+ * local interval [a, b] of [0, 1], in place. */
+void crisp__trim_restrict(double *c, int d, int stride, double a, double b);
+
+/* de Casteljau split at t: lo and hi get degree + 1 coefficients each (stride 1). c is untouched.
+ */
+void crisp__trim_split(const double *c, int d, int stride, double t, double *lo, double *hi);
+
+/* Value of a univariate Bernstein polynomial at t (de Casteljau on a copy). */
+double crisp__trim_eval(const double *c, int d, int stride, double t);
+
+/* Tensor-product Bernstein product: a has degrees (am, an), b (bm, bn), both stored j * (m + 1) + i
+ * (i along u); dest gets degrees (am + bm, an + bn). */
+void crisp__trim_product2(const double *a, int am, int an, const double *b, int bm, int bn,
+                          double *dest);
+
+/* Value and first derivative of a univariate Bernstein polynomial at t. */
+void crisp__trim_eval_d(const double *c, int d, int stride, double t, double *val, double *der);
+#endif

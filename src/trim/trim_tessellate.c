@@ -1,0 +1,181 @@
+/* Trim curve tessellation with a proven deviation bound (Wu & Peters 2015, section 5: the trim
+ * polyline must lie within the table's resolution of the true curve).
+ *
+ * For a polynomial f of degree d in Bernstein form on [0, 1], the chords of n uniform segments
+ * deviate from f by at most (1/8) n^-2 max|f''| <= d (d - 1) max|Δ²b| / (8 n²) (Filip, Magedson &
+ * Markot 1986). A rational piece c = P / w is handled through its homogeneous form: with the
+ * homogeneous chord L = (L_P, L_w), whose projection L_P / L_w runs along the same straight chord,
+ *   P / w - L_P / L_w = (e_P - (L_P / L_w) e_w) / w,   e = homogeneous chord errors,
+ * so after translating the piece so that its control-point box is centred at 0 (|L_P / L_w| <= r,
+ * the box half-size), the Euclidean deviation per coordinate is at most
+ *   d (d - 1) (max|Δ² P'| + r max|Δ² w|) / (8 n² min w).
+ * Any point classified differently by the polyline and by the curve lies on a segment between c(t)
+ * and the polyline point of the same t (the linear homotopy between them must sweep over it), so
+ * this per-coordinate deviation is what the trim guarantee needs.
+ */
+#include "trim_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+crisp_status crisp_trim_pieces_check(const crisp_bezier_curve *pieces, int piece_count)
+{
+    if (piece_count < 0 || (piece_count > 0 && !pieces))
+        return crisp_error(CRISP_ERR_INVALID_ARG, "trim pieces: count %d with %s pieces",
+                           piece_count, pieces ? "given" : "no");
+    for (int k = 0; k < piece_count; k++) {
+        const crisp_bezier_curve *b = &pieces[k];
+        if (b->dim != 2)
+            return crisp_error(CRISP_ERR_INVALID_ARG, "trim piece %d: dim %d, expected 2 (uv)", k,
+                               b->dim);
+        if (b->degree < 1 || b->degree > CRISP_MAX_DEGREE)
+            return crisp_error(CRISP_ERR_INVALID_ARG, "trim piece %d: degree %d, expected 1..%d", k,
+                               b->degree, CRISP_MAX_DEGREE);
+        for (int i = 0; i <= b->degree; i++) {
+            const double *h = b->cpw + 3 * i;
+            if (!isfinite(h[0]) || !isfinite(h[1]) || !(h[2] > 0.0) || !isfinite(h[2]))
+                return crisp_error(CRISP_ERR_INVALID_ARG,
+                                   "trim piece %d control point %d: (%g, %g, w %g), expected "
+                                   "finite coordinates and a positive weight",
+                                   k, i, h[0], h[1], h[2]);
+        }
+    }
+    return CRISP_OK;
+}
+
+/* Segments piece b needs for per-coordinate deviations tol_u and tol_v (> 0). */
+static double segments_needed(const crisp_bezier_curve *b, double tol_u, double tol_v)
+{
+    int d = b->degree;
+    if (d < 2) return 1.0; /* a (possibly rational) line segment is its own chord */
+    double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL}, wmin = HUGE_VAL;
+    for (int i = 0; i <= d; i++) {
+        const double *h = b->cpw + 3 * i;
+        for (int c = 0; c < 2; c++) {
+            lo[c] = fmin(lo[c], h[c] / h[2]);
+            hi[c] = fmax(hi[c], h[c] / h[2]);
+        }
+        wmin = fmin(wmin, h[2]);
+    }
+    double mw = 0.0, mp[2] = {0.0, 0.0};
+    for (int i = 0; i + 2 <= d; i++) {
+        const double *h0 = b->cpw + 3 * i, *h1 = h0 + 3, *h2 = h0 + 6;
+        mw = fmax(mw, fabs(h0[2] - 2 * h1[2] + h2[2]));
+        for (int c = 0; c < 2; c++) {
+            double ctr = 0.5 * (lo[c] + hi[c]);
+            double p0 = h0[c] - ctr * h0[2], p1 = h1[c] - ctr * h1[2], p2 = h2[c] - ctr * h2[2];
+            mp[c] = fmax(mp[c], fabs(p0 - 2 * p1 + p2));
+        }
+    }
+    double tol[2] = {tol_u, tol_v}, n = 1.0;
+    for (int c = 0; c < 2; c++) {
+        double r = 0.5 * (hi[c] - lo[c]);
+        double num = d * (d - 1) * (mp[c] + r * mw) * (1.0 + 1e-12);
+        double need = sqrt(num / (8.0 * wmin * tol[c]));
+        n = fmax(n, ceil(need));
+    }
+    return n;
+}
+
+static void eval_point(const crisp_bezier_curve *b, double t, double *uv)
+{
+    double U = crisp__trim_eval(b->cpw, b->degree, 3, t);
+    double V = crisp__trim_eval(b->cpw + 1, b->degree, 3, t);
+    double W = crisp__trim_eval(b->cpw + 2, b->degree, 3, t);
+    uv[0] = U / W;
+    uv[1] = V / W;
+}
+
+crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_polyline *dest)
+{
+    if (!desc || !dest)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_trim_tessellate: NULL argument");
+    crisp_status st = crisp_trim_pieces_check(desc->pieces, desc->piece_count);
+    if (st) return st;
+    if (desc->strip_count < 1 || !desc->mu || !desc->rho_u || !(desc->v1 > desc->v0))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_trim_tessellate: strips %d over [%g, %g], expected >= 1 strips "
+                           "with mu and rho_u over a non-empty range",
+                           desc->strip_count, desc->v0, desc->v1);
+    double fu = desc->tol_u > 0.0 ? desc->tol_u : 0.25;
+    double fv = desc->tol_v > 0.0 ? desc->tol_v : 0.25;
+    int n_strips = desc->strip_count;
+    double span = desc->v1 - desc->v0, hv = span / n_strips;
+    crisp_trim_polyline *pl = dest;
+    if (crisp_grow((void **)&pl->first, &pl->cap_first, (size_t)desc->piece_count + 1,
+                   sizeof *pl->first))
+        return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_tessellate: out of memory");
+    pl->piece_count = desc->piece_count;
+    pl->capped = 0;
+    /* Pass 1: segment counts (first[k + 1] temporarily holds piece k's count). */
+    long total = 0;
+    pl->first[0] = 0;
+    for (int k = 0; k < desc->piece_count; k++) {
+        const crisp_bezier_curve *b = &desc->pieces[k];
+        double vmin = HUGE_VAL, vmax = -HUGE_VAL;
+        for (int i = 0; i <= b->degree; i++) {
+            double v = b->cpw[3 * i + 1] / b->cpw[3 * i + 2];
+            vmin = fmin(vmin, v);
+            vmax = fmax(vmax, v);
+        }
+        double fs = floor((vmin - desc->v0) / hv), fe = floor((vmax - desc->v0) / hv);
+        int is = fs < 0 ? 0 : fs > n_strips - 1 ? n_strips - 1 : (int)fs;
+        int ie = fe < 0 ? 0 : fe > n_strips - 1 ? n_strips - 1 : (int)fe;
+        if (is > 0) is--; /* a crossing at a strip boundary may be decided by either side */
+        if (ie < n_strips - 1) ie++;
+        double hmin = HUGE_VAL, rho_u = 0.0;
+        int visible = 0;
+        if (vmax >= desc->v0 && vmin <= desc->v1) {
+            for (int i = is; i <= ie; i++) {
+                if (!desc->mu[i]) continue;
+                visible = 1;
+                hmin = fmin(hmin, hv / desc->mu[i]);
+                rho_u = fmax(rho_u, desc->rho_u[i]);
+            }
+        }
+        double n = 1.0;
+        if (visible) {
+            double tol_u = rho_u > 0.0 ? fu / rho_u : HUGE_VAL;
+            n = segments_needed(b, tol_u, fv * hmin);
+        }
+        if (!(n <= CRISP_TRIM_MAX_SEGMENTS_PER_PIECE)) {
+            n = CRISP_TRIM_MAX_SEGMENTS_PER_PIECE;
+            pl->capped++;
+        }
+        pl->first[k + 1] = (int)n;
+        total += (long)n + 1;
+    }
+    if (total > (long)1 << 30)
+        return crisp_error(CRISP_ERR_LIMIT, "crisp_trim_tessellate: %ld polyline points, too many",
+                           total);
+    if (crisp_grow((void **)&pl->uv, &pl->cap_uv, 2 * (size_t)(total ? total : 1), sizeof *pl->uv))
+        return crisp_error(CRISP_ERR_NO_MEMORY,
+                           "crisp_trim_tessellate: out of memory for %ld points", total);
+    /* Pass 2: points; the end points come from the end control points exactly, so neighbouring
+     * pieces that share a control point share the vertex bit for bit. */
+    int at = 0;
+    for (int k = 0; k < desc->piece_count; k++) {
+        const crisp_bezier_curve *b = &desc->pieces[k];
+        int n = pl->first[k + 1];
+        pl->first[k] = at;
+        double *uv = pl->uv + 2 * at;
+        const double *c0 = b->cpw, *cd = b->cpw + 3 * b->degree;
+        uv[0] = c0[0] / c0[2];
+        uv[1] = c0[1] / c0[2];
+        for (int q = 1; q < n; q++)
+            eval_point(b, (double)q / n, uv + 2 * q);
+        uv[2 * n] = cd[0] / cd[2];
+        uv[2 * n + 1] = cd[1] / cd[2];
+        at += n + 1;
+    }
+    pl->first[desc->piece_count] = at;
+    return CRISP_OK;
+}
+
+void crisp_trim_polyline_free(crisp_trim_polyline *p)
+{
+    if (!p) return;
+    crisp_free(p->first);
+    crisp_free(p->uv);
+    memset(p, 0, sizeof *p);
+}

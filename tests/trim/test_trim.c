@@ -1,0 +1,444 @@
+/* Unit tests for src/trim: Bernstein products, the exact classifier against analytic shapes, the
+ * u-intercept table against the exact parity of its own scan lines (including vertices lying
+ * exactly on scan lines), the tessellation deviation bound, the density bound against sampled
+ * screen derivatives on random patches and cameras (some crossing the near plane), reuse of
+ * buffers across frames, and bad input. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "trim/trim_internal.h"
+#include "trim/trim_test_util.h"
+
+static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
+static double rnd(void)
+{
+    rng_state ^= rng_state << 13;
+    rng_state ^= rng_state >> 7;
+    rng_state ^= rng_state << 17;
+    return (double)(rng_state >> 11) / 9007199254740992.0;
+}
+static double rnd_in(double a, double b)
+{
+    return a + (b - a) * rnd();
+}
+
+static void test_product(void **state)
+{
+    (void)state;
+    for (int trial = 0; trial < 50; trial++) {
+        int am = 1 + trial % 3, an = 1 + trial % 4, bm = 1 + trial % 2, bn = trial % 3;
+        double a[64], b[64], p[256];
+        for (int k = 0; k < (am + 1) * (an + 1); k++)
+            a[k] = rnd_in(-1, 1);
+        for (int k = 0; k < (bm + 1) * (bn + 1); k++)
+            b[k] = rnd_in(-1, 1);
+        crisp__trim_product2(a, am, an, b, bm, bn, p);
+        for (int q = 0; q < 10; q++) {
+            double s = rnd(), t = rnd(), va = 0, vb = 0, vp = 0;
+            for (int j = 0; j <= an; j++)
+                for (int i = 0; i <= am; i++)
+                    va += a[j * (am + 1) + i] * tu_bern(am, i, s) * tu_bern(an, j, t);
+            for (int j = 0; j <= bn; j++)
+                for (int i = 0; i <= bm; i++)
+                    vb += b[j * (bm + 1) + i] * tu_bern(bm, i, s) * tu_bern(bn, j, t);
+            for (int j = 0; j <= an + bn; j++)
+                for (int i = 0; i <= am + bm; i++)
+                    vp +=
+                        p[j * (am + bm + 1) + i] * tu_bern(am + bm, i, s) * tu_bern(an + bn, j, t);
+            assert_true(fabs(vp - va * vb) < 1e-12);
+        }
+    }
+}
+
+/* Outer ellipse with an inner circular hole: analytic implicit functions. */
+static double ell_f(double u, double v)
+{
+    double r = 0.3, x = u - 0.5, y = v - 0.5;
+    double xr = cos(r) * x + sin(r) * y, yr = -sin(r) * x + cos(r) * y;
+    return (xr * xr) / (0.4 * 0.4) + (yr * yr) / (0.3 * 0.3) - 1.0;
+}
+static double hole_f(double u, double v)
+{
+    return hypot(u - 0.45, v - 0.5) - 0.1;
+}
+
+static void test_exact_classifier(void **state)
+{
+    (void)state;
+    crisp_bezier_curve pc[8];
+    int n = tu_ellipse(pc, 0.5, 0.5, 0.4, 0.3, 0.3, 1);
+    n += tu_ellipse(pc + n, 0.45, 0.5, 0.1, 0.1, 0.0, 0);
+    assert_int_equal(crisp_trim_pieces_check(pc, n), CRISP_OK);
+    int checked = 0;
+    for (int q = 0; q < 20000; q++) {
+        double u = rnd_in(-0.1, 1.1), v = rnd_in(-0.1, 1.1);
+        double fe = ell_f(u, v), fh = hole_f(u, v);
+        if (fabs(fe) < 1e-9 || fabs(fh) < 1e-9) continue;
+        int want = fe < 0 && fh > 0;
+        assert_int_equal(crisp_trim_exact_classify(pc, n, u, v), want);
+        checked++;
+    }
+    assert_true(checked > 19000);
+    /* Points extremely close to the circle: still right (no tolerance of its own). */
+    for (int q = 0; q < 2000; q++) {
+        double a = rnd_in(0, 2 * M_PI), eps = (q % 2 ? 1 : -1) * 1e-11;
+        double u = 0.45 + (0.1 + eps) * cos(a), v = 0.5 + (0.1 + eps) * sin(a);
+        assert_int_equal(crisp_trim_exact_classify(pc, n, u, v), eps > 0);
+    }
+    /* Distance to the hole circle alone. */
+    for (int q = 0; q < 200; q++) {
+        double u = rnd_in(0, 1), v = rnd_in(0, 1);
+        double d = crisp_trim_exact_distance(pc + 4, 4, u, v);
+        double want = fabs(hypot(u - 0.45, v - 0.5) - 0.1);
+        assert_true(fabs(d - want) <= 1e-8 * want + 1e-11);
+    }
+}
+
+/* The same expressions as the library, to hit its scan lines bit for bit. */
+static double t_nu(double v0, double v1, int n, int i)
+{
+    return i >= n ? v1 : v0 + (v1 - v0) * ((double)i / n);
+}
+static double t_scan(double a, double b, uint32_t mu, uint32_t j)
+{
+    return a + (b - a) * ((j + 0.5) / mu);
+}
+
+static void test_table_polygon(void **state)
+{
+    (void)state;
+    const uint32_t mu[4] = {3, 0, 5, 7};
+    double s0 = t_scan(t_nu(0, 1, 4, 0), t_nu(0, 1, 4, 1), 3, 1);
+    double s2 = t_scan(t_nu(0, 1, 4, 2), t_nu(0, 1, 4, 3), 5, 2);
+    double s3 = t_scan(t_nu(0, 1, 4, 3), t_nu(0, 1, 4, 4), 7, 4);
+    /* A non-convex polygon with a pass-through vertex, a peak and a valley on scan lines. */
+    double poly[] = {0.1, 0.02, 0.5, s0,  0.9,  0.05, 0.95, s2,   0.7, s3,  0.6,
+                     s2,  0.5,  s3,  0.4, 0.97, 0.2,  s3,   0.05, s2,  0.3, s0};
+    int np = (int)(sizeof poly / sizeof poly[0]) / 2;
+    crisp_bezier_curve pc[16];
+    int n = tu_polygon(pc, np, poly);
+    /* The polyline of degree-1 pieces is the polygon itself. */
+    crisp_trim_polyline pl = {0};
+    const double rho_u[4] = {1, 1, 1, 1};
+    assert_int_equal(crisp_trim_tessellate(&(crisp_trim_tess_desc){.pieces = pc,
+                                                                   .piece_count = n,
+                                                                   .v0 = 0,
+                                                                   .v1 = 1,
+                                                                   .strip_count = 4,
+                                                                   .mu = mu,
+                                                                   .rho_u = rho_u},
+                                           &pl),
+                     CRISP_OK);
+    assert_int_equal(pl.first[n], 2 * n);
+    crisp_trim_table t = {0};
+    assert_int_equal(
+        crisp_trim_table_build(
+            &(crisp_trim_table_desc){.polyline = &pl, .v0 = 0, .v1 = 1, .strip_count = 4, .mu = mu},
+            &t),
+        CRISP_OK);
+    assert_int_equal(t.row_count, 15);
+    for (uint32_t r = 0; r < t.row_count; r++) {
+        uint32_t c = t.row_offset[r + 1] - t.row_offset[r];
+        assert_int_equal(c % 2, 0); /* closed loop: even on every scan line */
+        for (uint32_t k = t.row_offset[r] + 1; k < t.row_offset[r + 1]; k++)
+            assert_true(t.u[k - 1] <= t.u[k]);
+    }
+    for (int q = 0; q < 20000; q++) {
+        double u = rnd_in(-0.1, 1.1), v = rnd_in(-0.05, 1.05);
+        int got = crisp_trim_table_test(&t, u, v);
+        if (v < 0 || v > 1 || (v >= 0.25 && v < 0.5)) {
+            assert_int_equal(got, 0);
+            continue;
+        }
+        int i = v >= 1 ? 3 : (int)floor(v * 4);
+        double a = t_nu(0, 1, 4, i), b = t_nu(0, 1, 4, i + 1);
+        uint32_t j = (uint32_t)floor((v - a) / (b - a) * mu[i]);
+        if (j >= mu[i]) j = mu[i] - 1;
+        double vs = t_scan(a, b, mu[i], j);
+        assert_int_equal(got, crisp_trim_exact_classify(pc, n, u, vs));
+    }
+    /* Rows through the special vertices: the pass-through gives 1 crossing there (the polygon
+     * still has an even count), peaks and valleys 0 or 2. */
+    for (int q = 0; q < 200; q++) {
+        double u = rnd_in(0, 1);
+        assert_int_equal(crisp_trim_table_test(&t, u, s0), crisp_trim_exact_classify(pc, n, u, s0));
+        assert_int_equal(crisp_trim_table_test(&t, u, s2), crisp_trim_exact_classify(pc, n, u, s2));
+        assert_int_equal(crisp_trim_table_test(&t, u, s3), crisp_trim_exact_classify(pc, n, u, s3));
+    }
+    /* A face without loops is inside everywhere in its v-range. */
+    crisp_trim_table e = {0};
+    assert_int_equal(crisp_trim_table_build(
+                         &(crisp_trim_table_desc){
+                             .polyline = NULL, .v0 = 0, .v1 = 1, .strip_count = 4, .mu = mu},
+                         &e),
+                     CRISP_OK);
+    assert_int_equal(crisp_trim_table_test(&e, 0.3, 0.3), 1);
+    assert_int_equal(crisp_trim_table_test(&e, 0.3, 1.3), 0);
+    crisp_trim_table_free(&e);
+    crisp_trim_table_free(&t);
+    crisp_trim_polyline_free(&pl);
+}
+
+static void random_piece(crisp_bezier_curve *b, int degree)
+{
+    memset(b, 0, sizeof *b);
+    b->dim = 2;
+    b->degree = degree;
+    b->rational = 1;
+    b->t1 = 1;
+    for (int i = 0; i <= degree; i++) {
+        double w = rnd_in(0.3, 3.0);
+        b->cpw[3 * i] = w * rnd_in(0, 1);
+        b->cpw[3 * i + 1] = w * rnd_in(0, 1);
+        b->cpw[3 * i + 2] = w;
+    }
+}
+
+static void test_tessellation_bound(void **state)
+{
+    (void)state;
+    double worst = 0.0;
+    for (int trial = 0; trial < 60; trial++) {
+        crisp_bezier_curve pc[3];
+        for (int k = 0; k < 3; k++)
+            random_piece(&pc[k], 2 + (trial + k) % 5);
+        uint32_t mu[1] = {(uint32_t)(20 + trial * 37)};
+        double rho_u[1] = {rnd_in(10, 3000)};
+        crisp_trim_polyline pl = {0};
+        assert_int_equal(crisp_trim_tessellate(&(crisp_trim_tess_desc){.pieces = pc,
+                                                                       .piece_count = 3,
+                                                                       .v0 = -1,
+                                                                       .v1 = 2,
+                                                                       .strip_count = 1,
+                                                                       .mu = mu,
+                                                                       .rho_u = rho_u},
+                                               &pl),
+                         CRISP_OK);
+        double tol_v = 0.25 * 3.0 / mu[0], tol_u = 0.25 / rho_u[0];
+        for (int k = 0; k < 3; k++) {
+            const crisp_bezier_curve *b = &pc[k];
+            int ns = pl.first[k + 1] - pl.first[k] - 1;
+            for (int s = 0; s < ns; s++) {
+                double ta = (double)s / ns, tb = (double)(s + 1) / ns;
+                double ha[3] = {0}, hb[3] = {0};
+                for (int i = 0; i <= b->degree; i++)
+                    for (int c = 0; c < 3; c++) {
+                        ha[c] += tu_bern(b->degree, i, ta) * b->cpw[3 * i + c];
+                        hb[c] += tu_bern(b->degree, i, tb) * b->cpw[3 * i + c];
+                    }
+                const double *pa = pl.uv + 2 * (pl.first[k] + s);
+                /* The polyline vertices are the curve points. */
+                assert_true(fabs(pa[0] - ha[0] / ha[2]) < 1e-12 &&
+                            fabs(pa[1] - ha[1] / ha[2]) < 1e-12);
+                for (int q = 1; q < 8; q++) {
+                    double l = q / 8.0, t = ta + (tb - ta) * l, h[3] = {0};
+                    for (int i = 0; i <= b->degree; i++)
+                        for (int c = 0; c < 3; c++)
+                            h[c] += tu_bern(b->degree, i, t) * b->cpw[3 * i + c];
+                    double lh[3];
+                    for (int c = 0; c < 3; c++)
+                        lh[c] = (1 - l) * ha[c] + l * hb[c];
+                    double du = fabs(h[0] / h[2] - lh[0] / lh[2]);
+                    double dv = fabs(h[1] / h[2] - lh[1] / lh[2]);
+                    assert_true(du <= tol_u * (1 + 1e-9));
+                    assert_true(dv <= tol_v * (1 + 1e-9));
+                    worst = fmax(worst, fmax(du / tol_u, dv / tol_v));
+                }
+            }
+        }
+        crisp_trim_polyline_free(&pl);
+    }
+    print_message("tessellation: largest sampled deviation / tolerance = %.3f\n", worst);
+    assert_true(worst > 0.02); /* not absurdly fine either */
+}
+
+static void random_patch(crisp_bezier_patch *p, double *cpw, int du, int dv)
+{
+    tu_patch_init(p, du, dv, cpw);
+    for (int j = 0; j <= dv; j++)
+        for (int i = 0; i <= du; i++)
+            tu_set(p, i, j, (double)i / du + rnd_in(-0.2, 0.2), (double)j / dv + rnd_in(-0.2, 0.2),
+                   rnd_in(-0.3, 0.3), rnd_in(0.5, 2.0));
+}
+
+static int cmp_dbl(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static void test_density_bound(void **state)
+{
+    (void)state;
+    enum { STRIPS = 8 };
+    double ratios[64 * STRIPS];
+    int nratio = 0, near_cases = 0;
+    crisp_arena *scratch = NULL;
+    assert_int_equal(crisp_arena_create(0, &scratch), CRISP_OK);
+    for (int trial = 0; trial < 40; trial++) {
+        double cpw[4 * 16];
+        crisp_bezier_patch p;
+        random_patch(&p, cpw, 1 + trial % 3, 1 + (trial / 3) % 3);
+        int W = 200 + trial * 7, H = 150 + trial * 3;
+        double eye[3], target[3] = {rnd_in(0.3, 0.7), rnd_in(0.3, 0.7), 0};
+        double a = rnd_in(0, 2 * M_PI), el = rnd_in(0.1, 1.4);
+        /* Every fourth camera sits close, so the surface crosses the near plane. */
+        double dist = trial % 4 == 0 ? rnd_in(0.2, 0.5) : rnd_in(1.5, 4);
+        eye[0] = target[0] + dist * cos(el) * cos(a);
+        eye[1] = target[1] + dist * cos(el) * sin(a);
+        eye[2] = target[2] + dist * sin(el);
+        if (trial % 4 == 0) {
+            /* look along the surface from just above it */
+            eye[0] = 0.5 + 0.1 * cos(a);
+            eye[1] = 0.5 + 0.1 * sin(a);
+            eye[2] = 0.35;
+            target[0] = 0.5 - cos(a);
+            target[1] = 0.5 - sin(a);
+            target[2] = -0.2;
+        }
+        crisp_mat4 vp;
+        tu_camera(eye, target, 50.0, 0.1, 100.0, W, H, vp);
+        double rho_v[STRIPS], rho_u[STRIPS];
+        crisp_arena_reset(scratch);
+        crisp_trim_density_stats st;
+        assert_int_equal(crisp_trim_scan_density(&(crisp_trim_density_desc){.patches = &p,
+                                                                            .patch_count = 1,
+                                                                            .view_proj = &vp,
+                                                                            .width = W,
+                                                                            .height = H,
+                                                                            .v0 = 0,
+                                                                            .v1 = 1,
+                                                                            .strip_count = STRIPS,
+                                                                            .scratch = scratch},
+                                                 rho_v, rho_u, &st),
+                         CRISP_OK);
+        assert_int_equal(st.unbounded, 0);
+        double seen_v[STRIPS] = {0}, seen_u[STRIPS] = {0};
+        int behind = 0;
+        for (int q = 0; q < 6000; q++) {
+            double s = rnd(), t = rnd(), xy[2], ds[2], dt[2];
+            int vis;
+            double w = tu_screen(&p, vp, W, H, s, t, xy, ds, dt, &vis);
+            if (w < 0.1) behind++;
+            if (!vis) continue;
+            int i = t >= 1 ? STRIPS - 1 : (int)(t * STRIPS);
+            double sv = hypot(dt[0], dt[1]), su = hypot(ds[0], ds[1]);
+            assert_true(sv <= rho_v[i] * (1 + 1e-9));
+            assert_true(su <= rho_u[i] * (1 + 1e-9));
+            seen_v[i] = fmax(seen_v[i], sv);
+            seen_u[i] = fmax(seen_u[i], su);
+        }
+        if (behind) near_cases++;
+        for (int i = 0; i < STRIPS; i++)
+            if (seen_v[i] > 0 && nratio < 64 * STRIPS) ratios[nratio++] = rho_v[i] / seen_v[i];
+    }
+    crisp_arena_destroy(scratch);
+    assert_true(near_cases >= 5);
+    assert_true(nratio > 40);
+    qsort(ratios, (size_t)nratio, sizeof *ratios, cmp_dbl);
+    print_message("density: bound / sampled max over %d visible strips: median %.3f, 90%% %.3f, "
+                  "max %.3f (%d cameras with the surface behind the near plane)\n",
+                  nratio, ratios[nratio / 2], ratios[nratio * 9 / 10], ratios[nratio - 1],
+                  near_cases);
+    assert_true(ratios[nratio / 2] < 3.0); /* not absurdly loose */
+}
+
+static void test_plan_reuses_buffers(void **state)
+{
+    (void)state;
+    double cpw[64];
+    crisp_bezier_patch p;
+    tu_patch_kind(&p, 2, cpw);
+    crisp_bezier_curve pc[8];
+    int n = tu_ellipse(pc, 1.0, 1.0, 0.6, 0.4, 0.2, 1);
+    crisp_mat4 vp;
+    tu_camera((double[3]){1, -1.5, 2}, (double[3]){1, 1, 0}, 45, 0.1, 50, 128, 96, vp);
+    crisp_trim_plan plan = {0};
+    crisp_trim_plan_desc d = {.patches = &p,
+                              .patch_count = 1,
+                              .pieces = pc,
+                              .piece_count = n,
+                              .view_proj = &vp,
+                              .width = 128,
+                              .height = 96,
+                              .v0 = 0,
+                              .v1 = 1,
+                              .strip_count = 8};
+    /* tu_ellipse works in the surface's image coordinates; scale into the [0,1] domain. */
+    for (int k = 0; k < n; k++)
+        for (int i = 0; i <= pc[k].degree; i++) {
+            pc[k].cpw[3 * i] *= 0.5;
+            pc[k].cpw[3 * i + 1] *= 0.5;
+        }
+    assert_int_equal(crisp_trim_plan_face(&d, &plan), CRISP_OK);
+    void *a = plan.rho_v, *b = plan.table.u, *c = plan.polyline.uv, *e = plan.table.row_offset;
+    size_t res = crisp_arena_reserved(plan.scratch);
+    size_t bytes = crisp_trim_table_bytes(&plan.table);
+    assert_true(plan.table.row_count > 0);
+    assert_int_equal(crisp_trim_plan_face(&d, &plan), CRISP_OK);
+    assert_ptr_equal(a, plan.rho_v);
+    assert_ptr_equal(b, plan.table.u);
+    assert_ptr_equal(c, plan.polyline.uv);
+    assert_ptr_equal(e, plan.table.row_offset);
+    assert_int_equal(res, crisp_arena_reserved(plan.scratch));
+    assert_int_equal(bytes, crisp_trim_table_bytes(&plan.table));
+    crisp_trim_plan_free(&plan);
+}
+
+static void test_bad_input(void **state)
+{
+    (void)state;
+    crisp_bezier_curve pc[3];
+    tu_line(&pc[0], 0, 0, 1, 0);
+    tu_line(&pc[1], 1, 0, 0, 1);
+    pc[1].cpw[5] = 0.0; /* zero weight */
+    assert_int_equal(crisp_trim_pieces_check(pc, 2), CRISP_ERR_INVALID_ARG);
+    assert_non_null(strstr(crisp_error_message(), "trim piece 1"));
+    pc[1].cpw[5] = 1.0;
+    pc[1].cpw[0] = NAN;
+    assert_int_equal(crisp_trim_pieces_check(pc, 2), CRISP_ERR_INVALID_ARG);
+    pc[1].cpw[0] = 1.0;
+    pc[1].degree = 16;
+    assert_int_equal(crisp_trim_pieces_check(pc, 2), CRISP_ERR_INVALID_ARG);
+    assert_non_null(strstr(crisp_error_message(), "degree 16"));
+    double rv[1], ru[1];
+    crisp_mat4 vp;
+    crisp_mat4_identity(vp);
+    assert_int_equal(crisp_trim_scan_density(
+                         &(crisp_trim_density_desc){
+                             .view_proj = &vp, .width = 10, .height = 10, .v0 = 0, .v1 = 1},
+                         rv, ru, NULL),
+                     CRISP_ERR_INVALID_ARG);
+    uint32_t mu[2] = {CRISP_TRIM_MAX_ROWS, 5};
+    crisp_trim_table t = {0};
+    assert_int_equal(
+        crisp_trim_table_build(
+            &(crisp_trim_table_desc){.v0 = 0, .v1 = 1, .strip_count = 2, .mu = mu}, &t),
+        CRISP_ERR_LIMIT);
+    crisp_trim_table_free(&t);
+    /* Huge densities are clamped to the row limit, never overflow. */
+    double rho[3] = {HUGE_VAL, 1e30, 0.0};
+    uint32_t m3[3];
+    int clamped = 0;
+    crisp_trim_rows_from_density(rho, 3, 0, 1, m3, &clamped);
+    assert_int_equal(clamped, 1);
+    assert_true((uint64_t)m3[0] + m3[1] <= CRISP_TRIM_MAX_ROWS);
+    assert_int_equal(m3[2], 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_product),       cmocka_unit_test(test_exact_classifier),
+        cmocka_unit_test(test_table_polygon), cmocka_unit_test(test_tessellation_bound),
+        cmocka_unit_test(test_density_bound), cmocka_unit_test(test_plan_reuses_buffers),
+        cmocka_unit_test(test_bad_input),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
