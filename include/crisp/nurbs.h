@@ -123,6 +123,8 @@ void crisp_bezier_patches_free(crisp_bezier_patches *p);
 
 /* Local parameter t in [0, 1] (not the source interval). */
 void crisp_bezier_curve_eval(const crisp_bezier_curve *b, double t, double *dest);
+/* As crisp_curve_derivs, with derivatives in the local t (divide the r-th by (t1 - t0)^r for the
+ * source parameter). */
 void crisp_bezier_curve_derivs(const crisp_bezier_curve *b, double t, int nderiv, double *dest);
 /* de Casteljau split at local t; left/right get the source intervals split accordingly. */
 void crisp_bezier_curve_split(const crisp_bezier_curve *b, double t, crisp_bezier_curve *left,
