@@ -1,0 +1,217 @@
+/* crisp frep: render an f-rep model (.vm file or infix math string) to a PNG (2D image or 3D
+ * heightmap shaded by its normals) and an EXR of depth and normals, or time the renderer. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/frep.h"
+#include "crisp/image.h"
+
+const char crisp_cmd_frep_help[] =
+    "frep render|bench FILE       render an implicit model (.vm or math string) by interval subdivision";
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: crisp frep render FILE [--size N | --size WxH] [--3d [--depth D]]\n"
+            "                         [--region x0,x1,y0,y1[,z0,z1]] [-o out.png] [--depth-out out.exr]\n"
+            "                         [--threads N] [--stats] [--no-prune] [--no-batch] [--brute]\n"
+            "       crisp frep bench FILE [same options] [--runs N]\n"
+            "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
+            "sqrt, min, max, ...; inside where the value is below 0), or '-e EXPR' for a string.\n"
+            "2D: 8-bit grayscale PNG, 255 inside (f < 0), default region [-1,1]^2, size 1024.\n"
+            "3D: a heightmap seen from +Z, shaded by its normals; --depth-out writes Z and N.x N.y N.z\n"
+            "(Z = -inf where nothing is hit). bench prints the median render time and set-up time.\n");
+}
+
+static int ends_with(const char *s, const char *t)
+{
+    size_t a = strlen(s), b = strlen(t);
+    return a >= b && !strcmp(s + a - b, t);
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+int crisp_cmd_frep(int argc, char **argv)
+{
+    if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
+        usage(argc < 2 ? stderr : stdout);
+        return argc < 2 ? 2 : 0;
+    }
+    const char *mode = argv[1], *file = NULL, *expr = NULL, *out = NULL, *depth_out = NULL;
+    int bench = !strcmp(mode, "bench");
+    if (!bench && strcmp(mode, "render")) {
+        fprintf(stderr, "crisp frep: unknown mode '%s' (expected render or bench)\n", mode);
+        return 2;
+    }
+    crisp_frep_render_desc desc = {.width = 1024, .height = 1024};
+    int is3d = 0, depth = 0, stats = 0, runs = 20;
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "--size") && v) {
+            int w, h;
+            char c;
+            if (sscanf(v, "%dx%d%c", &w, &h, &c) == 2) desc.width = w, desc.height = h;
+            else if (sscanf(v, "%d%c", &w, &c) == 1) desc.width = desc.height = w;
+            else {
+                fprintf(stderr, "crisp frep: --size expects N or WxH, found '%s'\n", v);
+                return 2;
+            }
+            i++;
+        } else if (!strcmp(a, "--3d")) {
+            is3d = 1;
+        } else if (!strcmp(a, "--depth") && v) {
+            depth = atoi(v), i++;
+        } else if (!strcmp(a, "--region") && v) {
+            double g[6] = {0};
+            int n = sscanf(v, "%lf,%lf,%lf,%lf,%lf,%lf", &g[0], &g[1], &g[2], &g[3], &g[4], &g[5]);
+            if (n != 4 && n != 6) {
+                fprintf(stderr, "crisp frep: --region expects x0,x1,y0,y1[,z0,z1], found '%s'\n", v);
+                return 2;
+            }
+            if (n == 4) g[4] = -1, g[5] = 1;
+            memcpy(desc.region, g, sizeof g);
+            i++;
+        } else if (!strcmp(a, "-o") && v) {
+            out = v, i++;
+        } else if (!strcmp(a, "--depth-out") && v) {
+            depth_out = v, i++;
+        } else if (!strcmp(a, "--threads") && v) {
+            desc.threads = atoi(v), i++;
+        } else if (!strcmp(a, "--runs") && v) {
+            runs = atoi(v), i++;
+        } else if (!strcmp(a, "--stats")) {
+            stats = 1;
+        } else if (!strcmp(a, "--no-prune")) {
+            desc.flags |= CRISP_FREP_NO_PRUNE;
+        } else if (!strcmp(a, "--no-batch")) {
+            desc.flags |= CRISP_FREP_NO_BATCH;
+        } else if (!strcmp(a, "--brute")) {
+            desc.flags |= CRISP_FREP_BRUTE;
+        } else if (!strcmp(a, "-e") && v) {
+            expr = v, i++;
+        } else if (a[0] != '-' && !file) {
+            file = a;
+        } else {
+            fprintf(stderr, "crisp frep: unknown or incomplete option '%s'\n", a);
+            usage(stderr);
+            return 2;
+        }
+    }
+    if (!file && !expr) {
+        fprintf(stderr, "crisp frep: no FILE given\n");
+        return 2;
+    }
+    if (is3d) desc.depth = depth > 0 ? depth : (desc.width > desc.height ? desc.width : desc.height);
+    if (runs < 1) runs = 1;
+
+    int nsetup = bench ? runs : 1;
+    double *setup = calloc((size_t)nsetup, sizeof *setup), *render = calloc((size_t)runs, sizeof *render);
+    crisp_frep *f = NULL;
+    crisp_frep_tape *tape = NULL;
+    crisp_frep_renderer *r = NULL;
+    int rc = 1;
+    if (!setup || !render) goto done;
+    for (int n = 0; n < nsetup; n++) {
+        crisp_frep_renderer_destroy(r);
+        crisp_frep_tape_destroy(tape);
+        crisp_frep_destroy(f);
+        r = NULL, tape = NULL, f = NULL;
+        double t0 = crisp_time_now();
+        crisp_status s;
+        if (expr) s = crisp_frep_read_math_mem("-e", expr, strlen(expr), &f);
+        else if (ends_with(file, ".vm")) s = crisp_frep_read_vm(file, &f);
+        else s = crisp_frep_read_math(file, &f);
+        if (!s) s = crisp_frep_tape_create(f, &tape);
+        if (!s) s = crisp_frep_renderer_create(tape, &desc, &r);
+        if (s) {
+            fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
+            goto done;
+        }
+        setup[n] = crisp_time_now() - t0;
+    }
+    for (int n = 0; n < (bench ? runs : 1); n++) {
+        double t0 = crisp_time_now();
+        crisp_status s = crisp_frep_renderer_run(r);
+        render[n] = crisp_time_now() - t0;
+        if (s) {
+            fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
+            goto done;
+        }
+    }
+    const crisp_frep_image *img = crisp_frep_renderer_image(r);
+    size_t npix = (size_t)img->width * (size_t)img->height, inside = 0;
+    for (size_t p = 0; p < npix; p++) inside += img->inside[p] != 0;
+    if (bench) {
+        double ms = 1000 * render[0];
+        qsort(render, (size_t)runs, sizeof *render, cmp_double);
+        qsort(setup, (size_t)nsetup, sizeof *setup, cmp_double);
+        ms = 1000 * render[runs / 2];
+        printf("%s %dx%d%s%s threads %d: render median %.3f ms (min %.3f, max %.3f, %d runs), set-up median %.3f ms\n",
+               expr ? "-e" : file, img->width, img->height, is3d ? "x" : "",
+               is3d ? (char[16]){0} : "", desc.threads, ms, 1000 * render[0], 1000 * render[runs - 1], runs,
+               1000 * setup[nsetup / 2]);
+        if (is3d) printf("  depth %d\n", img->depth);
+    }
+    if (stats || !bench) {
+        crisp_frep_render_stats st = crisp_frep_renderer_stats(r);
+        if (stats)
+            printf("nodes %zu, tape %zu instructions, %d registers; intervals %zu, filled %zu, leaves %zu "
+                   "(mean tape %.1f), points %zu, culled %zu; %zu of %zu pixels inside; render %.3f ms, "
+                   "set-up %.3f ms\n",
+                   crisp_frep_node_count(f), crisp_frep_tape_length(tape), crisp_frep_tape_registers(tape),
+                   st.intervals, st.filled, st.leaves, st.leaves ? (double)st.tape_sum / st.leaves : 0.0,
+                   st.points, st.culled, inside, npix, 1000 * render[0], 1000 * setup[0]);
+    }
+    if (out) {
+        crisp_status s;
+        if (!is3d) {
+            s = crisp_write_png_gray(out, img->width, img->height, img->inside);
+        } else {
+            uint8_t *shade = malloc(npix);
+            if (!shade) goto done;
+            /* Lambert shading from a light up and to the upper left of the viewer */
+            const float l[3] = {-0.40824829f, 0.40824829f, 0.81649658f};
+            for (size_t p = 0; p < npix; p++) {
+                const float *nrm = img->normal + 3 * p;
+                float d = nrm[0] * l[0] + nrm[1] * l[1] + nrm[2] * l[2];
+                shade[p] = img->inside[p] ? (uint8_t)(40 + 215 * (d > 0 ? d : 0)) : 0;
+            }
+            s = crisp_write_png_gray(out, img->width, img->height, shade);
+            free(shade);
+        }
+        if (s) {
+            fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
+            goto done;
+        }
+    }
+    if (depth_out) {
+        float *buf = malloc(npix * 4 * sizeof *buf);
+        if (!buf) goto done;
+        for (size_t p = 0; p < npix; p++) {
+            buf[4 * p] = is3d ? img->z[p] : (img->inside[p] ? 0.0f : -INFINITY);
+            for (int c = 0; c < 3; c++) buf[4 * p + 1 + (size_t)c] = is3d ? img->normal[3 * p + (size_t)c] : 0;
+        }
+        const char *names[4] = {"Z", "N.x", "N.y", "N.z"};
+        crisp_status s = crisp_write_exr(depth_out, img->width, img->height, 4, names, buf);
+        free(buf);
+        if (s) {
+            fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
+            goto done;
+        }
+    }
+    rc = 0;
+done:
+    crisp_frep_renderer_destroy(r);
+    crisp_frep_tape_destroy(tape);
+    crisp_frep_destroy(f);
+    free(setup);
+    free(render);
+    return rc;
+}

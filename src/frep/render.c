@@ -1,0 +1,527 @@
+/* The f-rep renderer: 2D images and 3D heightmaps by interval subdivision with per-cell tape
+ * shortening (Keeter 2012's recursive subdivision with branch caching and z-culled heightmaps;
+ * the tile sizes follow Fidget's VM renderer: 2D [128, 32, 8], 3D [64, 32, 16, 8]).
+ *
+ * A serial pre-pass subdivides the region as a quadtree down to the task tile size, filling or
+ * skipping whole tiles and shortening the tape on the way; then the task tiles are handed out
+ * dynamically to the pool's workers, each recursing depth-first with its own scratch (allocated
+ * once at creation). Leaves (8x8 pixels) evaluate their short tape on 64 points at once. */
+#include "frep_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define LEAF 8
+#define MAX_DEPTH 12
+
+typedef struct frep_worker {
+    frep_ins *tapes; /* MAX_DEPTH tapes of the full length */
+    uint8_t *choices;
+    float *lo, *hi, *regs, *gregs;
+    uint8_t *live;
+    crisp_frep_render_stats st;
+} frep_worker;
+
+typedef struct frep_task {
+    int i0, j0;
+    const frep_ins *ins;
+    size_t len;
+} frep_task;
+
+struct crisp_frep_renderer {
+    const crisp_frep_tape *tape;
+    crisp_frep_render_desc desc;
+    crisp_frep_image img;
+    float *xs, *ys, *zs;
+    crisp_pool *pool;
+    int threads, task_size;
+    frep_worker *workers;
+    crisp_arena *arena; /* pre-pass tapes, reset per run */
+    frep_task *tasks;
+    size_t ntasks, task_cap;
+    crisp_frep_render_stats st;
+};
+
+/* ---- set-up ---------------------------------------------------------------------------------- */
+
+static void free_worker(frep_worker *w)
+{
+    crisp_free(w->tapes);
+    crisp_free(w->choices);
+    crisp_free(w->lo);
+    crisp_free(w->regs);
+    crisp_free(w->gregs);
+    crisp_free(w->live);
+}
+
+void crisp_frep_renderer_destroy(crisp_frep_renderer *r)
+{
+    if (!r) return;
+    if (r->workers)
+        for (int i = 0; i < r->threads; i++) free_worker(&r->workers[i]);
+    crisp_free(r->workers);
+    crisp_pool_destroy(r->pool);
+    crisp_arena_destroy(r->arena);
+    crisp_free(r->tasks);
+    crisp_free(r->xs);
+    crisp_free(r->ys);
+    crisp_free(r->zs);
+    crisp_free(r->img.inside);
+    crisp_free(r->img.heights);
+    crisp_free(r->img.z);
+    crisp_free(r->img.normal);
+    free(r);
+}
+
+crisp_status crisp_frep_renderer_create(const crisp_frep_tape *tape,
+                                        const crisp_frep_render_desc *desc,
+                                        crisp_frep_renderer **dest)
+{
+    if (!tape || !desc || !dest)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_renderer_create: NULL argument");
+    if (desc->width < 1 || desc->height < 1 || desc->depth < 0 || desc->width > 65536 ||
+        desc->height > 65536 || desc->depth > 65536)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_frep_renderer_create: size %dx%dx%d is outside 1..65536",
+                           desc->width, desc->height, desc->depth);
+    crisp_frep_renderer *r = calloc(1, sizeof *r);
+    if (!r) return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_frep_renderer_create: out of memory");
+    r->tape = tape;
+    r->desc = *desc;
+    double *g = r->desc.region;
+    if (!g[0] && !g[1] && !g[2] && !g[3] && !g[4] && !g[5]) {
+        g[0] = g[2] = g[4] = -1;
+        g[1] = g[3] = g[5] = 1;
+    }
+    crisp_status s = CRISP_OK;
+    for (int a = 0; a < 3; a++)
+        if (!(g[2 * a] < g[2 * a + 1]) || !isfinite(g[2 * a]) || !isfinite(g[2 * a + 1]))
+            if (a < 2 || desc->depth > 0) {
+                s = crisp_error(CRISP_ERR_INVALID_ARG,
+                                "crisp_frep_renderer_create: region axis %d [%g, %g] is empty",
+                                a, g[2 * a], g[2 * a + 1]);
+                goto fail;
+            }
+    int W = desc->width, H = desc->height, D = desc->depth;
+    size_t npix = (size_t)W * (size_t)H;
+    r->img.width = W;
+    r->img.height = H;
+    r->img.depth = D;
+    r->xs = crisp_malloc_array((size_t)W, sizeof *r->xs);
+    r->ys = crisp_malloc_array((size_t)H, sizeof *r->ys);
+    r->zs = crisp_malloc_array(D > 0 ? (size_t)D : 1, sizeof *r->zs);
+    r->img.inside = crisp_malloc_array(npix, 1);
+    if (D > 0) {
+        r->img.heights = crisp_malloc_array(npix, sizeof *r->img.heights);
+        r->img.z = crisp_malloc_array(npix, sizeof *r->img.z);
+        r->img.normal = crisp_malloc_array(npix, 3 * sizeof *r->img.normal);
+    }
+    if (!r->xs || !r->ys || !r->zs || !r->img.inside ||
+        (D > 0 && (!r->img.heights || !r->img.z || !r->img.normal)))
+        goto oom;
+    for (int i = 0; i < W; i++) r->xs[i] = (float)(g[0] + (i + 0.5) * (g[1] - g[0]) / W);
+    for (int j = 0; j < H; j++) r->ys[j] = (float)(g[3] - (j + 0.5) * (g[3] - g[2]) / H);
+    r->zs[0] = (float)(0.5 * (g[4] + g[5]));
+    for (int k = 0; k < D; k++) r->zs[k] = (float)(g[4] + (k + 0.5) * (g[5] - g[4]) / D);
+
+    if ((s = crisp_pool_create(desc->threads, &r->pool))) goto fail;
+    r->threads = crisp_pool_threads(r->pool);
+    /* task tiles: as large as Fidget's top level, small enough for 16 tasks per thread */
+    int t = D > 0 ? 64 : 128;
+    while (t > 2 * LEAF && (size_t)((W + t - 1) / t) * (size_t)((H + t - 1) / t) < 16u * (unsigned)r->threads)
+        t /= 2;
+    r->task_size = t;
+    if ((s = crisp_arena_create(1 << 20, &r->arena))) goto fail;
+    r->workers = crisp_calloc_array((size_t)r->threads, sizeof *r->workers);
+    if (!r->workers) goto oom;
+    size_t len = tape->length, nr = (size_t)tape->registers;
+    for (int i = 0; i < r->threads; i++) {
+        frep_worker *w = &r->workers[i];
+        w->tapes = crisp_malloc_array(len * MAX_DEPTH, sizeof *w->tapes);
+        w->choices = crisp_calloc_array(len, 1);
+        w->lo = crisp_calloc_array(nr * 2, sizeof *w->lo);
+        w->hi = w->lo ? w->lo + nr : NULL;
+        w->regs = crisp_calloc_array(nr * FREP_LANES, sizeof *w->regs);
+        w->gregs = D > 0 ? crisp_calloc_array(nr * 4 * FREP_LANES, sizeof *w->gregs) : NULL;
+        w->live = crisp_calloc_array(nr, 1);
+        if (!w->tapes || !w->choices || !w->lo || !w->regs || !w->live || (D > 0 && !w->gregs))
+            goto oom;
+    }
+    *dest = r;
+    return CRISP_OK;
+oom:
+    s = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_frep_renderer_create: out of memory for %dx%dx%d",
+                    desc->width, desc->height, desc->depth);
+fail:
+    crisp_frep_renderer_destroy(r);
+    return s;
+}
+
+const crisp_frep_image *crisp_frep_renderer_image(const crisp_frep_renderer *r)
+{
+    return r ? &r->img : NULL;
+}
+
+crisp_frep_render_stats crisp_frep_renderer_stats(const crisp_frep_renderer *r)
+{
+    crisp_frep_render_stats s = {0};
+    return r ? r->st : s;
+}
+
+/* ---- shared cell helpers --------------------------------------------------------------------- */
+
+/* Interval of the tape over pixels [i0,i1) x [j0,j1) x voxels [k0,k1). */
+static size_t cell_interval(const crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
+                            size_t len, int i0, int i1, int j0, int j1, int k0, int k1, float *lo,
+                            float *hi)
+{
+    float x[2] = {r->xs[i0], r->xs[i1 - 1]}, y[2] = {r->ys[j1 - 1], r->ys[j0]};
+    float z[2] = {r->zs[k0], r->zs[k1 - 1]};
+    size_t d = crisp__frep_interval(ins, len, w->lo, w->hi, x, y, z, w->choices);
+    uint16_t res = ins[len - 1].out;
+    *lo = w->lo[res];
+    *hi = w->hi[res];
+    w->st.intervals++;
+    return d;
+}
+
+/* The tape for the children of a cell: shortened into dest, or the cell's own when nothing was
+ * decided (or pruning is off). */
+static const frep_ins *child_tape(const crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
+                                  size_t *len, size_t decided, frep_ins *dest)
+{
+    if (!decided || (r->desc.flags & CRISP_FREP_NO_PRUNE)) return ins;
+    *len = crisp__frep_shorten(ins, *len, w->choices, ins[*len - 1].out, w->live,
+                               r->tape->registers, dest);
+    return dest;
+}
+
+static void fill_inside(crisp_frep_renderer *r, int i0, int i1, int j0, int j1, uint8_t v)
+{
+    for (int j = j0; j < j1; j++) memset(r->img.inside + (size_t)j * r->img.width + i0, v, (size_t)(i1 - i0));
+}
+
+/* ---- 2D -------------------------------------------------------------------------------------- */
+
+static void leaf_2d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
+                    int i1, int j0, int j1)
+{
+    float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
+    float zc = r->zs[0];
+    for (int k = 0; k < FREP_LANES; k++) {
+        int i = i0 + (k % LEAF), j = j0 + (k / LEAF);
+        x[k] = r->xs[i < i1 ? i : i1 - 1];
+        y[k] = r->ys[j < j1 ? j : j1 - 1];
+        z[k] = zc;
+    }
+    const float *v;
+    float one[FREP_LANES];
+    if (r->desc.flags & CRISP_FREP_NO_BATCH) {
+        for (int k = 0; k < FREP_LANES; k++)
+            one[k] = crisp__frep_eval_scalar(ins, len, ins[len - 1].out, w->regs, x[k], y[k], z[k]);
+        v = one;
+    } else {
+        crisp__frep_eval_lanes(ins, len, w->regs, x, y, z);
+        v = w->regs + (size_t)ins[len - 1].out * FREP_LANES;
+    }
+    for (int j = j0; j < j1; j++) {
+        uint8_t *row = r->img.inside + (size_t)j * r->img.width;
+        for (int i = i0; i < i1; i++) row[i] = v[(j - j0) * LEAF + (i - i0)] < 0 ? 255 : 0;
+    }
+    w->st.leaves++;
+    w->st.points += (size_t)(i1 - i0) * (size_t)(j1 - j0);
+    w->st.tape_sum += len;
+}
+
+static void cell_2d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
+                    int j0, int size, int depth)
+{
+    int i1 = i0 + size < r->img.width ? i0 + size : r->img.width;
+    int j1 = j0 + size < r->img.height ? j0 + size : r->img.height;
+    if (i0 >= i1 || j0 >= j1) return;
+    if (r->desc.flags & CRISP_FREP_BRUTE) {
+        if (size > LEAF) {
+            for (int j = j0; j < j1; j += LEAF)
+                for (int i = i0; i < i1; i += LEAF) cell_2d(r, w, ins, len, i, j, LEAF, depth);
+        } else {
+            leaf_2d(r, w, ins, len, i0, i1, j0, j1);
+        }
+        return;
+    }
+    float lo, hi;
+    size_t d = cell_interval(r, w, ins, len, i0, i1, j0, j1, 0, 1, &lo, &hi);
+    if (hi < 0 || lo >= 0) {
+        fill_inside(r, i0, i1, j0, j1, hi < 0 ? 255 : 0);
+        w->st.filled++;
+        return;
+    }
+    frep_ins *next = w->tapes + (size_t)(depth < MAX_DEPTH ? depth : MAX_DEPTH - 1) * r->tape->length;
+    const frep_ins *cins = child_tape(r, w, ins, &len, d, next);
+    if (size <= LEAF) {
+        leaf_2d(r, w, cins, len, i0, i1, j0, j1);
+        return;
+    }
+    int c = size / 4 >= LEAF ? size / 4 : LEAF;
+    for (int j = j0; j < j1; j += c)
+        for (int i = i0; i < i1; i += c) cell_2d(r, w, cins, len, i, j, c, depth + 1);
+}
+
+/* ---- 3D heightmap ---------------------------------------------------------------------------- */
+
+/* Normals for pixels [npts] at the given points, through the gradient of the tape. */
+static void set_normals(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len,
+                        const int *pix, int npts, const float *x, const float *y, const float *z)
+{
+    crisp__frep_grad_lanes(ins, len, w->gregs, x, y, z);
+    const float *g = w->gregs + (size_t)ins[len - 1].out * 4 * FREP_LANES;
+    for (int k = 0; k < npts; k++) {
+        float gx = g[FREP_LANES + k], gy = g[2 * FREP_LANES + k], gz = g[3 * FREP_LANES + k];
+        float n2 = gx * gx + gy * gy + gz * gz;
+        float *nrm = r->img.normal + 3 * (size_t)pix[k];
+        if (n2 > 0 && isfinite(n2)) {
+            float s = 1 / sqrtf(n2);
+            nrm[0] = gx * s, nrm[1] = gy * s, nrm[2] = gz * s;
+        } else {
+            nrm[0] = 0, nrm[1] = 0, nrm[2] = 1;
+        }
+    }
+}
+
+/* Raise pixels below voxel k to k (the cell is all inside at its top layer k). */
+static void fill_top(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
+                     int i1, int j0, int j1, int k)
+{
+    int pix[FREP_LANES], n = 0;
+    float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
+    for (int j = j0; j < j1; j++)
+        for (int i = i0; i < i1; i++) {
+            size_t p = (size_t)j * r->img.width + i;
+            if (r->img.heights[p] >= k) continue;
+            r->img.heights[p] = k;
+            pix[n] = (int)p, x[n] = r->xs[i], y[n] = r->ys[j], z[n] = r->zs[k];
+            if (++n == FREP_LANES) {
+                set_normals(r, w, ins, len, pix, n, x, y, z);
+                n = 0;
+            }
+        }
+    if (n) {
+        for (int k2 = n; k2 < FREP_LANES; k2++) x[k2] = x[0], y[k2] = y[0], z[k2] = z[0];
+        set_normals(r, w, ins, len, pix, n, x, y, z);
+    }
+}
+
+static void leaf_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
+                    int i1, int j0, int j1, int k0, int k1)
+{
+    float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
+    int pix[FREP_LANES], hitk[FREP_LANES], nhit = 0;
+    size_t p[FREP_LANES];
+    int valid[FREP_LANES];
+    for (int k = 0; k < FREP_LANES; k++) {
+        int i = i0 + (k % LEAF), j = j0 + (k / LEAF);
+        valid[k] = i < i1 && j < j1;
+        i = i < i1 ? i : i1 - 1;
+        j = j < j1 ? j : j1 - 1;
+        x[k] = r->xs[i];
+        y[k] = r->ys[j];
+        p[k] = (size_t)j * r->img.width + i;
+    }
+    uint16_t res = ins[len - 1].out;
+    for (int kz = k1 - 1; kz >= k0; kz--) {
+        int open = 0;
+        for (int k = 0; k < FREP_LANES; k++) open |= valid[k] && r->img.heights[p[k]] < kz;
+        if (!open) break;
+        float zz = r->zs[kz];
+        for (int k = 0; k < FREP_LANES; k++) z[k] = zz;
+        const float *v;
+        float one[FREP_LANES];
+        if (r->desc.flags & CRISP_FREP_NO_BATCH) {
+            for (int k = 0; k < FREP_LANES; k++)
+                one[k] = crisp__frep_eval_scalar(ins, len, res, w->regs, x[k], y[k], z[k]);
+            v = one;
+        } else {
+            crisp__frep_eval_lanes(ins, len, w->regs, x, y, z);
+            v = w->regs + (size_t)res * FREP_LANES;
+        }
+        w->st.points += FREP_LANES;
+        for (int k = 0; k < FREP_LANES; k++)
+            if (valid[k] && v[k] < 0 && r->img.heights[p[k]] < kz) {
+                r->img.heights[p[k]] = kz;
+                pix[nhit] = k;
+                hitk[nhit++] = kz;
+            }
+    }
+    w->st.leaves++;
+    w->st.tape_sum += len;
+    if (!nhit) return;
+    float gx[FREP_LANES], gy[FREP_LANES], gz[FREP_LANES];
+    int gp[FREP_LANES];
+    for (int n = 0; n < FREP_LANES; n++) {
+        int m = n < nhit ? n : 0;
+        gx[n] = x[pix[m]], gy[n] = y[pix[m]], gz[n] = r->zs[hitk[m]];
+        gp[n] = (int)p[pix[m]];
+    }
+    set_normals(r, w, ins, len, gp, nhit, gx, gy, gz);
+}
+
+static int min_height(const crisp_frep_renderer *r, int i0, int i1, int j0, int j1)
+{
+    int m = INT32_MAX;
+    for (int j = j0; j < j1; j++) {
+        const int32_t *row = r->img.heights + (size_t)j * r->img.width;
+        for (int i = i0; i < i1; i++) m = row[i] < m ? row[i] : m;
+    }
+    return m;
+}
+
+static void cell_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
+                    int j0, int k0, int size, int depth)
+{
+    int i1 = i0 + size < r->img.width ? i0 + size : r->img.width;
+    int j1 = j0 + size < r->img.height ? j0 + size : r->img.height;
+    int k1 = k0 + size < r->img.depth ? k0 + size : r->img.depth;
+    int kk0 = k0 < 0 ? 0 : k0; /* the bottom cube of a column may reach below the grid */
+    if (i0 >= i1 || j0 >= j1 || kk0 >= k1) return;
+    /* z-culling: every pixel already at or above this cell's top */
+    if (min_height(r, i0, i1, j0, j1) >= k1 - 1) {
+        w->st.culled++;
+        return;
+    }
+    if (r->desc.flags & CRISP_FREP_BRUTE) {
+        if (size > LEAF) {
+            for (int k = k1 - LEAF; k > kk0 - LEAF; k -= LEAF)
+                for (int j = j0; j < j1; j += LEAF)
+                    for (int i = i0; i < i1; i += LEAF) cell_3d(r, w, ins, len, i, j, k, LEAF, depth);
+        } else {
+            leaf_3d(r, w, ins, len, i0, i1, j0, j1, kk0, k1);
+        }
+        return;
+    }
+    float lo, hi;
+    size_t d = cell_interval(r, w, ins, len, i0, i1, j0, j1, kk0, k1, &lo, &hi);
+    if (lo >= 0) {
+        w->st.filled++;
+        return;
+    }
+    frep_ins *next = w->tapes + (size_t)(depth < MAX_DEPTH ? depth : MAX_DEPTH - 1) * r->tape->length;
+    const frep_ins *cins = child_tape(r, w, ins, &len, d, next);
+    if (hi < 0) {
+        fill_top(r, w, cins, len, i0, i1, j0, j1, k1 - 1);
+        w->st.filled++;
+        return;
+    }
+    if (size <= LEAF) {
+        leaf_3d(r, w, cins, len, i0, i1, j0, j1, kk0, k1);
+        return;
+    }
+    int c = size / 2;
+    /* upper half first, so the first hit of a pixel is its highest */
+    for (int kz = 1; kz >= 0; kz--)
+        for (int jy = 0; jy < 2; jy++)
+            for (int ix = 0; ix < 2; ix++)
+                cell_3d(r, w, cins, len, i0 + ix * c, j0 + jy * c, k0 + kz * c, c, depth + 1);
+}
+
+/* ---- run ------------------------------------------------------------------------------------- */
+
+/* Serial pre-pass: quadtree (2D) down to the task size, collecting undecided task tiles. */
+static crisp_status prepass(crisp_frep_renderer *r, const frep_ins *ins, size_t len, int i0, int j0,
+                            int size)
+{
+    int W = r->img.width, H = r->img.height;
+    if (i0 >= W || j0 >= H) return CRISP_OK;
+    if (size > r->task_size && (r->desc.flags & CRISP_FREP_BRUTE)) {
+        for (int q = 0; q < 4; q++) {
+            crisp_status s = prepass(r, ins, len, i0 + (q & 1) * size / 2, j0 + (q >> 1) * size / 2, size / 2);
+            if (s) return s;
+        }
+        return CRISP_OK;
+    }
+    if (size > r->task_size) {
+        int i1 = i0 + size < W ? i0 + size : W, j1 = j0 + size < H ? j0 + size : H;
+        frep_worker *w = &r->workers[0];
+        float lo, hi;
+        int is3 = r->img.depth > 0;
+        size_t d = cell_interval(r, w, ins, len, i0, i1, j0, j1, 0, is3 ? r->img.depth : 1, &lo, &hi);
+        if (lo >= 0) {
+            if (!is3) fill_inside(r, i0, i1, j0, j1, 0);
+            return CRISP_OK;
+        }
+        if (hi < 0 && !is3) {
+            fill_inside(r, i0, i1, j0, j1, 255);
+            return CRISP_OK;
+        }
+        if (d && !(r->desc.flags & CRISP_FREP_NO_PRUNE)) {
+            frep_ins *t = crisp_arena_alloc(r->arena, len, sizeof *t);
+            if (!t) return crisp_error(CRISP_ERR_NO_MEMORY, "frep render: out of memory for tapes");
+            len = crisp__frep_shorten(ins, len, w->choices, ins[len - 1].out, w->live,
+                                      r->tape->registers, t);
+            ins = t;
+        }
+        int c = size / 2;
+        for (int q = 0; q < 4; q++) {
+            crisp_status s = prepass(r, ins, len, i0 + (q & 1) * c, j0 + (q >> 1) * c, c);
+            if (s) return s;
+        }
+        return CRISP_OK;
+    }
+    if (crisp_grow((void **)&r->tasks, &r->task_cap, r->ntasks + 1, sizeof *r->tasks))
+        return crisp_error(CRISP_ERR_NO_MEMORY, "frep render: out of memory for tasks");
+    r->tasks[r->ntasks++] = (frep_task){i0, j0, ins, len};
+    return CRISP_OK;
+}
+
+static void run_tasks(void *ctx, size_t begin, size_t end, int worker)
+{
+    crisp_frep_renderer *r = ctx;
+    frep_worker *w = &r->workers[worker];
+    int t = r->task_size;
+    for (size_t n = begin; n < end; n++) {
+        const frep_task *tk = &r->tasks[n];
+        if (r->img.depth == 0) {
+            cell_2d(r, w, tk->ins, tk->len, tk->i0, tk->j0, t, 0);
+        } else {
+            /* a column of cubes, top down */
+            for (int k0 = r->img.depth - t; k0 > -t; k0 -= t)
+                cell_3d(r, w, tk->ins, tk->len, tk->i0, tk->j0, k0, t, 0);
+        }
+    }
+}
+
+crisp_status crisp_frep_renderer_run(crisp_frep_renderer *r)
+{
+    if (!r) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_renderer_run: NULL renderer");
+    int W = r->img.width, H = r->img.height, D = r->img.depth;
+    size_t npix = (size_t)W * (size_t)H;
+    if (D > 0) {
+        for (size_t p = 0; p < npix; p++) r->img.heights[p] = -1;
+    }
+    for (int i = 0; i < r->threads; i++) memset(&r->workers[i].st, 0, sizeof r->workers[i].st);
+    crisp_arena_reset(r->arena);
+    r->ntasks = 0;
+    int root = r->task_size;
+    while (root < W || root < H) root *= 2;
+    crisp_status s = prepass(r, r->tape->ins, r->tape->length, 0, 0, root);
+    if (s) return s;
+    crisp_pool_parallel_for(r->pool, r->ntasks, 1, run_tasks, r);
+    memset(&r->st, 0, sizeof r->st);
+    for (int i = 0; i < r->threads; i++) {
+        const crisp_frep_render_stats *a = &r->workers[i].st;
+        r->st.intervals += a->intervals;
+        r->st.filled += a->filled;
+        r->st.leaves += a->leaves;
+        r->st.points += a->points;
+        r->st.culled += a->culled;
+        r->st.tape_sum += a->tape_sum;
+    }
+    if (D > 0) {
+        for (size_t p = 0; p < npix; p++) {
+            int h = r->img.heights[p];
+            r->img.inside[p] = h >= 0 ? 255 : 0;
+            r->img.z[p] = h >= 0 ? r->zs[h] : -INFINITY;
+            if (h < 0) r->img.normal[3 * p] = r->img.normal[3 * p + 1] = r->img.normal[3 * p + 2] = 0;
+        }
+    }
+    return CRISP_OK;
+}
