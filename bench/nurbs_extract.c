@@ -9,6 +9,8 @@
 #include <stdlib.h>
 
 #include "bench_util.h"
+#include "crisp/io.h"
+#include "crisp/model.h"
 #include "crisp/nurbs.h"
 
 static crisp_surface *make_surface(int du, int dv, int su, int sv, int rational, unsigned seed)
@@ -120,6 +122,48 @@ static void run(const char *name, int du, int dv, int su, int sv, int nsurf, int
     free(s);
 }
 
+/* Extraction of every face of a bundled model (surfaces and trim curves), median of 15 runs. */
+static void run_file(const char *name)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
+    crisp_model *m = NULL;
+    if (crisp_model_load(path, NULL, &m)) {
+        printf("| %-22s | not loaded: %s |\n", name, crisp_error_message());
+        return;
+    }
+    enum { RUNS = 15 };
+    double ts[RUNS], tc[RUNS];
+    int patches = 0, pieces = 0;
+    for (int r = 0; r < RUNS; r++) {
+        double t0 = crisp_time_now();
+        patches = 0;
+        for (int i = 0; i < m->face_count; i++) {
+            crisp_bezier_patches bp;
+            if (crisp_surface_to_bezier(m->faces[i].surface, &bp)) return;
+            patches += bp.count;
+            crisp_bezier_patches_free(&bp);
+        }
+        double t1 = crisp_time_now();
+        pieces = 0;
+        for (int i = 0; i < m->face_count; i++)
+            for (int l = 0; l < m->faces[i].loop_count; l++)
+                for (int c = 0; c < m->faces[i].loops[l].curve_count; c++) {
+                    crisp_bezier_curve *b;
+                    int n;
+                    if (crisp_curve_to_bezier(m->faces[i].loops[l].curves[c], &b, &n)) return;
+                    pieces += n;
+                    crisp_free(b);
+                }
+        double t2 = crisp_time_now();
+        ts[r] = (t1 - t0) * 1e3;
+        tc[r] = (t2 - t1) * 1e3;
+    }
+    printf("| %-22s | %6d | %9.2f | %6d | %9.2f |\n", name, patches, bench_median(ts, RUNS), pieces,
+           bench_median(tc, RUNS));
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     bench_print_machine(stdout);
@@ -131,5 +175,12 @@ int main(void)
     run("bicubic 30 x (10x15)", 3, 3, 10, 15, 30, 0);
     run("rational (2,2) 30x150", 2, 2, 10, 15, 30, 1);
     run("degree (10,8) 30x150", 10, 8, 10, 15, 30, 1);
+    printf("\n| bundled model          | patches | surfaces ms | trim pieces | trims ms |\n");
+    printf("|---|---|---|---|---|\n");
+    const char *files[] = {"impeller.igs",     "occt_bearing.iges",  "occt_hammer.iges",
+                           "gpucast_part.igs", "gpucast_teapot.igs", "occt_linkrods.step",
+                           "Ventilator.stp"};
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++)
+        run_file(files[i]);
     return 0;
 }
