@@ -1,0 +1,218 @@
+/* STEP reader entry points: parse (ISO 10303-21), then collect the faces of every shell
+ * (MANIFOLD_SOLID_BREP, BREP_WITH_VOIDS, SHELL_BASED_SURFACE_MODEL -> CLOSED_SHELL / OPEN_SHELL ->
+ * ADVANCED_FACE, ORIENTED_FACE) and faces outside any shell, convert each (step_face.c), read units
+ * and colours. A face that cannot be made valid is dropped with a skip note naming it and why.
+ */
+#include "step_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+typedef struct face_ref {
+    int id;      /* ADVANCED_FACE */
+    int flip;    /* through an ORIENTED_FACE with orientation .F. */
+    int owner[2]; /* shell, solid (0 when none) */
+} face_ref;
+
+typedef struct face_list {
+    face_ref *refs;
+    size_t count, cap;
+    unsigned char *seen; /* by entity index */
+} face_list;
+
+static crisp_status add_ref(step_reader *r, face_list *fl, const step_entity *fe, int flip, int shell, int solid)
+{
+    size_t idx = (size_t)(fe - r->f->entities);
+    if (fl->seen[idx]) return CRISP_OK;
+    fl->seen[idx] = 1;
+    if (fl->count == fl->cap && crisp_grow((void **)&fl->refs, &fl->cap, fl->count + 1, sizeof *fl->refs))
+        return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
+    fl->refs[fl->count++] = (face_ref){fe->id, flip, {shell, solid}};
+    return CRISP_OK;
+}
+
+static int is_face(step_reader *r, const step_entity *e)
+{
+    return crisp__step_is(r, e, "ADVANCED_FACE") || crisp__step_is(r, e, "FACE_SURFACE");
+}
+
+/* The faces of a CLOSED_SHELL / OPEN_SHELL (or ORIENTED_CLOSED_SHELL's shell). */
+static crisp_status shell_faces(step_reader *r, face_list *fl, const step_entity *sh, int solid, int depth)
+{
+    const step_part *p = crisp__step_part(r, sh, "CLOSED_SHELL");
+    if (!p) p = crisp__step_part(r, sh, "OPEN_SHELL");
+    if (!p) {
+        const step_part *op = crisp__step_part(r, sh, "ORIENTED_CLOSED_SHELL");
+        const step_entity *inner;
+        if (op && depth < 4 && !crisp__step_get_ref(r, sh, op, 2, &inner))
+            return shell_faces(r, fl, inner, solid, depth + 1);
+        crisp_model_note_skip(r->model, "STEP shell that is not a CLOSED_SHELL or OPEN_SHELL");
+        return CRISP_OK;
+    }
+    const step_value *faces;
+    crisp_status st = crisp__step_get_list(r, sh, p, 1, &faces);
+    if (st) return st;
+    for (uint32_t i = 0; i < faces->len; i++) {
+        const step_entity *fe;
+        if ((st = crisp__step_deref(r, sh, crisp__step_elem(r, faces, i), &fe))) return st;
+        int flip = 0;
+        for (int k = 0; k < 4 && crisp__step_is(r, fe, "ORIENTED_FACE"); k++) {
+            const step_part *op = crisp__step_part(r, fe, "ORIENTED_FACE");
+            int o;
+            if ((st = crisp__step_get_bool(r, fe, op, 3, &o)) || (st = crisp__step_get_ref(r, fe, op, 2, &fe))) return st;
+            flip ^= !o;
+        }
+        if (!is_face(r, fe)) {
+            char type[64], what[96];
+            snprintf(what, sizeof what, "STEP shell member %s: not a face", crisp__step_type(r, fe, type, sizeof type));
+            crisp_model_note_skip(r->model, what);
+            continue;
+        }
+        if ((st = add_ref(r, fl, fe, flip, sh->id, solid))) return st;
+    }
+    return CRISP_OK;
+}
+
+static crisp_status collect_faces(step_reader *r, face_list *fl)
+{
+    const step_file *f = r->f;
+    crisp_status st;
+    fl->seen = crisp_calloc_array(f->entity_count + 1, 1);
+    if (!fl->seen) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+    /* Solids first, so their shells' faces know the solid; then remaining shells; then faces. */
+    for (size_t i = 0; i < f->entity_count; i++) {
+        const step_entity *e = &f->entities[i], *sh;
+        const step_part *p = crisp__step_part(r, e, "MANIFOLD_SOLID_BREP");
+        if (!p) p = crisp__step_part(r, e, "BREP_WITH_VOIDS");
+        if (p) {
+            if ((st = crisp__step_get_ref(r, e, p, 1, &sh)) || (st = shell_faces(r, fl, sh, e->id, 0))) return st;
+            const step_value *voids = crisp__step_part(r, e, "BREP_WITH_VOIDS") ? crisp__step_param(r, p, 2) : NULL;
+            for (uint32_t k = 0; voids && voids->kind == STEP_LIST && k < voids->len; k++)
+                if ((st = crisp__step_deref(r, e, crisp__step_elem(r, voids, k), &sh)) ||
+                    (st = shell_faces(r, fl, sh, e->id, 0)))
+                    return st;
+        }
+        if ((p = crisp__step_part(r, e, "SHELL_BASED_SURFACE_MODEL"))) {
+            const step_value *shells;
+            if ((st = crisp__step_get_list(r, e, p, 1, &shells))) return st;
+            for (uint32_t k = 0; k < shells->len; k++)
+                if ((st = crisp__step_deref(r, e, crisp__step_elem(r, shells, k), &sh)) ||
+                    (st = shell_faces(r, fl, sh, e->id, 0)))
+                    return st;
+        }
+    }
+    for (size_t i = 0; i < f->entity_count; i++) {
+        const step_entity *e = &f->entities[i];
+        if (crisp__step_is(r, e, "CLOSED_SHELL") || crisp__step_is(r, e, "OPEN_SHELL"))
+            if ((st = shell_faces(r, fl, e, 0, 0))) return st;
+    }
+    for (size_t i = 0; i < f->entity_count; i++) {
+        const step_entity *e = &f->entities[i];
+        if (is_face(r, e) && (st = add_ref(r, fl, e, 0, 0, 0))) return st;
+    }
+    return CRISP_OK;
+}
+
+/* Tolerance scale: the box of every 3D CARTESIAN_POINT. */
+static double model_diagonal(step_reader *r)
+{
+    const step_file *f = r->f;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < f->entity_count; i++) {
+        const step_entity *e = &f->entities[i];
+        if (e->part_count != 1 || !crisp__step_is(r, e, "CARTESIAN_POINT")) continue;
+        double p[3];
+        int dim;
+        if (crisp__step_point(r, e, p, &dim) || dim != 3) continue;
+        for (int k = 0; k < 3; k++) lo[k] = fmin(lo[k], p[k]), hi[k] = fmax(hi[k], p[k]);
+    }
+    double d = 0;
+    for (int k = 0; k < 3; k++) d += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0;
+    crisp_error_clear();
+    return d > 0 ? sqrt(d) : 1;
+}
+
+crisp_status crisp_read_step_mem(const char *name, const char *data, size_t size,
+                                 const crisp_read_options *options, crisp_model **dest)
+{
+    if (!dest || (!data && size)) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_step_mem: NULL argument");
+    *dest = NULL;
+    if (!name) name = "(memory)";
+    step_file f;
+    crisp_status st = crisp__step_parse(name, data ? data : "", size, &f);
+    if (st) return st;
+    crisp_model *m = NULL;
+    face_list fl = {0};
+    int *ids = NULL;
+    if ((st = crisp_model_create(&m))) goto done;
+    snprintf(m->format, sizeof m->format, "STEP");
+    step_reader r = {.f = &f, .model = m};
+    crisp__step_units(&r);
+    double frac = options && options->projection_tolerance > 0 ? options->projection_tolerance : 1e-5;
+    r.tol = frac * model_diagonal(&r);
+    r.close_rel = options && options->closure_tolerance > 0 ? options->closure_tolerance : 1e-6;
+    if ((st = collect_faces(&r, &fl))) goto done;
+    if (fl.count == 0) {
+        st = crisp_error(CRISP_ERR_UNSUPPORTED, "%s: no ADVANCED_FACE found (expected a B-rep or surface model)", name);
+        goto done;
+    }
+    ids = crisp_malloc_array(fl.count * 3, sizeof *ids);
+    if (!ids) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", name);
+        goto done;
+    }
+    int n = 0;
+    for (size_t i = 0; i < fl.count; i++) {
+        const step_entity *fe = crisp__step_find(&f, fl.refs[i].id);
+        crisp_face face;
+        r.depth = 0;
+        st = crisp__step_face(&r, fe, &face);
+        if (st == CRISP_ERR_NO_MEMORY) goto done;
+        if (st) {
+            /* Drop the face, saying which and why (without the file name: the note is short). */
+            const char *msg = crisp_error_message();
+            size_t nl = strlen(name);
+            if (strncmp(msg, name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
+            char what[96];
+            snprintf(what, sizeof what, "STEP face #%d dropped: %s", fe->id, msg);
+            crisp_model_note_skip(m, what);
+            st = CRISP_OK;
+            continue;
+        }
+        face.reversed ^= fl.refs[i].flip;
+        if ((st = crisp_model_add_face(m, &face))) {
+            crisp_face_free(&face);
+            goto done;
+        }
+        ids[n] = fe->id;
+        ids[fl.count + 2 * n] = fl.refs[i].owner[0];
+        ids[fl.count + 2 * n + 1] = fl.refs[i].owner[1];
+        n++;
+    }
+    crisp__step_colors(&r, ids, ids + fl.count, n);
+    crisp_error_clear();
+done:
+    crisp_free(ids);
+    crisp_free(fl.refs);
+    crisp_free(fl.seen);
+    crisp__step_file_free(&f);
+    if (st) {
+        crisp_model_destroy(m);
+        return st;
+    }
+    *dest = m;
+    return CRISP_OK;
+}
+
+crisp_status crisp_read_step(const char *path, const crisp_read_options *options, crisp_model **dest)
+{
+    if (!path || !dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_step: NULL argument");
+    char *data;
+    size_t size;
+    crisp_status st = crisp_read_file(path, &data, &size);
+    if (st) return st;
+    st = crisp_read_step_mem(path, data, size, options, dest);
+    crisp_free(data);
+    return st;
+}
