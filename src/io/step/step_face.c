@@ -33,6 +33,7 @@ typedef struct edge_use {
     int npc;         /* pcurve candidates on this face's surface */
     step_curve pc[2];
     int chosen;
+    double pt0[2], pt1[2]; /* pcurve parameter range of each candidate */
     double shift[2]; /* multiple of the period added to the chosen pcurve (file uv) */
     int ns;          /* samples in loop order: curve parameter and file (u, v) */
     double *ts, *uv;
@@ -130,6 +131,98 @@ static crisp_status find_pcurves(step_reader *r, const step_entity *ge, int sid,
     return CRISP_OK;
 }
 
+/* Evaluate pcurve k of an edge at its own parameter t (file uv, before the shift). */
+static void pc_eval(const edge_use *eu, int k, double t, double uv[2])
+{
+    crisp__step_curve_eval(&eu->pc[k], t, uv);
+}
+
+/* Pcurve k at loop fraction s. */
+static void pc_at(const edge_use *eu, int k, double s, double uv[2])
+{
+    double t = eu->increasing ? eu->pt0[k] + s * (eu->pt1[k] - eu->pt0[k]) : eu->pt1[k] - s * (eu->pt1[k] - eu->pt0[k]);
+    pc_eval(eu, k, t, uv);
+}
+
+static int edge_samples(const edge_use *eu)
+{
+    int n = 24;
+    if (eu->c3.kind == STEP_CURVE_BSPLINE) n = 4 * (eu->c3.nurbs->count - eu->c3.nurbs->degree + 1);
+    if (n < 24) n = 24;
+    if (n > 512) n = 512;
+    return n + 1;
+}
+
+static double pc_dist2(const face_work *w, const edge_use *eu, int k, double t, const double v[3])
+{
+    double uv[2], p[3];
+    pc_eval(eu, k, t, uv);
+    crisp__step_surface_eval(&w->s, uv[0], uv[1], p);
+    return (p[0] - v[0]) * (p[0] - v[0]) + (p[1] - v[1]) * (p[1] - v[1]) + (p[2] - v[2]) * (p[2] - v[2]);
+}
+
+/* The pcurve parameter whose surface point is nearest v, searched around guess. Writers do not
+ * always keep the pcurve's parameter equal to the 3D curve's (OCCT's rational pcurves of circles
+ * agree only at the knots), so the vertices are located on the pcurve itself. */
+static double pc_locate(const face_work *w, const edge_use *eu, int k, double guess, double delta, const double v[3])
+{
+    const step_curve *pc = &eu->pc[k];
+    double a = guess - delta, b = guess + delta;
+    int n = 32;
+    if (isfinite(pc->t0) && isfinite(pc->t1)) {
+        /* A bounded pcurve is searched whole: its parameter may be far from the 3D curve's. */
+        a = pc->t0, b = pc->t1;
+        n = 64;
+        if (pc->kind == STEP_CURVE_BSPLINE && 4 * pc->nurbs->count > n) n = 4 * pc->nurbs->count;
+        if (n > 4096) n = 4096;
+    }
+    if (!(b > a)) return guess < a ? a : guess > b ? b : guess;
+    double best = a, bd = INFINITY;
+    for (int i = 0; i <= n; i++) {
+        double t = a + (b - a) * i / n, d = pc_dist2(w, eu, k, t, v);
+        /* Ties (the ends of a closed pcurve) go to the parameter nearest the guess. */
+        if (d < bd * (1 - 1e-9) || (d <= bd * (1 + 1e-9) + 1e-30 && fabs(t - guess) < fabs(best - guess)))
+            bd = d, best = t;
+    }
+    double lo = best - (b - a) / n, hi = best + (b - a) / n;
+    if (lo < a) lo = a;
+    if (hi > b) hi = b;
+    const double g = 0.6180339887498949;
+    double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+    double f1 = pc_dist2(w, eu, k, x1, v), f2 = pc_dist2(w, eu, k, x2, v);
+    for (int it = 0; it < 90 && hi - lo > 1e-15 * (1 + fabs(lo)); it++) {
+        if (f1 < f2) hi = x2, x2 = x1, f2 = f1, x1 = hi - g * (hi - lo), f1 = pc_dist2(w, eu, k, x1, v);
+        else lo = x1, x1 = x2, f1 = f2, x2 = lo + g * (hi - lo), f2 = pc_dist2(w, eu, k, x2, v);
+    }
+    double t = 0.5 * (lo + hi);
+    if (pc_dist2(w, eu, k, a, v) <= pc_dist2(w, eu, k, t, v)) t = a;
+    if (pc_dist2(w, eu, k, b, v) < pc_dist2(w, eu, k, t, v)) t = b;
+    return t;
+}
+
+/* Locate the edge's ends on pcurve k and check that its image follows the 3D curve. */
+static int pcurve_agrees(face_work *w, edge_use *eu, int k, const double first[3], const double second[3])
+{
+    if (w->s.kind == STEP_SURF_BSPLINE && !w->s.nurbs) return 0;
+    double delta = 0.25 * (eu->hi - eu->lo);
+    eu->pt0[k] = pc_locate(w, eu, k, eu->lo, delta, first);
+    eu->pt1[k] = pc_locate(w, eu, k, eu->hi, delta, second);
+    if (!(eu->pt1[k] > eu->pt0[k])) return 0;
+    if (pc_dist2(w, eu, k, eu->pt0[k], first) > w->r->tol * w->r->tol ||
+        pc_dist2(w, eu, k, eu->pt1[k], second) > w->r->tol * w->r->tol)
+        return 0;
+    const step_curve *c = &eu->c3;
+    double lo = c->kind == STEP_CURVE_BSPLINE ? c->t0 : eu->lo, hi = c->kind == STEP_CURVE_BSPLINE ? c->t1 : eu->hi;
+    for (int i = 0; i <= 8; i++) {
+        double t = eu->pt0[k] + (eu->pt1[k] - eu->pt0[k]) * i / 8, uv[2], a[3], b[3];
+        pc_eval(eu, k, t, uv);
+        crisp__step_surface_eval(&w->s, uv[0], uv[1], a);
+        crisp__step_curve_eval(c, crisp__step_curve_invert(c, a, lo, hi), b);
+        if (dist3(a, b) > w->r->tol) return 0;
+    }
+    return 1;
+}
+
 /* One ORIENTED_EDGE of a loop: its 3D curve, parameter range, direction and pcurves. */
 static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu)
 {
@@ -193,41 +286,33 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
     eu->lo = lo;
     eu->hi = hi;
     eu->increasing = same == orient;
+    /* On a periodic curve the pcurve may use another turn of the parameter: move the range into
+     * the pcurve's domain. */
+    if (eu->npc && c->periodic && c->kind == STEP_CURVE_CONIC && isfinite(eu->pc[0].t0) && isfinite(eu->pc[0].t1)) {
+        double k = floor((eu->pc[0].t0 - eu->lo) / c->period + 0.5);
+        if (eu->lo + k * c->period < eu->pc[0].t0 - 1e-9 * c->period) k += 1;
+        eu->lo += k * c->period;
+        eu->hi += k * c->period;
+    }
+    /* A pcurve is used only when it follows the 3D curve's parametrisation on this surface;
+     * otherwise the edge is projected. */
+    for (int k = 0; k < eu->npc; k++) {
+        if (pcurve_agrees(w, eu, k, first, second)) continue;
+        crisp__step_curve_free(&eu->pc[k]);
+        eu->pc[k] = eu->pc[eu->npc - 1];
+        eu->pt0[k] = eu->pt0[eu->npc - 1];
+        eu->pt1[k] = eu->pt1[eu->npc - 1];
+        memset(&eu->pc[eu->npc - 1], 0, sizeof eu->pc[0]);
+        eu->npc--;
+        k--;
+        r->stats->rejected_pcurves++;
+    }
     return CRISP_OK;
 }
 
 static double loop_t(const edge_use *eu, double s)
 {
     return eu->increasing ? eu->lo + s * (eu->hi - eu->lo) : eu->hi - s * (eu->hi - eu->lo);
-}
-
-/* Evaluate pcurve k of an edge at curve parameter t (file uv, before the shift). */
-static void pc_eval(const edge_use *eu, int k, double t, double uv[2])
-{
-    crisp__step_curve_eval(&eu->pc[k], wrap_t(&eu->c3, t), uv);
-}
-
-static int edge_samples(const edge_use *eu)
-{
-    int n = 24;
-    if (eu->c3.kind == STEP_CURVE_BSPLINE) n = 4 * (eu->c3.nurbs->count - eu->c3.nurbs->degree + 1);
-    if (n < 24) n = 24;
-    if (n > 512) n = 512;
-    return n + 1;
-}
-
-/* Check that a pcurve matches the 3D curve (same parametrisation, on this surface). */
-static int pcurve_agrees(face_work *w, const edge_use *eu, int k)
-{
-    if (w->s.kind == STEP_SURF_BSPLINE && !w->s.nurbs) return 0;
-    for (int i = 0; i <= 4; i++) {
-        double t = eu->lo + (eu->hi - eu->lo) * i / 4, uv[2], a[3], b[3];
-        pc_eval(eu, k, t, uv);
-        crisp__step_surface_eval(&w->s, uv[0], uv[1], a);
-        crisp__step_curve_eval(&eu->c3, wrap_t(&eu->c3, t), b);
-        if (dist3(a, b) > 100 * w->r->tol) return 0;
-    }
-    return 1;
 }
 
 static crisp_status alloc_samples(face_work *w, edge_use *eu)
@@ -266,17 +351,17 @@ static crisp_status loop_samples(face_work *w, loop_work *lw)
         if (eu->npc) {
             eu->chosen = 0;
             if (eu->npc == 2 && have_prev) {
-                double a[2], b[2], t = eu->ts[0];
-                pc_eval(eu, 0, t, a);
-                pc_eval(eu, 1, t, b);
+                double a[2], b[2];
+                pc_at(eu, 0, 0, a);
+                pc_at(eu, 1, 0, b);
                 double da = hypot(a[0] - prev[0], a[1] - prev[1]), db = hypot(b[0] - prev[0], b[1] - prev[1]);
                 eu->chosen = db < da;
             }
             double uv0[2];
-            pc_eval(eu, eu->chosen, eu->ts[0], uv0);
+            pc_at(eu, eu->chosen, 0, uv0);
             if (have_prev) period_shift(w, uv0, prev, eu->shift);
             for (int i = 0; i < eu->ns; i++) {
-                pc_eval(eu, eu->chosen, eu->ts[i], eu->uv + 2 * i);
+                pc_at(eu, eu->chosen, (double)i / (eu->ns - 1), eu->uv + 2 * i);
                 eu->uv[2 * i] += eu->shift[0];
                 eu->uv[2 * i + 1] += eu->shift[1];
             }
@@ -385,7 +470,7 @@ static void file_uv(face_work *w, edge_use *eu, double s, double uv[2])
     }
     double t = loop_t(eu, s);
     if (eu->npc) {
-        pc_eval(eu, eu->chosen, t, uv);
+        pc_at(eu, eu->chosen, s, uv);
         uv[0] += eu->shift[0], uv[1] += eu->shift[1];
         return;
     }
@@ -425,19 +510,63 @@ static void affine2(crisp_curve *c, const double shift[2], int swap)
     }
 }
 
-static crisp_status edge_trims(face_work *w, edge_use *eu, crisp_curve ***out, int *n, size_t *cap)
+/* Largest distance between the images S(uv(s)) of curves first..n-1 and the edge's 3D curve. */
+static void verify_edge(face_work *w, const crisp_surface *s, const edge_use *eu, crisp_curve **curves, int first,
+                        int n)
+{
+    const step_curve *c = &eu->c3;
+    double lo = eu->lo, hi = eu->hi;
+    if (c->kind == STEP_CURVE_BSPLINE) lo = c->t0, hi = c->t1;
+    for (int k = first; k < n; k++) {
+        double a, b;
+        crisp_curve_domain(curves[k], &a, &b);
+        for (int i = 0; i <= 16; i++) {
+            double uv[2], p[3], q[3];
+            crisp_curve_eval(curves[k], a + (b - a) * i / 16, uv);
+            crisp_surface_eval(s, uv[0], uv[1], p);
+            crisp__step_curve_eval(c, crisp__step_curve_invert(c, p, lo, hi), q);
+            /* The edge itself may lie off the surface by the file's own gap: compare the trim's
+             * image with the edge point's projection onto the surface, and record the gap. */
+            double quv[2], sq[3];
+            if (w->s.kind == STEP_SURF_BSPLINE) {
+                double dd;
+                if (crisp_surface_closest_point(s, q, quv, &dd) != CRISP_OK) continue;
+                crisp_surface_eval(s, quv[0], quv[1], sq);
+            } else {
+                crisp__step_surface_invert(&w->s, q, NULL, quv);
+                crisp__step_surface_eval(&w->s, quv[0], quv[1], sq);
+            }
+            double gap = dist3(q, sq);
+            if (gap > w->r->stats->max_edge_gap) w->r->stats->max_edge_gap = gap;
+            double d = dist3(p, sq);
+            if (d > w->r->stats->max_edge_dev) w->r->stats->max_edge_dev = d;
+        }
+    }
+}
+
+static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***out, int *n, size_t *cap);
+
+static crisp_status edge_trims(face_work *w, const crisp_surface *s, edge_use *eu, crisp_curve ***out, int *n,
+                               size_t *cap)
+{
+    int first = *n;
+    crisp_status st = edge_trims_any(w, eu, out, n, cap);
+    if (!st && w->r->stats->verify) verify_edge(w, s, eu, *out, first, *n);
+    return st;
+}
+
+static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***out, int *n, size_t *cap)
 {
     step_reader *r = w->r;
-    crisp_status st;
+    crisp_status st = CRISP_OK;
     crisp_curve *c = NULL;
     const step_surface *s = &w->s;
     if (eu->npc) {
-        r->pcurve_edges++;
+        r->stats->pcurve_edges++;
         const step_curve *pc = &eu->pc[eu->chosen];
         int lin = crisp__step_surface_map_linear(s, 0) && crisp__step_surface_map_linear(s, 1);
-        int wraps = eu->hi > eu->c3.t1 && eu->c3.kind == STEP_CURVE_BSPLINE;
-        if (lin && !wraps) {
-            if ((st = crisp__step_curve_nurbs(pc, eu->lo, eu->hi, &c))) return st;
+        if (lin) {
+            if ((st = crisp__step_curve_nurbs(pc, eu->pt0[eu->chosen], eu->pt1[eu->chosen], &c))) return st;
             affine2(c, eu->shift, crisp__step_surface_swaps(s));
             if (!eu->increasing) crisp_curve_reverse(c);
             return push_curve(w, c, out, n, cap);
@@ -450,7 +579,45 @@ static crisp_status edge_trims(face_work *w, edge_use *eu, crisp_curve ***out, i
             return push_curve(w, c, out, n, cap);
         }
     } else {
-        r->projected_edges++;
+        r->stats->projected_edges++;
+    }
+    if (s->kind == STEP_SURF_PLANE && !eu->npc) {
+        /* Orthogonal projection onto a plane is affine: map the 3D control points exactly. */
+        double cut[3] = {eu->lo, eu->hi, eu->hi};
+        int pieces = 1;
+        if (eu->c3.kind == STEP_CURVE_BSPLINE && eu->hi > eu->c3.t1) {
+            cut[1] = eu->c3.t1;
+            pieces = 2;
+        }
+        crisp_curve *tmp[2] = {NULL, NULL};
+        for (int k = 0; k < pieces && !st; k++) {
+            double a = k ? eu->c3.t0 : cut[0], b = k ? eu->hi - eu->c3.period : cut[1];
+            crisp_curve *c3 = NULL;
+            if ((st = crisp__step_curve_nurbs(&eu->c3, a, b, &c3))) break;
+            double *pts = crisp_malloc_array((size_t)c3->count * 2, sizeof *pts);
+            double *wts = crisp_malloc_array((size_t)c3->count, sizeof *wts);
+            if (!pts || !wts) st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
+            for (int i = 0; !st && i < c3->count; i++) {
+                const double *q = c3->cpw + 4 * i;
+                double x[3] = {q[0] / q[3] - s->pl.origin[0], q[1] / q[3] - s->pl.origin[1], q[2] / q[3] - s->pl.origin[2]};
+                pts[2 * i] = x[0] * s->pl.x[0] + x[1] * s->pl.x[1] + x[2] * s->pl.x[2];
+                pts[2 * i + 1] = x[0] * s->pl.y[0] + x[1] * s->pl.y[1] + x[2] * s->pl.y[2];
+                wts[i] = q[3];
+            }
+            if (!st) st = crisp_curve_create(2, c3->degree, c3->count, c3->knots, pts, c3->rational ? wts : NULL, &tmp[k]);
+            crisp_free(pts);
+            crisp_free(wts);
+            crisp_curve_destroy(c3);
+            if (!st && !eu->increasing) crisp_curve_reverse(tmp[k]);
+        }
+        for (int k = 0; k < pieces && !st; k++) {
+            int idx = eu->increasing ? k : pieces - 1 - k;
+            st = push_curve(w, tmp[idx], out, n, cap);
+            tmp[idx] = NULL;
+        }
+        crisp_curve_destroy(tmp[0]);
+        crisp_curve_destroy(tmp[1]);
+        return st;
     }
     if (s->kind == STEP_SURF_BSPLINE && !eu->npc) {
         /* Point inversion on the B-spline surface, piece by piece of the 3D curve. */
@@ -548,6 +715,64 @@ static void snap_junctions(crisp_trim_loop *lp, double snap)
         double m[2] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])};
         set_end(a, 1, m);
         set_end(b, 0, m);
+    }
+}
+
+/* Where consecutive trims leave a gap in (u, v) that the surface collapses to one point (a pole of
+ * a sphere, a cone's apex, a degenerate side of a B-spline patch), the loop runs along the
+ * degenerate boundary: a straight uv segment is inserted. STEP writers leave such degenerate
+ * edges out. Returns the number of segments inserted, or -1 when out of memory. */
+static int bridge_degenerate(const crisp_surface *s, crisp_trim_loop *lp, double tol, double snap)
+{
+    int added = 0;
+    for (int i = 0; i < lp->curve_count; i++) {
+        crisp_curve *a = lp->curves[i], *b = lp->curves[(i + 1) % lp->curve_count];
+        double pa[2], pb[2];
+        curve_end(a, 1, pa);
+        curve_end(b, 0, pb);
+        if (hypot(pa[0] - pb[0], pa[1] - pb[1]) <= snap) continue;
+        double p0[3], q[3];
+        crisp_surface_eval(s, pa[0], pa[1], p0);
+        int collapsed = 1;
+        for (int k = 1; k <= 16 && collapsed; k++) {
+            double x = k / 16.0;
+            crisp_surface_eval(s, pa[0] + x * (pb[0] - pa[0]), pa[1] + x * (pb[1] - pa[1]), q);
+            collapsed = dist3(p0, q) <= tol;
+        }
+        if (!collapsed) continue;
+        crisp_curve *line;
+        if (crisp_make_line(2, pa, pb, 0, 1, &line) != CRISP_OK) return -1;
+        crisp_curve **nc = crisp_realloc_array(lp->curves, (size_t)lp->curve_count + 1, sizeof *nc);
+        if (!nc) {
+            crisp_curve_destroy(line);
+            return -1;
+        }
+        lp->curves = nc;
+        memmove(nc + i + 2, nc + i + 1, (size_t)(lp->curve_count - i - 1) * sizeof *nc);
+        nc[i + 1] = line;
+        lp->curve_count++;
+        added++;
+        i++;
+    }
+    return added;
+}
+
+/* Pull control points that leave the domain back onto its boundary. A fitted or projected trim
+ * that runs along the boundary can overshoot it by a little (its curve does not, its control
+ * polygon may); clamping keeps the curve inside its convex hull and moves it by at most that
+ * overshoot. */
+static void clamp_loop(crisp_trim_loop *lp, const double d[4])
+{
+    for (int i = 0; i < lp->curve_count; i++) {
+        crisp_curve *c = lp->curves[i];
+        for (int k = 0; k < c->count; k++) {
+            double *q = c->cpw + 3 * k;
+            for (int j = 0; j < 2; j++) {
+                double x = q[j] / q[2];
+                if (x < d[2 * j]) q[j] = d[2 * j] * q[2];
+                if (x > d[2 * j + 1]) q[j] = d[2 * j + 1] * q[2];
+            }
+        }
     }
 }
 
@@ -664,8 +889,16 @@ crisp_status crisp__step_face(step_reader *r, const step_entity *fe, crisp_face 
         size_t cap = 0;
         lp->is_outer = i == outer;
         for (int k = 0; k < w.loops[i].count; k++)
-            if ((st = edge_trims(&w, &w.loops[i].edges[k], &lp->curves, &lp->curve_count, &cap))) goto done;
+            if ((st = edge_trims(&w, dest->surface, &w.loops[i].edges[k], &lp->curves, &lp->curve_count, &cap)))
+                goto done;
         snap_junctions(lp, 100 * w.tol_uv);
+        int added = bridge_degenerate(dest->surface, lp, r->tol, 100 * w.tol_uv);
+        if (added < 0) {
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
+            goto done;
+        }
+        r->stats->degenerate_edges += added;
+        clamp_loop(lp, w.nbox);
     }
     if (w.s.kind == STEP_SURF_BSPLINE) {
         /* The outer loop: the flagged one, else the one with the largest box of its curves. */

@@ -71,6 +71,25 @@ const step_entity *crisp__step_find(const step_file *f, int id);
 
 /* ---- conversion context ----------------------------------------------------------------------- */
 
+/* What the reader did, for tests and benchmarks. */
+typedef struct step_read_stats {
+    int verify;          /* in: measure how far trims lie from their 3D edges (slower) */
+    int pcurve_edges;    /* edge uses trimmed from a PCURVE */
+    int projected_edges; /* edge uses trimmed by projecting the 3D edge */
+    int rejected_pcurves; /* pcurves that did not follow their 3D curve (edge projected instead) */
+    int dropped_faces;
+    int degenerate_edges; /* uv segments inserted along collapsed surface boundaries */
+    double max_edge_dev;  /* largest 3D distance of a trim's image from its edge's projection onto
+                             the surface (verify) */
+    double max_edge_gap;  /* largest distance of an edge from its face's surface in the file */
+    double tol;           /* 3D tolerance used */
+    double parse_seconds, total_seconds;
+} step_read_stats;
+
+crisp_status crisp__step_read_mem(const char *name, const char *data, size_t size,
+                                  const crisp_read_options *options, crisp_model **dest,
+                                  step_read_stats *stats);
+
 typedef struct step_reader {
     const step_file *f;
     crisp_model *model;
@@ -78,7 +97,7 @@ typedef struct step_reader {
     double close_rel; /* closure tolerance, fraction of a face's domain size */
     double angle_unit; /* radians per file angle unit */
     int depth;        /* reference nesting of the conversion in progress (cycle guard) */
-    int projected_edges, pcurve_edges;
+    step_read_stats *stats; /* never NULL during conversion */
 } step_reader;
 
 #define STEP_MAX_DEPTH 48

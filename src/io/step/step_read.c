@@ -136,21 +136,36 @@ static double model_diagonal(step_reader *r)
 crisp_status crisp_read_step_mem(const char *name, const char *data, size_t size,
                                  const crisp_read_options *options, crisp_model **dest)
 {
+    return crisp__step_read_mem(name, data, size, options, dest, NULL);
+}
+
+crisp_status crisp__step_read_mem(const char *name, const char *data, size_t size,
+                                  const crisp_read_options *options, crisp_model **dest,
+                                  step_read_stats *stats)
+{
+    step_read_stats local = {0};
+    if (!stats) stats = &local;
+    int verify = stats->verify;
+    memset(stats, 0, sizeof *stats);
+    stats->verify = verify;
+    double t_start = crisp_time_now();
     if (!dest || (!data && size)) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_step_mem: NULL argument");
     *dest = NULL;
     if (!name) name = "(memory)";
     step_file f;
     crisp_status st = crisp__step_parse(name, data ? data : "", size, &f);
     if (st) return st;
+    stats->parse_seconds = crisp_time_now() - t_start;
     crisp_model *m = NULL;
     face_list fl = {0};
     int *ids = NULL;
     if ((st = crisp_model_create(&m))) goto done;
     snprintf(m->format, sizeof m->format, "STEP");
-    step_reader r = {.f = &f, .model = m};
+    step_reader r = {.f = &f, .model = m, .stats = stats};
     crisp__step_units(&r);
     double frac = options && options->projection_tolerance > 0 ? options->projection_tolerance : 1e-5;
     r.tol = frac * model_diagonal(&r);
+    stats->tol = r.tol;
     r.close_rel = options && options->closure_tolerance > 0 ? options->closure_tolerance : 1e-6;
     if ((st = collect_faces(&r, &fl))) goto done;
     if (fl.count == 0) {
@@ -177,6 +192,7 @@ crisp_status crisp_read_step_mem(const char *name, const char *data, size_t size
             char what[96];
             snprintf(what, sizeof what, "STEP face #%d dropped: %s", fe->id, msg);
             crisp_model_note_skip(m, what);
+            stats->dropped_faces++;
             st = CRISP_OK;
             continue;
         }
@@ -190,6 +206,18 @@ crisp_status crisp_read_step_mem(const char *name, const char *data, size_t size
         ids[fl.count + 2 * n + 1] = fl.refs[i].owner[1];
         n++;
     }
+    if (n == 0) {
+        /* Nothing could be read: report the first face's problem as the error. */
+        const step_entity *fe = crisp__step_find(&f, fl.refs[0].id);
+        crisp_face face;
+        r.depth = 0;
+        st = crisp__step_face(&r, fe, &face);
+        if (!st) {
+            crisp_face_free(&face);
+            st = crisp_error(CRISP_ERR_INTERNAL, "%s: no face could be read", name);
+        }
+        goto done;
+    }
     crisp__step_colors(&r, ids, ids + fl.count, n);
     crisp_error_clear();
 done:
@@ -202,6 +230,7 @@ done:
         return st;
     }
     *dest = m;
+    stats->total_seconds = crisp_time_now() - t_start;
     return CRISP_OK;
 }
 
