@@ -1,0 +1,84 @@
+/* The `crisp render` command: renders a bundled model with the exact backend to a PNG of the
+ * requested size, writes the EXR AOVs, and fails with a message naming the problem on bad input. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+
+static int run(const char *args, char *out, size_t cap)
+{
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd, "%s/crisp %s 2>&1", CRISP_BIN_DIR, args);
+    FILE *p = popen(cmd, "r");
+    assert_non_null(p);
+    size_t n = fread(out, 1, cap - 1, p);
+    out[n] = '\0';
+    int st = pclose(p);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+static void png_size(const char *path, int *w, int *h)
+{
+    unsigned char b[24];
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    assert_int_equal(fread(b, 1, 24, f), 24);
+    fclose(f);
+    assert_memory_equal(b + 1, "PNG", 3);
+    *w = b[16] << 24 | b[17] << 16 | b[18] << 8 | b[19];
+    *h = b[20] << 24 | b[21] << 16 | b[22] << 8 | b[23];
+}
+
+static void test_render_teapot(void **state)
+{
+    (void)state;
+    char out[8192], args[1024];
+    remove("cli_teapot.png");
+    remove("cli_teapot.exr");
+    snprintf(args, sizeof args,
+             "render %s/nurbs/gpucast_teapot.igs --backend exact --size 64x40 -o cli_teapot.png "
+             "--aov cli_teapot.exr --stats",
+             CRISP_DATA_DIR);
+    assert_int_equal(run(args, out, sizeof out), 0);
+    assert_non_null(strstr(out, "patches          32"));
+    int w, h;
+    png_size("cli_teapot.png", &w, &h);
+    assert_int_equal(w, 64);
+    assert_int_equal(h, 40);
+    FILE *f = fopen("cli_teapot.exr", "rb");
+    assert_non_null(f);
+    unsigned char magic[4];
+    assert_int_equal(fread(magic, 1, 4, f), 4);
+    fclose(f);
+    assert_int_equal(magic[0], 0x76); /* OpenEXR magic 20000630 */
+    assert_int_equal(magic[1], 0x2f);
+}
+
+static void test_render_errors(void **state)
+{
+    (void)state;
+    char out[8192];
+    assert_int_not_equal(run("render /nonexistent/model.igs --backend exact", out, sizeof out), 0);
+    assert_non_null(strstr(out, "/nonexistent/model.igs"));
+    assert_int_not_equal(run("render x.igs --size 10by10", out, sizeof out), 0);
+    assert_non_null(strstr(out, "--size"));
+    assert_int_not_equal(run("render x.igs --eye 1,2", out, sizeof out), 0);
+    assert_non_null(strstr(out, "--eye"));
+    assert_int_not_equal(run("render x.igs --backend gpu", out, sizeof out), 0);
+    assert_non_null(strstr(out, "cpu or exact"));
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_render_teapot),
+        cmocka_unit_test(test_render_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
