@@ -143,6 +143,140 @@ static double time_per_item(workload *w, crisp_pool *pool, int reps)
     return bench_median(t, reps);
 }
 
+/* Homogeneous point of a patch at (s, t) by de Casteljau. */
+static void eval_point(const crisp_bezier_patch *p, double s, double t, double *dest)
+{
+    double col[16][4];
+    for (int i = 0; i <= p->du; i++) {
+        double b[16][4];
+        for (int j = 0; j <= p->dv; j++)
+            for (int c = 0; c < 4; c++)
+                b[j][c] = p->cpw[(j * (p->du + 1) + i) * 4 + c];
+        for (int r = 1; r <= p->dv; r++)
+            for (int j = 0; j <= p->dv - r; j++)
+                for (int c = 0; c < 4; c++)
+                    b[j][c] = (1 - t) * b[j][c] + t * b[j + 1][c];
+        memcpy(col[i], b[0], sizeof col[i]);
+    }
+    for (int r = 1; r <= p->du; r++)
+        for (int i = 0; i <= p->du - r; i++)
+            for (int c = 0; c < 4; c++)
+                col[i][c] = (1 - s) * col[i][c] + s * col[i + 1][c];
+    memcpy(dest, col[0], 4 * sizeof *dest);
+}
+
+/* Clip-space X, Y, W of the patch point at (s, t). */
+static void clip_at(const crisp_bezier_patch *p, const crisp_slefe_view *v, double s, double t,
+                    double *dest)
+{
+    double h[4];
+    eval_point(p, s, t, h);
+    for (int r = 0; r < 3; r++) {
+        int k = r == 2 ? 3 : r;
+        dest[r] = v->view_proj[0][k] * h[0] + v->view_proj[1][k] * h[1] +
+                  v->view_proj[2][k] * h[2] + v->view_proj[3][k] * h[3];
+    }
+}
+
+static void to_pixel(const crisp_slefe_view *v, const double *q, double *dest)
+{
+    dest[0] = (q[0] / q[2] + 1) * 0.5 * v->width;
+    dest[1] = (q[1] / q[2] + 1) * 0.5 * v->height;
+}
+
+/* How well tau = ceil(m sqrt(w_px / eps)) holds up: random patches seen from random distances,
+ * tessellated uniformly at tau into two triangles per cell. For a sample (s, t) inside a
+ * triangle, the triangle point with the same barycentrics *in clip space* (what a rasterizer
+ * interpolates; it projects onto the screen triangle) is compared with the surface point: their
+ * pixel distance per axis bounds the distance from the surface point to the drawn triangle. */
+static void tau_check(int du, int dv, int rational, int trials, int bilinear, int sound,
+                      const char *name)
+{
+    double tau_sum = 0;
+    const double eps = 0.5;
+    double worst = 0, sum = 0;
+    int over = 0, split = 0, used = 0;
+    static double cpw[16 * 16 * 4];
+    static double grid[129 * 129][3];
+    for (int k = 0; k < trials; k++) {
+        crisp_bezier_patch p = {
+            .du = du, .dv = dv, .rational = rational, .u1 = 1, .v1 = 1, .cpw = cpw};
+        double scale = uniform(0.2, 1.0);
+        for (int i = 0; i < (du + 1) * (dv + 1); i++) {
+            double wt = rational ? uniform(0.5, 2.0) : 1.0;
+            for (int c = 0; c < 3; c++)
+                cpw[i * 4 + c] = wt * scale * uniform(-1, 1);
+            cpw[i * 4 + 3] = wt;
+        }
+        crisp_slefe_view v = {.width = 1920, .height = 1080};
+        double dist = uniform(2.5, 30.0), a = uniform(0, 6.283), b = uniform(-1.2, 1.2);
+        double eye[3] = {dist * cos(b) * cos(a), dist * sin(b), dist * cos(b) * sin(a)};
+        double target[3] = {0, 0, 0}, upv[3] = {0, 1, 0};
+        crisp_mat4 view, proj;
+        crisp_mat4_lookat(eye, target, upv, view);
+        crisp_mat4_perspective(45, 16.0 / 9.0, 0.1, 100, proj);
+        crisp_mat4_mul(proj, view, v.view_proj);
+        double w_px;
+        if (crisp_slefe_patch_screen(&p, M, &v, NULL, NULL, &w_px)) continue;
+        int tau = crisp_slefe_tess_level(w_px, M, eps);
+        if (sound && crisp_slefe_patch_tess_level(&p, &v, eps, 64, &tau)) continue;
+        if (tau > 64) {
+            split++;
+            continue;
+        }
+        used++;
+        tau_sum += tau;
+        for (int j = 0; j <= tau; j++)
+            for (int i = 0; i <= tau; i++)
+                clip_at(&p, &v, (double)i / tau, (double)j / tau, grid[j * (tau + 1) + i]);
+        double err = 0;
+        static const double bary[4][2] = {{1 / 3.0, 1 / 3.0}, {0.5, 0.25}, {0.25, 0.5}, {0.5, 0.0}};
+        for (int j = 0; j < tau; j++)
+            for (int i = 0; i < tau; i++)
+                for (int tri = 0; tri < 2; tri++)
+                    for (int q = 0; q < 4; q++) {
+                        /* triangle (00, 10, 11) or (00, 11, 01); (a, b) weights of its 2nd, 3rd */
+                        double wa = bary[q][0], wb = bary[q][1], s, t;
+                        const double *p0 = grid[j * (tau + 1) + i];
+                        const double *p1 =
+                            tri ? grid[(j + 1) * (tau + 1) + i + 1] : grid[j * (tau + 1) + i + 1];
+                        const double *p2 =
+                            tri ? grid[(j + 1) * (tau + 1) + i] : grid[(j + 1) * (tau + 1) + i + 1];
+                        if (!tri) {
+                            s = (i + wa + wb) / tau;
+                            t = (j + wb) / tau;
+                        } else {
+                            s = (i + wa) / tau;
+                            t = (j + wa + wb) / tau;
+                        }
+                        double h[3], xy[2], hq[3], tq[2], e = 0;
+                        clip_at(&p, &v, s, t, h);
+                        to_pixel(&v, h, xy);
+                        for (int c = 0; c < 3; c++) {
+                            hq[c] = (1 - wa - wb) * p0[c] + wa * p1[c] + wb * p2[c];
+                            if (bilinear) {
+                                double fu = s * tau - i, fv = t * tau - j;
+                                const double *g00 = grid[j * (tau + 1) + i];
+                                const double *g10 = grid[j * (tau + 1) + i + 1];
+                                const double *g01 = grid[(j + 1) * (tau + 1) + i];
+                                const double *g11 = grid[(j + 1) * (tau + 1) + i + 1];
+                                hq[c] = (1 - fv) * ((1 - fu) * g00[c] + fu * g10[c]) +
+                                        fv * ((1 - fu) * g01[c] + fu * g11[c]);
+                            }
+                        }
+                        to_pixel(&v, hq, tq);
+                        for (int c = 0; c < 2; c++)
+                            e = fmax(e, fabs(xy[c] - tq[c]));
+                        err = fmax(err, e);
+                    }
+        worst = fmax(worst, err / eps);
+        sum += err / eps;
+        over += err > eps;
+    }
+    printf("%-34s %8d %8d %8.1f %10.3f %10.3f %9d\n", name, used, split, used ? tau_sum / used : 0,
+           used ? sum / used : 0, worst, over);
+}
+
 int main(int argc, char **argv)
 {
     int quick = argc > 1 && !strcmp(argv[1], "--quick");
@@ -220,6 +354,28 @@ int main(int argc, char **argv)
     printf("\n1 thread: median thread CPU time per item (robust to other jobs on the machine).\n"
            "all threads: items / wall time (drops when other jobs hold the cores).\n"
            "'vs eval': SLEFE time / time to evaluate the same patch at its (m+1)^2 grid points.\n");
+
+    printf(
+        "\ntau check: tau = ceil(%d sqrt(w_px / 0.5)) from crisp_slefe_patch_screen, uniform\n"
+        "tessellation, max over samples of the per-axis pixel distance between the surface and\n"
+        "its triangles at equal parameters, in units of eps = 0.5 px (1920x1080, fov 45,\n"
+        "camera 2.5..30 away). Patches needing tau > 64 (to be split) are counted, not checked.\n",
+        M);
+    printf("%-34s %8s %8s %8s %10s %10s %9s\n", "patches", "checked", "split", "mean tau",
+           "mean err", "worst err", "over eps");
+    int trials = quick ? 60 : 120;
+    const char *modes[3] = {"iPASS rule tau = ceil(3 sqrt(w_px/eps)), against the triangles:",
+                            "iPASS rule, against the bilinear interpolant (what the SLEFE bounds):",
+                            "crisp_slefe_patch_tess_level (sound bound), against the triangles:"};
+    for (int mode = 0; mode < 3; mode++) {
+        printf("%s\n", modes[mode]);
+        int bl = mode == 1, sound = mode == 2;
+        rng_state = 99;
+        tau_check(3, 3, 0, trials, bl, sound, "  bicubic");
+        tau_check(3, 3, 1, trials, bl, sound, "  rational bicubic");
+        tau_check(5, 6, 0, trials, bl, sound, "  degree (5,6)");
+        tau_check(5, 6, 1, trials, bl, sound, "  rational degree (5,6)");
+    }
     crisp_pool_destroy(pool);
     free(w.cpw);
     free(w.patches);

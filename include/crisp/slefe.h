@@ -15,7 +15,9 @@
  *   crisp_slefe_patch_screen       view-projected patch: per-tile NDC boxes and the screen width
  *                                  w_px of the enclosure, for tau = ceil(m * sqrt(w_px / eps))
  *   crisp_slefe_boxes_screen_width screen width of object-space boxes seen through a camera
- *   crisp_slefe_tess_level         tau = ceil(m * sqrt(w_px / eps))
+ *   crisp_slefe_tess_level         tau = ceil(m * sqrt(w_px / eps)) (the iPASS rule: a guess)
+ *   crisp_slefe_patch_screen_error sound pixel bound on patch-versus-triangles distance at tau
+ *   crisp_slefe_patch_tess_level   smallest tau (from the iPASS guess up) that bound accepts
  *
  * Enclosure semantics. For a polynomial p of degree d on [0, 1] and breakpoints t_k = k/m, the
  * piecewise-linear interpolants of lo[k] and up[k] satisfy lo(t) <= p(t) <= up(t) for all t,
@@ -148,8 +150,31 @@ crisp_status crisp_slefe_boxes_screen_width(const crisp_slefe_view *view, int co
                                             double *w_px);
 
 /* tau = ceil(segments * sqrt(w_px / eps)), at least 1 (not clamped above: a value over the
- * tessellator's limit tells it to split). */
+ * tessellator's limit tells it to split). This is the iPASS rule; it is a guess, not a bound: the
+ * 1/m^2 law it relies on is only asymptotic, and it ignores the twist between the bilinear
+ * enclosure and triangles (bench_slefe "tau check": up to about 3x eps on random patches). Use
+ * crisp_slefe_patch_tess_level for a guaranteed level. */
 int crisp_slefe_tess_level(double w_px, int segments, double eps);
+
+#define CRISP_SLEFE_MAX_TESS_LEVEL 4096
+
+/* Guaranteed bound, in pixels (max of the x and y distances), on the distance between the
+ * projected patch and its uniform tessellation at tau segments per direction (tau x tau cells,
+ * each cut into two triangles along either diagonal, vertices on the surface, rasterised with
+ * clip-space interpolation): every surface point is within *err_px of the drawn triangles and
+ * every triangle point within *err_px of the surface. Combines the SLEFE of the clip-space
+ * patch at m = tau (tau <= 16) with the classical second-difference bound (any tau) and adds the
+ * triangle-versus-bilinear twist term (see screen_error.c). tau 1..CRISP_SLEFE_MAX_TESS_LEVEL.
+ * CRISP_ERR_NUMERIC when W is not bounded away from 0 (split or cull). */
+crisp_status crisp_slefe_patch_screen_error(const crisp_bezier_patch *p, int tau,
+                                            const crisp_slefe_view *view, double *err_px);
+
+/* The tessellation level to draw p with an error of at most eps pixels: starting from the iPASS
+ * guess (m = 3), the smallest tau >= that guess whose crisp_slefe_patch_screen_error is <= eps.
+ * *tau = max_level + 1 when no tau <= max_level (1..CRISP_SLEFE_MAX_TESS_LEVEL) qualifies: split
+ * the patch. CRISP_ERR_NUMERIC as above. */
+crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const crisp_slefe_view *view,
+                                          double eps, int max_level, int *tau);
 
 #ifdef __cplusplus
 }

@@ -18,24 +18,23 @@ static crisp_status check_view(const char *fn, const crisp_slefe_view *view)
     return CRISP_OK;
 }
 
-crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
-                                      const crisp_slefe_view *view, double *ndc_lo, double *ndc_hi,
-                                      double *w_px)
+crisp_status crisp__slefe_check_view(const char *fn, const crisp_slefe_view *view)
 {
-    const char *fn = "crisp_slefe_patch_screen";
-    crisp_status s = crisp__slefe_check_patch(fn, p, segments);
-    if (!s) s = check_view(fn, view);
-    if (s) return s;
-    crisp__slefe_tables_init();
+    return check_view(fn, view);
+}
 
-    /* Clip-space control points; err[r] bounds the rounding of coordinate r of any of them, so
-     * the exact clip-space patch is within err of the computed one (the Bernstein basis sums
-     * to 1). */
+crisp_status crisp__slefe_to_clip(const char *fn, const crisp_bezier_patch *p,
+                                  const crisp_slefe_view *view, double *clip, double *err,
+                                  double *hl, double *hh)
+{
+    /* err[r] bounds the rounding of coordinate r of any control point, so the exact clip-space
+     * patch is within err of the computed one (the Bernstein basis sums to 1). */
     int count = (p->du + 1) * (p->dv + 1);
-    double clip[(MAXD + 1) * (MAXD + 1) * 4];
-    double err[4] = {0, 0, 0, 0};
-    double hl[4] = {INFINITY, INFINITY, INFINITY, INFINITY};
-    double hh[4] = {-INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (int r = 0; r < 4; r++) {
+        err[r] = 0.0;
+        hl[r] = INFINITY;
+        hh[r] = -INFINITY;
+    }
     for (int i = 0; i < count; i++) {
         const double *v = p->cpw + i * 4;
         for (int r = 0; r < 4; r++) {
@@ -61,6 +60,22 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
         hl[r] -= err[r];
         hh[r] += err[r];
     }
+    return CRISP_OK;
+}
+
+crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
+                                      const crisp_slefe_view *view, double *ndc_lo, double *ndc_hi,
+                                      double *w_px)
+{
+    const char *fn = "crisp_slefe_patch_screen";
+    crisp_status s = crisp__slefe_check_patch(fn, p, segments);
+    if (!s) s = check_view(fn, view);
+    if (s) return s;
+    crisp__slefe_tables_init();
+
+    double clip[(MAXD + 1) * (MAXD + 1) * 4], err[4], hl[4], hh[4];
+    s = crisp__slefe_to_clip(fn, p, view, clip, err, hl, hh);
+    if (s) return s;
     crisp_bezier_patch q = *p;
     q.cpw = clip;
     q.rational = 1;

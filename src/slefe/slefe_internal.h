@@ -78,6 +78,15 @@ crisp_status crisp__slefe_tiles(const char *fn, int m, const double *lo, const d
                                 const double *hull_lo, const double *hull_hi, double *box_lo,
                                 double *box_hi);
 
+/* View validation shared by the screen-space entry points. */
+crisp_status crisp__slefe_check_view(const char *fn, const crisp_slefe_view *view);
+/* Clip-space control points of p (same layout as p->cpw); err[4]: bound on their rounding per
+ * coordinate; hl, hh [4]: range of each clip coordinate over the control points, widened by err
+ * (bounds over the whole patch by the convex hull). CRISP_ERR_NUMERIC on overflow. */
+crisp_status crisp__slefe_to_clip(const char *fn, const crisp_bezier_patch *p,
+                                  const crisp_slefe_view *view, double *clip, double *err,
+                                  double *hl, double *hh);
+
 /* One side of the enclosure: with (first, second) = (upper, lower) tables and sign = +1 this is
  * up[k]; with (lower, upper) and sign = -1 it is lo[k]. */
 static inline void crisp__slefe_side(int d, const double *b, int stride, double guard,

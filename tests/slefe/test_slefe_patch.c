@@ -314,6 +314,94 @@ static void test_boxes_screen_width(void **state)
     assert_int_equal(crisp_slefe_boxes_screen_width(&v, 1, lo, hi, 3, &w), CRISP_ERR_INVALID_ARG);
 }
 
+/* Clip-space X, Y, W of a patch point, long double. */
+static void clip_point(const crisp_bezier_patch *p, const crisp_slefe_view *v, long double s,
+                       long double t, long double *dest)
+{
+    long double h[4];
+    for (int c = 0; c < 4; c++)
+        h[c] = ref_patch(p, c, s, t);
+    for (int r = 0; r < 3; r++) {
+        int k = r == 2 ? 3 : r;
+        dest[r] = 0;
+        for (int c = 0; c < 4; c++)
+            dest[r] += (long double)v->view_proj[c][k] * h[c];
+    }
+}
+
+/* Largest sampled pixel distance (per axis) between the surface and its tau x tau tessellation,
+ * cells cut along the diagonal given by diag (0: 00-11, 1: 10-01): the surface point at (s, t)
+ * against the triangle point with the same barycentrics in clip space. */
+static double sampled_tess_error(const crisp_bezier_patch *p, const crisp_slefe_view *v, int tau,
+                                 int diag, rng *r)
+{
+    static long double grid[65 * 65][3];
+    for (int j = 0; j <= tau; j++)
+        for (int i = 0; i <= tau; i++)
+            clip_point(p, v, (long double)i / tau, (long double)j / tau, grid[j * (tau + 1) + i]);
+    double worst = 0;
+    for (int j = 0; j < tau; j++)
+        for (int i = 0; i < tau; i++)
+            for (int q = 0; q < 6; q++) {
+                long double fu = rng_uniform(r, 0, 1), fv = rng_uniform(r, 0, 1);
+                if (q == 0) fu = fv = 0.5L;
+                long double *g00 = grid[j * (tau + 1) + i], *g10 = grid[j * (tau + 1) + i + 1];
+                long double *g01 = grid[(j + 1) * (tau + 1) + i];
+                long double *g11 = grid[(j + 1) * (tau + 1) + i + 1];
+                long double tri[3], h[3];
+                for (int c = 0; c < 3; c++) {
+                    if (diag == 0)
+                        tri[c] = fv <= fu
+                                     ? g00[c] + fu * (g10[c] - g00[c]) + fv * (g11[c] - g10[c])
+                                     : g00[c] + fv * (g01[c] - g00[c]) + fu * (g11[c] - g01[c]);
+                    else
+                        tri[c] = fu + fv <= 1
+                                     ? g00[c] + fu * (g10[c] - g00[c]) + fv * (g01[c] - g00[c])
+                                     : g11[c] + (1 - fu) * (g01[c] - g11[c]) +
+                                           (1 - fv) * (g10[c] - g11[c]);
+                }
+                clip_point(p, v, (i + fu) / tau, (j + fv) / tau, h);
+                long double ex = fabsl(h[0] / h[2] - tri[0] / tri[2]) * 0.5L * v->width;
+                long double ey = fabsl(h[1] / h[2] - tri[1] / tri[2]) * 0.5L * v->height;
+                worst = fmax(worst, (double)fmaxl(ex, ey));
+            }
+    return worst;
+}
+
+/* crisp_slefe_patch_screen_error bounds the sampled distance between random patches (bicubic,
+ * (5, 6), rational too) and their triangles, for tau on both sides of 16 (where it switches to
+ * sub-patches) and both diagonals; the level from crisp_slefe_patch_tess_level meets eps. */
+static void test_screen_error_bound(void **state)
+{
+    (void)state;
+    rng r = {31};
+    double worst_ratio = 0;
+    for (int trial = 0; trial < 24; trial++) {
+        int du = trial % 2 ? 5 : 3, dv = trial % 2 ? 6 : 3, rational = (trial / 2) % 2;
+        double cpw[MAXN];
+        crisp_bezier_patch p;
+        random_patch(&r, du, dv, rational, cpw, &p);
+        crisp_slefe_view v;
+        random_view(&r, &v);
+        int taus[3] = {rng_int(&r, 1, 16), rng_int(&r, 17, 40), 36};
+        for (int k = 0; k < 3; k++) {
+            double bound;
+            assert_int_equal(crisp_slefe_patch_screen_error(&p, taus[k], &v, &bound), CRISP_OK);
+            double e = sampled_tess_error(&p, &v, taus[k], trial % 2, &r);
+            if (!(e <= bound))
+                fail_msg("trial %d tau %d: sampled %g > bound %g", trial, taus[k], e, bound);
+            worst_ratio = fmax(worst_ratio, e / bound);
+        }
+        int tau;
+        assert_int_equal(crisp_slefe_patch_tess_level(&p, &v, 0.5, 64, &tau), CRISP_OK);
+        if (tau <= 64) {
+            double e = sampled_tess_error(&p, &v, tau, 0, &r);
+            if (!(e <= 0.5)) fail_msg("trial %d: level %d leaves %g px", trial, tau, e);
+        }
+    }
+    print_message("largest sampled error / bound: %.3f\n", worst_ratio);
+}
+
 static void test_patch_bad_input(void **state)
 {
     (void)state;
@@ -334,15 +422,33 @@ static void test_patch_bad_input(void **state)
     assert_int_equal(crisp_slefe_patch(&p, 3, lo, up), CRISP_OK);
     double bl[27], bh[27];
     assert_int_equal(crisp_slefe_patch_tiles(3, lo, up, bl, bh), CRISP_ERR_NUMERIC);
+    crisp_slefe_view v = {.width = 100, .height = 100};
+    crisp_mat4_identity(v.view_proj);
+    double e;
+    int tau;
+    p.rational = 0;
+    for (int i = 0; i < 16; i++) cpw[i * 4 + 3] = 1.0;
+    assert_int_equal(crisp_slefe_patch_screen_error(&p, 0, &v, &e), CRISP_ERR_LIMIT);
+    assert_int_equal(crisp_slefe_patch_screen_error(&p, 5000, &v, &e), CRISP_ERR_LIMIT);
+    assert_int_equal(crisp_slefe_patch_tess_level(&p, &v, 0.0, 64, &tau), CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp_slefe_patch_tess_level(&p, &v, 0.5, 0, &tau), CRISP_ERR_INVALID_ARG);
+    /* a flat patch seen straight on (identity camera): no error at all, level 1 */
+    assert_int_equal(crisp_slefe_patch_tess_level(&p, &v, 0.5, 64, &tau), CRISP_OK);
+    assert_int_equal(tau, 1);
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_tables_concurrent_first_use), cmocka_unit_test(test_patch_enclosure),
-        cmocka_unit_test(test_bicubic_matches_two_pass),    cmocka_unit_test(test_screen_enclosure),
-        cmocka_unit_test(test_screen_width_shrinks),        cmocka_unit_test(test_screen_eye_plane),
-        cmocka_unit_test(test_boxes_screen_width),          cmocka_unit_test(test_patch_bad_input),
+        cmocka_unit_test(test_tables_concurrent_first_use),
+        cmocka_unit_test(test_patch_enclosure),
+        cmocka_unit_test(test_bicubic_matches_two_pass),
+        cmocka_unit_test(test_screen_enclosure),
+        cmocka_unit_test(test_screen_width_shrinks),
+        cmocka_unit_test(test_screen_eye_plane),
+        cmocka_unit_test(test_boxes_screen_width),
+        cmocka_unit_test(test_screen_error_bound),
+        cmocka_unit_test(test_patch_bad_input),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
