@@ -62,6 +62,9 @@ static crisp_status convert(iges_file *f)
 {
     crisp_status st = CRISP_OK;
     mark_consumed(f);
+    /* solids first, so that their shells get the solid's orientation */
+    for (int i = 0; i < f->entity_count && !st; i++)
+        if (f->ents[i].type == 186) st = soften(f, i, iges_brep_faces(f, i));
     for (int i = 0; i < f->entity_count && !st; i++) {
         iges_entity *x = &f->ents[i];
         switch (x->type) {
@@ -74,7 +77,6 @@ static crisp_status convert(iges_file *f)
             }
             st = soften(f, i, x->type == 144 ? iges_face_trimmed(f, i) : iges_face_bounded(f, i));
             break;
-        case 186:
         case 514:
             st = soften(f, i, iges_brep_faces(f, i));
             break;

@@ -439,16 +439,21 @@ static crisp_status parse_parameters(iges_file *f, const iges_lines *p)
         }
         cursor c = {p->items, line, p->count, 0, 64};
         int first = f->param_count, end = 0;
-        while (!end) {
-            st = read_param(f, &c, f->pdelim, f->rdelim, &end);
-            if (st) goto done;
-        }
-        first_of_line[line] = first;
-        count_of_line[line] = f->param_count - first;
         /* back-pointer to the DE, columns 66-72 of the record's first line */
         int bp = 0;
         for (int i = 65; i < 72 && i < l->len; i++)
-            if (l->s[i] >= '0' && l->s[i] <= '9') bp = bp * 10 + (l->s[i] - '0');
+            if (l->s[i] >= '0' && l->s[i] <= '9' && bp < 100000000) bp = bp * 10 + (l->s[i] - '0');
+        while (!end) {
+            st = read_param(f, &c, f->pdelim, f->rdelim, &end);
+            if (st) {
+                char old[512];
+                snprintf(old, sizeof old, "%s", crisp_error_message());
+                st = crisp_error(st, "%s (in the parameter record of DE %d)", old, bp);
+                goto done;
+            }
+        }
+        first_of_line[line] = first;
+        count_of_line[line] = f->param_count - first;
         back_of_line[line] = bp;
         /* the record ends at its delimiter; the rest of that line is ignored */
         line = c.col == 0 ? c.line : c.line + 1;
