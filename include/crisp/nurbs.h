@@ -151,7 +151,12 @@ void crisp_bezier_patch_bbox(const crisp_bezier_patch *p, double *dest); /* 6 va
 crisp_status crisp_surface_closest_point(const crisp_surface *s, const double p[3],
                                          double uv[2], double *dist);
 /* A 2D B-spline curve in s's (u, v) domain whose image lies within tol (3D distance) of the
- * model-space curve c over [t0, t1]; continuity across u/v seams of closed surfaces is kept. */
+ * model-space curve c over [t0, t1]; continuity across u/v seams of closed surfaces is kept.
+ * The result is a cubic over [t0, t1] (C0 at its knots). On a surface closed in u (or v) a
+ * curve crossing the seam stays continuous and so leaves [u0, u1] by up to one period: evaluate
+ * S at u wrapped into the domain; of the shifted copies the one whose u-range middle lies in
+ * [u0, u1) is returned (a curve on the seam itself gets u0). Where u is undefined (a pole) it
+ * is taken from the neighbouring points. */
 crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_curve *c, double t0,
                                          double t1, double tol, crisp_curve **dest);
 
