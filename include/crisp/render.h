@@ -11,6 +11,9 @@
  *   crisp_scene             a model prepared for rendering (Bézier patches, trim pieces, boxes)
  *   crisp_image             colour and AOVs (depth, normal, u, v, face)
  *   crisp_render_exact      the exact reference renderer (ray casting + exact trim classifier)
+ *   crisp_renderer, crisp_render_cpu
+ *                           the CPU backend: frame plan (SLEFE tess levels, crack-free edges,
+ *                           u-intercept tables), tessellation, rasterizer with the trim test
  */
 #ifndef CRISP_RENDER_H
 #define CRISP_RENDER_H
@@ -60,6 +63,8 @@ typedef struct crisp_scene_face {
     const crisp_face *src;
     uint32_t first_patch, patch_count;
     uint32_t grid_u, grid_v;   /* patches per direction (u fastest) */
+    int closed_u, closed_v;    /* the surface closes on itself across its u (v) domain ends: the
+                                  first and last patch columns (rows) share an edge */
     double domain[4];          /* u0, u1, v0, v1 of the surface */
     uint32_t first_piece, piece_count; /* Bézier trim pieces of all loops, loop after loop */
     uint32_t first_loop, loop_count;
@@ -123,6 +128,35 @@ int crisp_exact_ray(const crisp_scene *scene, const crisp_exact_desc *desc,
 /* One ray per pixel centre (DESIGN.md section 6); near and far bound the camera-space depth. */
 crisp_status crisp_render_exact(const crisp_scene *scene, const crisp_camera *cam,
                                 const crisp_exact_desc *desc, crisp_image *img);
+
+/* ---- CPU backend ----------------------------------------------------------------------------- */
+
+typedef struct crisp_render_desc {
+    int samples;     /* per pixel: 1 (default), 4 or 16 */
+    int threads;     /* 0: default */
+    double eps_px;   /* tessellation tolerance in pixels; 0: 0.5 */
+    int strip_count; /* trim strips per face (n_V); 0: from the face's tess level */
+} crisp_render_desc;
+
+typedef struct crisp_render_stats {
+    uint32_t patches, visible_patches, split_patches, leaves, visible_faces, unresolved;
+    uint64_t vertices, triangles, table_rows, table_bytes;
+    uint64_t fragments_tested, fragments_trimmed;
+    double ms_levels, ms_edges, ms_trim, ms_tess, ms_raster, ms_resolve;
+} crisp_render_stats;
+
+/* Buffers and threads reused from frame to frame. */
+typedef struct crisp_renderer crisp_renderer;
+
+crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer **dest);
+void crisp_renderer_destroy(crisp_renderer *r);
+/* Plan the frame only (the per-frame work of the trim-editing demo); stats may be NULL. */
+crisp_status crisp_renderer_plan(crisp_renderer *r, const crisp_scene *scene,
+                                 const crisp_camera *cam, crisp_render_stats *stats);
+/* Plan, tessellate, rasterise with the per-sample trim test, shade. img must match the camera's
+ * size. stats may be NULL. */
+crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *scene, const crisp_camera *cam,
+                              crisp_image *img, crisp_render_stats *stats);
 
 #ifdef __cplusplus
 }

@@ -22,14 +22,16 @@ extern "C" {
 #endif
 
 #define CRISP_TESS_MAX_LEVEL 64
+/* Edge levels may exceed 64 where a coarse patch meets much finer ones (CPU backend). */
+#define CRISP_TESS_MAX_EDGE_LEVEL 16384
 
 /* outer[0]: edge t = 0 (along s), outer[1]: s = 1, outer[2]: t = 1, outer[3]: s = 0. */
 typedef struct crisp_tess_levels {
     int inner[2]; /* along s and along t, 1..64 */
-    int outer[4]; /* 1..64 */
+    int outer[4]; /* 1..CRISP_TESS_MAX_EDGE_LEVEL */
 } crisp_tess_levels;
 
-/* Fails (CRISP_ERR_INVALID_ARG) on a level outside 1..64. */
+/* Fails (CRISP_ERR_INVALID_ARG) on a level outside its range. */
 crisp_status crisp_tess_mesh_counts(const crisp_tess_levels *lv, size_t *verts, size_t *tris);
 /* st: 2 * verts doubles (local patch parameters in [0, 1]); tris: 3 * tris indices, each plus
  * base, counter-clockwise in (s, t). The first outer[0] + ... + outer[3] vertices are the

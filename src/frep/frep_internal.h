@@ -49,42 +49,12 @@ typedef struct frep_ins {
     float imm;
 } frep_ins;
 
-/* A tape is two parallel arrays: the register form above (what the evaluators run) and the SSA
- * form, ssa[2i], ssa[2i+1] = the instructions whose values instruction i reads (what shortening
- * works on: in SSA, replacing a min by its chosen side is a renaming, never a copy). */
-typedef struct frep_span {
-    const frep_ins *ins;
-    const uint32_t *ssa;
-    size_t len;
-    int registers;
-} frep_span;
-
 struct crisp_frep_tape {
     frep_ins *ins;
-    uint32_t *ssa;
     size_t length;
     int registers;
     uint16_t result; /* register of the last instruction */
 };
-
-/* Scratch for crisp__frep_shorten, for tapes of up to cap instructions and max_regs registers. */
-typedef struct frep_shorten_scratch {
-    uint32_t *rep, *reg_of, *pos;
-    uint16_t *free_regs;
-    size_t cap;
-    int max_regs;
-} frep_shorten_scratch;
-
-crisp_status crisp__frep_scratch_init(frep_shorten_scratch *s, size_t cap, int max_regs);
-void crisp__frep_scratch_free(frep_shorten_scratch *s);
-
-/* Number of register/SSA operands of a tape op. */
-static inline int frep__nargs(int op)
-{
-    if (op <= CRISP_FREP_Z) return 0;
-    if (op < CRISP_FREP_ADD || op >= FREP_T_COPY) return 1;
-    return 2;
-}
 
 /* Interval-evaluation choices recorded per min/max instruction. */
 enum { FREP_CHOICE_BOTH = 0, FREP_CHOICE_A = 1, FREP_CHOICE_B = 2 };
@@ -102,11 +72,10 @@ static inline int frep__is_minmax(int op)
  * instruction. Returns the number of decided min/max (choices other than BOTH). */
 size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi, const float x[2],
                             const float y[2], const float z[2], uint8_t *choices);
-/* Shorten tape src after the min/max choices (NULL: keep every side), removing dead code and
- * allocating registers afresh (reverse linear scan), into dest_ins/dest_ssa (src.len entries
- * each). Returns 0, or -1 when the result would need more than scratch->max_regs registers. */
-int crisp__frep_shorten(frep_span src, const uint8_t *choices, frep_shorten_scratch *scratch,
-                        frep_ins *dest_ins, uint32_t *dest_ssa, frep_span *dest);
+/* Shortened copy of ins[0..n) after choosing min/max sides and removing dead code; live is
+ * scratch of one byte per register. Returns the new length (>= 1). */
+size_t crisp__frep_shorten(const frep_ins *ins, size_t n, const uint8_t *choices, uint16_t result,
+                           uint8_t *live, int registers, frep_ins *dest);
 /* FREP_LANES points: regs holds registers x FREP_LANES floats. */
 void crisp__frep_eval_lanes(const frep_ins *ins, size_t n, float *regs, const float *x,
                             const float *y, const float *z);

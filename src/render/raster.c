@@ -165,9 +165,14 @@ typedef struct {
     size_t counts[CHUNKS];
 } setup_ctx;
 
+/* Sets up one clipped triangle; returns 0 when it covers no sample area (degenerate, not finite
+ * or off the image). out may be NULL (the counting pass): the same decision is made, so counting
+ * and writing agree. */
 static int setup_one(const setup_ctx *c, const cvert *a, const cvert *b, const cvert *d,
                      uint32_t face, setup_tri *out)
 {
+    setup_tri scratch;
+    if (!out) out = &scratch;
     const cvert *v[3] = {a, b, d};
     const crisp_raster_target *t = c->t;
     double sx[3], sy[3];
@@ -189,7 +194,6 @@ static int setup_one(const setup_ctx *c, const cvert *a, const cvert *b, const c
         order[2] = 1;
         area = -area;
     }
-    if (!out) return 1;
     double det = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sy[1] - sy[0]) * (sx[2] - sx[0]);
     if (!(fabs(det) > 0)) return 0;
     out->ox = sx[0];

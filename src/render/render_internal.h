@@ -11,4 +11,11 @@ void crisp__shade(const float base[4], const double n[3], const double view[3], 
 /* Camera-space depth of a world point (distance along the view axis). */
 double crisp__view_depth(const crisp_camera *cam, const double p[3]);
 
+/* The last frame's triangles (CPU backend), for tests that measure them. */
+struct crisp_raster_vertex;
+struct crisp_raster_tri;
+void crisp__renderer_mesh(const crisp_renderer *r, const struct crisp_raster_vertex **verts,
+                          size_t *vert_count, const struct crisp_raster_tri **tris,
+                          size_t *tri_count);
+
 #endif

@@ -15,6 +15,24 @@ static uint32_t distinct_spans(const double *knots, int count, int degree)
     return n;
 }
 
+/* 1 when the surface's control net closes on itself: the first and last columns (dir 0) or
+ * rows (dir 1) of Euclidean control points coincide, so the boundary curves are one curve. */
+static int closes(const crisp_surface *s, int dir)
+{
+    int nu = s->count_u, nv = s->count_v, n = dir ? nu : nv;
+    double size = 0, gap = 0;
+    for (int k = 0; k < n; k++) {
+        const double *a = s->cpw + 4 * (size_t)(dir ? k : k * nu);
+        const double *b = s->cpw + 4 * (size_t)(dir ? (nv - 1) * nu + k : k * nu + nu - 1);
+        for (int c = 0; c < 3; c++) {
+            double pa = a[c] / a[3], pb = b[c] / b[3];
+            gap = fmax(gap, fabs(pa - pb));
+            size = fmax(size, fmax(fabs(pa), fabs(pb)));
+        }
+    }
+    return gap <= 1e-12 * (size + 1e-300);
+}
+
 void crisp_scene_destroy(crisp_scene *s)
 {
     if (!s) return;
@@ -70,6 +88,8 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
         sf->grid_u = distinct_spans(surf->knots_u, surf->count_u, surf->degree_u);
         sf->grid_v = distinct_spans(surf->knots_v, surf->count_v, surf->degree_v);
         crisp_surface_domain(surf, sf->domain);
+        sf->closed_u = sf->grid_u > 1 && closes(surf, 0);
+        sf->closed_v = sf->grid_v > 1 && closes(surf, 1);
         static const float grey[4] = {0.72f, 0.74f, 0.78f, 1.0f};
         memcpy(sf->color, src->has_color ? src->color : grey, sizeof sf->color);
         for (uint32_t k = 0; k < sf->patch_count; k++) {

@@ -5,9 +5,9 @@
  * point or segment to stitch to. */
 #include "crisp/tess.h"
 
-static int level_ok(int l)
+static int level_ok(int l, int max)
 {
-    return l >= 1 && l <= CRISP_TESS_MAX_LEVEL;
+    return l >= 1 && l <= max;
 }
 
 /* Inner levels actually used: 1 x 1 only when every edge is 1, else each at least 2. */
@@ -26,13 +26,13 @@ static void effective_inner(const crisp_tess_levels *lv, int *nu, int *nv)
 crisp_status crisp_tess_mesh_counts(const crisp_tess_levels *lv, size_t *verts, size_t *tris)
 {
     for (int k = 0; k < 2; k++)
-        if (!level_ok(lv->inner[k]))
+        if (!level_ok(lv->inner[k], CRISP_TESS_MAX_LEVEL))
             return crisp_error(CRISP_ERR_INVALID_ARG, "inner tess level %d: expected 1..%d", lv->inner[k],
                                CRISP_TESS_MAX_LEVEL);
     for (int k = 0; k < 4; k++)
-        if (!level_ok(lv->outer[k]))
+        if (!level_ok(lv->outer[k], CRISP_TESS_MAX_EDGE_LEVEL))
             return crisp_error(CRISP_ERR_INVALID_ARG, "edge %d tess level %d: expected 1..%d", k,
-                               lv->outer[k], CRISP_TESS_MAX_LEVEL);
+                               lv->outer[k], CRISP_TESS_MAX_EDGE_LEVEL);
     int nu, nv;
     effective_inner(lv, &nu, &nv);
     size_t e = (size_t)lv->outer[0] + lv->outer[1] + lv->outer[2] + lv->outer[3];
@@ -49,24 +49,26 @@ crisp_status crisp_tess_mesh_counts(const crisp_tess_levels *lv, size_t *verts, 
     return CRISP_OK;
 }
 
-/* Stitch an outer polyline o[0..n] to an inner polyline in[0..m] (both walking the same way
- * along a side; pos gives each point's position along the side). */
-static uint32_t *zipper(const uint32_t *o, const double *opos, int n, const uint32_t *in,
-                        const double *ipos, int m, uint32_t base, uint32_t *t)
+/* Stitch the outer polyline (boundary vertices start .. start + n, wrapping at nb, at positions
+ * k / n along the side) to an inner polyline in[0..m] at positions ipos (both walking the same
+ * way along the side). */
+static uint32_t *zipper(uint32_t start, uint32_t nb, int n, const uint32_t *in, const double *ipos,
+                        int m, uint32_t base, uint32_t *t)
 {
     int i = 0, j = 0;
     while (i < n || j < m) {
         int take_outer;
         if (j == m) take_outer = 1;
         else if (i == n) take_outer = 0;
-        else take_outer = opos[i] + opos[i + 1] <= ipos[j] + ipos[j + 1];
+        else take_outer = (double)(2 * i + 1) / n <= ipos[j] + ipos[j + 1];
+        uint32_t oi = base + (start + (uint32_t)i) % nb;
         if (take_outer) {
-            *t++ = base + o[i];
-            *t++ = base + o[i + 1];
+            *t++ = oi;
+            *t++ = base + (start + (uint32_t)i + 1) % nb;
             *t++ = base + in[j];
             i++;
         } else {
-            *t++ = base + o[i];
+            *t++ = oi;
             *t++ = base + in[j + 1];
             *t++ = base + in[j];
             j++;
@@ -104,15 +106,11 @@ void crisp_tess_mesh_generate(const crisp_tess_levels *lv, double *st, uint32_t 
         }
 #define INNER(i, j) (nb + (uint32_t)(((j) - 1) * iu + ((i) - 1)))
     uint32_t *t = tris;
-    uint32_t o[CRISP_TESS_MAX_LEVEL + 1], in[CRISP_TESS_MAX_LEVEL + 1];
-    double opos[CRISP_TESS_MAX_LEVEL + 1], ipos[CRISP_TESS_MAX_LEVEL + 1];
+    uint32_t in[CRISP_TESS_MAX_LEVEL + 1];
+    double ipos[CRISP_TESS_MAX_LEVEL + 1];
     uint32_t start = 0;
     for (int side = 0; side < 4; side++) {
         int n = e[side];
-        for (int k = 0; k <= n; k++) {
-            o[k] = (start + (uint32_t)k) % nb;
-            opos[k] = (double)k / n;
-        }
         int m = 0;
         /* The inner rectangle's side, walked the same way, with positions along the side. */
         if (side == 0)
@@ -123,7 +121,7 @@ void crisp_tess_mesh_generate(const crisp_tess_levels *lv, double *st, uint32_t 
             for (int i = nu - 1; i >= 1; i--, m++) in[m] = INNER(i, nv - 1), ipos[m] = (double)(nu - i) / nu;
         else
             for (int j = nv - 1; j >= 1; j--, m++) in[m] = INNER(1, j), ipos[m] = (double)(nv - j) / nv;
-        t = zipper(o, opos, n, in, ipos, m - 1, base, t);
+        t = zipper(start, nb, n, in, ipos, m - 1, base, t);
         start += (uint32_t)n;
     }
     for (int j = 1; j < nv - 1; j++)

@@ -227,6 +227,11 @@ static void test_threads_identical(void **state)
             verts[k * 3 + q] = v;
         }
         tris[k] = (crisp_raster_tri){{k * 3, k * 3 + 1, k * 3 + 2}, (uint32_t)k};
+        /* Some degenerate (repeated vertex, collinear) and off-image triangles among them: the
+         * counting and writing passes of the setup must agree on them. */
+        if (k % 7 == 3) verts[k * 3 + 2] = verts[k * 3];
+        if (k % 11 == 5)
+            for (int q = 0; q < 3; q++) verts[k * 3 + q].clip[0] += 5 * verts[k * 3 + q].clip[3];
     }
     crisp_raster_target t1 = {0}, t3 = {0};
     crisp_raster *r;
@@ -240,7 +245,7 @@ static void test_threads_identical(void **state)
     crisp_raster_draw(r, &t1, NULL, verts, NT * 3, tris, NT, NULL, NULL, NULL);
     crisp_raster_stats st;
     crisp_raster_draw(r, &t3, pool, verts, NT * 3, tris, NT, NULL, NULL, &st);
-    assert_int_equal(st.triangles_setup, NT);
+    assert_true(st.triangles_setup < NT && st.triangles_setup > NT / 2);
     size_t n = (size_t)W * H * 4;
     assert_memory_equal(t1.face, t3.face, n * sizeof *t1.face);
     assert_memory_equal(t1.inv_w, t3.inv_w, n * sizeof *t1.inv_w);

@@ -87,6 +87,9 @@ static void test_meshes(void **state)
     check_mesh(&a);
     crisp_tess_levels b = {{64, 64}, {64, 64, 64, 64}};
     check_mesh(&b);
+    /* Edges much finer than the inside (a coarse patch beside split neighbours). */
+    crisp_tess_levels c = {{3, 64}, {4096, 1, 640, 16384}};
+    check_mesh(&c);
     for (int k = 0; k < 300; k++) {
         crisp_tess_levels r;
         for (int q = 0; q < 2; q++) r.inner[q] = 1 + rand() % (k < 150 ? 6 : 64);
@@ -126,9 +129,11 @@ static void test_bad_levels(void **state)
 {
     (void)state;
     size_t v, t;
-    crisp_tess_levels z = {{0, 1}, {1, 1, 1, 1}}, big = {{1, 1}, {1, 65, 1, 1}};
+    crisp_tess_levels z = {{0, 1}, {1, 1, 1, 1}}, big = {{1, 1}, {1, CRISP_TESS_MAX_EDGE_LEVEL + 1, 1, 1}},
+                      inner = {{65, 1}, {1, 1, 1, 1}};
     assert_int_equal(crisp_tess_mesh_counts(&z, &v, &t), CRISP_ERR_INVALID_ARG);
     assert_int_equal(crisp_tess_mesh_counts(&big, &v, &t), CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp_tess_mesh_counts(&inner, &v, &t), CRISP_ERR_INVALID_ARG);
 }
 
 int main(void)

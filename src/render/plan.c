@@ -1,0 +1,536 @@
+/* The frame planner (DESIGN.md sections 2 and 4; Wu & Peters 2015): for one camera, which patches
+ * are visible, the tess level of each from its screen-space SLEFE, crack-free edge levels, and
+ * each visible face's trim plan (v-scan density bound, trim polylines, u-intercept table).
+ *
+ * Per patch, a quadtree of sub-patches ("leaves"): a patch (or sub-patch) is split in four while
+ * its screen SLEFE cannot be formed (it reaches the eye plane, W <= 0) or its level exceeds 64.
+ * The level is the smallest tau whose sound screen-space error bound (SLEFE of the clip-space
+ * patch plus the triangle twist term, crisp_slefe_patch_tess_level) is within eps. Sub-patches whose homogeneous control points all lie
+ * outside one frustum plane are culled (convex hull property in clip space).
+ *
+ * Edge levels. Leaves meet leaves of the same patch and, along patch boundaries, leaves of the
+ * neighbouring patches of the same face. Of two leaves that share an edge the coarser one owns
+ * the edge: it places its edge vertices uniformly at the finest density any leaf touching the edge
+ * asks for, with a count that is a multiple of 2^(depth difference), so every finer leaf along the
+ * edge takes an equal share of those vertices. Both sides then place the same vertices. */
+#include "plan.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/slefe.h"
+
+/* ---- sub-patches --------------------------------------------------------------------------- */
+
+/* The sub-patch [s0, s1] x [t0, t1] of p (local parameters) into storage. */
+static void subpatch(const crisp_bezier_patch *p, double s0, double s1, double t0, double t1,
+                     double *storage, double *tmp, crisp_bezier_patch *dest)
+{
+    crisp_bezier_patch a = *p, lo, hi;
+    size_t n = (size_t)(p->du + 1) * (p->dv + 1) * 4;
+    lo.cpw = tmp;
+    hi.cpw = storage;
+    if (s0 > 0) {
+        crisp_bezier_patch_split_u(&a, s0, &lo, &hi);
+        a = hi;
+        memcpy(tmp, storage, n * sizeof *tmp);
+        a.cpw = tmp;
+        s1 = (s1 - s0) / (1 - s0);
+    }
+    if (s1 < 1) {
+        lo.cpw = storage;
+        hi.cpw = storage + n;
+        crisp_bezier_patch_split_u(&a, s1, &lo, &hi);
+        a = lo;
+        memcpy(tmp, storage, n * sizeof *tmp);
+        a.cpw = tmp;
+    }
+    if (t0 > 0) {
+        lo.cpw = storage + n;
+        hi.cpw = storage;
+        crisp_bezier_patch_split_v(&a, t0, &lo, &hi);
+        a = hi;
+        memcpy(tmp, storage, n * sizeof *tmp);
+        a.cpw = tmp;
+        t1 = (t1 - t0) / (1 - t0);
+    }
+    if (t1 < 1) {
+        lo.cpw = storage;
+        hi.cpw = storage + n;
+        crisp_bezier_patch_split_v(&a, t1, &lo, &hi);
+        a = lo;
+        memcpy(tmp, storage, n * sizeof *tmp);
+        a.cpw = tmp;
+    }
+    memcpy(storage, a.cpw, n * sizeof *storage);
+    *dest = a;
+    dest->cpw = storage;
+}
+
+/* 1 when every control point lies outside one plane of the frustum, widened by margin. */
+static int outside_frustum(const crisp_bezier_patch *p, crisp_mat4 m, double gx, double gy)
+{
+    int n = (p->du + 1) * (p->dv + 1);
+    int out[6] = {1, 1, 1, 1, 1, 1};
+    for (int i = 0; i < n; i++) {
+        const double *c = p->cpw + 4 * i;
+        double x = m[0][0] * c[0] + m[1][0] * c[1] + m[2][0] * c[2] + m[3][0] * c[3];
+        double y = m[0][1] * c[0] + m[1][1] * c[1] + m[2][1] * c[2] + m[3][1] * c[3];
+        double z = m[0][2] * c[0] + m[1][2] * c[1] + m[2][2] * c[2] + m[3][2] * c[3];
+        double w = m[0][3] * c[0] + m[1][3] * c[1] + m[2][3] * c[2] + m[3][3] * c[3];
+        out[0] &= x > gx * w;
+        out[1] &= x < -gx * w;
+        out[2] &= y > gy * w;
+        out[3] &= y < -gy * w;
+        out[4] &= z < -w; /* in front of the near plane */
+        out[5] &= z > w;  /* beyond the far plane */
+        if (!(out[0] | out[1] | out[2] | out[3] | out[4] | out[5])) return 0;
+    }
+    return 1;
+}
+
+/* ---- pass 1: per-patch quadtrees ------------------------------------------------------------ */
+
+typedef struct tree_ctx {
+    crisp_plan *plan;
+    const crisp_scene *sc;
+    crisp_slefe_view view;
+    double eps, gx, gy;
+} tree_ctx;
+
+typedef struct build_state {
+    const tree_ctx *c;
+    crisp_patch_plan *pp;
+    const crisp_bezier_patch *root;
+    crisp_arena *arena;
+    double storage[2][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4 * 2];
+    size_t node_cap, leaf_cap;
+    crisp_status st;
+} build_state;
+
+static int32_t push_node(build_state *b)
+{
+    crisp_patch_plan *pp = b->pp;
+    if (pp->node_count == b->node_cap) {
+        size_t cap = b->node_cap ? 2 * b->node_cap : 8;
+        crisp_plan_node *n = crisp_arena_alloc(b->arena, cap, sizeof *n);
+        if (!n) return -1;
+        if (pp->node_count) memcpy(n, pp->nodes, pp->node_count * sizeof *n);
+        pp->nodes = n;
+        b->node_cap = cap;
+    }
+    pp->nodes[pp->node_count] = (crisp_plan_node){-1, -1};
+    return (int32_t)pp->node_count++;
+}
+
+static int32_t push_leaf(build_state *b, const crisp_plan_leaf *leaf)
+{
+    crisp_patch_plan *pp = b->pp;
+    if (pp->leaf_count == b->leaf_cap) {
+        size_t cap = b->leaf_cap ? 2 * b->leaf_cap : 4;
+        crisp_plan_leaf *n = crisp_arena_alloc(b->arena, cap, sizeof *n);
+        if (!n) return -1;
+        if (pp->leaf_count) memcpy(n, pp->leaves, pp->leaf_count * sizeof *n);
+        pp->leaves = n;
+        b->leaf_cap = cap;
+    }
+    pp->leaves[pp->leaf_count] = *leaf;
+    return (int32_t)pp->leaf_count++;
+}
+
+/* Classify cell (depth, ix, iy) of the patch; node is its tree node. */
+static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy)
+{
+    if (b->st) return;
+    const tree_ctx *c = b->c;
+    double sz = ldexp(1.0, -depth);
+    crisp_bezier_patch sub;
+    subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, b->storage[0], b->storage[1], &sub);
+    crisp_plan_leaf leaf = {.ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
+    int split = 0;
+    if (!outside_frustum(&sub, c->plan->view_proj, c->gx, c->gy)) {
+        int tau = 0;
+        crisp_status st = crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
+        if (st == CRISP_ERR_NUMERIC) {
+            /* The sub-patch reaches the eye plane: split, and at the depth limit drop what is
+             * left (a sliver of 2^-max_depth of the patch at the eye). */
+            if (depth < c->plan->max_depth) split = 1;
+            else b->pp->unresolved++;
+        } else if (st) {
+            b->st = st;
+            return;
+        } else {
+            if (tau > CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth) {
+                split = 1;
+            } else {
+                if (tau > CRISP_TESS_MAX_LEVEL) {
+                    tau = CRISP_TESS_MAX_LEVEL;
+                    b->pp->unresolved++;
+                }
+                leaf.tau = (uint16_t)tau;
+                leaf.culled = 0;
+            }
+        }
+    }
+    if (!split) {
+        int32_t li = push_leaf(b, &leaf);
+        if (li < 0) {
+            b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
+            return;
+        }
+        b->pp->nodes[node].leaf = li;
+        return;
+    }
+    int32_t first = -1;
+    for (int k = 0; k < 4; k++) {
+        int32_t ch = push_node(b);
+        if (ch < 0) {
+            b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
+            return;
+        }
+        if (k == 0) first = ch;
+    }
+    b->pp->nodes[node].child = first;
+    for (int k = 0; k < 4; k++) build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1));
+}
+
+static void build_trees(void *vctx, size_t begin, size_t end, int worker)
+{
+    tree_ctx *c = vctx;
+    crisp_plan *plan = c->plan;
+    build_state *b = plan->build_state[worker];
+    for (size_t p = begin; p < end; p++) {
+        crisp_patch_plan *pp = &plan->patches[p];
+        *pp = (crisp_patch_plan){0};
+        b->c = c;
+        b->pp = pp;
+        b->root = &c->sc->patches[p].bez;
+        b->arena = plan->arenas[worker];
+        b->node_cap = b->leaf_cap = 0;
+        b->st = CRISP_OK;
+        int32_t root = push_node(b);
+        if (root < 0) b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
+        else build_cell(b, root, 0, 0, 0);
+        if (b->st) plan->worker_status[worker] = b->st;
+        for (uint32_t l = 0; l < pp->leaf_count; l++) pp->visible_leaves += !pp->leaves[l].culled;
+    }
+}
+
+/* ---- pass 2: edge levels --------------------------------------------------------------------- */
+
+/* Leaves of `pp` inside cell (depth, ix, iy) touching the cell's side `side` (0: t = 0, 1: s = 1,
+ * 2: t = 1, 3: s = 0), or the single coarser-or-equal leaf containing the cell. Returns the count
+ * written (at most cap; more are counted in *total). */
+static int leaves_at(const crisp_patch_plan *pp, int depth, uint32_t ix, uint32_t iy, int side,
+                     const crisp_plan_leaf **out, int cap, int *total)
+{
+    *total = 0;
+    if (!pp->node_count) return 0;
+    int32_t node = 0;
+    for (int d = 0; d < depth; d++) {
+        if (pp->nodes[node].child < 0) break;
+        int shift = depth - d - 1;
+        int k = (int)((ix >> shift) & 1) | (int)(((iy >> shift) & 1) << 1);
+        node = pp->nodes[node].child + k;
+    }
+    if (pp->nodes[node].child < 0) {
+        out[0] = &pp->leaves[pp->nodes[node].leaf];
+        *total = 1;
+        return 1;
+    }
+    /* The cell is subdivided: walk its subtree, keeping children on the side. */
+    int32_t stack[64];
+    int top = 0, n = 0;
+    stack[top++] = node;
+    while (top > 0) {
+        int32_t nd = stack[--top];
+        if (pp->nodes[nd].child < 0) {
+            if (n < cap) out[n++] = &pp->leaves[pp->nodes[nd].leaf];
+            (*total)++;
+            continue;
+        }
+        for (int k = 0; k < 4; k++) {
+            int kx = k & 1, ky = k >> 1;
+            int on = side == 0 ? ky == 0 : side == 1 ? kx == 1 : side == 2 ? ky == 1 : kx == 0;
+            if (on && top < 64) stack[top++] = pp->nodes[nd].child + k;
+        }
+    }
+    return n;
+}
+
+/* The leaves across side `side` of leaf L of patch p (same patch or the face's neighbour patch). */
+static int across(const crisp_plan *plan, const crisp_scene *sc, uint32_t p, const crisp_plan_leaf *L,
+                  int side, const crisp_plan_leaf **out, int cap, int *total)
+{
+    int d = L->depth;
+    uint32_t n = 1u << d;
+    int64_t nx = (int64_t)L->ix + (side == 1) - (side == 3);
+    int64_t ny = (int64_t)L->iy + (side == 2) - (side == 0);
+    uint32_t q = p;
+    if (nx < 0 || ny < 0 || nx >= n || ny >= n) {
+        const crisp_scene_patch *sp = &sc->patches[p];
+        const crisp_scene_face *f = &sc->faces[sp->face];
+        int64_t iu = (int64_t)sp->iu + (nx >= n) - (nx < 0), iv = (int64_t)sp->iv + (ny >= n) - (ny < 0);
+        if (f->closed_u) iu = (iu + f->grid_u) % f->grid_u;
+        if (f->closed_v) iv = (iv + f->grid_v) % f->grid_v;
+        if (iu < 0 || iv < 0 || iu >= f->grid_u || iv >= f->grid_v) {
+            *total = 0;
+            return 0;
+        }
+        q = f->first_patch + (uint32_t)(iv * f->grid_u + iu);
+        nx = (nx + n) % n;
+        ny = (ny + n) % n;
+    }
+    return leaves_at(&plan->patches[q], d, (uint32_t)nx, (uint32_t)ny, (side + 2) % 4, out, cap, total);
+}
+
+/* Level of the edge `side` of leaf L when L owns it (every leaf across is at least as fine). */
+static uint32_t owner_level(const crisp_plan_leaf *L, const crisp_plan_leaf *const *nb, int count)
+{
+    /* Vertex density in units of the finest depth: tau * 2^(dmax - d) per 2^-dmax of length. */
+    int dmax = L->depth;
+    for (int k = 0; k < count; k++) dmax = nb[k]->depth > dmax ? nb[k]->depth : dmax;
+    uint64_t dens = (uint64_t)L->tau << (dmax - L->depth);
+    for (int k = 0; k < count; k++) {
+        uint64_t dk = (uint64_t)nb[k]->tau << (dmax - nb[k]->depth);
+        dens = dk > dens ? dk : dens;
+    }
+    /* L's edge spans 2^(dmax - d) finest cells; level = dens per finest cell... uniform over L's
+     * edge means: level = ceil(dens / 2^(dmax - d)) rounded up to a multiple of 2^(dmax - d). */
+    uint64_t share = 1ull << (dmax - L->depth);
+    uint64_t level = (dens + share - 1) / share;
+    level = (level + share - 1) / share * share;
+    if (level < share) level = share;
+    return (uint32_t)(level > CRISP_TESS_MAX_EDGE_LEVEL ? CRISP_TESS_MAX_EDGE_LEVEL : level);
+}
+
+typedef struct edge_ctx {
+    crisp_plan *plan;
+    const crisp_scene *sc;
+} edge_ctx;
+
+static void edge_levels(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    edge_ctx *c = vctx;
+    enum { CAP = 256 };
+    const crisp_plan_leaf *nb[CAP], *back[CAP];
+    for (size_t p = begin; p < end; p++) {
+        crisp_patch_plan *pp = &c->plan->patches[p];
+        for (uint32_t l = 0; l < pp->leaf_count; l++) {
+            crisp_plan_leaf *L = &pp->leaves[l];
+            if (L->culled) continue;
+            for (int side = 0; side < 4; side++) {
+                int total, n = across(c->plan, c->sc, (uint32_t)p, L, side, nb, CAP, &total);
+                if (total == 1 && n == 1 && nb[0]->depth < L->depth) {
+                    /* A coarser neighbour owns the edge: take this leaf's share of its level. */
+                    const crisp_plan_leaf *N = nb[0];
+                    int bt, bn = 0;
+                    /* N's view across its side facing L: find N's patch by walking back. */
+                    uint32_t q = (uint32_t)p;
+                    {
+                        /* N lies in p or in the neighbour patch across `side`. */
+                        uint32_t nside = (uint32_t)((side + 2) % 4);
+                        const crisp_scene_patch *sp = &c->sc->patches[p];
+                        uint32_t cells = 1u << L->depth;
+                        int leaves_patch = (side == 1 && L->ix + 1 == cells) || (side == 3 && L->ix == 0) ||
+                                           (side == 2 && L->iy + 1 == cells) || (side == 0 && L->iy == 0);
+                        if (leaves_patch) {
+                            const crisp_scene_face *f = &c->sc->faces[sp->face];
+                            int64_t iu = (int64_t)sp->iu + (side == 1) - (side == 3);
+                            int64_t iv = (int64_t)sp->iv + (side == 2) - (side == 0);
+                            if (f->closed_u) iu = (iu + f->grid_u) % f->grid_u;
+                            if (f->closed_v) iv = (iv + f->grid_v) % f->grid_v;
+                            q = f->first_patch + (uint32_t)(iv * f->grid_u + iu);
+                        }
+                        bn = across(c->plan, c->sc, q, N, (int)nside, back, CAP, &bt);
+                    }
+                    uint32_t lv = owner_level(N, back, bn);
+                    uint32_t share = 1u << (L->depth - N->depth);
+                    L->edge[side] = lv / share ? lv / share : 1;
+                } else {
+                    L->edge[side] = owner_level(L, nb, n);
+                }
+            }
+        }
+    }
+}
+
+/* ---- the plan ---------------------------------------------------------------------------------- */
+
+crisp_status crisp_plan_create(crisp_plan **dest)
+{
+    crisp_plan *p = calloc(1, sizeof *p);
+    if (!p) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating a frame plan");
+    *dest = p;
+    return CRISP_OK;
+}
+
+void crisp_plan_destroy(crisp_plan *p)
+{
+    if (!p) return;
+    for (int w = 0; w < p->worker_cap; w++) {
+        crisp_arena_destroy(p->arenas[w]);
+        free(p->build_state[w]);
+    }
+    free(p->arenas);
+    free(p->build_state);
+    free(p->worker_status);
+    free(p->patches);
+    for (uint32_t f = 0; f < p->face_cap; f++) crisp_trim_plan_free(&p->trims[f]);
+    free(p->trims);
+    free(p->face_tau);
+    free(p);
+}
+
+static crisp_status ensure_workers(crisp_plan *p, int workers)
+{
+    if (workers <= p->worker_cap) return CRISP_OK;
+    crisp_arena **a = realloc(p->arenas, (size_t)workers * sizeof *a);
+    if (!a) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for planner workers");
+    p->arenas = a;
+    void **b = realloc(p->build_state, (size_t)workers * sizeof *b);
+    if (!b) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for planner workers");
+    p->build_state = b;
+    crisp_status *s = realloc(p->worker_status, (size_t)workers * sizeof *s);
+    if (!s) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for planner workers");
+    p->worker_status = s;
+    for (int w = p->worker_cap; w < workers; w++) {
+        p->arenas[w] = NULL;
+        p->build_state[w] = NULL;
+    }
+    for (int w = p->worker_cap; w < workers; w++) {
+        crisp_status st = crisp_arena_create(1 << 16, &p->arenas[w]);
+        p->build_state[w] = malloc(sizeof(build_state));
+        if (st || !p->build_state[w]) {
+            p->worker_cap = w + 1;
+            return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for planner workers");
+        }
+    }
+    p->worker_cap = workers;
+    return CRISP_OK;
+}
+
+typedef struct trim_ctx {
+    crisp_plan *plan;
+    const crisp_scene *sc;
+    int strip_count;
+    crisp_status *status;
+} trim_ctx;
+
+static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
+{
+    trim_ctx *c = vctx;
+    for (size_t f = begin; f < end; f++) {
+        if (!c->plan->face_tau[f]) continue;
+        const crisp_scene_face *sf = &c->sc->faces[f];
+        int strips = c->strip_count;
+        if (strips <= 0) {
+            /* n_V: the face's tess level over its patch rows (Wu & Peters' default). */
+            uint32_t s = c->plan->face_tau[f] * (sf->grid_v ? sf->grid_v : 1);
+            strips = (int)(s < 8 ? 8 : s > 256 ? 256 : s);
+        }
+        crisp_trim_plan_desc d = {
+            .patches = c->sc->face_patches[f].patches,
+            .patch_count = c->sc->face_patches[f].count,
+            .pieces = sf->piece_count ? c->sc->pieces + sf->first_piece : NULL,
+            .piece_count = (int)sf->piece_count,
+            .view_proj = &c->plan->view_proj,
+            .width = c->plan->width,
+            .height = c->plan->height,
+            .v0 = sf->domain[2],
+            .v1 = sf->domain[3],
+            .strip_count = strips,
+        };
+        crisp_status st = crisp_trim_plan_face(&d, &c->plan->trims[f]);
+        if (st) {
+            crisp_error_prefix("face %zu (source entity %d)", f, sf->src->source_id);
+            c->status[worker] = st;
+        }
+    }
+}
+
+crisp_status crisp_plan_frame(crisp_plan *plan, const crisp_scene *sc, const crisp_camera *cam,
+                              const crisp_plan_desc *desc, crisp_pool *pool)
+{
+    crisp_status st = crisp_camera_check(cam);
+    if (st) return st;
+    double t0 = crisp_time_now();
+    int workers = crisp_pool_threads(pool);
+    if ((st = ensure_workers(plan, workers))) return st;
+    for (int w = 0; w < workers; w++) {
+        crisp_arena_reset(plan->arenas[w]);
+        plan->worker_status[w] = CRISP_OK;
+    }
+    if ((st = crisp_grow((void **)&plan->patches, &plan->patch_cap, sc->patch_count ? sc->patch_count : 1,
+                         sizeof *plan->patches)))
+        return st;
+    if (sc->face_count > plan->face_cap) {
+        crisp_trim_plan *t = realloc(plan->trims, sc->face_count * sizeof *t);
+        if (!t) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        memset(t + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *t);
+        plan->trims = t;
+        uint32_t *ft = realloc(plan->face_tau, sc->face_count * sizeof *ft);
+        if (!ft) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        plan->face_tau = ft;
+        plan->face_cap = sc->face_count;
+    }
+    crisp_camera_matrices m;
+    crisp_camera_matrices_compute(cam, &m);
+    crisp_mat4_copy(m.view_proj, plan->view_proj);
+    plan->width = cam->width;
+    plan->height = cam->height;
+    plan->max_depth = desc && desc->max_depth > 0 ? desc->max_depth : 8;
+    if (plan->max_depth > CRISP_PLAN_MAX_DEPTH) plan->max_depth = CRISP_PLAN_MAX_DEPTH;
+    double eps = desc && desc->eps_px > 0 ? desc->eps_px : 0.5;
+
+    tree_ctx tc = {.plan = plan, .sc = sc, .eps = eps};
+    crisp_mat4_copy(m.view_proj, tc.view.view_proj);
+    tc.view.width = cam->width;
+    tc.view.height = cam->height;
+    /* Cull against the frustum widened by 2 px so patches touching the border keep their edges. */
+    tc.gx = 1 + 4.0 / cam->width;
+    tc.gy = 1 + 4.0 / cam->height;
+    crisp_pool_parallel_for(pool, sc->patch_count, 16, build_trees, &tc);
+    for (int w = 0; w < workers; w++)
+        if (plan->worker_status[w]) return plan->worker_status[w];
+    double t1 = crisp_time_now();
+
+    edge_ctx ec = {plan, sc};
+    crisp_pool_parallel_for(pool, sc->patch_count, 16, edge_levels, &ec);
+    double t2 = crisp_time_now();
+
+    /* Faces with a visible leaf get a trim plan. */
+    memset(plan->face_tau, 0, sc->face_count * sizeof *plan->face_tau);
+    crisp_plan_stats *s = &plan->stats;
+    *s = (crisp_plan_stats){.patches = sc->patch_count};
+    for (uint32_t p = 0; p < sc->patch_count; p++) {
+        const crisp_patch_plan *pp = &plan->patches[p];
+        s->leaves += pp->leaf_count;
+        s->unresolved += pp->unresolved;
+        if (!pp->visible_leaves) continue;
+        s->visible_patches++;
+        s->split_patches += pp->leaf_count > 1;
+        uint32_t f = sc->patches[p].face;
+        for (uint32_t l = 0; l < pp->leaf_count; l++)
+            if (!pp->leaves[l].culled && pp->leaves[l].tau > plan->face_tau[f]) plan->face_tau[f] = pp->leaves[l].tau;
+    }
+    for (int w = 0; w < workers; w++) plan->worker_status[w] = CRISP_OK;
+    trim_ctx trc = {plan, sc, desc ? desc->strip_count : 0, plan->worker_status};
+    crisp_pool_parallel_for(pool, sc->face_count, 1, plan_trims, &trc);
+    for (int w = 0; w < workers; w++)
+        if (plan->worker_status[w]) return plan->worker_status[w];
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        if (!plan->face_tau[f]) continue;
+        s->visible_faces++;
+        s->table_rows += plan->trims[f].table.row_count;
+        s->table_bytes += crisp_trim_table_bytes(&plan->trims[f].table);
+        s->rows_clamped += plan->trims[f].clamped;
+    }
+    double t3 = crisp_time_now();
+    s->ms_levels = 1e3 * (t1 - t0);
+    s->ms_edges = 1e3 * (t2 - t1);
+    s->ms_trim = 1e3 * (t3 - t2);
+    return CRISP_OK;
+}

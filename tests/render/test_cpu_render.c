@@ -1,0 +1,348 @@
+/* The CPU backend against the truth:
+ *  - surface accuracy: on bundled models under random cameras, every drawn triangle stays within
+ *    0.5 px (screen distance) of the true surface evaluated at the interpolated (u, v);
+ *  - agreement with the exact renderer on every pixel away (1.5 px and more) from face
+ *    boundaries, trims and silhouettes;
+ *  - no cracks: closed surfaces (a sphere and a torus of rational patches) show no background
+ *    pixel inside their silhouette over many views, also with the camera close enough to split. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/construct.h"
+#include "crisp/io.h"
+#include "crisp/render.h"
+#include "crisp/trim.h"
+#include "render/raster.h"
+#include "render/render_internal.h"
+
+static uint64_t rng = 0x9e3779b97f4a7c15ull;
+static double rnd(void)
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 7;
+    rng ^= rng << 17;
+    return (double)(rng >> 11) / 9007199254740992.0;
+}
+
+static crisp_model *load(const char *name)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
+    crisp_model *m = NULL;
+    crisp_status st = crisp_model_load(path, NULL, &m);
+    if (st) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(st, CRISP_OK);
+    return m;
+}
+
+/* A random camera looking at the box from outside, at 1.2 to 4 radii. */
+static crisp_camera random_camera(const double box[6], int w, int h, double near_scale)
+{
+    double c[3], r = 0;
+    for (int k = 0; k < 3; k++) {
+        c[k] = 0.5 * (box[k] + box[k + 3]);
+        r += 0.25 * (box[k + 3] - box[k]) * (box[k + 3] - box[k]);
+    }
+    r = sqrt(r);
+    double d[3], n;
+    do {
+        for (int k = 0; k < 3; k++) d[k] = 2 * rnd() - 1;
+        n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    } while (n < 0.1 || n > 1);
+    double dist = r * (1.2 + 2.8 * rnd());
+    crisp_camera cam = {.fov_deg = 20 + 40 * rnd(), .width = w, .height = h};
+    for (int k = 0; k < 3; k++) {
+        cam.eye[k] = c[k] + dist * d[k] / n;
+        cam.target[k] = c[k] + 0.3 * r * (2 * rnd() - 1);
+    }
+    cam.up[0] = 0.1, cam.up[1] = 1, cam.up[2] = 0.2;
+    cam.znear = dist * near_scale;
+    cam.zfar = dist + 4 * r;
+    return cam;
+}
+
+static void to_screen(const crisp_camera *cam, crisp_mat4 vp, const double p[3], double out[2], double *w)
+{
+    double c[4], s[3];
+    crisp_mat4_mulp(vp, p, c);
+    crisp_camera_to_pixel(cam, c, s);
+    out[0] = s[0];
+    out[1] = s[1];
+    *w = c[3];
+}
+
+/* Largest screen distance between drawn triangles and the surface at the interpolated (u, v). */
+static double mesh_error(const crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam)
+{
+    const crisp_raster_vertex *v;
+    const crisp_raster_tri *t;
+    size_t nv, nt;
+    crisp__renderer_mesh(r, &v, &nv, &t, &nt);
+    assert_true(nt > 0);
+    crisp_camera_matrices m;
+    crisp_camera_matrices_compute(cam, &m);
+    static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3}, {.5, .5, 0}, {0, .5, .5}, {.5, 0, .5},
+                                      {.7, .2, .1},           {.1, .7, .2}, {.2, .1, .7}};
+    double worst = 0;
+    for (size_t k = 0; k < nt; k++) {
+        const crisp_raster_vertex *a = &v[t[k].v[0]], *b = &v[t[k].v[1]], *c = &v[t[k].v[2]];
+        if (a->clip[3] <= cam->znear || b->clip[3] <= cam->znear || c->clip[3] <= cam->znear) continue;
+        const crisp_surface *surf = sc->faces[t[k].face].src->surface;
+        for (int q = 0; q < 7; q++) {
+            double cl[4], uv[2], P[3];
+            for (int i = 0; i < 4; i++)
+                cl[i] = bary[q][0] * a->clip[i] + bary[q][1] * b->clip[i] + bary[q][2] * c->clip[i];
+            for (int i = 0; i < 2; i++)
+                uv[i] = bary[q][0] * a->attr[i] + bary[q][1] * b->attr[i] + bary[q][2] * c->attr[i];
+            double tri[3], sp[2], w;
+            crisp_camera_to_pixel(cam, cl, tri);
+            /* Only what can be seen matters for a pixel bound. */
+            if (tri[0] < -2 || tri[1] < -2 || tri[0] > cam->width + 2 || tri[1] > cam->height + 2) continue;
+            crisp_surface_eval(surf, uv[0], uv[1], P);
+            to_screen(cam, m.view_proj, P, sp, &w);
+            double e = fmax(fabs(sp[0] - tri[0]), fabs(sp[1] - tri[1]));
+            if (e > worst) worst = e;
+        }
+    }
+    return worst;
+}
+
+static void test_surface_accuracy(void **state)
+{
+    (void)state;
+    const char *models[] = {"gpucast_teapot.igs", "occt_bearing.iges", "occt_hammer.iges"};
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+    for (int mi = 0; mi < 3; mi++) {
+        crisp_model *m = load(models[mi]);
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+        double worst = 0;
+        for (int view = 0; view < 8; view++) {
+            crisp_camera cam = random_camera(sc->box, 320, 240, 0.05);
+            crisp_image img;
+            crisp_image_init(&img, cam.width, cam.height);
+            crisp_render_stats st;
+            assert_int_equal(crisp_render_cpu(r, sc, &cam, &img, &st), CRISP_OK);
+            double e = mesh_error(r, sc, &cam);
+            if (e > worst) worst = e;
+            crisp_image_free(&img);
+        }
+        printf("%s: largest triangle-to-surface distance %.4f px over 8 views\n", models[mi], worst);
+        assert_true(worst <= 0.5);
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(m);
+    }
+    crisp_renderer_destroy(r);
+}
+
+/* Pixels whose 5x5 neighbourhood in the exact image all shows the same face (or background):
+ * at least 2 px from a face boundary, trim or silhouette. */
+static int interior(const crisp_image *ex, int i, int j)
+{
+    int f = ex->face[j * ex->width + i];
+    for (int dj = -2; dj <= 2; dj++)
+        for (int di = -2; di <= 2; di++) {
+            int x = i + di, y = j + dj;
+            if (x < 0 || y < 0 || x >= ex->width || y >= ex->height) return 0;
+            if (ex->face[y * ex->width + x] != f) return 0;
+        }
+    return 1;
+}
+
+static int exact_classify(void *ctx, const crisp_scene *sc, uint32_t face, double u, double v)
+{
+    (void)ctx;
+    const crisp_scene_face *f = &sc->faces[face];
+    if (!f->piece_count) return 1;
+    return crisp_trim_exact_classify(sc->pieces + f->first_piece, (int)f->piece_count, u, v);
+}
+
+static void compare_with_exact(const char *name, int views, int w, int h)
+{
+    crisp_model *m = load(name);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+    long compared = 0, differ = 0;
+    for (int view = 0; view < views; view++) {
+        crisp_camera cam = random_camera(sc->box, w, h, 0.05);
+        crisp_image cpu, ex;
+        crisp_image_init(&cpu, w, h);
+        crisp_image_init(&ex, w, h);
+        assert_int_equal(crisp_render_cpu(r, sc, &cam, &cpu, NULL), CRISP_OK);
+        crisp_exact_desc d = {.threads = 2, .classify = exact_classify};
+        assert_int_equal(crisp_render_exact(sc, &cam, &d, &ex), CRISP_OK);
+        for (int j = 0; j < h; j++)
+            for (int i = 0; i < w; i++) {
+                if (!interior(&ex, i, j)) continue;
+                compared++;
+                int px = j * w + i;
+                if (cpu.face[px] != ex.face[px]) {
+                    differ++;
+                    fprintf(stderr, "%s view %d pixel (%d, %d): cpu face %d, exact face %d\n", name,
+                            view, i, j, cpu.face[px], ex.face[px]);
+                }
+            }
+        crisp_image_free(&cpu);
+        crisp_image_free(&ex);
+    }
+    printf("%s: %ld interior pixels compared over %d views, %ld differ\n", name, compared, views, differ);
+    assert_true(compared > (long)views * w * h / 4);
+    assert_int_equal(differ, 0);
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
+static void test_against_exact(void **state)
+{
+    (void)state;
+    compare_with_exact("occt_bearing.iges", 3, 200, 150);
+    compare_with_exact("gpucast_part.igs", 2, 200, 150);
+}
+
+/* Closed surfaces: every pixel inside the exact silhouette (its 3x3 neighbourhood all covered) is
+ * covered by the CPU backend. */
+static void check_closed(crisp_model *m, int views, double near_scale)
+{
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+    long inside = 0;
+    for (int view = 0; view < views; view++) {
+        crisp_camera cam = random_camera(sc->box, 160, 120, near_scale);
+        crisp_image cpu, ex;
+        crisp_image_init(&cpu, cam.width, cam.height);
+        crisp_image_init(&ex, cam.width, cam.height);
+        assert_int_equal(crisp_render_cpu(r, sc, &cam, &cpu, NULL), CRISP_OK);
+        assert_int_equal(crisp_render_exact(sc, &cam, &(crisp_exact_desc){.threads = 2}, &ex), CRISP_OK);
+        for (int j = 1; j < cam.height - 1; j++)
+            for (int i = 1; i < cam.width - 1; i++) {
+                int all = 1;
+                for (int dj = -1; dj <= 1; dj++)
+                    for (int di = -1; di <= 1; di++) all &= ex.face[(j + dj) * cam.width + i + di] >= 0;
+                if (!all) continue;
+                inside++;
+                if (cpu.face[j * cam.width + i] < 0)
+                    fprintf(stderr, "crack at view %d pixel (%d, %d)\n", view, i, j);
+                assert_true(cpu.face[j * cam.width + i] >= 0);
+            }
+        crisp_image_free(&cpu);
+        crisp_image_free(&ex);
+    }
+    assert_true(inside > views * 500);
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+}
+
+static crisp_model *single_surface_model(crisp_surface *s)
+{
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    crisp_face f = {.surface = s};
+    assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
+    return m;
+}
+
+static void test_no_cracks(void **state)
+{
+    (void)state;
+    crisp_placement pl;
+    double o[3] = {0.3, -0.2, 0.1}, axis[3] = {0.2, 1, 0.3};
+    assert_int_equal(crisp_placement_make(o, axis, NULL, &pl), CRISP_OK);
+    crisp_surface *sphere, *torus;
+    assert_int_equal(crisp_make_sphere(&pl, 1.3, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sphere), CRISP_OK);
+    assert_int_equal(crisp_make_torus(&pl, 2, 0.6, 0, 2 * M_PI, 0, 2 * M_PI, &torus), CRISP_OK);
+    crisp_model *ms = single_surface_model(sphere), *mt = single_surface_model(torus);
+    check_closed(ms, 12, 0.05);
+    check_closed(mt, 12, 0.05);
+    crisp_model_destroy(ms);
+    crisp_model_destroy(mt);
+}
+
+/* Cameras inside a closed sphere and right at a torus's surface (patches cross the near plane
+ * and the eye plane, so the planner must split them): no background inside the exact
+ * silhouette, and the same face and nearly the same depth everywhere away from edges. */
+static void check_close(crisp_model *m, const crisp_camera *cam)
+{
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+    crisp_image cpu, ex;
+    crisp_image_init(&cpu, cam->width, cam->height);
+    crisp_image_init(&ex, cam->width, cam->height);
+    crisp_render_stats st;
+    assert_int_equal(crisp_render_cpu(r, sc, cam, &cpu, &st), CRISP_OK);
+    assert_int_equal(crisp_render_exact(sc, cam, &(crisp_exact_desc){.threads = 2}, &ex), CRISP_OK);
+    long covered = 0, missing = 0;
+    for (int j = 1; j < cam->height - 1; j++)
+        for (int i = 1; i < cam->width - 1; i++) {
+            int all = 1;
+            for (int dj = -1; dj <= 1; dj++)
+                for (int di = -1; di <= 1; di++) all &= ex.face[(j + dj) * cam->width + i + di] >= 0;
+            if (!all) continue;
+            covered++;
+            if (cpu.face[j * cam->width + i] < 0) {
+                if (missing < 5) fprintf(stderr, "  missing pixel (%d, %d)\n", i, j);
+                missing++;
+            }
+            assert_false(isnan(cpu.rgba[4 * (j * cam->width + i)]));
+        }
+    printf("close camera: %ld pixels inside the silhouette, %ld missing, %u patches split, %u leaves, "
+           "%u unresolved, %llu triangles\n",
+           covered, missing, st.split_patches, st.leaves, st.unresolved, (unsigned long long)st.triangles);
+    assert_int_equal(missing, 0);
+    double err = mesh_error(r, sc, cam);
+    printf("close camera: largest triangle-to-surface distance %.4f px\n", err);
+    assert_true(err <= 0.5);
+    assert_true(covered > cam->width * cam->height / 4);
+    crisp_image_free(&cpu);
+    crisp_image_free(&ex);
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+}
+
+static void test_close_cameras(void **state)
+{
+    (void)state;
+    crisp_placement pl;
+    double o[3] = {0, 0, 0}, axis[3] = {0, 0, 1};
+    assert_int_equal(crisp_placement_make(o, axis, NULL, &pl), CRISP_OK);
+    crisp_surface *sphere, *torus;
+    assert_int_equal(crisp_make_sphere(&pl, 1.0, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sphere), CRISP_OK);
+    assert_int_equal(crisp_make_torus(&pl, 2, 0.5, 0, 2 * M_PI, 0, 2 * M_PI, &torus), CRISP_OK);
+    crisp_model *ms = single_surface_model(sphere), *mt = single_surface_model(torus);
+    /* Inside the sphere, near its wall, looking across it. */
+    crisp_camera in = {.eye = {0.2, -0.9, 0.1}, .target = {0, 1, 0}, .up = {0, 0, 1}, .fov_deg = 90,
+                       .znear = 0.001, .zfar = 10, .width = 160, .height = 120};
+    check_close(ms, &in);
+    /* 0.01 above the torus's outer equator, looking along the surface (grazing). */
+    crisp_camera graze = {.eye = {2.51, 0, 0.01}, .target = {2.5, 1, 0}, .up = {0, 0, 1},
+                          .fov_deg = 60, .znear = 0.0005, .zfar = 20, .width = 160, .height = 120};
+    check_close(mt, &graze);
+    crisp_model_destroy(ms);
+    crisp_model_destroy(mt);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_surface_accuracy),
+        cmocka_unit_test(test_no_cracks),
+        cmocka_unit_test(test_close_cameras),
+        cmocka_unit_test(test_against_exact),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
