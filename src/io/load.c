@@ -94,8 +94,7 @@ crisp_status crisp_model_load(const char *path, const crisp_read_options *option
         st = crisp_read_iges_mem(path, data, size, options, dest);
         break;
     case FMT_STEP:
-        st = crisp_error(CRISP_ERR_UNSUPPORTED, "%s: STEP file, but this build has no STEP reader",
-                         path);
+        st = crisp_read_step_mem(path, data, size, options, dest);
         break;
     case FMT_OBJ: st = crisp_read_obj_mem(path, data, size, options, dest); break;
     default:

@@ -65,7 +65,7 @@ static void test_example9(void **state)
     assert_true(s->rational);
     /* v 0.130 -1.030 0.432 7.600: Euclidean point and weight, stored homogeneous */
     assert_true(s->cpw[1 * 4 + 3] == 7.6);
-    assert_true(s->cpw[1 * 4 + 0] == 0.130 * 7.6);
+    assert_true(fabs(s->cpw[1 * 4 + 0] - 0.130 * 7.6) < 1e-15);
     double p[3];
     crisp_surface_eval(s, -1.0, -2.0, p);
     assert_true(fabs(p[0] + 1.35) < 1e-12 && fabs(p[1] + 1.03) < 1e-12);

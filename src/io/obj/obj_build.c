@@ -5,6 +5,7 @@
  * when it is smaller than the knot domain). `trim`/`hole` statements concatenate pieces
  * (u0, u1, curv2) into one loop each; the keyword, not the winding, says outer or hole.
  * Polygon faces become Catmull-Clark limit patches through the OpenSubdiv shim. */
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -64,6 +65,18 @@ static crisp_status make_knots(const obj_data *d, int type, int degree, obj_span
     return CRISP_OK;
 }
 
+/* Replace the kernel's w * x (double) by the product formed in long double and rounded once, so
+ * the extended-precision Euclidean values crisp_write_obj writes for rational points give back the
+ * homogeneous doubles exactly. cpw holds dim coordinates and the weight. */
+static void homogenize(const long double *ext, int dim, double *cpw)
+{
+    long double w = cpw[dim];
+    for (int c = 0; c < dim; c++) {
+        double y = (double)(ext[c] * w);
+        if (isfinite(y)) cpw[c] = y;
+    }
+}
+
 static crisp_status get_curv2(obj_data *d, int idx, const crisp_curve **dest)
 {
     obj_curv2 *c = &d->curv2[idx];
@@ -93,12 +106,15 @@ static crisp_status get_curv2(obj_data *d, int idx, const crisp_curve **dest)
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s:%d: out of memory", d->name, c->line);
     }
     for (int i = 0; i < count; i++) {
-        const double *vp = d->vp + 3 * (size_t)d->refs[c->refs.off + i];
+        const double *vp = d->vp[d->refs[c->refs.off + i]].x;
         pts[2 * i] = vp[0];
         pts[2 * i + 1] = vp[1];
         w[i] = c->rational ? vp[2] : 1.0;
     }
     st = crisp_curve_create(2, c->degree, count, knots, pts, c->rational ? w : NULL, &c->curve);
+    if (st == CRISP_OK && c->curve->rational)
+        for (int i = 0; i < count; i++)
+            homogenize(d->vp[d->refs[c->refs.off + i]].ext, 2, c->curve->cpw + 3 * (size_t)i);
     crisp_free(knots);
     crisp_free(pts);
     crisp_free(w);
@@ -231,6 +247,21 @@ static crisp_status make_loop(obj_data *d, const obj_loop *ol, crisp_trim_loop *
     return CRISP_OK;
 }
 
+/* Loops that are closed to within rounding and oriented as their keyword says are kept exactly as
+ * written: normalising would move rational end points by an ulp and break bit-exact round trips
+ * of models that crisp itself wrote. */
+static int already_normal(const crisp_face *face, const double dom[4])
+{
+    double scale = fmax(1.0, fmax(fmax(fabs(dom[0]), fabs(dom[1])), fmax(fabs(dom[2]), fabs(dom[3]))));
+    for (int i = 0; i < face->loop_count; i++) {
+        const crisp_trim_loop *l = &face->loops[i];
+        if (crisp_trim_loop_closure_gap(l) > 64 * DBL_EPSILON * scale) return 0;
+        double area = crisp_trim_loop_signed_area(l);
+        if (l->is_outer ? !(area > 0) : !(area < 0)) return 0;
+    }
+    return 1;
+}
+
 static crisp_status note_dropped(crisp_model *m, const obj_data *d, int line, const char *why)
 {
     char what[96];
@@ -264,12 +295,15 @@ static crisp_status build_surf(obj_data *d, const obj_surf *os, double closure_f
         goto done;
     }
     for (int i = 0; i < os->refs.count; i++) {
-        const double *v = d->v + 4 * (size_t)d->refs[os->refs.off + i];
+        const double *v = d->v[d->refs[os->refs.off + i]].x;
         memcpy(pts + 3 * i, v, 3 * sizeof(double));
         w[i] = os->rational ? v[3] : 1.0;
     }
     st = crisp_surface_create(os->degree_u, os->degree_v, nu, nv, ku, kv, pts,
                               os->rational ? w : NULL, &face.surface);
+    if (st == CRISP_OK && face.surface->rational)
+        for (int i = 0; i < os->refs.count; i++)
+            homogenize(d->v[d->refs[os->refs.off + i]].ext, 3, face.surface->cpw + 4 * (size_t)i);
     if (st != CRISP_OK) {
         crisp_error_prefix("%s:%d: surf", d->name, os->line);
         goto done;
@@ -290,7 +324,7 @@ static crisp_status build_surf(obj_data *d, const obj_surf *os, double closure_f
         double dom[4];
         crisp_surface_domain(face.surface, dom);
         double tol = closure_frac * fmax(dom[1] - dom[0], dom[3] - dom[2]);
-        if (crisp_face_normalize_loops(&face, tol) != CRISP_OK) {
+        if (!already_normal(&face, dom) && crisp_face_normalize_loops(&face, tol) != CRISP_OK) {
             st = note_dropped(m, d, os->line, "trim loop not closed");
             goto done;
         }
@@ -353,7 +387,7 @@ static crisp_status build_polygons(obj_data *d, crisp_model *m)
         for (int a = 0; a < p->refs.count; a++) {
             if (map[r[a]] < 0) {
                 map[r[a]] = nv;
-                memcpy(pos + 3 * (size_t)nv, d->v + 4 * (size_t)r[a], 3 * sizeof(double));
+                memcpy(pos + 3 * (size_t)nv, d->v[r[a]].x, 3 * sizeof(double));
                 nv++;
             }
             fv[nc++] = map[r[a]];

@@ -42,11 +42,24 @@ typedef struct obj_polygon {
     obj_span refs; /* v indices */
 } obj_polygon;
 
+/* Coordinates are kept in double and in long double: a rational control point's homogeneous
+ * value w * x is formed in extended precision, so that the 21-digit Euclidean values that
+ * crisp_write_obj writes give back exactly the homogeneous doubles that were written. */
+typedef struct obj_vertex {
+    double x[4];          /* x y z w */
+    long double ext[3];   /* x y z */
+} obj_vertex;
+
+typedef struct obj_pvertex {
+    double x[3];          /* u v w (w = 1 when absent) */
+    long double ext[2];   /* u v */
+} obj_pvertex;
+
 typedef struct obj_data {
     const char *name;
-    double *v;  /* 4 per vertex: x y z w */
+    obj_vertex *v;
     int v_count, v_cap;
-    double *vp; /* 3 per parameter vertex: u v w (w = 1 when absent) */
+    obj_pvertex *vp;
     int vp_count, vp_cap;
     int *refs;
     int ref_count, ref_cap;

@@ -101,7 +101,8 @@ static crisp_status tok_error(parser *ps, const tok *t, crisp_status st, const c
                        t->len > 32 ? 32 : t->len, t->s);
 }
 
-static crisp_status parse_real(parser *ps, const tok *t, double *dest)
+/* A finite number; ext (may be NULL) gets it in long double precision as well. */
+static crisp_status parse_real_ext(parser *ps, const tok *t, double *dest, long double *ext)
 {
     char buf[64];
     if (t->len >= (int)sizeof buf) return tok_error(ps, t, CRISP_ERR_PARSE, "expected a number");
@@ -114,7 +115,16 @@ static crisp_status parse_real(parser *ps, const tok *t, double *dest)
         return tok_error(ps, t, CRISP_ERR_PARSE, "expected a number");
     if (!isfinite(x)) return tok_error(ps, t, CRISP_ERR_NUMERIC, "expected a finite number");
     *dest = x;
+    if (ext) {
+        long double xl = strtold(buf, NULL);
+        *ext = isfinite(xl) ? xl : (long double)x;
+    }
     return CRISP_OK;
+}
+
+static crisp_status parse_real(parser *ps, const tok *t, double *dest)
+{
+    return parse_real_ext(ps, t, dest, NULL);
 }
 
 static crisp_status parse_int(parser *ps, const tok *t, int *dest)
@@ -202,14 +212,15 @@ static crisp_status stmt_v(parser *ps)
     tok *t = ps->toks;
     crisp_status st = need_args(ps, t, ps->tok_count, 4, "v x y z [w]");
     if (st != CRISP_OK) return st;
-    double x[4] = {0, 0, 0, 1};
+    obj_vertex v = {.x = {0, 0, 0, 1}};
     size_t n = ps->tok_count - 1 > 4 ? 4 : ps->tok_count - 1;
     for (size_t i = 0; i < n; i++)
-        if ((st = parse_real(ps, &t[1 + i], &x[i])) != CRISP_OK) return st;
+        if ((st = parse_real_ext(ps, &t[1 + i], &v.x[i], i < 3 ? &v.ext[i] : NULL)) != CRISP_OK)
+            return st;
     obj_data *d = ps->d;
-    if ((st = grow_int((void **)&d->v, &d->v_cap, d->v_count + 1, 4 * sizeof(double))) != CRISP_OK)
+    if ((st = grow_int((void **)&d->v, &d->v_cap, d->v_count + 1, sizeof(obj_vertex))) != CRISP_OK)
         return crisp_error(st, "%s:%d: too many vertices", ps->name, t->line);
-    memcpy(d->v + 4 * (size_t)d->v_count++, x, sizeof x);
+    d->v[d->v_count++] = v;
     return CRISP_OK;
 }
 
@@ -218,15 +229,16 @@ static crisp_status stmt_vp(parser *ps)
     tok *t = ps->toks;
     crisp_status st = need_args(ps, t, ps->tok_count, 2, "vp u [v [w]]");
     if (st != CRISP_OK) return st;
-    double x[3] = {0, 0, 1};
+    obj_pvertex v = {.x = {0, 0, 1}};
     size_t n = ps->tok_count - 1 > 3 ? 3 : ps->tok_count - 1;
     for (size_t i = 0; i < n; i++)
-        if ((st = parse_real(ps, &t[1 + i], &x[i])) != CRISP_OK) return st;
+        if ((st = parse_real_ext(ps, &t[1 + i], &v.x[i], i < 2 ? &v.ext[i] : NULL)) != CRISP_OK)
+            return st;
     obj_data *d = ps->d;
-    if ((st = grow_int((void **)&d->vp, &d->vp_cap, d->vp_count + 1, 3 * sizeof(double))) !=
+    if ((st = grow_int((void **)&d->vp, &d->vp_cap, d->vp_count + 1, sizeof(obj_pvertex))) !=
         CRISP_OK)
         return crisp_error(st, "%s:%d: too many parameter vertices", ps->name, t->line);
-    memcpy(d->vp + 3 * (size_t)d->vp_count++, x, sizeof x);
+    d->vp[d->vp_count++] = v;
     return CRISP_OK;
 }
 

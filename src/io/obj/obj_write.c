@@ -2,9 +2,9 @@
  * Every face becomes `cstype [rat] bspline` + `deg` + `surf` over its whole knot domain with
  * `parm u/v`, and every trim loop a `trim` (outer) or `hole` statement whose pieces are curv2
  * elements used over their whole domain. Numbers are written with %.17g, so they read back to
- * the same doubles; for rational control points the Euclidean coordinate written is chosen so
- * that the reader's x * w gives back the stored homogeneous value bit for bit when such a double
- * exists (it does except in rare cases, where the result is off by one unit in the last place). */
+ * the same doubles; the Euclidean coordinates of rational control points (OBJ stores x, not w x)
+ * are written with 21 digits, which crisp's reader turns back into the same homogeneous doubles
+ * (see euclidean()). */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -12,20 +12,12 @@
 
 #include "crisp/io.h"
 
-/* A double x with x * w == y (the reader's homogenisation), nearest to y / w. */
-static double euclidean(double y, double w)
+/* The Euclidean coordinate y / w of a rational control point, as text. The reader forms w * x in
+ * long double and rounds once, so 21 significant digits of y / w (LDBL_DECIMAL_DIG on x86-64)
+ * give back y exactly; a double x with x * w == y does not always exist. */
+static void euclidean(FILE *f, double y, double w)
 {
-    if (w == 1.0) return y;
-    double z = y / w;
-    if (z * w == y) return z;
-    double up = z, down = z;
-    for (int i = 0; i < 4; i++) {
-        up = nextafter(up, INFINITY);
-        if (up * w == y) return up;
-        down = nextafter(down, -INFINITY);
-        if (down * w == y) return down;
-    }
-    return z;
+    fprintf(f, " %.21Lg", (long double)y / (long double)w);
 }
 
 typedef struct writer {
@@ -65,10 +57,12 @@ static void write_curves(writer *w, const crisp_face *face, long *vp_base, long 
             const crisp_curve *cu = face->loops[l].curves[c];
             for (int i = 0; i < cu->count; i++) {
                 const double *h = cu->cpw + 3 * (size_t)i;
-                if (cu->rational)
-                    fprintf(w->f, "vp %.17g %.17g %.17g\n", euclidean(h[0], h[2]),
-                            euclidean(h[1], h[2]), h[2]);
-                else
+                if (cu->rational) {
+                    fputs("vp", w->f);
+                    euclidean(w->f, h[0], h[2]);
+                    euclidean(w->f, h[1], h[2]);
+                    fprintf(w->f, " %.17g\n", h[2]);
+                } else
                     fprintf(w->f, "vp %.17g %.17g\n", h[0], h[1]);
             }
             fprintf(w->f, "cstype %sbspline\ndeg %d\n", cu->rational ? "rat " : "", cu->degree);
@@ -92,10 +86,11 @@ static void write_face(writer *w, const crisp_face *face, int index, long *v_bas
     int n = s->count_u * s->count_v;
     for (int i = 0; i < n; i++) {
         const double *h = s->cpw + 4 * (size_t)i;
-        if (s->rational)
-            fprintf(w->f, "v %.17g %.17g %.17g %.17g\n", euclidean(h[0], h[3]),
-                    euclidean(h[1], h[3]), euclidean(h[2], h[3]), h[3]);
-        else
+        if (s->rational) {
+            fputc('v', w->f);
+            for (int c = 0; c < 3; c++) euclidean(w->f, h[c], h[3]);
+            fprintf(w->f, " %.17g\n", h[3]);
+        } else
             fprintf(w->f, "v %.17g %.17g %.17g\n", h[0], h[1], h[2]);
     }
     double dom[4];
