@@ -51,7 +51,8 @@ crisp_status crisp_camera_frame_box(const double box[6], int width, int height,
 
 /* ---- scene --------------------------------------------------------------------------------- */
 
-/* One Bézier patch of a face, with its box (control hull; contains the patch). */
+/* One Bézier patch of a face, with a box that contains it (SLEFE tile boxes within the control
+ * hull). */
 typedef struct crisp_scene_patch {
     crisp_bezier_patch bez;
     uint32_t face;
@@ -140,7 +141,7 @@ typedef struct crisp_render_desc {
 
 typedef struct crisp_render_stats {
     uint32_t patches, visible_patches, split_patches, leaves, visible_faces, unresolved;
-    uint64_t vertices, triangles, table_rows, table_bytes;
+    uint64_t vertices, triangles, ribbon_triangles, table_rows, table_bytes;
     uint64_t fragments_tested, fragments_trimmed;
     double ms_levels, ms_edges, ms_trim, ms_tess, ms_raster, ms_resolve;
 } crisp_render_stats;

@@ -40,8 +40,8 @@ crisp_status crisp_surface_to_bezier(const crisp_surface *s, crisp_bezier_patche
 {
     memset(dest, 0, sizeof *dest);
     const int pu = s->degree_u, pv = s->degree_v, nu = s->count_u, nv = s->count_v;
-    const int su = crisp__count_spans(s->knots_u, pu, nu);
-    const int sv = crisp__count_spans(s->knots_v, pv, nv);
+    const int su = crisp__count_surface_spans(s->knots_u, pu, nu);
+    const int sv = crisp__count_surface_spans(s->knots_v, pv, nv);
     const size_t npatch = (size_t)su * (size_t)sv;
     const size_t per = (size_t)(pu + 1) * (size_t)(pv + 1);
     if (npatch * per > MAX_PATCH_POINTS)
@@ -64,7 +64,7 @@ crisp_status crisp_surface_to_bezier(const crisp_surface *s, crisp_bezier_patche
     for (int j = 0; j < nv; j++) {
         size_t a = 0;
         for (int k = pu; k < nu; k++) {
-            if (!(s->knots_u[k] < s->knots_u[k + 1])) continue;
+            if (!crisp__surface_span_kept(s->knots_u, pu, nu, k)) continue;
             crisp__span_to_bezier(pu, s->knots_u + k - pu + 1, 4,
                                   s->cpw + ((size_t)j * nu + (size_t)(k - pu)) * 4, 4,
                                   grid + ((size_t)j * width + a * (size_t)(pu + 1)) * 4);
@@ -75,7 +75,7 @@ crisp_status crisp_surface_to_bezier(const crisp_surface *s, crisp_bezier_patche
     double tmp[(CRISP_MAX_DEGREE + 1) * 4];
     size_t b = 0;
     for (int k = pv; k < nv; k++) {
-        if (!(s->knots_v[k] < s->knots_v[k + 1])) continue;
+        if (!crisp__surface_span_kept(s->knots_v, pv, nv, k)) continue;
         for (size_t col = 0; col < width; col++) {
             crisp__span_to_bezier(pv, s->knots_v + k - pv + 1, 4,
                                   grid + ((size_t)(k - pv) * width + col) * 4, (ptrdiff_t)width * 4,
@@ -90,9 +90,9 @@ crisp_status crisp_surface_to_bezier(const crisp_surface *s, crisp_bezier_patche
     /* Patch records, u fastest, with their parameter boxes. */
     size_t idx = 0;
     for (int kv = pv; kv < nv; kv++) {
-        if (!(s->knots_v[kv] < s->knots_v[kv + 1])) continue;
+        if (!crisp__surface_span_kept(s->knots_v, pv, nv, kv)) continue;
         for (int ku = pu; ku < nu; ku++) {
-            if (!(s->knots_u[ku] < s->knots_u[ku + 1])) continue;
+            if (!crisp__surface_span_kept(s->knots_u, pu, nu, ku)) continue;
             crisp_bezier_patch *p = &patches[idx];
             p->du = pu;
             p->dv = pv;

@@ -160,6 +160,23 @@ int crisp__count_spans(const double *knots, int degree, int count)
     return n;
 }
 
+int crisp__surface_span_kept(const double *knots, int degree, int count, int k)
+{
+    /* A surface span narrower than this fraction of the domain is knot noise from the exporter:
+     * its Bézier patch is a curve, and knot insertion between nearly equal knots turns its control
+     * net into garbage (huge boxes, huge tess levels). It is left out; its neighbours meet across
+     * it within the same fraction. Curves keep every span (a trim loop must stay closed). */
+    double w = knots[k + 1] - knots[k];
+    return w > 0 && w > 1e-10 * (knots[count] - knots[degree]);
+}
+
+int crisp__count_surface_spans(const double *knots, int degree, int count)
+{
+    int n = 0;
+    for (int k = degree; k < count; k++) n += crisp__surface_span_kept(knots, degree, count, k);
+    return n;
+}
+
 int crisp__multiplicity(const double *knots, int n, double t)
 {
     int m = 0;

@@ -113,8 +113,8 @@ crisp_status crisp_model_stats_compute(const crisp_model *m, crisp_model_stats *
         if (!s)
             return crisp_error(CRISP_ERR_INVALID_ARG, "face %d (index %d) has no surface",
                                f->source_id, i);
-        dest->bezier_patches += crisp__count_spans(s->knots_u, s->degree_u, s->count_u) *
-                                crisp__count_spans(s->knots_v, s->degree_v, s->count_v);
+        dest->bezier_patches += crisp__count_surface_spans(s->knots_u, s->degree_u, s->count_u) *
+                                crisp__count_surface_spans(s->knots_v, s->degree_v, s->count_v);
         if (s->rational) dest->rational_surfaces++;
         if (s->degree_u > dest->max_degree_u) dest->max_degree_u = s->degree_u;
         if (s->degree_v > dest->max_degree_v) dest->max_degree_v = s->degree_v;

@@ -31,6 +31,9 @@ void crisp__basis_ders(const double *knots, int degree, int k, double t, int nd,
 
 /* Number of non-empty knot spans inside the domain: the Bézier pieces of the spline. */
 int crisp__count_spans(const double *knots, int degree, int count);
+/* Surface spans that Bézier extraction keeps (non-empty and not negligibly narrow). */
+int crisp__surface_span_kept(const double *knots, int degree, int count, int k);
+int crisp__count_surface_spans(const double *knots, int degree, int count);
 /* Multiplicity of value t in knots[0 .. n). */
 int crisp__multiplicity(const double *knots, int n, double t);
 

@@ -23,6 +23,10 @@ struct crisp_renderer {
     crisp_raster_target target;
     leaf_job *jobs;
     size_t job_cap;
+    struct ribbon_job *ribbon_jobs;
+    size_t ribbon_cap;
+    crisp_arena **ribbon_arena; /* per worker, reset every frame */
+    crisp_status *wstatus;      /* per worker */
     crisp_raster_vertex *verts;
     size_t vert_cap;
     crisp_raster_tri *tris;
@@ -49,7 +53,8 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
     if (!st) {
         r->workers = crisp_pool_threads(r->pool);
         r->st = calloc((size_t)r->workers, sizeof *r->st);
-        if (!r->st) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
+        r->wstatus = calloc((size_t)r->workers, sizeof *r->wstatus);
+        if (!r->st || !r->wstatus) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
         for (int w = 0; !st && w < r->workers; w++)
             if (!(r->st[w] = crisp_malloc_array(MAX_LEAF_VERTS, 2 * sizeof(double))))
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
@@ -68,11 +73,16 @@ void crisp_renderer_destroy(crisp_renderer *r)
     if (r->st)
         for (int w = 0; w < r->workers; w++) free(r->st[w]);
     free(r->st);
+    free(r->wstatus);
     crisp_pool_destroy(r->pool);
     crisp_plan_destroy(r->plan);
     crisp_raster_destroy(r->raster);
     crisp_raster_target_free(&r->target);
     free(r->jobs);
+    free(r->ribbon_jobs);
+    if (r->ribbon_arena)
+        for (int w = 0; w < r->workers; w++) crisp_arena_destroy(r->ribbon_arena[w]);
+    free(r->ribbon_arena);
     free(r->verts);
     free(r->tris);
     free(r);
@@ -158,10 +168,205 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
 
 /* ---- trim test and resolve ------------------------------------------------------------------- */
 
+static crisp_status ensure_ribbon_arenas(crisp_renderer *r)
+{
+    if (!r->ribbon_arena) {
+        r->ribbon_arena = calloc((size_t)r->workers, sizeof *r->ribbon_arena);
+        if (!r->ribbon_arena) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+        for (int w = 0; w < r->workers; w++)
+            if (crisp_arena_create(1 << 16, &r->ribbon_arena[w]))
+                return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+    }
+    for (int w = 0; w < r->workers; w++) crisp_arena_reset(r->ribbon_arena[w]);
+    return CRISP_OK;
+}
+
 static int trim_test(void *ctx, uint32_t face, double u, double v)
 {
     const crisp_plan *plan = ctx;
+    if (face & CRISP_RASTER_FACE_FLAG) return 1; /* a ribbon: drawn where it lands */
     return crisp_trim_table_test(&plan->trims[face].table, u, v);
+}
+
+/* ---- trim-boundary ribbons ---------------------------------------------------------------------
+ * Where two trimmed faces meet, each face's trim test may be wrong within its 1 px band, so the
+ * shared edge can open a sub-pixel gap. Like Wu & Peters (who draw x(gamma(t))), each face's trim
+ * boundary is also drawn as its surface image: a screen-space ribbon of half-width RIBBON_PX
+ * along the trim polyline mapped onto the true surface, sampled until consecutive samples are at
+ * most RIBBON_STEP_PX apart on screen (so the straight ribbon pieces follow the curved image).
+ * The polyline is within 0.25 px of the true curve, so a ribbon reaches at most about
+ * RIBBON_PX + 0.25 < 1 px beyond the true boundary: inside the band where the trim decision may
+ * go either way. Samples outside the widened frustum are dropped. */
+#define RIBBON_PX 0.7
+#define RIBBON_STEP_PX 2.0
+#define RIBBON_MAX_DEPTH 20
+
+typedef struct ribbon_job {
+    uint32_t face, piece;
+    crisp_raster_vertex *pts; /* samples (per-worker arena, valid this frame) */
+    uint32_t count;           /* samples; a sample with clip[3] < 0 breaks the ribbon */
+    uint32_t vbase, tbase;
+} ribbon_job;
+
+typedef struct ribbon_ctx {
+    crisp_renderer *r;
+    const crisp_scene *sc;
+    crisp_status *status;
+} ribbon_ctx;
+
+static void ribbon_vertex(const crisp_surface *surf, int reversed, crisp_mat4 m, double u, double v,
+                          crisp_raster_vertex *out)
+{
+    double P[3], Su[3], Sv[3], n[3];
+    crisp_surface_derivs(surf, u, v, P, Su, Sv, NULL, NULL, NULL);
+    crisp_mat4_mulp(m, P, out->clip);
+    out->attr[0] = u;
+    out->attr[1] = v;
+    crisp_vec3_cross(Su, Sv, n);
+    if (reversed) crisp_vec3_scale(n, -1, n);
+    crisp_vec3_normalize(n, out->attr + 2);
+}
+
+static int in_view(const crisp_raster_vertex *a, double gx, double gy)
+{
+    const double *c = a->clip;
+    return c[3] > 0 && c[2] >= -c[3] && c[2] <= c[3] && fabs(c[0]) <= gx * c[3] && fabs(c[1]) <= gy * c[3];
+}
+
+/* Screen distance in pixels (infinite when either point is behind the eye). */
+static double screen_dist(const crisp_raster_vertex *a, const crisp_raster_vertex *b, double w, double h)
+{
+    if (!(a->clip[3] > 0 && b->clip[3] > 0)) return INFINITY;
+    double dx = (a->clip[0] / a->clip[3] - b->clip[0] / b->clip[3]) * 0.5 * w;
+    double dy = (a->clip[1] / a->clip[3] - b->clip[1] / b->clip[3]) * 0.5 * h;
+    return hypot(dx, dy);
+}
+
+typedef struct sampler {
+    crisp_arena *arena;
+    crisp_raster_vertex *pts;
+    uint32_t count, cap;
+    const crisp_surface *surf;
+    int reversed;
+    crisp_mat4 *m;
+    double w, h, gx, gy;
+    int failed;
+} sampler;
+
+static void emit(sampler *s, const crisp_raster_vertex *v)
+{
+    if (s->count == s->cap) {
+        uint32_t cap = s->cap ? 2 * s->cap : 64;
+        crisp_raster_vertex *n = crisp_arena_alloc(s->arena, cap, sizeof *n);
+        if (!n) {
+            s->failed = 1;
+            return;
+        }
+        if (s->count) memcpy(n, s->pts, s->count * sizeof *n);
+        s->pts = n;
+        s->cap = cap;
+    }
+    s->pts[s->count++] = *v;
+}
+
+/* Samples strictly after a up to and including b, along the uv segment. */
+static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_vertex *b, int depth)
+{
+    if (s->failed) return;
+    int va = in_view(a, s->gx, s->gy), vb = in_view(b, s->gx, s->gy);
+    double d = screen_dist(a, b, s->w, s->h);
+    if (depth < RIBBON_MAX_DEPTH && d > RIBBON_STEP_PX && (va || vb || d < INFINITY ? 1 : 0)) {
+        crisp_raster_vertex mid;
+        ribbon_vertex(s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
+                      0.5 * (a->attr[1] + b->attr[1]), &mid);
+        /* Both ends and the middle outside the view and the piece small enough not to cross it
+         * from one side to the other: nothing of it shows. */
+        if (!va && !vb && !in_view(&mid, s->gx, s->gy) && depth > 8) {
+            crisp_raster_vertex brk = *b;
+            brk.clip[3] = -1;
+            emit(s, &brk);
+            emit(s, b);
+            return;
+        }
+        refine(s, a, &mid, depth + 1);
+        refine(s, &mid, b, depth + 1);
+        return;
+    }
+    if (d > RIBBON_STEP_PX) {
+        /* Not resolved (behind the eye or at the depth limit): break the ribbon here. */
+        crisp_raster_vertex brk = *b;
+        brk.clip[3] = -1;
+        emit(s, &brk);
+    }
+    emit(s, b);
+}
+
+static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
+{
+    ribbon_ctx *c = vctx;
+    crisp_renderer *r = c->r;
+    const crisp_plan *plan = r->plan;
+    for (size_t j = begin; j < end; j++) {
+        ribbon_job *job = &r->ribbon_jobs[j];
+        const crisp_scene_face *f = &c->sc->faces[job->face];
+        const crisp_trim_polyline *pl = &plan->trims[job->face].polyline;
+        int p0 = pl->first[job->piece], p1 = pl->first[job->piece + 1];
+        sampler s = {.arena = r->ribbon_arena[worker], .surf = f->src->surface,
+                     .reversed = f->src->reversed, .m = &r->plan->view_proj, .w = plan->width,
+                     .h = plan->height, .gx = 1 + 4.0 / plan->width, .gy = 1 + 4.0 / plan->height};
+        crisp_raster_vertex a, b;
+        ribbon_vertex(s.surf, s.reversed, *s.m, pl->uv[2 * p0], pl->uv[2 * p0 + 1], &a);
+        emit(&s, &a);
+        for (int k = p0; k + 1 < p1; k++) {
+            ribbon_vertex(s.surf, s.reversed, *s.m, pl->uv[2 * k + 2], pl->uv[2 * k + 3], &b);
+            refine(&s, &a, &b, 0);
+            a = b;
+        }
+        if (s.failed) c->status[worker] = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+        job->pts = s.pts;
+        job->count = s.count;
+    }
+}
+
+static void build_ribbons(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    ribbon_ctx *c = vctx;
+    crisp_renderer *r = c->r;
+    double sx = 2.0 / r->plan->width, sy = 2.0 / r->plan->height;
+    for (size_t j = begin; j < end; j++) {
+        const ribbon_job *job = &r->ribbon_jobs[j];
+        for (uint32_t q = 0; q + 1 < job->count; q++) {
+            const crisp_raster_vertex *a = &job->pts[q], *b = &job->pts[q + 1];
+            crisp_raster_vertex *v = r->verts + job->vbase + 4 * q;
+            crisp_raster_tri *t = r->tris + job->tbase + 2 * q;
+            double dx = 0, dy = 0;
+            int ok = a->clip[3] > 0 && b->clip[3] > 0;
+            if (ok) {
+                dx = (b->clip[0] / b->clip[3] - a->clip[0] / a->clip[3]) / sx;
+                dy = -(b->clip[1] / b->clip[3] - a->clip[1] / a->clip[3]) / sy;
+                double len = hypot(dx, dy);
+                ok = len > 0 && isfinite(len);
+                if (ok) dx /= len, dy /= len;
+            }
+            for (int corner = 0; corner < 4; corner++) {
+                crisp_raster_vertex *o = &v[corner];
+                *o = corner < 2 ? *a : *b;
+                if (!ok) {
+                    o->clip[3] = -1; /* the rasterizer clips these triangles away */
+                    continue;
+                }
+                double along = corner < 2 ? -RIBBON_PX : RIBBON_PX;
+                double side = (corner == 0 || corner == 3) ? -RIBBON_PX : RIBBON_PX;
+                double ox = along * dx - side * dy, oy = along * dy + side * dx; /* pixels, y down */
+                o->clip[0] += ox * sx * o->clip[3];
+                o->clip[1] -= oy * sy * o->clip[3];
+            }
+            uint32_t base = job->vbase + 4 * q, face = job->face | CRISP_RASTER_FACE_FLAG;
+            t[0] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
+            t[1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
+        }
+    }
 }
 
 typedef struct resolve_ctx {
@@ -250,13 +455,43 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     }
     if (!jobs && (st = crisp_grow((void **)&r->jobs, &r->job_cap, 1, sizeof *r->jobs))) return st;
     r->jobs[jobs] = (leaf_job){0, 0, (uint32_t)nv, (uint32_t)nt};
+    /* Ribbons after the surfaces: at equal depth the surface's own fragment stays. Sampled
+     * first (their size depends on the view), then laid out after the surface triangles. */
+    size_t rjobs = 0, surface_v = nv, surface_t = nt;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        if (!r->plan->face_tau[f]) continue;
+        const crisp_trim_polyline *pl = &r->plan->trims[f].polyline;
+        for (int k = 0; k < pl->piece_count; k++) {
+            if (pl->first[k + 1] - pl->first[k] < 2) continue;
+            if ((st = crisp_grow((void **)&r->ribbon_jobs, &r->ribbon_cap, rjobs + 1, sizeof *r->ribbon_jobs)))
+                return st;
+            r->ribbon_jobs[rjobs++] = (ribbon_job){.face = f, .piece = (uint32_t)k};
+        }
+    }
+    if ((st = ensure_ribbon_arenas(r))) return st;
+    for (int w = 0; w < r->workers; w++) r->wstatus[w] = CRISP_OK;
+    ribbon_ctx rbc = {r, sc, r->wstatus};
+    crisp_pool_parallel_for(r->pool, rjobs, 4, sample_ribbons, &rbc);
+    for (int w = 0; w < r->workers; w++)
+        if (r->wstatus[w]) return r->wstatus[w];
+    for (size_t j = 0; j < rjobs; j++) {
+        ribbon_job *job = &r->ribbon_jobs[j];
+        size_t segs = job->count ? job->count - 1 : 0;
+        job->vbase = (uint32_t)nv;
+        job->tbase = (uint32_t)nt;
+        nv += 4 * segs;
+        nt += 2 * segs;
+        if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
+            return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 vertices or triangles in one frame");
+    }
     if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, nv ? nv : 1, sizeof *r->verts))) return st;
     /* A triangle record is at least as large as the generator's three indices. */
     if ((st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris))) return st;
-    r->vert_count = nv;
-    r->tri_count = nt;
+    r->vert_count = surface_v; /* the surface mesh, without the ribbons */
+    r->tri_count = surface_t;
     tess_ctx tc = {r, sc};
     crisp_pool_parallel_for(r->pool, jobs, 8, tessellate, &tc);
+    crisp_pool_parallel_for(r->pool, rjobs, 16, build_ribbons, &rbc);
     double t1 = crisp_time_now();
 
     if ((st = crisp_raster_target_init(&r->target, cam->width, cam->height, r->desc.samples))) return st;
@@ -268,8 +503,9 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     resolve_ctx rc = {r, sc, cam, img};
     crisp_pool_parallel_for(r->pool, (size_t)cam->height, 8, resolve_rows, &rc);
     double t3 = crisp_time_now();
-    stats->vertices = nv;
-    stats->triangles = nt;
+    stats->vertices = surface_v;
+    stats->triangles = surface_t;
+    stats->ribbon_triangles = nt - surface_t;
     stats->fragments_tested = rs.fragments_tested;
     stats->fragments_trimmed = rs.fragments_discarded;
     stats->ms_tess = 1e3 * (t1 - t0);

@@ -14,6 +14,7 @@
  * asks for, with a count that is a multiple of 2^(depth difference), so every finer leaf along the
  * edge takes an equal share of those vertices. Both sides then place the same vertices. */
 #include "plan.h"
+#include "render_internal.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -22,51 +23,6 @@
 #include "crisp/slefe.h"
 
 /* ---- sub-patches --------------------------------------------------------------------------- */
-
-/* The sub-patch [s0, s1] x [t0, t1] of p (local parameters) into storage. */
-static void subpatch(const crisp_bezier_patch *p, double s0, double s1, double t0, double t1,
-                     double *storage, double *tmp, crisp_bezier_patch *dest)
-{
-    crisp_bezier_patch a = *p, lo, hi;
-    size_t n = (size_t)(p->du + 1) * (p->dv + 1) * 4;
-    lo.cpw = tmp;
-    hi.cpw = storage;
-    if (s0 > 0) {
-        crisp_bezier_patch_split_u(&a, s0, &lo, &hi);
-        a = hi;
-        memcpy(tmp, storage, n * sizeof *tmp);
-        a.cpw = tmp;
-        s1 = (s1 - s0) / (1 - s0);
-    }
-    if (s1 < 1) {
-        lo.cpw = storage;
-        hi.cpw = storage + n;
-        crisp_bezier_patch_split_u(&a, s1, &lo, &hi);
-        a = lo;
-        memcpy(tmp, storage, n * sizeof *tmp);
-        a.cpw = tmp;
-    }
-    if (t0 > 0) {
-        lo.cpw = storage + n;
-        hi.cpw = storage;
-        crisp_bezier_patch_split_v(&a, t0, &lo, &hi);
-        a = hi;
-        memcpy(tmp, storage, n * sizeof *tmp);
-        a.cpw = tmp;
-        t1 = (t1 - t0) / (1 - t0);
-    }
-    if (t1 < 1) {
-        lo.cpw = storage;
-        hi.cpw = storage + n;
-        crisp_bezier_patch_split_v(&a, t1, &lo, &hi);
-        a = lo;
-        memcpy(tmp, storage, n * sizeof *tmp);
-        a.cpw = tmp;
-    }
-    memcpy(storage, a.cpw, n * sizeof *storage);
-    *dest = a;
-    dest->cpw = storage;
-}
 
 /* 1 when every control point lies outside one plane of the frustum, widened by margin. */
 static int outside_frustum(const crisp_bezier_patch *p, crisp_mat4 m, double gx, double gy)
@@ -146,7 +102,7 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy)
     const tree_ctx *c = b->c;
     double sz = ldexp(1.0, -depth);
     crisp_bezier_patch sub;
-    subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, b->storage[0], b->storage[1], &sub);
+    crisp__subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, b->storage[0], b->storage[1], &sub);
     crisp_plan_leaf leaf = {.ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
     int split = 0;
     if (!outside_frustum(&sub, c->plan->view_proj, c->gx, c->gy)) {

@@ -323,7 +323,7 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                         }
                     }
                     t->inv_w[idx] = iw;
-                    t->face[idx] = (int32_t)st->face;
+                    t->face[idx] = (int32_t)(st->face & ~CRISP_RASTER_FACE_FLAG);
                     float *dst = t->attr + idx * CRISP_RASTER_ATTRS;
                     for (int q = 0; q < CRISP_RASTER_ATTRS; q++) dst[q] = (float)a[q];
                 }

@@ -22,6 +22,10 @@ typedef struct crisp_raster_vertex {
     double attr[CRISP_RASTER_ATTRS]; /* interpolated perspective-correctly */
 } crisp_raster_vertex;
 
+/* Bit 31 of a triangle's face is handed to the fragment test but not stored in the target: the
+ * CPU backend marks its trim-boundary ribbons with it. */
+#define CRISP_RASTER_FACE_FLAG 0x80000000u
+
 typedef struct crisp_raster_tri {
     uint32_t v[3];
     uint32_t face;

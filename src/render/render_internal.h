@@ -11,7 +11,16 @@ void crisp__shade(const float base[4], const double n[3], const double view[3], 
 /* Camera-space depth of a world point (distance along the view axis). */
 double crisp__view_depth(const crisp_camera *cam, const double p[3]);
 
-/* The last frame's triangles (CPU backend), for tests that measure them. */
+/* Doubles in the largest patch's control net. */
+#define CRISP__PATCH_DOUBLES ((CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4)
+
+/* The sub-patch [s0, s1] x [t0, t1] (local parameters) of p, its control points in storage
+ * (2 * CRISP__PATCH_DOUBLES) with tmp (CRISP__PATCH_DOUBLES) as scratch; dest->cpw = storage. */
+void crisp__subpatch(const crisp_bezier_patch *p, double s0, double s1, double t0, double t1,
+                     double *storage, double *tmp, crisp_bezier_patch *dest);
+
+/* The last frame's surface triangles (CPU backend; the trim ribbons follow them in the buffers
+ * but are not counted), for tests that measure them. */
 struct crisp_raster_vertex;
 struct crisp_raster_tri;
 void crisp__renderer_mesh(const crisp_renderer *r, const struct crisp_raster_vertex **verts,

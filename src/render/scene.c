@@ -1,19 +1,12 @@
 /* Preparing a model for rendering (DESIGN.md section 2, "prepare"): Bézier extraction of every
  * face's surface and trim curves, patch boxes, and the scene box. View-independent; rebuilt only
  * when the model changes. */
-#include "crisp/render.h"
+#include "crisp/slefe.h"
+#include "render_internal.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-static uint32_t distinct_spans(const double *knots, int count, int degree)
-{
-    uint32_t n = 0;
-    for (int i = degree; i < count; i++)
-        if (knots[i + 1] > knots[i]) n++;
-    return n;
-}
 
 /* 1 when the surface's control net closes on itself: the first and last columns (dir 0) or
  * rows (dir 1) of Euclidean control points coincide, so the boundary curves are one curve. */
@@ -31,6 +24,75 @@ static int closes(const crisp_surface *s, int dir)
         }
     }
     return gap <= 1e-12 * (size + 1e-300);
+}
+
+/* A box that contains the patch: its SLEFE tile boxes intersected with its control hull. Where
+ * that is far larger than the patch's corners suggest (a control net that is wild although the
+ * surface is small, as exporters leave over knot spans of 1e-7 of the domain, or a rational patch
+ * with uneven weights) the patch is split in four, recursively, and the union of the parts'
+ * boxes kept: sub-patch control nets converge to the surface. The boxes frame the default camera
+ * and prune ray casting. */
+#define BOX_SEGMENTS 4
+#define BOX_DEPTH 5
+static void tile_box(const crisp_bezier_patch *p, double box[6])
+{
+    double lo[CRISP_SLEFE_GRID(BOX_SEGMENTS) * 4], up[CRISP_SLEFE_GRID(BOX_SEGMENTS) * 4];
+    double blo[BOX_SEGMENTS * BOX_SEGMENTS * 3], bhi[BOX_SEGMENTS * BOX_SEGMENTS * 3];
+    crisp_bezier_patch_bbox(p, box);
+    if (crisp_slefe_patch(p, BOX_SEGMENTS, lo, up) ||
+        crisp_slefe_patch_tiles(BOX_SEGMENTS, lo, up, blo, bhi))
+        return;
+    double t[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (int i = 0; i < BOX_SEGMENTS * BOX_SEGMENTS; i++)
+        for (int k = 0; k < 3; k++) {
+            t[k] = fmin(t[k], blo[3 * i + k]);
+            t[k + 3] = fmax(t[k + 3], bhi[3 * i + k]);
+        }
+    for (int k = 0; k < 3; k++) {
+        box[k] = fmax(box[k], t[k]);
+        box[k + 3] = fmin(box[k + 3], t[k + 3]);
+    }
+}
+
+static double diag(const double b[6])
+{
+    return sqrt((b[3] - b[0]) * (b[3] - b[0]) + (b[4] - b[1]) * (b[4] - b[1]) + (b[5] - b[2]) * (b[5] - b[2]));
+}
+
+static void patch_box(const crisp_bezier_patch *p, int depth, double box[6])
+{
+    /* Cheap first: the control hull, when it is not much larger than the corners' box. */
+    double c[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (int k = 0; k < 4; k++) {
+        double P[3];
+        crisp_bezier_patch_eval(p, k & 1, k >> 1, P);
+        for (int q = 0; q < 3; q++) {
+            c[q] = fmin(c[q], P[q]);
+            c[q + 3] = fmax(c[q + 3], P[q]);
+        }
+    }
+    double limit = 4 * diag(c) + 1e-300;
+    crisp_bezier_patch_bbox(p, box);
+    if (diag(box) <= limit) return;
+    tile_box(p, box);
+    double d = diag(box);
+    if (depth >= BOX_DEPTH || !(d > limit) || !isfinite(d)) return;
+    double storage[2 * CRISP__PATCH_DOUBLES], tmp[CRISP__PATCH_DOUBLES];
+    double u[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    for (int k = 0; k < 4; k++) {
+        crisp_bezier_patch cell;
+        double cb[6], s0 = 0.5 * (k & 1), t0 = 0.5 * (k >> 1);
+        crisp__subpatch(p, s0, s0 + 0.5, t0, t0 + 0.5, storage, tmp, &cell);
+        patch_box(&cell, depth + 1, cb);
+        for (int q = 0; q < 3; q++) {
+            u[q] = fmin(u[q], cb[q]);
+            u[q + 3] = fmax(u[q + 3], cb[q + 3]);
+        }
+    }
+    for (int q = 0; q < 3; q++) {
+        box[q] = fmax(box[q], u[q]);
+        box[q + 3] = fmin(box[q + 3], u[q + 3]);
+    }
 }
 
 void crisp_scene_destroy(crisp_scene *s)
@@ -85,8 +147,12 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
         sf->src = src;
         sf->first_patch = s->patch_count;
         sf->patch_count = (uint32_t)s->face_patches[f].count;
-        sf->grid_u = distinct_spans(surf->knots_u, surf->count_u, surf->degree_u);
-        sf->grid_v = distinct_spans(surf->knots_v, surf->count_v, surf->degree_v);
+        /* The patches come u fastest: the first row ends where v0 changes. */
+        const crisp_bezier_patches *fp = &s->face_patches[f];
+        uint32_t gu = 0;
+        while (gu < (uint32_t)fp->count && fp->patches[gu].v0 == fp->patches[0].v0) gu++;
+        sf->grid_u = gu;
+        sf->grid_v = gu ? (uint32_t)fp->count / gu : 0;
         crisp_surface_domain(surf, sf->domain);
         sf->closed_u = sf->grid_u > 1 && closes(surf, 0);
         sf->closed_v = sf->grid_v > 1 && closes(surf, 1);
@@ -98,7 +164,7 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
             p->face = f;
             p->iu = sf->grid_u ? k % sf->grid_u : 0;
             p->iv = sf->grid_u ? k / sf->grid_u : 0;
-            crisp_bezier_patch_bbox(&p->bez, p->box);
+            patch_box(&p->bez, 0, p->box);
             for (int c = 0; c < 3; c++) {
                 s->box[c] = fmin(s->box[c], p->box[c]);
                 s->box[c + 3] = fmax(s->box[c + 3], p->box[c + 3]);

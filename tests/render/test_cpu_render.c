@@ -226,7 +226,8 @@ static void check_closed(crisp_model *m, int views, double near_scale)
         crisp_image_init(&cpu, cam.width, cam.height);
         crisp_image_init(&ex, cam.width, cam.height);
         assert_int_equal(crisp_render_cpu(r, sc, &cam, &cpu, NULL), CRISP_OK);
-        assert_int_equal(crisp_render_exact(sc, &cam, &(crisp_exact_desc){.threads = 2}, &ex), CRISP_OK);
+        crisp_exact_desc ed = {.threads = 2, .classify = exact_classify};
+        assert_int_equal(crisp_render_exact(sc, &cam, &ed, &ex), CRISP_OK);
         for (int j = 1; j < cam.height - 1; j++)
             for (int i = 1; i < cam.width - 1; i++) {
                 int all = 1;
@@ -241,7 +242,9 @@ static void check_closed(crisp_model *m, int views, double near_scale)
         crisp_image_free(&cpu);
         crisp_image_free(&ex);
     }
-    assert_true(inside > views * 500);
+    printf("closed model: %ld pixels inside the silhouette over %d views, no background among them\n",
+           inside, views);
+    assert_true(inside > views * 200);
     crisp_renderer_destroy(r);
     crisp_scene_destroy(sc);
 }
@@ -269,6 +272,11 @@ static void test_no_cracks(void **state)
     check_closed(mt, 12, 0.05);
     crisp_model_destroy(ms);
     crisp_model_destroy(mt);
+    /* A closed solid of trimmed faces meeting along shared edges (STEP): the trim ribbons close
+     * the sub-pixel gaps that both faces' 1 px bands can leave. */
+    crisp_model *rods = load("occt_linkrods.step");
+    check_closed(rods, 10, 0.05);
+    crisp_model_destroy(rods);
 }
 
 /* Cameras inside a closed sphere and right at a torus's surface (patches cross the near plane
