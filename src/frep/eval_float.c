@@ -53,6 +53,8 @@ void crisp__frep_eval_lanes(const frep_ins *ins, size_t n, float *regs, const fl
                 o[k] = b[k] != b[k] ? b[k] : r;
             }
             break;
+        case CRISP_FREP_EXP: LOOP o[k] = frep_expf(a[k]); break;
+        case CRISP_FREP_LN: LOOP o[k] = frep_logf(a[k]); break;
         case FREP_T_ADD_RI: LOOP o[k] = a[k] + c; break;
         case FREP_T_MUL_RI: LOOP o[k] = a[k] * c; break;
         case FREP_T_SUB_RI: LOOP o[k] = a[k] - c; break;
@@ -75,88 +77,93 @@ void crisp__frep_eval_lanes(const frep_ins *ins, size_t n, float *regs, const fl
     }
 }
 
-/* Forward-mode derivatives: each register holds 4 planes (value, d/dx, d/dy, d/dz). */
+/* Forward-mode derivatives: each register holds 4 planes (value, d/dx, d/dy, d/dz) of L lanes.
+ * The chain rule o' = da * a' + db * b' runs plane by plane in loops that vectorise. */
+#define GRAD_UNARY(V, DA)                                                                          \
+    LOOP {                                                                                         \
+        float av = a[k], v = (V);                                                                  \
+        o[k] = v;                                                                                  \
+        da[k] = (DA);                                                                              \
+        (void)av;                                                                                  \
+    }                                                                                              \
+    for (int d = 1; d < 4; d++) {                                                                  \
+        float *restrict od = o + d * L;                                                            \
+        const float *restrict ad = a + d * L;                                                      \
+        LOOP od[k] = da[k] * ad[k];                                                                \
+    }
+#define GRAD_BINARY(V, DA, DB)                                                                     \
+    LOOP {                                                                                         \
+        float av = a[k], bv = b[k], v = (V);                                                       \
+        o[k] = v;                                                                                  \
+        da[k] = (DA);                                                                              \
+        db[k] = (DB);                                                                              \
+    }                                                                                              \
+    for (int d = 1; d < 4; d++) {                                                                  \
+        float *restrict od = o + d * L;                                                            \
+        const float *restrict ad = a + d * L, *restrict bd = b + d * L;                            \
+        LOOP od[k] = da[k] * ad[k] + db[k] * bd[k];                                                \
+    }
+
+FREP_CLONES
 void crisp__frep_grad_lanes(const frep_ins *ins, size_t n, float *regs, const float *x,
                             const float *y, const float *z)
 {
+    float da[L], db[L];
     for (size_t i = 0; i < n; i++) {
         const frep_ins in = ins[i];
-        float *o = regs + (size_t)in.out * 4 * L;
-        const float *a = regs + (size_t)in.a * 4 * L;
-        const float *b = regs + (size_t)in.b * 4 * L;
+        float *restrict o = regs + (size_t)in.out * 4 * L;
+        const float *restrict a = regs + (size_t)in.a * 4 * L;
+        const float *restrict b = regs + (size_t)in.b * 4 * L;
         const float c = in.imm;
-        for (int k = 0; k < L; k++) {
-            float av = a[k], bv = b[k], v, da, db = 0; /* o' = da * a' + db * b' */
-            int op = in.op, bimm = 0;
-            if (op >= FREP_T_ADD_RI) {
-                bv = c;
-                bimm = 1;
+        switch (in.op) {
+        case CRISP_FREP_CONST:
+            LOOP o[k] = c, o[L + k] = 0, o[2 * L + k] = 0, o[3 * L + k] = 0;
+            break;
+        case CRISP_FREP_X: LOOP o[k] = x[k], o[L + k] = 1, o[2 * L + k] = 0, o[3 * L + k] = 0; break;
+        case CRISP_FREP_Y: LOOP o[k] = y[k], o[L + k] = 0, o[2 * L + k] = 1, o[3 * L + k] = 0; break;
+        case CRISP_FREP_Z: LOOP o[k] = z[k], o[L + k] = 0, o[2 * L + k] = 0, o[3 * L + k] = 1; break;
+        case FREP_T_COPY: GRAD_UNARY(av, 1.0f) break;
+        case CRISP_FREP_NEG: GRAD_UNARY(-av, -1.0f) break;
+        case CRISP_FREP_ABS: GRAD_UNARY(fabsf(av), av < 0 ? -1.0f : 1.0f) break;
+        case CRISP_FREP_SQRT: GRAD_UNARY(sqrtf(av), v > 0 ? 0.5f / v : 0.0f) break;
+        case CRISP_FREP_SQUARE: GRAD_UNARY(av * av, 2 * av) break;
+        case CRISP_FREP_EXP: GRAD_UNARY(frep_expf(av), v) break;
+        case CRISP_FREP_LN: GRAD_UNARY(frep_logf(av), 1 / av) break;
+        case CRISP_FREP_SIN: GRAD_UNARY(sinf(av), cosf(av)) break;
+        case CRISP_FREP_COS: GRAD_UNARY(cosf(av), -sinf(av)) break;
+        case CRISP_FREP_TAN: GRAD_UNARY(tanf(av), 1 + v * v) break;
+        case CRISP_FREP_ASIN: GRAD_UNARY(asinf(av), 1 / sqrtf(1 - av * av)) break;
+        case CRISP_FREP_ACOS: GRAD_UNARY(acosf(av), -1 / sqrtf(1 - av * av)) break;
+        case CRISP_FREP_ATAN: GRAD_UNARY(atanf(av), 1 / (1 + av * av)) break;
+        case FREP_T_ADD_RI: GRAD_UNARY(av + c, 1.0f) break;
+        case FREP_T_SUB_RI: GRAD_UNARY(av - c, 1.0f) break;
+        case FREP_T_SUB_IR: GRAD_UNARY(c - av, -1.0f) break;
+        case FREP_T_MUL_RI: GRAD_UNARY(av * c, c) break;
+        case FREP_T_DIV_RI: GRAD_UNARY(av / c, 1 / c) break;
+        case FREP_T_DIV_IR: GRAD_UNARY(c / av, -v / av) break;
+        case FREP_T_MIN_RI: GRAD_UNARY(frep_min(av, c), c < av ? 0.0f : 1.0f) break;
+        case FREP_T_MAX_RI: GRAD_UNARY(frep_max(av, c), c > av ? 0.0f : 1.0f) break;
+        case CRISP_FREP_ADD: GRAD_BINARY(av + bv, 1.0f, 1.0f) break;
+        case CRISP_FREP_SUB: GRAD_BINARY(av - bv, 1.0f, -1.0f) break;
+        case CRISP_FREP_MUL: GRAD_BINARY(av * bv, bv, av) break;
+        case CRISP_FREP_DIV: GRAD_BINARY(av / bv, 1 / bv, -v / bv) break;
+        case CRISP_FREP_MIN: GRAD_BINARY(frep_min(av, bv), bv < av ? 0.0f : 1.0f, bv < av ? 1.0f : 0.0f) break;
+        case CRISP_FREP_MAX: GRAD_BINARY(frep_max(av, bv), bv > av ? 0.0f : 1.0f, bv > av ? 1.0f : 0.0f) break;
+        case CRISP_FREP_ATAN2:
+            GRAD_BINARY(atan2f(av, bv), av * av + bv * bv > 0 ? bv / (av * av + bv * bv) : 0.0f,
+                        av * av + bv * bv > 0 ? -av / (av * av + bv * bv) : 0.0f)
+            break;
+        case CRISP_FREP_MOD: GRAD_BINARY(frep_mod(av, bv), 1.0f, 0.0f) break;
+        case CRISP_FREP_AND: GRAD_BINARY(av == 0 ? av : bv, av == 0 ? 1.0f : 0.0f, av == 0 ? 0.0f : 1.0f) break;
+        case CRISP_FREP_OR: GRAD_BINARY(av != 0 ? av : bv, av != 0 ? 1.0f : 0.0f, av != 0 ? 0.0f : 1.0f) break;
+        default:
+            /* floor ceil round not compare: piecewise constant */
+            if (in.op < CRISP_FREP_ADD) {
+                GRAD_UNARY(frep_unary(in.op, av), 0.0f)
+            } else {
+                GRAD_BINARY(frep_binary(in.op, av, bv), 0.0f, 0.0f)
             }
-            switch (op) {
-            case CRISP_FREP_CONST:
-                o[k] = c;
-                o[L + k] = o[2 * L + k] = o[3 * L + k] = 0;
-                continue;
-            case CRISP_FREP_X:
-            case CRISP_FREP_Y:
-            case CRISP_FREP_Z:
-                o[k] = op == CRISP_FREP_X ? x[k] : op == CRISP_FREP_Y ? y[k] : z[k];
-                o[L + k] = op == CRISP_FREP_X;
-                o[2 * L + k] = op == CRISP_FREP_Y;
-                o[3 * L + k] = op == CRISP_FREP_Z;
-                continue;
-            case FREP_T_COPY: v = av, da = 1; break;
-            case CRISP_FREP_NEG: v = -av, da = -1; break;
-            case CRISP_FREP_ABS: v = fabsf(av), da = av < 0 ? -1.0f : 1.0f; break;
-            case CRISP_FREP_SQRT: v = sqrtf(av), da = v > 0 ? 0.5f / v : 0; break;
-            case CRISP_FREP_SQUARE: v = av * av, da = 2 * av; break;
-            case CRISP_FREP_SIN: v = sinf(av), da = cosf(av); break;
-            case CRISP_FREP_COS: v = cosf(av), da = -sinf(av); break;
-            case CRISP_FREP_TAN: v = tanf(av), da = 1 + v * v; break;
-            case CRISP_FREP_ASIN: v = asinf(av), da = 1 / sqrtf(1 - av * av); break;
-            case CRISP_FREP_ACOS: v = acosf(av), da = -1 / sqrtf(1 - av * av); break;
-            case CRISP_FREP_ATAN: v = atanf(av), da = 1 / (1 + av * av); break;
-            case CRISP_FREP_EXP: v = expf(av), da = v; break;
-            case CRISP_FREP_LN: v = logf(av), da = 1 / av; break;
-            case CRISP_FREP_ADD:
-            case FREP_T_ADD_RI: v = av + bv, da = 1, db = 1; break;
-            case CRISP_FREP_SUB:
-            case FREP_T_SUB_RI: v = av - bv, da = 1, db = -1; break;
-            case FREP_T_SUB_IR: v = bv - av, da = -1; break;
-            case CRISP_FREP_MUL:
-            case FREP_T_MUL_RI: v = av * bv, da = bv, db = av; break;
-            case CRISP_FREP_DIV:
-            case FREP_T_DIV_RI: v = av / bv, da = 1 / bv, db = -v / bv; break;
-            case FREP_T_DIV_IR: v = bv / av, da = -v / av; break;
-            case CRISP_FREP_ATAN2: {
-                float d = av * av + bv * bv;
-                v = atan2f(av, bv), da = d > 0 ? bv / d : 0, db = d > 0 ? -av / d : 0;
-                break;
-            }
-            case CRISP_FREP_MIN:
-            case FREP_T_MIN_RI:
-                v = frep_min(av, bv);
-                da = bv < av ? 0.0f : 1.0f, db = 1 - da;
-                break;
-            case CRISP_FREP_MAX:
-            case FREP_T_MAX_RI:
-                v = frep_max(av, bv);
-                da = bv > av ? 0.0f : 1.0f, db = 1 - da;
-                break;
-            case CRISP_FREP_MOD: v = frep_mod(av, bv), da = 1; break;
-            case CRISP_FREP_AND: v = av == 0 ? av : bv, da = av == 0, db = av != 0; break;
-            case CRISP_FREP_OR: v = av != 0 ? av : bv, da = av != 0, db = av == 0; break;
-            default:
-                /* floor ceil round not compare: piecewise constant */
-                v = op < CRISP_FREP_ADD ? frep_unary(op, av) : frep_binary(op, av, bv), da = 0;
-                break;
-            }
-            o[k] = v;
-            for (int d = 1; d < 4; d++) {
-                float g = da * a[d * L + k];
-                if (!bimm && db != 0) g += db * b[d * L + k];
-                o[d * L + k] = g;
-            }
+            break;
         }
     }
 }

@@ -4,9 +4,10 @@
  * Soundness: the result encloses the float value that the point evaluators compute at every
  * float point of the box. + - * / sqrt are correctly rounded and rounding is monotone, so float
  * endpoints need no outward rounding for them; libm functions (sin, exp, ...) are widened by a
- * few ulps. An interval is either finite with lo <= hi or "unknown" (both NaN): any op that could
- * give NaN or an infinity at some point of the box (sqrt of a negative part, division through
- * zero, overflow, NaN constants) gives unknown, and unknown propagates. A cell whose value is
+ * few ulps. An interval is either lo <= hi (infinite ends allowed: exp overflows to +inf at
+ * points too) or "unknown" (both NaN): any op that could give NaN at some point of the box (sqrt
+ * of a negative part, division through zero, inf - inf, 0 * inf, NaN constants) gives unknown,
+ * and unknown propagates. A cell whose value is
  * unknown is never filled; it is subdivided down to points, which decide exactly. */
 #include "frep_internal.h"
 
@@ -15,8 +16,9 @@
 
 #define PI_D 3.14159265358979323846
 
-static inline float wlo(float v) { return v - fabsf(v) * 1e-6f - 1e-30f; }
-static inline float whi(float v) { return v + fabsf(v) * 1e-6f + 1e-30f; }
+static inline float wlo(float v) { return isinf(v) ? v : v - fabsf(v) * 1e-6f - 1e-30f; }
+static inline float whi(float v) { return isinf(v) ? v : v + fabsf(v) * 1e-6f + 1e-30f; }
+static inline int fin(float v) { return v >= -FLT_MAX && v <= FLT_MAX; }
 static inline float min2(float a, float b) { return b < a ? b : a; }
 static inline float max2(float a, float b) { return b > a ? b : a; }
 
@@ -81,16 +83,16 @@ size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi,
         case CRISP_FREP_CEIL: l = ceilf(al), h = ceilf(ah); break;
         case CRISP_FREP_ROUND: l = roundf(al), h = roundf(ah); break;
         case CRISP_FREP_SIN:
-            if (al != al) l = h = NAN;
+            if (!fin(al) || !fin(ah)) l = h = NAN;
             else sin_range(al, ah, 0, &l, &h);
             break;
         case CRISP_FREP_COS:
-            if (al != al) l = h = NAN;
+            if (!fin(al) || !fin(ah)) l = h = NAN;
             else sin_range(al, ah, (float)(PI_D / 2), &l, &h);
             break;
         case CRISP_FREP_TAN: {
             double k = ceil(((double)al - 1e-6 - PI_D / 2) / PI_D);
-            if (!(ah - al < 3) || PI_D / 2 + k * PI_D <= (double)ah + 1e-6) l = h = NAN;
+            if (!(ah - al < 3) || !fin(al) || !fin(ah) || PI_D / 2 + k * PI_D <= (double)ah + 1e-6) l = h = NAN;
             else l = wlo(tanf(al)), h = whi(tanf(ah));
             break;
         }
@@ -103,9 +105,9 @@ size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi,
             else l = h = NAN;
             break;
         case CRISP_FREP_ATAN: l = wlo(atanf(al)), h = whi(atanf(ah)); break;
-        case CRISP_FREP_EXP: l = max2(wlo(expf(al)), 0), h = whi(expf(ah)); break;
+        case CRISP_FREP_EXP: l = max2(wlo(frep_expf(al)), 0), h = whi(frep_expf(ah)); break;
         case CRISP_FREP_LN:
-            if (al > 0) l = wlo(logf(al)), h = whi(logf(ah));
+            if (al >= 0) l = wlo(frep_logf(al)), h = whi(frep_logf(ah));
             else l = h = NAN;
             break;
         case CRISP_FREP_NOT:
@@ -115,16 +117,28 @@ size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi,
             if (al != al) l = h = NAN;
             break;
         case CRISP_FREP_ADD:
-        case FREP_T_ADD_RI: l = al + bl, h = ah + bh; break;
+        case FREP_T_ADD_RI:
+            l = al + bl, h = ah + bh;
+            if ((ah == INFINITY && bl == -INFINITY) || (al == -INFINITY && bh == INFINITY)) l = h = NAN;
+            break;
         case CRISP_FREP_SUB:
-        case FREP_T_SUB_RI: l = al - bh, h = ah - bl; break;
-        case FREP_T_SUB_IR: l = bl - ah, h = bh - al; break;
+        case FREP_T_SUB_RI:
+            l = al - bh, h = ah - bl;
+            if ((ah == INFINITY && bh == INFINITY) || (al == -INFINITY && bl == -INFINITY)) l = h = NAN;
+            break;
+        case FREP_T_SUB_IR:
+            l = bl - ah, h = bh - al;
+            if ((ah == INFINITY && bh == INFINITY) || (al == -INFINITY && bl == -INFINITY)) l = h = NAN;
+            break;
         case CRISP_FREP_MUL:
         case FREP_T_MUL_RI: {
             float p0 = al * bl, p1 = al * bh, p2 = ah * bl, p3 = ah * bh;
             l = min2(min2(p0, p1), min2(p2, p3));
             h = max2(max2(p0, p1), max2(p2, p3));
-            if (p0 != p0 || p3 != p3) l = h = NAN;
+            /* 0 * inf at some point of the box */
+            if ((!fin(al) || !fin(ah)) && bl <= 0 && bh >= 0) l = h = NAN;
+            if ((!fin(bl) || !fin(bh)) && al <= 0 && ah >= 0) l = h = NAN;
+            if (p0 != p0 || p1 != p1 || p2 != p2 || p3 != p3) l = h = NAN;
             break;
         }
         case FREP_T_DIV_IR: {
@@ -138,7 +152,7 @@ size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi,
                 float q0 = al / bl, q1 = al / bh, q2 = ah / bl, q3 = ah / bh;
                 l = min2(min2(q0, q1), min2(q2, q3));
                 h = max2(max2(q0, q1), max2(q2, q3));
-                if (al != al) l = h = NAN;
+                if (al != al || ((!fin(al) || !fin(ah)) && (!fin(bl) || !fin(bh)))) l = h = NAN;
             } else {
                 l = h = NAN;
             }
@@ -146,7 +160,7 @@ size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi,
         case CRISP_FREP_ATAN2:
             if (al != al || bl != bl) {
                 l = h = NAN;
-            } else if (bl > 0) {
+            } else if (bl > 0 && fin(al) && fin(ah) && fin(bh)) {
                 float c0 = atan2f(al, bl), c1 = atan2f(al, bh), c2 = atan2f(ah, bl),
                       c3 = atan2f(ah, bh);
                 l = wlo(min2(min2(c0, c1), min2(c2, c3)));
@@ -177,9 +191,9 @@ size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi,
             if (al != al || bl != bl) l = h = NAN;
             break;
         case CRISP_FREP_MOD:
-            if (bl > 0 || bh < 0) l = 0, h = max2(fabsf(bl), fabsf(bh));
+            if ((bl > 0 || bh < 0) && fin(al) && fin(ah) && fin(bl) && fin(bh))
+                l = 0, h = max2(fabsf(bl), fabsf(bh));
             else l = h = NAN;
-            if (al != al) l = h = NAN;
             break;
         case CRISP_FREP_AND:
             if (al == 0 && ah == 0) l = h = 0;
@@ -195,8 +209,8 @@ size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi,
             break;
         default: l = h = NAN; break;
         }
-        /* unknown when some point may be NaN or infinite */
-        if (!(l >= -FLT_MAX && h <= FLT_MAX)) l = h = NAN;
+        /* unknown when some point may be NaN */
+        if (l != l || h != h) l = h = NAN;
         lo[in.out] = l;
         hi[in.out] = h;
         if (choices) {

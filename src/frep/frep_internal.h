@@ -6,6 +6,7 @@
 
 #include <math.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "crisp/frep.h"
 
@@ -49,12 +50,42 @@ typedef struct frep_ins {
     float imm;
 } frep_ins;
 
+/* A tape is two parallel arrays: the register form above (what the evaluators run) and the SSA
+ * form, ssa[2i], ssa[2i+1] = the instructions whose values instruction i reads (what shortening
+ * works on: in SSA, replacing a min by its chosen side is a renaming, never a copy). */
+typedef struct frep_span {
+    const frep_ins *ins;
+    const uint32_t *ssa;
+    size_t len;
+    int registers;
+} frep_span;
+
 struct crisp_frep_tape {
     frep_ins *ins;
+    uint32_t *ssa;
     size_t length;
     int registers;
     uint16_t result; /* register of the last instruction */
 };
+
+/* Scratch for crisp__frep_shorten, for tapes of up to cap instructions and max_regs registers. */
+typedef struct frep_shorten_scratch {
+    uint32_t *rep, *reg_of, *pos;
+    uint16_t *free_regs;
+    size_t cap;
+    int max_regs;
+} frep_shorten_scratch;
+
+crisp_status crisp__frep_scratch_init(frep_shorten_scratch *s, size_t cap, int max_regs);
+void crisp__frep_scratch_free(frep_shorten_scratch *s);
+
+/* Number of register/SSA operands of a tape op. */
+static inline int frep__nargs(int op)
+{
+    if (op <= CRISP_FREP_Z) return 0;
+    if (op < CRISP_FREP_ADD || op >= FREP_T_COPY) return 1;
+    return 2;
+}
 
 /* Interval-evaluation choices recorded per min/max instruction. */
 enum { FREP_CHOICE_BOTH = 0, FREP_CHOICE_A = 1, FREP_CHOICE_B = 2 };
@@ -72,10 +103,11 @@ static inline int frep__is_minmax(int op)
  * instruction. Returns the number of decided min/max (choices other than BOTH). */
 size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi, const float x[2],
                             const float y[2], const float z[2], uint8_t *choices);
-/* Shortened copy of ins[0..n) after choosing min/max sides and removing dead code; live is
- * scratch of one byte per register. Returns the new length (>= 1). */
-size_t crisp__frep_shorten(const frep_ins *ins, size_t n, const uint8_t *choices, uint16_t result,
-                           uint8_t *live, int registers, frep_ins *dest);
+/* Shorten tape src after the min/max choices (NULL: keep every side), removing dead code and
+ * allocating registers afresh (reverse linear scan), into dest_ins/dest_ssa (src.len entries
+ * each). Returns 0, or -1 when the result would need more than scratch->max_regs registers. */
+int crisp__frep_shorten(frep_span src, const uint8_t *choices, frep_shorten_scratch *scratch,
+                        frep_ins *dest_ins, uint32_t *dest_ssa, frep_span *dest);
 /* FREP_LANES points: regs holds registers x FREP_LANES floats. */
 void crisp__frep_eval_lanes(const frep_ins *ins, size_t n, float *regs, const float *x,
                             const float *y, const float *z);
@@ -109,6 +141,64 @@ static inline float frep_mod(float a, float b)
     return r < 0 ? r + fabsf(b) : r;
 }
 
+/* exp and ln written without branches or calls so the batched evaluator vectorises them; every
+ * evaluator uses these same functions, so all agree bit for bit. Error: a few ulps (degree-7
+ * Taylor for exp after a Cody-Waite reduction by ln 2; atanh series for ln on [sqrt(1/2),
+ * sqrt(2))), below the 1e-6 relative widening of the interval evaluator. */
+static inline float frep_bits_float(uint32_t u)
+{
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+static inline uint32_t frep_float_bits(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+static inline float frep_expf(float x)
+{
+    /* straight-line selects only, so GCC if-converts and vectorises (the clamp keeps the
+     * conversion to int defined; NaN and out-of-range x are replaced at the end) */
+    float t = x * 1.44269504f;
+    t = t > -151.0f ? t : -151.0f;
+    t = t < 129.0f ? t : 129.0f;
+    float nf = rintf(t);
+    int32_t n = (int32_t)nf;
+    float r = (x - nf * 0.693359375f) - nf * -2.12194440e-4f;
+    float p = 1.0f + r * (1.0f + r * (0.5f + r * (1.6666667e-1f + r * (4.1666668e-2f +
+              r * (8.3333338e-3f + r * (1.3888889e-3f + r * 1.9841270e-4f))))));
+    /* 2^n in two factors: results that reach the subnormals round instead of breaking */
+    int32_t n1 = n / 2, n2 = n - n1;
+    float res = p * frep_bits_float((uint32_t)(n1 + 127) << 23) *
+                frep_bits_float((uint32_t)(n2 + 127) << 23);
+    res = x > 88.7228394f ? INFINITY : res;
+    res = x < -103.972084f ? 0.0f : res;
+    return x != x ? x : res;
+}
+
+static inline float frep_logf(float x)
+{
+    int sub = (x > 0) & (x < 1.17549435e-38f);
+    float xs = sub ? x * 8388608.0f : x;
+    uint32_t u = frep_float_bits(xs);
+    int32_t e = (int32_t)((u >> 23) & 0xffu) - (sub ? 150 : 127);
+    float m = frep_bits_float((u & 0x007fffffu) | 0x3f800000u);
+    int big = m > 1.41421356f;
+    m = big ? m * 0.5f : m;
+    e = big ? e + 1 : e;
+    float f = (m - 1.0f) / (m + 1.0f), f2 = f * f;
+    float sr = f2 * (3.3333334e-1f + f2 * (2.0e-1f + f2 * (1.4285715e-1f + f2 * 1.1111111e-1f)));
+    float ef = (float)e;
+    float res = (2.0f * f + (2.0f * f * sr + ef * -2.12194440e-4f)) + ef * 0.693359375f;
+    res = x == INFINITY ? x : res;
+    res = x == 0 ? -INFINITY : res;
+    res = x < 0 ? NAN : res;
+    return x != x ? x : res;
+}
+
 static inline float frep_unary(int op, float a)
 {
     switch (op) {
@@ -125,8 +215,8 @@ static inline float frep_unary(int op, float a)
     case CRISP_FREP_ASIN: return asinf(a);
     case CRISP_FREP_ACOS: return acosf(a);
     case CRISP_FREP_ATAN: return atanf(a);
-    case CRISP_FREP_EXP: return expf(a);
-    case CRISP_FREP_LN: return logf(a);
+    case CRISP_FREP_EXP: return frep_expf(a);
+    case CRISP_FREP_LN: return frep_logf(a);
     case CRISP_FREP_NOT: return a == 0 ? 1.0f : 0.0f;
     default: return NAN;
     }

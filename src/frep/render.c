@@ -13,10 +13,15 @@
 #include <string.h>
 
 #define LEAF 8
+/* 2D: quadtree down to 32 px cells, then 8x8 point batches on the 32 px cell's tape (measured on
+ * prospero: an interval per 8 px cell costs more than the points it saves). */
+#define MIN_INTERVAL_2D 32
 #define MAX_DEPTH 12
 
 typedef struct frep_worker {
     frep_ins *tapes; /* MAX_DEPTH tapes of the full length */
+    uint32_t *ssas;  /* and their SSA operands */
+    frep_shorten_scratch sc;
     uint8_t *choices;
     float *lo, *hi, *regs, *gregs;
     uint8_t *live;
@@ -25,8 +30,7 @@ typedef struct frep_worker {
 
 typedef struct frep_task {
     int i0, j0;
-    const frep_ins *ins;
-    size_t len;
+    frep_span tape;
 } frep_task;
 
 struct crisp_frep_renderer {
@@ -48,6 +52,8 @@ struct crisp_frep_renderer {
 static void free_worker(frep_worker *w)
 {
     crisp_free(w->tapes);
+    crisp_free(w->ssas);
+    crisp__frep_scratch_free(&w->sc);
     crisp_free(w->choices);
     crisp_free(w->lo);
     crisp_free(w->regs);
@@ -139,13 +145,15 @@ crisp_status crisp_frep_renderer_create(const crisp_frep_tape *tape,
     for (int i = 0; i < r->threads; i++) {
         frep_worker *w = &r->workers[i];
         w->tapes = crisp_malloc_array(len * MAX_DEPTH, sizeof *w->tapes);
+        w->ssas = crisp_malloc_array(len * 2 * MAX_DEPTH, sizeof *w->ssas);
+        if ((s = crisp__frep_scratch_init(&w->sc, len, tape->registers))) goto fail;
         w->choices = crisp_calloc_array(len, 1);
         w->lo = crisp_calloc_array(nr * 2, sizeof *w->lo);
         w->hi = w->lo ? w->lo + nr : NULL;
         w->regs = crisp_calloc_array(nr * FREP_LANES, sizeof *w->regs);
         w->gregs = D > 0 ? crisp_calloc_array(nr * 4 * FREP_LANES, sizeof *w->gregs) : NULL;
         w->live = crisp_calloc_array(nr, 1);
-        if (!w->tapes || !w->choices || !w->lo || !w->regs || !w->live || (D > 0 && !w->gregs))
+        if (!w->tapes || !w->ssas || !w->choices || !w->lo || !w->regs || !w->live || (D > 0 && !w->gregs))
             goto oom;
     }
     *dest = r;
@@ -188,13 +196,16 @@ static size_t cell_interval(const crisp_frep_renderer *r, frep_worker *w, const 
 
 /* The tape for the children of a cell: shortened into dest, or the cell's own when nothing was
  * decided (or pruning is off). */
-static const frep_ins *child_tape(const crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
-                                  size_t *len, size_t decided, frep_ins *dest)
+static frep_span child_tape(const crisp_frep_renderer *r, frep_worker *w, frep_span t,
+                            size_t decided, int depth)
 {
-    if (!decided || (r->desc.flags & CRISP_FREP_NO_PRUNE)) return ins;
-    *len = crisp__frep_shorten(ins, *len, w->choices, ins[*len - 1].out, w->live,
-                               r->tape->registers, dest);
-    return dest;
+    if (!decided || (r->desc.flags & CRISP_FREP_NO_PRUNE)) return t;
+    size_t d = (size_t)(depth < MAX_DEPTH ? depth : MAX_DEPTH - 1);
+    frep_span out;
+    if (crisp__frep_shorten(t, w->choices, &w->sc, w->tapes + d * r->tape->length,
+                            w->ssas + 2 * d * r->tape->length, &out))
+        return t; /* would need more registers than the scratch holds: keep the longer tape */
+    return out;
 }
 
 static void fill_inside(crisp_frep_renderer *r, int i0, int i1, int j0, int j1, uint8_t v)
@@ -209,10 +220,11 @@ static void leaf_2d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
 {
     float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
     float zc = r->zs[0];
+    const float *xs = r->xs, *ys = r->ys;
     for (int k = 0; k < FREP_LANES; k++) {
-        int i = i0 + (k % LEAF), j = j0 + (k / LEAF);
-        x[k] = r->xs[i < i1 ? i : i1 - 1];
-        y[k] = r->ys[j < j1 ? j : j1 - 1];
+        int i = i0 + (k & (LEAF - 1)), j = j0 + k / LEAF;
+        x[k] = xs[i < i1 ? i : i1 - 1];
+        y[k] = ys[j < j1 ? j : j1 - 1];
         z[k] = zc;
     }
     const float *v;
@@ -225,28 +237,39 @@ static void leaf_2d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
         crisp__frep_eval_lanes(ins, len, w->regs, x, y, z);
         v = w->regs + (size_t)ins[len - 1].out * FREP_LANES;
     }
+    int wi = i1 - i0;
     for (int j = j0; j < j1; j++) {
-        uint8_t *row = r->img.inside + (size_t)j * r->img.width;
-        for (int i = i0; i < i1; i++) row[i] = v[(j - j0) * LEAF + (i - i0)] < 0 ? 255 : 0;
+        uint8_t *row = r->img.inside + (size_t)j * r->img.width + i0;
+        const float *vr = v + (j - j0) * LEAF;
+        for (int i = 0; i < wi; i++) row[i] = vr[i] < 0 ? 255 : 0;
     }
     w->st.leaves++;
-    w->st.points += (size_t)(i1 - i0) * (size_t)(j1 - j0);
+    w->st.points += (size_t)wi * (size_t)(j1 - j0);
     w->st.tape_sum += len;
 }
 
-static void cell_2d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
-                    int j0, int size, int depth)
+static void cell_2d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int j0, int size,
+                    int depth)
 {
+    const frep_ins *ins = t.ins;
+    size_t len = t.len;
     int i1 = i0 + size < r->img.width ? i0 + size : r->img.width;
     int j1 = j0 + size < r->img.height ? j0 + size : r->img.height;
     if (i0 >= i1 || j0 >= j1) return;
     if (r->desc.flags & CRISP_FREP_BRUTE) {
         if (size > LEAF) {
             for (int j = j0; j < j1; j += LEAF)
-                for (int i = i0; i < i1; i += LEAF) cell_2d(r, w, ins, len, i, j, LEAF, depth);
+                for (int i = i0; i < i1; i += LEAF) cell_2d(r, w, t, i, j, LEAF, depth);
         } else {
             leaf_2d(r, w, ins, len, i0, i1, j0, j1);
         }
+        return;
+    }
+    if (size < MIN_INTERVAL_2D) {
+        /* below the smallest interval cell: batches of 8x8 points on the parent's tape */
+        for (int j = j0; j < j1; j += LEAF)
+            for (int i = i0; i < i1; i += LEAF)
+                leaf_2d(r, w, ins, len, i, i + LEAF < i1 ? i + LEAF : i1, j, j + LEAF < j1 ? j + LEAF : j1);
         return;
     }
     float lo, hi;
@@ -256,15 +279,10 @@ static void cell_2d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
         w->st.filled++;
         return;
     }
-    frep_ins *next = w->tapes + (size_t)(depth < MAX_DEPTH ? depth : MAX_DEPTH - 1) * r->tape->length;
-    const frep_ins *cins = child_tape(r, w, ins, &len, d, next);
-    if (size <= LEAF) {
-        leaf_2d(r, w, cins, len, i0, i1, j0, j1);
-        return;
-    }
-    int c = size / 4 >= LEAF ? size / 4 : LEAF;
+    frep_span ct = child_tape(r, w, t, d, depth);
+    int c = size / 2;
     for (int j = j0; j < j1; j += c)
-        for (int i = i0; i < i1; i += c) cell_2d(r, w, cins, len, i, j, c, depth + 1);
+        for (int i = i0; i < i1; i += c) cell_2d(r, w, ct, i, j, c, depth + 1);
 }
 
 /* ---- 3D heightmap ---------------------------------------------------------------------------- */
@@ -375,9 +393,11 @@ static int min_height(const crisp_frep_renderer *r, int i0, int i1, int j0, int 
     return m;
 }
 
-static void cell_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
-                    int j0, int k0, int size, int depth)
+static void cell_3d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int j0, int k0,
+                    int size, int depth)
 {
+    const frep_ins *ins = t.ins;
+    size_t len = t.len;
     int i1 = i0 + size < r->img.width ? i0 + size : r->img.width;
     int j1 = j0 + size < r->img.height ? j0 + size : r->img.height;
     int k1 = k0 + size < r->img.depth ? k0 + size : r->img.depth;
@@ -392,7 +412,7 @@ static void cell_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
         if (size > LEAF) {
             for (int k = k1 - LEAF; k > kk0 - LEAF; k -= LEAF)
                 for (int j = j0; j < j1; j += LEAF)
-                    for (int i = i0; i < i1; i += LEAF) cell_3d(r, w, ins, len, i, j, k, LEAF, depth);
+                    for (int i = i0; i < i1; i += LEAF) cell_3d(r, w, t, i, j, k, LEAF, depth);
         } else {
             leaf_3d(r, w, ins, len, i0, i1, j0, j1, kk0, k1);
         }
@@ -404,15 +424,14 @@ static void cell_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
         w->st.filled++;
         return;
     }
-    frep_ins *next = w->tapes + (size_t)(depth < MAX_DEPTH ? depth : MAX_DEPTH - 1) * r->tape->length;
-    const frep_ins *cins = child_tape(r, w, ins, &len, d, next);
+    frep_span ct = child_tape(r, w, t, d, depth);
     if (hi < 0) {
-        fill_top(r, w, cins, len, i0, i1, j0, j1, k1 - 1);
+        fill_top(r, w, ct.ins, ct.len, i0, i1, j0, j1, k1 - 1);
         w->st.filled++;
         return;
     }
     if (size <= LEAF) {
-        leaf_3d(r, w, cins, len, i0, i1, j0, j1, kk0, k1);
+        leaf_3d(r, w, ct.ins, ct.len, i0, i1, j0, j1, kk0, k1);
         return;
     }
     int c = size / 2;
@@ -420,20 +439,21 @@ static void cell_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
     for (int kz = 1; kz >= 0; kz--)
         for (int jy = 0; jy < 2; jy++)
             for (int ix = 0; ix < 2; ix++)
-                cell_3d(r, w, cins, len, i0 + ix * c, j0 + jy * c, k0 + kz * c, c, depth + 1);
+                cell_3d(r, w, ct, i0 + ix * c, j0 + jy * c, k0 + kz * c, c, depth + 1);
 }
 
 /* ---- run ------------------------------------------------------------------------------------- */
 
 /* Serial pre-pass: quadtree (2D) down to the task size, collecting undecided task tiles. */
-static crisp_status prepass(crisp_frep_renderer *r, const frep_ins *ins, size_t len, int i0, int j0,
-                            int size)
+static crisp_status prepass(crisp_frep_renderer *r, frep_span t, int i0, int j0, int size)
 {
+    const frep_ins *ins = t.ins;
+    size_t len = t.len;
     int W = r->img.width, H = r->img.height;
     if (i0 >= W || j0 >= H) return CRISP_OK;
     if (size > r->task_size && (r->desc.flags & CRISP_FREP_BRUTE)) {
         for (int q = 0; q < 4; q++) {
-            crisp_status s = prepass(r, ins, len, i0 + (q & 1) * size / 2, j0 + (q >> 1) * size / 2, size / 2);
+            crisp_status s = prepass(r, t, i0 + (q & 1) * size / 2, j0 + (q >> 1) * size / 2, size / 2);
             if (s) return s;
         }
         return CRISP_OK;
@@ -453,22 +473,22 @@ static crisp_status prepass(crisp_frep_renderer *r, const frep_ins *ins, size_t 
             return CRISP_OK;
         }
         if (d && !(r->desc.flags & CRISP_FREP_NO_PRUNE)) {
-            frep_ins *t = crisp_arena_alloc(r->arena, len, sizeof *t);
-            if (!t) return crisp_error(CRISP_ERR_NO_MEMORY, "frep render: out of memory for tapes");
-            len = crisp__frep_shorten(ins, len, w->choices, ins[len - 1].out, w->live,
-                                      r->tape->registers, t);
-            ins = t;
+            frep_ins *ti = crisp_arena_alloc(r->arena, len, sizeof *ti);
+            uint32_t *ts = crisp_arena_alloc(r->arena, 2 * len, sizeof *ts);
+            if (!ti || !ts) return crisp_error(CRISP_ERR_NO_MEMORY, "frep render: out of memory for tapes");
+            frep_span out;
+            if (!crisp__frep_shorten(t, w->choices, &w->sc, ti, ts, &out)) t = out;
         }
         int c = size / 2;
         for (int q = 0; q < 4; q++) {
-            crisp_status s = prepass(r, ins, len, i0 + (q & 1) * c, j0 + (q >> 1) * c, c);
+            crisp_status s = prepass(r, t, i0 + (q & 1) * c, j0 + (q >> 1) * c, c);
             if (s) return s;
         }
         return CRISP_OK;
     }
     if (crisp_grow((void **)&r->tasks, &r->task_cap, r->ntasks + 1, sizeof *r->tasks))
         return crisp_error(CRISP_ERR_NO_MEMORY, "frep render: out of memory for tasks");
-    r->tasks[r->ntasks++] = (frep_task){i0, j0, ins, len};
+    r->tasks[r->ntasks++] = (frep_task){i0, j0, t};
     return CRISP_OK;
 }
 
@@ -480,11 +500,11 @@ static void run_tasks(void *ctx, size_t begin, size_t end, int worker)
     for (size_t n = begin; n < end; n++) {
         const frep_task *tk = &r->tasks[n];
         if (r->img.depth == 0) {
-            cell_2d(r, w, tk->ins, tk->len, tk->i0, tk->j0, t, 0);
+            cell_2d(r, w, tk->tape, tk->i0, tk->j0, t, 0);
         } else {
             /* a column of cubes, top down */
             for (int k0 = r->img.depth - t; k0 > -t; k0 -= t)
-                cell_3d(r, w, tk->ins, tk->len, tk->i0, tk->j0, k0, t, 0);
+                cell_3d(r, w, tk->tape, tk->i0, tk->j0, k0, t, 0);
         }
     }
 }
@@ -502,7 +522,8 @@ crisp_status crisp_frep_renderer_run(crisp_frep_renderer *r)
     r->ntasks = 0;
     int root = r->task_size;
     while (root < W || root < H) root *= 2;
-    crisp_status s = prepass(r, r->tape->ins, r->tape->length, 0, 0, root);
+    const crisp_frep_tape *tp = r->tape;
+    crisp_status s = prepass(r, (frep_span){tp->ins, tp->ssa, tp->length, tp->registers}, 0, 0, root);
     if (s) return s;
     crisp_pool_parallel_for(r->pool, r->ntasks, 1, run_tasks, r);
     memset(&r->st, 0, sizeof r->st);

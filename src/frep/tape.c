@@ -27,6 +27,31 @@ static int imm_form(int op, int const_is_b)
     }
 }
 
+crisp_status crisp__frep_scratch_init(frep_shorten_scratch *s, size_t cap, int max_regs)
+{
+    memset(s, 0, sizeof *s);
+    s->rep = crisp_malloc_array(cap ? cap : 1, sizeof *s->rep);
+    s->reg_of = crisp_malloc_array(cap ? cap : 1, sizeof *s->reg_of);
+    s->pos = crisp_malloc_array(cap ? cap : 1, sizeof *s->pos);
+    s->free_regs = crisp_malloc_array((size_t)max_regs + 1, sizeof *s->free_regs);
+    s->cap = cap;
+    s->max_regs = max_regs;
+    if (!s->rep || !s->reg_of || !s->pos || !s->free_regs) {
+        crisp__frep_scratch_free(s);
+        return crisp_error(CRISP_ERR_NO_MEMORY, "frep: out of memory for tape scratch (%zu)", cap);
+    }
+    return CRISP_OK;
+}
+
+void crisp__frep_scratch_free(frep_shorten_scratch *s)
+{
+    crisp_free(s->rep);
+    crisp_free(s->reg_of);
+    crisp_free(s->pos);
+    crisp_free(s->free_regs);
+    memset(s, 0, sizeof *s);
+}
+
 crisp_status crisp_frep_tape_create(const crisp_frep *f, crisp_frep_tape **dest)
 {
     if (!f || !dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_tape_create: NULL argument");
@@ -34,28 +59,22 @@ crisp_status crisp_frep_tape_create(const crisp_frep *f, crisp_frep_tape **dest)
         return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_tape_create: the expression has no root");
     size_t n = (size_t)f->root + 1;
     const frep_node *nodes = f->nodes;
-    /* last_use[i]: index of the last consumer reading node i from a register; reachable[i] */
-    uint32_t *last_use = crisp_malloc_array(n, sizeof *last_use);
-    uint32_t *reg = crisp_malloc_array(n, sizeof *reg);
-    uint8_t *reach = crisp_calloc_array(n, 1);
-    uint16_t *free_regs = crisp_malloc_array(MAX_REGS + 1, sizeof *free_regs);
+    /* regread[i]: node i is read from a register (not only as an immediate) */
+    uint32_t *idx = crisp_malloc_array(n, sizeof *idx);
+    uint8_t *reach = crisp_calloc_array(n, 1), *regread = crisp_calloc_array(n, 1);
+    frep_ins *sins = NULL;
+    uint32_t *sssa = NULL;
+    frep_shorten_scratch sc = {0};
     crisp_frep_tape *t = calloc(1, sizeof *t);
     crisp_status s = CRISP_OK;
-    if (!last_use || !reg || !reach || !free_regs || !t) {
-        s = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_frep_tape_create: out of memory for %zu nodes", n);
-        goto done;
-    }
+    if (!idx || !reach || !regread || !t) goto oom;
     reach[n - 1] = 1;
-    size_t count = 0;
     for (size_t i = n; i-- > 0;) {
-        last_use[i] = NO_REG;
-        reg[i] = NO_REG;
         if (!reach[i]) continue;
         int ar = crisp_frep_op_arity(nodes[i].op);
         if (ar >= 1) reach[nodes[i].a] = 1;
         if (ar >= 2) reach[nodes[i].b] = 1;
     }
-    /* which constants need a register: those read by an op without an immediate form */
     for (size_t i = 0; i < n; i++) {
         if (!reach[i]) continue;
         const frep_node *nd = &nodes[i];
@@ -64,83 +83,69 @@ crisp_status crisp_frep_tape_create(const crisp_frep *f, crisp_frep_tape **dest)
         int ca = nodes[nd->a].op == CRISP_FREP_CONST;
         int cb = ar == 2 && nodes[nd->b].op == CRISP_FREP_CONST;
         if (ar == 2 && (ca || cb) && imm_form(nd->op, cb) >= 0) {
-            last_use[ca ? nd->b : nd->a] = (uint32_t)i;
+            regread[ca ? nd->b : nd->a] = 1;
         } else {
-            last_use[nd->a] = (uint32_t)i;
-            if (ar == 2) last_use[nd->b] = (uint32_t)i;
+            regread[nd->a] = 1;
+            if (ar == 2) regread[nd->b] = 1;
         }
     }
+    size_t count = 0;
     for (size_t i = 0; i < n; i++)
-        if (reach[i] && (nodes[i].op != CRISP_FREP_CONST || last_use[i] != NO_REG || i == n - 1))
-            count++;
+        if (reach[i] && (nodes[i].op != CRISP_FREP_CONST || regread[i] || i == n - 1)) count++;
+    sins = crisp_malloc_array(count, sizeof *sins);
+    sssa = crisp_calloc_array(2 * count, sizeof *sssa);
     t->ins = crisp_malloc_array(count, sizeof *t->ins);
-    if (!t->ins) {
-        s = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_frep_tape_create: out of memory for %zu instructions", count);
-        goto done;
-    }
-    size_t nfree = 0, k = 0;
-    int nregs = 0;
+    t->ssa = crisp_malloc_array(2 * count, sizeof *t->ssa);
+    if (!sins || !sssa || !t->ins || !t->ssa) goto oom;
+    if ((s = crisp__frep_scratch_init(&sc, count, MAX_REGS))) goto done;
+    /* the SSA tape: instruction k defines value k */
+    size_t k = 0;
     for (size_t i = 0; i < n; i++) {
         const frep_node *nd = &nodes[i];
-        if (!reach[i] || (nd->op == CRISP_FREP_CONST && last_use[i] == NO_REG && i != n - 1))
-            continue;
+        if (!reach[i] || (nd->op == CRISP_FREP_CONST && !regread[i] && i != n - 1)) continue;
         frep_ins in = {.op = nd->op};
         int ar = crisp_frep_op_arity(nd->op);
         if (nd->op == CRISP_FREP_CONST) in.imm = nd->value;
         int ca = ar >= 1 && nodes[nd->a].op == CRISP_FREP_CONST;
         int cb = ar == 2 && nodes[nd->b].op == CRISP_FREP_CONST;
-        uint32_t ra = NO_REG, rb = NO_REG;
         if (ar == 2 && (ca || cb) && imm_form(nd->op, cb) >= 0) {
             in.op = (uint8_t)imm_form(nd->op, cb);
             in.imm = cb ? nodes[nd->b].value : nodes[nd->a].value;
-            ra = reg[cb ? nd->a : nd->b];
+            sssa[2 * k] = idx[cb ? nd->a : nd->b];
         } else {
-            if (ar >= 1) ra = reg[nd->a];
-            if (ar == 2) rb = reg[nd->b];
+            if (ar >= 1) sssa[2 * k] = idx[nd->a];
+            if (ar == 2) sssa[2 * k + 1] = idx[nd->b];
         }
-        /* output register first, then give back the operands' registers */
-        uint16_t out;
-        if (nfree) {
-            out = free_regs[--nfree];
-        } else {
-            if (nregs >= MAX_REGS) {
-                s = crisp_error(CRISP_ERR_LIMIT,
-                                "crisp_frep_tape_create: more than %d values live at once", MAX_REGS);
-                goto done;
-            }
-            out = (uint16_t)nregs++;
-        }
-        in.out = out;
-        reg[i] = out;
-        if (ra != NO_REG) in.a = (uint16_t)ra;
-        if (rb != NO_REG) in.b = (uint16_t)rb;
-        if (ar >= 1) {
-            uint32_t na = nd->a, nb = ar == 2 ? nd->b : NO_REG;
-            if (last_use[na] == i && reg[na] != NO_REG) {
-                free_regs[nfree++] = (uint16_t)reg[na];
-                reg[na] = NO_REG;
-            }
-            if (nb != NO_REG && nb != na && last_use[nb] == i && reg[nb] != NO_REG) {
-                free_regs[nfree++] = (uint16_t)reg[nb];
-                reg[nb] = NO_REG;
-            }
-        }
-        t->ins[k++] = in;
+        sins[k] = in;
+        idx[i] = (uint32_t)k++;
     }
-    t->length = k;
-    t->registers = nregs;
-    t->result = t->ins[k - 1].out;
+    /* registers by the same pass that shortens tapes, with every min/max side kept */
+    frep_span out;
+    if (crisp__frep_shorten((frep_span){sins, sssa, k, 0}, NULL, &sc, t->ins, t->ssa, &out)) {
+        s = crisp_error(CRISP_ERR_LIMIT, "crisp_frep_tape_create: more than %d values live at once",
+                        MAX_REGS);
+        goto done;
+    }
+    t->length = out.len;
+    t->registers = out.registers;
+    t->result = t->ins[out.len - 1].out;
     *dest = t;
     t = NULL;
+    goto done;
+oom:
+    s = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_frep_tape_create: out of memory for %zu nodes", n);
 done:
     if (t) {
         crisp_free(t->ins);
+        crisp_free(t->ssa);
         free(t);
     }
-    crisp_free(last_use);
-    crisp_free(reg);
+    crisp__frep_scratch_free(&sc);
+    crisp_free(sins);
+    crisp_free(sssa);
+    crisp_free(idx);
     crisp_free(reach);
-    crisp_free(free_regs);
+    crisp_free(regread);
     return s;
 }
 
@@ -148,46 +153,83 @@ void crisp_frep_tape_destroy(crisp_frep_tape *t)
 {
     if (!t) return;
     crisp_free(t->ins);
+    crisp_free(t->ssa);
     free(t);
 }
 
 size_t crisp_frep_tape_length(const crisp_frep_tape *t) { return t ? t->length : 0; }
 int crisp_frep_tape_registers(const crisp_frep_tape *t) { return t ? t->registers : 0; }
 
-size_t crisp__frep_shorten(const frep_ins *ins, size_t n, const uint8_t *choices, uint16_t result,
-                           uint8_t *live, int registers, frep_ins *dest)
+int crisp__frep_shorten(frep_span src, const uint8_t *choices, frep_shorten_scratch *sc,
+                        frep_ins *dest_ins, uint32_t *dest_ssa, frep_span *dest)
 {
-    memset(live, 0, (size_t)registers);
-    live[result] = 1;
-    size_t k = 0;
-    for (size_t i = n; i-- > 0;) {
-        frep_ins in = ins[i];
-        if (!live[in.out]) continue;
-        live[in.out] = 0;
-        int op = in.op;
-        if (frep__is_minmax(op) && choices[i] != FREP_CHOICE_BOTH) {
-            int imm = op == FREP_T_MIN_RI || op == FREP_T_MAX_RI;
-            if (choices[i] == FREP_CHOICE_B && imm) {
-                dest[k++] = (frep_ins){.op = CRISP_FREP_CONST, .out = in.out, .imm = in.imm};
-                continue;
-            }
-            uint16_t src = choices[i] == FREP_CHOICE_A ? in.a : in.b;
-            dest[k++] = (frep_ins){.op = FREP_T_COPY, .out = in.out, .a = src};
-            live[src] = 1;
-            continue;
+    size_t n = src.len;
+    const frep_ins *ins = src.ins;
+    const uint32_t *ssa = src.ssa;
+    uint32_t *rep = sc->rep, *reg_of = sc->reg_of, *pos = sc->pos;
+    /* forward: a min/max whose side is known is renamed to that side */
+    memset(reg_of, 0xff, n * sizeof *reg_of);
+    for (size_t i = 0; i < n; i++) {
+        uint32_t ri = (uint32_t)i;
+        if (choices && choices[i] && frep__is_minmax(ins[i].op)) {
+            if (choices[i] == FREP_CHOICE_A) ri = rep[ssa[2 * i]];
+            else if (frep__nargs(ins[i].op) == 2) ri = rep[ssa[2 * i + 1]];
         }
-        dest[k++] = in;
-        if (op == CRISP_FREP_CONST || op <= CRISP_FREP_Z) continue;
-        live[in.a] = 1;
-        if (op >= CRISP_FREP_ADD && op < CRISP_FREP_OP_COUNT) live[in.b] = 1;
+        rep[i] = ri;
     }
-    /* written backwards: reverse */
-    for (size_t i = 0, j = k - 1; i < j; i++, j--) {
-        frep_ins tmp = dest[i];
-        dest[i] = dest[j];
-        dest[j] = tmp;
+    /* backward: dead code is skipped; a value takes a register at its last use and gives it
+     * back at its definition (operands first, so the output never shares an operand's) */
+    size_t nfree = 0, p = n;
+    uint32_t nregs = 0, max_regs = (uint32_t)sc->max_regs;
+    uint16_t *free_regs = sc->free_regs;
+#define ALLOC(dst)                                                                                 \
+    do {                                                                                           \
+        if (nfree) (dst) = free_regs[--nfree];                                                     \
+        else if (nregs >= max_regs) return -1;                                                     \
+        else (dst) = nregs++;                                                                      \
+    } while (0)
+    ALLOC(reg_of[rep[n - 1]]);
+    for (size_t i = n; i-- > 0;) {
+        uint32_t ro = reg_of[i];
+        if (ro == NO_REG || rep[i] != i) continue;
+        frep_ins in = ins[i];
+        int nargs = frep__nargs(in.op);
+        if (choices && choices[i] == FREP_CHOICE_B && frep__is_minmax(in.op)) {
+            in.op = CRISP_FREP_CONST; /* min/max with an immediate that won */
+            nargs = 0;
+        }
+        uint32_t a0 = 0, a1 = 0;
+        in.out = (uint16_t)ro;
+        if (nargs >= 1) {
+            a0 = rep[ssa[2 * i]];
+            if (reg_of[a0] == NO_REG) ALLOC(reg_of[a0]);
+            in.a = (uint16_t)reg_of[a0];
+            if (nargs == 2) {
+                a1 = rep[ssa[2 * i + 1]];
+                if (reg_of[a1] == NO_REG) ALLOC(reg_of[a1]);
+                in.b = (uint16_t)reg_of[a1];
+            }
+        }
+        p--;
+        dest_ins[p] = in;
+        dest_ssa[2 * p] = a0;
+        dest_ssa[2 * p + 1] = a1;
+        pos[i] = (uint32_t)p;
+        free_regs[nfree++] = (uint16_t)ro;
     }
-    return k;
+#undef ALLOC
+    /* move to the front, renumbering the SSA operands */
+    size_t m = n - p;
+    for (size_t q = 0; q < m; q++) {
+        frep_ins in = dest_ins[p + q];
+        int nargs = frep__nargs(in.op);
+        uint32_t a = dest_ssa[2 * (p + q)], b = dest_ssa[2 * (p + q) + 1];
+        dest_ins[q] = in;
+        dest_ssa[2 * q] = nargs >= 1 ? pos[a] - (uint32_t)p : 0;
+        dest_ssa[2 * q + 1] = nargs >= 2 ? pos[b] - (uint32_t)p : 0;
+    }
+    *dest = (frep_span){dest_ins, dest_ssa, m, (int)nregs};
+    return 0;
 }
 
 float crisp__frep_eval_scalar(const frep_ins *ins, size_t n, uint16_t result, float *r, float x,

@@ -164,7 +164,7 @@ static crisp_status screen_error_whole(const char *fn, const crisp_bezier_patch 
  * largest of the sub-patches' bounds. */
 static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch *p,
                                        const crisp_slefe_view *view, const double *clip,
-                                       const double *err, int tau, double *dest)
+                                       const double *err, int tau, double accept, double *dest)
 {
     int k = (tau + MAXM - 1) / MAXM;
     while (tau % k)
@@ -196,9 +196,15 @@ static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch 
                 hh[r] += serr[r];
             }
             double e;
-            crisp_status s = screen_error_whole(fn, &q, view, sub, serr, hl, hh, tau / k, 0.0, &e);
+            crisp_status s =
+                screen_error_whole(fn, &q, view, sub, serr, hl, hh, tau / k, accept, &e);
             if (s) return s;
             best = crisp__max(best, e);
+            if (accept > 0.0 && best > accept) {
+                /* tau is rejected; the caller only needs a value above accept */
+                *dest = best;
+                return CRISP_OK;
+            }
         }
     *dest = best;
     return CRISP_OK;
@@ -216,11 +222,13 @@ static crisp_status screen_error(const char *fn, const crisp_bezier_patch *p,
         *dest = classic;
         return CRISP_OK;
     }
-    return screen_error_split(fn, p, view, clip, err, tau, dest);
+    return screen_error_split(fn, p, view, clip, err, tau, accept, dest);
 }
 
 /* Both bounds where they apply; the smaller is returned (each is sound on its own). With
- * accept > 0 the SLEFE bound is skipped when the classic one is already <= accept. */
+ * accept > 0 the SLEFE bound is skipped when the classic one is already <= accept, and a result
+ * above accept may be a partial maximum (enough to reject tau, not a bound). accept = 0: the
+ * full bound. */
 static crisp_status screen_error_whole(const char *fn, const crisp_bezier_patch *p,
                                        const crisp_slefe_view *view, const double *clip,
                                        const double *err, const double *hl, const double *hh,
@@ -283,7 +291,11 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
     s = crisp_slefe_patch_screen(p, 3, view, NULL, NULL, &w_px);
     if (s) return s;
     int t = crisp_slefe_tess_level(w_px, 3, eps);
-    if (t > max_level) t = max_level;
+    if (t > max_level) {
+        /* the sound level is at least the guess here (the search only goes up): split */
+        *tau = max_level + 1;
+        return CRISP_OK;
+    }
     for (;;) {
         double e;
         s = screen_error(fn, p, view, clip, err, hl, hh, t, eps, &e);
@@ -298,6 +310,15 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
         }
         double next = ceil(t * sqrt(e / eps));
         int nt = next > max_level ? max_level : (int)next;
-        t = nt > t ? nt : t + 1;
+        nt = nt > t ? nt : t + 1;
+        /* Above 16 the bound works on k x k sub-patches, k the smallest divisor of tau with
+         * tau / k <= 16: round up to a multiple of ceil(tau / 16) so that k stays small (a prime
+         * tau would need tau^2 sub-patches). */
+        int k = (nt + MAXM - 1) / MAXM;
+        if (k > 1) {
+            int rounded = (nt + k - 1) / k * k;
+            nt = rounded <= max_level ? rounded : max_level;
+        }
+        t = nt;
     }
 }

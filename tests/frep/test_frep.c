@@ -293,21 +293,35 @@ static void test_interval_soundness(void **state)
         size_t len = t->length;
         float *lo = calloc((size_t)t->registers * 2, sizeof *lo), *hi = lo + t->registers;
         float *regs = calloc((size_t)t->registers, sizeof *regs);
-        uint8_t *choices = calloc(len, 1), *live = calloc((size_t)t->registers, 1);
-        frep_ins *shorter = malloc(len * sizeof *shorter);
+        uint8_t *choices = calloc(len, 1);
+        frep_ins *sins = malloc(2 * len * sizeof *sins);
+        uint32_t *sssa = malloc(4 * len * sizeof *sssa);
+        frep_shorten_scratch sc;
+        assert_int_equal(crisp__frep_scratch_init(&sc, len, t->registers), CRISP_OK);
+        frep_span full = {t->ins, t->ssa, len, t->registers};
         for (int b = 0; b < 20; b++) {
             float scale = rnd() % 2 ? 0.01f : 4.0f;
-            float box[3][2];
+            float box[3][2], sub[3][2];
             for (int a = 0; a < 3; a++) {
                 float c = rndf(-3, 3), w = rndf(0, scale);
                 box[a][0] = c - w;
                 box[a][1] = c + w;
+                /* a sub-box for a second, nested shortening */
+                float u = rndf(box[a][0], box[a][1]), v = rndf(box[a][0], box[a][1]);
+                sub[a][0] = u < v ? u : v;
+                sub[a][1] = u < v ? v : u;
             }
             size_t d = crisp__frep_interval(t->ins, len, lo, hi, box[0], box[1], box[2], choices);
             float l = lo[t->result], h = hi[t->result];
             decided += d > 0;
-            size_t slen = crisp__frep_shorten(t->ins, len, choices, t->result, live, t->registers, shorter);
-            assert_true(slen <= len);
+            frep_span s1, s2;
+            int ok1 = crisp__frep_shorten(full, choices, &sc, sins, sssa, &s1) == 0;
+            int ok2 = 0;
+            if (ok1) {
+                assert_true(s1.len <= len && s1.registers <= t->registers);
+                crisp__frep_interval(s1.ins, s1.len, lo, hi, sub[0], sub[1], sub[2], choices);
+                ok2 = crisp__frep_shorten(s1, choices, &sc, sins + len, sssa + 2 * len, &s2) == 0;
+            }
             if (l != l) {
                 assert_true(h != h);
                 unknown++;
@@ -315,22 +329,32 @@ static void test_interval_soundness(void **state)
                 assert_true(l <= h);
             }
             for (int s = 0; s < 30; s++) {
-                float p[3];
-                for (int a = 0; a < 3; a++)
+                float p[3], q[3];
+                for (int a = 0; a < 3; a++) {
                     p[a] = s < 8 ? box[a][(s >> a) & 1] : rndf(box[a][0], box[a][1]);
+                    q[a] = s < 8 ? sub[a][(s >> a) & 1] : rndf(sub[a][0], sub[a][1]);
+                }
                 float v = crisp_frep_eval_point(t, p[0], p[1], p[2]);
                 if (l == l) {
                     if (!(v >= l && v <= h))
                         fprintf(stderr, "expr %d box %d: %.9g outside [%.9g, %.9g]\n", e, b, v, l, h);
                     assert_true(v >= l && v <= h);
                 }
-                /* the shortened tape gives the same value inside the box */
-                float vs = crisp__frep_eval_scalar(shorter, slen, t->result, regs, p[0], p[1], p[2]);
-                assert_true(same(v, vs));
+                /* the shortened tapes give the same values inside their boxes */
+                if (ok1) {
+                    float vs = crisp__frep_eval_scalar(s1.ins, s1.len, s1.ins[s1.len - 1].out, regs, p[0], p[1], p[2]);
+                    assert_true(same(v, vs));
+                }
+                if (ok2) {
+                    float vq = crisp_frep_eval_point(t, q[0], q[1], q[2]);
+                    float vs = crisp__frep_eval_scalar(s2.ins, s2.len, s2.ins[s2.len - 1].out, regs, q[0], q[1], q[2]);
+                    assert_true(same(vq, vs));
+                }
                 checked++;
             }
         }
-        free(lo), free(regs), free(choices), free(live), free(shorter);
+        free(lo), free(regs), free(choices), free(sins), free(sssa);
+        crisp__frep_scratch_free(&sc);
         crisp_frep_tape_destroy(t);
         crisp_frep_destroy(f);
     }

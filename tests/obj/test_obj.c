@@ -301,6 +301,50 @@ static void test_bad_input(void **state)
     }
 }
 
+/* A trim built from an unsupported curve type drops the face with a note; a file that reuses one
+ * long curv2 in thousands of trim pieces hits the total bound instead of allocating gigabytes. */
+static void test_trim_limits(void **state)
+{
+    (void)state;
+    static const char unsupported[] =
+        "vp 0 0\nvp 1 0\nvp 1 1\ncstype cardinal\ndeg 3\ncurv2 1 2 3\nparm u 0 1\nend\n"
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\ncstype bspline\ndeg 1 1\nsurf 0 1 0 1 1 2 3 4\n"
+        "parm u 0 0 1 1\nparm v 0 0 1 1\ntrim 0 1 1\nend\n";
+    crisp_model *m = NULL;
+    assert_int_equal(read_str(unsupported, &m), CRISP_OK);
+    assert_int_equal(m->face_count, 0);
+    int dropped = 0, noted = 0;
+    for (int i = 0; i < m->skip_count; i++) {
+        if (strstr(m->skips[i].what, "line 15") && strstr(m->skips[i].what, "unsupported"))
+            dropped++;
+        if (strstr(m->skips[i].what, "cardinal")) noted++;
+    }
+    assert_int_equal(dropped, 1);
+    assert_int_equal(noted, 1);
+    crisp_model_destroy(m);
+
+    enum { N = 2000, PIECES = 2100 };
+    size_t cap = (size_t)N * 24 + PIECES * 12 + 4096, n = 0;
+    char *text = malloc(cap);
+    assert_non_null(text);
+    for (int i = 0; i < N; i++) n += (size_t)snprintf(text + n, cap - n, "vp %d 0\n", i);
+    n += (size_t)snprintf(text + n, cap - n, "cstype bspline\ndeg 1\ncurv2");
+    for (int i = 1; i <= N; i++) n += (size_t)snprintf(text + n, cap - n, " %d", i);
+    n += (size_t)snprintf(text + n, cap - n, "\nparm u 0");
+    for (int i = 0; i < N; i++) n += (size_t)snprintf(text + n, cap - n, " %d", i);
+    n += (size_t)snprintf(text + n, cap - n, " %d\nend\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+                          "deg 1 1\nsurf 0 1 0 1 1 2 3 4\nparm u 0 0 1 1\nparm v 0 0 1 1\ntrim",
+                          N - 1);
+    for (int i = 0; i < PIECES; i++) n += (size_t)snprintf(text + n, cap - n, " 0 %d 1", N - 1);
+    n += (size_t)snprintf(text + n, cap - n, "\nend\n");
+    assert_true(n < cap);
+    m = NULL;
+    assert_int_equal(read_str(text, &m), CRISP_ERR_LIMIT);
+    assert_null(m);
+    assert_non_null(strstr(crisp_error_message(), "control points in all"));
+    free(text);
+}
+
 /* Every prefix of a valid file reads or fails cleanly (no crash, no leak, a message). */
 static void test_truncated_files(void **state)
 {
@@ -329,6 +373,7 @@ int main(void)
         cmocka_unit_test(test_syntax_variants),
         cmocka_unit_test(test_polygon_cube),
         cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_trim_limits),
         cmocka_unit_test(test_truncated_files),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -233,6 +233,11 @@ static crisp_status make_loop(obj_data *d, const obj_loop *ol, crisp_trim_loop *
                                d->name, ol->line, i + 1, t[0], t[1], (int)t[2] + 1, c0, c1);
         lo = fmax(lo, c0);
         hi = fmin(hi, c1);
+        /* many trims may reuse one long curv2: bound the total, not just each statement */
+        d->trim_points += c->count;
+        if (d->trim_points > CRISP_MAX_CONTROL_POINTS)
+            return crisp_error(CRISP_ERR_LIMIT, "%s:%d: trim loops use more than %d control "
+                               "points in all", d->name, ol->line, CRISP_MAX_CONTROL_POINTS);
         crisp_curve *piece = NULL;
         /* the whole curve is copied, not trimmed, so unclamped knots survive a round trip */
         st = (lo == c0 && hi == c1) ? crisp_curve_copy(c, &piece)
@@ -319,6 +324,11 @@ static crisp_status build_surf(obj_data *d, const obj_surf *os, double closure_f
         for (int i = 0; i < os->loops.count; i++) {
             face.loop_count = i + 1;
             st = make_loop(d, &d->loops[os->loops.off + i], &face.loops[i]);
+            if (st == CRISP_ERR_UNSUPPORTED) {
+                /* a trim made of curves crisp cannot read (cardinal, taylor, bmatrix) */
+                st = note_dropped(m, d, os->line, "trim uses an unsupported curv2 cstype");
+                goto done;
+            }
             if (st != CRISP_OK) goto done;
         }
         double dom[4];

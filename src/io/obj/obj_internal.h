@@ -73,6 +73,7 @@ typedef struct obj_data {
     int loop_count, loop_cap;
     obj_polygon *polys;
     int poly_count, poly_cap;
+    long trim_points; /* control points of all trim pieces made so far (bounded) */
 } obj_data;
 
 /* Parse the text (size bytes, need not be NUL-terminated) into d (zeroed by the caller); skipped

@@ -116,7 +116,10 @@ static crisp_status parse_real_ext(parser *ps, const tok *t, double *dest, long 
     if (!isfinite(x)) return tok_error(ps, t, CRISP_ERR_NUMERIC, "expected a finite number");
     *dest = x;
     if (ext) {
-        long double xl = strtold(buf, NULL);
+        /* strtold is slow; it only adds anything for more digits than a double holds */
+        int digits = 0;
+        for (const char *c = buf; *c && *c != 'e' && *c != 'E'; c++) digits += *c >= '0' && *c <= '9';
+        long double xl = digits > 17 ? strtold(buf, NULL) : (long double)x;
         *ext = isfinite(xl) ? xl : (long double)x;
     }
     return CRISP_OK;
