@@ -395,6 +395,26 @@ static void test_brep_face_projected(void **state)
     crisp_model_destroy(m);
 }
 
+/* A free 128 whose parameter range (U0 U1 V0 V1) is narrower than its knots is bounded by it. */
+static void test_bspline_parameter_range(void **state)
+{
+    (void)state;
+    test_entity e[] = {
+        {128, 0, 0, NULL, 0,
+         "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"
+         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.25,0.75,0.,1.;"},
+        {128, 0, 0, NULL, 0,
+         "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"
+         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"},
+    };
+    crisp_model *m = load(e, N_OF(e));
+    assert_int_equal(m->face_count, 2);
+    assert_int_equal(m->faces[0].loop_count, 1);
+    assert_true(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0]) - 0.5) < 1e-12);
+    assert_int_equal(m->faces[1].loop_count, 0); /* the full range: the whole domain */
+    crisp_model_destroy(m);
+}
+
 /* ---- records -------------------------------------------------------------------------------- */
 
 static void test_lenient_records(void **state)
@@ -592,6 +612,7 @@ int main(void)
         cmocka_unit_test(test_ruled_and_tabulated),
         cmocka_unit_test(test_bounded_plane),
         cmocka_unit_test(test_brep_face_projected),
+        cmocka_unit_test(test_bspline_parameter_range),
         cmocka_unit_test(test_lenient_records),
         cmocka_unit_test(test_unsupported_counted),
         cmocka_unit_test(test_malformed),

@@ -105,6 +105,12 @@ static void test_bundled_models(void **state)
         /* untrimmed teapot patches have no loops; every trimmed face has its outer loop */
         if (!strcmp(cases[c].file, "gpucast_teapot.igs")) assert_int_equal(s.outer_loops, 0);
         else assert_int_equal(s.outer_loops, cases[c].faces);
+        /* impeller's 144s point to a 314 colour definition: 75.29% grey */
+        if (!strcmp(cases[c].file, "impeller.igs"))
+            for (int i = 0; i < m->face_count; i++) {
+                assert_true(m->faces[i].has_color);
+                assert_true(fabs(m->faces[i].color[0] - 0.752941f) < 1e-5);
+            }
         crisp_model_destroy(m);
     }
 }

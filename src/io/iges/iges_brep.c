@@ -115,16 +115,7 @@ crisp_status iges_face_brep(iges_file *f, int e, int reversed)
     }
     if (!st && of == 0 && n > 0 && s.surface) {
         /* no outer loop given: the domain boundary is the outer loop */
-        double d[4], c[5][2];
-        crisp_surface_domain(s.surface, d);
-        double xs[5] = {d[0], d[1], d[1], d[0], d[0]}, ys[5] = {d[2], d[2], d[3], d[3], d[2]};
-        for (int i = 0; i < 5; i++) c[i][0] = xs[i], c[i][1] = ys[i];
-        for (int i = 0; i < 4 && !st; i++) {
-            double pts[4] = {c[i][0], c[i][1], c[i + 1][0], c[i + 1][1]}, kn[4] = {0, 0, 1, 1};
-            crisp_curve *cv = NULL;
-            st = crisp_curve_create(2, 1, 2, kn, pts, NULL, &cv);
-            if (!st) st = iges_curves_push(&loops[n], cv);
-        }
+        st = iges_domain_loop(&s, &loops[n]);
         outer[n] = 1;
     }
     if (!st) st = iges_finish_face(f, e, sp, &s, loops, outer, nl, reversed);

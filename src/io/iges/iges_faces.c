@@ -342,9 +342,18 @@ static crisp_status pull_into_domain(iges_file *f, int e, crisp_face *face, cons
                 double *mid = crisp_malloc_array((size_t)spans, sizeof *mid);
                 if (!mid) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
                 int n = 0;
-                for (int k = cv->degree; k < cv->count; k++)
-                    if (cv->knots[k + 1] > cv->knots[k])
-                        mid[n++] = 0.5 * (cv->knots[k] + cv->knots[k + 1]);
+                for (int k = cv->degree; k < cv->count; k++) {
+                    if (!(cv->knots[k + 1] > cv->knots[k])) continue;
+                    /* only spans whose control points (k - p .. k) leave the domain */
+                    int out = 0;
+                    for (int i = k - cv->degree; i <= k && !out; i++) {
+                        const double *q = cv->cpw + 3 * i;
+                        double u = q[0] / q[2], v = q[1] / q[2];
+                        out = fmax(fmax(dom[0] - u, u - dom[1]), fmax(dom[2] - v, v - dom[3])) >
+                              eps;
+                    }
+                    if (out) mid[n++] = 0.5 * (cv->knots[k] + cv->knots[k + 1]);
+                }
                 crisp_status st = CRISP_OK;
                 for (int k = 0; k < n && !st; k++) st = crisp_curve_insert_knot(cv, mid[k], 1);
                 crisp_free(mid);
@@ -373,11 +382,11 @@ static double uv_tolerance(const iges_surface *s)
     return 1e-6 * size;
 }
 
-/* The domain rectangle as a CCW loop (a face whose outer boundary is the surface's). */
-static crisp_status domain_loop(const crisp_surface *s, iges_curves *out)
+crisp_status iges_domain_loop(const iges_surface *s, iges_curves *out)
 {
     double d[4], c[5][2];
-    crisp_surface_domain(s, d);
+    if (s->narrowed) memcpy(d, s->range, sizeof d);
+    else crisp_surface_domain(s->surface, d);
     double xs[5] = {d[0], d[1], d[1], d[0], d[0]}, ys[5] = {d[2], d[2], d[3], d[3], d[2]};
     for (int i = 0; i < 5; i++) c[i][0] = xs[i], c[i][1] = ys[i];
     for (int i = 0; i < 4; i++) {
@@ -441,8 +450,8 @@ crisp_status iges_face_trimmed(iges_file *f, int e)
     } else if (s.is_plane) {
         note_dropped(f, e, "unbounded plane");
         goto done;
-    } else if (n2 > 0) {
-        st = domain_loop(s.surface, &loops[0]);
+    } else if (n2 > 0 || s.narrowed) {
+        st = iges_domain_loop(&s, &loops[0]);
     }
     for (int i = 0; i < n2 && !st; i++) {
         int b;
@@ -604,6 +613,16 @@ crisp_status iges_face_untrimmed(iges_file *f, int e)
     iges_surface s;
     crisp_status st = iges_surface_convert(f, e, 0, &s);
     if (st) return st;
+    if (s.narrowed) {
+        /* a free 128 whose parameter range is narrower than its knots: bound it by the range */
+        iges_curves loop = {0};
+        int outer = 1;
+        st = iges_domain_loop(&s, &loop);
+        if (!st) st = iges_finish_face(f, e, e, &s, &loop, &outer, 1, 0);
+        iges_curves_free(&loop);
+        iges_surface_free(&s);
+        return st;
+    }
     crisp_face face = {0};
     face.source_id = iges_de(e);
     face.has_color = iges_entity_color(f, e, face.color);

@@ -139,6 +139,8 @@ typedef struct iges_surface {
     crisp_surface *surface;
     iges_param_map map_u, map_v; /* file (u, v) -> crisp (u, v) */
     int is_plane;                /* 108: the (u, v) are plane coordinates along axes x, y */
+    int narrowed;                /* 128 whose parameter range is inside its knot domain */
+    double range[4];             /* that range: u0, u1, v0, v1 */
     double origin[3], x[3], y[3];
 } iges_surface;
 
@@ -161,6 +163,9 @@ crisp_status iges_face_untrimmed(iges_file *f, int e);
 crisp_status iges_face_plane(iges_file *f, int e);
 crisp_status iges_brep_faces(iges_file *f, int e); /* 186 solid or 514 shell */
 crisp_status iges_face_brep(iges_file *f, int e, int reversed);
+/* The face's own region as a CCW rectangle loop: the 128's parameter range when it is narrower
+ * than the knot domain, else the domain. */
+crisp_status iges_domain_loop(const iges_surface *s, iges_curves *out);
 
 /* Shared by the face builders: order and orient a chain of 2D curves into a closed loop, project
  * model-space curves, finish a face (colour, normalise, add or skip). */

@@ -43,7 +43,7 @@ static void xform_surface(crisp_surface *s, const iges_xform *x)
 
 /* ---- 128 ------------------------------------------------------------------------------------ */
 
-static crisp_status bspline_128(iges_file *f, int e, crisp_surface **dest)
+static crisp_status bspline_128(iges_file *f, int e, iges_surface *out)
 {
     int k1, k2, m1, m2;
     crisp_status st = iges_int_range(f, e, 1, 1, CRISP_MAX_CONTROL_POINTS - 1, &k1);
@@ -78,10 +78,24 @@ static crisp_status bspline_128(iges_file *f, int e, crisp_surface **dest)
     int rational = 0;
     for (int i = 0; i < n; i++)
         if (w[i] != 1) rational = 1;
-    st = crisp_surface_create(m1, m2, nu, nv, knu, knv, pts, rational ? w : NULL, dest);
-    if (st) st = kernel_fail(f, e, st);
-    /* The parameter range U0 U1 V0 V1 (kr..kr+3): crisp keeps the knot domain; trims are given
-     * in the same parameters, so a narrower range only means the trims stay inside it. */
+    st = crisp_surface_create(m1, m2, nu, nv, knu, knv, pts, rational ? w : NULL, &out->surface);
+    if (st) {
+        st = kernel_fail(f, e, st);
+        goto done;
+    }
+    /* The parameter range U0 U1 V0 V1: crisp keeps the knot domain (trims are given in the same
+     * parameters); a narrower range bounds the face like an outer loop (iges_domain_loop). */
+    double dom[4], r[4];
+    crisp_surface_domain(out->surface, dom);
+    for (int i = 0; i < 4 && !st; i++) st = iges_real_def(f, e, kr + i, dom[i], &r[i]);
+    if (st) goto done;
+    for (int i = 0; i < 4; i++) r[i] = fmin(fmax(r[i], dom[i & 2]), dom[(i & 2) + 1]);
+    double eu = 1e-9 * (dom[1] - dom[0]), ev = 1e-9 * (dom[3] - dom[2]);
+    if (r[1] - r[0] > eu && r[3] - r[2] > ev &&
+        (r[0] > dom[0] + eu || r[1] < dom[1] - eu || r[2] > dom[2] + ev || r[3] < dom[3] - ev)) {
+        out->narrowed = 1;
+        memcpy(out->range, r, sizeof r);
+    }
 done:
     crisp_free(knu);
     crisp_free(knv);
@@ -339,7 +353,7 @@ crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *
     if (st) return st;
     x->visiting = 1;
     switch (x->type) {
-    case 128: st = bspline_128(f, e, &dest->surface); break;
+    case 128: st = bspline_128(f, e, dest); break;
     case 114: st = spline_114(f, e, &dest->surface); break;
     case 118: st = ruled_118(f, e, depth, dest); break;
     case 120: st = revolution_120(f, e, depth, dest); break;
