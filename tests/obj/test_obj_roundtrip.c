@@ -152,6 +152,23 @@ static void strip_comments(char *text)
     *out = '\0';
 }
 
+/* The model.h contract on what a reader returns: every loop closed, inside the domain, oriented. */
+static void assert_loops_valid(const crisp_model *m)
+{
+    for (int f = 0; f < m->face_count; f++) {
+        double dom[4];
+        crisp_surface_domain(m->faces[f].surface, dom);
+        double tol = 1e-6 * fmax(dom[1] - dom[0], dom[3] - dom[2]);
+        for (int l = 0; l < m->faces[f].loop_count; l++) {
+            const crisp_trim_loop *loop = &m->faces[f].loops[l];
+            assert_true(crisp_trim_loop_closure_gap(loop) <= tol);
+            assert_true(crisp_trim_loop_domain_excess(loop, dom) <= tol);
+            double area = crisp_trim_loop_signed_area(loop);
+            assert_true(loop->is_outer ? area > 0 : area < 0);
+        }
+    }
+}
+
 static void round_trip(const crisp_model *a, const char *path)
 {
     assert_int_equal(crisp_write_obj(a, path), CRISP_OK);
@@ -161,6 +178,7 @@ static void round_trip(const crisp_model *a, const char *path)
     assert_int_equal(st, CRISP_OK);
     assert_int_equal(b->skip_count, 0);
     assert_same_model(a, b);
+    assert_loops_valid(b);
     /* writing what was read gives the same file */
     char path2[512];
     snprintf(path2, sizeof path2, "%s.again.obj", path);
