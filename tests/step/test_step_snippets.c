@@ -114,13 +114,13 @@ static char *replace(const char *text, const char *from, const char *to)
 }
 
 /* Every trim's image on the surface lies on the cylinder r = 1, 0 <= z <= 2. */
-static void check_cylinder(const crisp_model *m, const step_read_stats *st)
+static void check_cylinder(const crisp_model *m, const step_read_stats *st, int curves)
 {
     assert_int_equal(m->face_count, 1);
     const crisp_face *f = &m->faces[0];
     assert_int_equal(f->loop_count, 1);
     assert_true(f->loops[0].is_outer);
-    assert_int_equal(f->loops[0].curve_count, 4);
+    assert_int_equal(f->loops[0].curve_count, curves);
     assert_int_equal(f->reversed, 0);
     loop_check c;
     check_model_loops(m, 1e-6, 1e-12, &c);
@@ -130,7 +130,7 @@ static void check_cylinder(const crisp_model *m, const step_read_stats *st)
     crisp_surface_domain(f->surface, d);
     assert_true(fabs((d[1] - d[0]) - 2 * M_PI) < 1e-9);
     assert_true(fabs(crisp_trim_loop_signed_area(&f->loops[0]) - 4 * M_PI) < 1e-3);
-    for (int k = 0; k < 4; k++) {
+    for (int k = 0; k < curves; k++) {
         const crisp_curve *cv = f->loops[0].curves[k];
         double t0, t1;
         crisp_curve_domain(cv, &t0, &t1);
@@ -152,7 +152,7 @@ static void test_cylinder_seam_pcurves(void **state)
     step_read_stats st;
     assert_int_equal(read_str(cylinder, &m, &st), CRISP_OK);
     assert_int_equal(st.pcurve_edges, 4);
-    check_cylinder(m, &st);
+    check_cylinder(m, &st, 4);
     crisp_model_destroy(m);
 }
 
@@ -168,11 +168,39 @@ static void test_cylinder_seam_projected(void **state)
     step_read_stats st;
     assert_int_equal(read_str(c, &m, &st), CRISP_OK);
     assert_int_equal(st.projected_edges, 4);
-    check_cylinder(m, &st);
+    check_cylinder(m, &st, 4);
     crisp_model_destroy(m);
     free(a);
     free(b);
     free(c);
+}
+
+/* The same cylinder bounded by its two circles only (two FACE_BOUNDs, no seam edge; the top
+ * circle starts at angle pi/2): one outer loop joining them along the seam. */
+static void test_cylinder_band(void **state)
+{
+    (void)state;
+    char *a = replace(cylinder, "#11=CARTESIAN_POINT('',(1.,0.,2.));", "#11=CARTESIAN_POINT('',(0.,1.,2.));");
+    char *b = replace(a, "#64=EDGE_LOOP('',(#60,#61,#62,#63));\n#65=FACE_OUTER_BOUND('',#64,.T.);\n"
+                         "#66=ADVANCED_FACE('',(#65),#5,.T.);",
+                      "#64=EDGE_LOOP('',(#60));\n#65=FACE_BOUND('',#64,.T.);\n#69=EDGE_LOOP('',(#62));\n"
+                      "#70=FACE_BOUND('',#69,.T.);\n#66=ADVANCED_FACE('',(#65,#70),#5,.T.);");
+    for (int variant = 0; variant < 2; variant++) {
+        char *c = variant ? replace(b, "#28=EDGE_CURVE('',#12,#12,#27,.T.)", "#28=EDGE_CURVE('',#12,#12,#20,.T.)") : NULL;
+        char *d = variant ? replace(c, "#38=EDGE_CURVE('',#13,#13,#37,.T.)", "#38=EDGE_CURVE('',#13,#13,#32,.T.)") : NULL;
+        crisp_model *m;
+        step_read_stats st;
+        crisp_status s = read_str(variant ? d : b, &m, &st);
+        if (s) fprintf(stderr, "%s\n", crisp_error_message());
+        assert_int_equal(s, CRISP_OK);
+        /* bottom circle, seam up, top circle cut at the seam into two, seam down */
+        check_cylinder(m, &st, 5);
+        crisp_model_destroy(m);
+        free(c);
+        free(d);
+    }
+    free(a);
+    free(b);
 }
 
 static void test_plane_hole_units_colour(void **state)
@@ -297,6 +325,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cylinder_seam_pcurves),
         cmocka_unit_test(test_cylinder_seam_projected),
+        cmocka_unit_test(test_cylinder_band),
         cmocka_unit_test(test_plane_hole_units_colour),
         cmocka_unit_test(test_rational_complex_entity),
         cmocka_unit_test(test_malformed),

@@ -57,6 +57,7 @@ typedef struct face_work {
     double box[4];    /* file (u, v) box the NURBS covers */
     double nbox[4];   /* NURBS domain */
     double tol_uv;
+    int band_a, band_b, band_rev; /* two winding loops joined along the seam (band_b follows a) */
 } face_work;
 
 static void edge_free(edge_use *e)
@@ -445,6 +446,120 @@ static void choose_box(face_work *w, int outer)
     }
 }
 
+/* ---- bands: two loops that wind around a periodic direction ----------------------------------
+ * A face bounded by two circles on a full cylinder has two loops, each going once around; in
+ * (u, v) neither closes. They become one outer loop: loop A, a seam segment up, loop B from the
+ * seam back to the seam, a seam segment down. B is cut where it crosses A's start on the seam,
+ * so that both run over the same turn. */
+
+static double winding(const face_work *w, const loop_work *lw, int k)
+{
+    const edge_use *a = &lw->edges[0], *b = &lw->edges[lw->count - 1];
+    if (w->period[k] <= 0 || !a->ns || !b->ns) return 0;
+    return b->uv[2 * b->ns - 2 + k] - a->uv[k];
+}
+
+static crisp_status curve_dup(const step_curve *c, step_curve *d)
+{
+    *d = *c;
+    d->nurbs = NULL;
+    return c->nurbs ? crisp_curve_copy(c->nurbs, &d->nurbs) : CRISP_OK;
+}
+
+static void file_uv(face_work *w, edge_use *eu, double s, double uv[2]);
+static crisp_status loop_samples(face_work *w, loop_work *lw);
+
+/* Cut the loop where coordinate k crosses target (mod the period) and start it there. */
+static crisp_status cut_loop(face_work *w, loop_work *lw, int k, double target)
+{
+    double P = w->period[k];
+    int e = -1;
+    double s0 = 0, s1 = 0, tgt = 0;
+    for (int m = 0; m < lw->count && e < 0; m++) {
+        const edge_use *eu = &lw->edges[m];
+        for (int i = 0; i + 1 < eu->ns && e < 0; i++) {
+            double x0 = eu->uv[2 * i + k], x1 = eu->uv[2 * i + 2 + k];
+            double t = target + P * floor((x0 - target) / P + 0.5);
+            for (int q = -1; q <= 1 && e < 0; q++) {
+                double tt = t + q * P;
+                if ((x0 - tt) * (x1 - tt) <= 0 && x0 != x1) e = m, s0 = (double)i / (eu->ns - 1), s1 = (double)(i + 1) / (eu->ns - 1), tgt = tt;
+            }
+        }
+    }
+    if (e < 0) return crisp__step_fail(w->r, w->fe, CRISP_ERR_NUMERIC, "cannot find where a winding loop crosses the seam");
+    edge_use *eu = &lw->edges[e];
+    double x0 = eu->uv[2 * (int)lround(s0 * (eu->ns - 1)) + k];
+    for (int it = 0; it < 60; it++) {
+        double sm = 0.5 * (s0 + s1), uv[2];
+        file_uv(w, eu, sm, uv);
+        if ((uv[k] - tgt) * (x0 - tgt) > 0) s0 = sm;
+        else s1 = sm;
+    }
+    double sc = 0.5 * (s0 + s1);
+    int n = lw->count, first = e, split = sc > 1e-9 && sc < 1 - 1e-9;
+    if (!split && sc >= 0.5) first = (e + 1) % n;
+    edge_use *ne = crisp_calloc_array((size_t)n + 1, sizeof *ne);
+    if (!ne) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", w->r->f->name);
+    int c = 0;
+    crisp_status st = CRISP_OK;
+    if (split) {
+        /* e becomes two edge uses: e2 (from the cut to its end) first, e1 (start to cut) last. */
+        edge_use e1 = *eu, e2 = *eu;
+        e1.ts = e1.uv = e2.ts = e2.uv = NULL;
+        memset(&e2.c3, 0, sizeof e2.c3);
+        st = curve_dup(&eu->c3, &e2.c3);
+        for (int q = 0; q < eu->npc && !st; q++) st = curve_dup(&eu->pc[q], &e2.pc[q]);
+        if (st) {
+            crisp_free(ne);
+            return st;
+        }
+        double t = eu->increasing ? eu->lo + sc * (eu->hi - eu->lo) : eu->hi - sc * (eu->hi - eu->lo);
+        if (eu->increasing) e1.hi = t, e2.lo = t;
+        else e1.lo = t, e2.hi = t;
+        for (int q = 0; q < eu->npc; q++) {
+            double pt = eu->increasing ? eu->pt0[q] + sc * (eu->pt1[q] - eu->pt0[q]) : eu->pt1[q] - sc * (eu->pt1[q] - eu->pt0[q]);
+            if (eu->increasing) e1.pt1[q] = pt, e2.pt0[q] = pt;
+            else e1.pt0[q] = pt, e2.pt1[q] = pt;
+        }
+        crisp_free(eu->ts);
+        crisp_free(eu->uv);
+        ne[c++] = e2;
+        for (int m = 1; m < n; m++) ne[c++] = lw->edges[(e + m) % n];
+        ne[c++] = e1;
+    } else {
+        for (int m = 0; m < n; m++) ne[c++] = lw->edges[(first + m) % n];
+    }
+    crisp_free(lw->edges);
+    lw->edges = ne;
+    lw->count = c;
+    for (int m = 0; m < c; m++) {
+        crisp_free(ne[m].ts);
+        crisp_free(ne[m].uv);
+        ne[m].ts = ne[m].uv = NULL;
+        ne[m].shift[0] = ne[m].shift[1] = 0;
+    }
+    return loop_samples(w, lw);
+}
+
+/* Join winding loops a and b (coordinate k) as described above. */
+static crisp_status make_band(face_work *w, int a, int b, int k)
+{
+    loop_work *A = &w->loops[a], *B = &w->loops[b];
+    double ua = A->edges[0].uv[k], da = winding(w, A, k) > 0 ? 1 : -1;
+    crisp_status st = cut_loop(w, B, k, ua);
+    if (st) return st;
+    double db = winding(w, B, k) > 0 ? 1 : -1;
+    w->band_rev = da == db;
+    /* B traversed (reversed when it runs like A) must start at A's end and end at A's start. */
+    double want = w->band_rev ? ua : ua + da * w->period[k];
+    double sh[2] = {0, 0};
+    sh[k] = want - B->edges[0].uv[k];
+    shift_loop(B, sh);
+    w->band_a = a;
+    w->band_b = b;
+    return CRISP_OK;
+}
+
 /* ---- trim curves in NURBS (u, v) --------------------------------------------------------------- */
 
 typedef struct fit_ctx {
@@ -776,6 +891,36 @@ static void clamp_loop(crisp_trim_loop *lp, const double d[4])
     }
 }
 
+/* Loop A's curves are in lp: add the seam segment, loop B (reversed when needed), the seam back. */
+static crisp_status append_band(face_work *w, const crisp_surface *s, crisp_trim_loop *lp, size_t *cap)
+{
+    (void)s;
+    crisp_trim_loop b = {0};
+    size_t bcap = 0;
+    crisp_status st = CRISP_OK;
+    loop_work *B = &w->loops[w->band_b];
+    for (int k = 0; k < B->count && !st; k++) st = edge_trims(w, s, &B->edges[k], &b.curves, &b.curve_count, &bcap);
+    if (!st && w->band_rev) crisp_trim_loop_reverse(&b);
+    double a0[2], a1[2], b0[2], b1[2];
+    if (!st && lp->curve_count && b.curve_count) {
+        curve_end(lp->curves[0], 0, a0);
+        curve_end(lp->curves[lp->curve_count - 1], 1, a1);
+        curve_end(b.curves[0], 0, b0);
+        curve_end(b.curves[b.curve_count - 1], 1, b1);
+        crisp_curve *up = NULL, *down = NULL;
+        st = crisp_make_line(2, a1, b0, 0, 1, &up);
+        if (!st) st = push_curve(w, up, &lp->curves, &lp->curve_count, cap);
+        for (int k = 0; k < b.curve_count && !st; k++) {
+            st = push_curve(w, b.curves[k], &lp->curves, &lp->curve_count, cap);
+            b.curves[k] = NULL;
+        }
+        if (!st) st = crisp_make_line(2, b1, a0, 0, 1, &down);
+        if (!st) st = push_curve(w, down, &lp->curves, &lp->curve_count, cap);
+    }
+    crisp_trim_loop_free(&b);
+    return st;
+}
+
 /* ---- the face ----------------------------------------------------------------------------------- */
 
 static crisp_status read_loops(face_work *w)
@@ -824,7 +969,7 @@ static crisp_status read_loops(face_work *w)
 crisp_status crisp__step_face(step_reader *r, const step_entity *fe, crisp_face *dest)
 {
     memset(dest, 0, sizeof *dest);
-    face_work w = {.r = r, .fe = fe};
+    face_work w = {.r = r, .fe = fe, .band_a = -1, .band_b = -1};
     const step_part *fp = crisp__step_part(r, fe, NULL);
     const step_entity *se;
     int same;
@@ -851,26 +996,39 @@ crisp_status crisp__step_face(step_reader *r, const step_entity *fe, crisp_face 
             if (w.loops[i].outer_flag) area = INFINITY;
             if (area > best) best = area, outer = i;
         }
+        /* Loops that wind around a periodic direction do not close in (u, v): two of them bound
+         * a band and are joined along the seam; any other winding loop is not supported. */
+        int wl[2], nw = 0, wk = -1;
+        for (int i = 0; i < w.nloops; i++)
+            for (int k = 0; k < 2; k++)
+                if (fabs(winding(&w, &w.loops[i], k)) > 0.5 * w.period[k] && w.period[k] > 0) {
+                    if (nw == 2 || (wk >= 0 && wk != k)) {
+                        st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED,
+                                              "loop %d winds around the %c direction of surface #%d and is not one "
+                                              "of two loops bounding a band", i + 1, "uv"[k], w.s.id);
+                        goto done;
+                    }
+                    wl[nw++] = i;
+                    wk = k;
+                }
+        if (nw == 1) {
+            st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED,
+                                  "loop %d winds around the %c direction of surface #%d without a seam edge", wl[0] + 1,
+                                  "uv"[wk], w.s.id);
+            goto done;
+        }
+        if (nw == 2) {
+            if ((st = make_band(&w, wl[0], wl[1], wk))) goto done;
+            outer = wl[0];
+        }
         /* Holes on periodic coordinates go to the turn of the outer loop. */
         for (int i = 0; i < w.nloops; i++) {
-            if (i == outer) continue;
+            if (i == outer || i == w.band_b) continue;
             double c[2] = {0.5 * (w.loops[i].box[0] + w.loops[i].box[1]), 0.5 * (w.loops[i].box[2] + w.loops[i].box[3])};
             double oc[2] = {0.5 * (w.loops[outer].box[0] + w.loops[outer].box[1]),
                             0.5 * (w.loops[outer].box[2] + w.loops[outer].box[3])}, sh[2];
             period_shift(&w, c, oc, sh);
             if (sh[0] != 0 || sh[1] != 0) shift_loop(&w.loops[i], sh);
-        }
-        /* A loop that winds around a periodic direction does not close in (u, v). */
-        for (int i = 0; i < w.nloops; i++) {
-            const loop_work *lw = &w.loops[i];
-            const edge_use *a = &lw->edges[0], *b = &lw->edges[lw->count - 1];
-            for (int k = 0; k < 2; k++)
-                if (w.period[k] > 0 && fabs(b->uv[2 * b->ns - 2 + k] - a->uv[k]) > 0.5 * w.period[k]) {
-                    st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED,
-                                          "loop %d winds around the %c direction of surface #%d without a seam edge",
-                                          i + 1, "uv"[k], w.s.id);
-                    goto done;
-                }
         }
         choose_box(&w, outer);
     }
@@ -885,12 +1043,14 @@ crisp_status crisp__step_face(step_reader *r, const step_entity *fe, crisp_face 
         goto done;
     }
     for (int i = 0; i < w.nloops; i++) {
+        if (i == w.band_b) continue;
         crisp_trim_loop *lp = &dest->loops[dest->loop_count++];
         size_t cap = 0;
         lp->is_outer = i == outer;
         for (int k = 0; k < w.loops[i].count; k++)
             if ((st = edge_trims(&w, dest->surface, &w.loops[i].edges[k], &lp->curves, &lp->curve_count, &cap)))
                 goto done;
+        if (i == w.band_a && (st = append_band(&w, dest->surface, lp, &cap))) goto done;
         snap_junctions(lp, 100 * w.tol_uv);
         int added = bridge_degenerate(dest->surface, lp, r->tol, 100 * w.tol_uv);
         if (added < 0) {
