@@ -59,20 +59,21 @@ static double max_abs_ratio(double xl, double xu, double wl, double wu)
 }
 
 /* The bound from derivative bounds alone (any tau), over the whole patch. */
-static crisp_status error_classic(const char *fn, const crisp_bezier_patch *p,
-                                  const crisp_slefe_view *view, const double *clip,
-                                  const double *hl, const double *hh, int tau, double *dest)
+/* The bound from derivative bounds alone, for tu x tv segments, over the whole patch. */
+static crisp_status error_classic2(const char *fn, const crisp_bezier_patch *p,
+                                   const crisp_slefe_view *view, const double *clip,
+                                   const double *hl, const double *hh, int tu, int tv, double *dest)
 {
     if (!(hl[3] > 0.0))
         return crisp_error(CRISP_ERR_NUMERIC,
                            "%s: clip-space W of the control points reaches %g (the patch may "
                            "reach the eye plane: split or cull it)",
                            fn, hl[3]);
-    double h2 = 1.0 / ((double)tau * tau), e[4];
+    double hu = 1.0 / tu, hv = 1.0 / tv, e[4];
     for (int r = 0; r < 4; r += r == 1 ? 2 : 1) { /* X, Y, W */
         double dss, dtt, dst;
         derivative_bounds(clip, p->du, p->dv, r, &dss, &dtt, &dst);
-        e[r] = h2 * ((dss + dtt) / 8.0 + dst / 4.0);
+        e[r] = hu * hu * dss / 8.0 + hv * hv * dtt / 8.0 + hu * hv * dst / 4.0;
     }
     double ax = max_abs_ratio(hl[0], hh[0], hl[3], hh[3]);
     double ay = max_abs_ratio(hl[1], hh[1], hl[3], hh[3]);
@@ -80,6 +81,13 @@ static crisp_status error_classic(const char *fn, const crisp_bezier_patch *p,
     double ey = (e[1] + ay * e[3]) / hl[3] * 0.5 * view->height;
     *dest = crisp__max(ex, ey) * (1.0 + 1e-12);
     return CRISP_OK;
+}
+
+static crisp_status error_classic(const char *fn, const crisp_bezier_patch *p,
+                                  const crisp_slefe_view *view, const double *clip,
+                                  const double *hl, const double *hh, int tau, double *dest)
+{
+    return error_classic2(fn, p, view, clip, hl, hh, tau, tau, dest);
 }
 
 /* The bound from the SLEFE at m = tau (tau <= 16), per tile. */
@@ -159,16 +167,15 @@ static crisp_status screen_error_whole(const char *fn, const crisp_bezier_patch 
                                        const double *err, const double *hl, const double *hh,
                                        int tau, double accept, double *dest);
 
-/* tau > 16: the tessellation restricted to each of k x k sub-patches (k the smallest divisor of
- * tau with tau / k <= 16) is the sub-patch's own tessellation at tau / k; the bound is the
- * largest of the sub-patches' bounds. */
+/* tau > 16: split the tau x tau cells into k x k blocks (k = ceil(tau / 16), block sizes differ
+ * by at most one); the tessellation restricted to a block is the uniform tessellation of the
+ * sub-patch over that block, so the bound is the largest of the sub-patches' bounds (SLEFE and
+ * classic for square blocks, classic only for the others). */
 static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch *p,
                                        const crisp_slefe_view *view, const double *clip,
                                        const double *err, int tau, double accept, double *dest)
 {
     int k = (tau + MAXM - 1) / MAXM;
-    while (tau % k)
-        k++;
     int du = p->du, dv = p->dv, n = (du + 1) * (dv + 1);
     double mag = 0.0;
     for (int i = 0; i < n * 4; i++)
@@ -180,11 +187,14 @@ static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch 
     q.cpw = sub;
     for (int b = 0; b < k; b++)
         for (int a = 0; a < k; a++) {
+            /* cells [ca0, ca1) x [cb0, cb1) of the tau x tau grid */
+            int ca0 = a * tau / k, ca1 = (a + 1) * tau / k;
+            int cb0 = b * tau / k, cb1 = (b + 1) * tau / k;
             memcpy(sub, clip, sizeof(double) * n * 4);
             for (int j = 0; j <= dv; j++)
-                restrict_range(sub + j * (du + 1) * 4, du, 4, (double)a / k, (double)(a + 1) / k);
+                restrict_range(sub + j * (du + 1) * 4, du, 4, (double)ca0 / tau, (double)ca1 / tau);
             for (int i = 0; i <= du; i++)
-                restrict_range(sub + i * 4, dv, (du + 1) * 4, (double)b / k, (double)(b + 1) / k);
+                restrict_range(sub + i * 4, dv, (du + 1) * 4, (double)cb0 / tau, (double)cb1 / tau);
             for (int r = 0; r < 4; r++) {
                 hl[r] = INFINITY;
                 hh[r] = -INFINITY;
@@ -196,8 +206,11 @@ static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch 
                 hh[r] += serr[r];
             }
             double e;
-            crisp_status s =
-                screen_error_whole(fn, &q, view, sub, serr, hl, hh, tau / k, accept, &e);
+            crisp_status s;
+            if (ca1 - ca0 == cb1 - cb0)
+                s = screen_error_whole(fn, &q, view, sub, serr, hl, hh, ca1 - ca0, accept, &e);
+            else /* unequal counts (tau not a multiple of k): the classic bound only */
+                s = error_classic2(fn, &q, view, sub, hl, hh, ca1 - ca0, cb1 - cb0, &e);
             if (s) return s;
             best = crisp__max(best, e);
             if (accept > 0.0 && best > accept) {
@@ -311,9 +324,8 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
         double next = ceil(t * sqrt(e / eps));
         int nt = next > max_level ? max_level : (int)next;
         nt = nt > t ? nt : t + 1;
-        /* Above 16 the bound works on k x k sub-patches, k the smallest divisor of tau with
-         * tau / k <= 16: round up to a multiple of ceil(tau / 16) so that k stays small (a prime
-         * tau would need tau^2 sub-patches). */
+        /* Above 16 the bound works on k x k blocks of cells, k = ceil(tau / 16): a multiple of
+         * k gives square blocks, where the (tighter) SLEFE bound applies. */
         int k = (nt + MAXM - 1) / MAXM;
         if (k > 1) {
             int rounded = (nt + k - 1) / k * k;

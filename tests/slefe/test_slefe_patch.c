@@ -400,6 +400,18 @@ static void test_screen_error_bound(void **state)
         }
     }
     print_message("largest sampled error / bound: %.3f\n", worst_ratio);
+    /* large and prime levels stay cheap (k = ceil(tau / 16) blocks) and the bound keeps falling
+     * like 1 / tau^2 */
+    double cpw[64], e64, e1021, e2048;
+    crisp_bezier_patch p;
+    random_patch(&r, 3, 3, 1, cpw, &p);
+    crisp_slefe_view v;
+    random_view(&r, &v);
+    assert_int_equal(crisp_slefe_patch_screen_error(&p, 64, &v, &e64), CRISP_OK);
+    assert_int_equal(crisp_slefe_patch_screen_error(&p, 1021, &v, &e1021), CRISP_OK);
+    assert_int_equal(crisp_slefe_patch_screen_error(&p, 2048, &v, &e2048), CRISP_OK);
+    assert_true(e1021 < e64 * (64.0 / 1021) * (64.0 / 1021) * 4);
+    assert_true(e2048 < e1021 * (1021.0 / 2048) * (1021.0 / 2048) * 4);
 }
 
 static void test_patch_bad_input(void **state)
@@ -427,7 +439,8 @@ static void test_patch_bad_input(void **state)
     double e;
     int tau;
     p.rational = 0;
-    for (int i = 0; i < 16; i++) cpw[i * 4 + 3] = 1.0;
+    for (int i = 0; i < 16; i++)
+        cpw[i * 4 + 3] = 1.0;
     assert_int_equal(crisp_slefe_patch_screen_error(&p, 0, &v, &e), CRISP_ERR_LIMIT);
     assert_int_equal(crisp_slefe_patch_screen_error(&p, 5000, &v, &e), CRISP_ERR_LIMIT);
     assert_int_equal(crisp_slefe_patch_tess_level(&p, &v, 0.0, 64, &tau), CRISP_ERR_INVALID_ARG);
