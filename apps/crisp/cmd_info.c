@@ -1,6 +1,7 @@
 /* crisp info MODEL [--json]: what a CAD file holds once crisp has loaded it: format, faces,
  * Bézier patches after extraction, trim loops (outer, holes), trim curves and their Bézier
- * pieces, degrees, rational or not, the bounding box, and what the reader skipped and why.
+ * pieces, degrees, rational or not, faces with a colour, the bounding box, and what the reader
+ * skipped and why.
  * Exit 0 on success; 1 with the reader's message (file, line or entity, problem) otherwise;
  * 2 on a usage error. */
 #include <stdio.h>
@@ -42,6 +43,13 @@ static void degrees_list(FILE *out, unsigned seen, const char *sep)
         }
 }
 
+static int colored_faces(const crisp_model *m)
+{
+    int n = 0;
+    for (int i = 0; i < m->face_count; i++) n += m->faces[i].has_color != 0;
+    return n;
+}
+
 static void print_text(const char *path, const crisp_model *m, const crisp_model_stats *s,
                        const double *box, double seconds)
 {
@@ -59,6 +67,7 @@ static void print_text(const char *path, const crisp_model *m, const crisp_model
     printf("trim degree:     max %d\n", s->max_trim_degree);
     printf("rational:        %s (%d of %d surfaces)\n", s->rational_surfaces ? "yes" : "no",
            s->rational_surfaces, s->faces);
+    printf("coloured faces:  %d\n", colored_faces(m));
     if (s->faces)
         printf("bounding box:    [%g, %g, %g] - [%g, %g, %g]\n", box[0], box[1], box[2], box[3],
                box[4], box[5]);
@@ -89,6 +98,7 @@ static void print_json(const char *path, const crisp_model *m, const crisp_model
            s->max_degree_v, s->max_trim_degree);
     printf(", \"rational\": %s, \"rational_surfaces\": %d", s->rational_surfaces ? "true" : "false",
            s->rational_surfaces);
+    printf(", \"colored_faces\": %d", colored_faces(m));
     if (s->faces)
         printf(", \"bbox\": [%.17g, %.17g, %.17g, %.17g, %.17g, %.17g]", box[0], box[1], box[2],
                box[3], box[4], box[5]);

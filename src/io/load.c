@@ -9,6 +9,7 @@
 #include <strings.h>
 
 #include "crisp/io.h"
+#include "obj/obj_internal.h"
 
 typedef enum { FMT_UNKNOWN, FMT_IGES, FMT_STEP, FMT_OBJ } file_format;
 
@@ -96,7 +97,7 @@ crisp_status crisp_model_load(const char *path, const crisp_read_options *option
     case FMT_STEP:
         st = crisp_read_step_mem(path, data, size, options, dest);
         break;
-    case FMT_OBJ: st = crisp_read_obj_mem(path, data, size, options, dest); break;
+    case FMT_OBJ: st = crisp__read_obj(path, data, size, options, 1, dest); break;
     default:
         st = crisp_error(CRISP_ERR_UNSUPPORTED,
                          "%s:1: not an IGES, STEP or OBJ file (expected 'S' in column 73 of the "

@@ -58,6 +58,7 @@ static void test_obj_summary(void **state)
     assert_non_null(strstr(out, "trim curves:     2 (8 Bezier pieces)"));
     assert_non_null(strstr(out, "surface degrees: 1, 2 (max 2 x 1)"));
     assert_non_null(strstr(out, "bounding box:    [0, 0, 0] - [2, 1, 1]"));
+    assert_non_null(strstr(out, "coloured faces:  0\n"));
     assert_non_null(strstr(out, "frobnicate"));
 
     snprintf(args, sizeof args, "info --json '%s'", path);
@@ -67,6 +68,7 @@ static void test_obj_summary(void **state)
     assert_non_null(strstr(out, "\"loops\": {\"outer\": 1, \"holes\": 1}"));
     assert_non_null(strstr(out, "\"degrees_seen\": [1, 2]"));
     assert_non_null(strstr(out, "\"bbox\": [0, 0, 0, 2, 1, 1]"));
+    assert_non_null(strstr(out, "\"colored_faces\": 0,"));
     assert_non_null(strstr(out, "\"skipped\": [{\"what\": \"OBJ statement 'frobnicate'"));
     remove(path);
 }

@@ -345,6 +345,59 @@ static void test_trim_limits(void **state)
     free(text);
 }
 
+/* usemtl + mtllib: face colours from the .mtl file beside the OBJ (Kd, Tr); from memory the
+ * mtllib is not opened and a note says so. */
+static void test_materials(void **state)
+{
+    (void)state;
+    static const char obj[] =
+        "mtllib test_obj_materials.mtl\n"
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\ncstype bspline\ndeg 1 1\n"
+        "usemtl red\nsurf 0 1 0 1 1 2 3 4\nparm u 0 0 1 1\nparm v 0 0 1 1\nend\n"
+        "usemtl undefined\nsurf 0 1 0 1 1 2 3 4\nparm u 0 0 1 1\nparm v 0 0 1 1\nend\n"
+        "usemtl blue\nf 1 2 4 3\n";
+    static const char mtl[] = "# test\nnewmtl red\nKd 1 0 0\nTr 0.25\nnewmtl blue\n"
+                              "Ka 0 0 0\nKd 0 0 0.5 # half\nd 1\nmap_Kd tex.png\n";
+    const char *objpath = CRISP_BIN_DIR "/test_obj_materials.obj";
+    const char *mtlpath = CRISP_BIN_DIR "/test_obj_materials.mtl";
+    FILE *f = fopen(objpath, "w");
+    assert_non_null(f);
+    fputs(obj, f);
+    fclose(f);
+    f = fopen(mtlpath, "w");
+    assert_non_null(f);
+    fputs(mtl, f);
+    fclose(f);
+    crisp_model *m = NULL;
+    assert_int_equal(crisp_read_obj(objpath, NULL, &m), CRISP_OK);
+    assert_true(m->face_count >= 3);
+    assert_true(m->faces[0].has_color);
+    assert_true(m->faces[0].color[0] == 1.0f && m->faces[0].color[1] == 0.0f &&
+                m->faces[0].color[2] == 0.0f && m->faces[0].color[3] == 0.75f);
+    assert_false(m->faces[1].has_color);
+#ifdef CRISP_HAVE_OSD
+    for (int i = 2; i < m->face_count; i++)
+        assert_true(m->faces[i].has_color && m->faces[i].color[2] == 0.5f);
+#endif
+    crisp_model_destroy(m);
+    /* crisp_model_load resolves the mtllib too */
+    assert_int_equal(crisp_model_load(objpath, NULL, &m), CRISP_OK);
+    assert_true(m->faces[0].has_color);
+    crisp_model_destroy(m);
+    remove(mtlpath);
+    /* a missing .mtl is a note, not an error */
+    assert_int_equal(crisp_read_obj(objpath, NULL, &m), CRISP_OK);
+    assert_false(m->faces[0].has_color);
+    assert_int_equal(m->skip_count, 1);
+    assert_non_null(strstr(m->skips[0].what, "not readable"));
+    crisp_model_destroy(m);
+    remove(objpath);
+    assert_int_equal(read_str(obj, &m), CRISP_OK);
+    assert_false(m->faces[0].has_color);
+    assert_non_null(strstr(m->skips[0].what, "memory"));
+    crisp_model_destroy(m);
+}
+
 /* Every prefix of a valid file reads or fails cleanly (no crash, no leak, a message). */
 static void test_truncated_files(void **state)
 {
@@ -374,6 +427,7 @@ int main(void)
         cmocka_unit_test(test_polygon_cube),
         cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_trim_limits),
+        cmocka_unit_test(test_materials),
         cmocka_unit_test(test_truncated_files),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -48,6 +48,9 @@ static void assert_same_model(const crisp_model *a, const crisp_model *b)
         assert_same_doubles(s->knots_u, t->knots_u, (size_t)(s->count_u + s->degree_u + 1));
         assert_same_doubles(s->knots_v, t->knots_v, (size_t)(s->count_v + s->degree_v + 1));
         assert_same_doubles(s->cpw, t->cpw, (size_t)s->count_u * (size_t)s->count_v * 4);
+        assert_int_equal(a->faces[f].has_color, b->faces[f].has_color);
+        if (a->faces[f].has_color)
+            assert_memory_equal(a->faces[f].color, b->faces[f].color, sizeof a->faces[f].color);
         assert_int_equal(a->faces[f].loop_count, b->faces[f].loop_count);
         for (int l = 0; l < a->faces[f].loop_count; l++) {
             const crisp_trim_loop *la = &a->faces[f].loops[l], *lb = &b->faces[f].loops[l];
@@ -118,6 +121,11 @@ static crisp_model *model_in_code(void)
         face.loops[1].curves[0] = circle_cw(0.5, 0.5, 0.2);
         assert_int_equal(crisp_face_normalize_loops(&face, 1e-9), CRISP_OK);
         face.source_id = 7;
+        face.has_color = 1;
+        face.color[0] = 0.1f;
+        face.color[1] = 0.7f;
+        face.color[2] = 1.0f / 3.0f;
+        face.color[3] = 0.5f;
         assert_int_equal(crisp_model_add_face(m, &face), CRISP_OK);
     }
     /* face 2: polynomial bicubic with unclamped uniform knots (domain [3, 4] x [3, 5]) */
@@ -143,7 +151,7 @@ static void strip_comments(char *text)
     for (const char *p = text; *p;) {
         const char *eol = strchr(p, '\n');
         size_t n = eol ? (size_t)(eol - p) + 1 : strlen(p);
-        if (*p != '#') {
+        if (*p != '#' && strncmp(p, "mtllib ", 7) != 0) {
             memmove(out, p, n);
             out += n;
         }
@@ -187,7 +195,7 @@ static void round_trip(const crisp_model *a, const char *path)
     size_t n1 = 0, n2 = 0;
     assert_int_equal(crisp_read_file(path, &t1, &n1), CRISP_OK);
     assert_int_equal(crisp_read_file(path2, &t2, &n2), CRISP_OK);
-    /* comments name the source format and lines, which differ; everything else may not */
+    /* comments (source format, lines) and the .mtl file name differ; everything else may not */
     strip_comments(t1);
     strip_comments(t2);
     int same = strcmp(t1, t2) == 0;
@@ -197,6 +205,11 @@ static void round_trip(const crisp_model *a, const char *path)
     assert_true(same);
     remove(path);
     remove(path2);
+    char mtl[600];
+    snprintf(mtl, sizeof mtl, "%.*s.mtl", (int)(strlen(path) - 4), path);
+    remove(mtl);
+    snprintf(mtl, sizeof mtl, "%s.again.mtl", path);
+    remove(mtl);
     crisp_model_destroy(b);
 }
 

@@ -126,6 +126,13 @@ static crisp_status get_curv2(obj_data *d, int idx, const crisp_curve **dest)
     return CRISP_OK;
 }
 
+static void set_color(const obj_data *d, int material, crisp_face *face)
+{
+    if (material < 0 || material >= d->material_count || !d->materials[material].has_color) return;
+    face->has_color = 1;
+    memcpy(face->color, d->materials[material].rgba, sizeof face->color);
+}
+
 /* ---- restricting a surface to the surf range ------------------------------------------------- */
 
 /* Keep the part of s over [a, b] in one direction (dir 0: u, 1: v), in place, by inserting a and
@@ -282,6 +289,7 @@ static crisp_status build_surf(obj_data *d, const obj_surf *os, double closure_f
     int nu = 0, nv = 0;
     crisp_face face = {0};
     face.source_id = os->line;
+    set_color(d, os->material, &face);
     crisp_status st = make_knots(d, os->type, os->degree_u, os->knots_u, "surf (parm u)", os->line,
                                  &ku, &nu);
     if (st == CRISP_OK)
@@ -373,9 +381,10 @@ static crisp_status build_polygons(obj_data *d, crisp_model *m)
     int *sizes = crisp_malloc_array((size_t)d->poly_count, sizeof(int));
     int *fv = crisp_malloc_array((size_t)d->ref_count + 1, sizeof(int));
     int *lines = crisp_malloc_array((size_t)d->poly_count, sizeof(int));
+    int *mats = crisp_malloc_array((size_t)d->poly_count, sizeof(int));
     double *pos = crisp_malloc_array((size_t)d->v_count, 3 * sizeof(double));
     crisp_osd_mesh *mesh = NULL;
-    if (!map || !sizes || !fv || !lines || !pos) {
+    if (!map || !sizes || !fv || !lines || !mats || !pos) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", d->name);
         goto done;
     }
@@ -403,6 +412,7 @@ static crisp_status build_polygons(obj_data *d, crisp_model *m)
             fv[nc++] = map[r[a]];
         }
         lines[nf] = p->line;
+        mats[nf] = p->material;
         sizes[nf++] = p->refs.count;
     }
     if (nf == 0) goto done;
@@ -418,6 +428,7 @@ static crisp_status build_polygons(obj_data *d, crisp_model *m)
         int base = 0;
         crisp_osd_mesh_patch_info(mesh, p, &base, NULL, NULL);
         face.source_id = base >= 0 && base < nf ? lines[base] : 0;
+        if (base >= 0 && base < nf) set_color(d, mats[base], &face);
         if ((st = crisp_osd_mesh_patch_surface(mesh, p, &face.surface)) != CRISP_OK) goto done;
         if ((st = crisp_model_add_face(m, &face)) != CRISP_OK) {
             crisp_face_free(&face);
@@ -430,6 +441,7 @@ done:
     crisp_free(sizes);
     crisp_free(fv);
     crisp_free(lines);
+    crisp_free(mats);
     crisp_free(pos);
     return st;
 #endif

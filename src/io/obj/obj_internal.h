@@ -31,6 +31,7 @@ typedef struct obj_loop {
 typedef struct obj_surf {
     int type, rational, degree_u, degree_v;
     int line;
+    int material; /* index into obj_data.materials, -1 for none */
     double range[4]; /* s0 s1 t0 t1 */
     obj_span refs;   /* v indices, u fastest */
     obj_span knots_u, knots_v;
@@ -39,8 +40,16 @@ typedef struct obj_surf {
 
 typedef struct obj_polygon {
     int line;
+    int material;
     obj_span refs; /* v indices */
 } obj_polygon;
+
+/* A material named by usemtl; its colour comes from an .mtl file (Kd, d / Tr). */
+typedef struct obj_material {
+    char name[64];
+    int has_color;
+    float rgba[4];
+} obj_material;
 
 /* Coordinates are kept in double and in long double: a rational control point's homogeneous
  * value w * x is formed in extended precision, so that the 21-digit Euclidean values that
@@ -74,8 +83,17 @@ typedef struct obj_data {
     obj_polygon *polys;
     int poly_count, poly_cap;
     long trim_points; /* control points of all trim pieces made so far (bounded) */
+    obj_material *materials;
+    int material_count, material_cap;
+    char *mtllibs; /* file names from mtllib statements, each NUL-terminated */
+    size_t mtllibs_len, mtllibs_cap;
 } obj_data;
 
+/* The reader behind crisp_read_obj(_mem) and crisp_model_load: with resolve_files, mtllib names
+ * are opened relative to the directory of name (a path); from memory they are not. */
+crisp_status crisp__read_obj(const char *name, const char *data, size_t size,
+                             const crisp_read_options *options, int resolve_files,
+                             crisp_model **dest);
 /* Parse the text (size bytes, need not be NUL-terminated) into d (zeroed by the caller); skipped
  * statements are noted in m. */
 crisp_status crisp__obj_parse(const char *name, const char *text, size_t size, obj_data *d,
@@ -83,5 +101,10 @@ crisp_status crisp__obj_parse(const char *name, const char *text, size_t size, o
 /* Convert everything parsed into faces of m. */
 crisp_status crisp__obj_build(obj_data *d, const crisp_read_options *options, crisp_model *m);
 void crisp__obj_data_free(obj_data *d);
+/* The material called name (created without colour when new); -1 when out of memory or too many. */
+int crisp__obj_material(obj_data *d, const char *name, size_t len);
+/* Read the .mtl files named by mtllib, relative to the directory of the OBJ file `path`, and give
+ * the materials their colours. Missing or unreadable files are noted in m, not fatal. */
+crisp_status crisp__obj_load_mtllibs(obj_data *d, const char *path, crisp_model *m);
 
 #endif

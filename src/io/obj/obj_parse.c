@@ -28,6 +28,7 @@ typedef struct parser {
     int cstype, rational, deg_count, deg[2];
     char cstype_name[16];
     int element; /* EL_* */
+    int material; /* current usemtl, -1 for none */
     int element_line;
     obj_data *d;
     crisp_model *m;
@@ -368,6 +369,7 @@ static crisp_status stmt_surf(parser *ps)
     s->degree_u = ps->deg[0];
     s->degree_v = ps->deg[1];
     s->line = t->line;
+    s->material = ps->material;
     for (int i = 0; i < 4; i++)
         if ((st = parse_real(ps, &t[1 + i], &s->range[i])) != CRISP_OK) return st;
     s->refs.off = d->ref_count;
@@ -466,6 +468,7 @@ static crisp_status stmt_f(parser *ps)
         return crisp_error(st, "%s:%d: too many faces", ps->name, t->line);
     obj_polygon *f = &d->polys[d->poly_count++];
     f->line = t->line;
+    f->material = ps->material;
     f->refs.off = d->ref_count;
     for (size_t i = 1; i < ps->tok_count; i++) {
         int idx;
@@ -478,7 +481,7 @@ static crisp_status stmt_f(parser *ps)
 
 /* Statements that are valid OBJ but carry nothing crisp uses. */
 static const char *const ignored[] = {"vt", "vn", "g", "o", "s", "mg", "con", "ctech", "stech",
-                                      "bmat", "step", "usemtl", "mtllib", "lod", "bevel",
+                                      "bmat", "step", "lod", "bevel",
                                       "c_interp", "d_interp", "trace_obj", "shadow_obj", "maplib",
                                       "usemap", "res", NULL};
 
@@ -500,6 +503,31 @@ static crisp_status statement(parser *ps)
             return crisp_error(CRISP_ERR_PARSE, "%s:%d:%d: 'end' without an open curv2/surf element",
                                ps->name, k->line, k->col);
         close_element(ps);
+        return CRISP_OK;
+    }
+    if (tok_is(k, "usemtl")) {
+        if (ps->tok_count < 2) {
+            ps->material = -1;
+            return CRISP_OK;
+        }
+        int mat = crisp__obj_material(ps->d, ps->toks[1].s, (size_t)ps->toks[1].len);
+        if (mat < 0)
+            return crisp_error(CRISP_ERR_LIMIT, "%s:%d: too many materials", ps->name, k->line);
+        ps->material = mat;
+        return CRISP_OK;
+    }
+    if (tok_is(k, "mtllib")) {
+        obj_data *d = ps->d;
+        for (size_t i = 1; i < ps->tok_count; i++) {
+            size_t n = (size_t)ps->toks[i].len;
+            if (d->mtllibs_len + n + 1 > 65536) break; /* a sane bound on names */
+            if (crisp_grow((void **)&d->mtllibs, &d->mtllibs_cap, d->mtllibs_len + n + 1, 1) !=
+                CRISP_OK)
+                return crisp_error(CRISP_ERR_NO_MEMORY, "%s:%d: out of memory", ps->name, k->line);
+            memcpy(d->mtllibs + d->mtllibs_len, ps->toks[i].s, n);
+            d->mtllibs[d->mtllibs_len + n] = '\0';
+            d->mtllibs_len += n + 1;
+        }
         return CRISP_OK;
     }
     if (tok_is(k, "scrv")) return ps->element == EL_SURF ? note(ps, "OBJ scrv: special curves ignored") : CRISP_OK;
@@ -525,7 +553,7 @@ crisp_status crisp__obj_parse(const char *name, const char *text, size_t size, o
                               crisp_model *m)
 {
     parser ps = {.name = name, .p = text, .end = text + size, .line_start = text, .line = 1,
-                 .d = d, .m = m};
+                 .d = d, .m = m, .material = -1};
     d->name = name;
     crisp_status st = CRISP_OK;
     for (;;) {
@@ -550,5 +578,7 @@ void crisp__obj_data_free(obj_data *d)
     crisp_free(d->surfs);
     crisp_free(d->loops);
     crisp_free(d->polys);
+    crisp_free(d->materials);
+    crisp_free(d->mtllibs);
     memset(d, 0, sizeof *d);
 }

@@ -4,7 +4,8 @@
  * elements used over their whole domain. Numbers are written with %.17g, so they read back to
  * the same doubles; the Euclidean coordinates of rational control points (OBJ stores x, not w x)
  * are written with 21 digits, which crisp's reader turns back into the same homogeneous doubles
- * (see euclidean()). */
+ * (see euclidean()). Face colours, when the model has any, go to name.mtl beside the file
+ * (one material per distinct colour, Kd and d), referenced by mtllib/usemtl. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -76,8 +77,21 @@ static void write_curves(writer *w, const crisp_face *face, long *vp_base, long 
         }
 }
 
+/* Face colours go to an .mtl file beside the OBJ, one material per distinct colour. */
+typedef struct palette {
+    int count;
+    float (*rgba)[4];
+} palette;
+
+static int color_index(const palette *p, const float rgba[4])
+{
+    for (int i = 0; i < p->count; i++)
+        if (memcmp(p->rgba[i], rgba, sizeof p->rgba[i]) == 0) return i;
+    return -1;
+}
+
 static void write_face(writer *w, const crisp_face *face, int index, long *v_base, long *vp_base,
-                       long *curv2_base)
+                       long *curv2_base, const palette *pal)
 {
     const crisp_surface *s = face->surface;
     fprintf(w->f, "\n# face %d (source %d)\n", index + 1, face->source_id);
@@ -95,6 +109,12 @@ static void write_face(writer *w, const crisp_face *face, int index, long *v_bas
     }
     double dom[4];
     crisp_surface_domain(s, dom);
+    if (pal->count) {
+        if (face->has_color)
+            fprintf(w->f, "usemtl crisp_color_%d\n", color_index(pal, face->color) + 1);
+        else
+            fputs("usemtl crisp_none\n", w->f);
+    }
     fprintf(w->f, "cstype %sbspline\ndeg %d %d\n", s->rational ? "rat " : "", s->degree_u,
             s->degree_v);
     begin(w, "surf");
@@ -119,17 +139,68 @@ static void write_face(writer *w, const crisp_face *face, int index, long *v_bas
     *v_base += n;
 }
 
+/* name.obj -> name.mtl (the whole path, and the file name alone for the mtllib statement). */
+static void mtl_names(const char *path, char *full, size_t full_cap, const char **base)
+{
+    size_t n = strlen(path);
+    if (n >= 4 && strcmp(path + n - 4, ".obj") == 0) n -= 4;
+    snprintf(full, full_cap, "%.*s.mtl", (int)n, path);
+    const char *slash = strrchr(full, '/');
+    *base = slash ? slash + 1 : full;
+}
+
+static crisp_status write_mtl(const char *path, const palette *pal)
+{
+    FILE *f = fopen(path, "w");
+    if (!f) return crisp_error(CRISP_ERR_IO, "%s: cannot create: %s", path, strerror(errno));
+    fputs("# crisp face colours\nnewmtl crisp_none\n", f);
+    for (int i = 0; i < pal->count; i++)
+        fprintf(f, "newmtl crisp_color_%d\nKd %.9g %.9g %.9g\nd %.9g\n", i + 1, pal->rgba[i][0],
+                pal->rgba[i][1], pal->rgba[i][2], pal->rgba[i][3]);
+    int err = ferror(f);
+    if (fclose(f) != 0 || err)
+        return crisp_error(CRISP_ERR_IO, "%s: write error: %s", path, strerror(errno));
+    return CRISP_OK;
+}
+
 crisp_status crisp_write_obj(const crisp_model *m, const char *path)
 {
     if (!m || !path) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_write_obj: NULL argument");
+    palette pal = {0, NULL};
+    for (int i = 0; i < m->face_count; i++) {
+        if (!m->faces[i].has_color || color_index(&pal, m->faces[i].color) >= 0) continue;
+        float(*grown)[4] = crisp_realloc_array(pal.rgba, (size_t)pal.count + 1, sizeof *grown);
+        if (!grown) {
+            crisp_free(pal.rgba);
+            return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", path);
+        }
+        pal.rgba = grown;
+        memcpy(pal.rgba[pal.count++], m->faces[i].color, sizeof pal.rgba[0]);
+    }
     FILE *f = fopen(path, "w");
-    if (!f) return crisp_error(CRISP_ERR_IO, "%s: cannot create: %s", path, strerror(errno));
+    if (!f) {
+        crisp_free(pal.rgba);
+        return crisp_error(CRISP_ERR_IO, "%s: cannot create: %s", path, strerror(errno));
+    }
+    char mtl[4096];
+    const char *mtl_base = NULL;
+    if (pal.count) {
+        mtl_names(path, mtl, sizeof mtl, &mtl_base);
+        crisp_status st = write_mtl(mtl, &pal);
+        if (st != CRISP_OK) {
+            fclose(f);
+            crisp_free(pal.rgba);
+            return st;
+        }
+    }
     writer w = {f, 0};
     fprintf(f, "# crisp OBJ free-form export: %d faces (from %s)\n", m->face_count,
             m->format[0] ? m->format : "memory");
+    if (pal.count) fprintf(f, "mtllib %s\n", mtl_base);
     long v_base = 0, vp_base = 0, curv2_base = 0;
     for (int i = 0; i < m->face_count; i++)
-        write_face(&w, &m->faces[i], i, &v_base, &vp_base, &curv2_base);
+        write_face(&w, &m->faces[i], i, &v_base, &vp_base, &curv2_base, &pal);
+    crisp_free(pal.rgba);
     int err = ferror(f);
     if (fclose(f) != 0 || err)
         return crisp_error(CRISP_ERR_IO, "%s: write error: %s", path, strerror(errno));
