@@ -12,6 +12,7 @@
  * crossing is continuous and so leaves [u0, u1] by up to a period; evaluate S at u wrapped into
  * the domain. */
 #include "fit_internal.h"
+#include "nurbs_internal.h"
 
 #include <math.h>
 #include <string.h>
@@ -71,8 +72,8 @@ static void surf_info_init(const crisp_surface *s, surf_info *si)
     /* Closed in u when the boundary curves S(u0, v) and S(u1, v) coincide (likewise in v). */
     for (int dir = 0; dir < 2; dir++) {
         double worst = 0;
-        for (int k = 0; k <= 8; k++) {
-            double o = si->dom[2 * (1 - dir)] + si->period[1 - dir] * k / 8.0, a[3], b[3];
+        for (int k = 0; k <= 4; k++) {
+            double o = si->dom[2 * (1 - dir)] + si->period[1 - dir] * k / 4.0, a[3], b[3];
             if (dir == 0) {
                 crisp_surface_eval(s, si->dom[0], o, a);
                 crisp_surface_eval(s, si->dom[1], o, b);
@@ -109,6 +110,7 @@ static double newton(const surf_info *si, const double p[3], double uv[2], doubl
     double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
     double lam = 0;
     double tiny = 1e-300;
+    int nudges = 0;
     for (int it = 0; it < NEWTON_ITERS && d2 > 0; it++) {
         double a = crisp_vec3_dot(su, su), b = crisp_vec3_dot(su, sv), c = crisp_vec3_dot(sv, sv);
         double gu = crisp_vec3_dot(r, su), gv = crisp_vec3_dot(r, sv);
@@ -154,6 +156,28 @@ static double newton(const surf_info *si, const double p[3], double uv[2], doubl
             if (lam < 1e-12) lam = 0;
             if (converged) break;
         } else {
+            if (lam > 1e2 && nudges < 4 && step > 0) {
+                /* Stalled: typically on a crease (a C0 knot line) with the derivatives of the
+                 * side we came from. Step across by a hair and take the other side's. */
+                double h = 1e-9 / step;
+                double hair[2] = {uv[0] + h * (cand[0] - uv[0]), uv[1] + h * (cand[1] - uv[1])};
+                double s3[3], su3[3], sv3[3];
+                eval_wrapped(si, hair, s3, su3, sv3);
+                double r3[3] = {s3[0] - p[0], s3[1] - p[1], s3[2] - p[2]};
+                double e3 = r3[0] * r3[0] + r3[1] * r3[1] + r3[2] * r3[2];
+                nudges++;
+                if (e3 <= d2 * (1 + 1e-9)) {
+                    uv[0] = hair[0];
+                    uv[1] = hair[1];
+                    memcpy(s, s3, sizeof s);
+                    memcpy(su, su3, sizeof su);
+                    memcpy(sv, sv3, sizeof sv);
+                    memcpy(r, r3, sizeof r);
+                    d2 = e3;
+                    lam = 0;
+                    continue;
+                }
+            }
             if (step < 1e-15) break;
             lam = lam > 0 ? lam * 8 : 1e-4;
             if (lam > 1e12) break;
@@ -166,8 +190,9 @@ static double newton(const surf_info *si, const double p[3], double uv[2], doubl
     return sqrt(d2);
 }
 
-/* Sample positions of one direction: per knot span (degree + 1) samples when they fit in
- * GRID_MAX, else GRID_MAX uniform samples. Returns the count. */
+/* Sample positions of one direction: per knot span (degree + 1) samples inside it (a seed on a
+ * knot of a C0 surface may lead Newton into the wrong span) plus the domain ends, when they fit
+ * in GRID_MAX, else GRID_MAX uniform samples. Returns the count. */
 static int grid_params(const double *knots, int degree, int count, double lo, double hi,
                        double *dest)
 {
@@ -191,22 +216,108 @@ static int grid_params(const double *knots, int degree, int count, double lo, do
     return GRID_MAX;
 }
 
-/* Global search: the best few grid points, each refined by Newton; the closest wins. */
+/* Does grid line `index` (a row of constant v when dir = 0, a column of constant u when dir = 1)
+ * collapse to one point? */
+static int line_collapsed(double (*pts)[3], int nu, int nv, int dir, int index, double scale)
+{
+    int n = dir == 0 ? nu : nv;
+    const double *first = pts[dir == 0 ? index * nu : index];
+    for (int k = 1; k < n; k++)
+        if (dist3(first, pts[dir == 0 ? index * nu + k : k * nu + index]) > 1e-12 * scale) return 0;
+    return 1;
+}
+
+/* order[k]: index of the k-th smallest of g[0 .. n) (insertion sort; n is small). */
+static void order_params(const double *g, int n, int *order)
+{
+    for (int i = 0; i < n; i++) {
+        int k = i;
+        while (k > 0 && g[order[k - 1]] > g[i]) {
+            order[k] = order[k - 1];
+            k--;
+        }
+        order[k] = i;
+    }
+}
+
+/* Basis functions of the grid parameters in one direction: span index and degree + 1 values. */
+static void grid_basis(const double *knots, int degree, int count, const double *g, int n,
+                       int *span, double *basis)
+{
+    for (int i = 0; i < n; i++) {
+        span[i] = crisp__find_span(knots, degree, count, g[i]);
+        crisp__basis_funs(knots, degree, span[i], g[i], basis + i * (CRISP_MAX_DEGREE + 1));
+    }
+}
+
+/* Global search: the surface on a grid (basis functions computed once per grid line, so a grid
+ * point costs one tensor sum), the best few grid points refined by Newton; the closest wins. */
 static double invert_global(const surf_info *si, const double p[3], double uv[2])
 {
     const crisp_surface *s = si->s;
-    double gu[GRID_MAX + 2], gv[GRID_MAX + 2];
+    enum { NB = CRISP_MAX_DEGREE + 1, KEEP = 3 };
+    double gu[GRID_MAX + 2], gv[GRID_MAX + 2], bu[(GRID_MAX + 2) * NB], bv[(GRID_MAX + 2) * NB];
+    int ku[GRID_MAX + 2], kv[GRID_MAX + 2];
     int nu = grid_params(s->knots_u, s->degree_u, s->count_u, si->dom[0], si->dom[1], gu);
     int nv = grid_params(s->knots_v, s->degree_v, s->count_v, si->dom[2], si->dom[3], gv);
-    enum { KEEP = 3 };
-    double best_d[KEEP], best_uv[KEEP][2];
-    int kept = 0;
+    grid_basis(s->knots_u, s->degree_u, s->count_u, gu, nu, ku, bu);
+    grid_basis(s->knots_v, s->degree_v, s->count_v, gv, nv, kv, bv);
+    double dist[(GRID_MAX + 2) * (GRID_MAX + 2)], pts[(GRID_MAX + 2) * (GRID_MAX + 2)][3];
+    int du = s->degree_u, dv = s->degree_v;
     for (int j = 0; j < nv; j++)
         for (int i = 0; i < nu; i++) {
-            double q[3];
-            crisp_surface_eval(s, gu[i], gv[j], q);
+            double h[4] = {0, 0, 0, 0};
+            for (int b = 0; b <= dv; b++) {
+                const double *row =
+                    s->cpw + 4 * ((size_t)(kv[j] - dv + b) * s->count_u + (size_t)(ku[i] - du));
+                double nb = bv[j * NB + b], r[4] = {0, 0, 0, 0};
+                for (int a = 0; a <= du; a++) {
+                    double na = bu[i * NB + a];
+                    for (int m = 0; m < 4; m++)
+                        r[m] += na * row[4 * a + m];
+                }
+                for (int m = 0; m < 4; m++)
+                    h[m] += nb * r[m];
+            }
+            double *q = pts[j * nu + i];
+            for (int m = 0; m < 3; m++)
+                q[m] = h[m] / h[3];
             double d = dist3(q, p);
-            if (!(d == d)) continue;
+            dist[j * nu + i] = d == d ? d : INFINITY;
+        }
+    /* Seeds: the KEEP best grid points. Grid neighbours are found by parameter order (the
+     * domain ends come last in gu, gv). */
+    int ou[GRID_MAX + 2], ov[GRID_MAX + 2];
+    order_params(gu, nu, ou);
+    order_params(gv, nv, ov);
+    double best_d[KEEP], best_uv[KEEP][2];
+    int kept = 0;
+    for (int jj = 0; jj < nv; jj++)
+        for (int ii = 0; ii < nu; ii++) {
+            int i = ou[ii], j = ov[jj];
+            double d = dist[j * nu + i];
+            if (!(d < INFINITY)) continue;
+            if (kept == KEEP && !(d < best_d[KEEP - 1])) continue;
+            /* On a collapsed grid line (a pole: every point of the row equal) the other
+             * parameter is arbitrary and Newton can stall at the pole; seed from the best point
+             * of the neighbouring line instead. */
+            if (line_collapsed(pts, nu, nv, 0, j, si->scale)) {
+                int j2 = ov[jj > 0 ? jj - 1 : jj + 1 < nv ? jj + 1 : jj];
+                for (int i2 = 0; i2 < nu; i2++)
+                    if (dist[j2 * nu + i2] < dist[j2 * nu + i] || i2 == 0) i = i2;
+                j = j2;
+            } else if (line_collapsed(pts, nu, nv, 1, i, si->scale)) {
+                int i2 = ou[ii > 0 ? ii - 1 : ii + 1 < nu ? ii + 1 : ii];
+                int jb = 0;
+                for (int j3 = 0; j3 < nv; j3++)
+                    if (dist[j3 * nu + i2] < dist[jb * nu + i2]) jb = j3;
+                i = i2;
+                j = jb;
+            }
+            int dup = 0;
+            for (int m = 0; m < kept; m++)
+                if (best_uv[m][0] == gu[i] && best_uv[m][1] == gv[j]) dup = 1;
+            if (dup) continue;
             int at = kept < KEEP ? kept++ : KEEP;
             if (at == KEEP) {
                 if (!(d < best_d[KEEP - 1])) continue;
