@@ -149,15 +149,15 @@ int crisp_cmd_frep(int argc, char **argv)
     size_t npix = (size_t)img->width * (size_t)img->height, inside = 0;
     for (size_t p = 0; p < npix; p++) inside += img->inside[p] != 0;
     if (bench) {
-        double ms = 1000 * render[0];
         qsort(render, (size_t)runs, sizeof *render, cmp_double);
         qsort(setup, (size_t)nsetup, sizeof *setup, cmp_double);
-        ms = 1000 * render[runs / 2];
-        printf("%s %dx%d%s%s threads %d: render median %.3f ms (min %.3f, max %.3f, %d runs), set-up median %.3f ms\n",
-               expr ? "-e" : file, img->width, img->height, is3d ? "x" : "",
-               is3d ? (char[16]){0} : "", desc.threads, ms, 1000 * render[0], 1000 * render[runs - 1], runs,
+        char dims[48];
+        if (is3d) snprintf(dims, sizeof dims, "%dx%dx%d", img->width, img->height, img->depth);
+        else snprintf(dims, sizeof dims, "%dx%d", img->width, img->height);
+        printf("%s %s, threads %d: render median %.3f ms (min %.3f, max %.3f, %d runs), set-up median %.3f ms\n",
+               expr ? "-e" : file, dims, desc.threads > 0 ? desc.threads : crisp_pool_default_threads(),
+               1000 * render[runs / 2], 1000 * render[0], 1000 * render[runs - 1], runs,
                1000 * setup[nsetup / 2]);
-        if (is3d) printf("  depth %d\n", img->depth);
     }
     if (stats || !bench) {
         crisp_frep_render_stats st = crisp_frep_renderer_stats(r);
