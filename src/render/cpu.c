@@ -383,6 +383,17 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
     const crisp_raster_target *t = &c->r->target;
     crisp_image *img = c->img;
     int S = t->samples;
+    /* The view direction of a sample (unnormalised: shading normalises): the camera ray's
+     * f + ndc_x r + ndc_y u without recomputing the basis per sample. */
+    const crisp_camera *cam = c->cam;
+    double f[3], r[3], u[3], d0[3];
+    crisp_vec3_sub(cam->target, cam->eye, d0);
+    crisp_vec3_normalize(d0, f);
+    crisp_vec3_cross(f, cam->up, d0);
+    crisp_vec3_normalize(d0, r);
+    crisp_vec3_cross(r, f, u);
+    double th = tan(cam->fov_deg * (M_PI / 360.0));
+    double kx = 2.0 * th / cam->height, ky = 2.0 * th / cam->height; /* per pixel */
     for (size_t j = begin; j < end; j++)
         for (int i = 0; i < t->width; i++) {
             size_t px = j * (size_t)t->width + (size_t)i;
@@ -394,9 +405,10 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
                 if (t->face[idx] < 0) continue;
                 covered++;
                 if (t->inv_w[idx] > best_iw) best_iw = t->inv_w[idx], best = s;
-                double off[2], o[3], d[3], n[3];
+                double off[2], d[3], n[3];
                 crisp_raster_sample_offset(S, s, off);
-                crisp_camera_ray(c->cam, i + off[0], (double)j + off[1], o, d);
+                double nx = (i + off[0] - 0.5 * cam->width) * kx, ny = (0.5 * cam->height - j - off[1]) * ky;
+                for (int k = 0; k < 3; k++) d[k] = f[k] + nx * r[k] + ny * u[k];
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
                 n[0] = a[2], n[1] = a[3], n[2] = a[4];
                 float rgba[4];

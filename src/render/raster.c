@@ -294,18 +294,28 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
         const setup_tri *st = &r->tris[r->bin_items[bi]];
         int x0 = st->x0 > px0 ? st->x0 : px0, x1 = st->x1 < px1 ? st->x1 : px1;
         int y0 = st->y0 > py0 ? st->y0 : py0, y1 = st->y1 < py1 ? st->y1 : py1;
+        /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
+        int64_t A[3], B[3];
+        for (int k = 0; k < 3; k++) {
+            int a0 = (k + 1) % 3, a1 = (k + 2) % 3;
+            A[k] = -(st->y[a1] - st->y[a0]);
+            B[k] = st->x[a1] - st->x[a0];
+        }
         for (int j = y0; j <= y1; j++) {
+            int64_t e[16][3];
+            for (int s = 0; s < S; s++) {
+                int64_t px = (int64_t)x0 * SUB + c->off_fx[s], py = (int64_t)j * SUB + c->off_fy[s];
+                for (int k = 0; k < 3; k++) {
+                    int a0 = (k + 1) % 3;
+                    e[s][k] = A[k] * (px - st->x[a0]) + B[k] * (py - st->y[a0]) + st->bias[k];
+                }
+            }
             for (int i = x0; i <= x1; i++) {
                 for (int s = 0; s < S; s++) {
-                    int64_t px = (int64_t)i * SUB + c->off_fx[s], py = (int64_t)j * SUB + c->off_fy[s];
-                    int64_t e[3];
-                    int in = 1;
-                    for (int k = 0; k < 3 && in; k++) {
-                        int a0 = (k + 1) % 3, a1 = (k + 2) % 3;
-                        e[k] = (st->x[a1] - st->x[a0]) * (py - st->y[a0]) -
-                               (st->y[a1] - st->y[a0]) * (px - st->x[a0]);
-                        in = e[k] + st->bias[k] >= 0;
-                    }
+                    int in = (e[s][0] | e[s][1] | e[s][2]) >= 0;
+                    e[s][0] += A[0] * SUB;
+                    e[s][1] += A[1] * SUB;
+                    e[s][2] += A[2] * SUB;
                     if (!in) continue;
                     double dx = i + c->off_x[s] - st->ox, dy = j + c->off_y[s] - st->oy;
                     double iw = st->q0[0] + st->qx[0] * dx + st->qy[0] * dy;

@@ -344,12 +344,79 @@ static void test_close_cameras(void **state)
     crisp_model_destroy(mt);
 }
 
+/* Degenerate input: a surface collapsed to a point, one collapsed to a line, a face whose trim
+ * loop has no area, loops that touch, and a camera looking at all of it from inside: no crash and
+ * no NaN anywhere in the image. */
+static void test_degenerate(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    double k[4] = {0, 0, 1, 1};
+    double point[12] = {1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1};
+    double line[12] = {0, 0, 0, 1, 0, 0, 0, 0, 0, 1, 0, 0};
+    double quad[12] = {-2, -2, -1, 2, -2, -1, -2, 2, -1, 2, 2, -1};
+    crisp_surface *s0, *s1, *s2;
+    assert_int_equal(crisp_surface_create(1, 1, 2, 2, k, k, point, NULL, &s0), CRISP_OK);
+    assert_int_equal(crisp_surface_create(1, 1, 2, 2, k, k, line, NULL, &s1), CRISP_OK);
+    assert_int_equal(crisp_surface_create(1, 1, 2, 2, k, k, quad, NULL, &s2), CRISP_OK);
+    crisp_face f0 = {.surface = s0}, f1 = {.surface = s1};
+    assert_int_equal(crisp_model_add_face(m, &f0), CRISP_OK);
+    assert_int_equal(crisp_model_add_face(m, &f1), CRISP_OK);
+    /* Face 2: an outer loop of no area (a segment there and back) and two triangles touching at a
+     * vertex. */
+    crisp_face f2 = {.surface = s2, .loop_count = 3};
+    f2.loops = calloc(3, sizeof *f2.loops);
+    double segs[3][4][2] = {{{0.1, 0.5}, {0.9, 0.5}, {0.1, 0.5}, {0.1, 0.5}},
+                            {{0.2, 0.2}, {0.5, 0.2}, {0.5, 0.5}, {0.2, 0.2}},
+                            {{0.5, 0.5}, {0.8, 0.8}, {0.5, 0.8}, {0.5, 0.5}}};
+    for (int l = 0; l < 3; l++) {
+        f2.loops[l].is_outer = 1;
+        f2.loops[l].curve_count = 3;
+        f2.loops[l].curves = calloc(3, sizeof(crisp_curve *));
+        for (int c = 0; c < 3; c++) {
+            double pts[4] = {segs[l][c][0], segs[l][c][1], segs[l][c + 1][0], segs[l][c + 1][1]};
+            assert_int_equal(crisp_curve_create(2, 1, 2, k, pts, NULL, &f2.loops[l].curves[c]), CRISP_OK);
+        }
+    }
+    assert_int_equal(crisp_model_add_face(m, &f2), CRISP_OK);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_camera cams[2] = {
+        {.eye = {0.3, 0.2, 3}, .target = {0, 0, -1}, .up = {0, 1, 0}, .fov_deg = 60, .znear = 0.01,
+         .zfar = 10, .width = 64, .height = 48},
+        {.eye = {1, 1, 1}, .target = {0, 0, -1}, .up = {0, 1, 0}, .fov_deg = 120, .znear = 1e-6,
+         .zfar = 10, .width = 64, .height = 48},
+    };
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.samples = 4}, &r), CRISP_OK);
+    for (int c = 0; c < 2; c++) {
+        crisp_image a, b;
+        crisp_image_init(&a, 64, 48);
+        crisp_image_init(&b, 64, 48);
+        assert_int_equal(crisp_render_cpu(r, sc, &cams[c], &a, NULL), CRISP_OK);
+        crisp_exact_desc d = {.classify = exact_classify};
+        assert_int_equal(crisp_render_exact(sc, &cams[c], &d, &b), CRISP_OK);
+        for (int i = 0; i < 64 * 48 * 4; i++) {
+            assert_false(isnan(a.rgba[i]));
+            assert_false(isnan(b.rgba[i]));
+        }
+        for (int i = 0; i < 64 * 48; i++) assert_false(isnan(a.depth[i]) || isnan(b.depth[i]));
+        crisp_image_free(&a);
+        crisp_image_free(&b);
+    }
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_surface_accuracy),
         cmocka_unit_test(test_no_cracks),
         cmocka_unit_test(test_close_cameras),
+        cmocka_unit_test(test_degenerate),
         cmocka_unit_test(test_against_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
