@@ -16,7 +16,9 @@
 /* 2D: quadtree down to 32 px cells, then 8x8 point batches on the 32 px cell's tape (measured on
  * prospero: an interval per 8 px cell costs more than the points it saves). */
 #define MIN_INTERVAL_2D 32
-#define MAX_DEPTH 12
+/* Tape buffers per worker: one per level below the task tile (2D 128 -> 64 -> 32, 3D 64 -> 32 ->
+ * 16 -> 8 use at most 4). */
+#define MAX_DEPTH 5
 
 typedef struct frep_worker {
     frep_ins *tapes; /* MAX_DEPTH tapes of the full length */
@@ -199,8 +201,8 @@ static size_t cell_interval(const crisp_frep_renderer *r, frep_worker *w, const 
 static frep_span child_tape(const crisp_frep_renderer *r, frep_worker *w, frep_span t,
                             size_t decided, int depth)
 {
-    if (!decided || (r->desc.flags & CRISP_FREP_NO_PRUNE)) return t;
-    size_t d = (size_t)(depth < MAX_DEPTH ? depth : MAX_DEPTH - 1);
+    if (!decided || (r->desc.flags & CRISP_FREP_NO_PRUNE) || depth >= MAX_DEPTH) return t;
+    size_t d = (size_t)depth;
     frep_span out;
     if (crisp__frep_shorten(t, w->choices, &w->sc, w->tapes + d * r->tape->length,
                             w->ssas + 2 * d * r->tape->length, &out))

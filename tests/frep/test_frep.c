@@ -516,6 +516,55 @@ static void test_models_3d(void **state)
     check_model_3d("bear", 77);
 }
 
+/* A region and a size that are not square, not powers of two, in 2D and 3D. */
+static void test_region_and_size(void **state)
+{
+    (void)state;
+    crisp_frep *f = load_vm("tanglecube");
+    crisp_frep_tape *t;
+    assert_int_equal(crisp_frep_tape_create(f, &t), CRISP_OK);
+    const int W = 203, H = 117, D = 45;
+    const double g[6] = {-0.5, 1.5, -1.0, 0.8, -0.9, 0.7};
+    for (int depth = 0; depth <= D; depth += D) {
+        crisp_frep_render_desc d = {.width = W, .height = H, .depth = depth, .threads = 2};
+        memcpy(d.region, g, sizeof g);
+        crisp_frep_renderer *r;
+        assert_int_equal(crisp_frep_renderer_create(t, &d, &r), CRISP_OK);
+        assert_int_equal(crisp_frep_renderer_run(r), CRISP_OK);
+        const crisp_frep_image *img = crisp_frep_renderer_image(r);
+        size_t differ = 0, inside = 0;
+        for (int j = 0; j < H; j++)
+            for (int i = 0; i < W; i++) {
+                float x = (float)(g[0] + (i + 0.5) * (g[1] - g[0]) / W);
+                float y = (float)(g[3] - (j + 0.5) * (g[3] - g[2]) / H);
+                size_t p = (size_t)j * W + (size_t)i;
+                if (!depth) {
+                    int in = crisp_frep_eval_point(t, x, y, (float)(0.5 * (g[4] + g[5]))) < 0;
+                    differ += (img->inside[p] != 0) != in;
+                    inside += in;
+                } else {
+                    int h = -1;
+                    for (int k = D - 1; k >= 0 && h < 0; k--)
+                        if (crisp_frep_eval_point(t, x, y, (float)(g[4] + (k + 0.5) * (g[5] - g[4]) / D)) < 0) h = k;
+                    differ += img->heights[p] != h;
+                    inside += h >= 0;
+                }
+            }
+        assert_int_equal(differ, 0);
+        assert_true(inside > 0 && inside < (size_t)W * H);
+        crisp_frep_renderer_destroy(r);
+    }
+    /* bad descriptions are refused with a message */
+    crisp_frep_render_desc bad = {.width = 0, .height = 10};
+    crisp_frep_renderer *r = NULL;
+    assert_int_equal(crisp_frep_renderer_create(t, &bad, &r), CRISP_ERR_INVALID_ARG);
+    bad = (crisp_frep_render_desc){.width = 10, .height = 10, .region = {1, -1, -1, 1, 0, 0}};
+    assert_int_equal(crisp_frep_renderer_create(t, &bad, &r), CRISP_ERR_INVALID_ARG);
+    assert_null(r);
+    crisp_frep_tape_destroy(t);
+    crisp_frep_destroy(f);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -524,7 +573,7 @@ int main(void)
         cmocka_unit_test(test_dag),               cmocka_unit_test(test_big_expressions),
         cmocka_unit_test(test_interval_soundness), cmocka_unit_test(test_batch_matches_graph),
         cmocka_unit_test(test_prospero_reference), cmocka_unit_test(test_models_2d),
-        cmocka_unit_test(test_models_3d),
+        cmocka_unit_test(test_models_3d),          cmocka_unit_test(test_region_and_size),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
