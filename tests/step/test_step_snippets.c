@@ -203,6 +203,50 @@ static void test_cylinder_band(void **state)
     free(b);
 }
 
+/* A cone (r = 1 at z = 0, semi-angle 45 degrees, apex at z = -1) bounded by its base circle and
+ * a VERTEX_LOOP at the apex: one loop that closes through the apex. */
+static const char cone[] = HEAD
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=CONICAL_SURFACE('',#4,1.,0.785398163397448);\n"
+    "#10=CARTESIAN_POINT('',(1.,0.,0.));\n#12=VERTEX_POINT('',#10);\n#20=CIRCLE('',#4,1.);\n"
+    "#28=EDGE_CURVE('',#12,#12,#20,.T.);\n#60=ORIENTED_EDGE('',*,*,#28,.T.);\n#64=EDGE_LOOP('',(#60));\n"
+    "#65=FACE_BOUND('',#64,.T.);\n#30=CARTESIAN_POINT('',(0.,0.,-1.));\n#31=VERTEX_POINT('',#30);\n"
+    "#32=VERTEX_LOOP('',#31);\n#33=FACE_BOUND('',#32,.T.);\n#66=ADVANCED_FACE('',(#65,#33),#5,.T.);\n"
+    "#67=OPEN_SHELL('',(#66));\n" TAIL;
+
+static void test_cone_apex(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    step_read_stats st;
+    crisp_status s = read_str(cone, &m, &st);
+    if (s) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    const crisp_face *f = &m->faces[0];
+    assert_int_equal(f->loop_count, 1);
+    assert_int_equal(f->loops[0].curve_count, 4);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-12, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    /* u over a full turn (NURBS parameter = angle at the ends), v from the apex (-1) to 0. */
+    assert_true(fabs(crisp_trim_loop_signed_area(&f->loops[0]) - 2 * M_PI) < 1e-3);
+    /* The trims' images lie on the cone x^2 + y^2 = (1 + z)^2, between apex and base. */
+    for (int k = 0; k < 4; k++) {
+        const crisp_curve *cv = f->loops[0].curves[k];
+        double t0, t1;
+        crisp_curve_domain(cv, &t0, &t1);
+        for (int i = 0; i <= 20; i++) {
+            double uv[2], p[3];
+            crisp_curve_eval(cv, t0 + (t1 - t0) * i / 20, uv);
+            crisp_surface_eval(f->surface, uv[0], uv[1], p);
+            assert_true(fabs(hypot(p[0], p[1]) - (1 + p[2])) < 1e-9);
+            assert_true(p[2] > -1 - 1e-9 && p[2] < 1e-6);
+        }
+    }
+    crisp_model_destroy(m);
+}
+
 static void test_plane_hole_units_colour(void **state)
 {
     (void)state;
@@ -326,6 +370,7 @@ int main(void)
         cmocka_unit_test(test_cylinder_seam_pcurves),
         cmocka_unit_test(test_cylinder_seam_projected),
         cmocka_unit_test(test_cylinder_band),
+        cmocka_unit_test(test_cone_apex),
         cmocka_unit_test(test_plane_hole_units_colour),
         cmocka_unit_test(test_rational_complex_entity),
         cmocka_unit_test(test_malformed),

@@ -58,6 +58,10 @@ typedef struct face_work {
     double nbox[4];   /* NURBS domain */
     double tol_uv;
     int band_a, band_b, band_rev; /* two winding loops joined along the seam (band_b follows a) */
+    int ncap;                     /* VERTEX_LOOP points (a cone's apex, a sphere's pole) */
+    double cap_pt[2][3];
+    int cap_k;                    /* band_a closed at the degenerate line (coordinate 1 - cap_k) = cap_v */
+    double cap_v;
 } face_work;
 
 static void edge_free(edge_use *e)
@@ -894,7 +898,26 @@ static void clamp_loop(crisp_trim_loop *lp, const double d[4])
 /* Loop A's curves are in lp: add the seam segment, loop B (reversed when needed), the seam back. */
 static crisp_status append_band(face_work *w, const crisp_surface *s, crisp_trim_loop *lp, size_t *cap)
 {
-    (void)s;
+    if (w->band_b < 0) {
+        /* Closed at a collapsed line: seam up to it, along it, seam down. */
+        const loop_work *A = &w->loops[w->band_a];
+        const edge_use *e0 = &A->edges[0], *e1 = &A->edges[A->count - 1];
+        double f0[2] = {e0->uv[0], e0->uv[1]}, f1[2] = {e1->uv[2 * e1->ns - 2], e1->uv[2 * e1->ns - 1]};
+        f0[1 - w->cap_k] = w->cap_v;
+        f1[1 - w->cap_k] = w->cap_v;
+        double p[4][2];
+        curve_end(lp->curves[lp->curve_count - 1], 1, p[0]);
+        crisp__step_surface_map(&w->s, w->box, f1, p[1]);
+        crisp__step_surface_map(&w->s, w->box, f0, p[2]);
+        curve_end(lp->curves[0], 0, p[3]);
+        for (int k = 0; k < 3; k++) {
+            crisp_curve *c;
+            crisp_status st = crisp_make_line(2, p[k], p[k + 1], 0, 1, &c);
+            if (!st) st = push_curve(w, c, &lp->curves, &lp->curve_count, cap);
+            if (st) return st;
+        }
+        return CRISP_OK;
+    }
     crisp_trim_loop b = {0};
     size_t bcap = 0;
     crisp_status st = CRISP_OK;
@@ -943,7 +966,10 @@ static crisp_status read_loops(face_work *w)
         if (!bp) return crisp__step_fail(r, be, CRISP_ERR_PARSE, "expected a FACE_BOUND or FACE_OUTER_BOUND");
         if ((st = crisp__step_get_ref(r, be, bp, 1, &le))) return st;
         if (crisp__step_is(r, le, "VERTEX_LOOP")) {
-            crisp_model_note_skip(r->model, "STEP VERTEX_LOOP: a bound of one vertex adds no trim");
+            /* A bound of one vertex (apex, pole) adds no trim; it may close a winding loop. */
+            const step_entity *ve;
+            if ((st = crisp__step_get_ref(r, le, crisp__step_part(r, le, "VERTEX_LOOP"), 1, &ve))) return st;
+            if (w->ncap < 2 && (st = vertex_point(r, ve, w->cap_pt[w->ncap++]))) return st;
             continue;
         }
         const step_part *lp = crisp__step_part(r, le, "EDGE_LOOP");
@@ -1011,6 +1037,21 @@ crisp_status crisp__step_face(step_reader *r, const step_entity *fe, crisp_face 
                     wl[nw++] = i;
                     wk = k;
                 }
+        if (nw == 1 && w.ncap == 1) {
+            /* One winding loop and a vertex loop: the face is closed at the apex or pole, where the
+             * surface collapses; the loop runs up the seam, along the collapsed line, down. */
+            double uv[2];
+            const edge_use *e0 = &w.loops[wl[0]].edges[0];
+            crisp__step_surface_invert(&w.s, w.cap_pt[0], e0->uv, uv);
+            w.band_a = wl[0];
+            w.cap_k = wk;
+            w.cap_v = uv[1 - wk];
+            double *bx = w.loops[wl[0]].box;
+            if (w.cap_v < bx[2 * (1 - wk)]) bx[2 * (1 - wk)] = w.cap_v;
+            if (w.cap_v > bx[2 * (1 - wk) + 1]) bx[2 * (1 - wk) + 1] = w.cap_v;
+            outer = wl[0];
+            nw = 0;
+        }
         if (nw == 1) {
             st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED,
                                   "loop %d winds around the %c direction of surface #%d without a seam edge", wl[0] + 1,
