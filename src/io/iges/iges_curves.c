@@ -499,7 +499,13 @@ void iges_mark_used(iges_file *f, int e, int depth)
 double iges_param_map_apply(const iges_param_map *m, double t)
 {
     double y = m->scale * t + m->offset;
-    return m->angular ? crisp_angle_to_param(m->a0, m->a1, y) : y;
+    if (!m->angular) return y;
+    /* A file's angle may stray a little outside [a0, a1]; one far outside (a hostile file) is
+     * clamped so the conversion's segment index stays small. */
+    double span = m->a1 - m->a0;
+    if (!(y >= m->a0 - 2 * span)) y = m->a0 - 2 * span;
+    if (!(y <= m->a1 + 2 * span)) y = m->a1 + 2 * span;
+    return crisp_angle_to_param(m->a0, m->a1, y);
 }
 
 int iges_param_map_is_identity(const iges_param_map *m)

@@ -323,13 +323,13 @@ static crisp_status parse_global(iges_file *f, const iges_lines *g)
         }
     }
     int n = f->param_count - first;
-    const iges_param *p = f->params + first; /* p[0] is global parameter 3 */
-    if (n >= 12 && p[11].kind == IGES_PARAM_NUMBER) {
+    const iges_param *p = n > 0 ? f->params + first : NULL; /* p[0] is global parameter 3 */
+    if (n >= 12 && p[11].kind == IGES_PARAM_NUMBER && fabs(p[11].num) < 100) {
         static const double flag_mm[] = {0,    25.4,   1,      0,    304.8, 1609344,
                                          1000, 1e6,    0.0254, 0.001, 10,   2.54e-5};
         int flag = (int)p[11].num;
         if (flag >= 1 && flag <= 11 && flag != 3) f->unit_to_mm = flag_mm[flag];
-        else if (n >= 13 && p[12].kind == IGES_PARAM_STRING)
+        else if (n >= 13 && p[12].kind == IGES_PARAM_STRING && p[12].str_len > 0)
             f->unit_to_mm = units_from_name(f->strings + p[12].str_off, p[12].str_len);
     }
     if (n >= 17 && p[16].kind == IGES_PARAM_NUMBER && p[16].num > 0) f->resolution = p[16].num;
