@@ -53,6 +53,16 @@ void crisp__frep_eval_lanes(const frep_ins *ins, size_t n, float *regs, const fl
                 o[k] = b[k] != b[k] ? b[k] : r;
             }
             break;
+        case CRISP_FREP_SIN:
+        case CRISP_FREP_COS: {
+            int cosine = in.op == CRISP_FREP_COS, far = 0;
+            LOOP o[k] = frep_sincos_poly(a[k], cosine);
+            LOOP far |= !frep_trig_direct(a[k]);
+            if (far) /* rare: large or non-finite arguments go to libm, as frep_sinf does */
+                for (int k = 0; k < L; k++)
+                    if (!frep_trig_direct(a[k])) o[k] = cosine ? cosf(a[k]) : sinf(a[k]);
+            break;
+        }
         case CRISP_FREP_EXP: LOOP o[k] = frep_expf(a[k]); break;
         case CRISP_FREP_LN: LOOP o[k] = frep_logf(a[k]); break;
         case FREP_T_ADD_RI: LOOP o[k] = a[k] + c; break;
@@ -129,8 +139,8 @@ void crisp__frep_grad_lanes(const frep_ins *ins, size_t n, float *regs, const fl
         case CRISP_FREP_SQUARE: GRAD_UNARY(av * av, 2 * av) break;
         case CRISP_FREP_EXP: GRAD_UNARY(frep_expf(av), v) break;
         case CRISP_FREP_LN: GRAD_UNARY(frep_logf(av), 1 / av) break;
-        case CRISP_FREP_SIN: GRAD_UNARY(sinf(av), cosf(av)) break;
-        case CRISP_FREP_COS: GRAD_UNARY(cosf(av), -sinf(av)) break;
+        case CRISP_FREP_SIN: GRAD_UNARY(frep_sinf(av), frep_cosf(av)) break;
+        case CRISP_FREP_COS: GRAD_UNARY(frep_cosf(av), -frep_sinf(av)) break;
         case CRISP_FREP_TAN: GRAD_UNARY(tanf(av), 1 + v * v) break;
         case CRISP_FREP_ASIN: GRAD_UNARY(asinf(av), 1 / sqrtf(1 - av * av)) break;
         case CRISP_FREP_ACOS: GRAD_UNARY(acosf(av), -1 / sqrtf(1 - av * av)) break;
