@@ -73,6 +73,16 @@ static void general(const crisp_bezier_patch *p, int c, int m, const crisp_slefe
     }
 }
 
+void crisp__slefe_patch_coordinate(const crisp_bezier_patch *p, int m, int c, double *lo,
+                                   double *up)
+{
+    crisp_slefe_table tu = crisp__slefe_table(p->du, m), tv = crisp__slefe_table(p->dv, m);
+    if (p->du == 3 && p->dv == 3 && m == 3)
+        bicubic3(p->cpw, c, &tu, lo, up);
+    else
+        general(p, c, m, &tu, &tv, lo, up);
+}
+
 void crisp__slefe_patch_nocheck(const crisp_bezier_patch *p, int m, int ncomp, double *lo,
                                 double *up)
 {

@@ -100,9 +100,10 @@ static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p,
     q.rational = 1;
     int m = tau, n = m + 1;
     double lo[CRISP_SLEFE_GRID(MAXM) * 4], up[CRISP_SLEFE_GRID(MAXM) * 4];
-    crisp__slefe_patch_nocheck(&q, m, 4, lo, up);
+    for (int r = 0; r < 4; r += r == 1 ? 2 : 1) /* X, Y, W: Z plays no part */
+        crisp__slefe_patch_coordinate(&q, m, r, lo, up);
     for (int g = 0; g < n * n; g++)
-        for (int r = 0; r < 4; r++) {
+        for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
             lo[g * 4 + r] -= err[r];
             up[g * 4 + r] += err[r];
         }
@@ -117,7 +118,7 @@ static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p,
         for (int ku = 0; ku < m; ku++) {
             int g[4] = {kv * n + ku, kv * n + ku + 1, (kv + 1) * n + ku, (kv + 1) * n + ku + 1};
             double cl[4], cu[4], w[4];
-            for (int r = 0; r < 4; r++) {
+            for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
                 cl[r] = INFINITY;
                 cu[r] = -INFINITY;
                 w[r] = 0.0;
@@ -134,9 +135,13 @@ static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p,
                                    "%s: lower bound %g of clip-space W on tile (%d, %d) of %d is "
                                    "not positive (split or cull the patch)",
                                    fn, cl[3], ku, kv, m);
-            double ew = w[3] + twist[3];
-            double ex = (w[0] + twist[0] + max_abs_ratio(cl[0], cu[0], cl[3], cu[3]) * ew) / cl[3];
-            double ey = (w[1] + twist[1] + max_abs_ratio(cl[1], cu[1], cl[3], cu[3]) * ew) / cl[3];
+            /* |x| <= max(|X|) / W_lo over the tile; one division per tile (the final factor
+             * 1 + 1e-12 covers the roundings of the reciprocal) */
+            double ew = w[3] + twist[3], inv = 1.0 / cl[3];
+            double ax = crisp__max(fabs(cl[0]), fabs(cu[0])) * inv;
+            double ay = crisp__max(fabs(cl[1]), fabs(cu[1])) * inv;
+            double ex = (w[0] + twist[0] + ax * ew) * inv;
+            double ey = (w[1] + twist[1] + ay * ew) * inv;
             best = crisp__max(best, crisp__max(ex * 0.5 * view->width, ey * 0.5 * view->height));
         }
     *dest = best * (1.0 + 1e-12);
@@ -309,6 +314,27 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
         *tau = max_level + 1;
         return CRISP_OK;
     }
+    /* The classic bound falls exactly as 1 / tau^2, so it names a sound level at once: the answer
+     * lies between the guess and that level, and only levels below it need the (costlier) SLEFE
+     * bound. */
+    int t_classic = max_level + 1;
+    double c1;
+    if (error_classic(fn, p, view, clip, hl, hh, 1, &c1) == CRISP_OK) {
+        double tc = ceil(sqrt(c1 / eps));
+        if (tc < 1.0) tc = 1.0;
+        if (tc <= max_level) {
+            t_classic = (int)tc;
+            /* rounding of c1 / t^2: confirm, and step up in the rare case it fails */
+            double e;
+            while (t_classic <= max_level &&
+                   error_classic(fn, p, view, clip, hl, hh, t_classic, &e) == CRISP_OK && e > eps)
+                t_classic++;
+        }
+    }
+    if (t_classic <= t) {
+        *tau = t;
+        return CRISP_OK;
+    }
     for (;;) {
         double e;
         s = screen_error(fn, p, view, clip, err, hl, hh, t, eps, &e);
@@ -324,6 +350,10 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
         double next = ceil(t * sqrt(e / eps));
         int nt = next > max_level ? max_level : (int)next;
         nt = nt > t ? nt : t + 1;
+        if (nt >= t_classic) {
+            *tau = t_classic; /* max_level + 1 (split) when the classic level is out of range */
+            return CRISP_OK;
+        }
         /* Above 16 the bound works on k x k blocks of cells, k = ceil(tau / 16): a multiple of
          * k gives square blocks, where the (tighter) SLEFE bound applies. */
         int k = (nt + MAXM - 1) / MAXM;

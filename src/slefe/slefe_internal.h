@@ -70,6 +70,9 @@ crisp_status crisp__slefe_check_patch(const char *fn, const crisp_bezier_patch *
  * layout of crisp_slefe_patch (other coordinates untouched). Tables must be initialised. */
 void crisp__slefe_patch_nocheck(const crisp_bezier_patch *p, int m, int ncomp, double *lo,
                                 double *up);
+/* The same for homogeneous coordinate c only. */
+void crisp__slefe_patch_coordinate(const crisp_bezier_patch *p, int m, int c, double *lo,
+                                   double *up);
 
 /* Per-tile boxes of a grid result (layout of crisp_slefe_patch); hull_lo/hull_hi (4 values each,
  * or NULL) are bounds of each homogeneous coordinate over the whole patch (its control points'
