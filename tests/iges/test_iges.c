@@ -566,6 +566,55 @@ static void test_malformed(void **state)
     expect_error(missing, N_OF(missing), CRISP_ERR_PARSE, "DE 3 ");
 }
 
+/* Composite curves nested 40 deep as a trim: rejected at the depth bound, naming a DE. */
+static void test_deep_nesting(void **state)
+{
+    (void)state;
+    enum { DEPTH = 40 };
+    test_entity e[DEPTH + 4];
+    char params[DEPTH][32];
+    e[0] = (test_entity){128, 0, 0, "00010000", 0,
+                         "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"
+                         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"};
+    for (int i = 0; i < DEPTH; i++) { /* entity 1 + i is DE 3 + 2 i, holding the next one */
+        snprintf(params[i], sizeof params[i], "1,%d;", 2 * (i + 2) + 1);
+        e[1 + i] = (test_entity){102, 0, 0, "00010500", 0, params[i]};
+    }
+    e[1 + DEPTH] = (test_entity){110, 0, 0, "00010500", 0, "0.,0.,0.,1.,1.,0.;"};
+    e[2 + DEPTH] = (test_entity){142, 0, 0, "00010500", 0, "1,1,3,0,1;"};
+    char p144[32];
+    snprintf(p144, sizeof p144, "1,1,0,%d;", 2 * (2 + DEPTH) + 1);
+    e[3 + DEPTH] = (test_entity){144, 0, 0, NULL, 0, p144};
+    expect_error(e, DEPTH + 4, CRISP_ERR_LIMIT, "deeper than");
+}
+
+/* A face whose surface crisp cannot build (a 120 with a composite generatrix) is skipped with a
+ * note naming it; the rest of the file loads. */
+static void test_unsupported_face_skipped(void **state)
+{
+    (void)state;
+    test_entity e[] = {
+        {110, 0, 0, "00010000", 0, "0.,0.,0.,0.,0.,1.;"},             /* DE 1 */
+        {110, 0, 0, "00010000", 0, "1.,0.,0.,2.,0.,3.;"},             /* DE 3 */
+        {110, 0, 0, "00010000", 0, "2.,0.,3.,2.,0.,4.;"},             /* DE 5 */
+        {102, 0, 0, "00010000", 0, "2,3,5;"},                         /* DE 7 */
+        {120, 0, 0, NULL, 0, "1,7,0.,6.283185307179586;"},             /* DE 9 */
+        {128, 0, 0, NULL, 0,
+         "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"
+         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"},          /* DE 11 */
+    };
+    crisp_model *m = load(e, N_OF(e));
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces[0].source_id, 11);
+    int noted = 0;
+    for (int i = 0; i < m->skip_count; i++)
+        if (strstr(m->skips[i].what, "DE 9") && strstr(m->skips[i].what, "composite")) noted = 1;
+    if (!noted)
+        for (int i = 0; i < m->skip_count; i++) fprintf(stderr, "skip: %s\n", m->skips[i].what);
+    assert_true(noted);
+    crisp_model_destroy(m);
+}
+
 static void test_truncated_and_garbage(void **state)
 {
     (void)state;
@@ -616,6 +665,8 @@ int main(void)
         cmocka_unit_test(test_lenient_records),
         cmocka_unit_test(test_unsupported_counted),
         cmocka_unit_test(test_malformed),
+        cmocka_unit_test(test_deep_nesting),
+        cmocka_unit_test(test_unsupported_face_skipped),
         cmocka_unit_test(test_truncated_and_garbage),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
