@@ -278,6 +278,14 @@ static void test_plane_hole_units_colour(void **state)
         assert_true(fabs(hypot(uv[0], uv[1]) - 0.5) < 1e-9);
     }
     crisp_model_destroy(m);
+    /* The bottom edge as a TRIMMED_CURVE against its line's sense, used against its own sense. */
+    char *t = replace(plane, "#23=EDGE_CURVE('',#14,#15,#22,.T.)",
+                      "#23=EDGE_CURVE('',#14,#15,#80,.F.);\n#80=TRIMMED_CURVE('',#22,(#11),(#10),.F.,.CARTESIAN.)");
+    assert_int_equal(read_str(t, &m, &st), CRISP_OK);
+    assert_true(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0]) - 16) < 1e-9);
+    assert_true(st.max_edge_dev < 1e-9);
+    crisp_model_destroy(m);
+    free(t);
 }
 
 static void test_rational_complex_entity(void **state)

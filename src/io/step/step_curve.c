@@ -451,6 +451,7 @@ static crisp_status trimmed(step_reader *r, const step_entity *e, step_curve *c)
         double s = t[0];
         t[0] = t[1];
         t[1] = s;
+        c->reversed ^= 1;
     }
     if (c->periodic && c->kind == STEP_CURVE_CONIC)
         while (t[1] <= t[0]) t[1] += c->period;

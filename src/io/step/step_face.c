@@ -260,6 +260,8 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
     if (c->dim != 3) return crisp__step_fail(r, ge, CRISP_ERR_PARSE, "expected a 3D curve as edge geometry");
     if (crisp__step_is(r, ge, "SURFACE_CURVE") || crisp__step_is(r, ge, "SEAM_CURVE"))
         if ((st = find_pcurves(r, ge, w->s.id, eu))) return st;
+    /* Against a reversed trimmed curve, the edge's sense is against the basis curve's. */
+    same ^= c->reversed;
     const double *first = same ? ps : pe, *second = same ? pe : ps;
     int closed = vs == ve || dist3(ps, pe) <= r->tol;
     double lo = crisp__step_curve_invert(c, first, c->t0, c->t1);

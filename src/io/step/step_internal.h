@@ -167,6 +167,8 @@ typedef struct step_curve {
     crisp_curve *nurbs; /* B-spline (owned) */
     double t0, t1;     /* bounded parameter range (-inf/+inf for unbounded lines and conics) */
     int id;            /* entity of the geometry, for messages */
+    int reversed;      /* a TRIMMED_CURVE against its basis' sense: the file's curve runs along
+                          decreasing parameter of this one */
 } step_curve;
 
 /* Convert a curve entity (LINE, CIRCLE, ELLIPSE, B_SPLINE_CURVE_WITH_KNOTS (rational too),

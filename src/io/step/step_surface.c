@@ -256,7 +256,31 @@ static double profile_dist(const step_surface *s, const double *p, double t)
     return dot3(d, d) - h * h / dd;
 }
 
+static double profile_search(const step_surface *s, const double *p, double lo, double hi, double ref);
+
+/* Nearest profile parameter: a local search around the reference first (points along an edge
+ * move little between calls), the whole range when the local minimum is on the window's edge. */
 static double profile_invert(const step_surface *s, const double *p, double lo, double hi, double ref)
+{
+    if (isfinite(ref) && ref >= lo && ref <= hi) {
+        double d = 0.02 * (hi - lo), a = ref - d, b = ref + d;
+        if (a < lo) a = lo;
+        if (b > hi) b = hi;
+        const double g = 0.6180339887498949;
+        double x1 = b - g * (b - a), x2 = a + g * (b - a);
+        double f1 = profile_dist(s, p, x1), f2 = profile_dist(s, p, x2);
+        double a0 = a, b0 = b;
+        for (int it = 0; it < 90 && b - a > 1e-15 * (1 + fabs(a)); it++) {
+            if (f1 < f2) b = x2, x2 = x1, f2 = f1, x1 = b - g * (b - a), f1 = profile_dist(s, p, x1);
+            else a = x1, x1 = x2, f1 = f2, x2 = a + g * (b - a), f2 = profile_dist(s, p, x2);
+        }
+        double t = 0.5 * (a + b), eps = 1e-9 * (b0 - a0);
+        if ((t > a0 + eps || a0 == lo) && (t < b0 - eps || b0 == hi)) return t;
+    }
+    return profile_search(s, p, lo, hi, ref);
+}
+
+static double profile_search(const step_surface *s, const double *p, double lo, double hi, double ref)
 {
     int n = 64;
     if (s->profile.kind == STEP_CURVE_BSPLINE) n = 8 * (s->profile.nurbs->count + 1);
