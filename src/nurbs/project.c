@@ -150,7 +150,8 @@ static double newton(const surf_info *si, const double p[3], double uv[2], doubl
             memcpy(sv, sv2, sizeof sv);
             memcpy(r, r2, sizeof r);
             double sc2 = si->scale * si->scale;
-            int converged = step < 1e-15 || d2 - e2 <= 1e-30 * sc2 || e2 <= 1e-26 * sc2;
+            int converged =
+                step < 1e-15 || d2 - e2 <= 1e-30 * sc2 + 1e-15 * d2 || e2 <= 1e-26 * sc2;
             d2 = e2;
             lam *= 0.25;
             if (lam < 1e-12) lam = 0;
