@@ -28,6 +28,7 @@ typedef struct frep_worker {
     float *lo, *hi, *regs, *gregs;
     uint8_t *live;
     crisp_frep_render_stats st;
+    char pad[128]; /* keeps one worker's counters off the next worker's cache lines */
 } frep_worker;
 
 typedef struct frep_task {
