@@ -288,6 +288,27 @@ static void test_plane_hole_units_colour(void **state)
     free(t);
 }
 
+/* A colour on the shell reaches its faces; a RECTANGULAR_TRIMMED_SURFACE over the plane reads as
+ * the plane. */
+static void test_shell_colour_trimmed_surface(void **state)
+{
+    (void)state;
+    char *a = replace(plane, "#77=STYLED_ITEM('color',(#76),#50)", "#77=STYLED_ITEM('color',(#76),#51)");
+    char *b = replace(a, "#50=ADVANCED_FACE('',(#37,#46),#5,.T.)",
+                      "#50=ADVANCED_FACE('',(#37,#46),#81,.T.);\n"
+                      "#81=RECTANGULAR_TRIMMED_SURFACE('',#5,-3.,3.,-3.,3.,.T.,.T.)");
+    crisp_model *m;
+    step_read_stats st;
+    assert_int_equal(read_str(b, &m, &st), CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_true(m->faces[0].has_color);
+    assert_true(fabsf(m->faces[0].color[2] - 0.6f) < 1e-6f);
+    assert_true(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0]) - 16) < 1e-9);
+    crisp_model_destroy(m);
+    free(a);
+    free(b);
+}
+
 static void test_rational_complex_entity(void **state)
 {
     (void)state;
@@ -343,6 +364,11 @@ static void test_malformed(void **state)
                           "#43=EDGE_CURVE('',#41,#41,#90,.T.);\n#90=TRIMMED_CURVE('',#90,(PARAMETER_VALUE(0.)),"
                           "(PARAMETER_VALUE(1.)),.T.,.PARAMETER.)",
                           "nested too deeply");
+    /* a surface that trims itself */
+    expect_error_replaced("#50=ADVANCED_FACE('',(#37,#46),#5,.T.)",
+                          "#50=ADVANCED_FACE('',(#37,#46),#81,.T.);\n"
+                          "#81=RECTANGULAR_TRIMMED_SURFACE('',#81,-3.,3.,-3.,3.,.T.,.T.)",
+                          "nested too deeply");
     /* huge degree */
     expect_error_replaced("#43=EDGE_CURVE('',#41,#41,#42,.T.)",
                           "#43=EDGE_CURVE('',#41,#41,#91,.T.);\n#91=B_SPLINE_CURVE_WITH_KNOTS('',99,(#10,#11),"
@@ -380,6 +406,7 @@ int main(void)
         cmocka_unit_test(test_cylinder_band),
         cmocka_unit_test(test_cone_apex),
         cmocka_unit_test(test_plane_hole_units_colour),
+        cmocka_unit_test(test_shell_colour_trimmed_surface),
         cmocka_unit_test(test_rational_complex_entity),
         cmocka_unit_test(test_malformed),
     };

@@ -431,7 +431,11 @@ static crisp_status trimmed(step_reader *r, const step_entity *e, step_curve *c)
         if ((st = crisp__step_get_list(r, e, p, 2 + k, &sel))) goto fail;
         for (uint32_t i = 0; i < sel->len && !have[k]; i++) {
             const step_value *v = crisp__step_elem(r, sel, i);
-            if (v->kind == STEP_TYPED && crisp__step_value_real(r, v, &t[k])) have[k] = 1;
+            if (v->kind == STEP_TYPED && crisp__step_value_real(r, v, &t[k])) {
+                /* A conic's parameter is an angle, in the file's plane angle unit. */
+                if (c->kind == STEP_CURVE_CONIC) t[k] *= r->angle_unit;
+                have[k] = 1;
+            }
         }
         for (uint32_t i = 0; i < sel->len && !have[k]; i++) {
             const step_value *v = crisp__step_elem(r, sel, i);

@@ -165,6 +165,14 @@ crisp_status crisp__step_surface(step_reader *r, const step_entity *e, step_surf
             if (s->profile.dim != 3) st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected a 3D swept curve");
             s->u_periodic = s->profile.kind == STEP_CURVE_CONIC;
         }
+    } else if ((p = crisp__step_part(r, e, "RECTANGULAR_TRIMMED_SURFACE"))) {
+        /* The face's loops bound it; the basis surface carries the geometry. Pcurves refer to
+         * this entity, so it keeps its id. */
+        const step_entity *be;
+        if (!(st = crisp__step_get_ref(r, e, p, 1, &be))) {
+            st = crisp__step_surface(r, be, s);
+            s->id = e->id;
+        }
     } else if (crisp__step_is(r, e, "B_SPLINE_SURFACE_WITH_KNOTS") || crisp__step_is(r, e, "B_SPLINE_SURFACE")) {
         st = bspline_surface(r, e, s);
     } else {
