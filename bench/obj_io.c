@@ -12,9 +12,9 @@
 
 #define RUNS 7
 
-static const char *const models[] = {"occt_bearing.iges", "occt_hammer.iges",  "gpucast_part.igs",
-                                     "gpucast_teapot.igs", "impeller.igs",     "occt_linkrods.step",
-                                     "Ventilator.stp",     NULL};
+static const char *const models[] = {
+    "occt_bearing.iges", "occt_hammer.iges",   "gpucast_part.igs", "gpucast_teapot.igs",
+    "impeller.igs",      "occt_linkrods.step", "Ventilator.stp",   NULL};
 
 static void bench_model(const char *name, const char *tmp)
 {
@@ -74,15 +74,21 @@ static void bench_cage(int n, const char *tmp)
                     id[(z * N + y) * N + x] = ++next;
                     fprintf(f, "v %g %g %g\n", 2.0 * x / n - 1, 2.0 * y / n - 1, 2.0 * z / n - 1);
                 }
-#define ID(x, y, z) id[((z) * N + (y)) * N + (x)]
+#define ID(x, y, z) id[((z)*N + (y)) * N + (x)]
     for (int a = 0; a < n; a++)
         for (int b = 0; b < n; b++) {
-            fprintf(f, "f %d %d %d %d\n", ID(a, b, 0), ID(a, b + 1, 0), ID(a + 1, b + 1, 0), ID(a + 1, b, 0));
-            fprintf(f, "f %d %d %d %d\n", ID(a, b, n), ID(a + 1, b, n), ID(a + 1, b + 1, n), ID(a, b + 1, n));
-            fprintf(f, "f %d %d %d %d\n", ID(a, 0, b), ID(a + 1, 0, b), ID(a + 1, 0, b + 1), ID(a, 0, b + 1));
-            fprintf(f, "f %d %d %d %d\n", ID(a, n, b), ID(a, n, b + 1), ID(a + 1, n, b + 1), ID(a + 1, n, b));
-            fprintf(f, "f %d %d %d %d\n", ID(0, a, b), ID(0, a, b + 1), ID(0, a + 1, b + 1), ID(0, a + 1, b));
-            fprintf(f, "f %d %d %d %d\n", ID(n, a, b), ID(n, a + 1, b), ID(n, a + 1, b + 1), ID(n, a, b + 1));
+            fprintf(f, "f %d %d %d %d\n", ID(a, b, 0), ID(a, b + 1, 0), ID(a + 1, b + 1, 0),
+                    ID(a + 1, b, 0));
+            fprintf(f, "f %d %d %d %d\n", ID(a, b, n), ID(a + 1, b, n), ID(a + 1, b + 1, n),
+                    ID(a, b + 1, n));
+            fprintf(f, "f %d %d %d %d\n", ID(a, 0, b), ID(a + 1, 0, b), ID(a + 1, 0, b + 1),
+                    ID(a, 0, b + 1));
+            fprintf(f, "f %d %d %d %d\n", ID(a, n, b), ID(a, n, b + 1), ID(a + 1, n, b + 1),
+                    ID(a + 1, n, b));
+            fprintf(f, "f %d %d %d %d\n", ID(0, a, b), ID(0, a, b + 1), ID(0, a + 1, b + 1),
+                    ID(0, a + 1, b));
+            fprintf(f, "f %d %d %d %d\n", ID(n, a, b), ID(n, a + 1, b), ID(n, a + 1, b + 1),
+                    ID(n, a, b + 1));
         }
 #undef ID
     fclose(f);
@@ -114,9 +120,11 @@ int main(void)
     printf("medians of %d runs, wall time (the machine is shared: timings are noisy)\n\n", RUNS);
     printf("| model | faces | faces read back | native load /ms | OBJ write /ms | OBJ read /ms "
            "| OBJ read / native | OBJ MB |\n|---|---|---|---|---|---|---|---|\n");
-    for (const char *const *m = models; *m; m++) bench_model(*m, tmp);
+    for (const char *const *m = models; *m; m++)
+        bench_model(*m, tmp);
     printf("\nCatmull-Clark cages through OpenSubdiv (isolation 3, B-spline end caps):\n\n"
            "| cage | bicubic patches | OBJ read /ms |\n|---|---|---|\n");
-    for (int n = 1; n <= 16; n *= 2) bench_cage(n, tmp);
+    for (int n = 1; n <= 16; n *= 2)
+        bench_cage(n, tmp);
     return 0;
 }

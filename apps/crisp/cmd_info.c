@@ -9,7 +9,8 @@
 
 #include "crisp/io.h"
 
-const char crisp_cmd_info_help[] = "info MODEL [--json]         summarise a CAD model (IGES, STEP, OBJ)";
+const char crisp_cmd_info_help[] =
+    "info MODEL [--json]         summarise a CAD model (IGES, STEP, OBJ)";
 
 static void usage(FILE *out)
 {
@@ -46,7 +47,8 @@ static void degrees_list(FILE *out, unsigned seen, const char *sep)
 static int colored_faces(const crisp_model *m)
 {
     int n = 0;
-    for (int i = 0; i < m->face_count; i++) n += m->faces[i].has_color != 0;
+    for (int i = 0; i < m->face_count; i++)
+        n += m->faces[i].has_color != 0;
     return n;
 }
 
@@ -74,7 +76,8 @@ static void print_text(const char *path, const crisp_model *m, const crisp_model
     else
         printf("bounding box:    (empty)\n");
     int skipped = 0;
-    for (int i = 0; i < m->skip_count; i++) skipped += m->skips[i].count;
+    for (int i = 0; i < m->skip_count; i++)
+        skipped += m->skips[i].count;
     printf("skipped:         %d\n", skipped);
     for (int i = 0; i < m->skip_count; i++)
         printf("  %6d x %s\n", m->skips[i].count, m->skips[i].what);

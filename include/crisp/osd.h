@@ -32,11 +32,11 @@ typedef struct crisp_osd_mesh crisp_osd_mesh;
 
 typedef struct crisp_osd_desc {
     int vertex_count;
-    const double *positions;   /* vertex_count * 3 */
+    const double *positions; /* vertex_count * 3 */
     int face_count;
-    const int *face_sizes;     /* face_count values, each >= 3 */
-    const int *face_vertices;  /* sum of face_sizes 0-based vertex indices, CCW seen from outside */
-    int isolation;             /* adaptive isolation level 1..10; 0: CRISP_OSD_DEFAULT_ISOLATION */
+    const int *face_sizes;    /* face_count values, each >= 3 */
+    const int *face_vertices; /* sum of face_sizes 0-based vertex indices, CCW seen from outside */
+    int isolation;            /* adaptive isolation level 1..10; 0: CRISP_OSD_DEFAULT_ISOLATION */
 } crisp_osd_desc;
 
 /* Fails (naming the face and the problem) on out-of-range indices, faces with fewer than three
@@ -46,13 +46,12 @@ void crisp_osd_mesh_destroy(crisp_osd_mesh *m);
 
 int crisp_osd_mesh_patch_count(const crisp_osd_mesh *m);
 /* The patch as a bicubic B-spline surface (see the conventions above). */
-crisp_status crisp_osd_mesh_patch_surface(const crisp_osd_mesh *m, int patch,
-                                          crisp_surface **dest);
+crisp_status crisp_osd_mesh_patch_surface(const crisp_osd_mesh *m, int patch, crisp_surface **dest);
 /* Its 16 control points (x, y, z each), u fastest: index (4 * j + i) * 3. */
 void crisp_osd_mesh_patch_points(const crisp_osd_mesh *m, int patch, double dest[48]);
 /* Where patch lies: its base face, its ptex face and the ptex box u0, v0, size. */
-void crisp_osd_mesh_patch_info(const crisp_osd_mesh *m, int patch, int *base_face,
-                               int *ptex_face, double box[3]);
+void crisp_osd_mesh_patch_info(const crisp_osd_mesh *m, int patch, int *base_face, int *ptex_face,
+                               double box[3]);
 
 /* Ptex faces: one per quad, n per n-gon (the n-gon is split into quads at its centre). */
 int crisp_osd_mesh_ptex_count(const crisp_osd_mesh *m);

@@ -17,17 +17,20 @@ static int is_iges(const char *d, size_t n)
 {
     /* the first record: 72 columns of data, then the section letter and sequence number */
     size_t len = 0;
-    while (len < n && d[len] != '\n' && d[len] != '\r') len++;
+    while (len < n && d[len] != '\n' && d[len] != '\r')
+        len++;
     return len >= 73 && d[72] == 'S';
 }
 
 static const char *skip_blank_and_comments(const char *p, const char *end)
 {
     for (;;) {
-        while (p < end && isspace((unsigned char)*p)) p++;
+        while (p < end && isspace((unsigned char)*p))
+            p++;
         if (end - p >= 2 && p[0] == '/' && p[1] == '*') {
             const char *q = p + 2;
-            while (q + 1 < end && !(q[0] == '*' && q[1] == '/')) q++;
+            while (q + 1 < end && !(q[0] == '*' && q[1] == '/'))
+                q++;
             if (q + 1 >= end) return end;
             p = q + 2;
             continue;
@@ -46,20 +49,24 @@ static int is_step(const char *d, size_t n)
 /* The first statement's keyword is one OBJ defines. */
 static int looks_like_obj(const char *d, size_t n)
 {
-    static const char *const keywords[] = {
-        "v", "vt", "vn", "vp", "f", "l", "p", "g", "o", "s", "cstype", "deg", "curv", "curv2",
-        "surf", "mtllib", "usemtl", "mg", "bmat", "step", "ctech", "stech", "call", NULL};
+    static const char *const keywords[] = {"v",    "vt",    "vn",    "vp",     "f",      "l",
+                                           "p",    "g",     "o",     "s",      "cstype", "deg",
+                                           "curv", "curv2", "surf",  "mtllib", "usemtl", "mg",
+                                           "bmat", "step",  "ctech", "stech",  "call",   NULL};
     const char *p = d, *end = d + n;
     while (p < end) {
-        while (p < end && isspace((unsigned char)*p)) p++;
+        while (p < end && isspace((unsigned char)*p))
+            p++;
         if (p < end && *p == '#') {
-            while (p < end && *p != '\n') p++;
+            while (p < end && *p != '\n')
+                p++;
             continue;
         }
         break;
     }
     const char *w = p;
-    while (p < end && !isspace((unsigned char)*p)) p++;
+    while (p < end && !isspace((unsigned char)*p))
+        p++;
     size_t len = (size_t)(p - w);
     if (len == 0 || p == end) return 0;
     for (const char *const *k = keywords; *k; k++)
@@ -84,7 +91,8 @@ static file_format detect(const char *path, const char *d, size_t n)
 crisp_status crisp_model_load(const char *path, const crisp_read_options *options,
                               crisp_model **dest)
 {
-    if (!path || !dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_model_load: NULL argument");
+    if (!path || !dest)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_model_load: NULL argument");
     *dest = NULL;
     char *data = NULL;
     size_t size = 0;
@@ -97,7 +105,9 @@ crisp_status crisp_model_load(const char *path, const crisp_read_options *option
     case FMT_STEP:
         st = crisp_read_step_mem(path, data, size, options, dest);
         break;
-    case FMT_OBJ: st = crisp__read_obj(path, data, size, options, 1, dest); break;
+    case FMT_OBJ:
+        st = crisp__read_obj(path, data, size, options, 1, dest);
+        break;
     default:
         st = crisp_error(CRISP_ERR_UNSUPPORTED,
                          "%s:1: not an IGES, STEP or OBJ file (expected 'S' in column 73 of the "

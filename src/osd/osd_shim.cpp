@@ -33,11 +33,15 @@
 
 using namespace OpenSubdiv;
 
-namespace {
+namespace
+{
 
 struct Point {
     double p[3];
-    void Clear(void * = nullptr) { p[0] = p[1] = p[2] = 0.0; }
+    void Clear(void * = nullptr)
+    {
+        p[0] = p[1] = p[2] = 0.0;
+    }
     void AddWithWeight(Point const &src, double w)
     {
         p[0] += w * src.p[0];
@@ -88,17 +92,21 @@ void sample_matrix_inverse(double inv[4][4])
         int piv = c;
         for (int r = c + 1; r < 4; r++)
             if (std::fabs(a[r][c]) > std::fabs(a[piv][c])) piv = r;
-        for (int k = 0; k < 8; k++) std::swap(a[c][k], a[piv][k]);
+        for (int k = 0; k < 8; k++)
+            std::swap(a[c][k], a[piv][k]);
         double d = a[c][c];
-        for (int k = 0; k < 8; k++) a[c][k] /= d;
+        for (int k = 0; k < 8; k++)
+            a[c][k] /= d;
         for (int r = 0; r < 4; r++) {
             if (r == c) continue;
             double f = a[r][c];
-            for (int k = 0; k < 8; k++) a[r][k] -= f * a[c][k];
+            for (int k = 0; k < 8; k++)
+                a[r][k] -= f * a[c][k];
         }
     }
     for (int r = 0; r < 4; r++)
-        for (int c = 0; c < 4; c++) inv[r][c] = a[r][4 + c];
+        for (int c = 0; c < 4; c++)
+            inv[r][c] = a[r][4 + c];
 }
 
 } // namespace
@@ -128,8 +136,8 @@ static crisp_status validate(const crisp_osd_desc *d)
                            d->vertex_count, CRISP_OSD_MAX_ELEMENTS);
     if (d->face_count <= 0 || d->face_count > CRISP_OSD_MAX_ELEMENTS || !d->face_sizes ||
         !d->face_vertices)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "osd: face count %d outside 1..%d",
-                           d->face_count, CRISP_OSD_MAX_ELEMENTS);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "osd: face count %d outside 1..%d", d->face_count,
+                           CRISP_OSD_MAX_ELEMENTS);
     if (d->isolation < 0 || d->isolation > 10)
         return crisp_error(CRISP_ERR_INVALID_ARG, "osd: isolation level %d outside 1..10",
                            d->isolation);
@@ -141,8 +149,8 @@ static crisp_status validate(const crisp_osd_desc *d)
     for (int f = 0; f < d->face_count; f++) {
         int n = d->face_sizes[f];
         if (n < 3 || n > 64)
-            return crisp_error(CRISP_ERR_INVALID_ARG, "osd: face %d has %d vertices (expected 3..64)",
-                               f, n);
+            return crisp_error(CRISP_ERR_INVALID_ARG,
+                               "osd: face %d has %d vertices (expected 3..64)", f, n);
         const int *fv = d->face_vertices + corners;
         for (int k = 0; k < n; k++) {
             if (fv[k] < 0 || fv[k] >= d->vertex_count)
@@ -151,8 +159,8 @@ static crisp_status validate(const crisp_osd_desc *d)
                                    d->vertex_count - 1);
             for (int j = 0; j < k; j++)
                 if (fv[j] == fv[k])
-                    return crisp_error(CRISP_ERR_INVALID_ARG,
-                                       "osd: face %d uses vertex %d twice", f, fv[k]);
+                    return crisp_error(CRISP_ERR_INVALID_ARG, "osd: face %d uses vertex %d twice",
+                                       f, fv[k]);
         }
         corners += n;
         if (corners > CRISP_OSD_MAX_ELEMENTS)
@@ -176,9 +184,10 @@ static crisp_status fit_patch(crisp_osd_mesh *m, const double inv[4][4], int arr
     param.Unnormalize(u0, v0);
     param.Unnormalize(u1, v1);
     int ptex = param.GetFaceId();
-    Far::PatchTable::PatchHandle const *h = m->map->FindPatch(ptex, 0.5 * (u0 + u1),
-                                                              0.5 * (v0 + v1));
-    if (!h) return crisp_error(CRISP_ERR_INTERNAL, "osd: patch %d not found in its patch map", index);
+    Far::PatchTable::PatchHandle const *h =
+        m->map->FindPatch(ptex, 0.5 * (u0 + u1), 0.5 * (v0 + v1));
+    if (!h)
+        return crisp_error(CRISP_ERR_INTERNAL, "osd: patch %d not found in its patch map", index);
     Far::ConstIndexArray cvs = m->table->GetPatchVertices(*h);
     double samples[4][4][3]; /* [row b (v)][column a (u)] */
     for (int b = 0; b < 4; b++)
@@ -188,8 +197,10 @@ static crisp_status fit_patch(crisp_osd_mesh *m, const double inv[4][4], int arr
             m->table->EvaluateBasis(*h, u, v, w);
             double p[3] = {0, 0, 0};
             for (int k = 0; k < cvs.size(); k++)
-                for (int c = 0; c < 3; c++) p[c] += w[k] * m->points[cvs[k]].p[c];
-            for (int c = 0; c < 3; c++) samples[b][a][c] = p[c];
+                for (int c = 0; c < 3; c++)
+                    p[c] += w[k] * m->points[cvs[k]].p[c];
+            for (int c = 0; c < 3; c++)
+                samples[b][a][c] = p[c];
         }
     /* C = A^-1 S A^-T per coordinate (S[b][a] sampled at u = a/3, v = b/3). */
     double tmp[4][4][3];
@@ -197,14 +208,16 @@ static crisp_status fit_patch(crisp_osd_mesh *m, const double inv[4][4], int arr
         for (int i = 0; i < 4; i++)
             for (int c = 0; c < 3; c++) {
                 double s = 0;
-                for (int a = 0; a < 4; a++) s += inv[i][a] * samples[b][a][c];
+                for (int a = 0; a < 4; a++)
+                    s += inv[i][a] * samples[b][a][c];
                 tmp[b][i][c] = s;
             }
     for (int j = 0; j < 4; j++)
         for (int i = 0; i < 4; i++)
             for (int c = 0; c < 3; c++) {
                 double s = 0;
-                for (int b = 0; b < 4; b++) s += inv[j][b] * tmp[b][i][c];
+                for (int b = 0; b < 4; b++)
+                    s += inv[j][b] * tmp[b][i][c];
                 rec->cv[(j * 4 + i) * 3 + c] = s;
             }
     rec->ptex_face = ptex;
@@ -238,7 +251,8 @@ static crisp_status build(const crisp_osd_desc *d, crisp_osd_mesh *m)
 
     m->base.resize(d->vertex_count);
     for (int i = 0; i < d->vertex_count; i++)
-        for (int c = 0; c < 3; c++) m->base[i].p[c] = d->positions[i * 3 + c];
+        for (int c = 0; c < 3; c++)
+            m->base[i].p[c] = d->positions[i * 3 + c];
 
     Far::PtexIndices ptex(*m->refiner);
     m->ptex_count = ptex.GetNumFaces();
@@ -248,7 +262,8 @@ static crisp_status build(const crisp_osd_desc *d, crisp_osd_mesh *m)
         int first = ptex.GetFaceId(f);
         m->ptex_of_face[f] = first;
         int n = d->face_sizes[f] == 4 ? 1 : d->face_sizes[f];
-        for (int k = 0; k < n && first + k < m->ptex_count; k++) m->face_of_ptex[first + k] = f;
+        for (int k = 0; k < n && first + k < m->ptex_count; k++)
+            m->face_of_ptex[first + k] = f;
     }
 
     int isolation = d->isolation ? d->isolation : CRISP_OSD_DEFAULT_ISOLATION;
@@ -352,7 +367,10 @@ extern "C" void crisp_osd_mesh_patch_info(const crisp_osd_mesh *m, int patch, in
     if (box) std::memcpy(box, r.box, sizeof r.box);
 }
 
-extern "C" int crisp_osd_mesh_ptex_count(const crisp_osd_mesh *m) { return m ? m->ptex_count : 0; }
+extern "C" int crisp_osd_mesh_ptex_count(const crisp_osd_mesh *m)
+{
+    return m ? m->ptex_count : 0;
+}
 
 extern "C" int crisp_osd_mesh_ptex_of_face(const crisp_osd_mesh *m, int face)
 {
@@ -377,7 +395,8 @@ extern "C" crisp_status crisp_osd_mesh_eval(const crisp_osd_mesh *m, int ptex_fa
         m->table->EvaluateBasis(*h, u, v, w);
         dest[0] = dest[1] = dest[2] = 0;
         for (int k = 0; k < cvs.size(); k++)
-            for (int c = 0; c < 3; c++) dest[c] += w[k] * m->points[cvs[k]].p[c];
+            for (int c = 0; c < 3; c++)
+                dest[c] += w[k] * m->points[cvs[k]].p[c];
     } catch (...) {
         return crisp_error(CRISP_ERR_INTERNAL, "osd: OpenSubdiv threw an exception");
     }
@@ -398,7 +417,8 @@ extern "C" crisp_status crisp_osd_mesh_limit_vertices(const crisp_osd_mesh *m, d
         Point *dst = out.data();
         primvar.Limit(src, dst);
         for (size_t i = 0; i < out.size(); i++)
-            for (int c = 0; c < 3; c++) dest[i * 3 + c] = out[i].p[c];
+            for (int c = 0; c < 3; c++)
+                dest[i * 3 + c] = out[i].p[c];
     } catch (std::bad_alloc const &) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "osd: out of memory");
     } catch (...) {

@@ -88,7 +88,8 @@ static void test_broken_files(void **state)
     remove(bad);
 
     const char *junk = CRISP_BIN_DIR "/test_info_junk.bin";
-    write_file(junk, "\x7f" "ELF garbage\n");
+    write_file(junk, "\x7f"
+                     "ELF garbage\n");
     snprintf(args, sizeof args, "info '%s'", junk);
     assert_int_equal(run(args, out, sizeof out), 1);
     assert_non_null(strstr(out, "not an IGES, STEP or OBJ file"));
@@ -119,9 +120,8 @@ static void test_step_linkrods(void **state)
 {
     (void)state;
     char out[16384];
-    assert_int_equal(run("info --json '" CRISP_DATA_DIR "/nurbs/occt_linkrods.step'", out,
-                         sizeof out),
-                     0);
+    assert_int_equal(
+        run("info --json '" CRISP_DATA_DIR "/nurbs/occt_linkrods.step'", out, sizeof out), 0);
     assert_non_null(strstr(out, "\"format\": \"STEP\""));
     assert_non_null(strstr(out, "\"faces\": 37,"));
 }

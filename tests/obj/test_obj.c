@@ -80,7 +80,8 @@ static void test_example9(void **state)
     assert_int_equal(c->count, 7);
     assert_true(c->rational);
     static const double knots[] = {0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 2};
-    for (int i = 0; i < 11; i++) assert_true(c->knots[i] == knots[i]);
+    for (int i = 0; i < 11; i++)
+        assert_true(c->knots[i] == knots[i]);
     assert_true(crisp_trim_loop_closure_gap(l) < 1e-12);
     assert_true(crisp_trim_loop_signed_area(l) > 0);
     double dom[4];
@@ -111,7 +112,8 @@ static void test_bezier_breakpoints(void **state)
     assert_int_equal(s->count_u, 5);
     assert_int_equal(s->count_v, 2);
     static const double ku[] = {0, 0, 0, 1, 1, 3, 3, 3};
-    for (int i = 0; i < 8; i++) assert_true(s->knots_u[i] == ku[i]);
+    for (int i = 0; i < 8; i++)
+        assert_true(s->knots_u[i] == ku[i]);
     for (double u = 0; u <= 3; u += 0.37)
         for (double v = 0; v <= 2; v += 0.29) {
             double p[3];
@@ -130,7 +132,8 @@ static int make_grid(char *text, size_t cap, const char *range)
         for (int i = 0; i < 5; i++)
             n += snprintf(text + n, cap - n, "v %d %d %g\n", i, j, sin(i * 1.3 + j * 0.7));
     n += snprintf(text + n, cap - n, "surf %s", range);
-    for (int k = 1; k <= 20; k++) n += snprintf(text + n, cap - n, " %d", k);
+    for (int k = 1; k <= 20; k++)
+        n += snprintf(text + n, cap - n, " %d", k);
     n += snprintf(text + n, cap - n, "\nparm u 0 0 0 1 2 3 3 3\nparm v 0 0 0 1 2 2 2\nend\n");
     return n;
 }
@@ -166,31 +169,30 @@ static void test_surf_range_restricts(void **state)
 static void test_syntax_variants(void **state)
 {
     (void)state;
-    static const char text[] =
-        "mtllib x.mtl\n"
-        "g part\n"
-        "v 0 0 0\n"
-        "v 1 0 0 # a comment\n"
-        "v 0 1 0\n"
-        "v 1 1 0\n"
-        "vt 0 0\n"
-        "vn 0 0 1\n"
-        "mg 1 0.5\n"
-        "ctech cparm 1\n"
-        "stech cparma 1 1\n"
-        "bmat u 1 0 0 1\n"
-        "step 1 1\n"
-        "cstype bspline\n"
-        "deg 1 1\n"
-        "surf 0 1 0 1 -4/1/1 -3 \\\n"
-        "    -2//1 -1\n"
-        "parm u 0 0 \\\n"
-        "  1 1\n"
-        "parm v 0 0 1 1\n"
-        "scrv 0 1 1\n"
-        "end\n"
-        "frobnicate 3\n"
-        "con 1 0 1 1 2 0 1 1\n";
+    static const char text[] = "mtllib x.mtl\n"
+                               "g part\n"
+                               "v 0 0 0\n"
+                               "v 1 0 0 # a comment\n"
+                               "v 0 1 0\n"
+                               "v 1 1 0\n"
+                               "vt 0 0\n"
+                               "vn 0 0 1\n"
+                               "mg 1 0.5\n"
+                               "ctech cparm 1\n"
+                               "stech cparma 1 1\n"
+                               "bmat u 1 0 0 1\n"
+                               "step 1 1\n"
+                               "cstype bspline\n"
+                               "deg 1 1\n"
+                               "surf 0 1 0 1 -4/1/1 -3 \\\n"
+                               "    -2//1 -1\n"
+                               "parm u 0 0 \\\n"
+                               "  1 1\n"
+                               "parm v 0 0 1 1\n"
+                               "scrv 0 1 1\n"
+                               "end\n"
+                               "frobnicate 3\n"
+                               "con 1 0 1 1 2 0 1 1\n";
     crisp_model *m = NULL;
     assert_int_equal(read_str(text, &m), CRISP_OK);
     assert_int_equal(m->face_count, 1);
@@ -327,15 +329,20 @@ static void test_trim_limits(void **state)
     size_t cap = (size_t)N * 24 + PIECES * 12 + 4096, n = 0;
     char *text = malloc(cap);
     assert_non_null(text);
-    for (int i = 0; i < N; i++) n += (size_t)snprintf(text + n, cap - n, "vp %d 0\n", i);
+    for (int i = 0; i < N; i++)
+        n += (size_t)snprintf(text + n, cap - n, "vp %d 0\n", i);
     n += (size_t)snprintf(text + n, cap - n, "cstype bspline\ndeg 1\ncurv2");
-    for (int i = 1; i <= N; i++) n += (size_t)snprintf(text + n, cap - n, " %d", i);
+    for (int i = 1; i <= N; i++)
+        n += (size_t)snprintf(text + n, cap - n, " %d", i);
     n += (size_t)snprintf(text + n, cap - n, "\nparm u 0");
-    for (int i = 0; i < N; i++) n += (size_t)snprintf(text + n, cap - n, " %d", i);
-    n += (size_t)snprintf(text + n, cap - n, " %d\nend\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+    for (int i = 0; i < N; i++)
+        n += (size_t)snprintf(text + n, cap - n, " %d", i);
+    n += (size_t)snprintf(text + n, cap - n,
+                          " %d\nend\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
                           "deg 1 1\nsurf 0 1 0 1 1 2 3 4\nparm u 0 0 1 1\nparm v 0 0 1 1\ntrim",
                           N - 1);
-    for (int i = 0; i < PIECES; i++) n += (size_t)snprintf(text + n, cap - n, " 0 %d 1", N - 1);
+    for (int i = 0; i < PIECES; i++)
+        n += (size_t)snprintf(text + n, cap - n, " 0 %d 1", N - 1);
     n += (size_t)snprintf(text + n, cap - n, "\nend\n");
     assert_true(n < cap);
     m = NULL;

@@ -56,7 +56,8 @@ static void assert_same_model(const crisp_model *a, const crisp_model *b)
             const crisp_trim_loop *la = &a->faces[f].loops[l], *lb = &b->faces[f].loops[l];
             assert_int_equal(la->is_outer, lb->is_outer);
             assert_int_equal(la->curve_count, lb->curve_count);
-            for (int c = 0; c < la->curve_count; c++) assert_same_curve(la->curves[c], lb->curves[c]);
+            for (int c = 0; c < la->curve_count; c++)
+                assert_same_curve(la->curves[c], lb->curves[c]);
         }
     }
 }
@@ -72,7 +73,7 @@ static crisp_curve *line2(double x0, double y0, double x1, double y1, double t0,
 /* Full circle as 4 rational quadratic arcs (weights sqrt(2)/2 at the corners), clockwise. */
 static crisp_curve *circle_cw(double cx, double cy, double r)
 {
-    static const double sq[9][2] = {{1, 0}, {1, -1}, {0, -1}, {-1, -1}, {-1, 0},
+    static const double sq[9][2] = {{1, 0},  {1, -1}, {0, -1}, {-1, -1}, {-1, 0},
                                     {-1, 1}, {0, 1},  {1, 1},  {1, 0}};
     double p[18], w[9], k[12] = {0, 0, 0, 0.25, 0.25, 0.5, 0.5, 0.75, 0.75, 1, 1, 1};
     for (int i = 0; i < 9; i++) {
@@ -279,13 +280,10 @@ static void test_step_linkrods(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_model_in_code),
-        cmocka_unit_test(test_write_errors),
+        cmocka_unit_test(test_model_in_code), cmocka_unit_test(test_write_errors),
 #ifdef CRISP_TEST_HAVE_IGES
-        cmocka_unit_test(test_iges_hammer),
-        cmocka_unit_test(test_iges_gpucast_part),
-        cmocka_unit_test(test_iges_others),
-        cmocka_unit_test(test_step_linkrods),
+        cmocka_unit_test(test_iges_hammer),   cmocka_unit_test(test_iges_gpucast_part),
+        cmocka_unit_test(test_iges_others),   cmocka_unit_test(test_step_linkrods),
 #endif
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -37,7 +37,8 @@ static void make_grid(crisp_osd_desc *d)
     /* extra vertices 20..23 below the j = 0 row */
     double extra[4][3] = {{0.5, -1, 0.2}, {2, -1.2, 0}, {3, -1.5, 0.4}, {4, -1, -0.1}};
     for (int k = 0; k < 4; k++)
-        for (int c = 0; c < 3; c++) grid_pos[(20 + k) * 3 + c] = extra[k][c];
+        for (int c = 0; c < 3; c++)
+            grid_pos[(20 + k) * 3 + c] = extra[k][c];
     int f = 0, q = 0;
     for (int j = 0; j < 3; j++)
         for (int i = 0; i < 4; i++, f++) {
@@ -58,8 +59,11 @@ static void make_grid(crisp_osd_desc *d)
     grid_faces[q++] = 22;
     grid_faces[q++] = 23;
     grid_faces[q++] = 4;
-    *d = (crisp_osd_desc){.vertex_count = 24, .positions = grid_pos, .face_count = f,
-                          .face_sizes = grid_sizes, .face_vertices = grid_faces};
+    *d = (crisp_osd_desc){.vertex_count = 24,
+                          .positions = grid_pos,
+                          .face_count = f,
+                          .face_sizes = grid_sizes,
+                          .face_vertices = grid_faces};
 }
 
 static double dist3(const double *a, const double *b)
@@ -92,9 +96,9 @@ static void check_patches_match_limit(const crisp_osd_mesh *m)
                 double su = k == 6 ? 1.0 : k * 0.161, tv = l == 6 ? 1.0 : l * 0.173;
                 double a[3], b[3];
                 crisp_surface_eval(s, su, tv, a);
-                assert_int_equal(crisp_osd_mesh_eval(m, ptex, box[0] + su * box[2],
-                                                     box[1] + tv * box[2], b),
-                                 CRISP_OK);
+                assert_int_equal(
+                    crisp_osd_mesh_eval(m, ptex, box[0] + su * box[2], box[1] + tv * box[2], b),
+                    CRISP_OK);
                 double d = dist3(a, b);
                 if (d > worst) worst = d;
             }
@@ -152,8 +156,12 @@ static void check_corners_are_limit_points(const crisp_osd_mesh *m, const crisp_
 static void test_cube(void **state)
 {
     (void)state;
-    crisp_osd_desc d = {.vertex_count = 8, .positions = cube_pos, .face_count = 6,
-                        .face_sizes = cube_sizes, .face_vertices = cube_faces, .isolation = 2};
+    crisp_osd_desc d = {.vertex_count = 8,
+                        .positions = cube_pos,
+                        .face_count = 6,
+                        .face_sizes = cube_sizes,
+                        .face_vertices = cube_faces,
+                        .isolation = 2};
     crisp_osd_mesh *m = NULL;
     assert_int_equal(crisp_osd_mesh_create(&d, &m), CRISP_OK);
     /* every face touches extraordinary (valence 3) corners: 4 x 4 x 6 at level 2 */
@@ -206,14 +214,16 @@ static void test_planar_grid_stays_planar(void **state)
     crisp_osd_desc d;
     make_grid(&d);
     double flat[24 * 3];
-    for (int i = 0; i < 24 * 3; i++) flat[i] = i % 3 == 2 ? 0.0 : grid_pos[i];
+    for (int i = 0; i < 24 * 3; i++)
+        flat[i] = i % 3 == 2 ? 0.0 : grid_pos[i];
     d.positions = flat;
     crisp_osd_mesh *m = NULL;
     assert_int_equal(crisp_osd_mesh_create(&d, &m), CRISP_OK);
     for (int p = 0; p < crisp_osd_mesh_patch_count(m); p++) {
         double cv[48];
         crisp_osd_mesh_patch_points(m, p, cv);
-        for (int k = 0; k < 16; k++) assert_true(fabs(cv[k * 3 + 2]) < 1e-12);
+        for (int k = 0; k < 16; k++)
+            assert_true(fabs(cv[k * 3 + 2]) < 1e-12);
     }
     crisp_osd_mesh_destroy(m);
 }
@@ -226,8 +236,11 @@ static void test_bad_cages_are_rejected(void **state)
     int repeated[] = {0, 1, 1, 2};
     int sizes4[] = {4};
     int sizes2[] = {2};
-    crisp_osd_desc d = {.vertex_count = 8, .positions = cube_pos, .face_count = 1,
-                        .face_sizes = sizes4, .face_vertices = out_of_range};
+    crisp_osd_desc d = {.vertex_count = 8,
+                        .positions = cube_pos,
+                        .face_count = 1,
+                        .face_sizes = sizes4,
+                        .face_vertices = out_of_range};
     assert_int_equal(crisp_osd_mesh_create(&d, &m), CRISP_ERR_INVALID_ARG);
     assert_null(m);
     d.face_vertices = repeated;
@@ -235,21 +248,32 @@ static void test_bad_cages_are_rejected(void **state)
     d.face_sizes = sizes2;
     assert_int_equal(crisp_osd_mesh_create(&d, &m), CRISP_ERR_INVALID_ARG);
     double nan_pos[24];
-    for (int i = 0; i < 24; i++) nan_pos[i] = cube_pos[i];
+    for (int i = 0; i < 24; i++)
+        nan_pos[i] = cube_pos[i];
     nan_pos[5] = NAN;
-    crisp_osd_desc dn = {.vertex_count = 8, .positions = nan_pos, .face_count = 6,
-                         .face_sizes = cube_sizes, .face_vertices = cube_faces};
+    crisp_osd_desc dn = {.vertex_count = 8,
+                         .positions = nan_pos,
+                         .face_count = 6,
+                         .face_sizes = cube_sizes,
+                         .face_vertices = cube_faces};
     assert_int_equal(crisp_osd_mesh_create(&dn, &m), CRISP_ERR_NUMERIC);
-    crisp_osd_desc di = {.vertex_count = 8, .positions = cube_pos, .face_count = 6,
-                         .face_sizes = cube_sizes, .face_vertices = cube_faces, .isolation = 11};
+    crisp_osd_desc di = {.vertex_count = 8,
+                         .positions = cube_pos,
+                         .face_count = 6,
+                         .face_sizes = cube_sizes,
+                         .face_vertices = cube_faces,
+                         .isolation = 11};
     assert_int_equal(crisp_osd_mesh_create(&di, &m), CRISP_ERR_INVALID_ARG);
     /* a non-manifold fan (three quads on one edge) is accepted and still evaluates */
-    static const double fan_pos[] = {0, 0, 0, 0, 0, 1, 1, 0, 0, 1, 0, 1, -1, 0, 0, -1, 0, 1,
-                                     0, 1, 0, 0, 1, 1};
+    static const double fan_pos[] = {0,  0, 0, 0,  0, 1, 1, 0, 0, 1, 0, 1,
+                                     -1, 0, 0, -1, 0, 1, 0, 1, 0, 0, 1, 1};
     static const int fan_sizes[] = {4, 4, 4};
     static const int fan_faces[] = {0, 2, 3, 1, 1, 5, 4, 0, 0, 6, 7, 1};
-    crisp_osd_desc df = {.vertex_count = 8, .positions = fan_pos, .face_count = 3,
-                         .face_sizes = fan_sizes, .face_vertices = fan_faces};
+    crisp_osd_desc df = {.vertex_count = 8,
+                         .positions = fan_pos,
+                         .face_count = 3,
+                         .face_sizes = fan_sizes,
+                         .face_vertices = fan_faces};
     crisp_status st = crisp_osd_mesh_create(&df, &m);
     if (st == CRISP_OK) {
         check_patches_match_limit(m);

@@ -22,28 +22,36 @@ static crisp_status make_knots(const obj_data *d, int type, int degree, obj_span
 {
     *knots = NULL;
     if (parm.off < 0)
-        return crisp_error(CRISP_ERR_PARSE, "%s:%d: %s has no 'parm' values (expected a parm "
-                           "statement before 'end')", d->name, line, what);
+        return crisp_error(CRISP_ERR_PARSE,
+                           "%s:%d: %s has no 'parm' values (expected a parm "
+                           "statement before 'end')",
+                           d->name, line, what);
     const double *p = d->reals + parm.off;
     int n = parm.count;
     if (type == OBJ_BEZIER) {
         if (n < 2)
-            return crisp_error(CRISP_ERR_PARSE, "%s:%d: %s: Bézier parm needs at least 2 "
-                               "breakpoints, found %d", d->name, line, what, n);
+            return crisp_error(CRISP_ERR_PARSE,
+                               "%s:%d: %s: Bézier parm needs at least 2 "
+                               "breakpoints, found %d",
+                               d->name, line, what, n);
         long count = (long)degree * (n - 1) + 1;
         if (count > CRISP_MAX_CONTROL_POINTS)
-            return crisp_error(CRISP_ERR_LIMIT, "%s:%d: %s: too many segments", d->name, line, what);
+            return crisp_error(CRISP_ERR_LIMIT, "%s:%d: %s: too many segments", d->name, line,
+                               what);
         double *k = crisp_malloc_array((size_t)count + (size_t)degree + 1, sizeof(double));
         if (!k) return crisp_error(CRISP_ERR_NO_MEMORY, "%s:%d: out of memory", d->name, line);
         int m = 0;
         for (int i = 0; i < n; i++) {
             if (i > 0 && !(p[i] > p[i - 1])) {
                 crisp_free(k);
-                return crisp_error(CRISP_ERR_PARSE, "%s:%d: %s: Bézier breakpoints must increase "
-                                   "(%g after %g)", d->name, line, what, p[i], p[i - 1]);
+                return crisp_error(CRISP_ERR_PARSE,
+                                   "%s:%d: %s: Bézier breakpoints must increase "
+                                   "(%g after %g)",
+                                   d->name, line, what, p[i], p[i - 1]);
             }
             int mult = (i == 0 || i == n - 1) ? degree + 1 : degree;
-            for (int r = 0; r < mult; r++) k[m++] = p[i];
+            for (int r = 0; r < mult; r++)
+                k[m++] = p[i];
         }
         *knots = k;
         *count_out = (int)count;
@@ -51,12 +59,16 @@ static crisp_status make_knots(const obj_data *d, int type, int degree, obj_span
     }
     int count = n - degree - 1;
     if (count < degree + 1)
-        return crisp_error(CRISP_ERR_PARSE, "%s:%d: %s: %d knots for degree %d (expected at least "
-                           "%d)", d->name, line, what, n, degree, 2 * degree + 2);
+        return crisp_error(CRISP_ERR_PARSE,
+                           "%s:%d: %s: %d knots for degree %d (expected at least "
+                           "%d)",
+                           d->name, line, what, n, degree, 2 * degree + 2);
     for (int i = 1; i < n; i++)
         if (p[i] < p[i - 1])
-            return crisp_error(CRISP_ERR_PARSE, "%s:%d: %s: knots must not decrease (%g after %g "
-                               "at position %d)", d->name, line, what, p[i], p[i - 1], i + 1);
+            return crisp_error(CRISP_ERR_PARSE,
+                               "%s:%d: %s: knots must not decrease (%g after %g "
+                               "at position %d)",
+                               d->name, line, what, p[i], p[i - 1], i + 1);
     double *k = crisp_malloc_array((size_t)n, sizeof(double));
     if (!k) return crisp_error(CRISP_ERR_NO_MEMORY, "%s:%d: out of memory", d->name, line);
     memcpy(k, p, sizeof(double) * (size_t)n);
@@ -93,9 +105,10 @@ static crisp_status get_curv2(obj_data *d, int idx, const crisp_curve **dest)
     if (st != CRISP_OK) return st;
     if (count != c->refs.count) {
         crisp_free(knots);
-        return crisp_error(CRISP_ERR_PARSE, "%s:%d: curv2 has %d control points but its parm u "
-                           "values imply %d (degree %d)", d->name, c->line, c->refs.count, count,
-                           c->degree);
+        return crisp_error(CRISP_ERR_PARSE,
+                           "%s:%d: curv2 has %d control points but its parm u "
+                           "values imply %d (degree %d)",
+                           d->name, c->line, c->refs.count, count, c->degree);
     }
     double *pts = crisp_malloc_array((size_t)count, 2 * sizeof(double));
     double *w = crisp_malloc_array((size_t)count, sizeof(double));
@@ -151,7 +164,8 @@ static crisp_status restrict_dir(crisp_surface *s, int dir, double a, double b)
         const double *k = dir ? s->knots_v : s->knots_u;
         int n = dir ? s->count_v : s->count_u;
         int mult = 0;
-        for (int i = 0; i < n + p + 1; i++) mult += k[i] == t;
+        for (int i = 0; i < n + p + 1; i++)
+            mult += k[i] == t;
         if (mult < p) {
             crisp_status st = dir ? crisp_surface_insert_knot_v(s, t, p - mult)
                                   : crisp_surface_insert_knot_u(s, t, p - mult);
@@ -175,9 +189,12 @@ static crisp_status restrict_dir(crisp_surface *s, int dir, double a, double b)
     double *nk = crisp_malloc_array((size_t)count + (size_t)p + 1, sizeof(double));
     if (!nk) return crisp_error(CRISP_ERR_NO_MEMORY, "obj: out of memory");
     int m = 0;
-    for (int i = 0; i <= p; i++) nk[m++] = cut_lo ? a : k[i];
-    for (int i = la + 1; i < fb; i++) nk[m++] = k[i];
-    for (int i = 0; i <= p; i++) nk[m++] = cut_hi ? b : k[n + i];
+    for (int i = 0; i <= p; i++)
+        nk[m++] = cut_lo ? a : k[i];
+    for (int i = la + 1; i < fb; i++)
+        nk[m++] = k[i];
+    for (int i = 0; i <= p; i++)
+        nk[m++] = cut_hi ? b : k[n + i];
     memcpy(k, nk, sizeof(double) * (size_t)m);
     crisp_free(nk);
     /* control points, compacted in place (new indices never exceed old ones) */
@@ -204,9 +221,10 @@ static crisp_status restrict_surface(const obj_data *d, const obj_surf *os, cris
         double d0 = dom[2 * dir], d1 = dom[2 * dir + 1], eps = 1e-9 * (d1 - d0);
         double *a = &r[2 * dir], *b = &r[2 * dir + 1];
         if (!(*a < *b) || *a < d0 - eps || *b > d1 + eps)
-            return crisp_error(CRISP_ERR_PARSE, "%s:%d: surf range %c in [%g, %g] is not an "
-                               "interval inside the knot domain [%g, %g]", d->name, os->line,
-                               dir ? 't' : 's', *a, *b, d0, d1);
+            return crisp_error(CRISP_ERR_PARSE,
+                               "%s:%d: surf range %c in [%g, %g] is not an "
+                               "interval inside the knot domain [%g, %g]",
+                               d->name, os->line, dir ? 't' : 's', *a, *b, d0, d1);
         if (*a < d0 + eps) *a = d0;
         if (*b > d1 - eps) *b = d1;
         crisp_status st = restrict_dir(s, dir, *a, *b);
@@ -235,7 +253,8 @@ static crisp_status make_loop(obj_data *d, const obj_loop *ol, crisp_trim_loop *
         crisp_curve_domain(c, &c0, &c1);
         double lo = fmin(t[0], t[1]), hi = fmax(t[0], t[1]), eps = 1e-9 * (c1 - c0);
         if (lo < c0 - eps || hi > c1 + eps || !(hi - lo > eps))
-            return crisp_error(CRISP_ERR_PARSE, "%s:%d: trim piece %d uses [%g, %g] of curv2 %d "
+            return crisp_error(CRISP_ERR_PARSE,
+                               "%s:%d: trim piece %d uses [%g, %g] of curv2 %d "
                                "(expected a non-empty range inside its domain [%g, %g])",
                                d->name, ol->line, i + 1, t[0], t[1], (int)t[2] + 1, c0, c1);
         lo = fmax(lo, c0);
@@ -243,8 +262,10 @@ static crisp_status make_loop(obj_data *d, const obj_loop *ol, crisp_trim_loop *
         /* many trims may reuse one long curv2: bound the total, not just each statement */
         d->trim_points += c->count;
         if (d->trim_points > CRISP_MAX_CONTROL_POINTS)
-            return crisp_error(CRISP_ERR_LIMIT, "%s:%d: trim loops use more than %d control "
-                               "points in all", d->name, ol->line, CRISP_MAX_CONTROL_POINTS);
+            return crisp_error(CRISP_ERR_LIMIT,
+                               "%s:%d: trim loops use more than %d control "
+                               "points in all",
+                               d->name, ol->line, CRISP_MAX_CONTROL_POINTS);
         crisp_curve *piece = NULL;
         /* the whole curve is copied, not trimmed, so unclamped knots survive a round trip */
         st = (lo == c0 && hi == c1) ? crisp_curve_copy(c, &piece)
@@ -264,7 +285,8 @@ static crisp_status make_loop(obj_data *d, const obj_loop *ol, crisp_trim_loop *
  * of models that crisp itself wrote. */
 static int already_normal(const crisp_face *face, const double dom[4])
 {
-    double scale = fmax(1.0, fmax(fmax(fabs(dom[0]), fabs(dom[1])), fmax(fabs(dom[2]), fabs(dom[3]))));
+    double scale =
+        fmax(1.0, fmax(fmax(fabs(dom[0]), fabs(dom[1])), fmax(fabs(dom[2]), fabs(dom[3]))));
     for (int i = 0; i < face->loop_count; i++) {
         const crisp_trim_loop *l = &face->loops[i];
         if (crisp_trim_loop_closure_gap(l) > 64 * DBL_EPSILON * scale) return 0;
@@ -282,23 +304,24 @@ static crisp_status note_dropped(crisp_model *m, const obj_data *d, int line, co
     return crisp_model_note_skip(m, what);
 }
 
-static crisp_status build_surf(obj_data *d, const obj_surf *os, double closure_frac,
-                               crisp_model *m)
+static crisp_status build_surf(obj_data *d, const obj_surf *os, double closure_frac, crisp_model *m)
 {
     double *ku = NULL, *kv = NULL, *pts = NULL, *w = NULL;
     int nu = 0, nv = 0;
     crisp_face face = {0};
     face.source_id = os->line;
     set_color(d, os->material, &face);
-    crisp_status st = make_knots(d, os->type, os->degree_u, os->knots_u, "surf (parm u)", os->line,
-                                 &ku, &nu);
+    crisp_status st =
+        make_knots(d, os->type, os->degree_u, os->knots_u, "surf (parm u)", os->line, &ku, &nu);
     if (st == CRISP_OK)
-        st = make_knots(d, os->type, os->degree_v, os->knots_v, "surf (parm v)", os->line, &kv,
-                        &nv);
+        st =
+            make_knots(d, os->type, os->degree_v, os->knots_v, "surf (parm v)", os->line, &kv, &nv);
     if (st != CRISP_OK) goto done;
     if ((long)nu * nv != os->refs.count) {
-        st = crisp_error(CRISP_ERR_PARSE, "%s:%d: surf has %d control points but its parm u/v "
-                         "values imply %d x %d", d->name, os->line, os->refs.count, nu, nv);
+        st = crisp_error(CRISP_ERR_PARSE,
+                         "%s:%d: surf has %d control points but its parm u/v "
+                         "values imply %d x %d",
+                         d->name, os->line, os->refs.count, nu, nv);
         goto done;
     }
     pts = crisp_malloc_array((size_t)os->refs.count, 3 * sizeof(double));
@@ -388,7 +411,8 @@ static crisp_status build_polygons(obj_data *d, crisp_model *m)
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", d->name);
         goto done;
     }
-    for (int i = 0; i < d->v_count; i++) map[i] = -1;
+    for (int i = 0; i < d->v_count; i++)
+        map[i] = -1;
     int nf = 0, nc = 0, nv = 0;
     for (int f = 0; f < d->poly_count; f++) {
         const obj_polygon *p = &d->polys[f];
@@ -416,8 +440,11 @@ static crisp_status build_polygons(obj_data *d, crisp_model *m)
         sizes[nf++] = p->refs.count;
     }
     if (nf == 0) goto done;
-    crisp_osd_desc desc = {.vertex_count = nv, .positions = pos, .face_count = nf,
-                           .face_sizes = sizes, .face_vertices = fv};
+    crisp_osd_desc desc = {.vertex_count = nv,
+                           .positions = pos,
+                           .face_count = nf,
+                           .face_sizes = sizes,
+                           .face_vertices = fv};
     st = crisp_osd_mesh_create(&desc, &mesh);
     if (st != CRISP_OK) {
         crisp_error_prefix("%s: polygon mesh (f statements from line %d)", d->name, lines[0]);

@@ -16,8 +16,8 @@ typedef struct obj_span {
 typedef struct obj_curv2 {
     int type, rational, degree;
     int line;
-    obj_span refs;  /* into obj_data.refs: vp indices */
-    obj_span knots; /* into obj_data.reals: parm u (B-spline knots or Bézier breakpoints) */
+    obj_span refs;      /* into obj_data.refs: vp indices */
+    obj_span knots;     /* into obj_data.reals: parm u (B-spline knots or Bézier breakpoints) */
     crisp_curve *curve; /* converted on first use (owned) */
     int failed;         /* conversion failed once: the error was already reported */
 } obj_curv2;
@@ -31,11 +31,11 @@ typedef struct obj_loop {
 typedef struct obj_surf {
     int type, rational, degree_u, degree_v;
     int line;
-    int material; /* index into obj_data.materials, -1 for none */
+    int material;    /* index into obj_data.materials, -1 for none */
     double range[4]; /* s0 s1 t0 t1 */
     obj_span refs;   /* v indices, u fastest */
     obj_span knots_u, knots_v;
-    obj_span loops;  /* into obj_data.loops */
+    obj_span loops; /* into obj_data.loops */
 } obj_surf;
 
 typedef struct obj_polygon {
@@ -55,13 +55,13 @@ typedef struct obj_material {
  * value w * x is formed in extended precision, so that the 21-digit Euclidean values that
  * crisp_write_obj writes give back exactly the homogeneous doubles that were written. */
 typedef struct obj_vertex {
-    double x[4];          /* x y z w */
-    long double ext[3];   /* x y z */
+    double x[4];        /* x y z w */
+    long double ext[3]; /* x y z */
 } obj_vertex;
 
 typedef struct obj_pvertex {
-    double x[3];          /* u v w (w = 1 when absent) */
-    long double ext[2];   /* u v */
+    double x[3];        /* u v w (w = 1 when absent) */
+    long double ext[2]; /* u v */
 } obj_pvertex;
 
 typedef struct obj_data {

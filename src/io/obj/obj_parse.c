@@ -27,14 +27,14 @@ typedef struct parser {
     /* state */
     int cstype, rational, deg_count, deg[2];
     char cstype_name[16];
-    int element; /* EL_* */
+    int element;  /* EL_* */
     int material; /* current usemtl, -1 for none */
     int element_line;
     obj_data *d;
     crisp_model *m;
 } parser;
 
-/* ---- lexing ------------------------------------------------------------------------------------ */
+/* ---- lexing ---------------------------------------------------------------------------------- */
 
 static int is_space(char c)
 {
@@ -67,11 +67,13 @@ static crisp_status next_statement(parser *ps)
             continue;
         }
         if (c == '#') {
-            while (ps->p < ps->end && *ps->p != '\n') ps->p++;
+            while (ps->p < ps->end && *ps->p != '\n')
+                ps->p++;
             continue;
         }
         if (c == '\\' && rest_is_blank(ps->p + 1, ps->end)) {
-            while (ps->p < ps->end && *ps->p != '\n') ps->p++;
+            while (ps->p < ps->end && *ps->p != '\n')
+                ps->p++;
             if (ps->p < ps->end) {
                 ps->p++;
                 ps->line++;
@@ -80,12 +82,13 @@ static crisp_status next_statement(parser *ps)
             continue;
         }
         const char *s = ps->p;
-        while (ps->p < ps->end && !is_space(*ps->p) && *ps->p != '\n' && *ps->p != '#') ps->p++;
+        while (ps->p < ps->end && !is_space(*ps->p) && *ps->p != '\n' && *ps->p != '#')
+            ps->p++;
         if (crisp_grow((void **)&ps->toks, &ps->tok_cap, ps->tok_count + 1, sizeof(tok)) !=
             CRISP_OK)
             return crisp_error(CRISP_ERR_NO_MEMORY, "%s:%d: out of memory", ps->name, ps->line);
-        ps->toks[ps->tok_count++] = (tok){s, (int)(ps->p - s), ps->line,
-                                          (int)(s - ps->line_start) + 1};
+        ps->toks[ps->tok_count++] =
+            (tok){s, (int)(ps->p - s), ps->line, (int)(s - ps->line_start) + 1};
     }
     return CRISP_OK;
 }
@@ -119,7 +122,8 @@ static crisp_status parse_real_ext(parser *ps, const tok *t, double *dest, long 
     if (ext) {
         /* strtold is slow; it only adds anything for more digits than a double holds */
         int digits = 0;
-        for (const char *c = buf; *c && *c != 'e' && *c != 'E'; c++) digits += *c >= '0' && *c <= '9';
+        for (const char *c = buf; *c && *c != 'e' && *c != 'E'; c++)
+            digits += *c >= '0' && *c <= '9';
         long double xl = digits > 17 ? strtold(buf, NULL) : (long double)x;
         *ext = isfinite(xl) ? xl : (long double)x;
     }
@@ -166,7 +170,7 @@ static crisp_status parse_ref(parser *ps, const tok *t, int count, const char *w
     return CRISP_OK;
 }
 
-/* ---- storage ----------------------------------------------------------------------------------- */
+/* ---- storage --------------------------------------------------------------------------------- */
 
 static crisp_status grow_int(void **p, int *cap, int need, size_t size)
 {
@@ -201,7 +205,7 @@ static crisp_status note(parser *ps, const char *what)
     return crisp_model_note_skip(ps->m, what);
 }
 
-/* ---- statements -------------------------------------------------------------------------------- */
+/* ---- statements ------------------------------------------------------------------------------ */
 
 static crisp_status need_args(parser *ps, const tok *t, size_t n, size_t min, const char *usage)
 {
@@ -288,14 +292,17 @@ static crisp_status stmt_deg(parser *ps)
 }
 
 /* A new element implicitly ends one left open (lenient: some writers forget `end`). */
-static void close_element(parser *ps) { ps->element = EL_NONE; }
+static void close_element(parser *ps)
+{
+    ps->element = EL_NONE;
+}
 
 static crisp_status check_cstype(parser *ps, const tok *t, const char *kind, int *skip)
 {
     *skip = 0;
     if (ps->cstype == 0)
-        return crisp_error(CRISP_ERR_PARSE, "%s:%d:%d: %s before any 'cstype' statement",
-                           ps->name, t->line, t->col, kind);
+        return crisp_error(CRISP_ERR_PARSE, "%s:%d:%d: %s before any 'cstype' statement", ps->name,
+                           t->line, t->col, kind);
     if (ps->cstype < 0) {
         char what[96];
         snprintf(what, sizeof what, "OBJ %s with cstype %s: unsupported", kind, ps->cstype_name);
@@ -314,8 +321,8 @@ static crisp_status stmt_curv2(parser *ps)
     int skip;
     if ((st = check_cstype(ps, t, "curv2", &skip)) != CRISP_OK) return st;
     if (ps->deg_count < 1)
-        return crisp_error(CRISP_ERR_PARSE, "%s:%d:%d: curv2 before any 'deg' statement",
-                           ps->name, t->line, t->col);
+        return crisp_error(CRISP_ERR_PARSE, "%s:%d:%d: curv2 before any 'deg' statement", ps->name,
+                           t->line, t->col);
     obj_data *d = ps->d;
     if (skip) {
         /* keep the numbering of curv2 elements: a placeholder that fails on use */
@@ -413,7 +420,8 @@ static crisp_status stmt_parm(parser *ps)
         span = dir ? &s->knots_v : &s->knots_u;
     }
     if (span->off >= 0)
-        return tok_error(ps, &t[1], CRISP_ERR_PARSE, "parameter values given twice for this element");
+        return tok_error(ps, &t[1], CRISP_ERR_PARSE,
+                         "parameter values given twice for this element");
     span->off = d->real_count;
     for (size_t i = 2; i < ps->tok_count; i++) {
         double x;
@@ -480,10 +488,10 @@ static crisp_status stmt_f(parser *ps)
 }
 
 /* Statements that are valid OBJ but carry nothing crisp uses. */
-static const char *const ignored[] = {"vt", "vn", "g", "o", "s", "mg", "con", "ctech", "stech",
-                                      "bmat", "step", "lod", "bevel",
-                                      "c_interp", "d_interp", "trace_obj", "shadow_obj", "maplib",
-                                      "usemap", "res", NULL};
+static const char *const ignored[] = {
+    "vt",       "vn",        "g",          "o",      "s",      "mg",    "con",
+    "ctech",    "stech",     "bmat",       "step",   "lod",    "bevel", "c_interp",
+    "d_interp", "trace_obj", "shadow_obj", "maplib", "usemap", "res",   NULL};
 
 static crisp_status statement(parser *ps)
 {
@@ -500,8 +508,9 @@ static crisp_status statement(parser *ps)
     if (tok_is(k, "hole")) return stmt_trim(ps, 0);
     if (tok_is(k, "end")) {
         if (ps->element == EL_NONE)
-            return crisp_error(CRISP_ERR_PARSE, "%s:%d:%d: 'end' without an open curv2/surf element",
-                               ps->name, k->line, k->col);
+            return crisp_error(CRISP_ERR_PARSE,
+                               "%s:%d:%d: 'end' without an open curv2/surf element", ps->name,
+                               k->line, k->col);
         close_element(ps);
         return CRISP_OK;
     }
@@ -530,8 +539,10 @@ static crisp_status statement(parser *ps)
         }
         return CRISP_OK;
     }
-    if (tok_is(k, "scrv")) return ps->element == EL_SURF ? note(ps, "OBJ scrv: special curves ignored") : CRISP_OK;
-    if (tok_is(k, "sp")) return ps->element == EL_SURF ? note(ps, "OBJ sp: special points ignored") : CRISP_OK;
+    if (tok_is(k, "scrv"))
+        return ps->element == EL_SURF ? note(ps, "OBJ scrv: special curves ignored") : CRISP_OK;
+    if (tok_is(k, "sp"))
+        return ps->element == EL_SURF ? note(ps, "OBJ sp: special points ignored") : CRISP_OK;
     if (tok_is(k, "curv")) {
         close_element(ps);
         ps->element = EL_SKIP;
@@ -552,8 +563,14 @@ static crisp_status statement(parser *ps)
 crisp_status crisp__obj_parse(const char *name, const char *text, size_t size, obj_data *d,
                               crisp_model *m)
 {
-    parser ps = {.name = name, .p = text, .end = text + size, .line_start = text, .line = 1,
-                 .d = d, .m = m, .material = -1};
+    parser ps = {.name = name,
+                 .p = text,
+                 .end = text + size,
+                 .line_start = text,
+                 .line = 1,
+                 .d = d,
+                 .m = m,
+                 .material = -1};
     d->name = name;
     crisp_status st = CRISP_OK;
     for (;;) {
@@ -569,7 +586,8 @@ crisp_status crisp__obj_parse(const char *name, const char *text, size_t size, o
 void crisp__obj_data_free(obj_data *d)
 {
     if (!d) return;
-    for (int i = 0; i < d->curv2_count; i++) crisp_curve_destroy(d->curv2[i].curve);
+    for (int i = 0; i < d->curv2_count; i++)
+        crisp_curve_destroy(d->curv2[i].curve);
     crisp_free(d->v);
     crisp_free(d->vp);
     crisp_free(d->refs);

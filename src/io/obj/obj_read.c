@@ -14,8 +14,7 @@ crisp_status crisp__read_obj(const char *name, const char *data, size_t size,
     if (!dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_obj: dest is NULL");
     *dest = NULL;
     if (!name) name = "(memory)";
-    if (!data && size)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: no data", name);
+    if (!data && size) return crisp_error(CRISP_ERR_INVALID_ARG, "%s: no data", name);
     crisp_model *m = NULL;
     crisp_status st = crisp_model_create(&m);
     if (st != CRISP_OK) return st;
@@ -45,8 +44,7 @@ crisp_status crisp_read_obj_mem(const char *name, const char *data, size_t size,
     return crisp__read_obj(name, data, size, options, 0, dest);
 }
 
-crisp_status crisp_read_obj(const char *path, const crisp_read_options *options,
-                            crisp_model **dest)
+crisp_status crisp_read_obj(const char *path, const crisp_read_options *options, crisp_model **dest)
 {
     if (!path) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_obj: path is NULL");
     char *data = NULL;

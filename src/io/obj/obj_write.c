@@ -41,13 +41,17 @@ static void begin(writer *w, const char *keyword)
     w->items = 0;
 }
 
-static void end_line(writer *w) { fputc('\n', w->f); }
+static void end_line(writer *w)
+{
+    fputc('\n', w->f);
+}
 
 static void write_knots(writer *w, const char *dir, const double *k, int n)
 {
     begin(w, "parm ");
     fputs(dir, w->f);
-    for (int i = 0; i < n; i++) item(w, "%.17g", k[i]);
+    for (int i = 0; i < n; i++)
+        item(w, "%.17g", k[i]);
     end_line(w);
 }
 
@@ -68,7 +72,8 @@ static void write_curves(writer *w, const crisp_face *face, long *vp_base, long 
             }
             fprintf(w->f, "cstype %sbspline\ndeg %d\n", cu->rational ? "rat " : "", cu->degree);
             begin(w, "curv2");
-            for (int i = 0; i < cu->count; i++) item(w, "%.0f", (double)(*vp_base + i + 1));
+            for (int i = 0; i < cu->count; i++)
+                item(w, "%.0f", (double)(*vp_base + i + 1));
             end_line(w);
             write_knots(w, "u", cu->knots, cu->count + cu->degree + 1);
             fputs("end\n", w->f);
@@ -102,7 +107,8 @@ static void write_face(writer *w, const crisp_face *face, int index, long *v_bas
         const double *h = s->cpw + 4 * (size_t)i;
         if (s->rational) {
             fputc('v', w->f);
-            for (int c = 0; c < 3; c++) euclidean(w->f, h[c], h[3]);
+            for (int c = 0; c < 3; c++)
+                euclidean(w->f, h[c], h[3]);
             fprintf(w->f, " %.17g\n", h[3]);
         } else
             fprintf(w->f, "v %.17g %.17g %.17g\n", h[0], h[1], h[2]);
@@ -118,8 +124,10 @@ static void write_face(writer *w, const crisp_face *face, int index, long *v_bas
     fprintf(w->f, "cstype %sbspline\ndeg %d %d\n", s->rational ? "rat " : "", s->degree_u,
             s->degree_v);
     begin(w, "surf");
-    for (int i = 0; i < 4; i++) item(w, "%.17g", dom[i]);
-    for (int i = 0; i < n; i++) item(w, "%.0f", (double)(*v_base + i + 1));
+    for (int i = 0; i < 4; i++)
+        item(w, "%.17g", dom[i]);
+    for (int i = 0; i < n; i++)
+        item(w, "%.0f", (double)(*v_base + i + 1));
     end_line(w);
     write_knots(w, "u", s->knots_u, s->count_u + s->degree_u + 1);
     write_knots(w, "v", s->knots_v, s->count_v + s->degree_v + 1);
