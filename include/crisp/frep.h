@@ -78,8 +78,11 @@ typedef struct crisp_frep crisp_frep;
 
 crisp_status crisp_frep_create(crisp_frep **dest);
 void crisp_frep_destroy(crisp_frep *f);
-/* Node constructors. Equal nodes are merged (hash-consing); constants are folded and identities
- * that keep every float result bit for bit (x*1, x/1, min(x,x), --x, x+(-0) ...) are applied. */
+/* Node constructors. Equal nodes are merged (hash-consing, with a canonical argument order for
+ * + * min max); constants are folded with the evaluators' own float semantics; identities that
+ * keep every float result are applied (x*1, x/1, x*-1 -> -x, x*x -> square, min(x,x), --x,
+ * |-x| -> |x|, a-c -> a+(-c), a+(-b) -> a-b), and x+0 -> x, which can differ only in the sign of
+ * a zero result. */
 crisp_status crisp_frep_const(crisp_frep *f, float value, crisp_frep_node *dest);
 /* axis 0, 1, 2 = X, Y, Z */
 crisp_status crisp_frep_var(crisp_frep *f, int axis, crisp_frep_node *dest);
