@@ -415,6 +415,31 @@ static void test_bspline_parameter_range(void **state)
     crisp_model_destroy(m);
 }
 
+/* A 142 whose parameter-space curve is an entity crisp does not read (130 offset curve) falls
+ * back to projecting its model-space curve. */
+static void test_pcurve_fallback_to_projection(void **state)
+{
+    (void)state;
+    test_entity e[] = {
+        {128, 0, 0, "00010000", 0,
+         "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"
+         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"},             /* DE 1 */
+        {110, 0, 0, "00010500", 0, "1.,1.,0.,3.,1.,0.;"},                  /* DE 3 */
+        {110, 0, 0, "00010500", 0, "3.,1.,0.,3.,3.,0.;"},                  /* DE 5 */
+        {110, 0, 0, "00010500", 0, "3.,3.,0.,1.,3.,0.;"},                  /* DE 7 */
+        {110, 0, 0, "00010500", 0, "1.,3.,0.,1.,1.,0.;"},                  /* DE 9 */
+        {102, 0, 0, "00010500", 0, "4,3,5,7,9;"},                          /* DE 11 */
+        {130, 0, 0, "00010500", 0, "11,1,0,0,0,0.1,0.,0.1,0.,0.,0.,1.,0.,1.;"}, /* DE 13 */
+        {142, 0, 0, "00010500", 0, "0,1,13,11,1;"},                        /* DE 15 */
+        {144, 0, 0, NULL, 0, "1,1,0,15;"},                                 /* DE 17 */
+    };
+    crisp_model *m = load(e, N_OF(e));
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces[0].loop_count, 1);
+    assert_true(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0]) - 0.25) < 1e-6);
+    crisp_model_destroy(m);
+}
+
 /* ---- records -------------------------------------------------------------------------------- */
 
 static void test_lenient_records(void **state)
@@ -662,6 +687,7 @@ int main(void)
         cmocka_unit_test(test_bounded_plane),
         cmocka_unit_test(test_brep_face_projected),
         cmocka_unit_test(test_bspline_parameter_range),
+        cmocka_unit_test(test_pcurve_fallback_to_projection),
         cmocka_unit_test(test_lenient_records),
         cmocka_unit_test(test_unsupported_counted),
         cmocka_unit_test(test_malformed),

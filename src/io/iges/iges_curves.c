@@ -460,7 +460,7 @@ crisp_status iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *
                 f->ents[ch].used = 1;
                 continue;
             }
-            if (!iges_is_curve_type(type)) {
+            if (!iges_is_curve_type(type) && type != 130) {
                 st = iges_fail(f, e, CRISP_ERR_PARSE,
                                "parameter %d: DE %d is entity %d, expected a curve", 2 + i,
                                iges_de(ch), type);

@@ -167,30 +167,37 @@ static crisp_status curve_on_surface(iges_file *f, int e, const iges_surface *s,
     if (!st) st = iges_ptr(f, e, 4, 1, &cp);
     if (st) return st;
     f->ents[e].used = 1;
-    if (bp >= 0 && !iges_is_curve_type(f->ents[bp].type))
+    if (bp >= 0 && !iges_is_curve_type(f->ents[bp].type) && f->ents[bp].type != 130)
         return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 3: DE %d is entity %d, expected a "
                                                 "curve",
                          iges_de(bp), f->ents[bp].type);
-    if (cp >= 0 && !iges_is_curve_type(f->ents[cp].type))
+    if (cp >= 0 && !iges_is_curve_type(f->ents[cp].type) && f->ents[cp].type != 130)
         return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 4: DE %d is entity %d, expected a "
                                                 "curve",
                          iges_de(cp), f->ents[cp].type);
     if (bp >= 0 && !s->is_plane) {
         int first = uv->count;
-        if ((st = iges_curve_convert(f, bp, 2, NULL, 1, uv))) return st;
-        if (cp >= 0) iges_mark_used(f, cp, 0);
-        for (int i = first; i < uv->count && !st; i++) {
-            st = iges_surface_map_curve(s, tol_uv, &uv->items[i]);
-            if (st)
-                crisp_error_prefix("%s: DE %d (entity 142)", f->name, iges_de(e));
+        st = iges_curve_convert(f, bp, 2, NULL, 1, uv);
+        if (st == CRISP_ERR_UNSUPPORTED && cp >= 0) {
+            /* a parameter-space curve crisp cannot read: fall back to projecting C */
+            crisp_error_clear();
+            while (uv->count > first) crisp_curve_destroy(uv->items[--uv->count]);
+        } else {
+            if (st) return st;
+            if (cp >= 0) iges_mark_used(f, cp, 0);
+            for (int i = first; i < uv->count && !st; i++) {
+                st = iges_surface_map_curve(s, tol_uv, &uv->items[i]);
+                if (st) crisp_error_prefix("%s: DE %d (entity 142)", f->name, iges_de(e));
+            }
+            return st;
         }
-        return st;
     }
     if (cp < 0)
-        return iges_fail(f, e, CRISP_ERR_PARSE,
-                         s->is_plane ? "a curve on a plane needs its model-space curve "
-                                       "(parameter 4)"
-                                     : "neither a parameter-space nor a model-space curve");
+        return s->is_plane
+                   ? iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
+                               "a curve on a plane without its model-space curve (parameter 4)")
+                   : iges_fail(f, e, CRISP_ERR_PARSE,
+                               "neither a parameter-space nor a model-space curve");
     if (bp >= 0) iges_mark_used(f, bp, 0);
     iges_curves model = {0};
     st = iges_curve_convert(f, cp, 3, NULL, 1, &model);

@@ -207,7 +207,7 @@ static crisp_status one_curve(iges_file *f, int e, int k, int depth, crisp_curve
     int c;
     crisp_status st = iges_ptr(f, e, k, 0, &c);
     if (st) return st;
-    if (!iges_is_curve_type(f->ents[c].type))
+    if (!iges_is_curve_type(f->ents[c].type) && f->ents[c].type != 130)
         return iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected a "
                                                 "curve",
                          k, iges_de(c), f->ents[c].type);
