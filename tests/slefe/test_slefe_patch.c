@@ -266,6 +266,46 @@ static void test_screen_width_shrinks(void **state)
     }
 }
 
+static double patch_width(const crisp_bezier_patch *p, int m)
+{
+    double lo[GRID4], up[GRID4], w = 0;
+    assert_int_equal(crisp_slefe_patch(p, m, lo, up), CRISP_OK);
+    for (int g = 0; g < CRISP_SLEFE_GRID(m); g++)
+        for (int c = 0; c < 3; c++)
+            w = fmax(w, up[g * 4 + c] - lo[g * 4 + c]);
+    return w;
+}
+
+/* Object space: doubling m shrinks the largest width of random bicubic patches to at most 0.3
+ * (m = 2, 4, 8), and of degree (5, 6) patches to at most 0.3 from m = 8 and 0.35 from m = 4: a
+ * patch whose second differences excite a single a_j of degree 6 can reach the univariate table
+ * ratio 0.322 there (see test_doubling_shrinks in test_slefe.c). */
+static void test_patch_doubling_shrinks(void **state)
+{
+    (void)state;
+    rng r = {17};
+    double worst3 = 0, worst56 = 0;
+    for (int trial = 0; trial < 60; trial++) {
+        double cpw[MAXN];
+        crisp_bezier_patch p;
+        int high = trial % 2;
+        random_patch(&r, high ? 5 : 3, high ? 6 : 3, 0, cpw, &p);
+        for (int m = high ? 4 : 2; m <= 8; m *= 2) {
+            double ratio = patch_width(&p, 2 * m) / patch_width(&p, m);
+            double limit = !high || m == 8 ? 0.3 : 0.35;
+            if (high)
+                worst56 = fmax(worst56, ratio);
+            else
+                worst3 = fmax(worst3, ratio);
+            if (!(ratio <= limit))
+                fail_msg("trial %d degree %s m %d -> %d: ratio %g", trial, high ? "(5,6)" : "3", m,
+                         2 * m, ratio);
+        }
+    }
+    print_message("worst width ratio under doubling m: bicubic %.3f, (5,6) %.3f\n", worst3,
+                  worst56);
+}
+
 /* A patch around the eye: W is not positive everywhere, so the caller must split. */
 static void test_screen_eye_plane(void **state)
 {
@@ -458,6 +498,7 @@ int main(void)
         cmocka_unit_test(test_bicubic_matches_two_pass),
         cmocka_unit_test(test_screen_enclosure),
         cmocka_unit_test(test_screen_width_shrinks),
+        cmocka_unit_test(test_patch_doubling_shrinks),
         cmocka_unit_test(test_screen_eye_plane),
         cmocka_unit_test(test_boxes_screen_width),
         cmocka_unit_test(test_screen_error_bound),
