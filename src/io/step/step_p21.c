@@ -105,7 +105,7 @@ static crisp_status emit(parser *p, size_t n, uint32_t *first)
     if (f->value_count + n > f->value_cap &&
         crisp_grow((void **)&f->values, &f->value_cap, f->value_count + n, sizeof *f->values) != CRISP_OK)
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
-    memcpy(f->values + f->value_count, p->stack + p->stack_len - n, n * sizeof *f->values);
+    if (n) memcpy(f->values + f->value_count, p->stack + p->stack_len - n, n * sizeof *f->values);
     *first = (uint32_t)f->value_count;
     f->value_count += n;
     p->stack_len -= n;
