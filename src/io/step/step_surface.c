@@ -268,8 +268,38 @@ static double profile_search(const step_surface *s, const double *p, double lo, 
 
 /* Nearest profile parameter: a local search around the reference first (points along an edge
  * move little between calls), the whole range when the local minimum is on the window's edge. */
+/* Newton's method on the extrusion distance for a B-spline profile, from ref; NAN when it does
+ * not converge inside [lo, hi]. */
+static double extrusion_newton(const step_surface *s, const double *p, double lo, double hi, double ref)
+{
+    const crisp_curve *c = s->profile.nurbs;
+    double dd = dot3(s->axis_d, s->axis_d), t = ref;
+    for (int it = 0; it < 16; it++) {
+        double d[9], q[3][3];
+        crisp_curve_derivs(c, t, 2, d);
+        double x[3] = {d[0] - p[0], d[1] - p[1], d[2] - p[2]};
+        const double *vec[3] = {x, d + 3, d + 6};
+        for (int k = 0; k < 3; k++) { /* remove the extrusion component */
+            double h = dot3(vec[k], s->axis_d) / dd;
+            for (int j = 0; j < 3; j++) q[k][j] = vec[k][j] - h * s->axis_d[j];
+        }
+        double f = dot3(q[0], q[1]), df = dot3(q[1], q[1]) + dot3(q[0], q[2]);
+        if (!(df > 0)) return NAN;
+        double step = f / df;
+        t -= step;
+        if (t < lo || t > hi) return NAN;
+        if (fabs(step) <= 1e-14 * (hi - lo)) return t;
+    }
+    return NAN;
+}
+
 static double profile_invert(const step_surface *s, const double *p, double lo, double hi, double ref)
 {
+    if (isfinite(ref) && ref >= lo && ref <= hi && s->kind == STEP_SURF_EXTRUSION &&
+        s->profile.kind == STEP_CURVE_BSPLINE) {
+        double t = extrusion_newton(s, p, lo, hi, ref);
+        if (isfinite(t) && fabs(t - ref) <= 0.02 * (hi - lo)) return t;
+    }
     if (isfinite(ref) && ref >= lo && ref <= hi) {
         double d = 0.02 * (hi - lo), a = ref - d, b = ref + d;
         if (a < lo) a = lo;
