@@ -68,7 +68,7 @@ typedef struct crisp_trim_density_desc {
     int width, height;     /* viewport in pixels */
     double v0, v1;         /* the face's v-range, cut into strip_count strips */
     int strip_count;
-    int max_depth; /* levels of 2x2 subdivision per patch and strip; 0 means 8 */
+    int max_depth; /* levels of 2x2 subdivision per patch and strip; 0 means 16 */
     double slack;  /* refine while the bound exceeds slack times the sampled value; 0 means 1.5 */
     double margin_px;     /* the frustum is widened by this many pixels on each side; 0 means 2 */
     crisp_arena *scratch; /* reset by the caller between frames; NULL: an internal one is made */
