@@ -23,8 +23,15 @@
 #include "trim/trim_internal.h"
 
 #define IMG 512
-#define STRIPS 64
-#define RUNS 7
+#define RUNS 11
+
+/* Thread CPU time in seconds: other jobs share the machine, and descheduled time is not ours. */
+static double cpu_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
 
 /* ---- direct test on the true curves (Schollmeyer & Froehlich 2009 style) -------------------- */
 
@@ -299,101 +306,111 @@ int main(void)
     direct_build(&D, pc, npieces);
 
     bench_print_machine(stdout);
-    printf("trim: %d trim pieces (%d monotone), planar rational biquadratic patch, %dx%d image, "
-           "n_V = %d strips, one thread, median of %d runs; other jobs share the machine, so "
-           "absolute times are noisy and the ratios (same run) are what to read\n\n",
-           npieces, D.count, IMG, IMG, STRIPS, RUNS);
     printf(
-        "| distance | px on face | rows | crossings | table bytes | texture (rows x cols) | "
-        "texture bytes | table/texture | plan ms | lookups ms | direct ms | direct/(plan+lookups) "
-        "| table vs direct disagree |\n");
-    printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        "trim: %d trim pieces (%d monotone), planar rational biquadratic patch, %dx%d image, "
+        "one thread, median of %d runs; other jobs share the machine, so "
+        "absolute times (thread CPU time) are noisy and the ratios (same run) are what to read\n\n",
+        npieces, D.count, IMG, IMG, RUNS);
+    static const int strip_counts[2] = {16, 64};
+    for (int sc = 0; sc < 2; sc++) {
+        const int STRIPS = strip_counts[sc];
+        printf("\nn_V = %d strips\n\n", STRIPS);
+        printf("| distance | px on face | rows | crossings | table bytes | texture (rows x cols) | "
+               "texture bytes | table/texture | plan ms | lookups ms | direct ms | "
+               "direct/(plan+lookups) "
+               "| table vs direct disagree |\n");
+        printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
 
-    double uvb[2];
-    crisp_bezier_curve_eval(&pc[0], 0.6, uvb); /* a point of the outer boundary */
-    double P[3] = {axis_map(xs, wu, uvb[0]), axis_map(ys, wv, uvb[1]), 0.0};
-    double *uv = malloc(sizeof(double) * 2 * IMG * IMG);
-    crisp_trim_plan plan = {0};
-    for (double dist = 3.0; dist >= 0.9e-4; dist *= 0.1) {
-        double dir[3] = {0.25, -0.35, 1.0}, nd = sqrt(0.25 * 0.25 + 0.35 * 0.35 + 1.0);
-        double eye[3], target[3] = {P[0], P[1], P[2]};
-        for (int k = 0; k < 3; k++)
-            eye[k] = P[k] + dist * dir[k] / nd;
-        crisp_mat4 vp, inv;
-        tu_camera(eye, target, 35.0, 0.1 * dist, 100.0, IMG, IMG, vp);
-        crisp_mat4_inverse(vp, inv);
-        /* The (u, v) every pixel centre sees: ray / plane z = 0, then the separable inverse. */
-        int npx = 0;
-        for (int j = 0; j < IMG; j++)
-            for (int i = 0; i < IMG; i++) {
-                double nx = 2.0 * (i + 0.5) / IMG - 1.0, ny = 1.0 - 2.0 * (j + 0.5) / IMG;
-                double a[4], b[4], ca[4] = {nx, ny, -1, 1}, cb[4] = {nx, ny, 1, 1};
-                crisp_mat4_mulv(inv, ca, a);
-                crisp_mat4_mulv(inv, cb, b);
-                for (int k = 0; k < 3; k++)
-                    a[k] /= a[3], b[k] /= b[3];
-                if (a[2] == b[2]) continue;
-                double s = a[2] / (a[2] - b[2]);
-                if (s < 0 || s > 1) continue;
-                double x = a[0] + s * (b[0] - a[0]), y = a[1] + s * (b[1] - a[1]);
-                if (x < 0 || x > 2 || y < 0 || y > 2) continue;
-                uv[2 * npx] = axis_inverse(xs, wu, x);
-                uv[2 * npx + 1] = axis_inverse(ys, wv, y);
-                npx++;
+        double uvb[2];
+        crisp_bezier_curve_eval(&pc[0], 0.6, uvb); /* a point of the outer boundary */
+        double P[3] = {axis_map(xs, wu, uvb[0]), axis_map(ys, wv, uvb[1]), 0.0};
+        double *uv = malloc(sizeof(double) * 2 * IMG * IMG);
+        crisp_trim_plan plan = {0};
+        for (double dist = 3.0; dist >= 0.9e-4; dist *= 0.1) {
+            double dir[3] = {0.25, -0.35, 1.0}, nd = sqrt(0.25 * 0.25 + 0.35 * 0.35 + 1.0);
+            double eye[3], target[3] = {P[0], P[1], P[2]};
+            for (int k = 0; k < 3; k++)
+                eye[k] = P[k] + dist * dir[k] / nd;
+            crisp_mat4 vp, inv;
+            tu_camera(eye, target, 35.0, 0.1 * dist, 100.0, IMG, IMG, vp);
+            crisp_mat4_inverse(vp, inv);
+            /* The (u, v) every pixel centre sees: ray / plane z = 0, then the separable inverse. */
+            int npx = 0;
+            for (int j = 0; j < IMG; j++)
+                for (int i = 0; i < IMG; i++) {
+                    double nx = 2.0 * (i + 0.5) / IMG - 1.0, ny = 1.0 - 2.0 * (j + 0.5) / IMG;
+                    double a[4], b[4], ca[4] = {nx, ny, -1, 1}, cb[4] = {nx, ny, 1, 1};
+                    crisp_mat4_mulv(inv, ca, a);
+                    crisp_mat4_mulv(inv, cb, b);
+                    for (int k = 0; k < 3; k++)
+                        a[k] /= a[3], b[k] /= b[3];
+                    if (a[2] == b[2]) continue;
+                    double s = a[2] / (a[2] - b[2]);
+                    if (s < 0 || s > 1) continue;
+                    double x = a[0] + s * (b[0] - a[0]), y = a[1] + s * (b[1] - a[1]);
+                    if (x < 0 || x > 2 || y < 0 || y > 2) continue;
+                    uv[2 * npx] = axis_inverse(xs, wu, x);
+                    uv[2 * npx + 1] = axis_inverse(ys, wv, y);
+                    npx++;
+                }
+            crisp_trim_plan_desc pd = {.patches = &patch,
+                                       .patch_count = 1,
+                                       .pieces = pc,
+                                       .piece_count = npieces,
+                                       .view_proj = &vp,
+                                       .width = IMG,
+                                       .height = IMG,
+                                       .v0 = 0,
+                                       .v1 = 1,
+                                       .strip_count = STRIPS};
+            double t_plan[RUNS], t_look[RUNS], t_dir[RUNS];
+            volatile long sink = 0;
+            long disagree = 0;
+            for (int r = 0; r < RUNS; r++) {
+                double t0 = cpu_now();
+                if (crisp_trim_plan_face(&pd, &plan)) {
+                    fprintf(stderr, "plan failed: %s\n", crisp_error_message());
+                    return 1;
+                }
+                double t1 = cpu_now();
+                long in = 0;
+                for (int p = 0; p < npx; p++)
+                    in += crisp_trim_table_test(&plan.table, uv[2 * p], uv[2 * p + 1]);
+                double t2 = cpu_now();
+                long in2 = 0;
+                for (int p = 0; p < npx; p++)
+                    in2 += direct_test(&D, uv[2 * p], uv[2 * p + 1]);
+                double t3 = cpu_now();
+                sink += in + in2;
+                t_plan[r] = 1e3 * (t1 - t0), t_look[r] = 1e3 * (t2 - t1),
+                t_dir[r] = 1e3 * (t3 - t2);
             }
-        crisp_trim_plan_desc pd = {.patches = &patch,
-                                   .patch_count = 1,
-                                   .pieces = pc,
-                                   .piece_count = npieces,
-                                   .view_proj = &vp,
-                                   .width = IMG,
-                                   .height = IMG,
-                                   .v0 = 0,
-                                   .v1 = 1,
-                                   .strip_count = STRIPS};
-        double t_plan[RUNS], t_look[RUNS], t_dir[RUNS];
-        volatile long sink = 0;
-        long disagree = 0;
-        for (int r = 0; r < RUNS; r++) {
-            double t0 = crisp_time_now();
-            if (crisp_trim_plan_face(&pd, &plan)) {
-                fprintf(stderr, "plan failed: %s\n", crisp_error_message());
-                return 1;
+            for (int p = 0; p < npx; p++)
+                disagree += crisp_trim_table_test(&plan.table, uv[2 * p], uv[2 * p + 1]) !=
+                            direct_test(&D, uv[2 * p], uv[2 * p + 1]);
+            double mp = bench_median(t_plan, RUNS), ml = bench_median(t_look, RUNS),
+                   md = bench_median(t_dir, RUNS);
+            /* The texture is uniform over the face: its rows as fine as the finest row of the
+             * table, its columns one per pixel of u-extent at the largest u-density. */
+            double hmin = HUGE_VAL, maxru = 0;
+            for (int i = 0; i < STRIPS; i++) {
+                if (!plan.mu[i]) continue;
+                hmin = fmin(hmin, (plan.vis_v[2 * i + 1] - plan.vis_v[2 * i]) / plan.mu[i]);
+                maxru = fmax(maxru, plan.rho_u[i]);
             }
-            double t1 = crisp_time_now();
-            long in = 0;
-            for (int p = 0; p < npx; p++)
-                in += crisp_trim_table_test(&plan.table, uv[2 * p], uv[2 * p + 1]);
-            double t2 = crisp_time_now();
-            long in2 = 0;
-            for (int p = 0; p < npx; p++)
-                in2 += direct_test(&D, uv[2 * p], uv[2 * p + 1]);
-            double t3 = crisp_time_now();
-            sink += in + in2;
-            t_plan[r] = 1e3 * (t1 - t0), t_look[r] = 1e3 * (t2 - t1), t_dir[r] = 1e3 * (t3 - t2);
+            double trows = ceil(1.0 / hmin), tcols = ceil(maxru * 1.0);
+            double tbytes = trows * tcols; /* one byte per texel */
+            size_t bytes = crisp_trim_table_bytes(&plan.table);
+            printf(
+                "| %.4g | %d | %u | %u | %zu | %.0f x %.0f | %.3g | %.4f%% | %.3f | %.3f | %.2f | "
+                "%.1fx | %ld |\n",
+                dist, npx, plan.table.row_count, plan.table.row_offset[plan.table.row_count], bytes,
+                trows, tcols, tbytes, 100.0 * bytes / tbytes, mp, ml, md, md / (mp + ml), disagree);
+            (void)sink;
         }
-        for (int p = 0; p < npx; p++)
-            disagree += crisp_trim_table_test(&plan.table, uv[2 * p], uv[2 * p + 1]) !=
-                        direct_test(&D, uv[2 * p], uv[2 * p + 1]);
-        double mp = bench_median(t_plan, RUNS), ml = bench_median(t_look, RUNS),
-               md = bench_median(t_dir, RUNS);
-        uint32_t maxmu = 0;
-        double maxru = 0;
-        for (int i = 0; i < STRIPS; i++) {
-            if (plan.mu[i] > maxmu) maxmu = plan.mu[i];
-            if (plan.mu[i] && plan.rho_u[i] > maxru) maxru = plan.rho_u[i];
-        }
-        double trows = (double)STRIPS * maxmu, tcols = ceil(maxru * 1.0);
-        double tbytes = trows * tcols; /* one byte per texel */
-        size_t bytes = crisp_trim_table_bytes(&plan.table);
-        printf("| %.4g | %d | %u | %u | %zu | %.0f x %.0f | %.3g | %.4f%% | %.3f | %.3f | %.2f | "
-               "%.1fx | %ld |\n",
-               dist, npx, plan.table.row_count, plan.table.row_offset[plan.table.row_count], bytes,
-               trows, tcols, tbytes, 100.0 * bytes / tbytes, mp, ml, md, md / (mp + ml), disagree);
-        (void)sink;
+        crisp_trim_plan_free(&plan);
+        free(uv);
     }
-    crisp_trim_plan_free(&plan);
     direct_free(&D);
-    free(uv);
     return 0;
 }

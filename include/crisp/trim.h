@@ -6,7 +6,7 @@
  *   crisp_trim_pieces_check          validate a face's trim pieces (2D homogeneous Bézier)
  *   crisp_trim_scan_density          per strip, a guaranteed upper bound of the v- and u-scan
  *                                    densities (pixels per unit parameter) over the visible part
- *   crisp_trim_rows_from_density     mu_i = ceil((nu_{i+1} - nu_i) rho_i) scan lines per strip
+ *   crisp_trim_rows_from_density     mu_i = ceil((b_i - a_i) rho_i) scan lines per strip
  *   crisp_trim_tessellate            trim pieces -> polylines within a quarter scan line (v) and a
  *                                    quarter pixel's worth of u of the true curves
  *   crisp_trim_table_build / _test / _bytes / _free
@@ -27,12 +27,15 @@
  *   inside iff the number of crossings of its scan line strictly left of u (u_c < u) is odd.
  *   Strips: the face's v-range [v0, v1] is cut into strip_count uniform strips
  *   nu_i = v0 + i (v1 - v0) / strip_count; strip i owns [nu_i, nu_{i+1}) and the last strip also
- *   owns v1. Strip i has mu_i rows; row j of strip i covers v in [nu_i + j h_i, nu_i + (j + 1) h_i)
- *   with h_i = (nu_{i+1} - nu_i) / mu_i, and its scan line sits at the centre of that interval, so
- * a pixel's v is never more than h_i / 2 from the scan line that decides it. The screen is the
- * viewport of desc.width x desc.height pixels, pixel (i, j) with j = 0 the top row (DESIGN.md
- * section 6): x~ = (X/W + 1) width / 2, y~ = (1 - Y/W) height / 2 from OpenGL clip coordinates (X,
- * Y, Z, W) = view_proj * (homogeneous point).
+ *   owns v1. Strip i has mu_i rows spread over the strip's row range [a_i, b_i], the part of the
+ *   strip that the density bound found visible (the whole strip when not given); row j covers v
+ *   in [a_i + j h_i, a_i + (j + 1) h_i) with h_i = (b_i - a_i) / mu_i, and its scan line sits at
+ *   the centre of that interval, so a pixel's v is never more than h_i / 2 from the scan line
+ *   that decides it. Restricting rows to the visible part keeps the table small at any zoom
+ *   (eq. 11 of Wu & Peters with nu_i, nu_{i+1} replaced by a_i, b_i).
+ *   The screen is the viewport of width x height pixels, pixel (i, j) with j = 0 the top row
+ *   (DESIGN.md section 6): x~ = (X/W + 1) width / 2, y~ = (1 - Y/W) height / 2 from OpenGL clip
+ *   coordinates (X, Y, Z, W) = view_proj * (homogeneous point).
  *
  * The guarantee (why the constants are what they are): with rho_v bounding the Euclidean screen
  * length of d(x~, y~)/dv and rho_u that of d(x~, y~)/du over the visible part of a strip, a pixel
@@ -68,9 +71,9 @@ typedef struct crisp_trim_density_desc {
     int width, height;     /* viewport in pixels */
     double v0, v1;         /* the face's v-range, cut into strip_count strips */
     int strip_count;
-    int max_depth; /* levels of 2x2 subdivision per patch and strip; 0 means 16 */
-    double slack;  /* refine while the bound exceeds slack times the sampled value; 0 means 1.5 */
-    double margin_px;     /* the frustum is widened by this many pixels on each side; 0 means 2 */
+    int max_depth;    /* levels of 2x2 subdivision per patch and strip; 0 means 16 */
+    double slack;     /* refine while the bound exceeds slack times the sampled value; 0 means 2 */
+    double margin_px; /* the frustum is widened by this many pixels on each side; 0 means 2 */
     crisp_arena *scratch; /* reset by the caller between frames; NULL: an internal one is made */
 } crisp_trim_density_desc;
 
@@ -86,16 +89,20 @@ typedef struct crisp_trim_density_stats {
  * widened frustum (between the near and far planes); both 0 when no such point exists (the strip
  * is invisible). The bound comes from Bézier coefficients of the numerators X_v W - X W_v (products
  * of Bernstein forms) and the smallest coefficient of W, on sub-patches refined where W is not
- * provably positive or the bound is loose. rho_v, rho_u: strip_count values each. stats may be
- * NULL. */
+ * provably positive or the bound is loose. rho_v, rho_u: strip_count values each. vis_v (may be
+ * NULL): 2 values per strip, the v-interval covered by the sub-patches not culled (every point of
+ * the strip inside the widened frustum lies in it; the strip's bounds when invisible). stats may
+ * be NULL. */
 crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double *rho_v,
-                                     double *rho_u, crisp_trim_density_stats *stats);
+                                     double *rho_u, double *vis_v, crisp_trim_density_stats *stats);
 
-/* mu[i] = ceil((nu_{i+1} - nu_i) rho_v[i]) for visible strips (at least 1), 0 for rho_v[i] == 0.
- * The total is clamped to CRISP_TRIM_MAX_ROWS by scaling down (then the 1 px guarantee is lost;
- * *clamped, if not NULL, is set to 1). */
-void crisp_trim_rows_from_density(const double *rho_v, int strip_count, double v0, double v1,
-                                  uint32_t *mu, int *clamped);
+/* mu[i] = ceil((b_i - a_i) rho_v[i]) for visible strips (at least 1), 0 for rho_v[i] == 0, with
+ * [a_i, b_i] = vis_v[2i], vis_v[2i + 1] (vis_v NULL: the whole strip). Each strip is capped at
+ * CRISP_TRIM_MAX_ROWS / strip_count rows, which a visible strip with a finite bound never needs;
+ * *clamped, if not NULL, is set to 1 when a cap was hit (that strip loses the 1 px guarantee,
+ * the others keep it). */
+void crisp_trim_rows_from_density(const double *rho_v, const double *vis_v, int strip_count,
+                                  double v0, double v1, uint32_t *mu, int *clamped);
 
 /* ---- trim curve tessellation ----------------------------------------------------------------- */
 
@@ -116,6 +123,7 @@ typedef struct crisp_trim_tess_desc {
     double v0, v1; /* strips as for the density */
     int strip_count;
     const uint32_t *mu;  /* rows per strip */
+    const double *row_v; /* 2 per strip: the v-range its rows cover; NULL: whole strips */
     const double *rho_u; /* u-density per strip */
     /* Tolerances as fractions: v within tol_v * h_i, u within tol_u / rho_u; 0 means 0.25. */
     double tol_v, tol_u;
@@ -139,14 +147,17 @@ typedef struct crisp_trim_table {
     uint32_t *row_base;   /* strip_count + 1: strip i owns rows row_base[i] .. row_base[i+1] - 1 */
     uint32_t *row_offset; /* row_count + 1: row r holds u[row_offset[r] .. row_offset[r+1] - 1] */
     double *u;            /* crossings, sorted within each row */
-    size_t cap_strips, cap_rows, cap_u;
+    double *row_v;        /* 2 per strip: the v-range [a_i, b_i] its rows cover */
+    double strip_scale;   /* strip_count / (v1 - v0) */
+    size_t cap_strips, cap_rows, cap_u, cap_row_v;
 } crisp_trim_table;
 
 typedef struct crisp_trim_table_desc {
     const crisp_trim_polyline *polyline; /* NULL or no pieces: a face without loops */
     double v0, v1;
     int strip_count;
-    const uint32_t *mu; /* rows per strip */
+    const uint32_t *mu;  /* rows per strip */
+    const double *row_v; /* 2 per strip: the v-range its rows cover; NULL: whole strips */
 } crisp_trim_table_desc;
 
 /* Builds the table in O(segments + crossings) with a counting pass and a filling pass; rows are
@@ -154,10 +165,12 @@ typedef struct crisp_trim_table_desc {
 crisp_status crisp_trim_table_build(const crisp_trim_table_desc *desc, crisp_trim_table *dest);
 /* 1 when (u, v) is inside the trimmed face. v outside [v0, v1], in a strip with no rows
  * (invisible) or NaN: 0. v exactly on a strip boundary belongs to the strip above it (the
- * boundary is the strip's bottom), v1 to the last strip; u equal to a crossing counts that
- * crossing as not left of u. */
+ * boundary is the strip's bottom), v1 to the last strip; v in a strip but outside its row range
+ * (a part the density bound found invisible) uses the nearest row; u equal to a crossing counts
+ * that crossing as not left of u. */
 int crisp_trim_table_test(const crisp_trim_table *t, double u, double v);
-/* Bytes the table's content occupies: row bases, row offsets and crossings (4, 4 and 8 bytes). */
+/* Bytes of the table's content: per strip a row base and a row range (4 + 16 bytes), per row an
+ * offset (4 bytes), per crossing 8 bytes. */
 size_t crisp_trim_table_bytes(const crisp_trim_table *t);
 void crisp_trim_table_free(crisp_trim_table *t);
 
@@ -169,8 +182,9 @@ void crisp_trim_table_free(crisp_trim_table *t);
 typedef struct crisp_trim_plan {
     int strip_count;
     double *rho_v, *rho_u;
+    double *vis_v; /* 2 per strip */
     uint32_t *mu;
-    int clamped; /* rows were clamped to CRISP_TRIM_MAX_ROWS */
+    int clamped; /* some strip hit its row cap (crisp_trim_rows_from_density) */
     crisp_trim_density_stats density_stats;
     crisp_trim_polyline polyline;
     crisp_trim_table table;

@@ -3,17 +3,29 @@
  * B_i^m B_k^n is C(m,i) C(n,k) / C(m+n,i+k) B_{i+k}^{m+n}; Farouki & Rajan 1988). */
 #include "trim_internal.h"
 
+#include <pthread.h>
 #include <string.h>
+
+#define BINOM_N (4 * CRISP_MAX_DEGREE + 2)
+
+static double binom_table[BINOM_N][BINOM_N];
+static pthread_once_t binom_once = PTHREAD_ONCE_INIT;
+
+static void binom_init(void)
+{
+    for (int n = 0; n < BINOM_N; n++) {
+        binom_table[n][0] = binom_table[n][n] = 1.0;
+        for (int k = 1; k < n; k++)
+            binom_table[n][k] = binom_table[n - 1][k - 1] + binom_table[n - 1][k];
+    }
+}
 
 double crisp__trim_binom(int n, int k)
 {
-    /* Multiplicative formula: every partial product is an integer below 2^53 for n <= 32. */
-    if (k < 0 || k > n) return 0.0;
-    if (k > n - k) k = n - k;
-    double r = 1.0;
-    for (int i = 1; i <= k; i++)
-        r = r * (double)(n - k + i) / (double)i;
-    return r;
+    /* Pascal's triangle, exact in doubles for n < 62. */
+    if (k < 0 || k > n || n >= BINOM_N) return 0.0;
+    pthread_once(&binom_once, binom_init);
+    return binom_table[n][k];
 }
 
 void crisp__trim_split(const double *c, int d, int stride, double t, double *lo, double *hi)

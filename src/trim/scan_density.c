@@ -27,6 +27,7 @@ typedef struct density_ctx {
     double *levels;  /* (max_depth + 1) * 4 children * 4 planes * n */
     double *scratch; /* derivative and product work space */
     double cur_v, cur_u;
+    double vis_lo, vis_hi; /* v-range of the sub-patches kept */
     int visible, unbounded;
     long budget;
     crisp_trim_density_stats *stats;
@@ -65,24 +66,56 @@ static void derivative(const double *c, int du, int dv, int dir, double *dest)
     }
 }
 
-/* max |P_dir W - P W_dir| over the coefficients of the numerator. */
-static double numerator_bound(density_ctx *c, const double *P, const double *W, int dir)
+/* Bernstein coefficients of the numerator P_dir W - P W_dir (degree (2du, 2dv - 1) for dir 1,
+ * (2du - 1, 2dv) for dir 0), degree-elevated by one in dir to the degree (2du, 2dv) of W^2. */
+static void numerator(density_ctx *c, const double *P, const double *W, int dir, double *dest)
 {
     int du = c->du, dv = c->dv;
     int ddu = dir ? du : du - 1, ddv = dir ? dv - 1 : dv;
-    if (ddu < 0 || ddv < 0) return 0.0; /* degree 0 in that direction: constant */
     double *Pd = c->scratch, *Wd = Pd + c->n;
     double *p1 = Wd + c->n;
-    size_t pn = (size_t)(du + ddu + 1) * (size_t)(dv + ddv + 1);
+    int m = du + ddu, n = dv + ddv; /* numerator degrees */
+    size_t pn = (size_t)(m + 1) * (size_t)(n + 1);
     double *p2 = p1 + pn;
     derivative(P, du, dv, dir, Pd);
     derivative(W, du, dv, dir, Wd);
     crisp__trim_product2(Pd, ddu, ddv, W, du, dv, p1);
     crisp__trim_product2(P, du, dv, Wd, ddu, ddv, p2);
-    double m = 0.0;
     for (size_t k = 0; k < pn; k++)
-        m = fmax(m, fabs(p1[k] - p2[k]));
-    return m;
+        p1[k] -= p2[k];
+    /* Elevate: c'_k = k/(d+1) c_{k-1} + (1 - k/(d+1)) c_k along dir. */
+    int M = 2 * du, N = 2 * dv;
+    for (int j = 0; j <= N; j++)
+        for (int i = 0; i <= M; i++) {
+            double v;
+            if (dir) {
+                double lo = j > 0 ? p1[(j - 1) * (m + 1) + i] : 0.0;
+                double hi = j < N ? p1[j * (m + 1) + i] : 0.0;
+                v = (double)j / N * lo + (1.0 - (double)j / N) * hi;
+            } else {
+                double lo = i > 0 ? p1[j * (m + 1) + i - 1] : 0.0;
+                double hi = i < M ? p1[j * (m + 1) + i] : 0.0;
+                v = (double)i / M * lo + (1.0 - (double)i / M) * hi;
+            }
+            dest[j * (M + 1) + i] = v;
+        }
+}
+
+/* With W > 0, W^2 = sum w_k B_k has w_k > 0, and for the vector numerator (N_x, N_y) = sum n_k B_k
+ * the triangle inequality gives |(N_x, N_y)| <= sum |n_k| B_k <= max_k (|n_k| / w_k) W^2: a bound
+ * of the screen speed by coefficient ratios, much tighter than max|n| / min(W)^2 where W varies. */
+static double speed_bound(density_ctx *c, const double *X, const double *Y, const double *W,
+                          const double *w2, int dir)
+{
+    int M = 2 * c->du, N = 2 * c->dv;
+    size_t pn = (size_t)(M + 1) * (size_t)(N + 1);
+    double *nx = c->scratch + 2 * c->n + 2 * pn, *ny = nx + pn;
+    numerator(c, X, W, dir, nx);
+    numerator(c, Y, W, dir, ny);
+    double b2 = 0.0, wx2 = c->wx * c->wx, wy2 = c->wy * c->wy;
+    for (size_t k = 0; k < pn; k++)
+        b2 = fmax(b2, (wx2 * nx[k] * nx[k] + wy2 * ny[k] * ny[k]) / (w2[k] * w2[k]));
+    return sqrt(b2);
 }
 
 /* Value and partials of a tensor-product Bernstein patch at (s, t). */
@@ -95,32 +128,47 @@ static void eval_tp(const double *c, int du, int dv, double s, double t, double 
     out[1] = crisp__trim_eval(rs, dv, 1, t);
 }
 
-/* Largest screen speeds sampled on a 3 x 3 grid of the sub-patch's points inside the widened
- * frustum; returns the number of such points. */
+/* Value and partials at a corner (a, b in {0, 1}) straight from the coefficients. */
+static void corner_tp(const double *c, int du, int dv, int a, int b, double out[3])
+{
+    int i = a ? du : 0, j = b ? dv : 0, di = a ? -1 : 1, dj = b ? -1 : 1;
+    out[0] = c[j * (du + 1) + i];
+    out[1] = (a ? 1 : -1) * du * (c[j * (du + 1) + i] - c[j * (du + 1) + i + di]);
+    out[2] = (b ? 1 : -1) * dv * (c[j * (du + 1) + i] - c[(j + dj) * (du + 1) + i]);
+}
+
+/* Largest screen speeds sampled at the sub-patch's four corners and centre, among the points
+ * inside the widened frustum; returns the number of such points. (Only steers refinement.) */
 static int sample_speeds(const density_ctx *c, const double *s, double sv, double su, double *ev,
                          double *eu)
 {
     int seen = 0;
     *ev = *eu = 0.0;
-    for (int b = 0; b <= 2; b++) {
-        for (int a = 0; a <= 2; a++) {
-            double X[3], Y[3], Z[3], W[3];
-            eval_tp(s, c->du, c->dv, 0.5 * a, 0.5 * b, X);
-            eval_tp(s + c->n, c->du, c->dv, 0.5 * a, 0.5 * b, Y);
-            eval_tp(s + 2 * c->n, c->du, c->dv, 0.5 * a, 0.5 * b, Z);
-            eval_tp(s + 3 * c->n, c->du, c->dv, 0.5 * a, 0.5 * b, W);
-            if (!(W[0] > 0.0) || fabs(X[0]) > (1 + c->mx) * W[0] ||
-                fabs(Y[0]) > (1 + c->my) * W[0] || fabs(Z[0]) > W[0])
-                continue;
-            seen++;
-            double w2 = W[0] * W[0];
-            double xu = c->wx * (X[1] * W[0] - X[0] * W[1]) / w2;
-            double yu = c->wy * (Y[1] * W[0] - Y[0] * W[1]) / w2;
-            double xv = c->wx * (X[2] * W[0] - X[0] * W[2]) / w2;
-            double yv = c->wy * (Y[2] * W[0] - Y[0] * W[2]) / w2;
-            *eu = fmax(*eu, hypot(xu, yu) * su);
-            *ev = fmax(*ev, hypot(xv, yv) * sv);
+    for (int k = 0; k < 5; k++) {
+        double X[3], Y[3], Z[3], W[3];
+        if (k < 4) {
+            int a = k & 1, b = k >> 1;
+            corner_tp(s, c->du, c->dv, a, b, X);
+            corner_tp(s + c->n, c->du, c->dv, a, b, Y);
+            corner_tp(s + 2 * c->n, c->du, c->dv, a, b, Z);
+            corner_tp(s + 3 * c->n, c->du, c->dv, a, b, W);
+        } else {
+            eval_tp(s, c->du, c->dv, 0.5, 0.5, X);
+            eval_tp(s + c->n, c->du, c->dv, 0.5, 0.5, Y);
+            eval_tp(s + 2 * c->n, c->du, c->dv, 0.5, 0.5, Z);
+            eval_tp(s + 3 * c->n, c->du, c->dv, 0.5, 0.5, W);
         }
+        if (!(W[0] > 0.0) || fabs(X[0]) > (1 + c->mx) * W[0] || fabs(Y[0]) > (1 + c->my) * W[0] ||
+            fabs(Z[0]) > W[0])
+            continue;
+        seen++;
+        double w2 = W[0] * W[0];
+        double xu = c->wx * (X[1] * W[0] - X[0] * W[1]) / w2;
+        double yu = c->wy * (Y[1] * W[0] - Y[0] * W[1]) / w2;
+        double xv = c->wx * (X[2] * W[0] - X[0] * W[2]) / w2;
+        double yv = c->wy * (Y[2] * W[0] - Y[0] * W[2]) / w2;
+        *eu = fmax(*eu, sqrt(xu * xu + yu * yu) * su);
+        *ev = fmax(*ev, sqrt(xv * xv + yv * yv) * sv);
     }
     return seen;
 }
@@ -156,7 +204,8 @@ static void split_half(const density_ctx *c, const double *s, double *kids)
 }
 
 /* s: the sub-patch (4 planes); su, sv: d(local)/d(global) scale factors. */
-static void refine(density_ctx *c, const double *s, int depth, double su, double sv)
+static void refine(density_ctx *c, const double *s, int depth, double su, double sv, double va,
+                   double vb)
 {
     if (c->stats) c->stats->subpatches++;
     c->budget--;
@@ -170,13 +219,11 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
         wmin = fmin(wmin, W[k]);
     int last = depth >= c->max_depth || c->budget <= 0;
     if (wmin > 0.0) {
-        double w2 = wmin * wmin;
-        double bv =
-            sv * hypot(c->wx * numerator_bound(c, X, W, 1), c->wy * numerator_bound(c, Y, W, 1)) /
-            w2;
-        double bu =
-            su * hypot(c->wx * numerator_bound(c, X, W, 0), c->wy * numerator_bound(c, Y, W, 0)) /
-            w2;
+        size_t pn = (size_t)(2 * c->du + 1) * (size_t)(2 * c->dv + 1);
+        double *w2 = c->scratch + 2 * c->n + 4 * pn;
+        crisp__trim_product2(W, c->du, c->dv, W, c->du, c->dv, w2);
+        double bv = sv * speed_bound(c, X, Y, W, w2, 1);
+        double bu = su * speed_bound(c, X, Y, W, w2, 0);
         /* Rounding in the products is relative ~1e-15; widen so the bound stays an upper bound. */
         bv *= 1.0 + 1e-9;
         bu *= 1.0 + 1e-9;
@@ -191,24 +238,30 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
             if (bv <= fmax(c->cur_v, c->floor_v) && bu <= c->cur_u) accept = 1;
         }
         if (accept) {
+            c->vis_lo = fmin(c->vis_lo, va);
+            c->vis_hi = fmax(c->vis_hi, vb);
             c->cur_v = fmax(c->cur_v, bv);
             c->cur_u = fmax(c->cur_u, bu);
             c->visible = 1;
             return;
         }
     } else if (last) {
+        c->vis_lo = fmin(c->vis_lo, va);
+        c->vis_hi = fmax(c->vis_hi, vb);
         c->unbounded = 1;
         c->visible = 1;
         return;
     }
     double *kids = c->levels + (size_t)(depth + 1) * 16 * c->n;
     split_half(c, s, kids);
+    double vm = 0.5 * (va + vb);
     for (int k = 0; k < 4; k++)
-        refine(c, kids + (size_t)k * 4 * c->n, depth + 1, 2 * su, 2 * sv);
+        refine(c, kids + (size_t)k * 4 * c->n, depth + 1, 2 * su, 2 * sv, k < 2 ? va : vm,
+               k < 2 ? vm : vb);
 }
 
 crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double *rho_v,
-                                     double *rho_u, crisp_trim_density_stats *stats)
+                                     double *rho_u, double *vis_v, crisp_trim_density_stats *stats)
 {
     if (!desc || !rho_v || !rho_u)
         return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_trim_scan_density: NULL argument");
@@ -242,8 +295,10 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
     crisp_trim_density_stats local_stats = {0};
     if (!stats) stats = &local_stats;
     memset(stats, 0, sizeof *stats);
-    for (int i = 0; i < desc->strip_count; i++)
+    for (int i = 0; i < desc->strip_count; i++) {
         rho_v[i] = rho_u[i] = 0.0;
+        if (vis_v) vis_v[2 * i] = HUGE_VAL, vis_v[2 * i + 1] = -HUGE_VAL;
+    }
 
     crisp_arena *arena = desc->scratch, *own = NULL;
     if (!arena) {
@@ -254,7 +309,7 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
     density_ctx c = {0};
     c.max_depth = desc->max_depth > 0 ? desc->max_depth : 16;
     if (c.max_depth > 30) c.max_depth = 30;
-    c.slack = desc->slack > 1.0 ? desc->slack : 1.5;
+    c.slack = desc->slack > 1.0 ? desc->slack : 2.0;
     double margin = desc->margin_px > 0.0 ? desc->margin_px : 2.0;
     c.wx = 0.5 * desc->width;
     c.wy = 0.5 * desc->height;
@@ -266,7 +321,7 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
     double *clip = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
     double *strip = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
     c.levels = crisp_arena_alloc(arena, (size_t)(c.max_depth + 2) * 16 * nmax, sizeof(double));
-    c.scratch = crisp_arena_alloc(arena, 2 * nmax + 2 * pmax, sizeof(double));
+    c.scratch = crisp_arena_alloc(arena, 2 * nmax + 5 * pmax, sizeof(double));
     crisp_status st = CRISP_OK;
     if (!clip || !strip || !c.levels || !c.scratch) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_scan_density: out of memory");
@@ -310,12 +365,16 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
             c.cur_u = rho_u[i];
             c.visible = rho_v[i] > 0.0 || rho_u[i] > 0.0;
             c.unbounded = 0;
+            c.vis_lo = vis_v ? vis_v[2 * i] : 0.0;
+            c.vis_hi = vis_v ? vis_v[2 * i + 1] : 0.0;
             c.floor_v = 1.0 / hv;
             c.budget = 4096;
             /* The strip's levels start at level 0 of c.levels; refine copies children deeper. */
             double *root = c.levels;
             memcpy(root, strip, sizeof(double) * 4 * c.n);
-            refine(&c, root, 0, 1.0 / (bp->u1 - bp->u0), 1.0 / ((bp->v1 - bp->v0) * (tb - ta)));
+            refine(&c, root, 0, 1.0 / (bp->u1 - bp->u0), 1.0 / ((bp->v1 - bp->v0) * (tb - ta)),
+                   bp->v0 + (bp->v1 - bp->v0) * ta, bp->v0 + (bp->v1 - bp->v0) * tb);
+            if (vis_v) vis_v[2 * i] = c.vis_lo, vis_v[2 * i + 1] = c.vis_hi;
             if (c.unbounded) {
                 rho_v[i] = rho_u[i] = HUGE_VAL;
                 stats->unbounded++;
@@ -327,6 +386,17 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
                 if (!(rho_u[i] > 0.0)) rho_u[i] = 1e-300;
             }
         }
+    }
+    /* Row ranges inside their strips; invisible strips keep their bounds. */
+    for (int i = 0; vis_v && i < desc->strip_count; i++) {
+        double nu0 = desc->v0 + (desc->v1 - desc->v0) * ((double)i / desc->strip_count);
+        double nu1 = i + 1 >= desc->strip_count
+                         ? desc->v1
+                         : desc->v0 + (desc->v1 - desc->v0) * ((double)(i + 1) / desc->strip_count);
+        double lo = fmax(vis_v[2 * i], nu0), hi = fmin(vis_v[2 * i + 1], nu1);
+        if (!(hi > lo)) lo = nu0, hi = nu1;
+        vis_v[2 * i] = lo;
+        vis_v[2 * i + 1] = hi;
     }
 done:
     if (own) crisp_arena_destroy(own);

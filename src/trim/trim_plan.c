@@ -22,7 +22,9 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
         if (ru) p->rho_u = ru;
         uint32_t *mu = crisp_realloc_array(p->mu, (size_t)n, sizeof *mu);
         if (mu) p->mu = mu;
-        if (!rv || !ru || !mu)
+        double *vv = crisp_realloc_array(p->vis_v, 2 * (size_t)n, sizeof *vv);
+        if (vv) p->vis_v = vv;
+        if (!rv || !ru || !mu || !vv)
             return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_plan_face: out of memory");
         p->cap_strips = n;
     }
@@ -42,9 +44,9 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
                                                            .v1 = desc->v1,
                                                            .strip_count = n,
                                                            .scratch = p->scratch},
-                                p->rho_v, p->rho_u, &p->density_stats);
+                                p->rho_v, p->rho_u, p->vis_v, &p->density_stats);
     if (st) return st;
-    crisp_trim_rows_from_density(p->rho_v, n, desc->v0, desc->v1, p->mu, &p->clamped);
+    crisp_trim_rows_from_density(p->rho_v, p->vis_v, n, desc->v0, desc->v1, p->mu, &p->clamped);
     const crisp_trim_polyline *pl = NULL;
     if (desc->piece_count > 0) {
         st = crisp_trim_tessellate(&(crisp_trim_tess_desc){.pieces = desc->pieces,
@@ -53,15 +55,19 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
                                                            .v1 = desc->v1,
                                                            .strip_count = n,
                                                            .mu = p->mu,
+                                                           .row_v = p->vis_v,
                                                            .rho_u = p->rho_u},
                                    &p->polyline);
         if (st) return st;
         pl = &p->polyline;
     }
-    return crisp_trim_table_build(
-        &(crisp_trim_table_desc){
-            .polyline = pl, .v0 = desc->v0, .v1 = desc->v1, .strip_count = n, .mu = p->mu},
-        &p->table);
+    return crisp_trim_table_build(&(crisp_trim_table_desc){.polyline = pl,
+                                                           .v0 = desc->v0,
+                                                           .v1 = desc->v1,
+                                                           .strip_count = n,
+                                                           .mu = p->mu,
+                                                           .row_v = p->vis_v},
+                                  &p->table);
 }
 
 void crisp_trim_plan_free(crisp_trim_plan *plan)
@@ -70,6 +76,7 @@ void crisp_trim_plan_free(crisp_trim_plan *plan)
     crisp_free(plan->rho_v);
     crisp_free(plan->rho_u);
     crisp_free(plan->mu);
+    crisp_free(plan->vis_v);
     crisp_trim_polyline_free(&plan->polyline);
     crisp_trim_table_free(&plan->table);
     crisp_arena_destroy(plan->scratch);

@@ -129,7 +129,8 @@ crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_
             for (int i = is; i <= ie; i++) {
                 if (!desc->mu[i]) continue;
                 visible = 1;
-                hmin = fmin(hmin, hv / desc->mu[i]);
+                double range = desc->row_v ? desc->row_v[2 * i + 1] - desc->row_v[2 * i] : hv;
+                hmin = fmin(hmin, range / desc->mu[i]);
                 rho_u = fmax(rho_u, desc->rho_u[i]);
             }
         }

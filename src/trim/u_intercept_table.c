@@ -22,28 +22,21 @@ static double scan_v(double a, double b, uint32_t mu, uint32_t j)
     return a + (b - a) * ((j + 0.5) / mu);
 }
 
-void crisp_trim_rows_from_density(const double *rho_v, int strip_count, double v0, double v1,
-                                  uint32_t *mu, int *clamped)
+void crisp_trim_rows_from_density(const double *rho_v, const double *vis_v, int strip_count,
+                                  double v0, double v1, uint32_t *mu, int *clamped)
 {
-    double hv = (v1 - v0) / strip_count;
-    double total = 0.0;
-    for (int i = 0; i < strip_count; i++) {
-        double m = rho_v[i] > 0.0 ? ceil(hv * rho_v[i]) : 0.0;
-        if (rho_v[i] > 0.0 && m < 1.0) m = 1.0;
-        if (!(m <= (double)CRISP_TRIM_MAX_ROWS)) m = CRISP_TRIM_MAX_ROWS; /* also NaN, inf */
-        mu[i] = (uint32_t)m;
-        total += m;
-    }
+    double cap = floor((double)CRISP_TRIM_MAX_ROWS / strip_count);
     int clamp = 0;
-    if (total > CRISP_TRIM_MAX_ROWS) {
-        /* Scale every strip down proportionally; the guarantee no longer holds. */
-        double s = (double)CRISP_TRIM_MAX_ROWS / total;
-        for (int i = 0; i < strip_count; i++)
-            if (mu[i]) {
-                uint32_t m = (uint32_t)floor(mu[i] * s);
-                mu[i] = m ? m : 1;
-            }
-        clamp = 1;
+    for (int i = 0; i < strip_count; i++) {
+        double h = vis_v ? vis_v[2 * i + 1] - vis_v[2 * i]
+                         : strip_nu(v0, v1, strip_count, i + 1) - strip_nu(v0, v1, strip_count, i);
+        double m = rho_v[i] > 0.0 ? ceil(h * rho_v[i]) : 0.0;
+        if (rho_v[i] > 0.0 && !(m >= 1.0)) m = 1.0;
+        if (!(m <= cap)) { /* also infinity */
+            m = cap;
+            clamp = 1;
+        }
+        mu[i] = (uint32_t)m;
     }
     if (clamped) *clamped = clamp;
 }
@@ -96,7 +89,7 @@ static void segment_crossings(crisp_trim_table *t, double ua, double va, double 
     for (int i = is; i <= ie; i++) {
         uint32_t mu = t->row_base[i + 1] - t->row_base[i];
         if (!mu) continue;
-        double a = strip_nu(t->v0, t->v1, n, i), b = strip_nu(t->v0, t->v1, n, i + 1);
+        double a = t->row_v[2 * i], b = t->row_v[2 * i + 1];
         uint32_t j0, j1;
         if (!row_range(a, b, mu, lo, hi, &j0, &j1)) continue;
         for (uint32_t j = j0; j <= j1; j++) {
@@ -165,6 +158,7 @@ crisp_status crisp_trim_table_build(const crisp_trim_table_desc *desc, crisp_tri
                            "crisp_trim_table_build: %llu scan lines, at most %u allowed",
                            (unsigned long long)rows, CRISP_TRIM_MAX_ROWS);
     if (crisp_grow((void **)&t->row_base, &t->cap_strips, (size_t)n + 1, sizeof *t->row_base) ||
+        crisp_grow((void **)&t->row_v, &t->cap_row_v, 2 * (size_t)n, sizeof *t->row_v) ||
         crisp_grow((void **)&t->row_offset, &t->cap_rows, (size_t)rows + 1, sizeof *t->row_offset))
         return crisp_error(CRISP_ERR_NO_MEMORY,
                            "crisp_trim_table_build: out of memory for %llu rows",
@@ -173,6 +167,17 @@ crisp_status crisp_trim_table_build(const crisp_trim_table_desc *desc, crisp_tri
     t->v1 = desc->v1;
     t->strip_count = n;
     t->row_count = (uint32_t)rows;
+    t->strip_scale = n / (desc->v1 - desc->v0);
+    for (int i = 0; i < n; i++) {
+        double a = strip_nu(t->v0, t->v1, n, i), b = strip_nu(t->v0, t->v1, n, i + 1);
+        if (desc->row_v) {
+            /* Inside the strip and not empty, else the whole strip. */
+            double lo = fmax(desc->row_v[2 * i], a), hi = fmin(desc->row_v[2 * i + 1], b);
+            if (hi > lo) a = lo, b = hi;
+        }
+        t->row_v[2 * i] = a;
+        t->row_v[2 * i + 1] = b;
+    }
     t->row_base[0] = 0;
     for (int i = 0; i < n; i++)
         t->row_base[i + 1] = t->row_base[i] + desc->mu[i];
@@ -208,13 +213,14 @@ int crisp_trim_table_test(const crisp_trim_table *t, double u, double v)
     if (!(v >= t->v0 && v <= t->v1)) return 0;
     if (t->all_inside) return 1;
     int n = t->strip_count;
-    double fi = floor((v - t->v0) / (t->v1 - t->v0) * n);
-    int i = fi < 0 ? 0 : fi > n - 1 ? n - 1 : (int)fi;
+    int i = (int)((v - t->v0) * t->strip_scale); /* >= 0 here, so truncation is floor */
+    if (i > n - 1) i = n - 1;
     uint32_t mu = t->row_base[i + 1] - t->row_base[i];
     if (!mu) return 0;
-    double a = strip_nu(t->v0, t->v1, n, i), b = strip_nu(t->v0, t->v1, n, i + 1);
-    double fj = floor((v - a) / (b - a) * mu);
-    uint32_t j = fj < 0 ? 0 : fj > mu - 1 ? mu - 1 : (uint32_t)fj;
+    double a = t->row_v[2 * i], b = t->row_v[2 * i + 1];
+    double fj = (v - a) / (b - a) * mu;
+    uint32_t j = fj > 0.0 ? (uint32_t)fj : 0; /* below the row range: the first row */
+    if (j > mu - 1) j = mu - 1;
     uint32_t r = t->row_base[i] + j;
     /* Number of crossings strictly left of u: first index with t->u[k] >= u. */
     uint32_t lo = t->row_offset[r], hi = t->row_offset[r + 1];
@@ -234,6 +240,7 @@ size_t crisp_trim_table_bytes(const crisp_trim_table *t)
     size_t crossings = t->row_count ? t->row_offset[t->row_count] : 0;
     if (t->all_inside) crossings = 0;
     return sizeof(uint32_t) * ((size_t)t->strip_count + 1) +
+           2 * sizeof(double) * (size_t)t->strip_count +
            sizeof(uint32_t) * ((size_t)t->row_count + 1) + sizeof(double) * crossings;
 }
 
@@ -243,5 +250,6 @@ void crisp_trim_table_free(crisp_trim_table *t)
     crisp_free(t->row_base);
     crisp_free(t->row_offset);
     crisp_free(t->u);
+    crisp_free(t->row_v);
     memset(t, 0, sizeof *t);
 }

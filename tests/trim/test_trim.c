@@ -304,7 +304,7 @@ static void test_density_bound(void **state)
         }
         crisp_mat4 vp;
         tu_camera(eye, target, 50.0, 0.1, 100.0, W, H, vp);
-        double rho_v[STRIPS], rho_u[STRIPS];
+        double rho_v[STRIPS], rho_u[STRIPS], vis_v[2 * STRIPS];
         crisp_arena_reset(scratch);
         crisp_trim_density_stats st;
         assert_int_equal(crisp_trim_scan_density(&(crisp_trim_density_desc){.patches = &p,
@@ -316,7 +316,7 @@ static void test_density_bound(void **state)
                                                                             .v1 = 1,
                                                                             .strip_count = STRIPS,
                                                                             .scratch = scratch},
-                                                 rho_v, rho_u, &st),
+                                                 rho_v, rho_u, vis_v, &st),
                          CRISP_OK);
         assert_int_equal(st.unbounded, 0);
         double seen_v[STRIPS] = {0}, seen_u[STRIPS] = {0};
@@ -330,6 +330,8 @@ static void test_density_bound(void **state)
             int i = t >= 1 ? STRIPS - 1 : (int)(t * STRIPS);
             double sv = hypot(dt[0], dt[1]), su = hypot(ds[0], ds[1]);
             assert_true(sv <= rho_v[i] * (1 + 1e-9));
+            assert_true(t >= vis_v[2 * i] &&
+                        t <= vis_v[2 * i + 1]); /* inside the strip's row range */
             assert_true(su <= rho_u[i] * (1 + 1e-9));
             seen_v[i] = fmax(seen_v[i], sv);
             seen_u[i] = fmax(seen_u[i], su);
@@ -413,7 +415,7 @@ static void test_bad_input(void **state)
     assert_int_equal(crisp_trim_scan_density(
                          &(crisp_trim_density_desc){
                              .view_proj = &vp, .width = 10, .height = 10, .v0 = 0, .v1 = 1},
-                         rv, ru, NULL),
+                         rv, ru, NULL, NULL),
                      CRISP_ERR_INVALID_ARG);
     uint32_t mu[2] = {CRISP_TRIM_MAX_ROWS, 5};
     crisp_trim_table t = {0};
@@ -426,7 +428,7 @@ static void test_bad_input(void **state)
     double rho[3] = {HUGE_VAL, 1e30, 0.0};
     uint32_t m3[3];
     int clamped = 0;
-    crisp_trim_rows_from_density(rho, 3, 0, 1, m3, &clamped);
+    crisp_trim_rows_from_density(rho, NULL, 3, 0, 1, m3, &clamped);
     assert_int_equal(clamped, 1);
     assert_true((uint64_t)m3[0] + m3[1] <= CRISP_TRIM_MAX_ROWS);
     assert_int_equal(m3[2], 0);
