@@ -478,20 +478,33 @@ crisp_status iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *
     return emit(f, e, c, dim, &total, out);
 }
 
+static void mark_param(iges_file *f, int e, int k, int depth)
+{
+    int c;
+    if (k > iges_nparams(f, e)) return;
+    if (iges_ptr(f, e, k, 0, &c)) {
+        crisp_error_clear();
+        return;
+    }
+    iges_mark_used(f, c, depth + 1);
+}
+
 void iges_mark_used(iges_file *f, int e, int depth)
 {
     if (depth > IGES_MAX_DEPTH || f->ents[e].used) return;
     f->ents[e].used = 1;
-    if (f->ents[e].type != 102) return;
-    int n = iges_nparams(f, e);
-    for (int k = 2; k <= n; k++) {
-        int c;
-        if (iges_ptr(f, e, k, 0, &c)) {
-            crisp_error_clear();
-            continue;
-        }
-        iges_mark_used(f, c, depth + 1);
-    }
+    int n = iges_nparams(f, e), t = f->ents[e].type;
+    if (t == 102)
+        for (int k = 2; k <= n; k++) mark_param(f, e, k, depth);
+    else if (t == 142)
+        for (int k = 2; k <= 4; k++) mark_param(f, e, k, depth);
+    else if (t == 144 || t == 143) { /* surface and boundaries */
+        for (int k = 1; k <= n; k++)
+            if (k == (t == 144 ? 1 : 2) || k >= 4) mark_param(f, e, k, depth);
+    } else if (t == 120 || t == 118)
+        for (int k = 1; k <= 2; k++) mark_param(f, e, k, depth);
+    else if (t == 122)
+        mark_param(f, e, 1, depth);
 }
 
 /* ---- parameter maps ------------------------------------------------------------------------- */

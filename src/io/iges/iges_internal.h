@@ -118,7 +118,8 @@ crisp_status iges_curves_push(iges_curves *c, crisp_curve *curve);
 crisp_status iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *parent, int depth,
                                 iges_curves *out);
 int iges_is_curve_type(int type);
-/* Mark a curve entity and its pieces used (an alternative representation crisp did not need). */
+/* Mark an entity and what it refers to used (an alternative representation crisp did not need,
+ * or the parts of a face that was skipped), so they are not reported as free geometry. */
 void iges_mark_used(iges_file *f, int e, int depth);
 
 /* How the file's parameter of an analytic curve maps to the crisp curve's parameter: either

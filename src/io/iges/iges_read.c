@@ -55,6 +55,8 @@ static crisp_status soften(iges_file *f, int e, crisp_status st)
              p ? p + 3 : msg);
     crisp_model_note_skip(f->model, what);
     crisp_error_clear();
+    f->ents[e].used = 0;
+    iges_mark_used(f, e, 0);
     return CRISP_OK;
 }
 
