@@ -17,7 +17,8 @@
  *   crisp_slefe_boxes_screen_width screen width of object-space boxes seen through a camera
  *   crisp_slefe_tess_level         tau = ceil(m * sqrt(w_px / eps)) (the iPASS rule: a guess)
  *   crisp_slefe_patch_screen_error sound pixel bound on patch-versus-triangles distance at tau
- *   crisp_slefe_patch_tess_level   smallest tau (from the iPASS guess up) that bound accepts
+ *   crisp_slefe_patch_tess_level   a tau (from the iPASS guess up) that bound accepts: the level
+ *                                  to draw a patch within eps pixels
  *
  * Enclosure semantics. For a polynomial p of degree d on [0, 1] and breakpoints t_k = k/m, the
  * piecewise-linear interpolants of lo[k] and up[k] satisfy lo(t) <= p(t) <= up(t) for all t,
@@ -25,8 +26,8 @@
  * by a bound on its own rounding error). For a patch the same holds for the bilinear interpolants
  * of the grid values on each tile [ku/m, (ku+1)/m] x [kv/m, (kv+1)/m]. A triangulation of a tile
  * is not bilinear; the tile boxes (min of the four lower corners, max of the four upper corners)
- * enclose the patch over the tile and are what a tessellator can use to bound triangle-versus-
- * surface distance without further assumptions.
+ * enclose the patch over the tile, and crisp_slefe_patch_screen_error adds the triangle-versus-
+ * bilinear twist term to bound the distance between a patch and its triangles on screen.
  *
  * Rational geometry is enclosed in homogeneous form (w*P, w): each homogeneous coordinate is a
  * polynomial and gets its own SLEFE; Euclidean (or NDC) coordinates are then bounded per segment
