@@ -332,56 +332,82 @@ static void fill_top(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins
     }
 }
 
+/* A leaf column block: pixels [i0,i1) x [j0,j1), voxels [k0,k1). Each pixel still open scans
+ * down from the top; the 64 lanes of a batch are shared among the open pixels, several layers
+ * each when few are open, so a block whose pixels are mostly decided costs fewer batches. */
 static void leaf_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
                     int i1, int j0, int j1, int k0, int k1)
 {
     float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
-    int pix[FREP_LANES], hitk[FREP_LANES], nhit = 0;
+    int lane_pix[FREP_LANES], lane_k[FREP_LANES];
+    int nextk[FREP_LANES], hitk[FREP_LANES], pix[FREP_LANES], nhit = 0, npix = 0;
     size_t p[FREP_LANES];
-    int valid[FREP_LANES];
-    for (int k = 0; k < FREP_LANES; k++) {
-        int i = i0 + (k % LEAF), j = j0 + (k / LEAF);
-        valid[k] = i < i1 && j < j1;
-        i = i < i1 ? i : i1 - 1;
-        j = j < j1 ? j : j1 - 1;
-        x[k] = r->xs[i];
-        y[k] = r->ys[j];
-        p[k] = (size_t)j * r->img.width + i;
-    }
+    float px[FREP_LANES], py[FREP_LANES];
+    for (int j = j0; j < j1; j++)
+        for (int i = i0; i < i1; i++) {
+            size_t q = (size_t)j * r->img.width + i;
+            if (r->img.heights[q] >= k1 - 1) continue; /* already at or above this block */
+            p[npix] = q;
+            px[npix] = r->xs[i];
+            py[npix] = r->ys[j];
+            nextk[npix++] = k1 - 1;
+        }
     uint16_t res = ins[len - 1].out;
-    for (int kz = k1 - 1; kz >= k0; kz--) {
-        int open = 0;
-        for (int k = 0; k < FREP_LANES; k++) open |= valid[k] && r->img.heights[p[k]] < kz;
-        if (!open) break;
-        float zz = r->zs[kz];
-        for (int k = 0; k < FREP_LANES; k++) z[k] = zz;
+    int open = npix;
+    while (open > 0) {
+        /* share the lanes: each open pixel takes `each` layers from its next one down */
+        int each = FREP_LANES / open, n = 0;
+        for (int q = 0; q < npix; q++) {
+            if (nextk[q] < k0) continue;
+            for (int d = 0; d < each && nextk[q] - d >= k0; d++) {
+                lane_pix[n] = q;
+                lane_k[n] = nextk[q] - d;
+                x[n] = px[q], y[n] = py[q], z[n] = r->zs[nextk[q] - d];
+                n++;
+            }
+        }
+        for (int k = n; k < FREP_LANES; k++) x[k] = x[0], y[k] = y[0], z[k] = z[0];
         const float *v;
         float one[FREP_LANES];
         if (r->desc.flags & CRISP_FREP_NO_BATCH) {
-            for (int k = 0; k < FREP_LANES; k++)
+            for (int k = 0; k < n; k++)
                 one[k] = crisp__frep_eval_scalar(ins, len, res, w->regs, x[k], y[k], z[k]);
             v = one;
         } else {
             crisp__frep_eval_lanes(ins, len, w->regs, x, y, z);
             v = w->regs + (size_t)res * FREP_LANES;
         }
-        w->st.points += FREP_LANES;
-        for (int k = 0; k < FREP_LANES; k++)
-            if (valid[k] && v[k] < 0 && r->img.heights[p[k]] < kz) {
-                r->img.heights[p[k]] = kz;
-                pix[nhit] = k;
-                hitk[nhit++] = kz;
+        w->st.points += (size_t)n;
+        /* lanes of one pixel are consecutive, highest layer first: the first inside one wins */
+        for (int k = 0; k < n; k++) {
+            int q = lane_pix[k];
+            if (nextk[q] < k0) continue; /* decided by an earlier lane of this batch */
+            if (v[k] < 0) {
+                if (r->img.heights[p[q]] < lane_k[k]) {
+                    r->img.heights[p[q]] = lane_k[k];
+                    pix[nhit] = q;
+                    hitk[nhit++] = lane_k[k];
+                }
+                nextk[q] = k0 - 1;
+                open--;
+            } else if (k + 1 == n || lane_pix[k + 1] != q) {
+                nextk[q] = lane_k[k] - 1; /* every lane of this pixel was outside */
+                if (nextk[q] < k0 || r->img.heights[p[q]] >= nextk[q]) {
+                    nextk[q] = k0 - 1;
+                    open--;
+                }
             }
+        }
     }
     w->st.leaves++;
     w->st.tape_sum += len;
     if (!nhit) return;
     float gx[FREP_LANES], gy[FREP_LANES], gz[FREP_LANES];
     int gp[FREP_LANES];
-    for (int n = 0; n < FREP_LANES; n++) {
-        int m = n < nhit ? n : 0;
-        gx[n] = x[pix[m]], gy[n] = y[pix[m]], gz[n] = r->zs[hitk[m]];
-        gp[n] = (int)p[pix[m]];
+    for (int m = 0; m < FREP_LANES; m++) {
+        int h = m < nhit ? m : 0;
+        gx[m] = px[pix[h]], gy[m] = py[pix[h]], gz[m] = r->zs[hitk[h]];
+        gp[m] = (int)p[pix[h]];
     }
     set_normals(r, w, ins, len, gp, nhit, gx, gy, gz);
 }
