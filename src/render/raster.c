@@ -165,14 +165,11 @@ typedef struct {
     size_t counts[CHUNKS];
 } setup_ctx;
 
-/* Sets up one clipped triangle; returns 0 when it covers no sample area (degenerate, not finite
- * or off the image). out may be NULL (the counting pass): the same decision is made, so counting
- * and writing agree. */
+/* Sets up one clipped triangle into *out; returns 0 when it covers no sample area (degenerate,
+ * not finite or off the image). */
 static int setup_one(const setup_ctx *c, const cvert *a, const cvert *b, const cvert *d,
                      uint32_t face, setup_tri *out)
 {
-    setup_tri scratch;
-    if (!out) out = &scratch;
     const cvert *v[3] = {a, b, d};
     const crisp_raster_target *t = c->t;
     double sx[3], sy[3];
@@ -259,9 +256,15 @@ static void setup_chunk(void *vctx, size_t begin, size_t end, int worker)
             }
             int m = 3;
             if (!inside) m = clip_polygon(poly, 3, c->gx, c->gy);
-            for (int k = 1; k + 1 < m; k++)
-                if (setup_one(c, &poly[0], &poly[k], &poly[k + 1], tri->face, out ? out + n : NULL))
+            /* Set up into a local record and keep it only when accepted: a rejected last
+             * triangle must not write past this chunk into the next one (another worker's). */
+            for (int k = 1; k + 1 < m; k++) {
+                setup_tri rec;
+                if (setup_one(c, &poly[0], &poly[k], &poly[k + 1], tri->face, &rec)) {
+                    if (out) out[n] = rec;
                     n++;
+                }
+            }
         }
         c->counts[ch] = n;
     }
