@@ -185,6 +185,57 @@ static void test_table_polygon(void **state)
     crisp_trim_polyline_free(&pl);
 }
 
+/* Rows restricted to part of each strip (the visible v-range): the scan lines sit inside it, and
+ * v outside it but inside the strip uses the nearest row. */
+static void test_table_row_ranges(void **state)
+{
+    (void)state;
+    crisp_bezier_curve pc[8];
+    int n = tu_ellipse(pc, 0.5, 0.5, 0.4, 0.3, 0.3, 1);
+    const uint32_t mu[2] = {7, 4};
+    const double row_v[4] = {0.1, 0.3, 0.5, 0.55};
+    const double rho_u[2] = {100, 100};
+    crisp_trim_polyline pl = {0};
+    assert_int_equal(crisp_trim_tessellate(&(crisp_trim_tess_desc){.pieces = pc,
+                                                                   .piece_count = n,
+                                                                   .v0 = 0,
+                                                                   .v1 = 1,
+                                                                   .strip_count = 2,
+                                                                   .mu = mu,
+                                                                   .row_v = row_v,
+                                                                   .rho_u = rho_u},
+                                           &pl),
+                     CRISP_OK);
+    crisp_trim_table t = {0};
+    assert_int_equal(
+        crisp_trim_table_build(
+            &(crisp_trim_table_desc){
+                .polyline = &pl, .v0 = 0, .v1 = 1, .strip_count = 2, .mu = mu, .row_v = row_v},
+            &t),
+        CRISP_OK);
+    crisp_bezier_curve *poly = calloc((size_t)pl.first[pl.piece_count], sizeof *poly);
+    assert_non_null(poly);
+    int np = 0;
+    for (int k = 0; k < pl.piece_count; k++)
+        for (int q = pl.first[k]; q + 1 < pl.first[k + 1]; q++, np++)
+            tu_line(&poly[np], pl.uv[2 * q], pl.uv[2 * q + 1], pl.uv[2 * q + 2], pl.uv[2 * q + 3]);
+    for (int q = 0; q < 5000; q++) {
+        double u = rnd_in(0, 1), v = rnd();
+        int i = v < 0.5 ? 0 : 1;
+        double a = row_v[2 * i], b = row_v[2 * i + 1];
+        double fj = floor((v - a) / (b - a) * mu[i]);
+        uint32_t j = fj < 0 ? 0 : fj > mu[i] - 1 ? mu[i] - 1 : (uint32_t)fj;
+        double vs = t_scan(a, b, mu[i], j);
+        /* the table is exact parity of its polyline on the scan line */
+        assert_int_equal(crisp_trim_table_test(&t, u, v),
+                         crisp_trim_exact_classify(poly, np, u, vs));
+    }
+    assert_true(crisp_trim_table_bytes(&t) > 0);
+    free(poly);
+    crisp_trim_table_free(&t);
+    crisp_trim_polyline_free(&pl);
+}
+
 static void random_piece(crisp_bezier_curve *b, int degree)
 {
     memset(b, 0, sizeof *b);
@@ -437,9 +488,13 @@ static void test_bad_input(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_product),       cmocka_unit_test(test_exact_classifier),
-        cmocka_unit_test(test_table_polygon), cmocka_unit_test(test_tessellation_bound),
-        cmocka_unit_test(test_density_bound), cmocka_unit_test(test_plan_reuses_buffers),
+        cmocka_unit_test(test_product),
+        cmocka_unit_test(test_exact_classifier),
+        cmocka_unit_test(test_table_polygon),
+        cmocka_unit_test(test_table_row_ranges),
+        cmocka_unit_test(test_tessellation_bound),
+        cmocka_unit_test(test_density_bound),
+        cmocka_unit_test(test_plan_reuses_buffers),
         cmocka_unit_test(test_bad_input),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
