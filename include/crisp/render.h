@@ -14,6 +14,9 @@
  *   crisp_renderer, crisp_render_cpu
  *                           the CPU backend: frame plan (SLEFE tess levels, crack-free edges,
  *                           u-intercept tables), tessellation, rasterizer with the trim test
+ *   crisp_frep_part, crisp_render_frep_parts
+ *                           f-rep parts composited into an image by depth (interval subdivision
+ *                           of the view frustum, src/render/frep_part.c)
  */
 #ifndef CRISP_RENDER_H
 #define CRISP_RENDER_H
@@ -158,6 +161,36 @@ crisp_status crisp_renderer_plan(crisp_renderer *r, const crisp_scene *scene,
  * size. stats may be NULL. */
 crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *scene, const crisp_camera *cam,
                               crisp_image *img, crisp_render_stats *stats);
+
+/* ---- f-rep parts ----------------------------------------------------------------------------- */
+
+typedef struct crisp_frep_tape crisp_frep_tape; /* include/crisp/frep.h */
+
+/* An implicit part in a scene: f(X, Y, Z) < 0 inside, in the part's own coordinates. */
+typedef struct crisp_frep_part {
+    const crisp_frep_tape *tape;
+    crisp_mat4 transform; /* object to world, affine (last row 0 0 0 1), invertible */
+    float color[4];
+} crisp_frep_part;
+
+/* Pixels drawn by part k get face id CRISP_FREP_FACE_ID(k) = -2 - k (NURBS faces are >= 0,
+ * background -1). */
+#define CRISP_FREP_FACE_ID(k) (-2 - (int32_t)(k))
+
+typedef struct crisp_frep_parts_desc {
+    int threads;   /* 0: default */
+    int per_pixel; /* 1: no frustum subdivision, every pixel's ray bisected alone (exact backend) */
+} crisp_frep_parts_desc;
+
+/* Draw the parts into img (which already holds the NURBS render, or a cleared image) where they
+ * are nearer than what each pixel holds: the first camera-space depth in [near, far] along the
+ * pixel's centre ray where f < 0, found by interval subdivision of the view frustum (tile x depth
+ * cells, z-culled against the image's depth) and bisection to float precision; writes rgba
+ * (headlight shading), depth, world normal (the gradient direction), uv = 0 and the face id.
+ * desc may be NULL. */
+crisp_status crisp_render_frep_parts(const crisp_frep_part *parts, size_t count,
+                                     const crisp_camera *cam, const crisp_frep_parts_desc *desc,
+                                     crisp_image *img);
 
 #ifdef __cplusplus
 }
