@@ -148,8 +148,9 @@ typedef struct crisp_trim_table {
     uint32_t *row_offset; /* row_count + 1: row r holds u[row_offset[r] .. row_offset[r+1] - 1] */
     double *u;            /* crossings, sorted within each row */
     double *row_v;        /* 2 per strip: the v-range [a_i, b_i] its rows cover */
+    double *row_scale;    /* per strip: mu_i / (b_i - a_i), rows per unit v */
     double strip_scale;   /* strip_count / (v1 - v0) */
-    size_t cap_strips, cap_rows, cap_u, cap_row_v;
+    size_t cap_strips, cap_rows, cap_u, cap_row_v, cap_row_scale;
 } crisp_trim_table;
 
 typedef struct crisp_trim_table_desc {

@@ -159,6 +159,7 @@ crisp_status crisp_trim_table_build(const crisp_trim_table_desc *desc, crisp_tri
                            (unsigned long long)rows, CRISP_TRIM_MAX_ROWS);
     if (crisp_grow((void **)&t->row_base, &t->cap_strips, (size_t)n + 1, sizeof *t->row_base) ||
         crisp_grow((void **)&t->row_v, &t->cap_row_v, 2 * (size_t)n, sizeof *t->row_v) ||
+        crisp_grow((void **)&t->row_scale, &t->cap_row_scale, (size_t)n, sizeof *t->row_scale) ||
         crisp_grow((void **)&t->row_offset, &t->cap_rows, (size_t)rows + 1, sizeof *t->row_offset))
         return crisp_error(CRISP_ERR_NO_MEMORY,
                            "crisp_trim_table_build: out of memory for %llu rows",
@@ -177,6 +178,7 @@ crisp_status crisp_trim_table_build(const crisp_trim_table_desc *desc, crisp_tri
         }
         t->row_v[2 * i] = a;
         t->row_v[2 * i + 1] = b;
+        t->row_scale[i] = desc->mu[i] / (b - a);
     }
     t->row_base[0] = 0;
     for (int i = 0; i < n; i++)
@@ -217,8 +219,7 @@ int crisp_trim_table_test(const crisp_trim_table *t, double u, double v)
     if (i > n - 1) i = n - 1;
     uint32_t mu = t->row_base[i + 1] - t->row_base[i];
     if (!mu) return 0;
-    double a = t->row_v[2 * i], b = t->row_v[2 * i + 1];
-    double fj = (v - a) / (b - a) * mu;
+    double fj = (v - t->row_v[2 * i]) * t->row_scale[i];
     uint32_t j = fj > 0.0 ? (uint32_t)fj : 0; /* below the row range: the first row */
     if (j > mu - 1) j = mu - 1;
     uint32_t r = t->row_base[i] + j;
@@ -251,5 +252,6 @@ void crisp_trim_table_free(crisp_trim_table *t)
     crisp_free(t->row_offset);
     crisp_free(t->u);
     crisp_free(t->row_v);
+    crisp_free(t->row_scale);
     memset(t, 0, sizeof *t);
 }
