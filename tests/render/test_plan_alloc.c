@@ -1,0 +1,91 @@
+/* "Planning a frame allocates nothing when the model and image size have not changed": after a
+ * warm-up frame, planning (and rendering) the same scene again from another camera of the same
+ * image size makes no call to malloc, calloc or realloc. The test binary is linked with
+ * --wrap=malloc,calloc,realloc, so every allocation in crisp's code goes through the counters. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "crisp/io.h"
+#include "crisp/render.h"
+
+void *__real_malloc(size_t n);
+void *__real_calloc(size_t n, size_t s);
+void *__real_realloc(void *p, size_t n);
+static int counting;
+static long allocations;
+
+void *__wrap_malloc(size_t n)
+{
+    if (counting) allocations++;
+    return __real_malloc(n);
+}
+
+void *__wrap_calloc(size_t n, size_t s)
+{
+    if (counting) allocations++;
+    return __real_calloc(n, s);
+}
+
+void *__wrap_realloc(void *p, size_t n)
+{
+    if (counting) allocations++;
+    return __real_realloc(p, n);
+}
+
+static void test_steady_state(void **state)
+{
+    (void)state;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/occt_bearing.iges", CRISP_DATA_DIR);
+    crisp_model *m;
+    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+    crisp_camera cam;
+    assert_int_equal(crisp_camera_frame_box(sc->box, 320, 240, &cam), CRISP_OK);
+    crisp_image img;
+    assert_int_equal(crisp_image_init(&img, 320, 240), CRISP_OK);
+    /* Warm up on a few views so every buffer reaches its size. */
+    for (int k = 0; k < 3; k++) {
+        cam.eye[0] += 0.01 * k;
+        assert_int_equal(crisp_render_cpu(r, sc, &cam, &img, NULL), CRISP_OK);
+    }
+    counting = 1;
+    allocations = 0;
+    assert_int_equal(crisp_renderer_plan(r, sc, &cam, NULL), CRISP_OK);
+    long plan_allocs = allocations;
+    cam.eye[0] -= 0.005; /* another camera, same image size */
+    assert_int_equal(crisp_renderer_plan(r, sc, &cam, NULL), CRISP_OK);
+    long plan2_allocs = allocations - plan_allocs;
+    counting = 0;
+    printf("allocations: plan %ld, plan from another camera %ld\n", plan_allocs, plan2_allocs);
+    assert_int_equal(plan_allocs, 0);
+    assert_int_equal(plan2_allocs, 0);
+    /* The counters do see crisp's allocations: a fresh renderer's first plan allocates. */
+    crisp_renderer *fresh;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &fresh), CRISP_OK);
+    counting = 1;
+    allocations = 0;
+    assert_int_equal(crisp_renderer_plan(fresh, sc, &cam, NULL), CRISP_OK);
+    counting = 0;
+    assert_true(allocations > 0);
+    crisp_renderer_destroy(fresh);
+    crisp_image_free(&img);
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_steady_state)};
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
