@@ -1,7 +1,8 @@
-/* crisp render MODEL [-o out.png] [--aov out.exr] [--size WxH] [--eye x,y,z --target x,y,z
+/* crisp render MODEL|SCENE [-o out.png] [--aov out.exr] [--size WxH] [--eye x,y,z --target x,y,z
  *                    --up x,y,z --fov DEG] [--near N --far F] [--samples N]
  *                    [--backend cpu|exact] [--threads N] [--stats]
- * Camera and pixel conventions as DESIGN.md section 6. */
+ * Camera and pixel conventions as DESIGN.md section 6. A scene file (include/crisp/scene_file.h)
+ * merges its models and composites its f-rep parts by depth. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,12 +11,30 @@
 #include "crisp/image.h"
 #include "crisp/io.h"
 #include "crisp/render.h"
+#include "crisp/scene_file.h"
 #include "crisp/trim.h"
 
 const char crisp_cmd_render_help[] =
-    "render MODEL [-o out.png] [--aov out.exr] [--size WxH] [--eye x,y,z --target x,y,z --up x,y,z\n"
+    "render MODEL|SCENE [-o out.png] [--aov out.exr] [--size WxH] [--eye x,y,z --target x,y,z --up x,y,z\n"
     "                            --fov DEG] [--near N --far F] [--samples N] [--backend cpu|exact]\n"
-    "                            [--threads N] [--stats]   render a model to an image";
+    "                            [--threads N] [--stats]   render a model or a .scene file to an image";
+
+/* Box of the f-rep parts: each part's [-1, 1]^3 (the .vm models' region) through its transform;
+ * used only to frame the default camera. */
+static void parts_box(const crisp_frep_part *parts, size_t n, double box[6])
+{
+    for (size_t k = 0; k < n; k++)
+        for (int c = 0; c < 8; c++) {
+            double p[3] = {c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1}, w[4];
+            crisp_mat4 m;
+            memcpy(m, parts[k].transform, sizeof m);
+            crisp_mat4_mulp(m, p, w);
+            for (int a = 0; a < 3; a++) {
+                box[a] = fmin(box[a], w[a]);
+                box[a + 3] = fmax(box[a + 3], w[a]);
+            }
+        }
+}
 
 static int parse_vec3(const char *opt, const char *s, double v[3])
 {
@@ -178,20 +197,42 @@ int crisp_cmd_render(int argc, char **argv)
     double t0 = crisp_time_now();
     crisp_model *model = NULL;
     crisp_scene *scene = NULL;
+    crisp_scene_file *scene_file = NULL;
+    crisp_scene_assets *assets = NULL;
+    const crisp_frep_part *parts = NULL;
+    size_t part_count = 0;
     crisp_image img = {0};
     int rc = 1;
-    crisp_status st = crisp_model_load(model_path, NULL, &model);
+    crisp_status st;
+    if (crisp_scene_file_detect(model_path)) {
+        st = crisp_scene_file_read(model_path, &scene_file);
+        if (!st) st = crisp_scene_assets_load(scene_file, &assets);
+        if (!st) {
+            model = assets->model;
+            parts = assets->parts;
+            part_count = assets->part_count;
+        }
+    } else {
+        st = crisp_model_load(model_path, NULL, &model);
+    }
     double t_load = crisp_time_now();
     if (!st) st = crisp_scene_prepare(model, &scene);
     double t_prep = crisp_time_now();
     if (st) goto done;
-    if (scene->patch_count == 0) {
+    if (scene->patch_count == 0 && part_count == 0) {
         st = crisp_error(CRISP_ERR_INVALID_ARG, "%s: the model has no surfaces to render", model_path);
         goto done;
     }
+    double box[6];
+    if (scene->patch_count > 0) {
+        memcpy(box, scene->box, sizeof box);
+    } else {
+        for (int a = 0; a < 3; a++) box[a] = INFINITY, box[a + 3] = -INFINITY;
+    }
+    parts_box(parts, part_count, box);
     crisp_camera cam;
     if (!have_eye) {
-        if ((st = crisp_camera_frame_box(scene->box, width, height, &cam))) goto done;
+        if ((st = crisp_camera_frame_box(box, width, height, &cam))) goto done;
         cam.fov_deg = fov;
         if (have_near) cam.znear = znear;
         if (have_far) cam.zfar = zfar;
@@ -199,12 +240,12 @@ int crisp_cmd_render(int argc, char **argv)
         cam = (crisp_camera){.fov_deg = fov, .width = width, .height = height};
         memcpy(cam.eye, eye, sizeof eye);
         for (int k = 0; k < 3; k++)
-            cam.target[k] = have_target ? target[k] : 0.5 * (scene->box[k] + scene->box[k + 3]);
+            cam.target[k] = have_target ? target[k] : 0.5 * (box[k] + box[k + 3]);
         memcpy(cam.up, up, sizeof up);
         /* Default near and far: enclose the model's box seen from the eye. */
         double far_d = 0;
         for (int c = 0; c < 8; c++) {
-            double p[3] = {scene->box[(c & 1) ? 3 : 0], scene->box[(c & 2) ? 4 : 1], scene->box[(c & 4) ? 5 : 2]};
+            double p[3] = {box[(c & 1) ? 3 : 0], box[(c & 2) ? 4 : 1], box[(c & 4) ? 5 : 2]};
             double d[3];
             crisp_vec3_sub(p, eye, d);
             far_d = fmax(far_d, crisp_vec3_norm(d));
@@ -221,21 +262,30 @@ int crisp_cmd_render(int argc, char **argv)
             goto done;
         }
         crisp_renderer *r = NULL;
-        st = crisp_renderer_create(&(crisp_render_desc){.samples = samples, .threads = threads}, &r);
-        if (!st) st = crisp_render_cpu(r, scene, &cam, &img, &rs);
+        if (scene->patch_count > 0) {
+            st = crisp_renderer_create(&(crisp_render_desc){.samples = samples, .threads = threads}, &r);
+            if (!st) st = crisp_render_cpu(r, scene, &cam, &img, &rs);
+        }
         crisp_renderer_destroy(r);
-    } else {
+    } else if (scene->patch_count > 0) {
         crisp_exact_desc desc = {.threads = threads, .classify = classify_exact};
         st = crisp_render_exact(scene, &cam, &desc, &img);
     }
+    double t_nurbs = crisp_time_now();
+    if (!st && part_count)
+        st = crisp_render_frep_parts(parts, part_count, &cam,
+                                     &(crisp_frep_parts_desc){.threads = threads, .per_pixel = !cpu}, &img);
     double t_render = crisp_time_now();
     if (!st) st = write_outputs(&img, png, exr);
     double t_write = crisp_time_now();
     if (!st) {
         rc = 0;
         if (stats) {
-            size_t drawn = 0;
-            for (size_t i = 0; i < (size_t)width * height; i++) drawn += img.face[i] >= 0;
+            size_t drawn = 0, frep_drawn = 0;
+            for (size_t i = 0; i < (size_t)width * height; i++) {
+                drawn += img.face[i] >= 0;
+                frep_drawn += img.face[i] <= -2;
+            }
             printf("backend          %s\n", cpu ? "cpu (SLEFE tessellation, u-intercept tables)"
                                                      : "exact (ray casting, exact trim classifier)");
             printf("faces            %u\n", scene->face_count);
@@ -252,6 +302,10 @@ int crisp_cmd_render(int argc, char **argv)
                     printf("unresolved       %u leaves at the split limit (0.5 px not guaranteed there)\n", rs.unresolved);
             }
             printf("pixels covered   %zu of %zu\n", drawn, (size_t)width * height);
+            if (part_count) {
+                printf("f-rep parts      %zu\n", part_count);
+                printf("f-rep pixels     %zu\n", frep_drawn);
+            }
             printf("time load        %.1f ms\n", 1e3 * (t_load - t0));
             printf("time prepare     %.1f ms\n", 1e3 * (t_prep - t_load));
             if (cpu) {
@@ -263,6 +317,7 @@ int crisp_cmd_render(int argc, char **argv)
                 printf("time resolve     %.2f ms\n", rs.ms_resolve);
             }
             printf("time render      %.1f ms\n", 1e3 * (t_render - t_prep));
+            if (part_count) printf("time f-rep parts %.1f ms\n", 1e3 * (t_render - t_nurbs));
             printf("time write       %.1f ms\n", 1e3 * (t_write - t_render));
         }
     }
@@ -270,6 +325,8 @@ done:
     if (st) fprintf(stderr, "crisp render: %s\n", crisp_error_message());
     crisp_image_free(&img);
     crisp_scene_destroy(scene);
-    crisp_model_destroy(model);
+    if (assets) crisp_scene_assets_destroy(assets);
+    else crisp_model_destroy(model);
+    crisp_scene_file_destroy(scene_file);
     return rc;
 }

@@ -44,6 +44,9 @@ typedef struct frep_ctx {
 
 typedef struct tile_hits {
     int count;
+    int i0, j0;                /* the tile's first pixel */
+    uint8_t done[TILE * TILE]; /* the pixel has its hit for this part (the float depth it holds
+                                  may round above the hit, so depth alone cannot cull it) */
     int32_t pixel[TILE * TILE];
     float x[TILE * TILE], y[TILE * TILE], z[TILE * TILE];
     double depth[TILE * TILE];
@@ -116,6 +119,8 @@ static double pixel_limit(const frep_ctx *c, size_t p)
 static void solve_ray(const frep_ctx *c, tile_hits *h, int i, int j, double z0, double z1)
 {
     const part_view *pv = c->pv;
+    int local = (j - h->j0) * TILE + (i - h->i0);
+    if (h->done[local]) return;
     double nx = nx_of(c, i), ny = ny_of(c, j);
     double seg[RAY_STACK][2];
     int top = 0;
@@ -159,8 +164,9 @@ static void solve_ray(const frep_ctx *c, tile_hits *h, int i, int j, double z0, 
     }
     if (!(hit == hit)) return;
     size_t p = (size_t)j * c->cam->width + i;
-    if (!(hit < c->img->depth[p])) return;
+    if (!(hit < c->img->depth[p]) || h->count == TILE * TILE) return;
     c->img->depth[p] = (float)hit; /* z-culls the rest of this pixel at once */
+    h->done[local] = 1;
     int k = h->count++;
     float q[3];
     local_point(pv, nx, ny, hit, q);
@@ -250,6 +256,8 @@ static void render_tiles(void *ctx, size_t begin, size_t end, int worker)
     hits.count = 0;
     for (size_t t = begin; t < end; t++) {
         int i0 = (int)(t % (size_t)c->tiles_x) * TILE, j0 = (int)(t / (size_t)c->tiles_x) * TILE;
+        hits.i0 = i0, hits.j0 = j0;
+        memset(hits.done, 0, sizeof hits.done);
         int i1 = i0 + TILE < c->cam->width ? i0 + TILE : c->cam->width;
         int j1 = j0 + TILE < c->cam->height ? j0 + TILE : c->cam->height;
         if (c->per_pixel) {

@@ -16,6 +16,7 @@
 
 #include "crisp/frep.h"
 #include "crisp/render.h"
+#include "crisp/scene_file.h"
 
 static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
 static double urand(void)
@@ -369,6 +370,148 @@ static void test_camera_inside_and_crossing(void **state)
     crisp_frep_destroy(f);
 }
 
+/* Bad scene text: the error names the file, line and column and says what was expected. */
+static void expect_error(const char *text, const char *where, const char *what)
+{
+    crisp_scene_file *s = (crisp_scene_file *)1;
+    assert_int_not_equal(crisp_scene_file_read_mem("bad.scene", NULL, text, strlen(text), &s),
+                         CRISP_OK);
+    assert_null(s);
+    const char *msg = crisp_error_message();
+    if (!strstr(msg, where) || !strstr(msg, what))
+        fail_msg("for '%s': message '%s' lacks '%s' or '%s'", text, msg, where, what);
+}
+
+static void test_scene_file_errors(void **state)
+{
+    (void)state;
+    expect_error("", "bad.scene:", "expected at least one");
+    expect_error("# only a comment\n", "bad.scene:", "expected at least one");
+    expect_error("model a.igs\nmesh b.obj\n", "bad.scene:2:1:", "expected 'model' or 'frep'");
+    expect_error("model\n", "bad.scene:1:6:", "expected a file path");
+    expect_error("frep a.vm translate 1 2\n", "bad.scene:1:", "three numbers after 'translate'");
+    expect_error("frep a.vm translate 1 x 2\n", "bad.scene:1:23:", "three numbers");
+    expect_error("frep a.vm\n\nfrep b.vm scale 0\n", "bad.scene:3:11:", "non-zero scale");
+    expect_error("frep a.vm rotate 0 0 0 30\n", "bad.scene:1:11:", "non-zero rotation axis");
+    expect_error("frep a.vm color 1 2 0\n", "bad.scene:1:19:", "in [0, 1]");
+    expect_error("frep a.vm wobble 3\n", "bad.scene:1:11:", "expected translate, scale");
+    expect_error("frep math X*X\n", "bad.scene:1:11:", "math string in double quotes");
+    expect_error("frep math \"X - 1\n", "bad.scene:1:11:", "closing");
+    expect_error("frep a.vm transform 1 0 0 0 0 1 0 0 0 0 1 0 0 0 1 1\n",
+                 "bad.scene:1:11:", "affine");
+    expect_error("frep a.vm transform 1 0 0 0 0 1 0 0 0 0 0 0 0 0 0 1\n",
+                 "bad.scene:1:11:", "invertible");
+    expect_error("frep a.vm scale 1e300 scale 1e300\n", "bad.scene:1:1:", "finite");
+    expect_error("frep a.vm translate 1 2 nan\n", "bad.scene:1:25:", "three numbers");
+    /* Loading reports the scene line of a file that is missing or does not parse. */
+    const char *text = "frep math \"X +\"\n";
+    crisp_scene_file *s;
+    assert_int_equal(crisp_scene_file_read_mem("bad.scene", NULL, text, strlen(text), &s),
+                     CRISP_OK);
+    crisp_scene_assets *a = (crisp_scene_assets *)1;
+    assert_int_not_equal(crisp_scene_assets_load(s, &a), CRISP_OK);
+    assert_null(a);
+    assert_non_null(strstr(crisp_error_message(), "bad.scene:1:"));
+    crisp_scene_file_destroy(s);
+    text = "model does_not_exist.igs\n";
+    assert_int_equal(crisp_scene_file_read_mem("bad.scene", "/nonexistent", text, strlen(text), &s),
+                     CRISP_OK);
+    assert_int_not_equal(crisp_scene_assets_load(s, &a), CRISP_OK);
+    assert_non_null(strstr(crisp_error_message(), "bad.scene:1:"));
+    crisp_scene_file_destroy(s);
+}
+
+/* The bundled example: paths relative to the scene file, the teapot merged, parts placed. */
+static void test_scene_file_example(void **state)
+{
+    (void)state;
+    const char *path = CRISP_DATA_DIR "/scenes/teapot_frep.scene";
+    assert_true(crisp_scene_file_detect(path));
+    assert_false(crisp_scene_file_detect(CRISP_DATA_DIR "/nurbs/gpucast_teapot.igs"));
+    crisp_scene_file *s;
+    assert_int_equal(crisp_scene_file_read(path, &s), CRISP_OK);
+    assert_int_equal(s->item_count, 3);
+    assert_int_equal(s->items[0].kind, CRISP_SCENE_MODEL);
+    assert_int_equal(s->items[2].kind, CRISP_SCENE_FREP);
+    assert_non_null(s->items[2].math);
+    /* scale 1.3 then translate (-1, 0.5, 1.6): the origin goes to the translation. */
+    assert_float_equal(s->items[2].transform[0][0], 1.3, 1e-12);
+    assert_float_equal(s->items[2].transform[3][0], -1, 1e-12);
+    assert_float_equal(s->items[2].transform[3][2], 1.6, 1e-12);
+    crisp_scene_assets *a;
+    assert_int_equal(crisp_scene_assets_load(s, &a), CRISP_OK);
+    assert_int_equal(a->model->face_count, 32);
+    assert_int_equal(a->part_count, 2);
+    assert_true(a->model->faces[0].has_color);
+    /* the sphere part is negative at its placed centre, positive 1.4 away */
+    assert_true(crisp_frep_eval_point(a->parts[1].tape, 0, 0, 0) < 0);
+    crisp_scene_assets_destroy(a);
+    crisp_scene_file_destroy(s);
+    /* Model transforms move the control points: translate the teapot by (10, 0, 0). */
+    const char *text =
+        "model " CRISP_DATA_DIR "/nurbs/gpucast_teapot.igs rotate 0 0 1 180 translate 10 0 0\n";
+    assert_int_equal(crisp_scene_file_read_mem("t.scene", NULL, text, strlen(text), &s), CRISP_OK);
+    assert_int_equal(crisp_scene_assets_load(s, &a), CRISP_OK);
+    double box[6];
+    crisp_model_bbox(a->model, box);
+    /* [-3, 3.525] in x, rotated by 180 degrees and moved by 10: [6.475, 13]. */
+    assert_float_equal(box[0], 6.475, 1e-9);
+    assert_float_equal(box[3], 13, 1e-9);
+    assert_float_equal(box[5], 3.15, 1e-9);
+    crisp_scene_assets_destroy(a);
+    crisp_scene_file_destroy(s);
+}
+
+/* tanglecube.vm through a perspective camera: the frustum subdivision (cpu) and the per-pixel
+ * ray bisection (exact) agree on coverage except at a few silhouette pixels, and on depth; no
+ * pixel is drawn with a NaN. */
+static void test_tiles_match_per_pixel(void **state)
+{
+    (void)state;
+    crisp_frep *f;
+    assert_int_equal(crisp_frep_read_vm(CRISP_DATA_DIR "/frep/tanglecube.vm", &f), CRISP_OK);
+    crisp_frep_tape *t;
+    assert_int_equal(crisp_frep_tape_create(f, &t), CRISP_OK);
+    crisp_frep_part part = {.tape = t, .color = {1, 1, 1, 1}};
+    crisp_mat4_identity(part.transform);
+    part.transform[0][0] = part.transform[1][1] = part.transform[2][2] = 1.2;
+    crisp_camera cam = {.eye = {-2.5, -14, 7},
+                        .target = {0, 0, 0},
+                        .up = {0, 0, 1},
+                        .fov_deg = 12,
+                        .znear = 0.002,
+                        .zfar = 40,
+                        .width = 160,
+                        .height = 90};
+    crisp_image a, b;
+    assert_int_equal(crisp_image_init(&a, cam.width, cam.height), CRISP_OK);
+    assert_int_equal(crisp_image_init(&b, cam.width, cam.height), CRISP_OK);
+    assert_int_equal(
+        crisp_render_frep_parts(&part, 1, &cam, &(crisp_frep_parts_desc){.threads = 2}, &a),
+        CRISP_OK);
+    assert_int_equal(
+        crisp_render_frep_parts(&part, 1, &cam, &(crisp_frep_parts_desc){.per_pixel = 1}, &b),
+        CRISP_OK);
+    size_t n = (size_t)cam.width * cam.height, differ = 0, both = 0;
+    for (size_t p = 0; p < n; p++) {
+        assert_false(isnan(a.rgba[4 * p]) || isnan(a.normal[3 * p]));
+        if ((a.face[p] == -2) != (b.face[p] == -2))
+            differ++;
+        else if (a.face[p] == -2) {
+            both++;
+            if (fabs(a.depth[p] - b.depth[p]) > 1e-3 * b.depth[p])
+                fail_msg("pixel %zu: depth %.7g (tiles) vs %.7g (per pixel)", p, a.depth[p],
+                         b.depth[p]);
+        }
+    }
+    assert_true(both > n / 10);
+    if (differ > n / 500) fail_msg("%zu of %zu pixels differ in coverage", differ, n);
+    crisp_image_free(&a);
+    crisp_image_free(&b);
+    crisp_frep_tape_destroy(t);
+    crisp_frep_destroy(f);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -376,6 +519,9 @@ int main(void)
         cmocka_unit_test(test_transformed_part),
         cmocka_unit_test(test_sphere_cuts_plane),
         cmocka_unit_test(test_camera_inside_and_crossing),
+        cmocka_unit_test(test_tiles_match_per_pixel),
+        cmocka_unit_test(test_scene_file_errors),
+        cmocka_unit_test(test_scene_file_example),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
