@@ -370,7 +370,7 @@ static crisp_status load_model_item(const crisp_scene_file *s, const crisp_scene
     crisp_model *m = NULL;
     crisp_status st = crisp_model_load(it->path, NULL, &m);
     if (st) {
-        crisp_error_prefix("%s:%d: ", s->name, it->line);
+        crisp_error_prefix("%s:%d", s->name, it->line);
         return st;
     }
     int flip = det3((double(*)[4])it->transform) < 0;
@@ -424,7 +424,7 @@ crisp_status crisp_scene_assets_load(const crisp_scene_file *s, crisp_scene_asse
         if (!st) st = crisp_frep_tape_create(a->freps[k], &a->tapes[k]);
         if (st) {
             crisp_frep_destroy(a->freps[k]); /* the tape failed or the reader left nothing */
-            crisp_error_prefix("%s:%d: ", s->name, it->line);
+            crisp_error_prefix("%s:%d", s->name, it->line);
             break;
         }
         crisp_frep_part *p = &a->parts[k];
