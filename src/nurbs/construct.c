@@ -80,6 +80,7 @@ static int arc_segments(double a0, double a1)
     double sweep = a1 - a0;
     if (!(sweep > 0)) return 1;
     double q = sweep / (0.5 * M_PI);
+    if (!(q < 4 * 64)) return 4 * 64; /* huge or infinite sweeps: never convert them to int */
     int n = (int)ceil(q - 1e-9);
     if (n < 1) n = 1;
     if (n > 4 * 64) n = 4 * 64; /* callers reject sweeps this large; keep the int sane */
@@ -91,9 +92,10 @@ double crisp_angle_to_param(double a0, double a1, double angle)
     if (!(a1 > a0)) return angle;
     int n = arc_segments(a0, a1);
     double delta = (a1 - a0) / n, phi = 0.5 * delta;
-    int k = (int)floor((angle - a0) / delta);
-    if (k < 0) k = 0;
-    if (k > n - 1) k = n - 1;
+    /* Clamp in double before converting: an angle far outside [a0, a1] (or NaN) must not
+     * overflow the int. */
+    double kf = floor((angle - a0) / delta);
+    int k = kf >= 1 ? (kf <= n - 1 ? (int)kf : n - 1) : 0;
     double start = a0 + k * delta;
     double theta = angle - start - phi; /* from the segment's middle */
     double s = 0.5 * (tan(0.5 * theta) / tan(0.5 * phi) + 1.0);
@@ -105,9 +107,10 @@ double crisp_param_to_angle(double a0, double a1, double t)
     if (!(a1 > a0)) return t;
     int n = arc_segments(a0, a1);
     double delta = (a1 - a0) / n, phi = 0.5 * delta;
-    int k = (int)floor((t - a0) / delta);
-    if (k < 0) k = 0;
-    if (k > n - 1) k = n - 1;
+    /* Clamp in double before converting: an angle far outside [a0, a1] (or NaN) must not
+     * overflow the int. */
+    double kf = floor((t - a0) / delta);
+    int k = kf >= 1 ? (kf <= n - 1 ? (int)kf : n - 1) : 0;
     double start = a0 + k * delta;
     double s = (t - start) / delta;
     double theta = 2.0 * atan((2.0 * s - 1.0) * tan(0.5 * phi));

@@ -18,6 +18,13 @@
 static void test_angle_param_inverse(void **state)
 {
     (void)state;
+    /* Angles and sweeps far outside any arc (or NaN) are clamped, never converted to an int out
+     * of range (UBSan in the sanitizer build catches that). */
+    assert_true(isfinite(crisp_angle_to_param(0, 1, 1e300)));
+    assert_true(isfinite(crisp_angle_to_param(0, 1, -1e300)));
+    assert_true(isfinite(crisp_param_to_angle(0, 1, 1e300)));
+    assert_true(isnan(crisp_angle_to_param(0, 1, NAN)));
+    assert_true(isfinite(crisp_angle_to_param(0, 1e300, 2.0)));
     const double a0s[] = {0, -1.0, 2.5, -M_PI};
     const double sweeps[] = {0.3, M_PI / 2, 1.7, M_PI, 1.5 * M_PI, 2 * M_PI, 0.5 * M_PI + 1e-3};
     for (size_t i = 0; i < sizeof a0s / sizeof *a0s; i++)
