@@ -131,7 +131,9 @@ crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_
                 visible = 1;
                 double range = desc->row_v ? desc->row_v[2 * i + 1] - desc->row_v[2 * i] : hv;
                 hmin = fmin(hmin, range / desc->mu[i]);
-                rho_u = fmax(rho_u, desc->rho_u[i]);
+                /* An unbounded strip (HUGE_VAL) has lost its guarantee already; letting it ask
+                 * for infinitely fine polylines would only cost memory. */
+                if (isfinite(desc->rho_u[i])) rho_u = fmax(rho_u, desc->rho_u[i]);
             }
         }
         double n = 1.0;
