@@ -402,6 +402,56 @@ static void test_density_bound(void **state)
     assert_true(ratios[nratio / 2] < 3.0); /* not absurdly loose */
 }
 
+/* A face of several patches with a non-unit parameter box: the bound is per unit of the face's
+ * (u, v), over strips that do not line up with the patch boundaries. */
+static void test_density_multi_patch(void **state)
+{
+    (void)state;
+    enum { STRIPS = 7 };
+    for (int trial = 0; trial < 6; trial++) {
+        double cpw[4 * 16], parts[4][4 * 16], half[2][4 * 16];
+        crisp_bezier_patch p, a, b, q[4];
+        random_patch(&p, cpw, 2 + trial % 2, 2);
+        p.u0 = 10, p.u1 = 30, p.v0 = -2, p.v1 = 6;
+        a.cpw = half[0];
+        b.cpw = half[1];
+        crisp_bezier_patch_split_u(&p, 0.3, &a, &b);
+        for (int k = 0; k < 4; k++)
+            q[k].cpw = parts[k];
+        crisp_bezier_patch_split_v(&a, 0.6, &q[0], &q[1]);
+        crisp_bezier_patch_split_v(&b, 0.6, &q[2], &q[3]);
+        crisp_mat4 vp;
+        double eye[3] = {0.5 + rnd_in(-1, 1), 0.5 + rnd_in(-1, 1), rnd_in(1.5, 3)};
+        tu_camera(eye, (double[3]){0.5, 0.5, 0}, 50, 0.1, 100, 240, 200, vp);
+        double rv[STRIPS], ru[STRIPS], vis[2 * STRIPS];
+        assert_int_equal(crisp_trim_scan_density(&(crisp_trim_density_desc){.patches = q,
+                                                                            .patch_count = 4,
+                                                                            .view_proj = &vp,
+                                                                            .width = 240,
+                                                                            .height = 200,
+                                                                            .v0 = -2,
+                                                                            .v1 = 6,
+                                                                            .strip_count = STRIPS},
+                                                 rv, ru, vis, NULL),
+                         CRISP_OK);
+        int seen = 0;
+        for (int k = 0; k < 4000; k++) {
+            double s = rnd(), t = rnd(), xy[2], ds[2], dt[2];
+            int visible;
+            tu_screen(&p, vp, 240, 200, s, t, xy, ds, dt, &visible);
+            if (!visible) continue;
+            double v = -2 + 8 * t;
+            int i = (int)((v + 2) / 8 * STRIPS);
+            if (i > STRIPS - 1) i = STRIPS - 1;
+            assert_true(hypot(dt[0], dt[1]) / 8 <= rv[i] * (1 + 1e-9));
+            assert_true(hypot(ds[0], ds[1]) / 20 <= ru[i] * (1 + 1e-9));
+            assert_true(v >= vis[2 * i] && v <= vis[2 * i + 1]);
+            seen++;
+        }
+        assert_true(seen > 100);
+    }
+}
+
 static void test_plan_reuses_buffers(void **state)
 {
     (void)state;
@@ -494,6 +544,7 @@ int main(void)
         cmocka_unit_test(test_table_row_ranges),
         cmocka_unit_test(test_tessellation_bound),
         cmocka_unit_test(test_density_bound),
+        cmocka_unit_test(test_density_multi_patch),
         cmocka_unit_test(test_plan_reuses_buffers),
         cmocka_unit_test(test_bad_input),
     };
