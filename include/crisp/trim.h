@@ -113,8 +113,9 @@ typedef struct crisp_trim_polyline {
     int piece_count;
     int *first; /* piece_count + 1 */
     double *uv; /* 2 * first[piece_count] */
+    double *t;  /* first[piece_count]: each point's parameter on its piece (in [0, 1]) */
     int capped; /* pieces that needed more than CRISP_TRIM_MAX_SEGMENTS_PER_PIECE */
-    size_t cap_first, cap_uv;
+    size_t cap_first, cap_uv, cap_t;
 } crisp_trim_polyline;
 
 typedef struct crisp_trim_tess_desc {
@@ -129,7 +130,8 @@ typedef struct crisp_trim_tess_desc {
     double tol_v, tol_u;
 } crisp_trim_tess_desc;
 
-/* Each piece gets n uniform segments in t, n the smallest count for which the Filip et al. bound
+/* Each piece (or, where one piece would need many, each of its dyadic sub-pieces: only the parts
+ * over visible strips are refined) gets n uniform segments in t, n the smallest count for which the Filip et al. bound
  * (max deviation of a degree-d polynomial from its chords <= d (d - 1) max|Δ²b| / (8 n²)), applied
  * to the homogeneous form and divided by the smallest weight, keeps the polyline within the
  * tolerances of every visible strip the piece's control polygon overlaps. Pieces over invisible

@@ -242,6 +242,21 @@ static double screen_dist(const crisp_raster_vertex *a, const crisp_raster_verte
     return hypot(dx, dy);
 }
 
+/* Conservatively: can the ribbon piece between a and b (surface points) show on screen? Both in
+ * front of the eye, and the screen box of the chord, widened by the chord's length (the surface
+ * image between two samples bulges by less than that), meets the viewport. */
+static int segment_may_show(const crisp_raster_vertex *a, const crisp_raster_vertex *b, double w,
+                            double h)
+{
+    if (!(a->clip[3] > 0) || !(b->clip[3] > 0)) return 1; /* let refine() split it */
+    double ax = (a->clip[0] / a->clip[3] + 1) * 0.5 * w, ay = (1 - a->clip[1] / a->clip[3]) * 0.5 * h;
+    double bx = (b->clip[0] / b->clip[3] + 1) * 0.5 * w, by = (1 - b->clip[1] / b->clip[3]) * 0.5 * h;
+    double len = hypot(bx - ax, by - ay) + 2;
+    if (!isfinite(len)) return 1;
+    return fmax(ax, bx) + len >= 0 && fmin(ax, bx) - len <= w && fmax(ay, by) + len >= 0 &&
+           fmin(ay, by) - len <= h;
+}
+
 typedef struct sampler {
     crisp_arena *arena;
     crisp_raster_vertex *pts;
@@ -316,10 +331,23 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
                      .h = plan->height, .gx = 1 + 4.0 / plan->width, .gy = 1 + 4.0 / plan->height};
         crisp_raster_vertex a, b;
         ribbon_vertex(s.surf, s.reversed, *s.m, pl->uv[2 * p0], pl->uv[2 * p0 + 1], &a);
-        emit(&s, &a);
+        int open = 0; /* the ribbon so far ends at a */
         for (int k = p0; k + 1 < p1; k++) {
             ribbon_vertex(s.surf, s.reversed, *s.m, pl->uv[2 * k + 2], pl->uv[2 * k + 3], &b);
-            refine(&s, &a, &b, 0);
+            /* Segments that cannot reach the view are left out without a sample (at extreme zoom
+             * almost all of a polyline is off screen). */
+            if (!segment_may_show(&a, &b, s.w, s.h)) {
+                if (open) {
+                    crisp_raster_vertex brk = a;
+                    brk.clip[3] = -1;
+                    emit(&s, &brk);
+                    open = 0;
+                }
+            } else {
+                if (!open) emit(&s, &a);
+                refine(&s, &a, &b, 0);
+                open = 1;
+            }
             a = b;
         }
         if (s.failed) c->status[worker] = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");

@@ -86,6 +86,102 @@ static void eval_point(const crisp_bezier_curve *b, double t, double *uv)
     uv[1] = V / W;
 }
 
+/* Segments a (sub-)piece needs: from the strips its control polygon's v-range overlaps (their row
+ * spacing and u-density); 1 when none of them is visible. */
+typedef struct tess_ctx {
+    const crisp_trim_tess_desc *desc;
+    double fu, fv, hv;
+    int capped;
+} tess_ctx;
+
+static double piece_need(const tess_ctx *c, const crisp_bezier_curve *b)
+{
+    const crisp_trim_tess_desc *desc = c->desc;
+    int n_strips = desc->strip_count;
+    double vmin = HUGE_VAL, vmax = -HUGE_VAL;
+    for (int i = 0; i <= b->degree; i++) {
+        double v = b->cpw[3 * i + 1] / b->cpw[3 * i + 2];
+        vmin = fmin(vmin, v);
+        vmax = fmax(vmax, v);
+    }
+    if (!(vmax >= desc->v0 && vmin <= desc->v1)) return 1.0;
+    double fs = floor((vmin - desc->v0) / c->hv), fe = floor((vmax - desc->v0) / c->hv);
+    int is = fs < 0 ? 0 : fs > n_strips - 1 ? n_strips - 1 : (int)fs;
+    int ie = fe < 0 ? 0 : fe > n_strips - 1 ? n_strips - 1 : (int)fe;
+    if (is > 0) is--; /* a crossing at a strip boundary may be decided by either side */
+    if (ie < n_strips - 1) ie++;
+    double hmin = HUGE_VAL, rho_u = 0.0;
+    int visible = 0;
+    for (int i = is; i <= ie; i++) {
+        if (!desc->mu[i]) continue;
+        visible = 1;
+        double range = desc->row_v ? desc->row_v[2 * i + 1] - desc->row_v[2 * i] : c->hv;
+        hmin = fmin(hmin, range / desc->mu[i]);
+        /* An unbounded strip (HUGE_VAL) has lost its guarantee already; letting it ask for
+         * infinitely fine polylines would only cost memory. */
+        if (isfinite(desc->rho_u[i])) rho_u = fmax(rho_u, desc->rho_u[i]);
+    }
+    if (!visible) return 1.0;
+    double tol_u = rho_u > 0.0 ? c->fu / rho_u : HUGE_VAL;
+    return segments_needed(b, tol_u, c->fv * hmin);
+}
+
+/* de Casteljau halves of a homogeneous 2D piece. */
+static void halve(const crisp_bezier_curve *b, crisp_bezier_curve *lo, crisp_bezier_curve *hi)
+{
+    int d = b->degree;
+    *lo = *b;
+    *hi = *b;
+    double tmp[(CRISP_MAX_DEGREE + 1) * 3];
+    memcpy(tmp, b->cpw, (size_t)(d + 1) * 3 * sizeof *tmp);
+    for (int r = 0; r <= d; r++) {
+        for (int c = 0; c < 3; c++) {
+            lo->cpw[3 * r + c] = tmp[c];
+            hi->cpw[3 * (d - r) + c] = tmp[3 * (d - r) + c];
+        }
+        for (int k = 0; k < d - r; k++)
+            for (int c = 0; c < 3; c++) tmp[3 * k + c] = 0.5 * (tmp[3 * k + c] + tmp[3 * (k + 1) + c]);
+    }
+}
+
+/* Adaptive tessellation of a piece: a sub-piece that needs more than LEAF_SEGMENTS uniform segments
+ * is halved, so only the parts over visible strips get fine polylines (at extreme zoom a piece
+ * can cross the view over a tiny part of its length). Each leaf keeps its own Filip bound, so
+ * the guarantee holds leaf by leaf. Writes the points after the sub-piece's start (its interior
+ * points and its end point) when uv is not NULL; returns how many. */
+#define LEAF_SEGMENTS 32
+#define MAX_HALVINGS 40
+static long tess_rec(tess_ctx *c, const crisp_bezier_curve *b, int depth, double t0, double t1,
+                     double *uv, double *tp)
+{
+    double n = piece_need(c, b);
+    if (n > LEAF_SEGMENTS && depth < MAX_HALVINGS) {
+        crisp_bezier_curve lo, hi;
+        halve(b, &lo, &hi);
+        double tm = 0.5 * (t0 + t1);
+        long a = tess_rec(c, &lo, depth + 1, t0, tm, uv, tp);
+        return a + tess_rec(c, &hi, depth + 1, tm, t1, uv ? uv + 2 * a : NULL, tp ? tp + a : NULL);
+    }
+    if (!(n <= CRISP_TRIM_MAX_SEGMENTS_PER_PIECE)) {
+        n = CRISP_TRIM_MAX_SEGMENTS_PER_PIECE;
+        if (!uv) c->capped++;
+    }
+    int m = (int)n;
+    if (uv) {
+        for (int q = 1; q < m; q++) {
+            eval_point(b, (double)q / m, uv + 2 * (q - 1));
+            tp[q - 1] = t0 + (t1 - t0) * q / m;
+        }
+        tp[m - 1] = t1;
+        /* The end point from the end control point exactly: neighbouring pieces that share a
+         * control point share the vertex bit for bit. */
+        const double *cd = b->cpw + 3 * b->degree;
+        uv[2 * (m - 1)] = cd[0] / cd[2];
+        uv[2 * (m - 1) + 1] = cd[1] / cd[2];
+    }
+    return m;
+}
+
 crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_polyline *dest)
 {
     if (!desc || !dest)
@@ -97,78 +193,44 @@ crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_
                            "crisp_trim_tessellate: strips %d over [%g, %g], expected >= 1 strips "
                            "with mu and rho_u over a non-empty range",
                            desc->strip_count, desc->v0, desc->v1);
-    double fu = desc->tol_u > 0.0 ? desc->tol_u : 0.25;
-    double fv = desc->tol_v > 0.0 ? desc->tol_v : 0.25;
-    int n_strips = desc->strip_count;
-    double span = desc->v1 - desc->v0, hv = span / n_strips;
+    tess_ctx c = {.desc = desc,
+                  .fu = desc->tol_u > 0.0 ? desc->tol_u : 0.25,
+                  .fv = desc->tol_v > 0.0 ? desc->tol_v : 0.25,
+                  .hv = (desc->v1 - desc->v0) / desc->strip_count};
     crisp_trim_polyline *pl = dest;
     if (crisp_grow((void **)&pl->first, &pl->cap_first, (size_t)desc->piece_count + 1,
                    sizeof *pl->first))
         return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_tessellate: out of memory");
     pl->piece_count = desc->piece_count;
-    pl->capped = 0;
-    /* Pass 1: segment counts (first[k + 1] temporarily holds piece k's count). */
+    /* Pass 1: point counts (first[k + 1] temporarily holds piece k's segment count). */
     long total = 0;
     pl->first[0] = 0;
     for (int k = 0; k < desc->piece_count; k++) {
-        const crisp_bezier_curve *b = &desc->pieces[k];
-        double vmin = HUGE_VAL, vmax = -HUGE_VAL;
-        for (int i = 0; i <= b->degree; i++) {
-            double v = b->cpw[3 * i + 1] / b->cpw[3 * i + 2];
-            vmin = fmin(vmin, v);
-            vmax = fmax(vmax, v);
-        }
-        double fs = floor((vmin - desc->v0) / hv), fe = floor((vmax - desc->v0) / hv);
-        int is = fs < 0 ? 0 : fs > n_strips - 1 ? n_strips - 1 : (int)fs;
-        int ie = fe < 0 ? 0 : fe > n_strips - 1 ? n_strips - 1 : (int)fe;
-        if (is > 0) is--; /* a crossing at a strip boundary may be decided by either side */
-        if (ie < n_strips - 1) ie++;
-        double hmin = HUGE_VAL, rho_u = 0.0;
-        int visible = 0;
-        if (vmax >= desc->v0 && vmin <= desc->v1) {
-            for (int i = is; i <= ie; i++) {
-                if (!desc->mu[i]) continue;
-                visible = 1;
-                double range = desc->row_v ? desc->row_v[2 * i + 1] - desc->row_v[2 * i] : hv;
-                hmin = fmin(hmin, range / desc->mu[i]);
-                /* An unbounded strip (HUGE_VAL) has lost its guarantee already; letting it ask
-                 * for infinitely fine polylines would only cost memory. */
-                if (isfinite(desc->rho_u[i])) rho_u = fmax(rho_u, desc->rho_u[i]);
-            }
-        }
-        double n = 1.0;
-        if (visible) {
-            double tol_u = rho_u > 0.0 ? fu / rho_u : HUGE_VAL;
-            n = segments_needed(b, tol_u, fv * hmin);
-        }
-        if (!(n <= CRISP_TRIM_MAX_SEGMENTS_PER_PIECE)) {
-            n = CRISP_TRIM_MAX_SEGMENTS_PER_PIECE;
-            pl->capped++;
-        }
+        long n = tess_rec(&c, &desc->pieces[k], 0, 0.0, 1.0, NULL, NULL);
+        if (n > (long)1 << 30)
+            return crisp_error(CRISP_ERR_LIMIT, "crisp_trim_tessellate: piece %d needs %ld segments", k, n);
         pl->first[k + 1] = (int)n;
-        total += (long)n + 1;
+        total += n + 1;
+        if (total > (long)1 << 30)
+            return crisp_error(CRISP_ERR_LIMIT, "crisp_trim_tessellate: %ld polyline points, too many",
+                               total);
     }
-    if (total > (long)1 << 30)
-        return crisp_error(CRISP_ERR_LIMIT, "crisp_trim_tessellate: %ld polyline points, too many",
-                           total);
-    if (crisp_grow((void **)&pl->uv, &pl->cap_uv, 2 * (size_t)(total ? total : 1), sizeof *pl->uv))
+    pl->capped = c.capped;
+    if (crisp_grow((void **)&pl->uv, &pl->cap_uv, 2 * (size_t)(total ? total : 1), sizeof *pl->uv) ||
+        crisp_grow((void **)&pl->t, &pl->cap_t, (size_t)(total ? total : 1), sizeof *pl->t))
         return crisp_error(CRISP_ERR_NO_MEMORY,
                            "crisp_trim_tessellate: out of memory for %ld points", total);
-    /* Pass 2: points; the end points come from the end control points exactly, so neighbouring
-     * pieces that share a control point share the vertex bit for bit. */
+    /* Pass 2: points. The start point comes from the start control point exactly. */
     int at = 0;
     for (int k = 0; k < desc->piece_count; k++) {
         const crisp_bezier_curve *b = &desc->pieces[k];
         int n = pl->first[k + 1];
         pl->first[k] = at;
         double *uv = pl->uv + 2 * at;
-        const double *c0 = b->cpw, *cd = b->cpw + 3 * b->degree;
-        uv[0] = c0[0] / c0[2];
-        uv[1] = c0[1] / c0[2];
-        for (int q = 1; q < n; q++)
-            eval_point(b, (double)q / n, uv + 2 * q);
-        uv[2 * n] = cd[0] / cd[2];
-        uv[2 * n + 1] = cd[1] / cd[2];
+        uv[0] = b->cpw[0] / b->cpw[2];
+        uv[1] = b->cpw[1] / b->cpw[2];
+        pl->t[at] = 0.0;
+        tess_rec(&c, b, 0, 0.0, 1.0, uv + 2, pl->t + at + 1);
         at += n + 1;
     }
     pl->first[desc->piece_count] = at;
@@ -180,5 +242,6 @@ void crisp_trim_polyline_free(crisp_trim_polyline *p)
     if (!p) return;
     crisp_free(p->first);
     crisp_free(p->uv);
+    crisp_free(p->t);
     memset(p, 0, sizeof *p);
 }
