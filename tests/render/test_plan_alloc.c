@@ -19,22 +19,23 @@ void *__real_calloc(size_t n, size_t s);
 void *__real_realloc(void *p, size_t n);
 static int counting;
 static long allocations;
+static double bytes; /* requested, not live: an upper bound of what a frame holds */
 
 void *__wrap_malloc(size_t n)
 {
-    if (counting) allocations++;
+    if (counting) allocations++, bytes += (double)n;
     return __real_malloc(n);
 }
 
 void *__wrap_calloc(size_t n, size_t s)
 {
-    if (counting) allocations++;
+    if (counting) allocations++, bytes += (double)n * (double)s;
     return __real_calloc(n, s);
 }
 
 void *__wrap_realloc(void *p, size_t n)
 {
-    if (counting) allocations++;
+    if (counting) allocations++, bytes += (double)n;
     return __real_realloc(p, n);
 }
 
@@ -84,8 +85,41 @@ static void test_steady_state(void **state)
     crisp_model_destroy(m);
 }
 
+/* Zooming in by factors of 100 down to a field of view of 1e-8 degrees (a 1e-12 model-unit wide
+ * window onto the bearing) keeps a frame's memory bounded: trim polylines refine only where their
+ * strips are visible and ribbons only where they can show. */
+static void test_extreme_zoom_memory(void **state)
+{
+    (void)state;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/occt_bearing.iges", CRISP_DATA_DIR);
+    crisp_model *m;
+    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_image img;
+    assert_int_equal(crisp_image_init(&img, 160, 120), CRISP_OK);
+    for (double fov = 1; fov >= 1e-8; fov *= 0.01) {
+        crisp_camera cam = {.eye = {0.1, 0.12, 0.15}, .target = {0.02, 0.03, 0.01}, .up = {0, 1, 0},
+                            .fov_deg = fov, .znear = 1e-4, .zfar = 1, .width = 160, .height = 120};
+        crisp_renderer *r;
+        assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+        counting = 1;
+        bytes = 0;
+        assert_int_equal(crisp_render_cpu(r, sc, &cam, &img, NULL), CRISP_OK);
+        counting = 0;
+        printf("fov %g: %.1f MB requested\n", fov, bytes / 1048576.0);
+        assert_true(bytes < 256.0 * 1048576.0);
+        crisp_renderer_destroy(r);
+    }
+    crisp_image_free(&img);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_steady_state)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_steady_state),
+                                       cmocka_unit_test(test_extreme_zoom_memory)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
