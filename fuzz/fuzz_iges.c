@@ -7,18 +7,15 @@
 #include <stdint.h>
 
 #include "crisp/io.h"
+#include "fuzz_common.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     crisp_model *m = NULL;
-    if (crisp_read_iges_mem("fuzz.igs", (const char *)data, size, NULL, &m) == CRISP_OK) {
-        crisp_model_stats stats;
-        double box[6];
-        (void)crisp_model_stats_compute(m, &stats);
-        crisp_model_bbox(m, box);
-        crisp_model_destroy(m);
-    }
+    /* Read first: the order in which arguments are evaluated is unspecified. */
+    crisp_status st = crisp_read_iges_mem("fuzz.igs", (const char *)data, size, NULL, &m);
+    fuzz_use_model(st, m);
     return 0;
 }
