@@ -273,6 +273,21 @@ float crisp_frep_eval_point(const crisp_frep_tape *t, float x, float y, float z)
     return v;
 }
 
+/* The points b .. b + m - 1 (m <= FREP_LANES) into lane arrays; spare lanes repeat point b so
+ * they stay finite. Returns m. */
+static size_t gather_lanes(size_t n, size_t b, const float *x, const float *y, const float *z,
+                           float *px, float *py, float *pz)
+{
+    size_t m = n - b < FREP_LANES ? n - b : FREP_LANES;
+    for (size_t k = 0; k < FREP_LANES; k++) {
+        size_t s = b + (k < m ? k : 0);
+        px[k] = x[s];
+        py[k] = y[s];
+        pz[k] = z[s];
+    }
+    return m;
+}
+
 crisp_status crisp_frep_eval_batch(const crisp_frep_tape *t, size_t n, const float *x,
                                    const float *y, const float *z, float *dest)
 {
@@ -282,13 +297,7 @@ crisp_status crisp_frep_eval_batch(const crisp_frep_tape *t, size_t n, const flo
     if (!regs) return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_frep_eval_batch: out of memory");
     float px[FREP_LANES], py[FREP_LANES], pz[FREP_LANES];
     for (size_t b = 0; b < n; b += FREP_LANES) {
-        size_t m = n - b < FREP_LANES ? n - b : FREP_LANES;
-        for (size_t k = 0; k < FREP_LANES; k++) {
-            size_t s = b + (k < m ? k : 0);
-            px[k] = x[s];
-            py[k] = y[s];
-            pz[k] = z[s];
-        }
+        size_t m = gather_lanes(n, b, x, y, z, px, py, pz);
         crisp__frep_eval_lanes(t->ins, t->length, regs, px, py, pz);
         memcpy(dest + b, regs + (size_t)t->result * FREP_LANES, m * sizeof *dest);
     }
@@ -305,13 +314,7 @@ crisp_status crisp_frep_eval_grad(const crisp_frep_tape *t, size_t n, const floa
     if (!regs) return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_frep_eval_grad: out of memory");
     float px[FREP_LANES], py[FREP_LANES], pz[FREP_LANES];
     for (size_t b = 0; b < n; b += FREP_LANES) {
-        size_t m = n - b < FREP_LANES ? n - b : FREP_LANES;
-        for (size_t k = 0; k < FREP_LANES; k++) {
-            size_t s = b + (k < m ? k : 0);
-            px[k] = x[s];
-            py[k] = y[s];
-            pz[k] = z[s];
-        }
+        size_t m = gather_lanes(n, b, x, y, z, px, py, pz);
         crisp__frep_grad_lanes(t->ins, t->length, regs, px, py, pz);
         const float *res = regs + (size_t)t->result * 4 * FREP_LANES;
         for (size_t k = 0; k < m; k++)

@@ -32,6 +32,22 @@ int crisp__slefe_all_finite(const double *v, int n, int stride);
 /* Degree and segment count in range, else an error naming fn. */
 crisp_status crisp__slefe_check(const char *fn, int degree, int segments);
 
+/* The second differences of b split into their positive and negative parts (pos[j - 1], neg[j - 1]
+ * for j = 1..d-1); returns the largest |b_i| (the scale of the rounding margin). */
+static inline double crisp__slefe_second_differences(int d, const double *b, int stride,
+                                                     double *pos, double *neg)
+{
+    double bmax = fabs(b[0]) > fabs(b[d * stride]) ? fabs(b[0]) : fabs(b[d * stride]);
+    for (int j = 1; j < d; j++) {
+        double bj = b[j * stride];
+        double dd = b[(j - 1) * stride] - 2.0 * bj + b[(j + 1) * stride];
+        pos[j - 1] = dd > 0.0 ? dd : 0.0;
+        neg[j - 1] = dd < 0.0 ? dd : 0.0;
+        if (fabs(bj) > bmax) bmax = fabs(bj);
+    }
+    return bmax;
+}
+
 /* Enclosure of sum_i b[i * stride] B_i^d on m segments with table t (d >= 1; t.upper may be NULL
  * for d == 1). Writes lo[k * ostride], up[k * ostride] for k = 0..m. No checks. */
 static inline void crisp__slefe_kernel(int d, const double *b, int stride,
@@ -40,14 +56,7 @@ static inline void crisp__slefe_kernel(int d, const double *b, int stride,
 {
     double pos[CRISP_SLEFE_MAX_DEGREE], neg[CRISP_SLEFE_MAX_DEGREE];
     double b0 = b[0], bd = b[d * stride];
-    double bmax = fabs(b0) > fabs(bd) ? fabs(b0) : fabs(bd);
-    for (int j = 1; j < d; j++) {
-        double bj = b[j * stride];
-        double dd = b[(j - 1) * stride] - 2.0 * bj + b[(j + 1) * stride];
-        pos[j - 1] = dd > 0.0 ? dd : 0.0;
-        neg[j - 1] = dd < 0.0 ? dd : 0.0;
-        if (fabs(bj) > bmax) bmax = fabs(bj);
-    }
+    double bmax = crisp__slefe_second_differences(d, b, stride, pos, neg);
     double margin = t->guard * bmax;
     double inv_m = 1.0 / m;
     for (int k = 0; k <= m; k++) {
@@ -98,14 +107,7 @@ static inline void crisp__slefe_side(int d, const double *b, int stride, double 
 {
     double pos[CRISP_SLEFE_MAX_DEGREE], neg[CRISP_SLEFE_MAX_DEGREE];
     double b0 = b[0], bd = b[d * stride];
-    double bmax = fabs(b0) > fabs(bd) ? fabs(b0) : fabs(bd);
-    for (int j = 1; j < d; j++) {
-        double bj = b[j * stride];
-        double dd = b[(j - 1) * stride] - 2.0 * bj + b[(j + 1) * stride];
-        pos[j - 1] = dd > 0.0 ? dd : 0.0;
-        neg[j - 1] = dd < 0.0 ? dd : 0.0;
-        if (fabs(bj) > bmax) bmax = fabs(bj);
-    }
+    double bmax = crisp__slefe_second_differences(d, b, stride, pos, neg);
     double margin = sign * guard * bmax;
     double inv_m = 1.0 / m;
     for (int k = 0; k <= m; k++) {
