@@ -17,7 +17,8 @@
 const char crisp_cmd_render_help[] =
     "render MODEL|SCENE [-o out.png] [--aov out.exr] [--size WxH] [--eye x,y,z --target x,y,z --up x,y,z\n"
     "                            --fov DEG] [--near N --far F] [--samples N] [--backend cpu|exact]\n"
-    "                            [--threads N] [--stats]   render a model or a .scene file to an image";
+    "                            [--threads N] [--stats]   render a model or a .scene file to an image\n"
+    "                            (--up defaults to 0,1,0, or to 0,0,-1 / 0,0,1 looking straight down / up)";
 
 /* Box of the f-rep parts: each part's [-1, 1]^3 (the .vm models' region) through its transform;
  * used only to frame the default camera. */
@@ -73,6 +74,22 @@ static int parse_int(const char *opt, const char *s, int lo, int hi, int *v)
     return 1;
 }
 
+/* Without --up the up vector is +Y; looking straight up or down (+Y parallel to the view
+ * direction) it is -Z when looking down and +Z when looking up, so the image is the one seen
+ * with +Y up after tilting the camera over the pole. An explicit --up is used as given (and
+ * rejected when parallel). */
+static void default_up(crisp_camera *cam)
+{
+    double d[3], f[3], s[3];
+    crisp_vec3_sub(cam->target, cam->eye, d);
+    if (!crisp_vec3_normalize(d, f)) return;
+    crisp_vec3_cross(f, cam->up, s);
+    if (crisp_vec3_norm(s) > 1e-6) return;
+    cam->up[0] = 0;
+    cam->up[1] = 0;
+    cam->up[2] = f[1] < 0 ? -1 : 1;
+}
+
 /* The exact backend's trim decision: the face's true trim curves. */
 static int classify_exact(void *ctx, const crisp_scene *sc, uint32_t face, double u, double v)
 {
@@ -121,7 +138,7 @@ int crisp_cmd_render(int argc, char **argv)
 {
     const char *model_path = NULL, *png = NULL, *exr = NULL, *backend = "cpu";
     int width = 1280, height = 720, samples = 1, threads = 0, stats = 0;
-    int have_eye = 0, have_target = 0, have_near = 0, have_far = 0;
+    int have_eye = 0, have_target = 0, have_up = 0, have_near = 0, have_far = 0;
     double eye[3], target[3], up[3] = {0, 1, 0}, fov = 30, znear = 0, zfar = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -154,6 +171,7 @@ int crisp_cmd_render(int argc, char **argv)
             have_target = 1;
         } else if (!strcmp(a, "--up")) {
             if (!parse_vec3(a, argv[++i], up)) return 2;
+            have_up = 1;
         } else if (!strcmp(a, "--fov")) {
             if (!parse_double(a, argv[++i], &fov)) return 2;
         } else if (!strcmp(a, "--near")) {
@@ -242,6 +260,7 @@ int crisp_cmd_render(int argc, char **argv)
         for (int k = 0; k < 3; k++)
             cam.target[k] = have_target ? target[k] : 0.5 * (box[k] + box[k + 3]);
         memcpy(cam.up, up, sizeof up);
+        if (!have_up) default_up(&cam);
         /* Default near and far: enclose the model's box seen from the eye. */
         double far_d = 0;
         for (int c = 0; c < 8; c++) {

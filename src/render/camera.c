@@ -20,11 +20,17 @@ crisp_status crisp_camera_check(const crisp_camera *c)
         return crisp_error(CRISP_ERR_INVALID_ARG, "fov %g degrees: expected a value in (0, 180)", c->fov_deg);
     if (!(c->znear > 0 && c->zfar > c->znear && isfinite(c->zfar)))
         return crisp_error(CRISP_ERR_INVALID_ARG, "near %g, far %g: expected 0 < near < far", c->znear, c->zfar);
+    crisp_vec3 d, f;
+    crisp_vec3_sub(c->target, c->eye, d);
+    if (!crisp_vec3_normalize(d, f))
+        return crisp_error(CRISP_ERR_INVALID_ARG, "camera: eye (%g,%g,%g) equals target: no view direction",
+                           c->eye[0], c->eye[1], c->eye[2]);
     crisp_mat4 m;
     if (!crisp_mat4_lookat(c->eye, c->target, c->up, m))
         return crisp_error(CRISP_ERR_INVALID_ARG,
-                           "camera: eye equals target or up (%g,%g,%g) is parallel to the view direction",
-                           c->up[0], c->up[1], c->up[2]);
+                           "camera: up (%g,%g,%g) is zero or parallel to the view direction (%g,%g,%g): "
+                           "expected an up vector that is not",
+                           c->up[0], c->up[1], c->up[2], f[0], f[1], f[2]);
     return CRISP_OK;
 }
 

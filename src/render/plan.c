@@ -437,7 +437,7 @@ crisp_status crisp_plan_frame(crisp_plan *plan, const crisp_scene *sc, const cri
     crisp_mat4_copy(m.view_proj, plan->view_proj);
     plan->width = cam->width;
     plan->height = cam->height;
-    plan->max_depth = desc && desc->max_depth > 0 ? desc->max_depth : 8;
+    plan->max_depth = desc && desc->max_depth > 0 ? desc->max_depth : CRISP_PLAN_MAX_DEPTH;
     if (plan->max_depth > CRISP_PLAN_MAX_DEPTH) plan->max_depth = CRISP_PLAN_MAX_DEPTH;
     double eps = desc && desc->eps_px > 0 ? desc->eps_px : 0.5;
 

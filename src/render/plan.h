@@ -10,7 +10,7 @@
 #include "crisp/tess.h"
 #include "crisp/trim.h"
 
-#define CRISP_PLAN_MAX_DEPTH 8 /* with tau <= 64 this keeps edge levels <= 64 * 2^8 */
+#define CRISP_PLAN_MAX_DEPTH 24
 
 typedef struct crisp_plan_leaf {
     uint32_t ix, iy;  /* cell in the patch's 2^depth x 2^depth grid of local parameters */
@@ -35,7 +35,7 @@ typedef struct crisp_patch_plan {
 typedef struct crisp_plan_desc {
     double eps_px;   /* screen tolerance of the tessellation; 0: 0.5 px */
     int strip_count; /* n_V per face; 0: the face's tess level times its patch rows, 8..256 */
-    int max_depth;   /* patch splits; 0: 8 */
+    int max_depth;   /* patch splits; 0: CRISP_PLAN_MAX_DEPTH */
 } crisp_plan_desc;
 
 typedef struct crisp_plan_stats {

@@ -1,0 +1,328 @@
+/* Hard cameras on real models, end to end through the public render API: the eye inside the
+ * model, near planes from 1e-6 to 1 of the model's size, a far plane that cuts the model, fields
+ * of view from 1e-6 to 170 degrees, the eye a million model sizes away, and an up vector parallel
+ * to the view direction. For each: no crash, no NaN in any output, a bounded frame (triangles and
+ * table rows), and the CPU image equal to the exact image on every pixel 2 px or more from a
+ * face boundary, trim or silhouette (the exact image's 5x5 neighbourhood shows one face).
+ * Argument "all": the long sweep (slow label); without it a representative subset. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/construct.h"
+#include "crisp/io.h"
+#include "crisp/render.h"
+#include "crisp/trim.h"
+#include "render/render_test_util.h"
+
+static int full_sweep;
+
+static crisp_model *load(const char *name)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
+    crisp_model *m = NULL;
+    crisp_status st = crisp_model_load(path, NULL, &m);
+    if (st) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(st, CRISP_OK);
+    return m;
+}
+
+static crisp_model *sphere_model(void)
+{
+    crisp_placement pl;
+    double o[3] = {0.1, -0.2, 0.05}, axis[3] = {0.1, 1, 0.2};
+    assert_int_equal(crisp_placement_make(o, axis, NULL, &pl), CRISP_OK);
+    crisp_surface *s;
+    assert_int_equal(crisp_make_sphere(&pl, 1.0, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &s), CRISP_OK);
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    crisp_face f = {.surface = s};
+    assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
+    return m;
+}
+
+static int exact_classify(void *ctx, const crisp_scene *sc, uint32_t face, double u, double v)
+{
+    (void)ctx;
+    const crisp_scene_face *f = &sc->faces[face];
+    if (!f->piece_count) return 1;
+    return crisp_trim_exact_classify(sc->pieces + f->first_piece, (int)f->piece_count, u, v);
+}
+
+static int interior(const crisp_image *ex, int i, int j)
+{
+    int f = ex->face[j * ex->width + i];
+    for (int dj = -2; dj <= 2; dj++)
+        for (int di = -2; di <= 2; di++) {
+            int x = i + di, y = j + dj;
+            if (x < 0 || y < 0 || x >= ex->width || y >= ex->height) return 0;
+            if (ex->face[y * ex->width + x] != f) return 0;
+        }
+    return 1;
+}
+
+static void check_finite(const crisp_image *img)
+{
+    size_t n = (size_t)img->width * img->height;
+    for (size_t i = 0; i < n; i++) {
+        for (int k = 0; k < 4; k++) assert_true(isfinite(img->rgba[4 * i + k]));
+        for (int k = 0; k < 3; k++) assert_true(isfinite(img->normal[3 * i + k]));
+        for (int k = 0; k < 2; k++) assert_true(isfinite(img->uv[2 * i + k]));
+        assert_false(isnan(img->depth[i]));
+        if (img->face[i] < 0) assert_true(img->rgba[4 * i + 3] == 0);
+    }
+}
+
+typedef struct model_case {
+    const char *name;
+    crisp_model *model;
+    crisp_scene *scene;
+    double centre[3], radius;
+} model_case;
+
+static void case_open(model_case *mc, const char *name)
+{
+    mc->name = name;
+    mc->model = name ? load(name) : sphere_model();
+    if (!name) mc->name = "sphere";
+    assert_int_equal(crisp_scene_prepare(mc->model, &mc->scene), CRISP_OK);
+    double r = 0;
+    for (int k = 0; k < 3; k++) {
+        const double *b = mc->scene->box;
+        mc->centre[k] = 0.5 * (b[k] + b[k + 3]);
+        r += 0.25 * (b[k + 3] - b[k]) * (b[k + 3] - b[k]);
+    }
+    mc->radius = sqrt(r);
+}
+
+static void case_close(model_case *mc)
+{
+    crisp_scene_destroy(mc->scene);
+    crisp_model_destroy(mc->model);
+}
+
+/* 1 when pixel (i, j) lies within 1.5 px of an edge (a trim curve, patch boundary or
+ * silhouette) as a 9x9 grid of exact rays over the 3x3 px around its centre sees it: the rays do
+ * not all see the same face, or one of them sees `face` (the CPU's answer; -1: nothing). Sub-pixel
+ * features that the exact image's centre rays miss are found this way. */
+static int near_edge(const model_case *mc, const crisp_camera *cam, int i, int j, int face)
+{
+    crisp_exact_desc d = {.classify = exact_classify};
+    double f[3];
+    int first = -1;
+    crisp_vec3_sub(cam->target, cam->eye, f);
+    crisp_vec3_normalize(f, f);
+    for (int b = 0; b < 9; b++)
+        for (int a = 0; a < 9; a++) {
+            double o[3], dir[3], t;
+            uint32_t hit_face;
+            crisp_camera_ray(cam, i + 0.5 + (a - 4) * 0.375, j + 0.5 + (b - 4) * 0.375, o, dir);
+            double c = crisp_vec3_dot(dir, f);
+            int hit = crisp_exact_ray(mc->scene, &d, o, dir, cam->znear / c, cam->zfar / c, &t, &hit_face,
+                                      NULL, NULL);
+            int seen = hit ? (int)hit_face : -1;
+            if (seen == face) return 1;
+            if (a == 0 && b == 0) first = seen;
+            if (seen != first) return 1; /* an edge of some face within 1.5 px */
+        }
+    return 0;
+}
+
+typedef struct totals {
+    long compared, differ, frames;
+} totals;
+
+/* Render one camera with both backends and compare. */
+static void compare(const model_case *mc, crisp_renderer *r, const crisp_camera *cam, const char *what,
+                    totals *tot)
+{
+    crisp_image cpu, ex;
+    assert_int_equal(crisp_image_init(&cpu, cam->width, cam->height), CRISP_OK);
+    assert_int_equal(crisp_image_init(&ex, cam->width, cam->height), CRISP_OK);
+    crisp_render_stats st;
+    double t0 = crisp_time_now();
+    crisp_status s = crisp_render_cpu(r, mc->scene, cam, &cpu, &st);
+    if (s) fprintf(stderr, "%s %s: %s\n", mc->name, what, crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    double t1 = crisp_time_now();
+    double mesh_err = rt_mesh_error(r, mc->scene, cam);
+    crisp_exact_desc d = {.threads = 2, .classify = exact_classify};
+    assert_int_equal(crisp_render_exact(mc->scene, cam, &d, &ex), CRISP_OK);
+    check_finite(&cpu);
+    check_finite(&ex);
+    long compared = 0, differ = 0, covered = 0;
+    for (int j = 0; j < cam->height; j++)
+        for (int i = 0; i < cam->width; i++) {
+            int px = j * cam->width + i;
+            covered += ex.face[px] >= 0;
+            if (!interior(&ex, i, j)) continue;
+            compared++;
+            if (cpu.face[px] != ex.face[px] && !near_edge(mc, cam, i, j, cpu.face[px])) {
+                if (differ < 4)
+                    fprintf(stderr, "  %s %s pixel (%d, %d): cpu face %d, exact face %d\n", mc->name, what, i,
+                            j, cpu.face[px], ex.face[px]);
+                differ++;
+            }
+        }
+    printf("%-18s %-28s %6ld covered %6ld compared %3ld differ  %8llu tris %8llu rows %3u unres  "
+           "mesh %.3f px cpu %.0f ms\n",
+           mc->name, what, covered, compared, differ, (unsigned long long)st.triangles,
+           (unsigned long long)st.table_rows, st.unresolved, mesh_err, 1e3 * (t1 - t0));
+    assert_true(mesh_err <= 0.5);
+    /* Bounded work: a frame of this size never needs millions of triangles or table rows. */
+    assert_true(st.triangles < 4000000);
+    assert_true(st.table_rows < 4000000);
+    tot->compared += compared;
+    tot->differ += differ;
+    tot->frames++;
+    crisp_image_free(&cpu);
+    crisp_image_free(&ex);
+}
+
+static crisp_camera look(const double eye[3], const double target[3], double fov, double znear,
+                         double zfar, int w, int h)
+{
+    crisp_camera c = {.fov_deg = fov, .znear = znear, .zfar = zfar, .width = w, .height = h};
+    memcpy(c.eye, eye, sizeof c.eye);
+    memcpy(c.target, target, sizeof c.target);
+    c.up[0] = 0.1, c.up[1] = 1, c.up[2] = 0.3;
+    return c;
+}
+
+static void sweep_model(const char *name, int w, int h, totals *tot)
+{
+    model_case mc;
+    case_open(&mc, name);
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+    const double R = mc.radius;
+    const double *c = mc.centre;
+    char what[64];
+    /* The eye inside the model, at its centre and off-centre, looking several ways. */
+    {
+        static const double dirs[4][3] = {{1, 0.2, 0.1}, {-0.3, 1, 0.2}, {0.2, -0.1, -1}, {-1, -0.5, 0.4}};
+        int nd = full_sweep ? 4 : 2;
+        for (int k = 0; k < nd; k++) {
+            double eye[3], tgt[3];
+            for (int a = 0; a < 3; a++) {
+                eye[a] = c[a] + 0.1 * R * dirs[(k + 1) % 4][a];
+                tgt[a] = eye[a] + R * dirs[k][a];
+            }
+            double nears[3] = {1e-6, 1e-3, 0.05};
+            for (int q = 0; q < (full_sweep ? 3 : 1); q++) {
+                crisp_camera cam = look(eye, tgt, 70, nears[full_sweep ? q : k % 3] * R, 4 * R, w, h);
+                snprintf(what, sizeof what, "inside dir %d near %.0e", k, cam.znear / R);
+                compare(&mc, r, &cam, what, tot);
+            }
+        }
+    }
+    /* From outside at 2.5 radii: near planes 1e-6 .. 1 of the size (1 cuts the model), a far
+     * plane through the middle of the model. */
+    {
+        double eye[3] = {c[0] + 1.5 * R, c[1] + 0.8 * R, c[2] + 1.8 * R};
+        double nears[] = {1e-6, 1e-2, 1.0, 1.9};
+        int nn = full_sweep ? 4 : 2;
+        for (int q = 0; q < nn; q++) {
+            double nr = nears[full_sweep ? q : 2 * q + 1];
+            crisp_camera cam = look(eye, c, 40, nr * R, 6 * R, w, h);
+            snprintf(what, sizeof what, "near %.0e R", nr);
+            compare(&mc, r, &cam, what, tot);
+        }
+        crisp_camera cut = look(eye, c, 40, 0.5 * R, 2.5 * R, w, h);
+        compare(&mc, r, &cut, "far plane cuts", tot);
+    }
+    /* Fields of view from 1e-6 to 170 degrees, aimed at a point of the surface. */
+    {
+        double o[3], dir[3];
+        double eye[3] = {c[0] + 1.2 * R, c[1] - 1.4 * R, c[2] + 1.9 * R};
+        crisp_camera base = look(eye, c, 30, 1e-3 * R, 8 * R, w, h);
+        /* A surface point near the image centre: the exact ray through the centre. */
+        crisp_camera_ray(&base, 0.5 * w + 0.3, 0.5 * h + 0.2, o, dir);
+        double t;
+        crisp_exact_desc d = {.classify = exact_classify};
+        double tgt[3];
+        if (crisp_exact_ray(mc.scene, &d, o, dir, 0, 1e300, &t, NULL, NULL, NULL)) {
+            for (int a = 0; a < 3; a++) tgt[a] = o[a] + t * dir[a];
+        } else {
+            memcpy(tgt, c, sizeof tgt);
+        }
+        double fovs[] = {170, 120, 1, 1e-2, 1e-4, 1e-6, 1e-7, 1e-8};
+        int idx_fast[] = {0, 3, 6};
+        int nf = full_sweep ? 8 : 3;
+        for (int q = 0; q < nf; q++) {
+            double fov = fovs[full_sweep ? q : idx_fast[q]];
+            crisp_camera cam = look(eye, tgt, fov, 1e-3 * R, 8 * R, w, h);
+            snprintf(what, sizeof what, "fov %g", fov);
+            compare(&mc, r, &cam, what, tot);
+        }
+    }
+    /* The eye a million sizes away, with a field of view that still frames the model. */
+    {
+        double eye[3] = {c[0] + 0.6e6 * R, c[1] + 0.5e6 * R, c[2] + 0.62e6 * R};
+        double dist = sqrt(0.36 + 0.25 + 0.3844) * 1e6 * R;
+        double fov = 2 * atan(1.1 * R / dist) * 180 / M_PI;
+        crisp_camera cam = look(eye, c, fov, dist - 2 * R, dist + 2 * R, w, h);
+        compare(&mc, r, &cam, "eye 1e6 sizes away", tot);
+        crisp_camera cam2 = look(eye, c, fov, 1e-3 * R, dist + 2 * R, w, h);
+        compare(&mc, r, &cam2, "far eye, near 1e-3", tot);
+    }
+    crisp_renderer_destroy(r);
+    case_close(&mc);
+}
+
+static void test_real_models(void **state)
+{
+    (void)state;
+    const char *models[] = {NULL, "gpucast_part.igs", "occt_bearing.iges", "occt_linkrods.step"};
+    int n = full_sweep ? 4 : 4;
+    totals tot = {0};
+    for (int k = 0; k < n; k++) sweep_model(models[k], full_sweep ? 160 : 96, full_sweep ? 120 : 72, &tot);
+    printf("hard cameras: %ld frames, %ld interior pixels compared, %ld differ\n", tot.frames, tot.compared,
+           tot.differ);
+    assert_int_equal(tot.differ, 0);
+}
+
+/* An up vector parallel to the view direction has no defined image: a clear error, never NaN. */
+static void test_up_parallel(void **state)
+{
+    (void)state;
+    crisp_camera cam = {.eye = {0, 0, 5}, .target = {0, 0, 0}, .up = {0, 0, 2}, .fov_deg = 40,
+                        .znear = 0.1, .zfar = 10, .width = 32, .height = 32};
+    assert_int_equal(crisp_camera_check(&cam), CRISP_ERR_INVALID_ARG);
+    assert_non_null(strstr(crisp_error_message(), "parallel"));
+    model_case mc;
+    case_open(&mc, NULL);
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(NULL, &r), CRISP_OK);
+    crisp_image img;
+    assert_int_equal(crisp_image_init(&img, 32, 32), CRISP_OK);
+    assert_int_equal(crisp_render_cpu(r, mc.scene, &cam, &img, NULL), CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp_render_exact(mc.scene, &cam, NULL, &img), CRISP_ERR_INVALID_ARG);
+    cam.up[0] = 1e-300; /* not parallel in exact arithmetic; still no usable frame */
+    crisp_status s = crisp_camera_check(&cam);
+    if (!s) {
+        assert_int_equal(crisp_render_cpu(r, mc.scene, &cam, &img, NULL), CRISP_OK);
+        check_finite(&img);
+    }
+    crisp_image_free(&img);
+    crisp_renderer_destroy(r);
+    case_close(&mc);
+}
+
+int main(int argc, char **argv)
+{
+    full_sweep = argc > 1 && !strcmp(argv[1], "all");
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_up_parallel),
+        cmocka_unit_test(test_real_models),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
