@@ -144,10 +144,11 @@ crisp_status crisp__step_deref(const step_reader *r, const step_entity *e, const
 {
     if (!v || v->kind != STEP_REF)
         return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected an entity reference #n");
-    const step_entity *t = crisp__step_find(r->f, (int)v->num);
+    const step_entity *t = crisp__step_find(r->f, v->num);
+    if (!t && v->num > 2147483647.0)
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "reference #%.6g out of range", v->num);
     if (!t)
-        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "reference to #%d, which is not defined",
-                                (int)v->num);
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "reference to #%.0f, which is not defined", v->num);
     *dest = t;
     return CRISP_OK;
 }

@@ -60,23 +60,42 @@ crisp_status crisp__step_knots(step_reader *r, const step_entity *e, const step_
     return CRISP_OK;
 }
 
-/* Knots implied by UNIFORM_CURVE / QUASI_UNIFORM_CURVE / BEZIER_CURVE (10303-42 4.4.6). */
-static double *implied_knots(int degree, int count, int quasi)
+/* Knots implied by the B-spline forms without a knot list (ISO 10303-42 4.4.6-4.4.9 and its
+ * default_b_spline_knots / default_b_spline_knot_mult functions): integer knots 0, 1, 2, ... with
+ * multiplicity 1 (uniform: the domain is [0, count - degree], knots start at -degree), degree + 1
+ * at the ends (quasi-uniform), or degree inside and degree + 1 at the ends (Bezier: one segment
+ * per degree control points, so count - 1 must be a multiple of the degree). `form` is the entity
+ * name (UNIFORM_*, QUASI_UNIFORM_*, BEZIER_*); *dest is NULL when the form is not one of these. */
+crisp_status crisp__step_implied_knots(step_reader *r, const step_entity *e, int degree, int count, double **dest)
 {
+    *dest = NULL;
+    int form = crisp__step_is(r, e, "QUASI_UNIFORM_CURVE") || crisp__step_is(r, e, "QUASI_UNIFORM_SURFACE") ? 1
+               : crisp__step_is(r, e, "BEZIER_CURVE") || crisp__step_is(r, e, "BEZIER_SURFACE")              ? 2
+               : crisp__step_is(r, e, "UNIFORM_CURVE") || crisp__step_is(r, e, "UNIFORM_SURFACE")            ? 0
+                                                                                                             : -1;
+    if (form < 0) return crisp__step_fail(r, e, CRISP_ERR_UNSUPPORTED, "B-spline without knots");
+    if (form == 2 && (count - 1) % degree != 0)
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                "Bezier form of degree %d: expected 1 + a multiple of %d control points, found %d",
+                                degree, degree, count);
     int n = count + degree + 1;
     double *kv = crisp_malloc_array((size_t)n, sizeof *kv);
-    if (!kv) return NULL;
+    if (!kv) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
     for (int i = 0; i < n; i++) {
-        if (quasi) {
-            int k = i - degree;
-            if (k < 0) k = 0;
-            if (k > count - degree) k = count - degree;
-            kv[i] = k;
-        } else {
+        if (form == 0) {
             kv[i] = i - degree;
+        } else if (form == 1) {
+            int k = i - degree;
+            kv[i] = k < 0 ? 0 : k > count - degree ? count - degree : k;
+        } else {
+            /* degree + 1 zeros, then each segment end `degree` times, the last once more. */
+            int k = i < degree + 1 ? 0 : (i - 1) / degree;
+            int segs = (count - 1) / degree;
+            kv[i] = k > segs ? segs : k;
         }
     }
-    return kv;
+    *dest = kv;
+    return CRISP_OK;
 }
 
 static crisp_status bspline_curve(step_reader *r, const step_entity *e, step_curve *c)
@@ -116,11 +135,7 @@ static crisp_status bspline_curve(step_reader *r, const step_entity *e, step_cur
             !(st = crisp__step_get_list(r, e, kp, o + 1, &knots)))
             st = crisp__step_knots(r, e, mults, knots, degree, count, &kv);
     } else if (!st) {
-        int quasi = crisp__step_is(r, e, "QUASI_UNIFORM_CURVE") || crisp__step_is(r, e, "BEZIER_CURVE");
-        if (!quasi && !crisp__step_is(r, e, "UNIFORM_CURVE"))
-            st = crisp__step_fail(r, e, CRISP_ERR_UNSUPPORTED, "B-spline curve without knots");
-        else if (!(kv = implied_knots(degree, count, quasi)))
-            st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
+        st = crisp__step_implied_knots(r, e, degree, count, &kv);
     }
     const step_part *rp = crisp__step_part(r, e, "RATIONAL_B_SPLINE_CURVE");
     if (!st && rp) {
@@ -374,6 +389,18 @@ crisp_status crisp__step_curve_nurbs(const step_curve *c, double t0, double t1, 
     return st;
 }
 
+const step_part *crisp__step_surface_curve_part(const step_reader *r, const step_entity *e, int *off)
+{
+    static const char *const names[] = {"SURFACE_CURVE", "SEAM_CURVE", "INTERSECTION_CURVE", "BOUNDED_SURFACE_CURVE"};
+    /* In a complex instance the name is REPRESENTATION_ITEM's: the partial entity starts with curve_3d. */
+    *off = e->part_count > 1 ? 0 : 1;
+    for (size_t k = 0; k < sizeof names / sizeof *names; k++) {
+        const step_part *p = crisp__step_part(r, e, names[k]);
+        if (p) return p;
+    }
+    return crisp__step_part(r, e, NULL);
+}
+
 /* ---- dispatch ----------------------------------------------------------------------------------- */
 
 static crisp_status trimmed(step_reader *r, const step_entity *e, step_curve *c);
@@ -397,9 +424,11 @@ crisp_status crisp__step_curve(step_reader *r, const step_entity *e, step_curve 
     else if (crisp__step_is(r, e, "POLYLINE")) st = polyline(r, e, dest);
     else if (crisp__step_is(r, e, "TRIMMED_CURVE")) st = trimmed(r, e, dest);
     else if (crisp__step_is(r, e, "SURFACE_CURVE") || crisp__step_is(r, e, "SEAM_CURVE") ||
-             crisp__step_is(r, e, "INTERSECTION_CURVE")) {
+             crisp__step_is(r, e, "INTERSECTION_CURVE") || crisp__step_is(r, e, "BOUNDED_SURFACE_CURVE")) {
         const step_entity *ce;
-        st = crisp__step_get_ref(r, e, crisp__step_part(r, e, NULL), 1, &ce);
+        int off;
+        const step_part *p = crisp__step_surface_curve_part(r, e, &off);
+        st = crisp__step_get_ref(r, e, p, off, &ce);
         if (!st) st = crisp__step_curve(r, ce, dest);
     } else {
         char type[64];
@@ -431,7 +460,9 @@ static crisp_status trimmed(step_reader *r, const step_entity *e, step_curve *c)
         if ((st = crisp__step_get_list(r, e, p, 2 + k, &sel))) goto fail;
         for (uint32_t i = 0; i < sel->len && !have[k]; i++) {
             const step_value *v = crisp__step_elem(r, sel, i);
-            if (v->kind == STEP_TYPED && crisp__step_value_real(r, v, &t[k])) {
+            /* PARAMETER_VALUE(t), or a bare number as some writers put it. */
+            if ((v->kind == STEP_TYPED || v->kind == STEP_REAL || v->kind == STEP_INT) &&
+                crisp__step_value_real(r, v, &t[k])) {
                 /* A conic's parameter is an angle, in the file's plane angle unit. */
                 if (c->kind == STEP_CURVE_CONIC) t[k] *= r->angle_unit;
                 have[k] = 1;

@@ -57,34 +57,47 @@ static crisp_status vertex_point(step_reader *r, const step_entity *ve, double p
     return st;
 }
 
-/* The pcurves of a SURFACE_CURVE / SEAM_CURVE that lie on surface entity sid. */
-static crisp_status find_pcurves(step_reader *r, const step_entity *ge, int sid, edge_use *eu)
+crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, step_curve *dest)
 {
-    const step_part *p = crisp__step_part(r, ge, NULL);
-    const step_value *assoc = crisp__step_param(r, p, 2);
+    const step_part *pp = crisp__step_part(r, pe, "PCURVE");
+    const step_entity *de, *ce;
+    const step_value *items;
+    crisp_status st;
+    memset(dest, 0, sizeof *dest);
+    if ((st = crisp__step_get_ref(r, pe, pp, 2, &de))) return st;
+    /* DEFINITIONAL_REPRESENTATION(name, items, context), or the complex instance
+     * (DEFINITIONAL_REPRESENTATION() REPRESENTATION(name, items, context) SHAPE_REPRESENTATION()). */
+    const step_part *dp = crisp__step_part(r, de, "DEFINITIONAL_REPRESENTATION");
+    if (!dp) return crisp__step_fail(r, de, CRISP_ERR_PARSE, "expected a DEFINITIONAL_REPRESENTATION");
+    if (de->part_count > 1 && crisp__step_part(r, de, "REPRESENTATION")) dp = crisp__step_part(r, de, "REPRESENTATION");
+    if ((st = crisp__step_get_list(r, de, dp, 1, &items))) return st;
+    if (items->len < 1) return crisp__step_fail(r, de, CRISP_ERR_PARSE, "expected a 2D curve in the items");
+    if ((st = crisp__step_deref(r, de, crisp__step_elem(r, items, 0), &ce))) return st;
+    if ((st = crisp__step_curve(r, ce, dest))) return st;
+    if (dest->dim != 2) {
+        crisp__step_curve_free(dest);
+        return crisp__step_fail(r, ce, CRISP_ERR_PARSE, "expected a 2D curve for a pcurve");
+    }
+    return CRISP_OK;
+}
+
+/* The pcurves of a SURFACE_CURVE / SEAM_CURVE that lie on surface entity sid. */
+crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge, int sid, edge_use *eu)
+{
+    int off;
+    const step_part *p = crisp__step_surface_curve_part(r, ge, &off);
+    const step_value *assoc = crisp__step_param(r, p, off + 1);
     if (!assoc || assoc->kind != STEP_LIST) return CRISP_OK;
     for (uint32_t i = 0; i < assoc->len && eu->npc < 2; i++) {
-        const step_entity *pe, *se, *de, *ce;
-        const step_value *items;
+        const step_entity *pe, *se;
         crisp_status st = crisp__step_deref(r, ge, crisp__step_elem(r, assoc, i), &pe);
         if (st) return st;
         const step_part *pp = crisp__step_part(r, pe, "PCURVE");
         if (!pp) continue;
         if ((st = crisp__step_get_ref(r, pe, pp, 1, &se))) return st;
         if (se->id != sid) continue;
-        if ((st = crisp__step_get_ref(r, pe, pp, 2, &de))) return st;
-        const step_part *dp = crisp__step_part(r, de, "DEFINITIONAL_REPRESENTATION");
-        if (!dp) return crisp__step_fail(r, de, CRISP_ERR_PARSE, "expected a DEFINITIONAL_REPRESENTATION");
-        if ((st = crisp__step_get_list(r, de, dp, 1, &items))) return st;
-        if (items->len < 1) return crisp__step_fail(r, de, CRISP_ERR_PARSE, "expected a 2D curve in the items");
-        if ((st = crisp__step_deref(r, de, crisp__step_elem(r, items, 0), &ce))) return st;
-        step_curve c;
-        if ((st = crisp__step_curve(r, ce, &c))) return st;
-        if (c.dim != 2) {
-            crisp__step_curve_free(&c);
-            return crisp__step_fail(r, ce, CRISP_ERR_PARSE, "expected a 2D curve for a pcurve");
-        }
-        eu->pc[eu->npc++] = c;
+        if ((st = crisp__step_pcurve_curve(r, pe, &eu->pc[eu->npc]))) return st;
+        eu->npc++;
     }
     return CRISP_OK;
 }
@@ -212,7 +225,7 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
     step_curve *c = &eu->c3;
     if (c->dim != 3) return crisp__step_fail(r, ge, CRISP_ERR_PARSE, "expected a 3D curve as edge geometry");
     if (crisp__step_is(r, ge, "SURFACE_CURVE") || crisp__step_is(r, ge, "SEAM_CURVE"))
-        if ((st = find_pcurves(r, ge, w->s.id, eu))) return st;
+        if ((st = crisp__step_find_pcurves(r, ge, w->s.id, eu))) return st;
     /* Against a reversed trimmed curve, the edge's sense is against the basis curve's. */
     same ^= c->reversed;
     const double *first = same ? ps : pe, *second = same ? pe : ps;

@@ -63,6 +63,7 @@ static void verify_edge(face_work *w, const crisp_surface *s, const edge_use *eu
                         int n)
 {
     const step_curve *c = &eu->c3;
+    if (c->dim != 3) return; /* a boundary segment given only as a pcurve */
     double lo = eu->lo, hi = eu->hi;
     if (c->kind == STEP_CURVE_BSPLINE) lo = c->t0, hi = c->t1;
     for (int k = first; k < n; k++) {
@@ -266,6 +267,56 @@ static void snap_junctions(crisp_trim_loop *lp, double snap)
     }
 }
 
+/* On a B-spline surface that closes on itself in u (or v), a trim projected from a seam edge can
+ * land on either side of the domain, u0 or u1: both are the same points. A seam edge used twice in
+ * one loop needs one use on each side (trj2_io1-id-203.stp: a closed cylinder bounded by two
+ * circles and a seam line). Each trim lying wholly on one side moves to the other when that closes
+ * the loop better. */
+static int side_closed(const crisp_surface *s, const double d[4], int k, double tol)
+{
+    for (int i = 0; i <= 8; i++) {
+        double t = d[2 * (1 - k)] + (d[2 * (1 - k) + 1] - d[2 * (1 - k)]) * i / 8, a[3], b[3];
+        if (k == 0) crisp_surface_eval(s, d[0], t, a), crisp_surface_eval(s, d[1], t, b);
+        else crisp_surface_eval(s, t, d[2], a), crisp_surface_eval(s, t, d[3], b);
+        if (crisp__step_dist3(a, b) > tol) return 0;
+    }
+    return 1;
+}
+
+static double junction_gaps(const crisp_trim_loop *lp, int i)
+{
+    int n = lp->curve_count;
+    double a[2], b[2], c[2], d[2];
+    curve_end(lp->curves[(i + n - 1) % n], 1, a);
+    curve_end(lp->curves[i], 0, b);
+    curve_end(lp->curves[i], 1, c);
+    curve_end(lp->curves[(i + 1) % n], 0, d);
+    return hypot(a[0] - b[0], a[1] - b[1]) + hypot(c[0] - d[0], c[1] - d[1]);
+}
+
+static void seam_sides(const crisp_surface *s, const double d[4], crisp_trim_loop *lp, double tol, double snap)
+{
+    if (lp->curve_count < 2) return;
+    for (int k = 0; k < 2; k++) {
+        if (!side_closed(s, d, k, tol)) continue;
+        double lo = d[2 * k], hi = d[2 * k + 1];
+        for (int i = 0; i < lp->curve_count; i++) {
+            crisp_curve *c = lp->curves[i];
+            int at_lo = 1, at_hi = 1;
+            for (int j = 0; j < c->count; j++) {
+                double x = c->cpw[3 * j + k] / c->cpw[3 * j + 2];
+                at_lo &= fabs(x - lo) <= snap;
+                at_hi &= fabs(x - hi) <= snap;
+            }
+            if (at_lo == at_hi) continue;
+            double before = junction_gaps(lp, i), shift = at_lo ? hi - lo : lo - hi;
+            for (int j = 0; j < c->count; j++) c->cpw[3 * j + k] += shift * c->cpw[3 * j + 2];
+            if (junction_gaps(lp, i) >= before)
+                for (int j = 0; j < c->count; j++) c->cpw[3 * j + k] -= shift * c->cpw[3 * j + 2];
+        }
+    }
+}
+
 /* Where consecutive trims leave a gap in (u, v) that the surface collapses to one point (a pole of
  * a sphere, a cone's apex, a degenerate side of a B-spline patch), the loop runs along the
  * degenerate boundary: a straight uv segment is inserted. STEP writers leave such degenerate
@@ -375,29 +426,65 @@ static crisp_status append_band(face_work *w, const crisp_surface *s, crisp_trim
 
 /* ---- the face ----------------------------------------------------------------------------------- */
 
+crisp_status crisp__step_work_init(face_work *w, step_reader *r, const step_entity *fe, const step_entity *se)
+{
+    memset(w, 0, sizeof *w);
+    *w = (face_work){.r = r, .fe = fe, .band_a = -1, .band_b = -1};
+    crisp_status st = crisp__step_surface(r, se, &w->s);
+    if (st) return st;
+    w->period[0] = w->s.u_periodic ? 2 * M_PI : 0;
+    w->period[1] = w->s.v_periodic ? 2 * M_PI : 0;
+    if (w->s.kind == STEP_SURF_EXTRUSION && w->s.profile.kind != STEP_CURVE_CONIC) w->period[0] = 0;
+    return CRISP_OK;
+}
+
 crisp_status crisp__step_face(step_reader *r, const step_entity *fe, crisp_face *dest)
 {
     memset(dest, 0, sizeof *dest);
-    face_work w = {.r = r, .fe = fe, .band_a = -1, .band_b = -1};
+    face_work w;
     const step_part *fp = crisp__step_part(r, fe, NULL);
     const step_entity *se;
     int same;
     crisp_status st;
     if ((st = crisp__step_get_ref(r, fe, fp, 2, &se)) || (st = crisp__step_get_bool(r, fe, fp, 3, &same)))
         return st;
-    if ((st = crisp__step_surface(r, se, &w.s))) return st;
-    w.period[0] = w.s.u_periodic ? 2 * M_PI : 0;
-    w.period[1] = w.s.v_periodic ? 2 * M_PI : 0;
-    if (w.s.kind == STEP_SURF_EXTRUSION && w.s.profile.kind != STEP_CURVE_CONIC) w.period[0] = 0;
-    if ((st = crisp__step_read_loops(&w))) goto done;
-    if (w.nloops == 0 && w.s.kind != STEP_SURF_BSPLINE) {
+    if (!(st = crisp__step_work_init(&w, r, fe, se)) && !(st = crisp__step_read_loops(&w)))
+        st = crisp__step_face_finish(&w, same, dest);
+    crisp__step_work_free(&w);
+    return st;
+}
+
+/* A face on a surface that closes on itself in both directions (sphere, torus) without edge loops
+ * (or with vertex loops only) is the whole surface. */
+static int whole_closed_surface(face_work *w)
+{
+    if (w->s.kind == STEP_SURF_SPHERE) {
+        w->box[0] = 0, w->box[1] = 2 * M_PI, w->box[2] = -M_PI / 2, w->box[3] = M_PI / 2;
+        return 1;
+    }
+    if (w->s.kind == STEP_SURF_TORUS) {
+        w->box[0] = 0, w->box[1] = 2 * M_PI, w->box[2] = 0, w->box[3] = 2 * M_PI;
+        return 1;
+    }
+    return 0;
+}
+
+crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
+{
+    face_work w = *wp; /* the caller frees *wp: loops and surface are shared, not copied */
+    step_reader *r = w.r;
+    const step_entity *fe = w.fe;
+    crisp_status st = CRISP_OK;
+    memset(dest, 0, sizeof *dest);
+    int whole = 0;
+    if (w.nloops == 0 && w.s.kind != STEP_SURF_BSPLINE && !(whole = whole_closed_surface(&w))) {
         st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED, "face on an unbounded surface without edge loops");
         goto done;
     }
     int outer = 0;
     for (int i = 0; i < w.nloops; i++)
         if ((st = crisp__step_loop_samples(&w, &w.loops[i]))) goto done;
-    if (w.s.kind != STEP_SURF_BSPLINE) {
+    if (w.s.kind != STEP_SURF_BSPLINE && !whole) {
         double best = -1;
         for (int i = 0; i < w.nloops; i++) {
             const double *b = w.loops[i].box;
@@ -475,6 +562,7 @@ crisp_status crisp__step_face(step_reader *r, const step_entity *fe, crisp_face 
             if ((st = edge_trims(&w, dest->surface, &w.loops[i].edges[k], &lp->curves, &lp->curve_count, &cap)))
                 goto done;
         if (i == w.band_a && (st = append_band(&w, dest->surface, lp, &cap))) goto done;
+        if (w.s.kind == STEP_SURF_BSPLINE) seam_sides(dest->surface, w.nbox, lp, r->tol, 100 * w.tol_uv);
         snap_junctions(lp, 100 * w.tol_uv);
         int added = bridge_degenerate(dest->surface, lp, r->tol, 100 * w.tol_uv);
         if (added < 0) {
@@ -502,9 +590,14 @@ crisp_status crisp__step_face(step_reader *r, const step_entity *fe, crisp_face 
     dest->source_id = fe->id;
     dest->reversed = (!same) ^ crisp__step_surface_swaps(&w.s);
     st = crisp_face_normalize_loops(dest, r->close_rel * dsize);
-    if (st) crisp_error_prefix("%s: #%d (line %d) ADVANCED_FACE", r->f->name, fe->id, fe->line);
+    if (st) {
+        char type[64];
+        crisp_error_prefix("%s: #%d (line %d) %s", r->f->name, fe->id, fe->line, crisp__step_type(r, fe, type, sizeof type));
+    }
 done:
-    crisp__step_work_free(&w);
+    /* Sampling and band joining may have replaced the loops' arrays: hand them back to be freed. */
+    wp->loops = w.loops;
+    wp->nloops = w.nloops;
     if (st) {
         crisp_face_free(dest);
         memset(dest, 0, sizeof *dest);

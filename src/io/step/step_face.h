@@ -44,7 +44,19 @@ typedef struct face_work {
     double cap_v;
 } face_work;
 
+/* Set up the work of a face (or curve-bounded surface) fe on surface entity se. */
+crisp_status crisp__step_work_init(face_work *w, step_reader *r, const step_entity *fe, const step_entity *se);
+/* The crisp face from the loops in w (read by crisp__step_read_loops or from the boundaries of a
+ * CURVE_BOUNDED_SURFACE): surface over the loops' box, trims, orientation and closure. `same` is
+ * the face's same_sense. The caller still frees w. */
+crisp_status crisp__step_face_finish(face_work *w, int same, crisp_face *dest);
 double crisp__step_dist3(const double *a, const double *b);
+/* The 2D curve of a PCURVE entity pe (from its definitional representation). */
+crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, step_curve *dest);
+/* The pcurves of a SURFACE_CURVE / SEAM_CURVE ge that lie on surface entity sid (at most 2). */
+crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge, int sid, edge_use *eu);
+/* The boundaries of a CURVE_BOUNDED_SURFACE as loops of edge uses (step_bounded.c). */
+crisp_status crisp__step_read_boundaries(face_work *w);
 void crisp__step_work_free(face_work *w);
 /* The bounds of the face: loops of edge uses (3D curve, range, direction, pcurves). */
 crisp_status crisp__step_read_loops(face_work *w);

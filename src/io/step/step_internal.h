@@ -47,6 +47,7 @@ typedef struct step_entity {
     int id;
     int line;
     uint32_t first_part, part_count;
+    uint32_t src_off, src_len; /* the instance's text after '=' (to tell identical copies) */
 } step_entity;
 
 typedef struct step_file {
@@ -61,13 +62,16 @@ typedef struct step_file {
     size_t entity_count, entity_cap;
     int *map; /* open-addressing hash: id -> entity index + 1 (0 = empty) */
     size_t map_cap;
+    int duplicates;     /* instances defined twice with identical text (the first is kept) */
+    int first_duplicate; /* id of the first such */
 } step_file;
 
 /* Parse a whole exchange structure. On failure the message names the file, line and column. */
 crisp_status crisp__step_parse(const char *name, const char *data, size_t size, step_file *dest);
 void crisp__step_file_free(step_file *f);
-/* Entity with this id, or NULL. */
-const step_entity *crisp__step_find(const step_file *f, int id);
+/* Entity with this id, or NULL (also for ids no entity can have: a reference's value is passed
+ * as it was read). */
+const step_entity *crisp__step_find(const step_file *f, double id);
 
 /* ---- conversion context ----------------------------------------------------------------------- */
 
@@ -171,6 +175,12 @@ typedef struct step_curve {
                           decreasing parameter of this one */
 } step_curve;
 
+/* Knot vector (count + degree + 1 values) implied by UNIFORM_*, QUASI_UNIFORM_* or BEZIER_* curve
+ * and surface forms; an error for any other B-spline without knots. */
+crisp_status crisp__step_implied_knots(step_reader *r, const step_entity *e, int degree, int count, double **dest);
+/* The SURFACE_CURVE (SEAM_CURVE, ...) part of e; *off is the index of its curve_3d parameter
+ * (after the name in a simple instance, first in a complex one). */
+const step_part *crisp__step_surface_curve_part(const step_reader *r, const step_entity *e, int *off);
 /* Convert a curve entity (LINE, CIRCLE, ELLIPSE, B_SPLINE_CURVE_WITH_KNOTS (rational too),
  * TRIMMED_CURVE, SURFACE_CURVE / SEAM_CURVE (their 3D curve), POLYLINE). */
 crisp_status crisp__step_curve(step_reader *r, const step_entity *e, step_curve *dest);
@@ -230,6 +240,10 @@ int crisp__step_surface_map_linear(const step_surface *s, int coord);
 /* Convert one ADVANCED_FACE (or FACE_SURFACE) into face (not yet added). A face that cannot be
  * made valid returns CRISP_ERR_NUMERIC / CRISP_ERR_UNSUPPORTED with a message; the caller skips. */
 crisp_status crisp__step_face(step_reader *r, const step_entity *e, crisp_face *dest);
+/* A CURVE_BOUNDED_SURFACE, and a bare bounded surface (B-spline, RECTANGULAR_TRIMMED_SURFACE) of a
+ * geometric set, as a face (step_bounded.c). Errors as for crisp__step_face. */
+crisp_status crisp__step_bounded_face(step_reader *r, const step_entity *e, crisp_face *dest);
+crisp_status crisp__step_bare_face(step_reader *r, const step_entity *e, crisp_face *dest);
 /* model->unit_to_mm from the length unit; r->angle_unit from the plane angle unit. */
 void crisp__step_units(step_reader *r);
 /* Colours of STYLED_ITEMs onto the faces (face_ids[i] is the entity of model face i). */

@@ -130,11 +130,13 @@ static crisp_status parse_value(parser *p, int depth, step_value *v)
         p->pos++;
     } else if (c == '#') {
         size_t b = ++p->pos;
-        long long id = 0;
-        while (isdigit((unsigned char)s[p->pos]) && id <= 2147483647LL) id = id * 10 + (s[p->pos++] - '0');
-        if (p->pos == b || id > 2147483647LL || id == 0) return perr(p, "expected an entity number after #");
+        double id = 0;
+        while (isdigit((unsigned char)s[p->pos])) id = id * 10 + (s[p->pos++] - '0');
+        if (p->pos == b) return perr(p, "expected an entity number after #");
+        /* A number beyond any entity (#18446744073709551615, a writer's "none") parses as a
+         * reference that resolves to nothing: the entity using it fails, not the file. */
         v->kind = STEP_REF;
-        v->num = (double)id;
+        v->num = id;
     } else if (c == '\'') {
         size_t b = ++p->pos;
         for (;;) {
@@ -144,7 +146,12 @@ static crisp_status parse_value(parser *p, int depth, step_value *v)
                     p->pos += 2;
                     continue;
                 }
-                break;
+                /* A quote ends the string only where a string can end (before , ) or ;, maybe
+                 * after white space). Some writers leave a lone quote inside a string
+                 * (bug28454_directives.stp: ...\X0\'h...); readers accept it as a character. */
+                size_t q = p->pos + 1;
+                while (s[q] == ' ' || s[q] == '\t' || s[q] == '\r' || s[q] == '\n') q++;
+                if (s[q] == ',' || s[q] == ')' || s[q] == ';' || s[q] == '\0' || s[q] == '/') break;
             }
             if (s[p->pos] == '\n') {
                 p->line++;
@@ -287,7 +294,10 @@ static crisp_status parse_part(parser *p)
 static int word_at(const parser *p, const char *w)
 {
     size_t n = strlen(w);
-    if (p->pos + n > p->size || strncmp(p->s + p->pos, w, n) != 0) return 0;
+    if (p->pos + n > p->size) return 0;
+    /* Section keywords in any case (bug31000_InSensitive.stp writes Header;): readers accept it. */
+    for (size_t i = 0; i < n; i++)
+        if (toupper((unsigned char)p->s[p->pos + i]) != w[i]) return 0;
     return !is_kw_char(p->s[p->pos + n]);
 }
 
@@ -299,8 +309,11 @@ static crisp_status parse_instance(parser *p)
     step_value ref;
     crisp_status st = parse_value(p, 0, &ref);
     if (st) return st;
+    if (ref.kind != STEP_REF) return perr(p, "expected #n at the start of an entity instance");
+    if (ref.num > 2147483647.0 || ref.num < 1) return perr(p, "entity number out of range (expected 1 to 2147483647)");
     if (!expect_char(p, '=')) return perr(p, "expected = after the entity number");
     if ((st = skip(p))) return st;
+    size_t src = p->pos;
     uint32_t first = (uint32_t)f->part_count;
     if (p->s[p->pos] == '(') {
         p->pos++;
@@ -319,8 +332,8 @@ static crisp_status parse_instance(parser *p)
     if (f->entity_count == f->entity_cap &&
         crisp_grow((void **)&f->entities, &f->entity_cap, f->entity_count + 1, sizeof *f->entities))
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
-    f->entities[f->entity_count++] =
-        (step_entity){(int)ref.num, line, first, (uint32_t)f->part_count - first};
+    f->entities[f->entity_count++] = (step_entity){(int)ref.num, line, first, (uint32_t)f->part_count - first,
+                                                   (uint32_t)src, (uint32_t)(p->pos - src)};
     return CRISP_OK;
 }
 
@@ -335,6 +348,9 @@ static crisp_status parse_header_entity(parser *p)
     return CRISP_OK;
 }
 
+/* The id -> entity hash. An entity defined twice with the same text (bug25013_25013faces.stp
+ * repeats a few lines) keeps its first copy and is counted; two different definitions are an
+ * error, since either could be meant. */
 static crisp_status build_map(step_file *f)
 {
     size_t cap = 16;
@@ -342,23 +358,39 @@ static crisp_status build_map(step_file *f)
     f->map = crisp_calloc_array(cap, sizeof *f->map);
     if (!f->map) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
     f->map_cap = cap;
+    size_t kept = 0;
     for (size_t i = 0; i < f->entity_count; i++) {
-        unsigned id = (unsigned)f->entities[i].id;
+        step_entity e = f->entities[i];
+        unsigned id = (unsigned)e.id;
         size_t h = (id * 2654435761u) & (cap - 1);
+        int dup = 0;
         while (f->map[h]) {
-            if (f->entities[f->map[h] - 1].id == (int)id)
-                return crisp_error(CRISP_ERR_PARSE, "%s: line %d: entity #%u defined twice (first on line %d)",
-                                   f->name, f->entities[i].line, id, f->entities[f->map[h] - 1].line);
+            const step_entity *o = &f->entities[f->map[h] - 1];
+            if (o->id == (int)id) {
+                if (o->src_len != e.src_len || memcmp(f->text + o->src_off, f->text + e.src_off, e.src_len) != 0)
+                    return crisp_error(CRISP_ERR_PARSE, "%s: line %d: entity #%u defined twice (first on line %d)",
+                                       f->name, e.line, id, o->line);
+                dup = 1;
+                break;
+            }
             h = (h + 1) & (cap - 1);
         }
-        f->map[h] = (int)i + 1;
+        if (dup) {
+            if (!f->duplicates++) f->first_duplicate = (int)id;
+            continue;
+        }
+        f->entities[kept] = e;
+        f->map[h] = (int)kept + 1;
+        kept++;
     }
+    f->entity_count = kept;
     return CRISP_OK;
 }
 
-const step_entity *crisp__step_find(const step_file *f, int id)
+const step_entity *crisp__step_find(const step_file *f, double idv)
 {
-    if (!f->map_cap || id <= 0) return NULL;
+    if (!f->map_cap || !(idv >= 1 && idv <= 2147483647.0)) return NULL;
+    int id = (int)idv;
     size_t h = ((unsigned)id * 2654435761u) & (f->map_cap - 1);
     while (f->map[h]) {
         const step_entity *e = &f->entities[f->map[h] - 1];

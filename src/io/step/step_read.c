@@ -9,10 +9,17 @@
 #include <stdio.h>
 #include <string.h>
 
+typedef enum face_kind {
+    FACE_TOPOLOGY, /* ADVANCED_FACE, FACE_SURFACE: bounded by edge loops */
+    FACE_BOUNDED,  /* CURVE_BOUNDED_SURFACE: bounded by composite curves */
+    FACE_BARE      /* a bounded surface alone in a geometric set */
+} face_kind;
+
 typedef struct face_ref {
-    int id;      /* ADVANCED_FACE */
+    int id;      /* ADVANCED_FACE, CURVE_BOUNDED_SURFACE, ... */
     int flip;    /* through an ORIENTED_FACE with orientation .F. */
-    int owner[2]; /* shell, solid (0 when none) */
+    int owner[2]; /* shell or set, solid (0 when none) */
+    face_kind kind;
 } face_ref;
 
 typedef struct face_list {
@@ -21,14 +28,66 @@ typedef struct face_list {
     unsigned char *seen; /* by entity index */
 } face_list;
 
-static crisp_status add_ref(step_reader *r, face_list *fl, const step_entity *fe, int flip, int shell, int solid)
+static crisp_status add_ref_kind(step_reader *r, face_list *fl, const step_entity *fe, int flip, int shell, int solid,
+                                 face_kind kind)
 {
     size_t idx = (size_t)(fe - r->f->entities);
     if (fl->seen[idx]) return CRISP_OK;
     fl->seen[idx] = 1;
     if (fl->count == fl->cap && crisp_grow((void **)&fl->refs, &fl->cap, fl->count + 1, sizeof *fl->refs))
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
-    fl->refs[fl->count++] = (face_ref){fe->id, flip, {shell, solid}};
+    fl->refs[fl->count++] = (face_ref){fe->id, flip, {shell, solid}, kind};
+    return CRISP_OK;
+}
+
+static crisp_status add_ref(step_reader *r, face_list *fl, const step_entity *fe, int flip, int shell, int solid)
+{
+    return add_ref_kind(r, fl, fe, flip, shell, solid, FACE_TOPOLOGY);
+}
+
+/* Note a part of the structure (shell, solid, set) that could not be read, and go on. */
+static crisp_status note_unreadable(step_reader *r, crisp_status st, const char *what, int id)
+{
+    if (st == CRISP_OK || st == CRISP_ERR_NO_MEMORY) return st;
+    const char *msg = crisp_error_message();
+    size_t nl = strlen(r->f->name);
+    if (strncmp(msg, r->f->name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
+    char note[96];
+    snprintf(note, sizeof note, "STEP %s #%d unreadable: %s", what, id, msg);
+    crisp_model_note_skip(r->model, note);
+    crisp_error_clear();
+    return CRISP_OK;
+}
+
+static const char *const bare_surfaces[] = {"B_SPLINE_SURFACE_WITH_KNOTS", "B_SPLINE_SURFACE", "QUASI_UNIFORM_SURFACE",
+                                           "UNIFORM_SURFACE", "BEZIER_SURFACE", "RECTANGULAR_TRIMMED_SURFACE",
+                                           "PLANE", "CYLINDRICAL_SURFACE", "CONICAL_SURFACE", "SPHERICAL_SURFACE",
+                                           "TOROIDAL_SURFACE", "DEGENERATE_TOROIDAL_SURFACE",
+                                           "SURFACE_OF_REVOLUTION", "SURFACE_OF_LINEAR_EXTRUSION"};
+
+static int is_surface(step_reader *r, const step_entity *e)
+{
+    for (size_t k = 0; k < sizeof bare_surfaces / sizeof *bare_surfaces; k++)
+        if (crisp__step_is(r, e, bare_surfaces[k])) return 1;
+    return 0;
+}
+
+/* The surfaces among the elements of a GEOMETRIC_SET (curves and points are wireframe). */
+static crisp_status set_faces(step_reader *r, face_list *fl, const step_entity *e, const step_part *p, int *wire)
+{
+    const step_value *items;
+    crisp_status st = crisp__step_get_list(r, e, p, 1, &items);
+    if (st) return st;
+    for (uint32_t k = 0; k < items->len; k++) {
+        const step_entity *it;
+        if ((st = crisp__step_deref(r, e, crisp__step_elem(r, items, k), &it))) return st;
+        if (crisp__step_is(r, it, "CURVE_BOUNDED_SURFACE")) st = add_ref_kind(r, fl, it, 0, e->id, 0, FACE_BOUNDED);
+        else if (is_surface(r, it)) st = add_ref_kind(r, fl, it, 0, e->id, 0, FACE_BARE);
+        else if (crisp__step_is(r, it, "ADVANCED_FACE") || crisp__step_is(r, it, "FACE_SURFACE"))
+            st = add_ref(r, fl, it, 0, e->id, 0);
+        else (*wire)++;
+        if (st) return st;
+    }
     return CRISP_OK;
 }
 
@@ -74,44 +133,113 @@ static crisp_status shell_faces(step_reader *r, face_list *fl, const step_entity
     return CRISP_OK;
 }
 
-static crisp_status collect_faces(step_reader *r, face_list *fl)
+static crisp_status collect_faces(step_reader *r, face_list *fl, int *wire)
 {
     const step_file *f = r->f;
     crisp_status st;
     fl->seen = crisp_calloc_array(f->entity_count + 1, 1);
     if (!fl->seen) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
-    /* Solids first, so their shells' faces know the solid; then remaining shells; then faces. */
+    /* Solids first, so their shells' faces know the solid; then remaining shells; then faces and
+     * geometric sets. A solid, shell or set that cannot be read is noted and skipped. */
     for (size_t i = 0; i < f->entity_count; i++) {
         const step_entity *e = &f->entities[i], *sh;
         const step_part *p = crisp__step_part(r, e, "MANIFOLD_SOLID_BREP");
         if (!p) p = crisp__step_part(r, e, "BREP_WITH_VOIDS");
         if (p) {
-            if ((st = crisp__step_get_ref(r, e, p, 1, &sh)) || (st = shell_faces(r, fl, sh, e->id, 0))) return st;
+            st = crisp__step_get_ref(r, e, p, 1, &sh);
+            if (!st) st = shell_faces(r, fl, sh, e->id, 0);
+            if ((st = note_unreadable(r, st, "solid", e->id))) return st;
             const step_value *voids = crisp__step_part(r, e, "BREP_WITH_VOIDS") ? crisp__step_param(r, p, 2) : NULL;
-            for (uint32_t k = 0; voids && voids->kind == STEP_LIST && k < voids->len; k++)
-                if ((st = crisp__step_deref(r, e, crisp__step_elem(r, voids, k), &sh)) ||
-                    (st = shell_faces(r, fl, sh, e->id, 0)))
-                    return st;
+            for (uint32_t k = 0; voids && voids->kind == STEP_LIST && k < voids->len; k++) {
+                st = crisp__step_deref(r, e, crisp__step_elem(r, voids, k), &sh);
+                if (!st) st = shell_faces(r, fl, sh, e->id, 0);
+                if ((st = note_unreadable(r, st, "void shell of", e->id))) return st;
+            }
         }
         if ((p = crisp__step_part(r, e, "SHELL_BASED_SURFACE_MODEL"))) {
             const step_value *shells;
-            if ((st = crisp__step_get_list(r, e, p, 1, &shells))) return st;
-            for (uint32_t k = 0; k < shells->len; k++)
-                if ((st = crisp__step_deref(r, e, crisp__step_elem(r, shells, k), &sh)) ||
-                    (st = shell_faces(r, fl, sh, e->id, 0)))
-                    return st;
+            st = crisp__step_get_list(r, e, p, 1, &shells);
+            for (uint32_t k = 0; !st && k < shells->len; k++) {
+                st = crisp__step_deref(r, e, crisp__step_elem(r, shells, k), &sh);
+                if (!st) st = shell_faces(r, fl, sh, e->id, 0);
+                if ((st = note_unreadable(r, st, "shell of surface model", e->id))) return st;
+            }
+            if ((st = note_unreadable(r, st, "surface model", e->id))) return st;
         }
     }
     for (size_t i = 0; i < f->entity_count; i++) {
         const step_entity *e = &f->entities[i];
         if (crisp__step_is(r, e, "CLOSED_SHELL") || crisp__step_is(r, e, "OPEN_SHELL"))
-            if ((st = shell_faces(r, fl, e, 0, 0))) return st;
+            if ((st = note_unreadable(r, shell_faces(r, fl, e, 0, 0), "shell", e->id))) return st;
     }
     for (size_t i = 0; i < f->entity_count; i++) {
         const step_entity *e = &f->entities[i];
         if (is_face(r, e) && (st = add_ref(r, fl, e, 0, 0, 0))) return st;
     }
+    for (size_t i = 0; i < f->entity_count; i++) {
+        const step_entity *e = &f->entities[i];
+        const step_part *p = crisp__step_part(r, e, "GEOMETRIC_SET");
+        if (p && (st = note_unreadable(r, set_faces(r, fl, e, p, wire), "geometric set", e->id))) return st;
+    }
+    for (size_t i = 0; i < f->entity_count; i++) {
+        const step_entity *e = &f->entities[i];
+        if (crisp__step_is(r, e, "CURVE_BOUNDED_SURFACE") && (st = add_ref_kind(r, fl, e, 0, 0, 0, FACE_BOUNDED)))
+            return st;
+    }
     return CRISP_OK;
+}
+
+static crisp_status convert_face(step_reader *r, const face_ref *fr, const step_entity *fe, crisp_face *face)
+{
+    r->depth = 0;
+    switch (fr->kind) {
+    case FACE_BOUNDED: return crisp__step_bounded_face(r, fe, face);
+    case FACE_BARE: return crisp__step_bare_face(r, fe, face);
+    default: return crisp__step_face(r, fe, face);
+    }
+}
+
+/* How many entities of the file have one of these types. */
+static int count_types(step_reader *r, const char *const *types, size_t n)
+{
+    int c = 0;
+    for (size_t i = 0; i < r->f->entity_count; i++)
+        for (size_t k = 0; k < n; k++)
+            if (crisp__step_is(r, &r->f->entities[i], types[k])) {
+                c++;
+                break;
+            }
+    return c;
+}
+
+static const char *const mesh_types[] = {"TRIANGULATED_FACE", "COMPLEX_TRIANGULATED_FACE", "TRIANGULATED_SURFACE_SET",
+                                         "COMPLEX_TRIANGULATED_SURFACE_SET", "TESSELLATED_SHELL", "TESSELLATED_SOLID",
+                                         "TESSELLATED_FACE", "TESSELLATED_SURFACE_SET"};
+static const char *const curve_types[] = {"LINE", "CIRCLE", "ELLIPSE", "POLYLINE", "TRIMMED_CURVE", "B_SPLINE_CURVE",
+                                          "B_SPLINE_CURVE_WITH_KNOTS", "QUASI_UNIFORM_CURVE", "COMPOSITE_CURVE",
+                                          "TESSELLATED_CURVE_SET"};
+
+/* The error for a file in which nothing can be drawn, saying what it holds instead. */
+static crisp_status nothing_drawable(step_reader *r, int wire)
+{
+    const char *name = r->f->name;
+    int meshes = count_types(r, mesh_types, sizeof mesh_types / sizeof *mesh_types);
+    if (meshes)
+        return crisp_error(CRISP_ERR_UNSUPPORTED,
+                           "%s: only tessellated geometry (%d triangulated or tessellated items, no B-rep faces or "
+                           "surfaces): crisp draws exact surfaces, not meshes", name, meshes);
+    int curves = count_types(r, curve_types, sizeof curve_types / sizeof *curve_types);
+    if (curves || wire)
+        return crisp_error(CRISP_ERR_UNSUPPORTED,
+                           "%s: only wireframe geometry (%d curves, no faces or surfaces): nothing to draw", name,
+                           curves + wire);
+    static const char *const refs[] = {"DOCUMENT_FILE", "APPLIED_DOCUMENT_REFERENCE", "DOCUMENT_REPRESENTATION_TYPE",
+                                       "NEXT_ASSEMBLY_USAGE_OCCURRENCE"};
+    if (count_types(r, refs, sizeof refs / sizeof *refs))
+        return crisp_error(CRISP_ERR_UNSUPPORTED,
+                           "%s: no geometry in this file (an assembly structure or references to other files only)",
+                           name);
+    return crisp_error(CRISP_ERR_UNSUPPORTED, "%s: no geometry (no B-rep faces, surfaces, meshes or curves)", name);
 }
 
 /* Tolerance scale: the box of every 3D CARTESIAN_POINT. */
@@ -167,11 +295,20 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
     r.tol = frac * model_diagonal(&r);
     stats->tol = r.tol;
     r.close_rel = options && options->closure_tolerance > 0 ? options->closure_tolerance : 1e-6;
-    if ((st = collect_faces(&r, &fl))) goto done;
+    if (f.duplicates) {
+        char note[96];
+        snprintf(note, sizeof note, "STEP %d entities defined twice with identical text (first #%d): copy ignored",
+                 f.duplicates, f.first_duplicate);
+        crisp_model_note_skip(m, note);
+    }
+    int wire = 0;
+    if ((st = collect_faces(&r, &fl, &wire))) goto done;
     if (fl.count == 0) {
-        st = crisp_error(CRISP_ERR_UNSUPPORTED, "%s: no ADVANCED_FACE found (expected a B-rep or surface model)", name);
+        st = nothing_drawable(&r, wire);
         goto done;
     }
+    int meshes = count_types(&r, mesh_types, sizeof mesh_types / sizeof *mesh_types);
+    for (int k = 0; k < meshes; k++) crisp_model_note_skip(m, "STEP tessellated item (a mesh: not drawn)");
     ids = crisp_malloc_array(fl.count * 3, sizeof *ids);
     if (!ids) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", name);
@@ -181,8 +318,7 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
     for (size_t i = 0; i < fl.count; i++) {
         const step_entity *fe = crisp__step_find(&f, fl.refs[i].id);
         crisp_face face;
-        r.depth = 0;
-        st = crisp__step_face(&r, fe, &face);
+        st = convert_face(&r, &fl.refs[i], fe, &face);
         if (st == CRISP_ERR_NO_MEMORY) goto done;
         if (st) {
             /* Drop the face, saying which and why (without the file name: the note is short). */
@@ -210,8 +346,7 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
         /* Nothing could be read: report the first face's problem as the error. */
         const step_entity *fe = crisp__step_find(&f, fl.refs[0].id);
         crisp_face face;
-        r.depth = 0;
-        st = crisp__step_face(&r, fe, &face);
+        st = convert_face(&r, &fl.refs[0], fe, &face);
         if (!st) {
             crisp_face_free(&face);
             st = crisp_error(CRISP_ERR_INTERNAL, "%s: no face could be read", name);

@@ -38,12 +38,12 @@ static double unit_factor(step_reader *r, const step_entity *e, int length, int 
     if ((p = crisp__step_part(r, e, "CONVERSION_BASED_UNIT"))) {
         const step_value *v = crisp__step_param(r, p, 1);
         const step_entity *me, *ue;
-        if (!v || v->kind != STEP_REF || !(me = crisp__step_find(r->f, (int)v->num))) return 0;
+        if (!v || v->kind != STEP_REF || !(me = crisp__step_find(r->f, v->num))) return 0;
         const step_part *mp = crisp__step_part(r, me, NULL);
         double x;
         const step_value *mv = crisp__step_param(r, mp, 0), *mu = crisp__step_param(r, mp, 1);
         if (!mv || !crisp__step_value_real(r, mv, &x) || !mu || mu->kind != STEP_REF) return 0;
-        if (!(ue = crisp__step_find(r->f, (int)mu->num))) return 0;
+        if (!(ue = crisp__step_find(r->f, mu->num))) return 0;
         double f = unit_factor(r, ue, length, depth + 1);
         return isfinite(x * f) ? x * f : 0;
     }
@@ -69,7 +69,7 @@ void crisp__step_units(step_reader *r)
         for (uint32_t k = 0; k < units->len; k++) {
             const step_value *v = crisp__step_elem(r, units, k);
             const step_entity *u;
-            if (v->kind != STEP_REF || !(u = crisp__step_find(f, (int)v->num))) continue;
+            if (v->kind != STEP_REF || !(u = crisp__step_find(f, v->num))) continue;
             double x;
             if (!have_len && crisp__step_is(r, u, "LENGTH_UNIT") && (x = unit_factor(r, u, 1, 0)) > 0) {
                 r->model->unit_to_mm = x;
@@ -133,7 +133,7 @@ static int find_colour(step_reader *r, const step_entity *e, int depth, float rg
             for (uint32_t j = 0; j < n && j < 64; j++) {
                 const step_value *x = v->kind == STEP_LIST ? &r->f->values[v->first + j] : v;
                 const step_entity *t;
-                if (x->kind == STEP_REF && (t = crisp__step_find(r->f, (int)x->num)) && find_colour(r, t, depth + 1, rgb))
+                if (x->kind == STEP_REF && (t = crisp__step_find(r->f, x->num)) && find_colour(r, t, depth + 1, rgb))
                     return 1;
             }
         }
@@ -154,7 +154,7 @@ void crisp__step_colors(step_reader *r, const int *face_ids, const int *owner_id
             if (!p) continue;
             const step_value *styles = crisp__step_param(r, p, 1), *item = crisp__step_param(r, p, 2);
             if (!styles || !item || item->kind != STEP_REF) continue;
-            int target = (int)item->num;
+            int target = item->num >= 1 && item->num <= 2147483647.0 ? (int)item->num : -1;
             int on_face = 0;
             for (int k = 0; k < face_count && !on_face; k++) on_face = face_ids[k] == target;
             if (on_face != pass) continue;
@@ -168,7 +168,7 @@ void crisp__step_colors(step_reader *r, const int *face_ids, const int *owner_id
             uint32_t n = styles->kind == STEP_LIST ? styles->len : 0;
             for (uint32_t j = 0; j < n && !found; j++) {
                 const step_value *x = &f->values[styles->first + j];
-                if (x->kind == STEP_REF && (t = crisp__step_find(f, (int)x->num))) found = find_colour(r, t, 0, rgb);
+                if (x->kind == STEP_REF && (t = crisp__step_find(f, x->num))) found = find_colour(r, t, 0, rgb);
             }
             if (!found) continue;
             for (int k = 0; k < face_count; k++) {

@@ -33,7 +33,6 @@ static crisp_status bspline_surface(step_reader *r, const step_entity *e, step_s
         base = kp ? kp : crisp__step_part(r, e, NULL);
         off = 1;
     }
-    if (!kp) return crisp__step_fail(r, e, CRISP_ERR_UNSUPPORTED, "B-spline surface without knots");
     crisp_status st;
     int du, dv;
     const step_value *rows;
@@ -68,7 +67,10 @@ static crisp_status bspline_surface(step_reader *r, const step_entity *e, step_s
     }
     int ko = kp == base ? off + 7 : 0;
     const step_value *mu, *mv, *tu, *tv;
-    if (!st && !(st = crisp__step_get_list(r, e, kp, ko, &mu)) && !(st = crisp__step_get_list(r, e, kp, ko + 1, &mv)) &&
+    if (!st && !kp) {
+        /* UNIFORM_SURFACE, QUASI_UNIFORM_SURFACE, BEZIER_SURFACE: knots implied per direction. */
+        if (!(st = crisp__step_implied_knots(r, e, du, nu, &ku))) st = crisp__step_implied_knots(r, e, dv, nv, &kv);
+    } else if (!st && !(st = crisp__step_get_list(r, e, kp, ko, &mu)) && !(st = crisp__step_get_list(r, e, kp, ko + 1, &mv)) &&
         !(st = crisp__step_get_list(r, e, kp, ko + 2, &tu)) && !(st = crisp__step_get_list(r, e, kp, ko + 3, &tv)) &&
         !(st = crisp__step_knots(r, e, mu, tu, du, nu, &ku)))
         st = crisp__step_knots(r, e, mv, tv, dv, nv, &kv);
@@ -173,7 +175,9 @@ crisp_status crisp__step_surface(step_reader *r, const step_entity *e, step_surf
             st = crisp__step_surface(r, be, s);
             s->id = e->id;
         }
-    } else if (crisp__step_is(r, e, "B_SPLINE_SURFACE_WITH_KNOTS") || crisp__step_is(r, e, "B_SPLINE_SURFACE")) {
+    } else if (crisp__step_is(r, e, "B_SPLINE_SURFACE_WITH_KNOTS") || crisp__step_is(r, e, "B_SPLINE_SURFACE") ||
+               crisp__step_is(r, e, "QUASI_UNIFORM_SURFACE") || crisp__step_is(r, e, "UNIFORM_SURFACE") ||
+               crisp__step_is(r, e, "BEZIER_SURFACE")) {
         st = bspline_surface(r, e, s);
     } else {
         char type[64];

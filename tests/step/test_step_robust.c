@@ -1,0 +1,307 @@
+/* The STEP reader on what real files bring beyond the bundled models: B-spline forms with implied
+ * knots (QUASI_UNIFORM_, UNIFORM_, BEZIER_ surfaces and curves, also rational complex entities),
+ * CURVE_BOUNDED_SURFACEs and bare surfaces in a GEOMETRIC_SET, a full sphere given as a face
+ * without bounds, a RECTANGULAR_TRIMMED_SURFACE alone, lenient Part 21 syntax (section keywords in
+ * any case, a lone quote inside a string, an entity number out of range, identical duplicate
+ * instances, bare numbers as trim parameters), one bad face or shell skipped with a note while the
+ * rest loads, and clear errors for files that hold nothing crisp can draw.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "io/step/step_internal.h"
+#include "step/test_step_util.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+#define HEAD "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('test'),'2;1');\n" \
+             "FILE_NAME('t','',(''),(''),'','','');\nFILE_SCHEMA(('AUTOMOTIVE_DESIGN'));\nENDSEC;\nDATA;\n"
+#define TAIL "ENDSEC;\nEND-ISO-10303-21;\n"
+
+static crisp_status read_str(const char *text, crisp_model **m)
+{
+    step_read_stats st = {.verify = 1};
+    crisp_status s = crisp__step_read_mem("snippet.stp", text, strlen(text), NULL, m, &st);
+    if (s) fprintf(stderr, "%s\n", crisp_error_message());
+    return s;
+}
+
+static char *replace(const char *text, const char *from, const char *to)
+{
+    const char *at = strstr(text, from);
+    assert_non_null(at);
+    size_t n = strlen(text) - strlen(from) + strlen(to);
+    char *out = malloc(n + 1);
+    size_t k = (size_t)(at - text);
+    memcpy(out, text, k);
+    strcpy(out + k, to);
+    strcat(out, at + strlen(from));
+    return out;
+}
+
+static void assert_knots(const double *k, const double *want, int n)
+{
+    for (int i = 0; i < n; i++) {
+        if (k[i] != want[i]) fprintf(stderr, "knot %d: %g, expected %g\n", i, k[i], want[i]);
+        assert_true(k[i] == want[i]);
+    }
+}
+
+static int has_note(const crisp_model *m, const char *needle)
+{
+    for (int k = 0; k < m->skip_count; k++)
+        if (strstr(m->skips[k].what, needle)) return 1;
+    return 0;
+}
+
+/* Points of a 4 x 2 net: x = i, y = j, z = i^2 (a parabolic cylinder). */
+#define NET "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=CARTESIAN_POINT('',(0.,1.,0.));\n" \
+            "#3=CARTESIAN_POINT('',(1.,0.,1.));\n#4=CARTESIAN_POINT('',(1.,1.,1.));\n" \
+            "#5=CARTESIAN_POINT('',(2.,0.,4.));\n#6=CARTESIAN_POINT('',(2.,1.,4.));\n" \
+            "#7=CARTESIAN_POINT('',(3.,0.,9.));\n#8=CARTESIAN_POINT('',(3.,1.,9.));\n" \
+            "#9=CARTESIAN_POINT('',(4.,0.,16.));\n#10=CARTESIAN_POINT('',(4.,1.,16.));\n"
+
+/* ISO 10303-42's implied knots, read from bare surfaces of a geometric set. */
+static void test_implied_knots(void **state)
+{
+    (void)state;
+    static const char text[] = HEAD NET
+        "#20=QUASI_UNIFORM_SURFACE('',2,1,((#1,#2),(#3,#4),(#5,#6),(#7,#8)),.UNSPECIFIED.,.F.,.F.,.U.);\n"
+        "#21=UNIFORM_SURFACE('',1,1,((#1,#2),(#3,#4),(#5,#6)),.UNSPECIFIED.,.F.,.F.,.U.);\n"
+        "#22=BEZIER_SURFACE('',2,1,((#1,#2),(#3,#4),(#5,#6),(#7,#8),(#9,#10)),.UNSPECIFIED.,.F.,.F.,.U.);\n"
+        "#23=(BOUNDED_SURFACE() B_SPLINE_SURFACE(2,1,((#1,#2),(#3,#4),(#5,#6),(#7,#8)),.UNSPECIFIED.,.F.,.F.,.F.)\n"
+        " QUASI_UNIFORM_SURFACE() GEOMETRIC_REPRESENTATION_ITEM()\n"
+        " RATIONAL_B_SPLINE_SURFACE(((1.,1.),(2.,2.),(2.,2.),(1.,1.))) REPRESENTATION_ITEM('') SURFACE());\n"
+        "#30=GEOMETRIC_SET('',(#20,#21,#22,#23));\n" TAIL;
+    crisp_model *m;
+    assert_int_equal(read_str(text, &m), CRISP_OK);
+    assert_int_equal(m->face_count, 4);
+    const crisp_surface *q = m->faces[0].surface, *u = m->faces[1].surface, *b = m->faces[2].surface;
+    const crisp_surface *rq = m->faces[3].surface;
+    assert_knots(q->knots_u, (const double[]){0, 0, 0, 1, 2, 2, 2}, 7);
+    assert_knots(q->knots_v, (const double[]){0, 0, 1, 1}, 4);
+    assert_knots(u->knots_u, (const double[]){-1, 0, 1, 2, 3}, 5);
+    assert_knots(b->knots_u, (const double[]){0, 0, 0, 1, 1, 2, 2, 2}, 8);
+    assert_knots(rq->knots_u, (const double[]){0, 0, 0, 1, 2, 2, 2}, 7);
+    assert_true(rq->rational && !q->rational);
+    /* The Bezier form interpolates its segment ends: (2, y, 4) at u = 1. */
+    double p[3];
+    crisp_surface_eval(b, 1, 0.5, p);
+    assert_true(fabs(p[0] - 2) < 1e-12 && fabs(p[1] - 0.5) < 1e-12 && fabs(p[2] - 4) < 1e-12);
+    /* Every face is the whole of its domain (no loops). */
+    for (int f = 0; f < 4; f++) assert_int_equal(m->faces[f].loop_count, 0);
+    crisp_model_destroy(m);
+    /* A Bezier form whose point count does not fit its degree is refused, by name. */
+    char *bad = replace(text, "#22=BEZIER_SURFACE('',2,1,((#1,#2),(#3,#4),(#5,#6),(#7,#8),(#9,#10))",
+                        "#22=BEZIER_SURFACE('',2,1,((#1,#2),(#3,#4),(#5,#6),(#7,#8))");
+    assert_int_equal(read_str(bad, &m), CRISP_OK);
+    assert_int_equal(m->face_count, 3);
+    assert_true(has_note(m, "#22"));
+    crisp_model_destroy(m);
+    free(bad);
+}
+
+/* A plane z = 0 bounded by a CURVE_BOUNDED_SURFACE: a 2 x 1 rectangle whose sides are pcurves
+ * (lines trimmed by bare numbers, one segment used against its sense), with a square hole whose
+ * sides are quasi-uniform 3D curves without pcurves (projected). */
+static const char bounded[] = HEAD
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=PLANE('',#4);\n"
+    "#9=(GEOMETRIC_REPRESENTATION_CONTEXT(2) PARAMETRIC_REPRESENTATION_CONTEXT() REPRESENTATION_CONTEXT('',''));\n"
+    "#10=DIRECTION('',(1.,0.));\n#11=DIRECTION('',(0.,1.));\n#12=VECTOR('',#10,1.);\n#13=VECTOR('',#11,1.);\n"
+    "#20=CARTESIAN_POINT('',(0.,0.));\n#21=LINE('',#20,#12);\n#22=TRIMMED_CURVE('',#21,(0.),(2.),.T.,.PARAMETER.);\n"
+    "#23=DEFINITIONAL_REPRESENTATION('',(#22),#9);\n#24=PCURVE('',#5,#23);\n#25=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.T.,#24);\n"
+    "#30=CARTESIAN_POINT('',(2.,0.));\n#31=LINE('',#30,#13);\n#32=TRIMMED_CURVE('',#31,(0.),(1.),.T.,.PARAMETER.);\n"
+    "#33=(DEFINITIONAL_REPRESENTATION() REPRESENTATION('',(#32),#9) SHAPE_REPRESENTATION());\n"
+    "#34=PCURVE('',#5,#33);\n#35=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.T.,#34);\n"
+    "#40=CARTESIAN_POINT('',(0.,1.));\n#41=LINE('',#40,#12);\n#42=TRIMMED_CURVE('',#41,(0.),(2.),.T.,.PARAMETER.);\n"
+    "#43=DEFINITIONAL_REPRESENTATION('',(#42),#9);\n#44=PCURVE('',#5,#43);\n#45=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.F.,#44);\n"
+    "#50=LINE('',#20,#13);\n#51=TRIMMED_CURVE('',#50,(PARAMETER_VALUE(1.)),(PARAMETER_VALUE(0.)),.F.,.PARAMETER.);\n"
+    "#52=DEFINITIONAL_REPRESENTATION('',(#51),#9);\n#53=PCURVE('',#5,#52);\n#54=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.T.,#53);\n"
+    "#60=OUTER_BOUNDARY_CURVE('',(#25,#35,#45,#54),.F.);\n"
+    "#70=CARTESIAN_POINT('',(0.5,0.25,0.));\n#71=CARTESIAN_POINT('',(0.5,0.75,0.));\n"
+    "#72=CARTESIAN_POINT('',(1.,0.75,0.));\n#73=CARTESIAN_POINT('',(1.,0.25,0.));\n"
+    "#74=QUASI_UNIFORM_CURVE('',1,(#70,#71,#72),.POLYLINE_FORM.,.F.,.U.);\n"
+    "#75=QUASI_UNIFORM_CURVE('',1,(#72,#73,#70),.POLYLINE_FORM.,.F.,.U.);\n"
+    "#76=(BOUNDED_CURVE() CURVE() GEOMETRIC_REPRESENTATION_ITEM() REPRESENTATION_ITEM('') SURFACE_CURVE(#74,(#5),.CURVE_3D.));\n"
+    "#77=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.T.,#76);\n#78=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.T.,#75);\n"
+    "#79=BOUNDARY_CURVE('',(#77,#78),.F.);\n"
+    "#80=CURVE_BOUNDED_SURFACE('',#5,(#60,#79),.F.);\n#81=GEOMETRIC_SET('',(#80));\n"
+    "#82=GEOMETRICALLY_BOUNDED_SURFACE_SHAPE_REPRESENTATION('',(#81),#9);\n" TAIL;
+
+static void test_curve_bounded_surface(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    assert_int_equal(read_str(bounded, &m), CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->skip_count, 0);
+    const crisp_face *f = &m->faces[0];
+    assert_int_equal(f->loop_count, 2);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-9, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    /* Outer 2 x 1 (area 2), hole 0.5 x 0.5 (area -0.25) in the plane's (x, y). */
+    int outer = f->loops[0].is_outer ? 0 : 1;
+    assert_true(fabs(crisp_trim_loop_signed_area(&f->loops[outer]) - 2) < 1e-9);
+    assert_true(fabs(crisp_trim_loop_signed_area(&f->loops[1 - outer]) + 0.25) < 1e-9);
+    crisp_model_destroy(m);
+    /* A segment on an unbounded line cannot bound anything: the face is dropped, by name. */
+    char *bad = replace(bounded, "#24=PCURVE('',#5,#23)", "#24=PCURVE('',#5,#91);\n#91=DEFINITIONAL_REPRESENTATION('',(#21),#9)");
+    assert_int_not_equal(read_str(bad, &m), CRISP_OK);
+    assert_non_null(strstr(crisp_error_message(), "unbounded curve"));
+    assert_non_null(strstr(crisp_error_message(), "#24 (line"));
+    free(bad);
+}
+
+/* A full sphere (a face without bounds; another with only a vertex loop) and a quarter
+ * cylinder given as a RECTANGULAR_TRIMMED_SURFACE in degrees, alone in a geometric set. */
+static void test_whole_sphere_and_trimmed_surface(void **state)
+{
+    (void)state;
+    static const char text[] = HEAD
+        "#1=CARTESIAN_POINT('',(1.,2.,3.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+        "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=SPHERICAL_SURFACE('',#4,2.);\n#6=ADVANCED_FACE('',(),#5,.T.);\n"
+        "#7=CARTESIAN_POINT('',(1.,2.,5.));\n#8=VERTEX_POINT('',#7);\n#9=VERTEX_LOOP('',#8);\n"
+        "#10=FACE_BOUND('',#9,.T.);\n#11=ADVANCED_FACE('',(#10),#5,.F.);\n#12=OPEN_SHELL('',(#6,#11));\n"
+        "#20=CYLINDRICAL_SURFACE('',#4,1.);\n#21=RECTANGULAR_TRIMMED_SURFACE('',#20,0.,90.,-1.,1.,.T.,.T.);\n"
+        "#22=GEOMETRIC_SET('',(#21));\n"
+        "#60=(NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.));\n"
+        "#61=PLANE_ANGLE_MEASURE_WITH_UNIT(PLANE_ANGLE_MEASURE(0.0174532925199433),#60);\n"
+        "#62=DIMENSIONAL_EXPONENTS(0.,0.,0.,0.,0.,0.,0.);\n"
+        "#63=(CONVERSION_BASED_UNIT('DEGREE',#61) NAMED_UNIT(#62) PLANE_ANGLE_UNIT());\n"
+        "#64=(LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.));\n"
+        "#65=(GEOMETRIC_REPRESENTATION_CONTEXT(3) GLOBAL_UNIT_ASSIGNED_CONTEXT((#64,#63)) REPRESENTATION_CONTEXT('',''));\n" TAIL;
+    crisp_model *m;
+    assert_int_equal(read_str(text, &m), CRISP_OK);
+    assert_int_equal(m->face_count, 3);
+    for (int f = 0; f < 2; f++) {
+        assert_int_equal(m->faces[f].loop_count, 0);
+        assert_int_equal(m->faces[f].reversed, f == 1);
+        const crisp_surface *s = m->faces[f].surface;
+        double d[4], lo[3] = {1e9, 1e9, 1e9}, hi[3] = {-1e9, -1e9, -1e9};
+        crisp_surface_domain(s, d);
+        for (int i = 0; i <= 40; i++)
+            for (int j = 0; j <= 40; j++) {
+                double p[3];
+                crisp_surface_eval(s, d[0] + (d[1] - d[0]) * i / 40, d[2] + (d[3] - d[2]) * j / 40, p);
+                assert_true(fabs(sqrt((p[0] - 1) * (p[0] - 1) + (p[1] - 2) * (p[1] - 2) + (p[2] - 3) * (p[2] - 3)) - 2) < 1e-9);
+                for (int k = 0; k < 3; k++) lo[k] = fmin(lo[k], p[k]), hi[k] = fmax(hi[k], p[k]);
+            }
+        /* The whole sphere: the samples reach both poles and all round the equator. */
+        assert_true(fabs(lo[2] - 1) < 1e-9 && fabs(hi[2] - 5) < 1e-9);
+        assert_true(fabs(lo[0] + 1) < 1e-6 && fabs(hi[0] - 3) < 1e-6 && fabs(lo[1]) < 1e-6 && fabs(hi[1] - 4) < 1e-6);
+    }
+    /* The quarter cylinder: x, y in the first quadrant around (1, 2), z in [2, 4]. */
+    const crisp_surface *s = m->faces[2].surface;
+    double d[4];
+    crisp_surface_domain(s, d);
+    for (int i = 0; i <= 20; i++)
+        for (int j = 0; j <= 4; j++) {
+            double p[3];
+            crisp_surface_eval(s, d[0] + (d[1] - d[0]) * i / 20, d[2] + (d[3] - d[2]) * j / 4, p);
+            assert_true(fabs(hypot(p[0] - 1, p[1] - 2) - 1) < 1e-9);
+            assert_true(p[0] > 1 - 1e-9 && p[1] > 2 - 1e-9 && p[2] > 2 - 1e-9 && p[2] < 4 + 1e-9);
+        }
+    double a[3], b[3];
+    crisp_surface_eval(s, d[1], d[2], a);
+    crisp_surface_eval(s, d[0], d[3], b);
+    assert_true(fabs(a[0] - 1) < 1e-9 && fabs(a[1] - 3) < 1e-9 && fabs(a[2] - 2) < 1e-9);
+    assert_true(fabs(b[0] - 2) < 1e-9 && fabs(b[1] - 2) < 1e-9 && fabs(b[2] - 4) < 1e-9);
+    crisp_model_destroy(m);
+}
+
+/* A unit square on z = 0 as an ADVANCED_FACE, repeated as face #50 and #51 in two shells. */
+static const char squares[] = HEAD
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=PLANE('',#4);\n"
+    "#10=CARTESIAN_POINT('',(0.,0.,0.));\n#11=CARTESIAN_POINT('',(1.,0.,0.));\n"
+    "#12=CARTESIAN_POINT('',(1.,1.,0.));\n#13=CARTESIAN_POINT('',(0.,1.,0.));\n"
+    "#14=VERTEX_POINT('',#10);\n#15=VERTEX_POINT('',#11);\n#16=VERTEX_POINT('',#12);\n#17=VERTEX_POINT('',#13);\n"
+    "#20=DIRECTION('',(1.,0.,0.));\n#21=VECTOR('',#20,1.);\n#22=LINE('',#10,#21);\n"
+    "#23=EDGE_CURVE('',#14,#15,#22,.T.);\n#24=DIRECTION('',(0.,1.,0.));\n#25=VECTOR('',#24,1.);\n"
+    "#26=LINE('',#11,#25);\n#27=EDGE_CURVE('',#15,#16,#26,.T.);\n#28=LINE('',#13,#21);\n"
+    "#29=EDGE_CURVE('',#17,#16,#28,.T.);\n#30=LINE('',#10,#25);\n#31=EDGE_CURVE('',#14,#17,#30,.T.);\n"
+    "#32=ORIENTED_EDGE('',*,*,#23,.T.);\n#33=ORIENTED_EDGE('',*,*,#27,.T.);\n"
+    "#34=ORIENTED_EDGE('',*,*,#29,.F.);\n#35=ORIENTED_EDGE('',*,*,#31,.F.);\n"
+    "#36=EDGE_LOOP('',(#32,#33,#34,#35));\n#37=FACE_OUTER_BOUND('',#36,.T.);\n"
+    "#38=EDGE_LOOP('',(#32,#33,#34,#35));\n#39=FACE_OUTER_BOUND('',#38,.T.);\n"
+    "#50=ADVANCED_FACE('',(#37),#5,.T.);\n#51=ADVANCED_FACE('',(#39),#5,.F.);\n"
+    "#52=OPEN_SHELL('',(#50));\n#53=OPEN_SHELL('',(#51));\n" TAIL;
+
+/* Real-file syntax: section keywords in any case, a lone quote in a string, an entity number out
+ * of range (only the face using it is lost), identical duplicates, a broken shell. */
+static void test_lenient_syntax_and_partial_loss(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    char *a = replace(squares, "HEADER;", "Header;");
+    char *b = replace(a, "ENDSEC;\nDATA;", "EndSec;\ndata;");
+    char *c = replace(b, "#52=OPEN_SHELL('',(#50))", "#52=OPEN_SHELL('it\\X0\\'s ok, really',(#50))");
+    char *d = replace(c, "#38=EDGE_LOOP('',(#32,#33,#34,#35))", "#38=EDGE_LOOP('',(#32,#33,#34,#18446744073709551615))");
+    char *e = replace(d, "#53=OPEN_SHELL('',(#51));", "#53=OPEN_SHELL('',(#51));\n#24=DIRECTION('',(0.,1.,0.));\n"
+                                                         "#54=CLOSED_SHELL('',#50);");
+    assert_int_equal(read_str(e, &m), CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces[0].source_id, 50);
+    assert_true(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0]) - 1) < 1e-12);
+    assert_true(has_note(m, "face #51 dropped"));
+    assert_true(has_note(m, "out of range"));
+    assert_true(has_note(m, "defined twice with identical text"));
+    assert_true(has_note(m, "shell #54 unreadable"));
+    crisp_model_destroy(m);
+    /* When every face fails, the file fails with the reason. */
+    char *f = replace(d, "#36=EDGE_LOOP('',(#32,#33,#34,#35))", "#36=EDGE_LOOP('',(#32,#33,#34,#99))");
+    assert_int_not_equal(read_str(f, &m), CRISP_OK);
+    assert_non_null(strstr(crisp_error_message(), "#99, which is not defined"));
+    /* Two different definitions of one entity stay an error. */
+    char *g = replace(squares, "#53=OPEN_SHELL('',(#51));", "#53=OPEN_SHELL('',(#51));\n#24=DIRECTION('',(1.,1.,0.));");
+    assert_int_not_equal(read_str(g, &m), CRISP_OK);
+    assert_non_null(strstr(crisp_error_message(), "defined twice"));
+    free(a), free(b), free(c), free(d), free(e), free(f), free(g);
+}
+
+/* Files with nothing crisp draws say what they hold. */
+static void test_nothing_drawable(void **state)
+{
+    (void)state;
+    static const char mesh[] = HEAD
+        "#1=CARTESIAN_POINT('',(0.,0.,0.));\n"
+        "#2=COORDINATES_LIST('',3,((0.,0.,0.),(1.,0.,0.),(0.,1.,0.)));\n"
+        "#3=TRIANGULATED_FACE('',#2,0,(),$,(1,2,3),((1,2,3)));\n" TAIL;
+    static const char wire[] = HEAD
+        "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(1.,0.,0.));\n#3=VECTOR('',#2,1.);\n"
+        "#4=LINE('',#1,#3);\n#5=TRIMMED_CURVE('',#4,(0.),(1.),.T.,.PARAMETER.);\n"
+        "#6=GEOMETRIC_CURVE_SET('',(#5));\n" TAIL;
+    static const char none[] = HEAD "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=PRODUCT('a','a','',());\n" TAIL;
+    const char *texts[3] = {mesh, wire, none}, *needles[3] = {"only tessellated geometry", "only wireframe", "no geometry"};
+    for (int k = 0; k < 3; k++) {
+        crisp_model *m = NULL;
+        assert_int_equal(read_str(texts[k], &m), CRISP_ERR_UNSUPPORTED);
+        assert_null(m);
+        assert_non_null(strstr(crisp_error_message(), needles[k]));
+        assert_non_null(strstr(crisp_error_message(), "snippet.stp"));
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_implied_knots),
+        cmocka_unit_test(test_curve_bounded_surface),
+        cmocka_unit_test(test_whole_sphere_and_trimmed_surface),
+        cmocka_unit_test(test_lenient_syntax_and_partial_loss),
+        cmocka_unit_test(test_nothing_drawable),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
