@@ -71,6 +71,11 @@ static crisp_status loop_508(iges_file *f, int e, const iges_surface *s, iges_cu
                 st = iges_surface_map_curve(s, 1e-6 * size, &uv->items[j]);
             }
             if (!st && of == 0) reverse_range(uv, first);
+            int cp; /* the model-space curve is an alternative representation crisp did not need */
+            if (!st) {
+                if (!edge_curve(f, edge, ndx, &cp)) iges_mark_used(f, cp, 0);
+                else crisp_error_clear();
+            }
         } else {
             int cp;
             iges_curves model = {0};
@@ -142,7 +147,7 @@ static crisp_status shell_514(iges_file *f, int e, int reversed, int depth)
             (st = expect_type(f, e, 2 + 2 * i, fp, 510)))
             break;
         if (f->ents[fp].used) continue;
-        st = iges_face_brep(f, fp, reversed ^ (of == 0));
+        st = iges_soften(f, fp, iges_face_brep(f, fp, reversed ^ (of == 0)));
     }
     return st;
 }

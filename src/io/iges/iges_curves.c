@@ -397,16 +397,13 @@ static crisp_status bspline_126(iges_file *f, int e, crisp_curve **dest)
         goto done;
     crisp_curve_domain(c, &t0, &t1);
     double eps = 1e-9 * (t1 - t0);
+    /* Writers leave garbage here (occ22470.igs: [0, 0] on the knot domain [-1, 0]): a range that
+     * is empty once clamped to the knot domain means the whole curve, as other readers take it. */
+    if (v0 < t0) v0 = t0;
+    if (v1 > t1) v1 = t1;
+    if (!(v1 > v0 + eps)) v0 = t0, v1 = t1;
     if (v0 > t0 + eps || v1 < t1 - eps) {
-        if (!(v1 > v0) || v0 < t0 - eps || v1 > t1 + eps) {
-            st = iges_fail(f, e, CRISP_ERR_PARSE,
-                           "parameter range [%g, %g] is not inside the knot domain [%g, %g]", v0,
-                           v1, t0, t1);
-            goto done;
-        }
         crisp_curve *trimmed = NULL;
-        if (v0 < t0) v0 = t0;
-        if (v1 > t1) v1 = t1;
         if ((st = crisp_curve_trim(c, v0, v1, &trimmed))) {
             st = kernel_fail(f, e, st);
             goto done;

@@ -419,10 +419,12 @@ crisp_status iges_face_trimmed(iges_file *f, int e)
     if (st) return st;
     f->ents[e].used = 1;
     if (!iges_is_surface_type(f->ents[sp].type)) {
-        if (f->ents[sp].type == 140 || f->ents[sp].type == 143 || f->ents[sp].type == 190 ||
-            f->ents[sp].type == 192 || f->ents[sp].type == 194 || f->ents[sp].type == 196 ||
-            f->ents[sp].type == 198) {
-            note_dropped(f, e, "its surface type is not supported");
+        int t = f->ents[sp].type;
+        if (t == 140 || t == 143 || (t >= 192 && t <= 198)) {
+            char why[80];
+            snprintf(why, sizeof why, "its surface (entity %d %s) is not supported", t,
+                     iges_type_name(t));
+            note_dropped(f, e, why);
             return CRISP_OK;
         }
         return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 1: DE %d is entity %d, expected a "

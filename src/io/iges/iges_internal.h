@@ -35,6 +35,7 @@ typedef struct iges_entity {
     int visiting;                 /* cycle detection during conversion */
     int used;                     /* referenced by something that was converted */
     int consumed;                 /* referenced by a face or face part (not independent) */
+    int in_subfigure;             /* a member of a 308 definition: drawn through its 408s */
 } iges_entity;
 
 typedef struct iges_file {
@@ -54,6 +55,10 @@ typedef struct iges_file {
     double projection_fraction; /* of the bounding-box diagonal */
     double closure_fraction;    /* closure tolerance as a fraction of a face's domain size */
     crisp_model *model;
+    crisp_status first_error;   /* of the first face skipped because it could not be built */
+    char first_message[512];
+    int blanked_faces;          /* faces not drawn because the file blanks them */
+    int draw_blanked;           /* set when every face is blanked: draw them anyway */
 } iges_file;
 
 /* ---- sections and parameters (iges_sections.c) ---------------------------------------------- */
@@ -164,6 +169,22 @@ crisp_status iges_face_untrimmed(iges_file *f, int e);
 crisp_status iges_face_plane(iges_file *f, int e);
 crisp_status iges_brep_faces(iges_file *f, int e); /* 186 solid or 514 shell */
 crisp_status iges_face_brep(iges_file *f, int e, int reversed);
+/* A face-level failure st becomes a skip note naming entity e (returns CRISP_OK); running out of
+ * memory stays fatal. */
+crisp_status iges_soften(iges_file *f, int e, crisp_status st);
+/* Build the faces of the listed entities (iges_read.c); other entity types are left alone. */
+crisp_status iges_build_entities(iges_file *f, const int *list, int n);
+/* Clear the conversion state (flags, counts, first error) for a second conversion. */
+void iges_file_reset(iges_file *f);
+
+/* ---- subfigures (iges_subfig.c) ------------------------------------------------------------- */
+
+/* Flag the members of every 308 definition: they are drawn only through 408 instances. */
+void iges_subfigure_mark(iges_file *f);
+/* Append the faces of every top-level 408 instance, transformed, to f->model. */
+crisp_status iges_subfigure_instances(iges_file *f);
+/* Apply x to a surface's homogeneous control points (iges_surfaces.c). */
+void iges_xform_surface(crisp_surface *s, const iges_xform *x);
 /* The face's own region as a CCW rectangle loop: the 128's parameter range when it is narrower
  * than the knot domain, else the domain. */
 crisp_status iges_domain_loop(const iges_surface *s, iges_curves *out);

@@ -45,12 +45,18 @@ static void note(iges_file *f, int type, const char *why)
     crisp_model_note_skip(f->model, what);
 }
 
-/* A face whose geometry crisp does not handle is skipped with a note; other errors are fatal. */
-static crisp_status soften(iges_file *f, int e, crisp_status st)
+/* A face that crisp cannot build is skipped with a note naming it (DE number and the reason),
+ * so one bad face never loses the rest of a real file; only running out of memory stops the
+ * read. The first such error is kept: a file whose every face fails reports it as its error. */
+crisp_status iges_soften(iges_file *f, int e, crisp_status st)
 {
-    if (st != CRISP_ERR_UNSUPPORTED) return st;
-    char what[96];
+    if (st == CRISP_OK || st == CRISP_ERR_NO_MEMORY) return st;
     const char *msg = crisp_error_message(), *p = strstr(msg, "): ");
+    if (!f->first_error) {
+        f->first_error = st;
+        snprintf(f->first_message, sizeof f->first_message, "%s", msg);
+    }
+    char what[96];
     snprintf(what, sizeof what, "DE %d entity %d: %s", iges_de(e), f->ents[e].type,
              p ? p + 3 : msg);
     crisp_model_note_skip(f->model, what);
@@ -60,27 +66,31 @@ static crisp_status soften(iges_file *f, int e, crisp_status st)
     return CRISP_OK;
 }
 
-static crisp_status convert(iges_file *f)
+/* Build the faces of the listed entities: solids first (so that their shells get the solid's
+ * orientation), then trimmed and bounded surfaces, shells and independent surfaces, then the
+ * 510 faces that no shell took. Other entity types are left alone. */
+crisp_status iges_build_entities(iges_file *f, const int *list, int n)
 {
     crisp_status st = CRISP_OK;
-    mark_consumed(f);
-    /* solids first, so that their shells get the solid's orientation */
-    for (int i = 0; i < f->entity_count && !st; i++)
-        if (f->ents[i].type == 186) st = soften(f, i, iges_brep_faces(f, i));
-    for (int i = 0; i < f->entity_count && !st; i++) {
+    for (int k = 0; k < n && !st; k++)
+        if (f->ents[list[k]].type == 186) st = iges_soften(f, list[k], iges_brep_faces(f, list[k]));
+    for (int k = 0; k < n && !st; k++) {
+        int i = list[k];
         iges_entity *x = &f->ents[i];
         switch (x->type) {
         case 144:
         case 143:
-            if (x->blank == 1) {
+            if (x->blank == 1 && !f->draw_blanked) {
                 x->used = 1;
+                f->blanked_faces++;
                 note(f, x->type, "blanked (not displayed)");
                 break;
             }
-            st = soften(f, i, x->type == 144 ? iges_face_trimmed(f, i) : iges_face_bounded(f, i));
+            st = iges_soften(f, i, x->type == 144 ? iges_face_trimmed(f, i)
+                                                  : iges_face_bounded(f, i));
             break;
         case 514:
-            st = soften(f, i, iges_brep_faces(f, i));
+            st = iges_soften(f, i, iges_brep_faces(f, i));
             break;
         case 108:
         case 114:
@@ -89,21 +99,37 @@ static crisp_status convert(iges_file *f)
         case 122:
         case 128:
             if (x->consumed) break;
-            if (x->blank == 1) {
+            if (x->blank == 1 && !f->draw_blanked) {
                 x->used = 1;
+                f->blanked_faces++;
                 note(f, x->type, "blanked (not displayed)");
                 break;
             }
             x->used = 1;
-            st = soften(f, i, x->type == 108 ? iges_face_plane(f, i) : iges_face_untrimmed(f, i));
+            st = iges_soften(f, i, x->type == 108 ? iges_face_plane(f, i)
+                                                  : iges_face_untrimmed(f, i));
             break;
         default: break;
         }
     }
-    if (st) return st;
-    /* 510 faces that no shell took */
-    for (int i = 0; i < f->entity_count && !st; i++)
-        if (f->ents[i].type == 510 && !f->ents[i].used) st = soften(f, i, iges_face_brep(f, i, 0));
+    for (int k = 0; k < n && !st; k++)
+        if (f->ents[list[k]].type == 510 && !f->ents[list[k]].used)
+            st = iges_soften(f, list[k], iges_face_brep(f, list[k], 0));
+    return st;
+}
+
+static crisp_status convert(iges_file *f)
+{
+    mark_consumed(f);
+    iges_subfigure_mark(f);
+    /* everything outside subfigure definitions, in file order; then the subfigure instances */
+    int *list = crisp_malloc_array((size_t)f->entity_count + 1, sizeof *list), n = 0;
+    if (!list) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+    for (int i = 0; i < f->entity_count; i++)
+        if (!f->ents[i].in_subfigure) list[n++] = i;
+    crisp_status st = iges_build_entities(f, list, n);
+    crisp_free(list);
+    if (!st) st = iges_subfigure_instances(f);
     if (st) return st;
     for (int i = 0; i < f->entity_count; i++) {
         const iges_entity *x = &f->ents[i];
@@ -142,6 +168,27 @@ crisp_status crisp_read_iges_mem(const char *name, const char *data, size_t size
     f.closure_fraction =
         options && options->closure_tolerance > 0 ? options->closure_tolerance : 1e-6;
     st = convert(&f);
+    if (!st && m->face_count == 0 && f.blanked_faces > 0) {
+        /* Every face is blanked: show them rather than nothing (CAD files keep hidden copies,
+         * but a file of only hidden faces is meant to be seen) and say so. */
+        crisp_model *again = NULL;
+        if (!(st = crisp_model_create(&again))) {
+            crisp_model_destroy(m);
+            m = again;
+            snprintf(m->format, sizeof m->format, "IGES");
+            m->unit_to_mm = f.unit_to_mm;
+            iges_file_reset(&f);
+            f.model = m;
+            f.draw_blanked = 1;
+            st = convert(&f);
+            if (!st) st = crisp_model_note_skip(m, "(nothing) every face in the file is "
+                                                   "blanked: drawn anyway");
+        }
+    }
+    if (!st && m->face_count == 0 && f.first_error) {
+        /* nothing could be drawn: the first face's failure is the file's error */
+        st = crisp_error(f.first_error, "%s", f.first_message);
+    }
     iges_file_free(&f);
     if (st) {
         crisp_model_destroy(m);

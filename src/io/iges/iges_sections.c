@@ -411,6 +411,15 @@ static crisp_status parse_directory(iges_file *f, const iges_lines *d)
 
 /* ---- parameter section ---------------------------------------------------------------------- */
 
+/* The DE back-pointer of a P line, columns 66-72 (0 when blank). */
+static int back_pointer(const iges_line *l)
+{
+    int bp = 0;
+    for (int i = 65; i < 72 && i < l->len; i++)
+        if (l->s[i] >= '0' && l->s[i] <= '9' && bp < 100000000) bp = bp * 10 + (l->s[i] - '0');
+    return bp;
+}
+
 /* Tokenise every parameter record in order; a record starts on a fresh line and ends at the
  * record delimiter. record_at[line] is the record that starts on P line `line`. */
 static crisp_status parse_parameters(iges_file *f, const iges_lines *p)
@@ -418,13 +427,20 @@ static crisp_status parse_parameters(iges_file *f, const iges_lines *p)
     int *first_of_line = crisp_malloc_array((size_t)p->count + 1, sizeof *first_of_line);
     int *count_of_line = crisp_malloc_array((size_t)p->count + 1, sizeof *count_of_line);
     int *back_of_line = crisp_malloc_array((size_t)p->count + 1, sizeof *back_of_line);
-    if (!first_of_line || !count_of_line || !back_of_line) {
+    char *starts_record = crisp_calloc_array((size_t)p->count + 1, 1);
+    if (!first_of_line || !count_of_line || !back_of_line || !starts_record) {
         crisp_free(first_of_line);
         crisp_free(count_of_line);
         crisp_free(back_of_line);
+        crisp_free(starts_record);
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
     }
     for (int i = 0; i < p->count; i++) first_of_line[i] = -1;
+    /* lines that some DE names as its record's start */
+    for (int i = 0; i < f->entity_count; i++) {
+        int pl = f->ents[i].param_ptr - 1;
+        if (pl >= 0 && pl < p->count) starts_record[pl] = 1;
+    }
     crisp_status st = CRISP_OK;
     int line = 0;
     while (line < p->count) {
@@ -440,9 +456,7 @@ static crisp_status parse_parameters(iges_file *f, const iges_lines *p)
         cursor c = {p->items, line, p->count, 0, 64};
         int first = f->param_count, end = 0;
         /* back-pointer to the DE, columns 66-72 of the record's first line */
-        int bp = 0;
-        for (int i = 65; i < 72 && i < l->len; i++)
-            if (l->s[i] >= '0' && l->s[i] <= '9' && bp < 100000000) bp = bp * 10 + (l->s[i] - '0');
+        int bp = back_pointer(l);
         while (!end) {
             st = read_param(f, &c, f->pdelim, f->rdelim, &end);
             if (st) {
@@ -455,8 +469,13 @@ static crisp_status parse_parameters(iges_file *f, const iges_lines *p)
         first_of_line[line] = first;
         count_of_line[line] = f->param_count - first;
         back_of_line[line] = bp;
-        /* the record ends at its delimiter; the rest of that line is ignored */
+        /* the record ends at its delimiter; the rest of that line is ignored, and so are the
+         * lines after it that carry the same back-pointer: text after the delimiter is a
+         * comment, which may run over several lines (IGES 5.3 section 2.2.4.5) */
         line = c.col == 0 ? c.line : c.line + 1;
+        while (bp > 0 && line < p->count && !starts_record[line] &&
+               back_pointer(&p->items[line]) == bp)
+            line++;
     }
     /* Attach records to entities: by the DE's parameter pointer, else by the back-pointer. */
     for (int i = 0; i < f->entity_count; i++) {
@@ -495,6 +514,7 @@ done:
     crisp_free(first_of_line);
     crisp_free(count_of_line);
     crisp_free(back_of_line);
+    crisp_free(starts_record);
     return st;
 }
 
@@ -594,6 +614,17 @@ void iges_file_free(iges_file *f)
     f->params = NULL;
     f->strings = NULL;
     f->entity_count = f->param_count = 0;
+}
+
+void iges_file_reset(iges_file *f)
+{
+    for (int i = 0; i < f->entity_count; i++) {
+        iges_entity *e = &f->ents[i];
+        e->visiting = e->used = e->consumed = e->in_subfigure = 0;
+    }
+    f->first_error = CRISP_OK;
+    f->first_message[0] = 0;
+    f->blanked_faces = 0;
 }
 
 /* ---- parameter access ----------------------------------------------------------------------- */

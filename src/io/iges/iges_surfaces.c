@@ -14,7 +14,8 @@
 
 int iges_is_surface_type(int type)
 {
-    return type == 108 || type == 114 || type == 118 || type == 120 || type == 122 || type == 128;
+    return type == 108 || type == 114 || type == 118 || type == 120 || type == 122 ||
+           type == 128 || type == 190;
 }
 
 void iges_surface_free(iges_surface *s)
@@ -30,7 +31,7 @@ static crisp_status kernel_fail(const iges_file *f, int e, crisp_status st)
     return st;
 }
 
-static void xform_surface(crisp_surface *s, const iges_xform *x)
+void iges_xform_surface(crisp_surface *s, const iges_xform *x)
 {
     int n = s->count_u * s->count_v;
     for (int i = 0; i < n; i++) {
@@ -339,6 +340,48 @@ static crisp_status plane_108(iges_file *f, int e, iges_surface *dest)
     return CRISP_OK;
 }
 
+/* Entity k of e points at a 116 point (want_dir 0) or a 123 direction (want_dir 1); its value in
+ * the entity's own frame (its matrix applied: all of it to a point, the rotation to a direction). */
+static crisp_status point_or_direction(iges_file *f, int e, int k, int want_dir, int depth,
+                                       double dest[3])
+{
+    int p, type = want_dir ? 123 : 116;
+    crisp_status st = iges_ptr(f, e, k, 0, &p);
+    if (st) return st;
+    if (f->ents[p].type != type)
+        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected %d",
+                         k, iges_de(p), f->ents[p].type, type);
+    double v[3];
+    for (int i = 0; i < 3 && !st; i++) st = iges_real(f, p, 1 + i, &v[i]);
+    iges_xform own;
+    if (!st) st = iges_entity_xform(f, p, depth + 1, &own);
+    if (st) return st;
+    f->ents[p].used = 1;
+    if (want_dir) own.m[0][3] = own.m[1][3] = own.m[2][3] = 0;
+    iges_xform_point(&own, v, dest);
+    return CRISP_OK;
+}
+
+/* 190 plane surface: a point and a normal (form 1 adds the reference direction of its u axis).
+ * Like a 108 it is sized from its loops; IGES 5.3 section 4.144. */
+static crisp_status plane_190(iges_file *f, int e, int depth, iges_surface *dest)
+{
+    double o[3], n[3], ref[3];
+    crisp_status st = iges_need(f, e, 2, "a plane surface");
+    if (!st) st = point_or_direction(f, e, 1, 0, depth, o);
+    if (!st) st = point_or_direction(f, e, 2, 1, depth, n);
+    int has_ref = f->ents[e].form == 1 && iges_nparams(f, e) >= 3;
+    if (!st && has_ref) st = point_or_direction(f, e, 3, 1, depth, ref);
+    if (st) return st;
+    crisp_placement pl;
+    if ((st = crisp_placement_make(o, n, has_ref ? ref : NULL, &pl))) return kernel_fail(f, e, st);
+    dest->is_plane = 1;
+    memcpy(dest->origin, pl.origin, sizeof pl.origin);
+    memcpy(dest->x, pl.x, sizeof pl.x);
+    memcpy(dest->y, pl.y, sizeof pl.y);
+    return CRISP_OK;
+}
+
 crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *dest)
 {
     memset(dest, 0, sizeof *dest);
@@ -359,6 +402,14 @@ crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *
     case 120: st = revolution_120(f, e, depth, dest); break;
     case 122: st = tabulated_122(f, e, depth, dest); break;
     case 108: st = plane_108(f, e, dest); break;
+    case 190: st = plane_190(f, e, depth, dest); break;
+    case 192:
+    case 194:
+    case 196:
+    case 198:
+        st = iges_fail(f, e, CRISP_ERR_UNSUPPORTED, "analytic surface %d is not read yet",
+                       x->type);
+        break;
     default:
         st = iges_fail(f, e, CRISP_ERR_UNSUPPORTED, "not a surface type crisp reads");
         break;
@@ -368,7 +419,7 @@ crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *
         iges_surface_free(dest);
         return st;
     }
-    if (dest->surface) xform_surface(dest->surface, &own);
+    if (dest->surface) iges_xform_surface(dest->surface, &own);
     if (dest->is_plane) {
         double o[3], ex[3], ey[3], z[3] = {0, 0, 0};
         iges_xform_point(&own, dest->origin, o);
