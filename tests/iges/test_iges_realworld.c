@@ -2,7 +2,7 @@
  * CASCADE's sample files): one face that cannot be built is skipped with a note while the rest
  * load; 190 plane surfaces in B-rep faces; 308/408 subfigures placed several times; comments
  * after a record's delimiter running over lines; B-spline curves with an empty parameter range;
- * files whose every face is blanked. */
+ * small gaps in trim loops; files whose every face is blanked. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -238,6 +238,45 @@ static void test_empty_parameter_range(void **state)
     crisp_model_destroy(m);
 }
 
+/* A square trim loop whose last side stops short of the first corner by `gap` (in a unit
+ * domain): 0.003 is bridged with a note (15x the tolerance real files need, under 1% of the
+ * domain), 0.05 drops the face with a note. */
+static void test_gap_bridged(void **state)
+{
+    (void)state;
+    for (int big = 0; big < 2; big++) {
+        char last[200];
+        snprintf(last, sizeof last,
+                 "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,0.25,0.75,0.,0.25,%.3f,0.,0.,1.,0.,0.,1.;",
+                 big ? 0.30 : 0.253);
+        test_entity e[] = {
+            {128, 0, 0, "00010000", 0, SQUARE_128}, /* DE 1 */
+            {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,"
+                                       "0.25,0.25,0.,0.75,0.25,0.,0.,1.,0.,0.,1.;"}, /* DE 3 */
+            {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,"
+                                       "0.75,0.25,0.,0.75,0.75,0.,0.,1.,0.,0.,1.;"}, /* DE 5 */
+            {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,"
+                                       "0.75,0.75,0.,0.25,0.75,0.,0.,1.,0.,0.,1.;"}, /* DE 7 */
+            {126, 0, 0, "00010500", 0, last},                                    /* DE 9 */
+            {102, 0, 0, "00010500", 0, "4,3,5,7,9;"},                            /* DE 11 */
+            {142, 0, 0, "00010500", 0, "0,1,11,0,1;"},                           /* DE 13 */
+            {144, 0, 0, NULL, 0, "1,1,0,13;"},                                   /* DE 15 */
+        };
+        crisp_model *m = load(e, N_OF(e));
+        if (!big) {
+            assert_int_equal(m->face_count, 1);
+            assert_int_equal(m->faces[0].loops[0].curve_count, 5);
+            assert_true(crisp_trim_loop_closure_gap(&m->faces[0].loops[0]) < 1e-12);
+            assert_true(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0]) - 0.25) < 1e-3);
+            assert_true(has_note(m, "DE 15", "bridged"));
+        } else {
+            assert_int_equal(m->face_count, 0);
+            assert_true(has_note(m, "DE 15", "not closed"));
+        }
+        crisp_model_destroy(m);
+    }
+}
+
 /* Every face blanked: drawn anyway, with a note; one visible face: the blanked one stays hidden. */
 static void test_all_blanked(void **state)
 {
@@ -264,6 +303,7 @@ int main(void)
         cmocka_unit_test(test_subfigures),
         cmocka_unit_test(test_comment_after_delimiter),
         cmocka_unit_test(test_empty_parameter_range),
+        cmocka_unit_test(test_gap_bridged),
         cmocka_unit_test(test_all_blanked),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -245,6 +245,44 @@ static void note_dropped(iges_file *f, int e, const char *why)
     crisp_model_note_skip(f->model, what);
 }
 
+/* Exporters leave small gaps between the trims of a loop (OCCT's bug8363_f45.igs: 7e-4 and 1.6e-3
+ * of the domain, 15x and 33x the closure tolerance): a gap between tol and max_gap (1e-2 of the
+ * domain size) is bridged by a straight (u, v) segment, as CAD healing tools do, and noted. Larger gaps still
+ * drop the face. */
+static crisp_status bridge_gaps(iges_file *f, int e, crisp_face *face, double tol, double max_gap)
+{
+    int bridged = 0;
+    for (int l = 0; l < face->loop_count; l++) {
+        crisp_trim_loop *t = &face->loops[l];
+        for (int c = 0; c < t->curve_count; c++) {
+            double a[2], b[2], junk[2];
+            curve_ends(t->curves[c], junk, a);
+            curve_ends(t->curves[(c + 1) % t->curve_count], b, junk);
+            double gap = dist2(a, b);
+            if (!(gap > tol) || !(gap <= max_gap)) continue;
+            double pts[4] = {a[0], a[1], b[0], b[1]}, knots[4] = {0, 0, 1, 1};
+            crisp_curve *line = NULL;
+            crisp_status st = crisp_curve_create(2, 1, 2, knots, pts, NULL, &line);
+            crisp_curve **grown = st ? NULL
+                                     : crisp_realloc_array(t->curves, (size_t)t->curve_count + 1,
+                                                           sizeof *grown);
+            if (!grown) {
+                crisp_curve_destroy(line);
+                return st ? st : crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+            }
+            t->curves = grown;
+            memmove(&t->curves[c + 2], &t->curves[c + 1],
+                    (size_t)(t->curve_count - c - 1) * sizeof *t->curves);
+            t->curves[c + 1] = line;
+            t->curve_count++;
+            c++;
+            bridged++;
+        }
+    }
+    if (bridged) note_dropped(f, e, "gaps in its trim loops bridged by straight segments");
+    return CRISP_OK;
+}
+
 crisp_status iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
                               iges_curves *loops, const int *is_outer, int loop_count,
                               int reversed)
@@ -301,6 +339,10 @@ crisp_status iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
             if (crisp_vec3_norm(d3) <= 10 * f->tol3d) tol = gap * (1 + 1e-9);
         }
     }
+    if ((st = bridge_gaps(f, e, &face, tol, 1e-2 * size))) {
+        crisp_face_free(&face);
+        return st;
+    }
     if ((st = pull_into_domain(f, e, &face, dom, size))) {
         crisp_face_free(&face);
         return st;
@@ -308,7 +350,7 @@ crisp_status iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
     st = crisp_face_normalize_loops(&face, tol);
     if (st) {
         /* A loop that cannot be made valid drops the face, with a note naming it. */
-        char why[64];
+        char why[96];
         snprintf(why, sizeof why, "%s", st == CRISP_ERR_NUMERIC ? "degenerate trim loop"
                                                                 : "trim loop not closed");
         note_dropped(f, e, why);
