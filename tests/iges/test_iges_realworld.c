@@ -214,25 +214,34 @@ static void test_comment_after_delimiter(void **state)
     crisp_model_destroy(m);
 }
 
+/* A 144 on SQUARE_128 (DE 1) trimmed by the square [0.25, 0.75]^2 of four 126 lines (DE 3 to 9),
+ * a 102 (DE 11) and a 142 (DE 13); the face is DE 15. first and last, when given, replace the
+ * parameters of the first and the last side. */
+#define LINE_126(x0, y0, x1, y1)                                                               \
+    "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.," #x0 "," #y0 ",0.," #x1 "," #y1 ",0.,0.,1.,0.,0.,1.;"
+static void square_trimmed(test_entity e[8], const char *first, const char *last)
+{
+    const test_entity t[8] = {
+        {128, 0, 0, "00010000", 0, SQUARE_128},
+        {126, 0, 0, "00010500", 0, first ? first : LINE_126(0.25, 0.25, 0.75, 0.25)},
+        {126, 0, 0, "00010500", 0, LINE_126(0.75, 0.25, 0.75, 0.75)},
+        {126, 0, 0, "00010500", 0, LINE_126(0.75, 0.75, 0.25, 0.75)},
+        {126, 0, 0, "00010500", 0, last ? last : LINE_126(0.25, 0.75, 0.25, 0.25)},
+        {102, 0, 0, "00010500", 0, "4,3,5,7,9;"},
+        {142, 0, 0, "00010500", 0, "0,1,11,0,1;"},
+        {144, 0, 0, NULL, 0, "1,1,0,13;"},
+    };
+    memcpy(e, t, sizeof t);
+}
+
 /* A 126 trim curve whose parameter range [0, 0] says nothing (occ22470.igs): the whole curve. */
 static void test_empty_parameter_range(void **state)
 {
     (void)state;
-    test_entity e[] = {
-        {128, 0, 0, "00010000", 0, SQUARE_128},                                   /* DE 1 */
-        {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,-1.,-1.,0.,0.,1.,1.,"
-                                   "0.25,0.25,0.,0.75,0.25,0.,0.,0.,0.,0.,1.;"}, /* DE 3 */
-        {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,"
-                                   "0.75,0.25,0.,0.75,0.75,0.,0.,1.,0.,0.,1.;"}, /* DE 5 */
-        {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,"
-                                   "0.75,0.75,0.,0.25,0.75,0.,0.,1.,0.,0.,1.;"}, /* DE 7 */
-        {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,"
-                                   "0.25,0.75,0.,0.25,0.25,0.,0.,1.,0.,0.,1.;"}, /* DE 9 */
-        {102, 0, 0, "00010500", 0, "4,3,5,7,9;"},                                 /* DE 11 */
-        {142, 0, 0, "00010500", 0, "0,1,11,0,1;"},                                /* DE 13 */
-        {144, 0, 0, NULL, 0, "1,1,0,13;"},                                        /* DE 15 */
-    };
-    crisp_model *m = load(e, N_OF(e));
+    test_entity e[8];
+    square_trimmed(e, "1,1,0,0,1,0,-1.,-1.,0.,0.,1.,1.,0.25,0.25,0.,0.75,0.25,0.,0.,0.,0.,0.,1.;",
+                   NULL);
+    crisp_model *m = load(e, 8);
     assert_int_equal(m->face_count, 1);
     assert_true(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0]) - 0.25) < 1e-9);
     crisp_model_destroy(m);
@@ -245,24 +254,10 @@ static void test_gap_bridged(void **state)
 {
     (void)state;
     for (int big = 0; big < 2; big++) {
-        char last[200];
-        snprintf(last, sizeof last,
-                 "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,0.25,0.75,0.,0.25,%.3f,0.,0.,1.,0.,0.,1.;",
-                 big ? 0.30 : 0.253);
-        test_entity e[] = {
-            {128, 0, 0, "00010000", 0, SQUARE_128}, /* DE 1 */
-            {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,"
-                                       "0.25,0.25,0.,0.75,0.25,0.,0.,1.,0.,0.,1.;"}, /* DE 3 */
-            {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,"
-                                       "0.75,0.25,0.,0.75,0.75,0.,0.,1.,0.,0.,1.;"}, /* DE 5 */
-            {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.,"
-                                       "0.75,0.75,0.,0.25,0.75,0.,0.,1.,0.,0.,1.;"}, /* DE 7 */
-            {126, 0, 0, "00010500", 0, last},                                    /* DE 9 */
-            {102, 0, 0, "00010500", 0, "4,3,5,7,9;"},                            /* DE 11 */
-            {142, 0, 0, "00010500", 0, "0,1,11,0,1;"},                           /* DE 13 */
-            {144, 0, 0, NULL, 0, "1,1,0,13;"},                                   /* DE 15 */
-        };
-        crisp_model *m = load(e, N_OF(e));
+        test_entity e[8];
+        square_trimmed(e, NULL, big ? LINE_126(0.25, 0.75, 0.25, 0.30)
+                                    : LINE_126(0.25, 0.75, 0.25, 0.253));
+        crisp_model *m = load(e, 8);
         if (!big) {
             assert_int_equal(m->face_count, 1);
             assert_int_equal(m->faces[0].loops[0].curve_count, 5);
