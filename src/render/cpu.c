@@ -465,6 +465,11 @@ void crisp__renderer_mesh(const crisp_renderer *r, const crisp_raster_vertex **v
     *tri_count = r->tri_count;
 }
 
+const crisp_raster_target *crisp__renderer_target(const crisp_renderer *r)
+{
+    return &r->target;
+}
+
 crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,
                               crisp_image *img, crisp_render_stats *stats)
 {

@@ -188,6 +188,31 @@ static void ray_planes(const double d[3], double n1[3], double n2[3])
     crisp_vec3_normalize(t, n2);
 }
 
+/* More Newton steps while they shrink the residual r = |f1| + |f2|: the tolerance below is
+ * relative to the model's size, which at extreme zoom (a pixel of 1e-12 of the model) is more
+ * than a pixel; the hit must be as exact as double precision allows. */
+static void polish(const crisp_bezier_patch *p, const double o[3], const double n1[3],
+                   const double n2[3], double r, double *s, double *t)
+{
+    for (int it = 0; it < 4 && r > 0; it++) {
+        double P[3], Ps[3], Pt[3], d[3];
+        crisp_bezier_patch_derivs(p, *s, *t, P, Ps, Pt);
+        for (int k = 0; k < 3; k++) d[k] = P[k] - o[k];
+        double f1 = crisp_vec3_dot(n1, d), f2 = crisp_vec3_dot(n2, d);
+        double a = crisp_vec3_dot(n1, Ps), b = crisp_vec3_dot(n1, Pt);
+        double c = crisp_vec3_dot(n2, Ps), e = crisp_vec3_dot(n2, Pt);
+        double det = a * e - b * c;
+        if (!(fabs(det) > 0) || !isfinite(det)) return;
+        double s1 = *s - (f1 * e - f2 * b) / det, t1 = *t - (a * f2 - c * f1) / det;
+        if (!isfinite(s1) || !isfinite(t1)) return;
+        crisp_bezier_patch_eval(p, s1, t1, P);
+        for (int k = 0; k < 3; k++) d[k] = P[k] - o[k];
+        double r1 = fabs(crisp_vec3_dot(n1, d)) + fabs(crisp_vec3_dot(n2, d));
+        if (!(r1 < r)) return;
+        *s = s1, *t = t1, r = r1;
+    }
+}
+
 /* Newton on the rational patch from (s, t): solve n_k . (P(s, t) - o) = 0. */
 static int newton(const crisp_bezier_patch *p, const double o[3], const double n1[3],
                   const double n2[3], double tol, double *s, double *t)
@@ -197,7 +222,10 @@ static int newton(const crisp_bezier_patch *p, const double o[3], const double n
         crisp_bezier_patch_derivs(p, *s, *t, P, Ps, Pt);
         double d[3] = {P[0] - o[0], P[1] - o[1], P[2] - o[2]};
         double f1 = crisp_vec3_dot(n1, d), f2 = crisp_vec3_dot(n2, d);
-        if (fabs(f1) <= tol && fabs(f2) <= tol && it > 0) return 1;
+        if (fabs(f1) <= tol && fabs(f2) <= tol && it > 0) {
+            polish(p, o, n1, n2, fabs(f1) + fabs(f2), s, t);
+            return 1;
+        }
         double a = crisp_vec3_dot(n1, Ps), b = crisp_vec3_dot(n1, Pt);
         double c = crisp_vec3_dot(n2, Ps), e = crisp_vec3_dot(n2, Pt);
         double det = a * e - b * c;

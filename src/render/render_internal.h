@@ -27,4 +27,8 @@ void crisp__renderer_mesh(const crisp_renderer *r, const struct crisp_raster_ver
                           size_t *vert_count, const struct crisp_raster_tri **tris,
                           size_t *tri_count);
 
+/* The last frame's per-sample results (CPU backend), for tests that check every sample. */
+struct crisp_raster_target;
+const struct crisp_raster_target *crisp__renderer_target(const crisp_renderer *r);
+
 #endif

@@ -307,8 +307,8 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
         arena = own;
     }
     density_ctx c = {0};
-    c.max_depth = desc->max_depth > 0 ? desc->max_depth : 16;
-    if (c.max_depth > 30) c.max_depth = 30;
+    c.max_depth = desc->max_depth > 0 ? desc->max_depth : 50;
+    if (c.max_depth > 60) c.max_depth = 60;
     c.slack = desc->slack > 1.0 ? desc->slack : 2.0;
     double margin = desc->margin_px > 0.0 ? desc->margin_px : 2.0;
     c.wx = 0.5 * desc->width;
