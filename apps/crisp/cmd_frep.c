@@ -16,7 +16,8 @@ static void usage(FILE *out)
     fprintf(out,
             "usage: crisp frep render FILE [--size N | --size WxH] [--3d [--depth D]]\n"
             "                         [--region x0,x1,y0,y1[,z0,z1]] [-o out.png] [--depth-out out.exr]\n"
-            "                         [--threads N] [--stats] [--no-prune] [--no-batch] [--brute]\n"
+            "                         [--threads N] [--stats] [--no-prune] [--no-batch] [--no-subcells]\n"
+            "                         [--brute]\n"
             "       crisp frep bench FILE [same options] [--runs N]\n"
             "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
             "sqrt, min, max, ...; inside where the value is below 0), or '-e EXPR' for a string.\n"
@@ -90,6 +91,8 @@ int crisp_cmd_frep(int argc, char **argv)
             stats = 1;
         } else if (!strcmp(a, "--no-prune")) {
             desc.flags |= CRISP_FREP_NO_PRUNE;
+        } else if (!strcmp(a, "--no-subcells")) {
+            desc.flags |= CRISP_FREP_NO_SUBCELLS;
         } else if (!strcmp(a, "--no-batch")) {
             desc.flags |= CRISP_FREP_NO_BATCH;
         } else if (!strcmp(a, "--brute")) {

@@ -129,7 +129,8 @@ crisp_status crisp_frep_eval_grad(const crisp_frep_tape *t, size_t n, const floa
 enum {
     CRISP_FREP_NO_PRUNE = 1u << 0, /* interval subdivision without shortening the tape */
     CRISP_FREP_NO_BATCH = 1u << 1, /* leaves evaluate one point at a time */
-    CRISP_FREP_BRUTE = 1u << 2     /* no subdivision: every sample in batches on the full tape */
+    CRISP_FREP_BRUTE = 1u << 2,    /* no subdivision: every sample in batches on the full tape */
+    CRISP_FREP_NO_SUBCELLS = 1u << 3 /* 3D leaves skip the batched intervals of their sub-cells */
 };
 
 typedef struct crisp_frep_render_desc {

@@ -103,6 +103,13 @@ static inline int frep__is_minmax(int op)
  * instruction. Returns the number of decided min/max (choices other than BOTH). */
 size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi, const float x[2],
                             const float y[2], const float z[2], uint8_t *choices);
+/* Interval evaluation of ins[0..n) over `lanes` boxes at once (a multiple of 16, at most
+ * FREP_LANES): box = {x lo, x hi, y lo, y hi, z lo, z hi}, each `lanes` floats; lo and hi hold
+ * registers x FREP_LANES floats (register r of lane k at r * FREP_LANES + k). Lane k gets the
+ * bounds crisp__frep_interval gives for box k (equal values; a zero's sign may differ). No
+ * min/max choices. */
+void crisp__frep_interval_lanes(const frep_ins *ins, size_t n, int lanes, float *lo, float *hi,
+                                const float *const box[6]);
 /* Shorten tape src after the min/max choices (NULL: keep every side), removing dead code and
  * allocating registers afresh (reverse linear scan), into dest_ins/dest_ssa (src.len entries
  * each). Returns 0, or -1 when the result would need more than scratch->max_regs registers. */
