@@ -254,6 +254,9 @@ int crisp_cmd_render(int argc, char **argv)
         cam.fov_deg = fov;
         if (have_near) cam.znear = znear;
         if (have_far) cam.zfar = zfar;
+        /* One plane given: the other default keeps near < far. */
+        if (have_near && !have_far && !(cam.zfar > cam.znear)) cam.zfar = 2 * cam.znear;
+        if (have_far && !have_near && !(cam.znear < cam.zfar)) cam.znear = 1e-4 * cam.zfar;
     } else {
         cam = (crisp_camera){.fov_deg = fov, .width = width, .height = height};
         memcpy(cam.eye, eye, sizeof eye);
@@ -270,6 +273,7 @@ int crisp_cmd_render(int argc, char **argv)
             far_d = fmax(far_d, crisp_vec3_norm(d));
         }
         cam.znear = have_near ? znear : fmax(1e-4 * far_d, 1e-12);
+        if (have_far && !have_near && !(cam.znear < zfar)) cam.znear = 1e-4 * zfar;
         cam.zfar = have_far ? zfar : fmax(2 * far_d, 2 * cam.znear);
     }
     if ((st = crisp_camera_check(&cam))) goto done;

@@ -236,6 +236,10 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
             accept = seen > 0 && ok_v && ok_u;
             /* Nothing to gain: the bound is already covered by what other parts need. */
             if (bv <= fmax(c->cur_v, c->floor_v) && bu <= c->cur_u) accept = 1;
+            /* Not while the sub-patch's v-range would take more scan lines than a screen can
+             * show (16 (w + h)): at extreme zoom it is mostly off screen, and refining shrinks
+             * the visible v-range (a face zoomed to fov 1e-7 deg otherwise took 2^22 rows). */
+            if ((vb - va) * bv > 32.0 * (c->wx + c->wy)) accept = 0;
         }
         if (accept) {
             c->vis_lo = fmin(c->vis_lo, va);
@@ -368,7 +372,7 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
             c.vis_lo = vis_v ? vis_v[2 * i] : 0.0;
             c.vis_hi = vis_v ? vis_v[2 * i + 1] : 0.0;
             c.floor_v = 1.0 / hv;
-            c.budget = 4096;
+            c.budget = 16384; /* deep refinement at extreme zoom (fov 1e-7 deg) needs ~5000 */
             /* The strip's levels start at level 0 of c.levels; refine copies children deeper. */
             double *root = c.levels;
             memcpy(root, strip, sizeof(double) * 4 * c.n);
