@@ -90,6 +90,66 @@ static crisp_status segment_use(face_work *w, const step_entity *be, const step_
     return CRISP_OK;
 }
 
+/* The 3D point where an edge use starts (end = 0) or ends (end = 1) along the loop. */
+static void use_end(const face_work *w, const edge_use *eu, int end, double p[3])
+{
+    int at_hi = eu->increasing == end;
+    if (eu->npc) {
+        double uv[2];
+        crisp__step_curve_eval(&eu->pc[0], at_hi ? eu->pt1[0] : eu->pt0[0], uv);
+        crisp__step_surface_eval(&w->s, uv[0], uv[1], p);
+    } else {
+        crisp__step_curve_eval(&eu->c3, at_hi ? eu->hi : eu->lo, p);
+    }
+}
+
+/* Composite curve segments are chained end to start. Some writers give segments the wrong
+ * same_sense (bm2_pe_t4-B.stp, Pro/ENGINEER 1997, writes .F. on every segment of loops that only
+ * chain with .T.). When the senses as given leave junctions open, the first segment is tried both
+ * ways and each following one is turned to meet its predecessor; the senses that close most
+ * junctions are kept (the given ones on a tie). */
+static int chain_try(face_work *w, loop_work *lw, const int *given, int first, int *out)
+{
+    double tol = 10 * w->r->tol;
+    int open = 0;
+    out[0] = first;
+    for (int k = 0; k < lw->count; k++) {
+        lw->edges[k].increasing = k ? given[k] : first;
+        if (k == 0) continue;
+        double prev[3], a[3], b[3];
+        use_end(w, &lw->edges[k - 1], 1, prev);
+        use_end(w, &lw->edges[k], 0, a);
+        use_end(w, &lw->edges[k], 1, b);
+        if (crisp__step_dist3(prev, a) > tol) {
+            if (crisp__step_dist3(prev, b) <= tol) lw->edges[k].increasing ^= 1;
+            else open++;
+        }
+        out[k] = lw->edges[k].increasing;
+    }
+    double last[3], start[3];
+    use_end(w, &lw->edges[lw->count - 1], 1, last);
+    use_end(w, &lw->edges[0], 0, start);
+    return open + (crisp__step_dist3(last, start) > tol);
+}
+
+static crisp_status chain_segments(face_work *w, loop_work *lw)
+{
+    int n = lw->count;
+    int *given = crisp_malloc_array((size_t)n * 3, sizeof *given);
+    if (!given) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", w->r->f->name);
+    int *as_given = given + n, *turned = given + 2 * n;
+    for (int k = 0; k < n; k++) given[k] = lw->edges[k].increasing;
+    int open_given = chain_try(w, lw, given, given[0], as_given);
+    int open_turned = open_given ? chain_try(w, lw, given, !given[0], turned) : 1 << 30;
+    const int *best = open_turned < open_given ? turned : as_given;
+    for (int k = 0; k < n; k++) {
+        w->r->stats->flipped_segments += best[k] != given[k];
+        lw->edges[k].increasing = best[k];
+    }
+    crisp_free(given);
+    return CRISP_OK;
+}
+
 crisp_status crisp__step_read_boundaries(face_work *w)
 {
     step_reader *r = w->r;
@@ -132,6 +192,7 @@ crisp_status crisp__step_read_boundaries(face_work *w)
             lw->count++;
             if ((st = segment_use(w, be, se, &lw->edges[k]))) return st;
         }
+        if ((st = chain_segments(w, lw))) return st;
     }
     return CRISP_OK;
 }

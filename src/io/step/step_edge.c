@@ -595,6 +595,12 @@ crisp_status crisp__step_read_loops(face_work *w)
             return crisp__step_fail(r, le, CRISP_ERR_LIMIT, "expected 1 to %d edges, found %u", MAX_EDGES, edges->len);
         loop_work *lw = &w->loops[w->nloops++];
         lw->outer_flag = outer;
+        int orient = 1;
+        if (crisp__step_get_bool(r, be, bp, 2, &orient) != CRISP_OK) {
+            crisp_error_clear();
+            orient = 1;
+        }
+        lw->sense = !orient;
         lw->edges = crisp_calloc_array(edges->len, sizeof *lw->edges);
         if (!lw->edges) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
         for (uint32_t k = 0; k < edges->len; k++) {

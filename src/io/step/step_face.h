@@ -22,6 +22,7 @@ typedef struct edge_use {
 
 typedef struct loop_work {
     int outer_flag; /* FACE_OUTER_BOUND */
+    int sense;      /* 0 when the bound's orientation is .T. (or there is none), 1 when .F. */
     int count;
     edge_use *edges;
     double box[4];

@@ -83,6 +83,8 @@ typedef struct step_read_stats {
     int rejected_pcurves; /* pcurves that did not follow their 3D curve (edge projected instead) */
     int dropped_faces;
     int degenerate_edges; /* uv segments inserted along collapsed surface boundaries */
+    int loose_projections; /* edge trims projected only with a looser tolerance */
+    int flipped_segments; /* boundary segments whose same_sense was turned round to chain */
     double max_edge_dev;  /* largest 3D distance of a trim's image from its edge's projection onto
                              the surface (verify) */
     double max_edge_gap;  /* largest distance of an edge from its face's surface in the file */

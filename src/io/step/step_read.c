@@ -242,21 +242,37 @@ static crisp_status nothing_drawable(step_reader *r, int wire)
     return crisp_error(CRISP_ERR_UNSUPPORTED, "%s: no geometry (no B-rep faces, surfaces, meshes or curves)", name);
 }
 
-/* Tolerance scale: the box of every 3D CARTESIAN_POINT. */
+/* Tolerance scale: the box of the 3D CARTESIAN_POINTs, leaving out the origins of LINEs and the
+ * locations of placements: they need not lie near the shape (bug27453_165-174_piattello.stp has
+ * lines through points 5e5 away from a part 200 across), and would make the tolerance far too
+ * coarse. Every point counts when nothing else is left. */
 static double model_diagonal(step_reader *r)
 {
     const step_file *f = r->f;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t i = 0; i < f->entity_count; i++) {
-        const step_entity *e = &f->entities[i];
-        if (e->part_count != 1 || !crisp__step_is(r, e, "CARTESIAN_POINT")) continue;
-        double p[3];
-        int dim;
-        if (crisp__step_point(r, e, p, &dim) || dim != 3) continue;
-        for (int k = 0; k < 3; k++) lo[k] = fmin(lo[k], p[k]), hi[k] = fmax(hi[k], p[k]);
+    unsigned char *skip = crisp_calloc_array(f->entity_count + 1, 1);
+    static const char *const users[] = {"LINE", "AXIS2_PLACEMENT_3D", "AXIS2_PLACEMENT_2D", "AXIS1_PLACEMENT"};
+    for (size_t i = 0; skip && i < f->entity_count; i++) {
+        const step_entity *e = &f->entities[i], *pe;
+        for (size_t k = 0; k < sizeof users / sizeof *users; k++) {
+            const step_part *p = crisp__step_part(r, e, users[k]);
+            if (p && crisp__step_get_ref(r, e, p, 1, &pe) == CRISP_OK) skip[pe - f->entities] = 1;
+        }
     }
     double d = 0;
-    for (int k = 0; k < 3; k++) d += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0;
+    for (int pass = skip ? 0 : 1; pass < 2 && !(d > 0); pass++) {
+        double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (size_t i = 0; i < f->entity_count; i++) {
+            const step_entity *e = &f->entities[i];
+            if (e->part_count != 1 || (pass == 0 && skip[i]) || !crisp__step_is(r, e, "CARTESIAN_POINT")) continue;
+            double p[3];
+            int dim;
+            if (crisp__step_point(r, e, p, &dim) || dim != 3) continue;
+            for (int k = 0; k < 3; k++) lo[k] = fmin(lo[k], p[k]), hi[k] = fmax(hi[k], p[k]);
+        }
+        d = 0;
+        for (int k = 0; k < 3; k++) d += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0;
+    }
+    crisp_free(skip);
     crisp_error_clear();
     return d > 0 ? sqrt(d) : 1;
 }
@@ -325,6 +341,17 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
             const char *msg = crisp_error_message();
             size_t nl = strlen(name);
             if (strncmp(msg, name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
+            /* ... and without repeating the face: "#68 (line 72) TYPE: ", "#68: ", "face 68: ". */
+            char self[32];
+            int sl = snprintf(self, sizeof self, "#%d ", fe->id);
+            if (strncmp(msg, self, (size_t)sl) == 0 && msg[sl] == '(') {
+                const char *c = strstr(msg, ": ");
+                if (c) msg = c + 2;
+            }
+            sl = snprintf(self, sizeof self, "#%d: ", fe->id);
+            if (strncmp(msg, self, (size_t)sl) == 0) msg += sl;
+            sl = snprintf(self, sizeof self, "face %d: ", fe->id);
+            if (strncmp(msg, self, (size_t)sl) == 0) msg += sl;
             char what[96];
             snprintf(what, sizeof what, "STEP face #%d dropped: %s", fe->id, msg);
             crisp_model_note_skip(m, what);
