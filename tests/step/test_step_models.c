@@ -9,6 +9,7 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <math.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -95,11 +96,85 @@ static void test_ventilator(void **state)
     crisp_model_destroy(m);
 }
 
+/* OCCT's CAx-IF test round files, each a case a plain B-rep reader drops: */
+
+/* A geometrically bounded surface model (no topology): 44 CURVE_BOUNDED_SURFACEs in a GEOMETRIC_SET
+ * on quasi-uniform and rational B-spline, spherical and other surfaces, with boundaries given as 3D
+ * curves only (.CURVE_3D.): sphere caps closed at the pole, bands between two circles on closed
+ * B-spline patches, arcs through a pole. */
+static void test_curve_bounded_model(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    step_read_stats st;
+    load("occt_trj4_k1_geo_tu.stp", &st, &m);
+    assert_int_equal(m->face_count, 44);
+    assert_int_equal(st.dropped_faces, 0);
+    assert_true(m->unit_to_mm == 25.4);
+    assert_int_equal(st.pcurve_edges, 0);
+    loop_check c;
+    check_loops(m, &c);
+    assert_int_equal(c.holes, 6);
+    assert_true(st.max_edge_dev <= 10 * st.tol);
+    crisp_model_destroy(m);
+}
+
+/* Pro/ENGINEER 1997 curve-bounded surfaces on planes, cylinders, cones, a sphere, a torus and
+ * B-splines, whose boundary segments mostly carry the wrong same_sense: they are turned round to
+ * chain (the flip count is what the file needs, so a change shows). */
+static void test_curve_bounded_senses(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    step_read_stats st;
+    load("occt_bm2_pe_t4_b.stp", &st, &m);
+    assert_int_equal(m->face_count, 9);
+    assert_int_equal(st.dropped_faces, 0);
+    assert_true(st.flipped_segments > 0);
+    loop_check c;
+    check_loops(m, &c);
+    assert_int_equal(c.holes, 3);
+    assert_true(st.max_edge_dev <= 10 * st.tol);
+    crisp_model_destroy(m);
+}
+
+/* A solid of quasi-uniform B-spline faces without pcurves: closed cylinder patches whose seam
+ * edge is used twice in one loop (its two projections must land on opposite sides). */
+static void test_closed_bspline_seams(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    step_read_stats st;
+    load("occt_trj9_io1.stp", &st, &m);
+    assert_int_equal(m->face_count, 17);
+    assert_int_equal(st.dropped_faces, 0);
+    assert_int_equal(st.pcurve_edges, 0);
+    loop_check c;
+    check_loops(m, &c);
+    assert_int_equal(c.loops, 34);
+    assert_true(st.max_edge_dev <= 10 * st.tol);
+    /* The cylinder faces span their whole closed direction: the loop's area is the domain's. */
+    int full = 0;
+    for (int f = 0; f < m->face_count; f++) {
+        double d[4];
+        crisp_surface_domain(m->faces[f].surface, d);
+        if (m->faces[f].loop_count == 1 && m->faces[f].loops[0].curve_count == 4 &&
+            fabs(crisp_trim_loop_signed_area(&m->faces[f].loops[0]) - (d[1] - d[0]) * (d[3] - d[2])) <
+                1e-6 * (d[1] - d[0]) * (d[3] - d[2]))
+            full++;
+    }
+    assert_true(full >= 6);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_linkrods),
         cmocka_unit_test(test_ventilator),
+        cmocka_unit_test(test_curve_bounded_model),
+        cmocka_unit_test(test_curve_bounded_senses),
+        cmocka_unit_test(test_closed_bspline_seams),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -156,12 +156,101 @@ static void test_curve_bounded_surface(void **state)
     assert_true(fabs(crisp_trim_loop_signed_area(&f->loops[outer]) - 2) < 1e-9);
     assert_true(fabs(crisp_trim_loop_signed_area(&f->loops[1 - outer]) + 0.25) < 1e-9);
     crisp_model_destroy(m);
+    /* A segment with the wrong same_sense (as Pro/ENGINEER writes them) is turned round. */
+    char *flip = replace(bounded, "#35=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.T.,#34)", "#35=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.F.,#34)");
+    step_read_stats st = {0};
+    assert_int_equal(crisp__step_read_mem("snippet.stp", flip, strlen(flip), NULL, &m, &st), CRISP_OK);
+    assert_int_equal(st.flipped_segments, 1);
+    assert_int_equal(m->face_count, 1);
+    outer = m->faces[0].loops[0].is_outer ? 0 : 1;
+    assert_true(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[outer]) - 2) < 1e-9);
+    crisp_model_destroy(m);
+    free(flip);
     /* A segment on an unbounded line cannot bound anything: the face is dropped, by name. */
     char *bad = replace(bounded, "#24=PCURVE('',#5,#23)", "#24=PCURVE('',#5,#91);\n#91=DEFINITIONAL_REPRESENTATION('',(#21),#9)");
     assert_int_not_equal(read_str(bad, &m), CRISP_OK);
     assert_non_null(strstr(crisp_error_message(), "unbounded curve"));
     assert_non_null(strstr(crisp_error_message(), "#24 (line"));
     free(bad);
+}
+
+/* Even-odd test of uv against every loop of the face (polylines of 400 points per curve). */
+static int inside_face(const crisp_face *f, const double uv[2])
+{
+    int in = 0;
+    for (int l = 0; l < f->loop_count; l++)
+        for (int k = 0; k < f->loops[l].curve_count; k++) {
+            const crisp_curve *c = f->loops[l].curves[k];
+            double t0, t1, a[2], b[2];
+            crisp_curve_domain(c, &t0, &t1);
+            crisp_curve_eval(c, t0, a);
+            for (int i = 1; i <= 400; i++) {
+                crisp_curve_eval(c, t0 + (t1 - t0) * i / 400, b);
+                if ((a[1] > uv[1]) != (b[1] > uv[1]) && uv[0] < a[0] + (b[0] - a[0]) * (uv[1] - a[1]) / (b[1] - a[1]))
+                    in ^= 1;
+                a[0] = b[0], a[1] = b[1];
+            }
+        }
+    return in;
+}
+
+/* On the unit sphere, curve-bounded by 3D curves only: the cap above z = 0.5 (a circle running
+ * counter-clockwise seen from +z: the pole on its left), the cap below it (the same circle run
+ * the other way), and the quarter z > 0, y < 0 bounded by a meridian over the north pole (its
+ * (u, v) image jumps by pi there) and half the equator. Every sample of each face's domain away
+ * from the boundary is inside exactly when its point is in the region. */
+static void test_sphere_caps_and_pole_arc(void **state)
+{
+    (void)state;
+    static const char text[] = HEAD
+        "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+        "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=SPHERICAL_SURFACE('',#4,1.);\n"
+        "#10=CARTESIAN_POINT('',(0.,0.,0.5));\n#11=AXIS2_PLACEMENT_3D('',#10,#2,#3);\n#12=CIRCLE('',#11,0.866025403784439);\n"
+        "#13=TRIMMED_CURVE('',#12,(PARAMETER_VALUE(0.)),(PARAMETER_VALUE(6.283185307179586)),.T.,.PARAMETER.);\n"
+        "#14=SURFACE_CURVE('',#13,(#5),.CURVE_3D.);\n"
+        "#15=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.T.,#14);\n#16=OUTER_BOUNDARY_CURVE('',(#15),.F.);\n"
+        "#17=CURVE_BOUNDED_SURFACE('north',#5,(#16),.F.);\n"
+        "#20=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.F.,#14);\n#21=OUTER_BOUNDARY_CURVE('',(#20),.F.);\n"
+        "#22=CURVE_BOUNDED_SURFACE('south',#5,(#21),.F.);\n"
+        "#30=DIRECTION('',(0.,-1.,0.));\n#31=AXIS2_PLACEMENT_3D('',#1,#30,#3);\n#32=CIRCLE('',#31,1.);\n"
+        "#33=TRIMMED_CURVE('',#32,(PARAMETER_VALUE(0.)),(PARAMETER_VALUE(3.141592653589793)),.T.,.PARAMETER.);\n"
+        "#34=CIRCLE('',#4,1.);\n"
+        "#35=TRIMMED_CURVE('',#34,(PARAMETER_VALUE(3.141592653589793)),(PARAMETER_VALUE(6.283185307179586)),.T.,.PARAMETER.);\n"
+        "#36=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.T.,#33);\n#37=COMPOSITE_CURVE_SEGMENT(.CONTINUOUS.,.T.,#35);\n"
+        "#38=OUTER_BOUNDARY_CURVE('',(#36,#37),.F.);\n#39=CURVE_BOUNDED_SURFACE('quarter',#5,(#38),.F.);\n"
+        "#40=GEOMETRIC_SET('',(#17,#22,#39));\n" TAIL;
+    crisp_model *m;
+    assert_int_equal(read_str(text, &m), CRISP_OK);
+    assert_int_equal(m->face_count, 3);
+    assert_int_equal(m->skip_count, 0);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-9, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    for (int f = 0; f < 3; f++) {
+        const crisp_face *face = &m->faces[f];
+        double d[4];
+        crisp_surface_domain(face->surface, d);
+        int checked = 0;
+        for (int i = 1; i < 60; i++)
+            for (int j = 1; j < 60; j++) {
+                double uv[2] = {d[0] + (d[1] - d[0]) * i / 60, d[2] + (d[3] - d[2]) * j / 60}, p[3];
+                crisp_surface_eval(face->surface, uv[0], uv[1], p);
+                int want;
+                if (f < 2) {
+                    if (fabs(p[2] - 0.5) < 0.05) continue;
+                    want = (p[2] > 0.5) == (f == 0);
+                } else {
+                    if (fabs(p[2]) < 0.05 || fabs(p[1]) < 0.05) continue;
+                    want = p[2] > 0 && p[1] < 0;
+                }
+                /* A point reached at a pole or seam from outside the NURBS domain's region is
+                 * still the same point: the region test is on the surface point. */
+                assert_int_equal(inside_face(face, uv), want);
+                checked++;
+            }
+        assert_true(checked > 500);
+    }
+    crisp_model_destroy(m);
 }
 
 /* A full sphere (a face without bounds; another with only a vertex loop) and a quarter
@@ -300,6 +389,7 @@ int main(void)
         cmocka_unit_test(test_implied_knots),
         cmocka_unit_test(test_curve_bounded_surface),
         cmocka_unit_test(test_whole_sphere_and_trimmed_surface),
+        cmocka_unit_test(test_sphere_caps_and_pole_arc),
         cmocka_unit_test(test_lenient_syntax_and_partial_loss),
         cmocka_unit_test(test_nothing_drawable),
     };
