@@ -218,7 +218,7 @@ static int lane_op(const frep_ins *in)
 
 FREP_CLONES
 void crisp__frep_interval_lanes(const frep_ins *ins, size_t n, int lanes, float *lo, float *hi,
-                                const float *const box[6])
+                                const float *const box[6], uint8_t *choices, size_t *decided)
 {
     float crow[L];
     int m = lanes;
@@ -234,5 +234,18 @@ void crisp__frep_interval_lanes(const frep_ins *ins, size_t n, int lanes, float 
             else bl = bh = crow;
         }
         step(op, in.imm, m, lo + (size_t)in.out * L, hi + (size_t)in.out * L, al, ah, bl, bh, box);
+        if (choices && frep__is_minmax(in.op)) {
+            /* which side wins, as frep_interval_op decides it (the operands are intact: the
+             * output register is neither of them) */
+            int is_min = in.op == CRISP_FREP_MIN || in.op == FREP_T_MIN_RI;
+            for (int k = 0; k < m; k++) {
+                float a0 = al[k], a1 = ah[k], b0 = bl[k], b1 = bh[k];
+                int ch = is_min ? (a1 < b0 ? FREP_CHOICE_A : b1 < a0 ? FREP_CHOICE_B : FREP_CHOICE_BOTH)
+                                : (a0 > b1 ? FREP_CHOICE_A : b0 > a1 ? FREP_CHOICE_B : FREP_CHOICE_BOTH);
+                ch = a0 != a0 || b0 != b0 ? FREP_CHOICE_BOTH : ch;
+                choices[(size_t)k * n + i] = (uint8_t)ch;
+                decided[k] += ch != FREP_CHOICE_BOTH;
+            }
+        }
     }
 }

@@ -106,15 +106,21 @@ size_t crisp__frep_interval(const frep_ins *ins, size_t n, float *lo, float *hi,
 /* Interval evaluation of ins[0..n) over `lanes` boxes at once (a multiple of 16, at most
  * FREP_LANES): box = {x lo, x hi, y lo, y hi, z lo, z hi}, each `lanes` floats; lo and hi hold
  * registers x FREP_LANES floats (register r of lane k at r * FREP_LANES + k). Lane k gets the
- * bounds crisp__frep_interval gives for box k (equal values; a zero's sign may differ). No
- * min/max choices. */
+ * bounds crisp__frep_interval gives for box k (equal values; a zero's sign may differ). With
+ * choices (else NULL), lane k's min/max choices go to choices[k * n + i] (entries of other
+ * instructions are left as they were) and decided[k] (zeroed by the caller) counts them. */
 void crisp__frep_interval_lanes(const frep_ins *ins, size_t n, int lanes, float *lo, float *hi,
-                                const float *const box[6]);
+                                const float *const box[6], uint8_t *choices, size_t *decided);
 /* Shorten tape src after the min/max choices (NULL: keep every side), removing dead code and
  * allocating registers afresh (reverse linear scan), into dest_ins/dest_ssa (src.len entries
  * each). Returns 0, or -1 when the result would need more than scratch->max_regs registers. */
 int crisp__frep_shorten(frep_span src, const uint8_t *choices, frep_shorten_scratch *scratch,
                         frep_ins *dest_ins, uint32_t *dest_ssa, frep_span *dest);
+/* The same shortening without reallocating registers (cheaper: two passes without register
+ * bookkeeping; the result keeps src's registers, and a decided min/max becomes a copy of its
+ * side or a constant). choices must not be NULL. Returns 0. */
+int crisp__frep_prune(frep_span src, const uint8_t *choices, frep_shorten_scratch *scratch,
+                      frep_ins *dest_ins, uint32_t *dest_ssa, frep_span *dest);
 /* FREP_LANES points: regs holds registers x FREP_LANES floats. */
 void crisp__frep_eval_lanes(const frep_ins *ins, size_t n, float *regs, const float *x,
                             const float *y, const float *z);

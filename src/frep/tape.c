@@ -174,6 +174,8 @@ int crisp__frep_shorten(frep_span src, const uint8_t *choices, frep_shorten_scra
         if (choices && choices[i] && frep__is_minmax(ins[i].op)) {
             if (choices[i] == FREP_CHOICE_A) ri = rep[ssa[2 * i]];
             else if (frep__nargs(ins[i].op) == 2) ri = rep[ssa[2 * i + 1]];
+        } else if (ins[i].op == FREP_T_COPY) {
+            ri = rep[ssa[2 * i]]; /* left by crisp__frep_prune: renamed away */
         }
         rep[i] = ri;
     }
@@ -229,6 +231,57 @@ int crisp__frep_shorten(frep_span src, const uint8_t *choices, frep_shorten_scra
         dest_ssa[2 * q + 1] = nargs >= 2 ? pos[b] - (uint32_t)p : 0;
     }
     *dest = (frep_span){dest_ins, dest_ssa, m, (int)nregs};
+    return 0;
+}
+
+int crisp__frep_prune(frep_span src, const uint8_t *choices, frep_shorten_scratch *sc,
+                      frep_ins *dest_ins, uint32_t *dest_ssa, frep_span *dest)
+{
+    size_t n = src.len;
+    const frep_ins *ins = src.ins;
+    const uint32_t *ssa = src.ssa;
+    /* live flags in rep (0 or 1), new positions in pos */
+    uint32_t *live = sc->rep, *pos = sc->pos;
+    memset(live, 0, n * sizeof *live);
+    live[n - 1] = 1;
+    /* backward, without branches: an instruction marks the operands it reads live when it is */
+    for (size_t i = n; i-- > 0;) {
+        int op = ins[i].op, na = frep__nargs(op);
+        uint32_t ch = frep__is_minmax(op) ? choices[i] : FREP_CHOICE_BOTH;
+        uint32_t l = live[i];
+        live[ssa[2 * i]] |= l & (uint32_t)(na >= 1) & (uint32_t)(ch != FREP_CHOICE_B);
+        live[ssa[2 * i + 1]] |= l & (uint32_t)(na == 2) & (uint32_t)(ch != FREP_CHOICE_A);
+    }
+    /* forward: copy the live instructions; a decided min/max becomes a copy of its side (or the
+     * immediate), writing the register it wrote (registers are not reallocated: a value that a
+     * live instruction reads was written by a live one, and nothing between wrote over it) */
+    size_t q = 0;
+    for (size_t i = 0; i < n; i++) {
+        frep_ins in = ins[i];
+        uint32_t a = ssa[2 * i], b = ssa[2 * i + 1];
+        int na = frep__nargs(in.op);
+        uint32_t ch = frep__is_minmax(in.op) ? choices[i] : FREP_CHOICE_BOTH;
+        if (ch == FREP_CHOICE_A) {
+            in.op = FREP_T_COPY;
+            na = 1;
+        } else if (ch == FREP_CHOICE_B) {
+            if (na == 2) {
+                in.op = FREP_T_COPY;
+                in.a = in.b;
+                a = b;
+                na = 1;
+            } else {
+                in.op = CRISP_FREP_CONST; /* min/max with an immediate that won */
+                na = 0;
+            }
+        }
+        pos[i] = (uint32_t)q;
+        dest_ins[q] = in;
+        dest_ssa[2 * q] = na >= 1 ? pos[a] : 0;
+        dest_ssa[2 * q + 1] = na == 2 ? pos[b] : 0;
+        q += live[i];
+    }
+    *dest = (frep_span){dest_ins, dest_ssa, q, src.registers};
     return 0;
 }
 

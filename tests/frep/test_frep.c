@@ -285,7 +285,7 @@ static int same(float a, float b) { return a == b || (a != a && b != b); }
 static void test_interval_soundness(void **state)
 {
     (void)state;
-    size_t checked = 0, unknown = 0, decided = 0;
+    size_t checked = 0, unknown = 0, decided = 0, pruned = 0;
     for (int e = 0; e < 400; e++) {
         crisp_frep *f = random_expr(4 + (int)(rnd() % 40));
         crisp_frep_tape *t;
@@ -294,8 +294,8 @@ static void test_interval_soundness(void **state)
         float *lo = calloc((size_t)t->registers * 2, sizeof *lo), *hi = lo + t->registers;
         float *regs = calloc((size_t)t->registers, sizeof *regs);
         uint8_t *choices = calloc(len, 1);
-        frep_ins *sins = malloc(2 * len * sizeof *sins);
-        uint32_t *sssa = malloc(4 * len * sizeof *sssa);
+        frep_ins *sins = malloc(2 * len * sizeof *sins), *pins = malloc(2 * len * sizeof *pins);
+        uint32_t *sssa = malloc(4 * len * sizeof *sssa), *pssa = malloc(4 * len * sizeof *pssa);
         frep_shorten_scratch sc;
         assert_int_equal(crisp__frep_scratch_init(&sc, len, t->registers), CRISP_OK);
         frep_span full = {t->ins, t->ssa, len, t->registers};
@@ -314,7 +314,14 @@ static void test_interval_soundness(void **state)
             size_t d = crisp__frep_interval(t->ins, len, lo, hi, box[0], box[1], box[2], choices);
             float l = lo[t->result], h = hi[t->result];
             decided += d > 0;
-            frep_span s1, s2;
+            frep_span s1, s2, p1, p2;
+            /* pruned (no register reallocation), then shortened on the sub-box (which renames
+             * the pruned tape's copies away) */
+            crisp__frep_prune(full, choices, &sc, pins, pssa, &p1);
+            assert_true(p1.len <= len && p1.registers == t->registers);
+            crisp__frep_interval(p1.ins, p1.len, lo, hi, sub[0], sub[1], sub[2], choices);
+            int okp = crisp__frep_shorten(p1, choices, &sc, pins + len, pssa + 2 * len, &p2) == 0;
+            crisp__frep_interval(t->ins, len, lo, hi, box[0], box[1], box[2], choices);
             int ok1 = crisp__frep_shorten(full, choices, &sc, sins, sssa, &s1) == 0;
             int ok2 = 0;
             if (ok1) {
@@ -345,6 +352,14 @@ static void test_interval_soundness(void **state)
                     float vs = crisp__frep_eval_scalar(s1.ins, s1.len, s1.ins[s1.len - 1].out, regs, p[0], p[1], p[2]);
                     assert_true(same(v, vs));
                 }
+                float vp = crisp__frep_eval_scalar(p1.ins, p1.len, p1.ins[p1.len - 1].out, regs, p[0], p[1], p[2]);
+                assert_true(same(v, vp));
+                if (okp) {
+                    float vq = crisp_frep_eval_point(t, q[0], q[1], q[2]);
+                    float vs = crisp__frep_eval_scalar(p2.ins, p2.len, p2.ins[p2.len - 1].out, regs, q[0], q[1], q[2]);
+                    assert_true(same(vq, vs));
+                    pruned += p2.len < p1.len;
+                }
                 if (ok2) {
                     float vq = crisp_frep_eval_point(t, q[0], q[1], q[2]);
                     float vs = crisp__frep_eval_scalar(s2.ins, s2.len, s2.ins[s2.len - 1].out, regs, q[0], q[1], q[2]);
@@ -353,7 +368,7 @@ static void test_interval_soundness(void **state)
                 checked++;
             }
         }
-        free(lo), free(regs), free(choices), free(sins), free(sssa);
+        free(lo), free(regs), free(choices), free(sins), free(sssa), free(pins), free(pssa);
         crisp__frep_scratch_free(&sc);
         crisp_frep_tape_destroy(t);
         crisp_frep_destroy(f);
@@ -361,17 +376,18 @@ static void test_interval_soundness(void **state)
     /* the property was tested on many decided boxes, not only on unknown ones */
     assert_true(unknown < 8000 * 3 / 4);
     assert_true(decided > 100);
+    assert_true(pruned > 100);
     assert_true(checked == 400 * 20 * 30);
 }
 
-/* The batched interval evaluator gives every lane the scalar evaluator's bounds bit for bit,
- * after every instruction of random expressions over every op, on boxes wide and narrow, thin
- * (a point), spanning zero, far out and with infinite or NaN ends. */
+/* The batched interval evaluator gives every lane the scalar evaluator's bounds (equal values)
+ * and min/max choices, after every instruction of random expressions over every op, on boxes
+ * wide and narrow, thin (a point), spanning zero, far out and with infinite or NaN ends. */
 static void test_interval_lanes_match(void **state)
 {
     (void)state;
     enum { L = FREP_LANES };
-    size_t compared = 0, known = 0;
+    size_t compared = 0, known = 0, choices = 0;
     for (int e = 0; e < 300; e++) {
         crisp_frep *f = random_expr(4 + (int)(rnd() % 40));
         crisp_frep_tape *t;
@@ -396,7 +412,10 @@ static void test_interval_lanes_match(void **state)
         }
         const float *box[6] = {bx[0], bx[1], bx[2], bx[3], bx[4], bx[5]};
         for (size_t i = 0; i < t->length; i++) {
-            crisp__frep_interval_lanes(t->ins + i, 1, L, lo, hi, box);
+            uint8_t lch[L];
+            size_t ldec[L] = {0};
+            memset(lch, 0, sizeof lch);
+            crisp__frep_interval_lanes(t->ins + i, 1, L, lo, hi, box, lch, ldec);
             size_t o = t->ins[i].out;
             for (int k = 0; k < L; k++) {
                 /* the scalar registers of lane k, restored from the lanes before this step */
@@ -406,7 +425,14 @@ static void test_interval_lanes_match(void **state)
                 }
                 const float x[2] = {bx[0][k], bx[1][k]}, y[2] = {bx[2][k], bx[3][k]},
                             z[2] = {bx[4][k], bx[5][k]};
-                crisp__frep_interval(t->ins + i, 1, slo, shi, x, y, z, NULL);
+                uint8_t sch = 0;
+                size_t sdec = crisp__frep_interval(t->ins + i, 1, slo, shi, x, y, z, &sch);
+                /* the same min/max choices */
+                if (frep__is_minmax(t->ins[i].op)) {
+                    assert_int_equal(lch[k], sch);
+                    assert_int_equal(ldec[k], sdec);
+                    choices += sch != FREP_CHOICE_BOTH;
+                }
                 if (!same(slo[o], lo[o * L + k]) || !same(shi[o], hi[o * L + k]))
                     fprintf(stderr, "expr %d ins %zu op %d lane %d: scalar [%.9g, %.9g] lanes [%.9g, %.9g]\n",
                             e, i, t->ins[i].op, k, slo[o], shi[o], lo[o * L + k], hi[o * L + k]);
@@ -421,6 +447,7 @@ static void test_interval_lanes_match(void **state)
     }
     assert_true(compared > 100000);
     assert_true(known > compared / 2);
+    assert_true(choices > 1000);
 }
 
 static void test_batch_matches_graph(void **state)
