@@ -360,6 +360,68 @@ static void test_lenient_syntax_and_partial_loss(void **state)
     free(a), free(b), free(c), free(d), free(e), free(f), free(g);
 }
 
+/* A small part beside a huge one: a cylinder of radius 1 (a band between two circles, the top
+ * one starting at another angle) and a plate 2e6 wide. The model's tolerance (1e-5 of 2.8e6 = 28)
+ * would swallow the cylinder; its face gets a tolerance from its own size. */
+static void test_small_face_in_huge_model(void **state)
+{
+    (void)state;
+    static const char text[] = HEAD
+        "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+        "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=CYLINDRICAL_SURFACE('',#4,1.);\n"
+        "#10=CARTESIAN_POINT('',(1.,0.,0.));\n#11=CARTESIAN_POINT('',(0.,1.,2.));\n"
+        "#12=VERTEX_POINT('',#10);\n#13=VERTEX_POINT('',#11);\n#20=CIRCLE('',#4,1.);\n"
+        "#21=EDGE_CURVE('',#12,#12,#20,.T.);\n#30=CARTESIAN_POINT('',(0.,0.,2.));\n"
+        "#31=AXIS2_PLACEMENT_3D('',#30,#2,#3);\n#32=CIRCLE('',#31,1.);\n#33=EDGE_CURVE('',#13,#13,#32,.T.);\n"
+        "#40=ORIENTED_EDGE('',*,*,#21,.T.);\n#41=ORIENTED_EDGE('',*,*,#33,.F.);\n"
+        "#42=EDGE_LOOP('',(#40));\n#43=EDGE_LOOP('',(#41));\n#44=FACE_BOUND('',#42,.T.);\n#45=FACE_BOUND('',#43,.T.);\n"
+        "#46=ADVANCED_FACE('',(#44,#45),#5,.T.);\n"
+        "#50=CARTESIAN_POINT('',(-1.E6,-1.E6,-1.));\n#51=CARTESIAN_POINT('',(1.E6,-1.E6,-1.));\n"
+        "#52=CARTESIAN_POINT('',(1.E6,1.E6,-1.));\n#53=CARTESIAN_POINT('',(-1.E6,1.E6,-1.));\n"
+        "#54=VERTEX_POINT('',#50);\n#55=VERTEX_POINT('',#51);\n#56=VERTEX_POINT('',#52);\n#57=VERTEX_POINT('',#53);\n"
+        "#58=DIRECTION('',(1.,0.,0.));\n#59=VECTOR('',#58,1.);\n#60=DIRECTION('',(0.,1.,0.));\n#61=VECTOR('',#60,1.);\n"
+        "#62=LINE('',#50,#59);\n#63=LINE('',#51,#61);\n#64=LINE('',#53,#59);\n#65=LINE('',#50,#61);\n"
+        "#66=EDGE_CURVE('',#54,#55,#62,.T.);\n#67=EDGE_CURVE('',#55,#56,#63,.T.);\n"
+        "#68=EDGE_CURVE('',#57,#56,#64,.T.);\n#69=EDGE_CURVE('',#54,#57,#65,.T.);\n"
+        "#70=ORIENTED_EDGE('',*,*,#66,.T.);\n#71=ORIENTED_EDGE('',*,*,#67,.T.);\n"
+        "#72=ORIENTED_EDGE('',*,*,#68,.F.);\n#73=ORIENTED_EDGE('',*,*,#69,.F.);\n"
+        "#74=EDGE_LOOP('',(#70,#71,#72,#73));\n#75=FACE_OUTER_BOUND('',#74,.T.);\n"
+        "#76=CARTESIAN_POINT('',(0.,0.,-1.));\n#77=AXIS2_PLACEMENT_3D('',#76,#2,#3);\n#78=PLANE('',#77);\n"
+        "#79=ADVANCED_FACE('',(#75),#78,.T.);\n#80=OPEN_SHELL('',(#46,#79));\n" TAIL;
+    crisp_model *m;
+    step_read_stats st = {.verify = 1};
+    assert_int_equal(crisp__step_read_mem("snippet.stp", text, strlen(text), NULL, &m, &st), CRISP_OK);
+    assert_int_equal(m->face_count, 2);
+    assert_true(st.tol > 10);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-9, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    /* The cylinder's trims follow its circles to 1e-4 of its size (z stays 0 or 2 along each
+     * circle piece), a precision the model's tolerance could not give. */
+    const crisp_face *f = m->faces[0].source_id == 46 ? &m->faces[0] : &m->faces[1];
+    assert_int_equal(f->loop_count, 1);
+    for (int k = 0; k < f->loops[0].curve_count; k++) {
+        const crisp_curve *cv = f->loops[0].curves[k];
+        double t0, t1, a[2], b[2], pa[3], pb[3];
+        crisp_curve_domain(cv, &t0, &t1);
+        crisp_curve_eval(cv, t0, a);
+        crisp_curve_eval(cv, t1, b);
+        crisp_surface_eval(f->surface, a[0], a[1], pa);
+        crisp_surface_eval(f->surface, b[0], b[1], pb);
+        int circle = fabs(pa[2] - pb[2]) < 1e-9; /* else a seam segment */
+        for (int i = 0; i <= 50; i++) {
+            double uv[2], p[3];
+            crisp_curve_eval(cv, t0 + (t1 - t0) * i / 50, uv);
+            crisp_surface_eval(f->surface, uv[0], uv[1], p);
+            assert_true(fabs(hypot(p[0], p[1]) - 1) < 1e-6);
+            assert_true(p[2] > -1e-6 && p[2] < 2 + 1e-6);
+            if (circle) assert_true(fabs(p[2] - pa[2]) < 1e-4);
+        }
+    }
+    assert_true(fabs(fabs(crisp_trim_loop_signed_area(&f->loops[0])) - 4 * M_PI) < 1e-2);
+    crisp_model_destroy(m);
+}
+
 /* Files with nothing crisp draws say what they hold. */
 static void test_nothing_drawable(void **state)
 {
@@ -391,6 +453,7 @@ int main(void)
         cmocka_unit_test(test_whole_sphere_and_trimmed_surface),
         cmocka_unit_test(test_sphere_caps_and_pole_arc),
         cmocka_unit_test(test_lenient_syntax_and_partial_loss),
+        cmocka_unit_test(test_small_face_in_huge_model),
         cmocka_unit_test(test_nothing_drawable),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -246,10 +246,9 @@ static crisp_status nothing_drawable(step_reader *r, int wire)
  * locations of placements: they need not lie near the shape (bug27453_165-174_piattello.stp has
  * lines through points 5e5 away from a part 200 across), and would make the tolerance far too
  * coarse. Every point counts when nothing else is left. */
-static double model_diagonal(step_reader *r)
+static double model_diagonal(step_reader *r, unsigned char *skip)
 {
     const step_file *f = r->f;
-    unsigned char *skip = crisp_calloc_array(f->entity_count + 1, 1);
     static const char *const users[] = {"LINE", "AXIS2_PLACEMENT_3D", "AXIS2_PLACEMENT_2D", "AXIS1_PLACEMENT"};
     for (size_t i = 0; skip && i < f->entity_count; i++) {
         const step_entity *e = &f->entities[i], *pe;
@@ -272,9 +271,68 @@ static double model_diagonal(step_reader *r)
         d = 0;
         for (int k = 0; k < 3; k++) d += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0;
     }
-    crisp_free(skip);
     crisp_error_clear();
     return d > 0 ? sqrt(d) : 1;
+}
+
+/* ---- per-face tolerance -------------------------------------------------------------------------
+ * One tolerance for the whole file fails when parts of very different sizes share it
+ * (trj5_k1-ct-214.stp: a 2e6 wide plate and a torus of radius 3.8: a tolerance of 28 makes the
+ * torus's edges meaningless). A face much smaller than the model gets a tolerance from its own
+ * size: the box of the points it references (again without line origins and placements). */
+typedef struct face_scale {
+    const unsigned char *skip;
+    int *stamp;  /* by entity index: the last face that visited it */
+    int face;
+    int *stack;
+    size_t stack_cap;
+    double lo[3], hi[3];
+} face_scale;
+
+static void scale_value(step_reader *r, face_scale *fs, const step_value *v, size_t *n, int depth)
+{
+    if (v->kind == STEP_REF) {
+        const step_entity *t = crisp__step_find(r->f, v->num);
+        if (!t) return;
+        size_t idx = (size_t)(t - r->f->entities);
+        if (fs->stamp[idx] == fs->face) return;
+        fs->stamp[idx] = fs->face;
+        if (*n == fs->stack_cap && crisp_grow((void **)&fs->stack, &fs->stack_cap, *n + 1, sizeof *fs->stack)) return;
+        fs->stack[(*n)++] = (int)idx;
+    } else if (v->kind == STEP_LIST && depth < 8) {
+        for (uint32_t i = 0; i < v->len; i++) scale_value(r, fs, &r->f->values[v->first + i], n, depth + 1);
+    } else if (v->kind == STEP_TYPED && depth < 8) {
+        scale_value(r, fs, &r->f->values[v->first], n, depth + 1);
+    }
+}
+
+static double face_diagonal(step_reader *r, face_scale *fs, const step_entity *fe)
+{
+    const step_file *f = r->f;
+    size_t n = 0;
+    fs->face++;
+    for (int k = 0; k < 3; k++) fs->lo[k] = INFINITY, fs->hi[k] = -INFINITY;
+    step_value root = {.kind = STEP_REF, .num = fe->id};
+    scale_value(r, fs, &root, &n, 0);
+    while (n) {
+        const step_entity *e = &f->entities[fs->stack[--n]];
+        if (crisp__step_is(r, e, "CARTESIAN_POINT")) {
+            double p[3];
+            int dim;
+            if (!fs->skip[e - f->entities] && !crisp__step_point(r, e, p, &dim) && dim == 3)
+                for (int k = 0; k < 3; k++) fs->lo[k] = fmin(fs->lo[k], p[k]), fs->hi[k] = fmax(fs->hi[k], p[k]);
+            continue;
+        }
+        /* Styles, contexts and the like are not geometry. */
+        if (crisp__step_is(r, e, "REPRESENTATION_CONTEXT") || crisp__step_is(r, e, "GEOMETRIC_REPRESENTATION_CONTEXT"))
+            continue;
+        for (uint32_t pi = 0; pi < e->part_count; pi++)
+            scale_value(r, fs, &f->values[f->parts[e->first_part + pi].params], &n, 0);
+    }
+    crisp_error_clear();
+    double d = 0;
+    for (int k = 0; k < 3; k++) d += fs->hi[k] > fs->lo[k] ? (fs->hi[k] - fs->lo[k]) * (fs->hi[k] - fs->lo[k]) : 0;
+    return sqrt(d);
 }
 
 crisp_status crisp_read_step_mem(const char *name, const char *data, size_t size,
@@ -303,12 +361,22 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
     crisp_model *m = NULL;
     face_list fl = {0};
     int *ids = NULL;
+    unsigned char *skip = NULL;
+    face_scale fs = {0};
     if ((st = crisp_model_create(&m))) goto done;
     snprintf(m->format, sizeof m->format, "STEP");
     step_reader r = {.f = &f, .model = m, .stats = stats};
     crisp__step_units(&r);
     double frac = options && options->projection_tolerance > 0 ? options->projection_tolerance : 1e-5;
-    r.tol = frac * model_diagonal(&r);
+    skip = crisp_calloc_array(f.entity_count + 1, 1);
+    fs.stamp = crisp_calloc_array(f.entity_count + 1, sizeof *fs.stamp);
+    if (!skip || !fs.stamp) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", name);
+        goto done;
+    }
+    fs.skip = skip;
+    r.tol = frac * model_diagonal(&r, skip);
+    double tol_model = r.tol;
     stats->tol = r.tol;
     r.close_rel = options && options->closure_tolerance > 0 ? options->closure_tolerance : 1e-6;
     if (f.duplicates) {
@@ -334,7 +402,12 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
     for (size_t i = 0; i < fl.count; i++) {
         const step_entity *fe = crisp__step_find(&f, fl.refs[i].id);
         crisp_face face;
+        /* Faces under 1/100 of the model's size get a tolerance from their own size (100 times
+         * the fraction: still far finer than the model's). */
+        double fd = face_diagonal(&r, &fs, fe);
+        r.tol = fd > 0 && 100 * frac * fd < tol_model ? 100 * frac * fd : tol_model;
         st = convert_face(&r, &fl.refs[i], fe, &face);
+        r.tol = tol_model;
         if (st == CRISP_ERR_NO_MEMORY) goto done;
         if (st) {
             /* Drop the face, saying which and why (without the file name: the note is short). */
@@ -386,6 +459,9 @@ done:
     crisp_free(ids);
     crisp_free(fl.refs);
     crisp_free(fl.seen);
+    crisp_free(skip);
+    crisp_free(fs.stamp);
+    crisp_free(fs.stack);
     crisp__step_file_free(&f);
     if (st) {
         crisp_model_destroy(m);
