@@ -75,6 +75,10 @@ typedef struct crisp_trim_density_desc {
     double slack;     /* refine while the bound exceeds slack times the sampled value; 0 means 2 */
     double margin_px; /* the frustum is widened by this many pixels on each side; 0 means 2 */
     crisp_arena *scratch; /* reset by the caller between frames; NULL: an internal one is made */
+    /* NULL, or 2 values per strip: the only u-range of the strip whose points need the bound
+     * (sub-patches wholly outside it are dropped; see crisp_trim_plan_face for why that is sound
+     * for the table). */
+    const double *strip_u;
 } crisp_trim_density_desc;
 
 typedef struct crisp_trim_density_stats {
@@ -86,7 +90,8 @@ typedef struct crisp_trim_density_stats {
 
 /* For each strip i: rho_v[i] >= sup |d(x~, y~)/dv| (Euclidean, pixels per unit v) and
  * rho_u[i] >= sup |d(x~, y~)/du| over the points of the strip's part of the face that lie in the
- * widened frustum (between the near and far planes); both 0 when no such point exists (the strip
+ * widened frustum (between the near and far planes) and, with strip_u, have u in the strip's
+ * u-range; both 0 when no such point exists (the strip
  * is invisible). The bound comes from Bézier coefficients of the numerators X_v W - X W_v (products
  * of Bernstein forms) and the smallest coefficient of W, on sub-patches refined where W is not
  * provably positive or the bound is loose. rho_v, rho_u: strip_count values each. vis_v (may be
@@ -185,7 +190,9 @@ void crisp_trim_table_free(crisp_trim_table *t);
 typedef struct crisp_trim_plan {
     int strip_count;
     double *rho_v, *rho_u;
-    double *vis_v; /* 2 per strip */
+    double *vis_v;   /* 2 per strip */
+    double *strip_u; /* 2 per strip: the u-range the trim loops can reach in the strip */
+    double v0, v1;   /* the strips' v-range: the face's, narrowed to the loops' (the table's) */
     uint32_t *mu;
     int clamped; /* some strip hit its row cap (crisp_trim_rows_from_density) */
     crisp_trim_density_stats density_stats;
@@ -206,6 +213,14 @@ typedef struct crisp_trim_plan_desc {
     int strip_count; /* n_V; 0 means 16 */
 } crisp_trim_plan_desc;
 
+/* Only points inside the loops can be inside the face, so the strips cover the face's v-range
+ * narrowed to the v-range of the loops' control points, and in each strip the density bound is
+ * taken over the u-range of the control points of the pieces that reach the strip (a point inside
+ * the loops has boundary points to its left and right on its own scan line). Outside that part
+ * the table answers "outside" whatever the row spacing: no row's crossing lies outside the
+ * strip's u-range and every row has an even number of crossings. This keeps real faces whose
+ * surface is wild where the trim has cut it away (knot noise in exported files) from asking for
+ * millions of rows. */
 crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_plan *dest);
 void crisp_trim_plan_free(crisp_trim_plan *plan);
 

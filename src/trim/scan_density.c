@@ -16,6 +16,8 @@
 #include <math.h>
 #include <string.h>
 
+#define MIN_PIECE (1.0 / 16.0)
+
 typedef struct density_ctx {
     int du, dv;
     size_t n;       /* (du + 1) * (dv + 1) coefficients per plane */
@@ -28,6 +30,7 @@ typedef struct density_ctx {
     double *scratch; /* derivative and product work space */
     double cur_v, cur_u;
     double vis_lo, vis_hi; /* v-range of the sub-patches kept */
+    double ulo, uhi;       /* the strip's u-range of interest (desc->strip_u), else infinite */
     int visible, unbounded;
     long budget;
     crisp_trim_density_stats *stats;
@@ -139,13 +142,15 @@ static void corner_tp(const double *c, int du, int dv, int a, int b, double out[
 
 /* Largest screen speeds sampled at the sub-patch's four corners and centre, among the points
  * inside the widened frustum; returns the number of such points. (Only steers refinement.) */
-static int sample_speeds(const density_ctx *c, const double *s, double sv, double su, double *ev,
-                         double *eu)
+static int sample_speeds(const density_ctx *c, const double *s, double sv, double su, double ua,
+                         double ub, double *ev, double *eu)
 {
     int seen = 0;
     *ev = *eu = 0.0;
     for (int k = 0; k < 5; k++) {
         double X[3], Y[3], Z[3], W[3];
+        double u = k < 4 ? (k & 1 ? ub : ua) : 0.5 * (ua + ub);
+        if (u < c->ulo || u > c->uhi) continue; /* the bound need not cover it */
         if (k < 4) {
             int a = k & 1, b = k >> 1;
             corner_tp(s, c->du, c->dv, a, b, X);
@@ -203,13 +208,14 @@ static void split_half(const density_ctx *c, const double *s, double *kids)
     }
 }
 
-/* s: the sub-patch (4 planes); su, sv: d(local)/d(global) scale factors. */
-static void refine(density_ctx *c, const double *s, int depth, double su, double sv, double va,
-                   double vb)
+/* s: the sub-patch (4 planes) over [ua, ub] x [va, vb] of the face's parameters; su, sv:
+ * d(local)/d(global) scale factors. */
+static void refine(density_ctx *c, const double *s, int depth, double su, double sv, double ua,
+                   double ub, double va, double vb)
 {
     if (c->stats) c->stats->subpatches++;
     c->budget--;
-    if (culled(c, s)) {
+    if (ub < c->ulo || ua > c->uhi || culled(c, s)) {
         if (c->stats) c->stats->culled++;
         return;
     }
@@ -230,7 +236,7 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
         int accept = last;
         if (!accept) {
             double ev, eu;
-            int seen = sample_speeds(c, s, sv, su, &ev, &eu);
+            int seen = sample_speeds(c, s, sv, su, ua, ub, &ev, &eu);
             int ok_v = bv <= fmax(fmax(c->slack * ev, c->cur_v), c->floor_v);
             int ok_u = bu <= fmax(c->slack * eu, c->cur_u);
             accept = seen > 0 && ok_v && ok_u;
@@ -258,10 +264,10 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
     }
     double *kids = c->levels + (size_t)(depth + 1) * 16 * c->n;
     split_half(c, s, kids);
-    double vm = 0.5 * (va + vb);
+    double um = 0.5 * (ua + ub), vm = 0.5 * (va + vb);
     for (int k = 0; k < 4; k++)
-        refine(c, kids + (size_t)k * 4 * c->n, depth + 1, 2 * su, 2 * sv, k < 2 ? va : vm,
-               k < 2 ? vm : vb);
+        refine(c, kids + (size_t)k * 4 * c->n, depth + 1, 2 * su, 2 * sv, k & 1 ? um : ua,
+               k & 1 ? ub : um, k < 2 ? va : vm, k < 2 ? vm : vb);
 }
 
 crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double *rho_v,
@@ -361,6 +367,17 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
             if (ta < 0.0) ta = 0.0;
             if (tb > 1.0) tb = 1.0;
             if (!(tb > ta)) continue;
+            /* A sliver of the patch (a strip boundary a rounding error away from the patch's)
+             * restricted on its own would have derivative coefficients made of cancellation
+             * noise divided by its tiny width: bound a piece of at least MIN_PIECE of the patch
+             * around it instead (a bound over more of the surface is still a bound; the row
+             * range is cut back to the strip below). */
+            if (tb - ta < MIN_PIECE) {
+                if (ta + MIN_PIECE <= 1.0)
+                    tb = ta + MIN_PIECE;
+                else
+                    ta = 1.0 - MIN_PIECE, tb = 1.0;
+            }
             memcpy(strip, clip, sizeof(double) * 4 * c.n);
             for (int q = 0; q < 4; q++)
                 for (int col = 0; col <= c.du; col++)
@@ -373,11 +390,14 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
             c.vis_hi = vis_v ? vis_v[2 * i + 1] : 0.0;
             c.floor_v = 1.0 / hv;
             c.budget = 16384; /* deep refinement at extreme zoom (fov 1e-7 deg) needs ~5000 */
+            c.ulo = desc->strip_u ? desc->strip_u[2 * i] : -HUGE_VAL;
+            c.uhi = desc->strip_u ? desc->strip_u[2 * i + 1] : HUGE_VAL;
             /* The strip's levels start at level 0 of c.levels; refine copies children deeper. */
             double *root = c.levels;
             memcpy(root, strip, sizeof(double) * 4 * c.n);
             refine(&c, root, 0, 1.0 / (bp->u1 - bp->u0), 1.0 / ((bp->v1 - bp->v0) * (tb - ta)),
-                   bp->v0 + (bp->v1 - bp->v0) * ta, bp->v0 + (bp->v1 - bp->v0) * tb);
+                   bp->u0, bp->u1, bp->v0 + (bp->v1 - bp->v0) * ta,
+                   bp->v0 + (bp->v1 - bp->v0) * tb);
             if (vis_v) vis_v[2 * i] = c.vis_lo, vis_v[2 * i + 1] = c.vis_hi;
             if (c.unbounded) {
                 rho_v[i] = rho_u[i] = HUGE_VAL;

@@ -1,10 +1,61 @@
 /* One face's trimming work for one frame (Wu & Peters 2015, section 4): density bound per strip,
  * scan lines per strip, trim polylines, u-intercept table, reusing the caller's buffers so that a
- * steady camera and image size allocate nothing after the first frame.
+ * steady camera and image size allocate nothing after the first frame. The strips and the bound
+ * cover only the part of the face the loops can enclose (see crisp_trim_plan_face in trim.h).
  */
 #include "trim_internal.h"
 
+#include <math.h>
 #include <string.h>
+
+/* The control-point box of piece b: u in [box[0], box[1]], v in [box[2], box[3]]. */
+static void piece_box(const crisp_bezier_curve *b, double box[4])
+{
+    box[0] = box[2] = HUGE_VAL;
+    box[1] = box[3] = -HUGE_VAL;
+    for (int i = 0; i <= b->degree; i++) {
+        double u = b->cpw[3 * i] / b->cpw[3 * i + 2], v = b->cpw[3 * i + 1] / b->cpw[3 * i + 2];
+        box[0] = fmin(box[0], u);
+        box[1] = fmax(box[1], u);
+        box[2] = fmin(box[2], v);
+        box[3] = fmax(box[3], v);
+    }
+}
+
+/* The strips' v-range [p->v0, p->v1]: the face's, narrowed to the pieces' control points; and per
+ * strip the u-range of the pieces whose control points reach it (empty: ulo > uhi). Every point
+ * inside the loops lies in these ranges (the boundary is in the pieces' convex hulls). */
+static void trim_extent(const crisp_trim_plan_desc *desc, crisp_trim_plan *p, int n)
+{
+    double tv0 = HUGE_VAL, tv1 = -HUGE_VAL, box[4];
+    for (int k = 0; k < desc->piece_count; k++) {
+        piece_box(&desc->pieces[k], box);
+        tv0 = fmin(tv0, box[2]);
+        tv1 = fmax(tv1, box[3]);
+    }
+    p->v0 = fmax(desc->v0, tv0);
+    p->v1 = fmin(desc->v1, tv1);
+    int none = !(p->v1 > p->v0); /* no loops, or loops without area inside the domain */
+    if (none) p->v0 = desc->v0, p->v1 = desc->v1;
+    for (int i = 0; i < n; i++) {
+        p->strip_u[2 * i] = desc->piece_count ? HUGE_VAL : -HUGE_VAL;
+        p->strip_u[2 * i + 1] = desc->piece_count ? -HUGE_VAL : HUGE_VAL;
+    }
+    if (none) return;
+    double h = (p->v1 - p->v0) / n;
+    for (int k = 0; k < desc->piece_count; k++) {
+        piece_box(&desc->pieces[k], box);
+        if (box[3] < p->v0 || box[2] > p->v1) continue;
+        /* One strip more on each side: rounding of the strip index must not lose a strip. */
+        double f0 = floor((box[2] - p->v0) / h) - 1, f1 = floor((box[3] - p->v0) / h) + 1;
+        int i0 = f0 < 0 ? 0 : f0 > n - 1 ? n - 1 : (int)f0;
+        int i1 = f1 < 0 ? 0 : f1 > n - 1 ? n - 1 : (int)f1;
+        for (int i = i0; i <= i1; i++) {
+            p->strip_u[2 * i] = fmin(p->strip_u[2 * i], box[0]);
+            p->strip_u[2 * i + 1] = fmax(p->strip_u[2 * i + 1], box[1]);
+        }
+    }
+}
 
 crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_plan *dest)
 {
@@ -24,7 +75,9 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
         if (mu) p->mu = mu;
         double *vv = crisp_realloc_array(p->vis_v, 2 * (size_t)n, sizeof *vv);
         if (vv) p->vis_v = vv;
-        if (!rv || !ru || !mu || !vv)
+        double *su = crisp_realloc_array(p->strip_u, 2 * (size_t)n, sizeof *su);
+        if (su) p->strip_u = su;
+        if (!rv || !ru || !mu || !vv || !su)
             return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_plan_face: out of memory");
         p->cap_strips = n;
     }
@@ -34,25 +87,31 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
     }
     crisp_arena_reset(p->scratch);
     p->strip_count = n;
-    crisp_status st =
-        crisp_trim_scan_density(&(crisp_trim_density_desc){.patches = desc->patches,
-                                                           .patch_count = desc->patch_count,
-                                                           .view_proj = desc->view_proj,
-                                                           .width = desc->width,
-                                                           .height = desc->height,
-                                                           .v0 = desc->v0,
-                                                           .v1 = desc->v1,
-                                                           .strip_count = n,
-                                                           .scratch = p->scratch},
-                                p->rho_v, p->rho_u, p->vis_v, &p->density_stats);
+    if (desc->piece_count < 0 || (desc->piece_count > 0 && !desc->pieces))
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_trim_plan_face: %d pieces at %p",
+                           desc->piece_count, (const void *)desc->pieces);
+    crisp_status st = crisp_trim_pieces_check(desc->pieces, desc->piece_count);
     if (st) return st;
-    crisp_trim_rows_from_density(p->rho_v, p->vis_v, n, desc->v0, desc->v1, p->mu, &p->clamped);
+    trim_extent(desc, p, n);
+    st = crisp_trim_scan_density(&(crisp_trim_density_desc){.patches = desc->patches,
+                                                            .patch_count = desc->patch_count,
+                                                            .view_proj = desc->view_proj,
+                                                            .width = desc->width,
+                                                            .height = desc->height,
+                                                            .v0 = p->v0,
+                                                            .v1 = p->v1,
+                                                            .strip_count = n,
+                                                            .scratch = p->scratch,
+                                                            .strip_u = p->strip_u},
+                                 p->rho_v, p->rho_u, p->vis_v, &p->density_stats);
+    if (st) return st;
+    crisp_trim_rows_from_density(p->rho_v, p->vis_v, n, p->v0, p->v1, p->mu, &p->clamped);
     const crisp_trim_polyline *pl = NULL;
     if (desc->piece_count > 0) {
         st = crisp_trim_tessellate(&(crisp_trim_tess_desc){.pieces = desc->pieces,
                                                            .piece_count = desc->piece_count,
-                                                           .v0 = desc->v0,
-                                                           .v1 = desc->v1,
+                                                           .v0 = p->v0,
+                                                           .v1 = p->v1,
                                                            .strip_count = n,
                                                            .mu = p->mu,
                                                            .row_v = p->vis_v,
@@ -62,8 +121,8 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
         pl = &p->polyline;
     }
     return crisp_trim_table_build(&(crisp_trim_table_desc){.polyline = pl,
-                                                           .v0 = desc->v0,
-                                                           .v1 = desc->v1,
+                                                           .v0 = p->v0,
+                                                           .v1 = p->v1,
                                                            .strip_count = n,
                                                            .mu = p->mu,
                                                            .row_v = p->vis_v},
@@ -77,6 +136,7 @@ void crisp_trim_plan_free(crisp_trim_plan *plan)
     crisp_free(plan->rho_u);
     crisp_free(plan->mu);
     crisp_free(plan->vis_v);
+    crisp_free(plan->strip_u);
     crisp_trim_polyline_free(&plan->polyline);
     crisp_trim_table_free(&plan->table);
     crisp_arena_destroy(plan->scratch);
