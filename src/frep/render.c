@@ -23,6 +23,9 @@
  * per PRUNE_RATIO instructions, else shortened (bear 512^3 and prospero 1024^2 measured best
  * between 16 and 64: bear decides few, prospero many) */
 #define PRUNE_RATIO 32
+#ifndef SUB_MIN_VOXELS
+#define SUB_MIN_VOXELS 64
+#endif
 
 typedef struct frep_worker {
     frep_ins *tapes; /* MAX_DEPTH tapes of the full length */
@@ -325,25 +328,36 @@ static void set_normals(crisp_frep_renderer *r, frep_worker *w, const frep_ins *
 }
 
 /* Raise pixels below voxel k to k (the cell is all inside at its top layer k). */
-static void fill_top(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
-                     int i1, int j0, int j1, int k)
+static void fill_top(crisp_frep_renderer *r, int i0, int i1, int j0, int j1, int k)
+{
+    for (int j = j0; j < j1; j++) {
+        int32_t *row = r->img.heights + (size_t)j * r->img.width;
+        for (int i = i0; i < i1; i++) row[i] = row[i] < k ? k : row[i];
+    }
+}
+
+/* Normals of the hit pixels of a task tile [i0,i1) x [j0,j1), once its column is done, on the
+ * task's tape (valid for the whole column) in full batches: far fewer gradient passes than one
+ * per leaf or filled cell, each a little longer. */
+static void tile_normals(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int i1,
+                         int j0, int j1)
 {
     int pix[FREP_LANES], n = 0;
     float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
     for (int j = j0; j < j1; j++)
         for (int i = i0; i < i1; i++) {
             size_t p = (size_t)j * r->img.width + i;
-            if (r->img.heights[p] >= k) continue;
-            r->img.heights[p] = k;
-            pix[n] = (int)p, x[n] = r->xs[i], y[n] = r->ys[j], z[n] = r->zs[k];
+            int h = r->img.heights[p];
+            if (h < 0) continue;
+            pix[n] = (int)p, x[n] = r->xs[i], y[n] = r->ys[j], z[n] = r->zs[h];
             if (++n == FREP_LANES) {
-                set_normals(r, w, ins, len, pix, n, x, y, z);
+                set_normals(r, w, t.ins, t.len, pix, n, x, y, z);
                 n = 0;
             }
         }
     if (n) {
-        for (int k2 = n; k2 < FREP_LANES; k2++) x[k2] = x[0], y[k2] = y[0], z[k2] = z[0];
-        set_normals(r, w, ins, len, pix, n, x, y, z);
+        for (int k = n; k < FREP_LANES; k++) x[k] = x[0], y[k] = y[0], z[k] = z[0];
+        set_normals(r, w, t.ins, t.len, pix, n, x, y, z);
     }
 }
 
@@ -379,26 +393,41 @@ static void sub_eval(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins
 
 /* The 2x2x2-voxel sub-cells of a leaf (at most 4x4x4 = FREP_LANES; index (t * 4 + sj) * 4 + si,
  * layer t counted from the top), each outside, inside or open, by one batched interval pass on
- * the leaf's tape. (Two passes, the 4x4x4 octants first and then the 2x2x2 cells of the open
- * ones, evaluate fewer boxes but took 4% more time on bear: a pass costs about the same for
- * any number of lanes up to 64.) */
-static void sub_states(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len,
-                       int i0, int i1, int j0, int j1, int k0, int k1, uint8_t *state)
+ * the leaf's tape over the sub-cells that some pixel still needs (above the lowest height of
+ * their 2x2 pixels; the others are marked outside and never read). Returns 0 without a pass
+ * when the pixels need at most SUB_MIN_VOXELS voxels: points are cheaper then. (Two passes, the
+ * 4x4x4 octants first and then the 2x2x2 cells of the open ones, evaluate fewer boxes but took
+ * 4% more time on bear: a pass costs about the same for any number of lanes up to 64.) */
+static int sub_states(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len,
+                      int i0, int i1, int j0, int j1, int k0, int k1, uint8_t *state)
 {
     float bx[6][FREP_LANES];
+    int idx[FREP_LANES], n = 0, need = 0, W = r->img.width;
     int ni = (i1 - i0 + 1) / 2, nj = (j1 - j0 + 1) / 2, nk = (k1 - k0 + 1) / 2;
+    int colmin[16];
+    for (int c = 0; c < 16; c++) colmin[c] = INT32_MAX;
+    for (int j = j0; j < j1; j++)
+        for (int i = i0; i < i1; i++) {
+            int h = r->img.heights[(size_t)j * W + i], c = ((j - j0) / 2) * 4 + (i - i0) / 2;
+            colmin[c] = h < colmin[c] ? h : colmin[c];
+            need += h < k0 ? k1 - k0 : h < k1 ? k1 - 1 - h : 0;
+        }
+    if (need <= SUB_MIN_VOXELS) return 0;
     for (int lane = 0; lane < FREP_LANES; lane++) {
         int si = lane & 3, sj = (lane >> 2) & 3, t = lane >> 4;
-        /* lanes past a partial leaf's edge repeat its last sub-cell */
-        si = si < ni ? si : ni - 1, sj = sj < nj ? sj : nj - 1, t = t < nk ? t : nk - 1;
+        int kt = k1 - 1 - 2 * t;
+        state[lane] = SUB_OUT;
+        if (si >= ni || sj >= nj || t >= nk || kt <= colmin[sj * 4 + si]) continue;
         int ia = i0 + 2 * si, ib = ia + 1 < i1 ? ia + 1 : ia;
         int ja = j0 + 2 * sj, jb = ja + 1 < j1 ? ja + 1 : ja;
-        int kt = k1 - 1 - 2 * t, kb = kt - 1 >= k0 ? kt - 1 : kt;
-        sub_box(r, bx, lane, ia, ib, ja, jb, kb, kt);
+        int kb = kt - 1 >= k0 ? kt - 1 : kt;
+        sub_box(r, bx, n, ia, ib, ja, jb, kb, kt);
+        idx[n++] = lane;
     }
-    sub_eval(r, w, ins, len, bx, FREP_LANES, state);
-    w->st.intervals -= (size_t)FREP_LANES;
-    w->st.intervals += (size_t)(ni * nj * nk);
+    uint8_t st[FREP_LANES];
+    sub_eval(r, w, ins, len, bx, n, st);
+    for (int q = 0; q < n; q++) state[idx[q]] = st[q];
+    return 1;
 }
 
 /* A leaf column block: pixels [i0,i1) x [j0,j1) (at most LEAF x LEAF), voxels [k0,k1) (at most
@@ -412,7 +441,7 @@ static void leaf_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
     float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
     int lane_pix[FREP_LANES], lane_k[FREP_LANES];
     int cand[FREP_LANES][LEAF], nc[FREP_LANES], pos[FREP_LANES], fb[FREP_LANES];
-    int hitk[FREP_LANES], pix[FREP_LANES], nhit = 0, npix = 0, open = 0;
+    int npix = 0, open = 0;
     size_t p[FREP_LANES];
     float px[FREP_LANES], py[FREP_LANES];
     for (int j = j0; j < j1; j++)
@@ -477,8 +506,6 @@ static void leaf_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
             if (pos[q] >= nc[q]) continue; /* decided by an earlier lane of this batch */
             if (v[k] < 0) {
                 r->img.heights[p[q]] = lane_k[k];
-                pix[nhit] = q;
-                hitk[nhit++] = lane_k[k];
                 pos[q] = nc[q] + 1;
                 fb[q] = -1;
                 open--;
@@ -489,22 +516,9 @@ static void leaf_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
     }
     /* no candidate hit: the top of the first inside sub-cell */
     for (int q = 0; q < npix; q++)
-        if (fb[q] >= 0) {
-            r->img.heights[p[q]] = fb[q];
-            pix[nhit] = q;
-            hitk[nhit++] = fb[q];
-        }
+        if (fb[q] >= 0) r->img.heights[p[q]] = fb[q];
     w->st.leaves++;
     w->st.tape_sum += len;
-    if (!nhit) return;
-    float gx[FREP_LANES], gy[FREP_LANES], gz[FREP_LANES];
-    int gp[FREP_LANES];
-    for (int m = 0; m < FREP_LANES; m++) {
-        int h = m < nhit ? m : 0;
-        gx[m] = px[pix[h]], gy[m] = py[pix[h]], gz[m] = r->zs[hitk[h]];
-        gp[m] = (int)p[pix[h]];
-    }
-    set_normals(r, w, ins, len, gp, nhit, gx, gy, gz);
 }
 
 static int min_height(const crisp_frep_renderer *r, int i0, int i1, int j0, int j1)
@@ -531,14 +545,14 @@ static void cell_3d_decided(crisp_frep_renderer *r, frep_worker *w, frep_span ct
         return;
     }
     if (hi < 0) {
-        fill_top(r, w, ct.ins, ct.len, i0, i1, j0, j1, k1 - 1);
+        fill_top(r, i0, i1, j0, j1, k1 - 1);
         w->st.filled++;
         return;
     }
     if (size <= LEAF) {
         uint8_t state[FREP_LANES];
         int sub = !(r->desc.flags & CRISP_FREP_NO_SUBCELLS);
-        if (sub) sub_states(r, w, ct.ins, ct.len, i0, i1, j0, j1, kk0, k1, state);
+        if (sub) sub = sub_states(r, w, ct.ins, ct.len, i0, i1, j0, j1, kk0, k1, state);
         leaf_3d(r, w, ct.ins, ct.len, i0, i1, j0, j1, kk0, k1, sub ? state : NULL);
         return;
     }
@@ -688,6 +702,9 @@ static void run_tasks(void *ctx, size_t begin, size_t end, int worker)
             /* a column of cubes, top down */
             for (int k0 = r->img.depth - t; k0 > -t; k0 -= t)
                 cell_3d(r, w, tk->tape, tk->i0, tk->j0, k0, t, 0);
+            int i1 = tk->i0 + t < r->img.width ? tk->i0 + t : r->img.width;
+            int j1 = tk->j0 + t < r->img.height ? tk->j0 + t : r->img.height;
+            tile_normals(r, w, tk->tape, tk->i0, i1, tk->j0, j1);
         }
     }
 }

@@ -579,6 +579,14 @@ static void check_model_3d(const char *name, int n)
             const float *nv = img->normal + 3 * p;
             float len = nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2];
             assert_float_equal(len, 1, 1e-4);
+            /* the normal is the full tape's gradient direction at the hit voxel */
+            int i = (int)(p % (size_t)n), j = (int)(p / (size_t)n);
+            float x = brute_coord(-1, 1, n, i), y = (float)(1 - (j + 0.5) * 2.0 / n);
+            float z = brute_coord(-1, 1, n, ref[p]), g[4];
+            assert_int_equal(crisp_frep_eval_grad(t, 1, &x, &y, &z, g), CRISP_OK);
+            float gl = sqrtf(g[1] * g[1] + g[2] * g[2] + g[3] * g[3]);
+            if (gl > 0 && isfinite(gl))
+                for (int c = 0; c < 3; c++) assert_float_equal(nv[c], g[1 + c] / gl, 1e-5);
             assert_true((img->inside[p] == 255));
         } else {
             assert_true(isinf(img->z[p]) && img->z[p] < 0);
