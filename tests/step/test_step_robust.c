@@ -349,6 +349,16 @@ static void test_lenient_syntax_and_partial_loss(void **state)
     assert_true(has_note(m, "defined twice with identical text"));
     assert_true(has_note(m, "shell #54 unreadable"));
     crisp_model_destroy(m);
+    /* An edge whose LINE runs from its end vertex to its start although same_sense is .T.
+     * (trj9_ap209-mp.stp): the sense is turned round and the face loads whole. */
+    char *h = replace(squares, "#22=LINE('',#10,#21)", "#22=LINE('',#11,#81);\n#80=DIRECTION('',(-1.,0.,0.));\n#81=VECTOR('',#80,1.)");
+    step_read_stats hs = {0};
+    assert_int_equal(crisp__step_read_mem("snippet.stp", h, strlen(h), NULL, &m, &hs), CRISP_OK);
+    assert_int_equal(m->face_count, 2);
+    assert_int_equal(hs.flipped_segments, 2); /* the edge is used by both faces */
+    for (int k = 0; k < 2; k++) assert_true(fabs(fabs(crisp_trim_loop_signed_area(&m->faces[k].loops[0])) - 1) < 1e-12);
+    crisp_model_destroy(m);
+    free(h);
     /* When every face fails, the file fails with the reason. */
     char *f = replace(d, "#36=EDGE_LOOP('',(#32,#33,#34,#35))", "#36=EDGE_LOOP('',(#32,#33,#34,#99))");
     assert_int_not_equal(read_str(f, &m), CRISP_OK);

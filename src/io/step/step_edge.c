@@ -251,6 +251,21 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
             else hi += c->period;
         }
     }
+    if (!(hi > lo) && !c->periodic && closed && c->kind == STEP_CURVE_BSPLINE) {
+        /* One vertex at both ends of an open curve (trj3_s1-al-214.stp): the edge is the whole
+         * curve; the closure check of the loop judges the gap. */
+        lo = c->t0, hi = c->t1;
+    } else if (hi < lo && !c->periodic) {
+        /* The curve runs against the edge's sense although same_sense says it agrees (a LINE whose
+         * direction points from the end vertex to the start, trj9_ap209-mp.stp): the vertices
+         * are what the loop joins, so the sense is turned round. */
+        double t = lo;
+        lo = hi, hi = t;
+        same ^= 1;
+        const double *v = first;
+        first = second, second = v;
+        r->stats->flipped_segments++;
+    }
     if (!(hi > lo)) {
         return crisp__step_fail(r, ee, CRISP_ERR_NUMERIC,
                                 "edge vertices at curve parameters %g and %g: expected an increasing range "
