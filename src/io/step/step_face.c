@@ -15,6 +15,7 @@
 #include "step_face.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #ifndef M_PI
@@ -103,6 +104,12 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
 #define JUMP_SAMPLES 1024
 #define MAX_JUMPS 8
 
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
 static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out, int *n, size_t *cap)
 {
     fit_ctx fc = {w, eu};
@@ -117,11 +124,7 @@ static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out
     /* A jump: a step far above the typical (median-like) step of the edge. */
     double sorted[JUMP_SAMPLES];
     memcpy(sorted, steps, sizeof sorted);
-    for (int i = 1; i < JUMP_SAMPLES; i++)
-        for (int j = i; j > 0 && sorted[j - 1] > sorted[j]; j--) {
-            double t = sorted[j];
-            sorted[j] = sorted[j - 1], sorted[j - 1] = t;
-        }
+    qsort(sorted, JUMP_SAMPLES, sizeof *sorted, cmp_double);
     double typical = sorted[JUMP_SAMPLES / 2], limit = fmax(50 * typical, 100 * w->tol_uv);
     cuts[ncut++] = 0;
     for (int i = 0; i < JUMP_SAMPLES; i++) {
