@@ -33,6 +33,7 @@ typedef struct frep_worker {
     frep_shorten_scratch sc;
     uint8_t *choices;
     uint8_t *lane_choices; /* 3D: MAX_DEPTH x 8 children x tape length */
+    size_t task_len;       /* 3D: length of the current task's tape (for normals) */
     float *lo, *hi, *regs, *gregs;
     uint8_t *live;
     crisp_frep_render_stats st;
@@ -49,6 +50,7 @@ struct crisp_frep_renderer {
     crisp_frep_render_desc desc;
     crisp_frep_image img;
     float *xs, *ys, *zs;
+    uint8_t *deferred; /* 3D: per pixel, 1 while its normal waits for its tile's batch */
     crisp_pool *pool;
     int threads, task_size;
     frep_worker *workers;
@@ -85,6 +87,7 @@ void crisp_frep_renderer_destroy(crisp_frep_renderer *r)
     crisp_free(r->xs);
     crisp_free(r->ys);
     crisp_free(r->zs);
+    crisp_free(r->deferred);
     crisp_free(r->img.inside);
     crisp_free(r->img.heights);
     crisp_free(r->img.z);
@@ -134,9 +137,10 @@ crisp_status crisp_frep_renderer_create(const crisp_frep_tape *tape,
         r->img.heights = crisp_malloc_array(npix, sizeof *r->img.heights);
         r->img.z = crisp_malloc_array(npix, sizeof *r->img.z);
         r->img.normal = crisp_malloc_array(npix, 3 * sizeof *r->img.normal);
+        r->deferred = crisp_calloc_array(npix, 1);
     }
     if (!r->xs || !r->ys || !r->zs || !r->img.inside ||
-        (D > 0 && (!r->img.heights || !r->img.z || !r->img.normal)))
+        (D > 0 && (!r->img.heights || !r->img.z || !r->img.normal || !r->deferred)))
         goto oom;
     for (int i = 0; i < W; i++) r->xs[i] = (float)(g[0] + (i + 0.5) * (g[1] - g[0]) / W);
     for (int j = 0; j < H; j++) r->ys[j] = (float)(g[3] - (j + 0.5) * (g[3] - g[2]) / H);
@@ -327,18 +331,48 @@ static void set_normals(crisp_frep_renderer *r, frep_worker *w, const frep_ins *
     }
 }
 
-/* Raise pixels below voxel k to k (the cell is all inside at its top layer k). */
-static void fill_top(crisp_frep_renderer *r, int i0, int i1, int j0, int j1, int k)
+/* Normals of hit pixels pix[0, n) at voxels hk: now on the cell's tape ins[0, len) when that
+ * costs less than their share of a full batch on the task's tape, else deferred to the task
+ * tile's batches (tile_normals). Smooth blends (bear) keep long tapes down to the leaves and
+ * defer; min/max-heavy models (colonnade) shorten to a few instructions and compute now. */
+static void hit_normals(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len,
+                        const int *pix, const int *hk, int n)
 {
-    for (int j = j0; j < j1; j++) {
-        int32_t *row = r->img.heights + (size_t)j * r->img.width;
-        for (int i = i0; i < i1; i++) row[i] = row[i] < k ? k : row[i];
+    if (!n) return;
+    if (len * FREP_LANES >= w->task_len * (size_t)n) {
+        for (int q = 0; q < n; q++) r->deferred[pix[q]] = 1;
+        return;
     }
+    float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
+    int W = r->img.width;
+    for (int m = 0; m < FREP_LANES; m++) {
+        int q = m < n ? m : 0;
+        x[m] = r->xs[pix[q] % W], y[m] = r->ys[pix[q] / W], z[m] = r->zs[hk[q]];
+    }
+    set_normals(r, w, ins, len, pix, n, x, y, z);
 }
 
-/* Normals of the hit pixels of a task tile [i0,i1) x [j0,j1), once its column is done, on the
- * task's tape (valid for the whole column) in full batches: far fewer gradient passes than one
- * per leaf or filled cell, each a little longer. */
+/* Raise pixels below voxel k to k (the cell is all inside at its top layer k). */
+static void fill_top(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
+                     int i1, int j0, int j1, int k)
+{
+    int pix[FREP_LANES], hk[FREP_LANES], n = 0;
+    for (int j = j0; j < j1; j++)
+        for (int i = i0; i < i1; i++) {
+            size_t p = (size_t)j * r->img.width + i;
+            if (r->img.heights[p] >= k) continue;
+            r->img.heights[p] = k;
+            pix[n] = (int)p, hk[n] = k;
+            if (++n == FREP_LANES) {
+                hit_normals(r, w, ins, len, pix, hk, n);
+                n = 0;
+            }
+        }
+    hit_normals(r, w, ins, len, pix, hk, n);
+}
+
+/* The deferred normals of a task tile [i0,i1) x [j0,j1), once its column is done, on the task's
+ * tape (valid for the whole column) in full batches. */
 static void tile_normals(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int i1,
                          int j0, int j1)
 {
@@ -347,9 +381,9 @@ static void tile_normals(crisp_frep_renderer *r, frep_worker *w, frep_span t, in
     for (int j = j0; j < j1; j++)
         for (int i = i0; i < i1; i++) {
             size_t p = (size_t)j * r->img.width + i;
-            int h = r->img.heights[p];
-            if (h < 0) continue;
-            pix[n] = (int)p, x[n] = r->xs[i], y[n] = r->ys[j], z[n] = r->zs[h];
+            if (!r->deferred[p]) continue;
+            r->deferred[p] = 0;
+            pix[n] = (int)p, x[n] = r->xs[i], y[n] = r->ys[j], z[n] = r->zs[r->img.heights[p]];
             if (++n == FREP_LANES) {
                 set_normals(r, w, t.ins, t.len, pix, n, x, y, z);
                 n = 0;
@@ -441,7 +475,7 @@ static void leaf_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
     float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
     int lane_pix[FREP_LANES], lane_k[FREP_LANES];
     int cand[FREP_LANES][LEAF], nc[FREP_LANES], pos[FREP_LANES], fb[FREP_LANES];
-    int npix = 0, open = 0;
+    int hitp[FREP_LANES], hitk[FREP_LANES], nhit = 0, npix = 0, open = 0;
     size_t p[FREP_LANES];
     float px[FREP_LANES], py[FREP_LANES];
     for (int j = j0; j < j1; j++)
@@ -506,6 +540,8 @@ static void leaf_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
             if (pos[q] >= nc[q]) continue; /* decided by an earlier lane of this batch */
             if (v[k] < 0) {
                 r->img.heights[p[q]] = lane_k[k];
+                hitp[nhit] = (int)p[q];
+                hitk[nhit++] = lane_k[k];
                 pos[q] = nc[q] + 1;
                 fb[q] = -1;
                 open--;
@@ -516,9 +552,14 @@ static void leaf_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
     }
     /* no candidate hit: the top of the first inside sub-cell */
     for (int q = 0; q < npix; q++)
-        if (fb[q] >= 0) r->img.heights[p[q]] = fb[q];
+        if (fb[q] >= 0) {
+            r->img.heights[p[q]] = fb[q];
+            hitp[nhit] = (int)p[q];
+            hitk[nhit++] = fb[q];
+        }
     w->st.leaves++;
     w->st.tape_sum += len;
+    hit_normals(r, w, ins, len, hitp, hitk, nhit);
 }
 
 static int min_height(const crisp_frep_renderer *r, int i0, int i1, int j0, int j1)
@@ -545,7 +586,7 @@ static void cell_3d_decided(crisp_frep_renderer *r, frep_worker *w, frep_span ct
         return;
     }
     if (hi < 0) {
-        fill_top(r, i0, i1, j0, j1, k1 - 1);
+        fill_top(r, w, ct.ins, ct.len, i0, i1, j0, j1, k1 - 1);
         w->st.filled++;
         return;
     }
@@ -601,7 +642,10 @@ static void children_3d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int
             w->st.culled++;
             continue;
         }
-        frep_span ct = clo[q] >= 0 ? t : child_tape(r, w, t, choices + (size_t)q * len, decided[q], depth);
+        /* a leaf keeps its parent's tape when it decided few min/max: on bear (smooth blends)
+         * pruning for a leaf cost more than the shorter tape saved (7%) */
+        int keep = clo[q] >= 0 || (c <= LEAF && decided[q] * PRUNE_RATIO <= len);
+        frep_span ct = keep ? t : child_tape(r, w, t, choices + (size_t)q * len, decided[q], depth);
         cell_3d_decided(r, w, ct, ci0[q], ci1[q], cj0[q], cj1[q], ck0[q], ckk0[q], ck1[q], c, depth,
                         clo[q], chi[q]);
     }
@@ -700,6 +744,7 @@ static void run_tasks(void *ctx, size_t begin, size_t end, int worker)
             cell_2d(r, w, tk->tape, tk->i0, tk->j0, t, 0);
         } else {
             /* a column of cubes, top down */
+            w->task_len = tk->tape.len;
             for (int k0 = r->img.depth - t; k0 > -t; k0 -= t)
                 cell_3d(r, w, tk->tape, tk->i0, tk->j0, k0, t, 0);
             int i1 = tk->i0 + t < r->img.width ? tk->i0 + t : r->img.width;
