@@ -17,7 +17,8 @@
  *    distance max(|dx|, |dy|) in pixels between the triangle's point and the true surface at the
  *    triangle's interpolated (u, v).
  *
- *   bench_occt [RUNS]          (default 7: crisp frames and BRepMesh runs, medians) */
+ *   bench_occt [RUNS [ANGLE]]   RUNS: crisp frames and BRepMesh runs, medians (default 7);
+ *                               ANGLE: BRepMesh's angular deflection in radians (default 0.5) */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -145,10 +146,18 @@ int main(int argc, char **argv)
 {
     int runs = argc > 1 ? atoi(argv[1]) : 7;
     if (runs < 1) runs = 1;
+    double angle = argc > 2 ? atof(argv[2]) : 0.5;
+    if (!(angle > 0 && angle < 3.2)) {
+        fprintf(stderr, "bench_occt: angular deflection '%s': expected radians in (0, 3.2)\n",
+                argv[2]);
+        return 2;
+    }
     bench_print_machine(stdout);
-    printf("%dx%d, default camera (crisp_camera_frame_box: the scene's box, looking along -Z, "
-           "fov 30), %d threads, medians of %d runs (crisp: after a warm-up frame)\n\n",
-           WIDTH, HEIGHT, THREADS, runs);
+    printf(
+        "%dx%d, default camera (crisp_camera_frame_box: the scene's box, looking along -Z, "
+        "fov 30), %d threads, medians of %d runs (crisp: after a warm-up frame); BRepMesh angular "
+        "deflection %g rad\n\n",
+        WIDTH, HEIGHT, THREADS, runs, angle);
     static const struct {
         const char *name;
         int sew;
@@ -179,6 +188,7 @@ int main(int argc, char **argv)
         occt_mesh_desc d = {.path = path,
                             .sew = models[mi].sew,
                             .sew_rel_tol = 1e-4,
+                            .ang_deflection = angle,
                             .threads = THREADS,
                             .runs = runs,
                             .znear = cam.znear,
