@@ -185,7 +185,7 @@ typedef struct bcurve {
 static void bcurve_uv(const bcurve *c, double t, double uv[2])
 {
     if (c->piece) {
-        crisp_bezier_curve_eval(c->piece, c->piece->t0 + t * (c->piece->t1 - c->piece->t0), uv);
+        crisp_bezier_curve_eval(c->piece, t, uv); /* local parameter */
     } else {
         uv[0] = c->a[0] + t * (c->b[0] - c->a[0]);
         uv[1] = c->a[1] + t * (c->b[1] - c->a[1]);
