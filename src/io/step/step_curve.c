@@ -257,6 +257,39 @@ static crisp_status conic(step_reader *r, const step_entity *e, step_curve *c, i
     return CRISP_OK;
 }
 
+/* HYPERBOLA(name, position, semi_axis, semi_imag_axis) and PARABOLA(name, position, focal_dist)
+ * (ISO 10303-42 4.4.13-14): unbounded like lines; edges and trims bound them. */
+static crisp_status open_conic(step_reader *r, const step_entity *e, step_curve *c, int hyperbola)
+{
+    const step_part *p = crisp__step_part(r, e, hyperbola ? "HYPERBOLA" : "PARABOLA");
+    const step_entity *ae;
+    crisp_status st;
+    if ((st = crisp__step_get_ref(r, e, p, 1, &ae)) || (st = crisp__step_placement(r, ae, &c->pl)) ||
+        (st = crisp__step_get_real(r, e, p, 2, &c->rx)))
+        return st;
+    c->ry = c->rx;
+    if (hyperbola && (st = crisp__step_get_real(r, e, p, 3, &c->ry))) return st;
+    if (!(c->rx > 0) || !(c->ry > 0) || !isfinite(c->rx) || !isfinite(c->ry))
+        return crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "expected positive finite axes");
+    c->dim = crisp__step_is(r, ae, "AXIS2_PLACEMENT_2D") ? 2 : 3;
+    c->kind = hyperbola ? STEP_CURVE_HYPERBOLA : STEP_CURVE_PARABOLA;
+    c->t0 = -INFINITY;
+    c->t1 = INFINITY;
+    return CRISP_OK;
+}
+
+/* Local coordinates (along x, y of the placement) of the point at t, and their derivative. */
+static void open_conic_local(const step_curve *c, double t, double xy[2], double dxy[2])
+{
+    if (c->kind == STEP_CURVE_HYPERBOLA) {
+        xy[0] = c->rx * cosh(t), xy[1] = c->ry * sinh(t);
+        dxy[0] = c->rx * sinh(t), dxy[1] = c->ry * cosh(t);
+    } else {
+        xy[0] = c->rx * t * t, xy[1] = 2 * c->rx * t;
+        dxy[0] = 2 * c->rx * t, dxy[1] = 2 * c->rx;
+    }
+}
+
 void crisp__step_curve_eval(const step_curve *c, double t, double *dest)
 {
     double x[3];
@@ -267,6 +300,13 @@ void crisp__step_curve_eval(const step_curve *c, double t, double *dest)
     case STEP_CURVE_CONIC: {
         double a = c->rx * cos(t), b = c->ry * sin(t);
         for (int k = 0; k < 3; k++) x[k] = c->pl.origin[k] + a * c->pl.x[k] + b * c->pl.y[k];
+        break;
+    }
+    case STEP_CURVE_HYPERBOLA:
+    case STEP_CURVE_PARABOLA: {
+        double xy[2], dxy[2];
+        open_conic_local(c, t, xy, dxy);
+        for (int k = 0; k < 3; k++) x[k] = c->pl.origin[k] + xy[0] * c->pl.x[k] + xy[1] * c->pl.y[k];
         break;
     }
     default:
@@ -318,6 +358,30 @@ double crisp__step_curve_invert(const step_curve *c, const double *p, double lo,
             t -= k * 2 * M_PI;
         }
         return t;
+    }
+    if (c->kind == STEP_CURVE_HYPERBOLA || c->kind == STEP_CURVE_PARABOLA) {
+        /* From the point's local y (exact on the curve), then Newton on the squared distance. */
+        double q[3] = {0, 0, 0}, a = 0, b = 0;
+        for (int k = 0; k < c->dim; k++) q[k] = p[k] - c->pl.origin[k];
+        for (int k = 0; k < 3; k++) a += q[k] * c->pl.x[k], b += q[k] * c->pl.y[k];
+        double t = c->kind == STEP_CURVE_HYPERBOLA ? asinh(b / c->ry) : b / (2 * c->rx);
+        for (int it = 0; it < 20 && isfinite(t); it++) {
+            double xy[2], d1[2], d2[2], h = 1e-6 * (1 + fabs(t));
+            open_conic_local(c, t, xy, d1);
+            double e[2] = {xy[0] - a, xy[1] - b};
+            double f = e[0] * d1[0] + e[1] * d1[1];
+            double xp[2], dp[2];
+            open_conic_local(c, t + h, xp, dp);
+            d2[0] = (dp[0] - d1[0]) / h, d2[1] = (dp[1] - d1[1]) / h;
+            double df = d1[0] * d1[0] + d1[1] * d1[1] + e[0] * d2[0] + e[1] * d2[1];
+            if (!(df > 0)) break;
+            double step = f / df;
+            if (fabs(step) > 1) step = step > 0 ? 1 : -1;
+            t -= step;
+            if (fabs(step) < 1e-15 * (1 + fabs(t))) break;
+        }
+        if (!isfinite(t)) t = 0;
+        return t < lo ? lo : t > hi ? hi : t;
     }
     /* B-spline: sample, then golden-section search around the best sample. */
     if (!isfinite(lo)) lo = c->t0;
@@ -379,6 +443,26 @@ crisp_status crisp__step_curve_nurbs(const step_curve *c, double t0, double t1, 
             return crisp_error(CRISP_ERR_NUMERIC, "curve #%d: arc of more than a full turn", c->id);
         if (t1 - t0 > 2 * M_PI) t1 = t0 + 2 * M_PI;
         st = crisp_make_arc(c->dim, c->pl.origin, c->pl.x, c->pl.y, c->rx, c->ry, t0, t1, dest);
+    } else if (c->kind == STEP_CURVE_HYPERBOLA || c->kind == STEP_CURVE_PARABOLA) {
+        /* One rational (hyperbola) or polynomial (parabola) quadratic Bezier: the end points, the
+         * tangents' intersection and, for the hyperbola, the middle weight cosh of half the
+         * parameter span (as cos of the half angle for an ellipse). */
+        if (!isfinite(t0) || !isfinite(t1) || (c->kind == STEP_CURVE_HYPERBOLA && t1 - t0 > 40))
+            return crisp_error(CRISP_ERR_NUMERIC, "curve #%d: hyperbola or parabola range [%g, %g] too long", c->id, t0, t1);
+        double m = 0.5 * (t0 + t1), h = 0.5 * (t1 - t0), loc[3][2], w[3] = {1, 1, 1}, d[2];
+        open_conic_local(c, t0, loc[0], d);
+        open_conic_local(c, t1, loc[2], d);
+        if (c->kind == STEP_CURVE_HYPERBOLA) {
+            loc[1][0] = c->rx * cosh(m) / cosh(h), loc[1][1] = c->ry * sinh(m) / cosh(h);
+            w[1] = cosh(h);
+        } else {
+            loc[1][0] = c->rx * t0 * t1, loc[1][1] = c->rx * (t0 + t1);
+        }
+        double pts[9], knots[6] = {t0, t0, t0, t1, t1, t1};
+        for (int i = 0; i < 3; i++)
+            for (int k = 0; k < c->dim; k++)
+                pts[c->dim * i + k] = c->pl.origin[k] + loc[i][0] * c->pl.x[k] + loc[i][1] * c->pl.y[k];
+        st = crisp_curve_create(c->dim, 2, 3, knots, pts, c->kind == STEP_CURVE_HYPERBOLA ? w : NULL, dest);
     } else {
         double a, b;
         crisp_curve_domain(c->nurbs, &a, &b);
@@ -417,6 +501,8 @@ crisp_status crisp__step_curve(step_reader *r, const step_entity *e, step_curve 
     if (crisp__step_is(r, e, "LINE")) st = line(r, e, dest);
     else if (crisp__step_is(r, e, "CIRCLE")) st = conic(r, e, dest, 0);
     else if (crisp__step_is(r, e, "ELLIPSE")) st = conic(r, e, dest, 1);
+    else if (crisp__step_is(r, e, "HYPERBOLA")) st = open_conic(r, e, dest, 1);
+    else if (crisp__step_is(r, e, "PARABOLA")) st = open_conic(r, e, dest, 0);
     else if (crisp__step_is(r, e, "B_SPLINE_CURVE_WITH_KNOTS") || crisp__step_is(r, e, "B_SPLINE_CURVE") ||
              crisp__step_is(r, e, "QUASI_UNIFORM_CURVE") || crisp__step_is(r, e, "UNIFORM_CURVE") ||
              crisp__step_is(r, e, "BEZIER_CURVE"))

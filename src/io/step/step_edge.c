@@ -229,7 +229,10 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
     /* Against a reversed trimmed curve, the edge's sense is against the basis curve's. */
     same ^= c->reversed;
     const double *first = same ? ps : pe, *second = same ? pe : ps;
-    int closed = vs == ve || crisp__step_dist3(ps, pe) <= r->tol;
+    /* Two vertex entities at one point also close an edge; two merely within the tolerance do
+     * not: on a model whose tolerance is coarse for its small features (trj6_b1-ec-214.stp:
+     * 0.3 beside arcs a few units long) short arcs would become full circles. */
+    int closed = vs == ve || crisp__step_dist3(ps, pe) <= 1e-3 * r->tol;
     double lo = crisp__step_curve_invert(c, first, c->t0, c->t1);
     double hi = crisp__step_curve_invert(c, second, c->t0, c->t1);
     if (c->periodic) {

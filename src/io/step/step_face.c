@@ -60,11 +60,12 @@ static void affine2(crisp_curve *c, const double shift[2], int swap)
 }
 
 /* Largest distance between the images S(uv(s)) of curves first..n-1 and the edge's 3D curve. */
-static void verify_edge(face_work *w, const crisp_surface *s, const edge_use *eu, crisp_curve **curves, int first,
-                        int n)
+static double verify_edge(face_work *w, const crisp_surface *s, const edge_use *eu, crisp_curve **curves, int first,
+                          int n)
 {
     const step_curve *c = &eu->c3;
-    if (c->dim != 3) return; /* a boundary segment given only as a pcurve */
+    double worst = 0;
+    if (c->dim != 3) return 0; /* a boundary segment given only as a pcurve */
     double lo = eu->lo, hi = eu->hi;
     if (c->kind == STEP_CURVE_BSPLINE) lo = c->t0, hi = c->t1;
     for (int k = first; k < n; k++) {
@@ -87,11 +88,14 @@ static void verify_edge(face_work *w, const crisp_surface *s, const edge_use *eu
                 crisp__step_surface_eval(&w->s, quv[0], quv[1], sq);
             }
             double gap = crisp__step_dist3(q, sq);
-            if (gap > w->r->stats->max_edge_gap) w->r->stats->max_edge_gap = gap;
             double d = crisp__step_dist3(p, sq);
+            if (d > worst) worst = d;
+            if (!w->r->stats->verify) continue;
+            if (gap > w->r->stats->max_edge_gap) w->r->stats->max_edge_gap = gap;
             if (d > w->r->stats->max_edge_dev) w->r->stats->max_edge_dev = d;
         }
     }
+    return worst;
 }
 
 static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***out, int *n, size_t *cap);
@@ -140,6 +144,9 @@ static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out
             if (hypot(pm[0] - pa[0], pm[1] - pa[1]) < hypot(pb[0] - pm[0], pb[1] - pm[1])) a = m, pa[0] = pm[0], pa[1] = pm[1];
             else b = m, pb[0] = pm[0], pb[1] = pm[1];
         }
+        /* A true jump stays a jump however small the bracket; a fast but continuous turn (an
+         * edge passing near a pole, trj6_b1-ec-214.stp) shrinks away: not cut. */
+        if (!(hypot(pb[0] - pa[0], pb[1] - pa[1]) > 0.5 * limit)) continue;
         cuts[ncut++] = 0.5 * (a + b);
     }
     cuts[ncut++] = 1;
@@ -162,8 +169,19 @@ static crisp_status edge_trims(face_work *w, const crisp_surface *s, edge_use *e
                                size_t *cap)
 {
     int first = *n;
+    w->repaired = 0;
     crisp_status st = edge_trims_any(w, eu, out, n, cap);
-    if (!st && w->r->stats->verify) verify_edge(w, s, eu, *out, first, *n);
+    /* Trims that needed a repair (fitted piecewise, projected at a looser tolerance), and all
+     * trims on elementary surfaces (where the check is cheap: analytic inversion), are checked
+     * against their edge: a face is better dropped with a note than drawn wrong (real files have
+     * pcurves and senses that disagree with their edges in ways the reader cannot untangle). */
+    int check = w->repaired || w->s.kind != STEP_SURF_BSPLINE;
+    if (!st && (w->r->stats->verify || check)) {
+        double dev = verify_edge(w, s, eu, *out, first, *n);
+        if (check && dev > 20 * w->r->tol)
+            st = crisp_error(CRISP_ERR_NUMERIC, "%s: #%d: the trim of edge #%d lies %.3g from the edge (tolerance %.3g)",
+                             w->r->f->name, w->fe->id, eu->id, dev, w->r->tol);
+    }
     return st;
 }
 
@@ -251,6 +269,7 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
             st = crisp_surface_project_curve(s->nurbs, c3, d0, d1, r->tol, &tmp[k]);
             for (double f = 0.25; st == CRISP_ERR_LIMIT && f > 0.01; f *= 0.25) {
                 crisp_error_clear();
+                w->repaired = 1;
                 st = crisp_surface_project_curve(s->nurbs, c3, d0, d1, f * r->tol, &tmp[k]);
             }
             /* Last, a looser one (up to 16 times): a face whose trim is off by 1.6e-4 of the
@@ -259,6 +278,7 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
                 crisp_error_clear();
                 st = crisp_surface_project_curve(s->nurbs, c3, d0, d1, f * r->tol, &tmp[k]);
                 if (!st) {
+                    w->repaired = 1;
                     r->stats->loose_projections++;
                     crisp_model_note_skip(r->model, "STEP edge trim projected within 4-16x the tolerance (tighter failed)");
                 }
@@ -286,6 +306,7 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
     st = crisp_fit_curve(2, fit_fn, &fc, 0, 1, w->tol_uv, 1024, &c);
     if (st == CRISP_ERR_LIMIT) {
         crisp_error_clear();
+        w->repaired = 1;
         if ((st = fit_in_pieces(w, eu, out, n, cap)) == CRISP_OK) return CRISP_OK;
     }
     if (st) {
@@ -661,7 +682,17 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
             outer = wl[0];
             nw = 0;
         }
-        if (nw == 1 && w.ncap == 0 && w.s.kind == STEP_SURF_SPHERE && wk == 0) {
+        /* (Only for loops that keep away from the poles or pass exactly through one, where the
+         * trims are cut and bridged along the pole: one that passes near a pole turns fast in u
+         * and can seem to wind; it is refused below.) */
+        double vmax = 0;
+        for (int k = 0; nw == 1 && k < w.loops[wl[0]].count; k++) {
+            const edge_use *eu = &w.loops[wl[0]].edges[k];
+            for (int i = 0; i < eu->ns; i++) vmax = fmax(vmax, fabs(eu->uv[2 * i + 1]));
+        }
+        if (nw == 1 && w.ncap == 0 && w.s.kind == STEP_SURF_SPHERE && wk == 0 && (vmax < M_PI / 2 - 0.05 || vmax > M_PI / 2 - 1e-9) &&
+            w.loops[wl[0]].box[1] - w.loops[wl[0]].box[0] <= 2 * M_PI * (1 + 1e-9)) {
+            /* (And only when the loop spans at most one turn: one surface of one turn holds it.) */
             /* One loop around a sphere and no vertex loop (a cap bounded by a circle): the face
              * holds the pole on its left, seen along the face normal. (u, v, outward normal) is
              * right handed, so a loop running towards +u has the north pole on its left. */

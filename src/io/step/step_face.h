@@ -43,6 +43,7 @@ typedef struct face_work {
     double cap_pt[2][3];
     int cap_k;                    /* band_a closed at the degenerate line (coordinate 1 - cap_k) = cap_v */
     double cap_v;
+    int repaired;                 /* the edge in progress needed a repair (checked afterwards) */
 } face_work;
 
 /* Set up the work of a face (or curve-bounded surface) fe on surface entity se. */

@@ -158,7 +158,9 @@ crisp_status crisp__step_placement(step_reader *r, const step_entity *e, crisp_p
 typedef enum step_curve_kind {
     STEP_CURVE_LINE,    /* p + t * d */
     STEP_CURVE_CONIC,   /* circle or ellipse: o + rx cos t x + ry sin t y */
-    STEP_CURVE_BSPLINE  /* nurbs over its own domain */
+    STEP_CURVE_BSPLINE, /* nurbs over its own domain */
+    STEP_CURVE_HYPERBOLA, /* o + rx cosh t x + ry sinh t y */
+    STEP_CURVE_PARABOLA   /* o + rx (t^2 x + 2 t y), rx the focal distance */
 } step_curve_kind;
 
 /* A curve in the file's own parametrisation (the one vertex and pcurve parameters refer to). */
@@ -183,7 +185,7 @@ crisp_status crisp__step_implied_knots(step_reader *r, const step_entity *e, int
 /* The SURFACE_CURVE (SEAM_CURVE, ...) part of e; *off is the index of its curve_3d parameter
  * (after the name in a simple instance, first in a complex one). */
 const step_part *crisp__step_surface_curve_part(const step_reader *r, const step_entity *e, int *off);
-/* Convert a curve entity (LINE, CIRCLE, ELLIPSE, B_SPLINE_CURVE_WITH_KNOTS (rational too),
+/* Convert a curve entity (LINE, CIRCLE, ELLIPSE, HYPERBOLA, PARABOLA, B_SPLINE_CURVE_WITH_KNOTS (rational too),
  * TRIMMED_CURVE, SURFACE_CURVE / SEAM_CURVE (their 3D curve), POLYLINE). */
 crisp_status crisp__step_curve(step_reader *r, const step_entity *e, step_curve *dest);
 void crisp__step_curve_free(step_curve *c);

@@ -406,8 +406,10 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
          * the fraction: still far finer than the model's). */
         double fd = face_diagonal(&r, &fs, fe);
         r.tol = fd > 0 && 100 * frac * fd < tol_model ? 100 * frac * fd : tol_model;
+        double dev_before = stats->max_edge_dev;
         st = convert_face(&r, &fl.refs[i], fe, &face);
         r.tol = tol_model;
+        if (st) stats->max_edge_dev = dev_before; /* a dropped face's trims are not in the model */
         if (st == CRISP_ERR_NO_MEMORY) goto done;
         if (st) {
             /* Drop the face, saying which and why (without the file name: the note is short). */

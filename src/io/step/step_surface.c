@@ -184,6 +184,10 @@ crisp_status crisp__step_surface(step_reader *r, const step_entity *e, step_surf
         st = crisp__step_fail(r, e, CRISP_ERR_UNSUPPORTED, "unsupported surface type %s",
                               crisp__step_type(r, e, type, sizeof type));
     }
+    if (!st && (s->kind == STEP_SURF_REVOLUTION || s->kind == STEP_SURF_EXTRUSION) &&
+        (s->profile.kind == STEP_CURVE_HYPERBOLA || s->profile.kind == STEP_CURVE_PARABOLA) &&
+        !(isfinite(s->profile.t0) && isfinite(s->profile.t1)))
+        st = crisp__step_fail(r, e, CRISP_ERR_UNSUPPORTED, "swept curve: an unbounded hyperbola or parabola");
     r->depth--;
     if (st) crisp__step_surface_free(s);
     return st;
