@@ -38,6 +38,7 @@ typedef struct crisp_result {
     unsigned long long triangles, ribbon_triangles;
     unsigned visible_patches;
     double plan_tess_ms, plan_tess_min, plan_tess_max, frame_ms;
+    double nearest_drawn; /* smallest depth in crisp's image: the nearest pixel centre's hit */
     double worst_px, worst_px_euclid;
     long long samples;
 } crisp_result;
@@ -117,6 +118,9 @@ static crisp_result run_crisp(const crisp_scene *sc, const crisp_camera *cam, in
     res.plan_tess_max = pt[runs - 1];
     res.frame_ms = bench_median(fr, runs);
     crisp_mesh_error(r, sc, cam, &res);
+    res.nearest_drawn = INFINITY;
+    for (size_t k = 0; k < (size_t)img.width * (size_t)img.height; k++)
+        if (img.depth[k] < res.nearest_drawn) res.nearest_drawn = img.depth[k];
     free(pt);
     free(fr);
     crisp_image_free(&img);
@@ -224,14 +228,16 @@ int main(int argc, char **argv)
             fflush(stdout);
             if (o.worst_px <= 0.5) break;
         }
-        snprintf(notes[mi], sizeof notes[mi],
-                 "%s: scene box (%.5g %.5g %.5g)-(%.5g %.5g %.5g), Open CASCADE box "
-                 "(%.5g %.5g %.5g)-(%.5g %.5g %.5g); eye (%.5g %.5g %.5g), near %.5g; "
-                 "nearest depth %.5g -> 0.5 px = %.4g model units; BRepMesh at that deflection "
-                 "took %.2fx the time of crisp's plan + tess (same run)",
-                 models[mi].name, sc->box[0], sc->box[1], sc->box[2], sc->box[3], sc->box[4],
-                 sc->box[5], o.box[0], o.box[1], o.box[2], o.box[3], o.box[4], o.box[5], cam.eye[0],
-                 cam.eye[1], cam.eye[2], cam.znear, z, defl, first_ms / c.plan_tess_ms);
+        snprintf(
+            notes[mi], sizeof notes[mi],
+            "%s: scene box (%.5g %.5g %.5g)-(%.5g %.5g %.5g), Open CASCADE box "
+            "(%.5g %.5g %.5g)-(%.5g %.5g %.5g); eye (%.5g %.5g %.5g), near %.5g; "
+            "nearest depth %.5g (nearest depth crisp drew: %.5g) -> 0.5 px = %.4g model units; "
+            "BRepMesh at that deflection "
+            "took %.2fx the time of crisp's plan + tess (same run)",
+            models[mi].name, sc->box[0], sc->box[1], sc->box[2], sc->box[3], sc->box[4], sc->box[5],
+            o.box[0], o.box[1], o.box[2], o.box[3], o.box[4], o.box[5], cam.eye[0], cam.eye[1],
+            cam.eye[2], cam.znear, z, c.nearest_drawn, defl, first_ms / c.plan_tess_ms);
         crisp_scene_destroy(sc);
         crisp_model_destroy(m);
     }
