@@ -432,6 +432,59 @@ static void test_small_face_in_huge_model(void **state)
     crisp_model_destroy(m);
 }
 
+/* Plane faces bounded by a hyperbola arc (x^2/4 - y^2 = 1, t in [-1, 1]) and by a parabola arc
+ * (y^2 = 4 x, focal distance 1, t in [-1, 1]), each closed by a line: the trims lie on the conics. */
+static void test_hyperbola_parabola(void **state)
+{
+    (void)state;
+    static const char text[] = HEAD
+        "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+        "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=PLANE('',#4);\n#6=DIRECTION('',(0.,1.,0.));\n#7=VECTOR('',#6,1.);\n"
+        "#10=HYPERBOLA('',#4,2.,1.);\n"
+        "#11=CARTESIAN_POINT('',(3.0861612696304874,-1.1752011936438014,0.));\n"
+        "#12=CARTESIAN_POINT('',(3.0861612696304874,1.1752011936438014,0.));\n"
+        "#13=VERTEX_POINT('',#11);\n#14=VERTEX_POINT('',#12);\n#15=EDGE_CURVE('',#13,#14,#10,.T.);\n"
+        "#16=LINE('',#11,#7);\n#17=EDGE_CURVE('',#14,#13,#16,.F.);\n"
+        "#18=ORIENTED_EDGE('',*,*,#15,.T.);\n#19=ORIENTED_EDGE('',*,*,#17,.T.);\n#20=EDGE_LOOP('',(#18,#19));\n"
+        "#21=FACE_OUTER_BOUND('',#20,.T.);\n#22=ADVANCED_FACE('',(#21),#5,.T.);\n"
+        "#30=PARABOLA('',#4,1.);\n#31=CARTESIAN_POINT('',(1.,-2.,0.));\n#32=CARTESIAN_POINT('',(1.,2.,0.));\n"
+        "#33=VERTEX_POINT('',#31);\n#34=VERTEX_POINT('',#32);\n#35=EDGE_CURVE('',#33,#34,#30,.T.);\n"
+        "#36=LINE('',#31,#7);\n#37=EDGE_CURVE('',#34,#33,#36,.F.);\n"
+        "#38=ORIENTED_EDGE('',*,*,#35,.T.);\n#39=ORIENTED_EDGE('',*,*,#37,.T.);\n#40=EDGE_LOOP('',(#38,#39));\n"
+        "#41=FACE_OUTER_BOUND('',#40,.T.);\n#42=ADVANCED_FACE('',(#41),#5,.T.);\n"
+        "#50=OPEN_SHELL('',(#22,#42));\n" TAIL;
+    crisp_model *m;
+    assert_int_equal(read_str(text, &m), CRISP_OK);
+    assert_int_equal(m->face_count, 2);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-9, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    for (int f = 0; f < 2; f++) {
+        const crisp_face *face = &m->faces[f];
+        int hyper = face->source_id == 22, on_conic = 0;
+        for (int k = 0; k < face->loops[0].curve_count; k++) {
+            const crisp_curve *cv = face->loops[0].curves[k];
+            double t0, t1, a[2], b[2], mid[2];
+            crisp_curve_domain(cv, &t0, &t1);
+            crisp_curve_eval(cv, t0, a);
+            crisp_curve_eval(cv, t1, b);
+            crisp_curve_eval(cv, 0.5 * (t0 + t1), mid);
+            if (fabs(a[0] - mid[0]) < 1e-9 && fabs(b[0] - mid[0]) < 1e-9) continue; /* the closing line */
+            on_conic++;
+            for (int i = 0; i <= 50; i++) {
+                double uv[2], p[3];
+                crisp_curve_eval(cv, t0 + (t1 - t0) * i / 50, uv);
+                crisp_surface_eval(face->surface, uv[0], uv[1], p);
+                double e = hyper ? p[0] * p[0] / 4 - p[1] * p[1] - 1 : p[1] * p[1] - 4 * p[0];
+                if (!(fabs(e) < 1e-9)) fprintf(stderr, "face %d: (%g, %g) off by %g\n", face->source_id, p[0], p[1], e);
+                assert_true(fabs(e) < 1e-9);
+            }
+        }
+        assert_int_equal(on_conic, 1);
+    }
+    crisp_model_destroy(m);
+}
+
 /* Files with nothing crisp draws say what they hold. */
 static void test_nothing_drawable(void **state)
 {
@@ -464,6 +517,7 @@ int main(void)
         cmocka_unit_test(test_sphere_caps_and_pole_arc),
         cmocka_unit_test(test_lenient_syntax_and_partial_loss),
         cmocka_unit_test(test_small_face_in_huge_model),
+        cmocka_unit_test(test_hyperbola_parabola),
         cmocka_unit_test(test_nothing_drawable),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -444,25 +444,44 @@ crisp_status crisp__step_curve_nurbs(const step_curve *c, double t0, double t1, 
         if (t1 - t0 > 2 * M_PI) t1 = t0 + 2 * M_PI;
         st = crisp_make_arc(c->dim, c->pl.origin, c->pl.x, c->pl.y, c->rx, c->ry, t0, t1, dest);
     } else if (c->kind == STEP_CURVE_HYPERBOLA || c->kind == STEP_CURVE_PARABOLA) {
-        /* One rational (hyperbola) or polynomial (parabola) quadratic Bezier: the end points, the
-         * tangents' intersection and, for the hyperbola, the middle weight cosh of half the
-         * parameter span (as cos of the half angle for an ellipse). */
-        if (!isfinite(t0) || !isfinite(t1) || (c->kind == STEP_CURVE_HYPERBOLA && t1 - t0 > 40))
+        /* Rational (hyperbola) or polynomial (parabola) quadratic Bezier pieces of at most 0.25 in
+         * the parameter, joined at double knots: each piece's end points, the intersection of its
+         * end tangents and, for the hyperbola, the middle weight cosh of half the piece's span (as
+         * cos of the half angle for an ellipse). Short pieces keep the control polygon close to
+         * the curve (trims are clamped to a box around the curve). */
+        if (!isfinite(t0) || !isfinite(t1) || t1 - t0 > 40)
             return crisp_error(CRISP_ERR_NUMERIC, "curve #%d: hyperbola or parabola range [%g, %g] too long", c->id, t0, t1);
-        double m = 0.5 * (t0 + t1), h = 0.5 * (t1 - t0), loc[3][2], w[3] = {1, 1, 1}, d[2];
-        open_conic_local(c, t0, loc[0], d);
-        open_conic_local(c, t1, loc[2], d);
-        if (c->kind == STEP_CURVE_HYPERBOLA) {
-            loc[1][0] = c->rx * cosh(m) / cosh(h), loc[1][1] = c->ry * sinh(m) / cosh(h);
-            w[1] = cosh(h);
-        } else {
-            loc[1][0] = c->rx * t0 * t1, loc[1][1] = c->rx * (t0 + t1);
+        int n = (int)ceil((t1 - t0) / 0.25);
+        if (n < 1) n = 1;
+        int count = 2 * n + 1;
+        double *pts = crisp_malloc_array((size_t)count * 3, sizeof *pts), *w = crisp_malloc_array((size_t)count, sizeof *w);
+        double *knots = crisp_malloc_array((size_t)count + 3, sizeof *knots);
+        if (!pts || !w || !knots) {
+            crisp_free(pts), crisp_free(w), crisp_free(knots);
+            return crisp_error(CRISP_ERR_NO_MEMORY, "curve #%d: out of memory", c->id);
         }
-        double pts[9], knots[6] = {t0, t0, t0, t1, t1, t1};
-        for (int i = 0; i < 3; i++)
+        for (int i = 0; i <= 2 * n; i++) {
+            double loc[2], d[2];
+            int j = i / 2;
+            double a = t0 + (t1 - t0) * j / n, b = t0 + (t1 - t0) * (j + 1) / n;
+            w[i] = 1;
+            if (i % 2 == 0) {
+                open_conic_local(c, a, loc, d);
+            } else if (c->kind == STEP_CURVE_HYPERBOLA) {
+                double m = 0.5 * (a + b), h = 0.5 * (b - a);
+                loc[0] = c->rx * cosh(m) / cosh(h), loc[1] = c->ry * sinh(m) / cosh(h);
+                w[i] = cosh(h);
+            } else {
+                loc[0] = c->rx * a * b, loc[1] = c->rx * (a + b);
+            }
             for (int k = 0; k < c->dim; k++)
-                pts[c->dim * i + k] = c->pl.origin[k] + loc[i][0] * c->pl.x[k] + loc[i][1] * c->pl.y[k];
-        st = crisp_curve_create(c->dim, 2, 3, knots, pts, c->kind == STEP_CURVE_HYPERBOLA ? w : NULL, dest);
+                pts[c->dim * i + k] = c->pl.origin[k] + loc[0] * c->pl.x[k] + loc[1] * c->pl.y[k];
+        }
+        knots[0] = knots[1] = knots[2] = t0;
+        for (int j = 1; j < n; j++) knots[2 * j + 1] = knots[2 * j + 2] = t0 + (t1 - t0) * j / n;
+        knots[2 * n + 1] = knots[2 * n + 2] = knots[2 * n + 3] = t1;
+        st = crisp_curve_create(c->dim, 2, count, knots, pts, c->kind == STEP_CURVE_HYPERBOLA ? w : NULL, dest);
+        crisp_free(pts), crisp_free(w), crisp_free(knots);
     } else {
         double a, b;
         crisp_curve_domain(c->nurbs, &a, &b);
