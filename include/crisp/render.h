@@ -177,9 +177,23 @@ typedef struct crisp_frep_part {
  * background -1). */
 #define CRISP_FREP_FACE_ID(k) (-2 - (int32_t)(k))
 
+/* Counters of one crisp_render_frep_parts call (summed over parts and threads). */
+typedef struct crisp_frep_parts_stats {
+    size_t intervals;   /* interval evaluations of frustum cells */
+    size_t filled;      /* cells found inside everywhere */
+    size_t leaves;      /* leaf cells sampled point by point */
+    size_t batches;     /* batched point evaluations (CRISP_FREP_CELL_LANES points each) */
+    size_t root_batches;/* of which narrowing sign changes to float precision */
+    size_t points;      /* points evaluated in them */
+    size_t tape_sum;    /* sum of the tape lengths of those batches (mean = tape_sum / batches) */
+    size_t hits;        /* pixels drawn */
+} crisp_frep_parts_stats;
+
 typedef struct crisp_frep_parts_desc {
     int threads;   /* 0: default */
     int per_pixel; /* 1: no frustum subdivision, every pixel's ray bisected alone (exact backend) */
+    int no_shorten; /* 1: evaluate the full tape in every cell (for measuring tape shortening) */
+    crisp_frep_parts_stats *stats; /* NULL, or receives the call's counters */
 } crisp_frep_parts_desc;
 
 /* Draw the parts into img (which already holds the NURBS render, or a cleared image) where they

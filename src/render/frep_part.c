@@ -1,56 +1,74 @@
 /* f-rep parts in a crisp scene (DESIGN.md section 7), drawn through the perspective camera of
  * DESIGN.md section 6 and composited with what the image already holds by camera-space depth.
  *
- * Method (Keeter 2012's z-culled heightmaps, carried into the view frustum): a cell is a
- * rectangle of pixel centres times a camera-space depth interval [z0, z1]. A camera-space point
- * is P = eye + z (f + nx r + ny u) with nx, ny the normalised image coordinates, so the part's
- * local coordinates Q = M^-1 P are multilinear in (nx, ny, z) and a cell's 8 corners bound them:
- * their box (rounded outwards to float) goes to the interval evaluator. Cells where f > 0 are
- * skipped; cells that start behind every pixel's current depth are culled (z-culling, and each
- * hit lowers the depth at once); other cells split, spatially while they are wider than deep,
- * else in depth, near half first. A single pixel's cell is its centre ray, where segments are
- * bisected by intervals down to 1/8 pixel footprint, and a sign change of f between a segment's
- * ends is bisected with point values to float precision. Normals come from the gradient
- * evaluator (batched per tile), mapped to world space by the inverse transpose. */
+ * Method (Keeter 2012's z-culled heightmaps with branch caching, carried into the view frustum;
+ * tape shortening and batched leaves as in Fidget): a cell is a rectangle of pixel centres times
+ * a camera-space depth interval [z0, z1]. A camera-space point is P = eye + z (f + nx r + ny u)
+ * with nx, ny the normalised image coordinates, so the part's local coordinates Q = M^-1 P are
+ * multilinear in (nx, ny, z) and a cell's 8 corners bound them: their box (rounded outwards to
+ * float) goes to the interval evaluator (src/frep/cell.c), which also records which side of each
+ * min/max wins, and the cell's children get the tape shortened after those choices. Cells where
+ * f >= 0 are skipped; cells that start behind every pixel's current depth are culled (z-culling,
+ * and each hit lowers the depth at once); cells where f < 0 give their pixels a hit at their
+ * near depth; other cells split, in depth (near half first) while deeper than wide, else
+ * spatially, down to leaves of at most LEAF x LEAF pixels about as deep as wide. In a leaf each
+ * pixel's centre ray is sampled every STEP pixel footprints, 64 points (of all the leaf's
+ * pixels) per batched evaluation, and the first sign change is narrowed to float precision by
+ * multisection, again with every pending pixel's points in one batch. Normals come from the
+ * batched gradient of the leaf's tape, mapped to world space by the inverse transpose.
+ *
+ * The tiles (TILE x TILE pixels, the whole depth range) are shared dynamically among the pool's
+ * workers; each worker owns a crisp_frep_cell (allocated once per part and frame), so no cell
+ * allocates. */
 #include "render_internal.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "crisp/frep.h"
+#include "crisp/frep_cell.h"
 
-#define TILE 16
-#define RAY_STACK 128
+#define TILE 32
+#define LEAF 8       /* pixels */
+#define LEAF_DEPTH 4 /* pixel footprints */
+#define LANES CRISP_FREP_CELL_LANES
+/* Sample spacing along a leaf's rays, in pixel footprints at the leaf's far depth. */
+#define STEP 1.0
 #define MAX_LEVEL 160
+#define MAX_SECTIONS 16
 
 typedef struct part_view {
-    const crisp_frep_tape *tape;
     double inv[4][4];                  /* world -> local, m[col][row] */
     double qe[3], qf[3], qr[3], qu[3]; /* Q = qe + z (qf + nx qr + ny qu) */
     float color[4];
     int32_t id;
 } part_view;
 
+typedef struct frep_worker {
+    crisp_frep_cell *cell;
+    int i0, j0;                /* the tile's first pixel */
+    uint8_t done[TILE * TILE]; /* the pixel has its hit for this part (the float depth it holds
+                                  may round above the hit, so depth alone cannot cull it) */
+    int nhit;                  /* hits waiting for their normals */
+    int32_t hit_pixel[LANES];
+    double hit_depth[LANES];
+    float hx[LANES], hy[LANES], hz[LANES];
+    crisp_frep_parts_stats st;
+    char pad[64];
+} frep_worker;
+
 typedef struct frep_ctx {
     const part_view *pv;
     const crisp_camera *cam;
     crisp_image *img;
+    frep_worker *workers;
     double f[3], r[3], u[3]; /* camera basis (as crisp_camera_ray) */
     double sx, sy;           /* nx = (2 (i + 0.5) / W - 1) sx, ny = (1 - 2 (j + 0.5) / H) sy */
     double pix;              /* one pixel in normalised image units (footprint / depth) */
     int tiles_x;
-    int per_pixel;
+    int per_pixel, shorten;
 } frep_ctx;
-
-typedef struct tile_hits {
-    int count;
-    int i0, j0;                /* the tile's first pixel */
-    uint8_t done[TILE * TILE]; /* the pixel has its hit for this part (the float depth it holds
-                                  may round above the hit, so depth alone cannot cull it) */
-    int32_t pixel[TILE * TILE];
-    float x[TILE * TILE], y[TILE * TILE], z[TILE * TILE];
-    double depth[TILE * TILE];
-} tile_hits;
 
 static double nx_of(const frep_ctx *c, double i)
 {
@@ -76,9 +94,10 @@ static float round_up(double v)
 }
 
 /* Interval of f over the box of local points Q(nx, ny, z), nx in [a0, a1], ny in [b0, b1],
- * z in [z0, z1] (multilinear, so the corners bound it). */
-static void cell_interval(const part_view *pv, double a0, double a1, double b0, double b1,
-                          double z0, double z1, float dest[2])
+ * z in [z0, z1] (multilinear, so the corners bound it); records the min/max choices. */
+static size_t cell_interval(const part_view *pv, crisp_frep_cell *cell, crisp_frep_subtape t,
+                            double a0, double a1, double b0, double b1, double z0, double z1,
+                            float dest[2])
 {
     float box[3][2];
     for (int k = 0; k < 3; k++) {
@@ -92,20 +111,15 @@ static void cell_interval(const part_view *pv, double a0, double a1, double b0, 
         box[k][0] = round_down(lo);
         box[k][1] = round_up(hi);
     }
-    crisp_frep_eval_interval(pv->tape, box[0], box[1], box[2], dest);
+    return crisp_frep_cell_interval(cell, t, box[0], box[1], box[2], dest);
 }
 
-static void local_point(const part_view *pv, double nx, double ny, double z, float q[3])
+static void local_point(const part_view *pv, double nx, double ny, double z, float *qx, float *qy,
+                        float *qz)
 {
-    for (int k = 0; k < 3; k++)
-        q[k] = (float)(pv->qe[k] + z * (pv->qf[k] + nx * pv->qr[k] + ny * pv->qu[k]));
-}
-
-static float f_at(const part_view *pv, double nx, double ny, double z)
-{
-    float q[3];
-    local_point(pv, nx, ny, z, q);
-    return crisp_frep_eval_point(pv->tape, q[0], q[1], q[2]);
+    *qx = (float)(pv->qe[0] + z * (pv->qf[0] + nx * pv->qr[0] + ny * pv->qu[0]));
+    *qy = (float)(pv->qe[1] + z * (pv->qf[1] + nx * pv->qr[1] + ny * pv->qu[1]));
+    *qz = (float)(pv->qe[2] + z * (pv->qf[2] + nx * pv->qr[2] + ny * pv->qu[2]));
 }
 
 /* Depth limit of pixel p: what it holds, within the camera's far plane. */
@@ -115,161 +129,316 @@ static double pixel_limit(const frep_ctx *c, size_t p)
     return d < c->cam->zfar ? d : c->cam->zfar;
 }
 
-/* The first depth in [z0, z1] along pixel (i, j)'s centre ray where f < 0; records the hit. */
-static void solve_ray(const frep_ctx *c, tile_hits *h, int i, int j, double z0, double z1)
+/* Normals and shading of the worker's pending hits, through tape t (valid at every hit). */
+static void flush_hits(const frep_ctx *c, frep_worker *w)
 {
+    crisp_frep_subtape t = crisp_frep_cell_full(w->cell);
+    int n = w->nhit;
+    if (n == 0) return;
+    for (int k = n; k < LANES; k++) w->hx[k] = w->hx[0], w->hy[k] = w->hy[0], w->hz[k] = w->hz[0];
+    const float *g = crisp_frep_cell_grad(w->cell, t, w->hx, w->hy, w->hz);
     const part_view *pv = c->pv;
-    int local = (j - h->j0) * TILE + (i - h->i0);
-    if (h->done[local]) return;
-    double nx = nx_of(c, i), ny = ny_of(c, j);
-    double seg[RAY_STACK][2];
-    int top = 0;
-    seg[top][0] = z0, seg[top][1] = z1, top++;
-    double hit = NAN;
-    while (top > 0) {
-        top--;
-        double a = seg[top][0], b = seg[top][1];
-        float iv[2];
-        cell_interval(pv, nx, nx, ny, ny, a, b, iv);
-        if (iv[0] > 0) continue;
-        if (iv[1] < 0) {
-            hit = a;
-            break;
-        }
-        double tol = 0.125 * c->pix * b;
-        if (b - a <= tol || top >= RAY_STACK - 2) {
-            float fa = f_at(pv, nx, ny, a), fb = f_at(pv, nx, ny, b);
-            if (fa < 0) {
-                hit = a;
-                break;
-            }
-            if (fb < 0) {
-                /* f(a) >= 0 (or NaN), f(b) < 0: bisect to float precision. */
-                for (int it = 0; it < 64 && b - a > 1e-7 * b; it++) {
-                    double m = 0.5 * (a + b);
-                    if (m <= a || m >= b) break;
-                    if (f_at(pv, nx, ny, m) < 0)
-                        b = m;
-                    else
-                        a = m;
-                }
-                hit = b;
-                break;
-            }
-            continue;
-        }
-        double m = 0.5 * (a + b);
-        seg[top][0] = m, seg[top][1] = b, top++; /* far half below, near half on top */
-        seg[top][0] = a, seg[top][1] = m, top++;
-    }
-    if (!(hit == hit)) return;
-    size_t p = (size_t)j * c->cam->width + i;
-    if (!(hit < c->img->depth[p]) || h->count == TILE * TILE) return;
-    c->img->depth[p] = (float)hit; /* z-culls the rest of this pixel at once */
-    h->done[local] = 1;
-    int k = h->count++;
-    float q[3];
-    local_point(pv, nx, ny, hit, q);
-    h->pixel[k] = (int32_t)p;
-    h->x[k] = q[0], h->y[k] = q[1], h->z[k] = q[2];
-    h->depth[k] = hit;
-}
-
-/* Cell: pixels [i0, i1) x [j0, j1), depths [z0, z1]. */
-static void solve_cell(const frep_ctx *c, tile_hits *h, int i0, int j0, int i1, int j1, double z0,
-                       double z1, int level)
-{
-    double zmax = 0;
-    for (int j = j0; j < j1; j++)
-        for (int i = i0; i < i1; i++)
-            zmax = fmax(zmax, pixel_limit(c, (size_t)j * c->cam->width + i));
-    if (z0 >= zmax) return; /* z-culled */
-    if (z1 > zmax) z1 = zmax;
-    if (i1 - i0 == 1 && j1 - j0 == 1) {
-        solve_ray(c, h, i0, j0, z0, z1);
-        return;
-    }
-    double a0 = nx_of(c, i0), a1 = nx_of(c, i1 - 1), b0 = ny_of(c, j1 - 1), b1 = ny_of(c, j0);
-    float iv[2];
-    cell_interval(c->pv, a0, a1, b0, b1, z0, z1, iv);
-    if (iv[0] > 0) return;
-    double wide = z1 * fmax(a1 - a0, b1 - b0);
-    if (wide >= z1 - z0 || level >= MAX_LEVEL) {
-        int w = i1 - i0, ht = j1 - j0;
-        if (w >= ht) {
-            int im = i0 + w / 2;
-            solve_cell(c, h, i0, j0, im, j1, z0, z1, level + 1);
-            solve_cell(c, h, im, j0, i1, j1, z0, z1, level + 1);
-        } else {
-            int jm = j0 + ht / 2;
-            solve_cell(c, h, i0, j0, i1, jm, z0, z1, level + 1);
-            solve_cell(c, h, i0, jm, i1, j1, z0, z1, level + 1);
-        }
-    } else {
-        double zm = 0.5 * (z0 + z1);
-        solve_cell(c, h, i0, j0, i1, j1, z0, zm, level + 1);
-        solve_cell(c, h, i0, j0, i1, j1, zm, z1, level + 1);
-    }
-}
-
-/* Normals and shading of a tile's hits. */
-static void shade_hits(const frep_ctx *c, tile_hits *h)
-{
-    if (h->count == 0) return;
-    const part_view *pv = c->pv;
-    float g[4 * TILE * TILE];
-    int have_grad =
-        crisp_frep_eval_grad(pv->tape, (size_t)h->count, h->x, h->y, h->z, g) == CRISP_OK;
     int W = c->cam->width;
-    for (int k = 0; k < h->count; k++) {
-        size_t p = (size_t)h->pixel[k];
+    for (int k = 0; k < n; k++) {
+        size_t p = (size_t)w->hit_pixel[k];
         int i = (int)(p % (size_t)W), j = (int)(p / (size_t)W);
-        double nx = nx_of(c, i), ny = ny_of(c, j), z = h->depth[k];
-        double view[3], n[3] = {0, 0, 0};
+        double nx = nx_of(c, i), ny = ny_of(c, j), z = w->hit_depth[k];
+        double view[3], nrm[3] = {0, 0, 0};
         for (int a = 0; a < 3; a++)
             view[a] = z * (c->f[a] + nx * c->r[a] + ny * c->u[a]);
-        if (have_grad)
-            for (int a = 0; a < 3; a++) /* world gradient = (M^-1)^T local gradient */
-                for (int b = 0; b < 3; b++)
-                    n[a] += pv->inv[a][b] * (double)g[4 * k + 1 + b];
-        double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        for (int a = 0; a < 3; a++) /* world gradient = (M^-1)^T local gradient */
+            for (int b = 0; b < 3; b++)
+                nrm[a] += pv->inv[a][b] * (double)g[(1 + b) * LANES + k];
+        double len = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
         if (!(len > 0) || !isfinite(len)) {
             for (int a = 0; a < 3; a++)
-                n[a] = -c->f[a]; /* no gradient: face the camera */
+                nrm[a] = -c->f[a]; /* no gradient: face the camera */
             len = 1;
         }
         for (int a = 0; a < 3; a++)
-            c->img->normal[3 * p + a] = (float)(n[a] / len);
-        crisp__shade(pv->color, n, view, c->img->rgba + 4 * p);
+            c->img->normal[3 * p + a] = (float)(nrm[a] / len);
+        crisp__shade(pv->color, nrm, view, c->img->rgba + 4 * p);
         c->img->rgba[4 * p + 3] = pv->color[3];
         c->img->uv[2 * p] = c->img->uv[2 * p + 1] = 0;
         c->img->face[p] = pv->id;
     }
-    h->count = 0;
+    w->nhit = 0;
+}
+
+/* Pixel (i, j)'s first inside depth is z: record it when nearer than what the pixel holds. */
+static void record_hit(const frep_ctx *c, frep_worker *w, int i, int j, double z)
+{
+    size_t p = (size_t)j * c->cam->width + i;
+    if (!(z < c->img->depth[p])) return;
+    c->img->depth[p] = (float)z; /* z-culls the rest of this pixel at once */
+    w->st.hits++;
+    w->done[(j - w->j0) * TILE + (i - w->i0)] = 1;
+    int k = w->nhit++;
+    w->hit_pixel[k] = (int32_t)p;
+    w->hit_depth[k] = z;
+    local_point(c->pv, nx_of(c, i), ny_of(c, j), z, &w->hx[k], &w->hy[k], &w->hz[k]);
+    if (w->nhit == LANES) flush_hits(c, w);
+}
+
+/* The cell is inside everywhere: each open pixel's first inside depth is the cell's near one
+ * (every nearer depth of its ray was shown outside or lies between two outside samples). */
+static void fill_cell(const frep_ctx *c, frep_worker *w, int i0, int j0, int i1, int j1,
+                      double z0)
+{
+    for (int j = j0; j < j1; j++)
+        for (int i = i0; i < i1; i++)
+            if (!w->done[(j - w->j0) * TILE + (i - w->i0)] &&
+                z0 < pixel_limit(c, (size_t)j * c->cam->width + i))
+                record_hit(c, w, i, j, z0);
+}
+
+static const float *eval_batch(frep_worker *w, crisp_frep_subtape t, int m, float *x, float *y,
+                               float *z)
+{
+    for (int k = m; k < LANES; k++) x[k] = x[0], y[k] = y[0], z[k] = z[0];
+    w->st.batches++;
+    w->st.points += (size_t)m;
+    w->st.tape_sum += t.length;
+    return crisp_frep_cell_eval(w->cell, t, x, y, z);
+}
+
+/* Pixel states in a leaf. */
+enum { PX_SAMPLING, PX_BRACKET, PX_DONE };
+
+/* Trial depths inside the bracket (a, b) for one round of the root search, ascending: with the
+ * values fa >= 0 at a and fb < 0 at b known, two points close around the secant estimate (a
+ * smooth f has its root within a small fraction of the bracket from it, and then the bracket
+ * shrinks by 1/SECANT_GAP at once) and the rest spread evenly, so the bracket shrinks by at
+ * least the factor of that even spread whatever f does; otherwise an even multisection. */
+#define SECANT_GAP 64
+static int trial_depths(double a, double b, float fa, float fb, int e, double *dest)
+{
+    int n = 0;
+    double s = NAN;
+    if (e < 4) {
+        /* too few lanes for the pair: one point, at the (Illinois-weighted) secant estimate */
+        double t = 0.5;
+        if (isfinite(fa) && isfinite(fb) && fa > fb) {
+            t = (double)fa / ((double)fa - (double)fb);
+            t = t < 0x1p-20 ? 0x1p-20 : t > 1 - 0x1p-20 ? 1 - 0x1p-20 : t;
+        }
+        dest[0] = a + (b - a) * t;
+        return 1;
+    }
+    if (isfinite(fa) && isfinite(fb) && fa > fb) {
+        double t = (double)fa / ((double)fa - (double)fb);
+        double lo = 1.0 / SECANT_GAP, hi = 1 - 1.0 / SECANT_GAP;
+        s = t < lo ? lo : t > hi ? hi : t;
+    }
+    if (!(s == s)) {
+        for (int d = 1; d <= e; d++) dest[n++] = a + (b - a) * d / (e + 1);
+        return n;
+    }
+    double g = 0.5 / SECANT_GAP, s0 = s - g, s1 = s + g;
+    int even = e - 2;
+    for (int d = 1; d <= even; d++) {
+        double t = (double)d / (even + 1);
+        if (s0 < t && t <= s1) continue; /* inside the secant pair's gap */
+        dest[n++] = a + (b - a) * t;
+    }
+    /* merge the secant pair in order */
+    double pair[2] = {a + (b - a) * s0, a + (b - a) * s1};
+    double out[MAX_SECTIONS];
+    int m = 0, i = 0, k = 0;
+    while (i < n || k < 2) {
+        if (k < 2 && (i >= n || pair[k] <= dest[i])) out[m++] = pair[k++];
+        else out[m++] = dest[i++];
+    }
+    memcpy(dest, out, (size_t)m * sizeof *dest);
+    return m;
+}
+
+/* A leaf: pixels [i0, i1) x [j0, j1) (at most LANES), depths [z0, z1]. */
+static void leaf(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, int i0, int j0, int i1,
+                 int j1, double z0, double z1)
+{
+    const part_view *pv = c->pv;
+    int pi[LANES], pj[LANES], state[LANES], next[LANES], count[LANES], side[LANES], np = 0;
+    double nx[LANES], ny[LANES], zb[LANES], ba[LANES], bb[LANES];
+    float fa[LANES], fb[LANES], last[LANES];
+    double h = STEP * c->pix * z1;
+    int first = z0 <= c->cam->znear; /* the frustum's start: no nearer cell sampled it */
+    for (int j = j0; j < j1; j++)
+        for (int i = i0; i < i1; i++) {
+            if (w->done[(j - w->j0) * TILE + (i - w->i0)]) continue;
+            double lim = pixel_limit(c, (size_t)j * c->cam->width + i);
+            double end = lim < z1 ? lim : z1;
+            if (!(end > z0)) continue;
+            double n = ceil((end - z0) / h);
+            pi[np] = i, pj[np] = j;
+            nx[np] = nx_of(c, i), ny[np] = ny_of(c, j);
+            zb[np] = end;
+            count[np] = n < 1 ? 1 : n > 4096 ? 4096 : (int)n;
+            next[np] = first ? 0 : 1;
+            last[np] = NAN; /* the value at z0 when a nearer cell sampled it is not kept */
+            state[np] = PX_SAMPLING;
+            np++;
+        }
+    w->st.leaves++;
+    float x[LANES], y[LANES], z[LANES];
+    int lane_q[LANES], lane_k[LANES];
+    double lane_z[LANES];
+    /* sampling: the open pixels share the lanes, consecutive samples of one pixel together */
+    int open = np;
+    while (open > 0) {
+        int each = LANES / open, m = 0;
+        for (int q = 0; q < np && m < LANES; q++) {
+            if (state[q] != PX_SAMPLING) continue;
+            for (int d = 0; d < each && next[q] + d <= count[q] && m < LANES; d++) {
+                int k = next[q] + d;
+                double zk = k == count[q] ? zb[q] : z0 + (zb[q] - z0) * k / count[q];
+                lane_q[m] = q, lane_k[m] = k, lane_z[m] = zk;
+                local_point(pv, nx[q], ny[q], zk, &x[m], &y[m], &z[m]);
+                m++;
+            }
+        }
+        const float *v = eval_batch(w, t, m, x, y, z);
+        for (int k = 0; k < m; k++) {
+            int q = lane_q[k];
+            if (state[q] != PX_SAMPLING) continue; /* decided by an earlier lane */
+            if (v[k] < 0) {
+                open--;
+                if (lane_k[k] == 0) {
+                    state[q] = PX_DONE;
+                    record_hit(c, w, pi[q], pj[q], z0);
+                } else {
+                    state[q] = PX_BRACKET;
+                    int kp = lane_k[k] - 1;
+                    ba[q] = kp == 0 ? z0 : z0 + (zb[q] - z0) * kp / count[q];
+                    bb[q] = lane_z[k];
+                    fa[q] = last[q];
+                    fb[q] = v[k];
+                    side[q] = 0;
+                }
+            } else {
+                last[q] = v[k];
+                if (k + 1 == m || lane_q[k + 1] != q) {
+                    next[q] = lane_k[k] + 1; /* every sample of this pixel in the batch was outside */
+                    if (next[q] > count[q]) {
+                        state[q] = PX_DONE;
+                        open--;
+                    }
+                }
+            }
+        }
+    }
+    /* root search in each bracket [a, b] (f(a) not < 0, f(b) < 0) down to float precision */
+    int pending = 0;
+    for (int q = 0; q < np; q++) pending += state[q] == PX_BRACKET;
+    for (int round = 0; pending > 0; round++) {
+        int each = LANES / pending, m = 0;
+        if (each > MAX_SECTIONS) each = MAX_SECTIONS;
+        for (int q = 0; q < np; q++) {
+            if (state[q] != PX_BRACKET) continue;
+            double zt[MAX_SECTIONS];
+            int e = trial_depths(ba[q], bb[q], fa[q], fb[q], each, zt);
+            for (int d = 0; d < e; d++) {
+                lane_q[m] = q, lane_z[m] = zt[d];
+                local_point(pv, nx[q], ny[q], zt[d], &x[m], &y[m], &z[m]);
+                m++;
+            }
+        }
+        const float *v = eval_batch(w, t, m, x, y, z);
+        w->st.root_batches++;
+        for (int k = 0; k < m;) {
+            int q = lane_q[k], e = k;
+            while (e < m && lane_q[e] == q) e++;
+            double a = ba[q], b = bb[q];
+            int hit = -1;
+            for (int s = k; s < e && hit < 0; s++)
+                if (v[s] < 0) hit = s;
+            int moved = 0; /* 1: a moved, 2: b moved */
+            if (hit >= 0) {
+                b = lane_z[hit], fb[q] = v[hit], moved = 2;
+                if (hit > k) a = lane_z[hit - 1], fa[q] = v[hit - 1], moved = 3;
+            } else {
+                a = lane_z[e - 1], fa[q] = v[e - 1], moved = 1;
+            }
+            if (e - k == 1) {
+                /* Illinois: an end kept twice in a row has its value halved, so that the
+                 * secant estimate moves past the root and both ends converge */
+                if (moved == 2 && side[q] == 2) fa[q] *= 0.5f;
+                if (moved == 1 && side[q] == 1) fb[q] *= 0.5f;
+            }
+            side[q] = moved;
+            int stuck = !(a > ba[q] || b < bb[q]);
+            ba[q] = a, bb[q] = b;
+            if (b - a <= 1e-7 * b || stuck || round >= 64) {
+                state[q] = PX_DONE;
+                pending--;
+                record_hit(c, w, pi[q], pj[q], b);
+            }
+            k = e;
+        }
+    }
+}
+
+/* Cell: pixels [i0, i1) x [j0, j1), depths [z0, z1], evaluated with tape t. */
+static void solve_cell(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, int i0, int j0,
+                       int i1, int j1, double z0, double z1, int level)
+{
+    double zmax = 0;
+    for (int j = j0; j < j1; j++)
+        for (int i = i0; i < i1; i++)
+            if (!w->done[(j - w->j0) * TILE + (i - w->i0)])
+                zmax = fmax(zmax, pixel_limit(c, (size_t)j * c->cam->width + i));
+    if (z0 >= zmax) return; /* z-culled */
+    if (z1 > zmax) z1 = zmax;
+    double a0 = nx_of(c, i0), a1 = nx_of(c, i1 - 1), b0 = ny_of(c, j1 - 1), b1 = ny_of(c, j0);
+    float iv[2];
+    size_t decided = cell_interval(c->pv, w->cell, t, a0, a1, b0, b1, z0, z1, iv);
+    w->st.intervals++;
+    if (iv[0] >= 0) return; /* outside everywhere (f = 0 is not inside) */
+    size_t mark = crisp_frep_cell_mark(w->cell);
+    crisp_frep_subtape ct = decided && c->shorten ? crisp_frep_cell_shorten(w->cell, t) : t;
+    /* split every axis at least half as long as the longest one (depth in pixel footprints at
+     * the far end) and longer than a leaf's; near depth half first */
+    int wx = i1 - i0, wy = j1 - j0;
+    double wz = (z1 - z0) / (c->pix * z1), big = fmax(fmax(wx, wy), wz);
+    int sx = wx > LEAF && 2 * wx >= big, sy = wy > LEAF && 2 * wy >= big;
+    int sz = wz > LEAF_DEPTH && 2 * wz >= big;
+    if (iv[1] < 0) {
+        w->st.filled++;
+        fill_cell(c, w, i0, j0, i1, j1, z0);
+    } else if ((sx || sy || sz) && level < MAX_LEVEL) {
+        int im = sx ? i0 + wx / 2 : i1, jm = sy ? j0 + wy / 2 : j1;
+        double zm = sz ? 0.5 * (z0 + z1) : z1;
+        for (int kz = 0; kz <= sz; kz++)
+            for (int jy = 0; jy <= sy; jy++)
+                for (int ix = 0; ix <= sx; ix++)
+                    solve_cell(c, w, ct, ix ? im : i0, jy ? jm : j0, ix ? i1 : im, jy ? j1 : jm,
+                               kz ? zm : z0, kz ? z1 : zm, level + 1);
+    } else {
+        leaf(c, w, ct, i0, j0, i1, j1, z0, z1);
+    }
+    crisp_frep_cell_release(w->cell, mark);
 }
 
 static void render_tiles(void *ctx, size_t begin, size_t end, int worker)
 {
-    (void)worker;
     const frep_ctx *c = ctx;
-    tile_hits hits;
-    hits.count = 0;
+    frep_worker *w = &c->workers[worker];
+    crisp_frep_subtape full = crisp_frep_cell_full(w->cell);
     for (size_t t = begin; t < end; t++) {
         int i0 = (int)(t % (size_t)c->tiles_x) * TILE, j0 = (int)(t / (size_t)c->tiles_x) * TILE;
-        hits.i0 = i0, hits.j0 = j0;
-        memset(hits.done, 0, sizeof hits.done);
+        w->i0 = i0, w->j0 = j0;
+        w->nhit = 0;
+        memset(w->done, 0, sizeof w->done);
         int i1 = i0 + TILE < c->cam->width ? i0 + TILE : c->cam->width;
         int j1 = j0 + TILE < c->cam->height ? j0 + TILE : c->cam->height;
         if (c->per_pixel) {
             for (int j = j0; j < j1; j++)
-                for (int i = i0; i < i1; i++) {
-                    double lim = pixel_limit(c, (size_t)j * c->cam->width + i);
-                    if (c->cam->znear < lim) solve_ray(c, &hits, i, j, c->cam->znear, lim);
-                }
+                for (int i = i0; i < i1; i++)
+                    solve_cell(c, w, full, i, j, i + 1, j + 1, c->cam->znear, c->cam->zfar, 0);
         } else {
-            solve_cell(c, &hits, i0, j0, i1, j1, c->cam->znear, c->cam->zfar, 0);
+            solve_cell(c, w, full, i0, j0, i1, j1, c->cam->znear, c->cam->zfar, 0);
         }
-        shade_hits(c, &hits);
+        flush_hits(c, w);
     }
 }
 
@@ -291,7 +460,6 @@ static crisp_status part_view_init(const crisp_frep_part *part, size_t k, const 
     memset(pv, 0, sizeof *pv);
     if (!crisp_mat4_inverse(m, pv->inv))
         return crisp_error(CRISP_ERR_INVALID_ARG, "f-rep part %zu: transform is singular", k);
-    pv->tape = part->tape;
     memcpy(pv->color, part->color, sizeof pv->color);
     pv->id = CRISP_FREP_FACE_ID(k);
     /* Q = inv (eye + z d): columns of inv are m[col][row]. */
@@ -318,7 +486,10 @@ crisp_status crisp_render_frep_parts(const crisp_frep_part *parts, size_t count,
                            img->width, img->height, cam->width, cam->height);
     if (count == 0) return CRISP_OK;
     if (!parts) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_render_frep_parts: NULL parts");
-    frep_ctx c = {.cam = cam, .img = img, .per_pixel = desc && desc->per_pixel};
+    frep_ctx c = {.cam = cam,
+                  .img = img,
+                  .per_pixel = desc && desc->per_pixel,
+                  .shorten = !(desc && desc->no_shorten)};
     crisp_vec3 d;
     crisp_vec3_sub(cam->target, cam->eye, d);
     crisp_vec3_normalize(d, c.f);
@@ -334,12 +505,40 @@ crisp_status crisp_render_frep_parts(const crisp_frep_part *parts, size_t count,
     crisp_pool *pool = NULL;
     int threads = desc && desc->threads > 0 ? desc->threads : crisp_pool_default_threads();
     if ((st = crisp_pool_create(threads, &pool))) return st;
+    threads = crisp_pool_threads(pool);
+    c.workers = crisp_calloc_array((size_t)threads, sizeof *c.workers);
+    if (!c.workers) {
+        crisp_pool_destroy(pool);
+        return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_render_frep_parts: out of memory");
+    }
     for (size_t k = 0; k < count && !st; k++) {
         part_view pv;
         if ((st = part_view_init(&parts[k], k, cam, &c, &pv))) break;
         c.pv = &pv;
-        crisp_pool_parallel_for(pool, tiles, 1, render_tiles, &c);
+        for (int i = 0; i < threads && !st; i++)
+            st = crisp_frep_cell_create(parts[k].tape, 0, &c.workers[i].cell);
+        if (!st) crisp_pool_parallel_for(pool, tiles, 1, render_tiles, &c);
+        for (int i = 0; i < threads; i++) {
+            crisp_frep_cell_destroy(c.workers[i].cell);
+            c.workers[i].cell = NULL;
+        }
     }
+    if (desc && desc->stats) {
+        crisp_frep_parts_stats *s = desc->stats;
+        memset(s, 0, sizeof *s);
+        for (int i = 0; i < threads; i++) {
+            const crisp_frep_parts_stats *a = &c.workers[i].st;
+            s->intervals += a->intervals;
+            s->filled += a->filled;
+            s->leaves += a->leaves;
+            s->batches += a->batches;
+            s->root_batches += a->root_batches;
+            s->points += a->points;
+            s->tape_sum += a->tape_sum;
+            s->hits += a->hits;
+        }
+    }
+    crisp_free(c.workers);
     crisp_pool_destroy(pool);
     return st;
 }

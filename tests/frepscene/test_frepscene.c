@@ -512,6 +512,170 @@ static void test_tiles_match_per_pixel(void **state)
     crisp_frep_destroy(f);
 }
 
+/* Render part through cam with tape shortening on and off; the two images must be identical
+ * (the shortened tape gives the same values at every point of its cell and the same intervals on
+ * its sub-cells, so every decision is the same), and shortening must have happened. */
+static void check_shortening_changes_nothing(const crisp_frep_part *part, const crisp_camera *cam,
+                                             int per_pixel, crisp_image *dest)
+{
+    crisp_image a, b;
+    crisp_frep_parts_stats sa, sb;
+    assert_int_equal(crisp_image_init(&a, cam->width, cam->height), CRISP_OK);
+    assert_int_equal(crisp_image_init(&b, cam->width, cam->height), CRISP_OK);
+    assert_int_equal(crisp_render_frep_parts(part, 1, cam,
+                                             &(crisp_frep_parts_desc){.threads = 2,
+                                                                      .per_pixel = per_pixel,
+                                                                      .stats = &sa},
+                                             &a),
+                     CRISP_OK);
+    assert_int_equal(crisp_render_frep_parts(part, 1, cam,
+                                             &(crisp_frep_parts_desc){.threads = 2,
+                                                                      .per_pixel = per_pixel,
+                                                                      .no_shorten = 1,
+                                                                      .stats = &sb},
+                                             &b),
+                     CRISP_OK);
+    size_t n = (size_t)cam->width * cam->height, drawn = 0;
+    for (size_t p = 0; p < n; p++) {
+        if (a.face[p] != b.face[p] || memcmp(&a.depth[p], &b.depth[p], sizeof(float)))
+            fail_msg("pixel %zu: shortened face %d depth %.9g, full tape face %d depth %.9g", p,
+                     a.face[p], a.depth[p], b.face[p], b.depth[p]);
+        for (int k = 0; k < 3; k++)
+            assert_true(fabsf(a.normal[3 * p + k] - b.normal[3 * p + k]) <= 1e-6f);
+        drawn += a.face[p] == -2;
+    }
+    assert_true(drawn > n / 20);
+    /* the same cells and points, on shorter tapes */
+    assert_int_equal(sa.intervals, sb.intervals);
+    assert_int_equal(sa.batches, sb.batches);
+    assert_int_equal(sa.hits, drawn);
+    assert_true(sb.tape_sum == sb.batches * crisp_frep_tape_length(part->tape));
+    assert_true(sa.tape_sum < sb.tape_sum);
+    if (dest) *dest = a;
+    else crisp_image_free(&a);
+    crisp_image_free(&b);
+}
+
+/* A union of 40 random spheres (a min-heavy tape whose leaves keep one or two spheres): the
+ * shortened-tape renderer equals the full-tape one, and both equal the analytic first hit of the
+ * union (the nearest of the spheres' first hits) away from silhouettes. */
+static void test_sphere_union_shortened(void **state)
+{
+    (void)state;
+    enum { NS = 40 };
+    double ctr[NS][3], rad[NS];
+    char *src = malloc(NS * 160);
+    size_t len = 0;
+    for (int k = 0; k < NS; k++) {
+        for (int a = 0; a < 3; a++) ctr[k][a] = 1.6 * urand() - 0.8;
+        rad[k] = 0.08 + 0.17 * urand();
+        len += (size_t)sprintf(src + len, "%ssqrt((X-%.6f)^2 + (Y-%.6f)^2 + (Z-%.6f)^2) - %.6f%s",
+                               k + 1 < NS ? "min(" : "", ctr[k][0], ctr[k][1], ctr[k][2], rad[k],
+                               k + 1 < NS ? ", " : "");
+    }
+    for (int k = 0; k + 1 < NS; k++) src[len++] = ')';
+    crisp_frep *f;
+    assert_int_equal(crisp_frep_read_math_mem("spheres", src, len, &f), CRISP_OK);
+    free(src);
+    crisp_frep_tape *t;
+    assert_int_equal(crisp_frep_tape_create(f, &t), CRISP_OK);
+    crisp_frep_part part = {.tape = t, .color = {0.9f, 0.7f, 0.3f, 1}};
+    crisp_mat4_identity(part.transform);
+    for (int view = 0; view < 4; view++) {
+        crisp_camera cam;
+        random_camera(&cam, 3.5);
+        cam.width *= 2, cam.height *= 2;
+        crisp_image img;
+        check_shortening_changes_nothing(&part, &cam, view == 3, &img);
+        int W = cam.width, H = cam.height;
+        char *ana = calloc((size_t)W * H, 1);
+        int *which = calloc((size_t)W * H, sizeof(int));
+        double *dep = calloc((size_t)W * H, sizeof(double));
+        double fv[3], w[3];
+        crisp_vec3_sub(cam.target, cam.eye, w);
+        crisp_vec3_normalize(w, fv);
+        for (int j = 0; j < H; j++)
+            for (int i = 0; i < W; i++) {
+                double o[3], d[3];
+                crisp_camera_ray(&cam, i + 0.5, j + 0.5, o, d);
+                double best = INFINITY, fd = crisp_vec3_dot(d, fv);
+                int best_k = -1;
+                for (int k = 0; k < NS; k++) {
+                    double oc[3];
+                    crisp_vec3_sub(o, ctr[k], oc);
+                    double B = crisp_vec3_dot(oc, d), C = crisp_vec3_dot(oc, oc) - rad[k] * rad[k];
+                    double A = crisp_vec3_dot(d, d), disc = B * B - A * C;
+                    if (disc < 0) continue;
+                    for (int r = 0; r < 2; r++) {
+                        double tt = (-B + (r ? 1 : -1) * sqrt(disc)) / A, z = tt * fd;
+                        if (z < cam.znear && (-B + sqrt(disc)) / A * fd > cam.znear)
+                            z = cam.znear; /* the near plane cuts this sphere */
+                        if (z >= cam.znear && z <= cam.zfar) {
+                            if (z < best) best = z, best_k = k;
+                            break;
+                        }
+                    }
+                }
+                ana[j * W + i] = best < INFINITY;
+                which[j * W + i] = best_k;
+                dep[j * W + i] = best;
+            }
+        int compared = 0;
+        for (int j = 1; j + 1 < H; j++)
+            for (int i = 1; i + 1 < W; i++) {
+                size_t p = (size_t)j * W + i;
+                int same = 1;
+                for (int dj = -1; dj <= 1; dj++)
+                    for (int di = -1; di <= 1; di++) {
+                        size_t p2 = (size_t)(j + dj) * W + (i + di);
+                        same &= which[p2] == which[p];
+                    }
+                if (!same) continue; /* silhouettes, including one sphere's over another's */
+                compared++;
+                int got = img.face[p] == -2;
+                if (got != ana[p])
+                    fail_msg("view %d pixel %d,%d: f-rep %s, analytic %s", view, i, j,
+                             got ? "hit" : "miss", ana[p] ? "hit" : "miss");
+                if (got && fabs(img.depth[p] - dep[p]) > 1e-3 * dep[p])
+                    fail_msg("view %d pixel %d,%d: depth %.7g, analytic %.7g", view, i, j,
+                             img.depth[p], dep[p]);
+            }
+        assert_true(compared > W * H / 2);
+        free(ana);
+        free(which);
+        free(dep);
+        crisp_image_free(&img);
+    }
+    crisp_frep_tape_destroy(t);
+    crisp_frep_destroy(f);
+}
+
+/* bear.vm (exp/ln blends, few min/max) at a small size, tiles and per pixel: shortened equals
+ * full tape. */
+static void test_bear_shortened(void **state)
+{
+    (void)state;
+    crisp_frep *f;
+    assert_int_equal(crisp_frep_read_vm(CRISP_DATA_DIR "/frep/bear.vm", &f), CRISP_OK);
+    crisp_frep_tape *t;
+    assert_int_equal(crisp_frep_tape_create(f, &t), CRISP_OK);
+    crisp_frep_part part = {.tape = t, .color = {0.8f, 0.6f, 0.4f, 1}};
+    crisp_mat4_identity(part.transform);
+    crisp_camera cam = {.eye = {0.4, 0.6, 4.5},
+                        .target = {0, 0, 0},
+                        .up = {0, 1, 0},
+                        .fov_deg = 30,
+                        .znear = 0.05,
+                        .zfar = 20,
+                        .width = 96,
+                        .height = 64};
+    check_shortening_changes_nothing(&part, &cam, 0, NULL);
+    cam.width = 40, cam.height = 30;
+    check_shortening_changes_nothing(&part, &cam, 1, NULL);
+    crisp_frep_tape_destroy(t);
+    crisp_frep_destroy(f);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -520,6 +684,8 @@ int main(void)
         cmocka_unit_test(test_sphere_cuts_plane),
         cmocka_unit_test(test_camera_inside_and_crossing),
         cmocka_unit_test(test_tiles_match_per_pixel),
+        cmocka_unit_test(test_sphere_union_shortened),
+        cmocka_unit_test(test_bear_shortened),
         cmocka_unit_test(test_scene_file_errors),
         cmocka_unit_test(test_scene_file_example),
     };
