@@ -4,6 +4,7 @@
  * Camera and pixel conventions as DESIGN.md section 6. A scene file (include/crisp/scene_file.h)
  * merges its models and composites its f-rep parts by depth. */
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -205,6 +206,13 @@ int crisp_cmd_render(int argc, char **argv)
         return 2;
     }
     if (!png && !exr) png = "out.png";
+    /* About 75 bytes per sample and pixel (raster target and image): cap a frame near 5 GB. */
+    if ((uint64_t)width * (uint64_t)height * (uint64_t)samples > (1ull << 26)) {
+        fprintf(stderr, "crisp render: --size %dx%d with %d sample(s) per pixel is %llu samples: at most %llu "
+                        "(for example 8192x8192 with 1 sample, 4096x4096 with 4)\n",
+                width, height, samples, (unsigned long long)width * height * samples, 1ull << 26);
+        return 2;
+    }
     int cpu = !strcmp(backend, "cpu");
     if (!cpu && samples != 1) {
         fprintf(stderr, "crisp render: the exact backend casts one ray per pixel centre; --samples "

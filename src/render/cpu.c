@@ -545,6 +545,7 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     st = crisp_raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, nt, trim_test, r->plan, &rs);
     if (st) return st;
     double t2 = crisp_time_now();
+    crisp__image_clear(img);
     resolve_ctx rc = {r, sc, cam, img};
     crisp_pool_parallel_for(r->pool, (size_t)cam->height, 8, resolve_rows, &rc);
     double t3 = crisp_time_now();

@@ -460,6 +460,7 @@ crisp_status crisp_render_exact(const crisp_scene *sc, const crisp_camera *cam,
     if (!scr) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for ray-casting scratch");
     if (!st) st = bvh_build(sc, &b);
     if (!st) {
+        crisp__image_clear(img);
         render_ctx c = {sc, &b, desc, cam, img, scr};
         crisp_pool_parallel_for(pool, (size_t)cam->height, 1, render_rows, &c);
     }

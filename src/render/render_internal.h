@@ -8,6 +8,10 @@
  * alpha 1. n and view (from the eye to the point) need not be unit. */
 void crisp__shade(const float base[4], const double n[3], const double view[3], float rgba[4]);
 
+/* Background everywhere: rgba, normal, uv 0, depth +inf, face -1. Both backends start a frame
+ * with it, so an image can be rendered into again (they write covered pixels only). */
+void crisp__image_clear(crisp_image *img);
+
 /* Camera-space depth of a world point (distance along the view axis). */
 double crisp__view_depth(const crisp_camera *cam, const double p[3]);
 

@@ -226,11 +226,20 @@ crisp_status crisp_image_init(crisp_image *img, int width, int height)
         crisp_image_free(img);
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for a %dx%d image", width, height);
     }
+    crisp__image_clear(img);
+    return CRISP_OK;
+}
+
+void crisp__image_clear(crisp_image *img)
+{
+    size_t n = (size_t)img->width * img->height;
+    memset(img->rgba, 0, n * 4 * sizeof *img->rgba);
+    memset(img->normal, 0, n * 3 * sizeof *img->normal);
+    memset(img->uv, 0, n * 2 * sizeof *img->uv);
     for (size_t i = 0; i < n; i++) {
         img->depth[i] = INFINITY;
         img->face[i] = -1;
     }
-    return CRISP_OK;
 }
 
 void crisp_image_free(crisp_image *img)

@@ -482,6 +482,46 @@ static void test_zoom_tables(void **state)
     crisp_model_destroy(m);
 }
 
+/* An image rendered into a second time equals a fresh one: both backends write the whole frame
+ * (they used to write covered pixels only, so the first frame's surface stayed in the second
+ * frame's background). */
+static void same_image(const crisp_image *a, const crisp_image *b)
+{
+    size_t n = (size_t)a->width * a->height;
+    assert_memory_equal(a->rgba, b->rgba, 4 * n * sizeof(float));
+    assert_memory_equal(a->normal, b->normal, 3 * n * sizeof(float));
+    assert_memory_equal(a->uv, b->uv, 2 * n * sizeof(float));
+    assert_memory_equal(a->depth, b->depth, n * sizeof(float));
+    assert_memory_equal(a->face, b->face, n * sizeof(int32_t));
+}
+
+static void test_image_reuse(void **state)
+{
+    (void)state;
+    model_case mc;
+    case_open(&mc, NULL);
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+    double near_eye[3] = {0.1, -0.2, 3}, far_eye[3] = {0.1, -0.2, 30};
+    crisp_camera a = look(near_eye, mc.centre, 60, 0.01, 100, 48, 36);
+    crisp_camera b = look(far_eye, mc.centre, 10, 0.01, 100, 48, 36);
+    crisp_image reused, fresh;
+    assert_int_equal(crisp_image_init(&reused, 48, 36), CRISP_OK);
+    assert_int_equal(crisp_render_cpu(r, mc.scene, &a, &reused, NULL), CRISP_OK);
+    assert_int_equal(crisp_render_cpu(r, mc.scene, &b, &reused, NULL), CRISP_OK);
+    assert_int_equal(crisp_image_init(&fresh, 48, 36), CRISP_OK);
+    assert_int_equal(crisp_render_cpu(r, mc.scene, &b, &fresh, NULL), CRISP_OK);
+    same_image(&reused, &fresh);
+    assert_int_equal(crisp_render_exact(mc.scene, &a, NULL, &reused), CRISP_OK);
+    assert_int_equal(crisp_render_exact(mc.scene, &b, NULL, &reused), CRISP_OK);
+    assert_int_equal(crisp_render_exact(mc.scene, &b, NULL, &fresh), CRISP_OK);
+    same_image(&reused, &fresh);
+    crisp_image_free(&reused);
+    crisp_image_free(&fresh);
+    crisp_renderer_destroy(r);
+    case_close(&mc);
+}
+
 /* An up vector parallel to the view direction has no defined image: a clear error, never NaN. */
 static void test_up_parallel(void **state)
 {
@@ -518,6 +558,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_real_models),
         cmocka_unit_test(test_grazing),
         cmocka_unit_test(test_zoom_tables),
+        cmocka_unit_test(test_image_reuse),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
