@@ -168,10 +168,11 @@ crisp_status crisp_frep_renderer_create(const crisp_frep_tape *tape,
         w->lo = crisp_calloc_array(nr * 2, sizeof *w->lo);
         w->hi = w->lo ? w->lo + nr : NULL;
         w->regs = crisp_calloc_array(nr * FREP_LANES, sizeof *w->regs);
-        w->gregs = D > 0 ? crisp_calloc_array(nr * 4 * FREP_LANES, sizeof *w->gregs) : NULL;
+        /* gradients in 3D; the batched intervals' registers in 2D and 3D */
+        w->gregs = crisp_calloc_array(nr * 4 * FREP_LANES, sizeof *w->gregs);
         w->live = crisp_calloc_array(nr, 1);
-        if (!w->tapes || !w->ssas || !w->choices || !w->lo || !w->regs || !w->live ||
-            (D > 0 && (!w->gregs || !w->lane_choices)))
+        if (!w->tapes || !w->ssas || !w->choices || !w->lo || !w->regs || !w->live || !w->gregs ||
+            (D > 0 && !w->lane_choices))
             goto oom;
     }
     *dest = r;
@@ -273,6 +274,40 @@ static void leaf_2d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
     w->st.tape_sum += len;
 }
 
+/* The LEAF x LEAF blocks of a cell [i0,i1) x [j0,j1) (at most 16 of them), decided by one batched
+ * interval pass on the cell's tape: filled, or evaluated point by point. */
+static void leaves_2d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int i1, int j0,
+                      int j1)
+{
+    float bx[6][FREP_LANES];
+    int bi[16], bj[16], n = 0;
+    for (int j = j0; j < j1; j += LEAF)
+        for (int i = i0; i < i1 && n < 16; i += LEAF) {
+            int ib = i + LEAF < i1 ? i + LEAF - 1 : i1 - 1, jb = j + LEAF < j1 ? j + LEAF - 1 : j1 - 1;
+            bx[0][n] = r->xs[i], bx[1][n] = r->xs[ib];
+            bx[2][n] = r->ys[jb], bx[3][n] = r->ys[j];
+            bx[4][n] = bx[5][n] = r->zs[0];
+            bi[n] = i, bj[n++] = j;
+        }
+    for (int k = n; k < 16; k++)
+        for (int a = 0; a < 6; a++) bx[a][k] = bx[a][0];
+    const float *box[6] = {bx[0], bx[1], bx[2], bx[3], bx[4], bx[5]};
+    float *lo = w->gregs, *hi = w->gregs + (size_t)r->tape->registers * FREP_LANES;
+    crisp__frep_interval_lanes(t.ins, t.len, 16, lo, hi, box, NULL, NULL);
+    const float *l = lo + (size_t)t.ins[t.len - 1].out * FREP_LANES;
+    const float *h = hi + (size_t)t.ins[t.len - 1].out * FREP_LANES;
+    w->st.intervals += (size_t)n;
+    for (int q = 0; q < n; q++) {
+        int ie = bi[q] + LEAF < i1 ? bi[q] + LEAF : i1, je = bj[q] + LEAF < j1 ? bj[q] + LEAF : j1;
+        if (l[q] >= 0 || h[q] < 0) {
+            fill_inside(r, bi[q], ie, bj[q], je, h[q] < 0 ? 255 : 0);
+            w->st.filled++;
+        } else {
+            leaf_2d(r, w, t.ins, t.len, bi[q], ie, bj[q], je);
+        }
+    }
+}
+
 static void cell_2d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int j0, int size,
                     int depth)
 {
@@ -306,6 +341,10 @@ static void cell_2d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0,
     }
     frep_span ct = child_tape(r, w, t, w->choices, d, depth);
     int c = size / 2;
+    if (c < MIN_INTERVAL_2D && !(r->desc.flags & CRISP_FREP_NO_SUBCELLS)) {
+        leaves_2d(r, w, ct, i0, i1, j0, j1);
+        return;
+    }
     for (int j = j0; j < j1; j += c)
         for (int i = i0; i < i1; i += c) cell_2d(r, w, ct, i, j, c, depth + 1);
 }
