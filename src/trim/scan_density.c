@@ -2,11 +2,22 @@
  * frame as a guaranteed upper bound instead of being read back from the previous frame.
  *
  * In clip space the face's homogeneous patch is four polynomial patches X, Y, Z, W, and
- * x~ = w_x X / W + c_x, so x~_v = w_x (X_v W - X W_v) / W^2. The numerator is a polynomial patch of
- * degree (2du, 2dv - 1) whose Bernstein coefficients come from products of Bernstein forms; by the
- * convex hull property |numerator| <= its largest |coefficient| and W >= its smallest coefficient.
- * The bound of the Euclidean screen speed sqrt(x~_v^2 + y~_v^2) is
- *   sqrt((w_x max|N_x|)^2 + (w_y max|N_y|)^2) / min(W)^2.
+ * x~ = w_x X / W + c_x, so with r_x = X / W
+ *   x~_v = w_x (X_v W - X W_v) / W^2 = w_x (X_v - r_x W_v) / W.
+ * On a sub-patch whose W coefficients W_k are all positive:
+ *   - r_x lies in [min X_k / W_k, max X_k / W_k] (X / W is a convex combination of the ratios,
+ *     with weights W_k B_k / W), and at the points that matter (inside the widened frustum) also
+ *     in [-(1 + m_x), 1 + m_x]; call the intersection R_x (empty: nothing visible, culled);
+ *   - with X_v and W_v degree-elevated to the patch's degrees (coefficients X'_k, W'_k), at a
+ *     point where r_x = r: X_v - r W_v = sum (X'_k - r W'_k) B_k and W = sum W_k B_k, so for the
+ *     vector n_k = (w_x (X'_k - r_x W'_k), w_y (Y'_k - r_y W'_k)) the triangle inequality gives
+ *       |(x~_v, y~_v)| <= sum |n_k| B_k / sum W_k B_k <= max_k |n_k| / W_k,
+ *     and |n_k|^2 is convex in (r_x, r_y), so its largest value over R_x x R_y is at a corner:
+ *       |n_k|^2 <= w_x^2 max_{r in R_x} (X'_k - r W'_k)^2 + w_y^2 max_{r in R_y} (Y'_k - r W'_k)^2.
+ * That is O(coefficients) per sub-patch, camera and all: no products of Bernstein forms (the
+ * first version bounded the exact numerator X_v W - X W_v through such products, which cost
+ * O(coefficients^2) and was 90% of a frame's plan). The bound tightens as sub-patches shrink
+ * (R_x narrows), so the refinement below pays for the looser start.
  * Sub-patches whose coefficients put them wholly outside one plane of the (slightly widened)
  * frustum are dropped; where min(W) is not positive or the bound is well above the values sampled
  * on the sub-patch, it is split 2x2 and examined again (DESIGN.md section 5).
@@ -27,7 +38,7 @@ typedef struct density_ctx {
     double slack;
     int max_depth;
     double *levels;  /* (max_depth + 1) * 4 children * 4 planes * n */
-    double *scratch; /* derivative and product work space */
+    double *scratch; /* elevated derivatives: 3 planes */
     double cur_v, cur_u;
     double vis_lo, vis_hi; /* v-range of the sub-patches kept */
     double ulo, uhi;       /* the strip's u-range of interest (desc->strip_u), else infinite */
@@ -55,69 +66,59 @@ static int culled(const density_ctx *c, const double *s)
            outside_plane(Z, W, c->n, 1.0, -1.0);
 }
 
-/* Derivative coefficients in v (dir 1: degrees (du, dv - 1)) or u (dir 0: (du - 1, dv)). */
-static void derivative(const double *c, int du, int dv, int dir, double *dest)
+/* Derivative of a tensor-product Bernstein patch in v (dir 1) or u (dir 0), degree-elevated back
+ * to the patch's degrees (du, dv): along the direction, with d the degree,
+ *   E_j = j (c_j - c_{j-1}) + (d - j) (c_{j+1} - c_j)
+ * (the elevation (j/d) D_{j-1} + (1 - j/d) D_j of D_j = d (c_{j+1} - c_j), no division). */
+static void derivative_elevated(const double *c, int du, int dv, int dir, double *dest)
 {
-    if (dir) {
-        for (int j = 0; j < dv; j++)
-            for (int i = 0; i <= du; i++)
-                dest[j * (du + 1) + i] = dv * (c[(j + 1) * (du + 1) + i] - c[j * (du + 1) + i]);
-    } else {
-        for (int j = 0; j <= dv; j++)
-            for (int i = 0; i < du; i++)
-                dest[j * du + i] = du * (c[j * (du + 1) + i + 1] - c[j * (du + 1) + i]);
+    int d = dir ? dv : du;
+    size_t step = dir ? (size_t)(du + 1) : 1; /* between neighbours along the direction */
+    int lines = dir ? du + 1 : dv + 1;
+    for (int l = 0; l < lines; l++) {
+        const double *p = dir ? c + l : c + (size_t)l * (du + 1);
+        double *q = dir ? dest + l : dest + (size_t)l * (du + 1);
+        for (int j = 0; j <= d; j++) {
+            double e = 0.0;
+            if (j > 0) e += j * (p[j * step] - p[(j - 1) * step]);
+            if (j < d) e += (d - j) * (p[(j + 1) * step] - p[j * step]);
+            q[j * step] = e;
+        }
     }
 }
 
-/* Bernstein coefficients of the numerator P_dir W - P W_dir (degree (2du, 2dv - 1) for dir 1,
- * (2du - 1, 2dv) for dir 0), degree-elevated by one in dir to the degree (2du, 2dv) of W^2. */
-static void numerator(density_ctx *c, const double *P, const double *W, int dir, double *dest)
+/* fmax and fmin without the library call (operands here are finite). */
+static inline double dmax(double a, double b)
 {
-    int du = c->du, dv = c->dv;
-    int ddu = dir ? du : du - 1, ddv = dir ? dv - 1 : dv;
-    double *Pd = c->scratch, *Wd = Pd + c->n;
-    double *p1 = Wd + c->n;
-    int m = du + ddu, n = dv + ddv; /* numerator degrees */
-    size_t pn = (size_t)(m + 1) * (size_t)(n + 1);
-    double *p2 = p1 + pn;
-    derivative(P, du, dv, dir, Pd);
-    derivative(W, du, dv, dir, Wd);
-    crisp__trim_product2(Pd, ddu, ddv, W, du, dv, p1);
-    crisp__trim_product2(P, du, dv, Wd, ddu, ddv, p2);
-    for (size_t k = 0; k < pn; k++)
-        p1[k] -= p2[k];
-    /* Elevate: c'_k = k/(d+1) c_{k-1} + (1 - k/(d+1)) c_k along dir. */
-    int M = 2 * du, N = 2 * dv;
-    for (int j = 0; j <= N; j++)
-        for (int i = 0; i <= M; i++) {
-            double v;
-            if (dir) {
-                double lo = j > 0 ? p1[(j - 1) * (m + 1) + i] : 0.0;
-                double hi = j < N ? p1[j * (m + 1) + i] : 0.0;
-                v = (double)j / N * lo + (1.0 - (double)j / N) * hi;
-            } else {
-                double lo = i > 0 ? p1[j * (m + 1) + i - 1] : 0.0;
-                double hi = i < M ? p1[j * (m + 1) + i] : 0.0;
-                v = (double)i / M * lo + (1.0 - (double)i / M) * hi;
-            }
-            dest[j * (M + 1) + i] = v;
-        }
+    return a > b ? a : b;
 }
 
-/* With W > 0, W^2 = sum w_k B_k has w_k > 0, and for the vector numerator (N_x, N_y) = sum n_k B_k
- * the triangle inequality gives |(N_x, N_y)| <= sum |n_k| B_k <= max_k (|n_k| / w_k) W^2: a bound
- * of the screen speed by coefficient ratios, much tighter than max|n| / min(W)^2 where W varies. */
-static double speed_bound(density_ctx *c, const double *X, const double *Y, const double *W,
-                          const double *w2, int dir)
+static inline double dmin(double a, double b)
 {
-    int M = 2 * c->du, N = 2 * c->dv;
-    size_t pn = (size_t)(M + 1) * (size_t)(N + 1);
-    double *nx = c->scratch + 2 * c->n + 2 * pn, *ny = nx + pn;
-    numerator(c, X, W, dir, nx);
-    numerator(c, Y, W, dir, ny);
+    return a < b ? a : b;
+}
+
+/* max over r in [lo, hi] of (a - r b)^2: at an end, the expression being convex in r. */
+static double max_sq(double a, double b, double lo, double hi)
+{
+    double p = a - lo * b, q = a - hi * b;
+    return dmax(p * p, q * q);
+}
+
+/* The bound of the header comment for direction dir, in pixels per unit of the sub-patch's local
+ * parameter. rx, ry: R_x and R_y. */
+static double speed_bound(density_ctx *c, const double *X, const double *Y, const double *W,
+                          const double rx[2], const double ry[2], int dir)
+{
+    double *xe = c->scratch, *ye = xe + c->n, *we = ye + c->n;
+    derivative_elevated(X, c->du, c->dv, dir, xe);
+    derivative_elevated(Y, c->du, c->dv, dir, ye);
+    derivative_elevated(W, c->du, c->dv, dir, we);
     double b2 = 0.0, wx2 = c->wx * c->wx, wy2 = c->wy * c->wy;
-    for (size_t k = 0; k < pn; k++)
-        b2 = fmax(b2, (wx2 * nx[k] * nx[k] + wy2 * ny[k] * ny[k]) / (w2[k] * w2[k]));
+    for (size_t k = 0; k < c->n; k++) {
+        double nx = max_sq(xe[k], we[k], rx[0], rx[1]), ny = max_sq(ye[k], we[k], ry[0], ry[1]);
+        b2 = dmax(b2, (wx2 * nx + wy2 * ny) / (W[k] * W[k]));
+    }
     return sqrt(b2);
 }
 
@@ -143,10 +144,11 @@ static void corner_tp(const double *c, int du, int dv, int a, int b, double out[
 /* Largest screen speeds sampled at the sub-patch's four corners and centre, among the points
  * inside the widened frustum; returns the number of such points. (Only steers refinement.) */
 static int sample_speeds(const density_ctx *c, const double *s, double sv, double su, double ua,
-                         double ub, double *ev, double *eu)
+                         double ub, double *ev, double *eu, double *ev_min)
 {
     int seen = 0;
     *ev = *eu = 0.0;
+    if (ev_min) *ev_min = HUGE_VAL;
     for (int k = 0; k < 5; k++) {
         double X[3], Y[3], Z[3], W[3];
         double u = k < 4 ? (k & 1 ? ub : ua) : 0.5 * (ua + ub);
@@ -174,38 +176,79 @@ static int sample_speeds(const density_ctx *c, const double *s, double sv, doubl
         double yv = c->wy * (Y[2] * W[0] - Y[0] * W[2]) / w2;
         *eu = fmax(*eu, sqrt(xu * xu + yu * yu) * su);
         *ev = fmax(*ev, sqrt(xv * xv + yv * yv) * sv);
+        if (ev_min) *ev_min = fmin(*ev_min, sqrt(xv * xv + yv * yv) * sv);
     }
     return seen;
 }
 
+/* Split a plane of rows j = 0..dv (each of len values) at v = 1/2 by de Casteljau on whole rows:
+ * lo holds the plane on entry and its lower half on exit, hi gets the upper half. */
+static void split_rows(double *lo, double *hi, int dv, int len, double *tmp)
+{
+    size_t row = (size_t)len * sizeof *tmp;
+    memcpy(tmp, lo, (size_t)(dv + 1) * row);
+    memcpy(hi + (size_t)dv * len, tmp + (size_t)dv * len, row);
+    for (int r = 1; r <= dv; r++) {
+        for (int i = 0; i <= dv - r; i++) {
+            double *a = tmp + (size_t)i * len, *b = a + len;
+            for (int x = 0; x < len; x++)
+                a[x] = 0.5 * (a[x] + b[x]);
+        }
+        memcpy(lo + (size_t)r * len, tmp, row);
+        memcpy(hi + (size_t)(dv - r) * len, tmp + (size_t)(dv - r) * len, row);
+    }
+}
+
+/* The four quarters of sub-patch s (kid k: u-half k & 1, v-half k >> 1), each 4 planes. */
 static void split_half(const density_ctx *c, const double *s, double *kids)
 {
-    int du = c->du, dv = c->dv;
-    size_t block = 4 * c->n;
-    double lo[CRISP_MAX_DEGREE + 1], hi[CRISP_MAX_DEGREE + 1];
+    int du = c->du, dv = c->dv, len = du + 1;
+    size_t n = c->n, block = 4 * n;
+    double tmp[(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1)];
     for (int q = 0; q < 4; q++) {
-        const double *src = s + q * c->n;
-        double *k0 = kids + q * c->n, *k1 = kids + block + q * c->n;
-        for (int j = 0; j <= dv; j++) {
-            crisp__trim_split(src + j * (du + 1), du, 1, 0.5, lo, hi);
-            memcpy(k0 + j * (du + 1), lo, sizeof(double) * (size_t)(du + 1));
-            memcpy(k1 + j * (du + 1), hi, sizeof(double) * (size_t)(du + 1));
-        }
-        /* Now split each u-half in v into the lower (kid 0, 1) and upper (kid 2, 3) halves. */
-        double *k2 = kids + 2 * block + q * c->n, *k3 = kids + 3 * block + q * c->n;
-        for (int i = 0; i <= du; i++) {
-            crisp__trim_split(k0 + i, dv, du + 1, 0.5, lo, hi);
-            for (int j = 0; j <= dv; j++) {
-                k0[j * (du + 1) + i] = lo[j];
-                k2[j * (du + 1) + i] = hi[j];
-            }
-            crisp__trim_split(k1 + i, dv, du + 1, 0.5, lo, hi);
-            for (int j = 0; j <= dv; j++) {
-                k1[j * (du + 1) + i] = lo[j];
-                k3[j * (du + 1) + i] = hi[j];
+        const double *src = s + q * n;
+        double *k0 = kids + q * n, *k1 = k0 + block, *k2 = k1 + block, *k3 = k2 + block;
+        for (int j = 0; j <= dv; j++) { /* u halves, row by row */
+            double w[CRISP_MAX_DEGREE + 1], *lo = k0 + (size_t)j * len, *hi = k1 + (size_t)j * len;
+            memcpy(w, src + (size_t)j * len, (size_t)len * sizeof *w);
+            lo[0] = w[0];
+            hi[du] = w[du];
+            for (int r = 1; r <= du; r++) {
+                for (int i = 0; i <= du - r; i++)
+                    w[i] = 0.5 * (w[i] + w[i + 1]);
+                lo[r] = w[0];
+                hi[du - r] = w[du - r];
             }
         }
+        split_rows(k0, k2, dv, len, tmp); /* then v halves of each */
+        split_rows(k1, k3, dv, len, tmp);
     }
+}
+
+/* The bounds bv, bu of the header comment for sub-patch s (per unit of the face's v and u: su, sv
+ * are d(local)/d(global)). Returns 1 with the bounds, 0 when W is not provably positive on it, -1
+ * when no point of it lies inside the widened frustum. */
+static int node_bound(density_ctx *c, const double *s, double su, double sv, double *bv, double *bu)
+{
+    const double *X = s, *Y = s + c->n, *W = s + 3 * c->n;
+    double wmin = HUGE_VAL;
+    for (size_t k = 0; k < c->n; k++)
+        wmin = dmin(wmin, W[k]);
+    if (!(wmin > 0.0)) return 0;
+    double rx[2] = {HUGE_VAL, -HUGE_VAL}, ry[2] = {HUGE_VAL, -HUGE_VAL};
+    for (size_t k = 0; k < c->n; k++) {
+        double qx = X[k] / W[k], qy = Y[k] / W[k];
+        rx[0] = dmin(rx[0], qx), rx[1] = dmax(rx[1], qx);
+        ry[0] = dmin(ry[0], qy), ry[1] = dmax(ry[1], qy);
+    }
+    rx[0] = dmax(rx[0], -(1.0 + c->mx)), rx[1] = dmin(rx[1], 1.0 + c->mx);
+    ry[0] = dmax(ry[0], -(1.0 + c->my)), ry[1] = dmin(ry[1], 1.0 + c->my);
+    if (!(rx[0] <= rx[1] && ry[0] <= ry[1])) return -1;
+    /* Rounding in these few operations is relative ~1e-15; widen so the bounds stay upper
+     * bounds. */
+    *bv = sv * speed_bound(c, X, Y, W, rx, ry, 1) * (1.0 + 1e-9);
+    *bu = su * speed_bound(c, X, Y, W, rx, ry, 0) * (1.0 + 1e-9);
+    return 1;
 }
 
 /* s: the sub-patch (4 planes) over [ua, ub] x [va, vb] of the face's parameters; su, sv:
@@ -219,24 +262,18 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
         if (c->stats) c->stats->culled++;
         return;
     }
-    const double *X = s, *Y = s + c->n, *W = s + 3 * c->n;
-    double wmin = HUGE_VAL;
-    for (size_t k = 0; k < c->n; k++)
-        wmin = fmin(wmin, W[k]);
     int last = depth >= c->max_depth || c->budget <= 0;
-    if (wmin > 0.0) {
-        size_t pn = (size_t)(2 * c->du + 1) * (size_t)(2 * c->dv + 1);
-        double *w2 = c->scratch + 2 * c->n + 4 * pn;
-        crisp__trim_product2(W, c->du, c->dv, W, c->du, c->dv, w2);
-        double bv = sv * speed_bound(c, X, Y, W, w2, 1);
-        double bu = su * speed_bound(c, X, Y, W, w2, 0);
-        /* Rounding in the products is relative ~1e-15; widen so the bound stays an upper bound. */
-        bv *= 1.0 + 1e-9;
-        bu *= 1.0 + 1e-9;
+    double bv, bu;
+    int b = node_bound(c, s, su, sv, &bv, &bu);
+    if (b < 0) {
+        if (c->stats) c->stats->culled++;
+        return;
+    }
+    if (b > 0) {
         int accept = last;
         if (!accept) {
             double ev, eu;
-            int seen = sample_speeds(c, s, sv, su, ua, ub, &ev, &eu);
+            int seen = sample_speeds(c, s, sv, su, ua, ub, &ev, &eu, NULL);
             int ok_v = bv <= fmax(fmax(c->slack * ev, c->cur_v), c->floor_v);
             int ok_u = bu <= fmax(c->slack * eu, c->cur_u);
             accept = seen > 0 && ok_v && ok_u;
@@ -268,6 +305,166 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
     for (int k = 0; k < 4; k++)
         refine(c, kids + (size_t)k * 4 * c->n, depth + 1, 2 * su, 2 * sv, k & 1 ? um : ua,
                k & 1 ? ub : um, k < 2 ? va : vm, k < 2 ? vm : vb);
+}
+
+/* One patch's way through the strips it reaches. Strip by strip, each strip's part of the patch
+ * is refined on its own (refine above). Before that, the patch is bisected at strip boundaries:
+ * a piece over several strips whose bounds are already good enough (the v-bound within the slack
+ * of the sampled speeds or asking for at most one row per strip, the u-bound within the slack)
+ * gives its bounds to every strip it reaches (a bound over more of the surface is still a bound),
+ * and only the other pieces go further down. Most patches of a model in full view stop there,
+ * which saves restricting them to each strip (the first version restricted every patch to every
+ * strip, 2 de Casteljau splits per column each). */
+typedef struct patch_walk {
+    const crisp_trim_density_desc *desc;
+    density_ctx *c;
+    const crisp_bezier_patch *bp;
+    const double *clip; /* the whole patch in clip space */
+    double *nodes;      /* bisection pieces: 2 per depth, 4 planes each */
+    double *rho_v, *rho_u, *vis_v;
+    double hv;
+} patch_walk;
+
+/* Split a plane of rows j = 0..dv (each of len values) at v = t by de Casteljau on whole rows:
+ * src into lo (v in [0, t]) and hi ([t, 1]). */
+static void split_rows_at(const double *src, double *lo, double *hi, int dv, int len, double t,
+                          double *tmp)
+{
+    size_t row = (size_t)len * sizeof *tmp;
+    memcpy(tmp, src, (size_t)(dv + 1) * row);
+    memcpy(lo, tmp, row);
+    memcpy(hi + (size_t)dv * len, tmp + (size_t)dv * len, row);
+    for (int r = 1; r <= dv; r++) {
+        for (int i = 0; i <= dv - r; i++) {
+            double *a = tmp + (size_t)i * len, *b = a + len;
+            for (int x = 0; x < len; x++)
+                a[x] += t * (b[x] - a[x]);
+        }
+        memcpy(lo + (size_t)r * len, tmp, row);
+        memcpy(hi + (size_t)(dv - r) * len, tmp + (size_t)(dv - r) * len, row);
+    }
+}
+
+/* Strip i's part of the patch, [ta, tb] of its local v, refined on its own. node: that part
+ * already restricted (or NULL: restrict the whole patch here). */
+static void strip_part(patch_walk *w, int i, const double *node)
+{
+    const crisp_trim_density_desc *desc = w->desc;
+    density_ctx *c = w->c;
+    const crisp_bezier_patch *bp = w->bp;
+    double nu0 = desc->v0 + i * w->hv, nu1 = desc->v0 + (i + 1) * w->hv;
+    double ta = (nu0 - bp->v0) / (bp->v1 - bp->v0), tb = (nu1 - bp->v0) / (bp->v1 - bp->v0);
+    if (ta < 0.0) ta = 0.0;
+    if (tb > 1.0) tb = 1.0;
+    if (!(tb > ta)) return;
+    /* A sliver of the patch (a strip boundary a rounding error away from the patch's) restricted
+     * on its own would have derivative coefficients made of cancellation noise divided by its
+     * tiny width: bound a piece of at least MIN_PIECE of the patch around it instead (a bound
+     * over more of the surface is still a bound; the row range is cut back to the strip). */
+    if (tb - ta < MIN_PIECE) {
+        node = NULL;
+        if (ta + MIN_PIECE <= 1.0)
+            tb = ta + MIN_PIECE;
+        else
+            ta = 1.0 - MIN_PIECE, tb = 1.0;
+    }
+    double *root = c->levels; /* refine copies children deeper */
+    if (node) {
+        memcpy(root, node, sizeof(double) * 4 * c->n);
+    } else {
+        memcpy(root, w->clip, sizeof(double) * 4 * c->n);
+        for (int q = 0; q < 4; q++)
+            for (int col = 0; col <= c->du; col++)
+                crisp__trim_restrict(root + q * c->n + col, c->dv, c->du + 1, ta, tb);
+    }
+    double *rho_v = w->rho_v, *rho_u = w->rho_u, *vis_v = w->vis_v;
+    c->cur_v = rho_v[i];
+    c->cur_u = rho_u[i];
+    c->visible = rho_v[i] > 0.0 || rho_u[i] > 0.0;
+    c->unbounded = 0;
+    c->vis_lo = vis_v ? vis_v[2 * i] : 0.0;
+    c->vis_hi = vis_v ? vis_v[2 * i + 1] : 0.0;
+    c->floor_v = 1.0 / w->hv;
+    c->budget = 16384; /* deep refinement at extreme zoom (fov 1e-7 deg) needs ~5000 */
+    c->ulo = desc->strip_u ? desc->strip_u[2 * i] : -HUGE_VAL;
+    c->uhi = desc->strip_u ? desc->strip_u[2 * i + 1] : HUGE_VAL;
+    refine(c, root, 0, 1.0 / (bp->u1 - bp->u0), 1.0 / ((bp->v1 - bp->v0) * (tb - ta)), bp->u0,
+           bp->u1, bp->v0 + (bp->v1 - bp->v0) * ta, bp->v0 + (bp->v1 - bp->v0) * tb);
+    if (vis_v) vis_v[2 * i] = c->vis_lo, vis_v[2 * i + 1] = c->vis_hi;
+    if (c->unbounded) {
+        rho_v[i] = rho_u[i] = HUGE_VAL;
+        c->stats->unbounded++;
+    } else if (c->visible) {
+        rho_v[i] = c->cur_v;
+        rho_u[i] = c->cur_u;
+        /* A visible strip always needs a row, even if the surface is edge-on in v. */
+        if (!(rho_v[i] > 0.0)) rho_v[i] = 1e-300;
+        if (!(rho_u[i] > 0.0)) rho_u[i] = 1e-300;
+    }
+}
+
+/* node: the patch over [t0, t1] of its local v, which covers strips i0..i1 (exactly, up to the
+ * patch's own ends). */
+static void walk_strips(patch_walk *w, const double *node, int depth, int i0, int i1, double t0,
+                        double t1)
+{
+    if (i0 == i1) {
+        strip_part(w, i0, node);
+        return;
+    }
+    const crisp_trim_density_desc *desc = w->desc;
+    density_ctx *c = w->c;
+    const crisp_bezier_patch *bp = w->bp;
+    c->ulo = desc->strip_u ? HUGE_VAL : -HUGE_VAL;
+    c->uhi = desc->strip_u ? -HUGE_VAL : HUGE_VAL;
+    for (int i = i0; desc->strip_u && i <= i1; i++) {
+        c->ulo = dmin(c->ulo, desc->strip_u[2 * i]);
+        c->uhi = dmax(c->uhi, desc->strip_u[2 * i + 1]);
+    }
+    c->stats->subpatches++;
+    if (c->uhi < bp->u0 || c->ulo > bp->u1 || culled(c, node)) {
+        c->stats->culled++;
+        return;
+    }
+    double dv = bp->v1 - bp->v0, su = 1.0 / (bp->u1 - bp->u0), sv = 1.0 / (dv * (t1 - t0));
+    double bv, bu, ev, eu, ev_min;
+    int b = node_bound(c, node, su, sv, &bv, &bu);
+    if (b < 0) {
+        c->stats->culled++;
+        return;
+    }
+    if (b > 0 && sample_speeds(c, node, sv, su, bp->u0, bp->u1, &ev, &eu, &ev_min) > 0 &&
+        bv <= dmax(c->slack * ev_min, 1.0 / w->hv) && bu <= c->slack * eu &&
+        dv * (t1 - t0) * bv <= 32.0 * (c->wx + c->wy)) {
+        for (int i = i0; i <= i1; i++) {
+            double nu0 = desc->v0 + i * w->hv, nu1 = desc->v0 + (i + 1) * w->hv;
+            double lo = dmax(nu0, bp->v0), hi = dmin(nu1, bp->v1);
+            if (!(hi > lo)) continue;
+            if (w->vis_v) {
+                w->vis_v[2 * i] = dmin(w->vis_v[2 * i], lo);
+                w->vis_v[2 * i + 1] = dmax(w->vis_v[2 * i + 1], hi);
+            }
+            if (w->rho_v[i] < HUGE_VAL) { /* a visible strip always needs a row */
+                w->rho_v[i] = dmax(w->rho_v[i], dmax(bv, 1e-300));
+                w->rho_u[i] = dmax(w->rho_u[i], dmax(bu, 1e-300));
+            }
+        }
+        return;
+    }
+    /* Bisect at the strip boundary nearest the middle. */
+    int k = (i0 + i1 + 1) / 2;
+    double tk = (desc->v0 + k * w->hv - bp->v0) / dv, s = (tk - t0) / (t1 - t0);
+    if (!(s > 0.0 && s < 1.0) || depth >= 60) { /* rounding: strip by strip from the patch */
+        for (int i = i0; i <= i1; i++)
+            strip_part(w, i, NULL);
+        return;
+    }
+    double *lo = w->nodes + (size_t)depth * 8 * c->n, *hi = lo + 4 * c->n;
+    double tmp[(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1)];
+    for (int q = 0; q < 4; q++)
+        split_rows_at(node + q * c->n, lo + q * c->n, hi + q * c->n, c->dv, c->du + 1, s, tmp);
+    walk_strips(w, lo, depth + 1, i0, k - 1, t0, tk);
+    walk_strips(w, hi, depth + 1, k, i1, tk, t1);
 }
 
 crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double *rho_v,
@@ -327,20 +524,28 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
     c.my = 2.0 * margin / desc->height;
     c.stats = stats;
     size_t nmax = (size_t)(maxdu + 1) * (size_t)(maxdv + 1);
-    size_t pmax = (size_t)(2 * maxdu + 1) * (size_t)(2 * maxdv + 1);
     double *clip = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
-    double *strip = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
+    double *nodes = crisp_arena_alloc(arena, 61 * 8 * nmax, sizeof(double));
     c.levels = crisp_arena_alloc(arena, (size_t)(c.max_depth + 2) * 16 * nmax, sizeof(double));
-    c.scratch = crisp_arena_alloc(arena, 2 * nmax + 5 * pmax, sizeof(double));
+    c.scratch = crisp_arena_alloc(arena, 3 * nmax, sizeof(double));
     crisp_status st = CRISP_OK;
-    if (!clip || !strip || !c.levels || !c.scratch) {
+    if (!clip || !nodes || !c.levels || !c.scratch) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_scan_density: out of memory");
         goto done;
     }
     double hv = (desc->v1 - desc->v0) / desc->strip_count;
     crisp_mat4 *m = desc->view_proj;
+    patch_walk walk = {.desc = desc,
+                       .c = &c,
+                       .clip = clip,
+                       .nodes = nodes,
+                       .rho_v = rho_v,
+                       .rho_u = rho_u,
+                       .vis_v = vis_v,
+                       .hv = hv};
     for (int p = 0; p < desc->patch_count; p++) {
         const crisp_bezier_patch *bp = &desc->patches[p];
+        walk.bp = bp;
         c.du = bp->du;
         c.dv = bp->dv;
         c.n = (size_t)(bp->du + 1) * (size_t)(bp->dv + 1);
@@ -361,55 +566,7 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
         int i0 = (int)floor((bp->v0 - desc->v0) / hv), i1 = (int)floor((bp->v1 - desc->v0) / hv);
         if (i0 < 0) i0 = 0;
         if (i1 > desc->strip_count - 1) i1 = desc->strip_count - 1;
-        for (int i = i0; i <= i1; i++) {
-            double nu0 = desc->v0 + i * hv, nu1 = desc->v0 + (i + 1) * hv;
-            double ta = (nu0 - bp->v0) / (bp->v1 - bp->v0), tb = (nu1 - bp->v0) / (bp->v1 - bp->v0);
-            if (ta < 0.0) ta = 0.0;
-            if (tb > 1.0) tb = 1.0;
-            if (!(tb > ta)) continue;
-            /* A sliver of the patch (a strip boundary a rounding error away from the patch's)
-             * restricted on its own would have derivative coefficients made of cancellation
-             * noise divided by its tiny width: bound a piece of at least MIN_PIECE of the patch
-             * around it instead (a bound over more of the surface is still a bound; the row
-             * range is cut back to the strip below). */
-            if (tb - ta < MIN_PIECE) {
-                if (ta + MIN_PIECE <= 1.0)
-                    tb = ta + MIN_PIECE;
-                else
-                    ta = 1.0 - MIN_PIECE, tb = 1.0;
-            }
-            memcpy(strip, clip, sizeof(double) * 4 * c.n);
-            for (int q = 0; q < 4; q++)
-                for (int col = 0; col <= c.du; col++)
-                    crisp__trim_restrict(strip + q * c.n + col, c.dv, c.du + 1, ta, tb);
-            c.cur_v = rho_v[i];
-            c.cur_u = rho_u[i];
-            c.visible = rho_v[i] > 0.0 || rho_u[i] > 0.0;
-            c.unbounded = 0;
-            c.vis_lo = vis_v ? vis_v[2 * i] : 0.0;
-            c.vis_hi = vis_v ? vis_v[2 * i + 1] : 0.0;
-            c.floor_v = 1.0 / hv;
-            c.budget = 16384; /* deep refinement at extreme zoom (fov 1e-7 deg) needs ~5000 */
-            c.ulo = desc->strip_u ? desc->strip_u[2 * i] : -HUGE_VAL;
-            c.uhi = desc->strip_u ? desc->strip_u[2 * i + 1] : HUGE_VAL;
-            /* The strip's levels start at level 0 of c.levels; refine copies children deeper. */
-            double *root = c.levels;
-            memcpy(root, strip, sizeof(double) * 4 * c.n);
-            refine(&c, root, 0, 1.0 / (bp->u1 - bp->u0), 1.0 / ((bp->v1 - bp->v0) * (tb - ta)),
-                   bp->u0, bp->u1, bp->v0 + (bp->v1 - bp->v0) * ta,
-                   bp->v0 + (bp->v1 - bp->v0) * tb);
-            if (vis_v) vis_v[2 * i] = c.vis_lo, vis_v[2 * i + 1] = c.vis_hi;
-            if (c.unbounded) {
-                rho_v[i] = rho_u[i] = HUGE_VAL;
-                stats->unbounded++;
-            } else if (c.visible) {
-                rho_v[i] = c.cur_v;
-                rho_u[i] = c.cur_u;
-                /* A visible strip always needs a row, even if the surface is edge-on in v. */
-                if (!(rho_v[i] > 0.0)) rho_v[i] = 1e-300;
-                if (!(rho_u[i] > 0.0)) rho_u[i] = 1e-300;
-            }
-        }
+        walk_strips(&walk, clip, 0, i0, i1, 0.0, 1.0);
     }
     /* Row ranges inside their strips; invisible strips keep their bounds. */
     for (int i = 0; vis_v && i < desc->strip_count; i++) {
