@@ -18,9 +18,28 @@
  * first version bounded the exact numerator X_v W - X W_v through such products, which cost
  * O(coefficients^2) and was 90% of a frame's plan). The bound tightens as sub-patches shrink
  * (R_x narrows), so the refinement below pays for the looser start.
- * Sub-patches whose coefficients put them wholly outside one plane of the (slightly widened)
- * frustum are dropped; where min(W) is not positive or the bound is well above the values sampled
- * on the sub-patch, it is split 2x2 and examined again (DESIGN.md section 5).
+ * Sub-patches whose coefficients put them wholly outside one plane of the widened frustum are
+ * dropped; where min(W) is not positive or the bound is well above the values sampled on the
+ * sub-patch, it is split 2x2 and examined again (DESIGN.md section 5).
+ *
+ * Near (and far) plane. The 1 px guarantee (include/crisp/trim.h) follows the surface from a
+ * pixel's point p along a path of parameter length at most 3h/4 in v (to its scan line, then
+ * to the polyline within h/4) and 1 / (4 rho_u) in u, and bounds the path's screen length by
+ * rho_v and rho_u. That needs the whole path inside the region the bounds cover. Through a side
+ * plane it cannot leave: the side planes are widened by margin_px >= 2 px and p is on screen,
+ * so leaving would take a screen length of 2 px while the bounds allow at most 1 px before the
+ * exit. Through the near plane it could: the depth is not a screen distance, and behind the near
+ * plane, towards the eye plane, the screen speed is unbounded. So the covered region also
+ * reaches DEPTH_MARGIN = delta beyond the near and far planes in NDC depth (z~ = Z / W in
+ * [-1 - delta, 1 + delta]; points nearer than about 2/3 of the near distance are still left out,
+ * W stays positive), and the bounds also cover the depth speed: rho_v >= sup |z~_v| / delta and
+ * rho_u >= sup |z~_u| / delta over the region, from the same coefficient bound with Z in place
+ * of X. Along the path, then, z~ moves by at most (3/4) delta + (1/4) delta = delta, strictly
+ * less with the 1 + 1e-9 widening: a path from p (z~ in [-1, 1]) cannot reach the widened depth
+ * planes before its end, and its screen length is bounded as claimed. In most views the depth
+ * term is far below the screen term (near the near plane |z~_v| ~ 2 |d_v| / near against a
+ * screen speed of ~ (w / 2) |d_v| tan(angle) / near); it only decides for a surface running
+ * along the ray through the eye, whose image hardly moves while its depth does.
  */
 #include "trim_internal.h"
 
@@ -28,6 +47,7 @@
 #include <string.h>
 
 #define MIN_PIECE (1.0 / 16.0)
+#define DEPTH_MARGIN 1.0 /* delta: the bound covers NDC depth z~ in [-1 - delta, 1 + delta] */
 
 typedef struct density_ctx {
     int du, dv;
@@ -38,7 +58,7 @@ typedef struct density_ctx {
     double slack;
     int max_depth;
     double *levels;  /* (max_depth + 1) * 4 children * 4 planes * n */
-    double *scratch; /* elevated derivatives: 3 planes */
+    double *scratch; /* elevated derivatives: 4 planes */
     double cur_v, cur_u;
     double vis_lo, vis_hi; /* v-range of the sub-patches kept */
     double ulo, uhi;       /* the strip's u-range of interest (desc->strip_u), else infinite */
@@ -62,8 +82,9 @@ static int culled(const density_ctx *c, const double *s)
     return outside_plane(X, W, c->n, 1.0 + c->mx, -1.0) ||
            outside_plane(X, W, c->n, 1.0 + c->mx, 1.0) ||
            outside_plane(Y, W, c->n, 1.0 + c->my, -1.0) ||
-           outside_plane(Y, W, c->n, 1.0 + c->my, 1.0) || outside_plane(Z, W, c->n, 1.0, 1.0) ||
-           outside_plane(Z, W, c->n, 1.0, -1.0);
+           outside_plane(Y, W, c->n, 1.0 + c->my, 1.0) ||
+           outside_plane(Z, W, c->n, 1.0 + DEPTH_MARGIN, 1.0) ||
+           outside_plane(Z, W, c->n, 1.0 + DEPTH_MARGIN, -1.0);
 }
 
 /* Derivative of a tensor-product Bernstein patch in v (dir 1) or u (dir 0), degree-elevated back
@@ -105,20 +126,26 @@ static double max_sq(double a, double b, double lo, double hi)
     return dmax(p * p, q * q);
 }
 
-/* The bound of the header comment for direction dir, in pixels per unit of the sub-patch's local
- * parameter. rx, ry: R_x and R_y. */
-static double speed_bound(density_ctx *c, const double *X, const double *Y, const double *W,
-                          const double rx[2], const double ry[2], int dir)
+/* The bounds of the header comment for direction dir, per unit of the sub-patch's local
+ * parameter: the screen speed (returned) and the NDC depth speed |z~_dir| (*depth). rx, ry, rz:
+ * R_x, R_y, R_z. */
+static double speed_bound(density_ctx *c, const double *X, const double *Y, const double *Z,
+                          const double *W, const double rx[2], const double ry[2],
+                          const double rz[2], int dir, double *depth)
 {
-    double *xe = c->scratch, *ye = xe + c->n, *we = ye + c->n;
+    double *xe = c->scratch, *ye = xe + c->n, *ze = ye + c->n, *we = ze + c->n;
     derivative_elevated(X, c->du, c->dv, dir, xe);
     derivative_elevated(Y, c->du, c->dv, dir, ye);
+    derivative_elevated(Z, c->du, c->dv, dir, ze);
     derivative_elevated(W, c->du, c->dv, dir, we);
-    double b2 = 0.0, wx2 = c->wx * c->wx, wy2 = c->wy * c->wy;
+    double b2 = 0.0, d2 = 0.0, wx2 = c->wx * c->wx, wy2 = c->wy * c->wy;
     for (size_t k = 0; k < c->n; k++) {
         double nx = max_sq(xe[k], we[k], rx[0], rx[1]), ny = max_sq(ye[k], we[k], ry[0], ry[1]);
-        b2 = dmax(b2, (wx2 * nx + wy2 * ny) / (W[k] * W[k]));
+        double w2 = W[k] * W[k];
+        b2 = dmax(b2, (wx2 * nx + wy2 * ny) / w2);
+        d2 = dmax(d2, max_sq(ze[k], we[k], rz[0], rz[1]) / w2);
     }
+    *depth = sqrt(d2);
     return sqrt(b2);
 }
 
@@ -166,7 +193,7 @@ static int sample_speeds(const density_ctx *c, const double *s, double sv, doubl
             eval_tp(s + 3 * c->n, c->du, c->dv, 0.5, 0.5, W);
         }
         if (!(W[0] > 0.0) || fabs(X[0]) > (1 + c->mx) * W[0] || fabs(Y[0]) > (1 + c->my) * W[0] ||
-            fabs(Z[0]) > W[0])
+            fabs(Z[0]) > (1 + DEPTH_MARGIN) * W[0])
             continue;
         seen++;
         double w2 = W[0] * W[0];
@@ -174,9 +201,14 @@ static int sample_speeds(const density_ctx *c, const double *s, double sv, doubl
         double yu = c->wy * (Y[1] * W[0] - Y[0] * W[1]) / w2;
         double xv = c->wx * (X[2] * W[0] - X[0] * W[2]) / w2;
         double yv = c->wy * (Y[2] * W[0] - Y[0] * W[2]) / w2;
-        *eu = fmax(*eu, sqrt(xu * xu + yu * yu) * su);
-        *ev = fmax(*ev, sqrt(xv * xv + yv * yv) * sv);
-        if (ev_min) *ev_min = fmin(*ev_min, sqrt(xv * xv + yv * yv) * sv);
+        /* the depth terms as in the bound */
+        double zu = fabs(Z[1] * W[0] - Z[0] * W[1]) / (w2 * DEPTH_MARGIN);
+        double zv = fabs(Z[2] * W[0] - Z[0] * W[2]) / (w2 * DEPTH_MARGIN);
+        double su_k = dmax(sqrt(xu * xu + yu * yu), zu) * su;
+        double sv_k = dmax(sqrt(xv * xv + yv * yv), zv) * sv;
+        *eu = dmax(*eu, su_k);
+        *ev = dmax(*ev, sv_k);
+        if (ev_min) *ev_min = dmin(*ev_min, sv_k);
     }
     return seen;
 }
@@ -230,24 +262,30 @@ static void split_half(const density_ctx *c, const double *s, double *kids)
  * when no point of it lies inside the widened frustum. */
 static int node_bound(density_ctx *c, const double *s, double su, double sv, double *bv, double *bu)
 {
-    const double *X = s, *Y = s + c->n, *W = s + 3 * c->n;
+    const double *X = s, *Y = s + c->n, *Z = s + 2 * c->n, *W = s + 3 * c->n;
     double wmin = HUGE_VAL;
     for (size_t k = 0; k < c->n; k++)
         wmin = dmin(wmin, W[k]);
     if (!(wmin > 0.0)) return 0;
-    double rx[2] = {HUGE_VAL, -HUGE_VAL}, ry[2] = {HUGE_VAL, -HUGE_VAL};
+    double rx[2] = {HUGE_VAL, -HUGE_VAL}, ry[2] = {HUGE_VAL, -HUGE_VAL},
+           rz[2] = {HUGE_VAL, -HUGE_VAL};
     for (size_t k = 0; k < c->n; k++) {
-        double qx = X[k] / W[k], qy = Y[k] / W[k];
+        double qx = X[k] / W[k], qy = Y[k] / W[k], qz = Z[k] / W[k];
         rx[0] = dmin(rx[0], qx), rx[1] = dmax(rx[1], qx);
         ry[0] = dmin(ry[0], qy), ry[1] = dmax(ry[1], qy);
+        rz[0] = dmin(rz[0], qz), rz[1] = dmax(rz[1], qz);
     }
     rx[0] = dmax(rx[0], -(1.0 + c->mx)), rx[1] = dmin(rx[1], 1.0 + c->mx);
     ry[0] = dmax(ry[0], -(1.0 + c->my)), ry[1] = dmin(ry[1], 1.0 + c->my);
-    if (!(rx[0] <= rx[1] && ry[0] <= ry[1])) return -1;
+    rz[0] = dmax(rz[0], -(1.0 + DEPTH_MARGIN)), rz[1] = dmin(rz[1], 1.0 + DEPTH_MARGIN);
+    if (!(rx[0] <= rx[1] && ry[0] <= ry[1] && rz[0] <= rz[1])) return -1;
     /* Rounding in these few operations is relative ~1e-15; widen so the bounds stay upper
-     * bounds. */
-    *bv = sv * speed_bound(c, X, Y, W, rx, ry, 1) * (1.0 + 1e-9);
-    *bu = su * speed_bound(c, X, Y, W, rx, ry, 0) * (1.0 + 1e-9);
+     * bounds (and the depth terms strict: see the header comment). */
+    double dv, du;
+    double sv_px = speed_bound(c, X, Y, Z, W, rx, ry, rz, 1, &dv);
+    double su_px = speed_bound(c, X, Y, Z, W, rx, ry, rz, 0, &du);
+    *bv = sv * dmax(sv_px, dv / DEPTH_MARGIN) * (1.0 + 1e-9);
+    *bu = su * dmax(su_px, du / DEPTH_MARGIN) * (1.0 + 1e-9);
     return 1;
 }
 
@@ -527,7 +565,7 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
     double *clip = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
     double *nodes = crisp_arena_alloc(arena, 61 * 8 * nmax, sizeof(double));
     c.levels = crisp_arena_alloc(arena, (size_t)(c.max_depth + 2) * 16 * nmax, sizeof(double));
-    c.scratch = crisp_arena_alloc(arena, 3 * nmax, sizeof(double));
+    c.scratch = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
     crisp_status st = CRISP_OK;
     if (!clip || !nodes || !c.levels || !c.scratch) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_scan_density: out of memory");

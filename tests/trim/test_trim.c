@@ -404,6 +404,119 @@ static void test_density_bound(void **state)
     assert_true(ratios[nratio / 2] < 3.0); /* not absurdly loose */
 }
 
+/* The 1 px guarantee's paths near the near plane. A pixel's point p = (s, t) is decided by the
+ * scan line of its row, q = (s, t_s) with |t - t_s| <= h / 2, and the trim polylines stand within
+ * h_min / 4 in v and 1 / (4 rho_u) in u of the true curves (h_min, rho_u: the strictest of the
+ * strip and its neighbours). The guarantee needs q within 0.5 px of p on screen, and every point
+ * of the deviation box around q within 1.0 px, also when p lies just in front of the near plane
+ * and the surface runs towards (or under) the eye, where a step in v can carry the point behind
+ * the near plane or the eye. Cameras: a narrow ribbon and curved patches running under an eye
+ * 1e-4 to 0.05 above them, near planes nearer and farther than that height. */
+static void test_near_plane_paths(void **state)
+{
+    (void)state;
+    enum { STRIPS = 8, W = 320, H = 240 };
+    long checked = 0, near_points = 0, worst_at = 0, behind = 0;
+    double worst_drop = 0.0;
+    double worst_q = 0.0, worst_box = 0.0;
+    crisp_arena *scratch = NULL;
+    assert_int_equal(crisp_arena_create(0, &scratch), CRISP_OK);
+    for (int trial = 0; trial < 96; trial++) {
+        double cpw[4 * 25];
+        crisp_bezier_patch p;
+        double half = trial % 3 == 0 ? 1e-4 : trial % 3 == 1 ? 0.01 : 0.5;
+        if (trial % 2 == 0) { /* a ribbon along +y, non-uniform in v, under the eye */
+            tu_patch_init(&p, 1, 3, cpw);
+            const double ys[4] = {-1.0, -0.2, 0.3, 4.0};
+            for (int j = 0; j < 4; j++)
+                for (int i = 0; i < 2; i++)
+                    tu_set(&p, i, j, i ? half : -half, ys[j], 0.0, j == 1 ? 1.7 : 1.0);
+        } else { /* a curved patch stretched along +y */
+            random_patch(&p, cpw, 2 + trial % 3, 3);
+            for (int k = 0; k < (p.du + 1) * (p.dv + 1); k++) {
+                double *h = p.cpw + 4 * k;
+                h[0] = (h[0] - 0.5 * h[3]) * 2 * half;
+                h[1] = (h[1] * 5.0 - 1.0 * h[3]);
+                h[2] *= 0.2;
+            }
+        }
+        double height = trial % 4 == 0   ? 1e-5
+                        : trial % 4 == 1 ? 1e-3
+                        : trial % 4 == 2 ? 1e-2
+                                         : 0.05;
+        double s0 = rnd_in(0.2, 0.8), pt[4], ps[4], pv[4];
+        tu_patch_eval_h(&p, s0, 0.3, pt, ps, pv);
+        double eye[3] = {pt[0] / pt[3], pt[1] / pt[3], pt[2] / pt[3] + height};
+        double target[3] = {eye[0] + rnd_in(-0.3, 0.3) * (trial & 4 ? 1 : 0), eye[1] + 3.0,
+                            eye[2] - rnd_in(0.0, 0.8) * (trial & 8 ? 1 : 0.01)};
+        int zk = (trial / 12) % 4;
+        double znear = zk == 0 ? 0.01 : zk == 1 ? 0.1 : zk == 2 ? 0.3 : 1.0;
+        crisp_mat4 vp;
+        tu_camera(eye, target, rnd_in(50, 100), znear, 50.0, W, H, vp);
+        double rho_v[STRIPS], rho_u[STRIPS], vis_v[2 * STRIPS];
+        uint32_t mu[STRIPS];
+        crisp_arena_reset(scratch);
+        assert_int_equal(crisp_trim_scan_density(&(crisp_trim_density_desc){.patches = &p,
+                                                                            .patch_count = 1,
+                                                                            .view_proj = &vp,
+                                                                            .width = W,
+                                                                            .height = H,
+                                                                            .v0 = 0,
+                                                                            .v1 = 1,
+                                                                            .strip_count = STRIPS,
+                                                                            .scratch = scratch},
+                                                 rho_v, rho_u, vis_v, NULL),
+                         CRISP_OK);
+        int clamped = 0;
+        crisp_trim_rows_from_density(rho_v, vis_v, STRIPS, 0, 1, mu, &clamped);
+        assert_int_equal(clamped, 0);
+        for (int q = 0; q < 4000; q++) {
+            double s = rnd(), t = q < 2000 ? rnd() : rnd_in(0.1, 0.5), xy[2], ds[2], dt[2];
+            int vis;
+            double wp = tu_screen(&p, vp, W, H, s, t, xy, ds, dt, &vis);
+            if (!vis) continue;
+            if (wp < 2 * znear) near_points++;
+            int i = t >= 1 ? STRIPS - 1 : (int)(t * STRIPS);
+            assert_true(mu[i] > 0);
+            double a = vis_v[2 * i], b = vis_v[2 * i + 1], h = (b - a) / mu[i];
+            double fj = floor((t - a) / h);
+            uint32_t j = fj < 0 ? 0 : fj > mu[i] - 1 ? mu[i] - 1 : (uint32_t)fj;
+            double ts = a + (j + 0.5) * h, xq[2];
+            double wq = tu_screen(&p, vp, W, H, s, ts, xq, ds, dt, NULL);
+            assert_true(wq > 0.0);
+            if (wq < znear) behind++;
+            worst_drop = fmax(worst_drop, (wp - wq) / znear);
+            double dq = hypot(xq[0] - xy[0], xq[1] - xy[1]);
+            assert_true(dq <= 0.5 * (1 + 1e-6));
+            if (dq > worst_q) worst_q = dq, worst_at = trial;
+            /* the polyline's deviation box around q, with the strictest neighbouring tolerances */
+            double hmin = HUGE_VAL, ru = 0.0;
+            for (int k = i > 0 ? i - 1 : 0; k <= (i < STRIPS - 1 ? i + 1 : i); k++) {
+                if (!mu[k]) continue;
+                hmin = fmin(hmin, (vis_v[2 * k + 1] - vis_v[2 * k]) / mu[k]);
+                ru = fmax(ru, rho_u[k]);
+            }
+            for (int c = 0; c < 4; c++) {
+                double sc = s + (c & 1 ? 1 : -1) * 0.25 / ru,
+                       tc = ts + (c & 2 ? 1 : -1) * 0.25 * hmin;
+                if (sc < 0 || sc > 1 || tc < 0 || tc > 1) continue;
+                double xc[2];
+                assert_true(tu_screen(&p, vp, W, H, sc, tc, xc, ds, dt, NULL) > 0.0);
+                double dc = hypot(xc[0] - xy[0], xc[1] - xy[1]);
+                assert_true(dc <= 1.0 * (1 + 1e-6));
+                worst_box = fmax(worst_box, dc);
+            }
+            checked++;
+        }
+    }
+    crisp_arena_destroy(scratch);
+    print_message("near plane paths: %ld visible points (%ld within 2 znear of the eye, %ld whose "
+                  "scan line point is behind the near plane, largest depth drop p-q %.3f znear), "
+                  "largest p-q %.3f px (trial %ld), largest p-box %.3f px\n",
+                  checked, near_points, behind, worst_drop, worst_q, worst_at, worst_box);
+    assert_true(near_points > 1000);
+}
+
 /* A face of several patches with a non-unit parameter box: the bound is per unit of the face's
  * (u, v), over strips that do not line up with the patch boundaries. */
 static void test_density_multi_patch(void **state)
@@ -547,6 +660,7 @@ int main(void)
         cmocka_unit_test(test_tessellation_bound),
         cmocka_unit_test(test_density_bound),
         cmocka_unit_test(test_density_multi_patch),
+        cmocka_unit_test(test_near_plane_paths),
         cmocka_unit_test(test_plan_reuses_buffers),
         cmocka_unit_test(test_bad_input),
     };
