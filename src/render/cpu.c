@@ -32,6 +32,8 @@ struct crisp_renderer {
     crisp_raster_tri *tris;
     size_t tri_cap;
     size_t vert_count, tri_count; /* of the last frame */
+    float *slack;                 /* per sample: depth slack for the ribbons (fill pass) */
+    size_t slack_cap;
     double **st; /* per worker: local (s, t) of one leaf's mesh */
     int workers;
 };
@@ -85,6 +87,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->ribbon_arena);
     free(r->verts);
     free(r->tris);
+    free(r->slack);
     free(r);
 }
 
@@ -542,8 +545,23 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     if ((st = crisp_raster_target_init(&r->target, cam->width, cam->height, r->desc.samples))) return st;
     crisp_raster_target_clear(&r->target);
     crisp_raster_stats rs;
-    st = crisp_raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, nt, trim_test, r->plan, &rs);
+    /* Surfaces first; then the ribbons fill gaps: a ribbon sample replaces a surface sample only
+     * when nearer by more than that surface's depth change over 1.5 px, so a ribbon along an
+     * edge that another face hides at nearly the same depth (seen at a grazing angle) does not
+     * show through it. */
+    st = crisp_raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t, trim_test, r->plan, &rs);
     if (st) return st;
+    if (nt > surface_t) {
+        size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
+        if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
+        crisp_raster_depth_slack(&r->target, 1.5, r->slack);
+        crisp_raster_stats rs2;
+        st = crisp_raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv, r->tris + surface_t,
+                                    nt - surface_t, trim_test, r->plan, r->slack, &rs2);
+        if (st) return st;
+        rs.fragments_tested += rs2.fragments_tested;
+        rs.fragments_discarded += rs2.fragments_discarded;
+    }
     double t2 = crisp_time_now();
     crisp__image_clear(img);
     resolve_ctx rc = {r, sc, cam, img};

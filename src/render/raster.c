@@ -280,6 +280,7 @@ typedef struct {
     void *test_ctx;
     int64_t off_fx[16], off_fy[16];
     double off_x[16], off_y[16];
+    const float *slack; /* fill mode (crisp_raster_draw_fill) when not NULL */
     atomic_size_t tested, discarded;
 } raster_ctx;
 
@@ -323,7 +324,12 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                     double dx = i + c->off_x[s] - st->ox, dy = j + c->off_y[s] - st->oy;
                     double iw = st->q0[0] + st->qx[0] * dx + st->qy[0] * dy;
                     size_t idx = ((size_t)j * t->width + i) * S + s;
-                    if (!(iw > t->inv_w[idx])) continue;
+                    double cur = t->inv_w[idx];
+                    if (c->slack) {
+                        if (cur > 0 && !(1.0 / iw < 1.0 / cur - c->slack[idx])) continue;
+                    } else if (!(iw > cur)) {
+                        continue;
+                    }
                     double a[CRISP_RASTER_ATTRS];
                     double w = 1.0 / iw;
                     for (int q = 0; q < CRISP_RASTER_ATTRS; q++)
@@ -353,11 +359,56 @@ static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
     for (size_t tile = begin; tile < end; tile++) raster_tile(vctx, tile, worker);
 }
 
+void crisp_raster_depth_slack(const crisp_raster_target *t, double scale, float *slack)
+{
+    int S = t->samples, w = t->width, h = t->height;
+    for (int j = 0; j < h; j++)
+        for (int i = 0; i < w; i++)
+            for (int s = 0; s < S; s++) {
+                size_t idx = ((size_t)j * w + i) * S + s;
+                double m = 0;
+                if (t->face[idx] >= 0) {
+                    double W = 1.0 / t->inv_w[idx];
+                    static const int nb[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
+                    for (int k = 0; k < 4; k++) {
+                        int x = i + nb[k][0], y = j + nb[k][1];
+                        if (x < 0 || y < 0 || x >= w || y >= h) continue;
+                        size_t n = ((size_t)y * w + x) * S + s;
+                        if (t->face[n] != t->face[idx]) continue;
+                        m = fmax(m, fabs(1.0 / t->inv_w[n] - W));
+                    }
+                }
+                slack[idx] = (float)(scale * m);
+            }
+}
+
+static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+                         const crisp_raster_vertex *verts, size_t vert_count, const crisp_raster_tri *tris,
+                         size_t tri_count, crisp_raster_test_fn test, void *test_ctx, const float *slack,
+                         crisp_raster_stats *stats);
+
 crisp_status crisp_raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                                const crisp_raster_vertex *verts, size_t vert_count,
                                const crisp_raster_tri *tris, size_t tri_count,
                                crisp_raster_test_fn test, void *test_ctx,
                                crisp_raster_stats *stats)
+{
+    return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, NULL, stats);
+}
+
+crisp_status crisp_raster_draw_fill(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+                                    const crisp_raster_vertex *verts, size_t vert_count,
+                                    const crisp_raster_tri *tris, size_t tri_count,
+                                    crisp_raster_test_fn test, void *test_ctx, const float *slack,
+                                    crisp_raster_stats *stats)
+{
+    return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, slack, stats);
+}
+
+static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+                         const crisp_raster_vertex *verts, size_t vert_count, const crisp_raster_tri *tris,
+                         size_t tri_count, crisp_raster_test_fn test, void *test_ctx, const float *slack,
+                         crisp_raster_stats *stats)
 {
     for (size_t i = 0; i < tri_count; i++)
         for (int k = 0; k < 3; k++)
@@ -407,7 +458,7 @@ crisp_status crisp_raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_po
     for (size_t k = tiles; k > 0; k--) r->bin_start[k] = r->bin_start[k - 1];
     r->bin_start[0] = 0;
 
-    raster_ctx rc = {.r = r, .t = t, .tiles_x = tiles_x, .test = test, .test_ctx = test_ctx};
+    raster_ctx rc = {.r = r, .t = t, .tiles_x = tiles_x, .test = test, .test_ctx = test_ctx, .slack = slack};
     for (int s = 0; s < t->samples; s++) {
         double off[2];
         crisp_raster_sample_offset(t->samples, s, off);

@@ -67,4 +67,18 @@ crisp_status crisp_raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_po
                                crisp_raster_test_fn test, void *test_ctx,
                                crisp_raster_stats *stats);
 
+/* As crisp_raster_draw, but a fragment replaces a drawn sample only when it is nearer by more
+ * than slack[sample] in W (camera depth); empty samples take any fragment. For gap fillers (the
+ * CPU backend's trim ribbons) that must not show through surfaces near their own depth. */
+crisp_status crisp_raster_draw_fill(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+                                    const crisp_raster_vertex *verts, size_t vert_count,
+                                    const crisp_raster_tri *tris, size_t tri_count,
+                                    crisp_raster_test_fn test, void *test_ctx, const float *slack,
+                                    crisp_raster_stats *stats);
+
+/* slack[sample] = scale times the largest change of W (camera depth) between the sample and the
+ * same sample of the four neighbouring pixels where they show the same face (0 for empty
+ * samples): how far a surface's depth moves over one pixel at that sample. */
+void crisp_raster_depth_slack(const crisp_raster_target *t, double scale, float *slack);
+
 #endif
