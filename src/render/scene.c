@@ -95,6 +95,62 @@ static void patch_box(const crisp_bezier_patch *p, int depth, double box[6])
     }
 }
 
+static void box_union(double box[6], const double b[6])
+{
+    for (int q = 0; q < 3; q++) {
+        box[q] = fmin(box[q], b[q]);
+        box[q + 3] = fmax(box[q + 3], b[q + 3]);
+    }
+}
+
+/* Add to box what face sf can show: its patches clipped to the (u, v) box of its trim loops (the
+ * control polygons of the loops' pieces, which contain the curves). A large base surface trimmed
+ * to a small face (real files do this: OCCT's PRO20358-W7.igs draws 1/8 of its surface) would
+ * otherwise frame the default camera on the whole untrimmed surface. Patch boxes themselves
+ * (culling, ray pruning) stay whole. */
+static void face_framing_box(const crisp_scene *s, const crisp_scene_face *sf, double box[6])
+{
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (uint32_t i = sf->first_piece; i < sf->first_piece + sf->piece_count; i++) {
+        const crisp_bezier_curve *c = &s->pieces[i];
+        for (int k = 0; k <= c->degree; k++) {
+            const double *q = c->cpw + 3 * k;
+            for (int a = 0; a < 2; a++) {
+                double x = q[a] / q[2];
+                lo[a] = fmin(lo[a], x);
+                hi[a] = fmax(hi[a], x);
+            }
+        }
+    }
+    int trimmed = sf->piece_count > 0 && lo[0] <= hi[0] && lo[1] <= hi[1];
+    double storage[2 * CRISP__PATCH_DOUBLES], tmp[CRISP__PATCH_DOUBLES];
+    for (uint32_t k = sf->first_patch; k < sf->first_patch + sf->patch_count; k++) {
+        const crisp_scene_patch *p = &s->patches[k];
+        const crisp_bezier_patch *b = &p->bez;
+        if (!trimmed) {
+            box_union(box, p->box);
+            continue;
+        }
+        double su = b->u1 - b->u0, sv = b->v1 - b->v0;
+        if (!(su > 0) || !(sv > 0)) {
+            box_union(box, p->box);
+            continue;
+        }
+        double s0 = fmax(0, (lo[0] - b->u0) / su), s1 = fmin(1, (hi[0] - b->u0) / su);
+        double t0 = fmax(0, (lo[1] - b->v0) / sv), t1 = fmin(1, (hi[1] - b->v0) / sv);
+        if (!(s0 <= s1 && t0 <= t1)) continue; /* outside every loop: never drawn */
+        if (s0 <= 0 && s1 >= 1 && t0 <= 0 && t1 >= 1) {
+            box_union(box, p->box);
+            continue;
+        }
+        crisp_bezier_patch cell;
+        double cb[6];
+        crisp__subpatch(b, s0, s1, t0, t1, storage, tmp, &cell);
+        patch_box(&cell, 0, cb);
+        box_union(box, cb);
+    }
+}
+
 void crisp_scene_destroy(crisp_scene *s)
 {
     if (!s) return;
@@ -165,10 +221,6 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
             p->iu = sf->grid_u ? k % sf->grid_u : 0;
             p->iv = sf->grid_u ? k / sf->grid_u : 0;
             patch_box(&p->bez, 0, p->box);
-            for (int c = 0; c < 3; c++) {
-                s->box[c] = fmin(s->box[c], p->box[c]);
-                s->box[c + 3] = fmax(s->box[c + 3], p->box[c + 3]);
-            }
         }
         sf->first_loop = s->loop_count;
         sf->loop_count = (uint32_t)src->loop_count;
@@ -199,6 +251,7 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
             sl->piece_count = s->piece_count - sl->first_piece;
         }
         sf->piece_count = s->piece_count - sf->first_piece;
+        face_framing_box(s, sf, s->box);
     }
     *dest = s;
     return CRISP_OK;
