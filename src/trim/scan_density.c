@@ -46,8 +46,8 @@
 #include <math.h>
 #include <string.h>
 
-#define MIN_PIECE (1.0 / 16.0)
-#define DEPTH_MARGIN 1.0 /* delta: the bound covers NDC depth z~ in [-1 - delta, 1 + delta] */
+#define MIN_PIECE 0x1p-20 /* a strip part thinner than this (of the patch) is a rounding sliver */
+#define DEPTH_MARGIN 1.0  /* delta: the bound covers NDC depth z~ in [-1 - delta, 1 + delta] */
 
 typedef struct density_ctx {
     int du, dv;
@@ -290,9 +290,10 @@ static int node_bound(density_ctx *c, const double *s, double su, double sv, dou
 }
 
 /* s: the sub-patch (4 planes) over [ua, ub] x [va, vb] of the face's parameters; su, sv:
- * d(local)/d(global) scale factors. */
+ * d(local)/d(global) scale factors; pev, peu: the speeds sampled on the nearest ancestor that had
+ * samples inside the region (0 at the root). */
 static void refine(density_ctx *c, const double *s, int depth, double su, double sv, double ua,
-                   double ub, double va, double vb)
+                   double ub, double va, double vb, double pev, double peu)
 {
     if (c->stats) c->stats->subpatches++;
     c->budget--;
@@ -307,14 +308,18 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
         if (c->stats) c->stats->culled++;
         return;
     }
+    double ev = pev, eu = peu;
     if (b > 0) {
         int accept = last;
         if (!accept) {
-            double ev, eu;
             int seen = sample_speeds(c, s, sv, su, ua, ub, &ev, &eu, NULL);
+            /* A sub-patch on the region's edge may have no sample inside: judge it by its
+             * ancestor's samples, or it is split along the edge down to the depth limit, where
+             * rounding in its coefficients makes the bound loose. */
+            if (!seen) ev = pev, eu = peu;
             int ok_v = bv <= fmax(fmax(c->slack * ev, c->cur_v), c->floor_v);
             int ok_u = bu <= fmax(c->slack * eu, c->cur_u);
-            accept = seen > 0 && ok_v && ok_u;
+            accept = (seen > 0 || pev > 0.0) && ok_v && ok_u;
             /* Nothing to gain: the bound is already covered by what other parts need. */
             if (bv <= fmax(c->cur_v, c->floor_v) && bu <= c->cur_u) accept = 1;
             /* Not while the sub-patch's v-range would take more scan lines than a screen can
@@ -342,7 +347,7 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
     double um = 0.5 * (ua + ub), vm = 0.5 * (va + vb);
     for (int k = 0; k < 4; k++)
         refine(c, kids + (size_t)k * 4 * c->n, depth + 1, 2 * su, 2 * sv, k & 1 ? um : ua,
-               k & 1 ? ub : um, k < 2 ? va : vm, k < 2 ? vm : vb);
+               k & 1 ? ub : um, k < 2 ? va : vm, k < 2 ? vm : vb, ev, eu);
 }
 
 /* One patch's way through the strips it reaches. Strip by strip, each strip's part of the patch
@@ -383,9 +388,10 @@ static void split_rows_at(const double *src, double *lo, double *hi, int dv, int
     }
 }
 
-/* Strip i's part of the patch, [ta, tb] of its local v, refined on its own. node: that part
- * already restricted (or NULL: restrict the whole patch here). */
-static void strip_part(patch_walk *w, int i, const double *node)
+/* Strip i's part of the patch, [ta, tb] of its local v, refined on its own. node: the patch
+ * restricted to [t0, t1] of its local v (used when that is [ta, tb]; else, or NULL, the whole
+ * patch is restricted here). */
+static void strip_part(patch_walk *w, int i, const double *node, double t0, double t1)
 {
     const crisp_trim_density_desc *desc = w->desc;
     density_ctx *c = w->c;
@@ -399,6 +405,7 @@ static void strip_part(patch_walk *w, int i, const double *node)
      * on its own would have derivative coefficients made of cancellation noise divided by its
      * tiny width: bound a piece of at least MIN_PIECE of the patch around it instead (a bound
      * over more of the surface is still a bound; the row range is cut back to the strip). */
+    if (node && (fabs(t0 - ta) > 1e-14 || fabs(t1 - tb) > 1e-14)) node = NULL;
     if (tb - ta < MIN_PIECE) {
         node = NULL;
         if (ta + MIN_PIECE <= 1.0)
@@ -427,7 +434,7 @@ static void strip_part(patch_walk *w, int i, const double *node)
     c->ulo = desc->strip_u ? desc->strip_u[2 * i] : -HUGE_VAL;
     c->uhi = desc->strip_u ? desc->strip_u[2 * i + 1] : HUGE_VAL;
     refine(c, root, 0, 1.0 / (bp->u1 - bp->u0), 1.0 / ((bp->v1 - bp->v0) * (tb - ta)), bp->u0,
-           bp->u1, bp->v0 + (bp->v1 - bp->v0) * ta, bp->v0 + (bp->v1 - bp->v0) * tb);
+           bp->u1, bp->v0 + (bp->v1 - bp->v0) * ta, bp->v0 + (bp->v1 - bp->v0) * tb, 0.0, 0.0);
     if (vis_v) vis_v[2 * i] = c->vis_lo, vis_v[2 * i + 1] = c->vis_hi;
     if (c->unbounded) {
         rho_v[i] = rho_u[i] = HUGE_VAL;
@@ -447,7 +454,7 @@ static void walk_strips(patch_walk *w, const double *node, int depth, int i0, in
                         double t1)
 {
     if (i0 == i1) {
-        strip_part(w, i0, node);
+        strip_part(w, i0, node, t0, t1);
         return;
     }
     const crisp_trim_density_desc *desc = w->desc;
@@ -494,7 +501,7 @@ static void walk_strips(patch_walk *w, const double *node, int depth, int i0, in
     double tk = (desc->v0 + k * w->hv - bp->v0) / dv, s = (tk - t0) / (t1 - t0);
     if (!(s > 0.0 && s < 1.0) || depth >= 60) { /* rounding: strip by strip from the patch */
         for (int i = i0; i <= i1; i++)
-            strip_part(w, i, NULL);
+            strip_part(w, i, NULL, 0.0, 1.0);
         return;
     }
     double *lo = w->nodes + (size_t)depth * 8 * c->n, *hi = lo + 4 * c->n;
@@ -564,10 +571,11 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
     size_t nmax = (size_t)(maxdu + 1) * (size_t)(maxdv + 1);
     double *clip = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
     double *nodes = crisp_arena_alloc(arena, 61 * 8 * nmax, sizeof(double));
+    double *root = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
     c.levels = crisp_arena_alloc(arena, (size_t)(c.max_depth + 2) * 16 * nmax, sizeof(double));
     c.scratch = crisp_arena_alloc(arena, 4 * nmax, sizeof(double));
     crisp_status st = CRISP_OK;
-    if (!clip || !nodes || !c.levels || !c.scratch) {
+    if (!clip || !nodes || !root || !c.levels || !c.scratch) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_scan_density: out of memory");
         goto done;
     }
@@ -604,7 +612,22 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
         int i0 = (int)floor((bp->v0 - desc->v0) / hv), i1 = (int)floor((bp->v1 - desc->v0) / hv);
         if (i0 < 0) i0 = 0;
         if (i1 > desc->strip_count - 1) i1 = desc->strip_count - 1;
-        walk_strips(&walk, clip, 0, i0, i1, 0.0, 1.0);
+        /* The root: the patch's part inside the strips' v-range (a patch reaching beyond it
+         * would otherwise be bounded over more than its strips). */
+        double dvp = bp->v1 - bp->v0;
+        double r0 = fmax(0.0, (desc->v0 - bp->v0) / dvp), r1 = fmin(1.0, (desc->v1 - bp->v0) / dvp);
+        if (!(r1 > r0)) continue;
+        const double *rootp = clip;
+        if (r1 - r0 >= MIN_PIECE && (r0 > 0.0 || r1 < 1.0)) {
+            memcpy(root, clip, sizeof(double) * 4 * c.n);
+            for (int q = 0; q < 4; q++)
+                for (int col = 0; col <= c.du; col++)
+                    crisp__trim_restrict(root + q * c.n + col, c.dv, c.du + 1, r0, r1);
+            rootp = root;
+        } else {
+            r0 = 0.0, r1 = 1.0;
+        }
+        walk_strips(&walk, rootp, 0, i0, i1, r0, r1);
     }
     /* Row ranges inside their strips; invisible strips keep their bounds. */
     for (int i = 0; vis_v && i < desc->strip_count; i++) {
