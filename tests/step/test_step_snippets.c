@@ -156,6 +156,32 @@ static void test_cylinder_seam_pcurves(void **state)
     crisp_model_destroy(m);
 }
 
+/* The same face written with angles in degrees (a DEGREE plane angle unit; the seam's pcurve at
+ * u = 360): the pcurves' angle coordinates are converted, so they are used, not projected. */
+static void test_cylinder_pcurves_in_degrees(void **state)
+{
+    (void)state;
+    char *a = replace(cylinder, "#48=CARTESIAN_POINT('',(6.28318530718,0.));", "#48=CARTESIAN_POINT('',(360.,0.));");
+    char *b = replace(a, "#99=( GEOMETRIC_REPRESENTATION_CONTEXT(2)",
+                      "#80=(NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.));\n"
+                      "#81=PLANE_ANGLE_MEASURE_WITH_UNIT(PLANE_ANGLE_MEASURE(0.0174532925199433),#80);\n"
+                      "#82=DIMENSIONAL_EXPONENTS(0.,0.,0.,0.,0.,0.,0.);\n"
+                      "#83=(CONVERSION_BASED_UNIT('DEGREE',#81) NAMED_UNIT(#82) PLANE_ANGLE_UNIT());\n"
+                      "#84=(LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.));\n"
+                      "#85=(GEOMETRIC_REPRESENTATION_CONTEXT(3) GLOBAL_UNIT_ASSIGNED_CONTEXT((#84,#83)) "
+                      "REPRESENTATION_CONTEXT('',''));\n"
+                      "#99=( GEOMETRIC_REPRESENTATION_CONTEXT(2)");
+    crisp_model *m;
+    step_read_stats st;
+    assert_int_equal(read_str(b, &m, &st), CRISP_OK);
+    assert_int_equal(st.pcurve_edges, 4);
+    assert_int_equal(st.rejected_pcurves, 0);
+    check_cylinder(m, &st, 4);
+    crisp_model_destroy(m);
+    free(a);
+    free(b);
+}
+
 static void test_cylinder_seam_projected(void **state)
 {
     (void)state;
@@ -402,6 +428,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cylinder_seam_pcurves),
+        cmocka_unit_test(test_cylinder_pcurves_in_degrees),
         cmocka_unit_test(test_cylinder_seam_projected),
         cmocka_unit_test(test_cylinder_band),
         cmocka_unit_test(test_cone_apex),

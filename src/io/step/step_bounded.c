@@ -45,7 +45,7 @@ static crisp_status segment_use(face_work *w, const step_entity *be, const step_
         if (basis->id != w->s.id)
             return crisp__step_fail(r, ce, CRISP_ERR_UNSUPPORTED, "pcurve on surface #%d, not on the bounded surface #%d",
                                     basis->id, w->s.id);
-        if ((st = crisp__step_pcurve_curve(r, ce, &eu->pc[0]))) return st;
+        if ((st = crisp__step_pcurve_curve(r, ce, &w->s, &eu->pc[0]))) return st;
         eu->npc = 1;
         if ((st = curve_copy(&eu->pc[0], &eu->c3))) return st;
     } else {
@@ -53,7 +53,7 @@ static crisp_status segment_use(face_work *w, const step_entity *be, const step_
         if (eu->c3.dim != 3) return crisp__step_fail(r, ce, CRISP_ERR_PARSE, "expected a 3D curve or a pcurve");
         if (crisp__step_is(r, ce, "SURFACE_CURVE") || crisp__step_is(r, ce, "SEAM_CURVE") ||
             crisp__step_is(r, ce, "BOUNDED_SURFACE_CURVE"))
-            if ((st = crisp__step_find_pcurves(r, ce, w->s.id, eu))) return st;
+            if ((st = crisp__step_find_pcurves(r, ce, &w->s, eu))) return st;
         if (eu->npc > 1) { /* a seam: the first pcurve; continuity is not known here */
             crisp__step_curve_free(&eu->pc[1]);
             eu->npc = 1;

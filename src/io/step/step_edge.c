@@ -57,7 +57,44 @@ static crisp_status vertex_point(step_reader *r, const step_entity *ve, double p
     return st;
 }
 
-crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, step_curve *dest)
+/* Pcurve coordinates that are angles (u on cylinders, cones and surfaces of revolution, both on
+ * spheres and tori) are in the file's plane angle unit (ISO 10303-42 4.4: parameters of the
+ * elementary surfaces; Pro/ENGINEER writes degrees): scaled to radians. A circle in such a
+ * (u, v) would become an ellipse; it is left as it is (the pcurve check rejects it if wrong). */
+static void pcurve_to_radians(const step_reader *r, const step_surface *s, step_curve *c)
+{
+    double k[2] = {1, 1};
+    if (r->angle_unit == 1 || !(r->angle_unit > 0)) return;
+    switch (s->kind) {
+    case STEP_SURF_CYLINDER:
+    case STEP_SURF_CONE:
+    case STEP_SURF_REVOLUTION: k[0] = r->angle_unit; break;
+    case STEP_SURF_SPHERE:
+    case STEP_SURF_TORUS: k[0] = k[1] = r->angle_unit; break;
+    case STEP_SURF_EXTRUSION:
+        if (s->profile.kind == STEP_CURVE_CONIC) k[0] = r->angle_unit;
+        break;
+    default: return;
+    }
+    if (c->kind == STEP_CURVE_LINE) {
+        /* A line along an angle coordinate is the pcurve of a circle, whose parameter is that
+         * angle: the parameter becomes radians with it (only the origin scales). Any other line
+         * keeps its parameter (a seam's is a length along the 3D line). */
+        /* (A trimmed line's bounds are in its own parameter: it scales whole.) */
+        int unbounded = !isfinite(c->t0) && !isfinite(c->t1);
+        int along_u = unbounded && fabs(c->d[1]) <= 1e-12 * fabs(c->d[0]);
+        int along_v = unbounded && fabs(c->d[0]) <= 1e-12 * fabs(c->d[1]);
+        for (int j = 0; j < 2; j++) {
+            c->p[j] *= k[j];
+            if (!((j == 0 && along_u) || (j == 1 && along_v))) c->d[j] *= k[j];
+        }
+    } else if (c->kind == STEP_CURVE_BSPLINE && c->nurbs && c->nurbs->dim == 2) {
+        for (int i = 0; i < c->nurbs->count; i++)
+            for (int j = 0; j < 2; j++) c->nurbs->cpw[3 * i + j] *= k[j];
+    }
+}
+
+crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, const step_surface *s, step_curve *dest)
 {
     const step_part *pp = crisp__step_part(r, pe, "PCURVE");
     const step_entity *de, *ce;
@@ -78,11 +115,12 @@ crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, ste
         crisp__step_curve_free(dest);
         return crisp__step_fail(r, ce, CRISP_ERR_PARSE, "expected a 2D curve for a pcurve");
     }
+    if (s) pcurve_to_radians(r, s, dest);
     return CRISP_OK;
 }
 
 /* The pcurves of a SURFACE_CURVE / SEAM_CURVE that lie on surface entity sid. */
-crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge, int sid, edge_use *eu)
+crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge, const step_surface *surf, edge_use *eu)
 {
     int off;
     const step_part *p = crisp__step_surface_curve_part(r, ge, &off);
@@ -95,8 +133,8 @@ crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge, int
         const step_part *pp = crisp__step_part(r, pe, "PCURVE");
         if (!pp) continue;
         if ((st = crisp__step_get_ref(r, pe, pp, 1, &se))) return st;
-        if (se->id != sid) continue;
-        if ((st = crisp__step_pcurve_curve(r, pe, &eu->pc[eu->npc]))) return st;
+        if (se->id != surf->id) continue;
+        if ((st = crisp__step_pcurve_curve(r, pe, surf, &eu->pc[eu->npc]))) return st;
         eu->npc++;
     }
     return CRISP_OK;
@@ -225,7 +263,7 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
     step_curve *c = &eu->c3;
     if (c->dim != 3) return crisp__step_fail(r, ge, CRISP_ERR_PARSE, "expected a 3D curve as edge geometry");
     if (crisp__step_is(r, ge, "SURFACE_CURVE") || crisp__step_is(r, ge, "SEAM_CURVE"))
-        if ((st = crisp__step_find_pcurves(r, ge, w->s.id, eu))) return st;
+        if ((st = crisp__step_find_pcurves(r, ge, &w->s, eu))) return st;
     /* Against a reversed trimmed curve, the edge's sense is against the basis curve's. */
     same ^= c->reversed;
     const double *first = same ? ps : pe, *second = same ? pe : ps;

@@ -53,10 +53,11 @@ crisp_status crisp__step_work_init(face_work *w, step_reader *r, const step_enti
  * the face's same_sense. The caller still frees w. */
 crisp_status crisp__step_face_finish(face_work *w, int same, crisp_face *dest);
 double crisp__step_dist3(const double *a, const double *b);
-/* The 2D curve of a PCURVE entity pe (from its definitional representation). */
-crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, step_curve *dest);
-/* The pcurves of a SURFACE_CURVE / SEAM_CURVE ge that lie on surface entity sid (at most 2). */
-crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge, int sid, edge_use *eu);
+/* The 2D curve of a PCURVE entity pe (from its definitional representation), its angle
+ * coordinates on surface s (when not NULL) converted to radians. */
+crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, const step_surface *s, step_curve *dest);
+/* The pcurves of a SURFACE_CURVE / SEAM_CURVE ge that lie on surface surf (its entity, at most 2). */
+crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge, const step_surface *surf, edge_use *eu);
 /* The boundaries of a CURVE_BOUNDED_SURFACE as loops of edge uses (step_bounded.c). */
 crisp_status crisp__step_read_boundaries(face_work *w);
 void crisp__step_work_free(face_work *w);
