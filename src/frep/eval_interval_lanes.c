@@ -27,6 +27,10 @@
         oh[k] = l_ != l_ ? l_ : h_;                                                                \
     } while (0)
 
+/* Ops that cannot make NaN from a known interval (both ends numbers) and keep an unknown one
+ * unknown (both ends NaN) store without the check. */
+#define STORE_RAW(LV, HV) (ol[k] = (LV), oh[k] = (HV))
+
 /* Register-immediate forms with a finite immediate of known sign, which need neither the
  * infinity checks nor four products (the same values as the general forms: with c > 0, a0 * c
  * <= a1 * c, so their min and max are these products). */
@@ -55,8 +59,8 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
     case CRISP_FREP_X: LOOP STORE(xl[k], xh[k]); break;
     case CRISP_FREP_Y: LOOP STORE(yl[k], yh[k]); break;
     case CRISP_FREP_Z: LOOP STORE(zl[k], zh[k]); break;
-    case FREP_T_COPY: LOOP STORE(al[k], ah[k]); break;
-    case CRISP_FREP_NEG: LOOP STORE(-ah[k], -al[k]); break;
+    case FREP_T_COPY: LOOP STORE_RAW(al[k], ah[k]); break;
+    case CRISP_FREP_NEG: LOOP STORE_RAW(-ah[k], -al[k]); break;
     case CRISP_FREP_ABS:
         LOOP {
             float a0 = al[k], a1 = ah[k];
@@ -87,13 +91,13 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
         break;
     case CRISP_FREP_FLOOR: LOOP STORE(floorf(al[k]), floorf(ah[k])); break;
     case CRISP_FREP_CEIL: LOOP STORE(ceilf(al[k]), ceilf(ah[k])); break;
-    case LANE_ADD_C: LOOP STORE(al[k] + c, ah[k] + c); break;
-    case LANE_SUB_C: LOOP STORE(al[k] - c, ah[k] - c); break;
-    case LANE_C_SUB: LOOP STORE(c - ah[k], c - al[k]); break;
-    case LANE_MUL_POS: LOOP STORE(al[k] * c, ah[k] * c); break;
-    case LANE_MUL_NEG: LOOP STORE(ah[k] * c, al[k] * c); break;
-    case LANE_DIV_POS: LOOP STORE(al[k] / c, ah[k] / c); break;
-    case LANE_DIV_NEG: LOOP STORE(ah[k] / c, al[k] / c); break;
+    case LANE_ADD_C: LOOP STORE_RAW(al[k] + c, ah[k] + c); break;
+    case LANE_SUB_C: LOOP STORE_RAW(al[k] - c, ah[k] - c); break;
+    case LANE_C_SUB: LOOP STORE_RAW(c - ah[k], c - al[k]); break;
+    case LANE_MUL_POS: LOOP STORE_RAW(al[k] * c, ah[k] * c); break;
+    case LANE_MUL_NEG: LOOP STORE_RAW(ah[k] * c, al[k] * c); break;
+    case LANE_DIV_POS: LOOP STORE_RAW(al[k] / c, ah[k] / c); break;
+    case LANE_DIV_NEG: LOOP STORE_RAW(ah[k] / c, al[k] / c); break;
     case CRISP_FREP_SIN:
     case CRISP_FREP_COS: {
         int cosine = op == CRISP_FREP_COS;
