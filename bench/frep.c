@@ -102,6 +102,7 @@ int main(int argc, char **argv)
     b = 0, row("full", "prospero", 1024, 0, 2, 0, R, &b);
     row("1 thread", "prospero", 1024, 0, 1, 0, R, &b);
     row("no tape shortening", "prospero", 1024, 0, 2, CRISP_FREP_NO_PRUNE, quick ? 3 : 5, &b);
+    row("no batched sub-cell intervals", "prospero", 1024, 0, 2, CRISP_FREP_NO_SUBCELLS, R, &b);
     row("no batching (1 point)", "prospero", 1024, 0, 2, CRISP_FREP_NO_BATCH, R, &b);
     row("brute force (no intervals)", "prospero", 1024, 0, 2, CRISP_FREP_BRUTE, 3, &b);
     if (!quick) {
@@ -110,6 +111,7 @@ int main(int argc, char **argv)
     }
     b = 0, row("full", "bear", 512, 512, 2, 0, quick ? 3 : 10, &b);
     row("1 thread", "bear", 512, 512, 1, 0, quick ? 3 : 10, &b);
+    row("no batched sub-cell intervals", "bear", 512, 512, 2, CRISP_FREP_NO_SUBCELLS, quick ? 3 : 10, &b);
     b = 0, row("full", "bear", 256, 256, 2, 0, R, &b);
     row("1 thread", "bear", 256, 256, 1, 0, R, &b);
     row("no tape shortening", "bear", 256, 256, 2, CRISP_FREP_NO_PRUNE, R, &b);
