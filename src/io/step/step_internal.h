@@ -63,6 +63,9 @@ typedef struct step_file {
     int *map; /* open-addressing hash: id -> entity index + 1 (0 = empty) */
     size_t map_cap;
     int duplicates;     /* instances defined twice with identical text (the first is kept) */
+    int broken;          /* DATA instances that did not parse and were skipped */
+    int first_broken_line;
+    char first_broken[200]; /* the first one's error message */
     int first_duplicate; /* id of the first such */
 } step_file;
 

@@ -2,6 +2,9 @@
  * Follows ISO 10303-21:2016 clauses 5-9: HEADER and DATA sections, comments, strings with ''
  * escapes (\X\, \X2\ ... encodings are kept as bytes), enumerations, typed parameters, omitted ($)
  * and derived (*) values, nested lists, simple and complex entity instances, forward references.
+ * Leniencies real files need: section keywords in any case, a lone quote inside a string, entity
+ * numbers beyond any entity, identical duplicate instances, and a broken DATA instance skipped up
+ * to the end of its line's ';' (counted; the first error is kept for the reader).
  *
  * All values live in one growable array (a list's elements are contiguous: they are collected on
  * a stack and copied when the list closes), so parsing allocates O(log n) times, never per token.
@@ -9,6 +12,7 @@
 #include "step_internal.h"
 
 #include <ctype.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -400,6 +404,41 @@ const step_entity *crisp__step_find(const step_file *f, double idv)
     return NULL;
 }
 
+/* Error recovery inside the DATA section: an instance that does not parse (bug32314_corrupted.stp
+ * has text overwritten in the middle of one) is skipped up to the ';' that ends a line before the
+ * next "#n" instance, and counted; the first error is kept for the reader's notes (and as the
+ * error when nothing else can be read). Returns 0 (the error stands) when there is no such
+ * place, when the file ends first, or after too many broken instances. */
+#define MAX_BROKEN 100
+
+static int skip_instance(parser *p, size_t at, int line)
+{
+    step_file *f = p->f;
+    if (f->broken >= MAX_BROKEN) return 0;
+    if (!f->broken) {
+        snprintf(f->first_broken, sizeof f->first_broken, "%s", crisp_error_message());
+        f->first_broken_line = line;
+    }
+    size_t i = at + 1;
+    for (; i < p->size; i++) {
+        if (p->s[i] != ';') continue;
+        size_t j = i + 1;
+        while (j < p->size && (p->s[j] == ' ' || p->s[j] == '\t' || p->s[j] == '\r')) j++;
+        if (j < p->size && p->s[j] == '\n') {
+            while (j < p->size && isspace((unsigned char)p->s[j])) j++;
+            if (p->s[j] == '#' || word_at(&(parser){.s = p->s, .pos = j, .size = p->size}, "ENDSEC")) break;
+        }
+    }
+    if (i >= p->size) return 0;
+    /* Lines passed over, for the positions of later messages. */
+    for (size_t k = p->pos > at ? at : p->pos; k <= i; k++)
+        if (p->s[k] == '\n' && k >= p->line_start) p->line++, p->line_start = k + 1;
+    p->pos = i + 1;
+    f->broken++;
+    crisp_error_clear();
+    return 1;
+}
+
 static crisp_status parse_all(parser *p)
 {
     crisp_status st = skip(p);
@@ -414,7 +453,14 @@ static crisp_status parse_all(parser *p)
         char c = p->s[p->pos];
         if (c == '#') {
             if (!in_data) return perr(p, "entity instance outside the DATA section");
-            if ((st = parse_instance(p))) return st;
+            size_t at = p->pos, parts = p->f->part_count, stack = p->stack_len;
+            int line = p->line;
+            if ((st = parse_instance(p))) {
+                if (st == CRISP_ERR_NO_MEMORY || !skip_instance(p, at, line)) return st;
+                /* Drop what the broken instance left behind and go on with the next one. */
+                p->f->part_count = parts;
+                p->stack_len = stack;
+            }
             continue;
         }
         if (word_at(p, "END-ISO-10303-21")) {
@@ -474,6 +520,15 @@ crisp_status crisp__step_parse(const char *name, const char *data, size_t size, 
     size_t n = strlen(dest->text);
     parser p = {.f = dest, .s = dest->text, .size = n, .line = 1};
     crisp_status st = parse_all(&p);
+    if (st && st != CRISP_ERR_NO_MEMORY && dest->broken) {
+        /* The first broken place is the one to show; the text did not recover after it. */
+        char later[200];
+        const char *msg = crisp_error_message();
+        size_t nl = strlen(dest->name);
+        if (strncmp(msg, dest->name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
+        snprintf(later, sizeof later, "%s", msg);
+        st = crisp_error(CRISP_ERR_PARSE, "%s (and the text stays broken: %s)", dest->first_broken, later);
+    }
     crisp_free(p.stack);
     if (!st) st = build_map(dest);
     if (st) crisp__step_file_free(dest);

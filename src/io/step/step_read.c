@@ -385,10 +385,19 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
                  f.duplicates, f.first_duplicate);
         crisp_model_note_skip(m, note);
     }
+    if (f.broken) {
+        /* The message names the file, line and column; the note keeps what fits. */
+        const char *msg = f.first_broken;
+        size_t nl = strlen(name);
+        if (strncmp(msg, name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
+        char note[96];
+        snprintf(note, sizeof note, "STEP %d broken instances skipped; first: %.30s", f.broken, msg);
+        crisp_model_note_skip(m, note);
+    }
     int wire = 0;
     if ((st = collect_faces(&r, &fl, &wire))) goto done;
     if (fl.count == 0) {
-        st = nothing_drawable(&r, wire);
+        st = f.broken ? crisp_error(CRISP_ERR_PARSE, "%s", f.first_broken) : nothing_drawable(&r, wire);
         goto done;
     }
     int meshes = count_types(&r, mesh_types, sizeof mesh_types / sizeof *mesh_types);
@@ -443,6 +452,11 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
         ids[fl.count + 2 * n] = fl.refs[i].owner[0];
         ids[fl.count + 2 * n + 1] = fl.refs[i].owner[1];
         n++;
+    }
+    if (n == 0 && f.broken) {
+        /* Nothing could be read and the text is broken: that is the error. */
+        st = crisp_error(CRISP_ERR_PARSE, "%s", f.first_broken);
+        goto done;
     }
     if (n == 0) {
         /* Nothing could be read: report the first face's problem as the error. */
