@@ -554,7 +554,7 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     if (nt > surface_t) {
         size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
-        crisp_raster_depth_slack(&r->target, 1.5, r->slack);
+        crisp_raster_depth_slack(&r->target, r->pool, 1.5, r->slack);
         crisp_raster_stats rs2;
         st = crisp_raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv, r->tris + surface_t,
                                     nt - surface_t, trim_test, r->plan, r->slack, &rs2);

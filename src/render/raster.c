@@ -359,27 +359,51 @@ static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
     for (size_t tile = begin; tile < end; tile++) raster_tile(vctx, tile, worker);
 }
 
-void crisp_raster_depth_slack(const crisp_raster_target *t, double scale, float *slack)
+typedef struct slack_ctx {
+    const crisp_raster_target *t;
+    double scale;
+    float *slack;
+} slack_ctx;
+
+/* Rows [begin, end): each pair of horizontally or vertically adjacent samples of one face is
+ * looked at once, from its left or upper member, and raises both members' slack. A worker writes
+ * only its own rows: the vertical pair across a chunk boundary is looked at by both chunks (the
+ * lower chunk starts one row early), each raising its own member. */
+static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
 {
+    (void)worker;
+    const slack_ctx *c = vctx;
+    const crisp_raster_target *t = c->t;
+    float *slack = c->slack;
     int S = t->samples, w = t->width, h = t->height;
-    for (int j = 0; j < h; j++)
+    size_t rs = (size_t)w * S;
+    for (size_t i = begin * rs; i < end * rs; i++) slack[i] = 0;
+    for (int j = (int)begin - (begin > 0); j < (int)end; j++) {
+        int own_j = j >= (int)begin, own_below = j + 1 < (int)end;
         for (int i = 0; i < w; i++)
             for (int s = 0; s < S; s++) {
                 size_t idx = ((size_t)j * w + i) * S + s;
-                double m = 0;
-                if (t->face[idx] >= 0) {
-                    double W = 1.0 / t->inv_w[idx];
-                    static const int nb[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
-                    for (int k = 0; k < 4; k++) {
-                        int x = i + nb[k][0], y = j + nb[k][1];
-                        if (x < 0 || y < 0 || x >= w || y >= h) continue;
-                        size_t n = ((size_t)y * w + x) * S + s;
-                        if (t->face[n] != t->face[idx]) continue;
-                        m = fmax(m, fabs(1.0 / t->inv_w[n] - W));
-                    }
+                int32_t f = t->face[idx];
+                if (f < 0) continue;
+                double W = 1.0 / t->inv_w[idx];
+                if (own_j && i + 1 < w && t->face[idx + S] == f) {
+                    float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + S] - W));
+                    if (d > slack[idx]) slack[idx] = d;
+                    if (d > slack[idx + S]) slack[idx + S] = d;
                 }
-                slack[idx] = (float)(scale * m);
+                if (j + 1 < h && t->face[idx + rs] == f) {
+                    float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + rs] - W));
+                    if (own_j && d > slack[idx]) slack[idx] = d;
+                    if (own_below && d > slack[idx + rs]) slack[idx + rs] = d;
+                }
             }
+    }
+}
+
+void crisp_raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale, float *slack)
+{
+    slack_ctx c = {t, scale, slack};
+    crisp_pool_parallel_for(pool, (size_t)t->height, 16, slack_rows, &c);
 }
 
 static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,

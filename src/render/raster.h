@@ -78,7 +78,7 @@ crisp_status crisp_raster_draw_fill(crisp_raster *r, crisp_raster_target *t, cri
 
 /* slack[sample] = scale times the largest change of W (camera depth) between the sample and the
  * same sample of the four neighbouring pixels where they show the same face (0 for empty
- * samples): how far a surface's depth moves over one pixel at that sample. */
-void crisp_raster_depth_slack(const crisp_raster_target *t, double scale, float *slack);
+ * samples): how far a surface's depth moves over one pixel at that sample. pool may be NULL. */
+void crisp_raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale, float *slack);
 
 #endif
