@@ -593,8 +593,17 @@ static crisp_status trimmed(step_reader *r, const step_entity *e, step_curve *c)
         t[1] = s;
         c->reversed ^= 1;
     }
-    if (c->periodic && c->kind == STEP_CURVE_CONIC)
+    if (c->periodic && c->kind == STEP_CURVE_CONIC) {
+        /* Angles far beyond a few turns are not a trim anyone meant (and stepping a turn at a time
+         * towards 1e16 never ends: found by fuzz_step). */
+        if (!(fabs(t[0]) < 1e6 * c->period) || !(fabs(t[1]) < 1e6 * c->period)) {
+            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "trim parameters %g and %g: expected angles within a "
+                                                           "million turns", t[0], t[1]);
+            goto fail;
+        }
+        if (t[1] <= t[0]) t[1] += c->period * ceil((t[0] - t[1]) / c->period);
         while (t[1] <= t[0]) t[1] += c->period;
+    }
     if (!(t[1] > t[0])) {
         st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "empty trimmed range [%g, %g]", t[0], t[1]);
         goto fail;
