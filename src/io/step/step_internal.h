@@ -253,8 +253,16 @@ crisp_status crisp__step_bounded_face(step_reader *r, const step_entity *e, cris
 crisp_status crisp__step_bare_face(step_reader *r, const step_entity *e, crisp_face *dest);
 /* model->unit_to_mm from the length unit; r->angle_unit from the plane angle unit. */
 void crisp__step_units(step_reader *r);
+/* Millimetres per length unit of a representation context; 0 when it names none. */
+double crisp__step_context_length_unit(step_reader *r, const step_entity *ctx);
 /* Colours of STYLED_ITEMs onto the faces (face_ids[i] is the entity of model face i). */
 void crisp__step_colors(step_reader *r, const int *face_ids, const int *shell_of_face,
                         int face_count);
+
+/* ---- assemblies (step_assembly.c) --------------------------------------------------------------
+ * Replace the model's faces (face i from entity face_ids[i], owners[2 i] its shell or set,
+ * owners[2 i + 1] its solid or surface model, 0 when none) by one placed copy per use of the
+ * representation holding them in the assembly structure; faces outside it stay as they are. */
+crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int *owners, int face_count);
 
 #endif

@@ -470,6 +470,7 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
         goto done;
     }
     crisp__step_colors(&r, ids, ids + fl.count, n);
+    if ((st = crisp__step_assembly(&r, ids, ids + fl.count, n))) goto done;
     crisp_error_clear();
 done:
     crisp_free(ids);

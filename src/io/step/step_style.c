@@ -91,6 +91,26 @@ void crisp__step_units(step_reader *r)
     }
 }
 
+/* Millimetres per length unit of one representation context (its GLOBAL_UNIT_ASSIGNED_CONTEXT);
+ * 0 when it names none (used by step_assembly.c for parts in different units). */
+double crisp__step_context_length_unit(step_reader *r, const step_entity *ctx)
+{
+    const step_part *p = crisp__step_part(r, ctx, "GLOBAL_UNIT_ASSIGNED_CONTEXT");
+    if (!p) return 0;
+    const step_value *units = crisp__step_param(r, p, 0);
+    if (!units || units->kind != STEP_LIST) units = crisp__step_param(r, p, 2);
+    if (!units || units->kind != STEP_LIST) return 0;
+    for (uint32_t k = 0; k < units->len; k++) {
+        const step_value *v = crisp__step_elem(r, units, k);
+        const step_entity *u;
+        double x;
+        if (v->kind == STEP_REF && (u = crisp__step_find(r->f, v->num)) && crisp__step_is(r, u, "LENGTH_UNIT") &&
+            (x = unit_factor(r, u, 1, 0)) > 0)
+            return x;
+    }
+    return 0;
+}
+
 /* The fill colour reachable from a style entity (depth-first, curve styles ignored). */
 static int find_colour(step_reader *r, const step_entity *e, int depth, float rgb[3])
 {

@@ -1,0 +1,687 @@
+/* STEP assembly structure: one placed copy of a part's faces per use of the part.
+ *
+ * Follows ISO 10303-203/-214 (product_definition, next_assembly_usage_occurrence,
+ * product_definition_shape, shape_definition_representation) and the CAx-IF "Recommended Practices
+ * for AP203/AP214 assembly structure": a child's placement in its parent is either
+ *   - CONTEXT_DEPENDENT_SHAPE_REPRESENTATION -> a complex (REPRESENTATION_RELATIONSHIP,
+ *     REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION, SHAPE_REPRESENTATION_RELATIONSHIP) whose
+ *     ITEM_DEFINED_TRANSFORMATION maps placement transform_item_1 (in rep_1, the child) onto
+ *     transform_item_2 (in rep_2, the parent); a CARTESIAN_TRANSFORMATION_OPERATOR_3D is also read;
+ *   - a MAPPED_ITEM in the parent's items: REPRESENTATION_MAP (mapping_origin, the child
+ *     representation) placed at mapping_target: the map takes the origin onto the target.
+ * A SHAPE_REPRESENTATION_RELATIONSHIP without a transformation ties a SHAPE_REPRESENTATION to the
+ * ADVANCED_BREP_SHAPE_REPRESENTATION (or other) holding the geometry: such representations are
+ * merged into one group (union-find), so the direction writers give them does not matter.
+ *
+ * The groups and placements form a graph; the roots (groups no placement puts anywhere) are drawn
+ * where they are, and transforms compose down the tree. The side of a relationship is checked
+ * against the product structure (the NAUO's relating / related product definition, through
+ * PRODUCT_DEFINITION_SHAPE and SHAPE_DEFINITION_REPRESENTATION): a relationship written parent
+ * first is taken inverted. Each representation's length unit (its context's) is honoured.
+ * Cycles are broken with a note; depth and the total number of placed copies are bounded.
+ */
+#include "step_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#define ASM_MAX_DEPTH 64
+#define ASM_MAX_INSTANCES (1 << 20) /* placed groups, over the whole tree */
+#define ASM_MAX_FACES 2000000       /* faces after instancing */
+
+typedef double xform[3][4]; /* p' = R p + t: rows of [R | t] */
+
+typedef struct asm_edge {
+    int parent, child; /* representation indices */
+    xform t;           /* child coordinates (mm) to parent coordinates (mm) */
+} asm_edge;
+
+typedef struct asm_inst {
+    int group;
+    xform m; /* group coordinates (mm) to world (mm) */
+} asm_inst;
+
+typedef struct asm_state {
+    step_reader *r;
+    int *rep_of_entity;  /* entity index -> representation index, -1 */
+    int *item_rep;       /* entity index -> representation holding it as an item, -1 */
+    int *rep_entity;     /* representation index -> entity index */
+    double *rep_unit;    /* mm per unit of the representation's context */
+    int *parent;         /* union-find over representations */
+    int rep_count;
+    asm_edge *edges;
+    size_t edge_count, edge_cap;
+    int *first_edge, *edge_order; /* CSR of edges by parent group */
+    int *on_path, *incoming;
+    asm_inst *inst;
+    size_t inst_count, inst_cap;
+    int cycles;
+} asm_state;
+
+static void xf_identity(xform m)
+{
+    memset(m, 0, sizeof(xform));
+    m[0][0] = m[1][1] = m[2][2] = 1;
+}
+
+static void xf_mul(xform a, xform b, xform dest)
+{
+    xform c;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 4; j++) {
+            double s = j == 3 ? a[i][3] : 0;
+            for (int k = 0; k < 3; k++) s += a[i][k] * b[k][j];
+            c[i][j] = s;
+        }
+    memcpy(dest, c, sizeof c);
+}
+
+/* The frame of a placement (local -> containing coordinates), its origin scaled to mm. */
+static void xf_frame(const crisp_placement *p, double unit, xform dest)
+{
+    for (int i = 0; i < 3; i++) {
+        dest[i][0] = p->x[i];
+        dest[i][1] = p->y[i];
+        dest[i][2] = p->z[i];
+        dest[i][3] = p->origin[i] * unit;
+    }
+}
+
+/* Inverse of a rigid frame (orthonormal rotation). */
+static void xf_frame_inverse(const crisp_placement *p, double unit, xform dest)
+{
+    const double *ax[3] = {p->x, p->y, p->z};
+    for (int i = 0; i < 3; i++) {
+        double t = 0;
+        for (int k = 0; k < 3; k++) {
+            dest[i][k] = ax[i][k];
+            t += ax[i][k] * p->origin[k] * unit;
+        }
+        dest[i][3] = -t;
+    }
+}
+
+static double xf_det(xform m)
+{
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+static int xf_is_identity(xform m)
+{
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 4; j++)
+            if (fabs(m[i][j] - (i == j)) > 1e-14) return 0;
+    return 1;
+}
+
+/* ---- representations ---------------------------------------------------------------------------- */
+
+/* The part of e that is a shape representation (name, items, context), or NULL. */
+static const step_part *rep_part(const step_reader *r, const step_entity *e)
+{
+    for (uint32_t i = 0; i < e->part_count; i++) {
+        const step_part *p = &r->f->parts[e->first_part + i];
+        const char *n = r->f->text + p->name_off;
+        size_t len = p->name_len;
+        static const char suffix[] = "SHAPE_REPRESENTATION";
+        size_t sl = sizeof suffix - 1;
+        int is_rep = (len == 14 && !memcmp(n, "REPRESENTATION", 14)) ||
+                     (len >= sl && !memcmp(n + len - sl, suffix, sl) &&
+                      !(len == 38 && !memcmp(n, "CONTEXT_DEPENDENT_SHAPE_REPRESENTATION", 38)));
+        if (!is_rep) continue;
+        const step_value *items = crisp__step_param(r, p, 1);
+        if (items && items->kind == STEP_LIST) return p;
+    }
+    return NULL;
+}
+
+static int find(asm_state *s, int a)
+{
+    while (s->parent[a] != a) a = s->parent[a] = s->parent[s->parent[a]];
+    return a;
+}
+
+static int rep_index(asm_state *s, const step_entity *e)
+{
+    return e ? s->rep_of_entity[e - s->r->f->entities] : -1;
+}
+
+static crisp_status add_edge(asm_state *s, int parent, int child, xform t)
+{
+    if (s->edge_count == s->edge_cap &&
+        crisp_grow((void **)&s->edges, &s->edge_cap, s->edge_count + 1, sizeof *s->edges))
+        return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", s->r->f->name);
+    asm_edge *ed = &s->edges[s->edge_count++];
+    ed->parent = parent;
+    ed->child = child;
+    memcpy(ed->t, t, sizeof(xform));
+    return CRISP_OK;
+}
+
+/* A placement entity, read into p (errors become a note by the caller). */
+static crisp_status placement(asm_state *s, const step_entity *e, crisp_placement *p)
+{
+    s->r->depth = 0;
+    return crisp__step_placement(s->r, e, p);
+}
+
+/* MAPPED_ITEM(name, REPRESENTATION_MAP(origin, rep), target) in representation `rep`. */
+static crisp_status mapped_item(asm_state *s, const step_entity *e, int rep)
+{
+    step_reader *r = s->r;
+    const step_part *p = crisp__step_part(r, e, "MAPPED_ITEM");
+    const step_entity *map, *target, *origin, *child;
+    crisp_placement po, pt;
+    crisp_status st = crisp__step_get_ref(r, e, p, 1, &map);
+    if (!st) st = crisp__step_get_ref(r, e, p, 2, &target);
+    if (st) return st;
+    const step_part *mp = crisp__step_part(r, map, "REPRESENTATION_MAP");
+    if (!mp) return crisp__step_fail(r, map, CRISP_ERR_PARSE, "expected a REPRESENTATION_MAP");
+    if ((st = crisp__step_get_ref(r, map, mp, 0, &origin)) || (st = crisp__step_get_ref(r, map, mp, 1, &child)))
+        return st;
+    int c = rep_index(s, child);
+    if (c < 0) return crisp__step_fail(r, map, CRISP_ERR_PARSE, "parameter 2: expected a shape representation");
+    if ((st = placement(s, origin, &po)) || (st = placement(s, target, &pt))) return st;
+    xform a, b;
+    xf_frame(&pt, s->rep_unit[rep], a);
+    xf_frame_inverse(&po, s->rep_unit[c], b);
+    xf_mul(a, b, a);
+    return add_edge(s, rep, c, a);
+}
+
+/* ---- product structure: which representation shows which product definition ------------------ */
+
+/* The representation group of the product definition pd (through PRODUCT_DEFINITION_SHAPE and
+ * SHAPE_DEFINITION_REPRESENTATION), or -1. pds_of: entity index of PD -> SDR's representation. */
+static int pd_group(asm_state *s, const int *rep_of_pd, const step_entity *pd)
+{
+    if (!pd) return -1;
+    int rp = rep_of_pd[pd - s->r->f->entities];
+    return rp < 0 ? -1 : find(s, rp);
+}
+
+/* The NAUO's parent and child definitions behind a CDSR's represented_product_relation. */
+static void nauo_ends(asm_state *s, const step_entity *pds, const step_entity **parent, const step_entity **child)
+{
+    step_reader *r = s->r;
+    *parent = *child = NULL;
+    const step_part *p = crisp__step_part(r, pds, "PRODUCT_DEFINITION_SHAPE");
+    const step_value *v = p ? crisp__step_param(r, p, 2) : NULL;
+    const step_entity *n = v && v->kind == STEP_REF ? crisp__step_find(r->f, v->num) : NULL;
+    const step_part *np = n ? crisp__step_part(r, n, "NEXT_ASSEMBLY_USAGE_OCCURRENCE") : NULL;
+    if (!np) np = n ? crisp__step_part(r, n, "PRODUCT_DEFINITION_RELATIONSHIP") : NULL;
+    if (!np) return;
+    /* (id, name, description, relating, related, reference_designator) */
+    const step_value *a = crisp__step_param(r, np, 3), *b = crisp__step_param(r, np, 4);
+    if (a && a->kind == STEP_REF) *parent = crisp__step_find(r->f, a->num);
+    if (b && b->kind == STEP_REF) *child = crisp__step_find(r->f, b->num);
+}
+
+/* A representation relationship with a transformation (entity e): an edge. cdsr: the
+ * CONTEXT_DEPENDENT_SHAPE_REPRESENTATION using it (NULL when none). */
+static crisp_status placed_relation(asm_state *s, const step_entity *e, const step_entity *cdsr, const int *rep_of_pd)
+{
+    step_reader *r = s->r;
+    const step_part *rr = crisp__step_part(r, e, "REPRESENTATION_RELATIONSHIP");
+    if (!rr) rr = crisp__step_part(r, e, "SHAPE_REPRESENTATION_RELATIONSHIP");
+    const step_part *rt = crisp__step_part(r, e, "REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION");
+    const step_entity *r1, *r2, *op, *i1, *i2;
+    crisp_status st;
+    if (!rr || !rt) return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected a REPRESENTATION_RELATIONSHIP");
+    if ((st = crisp__step_get_ref(r, e, rr, 2, &r1)) || (st = crisp__step_get_ref(r, e, rr, 3, &r2)) ||
+        (st = crisp__step_get_ref(r, e, rt, 0, &op)))
+        return st;
+    int a = rep_index(s, r1), b = rep_index(s, r2);
+    if (a < 0 || b < 0) return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected two shape representations");
+    xform t;
+    const step_part *idt = crisp__step_part(r, op, "ITEM_DEFINED_TRANSFORMATION");
+    const step_part *cto = crisp__step_part(r, op, "CARTESIAN_TRANSFORMATION_OPERATOR_3D");
+    if (idt) {
+        crisp_placement p1, p2;
+        if ((st = crisp__step_get_ref(r, op, idt, 2, &i1)) || (st = crisp__step_get_ref(r, op, idt, 3, &i2)) ||
+            (st = placement(s, i1, &p1)) || (st = placement(s, i2, &p2)))
+            return st;
+        xform f2, f1i;
+        xf_frame(&p2, s->rep_unit[b], f2);
+        xf_frame_inverse(&p1, s->rep_unit[a], f1i);
+        xf_mul(f2, f1i, t);
+    } else if (cto) {
+        /* (name, axis1, axis2, local_origin, scale, axis3): x' = o + scale (x a1 + y a2 + z a3). */
+        const step_value *v1 = crisp__step_param(r, cto, 1), *v3 = crisp__step_param(r, cto, 5);
+        const step_entity *oe, *de;
+        double x[3], z[3], o[3], scale = 1, sv;
+        const double *px = NULL, *pz = NULL;
+        if ((st = crisp__step_get_ref(r, op, cto, 3, &oe)) || (st = crisp__step_point(r, oe, o, NULL))) return st;
+        if (v1 && v1->kind == STEP_REF && !crisp__step_deref(r, op, v1, &de) && !crisp__step_direction(r, de, x))
+            px = x;
+        if (v3 && v3->kind == STEP_REF && !crisp__step_deref(r, op, v3, &de) && !crisp__step_direction(r, de, z))
+            pz = z;
+        const step_value *vs = crisp__step_param(r, cto, 4);
+        if (vs && crisp__step_value_real(r, vs, &sv) && sv > 0) scale = sv;
+        double zz[3] = {0, 0, 1};
+        crisp_placement pl;
+        if ((st = crisp_placement_make(o, pz ? pz : zz, px, &pl)))
+            return crisp__step_fail(r, op, CRISP_ERR_NUMERIC, "axes parallel or zero");
+        xf_frame(&pl, s->rep_unit[b], t);
+        for (int i = 0; i < 3; i++)
+            for (int k = 0; k < 3; k++) t[i][k] *= scale * s->rep_unit[b] / s->rep_unit[a];
+    } else {
+        return crisp__step_fail(r, op, CRISP_ERR_UNSUPPORTED,
+                                "expected an ITEM_DEFINED_TRANSFORMATION or CARTESIAN_TRANSFORMATION_OPERATOR_3D");
+    }
+    /* rep_1 is the child by the recommended practice; the NAUO says otherwise when the parent's
+     * representation is rep_1 and the child's rep_2. */
+    int child = a, parent = b;
+    if (cdsr) {
+        const step_part *cp = crisp__step_part(r, cdsr, "CONTEXT_DEPENDENT_SHAPE_REPRESENTATION");
+        const step_value *v = crisp__step_param(r, cp, 1);
+        const step_entity *pds = v && v->kind == STEP_REF ? crisp__step_find(r->f, v->num) : NULL, *pp, *pc;
+        if (pds) {
+            nauo_ends(s, pds, &pp, &pc);
+            int gp = pd_group(s, rep_of_pd, pp), gc = pd_group(s, rep_of_pd, pc);
+            if (gp >= 0 && gc >= 0 && gp == find(s, a) && gc == find(s, b)) {
+                child = b, parent = a;
+                /* invert the rigid part (scale 1 for item-defined transformations) */
+                xform inv;
+                double det = xf_det(t);
+                if (!(fabs(det) > 1e-300)) return crisp__step_fail(r, op, CRISP_ERR_NUMERIC, "singular transform");
+                for (int i = 0; i < 3; i++)
+                    for (int k = 0; k < 3; k++) {
+                        int i1 = (k + 1) % 3, i2 = (k + 2) % 3, k1 = (i + 1) % 3, k2 = (i + 2) % 3;
+                        inv[i][k] = (t[i1][k1] * t[i2][k2] - t[i1][k2] * t[i2][k1]) / det;
+                    }
+                for (int i = 0; i < 3; i++)
+                    inv[i][3] = -(inv[i][0] * t[0][3] + inv[i][1] * t[1][3] + inv[i][2] * t[2][3]);
+                memcpy(t, inv, sizeof t);
+            }
+        }
+    }
+    return add_edge(s, parent, child, t);
+}
+
+/* Note a relationship or mapped item that could not be read (the rest of the assembly stands). */
+static crisp_status note(asm_state *s, crisp_status st, const char *what, int id)
+{
+    if (st == CRISP_OK || st == CRISP_ERR_NO_MEMORY) return st;
+    const char *msg = crisp_error_message();
+    size_t nl = strlen(s->r->f->name);
+    if (strncmp(msg, s->r->f->name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
+    char buf[96];
+    snprintf(buf, sizeof buf, "STEP %s #%d ignored: %s", what, id, msg);
+    crisp_model_note_skip(s->r->model, buf);
+    crisp_error_clear();
+    return CRISP_OK;
+}
+
+/* ---- the placement tree ----------------------------------------------------------------------- */
+
+static crisp_status place(asm_state *s, int g, xform m, int depth)
+{
+    if (s->inst_count >= ASM_MAX_INSTANCES)
+        return crisp_error(CRISP_ERR_LIMIT, "%s: the assembly places more than %d parts (instance explosion?)",
+                           s->r->f->name, ASM_MAX_INSTANCES);
+    if (depth > ASM_MAX_DEPTH)
+        return crisp_error(CRISP_ERR_LIMIT, "%s: assembly nested deeper than %d levels (at representation #%d)",
+                           s->r->f->name, ASM_MAX_DEPTH, s->r->f->entities[s->rep_entity[g]].id);
+    if (s->inst_count == s->inst_cap &&
+        crisp_grow((void **)&s->inst, &s->inst_cap, s->inst_count + 1, sizeof *s->inst))
+        return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", s->r->f->name);
+    s->inst[s->inst_count].group = g;
+    memcpy(s->inst[s->inst_count].m, m, sizeof(xform));
+    s->inst_count++;
+    s->on_path[g] = 1;
+    crisp_status st = CRISP_OK;
+    for (int k = s->first_edge[g]; k < s->first_edge[g + 1] && !st; k++) {
+        asm_edge *ed = &s->edges[s->edge_order[k]];
+        int c = find(s, ed->child);
+        if (s->on_path[c]) {
+            s->cycles++;
+            continue;
+        }
+        xform cm;
+        xf_mul(m, ed->t, cm);
+        st = place(s, c, cm, depth + 1);
+    }
+    s->on_path[g] = 0;
+    return st;
+}
+
+/* How many placements the tree under group g makes (g included), saturating at the limit, so that
+ * an instance explosion is refused before anything is placed. memo: -1 when not yet known. */
+static double subtree_size(asm_state *s, double *memo, int g, int depth)
+{
+    if (memo[g] >= 0) return memo[g];
+    if (depth > ASM_MAX_DEPTH) return ASM_MAX_INSTANCES + 1.0;
+    double n = 1;
+    s->on_path[g] = 1;
+    for (int k = s->first_edge[g]; k < s->first_edge[g + 1] && n <= ASM_MAX_INSTANCES; k++) {
+        int c = find(s, s->edges[s->edge_order[k]].child);
+        if (!s->on_path[c]) n += subtree_size(s, memo, c, depth + 1);
+    }
+    s->on_path[g] = 0;
+    return memo[g] = n > ASM_MAX_INSTANCES ? ASM_MAX_INSTANCES + 1.0 : n;
+}
+
+/* ---- faces -------------------------------------------------------------------------------------- */
+
+static void transform_face(crisp_face *f, xform m)
+{
+    crisp_surface *sf = f->surface;
+    size_t n = (size_t)sf->count_u * sf->count_v;
+    for (size_t i = 0; i < n; i++) {
+        double *p = sf->cpw + 4 * i, q[3];
+        for (int a = 0; a < 3; a++) q[a] = m[a][0] * p[0] + m[a][1] * p[1] + m[a][2] * p[2] + m[a][3] * p[3];
+        memcpy(p, q, sizeof q);
+    }
+    if (xf_det(m) < 0) f->reversed = !f->reversed;
+}
+
+static crisp_status face_copy(const crisp_face *src, crisp_face *dest)
+{
+    crisp_face face = *src;
+    face.surface = NULL;
+    face.loops = NULL;
+    face.loop_count = 0;
+    crisp_status st = crisp_surface_copy(src->surface, &face.surface);
+    if (!st && src->loop_count > 0) {
+        face.loops = crisp_calloc_array((size_t)src->loop_count, sizeof *face.loops);
+        if (!face.loops) st = CRISP_ERR_NO_MEMORY;
+    }
+    for (int l = 0; l < src->loop_count && !st; l++) {
+        const crisp_trim_loop *a = &src->loops[l];
+        crisp_trim_loop *b = &face.loops[face.loop_count++];
+        b->is_outer = a->is_outer;
+        b->curves = a->curve_count ? crisp_calloc_array((size_t)a->curve_count, sizeof *b->curves) : NULL;
+        if (a->curve_count && !b->curves) {
+            st = CRISP_ERR_NO_MEMORY;
+            break;
+        }
+        for (int c = 0; c < a->curve_count && !st; c++) {
+            st = crisp_curve_copy(a->curves[c], &b->curves[c]);
+            if (!st) b->curve_count++;
+        }
+    }
+    if (st) {
+        crisp_face_free(&face);
+        return st;
+    }
+    *dest = face;
+    return CRISP_OK;
+}
+
+/* The representation holding face i (through its solid / surface model, its shell or set, or the
+ * face itself), or -1. */
+static int face_rep(asm_state *s, int face_id, const int *owner)
+{
+    int ids[3] = {owner[1], owner[0], face_id};
+    for (int k = 0; k < 3; k++) {
+        if (!ids[k]) continue;
+        const step_entity *e = crisp__step_find(s->r->f, ids[k]);
+        if (e && s->item_rep[e - s->r->f->entities] >= 0) return s->item_rep[e - s->r->f->entities];
+    }
+    return -1;
+}
+
+static void state_free(asm_state *s)
+{
+    crisp_free(s->rep_of_entity);
+    crisp_free(s->item_rep);
+    crisp_free(s->rep_entity);
+    crisp_free(s->rep_unit);
+    crisp_free(s->parent);
+    crisp_free(s->edges);
+    crisp_free(s->first_edge);
+    crisp_free(s->edge_order);
+    crisp_free(s->on_path);
+    crisp_free(s->incoming);
+    crisp_free(s->inst);
+}
+
+/* Build groups and edges; 0 edges means no assembly. */
+static crisp_status build_graph(asm_state *s)
+{
+    step_reader *r = s->r;
+    const step_file *f = r->f;
+    size_t n = f->entity_count;
+    crisp_status st = CRISP_OK;
+    s->rep_of_entity = crisp_malloc_array(n + 1, sizeof(int));
+    s->item_rep = crisp_malloc_array(n + 1, sizeof(int));
+    int *rep_of_pd = crisp_malloc_array(n + 1, sizeof(int));
+    if (!s->rep_of_entity || !s->item_rep || !rep_of_pd) {
+        crisp_free(rep_of_pd);
+        return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+    }
+    for (size_t i = 0; i < n; i++) s->rep_of_entity[i] = s->item_rep[i] = rep_of_pd[i] = -1;
+    for (size_t i = 0; i < n; i++)
+        if (rep_part(r, &f->entities[i])) s->rep_of_entity[i] = s->rep_count++;
+    if (s->rep_count == 0) goto out;
+    s->rep_entity = crisp_malloc_array((size_t)s->rep_count, sizeof(int));
+    s->rep_unit = crisp_malloc_array((size_t)s->rep_count, sizeof(double));
+    s->parent = crisp_malloc_array((size_t)s->rep_count, sizeof(int));
+    if (!s->rep_entity || !s->rep_unit || !s->parent) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+        goto out;
+    }
+    for (size_t i = 0; i < n; i++) {
+        int k = s->rep_of_entity[i];
+        if (k < 0) continue;
+        s->rep_entity[k] = (int)i;
+        s->parent[k] = k;
+        const step_part *p = rep_part(r, &f->entities[i]);
+        const step_value *ctx = crisp__step_param(r, p, 2);
+        const step_entity *ce = ctx && ctx->kind == STEP_REF ? crisp__step_find(f, ctx->num) : NULL;
+        double u = ce ? crisp__step_context_length_unit(r, ce) : 0;
+        s->rep_unit[k] = u > 0 ? u : r->model->unit_to_mm;
+    }
+    /* Items; mapped items become edges. */
+    for (size_t i = 0; i < n && !st; i++) {
+        int k = s->rep_of_entity[i];
+        if (k < 0) continue;
+        const step_entity *e = &f->entities[i];
+        const step_value *items = crisp__step_param(r, rep_part(r, e), 1);
+        for (uint32_t j = 0; j < items->len && !st; j++) {
+            const step_value *v = crisp__step_elem(r, items, j);
+            const step_entity *it = v->kind == STEP_REF ? crisp__step_find(f, v->num) : NULL;
+            if (!it) continue;
+            if (crisp__step_is(r, it, "MAPPED_ITEM")) st = note(s, mapped_item(s, it, k), "mapped item", it->id);
+            else if (s->item_rep[it - f->entities] < 0) s->item_rep[it - f->entities] = k;
+        }
+    }
+    /* Identity relationships merge groups; definitions get their representation. */
+    for (size_t i = 0; i < n && !st; i++) {
+        const step_entity *e = &f->entities[i];
+        const step_part *p;
+        if (crisp__step_is(r, e, "REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION")) continue;
+        if ((p = crisp__step_part(r, e, "REPRESENTATION_RELATIONSHIP")) ||
+            (p = crisp__step_part(r, e, "SHAPE_REPRESENTATION_RELATIONSHIP"))) {
+            const step_value *a = p ? crisp__step_param(r, p, 2) : NULL, *b = p ? crisp__step_param(r, p, 3) : NULL;
+            const step_entity *ea = a && a->kind == STEP_REF ? crisp__step_find(f, a->num) : NULL;
+            const step_entity *eb = b && b->kind == STEP_REF ? crisp__step_find(f, b->num) : NULL;
+            int x = rep_index(s, ea), y = rep_index(s, eb);
+            if (x >= 0 && y >= 0) s->parent[find(s, x)] = find(s, y);
+        }
+    }
+    for (size_t i = 0; i < n && !st; i++) {
+        const step_entity *e = &f->entities[i];
+        const step_part *p = crisp__step_part(r, e, "SHAPE_DEFINITION_REPRESENTATION");
+        if (!p) continue;
+        const step_value *a = crisp__step_param(r, p, 0), *b = crisp__step_param(r, p, 1);
+        const step_entity *pds = a && a->kind == STEP_REF ? crisp__step_find(f, a->num) : NULL;
+        const step_entity *rep = b && b->kind == STEP_REF ? crisp__step_find(f, b->num) : NULL;
+        const step_part *pp = pds ? crisp__step_part(r, pds, "PRODUCT_DEFINITION_SHAPE") : NULL;
+        const step_value *d = pp ? crisp__step_param(r, pp, 2) : NULL;
+        const step_entity *pd = d && d->kind == STEP_REF ? crisp__step_find(f, d->num) : NULL;
+        if (pd && rep_index(s, rep) >= 0 && rep_of_pd[pd - f->entities] < 0)
+            rep_of_pd[pd - f->entities] = rep_index(s, rep);
+    }
+    /* Placed relationships, through their CDSR when there is one. */
+    unsigned char *done = crisp_calloc_array(n + 1, 1);
+    if (!done) st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+    for (size_t i = 0; i < n && !st; i++) {
+        const step_entity *e = &f->entities[i], *rel;
+        const step_part *p = crisp__step_part(r, e, "CONTEXT_DEPENDENT_SHAPE_REPRESENTATION");
+        if (!p || crisp__step_get_ref(r, e, p, 0, &rel)) {
+            crisp_error_clear();
+            continue;
+        }
+        if (!crisp__step_is(r, rel, "REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION") || done[rel - f->entities])
+            continue;
+        done[rel - f->entities] = 1;
+        st = note(s, placed_relation(s, rel, e, rep_of_pd), "assembly placement", e->id);
+    }
+    for (size_t i = 0; i < n && !st; i++) {
+        const step_entity *e = &f->entities[i];
+        if (!done[i] && crisp__step_is(r, e, "REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION"))
+            st = note(s, placed_relation(s, e, NULL, rep_of_pd), "assembly placement", e->id);
+    }
+    crisp_free(done);
+out:
+    crisp_free(rep_of_pd);
+    return st;
+}
+
+crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int *owners, int face_count)
+{
+    asm_state s = {.r = r};
+    crisp_model *m = r->model;
+    crisp_face *out = NULL;
+    int *face_group = NULL, *first_inst = NULL, *inst_order = NULL;
+    crisp_status st = build_graph(&s);
+    if (st || s.edge_count == 0) goto done;
+    const step_file *f = r->f;
+    int g_count = s.rep_count;
+    s.first_edge = crisp_calloc_array((size_t)g_count + 1, sizeof(int));
+    s.edge_order = crisp_malloc_array(s.edge_count, sizeof(int));
+    s.on_path = crisp_calloc_array((size_t)g_count, sizeof(int));
+    s.incoming = crisp_calloc_array((size_t)g_count, sizeof(int));
+    face_group = crisp_malloc_array((size_t)face_count + 1, sizeof(int));
+    first_inst = crisp_calloc_array((size_t)g_count + 1, sizeof(int));
+    if (!s.first_edge || !s.edge_order || !s.on_path || !s.incoming || !face_group || !first_inst) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+        goto done;
+    }
+    /* Edges grouped by parent group (counting sort), incoming counts by child group. */
+    for (size_t k = 0; k < s.edge_count; k++) {
+        s.first_edge[find(&s, s.edges[k].parent) + 1]++;
+        s.incoming[find(&s, s.edges[k].child)]++;
+    }
+    for (int g = 0; g < g_count; g++) s.first_edge[g + 1] += s.first_edge[g];
+    {
+        int *fill = first_inst; /* borrowed as a cursor, cleared below */
+        for (size_t k = 0; k < s.edge_count; k++) {
+            int g = find(&s, s.edges[k].parent);
+            s.edge_order[s.first_edge[g] + fill[g]++] = (int)k;
+        }
+        memset(first_inst, 0, ((size_t)g_count + 1) * sizeof(int));
+    }
+    /* Roots: groups that are some placement's parent and nobody's child. */
+    xform id;
+    xf_identity(id);
+    double *memo = crisp_malloc_array((size_t)g_count, sizeof *memo), planned = 0;
+    if (!memo) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+        goto done;
+    }
+    for (int g = 0; g < g_count; g++) memo[g] = -1;
+    for (int g = 0; g < g_count; g++)
+        if (find(&s, g) == g && !s.incoming[g] && s.first_edge[g + 1] > s.first_edge[g])
+            planned += subtree_size(&s, memo, g, 0);
+    crisp_free(memo);
+    if (planned > ASM_MAX_INSTANCES) {
+        st = crisp_error(CRISP_ERR_LIMIT,
+                         "%s: the assembly structure places parts more than %d times, or nests deeper than %d levels "
+                         "(instance explosion or a malformed structure)",
+                         f->name, ASM_MAX_INSTANCES, ASM_MAX_DEPTH);
+        goto done;
+    }
+    for (int g = 0; g < g_count && !st; g++)
+        if (find(&s, g) == g && !s.incoming[g] && s.first_edge[g + 1] > s.first_edge[g]) st = place(&s, g, id, 0);
+    if (st) goto done;
+    if (s.cycles) {
+        char buf[96];
+        snprintf(buf, sizeof buf, "STEP assembly cycle: %d placements of a part inside itself ignored", s.cycles);
+        crisp_model_note_skip(m, buf);
+    }
+    /* Instances by group (CSR). */
+    inst_order = crisp_malloc_array(s.inst_count + 1, sizeof(int));
+    if (!inst_order) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+        goto done;
+    }
+    for (size_t k = 0; k < s.inst_count; k++) first_inst[s.inst[k].group + 1]++;
+    for (int g = 0; g < g_count; g++) first_inst[g + 1] += first_inst[g];
+    {
+        int *fill = s.on_path; /* all 0 again after place() */
+        for (size_t k = 0; k < s.inst_count; k++) {
+            int g = s.inst[k].group;
+            inst_order[first_inst[g] + fill[g]++] = (int)k;
+        }
+    }
+    /* Faces after instancing: a face of a placed group once per placement, any other once. */
+    size_t total = 0;
+    for (int i = 0; i < face_count; i++) {
+        int rp = face_rep(&s, face_ids[i], owners + 2 * i);
+        int g = rp < 0 ? -1 : find(&s, rp);
+        face_group[i] = g >= 0 && first_inst[g + 1] > first_inst[g] ? rp : -1;
+        total += face_group[i] >= 0 ? (size_t)(first_inst[g + 1] - first_inst[g]) : 1;
+    }
+    if (total > ASM_MAX_FACES) {
+        st = crisp_error(CRISP_ERR_LIMIT, "%s: the assembly places %zu faces (limit %d)", f->name, total,
+                         ASM_MAX_FACES);
+        goto done;
+    }
+    out = crisp_calloc_array(total + 1, sizeof *out);
+    if (!out) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+        goto done;
+    }
+    size_t o = 0;
+    for (int i = 0; i < face_count && !st; i++) {
+        int rp = face_group[i];
+        if (rp < 0) {
+            out[o++] = m->faces[i];
+            memset(&m->faces[i], 0, sizeof m->faces[i]);
+            continue;
+        }
+        int g = find(&s, rp);
+        /* Face coordinates are in the representation's unit, the model's in unit_to_mm. */
+        double u_in = s.rep_unit[rp], u_out = m->unit_to_mm > 0 ? m->unit_to_mm : 1;
+        for (int k = first_inst[g]; k < first_inst[g + 1] && !st; k++) {
+            xform x;
+            memcpy(x, s.inst[inst_order[k]].m, sizeof x);
+            for (int a = 0; a < 3; a++) {
+                for (int b = 0; b < 3; b++) x[a][b] *= u_in / u_out;
+                x[a][3] /= u_out;
+            }
+            if (k + 1 < first_inst[g + 1]) {
+                if ((st = face_copy(&m->faces[i], &out[o]))) break;
+            } else {
+                out[o] = m->faces[i];
+                memset(&m->faces[i], 0, sizeof m->faces[i]);
+            }
+            if (!xf_is_identity(x)) transform_face(&out[o], x);
+            o++;
+        }
+    }
+    if (st) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory placing assembly copies", f->name);
+        for (size_t k = 0; k < o; k++) crisp_face_free(&out[k]);
+        goto done;
+    }
+    /* The model takes the new face array (faces not moved are empty now). */
+    for (int i = 0; i < m->face_count; i++) crisp_face_free(&m->faces[i]);
+    crisp_free(m->faces);
+    m->faces = out;
+    m->face_count = (int)o;
+    m->face_cap = (int)total + 1;
+    out = NULL;
+done:
+    crisp_free(out);
+    crisp_free(face_group);
+    crisp_free(first_inst);
+    crisp_free(inst_order);
+    state_free(&s);
+    return st;
+}
