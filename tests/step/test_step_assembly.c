@@ -207,11 +207,11 @@ static void test_cycle(void **state)
         "#52=MAPPED_ITEM('',#53,#203);\n#53=REPRESENTATION_MAP(#39,#40);\n"
         "#60=SHAPE_REPRESENTATION('loop P',(#52),#900);\n#61=SHAPE_REPRESENTATION_RELATIONSHIP('','',#60,#20);\n"
         "#62=SHAPE_REPRESENTATION('loop Q',(#50),#900);\n#63=SHAPE_REPRESENTATION_RELATIONSHIP('','',#62,#40);\n"
-        "#70=SHAPE_REPRESENTATION('top',(#50),#900);\n", TAIL, NULL};
+        "#54=MAPPED_ITEM('',#51,#203);\n#70=SHAPE_REPRESENTATION('top',(#54),#900);\n", TAIL, NULL};
     crisp_model *m = NULL;
     assert_int_equal(read_str(cyc, &m), CRISP_OK);
-    /* top places P at x + 10; P's group places Q, Q's places P again: the cycle is cut there. */
-    assert_true(m->face_count >= 2 && m->face_count <= 4);
+    /* top places P at x + 10; P's group places Q (x + 20), Q's places P again: cut there. */
+    assert_int_equal(m->face_count, 2);
     int noted = 0;
     for (int i = 0; i < m->skip_count; i++) noted |= strstr(m->skips[i].what, "cycle") != NULL;
     assert_true(noted);

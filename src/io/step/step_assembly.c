@@ -219,6 +219,13 @@ static void nauo_ends(asm_state *s, const step_entity *pds, const step_entity **
     if (b && b->kind == STEP_REF) *child = crisp__step_find(r->f, b->num);
 }
 
+/* The group of the representation listing item e, or -1. */
+static int item_group(asm_state *s, const step_entity *e)
+{
+    int k = s->item_rep[e - s->r->f->entities];
+    return k < 0 ? -1 : find(s, k);
+}
+
 /* A representation relationship with a transformation (entity e): an edge. cdsr: the
  * CONTEXT_DEPENDENT_SHAPE_REPRESENTATION using it (NULL when none). */
 static crisp_status placed_relation(asm_state *s, const step_entity *e, const step_entity *cdsr, const int *rep_of_pd)
@@ -235,42 +242,6 @@ static crisp_status placed_relation(asm_state *s, const step_entity *e, const st
         return st;
     int a = rep_index(s, r1), b = rep_index(s, r2);
     if (a < 0 || b < 0) return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected two shape representations");
-    xform t;
-    const step_part *idt = crisp__step_part(r, op, "ITEM_DEFINED_TRANSFORMATION");
-    const step_part *cto = crisp__step_part(r, op, "CARTESIAN_TRANSFORMATION_OPERATOR_3D");
-    if (idt) {
-        crisp_placement p1, p2;
-        if ((st = crisp__step_get_ref(r, op, idt, 2, &i1)) || (st = crisp__step_get_ref(r, op, idt, 3, &i2)) ||
-            (st = placement(s, i1, &p1)) || (st = placement(s, i2, &p2)))
-            return st;
-        xform f2, f1i;
-        xf_frame(&p2, s->rep_unit[b], f2);
-        xf_frame_inverse(&p1, s->rep_unit[a], f1i);
-        xf_mul(f2, f1i, t);
-    } else if (cto) {
-        /* (name, axis1, axis2, local_origin, scale, axis3): x' = o + scale (x a1 + y a2 + z a3). */
-        const step_value *v1 = crisp__step_param(r, cto, 1), *v3 = crisp__step_param(r, cto, 5);
-        const step_entity *oe, *de;
-        double x[3], z[3], o[3], scale = 1, sv;
-        const double *px = NULL, *pz = NULL;
-        if ((st = crisp__step_get_ref(r, op, cto, 3, &oe)) || (st = crisp__step_point(r, oe, o, NULL))) return st;
-        if (v1 && v1->kind == STEP_REF && !crisp__step_deref(r, op, v1, &de) && !crisp__step_direction(r, de, x))
-            px = x;
-        if (v3 && v3->kind == STEP_REF && !crisp__step_deref(r, op, v3, &de) && !crisp__step_direction(r, de, z))
-            pz = z;
-        const step_value *vs = crisp__step_param(r, cto, 4);
-        if (vs && crisp__step_value_real(r, vs, &sv) && sv > 0) scale = sv;
-        double zz[3] = {0, 0, 1};
-        crisp_placement pl;
-        if ((st = crisp_placement_make(o, pz ? pz : zz, px, &pl)))
-            return crisp__step_fail(r, op, CRISP_ERR_NUMERIC, "axes parallel or zero");
-        xf_frame(&pl, s->rep_unit[b], t);
-        for (int i = 0; i < 3; i++)
-            for (int k = 0; k < 3; k++) t[i][k] *= scale * s->rep_unit[b] / s->rep_unit[a];
-    } else {
-        return crisp__step_fail(r, op, CRISP_ERR_UNSUPPORTED,
-                                "expected an ITEM_DEFINED_TRANSFORMATION or CARTESIAN_TRANSFORMATION_OPERATOR_3D");
-    }
     /* rep_1 is the child by the recommended practice; the NAUO says otherwise when the parent's
      * representation is rep_1 and the child's rep_2. */
     int child = a, parent = b;
@@ -281,22 +252,65 @@ static crisp_status placed_relation(asm_state *s, const step_entity *e, const st
         if (pds) {
             nauo_ends(s, pds, &pp, &pc);
             int gp = pd_group(s, rep_of_pd, pp), gc = pd_group(s, rep_of_pd, pc);
-            if (gp >= 0 && gc >= 0 && gp == find(s, a) && gc == find(s, b)) {
-                child = b, parent = a;
-                /* invert the rigid part (scale 1 for item-defined transformations) */
-                xform inv;
-                double det = xf_det(t);
-                if (!(fabs(det) > 1e-300)) return crisp__step_fail(r, op, CRISP_ERR_NUMERIC, "singular transform");
-                for (int i = 0; i < 3; i++)
-                    for (int k = 0; k < 3; k++) {
-                        int i1 = (k + 1) % 3, i2 = (k + 2) % 3, k1 = (i + 1) % 3, k2 = (i + 2) % 3;
-                        inv[i][k] = (t[i1][k1] * t[i2][k2] - t[i1][k2] * t[i2][k1]) / det;
-                    }
-                for (int i = 0; i < 3; i++)
-                    inv[i][3] = -(inv[i][0] * t[0][3] + inv[i][1] * t[1][3] + inv[i][2] * t[2][3]);
-                memcpy(t, inv, sizeof t);
-            }
+            if (gp >= 0 && gc >= 0 && gp == find(s, a) && gc == find(s, b)) child = b, parent = a;
         }
+    }
+    xform t;
+    const step_part *idt = crisp__step_part(r, op, "ITEM_DEFINED_TRANSFORMATION");
+    const step_part *cto = crisp__step_part(r, op, "CARTESIAN_TRANSFORMATION_OPERATOR_3D");
+    if (idt) {
+        /* The transformation takes the child's item onto the parent's: item 1 is the child's when
+         * rep_1 is, unless the items say otherwise (some writers turn the representations round and
+         * not the items: trj4_s1-ai-214.stp). */
+        if ((st = crisp__step_get_ref(r, op, idt, 2, &i1)) || (st = crisp__step_get_ref(r, op, idt, 3, &i2)))
+            return st;
+        const step_entity *ci = child == a ? i1 : i2, *pi = child == a ? i2 : i1;
+        if (item_group(s, ci) == find(s, parent) && item_group(s, pi) == find(s, child)) {
+            const step_entity *tmp = ci;
+            ci = pi, pi = tmp;
+        }
+        crisp_placement pc, pp;
+        if ((st = placement(s, ci, &pc)) || (st = placement(s, pi, &pp))) return st;
+        xform fp, fci;
+        xf_frame(&pp, s->rep_unit[parent], fp);
+        xf_frame_inverse(&pc, s->rep_unit[child], fci);
+        xf_mul(fp, fci, t);
+    } else if (cto) {
+        /* (name, axis1, axis2, local_origin, scale, axis3): rep_1 coordinates into rep_2's,
+         * x' = o + scale (x a1 + y a2 + z a3). */
+        const step_value *v1 = crisp__step_param(r, cto, 1), *v3 = crisp__step_param(r, cto, 5);
+        const step_entity *oe, *de;
+        double x[3], z[3], o[3], scale = 1, sv;
+        const double *px = NULL, *pz = NULL;
+        if ((st = crisp__step_get_ref(r, op, cto, 3, &oe)) || (st = crisp__step_point(r, oe, o, NULL))) return st;
+        if (v1 && v1->kind == STEP_REF && !crisp__step_deref(r, op, v1, &de) && !crisp__step_direction(r, de, x))
+            px = x;
+        if (v3 && v3->kind == STEP_REF && !crisp__step_deref(r, op, v3, &de) && !crisp__step_direction(r, de, z))
+            pz = z;
+        crisp_error_clear();
+        const step_value *vs = crisp__step_param(r, cto, 4);
+        if (vs && crisp__step_value_real(r, vs, &sv) && sv > 0) scale = sv;
+        double zz[3] = {0, 0, 1};
+        crisp_placement pl;
+        if ((st = crisp_placement_make(o, pz ? pz : zz, px, &pl)))
+            return crisp__step_fail(r, op, CRISP_ERR_NUMERIC, "axes parallel or zero");
+        xf_frame(&pl, s->rep_unit[b], t);
+        for (int i = 0; i < 3; i++)
+            for (int k = 0; k < 3; k++) t[i][k] *= scale * s->rep_unit[b] / s->rep_unit[a];
+        if (child != a) {
+            /* rep_2 is the child: the inverse (a similarity: R^T / scale^2 inverts scale R) */
+            xform inv;
+            double s2 = 0;
+            for (int k = 0; k < 3; k++) s2 += t[k][0] * t[k][0];
+            for (int i = 0; i < 3; i++)
+                for (int k = 0; k < 3; k++) inv[i][k] = t[k][i] / s2;
+            for (int i = 0; i < 3; i++)
+                inv[i][3] = -(inv[i][0] * t[0][3] + inv[i][1] * t[1][3] + inv[i][2] * t[2][3]);
+            memcpy(t, inv, sizeof t);
+        }
+    } else {
+        return crisp__step_fail(r, op, CRISP_ERR_UNSUPPORTED,
+                                "expected an ITEM_DEFINED_TRANSFORMATION or CARTESIAN_TRANSFORMATION_OPERATOR_3D");
     }
     return add_edge(s, parent, child, t);
 }
@@ -485,8 +499,12 @@ static crisp_status build_graph(asm_state *s)
             const step_value *v = crisp__step_elem(r, items, j);
             const step_entity *it = v->kind == STEP_REF ? crisp__step_find(f, v->num) : NULL;
             if (!it) continue;
+            /* A mapped item listed by several representations (a CATIA writer lists each in the
+             * occurrence's own SHAPE_REPRESENTATION and again in the top assembly's) places its
+             * representation once, from the first. */
+            if (s->item_rep[it - f->entities] >= 0) continue;
+            s->item_rep[it - f->entities] = k;
             if (crisp__step_is(r, it, "MAPPED_ITEM")) st = note(s, mapped_item(s, it, k), "mapped item", it->id);
-            else if (s->item_rep[it - f->entities] < 0) s->item_rep[it - f->entities] = k;
         }
     }
     /* Identity relationships merge groups; definitions get their representation. */
