@@ -42,7 +42,9 @@
  * is decided by a scan line at most h/2 away in v (<= 0.5 px on screen), and the polyline deviates
  * from the true curve by at most h/4 in v (<= 0.25 px) and 1/(4 rho_u) in u (<= 0.25 px). So the
  * table disagrees with the true curves only where the true curve passes within 1.0 px (Euclidean)
- * of the pixel's surface point.
+ * of the pixel's surface point. The paths behind these distances stay where the bounds hold: the
+ * side planes are widened by 2 px, and the bounds also cover NDC depth 1 beyond the near and far
+ * planes and the depth speed (src/trim/scan_density.c says why that closes the near plane).
  */
 #ifndef CRISP_TRIM_H
 #define CRISP_TRIM_H
@@ -88,13 +90,13 @@ typedef struct crisp_trim_density_stats {
                         depth limit); their rho is set to HUGE_VAL */
 } crisp_trim_density_stats;
 
-/* For each strip i: rho_v[i] >= sup |d(x~, y~)/dv| (Euclidean, pixels per unit v) and
- * rho_u[i] >= sup |d(x~, y~)/du| over the points of the strip's part of the face that lie in the
- * widened frustum (between the near and far planes) and, with strip_u, have u in the strip's
- * u-range; both 0 when no such point exists (the strip
- * is invisible). The bound comes from Bézier coefficients of the numerators X_v W - X W_v (products
- * of Bernstein forms) and the smallest coefficient of W, on sub-patches refined where W is not
- * provably positive or the bound is loose. rho_v, rho_u: strip_count values each. vis_v (may be
+/* For each strip i: rho_v[i] >= max(sup |d(x~, y~)/dv|, sup |dz~/dv|) (Euclidean, pixels per unit
+ * v; z~ = Z / W the NDC depth) and rho_u[i] likewise in u, over the points of the strip's part of
+ * the face that lie in the widened frustum (sides margin_px out, NDC depth in [-2, 2]) and, with
+ * strip_u, have u in the strip's u-range; both 0 when no such point exists (the strip is
+ * invisible). The bound comes from coefficient ratios of the degree-elevated derivatives over W's
+ * coefficients with X / W confined to its rational convex hull (src/trim/scan_density.c), on
+ * sub-patches refined where W is not provably positive or the bound is loose. rho_v, rho_u: strip_count values each. vis_v (may be
  * NULL): 2 values per strip, the v-interval covered by the sub-patches not culled (every point of
  * the strip inside the widened frustum lies in it; the strip's bounds when invisible). stats may
  * be NULL. */
