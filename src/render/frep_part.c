@@ -10,12 +10,15 @@
  * min/max wins, and the cell's children get the tape shortened after those choices. Cells where
  * f >= 0 are skipped; cells that start behind every pixel's current depth are culled (z-culling,
  * and each hit lowers the depth at once); cells where f < 0 give their pixels a hit at their
- * near depth; other cells split, in depth (near half first) while deeper than wide, else
- * spatially, down to leaves of at most LEAF x LEAF pixels about as deep as wide. In a leaf each
- * pixel's centre ray is sampled every STEP pixel footprints, 64 points (of all the leaf's
- * pixels) per batched evaluation, and the first sign change is narrowed to float precision by
- * multisection, again with every pending pixel's points in one batch. Normals come from the
- * batched gradient of the leaf's tape, mapped to world space by the inverse transpose.
+ * near depth; other cells split every axis at least half as long as the longest one (depth
+ * counted in pixel footprints at the cell's far end), near depth half first, down to leaves of
+ * at most LEAF x LEAF pixels and LEAF_DEPTH footprints. In a leaf each pixel's centre ray is
+ * sampled every STEP pixel footprints, 64 points (of all the leaf's pixels) per batched
+ * evaluation, and the first sign change is narrowed to 1e-7 of the depth by secant-guided
+ * multisection (trial_depths), again with every pending pixel's points in one batch. Normals
+ * come from the batched gradient of the full tape, 64 hits at a time, mapped to world space by
+ * the inverse transpose. Resolution along a ray is STEP footprints: a feature thinner than that
+ * along the ray can be missed (as a heightmap misses one thinner than a voxel).
  *
  * The tiles (TILE x TILE pixels, the whole depth range) are shared dynamically among the pool's
  * workers; each worker owns a crisp_frep_cell (allocated once per part and frame), so no cell
@@ -31,12 +34,16 @@
 
 #define TILE 32
 #define LEAF 8       /* pixels */
-#define LEAF_DEPTH 4 /* pixel footprints */
+#define LEAF_DEPTH 8 /* pixel footprints */
 #define LANES CRISP_FREP_CELL_LANES
 /* Sample spacing along a leaf's rays, in pixel footprints at the leaf's far depth. */
 #define STEP 1.0
 #define MAX_LEVEL 160
 #define MAX_SECTIONS 16
+
+#if LEAF * LEAF > LANES
+#error "a leaf's pixels must fit in one batch's lanes"
+#endif
 
 typedef struct part_view {
     double inv[4][4];                  /* world -> local, m[col][row] */
@@ -105,8 +112,8 @@ static size_t cell_interval(const part_view *pv, crisp_frep_cell *cell, crisp_fr
         for (int c = 0; c < 8; c++) {
             double nx = c & 1 ? a1 : a0, ny = c & 2 ? b1 : b0, z = c & 4 ? z1 : z0;
             double q = pv->qe[k] + z * (pv->qf[k] + nx * pv->qr[k] + ny * pv->qu[k]);
-            lo = fmin(lo, q);
-            hi = fmax(hi, q);
+            lo = q < lo ? q : lo;
+            hi = q > hi ? q : hi;
         }
         box[k][0] = round_down(lo);
         box[k][1] = round_up(hi);
@@ -205,52 +212,49 @@ static const float *eval_batch(frep_worker *w, crisp_frep_subtape t, int m, floa
 /* Pixel states in a leaf. */
 enum { PX_SAMPLING, PX_BRACKET, PX_DONE };
 
-/* Trial depths inside the bracket (a, b) for one round of the root search, ascending: with the
- * values fa >= 0 at a and fb < 0 at b known, two points close around the secant estimate (a
- * smooth f has its root within a small fraction of the bracket from it, and then the bracket
- * shrinks by 1/SECANT_GAP at once) and the rest spread evenly, so the bracket shrinks by at
- * least the factor of that even spread whatever f does; otherwise an even multisection. */
-#define SECANT_GAP 64
-static int trial_depths(double a, double b, float fa, float fb, int e, double *dest)
+/* Trial depths inside the bracket (a, b) for one round of the root search, ascending. With the
+ * values fa >= 0 at a and fb < 0 at b known: pairs of points around the secant estimate, 2^-6,
+ * 2^-12 and 2^-18 of the bracket apart as lanes allow (a smooth f has its root very close to
+ * the estimate, and the bracket then shrinks by up to 2^18 in one round), plus at least two
+ * evenly spread points, so that it shrinks by a factor 3 whatever f does. With fewer than four
+ * lanes: one point, at the (Illinois-weighted) secant estimate, or at the middle when slow says
+ * that the last two rounds did not halve the bracket (as Brent's method guards the secant). */
+static int trial_depths(double a, double b, float fa, float fb, int e, int round, int slow,
+                        double *dest)
 {
     int n = 0;
-    double s = NAN;
-    if (e < 4) {
-        /* too few lanes for the pair: one point, at the (Illinois-weighted) secant estimate */
-        double t = 0.5;
-        if (isfinite(fa) && isfinite(fb) && fa > fb) {
-            t = (double)fa / ((double)fa - (double)fb);
-            t = t < 0x1p-20 ? 0x1p-20 : t > 1 - 0x1p-20 ? 1 - 0x1p-20 : t;
-        }
-        dest[0] = a + (b - a) * t;
-        return 1;
-    }
-    if (isfinite(fa) && isfinite(fb) && fa > fb) {
-        double t = (double)fa / ((double)fa - (double)fb);
-        double lo = 1.0 / SECANT_GAP, hi = 1 - 1.0 / SECANT_GAP;
-        s = t < lo ? lo : t > hi ? hi : t;
-    }
-    if (!(s == s)) {
-        for (int d = 1; d <= e; d++) dest[n++] = a + (b - a) * d / (e + 1);
+    if (round == 0 && !(fa == fa)) {
+        /* f(a) unknown (a nearer cell sampled it): evaluate it with an even multisection */
+        dest[n++] = a;
+        for (int d = 1; d < e; d++) dest[n++] = a + (b - a) * d / e;
         return n;
     }
-    double g = 0.5 / SECANT_GAP, s0 = s - g, s1 = s + g;
-    int even = e - 2;
-    for (int d = 1; d <= even; d++) {
-        double t = (double)d / (even + 1);
-        if (s0 < t && t <= s1) continue; /* inside the secant pair's gap */
-        dest[n++] = a + (b - a) * t;
+    int secant = isfinite(fa) && isfinite(fb) && fa > fb;
+    double s = secant ? (double)fa / ((double)fa - (double)fb) : 0.5;
+    if (e < 4) {
+        if (fa == 0) s = 1.0 / 16; /* f(a) = 0: the sign changes just after a (the secant's 0 stalls) */
+        if (slow) s = 0.5;
+        s = s < 0x1p-20 ? 0x1p-20 : s > 1 - 0x1p-20 ? 1 - 0x1p-20 : s;
+        dest[0] = a + (b - a) * s;
+        return 1;
     }
-    /* merge the secant pair in order */
-    double pair[2] = {a + (b - a) * s0, a + (b - a) * s1};
-    double out[MAX_SECTIONS];
-    int m = 0, i = 0, k = 0;
-    while (i < n || k < 2) {
-        if (k < 2 && (i >= n || pair[k] <= dest[i])) out[m++] = pair[k++];
-        else out[m++] = dest[i++];
+    int pairs = secant ? (e >= 8 ? 3 : e >= 6 ? 2 : 1) : 0;
+    int even = e - 2 * pairs;
+    double t[MAX_SECTIONS];
+    for (int d = 1; d <= even; d++) t[n++] = (double)d / (even + 1);
+    for (int k = 1; k <= pairs; k++) {
+        double g = ldexp(0.5, -6 * k);
+        double c = s < g ? g : s > 1 - g ? 1 - g : s;
+        t[n++] = c - g;
+        t[n++] = c + g;
     }
-    memcpy(dest, out, (size_t)m * sizeof *dest);
-    return m;
+    for (int i = 1; i < n; i++) /* insertion sort of at most MAX_SECTIONS */
+        for (int j = i; j > 0 && t[j] < t[j - 1]; j--) {
+            double tmp = t[j];
+            t[j] = t[j - 1], t[j - 1] = tmp;
+        }
+    for (int i = 0; i < n; i++) dest[i] = a + (b - a) * t[i];
+    return n;
 }
 
 /* A leaf: pixels [i0, i1) x [j0, j1) (at most LANES), depths [z0, z1]. */
@@ -258,8 +262,9 @@ static void leaf(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, int i0
                  int j1, double z0, double z1)
 {
     const part_view *pv = c->pv;
-    int pi[LANES], pj[LANES], state[LANES], next[LANES], count[LANES], side[LANES], np = 0;
-    double nx[LANES], ny[LANES], zb[LANES], ba[LANES], bb[LANES];
+    int pi[LANES], pj[LANES], state[LANES], next[LANES], count[LANES], side[LANES], slow[LANES];
+    int np = 0;
+    double nx[LANES], ny[LANES], zb[LANES], ba[LANES], bb[LANES], w2[LANES];
     float fa[LANES], fb[LANES], last[LANES];
     double h = STEP * c->pix * z1;
     int first = z0 <= c->cam->znear; /* the frustum's start: no nearer cell sampled it */
@@ -314,6 +319,8 @@ static void leaf(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, int i0
                     fa[q] = last[q];
                     fb[q] = v[k];
                     side[q] = 0;
+                    slow[q] = 0;
+                    w2[q] = INFINITY;
                 }
             } else {
                 last[q] = v[k];
@@ -336,7 +343,7 @@ static void leaf(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, int i0
         for (int q = 0; q < np; q++) {
             if (state[q] != PX_BRACKET) continue;
             double zt[MAX_SECTIONS];
-            int e = trial_depths(ba[q], bb[q], fa[q], fb[q], each, zt);
+            int e = trial_depths(ba[q], bb[q], fa[q], fb[q], each, round, slow[q], zt);
             for (int d = 0; d < e; d++) {
                 lane_q[m] = q, lane_z[m] = zt[d];
                 local_point(pv, nx[q], ny[q], zt[d], &x[m], &y[m], &z[m]);
@@ -366,7 +373,9 @@ static void leaf(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, int i0
                 if (moved == 1 && side[q] == 1) fb[q] *= 0.5f;
             }
             side[q] = moved;
-            int stuck = !(a > ba[q] || b < bb[q]);
+            int stuck = round > 0 && !(a > ba[q] || b < bb[q]);
+            slow[q] = b - a > 0.5 * w2[q]; /* the width two rounds ago */
+            w2[q] = bb[q] - ba[q];
             ba[q] = a, bb[q] = b;
             if (b - a <= 1e-7 * b || stuck || round >= 64) {
                 state[q] = PX_DONE;
@@ -386,7 +395,10 @@ static void solve_cell(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, 
     for (int j = j0; j < j1; j++)
         for (int i = i0; i < i1; i++)
             if (!w->done[(j - w->j0) * TILE + (i - w->i0)])
-                zmax = fmax(zmax, pixel_limit(c, (size_t)j * c->cam->width + i));
+            {
+                double lim = pixel_limit(c, (size_t)j * c->cam->width + i);
+                zmax = lim > zmax ? lim : zmax;
+            }
     if (z0 >= zmax) return; /* z-culled */
     if (z1 > zmax) z1 = zmax;
     double a0 = nx_of(c, i0), a1 = nx_of(c, i1 - 1), b0 = ny_of(c, j1 - 1), b1 = ny_of(c, j0);
