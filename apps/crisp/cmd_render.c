@@ -139,7 +139,7 @@ int crisp_cmd_render(int argc, char **argv)
 {
     const char *model_path = NULL, *png = NULL, *exr = NULL, *backend = "cpu";
     int width = 1280, height = 720, samples = 1, threads = 0, stats = 0;
-    int have_eye = 0, have_target = 0, have_up = 0, have_near = 0, have_far = 0;
+    int have_eye = 0, have_target = 0, have_up = 0, have_near = 0, have_far = 0, have_fov = 0;
     double eye[3], target[3], up[3] = {0, 1, 0}, fov = 30, znear = 0, zfar = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -175,6 +175,7 @@ int crisp_cmd_render(int argc, char **argv)
             have_up = 1;
         } else if (!strcmp(a, "--fov")) {
             if (!parse_double(a, argv[++i], &fov)) return 2;
+            have_fov = 1;
         } else if (!strcmp(a, "--near")) {
             if (!parse_double(a, argv[++i], &znear)) return 2;
             have_near = 1;
@@ -256,6 +257,17 @@ int crisp_cmd_render(int argc, char **argv)
         for (int a = 0; a < 3; a++) box[a] = INFINITY, box[a + 3] = -INFINITY;
     }
     parts_box(parts, part_count, box);
+    if (!have_eye && scene_file && scene_file->has_camera) {
+        /* the scene file's camera line; options given on the command line win */
+        memcpy(eye, scene_file->eye, sizeof eye);
+        have_eye = 1;
+        if (!have_target && scene_file->has_target) {
+            memcpy(target, scene_file->target, sizeof target);
+            have_target = 1;
+        }
+        if (!have_up) memcpy(up, scene_file->up, sizeof up);
+        if (!have_fov) fov = scene_file->fov_deg;
+    }
     crisp_camera cam;
     if (!have_eye) {
         if ((st = crisp_camera_frame_box(box, width, height, &cam))) goto done;

@@ -12,6 +12,8 @@
  *   model PATH            [OPS] [color r g b]
  *   frep  PATH            [OPS] [color r g b]    PATH.vm: the .vm format; else a math-string file
  *   frep  math "EXPR"     [OPS] [color r g b]    an inline math string (DESIGN.md section 7)
+ *   camera eye x y z [target x y z] [up x y z] [fov degrees]   at most one; the view that
+ *                                                  `crisp render` uses without --eye
  * OPS, applied in the order written: translate x y z | scale s | scale sx sy sz |
  * rotate ax ay az degrees | transform m00 m01 m02 m03 ... m33 (16 numbers, row by row, last row
  * 0 0 0 1). Relative paths are relative to the scene file's folder; a path with spaces is
@@ -42,6 +44,9 @@ typedef struct crisp_scene_item {
 
 typedef struct crisp_scene_file {
     char *name; /* the scene file, for messages */
+    /* camera line: has_camera = 1; has_target = 0 means the middle of the scene's box */
+    int has_camera, has_target;
+    double eye[3], target[3], up[3], fov_deg; /* up (0, 1, 0), fov 30 when not given */
     size_t item_count;
     crisp_scene_item *items;
 } crisp_scene_file;
@@ -51,7 +56,7 @@ crisp_status crisp_scene_file_read(const char *path, crisp_scene_file **dest);
 crisp_status crisp_scene_file_read_mem(const char *name, const char *dir, const char *data,
                                        size_t size, crisp_scene_file **dest);
 void crisp_scene_file_destroy(crisp_scene_file *s);
-/* 1 when path ends in .scene or its first item line starts with "model" or "frep". */
+/* 1 when path ends in .scene or its first item line starts with "model", "frep" or "camera". */
 int crisp_scene_file_detect(const char *path);
 
 typedef struct crisp_scene_assets {

@@ -130,6 +130,46 @@ static char *dup_n(const char *s, size_t len)
     return r;
 }
 
+/* camera eye x y z [target x y z] [up x y z] [fov degrees] */
+static crisp_status parse_camera(parser *p, crisp_scene_file *s)
+{
+    const token *t = p->tok;
+    if (s->has_camera) return fail(p, t[0].col, "expected at most one 'camera' line");
+    s->has_camera = 1;
+    s->up[0] = 0, s->up[1] = 1, s->up[2] = 0;
+    s->fov_deg = 30;
+    int k = 1, have_eye = 0, have_up = 0;
+    crisp_status st;
+    while (k < p->count) {
+        const token *w = &t[k++];
+        if (is_word(w, "eye")) {
+            if ((st = numbers(p, &k, 3, s->eye, "expected three numbers after 'eye'"))) return st;
+            have_eye = 1;
+        } else if (is_word(w, "target")) {
+            if ((st = numbers(p, &k, 3, s->target, "expected three numbers after 'target'")))
+                return st;
+            s->has_target = 1;
+        } else if (is_word(w, "up")) {
+            if ((st = numbers(p, &k, 3, s->up, "expected three numbers after 'up'"))) return st;
+            have_up = 1;
+            if (s->up[0] == 0 && s->up[1] == 0 && s->up[2] == 0)
+                return fail(p, w->col, "expected a non-zero 'up' vector");
+        } else if (is_word(w, "fov")) {
+            if ((st = numbers(p, &k, 1, &s->fov_deg, "expected a number after 'fov'"))) return st;
+            if (!(s->fov_deg > 0 && s->fov_deg < 180))
+                return fail(p, w->col, "expected a field of view in (0, 180) degrees");
+        } else {
+            return fail(p, w->col, "expected eye, target, up or fov");
+        }
+    }
+    (void)have_up;
+    if (!have_eye) return fail(p, t[0].col, "expected 'eye x y z' on the camera line");
+    if (s->has_target && s->eye[0] == s->target[0] && s->eye[1] == s->target[1] &&
+        s->eye[2] == s->target[2])
+        return fail(p, t[0].col, "expected a camera target different from its eye");
+    return CRISP_OK;
+}
+
 static crisp_status parse_item(parser *p, const char *dir, crisp_scene_item *it)
 {
     const token *t = p->tok;
@@ -138,7 +178,7 @@ static crisp_status parse_item(parser *p, const char *dir, crisp_scene_item *it)
     else if (is_word(&t[0], "frep"))
         it->kind = CRISP_SCENE_FREP;
     else
-        return fail(p, t[0].col, "expected 'model' or 'frep'");
+        return fail(p, t[0].col, "expected 'model' or 'frep' (or one 'camera' line)");
     int k = 1;
     if (k >= p->count) return fail(p, t[0].col + (int)t[0].len, "expected a file path");
     if (it->kind == CRISP_SCENE_FREP && is_word(&t[k], "math")) {
@@ -255,6 +295,10 @@ crisp_status crisp_scene_file_read_mem(const char *name, const char *dir, const 
         st = tokenize(p, c, e);
         c = e + 1;
         if (st || p->count == 0) continue;
+        if (is_word(&p->tok[0], "camera")) {
+            st = parse_camera(p, s);
+            continue;
+        }
         if (s->item_count == MAX_ITEMS) {
             st = fail(p, 1, "expected at most 100000 items in a scene");
             break;
@@ -339,7 +383,8 @@ int crisp_scene_file_detect(const char *path)
             c++;
     }
     return (!strncmp(c, "model", 5) && (c[5] == ' ' || c[5] == '\t')) ||
-           (!strncmp(c, "frep", 4) && (c[4] == ' ' || c[4] == '\t'));
+           (!strncmp(c, "frep", 4) && (c[4] == ' ' || c[4] == '\t')) ||
+           (!strncmp(c, "camera", 6) && (c[6] == ' ' || c[6] == '\t'));
 }
 
 /* ---- loading -----------------------------------------------------------------------------------

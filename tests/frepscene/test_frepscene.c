@@ -676,6 +676,38 @@ static void test_bear_shortened(void **state)
     crisp_frep_destroy(f);
 }
 
+/* The camera line: parsed with defaults, at most one, errors with line and column. */
+static void test_scene_camera(void **state)
+{
+    (void)state;
+    const char *text = "# view\ncamera eye 1 2 3 fov 45\nfrep math \"X*X + Y*Y + Z*Z - 1\"\n";
+    crisp_scene_file *s;
+    assert_int_equal(crisp_scene_file_read_mem("c.scene", NULL, text, strlen(text), &s), CRISP_OK);
+    assert_int_equal(s->item_count, 1);
+    assert_true(s->has_camera);
+    assert_false(s->has_target);
+    assert_float_equal(s->eye[2], 3, 0);
+    assert_float_equal(s->up[1], 1, 0);
+    assert_float_equal(s->fov_deg, 45, 0);
+    crisp_scene_file_destroy(s);
+    text = "frep a.vm\ncamera up 0 0 1 target 1 1 1 eye -4 0.5 2\n";
+    assert_int_equal(crisp_scene_file_read_mem("c.scene", NULL, text, strlen(text), &s), CRISP_OK);
+    assert_true(s->has_camera && s->has_target);
+    assert_float_equal(s->target[0], 1, 0);
+    assert_float_equal(s->up[2], 1, 0);
+    assert_float_equal(s->eye[0], -4, 0);
+    assert_float_equal(s->fov_deg, 30, 0);
+    crisp_scene_file_destroy(s);
+    expect_error("camera eye 0 0 5\ncamera eye 0 0 6\nfrep a.vm\n", "bad.scene:2:1:", "at most one");
+    expect_error("camera fov 20\nfrep a.vm\n", "bad.scene:1:1:", "'eye x y z'");
+    expect_error("camera eye 0 0 5 fov 180\nfrep a.vm\n", "bad.scene:1:18:", "(0, 180)");
+    expect_error("camera eye 0 0 x\nfrep a.vm\n", "bad.scene:1:16:", "three numbers after 'eye'");
+    expect_error("camera eye 0 0 5 look 1\nfrep a.vm\n", "bad.scene:1:18:", "eye, target, up");
+    expect_error("camera eye 1 1 1 target 1 1 1\nfrep a.vm\n", "bad.scene:1:1:", "different");
+    expect_error("camera eye 1 1 1 up 0 0 0\nfrep a.vm\n", "bad.scene:1:18:", "non-zero 'up'");
+    expect_error("camera eye 1 1 1\n", "bad.scene:", "expected at least one");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -687,6 +719,7 @@ int main(void)
         cmocka_unit_test(test_sphere_union_shortened),
         cmocka_unit_test(test_bear_shortened),
         cmocka_unit_test(test_scene_file_errors),
+        cmocka_unit_test(test_scene_camera),
         cmocka_unit_test(test_scene_file_example),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
