@@ -45,7 +45,9 @@ typedef struct asm_inst {
 typedef struct asm_state {
     step_reader *r;
     int *rep_of_entity;  /* entity index -> representation index, -1 */
-    int *item_rep;       /* entity index -> representation holding it as an item, -1 */
+    int *item_rep;       /* entity index -> first link of the representations listing it, -1 */
+    int *link_rep, *link_next; /* item links: representation, next link (-1) */
+    size_t link_count, link_cap;
     int *rep_entity;     /* representation index -> entity index */
     double *rep_unit;    /* mm per unit of the representation's context */
     int *parent;         /* union-find over representations */
@@ -219,11 +221,12 @@ static void nauo_ends(asm_state *s, const step_entity *pds, const step_entity **
     if (b && b->kind == STEP_REF) *child = crisp__step_find(r->f, b->num);
 }
 
-/* The group of the representation listing item e, or -1. */
-static int item_group(asm_state *s, const step_entity *e)
+/* 1 when a representation of group g lists item e. */
+static int item_in_group(asm_state *s, const step_entity *e, int g)
 {
-    int k = s->item_rep[e - s->r->f->entities];
-    return k < 0 ? -1 : find(s, k);
+    for (int l = s->item_rep[e - s->r->f->entities]; l >= 0; l = s->link_next[l])
+        if (find(s, s->link_rep[l]) == g) return 1;
+    return 0;
 }
 
 /* A representation relationship with a transformation (entity e): an edge. cdsr: the
@@ -265,7 +268,8 @@ static crisp_status placed_relation(asm_state *s, const step_entity *e, const st
         if ((st = crisp__step_get_ref(r, op, idt, 2, &i1)) || (st = crisp__step_get_ref(r, op, idt, 3, &i2)))
             return st;
         const step_entity *ci = child == a ? i1 : i2, *pi = child == a ? i2 : i1;
-        if (item_group(s, ci) == find(s, parent) && item_group(s, pi) == find(s, child)) {
+        if (item_in_group(s, ci, find(s, parent)) && !item_in_group(s, ci, find(s, child)) &&
+            item_in_group(s, pi, find(s, child)) && !item_in_group(s, pi, find(s, parent))) {
             const step_entity *tmp = ci;
             ci = pi, pi = tmp;
         }
@@ -426,14 +430,18 @@ static crisp_status face_copy(const crisp_face *src, crisp_face *dest)
 }
 
 /* The representation holding face i (through its solid / surface model, its shell or set, or the
- * face itself), or -1. */
-static int face_rep(asm_state *s, int face_id, const int *owner)
+ * face itself) that the assembly places, or -1. An item can be listed by several representations
+ * (a validation-property SHAPE_REPRESENTATION lists the solid too: trj3_as1-ac-214.stp). */
+static int face_rep(asm_state *s, int face_id, const int *owner, const int *first_inst)
 {
     int ids[3] = {owner[1], owner[0], face_id};
     for (int k = 0; k < 3; k++) {
         if (!ids[k]) continue;
         const step_entity *e = crisp__step_find(s->r->f, ids[k]);
-        if (e && s->item_rep[e - s->r->f->entities] >= 0) return s->item_rep[e - s->r->f->entities];
+        for (int l = e ? s->item_rep[e - s->r->f->entities] : -1; l >= 0; l = s->link_next[l]) {
+            int g = find(s, s->link_rep[l]);
+            if (first_inst[g + 1] > first_inst[g]) return s->link_rep[l];
+        }
     }
     return -1;
 }
@@ -442,6 +450,8 @@ static void state_free(asm_state *s)
 {
     crisp_free(s->rep_of_entity);
     crisp_free(s->item_rep);
+    crisp_free(s->link_rep);
+    crisp_free(s->link_next);
     crisp_free(s->rep_entity);
     crisp_free(s->rep_unit);
     crisp_free(s->parent);
@@ -499,12 +509,24 @@ static crisp_status build_graph(asm_state *s)
             const step_value *v = crisp__step_elem(r, items, j);
             const step_entity *it = v->kind == STEP_REF ? crisp__step_find(f, v->num) : NULL;
             if (!it) continue;
+            size_t idx = (size_t)(it - f->entities);
+            int listed = s->item_rep[idx] >= 0;
+            if (s->link_count == s->link_cap) {
+                size_t cap = s->link_cap;
+                if (crisp_grow((void **)&s->link_rep, &cap, s->link_count + 1, sizeof(int)) ||
+                    crisp_grow((void **)&s->link_next, &s->link_cap, s->link_count + 1, sizeof(int))) {
+                    st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+                    break;
+                }
+            }
+            s->link_rep[s->link_count] = k;
+            s->link_next[s->link_count] = s->item_rep[idx];
+            s->item_rep[idx] = (int)s->link_count++;
             /* A mapped item listed by several representations (a CATIA writer lists each in the
              * occurrence's own SHAPE_REPRESENTATION and again in the top assembly's) places its
              * representation once, from the first. */
-            if (s->item_rep[it - f->entities] >= 0) continue;
-            s->item_rep[it - f->entities] = k;
-            if (crisp__step_is(r, it, "MAPPED_ITEM")) st = note(s, mapped_item(s, it, k), "mapped item", it->id);
+            if (!listed && crisp__step_is(r, it, "MAPPED_ITEM"))
+                st = note(s, mapped_item(s, it, k), "mapped item", it->id);
         }
     }
     /* Identity relationships merge groups; definitions get their representation. */
@@ -640,7 +662,7 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
     /* Faces after instancing: a face of a placed group once per placement, any other once. */
     size_t total = 0;
     for (int i = 0; i < face_count; i++) {
-        int rp = face_rep(&s, face_ids[i], owners + 2 * i);
+        int rp = face_rep(&s, face_ids[i], owners + 2 * i, first_inst);
         int g = rp < 0 ? -1 : find(&s, rp);
         face_group[i] = g >= 0 && first_inst[g + 1] > first_inst[g] ? rp : -1;
         total += face_group[i] >= 0 ? (size_t)(first_inst[g + 1] - first_inst[g]) : 1;
