@@ -231,8 +231,9 @@ static void split_rows(double *lo, double *hi, int dv, int len, double *tmp)
     }
 }
 
-/* The four quarters of sub-patch s (kid k: u-half k & 1, v-half k >> 1), each 4 planes. */
-static void split_half(const density_ctx *c, const double *s, double *kids)
+/* The four quarters of sub-patch s (kid k: u-half k & 1, v-half k >> 1), each 4 planes; with
+ * u_only, the two u-halves (kids 0 and 1). */
+static void split_half(const density_ctx *c, const double *s, double *kids, int u_only)
 {
     int du = c->du, dv = c->dv, len = du + 1;
     size_t n = c->n, block = 4 * n;
@@ -252,6 +253,7 @@ static void split_half(const density_ctx *c, const double *s, double *kids)
                 hi[du - r] = w[du - r];
             }
         }
+        if (u_only) continue;
         split_rows(k0, k2, dv, len, tmp); /* then v halves of each */
         split_rows(k1, k3, dv, len, tmp);
     }
@@ -343,11 +345,15 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
         return;
     }
     double *kids = c->levels + (size_t)(depth + 1) * 16 * c->n;
-    split_half(c, s, kids);
+    /* A sub-patch far shorter on screen in v than in u (a thin strip) is split in u only: its
+     * bounds vary along u, and halving v too would quadruple the work for little. */
+    int u_only = b > 0 && (vb - va) * bv < 0.125 * (ub - ua) * bu;
+    split_half(c, s, kids, u_only);
     double um = 0.5 * (ua + ub), vm = 0.5 * (va + vb);
-    for (int k = 0; k < 4; k++)
-        refine(c, kids + (size_t)k * 4 * c->n, depth + 1, 2 * su, 2 * sv, k & 1 ? um : ua,
-               k & 1 ? ub : um, k < 2 ? va : vm, k < 2 ? vm : vb, ev, eu);
+    for (int k = 0; k < (u_only ? 2 : 4); k++)
+        refine(c, kids + (size_t)k * 4 * c->n, depth + 1, 2 * su, u_only ? sv : 2 * sv,
+               k & 1 ? um : ua, k & 1 ? ub : um, k < 2 ? va : vm, k < 2 ? (u_only ? vb : vm) : vb,
+               ev, eu);
 }
 
 /* One patch's way through the strips it reaches. Strip by strip, each strip's part of the patch
