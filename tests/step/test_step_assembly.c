@@ -1,7 +1,8 @@
 /* STEP assemblies (step_assembly.c): a hand-written AP214 assembly with two instances of one part
  * (one written with the relationship's representations in the parent-first order), a nested
  * sub-assembly and a MAPPED_ITEM, checked for the number of faces and where each copy lands; a
- * sub-assembly in centimetres; a cycle (loads, with a note); an instance explosion (refused with
+ * sub-assembly in centimetres; CARTESIAN_TRANSFORMATION_OPERATOR_3D placements (a mirror: the face
+ * turns round; a scale); a cycle (loads, with a note); an instance explosion (refused with
  * CRISP_ERR_LIMIT); and a real CAx-IF assembly from Open CASCADE's samples (face count and box
  * against Open CASCADE 7.6.3's).
  */
@@ -218,6 +219,38 @@ static void test_cycle(void **state)
     crisp_model_destroy(m);
 }
 
+/* CARTESIAN_TRANSFORMATION_OPERATOR_3D: as a relationship's transformation, mirroring (axis2 =
+ * -y: the face's orientation flips), and as a MAPPED_ITEM's target with scale 2. */
+static void test_cartesian_operator(void **state)
+{
+    (void)state;
+    static const char *const cto[] = {HEAD CONTEXTS, PARTS,
+        "#63=DIRECTION('',(0.,-1.,0.));\n#64=CARTESIAN_POINT('',(0.,0.,5.));\n"
+        "#62=CARTESIAN_TRANSFORMATION_OPERATOR_3D('',#2,#63,#64,1.,#1);\n"
+        "#61=(REPRESENTATION_RELATIONSHIP('','',#20,#60) REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION(#62) "
+        "SHAPE_REPRESENTATION_RELATIONSHIP());\n"
+        "#65=CARTESIAN_POINT('',(0.,0.,-5.));\n#66=CARTESIAN_TRANSFORMATION_OPERATOR_3D('',#2,#3,#65,2.,#1);\n"
+        "#67=REPRESENTATION_MAP(#39,#40);\n#68=MAPPED_ITEM('',#67,#66);\n"
+        "#60=SHAPE_REPRESENTATION('top',(#19,#68),#900);\n", TAIL, NULL};
+    crisp_model *m = NULL;
+    assert_int_equal(read_str(cto, &m), CRISP_OK);
+    assert_int_equal(m->face_count, 2);
+    static const double p0[3] = {0, 0, 5}, p1[3] = {1, 0, 5}, q0[3] = {0, 0, -5}, q1[3] = {4, 0, -5};
+    unsigned used = 0;
+    int ip = find_face(m, p0, p1, &used), iq = find_face(m, q0, q1, &used);
+    assert_true(ip >= 0 && iq >= 0);
+    double d[4], c[3];
+    crisp_surface_domain(m->faces[ip].surface, d);
+    crisp_surface_eval(m->faces[ip].surface, d[0], d[3], c); /* (0, 1) of P, mirrored to y = -1 */
+    assert_true(fabs(c[0]) < 1e-12 && fabs(c[1] + 1) < 1e-12 && fabs(c[2] - 5) < 1e-12);
+    assert_int_equal(m->faces[ip].reversed, 1);
+    crisp_surface_domain(m->faces[iq].surface, d);
+    crisp_surface_eval(m->faces[iq].surface, d[0], d[3], c); /* (0, 1) of Q, scaled to y = 2 */
+    assert_true(fabs(c[0]) < 1e-12 && fabs(c[1] - 2) < 1e-12 && fabs(c[2] + 5) < 1e-12);
+    assert_int_equal(m->faces[iq].reversed, 0);
+    crisp_model_destroy(m);
+}
+
 /* Thirty levels, each holding the next twice: 2^30 copies are refused before any is made. */
 static void test_explosion(void **state)
 {
@@ -269,7 +302,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_assembly_placements), cmocka_unit_test(test_assembly_units),
         cmocka_unit_test(test_no_assembly),         cmocka_unit_test(test_cycle),
-        cmocka_unit_test(test_explosion),           cmocka_unit_test(test_as1),
+        cmocka_unit_test(test_cartesian_operator),  cmocka_unit_test(test_explosion),
+        cmocka_unit_test(test_as1),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

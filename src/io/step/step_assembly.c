@@ -169,7 +169,52 @@ static crisp_status placement(asm_state *s, const step_entity *e, crisp_placemen
     return crisp__step_placement(s->r, e, p);
 }
 
-/* MAPPED_ITEM(name, REPRESENTATION_MAP(origin, rep), target) in representation `rep`. */
+/* A CARTESIAN_TRANSFORMATION_OPERATOR_3D (name, axis1, axis2, local_origin, scale, axis3) as the
+ * map from coordinates in unit u_from to coordinates in unit u_to, both scaled to mm:
+ * x' = o + scale (x e1 + y e2 + z e3), the axes derived as in ISO 10303-42 (e3 from axis3, e1 the
+ * projection of axis1, e2 the projection of axis2: left-handed when axis2 says so, a mirror). */
+static crisp_status cto_xform(asm_state *s, const step_entity *op, double u_from, double u_to, xform t)
+{
+    step_reader *r = s->r;
+    const step_part *cto = crisp__step_part(r, op, "CARTESIAN_TRANSFORMATION_OPERATOR_3D");
+    if (!cto) return crisp__step_fail(r, op, CRISP_ERR_PARSE, "expected a CARTESIAN_TRANSFORMATION_OPERATOR_3D");
+    const step_value *v1 = crisp__step_param(r, cto, 1), *v2 = crisp__step_param(r, cto, 2);
+    const step_value *v3 = crisp__step_param(r, cto, 5), *vs = crisp__step_param(r, cto, 4);
+    const step_entity *oe, *de;
+    double x[3], y[3], z[3], o[3], scale = 1, sv;
+    const double *px = NULL, *py = NULL, *pz = NULL;
+    crisp_status st;
+    if ((st = crisp__step_get_ref(r, op, cto, 3, &oe)) || (st = crisp__step_point(r, oe, o, NULL))) return st;
+    if (v1 && v1->kind == STEP_REF && !crisp__step_deref(r, op, v1, &de) && !crisp__step_direction(r, de, x)) px = x;
+    if (v2 && v2->kind == STEP_REF && !crisp__step_deref(r, op, v2, &de) && !crisp__step_direction(r, de, y)) py = y;
+    if (v3 && v3->kind == STEP_REF && !crisp__step_deref(r, op, v3, &de) && !crisp__step_direction(r, de, z)) pz = z;
+    crisp_error_clear();
+    if (vs && crisp__step_value_real(r, vs, &sv)) {
+        if (!(sv > 0) || sv > 1e6) return crisp__step_fail(r, op, CRISP_ERR_NUMERIC, "scale %g: expected (0, 1e6]", sv);
+        scale = sv;
+    }
+    double zz[3] = {0, 0, 1};
+    crisp_placement pl;
+    if (crisp_placement_make(o, pz ? pz : zz, px, &pl)) {
+        crisp_error_clear();
+        return crisp__step_fail(r, op, CRISP_ERR_NUMERIC, "axis1 parallel to axis3");
+    }
+    if (py) {
+        double a = 0, b = 0, n = 0;
+        for (int k = 0; k < 3; k++) a += py[k] * pl.z[k], b += py[k] * pl.x[k];
+        for (int k = 0; k < 3; k++) y[k] = py[k] - a * pl.z[k] - b * pl.x[k], n += y[k] * y[k];
+        n = sqrt(n);
+        if (n > 1e-12)
+            for (int k = 0; k < 3; k++) pl.y[k] = y[k] / n;
+    }
+    xf_frame(&pl, u_to, t);
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++) t[i][k] *= scale * u_to / u_from;
+    return CRISP_OK;
+}
+
+/* MAPPED_ITEM(name, REPRESENTATION_MAP(origin, rep), target) in representation `rep`: the target
+ * is a placement or a CARTESIAN_TRANSFORMATION_OPERATOR_3D. */
 static crisp_status mapped_item(asm_state *s, const step_entity *e, int rep)
 {
     step_reader *r = s->r;
@@ -185,9 +230,14 @@ static crisp_status mapped_item(asm_state *s, const step_entity *e, int rep)
         return st;
     int c = rep_index(s, child);
     if (c < 0) return crisp__step_fail(r, map, CRISP_ERR_PARSE, "parameter 2: expected a shape representation");
-    if ((st = placement(s, origin, &po)) || (st = placement(s, target, &pt))) return st;
     xform a, b;
-    xf_frame(&pt, s->rep_unit[rep], a);
+    if ((st = placement(s, origin, &po))) return st;
+    if (crisp__step_is(r, target, "CARTESIAN_TRANSFORMATION_OPERATOR_3D")) {
+        if ((st = cto_xform(s, target, s->rep_unit[c], s->rep_unit[rep], a))) return st;
+    } else {
+        if ((st = placement(s, target, &pt))) return st;
+        xf_frame(&pt, s->rep_unit[rep], a);
+    }
     xf_frame_inverse(&po, s->rep_unit[c], b);
     xf_mul(a, b, a);
     return add_edge(s, rep, c, a);
@@ -280,27 +330,8 @@ static crisp_status placed_relation(asm_state *s, const step_entity *e, const st
         xf_frame_inverse(&pc, s->rep_unit[child], fci);
         xf_mul(fp, fci, t);
     } else if (cto) {
-        /* (name, axis1, axis2, local_origin, scale, axis3): rep_1 coordinates into rep_2's,
-         * x' = o + scale (x a1 + y a2 + z a3). */
-        const step_value *v1 = crisp__step_param(r, cto, 1), *v3 = crisp__step_param(r, cto, 5);
-        const step_entity *oe, *de;
-        double x[3], z[3], o[3], scale = 1, sv;
-        const double *px = NULL, *pz = NULL;
-        if ((st = crisp__step_get_ref(r, op, cto, 3, &oe)) || (st = crisp__step_point(r, oe, o, NULL))) return st;
-        if (v1 && v1->kind == STEP_REF && !crisp__step_deref(r, op, v1, &de) && !crisp__step_direction(r, de, x))
-            px = x;
-        if (v3 && v3->kind == STEP_REF && !crisp__step_deref(r, op, v3, &de) && !crisp__step_direction(r, de, z))
-            pz = z;
-        crisp_error_clear();
-        const step_value *vs = crisp__step_param(r, cto, 4);
-        if (vs && crisp__step_value_real(r, vs, &sv) && sv > 0) scale = sv;
-        double zz[3] = {0, 0, 1};
-        crisp_placement pl;
-        if ((st = crisp_placement_make(o, pz ? pz : zz, px, &pl)))
-            return crisp__step_fail(r, op, CRISP_ERR_NUMERIC, "axes parallel or zero");
-        xf_frame(&pl, s->rep_unit[b], t);
-        for (int i = 0; i < 3; i++)
-            for (int k = 0; k < 3; k++) t[i][k] *= scale * s->rep_unit[b] / s->rep_unit[a];
+        /* rep_1 coordinates into rep_2's */
+        if ((st = cto_xform(s, op, s->rep_unit[a], s->rep_unit[b], t))) return st;
         if (child != a) {
             /* rep_2 is the child: the inverse (a similarity: R^T / scale^2 inverts scale R) */
             xform inv;
