@@ -62,6 +62,11 @@ void crisp_model_bbox(const crisp_model *m, double *dest);
 
 /* Frees the loops and surface of a face that was not added to a model. */
 void crisp_face_free(crisp_face *face);
+/* A deep copy of src (surface and loops) into *dest, which owns it afterwards. */
+crisp_status crisp_face_copy(const crisp_face *src, crisp_face *dest);
+/* Apply the affine map m (x' = m[.][0..2] x + m[.][3], rows x, y, z) to the face's homogeneous
+ * control points (exact for rational surfaces); a mirroring map flips `reversed`. */
+void crisp_face_transform(crisp_face *f, const double m[3][4]);
 void crisp_trim_loop_free(crisp_trim_loop *loop);
 
 typedef struct crisp_model_stats {

@@ -390,25 +390,6 @@ int crisp_scene_file_detect(const char *path)
 /* ---- loading -----------------------------------------------------------------------------------
  */
 
-/* Affine m applied to homogeneous (w x, w y, w z, w) control points. */
-static void transform_surface(crisp_mat4 m, crisp_surface *s)
-{
-    size_t n = (size_t)s->count_u * s->count_v;
-    for (size_t i = 0; i < n; i++) {
-        double *p = s->cpw + 4 * i, r[3];
-        for (int a = 0; a < 3; a++)
-            r[a] = m[0][a] * p[0] + m[1][a] * p[1] + m[2][a] * p[2] + m[3][a] * p[3];
-        memcpy(p, r, sizeof r);
-    }
-}
-
-static double det3(crisp_mat4 m)
-{
-    return m[0][0] * (m[1][1] * m[2][2] - m[2][1] * m[1][2]) -
-           m[1][0] * (m[0][1] * m[2][2] - m[2][1] * m[0][2]) +
-           m[2][0] * (m[0][1] * m[1][2] - m[1][1] * m[0][2]);
-}
-
 static crisp_status load_model_item(const crisp_scene_file *s, const crisp_scene_item *it,
                                     crisp_model *merged)
 {
@@ -418,11 +399,13 @@ static crisp_status load_model_item(const crisp_scene_file *s, const crisp_scene
         crisp_error_prefix("%s:%d", s->name, it->line);
         return st;
     }
-    int flip = det3((double(*)[4])it->transform) < 0;
+    /* the item's transform (column-major, m[col][row]) as the rows of an affine map */
+    double rows[3][4];
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 4; b++) rows[a][b] = it->transform[b][a];
     for (int i = 0; i < m->face_count && !st; i++) {
         crisp_face *f = &m->faces[i];
-        transform_surface((double(*)[4])it->transform, f->surface);
-        if (flip) f->reversed = !f->reversed;
+        crisp_face_transform(f, (const double(*)[4])rows);
         if (it->has_color) {
             f->has_color = 1;
             memcpy(f->color, it->color, sizeof f->color);

@@ -39,6 +39,56 @@ void crisp_face_free(crisp_face *face)
     memset(face, 0, sizeof *face);
 }
 
+crisp_status crisp_face_copy(const crisp_face *src, crisp_face *dest)
+{
+    crisp_face face = *src;
+    face.surface = NULL;
+    face.loops = NULL;
+    face.loop_count = 0;
+    crisp_status st = crisp_surface_copy(src->surface, &face.surface);
+    if (!st && src->loop_count > 0) {
+        face.loops = crisp_calloc_array((size_t)src->loop_count, sizeof *face.loops);
+        if (!face.loops) st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_face_copy: out of memory");
+    }
+    for (int l = 0; l < src->loop_count && !st; l++) {
+        const crisp_trim_loop *a = &src->loops[l];
+        crisp_trim_loop *b = &face.loops[face.loop_count++];
+        b->is_outer = a->is_outer;
+        if (a->curve_count == 0) continue;
+        b->curves = crisp_calloc_array((size_t)a->curve_count, sizeof *b->curves);
+        if (!b->curves) {
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_face_copy: out of memory");
+            break;
+        }
+        for (int c = 0; c < a->curve_count && !st; c++) {
+            st = crisp_curve_copy(a->curves[c], &b->curves[c]);
+            if (!st) b->curve_count++;
+        }
+    }
+    if (st) {
+        crisp_face_free(&face);
+        return st;
+    }
+    *dest = face;
+    return CRISP_OK;
+}
+
+void crisp_face_transform(crisp_face *f, const double m[3][4])
+{
+    crisp_surface *s = f->surface;
+    size_t n = (size_t)s->count_u * s->count_v;
+    for (size_t i = 0; i < n; i++) {
+        double *p = s->cpw + 4 * i, q[3];
+        for (int a = 0; a < 3; a++)
+            q[a] = m[a][0] * p[0] + m[a][1] * p[1] + m[a][2] * p[2] + m[a][3] * p[3];
+        memcpy(p, q, sizeof q);
+    }
+    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                 m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                 m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    if (det < 0) f->reversed = !f->reversed;
+}
+
 void crisp_model_destroy(crisp_model *m)
 {
     if (!m) return;

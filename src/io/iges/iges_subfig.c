@@ -120,39 +120,11 @@ static crisp_status build_def(iges_file *f, subfig_state *s, int e)
 
 static crisp_status append_copy(iges_file *f, const crisp_face *src, const iges_xform *x)
 {
-    crisp_face face = *src;
-    face.surface = NULL;
-    face.loops = NULL;
-    face.loop_count = 0;
-    crisp_status st = crisp_surface_copy(src->surface, &face.surface);
-    if (!st && src->loop_count > 0) {
-        face.loops = crisp_calloc_array((size_t)src->loop_count, sizeof *face.loops);
-        if (!face.loops) st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
-    }
-    for (int l = 0; l < src->loop_count && !st; l++) {
-        const crisp_trim_loop *a = &src->loops[l];
-        crisp_trim_loop *b = &face.loops[face.loop_count++];
-        b->is_outer = a->is_outer;
-        b->curves = crisp_calloc_array((size_t)a->curve_count, sizeof *b->curves);
-        if (!b->curves) {
-            st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
-            break;
-        }
-        for (int c = 0; c < a->curve_count && !st; c++) {
-            st = crisp_curve_copy(a->curves[c], &b->curves[c]);
-            if (!st) b->curve_count++;
-        }
-    }
-    if (!st) {
-        iges_xform_surface(face.surface, x);
-        const double(*m)[4] = x->m;
-        double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-                     m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-        if (det < 0) face.reversed = !face.reversed;
-        st = crisp_model_add_face(f->model, &face);
-    }
-    if (st) crisp_face_free(&face);
+    crisp_face face;
+    crisp_status st = crisp_face_copy(src, &face);
+    if (st) return st;
+    crisp_face_transform(&face, (const double(*)[4])x->m);
+    if ((st = crisp_model_add_face(f->model, &face))) crisp_face_free(&face);
     return st;
 }
 

@@ -104,12 +104,6 @@ static void xf_frame_inverse(const crisp_placement *p, double unit, xform dest)
     }
 }
 
-static double xf_det(xform m)
-{
-    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-}
-
 static int xf_is_identity(xform m)
 {
     for (int i = 0; i < 3; i++)
@@ -415,51 +409,6 @@ static double subtree_size(asm_state *s, double *memo, int g, int depth)
 
 /* ---- faces -------------------------------------------------------------------------------------- */
 
-static void transform_face(crisp_face *f, xform m)
-{
-    crisp_surface *sf = f->surface;
-    size_t n = (size_t)sf->count_u * sf->count_v;
-    for (size_t i = 0; i < n; i++) {
-        double *p = sf->cpw + 4 * i, q[3];
-        for (int a = 0; a < 3; a++) q[a] = m[a][0] * p[0] + m[a][1] * p[1] + m[a][2] * p[2] + m[a][3] * p[3];
-        memcpy(p, q, sizeof q);
-    }
-    if (xf_det(m) < 0) f->reversed = !f->reversed;
-}
-
-static crisp_status face_copy(const crisp_face *src, crisp_face *dest)
-{
-    crisp_face face = *src;
-    face.surface = NULL;
-    face.loops = NULL;
-    face.loop_count = 0;
-    crisp_status st = crisp_surface_copy(src->surface, &face.surface);
-    if (!st && src->loop_count > 0) {
-        face.loops = crisp_calloc_array((size_t)src->loop_count, sizeof *face.loops);
-        if (!face.loops) st = CRISP_ERR_NO_MEMORY;
-    }
-    for (int l = 0; l < src->loop_count && !st; l++) {
-        const crisp_trim_loop *a = &src->loops[l];
-        crisp_trim_loop *b = &face.loops[face.loop_count++];
-        b->is_outer = a->is_outer;
-        b->curves = a->curve_count ? crisp_calloc_array((size_t)a->curve_count, sizeof *b->curves) : NULL;
-        if (a->curve_count && !b->curves) {
-            st = CRISP_ERR_NO_MEMORY;
-            break;
-        }
-        for (int c = 0; c < a->curve_count && !st; c++) {
-            st = crisp_curve_copy(a->curves[c], &b->curves[c]);
-            if (!st) b->curve_count++;
-        }
-    }
-    if (st) {
-        crisp_face_free(&face);
-        return st;
-    }
-    *dest = face;
-    return CRISP_OK;
-}
-
 /* The representation holding face i (through its solid / surface model, its shell or set, or the
  * face itself) that the assembly places, or -1. An item can be listed by several representations
  * (a validation-property SHAPE_REPRESENTATION lists the solid too: trj3_as1-ac-214.stp). */
@@ -727,12 +676,12 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
                 x[a][3] /= u_out;
             }
             if (k + 1 < first_inst[g + 1]) {
-                if ((st = face_copy(&m->faces[i], &out[o]))) break;
+                if ((st = crisp_face_copy(&m->faces[i], &out[o]))) break;
             } else {
                 out[o] = m->faces[i];
                 memset(&m->faces[i], 0, sizeof m->faces[i]);
             }
-            if (!xf_is_identity(x)) transform_face(&out[o], x);
+            if (!xf_is_identity(x)) crisp_face_transform(&out[o], (const double(*)[4])x);
             o++;
         }
     }
