@@ -236,19 +236,29 @@ static crisp_status line(step_reader *r, const step_entity *e, step_curve *c)
     return CRISP_OK;
 }
 
-static crisp_status conic(step_reader *r, const step_entity *e, step_curve *c, int ellipse)
+/* The placement and axes shared by the conics: name(label, position, a[, b]) with b read when
+ * two_axes (else b = a); both positive and finite. */
+static crisp_status conic_axes(step_reader *r, const step_entity *e, const char *name, int two_axes,
+                               step_curve *c)
 {
-    const step_part *p = crisp__step_part(r, e, ellipse ? "ELLIPSE" : "CIRCLE");
+    const step_part *p = crisp__step_part(r, e, name);
     const step_entity *ae;
     crisp_status st;
     if ((st = crisp__step_get_ref(r, e, p, 1, &ae)) || (st = crisp__step_placement(r, ae, &c->pl)) ||
         (st = crisp__step_get_real(r, e, p, 2, &c->rx)))
         return st;
     c->ry = c->rx;
-    if (ellipse && (st = crisp__step_get_real(r, e, p, 3, &c->ry))) return st;
-    if (!(c->rx > 0) || !(c->ry > 0))
-        return crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "expected a positive radius");
+    if (two_axes && (st = crisp__step_get_real(r, e, p, 3, &c->ry))) return st;
+    if (!(c->rx > 0) || !(c->ry > 0) || !isfinite(c->rx) || !isfinite(c->ry))
+        return crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "expected positive finite axes");
     c->dim = crisp__step_is(r, ae, "AXIS2_PLACEMENT_2D") ? 2 : 3;
+    return CRISP_OK;
+}
+
+static crisp_status conic(step_reader *r, const step_entity *e, step_curve *c, int ellipse)
+{
+    crisp_status st = conic_axes(r, e, ellipse ? "ELLIPSE" : "CIRCLE", ellipse, c);
+    if (st) return st;
     c->kind = STEP_CURVE_CONIC;
     c->periodic = 1;
     c->period = 2 * M_PI;
@@ -261,17 +271,8 @@ static crisp_status conic(step_reader *r, const step_entity *e, step_curve *c, i
  * (ISO 10303-42 4.4.13-14): unbounded like lines; edges and trims bound them. */
 static crisp_status open_conic(step_reader *r, const step_entity *e, step_curve *c, int hyperbola)
 {
-    const step_part *p = crisp__step_part(r, e, hyperbola ? "HYPERBOLA" : "PARABOLA");
-    const step_entity *ae;
-    crisp_status st;
-    if ((st = crisp__step_get_ref(r, e, p, 1, &ae)) || (st = crisp__step_placement(r, ae, &c->pl)) ||
-        (st = crisp__step_get_real(r, e, p, 2, &c->rx)))
-        return st;
-    c->ry = c->rx;
-    if (hyperbola && (st = crisp__step_get_real(r, e, p, 3, &c->ry))) return st;
-    if (!(c->rx > 0) || !(c->ry > 0) || !isfinite(c->rx) || !isfinite(c->ry))
-        return crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "expected positive finite axes");
-    c->dim = crisp__step_is(r, ae, "AXIS2_PLACEMENT_2D") ? 2 : 3;
+    crisp_status st = conic_axes(r, e, hyperbola ? "HYPERBOLA" : "PARABOLA", hyperbola, c);
+    if (st) return st;
     c->kind = hyperbola ? STEP_CURVE_HYPERBOLA : STEP_CURVE_PARABOLA;
     c->t0 = -INFINITY;
     c->t1 = INFINITY;
