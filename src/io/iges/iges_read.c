@@ -66,6 +66,16 @@ crisp_status iges_soften(iges_file *f, int e, crisp_status st)
     return CRISP_OK;
 }
 
+/* A face the file blanks is not drawn (unless every face is blanked): counted and noted. */
+static int skip_blanked(iges_file *f, iges_entity *x)
+{
+    if (x->blank != 1 || f->draw_blanked) return 0;
+    x->used = 1;
+    f->blanked_faces++;
+    note(f, x->type, "blanked (not displayed)");
+    return 1;
+}
+
 /* Build the faces of the listed entities: solids first (so that their shells get the solid's
  * orientation), then trimmed and bounded surfaces, shells and independent surfaces, then the
  * 510 faces that no shell took. Other entity types are left alone. */
@@ -80,12 +90,7 @@ crisp_status iges_build_entities(iges_file *f, const int *list, int n)
         switch (x->type) {
         case 144:
         case 143:
-            if (x->blank == 1 && !f->draw_blanked) {
-                x->used = 1;
-                f->blanked_faces++;
-                note(f, x->type, "blanked (not displayed)");
-                break;
-            }
+            if (skip_blanked(f, x)) break;
             st = iges_soften(f, i, x->type == 144 ? iges_face_trimmed(f, i)
                                                   : iges_face_bounded(f, i));
             break;
@@ -99,12 +104,7 @@ crisp_status iges_build_entities(iges_file *f, const int *list, int n)
         case 122:
         case 128:
             if (x->consumed) break;
-            if (x->blank == 1 && !f->draw_blanked) {
-                x->used = 1;
-                f->blanked_faces++;
-                note(f, x->type, "blanked (not displayed)");
-                break;
-            }
+            if (skip_blanked(f, x)) break;
             x->used = 1;
             st = iges_soften(f, i, x->type == 108 ? iges_face_plane(f, i)
                                                   : iges_face_untrimmed(f, i));
@@ -145,6 +145,17 @@ static crisp_status convert(iges_file *f)
     return CRISP_OK;
 }
 
+/* Convert the parsed file into a new model (*m, set even when the conversion fails). */
+static crisp_status convert_into_new_model(iges_file *f, crisp_model **m)
+{
+    crisp_status st = crisp_model_create(m);
+    if (st) return st;
+    snprintf((*m)->format, sizeof (*m)->format, "IGES");
+    (*m)->unit_to_mm = f->unit_to_mm;
+    f->model = *m;
+    return convert(f);
+}
+
 crisp_status crisp_read_iges_mem(const char *name, const char *data, size_t size,
                                  const crisp_read_options *options, crisp_model **dest)
 {
@@ -155,35 +166,22 @@ crisp_status crisp_read_iges_mem(const char *name, const char *data, size_t size
     iges_file f;
     crisp_status st = iges_file_parse(name, data ? data : "", size, &f);
     if (st) return st;
-    crisp_model *m = NULL;
-    if ((st = crisp_model_create(&m))) {
-        iges_file_free(&f);
-        return st;
-    }
-    snprintf(m->format, sizeof m->format, "IGES");
-    m->unit_to_mm = f.unit_to_mm;
-    f.model = m;
     f.projection_fraction =
         options && options->projection_tolerance > 0 ? options->projection_tolerance : 1e-5;
     f.closure_fraction =
         options && options->closure_tolerance > 0 ? options->closure_tolerance : 1e-6;
-    st = convert(&f);
+    crisp_model *m = NULL;
+    st = convert_into_new_model(&f, &m);
     if (!st && m->face_count == 0 && f.blanked_faces > 0) {
         /* Every face is blanked: show them rather than nothing (CAD files keep hidden copies,
          * but a file of only hidden faces is meant to be seen) and say so. */
-        crisp_model *again = NULL;
-        if (!(st = crisp_model_create(&again))) {
-            crisp_model_destroy(m);
-            m = again;
-            snprintf(m->format, sizeof m->format, "IGES");
-            m->unit_to_mm = f.unit_to_mm;
-            iges_file_reset(&f);
-            f.model = m;
-            f.draw_blanked = 1;
-            st = convert(&f);
-            if (!st) st = crisp_model_note_skip(m, "(nothing) every face in the file is "
-                                                   "blanked: drawn anyway");
-        }
+        crisp_model_destroy(m);
+        m = NULL;
+        iges_file_reset(&f);
+        f.draw_blanked = 1;
+        st = convert_into_new_model(&f, &m);
+        if (!st) st = crisp_model_note_skip(m, "(nothing) every face in the file is "
+                                               "blanked: drawn anyway");
     }
     if (!st && m->face_count == 0 && f.first_error) {
         /* nothing could be drawn: the first face's failure is the file's error */
