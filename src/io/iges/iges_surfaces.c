@@ -321,6 +321,21 @@ static crisp_status tabulated_122(iges_file *f, int e, int depth, iges_surface *
     return st;
 }
 
+/* A plane through o with normal `axis` (x along ref when given): the frame a plane face is
+ * sized in from its loops. */
+static crisp_status plane_frame(const iges_file *f, int e, const double o[3], const double axis[3],
+                                const double *ref, iges_surface *dest)
+{
+    crisp_placement pl;
+    crisp_status st = crisp_placement_make(o, axis, ref, &pl);
+    if (st) return kernel_fail(f, e, st);
+    dest->is_plane = 1;
+    memcpy(dest->origin, pl.origin, sizeof pl.origin);
+    memcpy(dest->x, pl.x, sizeof pl.x);
+    memcpy(dest->y, pl.y, sizeof pl.y);
+    return CRISP_OK;
+}
+
 static crisp_status plane_108(iges_file *f, int e, iges_surface *dest)
 {
     double n[4];
@@ -331,13 +346,7 @@ static crisp_status plane_108(iges_file *f, int e, iges_surface *dest)
     if (!(len > 0)) return iges_fail(f, e, CRISP_ERR_NUMERIC, "normal (A, B, C) is zero");
     double axis[3] = {n[0] / len, n[1] / len, n[2] / len}, o[3];
     crisp_vec3_scale(axis, n[3] / len, o);
-    crisp_placement pl;
-    if ((st = crisp_placement_make(o, axis, NULL, &pl))) return kernel_fail(f, e, st);
-    dest->is_plane = 1;
-    memcpy(dest->origin, pl.origin, sizeof pl.origin);
-    memcpy(dest->x, pl.x, sizeof pl.x);
-    memcpy(dest->y, pl.y, sizeof pl.y);
-    return CRISP_OK;
+    return plane_frame(f, e, o, axis, NULL, dest);
 }
 
 /* Entity k of e points at a 116 point (want_dir 0) or a 123 direction (want_dir 1); its value in
@@ -373,13 +382,7 @@ static crisp_status plane_190(iges_file *f, int e, int depth, iges_surface *dest
     int has_ref = f->ents[e].form == 1 && iges_nparams(f, e) >= 3;
     if (!st && has_ref) st = point_or_direction(f, e, 3, 1, depth, ref);
     if (st) return st;
-    crisp_placement pl;
-    if ((st = crisp_placement_make(o, n, has_ref ? ref : NULL, &pl))) return kernel_fail(f, e, st);
-    dest->is_plane = 1;
-    memcpy(dest->origin, pl.origin, sizeof pl.origin);
-    memcpy(dest->x, pl.x, sizeof pl.x);
-    memcpy(dest->y, pl.y, sizeof pl.y);
-    return CRISP_OK;
+    return plane_frame(f, e, o, n, has_ref ? ref : NULL, dest);
 }
 
 crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *dest)
