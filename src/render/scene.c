@@ -59,6 +59,14 @@ static double diag(const double b[6])
     return sqrt((b[3] - b[0]) * (b[3] - b[0]) + (b[4] - b[1]) * (b[4] - b[1]) + (b[5] - b[2]) * (b[5] - b[2]));
 }
 
+static void box_union(double box[6], const double b[6])
+{
+    for (int q = 0; q < 3; q++) {
+        box[q] = fmin(box[q], b[q]);
+        box[q + 3] = fmax(box[q + 3], b[q + 3]);
+    }
+}
+
 static void patch_box(const crisp_bezier_patch *p, int depth, double box[6])
 {
     /* Cheap first: the control hull, when it is not much larger than the corners' box. */
@@ -84,22 +92,11 @@ static void patch_box(const crisp_bezier_patch *p, int depth, double box[6])
         double cb[6], s0 = 0.5 * (k & 1), t0 = 0.5 * (k >> 1);
         crisp__subpatch(p, s0, s0 + 0.5, t0, t0 + 0.5, storage, tmp, &cell);
         patch_box(&cell, depth + 1, cb);
-        for (int q = 0; q < 3; q++) {
-            u[q] = fmin(u[q], cb[q]);
-            u[q + 3] = fmax(u[q + 3], cb[q + 3]);
-        }
+        box_union(u, cb);
     }
     for (int q = 0; q < 3; q++) {
         box[q] = fmax(box[q], u[q]);
         box[q + 3] = fmin(box[q + 3], u[q + 3]);
-    }
-}
-
-static void box_union(double box[6], const double b[6])
-{
-    for (int q = 0; q < 3; q++) {
-        box[q] = fmin(box[q], b[q]);
-        box[q + 3] = fmax(box[q + 3], b[q + 3]);
     }
 }
 
