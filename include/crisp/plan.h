@@ -1,0 +1,185 @@
+/* crisp plan: the frame plan, a read-only product that every backend takes as input.
+ *
+ * Offers:
+ *   crisp_planner            opaque; owns the scratch memory of planning and the plan it returns
+ *   crisp_planner_plan       plan one frame of a prepared scene for one camera
+ *   crisp_planner_replan_face
+ *                            re-plan one face's trim (table and ribbons) after its loops changed,
+ *                            keeping every other face's plan (the trim-editing case)
+ *   crisp_frame_plan         flat arrays a GPU uploads as they are: leaves, faces, trim strips,
+ *                            rows and crossings concatenated over faces, ribbon quads
+ *   crisp_plan_trim_test     the trim test on the flat arrays (what the fragment shader does)
+ *
+ * What a plan says (docs/design.md "The frame plan"):
+ *   - Leaves: one record per visible cell of a Bézier patch. The cell is the square
+ *     [ix, ix + 1] x [iy, iy + 1] * 2^-depth of the patch's local parameters (s, t) in [0, 1]^2.
+ *     tau is the inner level (both directions), edge[] the outer levels in the order
+ *     t = 0, s = 1, t = 1, s = 0 (crisp_tess_levels). Every level is in 1..CRISP_PLAN_MAX_LEVEL
+ *     (64, the least GL_MAX_TESS_GEN_LEVEL any GL 4 implementation has): where the crack-free
+ *     edge rule would ask for more, the planner splits the leaf instead. Edge levels are
+ *     crack-free: two leaves that share an edge place the same vertices on it. Every triangle of
+ *     the uniform tessellation at these levels lies within eps_px of the true surface on screen
+ *     (the SLEFE bound, crisp_slefe_patch_tess_level). A leaf also covers at most
+ *     CRISP_PLAN_MAX_LEAF_PX pixels across on screen, so float (s, t) inside one leaf keep
+ *     2^-10 px of precision at any zoom (the GL backend interpolates local (s, t) in float and
+ *     adds them to the leaf's corner in double).
+ *     Leaves are grouped by face, in face order: face f owns leaves
+ *     faces[f].first_leaf .. + faces[f].leaf_count - 1.
+ *   - Trim tables: per visible face, its strips; per strip, its rows; per row, its sorted
+ *     u-crossings (crisp_trim_table in include/crisp/trim.h, concatenated: strip indices are
+ *     global, row indices are global, row r holds crossings[row_offset[r] .. row_offset[r+1]-1]).
+ *   - Ribbons: quads of 4 vertices (triangles 0 1 2 and 0 2 3) along every visible trim curve's
+ *     image on the true surface, 0.7 px wide on each side, already placed in clip space. They
+ *     close the sub-pixel gaps that two faces' trim tests may leave along a shared edge; a
+ *     backend draws them after the surfaces, without a trim test, where they are nearer than
+ *     what is drawn by more than the depth slack (the CPU backend's fill pass). A vertex with
+ *     clip[3] < 0 marks a quad that must not be drawn.
+ *
+ * Records that go to the GPU have std430 layouts (the C structs below equal them; sizes and
+ * offsets are checked at compile time in src/render/plan_layout.c).
+ */
+#ifndef CRISP_PLAN_H
+#define CRISP_PLAN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "crisp/core.h"
+#include "crisp/render.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define CRISP_PLAN_MAX_LEVEL 64        /* tessellation levels in a plan: 1..64 */
+#define CRISP_PLAN_MAX_LEAF_PX 4096.0  /* screen extent of a leaf (the planner splits larger) */
+#define CRISP_PLAN_MAX_DEPTH 24        /* quadtree depth of a leaf in its patch */
+
+/* One visible leaf. std430: 48 bytes, as uvec4[3]. */
+typedef struct crisp_plan_leaf {
+    uint32_t patch;   /* index into crisp_scene.patches and crisp_scene.patch_records */
+    uint32_t face;    /* the patch's face */
+    uint32_t depth;   /* 0..CRISP_PLAN_MAX_DEPTH */
+    uint32_t tau;     /* inner level, 1..CRISP_PLAN_MAX_LEVEL */
+    uint32_t ix, iy;  /* cell in the patch's 2^depth x 2^depth grid */
+    uint32_t pad[2];
+    uint32_t edge[4]; /* outer levels: t = 0, s = 1, t = 1, s = 0; 1..CRISP_PLAN_MAX_LEVEL */
+} crisp_plan_leaf;
+
+/* Face flags. */
+#define CRISP_PLAN_FACE_VISIBLE 1u    /* has leaves and a trim plan this frame */
+#define CRISP_PLAN_FACE_ALL_INSIDE 2u /* no trim loops: every (u, v) in [v0, v1] is inside */
+#define CRISP_PLAN_FACE_REVERSED 4u   /* normals point the other way (crisp_face.reversed) */
+
+/* One face of the scene (every face has a record, visible or not). std430: 64 bytes. */
+typedef struct crisp_plan_face {
+    double v0, v1;          /* the table's v-range (a v outside it is trimmed away) */
+    double strip_scale;     /* strips per unit v: strip = floor((v - v0) * strip_scale) */
+    uint32_t first_strip;   /* into strips[] */
+    uint32_t strip_count;   /* 0 when the face is invisible */
+    uint32_t first_leaf;    /* into leaves[] */
+    uint32_t leaf_count;
+    uint32_t flags;         /* CRISP_PLAN_FACE_* */
+    uint32_t tau_max;       /* largest inner level among its leaves (0: invisible) */
+    uint32_t first_ribbon;  /* into ribbon quads (4 vertices each) */
+    uint32_t ribbon_count;
+} crisp_plan_face;
+
+/* One strip of a face's table. std430: 24 bytes. */
+typedef struct crisp_plan_strip {
+    double a;           /* v of the bottom of the strip's first row */
+    double row_scale;   /* rows per unit v: row = clamp(floor((v - a) * row_scale), 0, rows - 1) */
+    uint32_t first_row; /* into row_offset[] (global row index) */
+    uint32_t row_count; /* 0: the strip is invisible, every point of it is trimmed away */
+} crisp_plan_strip;
+
+/* One ribbon vertex. std430: 56 bytes (alignment 8). */
+typedef struct crisp_plan_ribbon_vertex {
+    double clip[4];   /* clip-space position; clip[3] < 0: the quad is not drawn */
+    float uv[2];      /* surface parameters of the curve point */
+    float normal[3];  /* unit world normal of the surface there */
+    uint32_t face;
+} crisp_plan_ribbon_vertex;
+
+/* The control points of one Bézier patch in crisp_scene.control_points. std430: 48 bytes. */
+typedef struct crisp_scene_patch_record {
+    uint32_t first_cp;  /* index of its first control point (4 doubles each: w x, w y, w z, w) */
+    uint32_t du, dv;    /* degrees (1..15); (du + 1) (dv + 1) control points, u fastest */
+    uint32_t face;
+    double u0, u1, v0, v1; /* the patch's parameter box on the face's surface */
+} crisp_scene_patch_record;
+
+typedef struct crisp_plan_stats {
+    uint32_t patches, visible_patches, split_patches, leaves, visible_faces;
+    uint32_t unresolved;   /* leaves where the bound could not be reached at the depth limit */
+    uint32_t rows_clamped; /* faces whose table hit CRISP_TRIM_MAX_ROWS */
+    uint32_t level_splits; /* leaves split because an edge level would exceed 64 */
+    uint64_t table_rows, table_bytes, ribbon_quads;
+    uint64_t triangles;    /* of the leaves at their levels (crisp_tess_mesh_counts) */
+    double ms_levels, ms_edges, ms_trim, ms_ribbons;
+} crisp_plan_stats;
+
+/* A frame plan. Read-only for backends; valid until the planner plans again or is destroyed. */
+typedef struct crisp_frame_plan {
+    crisp_mat4 view_proj;   /* projection * view, column-major, OpenGL clip space */
+    float view_proj_f[16];  /* the same in float, column-major */
+    double eye[3];          /* camera position (for shading and depth) */
+    int width, height;
+    double eps_px;          /* the tessellation tolerance the levels meet */
+
+    const crisp_plan_leaf *leaves;
+    uint32_t leaf_count;
+    const crisp_plan_face *faces;
+    uint32_t face_count;    /* = the scene's face count */
+    const crisp_plan_strip *strips;
+    uint32_t strip_count;   /* total over faces */
+    const uint32_t *row_offset; /* row_count + 1 */
+    uint32_t row_count;
+    const double *crossings;
+    uint32_t crossing_count;
+    const crisp_plan_ribbon_vertex *ribbon_vertices; /* 4 per quad */
+    uint32_t ribbon_quad_count;
+
+    /* Bumped when the array's content changed since the previous plan of this planner (a backend
+     * uploads only what changed). */
+    uint64_t leaves_version, faces_version, table_version, ribbons_version;
+
+    crisp_plan_stats stats;
+} crisp_frame_plan;
+
+typedef struct crisp_planner_desc {
+    double eps_px;   /* screen tolerance of the tessellation; 0: 0.5 px */
+    int strip_count; /* n_V per face; 0: the face's tess level times its patch rows, 8..256 */
+    int max_depth;   /* patch splits; 0: CRISP_PLAN_MAX_DEPTH */
+    int no_ribbons;  /* 1: no ribbon quads (for measuring them) */
+} crisp_planner_desc;
+
+typedef struct crisp_planner crisp_planner;
+
+/* desc may be NULL (defaults). pool may be NULL: the planner then uses crisp_pool_shared(). */
+crisp_status crisp_planner_create(const crisp_planner_desc *desc, crisp_pool *pool,
+                                  crisp_planner **dest);
+void crisp_planner_destroy(crisp_planner *planner);
+
+/* Plan one frame. The scene must outlive the plan. Planning the same scene at the same image size
+ * again allocates nothing unless the scene needs more leaves or rows than before. */
+crisp_status crisp_planner_plan(crisp_planner *planner, const crisp_scene *scene,
+                                const crisp_camera *cam, const crisp_frame_plan **dest);
+
+/* After face `face`'s trim pieces changed in the scene (crisp_scene_update_trim), re-plan only
+ * that face's trim table and ribbons for the same camera as the last crisp_planner_plan; every
+ * other face's table is kept and leaves are unchanged (leaves_version stays). */
+crisp_status crisp_planner_replan_face(crisp_planner *planner, const crisp_scene *scene,
+                                       uint32_t face, const crisp_frame_plan **dest);
+
+/* The trim test on the plan's arrays: 1 when (u, v) of face `face` is inside its trim. Exactly
+ * crisp_trim_table_test on the face's table (the shaders do the same arithmetic in double). */
+int crisp_plan_trim_test(const crisp_frame_plan *plan, uint32_t face, double u, double v);
+
+/* Bytes of the arrays a GPU backend uploads: leaves, faces, strips, rows, crossings, ribbons. */
+size_t crisp_plan_bytes(const crisp_frame_plan *plan);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
