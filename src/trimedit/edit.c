@@ -458,7 +458,7 @@ crisp_status crisp_trimedit_set_weight(crisp_trimedit *ed, crisp_trimedit_ref re
     if (st) return st;
     if (!(weight > 0) || !isfinite(weight) || weight > 1e12)
         return crisp_error(CRISP_ERR_INVALID_ARG,
-                           "weight %g refused: a weight must be finite and greater than 0", weight);
+                           "weight %g: a weight must be finite and greater than 0", weight);
     crisp_trim_loop *loops;
     int n;
     if ((st = working_copy(ed, &loops, &n))) return st;
