@@ -496,6 +496,41 @@ void te_app_key(te_app *app, int key, int action, int mods)
     }
 }
 
+static int classify_plan(void *ctx, const crisp_scene *sc, uint32_t face, double u, double v)
+{
+    (void)sc;
+    return crisp_plan_trim_test((const crisp_frame_plan *)ctx, face, u, v);
+}
+
+int te_app_pick_face(te_app *app)
+{
+    if (!app->plan || !in_rect(&app->view3d, app->cursor)) return -1;
+    double o[3], dir[3], t, uv[2];
+    uint32_t face;
+    crisp_camera_ray(&app->cam, app->cursor[0] - app->view3d.x, app->cursor[1] - app->view3d.y, o,
+                     dir);
+    crisp_exact_desc d = {
+        .threads = 1, .classify = classify_plan, .classify_ctx = (void *)app->plan};
+    if (!crisp_exact_ray(app->scene, &d, o, dir, 0.0, INFINITY, &t, &face, uv, NULL)) return -1;
+    return (int)face;
+}
+
+crisp_status te_app_open_face(te_app *app, int face)
+{
+    if (face < 0 || face >= app->model->face_count)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "face %d: the model has %d faces", face,
+                           app->model->face_count);
+    if (face == app->face) return CRISP_OK;
+    int old = app->face;
+    crisp_status st = open_face(app, face);
+    if (st) {
+        /* Back to the face that was open (its loops are as the editor left them). */
+        crisp_status st2 = open_face(app, old);
+        (void)st2;
+    }
+    return st;
+}
+
 crisp_status te_app_save(te_app *app, const char *path)
 {
     crisp_status st = crisp_write_obj(app->model, path);

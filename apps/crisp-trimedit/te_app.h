@@ -20,7 +20,8 @@
  * the cursor; equal / minus: weight times / over 1.25; 0: weight 0 (refused: shows the message);
  * b snap the point under the cursor to the domain edge; g toggle snap while dragging; c, r, p
  * add a circle, rectangle or hexagon hole at the cursor; d delete the hole under the cursor;
- * s toggle strips, l toggle scan lines, f fit the 2D view.
+ * s toggle strips, l toggle scan lines, f fit the 2D view; o (over the 3D view) open the face
+ * under the cursor.
  */
 #ifndef TE_APP_H
 #define TE_APP_H
@@ -114,6 +115,10 @@ int te_app_uv_to_px3d(const te_app *app, const double uv[2], double px[2]);
 long te_app_draw_2d(te_app *app, const te_draw *d);
 
 crisp_status te_app_save(te_app *app, const char *path);
+/* The face under the cursor in the 3D view (trimmed as the plan draws it), -1 when none; open
+ * another face of the model for editing (the camera keeps its view). */
+int te_app_pick_face(te_app *app);
+crisp_status te_app_open_face(te_app *app, int face);
 
 #ifdef __cplusplus
 }
