@@ -299,23 +299,34 @@ static void draw_ui(te_window *w)
 /* ---- screenshots
  * --------------------------------------------------------------------------------- */
 
-/* The 3D view rendered off-screen at its size (or w x h) from the current loops. */
+/* The 3D view as the window last drew it (its size: the frame of the re-planned face, read
+ * back), or rendered off-screen at w x h from a whole new plan of the current loops. */
 static crisp_status screenshot(te_window *w, const char *path, int sw, int sh)
 {
     crisp_camera c = w->app.cam;
-    if (sw > 0 && sh > 0) c.width = sw, c.height = sh;
+    int live = sw <= 0 || sh <= 0 || (sw == c.width && sh == c.height);
+    if (!live) c.width = sw, c.height = sh;
     crisp_image img = {0};
     crisp_planner *pl = NULL;
     const crisp_frame_plan *plan;
     crisp_status st = crisp_image_init(&img, c.width, c.height);
-    if (!st) st = crisp_planner_create(NULL, NULL, &pl);
-    if (!st) st = crisp_scene_update_trim(w->app.scene, (uint32_t)w->app.face);
-    if (!st) st = crisp_planner_plan(pl, w->app.scene, &c, &plan);
+    if (live && !w->app.plan)
+        st = crisp_error(CRISP_ERR_INVALID_ARG, "screenshot: nothing drawn yet");
+    if (!st && !live) {
+        st = crisp_planner_create(NULL, NULL, &pl);
+        if (!st) st = crisp_scene_update_trim(w->app.scene, (uint32_t)w->app.face);
+        if (!st) st = crisp_planner_plan(pl, w->app.scene, &c, &plan);
+    }
 #ifdef CRISP_TRIMEDIT_GL
-    if (!st) st = crisp_gl_render(w->gl, w->app.scene, plan, &img, NULL);
-    crisp_gl_forget_plan(w->gl);
+    if (!st && live) st = crisp_gl_read(w->gl, &img, NULL);
+    if (!st && !live) {
+        st = crisp_gl_render(w->gl, w->app.scene, plan, &img, NULL);
+        crisp_gl_forget_plan(w->gl);
+    }
 #else
-    if (!st) st = crisp_render_cpu_plan(w->renderer, w->app.scene, plan, &c, &img, NULL);
+    if (!st && live)
+        st = crisp_render_cpu_plan(w->renderer, w->app.scene, w->app.plan, &c, &img, NULL);
+    if (!st && !live) st = crisp_render_cpu_plan(w->renderer, w->app.scene, plan, &c, &img, NULL);
 #endif
     uint8_t *px = st ? NULL : malloc(4 * (size_t)c.width * c.height);
     if (!st && !px) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the screenshot");
