@@ -21,6 +21,12 @@
 #include "crisp/plan.h"
 #include "crisp/render.h"
 #include "crisp/trimedit.h"
+#if defined(__has_include)
+#if __has_include("crisp/gl.h")
+#include "crisp/gl.h"
+#define HAVE_GL 1
+#endif
+#endif
 
 static int frames = 60, width = 1280, height = 720;
 
@@ -160,7 +166,19 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
            *upd = malloc(sizeof(double) * frames), *replan = malloc(sizeof(double) * frames),
            *draw = malloc(sizeof(double) * frames), *frame = malloc(sizeof(double) * frames),
            *replan_cpu = malloc(sizeof(double) * frames),
-           *ms_trim = malloc(sizeof(double) * frames), *ms_rib = malloc(sizeof(double) * frames);
+           *ms_trim = malloc(sizeof(double) * frames), *ms_rib = malloc(sizeof(double) * frames),
+           *gl_draw = malloc(sizeof(double) * frames), *gl_frame = malloc(sizeof(double) * frames),
+           *draw_cpu = malloc(sizeof(double) * frames), *gl_cpu = malloc(sizeof(double) * frames);
+    int have_gl = 0;
+#ifdef HAVE_GL
+    crisp_gl_context *glc = NULL;
+    crisp_gl *gl = NULL;
+    if (!crisp_gl_context_create(&glc) &&
+        !crisp_gl_create(crisp_gl_context_getproc(glc), NULL, &gl) && !crisp_gl_set_scene(gl, sc))
+        have_gl = 1;
+    else
+        fprintf(stderr, "GL: %s\n", crisp_error_message());
+#endif
     for (int k = 0; k < 5; k++) {
         double t = crisp_time_now();
         crisp_planner_plan(pl, sc, &cam, &plan);
@@ -182,8 +200,20 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
         replan_cpu[k] = 1e3 * (cpu_now() - c2);
         ms_trim[k] = plan->stats.ms_trim;
         ms_rib[k] = plan->stats.ms_ribbons;
+        double c3 = cpu_now();
         crisp_render_cpu_plan(r, sc, plan, &cam, &img, NULL);
-        double t4 = crisp_time_now();
+        double t4 = crisp_time_now(), c4 = cpu_now();
+        draw_cpu[k] = 1e3 * (c4 - c3);
+        gl_cpu[k] = 0;
+        gl_draw[k] = 0;
+#ifdef HAVE_GL
+        if (have_gl) {
+            crisp_gl_draw(gl, plan, NULL);
+            gl_draw[k] = ms_since(t4);
+            gl_cpu[k] = 1e3 * (cpu_now() - c4);
+        }
+#endif
+        gl_frame[k] = 1e3 * (t3 - t0) + gl_draw[k];
         edit[k] = 1e3 * (t1 - t0);
         upd[k] = 1e3 * (t2 - t1);
         replan[k] = 1e3 * (t3 - t2);
@@ -197,16 +227,20 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
     double max_replan = 0;
     for (int k = 0; k < frames; k++)
         max_replan = fmax(max_replan, replan[k]);
+    char gls[64] = "    n/a |     n/a |     n/a";
+    if (have_gl)
+        snprintf(gls, sizeof gls, "%7.2f | %7.2f | %7.2f", bench_median(gl_draw, frames),
+                 bench_median(gl_cpu, frames), bench_median(gl_frame, frames));
     double mt = bench_median(ms_trim, frames), mrib = bench_median(ms_rib, frames);
     double mf = bench_median(full, 5);
     double mr = bench_median(replan, frames);
     printf("| %-30s | %-7s | %4d | %6.0f | %6.3f | %6.3f | %6.3f | %6.3f | %6.3f | %7.2f | %7.2f | "
-           "%7.2f | %5.1fx | %5.3f + %5.3f |%s\n",
+           "%7.2f | %s | %7.2f | %5.1fx | %5.3f + %5.3f |%s\n",
            name, zoomed ? "zoomed" : "default", face_pieces(f), (double)rows / frames,
            bench_median(edit, frames), bench_median(upd, frames), mr, max_replan,
            bench_median(replan_cpu, frames), bench_median(draw, frames),
-           bench_median(frame, frames), mf, mr > 0 ? mf / mr : 0, mt, mrib,
-           refused ? " (some moves refused)" : "");
+           bench_median(draw_cpu, frames), bench_median(frame, frames), gls, mf,
+           mr > 0 ? mf / mr : 0, mt, mrib, refused ? " (some moves refused)" : "");
     free(full);
     free(edit);
     free(upd);
@@ -214,6 +248,14 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
     free(draw);
     free(frame);
     free(replan_cpu);
+    free(gl_draw);
+    free(draw_cpu);
+    free(gl_cpu);
+    free(gl_frame);
+#ifdef HAVE_GL
+    crisp_gl_destroy(gl);
+    crisp_gl_context_destroy(glc);
+#endif
     free(ms_trim);
     free(ms_rib);
     crisp_image_free(&img);
@@ -258,13 +300,15 @@ int main(int argc, char **argv)
     printf("load average %.2f; %d frames per drag at %dx%d, CPU backend, %d threads; times in ms "
            "(medians; replan max over the drag)\n\n",
            la[0], frames, width, height, crisp_pool_default_threads());
-    printf("| %-30s | %-7s | %4s | %6s | %6s | %6s | %6s | %6s | %6s | %7s | %7s | %7s | %6s | "
-           "%15s |\n",
-           "face", "view", "pcs", "rows", "edit", "update", "replan", "max", "cpu", "draw", "frame",
-           "plan", "ratio", "table + ribbons");
-    printf("|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|\n", "--------------------------------",
-           "---------", "------", "--------", "--------", "--------", "--------", "--------",
-           "--------", "---------", "---------", "---------", "--------", "-----------------");
+    printf(
+        "| %-30s | %-7s | %4s | %6s | %6s | %6s | %6s | %6s | %6s | %7s | %7s | %7s | %7s | %7s | "
+        "%7s | %7s | %6s | %15s |\n",
+        "face", "view", "pcs", "rows", "edit", "update", "replan", "max", "cpu", "draw", "cpu",
+        "frame", "gl draw", "cpu", "gl frm", "plan", "ratio", "table + ribbons");
+    printf("|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|\n",
+           "--------------------------------", "---------", "------", "--------", "--------",
+           "--------", "--------", "--------", "--------", "---------", "---------", "---------",
+           "---------", "---------", "---------", "---------", "--------", "-----------------");
     for (int zoomed = 0; zoomed < 2; zoomed++) {
         crisp_model *m;
         if (crisp_trimedit_example(&m)) return 1;
@@ -287,7 +331,8 @@ int main(int argc, char **argv)
         "\npcs: Bézier trim pieces of the face; rows: its table rows per frame; edit: "
         "crisp_trimedit_move_point; update: crisp_scene_update_trim; replan: "
         "crisp_planner_replan_face (the edited face's plan), max: its slowest frame, cpu: its "
-        "process CPU time (all threads); draw: crisp_render_cpu_plan; frame: "
+        "process CPU time (all threads); draw: crisp_render_cpu_plan (cpu: its process CPU time); "
+        "frame: "
         "edit + update + replan + draw; plan: a whole-scene crisp_planner_plan of the same camera "
         "(baseline); ratio: plan / replan; table + ribbons: the replan's two parts "
         "(crisp_plan_stats ms_trim, ms_ribbons).\n");
