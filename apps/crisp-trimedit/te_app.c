@@ -491,6 +491,16 @@ void te_app_key(te_app *app, int key, int action, int mods)
     case GLFW_KEY_F:
         te_app_fit_2d(app);
         break;
+    case GLFW_KEY_O: {
+        int f = te_app_pick_face(app);
+        char buf[64];
+        snprintf(buf, sizeof buf, "face %d opened", f);
+        if (f < 0)
+            say(app, 1, "%s", "no face under the cursor");
+        else
+            edit_done(app, te_app_open_face(app, f), buf);
+        break;
+    }
     default:
         break;
     }

@@ -331,12 +331,150 @@ static void test_drag_in_3d(void **state)
     te_app_close(&app);
 }
 
+/* A face of a real model: other faces keep their plan while the edited one is re-planned; 'o'
+ * over the 3D view opens the face under the cursor. */
+static void test_model_face(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    assert_int_equal(crisp_model_load(CRISP_DATA_DIR "/nurbs/occt_hammer.iges", NULL, &m),
+                     CRISP_OK);
+    int face = -1;
+    for (int f = 0; f < m->face_count && face < 0; f++)
+        if (m->faces[f].loop_count > 1) face = f;
+    assert_true(face >= 0);
+    te_app app;
+    assert_int_equal(te_app_open(&app, m, face, 2 * W, H), CRISP_OK);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    /* Look at the whole model so other faces are visible. */
+    crisp_camera cam;
+    assert_int_equal(
+        crisp_camera_frame_box(app.scene->box, (int)app.view3d.w, (int)app.view3d.h, &cam),
+        CRISP_OK);
+    te_app_set_camera(&app, &cam);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    uint64_t leaves = app.plan->leaves_version;
+    /* Crossings of every other visible face before the edit. */
+    uint32_t other = UINT32_MAX;
+    for (uint32_t f = 0; f < app.plan->face_count && other == UINT32_MAX; f++)
+        if ((int)f != face && app.plan->faces[f].strip_count > 0 &&
+            !(app.plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE))
+            other = f;
+    assert_true(other != UINT32_MAX);
+    double probe[64];
+    for (int k = 0; k < 64; k++)
+        probe[k] = crisp_plan_trim_test(app.plan, other, 0, 0);
+    const crisp_scene_face *of = &app.scene->faces[other];
+    double d[4];
+    memcpy(d, of->domain, sizeof d);
+    for (int k = 0; k < 64; k++)
+        probe[k] = crisp_plan_trim_test(app.plan, other, d[0] + (d[1] - d[0]) * (k % 8 + 0.5) / 8,
+                                        d[2] + (d[3] - d[2]) * (k / 8 + 0.5) / 8);
+    /* Move a point of the face's first hole a little (through the edit model). */
+    crisp_trimedit_ref r = {1, 0, 0};
+    double uv[2];
+    assert_int_equal(crisp_trimedit_point(app.ed, r, uv, NULL), CRISP_OK);
+    double dom[4];
+    crisp_trimedit_domain(app.ed, dom);
+    uv[0] += 0.01 * (dom[1] - dom[0]);
+    assert_int_equal(crisp_trimedit_move_point(app.ed, &r, uv, 0), CRISP_OK);
+    long before = app.replans;
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    assert_int_equal(app.replans, before + 1);
+    assert_true(app.plan->leaves_version == leaves);
+    for (int k = 0; k < 64; k++)
+        assert_true(probe[k] == crisp_plan_trim_test(app.plan, other,
+                                                     d[0] + (d[1] - d[0]) * (k % 8 + 0.5) / 8,
+                                                     d[2] + (d[3] - d[2]) * (k / 8 + 0.5) / 8));
+    /* 'o' on a pixel of another face opens it. */
+    crisp_image img;
+    crisp_renderer *rr;
+    assert_int_equal(crisp_image_init(&img, app.cam.width, app.cam.height), CRISP_OK);
+    assert_int_equal(crisp_renderer_create(NULL, &rr), CRISP_OK);
+    assert_int_equal(crisp_render_cpu_plan(rr, app.scene, app.plan, &app.cam, &img, NULL),
+                     CRISP_OK);
+    int px = -1;
+    for (int y = 2; y < img.height - 2 && px < 0; y += 3)
+        for (int x = 2; x < img.width - 2; x += 3) {
+            int32_t f = img.face[(size_t)y * img.width + x];
+            int same = 1;
+            for (int dy = -2; dy <= 2; dy++)
+                for (int dx = -2; dx <= 2; dx++)
+                    same &= img.face[(size_t)(y + dy) * img.width + x + dx] == f;
+            if (f >= 0 && f != face && same) {
+                px = y * img.width + x;
+                break;
+            }
+        }
+    assert_true(px >= 0);
+    int want = img.face[px];
+    te_app_cursor(&app, app.view3d.x + px % img.width + 0.5, app.view3d.y + px / img.width + 0.5);
+    te_app_key(&app, GLFW_KEY_O, GLFW_PRESS, 0);
+    assert_false(app.message_error);
+    assert_int_equal(app.face, want);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    crisp_renderer_destroy(rr);
+    crisp_image_free(&img);
+    te_app_close(&app);
+}
+
+static double rnd(unsigned *s)
+{
+    *s = *s * 1103515245u + 12345u;
+    return (double)((*s >> 8) & 0xffffff) / 16777216.0;
+}
+
+/* Random input never leaves a face the planner or the writer rejects. */
+static void test_random_input(void **state)
+{
+    (void)state;
+    te_app app;
+    assert_int_equal(te_app_open(&app, NULL, -1, 2 * W, H), CRISP_OK);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    static const int keys[] = {GLFW_KEY_I, GLFW_KEY_K, GLFW_KEY_X, GLFW_KEY_EQUAL, GLFW_KEY_MINUS,
+                               GLFW_KEY_0, GLFW_KEY_B, GLFW_KEY_G, GLFW_KEY_C,     GLFW_KEY_R,
+                               GLFW_KEY_P, GLFW_KEY_D, GLFW_KEY_S, GLFW_KEY_L,     GLFW_KEY_F,
+                               GLFW_KEY_Z, GLFW_KEY_Y};
+    static const int mods[] = {0, GLFW_MOD_SHIFT, GLFW_MOD_CONTROL, GLFW_MOD_ALT,
+                               GLFW_MOD_CONTROL | GLFW_MOD_SHIFT};
+    unsigned seed = 7;
+    counts n = {0, 0};
+    te_draw d = {.ctx = &n, .line = count_line, .circle = count_circle};
+    for (int it = 0; it < 3000; it++) {
+        double a = rnd(&seed);
+        double x = rnd(&seed) * 2 * W, y = rnd(&seed) * H;
+        if (a < 0.5) {
+            te_app_cursor(&app, x, y);
+        } else if (a < 0.7) {
+            int b = rnd(&seed) < 0.8 ? GLFW_MOUSE_BUTTON_LEFT : GLFW_MOUSE_BUTTON_RIGHT;
+            te_app_button(&app, b, rnd(&seed) < 0.5 ? GLFW_PRESS : GLFW_RELEASE,
+                          mods[(int)(rnd(&seed) * 4)]);
+        } else if (a < 0.75) {
+            te_app_scroll(&app, rnd(&seed) * 4 - 2);
+        } else {
+            te_app_key(&app, keys[(int)(rnd(&seed) * 17)], GLFW_PRESS, mods[(int)(rnd(&seed) * 5)]);
+        }
+        if (it % 10 == 0) {
+            assert_int_equal(te_app_update(&app), CRISP_OK);
+            (void)te_app_draw_2d(&app, &d);
+        }
+    }
+    char obj[256];
+    tmp(obj, ".obj");
+    assert_int_equal(te_app_save(&app, obj), CRISP_OK);
+    crisp_model *back;
+    assert_int_equal(crisp_model_load(obj, NULL, &back), CRISP_OK);
+    crisp_model_destroy(back);
+    remove(obj);
+    te_app_close(&app);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_drag_undo_redo_save),
-        cmocka_unit_test(test_refused_edits),
-        cmocka_unit_test(test_drag_in_3d),
+        cmocka_unit_test(test_drag_undo_redo_save), cmocka_unit_test(test_refused_edits),
+        cmocka_unit_test(test_drag_in_3d),          cmocka_unit_test(test_model_face),
+        cmocka_unit_test(test_random_input),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
