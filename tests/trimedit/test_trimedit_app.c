@@ -362,8 +362,6 @@ static void test_model_face(void **state)
             other = f;
     assert_true(other != UINT32_MAX);
     double probe[64];
-    for (int k = 0; k < 64; k++)
-        probe[k] = crisp_plan_trim_test(app.plan, other, 0, 0);
     const crisp_scene_face *of = &app.scene->faces[other];
     double d[4];
     memcpy(d, of->domain, sizeof d);
