@@ -1,0 +1,86 @@
+// crisp GL backend: declarations shared by every shader (prepended after the #version line by
+// src/gl/backend.c). The storage buffers hold the frame plan's arrays exactly as
+// include/crisp/plan.h lays them out in C (std430; the C structs' sizes are checked at compile
+// time in src/gl/backend.c and by the layout test in tests/gl).
+//
+// Precision (docs/status/issue-09.md): everything that decides a pixel's trim classification is
+// in double: the patch evaluation (rational Bezier from the control points), the clip
+// coordinates (computed relative to nothing, then cast to float for the rasterizer), the leaf's
+// corner, (u, v), the strip and row lookups and the crossings. Only the leaf-local (s, t) in
+// [0, 1] travel from the evaluation shader to the fragment shader in float; a leaf covers at
+// most CRISP_PLAN_MAX_LEAF_PX = 4096 px, so float (s, t) keep 4096 * 2^-24 = 2^-12 px, far below
+// the 1 px trim guarantee, at any zoom (tested at fov 1e-4 and 1e-6 degree).
+
+#define FACE_ALL_INSIDE 2u
+#define FACE_REVERSED 4u
+
+struct Face {
+    double v0, v1, strip_scale;
+    uint first_strip, strip_count, first_leaf, leaf_count;
+    uint flags, tau_max, first_ribbon, ribbon_count;
+};
+struct Strip {
+    double a, row_scale;
+    uint first_row, row_count;
+};
+struct RibbonVertex {
+    double clip[4];
+    float uv[2];
+    float normal[3];
+    uint face;
+};
+struct PatchRecord {
+    uint first_cp, du, dv, face;
+    double u0, u1, v0, v1;
+};
+
+layout(std430, binding = 0) readonly buffer Leaves { uvec4 leaves[]; };        // 3 per leaf
+layout(std430, binding = 1) readonly buffer Faces { Face faces[]; };
+layout(std430, binding = 2) readonly buffer Strips { Strip strips[]; };
+layout(std430, binding = 3) readonly buffer Rows { uint row_offset[]; };
+layout(std430, binding = 4) readonly buffer Crossings { double crossings[]; };
+layout(std430, binding = 5) readonly buffer Ribbons { RibbonVertex ribbon[]; };
+layout(std430, binding = 6) readonly buffer Patches { PatchRecord patches[]; };
+layout(std430, binding = 7) readonly buffer ControlPoints { dvec4 cps[]; };
+layout(std430, binding = 8) readonly buffer FaceColors { vec4 face_color[]; };
+
+// The trim test of include/crisp/plan.h (crisp_plan_trim_test, which is crisp_trim_table_test
+// on the face's table), the same arithmetic in double: 1 inside, 0 trimmed away.
+bool trim_test(uint f, double u, double v)
+{
+    Face F = faces[f];
+    if (!(v >= F.v0 && v <= F.v1)) return false;
+    if ((F.flags & FACE_ALL_INSIDE) != 0u) return true;
+    int n = int(F.strip_count);
+    if (n == 0) return false;
+    int i = int((v - F.v0) * F.strip_scale); // >= 0 here, so truncation is floor
+    if (i > n - 1) i = n - 1;
+    Strip S = strips[F.first_strip + uint(i)];
+    uint mu = S.row_count;
+    if (mu == 0u) return false;
+    double fj = (v - S.a) * S.row_scale;
+    uint j = 0u; // below the row range: the first row
+    if (fj > 0.0) j = fj >= double(mu - 1u) ? mu - 1u : uint(fj);
+    uint r = S.first_row + j;
+    uint lo = row_offset[r], hi = row_offset[r + 1u], first = lo;
+    while (lo < hi) { // crossings strictly left of u
+        uint mid = lo + (hi - lo) / 2u;
+        if (crossings[mid] < u)
+            lo = mid + 1u;
+        else
+            hi = mid;
+    }
+    return ((lo - first) & 1u) != 0u;
+}
+
+// (u, v) of a point of leaf L at leaf-local (s, t): the leaf is the cell [ix, ix + 1] x
+// [iy, iy + 1] * 2^-depth of its patch's local parameters, the patch maps them onto
+// [u0, u1] x [v0, v1].
+dvec2 leaf_uv(uint L, double s, double t)
+{
+    uvec4 a = leaves[3u * L], b = leaves[3u * L + 1u];
+    PatchRecord p = patches[a.x];
+    double scale = ldexp(1.0LF, -int(a.z));
+    double ps = (double(b.x) + s) * scale, pt = (double(b.y) + t) * scale;
+    return dvec2(p.u0 + ps * (p.u1 - p.u0), p.v0 + pt * (p.v1 - p.v0));
+}
