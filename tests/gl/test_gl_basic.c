@@ -351,6 +351,131 @@ static void test_layout_hand(void **state)
     crisp_gl_destroy(gl);
 }
 
+/* Ribbons: drawn over empty pixels; over a surface only where nearer by more than the depth slack
+ * (1.5 x the surface's W change to the neighbouring pixels): the square tilted to z = y changes W
+ * by about 0.04 per pixel, so a ribbon 0.01 in front of it stays hidden and one 0.3 in front shows. */
+static void test_ribbons(void **state)
+{
+    (void)state;
+    static const double tilted[16] = {-1, -1, -1, 1, 1, -1, -1, 1, -1, 1, 1, 1, 1, 1, 1, 1};
+    static const float colors[8] = {0.8f, 0.6f, 0.4f, 1, 0.1f, 0.9f, 0.1f, 1};
+    crisp_camera cam = front_camera(40, 96, 72);
+    crisp_camera_matrices m;
+    crisp_camera_matrices_compute(&cam, &m);
+    double offsets[3] = {0.01, 0.3, -0.3};
+    int expect_ribbon[3] = {0, 1, 0};
+    for (int c = 0; c < 3; c++) {
+        crisp_gl *gl = NULL;
+        assert_int_equal(crisp_gl_create(crisp_gl_context_getproc(ctx), NULL, &gl), CRISP_OK);
+        crisp_gl_scene_data d = {tilted, 4, &square_rec, 1, colors, 2};
+        assert_int_equal(crisp_gl_set_scene_data(gl, &d), CRISP_OK);
+        hand_plan *h = malloc(sizeof *h);
+        make_plan(h, &cam, 0, 1, 8);
+        crisp_plan_face faces[2] = {h->face, {.v0 = 0, .v1 = 1}};
+        h->plan.faces = faces;
+        h->plan.face_count = 2;
+        /* a quad over x in [-0.5, 0.5], y in [-0.2, 0.2] on the plane, moved towards the eye, and
+         * a second one over empty space (x in [1.5, 1.8]) */
+        crisp_plan_ribbon_vertex rv[8];
+        double corners[8][2] = {{-0.5, -0.2}, {0.5, -0.2}, {0.5, 0.2}, {-0.5, 0.2},
+                                {1.5, -0.2},  {1.8, -0.2}, {1.8, 0.2}, {1.5, 0.2}};
+        for (int k = 0; k < 8; k++) {
+            double P[3] = {corners[k][0], corners[k][1], corners[k][1] + offsets[c]};
+            memset(&rv[k], 0, sizeof rv[k]);
+            crisp_mat4_mulp(m.view_proj, P, rv[k].clip);
+            rv[k].uv[0] = 0.25f;
+            rv[k].uv[1] = 0.75f;
+            rv[k].normal[2] = 1;
+            rv[k].face = 1;
+        }
+        h->plan.ribbon_vertices = rv;
+        h->plan.ribbon_quad_count = 2;
+        crisp_image img;
+        assert_int_equal(crisp_image_init(&img, cam.width, cam.height), CRISP_OK);
+        assert_int_equal(crisp_gl_draw(gl, &h->plan, NULL), CRISP_OK);
+        assert_int_equal(crisp_gl_read(gl, &img, NULL), CRISP_OK);
+        /* pixel centres well inside each quad */
+        int over = 0, empty = 0, n_over = 0, n_empty = 0;
+        for (int j = 0; j < cam.height; j++)
+            for (int i = 0; i < cam.width; i++) {
+                double o[3], dd[3];
+                crisp_camera_ray(&cam, i + 0.5, j + 0.5, o, dd);
+                double z = offsets[c]; /* the ribbon plane z = y + offset */
+                double t = (z - o[2] + o[1]) / (dd[2] - dd[1]);
+                double x = o[0] + t * dd[0], y = o[1] + t * dd[1];
+                size_t k = (size_t)j * cam.width + i;
+                if (fabs(x) < 0.4 && fabs(y) < 0.15) {
+                    n_over++;
+                    over += img.face[k] == 1;
+                    if (img.face[k] == 1)
+                        assert_true(fabs(img.uv[2 * k] - 0.25f) < 1e-6 && fabs(img.uv[2 * k + 1] - 0.75f) < 1e-6);
+                } else if (x > 1.55 && x < 1.75 && fabs(y) < 0.15) {
+                    n_empty++;
+                    empty += img.face[k] == 1;
+                }
+            }
+        assert_true(n_over > 100 && n_empty > 20);
+        assert_int_equal(empty, n_empty);
+        assert_int_equal(over, expect_ribbon[c] ? n_over : 0);
+        crisp_image_free(&img);
+        free(h);
+        crisp_gl_destroy(gl);
+    }
+}
+
+/* A rational patch: a quarter of the unit cylinder (biquadratic in u, linear in v) seen from
+ * (4, 0, 4): depth and normal of each pixel within the tessellation tolerance of the true
+ * cylinder's. */
+static void test_rational(void **state)
+{
+    (void)state;
+    double r = sqrt(0.5);
+    const double cps[24] = {1, -1, 0, 1, r, -r, r, r, 0, -1, 1, 1, 1, 1, 0, 1, r, r, r, r, 0, 1, 1, 1};
+    crisp_scene_patch_record rec = {0, 2, 1, 0, 0, 1, 0, 1};
+    crisp_camera cam = {.eye = {4, 0, 4}, .target = {0, 0, 0}, .up = {0, 1, 0}, .fov_deg = 30,
+                        .znear = 0.5, .zfar = 100, .width = 80, .height = 60};
+    crisp_gl *gl = NULL;
+    assert_int_equal(crisp_gl_create(crisp_gl_context_getproc(ctx), NULL, &gl), CRISP_OK);
+    crisp_gl_scene_data d = {cps, 6, &rec, 1, square_color, 1};
+    assert_int_equal(crisp_gl_set_scene_data(gl, &d), CRISP_OK);
+    hand_plan *h = malloc(sizeof *h);
+    make_plan(h, &cam, 0, 1, 8);
+    for (int k = 0; k < 4; k++) {
+        h->leaves[k].tau = 32;
+        for (int e = 0; e < 4; e++) h->leaves[k].edge[e] = 32;
+    }
+    crisp_image img;
+    assert_int_equal(crisp_image_init(&img, cam.width, cam.height), CRISP_OK);
+    assert_int_equal(crisp_gl_draw(gl, &h->plan, NULL), CRISP_OK);
+    assert_int_equal(crisp_gl_read(gl, &img, NULL), CRISP_OK);
+    double f[3] = {-r, 0, -r};
+    int checked = 0;
+    for (int j = 0; j < cam.height; j++)
+        for (int i = 0; i < cam.width; i++) {
+            double o[3], dd[3];
+            crisp_camera_ray(&cam, i + 0.5, j + 0.5, o, dd);
+            /* |(o + t d).xz| = 1, nearest root */
+            double a = dd[0] * dd[0] + dd[2] * dd[2], b = 2 * (o[0] * dd[0] + o[2] * dd[2]);
+            double c = o[0] * o[0] + o[2] * o[2] - 1, disc = b * b - 4 * a * c;
+            size_t k = (size_t)j * cam.width + i;
+            if (!(disc > 0)) continue;
+            double t = (-b - sqrt(disc)) / (2 * a), P[3];
+            for (int q = 0; q < 3; q++) P[q] = o[q] + t * dd[q];
+            if (!(P[0] > 0.05 && P[2] > 0.05 && fabs(P[1]) < 0.9)) continue;
+            checked++;
+            assert_int_equal(img.face[k], 0);
+            double depth = (P[0] - o[0]) * f[0] + (P[1] - o[1]) * f[1] + (P[2] - o[2]) * f[2];
+            if (fabs(img.depth[k] - depth) > 2e-3) fail_msg("pixel (%d, %d): depth %g, expected %g", i, j, img.depth[k], depth);
+            /* outward normal (x, 0, z) up to the patch's orientation */
+            double dot = img.normal[3 * k] * P[0] + img.normal[3 * k + 2] * P[2];
+            assert_true(fabs(fabs(dot) - 1) < 2e-3 && fabs(img.normal[3 * k + 1]) < 2e-3);
+        }
+    assert_true(checked > 500);
+    crisp_image_free(&img);
+    free(h);
+    crisp_gl_destroy(gl);
+}
+
 static int setup(void **state)
 {
     (void)state;
@@ -373,6 +498,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_square), cmocka_unit_test(test_trimmed), cmocka_unit_test(test_samples),
         cmocka_unit_test(test_zoom),   cmocka_unit_test(test_errors),  cmocka_unit_test(test_layout_hand),
+        cmocka_unit_test(test_ribbons), cmocka_unit_test(test_rational),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
