@@ -18,6 +18,7 @@ struct Face {
     double v0, v1, strip_scale;
     uint first_strip, strip_count, first_leaf, leaf_count;
     uint flags, tau_max, first_ribbon, ribbon_count;
+    uint pad0, pad1;
 };
 struct Strip {
     double a, row_scale;
@@ -51,16 +52,15 @@ bool trim_test(uint f, double u, double v)
     Face F = faces[f];
     if (!(v >= F.v0 && v <= F.v1)) return false;
     if ((F.flags & FACE_ALL_INSIDE) != 0u) return true;
-    int n = int(F.strip_count);
-    if (n == 0) return false;
-    int i = int((v - F.v0) * F.strip_scale); // >= 0 here, so truncation is floor
-    if (i > n - 1) i = n - 1;
-    Strip S = strips[F.first_strip + uint(i)];
+    uint n = F.strip_count;
+    if (n == 0u) return false;
+    double fi = (v - F.v0) * F.strip_scale; // >= 0 here
+    uint i = fi < double(n) ? uint(fi) : n - 1u;
+    Strip S = strips[F.first_strip + i];
     uint mu = S.row_count;
     if (mu == 0u) return false;
     double fj = (v - S.a) * S.row_scale;
-    uint j = 0u; // below the row range: the first row
-    if (fj > 0.0) j = fj >= double(mu - 1u) ? mu - 1u : uint(fj);
+    uint j = fj > 0.0LF ? (fj < double(mu) ? uint(fj) : mu - 1u) : 0u; // clamped to the rows
     uint r = S.first_row + j;
     uint lo = row_offset[r], hi = row_offset[r + 1u], first = lo;
     while (lo < hi) { // crossings strictly left of u

@@ -13,6 +13,7 @@
  *   crisp_gl_read          read the frame back into a crisp_image (the CPU backend's conventions)
  *   crisp_gl_blit          copy the frame's colour into a framebuffer of the app (no read-back)
  *   crisp_gl_render        set_scene + draw + read in one call
+ *   crisp_gl_render_once   a headless context, a planner and the backend for one frame
  *
  * How a frame is drawn (docs/status/issue-09.md): one GL patch of one vertex per plan leaf, the
  * leaf fetched by gl_PrimitiveID; the tessellation control shader sets the plan's levels (never
@@ -111,6 +112,11 @@ unsigned crisp_gl_color_texture(const crisp_gl *gl);
 /* crisp_gl_set_scene (when the scene differs from the last one), crisp_gl_draw, crisp_gl_read. */
 crisp_status crisp_gl_render(crisp_gl *gl, const crisp_scene *scene, const crisp_frame_plan *plan,
                              crisp_image *img, crisp_gl_stats *stats);
+/* One frame without a window: a headless context, the backend, a planner (default tolerance),
+ * draw and read back, everything destroyed again (what `crisp render --backend gl` does). img
+ * must have the camera's size. renderer (may be NULL) receives crisp_gl_renderer's text. */
+crisp_status crisp_gl_render_once(const crisp_scene *scene, const crisp_camera *cam, int samples, crisp_image *img,
+                                  crisp_gl_stats *stats, char *renderer, size_t renderer_size);
 /* GL_RENDERER and GL_VERSION of the context the backend runs on. */
 const char *crisp_gl_renderer(const crisp_gl *gl);
 

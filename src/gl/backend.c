@@ -15,7 +15,7 @@
 
 /* The records the shaders read: their C layout must be the std430 layout in common.glsl. */
 _Static_assert(sizeof(crisp_plan_leaf) == 48, "crisp_plan_leaf: 3 uvec4");
-_Static_assert(sizeof(crisp_plan_face) == 56, "crisp_plan_face: std430 Face");
+_Static_assert(sizeof(crisp_plan_face) == 64, "crisp_plan_face: std430 Face");
 _Static_assert(sizeof(crisp_plan_strip) == 24, "crisp_plan_strip: std430 Strip");
 _Static_assert(sizeof(crisp_plan_ribbon_vertex) == 56, "crisp_plan_ribbon_vertex: std430 RibbonVertex");
 _Static_assert(sizeof(crisp_scene_patch_record) == 48, "crisp_scene_patch_record: std430 PatchRecord");
@@ -313,6 +313,16 @@ crisp_status crisp_gl_set_scene_data(crisp_gl *gl, const crisp_gl_scene_data *d)
     gl->have_scene = 1;
     gl->plan = NULL; /* leaves are checked against the new scene */
     return CRISP_OK;
+}
+
+void crisp__gl_scene_is(crisp_gl *gl, const crisp_scene *scene)
+{
+    gl->scene = scene;
+}
+
+const crisp_scene *crisp__gl_scene(const crisp_gl *gl)
+{
+    return gl->have_scene ? gl->scene : NULL;
 }
 
 /* Uploads the arrays of the plan that changed; checks the leaves and ribbons against the scene

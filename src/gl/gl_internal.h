@@ -21,6 +21,10 @@ typedef struct crisp__gl_result {
 crisp_status crisp__gl_layout_probe(crisp_gl *gl, const crisp_frame_plan *plan, const crisp__gl_query *q,
                                     size_t n, crisp__gl_result *out);
 
+/* The scene last uploaded by crisp_gl_set_scene (NULL after crisp_gl_set_scene_data). */
+void crisp__gl_scene_is(crisp_gl *gl, const crisp_scene *scene);
+const crisp_scene *crisp__gl_scene(const crisp_gl *gl);
+
 enum { CRISP__GL_VERTEX, CRISP__GL_FRAGMENT, CRISP__GL_COMPUTE };
 /* Compiles and links one shader of the given stage (after the #version line and common.glsl)
  * and deletes the program: the compile and link error path, for tests. */

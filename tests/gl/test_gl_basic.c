@@ -83,27 +83,10 @@ static void make_plan(hand_plan *h, const crisp_camera *cam, int trimmed, int de
     p->ribbon_quad_count = 0;
 }
 
-/* The table test of include/crisp/plan.h on the hand plan (crisp_trim_table_test's arithmetic). */
+/* The table test of include/crisp/plan.h on the hand plan. */
 static int ref_trim(const hand_plan *h, double u, double v)
 {
-    const crisp_plan_face *F = &h->face;
-    if (!(v >= F->v0 && v <= F->v1)) return 0;
-    if (F->flags & CRISP_PLAN_FACE_ALL_INSIDE) return 1;
-    int i = (int)((v - F->v0) * F->strip_scale);
-    if (i > (int)F->strip_count - 1) i = (int)F->strip_count - 1;
-    const crisp_plan_strip *S = &h->plan.strips[F->first_strip + (uint32_t)i];
-    if (!S->row_count) return 0;
-    double fj = (v - S->a) * S->row_scale;
-    uint32_t j = fj > 0 ? (fj >= S->row_count - 1 ? S->row_count - 1 : (uint32_t)fj) : 0;
-    uint32_t r = S->first_row + j, lo = h->row_offset[r], hi = h->row_offset[r + 1], first = lo;
-    while (lo < hi) {
-        uint32_t mid = lo + (hi - lo) / 2;
-        if (h->crossings[mid] < u)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return (int)((lo - first) & 1u);
+    return crisp_plan_trim_test(&h->plan, 0, u, v);
 }
 
 static crisp_gl *make_gl(int samples)
