@@ -11,12 +11,16 @@ layout(rgba32f, binding = 0) uniform image2D acc_rgba;
 layout(rgba32f, binding = 1) uniform image2D best_nw;
 layout(rg32f, binding = 2) uniform image2D best_uv;
 layout(r32i, binding = 3) uniform iimage2D best_face;
+layout(r32i, binding = 4) uniform iimage2DArray sample_faces; // every sample's face, for tests
+uniform int keep_samples;
+uniform int sample_index;
 
 void main()
 {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(p, imageSize(acc_rgba)))) return;
     int f = texelFetch(face_tex, p, 0).r;
+    if (keep_samples != 0) imageStore(sample_faces, ivec3(p, sample_index), ivec4(f));
     if (f < 0) return;
     vec4 nw = texelFetch(nw_tex, p, 0);
     dvec3 n = dvec3(nw.xyz);

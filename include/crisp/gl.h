@@ -97,10 +97,13 @@ void crisp_gl_destroy(crisp_gl *gl);
 crisp_status crisp_gl_set_scene(crisp_gl *gl, const crisp_scene *scene);
 crisp_status crisp_gl_set_scene_data(crisp_gl *gl, const crisp_gl_scene_data *data);
 /* Draws the plan (of the scene last set) into the backend's targets. Uploads only the arrays
- * whose *_version differs from the last plan drawn (everything when the plan pointer changed).
+ * whose *_version differs from the last plan drawn (everything when the plan pointer changed,
+ * after crisp_gl_set_scene and after crisp_gl_forget_plan: call that when a new planner may
+ * return a plan at a freed planner's address).
  * A plan array larger than the buffer limit: CRISP_ERR_LIMIT naming the array. stats may be
  * NULL. */
 crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *plan, crisp_gl_stats *stats);
+void crisp_gl_forget_plan(crisp_gl *gl);
 /* Reads the last frame into img (its size must be the plan's): rgba straight alpha = coverage,
  * depth = camera-space depth (+inf background), world normal, u, v, face id (-1 background). */
 crisp_status crisp_gl_read(crisp_gl *gl, crisp_image *img, crisp_gl_stats *stats);
@@ -109,7 +112,8 @@ crisp_status crisp_gl_read(crisp_gl *gl, crisp_image *img, crisp_gl_stats *stats
 crisp_status crisp_gl_blit(crisp_gl *gl, unsigned fbo, int x, int y, int width, int height);
 /* The last frame's colour texture (GL_RGBA32F, row 0 = the image's top row). */
 unsigned crisp_gl_color_texture(const crisp_gl *gl);
-/* crisp_gl_set_scene (when the scene differs from the last one), crisp_gl_draw, crisp_gl_read. */
+/* crisp_gl_set_scene, crisp_gl_draw, crisp_gl_read: uploads everything (for single frames; an
+ * interactive app sets the scene once and calls crisp_gl_draw per frame). */
 crisp_status crisp_gl_render(crisp_gl *gl, const crisp_scene *scene, const crisp_frame_plan *plan,
                              crisp_image *img, crisp_gl_stats *stats);
 /* One frame without a window: a headless context, the backend, a planner (default tolerance),

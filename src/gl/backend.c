@@ -35,13 +35,14 @@ static const char *const buffer_names[B_COUNT] = {
 
 typedef struct uniforms {
     GLint leaf_base, view_proj, jitter, zconst, slack_tex, nw_tex, uv_tex, face_tex, dir0, dir_x, dir_y,
-        offset, samples, count;
+        offset, samples, count, keep_samples, sample_index;
 } uniforms;
 
 struct crisp_gl {
     crisp_gl_desc desc;
     char renderer[300];
     size_t max_block;
+    size_t chunk_leaves, chunk_quads; /* leaves and ribbon quads drawn per bound buffer range */
     GLuint vao;
     GLuint surface, ribbon, slack, accum, finish, layout;
     uniforms u_surface, u_ribbon, u_slack, u_accum, u_finish, u_layout;
@@ -60,6 +61,9 @@ struct crisp_gl {
     uint64_t scene_bytes;
     float *tmp;
     size_t tmp_cap;
+    int keep_samples;      /* tests: keep every sample's face (crisp__gl_sample_faces) */
+    GLuint t_sample_faces; /* GL_R32I, one layer per sample */
+    int sample_w, sample_h;
 };
 
 /* ---- shaders ---------------------------------------------------------------------------------- */
@@ -136,6 +140,8 @@ static void locate(GLuint p, uniforms *u)
     u->offset = glGetUniformLocation(p, "offset");
     u->samples = glGetUniformLocation(p, "samples");
     u->count = glGetUniformLocation(p, "count");
+    u->keep_samples = glGetUniformLocation(p, "keep_samples");
+    u->sample_index = glGetUniformLocation(p, "sample_index");
 }
 
 crisp_status crisp__gl_try_program(const char *name, int stage, const char *src)
@@ -193,6 +199,18 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
     snprintf(gl->renderer, sizeof gl->renderer, "%s, OpenGL %s", renderer, (const char *)glGetString(GL_VERSION));
     gl->max_block = (size_t)block;
     if (d.max_buffer_bytes && d.max_buffer_bytes < gl->max_block) gl->max_block = d.max_buffer_bytes;
+    /* Leaves and ribbons are read by index within one draw: a plan with more than one storage
+     * block's worth is drawn in chunks, each bound as a range at an aligned offset. */
+    GLint align = 0;
+    glGetIntegerv(GL_SHADER_STORAGE_BUFFER_OFFSET_ALIGNMENT, &align);
+    if (align < 1) align = 1;
+    size_t unit_l = (size_t)align, unit_q = (size_t)align;
+    while (unit_l % sizeof(crisp_plan_leaf)) unit_l += (size_t)align;
+    while (unit_q % (4 * sizeof(crisp_plan_ribbon_vertex))) unit_q += (size_t)align;
+    gl->chunk_leaves = gl->max_block / unit_l * (unit_l / sizeof(crisp_plan_leaf));
+    gl->chunk_quads = gl->max_block / unit_q * (unit_q / (4 * sizeof(crisp_plan_ribbon_vertex)));
+    if (gl->chunk_leaves > (1u << 30)) gl->chunk_leaves = 1u << 30;
+    if (gl->chunk_quads > (1u << 26)) gl->chunk_quads = 1u << 26;
     crisp_status st = CRISP_OK;
     gl->surface = program("surface", crisp__shader_surface_vs_glsl, crisp__shader_surface_tcs_glsl,
                           crisp__shader_surface_tes_glsl, crisp__shader_surface_fs_glsl, NULL, &st);
@@ -252,6 +270,7 @@ void crisp_gl_destroy(crisp_gl *gl)
         glDeleteFramebuffers(1, &gl->fbo_out);
         free_targets(gl);
     }
+    if (gl->t_sample_faces) glDeleteTextures(1, &gl->t_sample_faces);
     free(gl->tmp);
     free(gl);
 }
@@ -265,7 +284,8 @@ const char *crisp_gl_renderer(const crisp_gl *gl)
 
 static crisp_status upload(crisp_gl *gl, int b, const void *data, size_t bytes, uint64_t *counter)
 {
-    if (bytes > gl->max_block)
+    int streamed = b == B_LEAVES || b == B_RIBBONS; /* drawn in chunks */
+    if (bytes > gl->max_block && !(streamed && gl->chunk_leaves && gl->chunk_quads))
         return crisp_error(CRISP_ERR_LIMIT,
                            "the %s need %zu bytes, more than the GL storage buffer limit of %zu bytes "
                            "(GL_MAX_SHADER_STORAGE_BLOCK_SIZE%s): the frame is not drawn",
@@ -274,7 +294,7 @@ static crisp_status upload(crisp_gl *gl, int b, const void *data, size_t bytes, 
     size_t need = bytes ? bytes : 16;
     if (gl->buf_cap[b] < need) {
         size_t cap = need + need / 4;
-        if (cap > gl->max_block) cap = need;
+        if (cap > gl->max_block && !streamed) cap = need;
         glNamedBufferData(gl->buf[b], (GLsizeiptr)cap, NULL, GL_DYNAMIC_DRAW);
         crisp_status st = gl_check("allocating a storage buffer");
         if (st) {
@@ -315,6 +335,11 @@ crisp_status crisp_gl_set_scene_data(crisp_gl *gl, const crisp_gl_scene_data *d)
     return CRISP_OK;
 }
 
+void crisp_gl_forget_plan(crisp_gl *gl)
+{
+    gl->plan = NULL;
+}
+
 void crisp__gl_scene_is(crisp_gl *gl, const crisp_scene *scene)
 {
     gl->scene = scene;
@@ -336,8 +361,6 @@ static crisp_status upload_plan(crisp_gl *gl, const crisp_frame_plan *p, uint64_
     int all = gl->plan != p;
     crisp_status st = CRISP_OK;
     if (all || p->leaves_version != gl->v_leaves) {
-        if (p->leaf_count > UINT32_MAX / 3)
-            return crisp_error(CRISP_ERR_LIMIT, "%u leaves: at most %u", p->leaf_count, UINT32_MAX / 3);
         for (uint32_t k = 0; k < p->leaf_count; k++) {
             const crisp_plan_leaf *L = &p->leaves[k];
             if (L->patch >= gl->scene_patches || L->face >= p->face_count || L->depth > CRISP_PLAN_MAX_DEPTH ||
@@ -553,6 +576,17 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     glBindImageTexture(1, gl->t_best_nw, 0, GL_FALSE, 0, GL_READ_WRITE, GL_RGBA32F);
     glBindImageTexture(2, gl->t_best_uv, 0, GL_FALSE, 0, GL_READ_WRITE, GL_RG32F);
     glBindImageTexture(3, gl->t_best_face, 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32I);
+    glProgramUniform1i(gl->accum, gl->u_accum.keep_samples, gl->keep_samples);
+    if (gl->keep_samples) {
+        if (gl->sample_w != W || gl->sample_h != H) {
+            if (gl->t_sample_faces) glDeleteTextures(1, &gl->t_sample_faces);
+            glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &gl->t_sample_faces);
+            glTextureStorage3D(gl->t_sample_faces, 1, GL_R32I, W, H, S);
+            gl->sample_w = W;
+            gl->sample_h = H;
+        }
+        glBindImageTexture(4, gl->t_sample_faces, 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_R32I);
+    }
     GLuint gx = (GLuint)(W + 7) / 8, gy = (GLuint)(H + 7) / 8;
     float nw_clear[4] = {0, 0, 0, inf}, depth_clear = 0;
     for (int s = 0; s < S; s++) {
@@ -563,6 +597,7 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
         glProgramUniform2dv(gl->surface, gl->u_surface.jitter, 1, jitter);
         glProgramUniform2dv(gl->ribbon, gl->u_ribbon.jitter, 1, jitter);
         glProgramUniform2dv(gl->accum, gl->u_accum.offset, 1, off);
+        glProgramUniform1i(gl->accum, gl->u_accum.sample_index, s);
 
         glBindFramebuffer(GL_FRAMEBUFFER, gl->fbo_pass);
         glClearNamedFramebufferfv(gl->fbo_pass, GL_COLOR, 0, nw_clear);
@@ -574,7 +609,12 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
         glDepthFunc(GL_GREATER); /* nearer wins; equal depth keeps the earlier leaf */
         if (p->leaf_count) {
             glUseProgram(gl->surface);
-            glDrawArrays(GL_PATCHES, 0, (GLsizei)p->leaf_count);
+            for (size_t first = 0; first < p->leaf_count; first += gl->chunk_leaves) {
+                size_t n = p->leaf_count - first < gl->chunk_leaves ? p->leaf_count - first : gl->chunk_leaves;
+                glBindBufferRange(GL_SHADER_STORAGE_BUFFER, B_LEAVES, gl->buf[B_LEAVES],
+                                  (GLintptr)(first * sizeof(crisp_plan_leaf)), (GLsizeiptr)(n * sizeof(crisp_plan_leaf)));
+                glDrawArrays(GL_PATCHES, 0, (GLsizei)n);
+            }
         }
         if (p->ribbon_quad_count) {
             glBindFramebuffer(GL_FRAMEBUFFER, gl->fbo_slack);
@@ -584,7 +624,13 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
             glBindFramebuffer(GL_FRAMEBUFFER, gl->fbo_pass);
             glEnable(GL_DEPTH_TEST);
             glUseProgram(gl->ribbon);
-            glDrawArrays(GL_TRIANGLES, 0, (GLsizei)(6 * (size_t)p->ribbon_quad_count));
+            size_t qb = 4 * sizeof(crisp_plan_ribbon_vertex);
+            for (size_t first = 0; first < p->ribbon_quad_count; first += gl->chunk_quads) {
+                size_t n = p->ribbon_quad_count - first < gl->chunk_quads ? p->ribbon_quad_count - first : gl->chunk_quads;
+                glBindBufferRange(GL_SHADER_STORAGE_BUFFER, B_RIBBONS, gl->buf[B_RIBBONS], (GLintptr)(first * qb),
+                                  (GLsizeiptr)(n * qb));
+                glDrawArrays(GL_TRIANGLES, 0, (GLsizei)(6 * n));
+            }
         }
         glUseProgram(gl->accum);
         glDispatchCompute(gx, gy, 1);
@@ -654,6 +700,27 @@ crisp_status crisp_gl_blit(crisp_gl *gl, unsigned fbo, int x, int y, int width, 
 unsigned crisp_gl_color_texture(const crisp_gl *gl)
 {
     return gl->t_acc;
+}
+
+void crisp__gl_keep_sample_faces(crisp_gl *gl)
+{
+    gl->keep_samples = 1;
+}
+
+crisp_status crisp__gl_sample_faces(crisp_gl *gl, int32_t *dest)
+{
+    if (!gl->drawn || !gl->keep_samples || !gl->t_sample_faces)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp__gl_sample_faces: no frame drawn with the samples kept");
+    int S = gl->desc.samples;
+    size_t n = (size_t)gl->width * gl->height, total = n * S;
+    int32_t *tmp = malloc(total * sizeof *tmp);
+    if (!tmp) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory reading samples");
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glGetTextureImage(gl->t_sample_faces, 0, GL_RED_INTEGER, GL_INT, (GLsizei)(total * sizeof *tmp), tmp);
+    for (int s = 0; s < S; s++)
+        for (size_t k = 0; k < n; k++) dest[k * S + s] = tmp[s * n + k];
+    free(tmp);
+    return gl_check("reading the samples' faces");
 }
 
 /* ---- layout probe (tests) --------------------------------------------------------------------- */

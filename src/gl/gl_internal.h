@@ -25,6 +25,11 @@ crisp_status crisp__gl_layout_probe(crisp_gl *gl, const crisp_frame_plan *plan, 
 void crisp__gl_scene_is(crisp_gl *gl, const crisp_scene *scene);
 const crisp_scene *crisp__gl_scene(const crisp_gl *gl);
 
+/* Tests: keep every sample's face from now on; after a draw, read them in the CPU backend's
+ * layout (sample s of pixel (i, j) at (j * width + i) * samples + s). */
+void crisp__gl_keep_sample_faces(crisp_gl *gl);
+crisp_status crisp__gl_sample_faces(crisp_gl *gl, int32_t *dest);
+
 enum { CRISP__GL_VERTEX, CRISP__GL_FRAGMENT, CRISP__GL_COMPUTE };
 /* Compiles and links one shader of the given stage (after the #version line and common.glsl)
  * and deletes the program: the compile and link error path, for tests. */

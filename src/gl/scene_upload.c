@@ -24,7 +24,8 @@ crisp_status crisp_gl_render(crisp_gl *gl, const crisp_scene *scene, const crisp
                              crisp_image *img, crisp_gl_stats *stats)
 {
     crisp_status st = CRISP_OK;
-    if (crisp__gl_scene(gl) != scene) st = crisp_gl_set_scene(gl, scene);
+    /* Always: another scene (or plan) may sit at the address of a freed one. */
+    st = crisp_gl_set_scene(gl, scene);
     if (!st) st = crisp_gl_draw(gl, plan, stats);
     if (!st) st = crisp_gl_read(gl, img, stats);
     return st;

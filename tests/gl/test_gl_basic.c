@@ -81,6 +81,10 @@ static void make_plan(hand_plan *h, const crisp_camera *cam, int trimmed, int de
     p->crossing_count = c;
     p->ribbon_vertices = h->ribbon;
     p->ribbon_quad_count = 0;
+    /* as a planner does: every array changed (the backend uploads by version) */
+    static uint64_t version;
+    version++;
+    p->leaves_version = p->faces_version = p->table_version = p->ribbons_version = version;
 }
 
 /* The table test of include/crisp/plan.h on the hand plan. */
@@ -262,12 +266,27 @@ static void test_errors(void **state)
     assert_int_equal(crisp_gl_set_scene_data(gl, &d), CRISP_OK);
     crisp_camera cam = front_camera(40, 32, 24);
     hand_plan *h = malloc(sizeof *h);
-    make_plan(h, &cam, 1, 3, 256); /* 64 leaves = 3072 bytes */
+    make_plan(h, &cam, 1, 3, 256); /* 64 leaves = 3072 bytes, 2.4 kB of crossings */
     assert_int_equal(crisp_gl_draw(gl, &h->plan, NULL), CRISP_ERR_LIMIT);
-    assert_non_null(strstr(crisp_error_message(), "leaves"));
-    crisp_image img;
+    assert_non_null(strstr(crisp_error_message(), "trim"));
+    assert_non_null(strstr(crisp_error_message(), "GL_MAX_SHADER_STORAGE_BLOCK_SIZE"));
+    crisp_image img, ref;
     assert_int_equal(crisp_image_init(&img, cam.width, cam.height), CRISP_OK);
+    assert_int_equal(crisp_image_init(&ref, cam.width, cam.height), CRISP_OK);
     assert_int_equal(crisp_gl_read(gl, &img, NULL), CRISP_ERR_INVALID_ARG); /* nothing to read */
+    /* leaves beyond the limit are drawn in chunks: the same image as without the limit */
+    make_plan(h, &cam, 1, 3, 8);
+    assert_int_equal(crisp_gl_draw(gl, &h->plan, NULL), CRISP_OK);
+    assert_int_equal(crisp_gl_read(gl, &img, NULL), CRISP_OK);
+    crisp_gl *big = make_gl(1);
+    assert_int_equal(crisp_gl_draw(big, &h->plan, NULL), CRISP_OK);
+    assert_int_equal(crisp_gl_read(big, &ref, NULL), CRISP_OK);
+    crisp_gl_destroy(big);
+    size_t n = (size_t)cam.width * cam.height, covered = 0;
+    for (size_t k = 0; k < n; k++) covered += img.face[k] == 0;
+    assert_true(covered > n / 20);
+    assert_memory_equal(img.face, ref.face, n * sizeof *img.face);
+    assert_memory_equal(img.rgba, ref.rgba, 4 * n * sizeof *img.rgba);
     /* a leaf with a level above 64, a bad patch index, an out-of-range control net */
     make_plan(h, &cam, 1, 0, 8);
     h->leaves[0].edge[2] = 65;
@@ -275,8 +294,10 @@ static void test_errors(void **state)
     assert_non_null(strstr(crisp_error_message(), "65"));
     h->leaves[0].edge[2] = 3;
     h->leaves[0].patch = 1;
+    h->plan.leaves_version++;
     assert_int_equal(crisp_gl_draw(gl, &h->plan, NULL), CRISP_ERR_INVALID_ARG);
     h->leaves[0].patch = 0;
+    h->plan.leaves_version++;
     assert_int_equal(crisp_gl_draw(gl, &h->plan, NULL), CRISP_OK);
     assert_int_equal(crisp_gl_read(gl, &img, NULL), CRISP_OK);
     crisp_scene_patch_record bad = square_rec;
@@ -285,6 +306,7 @@ static void test_errors(void **state)
     assert_int_equal(crisp_gl_set_scene_data(gl, &d2), CRISP_ERR_INVALID_ARG);
     assert_int_equal(crisp_gl_draw(gl, &h->plan, NULL), CRISP_ERR_INVALID_ARG); /* no scene now */
     crisp_image_free(&img);
+    crisp_image_free(&ref);
     crisp_gl_destroy(gl);
     /* bad sample counts */
     assert_int_equal(crisp_gl_create(crisp_gl_context_getproc(ctx), &(crisp_gl_desc){.samples = 3}, &gl),
