@@ -84,3 +84,56 @@ dvec2 leaf_uv(uint L, double s, double t)
     double ps = (double(b.x) + s) * scale, pt = (double(b.y) + t) * scale;
     return dvec2(p.u0 + ps * (p.u1 - p.u0), p.v0 + pt * (p.v1 - p.v0));
 }
+
+// Bernstein basis of degree n at x and its derivative.
+void bernstein(uint n, double x, out double B[16], out double D[16])
+{
+    double y = 1.0LF - x;
+    B[0] = 1.0LF;
+    for (uint k = 1u; k < n; k++) { // degree n - 1
+        double saved = 0.0LF;
+        for (uint i = 0u; i < k; i++) {
+            double tmp = B[i];
+            B[i] = saved + y * tmp;
+            saved = x * tmp;
+        }
+        B[k] = saved;
+    }
+    D[0] = -double(n) * B[0];
+    for (uint i = 1u; i < n; i++) D[i] = double(n) * (B[i - 1u] - B[i]);
+    D[n] = double(n) * B[n - 1u];
+    double saved = 0.0LF;
+    for (uint i = 0u; i < n; i++) {
+        double tmp = B[i];
+        B[i] = saved + y * tmp;
+        saved = x * tmp;
+    }
+    B[n] = saved;
+}
+
+// Point of patch `patch` at its local (s, t) and the derivatives' cross product (not unit, not
+// turned round for reversed faces), in double.
+dvec3 patch_point(uint patch_index, double s, double t, out dvec3 n)
+{
+    PatchRecord p = patches[patch_index];
+    double bu[16], du[16], bv[16], dv[16];
+    bernstein(p.du, s, bu, du);
+    bernstein(p.dv, t, bv, dv);
+    dvec4 P = dvec4(0.0LF), Ps = dvec4(0.0LF), Pt = dvec4(0.0LF);
+    for (uint j = 0u; j <= p.dv; j++) {
+        dvec4 row = dvec4(0.0LF), rowd = dvec4(0.0LF);
+        uint base = p.first_cp + j * (p.du + 1u);
+        for (uint i = 0u; i <= p.du; i++) {
+            dvec4 c = cps[base + i];
+            row += bu[i] * c;
+            rowd += du[i] * c;
+        }
+        P += bv[j] * row;
+        Ps += bv[j] * rowd;
+        Pt += dv[j] * row;
+    }
+    dvec3 x = P.xyz / P.w;
+    dvec3 xs = (Ps.xyz - x * Ps.w) / P.w, xt = (Pt.xyz - x * Pt.w) / P.w;
+    n = cross(xs, xt);
+    return x;
+}

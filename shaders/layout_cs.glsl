@@ -10,6 +10,7 @@ struct Result {
     double u, v;
     uint inside, tau, patch_, depth;
     uint edge[4];
+    double x, y, z; // the leaf's patch at the leaf-local (s, t)
 };
 layout(std430, binding = 9) readonly buffer Queries { Query queries[]; };
 layout(std430, binding = 10) writeonly buffer Results { Result results[]; };
@@ -33,5 +34,12 @@ void main()
     r.edge[1] = e.y;
     r.edge[2] = e.z;
     r.edge[3] = e.w;
+    double scale = ldexp(1.0LF, -int(a.z));
+    uvec4 b = leaves[3u * q.leaf + 1u];
+    dvec3 n;
+    dvec3 x = patch_point(a.x, (double(b.x) + q.s) * scale, (double(b.y) + q.t) * scale, n);
+    r.x = x.x;
+    r.y = x.y;
+    r.z = x.z;
     results[k] = r;
 }

@@ -19,7 +19,7 @@ _Static_assert(sizeof(crisp_plan_face) == 64, "crisp_plan_face: std430 Face");
 _Static_assert(sizeof(crisp_plan_strip) == 24, "crisp_plan_strip: std430 Strip");
 _Static_assert(sizeof(crisp_plan_ribbon_vertex) == 56, "crisp_plan_ribbon_vertex: std430 RibbonVertex");
 _Static_assert(sizeof(crisp_scene_patch_record) == 48, "crisp_scene_patch_record: std430 PatchRecord");
-_Static_assert(sizeof(crisp__gl_query) == 48 && sizeof(crisp__gl_result) == 48, "layout probe records");
+_Static_assert(sizeof(crisp__gl_query) == 48 && sizeof(crisp__gl_result) == 72, "layout probe records");
 
 extern const char crisp__shader_common_glsl[], crisp__shader_surface_vs_glsl[],
     crisp__shader_surface_tcs_glsl[], crisp__shader_surface_tes_glsl[], crisp__shader_surface_fs_glsl[],

@@ -15,6 +15,7 @@ typedef struct crisp__gl_result {
     double u, v;
     uint32_t inside, tau, patch, depth;
     uint32_t edge[4];
+    double point[3]; /* the leaf's patch at (s, t) */
 } crisp__gl_result;
 
 /* Uploads the plan like crisp_gl_draw and runs shaders/layout_cs.glsl on the queries. */

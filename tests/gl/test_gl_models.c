@@ -245,6 +245,16 @@ static void test_layout(void **state)
             assert_int_equal(res[k].patch, L->patch);
             assert_int_equal(res[k].depth, L->depth);
             for (int e = 0; e < 4; e++) assert_int_equal(res[k].edge[e], L->edge[e]);
+            {
+                double P[3], ps[3], pt[3], sc2 = ldexp(1, -(int)L->depth);
+                crisp_bezier_patch_derivs(&sc->patches[L->patch].bez, (L->ix + q[k].s) * sc2, (L->iy + q[k].t) * sc2, P, ps, pt);
+                double e = fmax(fabs(P[0] - res[k].point[0]), fmax(fabs(P[1] - res[k].point[1]), fabs(P[2] - res[k].point[2])));
+                double size = fmax(fabs(P[0]), fmax(fabs(P[1]), fabs(P[2])));
+                if (!(e <= 1e-12 * (1 + size)))
+                    fail_msg("%s leaf %u patch %u at (%g, %g): shader (%.17g %.17g %.17g) C (%.17g %.17g %.17g)", names[m],
+                             q[k].leaf, L->patch, q[k].s, q[k].t, res[k].point[0], res[k].point[1], res[k].point[2],
+                             P[0], P[1], P[2]);
+            }
             if (k % 4) {
                 double du = fabs(res[k].u - q[k].u), dv = fabs(res[k].v - q[k].v);
                 assert_true(du <= 1e-14 * (1 + fabs(q[k].u)) && dv <= 1e-14 * (1 + fabs(q[k].v)));
