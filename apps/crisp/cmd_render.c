@@ -1,6 +1,6 @@
 /* crisp render MODEL|SCENE [-o out.png] [--aov out.exr] [--size WxH] [--eye x,y,z --target x,y,z
  *                    --up x,y,z --fov DEG] [--near N --far F] [--samples N]
- *                    [--backend cpu|exact] [--threads N] [--stats]
+ *                    [--backend cpu|exact|gl] [--threads N] [--stats]
  * Camera and pixel conventions as DESIGN.md section 6. A scene file (include/crisp/scene_file.h)
  * merges its models and composites its f-rep parts by depth. */
 #include <math.h>
@@ -10,6 +10,9 @@
 #include <string.h>
 
 #include "crisp/image.h"
+#ifdef CRISP_HAVE_GL
+#include "crisp/gl.h"
+#endif
 #include "crisp/io.h"
 #include "crisp/render.h"
 #include "crisp/scene_file.h"
@@ -17,7 +20,7 @@
 
 const char crisp_cmd_render_help[] =
     "render MODEL|SCENE [-o out.png] [--aov out.exr] [--size WxH] [--eye x,y,z --target x,y,z --up x,y,z\n"
-    "                            --fov DEG] [--near N --far F] [--samples N] [--backend cpu|exact]\n"
+    "                            --fov DEG] [--near N --far F] [--samples N] [--backend cpu|exact|gl]\n"
     "                            [--threads N] [--stats]   render a model or a .scene file to an image\n"
     "                            (--up defaults to 0,1,0, or to 0,0,-1 / 0,0,1 looking straight down / up)";
 
@@ -188,8 +191,8 @@ int crisp_cmd_render(int argc, char **argv)
             if (!parse_int(a, argv[++i], 1, 1024, &threads)) return 2;
         } else if (!strcmp(a, "--backend")) {
             backend = argv[++i];
-            if (strcmp(backend, "cpu") && strcmp(backend, "exact")) {
-                fprintf(stderr, "crisp render: --backend '%s': expected cpu or exact\n", backend);
+            if (strcmp(backend, "cpu") && strcmp(backend, "exact") && strcmp(backend, "gl")) {
+                fprintf(stderr, "crisp render: --backend '%s': expected cpu, exact or gl\n", backend);
                 return 2;
             }
         } else if (a[0] == '-' && a[1] != '\0') {
@@ -214,8 +217,8 @@ int crisp_cmd_render(int argc, char **argv)
                 width, height, samples, (unsigned long long)width * height * samples, 1ull << 26);
         return 2;
     }
-    int cpu = !strcmp(backend, "cpu");
-    if (!cpu && samples != 1) {
+    int cpu = !strcmp(backend, "cpu"), gl = !strcmp(backend, "gl");
+    if (!cpu && !gl && samples != 1) {
         fprintf(stderr, "crisp render: the exact backend casts one ray per pixel centre; --samples "
                         "%d needs the cpu backend\n", samples);
         return 2;
@@ -310,6 +313,17 @@ int crisp_cmd_render(int argc, char **argv)
             if (!st) st = crisp_render_cpu(r, scene, &cam, &img, &rs);
         }
         crisp_renderer_destroy(r);
+    } else if (gl) {
+        /* The GL backend (include/crisp/gl.h): headless EGL, same plan, same image conventions. */
+#ifdef CRISP_HAVE_GL
+        crisp_gl_stats gs = {0};
+        char renderer[300] = "";
+        if (scene->patch_count > 0) st = crisp_gl_render_once(scene, &cam, samples, &img, &gs, renderer, sizeof renderer);
+        if (!st && stats) printf("gl renderer      %s\ngl leaves        %u, %u ribbon quads, %llu bytes uploaded\n", renderer,
+                                 gs.leaves, gs.ribbon_quads, (unsigned long long)gs.bytes_uploaded);
+#else
+        st = crisp_error(CRISP_ERR_UNSUPPORTED, "--backend gl: crisp was built without the GL backend (CRISP_GL=OFF)");
+#endif
     } else if (scene->patch_count > 0) {
         crisp_exact_desc desc = {.threads = threads, .classify = classify_exact};
         st = crisp_render_exact(scene, &cam, &desc, &img);
@@ -317,7 +331,7 @@ int crisp_cmd_render(int argc, char **argv)
     double t_nurbs = crisp_time_now();
     if (!st && part_count)
         st = crisp_render_frep_parts(parts, part_count, &cam,
-                                     &(crisp_frep_parts_desc){.threads = threads, .per_pixel = !cpu}, &img);
+                                     &(crisp_frep_parts_desc){.threads = threads, .per_pixel = !cpu && !gl}, &img);
     double t_render = crisp_time_now();
     if (!st) st = write_outputs(&img, png, exr);
     double t_write = crisp_time_now();
@@ -329,8 +343,9 @@ int crisp_cmd_render(int argc, char **argv)
                 drawn += img.face[i] >= 0;
                 frep_drawn += img.face[i] <= -2;
             }
-            printf("backend          %s\n", cpu ? "cpu (SLEFE tessellation, u-intercept tables)"
-                                                     : "exact (ray casting, exact trim classifier)");
+            printf("backend          %s\n", cpu  ? "cpu (SLEFE tessellation, u-intercept tables)"
+                                            : gl ? "gl (OpenGL 4.5 tessellation, u-intercept tables)"
+                                                 : "exact (ray casting, exact trim classifier)");
             printf("faces            %u\n", scene->face_count);
             printf("patches          %u\n", scene->patch_count);
             printf("trim pieces      %u\n", scene->piece_count);
