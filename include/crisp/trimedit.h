@@ -82,7 +82,8 @@ crisp_status crisp_trimedit_point(const crisp_trimedit *ed, crisp_trimedit_ref r
 /* ---- edits ----------------------------------------------------------------------------------- */
 
 /* Move a control point to uv (clamped to the domain). A point at a joint moves the neighbouring
- * curve's end with it. snap > 0: a coordinate within snap of a domain edge is put on that edge. */
+ * curve's end with it. snap > 0: a coordinate within snap of a domain edge is put on that edge.
+ * A move to where the point already is changes nothing (no new version, no undo step). */
 crisp_status crisp_trimedit_move_point(crisp_trimedit *ed, crisp_trimedit_ref *ref,
                                        const double uv[2], double snap);
 /* Put the point on the nearest domain edge (the snap of the menu). */

@@ -430,6 +430,9 @@ crisp_status crisp_trimedit_move_point(crisp_trimedit *ed, crisp_trimedit_ref *r
         return crisp_error(CRISP_ERR_INVALID_ARG, "point (%g, %g) is not finite", uv[0], uv[1]);
     double p[2] = {uv[0], uv[1]};
     clamp_to_domain(ed, p, snap > 0 ? snap : 0.0);
+    double cur[2];
+    get_point(f->loops[ref->loop].curves[ref->curve], ref->index, cur, NULL);
+    if (cur[0] == p[0] && cur[1] == p[1]) return CRISP_OK; /* nothing moves: no new version */
     crisp_trim_loop *loops;
     int n;
     if ((st = working_copy(ed, &loops, &n))) return st;
