@@ -1,0 +1,187 @@
+/* crisp-view's CPU display backend: crisp_render_cpu (and the f-rep parts) into a crisp_image,
+ * shown through a texture. Overlays are applied while converting to 8 bits: the selected face is
+ * tinted, and edges come from the face-id AOV (a face border, a trim boundary or a silhouette is
+ * where the face id changes between neighbouring pixels; never a triangle edge); a border where
+ * the normals turn by more than 30 degrees is drawn dark (hard), else light (smooth). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "view.h"
+
+typedef struct cpu_backend {
+    crisp_renderer *renderer;
+    crisp_image img;
+    uint8_t *rgba8;
+    size_t rgba8_cap;
+    app_image_view iv;
+    int threads;
+} cpu_backend;
+
+static void clear_image(crisp_image *img)
+{
+    size_t n = (size_t)img->width * img->height;
+    memset(img->rgba, 0, n * 4 * sizeof *img->rgba);
+    memset(img->normal, 0, n * 3 * sizeof *img->normal);
+    memset(img->uv, 0, n * 2 * sizeof *img->uv);
+    for (size_t i = 0; i < n; i++) {
+        img->depth[i] = INFINITY;
+        img->face[i] = -1;
+    }
+}
+
+static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_camera *cam,
+                                crisp_image *img, crisp_render_stats *rs)
+{
+    crisp_status st = CRISP_OK;
+    if (doc->scene->patch_count > 0) st = crisp_render_cpu(b->renderer, doc->scene, cam, img, rs);
+    else clear_image(img);
+    if (!st && doc->part_count)
+        st = crisp_render_frep_parts(doc->parts, doc->part_count, cam,
+                                     &(crisp_frep_parts_desc){.threads = b->threads}, img);
+    return st;
+}
+
+static uint8_t to8(float c) { return (uint8_t)lrintf(255.0f * (c < 0 ? 0 : c > 1 ? 1 : c)); }
+
+static void convert(cpu_backend *b, const view_overlay *ov)
+{
+    const crisp_image *img = &b->img;
+    int w = img->width, h = img->height;
+    for (int j = 0; j < h; j++)
+        for (int i = 0; i < w; i++) {
+            size_t k = (size_t)j * w + i;
+            float c[4];
+            memcpy(c, img->rgba + 4 * k, sizeof c);
+            int32_t f = img->face[k];
+            if (ov->selected_face != -1 && f == ov->selected_face) {
+                c[0] = 0.55f * c[0] + 0.45f * 0.25f;
+                c[1] = 0.55f * c[1] + 0.45f * 0.55f;
+                c[2] = 0.55f * c[2] + 0.45f * 1.0f;
+            }
+            if (ov->edges) {
+                /* compare with the right and lower neighbours (and left/up for symmetry of width) */
+                int edge = 0;
+                const int di[4] = {1, -1, 0, 0}, dj[4] = {0, 0, 1, -1};
+                for (int q = 0; q < 4 && edge < 2; q++) {
+                    int ii = i + di[q], jj = j + dj[q];
+                    if (ii < 0 || jj < 0 || ii >= w || jj >= h) continue;
+                    size_t kk = (size_t)jj * w + ii;
+                    int32_t g = img->face[kk];
+                    if (g == f) continue;
+                    if (f < 0 && g < 0) continue;
+                    if (f == -1 || g == -1) {
+                        edge = 2; /* silhouette */
+                        continue;
+                    }
+                    const float *n0 = img->normal + 3 * k, *n1 = img->normal + 3 * kk;
+                    float d = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
+                    edge = fabsf(d) < 0.866f ? 2 : (edge ? edge : 1);
+                }
+                if (edge && f != -1) {
+                    float t = edge == 2 ? 0.15f : 0.6f;
+                    for (int q = 0; q < 3; q++) c[q] *= t;
+                } else if (edge == 2) {
+                    c[0] = c[1] = c[2] = 0.05f;
+                    c[3] = 1;
+                }
+            }
+            uint8_t *o = b->rgba8 + 4 * k;
+            for (int q = 0; q < 4; q++) o[q] = to8(c[q]);
+        }
+}
+
+static crisp_status cpu_frame(void *self, const app_doc *doc, const crisp_camera *cam, int scale,
+                              const view_overlay *ov, view_frame_stats *stats)
+{
+    cpu_backend *b = self;
+    crisp_camera c = *cam;
+    if (scale < 1) scale = 1;
+    c.width = cam->width / scale > 0 ? cam->width / scale : 1;
+    c.height = cam->height / scale > 0 ? cam->height / scale : 1;
+    if (b->img.width != c.width || b->img.height != c.height) {
+        crisp_image_free(&b->img);
+        crisp_status st = crisp_image_init(&b->img, c.width, c.height);
+        if (st) return st;
+        size_t need = (size_t)c.width * c.height * 4;
+        if (need > b->rgba8_cap) {
+            uint8_t *p = realloc(b->rgba8, need);
+            if (!p) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the view image");
+            b->rgba8 = p;
+            b->rgba8_cap = need;
+        }
+    }
+    double t0 = crisp_time_now();
+    crisp_render_stats rs = {0};
+    crisp_status st = render_into(b, doc, &c, &b->img, &rs);
+    if (st) return st;
+    stats->ms = 1e3 * (crisp_time_now() - t0);
+    stats->triangles = rs.triangles + rs.ribbon_triangles;
+    stats->table_bytes = rs.table_bytes;
+    stats->scale = scale;
+    double dmin = INFINITY;
+    int x0 = c.width, y0 = c.height, x1 = -1, y1 = -1;
+    for (int j = 0; j < c.height; j++)
+        for (int i = 0; i < c.width; i++) {
+            size_t k = (size_t)j * c.width + i;
+            if (b->img.face[k] == -1) continue;
+            if (b->img.depth[k] < dmin) dmin = b->img.depth[k];
+            if (i < x0) x0 = i;
+            if (i > x1) x1 = i;
+            if (j < y0) y0 = j;
+            if (j > y1) y1 = j;
+        }
+    stats->min_depth = dmin;
+    stats->cover[0] = (double)x0 * scale;
+    stats->cover[1] = (double)y0 * scale;
+    stats->cover[2] = (double)(x1 + 1) * scale;
+    stats->cover[3] = (double)(y1 + 1) * scale;
+    convert(b, ov);
+    app_image_view_upload(&b->iv, c.width, c.height, b->rgba8);
+    return CRISP_OK;
+}
+
+static void cpu_present(void *self, int fb_width, int fb_height)
+{
+    cpu_backend *b = self;
+    app_image_view_draw(&b->iv, fb_width, fb_height);
+}
+
+static crisp_status cpu_offscreen(void *self, const app_doc *doc, const crisp_camera *cam,
+                                  crisp_image *img)
+{
+    return render_into(self, doc, cam, img, NULL);
+}
+
+static void cpu_destroy(void *self)
+{
+    cpu_backend *b = self;
+    if (!b) return;
+    crisp_renderer_destroy(b->renderer);
+    crisp_image_free(&b->img);
+    free(b->rgba8);
+    app_image_view_free(&b->iv);
+    free(b);
+}
+
+crisp_status view_backend_cpu_create(int threads, view_backend *dest)
+{
+    cpu_backend *b = calloc(1, sizeof *b);
+    if (!b) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+    b->threads = threads;
+    char err[512];
+    crisp_status st = crisp_renderer_create(&(crisp_render_desc){.threads = threads}, &b->renderer);
+    if (!st && !app_image_view_init(&b->iv, err, sizeof err))
+        st = crisp_error(CRISP_ERR_GL, "%s", err);
+    if (st) {
+        cpu_destroy(b);
+        return st;
+    }
+    *dest = (view_backend){.name = "cpu",
+                           .self = b,
+                           .frame = cpu_frame,
+                           .present = cpu_present,
+                           .offscreen = cpu_offscreen,
+                           .destroy = cpu_destroy};
+    return CRISP_OK;
+}
