@@ -401,12 +401,156 @@ static void test_pick_and_measure(void **state)
     free(out);
 }
 
+/* The screenshot after navigating equals `crisp render` with the camera options the viewer
+ * printed, away from edges (here: on every pixel). */
+static void test_screenshot_equals_cli(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), args[1024], opts[1024], cmd[4096];
+    assert_non_null(out);
+    snprintf(args, sizeof args, "%s/nurbs/gpucast_part.igs --size 320x200", CRISP_DATA_DIR);
+    assert_int_equal(run_view(args, "idle\ndrag left 160 100 200 80 5\nwheel 2 150 110\nidle\n"
+                                    "screenshot view_cli.png\n", out), 0);
+    const char *line = find_line(out, "screenshot: view_cli.png", 0);
+    assert_non_null(line);
+    camera_of(line, opts, sizeof opts);
+    remove("cli_ref.png");
+    snprintf(cmd, sizeof cmd, "%s/crisp render %s/nurbs/gpucast_part.igs %s -o cli_ref.png > /dev/null",
+             CRISP_BIN_DIR, CRISP_DATA_DIR, opts);
+    assert_int_equal(system(cmd), 0);
+    image8 a = read_png("view_cli.png"), b = read_png("cli_ref.png");
+    int box[4];
+    assert_true(coverage(&a, box) > 320 * 200 / 10);
+    /* pixels that differ must lie within 1 px of a coverage edge of the reference */
+    size_t bad = 0, diff = 0;
+    for (int j = 0; j < a.h; j++)
+        for (int i = 0; i < a.w; i++) {
+            size_t k = (size_t)j * a.w + i;
+            if (!memcmp(a.px + 4 * k, b.px + 4 * k, 4)) continue;
+            diff++;
+            int edge = 0;
+            for (int dj = -1; dj <= 1; dj++)
+                for (int di = -1; di <= 1; di++) {
+                    int ii = i + di, jj = j + dj;
+                    if (ii < 0 || jj < 0 || ii >= a.w || jj >= a.h) continue;
+                    edge |= (b.px[4 * ((size_t)jj * a.w + ii) + 3] == 0) != (b.px[4 * k + 3] == 0);
+                }
+            bad += !edge;
+        }
+    if (bad) fail_msg("%zu pixels differ away from edges (%zu in all)", bad, diff);
+    free(a.px);
+    free(b.px);
+    free(out);
+}
+
+/* A missing file, a folder, a file that is not CAD and a huge file each show an error and the
+ * viewer keeps running: a model dropped afterwards opens and a screenshot is written. */
+static void test_bad_input(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), replay[4096];
+    assert_non_null(out);
+    FILE *f = fopen("view_not_cad.txt", "w");
+    assert_non_null(f);
+    fputs("This is a letter, not a CAD model.\n", f);
+    fclose(f);
+    /* sparse: takes no disk space */
+    assert_int_equal(system("truncate -s 2G view_huge.igs"), 0);
+    snprintf(replay, sizeof replay,
+             "idle\nwait 2\ndrop %s/nurbs\nidle\nwait 2\ndrop view_not_cad.txt\nidle\nwait 2\n"
+             "drop view_huge.igs\nidle\nwait 2\ndrop %s/nurbs/gpucast_teapot.igs\nidle\n"
+             "screenshot view_after_errors.png\n",
+             CRISP_DATA_DIR, CRISP_DATA_DIR);
+    assert_int_equal(run_view("view_no_such_file.igs --size 200x150", replay, out), 0);
+    remove("view_huge.igs");
+    assert_int_equal(count_lines(out, "error: "), 4);
+    assert_non_null(strstr(find_line(out, "error: ", 0), "view_no_such_file.igs"));
+    assert_non_null(strstr(find_line(out, "error: ", 1), "folder"));
+    assert_non_null(strstr(find_line(out, "error: ", 2), "view_not_cad.txt"));
+    assert_non_null(strstr(find_line(out, "error: ", 3), "GB"));
+    assert_int_equal(count_lines(out, "loaded: "), 1);
+    image8 im = read_png("view_after_errors.png");
+    int box[4];
+    assert_true(coverage(&im, box) > 200 * 150 / 10);
+    free(im.px);
+    free(out);
+}
+
+/* Closing the window while the largest model loads: the viewer waits for the loader thread and
+ * frees everything (under the sanitizer build, LeakSanitizer checks the viewer's own memory; the
+ * GL driver's and X11's are suppressed in tests/view/lsan.supp). */
+static void test_close_during_load(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), args[1024];
+    assert_non_null(out);
+    setenv("ASAN_OPTIONS", "detect_leaks=1", 1);
+    setenv("LSAN_OPTIONS", "suppressions=" CRISP_TEST_DIR "/lsan.supp:print_suppressions=0", 1);
+    snprintf(args, sizeof args, "%s/nurbs/Ventilator.stp --size 200x150", CRISP_DATA_DIR);
+    int rc = run_view(args, "close\n", out);
+    unsetenv("LSAN_OPTIONS");
+    setenv("ASAN_OPTIONS", "detect_leaks=0", 1);
+    assert_int_equal(rc, 0);
+    assert_non_null(find_line(out, "closing during a load", 0));
+    assert_null(find_line(out, "loaded: ", 0));
+    assert_null(strstr(out, "LeakSanitizer"));
+    assert_non_null(find_line(out, "exit: 0", 0));
+    free(out);
+}
+
+/* Real X input: xdotool moves the pointer, drags and types into the window through the X server
+ * (XTEST), not through the replay; the camera printed before and after the drag differs, and
+ * ctrl+Q quits. */
+static void test_xdotool(void **state)
+{
+    (void)state;
+    if (system("command -v xdotool > /dev/null") != 0) {
+        fail_msg("xdotool is not installed (scripts/setup-deps installs it)");
+    }
+    FILE *f = fopen("view_xdo.sh", "w");
+    assert_non_null(f);
+    fprintf(f,
+            "#!/bin/sh\n"
+            "%s/crisp-view %s/nurbs/gpucast_teapot.igs --size 400x300 > view_xdo.out 2>&1 &\n"
+            "pid=$!\n"
+            "for i in $(seq 100); do grep -q '^loaded:' view_xdo.out && break; sleep 0.1; done\n"
+            "wid=$(xdotool search --sync --name crisp-view | head -1)\n"
+            "eval $(xdotool getwindowgeometry --shell $wid)\n"
+            "sleep 0.5\n"
+            "xdotool mousemove $((X + 200)) $((Y + 150)) sleep 0.3 key c sleep 0.3\n"
+            "xdotool mousedown 1 sleep 0.1 mousemove $((X + 230)) $((Y + 160)) sleep 0.1 "
+            "mousemove $((X + 280)) $((Y + 170)) sleep 0.1 mouseup 1 sleep 0.5\n"
+            "xdotool key c sleep 0.3 key ctrl+q\n"
+            "wait $pid\n",
+            CRISP_BIN_DIR, CRISP_DATA_DIR);
+    fclose(f);
+    int st = system("sh view_xdo.sh");
+    assert_true(WIFEXITED(st) && WEXITSTATUS(st) == 0);
+    char *out = malloc(OUT_CAP);
+    assert_non_null(out);
+    f = fopen("view_xdo.out", "r");
+    assert_non_null(f);
+    size_t n = fread(out, 1, OUT_CAP - 1, f);
+    out[n] = '\0';
+    fclose(f);
+    const char *c0 = find_line(out, "camera: ", 0), *c1 = find_line(out, "camera: ", 1);
+    if (!c0 || !c1) fail_msg("no camera lines from the keys:\n%s", out);
+    size_t l0 = strcspn(c0, "\n"), l1 = strcspn(c1, "\n");
+    assert_false(l0 == l1 && !memcmp(c0, c1, l0));
+    assert_non_null(find_line(out, "exit: 0", 0));
+    free(out);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_open_every_model),
         cmocka_unit_test(test_navigation),
         cmocka_unit_test(test_pick_and_measure),
+        cmocka_unit_test(test_screenshot_equals_cli),
+        cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_close_during_load),
+        cmocka_unit_test(test_xdotool),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
