@@ -215,7 +215,7 @@ static int parse_line(builder *b, char **tok, int n, const char *rest)
         if (n != 1) return fail(b, "expected 'idle'");
         PUSH(APP_EV_IDLE);
     } else if (!strcmp(cmd, "screenshot") || !strcmp(cmd, "aov") || !strcmp(cmd, "camera") ||
-               !strcmp(cmd, "set-camera")) {
+               !strcmp(cmd, "set-camera") || !strcmp(cmd, "mark")) {
         int needs = strcmp(cmd, "camera") != 0;
         if (needs && n < 2) return fail(b, "expected '%s ARGUMENTS'", cmd);
         if (!needs && n != 1) return fail(b, "expected 'camera'");
@@ -224,7 +224,7 @@ static int parse_line(builder *b, char **tok, int n, const char *rest)
             return fail(b, "out of memory");
     } else {
         return fail(b, "unknown event '%s' (expected move, down, up, click, drag, wheel, key, drop, "
-                       "close, wait, sleep, idle, screenshot, aov, camera, set-camera)", cmd);
+                       "close, wait, sleep, idle, screenshot, aov, camera, set-camera, mark)", cmd);
     }
     return 1;
 }

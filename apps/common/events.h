@@ -22,6 +22,7 @@
  *   aov PATH [WxH]                    the same view's AOVs to OpenEXR
  *   camera                            print the camera as `crisp render` options
  *   set-camera OPTIONS                set the camera from `crisp render` options
+ *   mark LABEL                        print the time, the frame count and whether refined
  *
  * Each input event (move, press, release, wheel, key, drop, close) is played in a frame of its
  * own, through the same functions the window's real events go through. */

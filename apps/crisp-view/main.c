@@ -15,6 +15,7 @@ static const char usage[] =
     "usage: crisp-view [MODEL] [--size WxH] [--replay EVENTS] [--screenshot OUT.png]\n"
     "                  [--screenshot-size WxH] [--aov OUT.exr] [--exit-after-replay]\n"
     "                  [--camera \"crisp render camera options\"] [--threads N] [--no-vsync]\n"
+    "                  [--no-lowres]\n"
     "  MODEL: IGES, STEP, OBJ, .vm / math-string f-rep part, or .scene file\n"
     "  --replay EVENTS: play a replay file (README.md, \"crisp-view\") through the input path\n"
     "  --screenshot OUT.png: after the replay (or the first load), write the view rendered\n"
@@ -160,6 +161,9 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
     view *v = ctx;
     if (!strcmp(name, "camera")) {
         view_print_camera(v);
+    } else if (!strcmp(name, "mark")) {
+        printf("mark: %s time %.6f frames %ld refined %d scale %d frame_ms %.3f\n", arg,
+               crisp_time_now(), v->frames, v->refined, v->last.scale, v->last.ms);
     } else if (!strcmp(name, "set-camera")) {
         char err[256];
         crisp_camera c = v->nav.cam;
@@ -262,7 +266,7 @@ static void refit(view *v)
 static void render_frame(view *v)
 {
     if (!v->doc) return;
-    int full = !v->moving;
+    int full = !v->moving || v->no_lowres;
     if (!v->dirty && v->refined) return;
     if (!v->dirty && !v->refined) full = 1;
     int scale = 1;
@@ -328,6 +332,8 @@ int main(int argc, char **argv)
             v->exit_after_replay = 1;
         } else if (!strcmp(a, "--no-vsync")) {
             no_vsync = 1;
+        } else if (!strcmp(a, "--no-lowres")) {
+            v->no_lowres = 1;
         } else if (a[0] == '-' && a[1] == '-' && !more) {
             fprintf(stderr, "crisp-view: option %s needs a value\n", a);
             return 2;
@@ -455,6 +461,7 @@ int main(int argc, char **argv)
         view_draw_panels(v);
         app_ui_frame_end();
         glfwSwapBuffers(v->win);
+        v->frames++;
     }
     rc = v->exit_code;
 out:

@@ -104,6 +104,8 @@ struct view {
     int shot_w, shot_h;
     int exit_code;
     int threads;
+    int no_lowres;         /* every frame at full size (for measuring the low-res frames) */
+    long frames;
 };
 
 
