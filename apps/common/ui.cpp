@@ -156,3 +156,26 @@ void app_ui_label(float x, float y, uint32_t color, const char *text)
 {
     ImGui::GetForegroundDrawList()->AddText(ImVec2(x, y), color, text);
 }
+
+void app_ui_canvas(float w, float h, float origin[2])
+{
+    ImVec2 p = ImGui::GetCursorScreenPos();
+    ImGui::InvisibleButton("##canvas", ImVec2(w, h));
+    origin[0] = p.x;
+    origin[1] = p.y;
+}
+
+void app_ui_wline(float x0, float y0, float x1, float y1, uint32_t color, float thickness)
+{
+    ImGui::GetWindowDrawList()->AddLine(ImVec2(x0, y0), ImVec2(x1, y1), color, thickness);
+}
+
+void app_ui_wrect(float x0, float y0, float x1, float y1, uint32_t color)
+{
+    ImGui::GetWindowDrawList()->AddRectFilled(ImVec2(x0, y0), ImVec2(x1, y1), color);
+}
+
+void app_ui_bline(float x0, float y0, float x1, float y1, uint32_t color, float thickness)
+{
+    ImGui::GetBackgroundDrawList()->AddLine(ImVec2(x0, y0), ImVec2(x1, y1), color, thickness);
+}

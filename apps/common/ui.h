@@ -44,10 +44,18 @@ void app_ui_progress(float fraction, const char *overlay);
 int app_ui_tree_node(const char *label, int leaf, int selected, int *clicked);
 void app_ui_tree_pop(void);
 
+/* A w x h drawing area in the current window; origin gets its top-left corner in window pixels.
+ * app_ui_wline / app_ui_wrect draw into the current window (clipped to it). */
+void app_ui_canvas(float w, float h, float origin[2]);
+void app_ui_wline(float x0, float y0, float x1, float y1, uint32_t color, float thickness);
+void app_ui_wrect(float x0, float y0, float x1, float y1, uint32_t color);
+
 /* Foreground drawing in window pixels; colour as 0xAABBGGRR. */
 void app_ui_line(float x0, float y0, float x1, float y1, uint32_t color, float thickness);
 void app_ui_circle(float x, float y, float r, uint32_t color, int filled);
 void app_ui_label(float x, float y, uint32_t color, const char *text);
+/* A line behind every window (over the 3D view only). */
+void app_ui_bline(float x0, float y0, float x1, float y1, uint32_t color, float thickness);
 
 #ifdef __cplusplus
 }

@@ -7,15 +7,18 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "crisp/plan.h"
 #include "view.h"
 
 typedef struct cpu_backend {
-    crisp_renderer *renderer;
+    crisp_renderer *renderer;    /* 1 sample per pixel */
+    crisp_renderer *renderer_aa; /* 4 samples per pixel */
     crisp_image img;
     uint8_t *rgba8;
     size_t rgba8_cap;
     app_image_view iv;
     int threads;
+    const crisp_frame_plan *plan; /* of the last frame; NULL after an off-screen render */
 } cpu_backend;
 
 static void clear_image(crisp_image *img)
@@ -30,12 +33,23 @@ static void clear_image(crisp_image *img)
     }
 }
 
+/* plan != NULL: plan first and keep the plan (the frames on screen); else crisp_render_cpu, as
+ * `crisp render` does (screenshots). */
 static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_camera *cam,
-                                crisp_image *img, crisp_render_stats *rs)
+                                int samples, crisp_image *img, crisp_render_stats *rs,
+                                const crisp_frame_plan **plan)
 {
     crisp_status st = CRISP_OK;
-    if (doc->scene->patch_count > 0) st = crisp_render_cpu(b->renderer, doc->scene, cam, img, rs);
-    else clear_image(img);
+    crisp_renderer *r = samples == 4 ? b->renderer_aa : b->renderer;
+    b->plan = NULL;
+    if (doc->scene->patch_count > 0 && plan) {
+        st = crisp_planner_plan(crisp_renderer_planner(r), doc->scene, cam, plan);
+        if (!st) st = crisp_render_cpu_plan(r, doc->scene, *plan, cam, img, rs);
+    } else if (doc->scene->patch_count > 0) {
+        st = crisp_render_cpu(r, doc->scene, cam, img, rs);
+    } else {
+        clear_image(img);
+    }
     if (!st && doc->part_count)
         st = crisp_render_frep_parts(doc->parts, doc->part_count, cam,
                                      &(crisp_frep_parts_desc){.threads = b->threads}, img);
@@ -113,8 +127,10 @@ static crisp_status cpu_frame(void *self, const app_doc *doc, const crisp_camera
     }
     double t0 = crisp_time_now();
     crisp_render_stats rs = {0};
-    crisp_status st = render_into(b, doc, &c, &b->img, &rs);
+    const crisp_frame_plan *plan = NULL;
+    crisp_status st = render_into(b, doc, &c, scale == 1 ? ov->samples : 1, &b->img, &rs, &plan);
     if (st) return st;
+    b->plan = plan;
     stats->ms = 1e3 * (crisp_time_now() - t0);
     stats->triangles = rs.triangles + rs.ribbon_triangles;
     stats->table_bytes = rs.table_bytes;
@@ -148,9 +164,17 @@ static void cpu_present(void *self, int fb_width, int fb_height)
 }
 
 static crisp_status cpu_offscreen(void *self, const app_doc *doc, const crisp_camera *cam,
-                                  crisp_image *img)
+                                  int samples, crisp_image *img)
 {
-    return render_into(self, doc, cam, img, NULL);
+    return render_into(self, doc, cam, samples, img, NULL, NULL);
+}
+
+static const crisp_frame_plan *cpu_plan(void *self) { return ((cpu_backend *)self)->plan; }
+
+static const crisp_image *cpu_image(void *self)
+{
+    cpu_backend *b = self;
+    return b->img.rgba ? &b->img : NULL;
 }
 
 static void cpu_destroy(void *self)
@@ -158,6 +182,7 @@ static void cpu_destroy(void *self)
     cpu_backend *b = self;
     if (!b) return;
     crisp_renderer_destroy(b->renderer);
+    crisp_renderer_destroy(b->renderer_aa);
     crisp_image_free(&b->img);
     free(b->rgba8);
     app_image_view_free(&b->iv);
@@ -171,6 +196,9 @@ crisp_status view_backend_cpu_create(int threads, view_backend *dest)
     b->threads = threads;
     char err[512];
     crisp_status st = crisp_renderer_create(&(crisp_render_desc){.threads = threads}, &b->renderer);
+    if (!st)
+        st = crisp_renderer_create(&(crisp_render_desc){.threads = threads, .samples = 4},
+                                   &b->renderer_aa);
     if (!st && !app_image_view_init(&b->iv, err, sizeof err))
         st = crisp_error(CRISP_ERR_GL, "%s", err);
     if (st) {
@@ -182,6 +210,8 @@ crisp_status view_backend_cpu_create(int threads, view_backend *dest)
                            .frame = cpu_frame,
                            .present = cpu_present,
                            .offscreen = cpu_offscreen,
+                           .plan = cpu_plan,
+                           .image = cpu_image,
                            .destroy = cpu_destroy};
     return CRISP_OK;
 }

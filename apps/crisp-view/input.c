@@ -300,6 +300,16 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
         v->dirty = 1;
         break;
     case GLFW_KEY_C: view_print_camera(v); break;
+    case GLFW_KEY_W:
+        v->show_wire = !v->show_wire;
+        v->dirty = 1;
+        break;
+    case GLFW_KEY_T: v->show_scan = !v->show_scan; break;
+    case GLFW_KEY_A:
+        v->ov.samples = v->ov.samples == 4 ? 1 : 4;
+        v->dirty = 1;
+        printf("anti-aliasing: %d samples per pixel\n", v->ov.samples);
+        break;
     case GLFW_KEY_S:
         if (mods & GLFW_MOD_CONTROL) camera_file(v, 1);
         break;

@@ -15,7 +15,7 @@ static const char usage[] =
     "usage: crisp-view [MODEL] [--size WxH] [--replay EVENTS] [--screenshot OUT.png]\n"
     "                  [--screenshot-size WxH] [--aov OUT.exr] [--exit-after-replay]\n"
     "                  [--camera \"crisp render camera options\"] [--threads N] [--no-vsync]\n"
-    "                  [--no-lowres]\n"
+    "                  [--no-lowres] [--no-aa]\n"
     "  MODEL: IGES, STEP, OBJ, .vm / math-string f-rep part, or .scene file\n"
     "  --replay EVENTS: play a replay file (README.md, \"crisp-view\") through the input path\n"
     "  --screenshot OUT.png: after the replay (or the first load), write the view rendered\n"
@@ -58,6 +58,8 @@ void view_print_camera(view *v)
     app_nav_update_clip(&v->nav);
     crisp_camera c = shot_camera(v, v->shot_w, v->shot_h);
     app_nav_format(&c, v->camera_text, sizeof v->camera_text);
+    size_t n = strlen(v->camera_text);
+    snprintf(v->camera_text + n, sizeof v->camera_text - n, " --samples %d", v->ov.samples);
     printf("camera: %s\n", v->camera_text);
 }
 
@@ -109,13 +111,14 @@ crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, i
     crisp_camera c = shot_camera(v, w, h);
     crisp_image img = {0};
     crisp_status st = crisp_image_init(&img, c.width, c.height);
-    if (!st) st = v->backend.offscreen(v->backend.self, v->doc, &c, &img);
+    if (!st) st = v->backend.offscreen(v->backend.self, v->doc, &c, v->ov.samples, &img);
     if (!st) st = write_images(&img, png, exr);
     crisp_image_free(&img);
+    if (v->show_wire || v->show_scan) v->dirty = 1; /* the off-screen render replaced the plan */
     if (!st) {
         char cam[512];
         app_nav_format(&c, cam, sizeof cam);
-        printf("screenshot: %s camera: %s\n", png ? png : exr, cam);
+        printf("screenshot: %s camera: %s --samples %d\n", png ? png : exr, cam, v->ov.samples);
     }
     return st;
 }
@@ -286,6 +289,7 @@ static void render_frame(view *v)
         return;
     }
     v->last = fs;
+    if (v->show_wire) view_wire_update(v);
     if (scale == 1) {
         v->last_full_ms = fs.ms;
     } else {
@@ -322,6 +326,7 @@ int main(int argc, char **argv)
     v->show_hud = 1;
     v->show_panels = 1;
     v->ov.edges = 1;
+    v->ov.samples = 4;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         int more = i + 1 < argc;
@@ -334,6 +339,8 @@ int main(int argc, char **argv)
             no_vsync = 1;
         } else if (!strcmp(a, "--no-lowres")) {
             v->no_lowres = 1;
+        } else if (!strcmp(a, "--no-aa")) {
+            v->ov.samples = 1;
         } else if (a[0] == '-' && a[1] == '-' && !more) {
             fprintf(stderr, "crisp-view: option %s needs a value\n", a);
             return 2;
@@ -474,6 +481,7 @@ out:
     app_player_free(&v->player);
     free(v->doc_path);
     free(v->initial_camera);
+    free(v->wire);
     printf("exit: %d\n", rc);
     return rc;
 }

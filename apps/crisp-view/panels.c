@@ -19,7 +19,10 @@ static const char *const help_lines[][2] = {
     {"0 1 2 3 4 5 6", "isometric, front, top, right, back, bottom, left"},
     {"axis widget", "click a tip: look from that axis"},
     {"O", "orthographic / perspective"},
+    {"A", "anti-aliasing: 4 or 1 samples per pixel (refined frames, screenshots)"},
     {"E", "edges (face borders, trims, silhouettes) on / off"},
+    {"W", "wireframe of the current tessellation (the plan's leaves)"},
+    {"T", "the selected face's trim table: scan lines in (u, v)"},
     {"R", "reload the file (keeps the camera)"},
     {"drop a file", "open it"},
     {"Esc", "cancel a load; clear the selection"},
@@ -129,9 +132,12 @@ void view_draw_panels(view *v)
                         v->last.scale > 1 ? ", moving" : "");
             app_ui_text("triangles %llu", (unsigned long long)v->last.triangles);
             app_ui_text("table bytes %llu", (unsigned long long)v->last.table_bytes);
-            if (v->refined) app_ui_text_color(0.5f, 1, 0.5f, "refined");
+            if (v->refined) app_ui_text_color(0.5f, 1, 0.5f, "refined (%d samples)", v->ov.samples);
             else app_ui_text_color(1, 0.8f, 0.3f, "not refined (1/%d)", v->last.scale);
             app_ui_text("%s", v->nav.ortho ? "orthographic" : "perspective");
+            if (v->show_wire)
+                app_ui_text("wireframe: %u leaves, %zu segments%s", v->wire_leaves, v->wire_count,
+                            v->wire_truncated ? " (truncated)" : "");
         }
         app_ui_end();
     }
@@ -178,7 +184,9 @@ void view_draw_panels(view *v)
         }
         app_ui_end();
     }
+    if (v->show_scan) view_scan_panel(v);
     if (v->doc) {
+        if (v->show_wire) view_wire_draw(v);
         draw_axes(v);
         draw_measure(v);
     }

@@ -26,6 +26,7 @@ typedef struct view_frame_stats {
 typedef struct view_overlay {
     int32_t selected_face;  /* tinted; -1 none */
     int edges;              /* draw face borders, trims and silhouettes from the face ids */
+    int samples;            /* per pixel in full-size frames (1 or 4); moving frames take 1 */
 } view_overlay;
 
 typedef struct view_backend {
@@ -36,9 +37,13 @@ typedef struct view_backend {
                           const view_overlay *ov, view_frame_stats *stats);
     /* Draw the last frame over the framebuffer. */
     void (*present)(void *self, int fb_width, int fb_height);
-    /* Render cam off-screen at its own size into img (colour and AOVs), as `crisp render`. */
+    /* Render cam off-screen at its own size into img (colour and AOVs), as `crisp render`
+     * with --samples samples. */
     crisp_status (*offscreen)(void *self, const app_doc *doc, const crisp_camera *cam,
-                              crisp_image *img);
+                              int samples, crisp_image *img);
+    /* The last frame's plan and image (AOVs), or NULL (a backend may keep neither). */
+    const struct crisp_frame_plan *(*plan)(void *self);
+    const crisp_image *(*image)(void *self);
     void (*destroy)(void *self);
 } view_backend;
 
@@ -105,6 +110,12 @@ struct view {
     int exit_code;
     int threads;
     int no_lowres;         /* every frame at full size (for measuring the low-res frames) */
+    /* debugging views (debugviews.c) */
+    int show_wire, show_scan;
+    float *wire;           /* segments x0 y0 x1 y1 in window pixels */
+    size_t wire_count, wire_cap;
+    int wire_truncated;
+    uint32_t wire_leaves;
     long frames;
 };
 
@@ -128,6 +139,11 @@ void view_on_close(GLFWwindow *w);
 int view_pick(view *v, double x, double y, view_hit *dest);
 void view_describe_face(view *v, int32_t face, char *buf, size_t size);
 void view_set_standard(view *v, int which);
+
+/* debugviews.c */
+void view_wire_update(view *v);
+void view_wire_draw(view *v);
+void view_scan_panel(view *v);
 
 /* panels.c */
 void view_draw_panels(view *v);
