@@ -212,6 +212,9 @@ void view_on_scroll(GLFWwindow *w, double dx, double dy)
     if (view_pick(v, v->mx, v->my, &h)) memcpy(p, h.point, sizeof p);
     else app_nav_focus_point(&v->nav, v->mx, v->my, p);
     app_nav_zoom(&v->nav, p, pow(0.8, dy));
+    /* the point under the cursor is in view: the near plane must stay in front of it */
+    double dp = app_nav_depth(&v->nav.cam, p);
+    if (h.hit && dp > 0 && (v->nav.depth_hint <= 0 || dp < v->nav.depth_hint)) v->nav.depth_hint = dp;
     v->dirty = 1;
     v->moving = 1;
 }

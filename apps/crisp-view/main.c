@@ -278,7 +278,6 @@ static void render_frame(view *v)
         if (v->scale < 1) v->scale = (int)ceil(sqrt(fmax(v->last_full_ms, 1) / 25.0));
         scale = v->scale < 1 ? 1 : v->scale > 8 ? 8 : v->scale;
     }
-    if (isfinite(v->last.min_depth) && v->last.min_depth > 0) v->nav.depth_hint = v->last.min_depth;
     app_nav_update_clip(&v->nav);
     view_frame_stats fs = {0};
     crisp_status st = v->backend.frame(v->backend.self, v->doc, &v->nav.cam, scale, &v->ov, &fs);
@@ -289,6 +288,9 @@ static void render_frame(view *v)
         return;
     }
     v->last = fs;
+    /* the least depth drawn bounds the near plane of the next frames (the navigation scales it
+     * as it moves the camera) */
+    if (isfinite(fs.min_depth) && fs.min_depth > 0) v->nav.depth_hint = fs.min_depth;
     if (v->show_wire) view_wire_update(v);
     if (scale == 1) {
         v->last_full_ms = fs.ms;

@@ -401,6 +401,30 @@ static void test_pick_and_measure(void **state)
     free(out);
 }
 
+/* Zooming to the cursor 7,500 times into a detail: the near plane follows, so the surface under
+ * the cursor is still drawn (not clipped) and still picked. */
+static void test_zoom_no_clipping(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), args[1024];
+    assert_non_null(out);
+    snprintf(args, sizeof args, "%s/nurbs/occt_bearing.iges --size 320x200", CRISP_DATA_DIR);
+    assert_int_equal(run_view(args, "idle\nclick left 160 100\nwheel 20 160 100\nidle\nwheel 20 160 100\n"
+                                    "idle\nclick left 160 100\nscreenshot view_zoom.png\n", out), 0);
+    int f0, f1;
+    double p0[3], p1[3];
+    assert_true(parse_pick(find_line(out, "pick: ", 0), &f0, p0));
+    assert_true(parse_pick(find_line(out, "pick: ", 1), &f1, p1));
+    assert_int_equal(f0, f1);
+    image8 im = read_png("view_zoom.png");
+    int box[4];
+    size_t n = coverage(&im, box);
+    assert_true(im.px[4 * ((size_t)100 * im.w + 160) + 3] == 255);
+    if (n < (size_t)im.w * im.h * 9 / 10) fail_msg("only %zu of %d pixels drawn after zooming in", n, im.w * im.h);
+    free(im.px);
+    free(out);
+}
+
 /* The screenshot after navigating equals `crisp render` with the camera options the viewer
  * printed, away from edges (here: on every pixel). */
 static void test_screenshot_equals_cli(void **state)
@@ -547,6 +571,7 @@ int main(void)
         cmocka_unit_test(test_open_every_model),
         cmocka_unit_test(test_navigation),
         cmocka_unit_test(test_pick_and_measure),
+        cmocka_unit_test(test_zoom_no_clipping),
         cmocka_unit_test(test_screenshot_equals_cli),
         cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_close_during_load),
