@@ -425,6 +425,42 @@ static void test_zoom_no_clipping(void **state)
     free(out);
 }
 
+/* Editing the open file on disk (here an f-rep part as a math string, rewritten 1.5 s after the
+ * viewer started) reloads it and keeps the camera; the new part shows. */
+static void test_file_watch(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP);
+    assert_non_null(out);
+    FILE *f = fopen("view_watch.math", "w");
+    assert_non_null(f);
+    fputs("X*X + Y*Y + Z*Z < 0.25\n", f);
+    fclose(f);
+    assert_int_equal(system("(sleep 1.5; echo 'X*X + Y*Y + Z*Z < 0.81' > view_watch.math) &"), 0);
+    assert_int_equal(run_view("view_watch.math --size 200x150",
+                              "idle\nwheel -2 100 75\nidle\ncamera\nscreenshot view_watch0.png\n"
+                              "sleep 4000\nidle\ncamera\nscreenshot view_watch1.png\n", out), 0);
+    assert_non_null(find_line(out, "changed on disk: ", 0));
+    assert_int_equal(count_lines(out, "loaded: "), 2);
+    const char *c0 = find_line(out, "camera: ", 0), *c1 = find_line(out, "camera: ", 1);
+    assert_non_null(c0);
+    assert_non_null(c1);
+    /* the same view (near and far may follow the new part) */
+    char o0[1024], o1[1024];
+    camera_of(c0, o0, sizeof o0);
+    camera_of(c1, o1, sizeof o1);
+    *strstr(o0, " --near") = '\0';
+    *strstr(o1, " --near") = '\0';
+    assert_string_equal(o0, o1);
+    image8 a = read_png("view_watch0.png"), b = read_png("view_watch1.png");
+    int box[4];
+    size_t n0 = coverage(&a, box), n1 = coverage(&b, box);
+    if (!(n1 > n0 * 2)) fail_msg("the larger sphere covers %zu pixels, the smaller %zu", n1, n0);
+    free(a.px);
+    free(b.px);
+    free(out);
+}
+
 /* The screenshot after navigating equals `crisp render` with the camera options the viewer
  * printed, away from edges (here: on every pixel). */
 static void test_screenshot_equals_cli(void **state)
@@ -585,6 +621,7 @@ int main(void)
         cmocka_unit_test(test_navigation),
         cmocka_unit_test(test_pick_and_measure),
         cmocka_unit_test(test_zoom_no_clipping),
+        cmocka_unit_test(test_file_watch),
         cmocka_unit_test(test_screenshot_equals_cli),
         cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_close_during_load),
