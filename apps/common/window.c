@@ -130,6 +130,7 @@ void app_image_view_upload(app_image_view *v, int width, int height, const uint8
 
 void app_image_view_draw(app_image_view *v, int fb_width, int fb_height)
 {
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
     glViewport(0, 0, fb_width, fb_height);
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_BLEND);

@@ -1,5 +1,7 @@
-/* crisp-view's CPU display backend: crisp_render_cpu (and the f-rep parts) into a crisp_image,
- * shown through a texture. Overlays are applied while converting to 8 bits: the selected face is
+/* crisp-view's display backend: a frame into a crisp_image, shown through a texture. The frame
+ * comes from the CPU backend (crisp_render_cpu_plan) or, where crisp is built with the GL backend
+ * (CRISP_HAVE_GL) and --backend gl asks for it, from the GL backend on the window's own context
+ * (crisp_gl_draw of the same plan, read back); f-rep parts are composited on the CPU either way. Overlays are applied while converting to 8 bits: the selected face is
  * tinted, and edges come from the face-id AOV (a face border, a trim boundary or a silhouette is
  * where the face id changes between neighbouring pixels; never a triangle edge); a border where
  * the normals turn by more than 30 degrees is drawn dark (hard), else light (smooth). */
@@ -9,6 +11,9 @@
 
 #include "crisp/plan.h"
 #include "view.h"
+#ifdef CRISP_HAVE_GL
+#include "crisp/gl.h"
+#endif
 
 typedef struct cpu_backend {
     crisp_renderer *renderer;    /* 1 sample per pixel */
@@ -19,6 +24,12 @@ typedef struct cpu_backend {
     app_image_view iv;
     int threads;
     const crisp_frame_plan *plan; /* of the last frame; NULL after an off-screen render */
+#ifdef CRISP_HAVE_GL
+    int use_gl;
+    crisp_gl *gl[2];              /* 1 and 4 samples per pixel */
+    const crisp_scene *gl_scene[2];
+    crisp_planner *planner;
+#endif
 } cpu_backend;
 
 static void clear_image(crisp_image *img)
@@ -42,6 +53,26 @@ static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_
     crisp_status st = CRISP_OK;
     crisp_renderer *r = samples == 4 ? b->renderer_aa : b->renderer;
     b->plan = NULL;
+#ifdef CRISP_HAVE_GL
+    if (b->use_gl && doc->scene->patch_count > 0) {
+        int k = samples == 4;
+        const crisp_frame_plan *p = NULL;
+        if (b->gl_scene[k] != doc->scene) {
+            crisp_gl_forget_plan(b->gl[k]);
+            st = crisp_gl_set_scene(b->gl[k], doc->scene);
+            b->gl_scene[k] = st ? NULL : doc->scene;
+        }
+        if (!st) st = crisp_planner_plan(b->planner, doc->scene, cam, &p);
+        if (!st) st = crisp_gl_draw(b->gl[k], p, NULL);
+        if (!st) st = crisp_gl_read(b->gl[k], img, NULL);
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        if (!st && rs) {
+            rs->triangles = p->stats.triangles;
+            rs->table_bytes = p->stats.table_bytes;
+        }
+        if (plan) *plan = p;
+    } else
+#endif
     if (doc->scene->patch_count > 0 && plan) {
         st = crisp_planner_plan(crisp_renderer_planner(r), doc->scene, cam, plan);
         if (!st) st = crisp_render_cpu_plan(r, doc->scene, *plan, cam, img, rs);
@@ -177,10 +208,26 @@ static const crisp_image *cpu_image(void *self)
     return b->img.rgba ? &b->img : NULL;
 }
 
+static void cpu_set_doc(void *self, const app_doc *doc)
+{
+    (void)doc;
+    cpu_backend *b = self;
+    b->plan = NULL;
+#ifdef CRISP_HAVE_GL
+    /* a new scene may sit at a freed one's address */
+    b->gl_scene[0] = b->gl_scene[1] = NULL;
+#endif
+}
+
 static void cpu_destroy(void *self)
 {
     cpu_backend *b = self;
     if (!b) return;
+#ifdef CRISP_HAVE_GL
+    crisp_gl_destroy(b->gl[0]);
+    crisp_gl_destroy(b->gl[1]);
+    crisp_planner_destroy(b->planner);
+#endif
     crisp_renderer_destroy(b->renderer);
     crisp_renderer_destroy(b->renderer_aa);
     crisp_image_free(&b->img);
@@ -189,11 +236,40 @@ static void cpu_destroy(void *self)
     free(b);
 }
 
-crisp_status view_backend_cpu_create(int threads, view_backend *dest)
+int view_backend_have_gl(void)
+{
+#ifdef CRISP_HAVE_GL
+    return 1;
+#else
+    return 0;
+#endif
+}
+
+crisp_status view_backend_create(int threads, int use_gl, view_backend *dest)
 {
     cpu_backend *b = calloc(1, sizeof *b);
     if (!b) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
     b->threads = threads;
+    if (use_gl && !view_backend_have_gl()) {
+        free(b);
+        return crisp_error(CRISP_ERR_UNSUPPORTED, "--backend gl: crisp was built without the GL "
+                                                  "backend (src/gl)");
+    }
+#ifdef CRISP_HAVE_GL
+    b->use_gl = use_gl;
+    if (use_gl) {
+        crisp_status gs = crisp_gl_create((crisp_gl_getproc_fn)glfwGetProcAddress,
+                                          &(crisp_gl_desc){.samples = 1}, &b->gl[0]);
+        if (!gs)
+            gs = crisp_gl_create((crisp_gl_getproc_fn)glfwGetProcAddress,
+                                 &(crisp_gl_desc){.samples = 4}, &b->gl[1]);
+        if (!gs) gs = crisp_planner_create(NULL, NULL, &b->planner);
+        if (gs) {
+            cpu_destroy(b);
+            return gs;
+        }
+    }
+#endif
     char err[512];
     crisp_status st = crisp_renderer_create(&(crisp_render_desc){.threads = threads}, &b->renderer);
     if (!st)
@@ -205,13 +281,14 @@ crisp_status view_backend_cpu_create(int threads, view_backend *dest)
         cpu_destroy(b);
         return st;
     }
-    *dest = (view_backend){.name = "cpu",
+    *dest = (view_backend){.name = use_gl ? "gl" : "cpu",
                            .self = b,
                            .frame = cpu_frame,
                            .present = cpu_present,
                            .offscreen = cpu_offscreen,
                            .plan = cpu_plan,
                            .image = cpu_image,
+                           .set_doc = cpu_set_doc,
                            .destroy = cpu_destroy};
     return CRISP_OK;
 }

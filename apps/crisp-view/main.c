@@ -15,7 +15,7 @@ static const char usage[] =
     "usage: crisp-view [MODEL] [--size WxH] [--replay EVENTS] [--screenshot OUT.png]\n"
     "                  [--screenshot-size WxH] [--aov OUT.exr] [--exit-after-replay]\n"
     "                  [--camera \"crisp render camera options\"] [--threads N] [--no-vsync]\n"
-    "                  [--no-lowres] [--no-aa]\n"
+    "                  [--no-lowres] [--no-aa] [--backend cpu|gl]\n"
     "  MODEL: IGES, STEP, OBJ, .vm / math-string f-rep part, or .scene file\n"
     "  --replay EVENTS: play a replay file (README.md, \"crisp-view\") through the input path\n"
     "  --screenshot OUT.png: after the replay (or the first load), write the view rendered\n"
@@ -59,7 +59,8 @@ void view_print_camera(view *v)
     crisp_camera c = shot_camera(v, v->shot_w, v->shot_h);
     app_nav_format(&c, v->camera_text, sizeof v->camera_text);
     size_t n = strlen(v->camera_text);
-    snprintf(v->camera_text + n, sizeof v->camera_text - n, " --samples %d", v->ov.samples);
+    snprintf(v->camera_text + n, sizeof v->camera_text - n, " --samples %d%s", v->ov.samples,
+             strcmp(v->backend.name, "gl") ? "" : " --backend gl");
     printf("camera: %s\n", v->camera_text);
 }
 
@@ -118,7 +119,8 @@ crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, i
     if (!st) {
         char cam[512];
         app_nav_format(&c, cam, sizeof cam);
-        printf("screenshot: %s camera: %s --samples %d\n", png ? png : exr, cam, v->ov.samples);
+        printf("screenshot: %s camera: %s --samples %d%s\n", png ? png : exr, cam, v->ov.samples,
+               strcmp(v->backend.name, "gl") ? "" : " --backend gl");
     }
     return st;
 }
@@ -198,6 +200,7 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
 static void install_doc(view *v, app_doc *doc, int keep_camera)
 {
     int keep = keep_camera && v->have_camera;
+    v->backend.set_doc(v->backend.self, doc);
     app_doc_destroy(v->doc);
     v->doc = doc;
     if (keep) {
@@ -320,7 +323,7 @@ int main(int argc, char **argv)
 {
     setvbuf(stdout, NULL, _IOLBF, 0);
     const char *model = NULL, *replay = NULL, *aov = NULL;
-    int width = 1280, height = 720, no_vsync = 0;
+    int width = 1280, height = 720, no_vsync = 0, use_gl = 0;
     static view vv;
     view *v = &vv;
     v->drag_button = -1;
@@ -356,6 +359,13 @@ int main(int argc, char **argv)
                 fprintf(stderr, "crisp-view: --screenshot-size '%s': expected WxH\n", argv[i]);
                 return 2;
             }
+        } else if (!strcmp(a, "--backend")) {
+            const char *b = argv[++i];
+            if (strcmp(b, "cpu") && strcmp(b, "gl")) {
+                fprintf(stderr, "crisp-view: --backend '%s': expected cpu or gl\n", b);
+                return 2;
+            }
+            use_gl = !strcmp(b, "gl");
         } else if (!strcmp(a, "--replay")) {
             replay = argv[++i];
         } else if (!strcmp(a, "--screenshot")) {
@@ -416,7 +426,7 @@ int main(int argc, char **argv)
     if (!app_ui_init(v->win)) {
         fprintf(stderr, "crisp-view: cannot start Dear ImGui\n");
         rc = 1;
-    } else if (view_backend_cpu_create(v->threads, &v->backend)) {
+    } else if (view_backend_create(v->threads, use_gl, &v->backend)) {
         fprintf(stderr, "crisp-view: %s\n", crisp_error_message());
         rc = 1;
     } else if (!app_loader_create(&v->loader)) {

@@ -44,10 +44,14 @@ typedef struct view_backend {
     /* The last frame's plan and image (AOVs), or NULL (a backend may keep neither). */
     const struct crisp_frame_plan *(*plan)(void *self);
     const crisp_image *(*image)(void *self);
+    /* A new document is shown (frames of the old one are gone). */
+    void (*set_doc)(void *self, const app_doc *doc);
     void (*destroy)(void *self);
 } view_backend;
 
-crisp_status view_backend_cpu_create(int threads, view_backend *dest);
+/* The CPU backend, or (use_gl) the GL backend on the current window's context. */
+crisp_status view_backend_create(int threads, int use_gl, view_backend *dest);
+int view_backend_have_gl(void);
 
 /* ---- the viewer --------------------------------------------------------------------------- */
 
