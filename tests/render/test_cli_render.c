@@ -89,7 +89,7 @@ static void test_camera_values(void **state)
         {"--near 0", "near 0"},          {"--near -1", "near -1"},       {"--near 5 --far 2", "near 5"},
         {"--near abc", "--near"},        {"--far inf", "--far"},         {"--samples 3", "--samples"},
         {"--threads 0", "--threads"},    {"--eye 1,2,nan", "--eye"},
-        {"--size 16384x16384", "at most"}, {"--size 4096x4096 --samples 16", "at most"},
+        {"--size 16384x16384", "--max-memory"}, {"--size 4096x4096 --samples 16", "--max-memory"},
         {"--eye 0,5,0 --target 0,0,0 --up 0,2,0", "parallel"},
         {"--eye 1,1,1 --target 1,1,1", "equals target"},
     };
