@@ -22,13 +22,14 @@ static const char usage_text[] =
     "                        R G B A Z N.x N.y N.z u v face) [out.png]\n"
     "      --aov FILE.exr    also write the EXR with every AOV [none]\n"
     "      --size WxH        image size in pixels, each 1..16384 [1280x720]\n"
-    "      --view NAME       front, back, left, right, top, bottom or iso, the camera fitted to the\n"
-    "                        trimmed geometry's box [the scene file's camera line, else iso]\n"
+    "      --view NAME       front (seen from -Y), back, left, right, top (from +Z), bottom or iso\n"
+    "                        (from 1,-1,1), +Z up, fitted to the trimmed geometry's box\n"
+    "                        [the scene file's camera line, else iso]\n"
     "      --fit             keep the direction of --eye/--target (or the camera line) and move the\n"
     "                        camera so the box just fits [off]\n"
     "      --eye x,y,z       camera position [fitted]\n"
     "      --target x,y,z    point looked at [the middle of the box]\n"
-    "      --up x,y,z        up direction [0,1,0; 0,0,-1 / 0,0,1 looking straight down / up]\n"
+    "      --up x,y,z        up direction [0,0,1; 0,1,0 / 0,-1,0 looking straight down / up]\n"
     "      --fov DEG         vertical field of view in (0, 180) [30]\n"
     "      --near N          near plane distance > 0 [encloses the box]\n"
     "      --far F           far plane distance > near [encloses the box]\n"
@@ -200,7 +201,8 @@ typedef struct frame_times {
     double *total, *levels, *edges, *trim, *tess, *raster, *resolve;
 } frame_times;
 
-static void print_stats(const render_args *a, const crisp_document *doc, const crisp_image *img,
+static void print_stats(const render_args *a, const crisp_document *doc, const crisp_camera *cam,
+                        const crisp_image *img,
                         const crisp_render_stats *rs, frame_times *t, double ms_write)
 {
     int cpu = a->render.backend == CRISP_BACKEND_CPU;
@@ -217,6 +219,11 @@ static void print_stats(const render_args *a, const crisp_document *doc, const c
     printf("faces            %u\n", sc->face_count);
     printf("patches          %u\n", sc->patch_count);
     printf("trim pieces      %u\n", sc->piece_count);
+    printf("box              %g %g %g .. %g %g %g\n", doc->box[0], doc->box[1], doc->box[2], doc->box[3],
+           doc->box[4], doc->box[5]);
+    printf("camera           eye %g,%g,%g target %g,%g,%g up %g,%g,%g fov %g near %g far %g\n", cam->eye[0],
+           cam->eye[1], cam->eye[2], cam->target[0], cam->target[1], cam->target[2], cam->up[0], cam->up[1],
+           cam->up[2], cam->fov_deg, cam->znear, cam->zfar);
     if (cpu && sc->patch_count) {
         printf("patches drawn    %u (%u split, %u leaves)\n", rs->visible_patches, rs->split_patches, rs->leaves);
         printf("faces drawn      %u\n", rs->visible_faces);
@@ -308,7 +315,7 @@ int crisp_cmd_render(int argc, char **argv)
                     printf(", %.0f ms)\n", ms_render);
                 }
         }
-        if (a.stats) print_stats(&a, doc, &img, &rs, &ft, ms_write);
+        if (a.stats) print_stats(&a, doc, &cam, &img, &rs, &ft, ms_write);
     }
     crisp_renderer_destroy(renderer);
     crisp_image_free(&img);

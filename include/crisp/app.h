@@ -6,8 +6,8 @@
  *                                camera line, opened from one file
  *   crisp_document_open/_destroy IGES, STEP, OBJ (by content), .scene, .vm or a math-string file
  *   crisp_view, crisp_view_parse front, back, left, right, top, bottom, iso
- *   crisp_camera_fit             a perspective camera looking along a direction, moved so that
- *                                every corner of a box is on screen with a margin (tight)
+ *   crisp_camera_fit(_points)    a perspective camera looking along a direction, moved so that
+ *                                every corner of a box (every point) is on screen with a margin
  *   crisp_document_camera        the camera `crisp render` uses: options, the scene's camera
  *                                line, or the default (isometric, fitted to the trimmed box)
  *   crisp_document_render        one frame with the CPU or the exact backend, f-rep parts
@@ -51,10 +51,13 @@ typedef struct crisp_document {
      * the box) */
     int has_camera, has_target;
     double eye[3], target[3], up[3], fov_deg;
-    /* trimmed faces' box (scene->box) joined with each part's [-1, 1]^3 through its transform;
-     * xmin, ymin, zmin, xmax, ymax, zmax */
-    double box[6];
-    double ms_load, ms_prepare; /* time spent reading and preparing */
+    /* what the default camera frames: points of the trimmed faces sampled on the true surfaces
+     * (their trim curves mapped through the surface, and the inside points of a uv grid; clamped
+     * to scene->box) and the corners of each part's [-1, 1]^3 through its transform */
+    double *points; /* 3 per point */
+    size_t point_count;
+    double box[6]; /* their box: xmin, ymin, zmin, xmax, ymax, zmax */
+    double ms_load, ms_prepare; /* time spent reading, and preparing (with the box) */
     /* owned storage */
     crisp_scene_file *scene_file;
     crisp_scene_assets *assets;
@@ -74,8 +77,9 @@ void crisp_document_destroy(crisp_document *doc);
 
 /* ---- cameras ---------------------------------------------------------------------------------- */
 
-/* Directions the camera looks from, +Y up (the eye is on the named side of the box):
- * front +Z, back -Z, right +X, left -X, top +Y (up -Z), bottom -Y (up +Z), iso (1, 1, 1). */
+/* Directions the camera looks from, +Z up as in most CAD files (the eye is on the named side of
+ * the box): front -Y, back +Y, right +X, left -X, top +Z (up +Y), bottom -Z (up -Y),
+ * iso (1, -1, 1) (front, right and top seen). */
 typedef enum crisp_view {
     CRISP_VIEW_DEFAULT = 0, /* the scene file's camera line if any, else iso */
     CRISP_VIEW_ISO,
@@ -105,6 +109,11 @@ typedef struct crisp_camera_fit_desc {
  * the box. desc may be NULL. */
 crisp_status crisp_camera_fit(const double box[6], const double dir[3], const double up[3],
                               const crisp_camera_fit_desc *desc, crisp_camera *dest);
+/* The same for a set of points (3 doubles each, count >= 1): every point on screen with the
+ * margin, the target at the depth of the points' mean. */
+crisp_status crisp_camera_fit_points(const double *points, size_t count, const double dir[3],
+                                     const double up[3], const crisp_camera_fit_desc *desc,
+                                     crisp_camera *dest);
 
 /* What the caller asks of the camera; zero (or NULL) is the default for every field. */
 typedef struct crisp_camera_desc {
@@ -114,15 +123,16 @@ typedef struct crisp_camera_desc {
                                   move the camera to fit the box tightly */
     const double *eye;         /* 3 numbers, or NULL */
     const double *target;      /* NULL: the middle of the box */
-    const double *up;          /* NULL: +Y (-Z / +Z looking straight down / up) */
+    const double *up;          /* NULL: +Z (+Y / -Y looking straight down / up) */
     double fov_deg;            /* 0: the camera line's, else 30 */
     double znear, zfar;        /* 0: enclose the box (other values are checked) */
     double margin;             /* 0: 0.04 (see crisp_camera_fit) */
 } crisp_camera_desc;
 
 /* The camera for doc: an explicit eye (optionally fitted), else the scene file's camera line
- * when desc->view is DEFAULT, else the view's direction fitted to doc->box. Checked with
- * crisp_camera_check. desc may be NULL. */
+ * when desc->view is DEFAULT, else the view's direction fitted to doc->points (every sampled
+ * point of the trimmed geometry on screen with the margin). Checked with crisp_camera_check.
+ * desc may be NULL. */
 crisp_status crisp_document_camera(const crisp_document *doc, const crisp_camera_desc *desc,
                                    crisp_camera *dest);
 

@@ -1,6 +1,7 @@
 /* Default cameras: named views (front, back, left, right, top, bottom, iso) and a perspective
  * camera fitted tightly to a box along a given direction. Conventions as docs/design.md, camera
- * section (gluLookAt / gluPerspective, +Y up, vertical fov).
+ * section (gluLookAt / gluPerspective, vertical fov); the named views take +Z as up, as CAD
+ * files mostly do (the bundled IGES and STEP models stand on the XY plane).
  *
  * The fit: in the camera's frame (x right, y up, z forward) a corner p is on screen with margin
  * when |p_x - e_x| <= t_x (p_z - e_z) and the same in y, with t_x = (1 - margin) tan(fov_x / 2).
@@ -17,14 +18,14 @@ static const struct {
     const char *name;
     double dir[3], up[3];
 } views[] = {
-    [CRISP_VIEW_DEFAULT] = {"iso", {1, 1, 1}, {0, 1, 0}},
-    [CRISP_VIEW_ISO] = {"iso", {1, 1, 1}, {0, 1, 0}},
-    [CRISP_VIEW_FRONT] = {"front", {0, 0, 1}, {0, 1, 0}},
-    [CRISP_VIEW_BACK] = {"back", {0, 0, -1}, {0, 1, 0}},
-    [CRISP_VIEW_LEFT] = {"left", {-1, 0, 0}, {0, 1, 0}},
-    [CRISP_VIEW_RIGHT] = {"right", {1, 0, 0}, {0, 1, 0}},
-    [CRISP_VIEW_TOP] = {"top", {0, 1, 0}, {0, 0, -1}},
-    [CRISP_VIEW_BOTTOM] = {"bottom", {0, -1, 0}, {0, 0, 1}},
+    [CRISP_VIEW_DEFAULT] = {"iso", {1, -1, 1}, {0, 0, 1}},
+    [CRISP_VIEW_ISO] = {"iso", {1, -1, 1}, {0, 0, 1}},
+    [CRISP_VIEW_FRONT] = {"front", {0, -1, 0}, {0, 0, 1}},
+    [CRISP_VIEW_BACK] = {"back", {0, 1, 0}, {0, 0, 1}},
+    [CRISP_VIEW_LEFT] = {"left", {-1, 0, 0}, {0, 0, 1}},
+    [CRISP_VIEW_RIGHT] = {"right", {1, 0, 0}, {0, 0, 1}},
+    [CRISP_VIEW_TOP] = {"top", {0, 0, 1}, {0, 1, 0}},
+    [CRISP_VIEW_BOTTOM] = {"bottom", {0, 0, -1}, {0, -1, 0}},
 };
 
 int crisp_view_parse(const char *name, crisp_view *dest)
@@ -52,6 +53,26 @@ void crisp_view_direction(crisp_view view, double dir[3], double up[3])
 crisp_status crisp_camera_fit(const double box[6], const double dir[3], const double up[3],
                               const crisp_camera_fit_desc *desc, crisp_camera *dest)
 {
+    for (int i = 0; i < 6; i++)
+        if (!isfinite(box[i]) || (i < 3 && box[i] > box[i + 3]))
+            return crisp_error(CRISP_ERR_NUMERIC, "cannot frame an empty or non-finite box");
+    /* A box of no size in some direction (a planar model seen edge on, a single point) still
+     * gets a frame: pad it by a small part of its largest extent (or 1). */
+    double b[6], ext = 0, corners[24];
+    memcpy(b, box, sizeof b);
+    for (int a = 0; a < 3; a++) ext = fmax(ext, b[a + 3] - b[a]);
+    double pad = ext > 0 ? 1e-6 * ext : 0.5;
+    for (int a = 0; a < 3; a++)
+        if (b[a + 3] - b[a] < 2 * pad) b[a] -= pad, b[a + 3] += pad;
+    for (int c = 0; c < 8; c++)
+        for (int a = 0; a < 3; a++) corners[3 * c + a] = b[(c >> a & 1) ? a + 3 : a];
+    return crisp_camera_fit_points(corners, 8, dir, up, desc, dest);
+}
+
+crisp_status crisp_camera_fit_points(const double *points, size_t count, const double dir[3],
+                                     const double up[3], const crisp_camera_fit_desc *desc,
+                                     crisp_camera *dest)
+{
     crisp_camera_fit_desc d = desc ? *desc : (crisp_camera_fit_desc){0};
     if (!d.width && !d.height) d.width = 1280, d.height = 720;
     if (d.fov_deg == 0) d.fov_deg = 30;
@@ -62,9 +83,9 @@ crisp_status crisp_camera_fit(const double box[6], const double dir[3], const do
         return crisp_error(CRISP_ERR_INVALID_ARG, "fov %g degrees: expected in (0, 180)", d.fov_deg);
     if (!(d.margin >= 0 && d.margin < 1))
         return crisp_error(CRISP_ERR_INVALID_ARG, "margin %g: expected in [0, 1)", d.margin);
-    for (int i = 0; i < 6; i++)
-        if (!isfinite(box[i]) || (i < 3 && box[i] > box[i + 3]))
-            return crisp_error(CRISP_ERR_NUMERIC, "cannot frame an empty or non-finite box");
+    if (!points || count == 0) return crisp_error(CRISP_ERR_INVALID_ARG, "no points to frame");
+    for (size_t i = 0; i < 3 * count; i++)
+        if (!isfinite(points[i])) return crisp_error(CRISP_ERR_NUMERIC, "cannot frame a non-finite point");
     /* camera frame: f forward (towards the target), r right, u up */
     double f[3], back[3], r[3], u[3];
     if (!crisp_vec3_normalize(dir, back))
@@ -76,21 +97,13 @@ crisp_status crisp_camera_fit(const double box[6], const double dir[3], const do
         return crisp_error(CRISP_ERR_INVALID_ARG, "up (%g, %g, %g) is parallel to the view direction",
                            up[0], up[1], up[2]);
     crisp_vec3_cross(r, f, u);
-    /* A box of no size in some direction (a planar model seen edge on, a single point) still
-     * gets a frame: pad it by a small part of its largest extent (or 1). */
-    double b[6], ext = 0;
-    memcpy(b, box, sizeof b);
-    for (int a = 0; a < 3; a++) ext = fmax(ext, b[a + 3] - b[a]);
-    double pad = ext > 0 ? 1e-6 * ext : 0.5;
-    for (int a = 0; a < 3; a++)
-        if (b[a + 3] - b[a] < 2 * pad) b[a] -= pad, b[a + 3] += pad;
     double tan_y = tan(d.fov_deg * (M_PI / 360.0));
     double tan_x = tan_y * d.width / d.height;
     double tx = (1 - d.margin) * tan_x, ty = (1 - d.margin) * tan_y;
     double A = INFINITY, B = INFINITY, C = INFINITY, D = INFINITY;
     double zmin = INFINITY, zmax = -INFINITY, zc = 0;
-    for (int c = 0; c < 8; c++) {
-        double p[3] = {b[(c & 1) ? 3 : 0], b[(c & 2) ? 4 : 1], b[(c & 4) ? 5 : 2]};
+    for (size_t c = 0; c < count; c++) {
+        const double *p = points + 3 * c;
         double px = crisp_vec3_dot(p, r), py = crisp_vec3_dot(p, u), pz = crisp_vec3_dot(p, f);
         A = fmin(A, pz - px / tx);
         B = fmin(B, pz + px / tx);
@@ -98,10 +111,16 @@ crisp_status crisp_camera_fit(const double box[6], const double dir[3], const do
         D = fmin(D, pz + py / ty);
         zmin = fmin(zmin, pz);
         zmax = fmax(zmax, pz);
-        zc += pz / 8;
+        zc += pz / (double)count;
     }
     double ex = tx * (B - A) / 2, ey = ty * (D - C) / 2, ez = fmin((A + B) / 2, (C + D) / 2);
-    double dist = zc - ez; /* the target: on the axis at the depth of the box's centre */
+    /* Points all in one plane seen edge on, or one point: no depth range to place the eye by;
+     * back off by the points' extent (or 1). */
+    double span = 0;
+    for (size_t c = 0; c < count; c++)
+        for (int a = 0; a < 3; a++) span = fmax(span, fabs(points[3 * c + a] - points[a]));
+    if (!(zmin - ez > 1e-9 * fmax(span, 1))) ez = zmin - fmax(span, 1);
+    double dist = zc - ez; /* the target: on the axis at the depth of the points' mean */
     crisp_camera cam = {.fov_deg = d.fov_deg, .width = d.width, .height = d.height};
     for (int k = 0; k < 3; k++) {
         cam.eye[k] = ex * r[k] + ey * u[k] + ez * f[k];
@@ -112,24 +131,23 @@ crisp_status crisp_camera_fit(const double box[6], const double dir[3], const do
     cam.zfar = 1.01 * far_d;
     cam.znear = fmax(0.99 * near_d, 1e-4 * cam.zfar);
     if (!(cam.znear > 0 && cam.zfar > cam.znear && dist > 0))
-        return crisp_error(CRISP_ERR_NUMERIC, "cannot fit the box (%g %g %g .. %g %g %g) on screen", box[0],
-                           box[1], box[2], box[3], box[4], box[5]);
+        return crisp_error(CRISP_ERR_NUMERIC, "cannot fit %zu points on screen", count);
     *dest = cam;
     return crisp_camera_check(dest);
 }
 
-/* Without an up vector: +Y, or -Z looking straight down and +Z looking straight up (the image
- * seen with +Y up after tilting the camera over the pole). */
+/* Without an up vector: +Z (the CAD convention, as the named views), or +Y looking straight down
+ * and -Y looking straight up (the top and bottom views' up). */
 static void default_up(const double eye[3], const double target[3], double up[3])
 {
     double dv[3], f[3], s[3];
-    up[0] = 0, up[1] = 1, up[2] = 0;
+    up[0] = 0, up[1] = 0, up[2] = 1;
     crisp_vec3_sub(target, eye, dv);
     if (!crisp_vec3_normalize(dv, f)) return;
     crisp_vec3_cross(f, up, s);
     if (crisp_vec3_norm(s) > 1e-6) return;
-    up[1] = 0;
-    up[2] = f[1] < 0 ? -1 : 1;
+    up[2] = 0;
+    up[1] = f[2] < 0 ? 1 : -1;
 }
 
 crisp_status crisp_document_camera(const crisp_document *doc, const crisp_camera_desc *desc,
@@ -168,7 +186,9 @@ crisp_status crisp_document_camera(const crisp_document *doc, const crisp_camera
             if (have_up) memcpy(vup, up, sizeof vup);
         }
         crisp_camera_fit_desc fd = {.width = d.width, .height = d.height, .fov_deg = fov, .margin = d.margin};
-        if ((st = crisp_camera_fit(box, dir, vup, &fd, &cam))) return st;
+        st = doc->point_count ? crisp_camera_fit_points(doc->points, doc->point_count, dir, vup, &fd, &cam)
+                              : crisp_camera_fit(box, dir, vup, &fd, &cam);
+        if (st) return st;
     } else {
         cam = (crisp_camera){.fov_deg = fov, .width = d.width, .height = d.height};
         memcpy(cam.eye, eye, sizeof eye);

@@ -46,27 +46,125 @@ static int has_ext(const char *path, const char *ext)
     return n > e && !strcasecmp(path + n - e, ext);
 }
 
-/* The trimmed faces' box joined with each part's [-1, 1]^3 (the region of the .vm models and of
+/* The box of the trimmed faces (sampled on the true surfaces, drawn_box.c) joined with each part's [-1, 1]^3 (the region of the .vm models and of
  * the math strings' usual scale) through its transform. */
-static void document_box(crisp_document *d)
+crisp_status crisp__scene_drawn_points(const crisp_scene *sc, double **points, size_t *count,
+                                       double box[6]); /* drawn_box.c */
+
+/* A box of the part (in its own coordinates): interval subdivision of [-L, L]^3 level by level
+ * keeps the cells whose interval may reach below 0 (or is unknown), down to cells L/64 wide or
+ * until too many are kept; then points sampled in the kept cells give the box of what is inside
+ * (grown by one sample spacing), much tighter than the intervals' cells. An axis along which
+ * inside points reach the outer cube (an unbounded part: a 2D .vm model is a prism along Z; or
+ * a part larger than L) gets [-1, 1], the .vm models' region. */
+enum { PART_L = 4, PART_MAX_CELLS = 4096, PART_LEVELS = 7, PART_POINTS = 1 << 16 };
+
+static void part_box(const crisp_frep_tape *t, double box[6])
 {
-    double *box = d->box;
-    if (d->scene && d->scene->patch_count > 0) {
-        memcpy(box, d->scene->box, sizeof d->box);
-    } else {
-        for (int a = 0; a < 3; a++) box[a] = INFINITY, box[a + 3] = -INFINITY;
+    float (*cells)[3] = crisp_malloc_array(8 * PART_MAX_CELLS, sizeof *cells);
+    float (*kept)[3] = crisp_malloc_array(8 * PART_MAX_CELLS, sizeof *kept);
+    float *px = NULL;
+    for (int a = 0; a < 3; a++) box[a] = -1, box[a + 3] = 1;
+    if (!cells || !kept) goto done;
+    size_t n = 1, m = 0;
+    float h = PART_L, kept_h = h; /* half width of the cells of this level */
+    cells[0][0] = cells[0][1] = cells[0][2] = 0;
+    int unbounded[3] = {0, 0, 0};
+    for (int level = 0; level <= PART_LEVELS; level++) {
+        size_t k = 0;
+        for (size_t c = 0; c < n; c++) {
+            float x[2] = {cells[c][0] - h, cells[c][0] + h}, y[2] = {cells[c][1] - h, cells[c][1] + h};
+            float z[2] = {cells[c][2] - h, cells[c][2] + h}, v[2];
+            crisp_frep_eval_interval(t, x, y, z, v);
+            if (v[0] >= 0) continue; /* outside everywhere (NaN: unknown, kept) */
+            memcpy(kept[k++], cells[c], sizeof cells[c]);
+        }
+        m = k;
+        kept_h = h;
+        if (!m) goto done;
+        if (level == PART_LEVELS || m > PART_MAX_CELLS) break;
+        n = 0;
+        float q = h / 2;
+        for (size_t c = 0; c < m; c++)
+            for (int e = 0; e < 8; e++) {
+                cells[n][0] = kept[c][0] + (e & 1 ? q : -q);
+                cells[n][1] = kept[c][1] + (e & 2 ? q : -q);
+                cells[n][2] = kept[c][2] + (e & 4 ? q : -q);
+                n++;
+            }
+        h = q;
     }
-    for (size_t k = 0; k < d->part_count; k++)
+    /* points in the kept cells: s^3 per cell */
+    int s = 2;
+    while ((size_t)(s + 1) * (s + 1) * (s + 1) * m <= PART_POINTS && s < 16) s++;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    size_t cap = (size_t)s * s * s * m;
+    if (!(px = crisp_malloc_array(4 * cap, sizeof(float)))) goto done;
+    float *py = px + cap, *pz = py + cap, *val = pz + cap;
+    size_t np = 0;
+    for (size_t c = 0; c < m; c++)
+        for (int e = 0; e < s * s * s; e++) {
+            px[np] = kept[c][0] - kept_h + 2 * kept_h * (e % s + 0.5f) / s;
+            py[np] = kept[c][1] - kept_h + 2 * kept_h * (e / s % s + 0.5f) / s;
+            pz[np] = kept[c][2] - kept_h + 2 * kept_h * (e / (s * s) + 0.5f) / s;
+            np++;
+        }
+    if (crisp_frep_eval_batch(t, np, px, py, pz, val)) goto done;
+    double step = 2.0 * kept_h / s;
+    for (size_t q = 0; q < np; q++)
+        if (val[q] < 0) {
+            double p[3] = {px[q], py[q], pz[q]};
+            for (int a = 0; a < 3; a++) {
+                lo[a] = fmin(lo[a], p[a] - step), hi[a] = fmax(hi[a], p[a] + step);
+                if (fabs(p[a]) + step >= PART_L) unbounded[a] = 1;
+            }
+        }
+    for (int a = 0; a < 3; a++)
+        if (!unbounded[a] && lo[a] <= hi[a]) box[a] = lo[a], box[a + 3] = hi[a];
+done:
+    crisp_free(cells);
+    crisp_free(kept);
+    crisp_free(px);
+}
+
+/* What the default camera frames: points of the trimmed faces (sampled on the true surfaces,
+ * drawn_box.c) and the corners of each part's box (part_box) through its transform; and their
+ * box. */
+static crisp_status document_points(crisp_document *d)
+{
+    double *box = d->box, *pts = NULL;
+    size_t n = 0;
+    for (int a = 0; a < 3; a++) box[a] = INFINITY, box[a + 3] = -INFINITY;
+    if (d->scene && d->scene->patch_count > 0) {
+        crisp_status st = crisp__scene_drawn_points(d->scene, &pts, &n, box);
+        if (st) return st;
+    }
+    if (d->part_count) {
+        double *grown = crisp_realloc_array(pts, n + 8 * d->part_count, 3 * sizeof(double));
+        if (!grown) {
+            crisp_free(pts);
+            return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", d->path);
+        }
+        pts = grown;
+    }
+    for (size_t k = 0; k < d->part_count; k++) {
+        double pb[6];
+        part_box(d->parts[k].tape, pb);
         for (int c = 0; c < 8; c++) {
-            double p[3] = {c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1}, w[4];
+            double p[3] = {pb[c & 1 ? 3 : 0], pb[c & 2 ? 4 : 1], pb[c & 4 ? 5 : 2]}, w[4];
             crisp_mat4 m;
             memcpy(m, d->parts[k].transform, sizeof m);
             crisp_mat4_mulp(m, p, w);
+            memcpy(pts + 3 * n++, w, 3 * sizeof(double));
             for (int a = 0; a < 3; a++) {
                 box[a] = fmin(box[a], w[a]);
                 box[a + 3] = fmax(box[a + 3], w[a]);
             }
         }
+    }
+    d->points = pts;
+    d->point_count = n;
+    return CRISP_OK;
 }
 
 crisp_status crisp_document_open(const char *path, const crisp_document_desc *desc,
@@ -121,9 +219,10 @@ crisp_status crisp_document_open(const char *path, const crisp_document_desc *de
     }
     double t1 = crisp_time_now();
     if (!st) st = crisp_scene_prepare(d->model, &d->scene);
-    double t2 = crisp_time_now();
     if (!st && d->scene->patch_count == 0 && d->part_count == 0)
         st = crisp_error(CRISP_ERR_INVALID_ARG, "%s: the file holds no surfaces or parts to render", path);
+    if (!st) st = document_points(d);
+    double t2 = crisp_time_now();
     if (st) {
         crisp_document_destroy(d);
         return st;
@@ -139,7 +238,6 @@ crisp_status crisp_document_open(const char *path, const crisp_document_desc *de
         memcpy(d->up, sf->up, sizeof d->up);
         d->fov_deg = sf->fov_deg;
     }
-    document_box(d);
     *dest = d;
     return CRISP_OK;
 }
@@ -153,6 +251,7 @@ void crisp_document_destroy(crisp_document *d)
     else
         crisp_model_destroy(d->model);
     crisp_scene_file_destroy(d->scene_file);
+    crisp_free(d->points);
     crisp_free(d->path);
     crisp_free(d);
 }
