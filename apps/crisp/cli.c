@@ -6,6 +6,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+
+#include "crisp/core.h"
 
 const char *cli_cmd = "";
 
@@ -148,12 +151,49 @@ double cli_median(double *v, size_t n)
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-/* ---- progress bar (placeholder until the core's progress sink) ---------------------------------- */
+/* ---- progress bar -------------------------------------------------------------------------------- */
+
+/* Drawn on stderr from the thread doing the work (crisp_progress_set), at most ten times a
+ * second, once the work has run for a second; erased at the end on a terminal, ended with a
+ * newline otherwise (--progress into a file). */
+static struct {
+    int on, tty, drawn;
+    const char *label;
+    double start, last;
+} bar;
+
+static void draw(void *ctx, double f)
+{
+    (void)ctx;
+    double now = crisp_time_now();
+    if (now - bar.start < 1.0 || (now - bar.last < 0.1 && f < 1)) return;
+    bar.last = now;
+    enum { W = 30 };
+    char cells[W + 1];
+    int n = (int)(f * W + 0.5);
+    for (int i = 0; i < W; i++) cells[i] = i < n ? '#' : '.';
+    cells[W] = '\0';
+    fprintf(stderr, "\r%s [%s] %3d%% %5.1f s", bar.label, cells, (int)(100 * f + 0.5), now - bar.start);
+    fflush(stderr);
+    bar.drawn = 1;
+}
 
 void cli_progress_begin(int mode, const char *label)
 {
-    (void)mode;
-    (void)label;
+    bar.tty = isatty(STDERR_FILENO);
+    bar.on = mode == 1 || (mode < 0 && bar.tty);
+    if (!bar.on) return;
+    bar.label = label;
+    bar.start = crisp_time_now();
+    bar.last = 0;
+    bar.drawn = 0;
+    crisp_progress_set(draw, NULL);
 }
 
-void cli_progress_end(void) {}
+void cli_progress_end(void)
+{
+    if (!bar.on) return;
+    crisp_progress_set(NULL, NULL);
+    if (bar.drawn) fputs(bar.tty ? "\r\033[K" : "\n", stderr);
+    bar.on = 0;
+}
