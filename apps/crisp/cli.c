@@ -159,14 +159,14 @@ double cli_median(double *v, size_t n)
 static struct {
     int on, tty, drawn;
     const char *label;
-    double start, last;
+    double start, last, after;
 } bar;
 
 static void draw(void *ctx, double f)
 {
     (void)ctx;
     double now = crisp_time_now();
-    if (now - bar.start < 1.0 || (now - bar.last < 0.1 && f < 1)) return;
+    if (now - bar.start < bar.after || (now - bar.last < 0.1 && f < 1)) return;
     bar.last = now;
     enum { W = 30 };
     char cells[W + 1];
@@ -184,6 +184,12 @@ void cli_progress_begin(int mode, const char *label)
     bar.on = mode == 1 || (mode < 0 && bar.tty);
     if (!bar.on) return;
     bar.label = label;
+    /* CRISP_PROGRESS_AFTER=seconds moves the one-second threshold (the tests use 0) */
+    const char *after = getenv("CRISP_PROGRESS_AFTER");
+    char *end;
+    double a = after ? strtod(after, &end) : 1.0;
+    if (!after || *end || !(a >= 0 && a <= 3600)) a = 1.0;
+    bar.after = a;
     bar.start = crisp_time_now();
     bar.last = 0;
     bar.drawn = 0;
