@@ -18,7 +18,8 @@ int cli_int(const char *opt, const char *s, long lo, long hi, int *dest)
     errno = 0;
     long x = strtol(s, &end, 10);
     if (end == s || *end || errno || x < lo || x > hi) {
-        fprintf(stderr, "crisp %s: %s %s: expected an integer in %ld..%ld\n", cli_cmd, opt, s, lo, hi);
+        fprintf(stderr, "crisp %s: %s %s: expected an integer in %ld..%ld\n", cli_cmd, opt, s, lo,
+                hi);
         return 0;
     }
     *dest = (int)x;
@@ -30,7 +31,8 @@ int cli_double(const char *opt, const char *s, double lo, double hi, int open_lo
 {
     char *end;
     double x = strtod(s, &end);
-    int ok = end != s && !*end && isfinite(x) && (open_lo ? x > lo : x >= lo) && (open_hi ? x < hi : x <= hi);
+    int ok = end != s && !*end && isfinite(x) && (open_lo ? x > lo : x >= lo) &&
+             (open_hi ? x < hi : x <= hi);
     if (!ok) {
         if (isinf(lo) && isinf(hi))
             fprintf(stderr, "crisp %s: %s %s: expected a finite number\n", cli_cmd, opt, s);
@@ -52,13 +54,16 @@ int cli_doubles(const char *opt, const char *s, int n, double *dest)
         const char *piece_end = strchr(p, ',');
         size_t len = piece_end ? (size_t)(piece_end - p) : strlen(p);
         if (end == p || !isfinite(x) || (size_t)(end - p) != len) {
-            fprintf(stderr, "crisp %s: %s %s: number %d ('%.*s') is not a finite number (expected %d numbers "
-                            "separated by commas)\n", cli_cmd, opt, s, i + 1, (int)len, p, n);
+            fprintf(
+                stderr,
+                "crisp %s: %s %s: number %d ('%.*s') is not a finite number (expected %d numbers "
+                "separated by commas)\n",
+                cli_cmd, opt, s, i + 1, (int)len, p, n);
             return 0;
         }
         if (i < n - 1 && *end != ',') {
-            fprintf(stderr, "crisp %s: %s %s: %d number%s given, expected %d separated by commas\n", cli_cmd,
-                    opt, s, i + 1, i ? "s" : "", n);
+            fprintf(stderr, "crisp %s: %s %s: %d number%s given, expected %d separated by commas\n",
+                    cli_cmd, opt, s, i + 1, i ? "s" : "", n);
             return 0;
         }
         if (i == n - 1 && *end != '\0') {
@@ -98,19 +103,29 @@ int cli_bytes(const char *opt, const char *s, uint64_t *dest)
     double unit = 1;
     if (*end) {
         switch (*end == 0 ? 0 : (end[0] | 0x20)) {
-        case 'k': unit = 1024.0; break;
-        case 'm': unit = 1024.0 * 1024; break;
-        case 'g': unit = 1024.0 * 1024 * 1024; break;
-        case 't': unit = 1024.0 * 1024 * 1024 * 1024; break;
-        default: unit = 0;
+        case 'k':
+            unit = 1024.0;
+            break;
+        case 'm':
+            unit = 1024.0 * 1024;
+            break;
+        case 'g':
+            unit = 1024.0 * 1024 * 1024;
+            break;
+        case 't':
+            unit = 1024.0 * 1024 * 1024 * 1024;
+            break;
+        default:
+            unit = 0;
         }
-        if (unit && end[1] && !((end[1] | 0x20) == 'b' && !end[2]) && !((end[1] | 0x20) == 'i' && (end[2] | 0x20) == 'b' && !end[3]))
+        if (unit && end[1] && !((end[1] | 0x20) == 'b' && !end[2]) &&
+            !((end[1] | 0x20) == 'i' && (end[2] | 0x20) == 'b' && !end[3]))
             unit = 0;
     }
     double v = x * unit;
     if (end == s || !unit || !isfinite(v) || v < 1048576.0 || v > 1.8e19) {
-        fprintf(stderr, "crisp %s: %s %s: expected a size such as 512M, 8G or 1T (at least 1M)\n", cli_cmd, opt,
-                s);
+        fprintf(stderr, "crisp %s: %s %s: expected a size such as 512M, 8G or 1T (at least 1M)\n",
+                cli_cmd, opt, s);
         return 0;
     }
     *dest = (uint64_t)v;
@@ -124,10 +139,11 @@ void cli_bad_option(int c, char **argv)
     if (c == ':')
         fprintf(stderr, "crisp %s: option %s needs a value\n", cli_cmd, arg);
     else if (optopt && strncmp(arg, "--", 2))
-        fprintf(stderr, "crisp %s: unknown option '-%c' (crisp %s --help lists them)\n", cli_cmd, optopt,
-                cli_cmd);
+        fprintf(stderr, "crisp %s: unknown option '-%c' (crisp %s --help lists them)\n", cli_cmd,
+                optopt, cli_cmd);
     else
-        fprintf(stderr, "crisp %s: unknown option '%s' (crisp %s --help lists them)\n", cli_cmd, arg, cli_cmd);
+        fprintf(stderr, "crisp %s: unknown option '%s' (crisp %s --help lists them)\n", cli_cmd,
+                arg, cli_cmd);
 }
 
 void cli_format_bytes(uint64_t b, char *buf, size_t cap)
@@ -151,7 +167,8 @@ double cli_median(double *v, size_t n)
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-/* ---- progress bar -------------------------------------------------------------------------------- */
+/* ---- progress bar
+ * -------------------------------------------------------------------------------- */
 
 /* Drawn on stderr from the thread doing the work (crisp_progress_set), at most ten times a
  * second, once the work has run for a second; erased at the end on a terminal, ended with a
@@ -171,9 +188,11 @@ static void draw(void *ctx, double f)
     enum { W = 30 };
     char cells[W + 1];
     int n = (int)(f * W + 0.5);
-    for (int i = 0; i < W; i++) cells[i] = i < n ? '#' : '.';
+    for (int i = 0; i < W; i++)
+        cells[i] = i < n ? '#' : '.';
     cells[W] = '\0';
-    fprintf(stderr, "\r%s [%s] %3d%% %5.1f s", bar.label, cells, (int)(100 * f + 0.5), now - bar.start);
+    fprintf(stderr, "\r%s [%s] %3d%% %5.1f s", bar.label, cells, (int)(100 * f + 0.5),
+            now - bar.start);
     fflush(stderr);
     bar.drawn = 1;
 }

@@ -16,16 +16,19 @@ const char crisp_cmd_render_help[] =
 
 static const char usage_text[] =
     "usage: crisp render FILE [options]\n"
-    "  Renders FILE (IGES, STEP or OBJ model by content, .scene file, .vm or math-string f-rep part)\n"
+    "  Renders FILE (IGES, STEP or OBJ model by content, .scene file, .vm or math-string f-rep "
+    "part)\n"
     "  and writes the picture. Options (default in brackets):\n"
     "  -o, --output FILE     image to write, .png (8-bit RGBA, alpha = coverage) or .exr (float\n"
     "                        R G B A Z N.x N.y N.z u v face) [out.png]\n"
     "      --aov FILE.exr    also write the EXR with every AOV [none]\n"
     "      --size WxH        image size in pixels, each 1..16384 [1280x720]\n"
-    "      --view NAME       front (seen from -Y), back, left, right, top (from +Z), bottom or iso\n"
+    "      --view NAME       front (seen from -Y), back, left, right, top (from +Z), bottom or "
+    "iso\n"
     "                        (from 1,-1,1), +Z up, fitted to the trimmed geometry's box\n"
     "                        [the scene file's camera line, else iso]\n"
-    "      --fit             keep the direction of --eye/--target (or the camera line) and move the\n"
+    "      --fit             keep the direction of --eye/--target (or the camera line) and move "
+    "the\n"
     "                        camera so the box just fits [off]\n"
     "      --eye x,y,z       camera position [fitted]\n"
     "      --target x,y,z    point looked at [the middle of the box]\n"
@@ -35,10 +38,12 @@ static const char usage_text[] =
     "      --far F           far plane distance > near [encloses the box]\n"
     "      --samples N       samples per pixel, 1, 4 or 16 (cpu backend) [4 when a PNG is written\n"
     "                        with the cpu backend, else 1]\n"
-    "      --backend NAME    cpu (SLEFE tessellation, u-intercept tables) or exact (ray casting on\n"
+    "      --backend NAME    cpu (SLEFE tessellation, u-intercept tables) or exact (ray casting "
+    "on\n"
     "                        the true surfaces and trim curves; slow) [cpu]\n"
     "      --threads N       worker threads, 1..1024 [CRISP_THREADS, else all cores]\n"
-    "      --repeat N        render N frames of the same view with the same renderer, 1..100000 [1]\n"
+    "      --repeat N        render N frames of the same view with the same renderer, 1..100000 "
+    "[1]\n"
     "      --stats           print counts and each stage's time (medians over --repeat) [off]\n"
     "      --max-memory SIZE refuse a frame estimated to need more (K, M, G, T suffixes); a frame\n"
     "                        over 2 GB prints a warning [8G]\n"
@@ -57,45 +62,82 @@ typedef struct render_args {
     uint64_t max_memory;
 } render_args;
 
-enum { OPT_AOV = 256, OPT_SIZE, OPT_VIEW, OPT_FIT, OPT_EYE, OPT_TARGET, OPT_UP, OPT_FOV, OPT_NEAR,
-       OPT_FAR, OPT_SAMPLES, OPT_BACKEND, OPT_THREADS, OPT_REPEAT, OPT_STATS, OPT_MAXMEM, OPT_PROGRESS,
-       OPT_NO_PROGRESS };
+enum {
+    OPT_AOV = 256,
+    OPT_SIZE,
+    OPT_VIEW,
+    OPT_FIT,
+    OPT_EYE,
+    OPT_TARGET,
+    OPT_UP,
+    OPT_FOV,
+    OPT_NEAR,
+    OPT_FAR,
+    OPT_SAMPLES,
+    OPT_BACKEND,
+    OPT_THREADS,
+    OPT_REPEAT,
+    OPT_STATS,
+    OPT_MAXMEM,
+    OPT_PROGRESS,
+    OPT_NO_PROGRESS
+};
 
 /* 0: run; 1: --help printed; 2: usage error (message printed). */
 static int parse(int argc, char **argv, render_args *a)
 {
-    static const struct option opts[] = {
-        {"output", required_argument, 0, 'o'},       {"aov", required_argument, 0, OPT_AOV},
-        {"size", required_argument, 0, OPT_SIZE},    {"view", required_argument, 0, OPT_VIEW},
-        {"fit", no_argument, 0, OPT_FIT},            {"eye", required_argument, 0, OPT_EYE},
-        {"target", required_argument, 0, OPT_TARGET}, {"up", required_argument, 0, OPT_UP},
-        {"fov", required_argument, 0, OPT_FOV},      {"near", required_argument, 0, OPT_NEAR},
-        {"far", required_argument, 0, OPT_FAR},      {"samples", required_argument, 0, OPT_SAMPLES},
-        {"backend", required_argument, 0, OPT_BACKEND}, {"threads", required_argument, 0, OPT_THREADS},
-        {"repeat", required_argument, 0, OPT_REPEAT}, {"stats", no_argument, 0, OPT_STATS},
-        {"max-memory", required_argument, 0, OPT_MAXMEM}, {"progress", no_argument, 0, OPT_PROGRESS},
-        {"no-progress", no_argument, 0, OPT_NO_PROGRESS}, {"quiet", no_argument, 0, 'q'},
-        {"help", no_argument, 0, 'h'},               {0, 0, 0, 0}};
-    *a = (render_args){.cam = {.width = 1280, .height = 720}, .repeat = 1, .progress = -1,
+    static const struct option opts[] = {{"output", required_argument, 0, 'o'},
+                                         {"aov", required_argument, 0, OPT_AOV},
+                                         {"size", required_argument, 0, OPT_SIZE},
+                                         {"view", required_argument, 0, OPT_VIEW},
+                                         {"fit", no_argument, 0, OPT_FIT},
+                                         {"eye", required_argument, 0, OPT_EYE},
+                                         {"target", required_argument, 0, OPT_TARGET},
+                                         {"up", required_argument, 0, OPT_UP},
+                                         {"fov", required_argument, 0, OPT_FOV},
+                                         {"near", required_argument, 0, OPT_NEAR},
+                                         {"far", required_argument, 0, OPT_FAR},
+                                         {"samples", required_argument, 0, OPT_SAMPLES},
+                                         {"backend", required_argument, 0, OPT_BACKEND},
+                                         {"threads", required_argument, 0, OPT_THREADS},
+                                         {"repeat", required_argument, 0, OPT_REPEAT},
+                                         {"stats", no_argument, 0, OPT_STATS},
+                                         {"max-memory", required_argument, 0, OPT_MAXMEM},
+                                         {"progress", no_argument, 0, OPT_PROGRESS},
+                                         {"no-progress", no_argument, 0, OPT_NO_PROGRESS},
+                                         {"quiet", no_argument, 0, 'q'},
+                                         {"help", no_argument, 0, 'h'},
+                                         {0, 0, 0, 0}};
+    *a = (render_args){.cam = {.width = 1280, .height = 720},
+                       .repeat = 1,
+                       .progress = -1,
                        .max_memory = 8ull << 30};
     optind = 0; /* GNU getopt: start afresh */
     opterr = 0;
     int c;
     while ((c = getopt_long(argc, argv, ":o:qh", opts, NULL)) != -1) {
         switch (c) {
-        case 'o': a->out = optarg; break;
-        case OPT_AOV: a->aov = optarg; break;
+        case 'o':
+            a->out = optarg;
+            break;
+        case OPT_AOV:
+            a->aov = optarg;
+            break;
         case OPT_SIZE:
             if (!cli_size("--size", optarg, 16384, &a->cam.width, &a->cam.height)) return 2;
             break;
         case OPT_VIEW:
             if (!crisp_view_parse(optarg, &a->cam.view)) {
-                fprintf(stderr, "crisp render: --view %s: expected front, back, left, right, top, bottom or iso\n",
+                fprintf(stderr,
+                        "crisp render: --view %s: expected front, back, left, right, top, bottom "
+                        "or iso\n",
                         optarg);
                 return 2;
             }
             break;
-        case OPT_FIT: a->cam.fit = 1; break;
+        case OPT_FIT:
+            a->cam.fit = 1;
+            break;
         case OPT_EYE:
             if (!cli_doubles("--eye", optarg, 3, a->eye)) return 2;
             a->cam.eye = a->eye;
@@ -141,15 +183,27 @@ static int parse(int argc, char **argv, render_args *a)
         case OPT_REPEAT:
             if (!cli_int("--repeat", optarg, 1, 100000, &a->repeat)) return 2;
             break;
-        case OPT_STATS: a->stats = 1; break;
+        case OPT_STATS:
+            a->stats = 1;
+            break;
         case OPT_MAXMEM:
             if (!cli_bytes("--max-memory", optarg, &a->max_memory)) return 2;
             break;
-        case OPT_PROGRESS: a->progress = 1; break;
-        case OPT_NO_PROGRESS: a->progress = 0; break;
-        case 'q': a->quiet = 1; break;
-        case 'h': fputs(usage_text, stdout); return 1;
-        default: cli_bad_option(c, argv); return 2;
+        case OPT_PROGRESS:
+            a->progress = 1;
+            break;
+        case OPT_NO_PROGRESS:
+            a->progress = 0;
+            break;
+        case 'q':
+            a->quiet = 1;
+            break;
+        case 'h':
+            fputs(usage_text, stdout);
+            return 1;
+        default:
+            cli_bad_option(c, argv);
+            return 2;
         }
     }
     if (optind >= argc) {
@@ -157,19 +211,24 @@ static int parse(int argc, char **argv, render_args *a)
         return 2;
     }
     if (optind + 1 < argc) {
-        fprintf(stderr, "crisp render: more than one FILE given ('%s', '%s')\n", argv[optind], argv[optind + 1]);
+        fprintf(stderr, "crisp render: more than one FILE given ('%s', '%s')\n", argv[optind],
+                argv[optind + 1]);
         return 2;
     }
     a->path = argv[optind];
     if (!a->out && !a->aov) a->out = "out.png";
     int cpu = a->render.backend == CRISP_BACKEND_CPU;
     if (!cpu && a->samples_given && a->render.samples != 1) {
-        fprintf(stderr, "crisp render: the exact backend casts one ray per pixel centre; --samples %d needs "
-                        "the cpu backend\n", a->render.samples);
+        fprintf(
+            stderr,
+            "crisp render: the exact backend casts one ray per pixel centre; --samples %d needs "
+            "the cpu backend\n",
+            a->render.samples);
         return 2;
     }
     if (!a->samples_given)
-        a->render.samples = cpu && a->out && crisp_image_format_of(a->out) == CRISP_IMAGE_PNG ? 4 : 1;
+        a->render.samples =
+            cpu && a->out && crisp_image_format_of(a->out) == CRISP_IMAGE_PNG ? 4 : 1;
     return 0;
 }
 
@@ -186,13 +245,16 @@ static int check_outputs(const render_args *a)
     cli_format_bytes(need, nb, sizeof nb);
     cli_format_bytes(a->max_memory, lb, sizeof lb);
     if (need > a->max_memory) {
-        fprintf(stderr, "crisp render: --size %dx%d with %d sample(s) per pixel needs about %s, more than the "
-                        "limit of %s (raise it with --max-memory, or lower --size or --samples)\n",
-                a->cam.width, a->cam.height, a->render.samples, nb, lb);
+        fprintf(
+            stderr,
+            "crisp render: --size %dx%d with %d sample(s) per pixel needs about %s, more than the "
+            "limit of %s (raise it with --max-memory, or lower --size or --samples)\n",
+            a->cam.width, a->cam.height, a->render.samples, nb, lb);
         return 0;
     }
     if (need > (2ull << 30))
-        fprintf(stderr, "crisp render: warning: --size %dx%d with %d sample(s) per pixel needs about %s\n",
+        fprintf(stderr,
+                "crisp render: warning: --size %dx%d with %d sample(s) per pixel needs about %s\n",
                 a->cam.width, a->cam.height, a->render.samples, nb);
     return 1;
 }
@@ -202,8 +264,8 @@ typedef struct frame_times {
 } frame_times;
 
 static void print_stats(const render_args *a, const crisp_document *doc, const crisp_camera *cam,
-                        const crisp_image *img,
-                        const crisp_render_stats *rs, frame_times *t, double ms_write)
+                        const crisp_image *img, const crisp_render_stats *rs, frame_times *t,
+                        double ms_write)
 {
     int cpu = a->render.backend == CRISP_BACKEND_CPU;
     size_t n = (size_t)img->width * img->height, drawn = 0, frep_drawn = 0;
@@ -219,20 +281,22 @@ static void print_stats(const render_args *a, const crisp_document *doc, const c
     printf("faces            %u\n", sc->face_count);
     printf("patches          %u\n", sc->patch_count);
     printf("trim pieces      %u\n", sc->piece_count);
-    printf("box              %g %g %g .. %g %g %g\n", doc->box[0], doc->box[1], doc->box[2], doc->box[3],
-           doc->box[4], doc->box[5]);
-    printf("camera           eye %g,%g,%g target %g,%g,%g up %g,%g,%g fov %g near %g far %g\n", cam->eye[0],
-           cam->eye[1], cam->eye[2], cam->target[0], cam->target[1], cam->target[2], cam->up[0], cam->up[1],
-           cam->up[2], cam->fov_deg, cam->znear, cam->zfar);
+    printf("box              %g %g %g .. %g %g %g\n", doc->box[0], doc->box[1], doc->box[2],
+           doc->box[3], doc->box[4], doc->box[5]);
+    printf("camera           eye %g,%g,%g target %g,%g,%g up %g,%g,%g fov %g near %g far %g\n",
+           cam->eye[0], cam->eye[1], cam->eye[2], cam->target[0], cam->target[1], cam->target[2],
+           cam->up[0], cam->up[1], cam->up[2], cam->fov_deg, cam->znear, cam->zfar);
     if (cpu && sc->patch_count) {
-        printf("patches drawn    %u (%u split, %u leaves)\n", rs->visible_patches, rs->split_patches, rs->leaves);
+        printf("patches drawn    %u (%u split, %u leaves)\n", rs->visible_patches,
+               rs->split_patches, rs->leaves);
         printf("faces drawn      %u\n", rs->visible_faces);
         printf("triangles        %llu\n", (unsigned long long)rs->triangles);
         printf("vertices         %llu\n", (unsigned long long)rs->vertices);
         printf("table rows       %llu\n", (unsigned long long)rs->table_rows);
         printf("table bytes      %llu\n", (unsigned long long)rs->table_bytes);
         if (rs->unresolved)
-            printf("unresolved       %u leaves at the split limit (0.5 px not guaranteed there)\n", rs->unresolved);
+            printf("unresolved       %u leaves at the split limit (0.5 px not guaranteed there)\n",
+                   rs->unresolved);
     }
     printf("pixels covered   %zu of %zu\n", drawn, n);
     if (doc->part_count) {
@@ -272,8 +336,8 @@ int crisp_cmd_render(int argc, char **argv)
     crisp_status st = times ? CRISP_OK : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
     if (!st) {
         size_t r = (size_t)a.repeat;
-        ft = (frame_times){times, times + r, times + 2 * r, times + 3 * r, times + 4 * r, times + 5 * r,
-                           times + 6 * r};
+        ft = (frame_times){times,         times + r,     times + 2 * r, times + 3 * r,
+                           times + 4 * r, times + 5 * r, times + 6 * r};
     }
     cli_progress_begin(a.progress, "loading");
     if (!st) st = crisp_document_open(a.path, NULL, &doc);
@@ -282,8 +346,9 @@ int crisp_cmd_render(int argc, char **argv)
     if (!st) st = crisp_document_camera(doc, &a.cam, &cam);
     if (!st) st = crisp_image_init(&img, cam.width, cam.height);
     if (!st && a.render.backend == CRISP_BACKEND_CPU && doc->scene->patch_count > 0)
-        st = crisp_renderer_create(&(crisp_render_desc){.samples = a.render.samples, .threads = a.render.threads},
-                                   &renderer);
+        st = crisp_renderer_create(
+            &(crisp_render_desc){.samples = a.render.samples, .threads = a.render.threads},
+            &renderer);
     a.render.renderer = renderer;
     cli_progress_begin(a.progress, "rendering");
     for (int k = 0; k < a.repeat && !st; k++) {
@@ -310,8 +375,11 @@ int crisp_cmd_render(int argc, char **argv)
             const char *files[2] = {a.out, a.aov};
             for (int i = 0; i < 2; i++)
                 if (files[i]) {
-                    printf("wrote %s (%dx%d, %u faces", files[i], img.width, img.height, doc->scene->face_count);
-                    if (doc->part_count) printf(", %zu f-rep part%s", doc->part_count, doc->part_count > 1 ? "s" : "");
+                    printf("wrote %s (%dx%d, %u faces", files[i], img.width, img.height,
+                           doc->scene->face_count);
+                    if (doc->part_count)
+                        printf(", %zu f-rep part%s", doc->part_count,
+                               doc->part_count > 1 ? "s" : "");
                     printf(", %.0f ms)\n", ms_render);
                 }
         }

@@ -4,7 +4,8 @@
 
 #include "crisp/version.h"
 
-const char crisp_cmd_version_help[] = "version                     print the version (also crisp --version)";
+const char crisp_cmd_version_help[] =
+    "version                     print the version (also crisp --version)";
 
 int crisp_cmd_version(int argc, char **argv)
 {

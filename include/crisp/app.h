@@ -43,8 +43,8 @@ typedef enum crisp_document_kind {
 typedef struct crisp_document {
     char *path;
     crisp_document_kind kind;
-    crisp_model *model;   /* faces (possibly none: a scene of f-rep parts only) */
-    crisp_scene *scene;   /* model prepared for rendering (Bézier patches, trim pieces, boxes) */
+    crisp_model *model; /* faces (possibly none: a scene of f-rep parts only) */
+    crisp_scene *scene; /* model prepared for rendering (Bézier patches, trim pieces, boxes) */
     size_t part_count;
     const crisp_frep_part *parts; /* f-rep parts, each with its transform and colour */
     /* the scene file's camera line (has_camera = 0 for other files; has_target = 0: the middle of
@@ -56,7 +56,7 @@ typedef struct crisp_document {
      * to scene->box) and the corners of each part's [-1, 1]^3 through its transform */
     double *points; /* 3 per point */
     size_t point_count;
-    double box[6]; /* their box: xmin, ymin, zmin, xmax, ymax, zmax */
+    double box[6];              /* their box: xmin, ymin, zmin, xmax, ymax, zmax */
     double ms_load, ms_prepare; /* time spent reading, and preparing (with the box) */
     /* owned storage */
     crisp_scene_file *scene_file;
@@ -75,7 +75,8 @@ crisp_status crisp_document_open(const char *path, const crisp_document_desc *de
                                  crisp_document **dest);
 void crisp_document_destroy(crisp_document *doc);
 
-/* ---- cameras ---------------------------------------------------------------------------------- */
+/* ---- cameras ----------------------------------------------------------------------------------
+ */
 
 /* Directions the camera looks from, +Z up as in most CAD files (the eye is on the named side of
  * the box): front -Y, back +Y, right +X, left -X, top +Z (up +Y), bottom -Z (up -Y),
@@ -117,16 +118,16 @@ crisp_status crisp_camera_fit_points(const double *points, size_t count, const d
 
 /* What the caller asks of the camera; zero (or NULL) is the default for every field. */
 typedef struct crisp_camera_desc {
-    int width, height;         /* 0: 1280x720 */
-    crisp_view view;           /* DEFAULT: the scene's camera line, else ISO */
-    int fit;                   /* 1: keep the direction of eye/target (or the camera line) and
-                                  move the camera to fit the box tightly */
-    const double *eye;         /* 3 numbers, or NULL */
-    const double *target;      /* NULL: the middle of the box */
-    const double *up;          /* NULL: +Z (+Y / -Y looking straight down / up) */
-    double fov_deg;            /* 0: the camera line's, else 30 */
-    double znear, zfar;        /* 0: enclose the box (other values are checked) */
-    double margin;             /* 0: 0.04 (see crisp_camera_fit) */
+    int width, height;    /* 0: 1280x720 */
+    crisp_view view;      /* DEFAULT: the scene's camera line, else ISO */
+    int fit;              /* 1: keep the direction of eye/target (or the camera line) and
+                             move the camera to fit the box tightly */
+    const double *eye;    /* 3 numbers, or NULL */
+    const double *target; /* NULL: the middle of the box */
+    const double *up;     /* NULL: +Z (+Y / -Y looking straight down / up) */
+    double fov_deg;       /* 0: the camera line's, else 30 */
+    double znear, zfar;   /* 0: enclose the box (other values are checked) */
+    double margin;        /* 0: 0.04 (see crisp_camera_fit) */
 } crisp_camera_desc;
 
 /* The camera for doc: an explicit eye (optionally fitted), else the scene file's camera line
@@ -136,7 +137,8 @@ typedef struct crisp_camera_desc {
 crisp_status crisp_document_camera(const crisp_document *doc, const crisp_camera_desc *desc,
                                    crisp_camera *dest);
 
-/* ---- rendering -------------------------------------------------------------------------------- */
+/* ---- rendering --------------------------------------------------------------------------------
+ */
 
 typedef enum crisp_backend {
     CRISP_BACKEND_CPU = 0, /* SLEFE tessellation, u-intercept tables, tile-binned rasterizer */
@@ -160,7 +162,8 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
  * image, outputs), measured on the bundled models; for warnings and limits. */
 uint64_t crisp_render_memory_estimate(int width, int height, int samples);
 
-/* ---- image outputs ---------------------------------------------------------------------------- */
+/* ---- image outputs ----------------------------------------------------------------------------
+ */
 
 typedef enum crisp_image_format {
     CRISP_IMAGE_UNKNOWN = 0,

@@ -60,12 +60,14 @@ crisp_status crisp_camera_fit(const double box[6], const double dir[3], const do
      * gets a frame: pad it by a small part of its largest extent (or 1). */
     double b[6], ext = 0, corners[24];
     memcpy(b, box, sizeof b);
-    for (int a = 0; a < 3; a++) ext = fmax(ext, b[a + 3] - b[a]);
+    for (int a = 0; a < 3; a++)
+        ext = fmax(ext, b[a + 3] - b[a]);
     double pad = ext > 0 ? 1e-6 * ext : 0.5;
     for (int a = 0; a < 3; a++)
         if (b[a + 3] - b[a] < 2 * pad) b[a] -= pad, b[a + 3] += pad;
     for (int c = 0; c < 8; c++)
-        for (int a = 0; a < 3; a++) corners[3 * c + a] = b[(c >> a & 1) ? a + 3 : a];
+        for (int a = 0; a < 3; a++)
+            corners[3 * c + a] = b[(c >> a & 1) ? a + 3 : a];
     return crisp_camera_fit_points(corners, 8, dir, up, desc, dest);
 }
 
@@ -78,24 +80,28 @@ crisp_status crisp_camera_fit_points(const double *points, size_t count, const d
     if (d.fov_deg == 0) d.fov_deg = 30;
     if (d.margin == 0) d.margin = 0.04;
     if (d.width <= 0 || d.height <= 0)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected positive", d.width, d.height);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected positive", d.width,
+                           d.height);
     if (!(d.fov_deg > 0 && d.fov_deg < 180))
-        return crisp_error(CRISP_ERR_INVALID_ARG, "fov %g degrees: expected in (0, 180)", d.fov_deg);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "fov %g degrees: expected in (0, 180)",
+                           d.fov_deg);
     if (!(d.margin >= 0 && d.margin < 1))
         return crisp_error(CRISP_ERR_INVALID_ARG, "margin %g: expected in [0, 1)", d.margin);
     if (!points || count == 0) return crisp_error(CRISP_ERR_INVALID_ARG, "no points to frame");
     for (size_t i = 0; i < 3 * count; i++)
-        if (!isfinite(points[i])) return crisp_error(CRISP_ERR_NUMERIC, "cannot frame a non-finite point");
+        if (!isfinite(points[i]))
+            return crisp_error(CRISP_ERR_NUMERIC, "cannot frame a non-finite point");
     /* camera frame: f forward (towards the target), r right, u up */
     double f[3], back[3], r[3], u[3];
     if (!crisp_vec3_normalize(dir, back))
-        return crisp_error(CRISP_ERR_INVALID_ARG, "view direction (%g, %g, %g) has no length", dir[0],
-                           dir[1], dir[2]);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "view direction (%g, %g, %g) has no length",
+                           dir[0], dir[1], dir[2]);
     crisp_vec3_scale(back, -1, f);
     crisp_vec3_cross(f, up, r);
     if (!crisp_vec3_normalize(r, r))
-        return crisp_error(CRISP_ERR_INVALID_ARG, "up (%g, %g, %g) is parallel to the view direction",
-                           up[0], up[1], up[2]);
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "up (%g, %g, %g) is parallel to the view direction", up[0], up[1],
+                           up[2]);
     crisp_vec3_cross(r, f, u);
     double tan_y = tan(d.fov_deg * (M_PI / 360.0));
     double tan_x = tan_y * d.width / d.height;
@@ -118,7 +124,8 @@ crisp_status crisp_camera_fit_points(const double *points, size_t count, const d
      * back off by the points' extent (or 1). */
     double span = 0;
     for (size_t c = 0; c < count; c++)
-        for (int a = 0; a < 3; a++) span = fmax(span, fabs(points[3 * c + a] - points[a]));
+        for (int a = 0; a < 3; a++)
+            span = fmax(span, fabs(points[3 * c + a] - points[a]));
     if (!(zmin - ez > 1e-9 * fmax(span, 1))) ez = zmin - fmax(span, 1);
     double dist = zc - ez; /* the target: on the axis at the depth of the points' mean */
     crisp_camera cam = {.fov_deg = d.fov_deg, .width = d.width, .height = d.height};
@@ -177,7 +184,8 @@ crisp_status crisp_document_camera(const crisp_document *doc, const crisp_camera
         double dir[3], vup[3];
         if (have_eye) {
             if (!have_target)
-                for (int k = 0; k < 3; k++) target[k] = 0.5 * (box[k] + box[k + 3]);
+                for (int k = 0; k < 3; k++)
+                    target[k] = 0.5 * (box[k] + box[k + 3]);
             crisp_vec3_sub(eye, target, dir);
             if (!have_up) default_up(eye, target, up);
             memcpy(vup, up, sizeof vup);
@@ -185,14 +193,17 @@ crisp_status crisp_document_camera(const crisp_document *doc, const crisp_camera
             crisp_view_direction(d.view, dir, vup);
             if (have_up) memcpy(vup, up, sizeof vup);
         }
-        crisp_camera_fit_desc fd = {.width = d.width, .height = d.height, .fov_deg = fov, .margin = d.margin};
-        st = doc->point_count ? crisp_camera_fit_points(doc->points, doc->point_count, dir, vup, &fd, &cam)
-                              : crisp_camera_fit(box, dir, vup, &fd, &cam);
+        crisp_camera_fit_desc fd = {
+            .width = d.width, .height = d.height, .fov_deg = fov, .margin = d.margin};
+        st = doc->point_count
+                 ? crisp_camera_fit_points(doc->points, doc->point_count, dir, vup, &fd, &cam)
+                 : crisp_camera_fit(box, dir, vup, &fd, &cam);
         if (st) return st;
     } else {
         cam = (crisp_camera){.fov_deg = fov, .width = d.width, .height = d.height};
         memcpy(cam.eye, eye, sizeof eye);
-        for (int k = 0; k < 3; k++) cam.target[k] = have_target ? target[k] : 0.5 * (box[k] + box[k + 3]);
+        for (int k = 0; k < 3; k++)
+            cam.target[k] = have_target ? target[k] : 0.5 * (box[k] + box[k + 3]);
         if (have_up)
             memcpy(cam.up, up, sizeof up);
         else

@@ -24,7 +24,8 @@ static crisp_status open_frep(const char *path, int vm, crisp_scene_assets **des
         if (!a->parts || !a->freps || !a->tapes) st = CRISP_ERR_NO_MEMORY;
     }
     if (st == CRISP_ERR_NO_MEMORY) st = crisp_error(st, "%s: out of memory", path);
-    if (!st) st = vm ? crisp_frep_read_vm(path, &a->freps[0]) : crisp_frep_read_math(path, &a->freps[0]);
+    if (!st)
+        st = vm ? crisp_frep_read_vm(path, &a->freps[0]) : crisp_frep_read_math(path, &a->freps[0]);
     if (!st) st = crisp_frep_tape_create(a->freps[0], &a->tapes[0]);
     if (st) {
         if (a && a->freps) crisp_frep_destroy(a->freps[0]); /* part_count = 0: not freed below */
@@ -46,8 +47,9 @@ static int has_ext(const char *path, const char *ext)
     return n > e && !strcasecmp(path + n - e, ext);
 }
 
-/* The box of the trimmed faces (sampled on the true surfaces, drawn_box.c) joined with each part's [-1, 1]^3 (the region of the .vm models and of
- * the math strings' usual scale) through its transform. */
+/* The box of the trimmed faces (sampled on the true surfaces, drawn_box.c) joined with each part's
+ * [-1, 1]^3 (the region of the .vm models and of the math strings' usual scale) through its
+ * transform. */
 crisp_status crisp__scene_drawn_points(const crisp_scene *sc, double **points, size_t *count,
                                        double box[6]); /* drawn_box.c */
 
@@ -61,10 +63,11 @@ enum { PART_L = 4, PART_MAX_CELLS = 4096, PART_LEVELS = 7, PART_POINTS = 1 << 16
 
 static void part_box(const crisp_frep_tape *t, double box[6])
 {
-    float (*cells)[3] = crisp_malloc_array(8 * PART_MAX_CELLS, sizeof *cells);
-    float (*kept)[3] = crisp_malloc_array(8 * PART_MAX_CELLS, sizeof *kept);
+    float(*cells)[3] = crisp_malloc_array(8 * PART_MAX_CELLS, sizeof *cells);
+    float(*kept)[3] = crisp_malloc_array(8 * PART_MAX_CELLS, sizeof *kept);
     float *px = NULL;
-    for (int a = 0; a < 3; a++) box[a] = -1, box[a + 3] = 1;
+    for (int a = 0; a < 3; a++)
+        box[a] = -1, box[a + 3] = 1;
     if (!cells || !kept) goto done;
     size_t n = 1, m = 0;
     float h = PART_L, kept_h = h; /* half width of the cells of this level */
@@ -73,7 +76,8 @@ static void part_box(const crisp_frep_tape *t, double box[6])
     for (int level = 0; level <= PART_LEVELS; level++) {
         size_t k = 0;
         for (size_t c = 0; c < n; c++) {
-            float x[2] = {cells[c][0] - h, cells[c][0] + h}, y[2] = {cells[c][1] - h, cells[c][1] + h};
+            float x[2] = {cells[c][0] - h, cells[c][0] + h},
+                  y[2] = {cells[c][1] - h, cells[c][1] + h};
             float z[2] = {cells[c][2] - h, cells[c][2] + h}, v[2];
             crisp_frep_eval_interval(t, x, y, z, v);
             if (v[0] >= 0) continue; /* outside everywhere (NaN: unknown, kept) */
@@ -96,7 +100,8 @@ static void part_box(const crisp_frep_tape *t, double box[6])
     }
     /* points in the kept cells: s^3 per cell */
     int s = 2;
-    while ((size_t)(s + 1) * (s + 1) * (s + 1) * m <= PART_POINTS && s < 16) s++;
+    while ((size_t)(s + 1) * (s + 1) * (s + 1) * m <= PART_POINTS && s < 16)
+        s++;
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     size_t cap = (size_t)s * s * s * m;
     if (!(px = crisp_malloc_array(4 * cap, sizeof(float)))) goto done;
@@ -134,7 +139,8 @@ static crisp_status document_points(crisp_document *d)
 {
     double *box = d->box, *pts = NULL;
     size_t n = 0;
-    for (int a = 0; a < 3; a++) box[a] = INFINITY, box[a + 3] = -INFINITY;
+    for (int a = 0; a < 3; a++)
+        box[a] = INFINITY, box[a + 3] = -INFINITY;
     if (d->scene && d->scene->patch_count > 0) {
         crisp_status st = crisp__scene_drawn_points(d->scene, &pts, &n, box);
         if (st) return st;
@@ -170,14 +176,16 @@ static crisp_status document_points(crisp_document *d)
 crisp_status crisp_document_open(const char *path, const crisp_document_desc *desc,
                                  crisp_document **dest)
 {
-    if (!path || !dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_document_open: NULL argument");
+    if (!path || !dest)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_document_open: NULL argument");
     *dest = NULL;
     const crisp_read_options *ro = desc ? desc->read : NULL;
     struct stat sb;
     if (stat(path, &sb) != 0)
         return crisp_error(CRISP_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     if (S_ISDIR(sb.st_mode))
-        return crisp_error(CRISP_ERR_IO, "%s: is a directory (expected a model, scene or f-rep file)", path);
+        return crisp_error(CRISP_ERR_IO,
+                           "%s: is a directory (expected a model, scene or f-rep file)", path);
     crisp_document *d = crisp_calloc_array(1, sizeof *d);
     size_t n = strlen(path);
     char *copy = crisp_malloc_array(n + 1, 1);
@@ -220,7 +228,8 @@ crisp_status crisp_document_open(const char *path, const crisp_document_desc *de
     double t1 = crisp_time_now();
     if (!st) st = crisp_scene_prepare(d->model, &d->scene);
     if (!st && d->scene->patch_count == 0 && d->part_count == 0)
-        st = crisp_error(CRISP_ERR_INVALID_ARG, "%s: the file holds no surfaces or parts to render", path);
+        st = crisp_error(CRISP_ERR_INVALID_ARG, "%s: the file holds no surfaces or parts to render",
+                         path);
     if (!st) st = document_points(d);
     double t2 = crisp_time_now();
     if (st) {

@@ -96,17 +96,20 @@ static void run(void *ctx, size_t begin, size_t end, int worker)
 
 /* The points (3 doubles each, caller frees with crisp_free) and their box, clamped to
  * scene->box (the box is scene->box when no face gave a finite point). */
-crisp_status crisp__scene_drawn_points(const crisp_scene *sc, double **points, size_t *count, double box[6])
+crisp_status crisp__scene_drawn_points(const crisp_scene *sc, double **points, size_t *count,
+                                       double box[6])
 {
     *points = NULL;
     *count = 0;
-    for (int a = 0; a < 3; a++) box[a] = INFINITY, box[a + 3] = -INFINITY;
+    for (int a = 0; a < 3; a++)
+        box[a] = INFINITY, box[a + 3] = -INFINITY;
     if (!sc->face_count) return CRISP_OK;
     job j = {sc, crisp_malloc_array(sc->face_count + 1, sizeof(size_t)), NULL,
              crisp_calloc_array(sc->face_count, sizeof(size_t))};
     if (j.first) {
         j.first[0] = 0;
-        for (uint32_t i = 0; i < sc->face_count; i++) j.first[i + 1] = j.first[i] + face_capacity(&sc->faces[i]);
+        for (uint32_t i = 0; i < sc->face_count; i++)
+            j.first[i + 1] = j.first[i] + face_capacity(&sc->faces[i]);
         j.points = crisp_malloc_array(j.first[sc->face_count], 3 * sizeof(double));
     }
     if (!j.first || !j.points || !j.count) {

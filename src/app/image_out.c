@@ -24,9 +24,12 @@ crisp_image_format crisp_image_format_of(const char *path)
 const char *crisp_image_format_name(crisp_image_format format)
 {
     switch (format) {
-    case CRISP_IMAGE_PNG: return "PNG";
-    case CRISP_IMAGE_EXR: return "OpenEXR";
-    default: return "unknown";
+    case CRISP_IMAGE_PNG:
+        return "PNG";
+    case CRISP_IMAGE_EXR:
+        return "OpenEXR";
+    default:
+        return "unknown";
     }
 }
 
@@ -39,7 +42,8 @@ crisp_status crisp_image_output_check(const char *path, crisp_image_format want)
                            want == CRISP_IMAGE_PNG ? "png" : "exr");
     if (f == CRISP_IMAGE_UNKNOWN)
         return crisp_error(CRISP_ERR_INVALID_ARG,
-                           "%s: unknown image format (expected a name ending in .png or .exr)", path);
+                           "%s: unknown image format (expected a name ending in .png or .exr)",
+                           path);
     struct stat sb;
     if (stat(path, &sb) == 0) {
         if (S_ISDIR(sb.st_mode)) return crisp_error(CRISP_ERR_IO, "%s: is a directory", path);
@@ -60,11 +64,13 @@ crisp_status crisp_image_output_check(const char *path, crisp_image_format want)
         dir[n] = '\0';
     }
     if (stat(dir, &sb) != 0)
-        return crisp_error(CRISP_ERR_IO, "%s: cannot write: folder %s: %s", path, dir, strerror(errno));
+        return crisp_error(CRISP_ERR_IO, "%s: cannot write: folder %s: %s", path, dir,
+                           strerror(errno));
     if (!S_ISDIR(sb.st_mode))
         return crisp_error(CRISP_ERR_IO, "%s: cannot write: %s is not a folder", path, dir);
     if (access(dir, W_OK | X_OK) != 0)
-        return crisp_error(CRISP_ERR_IO, "%s: cannot write in folder %s: %s", path, dir, strerror(errno));
+        return crisp_error(CRISP_ERR_IO, "%s: cannot write in folder %s: %s", path, dir,
+                           strerror(errno));
     return CRISP_OK;
 }
 
@@ -84,7 +90,8 @@ crisp_status crisp_image_write_png(const crisp_image *img, const char *path)
 
 crisp_status crisp_image_write_exr(const crisp_image *img, const char *path)
 {
-    static const char *const names[] = {"R", "G", "B", "A", "Z", "N.x", "N.y", "N.z", "u", "v", "face"};
+    static const char *const names[] = {"R",   "G",   "B", "A", "Z",   "N.x",
+                                        "N.y", "N.z", "u", "v", "face"};
     enum { C = 11 };
     size_t n = (size_t)img->width * img->height;
     float *px = crisp_malloc_array(n, C * sizeof(float));
@@ -106,10 +113,13 @@ crisp_status crisp_image_write_exr(const crisp_image *img, const char *path)
 crisp_status crisp_image_write(const crisp_image *img, const char *path)
 {
     switch (crisp_image_format_of(path)) {
-    case CRISP_IMAGE_PNG: return crisp_image_write_png(img, path);
-    case CRISP_IMAGE_EXR: return crisp_image_write_exr(img, path);
+    case CRISP_IMAGE_PNG:
+        return crisp_image_write_png(img, path);
+    case CRISP_IMAGE_EXR:
+        return crisp_image_write_exr(img, path);
     default:
         return crisp_error(CRISP_ERR_INVALID_ARG,
-                           "%s: unknown image format (expected a name ending in .png or .exr)", path);
+                           "%s: unknown image format (expected a name ending in .png or .exr)",
+                           path);
     }
 }

@@ -34,29 +34,36 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
 {
     crisp_document_render_desc d = desc ? *desc : (crisp_document_render_desc){0};
     if (stats) memset(stats, 0, sizeof *stats);
-    if (!doc || !cam || !img) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_document_render: NULL argument");
+    if (!doc || !cam || !img)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_document_render: NULL argument");
     if (img->width != cam->width || img->height != cam->height)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the camera's %dx%d", img->width,
-                           img->height, cam->width, cam->height);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the camera's %dx%d",
+                           img->width, img->height, cam->width, cam->height);
     if (d.samples == 0) d.samples = 1;
     crisp_status st = crisp_camera_check(cam);
     if (st) return st;
     if (d.backend == CRISP_BACKEND_CPU) {
         if (d.samples != 1 && d.samples != 4 && d.samples != 16)
-            return crisp_error(CRISP_ERR_INVALID_ARG, "%d samples per pixel: expected 1, 4 or 16", d.samples);
+            return crisp_error(CRISP_ERR_INVALID_ARG, "%d samples per pixel: expected 1, 4 or 16",
+                               d.samples);
     } else if (d.backend == CRISP_BACKEND_EXACT) {
         if (d.samples != 1)
-            return crisp_error(CRISP_ERR_INVALID_ARG,
-                               "the exact backend casts one ray per pixel centre; %d samples need the cpu "
-                               "backend", d.samples);
+            return crisp_error(
+                CRISP_ERR_INVALID_ARG,
+                "the exact backend casts one ray per pixel centre; %d samples need the cpu "
+                "backend",
+                d.samples);
     } else {
-        return crisp_error(CRISP_ERR_INVALID_ARG, "backend %d: expected cpu or exact", (int)d.backend);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "backend %d: expected cpu or exact",
+                           (int)d.backend);
     }
     image_clear(img);
     if (doc->scene && doc->scene->patch_count > 0) {
         if (d.backend == CRISP_BACKEND_CPU) {
             crisp_renderer *r = d.renderer;
-            if (!r) st = crisp_renderer_create(&(crisp_render_desc){.samples = d.samples, .threads = d.threads}, &r);
+            if (!r)
+                st = crisp_renderer_create(
+                    &(crisp_render_desc){.samples = d.samples, .threads = d.threads}, &r);
             if (!st) st = crisp_render_cpu(r, doc->scene, cam, img, stats);
             if (!d.renderer) crisp_renderer_destroy(r);
         } else {
@@ -65,20 +72,22 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
         }
     }
     if (!st && doc->part_count)
-        st = crisp_render_frep_parts(doc->parts, doc->part_count, cam,
-                                     &(crisp_frep_parts_desc){.threads = d.threads,
-                                                              .per_pixel = d.backend == CRISP_BACKEND_EXACT},
-                                     img);
+        st = crisp_render_frep_parts(
+            doc->parts, doc->part_count, cam,
+            &(crisp_frep_parts_desc){.threads = d.threads,
+                                     .per_pixel = d.backend == CRISP_BACKEND_EXACT},
+            img);
     return st;
 }
 
-/* Peak bytes: 48 per sample (the raster target: colour, depth, slack, face, uv, normal) and 40
- * per pixel (the float image and its AOVs, the 8-bit output), fitted to the peaks measured with
- * the CLI on the bundled models (8192x8192 with 1 sample: 5.5 GB; 1280x720 with 16: 730 MB). */
+/* Peak bytes: 32 per sample (the raster target) and 56 per pixel (the float image with its AOVs,
+ * the 8-bit output), fitted to the peak RSS of `crisp render` on the teapot (2048x2048 with 1
+ * sample: 358 MB, with 4: 751 MB; 1280x720 with 16: 523 MB; 4096x4096 with 1: 1.36 GB; the
+ * formula gives 369, 772, 524 and 1476 MB). A large model adds its own size on top. */
 uint64_t crisp_render_memory_estimate(int width, int height, int samples)
 {
     if (width <= 0 || height <= 0) return 0;
     if (samples < 1) samples = 1;
     uint64_t px = (uint64_t)width * (uint64_t)height;
-    return px * (uint64_t)samples * 48u + px * 40u;
+    return px * (uint64_t)samples * 32u + px * 56u;
 }

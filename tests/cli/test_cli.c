@@ -29,7 +29,8 @@ static int run(const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(args, sizeof args, fmt, ap);
     va_end(ap);
-    snprintf(cmd, sizeof cmd, "'%s/crisp' %s >cli_stdout.txt 2>cli_stderr.txt", CRISP_BIN_DIR, args);
+    snprintf(cmd, sizeof cmd, "'%s/crisp' %s >cli_stdout.txt 2>cli_stderr.txt", CRISP_BIN_DIR,
+             args);
     int st = system(cmd);
     char *bufs[2] = {out_buf, err_buf};
     const char *names[2] = {"cli_stdout.txt", "cli_stderr.txt"};
@@ -73,8 +74,8 @@ static void test_version_and_help(void **state)
     EXPECT(rc, 2, err_buf, "unknown option '--bogus'");
     rc = run("nosuchcommand");
     EXPECT(rc, 2, err_buf, "unknown command 'nosuchcommand'");
-    static const char *const subs[] = {"render --help", "render -h", "info --help", "version --help",
-                                       "render " TEAPOT " --help"};
+    static const char *const subs[] = {"render --help", "render -h", "info --help",
+                                       "version --help", "render " TEAPOT " --help"};
     for (size_t i = 0; i < sizeof subs / sizeof subs[0]; i++) {
         rc = run("%s", subs[i]);
         EXPECT(rc, 0, out_buf, "usage: crisp");
@@ -88,9 +89,10 @@ static void test_render_help_lists_options(void **state)
     (void)state;
     assert_int_equal(run("render --help"), 0);
     static const char *const opts[] = {
-        "-o, --output", "--aov", "--size", "--view", "--fit", "--eye", "--target", "--up", "--fov",
-        "--near", "--far", "--samples", "--backend", "--threads", "--repeat", "--stats",
-        "--max-memory", "--progress", "--no-progress", "-q, --quiet", "-h, --help"};
+        "-o, --output",  "--aov",       "--size",    "--view",  "--fit",        "--eye",
+        "--target",      "--up",        "--fov",     "--near",  "--far",        "--samples",
+        "--backend",     "--threads",   "--repeat",  "--stats", "--max-memory", "--progress",
+        "--no-progress", "-q, --quiet", "-h, --help"};
     for (size_t i = 0; i < sizeof opts / sizeof opts[0]; i++) {
         const char *at = strstr(out_buf, opts[i]);
         if (!at) fprintf(stderr, "'%s' missing from:\n%s", opts[i], out_buf);
@@ -176,7 +178,8 @@ static void test_outputs_checked_first(void **state)
 {
     (void)state;
     int rc = run("render /nonexistent/model.igs -o cli_out.jpg");
-    EXPECT(rc, 2, err_buf, "cli_out.jpg: unknown image format (expected a name ending in .png or .exr)");
+    EXPECT(rc, 2, err_buf,
+           "cli_out.jpg: unknown image format (expected a name ending in .png or .exr)");
     assert_false(exists("cli_out.jpg"));
     rc = run("render /nonexistent/model.igs -o /nonexistent/folder/x.png");
     EXPECT(rc, 2, err_buf, "folder /nonexistent/folder");
@@ -211,7 +214,8 @@ static void test_memory(void **state)
     assert_non_null(strstr(err_buf, "GB"));
     rc = run("render /nonexistent/model.igs --size 16384x16384 --max-memory 1T -o cli_big.png");
     EXPECT(rc, 1, err_buf, "/nonexistent/model.igs"); /* past the limit check */
-    rc = run("render /nonexistent/model.igs --size 4096x4096 --samples 16 --max-memory 2G -o cli_big.png");
+    rc = run("render /nonexistent/model.igs --size 4096x4096 --samples 16 --max-memory 2G -o "
+             "cli_big.png");
     EXPECT(rc, 2, err_buf, "limit of 2.0 GB");
     assert_false(exists("cli_big.png"));
 }
@@ -267,7 +271,8 @@ static void test_progress_switches(void **state)
     rc = run("render %s -o cli_p.png --size 64x48 --backend exact -q --progress", TEAPOT);
     EXPECT(rc, 0, err_buf, "rendering [");
     assert_non_null(strstr(err_buf, "100%"));
-    rc = run("render %s -o cli_p.png --size 64x48 --backend exact -q --progress --no-progress", TEAPOT);
+    rc = run("render %s -o cli_p.png --size 64x48 --backend exact -q --progress --no-progress",
+             TEAPOT);
     assert_int_equal(rc, 0);
     assert_null(strstr(err_buf, "rendering ["));
     unsetenv("CRISP_PROGRESS_AFTER");
@@ -280,10 +285,12 @@ static void test_views(void **state)
     (void)state;
     static const char *const views[] = {"front", "back", "left", "right", "top", "bottom", "iso"};
     for (size_t i = 0; i < sizeof views / sizeof views[0]; i++) {
-        int rc = run("render %s -o cli_v.png --size 32x24 --samples 1 --view %s --stats", TEAPOT, views[i]);
+        int rc = run("render %s -o cli_v.png --size 32x24 --samples 1 --view %s --stats", TEAPOT,
+                     views[i]);
         EXPECT(rc, 0, out_buf, "camera");
     }
-    int rc = run("render %s -o cli_v.png --size 32x24 --samples 1 --eye 100,0,0 --fit --stats", TEAPOT);
+    int rc =
+        run("render %s -o cli_v.png --size 32x24 --samples 1 --eye 100,0,0 --fit --stats", TEAPOT);
     EXPECT(rc, 0, out_buf, "camera");
     /* fitted: the eye moved from x = 100 towards the model */
     assert_null(strstr(out_buf, "eye 100,"));
@@ -296,11 +303,16 @@ int main(void)
     mkdir(CRISP_BIN_DIR "/cli_scratch", 0755);
     if (chdir(CRISP_BIN_DIR "/cli_scratch") != 0) return 1;
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_version_and_help),   cmocka_unit_test(test_render_help_lists_options),
-        cmocka_unit_test(test_numbers_validated),  cmocka_unit_test(test_option_errors),
-        cmocka_unit_test(test_outputs_checked_first), cmocka_unit_test(test_memory),
-        cmocka_unit_test(test_wrote_line_and_defaults), cmocka_unit_test(test_repeat_stats),
-        cmocka_unit_test(test_progress_switches),  cmocka_unit_test(test_views),
+        cmocka_unit_test(test_version_and_help),
+        cmocka_unit_test(test_render_help_lists_options),
+        cmocka_unit_test(test_numbers_validated),
+        cmocka_unit_test(test_option_errors),
+        cmocka_unit_test(test_outputs_checked_first),
+        cmocka_unit_test(test_memory),
+        cmocka_unit_test(test_wrote_line_and_defaults),
+        cmocka_unit_test(test_repeat_stats),
+        cmocka_unit_test(test_progress_switches),
+        cmocka_unit_test(test_views),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -42,17 +42,22 @@ static double check_framing(const char *path, int width, int height, crisp_view 
     crisp_camera cam;
     crisp_image img = {0};
     crisp_status st = crisp_document_open(path, NULL, &doc);
-    if (!st) st = crisp_document_camera(doc, &(crisp_camera_desc){.width = width, .height = height, .view = view}, &cam);
+    if (!st)
+        st = crisp_document_camera(
+            doc, &(crisp_camera_desc){.width = width, .height = height, .view = view}, &cam);
     if (!st) st = crisp_image_init(&img, width, height);
-    if (!st) st = crisp_document_render(doc, &cam, &(crisp_document_render_desc){.samples = 1}, &img, NULL);
+    if (!st)
+        st = crisp_document_render(doc, &cam, &(crisp_document_render_desc){.samples = 1}, &img,
+                                   NULL);
     if (st) fprintf(stderr, "%s: %s\n", path, crisp_error_message());
     assert_int_equal(st, CRISP_OK);
     extent e = alpha_extent(&img);
     double fw = (double)(e.x1 - e.x0 + 1) / width, fh = (double)(e.y1 - e.y0 + 1) / height;
     double fill = fw > fh ? fw : fh;
-    printf("%-28s %-6s %4dx%-4d drawn %4dx%-4d at %4d,%-4d fill %.0f%% (w %.0f%%, h %.0f%%), edge pixels %d\n",
-           strrchr(path, '/') + 1, crisp_view_name(view), width, height, e.x1 - e.x0 + 1, e.y1 - e.y0 + 1,
-           e.x0, e.y0, 100 * fill, 100 * fw, 100 * fh, e.on_edge);
+    printf("%-28s %-6s %4dx%-4d drawn %4dx%-4d at %4d,%-4d fill %.0f%% (w %.0f%%, h %.0f%%), edge "
+           "pixels %d\n",
+           strrchr(path, '/') + 1, crisp_view_name(view), width, height, e.x1 - e.x0 + 1,
+           e.y1 - e.y0 + 1, e.x0, e.y0, 100 * fill, 100 * fw, 100 * fh, e.on_edge);
     assert_true(e.x0 <= e.x1);
     assert_int_equal(e.on_edge, 0);
     assert_true(fill >= 0.60);
@@ -62,10 +67,13 @@ static double check_framing(const char *path, int width, int height, crisp_view 
 }
 
 static const char *const models[] = {
-    "nurbs/Ventilator.stp",   "nurbs/gpucast_part.igs",  "nurbs/gpucast_teapot.igs", "nurbs/impeller.igs",
-    "nurbs/occt_as1_ec.stp",  "nurbs/occt_bearing.iges", "nurbs/occt_bm2_pe_t4_b.stp",
-    "nurbs/occt_hammer.iges", "nurbs/occt_linkrods.step", "nurbs/occt_trj4_k1_geo_tu.stp",
-    "nurbs/occt_trj9_io1.stp", "frep/bear.vm", "frep/tanglecube.vm", "frep/colonnade.vm",
+    "nurbs/Ventilator.stp",       "nurbs/gpucast_part.igs",
+    "nurbs/gpucast_teapot.igs",   "nurbs/impeller.igs",
+    "nurbs/occt_as1_ec.stp",      "nurbs/occt_bearing.iges",
+    "nurbs/occt_bm2_pe_t4_b.stp", "nurbs/occt_hammer.iges",
+    "nurbs/occt_linkrods.step",   "nurbs/occt_trj4_k1_geo_tu.stp",
+    "nurbs/occt_trj9_io1.stp",    "frep/bear.vm",
+    "frep/tanglecube.vm",         "frep/colonnade.vm",
     "scenes/teapot_frep.scene",
 };
 
@@ -108,10 +116,11 @@ static void test_fit_box_tight(void **state)
         for (int aspect = 0; aspect < 2; aspect++) {
             crisp_camera cam;
             int w = aspect ? 300 : 800, h = aspect ? 900 : 450;
-            assert_int_equal(crisp_camera_fit(box, dirs[k], ups[k],
-                                              &(crisp_camera_fit_desc){.width = w, .height = h, .margin = 0.05},
-                                              &cam),
-                             CRISP_OK);
+            assert_int_equal(
+                crisp_camera_fit(box, dirs[k], ups[k],
+                                 &(crisp_camera_fit_desc){.width = w, .height = h, .margin = 0.05},
+                                 &cam),
+                CRISP_OK);
             crisp_camera_matrices m;
             crisp_camera_matrices_compute(&cam, &m);
             double worst = 0;

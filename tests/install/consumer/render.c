@@ -20,9 +20,12 @@ int main(int argc, char **argv)
     crisp_image img = {0};
     crisp_status st = crisp_image_output_check(argv[2], CRISP_IMAGE_PNG);
     if (!st) st = crisp_document_open(argv[1], NULL, &doc);
-    if (!st) st = crisp_document_camera(doc, &(crisp_camera_desc){.width = 160, .height = 120}, &cam);
+    if (!st)
+        st = crisp_document_camera(doc, &(crisp_camera_desc){.width = 160, .height = 120}, &cam);
     if (!st) st = crisp_image_init(&img, cam.width, cam.height);
-    if (!st) st = crisp_document_render(doc, &cam, &(crisp_document_render_desc){.samples = 4}, &img, NULL);
+    if (!st)
+        st = crisp_document_render(doc, &cam, &(crisp_document_render_desc){.samples = 4}, &img,
+                                   NULL);
     if (!st) st = crisp_image_write(&img, argv[2]);
     if (st) fprintf(stderr, "%s: %s\n", crisp_status_name(st), crisp_error_message());
     crisp_image_free(&img);
