@@ -61,8 +61,10 @@ crisp_status crisp__scene_drawn_points(const crisp_scene *sc, double **points, s
  * a part larger than L) gets [-1, 1], the .vm models' region. */
 enum { PART_L = 4, PART_MAX_CELLS = 4096, PART_LEVELS = 7, PART_POINTS = 1 << 16 };
 
-static void part_box(const crisp_frep_tape *t, double box[6])
+static void part_box(const crisp_frep_tape *t, double box[6], double **inside, size_t *inside_n)
 {
+    *inside = NULL;
+    *inside_n = 0;
     float(*cells)[3] = crisp_malloc_array(8 * PART_MAX_CELLS, sizeof *cells);
     float(*kept)[3] = crisp_malloc_array(8 * PART_MAX_CELLS, sizeof *kept);
     float *px = NULL;
@@ -126,6 +128,27 @@ static void part_box(const crisp_frep_tape *t, double box[6])
         }
     for (int a = 0; a < 3; a++)
         if (!unbounded[a] && lo[a] <= hi[a]) box[a] = lo[a], box[a + 3] = hi[a];
+    /* bounded: the inside samples themselves frame the part (its silhouette, not its box) */
+    if (!unbounded[0] && !unbounded[1] && !unbounded[2] && lo[0] <= hi[0]) {
+        /* each inside sample stands for the cube of one spacing around it: its 6 neighbours
+         * one spacing away along the axes (the part may reach that far between samples) */
+        size_t n = 0;
+        for (size_t q = 0; q < np; q++)
+            n += val[q] < 0;
+        double *pts = crisp_malloc_array(6 * n, 3 * sizeof(double));
+        if (pts) {
+            n = 0;
+            for (size_t q = 0; q < np; q++)
+                if (val[q] < 0)
+                    for (int k = 0; k < 6; k++) {
+                        double *d = pts + 3 * n++;
+                        d[0] = px[q], d[1] = py[q], d[2] = pz[q];
+                        d[k >> 1] += k & 1 ? step : -step;
+                    }
+            *inside = pts;
+            *inside_n = n;
+        }
+    }
 done:
     crisp_free(cells);
     crisp_free(kept);
@@ -133,8 +156,8 @@ done:
 }
 
 /* What the default camera frames: points of the trimmed faces (sampled on the true surfaces,
- * drawn_box.c) and the corners of each part's box (part_box) through its transform; and their
- * box. */
+ * drawn_box.c) and each part's inside samples (or its box's corners when it is unbounded;
+ * part_box) through its transform; and their box. */
 static crisp_status document_points(crisp_document *d)
 {
     double *box = d->box, *pts = NULL;
@@ -145,21 +168,27 @@ static crisp_status document_points(crisp_document *d)
         crisp_status st = crisp__scene_drawn_points(d->scene, &pts, &n, box);
         if (st) return st;
     }
-    if (d->part_count) {
-        double *grown = crisp_realloc_array(pts, n + 8 * d->part_count, 3 * sizeof(double));
+    for (size_t k = 0; k < d->part_count; k++) {
+        double pb[6], *in = NULL;
+        size_t in_n = 0;
+        part_box(d->parts[k].tape, pb, &in, &in_n);
+        size_t add = in_n ? in_n : 8;
+        double *grown = crisp_realloc_array(pts, n + add, 3 * sizeof(double));
         if (!grown) {
+            crisp_free(in);
             crisp_free(pts);
             return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", d->path);
         }
         pts = grown;
-    }
-    for (size_t k = 0; k < d->part_count; k++) {
-        double pb[6];
-        part_box(d->parts[k].tape, pb);
-        for (int c = 0; c < 8; c++) {
-            double p[3] = {pb[c & 1 ? 3 : 0], pb[c & 2 ? 4 : 1], pb[c & 4 ? 5 : 2]}, w[4];
-            crisp_mat4 m;
-            memcpy(m, d->parts[k].transform, sizeof m);
+        crisp_mat4 m;
+        memcpy(m, d->parts[k].transform, sizeof m);
+        for (size_t c = 0; c < add; c++) {
+            double p[3], w[4];
+            if (in_n) {
+                memcpy(p, in + 3 * c, sizeof p);
+            } else {
+                p[0] = pb[c & 1 ? 3 : 0], p[1] = pb[c & 2 ? 4 : 1], p[2] = pb[c & 4 ? 5 : 2];
+            }
             crisp_mat4_mulp(m, p, w);
             memcpy(pts + 3 * n++, w, 3 * sizeof(double));
             for (int a = 0; a < 3; a++) {
@@ -167,6 +196,7 @@ static crisp_status document_points(crisp_document *d)
                 box[a + 3] = fmax(box[a + 3], w[a]);
             }
         }
+        crisp_free(in);
     }
     d->points = pts;
     d->point_count = n;

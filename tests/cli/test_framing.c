@@ -81,6 +81,12 @@ static void test_bundled_models(void **state)
 {
     (void)state;
     char path[1024];
+    /* a round part, the hardest case for a box-corner fit */
+    FILE *f = fopen(CRISP_BIN_DIR "/framing_sphere.math", "w");
+    assert_non_null(f);
+    fputs("sqrt(X*X + Y*Y + Z*Z) - 0.8\n", f);
+    fclose(f);
+    check_framing(CRISP_BIN_DIR "/framing_sphere.math", 320, 180, CRISP_VIEW_DEFAULT);
     for (size_t i = 0; i < sizeof models / sizeof models[0]; i++) {
         snprintf(path, sizeof path, "%s/%s", CRISP_DATA_DIR, models[i]);
         check_framing(path, 320, 180, CRISP_VIEW_DEFAULT);
