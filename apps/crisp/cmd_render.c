@@ -216,6 +216,11 @@ static int parse(int argc, char **argv, render_args *a)
         return 2;
     }
     a->path = argv[optind];
+    if (a->cam.view != CRISP_VIEW_DEFAULT && a->cam.eye) {
+        fprintf(stderr, "crisp render: --view and --eye both place the camera: give one (--fit "
+                        "refits --eye)\n");
+        return 2;
+    }
     if (!a->out && !a->aov) a->out = "out.png";
     int cpu = a->render.backend == CRISP_BACKEND_CPU;
     if (!cpu && a->samples_given && a->render.samples != 1) {

@@ -141,6 +141,7 @@ static void test_numbers_validated(void **state)
         {"--view diagonal", "--view diagonal: expected front, back"},
         {"--backend gpu", "--backend gpu: expected cpu or exact"},
         {"--backend exact --samples 4", "needs the cpu backend"},
+        {"--view top --eye 1,2,3", "--view and --eye"},
     };
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
         remove("cli_bad.png");
