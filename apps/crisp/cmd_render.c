@@ -265,7 +265,7 @@ static int check_outputs(const render_args *a)
 }
 
 typedef struct frame_times {
-    double *total, *levels, *edges, *trim, *tess, *raster, *resolve;
+    double *total, *levels, *edges, *trim, *tess, *raster, *resolve, *faces, *parts;
 } frame_times;
 
 static void print_stats(const render_args *a, const crisp_document *doc, const crisp_camera *cam,
@@ -320,6 +320,10 @@ static void print_stats(const render_args *a, const crisp_document *doc, const c
         printf("time resolve     %.2f ms%s\n", cli_median(t->resolve, r), med);
     }
     printf("time render      %.2f ms%s\n", cli_median(t->total, r), med);
+    if (doc->part_count) {
+        printf("time faces       %.2f ms%s\n", cli_median(t->faces, r), med);
+        printf("time f-rep parts %.2f ms%s\n", cli_median(t->parts, r), med);
+    }
     if (r > 1) printf("frames           %zu\n", r);
     printf("time write       %.1f ms\n", ms_write);
 }
@@ -336,13 +340,14 @@ int crisp_cmd_render(int argc, char **argv)
     crisp_renderer *renderer = NULL;
     crisp_image img = {0};
     crisp_render_stats rs = {0};
-    double *times = crisp_calloc_array((size_t)a.repeat, 7 * sizeof(double));
+    double *times = crisp_calloc_array((size_t)a.repeat, 9 * sizeof(double));
     frame_times ft = {0};
     crisp_status st = times ? CRISP_OK : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
     if (!st) {
         size_t r = (size_t)a.repeat;
-        ft = (frame_times){times,         times + r,     times + 2 * r, times + 3 * r,
-                           times + 4 * r, times + 5 * r, times + 6 * r};
+        ft =
+            (frame_times){times,         times + r,     times + 2 * r, times + 3 * r, times + 4 * r,
+                          times + 5 * r, times + 6 * r, times + 7 * r, times + 8 * r};
     }
     cli_progress_begin(a.progress, "loading");
     if (!st) st = crisp_document_open(a.path, NULL, &doc);
@@ -355,6 +360,8 @@ int crisp_cmd_render(int argc, char **argv)
             &(crisp_render_desc){.samples = a.render.samples, .threads = a.render.threads},
             &renderer);
     a.render.renderer = renderer;
+    crisp_document_times dt = {0};
+    a.render.times = &dt;
     cli_progress_begin(a.progress, "rendering");
     for (int k = 0; k < a.repeat && !st; k++) {
         double t0 = crisp_time_now();
@@ -366,6 +373,8 @@ int crisp_cmd_render(int argc, char **argv)
         ft.tess[k] = rs.ms_tess;
         ft.raster[k] = rs.ms_raster;
         ft.resolve[k] = rs.ms_resolve;
+        ft.faces[k] = dt.ms_faces;
+        ft.parts[k] = dt.ms_parts;
     }
     cli_progress_end();
     double ms_render = st ? 0 : ft.total[a.repeat - 1];

@@ -145,11 +145,18 @@ typedef enum crisp_backend {
     CRISP_BACKEND_EXACT    /* ray casting against the true surfaces and trim curves (slow) */
 } crisp_backend;
 
+/* Wall time of one crisp_document_render call by part of the document. */
+typedef struct crisp_document_times {
+    double ms_faces; /* the NURBS faces (plan, tessellation, raster, resolve; or exact rays) */
+    double ms_parts; /* the f-rep parts */
+} crisp_document_times;
+
 typedef struct crisp_document_render_desc {
     crisp_backend backend;
-    int samples;              /* cpu: 1, 4 or 16; 0: 1. exact: 1 */
-    int threads;              /* 0: default (CRISP_THREADS or all cores) */
-    crisp_renderer *renderer; /* cpu: reused when given (its samples win); NULL: one per call */
+    int samples;                 /* cpu: 1, 4 or 16; 0: 1. exact: 1 */
+    int threads;                 /* 0: default (CRISP_THREADS or all cores) */
+    crisp_renderer *renderer;    /* cpu: reused when given (its samples win); NULL: one per call */
+    crisp_document_times *times; /* NULL, or receives the call's times */
 } crisp_document_render_desc;
 
 /* Clears img (which must have the camera's size) and draws doc's faces then its f-rep parts.

@@ -58,6 +58,7 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
                            (int)d.backend);
     }
     image_clear(img);
+    double t0 = crisp_time_now();
     if (doc->scene && doc->scene->patch_count > 0) {
         if (d.backend == CRISP_BACKEND_CPU) {
             crisp_renderer *r = d.renderer;
@@ -71,12 +72,17 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
             st = crisp_render_exact(doc->scene, cam, &ed, img);
         }
     }
+    double t1 = crisp_time_now();
     if (!st && doc->part_count)
         st = crisp_render_frep_parts(
             doc->parts, doc->part_count, cam,
             &(crisp_frep_parts_desc){.threads = d.threads,
                                      .per_pixel = d.backend == CRISP_BACKEND_EXACT},
             img);
+    if (d.times) {
+        d.times->ms_faces = 1e3 * (t1 - t0);
+        d.times->ms_parts = 1e3 * (crisp_time_now() - t1);
+    }
     return st;
 }
 
