@@ -12,7 +12,7 @@
 #include "crisp/app.h"
 
 const char crisp_cmd_render_help[] =
-    "render FILE [-o out.png] ...  render a model, a .scene file or an f-rep part to an image";
+    "render FILE [options]       render a model, a .scene file or an f-rep part to an image";
 
 static const char usage_text[] =
     "usage: crisp render FILE [options]\n"
@@ -25,11 +25,11 @@ static const char usage_text[] =
     "      --size WxH        image size in pixels, each 1..16384 [1280x720]\n"
     "      --view NAME       front (seen from -Y), back, left, right, top (from +Z), bottom or "
     "iso\n"
-    "                        (from 1,-1,1), +Z up, fitted to the trimmed geometry's box\n"
+    "                        (from 1,-1,1), +Z up, fitted to the trimmed geometry\n"
     "                        [the scene file's camera line, else iso]\n"
     "      --fit             keep the direction of --eye/--target (or the camera line) and move "
     "the\n"
-    "                        camera so the box just fits [off]\n"
+    "                        camera so the geometry just fits [off]\n"
     "      --eye x,y,z       camera position [fitted]\n"
     "      --target x,y,z    point looked at [the middle of the box]\n"
     "      --up x,y,z        up direction [0,0,1; 0,1,0 / 0,-1,0 looking straight down / up]\n"
