@@ -170,6 +170,8 @@ static void test_option_errors(void **state)
     EXPECT(rc, 1, err_buf, "/nonexistent/model.igs");
     rc = run("render %s -o cli_x.png", CRISP_DATA_DIR);
     EXPECT(rc, 1, err_buf, "is a directory");
+    rc = run("info %s", CRISP_DATA_DIR);
+    EXPECT(rc, 1, err_buf, "is a directory");
     assert_false(exists("cli_x.png"));
 }
 
