@@ -15,7 +15,8 @@ install(FILES ${PROJECT_BINARY_DIR}/include/crisp/version.h
 
 # What a program linking the static libcrisp.a also needs (the shared library carries these
 # itself): libpng, the OpenEXR C core, OpenSubdiv and the C++ runtime when built with it, libm,
-# pthreads.
+# pthreads. A module that links another system library (the GL backend: EGL, OpenGL, GLFW) adds
+# it to both lists below, under if(TARGET crisp_<module>); tests/install checks the static link.
 set(CRISP_PC_LIBS_PRIVATE "-lpng -lOpenEXRCore")
 if(TARGET crisp_osd)
   string(APPEND CRISP_PC_LIBS_PRIVATE " -losdCPU -lstdc++")
