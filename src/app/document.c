@@ -75,6 +75,28 @@ static void part_box(const crisp_frep_tape *t, double box[6], double **inside, s
     float h = PART_L, kept_h = h; /* half width of the cells of this level */
     cells[0][0] = cells[0][1] = cells[0][2] = 0;
     int unbounded[3] = {0, 0, 0};
+    /* First a cheap look at the outer cube's faces: inside points there mean an unbounded part
+     * (a 2D .vm model is a prism along Z); its box is the default, without the subdivision. */
+    {
+        enum { G = 16 };
+        float fx[6 * G * G], fy[6 * G * G], fz[6 * G * G], fv[6 * G * G];
+        size_t q = 0;
+        for (int f = 0; f < 6; f++)
+            for (int i = 0; i < G; i++)
+                for (int j = 0; j < G; j++) {
+                    float c[3], u = -PART_L + 2.0f * PART_L * (i + 0.5f) / G;
+                    float v = -PART_L + 2.0f * PART_L * (j + 0.5f) / G;
+                    int a = f >> 1;
+                    c[a] = f & 1 ? PART_L : -PART_L;
+                    c[(a + 1) % 3] = u;
+                    c[(a + 2) % 3] = v;
+                    fx[q] = c[0], fy[q] = c[1], fz[q] = c[2];
+                    q++;
+                }
+        if (crisp_frep_eval_batch(t, q, fx, fy, fz, fv)) goto done;
+        for (size_t k = 0; k < q; k++)
+            if (fv[k] < 0) goto done;
+    }
     for (int level = 0; level <= PART_LEVELS; level++) {
         size_t k = 0;
         for (size_t c = 0; c < n; c++) {
