@@ -40,19 +40,22 @@ static _Thread_local crisp_pool *current; /* the pool whose job this thread is r
 
 /* ---- progress ---------------------------------------------------------------------------------- */
 
-static crisp_progress_fn progress_fn;
-static void *progress_ctx;
+/* Set from one thread, read by whichever thread reports: atomics, so a report never sees a torn
+ * pointer (the receiver and its context are set before the receiver is published). */
+static _Atomic(crisp_progress_fn) progress_fn;
+static _Atomic(void *) progress_ctx;
 
 void crisp_progress_set(crisp_progress_fn fn, void *ctx)
 {
-    progress_fn = fn;
-    progress_ctx = ctx;
+    atomic_store(&progress_fn, NULL);
+    atomic_store(&progress_ctx, ctx);
+    atomic_store(&progress_fn, fn);
 }
 
 void crisp_progress_report(double fraction)
 {
-    crisp_progress_fn fn = progress_fn;
-    if (fn) fn(progress_ctx, fraction < 0 ? 0 : fraction > 1 ? 1 : fraction);
+    crisp_progress_fn fn = atomic_load(&progress_fn);
+    if (fn) fn(atomic_load(&progress_ctx), fraction < 0 ? 0 : fraction > 1 ? 1 : fraction);
 }
 
 static void run_chunks(crisp_pool *p, int worker)
@@ -65,7 +68,8 @@ static void run_chunks(crisp_pool *p, int worker)
         size_t e = b + p->grain < p->count ? b + p->grain : p->count;
         p->fn(p->ctx, b, e, worker);
         size_t d = atomic_fetch_add(&p->items_done, e - b) + (e - b);
-        if (worker == 0 && progress_fn) crisp_progress_report((double)d / (double)p->count);
+        if (worker == 0 && atomic_load_explicit(&progress_fn, memory_order_relaxed))
+            crisp_progress_report((double)d / (double)p->count);
     }
     current = outer;
 }
@@ -171,7 +175,8 @@ void crisp_pool_parallel_for(crisp_pool *p, size_t count, size_t grain, crisp_po
         for (size_t b = 0; b < count; b += grain) {
             size_t e = b + grain < count ? b + grain : count;
             fn(ctx, b, e, 0);
-            if (progress_fn && count > grain && !current) crisp_progress_report((double)e / (double)count);
+            if (count > grain && !current && atomic_load(&progress_fn))
+                crisp_progress_report((double)e / (double)count);
         }
         return;
     }
@@ -193,7 +198,7 @@ void crisp_pool_parallel_for(crisp_pool *p, size_t count, size_t grain, crisp_po
     pthread_mutex_lock(&p->lock);
     while (p->busy > 0) pthread_cond_wait(&p->done, &p->lock);
     pthread_mutex_unlock(&p->lock);
-    if (progress_fn) crisp_progress_report(1.0); /* the workers may have taken every item */
+    if (atomic_load(&progress_fn)) crisp_progress_report(1.0); /* the workers may have taken every item */
     /* A worker's error and none on this thread: its message becomes this thread's, so the
      * status the caller collects from its workers comes with what was wrong. */
     if (atomic_load(&p->error.taken) == 2 && crisp__error_count() == errors_before)
