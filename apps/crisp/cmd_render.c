@@ -36,8 +36,8 @@ static const char usage_text[] =
     "      --fov DEG         vertical field of view in (0, 180) [30]\n"
     "      --near N          near plane distance > 0 [encloses the box]\n"
     "      --far F           far plane distance > near [encloses the box]\n"
-    "      --samples N       samples per pixel, 1, 4 or 16 (cpu backend) [4 when a PNG is written\n"
-    "                        with the cpu backend, else 1]\n"
+    "      --samples N       samples per pixel, 1, 4 or 16 (cpu and gl backends) [4 when a PNG is\n"
+    "                        written with the cpu or gl backend, else 1]\n"
     "      --backend NAME    cpu (SLEFE tessellation, u-intercept tables) or exact (ray casting "
     "on\n"
     "                        the true surfaces and trim curves; slow) [cpu]\n"
@@ -172,8 +172,10 @@ static int parse(int argc, char **argv, render_args *a)
                 a->render.backend = CRISP_BACKEND_CPU;
             } else if (!strcmp(optarg, "exact")) {
                 a->render.backend = CRISP_BACKEND_EXACT;
+            } else if (!strcmp(optarg, "gl")) {
+                a->render.backend = CRISP_BACKEND_GL;
             } else {
-                fprintf(stderr, "crisp render: --backend %s: expected cpu or exact\n", optarg);
+                fprintf(stderr, "crisp render: --backend %s: expected cpu, exact or gl\n", optarg);
                 return 2;
             }
             break;
@@ -222,7 +224,7 @@ static int parse(int argc, char **argv, render_args *a)
         return 2;
     }
     if (!a->out && !a->aov) a->out = "out.png";
-    int cpu = a->render.backend == CRISP_BACKEND_CPU;
+    int cpu = a->render.backend != CRISP_BACKEND_EXACT; /* cpu and gl take samples */
     if (!cpu && a->samples_given && a->render.samples != 1) {
         fprintf(
             stderr,
@@ -281,6 +283,8 @@ static void print_stats(const render_args *a, const crisp_document *doc, const c
     const crisp_scene *sc = doc->scene;
     size_t r = (size_t)a->repeat;
     printf("backend          %s\n", cpu ? "cpu (SLEFE tessellation, u-intercept tables)"
+                                    : a->render.backend == CRISP_BACKEND_GL
+                                        ? "gl (OpenGL 4.5 tessellation, u-intercept tables)"
                                         : "exact (ray casting, exact trim classifier)");
     printf("samples          %d\n", a->render.samples);
     printf("faces            %u\n", sc->face_count);

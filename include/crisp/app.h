@@ -142,7 +142,10 @@ crisp_status crisp_document_camera(const crisp_document *doc, const crisp_camera
 
 typedef enum crisp_backend {
     CRISP_BACKEND_CPU = 0, /* SLEFE tessellation, u-intercept tables, tile-binned rasterizer */
-    CRISP_BACKEND_EXACT    /* ray casting against the true surfaces and trim curves (slow) */
+    CRISP_BACKEND_EXACT,   /* ray casting against the true surfaces and trim curves (slow) */
+    CRISP_BACKEND_GL       /* OpenGL 4.5 on a headless context (include/crisp/gl.h); faces only,
+                              the parts are composited on the CPU. CRISP_ERR_UNSUPPORTED when
+                              crisp is built without it */
 } crisp_backend;
 
 /* Wall time of one crisp_document_render call by part of the document. */
@@ -153,7 +156,7 @@ typedef struct crisp_document_times {
 
 typedef struct crisp_document_render_desc {
     crisp_backend backend;
-    int samples;                 /* cpu: 1, 4 or 16; 0: 1. exact: 1 */
+    int samples;                 /* cpu, gl: 1, 4 or 16; 0: 1. exact: 1 */
     int threads;                 /* 0: default (CRISP_THREADS or all cores) */
     crisp_renderer *renderer;    /* cpu: reused when given (its samples win); NULL: one per call */
     crisp_document_times *times; /* NULL, or receives the call's times */

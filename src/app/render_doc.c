@@ -6,6 +6,9 @@
 
 #include "crisp/app.h"
 #include "crisp/trim.h"
+#ifdef CRISP_HAVE_GL
+#include "crisp/gl.h"
+#endif
 
 /* The exact backend's trim decision: the face's true trim curves. */
 static int classify_exact(void *ctx, const crisp_scene *sc, uint32_t face, double u, double v)
@@ -42,7 +45,7 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
     if (d.samples == 0) d.samples = 1;
     crisp_status st = crisp_camera_check(cam);
     if (st) return st;
-    if (d.backend == CRISP_BACKEND_CPU) {
+    if (d.backend == CRISP_BACKEND_CPU || d.backend == CRISP_BACKEND_GL) {
         if (d.samples != 1 && d.samples != 4 && d.samples != 16)
             return crisp_error(CRISP_ERR_INVALID_ARG, "%d samples per pixel: expected 1, 4 or 16",
                                d.samples);
@@ -54,7 +57,7 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
                 "backend",
                 d.samples);
     } else {
-        return crisp_error(CRISP_ERR_INVALID_ARG, "backend %d: expected cpu or exact",
+        return crisp_error(CRISP_ERR_INVALID_ARG, "backend %d: expected cpu, exact or gl",
                            (int)d.backend);
     }
     image_clear(img);
@@ -67,6 +70,16 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
                     &(crisp_render_desc){.samples = d.samples, .threads = d.threads}, &r);
             if (!st) st = crisp_render_cpu(r, doc->scene, cam, img, stats);
             if (!d.renderer) crisp_renderer_destroy(r);
+        } else if (d.backend == CRISP_BACKEND_GL) {
+#ifdef CRISP_HAVE_GL
+            /* the GL helper's one-frame path (a headless context, a planner and the backend) */
+            crisp_gl_stats gs = {0};
+            char name[256] = "";
+            st = crisp_gl_render_once(doc->scene, cam, d.samples, img, &gs, name, sizeof name);
+#else
+            st = crisp_error(CRISP_ERR_UNSUPPORTED,
+                             "the GL backend is not built into this crisp (CRISP_GL=OFF)");
+#endif
         } else {
             crisp_exact_desc ed = {.threads = d.threads, .classify = classify_exact};
             st = crisp_render_exact(doc->scene, cam, &ed, img);

@@ -139,7 +139,7 @@ static void test_numbers_validated(void **state)
         {"--max-memory lots", "--max-memory lots"},
         {"--max-memory 10", "at least 1M"},
         {"--view diagonal", "--view diagonal: expected front, back"},
-        {"--backend gpu", "--backend gpu: expected cpu or exact"},
+        {"--backend gpu", "--backend gpu: expected cpu, exact or gl"},
         {"--backend exact --samples 4", "needs the cpu backend"},
         {"--view top --eye 1,2,3", "--view and --eye"},
     };
