@@ -1,7 +1,7 @@
 /* crisp_document: one file opened into everything a frame needs (the model, its prepared scene,
- * the f-rep parts, the scene file's camera line and the box to frame). The format is chosen by
- * content for CAD models (src/io/load.c), by extension or first item line for scene files, by
- * extension for .vm, and a file that is none of these is tried as a math string. */
+ * the f-rep parts, the scene file's camera line and the points a camera frames). The format is
+ * chosen by content for CAD models (src/io/load.c), by extension or first item line for scene
+ * files, by extension for .vm, and a file that is none of these is tried as a math string. */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -9,7 +9,7 @@
 #include <strings.h>
 #include <sys/stat.h>
 
-#include "crisp/app.h"
+#include "app_internal.h"
 #include "crisp/frep.h"
 
 /* The assets of a one-part document: the .vm or math-string part with the identity transform. */
@@ -46,12 +46,6 @@ static int has_ext(const char *path, const char *ext)
     size_t n = strlen(path), e = strlen(ext);
     return n > e && !strcasecmp(path + n - e, ext);
 }
-
-/* The box of the trimmed faces (sampled on the true surfaces, drawn_box.c) joined with each part's
- * [-1, 1]^3 (the region of the .vm models and of the math strings' usual scale) through its
- * transform. */
-crisp_status crisp__scene_drawn_points(const crisp_scene *sc, double **points, size_t *count,
-                                       double box[6]); /* drawn_box.c */
 
 /* A box of the part (in its own coordinates): interval subdivision of [-L, L]^3 level by level
  * keeps the cells whose interval may reach below 0 (or is unknown), down to cells L/64 wide or

@@ -13,7 +13,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "crisp/app.h"
+#include "app_internal.h"
 #include "crisp/nurbs.h"
 #include "crisp/trim.h"
 
@@ -94,8 +94,6 @@ static void run(void *ctx, size_t begin, size_t end, int worker)
     }
 }
 
-/* The points (3 doubles each, caller frees with crisp_free) and their box, clamped to
- * scene->box (the box is scene->box when no face gave a finite point). */
 crisp_status crisp__scene_drawn_points(const crisp_scene *sc, double **points, size_t *count,
                                        double box[6])
 {
