@@ -5,6 +5,7 @@
  *   crisp_document               a model, its prepared scene, f-rep parts and the scene file's
  *                                camera line, opened from one file
  *   crisp_document_open/_destroy IGES, STEP, OBJ (by content), .scene, .vm or a math-string file
+ *   crisp_document_update        prepare again after the model changed (trim editing)
  *   crisp_view, crisp_view_parse front, back, left, right, top, bottom, iso
  *   crisp_camera_fit(_points)    a perspective camera looking along a direction, moved so that
  *                                every corner of a box (every point) is on screen with a margin
@@ -73,6 +74,9 @@ typedef struct crisp_document_desc {
  * draw. desc may be NULL. */
 crisp_status crisp_document_open(const char *path, const crisp_document_desc *desc,
                                  crisp_document **dest);
+/* After doc->model changed (a trim edited, faces added): prepare the scene again and sample the
+ * points to frame again. On failure the old scene is kept. */
+crisp_status crisp_document_update(crisp_document *doc);
 void crisp_document_destroy(crisp_document *doc);
 
 /* ---- cameras ----------------------------------------------------------------------------------

@@ -297,6 +297,23 @@ crisp_status crisp_document_open(const char *path, const crisp_document_desc *de
     return CRISP_OK;
 }
 
+crisp_status crisp_document_update(crisp_document *d)
+{
+    if (!d) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_document_update: NULL document");
+    double t0 = crisp_time_now();
+    crisp_scene *scene = NULL;
+    crisp_status st = crisp_scene_prepare(d->model, &scene);
+    if (st) return st; /* the document keeps its old scene */
+    crisp_scene_destroy(d->scene);
+    d->scene = scene;
+    crisp_free(d->points);
+    d->points = NULL;
+    d->point_count = 0;
+    st = document_points(d);
+    d->ms_prepare = 1e3 * (crisp_time_now() - t0);
+    return st;
+}
+
 void crisp_document_destroy(crisp_document *d)
 {
     if (!d) return;

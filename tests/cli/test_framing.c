@@ -101,6 +101,34 @@ static void test_demo(void **state)
     check_framing(CRISP_DATA_DIR "/scenes/teapot_frep.scene", 640, 360, CRISP_VIEW_DEFAULT);
 }
 
+/* After the model changes, update re-prepares: dropping every face but one shrinks the points'
+ * box to that face's. */
+static void test_document_update(void **state)
+{
+    (void)state;
+    crisp_document *doc = NULL;
+    assert_int_equal(crisp_document_open(CRISP_DATA_DIR "/nurbs/gpucast_teapot.igs", NULL, &doc),
+                     CRISP_OK);
+    double before[6];
+    memcpy(before, doc->box, sizeof before);
+    assert_int_equal(doc->scene->face_count, 32);
+    int keep = 3;
+    for (int i = 0; i < doc->model->face_count; i++)
+        if (i != keep) crisp_face_free(&doc->model->faces[i]);
+    doc->model->faces[0] = doc->model->faces[keep];
+    doc->model->face_count = 1;
+    assert_int_equal(crisp_document_update(doc), CRISP_OK);
+    assert_int_equal(doc->scene->face_count, 1);
+    double vol0 = 1, vol1 = 1;
+    for (int a = 0; a < 3; a++) {
+        assert_true(doc->box[a] >= before[a] - 1e-9 && doc->box[a + 3] <= before[a + 3] + 1e-9);
+        vol0 *= before[a + 3] - before[a];
+        vol1 *= doc->box[a + 3] - doc->box[a];
+    }
+    assert_true(vol1 < 0.5 * vol0);
+    crisp_document_destroy(doc);
+}
+
 static void test_views(void **state)
 {
     (void)state;
@@ -154,6 +182,7 @@ int main(void)
         cmocka_unit_test(test_bundled_models),
         cmocka_unit_test(test_demo),
         cmocka_unit_test(test_views),
+        cmocka_unit_test(test_document_update),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
