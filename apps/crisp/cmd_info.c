@@ -4,9 +4,11 @@
  * skipped and why.
  * Exit 0 on success; 1 with the reader's message (file, line or entity, problem) otherwise;
  * 2 on a usage error. */
+#include <getopt.h>
 #include <stdio.h>
 #include <string.h>
 
+#include "cli.h"
 #include "crisp/io.h"
 
 const char crisp_cmd_info_help[] =
@@ -14,10 +16,13 @@ const char crisp_cmd_info_help[] =
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: crisp info MODEL [--json]\n"
+    fprintf(out, "usage: crisp info MODEL [options]\n"
                  "  Loads MODEL (IGES, STEP or OBJ, detected by content) and prints its format,\n"
                  "  faces, Bezier patches, trim loops and curves, degrees, rationality, bounding\n"
-                 "  box and what was skipped. --json prints the same as one JSON object.\n");
+                 "  box and what was skipped. Options (default in brackets):\n"
+                 "      --json   print the same as one JSON object [text]\n"
+                 "  -h, --help   print this help and exit\n"
+                 "  Exit status: 0 success, 1 bad input, 2 bad usage.\n");
 }
 
 static void json_string(FILE *out, const char *s)
@@ -120,26 +125,33 @@ int crisp_cmd_info(int argc, char **argv)
 {
     const char *path = NULL;
     int json = 0;
-    for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--json"))
+    static const struct option opts[] = {
+        {"json", no_argument, 0, 'j'}, {"help", no_argument, 0, 'h'}, {0, 0, 0, 0}};
+    cli_cmd = "info";
+    optind = 0;
+    opterr = 0;
+    int c;
+    while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
+        if (c == 'j') {
             json = 1;
-        else if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+        } else if (c == 'h') {
             usage(stdout);
             return 0;
-        } else if (argv[i][0] == '-' && argv[i][1]) {
-            fprintf(stderr, "crisp info: unknown option '%s'\n", argv[i]);
-            usage(stderr);
+        } else {
+            cli_bad_option(c, argv);
             return 2;
-        } else if (path) {
-            fprintf(stderr, "crisp info: one MODEL expected, got '%s' and '%s'\n", path, argv[i]);
-            return 2;
-        } else
-            path = argv[i];
+        }
     }
-    if (!path) {
+    if (optind >= argc) {
+        fprintf(stderr, "crisp info: no MODEL given\n");
         usage(stderr);
         return 2;
     }
+    if (optind + 1 < argc) {
+        fprintf(stderr, "crisp info: one MODEL expected, got '%s' and '%s'\n", argv[optind], argv[optind + 1]);
+        return 2;
+    }
+    path = argv[optind];
     crisp_model *m = NULL;
     double t0 = crisp_time_now();
     crisp_status st = crisp_model_load(path, NULL, &m);
