@@ -1,13 +1,16 @@
 /* crisp info MODEL [--json]: what a CAD file holds once crisp has loaded it: format, faces,
  * Bézier patches after extraction, trim loops (outer, holes), trim curves and their Bézier
- * pieces, degrees, rational or not, faces with a colour, the bounding box, and what the reader
- * skipped and why.
+ * pieces, degrees, rational or not, faces with a colour, the bounding box of the trimmed faces
+ * (the box the default camera frames: crisp_scene_prepare's, each face's patches clipped to its
+ * trim loops, not the untrimmed control hulls), the faces the reader dropped and what it skipped,
+ * each reason in full.
  * Exit 0 on success; 1 with the reader's message (file, line or entity, problem) otherwise;
  * 2 on a usage error. */
 #include <stdio.h>
 #include <string.h>
 
 #include "crisp/io.h"
+#include "crisp/render.h"
 
 const char crisp_cmd_info_help[] =
     "info MODEL [--json]         summarise a CAD model (IGES, STEP, OBJ)";
@@ -59,6 +62,7 @@ static void print_text(const char *path, const crisp_model *m, const crisp_model
     printf("format:          %s\n", m->format);
     printf("units:           %g mm per model unit\n", m->unit_to_mm);
     printf("faces:           %d\n", s->faces);
+    printf("faces dropped:   %d\n", m->faces_dropped);
     printf("bezier patches:  %d\n", s->bezier_patches);
     printf("trim loops:      %d (%d outer, %d holes)\n", s->outer_loops + s->hole_loops,
            s->outer_loops, s->hole_loops);
@@ -92,7 +96,8 @@ static void print_json(const char *path, const crisp_model *m, const crisp_model
     printf(", \"format\": ");
     json_string(stdout, m->format);
     printf(", \"unit_to_mm\": %.17g", m->unit_to_mm);
-    printf(", \"faces\": %d, \"bezier_patches\": %d", s->faces, s->bezier_patches);
+    printf(", \"faces\": %d, \"faces_dropped\": %d, \"bezier_patches\": %d", s->faces, m->faces_dropped,
+           s->bezier_patches);
     printf(", \"loops\": {\"outer\": %d, \"holes\": %d}", s->outer_loops, s->hole_loops);
     printf(", \"trim_curves\": %d, \"trim_pieces\": %d", s->trim_curves, s->trim_pieces);
     printf(", \"degrees_seen\": [");
@@ -156,7 +161,17 @@ int crisp_cmd_info(int argc, char **argv)
         return 1;
     }
     double box[6] = {0, 0, 0, 0, 0, 0};
-    if (m->face_count) crisp_model_bbox(m, box);
+    if (m->face_count) {
+        crisp_scene *scene = NULL;
+        st = crisp_scene_prepare(m, &scene);
+        if (st != CRISP_OK) {
+            fprintf(stderr, "crisp info: %s: %s\n", path, crisp_error_message());
+            crisp_model_destroy(m);
+            return 1;
+        }
+        for (int k = 0; k < 6; k++) box[k] = scene->box[k];
+        crisp_scene_destroy(scene);
+    }
     if (json)
         print_json(path, m, &stats, box, seconds);
     else

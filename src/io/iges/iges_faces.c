@@ -239,10 +239,8 @@ static crisp_status pull_into_domain(iges_file *f, int e, crisp_face *face, cons
 
 static void note_dropped(iges_file *f, int e, const char *why)
 {
-    char what[96];
-    snprintf(what, sizeof what, "DE %d entity %d %s: %s", iges_de(e), f->ents[e].type,
-             iges_type_name(f->ents[e].type), why);
-    crisp_model_note_skip(f->model, what);
+    crisp_model_note_dropped(f->model, "DE %d entity %d %s: %s", iges_de(e), f->ents[e].type,
+                             iges_type_name(f->ents[e].type), why);
 }
 
 /* Exporters leave small gaps between the trims of a loop (OCCT's bug8363_f45.igs: 7e-4 and 1.6e-3
@@ -350,10 +348,7 @@ crisp_status iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
     st = crisp_face_normalize_loops(&face, tol);
     if (st) {
         /* A loop that cannot be made valid drops the face, with a note naming it. */
-        char why[96];
-        snprintf(why, sizeof why, "%s", st == CRISP_ERR_NUMERIC ? "degenerate trim loop"
-                                                                : "trim loop not closed");
-        note_dropped(f, e, why);
+        note_dropped(f, e, st == CRISP_ERR_NUMERIC ? "degenerate trim loop" : "trim loop not closed");
         crisp_error_clear();
         crisp_face_free(&face);
         return CRISP_OK;

@@ -40,9 +40,7 @@ static void mark_consumed(iges_file *f)
 
 static void note(iges_file *f, int type, const char *why)
 {
-    char what[96];
-    snprintf(what, sizeof what, "entity %d %s: %s", type, iges_type_name(type), why);
-    crisp_model_note_skip(f->model, what);
+    crisp_model_note_skipf(f->model, "entity %d %s: %s", type, iges_type_name(type), why);
 }
 
 /* A face that crisp cannot build is skipped with a note naming it (DE number and the reason),
@@ -56,10 +54,8 @@ crisp_status iges_soften(iges_file *f, int e, crisp_status st)
         f->first_error = st;
         snprintf(f->first_message, sizeof f->first_message, "%s", msg);
     }
-    char what[96];
-    snprintf(what, sizeof what, "DE %d entity %d: %s", iges_de(e), f->ents[e].type,
-             p ? p + 3 : msg);
-    crisp_model_note_skip(f->model, what);
+    crisp_model_note_dropped(f->model, "DE %d entity %d: %s", iges_de(e), f->ents[e].type,
+                             p ? p + 3 : msg);
     crisp_error_clear();
     f->ents[e].used = 0;
     iges_mark_used(f, e, 0);

@@ -351,9 +351,7 @@ static crisp_status note(asm_state *s, crisp_status st, const char *what, int id
     const char *msg = crisp_error_message();
     size_t nl = strlen(s->r->f->name);
     if (strncmp(msg, s->r->f->name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
-    char buf[96];
-    snprintf(buf, sizeof buf, "STEP %s #%d ignored: %s", what, id, msg);
-    crisp_model_note_skip(s->r->model, buf);
+    crisp_model_note_skipf(s->r->model, "STEP %s #%d ignored: %s", what, id, msg);
     crisp_error_clear();
     return CRISP_OK;
 }
@@ -620,9 +618,7 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
         if (find(&s, g) == g && !s.incoming[g] && s.first_edge[g + 1] > s.first_edge[g]) st = place(&s, g, id, 0);
     if (st) goto done;
     if (s.cycles) {
-        char buf[96];
-        snprintf(buf, sizeof buf, "STEP assembly cycle: %d placements of a part inside itself ignored", s.cycles);
-        crisp_model_note_skip(m, buf);
+        crisp_model_note_skipf(m, "STEP assembly cycle: %d placements of a part inside itself ignored", s.cycles);
     }
     /* Instances by group (CSR). */
     inst_order = crisp_malloc_array(s.inst_count + 1, sizeof(int));

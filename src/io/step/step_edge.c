@@ -363,6 +363,57 @@ void crisp__step_period_shift(const face_work *w, const double uv[2], const doub
     }
 }
 
+/* Whether the surface collapses to one point along periodic coordinate k at file uv (a cone's
+ * apex, a sphere's pole): there the coordinate is undefined. */
+static int collapsed_at(const face_work *w, const double uv[2], int k)
+{
+    double p[3], q[3], x[2] = {uv[0], uv[1]};
+    crisp__step_surface_eval(&w->s, uv[0], uv[1], p);
+    for (int i = 1; i <= 3; i++) {
+        x[k] = uv[k] + w->period[k] * i / 4;
+        crisp__step_surface_eval(&w->s, x[0], x[1], q);
+        if (!(crisp__step_dist3(p, q) <= w->r->tol)) return 0;
+    }
+    return 1;
+}
+
+/* A loop that passes through an apex or a pole (a half cone bounded by an arc and two generators
+ * meeting at the apex, a lune of a sphere) crosses the collapsed line there, where the periodic
+ * coordinate is undefined: the jump it makes there is free, and continuity alone may pick the
+ * wrong turn (the generators of a half cone lie half a turn apart, either way round). Such a loop
+ * does not wind around the surface: the part after the first collapsed vertex moves by whole turns
+ * so that the loop closes (PRO10363.stp: 2 half cones). */
+static void unwind_at_collapse(face_work *w, loop_work *lw)
+{
+    for (int k = 0; k < 2; k++) {
+        if (!(w->period[k] > 0) || lw->count < 2) continue;
+        /* An edge's end at the collapsed point takes the coordinate of its own next sample (a
+         * generator's apex end lies on the generator), not the previous edge's: the jump
+         * happens between edges, where the trims are bridged along the collapsed line. */
+        for (int m = 0; m < lw->count; m++) {
+            edge_use *eu = &lw->edges[m];
+            if (eu->npc || eu->ns < 3) continue;
+            if (collapsed_at(w, eu->uv, k) && !collapsed_at(w, eu->uv + 2, k)) eu->uv[k] = eu->uv[2 + k];
+            double *last = eu->uv + 2 * eu->ns - 2;
+            if (collapsed_at(w, last, k) && !collapsed_at(w, last - 2, k)) last[k] = last[k - 2];
+        }
+        double turns = round(crisp__step_winding(w, lw, k) / w->period[k]);
+        if (turns == 0) continue;
+        for (int m = 1; m < lw->count; m++) {
+            const edge_use *eu = &lw->edges[m];
+            if (!eu->ns || !collapsed_at(w, eu->uv, k)) continue;
+            double sh[2] = {0, 0};
+            sh[k] = -turns * w->period[k];
+            for (int j = m; j < lw->count; j++) {
+                edge_use *e = &lw->edges[j];
+                for (int i = 0; i < e->ns; i++) e->uv[2 * i + k] += sh[k];
+                e->shift[k] += sh[k];
+            }
+            break;
+        }
+    }
+}
+
 /* File-uv samples of every edge of a loop, continuous along the loop. */
 crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
 {
@@ -412,6 +463,7 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
         prev[1] = eu->uv[2 * eu->ns - 1];
         have_prev = 1;
     }
+    if (w->s.kind != STEP_SURF_BSPLINE) unwind_at_collapse(w, lw);
     lw->box[0] = lw->box[2] = INFINITY;
     lw->box[1] = lw->box[3] = -INFINITY;
     for (int m = 0; m < n; m++) {
