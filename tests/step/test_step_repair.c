@@ -4,6 +4,9 @@
  *    half circle and two generators; a lune of a sphere between two meridians), where the turn
  *    of u is undefined and continuity alone picked the wrong one ("winds around u without a seam
  *    edge");
+ *  - loops the file leaves open (edges whose 3D ends do not meet: a strip bounded by its two long
+ *    edges only) closed by straight (u, v) segments with a note, and not when the bridges would
+ *    be most of the loop;
  *  - (more cases are added below as they are built).
  */
 #include <setjmp.h>
@@ -146,6 +149,34 @@ static void test_half_cone_through_apex(void **state)
         }
 }
 
+static int three_quarters(const double p[3]) { return p[0] < -0.1 && p[1] < -0.1 && p[2] > -1 && p[2] < 0; }
+
+/* A sector of three quarters of a turn (the circle from (0, 1, 0) counter-clockwise to
+ * (1, 0, 0)), its loop started at each edge: more than half a turn is not "winding" when the
+ * loop passes through the apex (bug29241.stp: 10 such faces were dropped). */
+static void test_cone_sector_three_quarters(void **state)
+{
+    (void)state;
+    const char *orders[] = {"(#30,#31,#32)", "(#31,#32,#30)", "(#32,#30,#31)"};
+    for (int o = 0; o < 3; o++) {
+        char *t1 = replace_all(half_cone, "(#30,#31,#32)", orders[o]);
+        char *t2 = replace_all(t1, "#11=CARTESIAN_POINT('',(0.,-1.,0.));", "#11=CARTESIAN_POINT('',(1.,0.,0.));");
+        char *t3 = replace_all(t2, "#22=DIRECTION('',(0.,1.,-1.));", "#22=DIRECTION('',(-1.,0.,-1.));");
+        crisp_model *m;
+        step_read_stats st = {0};
+        crisp_status s = read_str(t3, &m, &st);
+        if (s) fprintf(stderr, "%s\n", crisp_error_message());
+        assert_int_equal(s, CRISP_OK);
+        assert_int_equal(m->face_count, 1);
+        check_face(m, 0, on_cone, 1e-7, three_quarters);
+        assert_true(st.max_edge_dev < 1e-4);
+        crisp_model_destroy(m);
+        free(t1);
+        free(t2);
+        free(t3);
+    }
+}
+
 /* ---- a lune of a sphere: two meridians through both poles ---------------------------------- */
 
 /* Unit sphere; meridian A in the plane y = 0 from the south pole (0, 0, -1) up through (1, 0, 0)
@@ -183,11 +214,65 @@ static void test_sphere_lune_through_poles(void **state)
     crisp_model_destroy(m);
 }
 
+/* ---- a loop left open by the file ----------------------------------------------------------- */
+
+/* Plane z = 0; the loop lists only the two long edges of the rectangle [0, 2] x [0, 1]: (0, 0) to
+ * (2, 0) and (2, 1) to (0, 1), four distinct vertices (trj3_s1-al-214.stp writes half-cylinder
+ * strips so). */
+static const char open_strip[] = HEAD
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=PLANE('',#4);\n"
+    "#10=CARTESIAN_POINT('',(0.,0.,0.));\n#11=CARTESIAN_POINT('',(2.,0.,0.));\n"
+    "#12=CARTESIAN_POINT('',(2.,1.,0.));\n#13=CARTESIAN_POINT('',(0.,1.,0.));\n"
+    "#14=VERTEX_POINT('',#10);\n#15=VERTEX_POINT('',#11);\n#16=VERTEX_POINT('',#12);\n#17=VERTEX_POINT('',#13);\n"
+    "#20=DIRECTION('',(1.,0.,0.));\n#21=VECTOR('',#20,1.);\n#22=LINE('',#10,#21);\n"
+    "#23=EDGE_CURVE('',#14,#15,#22,.T.);\n#28=LINE('',#13,#21);\n#29=EDGE_CURVE('',#17,#16,#28,.T.);\n"
+    "#32=ORIENTED_EDGE('',*,*,#23,.T.);\n#34=ORIENTED_EDGE('',*,*,#29,.F.);\n"
+    "#36=EDGE_LOOP('',(#32,#34));\n#37=FACE_OUTER_BOUND('',#36,.T.);\n"
+    "#50=ADVANCED_FACE('',(#37),#5,.T.);\n#51=OPEN_SHELL('',(#50));\n" TAIL;
+
+static int has_note(const crisp_model *m, const char *a, const char *b)
+{
+    for (int i = 0; i < m->skip_count; i++)
+        if (strstr(m->skips[i].what, a) && (!b || strstr(m->skips[i].what, b))) return 1;
+    return 0;
+}
+
+static void test_open_loop_bridged(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    crisp_status s = read_str(open_strip, &m, NULL);
+    if (s) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    loop_check c;
+    check_model_loops(m, 1e-9, 1e-9, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    /* the rectangle: area 2 (the plane's (u, v) is x, y), two bridges */
+    assert_int_equal(m->faces[0].loops[0].curve_count, 4);
+    assert_true(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0]) - 2) < 1e-9);
+    assert_true(has_note(m, "left open by the file (2 gaps", "closed by straight"));
+    crisp_model_destroy(m);
+
+    /* One short edge (0.2 long) and one of 2: the bridges would be half the loop or more: the
+     * face is dropped, and the note says why. */
+    char *t = replace_all(open_strip, "#13=CARTESIAN_POINT('',(0.,1.,0.));", "#13=CARTESIAN_POINT('',(1.8,1.,0.));");
+    m = NULL;
+    assert_int_not_equal(read_str(t, &m, NULL), CRISP_OK);
+    assert_null(m);
+    assert_non_null(strstr(crisp_error_message(), "open"));
+    free(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_half_cone_through_apex),
+        cmocka_unit_test(test_cone_sector_three_quarters),
         cmocka_unit_test(test_sphere_lune_through_poles),
+        cmocka_unit_test(test_open_loop_bridged),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

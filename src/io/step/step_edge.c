@@ -382,7 +382,9 @@ static int collapsed_at(const face_work *w, const double uv[2], int k)
  * coordinate is undefined: the jump it makes there is free, and continuity alone may pick the
  * wrong turn (the generators of a half cone lie half a turn apart, either way round). Such a loop
  * does not wind around the surface: the part after the first collapsed vertex moves by whole turns
- * so that the loop closes (PRO10363.stp: 2 half cones). */
+ * so that the loop closes (PRO10363.stp: 2 half cones), and the loop is marked (`collapse`) so that
+ * it is not taken for one that winds (bug29241.stp: cone sectors of more than half a turn that
+ * start at the apex). */
 static void unwind_at_collapse(face_work *w, loop_work *lw)
 {
     for (int k = 0; k < 2; k++) {
@@ -397,6 +399,10 @@ static void unwind_at_collapse(face_work *w, loop_work *lw)
             double *last = eu->uv + 2 * eu->ns - 2;
             if (collapsed_at(w, last, k) && !collapsed_at(w, last - 2, k)) last[k] = last[k - 2];
         }
+        for (int m = 0; m < lw->count; m++)
+            if (lw->edges[m].ns && collapsed_at(w, lw->edges[m].uv, k)) lw->collapse = 1;
+        /* (A loop that starts at the collapsed point closes there by whatever jump: a sector of
+         * a cone of any angle. One that passes it later must come back to its start.) */
         double turns = round(crisp__step_winding(w, lw, k) / w->period[k]);
         if (turns == 0) continue;
         for (int m = 1; m < lw->count; m++) {

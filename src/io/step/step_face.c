@@ -387,7 +387,22 @@ static int side_closed(const crisp_surface *s, const double d[4], int k, double 
     return 1;
 }
 
-static double junction_gaps(const crisp_trim_loop *lp, int i)
+/* Whether the surface maps the straight (u, v) segment pa-pb to one point (within tol): a gap
+ * there lies along a pole, an apex or a collapsed side, and is bridged (bridge_degenerate). */
+static int collapsed_segment(const crisp_surface *s, const double pa[2], const double pb[2], double tol)
+{
+    double p0[3], q[3];
+    crisp_surface_eval(s, pa[0], pa[1], p0);
+    for (int k = 1; k <= 16; k++) {
+        double x = k / 16.0;
+        crisp_surface_eval(s, pa[0] + x * (pb[0] - pa[0]), pa[1] + x * (pb[1] - pa[1]), q);
+        if (!(crisp__step_dist3(p0, q) <= tol)) return 0;
+    }
+    return 1;
+}
+
+/* The (u, v) gaps at both ends of trim i, a gap along a collapsed line counting as none. */
+static double junction_gaps(const crisp_surface *s, const crisp_trim_loop *lp, int i, double tol)
 {
     int n = lp->curve_count;
     double a[2], b[2], c[2], d[2];
@@ -395,9 +410,15 @@ static double junction_gaps(const crisp_trim_loop *lp, int i)
     curve_end(lp->curves[i], 0, b);
     curve_end(lp->curves[i], 1, c);
     curve_end(lp->curves[(i + 1) % n], 0, d);
-    return hypot(a[0] - b[0], a[1] - b[1]) + hypot(c[0] - d[0], c[1] - d[1]);
+    double g0 = hypot(a[0] - b[0], a[1] - b[1]), g1 = hypot(c[0] - d[0], c[1] - d[1]);
+    if (g0 > 0 && collapsed_segment(s, a, b, tol)) g0 = 0;
+    if (g1 > 0 && collapsed_segment(s, c, d, tol)) g1 = 0;
+    return g0 + g1;
 }
 
+/* (A seam used twice on a surface of revolution that closes at an apex, trj3_s1-id-203.stp: both
+ * uses projected onto u0; moving one to u1 leaves its other end's gap along the apex, which
+ * counts as closed.) */
 static void seam_sides(const crisp_surface *s, const double d[4], crisp_trim_loop *lp, double tol, double snap)
 {
     if (lp->curve_count < 2) return;
@@ -413,9 +434,9 @@ static void seam_sides(const crisp_surface *s, const double d[4], crisp_trim_loo
                 at_hi &= fabs(x - hi) <= snap;
             }
             if (at_lo == at_hi) continue;
-            double before = junction_gaps(lp, i), shift = at_lo ? hi - lo : lo - hi;
+            double before = junction_gaps(s, lp, i, tol), shift = at_lo ? hi - lo : lo - hi;
             for (int j = 0; j < c->count; j++) c->cpw[3 * j + k] += shift * c->cpw[3 * j + 2];
-            if (junction_gaps(lp, i) >= before)
+            if (junction_gaps(s, lp, i, tol) >= before)
                 for (int j = 0; j < c->count; j++) c->cpw[3 * j + k] -= shift * c->cpw[3 * j + 2];
         }
     }
@@ -490,15 +511,68 @@ static int bridge_degenerate(const crisp_surface *s, crisp_trim_loop *lp, double
         curve_end(a, 1, pa);
         curve_end(b, 0, pb);
         if (hypot(pa[0] - pb[0], pa[1] - pb[1]) <= snap) continue;
-        double p0[3], q[3];
-        crisp_surface_eval(s, pa[0], pa[1], p0);
-        int collapsed = 1;
-        for (int k = 1; k <= 16 && collapsed; k++) {
-            double x = k / 16.0;
-            crisp_surface_eval(s, pa[0] + x * (pb[0] - pa[0]), pa[1] + x * (pb[1] - pa[1]), q);
-            collapsed = crisp__step_dist3(p0, q) <= tol;
+        if (!collapsed_segment(s, pa, pb, tol)) continue;
+        crisp_curve *line;
+        if (crisp_make_line(2, pa, pb, 0, 1, &line) != CRISP_OK) return -1;
+        crisp_curve **nc = crisp_realloc_array(lp->curves, (size_t)lp->curve_count + 1, sizeof *nc);
+        if (!nc) {
+            crisp_curve_destroy(line);
+            return -1;
         }
-        if (!collapsed) continue;
+        lp->curves = nc;
+        memmove(nc + i + 2, nc + i + 1, (size_t)(lp->curve_count - i - 1) * sizeof *nc);
+        nc[i + 1] = line;
+        lp->curve_count++;
+        added++;
+        i++;
+    }
+    return added;
+}
+
+/* Length of a 2D curve's control polygon (a bound on its length). */
+static double polygon_length(const crisp_curve *c)
+{
+    double len = 0;
+    for (int i = 1; i < c->count; i++) {
+        const double *a = c->cpw + 3 * (i - 1), *b = c->cpw + 3 * i;
+        len += hypot(b[0] / b[2] - a[0] / a[2], b[1] / b[2] - a[1] / a[2]);
+    }
+    return len;
+}
+
+/* A loop the file leaves open: consecutive edges whose 3D ends do not meet (trj3_s1-al-214.stp:
+ * a half-cylinder strip bounded by its two arcs only, the straight edges along the cylinder left
+ * out; OCCT's ShapeFix adds them). Where the gap is real in 3D as well (the two ends lie more
+ * than the tolerance apart on the surface), it is bridged by a straight (u, v) segment, as
+ * healing tools do, when the bridges make up less than half of the loop. Gaps whose two ends
+ * are one point in 3D (a seam, a jump across a closed surface) are left to the closure check:
+ * a segment across the domain would be wrong there. Returns the number of bridges, -1 when out
+ * of memory. */
+static int bridge_open(const crisp_surface *s, crisp_trim_loop *lp, double tol, double snap)
+{
+    int n = lp->curve_count, gaps = 0;
+    if (n == 0) return 0;
+    double total = 0, bridged = 0;
+    for (int i = 0; i < n; i++) total += polygon_length(lp->curves[i]);
+    for (int i = 0; i < n; i++) {
+        double pa[2], pb[2], qa[3], qb[3];
+        curve_end(lp->curves[i], 1, pa);
+        curve_end(lp->curves[(i + 1) % n], 0, pb);
+        double g = hypot(pa[0] - pb[0], pa[1] - pb[1]);
+        if (!(g > snap)) continue;
+        crisp_surface_eval(s, pa[0], pa[1], qa);
+        crisp_surface_eval(s, pb[0], pb[1], qb);
+        if (!(crisp__step_dist3(qa, qb) > tol)) return 0;
+        bridged += g;
+        gaps++;
+    }
+    if (!gaps || !(bridged < 0.5 * (total + bridged))) return 0;
+    int added = 0;
+    for (int i = 0; i < lp->curve_count; i++) {
+        double pa[2], pb[2];
+        curve_end(lp->curves[i], 1, pa);
+        curve_end(lp->curves[(i + 1) % lp->curve_count], 0, pb);
+        if (!(hypot(pa[0] - pb[0], pa[1] - pb[1]) > snap)) continue;
         crisp_curve *line;
         if (crisp_make_line(2, pa, pb, 0, 1, &line) != CRISP_OK) return -1;
         crisp_curve **nc = crisp_realloc_array(lp->curves, (size_t)lp->curve_count + 1, sizeof *nc);
@@ -657,7 +731,8 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
         int wl[2], nw = 0, wk = -1;
         for (int i = 0; i < w.nloops; i++)
             for (int k = 0; k < 2; k++)
-                if (fabs(crisp__step_winding(&w, &w.loops[i], k)) > 0.5 * w.period[k] && w.period[k] > 0) {
+                if (fabs(crisp__step_winding(&w, &w.loops[i], k)) > 0.5 * w.period[k] && w.period[k] > 0 &&
+                    !w.loops[i].collapse) {
                     if (nw == 2 || (wk >= 0 && wk != k)) {
                         st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED,
                                               "loop %d winds around the %c direction of surface #%d and is not one "
@@ -779,6 +854,16 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
             if (area > best) best = area, outer = i;
         }
         for (int i = 0; i < dest->loop_count; i++) dest->loops[i].is_outer = i == outer;
+    }
+    for (int i = 0; i < dest->loop_count; i++) {
+        int added = bridge_open(dest->surface, &dest->loops[i], r->tol, 100 * w.tol_uv);
+        if (added < 0) {
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
+            goto done;
+        }
+        if (added)
+            crisp_model_note_skipf(r->model, "STEP face #%d: loop %d left open by the file (%d gaps between its edges' "
+                                   "ends): closed by straight (u, v) segments", fe->id, i + 1, added);
     }
     dest->source_id = fe->id;
     dest->reversed = (!same) ^ crisp__step_surface_swaps(&w.s);

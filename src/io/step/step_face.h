@@ -26,6 +26,7 @@ typedef struct loop_work {
     int count;
     edge_use *edges;
     double box[4];
+    int collapse;   /* the loop passes through an apex or pole (its u jumps freely there) */
 } loop_work;
 
 typedef struct face_work {
