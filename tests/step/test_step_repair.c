@@ -4,6 +4,9 @@
  *    half circle and two generators; a lune of a sphere between two meridians), where the turn
  *    of u is undefined and continuity alone picked the wrong one ("winds around u without a seam
  *    edge");
+ *  - faces on a cone's far nappe (beyond the apex) and on a spindle torus, whose points the
+ *    analytic inversion put on the wrong branch;
+ *  - a pcurve that lies off its edge: the trim is projected from the 3D edge;
  *  - loops the file leaves open (edges whose 3D ends do not meet: a strip bounded by its two long
  *    edges only) closed by straight (u, v) segments with a note, and not when the bridges would
  *    be most of the loop;
@@ -61,6 +64,13 @@ static char *replace_all(const char *text, const char *from, const char *to)
     return out;
 }
 
+static int has_note(const crisp_model *m, const char *a, const char *b)
+{
+    for (int i = 0; i < m->skip_count; i++)
+        if (strstr(m->skips[i].what, a) && (!b || strstr(m->skips[i].what, b))) return 1;
+    return 0;
+}
+
 /* Every trim's image lies on the implicit surface f(p) = 0 (|f| < tol), the loops are closed,
  * inside the domain and oriented, and the surface at the centre of the outer loop's (u, v) box
  * satisfies inside(p) (the face covers the intended side). */
@@ -116,7 +126,7 @@ static const char half_cone[] = HEAD
     "#34=FACE_OUTER_BOUND('',#33,.T.);\n#35=ADVANCED_FACE('',(#34),#5,.T.);\n"
     "#36=OPEN_SHELL('',(#35));\n" TAIL;
 
-static double on_cone(const double p[3]) { return hypot(p[0], p[1]) - (1 + p[2]); }
+static double on_cone(const double p[3]) { return hypot(p[0], p[1]) - fabs(1 + p[2]); }
 static int left_half(const double p[3]) { return p[0] < -0.1 && p[2] > -1 && p[2] < 0; }
 static int right_half(const double p[3]) { return p[0] > 0.1 && p[2] > -1 && p[2] < 0; }
 
@@ -177,6 +187,36 @@ static void test_cone_sector_three_quarters(void **state)
     }
 }
 
+/* The cone's other nappe (ISO 10303-42 cones have both: R + v tan a < 0 beyond the apex): a face
+ * bounded by the circle of radius 2 at z = -3 and a vertex loop at the apex (0, 0, -1). Analytic
+ * inversion used to take the foot on the wrong nappe (screw.step: 4 faces dropped, "the trim of
+ * edge lies 3.09 from the edge"). */
+static const char far_nappe[] = HEAD
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=CONICAL_SURFACE('',#4,1.,0.785398163397448);\n"
+    "#6=CARTESIAN_POINT('',(0.,0.,-3.));\n#7=AXIS2_PLACEMENT_3D('',#6,#2,#3);\n"
+    "#10=CARTESIAN_POINT('',(2.,0.,-3.));\n#12=VERTEX_POINT('',#10);\n#20=CIRCLE('',#7,2.);\n"
+    "#28=EDGE_CURVE('',#12,#12,#20,.T.);\n#60=ORIENTED_EDGE('',*,*,#28,.T.);\n#64=EDGE_LOOP('',(#60));\n"
+    "#65=FACE_BOUND('',#64,.T.);\n#30=CARTESIAN_POINT('',(0.,0.,-1.));\n#31=VERTEX_POINT('',#30);\n"
+    "#32=VERTEX_LOOP('',#31);\n#33=FACE_BOUND('',#32,.T.);\n#66=ADVANCED_FACE('',(#65,#33),#5,.T.);\n"
+    "#67=OPEN_SHELL('',(#66));\n" TAIL;
+
+static int below_apex(const double p[3]) { return p[2] < -1.01 && p[2] > -3; }
+
+static void test_cone_far_nappe(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    step_read_stats st = {0};
+    crisp_status s = read_str(far_nappe, &m, &st);
+    if (s) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    check_face(m, 0, on_cone, 1e-7, below_apex);
+    assert_true(st.max_edge_dev < 1e-4);
+    crisp_model_destroy(m);
+}
+
 /* ---- a lune of a sphere: two meridians through both poles ---------------------------------- */
 
 /* Unit sphere; meridian A in the plane y = 0 from the south pole (0, 0, -1) up through (1, 0, 0)
@@ -214,6 +254,77 @@ static void test_sphere_lune_through_poles(void **state)
     crisp_model_destroy(m);
 }
 
+/* ---- a pcurve off its edge ---------------------------------------------------------------- */
+
+/* Cylinder r = 1, z in [0, 2]: bottom circle, seam up, top circle back, seam down. */
+static const char cylinder[] = HEAD
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=CYLINDRICAL_SURFACE('',#4,1.);\n"
+    "#10=CARTESIAN_POINT('',(1.,0.,0.));\n#11=CARTESIAN_POINT('',(1.,0.,2.));\n"
+    "#12=VERTEX_POINT('',#10);\n#13=VERTEX_POINT('',#11);\n"
+    "/* bottom circle */ #20=CIRCLE('',#4,1.);\n#21=CARTESIAN_POINT('',(0.,0.));\n#22=DIRECTION('',(1.,0.));\n"
+    "#23=VECTOR('',#22,1.);\n#24=LINE('',#21,#23);\n#25=DEFINITIONAL_REPRESENTATION('',(#24),#99);\n"
+    "#26=PCURVE('',#5,#25);\n#27=SURFACE_CURVE('',#20,(#26),.PCURVE_S1.);\n#28=EDGE_CURVE('',#12,#12,#27,.T.);\n"
+    "/* top circle */ #30=CARTESIAN_POINT('',(0.,0.,2.));\n#31=AXIS2_PLACEMENT_3D('',#30,#2,#3);\n"
+    "#32=CIRCLE('',#31,1.);\n#33=CARTESIAN_POINT('',(0.,2.));\n#34=LINE('',#33,#23);\n"
+    "#35=DEFINITIONAL_REPRESENTATION('',(#34),#99);\n#36=PCURVE('',#5,#35);\n"
+    "#37=SURFACE_CURVE('',#32,(#36),.PCURVE_S1.);\n#38=EDGE_CURVE('',#13,#13,#37,.T.);\n"
+    "/* seam */ #40=VECTOR('',#2,1.);\n#41=LINE('',#10,#40);\n#42=CARTESIAN_POINT('',(0.,0.));\n"
+    "#43=DIRECTION('',(0.,1.));\n#44=VECTOR('',#43,1.);\n#45=LINE('',#42,#44);\n"
+    "#46=DEFINITIONAL_REPRESENTATION('',(#45),#99);\n#47=PCURVE('',#5,#46);\n"
+    "#48=CARTESIAN_POINT('',(6.28318530718,0.));\n#49=LINE('',#48,#44);\n"
+    "#50=DEFINITIONAL_REPRESENTATION('',(#49),#99);\n#51=PCURVE('',#5,#50);\n"
+    "#52=SEAM_CURVE('',#41,(#47,#51),.PCURVE_S1.);\n#53=EDGE_CURVE('',#12,#13,#52,.T.);\n"
+    "#60=ORIENTED_EDGE('',*,*,#28,.T.);\n#61=ORIENTED_EDGE('',*,*,#53,.T.);\n"
+    "#62=ORIENTED_EDGE('',*,*,#38,.F.);\n#63=ORIENTED_EDGE('',*,*,#53,.F.);\n"
+    "#64=EDGE_LOOP('',(#60,#61,#62,#63));\n#65=FACE_OUTER_BOUND('',#64,.T.);\n"
+    "#66=ADVANCED_FACE('',(#65),#5,.T.);\n#67=OPEN_SHELL('',(#66));\n#68=SHELL_BASED_SURFACE_MODEL('',(#67));\n"
+    "#99=( GEOMETRIC_REPRESENTATION_CONTEXT(2) PARAMETRIC_REPRESENTATION_CONTEXT() "
+    "REPRESENTATION_CONTEXT('2D SPACE','') );\n" TAIL;
+
+/* The bottom circle's pcurve bulges to v = 0.3 between its ends (a parabola in (u, v) that meets
+ * the edge at its ends): 0.3 off its edge. The trim comes from the 3D circle (the pcurve is
+ * checked at 9 points first; one that passes those but whose finished trim lies off the edge is
+ * now projected from the 3D edge as well, with a note, instead of dropping the face). */
+static void test_pcurve_off_edge_reprojected(void **state)
+{
+    (void)state;
+    char *t = replace_all(cylinder, "#25=DEFINITIONAL_REPRESENTATION('',(#24),#99);",
+                          "#80=CARTESIAN_POINT('',(0.,0.));\n#81=CARTESIAN_POINT('',(3.14159265358979,0.6));\n"
+                          "#82=CARTESIAN_POINT('',(6.28318530717959,0.));\n"
+                          "#83=B_SPLINE_CURVE_WITH_KNOTS('',2,(#80,#81,#82),.UNSPECIFIED.,.F.,.F.,(3,3),(0.,6.28318530717959),"
+                          ".UNSPECIFIED.);\n#25=DEFINITIONAL_REPRESENTATION('',(#83),#99);");
+    crisp_model *m;
+    step_read_stats st = {0};
+    crisp_status s = read_str(t, &m, &st);
+    if (s) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    /* every trim on the cylinder, and the lowest point of the loop at z = 0 (the 3D circle), not
+     * 0.3 (the pcurve) */
+    const crisp_face *f = &m->faces[0];
+    double zmin = INFINITY;
+    for (int k = 0; k < f->loops[0].curve_count; k++) {
+        const crisp_curve *cv = f->loops[0].curves[k];
+        double t0, t1;
+        crisp_curve_domain(cv, &t0, &t1);
+        for (int i = 0; i <= 32; i++) {
+            double uv[2], p[3];
+            crisp_curve_eval(cv, t0 + (t1 - t0) * i / 32, uv);
+            crisp_surface_eval(f->surface, uv[0], uv[1], p);
+            assert_true(fabs(hypot(p[0], p[1]) - 1) < 1e-9);
+            zmin = fmin(zmin, p[2]);
+        }
+    }
+    assert_true(fabs(zmin) < 1e-5);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-9, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    assert_true(st.max_edge_dev < 1e-4);
+    crisp_model_destroy(m);
+    free(t);
+}
+
 /* ---- a loop left open by the file ----------------------------------------------------------- */
 
 /* Plane z = 0; the loop lists only the two long edges of the rectangle [0, 2] x [0, 1]: (0, 0) to
@@ -230,13 +341,6 @@ static const char open_strip[] = HEAD
     "#32=ORIENTED_EDGE('',*,*,#23,.T.);\n#34=ORIENTED_EDGE('',*,*,#29,.F.);\n"
     "#36=EDGE_LOOP('',(#32,#34));\n#37=FACE_OUTER_BOUND('',#36,.T.);\n"
     "#50=ADVANCED_FACE('',(#37),#5,.T.);\n#51=OPEN_SHELL('',(#50));\n" TAIL;
-
-static int has_note(const crisp_model *m, const char *a, const char *b)
-{
-    for (int i = 0; i < m->skip_count; i++)
-        if (strstr(m->skips[i].what, a) && (!b || strstr(m->skips[i].what, b))) return 1;
-    return 0;
-}
 
 static void test_open_loop_bridged(void **state)
 {
@@ -271,7 +375,9 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_half_cone_through_apex),
         cmocka_unit_test(test_cone_sector_three_quarters),
+        cmocka_unit_test(test_cone_far_nappe),
         cmocka_unit_test(test_sphere_lune_through_poles),
+        cmocka_unit_test(test_pcurve_off_edge_reprojected),
         cmocka_unit_test(test_open_loop_bridged),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -36,7 +36,7 @@ void crisp__step_work_free(face_work *w)
 }
 
 /* Curve parameter t of an edge, wrapped back into a closed B-spline's domain. */
-static double wrap_t(const step_curve *c, double t)
+double crisp__step_curve_wrap(const step_curve *c, double t)
 {
     if (c->kind == STEP_CURVE_BSPLINE && c->periodic && t > c->t1) t -= c->period;
     return t;
@@ -250,6 +250,7 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
     }
     const step_part *ep = crisp__step_part(r, ee, "EDGE_CURVE");
     if (!ep) return crisp__step_fail(r, ee, CRISP_ERR_UNSUPPORTED, "expected an EDGE_CURVE");
+    eu->edge_id = ee->id;
     const step_entity *vs, *ve, *ge;
     int same;
     double ps[3], pe[3];
@@ -443,9 +444,22 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
                 double da = hypot(a[0] - prev[0], a[1] - prev[1]), db = hypot(b[0] - prev[0], b[1] - prev[1]);
                 eu->chosen = db < da;
             }
+            /* A seam edge used twice in the loop runs along both of its pcurves, in the same
+             * turn: its second use takes the pcurve the first did not (at a pole, where the
+             * loop passes from one use to the other, continuity cannot tell them apart:
+             * trj4_s1-ec-214.stp, hemispheres bounded by the equator and a seam). */
+            const edge_use *twin = NULL;
+            for (int q = 0; q < m && !twin; q++) {
+                const edge_use *o = &lw->edges[(start + q) % n];
+                if (o->edge_id == eu->edge_id && o->npc == 2 && eu->npc == 2) twin = o;
+            }
             double uv0[2];
+            if (twin) {
+                eu->chosen = 1 - twin->chosen;
+                eu->shift[0] = twin->shift[0], eu->shift[1] = twin->shift[1];
+            }
             pc_at(eu, eu->chosen, 0, uv0);
-            if (have_prev) crisp__step_period_shift(w, uv0, prev, eu->shift);
+            if (have_prev && !twin) crisp__step_period_shift(w, uv0, prev, eu->shift);
             for (int i = 0; i < eu->ns; i++) {
                 pc_at(eu, eu->chosen, (double)i / (eu->ns - 1), eu->uv + 2 * i);
                 eu->uv[2 * i] += eu->shift[0];
@@ -459,7 +473,7 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
         } else {
             for (int i = 0; i < eu->ns; i++) {
                 double p[3];
-                crisp__step_curve_eval(&eu->c3, wrap_t(&eu->c3, eu->ts[i]), p);
+                crisp__step_curve_eval(&eu->c3, crisp__step_curve_wrap(&eu->c3, eu->ts[i]), p);
                 crisp__step_surface_invert(&w->s, p, have_prev || i ? prev : NULL, eu->uv + 2 * i);
                 prev[0] = eu->uv[2 * i], prev[1] = eu->uv[2 * i + 1];
                 have_prev = 1;
@@ -671,7 +685,7 @@ void crisp__step_file_uv(face_work *w, edge_use *eu, double s, double uv[2])
     }
     double ref[2] = {eu->uv[2 * i] * (1 - f) + eu->uv[2 * i + 2] * f, eu->uv[2 * i + 1] * (1 - f) + eu->uv[2 * i + 3] * f};
     double p[3];
-    crisp__step_curve_eval(&eu->c3, wrap_t(&eu->c3, t), p);
+    crisp__step_curve_eval(&eu->c3, crisp__step_curve_wrap(&eu->c3, t), p);
     crisp__step_surface_invert(&w->s, p, ref, uv);
 }
 
