@@ -159,6 +159,14 @@ crisp_status crisp_surface_closest_point(const crisp_surface *s, const double p[
  * is taken from the neighbouring points. */
 crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_curve *c, double t0,
                                          double t1, double tol, crisp_curve **dest);
+/* crisp_surface_project_curve, and where that fails because the projection jumps (the curve
+ * passes a collapsed patch side or a pole reached from both ends of the domain, or runs between
+ * two sheets of the surface), the curve cut at the jumps into up to max_pieces pieces, each
+ * projected on its own (dest[0 .. *count - 1], in curve order). The gaps between pieces are the
+ * caller's to bridge (they lie where the surface collapses, or they are real). */
+crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const crisp_curve *c, double t0,
+                                                double t1, double tol, int max_pieces, crisp_curve **dest,
+                                                int *count);
 
 #ifdef __cplusplus
 }

@@ -445,11 +445,15 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
                 eu->chosen = db < da;
             }
             /* A seam edge used twice in the loop runs along both of its pcurves, in the same
-             * turn: its second use takes the pcurve the first did not (at a pole, where the
-             * loop passes from one use to the other, continuity cannot tell them apart:
-             * trj4_s1-ec-214.stp, hemispheres bounded by the equator and a seam). */
+             * turn. Where the loop passes from one use to the other at a pole or apex,
+             * continuity cannot tell them apart (trj4_s1-ec-214.stp, hemispheres bounded by the
+             * equator and a seam): there the second use takes the pcurve the first did not.
+             * (Elsewhere continuity decides: some writers give a seam two equal pcurves.) */
             const edge_use *twin = NULL;
-            for (int q = 0; q < m && !twin; q++) {
+            int at_collapse = 0;
+            for (int k = 0; k < 2 && have_prev; k++)
+                if (w->period[k] > 0 && w->s.kind != STEP_SURF_BSPLINE) at_collapse |= collapsed_at(w, prev, k);
+            for (int q = 0; q < m && !twin && at_collapse; q++) {
                 const edge_use *o = &lw->edges[(start + q) % n];
                 if (o->edge_id == eu->edge_id && o->npc == 2 && eu->npc == 2) twin = o;
             }

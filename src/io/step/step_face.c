@@ -287,7 +287,9 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
             cut[1] = eu->c3.t1;
             pieces = 2;
         }
-        crisp_curve *tmp[2] = {NULL, NULL};
+        enum { MAXP = 9 };
+        crisp_curve *tmp[2][MAXP] = {{NULL}};
+        int ntmp[2] = {0, 0};
         for (int k = 0; k < pieces; k++) {
             double a = k ? eu->c3.t0 : cut[0], b = k ? eu->hi - eu->c3.period : cut[1];
             crisp_curve *c3 = NULL;
@@ -296,40 +298,58 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
             crisp_curve_domain(c3, &d0, &d1);
             /* The projection's fit can stall on a span where point inversion is ill-conditioned
              * (trj8_b1-ec-214.stp); a tighter tolerance changes the spans and often gets past. */
-            st = crisp_surface_project_curve(s->nurbs, c3, d0, d1, r->tol, &tmp[k]);
+            st = crisp_surface_project_curve(s->nurbs, c3, d0, d1, r->tol, &tmp[k][0]);
             for (double f = 0.25; st == CRISP_ERR_LIMIT && f > 0.01; f *= 0.25) {
                 crisp_error_clear();
                 w->repaired = 1;
-                st = crisp_surface_project_curve(s->nurbs, c3, d0, d1, f * r->tol, &tmp[k]);
+                st = crisp_surface_project_curve(s->nurbs, c3, d0, d1, f * r->tol, &tmp[k][0]);
             }
             /* Last, a looser one (up to 16 times): a face whose trim is off by 1.6e-4 of the
              * model is better than no face. It is counted and noted. */
             for (double f = 4; st == CRISP_ERR_LIMIT && f < 20; f *= 4) {
                 crisp_error_clear();
-                st = crisp_surface_project_curve(s->nurbs, c3, d0, d1, f * r->tol, &tmp[k]);
+                st = crisp_surface_project_curve(s->nurbs, c3, d0, d1, f * r->tol, &tmp[k][0]);
                 if (!st) {
                     w->repaired = 1;
                     r->stats->loose_projections++;
                     crisp_model_note_skip(r->model, "STEP edge trim projected within 4-16x the tolerance (tighter failed)");
                 }
             }
+            if (!st) ntmp[k] = 1;
+            /* The projection jumps (the edge passes a collapsed side or a pole of the patch, pr1db.stp):
+             * cut at the jumps, each piece projected on its own; the gaps lie where the surface
+             * collapses and are bridged there (bridge_degenerate), or the closure check refuses them. */
+            if (st == CRISP_ERR_LIMIT) {
+                crisp_error_clear();
+                w->repaired = 1;
+                st = crisp_surface_project_curve_pieces(s->nurbs, c3, d0, d1, r->tol, MAXP, tmp[k], &ntmp[k]);
+            }
             crisp_curve_destroy(c3);
             if (st) {
                 crisp_error_prefix("%s: #%d: projecting edge #%d onto surface #%d", r->f->name, w->fe->id, eu->id, s->id);
                 goto fail_bs;
             }
-            if (!eu->increasing) crisp_curve_reverse(tmp[k]);
+            if (!eu->increasing) {
+                for (int q = 0; q < ntmp[k]; q++) crisp_curve_reverse(tmp[k][q]);
+                for (int q = 0; q < ntmp[k] / 2; q++) {
+                    crisp_curve *x = tmp[k][q];
+                    tmp[k][q] = tmp[k][ntmp[k] - 1 - q];
+                    tmp[k][ntmp[k] - 1 - q] = x;
+                }
+            }
         }
         for (int k = 0; k < pieces; k++) {
             int idx = eu->increasing ? k : pieces - 1 - k;
-            st = push_curve(w, tmp[idx], out, n, cap);
-            tmp[idx] = NULL;
-            if (st) goto fail_bs;
+            for (int q = 0; q < ntmp[idx]; q++) {
+                st = push_curve(w, tmp[idx][q], out, n, cap);
+                tmp[idx][q] = NULL;
+                if (st) goto fail_bs;
+            }
         }
         return CRISP_OK;
     fail_bs:
-        crisp_curve_destroy(tmp[0]);
-        crisp_curve_destroy(tmp[1]);
+        for (int k = 0; k < 2; k++)
+            for (int q = 0; q < MAXP; q++) crisp_curve_destroy(tmp[k][q]);
         return st;
     }
     fit_ctx fc = {w, eu};
