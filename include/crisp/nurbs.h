@@ -144,6 +144,17 @@ void crisp_bezier_patch_split_v(const crisp_bezier_patch *p, double t, crisp_bez
                                 crisp_bezier_patch *hi);
 void crisp_bezier_patch_bbox(const crisp_bezier_patch *p, double *dest); /* 6 values */
 
+/* ---- normals ---------------------------------------------------------------------------------- */
+
+/* The unit normal S_s x S_t / |S_s x S_t| of the patch at local (s, t), also where the cross
+ * product vanishes (a cone's apex, a sphere's pole, a collapsed side, parallel partials): there
+ * the limit of the normal from inside the patch along the direction that leaves the degenerate
+ * side (around an apex each generator keeps its own normal). Returns 1, or 0 with dest = 0 when
+ * the patch has no normal near (s, t) at all (it is a point or a curve there). */
+int crisp_bezier_patch_normal(const crisp_bezier_patch *p, double s, double t, double dest[3]);
+/* The same for a NURBS surface at (u, v) of its domain. */
+int crisp_surface_normal(const crisp_surface *s, double u, double v, double dest[3]);
+
 /* ---- projection onto surfaces ---------------------------------------------------------------- */
 
 /* Point inversion: the (u, v) of the point of s closest to p (global search on a sample grid,
