@@ -155,6 +155,12 @@ int crisp_bezier_patch_normal(const crisp_bezier_patch *p, double s, double t, d
 /* The same for a NURBS surface at (u, v) of its domain. */
 int crisp_surface_normal(const crisp_surface *s, double u, double v, double dest[3]);
 
+/* The offset surface S + d N (N = crisp_surface_normal) as a bicubic B-spline over S's domain and
+ * parametrisation (C0 at its knots, watertight), within tol of the true offset at 16 test points
+ * per cell; cells split until they pass, up to max_cells per direction (else CRISP_ERR_LIMIT). */
+crisp_status crisp_surface_offset(const crisp_surface *s, double d, double tol, int max_cells,
+                                  crisp_surface **dest);
+
 /* ---- projection onto surfaces ---------------------------------------------------------------- */
 
 /* Point inversion: the (u, v) of the point of s closest to p (global search on a sample grid,

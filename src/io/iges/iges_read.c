@@ -32,7 +32,7 @@ static void mark_consumed(iges_file *f)
         case 143: consume(f, i, 2); break;
         case 141: consume(f, i, 3); break;
         case 510: consume(f, i, 1); break;
-        case 140: consume(f, i, 4); break;
+        case 140: consume(f, i, 5); break;
         default: break;
         }
     }
@@ -98,6 +98,7 @@ crisp_status iges_build_entities(iges_file *f, const int *list, int n)
         case 118:
         case 120:
         case 122:
+        case 140:
         case 128:
             if (x->consumed) break;
             if (skip_blanked(f, x)) break;
