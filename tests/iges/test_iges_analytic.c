@@ -95,8 +95,96 @@ static void test_cylinder_192(void **state)
     crisp_model_destroy(m);
 }
 
-/* The same loop on a cone of radius 2 at z = 0 ... a cone would not hold it: on a cylinder of the
- * same axis offset outwards by 0.5 from radius 1.5 (140 over a 192): the offset is exact. */
+#define W "0.7071067811865476"
+/* A rational quadratic arc (126) from a through control point b to c (90 degrees). */
+#define ARC(a, b, c) "2,2,1,0,0,0,0.,0.,0.,1.,1.,1.,1.," W ",1.," a "," b "," c ",0.,1.,0.,0.,1.;"
+
+static double on_cone45(const double p[3]) { return hypot(p[0], p[1]) - (2 + p[2]); }
+
+/* 194: the cone of radius 2 at z = 0, semi-angle 45 degrees (radius 2 + z): the quarter between
+ * z = 0 and z = 3 and angles 0..90 degrees. */
+static void test_cone_194(void **state)
+{
+    (void)state;
+    test_entity e[] = {
+        {100, 0, 0, "00010000", 0, "0.,0.,0.,2.,0.,0.,2.;"},       /* DE 1 */
+        {110, 0, 0, "00010000", 0, "0.,2.,0.,0.,5.,3.;"},          /* DE 3 */
+        {126, 0, 0, "00010000", 0, ARC("0.,5.,3.", "5.,5.,3.", "5.,0.,3.")}, /* DE 5 */
+        {110, 0, 0, "00010000", 0, "5.,0.,3.,2.,0.,0.;"},          /* DE 7 */
+        {102, 0, 0, "00010000", 0, "4,1,3,5,7;"},                  /* DE 9 */
+        {116, 0, 0, "00010000", 0, "0.,0.,0.;"},                   /* DE 11 */
+        {142, 0, 0, "00010500", 0, "0,19,0,9,2;"},                 /* DE 13 */
+        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},                   /* DE 15 */
+        {144, 0, 0, NULL, 0, "19,1,0,13;"},                        /* DE 17 */
+        {194, 0, 0, "00010000", 0, "11,15,2.,45.;"},               /* DE 19 */
+    };
+    crisp_model *m = load(e, N_OF(e));
+    assert_int_equal(m->face_count, 1);
+    double mid[3];
+    check_trims(&m->faces[0], on_cone45, 1e-5, mid);
+    assert_true(fabs(atan2(mid[1], mid[0]) - M_PI / 4) < 0.1 && mid[2] > 0.5 && mid[2] < 2.5);
+    crisp_model_destroy(m);
+}
+
+static double on_sphere2(const double p[3]) { return sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 2; }
+
+/* 196: the octant x, y, z > 0 of the sphere of radius 2, bounded by the equator's quarter and two
+ * meridians meeting at the north pole (where the projection's u jumps). */
+static void test_sphere_196_octant(void **state)
+{
+    (void)state;
+    test_entity e[] = {
+        {100, 0, 0, "00010000", 0, "0.,0.,0.,2.,0.,0.,2.;"},                 /* DE 1 equator */
+        {126, 0, 0, "00010000", 0, ARC("0.,2.,0.", "0.,2.,2.", "0.,0.,2.")}, /* DE 3 meridian up */
+        {126, 0, 0, "00010000", 0, ARC("0.,0.,2.", "2.,0.,2.", "2.,0.,0.")}, /* DE 5 meridian down */
+        {102, 0, 0, "00010000", 0, "3,1,3,5;"},                              /* DE 7 */
+        {116, 0, 0, "00010000", 0, "0.,0.,0.;"},                             /* DE 9 */
+        {142, 0, 0, "00010500", 0, "0,17,0,7,2;"},                           /* DE 11 */
+        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},                             /* DE 13 */
+        {144, 0, 0, NULL, 0, "17,1,0,11;"},                                  /* DE 15 */
+        {196, 0, 0, "00010000", 0, "9,2.,13;"},                              /* DE 17 */
+    };
+    crisp_model *m = load(e, N_OF(e));
+    assert_int_equal(m->face_count, 1);
+    double mid[3];
+    check_trims(&m->faces[0], on_sphere2, 1e-5, mid);
+    assert_true(mid[0] > 0.1 && mid[1] > 0.1 && mid[2] > 0.1);
+    crisp_model_destroy(m);
+}
+
+static double on_torus31(const double p[3])
+{
+    double a = hypot(p[0], p[1]) - 3;
+    return sqrt(a * a + p[2] * p[2]) - 1;
+}
+
+/* 198: the torus of radii 3 and 1 about z: the patch over angles 0..90 degrees round the axis and
+ * 0..90 degrees round the tube (outer equator up to the top circle). */
+static void test_torus_198(void **state)
+{
+    (void)state;
+    test_entity e[] = {
+        {100, 0, 0, "00010000", 0, "0.,0.,0.,4.,0.,0.,4.;"},                 /* DE 1 outer equator */
+        {126, 0, 0, "00010000", 0, ARC("0.,4.,0.", "0.,4.,1.", "0.,3.,1.")}, /* DE 3 */
+        {126, 0, 0, "00010000", 0, ARC("0.,3.,1.", "3.,3.,1.", "3.,0.,1.")}, /* DE 5 top circle back */
+        {126, 0, 0, "00010000", 0, ARC("3.,0.,1.", "4.,0.,1.", "4.,0.,0.")}, /* DE 7 */
+        {102, 0, 0, "00010000", 0, "4,1,3,5,7;"},                            /* DE 9 */
+        {116, 0, 0, "00010000", 0, "0.,0.,0.;"},                             /* DE 11 */
+        {142, 0, 0, "00010500", 0, "0,19,0,9,2;"},                           /* DE 13 */
+        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},                             /* DE 15 */
+        {144, 0, 0, NULL, 0, "19,1,0,13;"},                                  /* DE 17 */
+        {198, 0, 0, "00010000", 0, "11,15,3.,1.;"},                          /* DE 19 */
+    };
+    crisp_model *m = load(e, N_OF(e));
+    assert_int_equal(m->face_count, 1);
+    double mid[3];
+    check_trims(&m->faces[0], on_torus31, 1e-5, mid);
+    assert_true(mid[0] > 0.5 && mid[1] > 0.5 && mid[2] > 0.1 && hypot(mid[0], mid[1]) > 3);
+    crisp_model_destroy(m);
+}
+
+/* The quarter loop on a cylinder of the same axis offset outwards by 0.5 from radius 1.5 (140
+ * over a 192): the offset is exact. */
 static void test_offset_of_cylinder(void **state)
 {
     (void)state;
@@ -186,6 +274,9 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cylinder_192),
+        cmocka_unit_test(test_cone_194),
+        cmocka_unit_test(test_sphere_196_octant),
+        cmocka_unit_test(test_torus_198),
         cmocka_unit_test(test_offset_of_cylinder),
         cmocka_unit_test(test_offset_of_bspline_plane),
         cmocka_unit_test(test_offset_of_revolution),
