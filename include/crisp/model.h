@@ -51,6 +51,7 @@ typedef struct crisp_model {
     int skip_count;
     crisp_skip_note *skips; /* what the reader skipped and why */
     int faces_dropped;      /* faces the reader could not build (each also has a skip note) */
+    double tolerance;       /* the reader's distance tolerance in model units (0: not known) */
 } crisp_model;
 
 crisp_status crisp_model_create(crisp_model **dest);
@@ -89,6 +90,28 @@ typedef struct crisp_model_stats {
 } crisp_model_stats;
 
 crisp_status crisp_model_stats_compute(const crisp_model *m, crisp_model_stats *dest);
+
+/* Places where faces that meet in the file do not meet in crisp's model (issue 13): a boundary
+ * point of one face whose nearest boundary of another face is farther than tol but nearer than
+ * limit (farther than limit: a free edge, not a gap). Grouped per pair of faces (indices into
+ * m->faces), largest first. */
+typedef struct crisp_gap {
+    int face[2];
+    double gap;   /* largest distance found between the two faces' boundaries */
+    double at[3]; /* where (on face[0] or face[1]) */
+} crisp_gap;
+
+typedef struct crisp_gap_report {
+    double tolerance, limit;
+    long samples;     /* boundary samples with another face within limit */
+    long gap_samples; /* of those, farther than tolerance */
+    int incomplete;   /* 1: the model's boundaries were too long to measure (nothing reported) */
+    int count, cap;
+    crisp_gap *gaps;  /* count pairs, largest gap first */
+} crisp_gap_report;
+
+crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, crisp_gap_report *dest);
+void crisp_gap_report_free(crisp_gap_report *r);
 
 /* Signed area of the loop (shoelace on a dense polyline of its curves): > 0 when CCW. */
 double crisp_trim_loop_signed_area(const crisp_trim_loop *loop);

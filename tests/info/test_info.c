@@ -61,6 +61,7 @@ static void test_obj_summary(void **state)
      * [0, 1] in x and y), not the control hull [0, 0, 0] - [2, 1, 1] */
     assert_null(strstr(out, "bounding box:    [0, 0, 0] - [2, 1, 1]"));
     assert_non_null(strstr(out, "faces dropped:   0\n"));
+    assert_non_null(strstr(out, "gaps:            none wider than the tolerance"));
     assert_non_null(strstr(out, "coloured faces:  0\n"));
     assert_non_null(strstr(out, "frobnicate"));
 
@@ -78,6 +79,9 @@ static void test_obj_summary(void **state)
     assert_true(b[0] <= 0.2 + 1e-9 && b[0] > 0.1 && b[3] >= 1.8 - 1e-9 && b[3] < 1.9);
     assert_true(b[1] <= 0.2 + 1e-9 && b[1] > 0.1 && b[4] >= 0.8 - 1e-9 && b[4] < 0.9);
     assert_non_null(strstr(out, "\"faces_dropped\": 0,"));
+    /* one face: no other face near its boundary, no gap */
+    assert_non_null(strstr(out, "\"gaps\": {\"measured\": true,"));
+    assert_non_null(strstr(out, "\"pairs\": 0,"));
     assert_non_null(strstr(out, "\"colored_faces\": 0,"));
     assert_non_null(strstr(out, "\"skipped\": [{\"what\": \"OBJ statement 'frobnicate'"));
     remove(path);

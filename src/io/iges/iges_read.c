@@ -180,6 +180,7 @@ crisp_status crisp_read_iges_mem(const char *name, const char *data, size_t size
         if (!st) st = crisp_model_note_skip(m, "(nothing) every face in the file is "
                                                "blanked: drawn anyway");
     }
+    if (!st) m->tolerance = f.tol3d;
     if (!st && m->face_count == 0 && f.first_error) {
         /* nothing could be drawn: the first face's failure is the file's error */
         st = crisp_error(f.first_error, "%s", f.first_message);

@@ -460,6 +460,7 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
         }
         goto done;
     }
+    m->tolerance = tol_model;
     crisp__step_colors(&r, ids, ids + fl.count, n);
     if ((st = crisp__step_assembly(&r, ids, ids + fl.count, n))) goto done;
     crisp_error_clear();
