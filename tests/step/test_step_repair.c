@@ -4,6 +4,7 @@
  *    half circle and two generators; a lune of a sphere between two meridians), where the turn
  *    of u is undefined and continuity alone picked the wrong one ("winds around u without a seam
  *    edge");
+ *  - a hemisphere bounded by a great circle that passes within 1e-10 of both poles;
  *  - faces on a cone's far nappe (beyond the apex) and on a spindle torus, whose points the
  *    analytic inversion put on the wrong branch;
  *  - a pcurve that lies off its edge: the trim is projected from the 3D edge;
@@ -254,6 +255,37 @@ static void test_sphere_lune_through_poles(void **state)
     crisp_model_destroy(m);
 }
 
+/* A hemisphere of a sphere about x bounded by one great circle through both poles, the circle's
+ * centre 1e-10 off the sphere's (trj3_s1-md-214.stp: 6 such faces were dropped, "no fit within
+ * the tolerance": u turns by pi within 1e-10 of each pole, too fast to fit and too slow to be cut
+ * as a jump). The turns within the tolerance of a pole are cut now and bridged along the pole. */
+static const char near_pole[] = HEAD
+    "#1=CARTESIAN_POINT('',(-6.5E-011,-1.1E-010,0.));\n#2=DIRECTION('',(1.,0.,0.));\n"
+    "#3=DIRECTION('',(0.,-1.,0.));\n#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=SPHERICAL_SURFACE('',#4,6.);\n"
+    "#10=CARTESIAN_POINT('',(-6.5E-011,1.9E-014,-6.));\n#11=VERTEX_POINT('',#10);\n"
+    "#6=CARTESIAN_POINT('',(-6.5E-011,1.9E-014,0.));\n"
+    "#12=DIRECTION('',(0.,-1.,0.));\n#13=DIRECTION('',(0.,0.,-1.));\n#14=AXIS2_PLACEMENT_3D('',#6,#12,#13);\n"
+    "#15=CIRCLE('',#14,6.);\n#16=EDGE_CURVE('',#11,#11,#15,.F.);\n#17=ORIENTED_EDGE('',*,*,#16,.F.);\n"
+    "#18=EDGE_LOOP('',(#17));\n#19=FACE_BOUND('',#18,.T.);\n#20=ADVANCED_FACE('',(#19),#5,.T.);\n"
+    "#21=OPEN_SHELL('',(#20));\n" TAIL;
+
+static double on_sphere6(const double p[3]) { return sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 6; }
+static int off_the_circle(const double p[3]) { return fabs(p[1]) > 1; }
+
+static void test_hemisphere_near_poles(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    step_read_stats st = {0};
+    crisp_status s = read_str(near_pole, &m, &st);
+    if (s) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    check_face(m, 0, on_sphere6, 1e-6, off_the_circle);
+    assert_true(st.max_edge_dev < 1e-3);
+    crisp_model_destroy(m);
+}
+
 /* ---- a pcurve off its edge ---------------------------------------------------------------- */
 
 /* Cylinder r = 1, z in [0, 2]: bottom circle, seam up, top circle back, seam down. */
@@ -377,6 +409,7 @@ int main(void)
         cmocka_unit_test(test_cone_sector_three_quarters),
         cmocka_unit_test(test_cone_far_nappe),
         cmocka_unit_test(test_sphere_lune_through_poles),
+        cmocka_unit_test(test_hemisphere_near_poles),
         cmocka_unit_test(test_pcurve_off_edge_reprojected),
         cmocka_unit_test(test_open_loop_bridged),
     };

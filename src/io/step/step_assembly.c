@@ -287,9 +287,13 @@ static crisp_status placed_relation(asm_state *s, const step_entity *e, const st
     const step_part *rt = crisp__step_part(r, e, "REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION");
     const step_entity *r1, *r2, *op, *i1, *i2;
     crisp_status st;
+    /* (AP209 writers give the relationship as a simple entity: name, description, rep_1, rep_2,
+     * operator; trj9_ap209-mp.stp.) */
+    int op_at = 0;
+    if (!rr && rt && crisp__step_param(r, rt, 4)) rr = rt, op_at = 4;
     if (!rr || !rt) return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected a REPRESENTATION_RELATIONSHIP");
     if ((st = crisp__step_get_ref(r, e, rr, 2, &r1)) || (st = crisp__step_get_ref(r, e, rr, 3, &r2)) ||
-        (st = crisp__step_get_ref(r, e, rt, 0, &op)))
+        (st = crisp__step_get_ref(r, e, rt, op_at, &op)))
         return st;
     int a = rep_index(s, r1), b = rep_index(s, r2);
     if (a < 0 || b < 0) return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected two shape representations");

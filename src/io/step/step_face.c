@@ -117,7 +117,7 @@ static int cmp_double(const void *a, const void *b)
 static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out, int *n, size_t *cap)
 {
     fit_ctx fc = {w, eu};
-    double prev[2], cur[2], steps[JUMP_SAMPLES], cuts[MAX_JUMPS + 2];
+    double prev[2], cur[2], steps[JUMP_SAMPLES], cuts[MAX_JUMPS + 2], cut_lo[MAX_JUMPS + 2], cut_hi[MAX_JUMPS + 2];
     int ncut = 0;
     fit_fn(&fc, 0, prev);
     for (int i = 1; i <= JUMP_SAMPLES; i++) {
@@ -130,6 +130,7 @@ static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out
     memcpy(sorted, steps, sizeof sorted);
     qsort(sorted, JUMP_SAMPLES, sizeof *sorted, cmp_double);
     double typical = sorted[JUMP_SAMPLES / 2], limit = fmax(50 * typical, 100 * w->tol_uv);
+    cut_lo[ncut] = cut_hi[ncut] = 0;
     cuts[ncut++] = 0;
     for (int i = 0; i < JUMP_SAMPLES; i++) {
         if (!(steps[i] > limit)) continue;
@@ -139,23 +140,36 @@ static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out
         fit_fn(&fc, a, pa);
         fit_fn(&fc, b, pb);
         for (int it = 0; it < 60; it++) {
+            /* Once both ends are one point on the surface (within the tolerance), the (u, v)
+             * between them is a turn about a pole the edge passes within the tolerance
+             * (trj3_s1-md-214.stp: great circles 1e-10 off a sphere's poles): a jump there. */
+            double fa[2], fb[2], qa[3], qb[3];
+            crisp__step_file_uv(w, eu, a, fa);
+            crisp__step_file_uv(w, eu, b, fb);
+            crisp__step_surface_eval(&w->s, fa[0], fa[1], qa);
+            crisp__step_surface_eval(&w->s, fb[0], fb[1], qb);
+            if (crisp__step_dist3(qa, qb) <= 0.5 * w->r->tol) break;
             double m = 0.5 * (a + b);
             fit_fn(&fc, m, pm);
             if (hypot(pm[0] - pa[0], pm[1] - pa[1]) < hypot(pb[0] - pm[0], pb[1] - pm[1])) a = m, pa[0] = pm[0], pa[1] = pm[1];
             else b = m, pb[0] = pm[0], pb[1] = pm[1];
         }
         /* A true jump stays a jump however small the bracket; a fast but continuous turn (an
-         * edge passing near a pole, trj6_b1-ec-214.stp) shrinks away: not cut. */
+         * edge passing near a pole, trj6_b1-ec-214.stp) shrinks away: not cut, unless it lies
+         * within the tolerance of the pole (above). */
         if (!(hypot(pb[0] - pa[0], pb[1] - pa[1]) > 0.5 * limit)) continue;
+        /* the pieces end at the bracket's ends: between them the (u, v) only turns */
+        cut_lo[ncut] = a, cut_hi[ncut] = b;
         cuts[ncut++] = 0.5 * (a + b);
     }
+    cut_lo[ncut] = cut_hi[ncut] = 1;
     cuts[ncut++] = 1;
     if (ncut == 2) return crisp_error(CRISP_ERR_NUMERIC, "%s: #%d: edge #%d: no fit within the tolerance",
                                       w->r->f->name, w->fe->id, eu->id);
     for (int k = 0; k + 1 < ncut; k++) {
-        double a = cuts[k], b = cuts[k + 1], eps = 1e-9;
-        if (k > 0) a += eps;
-        if (k + 2 < ncut) b -= eps;
+        double a = cut_hi[k], b = cut_lo[k + 1], eps = 1e-9;
+        if (k > 0 && !(cut_hi[k] > cuts[k])) a += eps;
+        if (k + 2 < ncut && !(cut_lo[k + 1] < cuts[k + 1])) b -= eps;
         if (!(b > a)) continue;
         crisp_curve *c;
         crisp_status st = crisp_fit_curve(2, fit_fn, &fc, a, b, w->tol_uv, 1024, &c);
