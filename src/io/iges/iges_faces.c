@@ -288,7 +288,9 @@ static crisp_status bridge_gaps(iges_file *f, int e, crisp_face *face, double to
             bridged++;
         }
     }
-    if (bridged) note_dropped(f, e, "gaps in its trim loops bridged by straight segments");
+    if (bridged) /* kept: a note, not a dropped face */
+        crisp_model_note_skipf(f->model, "DE %d entity %d %s: gaps in its trim loops bridged by straight segments",
+                               iges_de(e), f->ents[e].type, iges_type_name(f->ents[e].type));
     return CRISP_OK;
 }
 
