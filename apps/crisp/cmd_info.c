@@ -191,13 +191,15 @@ int crisp_cmd_info(int argc, char **argv)
     double box[6] = {0, 0, 0, 0, 0, 0};
     if (m->face_count) {
         crisp_scene *scene = NULL;
-        st = crisp_scene_prepare(m, &scene);
-        if (st != CRISP_OK) {
-            fprintf(stderr, "crisp info: %s: %s\n", path, crisp_error_message());
-            crisp_model_destroy(m);
-            return 1;
+        if (crisp_scene_prepare(m, &scene) == CRISP_OK) {
+            for (int k = 0; k < 6; k++) box[k] = scene->box[k];
+        } else {
+            /* (never seen: the control hulls' box, and say why) */
+            fprintf(stderr, "crisp info: %s: box of the control hulls (the scene could not be prepared: %s)\n",
+                    path, crisp_error_message());
+            crisp_error_clear();
+            crisp_model_bbox(m, box);
         }
-        for (int k = 0; k < 6; k++) box[k] = scene->box[k];
         crisp_scene_destroy(scene);
     }
     /* Gaps: wider than the reader's tolerance (else 1e-5 of the box diagonal), narrower than
