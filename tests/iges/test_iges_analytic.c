@@ -270,6 +270,35 @@ static void test_offset_of_revolution(void **state)
     crisp_model_destroy(m);
 }
 
+/* Open CASCADE's bug23171_tube_surf.igs: two 144 faces on 140 offsets (by 6.33) of 120 surfaces
+ * of revolution (a tube of radius 100): both faces kept (they were dropped, and their base
+ * surfaces drawn as stray faces) and in Open CASCADE 7.6.3's box in y and z: radius 106.33
+ * about the axis y = 300, z = 0 (its box is padded by its tolerance along x). */
+static void test_offset_tube_file(void **state)
+{
+    (void)state;
+    crisp_model *m = NULL;
+    crisp_status st = crisp_read_iges(CRISP_DATA_DIR "/nurbs/occt_bug23171_tube_surf.igs", NULL, &m);
+    if (st) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(st, CRISP_OK);
+    assert_int_equal(m->face_count, 2);
+    assert_int_equal(m->faces_dropped, 0);
+    double worst = 0;
+    for (int f = 0; f < 2; f++) {
+        const crisp_surface *s = m->faces[f].surface;
+        double d[4];
+        crisp_surface_domain(s, d);
+        for (int a = 0; a <= 10; a++)
+            for (int b = 0; b <= 10; b++) {
+                double p[3];
+                crisp_surface_eval(s, d[0] + (d[1] - d[0]) * a / 10, d[2] + (d[3] - d[2]) * b / 10, p);
+                worst = fmax(worst, fabs(hypot(p[1] - 300, p[2]) - 106.329494));
+            }
+    }
+    assert_true(worst < 0.01);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -280,6 +309,7 @@ int main(void)
         cmocka_unit_test(test_offset_of_cylinder),
         cmocka_unit_test(test_offset_of_bspline_plane),
         cmocka_unit_test(test_offset_of_revolution),
+        cmocka_unit_test(test_offset_tube_file),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
