@@ -179,13 +179,7 @@ int crisp_cmd_frep(int argc, char **argv)
         } else {
             uint8_t *shade = malloc(npix);
             if (!shade) goto done;
-            /* Lambert shading from a light up and to the upper left of the viewer */
-            const float l[3] = {-0.40824829f, 0.40824829f, 0.81649658f};
-            for (size_t p = 0; p < npix; p++) {
-                const float *nrm = img->normal + 3 * p;
-                float d = nrm[0] * l[0] + nrm[1] * l[1] + nrm[2] * l[2];
-                shade[p] = img->inside[p] ? (uint8_t)(40 + 215 * (d > 0 ? d : 0)) : 0;
-            }
+            crisp_frep_shade(img, shade);
             s = crisp_write_png_gray(out, img->width, img->height, shade);
             free(shade);
         }

@@ -10,6 +10,7 @@
  *   crisp_frep_tape_create/_destroy, _length, _registers
  *   crisp_frep_eval_point/_batch/_interval/_grad    float, interval and derivative evaluators
  *   crisp_frep_renderer              2D images and 3D heightmaps by interval subdivision
+ *   crisp_frep_shade                 the shaded 8-bit picture of a 3D heightmap
  *   crisp_frep_read_vm/_vm_mem, crisp_frep_read_math/_math_mem   readers (built in src/io/frep)
  *
  * Semantics are those of the .vm format (data/README.md): 32-bit float arithmetic; min and max
@@ -171,6 +172,10 @@ void crisp_frep_renderer_destroy(crisp_frep_renderer *r);
 /* Render (again) into the renderer's image. */
 crisp_status crisp_frep_renderer_run(crisp_frep_renderer *r);
 const crisp_frep_image *crisp_frep_renderer_image(const crisp_frep_renderer *r);
+/* The 8-bit shading of a 3D image (the CLI's PNG): Lambert shading of the normals by a light up
+ * and to the upper left of the viewer, 40 + 215 max(n.l, 0) where hit, 0 elsewhere; dest holds
+ * width x height bytes. */
+void crisp_frep_shade(const crisp_frep_image *img, uint8_t *dest);
 /* Counters of the last run. */
 crisp_frep_render_stats crisp_frep_renderer_stats(const crisp_frep_renderer *r);
 
