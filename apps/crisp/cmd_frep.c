@@ -21,7 +21,8 @@ static void usage(FILE *out)
             "       crisp frep bench FILE [same options] [--runs N]\n"
             "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
             "sqrt, min, max, ...; inside where the value is below 0), or '-e EXPR' for a string.\n"
-            "2D: 8-bit grayscale PNG, 255 inside (f < 0), default region [-1,1]^2, size 1024.\n"
+            "2D: 8-bit grayscale PNG, 255 inside (f < 0), size 1024. The default region is the part's\n"
+            "bounding box found by interval subdivision (an unbounded axis shows [-1, 1]).\n"
             "3D: a heightmap seen from +Z, shaded by its normals; --depth-out writes Z and N.x N.y N.z\n"
             "(Z = -inf where nothing is hit). bench prints the median render time and set-up time.\n");
 }
@@ -38,6 +39,58 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* The default region: the part's fitted box (crisp_frep_fit_region), padded by 4% and widened
+ * to the image's aspect; an axis on which the part is unbounded keeps [-1, 1], with a note. */
+static crisp_status fit_region(const crisp_frep_tape *tape, int is3d, crisp_frep_render_desc *desc)
+{
+    crisp_frep_fit fit;
+    crisp_status s = crisp_frep_fit_region(tape, &(crisp_frep_fit_desc){.planar = !is3d, .free_axes = is3d ? 4u : 0u}, &fit);
+    if (s) return s;
+    static const char axis[3] = {'x', 'y', 'z'};
+    if (fit.unbounded & 3u) {
+        /* fit the bounded axes again within the slab shown ([-1, 1] on the unbounded ones): the
+         * first fit was over the largest search box, at its coarse resolution */
+        crisp_frep_fit_desc d2 = {.planar = !is3d};
+        for (int a = 0; a < 3; a++) {
+            int unb = (fit.unbounded >> a) & 1;
+            d2.search[2 * a] = unb ? -1 : fit.box[2 * a] - fit.cell;
+            d2.search[2 * a + 1] = unb ? 1 : fit.box[2 * a + 1] + fit.cell;
+        }
+        crisp_frep_fit fit2;
+        if (!crisp_frep_fit_region(tape, &d2, &fit2)) {
+            for (int a = 0; a < 3; a++)
+                if (!((fit.unbounded >> a) & 1)) fit.box[2 * a] = fit2.box[2 * a], fit.box[2 * a + 1] = fit2.box[2 * a + 1];
+        }
+        crisp_error_clear();
+    }
+    double *g = desc->region, ext[3], mid[3];
+    for (int a = 0; a < 3; a++) {
+        if (fit.unbounded & (1u << a)) {
+            fprintf(stderr, "crisp frep: the part is not bounded in %c within [%g, %g]; showing %c in "
+                    "[-1, 1] (give --region to choose)\n", axis[a], fit.search[2 * a], fit.search[2 * a + 1],
+                    axis[a]);
+            mid[a] = 0, ext[a] = 2;
+        } else {
+            mid[a] = 0.5 * (fit.box[2 * a] + fit.box[2 * a + 1]);
+            ext[a] = 1.04 * (fit.box[2 * a + 1] - fit.box[2 * a]);
+        }
+    }
+    if (!is3d) mid[2] = 0, ext[2] = 0;
+    /* square pixels: the x:y extents follow the image's W:H */
+    double aspect = (double)desc->width / desc->height;
+    if (ext[0] < ext[1] * aspect) ext[0] = ext[1] * aspect;
+    else ext[1] = ext[0] / aspect;
+    for (int a = 0; a < 3; a++) {
+        if (!(ext[a] > 0)) ext[a] = a < 2 || is3d ? 2 : 0;
+        g[2 * a] = mid[a] - 0.5 * ext[a];
+        g[2 * a + 1] = mid[a] + 0.5 * ext[a];
+    }
+    if (fit.sampled)
+        fprintf(stderr, "crisp frep: the function is NaN (undefined) in %zu cells of the fit; the "
+                "region was guessed from sample points there\n", fit.sampled);
+    return CRISP_OK;
+}
+
 int crisp_cmd_frep(int argc, char **argv)
 {
     if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
@@ -51,7 +104,7 @@ int crisp_cmd_frep(int argc, char **argv)
         return 2;
     }
     crisp_frep_render_desc desc = {.width = 1024, .height = 1024};
-    int is3d = 0, depth = 0, stats = 0, runs = 20;
+    int is3d = 0, depth = 0, stats = 0, runs = 20, region_given = 0;
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -78,6 +131,7 @@ int crisp_cmd_frep(int argc, char **argv)
             }
             if (n == 4) g[4] = -1, g[5] = 1;
             memcpy(desc.region, g, sizeof g);
+            region_given = 1;
             i++;
         } else if (!strcmp(a, "-o") && v) {
             out = v, i++;
@@ -132,6 +186,7 @@ int crisp_cmd_frep(int argc, char **argv)
         else if (ends_with(file, ".vm")) s = crisp_frep_read_vm(file, &f);
         else s = crisp_frep_read_math(file, &f);
         if (!s) s = crisp_frep_tape_create(f, &tape);
+        if (!s && !region_given && n == 0) s = fit_region(tape, is3d, &desc);
         if (!s) s = crisp_frep_renderer_create(tape, &desc, &r);
         if (s) {
             fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
@@ -151,6 +206,9 @@ int crisp_cmd_frep(int argc, char **argv)
     const crisp_frep_image *img = crisp_frep_renderer_image(r);
     size_t npix = (size_t)img->width * (size_t)img->height, inside = 0;
     for (size_t p = 0; p < npix; p++) inside += img->inside[p] != 0;
+    if (!inside)
+        fprintf(stderr, "crisp frep: empty image: no sample of [%g, %g] x [%g, %g]%s is inside the part\n",
+                desc.region[0], desc.region[1], desc.region[2], desc.region[3], is3d ? " x [z]" : "");
     if (bench) {
         qsort(render, (size_t)runs, sizeof *render, cmp_double);
         qsort(setup, (size_t)nsetup, sizeof *setup, cmp_double);
