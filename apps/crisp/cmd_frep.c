@@ -6,10 +6,11 @@
 #include <string.h>
 
 #include "crisp/frep.h"
+#include "crisp/frep_mesh.h"
 #include "crisp/image.h"
 
 const char crisp_cmd_frep_help[] =
-    "frep render|bench FILE       render an implicit model (.vm or math string) by interval subdivision";
+    "frep render|bench|mesh|mass FILE  render, mesh or measure an implicit model (.vm or math string)";
 
 static void usage(FILE *out)
 {
@@ -19,6 +20,9 @@ static void usage(FILE *out)
             "                         [--threads N] [--stats] [--no-prune] [--no-batch] [--no-subcells]\n"
             "                         [--brute]\n"
             "       crisp frep bench FILE [same options] [--runs N]\n"
+            "       crisp frep mesh FILE -o out.stl|out.obj|out.ply [--resolution N | --cell SIZE]\n"
+            "                         [--region x0,x1,y0,y1,z0,z1]\n"
+            "       crisp frep mass FILE [--accuracy REL] [--time SECONDS] [--predict] [--region ...]\n"
             "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
             "sqrt, min, max, ...; inside where the value is below 0), or '-e EXPR' for a string.\n"
             "2D: 8-bit grayscale PNG, 255 inside (f < 0), size 1024. The default region is the part's\n"
@@ -91,16 +95,146 @@ static crisp_status fit_region(const crisp_frep_tape *tape, int is3d, crisp_frep
     return CRISP_OK;
 }
 
+/* Numbers on the command line: the whole word must parse, and be finite and in range. */
+static int parse_long(const char *opt, const char *v, long lo, long hi, long *dest)
+{
+    char *end;
+    long x = v ? strtol(v, &end, 10) : 0;
+    if (!v || end == v || *end || x < lo || x > hi) {
+        fprintf(stderr, "crisp frep: %s expects an integer in %ld..%ld, found '%s'\n", opt, lo, hi, v ? v : "");
+        return 0;
+    }
+    *dest = x;
+    return 1;
+}
+
+static int parse_double(const char *opt, const char *v, double lo, double hi, double *dest)
+{
+    char *end;
+    double x = v ? strtod(v, &end) : 0;
+    if (!v || end == v || *end || !(x >= lo && x <= hi)) {
+        fprintf(stderr, "crisp frep: %s expects a number in [%g, %g], found '%s'\n", opt, lo, hi, v ? v : "");
+        return 0;
+    }
+    *dest = x;
+    return 1;
+}
+
+/* x0,x1,y0,y1,z0,z1: six finite numbers, each pair increasing */
+static int parse_region(const char *v, double g[6])
+{
+    const char *p = v;
+    for (int k = 0; k < 6; k++) {
+        char *end;
+        g[k] = strtod(p, &end);
+        if (end == p || !isfinite(g[k]) || (k < 5 && *end != ',') || (k == 5 && *end)) {
+            fprintf(stderr, "crisp frep: --region expects x0,x1,y0,y1,z0,z1, found '%s'\n", v);
+            return 0;
+        }
+        p = end + 1;
+    }
+    for (int a = 0; a < 3; a++)
+        if (!(g[2 * a] < g[2 * a + 1])) {
+            fprintf(stderr, "crisp frep: --region axis %c: [%g, %g] is empty\n", "xyz"[a], g[2 * a], g[2 * a + 1]);
+            return 0;
+        }
+    return 1;
+}
+
+static crisp_status load_model(const char *file, const char *expr, crisp_frep **f, crisp_frep_tape **tape)
+{
+    crisp_status s;
+    if (expr) s = crisp_frep_read_math_mem("-e", expr, strlen(expr), f);
+    else if (ends_with(file, ".vm")) s = crisp_frep_read_vm(file, f);
+    else s = crisp_frep_read_math(file, f);
+    if (!s) s = crisp_frep_tape_create(*f, tape);
+    return s;
+}
+
+static int cmd_mesh(int argc, char **argv)
+{
+    const char *file = NULL, *expr = NULL, *out = NULL;
+    crisp_frep_mesh_desc desc = {0};
+    int stats = 0;
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        long n;
+        if (!strcmp(a, "-o") && v) {
+            out = v, i++;
+        } else if (!strcmp(a, "--resolution") && v) {
+            if (!parse_long(a, v, 4, 1 << 20, &n)) return 2;
+            desc.resolution = (int)n, i++;
+        } else if (!strcmp(a, "--cell") && v) {
+            if (!parse_double(a, v, 1e-30, 1e30, &desc.cell)) return 2;
+            if (!(desc.cell > 0)) return 2;
+            i++;
+        } else if (!strcmp(a, "--region") && v) {
+            if (!parse_region(v, desc.region)) return 2;
+            i++;
+        } else if (!strcmp(a, "--stats")) {
+            stats = 1;
+        } else if (!strcmp(a, "-e") && v) {
+            expr = v, i++;
+        } else if (a[0] != '-' && !file) {
+            file = a;
+        } else {
+            fprintf(stderr, "crisp frep mesh: unknown or incomplete option '%s'\n", a);
+            usage(stderr);
+            return 2;
+        }
+    }
+    if ((!file && !expr) || !out) {
+        fprintf(stderr, "crisp frep mesh: %s\n", !out ? "no output given (-o out.stl|.obj|.ply)" : "no FILE given");
+        return 2;
+    }
+    crisp_frep *f = NULL;
+    crisp_frep_tape *tape = NULL;
+    crisp_frep_mesh_writer *w = NULL;
+    crisp_frep_mesh_sink sink;
+    crisp_frep_mesh_stats st;
+    double t0 = crisp_time_now();
+    crisp_status s = load_model(file, expr, &f, &tape);
+    if (!s) s = crisp_frep_mesh_writer_open(out, &w, &sink);
+    if (!s) s = crisp_frep_mesh(tape, &desc, &sink, &st);
+    crisp_status s2 = crisp_frep_mesh_writer_close(w);
+    if (!s) s = s2;
+    int rc = 0;
+    if (s) {
+        fprintf(stderr, "crisp frep mesh: %s\n", crisp_error_message());
+        rc = 1;
+    } else {
+        double dt = crisp_time_now() - t0;
+        printf("%s: %zu vertices, %zu triangles, cell %g over [%g, %g] x [%g, %g] x [%g, %g]; %.3f s, "
+               "%.1f MB peak (mesher)\n",
+               out, st.vertices, st.triangles, st.cell, st.region[0], st.region[1], st.region[2],
+               st.region[3], st.region[4], st.region[5], dt, st.peak_bytes / 1e6);
+        if (stats)
+            printf("leaves %zu, intervals %zu, NaN points %zu\n", st.leaves, st.intervals, st.nan_points);
+        if (st.thin_cubes)
+            fprintf(stderr, "crisp frep mesh: warning: %zu grid cubes hold a feature thinner than the cell "
+                    "(%g), lost in the mesh (one near %g, %g, %g); use a finer --cell\n",
+                    st.thin_cubes, st.cell, st.thin_at[0], st.thin_at[1], st.thin_at[2]);
+        if (st.cut_points)
+            fprintf(stderr, "crisp frep mesh: warning: the region cuts the part (%zu inside grid points on "
+                    "its border); the mesh is closed by the region's faces there\n", st.cut_points);
+        if (!st.triangles) fprintf(stderr, "crisp frep mesh: warning: empty mesh: no grid point is inside the part\n");
+    }
+    crisp_frep_tape_destroy(tape);
+    crisp_frep_destroy(f);
+    return rc;
+}
+
 int crisp_cmd_frep(int argc, char **argv)
 {
     if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
         usage(argc < 2 ? stderr : stdout);
         return argc < 2 ? 2 : 0;
     }
+    if (!strcmp(argv[1], "mesh")) return cmd_mesh(argc, argv);
     const char *mode = argv[1], *file = NULL, *expr = NULL, *out = NULL, *depth_out = NULL;
     int bench = !strcmp(mode, "bench");
     if (!bench && strcmp(mode, "render")) {
-        fprintf(stderr, "crisp frep: unknown mode '%s' (expected render or bench)\n", mode);
+        fprintf(stderr, "crisp frep: unknown mode '%s' (expected render, bench, mesh or mass)\n", mode);
         return 2;
     }
     crisp_frep_render_desc desc = {.width = 1024, .height = 1024};
