@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "crisp/frep.h"
+#include "crisp/frep_mass.h"
 #include "crisp/frep_mesh.h"
 #include "crisp/image.h"
 
@@ -22,7 +23,8 @@ static void usage(FILE *out)
             "       crisp frep bench FILE [same options] [--runs N]\n"
             "       crisp frep mesh FILE -o out.stl|out.obj|out.ply [--resolution N | --cell SIZE]\n"
             "                         [--region x0,x1,y0,y1,z0,z1]\n"
-            "       crisp frep mass FILE [--accuracy REL] [--time SECONDS] [--predict] [--region ...]\n"
+            "       crisp frep mass FILE [--accuracy REL] [--time SECONDS] [--predict] [--level L]\n"
+            "                         [--seed N] [--region x0,x1,y0,y1,z0,z1]\n"
             "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
             "sqrt, min, max, ...; inside where the value is below 0), or '-e EXPR' for a string.\n"
             "2D: 8-bit grayscale PNG, 255 inside (f < 0), size 1024. The default region is the part's\n"
@@ -224,6 +226,199 @@ static int cmd_mesh(int argc, char **argv)
     return rc;
 }
 
+/* ---- mass ------------------------------------------------------------------------------------ */
+
+typedef struct area_sum {
+    double area;
+} area_sum;
+
+static crisp_status area_vertex(void *ctx, const float p[3])
+{
+    (void)ctx, (void)p;
+    return CRISP_OK;
+}
+
+static crisp_status area_triangle(void *ctx, const uint32_t v[3], const float p[3][3])
+{
+    (void)v;
+    double e1[3], e2[3];
+    for (int a = 0; a < 3; a++) e1[a] = (double)p[1][a] - p[0][a], e2[a] = (double)p[2][a] - p[0][a];
+    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    ((area_sum *)ctx)->area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    return CRISP_OK;
+}
+
+/* Surface area from the meshes at two resolutions (the finer one, and their difference as the
+ * error estimate). */
+static crisp_status mesh_area(const crisp_frep_tape *tape, const double region[6], int resolution,
+                              double *area, double *err)
+{
+    double a[2];
+    for (int k = 0; k < 2; k++) {
+        area_sum sum = {0};
+        crisp_frep_mesh_sink sink = {.ctx = &sum, .vertex = area_vertex, .triangle = area_triangle};
+        crisp_frep_mesh_desc d = {.resolution = resolution >> k};
+        memcpy(d.region, region, sizeof d.region);
+        crisp_frep_mesh_stats st;
+        crisp_status s = crisp_frep_mesh(tape, &d, &sink, &st);
+        if (s) return s;
+        a[k] = sum.area;
+    }
+    *area = a[0];
+    *err = fabs(a[0] - a[1]);
+    return CRISP_OK;
+}
+
+static void print_level(const crisp_frep_mass *m)
+{
+    printf("  level %2d  cell %.3g  boundary cells %9zu  time %8.3f s  volume %.10g +- %.2g  "
+           "bounds [%.10g, %.10g]\n",
+           m->level, fmax(m->cell[0], fmax(m->cell[1], m->cell[2])), m->boundary_cells, m->seconds,
+           m->volume, m->volume_se, m->volume_lo, m->volume_hi);
+}
+
+static int cmd_mass(int argc, char **argv)
+{
+    const char *file = NULL, *expr = NULL;
+    double accuracy = 0, time_limit = 0;
+    int predict = 0;
+    long level = 0, seed = 1;
+    crisp_frep_mass_desc desc = {0};
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "--accuracy") && v) {
+            if (!parse_double(a, v, 1e-12, 1, &accuracy)) return 2;
+            i++;
+        } else if (!strcmp(a, "--time") && v) {
+            if (!parse_double(a, v, 1e-3, 1e7, &time_limit)) return 2;
+            i++;
+        } else if (!strcmp(a, "--level") && v) {
+            if (!parse_long(a, v, 1, 20, &level)) return 2;
+            i++;
+        } else if (!strcmp(a, "--seed") && v) {
+            if (!parse_long(a, v, 0, 2147483647L, &seed)) return 2;
+            i++;
+        } else if (!strcmp(a, "--region") && v) {
+            if (!parse_region(v, desc.region)) return 2;
+            i++;
+        } else if (!strcmp(a, "--predict")) {
+            predict = 1;
+        } else if (!strcmp(a, "-e") && v) {
+            expr = v, i++;
+        } else if (a[0] != '-' && !file) {
+            file = a;
+        } else {
+            fprintf(stderr, "crisp frep mass: unknown or incomplete option '%s'\n", a);
+            usage(stderr);
+            return 2;
+        }
+    }
+    if (!file && !expr) {
+        fprintf(stderr, "crisp frep mass: no FILE given\n");
+        return 2;
+    }
+    if (!accuracy && !time_limit && !level) accuracy = 1e-3;
+    crisp_frep *f = NULL;
+    crisp_frep_tape *tape = NULL;
+    int rc = 1;
+    crisp_status s = load_model(file, expr, &f, &tape);
+    if (s) goto fail;
+    desc.seed = (uint64_t)seed;
+    /* the region once (fitted unless given), so that every level measures the same box */
+    if (!desc.region[0] && !desc.region[1] && !desc.region[2] && !desc.region[3] && !desc.region[4] &&
+        !desc.region[5]) {
+        crisp_frep_mass first;
+        desc.level = 1;
+        s = crisp_frep_mass_level(tape, &desc, &first);
+        if (s && !first.cut_cells) goto fail;
+        memcpy(desc.region, first.region, sizeof desc.region);
+    }
+    /* coarse levels (Clark: the cost and the error of a level predict the next ones) */
+    crisp_frep_mass lv[21];
+    int n = 0;
+    double spent = 0;
+    int target = (int)level;
+    if (!target) {
+        for (int L = 3; L <= 20; L++) {
+            desc.level = L;
+            s = crisp_frep_mass_level(tape, &desc, &lv[L]);
+            if (s) goto fail;
+            spent += lv[L].seconds;
+            n = L;
+            if (predict) print_level(&lv[L]);
+            double rel = lv[L].volume_se / fabs(lv[L].volume);
+            if (accuracy && rel <= accuracy && !predict) break;
+            if (L >= 5 && (lv[L].seconds > 0.1 || L >= 7)) break;
+        }
+        /* growth per level from the last two ratios */
+        double gt = sqrt(fmax(lv[n].seconds, 1e-6) / fmax(lv[n - 2].seconds, 1e-6));
+        double ge = sqrt(lv[n].volume_se / lv[n - 2].volume_se);
+        double gc = sqrt((double)lv[n].boundary_cells / (double)(lv[n - 2].boundary_cells ? lv[n - 2].boundary_cells : 1));
+        double K = (double)lv[n].boundary_cells / pow(4.0, n);
+        if (predict) {
+            printf("growth per level: time x%.2f, volume error x%.3f, boundary cells x%.2f (Clark's K = "
+                   "boundary cells / 4^level = %.3g)\n", gt, ge, gc, K);
+            for (int k = 1; k <= 4 && n + k <= 20; k++)
+                printf("  level %2d  predicted: time %8.3f s  volume error %.2g (relative %.2g)\n", n + k,
+                       lv[n].seconds * pow(gt, k), lv[n].volume_se * pow(ge, k),
+                       lv[n].volume_se * pow(ge, k) / fabs(lv[n].volume));
+        }
+        target = n;
+        double rel = lv[n].volume_se / fabs(lv[n].volume);
+        if (accuracy && rel > accuracy) {
+            target = n + (int)ceil(log(accuracy / rel) / log(ge));
+        } else if (time_limit) {
+            double tsum = 0;
+            for (int k = 1; n + k <= 20; k++) {
+                tsum += lv[n].seconds * pow(gt, k);
+                if (spent + tsum > time_limit) break;
+                target = n + k;
+            }
+        }
+        if (target > 20) target = 20;
+        double tpred = target > n ? lv[n].seconds * pow(gt, target - n) : 0;
+        double cap = time_limit ? time_limit : 600;
+        if (tpred > cap) {
+            fprintf(stderr, "crisp frep mass: level %d would take about %.0f s (over %.0f s); give a larger "
+                    "--time or a coarser --accuracy\n", target, tpred, cap);
+            goto done;
+        }
+        if (target != n && predict) printf("running level %d (predicted %.3f s)\n", target, tpred);
+    }
+    crisp_frep_mass r;
+    if (target == n && n > 0) {
+        r = lv[n];
+    } else {
+        desc.level = target;
+        s = crisp_frep_mass_level(tape, &desc, &r);
+        if (s) goto fail;
+        if (predict) print_level(&r);
+    }
+    double area = 0, area_err = 0;
+    s = mesh_area(tape, r.region, 1 << (r.level < 7 ? r.level : 7), &area, &area_err);
+    if (s) goto fail;
+    printf("level %d (cells %.3g), %zu boundary cells, %zu samples, %.3f s\n", r.level,
+           fmax(r.cell[0], fmax(r.cell[1], r.cell[2])), r.boundary_cells, r.samples, r.seconds);
+    printf("volume    %.12g +- %.3g (standard error); certified bounds [%.12g, %.12g]\n", r.volume,
+           r.volume_se, r.volume_lo, r.volume_hi);
+    printf("area      %.6g (mesh; +- %.2g between two resolutions)\n", area, area_err);
+    printf("centroid  %.10g %.10g %.10g\n       +-  %.3g %.3g %.3g\n", r.centroid[0], r.centroid[1],
+           r.centroid[2], r.centroid_se[0], r.centroid_se[1], r.centroid_se[2]);
+    printf("inertia about the centroid (density 1): Ixx Iyy Izz Ixy Iyz Ixz\n  ");
+    for (int k = 0; k < 6; k++) printf(" %.10g", r.inertia[k]);
+    printf("\n +-");
+    for (int k = 0; k < 6; k++) printf(" %.3g", r.inertia_se[k]);
+    printf("\n");
+    rc = 0;
+    goto done;
+fail:
+    fprintf(stderr, "crisp frep mass: %s\n", crisp_error_message());
+done:
+    crisp_frep_tape_destroy(tape);
+    crisp_frep_destroy(f);
+    return rc;
+}
+
 int crisp_cmd_frep(int argc, char **argv)
 {
     if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
@@ -231,6 +426,7 @@ int crisp_cmd_frep(int argc, char **argv)
         return argc < 2 ? 2 : 0;
     }
     if (!strcmp(argv[1], "mesh")) return cmd_mesh(argc, argv);
+    if (!strcmp(argv[1], "mass")) return cmd_mass(argc, argv);
     const char *mode = argv[1], *file = NULL, *expr = NULL, *out = NULL, *depth_out = NULL;
     int bench = !strcmp(mode, "bench");
     if (!bench && strcmp(mode, "render")) {
