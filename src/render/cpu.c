@@ -29,6 +29,8 @@ struct crisp_renderer {
     size_t slack_cap;
     double **st; /* per worker: local (s, t) of one leaf's mesh */
     int workers;
+    uint8_t *untested; /* per face: no trim loops, no trim test (the rasterizer's hook) */
+    size_t untested_cap;
 };
 
 #define MAX_LEAF_VERTS (4 * (size_t)CRISP_PLAN_MAX_LEVEL + (CRISP_PLAN_MAX_LEVEL + 1) * (CRISP_PLAN_MAX_LEVEL + 1))
@@ -78,6 +80,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->verts);
     free(r->tris);
     free(r->slack);
+    free(r->untested);
     free(r);
 }
 
@@ -331,6 +334,12 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
      * edge that another face hides at nearly the same depth (seen at a grazing angle) does not
      * show through it. */
     void *ctx = (void *)plan;
+    if ((st = crisp_grow((void **)&r->untested, &r->untested_cap, plan->face_count ? plan->face_count : 1,
+                         sizeof *r->untested)))
+        return st;
+    for (uint32_t f = 0; f < plan->face_count; f++)
+        r->untested[f] = (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE) != 0;
+    crisp_raster_set_untested_faces(r->raster, r->untested, plan->face_count);
     st = crisp_raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t, trim_test, ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {

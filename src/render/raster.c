@@ -39,7 +39,15 @@ struct crisp_raster {
     uint32_t *bin_start; /* per tile, tile_count + 1 */
     size_t bin_start_cap;
     int no_hiz; /* hierarchical depth rejection off (crisp_raster_set_hiz) */
+    const uint8_t *untested; /* per face (crisp_raster_set_untested_faces) */
+    size_t untested_count;
 };
+
+void crisp_raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count)
+{
+    r->untested = untested;
+    r->untested_count = untested ? count : 0;
+}
 
 void crisp_raster_set_hiz(crisp_raster *r, int on)
 {
@@ -388,8 +396,9 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
         const setup_tri *st = r->bin_items[bi];
         int x0 = st->x0 > px0 ? st->x0 : px0, x1 = st->x1 < px1 ? st->x1 : px1;
         int y0 = st->y0 > py0 ? st->y0 : py0, y1 = st->y1 < py1 ? st->y1 : py1;
-        int run_test = c->test && !(st->face & CRISP_RASTER_FACE_NO_TEST);
         int32_t face_id = (int32_t)(st->face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST));
+        int run_test = c->test && !(st->face & CRISP_RASTER_FACE_NO_TEST) &&
+                       !((size_t)face_id < r->untested_count && r->untested[face_id]);
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         int64_t A[3], B[3], step[3];
         for (int k = 0; k < 3; k++) {

@@ -28,9 +28,9 @@ typedef struct crisp_raster_vertex {
  * CPU backend marks its trim-boundary ribbons with it. */
 #define CRISP_RASTER_FACE_FLAG 0x80000000u
 /* Bit 30: the fragment test is not run for this triangle's fragments (they are kept), nor stored.
- * The hook for the trim test: a backend sets it on triangles of a face without trim loops, or of
- * a leaf whose every point lies inside the trim (the plan knows: CRISP_PLAN_FACE_ALL_INSIDE, or
- * trim strips fully inside), so those fragments need no table lookup. */
+ * The hook for the trim test, per triangle: a backend sets it on triangles of a leaf whose every
+ * point lies inside the trim (trim strips fully inside); per face, see
+ * crisp_raster_set_untested_faces. */
 #define CRISP_RASTER_FACE_NO_TEST 0x40000000u
 
 typedef struct crisp_raster_tri {
@@ -71,6 +71,10 @@ typedef struct crisp_raster_stats {
 /* Hierarchical depth rejection (on by default; off only to measure it or to check that the
  * result does not depend on it). */
 void crisp_raster_set_hiz(crisp_raster *r, int on);
+/* Faces whose fragments skip the fragment test (kept as if it said 1): untested[f] != 0 for face
+ * f < count (a face without trim loops: CRISP_PLAN_FACE_ALL_INSIDE). The array is read by later
+ * draws until it is set again; NULL: every face is tested. */
+void crisp_raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count);
 /* Triangles set up and binned at a time (0: the default, 2^19); small values are for tests. */
 void crisp_raster_set_batch(crisp_raster *r, size_t triangles);
 

@@ -1,8 +1,8 @@
 /* Tests for the rasterizer's fast paths (issue 12): hierarchical depth rejection and batching do
  * not change a single output bit on overlapping random triangles (1 and 4 samples, near-plane
  * crossings, a fragment test that discards some fragments, fill mode), and triangles marked
- * CRISP_RASTER_FACE_NO_TEST skip the fragment test but otherwise draw exactly as with a test
- * that keeps everything. */
+ * CRISP_RASTER_FACE_NO_TEST, or of faces marked by crisp_raster_set_untested_faces, skip the
+ * fragment test but otherwise draw exactly as with a test that keeps everything. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -66,6 +66,8 @@ static int keep_all(void *vctx, uint32_t face, double u, double v)
     return 1;
 }
 
+static const uint8_t *untested_faces; /* crisp_raster_set_untested_faces for render() */
+
 static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn, const float *slack,
                    crisp_raster_target *t, test_ctx *tc, crisp_raster_stats *stats)
 {
@@ -79,6 +81,7 @@ static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_r
     assert_int_equal(crisp_raster_create(&r), CRISP_OK);
     crisp_raster_set_hiz(r, hiz);
     crisp_raster_set_batch(r, batch);
+    crisp_raster_set_untested_faces(r, untested_faces, 7);
     assert_int_equal(crisp_raster_target_init(t, W, H, samples), CRISP_OK);
     crisp_raster_target_clear(t);
     crisp_pool *pool;
@@ -149,6 +152,23 @@ static void test_no_test_flag(void **state)
     assert_int_equal(sb.fragments_tested, 0);
     assert_true(sb.fragments_untested > 0);
     assert_same(&a, &b); /* face ids stored without the flag */
+    /* The same per face: faces 0..6 all untested; then only face 3. */
+    static const uint8_t all[7] = {1, 1, 1, 1, 1, 1, 1}, three[7] = {0, 0, 0, 1, 0, 0, 0};
+    crisp_raster_target c = {0};
+    test_ctx tcc = {0};
+    crisp_raster_stats sc;
+    untested_faces = all;
+    render(4, 1, 0, 0, keep_all, NULL, &c, &tcc, &sc);
+    assert_int_equal(tcc.calls, 0);
+    assert_same(&a, &c);
+    crisp_raster_target_free(&c);
+    test_ctx t3 = {0};
+    untested_faces = three;
+    render(4, 1, 0, 0, keep_all, NULL, &c, &t3, &sc);
+    assert_true(t3.calls > 0 && t3.calls < ta.calls);
+    assert_same(&a, &c);
+    untested_faces = NULL;
+    crisp_raster_target_free(&c);
     crisp_raster_target_free(&a);
     crisp_raster_target_free(&b);
 }
