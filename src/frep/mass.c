@@ -17,6 +17,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "frep_octree.h"
 
@@ -239,6 +240,8 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
     if (!t || !desc || !dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_mass_level: NULL argument");
     memset(dest, 0, sizeof *dest);
     double t0 = crisp_time_now();
+    struct timespec c0;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
     int level = desc->level ? desc->level : 6;
     if (level < 1 || level > 20)
         return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_mass_level: level %d is outside 1..20", level);
@@ -350,6 +353,9 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
         dest->cut_cells += face_cut(&m, b, 0);
     }
     dest->seconds = crisp_time_now() - t0;
+    struct timespec c1;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
+    dest->cpu_seconds = (double)(c1.tv_sec - c0.tv_sec) + 1e-9 * (double)(c1.tv_nsec - c0.tv_nsec);
     if (dest->cut_cells)
         s = crisp_error(CRISP_ERR_NUMERIC,
                         "the region [%g, %g] x [%g, %g] x [%g, %g] cuts the part: %zu pieces of its faces "
@@ -360,4 +366,26 @@ done:
     crisp_free(m.lo);
     crisp_free(m.regs);
     return s;
+}
+
+void crisp_frep_mass_predict(const crisp_frep_mass *lv, int n, int level, double *seconds, double *se)
+{
+    /* boundary cells grow by a constant factor per level (about 4 for a surface: Clark's
+     * constant K = cells / 4^level); the error by another (about 1/4); time is a fixed part
+     * plus a cost per boundary cell, fitted by least squares over the measured levels */
+    const crisp_frep_mass *a = &lv[n - 2], *b = &lv[n - 1];
+    double gc = a->boundary_cells ? (double)b->boundary_cells / (double)a->boundary_cells : 4;
+    double ge = a->volume_se > 0 ? b->volume_se / a->volume_se : 0.25;
+    /* time = t0 + c N through the last two levels: a fixed part (the region's faces, the
+     * coarse levels of the octree) and a marginal cost per boundary cell */
+    double dn = (double)b->boundary_cells - (double)a->boundary_cells;
+    double c = dn > 0 ? (b->cpu_seconds - a->cpu_seconds) / dn : 0;
+    if (!(c > 0)) c = b->boundary_cells ? b->cpu_seconds / (double)b->boundary_cells : 0;
+    double t0 = b->cpu_seconds - c * (double)b->boundary_cells;
+    if (t0 < 0) t0 = 0;
+    (void)n;
+    int k = level - b->level;
+    double cells = (double)b->boundary_cells * pow(gc, k);
+    *seconds = t0 + c * cells;
+    *se = b->volume_se * pow(ge, k);
 }
