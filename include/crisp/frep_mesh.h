@@ -31,6 +31,7 @@ typedef struct crisp_frep_mesh_desc {
     double region[6]; /* x0, x1, y0, y1, z0, z1; all zero: crisp_frep_fit_region's box */
     int resolution;   /* grid cells along the region's longest side; 0: 128 */
     double cell;      /* > 0: the grid cell's edge instead (overrides resolution) */
+    double max_megabytes; /* the edge table's limit (it grows with the surface); 0: 8192 */
 } crisp_frep_mesh_desc;
 
 /* Receives the mesh as it is made: vertices numbered from 0 in the order given, each triangle
@@ -57,7 +58,8 @@ typedef struct crisp_frep_mesh_stats {
 } crisp_frep_mesh_stats;
 
 /* Mesh the part f < 0 of tape t. CRISP_ERR_INVALID_ARG on a bad region or resolution,
- * CRISP_ERR_LIMIT above 2^20 cells per side, errors of the region fit, and the sink's errors. */
+ * CRISP_ERR_LIMIT above 2^20 cells per side or when the edge table would pass max_megabytes,
+ * errors of the region fit, and the sink's errors. */
 crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_desc *desc,
                              const crisp_frep_mesh_sink *sink, crisp_frep_mesh_stats *stats);
 

@@ -53,7 +53,7 @@ typedef struct mesher {
     double rlo[3], rhi[3]; /* the region */
     float *regs;    /* registers x FREP_LANES */
     edge_entry *table;
-    size_t tcount, tcap;
+    size_t tcount, tcap, max_bytes;
     crisp_status status;
 } mesher;
 
@@ -81,6 +81,7 @@ static int table_grow(mesher *m)
 {
     if ((m->tcount + 1) * 2 <= m->tcap) return 0;
     size_t ncap = m->tcap ? m->tcap * 2 : 4096;
+    if (ncap * sizeof *m->table > m->max_bytes) return -2;
     edge_entry *old = m->table;
     size_t ocap = m->tcap;
     m->table = crisp_calloc_array(ncap, sizeof *m->table);
@@ -287,7 +288,12 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
             if (bl.in[c] == bl.in[c2]) continue;
             int lo[3] = {i0[0] + lx, i0[1] + ly, i0[2] + lz};
             uint64_t key = edge_key(m, lo, dirs[d]);
-            if (table_grow(m)) return crisp_error(CRISP_ERR_NO_MEMORY, "frep mesh: out of memory for the edge table");
+            int g = table_grow(m);
+            if (g == -2)
+                return crisp_error(CRISP_ERR_LIMIT,
+                                   "frep mesh: the edge table would pass %.0f MB (more than %zu vertices); use a "
+                                   "coarser cell", m->max_bytes / 1e6, m->tcount);
+            if (g) return crisp_error(CRISP_ERR_NO_MEMORY, "frep mesh: out of memory for the edge table");
             edge_entry *e = edge_slot(m, key);
             if (e->key) continue;
             e->key = key + 1;
@@ -482,6 +488,7 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
                            desc->resolution, desc->cell);
     double h = desc->cell > 0 ? desc->cell : ext / (desc->resolution > 0 ? desc->resolution : 128);
     mesher m = {.t = t, .sink = sink, .st = stats, .h = h};
+    m.max_bytes = desc->max_megabytes > 0 ? (size_t)(desc->max_megabytes * 1e6) : (size_t)8 << 30;
     int need = 0;
     for (int a = 0; a < 3; a++) {
         double cells = ceil((r[2 * a + 1] - r[2 * a]) / h);

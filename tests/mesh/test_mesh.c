@@ -351,6 +351,13 @@ static void test_writers(void **state)
         fclose(in);
         remove(path);
     }
+    /* memory bound: a resolution whose edge table would pass the limit stops with a message */
+    crisp_frep_mesh_desc big = {.resolution = 4096, .max_megabytes = 1};
+    mc_mesh mm = {0};
+    sink = (crisp_frep_mesh_sink){.ctx = &mm, .vertex = mem_vertex, .triangle = mem_triangle};
+    assert_int_equal(crisp_frep_mesh(t, &big, &sink, &st), CRISP_ERR_LIMIT);
+    assert_non_null(strstr(crisp_error_message(), "coarser"));
+    mc_free(&mm);
     /* bad input: unknown extension, unbounded and empty parts, NaN everywhere */
     crisp_frep_mesh_writer *w = NULL;
     assert_int_equal(crisp_frep_mesh_writer_open("x.off", &w, &sink), CRISP_ERR_INVALID_ARG);
