@@ -105,7 +105,7 @@ static void bench_mass(void)
             printf("| %s | %d | %.3f | %.3f | %.2f | %.3g | %.3g | %.2f |\n", models[m], L, pt, lv[L].cpu_seconds,
                    lv[L].cpu_seconds / pt, pe, lv[L].volume_se, lv[L].volume_se / pe);
             if (getenv("MASSDBG"))
-                for (int q = 3; q <= 8; q++) fprintf(stderr, "  L%d cells %zu inside %zu intervals %zu t %.3f\n", q, lv[q].boundary_cells, lv[q].inside_cells, lv[q].intervals, lv[q].seconds);
+                for (int q = 3; q <= 8; q++) fprintf(stderr, "  L%d cells %zu inside %zu intervals %zu cpu %.4f\n", q, lv[q].boundary_cells, lv[q].inside_cells, lv[q].intervals, lv[q].cpu_seconds);
         }
         fflush(stdout);
         crisp_frep_tape_destroy(t);

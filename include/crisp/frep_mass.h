@@ -57,8 +57,9 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
                                    crisp_frep_mass *dest);
 
 /* Clark's prediction from n >= 2 measured levels lv[0 .. n) (consecutive, coarse to fine): the
- * processor time and the volume's standard error of a finer level. Boundary cells and the error grow by the
- * factors of the last two levels per level; time = t0 + c x boundary cells through those two. */
+ * processor time and the volume's standard error of a finer level: the error falls by the last
+ * two levels' factor per level; boundary cells grow by a factor and the cost per cell changes by
+ * a ratio whose excesses over 4 and 1 halve per level (Clark's K 4^level in the limit). */
 void crisp_frep_mass_predict(const crisp_frep_mass *lv, int n, int level, double *seconds, double *se);
 
 #ifdef __cplusplus
