@@ -17,6 +17,7 @@
 #include <cmocka.h>
 
 #include "crisp/frep.h"
+#include "crisp/frep_mass.h"
 #include "crisp/frep_mesh.h"
 #include "mesh/mesh_check.h"
 
@@ -134,6 +135,16 @@ static mesh_result check_mesh(const char *what, const double region[6], int reso
      * centre can be narrower than the samples: there only the vertices are held to it. */
     if (!strstr(what, "colonnade")) assert_int_equal(r.st.thin_cubes ? far_vertices : far, 0);
     assert_true(pairs > r.m.nt);
+    /* the mesh's volume lies within the certified bounds of the part's volume (octree level 6,
+     * over the part's fitted box, or the mesh's region: then of the part within the region) */
+    crisp_frep_mass_desc md = {.level = 6};
+    if (region) memcpy(md.region, region, sizeof md.region);
+    crisp_frep_mass mass;
+    crisp_status ms = crisp_frep_mass_level(t, &md, &mass);
+    assert_true(ms == CRISP_OK || (region && mass.cut_cells));
+    double vm = mc_volume(&r.m);
+    fprintf(stderr, "    mesh volume %.6g within [%.6g, %.6g]\n", vm, mass.volume_lo, mass.volume_hi);
+    assert_true(mass.volume_lo <= vm && vm <= mass.volume_hi);
     crisp_frep_tape_destroy(t);
     crisp_frep_destroy(f);
     return r;
