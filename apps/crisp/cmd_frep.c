@@ -91,9 +91,6 @@ static crisp_status fit_region(const crisp_frep_tape *tape, int is3d, crisp_frep
         g[2 * a] = mid[a] - 0.5 * ext[a];
         g[2 * a + 1] = mid[a] + 0.5 * ext[a];
     }
-    if (fit.sampled)
-        fprintf(stderr, "crisp frep: the function is NaN (undefined) in %zu cells of the fit; the "
-                "region was guessed from sample points there\n", fit.sampled);
     return CRISP_OK;
 }
 
