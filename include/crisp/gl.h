@@ -66,14 +66,17 @@ typedef struct crisp_gl_desc {
     int samples;             /* per pixel: 1 (default), 4 or 16 */
     size_t max_buffer_bytes; /* largest storage buffer; 0: GL_MAX_SHADER_STORAGE_BLOCK_SIZE (a
                                 smaller value tests the limit's error path) */
+    int profile;             /* 1: finish the GL work after each stage to time it (slower) */
 } crisp_gl_desc;
 
 typedef struct crisp_gl_stats {
     uint64_t bytes_uploaded;  /* plan bytes uploaded by the last crisp_gl_draw */
     uint64_t scene_bytes;     /* bytes of the scene's buffers */
     uint32_t leaves, ribbon_quads, passes;
-    double ms_upload, ms_draw; /* CPU time of the upload and of the draw calls until glFinish */
+    double ms_upload, ms_draw; /* wall time of the upload and of the draw calls until glFinish */
     double ms_read;
+    double ms_surfaces, ms_ribbons, ms_resolve; /* with crisp_gl_desc.profile: the stages, summed
+                                                   over the sample passes */
 } crisp_gl_stats;
 
 typedef struct crisp_gl crisp_gl;

@@ -607,6 +607,7 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
         glClearNamedFramebufferfv(gl->fbo_pass, GL_DEPTH, 0, &depth_clear);
         glEnable(GL_DEPTH_TEST);
         glDepthFunc(GL_GREATER); /* nearer wins; equal depth keeps the earlier leaf */
+        double ts0 = gl->desc.profile ? crisp_time_now() : 0;
         if (p->leaf_count) {
             glUseProgram(gl->surface);
             for (size_t first = 0; first < p->leaf_count; first += gl->chunk_leaves) {
@@ -615,6 +616,12 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
                                   (GLintptr)(first * sizeof(crisp_plan_leaf)), (GLsizeiptr)(n * sizeof(crisp_plan_leaf)));
                 glDrawArrays(GL_PATCHES, 0, (GLsizei)n);
             }
+        }
+        double ts1 = 0;
+        if (gl->desc.profile) {
+            glFinish();
+            ts1 = crisp_time_now();
+            stats->ms_surfaces += 1e3 * (ts1 - ts0);
         }
         if (p->ribbon_quad_count) {
             glBindFramebuffer(GL_FRAMEBUFFER, gl->fbo_slack);
@@ -632,9 +639,19 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
                 glDrawArrays(GL_TRIANGLES, 0, (GLsizei)(6 * n));
             }
         }
+        double ts2 = 0;
+        if (gl->desc.profile) {
+            glFinish();
+            ts2 = crisp_time_now();
+            stats->ms_ribbons += 1e3 * (ts2 - ts1);
+        }
         glUseProgram(gl->accum);
         glDispatchCompute(gx, gy, 1);
         glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+        if (gl->desc.profile) {
+            glFinish();
+            stats->ms_resolve += 1e3 * (crisp_time_now() - ts2);
+        }
     }
     glUseProgram(gl->finish);
     glDispatchCompute(gx, gy, 1);
