@@ -7,6 +7,7 @@
  * Times are wall clock (the GL frame ends with glFinish; llvmpipe uses every core).
  *
  *   bench_gl [FRAMES [MODEL]]   (default 5 frames, every model; MODEL: only names containing it) */
+#include <dirent.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -18,11 +19,27 @@
 #include "crisp/plan.h"
 #include "crisp/render.h"
 
-static const char *const models[] = {
-    "Ventilator.stp",     "gpucast_part.igs",        "gpucast_teapot.igs",   "impeller.igs",
-    "occt_as1_ec.stp",    "occt_bearing.iges",       "occt_bm2_pe_t4_b.stp", "occt_hammer.iges",
-    "occt_linkrods.step", "occt_trj4_k1_geo_tu.stp", "occt_trj9_io1.stp",
-};
+/* Every bundled model: the files of data/nurbs, sorted by name. */
+static char models[64][256];
+static int model_count;
+
+static int cmp_name(const void *a, const void *b)
+{
+    return strcmp(a, b);
+}
+
+static void list_models(void)
+{
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
+    DIR *d = opendir(dir);
+    if (!d) return;
+    struct dirent *e;
+    while ((e = readdir(d)) && model_count < 64)
+        if (e->d_name[0] != '.') snprintf(models[model_count++], sizeof models[0], "%s", e->d_name);
+    closedir(d);
+    qsort(models, (size_t)model_count, sizeof models[0], cmp_name);
+}
 
 static void die(const char *what)
 {
@@ -116,6 +133,7 @@ int main(int argc, char **argv)
 {
     int frames = argc > 1 ? atoi(argv[1]) : 5;
     if (frames < 1) frames = 1;
+    list_models();
     crisp_gl_context *ctx;
     if (crisp_gl_context_create(&ctx)) die("GL context");
     crisp_gl *gl;
@@ -134,7 +152,7 @@ int main(int argc, char **argv)
     printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     crisp_renderer *r;
     if (crisp_renderer_create(NULL, &r)) die("renderer");
-    for (size_t m = 0; m < sizeof models / sizeof *models; m++) {
+    for (size_t m = 0; m < (size_t)model_count; m++) {
         if (argc > 2 && !strstr(models[m], argv[2])) continue;
         char path[1024];
         snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, models[m]);

@@ -9,6 +9,7 @@
 
 #include "crisp/plan.h"
 #include "quadtree.h"
+#include "render_internal.h"
 #include "ribbon.h"
 
 struct crisp_planner {
@@ -359,4 +360,9 @@ size_t crisp_plan_bytes(const crisp_frame_plan *plan)
            (size_t)plan->strip_count * sizeof(crisp_plan_strip) +
            ((size_t)plan->row_count + 1) * sizeof(uint32_t) + (size_t)plan->crossing_count * sizeof(double) +
            4 * (size_t)plan->ribbon_quad_count * sizeof(crisp_plan_ribbon_vertex);
+}
+
+const crisp_trim_table *crisp__planner_table(const crisp_planner *p, uint32_t f)
+{
+    return &p->trees->trims[f].table;
 }
