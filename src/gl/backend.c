@@ -427,6 +427,9 @@ static crisp_status ensure_targets(crisp_gl *gl, int w, int h)
     if (w < 1 || h < 1 || w > max_size || h > max_size)
         return crisp_error(CRISP_ERR_LIMIT, "image %dx%d: the GL backend draws 1..%d pixels per side "
                                             "(GL_MAX_TEXTURE_SIZE)", w, h, max_size);
+    if ((uint64_t)w * (uint64_t)h * 16 > INT32_MAX)
+        return crisp_error(CRISP_ERR_LIMIT, "image %dx%d: the GL backend reads back at most %d pixels (16 bytes "
+                                            "each in one call)", w, h, INT32_MAX / 16);
     free_targets(gl);
     gl->t_nw = texture(GL_RGBA32F, w, h);
     gl->t_uv = texture(GL_RG32F, w, h);
@@ -738,6 +741,24 @@ crisp_status crisp__gl_sample_faces(crisp_gl *gl, int32_t *dest)
         for (size_t k = 0; k < n; k++) dest[k * S + s] = tmp[s * n + k];
     free(tmp);
     return gl_check("reading the samples' faces");
+}
+
+crisp_status crisp__gl_blit_probe(crisp_gl *gl, uint8_t *rgba)
+{
+    GLuint tex, fbo;
+    glCreateTextures(GL_TEXTURE_2D, 1, &tex);
+    glTextureStorage2D(tex, 1, GL_RGBA8, gl->width, gl->height);
+    glCreateFramebuffers(1, &fbo);
+    glNamedFramebufferTexture(fbo, GL_COLOR_ATTACHMENT0, tex, 0);
+    crisp_status st = crisp_gl_blit(gl, fbo, 0, 0, gl->width, gl->height);
+    if (!st) {
+        glPixelStorei(GL_PACK_ALIGNMENT, 1);
+        glGetTextureImage(tex, 0, GL_RGBA, GL_UNSIGNED_BYTE, gl->width * gl->height * 4, rgba);
+        st = gl_check("reading the blit probe");
+    }
+    glDeleteFramebuffers(1, &fbo);
+    glDeleteTextures(1, &tex);
+    return st;
 }
 
 /* ---- layout probe (tests) --------------------------------------------------------------------- */
