@@ -99,6 +99,10 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
 void crisp_gl_destroy(crisp_gl *gl);
 crisp_status crisp_gl_set_scene(crisp_gl *gl, const crisp_scene *scene);
 crisp_status crisp_gl_set_scene_data(crisp_gl *gl, const crisp_gl_scene_data *data);
+/* GL state: crisp_gl_draw, crisp_gl_read and crisp_gl_blit leave the context with framebuffer 0,
+ * program 0, clip control (lower left, -1..1), depth test off, GL_LESS; they change the viewport,
+ * the vertex array binding, texture units 0-3, image units 0-4, storage buffer bindings 0-10 and
+ * the pack alignment (1). An app that shares the context sets what it needs after them. */
 /* Draws the plan (of the scene last set) into the backend's targets. Uploads only the arrays
  * whose *_version differs from the last plan drawn (everything when the plan pointer changed,
  * after crisp_gl_set_scene and after crisp_gl_forget_plan: call that when a new planner may
