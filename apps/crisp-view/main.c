@@ -283,7 +283,9 @@ static void render_frame(view *v)
     }
     app_nav_update_clip(&v->nav);
     view_frame_stats fs = {0};
-    crisp_status st = v->backend.frame(v->backend.self, v->doc, &v->nav.cam, scale, &v->ov, &fs);
+    view_overlay ov = v->ov;
+    if (v->moving) ov.samples = 1; /* moving frames: one sample per pixel, even at full size */
+    crisp_status st = v->backend.frame(v->backend.self, v->doc, &v->nav.cam, scale, &ov, &fs);
     if (st) {
         view_set_error(v, "render: %s", crisp_error_message());
         v->dirty = 0;
@@ -302,7 +304,7 @@ static void render_frame(view *v)
         else if (fs.ms < 8 && v->scale > 1) v->scale--;
     }
     v->dirty = 0;
-    v->refined = scale == 1;
+    v->refined = scale == 1 && !v->moving;
     if (v->refit_pending && scale == 1) {
         v->refit_pending--;
         refit(v);

@@ -19,6 +19,7 @@ typedef struct view_frame_stats {
     double ms;              /* render time of the frame */
     uint64_t triangles, table_bytes;
     int scale;              /* 1: full resolution; s: 1/s of the pixels in each direction */
+    int samples;            /* per pixel */
     double min_depth;       /* least camera-space depth drawn (inf: nothing) */
     double cover[4];        /* x0, y0, x1, y1 of the drawn pixels, full-size pixel units */
 } view_frame_stats;
