@@ -463,12 +463,12 @@ static void test_file_watch(void **state)
 
 /* The screenshot after navigating equals `crisp render` with the camera options the viewer
  * printed, away from edges (here: on every pixel). */
-static void test_screenshot_equals_cli(void **state)
+static void screenshot_equals_cli(const char *backend)
 {
-    (void)state;
     char *out = malloc(OUT_CAP), args[1024], opts[1024], cmd[4096];
     assert_non_null(out);
-    snprintf(args, sizeof args, "%s/nurbs/gpucast_part.igs --size 320x200", CRISP_DATA_DIR);
+    snprintf(args, sizeof args, "%s/nurbs/gpucast_part.igs --size 320x200 --backend %s",
+             CRISP_DATA_DIR, backend);
     assert_int_equal(run_view(args, "idle\ndrag left 160 100 200 80 5\nwheel 2 150 110\nidle\n"
                                     "screenshot view_cli.png\n", out), 0);
     const char *line = find_line(out, "screenshot: view_cli.png", 0);
@@ -502,6 +502,22 @@ static void test_screenshot_equals_cli(void **state)
     free(b.px);
     free(out);
 }
+
+static void test_screenshot_equals_cli(void **state)
+{
+    (void)state;
+    screenshot_equals_cli("cpu");
+}
+
+#ifdef CRISP_HAVE_GL
+/* The same with the GL backend on the window's context against `crisp render --backend gl`
+ * (a headless EGL context). */
+static void test_screenshot_equals_cli_gl(void **state)
+{
+    (void)state;
+    screenshot_equals_cli("gl");
+}
+#endif
 
 /* A missing file, a folder, a file that is not CAD and a huge file each show an error and the
  * viewer keeps running: a model dropped afterwards opens and a screenshot is written. */
@@ -623,6 +639,9 @@ int main(void)
         cmocka_unit_test(test_zoom_no_clipping),
         cmocka_unit_test(test_file_watch),
         cmocka_unit_test(test_screenshot_equals_cli),
+#ifdef CRISP_HAVE_GL
+        cmocka_unit_test(test_screenshot_equals_cli_gl),
+#endif
         cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_close_during_load),
         cmocka_unit_test(test_xdotool),
