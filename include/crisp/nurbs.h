@@ -144,6 +144,23 @@ void crisp_bezier_patch_split_v(const crisp_bezier_patch *p, double t, crisp_bez
                                 crisp_bezier_patch *hi);
 void crisp_bezier_patch_bbox(const crisp_bezier_patch *p, double *dest); /* 6 values */
 
+/* ---- normals ---------------------------------------------------------------------------------- */
+
+/* The unit normal S_s x S_t / |S_s x S_t| of the patch at local (s, t), also where the cross
+ * product vanishes (a cone's apex, a sphere's pole, a collapsed side, parallel partials): there
+ * the limit of the normal from inside the patch along the direction that leaves the degenerate
+ * side (around an apex each generator keeps its own normal). Returns 1, or 0 with dest = 0 when
+ * the patch has no normal near (s, t) at all (it is a point or a curve there). */
+int crisp_bezier_patch_normal(const crisp_bezier_patch *p, double s, double t, double dest[3]);
+/* The same for a NURBS surface at (u, v) of its domain. */
+int crisp_surface_normal(const crisp_surface *s, double u, double v, double dest[3]);
+
+/* The offset surface S + d N (N = crisp_surface_normal) as a bicubic B-spline over S's domain and
+ * parametrisation (C0 at its knots, watertight), within tol of the true offset at 16 test points
+ * per cell; cells split until they pass, up to max_cells per direction (else CRISP_ERR_LIMIT). */
+crisp_status crisp_surface_offset(const crisp_surface *s, double d, double tol, int max_cells,
+                                  crisp_surface **dest);
+
 /* ---- projection onto surfaces ---------------------------------------------------------------- */
 
 /* Point inversion: the (u, v) of the point of s closest to p (global search on a sample grid,
@@ -159,6 +176,14 @@ crisp_status crisp_surface_closest_point(const crisp_surface *s, const double p[
  * is taken from the neighbouring points. */
 crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_curve *c, double t0,
                                          double t1, double tol, crisp_curve **dest);
+/* crisp_surface_project_curve, and where that fails because the projection jumps (the curve
+ * passes a collapsed patch side or a pole reached from both ends of the domain, or runs between
+ * two sheets of the surface), the curve cut at the jumps into up to max_pieces pieces, each
+ * projected on its own (dest[0 .. *count - 1], in curve order). The gaps between pieces are the
+ * caller's to bridge (they lie where the surface collapses, or they are real). */
+crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const crisp_curve *c, double t0,
+                                                double t1, double tol, int max_pieces, crisp_curve **dest,
+                                                int *count);
 
 #ifdef __cplusplus
 }

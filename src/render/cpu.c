@@ -29,6 +29,10 @@ struct crisp_renderer {
     size_t slack_cap;
     double **st; /* per worker: local (s, t) of one leaf's mesh */
     int workers;
+    uint8_t *untested; /* per face: no trim loops, no trim test (the rasterizer's hook) */
+    size_t untested_cap;
+    uint8_t *leaf_skip; /* per plan leaf: its screen hull holds no sample, nothing to draw */
+    size_t leaf_skip_cap;
 };
 
 #define MAX_LEAF_VERTS (4 * (size_t)CRISP_PLAN_MAX_LEVEL + (CRISP_PLAN_MAX_LEVEL + 1) * (CRISP_PLAN_MAX_LEVEL + 1))
@@ -78,6 +82,8 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->verts);
     free(r->tris);
     free(r->slack);
+    free(r->untested);
+    free(r->leaf_skip);
     free(r);
 }
 
@@ -135,6 +141,7 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
     double *st = r->st[worker];
     crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
     for (size_t j = begin; j < end; j++) {
+        if (r->leaf_skip[j]) continue;
         const crisp_plan_leaf *L = &plan->leaves[j];
         const crisp_scene_patch *sp = &c->sc->patches[L->patch];
         crisp_tess_levels lv = leaf_levels(L);
@@ -162,6 +169,65 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             if (reversed) crisp_vec3_scale(n, -1, n);
             crisp_vec3_normalize(n, v->attr + 2);
         }
+    }
+}
+
+/* Leaves that cannot cover a sample (issue 12). A leaf's triangles lie in the screen hull of its
+ * sub-patch's control points (their vertices are surface points; W > 0 over the hull), and
+ * snapping moves them by at most 1/512 px; when that box, so widened, holds no sample position
+ * of the image, the leaf draws nothing and is not tessellated. The image is unchanged: far away,
+ * where many patches share a pixel, most leaves fall between the samples. */
+typedef struct skip_ctx {
+    crisp_renderer *r;
+    const crisp_scene *sc;
+    double off[16][2];
+    int samples;
+} skip_ctx;
+
+static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2], int width, int height)
+{
+    for (int s = 0; s < c->samples; s++) {
+        double i0 = fmax(ceil(lo[0] - c->off[s][0]), 0), i1 = fmin(floor(hi[0] - c->off[s][0]), width - 1);
+        double j0 = fmax(ceil(lo[1] - c->off[s][1]), 0), j1 = fmin(floor(hi[1] - c->off[s][1]), height - 1);
+        if (i0 <= i1 && j0 <= j1) return 1;
+    }
+    return 0;
+}
+
+static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
+{
+    skip_ctx *c = vctx;
+    crisp_renderer *r = c->r;
+    const crisp_frame_plan *plan = r->plan;
+    double *storage = r->st[worker];
+    crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
+    for (size_t j = begin; j < end; j++) {
+        const crisp_plan_leaf *L = &plan->leaves[j];
+        const crisp_bezier_patch *bez = &c->sc->patches[L->patch].bez;
+        crisp_bezier_patch sub = *bez;
+        if (L->depth) {
+            double sz = ldexp(1.0, -(int)L->depth);
+            crisp__subpatch(bez, L->ix * sz, (L->ix + 1) * sz, L->iy * sz, (L->iy + 1) * sz, storage,
+                            storage + 2 * CRISP__PATCH_DOUBLES, &sub);
+        }
+        int n = (sub.du + 1) * (sub.dv + 1), front = 1;
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        for (int k = 0; k < n && front; k++) {
+            const double *cp = sub.cpw + 4 * k;
+            double h[4];
+            for (int q = 0; q < 4; q++)
+                h[q] = (*m)[0][q] * cp[0] + (*m)[1][q] * cp[1] + (*m)[2][q] * cp[2] + (*m)[3][q] * cp[3];
+            if (!(h[3] > 0) || !isfinite(h[0] + h[1] + h[3])) {
+                front = 0;
+                break;
+            }
+            double x = (h[0] / h[3] + 1) * 0.5 * plan->width, y = (1 - h[1] / h[3]) * 0.5 * plan->height;
+            lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x), lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+        }
+        /* Widen by the snapping (1/512 px) and rounding, generously. */
+        double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
+        lo[0] -= pad, lo[1] -= pad, hi[0] += pad, hi[1] += pad;
+        r->leaf_skip[j] = front && !holds_sample(c, lo, hi, plan->width, plan->height);
     }
 }
 
@@ -198,6 +264,18 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
         c->r->tris[c->tbase + 2 * q] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
         c->r->tris[c->tbase + 2 * q + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
     }
+}
+
+/* The camera's view directions per pixel for the rasterizer (as crisp_camera_ray, unnormalised). */
+static void raster_view(const crisp_camera *cam, crisp_raster_view *v)
+{
+    double d0[3];
+    crisp_vec3_sub(cam->target, cam->eye, d0);
+    crisp_vec3_normalize(d0, v->f);
+    crisp_vec3_cross(v->f, cam->up, d0);
+    crisp_vec3_normalize(d0, v->r);
+    crisp_vec3_cross(v->r, v->f, v->u);
+    v->kx = v->ky = 2.0 * tan(cam->fov_deg * (M_PI / 360.0)) / cam->height;
 }
 
 typedef struct resolve_ctx {
@@ -293,10 +371,14 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
     if ((st = crisp_grow((void **)&r->leaf_vbase, &r->leaf_base_cap, jobs + 1, sizeof *r->leaf_vbase)) ||
         (st = crisp_grow((void **)&r->leaf_tbase, &r->leaf_tbase_cap, jobs + 1, sizeof *r->leaf_tbase)))
         return st;
+    if ((st = crisp_grow((void **)&r->leaf_skip, &r->leaf_skip_cap, jobs ? jobs : 1, sizeof *r->leaf_skip))) return st;
+    skip_ctx skc = {.r = r, .sc = sc, .samples = r->desc.samples};
+    for (int s = 0; s < r->desc.samples; s++) crisp_raster_sample_offset(r->desc.samples, s, skc.off[s]);
+    crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
     for (size_t j = 0; j < jobs; j++) {
         crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
-        size_t v, t;
-        if ((st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
+        size_t v = 0, t = 0;
+        if (!r->leaf_skip[j] && (st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
         r->leaf_vbase[j] = (uint32_t)nv;
         r->leaf_tbase[j] = (uint32_t)nt;
         nv += v;
@@ -331,12 +413,20 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
      * edge that another face hides at nearly the same depth (seen at a grazing angle) does not
      * show through it. */
     void *ctx = (void *)plan;
+    if ((st = crisp_grow((void **)&r->untested, &r->untested_cap, plan->face_count ? plan->face_count : 1,
+                         sizeof *r->untested)))
+        return st;
+    for (uint32_t f = 0; f < plan->face_count; f++)
+        r->untested[f] = (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE) != 0;
+    crisp_raster_set_untested_faces(r->raster, r->untested, plan->face_count);
     st = crisp_raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t, trim_test, ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {
         size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
-        crisp_raster_depth_slack(&r->target, r->pool, 1.5, r->slack);
+        crisp_raster_view view;
+        raster_view(cam, &view);
+        crisp_raster_depth_slack(&r->target, r->pool, 1.5, &view, r->slack);
         crisp_raster_stats rs2;
         st = crisp_raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv, r->tris + surface_t,
                                     nt - surface_t, trim_test, ctx, r->slack, &rs2);

@@ -52,6 +52,7 @@ typedef struct tree_ctx {
     crisp__trees *plan;
     const crisp_scene *sc;
     const uint32_t *redo; /* NULL: every patch; else the patches to rebuild */
+    const uint8_t *mode;  /* per patch (patch groups), used when redo is NULL */
     crisp_slefe_view view;
     double eps, gx, gy;
 } tree_ctx;
@@ -119,6 +120,28 @@ static int too_large_on_screen(const crisp_bezier_patch *p, crisp_mat4 m, int wi
            (hi[1] - lo[1]) * 0.5 * height > CRISP_PLAN_MAX_LEAF_PX;
 }
 
+/* Largest screen extent in pixels (max of the x and y extents) of the sub-patch's projected
+ * control hull; INFINITY when the hull reaches W <= 0. The sub-patch and every triangle with its
+ * vertices on it lie inside the hull (convex hull property; W > 0 over the hull), so a hull at
+ * most eps pixels across is drawn within eps by any tessellation: tau = 1 suffices. */
+static double hull_extent_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, int height)
+{
+    int n = (p->du + 1) * (p->dv + 1);
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int i = 0; i < n; i++) {
+        const double *c = p->cpw + 4 * i;
+        double x = m[0][0] * c[0] + m[1][0] * c[1] + m[2][0] * c[2] + m[3][0] * c[3];
+        double y = m[0][1] * c[0] + m[1][1] * c[1] + m[2][1] * c[2] + m[3][1] * c[3];
+        double w = m[0][3] * c[0] + m[1][3] * c[1] + m[2][3] * c[2] + m[3][3] * c[3];
+        if (!(w > 0)) return INFINITY;
+        lo[0] = fmin(lo[0], x / w), hi[0] = fmax(hi[0], x / w);
+        lo[1] = fmin(lo[1], y / w), hi[1] = fmax(hi[1], y / w);
+    }
+    /* A relative allowance for the rounding of the projection. */
+    double e = fmax((hi[0] - lo[0]) * 0.5 * width, (hi[1] - lo[1]) * 0.5 * height);
+    return e * (1 + 1e-9) + 1e-9;
+}
+
 static int forced_cmp(const crisp__forced *a, const crisp__forced *b)
 {
     if (a->patch != b->patch) return a->patch < b->patch ? -1 : 1;
@@ -153,8 +176,9 @@ static int is_forced(const build_state *b, uint32_t patch, int depth, int ix, in
     return k < b->forced_count && !forced_cmp(&b->forced[k], &key);
 }
 
-/* Classify cell (depth, ix, iy) of the patch; node is its tree node. */
-static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy)
+/* Classify cell (depth, ix, iy) of the patch; node is its tree node. box: an ancestor chose to
+ * split until the pieces' hulls are within eps (no SLEFE is formed below it). */
+static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, int box)
 {
     if (b->st) return;
     const tree_ctx *c = b->c;
@@ -165,7 +189,28 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy)
     int split = 0;
     if (!outside_frustum(&sub, c->plan->view_proj, c->gx, c->gy)) {
         int tau = 0;
-        crisp_status st = crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
+        /* Small on screen (issue 12): a hull within eps needs no SLEFE (tau 1, see
+         * hull_extent_px). */
+        double hull = hull_extent_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height);
+        int box_split = box && hull > c->eps && depth < c->plan->max_depth;
+        crisp_status st = hull <= c->eps || box_split
+                              ? CRISP_OK
+                              : crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
+        if (hull <= c->eps) tau = 1;
+        if (box_split) {
+            st = CRISP_ERR_NUMERIC; /* split again (below) */
+        } else if (!st && tau > 1 && tau <= CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth && isfinite(hull)) {
+            /* Where the SLEFE bound asks for more triangles than splitting until the pieces'
+             * hulls are within eps would give (about 2 * 4^k for k halvings: the hull shrinks
+             * about 2x per halving), split instead; each child decides again. Loose screen
+             * bounds of small rational patches seen off axis made 1-2 px patches ask for tau
+             * 10-24 (impeller x 49). */
+            int k = (int)ceil(log2(hull / c->eps));
+            if (k < 8 && 2.0 * ldexp(1.0, 2 * k) < 0.5 * 2.0 * tau * tau) {
+                st = CRISP_ERR_NUMERIC;
+                box = 1;
+            }
+        }
         if (st == CRISP_ERR_NUMERIC) {
             /* The sub-patch reaches the eye plane: split, and at the depth limit drop what is
              * left (a sliver of 2^-max_depth of the patch at the eye). */
@@ -210,7 +255,7 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy)
         if (k == 0) first = ch;
     }
     b->pp->nodes[node].child = first;
-    for (int k = 0; k < 4; k++) build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1));
+    for (int k = 0; k < 4; k++) build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), box);
 }
 
 static void build_trees(void *vctx, size_t begin, size_t end, int worker)
@@ -239,8 +284,18 @@ static void build_trees(void *vctx, size_t begin, size_t end, int worker)
         b->node_cap = b->leaf_cap = 0;
         b->st = CRISP_OK;
         int32_t root = push_node(b);
-        if (root < 0) b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
-        else build_cell(b, root, 0, 0, 0);
+        uint8_t mode = !c->redo && c->mode ? c->mode[p] : CRISP__PATCH_OPEN;
+        if (root < 0) {
+            b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
+        } else if (mode != CRISP__PATCH_OPEN) {
+            /* Decided by its group: outside the frustum, or within eps on screen (tau 1). */
+            crisp__cell leaf = {.tau = 1, .culled = mode == CRISP__PATCH_CULLED};
+            int32_t li = push_leaf(b, &leaf);
+            if (li < 0) b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
+            else pp->nodes[root].leaf = li;
+        } else {
+            build_cell(b, root, 0, 0, 0, 0);
+        }
         if (b->st) plan->worker_status[worker] = b->st;
         for (uint32_t l = 0; l < pp->leaf_count; l++) pp->visible_leaves += !pp->leaves[l].culled;
     }
@@ -451,6 +506,11 @@ crisp_status crisp__trees_create(crisp__trees **dest)
 {
     crisp__trees *p = calloc(1, sizeof *p);
     if (!p) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating a frame plan");
+    crisp_status st = crisp__groups_create(&p->groups);
+    if (st) {
+        free(p);
+        return st;
+    }
     *dest = p;
     return CRISP_OK;
 }
@@ -468,6 +528,8 @@ void crisp__trees_destroy(crisp__trees *p)
     free(p->patches);
     free(p->forced);
     free(p->redo);
+    crisp__groups_destroy(p->groups);
+    free(p->patch_mode);
     for (uint32_t f = 0; f < p->face_cap; f++) crisp_trim_plan_free(&p->trims[f]);
     free(p->trims);
     free(p->face_tau);
@@ -583,6 +645,12 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
     /* Cull against the frustum widened by 2 px so patches touching the border keep their edges. */
     tc.gx = 1 + 4.0 / cam->width;
     tc.gy = 1 + 4.0 / cam->height;
+    if ((st = crisp_grow((void **)&plan->patch_mode, &plan->mode_cap, sc->patch_count ? sc->patch_count : 1,
+                         sizeof *plan->patch_mode)) ||
+        (st = crisp__groups_classify(plan->groups, sc, plan->view_proj, cam->width, cam->height, tc.gx, tc.gy, eps,
+                                     pool, plan->patch_mode)))
+        return st;
+    tc.mode = plan->patch_mode;
     crisp_pool_parallel_for(pool, sc->patch_count, 16, build_trees, &tc);
     for (int w = 0; w < workers; w++)
         if (plan->worker_status[w]) return plan->worker_status[w];

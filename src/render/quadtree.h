@@ -43,6 +43,17 @@ typedef struct crisp__forced {
     uint32_t patch, depth, ix, iy;
 } crisp__forced;
 
+/* Patch groups (patch_groups.c): a per-face hierarchy over the patch grid, walked once per frame
+ * to cull whole groups or draw them as single tau-1 leaves per patch. */
+typedef struct crisp__groups crisp__groups;
+enum { CRISP__PATCH_OPEN = 0, CRISP__PATCH_CULLED = 1, CRISP__PATCH_SMALL = 2 };
+crisp_status crisp__groups_create(crisp__groups **dest);
+void crisp__groups_destroy(crisp__groups *g);
+/* mode[p] for every patch of the scene: CRISP__PATCH_* (the hierarchy is rebuilt when the scene
+ * changes). gx, gy: the widened frustum's NDC half-extents; eps: pixels. */
+crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj, int width,
+                                    int height, double gx, double gy, double eps, crisp_pool *pool, uint8_t *mode);
+
 typedef struct crisp__trees {
     crisp_mat4 view_proj;
     int width, height, max_depth;
@@ -59,6 +70,9 @@ typedef struct crisp__trees {
     size_t forced_count, forced_cap;
     uint32_t *redo;         /* patches to rebuild with forced splits */
     size_t redo_cap;
+    crisp__groups *groups;  /* patch groups of the last scene */
+    uint8_t *patch_mode;    /* per patch this frame: CRISP__PATCH_* */
+    size_t mode_cap;
     crisp_plan_stats stats;
 } crisp__trees;
 

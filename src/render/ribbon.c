@@ -19,9 +19,14 @@
 #define RIBBON_PX 0.7
 #define RIBBON_STEP_PX 2.0
 #define RIBBON_MAX_DEPTH 20
+/* A face without trim loops is bounded by its domain's edges (t = 0, s = 1, t = 1, s = 0 of the
+ * patch grid, as leaf edges): where it meets another face there, the two faces' tessellations
+ * differ as along a trim, so the edge gets a ribbon too (not the edges where the surface closes
+ * on itself: those are shared within the face's own crack-free mesh). */
+#define RIBBON_EDGE 0x80000000u
 
 typedef struct ribbon_job {
-    uint32_t face, piece;
+    uint32_t face, piece; /* piece of the trim polyline, or RIBBON_EDGE + k: edge k of the domain */
     crisp_raster_vertex *pts; /* samples (per-worker arena, valid this frame) */
     uint32_t count;           /* samples; a sample with clip[3] < 0 breaks the ribbon */
     uint32_t qbase;           /* first quad */
@@ -173,6 +178,44 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
     emit(s, b);
 }
 
+/* Point k of a job's path in (u, v) and the number of points: the trim polyline piece, or a
+ * domain edge through the patch grid's knot lines. */
+static int path_points(const ribbon_ctx *c, const ribbon_job *job)
+{
+    if (!(job->piece & RIBBON_EDGE)) {
+        const crisp_trim_polyline *pl = &c->trees->trims[job->face].polyline;
+        return pl->first[job->piece + 1] - pl->first[job->piece];
+    }
+    const crisp_scene_face *f = &c->sc->faces[job->face];
+    int edge = (int)(job->piece & 3u);
+    return (int)((edge == 0 || edge == 2) ? f->grid_u : f->grid_v) + 1;
+}
+
+static void path_point(const ribbon_ctx *c, const ribbon_job *job, int k, double uv[2])
+{
+    if (!(job->piece & RIBBON_EDGE)) {
+        const crisp_trim_polyline *pl = &c->trees->trims[job->face].polyline;
+        int q = pl->first[job->piece] + k;
+        uv[0] = pl->uv[2 * q], uv[1] = pl->uv[2 * q + 1];
+        return;
+    }
+    const crisp_scene_face *f = &c->sc->faces[job->face];
+    const crisp_scene_patch *first = &c->sc->patches[f->first_patch];
+    int edge = (int)(job->piece & 3u);
+    if (edge == 0 || edge == 2) {
+        /* Along u at v = v0 (edge 0) or v1 (edge 2): the first row's patches' u boundaries. */
+        uint32_t i = (uint32_t)k < f->grid_u ? (uint32_t)k : f->grid_u - 1;
+        const crisp_bezier_patch *b = &c->sc->patches[f->first_patch + i].bez;
+        uv[0] = (uint32_t)k < f->grid_u ? b->u0 : b->u1;
+        uv[1] = edge == 0 ? first->bez.v0 : c->sc->patches[f->first_patch + f->patch_count - 1].bez.v1;
+    } else {
+        uint32_t j = (uint32_t)k < f->grid_v ? (uint32_t)k : f->grid_v - 1;
+        const crisp_bezier_patch *b = &c->sc->patches[f->first_patch + j * f->grid_u].bez;
+        uv[1] = (uint32_t)k < f->grid_v ? b->v0 : b->v1;
+        uv[0] = edge == 3 ? first->bez.u0 : c->sc->patches[f->first_patch + f->patch_count - 1].bez.u1;
+    }
+}
+
 static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
 {
     ribbon_ctx *c = vctx;
@@ -180,16 +223,18 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
     for (size_t j = begin; j < end; j++) {
         ribbon_job *job = &c->rb->jobs[j];
         const crisp_scene_face *f = &c->sc->faces[job->face];
-        const crisp_trim_polyline *pl = &plan->trims[job->face].polyline;
-        int p0 = pl->first[job->piece], p1 = pl->first[job->piece + 1];
+        int n = path_points(c, job);
         sampler s = {.arena = c->rb->arena[worker], .surf = f->src->surface,
                      .reversed = f->src->reversed, .m = (crisp_mat4 *)&plan->view_proj, .w = plan->width,
                      .h = plan->height, .gx = 1 + 4.0 / plan->width, .gy = 1 + 4.0 / plan->height};
         crisp_raster_vertex a, b;
-        ribbon_vertex(s.surf, s.reversed, *s.m, pl->uv[2 * p0], pl->uv[2 * p0 + 1], &a);
+        double uv[2];
+        path_point(c, job, 0, uv);
+        ribbon_vertex(s.surf, s.reversed, *s.m, uv[0], uv[1], &a);
         int open = 0; /* the ribbon so far ends at a */
-        for (int k = p0; k + 1 < p1; k++) {
-            ribbon_vertex(s.surf, s.reversed, *s.m, pl->uv[2 * k + 2], pl->uv[2 * k + 3], &b);
+        for (int k = 0; k + 1 < n; k++) {
+            path_point(c, job, k + 1, uv);
+            ribbon_vertex(s.surf, s.reversed, *s.m, uv[0], uv[1], &b);
             /* Segments that cannot reach the view are left out without a sample (at extreme zoom
              * almost all of a polyline is off screen). */
             if (!segment_may_show(&a, &b, s.w, s.h)) {
@@ -211,7 +256,6 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
         job->count = s.count;
     }
 }
-
 
 /* Quads of 4 vertices (triangles 0 1 2, 0 2 3) between consecutive samples, offset on screen by
  * RIBBON_PX across and along the segment; a segment with an end behind the eye gets vertices with
@@ -268,6 +312,15 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
     uint32_t f1 = only_face == UINT32_MAX ? sc->face_count : only_face + 1;
     for (uint32_t f = f0; f < f1; f++) {
         if (!trees->face_tau[f]) continue;
+        const crisp_scene_face *sf = &sc->faces[f];
+        if (!sf->piece_count && sf->grid_u && sf->grid_v) {
+            for (uint32_t k = 0; k < 4; k++) {
+                if (((k & 1) ? sf->closed_u : sf->closed_v)) continue;
+                if ((st = crisp_grow((void **)&rb->jobs, &rb->job_cap, jobs + 1, sizeof *rb->jobs))) return st;
+                rb->jobs[jobs++] = (ribbon_job){.face = f, .piece = RIBBON_EDGE | k};
+            }
+            continue;
+        }
         const crisp_trim_polyline *pl = &trees->trims[f].polyline;
         for (int k = 0; k < pl->piece_count; k++) {
             if (pl->first[k + 1] - pl->first[k] < 2) continue;
