@@ -105,8 +105,8 @@ void view_describe_face(view *v, int32_t fi, char *buf, size_t size)
 void view_set_standard(view *v, int which)
 {
     app_nav_view(&v->nav, which);
+    app_nav_fit_points(&v->nav, v->doc ? v->doc->doc->points : NULL, v->doc ? v->doc->doc->point_count : 0);
     v->dirty = 1;
-    v->refit_pending = 2;
     printf("view: %s\n", app_view_names[which]);
 }
 
@@ -267,9 +267,9 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
     case GLFW_KEY_H:
     case GLFW_KEY_F1: v->show_help = !v->show_help; break;
     case GLFW_KEY_F:
-        app_nav_fit(&v->nav);
+        app_nav_fit_points(&v->nav, v->doc ? v->doc->doc->points : NULL,
+                           v->doc ? v->doc->doc->point_count : 0);
         v->dirty = 1;
-        v->refit_pending = 2;
         printf("view: fit\n");
         break;
     case GLFW_KEY_O:

@@ -81,7 +81,6 @@ struct view {
     int refined;           /* the frame on screen is the full-resolution image of this camera */
     int moving;            /* the camera changed this frame */
     int scale;             /* resolution divisor while moving, adapted to the frame time */
-    int refit_pending;     /* after a fit: tighten it to the drawn pixels of the next frame */
     view_frame_stats last;
     double last_full_ms;
 
