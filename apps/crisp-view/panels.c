@@ -107,11 +107,12 @@ void view_draw_panels(view *v)
     if (app_loader_status(v->loader, path, sizeof path, &secs)) {
         if (app_ui_begin("Loading", -10, 10, 360, 0)) {
             app_ui_wrapped("%s", path);
-            /* the readers report no fraction: an indeterminate bar */
-            float t = (float)fmod(secs, 1.0);
+            /* a reader that reports its share fills the bar; else it runs in circles */
+            double frac = app_loader_progress(v->loader);
             char o[64];
-            snprintf(o, sizeof o, "reading, %.1f s", secs);
-            app_ui_progress(t, o);
+            if (frac >= 0) snprintf(o, sizeof o, "%.0f%%, %.1f s", 100 * frac, secs);
+            else snprintf(o, sizeof o, "reading, %.1f s", secs);
+            app_ui_progress(frac >= 0 ? (float)frac : (float)fmod(secs, 1.0), o);
             if (app_ui_button("Cancel (Esc)")) app_loader_cancel(v->loader);
         }
         app_ui_end();
