@@ -27,16 +27,16 @@ int view_pick(view *v, double x, double y, view_hit *h)
 {
     memset(h, 0, sizeof *h);
     h->face = -1;
-    if (!v->doc || v->doc->scene->patch_count == 0) return 0;
+    if (!v->doc || v->rdoc.scene->patch_count == 0) return 0;
     double o[3], d[3];
     crisp_camera_ray(&v->nav.cam, x, y, o, d);
     crisp_exact_desc desc = {.threads = 1, .classify = classify_exact};
     double t;
     uint32_t face;
-    if (!crisp_exact_ray(v->doc->scene, &desc, o, d, 0, INFINITY, &t, &face, h->uv, h->normal))
+    if (!crisp_exact_ray(v->rdoc.scene, &desc, o, d, 0, INFINITY, &t, &face, h->uv, h->normal))
         return 0;
     h->hit = 1;
-    h->face = (int32_t)face;
+    h->face = view_doc_face(v, (int32_t)face);
     for (int i = 0; i < 3; i++) h->point[i] = o[i] + t * d[i];
     h->depth = app_nav_depth(&v->nav.cam, h->point);
     return 1;
@@ -145,7 +145,7 @@ static void click(view *v, double x, double y, int mods)
         return;
     }
     v->sel = h;
-    v->ov.selected_face = h.hit ? h.face : -1;
+    v->ov.selected_face = h.hit ? view_drawn_face(v, h.face) : -1;
     v->dirty = 1;
     v->meas_a = h;
     v->meas_count = h.hit ? 1 : 0;
@@ -308,6 +308,22 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
         v->dirty = 1;
         break;
     case GLFW_KEY_T: v->show_scan = !v->show_scan; break;
+    case GLFW_KEY_DELETE:
+        if (v->doc && v->sel.hit && v->sel.face >= 0 && v->face_hidden) {
+            v->face_hidden[v->sel.face] = 1;
+            printf("hidden: face %d\n", v->sel.face);
+            v->sel.hit = 0;
+            v->meas_count = 0;
+            v->face_info[0] = '\0';
+            view_visible_update(v);
+        }
+        break;
+    case GLFW_KEY_U:
+        if (v->doc && v->face_hidden && v->hidden_faces) {
+            memset(v->face_hidden, 0, v->doc->scene->face_count);
+            view_visible_update(v);
+        }
+        break;
     case GLFW_KEY_A:
         v->ov.samples = v->ov.samples == 4 ? 1 : 4;
         v->dirty = 1;

@@ -84,7 +84,7 @@ crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, i
     crisp_camera c = shot_camera(v, w, h);
     crisp_image img = {0};
     crisp_status st = crisp_image_init(&img, c.width, c.height);
-    if (!st) st = v->backend.offscreen(v->backend.self, v->doc, &c, v->ov.samples, &img);
+    if (!st) st = v->backend.offscreen(v->backend.self, &v->rdoc, &c, v->ov.samples, &img);
     if (!st) st = write_images(&img, png, exr);
     crisp_image_free(&img);
     if (v->show_wire || v->show_scan) v->dirty = 1; /* the off-screen render replaced the plan */
@@ -172,9 +172,11 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
 static void install_doc(view *v, app_doc *doc, int keep_camera)
 {
     int keep = keep_camera && v->have_camera;
-    v->backend.set_doc(v->backend.self, doc);
+    view_visible_free(v);
     app_doc_destroy(v->doc);
     v->doc = doc;
+    view_visible_reset(v);
+    v->backend.set_doc(v->backend.self, &v->rdoc);
     if (keep) {
         memcpy(v->nav.box, doc->box, sizeof v->nav.box);
     } else {
@@ -234,7 +236,7 @@ static void render_frame(view *v)
     view_frame_stats fs = {0};
     view_overlay ov = v->ov;
     if (v->moving) ov.samples = 1; /* moving frames: one sample per pixel, even at full size */
-    crisp_status st = v->backend.frame(v->backend.self, v->doc, &v->nav.cam, scale, &ov, &fs);
+    crisp_status st = v->backend.frame(v->backend.self, &v->rdoc, &v->nav.cam, scale, &ov, &fs);
     if (st) {
         view_set_error(v, "render: %s", crisp_error_message());
         v->dirty = 0;
@@ -432,6 +434,9 @@ int main(int argc, char **argv)
     rc = v->exit_code;
 out:
     app_loader_destroy(v->loader); /* waits for a running load */
+    view_visible_free(v);
+    free(v->face_hidden);
+    free(v->part_hidden);
     app_doc_destroy(v->doc);
     app_watch_clear(&v->watch);
     if (v->backend.destroy) v->backend.destroy(v->backend.self);

@@ -16,6 +16,7 @@ static const char *const help_lines[][2] = {
     {"left click", "select a face (info panel); first measure point"},
     {"shift+left click", "measure: distance and angle to the first point"},
     {"F", "fit all"},
+    {"Delete / U", "hide the selected face / show every face"},
     {"0 1 2 3 4 5 6", "isometric, front, top, right, back, bottom, left"},
     {"axis widget", "click a tip: look from that axis"},
     {"O", "orthographic / perspective"},
@@ -186,6 +187,7 @@ void view_draw_panels(view *v)
         app_ui_end();
     }
     if (v->show_scan) view_scan_panel(v);
+    if (v->show_panels) view_parts_panel(v);
     if (v->doc) {
         if (v->show_wire) view_wire_draw(v);
         draw_axes(v);

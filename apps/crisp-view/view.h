@@ -114,6 +114,16 @@ struct view {
     int exit_code;
     int threads;
     int no_lowres;         /* every frame at full size (for measuring the low-res frames) */
+    /* show / hide (visible.c): rdoc is what is drawn and picked; with something hidden its
+     * scene is prepared from a shallow copy of the visible faces, and vis_map takes its face
+     * indices back to the document's */
+    app_doc rdoc;
+    uint8_t *face_hidden, *part_hidden;
+    uint32_t hidden_faces, hidden_parts;
+    crisp_model vis_model;
+    crisp_scene *vis_scene;
+    uint32_t *vis_map;
+    crisp_frep_part *vis_parts;
     /* debugging views (debugviews.c) */
     int show_wire, show_scan;
     float *wire;           /* segments x0 y0 x1 y1 in window pixels */
@@ -143,6 +153,15 @@ void view_on_close(GLFWwindow *w);
 int view_pick(view *v, double x, double y, view_hit *dest);
 void view_describe_face(view *v, int32_t face, char *buf, size_t size);
 void view_set_standard(view *v, int which);
+
+/* visible.c */
+void view_visible_reset(view *v);  /* a new document: everything shown */
+void view_visible_update(view *v); /* after face_hidden / part_hidden changed */
+void view_visible_free(view *v);
+/* The document's face index of a face of the drawn scene (and back: -1 when hidden). */
+int32_t view_doc_face(const view *v, int32_t drawn);
+int32_t view_drawn_face(const view *v, int32_t doc_face);
+void view_parts_panel(view *v);
 
 /* debugviews.c */
 void view_wire_update(view *v);

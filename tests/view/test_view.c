@@ -149,8 +149,11 @@ static void parse_camera(const char *opts, crisp_camera *c)
 }
 
 /* A pick line: face index and point. */
-static int parse_pick(const char *line, int *face, double p[3])
+static int parse_pick(const char *whole, int *face, double p[3])
 {
+    char line[2048];
+    assert_non_null(whole);
+    snprintf(line, sizeof line, "%.*s", (int)strcspn(whole, "\n"), whole);
     const char *f = strstr(line, ": face ");
     if (!f) return 0;
     *face = atoi(f + 7);
@@ -401,6 +404,34 @@ static void test_pick_and_measure(void **state)
     free(out);
 }
 
+/* Delete hides the selected face: the same pixel then picks what is behind it (another face);
+ * U shows every face again and the pixel picks the first face again. */
+static void test_hide_face(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), args[1024];
+    assert_non_null(out);
+    snprintf(args, sizeof args, "%s/nurbs/occt_bearing.iges --size 320x200", CRISP_DATA_DIR);
+    assert_int_equal(run_view(args, "idle\nscreenshot view_hide0.png\nclick left 160 100\nkey delete\n"
+                                    "idle\nscreenshot view_hide1.png\nclick left 160 100\nkey u\n"
+                                    "idle\nclick left 160 100\n", out), 0);
+    int f0, f1, f2;
+    double p0[3], p1[3], p2[3];
+    assert_true(parse_pick(find_line(out, "pick: ", 0), &f0, p0));
+    assert_non_null(find_line(out, "hidden: face ", 0));
+    const char *l1 = find_line(out, "pick: ", 1);
+    assert_non_null(l1);
+    if (parse_pick(l1, &f1, p1)) assert_int_not_equal(f1, f0); /* behind it, or nothing */
+    assert_true(parse_pick(find_line(out, "pick: ", 2), &f2, p2));
+    assert_int_equal(f2, f0);
+    assert_memory_equal(p2, p0, sizeof p0);
+    image8 a = read_png("view_hide0.png"), b = read_png("view_hide1.png");
+    assert_true(differing(&a, &b) > 100);
+    free(a.px);
+    free(b.px);
+    free(out);
+}
+
 /* Zooming to the cursor 7,500 times into a detail: the near plane follows, so the surface under
  * the cursor is still drawn (not clipped) and still picked. */
 static void test_zoom_no_clipping(void **state)
@@ -636,6 +667,7 @@ int main(void)
         cmocka_unit_test(test_open_every_model),
         cmocka_unit_test(test_navigation),
         cmocka_unit_test(test_pick_and_measure),
+        cmocka_unit_test(test_hide_face),
         cmocka_unit_test(test_zoom_no_clipping),
         cmocka_unit_test(test_file_watch),
         cmocka_unit_test(test_screenshot_equals_cli),
