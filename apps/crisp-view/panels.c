@@ -15,6 +15,7 @@ static const char *const help_lines[][2] = {
     {"wheel", "zoom to the cursor"},
     {"left click", "select a face (info panel); first measure point"},
     {"shift+left click", "measure: distance and angle to the first point"},
+    {"V", "clicks snap to the face's vertices (within 8 px) on / off"},
     {"F", "fit all"},
     {"Delete / U", "hide the selected face / show every face"},
     {"0 1 2 3 4 5 6", "isometric, front, top, right, back, bottom, left"},

@@ -97,6 +97,7 @@ struct view {
     view_overlay ov;
     view_hit sel, meas_a, meas_b;
     int meas_count;        /* 0, 1 (A) or 2 (A and B) */
+    int snap;              /* clicks snap to the face's vertices within 8 px (V) */
     char face_info[1024];
 
     /* panels */

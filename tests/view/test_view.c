@@ -404,6 +404,105 @@ static void test_pick_and_measure(void **state)
     free(out);
 }
 
+/* Measuring between two vertices of the model (V: clicks snap to the face's vertices within
+ * 8 px): the test finds two visible vertices on its own (every trim curve's start point through
+ * its surface, projected with the viewer's camera, checked against the CPU renderer's depth),
+ * clicks 2 px off each, and the measured distance is the distance between them within 1e-6 of
+ * the box diagonal. */
+static void test_measure_vertices(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), args[1024], opts[1024], replay[512];
+    assert_non_null(out);
+    snprintf(args, sizeof args, "%s/nurbs/occt_bearing.iges --size 800x600", CRISP_DATA_DIR);
+    assert_int_equal(run_view(args, "idle\ncamera\n", out), 0);
+    camera_of(find_line(out, "camera: ", 0), opts, sizeof opts);
+    crisp_camera cam;
+    parse_camera(opts, &cam);
+    crisp_model *m = NULL;
+    crisp_scene *sc = NULL;
+    char path[512];
+    snprintf(path, sizeof path, "%s/nurbs/occt_bearing.iges", CRISP_DATA_DIR);
+    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_image img;
+    crisp_renderer *r = NULL;
+    assert_int_equal(crisp_image_init(&img, cam.width, cam.height), CRISP_OK);
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){0}, &r), CRISP_OK);
+    assert_int_equal(crisp_render_cpu(r, sc, &cam, &img, NULL), CRISP_OK);
+    double diag = sqrt(pow(sc->box[3] - sc->box[0], 2) + pow(sc->box[4] - sc->box[1], 2) +
+                       pow(sc->box[5] - sc->box[2], 2));
+    /* every vertex with its pixel */
+    enum { MAXV = 20000 };
+    static double vp[MAXV][3], vx[MAXV][2];
+    int nv = 0;
+    for (int fi = 0; fi < m->face_count; fi++)
+        for (int l = 0; l < m->faces[fi].loop_count; l++)
+            for (int k = 0; k < m->faces[fi].loops[l].curve_count && nv < MAXV; k++) {
+                const crisp_curve *c = m->faces[fi].loops[l].curves[k];
+                double t0, t1, uv[2];
+                crisp_curve_domain(c, &t0, &t1);
+                crisp_curve_eval(c, t0, uv);
+                crisp_surface_eval(m->faces[fi].surface, uv[0], uv[1], vp[nv]);
+                project(&cam, vp[nv], vx[nv]);
+                nv++;
+            }
+    /* visible, inside the image, clicked pixel on a face, no other vertex nearby */
+    int pick[2] = {-1, -1};
+    for (int a = 0; a < nv && pick[1] < 0; a++) {
+        double x = vx[a][0], y = vx[a][1];
+        if (x < 20 || y < 20 || x > cam.width - 20 || y > cam.height - 20) continue;
+        int i = (int)(x + 2), j = (int)(y + 2);
+        size_t px = (size_t)j * cam.width + i;
+        if (img.face[px] < 0) continue;
+        double e[3], f[3], fd[3];
+        crisp_vec3_sub(vp[a], cam.eye, e);
+        crisp_vec3_sub(cam.target, cam.eye, fd);
+        crisp_vec3_normalize(fd, f);
+        if (fabs(crisp_vec3_dot(e, f) - img.depth[px]) > 2e-3 * diag) continue;
+        int lonely = 1;
+        for (int b = 0; b < nv && lonely; b++) {
+            double dd[3];
+            crisp_vec3_sub(vp[a], vp[b], dd);
+            if (crisp_vec3_norm(dd) > 1e-6 * diag && hypot(vx[b][0] - x, vx[b][1] - y) < 12) lonely = 0;
+        }
+        if (!lonely) continue;
+        if (pick[0] < 0) pick[0] = a;
+        else if (hypot(vx[pick[0]][0] - x, vx[pick[0]][1] - y) > 40) pick[1] = a;
+    }
+    if (pick[1] < 0) fail_msg("no two lonely visible vertices among %d (%d)", nv, pick[0]);
+    snprintf(replay, sizeof replay, "idle\nkey v\nclick left %.0f %.0f\nclick left %.0f %.0f shift\n",
+             floor(vx[pick[0]][0] + 2), floor(vx[pick[0]][1] + 2), floor(vx[pick[1]][0] + 2),
+             floor(vx[pick[1]][1] + 2));
+    assert_int_equal(run_view(args, replay, out), 0);
+    const char *pl = find_line(out, "pick: ", 0);
+    assert_non_null(pl);
+    assert_true(strcspn(pl, "\n") > 7 && !strncmp(pl + strcspn(pl, "\n") - 7, " vertex", 7));
+    const char *ml = find_line(out, "measure: distance ", 0);
+    assert_non_null(ml);
+    assert_non_null(strstr(ml, "(to a vertex)"));
+    double dist, pm[2][3];
+    int fm[2];
+    assert_int_equal(sscanf(ml, "measure: distance %lf angle %*f deg between faces %d and %d from "
+                                "%lf,%lf,%lf to %lf,%lf,%lf",
+                            &dist, &fm[0], &fm[1], &pm[0][0], &pm[0][1], &pm[0][2], &pm[1][0],
+                            &pm[1][1], &pm[1][2]),
+                     9);
+    double d[3];
+    for (int k = 0; k < 2; k++) {
+        crisp_vec3_sub(pm[k], vp[pick[k]], d);
+        if (crisp_vec3_norm(d) > 1e-6 * diag) fail_msg("point %d snapped %g from the vertex", k, crisp_vec3_norm(d));
+    }
+    crisp_vec3_sub(vp[pick[1]], vp[pick[0]], d);
+    if (fabs(dist - crisp_vec3_norm(d)) > 1e-6 * diag)
+        fail_msg("measured %.17g, the vertices are %.17g apart", dist, crisp_vec3_norm(d));
+    crisp_renderer_destroy(r);
+    crisp_image_free(&img);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+    free(out);
+}
+
 /* Delete hides the selected face: the same pixel then picks what is behind it (another face);
  * U shows every face again and the pixel picks the first face again. */
 static void test_hide_face(void **state)
@@ -667,6 +766,7 @@ int main(void)
         cmocka_unit_test(test_open_every_model),
         cmocka_unit_test(test_navigation),
         cmocka_unit_test(test_pick_and_measure),
+        cmocka_unit_test(test_measure_vertices),
         cmocka_unit_test(test_hide_face),
         cmocka_unit_test(test_zoom_no_clipping),
         cmocka_unit_test(test_file_watch),
