@@ -599,37 +599,45 @@ static void screenshot_equals_cli(const char *backend)
     assert_non_null(out);
     snprintf(args, sizeof args, "%s/nurbs/gpucast_part.igs --size 320x200 --backend %s",
              CRISP_DATA_DIR, backend);
+    /* at the window's size, then at twice it (rendered at that size, not scaled) */
     assert_int_equal(run_view(args, "idle\ndrag left 160 100 200 80 5\nwheel 2 150 110\nidle\n"
-                                    "screenshot view_cli.png\n", out), 0);
-    const char *line = find_line(out, "screenshot: view_cli.png", 0);
-    assert_non_null(line);
-    camera_of(line, opts, sizeof opts);
-    remove("cli_ref.png");
-    snprintf(cmd, sizeof cmd, "%s/crisp render %s/nurbs/gpucast_part.igs %s -o cli_ref.png > /dev/null",
-             CRISP_BIN_DIR, CRISP_DATA_DIR, opts);
-    assert_int_equal(system(cmd), 0);
-    image8 a = read_png("view_cli.png"), b = read_png("cli_ref.png");
-    int box[4];
-    assert_true(coverage(&a, box) > 320 * 200 / 10);
-    /* pixels that differ must lie within 1 px of a coverage edge of the reference */
-    size_t bad = 0, diff = 0;
-    for (int j = 0; j < a.h; j++)
-        for (int i = 0; i < a.w; i++) {
-            size_t k = (size_t)j * a.w + i;
-            if (!memcmp(a.px + 4 * k, b.px + 4 * k, 4)) continue;
-            diff++;
-            int edge = 0;
-            for (int dj = -1; dj <= 1; dj++)
-                for (int di = -1; di <= 1; di++) {
-                    int ii = i + di, jj = j + dj;
-                    if (ii < 0 || jj < 0 || ii >= a.w || jj >= a.h) continue;
-                    edge |= (b.px[4 * ((size_t)jj * a.w + ii) + 3] == 0) != (b.px[4 * k + 3] == 0);
-                }
-            bad += !edge;
-        }
-    if (bad) fail_msg("%zu pixels differ away from edges (%zu in all)", bad, diff);
-    free(a.px);
-    free(b.px);
+                                    "screenshot view_cli.png\nscreenshot view_cli2.png 640x400\n", out), 0);
+    for (int shot = 0; shot < 2; shot++) {
+        const char *name = shot ? "view_cli2.png" : "view_cli.png";
+        char prefix[64];
+        snprintf(prefix, sizeof prefix, "screenshot: %s", name);
+        const char *line = find_line(out, prefix, 0);
+        assert_non_null(line);
+        camera_of(line, opts, sizeof opts);
+        remove("cli_ref.png");
+        snprintf(cmd, sizeof cmd, "%s/crisp render %s/nurbs/gpucast_part.igs %s -o cli_ref.png > /dev/null",
+                 CRISP_BIN_DIR, CRISP_DATA_DIR, opts);
+        assert_int_equal(system(cmd), 0);
+        image8 a = read_png(name), b = read_png("cli_ref.png");
+        assert_int_equal(a.w, shot ? 640 : 320);
+        assert_int_equal(a.h, shot ? 400 : 200);
+        int box[4];
+        assert_true(coverage(&a, box) > (size_t)a.w * a.h / 10);
+        /* pixels that differ must lie within 1 px of a coverage edge of the reference */
+        size_t bad = 0, diff = 0;
+        for (int j = 0; j < a.h; j++)
+            for (int i = 0; i < a.w; i++) {
+                size_t k = (size_t)j * a.w + i;
+                if (!memcmp(a.px + 4 * k, b.px + 4 * k, 4)) continue;
+                diff++;
+                int edge = 0;
+                for (int dj = -1; dj <= 1; dj++)
+                    for (int di = -1; di <= 1; di++) {
+                        int ii = i + di, jj = j + dj;
+                        if (ii < 0 || jj < 0 || ii >= a.w || jj >= a.h) continue;
+                        edge |= (b.px[4 * ((size_t)jj * a.w + ii) + 3] == 0) != (b.px[4 * k + 3] == 0);
+                    }
+                bad += !edge;
+            }
+        if (bad) fail_msg("%s: %zu pixels differ away from edges (%zu in all)", name, bad, diff);
+        free(a.px);
+        free(b.px);
+    }
     free(out);
 }
 
