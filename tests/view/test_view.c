@@ -555,8 +555,8 @@ static void test_zoom_no_clipping(void **state)
     free(out);
 }
 
-/* Editing the open file on disk (here an f-rep part as a math string, rewritten 1.5 s after the
- * viewer started) reloads it and keeps the camera; the new part shows. */
+/* Editing the open file on disk (here an f-rep part as a math string, rewritten while the viewer
+ * shows it) reloads it and keeps the camera; the new part shows. */
 static void test_file_watch(void **state)
 {
     (void)state;
@@ -566,7 +566,11 @@ static void test_file_watch(void **state)
     assert_non_null(f);
     fputs("X*X + Y*Y + Z*Z < 0.25\n", f);
     fclose(f);
-    assert_int_equal(system("(sleep 1.5; echo 'X*X + Y*Y + Z*Z < 0.81' > view_watch.math) &"), 0);
+    /* rewritten once the first view is on screen (its screenshot exists), however slow the start */
+    remove("view_watch0.png");
+    assert_int_equal(system("(for i in $(seq 600); do [ -f view_watch0.png ] && break; sleep 0.1; done; "
+                            "sleep 0.5; echo 'X*X + Y*Y + Z*Z < 0.81' > view_watch.math) &"),
+                     0);
     assert_int_equal(run_view("view_watch.math --size 200x150",
                               "idle\nwheel -2 100 75\nidle\ncamera\nscreenshot view_watch0.png\n"
                               "sleep 4000\nidle\ncamera\nscreenshot view_watch1.png\n", out), 0);
@@ -740,7 +744,7 @@ static void test_xdotool(void **state)
             "#!/bin/sh\n"
             "%s/crisp-view %s/nurbs/gpucast_teapot.igs --size 400x300 > view_xdo.out 2>&1 &\n"
             "pid=$!\n"
-            "for i in $(seq 100); do grep -q '^loaded:' view_xdo.out && break; sleep 0.1; done\n"
+            "for i in $(seq 300); do grep -q '^loaded:' view_xdo.out && break; sleep 0.1; done\n"
             "wid=$(xdotool search --sync --name crisp-view | head -1)\n"
             "eval $(xdotool getwindowgeometry --shell $wid)\n"
             "sleep 0.5\n"
