@@ -45,7 +45,14 @@ crisp_status app_doc_load(const char *path, app_doc **dest)
     d->scene = doc->scene;
     d->parts = doc->parts;
     d->part_count = doc->part_count;
+    /* the sample points' box, grown to the scene's (its patches' boxes within the trims' uv
+     * box: it holds all of the geometry, so near and far never cut it) */
     memcpy(d->box, doc->box, sizeof d->box);
+    if (doc->scene->patch_count)
+        for (int a = 0; a < 3; a++) {
+            if (doc->scene->box[a] < d->box[a]) d->box[a] = doc->scene->box[a];
+            if (doc->scene->box[a + 3] > d->box[a + 3]) d->box[a + 3] = doc->scene->box[a + 3];
+        }
     d->ms_read = doc->ms_load;
     d->ms_prepare = doc->ms_prepare;
     st = add_watch(d, path);
