@@ -230,6 +230,8 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
                     size_t cell = ((size_t)z * g.n[1] + y) * g.n[0] + x;
                     for (int j = g.start[cell]; j < g.start[cell + 1]; j++) {
                         const bseg *o = &segs[g.items[j]];
+                        int b1 = m->faces[o->face].body, b0 = m->faces[s->face].body;
+                        if (b0 && b1 && b0 != b1) continue; /* another part */
                         if (o->face == s->face) {
                             /* the face's own other boundary through here: a seam, or a
                              * collapsed side: no other face is meant to be there */

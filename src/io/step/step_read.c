@@ -435,6 +435,7 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
             continue;
         }
         face.reversed ^= fl.refs[i].flip;
+        face.body = fl.refs[i].owner[1] ? fl.refs[i].owner[1] : fl.refs[i].owner[0];
         if ((st = crisp_model_add_face(m, &face))) {
             crisp_face_free(&face);
             goto done;
