@@ -287,7 +287,7 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
             memcpy(gp->at, p, sizeof gp->at);
         }
     }
-    qsort(dest->gaps, (size_t)dest->count, sizeof *dest->gaps, cmp_gap);
+    if (dest->count > 1) qsort(dest->gaps, (size_t)dest->count, sizeof *dest->gaps, cmp_gap);
 out:
     crisp_free(g.start);
     crisp_free(g.items);
