@@ -475,7 +475,7 @@ static crisp_status offset_140(iges_file *f, int e, int depth, iges_surface *des
     double diag = sqrt((box[3] - box[0]) * (box[3] - box[0]) + (box[4] - box[1]) * (box[4] - box[1]) +
                        (box[5] - box[2]) * (box[5] - box[2]));
     crisp_surface *off = NULL;
-    st = crisp_surface_offset(dest->surface, dist, f->projection_fraction * (diag + fabs(dist)), 256, &off);
+    st = crisp_surface_offset(dest->surface, dist, f->projection_fraction * (diag + fabs(dist)), 64, &off);
     if (st) return kernel_fail(f, e, st);
     crisp_surface_destroy(dest->surface);
     dest->surface = off;
