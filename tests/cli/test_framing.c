@@ -93,11 +93,12 @@ static void test_bundled_models(void **state)
     }
 }
 
-/* The demo's picture: scripts/demo renders this model at this size with the default camera. */
+/* The demo's picture: scripts/demo renders this model at 1280x720 with the default camera (the
+ * framing does not depend on the scale; 640x360 keeps the sanitizer run short). */
 static void test_demo(void **state)
 {
     (void)state;
-    check_framing(CRISP_DATA_DIR "/nurbs/occt_bearing.iges", 1280, 720, CRISP_VIEW_DEFAULT);
+    check_framing(CRISP_DATA_DIR "/nurbs/occt_bearing.iges", 640, 360, CRISP_VIEW_DEFAULT);
     check_framing(CRISP_DATA_DIR "/scenes/teapot_frep.scene", 640, 360, CRISP_VIEW_DEFAULT);
 }
 
@@ -134,7 +135,8 @@ static void test_views(void **state)
     (void)state;
     for (int v = CRISP_VIEW_ISO; v <= CRISP_VIEW_BOTTOM; v++) {
         check_framing(CRISP_DATA_DIR "/nurbs/occt_bearing.iges", 200, 150, (crisp_view)v);
-        check_framing(CRISP_DATA_DIR "/nurbs/gpucast_teapot.igs", 150, 200, (crisp_view)v);
+        if (v == CRISP_VIEW_TOP || v == CRISP_VIEW_FRONT)
+            check_framing(CRISP_DATA_DIR "/nurbs/gpucast_teapot.igs", 150, 200, (crisp_view)v);
     }
 }
 
