@@ -381,8 +381,8 @@ int crisp_cmd_render(int argc, char **argv)
         ft.parts[k] = dt.ms_parts;
     }
     cli_progress_end();
-    /* the frame time (the median over --repeat; cli_median sorts a copy's worth in place, which
-     * print_stats' medians do not mind) */
+    /* the frame time: the median over --repeat (cli_median sorts the times in place, which the
+     * medians of print_stats do not mind) */
     double ms_render = st ? 0 : cli_median(ft.total, (size_t)a.repeat);
     double t_write = crisp_time_now();
     if (!st && a.out) st = crisp_image_write(&img, a.out);
