@@ -83,6 +83,7 @@ typedef struct crisp_plan_face {
     uint32_t tau_max;       /* largest inner level among its leaves (0: invisible) */
     uint32_t first_ribbon;  /* into ribbon quads (4 vertices each) */
     uint32_t ribbon_count;
+    uint32_t pad[2];
 } crisp_plan_face;
 
 /* One strip of a face's table. std430: 24 bytes. */
@@ -100,14 +101,6 @@ typedef struct crisp_plan_ribbon_vertex {
     float normal[3];  /* unit world normal of the surface there */
     uint32_t face;
 } crisp_plan_ribbon_vertex;
-
-/* The control points of one Bézier patch in crisp_scene.control_points. std430: 48 bytes. */
-typedef struct crisp_scene_patch_record {
-    uint32_t first_cp;  /* index of its first control point (4 doubles each: w x, w y, w z, w) */
-    uint32_t du, dv;    /* degrees (1..15); (du + 1) (dv + 1) control points, u fastest */
-    uint32_t face;
-    double u0, u1, v0, v1; /* the patch's parameter box on the face's surface */
-} crisp_scene_patch_record;
 
 typedef struct crisp_plan_stats {
     uint32_t patches, visible_patches, split_patches, leaves, visible_faces;

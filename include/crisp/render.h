@@ -80,6 +80,14 @@ typedef struct crisp_scene_loop {
     int is_outer;
 } crisp_scene_loop;
 
+/* The control points of one Bézier patch in crisp_scene.control_points. std430: 48 bytes (include/crisp/plan.h). */
+typedef struct crisp_scene_patch_record {
+    uint32_t first_cp;  /* index of its first control point (4 doubles each: w x, w y, w z, w) */
+    uint32_t du, dv;    /* degrees (1..15); (du + 1) (dv + 1) control points, u fastest */
+    uint32_t face;
+    double u0, u1, v0, v1; /* the patch's parameter box on the face's surface */
+} crisp_scene_patch_record;
+
 /* The view-independent preparation of a model: Bézier patches of every face, Bézier pieces of
  * every trim loop, boxes. Built once per model edit; the model must outlive it. */
 typedef struct crisp_scene {
@@ -89,12 +97,22 @@ typedef struct crisp_scene {
     crisp_scene_patch *patches;
     crisp_bezier_curve *pieces;
     crisp_scene_loop *loops;
-    crisp_bezier_patches *face_patches; /* storage, one per face */
+    crisp_bezier_patches *face_patches; /* one per face; their control points live in
+                                           control_points */
+    /* Every patch's homogeneous control points, patch after patch (each patch's bez.cpw points
+     * here): the array a GPU uploads as it is, with patch_records saying where each patch's are. */
+    double *control_points;
+    size_t control_point_count; /* points of 4 doubles */
+    crisp_scene_patch_record *patch_records; /* patch_count */
     double box[6];
 } crisp_scene;
 
 crisp_status crisp_scene_prepare(const crisp_model *model, crisp_scene **dest);
 void crisp_scene_destroy(crisp_scene *scene);
+/* After the trim loops of face `face` of the scene's model changed (the trim-editing case), take
+ * the new loops' Bézier pieces into the scene (the surface must be unchanged). Other faces keep
+ * their pieces (their indices may move). Then crisp_planner_replan_face re-plans the face. */
+crisp_status crisp_scene_update_trim(crisp_scene *scene, uint32_t face);
 
 /* ---- images ------------------------------------------------------------------------------- */
 
@@ -161,6 +179,17 @@ crisp_status crisp_renderer_plan(crisp_renderer *r, const crisp_scene *scene,
  * size. stats may be NULL. */
 crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *scene, const crisp_camera *cam,
                               crisp_image *img, crisp_render_stats *stats);
+
+/* The CPU backend on a given plan (include/crisp/plan.h) of this scene for this camera (the
+ * camera gives the shading's view directions; its size must be the plan's): tessellate the
+ * plan's leaves, rasterise with the plan's trim tables, draw its ribbons, shade. */
+typedef struct crisp_frame_plan crisp_frame_plan;
+typedef struct crisp_planner crisp_planner;
+crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *scene,
+                                   const crisp_frame_plan *plan, const crisp_camera *cam,
+                                   crisp_image *img, crisp_render_stats *stats);
+/* The renderer's own planner (used by crisp_render_cpu and crisp_renderer_plan). */
+crisp_planner *crisp_renderer_planner(crisp_renderer *r);
 
 /* ---- f-rep parts ----------------------------------------------------------------------------- */
 

@@ -19,6 +19,11 @@
  *   crisp_slefe_patch_screen_error sound pixel bound on patch-versus-triangles distance at tau
  *   crisp_slefe_patch_tess_level   a tau (from the iPASS guess up) that bound accepts: the level
  *                                  to draw a patch within eps pixels
+ *   crisp_slefe_group_bound        distance between a B-spline surface and its control net over a
+ *                                  rectangle of knot spans (second differences of the net, no
+ *                                  Bézier extraction; group_bound.c has the derivation)
+ *   crisp_slefe_group_screen       the same in pixels through a camera: the surface versus its net,
+ *                                  the net's triangles, and one coarse quad for the whole group
  *
  * Enclosure semantics. For a polynomial p of degree d on [0, 1] and breakpoints t_k = k/m, the
  * piecewise-linear interpolants of lo[k] and up[k] satisfy lo(t) <= p(t) <= up(t) for all t,
@@ -180,6 +185,35 @@ crisp_status crisp_slefe_patch_screen_error(const crisp_bezier_patch *p, int tau
  * 10 us for a 50-100 px rational bicubic patch (bench/RESULTS.md). */
 crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const crisp_slefe_view *view,
                                           double eps, int max_level, int *tau);
+
+/* ---- groups of patches of one B-spline surface ------------------------------------------------ */
+
+/* A bound, per homogeneous coordinate (w x, w y, w z, w), on |S(u, v) - L(u, v)| for (u, v) in the
+ * knot spans iu0..iu1 x iv0..iv1 (indices of non-empty spans, as crisp_scene_patch.iu, .iv), where
+ * S is the surface in homogeneous form and L the piecewise-bilinear interpolant of its control
+ * points at their Greville abscissae (the control net). Computed from the net's second divided
+ * differences over the rows and columns that reach the group (src/slefe/group_bound.c), in
+ * O(net points of the group + spans x degree^3) without extracting Bézier patches; sharp for
+ * uniform cubics (max |Delta^2| / 6). CRISP_ERR_NUMERIC when two Greville abscissae coincide (a
+ * knot of full multiplicity inside the surface). */
+crisp_status crisp_slefe_group_bound(const crisp_surface *s, int iu0, int iu1, int iv0, int iv1,
+                                     double dest[4]);
+
+typedef struct crisp_slefe_group_screen_bound {
+    double net_px;       /* surface versus the net (bilinear over its Greville grid), on screen */
+    double triangles_px; /* surface versus the net drawn as triangles (each quad along a diagonal) */
+    double quad_px;      /* surface versus one bilinear quad through the group's four corner net
+                            points, drawn as two triangles: "one coarse piece" for the group */
+    double box_px[4];    /* xmin, ymin, xmax, ymax in pixels (y down) of the surface over the group */
+} crisp_slefe_group_screen_bound;
+
+/* Screen-space bounds (pixels, max of the x and y distances, as crisp_slefe_patch_screen_error)
+ * of the group iu0..iu1 x iv0..iv1 seen through view: the net is mapped by view_proj, bounded as
+ * crisp_slefe_group_bound, and divided by a guaranteed lower bound of W. A group with quad_px <=
+ * 0.5 can be drawn as one coarse piece within 0.5 px. CRISP_ERR_NUMERIC when W is not bounded away
+ * from 0 over the group (it reaches the eye plane: split it). */
+crisp_status crisp_slefe_group_screen(const crisp_surface *s, int iu0, int iu1, int iv0, int iv1,
+                                      const crisp_slefe_view *view, crisp_slefe_group_screen_bound *dest);
 
 #ifdef __cplusplus
 }

@@ -6,27 +6,20 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "plan.h"
+#include "crisp/plan.h"
+#include "crisp/tess.h"
 #include "raster.h"
 #include "render_internal.h"
-
-typedef struct leaf_job {
-    uint32_t patch, leaf;
-    uint32_t vbase, tbase;
-} leaf_job;
 
 struct crisp_renderer {
     crisp_render_desc desc;
     crisp_pool *pool;
-    crisp_plan *plan;
+    crisp_planner *planner;
+    const crisp_frame_plan *plan; /* the frame being drawn */
     crisp_raster *raster;
     crisp_raster_target target;
-    leaf_job *jobs;
-    size_t job_cap;
-    struct ribbon_job *ribbon_jobs;
-    size_t ribbon_cap;
-    crisp_arena **ribbon_arena; /* per worker, reset every frame */
-    crisp_status *wstatus;      /* per worker */
+    uint32_t *leaf_vbase, *leaf_tbase; /* per plan leaf (and a sentinel) */
+    size_t leaf_base_cap, leaf_tbase_cap;
     crisp_raster_vertex *verts;
     size_t vert_cap;
     crisp_raster_tri *tris;
@@ -36,9 +29,13 @@ struct crisp_renderer {
     size_t slack_cap;
     double **st; /* per worker: local (s, t) of one leaf's mesh */
     int workers;
+    uint8_t *untested; /* per face: no trim loops, no trim test (the rasterizer's hook) */
+    size_t untested_cap;
+    uint8_t *leaf_skip; /* per plan leaf: its screen hull holds no sample, nothing to draw */
+    size_t leaf_skip_cap;
 };
 
-#define MAX_LEAF_VERTS (4 * (size_t)CRISP_TESS_MAX_EDGE_LEVEL + 64 * 64)
+#define MAX_LEAF_VERTS (4 * (size_t)CRISP_PLAN_MAX_LEVEL + (CRISP_PLAN_MAX_LEVEL + 1) * (CRISP_PLAN_MAX_LEVEL + 1))
 
 crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer **dest)
 {
@@ -50,13 +47,14 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
     if (r->desc.samples != 1 && r->desc.samples != 4 && r->desc.samples != 16)
         st = crisp_error(CRISP_ERR_INVALID_ARG, "%d samples per pixel: expected 1, 4 or 16", r->desc.samples);
     if (!st) st = crisp_pool_create(r->desc.threads, &r->pool);
-    if (!st) st = crisp_plan_create(&r->plan);
+    if (!st)
+        st = crisp_planner_create(&(crisp_planner_desc){.eps_px = r->desc.eps_px, .strip_count = r->desc.strip_count},
+                                  r->pool, &r->planner);
     if (!st) st = crisp_raster_create(&r->raster);
     if (!st) {
         r->workers = crisp_pool_threads(r->pool);
         r->st = calloc((size_t)r->workers, sizeof *r->st);
-        r->wstatus = calloc((size_t)r->workers, sizeof *r->wstatus);
-        if (!r->st || !r->wstatus) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
+        if (!r->st) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
         for (int w = 0; !st && w < r->workers; w++)
             if (!(r->st[w] = crisp_malloc_array(MAX_LEAF_VERTS, 2 * sizeof(double))))
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
@@ -75,19 +73,17 @@ void crisp_renderer_destroy(crisp_renderer *r)
     if (r->st)
         for (int w = 0; w < r->workers; w++) free(r->st[w]);
     free(r->st);
-    free(r->wstatus);
+    crisp_planner_destroy(r->planner);
     crisp_pool_destroy(r->pool);
-    crisp_plan_destroy(r->plan);
     crisp_raster_destroy(r->raster);
     crisp_raster_target_free(&r->target);
-    free(r->jobs);
-    free(r->ribbon_jobs);
-    if (r->ribbon_arena)
-        for (int w = 0; w < r->workers; w++) crisp_arena_destroy(r->ribbon_arena[w]);
-    free(r->ribbon_arena);
+    free(r->leaf_vbase);
+    free(r->leaf_tbase);
     free(r->verts);
     free(r->tris);
     free(r->slack);
+    free(r->untested);
+    free(r->leaf_skip);
     free(r);
 }
 
@@ -103,26 +99,31 @@ static void copy_plan_stats(const crisp_plan_stats *p, crisp_render_stats *s)
     s->table_bytes = p->table_bytes;
     s->ms_levels = p->ms_levels;
     s->ms_edges = p->ms_edges;
-    s->ms_trim = p->ms_trim;
+    s->ms_trim = p->ms_trim + p->ms_ribbons;
 }
 
 crisp_status crisp_renderer_plan(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,
                                  crisp_render_stats *stats)
 {
-    crisp_plan_desc pd = {.eps_px = r->desc.eps_px, .strip_count = r->desc.strip_count};
-    crisp_status st = crisp_plan_frame(r->plan, sc, cam, &pd, r->pool);
+    const crisp_frame_plan *plan;
+    crisp_status st = crisp_planner_plan(r->planner, sc, cam, &plan);
     if (!st && stats) {
         memset(stats, 0, sizeof *stats);
-        copy_plan_stats(&r->plan->stats, stats);
+        copy_plan_stats(&plan->stats, stats);
     }
     return st;
+}
+
+crisp_planner *crisp_renderer_planner(crisp_renderer *r)
+{
+    return r->planner;
 }
 
 /* ---- tessellation -------------------------------------------------------------------------- */
 
 static crisp_tess_levels leaf_levels(const crisp_plan_leaf *L)
 {
-    crisp_tess_levels lv = {{L->tau, L->tau}, {0}};
+    crisp_tess_levels lv = {{(int)L->tau, (int)L->tau}, {0}};
     for (int k = 0; k < 4; k++) lv.outer[k] = (int)L->edge[k];
     return lv;
 }
@@ -136,29 +137,31 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
 {
     tess_ctx *c = vctx;
     crisp_renderer *r = c->r;
+    const crisp_frame_plan *plan = r->plan;
     double *st = r->st[worker];
-    crisp_mat4 *m = &r->plan->view_proj;
+    crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
     for (size_t j = begin; j < end; j++) {
-        const leaf_job *job = &r->jobs[j];
-        const crisp_scene_patch *sp = &c->sc->patches[job->patch];
-        const crisp_plan_leaf *L = &r->plan->patches[job->patch].leaves[job->leaf];
+        if (r->leaf_skip[j]) continue;
+        const crisp_plan_leaf *L = &plan->leaves[j];
+        const crisp_scene_patch *sp = &c->sc->patches[L->patch];
         crisp_tess_levels lv = leaf_levels(L);
-        size_t nv = r->jobs[j + 1].vbase - job->vbase;
-        crisp_tess_mesh_generate(&lv, st, (uint32_t *)(r->tris + job->tbase), job->vbase);
+        uint32_t vbase = r->leaf_vbase[j], tbase = r->leaf_tbase[j];
+        size_t nv = r->leaf_vbase[j + 1] - vbase;
+        crisp_tess_mesh_generate(&lv, st, (uint32_t *)(r->tris + tbase), vbase);
         /* The generator writes index triples; the raster triangle also carries the face. */
-        size_t nt = r->jobs[j + 1].tbase - job->tbase;
-        uint32_t *idx = (uint32_t *)(r->tris + job->tbase);
+        size_t nt = r->leaf_tbase[j + 1] - tbase;
+        uint32_t *idx = (uint32_t *)(r->tris + tbase);
         for (size_t k = nt; k-- > 0;) {
-            crisp_raster_tri tri = {{idx[3 * k], idx[3 * k + 1], idx[3 * k + 2]}, sp->face};
-            r->tris[job->tbase + k] = tri;
+            crisp_raster_tri tri = {{idx[3 * k], idx[3 * k + 1], idx[3 * k + 2]}, L->face};
+            r->tris[tbase + k] = tri;
         }
-        double scale = ldexp(1.0, -L->depth);
-        int reversed = c->sc->faces[sp->face].src->reversed;
+        double scale = ldexp(1.0, -(int)L->depth);
+        int reversed = (plan->faces[L->face].flags & CRISP_PLAN_FACE_REVERSED) != 0;
         for (size_t k = 0; k < nv; k++) {
             double s = (L->ix + st[2 * k]) * scale, t = (L->iy + st[2 * k + 1]) * scale;
             double P[3], Ps[3], Pt[3], n[3];
             crisp_bezier_patch_derivs(&sp->bez, s, t, P, Ps, Pt);
-            crisp_raster_vertex *v = &r->verts[job->vbase + k];
+            crisp_raster_vertex *v = &r->verts[vbase + k];
             crisp_mat4_mulp(*m, P, v->clip);
             v->attr[0] = sp->bez.u0 + s * (sp->bez.u1 - sp->bez.u0);
             v->attr[1] = sp->bez.v0 + t * (sp->bez.v1 - sp->bez.v0);
@@ -169,235 +172,110 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
-/* ---- trim test and resolve ------------------------------------------------------------------- */
+/* Leaves that cannot cover a sample (issue 12). A leaf's triangles lie in the screen hull of its
+ * sub-patch's control points (their vertices are surface points; W > 0 over the hull), and
+ * snapping moves them by at most 1/512 px; when that box, so widened, holds no sample position
+ * of the image, the leaf draws nothing and is not tessellated. The image is unchanged: far away,
+ * where many patches share a pixel, most leaves fall between the samples. */
+typedef struct skip_ctx {
+    crisp_renderer *r;
+    const crisp_scene *sc;
+    double off[16][2];
+    int samples;
+} skip_ctx;
 
-static crisp_status ensure_ribbon_arenas(crisp_renderer *r)
+static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2], int width, int height)
 {
-    if (!r->ribbon_arena) {
-        r->ribbon_arena = calloc((size_t)r->workers, sizeof *r->ribbon_arena);
-        if (!r->ribbon_arena) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
-        for (int w = 0; w < r->workers; w++)
-            if (crisp_arena_create(1 << 16, &r->ribbon_arena[w]))
-                return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+    for (int s = 0; s < c->samples; s++) {
+        double i0 = fmax(ceil(lo[0] - c->off[s][0]), 0), i1 = fmin(floor(hi[0] - c->off[s][0]), width - 1);
+        double j0 = fmax(ceil(lo[1] - c->off[s][1]), 0), j1 = fmin(floor(hi[1] - c->off[s][1]), height - 1);
+        if (i0 <= i1 && j0 <= j1) return 1;
     }
-    for (int w = 0; w < r->workers; w++) crisp_arena_reset(r->ribbon_arena[w]);
-    return CRISP_OK;
+    return 0;
 }
+
+static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
+{
+    skip_ctx *c = vctx;
+    crisp_renderer *r = c->r;
+    const crisp_frame_plan *plan = r->plan;
+    double *storage = r->st[worker];
+    crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
+    for (size_t j = begin; j < end; j++) {
+        const crisp_plan_leaf *L = &plan->leaves[j];
+        const crisp_bezier_patch *bez = &c->sc->patches[L->patch].bez;
+        crisp_bezier_patch sub = *bez;
+        if (L->depth) {
+            double sz = ldexp(1.0, -(int)L->depth);
+            crisp__subpatch(bez, L->ix * sz, (L->ix + 1) * sz, L->iy * sz, (L->iy + 1) * sz, storage,
+                            storage + 2 * CRISP__PATCH_DOUBLES, &sub);
+        }
+        int n = (sub.du + 1) * (sub.dv + 1), front = 1;
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        for (int k = 0; k < n && front; k++) {
+            const double *cp = sub.cpw + 4 * k;
+            double h[4];
+            for (int q = 0; q < 4; q++)
+                h[q] = (*m)[0][q] * cp[0] + (*m)[1][q] * cp[1] + (*m)[2][q] * cp[2] + (*m)[3][q] * cp[3];
+            if (!(h[3] > 0) || !isfinite(h[0] + h[1] + h[3])) {
+                front = 0;
+                break;
+            }
+            double x = (h[0] / h[3] + 1) * 0.5 * plan->width, y = (1 - h[1] / h[3]) * 0.5 * plan->height;
+            lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x), lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+        }
+        /* Widen by the snapping (1/512 px) and rounding, generously. */
+        double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
+        lo[0] -= pad, lo[1] -= pad, hi[0] += pad, hi[1] += pad;
+        r->leaf_skip[j] = front && !holds_sample(c, lo, hi, plan->width, plan->height);
+    }
+}
+
+/* ---- trim test and resolve ------------------------------------------------------------------- */
 
 static int trim_test(void *ctx, uint32_t face, double u, double v)
 {
-    const crisp_plan *plan = ctx;
+    const crisp_frame_plan *plan = ctx;
     if (face & CRISP_RASTER_FACE_FLAG) return 1; /* a ribbon: drawn where it lands */
-    return crisp_trim_table_test(&plan->trims[face].table, u, v);
+    return crisp_plan_trim_test(plan, face, u, v);
 }
 
-/* ---- trim-boundary ribbons ---------------------------------------------------------------------
- * Where two trimmed faces meet, each face's trim test may be wrong within its 1 px band, so the
- * shared edge can open a sub-pixel gap. Like Wu & Peters (who draw x(gamma(t))), each face's trim
- * boundary is also drawn as its surface image: a screen-space ribbon of half-width RIBBON_PX
- * along the trim polyline mapped onto the true surface, sampled until consecutive samples are at
- * most RIBBON_STEP_PX apart on screen (so the straight ribbon pieces follow the curved image).
- * The polyline is within 0.25 px of the true curve, so a ribbon reaches at most about
- * RIBBON_PX + 0.25 < 1 px beyond the true boundary: inside the band where the trim decision may
- * go either way. Samples outside the widened frustum are dropped. */
-#define RIBBON_PX 0.7
-#define RIBBON_STEP_PX 2.0
-#define RIBBON_MAX_DEPTH 20
-
-typedef struct ribbon_job {
-    uint32_t face, piece;
-    crisp_raster_vertex *pts; /* samples (per-worker arena, valid this frame) */
-    uint32_t count;           /* samples; a sample with clip[3] < 0 breaks the ribbon */
-    uint32_t vbase, tbase;
-} ribbon_job;
-
+/* The plan's ribbon quads as raster vertices and triangles (0 1 2, 0 2 3), after the surfaces'. */
 typedef struct ribbon_ctx {
     crisp_renderer *r;
-    const crisp_scene *sc;
-    crisp_status *status;
+    const crisp_frame_plan *plan;
+    size_t vbase, tbase;
 } ribbon_ctx;
 
-static void ribbon_vertex(const crisp_surface *surf, int reversed, crisp_mat4 m, double u, double v,
-                          crisp_raster_vertex *out)
-{
-    double P[3], Su[3], Sv[3], n[3];
-    crisp_surface_derivs(surf, u, v, P, Su, Sv, NULL, NULL, NULL);
-    crisp_mat4_mulp(m, P, out->clip);
-    out->attr[0] = u;
-    out->attr[1] = v;
-    crisp_vec3_cross(Su, Sv, n);
-    if (reversed) crisp_vec3_scale(n, -1, n);
-    crisp_vec3_normalize(n, out->attr + 2);
-}
-
-static int in_view(const crisp_raster_vertex *a, double gx, double gy)
-{
-    const double *c = a->clip;
-    return c[3] > 0 && c[2] >= -c[3] && c[2] <= c[3] && fabs(c[0]) <= gx * c[3] && fabs(c[1]) <= gy * c[3];
-}
-
-/* Screen distance in pixels (infinite when either point is behind the eye). */
-static double screen_dist(const crisp_raster_vertex *a, const crisp_raster_vertex *b, double w, double h)
-{
-    if (!(a->clip[3] > 0 && b->clip[3] > 0)) return INFINITY;
-    double dx = (a->clip[0] / a->clip[3] - b->clip[0] / b->clip[3]) * 0.5 * w;
-    double dy = (a->clip[1] / a->clip[3] - b->clip[1] / b->clip[3]) * 0.5 * h;
-    return hypot(dx, dy);
-}
-
-/* Conservatively: can the ribbon piece between a and b (surface points) show on screen? Both in
- * front of the eye, and the screen box of the chord, widened by the chord's length (the surface
- * image between two samples bulges by less than that), meets the viewport. */
-static int segment_may_show(const crisp_raster_vertex *a, const crisp_raster_vertex *b, double w,
-                            double h)
-{
-    if (!(a->clip[3] > 0) || !(b->clip[3] > 0)) return 1; /* let refine() split it */
-    double ax = (a->clip[0] / a->clip[3] + 1) * 0.5 * w, ay = (1 - a->clip[1] / a->clip[3]) * 0.5 * h;
-    double bx = (b->clip[0] / b->clip[3] + 1) * 0.5 * w, by = (1 - b->clip[1] / b->clip[3]) * 0.5 * h;
-    double len = hypot(bx - ax, by - ay) + 2;
-    if (!isfinite(len)) return 1;
-    return fmax(ax, bx) + len >= 0 && fmin(ax, bx) - len <= w && fmax(ay, by) + len >= 0 &&
-           fmin(ay, by) - len <= h;
-}
-
-typedef struct sampler {
-    crisp_arena *arena;
-    crisp_raster_vertex *pts;
-    uint32_t count, cap;
-    const crisp_surface *surf;
-    int reversed;
-    crisp_mat4 *m;
-    double w, h, gx, gy;
-    int failed;
-} sampler;
-
-static void emit(sampler *s, const crisp_raster_vertex *v)
-{
-    if (s->count == s->cap) {
-        uint32_t cap = s->cap ? 2 * s->cap : 64;
-        crisp_raster_vertex *n = crisp_arena_alloc(s->arena, cap, sizeof *n);
-        if (!n) {
-            s->failed = 1;
-            return;
-        }
-        if (s->count) memcpy(n, s->pts, s->count * sizeof *n);
-        s->pts = n;
-        s->cap = cap;
-    }
-    s->pts[s->count++] = *v;
-}
-
-/* Samples strictly after a up to and including b, along the uv segment. */
-static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_vertex *b, int depth)
-{
-    if (s->failed) return;
-    int va = in_view(a, s->gx, s->gy), vb = in_view(b, s->gx, s->gy);
-    double d = screen_dist(a, b, s->w, s->h);
-    if (depth < RIBBON_MAX_DEPTH && d > RIBBON_STEP_PX && (va || vb || d < INFINITY ? 1 : 0)) {
-        crisp_raster_vertex mid;
-        ribbon_vertex(s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
-                      0.5 * (a->attr[1] + b->attr[1]), &mid);
-        /* Both ends and the middle outside the view and the piece small enough not to cross it
-         * from one side to the other: nothing of it shows. */
-        if (!va && !vb && !in_view(&mid, s->gx, s->gy) && depth > 8) {
-            crisp_raster_vertex brk = *b;
-            brk.clip[3] = -1;
-            emit(s, &brk);
-            emit(s, b);
-            return;
-        }
-        refine(s, a, &mid, depth + 1);
-        refine(s, &mid, b, depth + 1);
-        return;
-    }
-    if (d > RIBBON_STEP_PX) {
-        /* Not resolved (behind the eye or at the depth limit): break the ribbon here. */
-        crisp_raster_vertex brk = *b;
-        brk.clip[3] = -1;
-        emit(s, &brk);
-    }
-    emit(s, b);
-}
-
-static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
-{
-    ribbon_ctx *c = vctx;
-    crisp_renderer *r = c->r;
-    const crisp_plan *plan = r->plan;
-    for (size_t j = begin; j < end; j++) {
-        ribbon_job *job = &r->ribbon_jobs[j];
-        const crisp_scene_face *f = &c->sc->faces[job->face];
-        const crisp_trim_polyline *pl = &plan->trims[job->face].polyline;
-        int p0 = pl->first[job->piece], p1 = pl->first[job->piece + 1];
-        sampler s = {.arena = r->ribbon_arena[worker], .surf = f->src->surface,
-                     .reversed = f->src->reversed, .m = &r->plan->view_proj, .w = plan->width,
-                     .h = plan->height, .gx = 1 + 4.0 / plan->width, .gy = 1 + 4.0 / plan->height};
-        crisp_raster_vertex a, b;
-        ribbon_vertex(s.surf, s.reversed, *s.m, pl->uv[2 * p0], pl->uv[2 * p0 + 1], &a);
-        int open = 0; /* the ribbon so far ends at a */
-        for (int k = p0; k + 1 < p1; k++) {
-            ribbon_vertex(s.surf, s.reversed, *s.m, pl->uv[2 * k + 2], pl->uv[2 * k + 3], &b);
-            /* Segments that cannot reach the view are left out without a sample (at extreme zoom
-             * almost all of a polyline is off screen). */
-            if (!segment_may_show(&a, &b, s.w, s.h)) {
-                if (open) {
-                    crisp_raster_vertex brk = a;
-                    brk.clip[3] = -1;
-                    emit(&s, &brk);
-                    open = 0;
-                }
-            } else {
-                if (!open) emit(&s, &a);
-                refine(&s, &a, &b, 0);
-                open = 1;
-            }
-            a = b;
-        }
-        if (s.failed) c->status[worker] = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
-        job->pts = s.pts;
-        job->count = s.count;
-    }
-}
-
-static void build_ribbons(void *vctx, size_t begin, size_t end, int worker)
+static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     ribbon_ctx *c = vctx;
-    crisp_renderer *r = c->r;
-    double sx = 2.0 / r->plan->width, sy = 2.0 / r->plan->height;
-    for (size_t j = begin; j < end; j++) {
-        const ribbon_job *job = &r->ribbon_jobs[j];
-        for (uint32_t q = 0; q + 1 < job->count; q++) {
-            const crisp_raster_vertex *a = &job->pts[q], *b = &job->pts[q + 1];
-            crisp_raster_vertex *v = r->verts + job->vbase + 4 * q;
-            crisp_raster_tri *t = r->tris + job->tbase + 2 * q;
-            double dx = 0, dy = 0;
-            int ok = a->clip[3] > 0 && b->clip[3] > 0;
-            if (ok) {
-                dx = (b->clip[0] / b->clip[3] - a->clip[0] / a->clip[3]) / sx;
-                dy = -(b->clip[1] / b->clip[3] - a->clip[1] / a->clip[3]) / sy;
-                double len = hypot(dx, dy);
-                ok = len > 0 && isfinite(len);
-                if (ok) dx /= len, dy /= len;
-            }
-            for (int corner = 0; corner < 4; corner++) {
-                crisp_raster_vertex *o = &v[corner];
-                *o = corner < 2 ? *a : *b;
-                if (!ok) {
-                    o->clip[3] = -1; /* the rasterizer clips these triangles away */
-                    continue;
-                }
-                double along = corner < 2 ? -RIBBON_PX : RIBBON_PX;
-                double side = (corner == 0 || corner == 3) ? -RIBBON_PX : RIBBON_PX;
-                double ox = along * dx - side * dy, oy = along * dy + side * dx; /* pixels, y down */
-                o->clip[0] += ox * sx * o->clip[3];
-                o->clip[1] -= oy * sy * o->clip[3];
-            }
-            uint32_t base = job->vbase + 4 * q, face = job->face | CRISP_RASTER_FACE_FLAG;
-            t[0] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
-            t[1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
+    for (size_t q = begin; q < end; q++) {
+        const crisp_plan_ribbon_vertex *src = c->plan->ribbon_vertices + 4 * q;
+        crisp_raster_vertex *v = c->r->verts + c->vbase + 4 * q;
+        for (int k = 0; k < 4; k++) {
+            memcpy(v[k].clip, src[k].clip, sizeof v[k].clip);
+            v[k].attr[0] = src[k].uv[0];
+            v[k].attr[1] = src[k].uv[1];
+            for (int a = 0; a < 3; a++) v[k].attr[2 + a] = src[k].normal[a];
         }
+        uint32_t base = (uint32_t)(c->vbase + 4 * q), face = src[0].face | CRISP_RASTER_FACE_FLAG;
+        c->r->tris[c->tbase + 2 * q] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
+        c->r->tris[c->tbase + 2 * q + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
     }
+}
+
+/* The camera's view directions per pixel for the rasterizer (as crisp_camera_ray, unnormalised). */
+static void raster_view(const crisp_camera *cam, crisp_raster_view *v)
+{
+    double d0[3];
+    crisp_vec3_sub(cam->target, cam->eye, d0);
+    crisp_vec3_normalize(d0, v->f);
+    crisp_vec3_cross(v->f, cam->up, d0);
+    crisp_vec3_normalize(d0, v->r);
+    crisp_vec3_cross(v->r, v->f, v->u);
+    v->kx = v->ky = 2.0 * tan(cam->fov_deg * (M_PI / 360.0)) / cam->height;
 }
 
 typedef struct resolve_ctx {
@@ -473,65 +351,49 @@ const crisp_raster_target *crisp__renderer_target(const crisp_renderer *r)
     return &r->target;
 }
 
-crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,
-                              crisp_image *img, crisp_render_stats *stats)
+crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, const crisp_frame_plan *plan,
+                                   const crisp_camera *cam, crisp_image *img, crisp_render_stats *stats)
 {
-    if (img->width != cam->width || img->height != cam->height)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the camera's %dx%d",
-                           img->width, img->height, cam->width, cam->height);
+    if (img->width != plan->width || img->height != plan->height || cam->width != plan->width ||
+        cam->height != plan->height)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d and camera %dx%d do not match the plan's %dx%d",
+                           img->width, img->height, cam->width, cam->height, plan->width, plan->height);
+    if (plan->face_count != sc->face_count)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "the plan has %u faces, the scene %u: not the scene's plan",
+                           plan->face_count, sc->face_count);
     crisp_render_stats local;
     if (!stats) stats = &local;
-    crisp_status st = crisp_renderer_plan(r, sc, cam, stats);
-    if (st) return st;
+    crisp_status st;
+    r->plan = plan;
     double t0 = crisp_time_now();
-    /* Jobs: one per visible leaf, with vertex and triangle offsets (and a sentinel). */
-    size_t jobs = 0, nv = 0, nt = 0;
-    for (uint32_t p = 0; p < sc->patch_count; p++) {
-        const crisp_patch_plan *pp = &r->plan->patches[p];
-        for (uint32_t l = 0; l < pp->leaf_count && pp->visible_leaves; l++) {
-            if (pp->leaves[l].culled) continue;
-            if ((st = crisp_grow((void **)&r->jobs, &r->job_cap, jobs + 2, sizeof *r->jobs))) return st;
-            crisp_tess_levels lv = leaf_levels(&pp->leaves[l]);
-            size_t v, t;
-            if ((st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
-            r->jobs[jobs++] = (leaf_job){p, l, (uint32_t)nv, (uint32_t)nt};
-            nv += v;
-            nt += t;
-            if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
-                return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 vertices or triangles in one frame");
-        }
-    }
-    if (!jobs && (st = crisp_grow((void **)&r->jobs, &r->job_cap, 1, sizeof *r->jobs))) return st;
-    r->jobs[jobs] = (leaf_job){0, 0, (uint32_t)nv, (uint32_t)nt};
-    /* Ribbons after the surfaces: at equal depth the surface's own fragment stays. Sampled
-     * first (their size depends on the view), then laid out after the surface triangles. */
-    size_t rjobs = 0, surface_v = nv, surface_t = nt;
-    for (uint32_t f = 0; f < sc->face_count; f++) {
-        if (!r->plan->face_tau[f]) continue;
-        const crisp_trim_polyline *pl = &r->plan->trims[f].polyline;
-        for (int k = 0; k < pl->piece_count; k++) {
-            if (pl->first[k + 1] - pl->first[k] < 2) continue;
-            if ((st = crisp_grow((void **)&r->ribbon_jobs, &r->ribbon_cap, rjobs + 1, sizeof *r->ribbon_jobs)))
-                return st;
-            r->ribbon_jobs[rjobs++] = (ribbon_job){.face = f, .piece = (uint32_t)k};
-        }
-    }
-    if ((st = ensure_ribbon_arenas(r))) return st;
-    for (int w = 0; w < r->workers; w++) r->wstatus[w] = CRISP_OK;
-    ribbon_ctx rbc = {r, sc, r->wstatus};
-    crisp_pool_parallel_for(r->pool, rjobs, 4, sample_ribbons, &rbc);
-    for (int w = 0; w < r->workers; w++)
-        if (r->wstatus[w]) return r->wstatus[w];
-    for (size_t j = 0; j < rjobs; j++) {
-        ribbon_job *job = &r->ribbon_jobs[j];
-        size_t segs = job->count ? job->count - 1 : 0;
-        job->vbase = (uint32_t)nv;
-        job->tbase = (uint32_t)nt;
-        nv += 4 * segs;
-        nt += 2 * segs;
+    /* Vertex and triangle offsets per leaf (and a sentinel). */
+    size_t jobs = plan->leaf_count, nv = 0, nt = 0;
+    if ((st = crisp_grow((void **)&r->leaf_vbase, &r->leaf_base_cap, jobs + 1, sizeof *r->leaf_vbase)) ||
+        (st = crisp_grow((void **)&r->leaf_tbase, &r->leaf_tbase_cap, jobs + 1, sizeof *r->leaf_tbase)))
+        return st;
+    if ((st = crisp_grow((void **)&r->leaf_skip, &r->leaf_skip_cap, jobs ? jobs : 1, sizeof *r->leaf_skip))) return st;
+    skip_ctx skc = {.r = r, .sc = sc, .samples = r->desc.samples};
+    for (int s = 0; s < r->desc.samples; s++) crisp_raster_sample_offset(r->desc.samples, s, skc.off[s]);
+    crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
+    for (size_t j = 0; j < jobs; j++) {
+        crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
+        size_t v = 0, t = 0;
+        if (!r->leaf_skip[j] && (st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
+        r->leaf_vbase[j] = (uint32_t)nv;
+        r->leaf_tbase[j] = (uint32_t)nt;
+        nv += v;
+        nt += t;
         if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
             return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 vertices or triangles in one frame");
     }
+    r->leaf_vbase[jobs] = (uint32_t)nv;
+    r->leaf_tbase[jobs] = (uint32_t)nt;
+    /* Ribbons after the surfaces: at equal depth the surface's own fragment stays. */
+    size_t surface_v = nv, surface_t = nt, quads = plan->ribbon_quad_count;
+    nv += 4 * quads;
+    nt += 2 * quads;
+    if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
+        return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 vertices or triangles in one frame");
     if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, nv ? nv : 1, sizeof *r->verts))) return st;
     /* A triangle record is at least as large as the generator's three indices. */
     if ((st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris))) return st;
@@ -539,7 +401,8 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     r->tri_count = surface_t;
     tess_ctx tc = {r, sc};
     crisp_pool_parallel_for(r->pool, jobs, 8, tessellate, &tc);
-    crisp_pool_parallel_for(r->pool, rjobs, 16, build_ribbons, &rbc);
+    ribbon_ctx rbc = {r, plan, surface_v, surface_t};
+    crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
     double t1 = crisp_time_now();
 
     if ((st = crisp_raster_target_init(&r->target, cam->width, cam->height, r->desc.samples))) return st;
@@ -549,15 +412,24 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
      * when nearer by more than that surface's depth change over 1.5 px, so a ribbon along an
      * edge that another face hides at nearly the same depth (seen at a grazing angle) does not
      * show through it. */
-    st = crisp_raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t, trim_test, r->plan, &rs);
+    void *ctx = (void *)plan;
+    if ((st = crisp_grow((void **)&r->untested, &r->untested_cap, plan->face_count ? plan->face_count : 1,
+                         sizeof *r->untested)))
+        return st;
+    for (uint32_t f = 0; f < plan->face_count; f++)
+        r->untested[f] = (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE) != 0;
+    crisp_raster_set_untested_faces(r->raster, r->untested, plan->face_count);
+    st = crisp_raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t, trim_test, ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {
         size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
-        crisp_raster_depth_slack(&r->target, r->pool, 1.5, r->slack);
+        crisp_raster_view view;
+        raster_view(cam, &view);
+        crisp_raster_depth_slack(&r->target, r->pool, 1.5, &view, r->slack);
         crisp_raster_stats rs2;
         st = crisp_raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv, r->tris + surface_t,
-                                    nt - surface_t, trim_test, r->plan, r->slack, &rs2);
+                                    nt - surface_t, trim_test, ctx, r->slack, &rs2);
         if (st) return st;
         rs.fragments_tested += rs2.fragments_tested;
         rs.fragments_discarded += rs2.fragments_discarded;
@@ -567,6 +439,7 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     resolve_ctx rc = {r, sc, cam, img};
     crisp_pool_parallel_for(r->pool, (size_t)cam->height, 8, resolve_rows, &rc);
     double t3 = crisp_time_now();
+    copy_plan_stats(&plan->stats, stats);
     stats->vertices = surface_v;
     stats->triangles = surface_t;
     stats->ribbon_triangles = nt - surface_t;
@@ -576,4 +449,16 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     stats->ms_raster = 1e3 * (t2 - t1);
     stats->ms_resolve = 1e3 * (t3 - t2);
     return CRISP_OK;
+}
+
+crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,
+                              crisp_image *img, crisp_render_stats *stats)
+{
+    if (img->width != cam->width || img->height != cam->height)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the camera's %dx%d",
+                           img->width, img->height, cam->width, cam->height);
+    const crisp_frame_plan *plan;
+    crisp_status st = crisp_planner_plan(r->planner, sc, cam, &plan);
+    if (st) return st;
+    return crisp_render_cpu_plan(r, sc, plan, cam, img, stats);
 }

@@ -6,7 +6,9 @@
  * parallel, each by one worker, so no two threads write the same pixel and the result does not
  * depend on the thread count. Vertices snap to 1/256 px and edge functions are exact 64-bit
  * integers with a top-left rule, so triangles that share an edge cover every sample on it
- * exactly once (watertight). */
+ * exactly once (watertight). Within a tile, 8x8 blocks that a triangle cannot reach in depth are
+ * skipped whole, rows are walked as exact runs of covered pixels, and hidden fragments do no
+ * attribute or fragment-test work (raster.c). */
 #ifndef CRISP_RENDER_RASTER_H
 #define CRISP_RENDER_RASTER_H
 
@@ -25,6 +27,11 @@ typedef struct crisp_raster_vertex {
 /* Bit 31 of a triangle's face is handed to the fragment test but not stored in the target: the
  * CPU backend marks its trim-boundary ribbons with it. */
 #define CRISP_RASTER_FACE_FLAG 0x80000000u
+/* Bit 30: the fragment test is not run for this triangle's fragments (they are kept), nor stored.
+ * The hook for the trim test, per triangle: a backend sets it on triangles of a leaf whose every
+ * point lies inside the trim (trim strips fully inside); per face, see
+ * crisp_raster_set_untested_faces. */
+#define CRISP_RASTER_FACE_NO_TEST 0x40000000u
 
 typedef struct crisp_raster_tri {
     uint32_t v[3];
@@ -57,7 +64,19 @@ void crisp_raster_sample_offset(int samples, int s, double dest[2]);
 
 typedef struct crisp_raster_stats {
     size_t triangles_in, triangles_setup, fragments_tested, fragments_discarded;
+    size_t fragments_untested; /* kept without the test (CRISP_RASTER_FACE_NO_TEST) */
+    size_t blocks_skipped;     /* 8x8 blocks of a triangle rejected whole by the depth bound */
 } crisp_raster_stats;
+
+/* Hierarchical depth rejection (on by default; off only to measure it or to check that the
+ * result does not depend on it). */
+void crisp_raster_set_hiz(crisp_raster *r, int on);
+/* Faces whose fragments skip the fragment test (kept as if it said 1): untested[f] != 0 for face
+ * f < count (a face without trim loops: CRISP_PLAN_FACE_ALL_INSIDE). The array is read by later
+ * draws until it is set again; NULL: every face is tested. */
+void crisp_raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count);
+/* Triangles set up and binned at a time (0: the default, 2^19); small values are for tests. */
+void crisp_raster_set_batch(crisp_raster *r, size_t triangles);
 
 /* Draw triangles into the target (depth test: nearer = larger 1/W wins; ties keep the earlier
  * triangle). test may be NULL (keep all). pool may be NULL (one thread). */
@@ -76,9 +95,18 @@ crisp_status crisp_raster_draw_fill(crisp_raster *r, crisp_raster_target *t, cri
                                     crisp_raster_test_fn test, void *test_ctx, const float *slack,
                                     crisp_raster_stats *stats);
 
+/* The view direction (unnormalised) through pixel (i, j): f + (i + 0.5 - width / 2) kx r +
+ * (height / 2 - j - 0.5) ky u. */
+typedef struct crisp_raster_view {
+    double f[3], r[3], u[3];
+    double kx, ky;
+} crisp_raster_view;
+
 /* slack[sample] = scale times the largest change of W (camera depth) between the sample and the
- * same sample of the four neighbouring pixels where they show the same face (0 for empty
+ * same sample of the four neighbouring pixels where they show the same face, seen from the same
+ * side (the sign of normal . view direction; view may be NULL: not compared) (0 for empty
  * samples): how far a surface's depth moves over one pixel at that sample. pool may be NULL. */
-void crisp_raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale, float *slack);
+void crisp_raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
+                              const crisp_raster_view *view, float *slack);
 
 #endif

@@ -35,4 +35,10 @@ void crisp__renderer_mesh(const crisp_renderer *r, const struct crisp_raster_ver
 struct crisp_raster_target;
 const struct crisp_raster_target *crisp__renderer_target(const crisp_renderer *r);
 
+/* The trim table the planner built for face f in its last plan (for tests that hold the plan's
+ * flat arrays against it). */
+struct crisp_trim_table;
+struct crisp_planner;
+const struct crisp_trim_table *crisp__planner_table(const struct crisp_planner *p, uint32_t f);
+
 #endif

@@ -158,7 +158,108 @@ void crisp_scene_destroy(crisp_scene *s)
     free(s->patches);
     free(s->pieces);
     free(s->loops);
+    free(s->control_points);
+    free(s->patch_records);
     free(s);
+}
+
+/* One array of every patch's control points (the GPU's storage buffer), with a record per patch;
+ * the patches' own arrays are then freed and their cpw point into it. */
+static crisp_status flatten_control_points(crisp_scene *s)
+{
+    size_t total = 0;
+    for (uint32_t p = 0; p < s->patch_count; p++)
+        total += (size_t)(s->patches[p].bez.du + 1) * (size_t)(s->patches[p].bez.dv + 1);
+    if (total > UINT32_MAX)
+        return crisp_error(CRISP_ERR_LIMIT, "%zu control points in the scene: at most 2^32", total);
+    s->control_points = crisp_malloc_array(total ? total : 1, 4 * sizeof(double));
+    s->patch_records = crisp_calloc_array(s->patch_count ? s->patch_count : 1, sizeof *s->patch_records);
+    if (!s->control_points || !s->patch_records)
+        return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for %zu control points", total);
+    s->control_point_count = total;
+    size_t at = 0;
+    for (uint32_t f = 0; f < s->face_count; f++) {
+        crisp_bezier_patches *fp = &s->face_patches[f];
+        for (int k = 0; k < fp->count; k++) {
+            crisp_bezier_patch *b = &fp->patches[k];
+            size_t n = (size_t)(b->du + 1) * (size_t)(b->dv + 1);
+            memcpy(s->control_points + 4 * at, b->cpw, n * 4 * sizeof(double));
+            b->cpw = s->control_points + 4 * at;
+            uint32_t p = s->faces[f].first_patch + (uint32_t)k;
+            s->patches[p].bez.cpw = b->cpw;
+            s->patch_records[p] = (crisp_scene_patch_record){
+                .first_cp = (uint32_t)at, .du = (uint32_t)b->du, .dv = (uint32_t)b->dv, .face = f,
+                .u0 = b->u0, .u1 = b->u1, .v0 = b->v0, .v1 = b->v1};
+            at += n;
+        }
+        free(fp->storage);
+        fp->storage = NULL;
+    }
+    return CRISP_OK;
+}
+
+/* The Bézier pieces of every face's trim loops, loop after loop, face after face (rebuilt whole
+ * when one face's loops change: pieces are few next to patches). */
+static crisp_status extract_pieces(crisp_scene *s)
+{
+    const crisp_model *m = s->model;
+    size_t loop_total = 0;
+    for (uint32_t f = 0; f < s->face_count; f++) loop_total += (size_t)m->faces[f].loop_count;
+    crisp_scene_loop *loops = crisp_calloc_array(loop_total ? loop_total : 1, sizeof *loops);
+    if (!loops) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim loops");
+    crisp_bezier_curve *all = NULL;
+    size_t piece_cap = 0;
+    uint32_t loop_count = 0, piece_count = 0;
+    crisp_status st = CRISP_OK;
+    for (uint32_t f = 0; f < s->face_count && !st; f++) {
+        const crisp_face *src = &m->faces[f];
+        crisp_scene_face *sf = &s->faces[f];
+        sf->first_loop = loop_count;
+        sf->loop_count = (uint32_t)src->loop_count;
+        sf->first_piece = piece_count;
+        for (int l = 0; l < src->loop_count && !st; l++) {
+            const crisp_trim_loop *loop = &src->loops[l];
+            crisp_scene_loop *sl = &loops[loop_count++];
+            sl->first_piece = piece_count;
+            sl->is_outer = loop->is_outer;
+            for (int c = 0; c < loop->curve_count && !st; c++) {
+                crisp_bezier_curve *pieces = NULL;
+                int n = 0;
+                if ((st = crisp_curve_to_bezier(loop->curves[c], &pieces, &n))) {
+                    crisp_error_prefix("face %u (source entity %d), loop %d, curve %d", f,
+                                       src->source_id, l, c);
+                    break;
+                }
+                st = crisp_grow((void **)&all, &piece_cap, (size_t)piece_count + (size_t)n, sizeof *all);
+                if (!st) {
+                    memcpy(all + piece_count, pieces, (size_t)n * sizeof *pieces);
+                    piece_count += (uint32_t)n;
+                }
+                crisp_free(pieces);
+            }
+            sl->piece_count = piece_count - sl->first_piece;
+        }
+        sf->piece_count = piece_count - sf->first_piece;
+    }
+    if (st) {
+        free(loops);
+        free(all);
+        return st;
+    }
+    free(s->loops);
+    free(s->pieces);
+    s->loops = loops;
+    s->pieces = all;
+    s->loop_count = loop_count;
+    s->piece_count = piece_count;
+    return CRISP_OK;
+}
+
+crisp_status crisp_scene_update_trim(crisp_scene *s, uint32_t face)
+{
+    if (face >= s->face_count)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", face, s->face_count);
+    return extract_pieces(s);
 }
 
 crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
@@ -171,7 +272,7 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
     s->faces = crisp_calloc_array(s->face_count, sizeof *s->faces);
     s->face_patches = crisp_calloc_array(s->face_count, sizeof *s->face_patches);
     if (!s->faces || !s->face_patches) goto oom;
-    size_t patch_total = 0, loop_total = 0;
+    size_t patch_total = 0;
     for (uint32_t f = 0; f < s->face_count; f++) {
         const crisp_face *src = &m->faces[f];
         if ((st = crisp_surface_to_bezier(src->surface, &s->face_patches[f]))) {
@@ -179,16 +280,13 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
             goto fail;
         }
         patch_total += (size_t)s->face_patches[f].count;
-        loop_total += (size_t)src->loop_count;
     }
     if (patch_total > UINT32_MAX / 2) {
         st = crisp_error(CRISP_ERR_LIMIT, "%zu Bézier patches: too many", patch_total);
         goto fail;
     }
     s->patches = crisp_calloc_array(patch_total, sizeof *s->patches);
-    s->loops = crisp_calloc_array(loop_total, sizeof *s->loops);
-    if (!s->patches || !s->loops) goto oom;
-    size_t piece_cap = 0;
+    if (!s->patches) goto oom;
     for (int k = 0; k < 3; k++) {
         s->box[k] = INFINITY;
         s->box[k + 3] = -INFINITY;
@@ -219,37 +317,9 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
             p->iv = sf->grid_u ? k / sf->grid_u : 0;
             patch_box(&p->bez, 0, p->box);
         }
-        sf->first_loop = s->loop_count;
-        sf->loop_count = (uint32_t)src->loop_count;
-        sf->first_piece = s->piece_count;
-        for (int l = 0; l < src->loop_count; l++) {
-            const crisp_trim_loop *loop = &src->loops[l];
-            crisp_scene_loop *sl = &s->loops[s->loop_count++];
-            sl->first_piece = s->piece_count;
-            sl->is_outer = loop->is_outer;
-            for (int c = 0; c < loop->curve_count; c++) {
-                crisp_bezier_curve *pieces = NULL;
-                int n = 0;
-                if ((st = crisp_curve_to_bezier(loop->curves[c], &pieces, &n))) {
-                    crisp_error_prefix("face %u (source entity %d), loop %d, curve %d", f,
-                                       src->source_id, l, c);
-                    goto fail;
-                }
-                st = crisp_grow((void **)&s->pieces, &piece_cap, (size_t)s->piece_count + (size_t)n,
-                                sizeof *s->pieces);
-                if (st) {
-                    crisp_free(pieces);
-                    goto fail;
-                }
-                memcpy(s->pieces + s->piece_count, pieces, (size_t)n * sizeof *pieces);
-                s->piece_count += (uint32_t)n;
-                crisp_free(pieces);
-            }
-            sl->piece_count = s->piece_count - sl->first_piece;
-        }
-        sf->piece_count = s->piece_count - sf->first_piece;
-        face_framing_box(s, sf, s->box);
     }
+    if ((st = flatten_control_points(s)) || (st = extract_pieces(s))) goto fail;
+    for (uint32_t f = 0; f < s->face_count; f++) face_framing_box(s, &s->faces[f], s->box);
     *dest = s;
     return CRISP_OK;
 oom:

@@ -13,7 +13,7 @@
  * the edge: it places its edge vertices uniformly at the finest density any leaf touching the edge
  * asks for, with a count that is a multiple of 2^(depth difference), so every finer leaf along the
  * edge takes an equal share of those vertices. Both sides then place the same vertices. */
-#include "plan.h"
+#include "quadtree.h"
 #include "render_internal.h"
 
 #include <math.h>
@@ -49,43 +49,48 @@ static int outside_frustum(const crisp_bezier_patch *p, crisp_mat4 m, double gx,
 /* ---- pass 1: per-patch quadtrees ------------------------------------------------------------ */
 
 typedef struct tree_ctx {
-    crisp_plan *plan;
+    crisp__trees *plan;
     const crisp_scene *sc;
+    const uint32_t *redo; /* NULL: every patch; else the patches to rebuild */
+    const uint8_t *mode;  /* per patch (patch groups), used when redo is NULL */
     crisp_slefe_view view;
     double eps, gx, gy;
 } tree_ctx;
 
 typedef struct build_state {
     const tree_ctx *c;
-    crisp_patch_plan *pp;
+    crisp__patch_tree *pp;
     const crisp_bezier_patch *root;
+    uint32_t patch;
     crisp_arena *arena;
     double storage[2][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4 * 2];
     size_t node_cap, leaf_cap;
+    const crisp__forced *forced; /* this patch's forced splits */
+    size_t forced_count;
     crisp_status st;
 } build_state;
 
 static int32_t push_node(build_state *b)
 {
-    crisp_patch_plan *pp = b->pp;
+    crisp__patch_tree *pp = b->pp;
     if (pp->node_count == b->node_cap) {
         size_t cap = b->node_cap ? 2 * b->node_cap : 8;
-        crisp_plan_node *n = crisp_arena_alloc(b->arena, cap, sizeof *n);
+        crisp__node *n = crisp_arena_alloc(b->arena, cap, sizeof *n);
         if (!n) return -1;
         if (pp->node_count) memcpy(n, pp->nodes, pp->node_count * sizeof *n);
         pp->nodes = n;
         b->node_cap = cap;
     }
-    pp->nodes[pp->node_count] = (crisp_plan_node){-1, -1};
+    pp->nodes[pp->node_count] = (crisp__node){-1, -1};
     return (int32_t)pp->node_count++;
 }
 
-static int32_t push_leaf(build_state *b, const crisp_plan_leaf *leaf)
+static int32_t push_leaf(build_state *b, const crisp__cell *leaf)
 {
-    crisp_patch_plan *pp = b->pp;
+    crisp__patch_tree *pp = b->pp;
     if (pp->leaf_count == b->leaf_cap) {
         size_t cap = b->leaf_cap ? 2 * b->leaf_cap : 4;
-        crisp_plan_leaf *n = crisp_arena_alloc(b->arena, cap, sizeof *n);
+        crisp__cell *n = crisp_arena_alloc(b->arena, cap, sizeof *n);
         if (!n) return -1;
         if (pp->leaf_count) memcpy(n, pp->leaves, pp->leaf_count * sizeof *n);
         pp->leaves = n;
@@ -95,19 +100,117 @@ static int32_t push_leaf(build_state *b, const crisp_plan_leaf *leaf)
     return (int32_t)pp->leaf_count++;
 }
 
-/* Classify cell (depth, ix, iy) of the patch; node is its tree node. */
-static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy)
+/* 1 when the sub-patch's control hull, wholly in front of the eye, spans more than
+ * CRISP_PLAN_MAX_LEAF_PX on screen in x or y: the leaf is split so that float local parameters
+ * inside one leaf keep sub-pixel precision on a GPU (include/crisp/plan.h). */
+static int too_large_on_screen(const crisp_bezier_patch *p, crisp_mat4 m, int width, int height)
+{
+    int n = (p->du + 1) * (p->dv + 1);
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int i = 0; i < n; i++) {
+        const double *c = p->cpw + 4 * i;
+        double x = m[0][0] * c[0] + m[1][0] * c[1] + m[2][0] * c[2] + m[3][0] * c[3];
+        double y = m[0][1] * c[0] + m[1][1] * c[1] + m[2][1] * c[2] + m[3][1] * c[3];
+        double w = m[0][3] * c[0] + m[1][3] * c[1] + m[2][3] * c[2] + m[3][3] * c[3];
+        if (!(w > 0)) return 0;
+        lo[0] = fmin(lo[0], x / w), hi[0] = fmax(hi[0], x / w);
+        lo[1] = fmin(lo[1], y / w), hi[1] = fmax(hi[1], y / w);
+    }
+    return (hi[0] - lo[0]) * 0.5 * width > CRISP_PLAN_MAX_LEAF_PX ||
+           (hi[1] - lo[1]) * 0.5 * height > CRISP_PLAN_MAX_LEAF_PX;
+}
+
+/* Largest screen extent in pixels (max of the x and y extents) of the sub-patch's projected
+ * control hull; INFINITY when the hull reaches W <= 0. The sub-patch and every triangle with its
+ * vertices on it lie inside the hull (convex hull property; W > 0 over the hull), so a hull at
+ * most eps pixels across is drawn within eps by any tessellation: tau = 1 suffices. */
+static double hull_extent_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, int height)
+{
+    int n = (p->du + 1) * (p->dv + 1);
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int i = 0; i < n; i++) {
+        const double *c = p->cpw + 4 * i;
+        double x = m[0][0] * c[0] + m[1][0] * c[1] + m[2][0] * c[2] + m[3][0] * c[3];
+        double y = m[0][1] * c[0] + m[1][1] * c[1] + m[2][1] * c[2] + m[3][1] * c[3];
+        double w = m[0][3] * c[0] + m[1][3] * c[1] + m[2][3] * c[2] + m[3][3] * c[3];
+        if (!(w > 0)) return INFINITY;
+        lo[0] = fmin(lo[0], x / w), hi[0] = fmax(hi[0], x / w);
+        lo[1] = fmin(lo[1], y / w), hi[1] = fmax(hi[1], y / w);
+    }
+    /* A relative allowance for the rounding of the projection. */
+    double e = fmax((hi[0] - lo[0]) * 0.5 * width, (hi[1] - lo[1]) * 0.5 * height);
+    return e * (1 + 1e-9) + 1e-9;
+}
+
+static int forced_cmp(const crisp__forced *a, const crisp__forced *b)
+{
+    if (a->patch != b->patch) return a->patch < b->patch ? -1 : 1;
+    if (a->depth != b->depth) return a->depth < b->depth ? -1 : 1;
+    if (a->iy != b->iy) return a->iy < b->iy ? -1 : 1;
+    if (a->ix != b->ix) return a->ix < b->ix ? -1 : 1;
+    return 0;
+}
+
+static int forced_qsort_cmp(const void *a, const void *b)
+{
+    return forced_cmp(a, b);
+}
+
+/* First forced split of `patch` or later (binary search). */
+static size_t forced_lower(const crisp__forced *f, size_t n, const crisp__forced *key)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (forced_cmp(&f[mid], key) < 0) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
+}
+
+static int is_forced(const build_state *b, uint32_t patch, int depth, int ix, int iy)
+{
+    if (!b->forced_count) return 0;
+    crisp__forced key = {patch, (uint32_t)depth, (uint32_t)ix, (uint32_t)iy};
+    size_t k = forced_lower(b->forced, b->forced_count, &key);
+    return k < b->forced_count && !forced_cmp(&b->forced[k], &key);
+}
+
+/* Classify cell (depth, ix, iy) of the patch; node is its tree node. box: an ancestor chose to
+ * split until the pieces' hulls are within eps (no SLEFE is formed below it). */
+static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, int box)
 {
     if (b->st) return;
     const tree_ctx *c = b->c;
     double sz = ldexp(1.0, -depth);
     crisp_bezier_patch sub;
     crisp__subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, b->storage[0], b->storage[1], &sub);
-    crisp_plan_leaf leaf = {.ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
+    crisp__cell leaf = {.ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
     int split = 0;
     if (!outside_frustum(&sub, c->plan->view_proj, c->gx, c->gy)) {
         int tau = 0;
-        crisp_status st = crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
+        /* Small on screen (issue 12): a hull within eps needs no SLEFE (tau 1, see
+         * hull_extent_px). */
+        double hull = hull_extent_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height);
+        int box_split = box && hull > c->eps && depth < c->plan->max_depth;
+        crisp_status st = hull <= c->eps || box_split
+                              ? CRISP_OK
+                              : crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
+        if (hull <= c->eps) tau = 1;
+        if (box_split) {
+            st = CRISP_ERR_NUMERIC; /* split again (below) */
+        } else if (!st && tau > 1 && tau <= CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth && isfinite(hull)) {
+            /* Where the SLEFE bound asks for more triangles than splitting until the pieces'
+             * hulls are within eps would give (about 2 * 4^k for k halvings: the hull shrinks
+             * about 2x per halving), split instead; each child decides again. Loose screen
+             * bounds of small rational patches seen off axis made 1-2 px patches ask for tau
+             * 10-24 (impeller x 49). */
+            int k = (int)ceil(log2(hull / c->eps));
+            if (k < 8 && 2.0 * ldexp(1.0, 2 * k) < 0.5 * 2.0 * tau * tau) {
+                st = CRISP_ERR_NUMERIC;
+                box = 1;
+            }
+        }
         if (st == CRISP_ERR_NUMERIC) {
             /* The sub-patch reaches the eye plane: split, and at the depth limit drop what is
              * left (a sliver of 2^-max_depth of the patch at the eye). */
@@ -126,6 +229,10 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy)
                 }
                 leaf.tau = (uint16_t)tau;
                 leaf.culled = 0;
+                if (depth < c->plan->max_depth &&
+                    (too_large_on_screen(&sub, c->plan->view_proj, c->plan->width, c->plan->height) ||
+                     is_forced(b, b->patch, depth, ix, iy)))
+                    split = 1;
             }
         }
     }
@@ -148,26 +255,47 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy)
         if (k == 0) first = ch;
     }
     b->pp->nodes[node].child = first;
-    for (int k = 0; k < 4; k++) build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1));
+    for (int k = 0; k < 4; k++) build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), box);
 }
 
 static void build_trees(void *vctx, size_t begin, size_t end, int worker)
 {
     tree_ctx *c = vctx;
-    crisp_plan *plan = c->plan;
+    crisp__trees *plan = c->plan;
     build_state *b = plan->build_state[worker];
-    for (size_t p = begin; p < end; p++) {
-        crisp_patch_plan *pp = &plan->patches[p];
-        *pp = (crisp_patch_plan){0};
+    for (size_t i = begin; i < end; i++) {
+        size_t p = c->redo ? c->redo[i] : i;
+        crisp__patch_tree *pp = &plan->patches[p];
+        *pp = (crisp__patch_tree){0};
         b->c = c;
         b->pp = pp;
         b->root = &c->sc->patches[p].bez;
+        b->patch = (uint32_t)p;
+        b->forced = NULL;
+        b->forced_count = 0;
+        if (plan->forced_count) {
+            crisp__forced key = {(uint32_t)p, 0, 0, 0}, end_key = {(uint32_t)p + 1, 0, 0, 0};
+            size_t k0 = forced_lower(plan->forced, plan->forced_count, &key);
+            size_t k1 = forced_lower(plan->forced, plan->forced_count, &end_key);
+            b->forced = plan->forced + k0;
+            b->forced_count = k1 - k0;
+        }
         b->arena = plan->arenas[worker];
         b->node_cap = b->leaf_cap = 0;
         b->st = CRISP_OK;
         int32_t root = push_node(b);
-        if (root < 0) b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
-        else build_cell(b, root, 0, 0, 0);
+        uint8_t mode = !c->redo && c->mode ? c->mode[p] : CRISP__PATCH_OPEN;
+        if (root < 0) {
+            b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
+        } else if (mode != CRISP__PATCH_OPEN) {
+            /* Decided by its group: outside the frustum, or within eps on screen (tau 1). */
+            crisp__cell leaf = {.tau = 1, .culled = mode == CRISP__PATCH_CULLED};
+            int32_t li = push_leaf(b, &leaf);
+            if (li < 0) b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
+            else pp->nodes[root].leaf = li;
+        } else {
+            build_cell(b, root, 0, 0, 0, 0);
+        }
         if (b->st) plan->worker_status[worker] = b->st;
         for (uint32_t l = 0; l < pp->leaf_count; l++) pp->visible_leaves += !pp->leaves[l].culled;
     }
@@ -178,8 +306,8 @@ static void build_trees(void *vctx, size_t begin, size_t end, int worker)
 /* Leaves of `pp` inside cell (depth, ix, iy) touching the cell's side `side` (0: t = 0, 1: s = 1,
  * 2: t = 1, 3: s = 0), or the single coarser-or-equal leaf containing the cell. Returns the count
  * written (at most cap; more are counted in *total). */
-static int leaves_at(const crisp_patch_plan *pp, int depth, uint32_t ix, uint32_t iy, int side,
-                     const crisp_plan_leaf **out, int cap, int *total)
+static int leaves_at(const crisp__patch_tree *pp, int depth, uint32_t ix, uint32_t iy, int side,
+                     const crisp__cell **out, int cap, int *total)
 {
     *total = 0;
     if (!pp->node_count) return 0;
@@ -216,8 +344,8 @@ static int leaves_at(const crisp_patch_plan *pp, int depth, uint32_t ix, uint32_
 }
 
 /* The leaves across side `side` of leaf L of patch p (same patch or the face's neighbour patch). */
-static int across(const crisp_plan *plan, const crisp_scene *sc, uint32_t p, const crisp_plan_leaf *L,
-                  int side, const crisp_plan_leaf **out, int cap, int *total)
+static int across(const crisp__trees *plan, const crisp_scene *sc, uint32_t p, const crisp__cell *L,
+                  int side, const crisp__cell **out, int cap, int *total)
 {
     int d = L->depth;
     uint32_t n = 1u << d;
@@ -242,7 +370,7 @@ static int across(const crisp_plan *plan, const crisp_scene *sc, uint32_t p, con
 }
 
 /* Level of the edge `side` of leaf L when L owns it (every leaf across is at least as fine). */
-static uint32_t owner_level(const crisp_plan_leaf *L, const crisp_plan_leaf *const *nb, int count)
+static uint32_t owner_level(const crisp__cell *L, const crisp__cell *const *nb, int count)
 {
     /* Vertex density in units of the finest depth: tau * 2^(dmax - d) per 2^-dmax of length. */
     int dmax = L->depth;
@@ -262,7 +390,7 @@ static uint32_t owner_level(const crisp_plan_leaf *L, const crisp_plan_leaf *con
 }
 
 typedef struct edge_ctx {
-    crisp_plan *plan;
+    crisp__trees *plan;
     const crisp_scene *sc;
 } edge_ctx;
 
@@ -271,17 +399,17 @@ static void edge_levels(void *vctx, size_t begin, size_t end, int worker)
     (void)worker;
     edge_ctx *c = vctx;
     enum { CAP = 256 };
-    const crisp_plan_leaf *nb[CAP], *back[CAP];
+    const crisp__cell *nb[CAP], *back[CAP];
     for (size_t p = begin; p < end; p++) {
-        crisp_patch_plan *pp = &c->plan->patches[p];
+        crisp__patch_tree *pp = &c->plan->patches[p];
         for (uint32_t l = 0; l < pp->leaf_count; l++) {
-            crisp_plan_leaf *L = &pp->leaves[l];
+            crisp__cell *L = &pp->leaves[l];
             if (L->culled) continue;
             for (int side = 0; side < 4; side++) {
                 int total, n = across(c->plan, c->sc, (uint32_t)p, L, side, nb, CAP, &total);
                 if (total == 1 && n == 1 && nb[0]->depth < L->depth) {
                     /* A coarser neighbour owns the edge: take this leaf's share of its level. */
-                    const crisp_plan_leaf *N = nb[0];
+                    const crisp__cell *N = nb[0];
                     int bt, bn = 0;
                     /* N's view across its side facing L: find N's patch by walking back. */
                     uint32_t q = (uint32_t)p;
@@ -313,17 +441,81 @@ static void edge_levels(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* ---- levels above the GL limit ------------------------------------------------------------
+ * The crack-free rule can give a coarse leaf next to much finer ones an edge level above
+ * CRISP_PLAN_MAX_LEVEL (64, GL's guaranteed tessellation limit). Such a leaf is split instead of
+ * clamped: its children's edges are half as long, so they need half the level. The split cells
+ * are recorded as forced, their patches' trees rebuilt, and the edge levels recomputed, until no
+ * level is above the limit (or the depth limit stops the splitting: then the level is clamped and
+ * the leaf counted as unresolved). */
+static crisp_status split_high_levels(crisp__trees *plan, const crisp_scene *sc, tree_ctx *tc,
+                                      crisp_pool *pool, uint32_t *splits)
+{
+    plan->forced_count = 0;
+    for (int round = 0; round < 2 * CRISP_PLAN_MAX_DEPTH; round++) {
+        size_t added = 0, redo = 0;
+        for (uint32_t p = 0; p < sc->patch_count; p++) {
+            const crisp__patch_tree *pp = &plan->patches[p];
+            int marked = 0;
+            for (uint32_t l = 0; l < pp->leaf_count; l++) {
+                const crisp__cell *L = &pp->leaves[l];
+                if (L->culled || L->depth >= plan->max_depth) continue;
+                if (L->edge[0] <= CRISP_PLAN_MAX_LEVEL && L->edge[1] <= CRISP_PLAN_MAX_LEVEL &&
+                    L->edge[2] <= CRISP_PLAN_MAX_LEVEL && L->edge[3] <= CRISP_PLAN_MAX_LEVEL)
+                    continue;
+                crisp_status st = crisp_grow((void **)&plan->forced, &plan->forced_cap,
+                                             plan->forced_count + 1, sizeof *plan->forced);
+                if (st) return st;
+                plan->forced[plan->forced_count++] = (crisp__forced){p, L->depth, L->ix, L->iy};
+                added++;
+                if (!marked) {
+                    if ((st = crisp_grow((void **)&plan->redo, &plan->redo_cap, redo + 1, sizeof *plan->redo)))
+                        return st;
+                    plan->redo[redo++] = p;
+                    marked = 1;
+                }
+            }
+        }
+        if (!added) break;
+        *splits += (uint32_t)added;
+        qsort(plan->forced, plan->forced_count, sizeof *plan->forced, forced_qsort_cmp);
+        tc->redo = plan->redo;
+        crisp_pool_parallel_for(pool, redo, 4, build_trees, tc);
+        tc->redo = NULL;
+        for (int w = 0; w < plan->worker_cap; w++)
+            if (plan->worker_status[w]) return plan->worker_status[w];
+        edge_ctx ec = {plan, sc};
+        crisp_pool_parallel_for(pool, sc->patch_count, 16, edge_levels, &ec);
+    }
+    /* What is left above the limit sits at the depth limit. */
+    for (uint32_t p = 0; p < sc->patch_count; p++) {
+        crisp__patch_tree *pp = &plan->patches[p];
+        for (uint32_t l = 0; l < pp->leaf_count; l++)
+            for (int k = 0; k < 4; k++)
+                if (pp->leaves[l].edge[k] > CRISP_PLAN_MAX_LEVEL) {
+                    pp->leaves[l].edge[k] = CRISP_PLAN_MAX_LEVEL;
+                    pp->unresolved++;
+                }
+    }
+    return CRISP_OK;
+}
+
 /* ---- the plan ---------------------------------------------------------------------------------- */
 
-crisp_status crisp_plan_create(crisp_plan **dest)
+crisp_status crisp__trees_create(crisp__trees **dest)
 {
-    crisp_plan *p = calloc(1, sizeof *p);
+    crisp__trees *p = calloc(1, sizeof *p);
     if (!p) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating a frame plan");
+    crisp_status st = crisp__groups_create(&p->groups);
+    if (st) {
+        free(p);
+        return st;
+    }
     *dest = p;
     return CRISP_OK;
 }
 
-void crisp_plan_destroy(crisp_plan *p)
+void crisp__trees_destroy(crisp__trees *p)
 {
     if (!p) return;
     for (int w = 0; w < p->worker_cap; w++) {
@@ -334,13 +526,17 @@ void crisp_plan_destroy(crisp_plan *p)
     free(p->build_state);
     free(p->worker_status);
     free(p->patches);
+    free(p->forced);
+    free(p->redo);
+    crisp__groups_destroy(p->groups);
+    free(p->patch_mode);
     for (uint32_t f = 0; f < p->face_cap; f++) crisp_trim_plan_free(&p->trims[f]);
     free(p->trims);
     free(p->face_tau);
     free(p);
 }
 
-static crisp_status ensure_workers(crisp_plan *p, int workers)
+static crisp_status ensure_workers(crisp__trees *p, int workers)
 {
     if (workers <= p->worker_cap) return CRISP_OK;
     crisp_arena **a = realloc(p->arenas, (size_t)workers * sizeof *a);
@@ -369,7 +565,7 @@ static crisp_status ensure_workers(crisp_plan *p, int workers)
 }
 
 typedef struct trim_ctx {
-    crisp_plan *plan;
+    crisp__trees *plan;
     const crisp_scene *sc;
     int strip_count;
     crisp_status *status;
@@ -407,8 +603,8 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
-crisp_status crisp_plan_frame(crisp_plan *plan, const crisp_scene *sc, const crisp_camera *cam,
-                              const crisp_plan_desc *desc, crisp_pool *pool)
+crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const crisp_camera *cam,
+                              const crisp__trees_desc *desc, crisp_pool *pool)
 {
     crisp_status st = crisp_camera_check(cam);
     if (st) return st;
@@ -438,6 +634,7 @@ crisp_status crisp_plan_frame(crisp_plan *plan, const crisp_scene *sc, const cri
     plan->width = cam->width;
     plan->height = cam->height;
     plan->max_depth = desc && desc->max_depth > 0 ? desc->max_depth : CRISP_PLAN_MAX_DEPTH;
+    plan->forced_count = 0;
     if (plan->max_depth > CRISP_PLAN_MAX_DEPTH) plan->max_depth = CRISP_PLAN_MAX_DEPTH;
     double eps = desc && desc->eps_px > 0 ? desc->eps_px : 0.5;
 
@@ -448,6 +645,12 @@ crisp_status crisp_plan_frame(crisp_plan *plan, const crisp_scene *sc, const cri
     /* Cull against the frustum widened by 2 px so patches touching the border keep their edges. */
     tc.gx = 1 + 4.0 / cam->width;
     tc.gy = 1 + 4.0 / cam->height;
+    if ((st = crisp_grow((void **)&plan->patch_mode, &plan->mode_cap, sc->patch_count ? sc->patch_count : 1,
+                         sizeof *plan->patch_mode)) ||
+        (st = crisp__groups_classify(plan->groups, sc, plan->view_proj, cam->width, cam->height, tc.gx, tc.gy, eps,
+                                     pool, plan->patch_mode)))
+        return st;
+    tc.mode = plan->patch_mode;
     crisp_pool_parallel_for(pool, sc->patch_count, 16, build_trees, &tc);
     for (int w = 0; w < workers; w++)
         if (plan->worker_status[w]) return plan->worker_status[w];
@@ -455,14 +658,16 @@ crisp_status crisp_plan_frame(crisp_plan *plan, const crisp_scene *sc, const cri
 
     edge_ctx ec = {plan, sc};
     crisp_pool_parallel_for(pool, sc->patch_count, 16, edge_levels, &ec);
+    uint32_t level_splits = 0;
+    if ((st = split_high_levels(plan, sc, &tc, pool, &level_splits))) return st;
     double t2 = crisp_time_now();
 
     /* Faces with a visible leaf get a trim plan. */
     memset(plan->face_tau, 0, sc->face_count * sizeof *plan->face_tau);
     crisp_plan_stats *s = &plan->stats;
-    *s = (crisp_plan_stats){.patches = sc->patch_count};
+    *s = (crisp_plan_stats){.patches = sc->patch_count, .level_splits = level_splits};
     for (uint32_t p = 0; p < sc->patch_count; p++) {
-        const crisp_patch_plan *pp = &plan->patches[p];
+        const crisp__patch_tree *pp = &plan->patches[p];
         s->leaves += pp->leaf_count;
         s->unresolved += pp->unresolved;
         if (!pp->visible_leaves) continue;
@@ -489,4 +694,16 @@ crisp_status crisp_plan_frame(crisp_plan *plan, const crisp_scene *sc, const cri
     s->ms_edges = 1e3 * (t2 - t1);
     s->ms_trim = 1e3 * (t3 - t2);
     return CRISP_OK;
+}
+
+crisp_status crisp__trees_replan_trim(crisp__trees *plan, const crisp_scene *sc, uint32_t f,
+                                      int strip_count)
+{
+    if (f >= sc->face_count || f >= plan->face_cap)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", f, sc->face_count);
+    if (!plan->face_tau[f]) return CRISP_OK; /* not visible: nothing to plan */
+    crisp_status status = CRISP_OK;
+    trim_ctx trc = {plan, sc, strip_count, &status};
+    plan_trims(&trc, f, f + 1, 0);
+    return status;
 }

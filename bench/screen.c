@@ -1,0 +1,293 @@
+/* bench_screen: does a frame's cost follow the screen or the model? (issue 12)
+ *
+ * Scenes:
+ *   gen50    a generated model: 20 trimmed bicubic B-spline faces (5 x 4 grid of wavy sheets,
+ *            each 50 x 50 uniform knot spans = 2,500 Bézier patches, trimmed by an outer circle
+ *            and a circular hole): 50,000 patches
+ *   gen100   the same shape with a knot inserted in the middle of every span in u and v (exactly
+ *            the same surfaces): 100 x 100 spans per face, 200,000 patches
+ *   imp49    impeller.igs instanced 7 x 7 times in a grid (>= 200,000 patches)
+ *   imp      impeller.igs alone (the reference for imp49)
+ * Cameras (1920x1080):
+ *   default  crisp_camera_frame_box of the scene
+ *   close    a close-up on the middle of the model filling the screen
+ *   far      the default view from 12x the distance (the instances shrink to a few pixels)
+ *
+ * Each row runs in a child process (fork) so that its peak memory is its own: the peak resident
+ * size (VmHWM) is reset after the scene is prepared (/proc/self/clear_refs) and read after the
+ * frames; "scene MB" is the resident size before the frames (model + prepared scene). Warm frame
+ * = median of FRAMES crisp_render_cpu calls after one warm-up frame, on THREADS threads; plan =
+ * median of crisp_renderer_plan alone. tri/px = surface triangles per covered pixel.
+ *
+ * BENCH_SCREEN_PNG=folder writes each row's image there.
+ *
+ *   bench_screen [FRAMES] [THREADS] [ROWS...]     (defaults 3, 2, all rows; a row is e.g. gen50:far) */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "bench_util.h"
+#include "crisp/construct.h"
+#include "crisp/image.h"
+#include "crisp/io.h"
+#include "crisp/render.h"
+
+#define GRID_X 5
+#define GRID_Y 4
+#define SHEET 10.0 /* size of one face's square */
+#define GAP 0.5
+
+static void die(const char *what)
+{
+    fprintf(stderr, "bench_screen: %s: %s\n", what, crisp_error_message());
+    exit(1);
+}
+
+/* ---- the generated model ------------------------------------------------------------------------ */
+
+static double height(double x, double y, int face)
+{
+    double a = 0.6 + 0.1 * (face % 3);
+    return a * sin(0.9 * x + 0.3 * face) * cos(0.7 * y) + 0.25 * sin(2.3 * x + 1.7 * y);
+}
+
+/* A trim circle in (u, v) (dim 2) centred at (cx, cy), as two half arcs. */
+static void circle_loop(double cx, double cy, double r, int outer, crisp_trim_loop *loop)
+{
+    double c[2] = {cx, cy}, ex[2] = {1, 0}, ey[2] = {0, 1};
+    loop->is_outer = outer;
+    loop->curve_count = 2;
+    loop->curves = calloc(2, sizeof *loop->curves);
+    if (crisp_make_arc(2, c, ex, ey, r, r, 0, M_PI, &loop->curves[0]) ||
+        crisp_make_arc(2, c, ex, ey, r, r, M_PI, 2 * M_PI, &loop->curves[1]))
+        die("trim circle");
+}
+
+/* 20 faces of spans x spans bicubic knot spans; refine: insert every span's midpoint. */
+static crisp_model *generated(int spans, int refine)
+{
+    crisp_model *m;
+    if (crisp_model_create(&m)) die("model");
+    int n = spans + 3;
+    double *knots = malloc((size_t)(n + 4) * sizeof *knots);
+    double *pts = malloc((size_t)n * n * 3 * sizeof *pts);
+    for (int i = 0; i < n + 4; i++) knots[i] = i < 4 ? 0 : i >= n ? 1 : (double)(i - 3) / spans;
+    for (int fy = 0; fy < GRID_Y; fy++)
+        for (int fx = 0; fx < GRID_X; fx++) {
+            int f = fy * GRID_X + fx;
+            double x0 = fx * (SHEET + GAP), y0 = fy * (SHEET + GAP);
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    /* Greville abscissae: the control net samples the height field. */
+                    double gu = (knots[i + 1] + knots[i + 2] + knots[i + 3]) / 3;
+                    double gv = (knots[j + 1] + knots[j + 2] + knots[j + 3]) / 3;
+                    double x = x0 + gu * SHEET, y = y0 + gv * SHEET;
+                    double *p = pts + 3 * ((size_t)j * n + i);
+                    p[0] = x, p[1] = y, p[2] = height(x, y, f);
+                }
+            crisp_face face = {0};
+            if (crisp_surface_create(3, 3, n, n, knots, knots, pts, NULL, &face.surface)) die("surface");
+            if (refine)
+                for (int k = 0; k < spans; k++) {
+                    double mid = (k + 0.5) / spans;
+                    if (crisp_surface_insert_knot_u(face.surface, mid, 1) ||
+                        crisp_surface_insert_knot_v(face.surface, mid, 1))
+                        die("knot insertion");
+                }
+            face.loop_count = 2;
+            face.loops = calloc(2, sizeof *face.loops);
+            circle_loop(0.5, 0.5, 0.48, 1, &face.loops[0]);
+            circle_loop(0.45 + 0.02 * (f % 5), 0.5, 0.12 + 0.01 * (f % 4), 0, &face.loops[1]);
+            if (crisp_face_normalize_loops(&face, 1e-9)) die("loops");
+            face.source_id = f;
+            if (crisp_model_add_face(m, &face)) die("add face");
+        }
+    free(knots);
+    free(pts);
+    return m;
+}
+
+static crisp_model *instanced(const char *name, int nx, int ny)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
+    crisp_model *src = NULL, *m;
+    if (crisp_model_load(path, NULL, &src)) die(path);
+    if (nx * ny == 1) return src;
+    if (crisp_model_create(&m)) die("model");
+    double box[6];
+    crisp_model_bbox(src, box);
+    double sx = 1.1 * (box[3] - box[0]), sy = 1.1 * (box[4] - box[1]);
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++)
+            for (int f = 0; f < src->face_count; f++) {
+                crisp_face face;
+                if (crisp_face_copy(&src->faces[f], &face)) die("face copy");
+                const double t[3][4] = {{1, 0, 0, i * sx}, {0, 1, 0, j * sy}, {0, 0, 1, 0}};
+                crisp_face_transform(&face, t);
+                if (crisp_model_add_face(m, &face)) die("add face");
+            }
+    crisp_model_destroy(src);
+    return m;
+}
+
+/* ---- cameras ------------------------------------------------------------------------------------ */
+
+static crisp_camera camera(const crisp_scene *sc, const char *which)
+{
+    crisp_camera cam;
+    if (crisp_camera_frame_box(sc->box, 1920, 1080, &cam)) die("camera");
+    double d[3];
+    for (int k = 0; k < 3; k++) d[k] = cam.eye[k] - cam.target[k];
+    double dist = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!strcmp(which, "far")) {
+        for (int k = 0; k < 3; k++) cam.eye[k] = cam.target[k] + 12 * d[k];
+        cam.zfar = 14 * dist + (sc->box[5] - sc->box[2]);
+    } else if (!strcmp(which, "close")) {
+        /* Look down (-Z) at the middle of the model from 1/8 of the default distance, slightly
+         * tilted: the surfaces fill the screen. */
+        double cx = 0.5 * (sc->box[0] + sc->box[3]), cy = 0.5 * (sc->box[1] + sc->box[4]);
+        double h = 0.125 * dist;
+        cam.target[0] = cx, cam.target[1] = cy, cam.target[2] = sc->box[2];
+        cam.eye[0] = cx, cam.eye[1] = cy - 0.3 * h, cam.eye[2] = sc->box[5] + h;
+        cam.znear = 1e-3 * h;
+        cam.zfar = 4 * dist;
+    }
+    return cam;
+}
+
+/* ---- one row ------------------------------------------------------------------------------------ */
+
+static double status_kb(const char *key)
+{
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    double v = 0;
+    size_t n = strlen(key);
+    while (f && fgets(line, sizeof line, f))
+        if (!strncmp(line, key, n)) v = atof(line + n + 1);
+    if (f) fclose(f);
+    return v;
+}
+
+static void reset_peak(void)
+{
+    FILE *f = fopen("/proc/self/clear_refs", "w");
+    if (f) {
+        fputs("5", f);
+        fclose(f);
+    }
+}
+
+static crisp_model *scene_model(const char *name)
+{
+    if (!strcmp(name, "gen50")) return generated(50, 0);
+    if (!strcmp(name, "gen100")) return generated(50, 1);
+    if (!strcmp(name, "imp49")) return instanced("impeller.igs", 7, 7);
+    if (!strcmp(name, "imp")) return instanced("impeller.igs", 1, 1);
+    fprintf(stderr, "bench_screen: unknown scene %s\n", name);
+    exit(1);
+}
+
+static void row(const char *scene_name, const char *cam_name, int frames, int threads)
+{
+    crisp_model *m = scene_model(scene_name);
+    crisp_scene *sc;
+    if (crisp_scene_prepare(m, &sc)) die("prepare");
+    crisp_camera cam = camera(sc, cam_name);
+    crisp_renderer *r;
+    if (crisp_renderer_create(&(crisp_render_desc){.threads = threads}, &r)) die("renderer");
+    crisp_image img;
+    if (crisp_image_init(&img, cam.width, cam.height)) die("image");
+    double scene_kb = status_kb("VmRSS:");
+    reset_peak();
+    double *tf = calloc((size_t)frames, sizeof *tf), *tp = calloc((size_t)frames, sizeof *tp);
+    double *tt = calloc((size_t)frames, sizeof *tt), *tr = calloc((size_t)frames, sizeof *tr);
+    crisp_render_stats st = {0};
+    for (int f = -1; f < frames; f++) {
+        double a = crisp_time_now();
+        if (crisp_render_cpu(r, sc, &cam, &img, &st)) die("render");
+        double b = crisp_time_now();
+        if (f < 0) continue;
+        tf[f] = 1e3 * (b - a);
+        tt[f] = st.ms_tess;
+        tr[f] = st.ms_raster;
+    }
+    for (int f = 0; f < frames; f++) {
+        double a = crisp_time_now();
+        if (crisp_renderer_plan(r, sc, &cam, NULL)) die("plan");
+        tp[f] = 1e3 * (crisp_time_now() - a);
+    }
+    double peak_kb = status_kb("VmHWM:");
+    size_t covered = 0;
+    for (size_t p = 0; p < (size_t)img.width * img.height; p++) covered += img.face[p] >= 0;
+    double frame_mb = (peak_kb - scene_kb) / 1024;
+    const char *png = getenv("BENCH_SCREEN_PNG"); /* a folder: look at what each row draws */
+    if (png) {
+        char path[1200];
+        snprintf(path, sizeof path, "%s/%s_%s.png", png, scene_name, cam_name);
+        uint8_t *rgba = malloc((size_t)img.width * img.height * 4);
+        for (size_t k = 0; k < (size_t)img.width * img.height * 4; k++)
+            rgba[k] = (uint8_t)lrint(255 * fmin(1, fmax(0, img.rgba[k])));
+        if (crisp_write_png_rgba(path, img.width, img.height, rgba)) die(path);
+        free(rgba);
+    }
+    printf("| %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f |\n",
+           scene_name, cam_name, sc->patch_count, bench_median(tf, frames), bench_median(tp, frames),
+           bench_median(tt, frames), bench_median(tr, frames), (unsigned long long)st.triangles, covered,
+           covered ? (double)st.triangles / covered : 0.0, peak_kb / 1024, frame_mb,
+           peak_kb * 1024 / sc->patch_count, st.triangles ? frame_mb * 1048576 / st.triangles : 0.0);
+    fflush(stdout);
+    free(tf), free(tp), free(tt), free(tr);
+    crisp_image_free(&img);
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
+static double loadavg(void)
+{
+    double l = -1;
+    FILE *f = fopen("/proc/loadavg", "r");
+    if (f && fscanf(f, "%lf", &l) != 1) l = -1;
+    if (f) fclose(f);
+    return l;
+}
+
+int main(int argc, char **argv)
+{
+    int frames = argc > 1 ? atoi(argv[1]) : 3;
+    int threads = argc > 2 ? atoi(argv[2]) : 2;
+    if (frames < 1) frames = 1;
+    static const char *rows[][2] = {{"gen50", "default"}, {"gen100", "default"}, {"gen50", "close"},
+                                    {"gen100", "close"},  {"gen50", "far"},      {"gen100", "far"},
+                                    {"imp", "default"},   {"imp49", "default"},  {"imp49", "close"},
+                                    {"imp49", "far"}};
+    bench_print_machine(stdout);
+    printf("load average at start %.2f; 1920x1080, %d threads, median of %d warm frames\n\n",
+           loadavg(), threads, frames);
+    printf("| scene | camera | patches | frame ms | plan ms | tess ms | raster ms | triangles | covered px | "
+           "tri/px | peak MB | frame MB | peak B/patch | frame B/tri |\n");
+    printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    fflush(stdout);
+    for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
+        char key[64];
+        snprintf(key, sizeof key, "%s:%s", rows[k][0], rows[k][1]);
+        int wanted = argc <= 3;
+        for (int a = 3; a < argc; a++) wanted |= !strcmp(argv[a], key);
+        if (!wanted) continue;
+        pid_t pid = fork();
+        if (pid == 0) {
+            row(rows[k][0], rows[k][1], frames, threads);
+            _exit(0);
+        }
+        int status = 0;
+        waitpid(pid, &status, 0);
+        if (!WIFEXITED(status) || WEXITSTATUS(status)) printf("| %s | %s | failed |\n", rows[k][0], rows[k][1]);
+    }
+    printf("\nload average at the end %.2f\n", loadavg());
+    return 0;
+}

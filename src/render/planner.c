@@ -1,0 +1,368 @@
+/* The public frame planner (include/crisp/plan.h): runs the per-patch quadtrees and trim plans
+ * (quadtree.c) and the ribbons (ribbon.c), then lays their results out as the flat, read-only
+ * arrays every backend takes: visible leaves grouped by face, a record per face, the faces' trim
+ * tables concatenated (strips, rows, crossings), the ribbon quads. Buffers are kept from frame to
+ * frame; each array's version is bumped only when its bytes changed, so a GPU backend uploads only
+ * what changed (a trim edit with a still camera uploads one table, not the leaves). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/plan.h"
+#include "quadtree.h"
+#include "render_internal.h"
+#include "ribbon.h"
+
+struct crisp_planner {
+    crisp_planner_desc desc;
+    crisp_pool *pool;
+    crisp__trees *trees;
+    crisp__ribbons *ribbons;
+    crisp_frame_plan out;
+    crisp_plan_leaf *leaves;
+    size_t leaf_cap;
+    crisp_plan_face *faces;
+    size_t face_cap;
+    crisp_plan_strip *strips;
+    size_t strip_cap;
+    uint32_t *row_offset;
+    size_t row_cap;
+    double *crossings;
+    size_t crossing_cap;
+    crisp_plan_ribbon_vertex *ribbon_verts, *face_ribbon; /* all; one face's (replan) */
+    size_t ribbon_cap, face_ribbon_cap;
+    uint32_t *ribbon_first, *ribbon_quads; /* per face */
+    size_t ribbon_first_cap, ribbon_quads_cap;
+    int *strips_used; /* per face: the strip count of its last trim plan (replan keeps it) */
+    size_t strips_used_cap;
+    uint64_t hash[4]; /* leaves, faces, table, ribbons of the last plan */
+    const crisp_scene *scene;
+    int planned;
+};
+
+crisp_status crisp_planner_create(const crisp_planner_desc *desc, crisp_pool *pool, crisp_planner **dest)
+{
+    if (desc && (desc->eps_px < 0 || !(desc->eps_px == desc->eps_px)))
+        return crisp_error(CRISP_ERR_INVALID_ARG, "planner eps_px %g: expected > 0 (or 0 for 0.5)",
+                           desc->eps_px);
+    if (desc && (desc->strip_count < 0 || desc->strip_count > 65536))
+        return crisp_error(CRISP_ERR_INVALID_ARG, "planner strip_count %d: expected 0..65536",
+                           desc->strip_count);
+    crisp_planner *p = calloc(1, sizeof *p);
+    if (!p) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating a planner");
+    if (desc) p->desc = *desc;
+    p->pool = pool ? pool : crisp_pool_shared();
+    crisp_status st = crisp__trees_create(&p->trees);
+    if (!st) st = crisp__ribbons_create(crisp_pool_threads(p->pool), &p->ribbons);
+    if (st) {
+        crisp_planner_destroy(p);
+        return st;
+    }
+    *dest = p;
+    return CRISP_OK;
+}
+
+void crisp_planner_destroy(crisp_planner *p)
+{
+    if (!p) return;
+    crisp__trees_destroy(p->trees);
+    crisp__ribbons_destroy(p->ribbons);
+    free(p->leaves);
+    free(p->faces);
+    free(p->strips);
+    free(p->row_offset);
+    free(p->crossings);
+    free(p->ribbon_verts);
+    free(p->face_ribbon);
+    free(p->ribbon_first);
+    free(p->ribbon_quads);
+    free(p->strips_used);
+    free(p);
+}
+
+/* FNV-1a over 64-bit words (the arrays are multiples of 8 bytes, or padded by the caller). */
+static uint64_t hash_bytes(const void *data, size_t bytes)
+{
+    const unsigned char *b = data;
+    uint64_t h = 1469598103934665603ull;
+    size_t k = 0;
+    for (; k + 8 <= bytes; k += 8) {
+        uint64_t w;
+        memcpy(&w, b + k, 8);
+        h = (h ^ w) * 1099511628211ull;
+    }
+    for (; k < bytes; k++) h = (h ^ b[k]) * 1099511628211ull;
+    return h;
+}
+
+/* The visible leaves, face after face (patches are stored face after face), and the faces' leaf
+ * ranges and levels. */
+static crisp_status lay_out_leaves(crisp_planner *p, const crisp_scene *sc)
+{
+    const crisp__trees *t = p->trees;
+    size_t n = 0;
+    for (uint32_t q = 0; q < sc->patch_count; q++) n += t->patches[q].visible_leaves;
+    if (n > UINT32_MAX / 2) return crisp_error(CRISP_ERR_LIMIT, "%zu leaves in one frame: too many", n);
+    crisp_status st = crisp_grow((void **)&p->leaves, &p->leaf_cap, n ? n : 1, sizeof *p->leaves);
+    if (st) return st;
+    uint64_t triangles = 0;
+    size_t at = 0;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        const crisp_scene_face *sf = &sc->faces[f];
+        crisp_plan_face *pf = &p->faces[f];
+        pf->first_leaf = (uint32_t)at;
+        for (uint32_t q = sf->first_patch; q < sf->first_patch + sf->patch_count; q++) {
+            const crisp__patch_tree *pt = &t->patches[q];
+            if (!pt->visible_leaves) continue;
+            for (uint32_t l = 0; l < pt->leaf_count; l++) {
+                const crisp__cell *c = &pt->leaves[l];
+                if (c->culled) continue;
+                crisp_plan_leaf *L = &p->leaves[at++];
+                *L = (crisp_plan_leaf){.patch = q, .face = f, .depth = c->depth, .tau = c->tau,
+                                       .ix = c->ix, .iy = c->iy};
+                for (int k = 0; k < 4; k++) L->edge[k] = c->edge[k];
+                crisp_tess_levels lv = {{c->tau, c->tau}, {(int)c->edge[0], (int)c->edge[1], (int)c->edge[2], (int)c->edge[3]}};
+                size_t nv, nt;
+                if (!crisp_tess_mesh_counts(&lv, &nv, &nt)) triangles += nt;
+            }
+        }
+        pf->leaf_count = (uint32_t)at - pf->first_leaf;
+        pf->tau_max = t->face_tau[f];
+    }
+    p->out.leaf_count = (uint32_t)at;
+    p->out.stats.triangles = triangles;
+    return CRISP_OK;
+}
+
+/* Every visible face's trim table, concatenated: strips, rows (global offsets), crossings. */
+static crisp_status lay_out_tables(crisp_planner *p, const crisp_scene *sc)
+{
+    const crisp__trees *t = p->trees;
+    size_t strips = 0, rows = 0, crossings = 0;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        if (!t->face_tau[f]) continue;
+        const crisp_trim_table *tb = &t->trims[f].table;
+        if (tb->all_inside) continue;
+        strips += (size_t)tb->strip_count;
+        rows += tb->row_count;
+        crossings += tb->row_count ? tb->row_offset[tb->row_count] : 0;
+    }
+    if (rows >= UINT32_MAX || crossings >= UINT32_MAX || strips >= UINT32_MAX)
+        return crisp_error(CRISP_ERR_LIMIT, "trim tables of %zu rows and %zu crossings: too large", rows,
+                           crossings);
+    crisp_status st;
+    if ((st = crisp_grow((void **)&p->strips, &p->strip_cap, strips ? strips : 1, sizeof *p->strips)) ||
+        (st = crisp_grow((void **)&p->row_offset, &p->row_cap, rows + 1, sizeof *p->row_offset)) ||
+        (st = crisp_grow((void **)&p->crossings, &p->crossing_cap, crossings ? crossings : 1,
+                         sizeof *p->crossings)))
+        return st;
+    size_t s_at = 0, r_at = 0, c_at = 0;
+    p->row_offset[0] = 0;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        crisp_plan_face *pf = &p->faces[f];
+        pf->first_strip = (uint32_t)s_at;
+        pf->strip_count = 0;
+        pf->v0 = pf->v1 = pf->strip_scale = 0;
+        pf->flags = sc->faces[f].src->reversed ? CRISP_PLAN_FACE_REVERSED : 0;
+        if (!t->face_tau[f]) continue;
+        const crisp_trim_table *tb = &t->trims[f].table;
+        pf->flags |= CRISP_PLAN_FACE_VISIBLE;
+        pf->v0 = tb->v0;
+        pf->v1 = tb->v1;
+        pf->strip_scale = tb->strip_scale;
+        if (tb->all_inside) {
+            pf->flags |= CRISP_PLAN_FACE_ALL_INSIDE;
+            continue;
+        }
+        pf->strip_count = (uint32_t)tb->strip_count;
+        for (int i = 0; i < tb->strip_count; i++) {
+            crisp_plan_strip *ps = &p->strips[s_at++];
+            ps->a = tb->row_v[2 * i];
+            ps->row_scale = tb->row_scale[i];
+            ps->first_row = (uint32_t)r_at + tb->row_base[i];
+            ps->row_count = tb->row_base[i + 1] - tb->row_base[i];
+        }
+        uint32_t nc = tb->row_count ? tb->row_offset[tb->row_count] : 0;
+        for (uint32_t r = 0; r < tb->row_count; r++)
+            p->row_offset[r_at + r + 1] = (uint32_t)c_at + tb->row_offset[r + 1];
+        if (nc) memcpy(p->crossings + c_at, tb->u, nc * sizeof(double));
+        r_at += tb->row_count;
+        c_at += nc;
+    }
+    p->out.strip_count = (uint32_t)s_at;
+    p->out.row_count = (uint32_t)r_at;
+    p->out.crossing_count = (uint32_t)c_at;
+    return CRISP_OK;
+}
+
+static crisp_status ensure_faces(crisp_planner *p, uint32_t faces)
+{
+    crisp_status st;
+    size_t n = faces ? faces : 1;
+    if ((st = crisp_grow((void **)&p->faces, &p->face_cap, n, sizeof *p->faces)) ||
+        (st = crisp_grow((void **)&p->ribbon_first, &p->ribbon_first_cap, n, sizeof *p->ribbon_first)) ||
+        (st = crisp_grow((void **)&p->ribbon_quads, &p->ribbon_quads_cap, n, sizeof *p->ribbon_quads)) ||
+        (st = crisp_grow((void **)&p->strips_used, &p->strips_used_cap, n, sizeof *p->strips_used)))
+        return st;
+    return CRISP_OK;
+}
+
+/* Point the public plan at the arrays, set the ribbon ranges, and bump what changed. */
+static void publish(crisp_planner *p, const crisp_scene *sc)
+{
+    crisp_frame_plan *o = &p->out;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        p->faces[f].first_ribbon = p->ribbon_first[f];
+        p->faces[f].ribbon_count = p->trees->face_tau[f] ? p->ribbon_quads[f] : 0;
+        p->faces[f].pad[0] = p->faces[f].pad[1] = 0;
+    }
+    o->leaves = p->leaves;
+    o->faces = p->faces;
+    o->face_count = sc->face_count;
+    o->strips = p->strips;
+    o->row_offset = p->row_offset;
+    o->crossings = p->crossings;
+    o->ribbon_vertices = p->ribbon_verts;
+    uint64_t h[4] = {
+        hash_bytes(p->leaves, o->leaf_count * sizeof *p->leaves),
+        hash_bytes(p->faces, sc->face_count * sizeof *p->faces),
+        hash_bytes(p->strips, o->strip_count * sizeof *p->strips) ^
+            3 * hash_bytes(p->row_offset, (o->row_count + 1) * sizeof *p->row_offset) ^
+            7 * hash_bytes(p->crossings, o->crossing_count * sizeof *p->crossings),
+        hash_bytes(p->ribbon_verts, 4 * (size_t)o->ribbon_quad_count * sizeof *p->ribbon_verts)};
+    uint64_t *version[4] = {&o->leaves_version, &o->faces_version, &o->table_version, &o->ribbons_version};
+    for (int k = 0; k < 4; k++)
+        if (!p->planned || h[k] != p->hash[k]) {
+            (*version[k])++;
+            p->hash[k] = h[k];
+        }
+    o->stats.table_bytes = crisp_plan_bytes(o) - (size_t)o->leaf_count * sizeof *p->leaves -
+                           (size_t)sc->face_count * sizeof *p->faces -
+                           4 * (size_t)o->ribbon_quad_count * sizeof *p->ribbon_verts;
+    o->stats.table_rows = o->row_count;
+    o->stats.ribbon_quads = o->ribbon_quad_count;
+}
+
+crisp_status crisp_planner_plan(crisp_planner *p, const crisp_scene *sc, const crisp_camera *cam,
+                                const crisp_frame_plan **dest)
+{
+    crisp__trees_desc td = {.eps_px = p->desc.eps_px, .strip_count = p->desc.strip_count,
+                            .max_depth = p->desc.max_depth};
+    crisp_status st = crisp__trees_build(p->trees, sc, cam, &td, p->pool);
+    if (st) return st;
+    if ((st = ensure_faces(p, sc->face_count))) return st;
+    double t0 = crisp_time_now();
+    crisp_frame_plan *o = &p->out;
+    uint64_t triangles = 0;
+    if ((st = lay_out_leaves(p, sc))) return st;
+    triangles = o->stats.triangles;
+    if ((st = lay_out_tables(p, sc))) return st;
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        p->strips_used[f] = p->trees->trims[f].strip_count;
+    o->ribbon_quad_count = 0;
+    memset(p->ribbon_quads, 0, sc->face_count * sizeof *p->ribbon_quads);
+    memset(p->ribbon_first, 0, sc->face_count * sizeof *p->ribbon_first);
+    if (!p->desc.no_ribbons && sc->face_count &&
+        (st = crisp__ribbons_build(p->ribbons, p->trees, sc, UINT32_MAX, p->pool, &p->ribbon_verts,
+                                   &p->ribbon_cap, p->ribbon_first, p->ribbon_quads, &o->ribbon_quad_count)))
+        return st;
+    double t1 = crisp_time_now();
+    crisp_mat4_copy(p->trees->view_proj, o->view_proj);
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 4; r++) o->view_proj_f[4 * c + r] = (float)o->view_proj[c][r];
+    memcpy(o->eye, cam->eye, sizeof o->eye);
+    o->width = cam->width;
+    o->height = cam->height;
+    o->eps_px = p->desc.eps_px > 0 ? p->desc.eps_px : 0.5;
+    o->stats = p->trees->stats;
+    o->stats.triangles = triangles;
+    o->stats.ms_ribbons = 1e3 * (t1 - t0);
+    publish(p, sc);
+    p->scene = sc;
+    p->planned = 1;
+    *dest = o;
+    return CRISP_OK;
+}
+
+crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, uint32_t face,
+                                       const crisp_frame_plan **dest)
+{
+    if (!p->planned || p->scene != sc)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "re-planning face %u: plan the whole scene with crisp_planner_plan first", face);
+    if (face >= sc->face_count)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", face, sc->face_count);
+    double t0 = crisp_time_now();
+    crisp_status st = crisp__trees_replan_trim(p->trees, sc, face, p->strips_used[face]);
+    if (st) return st;
+    if ((st = lay_out_tables(p, sc))) return st;
+    double t1 = crisp_time_now();
+    crisp_frame_plan *o = &p->out;
+    if (!p->desc.no_ribbons && p->trees->face_tau[face]) {
+        uint32_t first = 0, quads = 0, total = 0;
+        if ((st = crisp__ribbons_build(p->ribbons, p->trees, sc, face, p->pool, &p->face_ribbon,
+                                       &p->face_ribbon_cap, &first, &quads, &total)))
+            return st;
+        /* Splice the face's new quads in place of its old ones. */
+        uint32_t old_first = p->ribbon_first[face], old_count = p->ribbon_quads[face];
+        size_t after = o->ribbon_quad_count - (old_first + old_count);
+        size_t n = (size_t)o->ribbon_quad_count - old_count + total;
+        if ((st = crisp_grow((void **)&p->ribbon_verts, &p->ribbon_cap, 4 * (n ? n : 1), sizeof *p->ribbon_verts)))
+            return st;
+        memmove(p->ribbon_verts + 4 * ((size_t)old_first + total),
+                p->ribbon_verts + 4 * ((size_t)old_first + old_count), 4 * after * sizeof *p->ribbon_verts);
+        memcpy(p->ribbon_verts + 4 * (size_t)old_first, p->face_ribbon, 4 * (size_t)total * sizeof *p->face_ribbon);
+        for (uint32_t f = 0; f < sc->face_count; f++)
+            if (p->ribbon_first[f] > old_first) p->ribbon_first[f] = p->ribbon_first[f] - old_count + total;
+        p->ribbon_quads[face] = total;
+        o->ribbon_quad_count = (uint32_t)n;
+    }
+    double t2 = crisp_time_now();
+    /* Stats: the re-planned face's table replaces its old one in the counters. */
+    o->stats.ms_levels = o->stats.ms_edges = 0;
+    o->stats.ms_trim = 1e3 * (t1 - t0);
+    o->stats.ms_ribbons = 1e3 * (t2 - t1);
+    publish(p, sc);
+    *dest = o;
+    return CRISP_OK;
+}
+
+int crisp_plan_trim_test(const crisp_frame_plan *plan, uint32_t face, double u, double v)
+{
+    const crisp_plan_face *f = &plan->faces[face];
+    if (!(v >= f->v0 && v <= f->v1)) return 0;
+    if (f->flags & CRISP_PLAN_FACE_ALL_INSIDE) return 1;
+    uint32_t n = f->strip_count;
+    if (!n) return 0;
+    double fi = (v - f->v0) * f->strip_scale; /* >= 0 here */
+    uint32_t i = fi < (double)n ? (uint32_t)fi : n - 1;
+    const crisp_plan_strip *s = &plan->strips[f->first_strip + i];
+    uint32_t mu = s->row_count;
+    if (!mu) return 0;
+    double fj = (v - s->a) * s->row_scale;
+    uint32_t j = fj > 0.0 ? (fj < (double)mu ? (uint32_t)fj : mu - 1) : 0; /* clamped to the rows */
+    uint32_t r = s->first_row + j;
+    /* Crossings strictly left of u: the first index with crossing >= u. */
+    uint32_t lo = plan->row_offset[r], hi = plan->row_offset[r + 1], first = lo;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (plan->crossings[mid] < u)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return (int)((lo - first) & 1u);
+}
+
+size_t crisp_plan_bytes(const crisp_frame_plan *plan)
+{
+    return (size_t)plan->leaf_count * sizeof(crisp_plan_leaf) +
+           (size_t)plan->face_count * sizeof(crisp_plan_face) +
+           (size_t)plan->strip_count * sizeof(crisp_plan_strip) +
+           ((size_t)plan->row_count + 1) * sizeof(uint32_t) + (size_t)plan->crossing_count * sizeof(double) +
+           4 * (size_t)plan->ribbon_quad_count * sizeof(crisp_plan_ribbon_vertex);
+}
+
+const crisp_trim_table *crisp__planner_table(const crisp_planner *p, uint32_t f)
+{
+    return &p->trees->trims[f].table;
+}

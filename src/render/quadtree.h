@@ -1,0 +1,89 @@
+/* The frame planner's per-patch quadtrees (see quadtree.c): per patch a quadtree of cells with
+ * tess levels and crack-free edge levels, and per visible face a trim plan. planner.c turns them
+ * into the public flat plan (include/crisp/plan.h). */
+#ifndef CRISP_RENDER_QUADTREE_H
+#define CRISP_RENDER_QUADTREE_H
+
+#include <stdint.h>
+
+#include "crisp/plan.h"
+#include "crisp/render.h"
+#include "crisp/tess.h"
+#include "crisp/trim.h"
+
+typedef struct crisp__cell {
+    uint32_t ix, iy;  /* cell in the patch's 2^depth x 2^depth grid of local parameters */
+    uint8_t depth;
+    uint8_t culled;   /* outside the frustum (or an unresolvable sliver at the eye plane) */
+    uint16_t tau;     /* inner level, 1..64 */
+    uint32_t edge[4]; /* edge levels: t = 0, s = 1, t = 1, s = 0 (as crisp_tess_levels) */
+} crisp__cell;
+
+typedef struct crisp__node {
+    int32_t child; /* first of four children ((0,0), (1,0), (0,1), (1,1)), or -1 for a leaf */
+    int32_t leaf;  /* index into the patch's leaves when a leaf */
+} crisp__node;
+
+typedef struct crisp__patch_tree {
+    crisp__node *nodes; /* in the planner's per-worker arenas, valid until the next frame */
+    crisp__cell *leaves;
+    uint32_t node_count, leaf_count, visible_leaves;
+    uint32_t unresolved; /* leaves left at the depth limit (see crisp_plan_stats) */
+} crisp__patch_tree;
+
+typedef struct crisp__trees_desc {
+    double eps_px;   /* screen tolerance of the tessellation; 0: 0.5 px */
+    int strip_count; /* n_V per face; 0: the face's tess level times its patch rows, 8..256 */
+    int max_depth;   /* patch splits; 0: CRISP_PLAN_MAX_DEPTH */
+} crisp__trees_desc;
+
+/* A cell that must be split although its own bound does not ask for it (one of its edge levels
+ * would exceed CRISP_PLAN_MAX_LEVEL). Sorted by (patch, depth, iy, ix). */
+typedef struct crisp__forced {
+    uint32_t patch, depth, ix, iy;
+} crisp__forced;
+
+/* Patch groups (patch_groups.c): a per-face hierarchy over the patch grid, walked once per frame
+ * to cull whole groups or draw them as single tau-1 leaves per patch. */
+typedef struct crisp__groups crisp__groups;
+enum { CRISP__PATCH_OPEN = 0, CRISP__PATCH_CULLED = 1, CRISP__PATCH_SMALL = 2 };
+crisp_status crisp__groups_create(crisp__groups **dest);
+void crisp__groups_destroy(crisp__groups *g);
+/* mode[p] for every patch of the scene: CRISP__PATCH_* (the hierarchy is rebuilt when the scene
+ * changes). gx, gy: the widened frustum's NDC half-extents; eps: pixels. */
+crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj, int width,
+                                    int height, double gx, double gy, double eps, crisp_pool *pool, uint8_t *mode);
+
+typedef struct crisp__trees {
+    crisp_mat4 view_proj;
+    int width, height, max_depth;
+    crisp__patch_tree *patches;
+    size_t patch_cap;
+    crisp_trim_plan *trims; /* per face */
+    uint32_t *face_tau;     /* per face: largest visible tau, 0 when the face is not visible */
+    uint32_t face_cap;
+    crisp_arena **arenas;
+    void **build_state;
+    crisp_status *worker_status;
+    int worker_cap;
+    crisp__forced *forced;
+    size_t forced_count, forced_cap;
+    uint32_t *redo;         /* patches to rebuild with forced splits */
+    size_t redo_cap;
+    crisp__groups *groups;  /* patch groups of the last scene */
+    uint8_t *patch_mode;    /* per patch this frame: CRISP__PATCH_* */
+    size_t mode_cap;
+    crisp_plan_stats stats;
+} crisp__trees;
+
+crisp_status crisp__trees_create(crisp__trees **dest);
+void crisp__trees_destroy(crisp__trees *plan);
+/* Plan one frame. pool may be NULL. Reuses every buffer: the same scene and image size plan
+ * again without allocating (unless the scene needs more leaves or rows than before). */
+crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *scene, const crisp_camera *cam,
+                                const crisp__trees_desc *desc, crisp_pool *pool);
+/* Re-plan face f's trim for the camera of the last build (its strips' count is kept). */
+crisp_status crisp__trees_replan_trim(crisp__trees *plan, const crisp_scene *scene, uint32_t f,
+                                      int strip_count);
+
+#endif

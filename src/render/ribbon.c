@@ -1,0 +1,359 @@
+/* Trim-boundary ribbons, part of the frame plan (include/crisp/plan.h).
+ *
+ * Where two trimmed faces meet, each face's trim test may be wrong within its 1 px band, so the
+ * shared edge can open a sub-pixel gap. Like Wu & Peters (who draw x(gamma(t))), each face's trim
+ * boundary is also drawn as its surface image: a screen-space ribbon of half-width RIBBON_PX
+ * along the trim polyline mapped onto the true surface, sampled until consecutive samples are at
+ * most RIBBON_STEP_PX apart on screen (so the straight ribbon pieces follow the curved image).
+ * The polyline is within 0.25 px of the true curve, so a ribbon reaches at most about
+ * RIBBON_PX + 0.25 < 1 px beyond the true boundary: inside the band where the trim decision may
+ * go either way. Samples outside the widened frustum are dropped. The quads are placed in clip
+ * space here, so every backend draws the same ribbons. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "raster.h"
+#include "ribbon.h"
+
+#define RIBBON_PX 0.7
+#define RIBBON_STEP_PX 2.0
+#define RIBBON_MAX_DEPTH 20
+/* A face without trim loops is bounded by its domain's edges (t = 0, s = 1, t = 1, s = 0 of the
+ * patch grid, as leaf edges): where it meets another face there, the two faces' tessellations
+ * differ as along a trim, so the edge gets a ribbon too (not the edges where the surface closes
+ * on itself: those are shared within the face's own crack-free mesh). */
+#define RIBBON_EDGE 0x80000000u
+
+typedef struct ribbon_job {
+    uint32_t face, piece; /* piece of the trim polyline, or RIBBON_EDGE + k: edge k of the domain */
+    crisp_raster_vertex *pts; /* samples (per-worker arena, valid this frame) */
+    uint32_t count;           /* samples; a sample with clip[3] < 0 breaks the ribbon */
+    uint32_t qbase;           /* first quad */
+} ribbon_job;
+
+struct crisp__ribbons {
+    int workers;
+    crisp_arena **arena;   /* per worker, reset every build */
+    crisp_status *wstatus; /* per worker */
+    ribbon_job *jobs;
+    size_t job_cap;
+};
+
+typedef struct ribbon_ctx {
+    crisp__ribbons *rb;
+    const crisp__trees *trees;
+    const crisp_scene *sc;
+    crisp_plan_ribbon_vertex *out;
+} ribbon_ctx;
+
+crisp_status crisp__ribbons_create(int workers, crisp__ribbons **dest)
+{
+    crisp__ribbons *rb = calloc(1, sizeof *rb);
+    if (!rb) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+    rb->workers = workers;
+    rb->arena = calloc((size_t)workers, sizeof *rb->arena);
+    rb->wstatus = calloc((size_t)workers, sizeof *rb->wstatus);
+    crisp_status st = rb->arena && rb->wstatus ? CRISP_OK
+                                               : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+    for (int w = 0; !st && w < workers; w++) st = crisp_arena_create(1 << 16, &rb->arena[w]);
+    if (st) {
+        crisp__ribbons_destroy(rb);
+        return st;
+    }
+    *dest = rb;
+    return CRISP_OK;
+}
+
+void crisp__ribbons_destroy(crisp__ribbons *rb)
+{
+    if (!rb) return;
+    if (rb->arena)
+        for (int w = 0; w < rb->workers; w++) crisp_arena_destroy(rb->arena[w]);
+    free(rb->arena);
+    free(rb->wstatus);
+    free(rb->jobs);
+    free(rb);
+}
+
+static void ribbon_vertex(const crisp_surface *surf, int reversed, crisp_mat4 m, double u, double v,
+                          crisp_raster_vertex *out)
+{
+    double P[3], Su[3], Sv[3], n[3];
+    crisp_surface_derivs(surf, u, v, P, Su, Sv, NULL, NULL, NULL);
+    crisp_mat4_mulp(m, P, out->clip);
+    out->attr[0] = u;
+    out->attr[1] = v;
+    crisp_vec3_cross(Su, Sv, n);
+    if (reversed) crisp_vec3_scale(n, -1, n);
+    crisp_vec3_normalize(n, out->attr + 2);
+}
+
+static int in_view(const crisp_raster_vertex *a, double gx, double gy)
+{
+    const double *c = a->clip;
+    return c[3] > 0 && c[2] >= -c[3] && c[2] <= c[3] && fabs(c[0]) <= gx * c[3] && fabs(c[1]) <= gy * c[3];
+}
+
+/* Screen distance in pixels (infinite when either point is behind the eye). */
+static double screen_dist(const crisp_raster_vertex *a, const crisp_raster_vertex *b, double w, double h)
+{
+    if (!(a->clip[3] > 0 && b->clip[3] > 0)) return INFINITY;
+    double dx = (a->clip[0] / a->clip[3] - b->clip[0] / b->clip[3]) * 0.5 * w;
+    double dy = (a->clip[1] / a->clip[3] - b->clip[1] / b->clip[3]) * 0.5 * h;
+    return hypot(dx, dy);
+}
+
+/* Conservatively: can the ribbon piece between a and b (surface points) show on screen? Both in
+ * front of the eye, and the screen box of the chord, widened by the chord's length (the surface
+ * image between two samples bulges by less than that), meets the viewport. */
+static int segment_may_show(const crisp_raster_vertex *a, const crisp_raster_vertex *b, double w,
+                            double h)
+{
+    if (!(a->clip[3] > 0) || !(b->clip[3] > 0)) return 1; /* let refine() split it */
+    double ax = (a->clip[0] / a->clip[3] + 1) * 0.5 * w, ay = (1 - a->clip[1] / a->clip[3]) * 0.5 * h;
+    double bx = (b->clip[0] / b->clip[3] + 1) * 0.5 * w, by = (1 - b->clip[1] / b->clip[3]) * 0.5 * h;
+    double len = hypot(bx - ax, by - ay) + 2;
+    if (!isfinite(len)) return 1;
+    return fmax(ax, bx) + len >= 0 && fmin(ax, bx) - len <= w && fmax(ay, by) + len >= 0 &&
+           fmin(ay, by) - len <= h;
+}
+
+typedef struct sampler {
+    crisp_arena *arena;
+    crisp_raster_vertex *pts;
+    uint32_t count, cap;
+    const crisp_surface *surf;
+    int reversed;
+    crisp_mat4 *m;
+    double w, h, gx, gy;
+    int failed;
+} sampler;
+
+static void emit(sampler *s, const crisp_raster_vertex *v)
+{
+    if (s->count == s->cap) {
+        uint32_t cap = s->cap ? 2 * s->cap : 64;
+        crisp_raster_vertex *n = crisp_arena_alloc(s->arena, cap, sizeof *n);
+        if (!n) {
+            s->failed = 1;
+            return;
+        }
+        if (s->count) memcpy(n, s->pts, s->count * sizeof *n);
+        s->pts = n;
+        s->cap = cap;
+    }
+    s->pts[s->count++] = *v;
+}
+
+/* Samples strictly after a up to and including b, along the uv segment. */
+static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_vertex *b, int depth)
+{
+    if (s->failed) return;
+    int va = in_view(a, s->gx, s->gy), vb = in_view(b, s->gx, s->gy);
+    double d = screen_dist(a, b, s->w, s->h);
+    if (depth < RIBBON_MAX_DEPTH && d > RIBBON_STEP_PX && (va || vb || d < INFINITY ? 1 : 0)) {
+        crisp_raster_vertex mid;
+        ribbon_vertex(s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
+                      0.5 * (a->attr[1] + b->attr[1]), &mid);
+        /* Both ends and the middle outside the view and the piece small enough not to cross it
+         * from one side to the other: nothing of it shows. */
+        if (!va && !vb && !in_view(&mid, s->gx, s->gy) && depth > 8) {
+            crisp_raster_vertex brk = *b;
+            brk.clip[3] = -1;
+            emit(s, &brk);
+            emit(s, b);
+            return;
+        }
+        refine(s, a, &mid, depth + 1);
+        refine(s, &mid, b, depth + 1);
+        return;
+    }
+    if (d > RIBBON_STEP_PX) {
+        /* Not resolved (behind the eye or at the depth limit): break the ribbon here. */
+        crisp_raster_vertex brk = *b;
+        brk.clip[3] = -1;
+        emit(s, &brk);
+    }
+    emit(s, b);
+}
+
+/* Point k of a job's path in (u, v) and the number of points: the trim polyline piece, or a
+ * domain edge through the patch grid's knot lines. */
+static int path_points(const ribbon_ctx *c, const ribbon_job *job)
+{
+    if (!(job->piece & RIBBON_EDGE)) {
+        const crisp_trim_polyline *pl = &c->trees->trims[job->face].polyline;
+        return pl->first[job->piece + 1] - pl->first[job->piece];
+    }
+    const crisp_scene_face *f = &c->sc->faces[job->face];
+    int edge = (int)(job->piece & 3u);
+    return (int)((edge == 0 || edge == 2) ? f->grid_u : f->grid_v) + 1;
+}
+
+static void path_point(const ribbon_ctx *c, const ribbon_job *job, int k, double uv[2])
+{
+    if (!(job->piece & RIBBON_EDGE)) {
+        const crisp_trim_polyline *pl = &c->trees->trims[job->face].polyline;
+        int q = pl->first[job->piece] + k;
+        uv[0] = pl->uv[2 * q], uv[1] = pl->uv[2 * q + 1];
+        return;
+    }
+    const crisp_scene_face *f = &c->sc->faces[job->face];
+    const crisp_scene_patch *first = &c->sc->patches[f->first_patch];
+    int edge = (int)(job->piece & 3u);
+    if (edge == 0 || edge == 2) {
+        /* Along u at v = v0 (edge 0) or v1 (edge 2): the first row's patches' u boundaries. */
+        uint32_t i = (uint32_t)k < f->grid_u ? (uint32_t)k : f->grid_u - 1;
+        const crisp_bezier_patch *b = &c->sc->patches[f->first_patch + i].bez;
+        uv[0] = (uint32_t)k < f->grid_u ? b->u0 : b->u1;
+        uv[1] = edge == 0 ? first->bez.v0 : c->sc->patches[f->first_patch + f->patch_count - 1].bez.v1;
+    } else {
+        uint32_t j = (uint32_t)k < f->grid_v ? (uint32_t)k : f->grid_v - 1;
+        const crisp_bezier_patch *b = &c->sc->patches[f->first_patch + j * f->grid_u].bez;
+        uv[1] = (uint32_t)k < f->grid_v ? b->v0 : b->v1;
+        uv[0] = edge == 3 ? first->bez.u0 : c->sc->patches[f->first_patch + f->patch_count - 1].bez.u1;
+    }
+}
+
+static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
+{
+    ribbon_ctx *c = vctx;
+    const crisp__trees *plan = c->trees;
+    for (size_t j = begin; j < end; j++) {
+        ribbon_job *job = &c->rb->jobs[j];
+        const crisp_scene_face *f = &c->sc->faces[job->face];
+        int n = path_points(c, job);
+        sampler s = {.arena = c->rb->arena[worker], .surf = f->src->surface,
+                     .reversed = f->src->reversed, .m = (crisp_mat4 *)&plan->view_proj, .w = plan->width,
+                     .h = plan->height, .gx = 1 + 4.0 / plan->width, .gy = 1 + 4.0 / plan->height};
+        crisp_raster_vertex a, b;
+        double uv[2];
+        path_point(c, job, 0, uv);
+        ribbon_vertex(s.surf, s.reversed, *s.m, uv[0], uv[1], &a);
+        int open = 0; /* the ribbon so far ends at a */
+        for (int k = 0; k + 1 < n; k++) {
+            path_point(c, job, k + 1, uv);
+            ribbon_vertex(s.surf, s.reversed, *s.m, uv[0], uv[1], &b);
+            /* Segments that cannot reach the view are left out without a sample (at extreme zoom
+             * almost all of a polyline is off screen). */
+            if (!segment_may_show(&a, &b, s.w, s.h)) {
+                if (open) {
+                    crisp_raster_vertex brk = a;
+                    brk.clip[3] = -1;
+                    emit(&s, &brk);
+                    open = 0;
+                }
+            } else {
+                if (!open) emit(&s, &a);
+                refine(&s, &a, &b, 0);
+                open = 1;
+            }
+            a = b;
+        }
+        if (s.failed) c->rb->wstatus[worker] = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+        job->pts = s.pts;
+        job->count = s.count;
+    }
+}
+
+/* Quads of 4 vertices (triangles 0 1 2, 0 2 3) between consecutive samples, offset on screen by
+ * RIBBON_PX across and along the segment; a segment with an end behind the eye gets vertices with
+ * clip[3] = -1 (not drawn). */
+static void build_quads(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    ribbon_ctx *c = vctx;
+    double sx = 2.0 / c->trees->width, sy = 2.0 / c->trees->height;
+    for (size_t j = begin; j < end; j++) {
+        const ribbon_job *job = &c->rb->jobs[j];
+        for (uint32_t q = 0; q + 1 < job->count; q++) {
+            const crisp_raster_vertex *a = &job->pts[q], *b = &job->pts[q + 1];
+            crisp_plan_ribbon_vertex *v = c->out + 4 * ((size_t)job->qbase + q);
+            double dx = 0, dy = 0;
+            int ok = a->clip[3] > 0 && b->clip[3] > 0;
+            if (ok) {
+                dx = (b->clip[0] / b->clip[3] - a->clip[0] / a->clip[3]) / sx;
+                dy = -(b->clip[1] / b->clip[3] - a->clip[1] / a->clip[3]) / sy;
+                double len = hypot(dx, dy);
+                ok = len > 0 && isfinite(len);
+                if (ok) dx /= len, dy /= len;
+            }
+            for (int corner = 0; corner < 4; corner++) {
+                const crisp_raster_vertex *src = corner < 2 ? a : b;
+                crisp_plan_ribbon_vertex *o = &v[corner];
+                memcpy(o->clip, src->clip, sizeof o->clip);
+                o->uv[0] = (float)src->attr[0];
+                o->uv[1] = (float)src->attr[1];
+                for (int k = 0; k < 3; k++) o->normal[k] = (float)src->attr[2 + k];
+                o->face = job->face;
+                if (!ok) {
+                    o->clip[3] = -1; /* backends clip these triangles away */
+                    continue;
+                }
+                double along = corner < 2 ? -RIBBON_PX : RIBBON_PX;
+                double side = (corner == 0 || corner == 3) ? -RIBBON_PX : RIBBON_PX;
+                double ox = along * dx - side * dy, oy = along * dy + side * dx; /* pixels, y down */
+                o->clip[0] += ox * sx * o->clip[3];
+                o->clip[1] -= oy * sy * o->clip[3];
+            }
+        }
+    }
+}
+
+crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees, const crisp_scene *sc,
+                                  uint32_t only_face, crisp_pool *pool, crisp_plan_ribbon_vertex **verts,
+                                  size_t *cap, uint32_t *face_first, uint32_t *face_quads,
+                                  uint32_t *quad_count)
+{
+    crisp_status st;
+    size_t jobs = 0;
+    uint32_t f0 = only_face == UINT32_MAX ? 0 : only_face;
+    uint32_t f1 = only_face == UINT32_MAX ? sc->face_count : only_face + 1;
+    for (uint32_t f = f0; f < f1; f++) {
+        if (!trees->face_tau[f]) continue;
+        const crisp_scene_face *sf = &sc->faces[f];
+        if (!sf->piece_count && sf->grid_u && sf->grid_v) {
+            for (uint32_t k = 0; k < 4; k++) {
+                if (((k & 1) ? sf->closed_u : sf->closed_v)) continue;
+                if ((st = crisp_grow((void **)&rb->jobs, &rb->job_cap, jobs + 1, sizeof *rb->jobs))) return st;
+                rb->jobs[jobs++] = (ribbon_job){.face = f, .piece = RIBBON_EDGE | k};
+            }
+            continue;
+        }
+        const crisp_trim_polyline *pl = &trees->trims[f].polyline;
+        for (int k = 0; k < pl->piece_count; k++) {
+            if (pl->first[k + 1] - pl->first[k] < 2) continue;
+            if ((st = crisp_grow((void **)&rb->jobs, &rb->job_cap, jobs + 1, sizeof *rb->jobs))) return st;
+            rb->jobs[jobs++] = (ribbon_job){.face = f, .piece = (uint32_t)k};
+        }
+    }
+    for (int w = 0; w < rb->workers; w++) {
+        crisp_arena_reset(rb->arena[w]);
+        rb->wstatus[w] = CRISP_OK;
+    }
+    ribbon_ctx c = {rb, trees, sc, NULL};
+    crisp_pool_parallel_for(pool, jobs, 4, sample_ribbons, &c);
+    for (int w = 0; w < rb->workers; w++)
+        if (rb->wstatus[w]) return rb->wstatus[w];
+    /* Lay the quads out face after face. */
+    size_t quads = 0;
+    for (uint32_t f = f0; f < f1; f++) face_quads[f - f0] = 0;
+    for (size_t j = 0; j < jobs; j++) {
+        ribbon_job *job = &rb->jobs[j];
+        uint32_t segs = job->count ? job->count - 1 : 0;
+        if (!face_quads[job->face - f0]) face_first[job->face - f0] = (uint32_t)quads;
+        job->qbase = (uint32_t)quads;
+        face_quads[job->face - f0] += segs;
+        quads += segs;
+        if (quads > UINT32_MAX / 8)
+            return crisp_error(CRISP_ERR_LIMIT, "more than 2^29 trim ribbon quads in one frame");
+    }
+    for (uint32_t f = f0; f < f1; f++)
+        if (!face_quads[f - f0]) face_first[f - f0] = (uint32_t)quads;
+    if ((st = crisp_grow((void **)verts, cap, 4 * (quads ? quads : 1), sizeof **verts))) return st;
+    c.out = *verts;
+    crisp_pool_parallel_for(pool, jobs, 16, build_quads, &c);
+    *quad_count = (uint32_t)quads;
+    return CRISP_OK;
+}

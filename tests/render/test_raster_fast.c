@@ -1,0 +1,183 @@
+/* Tests for the rasterizer's fast paths (issue 12): hierarchical depth rejection and batching do
+ * not change a single output bit on overlapping random triangles (1 and 4 samples, near-plane
+ * crossings, a fragment test that discards some fragments, fill mode), and triangles marked
+ * CRISP_RASTER_FACE_NO_TEST, or of faces marked by crisp_raster_set_untested_faces, skip the
+ * fragment test but otherwise draw exactly as with a test that keeps everything. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/render.h"
+#include "render/raster.h"
+
+static uint64_t rng_state = 0x2545F4914F6CDD1Dull;
+static double rnd(void)
+{
+    rng_state ^= rng_state << 13;
+    rng_state ^= rng_state >> 7;
+    rng_state ^= rng_state << 17;
+    return (double)(rng_state >> 11) / 9007199254740992.0;
+}
+
+enum { W = 173, H = 131, NT = 1500 };
+
+/* Random triangles in clip space: mostly small, some large, some crossing the near plane, depths
+ * interleaved so that later triangles often hide earlier ones and the other way round. */
+static void soup(crisp_raster_vertex *v, crisp_raster_tri *t)
+{
+    for (int i = 0; i < NT; i++) {
+        double cx = rnd() * 2.4 - 1.2, cy = rnd() * 2.4 - 1.2, size = rnd() < 0.1 ? 1.5 : 0.12 * rnd();
+        double w0 = 0.5 + 4 * rnd();
+        for (int k = 0; k < 3; k++) {
+            crisp_raster_vertex *p = &v[3 * i + k];
+            double w = w0 * (1 + 0.3 * (rnd() - 0.5));
+            if (rnd() < 0.01) w = -0.2; /* behind the eye: clipped */
+            double x = cx + size * (rnd() - 0.5), y = cy + size * (rnd() - 0.5);
+            p->clip[0] = x * fabs(w), p->clip[1] = y * fabs(w), p->clip[3] = w;
+            p->clip[2] = 0.9 * w - 0.2; /* inside [-w, w] for w > 0.1 */
+            for (int a = 0; a < CRISP_RASTER_ATTRS; a++) p->attr[a] = rnd();
+        }
+        t[i] = (crisp_raster_tri){{3 * i, 3 * i + 1, 3 * i + 2}, (uint32_t)(i % 7)};
+    }
+}
+
+typedef struct {
+    size_t calls;
+} test_ctx;
+
+/* Keeps fragments by a fixed rule on (u, v): the result depends on every interpolated value. */
+static int some_test(void *vctx, uint32_t face, double u, double v)
+{
+    test_ctx *c = vctx;
+    c->calls++;
+    return (face & 3) != 1 || u + v < 1.2;
+}
+
+static int keep_all(void *vctx, uint32_t face, double u, double v)
+{
+    (void)face, (void)u, (void)v;
+    ((test_ctx *)vctx)->calls++;
+    return 1;
+}
+
+static const uint8_t *untested_faces; /* crisp_raster_set_untested_faces for render() */
+
+static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn, const float *slack,
+                   crisp_raster_target *t, test_ctx *tc, crisp_raster_stats *stats)
+{
+    static crisp_raster_vertex v[3 * NT];
+    static crisp_raster_tri tri[NT];
+    rng_state = 0x2545F4914F6CDD1Dull;
+    soup(v, tri);
+    if (flag_no_test)
+        for (int i = 0; i < NT; i++) tri[i].face |= CRISP_RASTER_FACE_NO_TEST;
+    crisp_raster *r;
+    assert_int_equal(crisp_raster_create(&r), CRISP_OK);
+    crisp_raster_set_hiz(r, hiz);
+    crisp_raster_set_batch(r, batch);
+    crisp_raster_set_untested_faces(r, untested_faces, 7);
+    assert_int_equal(crisp_raster_target_init(t, W, H, samples), CRISP_OK);
+    crisp_raster_target_clear(t);
+    crisp_pool *pool;
+    assert_int_equal(crisp_pool_create(2, &pool), CRISP_OK);
+    /* Half first, then the rest on top (a second draw into a target that holds depth). */
+    assert_int_equal(crisp_raster_draw(r, t, pool, v, 3 * NT, tri, NT / 2, fn, tc, stats), CRISP_OK);
+    if (slack)
+        assert_int_equal(crisp_raster_draw_fill(r, t, pool, v, 3 * NT, tri + NT / 2, NT - NT / 2, fn, tc, slack, stats),
+                         CRISP_OK);
+    else
+        assert_int_equal(crisp_raster_draw(r, t, pool, v, 3 * NT, tri + NT / 2, NT - NT / 2, fn, tc, stats), CRISP_OK);
+    crisp_pool_destroy(pool);
+    crisp_raster_destroy(r);
+}
+
+static void assert_same(const crisp_raster_target *a, const crisp_raster_target *b)
+{
+    size_t n = (size_t)a->width * a->height * a->samples;
+    assert_memory_equal(a->inv_w, b->inv_w, n * sizeof *a->inv_w);
+    assert_memory_equal(a->face, b->face, n * sizeof *a->face);
+    assert_memory_equal(a->attr, b->attr, n * CRISP_RASTER_ATTRS * sizeof *a->attr);
+}
+
+static void test_hiz_and_batches_change_nothing(void **state)
+{
+    (void)state;
+    static float slack[W * H * 4];
+    for (int k = 0; k < W * H * 4; k++) slack[k] = (float)(0.05 * (k % 5));
+    for (int samples = 1; samples <= 4; samples += 3)
+        for (int fill = 0; fill < 2; fill++) {
+            crisp_raster_target ref = {0}, a = {0}, b = {0};
+            test_ctx tc = {0};
+            crisp_raster_stats st_ref, st;
+            render(samples, 0, 0, 0, some_test, fill ? slack : NULL, &ref, &tc, &st_ref);
+            size_t covered = 0;
+            for (size_t k = 0; k < (size_t)W * H * samples; k++) covered += ref.face[k] >= 0;
+            assert_true(covered > (size_t)W * H * samples / 2); /* the soup covers most of the image */
+            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &tc, &st);
+            assert_same(&ref, &a);
+            render(samples, 1, 37, 0, some_test, fill ? slack : NULL, &b, &tc, &st);
+            assert_same(&ref, &b);
+            crisp_raster_target_free(&ref);
+            crisp_raster_target_free(&a);
+            crisp_raster_target_free(&b);
+        }
+    /* The depth bound does reject blocks on this soup, and hidden fragments are not tested. */
+    crisp_raster_target a = {0}, b = {0};
+    test_ctx on = {0}, off = {0};
+    crisp_raster_stats st_on, st_off;
+    render(1, 1, 0, 0, some_test, NULL, &a, &on, &st_on);
+    render(1, 0, 0, 0, some_test, NULL, &b, &off, &st_off);
+    assert_true(st_on.blocks_skipped > 0);
+    assert_true(on.calls <= off.calls);
+    crisp_raster_target_free(&a);
+    crisp_raster_target_free(&b);
+}
+
+static void test_no_test_flag(void **state)
+{
+    (void)state;
+    crisp_raster_target a = {0}, b = {0};
+    test_ctx ta = {0}, tb = {0};
+    crisp_raster_stats sa, sb;
+    render(4, 1, 0, 0, keep_all, NULL, &a, &ta, &sa);
+    render(4, 1, 0, 1, keep_all, NULL, &b, &tb, &sb);
+    assert_true(ta.calls > 1000);
+    assert_int_equal(tb.calls, 0);
+    assert_int_equal(sb.fragments_tested, 0);
+    assert_true(sb.fragments_untested > 0);
+    assert_same(&a, &b); /* face ids stored without the flag */
+    /* The same per face: faces 0..6 all untested; then only face 3. */
+    static const uint8_t all[7] = {1, 1, 1, 1, 1, 1, 1}, three[7] = {0, 0, 0, 1, 0, 0, 0};
+    crisp_raster_target c = {0};
+    test_ctx tcc = {0};
+    crisp_raster_stats sc;
+    untested_faces = all;
+    render(4, 1, 0, 0, keep_all, NULL, &c, &tcc, &sc);
+    assert_int_equal(tcc.calls, 0);
+    assert_same(&a, &c);
+    crisp_raster_target_free(&c);
+    test_ctx t3 = {0};
+    untested_faces = three;
+    render(4, 1, 0, 0, keep_all, NULL, &c, &t3, &sc);
+    assert_true(t3.calls > 0 && t3.calls < ta.calls);
+    assert_same(&a, &c);
+    untested_faces = NULL;
+    crisp_raster_target_free(&c);
+    crisp_raster_target_free(&a);
+    crisp_raster_target_free(&b);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_hiz_and_batches_change_nothing),
+        cmocka_unit_test(test_no_test_flag),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
