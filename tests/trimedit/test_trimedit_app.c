@@ -133,8 +133,8 @@ static void test_drag_undo_redo_save(void **state)
             drawn[p] = img.face[p] == 0;
         const crisp_scene_face *sf = &app.scene->faces[0];
         fc_result res;
-        fc_compare(&ref, 0, app.scene->pieces + sf->first_piece, (int)sf->piece_count, drawn, 1.0,
-                   &res);
+        fc_compare(&ref, bare_sc, &app.cam, 0, app.scene->pieces + sf->first_piece,
+                   (int)sf->piece_count, drawn, 1.0, &res);
         assert_int_equal(res.beyond, 0);
         assert_true(res.pixels > 1000);
         disagree += res.disagree;
