@@ -27,9 +27,12 @@ typedef struct ribbon_job {
     uint32_t qbase;           /* first quad */
 } ribbon_job;
 
+#define RIBBON_CHUNKS 64 /* fixed ranges of the sampling pass, one arena each */
+
 struct crisp__ribbons {
     int workers;
-    crisp_arena **arena;   /* per worker, reset every build */
+    crisp_arena **arena;   /* per range (RIBBON_CHUNKS), reset every build: what each holds does
+                              not depend on the thread split, so steady frames allocate nothing */
     crisp_status *wstatus; /* per worker */
     ribbon_job *jobs;
     size_t job_cap;
@@ -40,6 +43,7 @@ typedef struct ribbon_ctx {
     const crisp__trees *trees;
     const crisp_scene *sc;
     crisp_plan_ribbon_vertex *out;
+    size_t jobs; /* sampling: the job count */
 } ribbon_ctx;
 
 crisp_status crisp__ribbons_create(int workers, crisp__ribbons **dest)
@@ -47,11 +51,11 @@ crisp_status crisp__ribbons_create(int workers, crisp__ribbons **dest)
     crisp__ribbons *rb = calloc(1, sizeof *rb);
     if (!rb) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
     rb->workers = workers;
-    rb->arena = calloc((size_t)workers, sizeof *rb->arena);
+    rb->arena = calloc(RIBBON_CHUNKS, sizeof *rb->arena);
     rb->wstatus = calloc((size_t)workers, sizeof *rb->wstatus);
     crisp_status st = rb->arena && rb->wstatus ? CRISP_OK
                                                : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
-    for (int w = 0; !st && w < workers; w++) st = crisp_arena_create(1 << 16, &rb->arena[w]);
+    for (int k = 0; !st && k < RIBBON_CHUNKS; k++) st = crisp_arena_create(1 << 16, &rb->arena[k]);
     if (st) {
         crisp__ribbons_destroy(rb);
         return st;
@@ -64,7 +68,7 @@ void crisp__ribbons_destroy(crisp__ribbons *rb)
 {
     if (!rb) return;
     if (rb->arena)
-        for (int w = 0; w < rb->workers; w++) crisp_arena_destroy(rb->arena[w]);
+        for (int k = 0; k < RIBBON_CHUNKS; k++) crisp_arena_destroy(rb->arena[k]);
     free(rb->arena);
     free(rb->wstatus);
     free(rb->jobs);
@@ -173,16 +177,15 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
     emit(s, b);
 }
 
-static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
+static void sample_ribbons(ribbon_ctx *c, size_t begin, size_t end, int worker, crisp_arena *arena)
 {
-    ribbon_ctx *c = vctx;
     const crisp__trees *plan = c->trees;
     for (size_t j = begin; j < end; j++) {
         ribbon_job *job = &c->rb->jobs[j];
         const crisp_scene_face *f = &c->sc->faces[job->face];
         const crisp_trim_polyline *pl = &plan->trims[job->face].polyline;
         int p0 = pl->first[job->piece], p1 = pl->first[job->piece + 1];
-        sampler s = {.arena = c->rb->arena[worker], .surf = f->src->surface,
+        sampler s = {.arena = arena, .surf = f->src->surface,
                      .reversed = f->src->reversed, .m = (crisp_mat4 *)&plan->view_proj, .w = plan->width,
                      .h = plan->height, .gx = 1 + 4.0 / plan->width, .gy = 1 + 4.0 / plan->height};
         crisp_raster_vertex a, b;
@@ -216,6 +219,14 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
 /* Quads of 4 vertices (triangles 0 1 2, 0 2 3) between consecutive samples, offset on screen by
  * RIBBON_PX across and along the segment; a segment with an end behind the eye gets vertices with
  * clip[3] = -1 (not drawn). */
+
+static void sample_chunks(void *vctx, size_t begin, size_t end, int worker)
+{
+    ribbon_ctx *c = vctx;
+    for (size_t ch = begin; ch < end; ch++)
+        sample_ribbons(c, c->jobs * ch / RIBBON_CHUNKS, c->jobs * (ch + 1) / RIBBON_CHUNKS, worker, c->rb->arena[ch]);
+}
+
 static void build_quads(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
@@ -275,12 +286,10 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
             rb->jobs[jobs++] = (ribbon_job){.face = f, .piece = (uint32_t)k};
         }
     }
-    for (int w = 0; w < rb->workers; w++) {
-        crisp_arena_reset(rb->arena[w]);
-        rb->wstatus[w] = CRISP_OK;
-    }
-    ribbon_ctx c = {rb, trees, sc, NULL};
-    crisp_pool_parallel_for(pool, jobs, 4, sample_ribbons, &c);
+    for (int k = 0; k < RIBBON_CHUNKS; k++) crisp_arena_reset(rb->arena[k]);
+    for (int w = 0; w < rb->workers; w++) rb->wstatus[w] = CRISP_OK;
+    ribbon_ctx c = {rb, trees, sc, NULL, jobs};
+    crisp_pool_parallel_for(pool, RIBBON_CHUNKS, 1, sample_chunks, &c);
     for (int w = 0; w < rb->workers; w++)
         if (rb->wstatus[w]) return rb->wstatus[w];
     /* Lay the quads out face after face. */
