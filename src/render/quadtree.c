@@ -601,8 +601,25 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             uint32_t s = c->plan->face_tau[f] * (sf->grid_v ? sf->grid_v : 1);
             strips = (int)(s < 8 ? 8 : s > 256 ? 256 : s);
         }
-        /* A face within eps on screen: every decision is within the pixel band, no loops. */
+        /* A face within eps on screen: every point of it is within a pixel of its trims, so
+         * every decision is within the pixel band: an all-inside table, no density bound, no
+         * polyline, no ribbons. */
         int small = crisp__groups_face_small(c->plan->groups, (uint32_t)f);
+        if (small) {
+            crisp_trim_plan *tp = &c->plan->trims[f];
+            static const uint32_t no_rows = 0;
+            tp->strip_count = 1;
+            tp->clamped = 0;
+            tp->polyline.piece_count = 0;
+            tp->v0 = sf->domain[2];
+            tp->v1 = sf->domain[3];
+            crisp_status st = crisp_trim_table_build(
+                &(crisp_trim_table_desc){.polyline = NULL, .v0 = sf->domain[2], .v1 = sf->domain[3], .strip_count = 1,
+                                         .mu = &no_rows},
+                &tp->table);
+            if (st) c->status[worker] = st;
+            continue;
+        }
         crisp_trim_plan_desc d = {
             .patches = c->sc->face_patches[f].patches,
             .patch_count = c->sc->face_patches[f].count,
