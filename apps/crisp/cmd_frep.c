@@ -6,10 +6,12 @@
 #include <string.h>
 
 #include "crisp/frep.h"
+#include "crisp/frep_mass.h"
+#include "crisp/frep_mesh.h"
 #include "crisp/image.h"
 
 const char crisp_cmd_frep_help[] =
-    "frep render|bench FILE       render an implicit model (.vm or math string) by interval subdivision";
+    "frep render|bench|mesh|mass FILE  render, mesh or measure an implicit model (.vm or math string)";
 
 static void usage(FILE *out)
 {
@@ -19,9 +21,14 @@ static void usage(FILE *out)
             "                         [--threads N] [--stats] [--no-prune] [--no-batch] [--no-subcells]\n"
             "                         [--brute]\n"
             "       crisp frep bench FILE [same options] [--runs N]\n"
+            "       crisp frep mesh FILE -o out.stl|out.obj|out.ply [--resolution N | --cell SIZE]\n"
+            "                         [--region x0,x1,y0,y1,z0,z1]\n"
+            "       crisp frep mass FILE [--accuracy REL] [--time SECONDS] [--predict] [--level L]\n"
+            "                         [--seed N] [--region x0,x1,y0,y1,z0,z1]\n"
             "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
             "sqrt, min, max, ...; inside where the value is below 0), or '-e EXPR' for a string.\n"
-            "2D: 8-bit grayscale PNG, 255 inside (f < 0), default region [-1,1]^2, size 1024.\n"
+            "2D: 8-bit grayscale PNG, 255 inside (f < 0), size 1024. The default region is the part's\n"
+            "bounding box found by interval subdivision (an unbounded axis shows [-1, 1]).\n"
             "3D: a heightmap seen from +Z, shaded by its normals; --depth-out writes Z and N.x N.y N.z\n"
             "(Z = -inf where nothing is hit). bench prints the median render time and set-up time.\n");
 }
@@ -38,20 +45,395 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* The default region: the part's fitted box (crisp_frep_fit_region), padded by 4% and widened
+ * to the image's aspect; an axis on which the part is unbounded keeps [-1, 1], with a note. */
+static crisp_status fit_region(const crisp_frep_tape *tape, int is3d, crisp_frep_render_desc *desc)
+{
+    crisp_frep_fit fit;
+    crisp_status s = crisp_frep_fit_region(tape, &(crisp_frep_fit_desc){.planar = !is3d, .free_axes = is3d ? 4u : 0u}, &fit);
+    if (s) return s;
+    static const char axis[3] = {'x', 'y', 'z'};
+    if (fit.unbounded & 3u) {
+        /* fit the bounded axes again within the slab shown ([-1, 1] on the unbounded ones): the
+         * first fit was over the largest search box, at its coarse resolution */
+        crisp_frep_fit_desc d2 = {.planar = !is3d};
+        for (int a = 0; a < 3; a++) {
+            int unb = (fit.unbounded >> a) & 1;
+            d2.search[2 * a] = unb ? -1 : fit.box[2 * a] - fit.cell;
+            d2.search[2 * a + 1] = unb ? 1 : fit.box[2 * a + 1] + fit.cell;
+        }
+        crisp_frep_fit fit2;
+        if (!crisp_frep_fit_region(tape, &d2, &fit2)) {
+            for (int a = 0; a < 3; a++)
+                if (!((fit.unbounded >> a) & 1)) fit.box[2 * a] = fit2.box[2 * a], fit.box[2 * a + 1] = fit2.box[2 * a + 1];
+        }
+        crisp_error_clear();
+    }
+    double *g = desc->region, ext[3], mid[3];
+    for (int a = 0; a < 3; a++) {
+        if (fit.unbounded & (1u << a)) {
+            fprintf(stderr, "crisp frep: the part is not bounded in %c within [%g, %g]; showing %c in "
+                    "[-1, 1] (give --region to choose)\n", axis[a], fit.search[2 * a], fit.search[2 * a + 1],
+                    axis[a]);
+            mid[a] = 0, ext[a] = 2;
+        } else {
+            mid[a] = 0.5 * (fit.box[2 * a] + fit.box[2 * a + 1]);
+            ext[a] = 1.04 * (fit.box[2 * a + 1] - fit.box[2 * a]);
+        }
+    }
+    if (!is3d) mid[2] = 0, ext[2] = 0;
+    /* square pixels: the x:y extents follow the image's W:H */
+    double aspect = (double)desc->width / desc->height;
+    if (ext[0] < ext[1] * aspect) ext[0] = ext[1] * aspect;
+    else ext[1] = ext[0] / aspect;
+    for (int a = 0; a < 3; a++) {
+        if (!(ext[a] > 0)) ext[a] = a < 2 || is3d ? 2 : 0;
+        g[2 * a] = mid[a] - 0.5 * ext[a];
+        g[2 * a + 1] = mid[a] + 0.5 * ext[a];
+    }
+    return CRISP_OK;
+}
+
+/* Numbers on the command line: the whole word must parse, and be finite and in range. */
+static int parse_long(const char *opt, const char *v, long lo, long hi, long *dest)
+{
+    char *end;
+    long x = v ? strtol(v, &end, 10) : 0;
+    if (!v || end == v || *end || x < lo || x > hi) {
+        fprintf(stderr, "crisp frep: %s expects an integer in %ld..%ld, found '%s'\n", opt, lo, hi, v ? v : "");
+        return 0;
+    }
+    *dest = x;
+    return 1;
+}
+
+static int parse_double(const char *opt, const char *v, double lo, double hi, double *dest)
+{
+    char *end;
+    double x = v ? strtod(v, &end) : 0;
+    if (!v || end == v || *end || !(x >= lo && x <= hi)) {
+        fprintf(stderr, "crisp frep: %s expects a number in [%g, %g], found '%s'\n", opt, lo, hi, v ? v : "");
+        return 0;
+    }
+    *dest = x;
+    return 1;
+}
+
+/* x0,x1,y0,y1,z0,z1: six finite numbers, each pair increasing */
+static int parse_region(const char *v, double g[6])
+{
+    const char *p = v;
+    for (int k = 0; k < 6; k++) {
+        char *end;
+        g[k] = strtod(p, &end);
+        if (end == p || !isfinite(g[k]) || (k < 5 && *end != ',') || (k == 5 && *end)) {
+            fprintf(stderr, "crisp frep: --region expects x0,x1,y0,y1,z0,z1, found '%s'\n", v);
+            return 0;
+        }
+        p = end + 1;
+    }
+    for (int a = 0; a < 3; a++)
+        if (!(g[2 * a] < g[2 * a + 1])) {
+            fprintf(stderr, "crisp frep: --region axis %c: [%g, %g] is empty\n", "xyz"[a], g[2 * a], g[2 * a + 1]);
+            return 0;
+        }
+    return 1;
+}
+
+static crisp_status load_model(const char *file, const char *expr, crisp_frep **f, crisp_frep_tape **tape)
+{
+    crisp_status s;
+    if (expr) s = crisp_frep_read_math_mem("-e", expr, strlen(expr), f);
+    else if (ends_with(file, ".vm")) s = crisp_frep_read_vm(file, f);
+    else s = crisp_frep_read_math(file, f);
+    if (!s) s = crisp_frep_tape_create(*f, tape);
+    return s;
+}
+
+static int cmd_mesh(int argc, char **argv)
+{
+    const char *file = NULL, *expr = NULL, *out = NULL;
+    crisp_frep_mesh_desc desc = {0};
+    int stats = 0;
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        long n;
+        if (!strcmp(a, "-o") && v) {
+            out = v, i++;
+        } else if (!strcmp(a, "--resolution") && v) {
+            if (!parse_long(a, v, 4, 1 << 20, &n)) return 2;
+            desc.resolution = (int)n, i++;
+        } else if (!strcmp(a, "--cell") && v) {
+            if (!parse_double(a, v, 1e-30, 1e30, &desc.cell)) return 2;
+            if (!(desc.cell > 0)) return 2;
+            i++;
+        } else if (!strcmp(a, "--region") && v) {
+            if (!parse_region(v, desc.region)) return 2;
+            i++;
+        } else if (!strcmp(a, "--stats")) {
+            stats = 1;
+        } else if (!strcmp(a, "-e") && v) {
+            expr = v, i++;
+        } else if (a[0] != '-' && !file) {
+            file = a;
+        } else {
+            fprintf(stderr, "crisp frep mesh: unknown or incomplete option '%s'\n", a);
+            usage(stderr);
+            return 2;
+        }
+    }
+    if ((!file && !expr) || !out) {
+        fprintf(stderr, "crisp frep mesh: %s\n", !out ? "no output given (-o out.stl|.obj|.ply)" : "no FILE given");
+        return 2;
+    }
+    crisp_frep *f = NULL;
+    crisp_frep_tape *tape = NULL;
+    crisp_frep_mesh_writer *w = NULL;
+    crisp_frep_mesh_sink sink;
+    crisp_frep_mesh_stats st;
+    double t0 = crisp_time_now();
+    crisp_status s = load_model(file, expr, &f, &tape);
+    if (!s) s = crisp_frep_mesh_writer_open(out, &w, &sink);
+    if (!s) s = crisp_frep_mesh(tape, &desc, &sink, &st);
+    crisp_status s2 = crisp_frep_mesh_writer_close(w);
+    if (!s) s = s2;
+    int rc = 0;
+    if (s) {
+        fprintf(stderr, "crisp frep mesh: %s\n", crisp_error_message());
+        rc = 1;
+    } else {
+        double dt = crisp_time_now() - t0;
+        printf("%s: %zu vertices, %zu triangles, cell %g over [%g, %g] x [%g, %g] x [%g, %g]; %.3f s, "
+               "%.1f MB peak (mesher)\n",
+               out, st.vertices, st.triangles, st.cell, st.region[0], st.region[1], st.region[2],
+               st.region[3], st.region[4], st.region[5], dt, st.peak_bytes / 1e6);
+        if (stats)
+            printf("leaves %zu, intervals %zu, NaN points %zu\n", st.leaves, st.intervals, st.nan_points);
+        if (st.thin_cubes)
+            fprintf(stderr, "crisp frep mesh: warning: %zu grid cubes hold a feature thinner than the cell "
+                    "(%g), lost in the mesh (one near %g, %g, %g); use a finer --cell\n",
+                    st.thin_cubes, st.cell, st.thin_at[0], st.thin_at[1], st.thin_at[2]);
+        if (st.cut_points)
+            fprintf(stderr, "crisp frep mesh: warning: the region cuts the part (%zu inside grid points on "
+                    "its border); the mesh is closed by the region's faces there\n", st.cut_points);
+        if (!st.triangles) fprintf(stderr, "crisp frep mesh: warning: empty mesh: no grid point is inside the part\n");
+    }
+    crisp_frep_tape_destroy(tape);
+    crisp_frep_destroy(f);
+    return rc;
+}
+
+/* ---- mass ------------------------------------------------------------------------------------ */
+
+typedef struct area_sum {
+    double area;
+} area_sum;
+
+static crisp_status area_vertex(void *ctx, const float p[3])
+{
+    (void)ctx, (void)p;
+    return CRISP_OK;
+}
+
+static crisp_status area_triangle(void *ctx, const uint32_t v[3], const float p[3][3])
+{
+    (void)v;
+    double e1[3], e2[3];
+    for (int a = 0; a < 3; a++) e1[a] = (double)p[1][a] - p[0][a], e2[a] = (double)p[2][a] - p[0][a];
+    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    ((area_sum *)ctx)->area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    return CRISP_OK;
+}
+
+/* Surface area from the meshes at two resolutions (the finer one, and their difference as the
+ * error estimate). */
+static crisp_status mesh_area(const crisp_frep_tape *tape, const double region[6], int resolution,
+                              double *area, double *err)
+{
+    double a[2];
+    for (int k = 0; k < 2; k++) {
+        area_sum sum = {0};
+        crisp_frep_mesh_sink sink = {.ctx = &sum, .vertex = area_vertex, .triangle = area_triangle};
+        crisp_frep_mesh_desc d = {.resolution = resolution >> k};
+        memcpy(d.region, region, sizeof d.region);
+        crisp_frep_mesh_stats st;
+        crisp_status s = crisp_frep_mesh(tape, &d, &sink, &st);
+        if (s) return s;
+        a[k] = sum.area;
+    }
+    *area = a[0];
+    *err = fabs(a[0] - a[1]);
+    return CRISP_OK;
+}
+
+static void print_level(const crisp_frep_mass *m)
+{
+    printf("  level %2d  cell %.3g  boundary cells %9zu  processor time %8.3f s  volume %.10g +- %.2g  "
+           "bounds [%.10g, %.10g]\n",
+           m->level, fmax(m->cell[0], fmax(m->cell[1], m->cell[2])), m->boundary_cells, m->cpu_seconds,
+           m->volume, m->volume_se, m->volume_lo, m->volume_hi);
+}
+
+static int cmd_mass(int argc, char **argv)
+{
+    const char *file = NULL, *expr = NULL;
+    double accuracy = 0, time_limit = 0;
+    int predict = 0;
+    long level = 0, seed = 1;
+    crisp_frep_mass_desc desc = {0};
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "--accuracy") && v) {
+            if (!parse_double(a, v, 1e-12, 1, &accuracy)) return 2;
+            i++;
+        } else if (!strcmp(a, "--time") && v) {
+            if (!parse_double(a, v, 1e-3, 1e7, &time_limit)) return 2;
+            i++;
+        } else if (!strcmp(a, "--level") && v) {
+            if (!parse_long(a, v, 1, 20, &level)) return 2;
+            i++;
+        } else if (!strcmp(a, "--seed") && v) {
+            if (!parse_long(a, v, 0, 2147483647L, &seed)) return 2;
+            i++;
+        } else if (!strcmp(a, "--region") && v) {
+            if (!parse_region(v, desc.region)) return 2;
+            i++;
+        } else if (!strcmp(a, "--predict")) {
+            predict = 1;
+        } else if (!strcmp(a, "-e") && v) {
+            expr = v, i++;
+        } else if (a[0] != '-' && !file) {
+            file = a;
+        } else {
+            fprintf(stderr, "crisp frep mass: unknown or incomplete option '%s'\n", a);
+            usage(stderr);
+            return 2;
+        }
+    }
+    if (!file && !expr) {
+        fprintf(stderr, "crisp frep mass: no FILE given\n");
+        return 2;
+    }
+    if (!accuracy && !time_limit && !level) accuracy = 1e-3;
+    crisp_frep *f = NULL;
+    crisp_frep_tape *tape = NULL;
+    int rc = 1;
+    crisp_status s = load_model(file, expr, &f, &tape);
+    if (s) goto fail;
+    desc.seed = (uint64_t)seed;
+    /* the region once (fitted unless given), so that every level measures the same box */
+    if (!desc.region[0] && !desc.region[1] && !desc.region[2] && !desc.region[3] && !desc.region[4] &&
+        !desc.region[5]) {
+        crisp_frep_mass first;
+        desc.level = 1;
+        s = crisp_frep_mass_level(tape, &desc, &first);
+        if (s && !first.cut_cells) goto fail;
+        memcpy(desc.region, first.region, sizeof desc.region);
+    }
+    /* coarse levels (Clark: the cost and the error of a level predict the next ones) */
+    crisp_frep_mass lv[21];
+    int n = 0;
+    double spent = 0;
+    int target = (int)level;
+    if (!target) {
+        for (int L = 3; L <= 20; L++) {
+            desc.level = L;
+            s = crisp_frep_mass_level(tape, &desc, &lv[L]);
+            if (s) goto fail;
+            spent += lv[L].seconds;
+            n = L;
+            if (predict) print_level(&lv[L]);
+            double rel = lv[L].volume_se / fabs(lv[L].volume);
+            if (accuracy && rel <= accuracy && !predict) break;
+            if (L >= 5 && (lv[L].seconds > 0.1 || L >= 7)) break;
+        }
+        /* Clark: the coarse levels' cells, time and error predict the finer ones */
+        int first = n - 2 >= 3 ? n - 2 : 3;
+        double gc = (double)lv[n].boundary_cells / (double)(lv[n - 1].boundary_cells ? lv[n - 1].boundary_cells : 1);
+        double K = (double)lv[n].boundary_cells / pow(4.0, n);
+        if (predict) {
+            printf("growth per level: boundary cells x%.2f, volume error x%.3f (Clark's K = boundary cells / "
+                   "4^level = %.3g)\n", gc, lv[n].volume_se / lv[n - 1].volume_se, K);
+            for (int k = 1; k <= 4 && n + k <= 20; k++) {
+                double pt, pe;
+                crisp_frep_mass_predict(&lv[first], n - first + 1, n + k, &pt, &pe);
+                printf("  level %2d  predicted: processor time %8.3f s  volume error %.2g (relative %.2g)\n",
+                       n + k, pt, pe, pe / fabs(lv[n].volume));
+            }
+        }
+        target = n;
+        double rel = lv[n].volume_se / fabs(lv[n].volume), tpred = 0;
+        for (int L = n + 1; L <= 20; L++) {
+            double pt, pe;
+            crisp_frep_mass_predict(&lv[first], n - first + 1, L, &pt, &pe);
+            if (accuracy) {
+                if (rel <= accuracy) break;
+                target = L, tpred = pt;
+                if (pe / fabs(lv[n].volume) <= accuracy) break;
+            } else if (time_limit) {
+                if (spent + pt > time_limit) break;
+                target = L, tpred = pt;
+            }
+        }
+        if (target > 20) target = 20;
+        double cap = time_limit ? time_limit : 600;
+        if (tpred > cap) {
+            fprintf(stderr, "crisp frep mass: level %d would take about %.0f s (over %.0f s); give a larger "
+                    "--time or a coarser --accuracy\n", target, tpred, cap);
+            goto done;
+        }
+        if (target != n && predict) printf("running level %d (predicted %.3f s)\n", target, tpred);
+    }
+    crisp_frep_mass r;
+    if (target == n && n > 0) {
+        r = lv[n];
+    } else {
+        desc.level = target;
+        s = crisp_frep_mass_level(tape, &desc, &r);
+        if (s) goto fail;
+        if (predict) print_level(&r);
+    }
+    double area = 0, area_err = 0;
+    s = mesh_area(tape, r.region, 1 << (r.level < 7 ? r.level : 7), &area, &area_err);
+    if (s) goto fail;
+    printf("level %d (cells %.3g), %zu boundary cells, %zu samples, %.3f s\n", r.level,
+           fmax(r.cell[0], fmax(r.cell[1], r.cell[2])), r.boundary_cells, r.samples, r.seconds);
+    printf("volume    %.12g +- %.3g (standard error); certified bounds [%.12g, %.12g]\n", r.volume,
+           r.volume_se, r.volume_lo, r.volume_hi);
+    printf("area      %.6g (mesh; +- %.2g between two resolutions)\n", area, area_err);
+    printf("centroid  %.10g %.10g %.10g\n       +-  %.3g %.3g %.3g\n", r.centroid[0], r.centroid[1],
+           r.centroid[2], r.centroid_se[0], r.centroid_se[1], r.centroid_se[2]);
+    printf("inertia about the centroid (density 1): Ixx Iyy Izz Ixy Iyz Ixz\n  ");
+    for (int k = 0; k < 6; k++) printf(" %.10g", r.inertia[k]);
+    printf("\n +-");
+    for (int k = 0; k < 6; k++) printf(" %.3g", r.inertia_se[k]);
+    printf("\n");
+    rc = 0;
+    goto done;
+fail:
+    fprintf(stderr, "crisp frep mass: %s\n", crisp_error_message());
+done:
+    crisp_frep_tape_destroy(tape);
+    crisp_frep_destroy(f);
+    return rc;
+}
+
 int crisp_cmd_frep(int argc, char **argv)
 {
     if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
         usage(argc < 2 ? stderr : stdout);
         return argc < 2 ? 2 : 0;
     }
+    if (!strcmp(argv[1], "mesh")) return cmd_mesh(argc, argv);
+    if (!strcmp(argv[1], "mass")) return cmd_mass(argc, argv);
     const char *mode = argv[1], *file = NULL, *expr = NULL, *out = NULL, *depth_out = NULL;
     int bench = !strcmp(mode, "bench");
     if (!bench && strcmp(mode, "render")) {
-        fprintf(stderr, "crisp frep: unknown mode '%s' (expected render or bench)\n", mode);
+        fprintf(stderr, "crisp frep: unknown mode '%s' (expected render, bench, mesh or mass)\n", mode);
         return 2;
     }
     crisp_frep_render_desc desc = {.width = 1024, .height = 1024};
-    int is3d = 0, depth = 0, stats = 0, runs = 20;
+    int is3d = 0, depth = 0, stats = 0, runs = 20, region_given = 0;
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -78,6 +460,7 @@ int crisp_cmd_frep(int argc, char **argv)
             }
             if (n == 4) g[4] = -1, g[5] = 1;
             memcpy(desc.region, g, sizeof g);
+            region_given = 1;
             i++;
         } else if (!strcmp(a, "-o") && v) {
             out = v, i++;
@@ -132,6 +515,7 @@ int crisp_cmd_frep(int argc, char **argv)
         else if (ends_with(file, ".vm")) s = crisp_frep_read_vm(file, &f);
         else s = crisp_frep_read_math(file, &f);
         if (!s) s = crisp_frep_tape_create(f, &tape);
+        if (!s && !region_given && n == 0) s = fit_region(tape, is3d, &desc);
         if (!s) s = crisp_frep_renderer_create(tape, &desc, &r);
         if (s) {
             fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
@@ -151,6 +535,9 @@ int crisp_cmd_frep(int argc, char **argv)
     const crisp_frep_image *img = crisp_frep_renderer_image(r);
     size_t npix = (size_t)img->width * (size_t)img->height, inside = 0;
     for (size_t p = 0; p < npix; p++) inside += img->inside[p] != 0;
+    if (!inside)
+        fprintf(stderr, "crisp frep: empty image: no sample of [%g, %g] x [%g, %g]%s is inside the part\n",
+                desc.region[0], desc.region[1], desc.region[2], desc.region[3], is3d ? " x [z]" : "");
     if (bench) {
         qsort(render, (size_t)runs, sizeof *render, cmp_double);
         qsort(setup, (size_t)nsetup, sizeof *setup, cmp_double);
@@ -179,13 +566,7 @@ int crisp_cmd_frep(int argc, char **argv)
         } else {
             uint8_t *shade = malloc(npix);
             if (!shade) goto done;
-            /* Lambert shading from a light up and to the upper left of the viewer */
-            const float l[3] = {-0.40824829f, 0.40824829f, 0.81649658f};
-            for (size_t p = 0; p < npix; p++) {
-                const float *nrm = img->normal + 3 * p;
-                float d = nrm[0] * l[0] + nrm[1] * l[1] + nrm[2] * l[2];
-                shade[p] = img->inside[p] ? (uint8_t)(40 + 215 * (d > 0 ? d : 0)) : 0;
-            }
+            crisp_frep_shade(img, shade);
             s = crisp_write_png_gray(out, img->width, img->height, shade);
             free(shade);
         }

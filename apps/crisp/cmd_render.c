@@ -1,375 +1,411 @@
-/* crisp render MODEL|SCENE [-o out.png] [--aov out.exr] [--size WxH] [--eye x,y,z --target x,y,z
- *                    --up x,y,z --fov DEG] [--near N --far F] [--samples N]
- *                    [--backend cpu|exact] [--threads N] [--stats]
- * Camera and pixel conventions as DESIGN.md section 6. A scene file (include/crisp/scene_file.h)
- * merges its models and composites its f-rep parts by depth. */
+/* crisp render FILE [options]: parse the options, open the file into a crisp_document, frame it,
+ * render it (crisp_document_render) and write the outputs (include/crisp/app.h). Outputs and the
+ * memory a frame needs are checked before any work starts. Camera and pixel conventions as
+ * docs/design.md (camera). */
+#include <getopt.h>
 #include <math.h>
-#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "crisp/image.h"
-#include "crisp/io.h"
-#include "crisp/render.h"
-#include "crisp/scene_file.h"
-#include "crisp/trim.h"
+#include "cli.h"
+#include "crisp/app.h"
 
 const char crisp_cmd_render_help[] =
-    "render MODEL|SCENE [-o out.png] [--aov out.exr] [--size WxH] [--eye x,y,z --target x,y,z --up x,y,z\n"
-    "                            --fov DEG] [--near N --far F] [--samples N] [--backend cpu|exact]\n"
-    "                            [--threads N] [--stats]   render a model or a .scene file to an image\n"
-    "                            (--up defaults to 0,1,0, or to 0,0,-1 / 0,0,1 looking straight down / up)";
+    "render FILE [options]       render a model, a .scene file or an f-rep part to an image";
 
-/* Box of the f-rep parts: each part's [-1, 1]^3 (the .vm models' region) through its transform;
- * used only to frame the default camera. */
-static void parts_box(const crisp_frep_part *parts, size_t n, double box[6])
+static const char usage_text[] =
+    "usage: crisp render FILE [options]\n"
+    "  Renders FILE (IGES, STEP or OBJ model by content, .scene file, .vm or math-string f-rep "
+    "part)\n"
+    "  and writes the picture. Options (default in brackets):\n"
+    "  -o, --output FILE     image to write, .png (8-bit RGBA, alpha = coverage) or .exr (float\n"
+    "                        R G B A Z N.x N.y N.z u v face) [out.png]\n"
+    "      --aov FILE.exr    also write the EXR with every AOV [none]\n"
+    "      --size WxH        image size in pixels, each 1..16384 [1280x720]\n"
+    "      --view NAME       front (seen from -Y), back, left, right, top (from +Z), bottom or "
+    "iso\n"
+    "                        (from 1,-1,1), +Z up, fitted to the trimmed geometry\n"
+    "                        [the scene file's camera line, else iso]\n"
+    "      --fit             keep the direction of --eye/--target (or the camera line) and move "
+    "the\n"
+    "                        camera so the geometry just fits [off]\n"
+    "      --eye x,y,z       camera position [fitted]\n"
+    "      --target x,y,z    point looked at [the middle of the box]\n"
+    "      --up x,y,z        up direction [0,0,1; 0,1,0 / 0,-1,0 looking straight down / up]\n"
+    "      --fov DEG         vertical field of view in (0, 180) [30]\n"
+    "      --near N          near plane distance > 0 [encloses the box]\n"
+    "      --far F           far plane distance > near [encloses the box]\n"
+    "      --samples N       samples per pixel, 1, 4 or 16 (cpu and gl backends) [4 when a PNG is\n"
+    "                        written with the cpu or gl backend, else 1]\n"
+    "      --backend NAME    cpu (SLEFE tessellation, u-intercept tables) or exact (ray casting "
+    "on\n"
+    "                        the true surfaces and trim curves; slow) [cpu]\n"
+    "      --threads N       worker threads, 1..1024 [CRISP_THREADS, else all cores]\n"
+    "      --repeat N        render N frames of the same view with the same renderer, 1..100000 "
+    "[1]\n"
+    "      --stats           print counts and each stage's time (medians over --repeat) [off]\n"
+    "      --max-memory SIZE refuse a frame estimated to need more (K, M, G, T suffixes); a frame\n"
+    "                        over 2 GB prints a warning [8G]\n"
+    "      --progress        show a progress bar on stderr [only when stderr is a terminal]\n"
+    "      --no-progress     never show the progress bar\n"
+    "  -q, --quiet           do not print the 'wrote FILE (WxH, N faces, T ms)' line\n"
+    "  -h, --help            print this help and exit\n"
+    "  Exit status: 0 success, 1 bad input or failure, 2 bad usage.\n";
+
+typedef struct render_args {
+    const char *path, *out, *aov;
+    crisp_camera_desc cam;
+    double eye[3], target[3], up[3];
+    crisp_document_render_desc render;
+    int samples_given, stats, quiet, repeat, progress;
+    uint64_t max_memory;
+} render_args;
+
+enum {
+    OPT_AOV = 256,
+    OPT_SIZE,
+    OPT_VIEW,
+    OPT_FIT,
+    OPT_EYE,
+    OPT_TARGET,
+    OPT_UP,
+    OPT_FOV,
+    OPT_NEAR,
+    OPT_FAR,
+    OPT_SAMPLES,
+    OPT_BACKEND,
+    OPT_THREADS,
+    OPT_REPEAT,
+    OPT_STATS,
+    OPT_MAXMEM,
+    OPT_PROGRESS,
+    OPT_NO_PROGRESS
+};
+
+/* 0: run; 1: --help printed; 2: usage error (message printed). */
+static int parse(int argc, char **argv, render_args *a)
 {
-    for (size_t k = 0; k < n; k++)
-        for (int c = 0; c < 8; c++) {
-            double p[3] = {c & 1 ? 1 : -1, c & 2 ? 1 : -1, c & 4 ? 1 : -1}, w[4];
-            crisp_mat4 m;
-            memcpy(m, parts[k].transform, sizeof m);
-            crisp_mat4_mulp(m, p, w);
-            for (int a = 0; a < 3; a++) {
-                box[a] = fmin(box[a], w[a]);
-                box[a + 3] = fmax(box[a + 3], w[a]);
+    static const struct option opts[] = {{"output", required_argument, 0, 'o'},
+                                         {"aov", required_argument, 0, OPT_AOV},
+                                         {"size", required_argument, 0, OPT_SIZE},
+                                         {"view", required_argument, 0, OPT_VIEW},
+                                         {"fit", no_argument, 0, OPT_FIT},
+                                         {"eye", required_argument, 0, OPT_EYE},
+                                         {"target", required_argument, 0, OPT_TARGET},
+                                         {"up", required_argument, 0, OPT_UP},
+                                         {"fov", required_argument, 0, OPT_FOV},
+                                         {"near", required_argument, 0, OPT_NEAR},
+                                         {"far", required_argument, 0, OPT_FAR},
+                                         {"samples", required_argument, 0, OPT_SAMPLES},
+                                         {"backend", required_argument, 0, OPT_BACKEND},
+                                         {"threads", required_argument, 0, OPT_THREADS},
+                                         {"repeat", required_argument, 0, OPT_REPEAT},
+                                         {"stats", no_argument, 0, OPT_STATS},
+                                         {"max-memory", required_argument, 0, OPT_MAXMEM},
+                                         {"progress", no_argument, 0, OPT_PROGRESS},
+                                         {"no-progress", no_argument, 0, OPT_NO_PROGRESS},
+                                         {"quiet", no_argument, 0, 'q'},
+                                         {"help", no_argument, 0, 'h'},
+                                         {0, 0, 0, 0}};
+    *a = (render_args){.cam = {.width = 1280, .height = 720},
+                       .repeat = 1,
+                       .progress = -1,
+                       .max_memory = 8ull << 30};
+    optind = 0; /* GNU getopt: start afresh */
+    opterr = 0;
+    int c;
+    while ((c = getopt_long(argc, argv, ":o:qh", opts, NULL)) != -1) {
+        switch (c) {
+        case 'o':
+            a->out = optarg;
+            break;
+        case OPT_AOV:
+            a->aov = optarg;
+            break;
+        case OPT_SIZE:
+            if (!cli_size("--size", optarg, 16384, &a->cam.width, &a->cam.height)) return 2;
+            break;
+        case OPT_VIEW:
+            if (!crisp_view_parse(optarg, &a->cam.view)) {
+                fprintf(stderr,
+                        "crisp render: --view %s: expected front, back, left, right, top, bottom "
+                        "or iso\n",
+                        optarg);
+                return 2;
             }
+            break;
+        case OPT_FIT:
+            a->cam.fit = 1;
+            break;
+        case OPT_EYE:
+            if (!cli_doubles("--eye", optarg, 3, a->eye)) return 2;
+            a->cam.eye = a->eye;
+            break;
+        case OPT_TARGET:
+            if (!cli_doubles("--target", optarg, 3, a->target)) return 2;
+            a->cam.target = a->target;
+            break;
+        case OPT_UP:
+            if (!cli_doubles("--up", optarg, 3, a->up)) return 2;
+            a->cam.up = a->up;
+            break;
+        case OPT_FOV:
+            if (!cli_double("--fov", optarg, 0, 180, 1, 1, &a->cam.fov_deg)) return 2;
+            break;
+        case OPT_NEAR:
+            if (!cli_double("--near", optarg, 0, INFINITY, 1, 1, &a->cam.znear)) return 2;
+            break;
+        case OPT_FAR:
+            if (!cli_double("--far", optarg, 0, INFINITY, 1, 1, &a->cam.zfar)) return 2;
+            break;
+        case OPT_SAMPLES:
+            if (!cli_int("--samples", optarg, 1, 16, &a->render.samples)) return 2;
+            if (a->render.samples != 1 && a->render.samples != 4 && a->render.samples != 16) {
+                fprintf(stderr, "crisp render: --samples %s: expected 1, 4 or 16\n", optarg);
+                return 2;
+            }
+            a->samples_given = 1;
+            break;
+        case OPT_BACKEND:
+            if (!strcmp(optarg, "cpu")) {
+                a->render.backend = CRISP_BACKEND_CPU;
+            } else if (!strcmp(optarg, "exact")) {
+                a->render.backend = CRISP_BACKEND_EXACT;
+            } else if (!strcmp(optarg, "gl")) {
+                a->render.backend = CRISP_BACKEND_GL;
+            } else {
+                fprintf(stderr, "crisp render: --backend %s: expected cpu, exact or gl\n", optarg);
+                return 2;
+            }
+            break;
+        case OPT_THREADS:
+            if (!cli_int("--threads", optarg, 1, 1024, &a->render.threads)) return 2;
+            break;
+        case OPT_REPEAT:
+            if (!cli_int("--repeat", optarg, 1, 100000, &a->repeat)) return 2;
+            break;
+        case OPT_STATS:
+            a->stats = 1;
+            break;
+        case OPT_MAXMEM:
+            if (!cli_bytes("--max-memory", optarg, &a->max_memory)) return 2;
+            break;
+        case OPT_PROGRESS:
+            a->progress = 1;
+            break;
+        case OPT_NO_PROGRESS:
+            a->progress = 0;
+            break;
+        case 'q':
+            a->quiet = 1;
+            break;
+        case 'h':
+            fputs(usage_text, stdout);
+            return 1;
+        default:
+            cli_bad_option(c, argv);
+            return 2;
         }
-}
-
-static int parse_vec3(const char *opt, const char *s, double v[3])
-{
-    char *end;
-    for (int i = 0; i < 3; i++) {
-        v[i] = strtod(s, &end);
-        if (end == s || !isfinite(v[i]) || (i < 2 && *end != ',') || (i == 2 && *end != '\0')) {
-            fprintf(stderr, "crisp render: %s '%s': expected three numbers x,y,z\n", opt, s);
-            return 0;
-        }
-        s = end + 1;
     }
-    return 1;
+    if (optind >= argc) {
+        fprintf(stderr, "crisp render: no FILE given\n%s", usage_text);
+        return 2;
+    }
+    if (optind + 1 < argc) {
+        fprintf(stderr, "crisp render: more than one FILE given ('%s', '%s')\n", argv[optind],
+                argv[optind + 1]);
+        return 2;
+    }
+    a->path = argv[optind];
+    if (a->cam.view != CRISP_VIEW_DEFAULT && a->cam.eye) {
+        fprintf(stderr, "crisp render: --view and --eye both place the camera: give one (--fit "
+                        "refits --eye)\n");
+        return 2;
+    }
+    if (!a->out && !a->aov) a->out = "out.png";
+    int cpu = a->render.backend != CRISP_BACKEND_EXACT; /* cpu and gl take samples */
+    if (!cpu && a->samples_given && a->render.samples != 1) {
+        fprintf(
+            stderr,
+            "crisp render: the exact backend casts one ray per pixel centre; --samples %d needs "
+            "the cpu backend\n",
+            a->render.samples);
+        return 2;
+    }
+    if (!a->samples_given)
+        a->render.samples =
+            cpu && a->out && crisp_image_format_of(a->out) == CRISP_IMAGE_PNG ? 4 : 1;
+    return 0;
 }
 
-static int parse_double(const char *opt, const char *s, double *v)
+/* Outputs and memory, before the work starts. */
+static int check_outputs(const render_args *a)
 {
-    char *end;
-    *v = strtod(s, &end);
-    if (end == s || *end || !isfinite(*v)) {
-        fprintf(stderr, "crisp render: %s '%s': expected a number\n", opt, s);
+    if ((a->out && crisp_image_output_check(a->out, CRISP_IMAGE_UNKNOWN)) ||
+        (a->aov && crisp_image_output_check(a->aov, CRISP_IMAGE_EXR))) {
+        fprintf(stderr, "crisp render: %s\n", crisp_error_message());
         return 0;
     }
-    return 1;
-}
-
-static int parse_int(const char *opt, const char *s, int lo, int hi, int *v)
-{
-    char *end;
-    long x = strtol(s, &end, 10);
-    if (end == s || *end || x < lo || x > hi) {
-        fprintf(stderr, "crisp render: %s '%s': expected an integer in %d..%d\n", opt, s, lo, hi);
+    uint64_t need = crisp_render_memory_estimate(a->cam.width, a->cam.height, a->render.samples);
+    char nb[32], lb[32];
+    cli_format_bytes(need, nb, sizeof nb);
+    cli_format_bytes(a->max_memory, lb, sizeof lb);
+    if (need > a->max_memory) {
+        fprintf(
+            stderr,
+            "crisp render: --size %dx%d with %d sample(s) per pixel needs about %s, more than the "
+            "limit of %s (raise it with --max-memory, or lower --size or --samples)\n",
+            a->cam.width, a->cam.height, a->render.samples, nb, lb);
         return 0;
     }
-    *v = (int)x;
+    if (need > (2ull << 30))
+        fprintf(stderr,
+                "crisp render: warning: --size %dx%d with %d sample(s) per pixel needs about %s\n",
+                a->cam.width, a->cam.height, a->render.samples, nb);
     return 1;
 }
 
-/* Without --up the up vector is +Y; looking straight up or down (+Y parallel to the view
- * direction) it is -Z when looking down and +Z when looking up, so the image is the one seen
- * with +Y up after tilting the camera over the pole. An explicit --up is used as given (and
- * rejected when parallel). */
-static void default_up(crisp_camera *cam)
-{
-    double d[3], f[3], s[3];
-    crisp_vec3_sub(cam->target, cam->eye, d);
-    if (!crisp_vec3_normalize(d, f)) return;
-    crisp_vec3_cross(f, cam->up, s);
-    if (crisp_vec3_norm(s) > 1e-6) return;
-    cam->up[0] = 0;
-    cam->up[1] = 0;
-    cam->up[2] = f[1] < 0 ? -1 : 1;
-}
+typedef struct frame_times {
+    double *total, *levels, *edges, *trim, *tess, *raster, *resolve, *faces, *parts;
+} frame_times;
 
-/* The exact backend's trim decision: the face's true trim curves. */
-static int classify_exact(void *ctx, const crisp_scene *sc, uint32_t face, double u, double v)
+static void print_stats(const render_args *a, const crisp_document *doc, const crisp_camera *cam,
+                        const crisp_image *img, const crisp_render_stats *rs, frame_times *t,
+                        double ms_write)
 {
-    (void)ctx;
-    const crisp_scene_face *f = &sc->faces[face];
-    if (f->piece_count == 0) return 1;
-    return crisp_trim_exact_classify(sc->pieces + f->first_piece, (int)f->piece_count, u, v);
-}
-
-static crisp_status write_outputs(const crisp_image *img, const char *png, const char *exr)
-{
-    size_t n = (size_t)img->width * img->height;
-    crisp_status st = CRISP_OK;
-    if (png) {
-        uint8_t *px = crisp_malloc_array(n, 4);
-        if (!px) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the PNG");
-        for (size_t i = 0; i < 4 * n; i++) {
-            float c = img->rgba[i];
-            px[i] = (uint8_t)lrintf(255.0f * (c < 0 ? 0 : c > 1 ? 1 : c));
-        }
-        st = crisp_write_png_rgba(png, img->width, img->height, px);
-        crisp_free(px);
-        if (st) return st;
+    int cpu = a->render.backend == CRISP_BACKEND_CPU;
+    size_t n = (size_t)img->width * img->height, drawn = 0, frep_drawn = 0;
+    for (size_t i = 0; i < n; i++) {
+        drawn += img->face[i] >= 0;
+        frep_drawn += img->face[i] <= -2;
     }
-    if (exr) {
-        static const char *const names[] = {"R", "G", "B", "A", "Z", "N.x", "N.y", "N.z", "u", "v", "face"};
-        enum { C = 11 };
-        float *px = crisp_malloc_array(n, C * sizeof(float));
-        if (!px) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the EXR");
-        for (size_t i = 0; i < n; i++) {
-            float *d = px + C * i;
-            memcpy(d, img->rgba + 4 * i, 4 * sizeof(float));
-            d[4] = img->depth[i];
-            memcpy(d + 5, img->normal + 3 * i, 3 * sizeof(float));
-            d[8] = img->uv[2 * i];
-            d[9] = img->uv[2 * i + 1];
-            d[10] = (float)img->face[i];
-        }
-        st = crisp_write_exr(exr, img->width, img->height, C, names, px);
-        crisp_free(px);
+    const crisp_scene *sc = doc->scene;
+    size_t r = (size_t)a->repeat;
+    printf("backend          %s\n", cpu ? "cpu (SLEFE tessellation, u-intercept tables)"
+                                    : a->render.backend == CRISP_BACKEND_GL
+                                        ? "gl (OpenGL 4.5 tessellation, u-intercept tables)"
+                                        : "exact (ray casting, exact trim classifier)");
+    printf("samples          %d\n", a->render.samples);
+    printf("faces            %u\n", sc->face_count);
+    printf("patches          %u\n", sc->patch_count);
+    printf("trim pieces      %u\n", sc->piece_count);
+    printf("box              %g %g %g .. %g %g %g\n", doc->box[0], doc->box[1], doc->box[2],
+           doc->box[3], doc->box[4], doc->box[5]);
+    printf("camera           eye %g,%g,%g target %g,%g,%g up %g,%g,%g fov %g near %g far %g\n",
+           cam->eye[0], cam->eye[1], cam->eye[2], cam->target[0], cam->target[1], cam->target[2],
+           cam->up[0], cam->up[1], cam->up[2], cam->fov_deg, cam->znear, cam->zfar);
+    if (cpu && sc->patch_count) {
+        printf("patches drawn    %u (%u split, %u leaves)\n", rs->visible_patches,
+               rs->split_patches, rs->leaves);
+        printf("faces drawn      %u\n", rs->visible_faces);
+        printf("triangles        %llu\n", (unsigned long long)rs->triangles);
+        printf("vertices         %llu\n", (unsigned long long)rs->vertices);
+        printf("table rows       %llu\n", (unsigned long long)rs->table_rows);
+        printf("table bytes      %llu\n", (unsigned long long)rs->table_bytes);
+        if (rs->unresolved)
+            printf("unresolved       %u leaves at the split limit (0.5 px not guaranteed there)\n",
+                   rs->unresolved);
     }
-    return st;
+    printf("pixels covered   %zu of %zu\n", drawn, n);
+    if (doc->part_count) {
+        printf("f-rep parts      %zu\n", doc->part_count);
+        printf("f-rep pixels     %zu\n", frep_drawn);
+    }
+    printf("time load        %.1f ms\n", doc->ms_load);
+    printf("time prepare     %.1f ms\n", doc->ms_prepare);
+    const char *med = r > 1 ? " (median)" : "";
+    if (cpu && sc->patch_count) {
+        printf("time levels      %.2f ms%s\n", cli_median(t->levels, r), med);
+        printf("time edges       %.2f ms%s\n", cli_median(t->edges, r), med);
+        printf("time trim plan   %.2f ms%s\n", cli_median(t->trim, r), med);
+        printf("time tessellate  %.2f ms%s\n", cli_median(t->tess, r), med);
+        printf("time rasterize   %.2f ms%s\n", cli_median(t->raster, r), med);
+        printf("time resolve     %.2f ms%s\n", cli_median(t->resolve, r), med);
+    }
+    printf("time render      %.2f ms%s\n", cli_median(t->total, r), med);
+    if (doc->part_count) {
+        printf("time faces       %.2f ms%s\n", cli_median(t->faces, r), med);
+        printf("time f-rep parts %.2f ms%s\n", cli_median(t->parts, r), med);
+    }
+    if (r > 1) printf("frames           %zu\n", r);
+    printf("time write       %.1f ms\n", ms_write);
 }
 
 int crisp_cmd_render(int argc, char **argv)
 {
-    const char *model_path = NULL, *png = NULL, *exr = NULL, *backend = "cpu";
-    int width = 1280, height = 720, samples = 1, threads = 0, stats = 0;
-    int have_eye = 0, have_target = 0, have_up = 0, have_near = 0, have_far = 0, have_fov = 0;
-    double eye[3], target[3], up[3] = {0, 1, 0}, fov = 30, znear = 0, zfar = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int more = i + 1 < argc;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            printf("usage: crisp %s\n", crisp_cmd_render_help);
-            return 0;
-        } else if (!strcmp(a, "--stats")) {
-            stats = 1;
-        } else if (a[0] == '-' && a[1] != '\0' && !more) {
-            fprintf(stderr, "crisp render: option %s needs a value\n", a);
-            return 2;
-        } else if (!strcmp(a, "-o")) {
-            png = argv[++i];
-        } else if (!strcmp(a, "--aov")) {
-            exr = argv[++i];
-        } else if (!strcmp(a, "--size")) {
-            const char *s = argv[++i];
-            char extra;
-            if (sscanf(s, "%dx%d%c", &width, &height, &extra) != 2 || width < 1 || height < 1 ||
-                width > 16384 || height > 16384) {
-                fprintf(stderr, "crisp render: --size '%s': expected WxH, each 1..16384\n", s);
-                return 2;
-            }
-        } else if (!strcmp(a, "--eye")) {
-            if (!parse_vec3(a, argv[++i], eye)) return 2;
-            have_eye = 1;
-        } else if (!strcmp(a, "--target")) {
-            if (!parse_vec3(a, argv[++i], target)) return 2;
-            have_target = 1;
-        } else if (!strcmp(a, "--up")) {
-            if (!parse_vec3(a, argv[++i], up)) return 2;
-            have_up = 1;
-        } else if (!strcmp(a, "--fov")) {
-            if (!parse_double(a, argv[++i], &fov)) return 2;
-            have_fov = 1;
-        } else if (!strcmp(a, "--near")) {
-            if (!parse_double(a, argv[++i], &znear)) return 2;
-            have_near = 1;
-        } else if (!strcmp(a, "--far")) {
-            if (!parse_double(a, argv[++i], &zfar)) return 2;
-            have_far = 1;
-        } else if (!strcmp(a, "--samples")) {
-            if (!parse_int(a, argv[++i], 1, 16, &samples)) return 2;
-        } else if (!strcmp(a, "--threads")) {
-            if (!parse_int(a, argv[++i], 1, 1024, &threads)) return 2;
-        } else if (!strcmp(a, "--backend")) {
-            backend = argv[++i];
-            if (strcmp(backend, "cpu") && strcmp(backend, "exact")) {
-                fprintf(stderr, "crisp render: --backend '%s': expected cpu or exact\n", backend);
-                return 2;
-            }
-        } else if (a[0] == '-' && a[1] != '\0') {
-            fprintf(stderr, "crisp render: unknown option '%s'\n", a);
-            return 2;
-        } else if (!model_path) {
-            model_path = a;
-        } else {
-            fprintf(stderr, "crisp render: more than one model given ('%s', '%s')\n", model_path, a);
-            return 2;
-        }
-    }
-    if (!model_path) {
-        fprintf(stderr, "usage: crisp %s\n", crisp_cmd_render_help);
-        return 2;
-    }
-    if (!png && !exr) png = "out.png";
-    /* About 75 bytes per sample and pixel (raster target and image): cap a frame near 5 GB. */
-    if ((uint64_t)width * (uint64_t)height * (uint64_t)samples > (1ull << 26)) {
-        fprintf(stderr, "crisp render: --size %dx%d with %d sample(s) per pixel is %llu samples: at most %llu "
-                        "(for example 8192x8192 with 1 sample, 4096x4096 with 4)\n",
-                width, height, samples, (unsigned long long)width * height * samples, 1ull << 26);
-        return 2;
-    }
-    int cpu = !strcmp(backend, "cpu");
-    if (!cpu && samples != 1) {
-        fprintf(stderr, "crisp render: the exact backend casts one ray per pixel centre; --samples "
-                        "%d needs the cpu backend\n", samples);
-        return 2;
-    }
+    cli_cmd = "render";
+    render_args a;
+    int rc = parse(argc, argv, &a);
+    if (rc) return rc == 1 ? 0 : 2;
+    if (!check_outputs(&a)) return 2;
 
-    double t0 = crisp_time_now();
-    crisp_model *model = NULL;
-    crisp_scene *scene = NULL;
-    crisp_scene_file *scene_file = NULL;
-    crisp_scene_assets *assets = NULL;
-    const crisp_frep_part *parts = NULL;
-    size_t part_count = 0;
+    crisp_document *doc = NULL;
+    crisp_renderer *renderer = NULL;
     crisp_image img = {0};
-    int rc = 1;
-    crisp_status st;
-    if (crisp_scene_file_detect(model_path)) {
-        st = crisp_scene_file_read(model_path, &scene_file);
-        if (!st) st = crisp_scene_assets_load(scene_file, &assets);
-        if (!st) {
-            model = assets->model;
-            parts = assets->parts;
-            part_count = assets->part_count;
-        }
-    } else {
-        st = crisp_model_load(model_path, NULL, &model);
-    }
-    double t_load = crisp_time_now();
-    if (!st) st = crisp_scene_prepare(model, &scene);
-    double t_prep = crisp_time_now();
-    if (st) goto done;
-    if (scene->patch_count == 0 && part_count == 0) {
-        st = crisp_error(CRISP_ERR_INVALID_ARG, "%s: the model has no surfaces to render", model_path);
-        goto done;
-    }
-    double box[6];
-    if (scene->patch_count > 0) {
-        memcpy(box, scene->box, sizeof box);
-    } else {
-        for (int a = 0; a < 3; a++) box[a] = INFINITY, box[a + 3] = -INFINITY;
-    }
-    parts_box(parts, part_count, box);
-    if (!have_eye && scene_file && scene_file->has_camera) {
-        /* the scene file's camera line; options given on the command line win */
-        memcpy(eye, scene_file->eye, sizeof eye);
-        have_eye = 1;
-        if (!have_target && scene_file->has_target) {
-            memcpy(target, scene_file->target, sizeof target);
-            have_target = 1;
-        }
-        if (!have_up) memcpy(up, scene_file->up, sizeof up);
-        if (!have_fov) fov = scene_file->fov_deg;
-    }
-    crisp_camera cam;
-    if (!have_eye) {
-        if ((st = crisp_camera_frame_box(box, width, height, &cam))) goto done;
-        cam.fov_deg = fov;
-        if (have_near) cam.znear = znear;
-        if (have_far) cam.zfar = zfar;
-        /* One plane given: the other default keeps near < far. */
-        if (have_near && !have_far && !(cam.zfar > cam.znear)) cam.zfar = 2 * cam.znear;
-        if (have_far && !have_near && !(cam.znear < cam.zfar)) cam.znear = 1e-4 * cam.zfar;
-    } else {
-        cam = (crisp_camera){.fov_deg = fov, .width = width, .height = height};
-        memcpy(cam.eye, eye, sizeof eye);
-        for (int k = 0; k < 3; k++)
-            cam.target[k] = have_target ? target[k] : 0.5 * (box[k] + box[k + 3]);
-        memcpy(cam.up, up, sizeof up);
-        if (!have_up) default_up(&cam);
-        /* Default near and far: enclose the model's box seen from the eye. */
-        double far_d = 0;
-        for (int c = 0; c < 8; c++) {
-            double p[3] = {box[(c & 1) ? 3 : 0], box[(c & 2) ? 4 : 1], box[(c & 4) ? 5 : 2]};
-            double d[3];
-            crisp_vec3_sub(p, eye, d);
-            far_d = fmax(far_d, crisp_vec3_norm(d));
-        }
-        cam.znear = have_near ? znear : fmax(1e-4 * far_d, 1e-12);
-        if (have_far && !have_near && !(cam.znear < zfar)) cam.znear = 1e-4 * zfar;
-        cam.zfar = have_far ? zfar : fmax(2 * far_d, 2 * cam.znear);
-    }
-    if ((st = crisp_camera_check(&cam))) goto done;
-    if ((st = crisp_image_init(&img, width, height))) goto done;
     crisp_render_stats rs = {0};
-    if (cpu) {
-        if (samples != 1 && samples != 4 && samples != 16) {
-            st = crisp_error(CRISP_ERR_INVALID_ARG, "--samples %d: expected 1, 4 or 16", samples);
-            goto done;
-        }
-        crisp_renderer *r = NULL;
-        if (scene->patch_count > 0) {
-            st = crisp_renderer_create(&(crisp_render_desc){.samples = samples, .threads = threads}, &r);
-            if (!st) st = crisp_render_cpu(r, scene, &cam, &img, &rs);
-        }
-        crisp_renderer_destroy(r);
-    } else if (scene->patch_count > 0) {
-        crisp_exact_desc desc = {.threads = threads, .classify = classify_exact};
-        st = crisp_render_exact(scene, &cam, &desc, &img);
-    }
-    double t_nurbs = crisp_time_now();
-    if (!st && part_count)
-        st = crisp_render_frep_parts(parts, part_count, &cam,
-                                     &(crisp_frep_parts_desc){.threads = threads, .per_pixel = !cpu}, &img);
-    double t_render = crisp_time_now();
-    if (!st) st = write_outputs(&img, png, exr);
-    double t_write = crisp_time_now();
+    double *times = crisp_calloc_array((size_t)a.repeat, 9 * sizeof(double));
+    frame_times ft = {0};
+    crisp_status st = times ? CRISP_OK : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
     if (!st) {
-        rc = 0;
-        if (stats) {
-            size_t drawn = 0, frep_drawn = 0;
-            for (size_t i = 0; i < (size_t)width * height; i++) {
-                drawn += img.face[i] >= 0;
-                frep_drawn += img.face[i] <= -2;
-            }
-            printf("backend          %s\n", cpu ? "cpu (SLEFE tessellation, u-intercept tables)"
-                                                     : "exact (ray casting, exact trim classifier)");
-            printf("faces            %u\n", scene->face_count);
-            printf("patches          %u\n", scene->patch_count);
-            printf("trim pieces      %u\n", scene->piece_count);
-            if (cpu) {
-                printf("patches drawn    %u (%u split, %u leaves)\n", rs.visible_patches, rs.split_patches, rs.leaves);
-                printf("faces drawn      %u\n", rs.visible_faces);
-                printf("triangles        %llu\n", (unsigned long long)rs.triangles);
-                printf("vertices         %llu\n", (unsigned long long)rs.vertices);
-                printf("table rows       %llu\n", (unsigned long long)rs.table_rows);
-                printf("table bytes      %llu\n", (unsigned long long)rs.table_bytes);
-                if (rs.unresolved)
-                    printf("unresolved       %u leaves at the split limit (0.5 px not guaranteed there)\n", rs.unresolved);
-            }
-            printf("pixels covered   %zu of %zu\n", drawn, (size_t)width * height);
-            if (part_count) {
-                printf("f-rep parts      %zu\n", part_count);
-                printf("f-rep pixels     %zu\n", frep_drawn);
-            }
-            printf("time load        %.1f ms\n", 1e3 * (t_load - t0));
-            printf("time prepare     %.1f ms\n", 1e3 * (t_prep - t_load));
-            if (cpu) {
-                printf("time levels      %.2f ms\n", rs.ms_levels);
-                printf("time edges       %.2f ms\n", rs.ms_edges);
-                printf("time trim plan   %.2f ms\n", rs.ms_trim);
-                printf("time tessellate  %.2f ms\n", rs.ms_tess);
-                printf("time rasterize   %.2f ms\n", rs.ms_raster);
-                printf("time resolve     %.2f ms\n", rs.ms_resolve);
-            }
-            printf("time render      %.1f ms\n", 1e3 * (t_render - t_prep));
-            if (part_count) printf("time f-rep parts %.1f ms\n", 1e3 * (t_render - t_nurbs));
-            printf("time write       %.1f ms\n", 1e3 * (t_write - t_render));
-        }
+        size_t r = (size_t)a.repeat;
+        ft =
+            (frame_times){times,         times + r,     times + 2 * r, times + 3 * r, times + 4 * r,
+                          times + 5 * r, times + 6 * r, times + 7 * r, times + 8 * r};
     }
-done:
-    if (st) fprintf(stderr, "crisp render: %s\n", crisp_error_message());
+    cli_progress_begin(a.progress, "loading");
+    if (!st) st = crisp_document_open(a.path, NULL, &doc);
+    cli_progress_end();
+    crisp_camera cam;
+    if (!st) st = crisp_document_camera(doc, &a.cam, &cam);
+    if (!st) st = crisp_image_init(&img, cam.width, cam.height);
+    if (!st && a.render.backend == CRISP_BACKEND_CPU && doc->scene->patch_count > 0)
+        st = crisp_renderer_create(
+            &(crisp_render_desc){.samples = a.render.samples, .threads = a.render.threads},
+            &renderer);
+    a.render.renderer = renderer;
+    crisp_document_times dt = {0};
+    a.render.times = &dt;
+    cli_progress_begin(a.progress, "rendering");
+    for (int k = 0; k < a.repeat && !st; k++) {
+        double t0 = crisp_time_now();
+        st = crisp_document_render(doc, &cam, &a.render, &img, &rs);
+        ft.total[k] = 1e3 * (crisp_time_now() - t0);
+        ft.levels[k] = rs.ms_levels;
+        ft.edges[k] = rs.ms_edges;
+        ft.trim[k] = rs.ms_trim;
+        ft.tess[k] = rs.ms_tess;
+        ft.raster[k] = rs.ms_raster;
+        ft.resolve[k] = rs.ms_resolve;
+        ft.faces[k] = dt.ms_faces;
+        ft.parts[k] = dt.ms_parts;
+    }
+    cli_progress_end();
+    double ms_render = st ? 0 : ft.total[a.repeat - 1];
+    double t_write = crisp_time_now();
+    if (!st && a.out) st = crisp_image_write(&img, a.out);
+    if (!st && a.aov) st = crisp_image_write_exr(&img, a.aov);
+    double ms_write = 1e3 * (crisp_time_now() - t_write);
+    if (st) {
+        fprintf(stderr, "crisp render: %s\n", crisp_error_message());
+    } else {
+        if (!a.quiet) {
+            const char *files[2] = {a.out, a.aov};
+            for (int i = 0; i < 2; i++)
+                if (files[i]) {
+                    printf("wrote %s (%dx%d, %u faces", files[i], img.width, img.height,
+                           doc->scene->face_count);
+                    if (doc->part_count)
+                        printf(", %zu f-rep part%s", doc->part_count,
+                               doc->part_count > 1 ? "s" : "");
+                    printf(", %.0f ms)\n", ms_render);
+                }
+        }
+        if (a.stats) print_stats(&a, doc, &cam, &img, &rs, &ft, ms_write);
+    }
+    crisp_renderer_destroy(renderer);
     crisp_image_free(&img);
-    crisp_scene_destroy(scene);
-    if (assets) crisp_scene_assets_destroy(assets);
-    else crisp_model_destroy(model);
-    crisp_scene_file_destroy(scene_file);
-    return rc;
+    crisp_document_destroy(doc);
+    crisp_free(times);
+    return st ? 1 : 0;
 }

@@ -26,6 +26,7 @@ static void usage(FILE *out)
 {
     fprintf(out, "usage: crisp COMMAND [ARGS...]\n\ncommands:\n");
     for (const command *c = commands; c->name; c++) fprintf(out, "  %s\n", c->help);
+    fprintf(out, "\noptions:\n  -h, --help     print this help\n  -V, --version  print the version\n");
     fprintf(out, "\n'crisp COMMAND --help' for the options of one command.\n");
 }
 
@@ -38,6 +39,18 @@ int main(int argc, char **argv)
     if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h") || !strcmp(argv[1], "help")) {
         usage(stdout);
         return 0;
+    }
+    if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "-V")) return crisp_cmd_version(1, argv + 1);
+    if (argv[1][0] == '-') {
+        fprintf(stderr, "crisp: unknown option '%s'\n", argv[1]);
+        usage(stderr);
+        return 2;
+    }
+    if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "-V")) return crisp_cmd_version(1, argv + 1);
+    if (argv[1][0] == '-') {
+        fprintf(stderr, "crisp: unknown option '%s'\n", argv[1]);
+        usage(stderr);
+        return 2;
     }
     for (const command *c = commands; c->name; c++)
         if (!strcmp(argv[1], c->name)) return c->run(argc - 1, argv + 1);

@@ -7,7 +7,9 @@
  *   crisp_arena_*           bump allocator reused across frames
  *   crisp_vec{2,3,4}_*      double vectors as plain arrays (output last, called dest)
  *   crisp_mat4_*            column-major double 4x4 matrices (m[col][row], as cglm)
- *   crisp_pool_*            thread pool with dynamic parallel_for
+ *   crisp_pool_*            thread pool with dynamic parallel_for; crisp_pool_get: one kept pool
+ *                           per thread count; a worker's error message reaches the caller
+ *   crisp_progress_*        where long work reports how far it is (a progress bar's source)
  *   crisp_time_*            monotonic clock
  */
 #ifndef CRISP_CORE_H
@@ -76,6 +78,12 @@ void crisp_arena_reset(crisp_arena *arena);
 void *crisp_arena_alloc(crisp_arena *arena, size_t n, size_t size);
 /* Bytes reserved from the system (for memory reports). */
 size_t crisp_arena_reserved(const crisp_arena *arena);
+/* Bytes handed out since the last reset. */
+size_t crisp_arena_used(const crisp_arena *arena);
+/* Right after a reset: make the first block hold at least `bytes`, so a frame that allocates no
+ * more than that in total allocates nothing from the system (for per-worker arenas whose share
+ * of a frame's work varies with scheduling). */
+crisp_status crisp_arena_reserve(crisp_arena *arena, size_t bytes);
 
 /* ---- vectors and matrices (double) ----------------------------------------------------------- */
 
@@ -134,12 +142,30 @@ crisp_status crisp_pool_create(int threads, crisp_pool **dest);
 void crisp_pool_destroy(crisp_pool *pool);
 int crisp_pool_threads(const crisp_pool *pool);
 /* Run fn over [0, count) in chunks of grain items handed out dynamically; returns when all are
- * done. pool may be NULL (runs inline). Not reentrant: do not call from inside fn. */
+ * done. pool may be NULL (runs inline). A call from inside fn on the same pool runs inline;
+ * calls from several threads take turns. When fn raised an error (crisp_error) on a worker
+ * thread and none on the calling thread, the first such message becomes the calling thread's
+ * crisp_error_message(), so the status collected from the workers comes with its message.
+ * The calling thread reports the share of items done to crisp_progress_report. */
 void crisp_pool_parallel_for(crisp_pool *pool, size_t count, size_t grain, crisp_pool_fn fn,
                              void *ctx);
 /* The process-wide pool (created on first use with the default thread count). NULL if creation
  * failed; crisp_pool_parallel_for then runs inline. */
 crisp_pool *crisp_pool_shared(void);
+/* A pool of `threads` threads kept for the whole process (threads <= 0 or the default count:
+ * the shared pool; 1: NULL, which runs inline). For renderers called per frame: no threads are
+ * started per call. The pool is owned by crisp; do not destroy it. */
+crisp_status crisp_pool_get(int threads, crisp_pool **dest);
+
+/* ---- progress -------------------------------------------------------------------------------- */
+
+/* Receives the share done (0..1) of the current piece of long work (a pool job, a reader). It
+ * is called on the thread doing the work, often: keep it cheap (a progress bar redraws a few
+ * times a second). Process-wide; NULL switches it off. */
+typedef void (*crisp_progress_fn)(void *ctx, double fraction);
+void crisp_progress_set(crisp_progress_fn fn, void *ctx);
+/* For single-threaded long work (readers, meshing): report the share done. */
+void crisp_progress_report(double fraction);
 
 /* ---- time ------------------------------------------------------------------------------------ */
 

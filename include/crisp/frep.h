@@ -10,6 +10,8 @@
  *   crisp_frep_tape_create/_destroy, _length, _registers
  *   crisp_frep_eval_point/_batch/_interval/_grad    float, interval and derivative evaluators
  *   crisp_frep_renderer              2D images and 3D heightmaps by interval subdivision
+ *   crisp_frep_shade                 the shaded 8-bit picture of a 3D heightmap
+ *   crisp_frep_fit_region/_check     a box covering the part, by interval subdivision
  *   crisp_frep_read_vm/_vm_mem, crisp_frep_read_math/_math_mem   readers (built in src/io/frep)
  *
  * Semantics are those of the .vm format (data/README.md): 32-bit float arithmetic; min and max
@@ -171,8 +173,45 @@ void crisp_frep_renderer_destroy(crisp_frep_renderer *r);
 /* Render (again) into the renderer's image. */
 crisp_status crisp_frep_renderer_run(crisp_frep_renderer *r);
 const crisp_frep_image *crisp_frep_renderer_image(const crisp_frep_renderer *r);
+/* The 8-bit shading of a 3D image (the CLI's PNG): Lambert shading of the normals by a light up
+ * and to the upper left of the viewer, 40 + 215 max(n.l, 0) where hit, 0 elsewhere; dest holds
+ * width x height bytes. */
+void crisp_frep_shade(const crisp_frep_image *img, uint8_t *dest);
 /* Counters of the last run. */
 crisp_frep_render_stats crisp_frep_renderer_stats(const crisp_frep_renderer *r);
+
+/* ---- region fit ---------------------------------------------------------------------------- */
+
+typedef struct crisp_frep_fit_desc {
+    /* the box searched; all zero: cubes [-R, R]^3 for R = 2, 8, 32, ..., 1024 in turn, the
+     * first that holds a bounded fit (except on free_axes) is taken */
+    double search[6];
+    unsigned free_axes; /* bit a: axis a may be unbounded (a 2D model seen in 3D) */
+    int planar;       /* 1: fit x and y only, on the plane z = (z0 + z1) / 2 (2D images) */
+    size_t max_intervals; /* interval evaluations per search box; 0: 2e6 */
+} crisp_frep_fit_desc;
+
+typedef struct crisp_frep_fit {
+    double box[6];       /* x0, x1, y0, y1, z0, z1: every point not proven outside lies inside */
+    double cell;         /* edge of the finest octree cells (the fit's resolution) */
+    unsigned unbounded;  /* bit a: the part reaches the search box on axis a */
+    unsigned unknown;    /* bit a: ... and the function is NaN there (an undefined expression) */
+    int empty;           /* every point of the search box is proven outside */
+    int overflow;        /* the octree ran out of intervals (the fit is still conservative) */
+    size_t sampled;      /* cells with a NaN interval decided by sample points (a guess) */
+    size_t intervals;    /* interval evaluations spent */
+    double search[6];    /* the search box that gave the fit */
+} crisp_frep_fit;
+
+/* The bounding box of the part (f < 0) within the search box, by interval subdivision: the
+ * octree cells not proven outside (region.c). CRISP_ERR_NUMERIC with a message when the
+ * part is proven empty (dest->empty = 1). Axes that reach the search box are flagged in
+ * dest->unbounded, not refused: see crisp_frep_fit_check. */
+crisp_status crisp_frep_fit_region(const crisp_frep_tape *t, const crisp_frep_fit_desc *desc,
+                                   crisp_frep_fit *dest);
+/* CRISP_ERR_NUMERIC with a message naming the axis when the fit is unbounded (or undefined:
+ * NaN) on an axis whose bit is not in allowed_unbounded, else CRISP_OK. */
+crisp_status crisp_frep_fit_check(const crisp_frep_fit *fit, unsigned allowed_unbounded);
 
 /* ---- readers (src/io/frep) ------------------------------------------------------------------- */
 

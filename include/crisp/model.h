@@ -36,9 +36,10 @@ typedef struct crisp_face {
     int reversed;           /* 1 when the face's outward normal is -(S_u x S_v) */
 } crisp_face;
 
-/* One counted kind of thing a reader skipped, with why ("entity 116 point: not a surface"). */
+/* One counted kind of thing a reader skipped, with why ("entity 116 point: not a surface"), in
+ * full (no length limit). */
 typedef struct crisp_skip_note {
-    char what[96];
+    char *what; /* owned */
     int count;
 } crisp_skip_note;
 
@@ -49,14 +50,22 @@ typedef struct crisp_model {
     double unit_to_mm;     /* model units in millimetres (1 when unknown) */
     int skip_count;
     crisp_skip_note *skips; /* what the reader skipped and why */
+    int faces_dropped;      /* faces the reader could not build (each also has a skip note) */
+    double tolerance;       /* the reader's distance tolerance in model units (0: not known) */
 } crisp_model;
 
 crisp_status crisp_model_create(crisp_model **dest);
 void crisp_model_destroy(crisp_model *m);
 /* Moves *face into the model (the model owns its surface and loops afterwards). */
 crisp_status crisp_model_add_face(crisp_model *m, crisp_face *face);
-/* Count one skipped item under `what` (merged with earlier notes of the same text). */
+/* Count one skipped item under `what` (merged with earlier notes of the same text). At most
+ * CRISP_MODEL_MAX_NOTES different texts are kept; later new ones count under a last note. */
+#define CRISP_MODEL_MAX_NOTES 10000
 crisp_status crisp_model_note_skip(crisp_model *m, const char *what);
+/* crisp_model_note_skip with a printf format. */
+crisp_status crisp_model_note_skipf(crisp_model *m, const char *fmt, ...) CRISP_PRINTF(2, 3);
+/* A face the reader could not build: its note (printf format), and faces_dropped + 1. */
+crisp_status crisp_model_note_dropped(crisp_model *m, const char *fmt, ...) CRISP_PRINTF(2, 3);
 /* Box of all faces' control hulls: xmin, ymin, zmin, xmax, ymax, zmax. */
 void crisp_model_bbox(const crisp_model *m, double *dest);
 
@@ -81,6 +90,28 @@ typedef struct crisp_model_stats {
 } crisp_model_stats;
 
 crisp_status crisp_model_stats_compute(const crisp_model *m, crisp_model_stats *dest);
+
+/* Places where faces that meet in the file do not meet in crisp's model (issue 13): a boundary
+ * point of one face whose nearest boundary of another face is farther than tol but nearer than
+ * limit (farther than limit: a free edge, not a gap). Grouped per pair of faces (indices into
+ * m->faces), largest first. */
+typedef struct crisp_gap {
+    int face[2];
+    double gap;   /* largest distance found between the two faces' boundaries */
+    double at[3]; /* where (on face[0] or face[1]) */
+} crisp_gap;
+
+typedef struct crisp_gap_report {
+    double tolerance, limit;
+    long samples;     /* boundary samples with another face within limit */
+    long gap_samples; /* of those, farther than tolerance */
+    int incomplete;   /* 1: the model's boundaries were too long to measure (nothing reported) */
+    int count, cap;
+    crisp_gap *gaps;  /* count pairs, largest gap first */
+} crisp_gap_report;
+
+crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, crisp_gap_report *dest);
+void crisp_gap_report_free(crisp_gap_report *r);
 
 /* Signed area of the loop (shoelace on a dense polyline of its curves): > 0 when CCW. */
 double crisp_trim_loop_signed_area(const crisp_trim_loop *loop);

@@ -5,7 +5,7 @@
  *
  * Offers:
  *   crisp_curve_create / _destroy / _copy / _domain / _eval / _derivs / _insert_knot /
- *     _reverse / _trim / _to_bezier / _bbox
+ *     _remove_knot / _reverse / _trim / _to_bezier / _bbox
  *   crisp_surface_create / _destroy / _copy / _domain / _eval / _derivs / _insert_knot_u / _v /
  *     _to_bezier / _bbox
  *   crisp_bezier_curve_eval / _derivs / _split / _bbox
@@ -56,6 +56,10 @@ void crisp_curve_eval(const crisp_curve *c, double t, double *dest);
 void crisp_curve_derivs(const crisp_curve *c, double t, int nderiv, double *dest);
 /* Insert knot t (inside the domain) `times` times, in place (Boehm / A5.1). */
 crisp_status crisp_curve_insert_knot(crisp_curve *c, double t, int times);
+/* Remove interior knot knots[index] once, in place, when the curve allows it: inserting it back
+ * must give every homogeneous control point back within tol (NURBS Book 5.4). Otherwise
+ * CRISP_ERR_INVALID_ARG with a message saying how far the curve would move; c is then unchanged. */
+crisp_status crisp_curve_remove_knot(crisp_curve *c, int index, double tol);
 /* Reverse the direction in place; the domain [a, b] stays [a, b]. */
 void crisp_curve_reverse(crisp_curve *c);
 /* A new clamped curve equal to c restricted to [t0, t1] (t0 < t1 inside the domain). */
@@ -144,6 +148,23 @@ void crisp_bezier_patch_split_v(const crisp_bezier_patch *p, double t, crisp_bez
                                 crisp_bezier_patch *hi);
 void crisp_bezier_patch_bbox(const crisp_bezier_patch *p, double *dest); /* 6 values */
 
+/* ---- normals ---------------------------------------------------------------------------------- */
+
+/* The unit normal S_s x S_t / |S_s x S_t| of the patch at local (s, t), also where the cross
+ * product vanishes (a cone's apex, a sphere's pole, a collapsed side, parallel partials): there
+ * the limit of the normal from inside the patch along the direction that leaves the degenerate
+ * side (around an apex each generator keeps its own normal). Returns 1, or 0 with dest = 0 when
+ * the patch has no normal near (s, t) at all (it is a point or a curve there). */
+int crisp_bezier_patch_normal(const crisp_bezier_patch *p, double s, double t, double dest[3]);
+/* The same for a NURBS surface at (u, v) of its domain. */
+int crisp_surface_normal(const crisp_surface *s, double u, double v, double dest[3]);
+
+/* The offset surface S + d N (N = crisp_surface_normal) as a bicubic B-spline over S's domain and
+ * parametrisation (C0 at its knots, watertight), within tol of the true offset at 16 test points
+ * per cell; cells split until they pass, up to max_cells per direction (else CRISP_ERR_LIMIT). */
+crisp_status crisp_surface_offset(const crisp_surface *s, double d, double tol, int max_cells,
+                                  crisp_surface **dest);
+
 /* ---- projection onto surfaces ---------------------------------------------------------------- */
 
 /* Point inversion: the (u, v) of the point of s closest to p (global search on a sample grid,
@@ -159,6 +180,14 @@ crisp_status crisp_surface_closest_point(const crisp_surface *s, const double p[
  * is taken from the neighbouring points. */
 crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_curve *c, double t0,
                                          double t1, double tol, crisp_curve **dest);
+/* crisp_surface_project_curve, and where that fails because the projection jumps (the curve
+ * passes a collapsed patch side or a pole reached from both ends of the domain, or runs between
+ * two sheets of the surface), the curve cut at the jumps into up to max_pieces pieces, each
+ * projected on its own (dest[0 .. *count - 1], in curve order). The gaps between pieces are the
+ * caller's to bridge (they lie where the surface collapses, or they are real). */
+crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const crisp_curve *c, double t0,
+                                                double t1, double tol, int max_pieces, crisp_curve **dest,
+                                                int *count);
 
 #ifdef __cplusplus
 }

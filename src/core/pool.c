@@ -1,22 +1,31 @@
 /* A pthread pool shared by the modules. parallel_for hands out chunks through an atomic counter,
- * so uneven work (subdivision cells, patches of different cost) balances dynamically. */
+ * so uneven work (subdivision cells, patches of different cost) balances dynamically. The first
+ * error raised on a worker during a job (its crisp_error message) is carried to the calling
+ * thread; the calling thread reports the job's progress (crisp_progress_set); callers from
+ * several threads take turns, and a call from inside a job runs inline. crisp_pool_get keeps one
+ * pool per thread count for the whole process, so renderers need not start threads per call. */
 #include "crisp/core.h"
 
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
+
+#include "core_internal.h"
 
 struct crisp_pool {
     int threads;
     pthread_t *tids;
+    pthread_mutex_t job_lock; /* one job at a time */
     pthread_mutex_t lock;
     pthread_cond_t wake, done;
     /* current job */
     crisp_pool_fn fn;
     void *ctx;
     size_t count, grain;
-    atomic_size_t next;
+    atomic_size_t next, items_done;
+    crisp__error_slot error; /* the job's first error */
     unsigned long generation; /* bumped per job; workers run each generation once */
     int busy;                 /* workers still in the current job */
     int quit;
@@ -27,14 +36,42 @@ typedef struct {
     int worker;
 } worker_arg;
 
+static _Thread_local crisp_pool *current; /* the pool whose job this thread is running */
+
+/* ---- progress ---------------------------------------------------------------------------------- */
+
+/* Set from one thread, read by whichever thread reports: atomics, so a report never sees a torn
+ * pointer (the receiver and its context are set before the receiver is published). */
+static _Atomic(crisp_progress_fn) progress_fn;
+static _Atomic(void *) progress_ctx;
+
+void crisp_progress_set(crisp_progress_fn fn, void *ctx)
+{
+    atomic_store(&progress_fn, NULL);
+    atomic_store(&progress_ctx, ctx);
+    atomic_store(&progress_fn, fn);
+}
+
+void crisp_progress_report(double fraction)
+{
+    crisp_progress_fn fn = atomic_load(&progress_fn);
+    if (fn) fn(atomic_load(&progress_ctx), fraction < 0 ? 0 : fraction > 1 ? 1 : fraction);
+}
+
 static void run_chunks(crisp_pool *p, int worker)
 {
+    crisp_pool *outer = current;
+    current = p;
     for (;;) {
         size_t b = atomic_fetch_add(&p->next, p->grain);
         if (b >= p->count) break;
         size_t e = b + p->grain < p->count ? b + p->grain : p->count;
         p->fn(p->ctx, b, e, worker);
+        size_t d = atomic_fetch_add(&p->items_done, e - b) + (e - b);
+        if (worker == 0 && atomic_load_explicit(&progress_fn, memory_order_relaxed))
+            crisp_progress_report((double)d / (double)p->count);
     }
+    current = outer;
 }
 
 static void *worker_main(void *varg)
@@ -50,7 +87,9 @@ static void *worker_main(void *varg)
         if (p->quit) break;
         seen = p->generation;
         pthread_mutex_unlock(&p->lock);
+        crisp__error_slot *outer = crisp__error_capture(&p->error);
         run_chunks(p, worker);
+        crisp__error_capture(outer);
         pthread_mutex_lock(&p->lock);
         if (--p->busy == 0) pthread_cond_signal(&p->done);
     }
@@ -78,10 +117,13 @@ crisp_status crisp_pool_create(int threads, crisp_pool **dest)
     crisp_pool *p = calloc(1, sizeof *p);
     if (!p) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating a thread pool");
     p->threads = threads;
+    pthread_mutex_init(&p->job_lock, NULL);
     pthread_mutex_init(&p->lock, NULL);
     pthread_cond_init(&p->wake, NULL);
     pthread_cond_init(&p->done, NULL);
     atomic_init(&p->next, 0);
+    atomic_init(&p->items_done, 0);
+    atomic_init(&p->error.taken, 0);
     if (threads > 1) {
         p->tids = calloc((size_t)threads - 1, sizeof *p->tids);
         if (!p->tids) {
@@ -111,6 +153,7 @@ void crisp_pool_destroy(crisp_pool *p)
     pthread_cond_broadcast(&p->wake);
     pthread_mutex_unlock(&p->lock);
     for (int i = 1; i < p->threads; i++) pthread_join(p->tids[i - 1], NULL);
+    pthread_mutex_destroy(&p->job_lock);
     pthread_mutex_destroy(&p->lock);
     pthread_cond_destroy(&p->wake);
     pthread_cond_destroy(&p->done);
@@ -127,16 +170,26 @@ void crisp_pool_parallel_for(crisp_pool *p, size_t count, size_t grain, crisp_po
 {
     if (count == 0) return;
     if (grain == 0) grain = 1;
-    if (!p || p->threads == 1 || count <= grain) {
-        for (size_t b = 0; b < count; b += grain) fn(ctx, b, b + grain < count ? b + grain : count, 0);
+    if (!p || p->threads == 1 || count <= grain || current == p) {
+        /* inline: on the calling thread (also a call from inside one of p's jobs) */
+        for (size_t b = 0; b < count; b += grain) {
+            size_t e = b + grain < count ? b + grain : count;
+            fn(ctx, b, e, 0);
+            if (count > grain && !current && atomic_load(&progress_fn))
+                crisp_progress_report((double)e / (double)count);
+        }
         return;
     }
+    pthread_mutex_lock(&p->job_lock);
+    unsigned long errors_before = crisp__error_count();
     pthread_mutex_lock(&p->lock);
     p->fn = fn;
     p->ctx = ctx;
     p->count = count;
     p->grain = grain;
     atomic_store(&p->next, 0);
+    atomic_store(&p->items_done, 0);
+    atomic_store(&p->error.taken, 0);
     p->busy = p->threads - 1;
     p->generation++;
     pthread_cond_broadcast(&p->wake);
@@ -145,6 +198,12 @@ void crisp_pool_parallel_for(crisp_pool *p, size_t count, size_t grain, crisp_po
     pthread_mutex_lock(&p->lock);
     while (p->busy > 0) pthread_cond_wait(&p->done, &p->lock);
     pthread_mutex_unlock(&p->lock);
+    if (atomic_load(&progress_fn)) crisp_progress_report(1.0); /* the workers may have taken every item */
+    /* A worker's error and none on this thread: its message becomes this thread's, so the
+     * status the caller collects from its workers comes with what was wrong. */
+    if (atomic_load(&p->error.taken) == 2 && crisp__error_count() == errors_before)
+        crisp__error_set_message(p->error.message);
+    pthread_mutex_unlock(&p->job_lock);
 }
 
 static crisp_pool *shared_pool;
@@ -155,15 +214,50 @@ static void shared_init(void)
     if (crisp_pool_create(0, &shared_pool) != CRISP_OK) shared_pool = NULL;
 }
 
+/* Pools kept for other thread counts (crisp_pool_get). */
+enum { KEPT_MAX = 8 };
+static crisp_pool *kept[KEPT_MAX];
+static pthread_mutex_t kept_lock = PTHREAD_MUTEX_INITIALIZER;
+
 static void shared_cleanup(void) __attribute__((destructor));
 static void shared_cleanup(void)
 {
     crisp_pool_destroy(shared_pool);
     shared_pool = NULL;
+    for (int i = 0; i < KEPT_MAX; i++) {
+        crisp_pool_destroy(kept[i]);
+        kept[i] = NULL;
+    }
 }
 
 crisp_pool *crisp_pool_shared(void)
 {
     pthread_once(&shared_once, shared_init);
     return shared_pool;
+}
+
+crisp_status crisp_pool_get(int threads, crisp_pool **dest)
+{
+    if (threads <= 0 || threads == crisp_pool_default_threads()) {
+        *dest = crisp_pool_shared();
+        return *dest ? CRISP_OK : crisp_error(CRISP_ERR_NO_MEMORY, "could not start the shared thread pool");
+    }
+    if (threads == 1) {
+        *dest = NULL; /* parallel_for runs inline */
+        return CRISP_OK;
+    }
+    crisp_status st = CRISP_OK;
+    pthread_mutex_lock(&kept_lock);
+    int i = 0;
+    while (i < KEPT_MAX && kept[i] && kept[i]->threads != threads) i++;
+    if (i == KEPT_MAX) {
+        /* full: replace the last one (its callers hold no reference beyond a call) */
+        i = KEPT_MAX - 1;
+        crisp_pool_destroy(kept[i]);
+        kept[i] = NULL;
+    }
+    if (!kept[i]) st = crisp_pool_create(threads, &kept[i]);
+    *dest = kept[i];
+    pthread_mutex_unlock(&kept_lock);
+    return st;
 }

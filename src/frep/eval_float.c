@@ -114,6 +114,35 @@ void crisp__frep_eval_lanes(const frep_ins *ins, size_t n, float *regs, const fl
         LOOP od[k] = da[k] * ad[k] + db[k] * bd[k];                                                \
     }
 
+/* min, max and the logic ops pick one side's derivatives instead of multiplying the other's by
+ * zero: an infinite or NaN derivative on the losing side (sqrt near 0, a division) must not
+ * turn the gradient into NaN, and picking keeps the full tape's gradient equal to that of a tape
+ * shortened to the winning side (frep_cell.h promises so). */
+#define GRAD_SELECT(V, TAKE_A)                                                                     \
+    LOOP {                                                                                         \
+        float av = a[k], bv = b[k], v = (V);                                                       \
+        o[k] = v;                                                                                  \
+        da[k] = (TAKE_A) ? 1.0f : 0.0f;                                                            \
+        (void)bv;                                                                                  \
+    }                                                                                              \
+    for (int d = 1; d < 4; d++) {                                                                  \
+        float *restrict od = o + d * L;                                                            \
+        const float *restrict ad = a + d * L, *restrict bd = b + d * L;                            \
+        LOOP od[k] = da[k] != 0 ? ad[k] : bd[k];                                                   \
+    }
+/* the same with an immediate as side b (its derivatives are zero) */
+#define GRAD_SELECT_IMM(V, TAKE_A)                                                                 \
+    LOOP {                                                                                         \
+        float av = a[k], v = (V);                                                                  \
+        o[k] = v;                                                                                  \
+        da[k] = (TAKE_A) ? 1.0f : 0.0f;                                                            \
+    }                                                                                              \
+    for (int d = 1; d < 4; d++) {                                                                  \
+        float *restrict od = o + d * L;                                                            \
+        const float *restrict ad = a + d * L;                                                      \
+        LOOP od[k] = da[k] != 0 ? ad[k] : 0.0f;                                                    \
+    }
+
 FREP_CLONES
 void crisp__frep_grad_lanes(const frep_ins *ins, size_t n, float *regs, const float *x,
                             const float *y, const float *z)
@@ -151,21 +180,21 @@ void crisp__frep_grad_lanes(const frep_ins *ins, size_t n, float *regs, const fl
         case FREP_T_MUL_RI: GRAD_UNARY(av * c, c) break;
         case FREP_T_DIV_RI: GRAD_UNARY(av / c, 1 / c) break;
         case FREP_T_DIV_IR: GRAD_UNARY(c / av, -v / av) break;
-        case FREP_T_MIN_RI: GRAD_UNARY(frep_min(av, c), c < av ? 0.0f : 1.0f) break;
-        case FREP_T_MAX_RI: GRAD_UNARY(frep_max(av, c), c > av ? 0.0f : 1.0f) break;
+        case FREP_T_MIN_RI: GRAD_SELECT_IMM(frep_min(av, c), !(c < av)) break;
+        case FREP_T_MAX_RI: GRAD_SELECT_IMM(frep_max(av, c), !(c > av)) break;
         case CRISP_FREP_ADD: GRAD_BINARY(av + bv, 1.0f, 1.0f) break;
         case CRISP_FREP_SUB: GRAD_BINARY(av - bv, 1.0f, -1.0f) break;
         case CRISP_FREP_MUL: GRAD_BINARY(av * bv, bv, av) break;
         case CRISP_FREP_DIV: GRAD_BINARY(av / bv, 1 / bv, -v / bv) break;
-        case CRISP_FREP_MIN: GRAD_BINARY(frep_min(av, bv), bv < av ? 0.0f : 1.0f, bv < av ? 1.0f : 0.0f) break;
-        case CRISP_FREP_MAX: GRAD_BINARY(frep_max(av, bv), bv > av ? 0.0f : 1.0f, bv > av ? 1.0f : 0.0f) break;
+        case CRISP_FREP_MIN: GRAD_SELECT(frep_min(av, bv), !(bv < av)) break;
+        case CRISP_FREP_MAX: GRAD_SELECT(frep_max(av, bv), !(bv > av)) break;
         case CRISP_FREP_ATAN2:
             GRAD_BINARY(atan2f(av, bv), av * av + bv * bv > 0 ? bv / (av * av + bv * bv) : 0.0f,
                         av * av + bv * bv > 0 ? -av / (av * av + bv * bv) : 0.0f)
             break;
         case CRISP_FREP_MOD: GRAD_BINARY(frep_mod(av, bv), 1.0f, 0.0f) break;
-        case CRISP_FREP_AND: GRAD_BINARY(av == 0 ? av : bv, av == 0 ? 1.0f : 0.0f, av == 0 ? 0.0f : 1.0f) break;
-        case CRISP_FREP_OR: GRAD_BINARY(av != 0 ? av : bv, av != 0 ? 1.0f : 0.0f, av != 0 ? 0.0f : 1.0f) break;
+        case CRISP_FREP_AND: GRAD_SELECT(av == 0 ? av : bv, av == 0) break;
+        case CRISP_FREP_OR: GRAD_SELECT(av != 0 ? av : bv, av != 0) break;
         default:
             /* floor ceil round not compare: piecewise constant */
             if (in.op < CRISP_FREP_ADD) {

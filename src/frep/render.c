@@ -190,6 +190,17 @@ const crisp_frep_image *crisp_frep_renderer_image(const crisp_frep_renderer *r)
     return r ? &r->img : NULL;
 }
 
+void crisp_frep_shade(const crisp_frep_image *img, uint8_t *dest)
+{
+    const float l[3] = {-0.40824829f, 0.40824829f, 0.81649658f};
+    size_t npix = (size_t)img->width * (size_t)img->height;
+    for (size_t p = 0; p < npix; p++) {
+        const float *nrm = img->normal ? img->normal + 3 * p : l;
+        float d = nrm[0] * l[0] + nrm[1] * l[1] + nrm[2] * l[2];
+        dest[p] = img->inside[p] ? (uint8_t)(40 + 215 * (d > 0 ? d : 0)) : 0;
+    }
+}
+
 crisp_frep_render_stats crisp_frep_renderer_stats(const crisp_frep_renderer *r)
 {
     crisp_frep_render_stats s = {0};

@@ -4,11 +4,17 @@
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 
 crisp_status crisp_read_file(const char *path, char **data, size_t *size)
 {
     FILE *f = fopen(path, "rb");
     if (!f) return crisp_error(CRISP_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    struct stat sb;
+    if (fstat(fileno(f), &sb) == 0 && S_ISDIR(sb.st_mode)) {
+        fclose(f);
+        return crisp_error(CRISP_ERR_IO, "%s: is a directory, not a file", path);
+    }
     char *buf = NULL;
     size_t len = 0, cap = 0;
     for (;;) {
@@ -21,11 +27,11 @@ crisp_status crisp_read_file(const char *path, char **data, size_t *size)
         len += n;
         if (n == 0) break;
     }
-    int err = ferror(f);
+    int err = ferror(f), err_no = errno;
     fclose(f);
     if (err) {
         crisp_free(buf);
-        return crisp_error(CRISP_ERR_IO, "%s: read error", path);
+        return crisp_error(CRISP_ERR_IO, "%s: read error after %zu bytes: %s", path, len, strerror(err_no));
     }
     buf[len] = '\0';
     *data = buf;

@@ -7,6 +7,7 @@
 #include "nurbs_internal.h"
 
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -95,6 +96,8 @@ void crisp_model_destroy(crisp_model *m)
     for (int i = 0; i < m->face_count; i++)
         crisp_face_free(&m->faces[i]);
     crisp_free(m->faces);
+    for (int i = 0; i < m->skip_count; i++)
+        crisp_free(m->skips[i].what);
     crisp_free(m->skips);
     crisp_free(m);
 }
@@ -118,20 +121,66 @@ crisp_status crisp_model_add_face(crisp_model *m, crisp_face *face)
 
 crisp_status crisp_model_note_skip(crisp_model *m, const char *what)
 {
-    char key[sizeof m->skips[0].what];
-    snprintf(key, sizeof key, "%s", what ? what : "");
+    if (!what) what = "";
     for (int i = 0; i < m->skip_count; i++)
-        if (strcmp(m->skips[i].what, key) == 0) {
+        if (strcmp(m->skips[i].what, what) == 0) {
             m->skips[i].count++;
             return CRISP_OK;
         }
+    static const char more[] = "(further notes of other kinds not kept)";
+    if (m->skip_count >= CRISP_MODEL_MAX_NOTES) {
+        if (strcmp(m->skips[m->skip_count - 1].what, more)) {
+            crisp_free(m->skips[m->skip_count - 1].what);
+            m->skips[m->skip_count - 1].what = NULL;
+            size_t n = sizeof more;
+            char *t = crisp_malloc_array(n, 1);
+            if (!t) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory noting a skipped item");
+            memcpy(t, more, n);
+            m->skips[m->skip_count - 1].what = t;
+        }
+        m->skips[m->skip_count - 1].count++;
+        return CRISP_OK;
+    }
+    size_t n = strlen(what) + 1;
+    char *t = crisp_malloc_array(n, 1);
+    if (!t) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory noting a skipped item");
+    memcpy(t, what, n);
     crisp_skip_note *s = crisp_realloc_array(m->skips, (size_t)m->skip_count + 1, sizeof *s);
-    if (!s) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory noting a skipped item");
+    if (!s) {
+        crisp_free(t);
+        return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory noting a skipped item");
+    }
     m->skips = s;
-    memcpy(s[m->skip_count].what, key, sizeof key);
+    s[m->skip_count].what = t;
     s[m->skip_count].count = 1;
     m->skip_count++;
     return CRISP_OK;
+}
+
+static crisp_status note_v(crisp_model *m, const char *fmt, va_list ap)
+{
+    char buf[2048];
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    return crisp_model_note_skip(m, buf);
+}
+
+crisp_status crisp_model_note_skipf(crisp_model *m, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    crisp_status st = note_v(m, fmt, ap);
+    va_end(ap);
+    return st;
+}
+
+crisp_status crisp_model_note_dropped(crisp_model *m, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    crisp_status st = note_v(m, fmt, ap);
+    va_end(ap);
+    m->faces_dropped++;
+    return st;
 }
 
 void crisp_model_bbox(const crisp_model *m, double *dest)

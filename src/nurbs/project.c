@@ -15,6 +15,8 @@
 #include "nurbs_internal.h"
 
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define GRID_MAX 24 /* global search grid per direction */
@@ -511,8 +513,10 @@ static double proj_error(void *ctx, double t, const double *fitted)
     return dist3(q, r);
 }
 
-crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_curve *c, double t0,
-                                         double t1, double tol, crisp_curve **dest)
+/* The projection over [t0, t1]; the first sample starts from seed (when not NULL) instead of
+ * the global search. */
+static crisp_status project_range(const crisp_surface *s, const crisp_curve *c, double t0, double t1,
+                                  double tol, const double *seed, crisp_curve **dest)
 {
     const char *fn = "crisp_surface_project_curve";
     if (!s || !c || !dest || c->dim != 3)
@@ -564,7 +568,13 @@ crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_cur
             if (i == 0) {
                 double first[2], p[3];
                 crisp_curve_eval(c, t, p);
-                double d0 = invert_global(&pc.si, p, first);
+                double d0;
+                if (seed) {
+                    first[0] = seed[0], first[1] = seed[1];
+                    d0 = newton(&pc.si, p, first, NULL);
+                } else {
+                    d0 = invert_global(&pc.si, p, first);
+                }
                 pc.sd[i] = invert_seeded(&pc, t, first, d0, uv, dead);
             } else {
                 pc.sd[i] = invert_seeded(&pc, t, pc.suv + 2 * (i - 1), pc.sd[i - 1], uv, dead);
@@ -629,5 +639,129 @@ out:
     crisp_free(pc.suv);
     crisp_free(pc.sd);
     crisp_free(bad);
+    return st;
+}
+
+crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_curve *c, double t0,
+                                         double t1, double tol, crisp_curve **dest)
+{
+    return project_range(s, c, t0, t1, tol, NULL, dest);
+}
+
+/* ---- projections that jump ----------------------------------------------------------------
+ * Where the curve passes a point at which the surface's parameters jump (a collapsed side of a
+ * patch or a pole whose neighbourhood the surface reaches from both ends of the domain, or a
+ * curve lying between two sheets), no single continuous (u, v) curve follows it: the path of
+ * seeded inversions is cut at the jumps (located by bisection, each side continued from its
+ * own neighbour) and each piece is projected on its own, started from its side's (u, v). */
+
+#define PIECE_SAMPLES 512
+
+static double uv_step(const double a[2], const double b[2])
+{
+    return hypot(a[0] - b[0], a[1] - b[1]);
+}
+
+static int cmp_dbl(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const crisp_curve *c, double t0,
+                                                double t1, double tol, int max_pieces, crisp_curve **dest,
+                                                int *count)
+{
+    const char *fn = "crisp_surface_project_curve_pieces";
+    if (!dest || !count || max_pieces < 1) return crisp_error(CRISP_ERR_INVALID_ARG, "%s: NULL argument", fn);
+    *count = 0;
+    crisp_status st = project_range(s, c, t0, t1, tol, NULL, &dest[0]);
+    if (st != CRISP_ERR_LIMIT) {
+        if (!st) *count = 1;
+        return st;
+    }
+    if (max_pieces < 2) return st;
+    char first_error[1024];
+    snprintf(first_error, sizeof first_error, "%s", crisp_error_message());
+    crisp_error_clear();
+    proj_ctx pc = {.c = c, .t0 = t0, .t1 = t1, .tol = tol};
+    surf_info_init(s, &pc.si);
+    enum { N = PIECE_SAMPLES + 1 };
+    double *ts = crisp_malloc_array(N, sizeof *ts), *uv = crisp_malloc_array(N, 2 * sizeof *uv);
+    double *dist = crisp_malloc_array(N, sizeof *dist), *steps = crisp_malloc_array(N, sizeof *steps);
+    double *cut = crisp_malloc_array((size_t)max_pieces + 1, sizeof *cut);
+    double *cut_uv = crisp_malloc_array((size_t)max_pieces + 1, 2 * sizeof *cut_uv);
+    if (!ts || !uv || !dist || !steps || !cut || !cut_uv) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", fn);
+        goto out;
+    }
+    /* The path of seeded inversions. */
+    for (int i = 0; i < N; i++) {
+        int dead[2];
+        ts[i] = t0 + (t1 - t0) * i / (N - 1);
+        if (i == 0) {
+            double p[3];
+            crisp_curve_eval(c, ts[0], p);
+            dist[0] = invert_global(&pc.si, p, uv);
+        } else {
+            dist[i] = invert_seeded(&pc, ts[i], uv + 2 * (i - 1), dist[i - 1], uv + 2 * i, dead);
+        }
+    }
+    for (int i = 0; i + 1 < N; i++) steps[i] = uv_step(uv + 2 * i, uv + 2 * i + 2);
+    double sorted[N];
+    memcpy(sorted, steps, (N - 1) * sizeof *sorted);
+    qsort(sorted, N - 1, sizeof *sorted, cmp_dbl);
+    double size = fmax(pc.si.dom[1] - pc.si.dom[0], pc.si.dom[3] - pc.si.dom[2]);
+    double limit = fmax(50 * sorted[(N - 1) / 2], 1e-3 * size);
+    int ncut = 0;
+    for (int i = 0; i + 1 < N && ncut + 1 < max_pieces; i++) {
+        if (!(steps[i] > limit)) continue;
+        double a = ts[i], b = ts[i + 1], ua[2] = {uv[2 * i], uv[2 * i + 1]}, ub[2] = {uv[2 * i + 2], uv[2 * i + 3]};
+        double da = dist[i];
+        for (int it = 0; it < 60; it++) {
+            double m = 0.5 * (a + b), um[2];
+            int dead[2];
+            double dm = invert_seeded(&pc, m, ua, da, um, dead);
+            if (uv_step(um, ua) <= uv_step(um, ub)) a = m, ua[0] = um[0], ua[1] = um[1], da = dm;
+            else b = m, ub[0] = um[0], ub[1] = um[1];
+        }
+        /* A true jump stays a jump however small the bracket (a fast continuous turn does not). */
+        if (!(uv_step(ua, ub) > 0.5 * limit)) continue;
+        cut[ncut] = 0.5 * (a + b);
+        cut_uv[2 * ncut] = ub[0], cut_uv[2 * ncut + 1] = ub[1];
+        ncut++;
+    }
+    if (ncut == 0) {
+        st = crisp_error(CRISP_ERR_LIMIT, "%s", first_error);
+        goto out;
+    }
+    double eps = 1e-9 * (t1 - t0);
+    st = CRISP_OK;
+    for (int k = 0; k <= ncut && !st; k++) {
+        double a = k ? cut[k - 1] + eps : t0, b = k < ncut ? cut[k] - eps : t1;
+        if (!(b > a)) continue;
+        /* A piece that is a point (the curve starting at a collapsed corner) is left out: the
+         * gap it leaves lies where the surface collapses. */
+        double pa[3], pb[3], pm[3];
+        crisp_curve_eval(c, a, pa);
+        crisp_curve_eval(c, b, pb);
+        crisp_curve_eval(c, 0.5 * (a + b), pm);
+        if (dist3(pa, pb) <= tol && dist3(pa, pm) <= tol && (ncut > 0)) continue;
+        st = project_range(s, c, a, b, tol, k ? cut_uv + 2 * (k - 1) : NULL, &dest[*count]);
+        if (!st) (*count)++;
+    }
+    if (!st && *count == 0) st = crisp_error(CRISP_ERR_NUMERIC, "%s: the curve projects to a point", fn);
+    if (st) {
+        for (int k = 0; k < *count; k++) crisp_curve_destroy(dest[k]);
+        *count = 0;
+        crisp_error_prefix("%s: %d jumps cut", fn, ncut);
+    }
+out:
+    crisp_free(ts);
+    crisp_free(uv);
+    crisp_free(dist);
+    crisp_free(steps);
+    crisp_free(cut);
+    crisp_free(cut_uv);
     return st;
 }

@@ -266,6 +266,18 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* The camera's view directions per pixel for the rasterizer (as crisp_camera_ray, unnormalised). */
+static void raster_view(const crisp_camera *cam, crisp_raster_view *v)
+{
+    double d0[3];
+    crisp_vec3_sub(cam->target, cam->eye, d0);
+    crisp_vec3_normalize(d0, v->f);
+    crisp_vec3_cross(v->f, cam->up, d0);
+    crisp_vec3_normalize(d0, v->r);
+    crisp_vec3_cross(v->r, v->f, v->u);
+    v->kx = v->ky = 2.0 * tan(cam->fov_deg * (M_PI / 360.0)) / cam->height;
+}
+
 typedef struct resolve_ctx {
     crisp_renderer *r;
     const crisp_scene *sc;
@@ -412,7 +424,9 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
     if (nt > surface_t) {
         size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
-        crisp_raster_depth_slack(&r->target, r->pool, 1.5, r->slack);
+        crisp_raster_view view;
+        raster_view(cam, &view);
+        crisp_raster_depth_slack(&r->target, r->pool, 1.5, &view, r->slack);
         crisp_raster_stats rs2;
         st = crisp_raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv, r->tris + surface_t,
                                     nt - surface_t, trim_test, ctx, r->slack, &rs2);

@@ -520,12 +520,27 @@ static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
 
 typedef struct slack_ctx {
     const crisp_raster_target *t;
+    const crisp_raster_view *view;
     double scale;
     float *slack;
 } slack_ctx;
 
-/* Rows [begin, end): each pair of horizontally or vertically adjacent samples of one face is
- * looked at once, from its left or upper member, and raises both members' slack. A worker writes
+/* The side a sample's surface is seen from: the sign of its normal (attributes 2..4) against the
+ * view direction through its pixel. A face seen through a crack at its own seam (a quarter sphere
+ * shows its inside beyond the crack, beside its outside) puts samples of its two sides next to
+ * each other; their depth difference is not the surface's depth change and must not widen the
+ * slack, or the ribbon that closes the crack is refused. */
+static int seen_side(const crisp_raster_view *v, int w, int h, int i, int j, const float *a)
+{
+    if (!v) return 0;
+    double x = (i + 0.5 - 0.5 * w) * v->kx, y = (0.5 * h - j - 0.5) * v->ky, dot = 0;
+    for (int k = 0; k < 3; k++) dot += a[2 + k] * (v->f[k] + x * v->r[k] + y * v->u[k]);
+    return dot < 0;
+}
+
+/* Rows [begin, end): each pair of horizontally or vertically adjacent samples of one face (and
+ * one side of it) is looked at once, from its left or upper member, and raises both members'
+ * slack. A worker writes
  * only its own rows: the vertical pair across a chunk boundary is looked at by both chunks (the
  * lower chunk starts one row early), each raising its own member. */
 static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
@@ -545,12 +560,15 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
                 int32_t f = t->face[idx];
                 if (f < 0) continue;
                 double W = 1.0 / t->inv_w[idx];
-                if (own_j && i + 1 < w && t->face[idx + S] == f) {
+                int side = seen_side(c->view, w, h, i, j, t->attr + idx * CRISP_RASTER_ATTRS);
+                if (own_j && i + 1 < w && t->face[idx + S] == f &&
+                    seen_side(c->view, w, h, i + 1, j, t->attr + (idx + S) * CRISP_RASTER_ATTRS) == side) {
                     float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + S] - W));
                     if (d > slack[idx]) slack[idx] = d;
                     if (d > slack[idx + S]) slack[idx + S] = d;
                 }
-                if (j + 1 < h && t->face[idx + rs] == f) {
+                if (j + 1 < h && t->face[idx + rs] == f &&
+                    seen_side(c->view, w, h, i, j + 1, t->attr + (idx + rs) * CRISP_RASTER_ATTRS) == side) {
                     float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + rs] - W));
                     if (own_j && d > slack[idx]) slack[idx] = d;
                     if (own_below && d > slack[idx + rs]) slack[idx + rs] = d;
@@ -559,9 +577,10 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
-void crisp_raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale, float *slack)
+void crisp_raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
+                              const crisp_raster_view *view, float *slack)
 {
-    slack_ctx c = {t, scale, slack};
+    slack_ctx c = {t, view, scale, slack};
     crisp_pool_parallel_for(pool, (size_t)t->height, 16, slack_rows, &c);
 }
 

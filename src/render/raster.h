@@ -95,9 +95,18 @@ crisp_status crisp_raster_draw_fill(crisp_raster *r, crisp_raster_target *t, cri
                                     crisp_raster_test_fn test, void *test_ctx, const float *slack,
                                     crisp_raster_stats *stats);
 
+/* The view direction (unnormalised) through pixel (i, j): f + (i + 0.5 - width / 2) kx r +
+ * (height / 2 - j - 0.5) ky u. */
+typedef struct crisp_raster_view {
+    double f[3], r[3], u[3];
+    double kx, ky;
+} crisp_raster_view;
+
 /* slack[sample] = scale times the largest change of W (camera depth) between the sample and the
- * same sample of the four neighbouring pixels where they show the same face (0 for empty
+ * same sample of the four neighbouring pixels where they show the same face, seen from the same
+ * side (the sign of normal . view direction; view may be NULL: not compared) (0 for empty
  * samples): how far a surface's depth moves over one pixel at that sample. pool may be NULL. */
-void crisp_raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale, float *slack);
+void crisp_raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
+                              const crisp_raster_view *view, float *slack);
 
 #endif

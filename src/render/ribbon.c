@@ -19,23 +19,26 @@
 #define RIBBON_PX 0.7
 #define RIBBON_STEP_PX 2.0
 #define RIBBON_MAX_DEPTH 20
+/* A face without trim loops is bounded by its domain's edges (t = 0, s = 1, t = 1, s = 0 of the
+ * patch grid, as leaf edges): where it meets another face there, the two faces' tessellations
+ * differ as along a trim, so the edge gets a ribbon too (not the edges where the surface closes
+ * on itself: those are shared within the face's own crack-free mesh). */
+#define RIBBON_EDGE 0x80000000u
 
 typedef struct ribbon_job {
-    uint32_t face, piece;
+    uint32_t face, piece; /* piece of the trim polyline, or RIBBON_EDGE + k: edge k of the domain */
     crisp_raster_vertex *pts; /* samples (per-worker arena, valid this frame) */
     uint32_t count;           /* samples; a sample with clip[3] < 0 breaks the ribbon */
     uint32_t qbase;           /* first quad */
 } ribbon_job;
 
-#define RIBBON_CHUNKS 64 /* fixed ranges of the sampling pass, one arena each */
-
 struct crisp__ribbons {
     int workers;
-    crisp_arena **arena;   /* per range (RIBBON_CHUNKS), reset every build: what each holds does
-                              not depend on the thread split, so steady frames allocate nothing */
+    crisp_arena **arena;   /* per worker, reset every build */
     crisp_status *wstatus; /* per worker */
     ribbon_job *jobs;
     size_t job_cap;
+    size_t last_used; /* bytes of samples over all workers in the last build */
 };
 
 typedef struct ribbon_ctx {
@@ -43,7 +46,6 @@ typedef struct ribbon_ctx {
     const crisp__trees *trees;
     const crisp_scene *sc;
     crisp_plan_ribbon_vertex *out;
-    size_t jobs; /* sampling: the job count */
 } ribbon_ctx;
 
 crisp_status crisp__ribbons_create(int workers, crisp__ribbons **dest)
@@ -51,11 +53,11 @@ crisp_status crisp__ribbons_create(int workers, crisp__ribbons **dest)
     crisp__ribbons *rb = calloc(1, sizeof *rb);
     if (!rb) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
     rb->workers = workers;
-    rb->arena = calloc(RIBBON_CHUNKS, sizeof *rb->arena);
+    rb->arena = calloc((size_t)workers, sizeof *rb->arena);
     rb->wstatus = calloc((size_t)workers, sizeof *rb->wstatus);
     crisp_status st = rb->arena && rb->wstatus ? CRISP_OK
                                                : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
-    for (int k = 0; !st && k < RIBBON_CHUNKS; k++) st = crisp_arena_create(1 << 16, &rb->arena[k]);
+    for (int w = 0; !st && w < workers; w++) st = crisp_arena_create(1 << 16, &rb->arena[w]);
     if (st) {
         crisp__ribbons_destroy(rb);
         return st;
@@ -68,7 +70,7 @@ void crisp__ribbons_destroy(crisp__ribbons *rb)
 {
     if (!rb) return;
     if (rb->arena)
-        for (int k = 0; k < RIBBON_CHUNKS; k++) crisp_arena_destroy(rb->arena[k]);
+        for (int w = 0; w < rb->workers; w++) crisp_arena_destroy(rb->arena[w]);
     free(rb->arena);
     free(rb->wstatus);
     free(rb->jobs);
@@ -177,22 +179,63 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
     emit(s, b);
 }
 
-static void sample_ribbons(ribbon_ctx *c, size_t begin, size_t end, int worker, crisp_arena *arena)
+/* Point k of a job's path in (u, v) and the number of points: the trim polyline piece, or a
+ * domain edge through the patch grid's knot lines. */
+static int path_points(const ribbon_ctx *c, const ribbon_job *job)
 {
+    if (!(job->piece & RIBBON_EDGE)) {
+        const crisp_trim_polyline *pl = &c->trees->trims[job->face].polyline;
+        return pl->first[job->piece + 1] - pl->first[job->piece];
+    }
+    const crisp_scene_face *f = &c->sc->faces[job->face];
+    int edge = (int)(job->piece & 3u);
+    return (int)((edge == 0 || edge == 2) ? f->grid_u : f->grid_v) + 1;
+}
+
+static void path_point(const ribbon_ctx *c, const ribbon_job *job, int k, double uv[2])
+{
+    if (!(job->piece & RIBBON_EDGE)) {
+        const crisp_trim_polyline *pl = &c->trees->trims[job->face].polyline;
+        int q = pl->first[job->piece] + k;
+        uv[0] = pl->uv[2 * q], uv[1] = pl->uv[2 * q + 1];
+        return;
+    }
+    const crisp_scene_face *f = &c->sc->faces[job->face];
+    const crisp_scene_patch *first = &c->sc->patches[f->first_patch];
+    int edge = (int)(job->piece & 3u);
+    if (edge == 0 || edge == 2) {
+        /* Along u at v = v0 (edge 0) or v1 (edge 2): the first row's patches' u boundaries. */
+        uint32_t i = (uint32_t)k < f->grid_u ? (uint32_t)k : f->grid_u - 1;
+        const crisp_bezier_patch *b = &c->sc->patches[f->first_patch + i].bez;
+        uv[0] = (uint32_t)k < f->grid_u ? b->u0 : b->u1;
+        uv[1] = edge == 0 ? first->bez.v0 : c->sc->patches[f->first_patch + f->patch_count - 1].bez.v1;
+    } else {
+        uint32_t j = (uint32_t)k < f->grid_v ? (uint32_t)k : f->grid_v - 1;
+        const crisp_bezier_patch *b = &c->sc->patches[f->first_patch + j * f->grid_u].bez;
+        uv[1] = (uint32_t)k < f->grid_v ? b->v0 : b->v1;
+        uv[0] = edge == 3 ? first->bez.u0 : c->sc->patches[f->first_patch + f->patch_count - 1].bez.u1;
+    }
+}
+
+static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
+{
+    ribbon_ctx *c = vctx;
     const crisp__trees *plan = c->trees;
     for (size_t j = begin; j < end; j++) {
         ribbon_job *job = &c->rb->jobs[j];
         const crisp_scene_face *f = &c->sc->faces[job->face];
-        const crisp_trim_polyline *pl = &plan->trims[job->face].polyline;
-        int p0 = pl->first[job->piece], p1 = pl->first[job->piece + 1];
-        sampler s = {.arena = arena, .surf = f->src->surface,
+        int n = path_points(c, job);
+        sampler s = {.arena = c->rb->arena[worker], .surf = f->src->surface,
                      .reversed = f->src->reversed, .m = (crisp_mat4 *)&plan->view_proj, .w = plan->width,
                      .h = plan->height, .gx = 1 + 4.0 / plan->width, .gy = 1 + 4.0 / plan->height};
         crisp_raster_vertex a, b;
-        ribbon_vertex(s.surf, s.reversed, *s.m, pl->uv[2 * p0], pl->uv[2 * p0 + 1], &a);
+        double uv[2];
+        path_point(c, job, 0, uv);
+        ribbon_vertex(s.surf, s.reversed, *s.m, uv[0], uv[1], &a);
         int open = 0; /* the ribbon so far ends at a */
-        for (int k = p0; k + 1 < p1; k++) {
-            ribbon_vertex(s.surf, s.reversed, *s.m, pl->uv[2 * k + 2], pl->uv[2 * k + 3], &b);
+        for (int k = 0; k + 1 < n; k++) {
+            path_point(c, job, k + 1, uv);
+            ribbon_vertex(s.surf, s.reversed, *s.m, uv[0], uv[1], &b);
             /* Segments that cannot reach the view are left out without a sample (at extreme zoom
              * almost all of a polyline is off screen). */
             if (!segment_may_show(&a, &b, s.w, s.h)) {
@@ -215,18 +258,9 @@ static void sample_ribbons(ribbon_ctx *c, size_t begin, size_t end, int worker, 
     }
 }
 
-
 /* Quads of 4 vertices (triangles 0 1 2, 0 2 3) between consecutive samples, offset on screen by
  * RIBBON_PX across and along the segment; a segment with an end behind the eye gets vertices with
  * clip[3] = -1 (not drawn). */
-
-static void sample_chunks(void *vctx, size_t begin, size_t end, int worker)
-{
-    ribbon_ctx *c = vctx;
-    for (size_t ch = begin; ch < end; ch++)
-        sample_ribbons(c, c->jobs * ch / RIBBON_CHUNKS, c->jobs * (ch + 1) / RIBBON_CHUNKS, worker, c->rb->arena[ch]);
-}
-
 static void build_quads(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
@@ -279,6 +313,15 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
     uint32_t f1 = only_face == UINT32_MAX ? sc->face_count : only_face + 1;
     for (uint32_t f = f0; f < f1; f++) {
         if (!trees->face_tau[f]) continue;
+        const crisp_scene_face *sf = &sc->faces[f];
+        if (!sf->piece_count && sf->grid_u && sf->grid_v) {
+            for (uint32_t k = 0; k < 4; k++) {
+                if (((k & 1) ? sf->closed_u : sf->closed_v)) continue;
+                if ((st = crisp_grow((void **)&rb->jobs, &rb->job_cap, jobs + 1, sizeof *rb->jobs))) return st;
+                rb->jobs[jobs++] = (ribbon_job){.face = f, .piece = RIBBON_EDGE | k};
+            }
+            continue;
+        }
         const crisp_trim_polyline *pl = &trees->trims[f].polyline;
         for (int k = 0; k < pl->piece_count; k++) {
             if (pl->first[k + 1] - pl->first[k] < 2) continue;
@@ -286,12 +329,22 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
             rb->jobs[jobs++] = (ribbon_job){.face = f, .piece = (uint32_t)k};
         }
     }
-    for (int k = 0; k < RIBBON_CHUNKS; k++) crisp_arena_reset(rb->arena[k]);
-    for (int w = 0; w < rb->workers; w++) rb->wstatus[w] = CRISP_OK;
-    ribbon_ctx c = {rb, trees, sc, NULL, jobs};
-    crisp_pool_parallel_for(pool, RIBBON_CHUNKS, 1, sample_chunks, &c);
-    for (int w = 0; w < rb->workers; w++)
+    /* Which worker samples which job depends on scheduling: each worker's arena is made ready
+     * for the whole of the last frame's samples (and a quarter more), so a steady view allocates
+     * nothing whoever does the work. */
+    size_t want = rb->last_used + rb->last_used / 4;
+    for (int w = 0; w < rb->workers; w++) {
+        crisp_arena_reset(rb->arena[w]);
+        if (want && (st = crisp_arena_reserve(rb->arena[w], want))) return st;
+        rb->wstatus[w] = CRISP_OK;
+    }
+    ribbon_ctx c = {rb, trees, sc, NULL};
+    crisp_pool_parallel_for(pool, jobs, 4, sample_ribbons, &c);
+    rb->last_used = 0;
+    for (int w = 0; w < rb->workers; w++) {
         if (rb->wstatus[w]) return rb->wstatus[w];
+        rb->last_used += crisp_arena_used(rb->arena[w]);
+    }
     /* Lay the quads out face after face. */
     size_t quads = 0;
     for (uint32_t f = f0; f < f1; f++) face_quads[f - f0] = 0;

@@ -447,6 +447,54 @@ static void test_project_iso_curves(void **state)
     }
 }
 
+/* Issue 13: projections through a collapsed point. A double cone (apex to apex at the origin,
+ * degree (2, 1), the middle row of control points collapsed) and the line from (1, 0, -1) through
+ * the apex to (-1, 0, 1): below the apex it runs along u = 0, above along u = 1/2.
+ * crisp_surface_project_curve_pieces returns pieces (one, when the fit can pass along the
+ * collapsed row; else cut at the apex) whose images lie on the line within tol, in curve order,
+ * covering [0, 1]. */
+static void test_project_pieces_through_apex(void **state)
+{
+    (void)state;
+    const double h = sqrt(0.5);
+    double ku[] = {0, 0, 0, .25, .25, .5, .5, .75, .75, 1, 1, 1}, kv[] = {0, 0, 0.5, 1, 1};
+    double cx[9] = {1, 1, 0, -1, -1, -1, 0, 1, 1}, cy[9] = {0, 1, 1, 1, 0, -1, -1, -1, 0};
+    double w9[9] = {1, h, 1, h, 1, h, 1, h, 1}, pts[27 * 3], wts[27];
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 9; i++) {
+            double r = j == 1 ? 0 : 1, *q = pts + 3 * (j * 9 + i);
+            q[0] = r * cx[i], q[1] = r * cy[i], q[2] = j - 1.0;
+            wts[j * 9 + i] = w9[i];
+        }
+    crisp_surface *s;
+    assert_int_equal(crisp_surface_create(2, 1, 9, 3, ku, kv, pts, wts, &s), CRISP_OK);
+    const double a[3] = {1, 0, -1}, b[3] = {-1, 0, 1}, a2[3] = {0, 0, 0};
+    const double *ends[2][2] = {{a, b}, {a2, b}};
+    for (int e = 0; e < 2; e++) {
+        crisp_curve *c;
+        assert_int_equal(crisp_make_line(3, ends[e][0], ends[e][1], 0, 1, &c), CRISP_OK);
+        double tol = 1e-6, prev = 0;
+        crisp_curve *pieces[4] = {NULL};
+        int n = 0;
+        assert_int_equal(crisp_surface_project_curve_pieces(s, c, 0, 1, tol, 4, pieces, &n), CRISP_OK);
+        assert_true(n >= 1 && n <= 4);
+        for (int k = 0; k < n; k++) {
+            double t0, t1, jump;
+            crisp_curve_domain(pieces[k], &t0, &t1);
+            assert_true(t0 >= prev - 1e-12 && t1 > t0);
+            prev = t1;
+            assert_true(image_error(s, pieces[k], c, t0, t1, 0, &jump) <= 2 * tol);
+            crisp_curve_destroy(pieces[k]);
+        }
+        assert_true(fabs(prev - 1) < 1e-12);
+        crisp_curve_destroy(c);
+    }
+    crisp_curve *one = NULL;
+    int n1 = 0;
+    assert_int_equal(crisp_surface_project_curve_pieces(s, NULL, 0, 1, 1e-6, 0, &one, &n1), CRISP_ERR_INVALID_ARG);
+    crisp_surface_destroy(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -459,6 +507,7 @@ int main(void)
         cmocka_unit_test(test_project_circle_on_sphere),
         cmocka_unit_test(test_project_iso_curves),
         cmocka_unit_test(test_project_pole_and_offset),
+        cmocka_unit_test(test_project_pieces_through_apex),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,4 +1,5 @@
-/* Tests for src/core: errors, allocation, arena, vec/mat, thread pool. */
+/* Tests for src/core: errors, allocation, arena, vec/mat, thread pool (errors carried from
+ * workers, nesting, kept pools, progress). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -141,6 +142,115 @@ static void test_pool(void **state)
     crisp_pool_destroy(NULL);
 }
 
+static void mark_error_everywhere(void *vctx, size_t b, size_t e, int worker)
+{
+    (void)vctx, (void)b, (void)e;
+    if (worker == 0) {
+        crisp_error(CRISP_ERR_IO, "caller's own");
+    } else {
+        /* slow workers: the caller surely runs some items itself */
+        for (int spin = 0; spin < 20000; spin++) crisp_time_ns();
+        crisp_error(CRISP_ERR_IO, "worker's");
+    }
+}
+
+/* A worker's error: only threads other than the caller fail (after the caller has given up a
+ * few items to them), so the message can only reach the caller through the pool. */
+typedef struct {
+    atomic_int failed;
+    atomic_int started;
+} fail_ctx;
+
+static void fail_on_worker(void *vctx, size_t b, size_t e, int worker)
+{
+    fail_ctx *c = vctx;
+    (void)e;
+    atomic_fetch_add(&c->started, 1);
+    if (worker == 0) {
+        /* hold the caller until a worker has run, so one surely fails */
+        for (int spin = 0; spin < 2000000 && !atomic_load(&c->failed); spin++) crisp_time_ns();
+        return;
+    }
+    int expected = 0;
+    if (atomic_compare_exchange_strong(&c->failed, &expected, 1))
+        crisp_error(CRISP_ERR_PARSE, "item %zu on worker %d: expected a number", b, worker);
+}
+
+static void test_pool_worker_error(void **state)
+{
+    (void)state;
+    crisp_pool *p;
+    assert_int_equal(crisp_pool_create(3, &p), CRISP_OK);
+    crisp_error_clear();
+    fail_ctx c = {0, 0};
+    crisp_pool_parallel_for(p, 64, 1, fail_on_worker, &c);
+    assert_int_equal(atomic_load(&c.failed), 1);
+    assert_non_null(strstr(crisp_error_message(), "expected a number"));
+    assert_non_null(strstr(crisp_error_message(), "on worker"));
+    /* An error of the caller's own is kept over a worker's. */
+    crisp_error(CRISP_ERR_IO, "caller");
+    crisp_pool_parallel_for(p, 64, 1, mark_error_everywhere, NULL);
+    assert_string_equal(crisp_error_message(), "caller's own");
+    crisp_pool_destroy(p);
+}
+
+typedef struct {
+    crisp_pool *pool;
+    atomic_int inner;
+} nest_ctx;
+
+static void inner_fn(void *vctx, size_t b, size_t e, int worker)
+{
+    (void)worker;
+    nest_ctx *c = vctx;
+    atomic_fetch_add(&c->inner, (int)(e - b));
+}
+
+static void outer_fn(void *vctx, size_t b, size_t e, int worker)
+{
+    (void)worker;
+    nest_ctx *c = vctx;
+    for (size_t i = b; i < e; i++) crisp_pool_parallel_for(c->pool, 10, 1, inner_fn, c);
+}
+
+static int progress_calls;
+static double progress_last, progress_min = 2;
+
+static void on_progress(void *ctx, double f)
+{
+    (void)ctx;
+    progress_calls++;
+    if (f < progress_last) progress_min = f; /* a report going backwards within one job */
+    progress_last = f;
+}
+
+/* A call from inside a job runs inline instead of deadlocking; kept pools are reused; the
+ * caller reports progress that rises to 1. */
+static void test_pool_nested_kept_progress(void **state)
+{
+    (void)state;
+    crisp_pool *a, *b;
+    assert_int_equal(crisp_pool_get(3, &a), CRISP_OK);
+    assert_int_equal(crisp_pool_get(3, &b), CRISP_OK);
+    assert_ptr_equal(a, b);
+    assert_int_equal(crisp_pool_threads(a), 3);
+    assert_int_equal(crisp_pool_get(0, &b), CRISP_OK);
+    assert_ptr_equal(b, crisp_pool_shared());
+    nest_ctx c = {a, 0};
+    crisp_pool_parallel_for(a, 20, 1, outer_fn, &c);
+    assert_int_equal(atomic_load(&c.inner), 200);
+    crisp_progress_set(on_progress, NULL);
+    progress_last = 0;
+    crisp_pool_parallel_for(a, 1000, 7, inner_fn, &c);
+    crisp_progress_set(NULL, NULL);
+    assert_true(progress_calls > 0);
+    assert_true(progress_min == 2); /* never went backwards */
+    assert_true(progress_last > 0 && progress_last <= 1);
+    crisp_pool_parallel_for(a, 1000, 7, inner_fn, &c);
+    int calls = progress_calls;
+    assert_int_equal(progress_calls, calls); /* off again */
+}
+
 static void test_time(void **state)
 {
     (void)state;
@@ -157,6 +267,7 @@ int main(void)
         cmocka_unit_test(test_error_message), cmocka_unit_test(test_alloc_overflow),
         cmocka_unit_test(test_arena_reuse),   cmocka_unit_test(test_mat4),
         cmocka_unit_test(test_pool),          cmocka_unit_test(test_time),
+        cmocka_unit_test(test_pool_worker_error), cmocka_unit_test(test_pool_nested_kept_progress),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -563,51 +563,16 @@ static void test_models_2d(void **state)
     check_model_2d("hi", CRISP_FREP_BRUTE);
 }
 
-static void check_model_3d(const char *name, int n)
-{
-    crisp_frep *f = load_vm(name);
-    crisp_frep_tape *t;
-    assert_int_equal(crisp_frep_tape_create(f, &t), CRISP_OK);
-    int32_t *ref = brute_3d(t, n);
-    crisp_frep_renderer *r = render(t, n, n, 2, 0);
-    const crisp_frep_image *img = crisp_frep_renderer_image(r);
-    size_t differ = 0, hit = 0;
-    for (size_t p = 0; p < (size_t)n * n; p++) {
-        differ += img->heights[p] != ref[p];
-        if (ref[p] >= 0) {
-            hit++;
-            const float *nv = img->normal + 3 * p;
-            float len = nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2];
-            assert_float_equal(len, 1, 1e-4);
-            /* the normal is the full tape's gradient direction at the hit voxel */
-            int i = (int)(p % (size_t)n), j = (int)(p / (size_t)n);
-            float x = brute_coord(-1, 1, n, i), y = (float)(1 - (j + 0.5) * 2.0 / n);
-            float z = brute_coord(-1, 1, n, ref[p]), g[4];
-            assert_int_equal(crisp_frep_eval_grad(t, 1, &x, &y, &z, g), CRISP_OK);
-            float gl = sqrtf(g[1] * g[1] + g[2] * g[2] + g[3] * g[3]);
-            if (gl > 0 && isfinite(gl))
-                for (int c = 0; c < 3; c++) assert_float_equal(nv[c], g[1 + c] / gl, 1e-5);
-            assert_true((img->inside[p] == 255));
-        } else {
-            assert_true(isinf(img->z[p]) && img->z[p] < 0);
-        }
-    }
-    if (differ) fprintf(stderr, "%s 3D: %zu pixels differ\n", name, differ);
-    assert_int_equal(differ, 0);
-    assert_true(hit > 0);
-    free(ref);
-    crisp_frep_renderer_destroy(r);
-    crisp_frep_tape_destroy(t);
-    crisp_frep_destroy(f);
-}
-
 static void test_models_3d(void **state)
 {
     (void)state;
+    /* prospero at 128 and every model at 512 are in test_frep_slow */
     for (size_t m = 0; m < NMODELS; m++)
-        if (strcmp(models[m], "prospero")) check_model_3d(models[m], 128);
-    /* a size that is no multiple of the tile sizes */
-    check_model_3d("bear", 77);
+        if (strcmp(models[m], "prospero")) {
+            check_model_3d(load_vm(models[m]), models[m], 128);
+            /* a size that is no multiple of the tile sizes */
+            check_model_3d(load_vm(models[m]), models[m], 77);
+        }
 }
 
 /* A region and a size that are not square, not powers of two, in 2D and 3D. */
@@ -659,6 +624,80 @@ static void test_region_and_size(void **state)
     crisp_frep_destroy(f);
 }
 
+/* ---- region fit ------------------------------------------------------------------------------ */
+
+static crisp_status fit_math(const char *text, int planar, crisp_frep_fit *fit)
+{
+    crisp_frep *f = parse_math(text);
+    crisp_frep_tape *t;
+    assert_int_equal(crisp_frep_tape_create(f, &t), CRISP_OK);
+    crisp_status s = crisp_frep_fit_region(t, &(crisp_frep_fit_desc){.planar = planar}, fit);
+    crisp_frep_tape_destroy(t);
+    crisp_frep_destroy(f);
+    return s;
+}
+
+/* the fit contains the true box [lo, hi] on each axis and exceeds it by at most two cells */
+static void assert_fit(const crisp_frep_fit *fit, const double truth[6], int axes)
+{
+    for (int a = 0; a < axes; a++) {
+        assert_true(fit->box[2 * a] <= truth[2 * a] && fit->box[2 * a + 1] >= truth[2 * a + 1]);
+        assert_true(fit->box[2 * a] >= truth[2 * a] - 2 * fit->cell);
+        assert_true(fit->box[2 * a + 1] <= truth[2 * a + 1] + 2 * fit->cell);
+    }
+}
+
+static void test_fit_region(void **state)
+{
+    (void)state;
+    crisp_frep_fit fit;
+    /* a small ball far from the origin, 3D and on the plane z = 0 */
+    const double ball[6] = {99.5, 100.5, -0.5, 0.5, 1.5, 2.5};
+    assert_int_equal(fit_math("(X-100)^2+Y^2+(Z-2)^2-0.25", 0, &fit), CRISP_OK);
+    assert_fit(&fit, ball, 3);
+    assert_true(fit.cell < 0.05);
+    assert_int_equal(fit.unbounded, 0);
+    /* the tanglecube reaches x = sqrt((5 + sqrt(35)) / 2) = 2.3363 (beyond the old [-1, 1]) */
+    crisp_frep *f = load_vm("tanglecube");
+    crisp_frep_tape *t;
+    assert_int_equal(crisp_frep_tape_create(f, &t), CRISP_OK);
+    assert_int_equal(crisp_frep_fit_region(t, &(crisp_frep_fit_desc){0}, &fit), CRISP_OK);
+    double e = sqrt((5 + sqrt(35.0)) / 2), tc[6] = {-e, e, -e, e, -e, e};
+    assert_fit(&fit, tc, 3);
+    /* rendered over its fit, it is seen (inside pixels, none on the border) */
+    crisp_frep_render_desc d = {.width = 64, .height = 64, .threads = 2};
+    memcpy(d.region, fit.box, sizeof d.region);
+    d.region[4] = d.region[5] = 0;
+    crisp_frep_renderer *r;
+    assert_int_equal(crisp_frep_renderer_create(t, &d, &r), CRISP_OK);
+    assert_int_equal(crisp_frep_renderer_run(r), CRISP_OK);
+    size_t inside = 0;
+    for (size_t p = 0; p < 64 * 64; p++) inside += crisp_frep_renderer_image(r)->inside[p] != 0;
+    assert_true(inside > 64 * 64 / 16);
+    crisp_frep_renderer_destroy(r);
+    crisp_frep_tape_destroy(t);
+    crisp_frep_destroy(f);
+    /* empty, unbounded, NaN: a status and a message, or the flag */
+    assert_int_equal(fit_math("X^2+Y^2+Z^2+1", 0, &fit), CRISP_ERR_NUMERIC);
+    assert_true(fit.empty);
+    assert_non_null(strstr(crisp_error_message(), "empty"));
+    assert_int_equal(fit_math("X-3", 0, &fit), CRISP_OK);
+    assert_int_equal(fit.unbounded, 7);
+    assert_int_equal(crisp_frep_fit_check(&fit, 0), CRISP_ERR_NUMERIC);
+    assert_non_null(strstr(crisp_error_message(), "unbounded in x"));
+    assert_true(fit.box[1] >= 3 && fit.box[1] < 3 + 2 * fit.cell);
+    assert_int_equal(fit_math("sqrt(X-1000000)", 1, &fit), CRISP_ERR_NUMERIC);
+    assert_non_null(strstr(crisp_error_message(), "NaN"));
+    /* a 2D model is unbounded in z only */
+    f = load_vm("quarter");
+    assert_int_equal(crisp_frep_tape_create(f, &t), CRISP_OK);
+    assert_int_equal(crisp_frep_fit_region(t, &(crisp_frep_fit_desc){.free_axes = 4}, &fit), CRISP_OK);
+    assert_int_equal(fit.unbounded, 4);
+    assert_int_equal(crisp_frep_fit_check(&fit, 4), CRISP_OK);
+    crisp_frep_tape_destroy(t);
+    crisp_frep_destroy(f);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -669,6 +708,7 @@ int main(void)
         cmocka_unit_test(test_batch_matches_graph),
         cmocka_unit_test(test_prospero_reference), cmocka_unit_test(test_models_2d),
         cmocka_unit_test(test_models_3d),          cmocka_unit_test(test_region_and_size),
+        cmocka_unit_test(test_fit_region),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

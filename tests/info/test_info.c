@@ -57,7 +57,11 @@ static void test_obj_summary(void **state)
     assert_non_null(strstr(out, "trim loops:      2 (1 outer, 1 holes)"));
     assert_non_null(strstr(out, "trim curves:     2 (8 Bezier pieces)"));
     assert_non_null(strstr(out, "surface degrees: 1, 2 (max 2 x 1)"));
-    assert_non_null(strstr(out, "bounding box:    [0, 0, 0] - [2, 1, 1]"));
+    /* the box of the trimmed face (u in [0.2, 1.8], v in [0.2, 0.8] of a surface over [0, 2] x
+     * [0, 1] in x and y), not the control hull [0, 0, 0] - [2, 1, 1] */
+    assert_null(strstr(out, "bounding box:    [0, 0, 0] - [2, 1, 1]"));
+    assert_non_null(strstr(out, "faces dropped:   0\n"));
+    assert_non_null(strstr(out, "gaps:            none wider than the tolerance"));
     assert_non_null(strstr(out, "coloured faces:  0\n"));
     assert_non_null(strstr(out, "frobnicate"));
 
@@ -67,9 +71,42 @@ static void test_obj_summary(void **state)
     assert_non_null(strstr(out, "\"faces\": 1,"));
     assert_non_null(strstr(out, "\"loops\": {\"outer\": 1, \"holes\": 1}"));
     assert_non_null(strstr(out, "\"degrees_seen\": [1, 2]"));
-    assert_non_null(strstr(out, "\"bbox\": [0, 0, 0, 2, 1, 1]"));
+    const char *bb = strstr(out, "\"bbox\": [");
+    assert_non_null(bb);
+    double b[6];
+    assert_int_equal(sscanf(bb, "\"bbox\": [%lf, %lf, %lf, %lf, %lf, %lf]", b, b + 1, b + 2, b + 3, b + 4, b + 5), 6);
+    /* contains the trimmed face, and is well inside the hull in x and y */
+    assert_true(b[0] <= 0.2 + 1e-9 && b[0] > 0.1 && b[3] >= 1.8 - 1e-9 && b[3] < 1.9);
+    assert_true(b[1] <= 0.2 + 1e-9 && b[1] > 0.1 && b[4] >= 0.8 - 1e-9 && b[4] < 0.9);
+    assert_non_null(strstr(out, "\"faces_dropped\": 0,"));
+    /* one face: no other face near its boundary, no gap */
+    assert_non_null(strstr(out, "\"gaps\": {\"measured\": true,"));
+    assert_non_null(strstr(out, "\"pairs\": 0,"));
     assert_non_null(strstr(out, "\"colored_faces\": 0,"));
     assert_non_null(strstr(out, "\"skipped\": [{\"what\": \"OBJ statement 'frobnicate'"));
+    remove(path);
+}
+
+/* Skip reasons are kept in full in the text and the JSON (they used to be cut at 95 characters). */
+static void test_full_skip_reasons(void **state)
+{
+    (void)state;
+    char lib[200];
+    memset(lib, 'q', 150);
+    snprintf(lib + 150, sizeof lib - 150, "_end_of_a_long_name.mtl");
+    char text[600];
+    snprintf(text, sizeof text, "mtllib %s\nusemtl red\n%s", lib, grid_obj);
+    const char *path = CRISP_BIN_DIR "/test_info_long.obj";
+    write_file(path, text);
+    char out[16384], args[512], want[400];
+    snprintf(want, sizeof want, "OBJ mtllib '%s': not readable, no colours", lib);
+    assert_true(strlen(want) > 95);
+    snprintf(args, sizeof args, "info '%s'", path);
+    assert_int_equal(run(args, out, sizeof out), 0);
+    assert_non_null(strstr(out, want));
+    snprintf(args, sizeof args, "info --json '%s'", path);
+    assert_int_equal(run(args, out, sizeof out), 0);
+    assert_non_null(strstr(out, want));
     remove(path);
 }
 
@@ -131,6 +168,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_obj_summary),
+        cmocka_unit_test(test_full_skip_reasons),
         cmocka_unit_test(test_broken_files),
 #ifdef CRISP_TEST_HAVE_IGES
         cmocka_unit_test(test_iges_hammer),

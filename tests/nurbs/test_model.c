@@ -174,7 +174,19 @@ static void test_model_skips(void **state)
     assert_int_equal(crisp_model_note_skip(m, longtext), CRISP_OK);
     assert_int_equal(m->skip_count, 3);
     assert_int_equal(m->skips[2].count, 2);
-    assert_int_equal(strlen(m->skips[2].what), sizeof m->skips[2].what - 1);
+    /* kept in full (issue 13: no cut at 95 characters) */
+    assert_string_equal(m->skips[2].what, longtext);
+    assert_int_equal(m->faces_dropped, 0);
+    assert_int_equal(crisp_model_note_dropped(m, "face #%d dropped: %s", 7, longtext), CRISP_OK);
+    assert_int_equal(m->faces_dropped, 1);
+    assert_int_equal((int)strlen(m->skips[3].what), (int)strlen("face #7 dropped: ") + 299);
+    assert_int_equal(crisp_model_note_skipf(m, "x%d", 1), CRISP_OK);
+    assert_string_equal(m->skips[4].what, "x1");
+    /* a bound on distinct notes: the last one counts the rest */
+    for (int i = 0; i < CRISP_MODEL_MAX_NOTES + 10; i++)
+        assert_int_equal(crisp_model_note_skipf(m, "note %d", i), CRISP_OK);
+    assert_int_equal(m->skip_count, CRISP_MODEL_MAX_NOTES);
+    assert_non_null(strstr(m->skips[m->skip_count - 1].what, "not kept"));
     crisp_model_destroy(m);
 }
 

@@ -13,7 +13,8 @@
  * normal; zoomed until a trim curve crosses the whole image, then on to fields of view of 1e-4
  * and 1e-7 degrees; the eye just above the surface looking along it (the surface crosses the near
  * plane and the eye plane); and the eye between two parallel faces. Also with 4 samples per pixel.
- * Argument "all": larger images and every combination (slow label). */
+ * Argument "all": larger images and every combination (slow label); `--backend gl`: the same
+ * checks on the GL backend drawing the same plans (tests/render/render_backend.h, gl label). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -24,10 +25,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "crisp/image.h"
 #include "crisp/render.h"
 #include "crisp/trim.h"
 #include "render/raster.h"
 #include "render/render_internal.h"
+#include "render/render_backend.h"
 #include "trim/trim_test_util.h"
 
 static int full;
@@ -299,7 +302,8 @@ static int exact_classify(void *ctx, const crisp_scene *sc, uint32_t face, doubl
     return crisp_trim_exact_classify(sc->pieces + f->first_piece, (int)f->piece_count, u, v);
 }
 
-/* Render with the CPU backend (samples 1 or 4) and compare every sample with the exact answer. */
+/* Render with the backend under test (samples 1 or 4) and compare every sample with the exact
+ * answer. */
 static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, const crisp_camera *cam,
                        const char *what, tally *all)
 {
@@ -308,9 +312,18 @@ static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, co
     assert_int_equal(crisp_image_init(&cpu, w, h), CRISP_OK);
     assert_int_equal(crisp_image_init(&ex, w, h), CRISP_OK);
     crisp_render_stats st;
-    crisp_status s = crisp_render_cpu(r, sc, cam, &cpu, &st);
+    crisp_status s = render_backend(rb_kind, r, samples, sc, cam, &cpu, &st);
     if (s) fprintf(stderr, "%s: %s\n", what, crisp_error_message());
     assert_int_equal(s, CRISP_OK);
+    if (getenv("DUMP") && strstr(what, getenv("DUMP"))) {
+        char fn[200];
+        snprintf(fn, sizeof fn, "/tmp/dump_%s.png", rb_name());
+        uint8_t *px8 = malloc((size_t)w * h * 4);
+        for (size_t k = 0; k < (size_t)w * h * 4; k++) px8[k] = (uint8_t)(255 * fminf(1, cpu.rgba[k]));
+        for (size_t k = 0; k < (size_t)w * h; k++) px8[4 * k + 3] = 255, px8[4 * k] = cpu.face[k] >= 0 ? px8[4 * k] : 255;
+        crisp_write_png_rgba(fn, w, h, px8);
+        free(px8);
+    }
     crisp_exact_desc d = {.threads = 2, .classify = exact_classify};
     view vw = {.sc = sc, .cam = *cam};
     crisp_camera_matrices m;
@@ -319,10 +332,9 @@ static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, co
     segs sg = {0};
     int have_segs = 0;
     tally t = {0};
-    /* Every sample of the CPU backend (the rasterizer's per-sample faces) against the exact
+    /* Every sample of the backend (the per-sample faces) against the exact
      * answer for the ray through that sample (for one sample per pixel: the exact image). */
-    const crisp_raster_target *tg = crisp__renderer_target(r);
-    assert_int_equal(tg->samples, samples);
+    const int32_t *sample_face = rb_sample_faces();
     if (samples == 1) assert_int_equal(crisp_render_exact(sc, cam, &d, &ex), CRISP_OK);
     double fwd[3];
     crisp_vec3_sub(cam->target, cam->eye, fwd);
@@ -343,7 +355,7 @@ static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, co
                     double c = crisp_vec3_dot(dir, fwd);
                     want = crisp_exact_ray(sc, &d, o, dir, cam->znear / c, cam->zfar / c, NULL, NULL, NULL, NULL);
                 }
-                int got = tg->face[px * samples + q] >= 0;
+                int got = sample_face[px * samples + q] >= 0;
                 t.pixels++;
                 t.inside += want;
                 if (got == want) continue;
@@ -362,8 +374,8 @@ static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, co
                 } else {
                     t.out_band++;
                     if (t.out_band <= 3)
-                        fprintf(stderr, "  %s: sample (%g, %g): cpu %d, exact %d, %.3f px from the boundary\n", what,
-                                i + off[0], j + off[1], got, want, dist);
+                        fprintf(stderr, "  %s: sample (%g, %g): %s %d, exact %d, %.3f px from the boundary\n", what,
+                                i + off[0], j + off[1], rb_name(), got, want, dist);
                 }
             }
         }
@@ -566,6 +578,7 @@ static void test_four_samples(void **state)
 
 int main(int argc, char **argv)
 {
+    argc = rb_parse_args(argc, argv);
     full = argc > 1 && !strcmp(argv[1], "all");
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_frontal),        cmocka_unit_test(test_grazing),

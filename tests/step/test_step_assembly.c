@@ -3,7 +3,7 @@
  * sub-assembly and a MAPPED_ITEM, checked for the number of faces and where each copy lands; a
  * sub-assembly in centimetres; CARTESIAN_TRANSFORMATION_OPERATOR_3D placements (a mirror: the face
  * turns round; a scale); a cycle (loads, with a note); an instance explosion (refused with
- * CRISP_ERR_LIMIT); and a real CAx-IF assembly from Open CASCADE's samples (face count and box
+ * CRISP_ERR_LIMIT); colours per occurrence; and a real CAx-IF assembly from Open CASCADE's samples (face count and box
  * against Open CASCADE 7.6.3's).
  */
 #include <setjmp.h>
@@ -183,6 +183,43 @@ static void test_assembly_units(void **state)
     crisp_model_destroy(m);
 }
 
+/* Colours per occurrence (issue 13): part P's face is blue (a STYLED_ITEM on the face); the copy of
+ * P placed by NAUO 300 is red (a CONTEXT_DEPENDENT_OVER_RIDING_STYLED_ITEM on the face in the
+ * context of that NAUO's relationship); Q, placed by a MAPPED_ITEM, is green (a STYLED_ITEM on the
+ * MAPPED_ITEM); the copy of P in S is yellow (a STYLED_ITEM on NAUO 330). The other copy of P
+ * keeps its part's blue. */
+#define STYLE(n, colour)                                                                           \
+    "#" n "0=COLOUR_RGB(''," colour ");\n#" n "1=FILL_AREA_STYLE_COLOUR('',#" n "0);\n"           \
+    "#" n "2=FILL_AREA_STYLE('',(#" n "1));\n#" n "3=SURFACE_STYLE_FILL_AREA(#" n "2);\n"          \
+    "#" n "4=SURFACE_SIDE_STYLE('',(#" n "3));\n#" n "5=SURFACE_STYLE_USAGE(.BOTH.,#" n "4);\n"    \
+    "#" n "6=PRESENTATION_STYLE_ASSIGNMENT((#" n "5));\n"
+
+static void test_occurrence_colours(void **state)
+{
+    (void)state;
+    static const char *const coloured[] = {
+        HEAD CONTEXTS, PARTS, PRODUCTS,
+        STYLE("80", "0.,0.,1.") "#807=STYLED_ITEM('',(#806),#15);\n"
+        STYLE("81", "1.,0.,0.") "#817=CONTEXT_DEPENDENT_OVER_RIDING_STYLED_ITEM('',(#816),#15,#807,(#3002));\n"
+        STYLE("82", "0.,1.,0.") "#827=STYLED_ITEM('',(#826),#217);\n"
+        STYLE("83", "1.,1.,0.") "#837=STYLED_ITEM('',(#836),#330);\n",
+        TAIL, NULL};
+    crisp_model *m = NULL;
+    assert_int_equal(read_str(coloured, &m), CRISP_OK);
+    check_placed(m);
+    static const double corners[4][2][3] = {
+        {{10, 0, 0}, {11, 0, 0}}, {{0, 10, 0}, {0, 11, 0}}, {{1, 2, 103}, {2, 2, 103}}, {{5, 0, 100}, {7, 0, 100}}};
+    static const float want[4][3] = {{1, 0, 0}, {0, 0, 1}, {1, 1, 0}, {0, 1, 0}};
+    unsigned used = 0;
+    for (int k = 0; k < 4; k++) {
+        int i = find_face(m, corners[k][0], corners[k][1], &used);
+        assert_true(i >= 0);
+        assert_true(m->faces[i].has_color);
+        for (int c = 0; c < 3; c++) assert_true(fabsf(m->faces[i].color[c] - want[k][c]) < 1e-6f);
+    }
+    crisp_model_destroy(m);
+}
+
 /* Without any product structure the file loads as before: each face once, where it is. */
 static void test_no_assembly(void **state)
 {
@@ -303,7 +340,7 @@ int main(void)
         cmocka_unit_test(test_assembly_placements), cmocka_unit_test(test_assembly_units),
         cmocka_unit_test(test_no_assembly),         cmocka_unit_test(test_cycle),
         cmocka_unit_test(test_cartesian_operator),  cmocka_unit_test(test_explosion),
-        cmocka_unit_test(test_as1),
+        cmocka_unit_test(test_as1),                 cmocka_unit_test(test_occurrence_colours),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

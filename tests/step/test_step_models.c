@@ -167,6 +167,31 @@ static void test_closed_bspline_seams(void **state)
     crisp_model_destroy(m);
 }
 
+/* Issue 13, on real files from Open CASCADE's samples: PRO10363.stp (CATIA V4) has two half cones
+ * bounded by a half circle and two generators meeting at the apex (both were dropped: "winds
+ * around the u direction without a seam edge"); screw.step has faces on a cone's far nappe and on
+ * a spindle torus (4 of 10 were dropped: "the trim lies 3.09 from the edge"). Open CASCADE 7.6.3:
+ * 15 and 10 faces. */
+static void test_issue13_models(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *file;
+        int faces;
+    } files[] = {{"occt_pro10363.stp", 15}, {"occt_screw.step", 10}};
+    for (int i = 0; i < 2; i++) {
+        crisp_model *m;
+        step_read_stats st;
+        load(files[i].file, &st, &m);
+        assert_int_equal(m->face_count, files[i].faces);
+        assert_int_equal(m->faces_dropped, 0);
+        loop_check c;
+        check_loops(m, &c);
+        assert_true(st.max_edge_dev <= 20 * st.tol);
+        crisp_model_destroy(m);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -175,6 +200,7 @@ int main(void)
         cmocka_unit_test(test_curve_bounded_model),
         cmocka_unit_test(test_curve_bounded_senses),
         cmocka_unit_test(test_closed_bspline_seams),
+        cmocka_unit_test(test_issue13_models),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -54,7 +54,7 @@ static crisp_status loop_508(iges_file *f, int e, const iges_surface *s, iges_cu
             f->ents[edge].used = 1;
         } else if ((st = expect_type(f, e, k + 1, edge, 504))) {
             break;
-        } else if (np > 0 && !s->is_plane) {
+        } else if (np > 0 && !s->is_plane && !s->analytic) {
             for (int j = 0; j < np && !st; j++) {
                 int pc;
                 if ((st = iges_ptr(f, e, k + 6 + 2 * j, 0, &pc))) break;

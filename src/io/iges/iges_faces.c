@@ -8,6 +8,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "crisp/construct.h"
@@ -89,7 +90,8 @@ static crisp_status ensure_tol3d(iges_file *f)
     double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
     for (int i = 0; i < f->entity_count; i++) {
         int t = f->ents[i].type;
-        if (t != 128 && t != 114 && t != 118 && t != 120 && t != 122) continue;
+        int analytic = t >= 192 && t <= 198 && t % 2 == 0;
+        if (t != 128 && t != 114 && t != 118 && t != 120 && t != 122 && !analytic) continue;
         iges_surface s;
         int used = f->ents[i].used;
         if (iges_surface_convert(f, i, 0, &s)) {
@@ -98,7 +100,12 @@ static crisp_status ensure_tol3d(iges_file *f)
         }
         f->ents[i].used = used;
         double b[6];
-        crisp_surface_bbox(s.surface, b);
+        if (analytic) { /* unbounded: the ball of its radii around its location */
+            double r = s.radius + s.radius2;
+            for (int k = 0; k < 3; k++) b[k] = s.origin[k] - r, b[3 + k] = s.origin[k] + r;
+        } else {
+            crisp_surface_bbox(s.surface, b);
+        }
         for (int k = 0; k < 3; k++) {
             box[k] = fmin(box[k], b[k]);
             box[3 + k] = fmax(box[3 + k], b[3 + k]);
@@ -120,7 +127,10 @@ crisp_status iges_project_curves(iges_file *f, int e, const iges_surface *s,
     for (int i = 0; i < model->count && !st; i++) {
         const crisp_curve *c = model->items[i];
         crisp_curve *out = NULL;
-        if (s->is_plane) {
+        if (s->analytic && !s->surface) {
+            /* kept in 3D: the surface is built over the region the loops reach (finish_analytic) */
+            st = crisp_curve_copy(c, &out);
+        } else if (s->is_plane) {
             /* exact: an affine map of the homogeneous control points into the plane's frame */
             int n = c->count;
             double *pts = crisp_malloc_array((size_t)n, 2 * sizeof(double));
@@ -175,7 +185,7 @@ static crisp_status curve_on_surface(iges_file *f, int e, const iges_surface *s,
         return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 4: DE %d is entity %d, expected a "
                                                 "curve",
                          iges_de(cp), f->ents[cp].type);
-    if (bp >= 0 && !s->is_plane) {
+    if (bp >= 0 && !s->is_plane && !s->analytic) {
         int first = uv->count;
         st = iges_curve_convert(f, bp, 2, NULL, 1, uv);
         if (st == CRISP_ERR_UNSUPPORTED && cp >= 0) {
@@ -193,9 +203,10 @@ static crisp_status curve_on_surface(iges_file *f, int e, const iges_surface *s,
         }
     }
     if (cp < 0)
-        return s->is_plane
+        return s->is_plane || s->analytic
                    ? iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
-                               "a curve on a plane without its model-space curve (parameter 4)")
+                               "a curve on a plane or an analytic surface without its model-space "
+                               "curve (parameter 4)")
                    : iges_fail(f, e, CRISP_ERR_PARSE,
                                "neither a parameter-space nor a model-space curve");
     if (bp >= 0) iges_mark_used(f, bp, 0);
@@ -239,10 +250,8 @@ static crisp_status pull_into_domain(iges_file *f, int e, crisp_face *face, cons
 
 static void note_dropped(iges_file *f, int e, const char *why)
 {
-    char what[96];
-    snprintf(what, sizeof what, "DE %d entity %d %s: %s", iges_de(e), f->ents[e].type,
-             iges_type_name(f->ents[e].type), why);
-    crisp_model_note_skip(f->model, what);
+    crisp_model_note_dropped(f->model, "DE %d entity %d %s: %s", iges_de(e), f->ents[e].type,
+                             iges_type_name(f->ents[e].type), why);
 }
 
 /* Exporters leave small gaps between the trims of a loop (OCCT's bug8363_f45.igs: 7e-4 and 1.6e-3
@@ -279,7 +288,146 @@ static crisp_status bridge_gaps(iges_file *f, int e, crisp_face *face, double to
             bridged++;
         }
     }
-    if (bridged) note_dropped(f, e, "gaps in its trim loops bridged by straight segments");
+    if (bridged) /* kept: a note, not a dropped face */
+        crisp_model_note_skipf(f->model, "DE %d entity %d %s: gaps in its trim loops bridged by straight segments",
+                               iges_de(e), f->ents[e].type, iges_type_name(f->ents[e].type));
+    return CRISP_OK;
+}
+
+/* ---- 192-198 analytic surfaces, built over the region their loops reach ----------------------- */
+
+/* (angle, height) of p on analytic surface s (see construct.h's conventions). */
+static void analytic_coords(const iges_surface *s, const double p[3], double uv[2])
+{
+    double q[3], z[3];
+    crisp_vec3_sub(p, s->origin, q);
+    crisp_vec3_cross(s->x, s->y, z);
+    double X = crisp_vec3_dot(q, s->x), Y = crisp_vec3_dot(q, s->y), Z = crisp_vec3_dot(q, z);
+    double rho = hypot(X, Y);
+    uv[0] = atan2(Y, X);
+    switch (s->analytic) {
+    case 192: uv[1] = Z; break;
+    case 194: { /* foot of the perpendicular on the generating line */
+        double c = cos(s->semi), sn = sin(s->semi);
+        uv[1] = (rho - s->radius) * sn * c + Z * c * c;
+        break;
+    }
+    case 196: uv[1] = atan2(Z, rho); break;
+    default: uv[1] = atan2(Z, rho - s->radius); break;
+    }
+}
+
+static int cmp_angle(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* The window [lo, lo + span] of the circle that holds every angle in a[0 .. n-1]: the complement
+ * of the largest gap between them (sorted in place), with a margin. */
+static void angle_window(double *a, int n, double w[2])
+{
+    qsort(a, (size_t)n, sizeof *a, cmp_angle);
+    double gap = a[0] + 2 * M_PI - a[n - 1], start = a[0];
+    for (int i = 1; i < n; i++)
+        if (a[i] - a[i - 1] > gap) gap = a[i] - a[i - 1], start = a[i];
+    double span = 2 * M_PI - gap;
+    double m = fmin(0.01 * span + 1e-9, 0.5 * gap);
+    if (gap < 1e-6) { /* the loops go all the way round */
+        w[0] = start, w[1] = start + 2 * M_PI;
+        return;
+    }
+    w[0] = start - m, w[1] = start + span + m;
+}
+
+#define ANALYTIC_SAMPLES 64
+
+static crisp_status finish_analytic(iges_file *f, int e, iges_surface *s, iges_curves *loops, int loop_count)
+{
+    int total = 0;
+    for (int l = 0; l < loop_count; l++) total += loops[l].count;
+    if (total == 0) return iges_fail(f, e, CRISP_ERR_NUMERIC, "analytic surface without trim curves");
+    size_t n = (size_t)total * (ANALYTIC_SAMPLES + 1);
+    double *us = crisp_malloc_array(n, sizeof *us), *vs = crisp_malloc_array(n, sizeof *vs);
+    if (!us || !vs) {
+        crisp_free(us);
+        crisp_free(vs);
+        return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+    }
+    size_t k = 0;
+    double vlo = INFINITY, vhi = -INFINITY;
+    for (int l = 0; l < loop_count; l++)
+        for (int i = 0; i < loops[l].count; i++) {
+            const crisp_curve *c = loops[l].items[i];
+            double t0, t1;
+            crisp_curve_domain(c, &t0, &t1);
+            for (int j = 0; j <= ANALYTIC_SAMPLES; j++) {
+                double p[3], uv[2];
+                crisp_curve_eval(c, t0 + (t1 - t0) * j / ANALYTIC_SAMPLES, p);
+                analytic_coords(s, p, uv);
+                us[k] = uv[0];
+                vs[k++] = uv[1];
+                vlo = fmin(vlo, uv[1]);
+                vhi = fmax(vhi, uv[1]);
+            }
+        }
+    double uw[2], vw[2];
+    angle_window(us, (int)k, uw);
+    if (s->analytic == 198) {
+        angle_window(vs, (int)k, vw);
+    } else {
+        double m = 0.01 * (vhi - vlo) + 1e-9 * (fabs(vlo) + fabs(vhi) + s->radius);
+        vw[0] = vlo - m, vw[1] = vhi + m;
+        if (s->analytic == 196) vw[0] = fmax(vw[0], -M_PI / 2), vw[1] = fmin(vw[1], M_PI / 2);
+        if (s->analytic == 194) {
+            double apex = -s->radius / tan(s->semi);
+            if (vlo >= apex - 1e-9 * (fabs(apex) + 1)) vw[0] = fmax(vw[0], apex);
+        }
+    }
+    crisp_free(us);
+    crisp_free(vs);
+    crisp_placement pl;
+    memcpy(pl.origin, s->origin, sizeof pl.origin);
+    memcpy(pl.x, s->x, sizeof pl.x);
+    memcpy(pl.y, s->y, sizeof pl.y);
+    crisp_vec3_cross(pl.x, pl.y, pl.z);
+    crisp_status st;
+    switch (s->analytic) {
+    case 192: st = crisp_make_cylinder(&pl, s->radius, uw[0], uw[1], vw[0], vw[1], &s->surface); break;
+    case 194: st = crisp_make_cone(&pl, s->radius, s->semi, uw[0], uw[1], vw[0], vw[1], &s->surface); break;
+    case 196: st = crisp_make_sphere(&pl, s->radius, uw[0], uw[1], vw[0], vw[1], &s->surface); break;
+    default: st = crisp_make_torus(&pl, s->radius, s->radius2, uw[0], uw[1], vw[0], vw[1], &s->surface); break;
+    }
+    if (st) {
+        crisp_error_prefix("%s: DE %d (entity %d)", f->name, iges_de(e), f->ents[e].type);
+        return st;
+    }
+    /* The loops' 3D curves onto the surface now built (pieces where the projection jumps: a
+     * curve through a cone's apex or a sphere's pole). */
+    if ((st = ensure_tol3d(f))) return st;
+    for (int l = 0; l < loop_count; l++) {
+        iges_curves uv = {0};
+        for (int i = 0; i < loops[l].count && !st; i++) {
+            const crisp_curve *c = loops[l].items[i];
+            double t0, t1;
+            crisp_curve_domain(c, &t0, &t1);
+            crisp_curve *pieces[8];
+            int np = 0;
+            st = crisp_surface_project_curve_pieces(s->surface, c, t0, t1, f->tol3d, 8, pieces, &np);
+            for (int q = 0; q < np; q++) {
+                if (!st) st = iges_curves_push(&uv, pieces[q]);
+                else crisp_curve_destroy(pieces[q]);
+            }
+        }
+        if (st) {
+            iges_curves_free(&uv);
+            crisp_error_prefix("%s: DE %d (entity %d %s)", f->name, iges_de(e), f->ents[e].type,
+                               iges_type_name(f->ents[e].type));
+            return st;
+        }
+        iges_curves_free(&loops[l]);
+        loops[l] = uv;
+    }
     return CRISP_OK;
 }
 
@@ -289,6 +437,7 @@ crisp_status iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
 {
     crisp_status st = CRISP_OK;
     if (s->is_plane && !s->surface && (st = finish_plane(f, e, s, loops, loop_count))) return st;
+    if (s->analytic && !s->surface && (st = finish_analytic(f, e, s, loops, loop_count))) return st;
     crisp_face face = {0};
     face.source_id = iges_de(e);
     face.reversed = reversed;
@@ -350,10 +499,7 @@ crisp_status iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
     st = crisp_face_normalize_loops(&face, tol);
     if (st) {
         /* A loop that cannot be made valid drops the face, with a note naming it. */
-        char why[96];
-        snprintf(why, sizeof why, "%s", st == CRISP_ERR_NUMERIC ? "degenerate trim loop"
-                                                                : "trim loop not closed");
-        note_dropped(f, e, why);
+        note_dropped(f, e, st == CRISP_ERR_NUMERIC ? "degenerate trim loop" : "trim loop not closed");
         crisp_error_clear();
         crisp_face_free(&face);
         return CRISP_OK;
@@ -434,6 +580,8 @@ static double uv_tolerance(const iges_surface *s)
 crisp_status iges_domain_loop(const iges_surface *s, iges_curves *out)
 {
     double d[4], c[5][2];
+    if (!s->surface)
+        return crisp_error(CRISP_ERR_UNSUPPORTED, "an unbounded plane or analytic surface without an outer boundary");
     if (s->narrowed) memcpy(d, s->range, sizeof d);
     else crisp_surface_domain(s->surface, d);
     double xs[5] = {d[0], d[1], d[1], d[0], d[0]}, ys[5] = {d[2], d[2], d[3], d[3], d[2]};
@@ -498,8 +646,8 @@ crisp_status iges_face_trimmed(iges_file *f, int e)
             goto done;
         }
         st = curve_on_surface(f, pto, &s, tol_uv, &loops[0]);
-    } else if (s.is_plane) {
-        note_dropped(f, e, "unbounded plane");
+    } else if (s.is_plane || s.analytic) {
+        note_dropped(f, e, s.is_plane ? "unbounded plane" : "unbounded analytic surface (no outer boundary)");
         goto done;
     } else if (n2 > 0 || s.narrowed) {
         st = iges_domain_loop(&s, &loops[0]);
@@ -551,7 +699,7 @@ static crisp_status boundary_141(iges_file *f, int e, const iges_surface *s, dou
             (st = iges_int_range(f, e, k + 2, 0, iges_nparams(f, e) - k - 2, &np)))
             break;
         int first = uv->count;
-        if (type == 1 && np > 0 && !s->is_plane) {
+        if (type == 1 && np > 0 && !s->is_plane && !s->analytic) {
             for (int j = 0; j < np && !st; j++) {
                 int pc;
                 if ((st = iges_ptr(f, e, k + 3 + j, 0, &pc))) break;

@@ -145,6 +145,10 @@ typedef struct iges_surface {
     crisp_surface *surface;
     iges_param_map map_u, map_v; /* file (u, v) -> crisp (u, v) */
     int is_plane;                /* 108: the (u, v) are plane coordinates along axes x, y */
+    int analytic;                /* 192-198: the entity type; the NURBS is built from the loops'
+                                    model-space curves (iges_finish_face), which are kept in 3D
+                                    until then */
+    double radius, radius2, semi; /* 192/194/196: radius; 198: major, minor; 194: semi-angle */
     int narrowed;                /* 128 whose parameter range is inside its knot domain */
     double range[4];             /* that range: u0, u1, v0, v1 */
     double origin[3], x[3], y[3];

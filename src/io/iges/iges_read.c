@@ -32,7 +32,7 @@ static void mark_consumed(iges_file *f)
         case 143: consume(f, i, 2); break;
         case 141: consume(f, i, 3); break;
         case 510: consume(f, i, 1); break;
-        case 140: consume(f, i, 4); break;
+        case 140: consume(f, i, 5); break;
         default: break;
         }
     }
@@ -40,9 +40,7 @@ static void mark_consumed(iges_file *f)
 
 static void note(iges_file *f, int type, const char *why)
 {
-    char what[96];
-    snprintf(what, sizeof what, "entity %d %s: %s", type, iges_type_name(type), why);
-    crisp_model_note_skip(f->model, what);
+    crisp_model_note_skipf(f->model, "entity %d %s: %s", type, iges_type_name(type), why);
 }
 
 /* A face that crisp cannot build is skipped with a note naming it (DE number and the reason),
@@ -56,10 +54,8 @@ crisp_status iges_soften(iges_file *f, int e, crisp_status st)
         f->first_error = st;
         snprintf(f->first_message, sizeof f->first_message, "%s", msg);
     }
-    char what[96];
-    snprintf(what, sizeof what, "DE %d entity %d: %s", iges_de(e), f->ents[e].type,
-             p ? p + 3 : msg);
-    crisp_model_note_skip(f->model, what);
+    crisp_model_note_dropped(f->model, "DE %d entity %d: %s", iges_de(e), f->ents[e].type,
+                             p ? p + 3 : msg);
     crisp_error_clear();
     f->ents[e].used = 0;
     iges_mark_used(f, e, 0);
@@ -102,6 +98,7 @@ crisp_status iges_build_entities(iges_file *f, const int *list, int n)
         case 118:
         case 120:
         case 122:
+        case 140:
         case 128:
             if (x->consumed) break;
             if (skip_blanked(f, x)) break;
@@ -183,6 +180,7 @@ crisp_status crisp_read_iges_mem(const char *name, const char *data, size_t size
         if (!st) st = crisp_model_note_skip(m, "(nothing) every face in the file is "
                                                "blanked: drawn anyway");
     }
+    if (!st) m->tolerance = f.tol3d;
     if (!st && m->face_count == 0 && f.first_error) {
         /* nothing could be drawn: the first face's failure is the file's error */
         st = crisp_error(f.first_error, "%s", f.first_message);

@@ -113,6 +113,7 @@ static crisp_status build_def(iges_file *f, subfig_state *s, int e)
         for (int i = 0; i < def->skip_count && !st; i++)
             for (int k = 0; k < def->skips[i].count && !st; k++)
                 st = crisp_model_note_skip(s->top, def->skips[i].what);
+        s->top->faces_dropped += def->faces_dropped;
     }
     crisp_free(members);
     return st;

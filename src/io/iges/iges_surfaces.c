@@ -4,6 +4,12 @@
  * 108 plane (sized later from its trims). Also the map from the file's (u, v) to crisp's: the
  * analytic surfaces take their parameters from their defining curves (an arc's angle, a line's
  * [0, 1]), which construct.h's NURBS reach through crisp_angle_to_param. IGES 5.3 sections 4.6-4.24.
+ * The analytic surfaces of B-rep files (192 right circular cylinder, 194 cone, 196 sphere, 198
+ * torus; IGES 5.3 sections 4.145-4.148) are read as a frame and radii here, and built over the
+ * region their face's model-space curves reach (iges_faces.c), as a 108 plane is sized from its
+ * trims; their parameter spaces (degrees, swapped and mirrored for the torus) are not needed:
+ * their trims are projected from the model-space curves. 140 offset surfaces (section 4.23) are
+ * crisp_surface_offset of their base surface (the same (u, v)), or an exact shifted plane.
  */
 #include "iges_internal.h"
 
@@ -15,7 +21,8 @@
 int iges_is_surface_type(int type)
 {
     return type == 108 || type == 114 || type == 118 || type == 120 || type == 122 ||
-           type == 128 || type == 190;
+           type == 128 || type == 140 || type == 190 || type == 192 || type == 194 || type == 196 ||
+           type == 198;
 }
 
 void iges_surface_free(iges_surface *s)
@@ -385,6 +392,96 @@ static crisp_status plane_190(iges_file *f, int e, int depth, iges_surface *dest
     return plane_frame(f, e, o, n, has_ref ? ref : NULL, dest);
 }
 
+/* 192-198: location (116), axis (123), radii (and a semi-angle in degrees), form 1 a reference
+ * direction (123); the sphere's radius comes before its axis. */
+static crisp_status analytic_19x(iges_file *f, int e, int depth, iges_surface *dest)
+{
+    int type = f->ents[e].type, k = 1;
+    double o[3], axis[3], ref[3];
+    crisp_status st = iges_need(f, e, type == 192 || type == 196 ? 3 : 4, "an analytic surface");
+    if (!st) st = point_or_direction(f, e, k++, 0, depth, o);
+    if (!st && type == 196) st = iges_real(f, e, k++, &dest->radius);
+    if (!st) st = point_or_direction(f, e, k++, 1, depth, axis);
+    if (!st && type != 196) st = iges_real(f, e, k++, &dest->radius);
+    if (!st && type == 194) st = iges_real(f, e, k++, &dest->semi);
+    if (!st && type == 198) st = iges_real(f, e, k++, &dest->radius2);
+    int has_ref = f->ents[e].form == 1 && iges_nparams(f, e) >= k;
+    if (!st && has_ref) st = point_or_direction(f, e, k, 1, depth, ref);
+    if (st) return st;
+    if (type == 194) {
+        dest->semi *= M_PI / 180;
+        if (!(dest->semi > 0 && dest->semi < M_PI / 2) || !(dest->radius >= 0))
+            return iges_fail(f, e, CRISP_ERR_PARSE, "cone: semi-angle %g degrees, radius %g: expected an angle in "
+                             "(0, 90) and a radius >= 0", dest->semi * 180 / M_PI, dest->radius);
+    } else if (!(dest->radius > 0) || (type == 198 && !(dest->radius2 > 0))) {
+        return iges_fail(f, e, CRISP_ERR_PARSE, "radius %g%s: expected > 0", dest->radius,
+                         type == 198 ? " (or the minor radius)" : "");
+    }
+    crisp_placement pl;
+    st = crisp_placement_make(o, axis, has_ref ? ref : NULL, &pl);
+    if (st) return kernel_fail(f, e, st);
+    dest->analytic = type;
+    memcpy(dest->origin, pl.origin, sizeof pl.origin);
+    memcpy(dest->x, pl.x, sizeof pl.x);
+    memcpy(dest->y, pl.y, sizeof pl.y);
+    return CRISP_OK;
+}
+
+/* 140 offset surface: offset indicator (3 reals: not needed, as in Open CASCADE's reader: the
+ * offset follows the base surface's normal), distance, base surface. */
+static crisp_status offset_140(iges_file *f, int e, int depth, iges_surface *dest)
+{
+    double dist;
+    int b;
+    crisp_status st = iges_need(f, e, 5, "an offset surface");
+    if (!st) st = iges_real(f, e, 4, &dist);
+    if (!st) st = iges_ptr(f, e, 5, 0, &b);
+    if (st) return st;
+    if (!iges_is_surface_type(f->ents[b].type))
+        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 5: DE %d is entity %d, expected a surface", iges_de(b),
+                         f->ents[b].type);
+    double ind[3];
+    for (int k = 0; k < 3 && !st; k++) st = iges_real(f, e, 1 + k, &ind[k]);
+    if (!st) st = iges_surface_convert(f, b, depth + 1, dest);
+    if (st) return st;
+    /* The indicator points to the offset side at the base's first parameters (bug23171_tube_surf.igs:
+     * its two tube halves offset outwards, against one of their normals); a zero one leaves the
+     * normal's side, as Open CASCADE's reader always does. */
+    if (dest->surface && crisp_vec3_norm(ind) > 0) {
+        double d0[4], n0[3];
+        crisp_surface_domain(dest->surface, d0);
+        if (crisp_surface_normal(dest->surface, d0[0], d0[2], n0) && crisp_vec3_dot(n0, ind) < 0) dist = -dist;
+    }
+    if (dest->analytic) {
+        /* exact, outwards: the radius grows by the distance (the torus's minor radius); a
+         * cone's offset is the cone of the same axis and angle whose radius at the location grows
+         * by d / cos(semi-angle) */
+        if (dest->analytic == 198) dest->radius2 += dist;
+        else if (dest->analytic == 194) dest->radius += dist / cos(dest->semi);
+        else dest->radius += dist;
+        if (!(dest->radius >= 0) || (dest->analytic == 198 && !(dest->radius2 > 0)))
+            return iges_fail(f, e, CRISP_ERR_NUMERIC, "offset %g turns the surface inside out", dist);
+        return CRISP_OK;
+    }
+    if (dest->is_plane) { /* exact: the frame moves along the plane's normal */
+        double z[3], len;
+        crisp_vec3_cross(dest->x, dest->y, z);
+        len = crisp_vec3_norm(z);
+        for (int k = 0; k < 3; k++) dest->origin[k] += dist * z[k] / len;
+        return CRISP_OK;
+    }
+    double box[6];
+    crisp_surface_bbox(dest->surface, box);
+    double diag = sqrt((box[3] - box[0]) * (box[3] - box[0]) + (box[4] - box[1]) * (box[4] - box[1]) +
+                       (box[5] - box[2]) * (box[5] - box[2]));
+    crisp_surface *off = NULL;
+    st = crisp_surface_offset(dest->surface, dist, f->projection_fraction * (diag + fabs(dist)), 256, &off);
+    if (st) return kernel_fail(f, e, st);
+    crisp_surface_destroy(dest->surface);
+    dest->surface = off;
+    return CRISP_OK;
+}
+
 crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *dest)
 {
     memset(dest, 0, sizeof *dest);
@@ -409,10 +506,8 @@ crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *
     case 192:
     case 194:
     case 196:
-    case 198:
-        st = iges_fail(f, e, CRISP_ERR_UNSUPPORTED, "analytic surface %d is not read yet",
-                       x->type);
-        break;
+    case 198: st = analytic_19x(f, e, depth, dest); break;
+    case 140: st = offset_140(f, e, depth, dest); break;
     default:
         st = iges_fail(f, e, CRISP_ERR_UNSUPPORTED, "not a surface type crisp reads");
         break;
@@ -423,7 +518,7 @@ crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *
         return st;
     }
     if (dest->surface) iges_xform_surface(dest->surface, &own);
-    if (dest->is_plane) {
+    if (dest->is_plane || dest->analytic) {
         double o[3], ex[3], ey[3], z[3] = {0, 0, 0};
         iges_xform_point(&own, dest->origin, o);
         double px[3], py[3];
@@ -437,6 +532,15 @@ crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *
         memcpy(dest->origin, o, sizeof o);
         memcpy(dest->x, ex, sizeof ex);
         memcpy(dest->y, ey, sizeof ey);
+        if (dest->analytic) {
+            /* a scaling matrix scales the radii; the frame stays unit */
+            double sc = crisp_vec3_norm(dest->x);
+            if (!(sc > 0)) return iges_fail(f, e, CRISP_ERR_NUMERIC, "its transformation matrix is singular");
+            crisp_vec3_scale(dest->x, 1 / sc, dest->x);
+            crisp_vec3_scale(dest->y, 1 / crisp_vec3_norm(dest->y), dest->y);
+            dest->radius *= sc;
+            dest->radius2 *= sc;
+        }
     }
     return CRISP_OK;
 }

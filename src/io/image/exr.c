@@ -3,8 +3,19 @@
 #include "crisp/image.h"
 
 #include <openexr.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* The library's own message goes into crisp's error message instead of stderr (its default
+ * handler prints a raw line before crisp can say which file failed). */
+static _Thread_local char exr_message[256];
+
+static void quiet_handler(exr_const_context_t ctx, exr_result_t code, const char *msg)
+{
+    (void)ctx;
+    snprintf(exr_message, sizeof exr_message, "%s", msg ? msg : exr_get_default_error_message(code));
+}
 
 crisp_status crisp_write_exr(const char *path, int width, int height, int channels,
                              const char *const *names, const float *data)
@@ -14,9 +25,12 @@ crisp_status crisp_write_exr(const char *path, int width, int height, int channe
                            path ? path : "(null)", width, height, channels);
     exr_context_t ctx;
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = quiet_handler;
+    exr_message[0] = '\0';
     exr_result_t rv = exr_start_write(&ctx, path, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv != EXR_ERR_SUCCESS)
-        return crisp_error(CRISP_ERR_IO, "%s: cannot open for writing: %s", path, exr_get_default_error_message(rv));
+        return crisp_error(CRISP_ERR_IO, "%s: cannot open for writing: %s", path,
+                           exr_message[0] ? exr_message : exr_get_default_error_message(rv));
     crisp_status s = CRISP_OK;
     int part;
     exr_encode_pipeline_t enc;
@@ -57,7 +71,9 @@ crisp_status crisp_write_exr(const char *path, int width, int height, int channe
         }
         rv = exr_encoding_run(ctx, part, &enc);
     }
-    if (rv) s = crisp_error(CRISP_ERR_IO, "%s: cannot write EXR: %s", path, exr_get_default_error_message(rv));
+    if (rv)
+        s = crisp_error(CRISP_ERR_IO, "%s: cannot write EXR: %s", path,
+                        exr_message[0] ? exr_message : exr_get_default_error_message(rv));
     if (enc_init) exr_encoding_destroy(ctx, &enc);
     exr_finish(&ctx);
     return s;

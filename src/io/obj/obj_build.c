@@ -298,10 +298,8 @@ static int already_normal(const crisp_face *face, const double dom[4])
 
 static crisp_status note_dropped(crisp_model *m, const obj_data *d, int line, const char *why)
 {
-    char what[96];
-    snprintf(what, sizeof what, "OBJ surf at line %d: %s", line, why);
     (void)d;
-    return crisp_model_note_skip(m, what);
+    return crisp_model_note_dropped(m, "OBJ surf at line %d: %s", line, why);
 }
 
 static crisp_status build_surf(obj_data *d, const obj_surf *os, double closure_frac, crisp_model *m)

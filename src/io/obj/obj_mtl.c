@@ -106,9 +106,7 @@ crisp_status crisp__obj_load_mtllibs(obj_data *d, const char *path, crisp_model 
         crisp_status saved = CRISP_OK;
         if (crisp_read_file(full, &text, &size) != CRISP_OK) {
             crisp_error_clear();
-            char what[96];
-            snprintf(what, sizeof what, "OBJ mtllib '%.40s': not readable, no colours", lib);
-            saved = crisp_model_note_skip(m, what);
+            saved = crisp_model_note_skipf(m, "OBJ mtllib '%s': not readable, no colours", lib);
             if (saved != CRISP_OK) return saved;
             continue;
         }

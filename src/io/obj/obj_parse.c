@@ -304,7 +304,7 @@ static crisp_status check_cstype(parser *ps, const tok *t, const char *kind, int
         return crisp_error(CRISP_ERR_PARSE, "%s:%d:%d: %s before any 'cstype' statement", ps->name,
                            t->line, t->col, kind);
     if (ps->cstype < 0) {
-        char what[96];
+        char what[160];
         snprintf(what, sizeof what, "OBJ %s with cstype %s: unsupported", kind, ps->cstype_name);
         *skip = 1;
         return note(ps, what);
@@ -554,7 +554,7 @@ static crisp_status statement(parser *ps)
         return note(ps, "OBJ call/csh: commands are not executed");
     for (const char *const *w = ignored; *w; w++)
         if (tok_is(k, *w)) return CRISP_OK;
-    char what[96];
+    char what[160];
     snprintf(what, sizeof what, "OBJ statement '%.*s': unknown, ignored", k->len > 24 ? 24 : k->len,
              k->s);
     return note(ps, what);

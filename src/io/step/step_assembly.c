@@ -35,11 +35,14 @@ typedef double xform[3][4]; /* p' = R p + t: rows of [R | t] */
 typedef struct asm_edge {
     int parent, child; /* representation indices */
     xform t;           /* child coordinates (mm) to parent coordinates (mm) */
+    int ids[3];        /* entities naming this placement (relationship or MAPPED_ITEM, CDSR, NAUO; 0) */
 } asm_edge;
 
 typedef struct asm_inst {
     int group;
-    xform m; /* group coordinates (mm) to world (mm) */
+    xform m;     /* group coordinates (mm) to world (mm) */
+    int parent;  /* the instance this one was placed in, -1 for a root */
+    int edge;    /* the placement (edge index) that put it there, -1 for a root */
 } asm_inst;
 
 typedef struct asm_state {
@@ -144,7 +147,7 @@ static int rep_index(asm_state *s, const step_entity *e)
     return e ? s->rep_of_entity[e - s->r->f->entities] : -1;
 }
 
-static crisp_status add_edge(asm_state *s, int parent, int child, xform t)
+static crisp_status add_edge(asm_state *s, int parent, int child, xform t, int id0, int id1, int id2)
 {
     if (s->edge_count == s->edge_cap &&
         crisp_grow((void **)&s->edges, &s->edge_cap, s->edge_count + 1, sizeof *s->edges))
@@ -153,6 +156,7 @@ static crisp_status add_edge(asm_state *s, int parent, int child, xform t)
     ed->parent = parent;
     ed->child = child;
     memcpy(ed->t, t, sizeof(xform));
+    ed->ids[0] = id0, ed->ids[1] = id1, ed->ids[2] = id2;
     return CRISP_OK;
 }
 
@@ -234,7 +238,7 @@ static crisp_status mapped_item(asm_state *s, const step_entity *e, int rep)
     }
     xf_frame_inverse(&po, s->rep_unit[c], b);
     xf_mul(a, b, a);
-    return add_edge(s, rep, c, a);
+    return add_edge(s, rep, c, a, e->id, 0, 0);
 }
 
 /* ---- product structure: which representation shows which product definition ------------------ */
@@ -283,20 +287,27 @@ static crisp_status placed_relation(asm_state *s, const step_entity *e, const st
     const step_part *rt = crisp__step_part(r, e, "REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION");
     const step_entity *r1, *r2, *op, *i1, *i2;
     crisp_status st;
+    /* (AP209 writers give the relationship as a simple entity: name, description, rep_1, rep_2,
+     * operator; trj9_ap209-mp.stp.) */
+    int op_at = 0;
+    if (!rr && rt && crisp__step_param(r, rt, 4)) rr = rt, op_at = 4;
     if (!rr || !rt) return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected a REPRESENTATION_RELATIONSHIP");
     if ((st = crisp__step_get_ref(r, e, rr, 2, &r1)) || (st = crisp__step_get_ref(r, e, rr, 3, &r2)) ||
-        (st = crisp__step_get_ref(r, e, rt, 0, &op)))
+        (st = crisp__step_get_ref(r, e, rt, op_at, &op)))
         return st;
     int a = rep_index(s, r1), b = rep_index(s, r2);
     if (a < 0 || b < 0) return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected two shape representations");
     /* rep_1 is the child by the recommended practice; the NAUO says otherwise when the parent's
      * representation is rep_1 and the child's rep_2. */
-    int child = a, parent = b;
+    int child = a, parent = b, nauo_id = 0;
     if (cdsr) {
         const step_part *cp = crisp__step_part(r, cdsr, "CONTEXT_DEPENDENT_SHAPE_REPRESENTATION");
         const step_value *v = crisp__step_param(r, cp, 1);
         const step_entity *pds = v && v->kind == STEP_REF ? crisp__step_find(r->f, v->num) : NULL, *pp, *pc;
         if (pds) {
+            const step_part *dp = crisp__step_part(r, pds, "PRODUCT_DEFINITION_SHAPE");
+            const step_value *dv = dp ? crisp__step_param(r, dp, 2) : NULL;
+            if (dv && dv->kind == STEP_REF && dv->num >= 1 && dv->num <= 2147483647.0) nauo_id = (int)dv->num;
             nauo_ends(s, pds, &pp, &pc);
             int gp = pd_group(s, rep_of_pd, pp), gc = pd_group(s, rep_of_pd, pc);
             if (gp >= 0 && gc >= 0 && gp == find(s, a) && gc == find(s, b)) child = b, parent = a;
@@ -341,7 +352,7 @@ static crisp_status placed_relation(asm_state *s, const step_entity *e, const st
         return crisp__step_fail(r, op, CRISP_ERR_UNSUPPORTED,
                                 "expected an ITEM_DEFINED_TRANSFORMATION or CARTESIAN_TRANSFORMATION_OPERATOR_3D");
     }
-    return add_edge(s, parent, child, t);
+    return add_edge(s, parent, child, t, e->id, cdsr ? cdsr->id : 0, nauo_id);
 }
 
 /* Note a relationship or mapped item that could not be read (the rest of the assembly stands). */
@@ -351,16 +362,14 @@ static crisp_status note(asm_state *s, crisp_status st, const char *what, int id
     const char *msg = crisp_error_message();
     size_t nl = strlen(s->r->f->name);
     if (strncmp(msg, s->r->f->name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
-    char buf[96];
-    snprintf(buf, sizeof buf, "STEP %s #%d ignored: %s", what, id, msg);
-    crisp_model_note_skip(s->r->model, buf);
+    crisp_model_note_skipf(s->r->model, "STEP %s #%d ignored: %s", what, id, msg);
     crisp_error_clear();
     return CRISP_OK;
 }
 
 /* ---- the placement tree ----------------------------------------------------------------------- */
 
-static crisp_status place(asm_state *s, int g, xform m, int depth)
+static crisp_status place(asm_state *s, int g, xform m, int depth, int parent, int edge)
 {
     if (s->inst_count >= ASM_MAX_INSTANCES)
         return crisp_error(CRISP_ERR_LIMIT, "%s: the assembly places more than %d parts (instance explosion?)",
@@ -371,8 +380,11 @@ static crisp_status place(asm_state *s, int g, xform m, int depth)
     if (s->inst_count == s->inst_cap &&
         crisp_grow((void **)&s->inst, &s->inst_cap, s->inst_count + 1, sizeof *s->inst))
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", s->r->f->name);
+    int self = (int)s->inst_count;
     s->inst[s->inst_count].group = g;
     memcpy(s->inst[s->inst_count].m, m, sizeof(xform));
+    s->inst[s->inst_count].parent = parent;
+    s->inst[s->inst_count].edge = edge;
     s->inst_count++;
     s->on_path[g] = 1;
     crisp_status st = CRISP_OK;
@@ -385,7 +397,7 @@ static crisp_status place(asm_state *s, int g, xform m, int depth)
         }
         xform cm;
         xf_mul(m, ed->t, cm);
-        st = place(s, c, cm, depth + 1);
+        st = place(s, c, cm, depth + 1, self, s->edge_order[k]);
     }
     s->on_path[g] = 0;
     return st;
@@ -562,8 +574,107 @@ out:
     return st;
 }
 
+/* ---- colours per occurrence --------------------------------------------------------------------
+ * A copy can be coloured by its occurrence rather than its part (CAx-IF recommended practices for
+ * colours on assemblies): a STYLED_ITEM (or OVER_RIDING_STYLED_ITEM) whose item is the occurrence
+ * itself (its MAPPED_ITEM, NEXT_ASSEMBLY_USAGE_OCCURRENCE, placing relationship or
+ * CONTEXT_DEPENDENT_SHAPE_REPRESENTATION) colours every face placed through it; a
+ * CONTEXT_DEPENDENT_OVER_RIDING_STYLED_ITEM colours its item (a face, or a shell or solid: its
+ * faces) in the copies whose placement path passes one of its style_context entries. The latter
+ * wins over the former; along a path the outermost occurrence's style wins. */
+
+#define OCC_CONTEXTS 8
+
+typedef struct occ_style {
+    int item;                   /* the styled entity's id */
+    int contexts[OCC_CONTEXTS]; /* style_context ids (context-dependent styles only) */
+    int ncontext;
+    float rgb[3];
+} occ_style;
+
+static int placement_id(const step_reader *r, const step_entity *e)
+{
+    return crisp__step_is((step_reader *)r, e, "MAPPED_ITEM") ||
+           crisp__step_is((step_reader *)r, e, "NEXT_ASSEMBLY_USAGE_OCCURRENCE") ||
+           crisp__step_is((step_reader *)r, e, "CONTEXT_DEPENDENT_SHAPE_REPRESENTATION") ||
+           crisp__step_is((step_reader *)r, e, "REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION");
+}
+
+/* Occurrence styles of the file: *occ (on occurrences) and *ctx (context dependent). */
+static crisp_status occurrence_styles(asm_state *s, occ_style **occ, int *nocc, occ_style **ctx, int *nctx)
+{
+    step_reader *r = s->r;
+    const step_file *f = r->f;
+    size_t cap_o = 0, cap_c = 0;
+    *occ = *ctx = NULL;
+    *nocc = *nctx = 0;
+    for (size_t i = 0; i < f->entity_count; i++) {
+        const step_entity *e = &f->entities[i];
+        const step_part *p = crisp__step_part(r, e, "CONTEXT_DEPENDENT_OVER_RIDING_STYLED_ITEM");
+        int dependent = p != NULL;
+        if (!p) p = crisp__step_part(r, e, "STYLED_ITEM");
+        if (!p) p = crisp__step_part(r, e, "OVER_RIDING_STYLED_ITEM");
+        if (!p) continue;
+        const step_value *styles = crisp__step_param(r, p, 1), *item = crisp__step_param(r, p, 2);
+        if (!item || item->kind != STEP_REF || !(item->num >= 1 && item->num <= 2147483647.0)) continue;
+        const step_entity *it = crisp__step_find(f, item->num);
+        if (!it) continue;
+        const step_value *cl = dependent ? crisp__step_param(r, p, 4) : NULL;
+        if (!dependent && !placement_id(r, it)) continue; /* a part's own style: step_style.c */
+        occ_style o = {.item = (int)item->num};
+        if (!crisp__step_style_colour(r, styles, o.rgb)) continue;
+        if (dependent) {
+            uint32_t n = cl && cl->kind == STEP_LIST ? cl->len : 0;
+            for (uint32_t j = 0; j < n && o.ncontext < OCC_CONTEXTS; j++) {
+                const step_value *x = &f->values[cl->first + j];
+                if (x->kind == STEP_REF && x->num >= 1 && x->num <= 2147483647.0) o.contexts[o.ncontext++] = (int)x->num;
+            }
+            if (!o.ncontext) continue;
+        }
+        occ_style **list = dependent ? ctx : occ;
+        int *count = dependent ? nctx : nocc;
+        size_t *cap = dependent ? &cap_c : &cap_o;
+        if ((size_t)*count == *cap && crisp_grow((void **)list, cap, (size_t)*count + 1, sizeof **list))
+            return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
+        (*list)[(*count)++] = o;
+    }
+    return CRISP_OK;
+}
+
+static int edge_has(const asm_edge *ed, int id)
+{
+    return id && (ed->ids[0] == id || ed->ids[1] == id || ed->ids[2] == id);
+}
+
+/* The colour of face (id, owners) in instance k, when an occurrence style gives one. */
+static int occurrence_colour(const asm_state *s, int k, int face_id, const int *owners, const occ_style *occ,
+                             int nocc, const occ_style *ctx, int nctx, float rgb[3])
+{
+    int found = 0, dependent = 0;
+    for (int i = k; i >= 0 && s->inst[i].edge >= 0; i = s->inst[i].parent) {
+        const asm_edge *ed = &s->edges[s->inst[i].edge];
+        for (int q = 0; q < nctx; q++) {
+            const occ_style *o = &ctx[q];
+            if (o->item != face_id && o->item != owners[0] && o->item != owners[1]) continue;
+            for (int c = 0; c < o->ncontext; c++)
+                if (edge_has(ed, o->contexts[c])) {
+                    memcpy(rgb, o->rgb, sizeof o->rgb);
+                    found = dependent = 1;
+                }
+        }
+        for (int q = 0; q < nocc && !dependent; q++)
+            if (edge_has(ed, occ[q].item)) {
+                memcpy(rgb, occ[q].rgb, sizeof occ[q].rgb);
+                found = 1;
+            }
+    }
+    return found;
+}
+
 crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int *owners, int face_count)
 {
+    occ_style *occ = NULL, *ctx = NULL;
+    int nocc = 0, nctx = 0;
     asm_state s = {.r = r};
     crisp_model *m = r->model;
     crisp_face *out = NULL;
@@ -617,12 +728,11 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
         goto done;
     }
     for (int g = 0; g < g_count && !st; g++)
-        if (find(&s, g) == g && !s.incoming[g] && s.first_edge[g + 1] > s.first_edge[g]) st = place(&s, g, id, 0);
+        if (find(&s, g) == g && !s.incoming[g] && s.first_edge[g + 1] > s.first_edge[g])
+            st = place(&s, g, id, 0, -1, -1);
     if (st) goto done;
     if (s.cycles) {
-        char buf[96];
-        snprintf(buf, sizeof buf, "STEP assembly cycle: %d placements of a part inside itself ignored", s.cycles);
-        crisp_model_note_skip(m, buf);
+        crisp_model_note_skipf(m, "STEP assembly cycle: %d placements of a part inside itself ignored", s.cycles);
     }
     /* Instances by group (CSR). */
     inst_order = crisp_malloc_array(s.inst_count + 1, sizeof(int));
@@ -657,6 +767,7 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
         goto done;
     }
+    if ((st = occurrence_styles(&s, &occ, &nocc, &ctx, &nctx))) goto done;
     size_t o = 0;
     for (int i = 0; i < face_count && !st; i++) {
         int rp = face_group[i];
@@ -682,6 +793,12 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
                 memset(&m->faces[i], 0, sizeof m->faces[i]);
             }
             if (!xf_is_identity(x)) crisp_face_transform(&out[o], (const double(*)[4])x);
+            float rgb[3];
+            if ((nocc || nctx) &&
+                occurrence_colour(&s, inst_order[k], face_ids[i], owners + 2 * i, occ, nocc, ctx, nctx, rgb)) {
+                out[o].has_color = 1;
+                out[o].color[0] = rgb[0], out[o].color[1] = rgb[1], out[o].color[2] = rgb[2], out[o].color[3] = 1;
+            }
             o++;
         }
     }
@@ -698,6 +815,8 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
     m->face_cap = (int)total + 1;
     out = NULL;
 done:
+    crisp_free(occ);
+    crisp_free(ctx);
     crisp_free(out);
     crisp_free(face_group);
     crisp_free(first_inst);

@@ -36,7 +36,7 @@ void crisp__step_work_free(face_work *w)
 }
 
 /* Curve parameter t of an edge, wrapped back into a closed B-spline's domain. */
-static double wrap_t(const step_curve *c, double t)
+double crisp__step_curve_wrap(const step_curve *c, double t)
 {
     if (c->kind == STEP_CURVE_BSPLINE && c->periodic && t > c->t1) t -= c->period;
     return t;
@@ -250,6 +250,7 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
     }
     const step_part *ep = crisp__step_part(r, ee, "EDGE_CURVE");
     if (!ep) return crisp__step_fail(r, ee, CRISP_ERR_UNSUPPORTED, "expected an EDGE_CURVE");
+    eu->edge_id = ee->id;
     const step_entity *vs, *ve, *ge;
     int same;
     double ps[3], pe[3];
@@ -363,6 +364,63 @@ void crisp__step_period_shift(const face_work *w, const double uv[2], const doub
     }
 }
 
+/* Whether the surface collapses to one point along periodic coordinate k at file uv (a cone's
+ * apex, a sphere's pole): there the coordinate is undefined. */
+static int collapsed_at(const face_work *w, const double uv[2], int k)
+{
+    double p[3], q[3], x[2] = {uv[0], uv[1]};
+    crisp__step_surface_eval(&w->s, uv[0], uv[1], p);
+    for (int i = 1; i <= 3; i++) {
+        x[k] = uv[k] + w->period[k] * i / 4;
+        crisp__step_surface_eval(&w->s, x[0], x[1], q);
+        if (!(crisp__step_dist3(p, q) <= w->r->tol)) return 0;
+    }
+    return 1;
+}
+
+/* A loop that passes through an apex or a pole (a half cone bounded by an arc and two generators
+ * meeting at the apex, a lune of a sphere) crosses the collapsed line there, where the periodic
+ * coordinate is undefined: the jump it makes there is free, and continuity alone may pick the
+ * wrong turn (the generators of a half cone lie half a turn apart, either way round). Such a loop
+ * does not wind around the surface: the part after the first collapsed vertex moves by whole turns
+ * so that the loop closes (PRO10363.stp: 2 half cones), and the loop is marked (`collapse`) so that
+ * it is not taken for one that winds (bug29241.stp: cone sectors of more than half a turn that
+ * start at the apex). */
+static void unwind_at_collapse(face_work *w, loop_work *lw)
+{
+    for (int k = 0; k < 2; k++) {
+        if (!(w->period[k] > 0) || lw->count < 2) continue;
+        /* An edge's end at the collapsed point takes the coordinate of its own next sample (a
+         * generator's apex end lies on the generator), not the previous edge's: the jump
+         * happens between edges, where the trims are bridged along the collapsed line. */
+        for (int m = 0; m < lw->count; m++) {
+            edge_use *eu = &lw->edges[m];
+            if (eu->npc || eu->ns < 3) continue;
+            if (collapsed_at(w, eu->uv, k) && !collapsed_at(w, eu->uv + 2, k)) eu->uv[k] = eu->uv[2 + k];
+            double *last = eu->uv + 2 * eu->ns - 2;
+            if (collapsed_at(w, last, k) && !collapsed_at(w, last - 2, k)) last[k] = last[k - 2];
+        }
+        for (int m = 0; m < lw->count; m++)
+            if (lw->edges[m].ns && collapsed_at(w, lw->edges[m].uv, k)) lw->collapse = 1;
+        /* (A loop that starts at the collapsed point closes there by whatever jump: a sector of
+         * a cone of any angle. One that passes it later must come back to its start.) */
+        double turns = round(crisp__step_winding(w, lw, k) / w->period[k]);
+        if (turns == 0) continue;
+        for (int m = 1; m < lw->count; m++) {
+            const edge_use *eu = &lw->edges[m];
+            if (!eu->ns || !collapsed_at(w, eu->uv, k)) continue;
+            double sh[2] = {0, 0};
+            sh[k] = -turns * w->period[k];
+            for (int j = m; j < lw->count; j++) {
+                edge_use *e = &lw->edges[j];
+                for (int i = 0; i < e->ns; i++) e->uv[2 * i + k] += sh[k];
+                e->shift[k] += sh[k];
+            }
+            break;
+        }
+    }
+}
+
 /* File-uv samples of every edge of a loop, continuous along the loop. */
 crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
 {
@@ -386,9 +444,26 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
                 double da = hypot(a[0] - prev[0], a[1] - prev[1]), db = hypot(b[0] - prev[0], b[1] - prev[1]);
                 eu->chosen = db < da;
             }
+            /* A seam edge used twice in the loop runs along both of its pcurves, in the same
+             * turn. Where the loop passes from one use to the other at a pole or apex,
+             * continuity cannot tell them apart (trj4_s1-ec-214.stp, hemispheres bounded by the
+             * equator and a seam): there the second use takes the pcurve the first did not.
+             * (Elsewhere continuity decides: some writers give a seam two equal pcurves.) */
+            const edge_use *twin = NULL;
+            int at_collapse = 0;
+            for (int k = 0; k < 2 && have_prev; k++)
+                if (w->period[k] > 0 && w->s.kind != STEP_SURF_BSPLINE) at_collapse |= collapsed_at(w, prev, k);
+            for (int q = 0; q < m && !twin && at_collapse; q++) {
+                const edge_use *o = &lw->edges[(start + q) % n];
+                if (o->edge_id == eu->edge_id && o->npc == 2 && eu->npc == 2) twin = o;
+            }
             double uv0[2];
+            if (twin) {
+                eu->chosen = 1 - twin->chosen;
+                eu->shift[0] = twin->shift[0], eu->shift[1] = twin->shift[1];
+            }
             pc_at(eu, eu->chosen, 0, uv0);
-            if (have_prev) crisp__step_period_shift(w, uv0, prev, eu->shift);
+            if (have_prev && !twin) crisp__step_period_shift(w, uv0, prev, eu->shift);
             for (int i = 0; i < eu->ns; i++) {
                 pc_at(eu, eu->chosen, (double)i / (eu->ns - 1), eu->uv + 2 * i);
                 eu->uv[2 * i] += eu->shift[0];
@@ -402,7 +477,7 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
         } else {
             for (int i = 0; i < eu->ns; i++) {
                 double p[3];
-                crisp__step_curve_eval(&eu->c3, wrap_t(&eu->c3, eu->ts[i]), p);
+                crisp__step_curve_eval(&eu->c3, crisp__step_curve_wrap(&eu->c3, eu->ts[i]), p);
                 crisp__step_surface_invert(&w->s, p, have_prev || i ? prev : NULL, eu->uv + 2 * i);
                 prev[0] = eu->uv[2 * i], prev[1] = eu->uv[2 * i + 1];
                 have_prev = 1;
@@ -412,6 +487,7 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
         prev[1] = eu->uv[2 * eu->ns - 1];
         have_prev = 1;
     }
+    if (w->s.kind != STEP_SURF_BSPLINE) unwind_at_collapse(w, lw);
     lw->box[0] = lw->box[2] = INFINITY;
     lw->box[1] = lw->box[3] = -INFINITY;
     for (int m = 0; m < n; m++) {
@@ -613,7 +689,7 @@ void crisp__step_file_uv(face_work *w, edge_use *eu, double s, double uv[2])
     }
     double ref[2] = {eu->uv[2 * i] * (1 - f) + eu->uv[2 * i + 2] * f, eu->uv[2 * i + 1] * (1 - f) + eu->uv[2 * i + 3] * f};
     double p[3];
-    crisp__step_curve_eval(&eu->c3, wrap_t(&eu->c3, t), p);
+    crisp__step_curve_eval(&eu->c3, crisp__step_curve_wrap(&eu->c3, t), p);
     crisp__step_surface_invert(&w->s, p, ref, uv);
 }
 

@@ -18,6 +18,7 @@ typedef struct edge_use {
     int ns;          /* samples in loop order: curve parameter and file (u, v) */
     double *ts, *uv;
     int id;          /* ORIENTED_EDGE for messages */
+    int edge_id;     /* its EDGE_CURVE (a seam is used twice in one loop) */
 } edge_use;
 
 typedef struct loop_work {
@@ -26,6 +27,7 @@ typedef struct loop_work {
     int count;
     edge_use *edges;
     double box[4];
+    int collapse;   /* the loop passes through an apex or pole (its u jumps freely there) */
 } loop_work;
 
 typedef struct face_work {
@@ -53,6 +55,8 @@ crisp_status crisp__step_work_init(face_work *w, step_reader *r, const step_enti
  * the face's same_sense. The caller still frees w. */
 crisp_status crisp__step_face_finish(face_work *w, int same, crisp_face *dest);
 double crisp__step_dist3(const double *a, const double *b);
+/* Curve parameter t of an edge, wrapped back into a closed B-spline's domain. */
+double crisp__step_curve_wrap(const step_curve *c, double t);
 /* The 2D curve of a PCURVE entity pe (from its definitional representation), its angle
  * coordinates on surface s (when not NULL) converted to radians. */
 crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, const step_surface *s, step_curve *dest);

@@ -256,6 +256,8 @@ void crisp__step_units(step_reader *r);
 /* Millimetres per length unit of a representation context; 0 when it names none. */
 double crisp__step_context_length_unit(step_reader *r, const step_entity *ctx);
 /* Colours of STYLED_ITEMs onto the faces (face_ids[i] is the entity of model face i). */
+/* The first fill colour among a styled item's styles (a list value); 0 when none. */
+int crisp__step_style_colour(step_reader *r, const step_value *styles, float rgb[3]);
 void crisp__step_colors(step_reader *r, const int *face_ids, const int *shell_of_face,
                         int face_count);
 

@@ -52,9 +52,7 @@ static crisp_status note_unreadable(step_reader *r, crisp_status st, const char 
     const char *msg = crisp_error_message();
     size_t nl = strlen(r->f->name);
     if (strncmp(msg, r->f->name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
-    char note[96];
-    snprintf(note, sizeof note, "STEP %s #%d unreadable: %s", what, id, msg);
-    crisp_model_note_skip(r->model, note);
+    crisp_model_note_skipf(r->model, "STEP %s #%d unreadable: %s", what, id, msg);
     crisp_error_clear();
     return CRISP_OK;
 }
@@ -123,9 +121,8 @@ static crisp_status shell_faces(step_reader *r, face_list *fl, const step_entity
             flip ^= !o;
         }
         if (!is_face(r, fe)) {
-            char type[64], what[96];
-            snprintf(what, sizeof what, "STEP shell member %s: not a face", crisp__step_type(r, fe, type, sizeof type));
-            crisp_model_note_skip(r->model, what);
+            char type[64];
+            crisp_model_note_skipf(r->model, "STEP shell member %s: not a face", crisp__step_type(r, fe, type, sizeof type));
             continue;
         }
         if ((st = add_ref(r, fl, fe, flip, sh->id, solid))) return st;
@@ -380,19 +377,15 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
     stats->tol = r.tol;
     r.close_rel = options && options->closure_tolerance > 0 ? options->closure_tolerance : 1e-6;
     if (f.duplicates) {
-        char note[96];
-        snprintf(note, sizeof note, "STEP %d entities defined twice with identical text (first #%d): copy ignored",
-                 f.duplicates, f.first_duplicate);
-        crisp_model_note_skip(m, note);
+        crisp_model_note_skipf(m, "STEP %d entities defined twice with identical text (first #%d): copy ignored",
+                               f.duplicates, f.first_duplicate);
     }
     if (f.broken) {
-        /* The message names the file, line and column; the note keeps what fits. */
+        /* The message names the file, line and column. */
         const char *msg = f.first_broken;
         size_t nl = strlen(name);
         if (strncmp(msg, name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
-        char note[96];
-        snprintf(note, sizeof note, "STEP %d broken instances skipped; first: %.30s", f.broken, msg);
-        crisp_model_note_skip(m, note);
+        crisp_model_note_skipf(m, "STEP %d broken instances skipped; first: %s", f.broken, msg);
     }
     int wire = 0;
     if ((st = collect_faces(&r, &fl, &wire))) goto done;
@@ -421,7 +414,7 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
         if (st) stats->max_edge_dev = dev_before; /* a dropped face's trims are not in the model */
         if (st == CRISP_ERR_NO_MEMORY) goto done;
         if (st) {
-            /* Drop the face, saying which and why (without the file name: the note is short). */
+            /* Drop the face, saying which and why (without the file name, which is the model's). */
             const char *msg = crisp_error_message();
             size_t nl = strlen(name);
             if (strncmp(msg, name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
@@ -436,9 +429,7 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
             if (strncmp(msg, self, (size_t)sl) == 0) msg += sl;
             sl = snprintf(self, sizeof self, "face %d: ", fe->id);
             if (strncmp(msg, self, (size_t)sl) == 0) msg += sl;
-            char what[96];
-            snprintf(what, sizeof what, "STEP face #%d dropped: %s", fe->id, msg);
-            crisp_model_note_skip(m, what);
+            crisp_model_note_dropped(m, "STEP face #%d dropped: %s", fe->id, msg);
             stats->dropped_faces++;
             st = CRISP_OK;
             continue;
@@ -469,6 +460,7 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
         }
         goto done;
     }
+    m->tolerance = tol_model;
     crisp__step_colors(&r, ids, ids + fl.count, n);
     if ((st = crisp__step_assembly(&r, ids, ids + fl.count, n))) goto done;
     crisp_error_clear();

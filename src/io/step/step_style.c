@@ -3,7 +3,8 @@
  * (ISO 10303-46: styled_item -> presentation_style_assignment -> surface_style_usage ->
  * surface_side_style -> surface_style_fill_area -> fill_area_style -> fill_area_style_colour ->
  * colour_rgb or draughting_pre_defined_colour), applied to a face or to every face of a styled
- * shell or solid.
+ * shell or solid. (Styles on assembly occurrences are applied to the placed copies in
+ * step_assembly.c, through crisp__step_style_colour.)
  */
 #include "step_internal.h"
 
@@ -157,6 +158,17 @@ static int find_colour(step_reader *r, const step_entity *e, int depth, float rg
                     return 1;
             }
         }
+    }
+    return 0;
+}
+
+int crisp__step_style_colour(step_reader *r, const step_value *styles, float rgb[3])
+{
+    uint32_t n = styles && styles->kind == STEP_LIST ? styles->len : 0;
+    for (uint32_t j = 0; j < n; j++) {
+        const step_value *x = &r->f->values[styles->first + j];
+        const step_entity *t;
+        if (x->kind == STEP_REF && (t = crisp__step_find(r->f, x->num)) && find_colour(r, t, 0, rgb)) return 1;
     }
     return 0;
 }

@@ -369,9 +369,14 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
         u = atan2(y, x);
         v = z;
         if (s->kind == STEP_SURF_CONE) {
-            /* Foot of the perpendicular onto the generating line in the (rho, z) half plane. */
+            /* Foot of the perpendicular onto the generating line in the (rho, z) half plane. The
+             * cone of ISO 10303-42 has both nappes: beyond the apex (R + v tan a < 0) the circle
+             * of v lies at u + pi (screw.step); the branch nearer p is taken. */
             double c = cos(s->semi), sn = sin(s->semi);
             v = (rho - s->r) * sn * c + z * c * c;
+            double vb = (-rho - s->r) * sn * c + z * c * c, t = tan(s->semi);
+            double ea = hypot(rho - (s->r + v * t), z - v), eb = hypot(-rho - (s->r + vb * t), z - vb);
+            if (eb < ea) u += M_PI, v = vb;
         }
         have_u = rho > 1e-12 * (s->r + fabs(v) + 1);
         break;
@@ -383,6 +388,23 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
     case STEP_SURF_TORUS:
         u = atan2(y, x);
         v = atan2(z, rho - s->r);
+        if (s->r2 > s->r) {
+            /* A spindle torus (minor radius above the major, screw.step): where R + r cos v < 0
+             * the circle of v lies on the far side of the axis, at u + pi. The branch that
+             * reproduces p is taken (both near the axis, where they meet: the one nearer ref). */
+            double ub = u + M_PI, vb = atan2(z, -rho - s->r), pa[3], pb[3];
+            crisp__step_surface_eval(s, u, v, pa);
+            crisp__step_surface_eval(s, ub, vb, pb);
+            double ea = hypot(hypot(pa[0] - p[0], pa[1] - p[1]), pa[2] - p[2]);
+            double eb = hypot(hypot(pb[0] - p[0], pb[1] - p[1]), pb[2] - p[2]), tiny = 1e-9 * (s->r + s->r2);
+            int use_b = eb < ea;
+            if (ref && ea <= tiny && eb <= tiny) {
+                double da = fabs(near_angle(u, ref[0]) - ref[0]) + fabs(near_angle(v, ref[1]) - ref[1]);
+                double db = fabs(near_angle(ub, ref[0]) - ref[0]) + fabs(near_angle(vb, ref[1]) - ref[1]);
+                use_b = db < da;
+            }
+            if (use_b) u = ub, v = vb;
+        }
         if (ref) v = near_angle(v, ref[1]);
         have_u = rho > 1e-12 * s->r;
         break;

@@ -1,0 +1,501 @@
+/* crisp-view: the CAD model viewer (issue 10). Arguments, the frame loop (load results, file
+ * watching, the replay, frames that render fewer pixels while the camera moves and refine to the
+ * full image when it stops), screenshots and the replay's commands. README.md "crisp-view". */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/image.h"
+#include "ui.h"
+#include "view.h"
+
+static const char usage[] =
+    "usage: crisp-view [MODEL] [--size WxH] [--replay EVENTS] [--screenshot OUT.png]\n"
+    "                  [--screenshot-size WxH] [--aov OUT.exr] [--exit-after-replay]\n"
+    "                  [--camera \"crisp render camera options\"] [--threads N] [--no-vsync]\n"
+    "                  [--no-lowres] [--no-aa] [--backend cpu|gl]\n"
+    "  MODEL: IGES, STEP, OBJ, .vm / math-string f-rep part, or .scene file\n"
+    "  --replay EVENTS: play a replay file (README.md, \"crisp-view\") through the input path\n"
+    "  --screenshot OUT.png: after the replay (or the first load), write the view rendered\n"
+    "                  off-screen at the window size (or --screenshot-size, not scaled)\n"
+    "  --exit-after-replay: quit once the replay and the screenshot are done\n"
+    "  Keys: H or F1 for the list.\n";
+
+void view_set_error(view *v, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(v->error, sizeof v->error, fmt, ap);
+    va_end(ap);
+    v->error_time = crisp_time_now();
+    printf("error: %s\n", v->error);
+}
+
+void view_open(view *v, const char *path, int keep_camera)
+{
+    if (path != v->doc_path) {
+        char *p = strdup(path);
+        if (!p) return;
+        free(v->doc_path);
+        v->doc_path = p;
+    }
+    app_loader_request(v->loader, v->doc_path, keep_camera);
+    printf("loading: %s\n", v->doc_path);
+}
+
+/* The camera of a screenshot: the view's, at the requested size (same vertical angle). */
+static crisp_camera shot_camera(view *v, int w, int h)
+{
+    crisp_camera c = v->nav.cam;
+    if (w > 0 && h > 0) c.width = w, c.height = h;
+    return c;
+}
+
+void view_print_camera(view *v)
+{
+    app_nav_update_clip(&v->nav);
+    crisp_camera c = shot_camera(v, v->shot_w, v->shot_h);
+    app_nav_format(&c, v->camera_text, sizeof v->camera_text);
+    size_t n = strlen(v->camera_text);
+    snprintf(v->camera_text + n, sizeof v->camera_text - n, " --samples %d%s", v->ov.samples,
+             strcmp(v->backend.name, "gl") ? "" : " --backend gl");
+    printf("camera: %s\n", v->camera_text);
+}
+
+static crisp_status write_images(const crisp_image *img, const char *png, const char *exr)
+{
+    size_t n = (size_t)img->width * img->height;
+    crisp_status st = CRISP_OK;
+    if (png) {
+        uint8_t *px = crisp_malloc_array(n, 4);
+        if (!px) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the PNG");
+        for (size_t i = 0; i < 4 * n; i++) {
+            float c = img->rgba[i];
+            px[i] = (uint8_t)lrintf(255.0f * (c < 0 ? 0 : c > 1 ? 1 : c));
+        }
+        st = crisp_write_png_rgba(png, img->width, img->height, px);
+        crisp_free(px);
+        if (st) return st;
+    }
+    if (exr) {
+        static const char *const names[] = {"R", "G", "B", "A", "Z", "N.x", "N.y", "N.z", "u", "v", "face"};
+        enum { C = 11 };
+        float *px = crisp_malloc_array(n, C * sizeof(float));
+        if (!px) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the EXR");
+        for (size_t i = 0; i < n; i++) {
+            float *d = px + C * i;
+            memcpy(d, img->rgba + 4 * i, 4 * sizeof(float));
+            d[4] = img->depth[i];
+            memcpy(d + 5, img->normal + 3 * i, 3 * sizeof(float));
+            d[8] = img->uv[2 * i];
+            d[9] = img->uv[2 * i + 1];
+            d[10] = (float)img->face[i];
+        }
+        st = crisp_write_exr(exr, img->width, img->height, C, names, px);
+        crisp_free(px);
+    }
+    return st;
+}
+
+crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, int h)
+{
+    if (!v->doc) return crisp_error(CRISP_ERR_INVALID_ARG, "screenshot: no model is open");
+    if ((w > 0 || h > 0) && (w < v->nav.cam.width || h < v->nav.cam.height))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "screenshot size %dx%d: at least the window's %dx%d", w, h,
+                           v->nav.cam.width, v->nav.cam.height);
+    if ((long long)(w > 0 ? w : v->nav.cam.width) * (h > 0 ? h : v->nav.cam.height) > (1ll << 26))
+        return crisp_error(CRISP_ERR_LIMIT, "screenshot size %dx%d: at most 2^26 pixels", w, h);
+    app_nav_update_clip(&v->nav);
+    crisp_camera c = shot_camera(v, w, h);
+    crisp_image img = {0};
+    crisp_status st = crisp_image_init(&img, c.width, c.height);
+    if (!st) st = v->backend.offscreen(v->backend.self, v->doc, &c, v->ov.samples, &img);
+    if (!st) st = write_images(&img, png, exr);
+    crisp_image_free(&img);
+    if (v->show_wire || v->show_scan) v->dirty = 1; /* the off-screen render replaced the plan */
+    if (!st) {
+        char cam[512];
+        app_nav_format(&c, cam, sizeof cam);
+        printf("screenshot: %s camera: %s --samples %d%s\n", png ? png : exr, cam, v->ov.samples,
+               strcmp(v->backend.name, "gl") ? "" : " --backend gl");
+    }
+    return st;
+}
+
+int view_idle(view *v)
+{
+    char p[8];
+    double s;
+    if (app_loader_status(v->loader, p, sizeof p, &s)) return 0;
+    if (!v->doc) return 1;
+    return v->refined && !v->dirty;
+}
+
+/* ---- the replay's sink: the same callbacks as the window's real events ---------------------- */
+
+static void sink_cursor(void *ctx, double x, double y)
+{
+    view *v = ctx;
+    glfwSetCursorPos(v->win, x, y);
+    view_on_cursor(v->win, x, y);
+}
+static void sink_button(void *ctx, int b, int a, int m) { view_on_button(((view *)ctx)->win, b, a, m); }
+static void sink_scroll(void *ctx, double dy) { view_on_scroll(((view *)ctx)->win, 0, dy); }
+static void sink_key(void *ctx, int k, int a, int m) { view_on_key(((view *)ctx)->win, k, 0, a, m); }
+static void sink_drop(void *ctx, const char *path) { view_on_drop(((view *)ctx)->win, 1, &path); }
+static void sink_close(void *ctx)
+{
+    view *v = ctx;
+    glfwSetWindowShouldClose(v->win, GLFW_TRUE);
+    view_on_close(v->win);
+}
+static int sink_idle(void *ctx) { return view_idle(ctx); }
+
+static int parse_size(const char *s, int *w, int *h)
+{
+    char extra;
+    return sscanf(s, "%dx%d%c", w, h, &extra) == 2 && *w >= 1 && *h >= 1 && *w <= 16384 &&
+           *h <= 16384;
+}
+
+static void sink_command(void *ctx, const char *name, const char *arg, int line)
+{
+    view *v = ctx;
+    if (!strcmp(name, "camera")) {
+        view_print_camera(v);
+    } else if (!strcmp(name, "mark")) {
+        printf("mark: %s time %.6f frames %ld refined %d scale %d frame_ms %.3f\n", arg,
+               crisp_time_now(), v->frames, v->refined, v->last.scale, v->last.ms);
+    } else if (!strcmp(name, "set-camera")) {
+        char err[256];
+        crisp_camera c = v->nav.cam;
+        if (!app_nav_parse(arg, &c, err, sizeof err)) {
+            view_set_error(v, "replay line %d: %s", line, err);
+            return;
+        }
+        c.width = v->nav.cam.width;
+        c.height = v->nav.cam.height;
+        v->nav.cam = c;
+        v->nav.depth_hint = 0;
+        v->dirty = 1;
+    } else { /* screenshot / aov PATH [WxH] */
+        char path[1024];
+        int w = 0, h = 0;
+        snprintf(path, sizeof path, "%s", arg);
+        char *sp = strrchr(path, ' ');
+        if (sp && parse_size(sp + 1, &w, &h)) *sp = '\0';
+        int png = !strcmp(name, "screenshot");
+        if (view_screenshot(v, png ? path : NULL, png ? NULL : path, w, h)) {
+            view_set_error(v, "replay line %d: %s", line, crisp_error_message());
+            v->exit_code = 1;
+        }
+    }
+}
+
+/* ---- frames ------------------------------------------------------------------------------------ */
+
+static void install_doc(view *v, app_doc *doc, int keep_camera)
+{
+    int keep = keep_camera && v->have_camera;
+    v->backend.set_doc(v->backend.self, doc);
+    app_doc_destroy(v->doc);
+    v->doc = doc;
+    if (keep) {
+        memcpy(v->nav.box, doc->box, sizeof v->nav.box);
+    } else {
+        app_nav_init(&v->nav, doc->box, v->fb_w, v->fb_h);
+        v->refit_pending = 2;
+        if (doc->scene_file && doc->scene_file->has_camera) {
+            const crisp_scene_file *s = doc->scene_file;
+            crisp_camera *c = &v->nav.cam;
+            memcpy(c->eye, s->eye, sizeof c->eye);
+            for (int k = 0; k < 3; k++)
+                c->target[k] = s->has_target ? s->target[k] : 0.5 * (doc->box[k] + doc->box[k + 3]);
+            memcpy(c->up, s->up, sizeof c->up);
+            c->fov_deg = s->fov_deg;
+            v->refit_pending = 0;
+        }
+        if (v->initial_camera) {
+            char err[256];
+            crisp_camera c = v->nav.cam;
+            v->refit_pending = 0;
+            if (app_nav_parse(v->initial_camera, &c, err, sizeof err)) {
+                c.width = v->nav.cam.width;
+                c.height = v->nav.cam.height;
+                v->nav.cam = c;
+            } else {
+                view_set_error(v, "--camera: %s", err);
+            }
+            free(v->initial_camera);
+            v->initial_camera = NULL;
+        }
+        v->have_camera = 1;
+    }
+    v->sel.hit = 0;
+    v->ov.selected_face = -1;
+    v->meas_count = 0;
+    v->face_info[0] = '\0';
+    v->error[0] = '\0';
+    v->dirty = 1;
+    v->refined = 0;
+    v->scale = 0;
+    app_watch_set(&v->watch, doc->watch, doc->watch_count);
+    char title[1200];
+    snprintf(title, sizeof title, "crisp-view - %s", doc->path);
+    glfwSetWindowTitle(v->win, title);
+    printf("loaded: %s: %s, %u faces, %u patches, %zu f-rep parts, box %g %g %g %g %g %g "
+           "(read %.1f ms, prepare %.1f ms)\n",
+           doc->path, doc->kind, doc->scene->face_count, doc->scene->patch_count, doc->part_count,
+           doc->box[0], doc->box[1], doc->box[2], doc->box[3], doc->box[4], doc->box[5],
+           doc->ms_read, doc->ms_prepare);
+}
+
+/* Tighten a fit to what the frame drew: centre the drawn pixels and scale them to 90% of the
+ * window in their larger direction (the box's corners fit first, but a model seldom fills its
+ * box's silhouette). */
+static void refit(view *v)
+{
+    const double *c = v->last.cover;
+    double w = v->nav.cam.width, h = v->nav.cam.height;
+    if (!(c[2] > c[0] && c[3] > c[1])) return;
+    double depth = app_nav_depth(&v->nav.cam, v->nav.cam.target);
+    app_nav_pan(&v->nav, depth, 0.5 * w - 0.5 * (c[0] + c[2]), 0.5 * h - 0.5 * (c[1] + c[3]));
+    double s = fmax((c[2] - c[0]) / w, (c[3] - c[1]) / h) / 0.9;
+    if (s > 0 && fabs(s - 1) > 0.01) app_nav_zoom(&v->nav, v->nav.cam.target, s);
+    v->nav.depth_hint = 0;
+    v->dirty = 1;
+}
+
+static void render_frame(view *v)
+{
+    if (!v->doc) return;
+    int full = !v->moving || v->no_lowres;
+    if (!v->dirty && v->refined) return;
+    if (!v->dirty && !v->refined) full = 1;
+    int scale = 1;
+    if (!full) {
+        /* aim at 25 ms of rendering per moving frame (30 frames per second with the rest) */
+        if (v->scale < 1) v->scale = (int)ceil(sqrt(fmax(v->last_full_ms, 1) / 25.0));
+        scale = v->scale < 1 ? 1 : v->scale > 8 ? 8 : v->scale;
+    }
+    app_nav_update_clip(&v->nav);
+    view_frame_stats fs = {0};
+    crisp_status st = v->backend.frame(v->backend.self, v->doc, &v->nav.cam, scale, &v->ov, &fs);
+    if (st) {
+        view_set_error(v, "render: %s", crisp_error_message());
+        v->dirty = 0;
+        v->refined = 1;
+        return;
+    }
+    v->last = fs;
+    /* the least depth drawn bounds the near plane of the next frames (the navigation scales it
+     * as it moves the camera) */
+    if (isfinite(fs.min_depth) && fs.min_depth > 0) v->nav.depth_hint = fs.min_depth;
+    if (v->show_wire) view_wire_update(v);
+    if (scale == 1) {
+        v->last_full_ms = fs.ms;
+    } else {
+        if (fs.ms > 25 && v->scale < 8) v->scale++;
+        else if (fs.ms < 8 && v->scale > 1) v->scale--;
+    }
+    v->dirty = 0;
+    v->refined = scale == 1;
+    if (v->refit_pending && scale == 1) {
+        v->refit_pending--;
+        refit(v);
+    }
+}
+
+static void poll_loader(view *v)
+{
+    app_doc *doc = NULL;
+    int tag = 0;
+    char err[1024];
+    int r = app_loader_poll(v->loader, &doc, &tag, err, sizeof err);
+    if (r == APP_LOAD_DONE) install_doc(v, doc, tag);
+    else if (r == APP_LOAD_FAILED) view_set_error(v, "%s", err);
+}
+
+int main(int argc, char **argv)
+{
+    setvbuf(stdout, NULL, _IOLBF, 0);
+    const char *model = NULL, *replay = NULL, *aov = NULL;
+    int width = 1280, height = 720, no_vsync = 0, use_gl = 0;
+    static view vv;
+    view *v = &vv;
+    v->drag_button = -1;
+    v->ov.selected_face = -1;
+    v->show_hud = 1;
+    v->show_panels = 1;
+    v->ov.edges = 1;
+    v->ov.samples = 4;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        int more = i + 1 < argc;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            fputs(usage, stdout);
+            return 0;
+        } else if (!strcmp(a, "--exit-after-replay")) {
+            v->exit_after_replay = 1;
+        } else if (!strcmp(a, "--no-vsync")) {
+            no_vsync = 1;
+        } else if (!strcmp(a, "--no-lowres")) {
+            v->no_lowres = 1;
+        } else if (!strcmp(a, "--no-aa")) {
+            v->ov.samples = 1;
+        } else if (a[0] == '-' && a[1] == '-' && !more) {
+            fprintf(stderr, "crisp-view: option %s needs a value\n", a);
+            return 2;
+        } else if (!strcmp(a, "--size")) {
+            if (!parse_size(argv[++i], &width, &height)) {
+                fprintf(stderr, "crisp-view: --size '%s': expected WxH, each 1..16384\n", argv[i]);
+                return 2;
+            }
+        } else if (!strcmp(a, "--screenshot-size")) {
+            if (!parse_size(argv[++i], &v->shot_w, &v->shot_h)) {
+                fprintf(stderr, "crisp-view: --screenshot-size '%s': expected WxH\n", argv[i]);
+                return 2;
+            }
+        } else if (!strcmp(a, "--backend")) {
+            const char *b = argv[++i];
+            if (strcmp(b, "cpu") && strcmp(b, "gl")) {
+                fprintf(stderr, "crisp-view: --backend '%s': expected cpu or gl\n", b);
+                return 2;
+            }
+            use_gl = !strcmp(b, "gl");
+        } else if (!strcmp(a, "--replay")) {
+            replay = argv[++i];
+        } else if (!strcmp(a, "--screenshot")) {
+            v->screenshot_path = argv[++i];
+        } else if (!strcmp(a, "--aov")) {
+            aov = argv[++i];
+        } else if (!strcmp(a, "--camera")) {
+            v->initial_camera = strdup(argv[++i]);
+        } else if (!strcmp(a, "--threads")) {
+            char *end;
+            long t = strtol(argv[++i], &end, 10);
+            if (*end || t < 1 || t > 1024) {
+                fprintf(stderr, "crisp-view: --threads '%s': expected 1..1024\n", argv[i]);
+                return 2;
+            }
+            v->threads = (int)t;
+        } else if (a[0] == '-' && a[1] == '-') {
+            fprintf(stderr, "crisp-view: unknown option '%s'\n%s", a, usage);
+            return 2;
+        } else if (!model) {
+            model = a;
+        } else {
+            fprintf(stderr, "crisp-view: more than one model given ('%s', '%s')\n", model, a);
+            return 2;
+        }
+    }
+    if (v->initial_camera) {
+        char err[256];
+        crisp_camera c = {.fov_deg = 30, .znear = 1, .zfar = 2, .width = 1, .height = 1,
+                          .eye = {0, 0, 1}, .up = {0, 1, 0}};
+        if (!app_nav_parse(v->initial_camera, &c, err, sizeof err)) {
+            fprintf(stderr, "crisp-view: --camera: %s\n", err);
+            return 2;
+        }
+    }
+    if (replay) {
+        char err[512];
+        if (!app_player_load(&v->player, replay, err, sizeof err)) {
+            fprintf(stderr, "crisp-view: --replay: %s\n", err);
+            return 2;
+        }
+    }
+    v->replaying = 1; /* an empty replay ends at once */
+
+    char err[512];
+    v->win = app_window_create(&(app_window_desc){.title = "crisp-view", .width = width,
+                                                  .height = height, .no_vsync = no_vsync},
+                               err, sizeof err);
+    if (!v->win) {
+        fprintf(stderr, "crisp-view: %s\n", err);
+        app_player_free(&v->player);
+        return 1;
+    }
+    glfwSetWindowUserPointer(v->win, v);
+    glfwGetFramebufferSize(v->win, &v->fb_w, &v->fb_h);
+    v->show_panels = v->fb_w >= 900; /* small windows start with the view alone (P shows them) */
+    int rc = 0;
+    if (!app_ui_init(v->win)) {
+        fprintf(stderr, "crisp-view: cannot start Dear ImGui\n");
+        rc = 1;
+    } else if (view_backend_create(v->threads, use_gl, &v->backend)) {
+        fprintf(stderr, "crisp-view: %s\n", crisp_error_message());
+        rc = 1;
+    } else if (!app_loader_create(&v->loader)) {
+        fprintf(stderr, "crisp-view: cannot start the loader thread\n");
+        rc = 1;
+    }
+    if (rc) goto out;
+    view_install_callbacks(v);
+    app_nav_init(&v->nav, (double[6]){-1, -1, -1, 1, 1, 1}, v->fb_w, v->fb_h);
+    if (model) view_open(v, model, 0);
+
+    app_input_sink sink = {.ctx = v, .cursor = sink_cursor, .button = sink_button,
+                           .scroll = sink_scroll, .key = sink_key, .drop = sink_drop,
+                           .close = sink_close, .idle = sink_idle, .command = sink_command};
+    int shot_pending = v->screenshot_path || aov;
+    while (!v->quit && !glfwWindowShouldClose(v->win)) {
+        char lp[8];
+        double ls;
+        int busy = app_loader_status(v->loader, lp, sizeof lp, &ls);
+        if (v->replaying || shot_pending || v->dirty || !v->refined || busy || v->drag_button >= 0)
+            glfwPollEvents();
+        else
+            glfwWaitEventsTimeout(0.25);
+        int fw, fh;
+        glfwGetFramebufferSize(v->win, &fw, &fh);
+        if (fw > 0 && fh > 0 && (fw != v->fb_w || fh != v->fb_h)) {
+            v->fb_w = fw;
+            v->fb_h = fh;
+            app_nav_resize(&v->nav, fw, fh);
+            v->dirty = 1;
+        }
+        poll_loader(v);
+        if (v->doc && app_watch_poll(&v->watch, crisp_time_now())) {
+            printf("changed on disk: %s\n", v->doc->path);
+            view_open(v, v->doc->path, 1);
+        }
+        if (v->replaying && !app_player_step(&v->player, &sink)) v->replaying = 0;
+        if (!v->replaying && shot_pending && view_idle(v)) {
+            shot_pending = 0;
+            if (view_screenshot(v, v->screenshot_path, aov, v->shot_w, v->shot_h)) {
+                view_set_error(v, "%s", crisp_error_message());
+                v->exit_code = 1;
+            }
+        }
+        if (!v->replaying && !shot_pending && v->exit_after_replay) break;
+
+        render_frame(v);
+        v->moving = 0;
+        v->backend.present(v->backend.self, v->fb_w, v->fb_h);
+        app_ui_frame_begin();
+        view_draw_panels(v);
+        app_ui_frame_end();
+        glfwSwapBuffers(v->win);
+        v->frames++;
+    }
+    rc = v->exit_code;
+out:
+    app_loader_destroy(v->loader); /* waits for a running load */
+    app_doc_destroy(v->doc);
+    app_watch_clear(&v->watch);
+    if (v->backend.destroy) v->backend.destroy(v->backend.self);
+    app_ui_shutdown();
+    app_window_destroy(v->win);
+    app_player_free(&v->player);
+    free(v->doc_path);
+    free(v->initial_camera);
+    free(v->wire);
+    /* forget every pointer: what was not freed above becomes a leak LeakSanitizer reports */
+    memset(v, 0, sizeof *v);
+    printf("exit: %d\n", rc);
+    return rc;
+}

@@ -1,0 +1,157 @@
+/* crisp-view's state and the functions its files share (main.c: arguments, the frame loop and
+ * the replay commands; input.c: mouse and keys -> navigation, picking, measuring; panels.c: HUD,
+ * help, face info, errors, progress, the axis widget; backend_cpu.c: the display backend). */
+#ifndef VIEW_H
+#define VIEW_H
+
+#include <stdint.h>
+
+#include "doc.h"
+#include "events.h"
+#include "loader.h"
+#include "nav.h"
+#include "watch.h"
+#include "window.h"
+
+/* ---- display backend: one small interface, so the GL backend can replace the CPU one ------- */
+
+typedef struct view_frame_stats {
+    double ms;              /* render time of the frame */
+    uint64_t triangles, table_bytes;
+    int scale;              /* 1: full resolution; s: 1/s of the pixels in each direction */
+    double min_depth;       /* least camera-space depth drawn (inf: nothing) */
+    double cover[4];        /* x0, y0, x1, y1 of the drawn pixels, full-size pixel units */
+} view_frame_stats;
+
+typedef struct view_overlay {
+    int32_t selected_face;  /* tinted; -1 none */
+    int edges;              /* draw face borders, trims and silhouettes from the face ids */
+    int samples;            /* per pixel in full-size frames (1 or 4); moving frames take 1 */
+} view_overlay;
+
+typedef struct view_backend {
+    const char *name;
+    void *self;
+    /* Render the document for cam at 1/scale of its size and keep it for present(). */
+    crisp_status (*frame)(void *self, const app_doc *doc, const crisp_camera *cam, int scale,
+                          const view_overlay *ov, view_frame_stats *stats);
+    /* Draw the last frame over the framebuffer. */
+    void (*present)(void *self, int fb_width, int fb_height);
+    /* Render cam off-screen at its own size into img (colour and AOVs), as `crisp render`
+     * with --samples samples. */
+    crisp_status (*offscreen)(void *self, const app_doc *doc, const crisp_camera *cam,
+                              int samples, crisp_image *img);
+    /* The last frame's plan and image (AOVs), or NULL (a backend may keep neither). */
+    const struct crisp_frame_plan *(*plan)(void *self);
+    const crisp_image *(*image)(void *self);
+    /* A new document is shown (frames of the old one are gone). */
+    void (*set_doc)(void *self, const app_doc *doc);
+    void (*destroy)(void *self);
+} view_backend;
+
+/* The CPU backend, or (use_gl) the GL backend on the current window's context. */
+crisp_status view_backend_create(int threads, int use_gl, view_backend *dest);
+int view_backend_have_gl(void);
+
+/* ---- the viewer --------------------------------------------------------------------------- */
+
+typedef struct view_hit {
+    int hit;
+    int32_t face;      /* >= 0 NURBS face, <= -2 f-rep part */
+    double point[3], normal[3], uv[2], depth;
+} view_hit;
+
+typedef struct view view;
+
+struct view {
+    GLFWwindow *win;
+    int fb_w, fb_h;
+    view_backend backend;
+    app_doc *doc;
+    char *doc_path;        /* what R reloads (the last path asked for) */
+    app_loader *loader;
+    app_watch watch;
+    app_nav nav;
+    int have_camera;       /* the camera belongs to the document shown (keep it on reload) */
+    char *initial_camera;  /* --camera options for the first document */
+
+    /* frames */
+    int dirty;             /* the camera or the overlay changed since the last frame */
+    int refined;           /* the frame on screen is the full-resolution image of this camera */
+    int moving;            /* the camera changed this frame */
+    int scale;             /* resolution divisor while moving, adapted to the frame time */
+    int refit_pending;     /* after a fit: tighten it to the drawn pixels of the next frame */
+    view_frame_stats last;
+    double last_full_ms;
+
+    /* input */
+    double mx, my;         /* cursor */
+    int drag_button;       /* -1 none */
+    int drag_mods;
+    double press_x, press_y, drag_depth;
+    int dragged;
+    double pivot[3];
+    int shift;
+
+    /* inspection */
+    view_overlay ov;
+    view_hit sel, meas_a, meas_b;
+    int meas_count;        /* 0, 1 (A) or 2 (A and B) */
+    char face_info[1024];
+
+    /* panels */
+    int show_hud, show_help, show_panels;
+    char error[2048];
+    double error_time;
+    char camera_text[512];
+
+    /* scripted runs */
+    app_player player;
+    int replaying, exit_after_replay;
+    int quit;
+    const char *screenshot_path;
+    int shot_w, shot_h;
+    int exit_code;
+    int threads;
+    int no_lowres;         /* every frame at full size (for measuring the low-res frames) */
+    /* debugging views (debugviews.c) */
+    int show_wire, show_scan;
+    float *wire;           /* segments x0 y0 x1 y1 in window pixels */
+    size_t wire_count, wire_cap;
+    int wire_truncated;
+    uint32_t wire_leaves;
+    long frames;
+};
+
+
+/* main.c */
+void view_open(view *v, const char *path, int keep_camera);
+void view_set_error(view *v, const char *fmt, ...);
+void view_print_camera(view *v);
+crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, int h);
+int view_idle(view *v);
+
+/* input.c: GLFW callbacks (the replay calls the same ones) */
+void view_install_callbacks(view *v);
+void view_on_cursor(GLFWwindow *w, double x, double y);
+void view_on_button(GLFWwindow *w, int button, int action, int mods);
+void view_on_scroll(GLFWwindow *w, double dx, double dy);
+void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods);
+void view_on_char(GLFWwindow *w, unsigned int c);
+void view_on_drop(GLFWwindow *w, int count, const char **paths);
+void view_on_close(GLFWwindow *w);
+int view_pick(view *v, double x, double y, view_hit *dest);
+void view_describe_face(view *v, int32_t face, char *buf, size_t size);
+void view_set_standard(view *v, int which);
+
+/* debugviews.c */
+void view_wire_update(view *v);
+void view_wire_draw(view *v);
+void view_scan_panel(view *v);
+
+/* panels.c */
+void view_draw_panels(view *v);
+/* The axis widget's centre and the screen tip of each axis (+X, +Y, +Z, -X, -Y, -Z). */
+void view_axis_widget(const view *v, float centre[2], float tips[6][2]);
+
+#endif

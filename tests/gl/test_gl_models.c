@@ -1,0 +1,318 @@
+/* GL and CPU backends on the same frame plan of every bundled model (data/nurbs) under 20 cameras
+ * (every file of data/nurbs; orbits at several elevations, close-ups of patch centres at 3 and 0.01 degree): face id and
+ * coverage must agree on every pixel farther than 1 px from a face or background transition
+ * (silhouettes, trim curves, face boundaries) and from a patch boundary in either image. Depth
+ * agrees there to 1e-3 relative on all but 0.1% of them (both tessellations are within the
+ * tolerance on screen, a grazing surface turns that into larger depth changes). Then the layout probe: a compute shader
+ * reads each real plan's leaves and trim tables, and its lookups at many (u, v) points equal
+ * crisp_plan_trim_test and the C records.
+ *
+ * test_gl_models [--size WxH] (default 160x120; the slow variant renders 480x360). */
+#include <dirent.h>
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "crisp/gl.h"
+#include "crisp/io.h"
+#include "crisp/plan.h"
+#include "gl/gl_internal.h"
+
+static crisp_gl_context *ctx;
+static int W = 160, H = 120;
+
+/* Every bundled model: the files of data/nurbs, sorted by name. */
+static char models[64][256];
+static int model_count;
+
+static int cmp_name(const void *a, const void *b)
+{
+    return strcmp(a, b);
+}
+
+static void list_models(void)
+{
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
+    DIR *d = opendir(dir);
+    if (!d) return;
+    struct dirent *e;
+    while ((e = readdir(d)) && model_count < 64)
+        if (e->d_name[0] != '.') snprintf(models[model_count++], sizeof models[0], "%s", e->d_name);
+    closedir(d);
+    qsort(models, (size_t)model_count, sizeof models[0], cmp_name);
+}
+#define CAMERAS 20
+
+static crisp_camera make_camera(const crisp_scene *sc, int k)
+{
+    crisp_camera base;
+    assert_int_equal(crisp_camera_frame_box(sc->box, W, H, &base), CRISP_OK);
+    double d[3], dist;
+    crisp_vec3_sub(base.eye, base.target, d);
+    dist = crisp_vec3_norm(d);
+    crisp_camera c = base;
+    if (k % 5 == 4) {
+        /* close-up of a patch centre, from the side of its normal */
+        const crisp_scene_patch *p = &sc->patches[(uint32_t)(k * 7919u) % sc->patch_count];
+        double P[3], Ps[3], Pt[3], n[3];
+        crisp_bezier_patch_derivs(&p->bez, 0.5, 0.5, P, Ps, Pt);
+        crisp_vec3_cross(Ps, Pt, n);
+        if (!crisp_vec3_normalize(n, n)) n[2] = 1;
+        double tilt[3] = {0.3, 0.5, 0.2};
+        for (int a = 0; a < 3; a++) d[a] = n[a] + tilt[a];
+        crisp_vec3_normalize(d, d);
+        double r = k % 10 == 4 ? 0.3 * dist : 0.8 * dist;
+        for (int a = 0; a < 3; a++) {
+            c.target[a] = P[a];
+            c.eye[a] = P[a] + r * d[a];
+        }
+        c.fov_deg = k % 10 == 4 ? 3 : 0.01;
+        c.znear = 1e-3 * r;
+        c.zfar = 4 * dist;
+        if (fabs(d[1]) > 0.95) c.up[0] = 1, c.up[1] = 0;
+        return c;
+    }
+    double az = 2 * M_PI * k / CAMERAS + 0.3, el = (k % 3 - 1) * 0.6 + 0.1;
+    double dir[3] = {cos(el) * sin(az), sin(el), cos(el) * cos(az)};
+    for (int a = 0; a < 3; a++) c.eye[a] = base.target[a] + dist * dir[a];
+    return c;
+}
+
+/* The patch of (face, u, v): the index of the face's patch whose box holds (u, v), -1 if none. */
+static int patch_of(const crisp_scene *sc, int face, float u, float v)
+{
+    if (face < 0) return -1;
+    const crisp_scene_face *f = &sc->faces[face];
+    for (uint32_t p = f->first_patch; p < f->first_patch + f->patch_count; p++) {
+        const crisp_bezier_patch *b = &sc->patches[p].bez;
+        if (u >= b->u0 && u <= b->u1 && v >= b->v0 && v <= b->v1) return (int)p;
+    }
+    return -2;
+}
+
+typedef struct tally {
+    long compared, face_diff, alpha_diff, depth_diff, band, band_diff;
+    double worst_depth;
+} tally;
+
+static void compare(const crisp_scene *sc, const crisp_image *a, const crisp_image *b, tally *t, const char *what)
+{
+    int w = a->width, h = a->height;
+    int *pa = malloc(sizeof(int) * (size_t)w * h), *pb = malloc(sizeof(int) * (size_t)w * h);
+    for (int k = 0; k < w * h; k++) {
+        pa[k] = patch_of(sc, a->face[k], a->uv[2 * k], a->uv[2 * k + 1]);
+        pb[k] = patch_of(sc, b->face[k], b->uv[2 * k], b->uv[2 * k + 1]);
+    }
+    for (int j = 1; j + 1 < h; j++)
+        for (int i = 1; i + 1 < w; i++) {
+            int k = j * w + i, uniform = 1;
+            for (int dj = -1; dj <= 1; dj++)
+                for (int di = -1; di <= 1; di++) {
+                    int q = k + dj * w + di;
+                    if (a->face[q] != a->face[k] || b->face[q] != b->face[k] || pa[q] != pa[k] || pb[q] != pb[k])
+                        uniform = 0;
+                }
+            int differs = a->face[k] != b->face[k] || a->rgba[4 * k + 3] != b->rgba[4 * k + 3];
+            if (!uniform) {
+                t->band++;
+                t->band_diff += differs;
+                continue;
+            }
+            t->compared++;
+            if (a->face[k] != b->face[k]) {
+                if (t->face_diff < 5)
+                    fprintf(stderr, "%s: pixel (%d, %d) face cpu %d gl %d (depth %g %g)\n", what, i, j, a->face[k],
+                            b->face[k], a->depth[k], b->depth[k]);
+                t->face_diff++;
+            }
+            t->alpha_diff += a->rgba[4 * k + 3] != b->rgba[4 * k + 3];
+            if (a->face[k] >= 0 && a->face[k] == b->face[k]) {
+                double e = fabs(a->depth[k] - b->depth[k]) / a->depth[k];
+                if (e > t->worst_depth) t->worst_depth = e;
+                t->depth_diff += e > 1e-3;
+            }
+        }
+    free(pa);
+    free(pb);
+}
+
+static void test_models(void **state)
+{
+    (void)state;
+    crisp_gl *gl = NULL;
+    assert_int_equal(crisp_gl_create(crisp_gl_context_getproc(ctx), NULL, &gl), CRISP_OK);
+    tally all = {0};
+    for (size_t m = 0; m < (size_t)model_count; m++) {
+        char path[512];
+        snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, models[m]);
+        crisp_model *model;
+        assert_int_equal(crisp_model_load(path, NULL, &model), CRISP_OK);
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(model, &sc), CRISP_OK);
+        crisp_renderer *r;
+        assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+        crisp_image a, b;
+        assert_int_equal(crisp_image_init(&a, W, H), CRISP_OK);
+        assert_int_equal(crisp_image_init(&b, W, H), CRISP_OK);
+        tally t = {0};
+        for (int k = 0; k < CAMERAS; k++) {
+            crisp_camera cam = make_camera(sc, k);
+            const crisp_frame_plan *plan;
+            assert_int_equal(crisp_planner_plan(crisp_renderer_planner(r), sc, &cam, &plan), CRISP_OK);
+            assert_int_equal(crisp_render_cpu_plan(r, sc, plan, &cam, &a, NULL), CRISP_OK);
+            crisp_status st = crisp_gl_render(gl, sc, plan, &b, NULL);
+            if (st) fail_msg("%s camera %d: %s", models[m], k, crisp_error_message());
+            char what[128];
+            snprintf(what, sizeof what, "%s camera %d", models[m], k);
+            compare(sc, &a, &b, &t, what);
+        }
+        printf("%-24s %7ld pixels compared: %ld face, %ld coverage, %ld depth (> 1e-3) differ (worst depth %.1e); "
+               "band %ld pixels, %ld differ\n",
+               models[m], t.compared, t.face_diff, t.alpha_diff, t.depth_diff, t.worst_depth, t.band, t.band_diff);
+        all.compared += t.compared;
+        all.face_diff += t.face_diff;
+        all.alpha_diff += t.alpha_diff;
+        all.depth_diff += t.depth_diff;
+        crisp_image_free(&a);
+        crisp_image_free(&b);
+        crisp_renderer_destroy(r);
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(model);
+    }
+    assert_true(all.compared > (long)model_count * CAMERAS * W * H / 20);
+    assert_int_equal(all.face_diff, 0);
+    assert_int_equal(all.alpha_diff, 0);
+    /* depth: the two tessellations of a leaf differ inside (GL's quad pattern, the CPU's), each
+     * within the tolerance on screen; seen at grazing angles that is a larger change in depth */
+    assert_true(all.depth_diff * 1000 < all.compared);
+    crisp_gl_destroy(gl);
+}
+
+/* The layout probe on real plans: trim lookups at (u, v) points around and on the crossings, leaf
+ * levels and (u, v) of leaf points, against crisp_plan_trim_test and the C records. */
+static void test_layout(void **state)
+{
+    (void)state;
+    crisp_gl *gl = NULL;
+    assert_int_equal(crisp_gl_create(crisp_gl_context_getproc(ctx), NULL, &gl), CRISP_OK);
+    const char *names[3] = {"gpucast_part.igs", "impeller.igs", "occt_bearing.iges"};
+    enum { N = 20000 };
+    crisp__gl_query *q = calloc(N, sizeof *q);
+    crisp__gl_result *res = calloc(N, sizeof *res);
+    for (int m = 0; m < 3; m++) {
+        char path[512];
+        snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, names[m]);
+        crisp_model *model;
+        assert_int_equal(crisp_model_load(path, NULL, &model), CRISP_OK);
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(model, &sc), CRISP_OK);
+        crisp_planner *pl;
+        assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+        crisp_camera cam;
+        assert_int_equal(crisp_camera_frame_box(sc->box, 640, 480, &cam), CRISP_OK);
+        const crisp_frame_plan *plan;
+        assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
+        assert_true(plan->leaf_count > 0 && plan->crossing_count > 0);
+        assert_int_equal(crisp_gl_set_scene(gl, sc), CRISP_OK);
+        srand(11 + m);
+        long inside = 0;
+        for (int k = 0; k < N; k++) {
+            const crisp_plan_leaf *L = &plan->leaves[(uint32_t)rand() % plan->leaf_count];
+            q[k].leaf = (uint32_t)(L - plan->leaves);
+            q[k].s = rand() / (double)RAND_MAX;
+            q[k].t = rand() / (double)RAND_MAX;
+            const crisp_scene_patch_record *pr = &sc->patch_records[L->patch];
+            double sc2 = ldexp(1, -(int)L->depth);
+            q[k].face = L->face;
+            q[k].u = pr->u0 + (L->ix + q[k].s) * sc2 * (pr->u1 - pr->u0);
+            q[k].v = pr->v0 + (L->iy + q[k].t) * sc2 * (pr->v1 - pr->v0);
+            if (k % 4 == 0 && plan->crossing_count) {
+                /* exactly on, just left and right of a crossing of the face's table */
+                const crisp_plan_face *f = &plan->faces[L->face];
+                if (f->strip_count) {
+                    const crisp_plan_strip *s = &plan->strips[f->first_strip + (uint32_t)rand() % f->strip_count];
+                    if (s->row_count) {
+                        uint32_t r = s->first_row + (uint32_t)rand() % s->row_count;
+                        uint32_t n = plan->row_offset[r + 1] - plan->row_offset[r];
+                        if (n) {
+                            double c = plan->crossings[plan->row_offset[r] + (uint32_t)rand() % n];
+                            q[k].u = k % 12 == 0 ? c : nextafter(c, k % 8 == 0 ? INFINITY : -INFINITY);
+                            q[k].v = s->a + (r - s->first_row + 0.5) / s->row_scale;
+                        }
+                    }
+                }
+            }
+        }
+        assert_int_equal(crisp__gl_layout_probe(gl, plan, q, N, res), CRISP_OK);
+        for (int k = 0; k < N; k++) {
+            int want = crisp_plan_trim_test(plan, q[k].face, q[k].u, q[k].v);
+            if ((int)res[k].inside != want)
+                fail_msg("%s query %d: face %u (u, v) = (%.17g, %.17g): shader %u, C %d", names[m], k, q[k].face, q[k].u,
+                         q[k].v, res[k].inside, want);
+            inside += want;
+            const crisp_plan_leaf *L = &plan->leaves[q[k].leaf];
+            assert_int_equal(res[k].tau, L->tau);
+            assert_int_equal(res[k].patch, L->patch);
+            assert_int_equal(res[k].depth, L->depth);
+            for (int e = 0; e < 4; e++) assert_int_equal(res[k].edge[e], L->edge[e]);
+            {
+                double P[3], ps[3], pt[3], sc2 = ldexp(1, -(int)L->depth);
+                crisp_bezier_patch_derivs(&sc->patches[L->patch].bez, (L->ix + q[k].s) * sc2, (L->iy + q[k].t) * sc2, P, ps, pt);
+                double e = fmax(fabs(P[0] - res[k].point[0]), fmax(fabs(P[1] - res[k].point[1]), fabs(P[2] - res[k].point[2])));
+                double size = fmax(fabs(P[0]), fmax(fabs(P[1]), fabs(P[2])));
+                if (!(e <= 1e-12 * (1 + size)))
+                    fail_msg("%s leaf %u patch %u at (%g, %g): shader (%.17g %.17g %.17g) C (%.17g %.17g %.17g)", names[m],
+                             q[k].leaf, L->patch, q[k].s, q[k].t, res[k].point[0], res[k].point[1], res[k].point[2],
+                             P[0], P[1], P[2]);
+            }
+            if (k % 4) {
+                double du = fabs(res[k].u - q[k].u), dv = fabs(res[k].v - q[k].v);
+                assert_true(du <= 1e-14 * (1 + fabs(q[k].u)) && dv <= 1e-14 * (1 + fabs(q[k].v)));
+            }
+        }
+        assert_true(inside > N / 10 && inside < N);
+        crisp_planner_destroy(pl);
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(model);
+    }
+    free(q);
+    free(res);
+    crisp_gl_destroy(gl);
+}
+
+static int setup(void **state)
+{
+    (void)state;
+    if (crisp_gl_context_create(&ctx)) {
+        fprintf(stderr, "test_gl_models: %s\n", crisp_error_message());
+        return -1;
+    }
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    crisp_gl_context_destroy(ctx);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    for (int i = 1; i + 1 < argc; i++)
+        if (!strcmp(argv[i], "--size") && sscanf(argv[i + 1], "%dx%d", &W, &H) != 2) return 2;
+    list_models();
+    if (model_count < 11) {
+        fprintf(stderr, "test_gl_models: %d models in %s/nurbs\n", model_count, CRISP_DATA_DIR);
+        return 1;
+    }
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_layout), cmocka_unit_test(test_models)};
+    return cmocka_run_group_tests(tests, setup, teardown);
+}

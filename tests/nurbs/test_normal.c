@@ -1,0 +1,145 @@
+/* crisp_bezier_patch_normal / crisp_surface_normal (issue 13): unit normals everywhere, also at
+ * singular points: a cone's apex (each generator keeps its own normal), a sphere's poles (the
+ * axis), a torus's regular points (equal to the plain cross product), and nothing (0) on a patch
+ * collapsed to a point. Surfaces from crisp_make_cone / _sphere / _torus and their Bézier patches;
+ * expected normals are analytic. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <string.h>
+
+#include "crisp/construct.h"
+#include "crisp/nurbs.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+static double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+static crisp_placement world(void)
+{
+    crisp_placement pl;
+    const double o[3] = {0, 0, 0}, z[3] = {0, 0, 1}, x[3] = {1, 0, 0};
+    assert_int_equal(crisp_placement_make(o, z, x, &pl), CRISP_OK);
+    return pl;
+}
+
+/* Cone r = 1 at v = 0, semi-angle 30 degrees, v from -r/tan(semi) (the apex) to 0. Its outward
+ * normal at angle u: (cos u cos a, sin u cos a, -sin a) (S_u x S_v for this parametrisation). */
+static void test_cone_apex(void **state)
+{
+    (void)state;
+    crisp_placement pl = world();
+    double a = M_PI / 6, apex = -1 / tan(a);
+    crisp_surface *s;
+    assert_int_equal(crisp_make_cone(&pl, 1, a, 0, 2 * M_PI, apex, 0, &s), CRISP_OK);
+    double dom[4];
+    crisp_surface_domain(s, dom);
+    /* the sign of S_u x S_v at a regular point fixes the orientation to compare with */
+    double ref[3];
+    assert_int_equal(crisp_surface_normal(s, 0.3, 0.5 * (dom[2] + dom[3]), ref), 1);
+    for (int i = 0; i <= 16; i++) {
+        double u = dom[0] + (dom[1] - dom[0]) * i / 16, n[3], p[3], q[3];
+        /* the apex end of the generator through u, and a point in its middle: equal normals */
+        assert_int_equal(crisp_surface_normal(s, u, dom[2], n), 1);
+        assert_int_equal(crisp_surface_normal(s, u, 0.5 * (dom[2] + dom[3]), q), 1);
+        assert_true(fabs(dot3(n, n) - 1) < 1e-12);
+        assert_true(dot3(n, q) > 1 - 1e-9);
+        /* and the analytic normal of that generator (its angle from the surface point) */
+        crisp_surface_eval(s, u, dom[3], p);
+        double ang = atan2(p[1], p[0]), want[3] = {cos(ang) * cos(a), sin(ang) * cos(a), -sin(a)};
+        double sg = dot3(ref, (double[3]){cos(0.3) * cos(a), sin(0.3) * cos(a), -sin(a)}) > 0 ? 1 : -1;
+        for (int k = 0; k < 3; k++) want[k] *= sg;
+        assert_true(dot3(n, want) > 1 - 1e-9);
+    }
+    /* The plain cross product at the apex is (numerically) zero: what the old shading had. */
+    double su[3], sv[3];
+    crisp_surface_derivs(s, dom[0] + 0.1, dom[2], NULL, su, sv, NULL, NULL, NULL);
+    assert_true(sqrt(dot3(su, su)) < 1e-12);
+    /* The same through the Bézier patches the renderer draws. */
+    crisp_bezier_patches bz;
+    assert_int_equal(crisp_surface_to_bezier(s, &bz), CRISP_OK);
+    for (int k = 0; k < bz.count; k++) {
+        const crisp_bezier_patch *bp = &bz.patches[k];
+        for (int i = 0; i <= 8; i++) {
+            double sl = i / 8.0, n[3], q[3];
+            /* the apex is at local t = 0 (v = dom[2]) */
+            assert_int_equal(crisp_bezier_patch_normal(bp, sl, 0, n), 1);
+            assert_int_equal(crisp_bezier_patch_normal(bp, sl, 0.5, q), 1);
+            assert_true(dot3(n, q) > 1 - 1e-9);
+        }
+    }
+    crisp_bezier_patches_free(&bz);
+    crisp_surface_destroy(s);
+}
+
+/* Sphere: at both poles the normal is the axis (outward: +z at the north pole), whatever u. */
+static void test_sphere_poles(void **state)
+{
+    (void)state;
+    crisp_placement pl = world();
+    crisp_surface *s;
+    assert_int_equal(crisp_make_sphere(&pl, 2, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &s), CRISP_OK);
+    double dom[4];
+    crisp_surface_domain(s, dom);
+    double ref[3], p[3];
+    assert_int_equal(crisp_surface_normal(s, 0.4, 0.2, ref), 1);
+    crisp_surface_eval(s, 0.4, 0.2, p);
+    double sg = dot3(ref, p) > 0 ? 1 : -1; /* S_u x S_v outward or inward */
+    for (int i = 0; i <= 12; i++) {
+        double u = dom[0] + (dom[1] - dom[0]) * i / 12, n[3];
+        assert_int_equal(crisp_surface_normal(s, u, dom[3], n), 1);
+        assert_true(sg * n[2] > 1 - 1e-6);
+        assert_int_equal(crisp_surface_normal(s, u, dom[2], n), 1);
+        assert_true(-sg * n[2] > 1 - 1e-6);
+    }
+    crisp_surface_destroy(s);
+}
+
+/* Regular points: exactly the normalised cross product. */
+static void test_regular_points(void **state)
+{
+    (void)state;
+    crisp_placement pl = world();
+    crisp_surface *s;
+    assert_int_equal(crisp_make_torus(&pl, 3, 1, 0, 2 * M_PI, 0, 2 * M_PI, &s), CRISP_OK);
+    for (int i = 0; i < 50; i++) {
+        double u = 0.1 + 0.12 * i, v = 0.05 + 0.123 * i, su[3], sv[3], c[3], n[3];
+        crisp_surface_derivs(s, u, v, NULL, su, sv, NULL, NULL, NULL);
+        c[0] = su[1] * sv[2] - su[2] * sv[1];
+        c[1] = su[2] * sv[0] - su[0] * sv[2];
+        c[2] = su[0] * sv[1] - su[1] * sv[0];
+        double l = sqrt(dot3(c, c));
+        assert_int_equal(crisp_surface_normal(s, u, v, n), 1);
+        for (int k = 0; k < 3; k++) assert_true(fabs(n[k] - c[k] / l) < 1e-14);
+    }
+    crisp_surface_destroy(s);
+}
+
+/* A patch that is one point has no normal: 0 and a zero vector, no NaN. */
+static void test_point_patch(void **state)
+{
+    (void)state;
+    double cpw[3 * 3 * 4];
+    for (int i = 0; i < 9; i++) cpw[4 * i] = 1, cpw[4 * i + 1] = 2, cpw[4 * i + 2] = 3, cpw[4 * i + 3] = 1;
+    crisp_bezier_patch p = {.du = 2, .dv = 2, .rational = 0, .u0 = 0, .u1 = 1, .v0 = 0, .v1 = 1, .cpw = cpw};
+    double n[3] = {7, 7, 7};
+    assert_int_equal(crisp_bezier_patch_normal(&p, 0.5, 0.5, n), 0);
+    assert_true(n[0] == 0 && n[1] == 0 && n[2] == 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_cone_apex),
+        cmocka_unit_test(test_sphere_poles),
+        cmocka_unit_test(test_regular_points),
+        cmocka_unit_test(test_point_patch),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
