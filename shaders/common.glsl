@@ -135,6 +135,32 @@ dvec3 eval_patch(uint first_cp, uint du_, uint dv_, double s, double t, out dvec
     dvec3 x = P.xyz / P.w;
     dvec3 xs = (Ps.xyz - x * Ps.w) / P.w, xt = (Pt.xyz - x * Pt.w) / P.w;
     n = cross(xs, xt);
+    // At an apex, a pole or a collapsed side one partial vanishes (rounding leaves it ~1e-16 of
+    // the other, pointing anywhere) or the two are parallel: there the normal is the limit from
+    // inside the patch, the cross product one millionth of the way towards the patch's middle
+    // (each generator of a cone keeps its own normal), as the CPU backend does
+    // (crisp__normal_degenerate, crisp_bezier_patch_normal).
+    double aa = dot(xs, xs), bb = dot(xt, xt), nn = dot(n, n);
+    if (!(aa > 1e-18LF * bb) || !(bb > 1e-18LF * aa) || !(nn > 1e-18LF * aa * bb)) {
+        double s2 = s + 1e-6LF * (0.5LF - s), t2 = t + 1e-6LF * (0.5LF - t);
+        bernstein(du_, s2, bu, du);
+        bernstein(dv_, t2, bv, dv);
+        P = dvec4(0.0LF), Ps = dvec4(0.0LF), Pt = dvec4(0.0LF);
+        for (uint j = 0u; j <= dv_; j++) {
+            dvec4 row = dvec4(0.0LF), rowd = dvec4(0.0LF);
+            uint base = first_cp + j * (du_ + 1u);
+            for (uint i = 0u; i <= du_; i++) {
+                dvec4 c = cps[base + i];
+                row += bu[i] * c;
+                rowd += du[i] * c;
+            }
+            P += bv[j] * row;
+            Ps += bv[j] * rowd;
+            Pt += dv[j] * row;
+        }
+        dvec3 y = P.xyz / P.w;
+        n = cross((Ps.xyz - y * Ps.w) / P.w, (Pt.xyz - y * Pt.w) / P.w);
+    }
     return x;
 }
 

@@ -564,6 +564,9 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     glProgramUniform1i(gl->ribbon, gl->u_ribbon.slack_tex, 2);
     glProgramUniform1i(gl->slack, gl->u_slack.nw_tex, 0);
     glProgramUniform1i(gl->slack, gl->u_slack.face_tex, 1);
+    glProgramUniform3dv(gl->slack, gl->u_slack.dir0, 1, dir0);
+    glProgramUniform3dv(gl->slack, gl->u_slack.dir_x, 1, dir_x);
+    glProgramUniform3dv(gl->slack, gl->u_slack.dir_y, 1, dir_y);
     glProgramUniform1i(gl->accum, gl->u_accum.nw_tex, 0);
     glProgramUniform1i(gl->accum, gl->u_accum.uv_tex, 3);
     glProgramUniform1i(gl->accum, gl->u_accum.face_tex, 1);

@@ -166,6 +166,10 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             v->attr[0] = sp->bez.u0 + s * (sp->bez.u1 - sp->bez.u0);
             v->attr[1] = sp->bez.v0 + t * (sp->bez.v1 - sp->bez.v0);
             crisp_vec3_cross(Ps, Pt, n);
+            /* At an apex, a pole or a collapsed side the cross product vanishes: take the limit
+             * from inside the patch (each generator of a cone keeps its own normal). */
+            if (crisp__normal_degenerate(Ps, Pt, n))
+                crisp_bezier_patch_normal(&sp->bez, s, t, n);
             if (reversed) crisp_vec3_scale(n, -1, n);
             crisp_vec3_normalize(n, v->attr + 2);
         }

@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "raster.h"
+#include "render_internal.h"
 #include "ribbon.h"
 
 #define RIBBON_PX 0.7
@@ -86,6 +87,8 @@ static void ribbon_vertex(const crisp_surface *surf, int reversed, crisp_mat4 m,
     out->attr[0] = u;
     out->attr[1] = v;
     crisp_vec3_cross(Su, Sv, n);
+    if (crisp__normal_degenerate(Su, Sv, n))
+        crisp_surface_normal(surf, u, v, n); /* apex, pole, collapsed side: the limit from inside */
     if (reversed) crisp_vec3_scale(n, -1, n);
     crisp_vec3_normalize(n, out->attr + 2);
 }

@@ -6,7 +6,8 @@
  * quarters with trimmed disk caps, a torus of four faces, and the bundled closed model
  * occt_linkrods.step; views from outside at random, grazing views, extreme zooms onto a shared
  * edge (fov down to 1e-5 degree) and cameras whose near plane cuts the solid; 1 and 4 samples.
- * `test_cracks all` runs 50 views per solid (the CI run takes fewer). */
+ * `test_cracks all` runs 50 views per solid (the CI run takes fewer); `--backend gl` runs the same
+ * checks on the GL backend. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -22,6 +23,7 @@
 #include "crisp/io.h"
 #include "crisp/render.h"
 #include "crisp/trim.h"
+#include "render_backend.h"
 
 static int full_run;
 
@@ -247,13 +249,13 @@ static void check_solid(const char *name, crisp_model *m, int views)
         crisp_camera cam = view(sc, v, w, h);
         crisp_exact_desc ed = {.threads = 2, .classify = exact_classify};
         assert_int_equal(crisp_render_exact(sc, &cam, &ed, &ex), CRISP_OK);
-        assert_int_equal(crisp_render_cpu(r1, sc, &cam, &cpu, NULL), CRISP_OK);
+        assert_int_equal(render_backend(rb_kind, r1, 1, sc, &cam, &cpu, NULL), CRISP_OK);
         compare(&cpu, &ex, name, v, 1, tol, &cc);
-        assert_int_equal(crisp_render_cpu(r4, sc, &cam, &cpu, NULL), CRISP_OK);
+        assert_int_equal(render_backend(rb_kind, r4, 4, sc, &cam, &cpu, NULL), CRISP_OK);
         compare(&cpu, &ex, name, v, 4, tol, &cc);
     }
-    printf("%s: %d views x 2 sample counts, %ld pixels inside the silhouette, %ld background, %ld deeper\n", name,
-           views, cc.inside, cc.background, cc.deeper);
+    printf("%s backend, %s: %d views x 2 sample counts, %ld pixels inside the silhouette, %ld background, %ld deeper\n", rb_name(),
+           name, views, cc.inside, cc.background, cc.deeper);
     assert_true(cc.inside > 100L * views);
     assert_int_equal(cc.background, 0);
     assert_int_equal(cc.deeper, 0);
@@ -313,6 +315,7 @@ static void test_bundled(void **state)
 
 int main(int argc, char **argv)
 {
+    argc = rb_parse_args(argc, argv);
     full_run = argc > 1 && !strcmp(argv[1], "all");
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_octant_sphere),
