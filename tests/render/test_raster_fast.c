@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -48,21 +49,21 @@ static void soup(crisp_raster_vertex *v, crisp_raster_tri *t)
 }
 
 typedef struct {
-    size_t calls;
+    atomic_size_t calls; /* the test runs on two threads */
 } test_ctx;
 
 /* Keeps fragments by a fixed rule on (u, v): the result depends on every interpolated value. */
 static int some_test(void *vctx, uint32_t face, double u, double v)
 {
     test_ctx *c = vctx;
-    c->calls++;
+    atomic_fetch_add(&c->calls, 1);
     return (face & 3) != 1 || u + v < 1.2;
 }
 
 static int keep_all(void *vctx, uint32_t face, double u, double v)
 {
     (void)face, (void)u, (void)v;
-    ((test_ctx *)vctx)->calls++;
+    atomic_fetch_add(&((test_ctx *)vctx)->calls, 1);
     return 1;
 }
 
