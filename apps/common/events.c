@@ -137,6 +137,7 @@ static int parse_line(builder *b, char **tok, int n, const char *rest)
                         strcmp(cmd, "click") ? " [X Y] [MODS]" : " X Y [MODS]");
         int i = 2;
         if (n >= 4 && parse_num(tok[2], &x) && parse_num(tok[3], &y)) at = 1, i = 4;
+        if (!strcmp(cmd, "click") && !at) return fail(b, "expected 'click left|middle|right X Y [MODS]'");
         if (i < n && !parse_mods(tok[i++], &mods)) return fail(b, "bad modifiers '%s' (expected shift, ctrl, alt, super joined by +)", tok[i - 1]);
         if (i != n || (!strcmp(cmd, "click") && !at)) return fail(b, "unexpected text after '%s'", cmd);
         if (at) {
