@@ -22,15 +22,16 @@ static void test_replay_parse(void **state)
     (void)state;
     app_player p;
     char err[256];
-    const char *text = "# a comment\n"
-                       "move 10 20\n"
-                       "click left 5 6 shift+ctrl\n"
-                       "drag right 0 0 10 10 4\n"
-                       "wheel -2 3 4\n"
-                       "key ctrl+q\n"
-                       "key F1\n"
-                       "drop /tmp/a file.igs\n"
-                       "wait 3\nsleep 10\nidle\ncamera\nscreenshot out.png 640x480\nmark here\nclose\n";
+    const char *text =
+        "# a comment\n"
+        "move 10 20\n"
+        "click left 5 6 shift+ctrl\n"
+        "drag right 0 0 10 10 4\n"
+        "wheel -2 3 4\n"
+        "key ctrl+q\n"
+        "key F1\n"
+        "drop /tmp/a file.igs\n"
+        "wait 3\nsleep 10\nidle\ncamera\nscreenshot out.png 640x480\nmark here\nclose\n";
     assert_true(app_player_load_mem(&p, "r.events", text, err, sizeof err));
     /* move; click = move, press, release; drag = move, press, 4 moves, release; wheel = move,
      * scroll; key; key; drop; wait; sleep; idle; camera; screenshot; mark; close */
@@ -52,7 +53,8 @@ static void test_replay_parse(void **state)
         {"move 1\n", "r:1: expected 'move X Y'"},
         {"idle\nclick left 1\n", "r:2: expected 'click left|middle|right X Y [MODS]'"},
         {"\n\nkey nosuchkey\n", "r:3: unknown key 'nosuchkey'"},
-        {"drag left 0 0 1 1 0\n", "r:1: expected 'drag BUTTON X0 Y0 X1 Y1 [STEPS 1..100000] [MODS]'"},
+        {"drag left 0 0 1 1 0\n",
+         "r:1: expected 'drag BUTTON X0 Y0 X1 Y1 [STEPS 1..100000] [MODS]'"},
         {"fly 1 2\n", "r:1: unknown event 'fly'"},
         {"down left 1 2 hyper\n", "r:1: bad modifiers 'hyper'"},
     };
@@ -114,14 +116,16 @@ static void test_navigation_exact(void **state)
     crisp_vec3_sub(nav.cam.target, nav.cam.eye, f);
     crisp_vec3_cross(f, nav.cam.up, r);
     crisp_vec3_normalize(r, r);
-    for (int i = 0; i < 3; i++) off[i] = t[i] + 0.5 * r[i];
+    for (int i = 0; i < 3; i++)
+        off[i] = t[i] + 0.5 * r[i];
     pixel_of(&nav.cam, t, a0);
     pixel_of(&nav.cam, off, a1);
     app_nav_set_ortho(&nav, 1);
     assert_true(nav.cam.fov_deg <= APP_NAV_ORTHO_FOV + 1e-12);
     pixel_of(&nav.cam, t, b0);
     pixel_of(&nav.cam, off, b1);
-    assert_true(fabs(hypot(a1[0] - a0[0], a1[1] - a0[1]) - hypot(b1[0] - b0[0], b1[1] - b0[1])) < 1e-6);
+    assert_true(fabs(hypot(a1[0] - a0[0], a1[1] - a0[1]) - hypot(b1[0] - b0[0], b1[1] - b0[1])) <
+                1e-6);
     /* near and far enclose the box */
     app_nav_update_clip(&nav);
     for (int k = 0; k < 8; k++) {
