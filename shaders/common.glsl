@@ -111,19 +111,19 @@ void bernstein(uint n, double x, out double B[16], out double D[16])
     B[n] = saved;
 }
 
-// Point of patch `patch` at its local (s, t) and the derivatives' cross product (not unit, not
-// turned round for reversed faces), in double.
-dvec3 patch_point(uint patch_index, double s, double t, out dvec3 n)
+// Point of the rational Bezier patch of degrees (du, dv) whose control points start at first_cp,
+// at its local (s, t), and the derivatives' cross product (not unit, not turned round for reversed
+// faces), in double.
+dvec3 eval_patch(uint first_cp, uint du_, uint dv_, double s, double t, out dvec3 n)
 {
-    PatchRecord p = patches[patch_index];
     double bu[16], du[16], bv[16], dv[16];
-    bernstein(p.du, s, bu, du);
-    bernstein(p.dv, t, bv, dv);
+    bernstein(du_, s, bu, du);
+    bernstein(dv_, t, bv, dv);
     dvec4 P = dvec4(0.0LF), Ps = dvec4(0.0LF), Pt = dvec4(0.0LF);
-    for (uint j = 0u; j <= p.dv; j++) {
+    for (uint j = 0u; j <= dv_; j++) {
         dvec4 row = dvec4(0.0LF), rowd = dvec4(0.0LF);
-        uint base = p.first_cp + j * (p.du + 1u);
-        for (uint i = 0u; i <= p.du; i++) {
+        uint base = first_cp + j * (du_ + 1u);
+        for (uint i = 0u; i <= du_; i++) {
             dvec4 c = cps[base + i];
             row += bu[i] * c;
             rowd += du[i] * c;
@@ -136,4 +136,11 @@ dvec3 patch_point(uint patch_index, double s, double t, out dvec3 n)
     dvec3 xs = (Ps.xyz - x * Ps.w) / P.w, xt = (Pt.xyz - x * Pt.w) / P.w;
     n = cross(xs, xt);
     return x;
+}
+
+// The same for patch record `patch_index`.
+dvec3 patch_point(uint patch_index, double s, double t, out dvec3 n)
+{
+    PatchRecord p = patches[patch_index];
+    return eval_patch(p.first_cp, p.du, p.dv, s, t, n);
 }

@@ -4,6 +4,9 @@
 // leaf-local (s, t) on in float (see the precision note in common.glsl).
 layout(quads, equal_spacing, ccw) in;
 patch in uint tc_leaf;
+patch in uvec4 tc_patch;
+patch in dvec2 tc_corner;
+patch in double tc_scale;
 uniform dmat4 view_proj;
 uniform dvec2 jitter;  // the sample's offset from the pixel centre, in NDC
 uniform float zconst;  // the constant clip z: window depth = zconst / W (larger = nearer)
@@ -19,14 +22,11 @@ out gl_PerVertex {
 
 void main()
 {
-    uint L = tc_leaf;
-    uvec4 a = leaves[3u * L], b = leaves[3u * L + 1u];
-    double scale = ldexp(1.0LF, -int(a.z));
-    double s = (double(b.x) + double(gl_TessCoord.x)) * scale;
-    double t = (double(b.y) + double(gl_TessCoord.y)) * scale;
+    double s = tc_corner.x + double(gl_TessCoord.x) * tc_scale;
+    double t = tc_corner.y + double(gl_TessCoord.y) * tc_scale;
     dvec3 n;
-    dvec3 x = patch_point(a.x, s, t, n);
-    if ((faces[a.y].flags & FACE_REVERSED) != 0u) n = -n;
+    dvec3 x = eval_patch(tc_patch.x, tc_patch.y, tc_patch.z, s, t, n);
+    if (tc_patch.w != 0u) n = -n;
     double nn = length(n);
     te_normal = nn > 0.0LF ? vec3(n / nn) : vec3(0.0);
     dvec4 c = view_proj * dvec4(x, 1.0LF);
@@ -36,5 +36,5 @@ void main()
     gl_ClipDistance[1] = float(c.w - c.z); // far plane
     te_s = gl_TessCoord.x;
     te_t = gl_TessCoord.y;
-    te_leaf = L;
+    te_leaf = tc_leaf;
 }

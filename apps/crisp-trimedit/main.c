@@ -501,13 +501,11 @@ int main(int argc, char **argv)
         goto out;
     }
 #endif
-    /* The 3D camera: navigation on the face's box, starting from the editor's framing. */
+    /* The 3D camera: navigation on the face's box, starting from the isometric view of it. */
     {
         double box[6];
         crisp_surface_bbox(w->app.model->faces[w->app.face].surface, box);
         app_nav_init(&w->nav, box, (int)w->app.view3d.w, (int)w->app.view3d.h);
-        crisp_camera c = w->app.cam;
-        w->nav.cam = c;
         set_camera_from_nav(w);
     }
     glfwSetCursorPosCallback(w->win, cb_cursor);

@@ -550,13 +550,47 @@ crisp_status te_app_save(te_app *app, const char *path)
 
 /* ---- the 2D view ----------------------------------------------------------------------------- */
 
+/* Clip the segment p-q to the 2D view (Liang-Barsky); 0 when nothing is left. */
+static int clip_to_view(const te_rect *r, double p[2], double q[2])
+{
+    double t0 = 0, t1 = 1, dx = q[0] - p[0], dy = q[1] - p[1];
+    const double pk[4] = {-dx, dx, -dy, dy};
+    const double qk[4] = {p[0] - r->x, r->x + r->w - p[0], p[1] - r->y, r->y + r->h - p[1]};
+    for (int k = 0; k < 4; k++) {
+        if (pk[k] == 0) {
+            if (qk[k] < 0) return 0;
+            continue;
+        }
+        double t = qk[k] / pk[k];
+        if (pk[k] < 0) {
+            if (t > t1) return 0;
+            if (t > t0) t0 = t;
+        } else {
+            if (t < t0) return 0;
+            if (t < t1) t1 = t;
+        }
+    }
+    double a[2] = {p[0] + t0 * dx, p[1] + t0 * dy}, b[2] = {p[0] + t1 * dx, p[1] + t1 * dy};
+    p[0] = a[0], p[1] = a[1], q[0] = b[0], q[1] = b[1];
+    return 1;
+}
+
 static void line_uv(te_app *app, const te_draw *d, const double a[2], const double b[2],
                     uint32_t color, double width)
 {
     double p[2], q[2];
     te_app_uv_to_px(app, a, p);
     te_app_uv_to_px(app, b, q);
-    d->line(d->ctx, p[0], p[1], q[0], q[1], color, width);
+    if (clip_to_view(&app->view2d, p, q)) d->line(d->ctx, p[0], p[1], q[0], q[1], color, width);
+}
+
+static void circle_px(te_app *app, const te_draw *d, const double px[2], double r, uint32_t color,
+                      int filled)
+{
+    const te_rect *v = &app->view2d;
+    if (px[0] - r >= v->x && px[0] + r <= v->x + v->w && px[1] - r >= v->y &&
+        px[1] + r <= v->y + v->h)
+        d->circle(d->ctx, px[0], px[1], r, color, filled);
 }
 
 long te_app_draw_2d(te_app *app, const te_draw *d)
@@ -612,7 +646,7 @@ long te_app_draw_2d(te_app *app, const te_draw *d)
                 double q0[2], q1[2], px[2];
                 crisp_curve_eval(cv, a, q0);
                 te_app_uv_to_px(app, q0, px);
-                d->circle(d->ctx, px[0], px[1], 2.0, 0xff2080ffu, 1);
+                circle_px(app, d, px, 2.0, 0xff2080ffu, 1);
                 for (int i = 1; i <= n; i++) {
                     crisp_curve_eval(cv, a + (b - a) * i / n, q1);
                     line_uv(app, d, q0, q1, color, 2);
@@ -633,7 +667,7 @@ long te_app_draw_2d(te_app *app, const te_draw *d)
                 int active = app->drag == TE_DRAG_POINT && app->drag_ref.loop == l &&
                              app->drag_ref.curve == c && app->drag_ref.index == i;
                 double rad = fmin(9.0, fmax(2.5, 3.5 * sqrt(w)));
-                d->circle(d->ctx, px[0], px[1], rad, active ? 0xff00ffffu : 0xffffffffu, active);
+                circle_px(app, d, px, rad, active ? 0xff00ffffu : 0xffffffffu, active);
             }
         }
     }

@@ -66,14 +66,17 @@ typedef struct crisp_gl_desc {
     int samples;             /* per pixel: 1 (default), 4 or 16 */
     size_t max_buffer_bytes; /* largest storage buffer; 0: GL_MAX_SHADER_STORAGE_BLOCK_SIZE (a
                                 smaller value tests the limit's error path) */
+    int profile;             /* 1: finish the GL work after each stage to time it (slower) */
 } crisp_gl_desc;
 
 typedef struct crisp_gl_stats {
     uint64_t bytes_uploaded;  /* plan bytes uploaded by the last crisp_gl_draw */
     uint64_t scene_bytes;     /* bytes of the scene's buffers */
     uint32_t leaves, ribbon_quads, passes;
-    double ms_upload, ms_draw; /* CPU time of the upload and of the draw calls until glFinish */
+    double ms_upload, ms_draw; /* wall time of the upload and of the draw calls until glFinish */
     double ms_read;
+    double ms_surfaces, ms_ribbons, ms_resolve; /* with crisp_gl_desc.profile: the stages, summed
+                                                   over the sample passes */
 } crisp_gl_stats;
 
 typedef struct crisp_gl crisp_gl;
@@ -96,6 +99,10 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
 void crisp_gl_destroy(crisp_gl *gl);
 crisp_status crisp_gl_set_scene(crisp_gl *gl, const crisp_scene *scene);
 crisp_status crisp_gl_set_scene_data(crisp_gl *gl, const crisp_gl_scene_data *data);
+/* GL state: crisp_gl_draw, crisp_gl_read and crisp_gl_blit leave the context with framebuffer 0,
+ * program 0, clip control (lower left, -1..1), depth test off, GL_LESS; they change the viewport,
+ * the vertex array binding, texture units 0-3, image units 0-4, storage buffer bindings 0-10 and
+ * the pack alignment (1). An app that shares the context sets what it needs after them. */
 /* Draws the plan (of the scene last set) into the backend's targets. Uploads only the arrays
  * whose *_version differs from the last plan drawn (everything when the plan pointer changed,
  * after crisp_gl_set_scene and after crisp_gl_forget_plan: call that when a new planner may

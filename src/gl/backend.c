@@ -427,6 +427,9 @@ static crisp_status ensure_targets(crisp_gl *gl, int w, int h)
     if (w < 1 || h < 1 || w > max_size || h > max_size)
         return crisp_error(CRISP_ERR_LIMIT, "image %dx%d: the GL backend draws 1..%d pixels per side "
                                             "(GL_MAX_TEXTURE_SIZE)", w, h, max_size);
+    if ((uint64_t)w * (uint64_t)h * 16 > INT32_MAX)
+        return crisp_error(CRISP_ERR_LIMIT, "image %dx%d: the GL backend reads back at most %d pixels (16 bytes "
+                                            "each in one call)", w, h, INT32_MAX / 16);
     free_targets(gl);
     gl->t_nw = texture(GL_RGBA32F, w, h);
     gl->t_uv = texture(GL_RG32F, w, h);
@@ -607,6 +610,7 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
         glClearNamedFramebufferfv(gl->fbo_pass, GL_DEPTH, 0, &depth_clear);
         glEnable(GL_DEPTH_TEST);
         glDepthFunc(GL_GREATER); /* nearer wins; equal depth keeps the earlier leaf */
+        double ts0 = gl->desc.profile ? crisp_time_now() : 0;
         if (p->leaf_count) {
             glUseProgram(gl->surface);
             for (size_t first = 0; first < p->leaf_count; first += gl->chunk_leaves) {
@@ -615,6 +619,12 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
                                   (GLintptr)(first * sizeof(crisp_plan_leaf)), (GLsizeiptr)(n * sizeof(crisp_plan_leaf)));
                 glDrawArrays(GL_PATCHES, 0, (GLsizei)n);
             }
+        }
+        double ts1 = 0;
+        if (gl->desc.profile) {
+            glFinish();
+            ts1 = crisp_time_now();
+            stats->ms_surfaces += 1e3 * (ts1 - ts0);
         }
         if (p->ribbon_quad_count) {
             glBindFramebuffer(GL_FRAMEBUFFER, gl->fbo_slack);
@@ -632,9 +642,19 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
                 glDrawArrays(GL_TRIANGLES, 0, (GLsizei)(6 * n));
             }
         }
+        double ts2 = 0;
+        if (gl->desc.profile) {
+            glFinish();
+            ts2 = crisp_time_now();
+            stats->ms_ribbons += 1e3 * (ts2 - ts1);
+        }
         glUseProgram(gl->accum);
         glDispatchCompute(gx, gy, 1);
         glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+        if (gl->desc.profile) {
+            glFinish();
+            stats->ms_resolve += 1e3 * (crisp_time_now() - ts2);
+        }
     }
     glUseProgram(gl->finish);
     glDispatchCompute(gx, gy, 1);
@@ -721,6 +741,24 @@ crisp_status crisp__gl_sample_faces(crisp_gl *gl, int32_t *dest)
         for (size_t k = 0; k < n; k++) dest[k * S + s] = tmp[s * n + k];
     free(tmp);
     return gl_check("reading the samples' faces");
+}
+
+crisp_status crisp__gl_blit_probe(crisp_gl *gl, uint8_t *rgba)
+{
+    GLuint tex, fbo;
+    glCreateTextures(GL_TEXTURE_2D, 1, &tex);
+    glTextureStorage2D(tex, 1, GL_RGBA8, gl->width, gl->height);
+    glCreateFramebuffers(1, &fbo);
+    glNamedFramebufferTexture(fbo, GL_COLOR_ATTACHMENT0, tex, 0);
+    crisp_status st = crisp_gl_blit(gl, fbo, 0, 0, gl->width, gl->height);
+    if (!st) {
+        glPixelStorei(GL_PACK_ALIGNMENT, 1);
+        glGetTextureImage(tex, 0, GL_RGBA, GL_UNSIGNED_BYTE, gl->width * gl->height * 4, rgba);
+        st = gl_check("reading the blit probe");
+    }
+    glDeleteFramebuffers(1, &fbo);
+    glDeleteTextures(1, &tex);
+    return st;
 }
 
 /* ---- layout probe (tests) --------------------------------------------------------------------- */

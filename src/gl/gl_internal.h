@@ -31,6 +31,10 @@ const crisp_scene *crisp__gl_scene(const crisp_gl *gl);
 void crisp__gl_keep_sample_faces(crisp_gl *gl);
 crisp_status crisp__gl_sample_faces(crisp_gl *gl, int32_t *dest);
 
+/* Tests: crisp_gl_blit into an RGBA8 texture of the frame's size, read back in GL's row order
+ * (row 0 = the bottom: the image's last row). */
+crisp_status crisp__gl_blit_probe(crisp_gl *gl, uint8_t *rgba);
+
 enum { CRISP__GL_VERTEX, CRISP__GL_FRAGMENT, CRISP__GL_COMPUTE };
 /* Compiles and links one shader of the given stage (after the #version line and common.glsl)
  * and deletes the program: the compile and link error path, for tests. */

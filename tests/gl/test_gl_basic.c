@@ -161,6 +161,17 @@ static int check_square(int samples, const crisp_camera *cam, int trimmed, int d
             assert_true(fabs(img.rgba[4 * k] - square_color[0] * (0.25 + 0.75 * fabs(d[2]))) < 1e-3);
         }
     assert_true(covered > 0);
+    /* the viewer's path: the colour blitted into an app framebuffer, the image's top row at the
+     * top (GL's last row) */
+    uint8_t *px8 = malloc((size_t)cam->width * cam->height * 4);
+    assert_int_equal(crisp__gl_blit_probe(gl, px8), CRISP_OK);
+    for (int j = 0; j < cam->height; j++)
+        for (int i = 0; i < cam->width; i++) {
+            size_t k = (size_t)j * cam->width + i, g = (size_t)(cam->height - 1 - j) * cam->width + i;
+            for (int c = 0; c < 4; c++)
+                assert_true(abs((int)px8[4 * g + c] - (int)lrintf(255 * img.rgba[4 * k + c])) <= 1);
+        }
+    free(px8);
     crisp_image_free(&img);
     free(h);
     crisp_gl_destroy(gl);

@@ -1,5 +1,5 @@
 /* GL and CPU backends on the same frame plan of every bundled model (data/nurbs) under 20 cameras
- * (orbits at several elevations, close-ups of patch centres at 3 and 0.01 degree): face id and
+ * (every file of data/nurbs; orbits at several elevations, close-ups of patch centres at 3 and 0.01 degree): face id and
  * coverage must agree on every pixel farther than 1 px from a face or background transition
  * (silhouettes, trim curves, face boundaries) and from a patch boundary in either image. Depth
  * agrees there to 1e-3 relative on all but 0.1% of them (both tessellations are within the
@@ -8,6 +8,7 @@
  * crisp_plan_trim_test and the C records.
  *
  * test_gl_models [--size WxH] (default 160x120; the slow variant renders 480x360). */
+#include <dirent.h>
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -26,11 +27,27 @@
 static crisp_gl_context *ctx;
 static int W = 160, H = 120;
 
-static const char *const models[] = {
-    "Ventilator.stp",     "gpucast_part.igs",      "gpucast_teapot.igs",   "impeller.igs",
-    "occt_as1_ec.stp",    "occt_bearing.iges",     "occt_bm2_pe_t4_b.stp", "occt_hammer.iges",
-    "occt_linkrods.step", "occt_trj4_k1_geo_tu.stp", "occt_trj9_io1.stp",
-};
+/* Every bundled model: the files of data/nurbs, sorted by name. */
+static char models[64][256];
+static int model_count;
+
+static int cmp_name(const void *a, const void *b)
+{
+    return strcmp(a, b);
+}
+
+static void list_models(void)
+{
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
+    DIR *d = opendir(dir);
+    if (!d) return;
+    struct dirent *e;
+    while ((e = readdir(d)) && model_count < 64)
+        if (e->d_name[0] != '.') snprintf(models[model_count++], sizeof models[0], "%s", e->d_name);
+    closedir(d);
+    qsort(models, (size_t)model_count, sizeof models[0], cmp_name);
+}
 #define CAMERAS 20
 
 static crisp_camera make_camera(const crisp_scene *sc, int k)
@@ -132,7 +149,7 @@ static void test_models(void **state)
     crisp_gl *gl = NULL;
     assert_int_equal(crisp_gl_create(crisp_gl_context_getproc(ctx), NULL, &gl), CRISP_OK);
     tally all = {0};
-    for (size_t m = 0; m < sizeof models / sizeof *models; m++) {
+    for (size_t m = 0; m < (size_t)model_count; m++) {
         char path[512];
         snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, models[m]);
         crisp_model *model;
@@ -169,7 +186,7 @@ static void test_models(void **state)
         crisp_scene_destroy(sc);
         crisp_model_destroy(model);
     }
-    assert_true(all.compared > (long)(sizeof models / sizeof *models) * CAMERAS * W * H / 20);
+    assert_true(all.compared > (long)model_count * CAMERAS * W * H / 20);
     assert_int_equal(all.face_diff, 0);
     assert_int_equal(all.alpha_diff, 0);
     /* depth: the two tessellations of a leaf differ inside (GL's quad pattern, the CPU's), each
@@ -291,6 +308,11 @@ int main(int argc, char **argv)
 {
     for (int i = 1; i + 1 < argc; i++)
         if (!strcmp(argv[i], "--size") && sscanf(argv[i + 1], "%dx%d", &W, &H) != 2) return 2;
+    list_models();
+    if (model_count < 11) {
+        fprintf(stderr, "test_gl_models: %d models in %s/nurbs\n", model_count, CRISP_DATA_DIR);
+        return 1;
+    }
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_layout), cmocka_unit_test(test_models)};
     return cmocka_run_group_tests(tests, setup, teardown);
 }

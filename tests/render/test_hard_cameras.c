@@ -7,7 +7,9 @@
  * unless a 9x9 grid of exact rays over the pixel's 3x3 neighbourhood sees an edge (or the CPU's
  * face), or a trim curve of either face, visible or hidden, passes within 1.5 px (the issue's
  * "farther than 1.5 px from a trim curve, patch boundary or silhouette").
- * Argument "all": the long sweep (slow label); without it a representative subset. */
+ * Argument "all": the long sweep (slow label); without it a representative subset. `--backend gl`:
+ * the same checks on the GL backend drawing the same plans (gl label; the triangle check is the
+ * CPU backend's own). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -23,6 +25,7 @@
 #include "crisp/io.h"
 #include "crisp/render.h"
 #include "crisp/trim.h"
+#include "render/render_backend.h"
 #include "render/render_test_util.h"
 
 static int full_sweep;
@@ -202,11 +205,11 @@ static void compare(const model_case *mc, crisp_renderer *r, const crisp_camera 
     assert_int_equal(crisp_image_init(&ex, cam->width, cam->height), CRISP_OK);
     crisp_render_stats st;
     double t0 = crisp_time_now();
-    crisp_status s = crisp_render_cpu(r, mc->scene, cam, &cpu, &st);
+    crisp_status s = render_backend(rb_kind, r, 1, mc->scene, cam, &cpu, &st);
     if (s) fprintf(stderr, "%s %s: %s\n", mc->name, what, crisp_error_message());
     assert_int_equal(s, CRISP_OK);
     double t1 = crisp_time_now();
-    double mesh_err = rt_mesh_error(r, mc->scene, cam);
+    double mesh_err = rb_kind == RENDER_CPU ? rt_mesh_error(r, mc->scene, cam) : 0; /* CPU triangles */
     crisp_exact_desc d = {.threads = 2, .classify = exact_classify};
     assert_int_equal(crisp_render_exact(mc->scene, cam, &d, &ex), CRISP_OK);
     check_finite(&cpu);
@@ -222,8 +225,8 @@ static void compare(const model_case *mc, crisp_renderer *r, const crisp_camera 
                 !near_trim_curve(mc->scene, cam, cpu.face[px], i + 0.5, j + 0.5, 1.5) &&
                 !near_trim_curve(mc->scene, cam, ex.face[px], i + 0.5, j + 0.5, 1.5)) {
                 if (differ < 4)
-                    fprintf(stderr, "  %s %s pixel (%d, %d): cpu face %d, exact face %d\n", mc->name, what, i,
-                            j, cpu.face[px], ex.face[px]);
+                    fprintf(stderr, "  %s %s pixel (%d, %d): %s face %d, exact face %d\n", mc->name, what, i,
+                            j, rb_name(), cpu.face[px], ex.face[px]);
                 differ++;
             }
         }
@@ -405,7 +408,7 @@ static void grazing_model(crisp_model *model, const char *name, int closed, int 
         crisp_image cpu, ex;
         assert_int_equal(crisp_image_init(&cpu, w, h), CRISP_OK);
         assert_int_equal(crisp_image_init(&ex, w, h), CRISP_OK);
-        assert_int_equal(crisp_render_cpu(rd, mc.scene, &cam, &cpu, NULL), CRISP_OK);
+        assert_int_equal(render_backend(rb_kind, rd, 1, mc.scene, &cam, &cpu, NULL), CRISP_OK);
         assert_int_equal(crisp_render_exact(mc.scene, &cam, &d, &ex), CRISP_OK);
         for (int j = 1; j < h - 1; j++)
             for (int i = 1; i < w - 1; i++) {
@@ -500,7 +503,7 @@ static void test_hidden_edge_ribbon(void **state)
     crisp_image cpu, ex;
     assert_int_equal(crisp_image_init(&cpu, 160, 120), CRISP_OK);
     assert_int_equal(crisp_image_init(&ex, 160, 120), CRISP_OK);
-    assert_int_equal(crisp_render_cpu(r, mc.scene, &cam, &cpu, NULL), CRISP_OK);
+    assert_int_equal(render_backend(rb_kind, r, 1, mc.scene, &cam, &cpu, NULL), CRISP_OK);
     crisp_exact_desc d = {.threads = 2, .classify = exact_classify};
     assert_int_equal(crisp_render_exact(mc.scene, &cam, &d, &ex), CRISP_OK);
     long compared = 0, differ = 0;
@@ -548,10 +551,10 @@ static void test_image_reuse(void **state)
     crisp_camera b = look(far_eye, mc.centre, 10, 0.01, 100, 48, 36);
     crisp_image reused, fresh;
     assert_int_equal(crisp_image_init(&reused, 48, 36), CRISP_OK);
-    assert_int_equal(crisp_render_cpu(r, mc.scene, &a, &reused, NULL), CRISP_OK);
-    assert_int_equal(crisp_render_cpu(r, mc.scene, &b, &reused, NULL), CRISP_OK);
+    assert_int_equal(render_backend(rb_kind, r, 1, mc.scene, &a, &reused, NULL), CRISP_OK);
+    assert_int_equal(render_backend(rb_kind, r, 1, mc.scene, &b, &reused, NULL), CRISP_OK);
     assert_int_equal(crisp_image_init(&fresh, 48, 36), CRISP_OK);
-    assert_int_equal(crisp_render_cpu(r, mc.scene, &b, &fresh, NULL), CRISP_OK);
+    assert_int_equal(render_backend(rb_kind, r, 1, mc.scene, &b, &fresh, NULL), CRISP_OK);
     same_image(&reused, &fresh);
     assert_int_equal(crisp_render_exact(mc.scene, &a, NULL, &reused), CRISP_OK);
     assert_int_equal(crisp_render_exact(mc.scene, &b, NULL, &reused), CRISP_OK);
@@ -577,12 +580,12 @@ static void test_up_parallel(void **state)
     assert_int_equal(crisp_renderer_create(NULL, &r), CRISP_OK);
     crisp_image img;
     assert_int_equal(crisp_image_init(&img, 32, 32), CRISP_OK);
-    assert_int_equal(crisp_render_cpu(r, mc.scene, &cam, &img, NULL), CRISP_ERR_INVALID_ARG);
+    assert_int_equal(render_backend(rb_kind, r, 1, mc.scene, &cam, &img, NULL), CRISP_ERR_INVALID_ARG);
     assert_int_equal(crisp_render_exact(mc.scene, &cam, NULL, &img), CRISP_ERR_INVALID_ARG);
     cam.up[0] = 1e-300; /* not parallel in exact arithmetic; still no usable frame */
     crisp_status s = crisp_camera_check(&cam);
     if (!s) {
-        assert_int_equal(crisp_render_cpu(r, mc.scene, &cam, &img, NULL), CRISP_OK);
+        assert_int_equal(render_backend(rb_kind, r, 1, mc.scene, &cam, &img, NULL), CRISP_OK);
         check_finite(&img);
     }
     crisp_image_free(&img);
@@ -592,6 +595,7 @@ static void test_up_parallel(void **state)
 
 int main(int argc, char **argv)
 {
+    argc = rb_parse_args(argc, argv);
     full_sweep = argc > 1 && !strcmp(argv[1], "all");
     if (argc > 2) cmocka_set_test_filter(argv[2]);
     const struct CMUnitTest tests[] = {

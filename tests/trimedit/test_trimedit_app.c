@@ -33,18 +33,31 @@ enum { W = 400, H = 200 };
 
 typedef struct counts {
     long lines, circles;
+    double lo[2], hi[2]; /* extent of everything drawn */
 } counts;
+
+static void extend(counts *n, double x, double y, double r)
+{
+    if (n->lines + n->circles == 1) n->lo[0] = n->hi[0] = x, n->lo[1] = n->hi[1] = y;
+    n->lo[0] = fmin(n->lo[0], x - r), n->hi[0] = fmax(n->hi[0], x + r);
+    n->lo[1] = fmin(n->lo[1], y - r), n->hi[1] = fmax(n->hi[1], y + r);
+}
 
 static void count_line(void *ctx, double x0, double y0, double x1, double y1, uint32_t c, double w)
 {
-    (void)x0, (void)y0, (void)x1, (void)y1, (void)c, (void)w;
-    ((counts *)ctx)->lines++;
+    (void)c, (void)w;
+    counts *n = ctx;
+    n->lines++;
+    extend(n, x0, y0, 0);
+    extend(n, x1, y1, 0);
 }
 
 static void count_circle(void *ctx, double x, double y, double r, uint32_t c, int filled)
 {
-    (void)x, (void)y, (void)r, (void)c, (void)filled;
-    ((counts *)ctx)->circles++;
+    (void)c, (void)filled;
+    counts *n = ctx;
+    n->circles++;
+    extend(n, x, y, r);
 }
 
 static void to_rgba8(const crisp_image *img, uint8_t *px)
@@ -120,8 +133,8 @@ static void test_drag_undo_redo_save(void **state)
             drawn[p] = img.face[p] == 0;
         const crisp_scene_face *sf = &app.scene->faces[0];
         fc_result res;
-        fc_compare(&ref, 0, app.scene->pieces + sf->first_piece, (int)sf->piece_count, drawn, 1.0,
-                   &res);
+        fc_compare(&ref, bare_sc, &app.cam, 0, app.scene->pieces + sf->first_piece,
+                   (int)sf->piece_count, drawn, 1.0, &res);
         assert_int_equal(res.beyond, 0);
         assert_true(res.pixels > 1000);
         disagree += res.disagree;
@@ -296,13 +309,23 @@ static void test_refused_edits(void **state)
     /* Every state renders. */
     assert_int_equal(te_app_update(&app), CRISP_OK);
     /* The 2D view: scan lines of the table, at least one per strip that has rows. */
-    counts n = {0, 0};
+    counts n = {0, 0, {0, 0}, {0, 0}};
     te_draw d = {.ctx = &n, .line = count_line, .circle = count_circle};
     long scan = te_app_draw_2d(&app, &d);
     const crisp_plan_face *pf = &app.plan->faces[0];
     assert_true(pf->strip_count > 0);
     assert_true(scan >= (long)pf->strip_count / 2);
     assert_true(n.lines > scan && n.circles > 20);
+    /* Zoomed in 20x at the centre of the 2D view: everything drawn stays inside the view. */
+    const double mid[2] = {app.view2d.x + 0.5 * app.view2d.w, app.view2d.y + 0.5 * app.view2d.h};
+    te_app_cursor(&app, mid[0], mid[1]);
+    te_app_scroll(&app, 16.4);
+    counts z = {0, 0, {0, 0}, {0, 0}};
+    d.ctx = &z;
+    (void)te_app_draw_2d(&app, &d);
+    assert_true(z.lines > 0);
+    assert_true(z.lo[0] >= app.view2d.x - 1e-9 && z.hi[0] <= app.view2d.x + app.view2d.w + 1e-9);
+    assert_true(z.lo[1] >= app.view2d.y - 1e-9 && z.hi[1] <= app.view2d.y + app.view2d.h + 1e-9);
     te_app_close(&app);
 }
 
@@ -436,7 +459,7 @@ static void test_random_input(void **state)
     static const int mods[] = {0, GLFW_MOD_SHIFT, GLFW_MOD_CONTROL, GLFW_MOD_ALT,
                                GLFW_MOD_CONTROL | GLFW_MOD_SHIFT};
     unsigned seed = 7;
-    counts n = {0, 0};
+    counts n = {0, 0, {0, 0}, {0, 0}};
     te_draw d = {.ctx = &n, .line = count_line, .circle = count_circle};
     for (int it = 0; it < 3000; it++) {
         double a = rnd(&seed);

@@ -95,8 +95,8 @@ static void drag_and_check(const crisp_camera *cam, crisp_trimedit_ref ref, doub
         }
         const crisp_scene_face *sf = &sc->faces[0];
         fc_result res;
-        fc_compare(&ref_img, 0, sc->pieces + sf->first_piece, (int)sf->piece_count, drawn, 1.0,
-                   &res);
+        fc_compare(&ref_img, sc_bare, cam, 0, sc->pieces + sf->first_piece, (int)sf->piece_count,
+                   drawn, 1.0, &res);
         t_check += crisp_time_now() - t1;
         if (res.beyond)
             print_message("%s frame %d: %ld of %ld disagreements beyond 1 px (worst %.3f px)\n",

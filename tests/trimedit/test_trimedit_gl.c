@@ -82,8 +82,9 @@ static void example_pieces(crisp_trimedit_ref ref, const double *uv, crisp_scene
 }
 
 /* Returns the share of pixels the face covers in the screenshot. */
-static double check_shot(const char *png, const crisp_image *ref, crisp_trimedit_ref pt,
-                         const double *uv, fc_result *out)
+static double check_shot(const char *png, const crisp_image *ref, const crisp_scene *bare,
+                         const crisp_camera *cam, crisp_trimedit_ref pt, const double *uv,
+                         fc_result *out)
 {
     long cover = 0;
     int w, h;
@@ -97,8 +98,8 @@ static double check_shot(const char *png, const crisp_image *ref, crisp_trimedit
     crisp_model *m;
     crisp_scene *sc;
     example_pieces(pt, uv, &sc, &m);
-    fc_compare(ref, 0, sc->pieces + sc->faces[0].first_piece, (int)sc->faces[0].piece_count, drawn,
-               1.0, out);
+    fc_compare(ref, bare, cam, 0, sc->pieces + sc->faces[0].first_piece,
+               (int)sc->faces[0].piece_count, drawn, 1.0, out);
     crisp_scene_destroy(sc);
     crisp_model_destroy(m);
     free(drawn);
@@ -141,6 +142,12 @@ static void run_drag(const char *set_camera, double amp, const char *name)
             "up left\nkey ctrl+z\nscreenshot %s/undo.png %dx%d\nkey ctrl+y\nscreenshot "
             "%s/final.png %dx%d\n",
             dir, SHOT_W, SHOT_H, dir, SHOT_W, SHOT_H);
+    /* A bad edit: weight 0 on control point 5 (refused with a message; the saved file keeps 1). */
+    double uv5[2], px5[2];
+    assert_int_equal(crisp_trimedit_point(app.ed, (crisp_trimedit_ref){0, 0, 5}, uv5, NULL),
+                     CRISP_OK);
+    te_app_uv_to_px(&app, uv5, px5);
+    fprintf(f, "move %.17g %.17g\nkey 0\n", px5[0], px5[1]);
     fclose(f);
     te_app_close(&app);
     snprintf(cmd, sizeof cmd,
@@ -156,6 +163,15 @@ static void run_drag(const char *set_camera, double amp, const char *name)
     assert_int_equal(rc, 0);
     crisp_camera cam;
     assert_true(parse_camera(log, &cam));
+    {
+        FILE *lf = fopen(log, "r");
+        char line[1024];
+        int refused = 0;
+        while (lf && fgets(line, sizeof line, lf))
+            refused |= strstr(line, "refused: weight 0") != NULL;
+        if (lf) fclose(lf);
+        assert_true(refused);
+    }
     assert_int_equal(cam.width, SHOT_W);
 
     /* The untrimmed face's exact (u, v) at the screenshot camera. */
@@ -174,7 +190,7 @@ static void run_drag(const char *set_camera, double amp, const char *name)
         char png[400];
         snprintf(png, sizeof png, "%s/f%02d.png", dir, k);
         fc_result r;
-        double cover = check_shot(png, &ref, pt, uvk[k], &r);
+        double cover = check_shot(png, &ref, bare_sc, &cam, pt, uvk[k], &r);
         cover_min = fmin(cover_min, cover);
         cover_max = fmax(cover_max, cover);
         if (r.beyond)
@@ -191,10 +207,10 @@ static void run_drag(const char *set_camera, double amp, const char *name)
     char png[400];
     fc_result r;
     snprintf(png, sizeof png, "%s/undo.png", dir);
-    check_shot(png, &ref, pt, NULL, &r);
+    check_shot(png, &ref, bare_sc, &cam, pt, NULL, &r);
     assert_int_equal(r.beyond, 0);
     snprintf(png, sizeof png, "%s/final.png", dir);
-    check_shot(png, &ref, pt, uvk[FRAMES], &r);
+    check_shot(png, &ref, bare_sc, &cam, pt, uvk[FRAMES], &r);
     assert_int_equal(r.beyond, 0);
     print_message(
         "%s: %d screenshots of the app, %ld pixels compared, %ld disagreements, all within 1 px "
@@ -206,6 +222,7 @@ static void run_drag(const char *set_camera, double amp, const char *name)
     assert_int_equal(crisp_model_load(obj, NULL, &back), CRISP_OK);
     const double *q = back->faces[0].loops[0].curves[0]->cpw + 3 * 3;
     assert_true(q[0] / q[2] == uvk[FRAMES][0] && q[1] / q[2] == uvk[FRAMES][1]);
+    assert_true(back->faces[0].loops[0].curves[0]->cpw[3 * 5 + 2] == 1.0);
     crisp_model_destroy(back);
     snprintf(cmd, sizeof cmd, "%s/crisp info %s > /dev/null", CRISP_BIN_DIR, obj);
     assert_int_equal(system(cmd), 0);
