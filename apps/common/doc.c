@@ -12,7 +12,8 @@ static crisp_status add_watch(app_doc *d, const char *path)
     char **w = realloc(d->watch, (d->watch_count + 1) * sizeof *w);
     if (!w) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
     d->watch = w;
-    if (!(w[d->watch_count] = strdup(path))) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+    if (!(w[d->watch_count] = strdup(path)))
+        return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
     d->watch_count++;
     return CRISP_OK;
 }
@@ -24,8 +25,10 @@ crisp_status app_doc_load(const char *path, app_doc **dest)
     if (stat(path, &sb) != 0)
         return crisp_error(CRISP_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     if (S_ISDIR(sb.st_mode))
-        return crisp_error(CRISP_ERR_IO, "%s: is a folder, not a file (open an IGES, STEP, OBJ, .vm "
-                                         "or .scene file)", path);
+        return crisp_error(CRISP_ERR_IO,
+                           "%s: is a folder, not a file (open an IGES, STEP, OBJ, .vm "
+                           "or .scene file)",
+                           path);
     if (!S_ISREG(sb.st_mode)) return crisp_error(CRISP_ERR_IO, "%s: not a regular file", path);
     if ((unsigned long long)sb.st_size > APP_DOC_MAX_BYTES)
         return crisp_error(CRISP_ERR_LIMIT, "%s: %.1f GB: larger than the %.0f GB the viewer opens",
@@ -39,7 +42,7 @@ crisp_status app_doc_load(const char *path, app_doc **dest)
     }
     const crisp_document *doc = d->doc;
     d->path = doc->path;
-    d->kind = doc->kind == CRISP_DOCUMENT_SCENE ? "scene"
+    d->kind = doc->kind == CRISP_DOCUMENT_SCENE  ? "scene"
               : doc->kind == CRISP_DOCUMENT_FREP ? "f-rep"
                                                  : doc->model->format;
     d->scene = doc->scene;
@@ -71,7 +74,8 @@ void app_doc_destroy(app_doc *d)
 {
     if (!d) return;
     crisp_document_destroy(d->doc);
-    for (size_t i = 0; i < d->watch_count; i++) free(d->watch[i]);
+    for (size_t i = 0; i < d->watch_count; i++)
+        free(d->watch[i]);
     free(d->watch);
     free(d);
 }

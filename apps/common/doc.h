@@ -26,9 +26,9 @@ typedef struct app_doc {
     const crisp_scene *scene;     /* doc->scene (may have no faces) */
     const crisp_frep_part *parts; /* doc->parts */
     size_t part_count;
-    double box[6];                /* doc->box (the sample points') grown to the scene's box */
+    double box[6]; /* doc->box (the sample points') grown to the scene's box */
     size_t watch_count;
-    char **watch;                 /* the files read: the path and a scene's items */
+    char **watch; /* the files read: the path and a scene's items */
     double ms_read, ms_prepare;
 } app_doc;
 

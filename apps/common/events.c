@@ -18,14 +18,22 @@ static const struct {
     const char *name;
     int key;
 } key_names[] = {
-    {"escape", GLFW_KEY_ESCAPE},  {"tab", GLFW_KEY_TAB},
-    {"space", GLFW_KEY_SPACE},    {"enter", GLFW_KEY_ENTER},
-    {"backspace", GLFW_KEY_BACKSPACE}, {"delete", GLFW_KEY_DELETE},
-    {"left", GLFW_KEY_LEFT},      {"right", GLFW_KEY_RIGHT},
-    {"up", GLFW_KEY_UP},          {"down", GLFW_KEY_DOWN},
-    {"home", GLFW_KEY_HOME},      {"end", GLFW_KEY_END},
-    {"pageup", GLFW_KEY_PAGE_UP}, {"pagedown", GLFW_KEY_PAGE_DOWN},
-    {"minus", GLFW_KEY_MINUS},    {"equal", GLFW_KEY_EQUAL},
+    {"escape", GLFW_KEY_ESCAPE},
+    {"tab", GLFW_KEY_TAB},
+    {"space", GLFW_KEY_SPACE},
+    {"enter", GLFW_KEY_ENTER},
+    {"backspace", GLFW_KEY_BACKSPACE},
+    {"delete", GLFW_KEY_DELETE},
+    {"left", GLFW_KEY_LEFT},
+    {"right", GLFW_KEY_RIGHT},
+    {"up", GLFW_KEY_UP},
+    {"down", GLFW_KEY_DOWN},
+    {"home", GLFW_KEY_HOME},
+    {"end", GLFW_KEY_END},
+    {"pageup", GLFW_KEY_PAGE_UP},
+    {"pagedown", GLFW_KEY_PAGE_DOWN},
+    {"minus", GLFW_KEY_MINUS},
+    {"equal", GLFW_KEY_EQUAL},
 };
 
 int app_key_from_name(const char *name)
@@ -50,11 +58,16 @@ static int parse_mods(const char *s, int *mods)
     while (*s) {
         const char *e = strchr(s, '+');
         size_t n = e ? (size_t)(e - s) : strlen(s);
-        if (n == 5 && !strncasecmp(s, "shift", 5)) *mods |= GLFW_MOD_SHIFT;
-        else if (n == 4 && !strncasecmp(s, "ctrl", 4)) *mods |= GLFW_MOD_CONTROL;
-        else if (n == 3 && !strncasecmp(s, "alt", 3)) *mods |= GLFW_MOD_ALT;
-        else if (n == 5 && !strncasecmp(s, "super", 5)) *mods |= GLFW_MOD_SUPER;
-        else return 0;
+        if (n == 5 && !strncasecmp(s, "shift", 5))
+            *mods |= GLFW_MOD_SHIFT;
+        else if (n == 4 && !strncasecmp(s, "ctrl", 4))
+            *mods |= GLFW_MOD_CONTROL;
+        else if (n == 3 && !strncasecmp(s, "alt", 3))
+            *mods |= GLFW_MOD_ALT;
+        else if (n == 5 && !strncasecmp(s, "super", 5))
+            *mods |= GLFW_MOD_SUPER;
+        else
+            return 0;
         s += n + (e ? 1 : 0);
     }
     return 1;
@@ -62,10 +75,14 @@ static int parse_mods(const char *s, int *mods)
 
 static int parse_button(const char *s, int *b)
 {
-    if (!strcmp(s, "left")) *b = GLFW_MOUSE_BUTTON_LEFT;
-    else if (!strcmp(s, "right")) *b = GLFW_MOUSE_BUTTON_RIGHT;
-    else if (!strcmp(s, "middle")) *b = GLFW_MOUSE_BUTTON_MIDDLE;
-    else return 0;
+    if (!strcmp(s, "left"))
+        *b = GLFW_MOUSE_BUTTON_LEFT;
+    else if (!strcmp(s, "right"))
+        *b = GLFW_MOUSE_BUTTON_RIGHT;
+    else if (!strcmp(s, "middle"))
+        *b = GLFW_MOUSE_BUTTON_MIDDLE;
+    else
+        return 0;
     return 1;
 }
 
@@ -137,8 +154,13 @@ static int parse_line(builder *b, char **tok, int n, const char *rest)
                         strcmp(cmd, "click") ? " [X Y] [MODS]" : " X Y [MODS]");
         int i = 2;
         if (n >= 4 && parse_num(tok[2], &x) && parse_num(tok[3], &y)) at = 1, i = 4;
-        if (i < n && !parse_mods(tok[i++], &mods)) return fail(b, "bad modifiers '%s' (expected shift, ctrl, alt, super joined by +)", tok[i - 1]);
-        if (i != n || (!strcmp(cmd, "click") && !at)) return fail(b, "unexpected text after '%s'", cmd);
+        if (!strcmp(cmd, "click") && !at)
+            return fail(b, "expected 'click left|middle|right X Y [MODS]'");
+        if (i < n && !parse_mods(tok[i++], &mods))
+            return fail(b, "bad modifiers '%s' (expected shift, ctrl, alt, super joined by +)",
+                        tok[i - 1]);
+        if (i != n || (!strcmp(cmd, "click") && !at))
+            return fail(b, "unexpected text after '%s'", cmd);
         if (at) {
             PUSH(APP_EV_CURSOR);
             e->x = x, e->y = y;
@@ -223,8 +245,10 @@ static int parse_line(builder *b, char **tok, int n, const char *rest)
         if (!(e->text = strdup(cmd)) || !(e->arg = strdup(rest ? rest : "")))
             return fail(b, "out of memory");
     } else {
-        return fail(b, "unknown event '%s' (expected move, down, up, click, drag, wheel, key, drop, "
-                       "close, wait, sleep, idle, screenshot, aov, camera, set-camera, mark)", cmd);
+        return fail(b,
+                    "unknown event '%s' (expected move, down, up, click, drag, wheel, key, drop, "
+                    "close, wait, sleep, idle, screenshot, aov, camera, set-camera, mark)",
+                    cmd);
     }
     return 1;
 }
@@ -252,10 +276,13 @@ int app_player_load_mem(app_player *p, const char *name, const char *text, char 
         if (hash) *hash = '\0';
         /* the text after the first word (for paths and options), trimmed */
         char *p0 = line;
-        while (isspace((unsigned char)*p0)) p0++;
+        while (isspace((unsigned char)*p0))
+            p0++;
         char *rest = p0;
-        while (*rest && !isspace((unsigned char)*rest)) rest++;
-        while (isspace((unsigned char)*rest)) rest++;
+        while (*rest && !isspace((unsigned char)*rest))
+            rest++;
+        while (isspace((unsigned char)*rest))
+            rest++;
         char rest_copy[4096];
         snprintf(rest_copy, sizeof rest_copy, "%s", rest);
         for (size_t k = strlen(rest_copy); k > 0 && isspace((unsigned char)rest_copy[k - 1]); k--)
@@ -305,7 +332,10 @@ void app_player_free(app_player *p)
     memset(p, 0, sizeof *p);
 }
 
-int app_player_done(const app_player *p) { return p->next >= p->count; }
+int app_player_done(const app_player *p)
+{
+    return p->next >= p->count;
+}
 
 int app_player_step(app_player *p, const app_input_sink *s)
 {
@@ -332,15 +362,25 @@ int app_player_step(app_player *p, const app_input_sink *s)
             p->next++;
             s->command(s->ctx, e->text, e->arg, e->line);
             continue;
-        case APP_EV_CURSOR: s->cursor(s->ctx, e->x, e->y); break;
-        case APP_EV_BUTTON: s->button(s->ctx, e->button, e->action, e->mods); break;
-        case APP_EV_SCROLL: s->scroll(s->ctx, e->y); break;
+        case APP_EV_CURSOR:
+            s->cursor(s->ctx, e->x, e->y);
+            break;
+        case APP_EV_BUTTON:
+            s->button(s->ctx, e->button, e->action, e->mods);
+            break;
+        case APP_EV_SCROLL:
+            s->scroll(s->ctx, e->y);
+            break;
         case APP_EV_KEY:
             s->key(s->ctx, e->key, GLFW_PRESS, e->mods);
             s->key(s->ctx, e->key, GLFW_RELEASE, e->mods);
             break;
-        case APP_EV_DROP: s->drop(s->ctx, e->text); break;
-        case APP_EV_CLOSE: s->close(s->ctx); break;
+        case APP_EV_DROP:
+            s->drop(s->ctx, e->text);
+            break;
+        case APP_EV_CLOSE:
+            s->close(s->ctx);
+            break;
         }
         p->next++;
         return 1; /* one input event per frame */

@@ -30,7 +30,8 @@ static void *worker(void *arg)
     app_loader *l = arg;
     pthread_mutex_lock(&l->mu);
     for (;;) {
-        while (!l->quit && !l->pending) pthread_cond_wait(&l->cv, &l->mu);
+        while (!l->quit && !l->pending)
+            pthread_cond_wait(&l->cv, &l->mu);
         if (l->quit) break;
         l->running = l->pending;
         l->running_tag = l->pending_tag;

@@ -10,15 +10,18 @@
 #include <stdlib.h>
 #include <string.h>
 
-const char *const app_view_names[APP_VIEW_COUNT] = {"isometric", "front", "top",   "right",
+const char *const app_view_names[APP_VIEW_COUNT] = {"isometric", "front",  "top", "right",
                                                     "back",      "bottom", "left"};
 
-static const double view_dir[APP_VIEW_COUNT][3] = {
-    {-1, 1, -1}, {0, 1, 0}, {0, 0, -1}, {-1, 0, 0}, {0, -1, 0}, {0, 0, 1}, {1, 0, 0}};
-static const double view_up[APP_VIEW_COUNT][3] = {
-    {0, 0, 1}, {0, 0, 1}, {0, 1, 0}, {0, 0, 1}, {0, 0, 1}, {0, -1, 0}, {0, 0, 1}};
+static const double view_dir[APP_VIEW_COUNT][3] = {{-1, 1, -1}, {0, 1, 0}, {0, 0, -1}, {-1, 0, 0},
+                                                   {0, -1, 0},  {0, 0, 1}, {1, 0, 0}};
+static const double view_up[APP_VIEW_COUNT][3] = {{0, 0, 1}, {0, 0, 1},  {0, 1, 0}, {0, 0, 1},
+                                                  {0, 0, 1}, {0, -1, 0}, {0, 0, 1}};
 
-static double deg2rad(double d) { return d * M_PI / 180.0; }
+static double deg2rad(double d)
+{
+    return d * M_PI / 180.0;
+}
 
 /* Camera basis: forward f, right r, true up u. Returns the eye-target distance. */
 static double basis(const crisp_camera *c, double f[3], double r[3], double u[3])
@@ -61,7 +64,8 @@ static void rotate(const double v[3], const double axis[3], double angle, double
 {
     double c = cos(angle), s = sin(angle), k = crisp_vec3_dot(axis, v), x[3];
     crisp_vec3_cross(axis, v, x);
-    for (int i = 0; i < 3; i++) dest[i] = v[i] * c + x[i] * s + axis[i] * k * (1 - c);
+    for (int i = 0; i < 3; i++)
+        dest[i] = v[i] * c + x[i] * s + axis[i] * k * (1 - c);
 }
 
 double app_nav_depth(const crisp_camera *cam, const double p[3])
@@ -86,7 +90,8 @@ static void ortho_fix(app_nav *nav)
     double dmin = 2 * rad + fmax(0, crisp_vec3_dot(tc, f));
     double dnew = fmax(dmin, h / (2 * tan(deg2rad(APP_NAV_ORTHO_FOV) / 2)));
     c->fov_deg = 2 * atan(h / (2 * dnew)) * 180 / M_PI;
-    for (int i = 0; i < 3; i++) c->eye[i] = c->target[i] - f[i] * dnew;
+    for (int i = 0; i < 3; i++)
+        c->eye[i] = c->target[i] - f[i] * dnew;
 }
 
 void app_nav_fit(app_nav *nav)
@@ -109,7 +114,8 @@ void app_nav_fit(app_nav *nav)
     d = fmax(d, 1e-9 * rad);
     c->fov_deg = fov;
     memcpy(c->target, ctr, sizeof ctr);
-    for (int i = 0; i < 3; i++) c->eye[i] = ctr[i] - f[i] * d;
+    for (int i = 0; i < 3; i++)
+        c->eye[i] = ctr[i] - f[i] * d;
     memcpy(c->up, u, sizeof u);
     nav->depth_hint = 0;
     ortho_fix(nav);
@@ -121,7 +127,8 @@ void app_nav_fit_points(app_nav *nav, const double *points, size_t count)
     double f[3], r[3], u[3], dir[3];
     basis(c, f, r, u);
     crisp_vec3_scale(f, -1, dir);
-    crisp_camera_fit_desc fd = {.width = c->width, .height = c->height,
+    crisp_camera_fit_desc fd = {.width = c->width,
+                                .height = c->height,
                                 .fov_deg = nav->ortho ? APP_NAV_ORTHO_FOV : APP_NAV_PERSP_FOV};
     if (!points || !count || crisp_camera_fit_points(points, count, dir, u, &fd, &fit)) {
         app_nav_fit(nav);
@@ -140,7 +147,8 @@ void app_nav_view(app_nav *nav, int view)
     crisp_camera *c = &nav->cam;
     double f[3];
     crisp_vec3_normalize(view_dir[view], f);
-    for (int i = 0; i < 3; i++) c->eye[i] = c->target[i] - f[i];
+    for (int i = 0; i < 3; i++)
+        c->eye[i] = c->target[i] - f[i];
     memcpy(c->up, view_up[view], sizeof c->up);
     app_nav_fit(nav);
 }
@@ -151,7 +159,8 @@ void app_nav_init(app_nav *nav, const double box[6], int width, int height)
     if (box_valid(box)) {
         memcpy(nav->box, box, sizeof nav->box);
     } else {
-        for (int a = 0; a < 3; a++) nav->box[a] = -1, nav->box[a + 3] = 1;
+        for (int a = 0; a < 3; a++)
+            nav->box[a] = -1, nav->box[a + 3] = 1;
     }
     nav->cam.width = width > 0 ? width : 1;
     nav->cam.height = height > 0 ? height : 1;
@@ -213,7 +222,8 @@ void app_nav_zoom(app_nav *nav, const double p[3], double factor)
         basis(c, f, r, u);
         double dp = app_nav_depth(c, p);
         if (dp > 0)
-            for (int i = 0; i < 3; i++) c->target[i] = c->eye[i] + f[i] * dp;
+            for (int i = 0; i < 3; i++)
+                c->target[i] = c->eye[i] + f[i] * dp;
         ortho_fix(nav);
     }
 }
@@ -231,7 +241,8 @@ void app_nav_set_ortho(app_nav *nav, int ortho)
     } else {
         c->fov_deg = APP_NAV_PERSP_FOV;
         double dn = h / (2 * tan(deg2rad(APP_NAV_PERSP_FOV) / 2));
-        for (int i = 0; i < 3; i++) c->eye[i] = c->target[i] - f[i] * dn;
+        for (int i = 0; i < 3; i++)
+            c->eye[i] = c->target[i] - f[i] * dn;
     }
     nav->depth_hint = 0;
 }
@@ -277,7 +288,8 @@ void app_nav_focus_point(const app_nav *nav, double x, double y, double dest[3])
     crisp_vec3_sub(c->target, c->eye, tc);
     double den = crisp_vec3_dot(d, f);
     double t = den > 1e-12 ? crisp_vec3_dot(tc, f) / den : crisp_vec3_norm(tc);
-    for (int i = 0; i < 3; i++) dest[i] = o[i] + t * d[i];
+    for (int i = 0; i < 3; i++)
+        dest[i] = o[i] + t * d[i];
 }
 
 void app_nav_format(const crisp_camera *c, char *buf, size_t size)
@@ -335,12 +347,17 @@ int app_nav_parse(const char *text, crisp_camera *cam, char *err, size_t err_siz
         } else if (!strcmp(tok, "--fov") || !strcmp(tok, "--near") || !strcmp(tok, "--far")) {
             double x = strtod(val, &end);
             ok = end != val && *end == '\0' && isfinite(x);
-            if (tok[2] == 'f' && tok[3] == 'o') c.fov_deg = x;
-            else if (tok[2] == 'n') c.znear = x;
-            else c.zfar = x;
+            if (tok[2] == 'f' && tok[3] == 'o')
+                c.fov_deg = x;
+            else if (tok[2] == 'n')
+                c.znear = x;
+            else
+                c.zfar = x;
         } else {
-            snprintf(err, err_size, "unknown camera option '%s' (expected --size --eye --target --up "
-                                    "--fov --near --far)", tok);
+            snprintf(err, err_size,
+                     "unknown camera option '%s' (expected --size --eye --target --up "
+                     "--fov --near --far)",
+                     tok);
             ok = 0;
             break;
         }

@@ -32,12 +32,12 @@ extern "C" {
 
 enum {
     APP_VIEW_ISO = 0,
-    APP_VIEW_FRONT, /* looking along +Y */
-    APP_VIEW_TOP,   /* looking along -Z */
-    APP_VIEW_RIGHT, /* looking along -X */
-    APP_VIEW_BACK,  /* looking along -Y */
-    APP_VIEW_BOTTOM,/* looking along +Z */
-    APP_VIEW_LEFT,  /* looking along +X */
+    APP_VIEW_FRONT,  /* looking along +Y */
+    APP_VIEW_TOP,    /* looking along -Z */
+    APP_VIEW_RIGHT,  /* looking along -X */
+    APP_VIEW_BACK,   /* looking along -Y */
+    APP_VIEW_BOTTOM, /* looking along +Z */
+    APP_VIEW_LEFT,   /* looking along +X */
     APP_VIEW_COUNT
 };
 
@@ -47,8 +47,8 @@ enum {
 typedef struct app_nav {
     crisp_camera cam;
     int ortho;
-    double box[6];      /* what fit frames and near/far enclose */
-    double depth_hint;  /* least camera-space depth seen in the last frame (0: none) */
+    double box[6];     /* what fit frames and near/far enclose */
+    double depth_hint; /* least camera-space depth seen in the last frame (0: none) */
 } app_nav;
 
 extern const char *const app_view_names[APP_VIEW_COUNT];

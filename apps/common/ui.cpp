@@ -46,8 +46,14 @@ void app_ui_frame_end(void)
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 }
 
-int app_ui_wants_mouse(void) { return ui_ready && ImGui::GetIO().WantCaptureMouse; }
-int app_ui_wants_keyboard(void) { return ui_ready && ImGui::GetIO().WantCaptureKeyboard; }
+int app_ui_wants_mouse(void)
+{
+    return ui_ready && ImGui::GetIO().WantCaptureMouse;
+}
+int app_ui_wants_keyboard(void)
+{
+    return ui_ready && ImGui::GetIO().WantCaptureKeyboard;
+}
 
 void app_ui_on_button(GLFWwindow *w, int button, int action, int mods)
 {
@@ -85,7 +91,10 @@ int app_ui_begin(const char *title, float x, float y, float width, int flags)
     return ImGui::Begin(title, nullptr, f);
 }
 
-void app_ui_end(void) { ImGui::End(); }
+void app_ui_end(void)
+{
+    ImGui::End();
+}
 
 void app_ui_text(const char *fmt, ...)
 {
@@ -111,7 +120,10 @@ void app_ui_wrapped(const char *fmt, ...)
     va_end(ap);
 }
 
-int app_ui_button(const char *label) { return ImGui::Button(label); }
+int app_ui_button(const char *label)
+{
+    return ImGui::Button(label);
+}
 
 int app_ui_checkbox(const char *label, int *value)
 {
@@ -121,8 +133,14 @@ int app_ui_checkbox(const char *label, int *value)
     return changed;
 }
 
-void app_ui_same_line(void) { ImGui::SameLine(); }
-void app_ui_separator(void) { ImGui::Separator(); }
+void app_ui_same_line(void)
+{
+    ImGui::SameLine();
+}
+void app_ui_separator(void)
+{
+    ImGui::Separator();
+}
 void app_ui_progress(float fraction, const char *overlay)
 {
     ImGui::ProgressBar(fraction, ImVec2(-1, 0), overlay);
@@ -138,7 +156,10 @@ int app_ui_tree_node(const char *label, int leaf, int selected, int *clicked)
     return open && !leaf;
 }
 
-void app_ui_tree_pop(void) { ImGui::TreePop(); }
+void app_ui_tree_pop(void)
+{
+    ImGui::TreePop();
+}
 
 void app_ui_line(float x0, float y0, float x1, float y1, uint32_t color, float thickness)
 {
@@ -148,8 +169,10 @@ void app_ui_line(float x0, float y0, float x1, float y1, uint32_t color, float t
 void app_ui_circle(float x, float y, float r, uint32_t color, int filled)
 {
     ImDrawList *d = ImGui::GetForegroundDrawList();
-    if (filled) d->AddCircleFilled(ImVec2(x, y), r, color);
-    else d->AddCircle(ImVec2(x, y), r, color, 0, 1.5f);
+    if (filled)
+        d->AddCircleFilled(ImVec2(x, y), r, color);
+    else
+        d->AddCircle(ImVec2(x, y), r, color, 0, 1.5f);
 }
 
 void app_ui_label(float x, float y, uint32_t color, const char *text)

@@ -19,7 +19,8 @@ static void look(const char *path, long long *mtime_ns, long long *size)
 
 void app_watch_clear(app_watch *w)
 {
-    for (size_t i = 0; i < w->count; i++) free(w->files[i].path);
+    for (size_t i = 0; i < w->count; i++)
+        free(w->files[i].path);
     free(w->files);
     memset(w, 0, sizeof *w);
 }

@@ -15,7 +15,8 @@ GLFWwindow *app_window_create(const app_window_desc *desc, char *err, size_t err
 {
     glfwSetErrorCallback(on_glfw_error);
     if (!glfwInit()) {
-        snprintf(err, err_size, "cannot open a window (%s); is DISPLAY set? (under CI: xvfb-run -a)",
+        snprintf(err, err_size,
+                 "cannot open a window (%s); is DISPLAY set? (under CI: xvfb-run -a)",
                  glfw_err[0] ? glfw_err : "glfwInit failed");
         return NULL;
     }
@@ -50,14 +51,13 @@ void app_window_destroy(GLFWwindow *w)
     glfwTerminate();
 }
 
-static const char *vs_src =
-    "#version 450 core\n"
-    "out vec2 uv;\n"
-    "void main() {\n"
-    "  vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);\n"
-    "  uv = p;\n"
-    "  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);\n"
-    "}\n";
+static const char *vs_src = "#version 450 core\n"
+                            "out vec2 uv;\n"
+                            "void main() {\n"
+                            "  vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);\n"
+                            "  uv = p;\n"
+                            "  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);\n"
+                            "}\n";
 
 /* Background: a vertical grey-blue gradient; the image over it with straight alpha. */
 static const char *fs_src =

@@ -1,10 +1,11 @@
 /* crisp-view's display backend: a frame into a crisp_image, shown through a texture. The frame
  * comes from the CPU backend (crisp_render_cpu_plan) or, where crisp is built with the GL backend
  * (CRISP_HAVE_GL) and --backend gl asks for it, from the GL backend on the window's own context
- * (crisp_gl_draw of the same plan, read back); f-rep parts are composited on the CPU either way. Overlays are applied while converting to 8 bits: the selected face is
- * tinted, and edges come from the face-id AOV (a face border, a trim boundary or a silhouette is
- * where the face id changes between neighbouring pixels; never a triangle edge); a border where
- * the normals turn by more than 30 degrees is drawn dark (hard), else light (smooth). */
+ * (crisp_gl_draw of the same plan, read back); f-rep parts are composited on the CPU either way.
+ * Overlays are applied while converting to 8 bits: the selected face is tinted, and edges come from
+ * the face-id AOV (a face border, a trim boundary or a silhouette is where the face id changes
+ * between neighbouring pixels; never a triangle edge); a border where the normals turn by more than
+ * 30 degrees is drawn dark (hard), else light (smooth). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,7 +27,7 @@ typedef struct cpu_backend {
     const crisp_frame_plan *plan; /* of the last frame; NULL after an off-screen render */
 #ifdef CRISP_HAVE_GL
     int use_gl;
-    crisp_gl *gl[2];              /* 1 and 4 samples per pixel */
+    crisp_gl *gl[2]; /* 1 and 4 samples per pixel */
     const crisp_scene *gl_scene[2];
     crisp_planner *planner;
 #endif
@@ -73,7 +74,7 @@ static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_
         if (plan) *plan = p;
     } else
 #endif
-    if (doc->scene->patch_count > 0 && plan) {
+        if (doc->scene->patch_count > 0 && plan) {
         st = crisp_planner_plan(crisp_renderer_planner(r), doc->scene, cam, plan);
         if (!st) st = crisp_render_cpu_plan(r, doc->scene, *plan, cam, img, rs);
     } else if (doc->scene->patch_count > 0) {
@@ -87,7 +88,10 @@ static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_
     return st;
 }
 
-static uint8_t to8(float c) { return (uint8_t)lrintf(255.0f * (c < 0 ? 0 : c > 1 ? 1 : c)); }
+static uint8_t to8(float c)
+{
+    return (uint8_t)lrintf(255.0f * (c < 0 ? 0 : c > 1 ? 1 : c));
+}
 
 static void convert(cpu_backend *b, const view_overlay *ov)
 {
@@ -105,7 +109,8 @@ static void convert(cpu_backend *b, const view_overlay *ov)
                 c[2] = 0.55f * c[2] + 0.45f * 1.0f;
             }
             if (ov->edges) {
-                /* compare with the right and lower neighbours (and left/up for symmetry of width) */
+                /* compare with the right and lower neighbours (and left/up for symmetry of width)
+                 */
                 int edge = 0;
                 const int di[4] = {1, -1, 0, 0}, dj[4] = {0, 0, 1, -1};
                 for (int q = 0; q < 4 && edge < 2; q++) {
@@ -125,14 +130,16 @@ static void convert(cpu_backend *b, const view_overlay *ov)
                 }
                 if (edge && f != -1) {
                     float t = edge == 2 ? 0.15f : 0.6f;
-                    for (int q = 0; q < 3; q++) c[q] *= t;
+                    for (int q = 0; q < 3; q++)
+                        c[q] *= t;
                 } else if (edge == 2) {
                     c[0] = c[1] = c[2] = 0.05f;
                     c[3] = 1;
                 }
             }
             uint8_t *o = b->rgba8 + 4 * k;
-            for (int q = 0; q < 4; q++) o[q] = to8(c[q]);
+            for (int q = 0; q < 4; q++)
+                o[q] = to8(c[q]);
         }
 }
 
@@ -201,7 +208,10 @@ static crisp_status cpu_offscreen(void *self, const app_doc *doc, const crisp_ca
     return render_into(self, doc, cam, samples, img, NULL, NULL);
 }
 
-static const crisp_frame_plan *cpu_plan(void *self) { return ((cpu_backend *)self)->plan; }
+static const crisp_frame_plan *cpu_plan(void *self)
+{
+    return ((cpu_backend *)self)->plan;
+}
 
 static const crisp_image *cpu_image(void *self)
 {

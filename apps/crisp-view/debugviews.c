@@ -120,10 +120,14 @@ void view_wire_update(view *v)
             double prev[4] = {0};
             for (int k = 0; k <= m; k++) {
                 double a = (double)k / m, s, t;
-                if (e == 0) s = a, t = 0;
-                else if (e == 1) s = 1, t = a;
-                else if (e == 2) s = a, t = 1;
-                else s = 0, t = a;
+                if (e == 0)
+                    s = a, t = 0;
+                else if (e == 1)
+                    s = 1, t = a;
+                else if (e == 2)
+                    s = a, t = 1;
+                else
+                    s = 0, t = a;
                 s = (L->ix + s) * cell;
                 t = (L->iy + t) * cell;
                 double p[3], q[4];
@@ -156,7 +160,8 @@ static void piece_eval(const crisp_bezier_curve *c, double t, double uv[2])
     memcpy(q, c->cpw, (size_t)(c->degree + 1) * 3 * sizeof *q);
     for (int r = 1; r <= c->degree; r++)
         for (int k = 0; k <= c->degree - r; k++)
-            for (int a = 0; a < 3; a++) q[3 * k + a] = (1 - t) * q[3 * k + a] + t * q[3 * (k + 1) + a];
+            for (int a = 0; a < 3; a++)
+                q[3 * k + a] = (1 - t) * q[3 * k + a] + t * q[3 * (k + 1) + a];
     uv[0] = q[0] / q[2];
     uv[1] = q[1] / q[2];
 }
@@ -202,7 +207,8 @@ void view_scan_panel(view *v)
         const crisp_plan_strip *st = &plan->strips[pf->first_strip + s];
         rows += st->row_count;
         if (st->row_count)
-            crossings += plan->row_offset[st->first_row + st->row_count] - plan->row_offset[st->first_row];
+            crossings +=
+                plan->row_offset[st->first_row + st->row_count] - plan->row_offset[st->first_row];
     }
     app_ui_text("face %d: %u strips, %llu rows, %llu crossings%s", fi, pf->strip_count,
                 (unsigned long long)rows, (unsigned long long)crossings,
@@ -212,8 +218,8 @@ void view_scan_panel(view *v)
     app_ui_canvas(W, H, o);
     double su = (box[1] - box[0]) > 0 ? (W - 8) / (box[1] - box[0]) : 1;
     double sv = (box[3] - box[2]) > 0 ? (H - 8) / (box[3] - box[2]) : 1;
-#define PX(u) (o[0] + 4 + (float)(((u) - box[0]) * su))
-#define PY(w) (o[1] + H - 4 - (float)(((w) - box[2]) * sv))
+#define PX(u) (o[0] + 4 + (float)(((u)-box[0]) * su))
+#define PY(w) (o[1] + H - 4 - (float)(((w)-box[2]) * sv))
     app_ui_wrect(o[0], o[1], o[0] + W, o[1] + H, 0xff202020u);
     /* strips and their rows' inside spans; at most about one drawn row per canvas pixel */
     for (uint32_t s = 0; s < pf->strip_count; s++) {

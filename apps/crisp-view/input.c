@@ -13,7 +13,10 @@
 #include "ui.h"
 #include "view.h"
 
-static view *of(GLFWwindow *w) { return glfwGetWindowUserPointer(w); }
+static view *of(GLFWwindow *w)
+{
+    return glfwGetWindowUserPointer(w);
+}
 
 static int classify_exact(void *ctx, const crisp_scene *sc, uint32_t face, double u, double v)
 {
@@ -37,7 +40,8 @@ int view_pick(view *v, double x, double y, view_hit *h)
         return 0;
     h->hit = 1;
     h->face = view_doc_face(v, (int32_t)face);
-    for (int i = 0; i < 3; i++) h->point[i] = o[i] + t * d[i];
+    for (int i = 0; i < 3; i++)
+        h->point[i] = o[i] + t * d[i];
     h->depth = app_nav_depth(&v->nav.cam, h->point);
     return 1;
 }
@@ -88,8 +92,10 @@ void view_describe_face(view *v, int32_t fi, char *buf, size_t size)
     const crisp_surface *s = f->surface;
     int outer = 0, holes = 0, curves = 0;
     for (int l = 0; l < f->loop_count; l++) {
-        if (f->loops[l].is_outer) outer++;
-        else holes++;
+        if (f->loops[l].is_outer)
+            outer++;
+        else
+            holes++;
         curves += f->loops[l].curve_count;
     }
     const char *fmt = v->doc->scene->model->format;
@@ -113,7 +119,8 @@ static int snap_vertex(view *v, view_hit *h, double x, double y)
     double best = 8, bp[3], buv[2];
     int found = 0;
     int n = 0;
-    for (int l = 0; l < f->loop_count; l++) n += f->loops[l].curve_count;
+    for (int l = 0; l < f->loop_count; l++)
+        n += f->loops[l].curve_count;
     double dom[4];
     crisp_surface_domain(f->surface, dom);
     for (int k = 0; k < (n ? n : 4); k++) {
@@ -122,8 +129,10 @@ static int snap_vertex(view *v, view_hit *h, double x, double y)
             const crisp_curve *c = NULL;
             int kk = k;
             for (int l = 0; l < f->loop_count && !c; l++) {
-                if (kk < f->loops[l].curve_count) c = f->loops[l].curves[kk];
-                else kk -= f->loops[l].curve_count;
+                if (kk < f->loops[l].curve_count)
+                    c = f->loops[l].curves[kk];
+                else
+                    kk -= f->loops[l].curve_count;
             }
             double t0, t1;
             crisp_curve_domain(c, &t0, &t1);
@@ -155,7 +164,8 @@ static int snap_vertex(view *v, view_hit *h, double x, double y)
 void view_set_standard(view *v, int which)
 {
     app_nav_view(&v->nav, which);
-    app_nav_fit_points(&v->nav, v->doc ? v->doc->doc->points : NULL, v->doc ? v->doc->doc->point_count : 0);
+    app_nav_fit_points(&v->nav, v->doc ? v->doc->doc->points : NULL,
+                       v->doc ? v->doc->doc->point_count : 0);
     v->dirty = 1;
     printf("view: %s\n", app_view_names[which]);
 }
@@ -165,7 +175,7 @@ static void click(view *v, double x, double y, int mods)
     /* the axis widget first: a tip sets the view looking at the model from that axis */
     float c[2], tips[6][2];
     view_axis_widget(v, c, tips);
-    static const int from_axis[6] = {APP_VIEW_RIGHT, APP_VIEW_BACK, APP_VIEW_TOP,
+    static const int from_axis[6] = {APP_VIEW_RIGHT, APP_VIEW_BACK,  APP_VIEW_TOP,
                                      APP_VIEW_LEFT,  APP_VIEW_FRONT, APP_VIEW_BOTTOM};
     for (int a = 0; a < 6; a++)
         if (hypot(x - tips[a][0], y - tips[a][1]) < 9) {
@@ -221,8 +231,10 @@ void view_on_cursor(GLFWwindow *w, double x, double y)
     if (!v->dragged && hypot(x - v->press_x, y - v->press_y) < 3) return;
     v->dragged = 1;
     int pan = v->drag_button != GLFW_MOUSE_BUTTON_LEFT || (v->drag_mods & GLFW_MOD_SHIFT);
-    if (pan) app_nav_pan(&v->nav, v->drag_depth, dx, dy);
-    else app_nav_orbit(&v->nav, v->pivot, dx, dy);
+    if (pan)
+        app_nav_pan(&v->nav, v->drag_depth, dx, dy);
+    else
+        app_nav_orbit(&v->nav, v->pivot, dx, dy);
     v->dirty = 1;
     v->moving = 1;
 }
@@ -260,12 +272,15 @@ void view_on_scroll(GLFWwindow *w, double dx, double dy)
     if (app_ui_wants_mouse() || !v->doc || dy == 0) return;
     view_hit h;
     double p[3];
-    if (view_pick(v, v->mx, v->my, &h)) memcpy(p, h.point, sizeof p);
-    else app_nav_focus_point(&v->nav, v->mx, v->my, p);
+    if (view_pick(v, v->mx, v->my, &h))
+        memcpy(p, h.point, sizeof p);
+    else
+        app_nav_focus_point(&v->nav, v->mx, v->my, p);
     app_nav_zoom(&v->nav, p, pow(0.8, dy));
     /* the point under the cursor is in view: the near plane must stay in front of it */
     double dp = app_nav_depth(&v->nav.cam, p);
-    if (h.hit && dp > 0 && (v->nav.depth_hint <= 0 || dp < v->nav.depth_hint)) v->nav.depth_hint = dp;
+    if (h.hit && dp > 0 && (v->nav.depth_hint <= 0 || dp < v->nav.depth_hint))
+        v->nav.depth_hint = dp;
     v->dirty = 1;
     v->moving = 1;
 }
@@ -316,7 +331,9 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
     }
     switch (key) {
     case GLFW_KEY_H:
-    case GLFW_KEY_F1: v->show_help = !v->show_help; break;
+    case GLFW_KEY_F1:
+        v->show_help = !v->show_help;
+        break;
     case GLFW_KEY_F:
         app_nav_fit_points(&v->nav, v->doc ? v->doc->doc->points : NULL,
                            v->doc ? v->doc->doc->point_count : 0);
@@ -347,18 +364,26 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
         }
         break;
     }
-    case GLFW_KEY_I: v->show_hud = !v->show_hud; break;
-    case GLFW_KEY_P: v->show_panels = !v->show_panels; break;
+    case GLFW_KEY_I:
+        v->show_hud = !v->show_hud;
+        break;
+    case GLFW_KEY_P:
+        v->show_panels = !v->show_panels;
+        break;
     case GLFW_KEY_E:
         v->ov.edges = !v->ov.edges;
         v->dirty = 1;
         break;
-    case GLFW_KEY_C: view_print_camera(v); break;
+    case GLFW_KEY_C:
+        view_print_camera(v);
+        break;
     case GLFW_KEY_W:
         v->show_wire = !v->show_wire;
         v->dirty = 1;
         break;
-    case GLFW_KEY_T: v->show_scan = !v->show_scan; break;
+    case GLFW_KEY_T:
+        v->show_scan = !v->show_scan;
+        break;
     case GLFW_KEY_V:
         v->snap = !v->snap;
         printf("snap to vertices: %s\n", v->snap ? "on" : "off");
@@ -400,11 +425,15 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
     case GLFW_KEY_Q:
         if (mods & GLFW_MOD_CONTROL) glfwSetWindowShouldClose(w, GLFW_TRUE);
         break;
-    default: break;
+    default:
+        break;
     }
 }
 
-void view_on_char(GLFWwindow *w, unsigned int c) { app_ui_on_char(w, c); }
+void view_on_char(GLFWwindow *w, unsigned int c)
+{
+    app_ui_on_char(w, c);
+}
 
 void view_on_drop(GLFWwindow *w, int count, const char **paths)
 {
@@ -422,7 +451,10 @@ void view_on_close(GLFWwindow *w)
     if (app_loader_status(v->loader, p, sizeof p, &s)) printf("closing during a load\n");
 }
 
-static void cb_close(GLFWwindow *w) { view_on_close(w); }
+static void cb_close(GLFWwindow *w)
+{
+    view_on_close(w);
+}
 
 void view_install_callbacks(view *v)
 {

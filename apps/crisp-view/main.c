@@ -114,17 +114,32 @@ static void sink_cursor(void *ctx, double x, double y)
     glfwSetCursorPos(v->win, x, y);
     view_on_cursor(v->win, x, y);
 }
-static void sink_button(void *ctx, int b, int a, int m) { view_on_button(((view *)ctx)->win, b, a, m); }
-static void sink_scroll(void *ctx, double dy) { view_on_scroll(((view *)ctx)->win, 0, dy); }
-static void sink_key(void *ctx, int k, int a, int m) { view_on_key(((view *)ctx)->win, k, 0, a, m); }
-static void sink_drop(void *ctx, const char *path) { view_on_drop(((view *)ctx)->win, 1, &path); }
+static void sink_button(void *ctx, int b, int a, int m)
+{
+    view_on_button(((view *)ctx)->win, b, a, m);
+}
+static void sink_scroll(void *ctx, double dy)
+{
+    view_on_scroll(((view *)ctx)->win, 0, dy);
+}
+static void sink_key(void *ctx, int k, int a, int m)
+{
+    view_on_key(((view *)ctx)->win, k, 0, a, m);
+}
+static void sink_drop(void *ctx, const char *path)
+{
+    view_on_drop(((view *)ctx)->win, 1, &path);
+}
 static void sink_close(void *ctx)
 {
     view *v = ctx;
     glfwSetWindowShouldClose(v->win, GLFW_TRUE);
     view_on_close(v->win);
 }
-static int sink_idle(void *ctx) { return view_idle(ctx); }
+static int sink_idle(void *ctx)
+{
+    return view_idle(ctx);
+}
 
 static int parse_size(const char *s, int *w, int *h)
 {
@@ -167,7 +182,8 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
     }
 }
 
-/* ---- frames ------------------------------------------------------------------------------------ */
+/* ---- frames ------------------------------------------------------------------------------------
+ */
 
 static void install_doc(view *v, app_doc *doc, int keep_camera)
 {
@@ -184,7 +200,8 @@ static void install_doc(view *v, app_doc *doc, int keep_camera)
         /* as `crisp render` frames it: the scene file's camera line, else isometric fitted to
          * points of the true trimmed geometry */
         crisp_camera c;
-        if (!crisp_document_camera(doc->doc, &(crisp_camera_desc){.width = v->fb_w, .height = v->fb_h}, &c))
+        if (!crisp_document_camera(doc->doc,
+                                   &(crisp_camera_desc){.width = v->fb_w, .height = v->fb_h}, &c))
             v->nav.cam = c;
         if (v->initial_camera) {
             char err[256];
@@ -251,8 +268,10 @@ static void render_frame(view *v)
     if (scale == 1) {
         v->last_full_ms = fs.ms;
     } else {
-        if (fs.ms > 25 && v->scale < 8) v->scale++;
-        else if (fs.ms < 8 && v->scale > 1) v->scale--;
+        if (fs.ms > 25 && v->scale < 8)
+            v->scale++;
+        else if (fs.ms < 8 && v->scale > 1)
+            v->scale--;
     }
     v->dirty = 0;
     v->refined = scale == 1 && !v->moving;
@@ -264,8 +283,10 @@ static void poll_loader(view *v)
     int tag = 0;
     char err[1024];
     int r = app_loader_poll(v->loader, &doc, &tag, err, sizeof err);
-    if (r == APP_LOAD_DONE) install_doc(v, doc, tag);
-    else if (r == APP_LOAD_FAILED) view_set_error(v, "%s", err);
+    if (r == APP_LOAD_DONE)
+        install_doc(v, doc, tag);
+    else if (r == APP_LOAD_FAILED)
+        view_set_error(v, "%s", err);
 }
 
 int main(int argc, char **argv)
@@ -343,8 +364,13 @@ int main(int argc, char **argv)
     }
     if (v->initial_camera) {
         char err[256];
-        crisp_camera c = {.fov_deg = 30, .znear = 1, .zfar = 2, .width = 1, .height = 1,
-                          .eye = {0, 0, 1}, .up = {0, 1, 0}};
+        crisp_camera c = {.fov_deg = 30,
+                          .znear = 1,
+                          .zfar = 2,
+                          .width = 1,
+                          .height = 1,
+                          .eye = {0, 0, 1},
+                          .up = {0, 1, 0}};
         if (!app_nav_parse(v->initial_camera, &c, err, sizeof err)) {
             fprintf(stderr, "crisp-view: --camera: %s\n", err);
             return 2;
@@ -360,9 +386,10 @@ int main(int argc, char **argv)
     v->replaying = 1; /* an empty replay ends at once */
 
     char err[512];
-    v->win = app_window_create(&(app_window_desc){.title = "crisp-view", .width = width,
-                                                  .height = height, .no_vsync = no_vsync},
-                               err, sizeof err);
+    v->win = app_window_create(
+        &(app_window_desc){
+            .title = "crisp-view", .width = width, .height = height, .no_vsync = no_vsync},
+        err, sizeof err);
     if (!v->win) {
         fprintf(stderr, "crisp-view: %s\n", err);
         app_player_free(&v->player);
@@ -387,9 +414,15 @@ int main(int argc, char **argv)
     app_nav_init(&v->nav, (double[6]){-1, -1, -1, 1, 1, 1}, v->fb_w, v->fb_h);
     if (model) view_open(v, model, 0);
 
-    app_input_sink sink = {.ctx = v, .cursor = sink_cursor, .button = sink_button,
-                           .scroll = sink_scroll, .key = sink_key, .drop = sink_drop,
-                           .close = sink_close, .idle = sink_idle, .command = sink_command};
+    app_input_sink sink = {.ctx = v,
+                           .cursor = sink_cursor,
+                           .button = sink_button,
+                           .scroll = sink_scroll,
+                           .key = sink_key,
+                           .drop = sink_drop,
+                           .close = sink_close,
+                           .idle = sink_idle,
+                           .command = sink_command};
     int shot_pending = v->screenshot_path || aov;
     while (!v->quit && !glfwWindowShouldClose(v->win)) {
         char lp[8];

@@ -112,8 +112,10 @@ void view_draw_panels(view *v)
             /* a reader that reports its share fills the bar; else it runs in circles */
             double frac = app_loader_progress(v->loader);
             char o[64];
-            if (frac >= 0) snprintf(o, sizeof o, "%.0f%%, %.1f s", 100 * frac, secs);
-            else snprintf(o, sizeof o, "reading, %.1f s", secs);
+            if (frac >= 0)
+                snprintf(o, sizeof o, "%.0f%%, %.1f s", 100 * frac, secs);
+            else
+                snprintf(o, sizeof o, "reading, %.1f s", secs);
             app_ui_progress(frac >= 0 ? (float)frac : (float)fmod(secs, 1.0), o);
             if (app_ui_button("Cancel (Esc)")) app_loader_cancel(v->loader);
         }
@@ -135,8 +137,10 @@ void view_draw_panels(view *v)
                         v->last.scale > 1 ? ", moving" : "");
             app_ui_text("triangles %llu", (unsigned long long)v->last.triangles);
             app_ui_text("table bytes %llu", (unsigned long long)v->last.table_bytes);
-            if (v->refined) app_ui_text_color(0.5f, 1, 0.5f, "refined (%d samples)", v->ov.samples);
-            else app_ui_text_color(1, 0.8f, 0.3f, "not refined (1/%d)", v->last.scale);
+            if (v->refined)
+                app_ui_text_color(0.5f, 1, 0.5f, "refined (%d samples)", v->ov.samples);
+            else
+                app_ui_text_color(1, 0.8f, 0.3f, "not refined (1/%d)", v->last.scale);
             app_ui_text("%s", v->nav.ortho ? "orthographic" : "perspective");
             if (v->show_wire)
                 app_ui_text("wireframe: %u leaves, %zu segments%s", v->wire_leaves, v->wire_count,
@@ -173,8 +177,10 @@ void view_draw_panels(view *v)
                 app_ui_separator();
                 app_ui_text("Measure");
                 app_ui_text("distance %.9g", crisp_vec3_norm(dd));
-                app_ui_text("angle between faces %.4f deg",
-                            acos(dot > 1 ? 1 : dot < -1 ? -1 : dot) * 180 / M_PI);
+                app_ui_text("angle between faces %.4f deg", acos(dot > 1    ? 1
+                                                                 : dot < -1 ? -1
+                                                                            : dot) *
+                                                                180 / M_PI);
             } else if (v->meas_count == 1) {
                 app_ui_separator();
                 app_ui_text("Measure: shift+click a second point");

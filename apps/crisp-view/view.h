@@ -16,18 +16,18 @@
 /* ---- display backend: one small interface, so the GL backend can replace the CPU one ------- */
 
 typedef struct view_frame_stats {
-    double ms;              /* render time of the frame */
+    double ms; /* render time of the frame */
     uint64_t triangles, table_bytes;
-    int scale;              /* 1: full resolution; s: 1/s of the pixels in each direction */
-    int samples;            /* per pixel */
-    double min_depth;       /* least camera-space depth drawn (inf: nothing) */
-    double cover[4];        /* x0, y0, x1, y1 of the drawn pixels, full-size pixel units */
+    int scale;        /* 1: full resolution; s: 1/s of the pixels in each direction */
+    int samples;      /* per pixel */
+    double min_depth; /* least camera-space depth drawn (inf: nothing) */
+    double cover[4];  /* x0, y0, x1, y1 of the drawn pixels, full-size pixel units */
 } view_frame_stats;
 
 typedef struct view_overlay {
-    int32_t selected_face;  /* tinted; -1 none */
-    int edges;              /* draw face borders, trims and silhouettes from the face ids */
-    int samples;            /* per pixel in full-size frames (1 or 4); moving frames take 1 */
+    int32_t selected_face; /* tinted; -1 none */
+    int edges;             /* draw face borders, trims and silhouettes from the face ids */
+    int samples;           /* per pixel in full-size frames (1 or 4); moving frames take 1 */
 } view_overlay;
 
 typedef struct view_backend {
@@ -40,8 +40,8 @@ typedef struct view_backend {
     void (*present)(void *self, int fb_width, int fb_height);
     /* Render cam off-screen at its own size into img (colour and AOVs), as `crisp render`
      * with --samples samples. */
-    crisp_status (*offscreen)(void *self, const app_doc *doc, const crisp_camera *cam,
-                              int samples, crisp_image *img);
+    crisp_status (*offscreen)(void *self, const app_doc *doc, const crisp_camera *cam, int samples,
+                              crisp_image *img);
     /* The last frame's plan and image (AOVs), or NULL (a backend may keep neither). */
     const struct crisp_frame_plan *(*plan)(void *self);
     const crisp_image *(*image)(void *self);
@@ -58,7 +58,7 @@ int view_backend_have_gl(void);
 
 typedef struct view_hit {
     int hit;
-    int32_t face;      /* >= 0 NURBS face, <= -2 f-rep part */
+    int32_t face; /* >= 0 NURBS face, <= -2 f-rep part */
     double point[3], normal[3], uv[2], depth;
 } view_hit;
 
@@ -69,24 +69,24 @@ struct view {
     int fb_w, fb_h;
     view_backend backend;
     app_doc *doc;
-    char *doc_path;        /* what R reloads (the last path asked for) */
+    char *doc_path; /* what R reloads (the last path asked for) */
     app_loader *loader;
     app_watch watch;
     app_nav nav;
-    int have_camera;       /* the camera belongs to the document shown (keep it on reload) */
-    char *initial_camera;  /* --camera options for the first document */
+    int have_camera;      /* the camera belongs to the document shown (keep it on reload) */
+    char *initial_camera; /* --camera options for the first document */
 
     /* frames */
-    int dirty;             /* the camera or the overlay changed since the last frame */
-    int refined;           /* the frame on screen is the full-resolution image of this camera */
-    int moving;            /* the camera changed this frame */
-    int scale;             /* resolution divisor while moving, adapted to the frame time */
+    int dirty;   /* the camera or the overlay changed since the last frame */
+    int refined; /* the frame on screen is the full-resolution image of this camera */
+    int moving;  /* the camera changed this frame */
+    int scale;   /* resolution divisor while moving, adapted to the frame time */
     view_frame_stats last;
     double last_full_ms;
 
     /* input */
-    double mx, my;         /* cursor */
-    int drag_button;       /* -1 none */
+    double mx, my;   /* cursor */
+    int drag_button; /* -1 none */
     int drag_mods;
     double press_x, press_y, drag_depth;
     int dragged;
@@ -96,8 +96,8 @@ struct view {
     /* inspection */
     view_overlay ov;
     view_hit sel, meas_a, meas_b;
-    int meas_count;        /* 0, 1 (A) or 2 (A and B) */
-    int snap;              /* clicks snap to the face's vertices within 8 px (V) */
+    int meas_count; /* 0, 1 (A) or 2 (A and B) */
+    int snap;       /* clicks snap to the face's vertices within 8 px (V) */
     char face_info[1024];
 
     /* panels */
@@ -114,7 +114,7 @@ struct view {
     int shot_w, shot_h;
     int exit_code;
     int threads;
-    int no_lowres;         /* every frame at full size (for measuring the low-res frames) */
+    int no_lowres; /* every frame at full size (for measuring the low-res frames) */
     /* show / hide (visible.c): rdoc is what is drawn and picked; with something hidden its
      * scene is prepared from a shallow copy of the visible faces, and vis_map takes its face
      * indices back to the document's */
@@ -127,13 +127,12 @@ struct view {
     crisp_frep_part *vis_parts;
     /* debugging views (debugviews.c) */
     int show_wire, show_scan;
-    float *wire;           /* segments x0 y0 x1 y1 in window pixels */
+    float *wire; /* segments x0 y0 x1 y1 in window pixels */
     size_t wire_count, wire_cap;
     int wire_truncated;
     uint32_t wire_leaves;
     long frames;
 };
-
 
 /* main.c */
 void view_open(view *v, const char *path, int keep_camera);

@@ -44,8 +44,10 @@ void view_visible_update(view *v)
     const crisp_scene *full = v->doc->scene;
     v->rdoc = *v->doc;
     v->hidden_faces = v->hidden_parts = 0;
-    for (uint32_t f = 0; f < full->face_count; f++) v->hidden_faces += v->face_hidden[f];
-    for (size_t k = 0; k < v->doc->part_count; k++) v->hidden_parts += v->part_hidden[k];
+    for (uint32_t f = 0; f < full->face_count; f++)
+        v->hidden_faces += v->face_hidden[f];
+    for (size_t k = 0; k < v->doc->part_count; k++)
+        v->hidden_parts += v->part_hidden[k];
     crisp_status st = CRISP_OK;
     if (v->hidden_faces) {
         const crisp_model *m = full->model;
@@ -104,7 +106,8 @@ int32_t view_drawn_face(const view *v, int32_t doc_face)
     if (doc_face < 0 || !v->vis_map) return doc_face;
     if (v->face_hidden[doc_face]) return -1;
     int32_t k = 0;
-    for (int32_t f = 0; f < doc_face; f++) k += !v->face_hidden[f];
+    for (int32_t f = 0; f < doc_face; f++)
+        k += !v->face_hidden[f];
     return k;
 }
 

@@ -111,7 +111,8 @@ static const char *find_line(const char *out, const char *prefix, int k)
 static int count_lines(const char *out, const char *prefix)
 {
     int k = 0;
-    while (find_line(out, prefix, k)) k++;
+    while (find_line(out, prefix, k))
+        k++;
     return k;
 }
 
@@ -175,11 +176,20 @@ static void project(const crisp_camera *c, const double p[3], double px[2])
 }
 
 static const char *const models[] = {
-    "nurbs/gpucast_teapot.igs", "nurbs/gpucast_part.igs",    "nurbs/occt_bearing.iges",
-    "nurbs/occt_hammer.iges",   "nurbs/impeller.igs",        "nurbs/occt_linkrods.step",
-    "nurbs/Ventilator.stp",     "nurbs/occt_as1_ec.stp",     "nurbs/occt_bm2_pe_t4_b.stp",
-    "nurbs/occt_trj4_k1_geo_tu.stp", "nurbs/occt_trj9_io1.stp", "scenes/teapot_frep.scene",
-    "frep/quarter.vm",          "frep/tanglecube.vm",
+    "nurbs/gpucast_teapot.igs",
+    "nurbs/gpucast_part.igs",
+    "nurbs/occt_bearing.iges",
+    "nurbs/occt_hammer.iges",
+    "nurbs/impeller.igs",
+    "nurbs/occt_linkrods.step",
+    "nurbs/Ventilator.stp",
+    "nurbs/occt_as1_ec.stp",
+    "nurbs/occt_bm2_pe_t4_b.stp",
+    "nurbs/occt_trj4_k1_geo_tu.stp",
+    "nurbs/occt_trj9_io1.stp",
+    "scenes/teapot_frep.scene",
+    "frep/quarter.vm",
+    "frep/tanglecube.vm",
 };
 
 static void test_open_every_model(void **state)
@@ -196,10 +206,12 @@ static void test_open_every_model(void **state)
     size_t len = 0;
     for (size_t i = 0; i <= nm; i++) {
         char path[512];
-        if (i < nm) snprintf(path, sizeof path, "%s/%s", CRISP_DATA_DIR, models[i]);
-        else snprintf(path, sizeof path, "view_sphere.math");
-        len += (size_t)snprintf(replay + len, 65536 - len, "drop %s\nidle\nscreenshot view_open_%zu.png\n",
-                                path, i);
+        if (i < nm)
+            snprintf(path, sizeof path, "%s/%s", CRISP_DATA_DIR, models[i]);
+        else
+            snprintf(path, sizeof path, "view_sphere.math");
+        len += (size_t)snprintf(replay + len, 65536 - len,
+                                "drop %s\nidle\nscreenshot view_open_%zu.png\n", path, i);
     }
     assert_int_equal(run_view("--size 240x160", replay, out), 0);
     assert_int_equal(count_lines(out, "loaded: "), (int)nm + 1);
@@ -211,7 +223,8 @@ static void test_open_every_model(void **state)
         int box[4];
         size_t n = coverage(&im, box);
         /* fitted: the model covers a good part of the image and its box fills it tightly */
-        if (n < (size_t)im.w * im.h / 20 || (box[2] - box[0] + 1 < im.w / 2 && box[3] - box[1] + 1 < im.h / 2))
+        if (n < (size_t)im.w * im.h / 20 ||
+            (box[2] - box[0] + 1 < im.w / 2 && box[3] - box[1] + 1 < im.h / 2))
             fail_msg("%s: %zu covered pixels, box %d %d %d %d", i < nm ? models[i] : "sphere", n,
                      box[0], box[1], box[2], box[3]);
         free(im.px);
@@ -227,31 +240,30 @@ static void test_navigation(void **state)
     char *out = malloc(OUT_CAP), args[1024];
     assert_non_null(out);
     snprintf(args, sizeof args, "%s/nurbs/occt_bearing.iges --size 400x300", CRISP_DATA_DIR);
-    const char *replay =
-        "idle\n"
-        "screenshot nav0.png\n"
-        "click left 200 150\n" /* the orbit's pivot */
-        "drag left 200 150 260 170 6\n" /* orbit */
-        "idle\n"
-        "camera\n"
-        "screenshot nav1.png\n"
-        "drag right 200 150 240 180 4\n" /* pan by (40, 30) */
-        "idle\n"
-        "camera\n"
-        "screenshot nav2.png\n"
-        "click left 210 160\n" /* pick before zooming */
-        "wheel 3 210 160\n"
-        "idle\n"
-        "camera\n"
-        "click left 210 160\n" /* and after */
-        "screenshot nav3.png\n"
-        "key f\n"
-        "idle\n"
-        "screenshot nav4.png\n"
-        "key 1\n"
-        "idle\n"
-        "screenshot nav5.png\n"
-        "camera\n";
+    const char *replay = "idle\n"
+                         "screenshot nav0.png\n"
+                         "click left 200 150\n"          /* the orbit's pivot */
+                         "drag left 200 150 260 170 6\n" /* orbit */
+                         "idle\n"
+                         "camera\n"
+                         "screenshot nav1.png\n"
+                         "drag right 200 150 240 180 4\n" /* pan by (40, 30) */
+                         "idle\n"
+                         "camera\n"
+                         "screenshot nav2.png\n"
+                         "click left 210 160\n" /* pick before zooming */
+                         "wheel 3 210 160\n"
+                         "idle\n"
+                         "camera\n"
+                         "click left 210 160\n" /* and after */
+                         "screenshot nav3.png\n"
+                         "key f\n"
+                         "idle\n"
+                         "screenshot nav4.png\n"
+                         "key 1\n"
+                         "idle\n"
+                         "screenshot nav5.png\n"
+                         "camera\n";
     assert_int_equal(run_view(args, replay, out), 0);
     image8 im[6];
     int box[6][4];
@@ -302,12 +314,14 @@ static void test_navigation(void **state)
     /* front view: looking along +Y with +Z up */
     camera_of(find_line(out, "camera: ", 3), opts, sizeof opts);
     parse_camera(opts, &cam);
-    double d[3] = {cam.target[0] - cam.eye[0], cam.target[1] - cam.eye[1], cam.target[2] - cam.eye[2]};
+    double d[3] = {cam.target[0] - cam.eye[0], cam.target[1] - cam.eye[1],
+                   cam.target[2] - cam.eye[2]};
     double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     assert_true(d[1] / len > 0.999999);
     assert_true(cam.up[2] > 0.999999);
     assert_true(differing(&im[4], &im[5]) > 1000);
-    for (int i = 0; i < 6; i++) free(im[i].px);
+    for (int i = 0; i < 6; i++)
+        free(im[i].px);
     free(out);
 }
 
@@ -356,7 +370,8 @@ static void test_pick_and_measure(void **state)
         if (line) {
             picked++;
             assert_true(parse_pick(line, &face, pts[k]));
-            if (interior && face != want) fail_msg("pick at %d %d: face %d, the renderer draws %d", cx, cy, face, want);
+            if (interior && face != want)
+                fail_msg("pick at %d %d: face %d, the renderer draws %d", cx, cy, face, want);
             assert_true(want >= 0);
         }
     }
@@ -366,8 +381,9 @@ static void test_pick_and_measure(void **state)
     assert_non_null(ml);
     double dist, pm[2][3];
     int fm[2];
-    assert_int_equal(sscanf(ml, "measure: distance %lf angle %*f deg between faces %d and %d from "
-                                "%lf,%lf,%lf to %lf,%lf,%lf",
+    assert_int_equal(sscanf(ml,
+                            "measure: distance %lf angle %*f deg between faces %d and %d from "
+                            "%lf,%lf,%lf to %lf,%lf,%lf",
                             &dist, &fm[0], &fm[1], &pm[0][0], &pm[0][1], &pm[0][2], &pm[1][0],
                             &pm[1][1], &pm[1][2]),
                      9);
@@ -376,14 +392,16 @@ static void test_pick_and_measure(void **state)
     for (int k = 0; k < 2; k++) {
         /* on its face's true surface (point inversion) ... */
         double uvp[2], gap;
-        assert_int_equal(crisp_surface_closest_point(m->faces[fm[k]].surface, pm[k], uvp, &gap), CRISP_OK);
+        assert_int_equal(crisp_surface_closest_point(m->faces[fm[k]].surface, pm[k], uvp, &gap),
+                         CRISP_OK);
         if (gap > 1e-7 * diag) fail_msg("measure point %d is %g off face %d", k, gap, fm[k]);
         /* ... and on the ray through the clicked pixel's point */
         double o[3], dir[3], e[3], x[3];
         crisp_camera_ray(&cam, clicks[k][0], clicks[k][1], o, dir);
         crisp_vec3_sub(pm[k], o, e);
         crisp_vec3_cross(e, dir, x);
-        if (crisp_vec3_norm(x) > 1e-9 * diag) fail_msg("measure point %d is %g off its ray", k, crisp_vec3_norm(x));
+        if (crisp_vec3_norm(x) > 1e-9 * diag)
+            fail_msg("measure point %d is %g off its ray", k, crisp_vec3_norm(x));
         /* ... and the nearest such point: the renderer's depth there agrees */
         int cx = (int)clicks[k][0], cy = (int)clicks[k][1];
         double depth = img.depth[(size_t)cy * cam.width + cx];
@@ -464,14 +482,18 @@ static void test_measure_vertices(void **state)
         for (int b = 0; b < nv && lonely; b++) {
             double dd[3];
             crisp_vec3_sub(vp[a], vp[b], dd);
-            if (crisp_vec3_norm(dd) > 1e-6 * diag && hypot(vx[b][0] - x, vx[b][1] - y) < 12) lonely = 0;
+            if (crisp_vec3_norm(dd) > 1e-6 * diag && hypot(vx[b][0] - x, vx[b][1] - y) < 12)
+                lonely = 0;
         }
         if (!lonely) continue;
-        if (pick[0] < 0) pick[0] = a;
-        else if (hypot(vx[pick[0]][0] - x, vx[pick[0]][1] - y) > 40) pick[1] = a;
+        if (pick[0] < 0)
+            pick[0] = a;
+        else if (hypot(vx[pick[0]][0] - x, vx[pick[0]][1] - y) > 40)
+            pick[1] = a;
     }
     if (pick[1] < 0) fail_msg("no two lonely visible vertices among %d (%d)", nv, pick[0]);
-    snprintf(replay, sizeof replay, "idle\nkey v\nclick left %.0f %.0f\nclick left %.0f %.0f shift\n",
+    snprintf(replay, sizeof replay,
+             "idle\nkey v\nclick left %.0f %.0f\nclick left %.0f %.0f shift\n",
              floor(vx[pick[0]][0] + 2), floor(vx[pick[0]][1] + 2), floor(vx[pick[1]][0] + 2),
              floor(vx[pick[1]][1] + 2));
     assert_int_equal(run_view(args, replay, out), 0);
@@ -483,15 +505,17 @@ static void test_measure_vertices(void **state)
     assert_non_null(strstr(ml, "(to a vertex)"));
     double dist, pm[2][3];
     int fm[2];
-    assert_int_equal(sscanf(ml, "measure: distance %lf angle %*f deg between faces %d and %d from "
-                                "%lf,%lf,%lf to %lf,%lf,%lf",
+    assert_int_equal(sscanf(ml,
+                            "measure: distance %lf angle %*f deg between faces %d and %d from "
+                            "%lf,%lf,%lf to %lf,%lf,%lf",
                             &dist, &fm[0], &fm[1], &pm[0][0], &pm[0][1], &pm[0][2], &pm[1][0],
                             &pm[1][1], &pm[1][2]),
                      9);
     double d[3];
     for (int k = 0; k < 2; k++) {
         crisp_vec3_sub(pm[k], vp[pick[k]], d);
-        if (crisp_vec3_norm(d) > 1e-6 * diag) fail_msg("point %d snapped %g from the vertex", k, crisp_vec3_norm(d));
+        if (crisp_vec3_norm(d) > 1e-6 * diag)
+            fail_msg("point %d snapped %g from the vertex", k, crisp_vec3_norm(d));
     }
     crisp_vec3_sub(vp[pick[1]], vp[pick[0]], d);
     if (fabs(dist - crisp_vec3_norm(d)) > 1e-6 * diag)
@@ -511,9 +535,12 @@ static void test_hide_face(void **state)
     char *out = malloc(OUT_CAP), args[1024];
     assert_non_null(out);
     snprintf(args, sizeof args, "%s/nurbs/occt_bearing.iges --size 320x200", CRISP_DATA_DIR);
-    assert_int_equal(run_view(args, "idle\nscreenshot view_hide0.png\nclick left 160 100\nkey delete\n"
-                                    "idle\nscreenshot view_hide1.png\nclick left 160 100\nkey u\n"
-                                    "idle\nclick left 160 100\n", out), 0);
+    assert_int_equal(run_view(args,
+                              "idle\nscreenshot view_hide0.png\nclick left 160 100\nkey delete\n"
+                              "idle\nscreenshot view_hide1.png\nclick left 160 100\nkey u\n"
+                              "idle\nclick left 160 100\n",
+                              out),
+                     0);
     int f0, f1, f2;
     double p0[3], p1[3], p2[3];
     assert_true(parse_pick(find_line(out, "pick: ", 0), &f0, p0));
@@ -539,8 +566,11 @@ static void test_zoom_no_clipping(void **state)
     char *out = malloc(OUT_CAP), args[1024];
     assert_non_null(out);
     snprintf(args, sizeof args, "%s/nurbs/occt_bearing.iges --size 320x200", CRISP_DATA_DIR);
-    assert_int_equal(run_view(args, "idle\nclick left 160 100\nwheel 20 160 100\nidle\nwheel 20 160 100\n"
-                                    "idle\nclick left 160 100\nscreenshot view_zoom.png\n", out), 0);
+    assert_int_equal(run_view(args,
+                              "idle\nclick left 160 100\nwheel 20 160 100\nidle\nwheel 20 160 100\n"
+                              "idle\nclick left 160 100\nscreenshot view_zoom.png\n",
+                              out),
+                     0);
     int f0, f1;
     double p0[3], p1[3];
     assert_true(parse_pick(find_line(out, "pick: ", 0), &f0, p0));
@@ -550,7 +580,8 @@ static void test_zoom_no_clipping(void **state)
     int box[4];
     size_t n = coverage(&im, box);
     assert_true(im.px[4 * ((size_t)100 * im.w + 160) + 3] == 255);
-    if (n < (size_t)im.w * im.h * 9 / 10) fail_msg("only %zu of %d pixels drawn after zooming in", n, im.w * im.h);
+    if (n < (size_t)im.w * im.h * 9 / 10)
+        fail_msg("only %zu of %d pixels drawn after zooming in", n, im.w * im.h);
     free(im.px);
     free(out);
 }
@@ -568,12 +599,15 @@ static void test_file_watch(void **state)
     fclose(f);
     /* rewritten once the first view is on screen (its screenshot exists), however slow the start */
     remove("view_watch0.png");
-    assert_int_equal(system("(for i in $(seq 600); do [ -f view_watch0.png ] && break; sleep 0.1; done; "
-                            "sleep 0.5; echo 'X*X + Y*Y + Z*Z < 0.81' > view_watch.math) &"),
-                     0);
+    assert_int_equal(
+        system("(for i in $(seq 600); do [ -f view_watch0.png ] && break; sleep 0.1; done; "
+               "sleep 0.5; echo 'X*X + Y*Y + Z*Z < 0.81' > view_watch.math) &"),
+        0);
     assert_int_equal(run_view("view_watch.math --size 200x150",
                               "idle\nwheel -2 100 75\nidle\ncamera\nscreenshot view_watch0.png\n"
-                              "sleep 4000\nidle\ncamera\nscreenshot view_watch1.png\n", out), 0);
+                              "sleep 4000\nidle\ncamera\nscreenshot view_watch1.png\n",
+                              out),
+                     0);
     assert_non_null(find_line(out, "changed on disk: ", 0));
     assert_int_equal(count_lines(out, "loaded: "), 2);
     const char *c0 = find_line(out, "camera: ", 0), *c1 = find_line(out, "camera: ", 1);
@@ -604,8 +638,11 @@ static void screenshot_equals_cli(const char *backend)
     snprintf(args, sizeof args, "%s/nurbs/gpucast_part.igs --size 320x200 --backend %s",
              CRISP_DATA_DIR, backend);
     /* at the window's size, then at twice it (rendered at that size, not scaled) */
-    assert_int_equal(run_view(args, "idle\ndrag left 160 100 200 80 5\nwheel 2 150 110\nidle\n"
-                                    "screenshot view_cli.png\nscreenshot view_cli2.png 640x400\n", out), 0);
+    assert_int_equal(run_view(args,
+                              "idle\ndrag left 160 100 200 80 5\nwheel 2 150 110\nidle\n"
+                              "screenshot view_cli.png\nscreenshot view_cli2.png 640x400\n",
+                              out),
+                     0);
     for (int shot = 0; shot < 2; shot++) {
         const char *name = shot ? "view_cli2.png" : "view_cli.png";
         char prefix[64];
@@ -614,7 +651,8 @@ static void screenshot_equals_cli(const char *backend)
         assert_non_null(line);
         camera_of(line, opts, sizeof opts);
         remove("cli_ref.png");
-        snprintf(cmd, sizeof cmd, "%s/crisp render %s/nurbs/gpucast_part.igs %s -o cli_ref.png > /dev/null",
+        snprintf(cmd, sizeof cmd,
+                 "%s/crisp render %s/nurbs/gpucast_part.igs %s -o cli_ref.png > /dev/null",
                  CRISP_BIN_DIR, CRISP_DATA_DIR, opts);
         assert_int_equal(system(cmd), 0);
         image8 a = read_png(name), b = read_png("cli_ref.png");
@@ -634,7 +672,8 @@ static void screenshot_equals_cli(const char *backend)
                     for (int di = -1; di <= 1; di++) {
                         int ii = i + di, jj = j + dj;
                         if (ii < 0 || jj < 0 || ii >= a.w || jj >= a.h) continue;
-                        edge |= (b.px[4 * ((size_t)jj * a.w + ii) + 3] == 0) != (b.px[4 * k + 3] == 0);
+                        edge |=
+                            (b.px[4 * ((size_t)jj * a.w + ii) + 3] == 0) != (b.px[4 * k + 3] == 0);
                     }
                 bad += !edge;
             }
