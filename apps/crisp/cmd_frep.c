@@ -91,9 +91,6 @@ static crisp_status fit_region(const crisp_frep_tape *tape, int is3d, crisp_frep
         g[2 * a] = mid[a] - 0.5 * ext[a];
         g[2 * a + 1] = mid[a] + 0.5 * ext[a];
     }
-    if (fit.sampled)
-        fprintf(stderr, "crisp frep: the function is NaN (undefined) in %zu cells of the fit; the "
-                "region was guessed from sample points there\n", fit.sampled);
     return CRISP_OK;
 }
 
@@ -271,9 +268,9 @@ static crisp_status mesh_area(const crisp_frep_tape *tape, const double region[6
 
 static void print_level(const crisp_frep_mass *m)
 {
-    printf("  level %2d  cell %.3g  boundary cells %9zu  time %8.3f s  volume %.10g +- %.2g  "
+    printf("  level %2d  cell %.3g  boundary cells %9zu  processor time %8.3f s  volume %.10g +- %.2g  "
            "bounds [%.10g, %.10g]\n",
-           m->level, fmax(m->cell[0], fmax(m->cell[1], m->cell[2])), m->boundary_cells, m->seconds,
+           m->level, fmax(m->cell[0], fmax(m->cell[1], m->cell[2])), m->boundary_cells, m->cpu_seconds,
            m->volume, m->volume_se, m->volume_lo, m->volume_hi);
 }
 
@@ -350,33 +347,35 @@ static int cmd_mass(int argc, char **argv)
             if (accuracy && rel <= accuracy && !predict) break;
             if (L >= 5 && (lv[L].seconds > 0.1 || L >= 7)) break;
         }
-        /* growth per level from the last two ratios */
-        double gt = sqrt(fmax(lv[n].seconds, 1e-6) / fmax(lv[n - 2].seconds, 1e-6));
-        double ge = sqrt(lv[n].volume_se / lv[n - 2].volume_se);
-        double gc = sqrt((double)lv[n].boundary_cells / (double)(lv[n - 2].boundary_cells ? lv[n - 2].boundary_cells : 1));
+        /* Clark: the coarse levels' cells, time and error predict the finer ones */
+        int first = n - 2 >= 3 ? n - 2 : 3;
+        double gc = (double)lv[n].boundary_cells / (double)(lv[n - 1].boundary_cells ? lv[n - 1].boundary_cells : 1);
         double K = (double)lv[n].boundary_cells / pow(4.0, n);
         if (predict) {
-            printf("growth per level: time x%.2f, volume error x%.3f, boundary cells x%.2f (Clark's K = "
-                   "boundary cells / 4^level = %.3g)\n", gt, ge, gc, K);
-            for (int k = 1; k <= 4 && n + k <= 20; k++)
-                printf("  level %2d  predicted: time %8.3f s  volume error %.2g (relative %.2g)\n", n + k,
-                       lv[n].seconds * pow(gt, k), lv[n].volume_se * pow(ge, k),
-                       lv[n].volume_se * pow(ge, k) / fabs(lv[n].volume));
+            printf("growth per level: boundary cells x%.2f, volume error x%.3f (Clark's K = boundary cells / "
+                   "4^level = %.3g)\n", gc, lv[n].volume_se / lv[n - 1].volume_se, K);
+            for (int k = 1; k <= 4 && n + k <= 20; k++) {
+                double pt, pe;
+                crisp_frep_mass_predict(&lv[first], n - first + 1, n + k, &pt, &pe);
+                printf("  level %2d  predicted: processor time %8.3f s  volume error %.2g (relative %.2g)\n",
+                       n + k, pt, pe, pe / fabs(lv[n].volume));
+            }
         }
         target = n;
-        double rel = lv[n].volume_se / fabs(lv[n].volume);
-        if (accuracy && rel > accuracy) {
-            target = n + (int)ceil(log(accuracy / rel) / log(ge));
-        } else if (time_limit) {
-            double tsum = 0;
-            for (int k = 1; n + k <= 20; k++) {
-                tsum += lv[n].seconds * pow(gt, k);
-                if (spent + tsum > time_limit) break;
-                target = n + k;
+        double rel = lv[n].volume_se / fabs(lv[n].volume), tpred = 0;
+        for (int L = n + 1; L <= 20; L++) {
+            double pt, pe;
+            crisp_frep_mass_predict(&lv[first], n - first + 1, L, &pt, &pe);
+            if (accuracy) {
+                if (rel <= accuracy) break;
+                target = L, tpred = pt;
+                if (pe / fabs(lv[n].volume) <= accuracy) break;
+            } else if (time_limit) {
+                if (spent + pt > time_limit) break;
+                target = L, tpred = pt;
             }
         }
         if (target > 20) target = 20;
-        double tpred = target > n ? lv[n].seconds * pow(gt, target - n) : 0;
         double cap = time_limit ? time_limit : 600;
         if (tpred > cap) {
             fprintf(stderr, "crisp frep mass: level %d would take about %.0f s (over %.0f s); give a larger "

@@ -78,6 +78,12 @@ void crisp_arena_reset(crisp_arena *arena);
 void *crisp_arena_alloc(crisp_arena *arena, size_t n, size_t size);
 /* Bytes reserved from the system (for memory reports). */
 size_t crisp_arena_reserved(const crisp_arena *arena);
+/* Bytes handed out since the last reset. */
+size_t crisp_arena_used(const crisp_arena *arena);
+/* Right after a reset: make the first block hold at least `bytes`, so a frame that allocates no
+ * more than that in total allocates nothing from the system (for per-worker arenas whose share
+ * of a frame's work varies with scheduling). */
+crisp_status crisp_arena_reserve(crisp_arena *arena, size_t bytes);
 
 /* ---- vectors and matrices (double) ----------------------------------------------------------- */
 

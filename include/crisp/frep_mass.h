@@ -7,6 +7,7 @@
  * Offers:
  *   crisp_frep_mass_desc, crisp_frep_mass
  *   crisp_frep_mass_level     one level's estimate
+ *   crisp_frep_mass_predict   the time and error of a finer level, from coarser ones
  *
  * Bounds: volume_lo sums the cells proven inside, volume_hi adds every cell not proven outside;
  * the part (the points whose float coordinates give f < 0) lies between, whatever the sampling.
@@ -44,7 +45,8 @@ typedef struct crisp_frep_mass {
     /* about the centroid, density 1: Ixx, Iyy, Izz, Ixy, Iyz, Ixz with Ixy = -integral of x y */
     double inertia[6], inertia_se[6];
     size_t inside_cells, boundary_cells, samples, intervals;
-    double seconds;                     /* time of this level */
+    double seconds;                     /* time of this level (wall clock) */
+    double cpu_seconds;                 /* and the thread's processor time (steadier under load) */
     size_t cut_cells;                   /* pieces of the region's faces holding inside points */
 } crisp_frep_mass;
 
@@ -53,6 +55,12 @@ typedef struct crisp_frep_mass {
  * the region fit's errors when the region is to be fitted. */
 crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_mass_desc *desc,
                                    crisp_frep_mass *dest);
+
+/* Clark's prediction from n >= 2 measured levels lv[0 .. n) (consecutive, coarse to fine): the
+ * processor time and the volume's standard error of a finer level: the error falls by the last
+ * two levels' factor per level; boundary cells grow by a factor and the cost per cell changes by
+ * a ratio whose excesses over 4 and 1 halve per level (Clark's K 4^level in the limit). */
+void crisp_frep_mass_predict(const crisp_frep_mass *lv, int n, int level, double *seconds, double *se);
 
 #ifdef __cplusplus
 }

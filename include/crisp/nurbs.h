@@ -5,7 +5,7 @@
  *
  * Offers:
  *   crisp_curve_create / _destroy / _copy / _domain / _eval / _derivs / _insert_knot /
- *     _reverse / _trim / _to_bezier / _bbox
+ *     _remove_knot / _reverse / _trim / _to_bezier / _bbox
  *   crisp_surface_create / _destroy / _copy / _domain / _eval / _derivs / _insert_knot_u / _v /
  *     _to_bezier / _bbox
  *   crisp_bezier_curve_eval / _derivs / _split / _bbox
@@ -56,6 +56,10 @@ void crisp_curve_eval(const crisp_curve *c, double t, double *dest);
 void crisp_curve_derivs(const crisp_curve *c, double t, int nderiv, double *dest);
 /* Insert knot t (inside the domain) `times` times, in place (Boehm / A5.1). */
 crisp_status crisp_curve_insert_knot(crisp_curve *c, double t, int times);
+/* Remove interior knot knots[index] once, in place, when the curve allows it: inserting it back
+ * must give every homogeneous control point back within tol (NURBS Book 5.4). Otherwise
+ * CRISP_ERR_INVALID_ARG with a message saying how far the curve would move; c is then unchanged. */
+crisp_status crisp_curve_remove_knot(crisp_curve *c, int index, double tol);
 /* Reverse the direction in place; the domain [a, b] stays [a, b]. */
 void crisp_curve_reverse(crisp_curve *c);
 /* A new clamped curve equal to c restricted to [t0, t1] (t0 < t1 inside the domain). */

@@ -80,3 +80,24 @@ size_t crisp_arena_reserved(const crisp_arena *a)
 {
     return a->reserved;
 }
+
+size_t crisp_arena_used(const crisp_arena *a)
+{
+    size_t used = 0;
+    for (const block *b = a->first; b; b = b->next) used += b->used;
+    return used;
+}
+
+crisp_status crisp_arena_reserve(crisp_arena *a, size_t bytes)
+{
+    if (a->first && a->first->size >= bytes) return CRISP_OK;
+    if (bytes > SIZE_MAX - sizeof(block)) return crisp_error(CRISP_ERR_NO_MEMORY, "arena reserve of %zu bytes", bytes);
+    block *nb = malloc(sizeof(block) + bytes);
+    if (!nb) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory reserving %zu bytes", bytes);
+    nb->size = bytes;
+    nb->used = 0;
+    nb->next = a->first;
+    a->first = a->head = nb;
+    a->reserved += bytes;
+    return CRISP_OK;
+}

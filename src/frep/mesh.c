@@ -11,9 +11,12 @@
  * edge), so every mesh edge is shared by exactly two triangles; there are no ambiguous cases.
  * Dual contouring keeps sharp corners by moving vertices off the grid edges, which is what makes
  * its triangles cross (libfive issues 284 and 150); confining its vertex to the cell does not
- * prevent folds between neighbouring cells. Here sharp features are kept to within a cell: edge
- * vertices lie on the surface (regula falsi on the function along the edge), so a crease is cut
- * by at most one cell's chamfer. A feature thinner than the cell that no grid corner sees is
+ * prevent folds between neighbouring cells. Sharp features here: edge vertices lie on the surface
+ * (regula falsi along the edge), and where the normals at a tetrahedron's edge vertices disagree
+ * by more than 30 degrees its polygon is fanned from a feature point (the QEF point of their
+ * tangent planes, as in Kobbelt's extended marching cubes), accepted only inside the
+ * tetrahedron and only when no fan triangle turns against the polygon's normal, which keeps both
+ * guarantees (feature_point). A feature thinner than the cell that no grid corner sees is
  * reported (a cube whose centre differs in sign from its eight agreeing corners), not lost
  * silently.
  *
@@ -40,6 +43,7 @@ typedef struct edge_entry {
     uint64_t key; /* 0 = empty (keys are stored + 1) */
     uint32_t v;
     float p[3];
+    float n[3]; /* unit gradient at p (0 when unknown) */
 } edge_entry;
 
 typedef struct mesher {
@@ -52,8 +56,10 @@ typedef struct mesher {
     int lim[3];     /* grid points with index >= 1 and <= lim[a] are inside the region */
     double rlo[3], rhi[3]; /* the region */
     float *regs;    /* registers x FREP_LANES */
+    float *gregs;   /* registers x 4 x FREP_LANES */
+    int features;   /* fans through a feature point where the normals disagree */
     edge_entry *table;
-    size_t tcount, tcap;
+    size_t tcount, tcap, max_bytes;
     crisp_status status;
 } mesher;
 
@@ -81,6 +87,7 @@ static int table_grow(mesher *m)
 {
     if ((m->tcount + 1) * 2 <= m->tcap) return 0;
     size_t ncap = m->tcap ? m->tcap * 2 : 4096;
+    if (ncap * sizeof *m->table > m->max_bytes) return -2;
     edge_entry *old = m->table;
     size_t ocap = m->tcap;
     m->table = crisp_calloc_array(ncap, sizeof *m->table);
@@ -218,6 +225,87 @@ static uint64_t edge_key(const mesher *m, const int lo[3], int dir)
     return (((uint64_t)lo[2] * n1 + (uint64_t)lo[1]) * n1 + (uint64_t)lo[0]) * 8 + (uint64_t)dir;
 }
 
+/* A feature point for the polygon v[0 .. n) (loop order, outward) of a tetrahedron whose vertex
+ * normals disagree by more than 30 degrees: the point nearest to their tangent planes (a QEF,
+ * regularised towards the polygon's centre, Kobbelt's extended marching cubes / dual contouring's
+ * vertex), taken only when it lies inside the tetrahedron and the fan from it over the polygon
+ * keeps every triangle facing the polygon's own normal. Then the fan stays inside the
+ * tetrahedron (no crossing with other tetrahedra's triangles) and projects along that normal to
+ * a simple star (no crossing within it): the guarantees of the plain polygon hold. */
+static int feature_point(const mesher *m, const int i0[3], int cx, int cy, int cz, const int tv[4],
+                         float v[4][3], float nv[4][3], int n, float out[3])
+{
+    double mind = 1;
+    for (int a = 0; a < n; a++) {
+        if (nv[a][0] == 0 && nv[a][1] == 0 && nv[a][2] == 0) return 0;
+        for (int b = a + 1; b < n; b++)
+            mind = fmin(mind, nv[a][0] * nv[b][0] + nv[a][1] * nv[b][1] + nv[a][2] * nv[b][2]);
+    }
+    if (mind > 0.866) return 0;
+    double c[3] = {0, 0, 0}, A[3][3] = {{0}}, rhs[3] = {0};
+    for (int a = 0; a < n; a++)
+        for (int k = 0; k < 3; k++) c[k] += v[a][k] / n;
+    const double lambda = 0.05;
+    for (int a = 0; a < n; a++) {
+        double d = 0;
+        for (int k = 0; k < 3; k++) d += nv[a][k] * (v[a][k] - c[k]);
+        for (int i = 0; i < 3; i++) {
+            rhs[i] += nv[a][i] * d;
+            for (int j = 0; j < 3; j++) A[i][j] += nv[a][i] * nv[a][j];
+        }
+    }
+    for (int i = 0; i < 3; i++) A[i][i] += lambda;
+    /* solve A x = rhs (offset from c) by Cramer's rule */
+    double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) - A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
+                 A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
+    if (!(fabs(det) > 1e-12)) return 0;
+    double x[3];
+    for (int k = 0; k < 3; k++) {
+        double M[3][3];
+        memcpy(M, A, sizeof M);
+        for (int i = 0; i < 3; i++) M[i][k] = rhs[i];
+        x[k] = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) / det;
+    }
+    double p[3];
+    for (int k = 0; k < 3; k++) {
+        out[k] = (float)(c[k] + x[k]);
+        p[k] = out[k];
+    }
+    /* inside the tetrahedron: barycentric coordinates from its corners */
+    double T[4][3];
+    for (int q = 0; q < 4; q++) {
+        int o = tv[q], g[3] = {i0[0] + cx + (o & 1), i0[1] + cy + ((o >> 1) & 1), i0[2] + cz + (o >> 2)};
+        for (int k = 0; k < 3; k++) T[q][k] = m->org[k] + g[k] * m->h;
+    }
+    double e1[3], e2[3], e3[3], r[3];
+    for (int k = 0; k < 3; k++) e1[k] = T[1][k] - T[0][k], e2[k] = T[2][k] - T[0][k], e3[k] = T[3][k] - T[0][k], r[k] = p[k] - T[0][k];
+#define DET3(a, b, c) ((a)[0] * ((b)[1] * (c)[2] - (b)[2] * (c)[1]) - (a)[1] * ((b)[0] * (c)[2] - (b)[2] * (c)[0]) + (a)[2] * ((b)[0] * (c)[1] - (b)[1] * (c)[0]))
+    double D = DET3(e1, e2, e3);
+    double l1 = DET3(r, e2, e3) / D, l2 = DET3(e1, r, e3) / D, l3 = DET3(e1, e2, r) / D, l0 = 1 - l1 - l2 - l3;
+#undef DET3
+    const double margin = 1e-3;
+    if (!(l0 > margin && l1 > margin && l2 > margin && l3 > margin)) return 0;
+    /* the polygon's normal (Newell) and the fan's triangles facing it */
+    double pn[3] = {0, 0, 0};
+    for (int a = 0; a < n; a++) {
+        const float *u = v[a], *w = v[(a + 1) % n];
+        pn[0] += ((double)u[1] - w[1]) * ((double)u[2] + w[2]);
+        pn[1] += ((double)u[2] - w[2]) * ((double)u[0] + w[0]);
+        pn[2] += ((double)u[0] - w[0]) * ((double)u[1] + w[1]);
+    }
+    double pl = sqrt(pn[0] * pn[0] + pn[1] * pn[1] + pn[2] * pn[2]);
+    if (!(pl > 0)) return 0;
+    for (int a = 0; a < n; a++) {
+        double u[3], w[3];
+        for (int k = 0; k < 3; k++) u[k] = v[a][k] - p[k], w[k] = v[(a + 1) % n][k] - p[k];
+        double cr[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
+        double cl = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+        if (!((cr[0] * pn[0] + cr[1] * pn[1] + cr[2] * pn[2]) > 0.05 * cl * pl)) return 0;
+    }
+    return 1;
+}
+
 static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
 {
     block bl;
@@ -287,7 +375,12 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
             if (bl.in[c] == bl.in[c2]) continue;
             int lo[3] = {i0[0] + lx, i0[1] + ly, i0[2] + lz};
             uint64_t key = edge_key(m, lo, dirs[d]);
-            if (table_grow(m)) return crisp_error(CRISP_ERR_NO_MEMORY, "frep mesh: out of memory for the edge table");
+            int g = table_grow(m);
+            if (g == -2)
+                return crisp_error(CRISP_ERR_LIMIT,
+                                   "frep mesh: the edge table would pass %.0f MB (more than %zu vertices); use a "
+                                   "coarser cell", m->max_bytes / 1e6, m->tcount);
+            if (g) return crisp_error(CRISP_ERR_NO_MEMORY, "frep mesh: out of memory for the edge table");
             edge_entry *e = edge_slot(m, key);
             if (e->key) continue;
             e->key = key + 1;
@@ -336,6 +429,27 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
         crisp_status s = emit_vertex(m, &pe[q], &e->v, e->p);
         if (s) return s;
     }
+    /* normals of the new vertices (for the feature points) */
+    for (int b = 0; m->features && b < np; b += FREP_LANES) {
+        int k = np - b < FREP_LANES ? np - b : FREP_LANES;
+        float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
+        edge_entry *es[FREP_LANES];
+        for (int q = 0; q < FREP_LANES; q++) {
+            edge_entry *e = edge_slot(m, pe[b + (q < k ? q : 0)].key);
+            es[q] = e;
+            x[q] = e->p[0], y[q] = e->p[1], z[q] = e->p[2];
+        }
+        crisp__frep_grad_lanes(t.ins, t.len, m->gregs, x, y, z);
+        const float *g = m->gregs + (size_t)t.ins[t.len - 1].out * 4 * FREP_LANES;
+        for (int q = 0; q < k; q++) {
+            double gx = g[FREP_LANES + q], gy = g[2 * FREP_LANES + q], gz = g[3 * FREP_LANES + q];
+            double l = sqrt(gx * gx + gy * gy + gz * gz);
+            int ok = l > 0 && isfinite(l) && in_region(m, pe[b + q].gb);
+            es[q]->n[0] = ok ? (float)(gx / l) : 0;
+            es[q]->n[1] = ok ? (float)(gy / l) : 0;
+            es[q]->n[2] = ok ? (float)(gz / l) : 0;
+        }
+    }
 
     /* triangles */
     for (int cz2 = 0; cz2 < B; cz2++)
@@ -364,10 +478,12 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
                       i0[2] + cz2 + (oa >> 2)};                                                    \
         edge_entry *en = edge_slot(m, edge_key(m, lo3, oa ^ ob));                                  \
         DEST = en->v;                                                                              \
+        memcpy(tn[ntp], en->n, sizeof tn[0]);                                                      \
+        poly[ntp] = en->v;                                                                         \
         memcpy(tp[ntp++], en->p, sizeof tp[0]);                                                    \
     } while (0)
-                    uint32_t tri[2][3];
-                    float tp[4][3], tq[2][3][3];
+                    uint32_t tri[2][3], poly[4];
+                    float tp[4][3], tq[2][3][3], tn[4][3];
                     int ntri = 0, ntp = 0;
                     if (nin == 1 || nin == 3) {
                         int i = 0;
@@ -407,6 +523,25 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
                     }
                     if (ntri == 1) memcpy(tq[0], tp, sizeof tq[0]);
 #undef EV
+                    float fp[3];
+                    if (m->features && feature_point(m, i0, cx2, cy2, cz2, tv, tp, tn, ntp, fp)) {
+                        uint32_t c;
+                        crisp_status s = m->sink->vertex(m->sink->ctx, fp);
+                        if (s) return s;
+                        c = (uint32_t)m->st->vertices++;
+                        m->st->feature_points++;
+                        for (int q = 0; q < ntp; q++) {
+                            uint32_t ft[3] = {c, poly[q], poly[(q + 1) % ntp]};
+                            float fq[3][3];
+                            memcpy(fq[0], fp, sizeof fp);
+                            memcpy(fq[1], tp[q], sizeof fp);
+                            memcpy(fq[2], tp[(q + 1) % ntp], sizeof fp);
+                            s = m->sink->triangle(m->sink->ctx, ft, (const float(*)[3])fq);
+                            if (s) return s;
+                            m->st->triangles++;
+                        }
+                        continue;
+                    }
                     for (int q = 0; q < ntri; q++) {
                         crisp_status s = m->sink->triangle(m->sink->ctx, tri[q], (const float(*)[3])tq[q]);
                         if (s) return s;
@@ -482,6 +617,7 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
                            desc->resolution, desc->cell);
     double h = desc->cell > 0 ? desc->cell : ext / (desc->resolution > 0 ? desc->resolution : 128);
     mesher m = {.t = t, .sink = sink, .st = stats, .h = h};
+    m.max_bytes = desc->max_megabytes > 0 ? (size_t)(desc->max_megabytes * 1e6) : (size_t)8 << 30;
     int need = 0;
     for (int a = 0; a < 3; a++) {
         double cells = ceil((r[2 * a + 1] - r[2 * a]) / h);
@@ -500,7 +636,9 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     crisp_status s = crisp__frep_octree_init(&m.o, t, levels + 1);
     if (s) return s;
     m.regs = crisp_malloc_array((size_t)t->registers * FREP_LANES, sizeof *m.regs);
-    if (!m.regs) {
+    m.gregs = crisp_malloc_array((size_t)t->registers * 4 * FREP_LANES, sizeof *m.gregs);
+    m.features = !desc->no_features;
+    if (!m.regs || !m.gregs) {
         s = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_frep_mesh: out of memory");
         goto done;
     }
@@ -514,6 +652,7 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
 done:
     crisp__frep_octree_free(&m.o);
     crisp_free(m.regs);
+    crisp_free(m.gregs);
     crisp_free(m.table);
     return s;
 }

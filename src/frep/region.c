@@ -197,9 +197,10 @@ crisp_status crisp_frep_fit_check(const crisp_frep_fit *fit, unsigned allowed_un
                                "(%g .. %g): check the expression, or give a region",
                                axis[a], fit->box[2 * a], fit->box[2 * a + 1]);
         return crisp_error(CRISP_ERR_NUMERIC,
-                           "the part is unbounded in %c (not proven outside up to %g .. %g): give a "
-                           "region",
-                           axis[a], fit->box[2 * a], fit->box[2 * a + 1]);
+                           "the part is unbounded in %c: it reaches the search box's side (%g .. %g of "
+                           "[%g, %g]); give a region",
+                           axis[a], fit->box[2 * a], fit->box[2 * a + 1], fit->search[2 * a],
+                           fit->search[2 * a + 1]);
     }
     return CRISP_OK;
 }

@@ -38,6 +38,7 @@ struct crisp__ribbons {
     crisp_status *wstatus; /* per worker */
     ribbon_job *jobs;
     size_t job_cap;
+    size_t last_used; /* bytes of samples over all workers in the last build */
 };
 
 typedef struct ribbon_ctx {
@@ -328,14 +329,22 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
             rb->jobs[jobs++] = (ribbon_job){.face = f, .piece = (uint32_t)k};
         }
     }
+    /* Which worker samples which job depends on scheduling: each worker's arena is made ready
+     * for the whole of the last frame's samples (and a quarter more), so a steady view allocates
+     * nothing whoever does the work. */
+    size_t want = rb->last_used + rb->last_used / 4;
     for (int w = 0; w < rb->workers; w++) {
         crisp_arena_reset(rb->arena[w]);
+        if (want && (st = crisp_arena_reserve(rb->arena[w], want))) return st;
         rb->wstatus[w] = CRISP_OK;
     }
     ribbon_ctx c = {rb, trees, sc, NULL};
     crisp_pool_parallel_for(pool, jobs, 4, sample_ribbons, &c);
-    for (int w = 0; w < rb->workers; w++)
+    rb->last_used = 0;
+    for (int w = 0; w < rb->workers; w++) {
         if (rb->wstatus[w]) return rb->wstatus[w];
+        rb->last_used += crisp_arena_used(rb->arena[w]);
+    }
     /* Lay the quads out face after face. */
     size_t quads = 0;
     for (uint32_t f = f0; f < f1; f++) face_quads[f - f0] = 0;

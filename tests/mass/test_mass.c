@@ -1,9 +1,8 @@
-/* Tests of the f-rep mass properties (crisp_frep_mass_level) on analytic solids: a sphere, a
- * torus, a box minus a cylinder and a rotated, translated ellipsoid. The certified volume bounds
- * contain the true volume at every level; the estimates lie within a few standard errors; over
- * 60 seeded runs the 95% intervals (1.96 standard errors) cover the true volume, centroid and
- * inertia at least 95% of the time; bad input gives a message. With the argument "slow": the
- * sphere's volume to 1e-6 relative (level 10). */
+/* Tests of the B-rep mass properties (crisp_mass_model) on exact rational solids built with
+ * construct.h: a sphere, a cylinder closed by two discs (planes trimmed by rational circles, so
+ * Green's theorem meets exact trims), and a torus, placed off the origin; volume, centroid and
+ * inertia within 1e-9 relative of the analytic values. An open shell gets its area and
+ * closed = 0. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -15,179 +14,121 @@
 
 #include <cmocka.h>
 
-#include "crisp/frep.h"
-#include "crisp/frep_mass.h"
+#include "crisp/construct.h"
+#include "crisp/mass.h"
+#include "crisp/model.h"
 
 static const double PI = 3.14159265358979323846;
+static const double O[3] = {0.3, -1.2, 2.5}; /* the solids' centre */
 
-typedef struct solid {
-    const char *expr;
-    double volume, centroid[3], inertia[6]; /* Ixx Iyy Izz Ixy Iyz Ixz about the centroid */
-} solid;
-
-static crisp_frep_tape *tape_of(const char *expr, crisp_frep **f)
+static void add(crisp_model *m, crisp_surface *s, crisp_curve *loop_curve, int reversed)
 {
-    crisp_status s = crisp_frep_read_math_mem("test", expr, strlen(expr), f);
-    if (s) fprintf(stderr, "%s\n", crisp_error_message());
-    assert_int_equal(s, CRISP_OK);
-    crisp_frep_tape *t;
-    assert_int_equal(crisp_frep_tape_create(*f, &t), CRISP_OK);
-    return t;
+    crisp_face f = {.surface = s, .reversed = reversed};
+    if (loop_curve) {
+        f.loop_count = 1;
+        f.loops = calloc(1, sizeof *f.loops);
+        f.loops[0].is_outer = 1;
+        f.loops[0].curve_count = 1;
+        f.loops[0].curves = calloc(1, sizeof *f.loops[0].curves);
+        f.loops[0].curves[0] = loop_curve;
+    }
+    assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
 }
 
-static solid ellipsoid(char *buf, size_t n)
+static crisp_placement at(double dz)
 {
-    const double a = 0.8, b = 0.5, c = 0.3, th = PI / 6, x0 = 0.3, y0 = -0.2, z0 = 0.1;
-    double cs = cos(th), sn = sin(th);
-    snprintf(buf, n,
-             "((%.17g*(X-%.17g)+%.17g*(Y-%.17g))/%.17g)^2+((%.17g*(X-%.17g)+%.17g*(Y-%.17g))/%.17g)^2+((Z-%.17g)/%.17g)^2-1",
-             cs, x0, sn, y0, a, -sn, x0, cs, y0, b, z0, c);
-    solid s = {.expr = buf, .volume = 4.0 / 3 * PI * a * b * c, .centroid = {x0, y0, z0}};
-    double V = s.volume, J[3] = {V / 5 * (b * b + c * c), V / 5 * (a * a + c * c), V / 5 * (a * a + b * b)};
-    /* world from body: x = c u - s v, y = s u + c v */
-    s.inertia[0] = cs * cs * J[0] + sn * sn * J[1];
-    s.inertia[1] = sn * sn * J[0] + cs * cs * J[1];
-    s.inertia[2] = J[2];
-    s.inertia[3] = cs * sn * (J[0] - J[1]);
-    return s;
+    crisp_placement pl;
+    double o[3] = {O[0], O[1], O[2] + dz}, z[3] = {0, 0, 1}, x[3] = {1, 0, 0};
+    assert_int_equal(crisp_placement_make(o, z, x, &pl), CRISP_OK);
+    return pl;
 }
 
-static solid solids(int k, char *buf, size_t n)
+static void check(const crisp_model *m, double V, const double I[6], double tol)
 {
-    double V;
-    switch (k) {
-    case 0:
-        V = 4 * PI / 3;
-        return (solid){"X^2+Y^2+Z^2-1", V, {0, 0, 0}, {0.4 * V, 0.4 * V, 0.4 * V, 0, 0, 0}};
-    case 1: {
-        double R = 1, r = 0.3;
-        V = 2 * PI * PI * R * r * r;
-        double ix = V * (R * R / 2 + 5.0 / 8 * r * r);
-        return (solid){"(sqrt(X^2+Y^2)-1)^2+Z^2-0.09", V, {0, 0, 0}, {ix, ix, V * (R * R + 0.75 * r * r), 0, 0, 0}};
-    }
-    case 2: {
-        double ix = 16.0 / 3 - PI / 2 * (3 * 0.25 + 4) / 12;
-        return (solid){"max(max(max(abs(X),abs(Y)),abs(Z))-1, 0.5-sqrt(X^2+Y^2))", 8 - PI / 2, {0, 0, 0},
-                       {ix, ix, 16.0 / 3 - PI / 2 * 0.25 / 2, 0, 0, 0}};
-    }
-    default:
-        return ellipsoid(buf, n);
-    }
+    crisp_mass_props p;
+    assert_int_equal(crisp_mass_model(m, NULL, &p), CRISP_OK);
+    fprintf(stderr, "closed %d V %.15g (true %.15g, rel %.2g, est %.2g) c %.12g %.12g %.12g I %.12g %.12g %.12g\n",
+            p.closed, p.volume, V, fabs(p.volume - V) / V, p.volume_err, p.centroid[0], p.centroid[1], p.centroid[2],
+            p.inertia[0], p.inertia[1], p.inertia[2]);
+    assert_true(p.closed);
+    assert_true(fabs(p.volume - V) <= tol * V);
+    double L = pow(V, 1.0 / 3);
+    for (int a = 0; a < 3; a++) assert_true(fabs(p.centroid[a] - O[a]) <= tol * L);
+    double In = fmax(I[0], fmax(I[1], I[2]));
+    for (int k = 0; k < 6; k++) assert_true(fabs(p.inertia[k] - I[k]) <= tol * In);
+    assert_true(p.volume_err < 1e-6 * V);
 }
 
-static void test_analytic(void **state)
+static void test_sphere(void **state)
 {
     (void)state;
-    char buf[512];
-    for (int k = 0; k < 4; k++) {
-        solid s = solids(k, buf, sizeof buf);
-        crisp_frep *f;
-        crisp_frep_tape *t = tape_of(s.expr, &f);
-        double width = INFINITY;
-        for (int L = 3; L <= 6; L++) {
-            crisp_frep_mass m;
-            crisp_status st = crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = L, .seed = 7}, &m);
-            if (st) fprintf(stderr, "%s\n", crisp_error_message());
-            assert_int_equal(st, CRISP_OK);
-            fprintf(stderr, "%d L%d: V %.8f (true %.8f) +- %.2g in [%.6f, %.6f]\n", k, L, m.volume, s.volume,
-                    m.volume_se, m.volume_lo, m.volume_hi);
-            /* certified: the bounds hold at every level, and narrow */
-            assert_true(m.volume_lo <= s.volume && s.volume <= m.volume_hi);
-            assert_true(m.volume_hi - m.volume_lo < width);
-            width = m.volume_hi - m.volume_lo;
-            if (L < 5) continue;
-            assert_true(fabs(m.volume - s.volume) < 4 * m.volume_se);
-            for (int a = 0; a < 3; a++) assert_true(fabs(m.centroid[a] - s.centroid[a]) < 4 * m.centroid_se[a] + 1e-12);
-            for (int a = 0; a < 6; a++) assert_true(fabs(m.inertia[a] - s.inertia[a]) < 4 * m.inertia_se[a] + 1e-12);
-        }
-        crisp_frep_tape_destroy(t);
-        crisp_frep_destroy(f);
-    }
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    crisp_placement pl = at(0);
+    crisp_surface *s;
+    double r = 1.3;
+    assert_int_equal(crisp_make_sphere(&pl, r, 0, 2 * PI, -PI / 2, PI / 2, &s), CRISP_OK);
+    add(m, s, NULL, 0);
+    double V = 4.0 / 3 * PI * r * r * r, i = 0.4 * V * r * r;
+    check(m, V, (double[6]){i, i, i, 0, 0, 0}, 1e-9);
+    crisp_model_destroy(m);
+    /* half of it: open, area only */
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    assert_int_equal(crisp_make_sphere(&pl, r, 0, 2 * PI, 0, PI / 2, &s), CRISP_OK);
+    add(m, s, NULL, 0);
+    crisp_mass_props p;
+    assert_int_equal(crisp_mass_model(m, NULL, &p), CRISP_OK);
+    assert_false(p.closed);
+    assert_true(fabs(p.area - 2 * PI * r * r) < 1e-9 * p.area);
+    assert_true(p.volume == 0);
+    crisp_model_destroy(m);
 }
 
-/* 95% intervals cover the truth in at least 95% of seeded runs (10 quantities x 60 runs x 2
- * solids) */
-static void test_coverage(void **state)
+static void test_capped_cylinder(void **state)
 {
     (void)state;
-    char buf[512];
-    size_t cover = 0, total = 0;
-    for (int k = 1; k < 4; k += 2) {
-        solid s = solids(k, buf, sizeof buf);
-        crisp_frep *f;
-        crisp_frep_tape *t = tape_of(s.expr, &f);
-        crisp_frep_mass m;
-        /* the region once, fitted */
-        assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 1}, &m), CRISP_OK);
-        double region[6];
-        memcpy(region, m.region, sizeof region);
-        for (uint64_t seed = 1; seed <= 60; seed++) {
-            crisp_frep_mass_desc d = {.level = 5, .seed = seed};
-            memcpy(d.region, region, sizeof region);
-            assert_int_equal(crisp_frep_mass_level(t, &d, &m), CRISP_OK);
-            cover += fabs(m.volume - s.volume) <= 1.96 * m.volume_se;
-            for (int a = 0; a < 3; a++) cover += fabs(m.centroid[a] - s.centroid[a]) <= 1.96 * m.centroid_se[a];
-            for (int a = 0; a < 6; a++) cover += fabs(m.inertia[a] - s.inertia[a]) <= 1.96 * m.inertia_se[a];
-            total += 10;
-        }
-        crisp_frep_tape_destroy(t);
-        crisp_frep_destroy(f);
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    double r = 0.7, h = 2.2;
+    crisp_placement pl = at(-h / 2);
+    crisp_surface *s;
+    assert_int_equal(crisp_make_cylinder(&pl, r, 0, 2 * PI, 0, h, &s), CRISP_OK);
+    add(m, s, NULL, 0);
+    for (int cap = 0; cap < 2; cap++) {
+        crisp_placement pc = at(cap ? h / 2 : -h / 2);
+        crisp_surface *plane;
+        assert_int_equal(crisp_make_plane(&pc, -1, 1, -1, 1, &plane), CRISP_OK);
+        crisp_curve *circle;
+        const double c[2] = {0, 0}, x[2] = {1, 0}, y[2] = {0, 1};
+        assert_int_equal(crisp_make_arc(2, c, x, y, r, r, 0, 2 * PI, &circle), CRISP_OK);
+        add(m, plane, circle, cap == 0); /* the bottom disc faces -z */
     }
-    fprintf(stderr, "coverage of the 95%% intervals: %zu of %zu (%.1f%%)\n", cover, total, 100.0 * cover / total);
-    assert_true(cover >= 0.95 * total);
+    double V = PI * r * r * h, ix = V * (3 * r * r + h * h) / 12;
+    check(m, V, (double[6]){ix, ix, V * r * r / 2, 0, 0, 0}, 1e-9);
+    crisp_model_destroy(m);
 }
 
-static void test_bad_input(void **state)
+static void test_torus(void **state)
 {
     (void)state;
-    crisp_frep *f;
-    crisp_frep_mass m;
-    const char *bad[3] = {"X+Y", "X^2+Y^2+Z^2+1", "sqrt(X-1000000)"};
-    for (int k = 0; k < 3; k++) {
-        crisp_frep_tape *t = tape_of(bad[k], &f);
-        assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 4}, &m), CRISP_ERR_NUMERIC);
-        assert_true(strlen(crisp_error_message()) > 10);
-        crisp_frep_tape_destroy(t);
-        crisp_frep_destroy(f);
-    }
-    /* a region that cuts the part */
-    crisp_frep_tape *t = tape_of("X^2+Y^2+Z^2-1", &f);
-    assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.region = {-0.5, 0.5, -2, 2, -2, 2}, .level = 4}, &m),
-                     CRISP_ERR_NUMERIC);
-    assert_non_null(strstr(crisp_error_message(), "cuts"));
-    assert_true(m.cut_cells > 0);
-    assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 25}, &m), CRISP_ERR_INVALID_ARG);
-    crisp_frep_tape_destroy(t);
-    crisp_frep_destroy(f);
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    double R = 1.5, r = 0.4;
+    crisp_placement pl = at(0);
+    crisp_surface *s;
+    assert_int_equal(crisp_make_torus(&pl, R, r, 0, 2 * PI, 0, 2 * PI, &s), CRISP_OK);
+    add(m, s, NULL, 0);
+    double V = 2 * PI * PI * R * r * r, ix = V * (R * R / 2 + 5.0 / 8 * r * r);
+    check(m, V, (double[6]){ix, ix, V * (R * R + 0.75 * r * r), 0, 0, 0}, 1e-9);
+    crisp_model_destroy(m);
 }
 
-static void test_fine(void **state)
+int main(void)
 {
-    (void)state;
-    crisp_frep *f;
-    crisp_frep_tape *t = tape_of("X^2+Y^2+Z^2-1", &f);
-    crisp_frep_mass m;
-    assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 10, .seed = 3}, &m), CRISP_OK);
-    double V = 4 * PI / 3;
-    fprintf(stderr, "level 10: V %.10f +- %.2g (relative %.2g), error %.2g relative\n", m.volume, m.volume_se,
-            m.volume_se / V, fabs(m.volume - V) / V);
-    assert_true(m.volume_se / V <= 1e-6);
-    assert_true(fabs(m.volume - V) / V <= 4e-6);
-    assert_true(fabs(m.inertia[2] - 0.4 * V) / (0.4 * V) <= 1e-5);
-    crisp_frep_tape_destroy(t);
-    crisp_frep_destroy(f);
-}
-
-int main(int argc, char **argv)
-{
-    if (argc > 1 && !strcmp(argv[1], "slow")) {
-        const struct CMUnitTest slow[] = {cmocka_unit_test(test_fine)};
-        return cmocka_run_group_tests(slow, NULL, NULL);
-    }
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_analytic),
-        cmocka_unit_test(test_coverage),
-        cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_sphere),
+        cmocka_unit_test(test_capped_cylinder),
+        cmocka_unit_test(test_torus),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

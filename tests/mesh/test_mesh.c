@@ -17,6 +17,7 @@
 #include <cmocka.h>
 
 #include "crisp/frep.h"
+#include "crisp/frep_mass.h"
 #include "crisp/frep_mesh.h"
 #include "mesh/mesh_check.h"
 
@@ -134,6 +135,16 @@ static mesh_result check_mesh(const char *what, const double region[6], int reso
      * centre can be narrower than the samples: there only the vertices are held to it. */
     if (!strstr(what, "colonnade")) assert_int_equal(r.st.thin_cubes ? far_vertices : far, 0);
     assert_true(pairs > r.m.nt);
+    /* the mesh's volume lies within the certified bounds of the part's volume (octree level 6,
+     * over the part's fitted box, or the mesh's region: then of the part within the region) */
+    crisp_frep_mass_desc md = {.level = 6};
+    if (region) memcpy(md.region, region, sizeof md.region);
+    crisp_frep_mass mass;
+    crisp_status ms = crisp_frep_mass_level(t, &md, &mass);
+    assert_true(ms == CRISP_OK || (region && mass.cut_cells));
+    double vm = mc_volume(&r.m);
+    fprintf(stderr, "    mesh volume %.6g within [%.6g, %.6g]\n", vm, mass.volume_lo, mass.volume_hi);
+    assert_true(mass.volume_lo <= vm && vm <= mass.volume_hi);
     crisp_frep_tape_destroy(t);
     crisp_frep_destroy(f);
     return r;
@@ -245,10 +256,49 @@ static void test_csg(void **state)
     }
     assert_covers(&r.m, (const double(*)[3])pts, 64, r.st.cell);
     mc_free(&r.m);
-    /* a rotated sharp cube */
-    r = check_mesh("max(max(abs(0.8*X+0.6*Y), abs(-0.6*X+0.8*Y)), abs(Z))-0.7", NULL, 32, 0);
+    /* a rotated sharp cube: its edges and corners, with feature points and without */
+    const char *cube = "max(max(abs(0.8*X+0.6*Y), abs(-0.6*X+0.8*Y)), abs(Z))-0.7";
+    r = check_mesh(cube, NULL, 32, 0);
     assert_true(fabs(mc_volume(&r.m) - pow(1.4, 3)) < 0.05 * pow(1.4, 3));
-    mc_free(&r.m);
+    assert_true(r.st.feature_points > 0);
+    double edge[96][3];
+    int ne = 0;
+    for (int e = 0; e < 12; e++) { /* 12 edges of the cube in its own frame, 8 points each */
+        int axis = e / 4, s1 = (e & 1) ? 1 : -1, s2 = (e & 2) ? 1 : -1;
+        for (int k = 0; k < 8; k++) {
+            double q[3];
+            q[axis] = -0.7 + 1.4 * (k + 0.5) / 8;
+            q[(axis + 1) % 3] = 0.7 * s1, q[(axis + 2) % 3] = 0.7 * s2;
+            /* world from the cube's frame: u = 0.8x + 0.6y, v = -0.6x + 0.8y */
+            edge[ne][0] = 0.8 * q[0] - 0.6 * q[1], edge[ne][1] = 0.6 * q[0] + 0.8 * q[1], edge[ne][2] = q[2];
+            ne++;
+        }
+    }
+    double worst[2] = {0, 0}, mean[2] = {0, 0};
+    for (int pass = 0; pass < 2; pass++) {
+        mesh_result rr = r;
+        if (pass) { /* the same without feature points */
+            memset(&rr, 0, sizeof rr);
+            crisp_frep *cf;
+            crisp_frep_tape *ct = tape_of(&cf, cube);
+            crisp_frep_mesh_sink sk = {.ctx = &rr.m, .vertex = mem_vertex, .triangle = mem_triangle};
+            assert_int_equal(crisp_frep_mesh(ct, &(crisp_frep_mesh_desc){.resolution = 32, .no_features = 1}, &sk, &rr.st), CRISP_OK);
+            crisp_frep_tape_destroy(ct);
+            crisp_frep_destroy(cf);
+        }
+        for (int i = 0; i < ne; i++) {
+            double best = INFINITY;
+            for (size_t t2 = 0; t2 < rr.m.nt; t2++)
+                best = fmin(best, point_tri(edge[i], rr.m.p + 3 * rr.m.t[3 * t2], rr.m.p + 3 * rr.m.t[3 * t2 + 1], rr.m.p + 3 * rr.m.t[3 * t2 + 2]));
+            worst[pass] = fmax(worst[pass], best / rr.st.cell);
+            mean[pass] += best / rr.st.cell / ne;
+        }
+        mc_free(&rr.m);
+    }
+    fprintf(stderr, "sharp cube edges: mean %.3f, farthest %.3f cells from the mesh with feature points (%zu); "
+            "%.3f, %.3f without\n", mean[0], worst[0], r.st.feature_points, mean[1], worst[1]);
+    assert_true(mean[0] < 0.7 * mean[1]);
+    assert_true(worst[0] <= worst[1] + 1e-9);
     /* a thin plate: meshed at a fine cell, and reported at a coarse one */
     r = check_mesh("max(abs(Z)-0.02, max(abs(X),abs(Y))-0.5)", (double[6]){-0.6, 0.6, -0.6, 0.6, -0.1, 0.1}, 0, 0.01);
     assert_true(fabs(mc_volume(&r.m) - 0.04) < 0.2 * 0.04);
@@ -351,6 +401,13 @@ static void test_writers(void **state)
         fclose(in);
         remove(path);
     }
+    /* memory bound: a resolution whose edge table would pass the limit stops with a message */
+    crisp_frep_mesh_desc big = {.resolution = 4096, .max_megabytes = 1};
+    mc_mesh mm = {0};
+    sink = (crisp_frep_mesh_sink){.ctx = &mm, .vertex = mem_vertex, .triangle = mem_triangle};
+    assert_int_equal(crisp_frep_mesh(t, &big, &sink, &st), CRISP_ERR_LIMIT);
+    assert_non_null(strstr(crisp_error_message(), "coarser"));
+    mc_free(&mm);
     /* bad input: unknown extension, unbounded and empty parts, NaN everywhere */
     crisp_frep_mesh_writer *w = NULL;
     assert_int_equal(crisp_frep_mesh_writer_open("x.off", &w, &sink), CRISP_ERR_INVALID_ARG);

@@ -296,6 +296,21 @@ static void test_linkrods(void **state)
     crisp_model_destroy(m);
 }
 
+/* Bundled models whose faces meet along shared edges (open or closed): the same criteria inside
+ * the exact silhouette (issue 13 saw single-pixel pinholes on the teapot, the bearing and the
+ * Ventilator at one sample). */
+static void test_bundled(void **state)
+{
+    (void)state;
+    static const char *names[] = {"gpucast_teapot.igs", "occt_bearing.iges", "gpucast_part.igs", "occt_hammer.iges",
+                                  "Ventilator.stp"};
+    for (int k = 0; k < 5; k++) {
+        crisp_model *m = load(names[k]);
+        check_solid(names[k], m, full_run ? 50 : 5);
+        crisp_model_destroy(m);
+    }
+}
+
 int main(int argc, char **argv)
 {
     full_run = argc > 1 && !strcmp(argv[1], "all");
@@ -304,6 +319,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_capped_cylinder),
         cmocka_unit_test(test_quarter_torus),
         cmocka_unit_test(test_linkrods),
+        cmocka_unit_test(test_bundled),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,0 +1,641 @@
+/* The trim-editing demo without its window (te_app.h): state, input, per-frame re-planning of
+ * the edited face, and the 2D domain view's drawing. Wu & Peters 2015: the u-intercept table is
+ * rebuilt every frame instead of a modeller recomputing triangles, so a dragged trim curve is
+ * exact to the pixel at every frame.
+ */
+#include "te_app.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
+#include "crisp/io.h"
+
+#define PICK_PX 8.0 /* pick radius in pixels */
+
+static void say(te_app *app, int error, const char *fmt, const char *arg)
+{
+    snprintf(app->message, sizeof app->message, fmt, arg);
+    app->message_error = error;
+    if (error) fprintf(stderr, "crisp-trimedit: %s\n", app->message);
+}
+
+/* Report an edit's status: refused edits show their reason. */
+static void edit_done(te_app *app, crisp_status st, const char *what)
+{
+    if (st)
+        say(app, 1, "refused: %s", crisp_error_message());
+    else
+        say(app, 0, "%s", what);
+}
+
+/* The untrimmed copy of the edited face (its scene gives the surface point under the cursor). */
+static crisp_status make_bare(te_app *app)
+{
+    crisp_scene_destroy(app->bare_scene);
+    crisp_model_destroy(app->bare);
+    app->bare_scene = NULL;
+    app->bare = NULL;
+    crisp_status st = crisp_model_create(&app->bare);
+    if (st) return st;
+    crisp_face f;
+    if ((st = crisp_face_copy(&app->model->faces[app->face], &f))) return st;
+    for (int l = 0; l < f.loop_count; l++)
+        crisp_trim_loop_free(&f.loops[l]);
+    f.loop_count = 0;
+    if ((st = crisp_model_add_face(app->bare, &f))) {
+        crisp_face_free(&f);
+        return st;
+    }
+    return crisp_scene_prepare(app->bare, &app->bare_scene);
+}
+
+static void frame_face(te_app *app)
+{
+    double box[6];
+    crisp_surface_bbox(app->model->faces[app->face].surface, box);
+    int w = app->view3d.w > 0 ? (int)app->view3d.w : 768,
+        h = app->view3d.h > 0 ? (int)app->view3d.h : 720;
+    crisp_camera_frame_box(box, w, h, &app->cam);
+    app->cam_changed = 1;
+}
+
+static crisp_status open_face(te_app *app, int face)
+{
+    crisp_trimedit_destroy(app->ed);
+    app->ed = NULL;
+    app->face = face;
+    crisp_status st = crisp_trimedit_create(app->model, face, NULL, &app->ed);
+    if (st) return st;
+    /* The editor may have added a loop (a face without loops) or clamped curves. */
+    if ((st = crisp_scene_update_trim(app->scene, (uint32_t)face))) return st;
+    if ((st = make_bare(app))) return st;
+    app->planned_version = 0;
+    app->cam_changed = 1;
+    app->drag = TE_DRAG_NONE;
+    te_app_fit_2d(app);
+    return CRISP_OK;
+}
+
+crisp_status te_app_open(te_app *app, crisp_model *model, int face, int width, int height)
+{
+    memset(app, 0, sizeof *app);
+    app->show_strips = app->show_scanlines = 1;
+    crisp_status st;
+    if (!model) {
+        if ((st = crisp_trimedit_example(&model))) return st;
+        face = 0;
+    }
+    app->model = model;
+    if (face < 0 || face >= model->face_count) {
+        st = crisp_error(CRISP_ERR_INVALID_ARG, "face %d: the model has %d faces (0..%d)", face,
+                         model->face_count, model->face_count - 1);
+        goto fail;
+    }
+    if ((st = crisp_scene_prepare(model, &app->scene))) goto fail;
+    if ((st = crisp_planner_create(NULL, NULL, &app->planner))) goto fail;
+    te_app_layout(app, width, height);
+    if ((st = open_face(app, face))) goto fail;
+    frame_face(app);
+    return CRISP_OK;
+fail:
+    te_app_close(app);
+    return st;
+}
+
+void te_app_close(te_app *app)
+{
+    crisp_trimedit_destroy(app->ed);
+    crisp_planner_destroy(app->planner);
+    crisp_scene_destroy(app->scene);
+    crisp_scene_destroy(app->bare_scene);
+    crisp_model_destroy(app->bare);
+    crisp_model_destroy(app->model);
+    memset(app, 0, sizeof *app);
+}
+
+void te_app_layout(te_app *app, int width, int height)
+{
+    int w3 = (int)(0.6 * width);
+    app->view3d = (te_rect){0, 0, w3, height};
+    app->view2d = (te_rect){w3, 0, width - w3, height};
+    if (app->cam.width != w3 || app->cam.height != height) {
+        app->cam.width = w3 > 0 ? w3 : 1;
+        app->cam.height = height > 0 ? height : 1;
+        app->cam_changed = 1;
+    }
+}
+
+void te_app_set_camera(te_app *app, const crisp_camera *cam)
+{
+    app->cam = *cam;
+    app->cam.width = (int)app->view3d.w;
+    app->cam.height = (int)app->view3d.h;
+    app->cam_changed = 1;
+}
+
+void te_app_fit_2d(te_app *app)
+{
+    if (!app->ed) return;
+    double d[4];
+    crisp_trimedit_domain(app->ed, d);
+    app->uv_center[0] = 0.5 * (d[0] + d[1]);
+    app->uv_center[1] = 0.5 * (d[2] + d[3]);
+    double su = 0.85 * app->view2d.w / (d[1] - d[0]), sv = 0.85 * app->view2d.h / (d[3] - d[2]);
+    app->uv_scale = fmin(su, sv);
+    if (!(app->uv_scale > 0) || !isfinite(app->uv_scale)) app->uv_scale = 1;
+}
+
+void te_app_uv_to_px(const te_app *app, const double uv[2], double px[2])
+{
+    px[0] = app->view2d.x + 0.5 * app->view2d.w + (uv[0] - app->uv_center[0]) * app->uv_scale;
+    px[1] = app->view2d.y + 0.5 * app->view2d.h - (uv[1] - app->uv_center[1]) * app->uv_scale;
+}
+
+void te_app_px_to_uv(const te_app *app, const double px[2], double uv[2])
+{
+    uv[0] = app->uv_center[0] + (px[0] - app->view2d.x - 0.5 * app->view2d.w) / app->uv_scale;
+    uv[1] = app->uv_center[1] - (px[1] - app->view2d.y - 0.5 * app->view2d.h) / app->uv_scale;
+}
+
+int te_app_uv_to_px3d(const te_app *app, const double uv[2], double px[2])
+{
+    double P[3], c[4], s[3];
+    crisp_camera_matrices m;
+    crisp_camera_matrices_compute(&app->cam, &m);
+    crisp_surface_eval(app->model->faces[app->face].surface, uv[0], uv[1], P);
+    crisp_mat4_mulp(m.view_proj, P, c);
+    if (!(c[3] > 0)) return 0;
+    crisp_camera_to_pixel(&app->cam, c, s);
+    px[0] = app->view3d.x + s[0];
+    px[1] = app->view3d.y + s[1];
+    return 1;
+}
+
+crisp_status te_app_update(te_app *app)
+{
+    crisp_status st = CRISP_OK;
+    uint64_t v = crisp_trimedit_version(app->ed);
+    if (!app->plan || app->cam_changed) {
+        if (v != app->planned_version &&
+            (st = crisp_scene_update_trim(app->scene, (uint32_t)app->face)))
+            return st;
+        double t = crisp_time_now();
+        if ((st = crisp_planner_plan(app->planner, app->scene, &app->cam, &app->plan))) return st;
+        app->ms_plan = 1e3 * (crisp_time_now() - t);
+        app->cam_changed = 0;
+        app->planned_version = v;
+    } else if (v != app->planned_version) {
+        double t = crisp_time_now();
+        if ((st = crisp_scene_update_trim(app->scene, (uint32_t)app->face))) return st;
+        if ((st = crisp_planner_replan_face(app->planner, app->scene, (uint32_t)app->face,
+                                            &app->plan)))
+            return st;
+        app->ms_face_plan = 1e3 * (crisp_time_now() - t);
+        app->planned_version = v;
+        app->replans++;
+    }
+    return st;
+}
+
+void te_app_frame_done(te_app *app, double ms_frame)
+{
+    app->ms_frame = ms_frame;
+}
+
+static int in_rect(const te_rect *r, const double p[2])
+{
+    return p[0] >= r->x && p[0] < r->x + r->w && p[1] >= r->y && p[1] < r->y + r->h;
+}
+
+/* The control point whose surface point is nearest the cursor in the 3D view. */
+static int pick_point_3d(te_app *app, crisp_trimedit_ref *dest)
+{
+    const crisp_face *f = crisp_trimedit_face(app->ed);
+    double best = PICK_PX;
+    int found = 0;
+    for (int l = 0; l < f->loop_count; l++)
+        for (int c = 0; c < f->loops[l].curve_count; c++)
+            for (int i = 0; i < f->loops[l].curves[c]->count; i++) {
+                crisp_trimedit_ref r = {l, c, i};
+                double uv[2], px[2];
+                crisp_trimedit_point(app->ed, r, uv, NULL);
+                if (!te_app_uv_to_px3d(app, uv, px)) continue;
+                double d = hypot(px[0] - app->cursor[0], px[1] - app->cursor[1]);
+                if (d <= best) {
+                    best = d;
+                    *dest = r;
+                    found = 1;
+                }
+            }
+    return found;
+}
+
+/* (u, v) of the untrimmed edited surface under the cursor in the 3D view. */
+static int uv_under_cursor_3d(te_app *app, double uv[2])
+{
+    double o[3], dir[3], t;
+    uint32_t face;
+    crisp_camera_ray(&app->cam, app->cursor[0] - app->view3d.x, app->cursor[1] - app->view3d.y, o,
+                     dir);
+    crisp_exact_desc d = {.threads = 1};
+    return crisp_exact_ray(app->bare_scene, &d, o, dir, 0.0, INFINITY, &t, &face, uv, NULL);
+}
+
+static void move_dragged(te_app *app, const double uv[2])
+{
+    double snap = app->snap ? PICK_PX / app->uv_scale : 0.0;
+    crisp_status st = crisp_trimedit_move_point(app->ed, &app->drag_ref, uv, snap);
+    if (st) edit_done(app, st, "");
+}
+
+void te_app_cursor(te_app *app, double x, double y)
+{
+    double prev[2] = {app->cursor[0], app->cursor[1]};
+    app->cursor[0] = x;
+    app->cursor[1] = y;
+    double uv[2];
+    te_app_px_to_uv(app, app->cursor, uv);
+    switch (app->drag) {
+    case TE_DRAG_POINT:
+        move_dragged(app, uv);
+        break;
+    case TE_DRAG_POINT_3D: {
+        double suv[2];
+        if (uv_under_cursor_3d(app, suv)) move_dragged(app, suv);
+        break;
+    }
+    case TE_DRAG_MOVE: {
+        const double m[2][3] = {{1, 0, uv[0] - app->drag_last[0]},
+                                {0, 1, uv[1] - app->drag_last[1]}};
+        crisp_status st = crisp_trimedit_transform_loop(app->ed, app->drag_loop, m);
+        if (!st)
+            memcpy(app->drag_last, uv, sizeof uv);
+        else
+            edit_done(app, st, "");
+        break;
+    }
+    case TE_DRAG_ROTATE:
+    case TE_DRAG_SCALE: {
+        const double *c = app->drag_pivot;
+        double a0 = atan2(app->drag_last[1] - c[1], app->drag_last[0] - c[0]);
+        double a1 = atan2(uv[1] - c[1], uv[0] - c[0]);
+        double r0 = hypot(app->drag_last[0] - c[0], app->drag_last[1] - c[1]);
+        double r1 = hypot(uv[0] - c[0], uv[1] - c[1]);
+        double s = app->drag == TE_DRAG_SCALE ? (r0 > 0 ? r1 / r0 : 1) : 1;
+        double a = app->drag == TE_DRAG_ROTATE ? a1 - a0 : 0;
+        double ca = s * cos(a), sa = s * sin(a);
+        const double m[2][3] = {{ca, -sa, c[0] - ca * c[0] + sa * c[1]},
+                                {sa, ca, c[1] - sa * c[0] - ca * c[1]}};
+        crisp_status st = crisp_trimedit_transform_loop(app->ed, app->drag_loop, m);
+        if (!st)
+            memcpy(app->drag_last, uv, sizeof uv);
+        else
+            edit_done(app, st, "");
+        break;
+    }
+    case TE_DRAG_PAN:
+        app->uv_center[0] -= (x - prev[0]) / app->uv_scale;
+        app->uv_center[1] += (y - prev[1]) / app->uv_scale;
+        break;
+    default:
+        break;
+    }
+}
+
+void te_app_button(te_app *app, int button, int action, int mods)
+{
+    if (action == GLFW_RELEASE) {
+        if (app->drag != TE_DRAG_NONE && app->drag != TE_DRAG_PAN)
+            crisp_trimedit_group_end(app->ed);
+        app->drag = TE_DRAG_NONE;
+        return;
+    }
+    if (action != GLFW_PRESS) return;
+    double uv[2];
+    te_app_px_to_uv(app, app->cursor, uv);
+    double radius = PICK_PX / app->uv_scale;
+    if (in_rect(&app->view2d, app->cursor)) {
+        if (button == GLFW_MOUSE_BUTTON_RIGHT || button == GLFW_MOUSE_BUTTON_MIDDLE) {
+            app->drag = TE_DRAG_PAN;
+            return;
+        }
+        if (button != GLFW_MOUSE_BUTTON_LEFT) return;
+        if (mods & (GLFW_MOD_SHIFT | GLFW_MOD_CONTROL | GLFW_MOD_ALT)) {
+            int l, c;
+            double t;
+            if (!crisp_trimedit_pick_curve(app->ed, uv, 4 * radius, &l, &c, &t)) return;
+            app->drag_loop = l;
+            app->drag = mods & GLFW_MOD_SHIFT     ? TE_DRAG_MOVE
+                        : mods & GLFW_MOD_CONTROL ? TE_DRAG_ROTATE
+                                                  : TE_DRAG_SCALE;
+            memcpy(app->drag_last, uv, sizeof uv);
+            crisp_trimedit_loop_center(app->ed, l, app->drag_pivot);
+            crisp_trimedit_group_begin(app->ed);
+            return;
+        }
+        if (crisp_trimedit_pick_point(app->ed, uv, radius, &app->drag_ref)) {
+            app->drag = TE_DRAG_POINT;
+            memcpy(app->drag_start, uv, sizeof uv);
+            crisp_trimedit_group_begin(app->ed);
+        }
+    } else if (in_rect(&app->view3d, app->cursor) && button == GLFW_MOUSE_BUTTON_LEFT && !mods) {
+        if (pick_point_3d(app, &app->drag_ref)) {
+            app->drag = TE_DRAG_POINT_3D;
+            crisp_trimedit_group_begin(app->ed);
+        }
+    }
+}
+
+void te_app_scroll(te_app *app, double dy)
+{
+    if (!in_rect(&app->view2d, app->cursor)) return;
+    double before[2], after[2];
+    te_app_px_to_uv(app, app->cursor, before);
+    app->uv_scale *= pow(1.2, dy);
+    te_app_px_to_uv(app, app->cursor, after);
+    app->uv_center[0] += before[0] - after[0];
+    app->uv_center[1] += before[1] - after[1];
+}
+
+/* The (u, v) the keys act at: the cursor in the 2D view, or the surface point under it in 3D. */
+static int key_uv(te_app *app, double uv[2])
+{
+    if (in_rect(&app->view2d, app->cursor)) {
+        te_app_px_to_uv(app, app->cursor, uv);
+        return 1;
+    }
+    return in_rect(&app->view3d, app->cursor) && uv_under_cursor_3d(app, uv);
+}
+
+static double key_radius(const te_app *app)
+{
+    return PICK_PX / app->uv_scale;
+}
+
+static void weight_key(te_app *app, double factor, int zero)
+{
+    double uv[2], w;
+    crisp_trimedit_ref r;
+    if (!key_uv(app, uv) || !crisp_trimedit_pick_point(app->ed, uv, key_radius(app), &r)) {
+        say(app, 1, "%s", "no control point under the cursor");
+        return;
+    }
+    crisp_trimedit_point(app->ed, r, uv, &w);
+    edit_done(app, crisp_trimedit_set_weight(app->ed, r, zero ? 0.0 : w * factor),
+              "weight changed");
+}
+
+void te_app_key(te_app *app, int key, int action, int mods)
+{
+    if (action != GLFW_PRESS && action != GLFW_REPEAT) return;
+    double uv[2];
+    int have = key_uv(app, uv);
+    double radius = key_radius(app);
+    crisp_trimedit_ref r;
+    int l, c;
+    double t;
+    if (mods & GLFW_MOD_CONTROL) {
+        if (key == GLFW_KEY_Z && !(mods & GLFW_MOD_SHIFT))
+            edit_done(app, crisp_trimedit_undo(app->ed), "undone");
+        else if (key == GLFW_KEY_Y || key == GLFW_KEY_Z)
+            edit_done(app, crisp_trimedit_redo(app->ed), "redone");
+        else if (key == GLFW_KEY_S)
+            edit_done(app, te_app_save(app, app->save_path[0] ? app->save_path : "trimedit.obj"),
+                      "saved");
+        return;
+    }
+    switch (key) {
+    case GLFW_KEY_I:
+        if (have && crisp_trimedit_pick_curve(app->ed, uv, radius, &l, &c, &t))
+            edit_done(app, crisp_trimedit_insert_knot(app->ed, l, c, t), "knot inserted");
+        else
+            say(app, 1, "%s", "no trim curve under the cursor");
+        break;
+    case GLFW_KEY_K:
+        if (have && crisp_trimedit_pick_curve(app->ed, uv, radius, &l, &c, &t)) {
+            const crisp_curve *cv = crisp_trimedit_face(app->ed)->loops[l].curves[c];
+            int best = -1;
+            for (int k = cv->degree + 1; k < cv->count; k++)
+                if (best < 0 || fabs(cv->knots[k] - t) < fabs(cv->knots[best] - t)) best = k;
+            if (best < 0)
+                say(app, 1, "%s", "refused: the curve has no interior knot");
+            else
+                edit_done(app, crisp_trimedit_remove_knot(app->ed, l, c, best), "knot removed");
+        } else {
+            say(app, 1, "%s", "no trim curve under the cursor");
+        }
+        break;
+    case GLFW_KEY_X:
+    case GLFW_KEY_DELETE:
+        if (have && crisp_trimedit_pick_point(app->ed, uv, radius, &r))
+            edit_done(app, crisp_trimedit_delete_point(app->ed, r), "control point deleted");
+        else
+            say(app, 1, "%s", "no control point under the cursor");
+        break;
+    case GLFW_KEY_EQUAL:
+        weight_key(app, 1.25, 0);
+        break;
+    case GLFW_KEY_MINUS:
+        weight_key(app, 1 / 1.25, 0);
+        break;
+    case GLFW_KEY_0:
+        weight_key(app, 0, 1);
+        break;
+    case GLFW_KEY_B:
+        if (have && crisp_trimedit_pick_point(app->ed, uv, radius, &r))
+            edit_done(app, crisp_trimedit_snap_point(app->ed, &r), "snapped to the domain edge");
+        break;
+    case GLFW_KEY_G:
+        app->snap = !app->snap;
+        say(app, 0, "%s", app->snap ? "snap on" : "snap off");
+        break;
+    case GLFW_KEY_C:
+    case GLFW_KEY_R:
+    case GLFW_KEY_P: {
+        if (!have) break;
+        double d[4];
+        crisp_trimedit_domain(app->ed, d);
+        double s = 0.05 * fmin(d[1] - d[0], d[3] - d[2]);
+        if (key == GLFW_KEY_C) {
+            edit_done(app, crisp_trimedit_add_circle(app->ed, uv, s), "circle hole added");
+        } else if (key == GLFW_KEY_R) {
+            const double lo[2] = {uv[0] - s, uv[1] - 0.6 * s}, hi[2] = {uv[0] + s, uv[1] + 0.6 * s};
+            edit_done(app, crisp_trimedit_add_rectangle(app->ed, lo, hi), "rectangle hole added");
+        } else {
+            double hex[12];
+            for (int k = 0; k < 6; k++) {
+                hex[2 * k] = uv[0] + s * cos(k * M_PI / 3);
+                hex[2 * k + 1] = uv[1] + s * sin(k * M_PI / 3);
+            }
+            edit_done(app, crisp_trimedit_add_polygon(app->ed, 6, hex), "polygon hole added");
+        }
+        break;
+    }
+    case GLFW_KEY_D:
+        if (have && crisp_trimedit_pick_curve(app->ed, uv, 2 * radius, &l, &c, &t))
+            edit_done(app, crisp_trimedit_delete_loop(app->ed, l), "hole deleted");
+        else
+            say(app, 1, "%s", "no trim loop under the cursor");
+        break;
+    case GLFW_KEY_S:
+        app->show_strips = !app->show_strips;
+        break;
+    case GLFW_KEY_L:
+        app->show_scanlines = !app->show_scanlines;
+        break;
+    case GLFW_KEY_F:
+        te_app_fit_2d(app);
+        break;
+    case GLFW_KEY_O: {
+        int f = te_app_pick_face(app);
+        char buf[64];
+        snprintf(buf, sizeof buf, "face %d opened", f);
+        if (f < 0)
+            say(app, 1, "%s", "no face under the cursor");
+        else
+            edit_done(app, te_app_open_face(app, f), buf);
+        break;
+    }
+    default:
+        break;
+    }
+}
+
+static int classify_plan(void *ctx, const crisp_scene *sc, uint32_t face, double u, double v)
+{
+    (void)sc;
+    return crisp_plan_trim_test((const crisp_frame_plan *)ctx, face, u, v);
+}
+
+int te_app_pick_face(te_app *app)
+{
+    if (!app->plan || !in_rect(&app->view3d, app->cursor)) return -1;
+    double o[3], dir[3], t, uv[2];
+    uint32_t face;
+    crisp_camera_ray(&app->cam, app->cursor[0] - app->view3d.x, app->cursor[1] - app->view3d.y, o,
+                     dir);
+    crisp_exact_desc d = {
+        .threads = 1, .classify = classify_plan, .classify_ctx = (void *)app->plan};
+    if (!crisp_exact_ray(app->scene, &d, o, dir, 0.0, INFINITY, &t, &face, uv, NULL)) return -1;
+    return (int)face;
+}
+
+crisp_status te_app_open_face(te_app *app, int face)
+{
+    if (face < 0 || face >= app->model->face_count)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "face %d: the model has %d faces", face,
+                           app->model->face_count);
+    if (face == app->face) return CRISP_OK;
+    int old = app->face;
+    crisp_status st = open_face(app, face);
+    if (st) {
+        /* Back to the face that was open (its loops are as the editor left them). */
+        crisp_status st2 = open_face(app, old);
+        (void)st2;
+    }
+    return st;
+}
+
+crisp_status te_app_save(te_app *app, const char *path)
+{
+    crisp_status st = crisp_write_obj(app->model, path);
+    if (!st) say(app, 0, "saved %s", path);
+    return st;
+}
+
+/* ---- the 2D view ----------------------------------------------------------------------------- */
+
+static void line_uv(te_app *app, const te_draw *d, const double a[2], const double b[2],
+                    uint32_t color, double width)
+{
+    double p[2], q[2];
+    te_app_uv_to_px(app, a, p);
+    te_app_uv_to_px(app, b, q);
+    d->line(d->ctx, p[0], p[1], q[0], q[1], color, width);
+}
+
+long te_app_draw_2d(te_app *app, const te_draw *d)
+{
+    double dom[4];
+    crisp_trimedit_domain(app->ed, dom);
+    const double c00[2] = {dom[0], dom[2]}, c10[2] = {dom[1], dom[2]}, c11[2] = {dom[1], dom[3]},
+                 c01[2] = {dom[0], dom[3]};
+    const uint32_t grey = 0xff808080u;
+    line_uv(app, d, c00, c10, grey, 1);
+    line_uv(app, d, c10, c11, grey, 1);
+    line_uv(app, d, c11, c01, grey, 1);
+    line_uv(app, d, c01, c00, grey, 1);
+    long scan_lines = 0;
+    const crisp_frame_plan *plan = app->plan;
+    if (plan && (uint32_t)app->face < plan->face_count) {
+        const crisp_plan_face *pf = &plan->faces[app->face];
+        for (uint32_t s = 0; s < pf->strip_count; s++) {
+            const crisp_plan_strip *st = &plan->strips[pf->first_strip + s];
+            double v = pf->v0 + s / pf->strip_scale;
+            if (app->show_strips) {
+                const double a[2] = {dom[0], v}, b[2] = {dom[1], v};
+                line_uv(app, d, a, b, 0xc0c08040u, 1.5);
+            }
+            if (!app->show_scanlines || !st->row_count) continue;
+            double spacing = app->uv_scale / st->row_scale; /* pixels between scan lines */
+            uint32_t every = spacing >= 3 ? 1 : (uint32_t)ceil(3 / spacing);
+            for (uint32_t j = 0; j < st->row_count; j += every) {
+                double vs = st->a + (j + 0.5) / st->row_scale;
+                const double a[2] = {dom[0], vs}, b[2] = {dom[1], vs};
+                line_uv(app, d, a, b, 0x40a0a0a0u, 1);
+                scan_lines++;
+            }
+        }
+        if (app->show_strips && pf->strip_count) {
+            const double a[2] = {dom[0], pf->v1}, b[2] = {dom[1], pf->v1};
+            line_uv(app, d, a, b, 0xc0c08040u, 1.5);
+        }
+    }
+    const crisp_trimedit_report *rep = crisp_trimedit_check(app->ed);
+    const crisp_face *f = crisp_trimedit_face(app->ed);
+    for (int l = 0; l < f->loop_count; l++) {
+        int bad = l < 64 && rep->flags[l];
+        uint32_t color = bad ? 0xff3030ffu : f->loops[l].is_outer ? 0xff40e0ffu : 0xffffd040u;
+        for (int c = 0; c < f->loops[l].curve_count; c++) {
+            const crisp_curve *cv = f->loops[l].curves[c];
+            const int p = cv->degree;
+            /* The curve, span by span, and its knots. */
+            for (int k = p; k < cv->count; k++) {
+                double a = cv->knots[k], b = cv->knots[k + 1];
+                if (!(a < b)) continue;
+                int n = 12 * p;
+                double q0[2], q1[2], px[2];
+                crisp_curve_eval(cv, a, q0);
+                te_app_uv_to_px(app, q0, px);
+                d->circle(d->ctx, px[0], px[1], 2.0, 0xff2080ffu, 1);
+                for (int i = 1; i <= n; i++) {
+                    crisp_curve_eval(cv, a + (b - a) * i / n, q1);
+                    line_uv(app, d, q0, q1, color, 2);
+                    q0[0] = q1[0];
+                    q0[1] = q1[1];
+                }
+            }
+            /* Control polygon and points (radius grows with the weight). */
+            for (int i = 0; i < cv->count; i++) {
+                double uv[2], w, px[2];
+                crisp_trimedit_point(app->ed, (crisp_trimedit_ref){l, c, i}, uv, &w);
+                if (i + 1 < cv->count) {
+                    double uv2[2];
+                    crisp_trimedit_point(app->ed, (crisp_trimedit_ref){l, c, i + 1}, uv2, NULL);
+                    line_uv(app, d, uv, uv2, 0x80c0c0c0u, 1);
+                }
+                te_app_uv_to_px(app, uv, px);
+                int active = app->drag == TE_DRAG_POINT && app->drag_ref.loop == l &&
+                             app->drag_ref.curve == c && app->drag_ref.index == i;
+                double rad = fmin(9.0, fmax(2.5, 3.5 * sqrt(w)));
+                d->circle(d->ctx, px[0], px[1], rad, active ? 0xff00ffffu : 0xffffffffu, active);
+            }
+        }
+    }
+    return scan_lines;
+}

@@ -1,0 +1,340 @@
+/* Trim-editing benchmark (issue 11): per frame of a drag of one control point, the work the
+ * editor does: the edit itself (crisp_trimedit_move_point), taking the loops into the scene
+ * (crisp_scene_update_trim), re-planning only the edited face (crisp_planner_replan_face: "the
+ * plan time of the edited face", goal < 2 ms) and drawing the frame with the CPU backend
+ * (crisp_render_cpu_plan at 1280x720; plan + draw goal < 33 ms). Baseline in the same run: a
+ * whole-scene plan (crisp_planner_plan) of the same camera, the work without per-face
+ * re-planning. Inputs: the built-in example, and the face with the most Bézier trim pieces among
+ * the bundled models (found by scanning data/nurbs, or given: --model PATH --face N). Views: the
+ * default camera of the model, and zoomed in on the dragged point until the trim curve crosses
+ * the window. Usage: bench_trimedit [--model PATH --face N] [--frames N] [--size WxH]
+ */
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "bench_util.h"
+#include "crisp/io.h"
+#include "crisp/plan.h"
+#include "crisp/render.h"
+#include "crisp/trimedit.h"
+#if defined(__has_include)
+#if __has_include("crisp/gl.h")
+#include "crisp/gl.h"
+#define HAVE_GL 1
+#endif
+#endif
+
+static int frames = 60, width = 1280, height = 720;
+
+/* Pieces of face f (Bézier pieces of all its loops). */
+static int face_pieces(const crisp_face *f)
+{
+    int n = 0;
+    for (int l = 0; l < f->loop_count; l++)
+        for (int c = 0; c < f->loops[l].curve_count; c++) {
+            const crisp_curve *cv = f->loops[l].curves[c];
+            for (int k = cv->degree; k < cv->count; k++)
+                n += cv->knots[k] < cv->knots[k + 1];
+        }
+    return n;
+}
+
+/* The bundled face with the most trim pieces. */
+static int find_busiest(char *path, size_t size, int *face, int *pieces)
+{
+    DIR *d = opendir(CRISP_DATA_DIR "/nurbs");
+    if (!d) return 0;
+    struct dirent *e;
+    *pieces = -1;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.') continue;
+        char p[1024];
+        snprintf(p, sizeof p, "%s/nurbs/%s", CRISP_DATA_DIR, e->d_name);
+        crisp_model *m;
+        if (crisp_model_load(p, NULL, &m)) continue;
+        for (int f = 0; f < m->face_count; f++) {
+            int n = face_pieces(&m->faces[f]);
+            if (n > *pieces) {
+                *pieces = n;
+                *face = f;
+                snprintf(path, size, "%s", p);
+            }
+        }
+        crisp_model_destroy(m);
+    }
+    closedir(d);
+    return *pieces >= 0;
+}
+
+/* The control point to drag: the middle point of the loop's longest curve (by control points) of
+ * the face's first loop, and a step of 1% of the domain. */
+static crisp_trimedit_ref pick_point(const crisp_face *f)
+{
+    crisp_trimedit_ref r = {0, 0, 0};
+    int best = -1;
+    for (int c = 0; c < f->loops[0].curve_count; c++)
+        if (f->loops[0].curves[c]->count > best) {
+            best = f->loops[0].curves[c]->count;
+            r.curve = c;
+        }
+    r.index = best / 2;
+    return r;
+}
+
+/* Camera looking down the normal at surface point (u, v), the window spanning `span` model units.
+ */
+static void zoom_camera(const crisp_surface *s, const double uv[2], double span, crisp_camera *cam)
+{
+    double P[3], Su[3], Sv[3], N[3];
+    crisp_surface_derivs(s, uv[0], uv[1], P, Su, Sv, NULL, NULL, NULL);
+    crisp_vec3_cross(Su, Sv, N);
+    if (!crisp_vec3_normalize(N, N)) N[0] = 0, N[1] = 0, N[2] = 1;
+    double dist = 20 * span, fov = 2 * atan(0.5 * span / dist) * 180 / M_PI;
+    *cam = (crisp_camera){
+        .fov_deg = fov, .znear = dist * 0.01, .zfar = dist * 100, .width = width, .height = height};
+    double up[3] = {0, 0, 1};
+    if (fabs(N[2]) > 0.9) up[1] = 1, up[2] = 0;
+    for (int k = 0; k < 3; k++) {
+        cam->target[k] = P[k];
+        cam->eye[k] = P[k] + dist * N[k];
+        cam->up[k] = up[k];
+    }
+}
+
+/* Process CPU time in seconds (all threads): what the work costs with the machine to itself. */
+static double cpu_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+static double ms_since(double t)
+{
+    return 1e3 * (crisp_time_now() - t);
+}
+
+static void run(const char *name, crisp_model *m, int face, int zoomed)
+{
+    crisp_trimedit *ed;
+    if (crisp_trimedit_create(m, face, NULL, &ed)) {
+        printf("%s: %s\n", name, crisp_error_message());
+        return;
+    }
+    crisp_scene *sc;
+    if (crisp_scene_prepare(m, &sc)) {
+        printf("%s: %s\n", name, crisp_error_message());
+        crisp_trimedit_destroy(ed);
+        return;
+    }
+    const crisp_face *f = crisp_trimedit_face(ed);
+    crisp_trimedit_ref ref = pick_point(f);
+    double p0[2], dom[4];
+    crisp_trimedit_point(ed, ref, p0, NULL);
+    crisp_trimedit_domain(ed, dom);
+    double amp = 0.01 * fmax(dom[1] - dom[0], dom[3] - dom[2]);
+    crisp_camera cam;
+    if (zoomed) {
+        /* The window spans about 40 steps of the drag on the surface. */
+        double P0[3], P1[3], q[2] = {p0[0] + amp, p0[1]};
+        crisp_surface_eval(f->surface, p0[0], p0[1], P0);
+        crisp_surface_eval(f->surface, q[0], q[1], P1);
+        double span = 4 * hypot(hypot(P1[0] - P0[0], P1[1] - P0[1]), P1[2] - P0[2]);
+        /* Aim at the curve near the point (the curve, not the control point, must cross). */
+        int l, c;
+        double t, on[2];
+        if (crisp_trimedit_pick_curve(ed, p0, INFINITY, &l, &c, &t))
+            crisp_curve_eval(f->loops[l].curves[c], t, on);
+        else
+            on[0] = p0[0], on[1] = p0[1];
+        zoom_camera(f->surface, on, span > 0 ? span : 1e-3, &cam);
+    } else {
+        crisp_camera_frame_box(sc->box, width, height, &cam);
+    }
+    crisp_renderer *r;
+    crisp_planner *pl;
+    crisp_renderer_create(NULL, &r);
+    crisp_planner_create(NULL, NULL, &pl);
+    crisp_image img;
+    crisp_image_init(&img, width, height);
+    const crisp_frame_plan *plan;
+    double *full = malloc(sizeof(double) * 5), *edit = malloc(sizeof(double) * frames),
+           *upd = malloc(sizeof(double) * frames), *replan = malloc(sizeof(double) * frames),
+           *draw = malloc(sizeof(double) * frames), *frame = malloc(sizeof(double) * frames),
+           *replan_cpu = malloc(sizeof(double) * frames),
+           *ms_trim = malloc(sizeof(double) * frames), *ms_rib = malloc(sizeof(double) * frames),
+           *gl_draw = malloc(sizeof(double) * frames), *gl_frame = malloc(sizeof(double) * frames),
+           *draw_cpu = malloc(sizeof(double) * frames), *gl_cpu = malloc(sizeof(double) * frames);
+    int have_gl = 0;
+#ifdef HAVE_GL
+    crisp_gl_context *glc = NULL;
+    crisp_gl *gl = NULL;
+    if (!crisp_gl_context_create(&glc) &&
+        !crisp_gl_create(crisp_gl_context_getproc(glc), NULL, &gl) && !crisp_gl_set_scene(gl, sc))
+        have_gl = 1;
+    else
+        fprintf(stderr, "GL: %s\n", crisp_error_message());
+#endif
+    for (int k = 0; k < 5; k++) {
+        double t = crisp_time_now();
+        crisp_planner_plan(pl, sc, &cam, &plan);
+        full[k] = ms_since(t);
+    }
+    int refused = 0;
+    uint64_t rows = 0;
+    crisp_trimedit_group_begin(ed);
+    for (int k = 0; k < frames; k++) {
+        double a = 2 * M_PI * k / frames,
+               to[2] = {p0[0] + amp * sin(a), p0[1] + amp * (1 - cos(a))};
+        double t0 = crisp_time_now();
+        refused += crisp_trimedit_move_point(ed, &ref, to, 0) != CRISP_OK;
+        double t1 = crisp_time_now();
+        crisp_scene_update_trim(sc, (uint32_t)face);
+        double t2 = crisp_time_now(), c2 = cpu_now();
+        crisp_planner_replan_face(pl, sc, (uint32_t)face, &plan);
+        double t3 = crisp_time_now();
+        replan_cpu[k] = 1e3 * (cpu_now() - c2);
+        ms_trim[k] = plan->stats.ms_trim;
+        ms_rib[k] = plan->stats.ms_ribbons;
+        double c3 = cpu_now();
+        crisp_render_cpu_plan(r, sc, plan, &cam, &img, NULL);
+        double t4 = crisp_time_now(), c4 = cpu_now();
+        draw_cpu[k] = 1e3 * (c4 - c3);
+        gl_cpu[k] = 0;
+        gl_draw[k] = 0;
+#ifdef HAVE_GL
+        if (have_gl) {
+            crisp_gl_draw(gl, plan, NULL);
+            gl_draw[k] = ms_since(t4);
+            gl_cpu[k] = 1e3 * (cpu_now() - c4);
+        }
+#endif
+        gl_frame[k] = 1e3 * (t3 - t0) + gl_draw[k];
+        edit[k] = 1e3 * (t1 - t0);
+        upd[k] = 1e3 * (t2 - t1);
+        replan[k] = 1e3 * (t3 - t2);
+        draw[k] = 1e3 * (t4 - t3);
+        frame[k] = 1e3 * (t4 - t0);
+        const crisp_plan_face *pf = &plan->faces[face];
+        for (uint32_t s = 0; s < pf->strip_count; s++)
+            rows += plan->strips[pf->first_strip + s].row_count;
+    }
+    crisp_trimedit_group_end(ed);
+    double max_replan = 0;
+    for (int k = 0; k < frames; k++)
+        max_replan = fmax(max_replan, replan[k]);
+    char gls[64] = "    n/a |     n/a |     n/a";
+    if (have_gl)
+        snprintf(gls, sizeof gls, "%7.2f | %7.2f | %7.2f", bench_median(gl_draw, frames),
+                 bench_median(gl_cpu, frames), bench_median(gl_frame, frames));
+    double mt = bench_median(ms_trim, frames), mrib = bench_median(ms_rib, frames);
+    double mf = bench_median(full, 5);
+    double mr = bench_median(replan, frames);
+    printf("| %-30s | %-7s | %4d | %6.0f | %6.3f | %6.3f | %6.3f | %6.3f | %6.3f | %7.2f | %7.2f | "
+           "%7.2f | %s | %7.2f | %5.1fx | %5.3f + %5.3f |%s\n",
+           name, zoomed ? "zoomed" : "default", face_pieces(f), (double)rows / frames,
+           bench_median(edit, frames), bench_median(upd, frames), mr, max_replan,
+           bench_median(replan_cpu, frames), bench_median(draw, frames),
+           bench_median(draw_cpu, frames), bench_median(frame, frames), gls, mf,
+           mr > 0 ? mf / mr : 0, mt, mrib, refused ? " (some moves refused)" : "");
+    free(full);
+    free(edit);
+    free(upd);
+    free(replan);
+    free(draw);
+    free(frame);
+    free(replan_cpu);
+    free(gl_draw);
+    free(draw_cpu);
+    free(gl_cpu);
+    free(gl_frame);
+#ifdef HAVE_GL
+    crisp_gl_destroy(gl);
+    crisp_gl_context_destroy(glc);
+#endif
+    free(ms_trim);
+    free(ms_rib);
+    crisp_image_free(&img);
+    crisp_planner_destroy(pl);
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+    crisp_trimedit_destroy(ed);
+}
+
+int main(int argc, char **argv)
+{
+    char model[1024] = "";
+    int face = -1;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--model") && i + 1 < argc)
+            snprintf(model, sizeof model, "%s", argv[++i]);
+        else if (!strcmp(argv[i], "--face") && i + 1 < argc)
+            face = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--frames") && i + 1 < argc)
+            frames = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--size") && i + 1 < argc)
+            sscanf(argv[++i], "%dx%d", &width, &height);
+        else {
+            fprintf(stderr,
+                    "usage: bench_trimedit [--model PATH --face N] [--frames N] [--size WxH]\n");
+            return 2;
+        }
+    }
+    if (frames < 1) frames = 1;
+    int pieces = 0;
+    if (!model[0] && !find_busiest(model, sizeof model, &face, &pieces)) {
+        fprintf(stderr, "no bundled model found in %s/nurbs\n", CRISP_DATA_DIR);
+        return 1;
+    }
+    bench_print_machine(stdout);
+    double la[3] = {0};
+    FILE *lf = fopen("/proc/loadavg", "r");
+    if (lf) {
+        if (fscanf(lf, "%lf %lf %lf", &la[0], &la[1], &la[2]) != 3) la[0] = -1;
+        fclose(lf);
+    }
+    printf("load average %.2f; %d frames per drag at %dx%d, CPU backend, %d threads; times in ms "
+           "(medians; replan max over the drag)\n\n",
+           la[0], frames, width, height, crisp_pool_default_threads());
+    printf(
+        "| %-30s | %-7s | %4s | %6s | %6s | %6s | %6s | %6s | %6s | %7s | %7s | %7s | %7s | %7s | "
+        "%7s | %7s | %6s | %15s |\n",
+        "face", "view", "pcs", "rows", "edit", "update", "replan", "max", "cpu", "draw", "cpu",
+        "frame", "gl draw", "cpu", "gl frm", "plan", "ratio", "table + ribbons");
+    printf("|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|\n",
+           "--------------------------------", "---------", "------", "--------", "--------",
+           "--------", "--------", "--------", "--------", "---------", "---------", "---------",
+           "---------", "---------", "---------", "---------", "--------", "-----------------");
+    for (int zoomed = 0; zoomed < 2; zoomed++) {
+        crisp_model *m;
+        if (crisp_trimedit_example(&m)) return 1;
+        run("built-in example, face 0", m, 0, zoomed);
+        crisp_model_destroy(m);
+    }
+    for (int zoomed = 0; zoomed < 2; zoomed++) {
+        crisp_model *m;
+        if (crisp_model_load(model, NULL, &m)) {
+            fprintf(stderr, "%s\n", crisp_error_message());
+            return 1;
+        }
+        char name[256];
+        const char *base = strrchr(model, '/');
+        snprintf(name, sizeof name, "%s, face %d", base ? base + 1 : model, face);
+        run(name, m, face, zoomed);
+        crisp_model_destroy(m);
+    }
+    printf(
+        "\npcs: Bézier trim pieces of the face; rows: its table rows per frame; edit: "
+        "crisp_trimedit_move_point; update: crisp_scene_update_trim; replan: "
+        "crisp_planner_replan_face (the edited face's plan), max: its slowest frame, cpu: its "
+        "process CPU time (all threads); draw: crisp_render_cpu_plan (cpu: its process CPU time); "
+        "frame: "
+        "edit + update + replan + draw; plan: a whole-scene crisp_planner_plan of the same camera "
+        "(baseline); ratio: plan / replan; table + ribbons: the replan's two parts "
+        "(crisp_plan_stats ms_trim, ms_ribbons).\n");
+    return 0;
+}

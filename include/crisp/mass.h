@@ -1,0 +1,50 @@
+/* crisp mass: volume, surface area, centroid and inertia tensor of B-rep models made of trimmed
+ * NURBS faces, from the exact surfaces, with an error estimate.
+ *
+ * Offers:
+ *   crisp_mass_desc, crisp_mass_props
+ *   crisp_mass_model          integral properties of a model
+ *
+ * Method (src/mass/brep_mass.c): the divergence theorem turns each volume integral into a surface
+ * integral over the faces (e.g. V = 1/3 of the integral of p . n dA); on a face that integral is
+ * over its trimmed (u, v) domain, which Green's theorem turns into an integral along the trim
+ * loops of G(u, v) = integral from u0 to u of the integrand, so the trimmed domain is handled
+ * exactly (no tessellation of the trims). Inner integrals: Gauss-Legendre per knot span;
+ * outer: adaptive Gauss-Legendre on the Bezier pieces of the trim curves. The error estimate is
+ * the difference of two quadrature orders.
+ */
+#ifndef CRISP_MASS_H
+#define CRISP_MASS_H
+
+#include "crisp/core.h"
+#include "crisp/model.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct crisp_mass_desc {
+    double tolerance; /* relative, per trim piece; 0: 1e-13 */
+} crisp_mass_desc;
+
+typedef struct crisp_mass_props {
+    int closed;           /* the faces' vector area vanishes (a closed, consistently oriented shell) */
+    double area, volume;
+    double centroid[3];
+    /* about the centroid, density 1: Ixx Iyy Izz Ixy Iyz Ixz with Ixy = -integral of x y */
+    double inertia[6];
+    double vector_area[3]; /* integral of n dA over all faces (0 for a closed shell) */
+    double area_err, volume_err, inertia_err; /* estimates from two quadrature orders */
+    size_t evaluations;   /* surface evaluations */
+} crisp_mass_props;
+
+/* Every face's outward normal is S_u x S_v, or its negative when face->reversed. A model that is
+ * not closed (|vector area| > 1e-7 area) gets its area and closed = 0; its volume terms are
+ * then meaningless and left 0. */
+crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
+                              crisp_mass_props *dest);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
