@@ -23,7 +23,6 @@ typedef enum render_kind { RENDER_CPU, RENDER_GL } render_kind;
 /* The backend the program runs its tests on (rb_parse_args). */
 static render_kind rb_kind = RENDER_CPU;
 static int32_t *rb_faces;
-static size_t rb_faces_cap;
 static int rb_last_kind = RENDER_CPU;
 static crisp_renderer *rb_last_renderer;
 
@@ -47,6 +46,7 @@ static inline const char *rb_name(void)
 }
 
 #ifdef CRISP_HAVE_GL
+static size_t rb_faces_cap;
 static crisp_gl_context *rb_ctx;
 static crisp_gl *rb_gl[17];
 
