@@ -1,4 +1,4 @@
-/* bench_render: the CPU backend's frame on the bundled models (DESIGN.md section 2): the plan
+/* bench_render: the CPU backend's frame on the bundled models (docs/design.md section 2): the plan
  * alone (tess levels, edge levels, trim plans: what the trim-editing demo redoes every frame) and
  * plan + tessellate + rasterise + resolve, at 1920x1080, one thread and all threads, median of
  * repeated frames after one warm-up frame (the warm-up allocates; later frames reuse buffers).

@@ -1,4 +1,4 @@
-/* Camera navigation for the window apps, on crisp_camera (DESIGN.md section 6 conventions):
+/* Camera navigation for the window apps, on crisp_camera (docs/design.md section 6 conventions):
  * turntable orbit about a picked point (world +Z up), pan that keeps the grabbed point under the
  * cursor, zoom to the cursor as a homothety about the point under it (that point stays on the
  * same pixel exactly), fit the box, standard views, perspective and orthographic, and near/far

@@ -424,6 +424,12 @@ int crisp_cmd_frep(int argc, char **argv)
         usage(argc < 2 ? stderr : stdout);
         return argc < 2 ? 2 : 0;
     }
+    /* --help anywhere after the subcommand: the usage, exit 0 (issue 16) */
+    for (int i = 2; i < argc; i++)
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            usage(stdout);
+            return 0;
+        }
     if (!strcmp(argv[1], "mesh")) return cmd_mesh(argc, argv);
     if (!strcmp(argv[1], "mass")) return cmd_mass(argc, argv);
     const char *mode = argv[1], *file = NULL, *expr = NULL, *out = NULL, *depth_out = NULL;

@@ -1,7 +1,7 @@
 /* bench_occt: crisp beside Open CASCADE's BRepMesh on the same models and camera (rendering
  * issue, "Speed"; optional: built only where Open CASCADE is installed, bench/CMakeLists.txt).
  *
- * For occt_bearing.iges (sewn, as in ../shared/data/README.md) and gpucast_part.igs, with the
+ * For occt_bearing.iges (sewn, as in data/README.md) and gpucast_part.igs, with the
  * camera bench_render uses (crisp_camera_frame_box of the scene's box at 1920x1080: looking
  * along -Z, +Y up, fov 30), it
  *  - takes the deflection that equals 0.5 px at the nearest visible point: the world size of

@@ -219,7 +219,7 @@ crisp_status crisp_frep_fit_check(const crisp_frep_fit *fit, unsigned allowed_un
 crisp_status crisp_frep_read_vm(const char *path, crisp_frep **dest);
 crisp_status crisp_frep_read_vm_mem(const char *name, const char *data, size_t size,
                                     crisp_frep **dest);
-/* Infix math strings (DESIGN.md section 7): X Y Z, numbers, pi, + - * / ^, unary minus, sqrt abs
+/* Infix math strings (docs/design.md section 7): X Y Z, numbers, pi, + - * / ^, unary minus, sqrt abs
  * exp log sin cos tan asin acos atan atan2 pow min max, < <= > >= == !=, && || !, parentheses.
  * Precedence: unary, ^ (right-associative), * /, + -, comparisons, &&, ||. Logic becomes the
  * distance form: a < b -> a - b, a > b -> b - a, && -> max, || -> min, ! -> negation. */

@@ -1,4 +1,4 @@
-/* crisp render: camera and pixel conventions (DESIGN.md section 6), and (to come) the scene, the
+/* crisp render: camera and pixel conventions (docs/design.md section 6), and (to come) the scene, the
  * frame planner and the CPU backend.
  *
  * Offers:
@@ -147,7 +147,7 @@ int crisp_exact_ray(const crisp_scene *scene, const crisp_exact_desc *desc,
                     const double origin[3], const double dir[3], double tmin, double tmax,
                     double *t, uint32_t *face, double uv[2], double normal[3]);
 
-/* One ray per pixel centre (DESIGN.md section 6); near and far bound the camera-space depth. */
+/* One ray per pixel centre (docs/design.md section 6); near and far bound the camera-space depth. */
 crisp_status crisp_render_exact(const crisp_scene *scene, const crisp_camera *cam,
                                 const crisp_exact_desc *desc, crisp_image *img);
 

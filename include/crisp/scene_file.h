@@ -11,7 +11,7 @@
  * Format: one item a line, '#' starts a comment.
  *   model PATH            [OPS] [color r g b]
  *   frep  PATH            [OPS] [color r g b]    PATH.vm: the .vm format; else a math-string file
- *   frep  math "EXPR"     [OPS] [color r g b]    an inline math string (DESIGN.md section 7)
+ *   frep  math "EXPR"     [OPS] [color r g b]    an inline math string (docs/design.md section 7)
  *   camera eye x y z [target x y z] [up x y z] [fov degrees]   at most one; the view that
  *                                                  `crisp render` uses without --eye
  * OPS, applied in the order written: translate x y z | scale s | scale sx sy sz |

@@ -1,7 +1,7 @@
 /* crisp slefe: subdividable linear efficient function enclosures (Lutterkort & Peters 2001) of
  * Bézier functions, curve pieces and tensor-product patches, in object space and, for rational
  * patches, in screen space through a perspective camera (homogeneous SLEFE + interval division).
- * The tables are generated in code on first use (NOTES.md A.1.4); no published table is copied.
+ * The tables are generated in code on first use (docs/design.md section 3); no published table is copied.
  *
  * Offers:
  *   crisp_slefe_table_get          upper/lower tables of the anti-differences a_j^d on m segments
@@ -102,7 +102,7 @@ crisp_status crisp_slefe_curve_boxes(const crisp_bezier_curve *c, int segments, 
 
 /* ---- tensor-product patches ------------------------------------------------------------------ */
 
-/* Two-pass enclosure (NOTES.md A.1.5) of each homogeneous coordinate X, Y, Z, W of a patch
+/* Two-pass enclosure (docs/design.md section 3) of each homogeneous coordinate X, Y, Z, W of a patch
  * (degrees 1..15 each). lo, up: CRISP_SLEFE_GRID(segments) * 4 values, grid point (ku, kv) (u
  * fastest) coordinate i at [(kv * (segments + 1) + ku) * 4 + i]. For a polynomial patch
  * (rational == 0) X, Y, Z are the Euclidean coordinates and W is exactly [1, 1]. */

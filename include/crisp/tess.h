@@ -1,4 +1,4 @@
-/* crisp tess: view-dependent tessellation of Bézier patches (DESIGN.md section 4).
+/* crisp tess: view-dependent tessellation of Bézier patches (docs/design.md section 4).
  *
  * Offers:
  *   crisp_tess_levels        inner levels (u, v) and four edge levels of one patch

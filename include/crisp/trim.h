@@ -1,6 +1,6 @@
 /* crisp trim: correct-resolution trimming after Wu & Peters, "Correct resolution rendering of
  * trimmed spline surfaces" (CAD 2015), with the per-frame density computed as a guaranteed bound
- * instead of read back from the previous frame (DESIGN.md section 5).
+ * instead of read back from the previous frame (docs/design.md section 5).
  *
  * Offers:
  *   crisp_trim_pieces_check          validate a face's trim pieces (2D homogeneous Bézier)
@@ -34,7 +34,7 @@
  *   that decides it. Restricting rows to the visible part keeps the table small at any zoom
  *   (eq. 11 of Wu & Peters with nu_i, nu_{i+1} replaced by a_i, b_i).
  *   The screen is the viewport of width x height pixels, pixel (i, j) with j = 0 the top row
- *   (DESIGN.md section 6): x~ = (X/W + 1) width / 2, y~ = (1 - Y/W) height / 2 from OpenGL clip
+ *   (docs/design.md section 6): x~ = (X/W + 1) width / 2, y~ = (1 - Y/W) height / 2 from OpenGL clip
  *   coordinates (X, Y, Z, W) = view_proj * (homogeneous point).
  *
  * The guarantee (why the constants are what they are): with rho_v bounding the Euclidean screen

@@ -1,5 +1,5 @@
 /* Double-precision vectors and column-major 4x4 matrices for the geometry kernel
- * (gluLookAt / gluPerspective conventions, DESIGN.md section 6). */
+ * (gluLookAt / gluPerspective conventions, docs/design.md section 6). */
 #include "crisp/core.h"
 
 #include <math.h>

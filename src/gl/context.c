@@ -1,4 +1,4 @@
-/* A headless OpenGL 4.5 core context through EGL (NOTES.md part D.1): the surfaceless platform
+/* A headless OpenGL 4.5 core context through EGL (docs/design.md section 6): the surfaceless platform
  * (EGL_MESA_platform_surfaceless, no X server, no surface: the backend draws into its own
  * framebuffers), then the device platform (EGL_EXT_platform_device, what GPU drivers offer
  * headless) when the first gives no 4.5 core context. */

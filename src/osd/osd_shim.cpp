@@ -1,6 +1,6 @@
 /* The OpenSubdiv shim: a polygon cage -> Catmull-Clark limit surface as bicubic B-spline
  * patches. The only C++ in crisp. Every extern "C" entry point catches everything, so no
- * exception crosses into C. Recipe (NOTES.md D.3, OpenSubdiv 3.5 Far API):
+ * exception crosses into C. Recipe (OpenSubdiv 3.5 Far API and its tutorials):
  * TopologyDescriptor -> TopologyRefinerFactory (Catmull-Clark) -> RefineAdaptive ->
  * PatchTableFactory with ENDCAP_BSPLINE_BASIS (every patch REGULAR, 16 control vertices);
  * PrimvarRefiner::Interpolate level by level + ComputeLocalPointValues for the point buffer.

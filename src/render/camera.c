@@ -1,4 +1,4 @@
-/* Camera and pixel conventions (DESIGN.md section 6): gluLookAt / gluPerspective, right-handed
+/* Camera and pixel conventions (docs/design.md section 6): gluLookAt / gluPerspective, right-handed
  * world, vertical fov, pixel (i, j) with j = 0 the top row and its centre at (i + 0.5, j + 0.5). */
 #include "crisp/render.h"
 

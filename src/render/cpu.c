@@ -1,4 +1,4 @@
-/* The CPU backend (DESIGN.md section 6): the frame plan's leaves are tessellated at their levels
+/* The CPU backend (docs/design.md section 6): the frame plan's leaves are tessellated at their levels
  * (crack-free edges), evaluated on the true patches, and rasterised with the u-intercept table's
  * trim test per sample; samples are then resolved into colour (headlight shading, straight alpha
  * = coverage) and AOVs (depth, normal, u, v, face of the nearest covered sample). */

@@ -1,5 +1,5 @@
-/* f-rep parts in a crisp scene (DESIGN.md section 7), drawn through the perspective camera of
- * DESIGN.md section 6 and composited with what the image already holds by camera-space depth.
+/* f-rep parts in a crisp scene (docs/design.md section 7), drawn through the perspective camera of
+ * docs/design.md section 6 and composited with what the image already holds by camera-space depth.
  *
  * Method (Keeter 2012's z-culled heightmaps with branch caching, carried into the view frustum;
  * tape shortening and batched leaves as in Fidget): a cell is a rectangle of pixel centres times

@@ -1,4 +1,4 @@
-/* The frame planner (DESIGN.md sections 2 and 4; Wu & Peters 2015): for one camera, which patches
+/* The frame planner (docs/design.md sections 2 and 4; Wu & Peters 2015): for one camera, which patches
  * are visible, the tess level of each from its screen-space SLEFE, crack-free edge levels, and
  * each visible face's trim plan (v-scan density bound, trim polylines, u-intercept table).
  *

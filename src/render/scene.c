@@ -1,4 +1,4 @@
-/* Preparing a model for rendering (DESIGN.md section 2, "prepare"): Bézier extraction of every
+/* Preparing a model for rendering (docs/design.md section 2, "prepare"): Bézier extraction of every
  * face's surface and trim curves, patch boxes, and the scene box. View-independent; rebuilt only
  * when the model changes. */
 #include "crisp/slefe.h"

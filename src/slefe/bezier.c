@@ -1,6 +1,6 @@
 /* SLEFEs of univariate Bézier functions and of Bézier curve pieces (per component; rational
  * pieces in homogeneous form, then interval division per segment). Lutterkort & Peters 2001,
- * DESIGN.md section 3: p(t) = l(t) + sum_j second_difference_{j-1} a_j(t). */
+ * docs/design.md section 3: p(t) = l(t) + sum_j second_difference_{j-1} a_j(t). */
 #include "slefe_internal.h"
 
 int crisp__slefe_all_finite(const double *v, int n, int stride)

@@ -1,5 +1,5 @@
 /* Tensor-product SLEFEs of Bézier patches by the two-pass construction (Lutterkort & Peters 2001;
- * NOTES.md A.1.5): v-SLEFE every control row, then u-SLEFE the upper results keeping the upper
+ * docs/design.md section 3): v-SLEFE every control row, then u-SLEFE the upper results keeping the upper
  * side and the lower results keeping the lower side. Valid because the Bernstein polynomials in u
  * and the hat functions in v are non-negative. Each homogeneous coordinate separately; per-tile
  * boxes (rational: divided by W) for tessellators that do not interpolate bilinearly. */

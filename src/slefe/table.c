@@ -1,6 +1,6 @@
 /* SLEFE tables: upper and lower piecewise-linear bounds of the anti-differences a_j^d on uniform
- * breakpoints, generated on first use (Lutterkort & Peters 2001; the construction of NOTES.md
- * A.1.4, DESIGN.md section 3). Nothing here is copied from SubLiME's or SLEEFE's published tables.
+ * breakpoints, generated on first use (Lutterkort & Peters 2001; the construction of
+ * docs/design.md section 3). Nothing here is copied from SubLiME's or SLEEFE's published tables.
  *
  * a_j^d (j = 1..d-1) has Bernstein coefficients alpha_i = -i(d-j)/d for i <= j, -j(d-i)/d for
  * i >= j. It is convex, so its interpolant on t_k = k/m is the best upper bound. For the lower

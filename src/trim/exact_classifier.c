@@ -1,5 +1,5 @@
 /* The exact reference trim classifier and point-to-curve distance on the true rational Bézier
- * pieces (DESIGN.md section 5, "Exact reference"). Crossings of the scan line v(t) = v0 are
+ * pieces (docs/design.md section 5, "Exact reference"). Crossings of the scan line v(t) = v0 are
  * isolated by de Casteljau subdivision of the homogeneous polynomials V - v0 w and U - u0 w, using
  * the convex hull property (a Bernstein polynomial with coefficients of one sign has that sign),
  * down to the precision of doubles. No tolerance of its own: it only stops subdividing where the

@@ -20,7 +20,7 @@
  * (R_x narrows), so the refinement below pays for the looser start.
  * Sub-patches whose coefficients put them wholly outside one plane of the widened frustum are
  * dropped; where min(W) is not positive or the bound is well above the values sampled on the
- * sub-patch, it is split 2x2 and examined again (DESIGN.md section 5).
+ * sub-patch, it is split 2x2 and examined again (docs/design.md section 5).
  *
  * Near (and far) plane. The 1 px guarantee (include/crisp/trim.h) follows the surface from a
  * pixel's point p along a path of parameter length at most 3h/4 in v (to its scan line, then

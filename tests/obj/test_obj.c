@@ -223,7 +223,7 @@ static void test_polygon_cube(void **state)
     crisp_status st = read_str(text, &m);
     assert_int_equal(st, CRISP_OK);
 #ifdef CRISP_HAVE_OSD
-    /* isolation 3 around the 8 valence-3 corners (NOTES.md D.3: 168 patches) */
+    /* isolation 3 around the 8 valence-3 corners (OpenSubdiv 3.5 gives 168 patches) */
     assert_int_equal(m->face_count, 168);
     for (int i = 0; i < m->face_count; i++) {
         const crisp_surface *s = m->faces[i].surface;

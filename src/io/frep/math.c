@@ -1,4 +1,4 @@
-/* Reader for infix math strings (DESIGN.md section 7; the shunting-yard parser of Keeter's 2012
+/* Reader for infix math strings (docs/design.md section 7; the shunting-yard parser of Keeter's 2012
  * fab-modules solver, parser.cpp). Iterative: operator and operand stacks grow on the heap, so a
  * million-node expression needs no recursion. Logic is turned into the distance form (inside is
  * value < 0): a < b -> a - b, a > b -> b - a, && -> max, || -> min, ! -> negation,

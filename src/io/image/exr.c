@@ -1,5 +1,5 @@
 /* OpenEXR writer: named 32-bit float channels, scanline storage, ZIP compression, through the
- * OpenEXRCore C API (OpenEXR 3.1; the sequence verified in NOTES.md part D section 2). */
+ * OpenEXRCore C API (OpenEXR 3.1). */
 #include "crisp/image.h"
 
 #include <openexr.h>

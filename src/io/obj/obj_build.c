@@ -1,4 +1,4 @@
-/* obj_data -> crisp faces. Free-form elements (Wavefront OBJ 3.0, NOTES.md B.3): `cstype [rat]
+/* obj_data -> crisp faces. Free-form elements (Wavefront OBJ 3.0 specification): `cstype [rat]
  * bspline|bezier`; B-spline parm lists are knot vectors (N + deg + 1 values), Bézier parm lists
  * are breakpoints (deg * segments + 1 points; each interior breakpoint becomes a knot of
  * multiplicity deg). A surf's range [s0, s1] x [t0, t1] restricts the surface (knot insertion

@@ -1,6 +1,6 @@
 /* Wavefront OBJ text -> obj_data: statements, the cstype/deg state, elements (curv2, surf) with
  * their parm/trim/hole statements, and polygon faces. Follows the Wavefront OBJ specification
- * (version 3.0, free-form geometry; NOTES.md B.3): `#` comments, `\` line continuation, 1-based
+ * (version 3.0, free-form geometry): `#` comments, `\` line continuation, 1-based
  * references with negative values counting back from the most recent item.
  * Every error names the file, the line and the column, and says what was expected. */
 #include <errno.h>

@@ -1,4 +1,4 @@
-/* crisp_write_obj: a crisp_model as Wavefront OBJ free-form geometry (OBJ 3.0, NOTES.md B.3).
+/* crisp_write_obj: a crisp_model as Wavefront OBJ free-form geometry (OBJ 3.0 specification).
  * Every face becomes `cstype [rat] bspline` + `deg` + `surf` over its whole knot domain with
  * `parm u/v`, and every trim loop a `trim` (outer) or `hole` statement whose pieces are curv2
  * elements used over their whole domain. Numbers are written with %.17g, so they read back to
