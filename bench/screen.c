@@ -15,9 +15,11 @@
  *
  * Each row runs in a child process (fork) so that its peak memory is its own: the peak resident
  * size (VmHWM) is reset after the scene is prepared (/proc/self/clear_refs) and read after the
- * frames; "scene MB" is the resident size before the frames (model + prepared scene). Warm frame
- * = median of FRAMES crisp_render_cpu calls after one warm-up frame, on THREADS threads; plan =
- * median of crisp_renderer_plan alone. tri/px = surface triangles per covered pixel.
+ * frames; "frame MB" is the peak minus the resident size before the frames (model + prepared
+ * scene). Warm frame = median of FRAMES crisp_render_cpu calls after one warm-up frame, on THREADS
+ * threads; plan = median of crisp_renderer_plan alone; the CPU columns are the mean CPU time of
+ * the process (all threads) per frame or plan, less sensitive to a loaded machine than wall
+ * time. tri/px = surface triangles per covered pixel.
  *
  * BENCH_SCREEN_PNG=folder writes each row's image there.
  *
@@ -26,6 +28,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -192,6 +195,15 @@ static crisp_model *scene_model(const char *name)
     exit(1);
 }
 
+/* CPU time of the process (all threads), in ms: less sensitive to other processes' load than
+ * wall time. */
+static double cpu_ms(void)
+{
+    struct rusage u;
+    getrusage(RUSAGE_SELF, &u);
+    return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
 static void row(const char *scene_name, const char *cam_name, int frames, int threads)
 {
     crisp_model *m = scene_model(scene_name);
@@ -207,19 +219,23 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     double *tf = calloc((size_t)frames, sizeof *tf), *tp = calloc((size_t)frames, sizeof *tp);
     double *tt = calloc((size_t)frames, sizeof *tt), *tr = calloc((size_t)frames, sizeof *tr);
     crisp_render_stats st = {0};
+    double cpu_frames = 0, cpu_plans = 0;
     for (int f = -1; f < frames; f++) {
+        double c0 = cpu_ms();
         double a = crisp_time_now();
         if (crisp_render_cpu(r, sc, &cam, &img, &st)) die("render");
         double b = crisp_time_now();
         if (f < 0) continue;
+        cpu_frames += cpu_ms() - c0;
         tf[f] = 1e3 * (b - a);
         tt[f] = st.ms_tess;
         tr[f] = st.ms_raster;
     }
     for (int f = 0; f < frames; f++) {
-        double a = crisp_time_now();
+        double a = crisp_time_now(), c0 = cpu_ms();
         if (crisp_renderer_plan(r, sc, &cam, NULL)) die("plan");
         tp[f] = 1e3 * (crisp_time_now() - a);
+        cpu_plans += cpu_ms() - c0;
     }
     double peak_kb = status_kb("VmHWM:");
     size_t covered = 0;
@@ -235,8 +251,9 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         if (crisp_write_png_rgba(path, img.width, img.height, rgba)) die(path);
         free(rgba);
     }
-    printf("| %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f |\n",
-           scene_name, cam_name, sc->patch_count, bench_median(tf, frames), bench_median(tp, frames),
+    printf("| %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f |\n",
+           scene_name, cam_name, sc->patch_count, bench_median(tf, frames), cpu_frames / frames,
+           bench_median(tp, frames), cpu_plans / frames,
            bench_median(tt, frames), bench_median(tr, frames), (unsigned long long)st.triangles, covered,
            covered ? (double)st.triangles / covered : 0.0, peak_kb / 1024, frame_mb,
            peak_kb * 1024 / sc->patch_count, st.triangles ? frame_mb * 1048576 / st.triangles : 0.0);
@@ -269,9 +286,9 @@ int main(int argc, char **argv)
     bench_print_machine(stdout);
     printf("load average at start %.2f; 1920x1080, %d threads, median of %d warm frames\n\n",
            loadavg(), threads, frames);
-    printf("| scene | camera | patches | frame ms | plan ms | tess ms | raster ms | triangles | covered px | "
-           "tri/px | peak MB | frame MB | peak B/patch | frame B/tri |\n");
-    printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    printf("| scene | camera | patches | frame ms | frame CPU ms | plan ms | plan CPU ms | tess ms | raster ms | "
+           "triangles | covered px | tri/px | peak MB | frame MB | peak B/patch | frame B/tri |\n");
+    printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     fflush(stdout);
     for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
         char key[64];

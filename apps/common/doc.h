@@ -1,7 +1,7 @@
-/* What a window app opens: a CAD model (IGES, STEP, OBJ), an f-rep part (.vm file or a file
- * holding a math string) or a scene file mixing both, prepared for rendering, with its box and the
- * files it was read from (for watching). Stands in for the library's "open a model or scene file"
- * API (issue 16) until that lands.
+/* What a window app opens: a crisp_document (include/crisp/app.h: a CAD model, an f-rep part or
+ * a scene file, prepared, with points of its true trimmed geometry to frame), plus what the
+ * window apps need beside it: a size limit checked before reading, a short name of its kind and
+ * the files it was read from (for watching).
  *
  * Offers:
  *   app_doc, app_doc_load, app_doc_destroy
@@ -11,9 +11,7 @@
 
 #include <stddef.h>
 
-#include "crisp/model.h"
-#include "crisp/render.h"
-#include "crisp/scene_file.h"
+#include "crisp/app.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -22,15 +20,13 @@ extern "C" {
 #define APP_DOC_MAX_BYTES (1ull << 30) /* files larger than this are refused with a message */
 
 typedef struct app_doc {
-    char *path;
+    crisp_document *doc;
+    const char *path;             /* doc->path */
     const char *kind;             /* "IGES", "STEP", "OBJ", "f-rep", "scene" */
-    crisp_model *model;           /* owned unless assets holds it */
-    crisp_scene_file *scene_file; /* scene files and f-rep parts */
-    crisp_scene_assets *assets;
-    crisp_scene *scene;           /* prepared model (may have no faces) */
-    const crisp_frep_part *parts;
+    const crisp_scene *scene;     /* doc->scene (may have no faces) */
+    const crisp_frep_part *parts; /* doc->parts */
     size_t part_count;
-    double box[6];                /* faces' trimmed box and each part's [-1, 1]^3, transformed */
+    double box[6];                /* doc->box (the sample points') grown to the scene's box */
     size_t watch_count;
     char **watch;                 /* the files read: the path and a scene's items */
     double ms_read, ms_prepare;

@@ -2,6 +2,7 @@
 #include "loader.h"
 
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,6 +17,7 @@ struct app_loader {
     char *running; /* path being loaded (NULL when idle) */
     int running_tag, running_cancelled;
     double started;
+    atomic_long progress; /* share done of the running load in millionths; -1: not reported */
     /* finished, not yet polled */
     int result;
     app_doc *doc;
@@ -35,6 +37,7 @@ static void *worker(void *arg)
         l->running_cancelled = 0;
         l->pending = NULL;
         l->started = crisp_time_now();
+        atomic_store(&l->progress, -1);
         pthread_mutex_unlock(&l->mu);
 
         app_doc *doc = NULL;
@@ -59,6 +62,15 @@ static void *worker(void *arg)
     return NULL;
 }
 
+/* crisp_progress_report's receiver: process-wide, so keep only what the loader thread reports
+ * (renders on other threads report too). */
+static void on_progress(void *ctx, double fraction)
+{
+    app_loader *l = ctx;
+    if (pthread_equal(pthread_self(), l->thread))
+        atomic_store(&l->progress, (long)(1e6 * (fraction < 0 ? 0 : fraction > 1 ? 1 : fraction)));
+}
+
 int app_loader_create(app_loader **dest)
 {
     app_loader *l = calloc(1, sizeof *l);
@@ -72,6 +84,8 @@ int app_loader_create(app_loader **dest)
         free(l);
         return 0;
     }
+    atomic_store(&l->progress, -1);
+    crisp_progress_set(on_progress, l);
     *dest = l;
     return 1;
 }
@@ -79,6 +93,7 @@ int app_loader_create(app_loader **dest)
 void app_loader_destroy(app_loader *l)
 {
     if (!l) return;
+    crisp_progress_set(NULL, NULL);
     pthread_mutex_lock(&l->mu);
     l->quit = 1;
     pthread_cond_signal(&l->cv);
@@ -130,6 +145,12 @@ int app_loader_poll(app_loader *l, app_doc **doc, int *tag, char *err, size_t er
     }
     pthread_mutex_unlock(&l->mu);
     return r;
+}
+
+double app_loader_progress(app_loader *l)
+{
+    long p = atomic_load(&l->progress);
+    return p < 0 ? -1 : p / 1e6;
 }
 
 int app_loader_status(app_loader *l, char *path, size_t path_size, double *seconds)

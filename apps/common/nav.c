@@ -3,6 +3,8 @@
  * orthographic as a narrow perspective, near/far adapted per frame. */
 #include "nav.h"
 
+#include "crisp/app.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -109,6 +111,25 @@ void app_nav_fit(app_nav *nav)
     memcpy(c->target, ctr, sizeof ctr);
     for (int i = 0; i < 3; i++) c->eye[i] = ctr[i] - f[i] * d;
     memcpy(c->up, u, sizeof u);
+    nav->depth_hint = 0;
+    ortho_fix(nav);
+}
+
+void app_nav_fit_points(app_nav *nav, const double *points, size_t count)
+{
+    crisp_camera *c = &nav->cam, fit;
+    double f[3], r[3], u[3], dir[3];
+    basis(c, f, r, u);
+    crisp_vec3_scale(f, -1, dir);
+    crisp_camera_fit_desc fd = {.width = c->width, .height = c->height,
+                                .fov_deg = nav->ortho ? APP_NAV_ORTHO_FOV : APP_NAV_PERSP_FOV};
+    if (!points || !count || crisp_camera_fit_points(points, count, dir, u, &fd, &fit)) {
+        app_nav_fit(nav);
+        return;
+    }
+    fit.width = c->width;
+    fit.height = c->height;
+    *c = fit;
     nav->depth_hint = 0;
     ortho_fix(nav);
 }

@@ -14,6 +14,7 @@
  *   app_nav_init             isometric view fitted to a box
  *   app_nav_view             standard views (APP_VIEW_*), fitted
  *   app_nav_fit              fit the box keeping the direction
+ *   app_nav_fit_points       fit points of the true geometry keeping the direction (tight)
  *   app_nav_orbit/_pan/_zoom the mouse operations
  *   app_nav_set_ortho        switch projection keeping the focal plane's size on screen
  *   app_nav_update_clip      near and far for this frame
@@ -55,6 +56,9 @@ extern const char *const app_view_names[APP_VIEW_COUNT];
 void app_nav_init(app_nav *nav, const double box[6], int width, int height);
 void app_nav_view(app_nav *nav, int view);
 void app_nav_fit(app_nav *nav);
+/* Every point on screen with crisp_camera_fit_points's margin, the direction kept; the box fit
+ * when there are no points. */
+void app_nav_fit_points(app_nav *nav, const double *points, size_t count);
 /* Turntable: dx pixels turn about world +Z through pivot, dy about the camera's right axis. */
 void app_nav_orbit(app_nav *nav, const double pivot[3], double dx, double dy);
 /* Move eye and target so that a point at camera-space depth `depth` follows the cursor by

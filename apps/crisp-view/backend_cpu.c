@@ -160,6 +160,7 @@ static crisp_status cpu_frame(void *self, const app_doc *doc, const crisp_camera
     crisp_render_stats rs = {0};
     const crisp_frame_plan *plan = NULL;
     crisp_status st = render_into(b, doc, &c, scale == 1 ? ov->samples : 1, &b->img, &rs, &plan);
+    stats->samples = scale == 1 ? ov->samples : 1;
     if (st) return st;
     b->plan = plan;
     stats->ms = 1e3 * (crisp_time_now() - t0);

@@ -72,7 +72,7 @@ void view_wire_update(view *v)
     v->wire_truncated = 0;
     const crisp_frame_plan *plan = v->backend.plan ? v->backend.plan(v->backend.self) : NULL;
     if (!plan || !v->doc) return;
-    const crisp_scene *sc = v->doc->scene;
+    const crisp_scene *sc = v->rdoc.scene;
     wire_ctx c = {.cam = &v->nav.cam,
                   .img = v->backend.image ? v->backend.image(v->backend.self) : NULL,
                   .scale = v->last.scale > 0 ? v->last.scale : 1};
@@ -164,12 +164,12 @@ static void piece_eval(const crisp_bezier_curve *c, double t, double uv[2])
 void view_scan_panel(view *v)
 {
     const crisp_frame_plan *plan = v->backend.plan ? v->backend.plan(v->backend.self) : NULL;
-    int32_t fi = v->ov.selected_face;
+    int32_t fi = v->ov.selected_face; /* in the drawn scene */
     if (!app_ui_begin("Trim table scan lines (T)", 10, 140, 0, 0)) {
         app_ui_end();
         return;
     }
-    if (!v->doc || fi < 0 || (uint32_t)fi >= v->doc->scene->face_count) {
+    if (!v->doc || fi < 0 || (uint32_t)fi >= v->rdoc.scene->face_count) {
         app_ui_text("Click a face to see its trim table.");
         app_ui_end();
         return;
@@ -179,7 +179,7 @@ void view_scan_panel(view *v)
         app_ui_end();
         return;
     }
-    const crisp_scene *sc = v->doc->scene;
+    const crisp_scene *sc = v->rdoc.scene;
     const crisp_scene_face *F = &sc->faces[fi];
     const crisp_plan_face *pf = &plan->faces[fi];
     /* the region shown: the loops' box, else the table's v-range over the domain's u */

@@ -27,16 +27,16 @@ int view_pick(view *v, double x, double y, view_hit *h)
 {
     memset(h, 0, sizeof *h);
     h->face = -1;
-    if (!v->doc || v->doc->scene->patch_count == 0) return 0;
+    if (!v->doc || v->rdoc.scene->patch_count == 0) return 0;
     double o[3], d[3];
     crisp_camera_ray(&v->nav.cam, x, y, o, d);
     crisp_exact_desc desc = {.threads = 1, .classify = classify_exact};
     double t;
     uint32_t face;
-    if (!crisp_exact_ray(v->doc->scene, &desc, o, d, 0, INFINITY, &t, &face, h->uv, h->normal))
+    if (!crisp_exact_ray(v->rdoc.scene, &desc, o, d, 0, INFINITY, &t, &face, h->uv, h->normal))
         return 0;
     h->hit = 1;
-    h->face = (int32_t)face;
+    h->face = view_doc_face(v, (int32_t)face);
     for (int i = 0; i < 3; i++) h->point[i] = o[i] + t * d[i];
     h->depth = app_nav_depth(&v->nav.cam, h->point);
     return 1;
@@ -102,11 +102,61 @@ void view_describe_face(view *v, int32_t fi, char *buf, size_t size)
              f->reversed ? " reversed" : "");
 }
 
+/* Snap a hit to the nearest vertex of its face within 8 px of the cursor: the start point of a
+ * trim curve (or a corner of an untrimmed face's domain) mapped through the surface, exactly. */
+static int snap_vertex(view *v, view_hit *h, double x, double y)
+{
+    if (!h->hit || h->face < 0) return 0;
+    const crisp_face *f = v->doc->scene->faces[h->face].src;
+    crisp_camera_matrices m;
+    crisp_camera_matrices_compute(&v->nav.cam, &m);
+    double best = 8, bp[3], buv[2];
+    int found = 0;
+    int n = 0;
+    for (int l = 0; l < f->loop_count; l++) n += f->loops[l].curve_count;
+    double dom[4];
+    crisp_surface_domain(f->surface, dom);
+    for (int k = 0; k < (n ? n : 4); k++) {
+        double uv[2];
+        if (n) {
+            const crisp_curve *c = NULL;
+            int kk = k;
+            for (int l = 0; l < f->loop_count && !c; l++) {
+                if (kk < f->loops[l].curve_count) c = f->loops[l].curves[kk];
+                else kk -= f->loops[l].curve_count;
+            }
+            double t0, t1;
+            crisp_curve_domain(c, &t0, &t1);
+            crisp_curve_eval(c, t0, uv);
+        } else {
+            uv[0] = dom[k & 1];
+            uv[1] = dom[2 + (k >> 1)];
+        }
+        double p[3], clip[4], px[3];
+        crisp_surface_eval(f->surface, uv[0], uv[1], p);
+        crisp_mat4_mulp(m.view_proj, p, clip);
+        if (!(clip[3] > 0)) continue;
+        crisp_camera_to_pixel(&v->nav.cam, clip, px);
+        double d = hypot(px[0] - x, px[1] - y);
+        if (d < best) {
+            best = d;
+            memcpy(bp, p, sizeof bp);
+            memcpy(buv, uv, sizeof buv);
+            found = 1;
+        }
+    }
+    if (!found) return 0;
+    memcpy(h->point, bp, sizeof bp);
+    memcpy(h->uv, buv, sizeof buv);
+    h->depth = app_nav_depth(&v->nav.cam, h->point);
+    return 1;
+}
+
 void view_set_standard(view *v, int which)
 {
     app_nav_view(&v->nav, which);
+    app_nav_fit_points(&v->nav, v->doc ? v->doc->doc->points : NULL, v->doc ? v->doc->doc->point_count : 0);
     v->dirty = 1;
-    v->refit_pending = 2;
     printf("view: %s\n", app_view_names[which]);
 }
 
@@ -124,6 +174,7 @@ static void click(view *v, double x, double y, int mods)
         }
     view_hit h;
     view_pick(v, x, y, &h);
+    int snapped = v->snap && snap_vertex(v, &h, x, y);
     if (mods & GLFW_MOD_SHIFT) {
         if (!h.hit) return;
         if (v->meas_count == 0) {
@@ -138,14 +189,14 @@ static void click(view *v, double x, double y, int mods)
             double ang = acos(dot > 1 ? 1 : dot < -1 ? -1 : dot) * 180 / M_PI;
             const double *a = v->meas_a.point, *b = v->meas_b.point;
             printf("measure: distance %.17g angle %.9g deg between faces %d and %d from "
-                   "%.17g,%.17g,%.17g to %.17g,%.17g,%.17g\n",
+                   "%.17g,%.17g,%.17g to %.17g,%.17g,%.17g%s\n",
                    crisp_vec3_norm(d), ang, v->meas_a.face, v->meas_b.face, a[0], a[1], a[2], b[0],
-                   b[1], b[2]);
+                   b[1], b[2], snapped ? " (to a vertex)" : "");
         }
         return;
     }
     v->sel = h;
-    v->ov.selected_face = h.hit ? h.face : -1;
+    v->ov.selected_face = h.hit ? view_drawn_face(v, h.face) : -1;
     v->dirty = 1;
     v->meas_a = h;
     v->meas_count = h.hit ? 1 : 0;
@@ -155,9 +206,9 @@ static void click(view *v, double x, double y, int mods)
         return;
     }
     view_describe_face(v, h.face, v->face_info, sizeof v->face_info);
-    printf("pick: %.2f %.2f: %s point %.17g,%.17g,%.17g normal %.9g,%.9g,%.9g uv %.17g,%.17g\n", x,
-           y, v->face_info, h.point[0], h.point[1], h.point[2], h.normal[0], h.normal[1],
-           h.normal[2], h.uv[0], h.uv[1]);
+    printf("pick: %.2f %.2f: %s point %.17g,%.17g,%.17g normal %.9g,%.9g,%.9g uv %.17g,%.17g%s\n",
+           x, y, v->face_info, h.point[0], h.point[1], h.point[2], h.normal[0], h.normal[1],
+           h.normal[2], h.uv[0], h.uv[1], snapped ? " vertex" : "");
 }
 
 void view_on_cursor(GLFWwindow *w, double x, double y)
@@ -267,9 +318,9 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
     case GLFW_KEY_H:
     case GLFW_KEY_F1: v->show_help = !v->show_help; break;
     case GLFW_KEY_F:
-        app_nav_fit(&v->nav);
+        app_nav_fit_points(&v->nav, v->doc ? v->doc->doc->points : NULL,
+                           v->doc ? v->doc->doc->point_count : 0);
         v->dirty = 1;
-        v->refit_pending = 2;
         printf("view: fit\n");
         break;
     case GLFW_KEY_O:
@@ -308,6 +359,26 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
         v->dirty = 1;
         break;
     case GLFW_KEY_T: v->show_scan = !v->show_scan; break;
+    case GLFW_KEY_V:
+        v->snap = !v->snap;
+        printf("snap to vertices: %s\n", v->snap ? "on" : "off");
+        break;
+    case GLFW_KEY_DELETE:
+        if (v->doc && v->sel.hit && v->sel.face >= 0 && v->face_hidden) {
+            v->face_hidden[v->sel.face] = 1;
+            printf("hidden: face %d\n", v->sel.face);
+            v->sel.hit = 0;
+            v->meas_count = 0;
+            v->face_info[0] = '\0';
+            view_visible_update(v);
+        }
+        break;
+    case GLFW_KEY_U:
+        if (v->doc && v->face_hidden && v->hidden_faces) {
+            memset(v->face_hidden, 0, v->doc->scene->face_count);
+            view_visible_update(v);
+        }
+        break;
     case GLFW_KEY_A:
         v->ov.samples = v->ov.samples == 4 ? 1 : 4;
         v->dirty = 1;

@@ -66,36 +66,8 @@ void view_print_camera(view *v)
 
 static crisp_status write_images(const crisp_image *img, const char *png, const char *exr)
 {
-    size_t n = (size_t)img->width * img->height;
-    crisp_status st = CRISP_OK;
-    if (png) {
-        uint8_t *px = crisp_malloc_array(n, 4);
-        if (!px) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the PNG");
-        for (size_t i = 0; i < 4 * n; i++) {
-            float c = img->rgba[i];
-            px[i] = (uint8_t)lrintf(255.0f * (c < 0 ? 0 : c > 1 ? 1 : c));
-        }
-        st = crisp_write_png_rgba(png, img->width, img->height, px);
-        crisp_free(px);
-        if (st) return st;
-    }
-    if (exr) {
-        static const char *const names[] = {"R", "G", "B", "A", "Z", "N.x", "N.y", "N.z", "u", "v", "face"};
-        enum { C = 11 };
-        float *px = crisp_malloc_array(n, C * sizeof(float));
-        if (!px) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the EXR");
-        for (size_t i = 0; i < n; i++) {
-            float *d = px + C * i;
-            memcpy(d, img->rgba + 4 * i, 4 * sizeof(float));
-            d[4] = img->depth[i];
-            memcpy(d + 5, img->normal + 3 * i, 3 * sizeof(float));
-            d[8] = img->uv[2 * i];
-            d[9] = img->uv[2 * i + 1];
-            d[10] = (float)img->face[i];
-        }
-        st = crisp_write_exr(exr, img->width, img->height, C, names, px);
-        crisp_free(px);
-    }
+    crisp_status st = png ? crisp_image_write_png(img, png) : CRISP_OK;
+    if (!st && exr) st = crisp_image_write_exr(img, exr);
     return st;
 }
 
@@ -112,7 +84,7 @@ crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, i
     crisp_camera c = shot_camera(v, w, h);
     crisp_image img = {0};
     crisp_status st = crisp_image_init(&img, c.width, c.height);
-    if (!st) st = v->backend.offscreen(v->backend.self, v->doc, &c, v->ov.samples, &img);
+    if (!st) st = v->backend.offscreen(v->backend.self, &v->rdoc, &c, v->ov.samples, &img);
     if (!st) st = write_images(&img, png, exr);
     crisp_image_free(&img);
     if (v->show_wire || v->show_scan) v->dirty = 1; /* the off-screen render replaced the plan */
@@ -200,28 +172,23 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
 static void install_doc(view *v, app_doc *doc, int keep_camera)
 {
     int keep = keep_camera && v->have_camera;
-    v->backend.set_doc(v->backend.self, doc);
+    view_visible_free(v);
     app_doc_destroy(v->doc);
     v->doc = doc;
+    view_visible_reset(v);
+    v->backend.set_doc(v->backend.self, &v->rdoc);
     if (keep) {
         memcpy(v->nav.box, doc->box, sizeof v->nav.box);
     } else {
         app_nav_init(&v->nav, doc->box, v->fb_w, v->fb_h);
-        v->refit_pending = 2;
-        if (doc->scene_file && doc->scene_file->has_camera) {
-            const crisp_scene_file *s = doc->scene_file;
-            crisp_camera *c = &v->nav.cam;
-            memcpy(c->eye, s->eye, sizeof c->eye);
-            for (int k = 0; k < 3; k++)
-                c->target[k] = s->has_target ? s->target[k] : 0.5 * (doc->box[k] + doc->box[k + 3]);
-            memcpy(c->up, s->up, sizeof c->up);
-            c->fov_deg = s->fov_deg;
-            v->refit_pending = 0;
-        }
+        /* as `crisp render` frames it: the scene file's camera line, else isometric fitted to
+         * points of the true trimmed geometry */
+        crisp_camera c;
+        if (!crisp_document_camera(doc->doc, &(crisp_camera_desc){.width = v->fb_w, .height = v->fb_h}, &c))
+            v->nav.cam = c;
         if (v->initial_camera) {
             char err[256];
             crisp_camera c = v->nav.cam;
-            v->refit_pending = 0;
             if (app_nav_parse(v->initial_camera, &c, err, sizeof err)) {
                 c.width = v->nav.cam.width;
                 c.height = v->nav.cam.height;
@@ -253,22 +220,6 @@ static void install_doc(view *v, app_doc *doc, int keep_camera)
            doc->ms_read, doc->ms_prepare);
 }
 
-/* Tighten a fit to what the frame drew: centre the drawn pixels and scale them to 90% of the
- * window in their larger direction (the box's corners fit first, but a model seldom fills its
- * box's silhouette). */
-static void refit(view *v)
-{
-    const double *c = v->last.cover;
-    double w = v->nav.cam.width, h = v->nav.cam.height;
-    if (!(c[2] > c[0] && c[3] > c[1])) return;
-    double depth = app_nav_depth(&v->nav.cam, v->nav.cam.target);
-    app_nav_pan(&v->nav, depth, 0.5 * w - 0.5 * (c[0] + c[2]), 0.5 * h - 0.5 * (c[1] + c[3]));
-    double s = fmax((c[2] - c[0]) / w, (c[3] - c[1]) / h) / 0.9;
-    if (s > 0 && fabs(s - 1) > 0.01) app_nav_zoom(&v->nav, v->nav.cam.target, s);
-    v->nav.depth_hint = 0;
-    v->dirty = 1;
-}
-
 static void render_frame(view *v)
 {
     if (!v->doc) return;
@@ -283,7 +234,9 @@ static void render_frame(view *v)
     }
     app_nav_update_clip(&v->nav);
     view_frame_stats fs = {0};
-    crisp_status st = v->backend.frame(v->backend.self, v->doc, &v->nav.cam, scale, &v->ov, &fs);
+    view_overlay ov = v->ov;
+    if (v->moving) ov.samples = 1; /* moving frames: one sample per pixel, even at full size */
+    crisp_status st = v->backend.frame(v->backend.self, &v->rdoc, &v->nav.cam, scale, &ov, &fs);
     if (st) {
         view_set_error(v, "render: %s", crisp_error_message());
         v->dirty = 0;
@@ -302,11 +255,7 @@ static void render_frame(view *v)
         else if (fs.ms < 8 && v->scale > 1) v->scale--;
     }
     v->dirty = 0;
-    v->refined = scale == 1;
-    if (v->refit_pending && scale == 1) {
-        v->refit_pending--;
-        refit(v);
-    }
+    v->refined = scale == 1 && !v->moving;
 }
 
 static void poll_loader(view *v)
@@ -485,6 +434,9 @@ int main(int argc, char **argv)
     rc = v->exit_code;
 out:
     app_loader_destroy(v->loader); /* waits for a running load */
+    view_visible_free(v);
+    free(v->face_hidden);
+    free(v->part_hidden);
     app_doc_destroy(v->doc);
     app_watch_clear(&v->watch);
     if (v->backend.destroy) v->backend.destroy(v->backend.self);

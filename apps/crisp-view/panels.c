@@ -15,7 +15,9 @@ static const char *const help_lines[][2] = {
     {"wheel", "zoom to the cursor"},
     {"left click", "select a face (info panel); first measure point"},
     {"shift+left click", "measure: distance and angle to the first point"},
+    {"V", "clicks snap to the face's vertices (within 8 px) on / off"},
     {"F", "fit all"},
+    {"Delete / U", "hide the selected face / show every face"},
     {"0 1 2 3 4 5 6", "isometric, front, top, right, back, bottom, left"},
     {"axis widget", "click a tip: look from that axis"},
     {"O", "orthographic / perspective"},
@@ -107,11 +109,12 @@ void view_draw_panels(view *v)
     if (app_loader_status(v->loader, path, sizeof path, &secs)) {
         if (app_ui_begin("Loading", -10, 10, 360, 0)) {
             app_ui_wrapped("%s", path);
-            /* the readers report no fraction: an indeterminate bar */
-            float t = (float)fmod(secs, 1.0);
+            /* a reader that reports its share fills the bar; else it runs in circles */
+            double frac = app_loader_progress(v->loader);
             char o[64];
-            snprintf(o, sizeof o, "reading, %.1f s", secs);
-            app_ui_progress(t, o);
+            if (frac >= 0) snprintf(o, sizeof o, "%.0f%%, %.1f s", 100 * frac, secs);
+            else snprintf(o, sizeof o, "reading, %.1f s", secs);
+            app_ui_progress(frac >= 0 ? (float)frac : (float)fmod(secs, 1.0), o);
             if (app_ui_button("Cancel (Esc)")) app_loader_cancel(v->loader);
         }
         app_ui_end();
@@ -185,6 +188,7 @@ void view_draw_panels(view *v)
         app_ui_end();
     }
     if (v->show_scan) view_scan_panel(v);
+    if (v->show_panels) view_parts_panel(v);
     if (v->doc) {
         if (v->show_wire) view_wire_draw(v);
         draw_axes(v);

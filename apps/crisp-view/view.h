@@ -19,6 +19,7 @@ typedef struct view_frame_stats {
     double ms;              /* render time of the frame */
     uint64_t triangles, table_bytes;
     int scale;              /* 1: full resolution; s: 1/s of the pixels in each direction */
+    int samples;            /* per pixel */
     double min_depth;       /* least camera-space depth drawn (inf: nothing) */
     double cover[4];        /* x0, y0, x1, y1 of the drawn pixels, full-size pixel units */
 } view_frame_stats;
@@ -80,7 +81,6 @@ struct view {
     int refined;           /* the frame on screen is the full-resolution image of this camera */
     int moving;            /* the camera changed this frame */
     int scale;             /* resolution divisor while moving, adapted to the frame time */
-    int refit_pending;     /* after a fit: tighten it to the drawn pixels of the next frame */
     view_frame_stats last;
     double last_full_ms;
 
@@ -97,6 +97,7 @@ struct view {
     view_overlay ov;
     view_hit sel, meas_a, meas_b;
     int meas_count;        /* 0, 1 (A) or 2 (A and B) */
+    int snap;              /* clicks snap to the face's vertices within 8 px (V) */
     char face_info[1024];
 
     /* panels */
@@ -114,6 +115,16 @@ struct view {
     int exit_code;
     int threads;
     int no_lowres;         /* every frame at full size (for measuring the low-res frames) */
+    /* show / hide (visible.c): rdoc is what is drawn and picked; with something hidden its
+     * scene is prepared from a shallow copy of the visible faces, and vis_map takes its face
+     * indices back to the document's */
+    app_doc rdoc;
+    uint8_t *face_hidden, *part_hidden;
+    uint32_t hidden_faces, hidden_parts;
+    crisp_model vis_model;
+    crisp_scene *vis_scene;
+    uint32_t *vis_map;
+    crisp_frep_part *vis_parts;
     /* debugging views (debugviews.c) */
     int show_wire, show_scan;
     float *wire;           /* segments x0 y0 x1 y1 in window pixels */
@@ -143,6 +154,15 @@ void view_on_close(GLFWwindow *w);
 int view_pick(view *v, double x, double y, view_hit *dest);
 void view_describe_face(view *v, int32_t face, char *buf, size_t size);
 void view_set_standard(view *v, int which);
+
+/* visible.c */
+void view_visible_reset(view *v);  /* a new document: everything shown */
+void view_visible_update(view *v); /* after face_hidden / part_hidden changed */
+void view_visible_free(view *v);
+/* The document's face index of a face of the drawn scene (and back: -1 when hidden). */
+int32_t view_doc_face(const view *v, int32_t drawn);
+int32_t view_drawn_face(const view *v, int32_t doc_face);
+void view_parts_panel(view *v);
 
 /* debugviews.c */
 void view_wire_update(view *v);

@@ -381,7 +381,9 @@ int crisp_cmd_render(int argc, char **argv)
         ft.parts[k] = dt.ms_parts;
     }
     cli_progress_end();
-    double ms_render = st ? 0 : ft.total[a.repeat - 1];
+    /* the frame time: the median over --repeat (cli_median sorts the times in place, which the
+     * medians of print_stats do not mind) */
+    double ms_render = st ? 0 : cli_median(ft.total, (size_t)a.repeat);
     double t_write = crisp_time_now();
     if (!st && a.out) st = crisp_image_write(&img, a.out);
     if (!st && a.aov) st = crisp_image_write_exr(&img, a.aov);

@@ -34,6 +34,8 @@ typedef struct crisp_face {
     float color[4];         /* RGBA in [0, 1] when has_color */
     int source_id;          /* entity number / DE pointer / line in the source file, for messages */
     int reversed;           /* 1 when the face's outward normal is -(S_u x S_v) */
+    int body;               /* faces of one shell or solid (one placed copy of it) share a
+                               non-zero body; 0 when the reader does not say */
 } crisp_face;
 
 /* One counted kind of thing a reader skipped, with why ("entity 116 point: not a surface"), in
@@ -93,8 +95,9 @@ crisp_status crisp_model_stats_compute(const crisp_model *m, crisp_model_stats *
 
 /* Places where faces that meet in the file do not meet in crisp's model (issue 13): a boundary
  * point of one face whose nearest boundary of another face is farther than tol but nearer than
- * limit (farther than limit: a free edge, not a gap). Grouped per pair of faces (indices into
- * m->faces), largest first. */
+ * limit (farther than limit: a free edge, not a gap). Faces of different non-zero bodies are not
+ * neighbours (parts of an assembly may touch without sharing edges). Grouped per pair of faces
+ * (indices into m->faces), largest first. */
 typedef struct crisp_gap {
     int face[2];
     double gap;   /* largest distance found between the two faces' boundaries */

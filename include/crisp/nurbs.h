@@ -161,7 +161,8 @@ int crisp_surface_normal(const crisp_surface *s, double u, double v, double dest
 
 /* The offset surface S + d N (N = crisp_surface_normal) as a bicubic B-spline over S's domain and
  * parametrisation (C0 at its knots, watertight), within tol of the true offset at 16 test points
- * per cell; cells split until they pass, up to max_cells per direction (else CRISP_ERR_LIMIT). */
+ * per cell; cells split until they pass, up to max_cells per direction and max_cells^2 / 4 in all
+ * (else CRISP_ERR_LIMIT). */
 crisp_status crisp_surface_offset(const crisp_surface *s, double d, double tol, int max_cells,
                                   crisp_surface **dest);
 

@@ -67,9 +67,11 @@ static void run_chunks(crisp_pool *p, int worker)
         if (b >= p->count) break;
         size_t e = b + p->grain < p->count ? b + p->grain : p->count;
         p->fn(p->ctx, b, e, worker);
-        size_t d = atomic_fetch_add(&p->items_done, e - b) + (e - b);
-        if (worker == 0 && atomic_load_explicit(&progress_fn, memory_order_relaxed))
-            crisp_progress_report((double)d / (double)p->count);
+        /* only while someone listens: the shared counter is one more contended cache line */
+        if (atomic_load_explicit(&progress_fn, memory_order_relaxed)) {
+            size_t d = atomic_fetch_add(&p->items_done, e - b) + (e - b);
+            if (worker == 0) crisp_progress_report((double)d / (double)p->count);
+        }
     }
     current = outer;
 }

@@ -170,8 +170,8 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
     long long cells = 1;
     for (int q = 0; q < 3; q++) {
         double ext = isfinite(hi[q] - lo[q]) ? hi[q] - lo[q] : 0;
-        /* at most 128 cells per axis: h grows for large models with a fine limit */
-        if (ext / g.h > 128) g.h = ext / 128;
+        /* at most 160 cells per axis (4 M cells): h grows for large models with a fine limit */
+        if (ext / g.h > 160) g.h = ext / 160;
     }
     for (int q = 0; q < 3; q++) {
         double ext = isfinite(hi[q] - lo[q]) ? hi[q] - lo[q] : 0;
@@ -218,14 +218,20 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
         for (int q = 0; q < 3; q++) c[q] = (int)floor((p[q] - g.lo[q]) / g.h);
         double best = INFINITY;
         int bi = -1, seam = 0;
-        for (int dz = -1; dz <= 1; dz++)
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++) {
+        /* The sample's own cell first, then its neighbours; most samples have a partner within
+         * tol there (a shared edge) and stop at once. */
+        for (int nb = 0; nb < 27 && !(best <= tol); nb++) {
+            int dx = nb == 0 ? 0 : ((nb - (nb <= 13)) % 3) - 1, dy = nb == 0 ? 0 : (((nb - (nb <= 13)) / 3) % 3) - 1,
+                dz = nb == 0 ? 0 : ((nb - (nb <= 13)) / 9) - 1;
+            {
+                {
                     int x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
                     if (x < 0 || y < 0 || z < 0 || x >= g.n[0] || y >= g.n[1] || z >= g.n[2]) continue;
                     size_t cell = ((size_t)z * g.n[1] + y) * g.n[0] + x;
                     for (int j = g.start[cell]; j < g.start[cell + 1]; j++) {
                         const bseg *o = &segs[g.items[j]];
+                        int b1 = m->faces[o->face].body, b0 = m->faces[s->face].body;
+                        if (b0 && b1 && b0 != b1) continue; /* another part */
                         if (o->face == s->face) {
                             /* the face's own other boundary through here: a seam, or a
                              * collapsed side: no other face is meant to be there */
@@ -236,6 +242,8 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
                         if (d < best) best = d, bi = g.items[j];
                     }
                 }
+            }
+        }
         if (seam || bi < 0 || !(best < limit)) continue; /* a seam, or a free edge */
         dest->samples++;
         if (best <= tol) continue;
@@ -279,7 +287,7 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
             memcpy(gp->at, p, sizeof gp->at);
         }
     }
-    qsort(dest->gaps, (size_t)dest->count, sizeof *dest->gaps, cmp_gap);
+    if (dest->count > 1) qsort(dest->gaps, (size_t)dest->count, sizeof *dest->gaps, cmp_gap);
 out:
     crisp_free(g.start);
     crisp_free(g.items);

@@ -7,7 +7,8 @@
  * (derivatives by second-order one-sided differences taken inside the cell, so two cells sharing an
  * edge build the same edge curve: the result is C0 everywhere and watertight); cells whose patch
  * misses O by more than tol at a 4 x 4 grid of test points split their column and row in two, until
- * every cell passes or the grid reaches max_cells per direction. The patches are then one B-spline
+ * every cell passes or the grid reaches max_cells per direction (and max_cells^2 / 4 cells in all:
+ * the work is bounded). The patches are then one B-spline
  * with triple interior knots. The offset of a plane is reproduced up to the rounding of the
  * difference quotients (1e-9 of its size); elsewhere the error is the measured one (a bound at
  * the test points, not a proof between them). IGES readers use exact forms where they exist
@@ -131,6 +132,15 @@ crisp_status crisp_surface_offset(const crisp_surface *s, double d, double tol, 
     }
     int nu = breaks_of(s->knots_u, s->count_u + s->degree_u + 1, dom[0], dom[1], U, cap) - 1;
     int nv = breaks_of(s->knots_v, s->count_v + s->degree_v + 1, dom[2], dom[3], V, cap) - 1;
+    if (!(dom[1] > dom[0]) || !(dom[3] > dom[2])) {
+        st = crisp_error(CRISP_ERR_INVALID_ARG, "%s: empty domain", fn);
+        goto out;
+    }
+    if (nu > max_cells || nv > max_cells || (long long)nu * nv > (long long)max_cells * max_cells / 4) {
+        st = crisp_error(CRISP_ERR_LIMIT, "%s: %d x %d knot spans (at most %d cells)", fn, nu, nv,
+                         max_cells * max_cells / 4);
+        goto out;
+    }
     double worst = 0;
     for (int round = 0;; round++) {
         memset(su, 0, (size_t)nu);
@@ -149,7 +159,7 @@ crisp_status crisp_surface_offset(const crisp_surface *s, double d, double tol, 
         int mu = nu, mv = nv;
         for (int i = 0; i < nu; i++) mu += su[i];
         for (int j = 0; j < nv; j++) mv += sv[j];
-        if (mu > max_cells || mv > max_cells || round > 40) {
+        if (mu > max_cells || mv > max_cells || (long long)mu * mv > (long long)max_cells * max_cells / 4 || round > 40) {
             st = crisp_error(CRISP_ERR_LIMIT, "%s: offset %g not within %g (worst %g) with %d x %d cells", fn, d, tol,
                              worst, nu, nv);
             goto out;

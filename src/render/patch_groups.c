@@ -25,6 +25,7 @@ struct crisp__groups {
     group *nodes;
     size_t node_count, node_cap;
     uint32_t *face_root; /* per face: its top group, UINT32_MAX when the face has no patches */
+    uint8_t *face_small; /* per face, this frame: the whole (untrimmed) face within eps on screen */
 };
 
 static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const crisp_scene_face *f, uint32_t iu0,
@@ -75,6 +76,7 @@ void crisp__groups_destroy(crisp__groups *g)
     if (!g) return;
     free(g->nodes);
     free(g->face_root);
+    free(g->face_small);
     free(g);
 }
 
@@ -104,8 +106,10 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
     g->scene = NULL;
     g->node_count = 0;
     free(g->face_root);
+    free(g->face_small);
     g->face_root = malloc((sc->face_count ? sc->face_count : 1) * sizeof *g->face_root);
-    if (!g->face_root) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
+    g->face_small = calloc(sc->face_count ? sc->face_count : 1, 1);
+    if (!g->face_root || !g->face_small) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
     for (uint32_t f = 0; f < sc->face_count; f++) {
         const crisp_scene_face *sf = &sc->faces[f];
         g->face_root[f] = UINT32_MAX;
@@ -174,6 +178,7 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
     for (size_t fi = begin; fi < end; fi++) {
         const crisp_scene_face *f = &c->sc->faces[fi];
         uint32_t root = c->g->face_root[fi];
+        c->g->face_small[fi] = 0;
         if (root == UINT32_MAX) {
             for (uint32_t p = 0; p < f->patch_count; p++) c->mode[f->first_patch + p] = CRISP__PATCH_OPEN;
             continue;
@@ -182,8 +187,10 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
         int top = 0;
         stack[top++] = (int32_t)root;
         while (top > 0) {
-            const group *n = &c->g->nodes[stack[--top]];
+            int32_t at = stack[--top];
+            const group *n = &c->g->nodes[at];
             int k = classify(n->box, c->m, c->gx, c->gy, c->width, c->height, c->eps);
+            if ((uint32_t)at == root && k == 2) c->g->face_small[fi] = 1;
             if (k == 1) set_mode(f, n, CRISP__PATCH_CULLED, c->mode);
             else if (k == 2) set_mode(f, n, CRISP__PATCH_SMALL, c->mode);
             else if (n->child[0] < 0 || top + 2 > 64) set_mode(f, n, CRISP__PATCH_OPEN, c->mode);
@@ -201,4 +208,9 @@ crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, cri
     crisp_mat4_copy(view_proj, c.m);
     crisp_pool_parallel_for(pool, sc->face_count, 4, walk_faces, &c);
     return CRISP_OK;
+}
+
+int crisp__groups_face_small(const crisp__groups *g, uint32_t face)
+{
+    return g && g->face_small && face < g->face_count && g->face_small[face];
 }

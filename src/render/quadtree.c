@@ -53,6 +53,7 @@ typedef struct tree_ctx {
     const crisp_scene *sc;
     const uint32_t *redo; /* NULL: every patch; else the patches to rebuild */
     const uint8_t *mode;  /* per patch (patch groups), used when redo is NULL */
+    size_t count;         /* items: patches, or the redo list's length */
     crisp_slefe_view view;
     double eps, gx, gy;
 } tree_ctx;
@@ -200,13 +201,14 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
         if (box_split) {
             st = CRISP_ERR_NUMERIC; /* split again (below) */
         } else if (!st && tau > 1 && tau <= CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth && isfinite(hull)) {
-            /* Where the SLEFE bound asks for more triangles than splitting until the pieces'
-             * hulls are within eps would give (about 2 * 4^k for k halvings: the hull shrinks
-             * about 2x per halving), split instead; each child decides again. Loose screen
-             * bounds of small rational patches seen off axis made 1-2 px patches ask for tau
-             * 10-24 (impeller x 49). */
+            /* Where the SLEFE bound asks for many more triangles than splitting until the
+             * pieces' hulls are within eps would give (4^k leaves of 2 triangles for k halvings:
+             * the hull shrinks about 2x per halving; a leaf costs the planner and the backend
+             * about as much as a few triangles, hence 4 * 4^k < tau^2), split instead; the
+             * children are decided by their hulls alone. Loose screen bounds of small rational
+             * patches seen off axis made 1-2 px patches ask for tau 10-24 (impeller x 49). */
             int k = (int)ceil(log2(hull / c->eps));
-            if (k < 8 && 2.0 * ldexp(1.0, 2 * k) < 0.5 * 2.0 * tau * tau) {
+            if (k < 6 && 4.0 * ldexp(1.0, 2 * k) < (double)tau * tau) {
                 st = CRISP_ERR_NUMERIC;
                 box = 1;
             }
@@ -258,9 +260,10 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
     for (int k = 0; k < 4; k++) build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), box);
 }
 
-static void build_trees(void *vctx, size_t begin, size_t end, int worker)
+/* Items [begin, end) of the patch list (every patch, or the redo list), nodes and leaves in
+ * arena. */
+static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp_arena *arena)
 {
-    tree_ctx *c = vctx;
     crisp__trees *plan = c->plan;
     build_state *b = plan->build_state[worker];
     for (size_t i = begin; i < end; i++) {
@@ -280,7 +283,7 @@ static void build_trees(void *vctx, size_t begin, size_t end, int worker)
             b->forced = plan->forced + k0;
             b->forced_count = k1 - k0;
         }
-        b->arena = plan->arenas[worker];
+        b->arena = arena;
         b->node_cap = b->leaf_cap = 0;
         b->st = CRISP_OK;
         int32_t root = push_node(b);
@@ -299,6 +302,18 @@ static void build_trees(void *vctx, size_t begin, size_t end, int worker)
         if (b->st) plan->worker_status[worker] = b->st;
         for (uint32_t l = 0; l < pp->leaf_count; l++) pp->visible_leaves += !pp->leaves[l].culled;
     }
+}
+
+/* A fixed split of the list into TREE_CHUNKS ranges, each with its own arena: what each arena
+ * holds does not depend on which thread ran which range, so a frame that needs no more memory
+ * than an earlier one allocates nothing (with per-thread arenas it did, depending on the
+ * dynamic work split). */
+static void build_chunks(void *vctx, size_t begin, size_t end, int worker)
+{
+    tree_ctx *c = vctx;
+    for (size_t ch = begin; ch < end; ch++)
+        build_range(c, c->count * ch / TREE_CHUNKS, c->count * (ch + 1) / TREE_CHUNKS, worker,
+                    c->plan->chunk_arenas[ch]);
 }
 
 /* ---- pass 2: edge levels --------------------------------------------------------------------- */
@@ -480,7 +495,8 @@ static crisp_status split_high_levels(crisp__trees *plan, const crisp_scene *sc,
         *splits += (uint32_t)added;
         qsort(plan->forced, plan->forced_count, sizeof *plan->forced, forced_qsort_cmp);
         tc->redo = plan->redo;
-        crisp_pool_parallel_for(pool, redo, 4, build_trees, tc);
+        tc->count = redo;
+        crisp_pool_parallel_for(pool, TREE_CHUNKS, 1, build_chunks, tc);
         tc->redo = NULL;
         for (int w = 0; w < plan->worker_cap; w++)
             if (plan->worker_status[w]) return plan->worker_status[w];
@@ -507,8 +523,9 @@ crisp_status crisp__trees_create(crisp__trees **dest)
     crisp__trees *p = calloc(1, sizeof *p);
     if (!p) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating a frame plan");
     crisp_status st = crisp__groups_create(&p->groups);
+    for (int k = 0; !st && k < TREE_CHUNKS; k++) st = crisp_arena_create(1 << 16, &p->chunk_arenas[k]);
     if (st) {
-        free(p);
+        crisp__trees_destroy(p);
         return st;
     }
     *dest = p;
@@ -530,6 +547,7 @@ void crisp__trees_destroy(crisp__trees *p)
     free(p->redo);
     crisp__groups_destroy(p->groups);
     free(p->patch_mode);
+    for (int k = 0; k < TREE_CHUNKS; k++) crisp_arena_destroy(p->chunk_arenas[k]);
     for (uint32_t f = 0; f < p->face_cap; f++) crisp_trim_plan_free(&p->trims[f]);
     free(p->trims);
     free(p->face_tau);
@@ -583,11 +601,30 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             uint32_t s = c->plan->face_tau[f] * (sf->grid_v ? sf->grid_v : 1);
             strips = (int)(s < 8 ? 8 : s > 256 ? 256 : s);
         }
+        /* A face within eps on screen: every point of it is within a pixel of its trims, so
+         * every decision is within the pixel band: an all-inside table, no density bound, no
+         * polyline, no ribbons. */
+        int small = crisp__groups_face_small(c->plan->groups, (uint32_t)f);
+        if (small) {
+            crisp_trim_plan *tp = &c->plan->trims[f];
+            static const uint32_t no_rows = 0;
+            tp->strip_count = 1;
+            tp->clamped = 0;
+            tp->polyline.piece_count = 0;
+            tp->v0 = sf->domain[2];
+            tp->v1 = sf->domain[3];
+            crisp_status st = crisp_trim_table_build(
+                &(crisp_trim_table_desc){.polyline = NULL, .v0 = sf->domain[2], .v1 = sf->domain[3], .strip_count = 1,
+                                         .mu = &no_rows},
+                &tp->table);
+            if (st) c->status[worker] = st;
+            continue;
+        }
         crisp_trim_plan_desc d = {
             .patches = c->sc->face_patches[f].patches,
             .patch_count = c->sc->face_patches[f].count,
-            .pieces = sf->piece_count ? c->sc->pieces + sf->first_piece : NULL,
-            .piece_count = (int)sf->piece_count,
+            .pieces = sf->piece_count && !small ? c->sc->pieces + sf->first_piece : NULL,
+            .piece_count = small ? 0 : (int)sf->piece_count,
             .view_proj = &c->plan->view_proj,
             .width = c->plan->width,
             .height = c->plan->height,
@@ -613,6 +650,7 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
     if ((st = ensure_workers(plan, workers))) return st;
     for (int w = 0; w < workers; w++) {
         crisp_arena_reset(plan->arenas[w]);
+    for (int k = 0; k < TREE_CHUNKS; k++) crisp_arena_reset(plan->chunk_arenas[k]);
         plan->worker_status[w] = CRISP_OK;
     }
     if ((st = crisp_grow((void **)&plan->patches, &plan->patch_cap, sc->patch_count ? sc->patch_count : 1,
@@ -651,7 +689,8 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
                                      pool, plan->patch_mode)))
         return st;
     tc.mode = plan->patch_mode;
-    crisp_pool_parallel_for(pool, sc->patch_count, 16, build_trees, &tc);
+    tc.count = sc->patch_count;
+    crisp_pool_parallel_for(pool, TREE_CHUNKS, 1, build_chunks, &tc);
     for (int w = 0; w < workers; w++)
         if (plan->worker_status[w]) return plan->worker_status[w];
     double t1 = crisp_time_now();

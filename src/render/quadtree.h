@@ -53,6 +53,12 @@ void crisp__groups_destroy(crisp__groups *g);
  * changes). gx, gy: the widened frustum's NDC half-extents; eps: pixels. */
 crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj, int width,
                                     int height, double gx, double gy, double eps, crisp_pool *pool, uint8_t *mode);
+/* 1 when the last classify found face's whole untrimmed surface within eps on screen: every
+ * point of it is then within a pixel of its trim curves, so any trim decision is allowed there
+ * and the face is planned without trim loops (drawn whole, no table). */
+int crisp__groups_face_small(const crisp__groups *g, uint32_t face);
+
+#define TREE_CHUNKS 64 /* fixed work ranges of the tree pass, one arena each */
 
 typedef struct crisp__trees {
     crisp_mat4 view_proj;
@@ -71,6 +77,7 @@ typedef struct crisp__trees {
     uint32_t *redo;         /* patches to rebuild with forced splits */
     size_t redo_cap;
     crisp__groups *groups;  /* patch groups of the last scene */
+    crisp_arena *chunk_arenas[TREE_CHUNKS]; /* nodes and leaves of the tree pass's ranges */
     uint8_t *patch_mode;    /* per patch this frame: CRISP__PATCH_* */
     size_t mode_cap;
     crisp_plan_stats stats;

@@ -34,7 +34,7 @@ static crisp_model *load(const test_entity *ents, int n)
 static void parse(const test_entity *ents, int n, iges_file *f, char **text)
 {
     *text = test_iges_build(ents, n);
-    crisp_status st = iges_file_parse("test.igs", *text, strlen(*text), f);
+    crisp_status st = crisp__iges_file_parse("test.igs", *text, strlen(*text), f);
     if (st) fprintf(stderr, "%s\n", crisp_error_message());
     assert_int_equal(st, CRISP_OK);
     f->projection_fraction = 1e-5;
@@ -44,7 +44,7 @@ static void parse(const test_entity *ents, int n, iges_file *f, char **text)
 static crisp_curve *one_curve(iges_file *f, int index, int dim)
 {
     iges_curves out = {0};
-    crisp_status st = iges_curve_convert(f, index, dim, NULL, 0, &out);
+    crisp_status st = crisp__iges_curve_convert(f, index, dim, NULL, 0, &out);
     if (st) fprintf(stderr, "%s\n", crisp_error_message());
     assert_int_equal(st, CRISP_OK);
     assert_int_equal(out.count, 1);
@@ -83,7 +83,7 @@ static void test_arc_with_transform(void **state)
     crisp_curve_eval(c, t1, p);
     assert_true(fabs(p[0] - 7) < 1e-12 && fabs(p[1] - 1) < 1e-12);
     crisp_curve_destroy(c);
-    iges_file_free(&f);
+    crisp__iges_file_free(&f);
     free(text);
 }
 
@@ -106,7 +106,7 @@ static void test_transform_chain(void **state)
     crisp_curve_eval(c, 1, p);
     assert_true(fabs(p[0] - 4) < 1e-15 && fabs(p[1] - 2) < 1e-15 && fabs(p[2] - 2) < 1e-15);
     crisp_curve_destroy(c);
-    iges_file_free(&f);
+    crisp__iges_file_free(&f);
     free(text);
 }
 
@@ -137,7 +137,7 @@ static void test_conic_ellipse(void **state)
                                 fabs(p[2] - 0.5) < 1e-12);
         crisp_curve_destroy(c);
     }
-    iges_file_free(&f);
+    crisp__iges_file_free(&f);
     free(text);
 }
 
@@ -171,7 +171,7 @@ static void test_parametric_spline_curve(void **state)
             }
         }
     crisp_curve_destroy(c);
-    iges_file_free(&f);
+    crisp__iges_file_free(&f);
     free(text);
 }
 

@@ -152,7 +152,7 @@ static void test_bearing_pcurves_on_model_curves(void **state)
     size_t size = 0;
     assert_int_equal(crisp_read_file(path, &data, &size), CRISP_OK);
     iges_file f;
-    assert_int_equal(iges_file_parse(path, data, size, &f), CRISP_OK);
+    assert_int_equal(crisp__iges_file_parse(path, data, size, &f), CRISP_OK);
     crisp_model *m = NULL;
     assert_int_equal(crisp_read_iges(path, NULL, &m), CRISP_OK);
     double box[6];
@@ -166,14 +166,14 @@ static void test_bearing_pcurves_on_model_curves(void **state)
     for (int e = 0; e < f.entity_count; e++) {
         if (f.ents[e].type != 142) continue;
         int sp, bp, cp;
-        assert_int_equal(iges_ptr(&f, e, 2, 0, &sp), CRISP_OK);
-        assert_int_equal(iges_ptr(&f, e, 3, 0, &bp), CRISP_OK);
-        assert_int_equal(iges_ptr(&f, e, 4, 0, &cp), CRISP_OK);
+        assert_int_equal(crisp__iges_ptr(&f, e, 2, 0, &sp), CRISP_OK);
+        assert_int_equal(crisp__iges_ptr(&f, e, 3, 0, &bp), CRISP_OK);
+        assert_int_equal(crisp__iges_ptr(&f, e, 4, 0, &cp), CRISP_OK);
         iges_surface s;
         iges_curves uv = {0}, model = {0};
-        assert_int_equal(iges_surface_convert(&f, sp, 0, &s), CRISP_OK);
-        assert_int_equal(iges_curve_convert(&f, bp, 2, NULL, 0, &uv), CRISP_OK);
-        assert_int_equal(iges_curve_convert(&f, cp, 3, NULL, 0, &model), CRISP_OK);
+        assert_int_equal(crisp__iges_surface_convert(&f, sp, 0, &s), CRISP_OK);
+        assert_int_equal(crisp__iges_curve_convert(&f, bp, 2, NULL, 0, &uv), CRISP_OK);
+        assert_int_equal(crisp__iges_curve_convert(&f, cp, 3, NULL, 0, &model), CRISP_OK);
         for (int i = 0; i < uv.count; i++) {
             double t0, t1;
             crisp_curve_domain(uv.items[i], &t0, &t1);
@@ -185,9 +185,9 @@ static void test_bearing_pcurves_on_model_curves(void **state)
             }
         }
         checked++;
-        iges_curves_free(&uv);
-        iges_curves_free(&model);
-        iges_surface_free(&s);
+        crisp__iges_curves_free(&uv);
+        crisp__iges_curves_free(&model);
+        crisp__iges_surface_free(&s);
     }
     fprintf(stderr, "bearing: %d curves on surface, worst |S(B(t)) - C| = %.3g (%.3g of the "
                     "diagonal)\n",
@@ -196,7 +196,7 @@ static void test_bearing_pcurves_on_model_curves(void **state)
     /* The file's two representations agree to 6e-6 (its global section states a resolution of
      * 1e-4): within the reader's model-space closure tolerance, 1e-4 of the diagonal. */
     assert_true(worst <= 1e-4 * diag);
-    iges_file_free(&f);
+    crisp__iges_file_free(&f);
     crisp_free(data);
 }
 

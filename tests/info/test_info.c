@@ -82,6 +82,9 @@ static void test_obj_summary(void **state)
     /* one face: no other face near its boundary, no gap */
     assert_non_null(strstr(out, "\"gaps\": {\"measured\": true,"));
     assert_non_null(strstr(out, "\"pairs\": 0,"));
+    snprintf(args, sizeof args, "info --no-gaps --json '%s'", path);
+    assert_int_equal(run(args, out, sizeof out), 0);
+    assert_non_null(strstr(out, "\"gaps\": {\"measured\": false,"));
     assert_non_null(strstr(out, "\"colored_faces\": 0,"));
     assert_non_null(strstr(out, "\"skipped\": [{\"what\": \"OBJ statement 'frobnicate'"));
     remove(path);

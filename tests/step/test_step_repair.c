@@ -8,6 +8,8 @@
  *  - faces on a cone's far nappe (beyond the apex) and on a spindle torus, whose points the
  *    analytic inversion put on the wrong branch;
  *  - a pcurve that lies off its edge: the trim is projected from the 3D edge;
+ *  - a half circle written as one rational cubic on a plane (its control polygon leaves the
+ *    curve's box: the plane grows instead of the trim being clamped);
  *  - loops the file leaves open (edges whose 3D ends do not meet: a strip bounded by its two long
  *    edges only) closed by straight (u, v) segments with a note, and not when the bridges would
  *    be most of the loop;
@@ -357,6 +359,49 @@ static void test_pcurve_off_edge_reprojected(void **state)
     free(t);
 }
 
+/* ---- a rational cubic half circle on a plane ------------------------------------------------ */
+
+/* A plane face bounded by a half circle of radius 7.5 written as one rational cubic (weights 1,
+ * 1/3, 1/3, 1: its middle control points lie 15 out, twice the radius) and its diameter. The
+ * trim's control points used to be clamped into the box of the curve, which squashed the arc to
+ * half its radius (occt_as1_ec.stp's bolt heads: holes 2.6 wide, found by crisp info's gaps). */
+static const char half_circle[] = HEAD
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,-1.));\n#3=DIRECTION('',(-1.,0.,0.));\n"
+    "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=PLANE('',#4);\n"
+    "#919=CARTESIAN_POINT('',(-7.5,0.,0.));\n#920=CARTESIAN_POINT('',(-7.5,-15.,0.));\n"
+    "#921=CARTESIAN_POINT('',(7.5,-15.,0.));\n#922=CARTESIAN_POINT('',(7.5,0.,0.));\n"
+    "#918=( BOUNDED_CURVE() B_SPLINE_CURVE(3,(#919,#920,#921,#922),.UNSPECIFIED.,.F.,.F.) "
+    "B_SPLINE_CURVE_WITH_KNOTS((4,4),(0.,0.5),.PIECEWISE_BEZIER_KNOTS.) CURVE() GEOMETRIC_REPRESENTATION_ITEM() "
+    "RATIONAL_B_SPLINE_CURVE((1.,0.33333333333,0.33333333333,1.)) REPRESENTATION_ITEM('') );\n"
+    "#10=VERTEX_POINT('',#919);\n#11=VERTEX_POINT('',#922);\n#12=EDGE_CURVE('',#10,#11,#918,.T.);\n"
+    "#20=DIRECTION('',(1.,0.,0.));\n#21=VECTOR('',#20,1.);\n#22=LINE('',#919,#21);\n"
+    "#23=EDGE_CURVE('',#10,#11,#22,.T.);\n#30=ORIENTED_EDGE('',*,*,#12,.T.);\n#31=ORIENTED_EDGE('',*,*,#23,.F.);\n"
+    "#32=EDGE_LOOP('',(#30,#31));\n#33=FACE_BOUND('',#32,.T.);\n#34=ADVANCED_FACE('',(#33),#5,.T.);\n"
+    "#35=OPEN_SHELL('',(#34));\n" TAIL;
+
+static double on_half_disc_rim(const double p[3])
+{
+    return fmin(fabs(p[1]), fabs(hypot(p[0], p[1]) - 7.5)) + fabs(p[2]);
+}
+static int in_half_disc(const double p[3]) { return p[1] < -1 && hypot(p[0], p[1]) < 7.5; }
+
+static void test_rational_half_circle_on_plane(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    step_read_stats st = {0};
+    crisp_status s = read_str(half_circle, &m, &st);
+    if (s) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    check_face(m, 0, on_half_disc_rim, 1e-9, in_half_disc);
+    /* the half disc's area, pi r^2 / 2 (the plane's (u, v) are lengths) */
+    /* (the area is measured on a polyline: within 2%; the squashed arc had half of it) */
+    assert_true(fabs(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0])) - M_PI * 7.5 * 7.5 / 2) < 0.02 * M_PI * 7.5 * 7.5 / 2);
+    assert_true(st.max_edge_dev < 1e-6);
+    crisp_model_destroy(m);
+}
+
 /* ---- a loop left open by the file ----------------------------------------------------------- */
 
 /* Plane z = 0; the loop lists only the two long edges of the rectangle [0, 2] x [0, 1]: (0, 0) to
@@ -412,6 +457,7 @@ int main(void)
         cmocka_unit_test(test_hemisphere_near_poles),
         cmocka_unit_test(test_pcurve_off_edge_reprojected),
         cmocka_unit_test(test_open_loop_bridged),
+        cmocka_unit_test(test_rational_half_circle_on_plane),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -149,8 +149,11 @@ static void parse_camera(const char *opts, crisp_camera *c)
 }
 
 /* A pick line: face index and point. */
-static int parse_pick(const char *line, int *face, double p[3])
+static int parse_pick(const char *whole, int *face, double p[3])
 {
+    char line[2048];
+    assert_non_null(whole);
+    snprintf(line, sizeof line, "%.*s", (int)strcspn(whole, "\n"), whole);
     const char *f = strstr(line, ": face ");
     if (!f) return 0;
     *face = atoi(f + 7);
@@ -401,6 +404,133 @@ static void test_pick_and_measure(void **state)
     free(out);
 }
 
+/* Measuring between two vertices of the model (V: clicks snap to the face's vertices within
+ * 8 px): the test finds two visible vertices on its own (every trim curve's start point through
+ * its surface, projected with the viewer's camera, checked against the CPU renderer's depth),
+ * clicks 2 px off each, and the measured distance is the distance between them within 1e-6 of
+ * the box diagonal. */
+static void test_measure_vertices(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), args[1024], opts[1024], replay[512];
+    assert_non_null(out);
+    snprintf(args, sizeof args, "%s/nurbs/occt_bearing.iges --size 800x600", CRISP_DATA_DIR);
+    assert_int_equal(run_view(args, "idle\ncamera\n", out), 0);
+    camera_of(find_line(out, "camera: ", 0), opts, sizeof opts);
+    crisp_camera cam;
+    parse_camera(opts, &cam);
+    crisp_model *m = NULL;
+    crisp_scene *sc = NULL;
+    char path[512];
+    snprintf(path, sizeof path, "%s/nurbs/occt_bearing.iges", CRISP_DATA_DIR);
+    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_image img;
+    crisp_renderer *r = NULL;
+    assert_int_equal(crisp_image_init(&img, cam.width, cam.height), CRISP_OK);
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){0}, &r), CRISP_OK);
+    assert_int_equal(crisp_render_cpu(r, sc, &cam, &img, NULL), CRISP_OK);
+    double diag = sqrt(pow(sc->box[3] - sc->box[0], 2) + pow(sc->box[4] - sc->box[1], 2) +
+                       pow(sc->box[5] - sc->box[2], 2));
+    /* every vertex with its pixel */
+    enum { MAXV = 20000 };
+    static double vp[MAXV][3], vx[MAXV][2];
+    int nv = 0;
+    for (int fi = 0; fi < m->face_count; fi++)
+        for (int l = 0; l < m->faces[fi].loop_count; l++)
+            for (int k = 0; k < m->faces[fi].loops[l].curve_count && nv < MAXV; k++) {
+                const crisp_curve *c = m->faces[fi].loops[l].curves[k];
+                double t0, t1, uv[2];
+                crisp_curve_domain(c, &t0, &t1);
+                crisp_curve_eval(c, t0, uv);
+                crisp_surface_eval(m->faces[fi].surface, uv[0], uv[1], vp[nv]);
+                project(&cam, vp[nv], vx[nv]);
+                nv++;
+            }
+    /* visible, inside the image, clicked pixel on a face, no other vertex nearby */
+    int pick[2] = {-1, -1};
+    for (int a = 0; a < nv && pick[1] < 0; a++) {
+        double x = vx[a][0], y = vx[a][1];
+        if (x < 20 || y < 20 || x > cam.width - 20 || y > cam.height - 20) continue;
+        int i = (int)(x + 2), j = (int)(y + 2);
+        size_t px = (size_t)j * cam.width + i;
+        if (img.face[px] < 0) continue;
+        double e[3], f[3], fd[3];
+        crisp_vec3_sub(vp[a], cam.eye, e);
+        crisp_vec3_sub(cam.target, cam.eye, fd);
+        crisp_vec3_normalize(fd, f);
+        if (fabs(crisp_vec3_dot(e, f) - img.depth[px]) > 2e-3 * diag) continue;
+        int lonely = 1;
+        for (int b = 0; b < nv && lonely; b++) {
+            double dd[3];
+            crisp_vec3_sub(vp[a], vp[b], dd);
+            if (crisp_vec3_norm(dd) > 1e-6 * diag && hypot(vx[b][0] - x, vx[b][1] - y) < 12) lonely = 0;
+        }
+        if (!lonely) continue;
+        if (pick[0] < 0) pick[0] = a;
+        else if (hypot(vx[pick[0]][0] - x, vx[pick[0]][1] - y) > 40) pick[1] = a;
+    }
+    if (pick[1] < 0) fail_msg("no two lonely visible vertices among %d (%d)", nv, pick[0]);
+    snprintf(replay, sizeof replay, "idle\nkey v\nclick left %.0f %.0f\nclick left %.0f %.0f shift\n",
+             floor(vx[pick[0]][0] + 2), floor(vx[pick[0]][1] + 2), floor(vx[pick[1]][0] + 2),
+             floor(vx[pick[1]][1] + 2));
+    assert_int_equal(run_view(args, replay, out), 0);
+    const char *pl = find_line(out, "pick: ", 0);
+    assert_non_null(pl);
+    assert_true(strcspn(pl, "\n") > 7 && !strncmp(pl + strcspn(pl, "\n") - 7, " vertex", 7));
+    const char *ml = find_line(out, "measure: distance ", 0);
+    assert_non_null(ml);
+    assert_non_null(strstr(ml, "(to a vertex)"));
+    double dist, pm[2][3];
+    int fm[2];
+    assert_int_equal(sscanf(ml, "measure: distance %lf angle %*f deg between faces %d and %d from "
+                                "%lf,%lf,%lf to %lf,%lf,%lf",
+                            &dist, &fm[0], &fm[1], &pm[0][0], &pm[0][1], &pm[0][2], &pm[1][0],
+                            &pm[1][1], &pm[1][2]),
+                     9);
+    double d[3];
+    for (int k = 0; k < 2; k++) {
+        crisp_vec3_sub(pm[k], vp[pick[k]], d);
+        if (crisp_vec3_norm(d) > 1e-6 * diag) fail_msg("point %d snapped %g from the vertex", k, crisp_vec3_norm(d));
+    }
+    crisp_vec3_sub(vp[pick[1]], vp[pick[0]], d);
+    if (fabs(dist - crisp_vec3_norm(d)) > 1e-6 * diag)
+        fail_msg("measured %.17g, the vertices are %.17g apart", dist, crisp_vec3_norm(d));
+    crisp_renderer_destroy(r);
+    crisp_image_free(&img);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+    free(out);
+}
+
+/* Delete hides the selected face: the same pixel then picks what is behind it (another face);
+ * U shows every face again and the pixel picks the first face again. */
+static void test_hide_face(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), args[1024];
+    assert_non_null(out);
+    snprintf(args, sizeof args, "%s/nurbs/occt_bearing.iges --size 320x200", CRISP_DATA_DIR);
+    assert_int_equal(run_view(args, "idle\nscreenshot view_hide0.png\nclick left 160 100\nkey delete\n"
+                                    "idle\nscreenshot view_hide1.png\nclick left 160 100\nkey u\n"
+                                    "idle\nclick left 160 100\n", out), 0);
+    int f0, f1, f2;
+    double p0[3], p1[3], p2[3];
+    assert_true(parse_pick(find_line(out, "pick: ", 0), &f0, p0));
+    assert_non_null(find_line(out, "hidden: face ", 0));
+    const char *l1 = find_line(out, "pick: ", 1);
+    assert_non_null(l1);
+    if (parse_pick(l1, &f1, p1)) assert_int_not_equal(f1, f0); /* behind it, or nothing */
+    assert_true(parse_pick(find_line(out, "pick: ", 2), &f2, p2));
+    assert_int_equal(f2, f0);
+    assert_memory_equal(p2, p0, sizeof p0);
+    image8 a = read_png("view_hide0.png"), b = read_png("view_hide1.png");
+    assert_true(differing(&a, &b) > 100);
+    free(a.px);
+    free(b.px);
+    free(out);
+}
+
 /* Zooming to the cursor 7,500 times into a detail: the near plane follows, so the surface under
  * the cursor is still drawn (not clipped) and still picked. */
 static void test_zoom_no_clipping(void **state)
@@ -425,8 +555,8 @@ static void test_zoom_no_clipping(void **state)
     free(out);
 }
 
-/* Editing the open file on disk (here an f-rep part as a math string, rewritten 1.5 s after the
- * viewer started) reloads it and keeps the camera; the new part shows. */
+/* Editing the open file on disk (here an f-rep part as a math string, rewritten while the viewer
+ * shows it) reloads it and keeps the camera; the new part shows. */
 static void test_file_watch(void **state)
 {
     (void)state;
@@ -436,7 +566,11 @@ static void test_file_watch(void **state)
     assert_non_null(f);
     fputs("X*X + Y*Y + Z*Z < 0.25\n", f);
     fclose(f);
-    assert_int_equal(system("(sleep 1.5; echo 'X*X + Y*Y + Z*Z < 0.81' > view_watch.math) &"), 0);
+    /* rewritten once the first view is on screen (its screenshot exists), however slow the start */
+    remove("view_watch0.png");
+    assert_int_equal(system("(for i in $(seq 600); do [ -f view_watch0.png ] && break; sleep 0.1; done; "
+                            "sleep 0.5; echo 'X*X + Y*Y + Z*Z < 0.81' > view_watch.math) &"),
+                     0);
     assert_int_equal(run_view("view_watch.math --size 200x150",
                               "idle\nwheel -2 100 75\nidle\ncamera\nscreenshot view_watch0.png\n"
                               "sleep 4000\nidle\ncamera\nscreenshot view_watch1.png\n", out), 0);
@@ -463,45 +597,69 @@ static void test_file_watch(void **state)
 
 /* The screenshot after navigating equals `crisp render` with the camera options the viewer
  * printed, away from edges (here: on every pixel). */
+static void screenshot_equals_cli(const char *backend)
+{
+    char *out = malloc(OUT_CAP), args[1024], opts[1024], cmd[4096];
+    assert_non_null(out);
+    snprintf(args, sizeof args, "%s/nurbs/gpucast_part.igs --size 320x200 --backend %s",
+             CRISP_DATA_DIR, backend);
+    /* at the window's size, then at twice it (rendered at that size, not scaled) */
+    assert_int_equal(run_view(args, "idle\ndrag left 160 100 200 80 5\nwheel 2 150 110\nidle\n"
+                                    "screenshot view_cli.png\nscreenshot view_cli2.png 640x400\n", out), 0);
+    for (int shot = 0; shot < 2; shot++) {
+        const char *name = shot ? "view_cli2.png" : "view_cli.png";
+        char prefix[64];
+        snprintf(prefix, sizeof prefix, "screenshot: %s", name);
+        const char *line = find_line(out, prefix, 0);
+        assert_non_null(line);
+        camera_of(line, opts, sizeof opts);
+        remove("cli_ref.png");
+        snprintf(cmd, sizeof cmd, "%s/crisp render %s/nurbs/gpucast_part.igs %s -o cli_ref.png > /dev/null",
+                 CRISP_BIN_DIR, CRISP_DATA_DIR, opts);
+        assert_int_equal(system(cmd), 0);
+        image8 a = read_png(name), b = read_png("cli_ref.png");
+        assert_int_equal(a.w, shot ? 640 : 320);
+        assert_int_equal(a.h, shot ? 400 : 200);
+        int box[4];
+        assert_true(coverage(&a, box) > (size_t)a.w * a.h / 10);
+        /* pixels that differ must lie within 1 px of a coverage edge of the reference */
+        size_t bad = 0, diff = 0;
+        for (int j = 0; j < a.h; j++)
+            for (int i = 0; i < a.w; i++) {
+                size_t k = (size_t)j * a.w + i;
+                if (!memcmp(a.px + 4 * k, b.px + 4 * k, 4)) continue;
+                diff++;
+                int edge = 0;
+                for (int dj = -1; dj <= 1; dj++)
+                    for (int di = -1; di <= 1; di++) {
+                        int ii = i + di, jj = j + dj;
+                        if (ii < 0 || jj < 0 || ii >= a.w || jj >= a.h) continue;
+                        edge |= (b.px[4 * ((size_t)jj * a.w + ii) + 3] == 0) != (b.px[4 * k + 3] == 0);
+                    }
+                bad += !edge;
+            }
+        if (bad) fail_msg("%s: %zu pixels differ away from edges (%zu in all)", name, bad, diff);
+        free(a.px);
+        free(b.px);
+    }
+    free(out);
+}
+
 static void test_screenshot_equals_cli(void **state)
 {
     (void)state;
-    char *out = malloc(OUT_CAP), args[1024], opts[1024], cmd[4096];
-    assert_non_null(out);
-    snprintf(args, sizeof args, "%s/nurbs/gpucast_part.igs --size 320x200", CRISP_DATA_DIR);
-    assert_int_equal(run_view(args, "idle\ndrag left 160 100 200 80 5\nwheel 2 150 110\nidle\n"
-                                    "screenshot view_cli.png\n", out), 0);
-    const char *line = find_line(out, "screenshot: view_cli.png", 0);
-    assert_non_null(line);
-    camera_of(line, opts, sizeof opts);
-    remove("cli_ref.png");
-    snprintf(cmd, sizeof cmd, "%s/crisp render %s/nurbs/gpucast_part.igs %s -o cli_ref.png > /dev/null",
-             CRISP_BIN_DIR, CRISP_DATA_DIR, opts);
-    assert_int_equal(system(cmd), 0);
-    image8 a = read_png("view_cli.png"), b = read_png("cli_ref.png");
-    int box[4];
-    assert_true(coverage(&a, box) > 320 * 200 / 10);
-    /* pixels that differ must lie within 1 px of a coverage edge of the reference */
-    size_t bad = 0, diff = 0;
-    for (int j = 0; j < a.h; j++)
-        for (int i = 0; i < a.w; i++) {
-            size_t k = (size_t)j * a.w + i;
-            if (!memcmp(a.px + 4 * k, b.px + 4 * k, 4)) continue;
-            diff++;
-            int edge = 0;
-            for (int dj = -1; dj <= 1; dj++)
-                for (int di = -1; di <= 1; di++) {
-                    int ii = i + di, jj = j + dj;
-                    if (ii < 0 || jj < 0 || ii >= a.w || jj >= a.h) continue;
-                    edge |= (b.px[4 * ((size_t)jj * a.w + ii) + 3] == 0) != (b.px[4 * k + 3] == 0);
-                }
-            bad += !edge;
-        }
-    if (bad) fail_msg("%zu pixels differ away from edges (%zu in all)", bad, diff);
-    free(a.px);
-    free(b.px);
-    free(out);
+    screenshot_equals_cli("cpu");
 }
+
+#ifdef CRISP_HAVE_GL
+/* The same with the GL backend on the window's context against `crisp render --backend gl`
+ * (a headless EGL context). */
+static void test_screenshot_equals_cli_gl(void **state)
+{
+    (void)state;
+    screenshot_equals_cli("gl");
+}
+#endif
 
 /* A missing file, a folder, a file that is not CAD and a huge file each show an error and the
  * viewer keeps running: a model dropped afterwards opens and a screenshot is written. */
@@ -586,7 +744,7 @@ static void test_xdotool(void **state)
             "#!/bin/sh\n"
             "%s/crisp-view %s/nurbs/gpucast_teapot.igs --size 400x300 > view_xdo.out 2>&1 &\n"
             "pid=$!\n"
-            "for i in $(seq 100); do grep -q '^loaded:' view_xdo.out && break; sleep 0.1; done\n"
+            "for i in $(seq 300); do grep -q '^loaded:' view_xdo.out && break; sleep 0.1; done\n"
             "wid=$(xdotool search --sync --name crisp-view | head -1)\n"
             "eval $(xdotool getwindowgeometry --shell $wid)\n"
             "sleep 0.5\n"
@@ -620,9 +778,14 @@ int main(void)
         cmocka_unit_test(test_open_every_model),
         cmocka_unit_test(test_navigation),
         cmocka_unit_test(test_pick_and_measure),
+        cmocka_unit_test(test_measure_vertices),
+        cmocka_unit_test(test_hide_face),
         cmocka_unit_test(test_zoom_no_clipping),
         cmocka_unit_test(test_file_watch),
         cmocka_unit_test(test_screenshot_equals_cli),
+#ifdef CRISP_HAVE_GL
+        cmocka_unit_test(test_screenshot_equals_cli_gl),
+#endif
         cmocka_unit_test(test_bad_input),
         cmocka_unit_test(test_close_during_load),
         cmocka_unit_test(test_xdotool),

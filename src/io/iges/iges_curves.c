@@ -12,13 +12,13 @@
 
 /* ---- transforms ----------------------------------------------------------------------------- */
 
-void iges_xform_identity(iges_xform *dest)
+void crisp__iges_xform_identity(iges_xform *dest)
 {
     memset(dest, 0, sizeof *dest);
     dest->m[0][0] = dest->m[1][1] = dest->m[2][2] = 1;
 }
 
-void iges_xform_mul(const iges_xform *a, const iges_xform *b, iges_xform *dest)
+void crisp__iges_xform_mul(const iges_xform *a, const iges_xform *b, iges_xform *dest)
 {
     iges_xform r;
     for (int i = 0; i < 3; i++) {
@@ -31,7 +31,7 @@ void iges_xform_mul(const iges_xform *a, const iges_xform *b, iges_xform *dest)
     *dest = r;
 }
 
-void iges_xform_point(const iges_xform *x, const double p[3], double dest[3])
+void crisp__iges_xform_point(const iges_xform *x, const double p[3], double dest[3])
 {
     double r[3];
     for (int i = 0; i < 3; i++)
@@ -39,48 +39,48 @@ void iges_xform_point(const iges_xform *x, const double p[3], double dest[3])
     memcpy(dest, r, sizeof r);
 }
 
-crisp_status iges_entity_xform(iges_file *f, int e, int depth, iges_xform *dest)
+crisp_status crisp__iges_entity_xform(iges_file *f, int e, int depth, iges_xform *dest)
 {
-    iges_xform_identity(dest);
+    crisp__iges_xform_identity(dest);
     int de = f->ents[e].transform;
     if (de == 0) return CRISP_OK;
     if (depth > IGES_MAX_DEPTH)
-        return iges_fail(f, e, CRISP_ERR_LIMIT,
+        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT,
                          "transformation matrices nested deeper than %d (expected a chain of "
                          "entity 124 ending in 0)",
                          IGES_MAX_DEPTH);
-    int t = iges_index(f, de < 0 ? -de : de);
+    int t = crisp__iges_index(f, de < 0 ? -de : de);
     if (t < 0 || f->ents[t].type != 124)
-        return iges_fail(f, e, CRISP_ERR_PARSE,
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
                          "transformation matrix pointer %d: expected a DE of entity 124", de);
     if (f->ents[t].visiting)
-        return iges_fail(f, t, CRISP_ERR_PARSE, "transformation matrix chain is a cycle");
-    crisp_status st = iges_need(f, t, 12, "a transformation matrix");
+        return crisp__iges_fail(f, t, CRISP_ERR_PARSE, "transformation matrix chain is a cycle");
+    crisp_status st = crisp__iges_need(f, t, 12, "a transformation matrix");
     if (st) return st;
     iges_xform m;
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 4; j++)
-            if ((st = iges_real(f, t, 4 * i + j + 1, &m.m[i][j]))) return st;
+            if ((st = crisp__iges_real(f, t, 4 * i + j + 1, &m.m[i][j]))) return st;
     f->ents[t].used = 1;
     f->ents[t].visiting = 1;
     iges_xform up;
-    st = iges_entity_xform(f, t, depth + 1, &up);
+    st = crisp__iges_entity_xform(f, t, depth + 1, &up);
     f->ents[t].visiting = 0;
     if (st) return st;
-    iges_xform_mul(&up, &m, dest);
+    crisp__iges_xform_mul(&up, &m, dest);
     return CRISP_OK;
 }
 
 /* ---- curve lists ---------------------------------------------------------------------------- */
 
-void iges_curves_free(iges_curves *c)
+void crisp__iges_curves_free(iges_curves *c)
 {
     for (int i = 0; i < c->count; i++) crisp_curve_destroy(c->items[i]);
     crisp_free(c->items);
     memset(c, 0, sizeof *c);
 }
 
-crisp_status iges_curves_push(iges_curves *c, crisp_curve *curve)
+crisp_status crisp__iges_curves_push(iges_curves *c, crisp_curve *curve)
 {
     size_t cap = (size_t)c->cap;
     if (crisp_grow((void **)&c->items, &cap, (size_t)c->count + 1, sizeof *c->items)) {
@@ -92,7 +92,7 @@ crisp_status iges_curves_push(iges_curves *c, crisp_curve *curve)
     return CRISP_OK;
 }
 
-int iges_is_curve_type(int type)
+int crisp__iges_is_curve_type(int type)
 {
     return type == 100 || type == 102 || type == 104 || type == 106 || type == 110 ||
            type == 112 || type == 126;
@@ -102,7 +102,7 @@ int iges_is_curve_type(int type)
 static crisp_status kernel_fail(const iges_file *f, int e, crisp_status st)
 {
     crisp_error_prefix("%s: DE %d (entity %d %s, line %d)", f->name, iges_de(e), f->ents[e].type,
-                       iges_type_name(f->ents[e].type), f->ents[e].p_line);
+                       crisp__iges_type_name(f->ents[e].type), f->ents[e].p_line);
     return st;
 }
 
@@ -117,7 +117,7 @@ static crisp_status emit(iges_file *f, int e, crisp_curve *c, int dim, const ige
             r[k] = x->m[k][0] * p[0] + x->m[k][1] * p[1] + x->m[k][2] * p[2] + x->m[k][3] * w;
         memcpy(p, r, sizeof r);
     }
-    if (dim == 3) return iges_curves_push(out, c);
+    if (dim == 3) return crisp__iges_curves_push(out, c);
     double *pts = crisp_malloc_array((size_t)c->count, 2 * sizeof(double));
     double *wts = crisp_malloc_array((size_t)c->count, sizeof(double));
     crisp_status st = CRISP_OK;
@@ -139,7 +139,7 @@ static crisp_status emit(iges_file *f, int e, crisp_curve *c, int dim, const ige
     crisp_free(wts);
     crisp_curve_destroy(c);
     if (st) return st;
-    return iges_curves_push(out, c2);
+    return crisp__iges_curves_push(out, c2);
 }
 
 static crisp_status make_3d(iges_file *f, int e, int degree, int count, const double *knots,
@@ -152,7 +152,7 @@ static crisp_status make_3d(iges_file *f, int e, int degree, int count, const do
 static crisp_status read_reals(iges_file *f, int e, int k0, int n, double *dest)
 {
     for (int i = 0; i < n; i++) {
-        crisp_status st = iges_real(f, e, k0 + i, &dest[i]);
+        crisp_status st = crisp__iges_real(f, e, k0 + i, &dest[i]);
         if (st) return st;
     }
     return CRISP_OK;
@@ -174,12 +174,12 @@ static crisp_status arc_angles(double cx, double cy, const double s[2], const do
 static crisp_status arc_100(iges_file *f, int e, crisp_curve **dest)
 {
     double v[7];
-    crisp_status st = iges_need(f, e, 7, "a circular arc");
+    crisp_status st = crisp__iges_need(f, e, 7, "a circular arc");
     if (!st) st = read_reals(f, e, 1, 7, v);
     if (st) return st;
     double r = hypot(v[3] - v[1], v[4] - v[2]);
     if (!(r > 0))
-        return iges_fail(f, e, CRISP_ERR_NUMERIC, "radius is zero: expected a start point away "
+        return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "radius is zero: expected a start point away "
                                                   "from the centre");
     double a0, a1;
     arc_angles(v[1], v[2], v + 3, v + 5, &a0, &a1);
@@ -196,7 +196,7 @@ static double conic_q(const double *k, double x, double y)
 static crisp_status conic_104(iges_file *f, int e, crisp_curve **dest)
 {
     double v[11];
-    crisp_status st = iges_need(f, e, 11, "a conic arc");
+    crisp_status st = crisp__iges_need(f, e, 11, "a conic arc");
     if (!st) st = read_reals(f, e, 1, 11, v);
     if (st) return st;
     const double *k = v; /* A B C D E F */
@@ -204,7 +204,7 @@ static crisp_status conic_104(iges_file *f, int e, crisp_curve **dest)
     double disc = k[1] * k[1] - 4 * k[0] * k[2];
     double scale = fabs(k[0]) + fabs(k[1]) + fabs(k[2]);
     if (!(scale > 0))
-        return iges_fail(f, e, CRISP_ERR_NUMERIC, "A, B and C are zero: not a conic");
+        return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "A, B and C are zero: not a conic");
     if (disc < -1e-12 * scale * scale) {
         /* ellipse: centre, principal axes, semi-axes */
         double det = 4 * k[0] * k[2] - k[1] * k[1];
@@ -217,7 +217,7 @@ static crisp_status conic_104(iges_file *f, int e, crisp_curve **dest)
         double l2 = k[0] * uy[0] * uy[0] + k[1] * uy[0] * uy[1] + k[2] * uy[1] * uy[1];
         double ra = sqrt(-fc / l1), rb = sqrt(-fc / l2);
         if (!(ra > 0) || !(rb > 0) || !isfinite(ra) || !isfinite(rb))
-            return iges_fail(f, e, CRISP_ERR_NUMERIC, "degenerate ellipse (no real points)");
+            return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "degenerate ellipse (no real points)");
         double ls[2] = {((s[0] - cx) * ux[0] + (s[1] - cy) * ux[1]) / ra,
                         ((s[0] - cx) * uy[0] + (s[1] - cy) * uy[1]) / rb};
         double lt[2] = {((t[0] - cx) * ux[0] + (t[1] - cy) * ux[1]) / ra,
@@ -234,7 +234,7 @@ static crisp_status conic_104(iges_file *f, int e, crisp_curve **dest)
     double ts[3] = {-gs[1], gs[0], 0}, tt[3] = {-gt[1], gt[0], 0};
     double den = ts[0] * tt[1] - ts[1] * tt[0];
     if (!(fabs(den) > 1e-300))
-        return iges_fail(f, e, CRISP_ERR_NUMERIC, "end tangents are parallel: cannot build the "
+        return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "end tangents are parallel: cannot build the "
                                                   "conic arc");
     double u = ((t[0] - s[0]) * tt[1] - (t[1] - s[1]) * tt[0]) / den;
     double p1[2] = {s[0] + u * ts[0], s[1] + u * ts[1]};
@@ -251,7 +251,7 @@ static crisp_status conic_104(iges_file *f, int e, crisp_curve **dest)
         }
     }
     if (!(root >= 0 && root <= 1))
-        return iges_fail(f, e, CRISP_ERR_NUMERIC, "end points are not on the conic");
+        return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "end points are not on the conic");
     double p0[3] = {s[0], s[1], zt}, p2[3] = {t[0], t[1], zt};
     double pm[3] = {m[0] + root * (p1[0] - m[0]), m[1] + root * (p1[1] - m[1]), zt};
     st = crisp_make_conic_arc(3, p0, ts, p2, tt, pm, dest);
@@ -261,7 +261,7 @@ static crisp_status conic_104(iges_file *f, int e, crisp_curve **dest)
 static crisp_status line_110(iges_file *f, int e, crisp_curve **dest)
 {
     double v[6], knots[4] = {0, 0, 1, 1};
-    crisp_status st = iges_need(f, e, 6, "a line");
+    crisp_status st = crisp__iges_need(f, e, 6, "a line");
     if (!st) st = read_reals(f, e, 1, 6, v);
     if (st) return st;
     return make_3d(f, e, 1, 2, knots, v, NULL, dest);
@@ -271,16 +271,16 @@ static crisp_status copious_106(iges_file *f, int e, crisp_curve **dest)
 {
     int form = f->ents[e].form, ip, n;
     if (form != 11 && form != 12 && form != 63)
-        return iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
+        return crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
                          "copious data form %d is not a curve crisp reads (forms 11, 12, 63)",
                          form);
-    crisp_status st = iges_int_range(f, e, 1, 1, 3, &ip);
-    if (!st) st = iges_int_range(f, e, 2, 2, CRISP_MAX_CONTROL_POINTS, &n);
+    crisp_status st = crisp__iges_int_range(f, e, 1, 1, 3, &ip);
+    if (!st) st = crisp__iges_int_range(f, e, 2, 2, CRISP_MAX_CONTROL_POINTS, &n);
     if (st) return st;
     int per = ip == 1 ? 2 : ip == 2 ? 3 : 6, k0 = ip == 1 ? 4 : 3;
-    if ((st = iges_need(f, e, k0 - 1 + n * per, "the points of a copious data entity"))) return st;
+    if ((st = crisp__iges_need(f, e, k0 - 1 + n * per, "the points of a copious data entity"))) return st;
     double zt = 0;
-    if (ip == 1 && (st = iges_real(f, e, 3, &zt))) return st;
+    if (ip == 1 && (st = crisp__iges_real(f, e, 3, &zt))) return st;
     double *pts = crisp_malloc_array((size_t)n, 3 * sizeof(double));
     double *knots = crisp_malloc_array((size_t)n + 2, sizeof(double));
     if (!pts || !knots) {
@@ -291,7 +291,7 @@ static crisp_status copious_106(iges_file *f, int e, crisp_curve **dest)
     for (int i = 0; i < n && !st; i++) {
         for (int c = 0; c < 3 && !st; c++) {
             if (ip == 1 && c == 2) pts[3 * i + 2] = zt;
-            else st = iges_real(f, e, k0 + i * per + c, &pts[3 * i + c]);
+            else st = crisp__iges_real(f, e, k0 + i * per + c, &pts[3 * i + c]);
         }
     }
     /* chord-length-free uniform parameter: the copious data has none of its own */
@@ -307,11 +307,11 @@ static crisp_status copious_106(iges_file *f, int e, crisp_curve **dest)
 static crisp_status spline_112(iges_file *f, int e, crisp_curve **dest)
 {
     int ctype, h, ndim, n;
-    crisp_status st = iges_int(f, e, 1, &ctype);
-    if (!st) st = iges_int(f, e, 2, &h);
-    if (!st) st = iges_int_range(f, e, 3, 2, 3, &ndim);
-    if (!st) st = iges_int_range(f, e, 4, 1, CRISP_MAX_CONTROL_POINTS / 3, &n);
-    if (!st) st = iges_need(f, e, 4 + (n + 1) + 12 * n, "the segments of a parametric spline");
+    crisp_status st = crisp__iges_int(f, e, 1, &ctype);
+    if (!st) st = crisp__iges_int(f, e, 2, &h);
+    if (!st) st = crisp__iges_int_range(f, e, 3, 2, 3, &ndim);
+    if (!st) st = crisp__iges_int_range(f, e, 4, 1, CRISP_MAX_CONTROL_POINTS / 3, &n);
+    if (!st) st = crisp__iges_need(f, e, 4 + (n + 1) + 12 * n, "the segments of a parametric spline");
     if (st) return st;
     int count = 3 * n + 1;
     double *t = crisp_malloc_array((size_t)n + 1, sizeof(double));
@@ -324,7 +324,7 @@ static crisp_status spline_112(iges_file *f, int e, crisp_curve **dest)
     if ((st = read_reals(f, e, 5, n + 1, t))) goto done;
     for (int i = 0; i < n; i++) {
         if (!(t[i + 1] > t[i])) {
-            st = iges_fail(f, e, CRISP_ERR_PARSE, "break points %d and %d are not increasing",
+            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE, "break points %d and %d are not increasing",
                            i + 1, i + 2);
             goto done;
         }
@@ -361,18 +361,18 @@ done:
 static crisp_status bspline_126(iges_file *f, int e, crisp_curve **dest)
 {
     int k, m, prop[4];
-    crisp_status st = iges_int_range(f, e, 1, 1, CRISP_MAX_CONTROL_POINTS - 1, &k);
-    if (!st) st = iges_int_range(f, e, 2, 1, CRISP_MAX_DEGREE, &m);
+    crisp_status st = crisp__iges_int_range(f, e, 1, 1, CRISP_MAX_CONTROL_POINTS - 1, &k);
+    if (!st) st = crisp__iges_int_range(f, e, 2, 1, CRISP_MAX_DEGREE, &m);
     if (st) return st;
-    for (int i = 0; i < 4 && !st; i++) st = iges_int_def(f, e, 3 + i, 0, &prop[i]);
+    for (int i = 0; i < 4 && !st; i++) st = crisp__iges_int_def(f, e, 3 + i, 0, &prop[i]);
     if (st) return st;
     int count = k + 1, nk = k + m + 2;
     if (count < m + 1)
-        return iges_fail(f, e, CRISP_ERR_PARSE, "%d control points for degree %d: expected at "
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "%d control points for degree %d: expected at "
                                                 "least %d",
                          count, m, m + 1);
     int kw = 7 + nk, kp = kw + count, kr = kp + 3 * count;
-    if ((st = iges_need(f, e, kr + 1, "a rational B-spline curve"))) return st;
+    if ((st = crisp__iges_need(f, e, kr + 1, "a rational B-spline curve"))) return st;
     double *knots = crisp_malloc_array((size_t)nk, sizeof(double));
     double *w = crisp_malloc_array((size_t)count, sizeof(double));
     double *pts = crisp_malloc_array((size_t)count, 3 * sizeof(double));
@@ -392,8 +392,8 @@ static crisp_status bspline_126(iges_file *f, int e, crisp_curve **dest)
     }
     if ((st = make_3d(f, e, m, count, knots, pts, rational ? w : NULL, &c))) goto done;
     double v0, v1, t0, t1;
-    if ((st = iges_real_def(f, e, kr, knots[m], &v0)) ||
-        (st = iges_real_def(f, e, kr + 1, knots[count], &v1)))
+    if ((st = crisp__iges_real_def(f, e, kr, knots[m], &v0)) ||
+        (st = crisp__iges_real_def(f, e, kr + 1, knots[count], &v1)))
         goto done;
     crisp_curve_domain(c, &t0, &t1);
     double eps = 1e-9 * (t1 - t0);
@@ -423,19 +423,19 @@ done:
 
 /* ---- dispatch ------------------------------------------------------------------------------- */
 
-crisp_status iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *parent, int depth,
+crisp_status crisp__iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *parent, int depth,
                                 iges_curves *out)
 {
     iges_entity *x = &f->ents[e];
     if (depth > IGES_MAX_DEPTH)
-        return iges_fail(f, e, CRISP_ERR_LIMIT, "curves nested deeper than %d", IGES_MAX_DEPTH);
+        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "curves nested deeper than %d", IGES_MAX_DEPTH);
     if (x->visiting)
-        return iges_fail(f, e, CRISP_ERR_PARSE, "reference cycle: the entity contains itself");
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "reference cycle: the entity contains itself");
     x->used = 1;
     iges_xform own, total;
-    crisp_status st = iges_entity_xform(f, e, depth + 1, &own);
+    crisp_status st = crisp__iges_entity_xform(f, e, depth + 1, &own);
     if (st) return st;
-    if (parent) iges_xform_mul(parent, &own, &total);
+    if (parent) crisp__iges_xform_mul(parent, &own, &total);
     else total = own;
     crisp_curve *c = NULL;
     switch (x->type) {
@@ -447,29 +447,29 @@ crisp_status iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *
     case 126: st = bspline_126(f, e, &c); break;
     case 102: {
         int n;
-        if ((st = iges_int_range(f, e, 1, 0, iges_nparams(f, e) - 1, &n))) return st;
+        if ((st = crisp__iges_int_range(f, e, 1, 0, crisp__iges_nparams(f, e) - 1, &n))) return st;
         x->visiting = 1;
         for (int i = 0; i < n && !st; i++) {
             int ch;
-            if ((st = iges_ptr(f, e, 2 + i, 0, &ch))) break;
+            if ((st = crisp__iges_ptr(f, e, 2 + i, 0, &ch))) break;
             int type = f->ents[ch].type;
             if (type == 116) { /* a point in a composite curve contributes nothing */
                 f->ents[ch].used = 1;
                 continue;
             }
-            if (!iges_is_curve_type(type) && type != 130) {
-                st = iges_fail(f, e, CRISP_ERR_PARSE,
+            if (!crisp__iges_is_curve_type(type) && type != 130) {
+                st = crisp__iges_fail(f, e, CRISP_ERR_PARSE,
                                "parameter %d: DE %d is entity %d, expected a curve", 2 + i,
                                iges_de(ch), type);
                 break;
             }
-            st = iges_curve_convert(f, ch, dim, &total, depth + 1, out);
+            st = crisp__iges_curve_convert(f, ch, dim, &total, depth + 1, out);
         }
         x->visiting = 0;
         return st;
     }
     default:
-        return iges_fail(f, e, CRISP_ERR_UNSUPPORTED, "not a curve type crisp reads");
+        return crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED, "not a curve type crisp reads");
     }
     if (st) return st;
     return emit(f, e, c, dim, &total, out);
@@ -478,19 +478,19 @@ crisp_status iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *
 static void mark_param(iges_file *f, int e, int k, int depth)
 {
     int c;
-    if (k > iges_nparams(f, e)) return;
-    if (iges_ptr(f, e, k, 0, &c)) {
+    if (k > crisp__iges_nparams(f, e)) return;
+    if (crisp__iges_ptr(f, e, k, 0, &c)) {
         crisp_error_clear();
         return;
     }
-    iges_mark_used(f, c, depth + 1);
+    crisp__iges_mark_used(f, c, depth + 1);
 }
 
-void iges_mark_used(iges_file *f, int e, int depth)
+void crisp__iges_mark_used(iges_file *f, int e, int depth)
 {
     if (depth > IGES_MAX_DEPTH || f->ents[e].used) return;
     f->ents[e].used = 1;
-    int n = iges_nparams(f, e), t = f->ents[e].type;
+    int n = crisp__iges_nparams(f, e), t = f->ents[e].type;
     if (t == 102)
         for (int k = 2; k <= n; k++) mark_param(f, e, k, depth);
     else if (t == 142)
@@ -506,7 +506,7 @@ void iges_mark_used(iges_file *f, int e, int depth)
 
 /* ---- parameter maps ------------------------------------------------------------------------- */
 
-double iges_param_map_apply(const iges_param_map *m, double t)
+double crisp__iges_param_map_apply(const iges_param_map *m, double t)
 {
     double y = m->scale * t + m->offset;
     if (!m->angular) return y;
@@ -518,23 +518,23 @@ double iges_param_map_apply(const iges_param_map *m, double t)
     return crisp_angle_to_param(m->a0, m->a1, y);
 }
 
-int iges_param_map_is_identity(const iges_param_map *m)
+int crisp__iges_param_map_is_identity(const iges_param_map *m)
 {
     return !m->angular && m->scale == 1 && m->offset == 0;
 }
 
-crisp_status iges_curve_param_map(iges_file *f, int e, iges_param_map *dest)
+crisp_status crisp__iges_curve_param_map(iges_file *f, int e, iges_param_map *dest)
 {
     *dest = (iges_param_map){.scale = 1};
     if (f->ents[e].type == 100) {
         double v[7];
-        crisp_status st = iges_need(f, e, 7, "a circular arc");
+        crisp_status st = crisp__iges_need(f, e, 7, "a circular arc");
         if (!st) st = read_reals(f, e, 1, 7, v);
         if (st) return st;
         dest->angular = 1;
         arc_angles(v[1], v[2], v + 3, v + 5, &dest->a0, &dest->a1);
     } else if (f->ents[e].type == 102) {
-        return iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
+        return crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
                          "a composite curve as a surface's defining curve");
     }
     return CRISP_OK;

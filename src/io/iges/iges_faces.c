@@ -15,7 +15,7 @@
 
 /* ---- colour --------------------------------------------------------------------------------- */
 
-int iges_entity_color(iges_file *f, int e, float rgba[4])
+int crisp__iges_entity_color(iges_file *f, int e, float rgba[4])
 {
     static const float std[9][3] = {{0, 0, 0}, {0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1},
                                     {1, 1, 0}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}};
@@ -26,11 +26,11 @@ int iges_entity_color(iges_file *f, int e, float rgba[4])
         return 1;
     }
     if (c < 0) {
-        int d = iges_index(f, -c);
-        if (d < 0 || f->ents[d].type != 314 || iges_nparams(f, d) < 3) return 0;
+        int d = crisp__iges_index(f, -c);
+        if (d < 0 || f->ents[d].type != 314 || crisp__iges_nparams(f, d) < 3) return 0;
         double v[3];
         for (int i = 0; i < 3; i++)
-            if (iges_real(f, d, 1 + i, &v[i])) {
+            if (crisp__iges_real(f, d, 1 + i, &v[i])) {
                 crisp_error_clear();
                 return 0;
             }
@@ -94,7 +94,7 @@ static crisp_status ensure_tol3d(iges_file *f)
         if (t != 128 && t != 114 && t != 118 && t != 120 && t != 122 && !analytic) continue;
         iges_surface s;
         int used = f->ents[i].used;
-        if (iges_surface_convert(f, i, 0, &s)) {
+        if (crisp__iges_surface_convert(f, i, 0, &s)) {
             crisp_error_clear();
             continue;
         }
@@ -110,7 +110,7 @@ static crisp_status ensure_tol3d(iges_file *f)
             box[k] = fmin(box[k], b[k]);
             box[3 + k] = fmax(box[3 + k], b[3 + k]);
         }
-        iges_surface_free(&s);
+        crisp__iges_surface_free(&s);
     }
     double d = box[3] > box[0] ? sqrt((box[3] - box[0]) * (box[3] - box[0]) +
                                       (box[4] - box[1]) * (box[4] - box[1]) +
@@ -120,7 +120,7 @@ static crisp_status ensure_tol3d(iges_file *f)
     return CRISP_OK;
 }
 
-crisp_status iges_project_curves(iges_file *f, int e, const iges_surface *s,
+crisp_status crisp__iges_project_curves(iges_file *f, int e, const iges_surface *s,
                                  const iges_curves *model, iges_curves *uv)
 {
     crisp_status st = CRISP_OK;
@@ -157,10 +157,10 @@ crisp_status iges_project_curves(iges_file *f, int e, const iges_surface *s,
         }
         if (st) {
             crisp_error_prefix("%s: DE %d (entity %d %s)", f->name, iges_de(e), f->ents[e].type,
-                               iges_type_name(f->ents[e].type));
+                               crisp__iges_type_name(f->ents[e].type));
             break;
         }
-        st = iges_curves_push(uv, out);
+        st = crisp__iges_curves_push(uv, out);
     }
     return st;
 }
@@ -171,32 +171,32 @@ static crisp_status curve_on_surface(iges_file *f, int e, const iges_surface *s,
                                      iges_curves *uv)
 {
     int sp, bp, cp;
-    crisp_status st = iges_need(f, e, 4, "a curve on a parametric surface");
-    if (!st) st = iges_ptr(f, e, 2, 1, &sp);
-    if (!st) st = iges_ptr(f, e, 3, 1, &bp);
-    if (!st) st = iges_ptr(f, e, 4, 1, &cp);
+    crisp_status st = crisp__iges_need(f, e, 4, "a curve on a parametric surface");
+    if (!st) st = crisp__iges_ptr(f, e, 2, 1, &sp);
+    if (!st) st = crisp__iges_ptr(f, e, 3, 1, &bp);
+    if (!st) st = crisp__iges_ptr(f, e, 4, 1, &cp);
     if (st) return st;
     f->ents[e].used = 1;
-    if (bp >= 0 && !iges_is_curve_type(f->ents[bp].type) && f->ents[bp].type != 130)
-        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 3: DE %d is entity %d, expected a "
+    if (bp >= 0 && !crisp__iges_is_curve_type(f->ents[bp].type) && f->ents[bp].type != 130)
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 3: DE %d is entity %d, expected a "
                                                 "curve",
                          iges_de(bp), f->ents[bp].type);
-    if (cp >= 0 && !iges_is_curve_type(f->ents[cp].type) && f->ents[cp].type != 130)
-        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 4: DE %d is entity %d, expected a "
+    if (cp >= 0 && !crisp__iges_is_curve_type(f->ents[cp].type) && f->ents[cp].type != 130)
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 4: DE %d is entity %d, expected a "
                                                 "curve",
                          iges_de(cp), f->ents[cp].type);
     if (bp >= 0 && !s->is_plane && !s->analytic) {
         int first = uv->count;
-        st = iges_curve_convert(f, bp, 2, NULL, 1, uv);
+        st = crisp__iges_curve_convert(f, bp, 2, NULL, 1, uv);
         if (st == CRISP_ERR_UNSUPPORTED && cp >= 0) {
             /* a parameter-space curve crisp cannot read: fall back to projecting C */
             crisp_error_clear();
             while (uv->count > first) crisp_curve_destroy(uv->items[--uv->count]);
         } else {
             if (st) return st;
-            if (cp >= 0) iges_mark_used(f, cp, 0);
+            if (cp >= 0) crisp__iges_mark_used(f, cp, 0);
             for (int i = first; i < uv->count && !st; i++) {
-                st = iges_surface_map_curve(s, tol_uv, &uv->items[i]);
+                st = crisp__iges_surface_map_curve(s, tol_uv, &uv->items[i]);
                 if (st) crisp_error_prefix("%s: DE %d (entity 142)", f->name, iges_de(e));
             }
             return st;
@@ -204,16 +204,16 @@ static crisp_status curve_on_surface(iges_file *f, int e, const iges_surface *s,
     }
     if (cp < 0)
         return s->is_plane || s->analytic
-                   ? iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
+                   ? crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
                                "a curve on a plane or an analytic surface without its model-space "
                                "curve (parameter 4)")
-                   : iges_fail(f, e, CRISP_ERR_PARSE,
+                   : crisp__iges_fail(f, e, CRISP_ERR_PARSE,
                                "neither a parameter-space nor a model-space curve");
-    if (bp >= 0) iges_mark_used(f, bp, 0);
+    if (bp >= 0) crisp__iges_mark_used(f, bp, 0);
     iges_curves model = {0};
-    st = iges_curve_convert(f, cp, 3, NULL, 1, &model);
-    if (!st) st = iges_project_curves(f, e, s, &model, uv);
-    iges_curves_free(&model);
+    st = crisp__iges_curve_convert(f, cp, 3, NULL, 1, &model);
+    if (!st) st = crisp__iges_project_curves(f, e, s, &model, uv);
+    crisp__iges_curves_free(&model);
     return st;
 }
 
@@ -232,7 +232,7 @@ static crisp_status finish_plane(iges_file *f, int e, iges_surface *s, iges_curv
             hi[1] = fmax(hi[1], b[3]);
         }
     if (!(hi[0] > lo[0]) || !(hi[1] > lo[1]))
-        return iges_fail(f, e, CRISP_ERR_NUMERIC, "plane bounded by a degenerate loop");
+        return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "plane bounded by a degenerate loop");
     double m0 = 0.01 * (hi[0] - lo[0]), m1 = 0.01 * (hi[1] - lo[1]);
     crisp_placement pl;
     memcpy(pl.origin, s->origin, sizeof pl.origin);
@@ -251,7 +251,7 @@ static crisp_status pull_into_domain(iges_file *f, int e, crisp_face *face, cons
 static void note_dropped(iges_file *f, int e, const char *why)
 {
     crisp_model_note_dropped(f->model, "DE %d entity %d %s: %s", iges_de(e), f->ents[e].type,
-                             iges_type_name(f->ents[e].type), why);
+                             crisp__iges_type_name(f->ents[e].type), why);
 }
 
 /* Exporters leave small gaps between the trims of a loop (OCCT's bug8363_f45.igs: 7e-4 and 1.6e-3
@@ -290,7 +290,7 @@ static crisp_status bridge_gaps(iges_file *f, int e, crisp_face *face, double to
     }
     if (bridged) /* kept: a note, not a dropped face */
         crisp_model_note_skipf(f->model, "DE %d entity %d %s: gaps in its trim loops bridged by straight segments",
-                               iges_de(e), f->ents[e].type, iges_type_name(f->ents[e].type));
+                               iges_de(e), f->ents[e].type, crisp__iges_type_name(f->ents[e].type));
     return CRISP_OK;
 }
 
@@ -346,7 +346,7 @@ static crisp_status finish_analytic(iges_file *f, int e, iges_surface *s, iges_c
 {
     int total = 0;
     for (int l = 0; l < loop_count; l++) total += loops[l].count;
-    if (total == 0) return iges_fail(f, e, CRISP_ERR_NUMERIC, "analytic surface without trim curves");
+    if (total == 0) return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "analytic surface without trim curves");
     size_t n = (size_t)total * (ANALYTIC_SAMPLES + 1);
     double *us = crisp_malloc_array(n, sizeof *us), *vs = crisp_malloc_array(n, sizeof *vs);
     if (!us || !vs) {
@@ -415,23 +415,23 @@ static crisp_status finish_analytic(iges_file *f, int e, iges_surface *s, iges_c
             int np = 0;
             st = crisp_surface_project_curve_pieces(s->surface, c, t0, t1, f->tol3d, 8, pieces, &np);
             for (int q = 0; q < np; q++) {
-                if (!st) st = iges_curves_push(&uv, pieces[q]);
+                if (!st) st = crisp__iges_curves_push(&uv, pieces[q]);
                 else crisp_curve_destroy(pieces[q]);
             }
         }
         if (st) {
-            iges_curves_free(&uv);
+            crisp__iges_curves_free(&uv);
             crisp_error_prefix("%s: DE %d (entity %d %s)", f->name, iges_de(e), f->ents[e].type,
-                               iges_type_name(f->ents[e].type));
+                               crisp__iges_type_name(f->ents[e].type));
             return st;
         }
-        iges_curves_free(&loops[l]);
+        crisp__iges_curves_free(&loops[l]);
         loops[l] = uv;
     }
     return CRISP_OK;
 }
 
-crisp_status iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
+crisp_status crisp__iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
                               iges_curves *loops, const int *is_outer, int loop_count,
                               int reversed)
 {
@@ -441,8 +441,8 @@ crisp_status iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
     crisp_face face = {0};
     face.source_id = iges_de(e);
     face.reversed = reversed;
-    face.has_color = iges_entity_color(f, e, face.color);
-    if (!face.has_color && surf_e >= 0) face.has_color = iges_entity_color(f, surf_e, face.color);
+    face.has_color = crisp__iges_entity_color(f, e, face.color);
+    if (!face.has_color && surf_e >= 0) face.has_color = crisp__iges_entity_color(f, surf_e, face.color);
     int n = 0;
     for (int l = 0; l < loop_count; l++)
         if (loops[l].count > 0) n++;
@@ -577,7 +577,7 @@ static double uv_tolerance(const iges_surface *s)
     return 1e-6 * size;
 }
 
-crisp_status iges_domain_loop(const iges_surface *s, iges_curves *out)
+crisp_status crisp__iges_domain_loop(const iges_surface *s, iges_curves *out)
 {
     double d[4], c[5][2];
     if (!s->surface)
@@ -590,7 +590,7 @@ crisp_status iges_domain_loop(const iges_surface *s, iges_curves *out)
         double pts[4] = {c[i][0], c[i][1], c[i + 1][0], c[i + 1][1]}, knots[4] = {0, 0, 1, 1};
         crisp_curve *cv = NULL;
         crisp_status st = crisp_curve_create(2, 1, 2, knots, pts, NULL, &cv);
-        if (!st) st = iges_curves_push(out, cv);
+        if (!st) st = crisp__iges_curves_push(out, cv);
         if (st) return st;
     }
     return CRISP_OK;
@@ -598,31 +598,31 @@ crisp_status iges_domain_loop(const iges_surface *s, iges_curves *out)
 
 /* ---- 144 trimmed surface -------------------------------------------------------------------- */
 
-crisp_status iges_face_trimmed(iges_file *f, int e)
+crisp_status crisp__iges_face_trimmed(iges_file *f, int e)
 {
     int sp, n1, n2, pto;
-    crisp_status st = iges_need(f, e, 4, "a trimmed surface");
-    if (!st) st = iges_ptr(f, e, 1, 0, &sp);
-    if (!st) st = iges_int_range(f, e, 2, 0, 1, &n1);
-    if (!st) st = iges_int_range(f, e, 3, 0, iges_nparams(f, e) - 4, &n2);
-    if (!st) st = iges_ptr(f, e, 4, 1, &pto);
+    crisp_status st = crisp__iges_need(f, e, 4, "a trimmed surface");
+    if (!st) st = crisp__iges_ptr(f, e, 1, 0, &sp);
+    if (!st) st = crisp__iges_int_range(f, e, 2, 0, 1, &n1);
+    if (!st) st = crisp__iges_int_range(f, e, 3, 0, crisp__iges_nparams(f, e) - 4, &n2);
+    if (!st) st = crisp__iges_ptr(f, e, 4, 1, &pto);
     if (st) return st;
     f->ents[e].used = 1;
-    if (!iges_is_surface_type(f->ents[sp].type)) {
+    if (!crisp__iges_is_surface_type(f->ents[sp].type)) {
         int t = f->ents[sp].type;
         if (t == 140 || t == 143 || (t >= 192 && t <= 198)) {
             char why[80];
             snprintf(why, sizeof why, "its surface (entity %d %s) is not supported", t,
-                     iges_type_name(t));
+                     crisp__iges_type_name(t));
             note_dropped(f, e, why);
             return CRISP_OK;
         }
-        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 1: DE %d is entity %d, expected a "
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 1: DE %d is entity %d, expected a "
                                                 "surface",
                          iges_de(sp), f->ents[sp].type);
     }
     iges_surface s;
-    if ((st = iges_surface_convert(f, sp, 1, &s))) {
+    if ((st = crisp__iges_surface_convert(f, sp, 1, &s))) {
         if (st == CRISP_ERR_UNSUPPORTED) {
             note_dropped(f, e, "its surface uses unsupported geometry");
             crisp_error_clear();
@@ -641,7 +641,7 @@ crisp_status iges_face_trimmed(iges_file *f, int e)
     outer[0] = 1;
     if (n1 == 1 && pto >= 0) {
         if (f->ents[pto].type != 142) {
-            st = iges_fail(f, e, CRISP_ERR_PARSE, "parameter 4: DE %d is entity %d, expected 142",
+            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 4: DE %d is entity %d, expected 142",
                            iges_de(pto), f->ents[pto].type);
             goto done;
         }
@@ -650,13 +650,13 @@ crisp_status iges_face_trimmed(iges_file *f, int e)
         note_dropped(f, e, s.is_plane ? "unbounded plane" : "unbounded analytic surface (no outer boundary)");
         goto done;
     } else if (n2 > 0 || s.narrowed) {
-        st = iges_domain_loop(&s, &loops[0]);
+        st = crisp__iges_domain_loop(&s, &loops[0]);
     }
     for (int i = 0; i < n2 && !st; i++) {
         int b;
-        if ((st = iges_ptr(f, e, 5 + i, 0, &b))) break;
+        if ((st = crisp__iges_ptr(f, e, 5 + i, 0, &b))) break;
         if (f->ents[b].type != 142) {
-            st = iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected 142",
+            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected 142",
                            5 + i, iges_de(b), f->ents[b].type);
             break;
         }
@@ -668,12 +668,12 @@ crisp_status iges_face_trimmed(iges_file *f, int e)
         st = CRISP_OK;
         goto done;
     }
-    if (!st) st = iges_finish_face(f, e, sp, &s, loops, outer, nl, 0);
+    if (!st) st = crisp__iges_finish_face(f, e, sp, &s, loops, outer, nl, 0);
 done:
-    for (int i = 0; loops && i < nl; i++) iges_curves_free(&loops[i]);
+    for (int i = 0; loops && i < nl; i++) crisp__iges_curves_free(&loops[i]);
     crisp_free(loops);
     crisp_free(outer);
-    iges_surface_free(&s);
+    crisp__iges_surface_free(&s);
     return st;
 }
 
@@ -685,33 +685,33 @@ static crisp_status boundary_141(iges_file *f, int e, const iges_surface *s, dou
                                  iges_curves *uv)
 {
     int type, pref, sp, n;
-    crisp_status st = iges_need(f, e, 4, "a boundary");
-    if (!st) st = iges_int_range(f, e, 1, 0, 1, &type);
-    if (!st) st = iges_int_def(f, e, 2, 0, &pref);
-    if (!st) st = iges_ptr(f, e, 3, 0, &sp);
-    if (!st) st = iges_int_range(f, e, 4, 1, iges_nparams(f, e), &n);
+    crisp_status st = crisp__iges_need(f, e, 4, "a boundary");
+    if (!st) st = crisp__iges_int_range(f, e, 1, 0, 1, &type);
+    if (!st) st = crisp__iges_int_def(f, e, 2, 0, &pref);
+    if (!st) st = crisp__iges_ptr(f, e, 3, 0, &sp);
+    if (!st) st = crisp__iges_int_range(f, e, 4, 1, crisp__iges_nparams(f, e), &n);
     if (st) return st;
     f->ents[e].used = 1;
     int k = 5;
     for (int i = 0; i < n && !st; i++) {
         int cp, sense, np;
-        if ((st = iges_ptr(f, e, k, 0, &cp)) || (st = iges_int_range(f, e, k + 1, 1, 2, &sense)) ||
-            (st = iges_int_range(f, e, k + 2, 0, iges_nparams(f, e) - k - 2, &np)))
+        if ((st = crisp__iges_ptr(f, e, k, 0, &cp)) || (st = crisp__iges_int_range(f, e, k + 1, 1, 2, &sense)) ||
+            (st = crisp__iges_int_range(f, e, k + 2, 0, crisp__iges_nparams(f, e) - k - 2, &np)))
             break;
         int first = uv->count;
         if (type == 1 && np > 0 && !s->is_plane && !s->analytic) {
             for (int j = 0; j < np && !st; j++) {
                 int pc;
-                if ((st = iges_ptr(f, e, k + 3 + j, 0, &pc))) break;
-                st = iges_curve_convert(f, pc, 2, NULL, 1, uv);
+                if ((st = crisp__iges_ptr(f, e, k + 3 + j, 0, &pc))) break;
+                st = crisp__iges_curve_convert(f, pc, 2, NULL, 1, uv);
             }
             for (int j = first; j < uv->count && !st; j++)
-                st = iges_surface_map_curve(s, tol_uv, &uv->items[j]);
+                st = crisp__iges_surface_map_curve(s, tol_uv, &uv->items[j]);
         } else {
             iges_curves model = {0};
-            st = iges_curve_convert(f, cp, 3, NULL, 1, &model);
-            if (!st) st = iges_project_curves(f, e, s, &model, uv);
-            iges_curves_free(&model);
+            st = crisp__iges_curve_convert(f, cp, 3, NULL, 1, &model);
+            if (!st) st = crisp__iges_project_curves(f, e, s, &model, uv);
+            crisp__iges_curves_free(&model);
         }
         if (!st && sense == 2) {
             /* reversed: reverse the order of this curve's pieces and each piece */
@@ -728,21 +728,21 @@ static crisp_status boundary_141(iges_file *f, int e, const iges_surface *s, dou
     return st;
 }
 
-crisp_status iges_face_bounded(iges_file *f, int e)
+crisp_status crisp__iges_face_bounded(iges_file *f, int e)
 {
     int type, sp, n;
-    crisp_status st = iges_need(f, e, 3, "a bounded surface");
-    if (!st) st = iges_int_range(f, e, 1, 0, 1, &type);
-    if (!st) st = iges_ptr(f, e, 2, 0, &sp);
-    if (!st) st = iges_int_range(f, e, 3, 1, iges_nparams(f, e) - 3, &n);
+    crisp_status st = crisp__iges_need(f, e, 3, "a bounded surface");
+    if (!st) st = crisp__iges_int_range(f, e, 1, 0, 1, &type);
+    if (!st) st = crisp__iges_ptr(f, e, 2, 0, &sp);
+    if (!st) st = crisp__iges_int_range(f, e, 3, 1, crisp__iges_nparams(f, e) - 3, &n);
     if (st) return st;
     f->ents[e].used = 1;
-    if (!iges_is_surface_type(f->ents[sp].type))
-        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 2: DE %d is entity %d, expected a "
+    if (!crisp__iges_is_surface_type(f->ents[sp].type))
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 2: DE %d is entity %d, expected a "
                                                 "surface",
                          iges_de(sp), f->ents[sp].type);
     iges_surface s;
-    if ((st = iges_surface_convert(f, sp, 1, &s))) {
+    if ((st = crisp__iges_surface_convert(f, sp, 1, &s))) {
         if (st == CRISP_ERR_UNSUPPORTED) {
             note_dropped(f, e, "its surface uses unsupported geometry");
             crisp_error_clear();
@@ -759,9 +759,9 @@ crisp_status iges_face_bounded(iges_file *f, int e)
     double tol_uv = s.surface ? uv_tolerance(&s) : 0;
     for (int i = 0; i < n && !st; i++) {
         int b;
-        if ((st = iges_ptr(f, e, 4 + i, 0, &b))) break;
+        if ((st = crisp__iges_ptr(f, e, 4 + i, 0, &b))) break;
         if (f->ents[b].type != 141) {
-            st = iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected 141",
+            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected 141",
                            4 + i, iges_de(b), f->ents[b].type);
             break;
         }
@@ -774,57 +774,57 @@ crisp_status iges_face_bounded(iges_file *f, int e)
         st = CRISP_OK;
         goto done;
     }
-    if (!st) st = iges_finish_face(f, e, sp, &s, loops, outer, n, 0);
+    if (!st) st = crisp__iges_finish_face(f, e, sp, &s, loops, outer, n, 0);
 done:
-    for (int i = 0; loops && i < n; i++) iges_curves_free(&loops[i]);
+    for (int i = 0; loops && i < n; i++) crisp__iges_curves_free(&loops[i]);
     crisp_free(loops);
     crisp_free(outer);
-    iges_surface_free(&s);
+    crisp__iges_surface_free(&s);
     return st;
 }
 
 /* ---- planes and untrimmed surfaces ---------------------------------------------------------- */
 
-crisp_status iges_face_plane(iges_file *f, int e)
+crisp_status crisp__iges_face_plane(iges_file *f, int e)
 {
     int ptr;
-    crisp_status st = iges_ptr(f, e, 5, 1, &ptr);
+    crisp_status st = crisp__iges_ptr(f, e, 5, 1, &ptr);
     if (st) return st;
     if (ptr < 0) {
         note_dropped(f, e, "unbounded plane");
         return CRISP_OK;
     }
     iges_surface s;
-    if ((st = iges_surface_convert(f, e, 0, &s))) return st;
+    if ((st = crisp__iges_surface_convert(f, e, 0, &s))) return st;
     iges_curves model = {0}, loop = {0};
     int outer = 1;
-    st = iges_curve_convert(f, ptr, 3, NULL, 1, &model);
-    if (!st) st = iges_project_curves(f, e, &s, &model, &loop);
-    if (!st) st = iges_finish_face(f, e, e, &s, &loop, &outer, 1, 0);
-    iges_curves_free(&model);
-    iges_curves_free(&loop);
-    iges_surface_free(&s);
+    st = crisp__iges_curve_convert(f, ptr, 3, NULL, 1, &model);
+    if (!st) st = crisp__iges_project_curves(f, e, &s, &model, &loop);
+    if (!st) st = crisp__iges_finish_face(f, e, e, &s, &loop, &outer, 1, 0);
+    crisp__iges_curves_free(&model);
+    crisp__iges_curves_free(&loop);
+    crisp__iges_surface_free(&s);
     return st;
 }
 
-crisp_status iges_face_untrimmed(iges_file *f, int e)
+crisp_status crisp__iges_face_untrimmed(iges_file *f, int e)
 {
     iges_surface s;
-    crisp_status st = iges_surface_convert(f, e, 0, &s);
+    crisp_status st = crisp__iges_surface_convert(f, e, 0, &s);
     if (st) return st;
     if (s.narrowed) {
         /* a free 128 whose parameter range is narrower than its knots: bound it by the range */
         iges_curves loop = {0};
         int outer = 1;
-        st = iges_domain_loop(&s, &loop);
-        if (!st) st = iges_finish_face(f, e, e, &s, &loop, &outer, 1, 0);
-        iges_curves_free(&loop);
-        iges_surface_free(&s);
+        st = crisp__iges_domain_loop(&s, &loop);
+        if (!st) st = crisp__iges_finish_face(f, e, e, &s, &loop, &outer, 1, 0);
+        crisp__iges_curves_free(&loop);
+        crisp__iges_surface_free(&s);
         return st;
     }
     crisp_face face = {0};
     face.source_id = iges_de(e);
-    face.has_color = iges_entity_color(f, e, face.color);
+    face.has_color = crisp__iges_entity_color(f, e, face.color);
     face.surface = s.surface;
     return crisp_model_add_face(f->model, &face);
 }

@@ -14,12 +14,12 @@
 static void consume(iges_file *f, int e, int k)
 {
     int de = 0;
-    if (k > iges_nparams(f, e)) return;
-    if (iges_int(f, e, k, &de)) {
+    if (k > crisp__iges_nparams(f, e)) return;
+    if (crisp__iges_int(f, e, k, &de)) {
         crisp_error_clear();
         return;
     }
-    int i = iges_index(f, de < 0 ? -de : de);
+    int i = crisp__iges_index(f, de < 0 ? -de : de);
     if (i >= 0) f->ents[i].consumed = 1;
 }
 
@@ -40,13 +40,13 @@ static void mark_consumed(iges_file *f)
 
 static void note(iges_file *f, int type, const char *why)
 {
-    crisp_model_note_skipf(f->model, "entity %d %s: %s", type, iges_type_name(type), why);
+    crisp_model_note_skipf(f->model, "entity %d %s: %s", type, crisp__iges_type_name(type), why);
 }
 
 /* A face that crisp cannot build is skipped with a note naming it (DE number and the reason),
  * so one bad face never loses the rest of a real file; only running out of memory stops the
  * read. The first such error is kept: a file whose every face fails reports it as its error. */
-crisp_status iges_soften(iges_file *f, int e, crisp_status st)
+crisp_status crisp__iges_soften(iges_file *f, int e, crisp_status st)
 {
     if (st == CRISP_OK || st == CRISP_ERR_NO_MEMORY) return st;
     const char *msg = crisp_error_message(), *p = strstr(msg, "): ");
@@ -58,7 +58,7 @@ crisp_status iges_soften(iges_file *f, int e, crisp_status st)
                              p ? p + 3 : msg);
     crisp_error_clear();
     f->ents[e].used = 0;
-    iges_mark_used(f, e, 0);
+    crisp__iges_mark_used(f, e, 0);
     return CRISP_OK;
 }
 
@@ -75,11 +75,11 @@ static int skip_blanked(iges_file *f, iges_entity *x)
 /* Build the faces of the listed entities: solids first (so that their shells get the solid's
  * orientation), then trimmed and bounded surfaces, shells and independent surfaces, then the
  * 510 faces that no shell took. Other entity types are left alone. */
-crisp_status iges_build_entities(iges_file *f, const int *list, int n)
+crisp_status crisp__iges_build_entities(iges_file *f, const int *list, int n)
 {
     crisp_status st = CRISP_OK;
     for (int k = 0; k < n && !st; k++)
-        if (f->ents[list[k]].type == 186) st = iges_soften(f, list[k], iges_brep_faces(f, list[k]));
+        if (f->ents[list[k]].type == 186) st = crisp__iges_soften(f, list[k], crisp__iges_brep_faces(f, list[k]));
     for (int k = 0; k < n && !st; k++) {
         int i = list[k];
         iges_entity *x = &f->ents[i];
@@ -87,11 +87,11 @@ crisp_status iges_build_entities(iges_file *f, const int *list, int n)
         case 144:
         case 143:
             if (skip_blanked(f, x)) break;
-            st = iges_soften(f, i, x->type == 144 ? iges_face_trimmed(f, i)
-                                                  : iges_face_bounded(f, i));
+            st = crisp__iges_soften(f, i, x->type == 144 ? crisp__iges_face_trimmed(f, i)
+                                                  : crisp__iges_face_bounded(f, i));
             break;
         case 514:
-            st = iges_soften(f, i, iges_brep_faces(f, i));
+            st = crisp__iges_soften(f, i, crisp__iges_brep_faces(f, i));
             break;
         case 108:
         case 114:
@@ -103,35 +103,35 @@ crisp_status iges_build_entities(iges_file *f, const int *list, int n)
             if (x->consumed) break;
             if (skip_blanked(f, x)) break;
             x->used = 1;
-            st = iges_soften(f, i, x->type == 108 ? iges_face_plane(f, i)
-                                                  : iges_face_untrimmed(f, i));
+            st = crisp__iges_soften(f, i, x->type == 108 ? crisp__iges_face_plane(f, i)
+                                                  : crisp__iges_face_untrimmed(f, i));
             break;
         default: break;
         }
     }
     for (int k = 0; k < n && !st; k++)
         if (f->ents[list[k]].type == 510 && !f->ents[list[k]].used)
-            st = iges_soften(f, list[k], iges_face_brep(f, list[k], 0));
+            st = crisp__iges_soften(f, list[k], crisp__iges_face_brep(f, list[k], 0));
     return st;
 }
 
 static crisp_status convert(iges_file *f)
 {
     mark_consumed(f);
-    iges_subfigure_mark(f);
+    crisp__iges_subfigure_mark(f);
     /* everything outside subfigure definitions, in file order; then the subfigure instances */
     int *list = crisp_malloc_array((size_t)f->entity_count + 1, sizeof *list), n = 0;
     if (!list) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
     for (int i = 0; i < f->entity_count; i++)
         if (!f->ents[i].in_subfigure) list[n++] = i;
-    crisp_status st = iges_build_entities(f, list, n);
+    crisp_status st = crisp__iges_build_entities(f, list, n);
     crisp_free(list);
-    if (!st) st = iges_subfigure_instances(f);
+    if (!st) st = crisp__iges_subfigure_instances(f);
     if (st) return st;
     for (int i = 0; i < f->entity_count; i++) {
         const iges_entity *x = &f->ents[i];
         if (x->used || x->consumed) continue;
-        if (iges_is_curve_type(x->type) || x->type == 116 || x->type == 142 || x->type == 141)
+        if (crisp__iges_is_curve_type(x->type) || x->type == 116 || x->type == 142 || x->type == 141)
             note(f, x->type, "free curve or point, not part of a face");
         else if (x->type == 124 || x->type == 314 || x->type == 502 || x->type == 504 ||
                  x->type == 508)
@@ -161,7 +161,7 @@ crisp_status crisp_read_iges_mem(const char *name, const char *data, size_t size
     if (!name) name = "<memory>";
     if (!data && size) return crisp_error(CRISP_ERR_INVALID_ARG, "%s: data is NULL", name);
     iges_file f;
-    crisp_status st = iges_file_parse(name, data ? data : "", size, &f);
+    crisp_status st = crisp__iges_file_parse(name, data ? data : "", size, &f);
     if (st) return st;
     f.projection_fraction =
         options && options->projection_tolerance > 0 ? options->projection_tolerance : 1e-5;
@@ -174,7 +174,7 @@ crisp_status crisp_read_iges_mem(const char *name, const char *data, size_t size
          * but a file of only hidden faces is meant to be seen) and say so. */
         crisp_model_destroy(m);
         m = NULL;
-        iges_file_reset(&f);
+        crisp__iges_file_reset(&f);
         f.draw_blanked = 1;
         st = convert_into_new_model(&f, &m);
         if (!st) st = crisp_model_note_skip(m, "(nothing) every face in the file is "
@@ -185,7 +185,7 @@ crisp_status crisp_read_iges_mem(const char *name, const char *data, size_t size
         /* nothing could be drawn: the first face's failure is the file's error */
         st = crisp_error(f.first_error, "%s", f.first_message);
     }
-    iges_file_free(&f);
+    crisp__iges_file_free(&f);
     if (st) {
         crisp_model_destroy(m);
         return st;

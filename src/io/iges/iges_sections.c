@@ -44,14 +44,14 @@ static char section_letter(const char *s, int len)
     return i >= 0 ? s[i] : 0;
 }
 
-int iges_index(const iges_file *f, int de)
+int crisp__iges_index(const iges_file *f, int de)
 {
     if (de < 1 || (de & 1) == 0) return -1;
     int i = (de - 1) / 2;
     return i < f->entity_count ? i : -1;
 }
 
-const char *iges_type_name(int type)
+const char *crisp__iges_type_name(int type)
 {
     switch (type) {
     case 100: return "circular arc";
@@ -97,7 +97,7 @@ const char *iges_type_name(int type)
     return "entity";
 }
 
-crisp_status iges_fail(const iges_file *f, int e, crisp_status st, const char *fmt, ...)
+crisp_status crisp__iges_fail(const iges_file *f, int e, crisp_status st, const char *fmt, ...)
 {
     char msg[512];
     va_list ap;
@@ -106,7 +106,7 @@ crisp_status iges_fail(const iges_file *f, int e, crisp_status st, const char *f
     va_end(ap);
     const iges_entity *x = &f->ents[e];
     return crisp_error(st, "%s: DE %d (entity %d %s, line %d): %s", f->name, iges_de(e), x->type,
-                       iges_type_name(x->type), x->p_line ? x->p_line : x->d_line, msg);
+                       crisp__iges_type_name(x->type), x->p_line ? x->p_line : x->d_line, msg);
 }
 
 /* ---- parameter tokeniser -------------------------------------------------------------------- */
@@ -520,7 +520,7 @@ done:
 
 /* ---- the file ------------------------------------------------------------------------------- */
 
-crisp_status iges_file_parse(const char *name, const char *data, size_t size, iges_file *dest)
+crisp_status crisp__iges_file_parse(const char *name, const char *data, size_t size, iges_file *dest)
 {
     memset(dest, 0, sizeof *dest);
     dest->name = name;
@@ -601,11 +601,11 @@ crisp_status iges_file_parse(const char *name, const char *data, size_t size, ig
     return CRISP_OK;
 fail:
     for (int i = 0; i < 5; i++) crisp_free(sec[i].items);
-    iges_file_free(dest);
+    crisp__iges_file_free(dest);
     return st;
 }
 
-void iges_file_free(iges_file *f)
+void crisp__iges_file_free(iges_file *f)
 {
     crisp_free(f->ents);
     crisp_free(f->params);
@@ -616,7 +616,7 @@ void iges_file_free(iges_file *f)
     f->entity_count = f->param_count = 0;
 }
 
-void iges_file_reset(iges_file *f)
+void crisp__iges_file_reset(iges_file *f)
 {
     for (int i = 0; i < f->entity_count; i++) {
         iges_entity *e = &f->ents[i];
@@ -629,27 +629,27 @@ void iges_file_reset(iges_file *f)
 
 /* ---- parameter access ----------------------------------------------------------------------- */
 
-int iges_nparams(const iges_file *f, int e)
+int crisp__iges_nparams(const iges_file *f, int e)
 {
     return f->ents[e].param_count - 1;
 }
 
 static const iges_param *param_at(const iges_file *f, int e, int k)
 {
-    if (k < 1 || k > iges_nparams(f, e)) return NULL;
+    if (k < 1 || k > crisp__iges_nparams(f, e)) return NULL;
     return &f->params[f->ents[e].first_param + k];
 }
 
-crisp_status iges_need(const iges_file *f, int e, int k, const char *what)
+crisp_status crisp__iges_need(const iges_file *f, int e, int k, const char *what)
 {
-    if (k > iges_nparams(f, e))
-        return iges_fail(f, e, CRISP_ERR_PARSE,
+    if (k > crisp__iges_nparams(f, e))
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
                          "%s needs %d parameters, the record has %d", what, k,
-                         iges_nparams(f, e));
+                         crisp__iges_nparams(f, e));
     return CRISP_OK;
 }
 
-crisp_status iges_real_def(const iges_file *f, int e, int k, double def, double *dest)
+crisp_status crisp__iges_real_def(const iges_file *f, int e, int k, double def, double *dest)
 {
     const iges_param *p = param_at(f, e, k);
     if (!p || p->kind == IGES_PARAM_DEFAULT) {
@@ -657,22 +657,22 @@ crisp_status iges_real_def(const iges_file *f, int e, int k, double def, double 
         return CRISP_OK;
     }
     if (p->kind != IGES_PARAM_NUMBER)
-        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: expected a number, found a string",
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: expected a number, found a string",
                          k);
     *dest = p->num;
     return CRISP_OK;
 }
 
-crisp_status iges_real(const iges_file *f, int e, int k, double *dest)
+crisp_status crisp__iges_real(const iges_file *f, int e, int k, double *dest)
 {
     if (!param_at(f, e, k))
-        return iges_fail(f, e, CRISP_ERR_PARSE,
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
                          "parameter %d: expected a number, the record has only %d parameters", k,
-                         iges_nparams(f, e));
-    return iges_real_def(f, e, k, 0, dest);
+                         crisp__iges_nparams(f, e));
+    return crisp__iges_real_def(f, e, k, 0, dest);
 }
 
-crisp_status iges_int_def(const iges_file *f, int e, int k, int def, int *dest)
+crisp_status crisp__iges_int_def(const iges_file *f, int e, int k, int def, int *dest)
 {
     const iges_param *p = param_at(f, e, k);
     if (!p || p->kind == IGES_PARAM_DEFAULT) {
@@ -680,43 +680,43 @@ crisp_status iges_int_def(const iges_file *f, int e, int k, int def, int *dest)
         return CRISP_OK;
     }
     if (p->kind != IGES_PARAM_NUMBER || p->num != floor(p->num) || fabs(p->num) > 2e9)
-        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: expected an integer", k);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: expected an integer", k);
     *dest = (int)p->num;
     return CRISP_OK;
 }
 
-crisp_status iges_int(const iges_file *f, int e, int k, int *dest)
+crisp_status crisp__iges_int(const iges_file *f, int e, int k, int *dest)
 {
     if (!param_at(f, e, k))
-        return iges_fail(f, e, CRISP_ERR_PARSE,
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
                          "parameter %d: expected an integer, the record has only %d parameters",
-                         k, iges_nparams(f, e));
-    return iges_int_def(f, e, k, 0, dest);
+                         k, crisp__iges_nparams(f, e));
+    return crisp__iges_int_def(f, e, k, 0, dest);
 }
 
-crisp_status iges_int_range(const iges_file *f, int e, int k, int lo, int hi, int *dest)
+crisp_status crisp__iges_int_range(const iges_file *f, int e, int k, int lo, int hi, int *dest)
 {
-    crisp_status st = iges_int(f, e, k, dest);
+    crisp_status st = crisp__iges_int(f, e, k, dest);
     if (st) return st;
     if (*dest < lo || *dest > hi)
-        return iges_fail(f, e, CRISP_ERR_LIMIT, "parameter %d is %d, expected %d to %d", k, *dest,
+        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "parameter %d is %d, expected %d to %d", k, *dest,
                          lo, hi);
     return CRISP_OK;
 }
 
-crisp_status iges_ptr(const iges_file *f, int e, int k, int allow_null, int *dest)
+crisp_status crisp__iges_ptr(const iges_file *f, int e, int k, int allow_null, int *dest)
 {
     int de;
-    crisp_status st = iges_int(f, e, k, &de);
+    crisp_status st = crisp__iges_int(f, e, k, &de);
     if (st) return st;
     if (de < 0) de = -de; /* negative pointers mark "pointer, not a value" in some fields */
     if (de == 0 && allow_null) {
         *dest = -1;
         return CRISP_OK;
     }
-    int i = iges_index(f, de);
+    int i = crisp__iges_index(f, de);
     if (i < 0)
-        return iges_fail(f, e, CRISP_ERR_PARSE,
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
                          "parameter %d: pointer %d does not name a directory entry (expected an "
                          "odd number from 1 to %d)",
                          k, de, 2 * f->entity_count - 1);

@@ -15,12 +15,12 @@
 /* The number of members of definition e (member k is its parameter 4 + k). */
 static crisp_status def_members(iges_file *f, int e, int *count)
 {
-    crisp_status st = iges_need(f, e, 3, "a subfigure definition");
-    if (!st) st = iges_int_range(f, e, 3, 0, iges_nparams(f, e) - 3, count);
+    crisp_status st = crisp__iges_need(f, e, 3, "a subfigure definition");
+    if (!st) st = crisp__iges_int_range(f, e, 3, 0, crisp__iges_nparams(f, e) - 3, count);
     return st;
 }
 
-void iges_subfigure_mark(iges_file *f)
+void crisp__iges_subfigure_mark(iges_file *f)
 {
     for (int i = 0; i < f->entity_count; i++) {
         if (f->ents[i].type != 308) continue;
@@ -31,7 +31,7 @@ void iges_subfigure_mark(iges_file *f)
         }
         for (int k = 0; k < n; k++) {
             int m;
-            if (iges_ptr(f, i, 4 + k, 0, &m)) {
+            if (crisp__iges_ptr(f, i, 4 + k, 0, &m)) {
                 crisp_error_clear();
                 continue;
             }
@@ -44,12 +44,12 @@ void iges_subfigure_mark(iges_file *f)
         for (int i = 0; i < f->entity_count; i++) {
             const iges_entity *x = &f->ents[i];
             if (!x->in_subfigure || (x->type != 186 && x->type != 514)) continue;
-            int np = iges_nparams(f, i);
+            int np = crisp__iges_nparams(f, i);
             for (int k = 1; k <= np; k++) {
                 int m;
                 /* 186: shell pointers at 1 and 4, 6, ...; 514: face pointers at 2, 4, ... */
                 int is_ptr = x->type == 186 ? (k == 1 || (k >= 4 && k % 2 == 0)) : k % 2 == 0;
-                if (!is_ptr || iges_ptr(f, i, k, 0, &m)) {
+                if (!is_ptr || crisp__iges_ptr(f, i, k, 0, &m)) {
                     crisp_error_clear();
                     continue;
                 }
@@ -62,23 +62,23 @@ void iges_subfigure_mark(iges_file *f)
 static crisp_status instance_xform(iges_file *f, int e, int *def, iges_xform *dest)
 {
     double t[3], s;
-    crisp_status st = iges_ptr(f, e, 1, 0, def);
-    for (int k = 0; k < 3 && !st; k++) st = iges_real_def(f, e, 2 + k, 0, &t[k]);
-    if (!st) st = iges_real_def(f, e, 5, 1, &s);
+    crisp_status st = crisp__iges_ptr(f, e, 1, 0, def);
+    for (int k = 0; k < 3 && !st; k++) st = crisp__iges_real_def(f, e, 2 + k, 0, &t[k]);
+    if (!st) st = crisp__iges_real_def(f, e, 5, 1, &s);
     if (st) return st;
     if (f->ents[*def].type != 308)
-        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 1: DE %d is entity %d, expected 308",
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 1: DE %d is entity %d, expected 308",
                          iges_de(*def), f->ents[*def].type);
     if (!(s != 0) || !isfinite(s))
-        return iges_fail(f, e, CRISP_ERR_PARSE, "scale %g: expected a finite non-zero number", s);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "scale %g: expected a finite non-zero number", s);
     iges_xform own, local;
-    if ((st = iges_entity_xform(f, e, 1, &own))) return st;
-    iges_xform_identity(&local);
+    if ((st = crisp__iges_entity_xform(f, e, 1, &own))) return st;
+    crisp__iges_xform_identity(&local);
     for (int k = 0; k < 3; k++) {
         local.m[k][k] = s;
         local.m[k][3] = t[k];
     }
-    iges_xform_mul(&own, &local, dest);
+    crisp__iges_xform_mul(&own, &local, dest);
     return CRISP_OK;
 }
 
@@ -99,7 +99,7 @@ static crisp_status build_def(iges_file *f, subfig_state *s, int e)
     int count = 0;
     for (int k = 0; k < n && !st; k++) {
         int m;
-        if (!(st = iges_ptr(f, e, 4 + k, 0, &m))) members[count++] = m;
+        if (!(st = crisp__iges_ptr(f, e, 4 + k, 0, &m))) members[count++] = m;
     }
     crisp_model *def = NULL;
     if (!st) st = crisp_model_create(&def);
@@ -108,7 +108,7 @@ static crisp_status build_def(iges_file *f, subfig_state *s, int e)
          * then pass its skip notes on to the file's model */
         s->defs[e] = def;
         f->model = def;
-        st = iges_build_entities(f, members, count);
+        st = crisp__iges_build_entities(f, members, count);
         f->model = s->top;
         for (int i = 0; i < def->skip_count && !st; i++)
             for (int k = 0; k < def->skips[i].count && !st; k++)
@@ -133,9 +133,9 @@ static crisp_status instantiate(iges_file *f, subfig_state *s, int def, const ig
                                 int depth)
 {
     if (depth > IGES_MAX_DEPTH)
-        return iges_fail(f, def, CRISP_ERR_LIMIT, "subfigures nested deeper than %d",
+        return crisp__iges_fail(f, def, CRISP_ERR_LIMIT, "subfigures nested deeper than %d",
                          IGES_MAX_DEPTH);
-    if (f->ents[def].visiting) return iges_fail(f, def, CRISP_ERR_PARSE, "reference cycle");
+    if (f->ents[def].visiting) return crisp__iges_fail(f, def, CRISP_ERR_PARSE, "reference cycle");
     crisp_status st = build_def(f, s, def);
     if (st) return st;
     const crisp_model *m = s->defs[def];
@@ -146,18 +146,18 @@ static crisp_status instantiate(iges_file *f, subfig_state *s, int def, const ig
     for (int k = 0; k < n && !st; k++) {
         int e, inner;
         iges_xform place, total;
-        if ((st = iges_ptr(f, def, 4 + k, 0, &e))) break;
+        if ((st = crisp__iges_ptr(f, def, 4 + k, 0, &e))) break;
         if (f->ents[e].type != 408) continue;
         f->ents[e].used = 1;
         if ((st = instance_xform(f, e, &inner, &place))) break;
-        iges_xform_mul(x, &place, &total);
+        crisp__iges_xform_mul(x, &place, &total);
         st = instantiate(f, s, inner, &total, depth + 1);
     }
     f->ents[def].visiting = 0;
     return st;
 }
 
-crisp_status iges_subfigure_instances(iges_file *f)
+crisp_status crisp__iges_subfigure_instances(iges_file *f)
 {
     int any = 0;
     for (int i = 0; i < f->entity_count && !any; i++) any = f->ents[i].type == 408;
@@ -178,7 +178,7 @@ crisp_status iges_subfigure_instances(iges_file *f)
         iges_xform place;
         st = instance_xform(f, i, &def, &place);
         if (!st) st = instantiate(f, &s, def, &place, 1);
-        st = iges_soften(f, i, st);
+        st = crisp__iges_soften(f, i, st);
     }
     for (int i = 0; i < f->entity_count; i++) crisp_model_destroy(s.defs[i]);
     crisp_free(s.defs);

@@ -18,14 +18,14 @@
 
 #include "crisp/construct.h"
 
-int iges_is_surface_type(int type)
+int crisp__iges_is_surface_type(int type)
 {
     return type == 108 || type == 114 || type == 118 || type == 120 || type == 122 ||
            type == 128 || type == 140 || type == 190 || type == 192 || type == 194 || type == 196 ||
            type == 198;
 }
 
-void iges_surface_free(iges_surface *s)
+void crisp__iges_surface_free(iges_surface *s)
 {
     crisp_surface_destroy(s->surface);
     s->surface = NULL;
@@ -34,11 +34,11 @@ void iges_surface_free(iges_surface *s)
 static crisp_status kernel_fail(const iges_file *f, int e, crisp_status st)
 {
     crisp_error_prefix("%s: DE %d (entity %d %s, line %d)", f->name, iges_de(e), f->ents[e].type,
-                       iges_type_name(f->ents[e].type), f->ents[e].p_line);
+                       crisp__iges_type_name(f->ents[e].type), f->ents[e].p_line);
     return st;
 }
 
-void iges_xform_surface(crisp_surface *s, const iges_xform *x)
+void crisp__iges_xform_surface(crisp_surface *s, const iges_xform *x)
 {
     int n = s->count_u * s->count_v;
     for (int i = 0; i < n; i++) {
@@ -54,22 +54,22 @@ void iges_xform_surface(crisp_surface *s, const iges_xform *x)
 static crisp_status bspline_128(iges_file *f, int e, iges_surface *out)
 {
     int k1, k2, m1, m2;
-    crisp_status st = iges_int_range(f, e, 1, 1, CRISP_MAX_CONTROL_POINTS - 1, &k1);
-    if (!st) st = iges_int_range(f, e, 2, 1, CRISP_MAX_CONTROL_POINTS - 1, &k2);
-    if (!st) st = iges_int_range(f, e, 3, 1, CRISP_MAX_DEGREE, &m1);
-    if (!st) st = iges_int_range(f, e, 4, 1, CRISP_MAX_DEGREE, &m2);
+    crisp_status st = crisp__iges_int_range(f, e, 1, 1, CRISP_MAX_CONTROL_POINTS - 1, &k1);
+    if (!st) st = crisp__iges_int_range(f, e, 2, 1, CRISP_MAX_CONTROL_POINTS - 1, &k2);
+    if (!st) st = crisp__iges_int_range(f, e, 3, 1, CRISP_MAX_DEGREE, &m1);
+    if (!st) st = crisp__iges_int_range(f, e, 4, 1, CRISP_MAX_DEGREE, &m2);
     if (st) return st;
     int nu = k1 + 1, nv = k2 + 1;
     if (nu < m1 + 1 || nv < m2 + 1)
-        return iges_fail(f, e, CRISP_ERR_PARSE,
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
                          "%d x %d control points for degrees (%d, %d): expected at least %d x %d",
                          nu, nv, m1, m2, m1 + 1, m2 + 1);
     if ((long long)nu * nv > CRISP_MAX_CONTROL_POINTS)
-        return iges_fail(f, e, CRISP_ERR_LIMIT, "%d x %d control points: more than %d", nu, nv,
+        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "%d x %d control points: more than %d", nu, nv,
                          CRISP_MAX_CONTROL_POINTS);
     int n = nu * nv, nk1 = nu + m1 + 1, nk2 = nv + m2 + 1;
     int ku = 10, kv = ku + nk1, kw = kv + nk2, kp = kw + n, kr = kp + 3 * n;
-    if ((st = iges_need(f, e, kr - 1, "a rational B-spline surface"))) return st;
+    if ((st = crisp__iges_need(f, e, kr - 1, "a rational B-spline surface"))) return st;
     double *knu = crisp_malloc_array((size_t)nk1, sizeof(double));
     double *knv = crisp_malloc_array((size_t)nk2, sizeof(double));
     double *w = crisp_malloc_array((size_t)n, sizeof(double));
@@ -78,10 +78,10 @@ static crisp_status bspline_128(iges_file *f, int e, iges_surface *out)
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
         goto done;
     }
-    for (int i = 0; i < nk1 && !st; i++) st = iges_real(f, e, ku + i, &knu[i]);
-    for (int i = 0; i < nk2 && !st; i++) st = iges_real(f, e, kv + i, &knv[i]);
-    for (int i = 0; i < n && !st; i++) st = iges_real(f, e, kw + i, &w[i]);
-    for (int i = 0; i < 3 * n && !st; i++) st = iges_real(f, e, kp + i, &pts[i]);
+    for (int i = 0; i < nk1 && !st; i++) st = crisp__iges_real(f, e, ku + i, &knu[i]);
+    for (int i = 0; i < nk2 && !st; i++) st = crisp__iges_real(f, e, kv + i, &knv[i]);
+    for (int i = 0; i < n && !st; i++) st = crisp__iges_real(f, e, kw + i, &w[i]);
+    for (int i = 0; i < 3 * n && !st; i++) st = crisp__iges_real(f, e, kp + i, &pts[i]);
     if (st) goto done;
     int rational = 0;
     for (int i = 0; i < n; i++)
@@ -92,10 +92,10 @@ static crisp_status bspline_128(iges_file *f, int e, iges_surface *out)
         goto done;
     }
     /* The parameter range U0 U1 V0 V1: crisp keeps the knot domain (trims are given in the same
-     * parameters); a narrower range bounds the face like an outer loop (iges_domain_loop). */
+     * parameters); a narrower range bounds the face like an outer loop (crisp__iges_domain_loop). */
     double dom[4], r[4];
     crisp_surface_domain(out->surface, dom);
-    for (int i = 0; i < 4 && !st; i++) st = iges_real_def(f, e, kr + i, dom[i], &r[i]);
+    for (int i = 0; i < 4 && !st; i++) st = crisp__iges_real_def(f, e, kr + i, dom[i], &r[i]);
     if (st) goto done;
     for (int i = 0; i < 4; i++) r[i] = fmin(fmax(r[i], dom[i & 2]), dom[(i & 2) + 1]);
     double eu = 1e-9 * (dom[1] - dom[0]), ev = 1e-9 * (dom[3] - dom[2]);
@@ -126,16 +126,16 @@ static void power_to_bezier(const double c[4], double b[4])
 static crisp_status spline_114(iges_file *f, int e, crisp_surface **dest)
 {
     int ctype, ptype, m, n;
-    crisp_status st = iges_int(f, e, 1, &ctype);
-    if (!st) st = iges_int(f, e, 2, &ptype);
-    if (!st) st = iges_int_range(f, e, 3, 1, 4096, &m);
-    if (!st) st = iges_int_range(f, e, 4, 1, 4096, &n);
+    crisp_status st = crisp__iges_int(f, e, 1, &ctype);
+    if (!st) st = crisp__iges_int(f, e, 2, &ptype);
+    if (!st) st = crisp__iges_int_range(f, e, 3, 1, 4096, &m);
+    if (!st) st = crisp__iges_int_range(f, e, 4, 1, 4096, &n);
     if (st) return st;
     if ((long long)(3 * m + 1) * (3 * n + 1) > CRISP_MAX_CONTROL_POINTS)
-        return iges_fail(f, e, CRISP_ERR_LIMIT, "%d x %d patches: too many", m, n);
+        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "%d x %d patches: too many", m, n);
     int kt = 5, kc = kt + (m + 1) + (n + 1);
     /* patches (i, j) in order i outer, j inner, N + 1 per row (the last of a row is a dummy) */
-    if ((st = iges_need(f, e, kc - 1 + 48 * ((m - 1) * (n + 1) + n),
+    if ((st = crisp__iges_need(f, e, kc - 1 + 48 * ((m - 1) * (n + 1) + n),
                         "the coefficients of a parametric spline surface")))
         return st;
     int nu = 3 * m + 1, nv = 3 * n + 1;
@@ -148,17 +148,17 @@ static crisp_status spline_114(iges_file *f, int e, crisp_surface **dest)
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
         goto done;
     }
-    for (int i = 0; i <= m && !st; i++) st = iges_real(f, e, kt + i, &tu[i]);
-    for (int j = 0; j <= n && !st; j++) st = iges_real(f, e, kt + m + 1 + j, &tv[j]);
+    for (int i = 0; i <= m && !st; i++) st = crisp__iges_real(f, e, kt + i, &tu[i]);
+    for (int j = 0; j <= n && !st; j++) st = crisp__iges_real(f, e, kt + m + 1 + j, &tv[j]);
     if (st) goto done;
     for (int i = 0; i < m; i++)
         if (!(tu[i + 1] > tu[i])) {
-            st = iges_fail(f, e, CRISP_ERR_PARSE, "u break points are not increasing");
+            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE, "u break points are not increasing");
             goto done;
         }
     for (int j = 0; j < n; j++)
         if (!(tv[j + 1] > tv[j])) {
-            st = iges_fail(f, e, CRISP_ERR_PARSE, "v break points are not increasing");
+            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE, "v break points are not increasing");
             goto done;
         }
     for (int i = 0; i < m && !st; i++) {
@@ -166,7 +166,7 @@ static crisp_status spline_114(iges_file *f, int e, crisp_surface **dest)
         for (int j = 0; j < n && !st; j++) {
             double hv = tv[j + 1] - tv[j], co[48];
             int k0 = kc + 48 * (i * (n + 1) + j);
-            for (int q = 0; q < 48 && !st; q++) st = iges_real(f, e, k0 + q, &co[q]);
+            for (int q = 0; q < 48 && !st; q++) st = crisp__iges_real(f, e, k0 + q, &co[q]);
             if (st) break;
             for (int c = 0; c < 3; c++) {
                 /* X(s, t) = sum a[p + 4 q] s^p t^q, scaled to local [0, 1]^2 */
@@ -213,27 +213,27 @@ static crisp_status one_curve(iges_file *f, int e, int k, int depth, crisp_curve
                               iges_param_map *map)
 {
     int c;
-    crisp_status st = iges_ptr(f, e, k, 0, &c);
+    crisp_status st = crisp__iges_ptr(f, e, k, 0, &c);
     if (st) return st;
-    if (!iges_is_curve_type(f->ents[c].type) && f->ents[c].type != 130)
-        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected a "
+    if (!crisp__iges_is_curve_type(f->ents[c].type) && f->ents[c].type != 130)
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected a "
                                                 "curve",
                          k, iges_de(c), f->ents[c].type);
-    if (map && (st = iges_curve_param_map(f, c, map))) return st;
+    if (map && (st = crisp__iges_curve_param_map(f, c, map))) return st;
     iges_curves out = {0};
-    if ((st = iges_curve_convert(f, c, 3, NULL, depth + 1, &out))) {
-        iges_curves_free(&out);
+    if ((st = crisp__iges_curve_convert(f, c, 3, NULL, depth + 1, &out))) {
+        crisp__iges_curves_free(&out);
         return st;
     }
     if (out.count != 1) {
-        iges_curves_free(&out);
-        return iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
+        crisp__iges_curves_free(&out);
+        return crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
                          "parameter %d: a defining curve made of %d pieces (expected one curve)",
                          k, out.count);
     }
     *dest = out.items[0];
     out.count = 0;
-    iges_curves_free(&out);
+    crisp__iges_curves_free(&out);
     return CRISP_OK;
 }
 
@@ -255,12 +255,12 @@ static crisp_status revolution_120(iges_file *f, int e, int depth, iges_surface 
 {
     crisp_curve *axis = NULL, *gen = NULL;
     double sa, ta;
-    crisp_status st = iges_need(f, e, 4, "a surface of revolution");
-    if (!st) st = iges_real(f, e, 3, &sa);
-    if (!st) st = iges_real(f, e, 4, &ta);
+    crisp_status st = crisp__iges_need(f, e, 4, "a surface of revolution");
+    if (!st) st = crisp__iges_real(f, e, 3, &sa);
+    if (!st) st = crisp__iges_real(f, e, 4, &ta);
     if (st) return st;
     if (!(ta > sa) || ta - sa > 2 * M_PI + 1e-9)
-        return iges_fail(f, e, CRISP_ERR_PARSE,
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
                          "angles %g to %g: expected a start below the end, at most 2 pi apart",
                          sa, ta);
     if (ta - sa > 2 * M_PI) ta = sa + 2 * M_PI;
@@ -272,7 +272,7 @@ static crisp_status revolution_120(iges_file *f, int e, int depth, iges_surface 
     crisp_curve_eval(axis, t1, p1);
     crisp_vec3_sub(p1, p0, dir);
     if (!crisp_vec3_normalize(dir, dir)) {
-        st = iges_fail(f, e, CRISP_ERR_NUMERIC, "the axis line has zero length");
+        st = crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "the axis line has zero length");
         goto done;
     }
     st = crisp_make_revolution(gen, p0, dir, sa, ta, &dest->surface);
@@ -291,8 +291,8 @@ static crisp_status ruled_118(iges_file *f, int e, int depth, iges_surface *dest
 {
     crisp_curve *c0 = NULL, *c1 = NULL;
     int dirflg;
-    crisp_status st = iges_need(f, e, 3, "a ruled surface");
-    if (!st) st = iges_int_def(f, e, 3, 0, &dirflg);
+    crisp_status st = crisp__iges_need(f, e, 3, "a ruled surface");
+    if (!st) st = crisp__iges_int_def(f, e, 3, 0, &dirflg);
     if (!st) st = one_curve(f, e, 1, depth, &c0, NULL);
     if (!st) st = one_curve(f, e, 2, depth, &c1, NULL);
     if (!st) {
@@ -311,8 +311,8 @@ static crisp_status tabulated_122(iges_file *f, int e, int depth, iges_surface *
 {
     crisp_curve *c = NULL;
     double l[3];
-    crisp_status st = iges_need(f, e, 4, "a tabulated cylinder");
-    for (int i = 0; i < 3 && !st; i++) st = iges_real(f, e, 2 + i, &l[i]);
+    crisp_status st = crisp__iges_need(f, e, 4, "a tabulated cylinder");
+    for (int i = 0; i < 3 && !st; i++) st = crisp__iges_real(f, e, 2 + i, &l[i]);
     if (!st) st = one_curve(f, e, 1, depth, &c, &dest->map_u);
     if (st) return st;
     /* the generatrix runs from the directrix start to L (both in the entity's own space: the
@@ -346,11 +346,11 @@ static crisp_status plane_frame(const iges_file *f, int e, const double o[3], co
 static crisp_status plane_108(iges_file *f, int e, iges_surface *dest)
 {
     double n[4];
-    crisp_status st = iges_need(f, e, 4, "a plane");
-    for (int i = 0; i < 4 && !st; i++) st = iges_real(f, e, 1 + i, &n[i]);
+    crisp_status st = crisp__iges_need(f, e, 4, "a plane");
+    for (int i = 0; i < 4 && !st; i++) st = crisp__iges_real(f, e, 1 + i, &n[i]);
     if (st) return st;
     double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    if (!(len > 0)) return iges_fail(f, e, CRISP_ERR_NUMERIC, "normal (A, B, C) is zero");
+    if (!(len > 0)) return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "normal (A, B, C) is zero");
     double axis[3] = {n[0] / len, n[1] / len, n[2] / len}, o[3];
     crisp_vec3_scale(axis, n[3] / len, o);
     return plane_frame(f, e, o, axis, NULL, dest);
@@ -362,19 +362,19 @@ static crisp_status point_or_direction(iges_file *f, int e, int k, int want_dir,
                                        double dest[3])
 {
     int p, type = want_dir ? 123 : 116;
-    crisp_status st = iges_ptr(f, e, k, 0, &p);
+    crisp_status st = crisp__iges_ptr(f, e, k, 0, &p);
     if (st) return st;
     if (f->ents[p].type != type)
-        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected %d",
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected %d",
                          k, iges_de(p), f->ents[p].type, type);
     double v[3];
-    for (int i = 0; i < 3 && !st; i++) st = iges_real(f, p, 1 + i, &v[i]);
+    for (int i = 0; i < 3 && !st; i++) st = crisp__iges_real(f, p, 1 + i, &v[i]);
     iges_xform own;
-    if (!st) st = iges_entity_xform(f, p, depth + 1, &own);
+    if (!st) st = crisp__iges_entity_xform(f, p, depth + 1, &own);
     if (st) return st;
     f->ents[p].used = 1;
     if (want_dir) own.m[0][3] = own.m[1][3] = own.m[2][3] = 0;
-    iges_xform_point(&own, v, dest);
+    crisp__iges_xform_point(&own, v, dest);
     return CRISP_OK;
 }
 
@@ -383,10 +383,10 @@ static crisp_status point_or_direction(iges_file *f, int e, int k, int want_dir,
 static crisp_status plane_190(iges_file *f, int e, int depth, iges_surface *dest)
 {
     double o[3], n[3], ref[3];
-    crisp_status st = iges_need(f, e, 2, "a plane surface");
+    crisp_status st = crisp__iges_need(f, e, 2, "a plane surface");
     if (!st) st = point_or_direction(f, e, 1, 0, depth, o);
     if (!st) st = point_or_direction(f, e, 2, 1, depth, n);
-    int has_ref = f->ents[e].form == 1 && iges_nparams(f, e) >= 3;
+    int has_ref = f->ents[e].form == 1 && crisp__iges_nparams(f, e) >= 3;
     if (!st && has_ref) st = point_or_direction(f, e, 3, 1, depth, ref);
     if (st) return st;
     return plane_frame(f, e, o, n, has_ref ? ref : NULL, dest);
@@ -398,23 +398,23 @@ static crisp_status analytic_19x(iges_file *f, int e, int depth, iges_surface *d
 {
     int type = f->ents[e].type, k = 1;
     double o[3], axis[3], ref[3];
-    crisp_status st = iges_need(f, e, type == 192 || type == 196 ? 3 : 4, "an analytic surface");
+    crisp_status st = crisp__iges_need(f, e, type == 192 || type == 196 ? 3 : 4, "an analytic surface");
     if (!st) st = point_or_direction(f, e, k++, 0, depth, o);
-    if (!st && type == 196) st = iges_real(f, e, k++, &dest->radius);
+    if (!st && type == 196) st = crisp__iges_real(f, e, k++, &dest->radius);
     if (!st) st = point_or_direction(f, e, k++, 1, depth, axis);
-    if (!st && type != 196) st = iges_real(f, e, k++, &dest->radius);
-    if (!st && type == 194) st = iges_real(f, e, k++, &dest->semi);
-    if (!st && type == 198) st = iges_real(f, e, k++, &dest->radius2);
-    int has_ref = f->ents[e].form == 1 && iges_nparams(f, e) >= k;
+    if (!st && type != 196) st = crisp__iges_real(f, e, k++, &dest->radius);
+    if (!st && type == 194) st = crisp__iges_real(f, e, k++, &dest->semi);
+    if (!st && type == 198) st = crisp__iges_real(f, e, k++, &dest->radius2);
+    int has_ref = f->ents[e].form == 1 && crisp__iges_nparams(f, e) >= k;
     if (!st && has_ref) st = point_or_direction(f, e, k, 1, depth, ref);
     if (st) return st;
     if (type == 194) {
         dest->semi *= M_PI / 180;
         if (!(dest->semi > 0 && dest->semi < M_PI / 2) || !(dest->radius >= 0))
-            return iges_fail(f, e, CRISP_ERR_PARSE, "cone: semi-angle %g degrees, radius %g: expected an angle in "
+            return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "cone: semi-angle %g degrees, radius %g: expected an angle in "
                              "(0, 90) and a radius >= 0", dest->semi * 180 / M_PI, dest->radius);
     } else if (!(dest->radius > 0) || (type == 198 && !(dest->radius2 > 0))) {
-        return iges_fail(f, e, CRISP_ERR_PARSE, "radius %g%s: expected > 0", dest->radius,
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "radius %g%s: expected > 0", dest->radius,
                          type == 198 ? " (or the minor radius)" : "");
     }
     crisp_placement pl;
@@ -433,16 +433,16 @@ static crisp_status offset_140(iges_file *f, int e, int depth, iges_surface *des
 {
     double dist;
     int b;
-    crisp_status st = iges_need(f, e, 5, "an offset surface");
-    if (!st) st = iges_real(f, e, 4, &dist);
-    if (!st) st = iges_ptr(f, e, 5, 0, &b);
+    crisp_status st = crisp__iges_need(f, e, 5, "an offset surface");
+    if (!st) st = crisp__iges_real(f, e, 4, &dist);
+    if (!st) st = crisp__iges_ptr(f, e, 5, 0, &b);
     if (st) return st;
-    if (!iges_is_surface_type(f->ents[b].type))
-        return iges_fail(f, e, CRISP_ERR_PARSE, "parameter 5: DE %d is entity %d, expected a surface", iges_de(b),
+    if (!crisp__iges_is_surface_type(f->ents[b].type))
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 5: DE %d is entity %d, expected a surface", iges_de(b),
                          f->ents[b].type);
     double ind[3];
-    for (int k = 0; k < 3 && !st; k++) st = iges_real(f, e, 1 + k, &ind[k]);
-    if (!st) st = iges_surface_convert(f, b, depth + 1, dest);
+    for (int k = 0; k < 3 && !st; k++) st = crisp__iges_real(f, e, 1 + k, &ind[k]);
+    if (!st) st = crisp__iges_surface_convert(f, b, depth + 1, dest);
     if (st) return st;
     /* The indicator points to the offset side at the base's first parameters (bug23171_tube_surf.igs:
      * its two tube halves offset outwards, against one of their normals); a zero one leaves the
@@ -460,7 +460,7 @@ static crisp_status offset_140(iges_file *f, int e, int depth, iges_surface *des
         else if (dest->analytic == 194) dest->radius += dist / cos(dest->semi);
         else dest->radius += dist;
         if (!(dest->radius >= 0) || (dest->analytic == 198 && !(dest->radius2 > 0)))
-            return iges_fail(f, e, CRISP_ERR_NUMERIC, "offset %g turns the surface inside out", dist);
+            return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "offset %g turns the surface inside out", dist);
         return CRISP_OK;
     }
     if (dest->is_plane) { /* exact: the frame moves along the plane's normal */
@@ -475,24 +475,24 @@ static crisp_status offset_140(iges_file *f, int e, int depth, iges_surface *des
     double diag = sqrt((box[3] - box[0]) * (box[3] - box[0]) + (box[4] - box[1]) * (box[4] - box[1]) +
                        (box[5] - box[2]) * (box[5] - box[2]));
     crisp_surface *off = NULL;
-    st = crisp_surface_offset(dest->surface, dist, f->projection_fraction * (diag + fabs(dist)), 256, &off);
+    st = crisp_surface_offset(dest->surface, dist, f->projection_fraction * (diag + fabs(dist)), 64, &off);
     if (st) return kernel_fail(f, e, st);
     crisp_surface_destroy(dest->surface);
     dest->surface = off;
     return CRISP_OK;
 }
 
-crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *dest)
+crisp_status crisp__iges_surface_convert(iges_file *f, int e, int depth, iges_surface *dest)
 {
     memset(dest, 0, sizeof *dest);
     dest->map_u.scale = dest->map_v.scale = 1;
     iges_entity *x = &f->ents[e];
     if (depth > IGES_MAX_DEPTH)
-        return iges_fail(f, e, CRISP_ERR_LIMIT, "surfaces nested deeper than %d", IGES_MAX_DEPTH);
-    if (x->visiting) return iges_fail(f, e, CRISP_ERR_PARSE, "reference cycle");
+        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "surfaces nested deeper than %d", IGES_MAX_DEPTH);
+    if (x->visiting) return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "reference cycle");
     x->used = 1;
     iges_xform own;
-    crisp_status st = iges_entity_xform(f, e, depth + 1, &own);
+    crisp_status st = crisp__iges_entity_xform(f, e, depth + 1, &own);
     if (st) return st;
     x->visiting = 1;
     switch (x->type) {
@@ -509,23 +509,23 @@ crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *
     case 198: st = analytic_19x(f, e, depth, dest); break;
     case 140: st = offset_140(f, e, depth, dest); break;
     default:
-        st = iges_fail(f, e, CRISP_ERR_UNSUPPORTED, "not a surface type crisp reads");
+        st = crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED, "not a surface type crisp reads");
         break;
     }
     x->visiting = 0;
     if (st) {
-        iges_surface_free(dest);
+        crisp__iges_surface_free(dest);
         return st;
     }
-    if (dest->surface) iges_xform_surface(dest->surface, &own);
+    if (dest->surface) crisp__iges_xform_surface(dest->surface, &own);
     if (dest->is_plane || dest->analytic) {
         double o[3], ex[3], ey[3], z[3] = {0, 0, 0};
-        iges_xform_point(&own, dest->origin, o);
+        crisp__iges_xform_point(&own, dest->origin, o);
         double px[3], py[3];
         crisp_vec3_add(dest->origin, dest->x, px);
         crisp_vec3_add(dest->origin, dest->y, py);
-        iges_xform_point(&own, px, ex);
-        iges_xform_point(&own, py, ey);
+        crisp__iges_xform_point(&own, px, ex);
+        crisp__iges_xform_point(&own, py, ey);
         crisp_vec3_sub(ex, o, ex);
         crisp_vec3_sub(ey, o, ey);
         (void)z;
@@ -535,7 +535,7 @@ crisp_status iges_surface_convert(iges_file *f, int e, int depth, iges_surface *
         if (dest->analytic) {
             /* a scaling matrix scales the radii; the frame stays unit */
             double sc = crisp_vec3_norm(dest->x);
-            if (!(sc > 0)) return iges_fail(f, e, CRISP_ERR_NUMERIC, "its transformation matrix is singular");
+            if (!(sc > 0)) return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "its transformation matrix is singular");
             crisp_vec3_scale(dest->x, 1 / sc, dest->x);
             crisp_vec3_scale(dest->y, 1 / crisp_vec3_norm(dest->y), dest->y);
             dest->radius *= sc;
@@ -557,14 +557,14 @@ static void mapped_eval(void *ctx, double t, double *dest)
     const map_ctx *m = ctx;
     double p[2];
     crisp_curve_eval(m->c, t, p);
-    dest[0] = iges_param_map_apply(&m->s->map_u, p[0]);
-    dest[1] = iges_param_map_apply(&m->s->map_v, p[1]);
+    dest[0] = crisp__iges_param_map_apply(&m->s->map_u, p[0]);
+    dest[1] = crisp__iges_param_map_apply(&m->s->map_v, p[1]);
 }
 
-crisp_status iges_surface_map_curve(const iges_surface *s, double tol_uv, crisp_curve **c)
+crisp_status crisp__iges_surface_map_curve(const iges_surface *s, double tol_uv, crisp_curve **c)
 {
     const iges_param_map *mu = &s->map_u, *mv = &s->map_v;
-    if (iges_param_map_is_identity(mu) && iges_param_map_is_identity(mv)) return CRISP_OK;
+    if (crisp__iges_param_map_is_identity(mu) && crisp__iges_param_map_is_identity(mv)) return CRISP_OK;
     crisp_curve *cv = *c;
     int n = cv->count;
     /* Exact cases: affine maps act on control points; an angular coordinate that is constant
@@ -580,8 +580,8 @@ crisp_status iges_surface_map_curve(const iges_surface *s, double tol_uv, crisp_
     if (exact || line) {
         for (int i = 0; i < n; i++) {
             double *p = cv->cpw + 3 * i, w = p[2];
-            p[0] = iges_param_map_apply(mu, p[0] / w) * w;
-            p[1] = iges_param_map_apply(mv, p[1] / w) * w;
+            p[0] = crisp__iges_param_map_apply(mu, p[0] / w) * w;
+            p[1] = crisp__iges_param_map_apply(mv, p[1] / w) * w;
         }
         return CRISP_OK;
     }

@@ -793,6 +793,8 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
                 memset(&m->faces[i], 0, sizeof m->faces[i]);
             }
             if (!xf_is_identity(x)) crisp_face_transform(&out[o], (const double(*)[4])x);
+            /* each placed copy of a shell or solid is a body of its own */
+            if (out[o].body) out[o].body = (int)(((unsigned)out[o].body * 2654435761u) ^ ((unsigned)inst_order[k] + 1u)) | 1;
             float rgb[3];
             if ((nocc || nctx) &&
                 occurrence_colour(&s, inst_order[k], face_ids[i], owners + 2 * i, occ, nocc, ctx, nctx, rgb)) {

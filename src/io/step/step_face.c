@@ -894,7 +894,33 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
             goto done;
         }
         r->stats->degenerate_edges += added;
-        clamp_loop(lp, w.nbox);
+        /* (A plane is grown instead, below: its trims' control polygons may leave the box of
+         * the curves by far, e.g. a half circle as one rational cubic, whose middle control
+         * points lie twice as far out as the arc: clamping them squashed the arc to half its
+         * radius, occt_as1_ec.stp's bolt heads.) */
+        if (w.s.kind != STEP_SURF_PLANE) clamp_loop(lp, w.nbox);
+    }
+    if (w.s.kind == STEP_SURF_PLANE) {
+        /* The plane's (u, v) are the file's: rebuilt over a box that holds every control point. */
+        double b[4] = {w.nbox[0], w.nbox[1], w.nbox[2], w.nbox[3]};
+        int grow = 0;
+        for (int i = 0; i < dest->loop_count; i++)
+            for (int k = 0; k < dest->loops[i].curve_count; k++) {
+                const crisp_curve *c = dest->loops[i].curves[k];
+                for (int j = 0; j < c->count; j++)
+                    for (int q = 0; q < 2; q++) {
+                        double x = c->cpw[3 * j + q] / c->cpw[3 * j + 2];
+                        if (!isfinite(x)) continue;
+                        if (x < b[2 * q]) b[2 * q] = x, grow = 1;
+                        if (x > b[2 * q + 1]) b[2 * q + 1] = x, grow = 1;
+                    }
+            }
+        if (grow) {
+            crisp_surface *big = NULL;
+            if ((st = crisp__step_surface_build(r, &w.s, b, &big, w.nbox))) goto done;
+            crisp_surface_destroy(dest->surface);
+            dest->surface = big;
+        }
     }
     int band = -1;
     if (w.s.kind == STEP_SURF_BSPLINE && dest->loop_count >= 2 &&

@@ -435,6 +435,9 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
             continue;
         }
         face.reversed ^= fl.refs[i].flip;
+        /* a solid is a body; faces of shells and sets without one may be meant to meet across
+         * sets (surface models put each face in its own GEOMETRIC_SET): no body */
+        face.body = fl.refs[i].owner[1];
         if ((st = crisp_model_add_face(m, &face))) {
             crisp_face_free(&face);
             goto done;

@@ -1,0 +1,138 @@
+/* crisp-view's show / hide: faces (Delete hides the selected one) and f-rep parts (the Parts
+ * panel). What is drawn is a shallow copy of the document (rdoc) whose scene is prepared from the
+ * visible faces only (their structs copied, surfaces and loops shared with the document, which
+ * outlives it); picking maps the drawn scene's face indices back to the document's. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ui.h"
+#include "view.h"
+
+void view_visible_free(view *v)
+{
+    crisp_scene_destroy(v->vis_scene);
+    free(v->vis_model.faces); /* shallow: the faces' surfaces and loops belong to the document */
+    free(v->vis_map);
+    free(v->vis_parts);
+    v->vis_scene = NULL;
+    memset(&v->vis_model, 0, sizeof v->vis_model);
+    v->vis_map = NULL;
+    v->vis_parts = NULL;
+}
+
+void view_visible_reset(view *v)
+{
+    view_visible_free(v);
+    free(v->face_hidden);
+    free(v->part_hidden);
+    v->face_hidden = v->part_hidden = NULL;
+    v->hidden_faces = v->hidden_parts = 0;
+    if (v->doc) {
+        v->rdoc = *v->doc;
+        v->face_hidden = calloc(v->doc->scene->face_count + 1, 1);
+        v->part_hidden = calloc(v->doc->part_count + 1, 1);
+    } else {
+        memset(&v->rdoc, 0, sizeof v->rdoc);
+    }
+}
+
+void view_visible_update(view *v)
+{
+    if (!v->doc || !v->face_hidden || !v->part_hidden) return;
+    view_visible_free(v);
+    const crisp_scene *full = v->doc->scene;
+    v->rdoc = *v->doc;
+    v->hidden_faces = v->hidden_parts = 0;
+    for (uint32_t f = 0; f < full->face_count; f++) v->hidden_faces += v->face_hidden[f];
+    for (size_t k = 0; k < v->doc->part_count; k++) v->hidden_parts += v->part_hidden[k];
+    crisp_status st = CRISP_OK;
+    if (v->hidden_faces) {
+        const crisp_model *m = full->model;
+        uint32_t n = full->face_count - v->hidden_faces;
+        v->vis_model = *m;
+        v->vis_model.faces = calloc(n + 1, sizeof *v->vis_model.faces);
+        v->vis_model.face_count = v->vis_model.face_cap = (int)n;
+        v->vis_model.skip_count = 0;
+        v->vis_model.skips = NULL;
+        v->vis_map = calloc(n + 1, sizeof *v->vis_map);
+        if (!v->vis_model.faces || !v->vis_map) {
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+        } else {
+            uint32_t k = 0;
+            for (uint32_t f = 0; f < full->face_count; f++)
+                if (!v->face_hidden[f]) {
+                    v->vis_model.faces[k] = m->faces[f];
+                    v->vis_map[k++] = f;
+                }
+            st = crisp_scene_prepare(&v->vis_model, &v->vis_scene);
+        }
+        if (!st) v->rdoc.scene = v->vis_scene;
+    }
+    if (!st && v->hidden_parts) {
+        v->vis_parts = calloc(v->doc->part_count + 1, sizeof *v->vis_parts);
+        if (!v->vis_parts) {
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+        } else {
+            size_t k = 0;
+            for (size_t i = 0; i < v->doc->part_count; i++)
+                if (!v->part_hidden[i]) v->vis_parts[k++] = v->doc->parts[i];
+            v->rdoc.parts = v->vis_parts;
+            v->rdoc.part_count = k;
+        }
+    }
+    if (st) {
+        view_set_error(v, "hiding: %s", crisp_error_message());
+        view_visible_free(v);
+        v->rdoc = *v->doc;
+    }
+    v->backend.set_doc(v->backend.self, &v->rdoc);
+    v->ov.selected_face = v->sel.hit ? view_drawn_face(v, v->sel.face) : -1;
+    v->dirty = 1;
+    printf("visible: %u of %u faces, %zu of %zu f-rep parts\n", full->face_count - v->hidden_faces,
+           full->face_count, v->rdoc.part_count, v->doc->part_count);
+}
+
+int32_t view_doc_face(const view *v, int32_t drawn)
+{
+    if (drawn < 0 || !v->vis_map) return drawn;
+    return (int32_t)v->vis_map[drawn];
+}
+
+int32_t view_drawn_face(const view *v, int32_t doc_face)
+{
+    if (doc_face < 0 || !v->vis_map) return doc_face;
+    if (v->face_hidden[doc_face]) return -1;
+    int32_t k = 0;
+    for (int32_t f = 0; f < doc_face; f++) k += !v->face_hidden[f];
+    return k;
+}
+
+void view_parts_panel(view *v)
+{
+    if (!v->doc) return;
+    if (app_ui_begin("Parts", 10, -200, 0, 0)) {
+        int changed = 0;
+        if (app_ui_tree_node(v->doc->path, 0, 0, NULL)) {
+            char label[128];
+            snprintf(label, sizeof label, "faces: %u shown, %u hidden##faces",
+                     v->doc->scene->face_count - v->hidden_faces, v->hidden_faces);
+            app_ui_tree_node(label, 1, 0, NULL);
+            for (size_t k = 0; k < v->doc->part_count; k++) {
+                int shown = !v->part_hidden[k];
+                snprintf(label, sizeof label, "f-rep part %zu", k);
+                if (app_ui_checkbox(label, &shown)) {
+                    v->part_hidden[k] = !shown;
+                    changed = 1;
+                }
+            }
+            app_ui_tree_pop();
+        }
+        if (v->hidden_faces && app_ui_button("Show all faces (U)")) {
+            memset(v->face_hidden, 0, v->doc->scene->face_count);
+            changed = 1;
+        }
+        if (changed) view_visible_update(v);
+    }
+    app_ui_end();
+}
