@@ -23,7 +23,7 @@
  * (crisp_plan_trim_test) in double. The trim ribbons are drawn after the surfaces as by the CPU
  * backend (a fill pass that replaces a sample only when nearer by more than the depth slack).
  * Samples (1, 4, 16) are drawn as one pass per sample at the CPU backend's sample positions
- * (crisp_raster_sample_offset), so every sample is tested exactly as the CPU backend tests it,
+ * (crisp__raster_sample_offset), so every sample is tested exactly as the CPU backend tests it,
  * on any GL implementation; the passes are resolved as the CPU backend resolves them. f-rep
  * parts are not drawn by this backend: composite them into the read-back image with
  * crisp_render_frep_parts (the CPU path), as `crisp render --backend gl` does.

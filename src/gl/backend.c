@@ -468,7 +468,7 @@ static crisp_status ensure_targets(crisp_gl *gl, int w, int h)
 
 /* ---- drawing ---------------------------------------------------------------------------------- */
 
-/* The CPU backend's sample positions in a pixel (x right, y down): crisp_raster_sample_offset. */
+/* The CPU backend's sample positions in a pixel (x right, y down): crisp__raster_sample_offset. */
 static void sample_offset(int samples, int s, double dest[2])
 {
     static const double rot4[4][2] = {{0.375, 0.125}, {0.875, 0.375}, {0.125, 0.625}, {0.625, 0.875}};

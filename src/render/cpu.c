@@ -50,7 +50,7 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
     if (!st)
         st = crisp_planner_create(&(crisp_planner_desc){.eps_px = r->desc.eps_px, .strip_count = r->desc.strip_count},
                                   r->pool, &r->planner);
-    if (!st) st = crisp_raster_create(&r->raster);
+    if (!st) st = crisp__raster_create(&r->raster);
     if (!st) {
         r->workers = crisp_pool_threads(r->pool);
         r->st = calloc((size_t)r->workers, sizeof *r->st);
@@ -75,8 +75,8 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->st);
     crisp_planner_destroy(r->planner);
     crisp_pool_destroy(r->pool);
-    crisp_raster_destroy(r->raster);
-    crisp_raster_target_free(&r->target);
+    crisp__raster_destroy(r->raster);
+    crisp__raster_target_free(&r->target);
     free(r->leaf_vbase);
     free(r->leaf_tbase);
     free(r->verts);
@@ -319,7 +319,7 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
                 covered++;
                 if (t->inv_w[idx] > best_iw) best_iw = t->inv_w[idx], best = s;
                 double off[2], d[3], n[3];
-                crisp_raster_sample_offset(S, s, off);
+                crisp__raster_sample_offset(S, s, off);
                 double nx = (i + off[0] - 0.5 * cam->width) * kx, ny = (0.5 * cam->height - j - off[1]) * ky;
                 for (int k = 0; k < 3; k++) d[k] = f[k] + nx * r[k] + ny * u[k];
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
@@ -377,7 +377,7 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
         return st;
     if ((st = crisp_grow((void **)&r->leaf_skip, &r->leaf_skip_cap, jobs ? jobs : 1, sizeof *r->leaf_skip))) return st;
     skip_ctx skc = {.r = r, .sc = sc, .samples = r->desc.samples};
-    for (int s = 0; s < r->desc.samples; s++) crisp_raster_sample_offset(r->desc.samples, s, skc.off[s]);
+    for (int s = 0; s < r->desc.samples; s++) crisp__raster_sample_offset(r->desc.samples, s, skc.off[s]);
     crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
     for (size_t j = 0; j < jobs; j++) {
         crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
@@ -409,8 +409,8 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
     crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
     double t1 = crisp_time_now();
 
-    if ((st = crisp_raster_target_init(&r->target, cam->width, cam->height, r->desc.samples))) return st;
-    crisp_raster_target_clear(&r->target);
+    if ((st = crisp__raster_target_init(&r->target, cam->width, cam->height, r->desc.samples))) return st;
+    crisp__raster_target_clear(&r->target);
     crisp_raster_stats rs;
     /* Surfaces first; then the ribbons fill gaps: a ribbon sample replaces a surface sample only
      * when nearer by more than that surface's depth change over 1.5 px, so a ribbon along an
@@ -422,17 +422,17 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
         return st;
     for (uint32_t f = 0; f < plan->face_count; f++)
         r->untested[f] = (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE) != 0;
-    crisp_raster_set_untested_faces(r->raster, r->untested, plan->face_count);
-    st = crisp_raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t, trim_test, ctx, &rs);
+    crisp__raster_set_untested_faces(r->raster, r->untested, plan->face_count);
+    st = crisp__raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t, trim_test, ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {
         size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
         crisp_raster_view view;
         raster_view(cam, &view);
-        crisp_raster_depth_slack(&r->target, r->pool, 1.5, &view, r->slack);
+        crisp__raster_depth_slack(&r->target, r->pool, 1.5, &view, r->slack);
         crisp_raster_stats rs2;
-        st = crisp_raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv, r->tris + surface_t,
+        st = crisp__raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv, r->tris + surface_t,
                                     nt - surface_t, trim_test, ctx, r->slack, &rs2);
         if (st) return st;
         rs.fragments_tested += rs2.fragments_tested;

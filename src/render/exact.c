@@ -454,7 +454,8 @@ crisp_status crisp_render_exact(const crisp_scene *sc, const crisp_camera *cam,
                            img->width, img->height, cam->width, cam->height);
     crisp_pool *pool = NULL;
     int threads = desc && desc->threads > 0 ? desc->threads : crisp_pool_default_threads();
-    if ((st = crisp_pool_create(threads, &pool))) return st;
+    if ((st = crisp_pool_get(threads, &pool))) return st; /* kept by crisp: no threads per call */
+    threads = crisp_pool_threads(pool);
     bvh b = {0};
     scratch *scr = crisp_malloc_array((size_t)threads, sizeof *scr);
     if (!scr) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for ray-casting scratch");
@@ -466,6 +467,5 @@ crisp_status crisp_render_exact(const crisp_scene *sc, const crisp_camera *cam,
     }
     bvh_free(&b);
     free(scr);
-    crisp_pool_destroy(pool);
     return st;
 }

@@ -516,13 +516,10 @@ crisp_status crisp_render_frep_parts(const crisp_frep_part *parts, size_t count,
     size_t tiles = (size_t)c.tiles_x * (size_t)((cam->height + TILE - 1) / TILE);
     crisp_pool *pool = NULL;
     int threads = desc && desc->threads > 0 ? desc->threads : crisp_pool_default_threads();
-    if ((st = crisp_pool_create(threads, &pool))) return st;
+    if ((st = crisp_pool_get(threads, &pool))) return st; /* kept by crisp: no threads per call */
     threads = crisp_pool_threads(pool);
     c.workers = crisp_calloc_array((size_t)threads, sizeof *c.workers);
-    if (!c.workers) {
-        crisp_pool_destroy(pool);
-        return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_render_frep_parts: out of memory");
-    }
+    if (!c.workers) return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_render_frep_parts: out of memory");
     for (size_t k = 0; k < count && !st; k++) {
         part_view pv;
         if ((st = part_view_init(&parts[k], k, cam, &c, &pv))) break;
@@ -551,6 +548,5 @@ crisp_status crisp_render_frep_parts(const crisp_frep_part *parts, size_t count,
         }
     }
     crisp_free(c.workers);
-    crisp_pool_destroy(pool);
     return st;
 }

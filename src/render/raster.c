@@ -38,28 +38,28 @@ struct crisp_raster {
     size_t bin_cap;
     uint32_t *bin_start; /* per tile, tile_count + 1 */
     size_t bin_start_cap;
-    int no_hiz; /* hierarchical depth rejection off (crisp_raster_set_hiz) */
-    const uint8_t *untested; /* per face (crisp_raster_set_untested_faces) */
+    int no_hiz; /* hierarchical depth rejection off (crisp__raster_set_hiz) */
+    const uint8_t *untested; /* per face (crisp__raster_set_untested_faces) */
     size_t untested_count;
 };
 
-void crisp_raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count)
+void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count)
 {
     r->untested = untested;
     r->untested_count = untested ? count : 0;
 }
 
-void crisp_raster_set_hiz(crisp_raster *r, int on)
+void crisp__raster_set_hiz(crisp_raster *r, int on)
 {
     r->no_hiz = !on;
 }
 
-void crisp_raster_set_batch(crisp_raster *r, size_t triangles)
+void crisp__raster_set_batch(crisp_raster *r, size_t triangles)
 {
     r->batch = triangles;
 }
 
-crisp_status crisp_raster_create(crisp_raster **dest)
+crisp_status crisp__raster_create(crisp_raster **dest)
 {
     crisp_raster *r = calloc(1, sizeof *r);
     if (!r) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the rasterizer");
@@ -67,7 +67,7 @@ crisp_status crisp_raster_create(crisp_raster **dest)
     return CRISP_OK;
 }
 
-void crisp_raster_destroy(crisp_raster *r)
+void crisp__raster_destroy(crisp_raster *r)
 {
     if (!r) return;
     for (int ch = 0; ch < CHUNKS; ch++) free(r->chunk_tris[ch]);
@@ -77,7 +77,7 @@ void crisp_raster_destroy(crisp_raster *r)
     free(r);
 }
 
-crisp_status crisp_raster_target_init(crisp_raster_target *t, int width, int height, int samples)
+crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int height, int samples)
 {
     if (width <= 0 || height <= 0 || width > 65536 || height > 65536)
         return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected 1..65536", width, height);
@@ -90,12 +90,12 @@ crisp_status crisp_raster_target_init(crisp_raster_target *t, int width, int hei
         t->samples = samples;
         return CRISP_OK;
     }
-    crisp_raster_target_free(t);
+    crisp__raster_target_free(t);
     t->inv_w = crisp_malloc_array(n, sizeof *t->inv_w);
     t->attr = crisp_malloc_array(n, CRISP_RASTER_ATTRS * sizeof *t->attr);
     t->face = crisp_malloc_array(n, sizeof *t->face);
     if (!t->inv_w || !t->attr || !t->face) {
-        crisp_raster_target_free(t);
+        crisp__raster_target_free(t);
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for a %dx%d image with %d samples",
                            width, height, samples);
     }
@@ -105,7 +105,7 @@ crisp_status crisp_raster_target_init(crisp_raster_target *t, int width, int hei
     return CRISP_OK;
 }
 
-void crisp_raster_target_free(crisp_raster_target *t)
+void crisp__raster_target_free(crisp_raster_target *t)
 {
     free(t->inv_w);
     free(t->attr);
@@ -113,7 +113,7 @@ void crisp_raster_target_free(crisp_raster_target *t)
     memset(t, 0, sizeof *t);
 }
 
-void crisp_raster_target_clear(crisp_raster_target *t)
+void crisp__raster_target_clear(crisp_raster_target *t)
 {
     size_t n = (size_t)t->width * t->height * t->samples;
     memset(t->inv_w, 0, n * sizeof *t->inv_w);
@@ -121,7 +121,7 @@ void crisp_raster_target_clear(crisp_raster_target *t)
     memset(t->face, 0xff, n * sizeof *t->face);
 }
 
-void crisp_raster_sample_offset(int samples, int s, double dest[2])
+void crisp__raster_sample_offset(int samples, int s, double dest[2])
 {
     /* 4: rotated grid; 16: a regular 4x4 grid. */
     static const double rot4[4][2] = {{0.375, 0.125}, {0.875, 0.375}, {0.125, 0.625}, {0.625, 0.875}};
@@ -355,7 +355,7 @@ typedef struct {
     void *test_ctx;
     int64_t off_fx[16], off_fy[16];
     double off_x[16], off_y[16];
-    const float *slack; /* fill mode (crisp_raster_draw_fill) when not NULL */
+    const float *slack; /* fill mode (crisp__raster_draw_fill) when not NULL */
     int hiz;            /* hierarchical depth rejection on */
     atomic_size_t tested, discarded, untested, blocks_skipped;
 } raster_ctx;
@@ -577,7 +577,7 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
-void crisp_raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
+void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
                               const crisp_raster_view *view, float *slack)
 {
     slack_ctx c = {t, view, scale, slack};
@@ -589,7 +589,7 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                          size_t tri_count, crisp_raster_test_fn test, void *test_ctx, const float *slack,
                          crisp_raster_stats *stats);
 
-crisp_status crisp_raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+crisp_status crisp__raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                                const crisp_raster_vertex *verts, size_t vert_count,
                                const crisp_raster_tri *tris, size_t tri_count,
                                crisp_raster_test_fn test, void *test_ctx,
@@ -598,7 +598,7 @@ crisp_status crisp_raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_po
     return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, NULL, stats);
 }
 
-crisp_status crisp_raster_draw_fill(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+crisp_status crisp__raster_draw_fill(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                                     const crisp_raster_vertex *verts, size_t vert_count,
                                     const crisp_raster_tri *tris, size_t tri_count,
                                     crisp_raster_test_fn test, void *test_ctx, const float *slack,
@@ -631,7 +631,7 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                      .hiz = !r->no_hiz};
     for (int s = 0; s < t->samples; s++) {
         double off[2];
-        crisp_raster_sample_offset(t->samples, s, off);
+        crisp__raster_sample_offset(t->samples, s, off);
         rc.off_x[s] = off[0];
         rc.off_y[s] = off[1];
         rc.off_fx[s] = llround(off[0] * SUB);

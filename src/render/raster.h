@@ -30,7 +30,7 @@ typedef struct crisp_raster_vertex {
 /* Bit 30: the fragment test is not run for this triangle's fragments (they are kept), nor stored.
  * The hook for the trim test, per triangle: a backend sets it on triangles of a leaf whose every
  * point lies inside the trim (trim strips fully inside); per face, see
- * crisp_raster_set_untested_faces. */
+ * crisp__raster_set_untested_faces. */
 #define CRISP_RASTER_FACE_NO_TEST 0x40000000u
 
 typedef struct crisp_raster_tri {
@@ -51,16 +51,16 @@ typedef struct crisp_raster_target {
 
 typedef struct crisp_raster crisp_raster; /* reusable scratch (setup, bins) */
 
-crisp_status crisp_raster_create(crisp_raster **dest);
-void crisp_raster_destroy(crisp_raster *r);
+crisp_status crisp__raster_create(crisp_raster **dest);
+void crisp__raster_destroy(crisp_raster *r);
 
 /* samples: 1, 4 or 16. Reuses the target's buffers when the size is unchanged. */
-crisp_status crisp_raster_target_init(crisp_raster_target *t, int width, int height, int samples);
-void crisp_raster_target_free(crisp_raster_target *t);
-void crisp_raster_target_clear(crisp_raster_target *t);
+crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int height, int samples);
+void crisp__raster_target_free(crisp_raster_target *t);
+void crisp__raster_target_clear(crisp_raster_target *t);
 
 /* Offsets of the samples inside a pixel, in [0, 1)^2 (x right, y down). */
-void crisp_raster_sample_offset(int samples, int s, double dest[2]);
+void crisp__raster_sample_offset(int samples, int s, double dest[2]);
 
 typedef struct crisp_raster_stats {
     size_t triangles_in, triangles_setup, fragments_tested, fragments_discarded;
@@ -70,26 +70,26 @@ typedef struct crisp_raster_stats {
 
 /* Hierarchical depth rejection (on by default; off only to measure it or to check that the
  * result does not depend on it). */
-void crisp_raster_set_hiz(crisp_raster *r, int on);
+void crisp__raster_set_hiz(crisp_raster *r, int on);
 /* Faces whose fragments skip the fragment test (kept as if it said 1): untested[f] != 0 for face
  * f < count (a face without trim loops: CRISP_PLAN_FACE_ALL_INSIDE). The array is read by later
  * draws until it is set again; NULL: every face is tested. */
-void crisp_raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count);
+void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count);
 /* Triangles set up and binned at a time (0: the default, 2^19); small values are for tests. */
-void crisp_raster_set_batch(crisp_raster *r, size_t triangles);
+void crisp__raster_set_batch(crisp_raster *r, size_t triangles);
 
 /* Draw triangles into the target (depth test: nearer = larger 1/W wins; ties keep the earlier
  * triangle). test may be NULL (keep all). pool may be NULL (one thread). */
-crisp_status crisp_raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+crisp_status crisp__raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                                const crisp_raster_vertex *verts, size_t vert_count,
                                const crisp_raster_tri *tris, size_t tri_count,
                                crisp_raster_test_fn test, void *test_ctx,
                                crisp_raster_stats *stats);
 
-/* As crisp_raster_draw, but a fragment replaces a drawn sample only when it is nearer by more
+/* As crisp__raster_draw, but a fragment replaces a drawn sample only when it is nearer by more
  * than slack[sample] in W (camera depth); empty samples take any fragment. For gap fillers (the
  * CPU backend's trim ribbons) that must not show through surfaces near their own depth. */
-crisp_status crisp_raster_draw_fill(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+crisp_status crisp__raster_draw_fill(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                                     const crisp_raster_vertex *verts, size_t vert_count,
                                     const crisp_raster_tri *tris, size_t tri_count,
                                     crisp_raster_test_fn test, void *test_ctx, const float *slack,
@@ -106,7 +106,7 @@ typedef struct crisp_raster_view {
  * same sample of the four neighbouring pixels where they show the same face, seen from the same
  * side (the sign of normal . view direction; view may be NULL: not compared) (0 for empty
  * samples): how far a surface's depth moves over one pixel at that sample. pool may be NULL. */
-void crisp_raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
+void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
                               const crisp_raster_view *view, float *slack);
 
 #endif

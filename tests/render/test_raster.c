@@ -80,14 +80,14 @@ static void test_watertight(void **state)
             }
         }
     crisp_raster *r;
-    assert_int_equal(crisp_raster_create(&r), CRISP_OK);
+    assert_int_equal(crisp__raster_create(&r), CRISP_OK);
     crisp_raster_target t = {0};
-    assert_int_equal(crisp_raster_target_init(&t, W, H, 1), CRISP_OK);
-    crisp_raster_target_clear(&t);
+    assert_int_equal(crisp__raster_target_init(&t, W, H, 1), CRISP_OK);
+    crisp__raster_target_clear(&t);
     static int count[W * H];
     memset(count, 0, sizeof count);
     count_ctx cc = {W, H, count};
-    assert_int_equal(crisp_raster_draw(r, &t, NULL, verts, (N + 1) * (N + 1), tris, nt,
+    assert_int_equal(crisp__raster_draw(r, &t, NULL, verts, (N + 1) * (N + 1), tris, nt,
                                        count_and_discard, &cc, NULL),
                      CRISP_OK);
     /* Pixels whose centre is well inside the outline are covered exactly once. */
@@ -102,8 +102,8 @@ static void test_watertight(void **state)
             if (x < 10 || x > 188 || y < 5 || y > 142) assert_int_equal(count[j * W + i], 0);
         }
     assert_true(inside > 20000);
-    crisp_raster_target_free(&t);
-    crisp_raster_destroy(r);
+    crisp__raster_target_free(&t);
+    crisp__raster_destroy(r);
 }
 
 /* A quad on the plane y = -1 (u along x, v along z) rendered through a camera; compare the
@@ -125,11 +125,11 @@ static int check_plane(const crisp_camera *cam, crisp_pool *pool, double half, d
     }
     crisp_raster_tri tris[2] = {{{0, 1, 2}, 7}, {{0, 2, 3}, 7}};
     crisp_raster *r;
-    crisp_raster_create(&r);
+    crisp__raster_create(&r);
     crisp_raster_target t = {0};
-    crisp_raster_target_init(&t, cam->width, cam->height, 1);
-    crisp_raster_target_clear(&t);
-    crisp_raster_draw(r, &t, pool, verts, 4, tris, 2, NULL, NULL, NULL);
+    crisp__raster_target_init(&t, cam->width, cam->height, 1);
+    crisp__raster_target_clear(&t);
+    crisp__raster_draw(r, &t, pool, verts, 4, tris, 2, NULL, NULL, NULL);
     /* The analytic coverage: ray hits the plane inside the quad, between near and far. */
     int W = cam->width, H = cam->height;
     char *cover = calloc((size_t)W * H, 1);
@@ -174,8 +174,8 @@ static int check_plane(const crisp_camera *cam, crisp_pool *pool, double half, d
         }
     free(cover);
     free(hu);
-    crisp_raster_target_free(&t);
-    crisp_raster_destroy(r);
+    crisp__raster_target_free(&t);
+    crisp__raster_destroy(r);
     return checked;
 }
 
@@ -235,43 +235,43 @@ static void test_threads_identical(void **state)
     }
     crisp_raster_target t1 = {0}, t3 = {0};
     crisp_raster *r;
-    crisp_raster_create(&r);
+    crisp__raster_create(&r);
     crisp_pool *pool;
     assert_int_equal(crisp_pool_create(3, &pool), CRISP_OK);
-    crisp_raster_target_init(&t1, W, H, 4);
-    crisp_raster_target_init(&t3, W, H, 4);
-    crisp_raster_target_clear(&t1);
-    crisp_raster_target_clear(&t3);
-    crisp_raster_draw(r, &t1, NULL, verts, NT * 3, tris, NT, NULL, NULL, NULL);
+    crisp__raster_target_init(&t1, W, H, 4);
+    crisp__raster_target_init(&t3, W, H, 4);
+    crisp__raster_target_clear(&t1);
+    crisp__raster_target_clear(&t3);
+    crisp__raster_draw(r, &t1, NULL, verts, NT * 3, tris, NT, NULL, NULL, NULL);
     crisp_raster_stats st;
-    crisp_raster_draw(r, &t3, pool, verts, NT * 3, tris, NT, NULL, NULL, &st);
+    crisp__raster_draw(r, &t3, pool, verts, NT * 3, tris, NT, NULL, NULL, &st);
     assert_true(st.triangles_setup < NT && st.triangles_setup > NT / 2);
     size_t n = (size_t)W * H * 4;
     assert_memory_equal(t1.face, t3.face, n * sizeof *t1.face);
     assert_memory_equal(t1.inv_w, t3.inv_w, n * sizeof *t1.inv_w);
     crisp_pool_destroy(pool);
-    crisp_raster_target_free(&t1);
-    crisp_raster_target_free(&t3);
-    crisp_raster_destroy(r);
+    crisp__raster_target_free(&t1);
+    crisp__raster_target_free(&t3);
+    crisp__raster_destroy(r);
 }
 
 static void test_bad_input(void **state)
 {
     (void)state;
     crisp_raster *r;
-    crisp_raster_create(&r);
+    crisp__raster_create(&r);
     crisp_raster_target t = {0};
-    assert_int_equal(crisp_raster_target_init(&t, 10, 10, 3), CRISP_ERR_INVALID_ARG);
-    assert_int_equal(crisp_raster_target_init(&t, 0, 10, 1), CRISP_ERR_INVALID_ARG);
-    assert_int_equal(crisp_raster_target_init(&t, 10, 10, 1), CRISP_OK);
-    crisp_raster_target_clear(&t);
+    assert_int_equal(crisp__raster_target_init(&t, 10, 10, 3), CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp__raster_target_init(&t, 0, 10, 1), CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp__raster_target_init(&t, 10, 10, 1), CRISP_OK);
+    crisp__raster_target_clear(&t);
     crisp_raster_vertex v[3] = {{{NAN, 0, 0, 1}, {0}}, {{1, 0, 0, 1}, {0}}, {{0, 1, 0, INFINITY}, {0}}};
     crisp_raster_tri tri = {{0, 1, 2}, 0}, bad = {{0, 1, 5}, 0};
-    assert_int_equal(crisp_raster_draw(r, &t, NULL, v, 3, &tri, 1, NULL, NULL, NULL), CRISP_OK);
+    assert_int_equal(crisp__raster_draw(r, &t, NULL, v, 3, &tri, 1, NULL, NULL, NULL), CRISP_OK);
     for (int i = 0; i < 100; i++) assert_int_equal(t.face[i], -1);
-    assert_int_equal(crisp_raster_draw(r, &t, NULL, v, 3, &bad, 1, NULL, NULL, NULL), CRISP_ERR_INVALID_ARG);
-    crisp_raster_target_free(&t);
-    crisp_raster_destroy(r);
+    assert_int_equal(crisp__raster_draw(r, &t, NULL, v, 3, &bad, 1, NULL, NULL, NULL), CRISP_ERR_INVALID_ARG);
+    crisp__raster_target_free(&t);
+    crisp__raster_destroy(r);
 }
 
 static void test_camera(void **state)

@@ -1,7 +1,7 @@
 /* Tests for the rasterizer's fast paths (issue 12): hierarchical depth rejection and batching do
  * not change a single output bit on overlapping random triangles (1 and 4 samples, near-plane
  * crossings, a fragment test that discards some fragments, fill mode), and triangles marked
- * CRISP_RASTER_FACE_NO_TEST, or of faces marked by crisp_raster_set_untested_faces, skip the
+ * CRISP_RASTER_FACE_NO_TEST, or of faces marked by crisp__raster_set_untested_faces, skip the
  * fragment test but otherwise draw exactly as with a test that keeps everything. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -67,7 +67,7 @@ static int keep_all(void *vctx, uint32_t face, double u, double v)
     return 1;
 }
 
-static const uint8_t *untested_faces; /* crisp_raster_set_untested_faces for render() */
+static const uint8_t *untested_faces; /* crisp__raster_set_untested_faces for render() */
 
 static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn, const float *slack,
                    crisp_raster_target *t, test_ctx *tc, crisp_raster_stats *stats)
@@ -79,23 +79,23 @@ static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_r
     if (flag_no_test)
         for (int i = 0; i < NT; i++) tri[i].face |= CRISP_RASTER_FACE_NO_TEST;
     crisp_raster *r;
-    assert_int_equal(crisp_raster_create(&r), CRISP_OK);
-    crisp_raster_set_hiz(r, hiz);
-    crisp_raster_set_batch(r, batch);
-    crisp_raster_set_untested_faces(r, untested_faces, 7);
-    assert_int_equal(crisp_raster_target_init(t, W, H, samples), CRISP_OK);
-    crisp_raster_target_clear(t);
+    assert_int_equal(crisp__raster_create(&r), CRISP_OK);
+    crisp__raster_set_hiz(r, hiz);
+    crisp__raster_set_batch(r, batch);
+    crisp__raster_set_untested_faces(r, untested_faces, 7);
+    assert_int_equal(crisp__raster_target_init(t, W, H, samples), CRISP_OK);
+    crisp__raster_target_clear(t);
     crisp_pool *pool;
     assert_int_equal(crisp_pool_create(2, &pool), CRISP_OK);
     /* Half first, then the rest on top (a second draw into a target that holds depth). */
-    assert_int_equal(crisp_raster_draw(r, t, pool, v, 3 * NT, tri, NT / 2, fn, tc, stats), CRISP_OK);
+    assert_int_equal(crisp__raster_draw(r, t, pool, v, 3 * NT, tri, NT / 2, fn, tc, stats), CRISP_OK);
     if (slack)
-        assert_int_equal(crisp_raster_draw_fill(r, t, pool, v, 3 * NT, tri + NT / 2, NT - NT / 2, fn, tc, slack, stats),
+        assert_int_equal(crisp__raster_draw_fill(r, t, pool, v, 3 * NT, tri + NT / 2, NT - NT / 2, fn, tc, slack, stats),
                          CRISP_OK);
     else
-        assert_int_equal(crisp_raster_draw(r, t, pool, v, 3 * NT, tri + NT / 2, NT - NT / 2, fn, tc, stats), CRISP_OK);
+        assert_int_equal(crisp__raster_draw(r, t, pool, v, 3 * NT, tri + NT / 2, NT - NT / 2, fn, tc, stats), CRISP_OK);
     crisp_pool_destroy(pool);
-    crisp_raster_destroy(r);
+    crisp__raster_destroy(r);
 }
 
 static void assert_same(const crisp_raster_target *a, const crisp_raster_target *b)
@@ -124,9 +124,9 @@ static void test_hiz_and_batches_change_nothing(void **state)
             assert_same(&ref, &a);
             render(samples, 1, 37, 0, some_test, fill ? slack : NULL, &b, &tc, &st);
             assert_same(&ref, &b);
-            crisp_raster_target_free(&ref);
-            crisp_raster_target_free(&a);
-            crisp_raster_target_free(&b);
+            crisp__raster_target_free(&ref);
+            crisp__raster_target_free(&a);
+            crisp__raster_target_free(&b);
         }
     /* The depth bound does reject blocks on this soup, and hidden fragments are not tested. */
     crisp_raster_target a = {0}, b = {0};
@@ -136,8 +136,8 @@ static void test_hiz_and_batches_change_nothing(void **state)
     render(1, 0, 0, 0, some_test, NULL, &b, &off, &st_off);
     assert_true(st_on.blocks_skipped > 0);
     assert_true(on.calls <= off.calls);
-    crisp_raster_target_free(&a);
-    crisp_raster_target_free(&b);
+    crisp__raster_target_free(&a);
+    crisp__raster_target_free(&b);
 }
 
 static void test_no_test_flag(void **state)
@@ -162,16 +162,16 @@ static void test_no_test_flag(void **state)
     render(4, 1, 0, 0, keep_all, NULL, &c, &tcc, &sc);
     assert_int_equal(tcc.calls, 0);
     assert_same(&a, &c);
-    crisp_raster_target_free(&c);
+    crisp__raster_target_free(&c);
     test_ctx t3 = {0};
     untested_faces = three;
     render(4, 1, 0, 0, keep_all, NULL, &c, &t3, &sc);
     assert_true(t3.calls > 0 && t3.calls < ta.calls);
     assert_same(&a, &c);
     untested_faces = NULL;
-    crisp_raster_target_free(&c);
-    crisp_raster_target_free(&a);
-    crisp_raster_target_free(&b);
+    crisp__raster_target_free(&c);
+    crisp__raster_target_free(&a);
+    crisp__raster_target_free(&b);
 }
 
 int main(void)

@@ -345,7 +345,7 @@ static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, co
             assert_true(isfinite(cpu.rgba[4 * px + 3]));
             for (int q = 0; q < samples; q++) {
                 double off[2];
-                crisp_raster_sample_offset(samples, q, off);
+                crisp__raster_sample_offset(samples, q, off);
                 int want;
                 if (samples == 1) {
                     want = ex.face[px] >= 0;
