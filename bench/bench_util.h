@@ -30,7 +30,8 @@ static inline void bench_print_machine(FILE *out)
     time_t now = time(NULL);
     char date[32];
     strftime(date, sizeof date, "%Y-%m-%d", gmtime(&now));
-    fprintf(out, "machine: %s, %ld cores online, date %s\n", model, sysconf(_SC_NPROCESSORS_ONLN), date);
+    fprintf(out, "machine: %s, %ld cores online, date %s\n", model, sysconf(_SC_NPROCESSORS_ONLN),
+            date);
 }
 
 static int bench_cmp_double(const void *a, const void *b)

@@ -25,7 +25,8 @@ typedef struct result {
     size_t inside;
 } result;
 
-static int run(const char *model, int size, int depth, int threads, unsigned flags, int runs, result *res)
+static int run(const char *model, int size, int depth, int threads, unsigned flags, int runs,
+               result *res)
 {
     char path[512];
     snprintf(path, sizeof path, "%s/frep/%s.vm", CRISP_DATA_DIR, model);
@@ -34,7 +35,8 @@ static int run(const char *model, int size, int depth, int threads, unsigned fla
     crisp_frep *f = NULL;
     crisp_frep_tape *t = NULL;
     crisp_frep_renderer *r = NULL;
-    crisp_frep_render_desc d = {.width = size, .height = size, .depth = depth, .threads = threads, .flags = flags};
+    crisp_frep_render_desc d = {
+        .width = size, .height = size, .depth = depth, .threads = threads, .flags = flags};
     for (int n = 0; n < 5; n++) {
         crisp_frep_renderer_destroy(r);
         crisp_frep_tape_destroy(t);
@@ -56,7 +58,8 @@ static int run(const char *model, int size, int depth, int threads, unsigned fla
     }
     const crisp_frep_image *img = crisp_frep_renderer_image(r);
     res->inside = 0;
-    for (size_t p = 0; p < (size_t)size * size; p++) res->inside += img->inside[p] != 0;
+    for (size_t p = 0; p < (size_t)size * size; p++)
+        res->inside += img->inside[p] != 0;
     res->setup_ms = 1000 * bench_median(setup, 5);
     res->render_ms = 1000 * bench_median(wall, runs);
     res->render_min_ms = 1000 * wall[0];
@@ -67,19 +70,22 @@ static int run(const char *model, int size, int depth, int threads, unsigned fla
     return 0;
 }
 
-static void row(const char *label, const char *model, int size, int depth, int threads, unsigned flags,
-                int runs, double *base)
+static void row(const char *label, const char *model, int size, int depth, int threads,
+                unsigned flags, int runs, double *base)
 {
     result res;
     if (run(model, size, depth, threads, flags, runs, &res)) return;
     char dims[32];
-    if (depth) snprintf(dims, sizeof dims, "%dx%dx%d", size, size, depth);
-    else snprintf(dims, sizeof dims, "%dx%d", size, size);
+    if (depth)
+        snprintf(dims, sizeof dims, "%dx%dx%d", size, size, depth);
+    else
+        snprintf(dims, sizeof dims, "%dx%d", size, size);
     double ratio = base && *base > 0 ? res.render_ms / *base : 1;
     if (base && *base <= 0) *base = res.render_ms;
-    printf("| %-26s | %-10s | %-12s | %7d | %4d | %10.2f | %9.2f | %9.2f | %8.2f | %6.2fx | %8zu |\n", label,
-           model, dims, threads, runs, res.render_ms, res.render_min_ms, res.cpu_ms, res.setup_ms, ratio,
-           res.inside);
+    printf(
+        "| %-26s | %-10s | %-12s | %7d | %4d | %10.2f | %9.2f | %9.2f | %8.2f | %6.2fx | %8zu |\n",
+        label, model, dims, threads, runs, res.render_ms, res.render_min_ms, res.cpu_ms,
+        res.setup_ms, ratio, res.inside);
     fflush(stdout);
 }
 
@@ -94,9 +100,11 @@ int main(int argc, char **argv)
         if (fscanf(la, "%lf %lf %lf", &load[0], &load[1], &load[2]) != 3) load[0] = -1;
         fclose(la);
     }
-    printf("load average at start: %.2f %.2f %.2f (other processes share the cores: wall times are noisy)\n\n",
+    printf("load average at start: %.2f %.2f %.2f (other processes share the cores: wall times are "
+           "noisy)\n\n",
            load[0], load[1], load[2]);
-    printf("| case | model | size | threads | runs | median ms | min ms | CPU ms | set-up ms | vs full | inside px |\n");
+    printf("| case | model | size | threads | runs | median ms | min ms | CPU ms | set-up ms | vs "
+           "full | inside px |\n");
     printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
     double b;
     b = 0, row("full", "prospero", 1024, 0, 2, 0, R, &b);
@@ -111,7 +119,8 @@ int main(int argc, char **argv)
     }
     b = 0, row("full", "bear", 512, 512, 2, 0, quick ? 3 : 10, &b);
     row("1 thread", "bear", 512, 512, 1, 0, quick ? 3 : 10, &b);
-    row("no batched sub-cell intervals", "bear", 512, 512, 2, CRISP_FREP_NO_SUBCELLS, quick ? 3 : 10, &b);
+    row("no batched sub-cell intervals", "bear", 512, 512, 2, CRISP_FREP_NO_SUBCELLS,
+        quick ? 3 : 10, &b);
     b = 0, row("full", "bear", 256, 256, 2, 0, R, &b);
     row("1 thread", "bear", 256, 256, 1, 0, R, &b);
     row("no tape shortening", "bear", 256, 256, 2, CRISP_FREP_NO_PRUNE, R, &b);

@@ -46,9 +46,11 @@ static double rss_mb(void)
 
 static void bench_mesh(int maxres)
 {
-    printf("\nmesh (counting sink): model, resolution, triangles, time, s per M triangles, mesher peak MB, "
+    printf("\nmesh (counting sink): model, resolution, triangles, time, s per M triangles, mesher "
+           "peak MB, "
            "process peak RSS MB\n");
-    printf("| model | resolution | triangles | time s | s / M tri | mesher peak MB | RSS MB |\n|---|---:|---:|---:|---:|---:|---:|\n");
+    printf("| model | resolution | triangles | time s | s / M tri | mesher peak MB | RSS MB "
+           "|\n|---|---:|---:|---:|---:|---:|---:|\n");
     const char *models[2] = {"bear", "prospero"};
     for (int m = 0; m < 2; m++) {
         crisp_frep *f;
@@ -67,8 +69,8 @@ static void bench_mesh(int maxres)
                 exit(1);
             }
             double dt = crisp_time_now() - t0;
-            printf("| %s | %d | %zu | %.2f | %.2f | %.1f | %.1f |\n", models[m], res, st.triangles, dt,
-                   dt / (st.triangles / 1e6), st.peak_bytes / 1e6, rss_mb());
+            printf("| %s | %d | %zu | %.2f | %.2f | %.1f | %.1f |\n", models[m], res, st.triangles,
+                   dt, dt / (st.triangles / 1e6), st.peak_bytes / 1e6, rss_mb());
             fflush(stdout);
         }
         crisp_frep_tape_destroy(t);
@@ -78,9 +80,11 @@ static void bench_mesh(int maxres)
 
 static void bench_mass(void)
 {
-    printf("\nmass: levels 3..6 measured, levels 7 and 8 predicted (crisp_frep_mass_predict from levels 4..6) "
+    printf("\nmass: levels 3..6 measured, levels 7 and 8 predicted (crisp_frep_mass_predict from "
+           "levels 4..6) "
            "and measured\n");
-    printf("| model | level | predicted CPU s | measured CPU s | ratio | predicted SE | measured SE | ratio |\n"
+    printf("| model | level | predicted CPU s | measured CPU s | ratio | predicted SE | measured "
+           "SE | ratio |\n"
            "|---|---:|---:|---:|---:|---:|---:|---:|\n");
     const char *models[3] = {"bear", "tanglecube", "colonnade"};
     for (int m = 0; m < 3; m++) {
@@ -97,15 +101,20 @@ static void bench_mass(void)
         crisp_error_clear();
         for (int L = 3; L <= 8; L++) {
             d.level = L;
-            crisp_frep_mass_level(t, &d, &lv[L]); /* the colonnade is cut by its region: reported, measured */
+            crisp_frep_mass_level(
+                t, &d, &lv[L]); /* the colonnade is cut by its region: reported, measured */
         }
         for (int L = 7; L <= 8; L++) {
             double pt, pe;
             crisp_frep_mass_predict(&lv[4], 3, L, &pt, &pe);
-            printf("| %s | %d | %.3f | %.3f | %.2f | %.3g | %.3g | %.2f |\n", models[m], L, pt, lv[L].cpu_seconds,
-                   lv[L].cpu_seconds / pt, pe, lv[L].volume_se, lv[L].volume_se / pe);
+            printf("| %s | %d | %.3f | %.3f | %.2f | %.3g | %.3g | %.2f |\n", models[m], L, pt,
+                   lv[L].cpu_seconds, lv[L].cpu_seconds / pt, pe, lv[L].volume_se,
+                   lv[L].volume_se / pe);
             if (getenv("MASSDBG"))
-                for (int q = 3; q <= 8; q++) fprintf(stderr, "  L%d cells %zu inside %zu intervals %zu cpu %.4f\n", q, lv[q].boundary_cells, lv[q].inside_cells, lv[q].intervals, lv[q].cpu_seconds);
+                for (int q = 3; q <= 8; q++)
+                    fprintf(stderr, "  L%d cells %zu inside %zu intervals %zu cpu %.4f\n", q,
+                            lv[q].boundary_cells, lv[q].inside_cells, lv[q].intervals,
+                            lv[q].cpu_seconds);
         }
         fflush(stdout);
         crisp_frep_tape_destroy(t);

@@ -44,7 +44,8 @@ static int frame(const scene_case *sc, int threads, int no_shorten, int runs, do
     cam.fov_deg = sc->fov;
     if (sc->eye[0] || sc->eye[1] || sc->eye[2]) {
         memcpy(cam.eye, sc->eye, sizeof cam.eye);
-        cam.zfar = 4 * sqrt(sc->eye[0] * sc->eye[0] + sc->eye[1] * sc->eye[1] + sc->eye[2] * sc->eye[2]);
+        cam.zfar =
+            4 * sqrt(sc->eye[0] * sc->eye[0] + sc->eye[1] * sc->eye[1] + sc->eye[2] * sc->eye[2]);
     }
     crisp_image img = {0};
     double t[64], cpu[64];
@@ -64,7 +65,8 @@ static int frame(const scene_case *sc, int threads, int no_shorten, int runs, do
     *median_ms = 1000 * bench_median(t, runs);
     *cpu_ms = 1000 * bench_median(cpu, runs);
     *drawn = 0;
-    for (size_t p = 0; p < (size_t)sc->width * sc->height; p++) *drawn += img.face[p] == -2;
+    for (size_t p = 0; p < (size_t)sc->width * sc->height; p++)
+        *drawn += img.face[p] == -2;
     crisp_image_free(&img);
     return 0;
 }
@@ -97,9 +99,12 @@ int main(int argc, char **argv)
 {
     int quick = 0, only = -1, max_threads = 2;
     for (int a = 1; a < argc; a++) {
-        if (!strcmp(argv[a], "--quick")) quick = 1;
-        else if (!strcmp(argv[a], "--case") && a + 1 < argc) only = atoi(argv[++a]);
-        else if (!strcmp(argv[a], "--threads") && a + 1 < argc) max_threads = atoi(argv[++a]);
+        if (!strcmp(argv[a], "--quick"))
+            quick = 1;
+        else if (!strcmp(argv[a], "--case") && a + 1 < argc)
+            only = atoi(argv[++a]);
+        else if (!strcmp(argv[a], "--threads") && a + 1 < argc)
+            max_threads = atoi(argv[++a]);
         else {
             fprintf(stderr, "usage: bench_frepscene [--quick] [--case N] [--threads N]\n");
             return 2;
@@ -116,8 +121,10 @@ int main(int argc, char **argv)
         {"bear.vm small", bear, 320, 180, 30, {0, 0, 0}, 5},
         {"prospero.vm extruded, oblique", pros, 1280, 720, 30, {1.2, -2.4, 2.2}, 1},
     };
-    printf("f-rep parts in a scene: crisp_render_frep_parts, median of %d frames (warm-up excluded);\n"
-           "'full tape' = the same renderer with tape shortening off (no_shorten), same run\n\n", runs);
+    printf(
+        "f-rep parts in a scene: crisp_render_frep_parts, median of %d frames (warm-up excluded);\n"
+        "'full tape' = the same renderer with tape shortening off (no_shorten), same run\n\n",
+        runs);
     printf("%-30s %9s %3s %9s %9s %9s %9s %6s %9s %8s %8s %9s\n", "scene", "size", "thr",
            "short ms", "(cpu)", "full ms", "(cpu)", "ratio", "intervals", "leaves", "batches",
            "mean tape");
@@ -130,14 +137,15 @@ int main(int argc, char **argv)
             size_t drawn, drawn_full;
             int r = runs;
             if (frame(sc, threads, 0, r, &ms_short, &cpu_short, &st, &drawn) ||
-                frame(sc, threads, 1, sc->full_runs < r ? sc->full_runs : r, &ms_full, &cpu_full, &st_full, &drawn_full))
+                frame(sc, threads, 1, sc->full_runs < r ? sc->full_runs : r, &ms_full, &cpu_full,
+                      &st_full, &drawn_full))
                 return 1;
             char size[32];
             snprintf(size, sizeof size, "%dx%d", sc->width, sc->height);
             printf("%-30s %9s %3d %9.1f %9.1f %9.1f %9.1f %5.2fx %9zu %8zu %8zu %4.0f/%4.0f\n",
                    sc->name, size, threads, ms_short, cpu_short, ms_full, cpu_full,
-                   ms_full / ms_short, st.intervals, st.leaves,
-                   st.batches, st.batches ? (double)st.tape_sum / st.batches : 0,
+                   ms_full / ms_short, st.intervals, st.leaves, st.batches,
+                   st.batches ? (double)st.tape_sum / st.batches : 0,
                    st_full.batches ? (double)st_full.tape_sum / st_full.batches : 0);
             printf("  root search: %zu of the batches; %zu hits\n", st.root_batches, st.hits);
             if (drawn != drawn_full)

@@ -56,11 +56,13 @@ static crisp_camera close_up(const crisp_scene *sc, const crisp_camera *base)
         /* nothing at the centre: look at a patch centre */
         double P[3], Ps[3], Pt[3];
         crisp_bezier_patch_derivs(&sc->patches[sc->patch_count / 2].bez, 0.5, 0.5, P, Ps, Pt);
-        for (int k = 0; k < 3; k++) d[k] = P[k] - o[k];
+        for (int k = 0; k < 3; k++)
+            d[k] = P[k] - o[k];
         t = crisp_vec3_norm(d);
         crisp_vec3_normalize(d, d);
     }
-    for (int k = 0; k < 3; k++) c.target[k] = o[k] + t * d[k];
+    for (int k = 0; k < 3; k++)
+        c.target[k] = o[k] + t * d[k];
     c.fov_deg = base->fov_deg / 8;
     return c;
 }
@@ -72,8 +74,8 @@ typedef struct result {
     long covered;
 } result;
 
-static void run_view(crisp_renderer *r, crisp_gl *gl, const crisp_scene *sc, const crisp_camera *cam, int frames,
-                     result *res)
+static void run_view(crisp_renderer *r, crisp_gl *gl, const crisp_scene *sc,
+                     const crisp_camera *cam, int frames, result *res)
 {
     const crisp_frame_plan *plan;
     if (crisp_planner_plan(crisp_renderer_planner(r), sc, cam, &plan)) die("plan");
@@ -99,11 +101,13 @@ static void run_view(crisp_renderer *r, crisp_gl *gl, const crisp_scene *sc, con
     }
     res->gl_ms = bench_median(t + 1, frames);
     if (getenv("PROFILE"))
-        fprintf(stderr, "  surfaces %.1f ms, ribbons %.1f ms, resolve %.1f ms\n", gs.ms_surfaces, gs.ms_ribbons, gs.ms_resolve);
+        fprintf(stderr, "  surfaces %.1f ms, ribbons %.1f ms, resolve %.1f ms\n", gs.ms_surfaces,
+                gs.ms_ribbons, gs.ms_resolve);
     if (crisp_gl_read(gl, &img, &gs)) die("gl read");
     res->read_ms = gs.ms_read;
     res->covered = 0;
-    for (size_t k = 0; k < (size_t)cam->width * cam->height; k++) res->covered += img.face[k] >= 0;
+    for (size_t k = 0; k < (size_t)cam->width * cam->height; k++)
+        res->covered += img.face[k] >= 0;
     res->plan_bytes = crisp_plan_bytes(plan);
     res->triangles = plan->stats.triangles;
     res->leaves = plan->leaf_count;
@@ -137,7 +141,8 @@ int main(int argc, char **argv)
     crisp_gl_context *ctx;
     if (crisp_gl_context_create(&ctx)) die("GL context");
     crisp_gl *gl;
-    if (crisp_gl_create(crisp_gl_context_getproc(ctx), &(crisp_gl_desc){.profile = getenv("PROFILE") != NULL}, &gl))
+    if (crisp_gl_create(crisp_gl_context_getproc(ctx),
+                        &(crisp_gl_desc){.profile = getenv("PROFILE") != NULL}, &gl))
         die("GL backend");
     bench_print_machine(stdout);
     double la[3] = {0};
@@ -146,9 +151,11 @@ int main(int argc, char **argv)
         if (fscanf(lf, "%lf %lf %lf", &la[0], &la[1], &la[2]) != 3) la[0] = -1;
         fclose(lf);
     }
-    printf("GL: %s; load average %.2f at the start; 1920x1080, 1 sample, median of %d frames after one\n\n",
+    printf("GL: %s; load average %.2f at the start; 1920x1080, 1 sample, median of %d frames after "
+           "one\n\n",
            crisp_gl_renderer(gl), la[0], frames);
-    printf("| model | view | leaves | triangles | ribbon quads | plan bytes | CPU ms | GL ms | GL/CPU | read-back ms |\n");
+    printf("| model | view | leaves | triangles | ribbon quads | plan bytes | CPU ms | GL ms | "
+           "GL/CPU | read-back ms |\n");
     printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     crisp_renderer *r;
     if (crisp_renderer_create(NULL, &r)) die("renderer");
@@ -167,8 +174,9 @@ int main(int argc, char **argv)
             result res;
             run_view(r, gl, sc, &cams[v], frames, &res);
             printf("| %s | %s | %u | %llu | %u | %llu | %.1f | %.1f | %.2f | %.1f |\n", models[m],
-                   v ? "close-up" : "default", res.leaves, (unsigned long long)res.triangles, res.quads,
-                   (unsigned long long)res.plan_bytes, res.cpu_ms, res.gl_ms, res.gl_ms / res.cpu_ms, res.read_ms);
+                   v ? "close-up" : "default", res.leaves, (unsigned long long)res.triangles,
+                   res.quads, (unsigned long long)res.plan_bytes, res.cpu_ms, res.gl_ms,
+                   res.gl_ms / res.cpu_ms, res.read_ms);
             fflush(stdout);
         }
         crisp_scene_destroy(sc);
@@ -177,7 +185,8 @@ int main(int argc, char **argv)
 
     if (argc > 2 && !strstr("impeller.igs", argv[2])) return 0;
     /* Trim editing on impeller.igs: the face with the most trim pieces among the visible ones. */
-    printf("\nTrim editing (impeller.igs, default camera): one face's loops change, crisp_planner_replan_face, "
+    printf("\nTrim editing (impeller.igs, default camera): one face's loops change, "
+           "crisp_planner_replan_face, "
            "crisp_gl_draw uploads what changed\n\n");
     char path[1024];
     snprintf(path, sizeof path, "%s/nurbs/impeller.igs", CRISP_DATA_DIR);
@@ -199,12 +208,14 @@ int main(int argc, char **argv)
     crisp_gl_forget_plan(gl);
     if (crisp_gl_set_scene(gl, sc) || crisp_gl_draw(gl, plan, &gs)) die("gl frame");
     uint64_t first = gs.bytes_uploaded;
-    double *t = malloc(sizeof(double) * (size_t)frames), *tr = malloc(sizeof(double) * (size_t)frames);
+    double *t = malloc(sizeof(double) * (size_t)frames),
+           *tr = malloc(sizeof(double) * (size_t)frames);
     uint64_t bytes = 0;
     for (int f = 0; f < frames; f++) {
         edit_trim(model, (int)face);
         double t0 = crisp_time_now();
-        if (crisp_scene_update_trim(sc, face) || crisp_planner_replan_face(pl, sc, face, &plan)) die("replan");
+        if (crisp_scene_update_trim(sc, face) || crisp_planner_replan_face(pl, sc, face, &plan))
+            die("replan");
         double t1 = crisp_time_now();
         if (crisp_gl_draw(gl, plan, &gs)) die("gl frame");
         tr[f] = 1e3 * (t1 - t0);
@@ -212,15 +223,17 @@ int main(int argc, char **argv)
         bytes = gs.bytes_uploaded;
     }
     size_t leaves_b = (size_t)plan->leaf_count * sizeof(crisp_plan_leaf);
-    size_t table_b = (size_t)plan->strip_count * sizeof(crisp_plan_strip) + ((size_t)plan->row_count + 1) * 4 +
-                     (size_t)plan->crossing_count * 8;
+    size_t table_b = (size_t)plan->strip_count * sizeof(crisp_plan_strip) +
+                     ((size_t)plan->row_count + 1) * 4 + (size_t)plan->crossing_count * 8;
     size_t ribbon_b = (size_t)plan->ribbon_quad_count * 4 * sizeof(crisp_plan_ribbon_vertex);
-    printf("| face | its trim pieces | plan bytes | first frame upload | upload per edit | of which leaves | "
+    printf("| face | its trim pieces | plan bytes | first frame upload | upload per edit | of "
+           "which leaves | "
            "trim tables | ribbons | faces | update + re-plan ms | GL frame ms |\n");
     printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-    printf("| %u | %u | %zu | %llu | %llu | 0 (unchanged: %zu) | %zu | %zu | %zu | %.2f | %.1f |\n", face, best,
-           crisp_plan_bytes(plan), (unsigned long long)first, (unsigned long long)bytes, leaves_b, table_b, ribbon_b,
-           (size_t)plan->face_count * sizeof(crisp_plan_face), bench_median(tr, frames), bench_median(t, frames));
+    printf("| %u | %u | %zu | %llu | %llu | 0 (unchanged: %zu) | %zu | %zu | %zu | %.2f | %.1f |\n",
+           face, best, crisp_plan_bytes(plan), (unsigned long long)first, (unsigned long long)bytes,
+           leaves_b, table_b, ribbon_b, (size_t)plan->face_count * sizeof(crisp_plan_face),
+           bench_median(tr, frames), bench_median(t, frames));
     free(t);
     free(tr);
     crisp_planner_destroy(pl);

@@ -1,8 +1,8 @@
 // Issue 14, optional: Open CASCADE's BRepGProp on the bundled models, beside `crisp mass` (one-off
 // measurement, not built by CMake; Debian 12 packages libocct-*-dev):
 //   g++ -O2 -I/usr/include/opencascade bench/occt_gprop.cpp -o /tmp/occt_gprop -lTKSTEP -lTKIGES \
-//       -lTKXSBase -lTKTopAlgo -lTKGeomAlgo -lTKBRep -lTKGeomBase -lTKG3d -lTKG2d -lTKMath -lTKernel \
-//       -lTKShHealing -lTKSTEPBase -lTKSTEPAttr -lTKSTEP209
+//       -lTKXSBase -lTKTopAlgo -lTKGeomAlgo -lTKBRep -lTKGeomBase -lTKG3d -lTKG2d -lTKMath
+//       -lTKernel \ -lTKShHealing -lTKSTEPBase -lTKSTEPAttr -lTKSTEP209
 //   /tmp/occt_gprop data/nurbs/occt_trj9_io1.stp
 #include <BRepGProp.hxx>
 #include <GProp_GProps.hxx>
@@ -40,10 +40,11 @@ int main(int argc, char **argv)
         double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         gp_Pnt c = v2.CentreOfMass();
         gp_Mat m = v2.MatrixOfInertia();
-        printf("%s: area %.12g (adaptive %.12g, error %.2g) volume %.12g (adaptive %.12g, error %.2g) "
-               "adaptive centroid %.9g %.9g %.9g Ixx %.9g Iyy %.9g Izz %.9g (%.3f s)\n",
-               p, a.Mass(), a2.Mass(), aeps, v.Mass(), v2.Mass(), eps, c.X(), c.Y(), c.Z(), m(1, 1), m(2, 2),
-               m(3, 3), dt);
+        printf(
+            "%s: area %.12g (adaptive %.12g, error %.2g) volume %.12g (adaptive %.12g, error %.2g) "
+            "adaptive centroid %.9g %.9g %.9g Ixx %.9g Iyy %.9g Izz %.9g (%.3f s)\n",
+            p, a.Mass(), a2.Mass(), aeps, v.Mass(), v2.Mass(), eps, c.X(), c.Y(), c.Z(), m(1, 1),
+            m(2, 2), m(3, 3), dt);
     }
     return 0;
 }

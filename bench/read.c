@@ -112,8 +112,8 @@ static int bench_one(const char *path)
 
 int main(int argc, char **argv)
 {
-    static const char *models[] = {"occt_bearing.iges", "occt_hammer.iges", "gpucast_part.igs",
-                                   "gpucast_teapot.igs", "impeller.igs", "occt_linkrods.step",
+    static const char *models[] = {"occt_bearing.iges",  "occt_hammer.iges", "gpucast_part.igs",
+                                   "gpucast_teapot.igs", "impeller.igs",     "occt_linkrods.step",
                                    "Ventilator.stp"};
     bench_print_machine(stdout);
     printf("\n| model | format | faces | Bézier patches | trim pieces | runs | file read ms "
@@ -121,7 +121,8 @@ int main(int argc, char **argv)
            "|\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     int fails = 0;
     if (argc > 1) {
-        for (int i = 1; i < argc; i++) fails += bench_one(argv[i]);
+        for (int i = 1; i < argc; i++)
+            fails += bench_one(argv[i]);
     } else {
         for (size_t i = 0; i < sizeof models / sizeof models[0]; i++) {
             char path[1024];

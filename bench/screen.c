@@ -23,7 +23,8 @@
  *
  * BENCH_SCREEN_PNG=folder writes each row's image there.
  *
- *   bench_screen [FRAMES] [THREADS] [ROWS...]     (defaults 3, 2, all rows; a row is e.g. gen50:far) */
+ *   bench_screen [FRAMES] [THREADS] [ROWS...]     (defaults 3, 2, all rows; a row is e.g.
+ * gen50:far) */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -49,7 +50,8 @@ static void die(const char *what)
     exit(1);
 }
 
-/* ---- the generated model ------------------------------------------------------------------------ */
+/* ---- the generated model ------------------------------------------------------------------------
+ */
 
 static double height(double x, double y, int face)
 {
@@ -77,7 +79,8 @@ static crisp_model *generated(int spans, int refine)
     int n = spans + 3;
     double *knots = malloc((size_t)(n + 4) * sizeof *knots);
     double *pts = malloc((size_t)n * n * 3 * sizeof *pts);
-    for (int i = 0; i < n + 4; i++) knots[i] = i < 4 ? 0 : i >= n ? 1 : (double)(i - 3) / spans;
+    for (int i = 0; i < n + 4; i++)
+        knots[i] = i < 4 ? 0 : i >= n ? 1 : (double)(i - 3) / spans;
     for (int fy = 0; fy < GRID_Y; fy++)
         for (int fx = 0; fx < GRID_X; fx++) {
             int f = fy * GRID_X + fx;
@@ -92,7 +95,8 @@ static crisp_model *generated(int spans, int refine)
                     p[0] = x, p[1] = y, p[2] = height(x, y, f);
                 }
             crisp_face face = {0};
-            if (crisp_surface_create(3, 3, n, n, knots, knots, pts, NULL, &face.surface)) die("surface");
+            if (crisp_surface_create(3, 3, n, n, knots, knots, pts, NULL, &face.surface))
+                die("surface");
             if (refine)
                 for (int k = 0; k < spans; k++) {
                     double mid = (k + 0.5) / spans;
@@ -137,17 +141,20 @@ static crisp_model *instanced(const char *name, int nx, int ny)
     return m;
 }
 
-/* ---- cameras ------------------------------------------------------------------------------------ */
+/* ---- cameras ------------------------------------------------------------------------------------
+ */
 
 static crisp_camera camera(const crisp_scene *sc, const char *which)
 {
     crisp_camera cam;
     if (crisp_camera_frame_box(sc->box, 1920, 1080, &cam)) die("camera");
     double d[3];
-    for (int k = 0; k < 3; k++) d[k] = cam.eye[k] - cam.target[k];
+    for (int k = 0; k < 3; k++)
+        d[k] = cam.eye[k] - cam.target[k];
     double dist = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     if (!strcmp(which, "far")) {
-        for (int k = 0; k < 3; k++) cam.eye[k] = cam.target[k] + 12 * d[k];
+        for (int k = 0; k < 3; k++)
+            cam.eye[k] = cam.target[k] + 12 * d[k];
         cam.zfar = 14 * dist + (sc->box[5] - sc->box[2]);
     } else if (!strcmp(which, "close")) {
         /* Look down (-Z) at the middle of the model from 1/8 of the default distance, slightly
@@ -162,7 +169,8 @@ static crisp_camera camera(const crisp_scene *sc, const char *which)
     return cam;
 }
 
-/* ---- one row ------------------------------------------------------------------------------------ */
+/* ---- one row ------------------------------------------------------------------------------------
+ */
 
 static double status_kb(const char *key)
 {
@@ -201,7 +209,8 @@ static double cpu_ms(void)
 {
     struct rusage u;
     getrusage(RUSAGE_SELF, &u);
-    return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+    return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+           1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
 static void row(const char *scene_name, const char *cam_name, int frames, int threads)
@@ -239,7 +248,8 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     }
     double peak_kb = status_kb("VmHWM:");
     size_t covered = 0;
-    for (size_t p = 0; p < (size_t)img.width * img.height; p++) covered += img.face[p] >= 0;
+    for (size_t p = 0; p < (size_t)img.width * img.height; p++)
+        covered += img.face[p] >= 0;
     double frame_mb = (peak_kb - scene_kb) / 1024;
     const char *png = getenv("BENCH_SCREEN_PNG"); /* a folder: look at what each row draws */
     if (png) {
@@ -251,12 +261,14 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         if (crisp_write_png_rgba(path, img.width, img.height, rgba)) die(path);
         free(rgba);
     }
-    printf("| %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f |\n",
+    printf("| %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %llu | %zu | %.2f | %.0f | "
+           "%.0f | %.0f | %.0f |\n",
            scene_name, cam_name, sc->patch_count, bench_median(tf, frames), cpu_frames / frames,
-           bench_median(tp, frames), cpu_plans / frames,
-           bench_median(tt, frames), bench_median(tr, frames), (unsigned long long)st.triangles, covered,
+           bench_median(tp, frames), cpu_plans / frames, bench_median(tt, frames),
+           bench_median(tr, frames), (unsigned long long)st.triangles, covered,
            covered ? (double)st.triangles / covered : 0.0, peak_kb / 1024, frame_mb,
-           peak_kb * 1024 / sc->patch_count, st.triangles ? frame_mb * 1048576 / st.triangles : 0.0);
+           peak_kb * 1024 / sc->patch_count,
+           st.triangles ? frame_mb * 1048576 / st.triangles : 0.0);
     fflush(stdout);
     free(tf), free(tp), free(tt), free(tr);
     crisp_image_free(&img);
@@ -286,7 +298,8 @@ int main(int argc, char **argv)
     bench_print_machine(stdout);
     printf("load average at start %.2f; 1920x1080, %d threads, median of %d warm frames\n\n",
            loadavg(), threads, frames);
-    printf("| scene | camera | patches | frame ms | frame CPU ms | plan ms | plan CPU ms | tess ms | raster ms | "
+    printf("| scene | camera | patches | frame ms | frame CPU ms | plan ms | plan CPU ms | tess ms "
+           "| raster ms | "
            "triangles | covered px | tri/px | peak MB | frame MB | peak B/patch | frame B/tri |\n");
     printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     fflush(stdout);
@@ -294,7 +307,8 @@ int main(int argc, char **argv)
         char key[64];
         snprintf(key, sizeof key, "%s:%s", rows[k][0], rows[k][1]);
         int wanted = argc <= 3;
-        for (int a = 3; a < argc; a++) wanted |= !strcmp(argv[a], key);
+        for (int a = 3; a < argc; a++)
+            wanted |= !strcmp(argv[a], key);
         if (!wanted) continue;
         pid_t pid = fork();
         if (pid == 0) {
@@ -303,7 +317,8 @@ int main(int argc, char **argv)
         }
         int status = 0;
         waitpid(pid, &status, 0);
-        if (!WIFEXITED(status) || WEXITSTATUS(status)) printf("| %s | %s | failed |\n", rows[k][0], rows[k][1]);
+        if (!WIFEXITED(status) || WEXITSTATUS(status))
+            printf("| %s | %s | failed |\n", rows[k][0], rows[k][1]);
     }
     printf("\nload average at the end %.2f\n", loadavg());
     return 0;

@@ -15,7 +15,8 @@ int main(int argc, char **argv)
     static const char *files[] = {"occt_linkrods.step", "Ventilator.stp"};
     bench_print_machine(stdout);
     printf("median of %d runs (wall time; the machine may be shared)\n\n", runs);
-    printf("| file | MB | entities | parse ms | read ms | faces | pcurve trims | projected trims | dropped |\n");
+    printf("| file | MB | entities | parse ms | read ms | faces | pcurve trims | projected trims | "
+           "dropped |\n");
     printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for (size_t k = 0; k < sizeof files / sizeof *files; k++) {
         char path[1024], *data;
@@ -49,9 +50,9 @@ int main(int argc, char **argv)
             faces = m->face_count;
             crisp_model_destroy(m);
         }
-        printf("| %s | %.2f | %zu | %.1f | %.1f | %d | %d | %d | %d |\n", files[k], size / 1e6, entities,
-               bench_median(tp, runs) * 1e3, bench_median(tr, runs) * 1e3, faces, st.pcurve_edges, st.projected_edges,
-               st.dropped_faces);
+        printf("| %s | %.2f | %zu | %.1f | %.1f | %d | %d | %d | %d |\n", files[k], size / 1e6,
+               entities, bench_median(tp, runs) * 1e3, bench_median(tr, runs) * 1e3, faces,
+               st.pcurve_edges, st.projected_edges, st.dropped_faces);
         free(tp);
         free(tr);
         crisp_free(data);

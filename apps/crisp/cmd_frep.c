@@ -10,27 +10,31 @@
 #include "crisp/frep_mesh.h"
 #include "crisp/image.h"
 
-const char crisp_cmd_frep_help[] =
-    "frep render|bench|mesh|mass FILE  render, mesh or measure an implicit model (.vm or math string)";
+const char crisp_cmd_frep_help[] = "frep render|bench|mesh|mass FILE  render, mesh or measure an "
+                                   "implicit model (.vm or math string)";
 
 static void usage(FILE *out)
 {
-    fprintf(out,
-            "usage: crisp frep render FILE [--size N | --size WxH] [--3d [--depth D]]\n"
-            "                         [--region x0,x1,y0,y1[,z0,z1]] [-o out.png] [--depth-out out.exr]\n"
-            "                         [--threads N] [--stats] [--no-prune] [--no-batch] [--no-subcells]\n"
-            "                         [--brute]\n"
-            "       crisp frep bench FILE [same options] [--runs N]\n"
-            "       crisp frep mesh FILE -o out.stl|out.obj|out.ply [--resolution N | --cell SIZE]\n"
-            "                         [--region x0,x1,y0,y1,z0,z1]\n"
-            "       crisp frep mass FILE [--accuracy REL] [--time SECONDS] [--predict] [--level L]\n"
-            "                         [--seed N] [--region x0,x1,y0,y1,z0,z1]\n"
-            "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
-            "sqrt, min, max, ...; inside where the value is below 0), or '-e EXPR' for a string.\n"
-            "2D: 8-bit grayscale PNG, 255 inside (f < 0), size 1024. The default region is the part's\n"
-            "bounding box found by interval subdivision (an unbounded axis shows [-1, 1]).\n"
-            "3D: a heightmap seen from +Z, shaded by its normals; --depth-out writes Z and N.x N.y N.z\n"
-            "(Z = -inf where nothing is hit). bench prints the median render time and set-up time.\n");
+    fprintf(
+        out,
+        "usage: crisp frep render FILE [--size N | --size WxH] [--3d [--depth D]]\n"
+        "                         [--region x0,x1,y0,y1[,z0,z1]] [-o out.png] [--depth-out "
+        "out.exr]\n"
+        "                         [--threads N] [--stats] [--no-prune] [--no-batch] "
+        "[--no-subcells]\n"
+        "                         [--brute]\n"
+        "       crisp frep bench FILE [same options] [--runs N]\n"
+        "       crisp frep mesh FILE -o out.stl|out.obj|out.ply [--resolution N | --cell SIZE]\n"
+        "                         [--region x0,x1,y0,y1,z0,z1]\n"
+        "       crisp frep mass FILE [--accuracy REL] [--time SECONDS] [--predict] [--level L]\n"
+        "                         [--seed N] [--region x0,x1,y0,y1,z0,z1]\n"
+        "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
+        "sqrt, min, max, ...; inside where the value is below 0), or '-e EXPR' for a string.\n"
+        "2D: 8-bit grayscale PNG, 255 inside (f < 0), size 1024. The default region is the part's\n"
+        "bounding box found by interval subdivision (an unbounded axis shows [-1, 1]).\n"
+        "3D: a heightmap seen from +Z, shaded by its normals; --depth-out writes Z and N.x N.y "
+        "N.z\n"
+        "(Z = -inf where nothing is hit). bench prints the median render time and set-up time.\n");
 }
 
 static int ends_with(const char *s, const char *t)
@@ -50,7 +54,8 @@ static int cmp_double(const void *a, const void *b)
 static crisp_status fit_region(const crisp_frep_tape *tape, int is3d, crisp_frep_render_desc *desc)
 {
     crisp_frep_fit fit;
-    crisp_status s = crisp_frep_fit_region(tape, &(crisp_frep_fit_desc){.planar = !is3d, .free_axes = is3d ? 4u : 0u}, &fit);
+    crisp_status s = crisp_frep_fit_region(
+        tape, &(crisp_frep_fit_desc){.planar = !is3d, .free_axes = is3d ? 4u : 0u}, &fit);
     if (s) return s;
     static const char axis[3] = {'x', 'y', 'z'};
     if (fit.unbounded & 3u) {
@@ -65,16 +70,18 @@ static crisp_status fit_region(const crisp_frep_tape *tape, int is3d, crisp_frep
         crisp_frep_fit fit2;
         if (!crisp_frep_fit_region(tape, &d2, &fit2)) {
             for (int a = 0; a < 3; a++)
-                if (!((fit.unbounded >> a) & 1)) fit.box[2 * a] = fit2.box[2 * a], fit.box[2 * a + 1] = fit2.box[2 * a + 1];
+                if (!((fit.unbounded >> a) & 1))
+                    fit.box[2 * a] = fit2.box[2 * a], fit.box[2 * a + 1] = fit2.box[2 * a + 1];
         }
         crisp_error_clear();
     }
     double *g = desc->region, ext[3], mid[3];
     for (int a = 0; a < 3; a++) {
         if (fit.unbounded & (1u << a)) {
-            fprintf(stderr, "crisp frep: the part is not bounded in %c within [%g, %g]; showing %c in "
-                    "[-1, 1] (give --region to choose)\n", axis[a], fit.search[2 * a], fit.search[2 * a + 1],
-                    axis[a]);
+            fprintf(stderr,
+                    "crisp frep: the part is not bounded in %c within [%g, %g]; showing %c in "
+                    "[-1, 1] (give --region to choose)\n",
+                    axis[a], fit.search[2 * a], fit.search[2 * a + 1], axis[a]);
             mid[a] = 0, ext[a] = 2;
         } else {
             mid[a] = 0.5 * (fit.box[2 * a] + fit.box[2 * a + 1]);
@@ -84,8 +91,10 @@ static crisp_status fit_region(const crisp_frep_tape *tape, int is3d, crisp_frep
     if (!is3d) mid[2] = 0, ext[2] = 0;
     /* square pixels: the x:y extents follow the image's W:H */
     double aspect = (double)desc->width / desc->height;
-    if (ext[0] < ext[1] * aspect) ext[0] = ext[1] * aspect;
-    else ext[1] = ext[0] / aspect;
+    if (ext[0] < ext[1] * aspect)
+        ext[0] = ext[1] * aspect;
+    else
+        ext[1] = ext[0] / aspect;
     for (int a = 0; a < 3; a++) {
         if (!(ext[a] > 0)) ext[a] = a < 2 || is3d ? 2 : 0;
         g[2 * a] = mid[a] - 0.5 * ext[a];
@@ -100,7 +109,8 @@ static int parse_long(const char *opt, const char *v, long lo, long hi, long *de
     char *end;
     long x = v ? strtol(v, &end, 10) : 0;
     if (!v || end == v || *end || x < lo || x > hi) {
-        fprintf(stderr, "crisp frep: %s expects an integer in %ld..%ld, found '%s'\n", opt, lo, hi, v ? v : "");
+        fprintf(stderr, "crisp frep: %s expects an integer in %ld..%ld, found '%s'\n", opt, lo, hi,
+                v ? v : "");
         return 0;
     }
     *dest = x;
@@ -112,7 +122,8 @@ static int parse_double(const char *opt, const char *v, double lo, double hi, do
     char *end;
     double x = v ? strtod(v, &end) : 0;
     if (!v || end == v || *end || !(x >= lo && x <= hi)) {
-        fprintf(stderr, "crisp frep: %s expects a number in [%g, %g], found '%s'\n", opt, lo, hi, v ? v : "");
+        fprintf(stderr, "crisp frep: %s expects a number in [%g, %g], found '%s'\n", opt, lo, hi,
+                v ? v : "");
         return 0;
     }
     *dest = x;
@@ -134,18 +145,23 @@ static int parse_region(const char *v, double g[6])
     }
     for (int a = 0; a < 3; a++)
         if (!(g[2 * a] < g[2 * a + 1])) {
-            fprintf(stderr, "crisp frep: --region axis %c: [%g, %g] is empty\n", "xyz"[a], g[2 * a], g[2 * a + 1]);
+            fprintf(stderr, "crisp frep: --region axis %c: [%g, %g] is empty\n", "xyz"[a], g[2 * a],
+                    g[2 * a + 1]);
             return 0;
         }
     return 1;
 }
 
-static crisp_status load_model(const char *file, const char *expr, crisp_frep **f, crisp_frep_tape **tape)
+static crisp_status load_model(const char *file, const char *expr, crisp_frep **f,
+                               crisp_frep_tape **tape)
 {
     crisp_status s;
-    if (expr) s = crisp_frep_read_math_mem("-e", expr, strlen(expr), f);
-    else if (ends_with(file, ".vm")) s = crisp_frep_read_vm(file, f);
-    else s = crisp_frep_read_math(file, f);
+    if (expr)
+        s = crisp_frep_read_math_mem("-e", expr, strlen(expr), f);
+    else if (ends_with(file, ".vm"))
+        s = crisp_frep_read_vm(file, f);
+    else
+        s = crisp_frep_read_math(file, f);
     if (!s) s = crisp_frep_tape_create(*f, tape);
     return s;
 }
@@ -183,7 +199,8 @@ static int cmd_mesh(int argc, char **argv)
         }
     }
     if ((!file && !expr) || !out) {
-        fprintf(stderr, "crisp frep mesh: %s\n", !out ? "no output given (-o out.stl|.obj|.ply)" : "no FILE given");
+        fprintf(stderr, "crisp frep mesh: %s\n",
+                !out ? "no output given (-o out.stl|.obj|.ply)" : "no FILE given");
         return 2;
     }
     crisp_frep *f = NULL;
@@ -203,20 +220,27 @@ static int cmd_mesh(int argc, char **argv)
         rc = 1;
     } else {
         double dt = crisp_time_now() - t0;
-        printf("%s: %zu vertices, %zu triangles, cell %g over [%g, %g] x [%g, %g] x [%g, %g]; %.3f s, "
-               "%.1f MB peak (mesher)\n",
-               out, st.vertices, st.triangles, st.cell, st.region[0], st.region[1], st.region[2],
-               st.region[3], st.region[4], st.region[5], dt, st.peak_bytes / 1e6);
+        printf(
+            "%s: %zu vertices, %zu triangles, cell %g over [%g, %g] x [%g, %g] x [%g, %g]; %.3f s, "
+            "%.1f MB peak (mesher)\n",
+            out, st.vertices, st.triangles, st.cell, st.region[0], st.region[1], st.region[2],
+            st.region[3], st.region[4], st.region[5], dt, st.peak_bytes / 1e6);
         if (stats)
-            printf("leaves %zu, intervals %zu, NaN points %zu\n", st.leaves, st.intervals, st.nan_points);
+            printf("leaves %zu, intervals %zu, NaN points %zu\n", st.leaves, st.intervals,
+                   st.nan_points);
         if (st.thin_cubes)
-            fprintf(stderr, "crisp frep mesh: warning: %zu grid cubes hold a feature thinner than the cell "
+            fprintf(stderr,
+                    "crisp frep mesh: warning: %zu grid cubes hold a feature thinner than the cell "
                     "(%g), lost in the mesh (one near %g, %g, %g); use a finer --cell\n",
                     st.thin_cubes, st.cell, st.thin_at[0], st.thin_at[1], st.thin_at[2]);
         if (st.cut_points)
-            fprintf(stderr, "crisp frep mesh: warning: the region cuts the part (%zu inside grid points on "
-                    "its border); the mesh is closed by the region's faces there\n", st.cut_points);
-        if (!st.triangles) fprintf(stderr, "crisp frep mesh: warning: empty mesh: no grid point is inside the part\n");
+            fprintf(stderr,
+                    "crisp frep mesh: warning: the region cuts the part (%zu inside grid points on "
+                    "its border); the mesh is closed by the region's faces there\n",
+                    st.cut_points);
+        if (!st.triangles)
+            fprintf(stderr,
+                    "crisp frep mesh: warning: empty mesh: no grid point is inside the part\n");
     }
     crisp_frep_tape_destroy(tape);
     crisp_frep_destroy(f);
@@ -239,8 +263,10 @@ static crisp_status area_triangle(void *ctx, const uint32_t v[3], const float p[
 {
     (void)v;
     double e1[3], e2[3];
-    for (int a = 0; a < 3; a++) e1[a] = (double)p[1][a] - p[0][a], e2[a] = (double)p[2][a] - p[0][a];
-    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+    for (int a = 0; a < 3; a++)
+        e1[a] = (double)p[1][a] - p[0][a], e2[a] = (double)p[2][a] - p[0][a];
+    double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                   e1[0] * e2[1] - e1[1] * e2[0]};
     ((area_sum *)ctx)->area += 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     return CRISP_OK;
 }
@@ -268,10 +294,11 @@ static crisp_status mesh_area(const crisp_frep_tape *tape, const double region[6
 
 static void print_level(const crisp_frep_mass *m)
 {
-    printf("  level %2d  cell %.3g  boundary cells %9zu  processor time %8.3f s  volume %.10g +- %.2g  "
+    printf("  level %2d  cell %.3g  boundary cells %9zu  processor time %8.3f s  volume %.10g +- "
+           "%.2g  "
            "bounds [%.10g, %.10g]\n",
-           m->level, fmax(m->cell[0], fmax(m->cell[1], m->cell[2])), m->boundary_cells, m->cpu_seconds,
-           m->volume, m->volume_se, m->volume_lo, m->volume_hi);
+           m->level, fmax(m->cell[0], fmax(m->cell[1], m->cell[2])), m->boundary_cells,
+           m->cpu_seconds, m->volume, m->volume_se, m->volume_lo, m->volume_hi);
 }
 
 static int cmd_mass(int argc, char **argv)
@@ -322,8 +349,8 @@ static int cmd_mass(int argc, char **argv)
     if (s) goto fail;
     desc.seed = (uint64_t)seed;
     /* the region once (fitted unless given), so that every level measures the same box */
-    if (!desc.region[0] && !desc.region[1] && !desc.region[2] && !desc.region[3] && !desc.region[4] &&
-        !desc.region[5]) {
+    if (!desc.region[0] && !desc.region[1] && !desc.region[2] && !desc.region[3] &&
+        !desc.region[4] && !desc.region[5]) {
         crisp_frep_mass first;
         desc.level = 1;
         s = crisp_frep_mass_level(tape, &desc, &first);
@@ -349,15 +376,19 @@ static int cmd_mass(int argc, char **argv)
         }
         /* Clark: the coarse levels' cells, time and error predict the finer ones */
         int first = n - 2 >= 3 ? n - 2 : 3;
-        double gc = (double)lv[n].boundary_cells / (double)(lv[n - 1].boundary_cells ? lv[n - 1].boundary_cells : 1);
+        double gc = (double)lv[n].boundary_cells /
+                    (double)(lv[n - 1].boundary_cells ? lv[n - 1].boundary_cells : 1);
         double K = (double)lv[n].boundary_cells / pow(4.0, n);
         if (predict) {
-            printf("growth per level: boundary cells x%.2f, volume error x%.3f (Clark's K = boundary cells / "
-                   "4^level = %.3g)\n", gc, lv[n].volume_se / lv[n - 1].volume_se, K);
+            printf("growth per level: boundary cells x%.2f, volume error x%.3f (Clark's K = "
+                   "boundary cells / "
+                   "4^level = %.3g)\n",
+                   gc, lv[n].volume_se / lv[n - 1].volume_se, K);
             for (int k = 1; k <= 4 && n + k <= 20; k++) {
                 double pt, pe;
                 crisp_frep_mass_predict(&lv[first], n - first + 1, n + k, &pt, &pe);
-                printf("  level %2d  predicted: processor time %8.3f s  volume error %.2g (relative %.2g)\n",
+                printf("  level %2d  predicted: processor time %8.3f s  volume error %.2g "
+                       "(relative %.2g)\n",
                        n + k, pt, pe, pe / fabs(lv[n].volume));
             }
         }
@@ -378,8 +409,11 @@ static int cmd_mass(int argc, char **argv)
         if (target > 20) target = 20;
         double cap = time_limit ? time_limit : 600;
         if (tpred > cap) {
-            fprintf(stderr, "crisp frep mass: level %d would take about %.0f s (over %.0f s); give a larger "
-                    "--time or a coarser --accuracy\n", target, tpred, cap);
+            fprintf(
+                stderr,
+                "crisp frep mass: level %d would take about %.0f s (over %.0f s); give a larger "
+                "--time or a coarser --accuracy\n",
+                target, tpred, cap);
             goto done;
         }
         if (target != n && predict) printf("running level %d (predicted %.3f s)\n", target, tpred);
@@ -404,9 +438,11 @@ static int cmd_mass(int argc, char **argv)
     printf("centroid  %.10g %.10g %.10g\n       +-  %.3g %.3g %.3g\n", r.centroid[0], r.centroid[1],
            r.centroid[2], r.centroid_se[0], r.centroid_se[1], r.centroid_se[2]);
     printf("inertia about the centroid (density 1): Ixx Iyy Izz Ixy Iyz Ixz\n  ");
-    for (int k = 0; k < 6; k++) printf(" %.10g", r.inertia[k]);
+    for (int k = 0; k < 6; k++)
+        printf(" %.10g", r.inertia[k]);
     printf("\n +-");
-    for (int k = 0; k < 6; k++) printf(" %.3g", r.inertia_se[k]);
+    for (int k = 0; k < 6; k++)
+        printf(" %.3g", r.inertia_se[k]);
     printf("\n");
     rc = 0;
     goto done;
@@ -435,7 +471,8 @@ int crisp_cmd_frep(int argc, char **argv)
     const char *mode = argv[1], *file = NULL, *expr = NULL, *out = NULL, *depth_out = NULL;
     int bench = !strcmp(mode, "bench");
     if (!bench && strcmp(mode, "render")) {
-        fprintf(stderr, "crisp frep: unknown mode '%s' (expected render, bench, mesh or mass)\n", mode);
+        fprintf(stderr, "crisp frep: unknown mode '%s' (expected render, bench, mesh or mass)\n",
+                mode);
         return 2;
     }
     crisp_frep_render_desc desc = {.width = 1024, .height = 1024};
@@ -446,8 +483,10 @@ int crisp_cmd_frep(int argc, char **argv)
         if (!strcmp(a, "--size") && v) {
             int w, h;
             char c;
-            if (sscanf(v, "%dx%d%c", &w, &h, &c) == 2) desc.width = w, desc.height = h;
-            else if (sscanf(v, "%d%c", &w, &c) == 1) desc.width = desc.height = w;
+            if (sscanf(v, "%dx%d%c", &w, &h, &c) == 2)
+                desc.width = w, desc.height = h;
+            else if (sscanf(v, "%d%c", &w, &c) == 1)
+                desc.width = desc.height = w;
             else {
                 fprintf(stderr, "crisp frep: --size expects N or WxH, found '%s'\n", v);
                 return 2;
@@ -461,7 +500,8 @@ int crisp_cmd_frep(int argc, char **argv)
             double g[6] = {0};
             int n = sscanf(v, "%lf,%lf,%lf,%lf,%lf,%lf", &g[0], &g[1], &g[2], &g[3], &g[4], &g[5]);
             if (n != 4 && n != 6) {
-                fprintf(stderr, "crisp frep: --region expects x0,x1,y0,y1[,z0,z1], found '%s'\n", v);
+                fprintf(stderr, "crisp frep: --region expects x0,x1,y0,y1[,z0,z1], found '%s'\n",
+                        v);
                 return 2;
             }
             if (n == 4) g[4] = -1, g[5] = 1;
@@ -500,11 +540,13 @@ int crisp_cmd_frep(int argc, char **argv)
         fprintf(stderr, "crisp frep: no FILE given\n");
         return 2;
     }
-    if (is3d) desc.depth = depth > 0 ? depth : (desc.width > desc.height ? desc.width : desc.height);
+    if (is3d)
+        desc.depth = depth > 0 ? depth : (desc.width > desc.height ? desc.width : desc.height);
     if (runs < 1) runs = 1;
 
     int nsetup = bench ? runs : 1;
-    double *setup = calloc((size_t)nsetup, sizeof *setup), *render = calloc((size_t)runs, sizeof *render);
+    double *setup = calloc((size_t)nsetup, sizeof *setup),
+           *render = calloc((size_t)runs, sizeof *render);
     crisp_frep *f = NULL;
     crisp_frep_tape *tape = NULL;
     crisp_frep_renderer *r = NULL;
@@ -517,9 +559,12 @@ int crisp_cmd_frep(int argc, char **argv)
         r = NULL, tape = NULL, f = NULL;
         double t0 = crisp_time_now();
         crisp_status s;
-        if (expr) s = crisp_frep_read_math_mem("-e", expr, strlen(expr), &f);
-        else if (ends_with(file, ".vm")) s = crisp_frep_read_vm(file, &f);
-        else s = crisp_frep_read_math(file, &f);
+        if (expr)
+            s = crisp_frep_read_math_mem("-e", expr, strlen(expr), &f);
+        else if (ends_with(file, ".vm"))
+            s = crisp_frep_read_vm(file, &f);
+        else
+            s = crisp_frep_read_math(file, &f);
         if (!s) s = crisp_frep_tape_create(f, &tape);
         if (!s && !region_given && n == 0) s = fit_region(tape, is3d, &desc);
         if (!s) s = crisp_frep_renderer_create(tape, &desc, &r);
@@ -540,30 +585,40 @@ int crisp_cmd_frep(int argc, char **argv)
     }
     const crisp_frep_image *img = crisp_frep_renderer_image(r);
     size_t npix = (size_t)img->width * (size_t)img->height, inside = 0;
-    for (size_t p = 0; p < npix; p++) inside += img->inside[p] != 0;
+    for (size_t p = 0; p < npix; p++)
+        inside += img->inside[p] != 0;
     if (!inside)
-        fprintf(stderr, "crisp frep: empty image: no sample of [%g, %g] x [%g, %g]%s is inside the part\n",
-                desc.region[0], desc.region[1], desc.region[2], desc.region[3], is3d ? " x [z]" : "");
+        fprintf(stderr,
+                "crisp frep: empty image: no sample of [%g, %g] x [%g, %g]%s is inside the part\n",
+                desc.region[0], desc.region[1], desc.region[2], desc.region[3],
+                is3d ? " x [z]" : "");
     if (bench) {
         qsort(render, (size_t)runs, sizeof *render, cmp_double);
         qsort(setup, (size_t)nsetup, sizeof *setup, cmp_double);
         char dims[48];
-        if (is3d) snprintf(dims, sizeof dims, "%dx%dx%d", img->width, img->height, img->depth);
-        else snprintf(dims, sizeof dims, "%dx%d", img->width, img->height);
-        printf("%s %s, threads %d: render median %.3f ms (min %.3f, max %.3f, %d runs), set-up median %.3f ms\n",
-               expr ? "-e" : file, dims, desc.threads > 0 ? desc.threads : crisp_pool_default_threads(),
+        if (is3d)
+            snprintf(dims, sizeof dims, "%dx%dx%d", img->width, img->height, img->depth);
+        else
+            snprintf(dims, sizeof dims, "%dx%d", img->width, img->height);
+        printf("%s %s, threads %d: render median %.3f ms (min %.3f, max %.3f, %d runs), set-up "
+               "median %.3f ms\n",
+               expr ? "-e" : file, dims,
+               desc.threads > 0 ? desc.threads : crisp_pool_default_threads(),
                1000 * render[runs / 2], 1000 * render[0], 1000 * render[runs - 1], runs,
                1000 * setup[nsetup / 2]);
     }
     if (stats || !bench) {
         crisp_frep_render_stats st = crisp_frep_renderer_stats(r);
         if (stats)
-            printf("nodes %zu, tape %zu instructions, %d registers; intervals %zu, filled %zu, leaves %zu "
-                   "(mean tape %.1f), points %zu, culled %zu; %zu of %zu pixels inside; render %.3f ms, "
+            printf("nodes %zu, tape %zu instructions, %d registers; intervals %zu, filled %zu, "
+                   "leaves %zu "
+                   "(mean tape %.1f), points %zu, culled %zu; %zu of %zu pixels inside; render "
+                   "%.3f ms, "
                    "set-up %.3f ms\n",
-                   crisp_frep_node_count(f), crisp_frep_tape_length(tape), crisp_frep_tape_registers(tape),
-                   st.intervals, st.filled, st.leaves, st.leaves ? (double)st.tape_sum / st.leaves : 0.0,
-                   st.points, st.culled, inside, npix, 1000 * render[0], 1000 * setup[0]);
+                   crisp_frep_node_count(f), crisp_frep_tape_length(tape),
+                   crisp_frep_tape_registers(tape), st.intervals, st.filled, st.leaves,
+                   st.leaves ? (double)st.tape_sum / st.leaves : 0.0, st.points, st.culled, inside,
+                   npix, 1000 * render[0], 1000 * setup[0]);
     }
     if (out) {
         crisp_status s;
@@ -586,7 +641,8 @@ int crisp_cmd_frep(int argc, char **argv)
         if (!buf) goto done;
         for (size_t p = 0; p < npix; p++) {
             buf[4 * p] = is3d ? img->z[p] : (img->inside[p] ? 0.0f : -INFINITY);
-            for (int c = 0; c < 3; c++) buf[4 * p + 1 + (size_t)c] = is3d ? img->normal[3 * p + (size_t)c] : 0;
+            for (int c = 0; c < 3; c++)
+                buf[4 * p + 1 + (size_t)c] = is3d ? img->normal[3 * p + (size_t)c] : 0;
         }
         const char *names[4] = {"Z", "N.x", "N.y", "N.z"};
         crisp_status s = crisp_write_exr(depth_out, img->width, img->height, 4, names, buf);

@@ -21,15 +21,16 @@ const char crisp_cmd_info_help[] =
 
 static void usage(FILE *out)
 {
-    fprintf(out, "usage: crisp info MODEL [options]\n"
-                 "  Loads MODEL (IGES, STEP or OBJ, detected by content) and prints its format,\n"
-                 "  faces, Bezier patches, trim loops and curves, degrees, rationality, the box of\n"
-                 "  the trimmed faces, what was skipped and why, and the gaps between faces wider\n"
-                 "  than the file's tolerance. Options (default in brackets):\n"
-                 "      --json     print the same as one JSON object [text]\n"
-                 "      --no-gaps  do not measure the gaps (faster on large models) [measure]\n"
-                 "  -h, --help     print this help and exit\n"
-                 "  Exit status: 0 success, 1 bad input, 2 bad usage.\n");
+    fprintf(out,
+            "usage: crisp info MODEL [options]\n"
+            "  Loads MODEL (IGES, STEP or OBJ, detected by content) and prints its format,\n"
+            "  faces, Bezier patches, trim loops and curves, degrees, rationality, the box of\n"
+            "  the trimmed faces, what was skipped and why, and the gaps between faces wider\n"
+            "  than the file's tolerance. Options (default in brackets):\n"
+            "      --json     print the same as one JSON object [text]\n"
+            "      --no-gaps  do not measure the gaps (faster on large models) [measure]\n"
+            "  -h, --help     print this help and exit\n"
+            "  Exit status: 0 success, 1 bad input, 2 bad usage.\n");
 }
 
 static void json_string(FILE *out, const char *s)
@@ -104,7 +105,8 @@ static void print_text(const char *path, const crisp_model *m, const crisp_model
                g->count, g->tolerance, g->gap_samples, g->samples);
     else
         printf("gaps:            none wider than the tolerance %g (%ld boundary samples near "
-               "another face)\n", g->tolerance, g->samples);
+               "another face)\n",
+               g->tolerance, g->samples);
     for (int i = 0; i < g->count && i < GAPS_LISTED; i++) {
         const crisp_gap *q = &g->gaps[i];
         printf("  %g between faces %d and %d (source ids) at [%g, %g, %g]\n", q->gap,
@@ -122,8 +124,8 @@ static void print_json(const char *path, const crisp_model *m, const crisp_model
     printf(", \"format\": ");
     json_string(stdout, m->format);
     printf(", \"unit_to_mm\": %.17g", m->unit_to_mm);
-    printf(", \"faces\": %d, \"faces_dropped\": %d, \"bezier_patches\": %d", s->faces, m->faces_dropped,
-           s->bezier_patches);
+    printf(", \"faces\": %d, \"faces_dropped\": %d, \"bezier_patches\": %d", s->faces,
+           m->faces_dropped, s->bezier_patches);
     printf(", \"loops\": {\"outer\": %d, \"holes\": %d}", s->outer_loops, s->hole_loops);
     printf(", \"trim_curves\": %d, \"trim_pieces\": %d", s->trim_curves, s->trim_pieces);
     printf(", \"degrees_seen\": [");
@@ -144,14 +146,16 @@ static void print_json(const char *path, const crisp_model *m, const crisp_model
         json_string(stdout, m->skips[i].what);
         printf(", \"count\": %d}", m->skips[i].count);
     }
-    printf("], \"gaps\": {\"measured\": %s, \"tolerance\": %.17g, \"limit\": %.17g, \"samples\": %ld, "
-           "\"gap_samples\": %ld, \"pairs\": %d, \"largest\": [",
-           g->incomplete ? "false" : "true", g->tolerance, g->limit, g->samples, g->gap_samples, g->count);
+    printf(
+        "], \"gaps\": {\"measured\": %s, \"tolerance\": %.17g, \"limit\": %.17g, \"samples\": %ld, "
+        "\"gap_samples\": %ld, \"pairs\": %d, \"largest\": [",
+        g->incomplete ? "false" : "true", g->tolerance, g->limit, g->samples, g->gap_samples,
+        g->count);
     for (int i = 0; i < g->count && i < 2 * GAPS_LISTED; i++) {
         const crisp_gap *q = &g->gaps[i];
-        printf("%s{\"faces\": [%d, %d], \"gap\": %.17g, \"at\": [%.17g, %.17g, %.17g]}", i ? ", " : "",
-               m->faces[q->face[0]].source_id, m->faces[q->face[1]].source_id, q->gap, q->at[0],
-               q->at[1], q->at[2]);
+        printf("%s{\"faces\": [%d, %d], \"gap\": %.17g, \"at\": [%.17g, %.17g, %.17g]}",
+               i ? ", " : "", m->faces[q->face[0]].source_id, m->faces[q->face[1]].source_id,
+               q->gap, q->at[0], q->at[1], q->at[2]);
     }
     printf("]}, \"load_seconds\": %.6f}\n", seconds);
 }
@@ -187,7 +191,8 @@ int crisp_cmd_info(int argc, char **argv)
         return 2;
     }
     if (optind + 1 < argc) {
-        fprintf(stderr, "crisp info: one MODEL expected, got '%s' and '%s'\n", argv[optind], argv[optind + 1]);
+        fprintf(stderr, "crisp info: one MODEL expected, got '%s' and '%s'\n", argv[optind],
+                argv[optind + 1]);
         return 2;
     }
     path = argv[optind];
@@ -210,11 +215,14 @@ int crisp_cmd_info(int argc, char **argv)
     if (m->face_count) {
         crisp_scene *scene = NULL;
         if (crisp_scene_prepare(m, &scene) == CRISP_OK) {
-            for (int k = 0; k < 6; k++) box[k] = scene->box[k];
+            for (int k = 0; k < 6; k++)
+                box[k] = scene->box[k];
         } else {
             /* (never seen: the control hulls' box, and say why) */
-            fprintf(stderr, "crisp info: %s: box of the control hulls (the scene could not be prepared: %s)\n",
-                    path, crisp_error_message());
+            fprintf(
+                stderr,
+                "crisp info: %s: box of the control hulls (the scene could not be prepared: %s)\n",
+                path, crisp_error_message());
             crisp_error_clear();
             crisp_model_bbox(m, box);
         }
@@ -222,8 +230,9 @@ int crisp_cmd_info(int argc, char **argv)
     }
     /* Gaps: wider than the reader's tolerance (else 1e-5 of the box diagonal), narrower than
      * 1000 times it and 1% of the diagonal (beyond: a free edge, not a crack). */
-    double diag = sqrt((box[3] - box[0]) * (box[3] - box[0]) + (box[4] - box[1]) * (box[4] - box[1]) +
-                       (box[5] - box[2]) * (box[5] - box[2]));
+    double diag =
+        sqrt((box[3] - box[0]) * (box[3] - box[0]) + (box[4] - box[1]) * (box[4] - box[1]) +
+             (box[5] - box[2]) * (box[5] - box[2]));
     double tol = m->tolerance > 0 ? m->tolerance : 1e-5 * diag;
     crisp_gap_report gaps = {0};
     gaps.incomplete = 1;

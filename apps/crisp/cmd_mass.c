@@ -13,11 +13,14 @@ int crisp_cmd_mass(int argc, char **argv)
 {
     if (argc != 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
         FILE *out = argc == 2 ? stdout : stderr;
-        fprintf(out, "usage: crisp mass MODEL\n"
-                     "Volume, surface area, centroid and inertia tensor (about the centroid, density 1, model\n"
-                     "units) of a closed B-rep model from its trimmed NURBS faces: the divergence theorem,\n"
-                     "with Green's theorem over the trim loops; errors from two quadrature orders. A model\n"
-                     "that is not closed gets its area and a warning.\n");
+        fprintf(
+            out,
+            "usage: crisp mass MODEL\n"
+            "Volume, surface area, centroid and inertia tensor (about the centroid, density 1, "
+            "model\n"
+            "units) of a closed B-rep model from its trimmed NURBS faces: the divergence theorem,\n"
+            "with Green's theorem over the trim loops; errors from two quadrature orders. A model\n"
+            "that is not closed gets its area and a warning.\n");
         return argc == 2 ? 0 : 2;
     }
     crisp_model *m = NULL;
@@ -32,14 +35,18 @@ int crisp_cmd_mass(int argc, char **argv)
     printf("%s: %d faces\n", argv[1], m->face_count);
     printf("area      %.15g (+- %.2g)\n", p.area, p.area_err);
     if (!p.closed) {
-        fprintf(stderr, "crisp mass: warning: the model is not closed (the faces' vector area is %g, %g, %g "
-                "against an area of %g): no volume, centroid or inertia\n",
-                p.vector_area[0], p.vector_area[1], p.vector_area[2], p.area);
+        fprintf(
+            stderr,
+            "crisp mass: warning: the model is not closed (the faces' vector area is %g, %g, %g "
+            "against an area of %g): no volume, centroid or inertia\n",
+            p.vector_area[0], p.vector_area[1], p.vector_area[2], p.area);
     } else {
         printf("volume    %.15g (+- %.2g)\n", p.volume, p.volume_err);
         printf("centroid  %.15g %.15g %.15g\n", p.centroid[0], p.centroid[1], p.centroid[2]);
-        printf("inertia about the centroid (density 1): Ixx Iyy Izz Ixy Iyz Ixz (+- %.2g)\n  ", p.inertia_err);
-        for (int k = 0; k < 6; k++) printf(" %.15g", p.inertia[k]);
+        printf("inertia about the centroid (density 1): Ixx Iyy Izz Ixy Iyz Ixz (+- %.2g)\n  ",
+               p.inertia_err);
+        for (int k = 0; k < 6; k++)
+            printf(" %.15g", p.inertia[k]);
         printf("\n");
     }
     crisp_model_destroy(m);

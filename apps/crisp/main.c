@@ -25,8 +25,10 @@ static const command commands[] = {
 static void usage(FILE *out)
 {
     fprintf(out, "usage: crisp COMMAND [ARGS...]\n\ncommands:\n");
-    for (const command *c = commands; c->name; c++) fprintf(out, "  %s\n", c->help);
-    fprintf(out, "\noptions:\n  -h, --help     print this help\n  -V, --version  print the version\n");
+    for (const command *c = commands; c->name; c++)
+        fprintf(out, "  %s\n", c->help);
+    fprintf(out,
+            "\noptions:\n  -h, --help     print this help\n  -V, --version  print the version\n");
     fprintf(out, "\n'crisp COMMAND --help' for the options of one command.\n");
 }
 
@@ -40,13 +42,15 @@ int main(int argc, char **argv)
         usage(stdout);
         return 0;
     }
-    if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "-V")) return crisp_cmd_version(1, argv + 1);
+    if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "-V"))
+        return crisp_cmd_version(1, argv + 1);
     if (argv[1][0] == '-') {
         fprintf(stderr, "crisp: unknown option '%s'\n", argv[1]);
         usage(stderr);
         return 2;
     }
-    if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "-V")) return crisp_cmd_version(1, argv + 1);
+    if (!strcmp(argv[1], "--version") || !strcmp(argv[1], "-V"))
+        return crisp_cmd_version(1, argv + 1);
     if (argv[1][0] == '-') {
         fprintf(stderr, "crisp: unknown option '%s'\n", argv[1]);
         usage(stderr);

@@ -57,7 +57,8 @@ void one(const char *path)
             shape = rd.OneShape();
         }
         long faces = 0;
-        for (TopExp_Explorer ex(shape, TopAbs_FACE); ex.More(); ex.Next()) faces++;
+        for (TopExp_Explorer ex(shape, TopAbs_FACE); ex.More(); ex.Next())
+            faces++;
         Bnd_Box box;
         if (faces) BRepBndLib::Add(shape, box);
         double b[6] = {0, 0, 0, 0, 0, 0};

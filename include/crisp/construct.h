@@ -38,7 +38,8 @@ crisp_status crisp_placement_make(const double origin[3], const double axis[3], 
 double crisp_angle_to_param(double a0, double a1, double angle);
 double crisp_param_to_angle(double a0, double a1, double t);
 
-/* ---- curves (dim 2 or 3; points have dim values) ---------------------------------------------- */
+/* ---- curves (dim 2 or 3; points have dim values) ----------------------------------------------
+ */
 
 crisp_status crisp_make_line(int dim, const double *p0, const double *p1, double t0, double t1,
                              crisp_curve **dest);
@@ -52,12 +53,14 @@ crisp_status crisp_make_arc(int dim, const double *center, const double *x, cons
 crisp_status crisp_make_conic_arc(int dim, const double *p0, const double *t0, const double *p2,
                                   const double *t2, const double *p, crisp_curve **dest);
 
-/* ---- surfaces --------------------------------------------------------------------------------- */
+/* ---- surfaces ---------------------------------------------------------------------------------
+ */
 
 /* S(u, v) = origin + u * x + v * y over [u0, u1] x [v0, v1] (bilinear). */
-crisp_status crisp_make_plane(const crisp_placement *pl, double u0, double u1, double v0,
-                              double v1, crisp_surface **dest);
-/* Cylinder: S(u, v) = origin + r (cos u x + sin u y) + v z; u in [a0, a1] (angle), v in [v0, v1]. */
+crisp_status crisp_make_plane(const crisp_placement *pl, double u0, double u1, double v0, double v1,
+                              crisp_surface **dest);
+/* Cylinder: S(u, v) = origin + r (cos u x + sin u y) + v z; u in [a0, a1] (angle), v in [v0, v1].
+ */
 crisp_status crisp_make_cylinder(const crisp_placement *pl, double r, double a0, double a1,
                                  double v0, double v1, crisp_surface **dest);
 /* Cone (STEP convention): S(u, v) = origin + (r + v tan(semi)) (cos u x + sin u y) + v z. */
@@ -65,8 +68,8 @@ crisp_status crisp_make_cone(const crisp_placement *pl, double r, double semi_an
                              double a1, double v0, double v1, crisp_surface **dest);
 /* Sphere: S(u, v) = origin + r cos v (cos u x + sin u y) + r sin v z; u, v angles
  * (v in [-pi/2, pi/2]). */
-crisp_status crisp_make_sphere(const crisp_placement *pl, double r, double a0, double a1,
-                               double v0, double v1, crisp_surface **dest);
+crisp_status crisp_make_sphere(const crisp_placement *pl, double r, double a0, double a1, double v0,
+                               double v1, crisp_surface **dest);
 /* Torus: S(u, v) = origin + (R + r cos v)(cos u x + sin u y) + r sin v z; u, v angles. */
 crisp_status crisp_make_torus(const crisp_placement *pl, double major, double minor, double a0,
                               double a1, double v0, double v1, crisp_surface **dest);
@@ -83,15 +86,16 @@ crisp_status crisp_make_extrusion(const crisp_curve *c, const double dir[3], dou
  * merging). */
 crisp_status crisp_make_ruled(const crisp_curve *c0, const crisp_curve *c1, crisp_surface **dest);
 
-/* ---- fitting ---------------------------------------------------------------------------------- */
+/* ---- fitting ----------------------------------------------------------------------------------
+ */
 
 /* f(ctx, t, dest) writes dim values of the function to approximate at t. */
 typedef void (*crisp_curve_fn)(void *ctx, double t, double *dest);
 /* A non-rational cubic B-spline (dim 2 or 3) over [t0, t1] within tol of f everywhere (checked
  * on a dense sample between knots, refined until it holds or max_spans is reached, which is an
  * error). The end points are interpolated exactly. */
-crisp_status crisp_fit_curve(int dim, crisp_curve_fn f, void *ctx, double t0, double t1,
-                             double tol, int max_spans, crisp_curve **dest);
+crisp_status crisp_fit_curve(int dim, crisp_curve_fn f, void *ctx, double t0, double t1, double tol,
+                             int max_spans, crisp_curve **dest);
 
 #ifdef __cplusplus
 }

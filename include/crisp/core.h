@@ -52,7 +52,8 @@ const char *crisp_status_name(crisp_status status);
 /* The message of this thread's last error ("" when none). */
 const char *crisp_error_message(void);
 void crisp_error_clear(void);
-/* Record an error message for this thread and return status (for use as `return crisp_error(...)`). */
+/* Record an error message for this thread and return status (for use as `return crisp_error(...)`).
+ */
 crisp_status crisp_error(crisp_status status, const char *fmt, ...) CRISP_PRINTF(2, 3);
 crisp_status crisp_error_v(crisp_status status, const char *fmt, va_list ap);
 /* Prefix this thread's current message with more context: "ctx: old message". */

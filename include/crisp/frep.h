@@ -129,9 +129,9 @@ crisp_status crisp_frep_eval_grad(const crisp_frep_tape *t, size_t n, const floa
 /* ---- renderer -------------------------------------------------------------------------------- */
 
 enum {
-    CRISP_FREP_NO_PRUNE = 1u << 0, /* interval subdivision without shortening the tape */
-    CRISP_FREP_NO_BATCH = 1u << 1, /* leaves evaluate one point at a time */
-    CRISP_FREP_BRUTE = 1u << 2,    /* no subdivision: every sample in batches on the full tape */
+    CRISP_FREP_NO_PRUNE = 1u << 0,   /* interval subdivision without shortening the tape */
+    CRISP_FREP_NO_BATCH = 1u << 1,   /* leaves evaluate one point at a time */
+    CRISP_FREP_BRUTE = 1u << 2,      /* no subdivision: every sample in batches on the full tape */
     CRISP_FREP_NO_SUBCELLS = 1u << 3 /* 3D leaves skip the batched intervals of their sub-cells */
 };
 
@@ -148,19 +148,19 @@ typedef struct crisp_frep_render_desc {
  * (rounded to float); voxel k samples z = z0 + (k+0.5)(z1-z0)/D. */
 typedef struct crisp_frep_image {
     int width, height, depth;
-    uint8_t *inside; /* W*H: 255 inside (2D) or hit (3D), else 0 */
-    int32_t *heights;/* 3D: W*H voxel index of the topmost inside voxel, -1 for none */
-    float *z;        /* 3D: W*H sample z of that voxel, -inf for none */
-    float *normal;   /* 3D: 3*W*H unit normal (gradient direction), 0 for none */
+    uint8_t *inside;  /* W*H: 255 inside (2D) or hit (3D), else 0 */
+    int32_t *heights; /* 3D: W*H voxel index of the topmost inside voxel, -1 for none */
+    float *z;         /* 3D: W*H sample z of that voxel, -inf for none */
+    float *normal;    /* 3D: 3*W*H unit normal (gradient direction), 0 for none */
 } crisp_frep_image;
 
 typedef struct crisp_frep_render_stats {
-    size_t intervals;   /* interval evaluations of cells */
-    size_t filled;      /* cells decided by one interval (inside or outside) */
-    size_t leaves;      /* leaf cells evaluated point by point */
-    size_t points;      /* points evaluated in leaves */
-    size_t culled;      /* 3D cells skipped by z-culling */
-    size_t tape_sum;    /* sum of leaf tape lengths (mean = tape_sum / leaves) */
+    size_t intervals; /* interval evaluations of cells */
+    size_t filled;    /* cells decided by one interval (inside or outside) */
+    size_t leaves;    /* leaf cells evaluated point by point */
+    size_t points;    /* points evaluated in leaves */
+    size_t culled;    /* 3D cells skipped by z-culling */
+    size_t tape_sum;  /* sum of leaf tape lengths (mean = tape_sum / leaves) */
 } crisp_frep_render_stats;
 
 typedef struct crisp_frep_renderer crisp_frep_renderer;
@@ -186,21 +186,21 @@ typedef struct crisp_frep_fit_desc {
     /* the box searched; all zero: cubes [-R, R]^3 for R = 2, 8, 32, ..., 1024 in turn, the
      * first that holds a bounded fit (except on free_axes) is taken */
     double search[6];
-    unsigned free_axes; /* bit a: axis a may be unbounded (a 2D model seen in 3D) */
-    int planar;       /* 1: fit x and y only, on the plane z = (z0 + z1) / 2 (2D images) */
+    unsigned free_axes;   /* bit a: axis a may be unbounded (a 2D model seen in 3D) */
+    int planar;           /* 1: fit x and y only, on the plane z = (z0 + z1) / 2 (2D images) */
     size_t max_intervals; /* interval evaluations per search box; 0: 2e6 */
 } crisp_frep_fit_desc;
 
 typedef struct crisp_frep_fit {
-    double box[6];       /* x0, x1, y0, y1, z0, z1: every point not proven outside lies inside */
-    double cell;         /* edge of the finest octree cells (the fit's resolution) */
-    unsigned unbounded;  /* bit a: the part reaches the search box on axis a */
-    unsigned unknown;    /* bit a: ... and the function is NaN there (an undefined expression) */
-    int empty;           /* every point of the search box is proven outside */
-    int overflow;        /* the octree ran out of intervals (the fit is still conservative) */
-    size_t sampled;      /* cells with a NaN interval decided by sample points (a guess) */
-    size_t intervals;    /* interval evaluations spent */
-    double search[6];    /* the search box that gave the fit */
+    double box[6];      /* x0, x1, y0, y1, z0, z1: every point not proven outside lies inside */
+    double cell;        /* edge of the finest octree cells (the fit's resolution) */
+    unsigned unbounded; /* bit a: the part reaches the search box on axis a */
+    unsigned unknown;   /* bit a: ... and the function is NaN there (an undefined expression) */
+    int empty;          /* every point of the search box is proven outside */
+    int overflow;       /* the octree ran out of intervals (the fit is still conservative) */
+    size_t sampled;     /* cells with a NaN interval decided by sample points (a guess) */
+    size_t intervals;   /* interval evaluations spent */
+    double search[6];   /* the search box that gave the fit */
 } crisp_frep_fit;
 
 /* The bounding box of the part (f < 0) within the search box, by interval subdivision: the
@@ -219,8 +219,8 @@ crisp_status crisp_frep_fit_check(const crisp_frep_fit *fit, unsigned allowed_un
 crisp_status crisp_frep_read_vm(const char *path, crisp_frep **dest);
 crisp_status crisp_frep_read_vm_mem(const char *name, const char *data, size_t size,
                                     crisp_frep **dest);
-/* Infix math strings (docs/design.md section 7): X Y Z, numbers, pi, + - * / ^, unary minus, sqrt abs
- * exp log sin cos tan asin acos atan atan2 pow min max, < <= > >= == !=, && || !, parentheses.
+/* Infix math strings (docs/design.md section 7): X Y Z, numbers, pi, + - * / ^, unary minus, sqrt
+ * abs exp log sin cos tan asin acos atan atan2 pow min max, < <= > >= == !=, && || !, parentheses.
  * Precedence: unary, ^ (right-associative), * /, + -, comparisons, &&, ||. Logic becomes the
  * distance form: a < b -> a - b, a > b -> b - a, && -> max, || -> min, ! -> negation. */
 crisp_status crisp_frep_read_math(const char *path, crisp_frep **dest);

@@ -37,17 +37,17 @@ typedef struct crisp_frep_mass_desc {
 
 typedef struct crisp_frep_mass {
     int level;
-    double cell[3];                     /* a cell's edges */
+    double cell[3]; /* a cell's edges */
     double region[6];
-    double volume, volume_se;           /* estimate and standard error */
-    double volume_lo, volume_hi;        /* certified bounds */
+    double volume, volume_se;    /* estimate and standard error */
+    double volume_lo, volume_hi; /* certified bounds */
     double centroid[3], centroid_se[3];
     /* about the centroid, density 1: Ixx, Iyy, Izz, Ixy, Iyz, Ixz with Ixy = -integral of x y */
     double inertia[6], inertia_se[6];
     size_t inside_cells, boundary_cells, samples, intervals;
-    double seconds;                     /* time of this level (wall clock) */
-    double cpu_seconds;                 /* and the thread's processor time (steadier under load) */
-    size_t cut_cells;                   /* pieces of the region's faces holding inside points */
+    double seconds;     /* time of this level (wall clock) */
+    double cpu_seconds; /* and the thread's processor time (steadier under load) */
+    size_t cut_cells;   /* pieces of the region's faces holding inside points */
 } crisp_frep_mass;
 
 /* One level. CRISP_ERR_NUMERIC when the part is empty at this level (no inside cell or sample)
@@ -60,7 +60,8 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
  * processor time and the volume's standard error of a finer level: the error falls by the last
  * two levels' factor per level; boundary cells grow by a factor and the cost per cell changes by
  * a ratio whose excesses over 4 and 1 halve per level (Clark's K 4^level in the limit). */
-void crisp_frep_mass_predict(const crisp_frep_mass *lv, int n, int level, double *seconds, double *se);
+void crisp_frep_mass_predict(const crisp_frep_mass *lv, int n, int level, double *seconds,
+                             double *se);
 
 #ifdef __cplusplus
 }

@@ -30,11 +30,11 @@ extern "C" {
 #endif
 
 typedef struct crisp_frep_mesh_desc {
-    double region[6]; /* x0, x1, y0, y1, z0, z1; all zero: crisp_frep_fit_region's box */
-    int resolution;   /* grid cells along the region's longest side; 0: 128 */
-    double cell;      /* > 0: the grid cell's edge instead (overrides resolution) */
+    double region[6];     /* x0, x1, y0, y1, z0, z1; all zero: crisp_frep_fit_region's box */
+    int resolution;       /* grid cells along the region's longest side; 0: 128 */
+    double cell;          /* > 0: the grid cell's edge instead (overrides resolution) */
     double max_megabytes; /* the edge table's limit (it grows with the surface); 0: 8192 */
-    int no_features;  /* 1: no feature points (plain marching tetrahedra) */
+    int no_features;      /* 1: no feature points (plain marching tetrahedra) */
 } crisp_frep_mesh_desc;
 
 /* Receives the mesh as it is made: vertices numbered from 0 in the order given, each triangle
@@ -47,17 +47,17 @@ typedef struct crisp_frep_mesh_sink {
 
 typedef struct crisp_frep_mesh_stats {
     size_t vertices, triangles;
-    double cell;          /* the grid cell's edge */
-    double region[6];     /* the region meshed */
-    size_t leaves;        /* undecided octree leaves (blocks of 4^3 grid cubes) meshed */
-    size_t intervals;     /* interval evaluations */
-    size_t thin_cubes;    /* grid cubes whose corners agree but whose centre differs: a feature
-                             thinner than the cell, lost in the mesh */
-    double thin_at[3];    /* the centre of one such cube */
-    size_t cut_points;    /* inside grid points on the region's border (the region cuts the part;
-                             the mesh is closed there by the region's faces) */
-    size_t nan_points;    /* grid points where f is NaN (taken as outside) */
-    size_t peak_bytes;    /* the mesher's own peak memory (edge table, tapes) */
+    double cell;           /* the grid cell's edge */
+    double region[6];      /* the region meshed */
+    size_t leaves;         /* undecided octree leaves (blocks of 4^3 grid cubes) meshed */
+    size_t intervals;      /* interval evaluations */
+    size_t thin_cubes;     /* grid cubes whose corners agree but whose centre differs: a feature
+                              thinner than the cell, lost in the mesh */
+    double thin_at[3];     /* the centre of one such cube */
+    size_t cut_points;     /* inside grid points on the region's border (the region cuts the part;
+                              the mesh is closed there by the region's faces) */
+    size_t nan_points;     /* grid points where f is NaN (taken as outside) */
+    size_t peak_bytes;     /* the mesher's own peak memory (edge table, tapes) */
     size_t feature_points; /* tetrahedra whose polygon was fanned from a feature point */
 } crisp_frep_mesh_stats;
 

@@ -70,8 +70,8 @@ typedef struct crisp_gl_desc {
 } crisp_gl_desc;
 
 typedef struct crisp_gl_stats {
-    uint64_t bytes_uploaded;  /* plan bytes uploaded by the last crisp_gl_draw */
-    uint64_t scene_bytes;     /* bytes of the scene's buffers */
+    uint64_t bytes_uploaded; /* plan bytes uploaded by the last crisp_gl_draw */
+    uint64_t scene_bytes;    /* bytes of the scene's buffers */
     uint32_t leaves, ribbon_quads, passes;
     double ms_upload, ms_draw; /* wall time of the upload and of the draw calls until glFinish */
     double ms_read;
@@ -95,7 +95,8 @@ typedef struct crisp_gl_scene_data {
  * compiles the shaders. Fails with CRISP_ERR_GL on a context below 4.5, missing limits (storage
  * buffers in the tessellation stages) or a shader that does not compile or link (the message
  * holds the compiler's log). */
-crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *desc, crisp_gl **dest);
+crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *desc,
+                             crisp_gl **dest);
 void crisp_gl_destroy(crisp_gl *gl);
 crisp_status crisp_gl_set_scene(crisp_gl *gl, const crisp_scene *scene);
 crisp_status crisp_gl_set_scene_data(crisp_gl *gl, const crisp_gl_scene_data *data);
@@ -126,8 +127,9 @@ crisp_status crisp_gl_render(crisp_gl *gl, const crisp_scene *scene, const crisp
 /* One frame without a window: a headless context, the backend, a planner (default tolerance),
  * draw and read back, everything destroyed again (what `crisp render --backend gl` does). img
  * must have the camera's size. renderer (may be NULL) receives crisp_gl_renderer's text. */
-crisp_status crisp_gl_render_once(const crisp_scene *scene, const crisp_camera *cam, int samples, crisp_image *img,
-                                  crisp_gl_stats *stats, char *renderer, size_t renderer_size);
+crisp_status crisp_gl_render_once(const crisp_scene *scene, const crisp_camera *cam, int samples,
+                                  crisp_image *img, crisp_gl_stats *stats, char *renderer,
+                                  size_t renderer_size);
 /* GL_RENDERER and GL_VERSION of the context the backend runs on. */
 const char *crisp_gl_renderer(const crisp_gl *gl);
 

@@ -28,14 +28,14 @@ typedef struct crisp_mass_desc {
 } crisp_mass_desc;
 
 typedef struct crisp_mass_props {
-    int closed;           /* the faces' vector area vanishes (a closed, consistently oriented shell) */
+    int closed; /* the faces' vector area vanishes (a closed, consistently oriented shell) */
     double area, volume;
     double centroid[3];
     /* about the centroid, density 1: Ixx Iyy Izz Ixy Iyz Ixz with Ixy = -integral of x y */
     double inertia[6];
     double vector_area[3]; /* integral of n dA over all faces (0 for a closed shell) */
     double area_err, volume_err, inertia_err; /* estimates from two quadrature orders */
-    size_t evaluations;   /* surface evaluations */
+    size_t evaluations;                       /* surface evaluations */
 } crisp_mass_props;
 
 /* Every face's outward normal is S_u x S_v, or its negative when face->reversed. A model that is

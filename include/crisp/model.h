@@ -21,7 +21,7 @@ extern "C" {
 #endif
 
 typedef struct crisp_trim_loop {
-    int is_outer;         /* 1: outer boundary (CCW), 0: hole (CW) */
+    int is_outer; /* 1: outer boundary (CCW), 0: hole (CW) */
     int curve_count;
     crisp_curve **curves; /* owned; dim 2 */
 } crisp_trim_loop;
@@ -31,11 +31,11 @@ typedef struct crisp_face {
     int loop_count;
     crisp_trim_loop *loops; /* owned */
     int has_color;
-    float color[4];         /* RGBA in [0, 1] when has_color */
-    int source_id;          /* entity number / DE pointer / line in the source file, for messages */
-    int reversed;           /* 1 when the face's outward normal is -(S_u x S_v) */
-    int body;               /* faces of one shell or solid (one placed copy of it) share a
-                               non-zero body; 0 when the reader does not say */
+    float color[4]; /* RGBA in [0, 1] when has_color */
+    int source_id;  /* entity number / DE pointer / line in the source file, for messages */
+    int reversed;   /* 1 when the face's outward normal is -(S_u x S_v) */
+    int body;       /* faces of one shell or solid (one placed copy of it) share a
+                       non-zero body; 0 when the reader does not say */
 } crisp_face;
 
 /* One counted kind of thing a reader skipped, with why ("entity 116 point: not a surface"), in
@@ -48,8 +48,8 @@ typedef struct crisp_skip_note {
 typedef struct crisp_model {
     int face_count, face_cap;
     crisp_face *faces;
-    char format[16];       /* "IGES", "STEP", "OBJ" */
-    double unit_to_mm;     /* model units in millimetres (1 when unknown) */
+    char format[16];   /* "IGES", "STEP", "OBJ" */
+    double unit_to_mm; /* model units in millimetres (1 when unknown) */
     int skip_count;
     crisp_skip_note *skips; /* what the reader skipped and why */
     int faces_dropped;      /* faces the reader could not build (each also has a skip note) */
@@ -82,10 +82,10 @@ void crisp_trim_loop_free(crisp_trim_loop *loop);
 
 typedef struct crisp_model_stats {
     int faces;
-    int bezier_patches;   /* after Bézier extraction of every surface */
+    int bezier_patches; /* after Bézier extraction of every surface */
     int outer_loops, hole_loops;
-    int trim_curves;      /* B-spline trim curves */
-    int trim_pieces;      /* Bézier trim pieces after extraction */
+    int trim_curves; /* B-spline trim curves */
+    int trim_pieces; /* Bézier trim pieces after extraction */
     int rational_surfaces;
     int max_degree_u, max_degree_v, max_trim_degree;
     unsigned degrees_seen; /* bit d set when some surface has degree d in u or v */
@@ -110,10 +110,11 @@ typedef struct crisp_gap_report {
     long gap_samples; /* of those, farther than tolerance */
     int incomplete;   /* 1: the model's boundaries were too long to measure (nothing reported) */
     int count, cap;
-    crisp_gap *gaps;  /* count pairs, largest gap first */
+    crisp_gap *gaps; /* count pairs, largest gap first */
 } crisp_gap_report;
 
-crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, crisp_gap_report *dest);
+crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit,
+                              crisp_gap_report *dest);
 void crisp_gap_report_free(crisp_gap_report *r);
 
 /* Signed area of the loop (shoelace on a dense polyline of its curves): > 0 when CCW. */

@@ -74,9 +74,9 @@ typedef struct crisp_surface {
     int degree_u, degree_v; /* 1..15 */
     int count_u, count_v;   /* control points per direction */
     int rational;
-    double *knots_u;        /* count_u + degree_u + 1 */
-    double *knots_v;        /* count_v + degree_v + 1 */
-    double *cpw;            /* count_u * count_v * 4, index (j * count_u + i) * 4 */
+    double *knots_u; /* count_u + degree_u + 1 */
+    double *knots_v; /* count_v + degree_v + 1 */
+    double *cpw;     /* count_u * count_v * 4, index (j * count_u + i) * 4 */
 } crisp_surface;
 
 /* points: count_u * count_v * 3 (u fastest); weights: count_u * count_v or NULL. Validated as for
@@ -148,7 +148,8 @@ void crisp_bezier_patch_split_v(const crisp_bezier_patch *p, double t, crisp_bez
                                 crisp_bezier_patch *hi);
 void crisp_bezier_patch_bbox(const crisp_bezier_patch *p, double *dest); /* 6 values */
 
-/* ---- normals ---------------------------------------------------------------------------------- */
+/* ---- normals ----------------------------------------------------------------------------------
+ */
 
 /* The unit normal S_s x S_t / |S_s x S_t| of the patch at local (s, t), also where the cross
  * product vanishes (a cone's apex, a sphere's pole, a collapsed side, parallel partials): there
@@ -170,8 +171,8 @@ crisp_status crisp_surface_offset(const crisp_surface *s, double d, double tol, 
 
 /* Point inversion: the (u, v) of the point of s closest to p (global search on a sample grid,
  * then Newton, clamped to the domain). dist (may be NULL) gets the 3D distance. */
-crisp_status crisp_surface_closest_point(const crisp_surface *s, const double p[3],
-                                         double uv[2], double *dist);
+crisp_status crisp_surface_closest_point(const crisp_surface *s, const double p[3], double uv[2],
+                                         double *dist);
 /* A 2D B-spline curve in s's (u, v) domain whose image lies within tol (3D distance) of the
  * model-space curve c over [t0, t1]; continuity across u/v seams of closed surfaces is kept.
  * The result is a cubic over [t0, t1] (C0 at its knots). On a surface closed in u (or v) a
@@ -186,9 +187,9 @@ crisp_status crisp_surface_project_curve(const crisp_surface *s, const crisp_cur
  * two sheets of the surface), the curve cut at the jumps into up to max_pieces pieces, each
  * projected on its own (dest[0 .. *count - 1], in curve order). The gaps between pieces are the
  * caller's to bridge (they lie where the surface collapses, or they are real). */
-crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const crisp_curve *c, double t0,
-                                                double t1, double tol, int max_pieces, crisp_curve **dest,
-                                                int *count);
+crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const crisp_curve *c,
+                                                double t0, double t1, double tol, int max_pieces,
+                                                crisp_curve **dest, int *count);
 
 #ifdef __cplusplus
 }

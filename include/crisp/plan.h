@@ -51,17 +51,17 @@
 extern "C" {
 #endif
 
-#define CRISP_PLAN_MAX_LEVEL 64        /* tessellation levels in a plan: 1..64 */
-#define CRISP_PLAN_MAX_LEAF_PX 4096.0  /* screen extent of a leaf (the planner splits larger) */
-#define CRISP_PLAN_MAX_DEPTH 24        /* quadtree depth of a leaf in its patch */
+#define CRISP_PLAN_MAX_LEVEL 64       /* tessellation levels in a plan: 1..64 */
+#define CRISP_PLAN_MAX_LEAF_PX 4096.0 /* screen extent of a leaf (the planner splits larger) */
+#define CRISP_PLAN_MAX_DEPTH 24       /* quadtree depth of a leaf in its patch */
 
 /* One visible leaf. std430: 48 bytes, as uvec4[3]. */
 typedef struct crisp_plan_leaf {
-    uint32_t patch;   /* index into crisp_scene.patches and crisp_scene.patch_records */
-    uint32_t face;    /* the patch's face */
-    uint32_t depth;   /* 0..CRISP_PLAN_MAX_DEPTH */
-    uint32_t tau;     /* inner level, 1..CRISP_PLAN_MAX_LEVEL */
-    uint32_t ix, iy;  /* cell in the patch's 2^depth x 2^depth grid */
+    uint32_t patch;  /* index into crisp_scene.patches and crisp_scene.patch_records */
+    uint32_t face;   /* the patch's face */
+    uint32_t depth;  /* 0..CRISP_PLAN_MAX_DEPTH */
+    uint32_t tau;    /* inner level, 1..CRISP_PLAN_MAX_LEVEL */
+    uint32_t ix, iy; /* cell in the patch's 2^depth x 2^depth grid */
     uint32_t pad[2];
     uint32_t edge[4]; /* outer levels: t = 0, s = 1, t = 1, s = 0; 1..CRISP_PLAN_MAX_LEVEL */
 } crisp_plan_leaf;
@@ -73,15 +73,15 @@ typedef struct crisp_plan_leaf {
 
 /* One face of the scene (every face has a record, visible or not). std430: 64 bytes. */
 typedef struct crisp_plan_face {
-    double v0, v1;          /* the table's v-range (a v outside it is trimmed away) */
-    double strip_scale;     /* strips per unit v: strip = floor((v - v0) * strip_scale) */
-    uint32_t first_strip;   /* into strips[] */
-    uint32_t strip_count;   /* 0 when the face is invisible */
-    uint32_t first_leaf;    /* into leaves[] */
+    double v0, v1;        /* the table's v-range (a v outside it is trimmed away) */
+    double strip_scale;   /* strips per unit v: strip = floor((v - v0) * strip_scale) */
+    uint32_t first_strip; /* into strips[] */
+    uint32_t strip_count; /* 0 when the face is invisible */
+    uint32_t first_leaf;  /* into leaves[] */
     uint32_t leaf_count;
-    uint32_t flags;         /* CRISP_PLAN_FACE_* */
-    uint32_t tau_max;       /* largest inner level among its leaves (0: invisible) */
-    uint32_t first_ribbon;  /* into ribbon quads (4 vertices each) */
+    uint32_t flags;        /* CRISP_PLAN_FACE_* */
+    uint32_t tau_max;      /* largest inner level among its leaves (0: invisible) */
+    uint32_t first_ribbon; /* into ribbon quads (4 vertices each) */
     uint32_t ribbon_count;
     uint32_t pad[2];
 } crisp_plan_face;
@@ -96,9 +96,9 @@ typedef struct crisp_plan_strip {
 
 /* One ribbon vertex. std430: 56 bytes (alignment 8). */
 typedef struct crisp_plan_ribbon_vertex {
-    double clip[4];   /* clip-space position; clip[3] < 0: the quad is not drawn */
-    float uv[2];      /* surface parameters of the curve point */
-    float normal[3];  /* unit world normal of the surface there */
+    double clip[4];  /* clip-space position; clip[3] < 0: the quad is not drawn */
+    float uv[2];     /* surface parameters of the curve point */
+    float normal[3]; /* unit world normal of the surface there */
     uint32_t face;
 } crisp_plan_ribbon_vertex;
 
@@ -108,24 +108,24 @@ typedef struct crisp_plan_stats {
     uint32_t rows_clamped; /* faces whose table hit CRISP_TRIM_MAX_ROWS */
     uint32_t level_splits; /* leaves split because an edge level would exceed 64 */
     uint64_t table_rows, table_bytes, ribbon_quads;
-    uint64_t triangles;    /* of the leaves at their levels (crisp_tess_mesh_counts) */
+    uint64_t triangles; /* of the leaves at their levels (crisp_tess_mesh_counts) */
     double ms_levels, ms_edges, ms_trim, ms_ribbons;
 } crisp_plan_stats;
 
 /* A frame plan. Read-only for backends; valid until the planner plans again or is destroyed. */
 typedef struct crisp_frame_plan {
-    crisp_mat4 view_proj;   /* projection * view, column-major, OpenGL clip space */
-    float view_proj_f[16];  /* the same in float, column-major */
-    double eye[3];          /* camera position (for shading and depth) */
+    crisp_mat4 view_proj;  /* projection * view, column-major, OpenGL clip space */
+    float view_proj_f[16]; /* the same in float, column-major */
+    double eye[3];         /* camera position (for shading and depth) */
     int width, height;
-    double eps_px;          /* the tessellation tolerance the levels meet */
+    double eps_px; /* the tessellation tolerance the levels meet */
 
     const crisp_plan_leaf *leaves;
     uint32_t leaf_count;
     const crisp_plan_face *faces;
-    uint32_t face_count;    /* = the scene's face count */
+    uint32_t face_count; /* = the scene's face count */
     const crisp_plan_strip *strips;
-    uint32_t strip_count;   /* total over faces */
+    uint32_t strip_count;       /* total over faces */
     const uint32_t *row_offset; /* row_count + 1 */
     uint32_t row_count;
     const double *crossings;

@@ -1,5 +1,5 @@
-/* crisp render: camera and pixel conventions (docs/design.md section 6), and (to come) the scene, the
- * frame planner and the CPU backend.
+/* crisp render: camera and pixel conventions (docs/design.md section 6), and (to come) the scene,
+ * the frame planner and the CPU backend.
  *
  * Offers:
  *   crisp_camera            eye, target, up, vertical fov, near, far, image size
@@ -43,14 +43,12 @@ crisp_status crisp_camera_check(const crisp_camera *cam);
 void crisp_camera_matrices_compute(const crisp_camera *cam, crisp_camera_matrices *dest);
 /* Ray through image point (x, y) in pixels, y down (a pixel centre is (i + 0.5, j + 0.5)):
  * origin = eye, dir unit length. */
-void crisp_camera_ray(const crisp_camera *cam, double x, double y, double origin[3],
-                      double dir[3]);
+void crisp_camera_ray(const crisp_camera *cam, double x, double y, double origin[3], double dir[3]);
 /* Clip-space (X, Y, Z, W) with W > 0 -> pixel coordinates (x right, y down) and NDC depth. */
 void crisp_camera_to_pixel(const crisp_camera *cam, const double clip[4], double dest[3]);
 /* A camera looking along -Z with +Y up and a 30 degree fov that shows the whole box
  * (xmin, ymin, zmin, xmax, ymax, zmax) with a small margin; near and far enclose it. */
-crisp_status crisp_camera_frame_box(const double box[6], int width, int height,
-                                    crisp_camera *dest);
+crisp_status crisp_camera_frame_box(const double box[6], int width, int height, crisp_camera *dest);
 
 /* ---- scene --------------------------------------------------------------------------------- */
 
@@ -66,10 +64,10 @@ typedef struct crisp_scene_patch {
 typedef struct crisp_scene_face {
     const crisp_face *src;
     uint32_t first_patch, patch_count;
-    uint32_t grid_u, grid_v;   /* patches per direction (u fastest) */
-    int closed_u, closed_v;    /* the surface closes on itself across its u (v) domain ends: the
-                                  first and last patch columns (rows) share an edge */
-    double domain[4];          /* u0, u1, v0, v1 of the surface */
+    uint32_t grid_u, grid_v; /* patches per direction (u fastest) */
+    int closed_u, closed_v;  /* the surface closes on itself across its u (v) domain ends: the
+                                first and last patch columns (rows) share an edge */
+    double domain[4];        /* u0, u1, v0, v1 of the surface */
     uint32_t first_piece, piece_count; /* Bézier trim pieces of all loops, loop after loop */
     uint32_t first_loop, loop_count;
     float color[4];
@@ -80,10 +78,11 @@ typedef struct crisp_scene_loop {
     int is_outer;
 } crisp_scene_loop;
 
-/* The control points of one Bézier patch in crisp_scene.control_points. std430: 48 bytes (include/crisp/plan.h). */
+/* The control points of one Bézier patch in crisp_scene.control_points. std430: 48 bytes
+ * (include/crisp/plan.h). */
 typedef struct crisp_scene_patch_record {
-    uint32_t first_cp;  /* index of its first control point (4 doubles each: w x, w y, w z, w) */
-    uint32_t du, dv;    /* degrees (1..15); (du + 1) (dv + 1) control points, u fastest */
+    uint32_t first_cp; /* index of its first control point (4 doubles each: w x, w y, w z, w) */
+    uint32_t du, dv;   /* degrees (1..15); (du + 1) (dv + 1) control points, u fastest */
     uint32_t face;
     double u0, u1, v0, v1; /* the patch's parameter box on the face's surface */
 } crisp_scene_patch_record;
@@ -102,7 +101,7 @@ typedef struct crisp_scene {
     /* Every patch's homogeneous control points, patch after patch (each patch's bez.cpw points
      * here): the array a GPU uploads as it is, with patch_records saying where each patch's are. */
     double *control_points;
-    size_t control_point_count; /* points of 4 doubles */
+    size_t control_point_count;              /* points of 4 doubles */
     crisp_scene_patch_record *patch_records; /* patch_count */
     double box[6];
 } crisp_scene;
@@ -132,22 +131,23 @@ void crisp_image_free(crisp_image *img);
 
 /* Decides whether (u, v) of a face is inside its trim (1) or not (0); the exact renderer uses the
  * exact classifier on the true curves when this is NULL. */
-typedef int (*crisp_trim_classify_fn)(void *ctx, const crisp_scene *scene, uint32_t face,
-                                      double u, double v);
+typedef int (*crisp_trim_classify_fn)(void *ctx, const crisp_scene *scene, uint32_t face, double u,
+                                      double v);
 
 typedef struct crisp_exact_desc {
-    int threads;                    /* 0: default */
+    int threads;                     /* 0: default */
     crisp_trim_classify_fn classify; /* NULL: every point of a face counts as inside */
     void *classify_ctx;
 } crisp_exact_desc;
 
 /* The nearest surface point inside its trim along the ray (origin, unit dir) with parameter t in
  * [tmin, tmax]; returns 1 and fills the outputs (any may be NULL) when there is one. */
-int crisp_exact_ray(const crisp_scene *scene, const crisp_exact_desc *desc,
-                    const double origin[3], const double dir[3], double tmin, double tmax,
-                    double *t, uint32_t *face, double uv[2], double normal[3]);
+int crisp_exact_ray(const crisp_scene *scene, const crisp_exact_desc *desc, const double origin[3],
+                    const double dir[3], double tmin, double tmax, double *t, uint32_t *face,
+                    double uv[2], double normal[3]);
 
-/* One ray per pixel centre (docs/design.md section 6); near and far bound the camera-space depth. */
+/* One ray per pixel centre (docs/design.md section 6); near and far bound the camera-space depth.
+ */
 crisp_status crisp_render_exact(const crisp_scene *scene, const crisp_camera *cam,
                                 const crisp_exact_desc *desc, crisp_image *img);
 
@@ -208,14 +208,14 @@ typedef struct crisp_frep_part {
 
 /* Counters of one crisp_render_frep_parts call (summed over parts and threads). */
 typedef struct crisp_frep_parts_stats {
-    size_t intervals;   /* interval evaluations of frustum cells */
-    size_t filled;      /* cells found inside everywhere */
-    size_t leaves;      /* leaf cells sampled point by point */
-    size_t batches;     /* batched point evaluations (CRISP_FREP_CELL_LANES points each) */
-    size_t root_batches;/* of which narrowing sign changes to float precision */
-    size_t points;      /* points evaluated in them */
-    size_t tape_sum;    /* sum of the tape lengths of those batches (mean = tape_sum / batches) */
-    size_t hits;        /* pixels drawn */
+    size_t intervals;    /* interval evaluations of frustum cells */
+    size_t filled;       /* cells found inside everywhere */
+    size_t leaves;       /* leaf cells sampled point by point */
+    size_t batches;      /* batched point evaluations (CRISP_FREP_CELL_LANES points each) */
+    size_t root_batches; /* of which narrowing sign changes to float precision */
+    size_t points;       /* points evaluated in them */
+    size_t tape_sum;     /* sum of the tape lengths of those batches (mean = tape_sum / batches) */
+    size_t hits;         /* pixels drawn */
 } crisp_frep_parts_stats;
 
 typedef struct crisp_frep_parts_desc {

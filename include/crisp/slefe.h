@@ -1,7 +1,8 @@
 /* crisp slefe: subdividable linear efficient function enclosures (Lutterkort & Peters 2001) of
  * Bézier functions, curve pieces and tensor-product patches, in object space and, for rational
  * patches, in screen space through a perspective camera (homogeneous SLEFE + interval division).
- * The tables are generated in code on first use (docs/design.md section 3); no published table is copied.
+ * The tables are generated in code on first use (docs/design.md section 3); no published table is
+ * copied.
  *
  * Offers:
  *   crisp_slefe_table_get          upper/lower tables of the anti-differences a_j^d on m segments
@@ -102,8 +103,8 @@ crisp_status crisp_slefe_curve_boxes(const crisp_bezier_curve *c, int segments, 
 
 /* ---- tensor-product patches ------------------------------------------------------------------ */
 
-/* Two-pass enclosure (docs/design.md section 3) of each homogeneous coordinate X, Y, Z, W of a patch
- * (degrees 1..15 each). lo, up: CRISP_SLEFE_GRID(segments) * 4 values, grid point (ku, kv) (u
+/* Two-pass enclosure (docs/design.md section 3) of each homogeneous coordinate X, Y, Z, W of a
+ * patch (degrees 1..15 each). lo, up: CRISP_SLEFE_GRID(segments) * 4 values, grid point (ku, kv) (u
  * fastest) coordinate i at [(kv * (segments + 1) + ku) * 4 + i]. For a polynomial patch
  * (rational == 0) X, Y, Z are the Euclidean coordinates and W is exactly [1, 1]. */
 crisp_status crisp_slefe_patch(const crisp_bezier_patch *p, int segments, double *lo, double *up);
@@ -186,7 +187,8 @@ crisp_status crisp_slefe_patch_screen_error(const crisp_bezier_patch *p, int tau
 crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const crisp_slefe_view *view,
                                           double eps, int max_level, int *tau);
 
-/* ---- groups of patches of one B-spline surface ------------------------------------------------ */
+/* ---- groups of patches of one B-spline surface ------------------------------------------------
+ */
 
 /* A bound, per homogeneous coordinate (w x, w y, w z, w), on |S(u, v) - L(u, v)| for (u, v) in the
  * knot spans iu0..iu1 x iv0..iv1 (indices of non-empty spans, as crisp_scene_patch.iu, .iv), where
@@ -200,11 +202,12 @@ crisp_status crisp_slefe_group_bound(const crisp_surface *s, int iu0, int iu1, i
                                      double dest[4]);
 
 typedef struct crisp_slefe_group_screen_bound {
-    double net_px;       /* surface versus the net (bilinear over its Greville grid), on screen */
-    double triangles_px; /* surface versus the net drawn as triangles (each quad along a diagonal) */
-    double quad_px;      /* surface versus one bilinear quad through the group's four corner net
-                            points, drawn as two triangles: "one coarse piece" for the group */
-    double box_px[4];    /* xmin, ymin, xmax, ymax in pixels (y down) of the surface over the group */
+    double net_px; /* surface versus the net (bilinear over its Greville grid), on screen */
+    double
+        triangles_px; /* surface versus the net drawn as triangles (each quad along a diagonal) */
+    double quad_px;   /* surface versus one bilinear quad through the group's four corner net
+                         points, drawn as two triangles: "one coarse piece" for the group */
+    double box_px[4]; /* xmin, ymin, xmax, ymax in pixels (y down) of the surface over the group */
 } crisp_slefe_group_screen_bound;
 
 /* Screen-space bounds (pixels, max of the x and y distances, as crisp_slefe_patch_screen_error)
@@ -213,7 +216,8 @@ typedef struct crisp_slefe_group_screen_bound {
  * 0.5 can be drawn as one coarse piece within 0.5 px. CRISP_ERR_NUMERIC when W is not bounded away
  * from 0 over the group (it reaches the eye plane: split it). */
 crisp_status crisp_slefe_group_screen(const crisp_surface *s, int iu0, int iu1, int iv0, int iv1,
-                                      const crisp_slefe_view *view, crisp_slefe_group_screen_bound *dest);
+                                      const crisp_slefe_view *view,
+                                      crisp_slefe_group_screen_bound *dest);
 
 #ifdef __cplusplus
 }

@@ -34,8 +34,8 @@
  *   that decides it. Restricting rows to the visible part keeps the table small at any zoom
  *   (eq. 11 of Wu & Peters with nu_i, nu_{i+1} replaced by a_i, b_i).
  *   The screen is the viewport of width x height pixels, pixel (i, j) with j = 0 the top row
- *   (docs/design.md section 6): x~ = (X/W + 1) width / 2, y~ = (1 - Y/W) height / 2 from OpenGL clip
- *   coordinates (X, Y, Z, W) = view_proj * (homogeneous point).
+ *   (docs/design.md section 6): x~ = (X/W + 1) width / 2, y~ = (1 - Y/W) height / 2 from OpenGL
+ * clip coordinates (X, Y, Z, W) = view_proj * (homogeneous point).
  *
  * The guarantee (why the constants are what they are): with rho_v bounding the Euclidean screen
  * length of d(x~, y~)/dv and rho_u that of d(x~, y~)/du over the visible part of a strip, a pixel
@@ -96,10 +96,10 @@ typedef struct crisp_trim_density_stats {
  * strip_u, have u in the strip's u-range; both 0 when no such point exists (the strip is
  * invisible). The bound comes from coefficient ratios of the degree-elevated derivatives over W's
  * coefficients with X / W confined to its rational convex hull (src/trim/scan_density.c), on
- * sub-patches refined where W is not provably positive or the bound is loose. rho_v, rho_u: strip_count values each. vis_v (may be
- * NULL): 2 values per strip, the v-interval covered by the sub-patches not culled (every point of
- * the strip inside the widened frustum lies in it; the strip's bounds when invisible). stats may
- * be NULL. */
+ * sub-patches refined where W is not provably positive or the bound is loose. rho_v, rho_u:
+ * strip_count values each. vis_v (may be NULL): 2 values per strip, the v-interval covered by the
+ * sub-patches not culled (every point of the strip inside the widened frustum lies in it; the
+ * strip's bounds when invisible). stats may be NULL. */
 crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double *rho_v,
                                      double *rho_u, double *vis_v, crisp_trim_density_stats *stats);
 
@@ -138,11 +138,11 @@ typedef struct crisp_trim_tess_desc {
 } crisp_trim_tess_desc;
 
 /* Each piece (or, where one piece would need many, each of its dyadic sub-pieces: only the parts
- * over visible strips are refined) gets n uniform segments in t, n the smallest count for which the Filip et al. bound
- * (max deviation of a degree-d polynomial from its chords <= d (d - 1) max|Δ²b| / (8 n²)), applied
- * to the homogeneous form and divided by the smallest weight, keeps the polyline within the
- * tolerances of every visible strip the piece's control polygon overlaps. Pieces over invisible
- * strips only get one segment. */
+ * over visible strips are refined) gets n uniform segments in t, n the smallest count for which the
+ * Filip et al. bound (max deviation of a degree-d polynomial from its chords <= d (d - 1) max|Δ²b|
+ * / (8 n²)), applied to the homogeneous form and divided by the smallest weight, keeps the polyline
+ * within the tolerances of every visible strip the piece's control polygon overlaps. Pieces over
+ * invisible strips only get one segment. */
 crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_polyline *dest);
 void crisp_trim_polyline_free(crisp_trim_polyline *p);
 

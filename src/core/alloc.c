@@ -41,11 +41,14 @@ crisp_status crisp_grow(void **p, size_t *cap, size_t need, size_t size)
     if (need <= *cap) return CRISP_OK;
     size_t c = *cap ? *cap : 8;
     while (c < need) {
-        if (c > SIZE_MAX / 2) return crisp_error(CRISP_ERR_NO_MEMORY, "array of %zu elements is too large", need);
+        if (c > SIZE_MAX / 2)
+            return crisp_error(CRISP_ERR_NO_MEMORY, "array of %zu elements is too large", need);
         c *= 2;
     }
     void *q = crisp_realloc_array(*p, c, size);
-    if (!q) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory growing an array to %zu elements of %zu bytes", c, size);
+    if (!q)
+        return crisp_error(CRISP_ERR_NO_MEMORY,
+                           "out of memory growing an array to %zu elements of %zu bytes", c, size);
     *p = q;
     *cap = c;
     return CRISP_OK;

@@ -10,8 +10,8 @@ typedef struct block {
 } block;
 
 struct crisp_arena {
-    block *head;    /* block being filled */
-    block *first;   /* chain from the first block, in order */
+    block *head;  /* block being filled */
+    block *first; /* chain from the first block, in order */
     size_t block_size;
     size_t reserved;
 };
@@ -38,7 +38,8 @@ void crisp_arena_destroy(crisp_arena *a)
 
 void crisp_arena_reset(crisp_arena *a)
 {
-    for (block *b = a->first; b; b = b->next) b->used = 0;
+    for (block *b = a->first; b; b = b->next)
+        b->used = 0;
     a->head = a->first;
 }
 
@@ -68,7 +69,8 @@ void *crisp_arena_alloc(crisp_arena *a, size_t n, size_t size)
         a->first = nb;
     } else {
         block *t = a->first;
-        while (t->next) t = t->next;
+        while (t->next)
+            t = t->next;
         t->next = nb;
     }
     a->head = nb;
@@ -84,14 +86,16 @@ size_t crisp_arena_reserved(const crisp_arena *a)
 size_t crisp_arena_used(const crisp_arena *a)
 {
     size_t used = 0;
-    for (const block *b = a->first; b; b = b->next) used += b->used;
+    for (const block *b = a->first; b; b = b->next)
+        used += b->used;
     return used;
 }
 
 crisp_status crisp_arena_reserve(crisp_arena *a, size_t bytes)
 {
     if (a->first && a->first->size >= bytes) return CRISP_OK;
-    if (bytes > SIZE_MAX - sizeof(block)) return crisp_error(CRISP_ERR_NO_MEMORY, "arena reserve of %zu bytes", bytes);
+    if (bytes > SIZE_MAX - sizeof(block))
+        return crisp_error(CRISP_ERR_NO_MEMORY, "arena reserve of %zu bytes", bytes);
     block *nb = malloc(sizeof(block) + bytes);
     if (!nb) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory reserving %zu bytes", bytes);
     nb->size = bytes;

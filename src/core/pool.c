@@ -25,7 +25,7 @@ struct crisp_pool {
     void *ctx;
     size_t count, grain;
     atomic_size_t next, items_done;
-    crisp__error_slot error; /* the job's first error */
+    crisp__error_slot error;  /* the job's first error */
     unsigned long generation; /* bumped per job; workers run each generation once */
     int busy;                 /* workers still in the current job */
     int quit;
@@ -38,7 +38,8 @@ typedef struct {
 
 static _Thread_local crisp_pool *current; /* the pool whose job this thread is running */
 
-/* ---- progress ---------------------------------------------------------------------------------- */
+/* ---- progress ----------------------------------------------------------------------------------
+ */
 
 /* Set from one thread, read by whichever thread reports: atomics, so a report never sees a torn
  * pointer (the receiver and its context are set before the receiver is published). */
@@ -85,7 +86,8 @@ static void *worker_main(void *varg)
     unsigned long seen = 0;
     pthread_mutex_lock(&p->lock);
     for (;;) {
-        while (!p->quit && p->generation == seen) pthread_cond_wait(&p->wake, &p->lock);
+        while (!p->quit && p->generation == seen)
+            pthread_cond_wait(&p->wake, &p->lock);
         if (p->quit) break;
         seen = p->generation;
         pthread_mutex_unlock(&p->lock);
@@ -115,7 +117,8 @@ crisp_status crisp_pool_create(int threads, crisp_pool **dest)
 {
     if (threads <= 0) threads = crisp_pool_default_threads();
     if (threads > 1024)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "thread count %d is above the limit of 1024", threads);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "thread count %d is above the limit of 1024",
+                           threads);
     crisp_pool *p = calloc(1, sizeof *p);
     if (!p) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating a thread pool");
     p->threads = threads;
@@ -139,7 +142,8 @@ crisp_status crisp_pool_create(int threads, crisp_pool **dest)
                 free(wa);
                 p->threads = i; /* destroy joins only the started ones */
                 crisp_pool_destroy(p);
-                return crisp_error(CRISP_ERR_NO_MEMORY, "could not start thread %d of %d", i, threads);
+                return crisp_error(CRISP_ERR_NO_MEMORY, "could not start thread %d of %d", i,
+                                   threads);
             }
         }
     }
@@ -154,7 +158,8 @@ void crisp_pool_destroy(crisp_pool *p)
     p->quit = 1;
     pthread_cond_broadcast(&p->wake);
     pthread_mutex_unlock(&p->lock);
-    for (int i = 1; i < p->threads; i++) pthread_join(p->tids[i - 1], NULL);
+    for (int i = 1; i < p->threads; i++)
+        pthread_join(p->tids[i - 1], NULL);
     pthread_mutex_destroy(&p->job_lock);
     pthread_mutex_destroy(&p->lock);
     pthread_cond_destroy(&p->wake);
@@ -198,9 +203,11 @@ void crisp_pool_parallel_for(crisp_pool *p, size_t count, size_t grain, crisp_po
     pthread_mutex_unlock(&p->lock);
     run_chunks(p, 0);
     pthread_mutex_lock(&p->lock);
-    while (p->busy > 0) pthread_cond_wait(&p->done, &p->lock);
+    while (p->busy > 0)
+        pthread_cond_wait(&p->done, &p->lock);
     pthread_mutex_unlock(&p->lock);
-    if (atomic_load(&progress_fn)) crisp_progress_report(1.0); /* the workers may have taken every item */
+    if (atomic_load(&progress_fn))
+        crisp_progress_report(1.0); /* the workers may have taken every item */
     /* A worker's error and none on this thread: its message becomes this thread's, so the
      * status the caller collects from its workers comes with what was wrong. */
     if (atomic_load(&p->error.taken) == 2 && crisp__error_count() == errors_before)
@@ -242,7 +249,8 @@ crisp_status crisp_pool_get(int threads, crisp_pool **dest)
 {
     if (threads <= 0 || threads == crisp_pool_default_threads()) {
         *dest = crisp_pool_shared();
-        return *dest ? CRISP_OK : crisp_error(CRISP_ERR_NO_MEMORY, "could not start the shared thread pool");
+        return *dest ? CRISP_OK
+                     : crisp_error(CRISP_ERR_NO_MEMORY, "could not start the shared thread pool");
     }
     if (threads == 1) {
         *dest = NULL; /* parallel_for runs inline */
@@ -251,7 +259,8 @@ crisp_status crisp_pool_get(int threads, crisp_pool **dest)
     crisp_status st = CRISP_OK;
     pthread_mutex_lock(&kept_lock);
     int i = 0;
-    while (i < KEPT_MAX && kept[i] && kept[i]->threads != threads) i++;
+    while (i < KEPT_MAX && kept[i] && kept[i]->threads != threads)
+        i++;
     if (i == KEPT_MAX) {
         /* full: replace the last one (its callers hold no reference beyond a call) */
         i = KEPT_MAX - 1;

@@ -47,16 +47,26 @@ static void offer(crisp_status status)
 const char *crisp_status_name(crisp_status status)
 {
     switch (status) {
-    case CRISP_OK: return "ok";
-    case CRISP_ERR_INVALID_ARG: return "invalid argument";
-    case CRISP_ERR_NO_MEMORY: return "out of memory";
-    case CRISP_ERR_IO: return "i/o error";
-    case CRISP_ERR_PARSE: return "parse error";
-    case CRISP_ERR_UNSUPPORTED: return "unsupported";
-    case CRISP_ERR_LIMIT: return "limit exceeded";
-    case CRISP_ERR_NUMERIC: return "numeric error";
-    case CRISP_ERR_GL: return "OpenGL error";
-    case CRISP_ERR_INTERNAL: return "internal error";
+    case CRISP_OK:
+        return "ok";
+    case CRISP_ERR_INVALID_ARG:
+        return "invalid argument";
+    case CRISP_ERR_NO_MEMORY:
+        return "out of memory";
+    case CRISP_ERR_IO:
+        return "i/o error";
+    case CRISP_ERR_PARSE:
+        return "parse error";
+    case CRISP_ERR_UNSUPPORTED:
+        return "unsupported";
+    case CRISP_ERR_LIMIT:
+        return "limit exceeded";
+    case CRISP_ERR_NUMERIC:
+        return "numeric error";
+    case CRISP_ERR_GL:
+        return "OpenGL error";
+    case CRISP_ERR_INTERNAL:
+        return "internal error";
     }
     return "unknown status";
 }

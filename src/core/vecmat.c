@@ -28,17 +28,20 @@ double crisp_vec2_norm(const crisp_vec2 a)
 
 void crisp_vec3_add(const crisp_vec3 a, const crisp_vec3 b, crisp_vec3 dest)
 {
-    for (int i = 0; i < 3; i++) dest[i] = a[i] + b[i];
+    for (int i = 0; i < 3; i++)
+        dest[i] = a[i] + b[i];
 }
 
 void crisp_vec3_sub(const crisp_vec3 a, const crisp_vec3 b, crisp_vec3 dest)
 {
-    for (int i = 0; i < 3; i++) dest[i] = a[i] - b[i];
+    for (int i = 0; i < 3; i++)
+        dest[i] = a[i] - b[i];
 }
 
 void crisp_vec3_scale(const crisp_vec3 a, double s, crisp_vec3 dest)
 {
-    for (int i = 0; i < 3; i++) dest[i] = a[i] * s;
+    for (int i = 0; i < 3; i++)
+        dest[i] = a[i] * s;
 }
 
 double crisp_vec3_dot(const crisp_vec3 a, const crisp_vec3 b)
@@ -74,7 +77,8 @@ int crisp_vec3_normalize(const crisp_vec3 a, crisp_vec3 dest)
 
 void crisp_vec4_scale(const crisp_vec4 a, double s, crisp_vec4 dest)
 {
-    for (int i = 0; i < 4; i++) dest[i] = a[i] * s;
+    for (int i = 0; i < 4; i++)
+        dest[i] = a[i] * s;
 }
 
 double crisp_vec4_dot(const crisp_vec4 a, const crisp_vec4 b)
@@ -85,7 +89,8 @@ double crisp_vec4_dot(const crisp_vec4 a, const crisp_vec4 b)
 void crisp_mat4_identity(crisp_mat4 dest)
 {
     memset(dest, 0, sizeof(crisp_mat4));
-    for (int i = 0; i < 4; i++) dest[i][i] = 1;
+    for (int i = 0; i < 4; i++)
+        dest[i][i] = 1;
 }
 
 void crisp_mat4_copy(crisp_mat4 m, crisp_mat4 dest)
@@ -99,7 +104,8 @@ void crisp_mat4_mul(crisp_mat4 a, crisp_mat4 b, crisp_mat4 dest)
     for (int c = 0; c < 4; c++)
         for (int row = 0; row < 4; row++) {
             double s = 0;
-            for (int k = 0; k < 4; k++) s += a[k][row] * b[c][k];
+            for (int k = 0; k < 4; k++)
+                s += a[k][row] * b[c][k];
             r[c][row] = s;
         }
     memcpy(dest, r, sizeof r);
@@ -123,7 +129,8 @@ void crisp_mat4_transpose(crisp_mat4 m, crisp_mat4 dest)
 {
     crisp_mat4 r;
     for (int c = 0; c < 4; c++)
-        for (int row = 0; row < 4; row++) r[row][c] = m[c][row];
+        for (int row = 0; row < 4; row++)
+            r[row][c] = m[c][row];
     memcpy(dest, r, sizeof r);
 }
 
@@ -148,16 +155,19 @@ int crisp_mat4_inverse(crisp_mat4 m, crisp_mat4 dest)
                 a[piv][c] = t;
             }
         double inv = 1.0 / a[col][col];
-        for (int c = 0; c < 8; c++) a[col][c] *= inv;
+        for (int c = 0; c < 8; c++)
+            a[col][c] *= inv;
         for (int r = 0; r < 4; r++) {
             if (r == col) continue;
             double f = a[r][col];
             if (f != 0)
-                for (int c = 0; c < 8; c++) a[r][c] -= f * a[col][c];
+                for (int c = 0; c < 8; c++)
+                    a[r][c] -= f * a[col][c];
         }
     }
     for (int r = 0; r < 4; r++)
-        for (int c = 0; c < 4; c++) dest[c][r] = a[r][c + 4];
+        for (int c = 0; c < 4; c++)
+            dest[c][r] = a[r][c + 4];
     return 1;
 }
 

@@ -18,10 +18,10 @@ struct crisp_frep_cell {
     const crisp_frep_tape *tape;
     frep_shorten_scratch sc;
     uint8_t *choices;
-    float *lo, *hi;    /* interval registers */
-    float *regs;       /* registers x FREP_LANES */
-    float *gregs;      /* registers x 4 x FREP_LANES */
-    frep_ins *stack;   /* shortened tapes, one after another */
+    float *lo, *hi;  /* interval registers */
+    float *regs;     /* registers x FREP_LANES */
+    float *gregs;    /* registers x 4 x FREP_LANES */
+    frep_ins *stack; /* shortened tapes, one after another */
     uint32_t *stack_ssa;
     size_t stack_cap, top;
 };
@@ -99,14 +99,17 @@ crisp_frep_subtape crisp_frep_cell_shorten(crisp_frep_cell *c, crisp_frep_subtap
 {
     if (c->stack_cap - c->top < t.length) return t;
     frep_span src = {t.ins, t.ssa, t.length, t.registers}, out;
-    if (crisp__frep_shorten(src, c->choices, &c->sc, c->stack + c->top,
-                            c->stack_ssa + 2 * c->top, &out))
+    if (crisp__frep_shorten(src, c->choices, &c->sc, c->stack + c->top, c->stack_ssa + 2 * c->top,
+                            &out))
         return t;
     c->top += out.len;
     return (crisp_frep_subtape){out.ins, out.ssa, out.len, out.registers};
 }
 
-size_t crisp_frep_cell_mark(const crisp_frep_cell *c) { return c->top; }
+size_t crisp_frep_cell_mark(const crisp_frep_cell *c)
+{
+    return c->top;
+}
 
 void crisp_frep_cell_release(crisp_frep_cell *c, size_t mark)
 {

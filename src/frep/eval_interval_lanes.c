@@ -48,21 +48,35 @@ enum {
 #if defined(__GNUC__)
 __attribute__((always_inline))
 #endif
-static inline void step(int op, float c, int m, float *restrict ol, float *restrict oh,
-                        const float *restrict al, const float *restrict ah,
-                        const float *restrict bl, const float *restrict bh, const float *const box[6])
+static inline void
+step(int op, float c, int m, float *restrict ol, float *restrict oh, const float *restrict al,
+     const float *restrict ah, const float *restrict bl, const float *restrict bh,
+     const float *const box[6])
 {
     const float *restrict xl = box[0], *restrict xh = box[1], *restrict yl = box[2];
     const float *restrict yh = box[3], *restrict zl = box[4], *restrict zh = box[5];
     switch (op) {
-    case CRISP_FREP_CONST: LOOP STORE(c, c); break;
-    case CRISP_FREP_X: LOOP STORE(xl[k], xh[k]); break;
-    case CRISP_FREP_Y: LOOP STORE(yl[k], yh[k]); break;
-    case CRISP_FREP_Z: LOOP STORE(zl[k], zh[k]); break;
-    case FREP_T_COPY: LOOP STORE_RAW(al[k], ah[k]); break;
-    case CRISP_FREP_NEG: LOOP STORE_RAW(-ah[k], -al[k]); break;
+    case CRISP_FREP_CONST:
+        LOOP STORE(c, c);
+        break;
+    case CRISP_FREP_X:
+        LOOP STORE(xl[k], xh[k]);
+        break;
+    case CRISP_FREP_Y:
+        LOOP STORE(yl[k], yh[k]);
+        break;
+    case CRISP_FREP_Z:
+        LOOP STORE(zl[k], zh[k]);
+        break;
+    case FREP_T_COPY:
+        LOOP STORE_RAW(al[k], ah[k]);
+        break;
+    case CRISP_FREP_NEG:
+        LOOP STORE_RAW(-ah[k], -al[k]);
+        break;
     case CRISP_FREP_ABS:
-        LOOP {
+        LOOP
+        {
             float a0 = al[k], a1 = ah[k];
             float l = a0 >= 0 ? a0 : a1 <= 0 ? -a1 : 0.0f;
             float h = a0 >= 0 ? a1 : a1 <= 0 ? -a0 : frep_max2(-a0, a1);
@@ -71,7 +85,8 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
         }
         break;
     case CRISP_FREP_SQUARE:
-        LOOP {
+        LOOP
+        {
             float a0 = al[k], a1 = ah[k], s0 = a0 * a0, s1 = a1 * a1;
             float l = a0 >= 0 ? s0 : a1 <= 0 ? s1 : 0.0f;
             float h = a0 >= 0 ? s1 : a1 <= 0 ? s0 : frep_max2(s0, s1);
@@ -80,7 +95,8 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
         }
         break;
     case CRISP_FREP_SQRT:
-        LOOP {
+        LOOP
+        {
             float a0 = al[k], a1 = ah[k];
             int ok = a0 >= 0;
             /* the arguments of lanes that are not ok are replaced, so no lane takes the
@@ -89,19 +105,38 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
             STORE(ok ? l : NAN, h);
         }
         break;
-    case CRISP_FREP_FLOOR: LOOP STORE(floorf(al[k]), floorf(ah[k])); break;
-    case CRISP_FREP_CEIL: LOOP STORE(ceilf(al[k]), ceilf(ah[k])); break;
-    case LANE_ADD_C: LOOP STORE_RAW(al[k] + c, ah[k] + c); break;
-    case LANE_SUB_C: LOOP STORE_RAW(al[k] - c, ah[k] - c); break;
-    case LANE_C_SUB: LOOP STORE_RAW(c - ah[k], c - al[k]); break;
-    case LANE_MUL_POS: LOOP STORE_RAW(al[k] * c, ah[k] * c); break;
-    case LANE_MUL_NEG: LOOP STORE_RAW(ah[k] * c, al[k] * c); break;
-    case LANE_DIV_POS: LOOP STORE_RAW(al[k] / c, ah[k] / c); break;
-    case LANE_DIV_NEG: LOOP STORE_RAW(ah[k] / c, al[k] / c); break;
+    case CRISP_FREP_FLOOR:
+        LOOP STORE(floorf(al[k]), floorf(ah[k]));
+        break;
+    case CRISP_FREP_CEIL:
+        LOOP STORE(ceilf(al[k]), ceilf(ah[k]));
+        break;
+    case LANE_ADD_C:
+        LOOP STORE_RAW(al[k] + c, ah[k] + c);
+        break;
+    case LANE_SUB_C:
+        LOOP STORE_RAW(al[k] - c, ah[k] - c);
+        break;
+    case LANE_C_SUB:
+        LOOP STORE_RAW(c - ah[k], c - al[k]);
+        break;
+    case LANE_MUL_POS:
+        LOOP STORE_RAW(al[k] * c, ah[k] * c);
+        break;
+    case LANE_MUL_NEG:
+        LOOP STORE_RAW(ah[k] * c, al[k] * c);
+        break;
+    case LANE_DIV_POS:
+        LOOP STORE_RAW(al[k] / c, ah[k] / c);
+        break;
+    case LANE_DIV_NEG:
+        LOOP STORE_RAW(ah[k] / c, al[k] / c);
+        break;
     case CRISP_FREP_SIN:
     case CRISP_FREP_COS: {
         int cosine = op == CRISP_FREP_COS;
-        LOOP {
+        LOOP
+        {
             float a0 = al[k], a1 = ah[k], l, h;
             frep_trig_range(a0, a1, cosine, &l, &h);
             int bad = !frep_fin(a0) || !frep_fin(a1);
@@ -116,7 +151,8 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
         LOOP STORE(ol[k] < 0 ? 0.0f : ol[k], oh[k]); /* frep_max2(l, 0) */
         break;
     case CRISP_FREP_LN:
-        LOOP {
+        LOOP
+        {
             float a0 = al[k];
             float l = frep_wlo(frep_logf(a0)), h = frep_whi(frep_logf(ah[k]));
             STORE(a0 >= 0 ? l : NAN, h);
@@ -124,7 +160,8 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
         break;
     case CRISP_FREP_ADD:
     case FREP_T_ADD_RI:
-        LOOP {
+        LOOP
+        {
             float a0 = al[k], a1 = ah[k];
             float b0 = bl[k], b1 = bh[k];
             int bad = (a1 == INFINITY && b0 == -INFINITY) || (a0 == -INFINITY && b1 == INFINITY);
@@ -133,7 +170,8 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
         break;
     case CRISP_FREP_SUB:
     case FREP_T_SUB_RI:
-        LOOP {
+        LOOP
+        {
             float a0 = al[k], a1 = ah[k];
             float b0 = bl[k], b1 = bh[k];
             int bad = (a1 == INFINITY && b1 == INFINITY) || (a0 == -INFINITY && b0 == -INFINITY);
@@ -141,7 +179,8 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
         }
         break;
     case FREP_T_SUB_IR:
-        LOOP {
+        LOOP
+        {
             float a0 = al[k], a1 = ah[k];
             int bad = (a1 == INFINITY && c == INFINITY) || (a0 == -INFINITY && c == -INFINITY);
             STORE(bad ? NAN : c - a1, c - a0);
@@ -149,21 +188,23 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
         break;
     case CRISP_FREP_MUL:
     case FREP_T_MUL_RI:
-        LOOP {
+        LOOP
+        {
             float a0 = al[k], a1 = ah[k];
             float b0 = bl[k], b1 = bh[k];
             float p0 = a0 * b0, p1 = a0 * b1, p2 = a1 * b0, p3 = a1 * b1;
             float l = frep_min2(frep_min2(p0, p1), frep_min2(p2, p3));
             float h = frep_max2(frep_max2(p0, p1), frep_max2(p2, p3));
             int bad = ((!frep_fin(a0) || !frep_fin(a1)) && b0 <= 0 && b1 >= 0) ||
-                      ((!frep_fin(b0) || !frep_fin(b1)) && a0 <= 0 && a1 >= 0) ||
-                      p0 != p0 || p1 != p1 || p2 != p2 || p3 != p3;
+                      ((!frep_fin(b0) || !frep_fin(b1)) && a0 <= 0 && a1 >= 0) || p0 != p0 ||
+                      p1 != p1 || p2 != p2 || p3 != p3;
             STORE(bad ? NAN : l, h);
         }
         break;
     case CRISP_FREP_DIV:
     case FREP_T_DIV_RI:
-        LOOP {
+        LOOP
+        {
             float n0 = al[k], n1 = ah[k], d0 = bl[k], d1 = bh[k];
             int ok = d0 > 0 || d1 < 0;
             /* lanes that are not ok divide by 1 instead (their result is dropped) */
@@ -178,7 +219,8 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
         break;
     case CRISP_FREP_MIN:
     case FREP_T_MIN_RI:
-        LOOP {
+        LOOP
+        {
             float a0 = al[k], a1 = ah[k];
             float b0 = bl[k], b1 = bh[k];
             float l = a0 != a0 ? a0 : b0 != b0 ? b0 : frep_min2(a0, b0);
@@ -187,7 +229,8 @@ static inline void step(int op, float c, int m, float *restrict ol, float *restr
         break;
     case CRISP_FREP_MAX:
     case FREP_T_MAX_RI:
-        LOOP {
+        LOOP
+        {
             float a0 = al[k], a1 = ah[k];
             float b0 = bl[k], b1 = bh[k];
             float l = a0 != a0 ? a0 : b0 != b0 ? b0 : frep_max2(a0, b0);
@@ -210,13 +253,20 @@ static int lane_op(const frep_ins *in)
     float c = in->imm;
     if (!(c >= -FLT_MAX && c <= FLT_MAX)) return in->op;
     switch (in->op) {
-    case FREP_T_ADD_RI: return LANE_ADD_C;
-    case FREP_T_SUB_RI: return LANE_SUB_C;
-    case FREP_T_SUB_IR: return LANE_C_SUB;
-    case FREP_T_MUL_RI: return c > 0 ? LANE_MUL_POS : c < 0 ? LANE_MUL_NEG : in->op;
-    case FREP_T_DIV_RI: return c > 0 ? LANE_DIV_POS : c < 0 ? LANE_DIV_NEG : in->op;
-    case FREP_T_DIV_IR: return FREP_T_DIV_RI; /* with a and b swapped by the caller */
-    default: return in->op;
+    case FREP_T_ADD_RI:
+        return LANE_ADD_C;
+    case FREP_T_SUB_RI:
+        return LANE_SUB_C;
+    case FREP_T_SUB_IR:
+        return LANE_C_SUB;
+    case FREP_T_MUL_RI:
+        return c > 0 ? LANE_MUL_POS : c < 0 ? LANE_MUL_NEG : in->op;
+    case FREP_T_DIV_RI:
+        return c > 0 ? LANE_DIV_POS : c < 0 ? LANE_DIV_NEG : in->op;
+    case FREP_T_DIV_IR:
+        return FREP_T_DIV_RI; /* with a and b swapped by the caller */
+    default:
+        return in->op;
     }
 }
 
@@ -234,8 +284,10 @@ void crisp__frep_interval_lanes(const frep_ins *ins, size_t n, int lanes, float 
         if (op >= FREP_T_ADD_RI && op < FREP_T_COUNT) {
             /* register-immediate ops read the immediate as a constant row b (imm / a: a) */
             LOOP crow[k] = in.imm;
-            if (in.op == FREP_T_DIV_IR) bl = al, bh = ah, al = ah = crow;
-            else bl = bh = crow;
+            if (in.op == FREP_T_DIV_IR)
+                bl = al, bh = ah, al = ah = crow;
+            else
+                bl = bh = crow;
         }
         step(op, in.imm, m, lo + (size_t)in.out * L, hi + (size_t)in.out * L, al, ah, bl, bh, box);
         if (choices && frep__is_minmax(in.op)) {
@@ -244,8 +296,12 @@ void crisp__frep_interval_lanes(const frep_ins *ins, size_t n, int lanes, float 
             int is_min = in.op == CRISP_FREP_MIN || in.op == FREP_T_MIN_RI;
             for (int k = 0; k < m; k++) {
                 float a0 = al[k], a1 = ah[k], b0 = bl[k], b1 = bh[k];
-                int ch = is_min ? (a1 < b0 ? FREP_CHOICE_A : b1 < a0 ? FREP_CHOICE_B : FREP_CHOICE_BOTH)
-                                : (a0 > b1 ? FREP_CHOICE_A : b0 > a1 ? FREP_CHOICE_B : FREP_CHOICE_BOTH);
+                int ch = is_min ? (a1 < b0   ? FREP_CHOICE_A
+                                   : b1 < a0 ? FREP_CHOICE_B
+                                             : FREP_CHOICE_BOTH)
+                                : (a0 > b1   ? FREP_CHOICE_A
+                                   : b0 > a1 ? FREP_CHOICE_B
+                                             : FREP_CHOICE_BOTH);
                 ch = a0 != a0 || b0 != b0 ? FREP_CHOICE_BOTH : ch;
                 choices[(size_t)k * n + i] = (uint8_t)ch;
                 decided[k] += ch != FREP_CHOICE_BOTH;

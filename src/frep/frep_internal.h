@@ -181,8 +181,11 @@ static inline float frep_expf(float x)
     float nf = rintf(t);
     int32_t n = (int32_t)nf;
     float r = (x - nf * 0.693359375f) - nf * -2.12194440e-4f;
-    float p = 1.0f + r * (1.0f + r * (0.5f + r * (1.6666667e-1f + r * (4.1666668e-2f +
-              r * (8.3333338e-3f + r * (1.3888889e-3f + r * 1.9841270e-4f))))));
+    float p =
+        1.0f + r * (1.0f + r * (0.5f + r * (1.6666667e-1f +
+                                            r * (4.1666668e-2f +
+                                                 r * (8.3333338e-3f +
+                                                      r * (1.3888889e-3f + r * 1.9841270e-4f))))));
     /* 2^n in two factors: results that reach the subnormals round instead of breaking */
     int32_t n1 = n / 2, n2 = n - n1;
     float res = p * frep_bits_float((uint32_t)(n1 + 127) << 23) *
@@ -223,58 +226,101 @@ static inline float frep_sincos_poly(float x, int cosine)
     xc = xc < FREP_TRIG_MAX ? xc : FREP_TRIG_MAX; /* NaN becomes -8192 (replaced by the caller) */
     float kf = rintf(xc * 0.636619772f);
     int32_t q = (int32_t)kf + cosine;
-    float r = ((xc - kf * 1.5703125f) - kf * 4.837512969970703125e-4f) - kf * 7.54978995489188216e-8f;
+    float r =
+        ((xc - kf * 1.5703125f) - kf * 4.837512969970703125e-4f) - kf * 7.54978995489188216e-8f;
     float r2 = r * r;
-    float sn = r + r * r2 * (-1.6666667e-1f + r2 * (8.3333338e-3f + r2 * (-1.9841270e-4f + r2 * 2.7557319e-6f)));
-    float cs = 1.0f + r2 * (-0.5f + r2 * (4.1666668e-2f + r2 * (-1.3888889e-3f + r2 * (2.4801587e-5f +
-               r2 * -2.7557319e-7f))));
+    float sn = r + r * r2 *
+                       (-1.6666667e-1f +
+                        r2 * (8.3333338e-3f + r2 * (-1.9841270e-4f + r2 * 2.7557319e-6f)));
+    float cs =
+        1.0f +
+        r2 * (-0.5f + r2 * (4.1666668e-2f +
+                            r2 * (-1.3888889e-3f + r2 * (2.4801587e-5f + r2 * -2.7557319e-7f))));
     float v = (q & 1) ? cs : sn;
     v = (q & 2) ? -v : v;
     v = v < 1.0f ? v : 1.0f;
     return v > -1.0f ? v : -1.0f;
 }
-static inline int frep_trig_direct(float x) { return fabsf(x) <= FREP_TRIG_MAX; }
-static inline float frep_sinf(float x) { return frep_trig_direct(x) ? frep_sincos_poly(x, 0) : sinf(x); }
-static inline float frep_cosf(float x) { return frep_trig_direct(x) ? frep_sincos_poly(x, 1) : cosf(x); }
+static inline int frep_trig_direct(float x)
+{
+    return fabsf(x) <= FREP_TRIG_MAX;
+}
+static inline float frep_sinf(float x)
+{
+    return frep_trig_direct(x) ? frep_sincos_poly(x, 0) : sinf(x);
+}
+static inline float frep_cosf(float x)
+{
+    return frep_trig_direct(x) ? frep_sincos_poly(x, 1) : cosf(x);
+}
 
 static inline float frep_unary(int op, float a)
 {
     switch (op) {
-    case CRISP_FREP_NEG: return -a;
-    case CRISP_FREP_ABS: return fabsf(a);
-    case CRISP_FREP_SQRT: return sqrtf(a);
-    case CRISP_FREP_SQUARE: return a * a;
-    case CRISP_FREP_FLOOR: return floorf(a);
-    case CRISP_FREP_CEIL: return ceilf(a);
-    case CRISP_FREP_ROUND: return roundf(a);
-    case CRISP_FREP_SIN: return frep_sinf(a);
-    case CRISP_FREP_COS: return frep_cosf(a);
-    case CRISP_FREP_TAN: return tanf(a);
-    case CRISP_FREP_ASIN: return asinf(a);
-    case CRISP_FREP_ACOS: return acosf(a);
-    case CRISP_FREP_ATAN: return atanf(a);
-    case CRISP_FREP_EXP: return frep_expf(a);
-    case CRISP_FREP_LN: return frep_logf(a);
-    case CRISP_FREP_NOT: return a == 0 ? 1.0f : 0.0f;
-    default: return NAN;
+    case CRISP_FREP_NEG:
+        return -a;
+    case CRISP_FREP_ABS:
+        return fabsf(a);
+    case CRISP_FREP_SQRT:
+        return sqrtf(a);
+    case CRISP_FREP_SQUARE:
+        return a * a;
+    case CRISP_FREP_FLOOR:
+        return floorf(a);
+    case CRISP_FREP_CEIL:
+        return ceilf(a);
+    case CRISP_FREP_ROUND:
+        return roundf(a);
+    case CRISP_FREP_SIN:
+        return frep_sinf(a);
+    case CRISP_FREP_COS:
+        return frep_cosf(a);
+    case CRISP_FREP_TAN:
+        return tanf(a);
+    case CRISP_FREP_ASIN:
+        return asinf(a);
+    case CRISP_FREP_ACOS:
+        return acosf(a);
+    case CRISP_FREP_ATAN:
+        return atanf(a);
+    case CRISP_FREP_EXP:
+        return frep_expf(a);
+    case CRISP_FREP_LN:
+        return frep_logf(a);
+    case CRISP_FREP_NOT:
+        return a == 0 ? 1.0f : 0.0f;
+    default:
+        return NAN;
     }
 }
 
 static inline float frep_binary(int op, float a, float b)
 {
     switch (op) {
-    case CRISP_FREP_ADD: return a + b;
-    case CRISP_FREP_SUB: return a - b;
-    case CRISP_FREP_MUL: return a * b;
-    case CRISP_FREP_DIV: return a / b;
-    case CRISP_FREP_ATAN2: return atan2f(a, b);
-    case CRISP_FREP_MIN: return frep_min(a, b);
-    case CRISP_FREP_MAX: return frep_max(a, b);
-    case CRISP_FREP_COMPARE: return frep_compare(a, b);
-    case CRISP_FREP_MOD: return frep_mod(a, b);
-    case CRISP_FREP_AND: return a == 0 ? a : b;
-    case CRISP_FREP_OR: return a != 0 ? a : b;
-    default: return NAN;
+    case CRISP_FREP_ADD:
+        return a + b;
+    case CRISP_FREP_SUB:
+        return a - b;
+    case CRISP_FREP_MUL:
+        return a * b;
+    case CRISP_FREP_DIV:
+        return a / b;
+    case CRISP_FREP_ATAN2:
+        return atan2f(a, b);
+    case CRISP_FREP_MIN:
+        return frep_min(a, b);
+    case CRISP_FREP_MAX:
+        return frep_max(a, b);
+    case CRISP_FREP_COMPARE:
+        return frep_compare(a, b);
+    case CRISP_FREP_MOD:
+        return frep_mod(a, b);
+    case CRISP_FREP_AND:
+        return a == 0 ? a : b;
+    case CRISP_FREP_OR:
+        return a != 0 ? a : b;
+    default:
+        return NAN;
     }
 }
 

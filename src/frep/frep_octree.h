@@ -17,7 +17,7 @@ typedef int (*frep_octree_visit)(void *ctx, const float b[6], int depth, int cls
 typedef struct frep_octree {
     const crisp_frep_tape *t;
     int max_depth;
-    int planar; /* split x and y only */
+    int planar;           /* split x and y only */
     size_t max_intervals; /* 0: no limit; past it cells are reported UNKNOWN unsplit */
     frep_octree_visit visit;
     void *ctx;

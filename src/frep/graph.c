@@ -13,10 +13,10 @@
 #define MAX_NODES (1u << 30)
 
 static const char *const op_names[CRISP_FREP_OP_COUNT] = {
-    "const", "var-x", "var-y", "var-z", "neg",   "abs",  "sqrt",    "square", "floor", "ceil",
-    "round", "sin",   "cos",   "tan",   "asin",  "acos", "atan",    "exp",    "ln",    "not",
-    "add",   "sub",   "mul",   "div",   "atan2", "min",  "max",     "compare", "mod",  "and",
-    "or"};
+    "const", "var-x", "var-y", "var-z",   "neg", "abs", "sqrt", "square",
+    "floor", "ceil",  "round", "sin",     "cos", "tan", "asin", "acos",
+    "atan",  "exp",   "ln",    "not",     "add", "sub", "mul",  "div",
+    "atan2", "min",   "max",   "compare", "mod", "and", "or"};
 
 int crisp_frep_op_arity(crisp_frep_op op)
 {
@@ -54,9 +54,15 @@ void crisp_frep_set_root(crisp_frep *f, crisp_frep_node root)
     if (f && root < f->count) f->root = root;
 }
 
-crisp_frep_node crisp_frep_root(const crisp_frep *f) { return f ? f->root : EMPTY; }
+crisp_frep_node crisp_frep_root(const crisp_frep *f)
+{
+    return f ? f->root : EMPTY;
+}
 
-size_t crisp_frep_node_count(const crisp_frep *f) { return f ? f->count : 0; }
+size_t crisp_frep_node_count(const crisp_frep *f)
+{
+    return f ? f->count : 0;
+}
 
 int crisp_frep_node_constant(const crisp_frep *f, crisp_frep_node n, float *value)
 {
@@ -95,7 +101,8 @@ static crisp_status rehash(crisp_frep *f, size_t cap)
     memset(t, 0xff, cap * sizeof *t);
     for (size_t i = 0; i < f->count; i++) {
         size_t h = node_hash(&f->nodes[i]) & (cap - 1);
-        while (t[h] != EMPTY) h = (h + 1) & (cap - 1);
+        while (t[h] != EMPTY)
+            h = (h + 1) & (cap - 1);
         t[h] = (uint32_t)i;
     }
     crisp_free(f->table);
@@ -224,7 +231,8 @@ crisp_status crisp_frep_binary(crisp_frep *f, crisp_frep_op op, crisp_frep_node 
     case CRISP_FREP_MAX:
         if (a == b) return *dest = a, CRISP_OK;
         break;
-    default: break;
+    default:
+        break;
     }
     /* commutative ops: one canonical argument order so a+b and b+a merge */
     if ((op == CRISP_FREP_ADD || op == CRISP_FREP_MUL || op == CRISP_FREP_MIN ||
@@ -253,8 +261,12 @@ float crisp_frep_eval_graph(const crisp_frep *f, float x, float y, float z)
                    : nd->op == CRISP_FREP_Y   ? y
                                               : z;
             break;
-        case 1: v[i] = frep_unary(nd->op, v[nd->a]); break;
-        default: v[i] = frep_binary(nd->op, v[nd->a], v[nd->b]); break;
+        case 1:
+            v[i] = frep_unary(nd->op, v[nd->a]);
+            break;
+        default:
+            v[i] = frep_binary(nd->op, v[nd->a], v[nd->b]);
+            break;
         }
     }
     float r = v[n - 1];

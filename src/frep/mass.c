@@ -28,12 +28,12 @@ typedef struct masser {
     const crisp_frep_tape *t;
     frep_octree o;
     int level;
-    double r0[3], w[3];   /* region origin and cell edges at the level */
-    double ctr[3];        /* the region's centre (moments are taken about it) */
-    long n[3];            /* cells per axis at the level */
+    double r0[3], w[3]; /* region origin and cell edges at the level */
+    double ctr[3];      /* the region's centre (moments are taken about it) */
+    long n[3];          /* cells per axis at the level */
     uint64_t seed;
-    double T[NQ];         /* exact parts (inside cells) and estimates (boundary cells) */
-    double C[NCOV];       /* covariance of the totals */
+    double T[NQ];   /* exact parts (inside cells) and estimates (boundary cells) */
+    double C[NCOV]; /* covariance of the totals */
     float *lo, *hi, *regs;
     crisp_frep_mass *out;
 } masser;
@@ -83,7 +83,8 @@ static void cell_coords(const masser *m, const long i[3], long size, double a[3]
 static size_t face_cut(masser *m, const double b[6], int depth)
 {
     float fb[6];
-    for (int k = 0; k < 3; k++) fbox(b[2 * k], b[2 * k + 1], &fb[2 * k], &fb[2 * k + 1]);
+    for (int k = 0; k < 3; k++)
+        fbox(b[2 * k], b[2 * k + 1], &fb[2 * k], &fb[2 * k + 1]);
     const crisp_frep_tape *t = m->t;
     frep_span full = {t->ins, t->ssa, t->length, t->registers};
     int cls = crisp__frep_octree_classify(&m->o, full, fb, NULL);
@@ -110,8 +111,14 @@ static size_t face_cut(masser *m, const double b[6], int depth)
         double c[6];
         memcpy(c, b, sizeof c);
         double mu = 0.5 * (b[2 * u] + b[2 * u + 1]), mv = 0.5 * (b[2 * v] + b[2 * v + 1]);
-        if (q & 1) c[2 * u] = mu; else c[2 * u + 1] = mu;
-        if (q & 2) c[2 * v] = mv; else c[2 * v + 1] = mv;
+        if (q & 1)
+            c[2 * u] = mu;
+        else
+            c[2 * u + 1] = mu;
+        if (q & 2)
+            c[2 * v] = mv;
+        else
+            c[2 * v + 1] = mv;
         n += face_cut(m, c, depth + 1);
     }
     return n;
@@ -148,9 +155,13 @@ static void sample_cell(masser *m, frep_span t, const long i[3])
         if (cls[c] == 1) {
             box_moments(cc[c][0], cc[c][1], cc[c][2], m->T);
             m->out->inside_cells++;
-            m->out->volume_hi += (cc[c][0][1] - cc[c][0][0]) * (cc[c][1][1] - cc[c][1][0]) * (cc[c][2][1] - cc[c][2][0]);
+            m->out->volume_hi += (cc[c][0][1] - cc[c][0][0]) * (cc[c][1][1] - cc[c][1][0]) *
+                                 (cc[c][2][1] - cc[c][2][0]);
         }
-        uint64_t s = mix(m->seed ^ mix((uint64_t)ci[0] ^ mix((uint64_t)ci[1] ^ mix((uint64_t)ci[2] + (uint64_t)m->level * 0x1000003))));
+        uint64_t s =
+            mix(m->seed ^
+                mix((uint64_t)ci[0] ^
+                    mix((uint64_t)ci[1] ^ mix((uint64_t)ci[2] + (uint64_t)m->level * 0x1000003))));
         for (int o = 0; o < 8; o++) {
             int lane = 8 * c + o;
             for (int k = 0; k < 3; k++) {
@@ -169,7 +180,8 @@ static void sample_cell(masser *m, frep_span t, const long i[3])
     const float *v = m->regs + (size_t)res * FREP_LANES;
     for (int c = 0; c < 8; c++) {
         if (cls[c] != 2) continue;
-        double vol = (cc[c][0][1] - cc[c][0][0]) * (cc[c][1][1] - cc[c][1][0]) * (cc[c][2][1] - cc[c][2][0]);
+        double vol =
+            (cc[c][0][1] - cc[c][0][0]) * (cc[c][1][1] - cc[c][1][0]) * (cc[c][2][1] - cc[c][2][0]);
         m->out->boundary_cells++;
         m->out->volume_hi += vol;
         m->out->samples += 8;
@@ -183,16 +195,19 @@ static void sample_cell(masser *m, frep_span t, const long i[3])
             r[0] = chi, r[1] = chi * X, r[2] = chi * Y, r[3] = chi * Z;
             r[4] = chi * X * X, r[5] = chi * Y * Y, r[6] = chi * Z * Z;
             r[7] = chi * X * Y, r[8] = chi * Y * Z, r[9] = chi * X * Z;
-            for (int k = 0; k < NQ; k++) mean[k] += r[k] / 8;
+            for (int k = 0; k < NQ; k++)
+                mean[k] += r[k] / 8;
         }
         if (!any) continue;
-        for (int k = 0; k < NQ; k++) m->T[k] += vol * mean[k];
+        for (int k = 0; k < NQ; k++)
+            m->T[k] += vol * mean[k];
         /* covariance of the cell's total: vol^2 * S / 8, S the sample covariance */
         int p = 0;
         for (int a = 0; a < NQ; a++)
             for (int b = a; b < NQ; b++, p++) {
                 double s = 0;
-                for (int o = 0; o < 8; o++) s += (q[o][a] - mean[a]) * (q[o][b] - mean[b]);
+                for (int o = 0; o < 8; o++)
+                    s += (q[o][a] - mean[a]) * (q[o][b] - mean[b]);
                 m->C[p] += vol * vol * s / 7 / 8;
             }
     }
@@ -203,7 +218,8 @@ static void walk(masser *m, frep_span t, const long i[3], long size, int depth)
     double a[3][2];
     cell_coords(m, i, size, a);
     float b[6];
-    for (int k = 0; k < 3; k++) fbox(a[k][0] + m->ctr[k], a[k][1] + m->ctr[k], &b[2 * k], &b[2 * k + 1]);
+    for (int k = 0; k < 3; k++)
+        fbox(a[k][0] + m->ctr[k], a[k][1] + m->ctr[k], &b[2 * k], &b[2 * k + 1]);
     size_t d;
     int cls = crisp__frep_octree_classify(&m->o, t, b, &d);
     m->out->intervals++;
@@ -237,24 +253,28 @@ static void walk(masser *m, frep_span t, const long i[3], long size, int depth)
 crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_mass_desc *desc,
                                    crisp_frep_mass *dest)
 {
-    if (!t || !desc || !dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_mass_level: NULL argument");
+    if (!t || !desc || !dest)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_mass_level: NULL argument");
     memset(dest, 0, sizeof *dest);
     double t0 = crisp_time_now();
     struct timespec c0;
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
     int level = desc->level ? desc->level : 6;
     if (level < 1 || level > 20)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_mass_level: level %d is outside 1..20", level);
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_frep_mass_level: level %d is outside 1..20", level);
     double r[6];
     int zero = 1;
-    for (int k = 0; k < 6; k++) zero &= desc->region[k] == 0;
+    for (int k = 0; k < 6; k++)
+        zero &= desc->region[k] == 0;
     if (zero) {
         crisp_frep_fit fit;
         crisp_status s = crisp_frep_fit_region(t, &(crisp_frep_fit_desc){0}, &fit);
         if (!s) s = crisp_frep_fit_check(&fit, 0);
         if (s) return s;
         for (int a = 0; a < 3; a++) {
-            double mid = 0.5 * (fit.box[2 * a] + fit.box[2 * a + 1]), half = 0.51 * (fit.box[2 * a + 1] - fit.box[2 * a]);
+            double mid = 0.5 * (fit.box[2 * a] + fit.box[2 * a + 1]),
+                   half = 0.51 * (fit.box[2 * a + 1] - fit.box[2 * a]);
             if (!(half > 0)) half = fit.cell > 0 ? fit.cell : 1e-3;
             r[2 * a] = mid - half, r[2 * a + 1] = mid + half;
         }
@@ -263,8 +283,9 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
     }
     for (int a = 0; a < 3; a++)
         if (!(r[2 * a] < r[2 * a + 1]) || !isfinite(r[2 * a]) || !isfinite(r[2 * a + 1]))
-            return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_mass_level: region axis %d [%g, %g] is empty",
-                               a, r[2 * a], r[2 * a + 1]);
+            return crisp_error(CRISP_ERR_INVALID_ARG,
+                               "crisp_frep_mass_level: region axis %d [%g, %g] is empty", a,
+                               r[2 * a], r[2 * a + 1]);
     masser m = {.t = t, .level = level, .seed = desc->seed, .out = dest};
     long n = 1L << level;
     for (int a = 0; a < 3; a++) {
@@ -296,15 +317,17 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
     double cellv = m.w[0] * m.w[1] * m.w[2];
     dest->volume_lo = dest->volume_hi - (double)dest->boundary_cells * cellv;
     if (!(V > 0) && dest->inside_cells == 0) {
-        s = crisp_error(CRISP_ERR_NUMERIC,
-                        "the part is empty at level %d: no cell of [%g, %g] x [%g, %g] x [%g, %g] is "
-                        "inside and no sample is",
-                        level, r[0], r[1], r[2], r[3], r[4], r[5]);
+        s = crisp_error(
+            CRISP_ERR_NUMERIC,
+            "the part is empty at level %d: no cell of [%g, %g] x [%g, %g] x [%g, %g] is "
+            "inside and no sample is",
+            level, r[0], r[1], r[2], r[3], r[4], r[5]);
         goto done;
     }
     double Cm[NQ][NQ];
     for (int a = 0, p = 0; a < NQ; a++)
-        for (int b = a; b < NQ; b++, p++) Cm[a][b] = Cm[b][a] = m.C[p];
+        for (int b = a; b < NQ; b++, p++)
+            Cm[a][b] = Cm[b][a] = m.C[p];
     dest->volume_se = sqrt(Cm[0][0]);
     double M[3] = {m.T[1], m.T[2], m.T[3]};
     for (int a = 0; a < 3; a++) {
@@ -314,12 +337,13 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
         g[0] = -M[a] / (V * V);
         double var = 0;
         for (int i = 0; i < NQ; i++)
-            for (int j = 0; j < NQ; j++) var += g[i] * Cm[i][j] * g[j];
+            for (int j = 0; j < NQ; j++)
+                var += g[i] * Cm[i][j] * g[j];
         dest->centroid_se[a] = sqrt(fmax(var, 0));
     }
     /* inertia about the centroid: diagonal I_aa = S_bb + S_cc - (M_b^2 + M_c^2) / V; products
      * I_ab = -(S_ab - M_a M_b / V) */
-    static const int sidx[3] = {4, 5, 6};          /* S_xx, S_yy, S_zz */
+    static const int sidx[3] = {4, 5, 6};                   /* S_xx, S_yy, S_zz */
     static const int pidx[3][2] = {{0, 1}, {1, 2}, {0, 2}}; /* xy, yz, xz */
     for (int a = 0; a < 3; a++) {
         int b = (a + 1) % 3, c = (a + 2) % 3;
@@ -330,7 +354,8 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
         g[0] = (M[b] * M[b] + M[c] * M[c]) / (V * V);
         double var = 0;
         for (int i = 0; i < NQ; i++)
-            for (int j = 0; j < NQ; j++) var += g[i] * Cm[i][j] * g[j];
+            for (int j = 0; j < NQ; j++)
+                var += g[i] * Cm[i][j] * g[j];
         dest->inertia_se[a] = sqrt(fmax(var, 0));
     }
     for (int k = 0; k < 3; k++) {
@@ -342,7 +367,8 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
         g[0] = -M[a] * M[b] / (V * V);
         double var = 0;
         for (int i = 0; i < NQ; i++)
-            for (int j = 0; j < NQ; j++) var += g[i] * Cm[i][j] * g[j];
+            for (int j = 0; j < NQ; j++)
+                var += g[i] * Cm[i][j] * g[j];
         dest->inertia_se[3 + k] = sqrt(fmax(var, 0));
     }
     /* does the part reach the region's faces? */
@@ -357,10 +383,11 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
     dest->cpu_seconds = (double)(c1.tv_sec - c0.tv_sec) + 1e-9 * (double)(c1.tv_nsec - c0.tv_nsec);
     if (dest->cut_cells)
-        s = crisp_error(CRISP_ERR_NUMERIC,
-                        "the region [%g, %g] x [%g, %g] x [%g, %g] cuts the part: %zu pieces of its faces "
-                        "hold inside points (the result is the part within the region)",
-                        r[0], r[1], r[2], r[3], r[4], r[5], dest->cut_cells);
+        s = crisp_error(
+            CRISP_ERR_NUMERIC,
+            "the region [%g, %g] x [%g, %g] x [%g, %g] cuts the part: %zu pieces of its faces "
+            "hold inside points (the result is the part within the region)",
+            r[0], r[1], r[2], r[3], r[4], r[5], dest->cut_cells);
 done:
     crisp__frep_octree_free(&m.o);
     crisp_free(m.lo);
@@ -368,7 +395,8 @@ done:
     return s;
 }
 
-void crisp_frep_mass_predict(const crisp_frep_mass *lv, int n, int level, double *seconds, double *se)
+void crisp_frep_mass_predict(const crisp_frep_mass *lv, int n, int level, double *seconds,
+                             double *se)
 {
     /* Clark: boundary cells tend to K 4^level (a surface) and the error to a constant factor per
      * level. Measured growth per level g (cells) and cost ratio per cell rho approach 4 and 1 as

@@ -33,10 +33,10 @@
 
 #include "frep_octree.h"
 
-#define B 4               /* grid cubes per leaf block side */
-#define BP (B + 1)        /* grid points per leaf block side */
+#define B 4        /* grid cubes per leaf block side */
+#define BP (B + 1) /* grid points per leaf block side */
 #define NPTS (BP * BP * BP)
-#define MAX_LEVELS 19     /* 4 * 2^18 = 2^20 cubes per side */
+#define MAX_LEVELS 19 /* 4 * 2^18 = 2^20 cubes per side */
 #define FALSI_STEPS 6
 
 typedef struct edge_entry {
@@ -52,18 +52,21 @@ typedef struct mesher {
     crisp_frep_mesh_stats *st;
     frep_octree o; /* scratch: intervals, choices, tapes per level */
     double org[3], h;
-    int n;          /* grid cubes per side of the octree's root (4 * 2^levels) */
-    int lim[3];     /* grid points with index >= 1 and <= lim[a] are inside the region */
+    int n;                 /* grid cubes per side of the octree's root (4 * 2^levels) */
+    int lim[3];            /* grid points with index >= 1 and <= lim[a] are inside the region */
     double rlo[3], rhi[3]; /* the region */
-    float *regs;    /* registers x FREP_LANES */
-    float *gregs;   /* registers x 4 x FREP_LANES */
-    int features;   /* fans through a feature point where the normals disagree */
+    float *regs;           /* registers x FREP_LANES */
+    float *gregs;          /* registers x 4 x FREP_LANES */
+    int features;          /* fans through a feature point where the normals disagree */
     edge_entry *table;
     size_t tcount, tcap, max_bytes;
     crisp_status status;
 } mesher;
 
-static float coord(const mesher *m, int a, int i) { return (float)(m->org[a] + i * m->h); }
+static float coord(const mesher *m, int a, int i)
+{
+    return (float)(m->org[a] + i * m->h);
+}
 
 /* ---- edge table ------------------------------------------------------------------------------ */
 
@@ -79,7 +82,8 @@ static uint64_t hash64(uint64_t k)
 static edge_entry *edge_slot(mesher *m, uint64_t key)
 {
     size_t mask = m->tcap - 1, i = (size_t)hash64(key) & mask;
-    while (m->table[i].key && m->table[i].key != key + 1) i = (i + 1) & mask;
+    while (m->table[i].key && m->table[i].key != key + 1)
+        i = (i + 1) & mask;
     return &m->table[i];
 }
 
@@ -119,7 +123,8 @@ static const int even[4][3][4] = {
 
 static void init_tets(void)
 {
-    static const int perm[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {2, 1, 0}, {1, 0, 2}};
+    static const int perm[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1},
+                                   {0, 2, 1}, {2, 1, 0}, {1, 0, 2}};
     for (int p = 0; p < 6; p++) {
         int v1 = 1 << perm[p][0], v2 = v1 | (1 << perm[p][1]);
         int odd = p >= 3;
@@ -134,12 +139,15 @@ static void init_tets(void)
 
 typedef struct block {
     int i0[3];
-    float v[NPTS];     /* values at the block's grid points (outside the region: +1) */
-    float f[NPTS];     /* the function's own values there */
-    uint8_t in[NPTS];  /* inside */
+    float v[NPTS];    /* values at the block's grid points (outside the region: +1) */
+    float f[NPTS];    /* the function's own values there */
+    uint8_t in[NPTS]; /* inside */
 } block;
 
-static int pidx(int x, int y, int z) { return (z * BP + y) * BP + x; }
+static int pidx(int x, int y, int z)
+{
+    return (z * BP + y) * BP + x;
+}
 
 /* Evaluate the tape at n points (any n) into out, in batches of FREP_LANES. */
 static void eval_points(mesher *m, frep_span t, int n, const float *x, const float *y,
@@ -171,7 +179,7 @@ typedef struct pending {
     double ta, tb;    /* bracket on [0, 1] from a to b */
     double umax;      /* where the edge leaves the region (1 inside it) */
     float fa, fb;
-    int lo_first;     /* a is the edge's lower end */
+    int lo_first; /* a is the edge's lower end */
 } pending;
 
 /* The vertices of the block's new crossing edges: regula falsi from both sides in batches. */
@@ -196,8 +204,10 @@ static void solve_edges(mesher *m, frep_span t, pending *pe, int np)
             eval_points(m, t, k, x, y, z, f);
             for (int q = 0; q < k; q++) {
                 pending *p = &pe[b + q];
-                if (f[q] < 0) p->ta = tt[q], p->fa = f[q];
-                else p->tb = tt[q], p->fb = f[q] == f[q] ? f[q] : 1;
+                if (f[q] < 0)
+                    p->ta = tt[q], p->fa = f[q];
+                else
+                    p->tb = tt[q], p->fb = f[q] == f[q] ? f[q] : 1;
             }
         }
     }
@@ -212,7 +222,8 @@ static crisp_status emit_vertex(mesher *m, pending *p, uint32_t *dest, float c[3
     if (u > p->umax) u = p->umax;
     if (u < 1e-3) u = 1e-3;
     if (u > 1 - 1e-3) u = 1 - 1e-3;
-    for (int a = 0; a < 3; a++) c[a] = (float)(m->org[a] + (p->ga[a] + u * (p->gb[a] - p->ga[a])) * m->h);
+    for (int a = 0; a < 3; a++)
+        c[a] = (float)(m->org[a] + (p->ga[a] + u * (p->gb[a] - p->ga[a])) * m->h);
     crisp_status s2 = m->sink->vertex(m->sink->ctx, c);
     if (s2) return s2;
     *dest = (uint32_t)m->st->vertices++;
@@ -244,28 +255,36 @@ static int feature_point(const mesher *m, const int i0[3], int cx, int cy, int c
     if (mind > 0.866) return 0;
     double c[3] = {0, 0, 0}, A[3][3] = {{0}}, rhs[3] = {0};
     for (int a = 0; a < n; a++)
-        for (int k = 0; k < 3; k++) c[k] += v[a][k] / n;
+        for (int k = 0; k < 3; k++)
+            c[k] += v[a][k] / n;
     const double lambda = 0.05;
     for (int a = 0; a < n; a++) {
         double d = 0;
-        for (int k = 0; k < 3; k++) d += nv[a][k] * (v[a][k] - c[k]);
+        for (int k = 0; k < 3; k++)
+            d += nv[a][k] * (v[a][k] - c[k]);
         for (int i = 0; i < 3; i++) {
             rhs[i] += nv[a][i] * d;
-            for (int j = 0; j < 3; j++) A[i][j] += nv[a][i] * nv[a][j];
+            for (int j = 0; j < 3; j++)
+                A[i][j] += nv[a][i] * nv[a][j];
         }
     }
-    for (int i = 0; i < 3; i++) A[i][i] += lambda;
+    for (int i = 0; i < 3; i++)
+        A[i][i] += lambda;
     /* solve A x = rhs (offset from c) by Cramer's rule */
-    double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) - A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
+    double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
+                 A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
                  A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
     if (!(fabs(det) > 1e-12)) return 0;
     double x[3];
     for (int k = 0; k < 3; k++) {
         double M[3][3];
         memcpy(M, A, sizeof M);
-        for (int i = 0; i < 3; i++) M[i][k] = rhs[i];
-        x[k] = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
-                M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) / det;
+        for (int i = 0; i < 3; i++)
+            M[i][k] = rhs[i];
+        x[k] = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+                M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) /
+               det;
     }
     double p[3];
     for (int k = 0; k < 3; k++) {
@@ -275,14 +294,21 @@ static int feature_point(const mesher *m, const int i0[3], int cx, int cy, int c
     /* inside the tetrahedron: barycentric coordinates from its corners */
     double T[4][3];
     for (int q = 0; q < 4; q++) {
-        int o = tv[q], g[3] = {i0[0] + cx + (o & 1), i0[1] + cy + ((o >> 1) & 1), i0[2] + cz + (o >> 2)};
-        for (int k = 0; k < 3; k++) T[q][k] = m->org[k] + g[k] * m->h;
+        int o = tv[q],
+            g[3] = {i0[0] + cx + (o & 1), i0[1] + cy + ((o >> 1) & 1), i0[2] + cz + (o >> 2)};
+        for (int k = 0; k < 3; k++)
+            T[q][k] = m->org[k] + g[k] * m->h;
     }
     double e1[3], e2[3], e3[3], r[3];
-    for (int k = 0; k < 3; k++) e1[k] = T[1][k] - T[0][k], e2[k] = T[2][k] - T[0][k], e3[k] = T[3][k] - T[0][k], r[k] = p[k] - T[0][k];
-#define DET3(a, b, c) ((a)[0] * ((b)[1] * (c)[2] - (b)[2] * (c)[1]) - (a)[1] * ((b)[0] * (c)[2] - (b)[2] * (c)[0]) + (a)[2] * ((b)[0] * (c)[1] - (b)[1] * (c)[0]))
+    for (int k = 0; k < 3; k++)
+        e1[k] = T[1][k] - T[0][k], e2[k] = T[2][k] - T[0][k], e3[k] = T[3][k] - T[0][k],
+        r[k] = p[k] - T[0][k];
+#define DET3(a, b, c)                                                                              \
+    ((a)[0] * ((b)[1] * (c)[2] - (b)[2] * (c)[1]) - (a)[1] * ((b)[0] * (c)[2] - (b)[2] * (c)[0]) + \
+     (a)[2] * ((b)[0] * (c)[1] - (b)[1] * (c)[0]))
     double D = DET3(e1, e2, e3);
-    double l1 = DET3(r, e2, e3) / D, l2 = DET3(e1, r, e3) / D, l3 = DET3(e1, e2, r) / D, l0 = 1 - l1 - l2 - l3;
+    double l1 = DET3(r, e2, e3) / D, l2 = DET3(e1, r, e3) / D, l3 = DET3(e1, e2, r) / D,
+           l0 = 1 - l1 - l2 - l3;
 #undef DET3
     const double margin = 1e-3;
     if (!(l0 > margin && l1 > margin && l2 > margin && l3 > margin)) return 0;
@@ -298,8 +324,10 @@ static int feature_point(const mesher *m, const int i0[3], int cx, int cy, int c
     if (!(pl > 0)) return 0;
     for (int a = 0; a < n; a++) {
         double u[3], w[3];
-        for (int k = 0; k < 3; k++) u[k] = v[a][k] - p[k], w[k] = v[(a + 1) % n][k] - p[k];
-        double cr[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
+        for (int k = 0; k < 3; k++)
+            u[k] = v[a][k] - p[k], w[k] = v[(a + 1) % n][k] - p[k];
+        double cr[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
+                        u[0] * w[1] - u[1] * w[0]};
         double cl = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
         if (!((cr[0] * pn[0] + cr[1] * pn[1] + cr[2] * pn[2]) > 0.05 * cl * pl)) return 0;
     }
@@ -344,7 +372,9 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
                 agree = bl.in[base + (k & 1) + ((k >> 1) & 1) * BP + (k >> 2) * BP * BP] == s;
             if (!agree) continue;
             int g[3] = {i0[0] + cxq, i0[1] + cyq, i0[2] + czq};
-            if (!in_region(m, g) || g[0] + 1 > m->lim[0] || g[1] + 1 > m->lim[1] || g[2] + 1 > m->lim[2]) continue;
+            if (!in_region(m, g) || g[0] + 1 > m->lim[0] || g[1] + 1 > m->lim[1] ||
+                g[2] + 1 > m->lim[2])
+                continue;
             cx[nq] = (float)(m->org[0] + (g[0] + 0.5) * m->h);
             cy[nq] = (float)(m->org[1] + (g[1] + 0.5) * m->h);
             cz[nq] = (float)(m->org[2] + (g[2] + 0.5) * m->h);
@@ -354,7 +384,9 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
             eval_points(m, t, nq, cx, cy, cz, cv);
             for (int q = 0; q < nq; q++)
                 if ((cv[q] < 0) != idx[q]) {
-                    if (!m->st->thin_cubes) m->st->thin_at[0] = cx[q], m->st->thin_at[1] = cy[q], m->st->thin_at[2] = cz[q];
+                    if (!m->st->thin_cubes)
+                        m->st->thin_at[0] = cx[q], m->st->thin_at[1] = cy[q],
+                        m->st->thin_at[2] = cz[q];
                     m->st->thin_cubes++;
                 }
         }
@@ -377,10 +409,14 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
             uint64_t key = edge_key(m, lo, dirs[d]);
             int g = table_grow(m);
             if (g == -2)
-                return crisp_error(CRISP_ERR_LIMIT,
-                                   "frep mesh: the edge table would pass %.0f MB (more than %zu vertices); use a "
-                                   "coarser cell", m->max_bytes / 1e6, m->tcount);
-            if (g) return crisp_error(CRISP_ERR_NO_MEMORY, "frep mesh: out of memory for the edge table");
+                return crisp_error(
+                    CRISP_ERR_LIMIT,
+                    "frep mesh: the edge table would pass %.0f MB (more than %zu vertices); use a "
+                    "coarser cell",
+                    m->max_bytes / 1e6, m->tcount);
+            if (g)
+                return crisp_error(CRISP_ERR_NO_MEMORY,
+                                   "frep mesh: out of memory for the edge table");
             edge_entry *e = edge_slot(m, key);
             if (e->key) continue;
             e->key = key + 1;
@@ -469,11 +505,15 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
                         nin += ins[k];
                     }
                     if (nin == 0 || nin == 4) continue;
-                    /* vertex on the edge between tet corners p and q */
+                        /* vertex on the edge between tet corners p and q */
 #define EV(P, Q, DEST)                                                                             \
     do {                                                                                           \
         int oa = tv[P], ob = tv[Q];                                                                \
-        if ((oa & ob) != oa) { int sw = oa; oa = ob; ob = sw; } /* oa is the lower end */          \
+        if ((oa & ob) != oa) {                                                                     \
+            int sw = oa;                                                                           \
+            oa = ob;                                                                               \
+            ob = sw;                                                                               \
+        } /* oa is the lower end */                                                                \
         int lo3[3] = {i0[0] + cx2 + (oa & 1), i0[1] + cy2 + ((oa >> 1) & 1),                       \
                       i0[2] + cz2 + (oa >> 2)};                                                    \
         edge_entry *en = edge_slot(m, edge_key(m, lo3, oa ^ ob));                                  \
@@ -487,7 +527,8 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
                     int ntri = 0, ntp = 0;
                     if (nin == 1 || nin == 3) {
                         int i = 0;
-                        while (ins[i] != (nin == 1)) i++;
+                        while (ins[i] != (nin == 1))
+                            i++;
                         const int *pr = even[i][0];
                         EV(pr[0], pr[1], tri[0][0]);
                         if (nin == 1) {
@@ -500,9 +541,11 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
                         ntri = 1;
                     } else {
                         int i = 0;
-                        while (!ins[i]) i++;
+                        while (!ins[i])
+                            i++;
                         int j = i + 1;
-                        while (!ins[j]) j++;
+                        while (!ins[j])
+                            j++;
                         const int *pr = NULL;
                         for (int e = 0; e < 3; e++)
                             if (even[i][e][1] == j) pr = even[i][e];
@@ -543,7 +586,8 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
                         continue;
                     }
                     for (int q = 0; q < ntri; q++) {
-                        crisp_status s = m->sink->triangle(m->sink->ctx, tri[q], (const float(*)[3])tq[q]);
+                        crisp_status s =
+                            m->sink->triangle(m->sink->ctx, tri[q], (const float(*)[3])tq[q]);
                         if (s) return s;
                         m->st->triangles++;
                     }
@@ -560,13 +604,15 @@ static crisp_status walk(mesher *m, frep_span t, const int i0[3], int size, int 
     for (int a = 0; a < 3; a++)
         if (i0[a] > m->lim[a] || i0[a] + size < 1) return CRISP_OK;
     float b[6];
-    for (int a = 0; a < 3; a++) b[2 * a] = coord(m, a, i0[a]), b[2 * a + 1] = coord(m, a, i0[a] + size);
+    for (int a = 0; a < 3; a++)
+        b[2 * a] = coord(m, a, i0[a]), b[2 * a + 1] = coord(m, a, i0[a] + size);
     size_t d;
     int cls = crisp__frep_octree_classify(&m->o, t, b, &d);
     m->st->intervals++;
     if (cls == FREP_CELL_OUT) return CRISP_OK;
     int border = 0;
-    for (int a = 0; a < 3; a++) border |= i0[a] < 1 || i0[a] + size > m->lim[a];
+    for (int a = 0; a < 3; a++)
+        border |= i0[a] < 1 || i0[a] + size > m->lim[a];
     if (cls == FREP_CELL_IN && !border) return CRISP_OK;
     frep_span ct = t;
     if (d && depth < m->o.max_depth) {
@@ -595,7 +641,8 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     init_tets();
     double r[6];
     int zero = 1;
-    for (int k = 0; k < 6; k++) zero &= desc->region[k] == 0;
+    for (int k = 0; k < 6; k++)
+        zero &= desc->region[k] == 0;
     if (zero) {
         crisp_frep_fit fit;
         crisp_status s = crisp_frep_fit_region(t, &(crisp_frep_fit_desc){0}, &fit);
@@ -608,13 +655,15 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     double ext = 0;
     for (int a = 0; a < 3; a++) {
         if (!(r[2 * a] < r[2 * a + 1]) || !isfinite(r[2 * a]) || !isfinite(r[2 * a + 1]))
-            return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_mesh: region axis %d [%g, %g] is empty",
-                               a, r[2 * a], r[2 * a + 1]);
+            return crisp_error(CRISP_ERR_INVALID_ARG,
+                               "crisp_frep_mesh: region axis %d [%g, %g] is empty", a, r[2 * a],
+                               r[2 * a + 1]);
         ext = fmax(ext, r[2 * a + 1] - r[2 * a]);
     }
     if (desc->resolution < 0 || desc->cell < 0 || desc->cell != desc->cell)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_mesh: resolution %d / cell %g is negative",
-                           desc->resolution, desc->cell);
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_frep_mesh: resolution %d / cell %g is negative", desc->resolution,
+                           desc->cell);
     double h = desc->cell > 0 ? desc->cell : ext / (desc->resolution > 0 ? desc->resolution : 128);
     mesher m = {.t = t, .sink = sink, .st = stats, .h = h};
     m.max_bytes = desc->max_megabytes > 0 ? (size_t)(desc->max_megabytes * 1e6) : (size_t)8 << 30;
@@ -622,8 +671,9 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     for (int a = 0; a < 3; a++) {
         double cells = ceil((r[2 * a + 1] - r[2 * a]) / h);
         if (!(cells <= (1 << 20) - 2))
-            return crisp_error(CRISP_ERR_LIMIT, "crisp_frep_mesh: %.0f cells along axis %d (at most %d)",
-                               cells, a, (1 << 20) - 2);
+            return crisp_error(CRISP_ERR_LIMIT,
+                               "crisp_frep_mesh: %.0f cells along axis %d (at most %d)", cells, a,
+                               (1 << 20) - 2);
         /* grid points 1 .. lim are those inside the region (point 1 on its lower face) */
         m.lim[a] = 1 + (int)floor((r[2 * a + 1] - r[2 * a]) / h * (1 + 1e-12));
         m.org[a] = r[2 * a] - h;
@@ -632,7 +682,8 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     }
     int levels = 0;
     m.n = B;
-    while (m.n < need) m.n *= 2, levels++;
+    while (m.n < need)
+        m.n *= 2, levels++;
     crisp_status s = crisp__frep_octree_init(&m.o, t, levels + 1);
     if (s) return s;
     m.regs = crisp_malloc_array((size_t)t->registers * FREP_LANES, sizeof *m.regs);
@@ -647,7 +698,8 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     const frep_span full = {t->ins, t->ssa, t->length, t->registers};
     s = walk(&m, full, (int[3]){0, 0, 0}, m.n, 0);
     stats->cell = h;
-    for (int a = 0; a < 3; a++) stats->region[2 * a] = r[2 * a], stats->region[2 * a + 1] = r[2 * a + 1];
+    for (int a = 0; a < 3; a++)
+        stats->region[2 * a] = r[2 * a], stats->region[2 * a + 1] = r[2 * a + 1];
     stats->peak_bytes += m.tcap * sizeof *m.table;
 done:
     crisp__frep_octree_free(&m.o);

@@ -73,7 +73,8 @@ static int walk(frep_octree *o, frep_span t, const float b[6], int depth)
             ct = out;
     }
     float m[3];
-    for (int a = 0; a < 3; a++) m[a] = 0.5f * (b[2 * a] + b[2 * a + 1]);
+    for (int a = 0; a < 3; a++)
+        m[a] = 0.5f * (b[2 * a] + b[2 * a + 1]);
     int axes = o->planar ? 2 : 3;
     for (int q = 0; q < (1 << axes); q++) {
         float c[6];

@@ -1,11 +1,11 @@
 /* Region fit: a box that covers an f-rep part, found by interval subdivision of a search box
  * (Keeter 2012's interval classification, used here to bound the part instead of drawing it).
  *
- * The union of the octree cells (depth 6 in 3D, 8 in 2D, tape shortened per cell, octree.c) that are not proven
- * outside contains every point of the part in the search box; its bounding box is the fit, and
- * octrees over cubes around it refine the fit while the part is small in the cube (4 passes).
- * A part that reaches the search box's side is flagged unbounded on that axis. A cell whose
- * interval stays NaN at the finest level (an undefined expression) counts only when one of 64
+ * The union of the octree cells (depth 6 in 3D, 8 in 2D, tape shortened per cell, octree.c) that
+ * are not proven outside contains every point of the part in the search box; its bounding box is
+ * the fit, and octrees over cubes around it refine the fit while the part is small in the cube (4
+ * passes). A part that reaches the search box's side is flagged unbounded on that axis. A cell
+ * whose interval stays NaN at the finest level (an undefined expression) counts only when one of 64
  * sample points in it is inside: a guess, counted in crisp_frep_fit.sampled. With a budget of
  * intervals, the cells left unsplit count whole: still conservative.
  * By default the search box grows, [-R, R]^3 for R = 2, 8, 32, ..., 1024: intervals over huge
@@ -23,7 +23,6 @@
 #define FIT_DEPTH_2D 8
 #define FIT_MAX_INTERVALS 400000
 
-
 typedef struct fit_ctx {
     frep_octree o;
     float *regs;
@@ -39,7 +38,8 @@ static int sample_inside(fit_ctx *c, frep_span t, const float b[6])
     for (int k = 0; k < FREP_LANES; k++) {
         int q[3] = {k & 3, (k >> 2) & 3, k >> 4};
         float *p[3] = {&x[k], &y[k], &z[k]};
-        for (int a = 0; a < 3; a++) *p[a] = b[2 * a] + (b[2 * a + 1] - b[2 * a]) * (q[a] + 0.5f) / 4;
+        for (int a = 0; a < 3; a++)
+            *p[a] = b[2 * a] + (b[2 * a + 1] - b[2 * a]) * (q[a] + 0.5f) / 4;
     }
     crisp__frep_eval_lanes(t.ins, t.len, c->regs, x, y, z);
     const float *v = c->regs + (size_t)t.ins[t.len - 1].out * FREP_LANES;
@@ -73,7 +73,8 @@ static crisp_status fit_box(fit_ctx *c, const double s[6], int planar, crisp_fre
 {
     memset(dest, 0, sizeof *dest);
     float root[6];
-    for (int k = 0; k < 6; k++) root[k] = (float)s[k];
+    for (int k = 0; k < 6; k++)
+        root[k] = (float)s[k];
     if (planar) root[4] = root[5] = (float)(0.5 * (s[4] + s[5]));
     int axes = planar ? 2 : 3;
     float cur[6];
@@ -89,17 +90,19 @@ static crisp_status fit_box(fit_ctx *c, const double s[6], int planar, crisp_fre
         if (!c->any) {
             dest->empty = 1;
             if (c->sampled)
-                return crisp_error(CRISP_ERR_NUMERIC,
-                                   "no inside point in [%g, %g] x [%g, %g] x [%g, %g]: the function "
-                                   "is NaN (undefined) in %zu cells and outside elsewhere",
-                                   cur[0], cur[1], cur[2], cur[3], cur[4], cur[5], c->sampled);
+                return crisp_error(
+                    CRISP_ERR_NUMERIC,
+                    "no inside point in [%g, %g] x [%g, %g] x [%g, %g]: the function "
+                    "is NaN (undefined) in %zu cells and outside elsewhere",
+                    cur[0], cur[1], cur[2], cur[3], cur[4], cur[5], c->sampled);
             return crisp_error(CRISP_ERR_NUMERIC,
                                "the part is empty: every point of [%g, %g] x [%g, %g] x [%g, %g] "
                                "is proven outside (f >= 0)",
                                cur[0], cur[1], cur[2], cur[3], cur[4], cur[5]);
         }
         float size = 0;
-        for (int a = 0; a < axes; a++) size = fmaxf(size, cur[2 * a + 1] - cur[2 * a]);
+        for (int a = 0; a < axes; a++)
+            size = fmaxf(size, cur[2 * a + 1] - cur[2 * a]);
         cell = size / (float)(1 << c->o.max_depth);
         if (pass == 0) {
             for (int a = 0; a < axes; a++)
@@ -120,29 +123,34 @@ static crisp_status fit_box(fit_ctx *c, const double s[6], int planar, crisp_fre
             cur[2 * a + 1] = fminf(mid[a] + half, root[2 * a + 1]);
         }
     }
-    for (int k = 0; k < 6; k++) dest->box[k] = c->box[k];
+    for (int k = 0; k < 6; k++)
+        dest->box[k] = c->box[k];
     if (planar) dest->box[4] = dest->box[5] = root[4];
     dest->cell = cell;
     dest->intervals = intervals;
     dest->sampled = c->sampled;
-    for (int k = 0; k < 6; k++) dest->search[k] = root[k];
+    for (int k = 0; k < 6; k++)
+        dest->search[k] = root[k];
     return CRISP_OK;
 }
 
 crisp_status crisp_frep_fit_region(const crisp_frep_tape *t, const crisp_frep_fit_desc *desc,
                                    crisp_frep_fit *dest)
 {
-    if (!t || !desc || !dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_fit_region: NULL argument");
+    if (!t || !desc || !dest)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_fit_region: NULL argument");
     memset(dest, 0, sizeof *dest);
     int zero = 1, axes = desc->planar ? 2 : 3;
-    for (int k = 0; k < 6; k++) zero &= desc->search[k] == 0;
+    for (int k = 0; k < 6; k++)
+        zero &= desc->search[k] == 0;
     for (int a = 0; !zero && a < axes; a++) {
         const double *s = desc->search;
         if (!(s[2 * a] < s[2 * a + 1]) || !isfinite(s[2 * a]) || !isfinite(s[2 * a + 1]) ||
             fabs(s[2 * a]) > 1e30 || fabs(s[2 * a + 1]) > 1e30)
-            return crisp_error(CRISP_ERR_INVALID_ARG,
-                               "crisp_frep_fit_region: search box axis %d [%g, %g] is empty or not finite",
-                               a, s[2 * a], s[2 * a + 1]);
+            return crisp_error(
+                CRISP_ERR_INVALID_ARG,
+                "crisp_frep_fit_region: search box axis %d [%g, %g] is empty or not finite", a,
+                s[2 * a], s[2 * a + 1]);
     }
     fit_ctx c = {0};
     crisp_status st = crisp__frep_octree_init(&c.o, t, desc->planar ? FIT_DEPTH_2D : FIT_DEPTH_3D);
@@ -196,11 +204,12 @@ crisp_status crisp_frep_fit_check(const crisp_frep_fit *fit, unsigned allowed_un
                                "the part's function is NaN (undefined) out to the search box in %c "
                                "(%g .. %g): check the expression, or give a region",
                                axis[a], fit->box[2 * a], fit->box[2 * a + 1]);
-        return crisp_error(CRISP_ERR_NUMERIC,
-                           "the part is unbounded in %c: it reaches the search box's side (%g .. %g of "
-                           "[%g, %g]); give a region",
-                           axis[a], fit->box[2 * a], fit->box[2 * a + 1], fit->search[2 * a],
-                           fit->search[2 * a + 1]);
+        return crisp_error(
+            CRISP_ERR_NUMERIC,
+            "the part is unbounded in %c: it reaches the search box's side (%g .. %g of "
+            "[%g, %g]); give a region",
+            axis[a], fit->box[2 * a], fit->box[2 * a + 1], fit->search[2 * a],
+            fit->search[2 * a + 1]);
     }
     return CRISP_OK;
 }

@@ -79,7 +79,8 @@ void crisp_frep_renderer_destroy(crisp_frep_renderer *r)
 {
     if (!r) return;
     if (r->workers)
-        for (int i = 0; i < r->threads; i++) free_worker(&r->workers[i]);
+        for (int i = 0; i < r->threads; i++)
+            free_worker(&r->workers[i]);
     crisp_free(r->workers);
     crisp_pool_destroy(r->pool);
     crisp_arena_destroy(r->arena);
@@ -120,8 +121,8 @@ crisp_status crisp_frep_renderer_create(const crisp_frep_tape *tape,
         if (!(g[2 * a] < g[2 * a + 1]) || !isfinite(g[2 * a]) || !isfinite(g[2 * a + 1]))
             if (a < 2 || desc->depth > 0) {
                 s = crisp_error(CRISP_ERR_INVALID_ARG,
-                                "crisp_frep_renderer_create: region axis %d [%g, %g] is empty",
-                                a, g[2 * a], g[2 * a + 1]);
+                                "crisp_frep_renderer_create: region axis %d [%g, %g] is empty", a,
+                                g[2 * a], g[2 * a + 1]);
                 goto fail;
             }
     int W = desc->width, H = desc->height, D = desc->depth;
@@ -142,16 +143,20 @@ crisp_status crisp_frep_renderer_create(const crisp_frep_tape *tape,
     if (!r->xs || !r->ys || !r->zs || !r->img.inside ||
         (D > 0 && (!r->img.heights || !r->img.z || !r->img.normal || !r->deferred)))
         goto oom;
-    for (int i = 0; i < W; i++) r->xs[i] = (float)(g[0] + (i + 0.5) * (g[1] - g[0]) / W);
-    for (int j = 0; j < H; j++) r->ys[j] = (float)(g[3] - (j + 0.5) * (g[3] - g[2]) / H);
+    for (int i = 0; i < W; i++)
+        r->xs[i] = (float)(g[0] + (i + 0.5) * (g[1] - g[0]) / W);
+    for (int j = 0; j < H; j++)
+        r->ys[j] = (float)(g[3] - (j + 0.5) * (g[3] - g[2]) / H);
     r->zs[0] = (float)(0.5 * (g[4] + g[5]));
-    for (int k = 0; k < D; k++) r->zs[k] = (float)(g[4] + (k + 0.5) * (g[5] - g[4]) / D);
+    for (int k = 0; k < D; k++)
+        r->zs[k] = (float)(g[4] + (k + 0.5) * (g[5] - g[4]) / D);
 
     if ((s = crisp_pool_create(desc->threads, &r->pool))) goto fail;
     r->threads = crisp_pool_threads(r->pool);
     /* task tiles: as large as Fidget's top level, small enough for 16 tasks per thread */
     int t = D > 0 ? 64 : 128;
-    while (t > 2 * LEAF && (size_t)((W + t - 1) / t) * (size_t)((H + t - 1) / t) < 16u * (unsigned)r->threads)
+    while (t > 2 * LEAF &&
+           (size_t)((W + t - 1) / t) * (size_t)((H + t - 1) / t) < 16u * (unsigned)r->threads)
         t /= 2;
     r->task_size = t;
     if ((s = crisp_arena_create(1 << 20, &r->arena))) goto fail;
@@ -247,7 +252,8 @@ static frep_span child_tape(const crisp_frep_renderer *r, frep_worker *w, frep_s
 
 static void fill_inside(crisp_frep_renderer *r, int i0, int i1, int j0, int j1, uint8_t v)
 {
-    for (int j = j0; j < j1; j++) memset(r->img.inside + (size_t)j * r->img.width + i0, v, (size_t)(i1 - i0));
+    for (int j = j0; j < j1; j++)
+        memset(r->img.inside + (size_t)j * r->img.width + i0, v, (size_t)(i1 - i0));
 }
 
 /* ---- 2D -------------------------------------------------------------------------------------- */
@@ -278,7 +284,8 @@ static void leaf_2d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
     for (int j = j0; j < j1; j++) {
         uint8_t *row = r->img.inside + (size_t)j * r->img.width + i0;
         const float *vr = v + (j - j0) * LEAF;
-        for (int i = 0; i < wi; i++) row[i] = vr[i] < 0 ? 255 : 0;
+        for (int i = 0; i < wi; i++)
+            row[i] = vr[i] < 0 ? 255 : 0;
     }
     w->st.leaves++;
     w->st.points += (size_t)wi * (size_t)(j1 - j0);
@@ -294,14 +301,16 @@ static void leaves_2d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i
     int bi[16], bj[16], n = 0;
     for (int j = j0; j < j1; j += LEAF)
         for (int i = i0; i < i1 && n < 16; i += LEAF) {
-            int ib = i + LEAF < i1 ? i + LEAF - 1 : i1 - 1, jb = j + LEAF < j1 ? j + LEAF - 1 : j1 - 1;
+            int ib = i + LEAF < i1 ? i + LEAF - 1 : i1 - 1,
+                jb = j + LEAF < j1 ? j + LEAF - 1 : j1 - 1;
             bx[0][n] = r->xs[i], bx[1][n] = r->xs[ib];
             bx[2][n] = r->ys[jb], bx[3][n] = r->ys[j];
             bx[4][n] = bx[5][n] = r->zs[0];
             bi[n] = i, bj[n++] = j;
         }
     for (int k = n; k < 16; k++)
-        for (int a = 0; a < 6; a++) bx[a][k] = bx[a][0];
+        for (int a = 0; a < 6; a++)
+            bx[a][k] = bx[a][0];
     const float *box[6] = {bx[0], bx[1], bx[2], bx[3], bx[4], bx[5]};
     float *lo = w->gregs, *hi = w->gregs + (size_t)r->tape->registers * FREP_LANES;
     crisp__frep_interval_lanes(t.ins, t.len, 16, lo, hi, box, NULL, NULL);
@@ -330,7 +339,8 @@ static void cell_2d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0,
     if (r->desc.flags & CRISP_FREP_BRUTE) {
         if (size > LEAF) {
             for (int j = j0; j < j1; j += LEAF)
-                for (int i = i0; i < i1; i += LEAF) cell_2d(r, w, t, i, j, LEAF, depth);
+                for (int i = i0; i < i1; i += LEAF)
+                    cell_2d(r, w, t, i, j, LEAF, depth);
         } else {
             leaf_2d(r, w, ins, len, i0, i1, j0, j1);
         }
@@ -340,7 +350,8 @@ static void cell_2d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0,
         /* below the smallest interval cell: batches of 8x8 points on the parent's tape */
         for (int j = j0; j < j1; j += LEAF)
             for (int i = i0; i < i1; i += LEAF)
-                leaf_2d(r, w, ins, len, i, i + LEAF < i1 ? i + LEAF : i1, j, j + LEAF < j1 ? j + LEAF : j1);
+                leaf_2d(r, w, ins, len, i, i + LEAF < i1 ? i + LEAF : i1, j,
+                        j + LEAF < j1 ? j + LEAF : j1);
         return;
     }
     float lo, hi;
@@ -357,7 +368,8 @@ static void cell_2d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0,
         return;
     }
     for (int j = j0; j < j1; j += c)
-        for (int i = i0; i < i1; i += c) cell_2d(r, w, ct, i, j, c, depth + 1);
+        for (int i = i0; i < i1; i += c)
+            cell_2d(r, w, ct, i, j, c, depth + 1);
 }
 
 /* ---- 3D heightmap ---------------------------------------------------------------------------- */
@@ -390,7 +402,8 @@ static void hit_normals(crisp_frep_renderer *r, frep_worker *w, const frep_ins *
 {
     if (!n) return;
     if (len * FREP_LANES >= w->task_len * (size_t)n) {
-        for (int q = 0; q < n; q++) r->deferred[pix[q]] = 1;
+        for (int q = 0; q < n; q++)
+            r->deferred[pix[q]] = 1;
         return;
     }
     float x[FREP_LANES], y[FREP_LANES], z[FREP_LANES];
@@ -403,8 +416,8 @@ static void hit_normals(crisp_frep_renderer *r, frep_worker *w, const frep_ins *
 }
 
 /* Raise pixels below voxel k to k (the cell is all inside at its top layer k). */
-static void fill_top(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len, int i0,
-                     int i1, int j0, int j1, int k)
+static void fill_top(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins, size_t len,
+                     int i0, int i1, int j0, int j1, int k)
 {
     int pix[FREP_LANES], hk[FREP_LANES], n = 0;
     for (int j = j0; j < j1; j++)
@@ -440,7 +453,8 @@ static void tile_normals(crisp_frep_renderer *r, frep_worker *w, frep_span t, in
             }
         }
     if (n) {
-        for (int k = n; k < FREP_LANES; k++) x[k] = x[0], y[k] = y[0], z[k] = z[0];
+        for (int k = n; k < FREP_LANES; k++)
+            x[k] = x[0], y[k] = y[0], z[k] = z[0];
         set_normals(r, w, t.ins, t.len, pix, n, x, y, z);
     }
 }
@@ -464,7 +478,8 @@ static void sub_eval(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins
 {
     int lanes = (n + 15) & ~15;
     for (int k = n; k < lanes; k++)
-        for (int c = 0; c < 6; c++) bx[c][k] = bx[c][0];
+        for (int c = 0; c < 6; c++)
+            bx[c][k] = bx[c][0];
     const float *box[6] = {bx[0], bx[1], bx[2], bx[3], bx[4], bx[5]};
     float *lo = w->gregs, *hi = w->gregs + (size_t)r->tape->registers * FREP_LANES;
     crisp__frep_interval_lanes(ins, len, lanes, lo, hi, box, NULL, NULL);
@@ -489,7 +504,8 @@ static int sub_states(crisp_frep_renderer *r, frep_worker *w, const frep_ins *in
     int idx[FREP_LANES], n = 0, need = 0, W = r->img.width;
     int ni = (i1 - i0 + 1) / 2, nj = (j1 - j0 + 1) / 2, nk = (k1 - k0 + 1) / 2;
     int colmin[16];
-    for (int c = 0; c < 16; c++) colmin[c] = INT32_MAX;
+    for (int c = 0; c < 16; c++)
+        colmin[c] = INT32_MAX;
     for (int j = j0; j < j1; j++)
         for (int i = i0; i < i1; i++) {
             int h = r->img.heights[(size_t)j * W + i], c = ((j - j0) / 2) * 4 + (i - i0) / 2;
@@ -510,7 +526,8 @@ static int sub_states(crisp_frep_renderer *r, frep_worker *w, const frep_ins *in
     }
     uint8_t st[FREP_LANES];
     sub_eval(r, w, ins, len, bx, n, st);
-    for (int q = 0; q < n; q++) state[idx[q]] = st[q];
+    for (int q = 0; q < n; q++)
+        state[idx[q]] = st[q];
     return 1;
 }
 
@@ -549,7 +566,8 @@ static void leaf_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
                     if (kt - 1 >= k0 && kt - 1 > h) cand[npix][n++] = kt - 1;
                 }
             } else {
-                for (int k = k1 - 1; k >= k0 && k > h; k--) cand[npix][n++] = k;
+                for (int k = k1 - 1; k >= k0 && k > h; k--)
+                    cand[npix][n++] = k;
             }
             if (!n && f < 0) continue;
             p[npix] = q;
@@ -572,7 +590,8 @@ static void leaf_3d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
                 x[n] = px[q], y[n] = py[q], z[n] = r->zs[cand[q][d]];
                 n++;
             }
-        for (int k = n; k < FREP_LANES; k++) x[k] = x[0], y[k] = y[0], z[k] = z[0];
+        for (int k = n; k < FREP_LANES; k++)
+            x[k] = x[0], y[k] = y[0], z[k] = z[0];
         const float *v;
         float one[FREP_LANES];
         if (r->desc.flags & CRISP_FREP_NO_BATCH) {
@@ -617,13 +636,14 @@ static int min_height(const crisp_frep_renderer *r, int i0, int i1, int j0, int 
     int m = INT32_MAX;
     for (int j = j0; j < j1; j++) {
         const int32_t *row = r->img.heights + (size_t)j * r->img.width;
-        for (int i = i0; i < i1; i++) m = row[i] < m ? row[i] : m;
+        for (int i = i0; i < i1; i++)
+            m = row[i] < m ? row[i] : m;
     }
     return m;
 }
 
-static void children_3d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int j0,
-                        int k0, int size, int depth);
+static void children_3d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int j0, int k0,
+                        int size, int depth);
 
 /* A cell [i0,i1) x [j0,j1) x [kk0,k1) (of nominal size `size` from k0) whose interval [lo, hi]
  * is known, with its tape ct (already shortened for it). */
@@ -653,8 +673,8 @@ static void cell_3d_decided(crisp_frep_renderer *r, frep_worker *w, frep_span ct
 /* The eight children of an undecided cell (tape t), their intervals and min/max choices in one
  * batched pass, then each in turn, upper half first so that the first hit of a pixel is its
  * highest; each child's tape is shortened just before it is visited. */
-static void children_3d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int j0,
-                        int k0, int size, int depth)
+static void children_3d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int j0, int k0,
+                        int size, int depth)
 {
     int c = size / 2, W = r->img.width, H = r->img.height, D = r->img.depth;
     int ci0[8], ci1[8], cj0[8], cj1[8], ck0[8], ckk0[8], ck1[8], valid[8], n = 0;
@@ -671,19 +691,23 @@ static void children_3d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int
     }
     for (int q = 0; q < 8; q++) {
         int s = valid[q] ? q : 0;
-        while (!valid[s]) s++; /* lanes of empty children repeat a valid one */
+        while (!valid[s])
+            s++; /* lanes of empty children repeat a valid one */
         sub_box(r, bx, q, ci0[s], ci1[s] - 1, cj0[s], cj1[s] - 1, ckk0[s], ck1[s] - 1);
     }
     for (int k = 8; k < 16; k++)
-        for (int a = 0; a < 6; a++) bx[a][k] = bx[a][0];
+        for (int a = 0; a < 6; a++)
+            bx[a][k] = bx[a][0];
     const float *box[6] = {bx[0], bx[1], bx[2], bx[3], bx[4], bx[5]};
     size_t len = t.len, decided[16] = {0};
-    uint8_t *choices = w->lane_choices + (size_t)(depth < MAX_DEPTH ? depth : MAX_DEPTH - 1) * 8 * r->tape->length;
+    uint8_t *choices =
+        w->lane_choices + (size_t)(depth < MAX_DEPTH ? depth : MAX_DEPTH - 1) * 8 * r->tape->length;
     float *lo = w->gregs, *hi = w->gregs + (size_t)r->tape->registers * FREP_LANES;
     crisp__frep_interval_lanes(t.ins, len, 16, lo, hi, box, choices, decided);
     uint16_t res = t.ins[len - 1].out;
     float clo[8], chi[8];
-    for (int q = 0; q < 8; q++) clo[q] = lo[(size_t)res * FREP_LANES + q], chi[q] = hi[(size_t)res * FREP_LANES + q];
+    for (int q = 0; q < 8; q++)
+        clo[q] = lo[(size_t)res * FREP_LANES + q], chi[q] = hi[(size_t)res * FREP_LANES + q];
     w->st.intervals += (size_t)n;
     for (int q = 0; q < 8; q++) {
         if (!valid[q]) continue;
@@ -721,7 +745,8 @@ static void cell_3d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0,
         if (size > LEAF) {
             for (int k = k1 - LEAF; k > kk0 - LEAF; k -= LEAF)
                 for (int j = j0; j < j1; j += LEAF)
-                    for (int i = i0; i < i1; i += LEAF) cell_3d(r, w, t, i, j, k, LEAF, depth);
+                    for (int i = i0; i < i1; i += LEAF)
+                        cell_3d(r, w, t, i, j, k, LEAF, depth);
         } else {
             leaf_3d(r, w, ins, len, i0, i1, j0, j1, kk0, k1, NULL);
         }
@@ -744,7 +769,8 @@ static crisp_status prepass(crisp_frep_renderer *r, frep_span t, int i0, int j0,
     if (i0 >= W || j0 >= H) return CRISP_OK;
     if (size > r->task_size && (r->desc.flags & CRISP_FREP_BRUTE)) {
         for (int q = 0; q < 4; q++) {
-            crisp_status s = prepass(r, t, i0 + (q & 1) * size / 2, j0 + (q >> 1) * size / 2, size / 2);
+            crisp_status s =
+                prepass(r, t, i0 + (q & 1) * size / 2, j0 + (q >> 1) * size / 2, size / 2);
             if (s) return s;
         }
         return CRISP_OK;
@@ -754,7 +780,8 @@ static crisp_status prepass(crisp_frep_renderer *r, frep_span t, int i0, int j0,
         frep_worker *w = &r->workers[0];
         float lo, hi;
         int is3 = r->img.depth > 0;
-        size_t d = cell_interval(r, w, ins, len, i0, i1, j0, j1, 0, is3 ? r->img.depth : 1, &lo, &hi);
+        size_t d =
+            cell_interval(r, w, ins, len, i0, i1, j0, j1, 0, is3 ? r->img.depth : 1, &lo, &hi);
         if (lo >= 0) {
             if (!is3) fill_inside(r, i0, i1, j0, j1, 0);
             return CRISP_OK;
@@ -766,7 +793,8 @@ static crisp_status prepass(crisp_frep_renderer *r, frep_span t, int i0, int j0,
         if (d && !(r->desc.flags & CRISP_FREP_NO_PRUNE)) {
             frep_ins *ti = crisp_arena_alloc(r->arena, len, sizeof *ti);
             uint32_t *ts = crisp_arena_alloc(r->arena, 2 * len, sizeof *ts);
-            if (!ti || !ts) return crisp_error(CRISP_ERR_NO_MEMORY, "frep render: out of memory for tapes");
+            if (!ti || !ts)
+                return crisp_error(CRISP_ERR_NO_MEMORY, "frep render: out of memory for tapes");
             frep_span out;
             if (!crisp__frep_shorten(t, w->choices, &w->sc, ti, ts, &out)) t = out;
         }
@@ -810,15 +838,19 @@ crisp_status crisp_frep_renderer_run(crisp_frep_renderer *r)
     int W = r->img.width, H = r->img.height, D = r->img.depth;
     size_t npix = (size_t)W * (size_t)H;
     if (D > 0) {
-        for (size_t p = 0; p < npix; p++) r->img.heights[p] = -1;
+        for (size_t p = 0; p < npix; p++)
+            r->img.heights[p] = -1;
     }
-    for (int i = 0; i < r->threads; i++) memset(&r->workers[i].st, 0, sizeof r->workers[i].st);
+    for (int i = 0; i < r->threads; i++)
+        memset(&r->workers[i].st, 0, sizeof r->workers[i].st);
     crisp_arena_reset(r->arena);
     r->ntasks = 0;
     int root = r->task_size;
-    while (root < W || root < H) root *= 2;
+    while (root < W || root < H)
+        root *= 2;
     const crisp_frep_tape *tp = r->tape;
-    crisp_status s = prepass(r, (frep_span){tp->ins, tp->ssa, tp->length, tp->registers}, 0, 0, root);
+    crisp_status s =
+        prepass(r, (frep_span){tp->ins, tp->ssa, tp->length, tp->registers}, 0, 0, root);
     if (s) return s;
     crisp_pool_parallel_for(r->pool, r->ntasks, 1, run_tasks, r);
     memset(&r->st, 0, sizeof r->st);
@@ -836,7 +868,8 @@ crisp_status crisp_frep_renderer_run(crisp_frep_renderer *r)
             int h = r->img.heights[p];
             r->img.inside[p] = h >= 0 ? 255 : 0;
             r->img.z[p] = h >= 0 ? r->zs[h] : -INFINITY;
-            if (h < 0) r->img.normal[3 * p] = r->img.normal[3 * p + 1] = r->img.normal[3 * p + 2] = 0;
+            if (h < 0)
+                r->img.normal[3 * p] = r->img.normal[3 * p + 1] = r->img.normal[3 * p + 2] = 0;
         }
     }
     return CRISP_OK;

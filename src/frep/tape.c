@@ -17,13 +17,20 @@
 static int imm_form(int op, int const_is_b)
 {
     switch (op) {
-    case CRISP_FREP_ADD: return FREP_T_ADD_RI;
-    case CRISP_FREP_MUL: return FREP_T_MUL_RI;
-    case CRISP_FREP_MIN: return FREP_T_MIN_RI;
-    case CRISP_FREP_MAX: return FREP_T_MAX_RI;
-    case CRISP_FREP_SUB: return const_is_b ? FREP_T_SUB_RI : FREP_T_SUB_IR;
-    case CRISP_FREP_DIV: return const_is_b ? FREP_T_DIV_RI : FREP_T_DIV_IR;
-    default: return -1;
+    case CRISP_FREP_ADD:
+        return FREP_T_ADD_RI;
+    case CRISP_FREP_MUL:
+        return FREP_T_MUL_RI;
+    case CRISP_FREP_MIN:
+        return FREP_T_MIN_RI;
+    case CRISP_FREP_MAX:
+        return FREP_T_MAX_RI;
+    case CRISP_FREP_SUB:
+        return const_is_b ? FREP_T_SUB_RI : FREP_T_SUB_IR;
+    case CRISP_FREP_DIV:
+        return const_is_b ? FREP_T_DIV_RI : FREP_T_DIV_IR;
+    default:
+        return -1;
     }
 }
 
@@ -54,9 +61,11 @@ void crisp__frep_scratch_free(frep_shorten_scratch *s)
 
 crisp_status crisp_frep_tape_create(const crisp_frep *f, crisp_frep_tape **dest)
 {
-    if (!f || !dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_tape_create: NULL argument");
+    if (!f || !dest)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_tape_create: NULL argument");
     if (f->root >= f->count)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_tape_create: the expression has no root");
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_frep_tape_create: the expression has no root");
     size_t n = (size_t)f->root + 1;
     const frep_node *nodes = f->nodes;
     /* regread[i]: node i is read from a register (not only as an immediate) */
@@ -157,8 +166,14 @@ void crisp_frep_tape_destroy(crisp_frep_tape *t)
     free(t);
 }
 
-size_t crisp_frep_tape_length(const crisp_frep_tape *t) { return t ? t->length : 0; }
-int crisp_frep_tape_registers(const crisp_frep_tape *t) { return t ? t->registers : 0; }
+size_t crisp_frep_tape_length(const crisp_frep_tape *t)
+{
+    return t ? t->length : 0;
+}
+int crisp_frep_tape_registers(const crisp_frep_tape *t)
+{
+    return t ? t->registers : 0;
+}
 
 int crisp__frep_shorten(frep_span src, const uint8_t *choices, frep_shorten_scratch *sc,
                         frep_ins *dest_ins, uint32_t *dest_ssa, frep_span *dest)
@@ -172,8 +187,10 @@ int crisp__frep_shorten(frep_span src, const uint8_t *choices, frep_shorten_scra
     for (size_t i = 0; i < n; i++) {
         uint32_t ri = (uint32_t)i;
         if (choices && choices[i] && frep__is_minmax(ins[i].op)) {
-            if (choices[i] == FREP_CHOICE_A) ri = rep[ssa[2 * i]];
-            else if (frep__nargs(ins[i].op) == 2) ri = rep[ssa[2 * i + 1]];
+            if (choices[i] == FREP_CHOICE_A)
+                ri = rep[ssa[2 * i]];
+            else if (frep__nargs(ins[i].op) == 2)
+                ri = rep[ssa[2 * i + 1]];
         } else if (ins[i].op == FREP_T_COPY) {
             ri = rep[ssa[2 * i]]; /* left by crisp__frep_prune: renamed away */
         }
@@ -186,9 +203,12 @@ int crisp__frep_shorten(frep_span src, const uint8_t *choices, frep_shorten_scra
     uint16_t *free_regs = sc->free_regs;
 #define ALLOC(dst)                                                                                 \
     do {                                                                                           \
-        if (nfree) (dst) = free_regs[--nfree];                                                     \
-        else if (nregs >= max_regs) return -1;                                                     \
-        else (dst) = nregs++;                                                                      \
+        if (nfree)                                                                                 \
+            (dst) = free_regs[--nfree];                                                            \
+        else if (nregs >= max_regs)                                                                \
+            return -1;                                                                             \
+        else                                                                                       \
+            (dst) = nregs++;                                                                       \
     } while (0)
     ALLOC(reg_of[rep[n - 1]]);
     for (size_t i = n; i-- > 0;) {
@@ -292,19 +312,45 @@ float crisp__frep_eval_scalar(const frep_ins *ins, size_t n, uint16_t result, fl
         const frep_ins in = ins[i];
         float v;
         switch (in.op) {
-        case CRISP_FREP_CONST: v = in.imm; break;
-        case CRISP_FREP_X: v = x; break;
-        case CRISP_FREP_Y: v = y; break;
-        case CRISP_FREP_Z: v = z; break;
-        case FREP_T_COPY: v = r[in.a]; break;
-        case FREP_T_ADD_RI: v = r[in.a] + in.imm; break;
-        case FREP_T_MUL_RI: v = r[in.a] * in.imm; break;
-        case FREP_T_SUB_RI: v = r[in.a] - in.imm; break;
-        case FREP_T_SUB_IR: v = in.imm - r[in.a]; break;
-        case FREP_T_DIV_RI: v = r[in.a] / in.imm; break;
-        case FREP_T_DIV_IR: v = in.imm / r[in.a]; break;
-        case FREP_T_MIN_RI: v = frep_min(r[in.a], in.imm); break;
-        case FREP_T_MAX_RI: v = frep_max(r[in.a], in.imm); break;
+        case CRISP_FREP_CONST:
+            v = in.imm;
+            break;
+        case CRISP_FREP_X:
+            v = x;
+            break;
+        case CRISP_FREP_Y:
+            v = y;
+            break;
+        case CRISP_FREP_Z:
+            v = z;
+            break;
+        case FREP_T_COPY:
+            v = r[in.a];
+            break;
+        case FREP_T_ADD_RI:
+            v = r[in.a] + in.imm;
+            break;
+        case FREP_T_MUL_RI:
+            v = r[in.a] * in.imm;
+            break;
+        case FREP_T_SUB_RI:
+            v = r[in.a] - in.imm;
+            break;
+        case FREP_T_SUB_IR:
+            v = in.imm - r[in.a];
+            break;
+        case FREP_T_DIV_RI:
+            v = r[in.a] / in.imm;
+            break;
+        case FREP_T_DIV_IR:
+            v = in.imm / r[in.a];
+            break;
+        case FREP_T_MIN_RI:
+            v = frep_min(r[in.a], in.imm);
+            break;
+        case FREP_T_MAX_RI:
+            v = frep_max(r[in.a], in.imm);
+            break;
         default:
             v = in.op < CRISP_FREP_ADD ? frep_unary(in.op, r[in.a])
                                        : frep_binary(in.op, r[in.a], r[in.b]);
@@ -371,7 +417,8 @@ crisp_status crisp_frep_eval_grad(const crisp_frep_tape *t, size_t n, const floa
         crisp__frep_grad_lanes(t->ins, t->length, regs, px, py, pz);
         const float *res = regs + (size_t)t->result * 4 * FREP_LANES;
         for (size_t k = 0; k < m; k++)
-            for (int c = 0; c < 4; c++) dest[4 * (b + k) + (size_t)c] = res[c * FREP_LANES + k];
+            for (int c = 0; c < 4; c++)
+                dest[4 * (b + k) + (size_t)c] = res[c * FREP_LANES + k];
     }
     crisp_free(regs);
     return CRISP_OK;

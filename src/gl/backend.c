@@ -17,25 +17,41 @@
 _Static_assert(sizeof(crisp_plan_leaf) == 48, "crisp_plan_leaf: 3 uvec4");
 _Static_assert(sizeof(crisp_plan_face) == 64, "crisp_plan_face: std430 Face");
 _Static_assert(sizeof(crisp_plan_strip) == 24, "crisp_plan_strip: std430 Strip");
-_Static_assert(sizeof(crisp_plan_ribbon_vertex) == 56, "crisp_plan_ribbon_vertex: std430 RibbonVertex");
-_Static_assert(sizeof(crisp_scene_patch_record) == 48, "crisp_scene_patch_record: std430 PatchRecord");
-_Static_assert(sizeof(crisp__gl_query) == 48 && sizeof(crisp__gl_result) == 72, "layout probe records");
+_Static_assert(sizeof(crisp_plan_ribbon_vertex) == 56,
+               "crisp_plan_ribbon_vertex: std430 RibbonVertex");
+_Static_assert(sizeof(crisp_scene_patch_record) == 48,
+               "crisp_scene_patch_record: std430 PatchRecord");
+_Static_assert(sizeof(crisp__gl_query) == 48 && sizeof(crisp__gl_result) == 72,
+               "layout probe records");
 
 extern const char crisp__shader_common_glsl[], crisp__shader_surface_vs_glsl[],
-    crisp__shader_surface_tcs_glsl[], crisp__shader_surface_tes_glsl[], crisp__shader_surface_fs_glsl[],
-    crisp__shader_ribbon_vs_glsl[], crisp__shader_ribbon_fs_glsl[], crisp__shader_fullscreen_vs_glsl[],
-    crisp__shader_slack_fs_glsl[], crisp__shader_accum_cs_glsl[], crisp__shader_finish_cs_glsl[],
-    crisp__shader_layout_cs_glsl[];
+    crisp__shader_surface_tcs_glsl[], crisp__shader_surface_tes_glsl[],
+    crisp__shader_surface_fs_glsl[], crisp__shader_ribbon_vs_glsl[], crisp__shader_ribbon_fs_glsl[],
+    crisp__shader_fullscreen_vs_glsl[], crisp__shader_slack_fs_glsl[],
+    crisp__shader_accum_cs_glsl[], crisp__shader_finish_cs_glsl[], crisp__shader_layout_cs_glsl[];
 
-enum { B_LEAVES, B_FACES, B_STRIPS, B_ROWS, B_CROSSINGS, B_RIBBONS, B_PATCHES, B_CPS, B_COLORS, B_QUERIES,
-       B_RESULTS, B_COUNT };
+enum {
+    B_LEAVES,
+    B_FACES,
+    B_STRIPS,
+    B_ROWS,
+    B_CROSSINGS,
+    B_RIBBONS,
+    B_PATCHES,
+    B_CPS,
+    B_COLORS,
+    B_QUERIES,
+    B_RESULTS,
+    B_COUNT
+};
 static const char *const buffer_names[B_COUNT] = {
-    "leaves", "faces", "trim strips", "trim rows", "trim crossings", "ribbon vertices",
-    "patch records", "control points", "face colours", "layout queries", "layout results"};
+    "leaves",         "faces",           "trim strips",   "trim rows",
+    "trim crossings", "ribbon vertices", "patch records", "control points",
+    "face colours",   "layout queries",  "layout results"};
 
 typedef struct uniforms {
-    GLint leaf_base, view_proj, jitter, zconst, slack_tex, nw_tex, uv_tex, face_tex, dir0, dir_x, dir_y,
-        offset, samples, count, keep_samples, sample_index;
+    GLint leaf_base, view_proj, jitter, zconst, slack_tex, nw_tex, uv_tex, face_tex, dir0, dir_x,
+        dir_y, offset, samples, count, keep_samples, sample_index;
 } uniforms;
 
 struct crisp_gl {
@@ -66,7 +82,8 @@ struct crisp_gl {
     int sample_w, sample_h;
 };
 
-/* ---- shaders ---------------------------------------------------------------------------------- */
+/* ---- shaders ----------------------------------------------------------------------------------
+ */
 
 static GLuint compile(const char *name, GLenum stage, const char *src, crisp_status *st)
 {
@@ -80,22 +97,25 @@ static GLuint compile(const char *name, GLenum stage, const char *src, crisp_sta
         char log[2048] = "";
         glGetShaderInfoLog(sh, sizeof log, NULL, log);
         glDeleteShader(sh);
-        *st = crisp_error(CRISP_ERR_GL, "GL shader %s does not compile (lines count from common.glsl's "
-                                        "start, after the #version line): %s", name, log);
+        *st = crisp_error(CRISP_ERR_GL,
+                          "GL shader %s does not compile (lines count from common.glsl's "
+                          "start, after the #version line): %s",
+                          name, log);
         return 0;
     }
     return sh;
 }
 
 /* Links the given stages (sources NULL are skipped); 0 and an error on failure. */
-static GLuint program(const char *name, const char *vs, const char *tcs, const char *tes, const char *fs,
-                      const char *cs, crisp_status *st)
+static GLuint program(const char *name, const char *vs, const char *tcs, const char *tes,
+                      const char *fs, const char *cs, crisp_status *st)
 {
     const char *srcs[5] = {vs, tcs, tes, fs, cs};
-    static const GLenum stages[5] = {GL_VERTEX_SHADER, GL_TESS_CONTROL_SHADER, GL_TESS_EVALUATION_SHADER,
-                                     GL_FRAGMENT_SHADER, GL_COMPUTE_SHADER};
-    static const char *const stage_names[5] = {"vertex", "tessellation control", "tessellation evaluation",
-                                               "fragment", "compute"};
+    static const GLenum stages[5] = {GL_VERTEX_SHADER, GL_TESS_CONTROL_SHADER,
+                                     GL_TESS_EVALUATION_SHADER, GL_FRAGMENT_SHADER,
+                                     GL_COMPUTE_SHADER};
+    static const char *const stage_names[5] = {"vertex", "tessellation control",
+                                               "tessellation evaluation", "fragment", "compute"};
     GLuint prog = glCreateProgram(), sh[5] = {0};
     for (int k = 0; k < 5; k++) {
         if (!srcs[k]) continue;
@@ -148,34 +168,42 @@ crisp_status crisp__gl_try_program(const char *name, int stage, const char *src)
 {
     crisp_status st = CRISP_OK;
     GLuint p = program(name, stage == CRISP__GL_VERTEX ? src : NULL, NULL, NULL,
-                       stage == CRISP__GL_FRAGMENT ? src : NULL, stage == CRISP__GL_COMPUTE ? src : NULL, &st);
+                       stage == CRISP__GL_FRAGMENT ? src : NULL,
+                       stage == CRISP__GL_COMPUTE ? src : NULL, &st);
     if (p) glDeleteProgram(p);
     return st;
 }
 
-/* ---- create / destroy ------------------------------------------------------------------------- */
+/* ---- create / destroy -------------------------------------------------------------------------
+ */
 
 static crisp_status gl_check(const char *what)
 {
     GLenum e = glGetError(), first = e;
-    while (e != GL_NO_ERROR) e = glGetError();
+    while (e != GL_NO_ERROR)
+        e = glGetError();
     if (first == GL_NO_ERROR) return CRISP_OK;
     return crisp_error(CRISP_ERR_GL, "GL error 0x%x %s%s", (unsigned)first, what,
                        first == GL_OUT_OF_MEMORY ? " (out of GPU memory)" : "");
 }
 
-crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *desc, crisp_gl **dest)
+crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *desc,
+                             crisp_gl **dest)
 {
-    if (!getproc) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_gl_create: no GL loader function");
+    if (!getproc)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_gl_create: no GL loader function");
     crisp_gl_desc d = {0};
     if (desc) d = *desc;
     if (!d.samples) d.samples = 1;
     if (d.samples != 1 && d.samples != 4 && d.samples != 16)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "%d samples per pixel: expected 1, 4 or 16", d.samples);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%d samples per pixel: expected 1, 4 or 16",
+                           d.samples);
     int version = gladLoadGL((GLADloadfunc)getproc);
     if (!version || !glGetString)
-        return crisp_error(CRISP_ERR_GL, "no current OpenGL context (the GL functions could not be loaded)");
-    if (GLAD_VERSION_MAJOR(version) < 4 || (GLAD_VERSION_MAJOR(version) == 4 && GLAD_VERSION_MINOR(version) < 5))
+        return crisp_error(CRISP_ERR_GL,
+                           "no current OpenGL context (the GL functions could not be loaded)");
+    if (GLAD_VERSION_MAJOR(version) < 4 ||
+        (GLAD_VERSION_MAJOR(version) == 4 && GLAD_VERSION_MINOR(version) < 5))
         return crisp_error(CRISP_ERR_GL, "OpenGL %d.%d (%s): the GL backend needs OpenGL 4.5 core",
                            GLAD_VERSION_MAJOR(version), GLAD_VERSION_MINOR(version),
                            (const char *)glGetString(GL_RENDERER));
@@ -188,25 +216,30 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
     glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &block);
     const char *renderer = (const char *)glGetString(GL_RENDERER);
     if (tes_blocks < 4 || tcs_blocks < 1 || fs_blocks < 6 || max_level < CRISP_PLAN_MAX_LEVEL)
-        return crisp_error(CRISP_ERR_GL,
-                           "%s: the GL backend needs storage buffers in the tessellation and fragment "
-                           "stages (has %d control, %d evaluation, %d fragment; needs 1, 4, 6) and "
-                           "GL_MAX_TESS_GEN_LEVEL >= %d (has %d)",
-                           renderer, tcs_blocks, tes_blocks, fs_blocks, CRISP_PLAN_MAX_LEVEL, max_level);
+        return crisp_error(
+            CRISP_ERR_GL,
+            "%s: the GL backend needs storage buffers in the tessellation and fragment "
+            "stages (has %d control, %d evaluation, %d fragment; needs 1, 4, 6) and "
+            "GL_MAX_TESS_GEN_LEVEL >= %d (has %d)",
+            renderer, tcs_blocks, tes_blocks, fs_blocks, CRISP_PLAN_MAX_LEVEL, max_level);
     crisp_gl *gl = calloc(1, sizeof *gl);
     if (!gl) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the GL backend");
     gl->desc = d;
-    snprintf(gl->renderer, sizeof gl->renderer, "%s, OpenGL %s", renderer, (const char *)glGetString(GL_VERSION));
+    snprintf(gl->renderer, sizeof gl->renderer, "%s, OpenGL %s", renderer,
+             (const char *)glGetString(GL_VERSION));
     gl->max_block = (size_t)block;
-    if (d.max_buffer_bytes && d.max_buffer_bytes < gl->max_block) gl->max_block = d.max_buffer_bytes;
+    if (d.max_buffer_bytes && d.max_buffer_bytes < gl->max_block)
+        gl->max_block = d.max_buffer_bytes;
     /* Leaves and ribbons are read by index within one draw: a plan with more than one storage
      * block's worth is drawn in chunks, each bound as a range at an aligned offset. */
     GLint align = 0;
     glGetIntegerv(GL_SHADER_STORAGE_BUFFER_OFFSET_ALIGNMENT, &align);
     if (align < 1) align = 1;
     size_t unit_l = (size_t)align, unit_q = (size_t)align;
-    while (unit_l % sizeof(crisp_plan_leaf)) unit_l += (size_t)align;
-    while (unit_q % (4 * sizeof(crisp_plan_ribbon_vertex))) unit_q += (size_t)align;
+    while (unit_l % sizeof(crisp_plan_leaf))
+        unit_l += (size_t)align;
+    while (unit_q % (4 * sizeof(crisp_plan_ribbon_vertex)))
+        unit_q += (size_t)align;
     gl->chunk_leaves = gl->max_block / unit_l * (unit_l / sizeof(crisp_plan_leaf));
     gl->chunk_quads = gl->max_block / unit_q * (unit_q / (4 * sizeof(crisp_plan_ribbon_vertex)));
     if (gl->chunk_leaves > (1u << 30)) gl->chunk_leaves = 1u << 30;
@@ -215,14 +248,16 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
     gl->surface = program("surface", crisp__shader_surface_vs_glsl, crisp__shader_surface_tcs_glsl,
                           crisp__shader_surface_tes_glsl, crisp__shader_surface_fs_glsl, NULL, &st);
     if (!st)
-        gl->ribbon = program("ribbon", crisp__shader_ribbon_vs_glsl, NULL, NULL, crisp__shader_ribbon_fs_glsl,
-                             NULL, &st);
+        gl->ribbon = program("ribbon", crisp__shader_ribbon_vs_glsl, NULL, NULL,
+                             crisp__shader_ribbon_fs_glsl, NULL, &st);
     if (!st)
-        gl->slack = program("slack", crisp__shader_fullscreen_vs_glsl, NULL, NULL, crisp__shader_slack_fs_glsl,
-                            NULL, &st);
+        gl->slack = program("slack", crisp__shader_fullscreen_vs_glsl, NULL, NULL,
+                            crisp__shader_slack_fs_glsl, NULL, &st);
     if (!st) gl->accum = program("accum", NULL, NULL, NULL, NULL, crisp__shader_accum_cs_glsl, &st);
-    if (!st) gl->finish = program("finish", NULL, NULL, NULL, NULL, crisp__shader_finish_cs_glsl, &st);
-    if (!st) gl->layout = program("layout", NULL, NULL, NULL, NULL, crisp__shader_layout_cs_glsl, &st);
+    if (!st)
+        gl->finish = program("finish", NULL, NULL, NULL, NULL, crisp__shader_finish_cs_glsl, &st);
+    if (!st)
+        gl->layout = program("layout", NULL, NULL, NULL, NULL, crisp__shader_layout_cs_glsl, &st);
     if (st) {
         crisp_gl_destroy(gl);
         return st;
@@ -248,7 +283,7 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
 
 static void free_targets(crisp_gl *gl)
 {
-    GLuint t[] = {gl->t_nw, gl->t_uv, gl->t_face, gl->t_depth, gl->t_slack,
+    GLuint t[] = {gl->t_nw,  gl->t_uv,      gl->t_face,    gl->t_depth,    gl->t_slack,
                   gl->t_acc, gl->t_best_nw, gl->t_best_uv, gl->t_best_face};
     glDeleteTextures((GLsizei)(sizeof t / sizeof *t), t);
     gl->t_nw = gl->t_uv = gl->t_face = gl->t_depth = gl->t_slack = 0;
@@ -280,17 +315,19 @@ const char *crisp_gl_renderer(const crisp_gl *gl)
     return gl->renderer;
 }
 
-/* ---- buffers ---------------------------------------------------------------------------------- */
+/* ---- buffers ----------------------------------------------------------------------------------
+ */
 
 static crisp_status upload(crisp_gl *gl, int b, const void *data, size_t bytes, uint64_t *counter)
 {
     int streamed = b == B_LEAVES || b == B_RIBBONS; /* drawn in chunks */
     if (bytes > gl->max_block && !(streamed && gl->chunk_leaves && gl->chunk_quads))
-        return crisp_error(CRISP_ERR_LIMIT,
-                           "the %s need %zu bytes, more than the GL storage buffer limit of %zu bytes "
-                           "(GL_MAX_SHADER_STORAGE_BLOCK_SIZE%s): the frame is not drawn",
-                           buffer_names[b], bytes, gl->max_block,
-                           gl->desc.max_buffer_bytes ? " or crisp_gl_desc.max_buffer_bytes" : "");
+        return crisp_error(
+            CRISP_ERR_LIMIT,
+            "the %s need %zu bytes, more than the GL storage buffer limit of %zu bytes "
+            "(GL_MAX_SHADER_STORAGE_BLOCK_SIZE%s): the frame is not drawn",
+            buffer_names[b], bytes, gl->max_block,
+            gl->desc.max_buffer_bytes ? " or crisp_gl_desc.max_buffer_bytes" : "");
     size_t need = bytes ? bytes : 16;
     if (gl->buf_cap[b] < need) {
         size_t cap = need + need / 4;
@@ -299,7 +336,8 @@ static crisp_status upload(crisp_gl *gl, int b, const void *data, size_t bytes, 
         crisp_status st = gl_check("allocating a storage buffer");
         if (st) {
             gl->buf_cap[b] = 0;
-            return crisp_error(CRISP_ERR_GL, "the %s (%zu bytes) do not fit in GPU memory", buffer_names[b], bytes);
+            return crisp_error(CRISP_ERR_GL, "the %s (%zu bytes) do not fit in GPU memory",
+                               buffer_names[b], bytes);
         }
         gl->buf_cap[b] = cap;
     }
@@ -317,14 +355,18 @@ crisp_status crisp_gl_set_scene_data(crisp_gl *gl, const crisp_gl_scene_data *d)
         if (r->du < 1 || r->du > 15 || r->dv < 1 || r->dv > 15 || r->face >= d->face_count ||
             r->first_cp > d->control_point_count ||
             (size_t)(r->du + 1) * (r->dv + 1) > d->control_point_count - r->first_cp)
-            return crisp_error(CRISP_ERR_INVALID_ARG,
-                               "patch record %u: degrees %ux%u, face %u, control points from %u: expected "
-                               "degrees 1..15, a face below %u and points within the %zu given",
-                               p, r->du, r->dv, r->face, r->first_cp, d->face_count, d->control_point_count);
+            return crisp_error(
+                CRISP_ERR_INVALID_ARG,
+                "patch record %u: degrees %ux%u, face %u, control points from %u: expected "
+                "degrees 1..15, a face below %u and points within the %zu given",
+                p, r->du, r->dv, r->face, r->first_cp, d->face_count, d->control_point_count);
     }
     uint64_t bytes = 0;
-    crisp_status st = upload(gl, B_CPS, d->control_points, d->control_point_count * 4 * sizeof(double), &bytes);
-    if (!st) st = upload(gl, B_PATCHES, d->patch_records, d->patch_count * sizeof *d->patch_records, &bytes);
+    crisp_status st =
+        upload(gl, B_CPS, d->control_points, d->control_point_count * 4 * sizeof(double), &bytes);
+    if (!st)
+        st = upload(gl, B_PATCHES, d->patch_records, d->patch_count * sizeof *d->patch_records,
+                    &bytes);
     if (!st) st = upload(gl, B_COLORS, d->face_colors, d->face_count * 4 * sizeof(float), &bytes);
     if (st) return st;
     gl->scene_patches = d->patch_count;
@@ -356,26 +398,28 @@ static crisp_status upload_plan(crisp_gl *gl, const crisp_frame_plan *p, uint64_
 {
     if (!gl->have_scene) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_gl_draw: no scene set");
     if (p->face_count != gl->scene_faces)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "the plan has %u faces, the scene %u", p->face_count,
-                           gl->scene_faces);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "the plan has %u faces, the scene %u",
+                           p->face_count, gl->scene_faces);
     int all = gl->plan != p;
     crisp_status st = CRISP_OK;
     if (all || p->leaves_version != gl->v_leaves) {
         for (uint32_t k = 0; k < p->leaf_count; k++) {
             const crisp_plan_leaf *L = &p->leaves[k];
-            if (L->patch >= gl->scene_patches || L->face >= p->face_count || L->depth > CRISP_PLAN_MAX_DEPTH ||
-                L->tau < 1 || L->tau > CRISP_PLAN_MAX_LEVEL)
-                return crisp_error(CRISP_ERR_INVALID_ARG,
-                                   "plan leaf %u: patch %u, face %u, depth %u, level %u: expected a patch "
-                                   "below %u, a face below %u, depth <= %d, level 1..%d",
-                                   k, L->patch, L->face, L->depth, L->tau, gl->scene_patches, p->face_count,
-                                   CRISP_PLAN_MAX_DEPTH, CRISP_PLAN_MAX_LEVEL);
+            if (L->patch >= gl->scene_patches || L->face >= p->face_count ||
+                L->depth > CRISP_PLAN_MAX_DEPTH || L->tau < 1 || L->tau > CRISP_PLAN_MAX_LEVEL)
+                return crisp_error(
+                    CRISP_ERR_INVALID_ARG,
+                    "plan leaf %u: patch %u, face %u, depth %u, level %u: expected a patch "
+                    "below %u, a face below %u, depth <= %d, level 1..%d",
+                    k, L->patch, L->face, L->depth, L->tau, gl->scene_patches, p->face_count,
+                    CRISP_PLAN_MAX_DEPTH, CRISP_PLAN_MAX_LEVEL);
             for (int e = 0; e < 4; e++)
                 if (L->edge[e] < 1 || L->edge[e] > CRISP_PLAN_MAX_LEVEL)
-                    return crisp_error(CRISP_ERR_INVALID_ARG,
-                                       "plan leaf %u: edge level %u: expected 1..%d (the plan splits "
-                                       "leaves instead of exceeding GL_MAX_TESS_GEN_LEVEL)",
-                                       k, L->edge[e], CRISP_PLAN_MAX_LEVEL);
+                    return crisp_error(
+                        CRISP_ERR_INVALID_ARG,
+                        "plan leaf %u: edge level %u: expected 1..%d (the plan splits "
+                        "leaves instead of exceeding GL_MAX_TESS_GEN_LEVEL)",
+                        k, L->edge[e], CRISP_PLAN_MAX_LEVEL);
         }
         st = upload(gl, B_LEAVES, p->leaves, (size_t)p->leaf_count * sizeof *p->leaves, bytes);
     }
@@ -383,16 +427,21 @@ static crisp_status upload_plan(crisp_gl *gl, const crisp_frame_plan *p, uint64_
         st = upload(gl, B_FACES, p->faces, (size_t)p->face_count * sizeof *p->faces, bytes);
     if (!st && (all || p->table_version != gl->v_table)) {
         st = upload(gl, B_STRIPS, p->strips, (size_t)p->strip_count * sizeof *p->strips, bytes);
-        if (!st) st = upload(gl, B_ROWS, p->row_offset, ((size_t)p->row_count + 1) * sizeof(uint32_t), bytes);
-        if (!st) st = upload(gl, B_CROSSINGS, p->crossings, (size_t)p->crossing_count * sizeof(double), bytes);
+        if (!st)
+            st = upload(gl, B_ROWS, p->row_offset, ((size_t)p->row_count + 1) * sizeof(uint32_t),
+                        bytes);
+        if (!st)
+            st = upload(gl, B_CROSSINGS, p->crossings, (size_t)p->crossing_count * sizeof(double),
+                        bytes);
     }
     if (!st && (all || p->ribbons_version != gl->v_ribbons)) {
         for (uint64_t k = 0; k < 4 * (uint64_t)p->ribbon_quad_count; k++)
             if (p->ribbon_vertices[k].face >= p->face_count)
                 return crisp_error(CRISP_ERR_INVALID_ARG, "plan ribbon vertex %llu: face %u of %u",
-                                   (unsigned long long)k, p->ribbon_vertices[k].face, p->face_count);
-        st = upload(gl, B_RIBBONS, p->ribbon_vertices, 4 * (size_t)p->ribbon_quad_count * sizeof *p->ribbon_vertices,
-                    bytes);
+                                   (unsigned long long)k, p->ribbon_vertices[k].face,
+                                   p->face_count);
+        st = upload(gl, B_RIBBONS, p->ribbon_vertices,
+                    4 * (size_t)p->ribbon_quad_count * sizeof *p->ribbon_vertices, bytes);
     }
     if (st) {
         gl->plan = NULL;
@@ -403,11 +452,13 @@ static crisp_status upload_plan(crisp_gl *gl, const crisp_frame_plan *p, uint64_
     gl->v_faces = p->faces_version;
     gl->v_table = p->table_version;
     gl->v_ribbons = p->ribbons_version;
-    for (int b = 0; b < B_QUERIES; b++) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, (GLuint)b, gl->buf[b]);
+    for (int b = 0; b < B_QUERIES; b++)
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, (GLuint)b, gl->buf[b]);
     return gl_check("uploading the plan");
 }
 
-/* ---- targets ---------------------------------------------------------------------------------- */
+/* ---- targets ----------------------------------------------------------------------------------
+ */
 
 static GLuint texture(GLenum format, int w, int h)
 {
@@ -425,11 +476,15 @@ static crisp_status ensure_targets(crisp_gl *gl, int w, int h)
     GLint max_size = 0;
     glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
     if (w < 1 || h < 1 || w > max_size || h > max_size)
-        return crisp_error(CRISP_ERR_LIMIT, "image %dx%d: the GL backend draws 1..%d pixels per side "
-                                            "(GL_MAX_TEXTURE_SIZE)", w, h, max_size);
+        return crisp_error(CRISP_ERR_LIMIT,
+                           "image %dx%d: the GL backend draws 1..%d pixels per side "
+                           "(GL_MAX_TEXTURE_SIZE)",
+                           w, h, max_size);
     if ((uint64_t)w * (uint64_t)h * 16 > INT32_MAX)
-        return crisp_error(CRISP_ERR_LIMIT, "image %dx%d: the GL backend reads back at most %d pixels (16 bytes "
-                                            "each in one call)", w, h, INT32_MAX / 16);
+        return crisp_error(CRISP_ERR_LIMIT,
+                           "image %dx%d: the GL backend reads back at most %d pixels (16 bytes "
+                           "each in one call)",
+                           w, h, INT32_MAX / 16);
     free_targets(gl);
     gl->t_nw = texture(GL_RGBA32F, w, h);
     gl->t_uv = texture(GL_RG32F, w, h);
@@ -444,7 +499,8 @@ static crisp_status ensure_targets(crisp_gl *gl, int w, int h)
     glNamedFramebufferTexture(gl->fbo_pass, GL_COLOR_ATTACHMENT1, gl->t_uv, 0);
     glNamedFramebufferTexture(gl->fbo_pass, GL_COLOR_ATTACHMENT2, gl->t_face, 0);
     glNamedFramebufferTexture(gl->fbo_pass, GL_DEPTH_ATTACHMENT, gl->t_depth, 0);
-    static const GLenum bufs[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+    static const GLenum bufs[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1,
+                                   GL_COLOR_ATTACHMENT2};
     glNamedFramebufferDrawBuffers(gl->fbo_pass, 3, bufs);
     glNamedFramebufferTexture(gl->fbo_slack, GL_COLOR_ATTACHMENT0, gl->t_slack, 0);
     glNamedFramebufferDrawBuffer(gl->fbo_slack, GL_COLOR_ATTACHMENT0);
@@ -455,7 +511,8 @@ static crisp_status ensure_targets(crisp_gl *gl, int w, int h)
     for (int k = 0; !st && k < 3; k++) {
         GLenum s = glCheckNamedFramebufferStatus(fbos[k], GL_FRAMEBUFFER);
         if (s != GL_FRAMEBUFFER_COMPLETE)
-            st = crisp_error(CRISP_ERR_GL, "GL framebuffer %d of %dx%d incomplete (status 0x%x)", k, w, h, (unsigned)s);
+            st = crisp_error(CRISP_ERR_GL, "GL framebuffer %d of %dx%d incomplete (status 0x%x)", k,
+                             w, h, (unsigned)s);
     }
     if (st) {
         free_targets(gl);
@@ -466,12 +523,14 @@ static crisp_status ensure_targets(crisp_gl *gl, int w, int h)
     return CRISP_OK;
 }
 
-/* ---- drawing ---------------------------------------------------------------------------------- */
+/* ---- drawing ----------------------------------------------------------------------------------
+ */
 
 /* The CPU backend's sample positions in a pixel (x right, y down): crisp__raster_sample_offset. */
 static void sample_offset(int samples, int s, double dest[2])
 {
-    static const double rot4[4][2] = {{0.375, 0.125}, {0.875, 0.375}, {0.125, 0.625}, {0.625, 0.875}};
+    static const double rot4[4][2] = {
+        {0.375, 0.125}, {0.875, 0.375}, {0.125, 0.625}, {0.625, 0.875}};
     if (samples == 4) {
         dest[0] = rot4[s][0];
         dest[1] = rot4[s][1];
@@ -498,7 +557,8 @@ static double near_depth(const crisp_frame_plan *p)
 }
 
 /* View directions (unnormalised) at image points: d(x, y) = dir0 + x dir_x + y dir_y. */
-static crisp_status view_dirs(const crisp_frame_plan *p, double dir0[3], double dir_x[3], double dir_y[3])
+static crisp_status view_dirs(const crisp_frame_plan *p, double dir0[3], double dir_x[3],
+                              double dir_y[3])
 {
     crisp_mat4 m, inv;
     memcpy(m, p->view_proj, sizeof m);
@@ -508,7 +568,8 @@ static crisp_status view_dirs(const crisp_frame_plan *p, double dir0[3], double 
     for (int k = 0; k < 3; k++) {
         double ndc[4] = {2 * pts[k][0] / p->width - 1, 1 - 2 * pts[k][1] / p->height, 0, 1}, w[4];
         crisp_mat4_mulv(inv, ndc, w);
-        for (int a = 0; a < 3; a++) d[k][a] = w[a] / w[3] - p->eye[a];
+        for (int a = 0; a < 3; a++)
+            d[k][a] = w[a] / w[3] - p->eye[a];
     }
     for (int a = 0; a < 3; a++) {
         dir0[a] = d[0][a];
@@ -527,8 +588,9 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     double t0 = crisp_time_now();
     double zn = near_depth(p);
     if (!(zn > 0))
-        return crisp_error(CRISP_ERR_INVALID_ARG, "the plan's view-projection is not a perspective projection "
-                                                  "with a near plane in front of the eye");
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "the plan's view-projection is not a perspective projection "
+                           "with a near plane in front of the eye");
     double dir0[3], dir_x[3], dir_y[3];
     crisp_status st = view_dirs(p, dir0, dir_x, dir_y);
     if (!st) st = ensure_targets(gl, p->width, p->height);
@@ -617,9 +679,11 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
         if (p->leaf_count) {
             glUseProgram(gl->surface);
             for (size_t first = 0; first < p->leaf_count; first += gl->chunk_leaves) {
-                size_t n = p->leaf_count - first < gl->chunk_leaves ? p->leaf_count - first : gl->chunk_leaves;
+                size_t n = p->leaf_count - first < gl->chunk_leaves ? p->leaf_count - first
+                                                                    : gl->chunk_leaves;
                 glBindBufferRange(GL_SHADER_STORAGE_BUFFER, B_LEAVES, gl->buf[B_LEAVES],
-                                  (GLintptr)(first * sizeof(crisp_plan_leaf)), (GLsizeiptr)(n * sizeof(crisp_plan_leaf)));
+                                  (GLintptr)(first * sizeof(crisp_plan_leaf)),
+                                  (GLsizeiptr)(n * sizeof(crisp_plan_leaf)));
                 glDrawArrays(GL_PATCHES, 0, (GLsizei)n);
             }
         }
@@ -639,9 +703,11 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
             glUseProgram(gl->ribbon);
             size_t qb = 4 * sizeof(crisp_plan_ribbon_vertex);
             for (size_t first = 0; first < p->ribbon_quad_count; first += gl->chunk_quads) {
-                size_t n = p->ribbon_quad_count - first < gl->chunk_quads ? p->ribbon_quad_count - first : gl->chunk_quads;
-                glBindBufferRange(GL_SHADER_STORAGE_BUFFER, B_RIBBONS, gl->buf[B_RIBBONS], (GLintptr)(first * qb),
-                                  (GLsizeiptr)(n * qb));
+                size_t n = p->ribbon_quad_count - first < gl->chunk_quads
+                               ? p->ribbon_quad_count - first
+                               : gl->chunk_quads;
+                glBindBufferRange(GL_SHADER_STORAGE_BUFFER, B_RIBBONS, gl->buf[B_RIBBONS],
+                                  (GLintptr)(first * qb), (GLsizeiptr)(n * qb));
                 glDrawArrays(GL_TRIANGLES, 0, (GLsizei)(6 * n));
             }
         }
@@ -686,21 +752,25 @@ crisp_status crisp_gl_read(crisp_gl *gl, crisp_image *img, crisp_gl_stats *stats
 {
     if (!gl->drawn) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_gl_read: no frame drawn");
     if (img->width != gl->width || img->height != gl->height)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the frame's %dx%d", img->width,
-                           img->height, gl->width, gl->height);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the frame's %dx%d",
+                           img->width, img->height, gl->width, gl->height);
     double t0 = crisp_time_now();
     size_t n = (size_t)gl->width * gl->height;
     if (gl->tmp_cap < 4 * n) {
         float *t = realloc(gl->tmp, 4 * n * sizeof *t);
-        if (!t) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory reading a %dx%d frame", gl->width, gl->height);
+        if (!t)
+            return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory reading a %dx%d frame",
+                               gl->width, gl->height);
         gl->tmp = t;
         gl->tmp_cap = 4 * n;
     }
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
     glGetTextureImage(gl->t_acc, 0, GL_RGBA, GL_FLOAT, (GLsizei)(4 * n * sizeof(float)), img->rgba);
-    glGetTextureImage(gl->t_best_nw, 0, GL_RGBA, GL_FLOAT, (GLsizei)(4 * n * sizeof(float)), gl->tmp);
+    glGetTextureImage(gl->t_best_nw, 0, GL_RGBA, GL_FLOAT, (GLsizei)(4 * n * sizeof(float)),
+                      gl->tmp);
     glGetTextureImage(gl->t_best_uv, 0, GL_RG, GL_FLOAT, (GLsizei)(2 * n * sizeof(float)), img->uv);
-    glGetTextureImage(gl->t_best_face, 0, GL_RED_INTEGER, GL_INT, (GLsizei)(n * sizeof(int32_t)), img->face);
+    glGetTextureImage(gl->t_best_face, 0, GL_RED_INTEGER, GL_INT, (GLsizei)(n * sizeof(int32_t)),
+                      img->face);
     crisp_status st = gl_check("reading the frame back");
     if (st) return st;
     for (size_t k = 0; k < n; k++) {
@@ -715,8 +785,8 @@ crisp_status crisp_gl_blit(crisp_gl *gl, unsigned fbo, int x, int y, int width, 
 {
     if (!gl->drawn) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_gl_blit: no frame drawn");
     int scaled = width != gl->width || height != gl->height;
-    glBlitNamedFramebuffer(gl->fbo_out, fbo, 0, 0, gl->width, gl->height, x, y + height, x + width, y,
-                           GL_COLOR_BUFFER_BIT, scaled ? GL_LINEAR : GL_NEAREST);
+    glBlitNamedFramebuffer(gl->fbo_out, fbo, 0, 0, gl->width, gl->height, x, y + height, x + width,
+                           y, GL_COLOR_BUFFER_BIT, scaled ? GL_LINEAR : GL_NEAREST);
     return gl_check("copying the frame into the app's framebuffer");
 }
 
@@ -733,15 +803,18 @@ void crisp__gl_keep_sample_faces(crisp_gl *gl)
 crisp_status crisp__gl_sample_faces(crisp_gl *gl, int32_t *dest)
 {
     if (!gl->drawn || !gl->keep_samples || !gl->t_sample_faces)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp__gl_sample_faces: no frame drawn with the samples kept");
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp__gl_sample_faces: no frame drawn with the samples kept");
     int S = gl->desc.samples;
     size_t n = (size_t)gl->width * gl->height, total = n * S;
     int32_t *tmp = malloc(total * sizeof *tmp);
     if (!tmp) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory reading samples");
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    glGetTextureImage(gl->t_sample_faces, 0, GL_RED_INTEGER, GL_INT, (GLsizei)(total * sizeof *tmp), tmp);
+    glGetTextureImage(gl->t_sample_faces, 0, GL_RED_INTEGER, GL_INT, (GLsizei)(total * sizeof *tmp),
+                      tmp);
     for (int s = 0; s < S; s++)
-        for (size_t k = 0; k < n; k++) dest[k * S + s] = tmp[s * n + k];
+        for (size_t k = 0; k < n; k++)
+            dest[k * S + s] = tmp[s * n + k];
     free(tmp);
     return gl_check("reading the samples' faces");
 }
@@ -764,10 +837,11 @@ crisp_status crisp__gl_blit_probe(crisp_gl *gl, uint8_t *rgba)
     return st;
 }
 
-/* ---- layout probe (tests) --------------------------------------------------------------------- */
+/* ---- layout probe (tests) ---------------------------------------------------------------------
+ */
 
-crisp_status crisp__gl_layout_probe(crisp_gl *gl, const crisp_frame_plan *plan, const crisp__gl_query *q,
-                                    size_t n, crisp__gl_result *out)
+crisp_status crisp__gl_layout_probe(crisp_gl *gl, const crisp_frame_plan *plan,
+                                    const crisp__gl_query *q, size_t n, crisp__gl_result *out)
 {
     uint64_t bytes = 0;
     crisp_status st = upload_plan(gl, plan, &bytes);

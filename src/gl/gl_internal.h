@@ -19,8 +19,8 @@ typedef struct crisp__gl_result {
 } crisp__gl_result;
 
 /* Uploads the plan like crisp_gl_draw and runs shaders/layout_cs.glsl on the queries. */
-crisp_status crisp__gl_layout_probe(crisp_gl *gl, const crisp_frame_plan *plan, const crisp__gl_query *q,
-                                    size_t n, crisp__gl_result *out);
+crisp_status crisp__gl_layout_probe(crisp_gl *gl, const crisp_frame_plan *plan,
+                                    const crisp__gl_query *q, size_t n, crisp__gl_result *out);
 
 /* The scene last uploaded by crisp_gl_set_scene (NULL after crisp_gl_set_scene_data). */
 void crisp__gl_scene_is(crisp_gl *gl, const crisp_scene *scene);

@@ -31,7 +31,8 @@ crisp_status crisp_read_file(const char *path, char **data, size_t *size)
     fclose(f);
     if (err) {
         crisp_free(buf);
-        return crisp_error(CRISP_ERR_IO, "%s: read error after %zu bytes: %s", path, len, strerror(err_no));
+        return crisp_error(CRISP_ERR_IO, "%s: read error after %zu bytes: %s", path, len,
+                           strerror(err_no));
     }
     buf[len] = '\0';
     *data = buf;

@@ -402,7 +402,8 @@ static crisp_status load_model_item(const crisp_scene_file *s, const crisp_scene
     /* the item's transform (column-major, m[col][row]) as the rows of an affine map */
     double rows[3][4];
     for (int a = 0; a < 3; a++)
-        for (int b = 0; b < 4; b++) rows[a][b] = it->transform[b][a];
+        for (int b = 0; b < 4; b++)
+            rows[a][b] = it->transform[b][a];
     for (int i = 0; i < m->face_count && !st; i++) {
         crisp_face *f = &m->faces[i];
         crisp_face_transform(f, (const double(*)[4])rows);

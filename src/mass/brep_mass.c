@@ -66,8 +66,10 @@ static void integrand(ctx *c, double u, double v, double *q)
     double p[3], su[3], sv[3];
     crisp_surface_derivs(c->f->surface, u, v, p, su, sv, NULL, NULL, NULL);
     c->evals++;
-    double n[3] = {su[1] * sv[2] - su[2] * sv[1], su[2] * sv[0] - su[0] * sv[2], su[0] * sv[1] - su[1] * sv[0]};
-    for (int a = 0; a < 3; a++) n[a] *= c->sign, p[a] -= c->ref[a];
+    double n[3] = {su[1] * sv[2] - su[2] * sv[1], su[2] * sv[0] - su[0] * sv[2],
+                   su[0] * sv[1] - su[1] * sv[0]};
+    for (int a = 0; a < 3; a++)
+        n[a] *= c->sign, p[a] -= c->ref[a];
     double x = p[0], y = p[1], z = p[2];
     q[0] = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     q[1] = n[0], q[2] = n[1], q[3] = n[2];
@@ -97,7 +99,8 @@ static void inner(ctx *c, double u, double v, double *G, double *G2)
                 double q[NQ];
                 integrand(c, a + (b - a) * rules[r]->x[i], v, q);
                 double w = sgn * (b - a) * rules[r]->w[i];
-                for (int j = 0; j < NQ; j++) dst[r][j] += w * q[j];
+                for (int j = 0; j < NQ; j++)
+                    dst[r][j] += w * q[j];
             }
         a = b;
         if (a >= hi) break;
@@ -117,12 +120,14 @@ static void piece_eval(const piece *p, double t, double uv[2], double d[2])
         crisp_bezier_curve_derivs(p->b, t, 1, r);
         uv[0] = r[0], uv[1] = r[1], d[0] = r[2], d[1] = r[3];
     } else {
-        for (int a = 0; a < 2; a++) uv[a] = p->p0[a] + t * (p->p1[a] - p->p0[a]), d[a] = p->p1[a] - p->p0[a];
+        for (int a = 0; a < 2; a++)
+            uv[a] = p->p0[a] + t * (p->p1[a] - p->p0[a]), d[a] = p->p1[a] - p->p0[a];
     }
 }
 
 /* Rule g over [a, b] of G dv (into I) and G2 dv (into I2). */
-static void outer_rule(ctx *c, const piece *p, const gauss *g, double a, double b, double *I, double *I2)
+static void outer_rule(ctx *c, const piece *p, const gauss *g, double a, double b, double *I,
+                       double *I2)
 {
     memset(I, 0, NQ * sizeof *I);
     memset(I2, 0, NQ * sizeof *I2);
@@ -132,7 +137,8 @@ static void outer_rule(ctx *c, const piece *p, const gauss *g, double a, double 
         if (d[1] == 0) continue;
         inner(c, uv[0], uv[1], G, G2);
         double w = (b - a) * g->w[i] * d[1];
-        for (int j = 0; j < NQ; j++) I[j] += w * G[j], I2[j] += w * G2[j];
+        for (int j = 0; j < NQ; j++)
+            I[j] += w * G[j], I2[j] += w * G2[j];
     }
 }
 
@@ -142,7 +148,8 @@ static void outer(ctx *c, const piece *p, double a, double b, int depth, double 
     outer_rule(c, p, &c->go, a, b, I, I2);
     outer_rule(c, p, &c->go2, a, b, J, J2);
     int ok = 1;
-    for (int j = 0; j < NQ && ok; j++) ok = fabs(I[j] - J[j]) <= c->tol * c->scale[j] * (b - a);
+    for (int j = 0; j < NQ && ok; j++)
+        ok = fabs(I[j] - J[j]) <= c->tol * c->scale[j] * (b - a);
     if (ok || depth >= MAX_DEPTH) {
         for (int j = 0; j < NQ; j++) {
             sum[j] += I[j], sum2[j] += I2[j];
@@ -161,11 +168,13 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc, crisp_mass_props *dest)
+crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
+                              crisp_mass_props *dest)
 {
     if (!m || !dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_mass_model: NULL argument");
     memset(dest, 0, sizeof *dest);
-    if (m->face_count < 1) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_mass_model: the model has no face");
+    if (m->face_count < 1)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_mass_model: the model has no face");
     ctx c = {0};
     gauss_make(20, &c.gi);
     gauss_make(14, &c.gi2);
@@ -179,9 +188,12 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
         c.ref[a] = 0.5 * (box[a] + box[3 + a]);
         L = fmax(L, box[3 + a] - box[a]);
     }
-    if (!(L > 0) || !isfinite(L)) return crisp_error(CRISP_ERR_NUMERIC, "crisp_mass_model: the model's box is empty or not finite");
+    if (!(L > 0) || !isfinite(L))
+        return crisp_error(CRISP_ERR_NUMERIC,
+                           "crisp_mass_model: the model's box is empty or not finite");
     static const int power[NQ] = {2, 2, 2, 2, 3, 4, 4, 4, 5, 5, 5, 5, 5, 5, 1};
-    for (int j = 0; j < NQ; j++) c.scale[j] = pow(L, power[j]);
+    for (int j = 0; j < NQ; j++)
+        c.scale[j] = pow(L, power[j]);
     double T[NQ] = {0}, T2[NQ] = {0};
     crisp_status s = CRISP_OK;
     for (int fi = 0; fi < m->face_count; fi++) {
@@ -204,9 +216,15 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
             if (!w || ku[k] != ku[w - 1]) ku[w++] = ku[k];
         c.ku = ku, c.nku = w;
         if (f->loop_count == 0) {
-            const double corner[5][2] = {{dom[0], dom[2]}, {dom[1], dom[2]}, {dom[1], dom[3]}, {dom[0], dom[3]}, {dom[0], dom[2]}};
+            const double corner[5][2] = {{dom[0], dom[2]},
+                                         {dom[1], dom[2]},
+                                         {dom[1], dom[3]},
+                                         {dom[0], dom[3]},
+                                         {dom[0], dom[2]}};
             for (int e = 0; e < 4; e++) {
-                piece p = {.b = NULL, .p0 = {corner[e][0], corner[e][1]}, .p1 = {corner[e + 1][0], corner[e + 1][1]}};
+                piece p = {.b = NULL,
+                           .p0 = {corner[e][0], corner[e][1]},
+                           .p1 = {corner[e + 1][0], corner[e + 1][1]}};
                 outer(&c, &p, 0, 1, 0, T, T2);
             }
         }
@@ -217,7 +235,8 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
                 int cnt = 0;
                 s = crisp_curve_to_bezier(loop->curves[k], &bz, &cnt);
                 if (s) {
-                    crisp_error_prefix("face %d (source %d) loop %d curve %d", fi, f->source_id, l, k);
+                    crisp_error_prefix("face %d (source %d) loop %d curve %d", fi, f->source_id, l,
+                                       k);
                     break;
                 }
                 for (int q = 0; q < cnt; q++) {
@@ -232,9 +251,11 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
     }
     dest->evaluations = c.evals;
     dest->area = T[0];
-    for (int a = 0; a < 3; a++) dest->vector_area[a] = T[1 + a];
+    for (int a = 0; a < 3; a++)
+        dest->vector_area[a] = T[1 + a];
     double err[NQ];
-    for (int j = 0; j < NQ; j++) err[j] = c.err_outer[j] + fabs(T[j] - T2[j]);
+    for (int j = 0; j < NQ; j++)
+        err[j] = c.err_outer[j] + fabs(T[j] - T2[j]);
     dest->area_err = err[0];
     double va = sqrt(T[1] * T[1] + T[2] * T[2] + T[3] * T[3]);
     dest->closed = va <= 1e-7 * T[0];
@@ -243,7 +264,8 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
     dest->volume = V;
     dest->volume_err = err[4];
     double M[3] = {T[5], T[6], T[7]};
-    for (int a = 0; a < 3; a++) dest->centroid[a] = c.ref[a] + M[a] / V;
+    for (int a = 0; a < 3; a++)
+        dest->centroid[a] = c.ref[a] + M[a] / V;
     dest->inertia[0] = T[9] + T[10] - (M[1] * M[1] + M[2] * M[2]) / V;
     dest->inertia[1] = T[8] + T[10] - (M[0] * M[0] + M[2] * M[2]) / V;
     dest->inertia[2] = T[8] + T[9] - (M[0] * M[0] + M[1] * M[1]) / V;
@@ -251,7 +273,8 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
     dest->inertia[4] = -(T[12] - M[1] * M[2] / V);
     dest->inertia[5] = -(T[13] - M[0] * M[2] / V);
     double ie = 0;
-    for (int j = 8; j < 14; j++) ie = fmax(ie, err[j]);
+    for (int j = 8; j < 14; j++)
+        ie = fmax(ie, err[j]);
     dest->inertia_err = 2 * ie;
     return CRISP_OK;
 }

@@ -49,16 +49,20 @@ static void seg_box_cells(const grid *g, const bseg *s, int c0[3], int c1[3])
 static double seg_dist(const double p[3], const bseg *s, double *w)
 {
     double d[3], q[3], len2 = 0, t = 0;
-    for (int k = 0; k < 3; k++) d[k] = s->b[k] - s->a[k], len2 += d[k] * d[k];
-    if (len2 > 0) t = ((p[0] - s->a[0]) * d[0] + (p[1] - s->a[1]) * d[1] + (p[2] - s->a[2]) * d[2]) / len2;
+    for (int k = 0; k < 3; k++)
+        d[k] = s->b[k] - s->a[k], len2 += d[k] * d[k];
+    if (len2 > 0)
+        t = ((p[0] - s->a[0]) * d[0] + (p[1] - s->a[1]) * d[1] + (p[2] - s->a[2]) * d[2]) / len2;
     if (t < 0) t = 0;
     if (t > 1) t = 1;
-    for (int k = 0; k < 3; k++) q[k] = s->a[k] + t * d[k] - p[k];
+    for (int k = 0; k < 3; k++)
+        q[k] = s->a[k] + t * d[k] - p[k];
     if (w) *w = t;
     return sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
 }
 
-static void boundary_point(const crisp_model *m, int face, int loop, int curve, double t, double p[3])
+static void boundary_point(const crisp_model *m, int face, int loop, int curve, double t,
+                           double p[3])
 {
     const crisp_face *f = &m->faces[face];
     double uv[2];
@@ -68,7 +72,8 @@ static void boundary_point(const crisp_model *m, int face, int loop, int curve, 
 
 static double dist3(const double *a, const double *b)
 {
-    return sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+    return sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                (a[2] - b[2]) * (a[2] - b[2]));
 }
 
 /* Distance from p to the true boundary curve near segment s (parameters widened by a segment
@@ -105,7 +110,8 @@ static int cmp_gap(const void *a, const void *b)
     return (x < y) - (x > y);
 }
 
-crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, crisp_gap_report *dest)
+crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit,
+                              crisp_gap_report *dest)
 {
     memset(dest, 0, sizeof *dest);
     dest->tolerance = tol;
@@ -138,19 +144,24 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
                         boundary_point(m, f, l, c, ta, pa);
                         boundary_point(m, f, l, c, tb, pb);
                         boundary_point(m, f, l, c, 0.5 * (ta + tb), pm);
-                        double mid[3] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])};
+                        double mid[3] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]),
+                                         0.5 * (pa[2] + pb[2])};
                         if (dp < DEPTH && dist3(mid, pm) > 0.25 * tol) {
                             /* right half first on the stack: the left comes out first */
-                            stack_t[sp][0] = 0.5 * (ta + tb), stack_t[sp][1] = tb, depth[sp++] = dp + 1;
-                            stack_t[sp][0] = ta, stack_t[sp][1] = 0.5 * (ta + tb), depth[sp++] = dp + 1;
+                            stack_t[sp][0] = 0.5 * (ta + tb), stack_t[sp][1] = tb,
+                            depth[sp++] = dp + 1;
+                            stack_t[sp][0] = ta, stack_t[sp][1] = 0.5 * (ta + tb),
+                            depth[sp++] = dp + 1;
                             continue;
                         }
                         if (nseg >= GAP_MAX_SEGMENTS) {
                             dest->incomplete = 1;
                             goto out0;
                         }
-                        if (nseg == cap && crisp_grow((void **)&segs, &cap, nseg + 1, sizeof *segs)) {
-                            st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_model_gaps: out of memory");
+                        if (nseg == cap &&
+                            crisp_grow((void **)&segs, &cap, nseg + 1, sizeof *segs)) {
+                            st =
+                                crisp_error(CRISP_ERR_NO_MEMORY, "crisp_model_gaps: out of memory");
                             break;
                         }
                         bseg *s = &segs[nseg++];
@@ -193,16 +204,20 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
                 for (int y = c0[1]; y <= c1[1]; y++)
                     for (int x = c0[0]; x <= c1[0]; x++) {
                         size_t cell = ((size_t)z * g.n[1] + y) * g.n[0] + x;
-                        if (pass == 0) g.start[cell + 1]++, total++;
-                        else g.items[g.start[cell]++] = (int)i;
+                        if (pass == 0)
+                            g.start[cell + 1]++, total++;
+                        else
+                            g.items[g.start[cell]++] = (int)i;
                     }
         }
         if (pass == 0) {
-            for (long long c = 0; c < cells; c++) g.start[c + 1] += g.start[c];
+            for (long long c = 0; c < cells; c++)
+                g.start[c + 1] += g.start[c];
             g.items = crisp_malloc_array(total + 1, sizeof *g.items);
             if (!g.items) st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_model_gaps: out of memory");
         } else {
-            for (long long c = cells; c > 0; c--) g.start[c] = g.start[c - 1];
+            for (long long c = cells; c > 0; c--)
+                g.start[c] = g.start[c - 1];
             g.start[0] = 0;
         }
     }
@@ -215,18 +230,21 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
         boundary_point(m, s->face, s->loop, s->curve, 0.5 * (s->t0 + s->t1), p);
         if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2])) continue;
         int c[3];
-        for (int q = 0; q < 3; q++) c[q] = (int)floor((p[q] - g.lo[q]) / g.h);
+        for (int q = 0; q < 3; q++)
+            c[q] = (int)floor((p[q] - g.lo[q]) / g.h);
         double best = INFINITY;
         int bi = -1, seam = 0;
         /* The sample's own cell first, then its neighbours; most samples have a partner within
          * tol there (a shared edge) and stop at once. */
         for (int nb = 0; nb < 27 && !(best <= tol); nb++) {
-            int dx = nb == 0 ? 0 : ((nb - (nb <= 13)) % 3) - 1, dy = nb == 0 ? 0 : (((nb - (nb <= 13)) / 3) % 3) - 1,
+            int dx = nb == 0 ? 0 : ((nb - (nb <= 13)) % 3) - 1,
+                dy = nb == 0 ? 0 : (((nb - (nb <= 13)) / 3) % 3) - 1,
                 dz = nb == 0 ? 0 : ((nb - (nb <= 13)) / 9) - 1;
             {
                 {
                     int x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
-                    if (x < 0 || y < 0 || z < 0 || x >= g.n[0] || y >= g.n[1] || z >= g.n[2]) continue;
+                    if (x < 0 || y < 0 || z < 0 || x >= g.n[0] || y >= g.n[1] || z >= g.n[2])
+                        continue;
                     size_t cell = ((size_t)z * g.n[1] + y) * g.n[0] + x;
                     for (int j = g.start[cell]; j < g.start[cell + 1]; j++) {
                         const bseg *o = &segs[g.items[j]];
@@ -235,7 +253,9 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
                         if (o->face == s->face) {
                             /* the face's own other boundary through here: a seam, or a
                              * collapsed side: no other face is meant to be there */
-                            if ((o->loop != s->loop || o->curve != s->curve) && seg_dist(p, o, NULL) <= tol) seam = 1;
+                            if ((o->loop != s->loop || o->curve != s->curve) &&
+                                seg_dist(p, o, NULL) <= tol)
+                                seam = 1;
                             continue;
                         }
                         double d = seg_dist(p, o, NULL);
@@ -257,12 +277,16 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit, cr
             dq[k2] = q[k2] - p[k2];
             tg[k2] = s->b[k2] - s->a[k2];
         }
-        double ldq = sqrt(dq[0] * dq[0] + dq[1] * dq[1] + dq[2] * dq[2]), ltg = sqrt(tg[0] * tg[0] + tg[1] * tg[1] + tg[2] * tg[2]);
-        if (ldq > 0 && ltg > 0 && fabs(dq[0] * tg[0] + dq[1] * tg[1] + dq[2] * tg[2]) > 0.7 * ldq * ltg) continue;
+        double ldq = sqrt(dq[0] * dq[0] + dq[1] * dq[1] + dq[2] * dq[2]),
+               ltg = sqrt(tg[0] * tg[0] + tg[1] * tg[1] + tg[2] * tg[2]);
+        if (ldq > 0 && ltg > 0 &&
+            fabs(dq[0] * tg[0] + dq[1] * tg[1] + dq[2] * tg[2]) > 0.7 * ldq * ltg)
+            continue;
         double d = refine(m, &segs[bi], p);
         if (d <= tol || d >= limit) continue;
         dest->gap_samples++;
-        int fa = s->face < segs[bi].face ? s->face : segs[bi].face, fb = s->face ^ segs[bi].face ^ fa;
+        int fa = s->face < segs[bi].face ? s->face : segs[bi].face,
+            fb = s->face ^ segs[bi].face ^ fa;
         /* group by face pair */
         int found = -1;
         for (int q = 0; q < dest->count && found < 0; q++)

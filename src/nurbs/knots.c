@@ -173,7 +173,8 @@ int crisp__surface_span_kept(const double *knots, int degree, int count, int k)
 int crisp__count_surface_spans(const double *knots, int degree, int count)
 {
     int n = 0;
-    for (int k = degree; k < count; k++) n += crisp__surface_span_kept(knots, degree, count, k);
+    for (int k = degree; k < count; k++)
+        n += crisp__surface_span_kept(knots, degree, count, k);
     return n;
 }
 

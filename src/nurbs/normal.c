@@ -18,7 +18,10 @@
 
 typedef void (*derivs_fn)(const void *surf, double a, double b, double *p, double *da, double *db);
 
-static double norm3(const double *a) { return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
+static double norm3(const double *a)
+{
+    return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+}
 
 static void cross3(const double *a, const double *b, double *d)
 {
@@ -28,20 +31,22 @@ static void cross3(const double *a, const double *b, double *d)
 }
 
 /* The cross product at (a, b) when it is regular (not degenerate by `scale`), else 0. */
-static int regular_cross(derivs_fn f, const void *surf, double a, double b, double scale, double n[3])
+static int regular_cross(derivs_fn f, const void *surf, double a, double b, double scale,
+                         double n[3])
 {
     double p[3], da[3], db[3];
     f(surf, a, b, p, da, db);
     cross3(da, db, n);
     double la = norm3(da), lb = norm3(db), ln = norm3(n);
     if (!(la > 1e-9 * scale) || !(lb > 1e-9 * scale) || !(ln > 1e-9 * la * lb)) return 0;
-    for (int k = 0; k < 3; k++) n[k] /= ln;
+    for (int k = 0; k < 3; k++)
+        n[k] /= ln;
     return 1;
 }
 
 /* dom: a0, a1, b0, b1; scale: a length of the surface (for "vanishing"). */
-static int robust_normal(derivs_fn f, const void *surf, const double dom[4], double a, double b, double scale,
-                         double dest[3])
+static int robust_normal(derivs_fn f, const void *surf, const double dom[4], double a, double b,
+                         double scale, double dest[3])
 {
     if (regular_cross(f, surf, a, b, scale, dest)) return 1;
     double p[3], da[3], db[3];
@@ -52,18 +57,22 @@ static int robust_normal(derivs_fn f, const void *surf, const double dom[4], dou
      * middle. */
     double sa = a < 0.5 * (dom[0] + dom[1]) ? 1 : -1, sb = b < 0.5 * (dom[2] + dom[3]) ? 1 : -1;
     double dir[2] = {sa, sb};
-    if (!(la > 1e-9 * scale) && lb > 1e-9 * scale) dir[0] = 0;
-    else if (!(lb > 1e-9 * scale) && la > 1e-9 * scale) dir[1] = 0;
+    if (!(la > 1e-9 * scale) && lb > 1e-9 * scale)
+        dir[0] = 0;
+    else if (!(lb > 1e-9 * scale) && la > 1e-9 * scale)
+        dir[1] = 0;
     for (double h = 1e-7; h < 2e-3; h *= 100) {
         double n1[3], n2[3];
         if (!regular_cross(f, surf, a + dir[0] * h * ra, b + dir[1] * h * rb, scale, n1) ||
             !regular_cross(f, surf, a + 2 * dir[0] * h * ra, b + 2 * dir[1] * h * rb, scale, n2))
             continue;
         double n[3];
-        for (int k = 0; k < 3; k++) n[k] = 2 * n1[k] - n2[k];
+        for (int k = 0; k < 3; k++)
+            n[k] = 2 * n1[k] - n2[k];
         double ln = norm3(n);
         if (!(ln > 0.5)) continue; /* the normal turns fast here: keep the nearer one */
-        for (int k = 0; k < 3; k++) dest[k] = n[k] / ln;
+        for (int k = 0; k < 3; k++)
+            dest[k] = n[k] / ln;
         return 1;
     }
     dest[0] = dest[1] = dest[2] = 0;

@@ -515,8 +515,8 @@ static double proj_error(void *ctx, double t, const double *fitted)
 
 /* The projection over [t0, t1]; the first sample starts from seed (when not NULL) instead of
  * the global search. */
-static crisp_status project_range(const crisp_surface *s, const crisp_curve *c, double t0, double t1,
-                                  double tol, const double *seed, crisp_curve **dest)
+static crisp_status project_range(const crisp_surface *s, const crisp_curve *c, double t0,
+                                  double t1, double tol, const double *seed, crisp_curve **dest)
 {
     const char *fn = "crisp_surface_project_curve";
     if (!s || !c || !dest || c->dim != 3)
@@ -668,12 +668,13 @@ static int cmp_dbl(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const crisp_curve *c, double t0,
-                                                double t1, double tol, int max_pieces, crisp_curve **dest,
-                                                int *count)
+crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const crisp_curve *c,
+                                                double t0, double t1, double tol, int max_pieces,
+                                                crisp_curve **dest, int *count)
 {
     const char *fn = "crisp_surface_project_curve_pieces";
-    if (!dest || !count || max_pieces < 1) return crisp_error(CRISP_ERR_INVALID_ARG, "%s: NULL argument", fn);
+    if (!dest || !count || max_pieces < 1)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: NULL argument", fn);
     *count = 0;
     crisp_status st = project_range(s, c, t0, t1, tol, NULL, &dest[0]);
     if (st != CRISP_ERR_LIMIT) {
@@ -688,7 +689,8 @@ crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const cr
     surf_info_init(s, &pc.si);
     enum { N = PIECE_SAMPLES + 1 };
     double *ts = crisp_malloc_array(N, sizeof *ts), *uv = crisp_malloc_array(N, 2 * sizeof *uv);
-    double *dist = crisp_malloc_array(N, sizeof *dist), *steps = crisp_malloc_array(N, sizeof *steps);
+    double *dist = crisp_malloc_array(N, sizeof *dist),
+           *steps = crisp_malloc_array(N, sizeof *steps);
     double *cut = crisp_malloc_array((size_t)max_pieces + 1, sizeof *cut);
     double *cut_uv = crisp_malloc_array((size_t)max_pieces + 1, 2 * sizeof *cut_uv);
     if (!ts || !uv || !dist || !steps || !cut || !cut_uv) {
@@ -707,7 +709,8 @@ crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const cr
             dist[i] = invert_seeded(&pc, ts[i], uv + 2 * (i - 1), dist[i - 1], uv + 2 * i, dead);
         }
     }
-    for (int i = 0; i + 1 < N; i++) steps[i] = uv_step(uv + 2 * i, uv + 2 * i + 2);
+    for (int i = 0; i + 1 < N; i++)
+        steps[i] = uv_step(uv + 2 * i, uv + 2 * i + 2);
     double sorted[N];
     memcpy(sorted, steps, (N - 1) * sizeof *sorted);
     qsort(sorted, N - 1, sizeof *sorted, cmp_dbl);
@@ -716,14 +719,17 @@ crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const cr
     int ncut = 0;
     for (int i = 0; i + 1 < N && ncut + 1 < max_pieces; i++) {
         if (!(steps[i] > limit)) continue;
-        double a = ts[i], b = ts[i + 1], ua[2] = {uv[2 * i], uv[2 * i + 1]}, ub[2] = {uv[2 * i + 2], uv[2 * i + 3]};
+        double a = ts[i], b = ts[i + 1], ua[2] = {uv[2 * i], uv[2 * i + 1]},
+               ub[2] = {uv[2 * i + 2], uv[2 * i + 3]};
         double da = dist[i];
         for (int it = 0; it < 60; it++) {
             double m = 0.5 * (a + b), um[2];
             int dead[2];
             double dm = invert_seeded(&pc, m, ua, da, um, dead);
-            if (uv_step(um, ua) <= uv_step(um, ub)) a = m, ua[0] = um[0], ua[1] = um[1], da = dm;
-            else b = m, ub[0] = um[0], ub[1] = um[1];
+            if (uv_step(um, ua) <= uv_step(um, ub))
+                a = m, ua[0] = um[0], ua[1] = um[1], da = dm;
+            else
+                b = m, ub[0] = um[0], ub[1] = um[1];
         }
         /* A true jump stays a jump however small the bracket (a fast continuous turn does not). */
         if (!(uv_step(ua, ub) > 0.5 * limit)) continue;
@@ -750,9 +756,11 @@ crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const cr
         st = project_range(s, c, a, b, tol, k ? cut_uv + 2 * (k - 1) : NULL, &dest[*count]);
         if (!st) (*count)++;
     }
-    if (!st && *count == 0) st = crisp_error(CRISP_ERR_NUMERIC, "%s: the curve projects to a point", fn);
+    if (!st && *count == 0)
+        st = crisp_error(CRISP_ERR_NUMERIC, "%s: the curve projects to a point", fn);
     if (st) {
-        for (int k = 0; k < *count; k++) crisp_curve_destroy(dest[k]);
+        for (int k = 0; k < *count; k++)
+            crisp_curve_destroy(dest[k]);
         *count = 0;
         crisp_error_prefix("%s: %d jumps cut", fn, ncut);
     }

@@ -1,7 +1,7 @@
 /* Trim loops in a face's (u, v) domain: signed area (shoelace on a dense polyline), closure gap,
  * reversal, how far a loop leaves the domain, and normalisation on load (outer loops CCW, holes
- * CW, small gaps closed by moving curve end points), as Wu & Peters 2015 and docs/design.md section 5
- * assume of the trim test's input.
+ * CW, small gaps closed by moving curve end points), as Wu & Peters 2015 and docs/design.md section
+ * 5 assume of the trim test's input.
  */
 #include "crisp/model.h"
 

@@ -12,25 +12,31 @@ static int finite3(const double *v)
 crisp_status crisp_camera_check(const crisp_camera *c)
 {
     if (c->width <= 0 || c->height <= 0 || c->width > 65536 || c->height > 65536)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected 1..65536 in each direction",
-                           c->width, c->height);
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "image size %dx%d: expected 1..65536 in each direction", c->width,
+                           c->height);
     if (!finite3(c->eye) || !finite3(c->target) || !finite3(c->up))
-        return crisp_error(CRISP_ERR_INVALID_ARG, "camera eye, target and up must be finite numbers");
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "camera eye, target and up must be finite numbers");
     if (!(c->fov_deg > 0 && c->fov_deg < 180))
-        return crisp_error(CRISP_ERR_INVALID_ARG, "fov %g degrees: expected a value in (0, 180)", c->fov_deg);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "fov %g degrees: expected a value in (0, 180)",
+                           c->fov_deg);
     if (!(c->znear > 0 && c->zfar > c->znear && isfinite(c->zfar)))
-        return crisp_error(CRISP_ERR_INVALID_ARG, "near %g, far %g: expected 0 < near < far", c->znear, c->zfar);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "near %g, far %g: expected 0 < near < far",
+                           c->znear, c->zfar);
     crisp_vec3 d, f;
     crisp_vec3_sub(c->target, c->eye, d);
     if (!crisp_vec3_normalize(d, f))
-        return crisp_error(CRISP_ERR_INVALID_ARG, "camera: eye (%g,%g,%g) equals target: no view direction",
-                           c->eye[0], c->eye[1], c->eye[2]);
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "camera: eye (%g,%g,%g) equals target: no view direction", c->eye[0],
+                           c->eye[1], c->eye[2]);
     crisp_mat4 m;
     if (!crisp_mat4_lookat(c->eye, c->target, c->up, m))
-        return crisp_error(CRISP_ERR_INVALID_ARG,
-                           "camera: up (%g,%g,%g) is zero or parallel to the view direction (%g,%g,%g): "
-                           "expected an up vector that is not",
-                           c->up[0], c->up[1], c->up[2], f[0], f[1], f[2]);
+        return crisp_error(
+            CRISP_ERR_INVALID_ARG,
+            "camera: up (%g,%g,%g) is zero or parallel to the view direction (%g,%g,%g): "
+            "expected an up vector that is not",
+            c->up[0], c->up[1], c->up[2], f[0], f[1], f[2]);
     return CRISP_OK;
 }
 
@@ -71,9 +77,11 @@ crisp_status crisp_camera_frame_box(const double box[6], int width, int height, 
 {
     for (int i = 0; i < 6; i++)
         if (!isfinite(box[i]))
-            return crisp_error(CRISP_ERR_NUMERIC, "cannot frame a bounding box with non-finite coordinates");
+            return crisp_error(CRISP_ERR_NUMERIC,
+                               "cannot frame a bounding box with non-finite coordinates");
     if (width <= 0 || height <= 0)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected positive", width, height);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected positive", width,
+                           height);
     double c[3], r = 0;
     for (int i = 0; i < 3; i++) {
         c[i] = 0.5 * (box[i] + box[i + 3]);

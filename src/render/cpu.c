@@ -1,7 +1,7 @@
-/* The CPU backend (docs/design.md section 6): the frame plan's leaves are tessellated at their levels
- * (crack-free edges), evaluated on the true patches, and rasterised with the u-intercept table's
- * trim test per sample; samples are then resolved into colour (headlight shading, straight alpha
- * = coverage) and AOVs (depth, normal, u, v, face of the nearest covered sample). */
+/* The CPU backend (docs/design.md section 6): the frame plan's leaves are tessellated at their
+ * levels (crack-free edges), evaluated on the true patches, and rasterised with the u-intercept
+ * table's trim test per sample; samples are then resolved into colour (headlight shading, straight
+ * alpha = coverage) and AOVs (depth, normal, u, v, face of the nearest covered sample). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -35,7 +35,8 @@ struct crisp_renderer {
     size_t leaf_skip_cap;
 };
 
-#define MAX_LEAF_VERTS (4 * (size_t)CRISP_PLAN_MAX_LEVEL + (CRISP_PLAN_MAX_LEVEL + 1) * (CRISP_PLAN_MAX_LEVEL + 1))
+#define MAX_LEAF_VERTS                                                                             \
+    (4 * (size_t)CRISP_PLAN_MAX_LEVEL + (CRISP_PLAN_MAX_LEVEL + 1) * (CRISP_PLAN_MAX_LEVEL + 1))
 
 crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer **dest)
 {
@@ -45,11 +46,13 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
     if (!r->desc.samples) r->desc.samples = 1;
     crisp_status st = CRISP_OK;
     if (r->desc.samples != 1 && r->desc.samples != 4 && r->desc.samples != 16)
-        st = crisp_error(CRISP_ERR_INVALID_ARG, "%d samples per pixel: expected 1, 4 or 16", r->desc.samples);
+        st = crisp_error(CRISP_ERR_INVALID_ARG, "%d samples per pixel: expected 1, 4 or 16",
+                         r->desc.samples);
     if (!st) st = crisp_pool_create(r->desc.threads, &r->pool);
     if (!st)
-        st = crisp_planner_create(&(crisp_planner_desc){.eps_px = r->desc.eps_px, .strip_count = r->desc.strip_count},
-                                  r->pool, &r->planner);
+        st = crisp_planner_create(
+            &(crisp_planner_desc){.eps_px = r->desc.eps_px, .strip_count = r->desc.strip_count},
+            r->pool, &r->planner);
     if (!st) st = crisp__raster_create(&r->raster);
     if (!st) {
         r->workers = crisp_pool_threads(r->pool);
@@ -71,7 +74,8 @@ void crisp_renderer_destroy(crisp_renderer *r)
 {
     if (!r) return;
     if (r->st)
-        for (int w = 0; w < r->workers; w++) free(r->st[w]);
+        for (int w = 0; w < r->workers; w++)
+            free(r->st[w]);
     free(r->st);
     crisp_planner_destroy(r->planner);
     crisp_pool_destroy(r->pool);
@@ -124,7 +128,8 @@ crisp_planner *crisp_renderer_planner(crisp_renderer *r)
 static crisp_tess_levels leaf_levels(const crisp_plan_leaf *L)
 {
     crisp_tess_levels lv = {{(int)L->tau, (int)L->tau}, {0}};
-    for (int k = 0; k < 4; k++) lv.outer[k] = (int)L->edge[k];
+    for (int k = 0; k < 4; k++)
+        lv.outer[k] = (int)L->edge[k];
     return lv;
 }
 
@@ -168,8 +173,7 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             crisp_vec3_cross(Ps, Pt, n);
             /* At an apex, a pole or a collapsed side the cross product vanishes: take the limit
              * from inside the patch (each generator of a cone keeps its own normal). */
-            if (crisp__normal_degenerate(Ps, Pt, n))
-                crisp_bezier_patch_normal(&sp->bez, s, t, n);
+            if (crisp__normal_degenerate(Ps, Pt, n)) crisp_bezier_patch_normal(&sp->bez, s, t, n);
             if (reversed) crisp_vec3_scale(n, -1, n);
             crisp_vec3_normalize(n, v->attr + 2);
         }
@@ -188,11 +192,14 @@ typedef struct skip_ctx {
     int samples;
 } skip_ctx;
 
-static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2], int width, int height)
+static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2], int width,
+                        int height)
 {
     for (int s = 0; s < c->samples; s++) {
-        double i0 = fmax(ceil(lo[0] - c->off[s][0]), 0), i1 = fmin(floor(hi[0] - c->off[s][0]), width - 1);
-        double j0 = fmax(ceil(lo[1] - c->off[s][1]), 0), j1 = fmin(floor(hi[1] - c->off[s][1]), height - 1);
+        double i0 = fmax(ceil(lo[0] - c->off[s][0]), 0),
+               i1 = fmin(floor(hi[0] - c->off[s][0]), width - 1);
+        double j0 = fmax(ceil(lo[1] - c->off[s][1]), 0),
+               j1 = fmin(floor(hi[1] - c->off[s][1]), height - 1);
         if (i0 <= i1 && j0 <= j1) return 1;
     }
     return 0;
@@ -211,8 +218,8 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
         crisp_bezier_patch sub = *bez;
         if (L->depth) {
             double sz = ldexp(1.0, -(int)L->depth);
-            crisp__subpatch(bez, L->ix * sz, (L->ix + 1) * sz, L->iy * sz, (L->iy + 1) * sz, storage,
-                            storage + 2 * CRISP__PATCH_DOUBLES, &sub);
+            crisp__subpatch(bez, L->ix * sz, (L->ix + 1) * sz, L->iy * sz, (L->iy + 1) * sz,
+                            storage, storage + 2 * CRISP__PATCH_DOUBLES, &sub);
         }
         int n = (sub.du + 1) * (sub.dv + 1), front = 1;
         double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
@@ -220,13 +227,16 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
             const double *cp = sub.cpw + 4 * k;
             double h[4];
             for (int q = 0; q < 4; q++)
-                h[q] = (*m)[0][q] * cp[0] + (*m)[1][q] * cp[1] + (*m)[2][q] * cp[2] + (*m)[3][q] * cp[3];
+                h[q] = (*m)[0][q] * cp[0] + (*m)[1][q] * cp[1] + (*m)[2][q] * cp[2] +
+                       (*m)[3][q] * cp[3];
             if (!(h[3] > 0) || !isfinite(h[0] + h[1] + h[3])) {
                 front = 0;
                 break;
             }
-            double x = (h[0] / h[3] + 1) * 0.5 * plan->width, y = (1 - h[1] / h[3]) * 0.5 * plan->height;
-            lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x), lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+            double x = (h[0] / h[3] + 1) * 0.5 * plan->width,
+                   y = (1 - h[1] / h[3]) * 0.5 * plan->height;
+            lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x), lo[1] = fmin(lo[1], y),
+            hi[1] = fmax(hi[1], y);
         }
         /* Widen by the snapping (1/512 px) and rounding, generously. */
         double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
@@ -262,7 +272,8 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
             memcpy(v[k].clip, src[k].clip, sizeof v[k].clip);
             v[k].attr[0] = src[k].uv[0];
             v[k].attr[1] = src[k].uv[1];
-            for (int a = 0; a < 3; a++) v[k].attr[2 + a] = src[k].normal[a];
+            for (int a = 0; a < 3; a++)
+                v[k].attr[2 + a] = src[k].normal[a];
         }
         uint32_t base = (uint32_t)(c->vbase + 4 * q), face = src[0].face | CRISP_RASTER_FACE_FLAG;
         c->r->tris[c->tbase + 2 * q] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
@@ -320,16 +331,20 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
                 if (t->inv_w[idx] > best_iw) best_iw = t->inv_w[idx], best = s;
                 double off[2], d[3], n[3];
                 crisp__raster_sample_offset(S, s, off);
-                double nx = (i + off[0] - 0.5 * cam->width) * kx, ny = (0.5 * cam->height - j - off[1]) * ky;
-                for (int k = 0; k < 3; k++) d[k] = f[k] + nx * r[k] + ny * u[k];
+                double nx = (i + off[0] - 0.5 * cam->width) * kx,
+                       ny = (0.5 * cam->height - j - off[1]) * ky;
+                for (int k = 0; k < 3; k++)
+                    d[k] = f[k] + nx * r[k] + ny * u[k];
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
                 n[0] = a[2], n[1] = a[3], n[2] = a[4];
                 float rgba[4];
                 crisp__shade(c->sc->faces[t->face[idx]].color, n, d, rgba);
-                for (int k = 0; k < 3; k++) acc[k] += rgba[k];
+                for (int k = 0; k < 3; k++)
+                    acc[k] += rgba[k];
             }
             if (!covered) continue;
-            for (int k = 0; k < 3; k++) img->rgba[4 * px + k] = acc[k] / (float)covered;
+            for (int k = 0; k < 3; k++)
+                img->rgba[4 * px + k] = acc[k] / (float)covered;
             img->rgba[4 * px + 3] = (float)covered / (float)S;
             size_t idx = px * S + (size_t)best;
             const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
@@ -337,7 +352,8 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
             img->depth[px] = (float)(1.0 / t->inv_w[idx]);
             img->uv[2 * px] = a[0];
             img->uv[2 * px + 1] = a[1];
-            for (int k = 0; k < 3; k++) img->normal[3 * px + k] = a[2 + k];
+            for (int k = 0; k < 3; k++)
+                img->normal[3 * px + k] = a[2 + k];
         }
 }
 
@@ -355,15 +371,18 @@ const crisp_raster_target *crisp__renderer_target(const crisp_renderer *r)
     return &r->target;
 }
 
-crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, const crisp_frame_plan *plan,
-                                   const crisp_camera *cam, crisp_image *img, crisp_render_stats *stats)
+crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
+                                   const crisp_frame_plan *plan, const crisp_camera *cam,
+                                   crisp_image *img, crisp_render_stats *stats)
 {
     if (img->width != plan->width || img->height != plan->height || cam->width != plan->width ||
         cam->height != plan->height)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d and camera %dx%d do not match the plan's %dx%d",
-                           img->width, img->height, cam->width, cam->height, plan->width, plan->height);
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "image %dx%d and camera %dx%d do not match the plan's %dx%d", img->width,
+                           img->height, cam->width, cam->height, plan->width, plan->height);
     if (plan->face_count != sc->face_count)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "the plan has %u faces, the scene %u: not the scene's plan",
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "the plan has %u faces, the scene %u: not the scene's plan",
                            plan->face_count, sc->face_count);
     crisp_render_stats local;
     if (!stats) stats = &local;
@@ -372,12 +391,17 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
     double t0 = crisp_time_now();
     /* Vertex and triangle offsets per leaf (and a sentinel). */
     size_t jobs = plan->leaf_count, nv = 0, nt = 0;
-    if ((st = crisp_grow((void **)&r->leaf_vbase, &r->leaf_base_cap, jobs + 1, sizeof *r->leaf_vbase)) ||
-        (st = crisp_grow((void **)&r->leaf_tbase, &r->leaf_tbase_cap, jobs + 1, sizeof *r->leaf_tbase)))
+    if ((st = crisp_grow((void **)&r->leaf_vbase, &r->leaf_base_cap, jobs + 1,
+                         sizeof *r->leaf_vbase)) ||
+        (st = crisp_grow((void **)&r->leaf_tbase, &r->leaf_tbase_cap, jobs + 1,
+                         sizeof *r->leaf_tbase)))
         return st;
-    if ((st = crisp_grow((void **)&r->leaf_skip, &r->leaf_skip_cap, jobs ? jobs : 1, sizeof *r->leaf_skip))) return st;
+    if ((st = crisp_grow((void **)&r->leaf_skip, &r->leaf_skip_cap, jobs ? jobs : 1,
+                         sizeof *r->leaf_skip)))
+        return st;
     skip_ctx skc = {.r = r, .sc = sc, .samples = r->desc.samples};
-    for (int s = 0; s < r->desc.samples; s++) crisp__raster_sample_offset(r->desc.samples, s, skc.off[s]);
+    for (int s = 0; s < r->desc.samples; s++)
+        crisp__raster_sample_offset(r->desc.samples, s, skc.off[s]);
     crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
     for (size_t j = 0; j < jobs; j++) {
         crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
@@ -388,7 +412,8 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
         nv += v;
         nt += t;
         if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
-            return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 vertices or triangles in one frame");
+            return crisp_error(CRISP_ERR_LIMIT,
+                               "more than 2^31 vertices or triangles in one frame");
     }
     r->leaf_vbase[jobs] = (uint32_t)nv;
     r->leaf_tbase[jobs] = (uint32_t)nt;
@@ -398,7 +423,8 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
     nt += 2 * quads;
     if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
         return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 vertices or triangles in one frame");
-    if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, nv ? nv : 1, sizeof *r->verts))) return st;
+    if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, nv ? nv : 1, sizeof *r->verts)))
+        return st;
     /* A triangle record is at least as large as the generator's three indices. */
     if ((st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris))) return st;
     r->vert_count = surface_v; /* the surface mesh, without the ribbons */
@@ -409,7 +435,8 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
     crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
     double t1 = crisp_time_now();
 
-    if ((st = crisp__raster_target_init(&r->target, cam->width, cam->height, r->desc.samples))) return st;
+    if ((st = crisp__raster_target_init(&r->target, cam->width, cam->height, r->desc.samples)))
+        return st;
     crisp__raster_target_clear(&r->target);
     crisp_raster_stats rs;
     /* Surfaces first; then the ribbons fill gaps: a ribbon sample replaces a surface sample only
@@ -417,13 +444,14 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
      * edge that another face hides at nearly the same depth (seen at a grazing angle) does not
      * show through it. */
     void *ctx = (void *)plan;
-    if ((st = crisp_grow((void **)&r->untested, &r->untested_cap, plan->face_count ? plan->face_count : 1,
-                         sizeof *r->untested)))
+    if ((st = crisp_grow((void **)&r->untested, &r->untested_cap,
+                         plan->face_count ? plan->face_count : 1, sizeof *r->untested)))
         return st;
     for (uint32_t f = 0; f < plan->face_count; f++)
         r->untested[f] = (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE) != 0;
     crisp__raster_set_untested_faces(r->raster, r->untested, plan->face_count);
-    st = crisp__raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t, trim_test, ctx, &rs);
+    st = crisp__raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t,
+                            trim_test, ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {
         size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
@@ -432,8 +460,9 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc, con
         raster_view(cam, &view);
         crisp__raster_depth_slack(&r->target, r->pool, 1.5, &view, r->slack);
         crisp_raster_stats rs2;
-        st = crisp__raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv, r->tris + surface_t,
-                                    nt - surface_t, trim_test, ctx, r->slack, &rs2);
+        st = crisp__raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv,
+                                     r->tris + surface_t, nt - surface_t, trim_test, ctx, r->slack,
+                                     &rs2);
         if (st) return st;
         rs.fragments_tested += rs2.fragments_tested;
         rs.fragments_discarded += rs2.fragments_discarded;

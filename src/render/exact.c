@@ -21,11 +21,13 @@
 #define MIN_SIZE (1.0 / 65536)
 #define MAX_HITS 64
 
-/* ---- BVH over patch boxes ---------------------------------------------------------------------- */
+/* ---- BVH over patch boxes ----------------------------------------------------------------------
+ */
 
 typedef struct bvh_node {
     double box[6];
-    uint32_t left, count; /* leaf: first index into order, count > 0; inner: children left, left+1 */
+    uint32_t left,
+        count; /* leaf: first index into order, count > 0; inner: children left, left+1 */
 } bvh_node;
 
 typedef struct bvh {
@@ -70,7 +72,8 @@ static crisp_status bvh_build(const crisp_scene *s, bvh *b)
         free(keys);
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the ray-casting BVH");
     }
-    for (uint32_t i = 0; i < n; i++) b->order[i] = i;
+    for (uint32_t i = 0; i < n; i++)
+        b->order[i] = i;
     b->node_count = 1;
     b->nodes[0].left = 0;
     b->nodes[0].count = n;
@@ -95,7 +98,8 @@ static crisp_status bvh_build(const crisp_scene *s, bvh *b)
             keys[i] = (keyed){pb[axis] + pb[axis + 3], b->order[first + i]};
         }
         qsort(keys, count, sizeof *keys, cmp_key);
-        for (uint32_t i = 0; i < count; i++) b->order[first + i] = keys[i].index;
+        for (uint32_t i = 0; i < count; i++)
+            b->order[first + i] = keys[i].index;
         uint32_t l = b->node_count;
         b->node_count += 2;
         nd->left = l;
@@ -115,7 +119,8 @@ static void bvh_free(bvh *b)
 }
 
 /* Slab test: the ray's parameter range inside the box, intersected with [t0, t1]. */
-static int ray_box(const double box[6], const double o[3], const double inv[3], double t0, double t1)
+static int ray_box(const double box[6], const double o[3], const double inv[3], double t0,
+                   double t1)
 {
     for (int k = 0; k < 3; k++) {
         double a = (box[k] - o[k]) * inv[k], b = (box[k + 3] - o[k]) * inv[k];
@@ -132,7 +137,8 @@ static int ray_box(const double box[6], const double o[3], const double inv[3], 
     return 1;
 }
 
-/* ---- ray-patch intersection -------------------------------------------------------------------- */
+/* ---- ray-patch intersection --------------------------------------------------------------------
+ */
 
 typedef struct sub {
     double s0, s1, t0, t1;
@@ -179,7 +185,8 @@ static void split_dir(const sub *in, int nu, int nv, int along_u, sub *lo, sub *
 static void ray_planes(const double d[3], double n1[3], double n2[3])
 {
     double a[3] = {0, 0, 0};
-    int k = fabs(d[0]) < fabs(d[1]) ? (fabs(d[0]) < fabs(d[2]) ? 0 : 2) : (fabs(d[1]) < fabs(d[2]) ? 1 : 2);
+    int k = fabs(d[0]) < fabs(d[1]) ? (fabs(d[0]) < fabs(d[2]) ? 0 : 2)
+                                    : (fabs(d[1]) < fabs(d[2]) ? 1 : 2);
     a[k] = 1;
     double t[3];
     crisp_vec3_cross(d, a, t);
@@ -197,7 +204,8 @@ static void polish(const crisp_bezier_patch *p, const double o[3], const double 
     for (int it = 0; it < 4 && r > 0; it++) {
         double P[3], Ps[3], Pt[3], d[3];
         crisp_bezier_patch_derivs(p, *s, *t, P, Ps, Pt);
-        for (int k = 0; k < 3; k++) d[k] = P[k] - o[k];
+        for (int k = 0; k < 3; k++)
+            d[k] = P[k] - o[k];
         double f1 = crisp_vec3_dot(n1, d), f2 = crisp_vec3_dot(n2, d);
         double a = crisp_vec3_dot(n1, Ps), b = crisp_vec3_dot(n1, Pt);
         double c = crisp_vec3_dot(n2, Ps), e = crisp_vec3_dot(n2, Pt);
@@ -206,7 +214,8 @@ static void polish(const crisp_bezier_patch *p, const double o[3], const double 
         double s1 = *s - (f1 * e - f2 * b) / det, t1 = *t - (a * f2 - c * f1) / det;
         if (!isfinite(s1) || !isfinite(t1)) return;
         crisp_bezier_patch_eval(p, s1, t1, P);
-        for (int k = 0; k < 3; k++) d[k] = P[k] - o[k];
+        for (int k = 0; k < 3; k++)
+            d[k] = P[k] - o[k];
         double r1 = fabs(crisp_vec3_dot(n1, d)) + fabs(crisp_vec3_dot(n2, d));
         if (!(r1 < r)) return;
         *s = s1, *t = t1, r = r1;
@@ -233,11 +242,14 @@ static int newton(const crisp_bezier_patch *p, const double o[3], const double n
         double ds = (f1 * e - f2 * b) / det, dt = (a * f2 - c * f1) / det;
         *s -= ds;
         *t -= dt;
-        if (!isfinite(*s) || !isfinite(*t) || *s < -0.5 || *s > 1.5 || *t < -0.5 || *t > 1.5) return 0;
+        if (!isfinite(*s) || !isfinite(*t) || *s < -0.5 || *s > 1.5 || *t < -0.5 || *t > 1.5)
+            return 0;
         if (fabs(ds) < 1e-15 && fabs(dt) < 1e-15) {
             crisp_bezier_patch_derivs(p, *s, *t, P, Ps, Pt);
-            for (int k = 0; k < 3; k++) d[k] = P[k] - o[k];
-            return fabs(crisp_vec3_dot(n1, d)) <= tol * 16 && fabs(crisp_vec3_dot(n2, d)) <= tol * 16;
+            for (int k = 0; k < 3; k++)
+                d[k] = P[k] - o[k];
+            return fabs(crisp_vec3_dot(n1, d)) <= tol * 16 &&
+                   fabs(crisp_vec3_dot(n2, d)) <= tol * 16;
         }
     }
     return 0;
@@ -250,7 +262,8 @@ static void add_hit(hit *hits, int *nh, const crisp_scene_patch *sp, uint32_t pi
     crisp_bezier_patch_eval(&sp->bez, s, t, P);
     double rt = (P[0] - o[0]) * d[0] + (P[1] - o[1]) * d[1] + (P[2] - o[2]) * d[2];
     for (int k = 0; k < *nh; k++)
-        if (hits[k].patch == pi && fabs(hits[k].local[0] - s) < 1e-7 && fabs(hits[k].local[1] - t) < 1e-7)
+        if (hits[k].patch == pi && fabs(hits[k].local[0] - s) < 1e-7 &&
+            fabs(hits[k].local[1] - t) < 1e-7)
             return;
     if (*nh >= MAX_HITS) return;
     hit *h = &hits[(*nh)++];
@@ -262,15 +275,17 @@ static void add_hit(hit *hits, int *nh, const crisp_scene_patch *sp, uint32_t pi
     h->v = sp->bez.v0 + t * (sp->bez.v1 - sp->bez.v0);
 }
 
-static void intersect_patch(const crisp_scene *sc, uint32_t pi, const double o[3], const double d[3],
-                            const double n1[3], const double n2[3], scratch *scr, hit *hits, int *nh)
+static void intersect_patch(const crisp_scene *sc, uint32_t pi, const double o[3],
+                            const double d[3], const double n1[3], const double n2[3], scratch *scr,
+                            hit *hits, int *nh)
 {
     const crisp_scene_patch *sp = &sc->patches[pi];
     const crisp_bezier_patch *p = &sp->bez;
     int nu = p->du + 1, nv = p->dv + 1;
     double o1 = crisp_vec3_dot(n1, o), o2 = crisp_vec3_dot(n2, o);
     double scale = 0;
-    for (int k = 0; k < 3; k++) scale = fmax(scale, sp->box[k + 3] - sp->box[k]);
+    for (int k = 0; k < 3; k++)
+        scale = fmax(scale, sp->box[k + 3] - sp->box[k]);
     scale = fmax(scale, fmax(fabs(o1), fabs(o2)) * 1e-3);
     double tol = 1e-12 * (scale + fabs(o1) + fabs(o2));
     int top = 0;
@@ -302,7 +317,8 @@ static void intersect_patch(const crisp_scene *sc, uint32_t pi, const double o[3
             if (ws <= MIN_SIZE && wt <= MIN_SIZE) {
                 /* Newton failed (a tangent ray): the sub-patch is below any pixel's size. */
                 if (hi0 - lo0 < 1e-9 * scale && hi1 - lo1 < 1e-9 * scale)
-                    add_hit(hits, nh, sp, pi, 0.5 * (cur->s0 + cur->s1), 0.5 * (cur->t0 + cur->t1), o, d);
+                    add_hit(hits, nh, sp, pi, 0.5 * (cur->s0 + cur->s1), 0.5 * (cur->t0 + cur->t1),
+                            o, d);
                 continue;
             }
         }
@@ -360,7 +376,8 @@ static int trace(const crisp_scene *sc, const bvh *b, const crisp_exact_desc *de
     for (int k = 0; k < nh; k++) {
         if (hits[k].t < tmin || hits[k].t > tmax) continue;
         uint32_t face = sc->patches[hits[k].patch].face;
-        if (desc && desc->classify && !desc->classify(desc->classify_ctx, sc, face, hits[k].u, hits[k].v))
+        if (desc && desc->classify &&
+            !desc->classify(desc->classify_ctx, sc, face, hits[k].u, hits[k].v))
             continue;
         *best = hits[k];
         return 1;
@@ -368,7 +385,8 @@ static int trace(const crisp_scene *sc, const bvh *b, const crisp_exact_desc *de
     return 0;
 }
 
-static void hit_outputs(const crisp_scene *sc, const hit *h, uint32_t *face, double uv[2], double normal[3])
+static void hit_outputs(const crisp_scene *sc, const hit *h, uint32_t *face, double uv[2],
+                        double normal[3])
 {
     const crisp_scene_patch *sp = &sc->patches[h->patch];
     if (face) *face = sp->face;
@@ -394,7 +412,8 @@ int crisp_exact_ray(const crisp_scene *sc, const crisp_exact_desc *desc, const d
     scratch *scr = malloc(sizeof *scr);
     int found = 0;
     hit h;
-    if (scr && bvh_build(sc, &b) == CRISP_OK) found = trace(sc, &b, desc, scr, o, d, tmin, tmax, &h);
+    if (scr && bvh_build(sc, &b) == CRISP_OK)
+        found = trace(sc, &b, desc, scr, o, d, tmin, tmax, &h);
     if (found) {
         if (t) *t = h.t;
         hit_outputs(sc, &h, face, uv, normal);
@@ -439,7 +458,8 @@ static void render_rows(void *vctx, size_t begin, size_t end, int worker)
             img->depth[px] = (float)(h.t * cosang);
             img->uv[2 * px] = (float)uv[0];
             img->uv[2 * px + 1] = (float)uv[1];
-            for (int k = 0; k < 3; k++) img->normal[3 * px + k] = (float)n[k];
+            for (int k = 0; k < 3; k++)
+                img->normal[3 * px + k] = (float)n[k];
             crisp__shade(c->sc->faces[face].color, n, d, img->rgba + 4 * px);
         }
 }

@@ -142,7 +142,8 @@ static void flush_hits(const frep_ctx *c, frep_worker *w)
     crisp_frep_subtape t = crisp_frep_cell_full(w->cell);
     int n = w->nhit;
     if (n == 0) return;
-    for (int k = n; k < LANES; k++) w->hx[k] = w->hx[0], w->hy[k] = w->hy[0], w->hz[k] = w->hz[0];
+    for (int k = n; k < LANES; k++)
+        w->hx[k] = w->hx[0], w->hy[k] = w->hy[0], w->hz[k] = w->hz[0];
     const float *g = crisp_frep_cell_grad(w->cell, t, w->hx, w->hy, w->hz);
     const part_view *pv = c->pv;
     int W = c->cam->width;
@@ -189,8 +190,7 @@ static void record_hit(const frep_ctx *c, frep_worker *w, int i, int j, double z
 
 /* The cell is inside everywhere: each open pixel's first inside depth is the cell's near one
  * (every nearer depth of its ray was shown outside or lies between two outside samples). */
-static void fill_cell(const frep_ctx *c, frep_worker *w, int i0, int j0, int i1, int j1,
-                      double z0)
+static void fill_cell(const frep_ctx *c, frep_worker *w, int i0, int j0, int i1, int j1, double z0)
 {
     for (int j = j0; j < j1; j++)
         for (int i = i0; i < i1; i++)
@@ -202,7 +202,8 @@ static void fill_cell(const frep_ctx *c, frep_worker *w, int i0, int j0, int i1,
 static const float *eval_batch(frep_worker *w, crisp_frep_subtape t, int m, float *x, float *y,
                                float *z)
 {
-    for (int k = m; k < LANES; k++) x[k] = x[0], y[k] = y[0], z[k] = z[0];
+    for (int k = m; k < LANES; k++)
+        x[k] = x[0], y[k] = y[0], z[k] = z[0];
     w->st.batches++;
     w->st.points += (size_t)m;
     w->st.tape_sum += t.length;
@@ -226,13 +227,15 @@ static int trial_depths(double a, double b, float fa, float fb, int e, int round
     if (round == 0 && !(fa == fa)) {
         /* f(a) unknown (a nearer cell sampled it): evaluate it with an even multisection */
         dest[n++] = a;
-        for (int d = 1; d < e; d++) dest[n++] = a + (b - a) * d / e;
+        for (int d = 1; d < e; d++)
+            dest[n++] = a + (b - a) * d / e;
         return n;
     }
     int secant = isfinite(fa) && isfinite(fb) && fa > fb;
     double s = secant ? (double)fa / ((double)fa - (double)fb) : 0.5;
     if (e < 4) {
-        if (fa == 0) s = 1.0 / 16; /* f(a) = 0: the sign changes just after a (the secant's 0 stalls) */
+        if (fa == 0)
+            s = 1.0 / 16; /* f(a) = 0: the sign changes just after a (the secant's 0 stalls) */
         if (slow) s = 0.5;
         s = s < 0x1p-20 ? 0x1p-20 : s > 1 - 0x1p-20 ? 1 - 0x1p-20 : s;
         dest[0] = a + (b - a) * s;
@@ -241,7 +244,8 @@ static int trial_depths(double a, double b, float fa, float fb, int e, int round
     int pairs = secant ? (e >= 8 ? 3 : e >= 6 ? 2 : 1) : 0;
     int even = e - 2 * pairs;
     double t[MAX_SECTIONS];
-    for (int d = 1; d <= even; d++) t[n++] = (double)d / (even + 1);
+    for (int d = 1; d <= even; d++)
+        t[n++] = (double)d / (even + 1);
     for (int k = 1; k <= pairs; k++) {
         double g = ldexp(0.5, -6 * k);
         double c = s < g ? g : s > 1 - g ? 1 - g : s;
@@ -253,7 +257,8 @@ static int trial_depths(double a, double b, float fa, float fb, int e, int round
             double tmp = t[j];
             t[j] = t[j - 1], t[j - 1] = tmp;
         }
-    for (int i = 0; i < n; i++) dest[i] = a + (b - a) * t[i];
+    for (int i = 0; i < n; i++)
+        dest[i] = a + (b - a) * t[i];
     return n;
 }
 
@@ -325,7 +330,8 @@ static void leaf(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, int i0
             } else {
                 last[q] = v[k];
                 if (k + 1 == m || lane_q[k + 1] != q) {
-                    next[q] = lane_k[k] + 1; /* every sample of this pixel in the batch was outside */
+                    next[q] =
+                        lane_k[k] + 1; /* every sample of this pixel in the batch was outside */
                     if (next[q] > count[q]) {
                         state[q] = PX_DONE;
                         open--;
@@ -336,7 +342,8 @@ static void leaf(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, int i0
     }
     /* root search in each bracket [a, b] (f(a) not < 0, f(b) < 0) down to float precision */
     int pending = 0;
-    for (int q = 0; q < np; q++) pending += state[q] == PX_BRACKET;
+    for (int q = 0; q < np; q++)
+        pending += state[q] == PX_BRACKET;
     for (int round = 0; pending > 0; round++) {
         int each = LANES / pending, m = 0;
         if (each > MAX_SECTIONS) each = MAX_SECTIONS;
@@ -354,7 +361,8 @@ static void leaf(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, int i0
         w->st.root_batches++;
         for (int k = 0; k < m;) {
             int q = lane_q[k], e = k;
-            while (e < m && lane_q[e] == q) e++;
+            while (e < m && lane_q[e] == q)
+                e++;
             double a = ba[q], b = bb[q];
             int hit = -1;
             for (int s = k; s < e && hit < 0; s++)
@@ -394,8 +402,7 @@ static void solve_cell(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, 
     double zmax = 0;
     for (int j = j0; j < j1; j++)
         for (int i = i0; i < i1; i++)
-            if (!w->done[(j - w->j0) * TILE + (i - w->i0)])
-            {
+            if (!w->done[(j - w->j0) * TILE + (i - w->i0)]) {
                 double lim = pixel_limit(c, (size_t)j * c->cam->width + i);
                 zmax = lim > zmax ? lim : zmax;
             }
@@ -519,7 +526,8 @@ crisp_status crisp_render_frep_parts(const crisp_frep_part *parts, size_t count,
     if ((st = crisp_pool_get(threads, &pool))) return st; /* kept by crisp: no threads per call */
     threads = crisp_pool_threads(pool);
     c.workers = crisp_calloc_array((size_t)threads, sizeof *c.workers);
-    if (!c.workers) return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_render_frep_parts: out of memory");
+    if (!c.workers)
+        return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_render_frep_parts: out of memory");
     for (size_t k = 0; k < count && !st; k++) {
         part_view pv;
         if ((st = part_view_init(&parts[k], k, cam, &c, &pv))) break;

@@ -28,13 +28,16 @@ struct crisp__groups {
     uint8_t *face_small; /* per face, this frame: the whole (untrimmed) face within eps on screen */
 };
 
-static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const crisp_scene_face *f, uint32_t iu0,
-                                uint32_t iu1, uint32_t iv0, uint32_t iv1, int32_t *dest)
+static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const crisp_scene_face *f,
+                                uint32_t iu0, uint32_t iu1, uint32_t iv0, uint32_t iv1,
+                                int32_t *dest)
 {
-    crisp_status st = crisp_grow((void **)&g->nodes, &g->node_cap, g->node_count + 1, sizeof *g->nodes);
+    crisp_status st =
+        crisp_grow((void **)&g->nodes, &g->node_cap, g->node_count + 1, sizeof *g->nodes);
     if (st) return st;
     int32_t me = (int32_t)g->node_count++;
-    group n = {iu0, iu1, iv0, iv1, {-1, -1}, {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY}};
+    group n = {iu0, iu1,      iv0,
+               iv1, {-1, -1}, {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY}};
     if (iu0 == iu1 && iv0 == iv1) {
         const double *b = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].box;
         memcpy(n.box, b, sizeof n.box);
@@ -92,7 +95,8 @@ static uint64_t scene_key(const crisp_scene *sc)
             h = (h ^ w) * 1099511628211ull;
         }
     for (uint32_t f = 0; f < sc->face_count; f++)
-        h = (h ^ ((uint64_t)sc->faces[f].grid_u << 32 ^ sc->faces[f].grid_v ^ (uint64_t)sc->faces[f].first_patch << 16)) *
+        h = (h ^ ((uint64_t)sc->faces[f].grid_u << 32 ^ sc->faces[f].grid_v ^
+                  (uint64_t)sc->faces[f].first_patch << 16)) *
             1099511628211ull;
     return h;
 }
@@ -100,7 +104,8 @@ static uint64_t scene_key(const crisp_scene *sc)
 static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
 {
     uint64_t key = scene_key(sc);
-    if (g->scene == sc && g->key == key && g->patch_count == sc->patch_count && g->face_count == sc->face_count)
+    if (g->scene == sc && g->key == key && g->patch_count == sc->patch_count &&
+        g->face_count == sc->face_count)
         return CRISP_OK;
     g->key = key;
     g->scene = NULL;
@@ -109,7 +114,8 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
     free(g->face_small);
     g->face_root = malloc((sc->face_count ? sc->face_count : 1) * sizeof *g->face_root);
     g->face_small = calloc(sc->face_count ? sc->face_count : 1, 1);
-    if (!g->face_root || !g->face_small) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
+    if (!g->face_root || !g->face_small)
+        return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
     for (uint32_t f = 0; f < sc->face_count; f++) {
         const crisp_scene_face *sf = &sc->faces[f];
         g->face_root[f] = UINT32_MAX;
@@ -127,7 +133,8 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
 
 /* 1: the box is outside one (widened) frustum plane; 2: in front of the eye and within eps
  * pixels on screen; 0: neither. */
-static int classify(const double *box, crisp_mat4 m, double gx, double gy, int width, int height, double eps)
+static int classify(const double *box, crisp_mat4 m, double gx, double gy, int width, int height,
+                    double eps)
 {
     int out[6] = {1, 1, 1, 1, 1, 1}, front = 1;
     double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
@@ -168,7 +175,8 @@ typedef struct walk_ctx {
 static void set_mode(const crisp_scene_face *f, const group *n, uint8_t mode, uint8_t *dest)
 {
     for (uint32_t iv = n->iv0; iv <= n->iv1; iv++)
-        for (uint32_t iu = n->iu0; iu <= n->iu1; iu++) dest[f->first_patch + iv * f->grid_u + iu] = mode;
+        for (uint32_t iu = n->iu0; iu <= n->iu1; iu++)
+            dest[f->first_patch + iv * f->grid_u + iu] = mode;
 }
 
 static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
@@ -180,7 +188,8 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
         uint32_t root = c->g->face_root[fi];
         c->g->face_small[fi] = 0;
         if (root == UINT32_MAX) {
-            for (uint32_t p = 0; p < f->patch_count; p++) c->mode[f->first_patch + p] = CRISP__PATCH_OPEN;
+            for (uint32_t p = 0; p < f->patch_count; p++)
+                c->mode[f->first_patch + p] = CRISP__PATCH_OPEN;
             continue;
         }
         int32_t stack[64];
@@ -191,20 +200,32 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
             const group *n = &c->g->nodes[at];
             int k = classify(n->box, c->m, c->gx, c->gy, c->width, c->height, c->eps);
             if ((uint32_t)at == root && k == 2) c->g->face_small[fi] = 1;
-            if (k == 1) set_mode(f, n, CRISP__PATCH_CULLED, c->mode);
-            else if (k == 2) set_mode(f, n, CRISP__PATCH_SMALL, c->mode);
-            else if (n->child[0] < 0 || top + 2 > 64) set_mode(f, n, CRISP__PATCH_OPEN, c->mode);
-            else stack[top++] = n->child[1], stack[top++] = n->child[0];
+            if (k == 1)
+                set_mode(f, n, CRISP__PATCH_CULLED, c->mode);
+            else if (k == 2)
+                set_mode(f, n, CRISP__PATCH_SMALL, c->mode);
+            else if (n->child[0] < 0 || top + 2 > 64)
+                set_mode(f, n, CRISP__PATCH_OPEN, c->mode);
+            else
+                stack[top++] = n->child[1], stack[top++] = n->child[0];
         }
     }
 }
 
-crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj, int width,
-                                    int height, double gx, double gy, double eps, crisp_pool *pool, uint8_t *mode)
+crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj,
+                                    int width, int height, double gx, double gy, double eps,
+                                    crisp_pool *pool, uint8_t *mode)
 {
     crisp_status st = ensure_built(g, sc);
     if (st) return st;
-    walk_ctx c = {.g = g, .sc = sc, .gx = gx, .gy = gy, .eps = eps, .width = width, .height = height, .mode = mode};
+    walk_ctx c = {.g = g,
+                  .sc = sc,
+                  .gx = gx,
+                  .gy = gy,
+                  .eps = eps,
+                  .width = width,
+                  .height = height,
+                  .mode = mode};
     crisp_mat4_copy(view_proj, c.m);
     crisp_pool_parallel_for(pool, sc->face_count, 4, walk_faces, &c);
     return CRISP_OK;

@@ -33,13 +33,15 @@ _Static_assert(offsetof(crisp_plan_strip, row_scale) == 8, "strip.row_scale");
 _Static_assert(offsetof(crisp_plan_strip, first_row) == 16, "strip.first_row");
 _Static_assert(offsetof(crisp_plan_strip, row_count) == 20, "strip.row_count");
 
-_Static_assert(sizeof(crisp_plan_ribbon_vertex) == 56, "crisp_plan_ribbon_vertex: dvec4 + 6 x 32-bit");
+_Static_assert(sizeof(crisp_plan_ribbon_vertex) == 56,
+               "crisp_plan_ribbon_vertex: dvec4 + 6 x 32-bit");
 _Static_assert(offsetof(crisp_plan_ribbon_vertex, clip) == 0, "ribbon.clip");
 _Static_assert(offsetof(crisp_plan_ribbon_vertex, uv) == 32, "ribbon.uv");
 _Static_assert(offsetof(crisp_plan_ribbon_vertex, normal) == 40, "ribbon.normal");
 _Static_assert(offsetof(crisp_plan_ribbon_vertex, face) == 52, "ribbon.face");
 
-_Static_assert(sizeof(crisp_scene_patch_record) == 48, "crisp_scene_patch_record: 4 uints + 4 doubles");
+_Static_assert(sizeof(crisp_scene_patch_record) == 48,
+               "crisp_scene_patch_record: 4 uints + 4 doubles");
 _Static_assert(offsetof(crisp_scene_patch_record, first_cp) == 0, "patch.first_cp");
 _Static_assert(offsetof(crisp_scene_patch_record, face) == 12, "patch.face");
 _Static_assert(offsetof(crisp_scene_patch_record, u0) == 16, "patch.u0");

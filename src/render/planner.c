@@ -39,7 +39,8 @@ struct crisp_planner {
     int planned;
 };
 
-crisp_status crisp_planner_create(const crisp_planner_desc *desc, crisp_pool *pool, crisp_planner **dest)
+crisp_status crisp_planner_create(const crisp_planner_desc *desc, crisp_pool *pool,
+                                  crisp_planner **dest)
 {
     if (desc && (desc->eps_px < 0 || !(desc->eps_px == desc->eps_px)))
         return crisp_error(CRISP_ERR_INVALID_ARG, "planner eps_px %g: expected > 0 (or 0 for 0.5)",
@@ -90,7 +91,8 @@ static uint64_t hash_bytes(const void *data, size_t bytes)
         memcpy(&w, b + k, 8);
         h = (h ^ w) * 1099511628211ull;
     }
-    for (; k < bytes; k++) h = (h ^ b[k]) * 1099511628211ull;
+    for (; k < bytes; k++)
+        h = (h ^ b[k]) * 1099511628211ull;
     return h;
 }
 
@@ -100,8 +102,10 @@ static crisp_status lay_out_leaves(crisp_planner *p, const crisp_scene *sc)
 {
     const crisp__trees *t = p->trees;
     size_t n = 0;
-    for (uint32_t q = 0; q < sc->patch_count; q++) n += t->patches[q].visible_leaves;
-    if (n > UINT32_MAX / 2) return crisp_error(CRISP_ERR_LIMIT, "%zu leaves in one frame: too many", n);
+    for (uint32_t q = 0; q < sc->patch_count; q++)
+        n += t->patches[q].visible_leaves;
+    if (n > UINT32_MAX / 2)
+        return crisp_error(CRISP_ERR_LIMIT, "%zu leaves in one frame: too many", n);
     crisp_status st = crisp_grow((void **)&p->leaves, &p->leaf_cap, n ? n : 1, sizeof *p->leaves);
     if (st) return st;
     uint64_t triangles = 0;
@@ -117,10 +121,17 @@ static crisp_status lay_out_leaves(crisp_planner *p, const crisp_scene *sc)
                 const crisp__cell *c = &pt->leaves[l];
                 if (c->culled) continue;
                 crisp_plan_leaf *L = &p->leaves[at++];
-                *L = (crisp_plan_leaf){.patch = q, .face = f, .depth = c->depth, .tau = c->tau,
-                                       .ix = c->ix, .iy = c->iy};
-                for (int k = 0; k < 4; k++) L->edge[k] = c->edge[k];
-                crisp_tess_levels lv = {{c->tau, c->tau}, {(int)c->edge[0], (int)c->edge[1], (int)c->edge[2], (int)c->edge[3]}};
+                *L = (crisp_plan_leaf){.patch = q,
+                                       .face = f,
+                                       .depth = c->depth,
+                                       .tau = c->tau,
+                                       .ix = c->ix,
+                                       .iy = c->iy};
+                for (int k = 0; k < 4; k++)
+                    L->edge[k] = c->edge[k];
+                crisp_tess_levels lv = {
+                    {c->tau, c->tau},
+                    {(int)c->edge[0], (int)c->edge[1], (int)c->edge[2], (int)c->edge[3]}};
                 size_t nv, nt;
                 if (!crisp_tess_mesh_counts(&lv, &nv, &nt)) triangles += nt;
             }
@@ -147,10 +158,11 @@ static crisp_status lay_out_tables(crisp_planner *p, const crisp_scene *sc)
         crossings += tb->row_count ? tb->row_offset[tb->row_count] : 0;
     }
     if (rows >= UINT32_MAX || crossings >= UINT32_MAX || strips >= UINT32_MAX)
-        return crisp_error(CRISP_ERR_LIMIT, "trim tables of %zu rows and %zu crossings: too large", rows,
-                           crossings);
+        return crisp_error(CRISP_ERR_LIMIT, "trim tables of %zu rows and %zu crossings: too large",
+                           rows, crossings);
     crisp_status st;
-    if ((st = crisp_grow((void **)&p->strips, &p->strip_cap, strips ? strips : 1, sizeof *p->strips)) ||
+    if ((st = crisp_grow((void **)&p->strips, &p->strip_cap, strips ? strips : 1,
+                         sizeof *p->strips)) ||
         (st = crisp_grow((void **)&p->row_offset, &p->row_cap, rows + 1, sizeof *p->row_offset)) ||
         (st = crisp_grow((void **)&p->crossings, &p->crossing_cap, crossings ? crossings : 1,
                          sizeof *p->crossings)))
@@ -199,8 +211,10 @@ static crisp_status ensure_faces(crisp_planner *p, uint32_t faces)
     crisp_status st;
     size_t n = faces ? faces : 1;
     if ((st = crisp_grow((void **)&p->faces, &p->face_cap, n, sizeof *p->faces)) ||
-        (st = crisp_grow((void **)&p->ribbon_first, &p->ribbon_first_cap, n, sizeof *p->ribbon_first)) ||
-        (st = crisp_grow((void **)&p->ribbon_quads, &p->ribbon_quads_cap, n, sizeof *p->ribbon_quads)) ||
+        (st = crisp_grow((void **)&p->ribbon_first, &p->ribbon_first_cap, n,
+                         sizeof *p->ribbon_first)) ||
+        (st = crisp_grow((void **)&p->ribbon_quads, &p->ribbon_quads_cap, n,
+                         sizeof *p->ribbon_quads)) ||
         (st = crisp_grow((void **)&p->strips_used, &p->strips_used_cap, n, sizeof *p->strips_used)))
         return st;
     return CRISP_OK;
@@ -229,7 +243,8 @@ static void publish(crisp_planner *p, const crisp_scene *sc)
             3 * hash_bytes(p->row_offset, (o->row_count + 1) * sizeof *p->row_offset) ^
             7 * hash_bytes(p->crossings, o->crossing_count * sizeof *p->crossings),
         hash_bytes(p->ribbon_verts, 4 * (size_t)o->ribbon_quad_count * sizeof *p->ribbon_verts)};
-    uint64_t *version[4] = {&o->leaves_version, &o->faces_version, &o->table_version, &o->ribbons_version};
+    uint64_t *version[4] = {&o->leaves_version, &o->faces_version, &o->table_version,
+                            &o->ribbons_version};
     for (int k = 0; k < 4; k++)
         if (!p->planned || h[k] != p->hash[k]) {
             (*version[k])++;
@@ -245,7 +260,8 @@ static void publish(crisp_planner *p, const crisp_scene *sc)
 crisp_status crisp_planner_plan(crisp_planner *p, const crisp_scene *sc, const crisp_camera *cam,
                                 const crisp_frame_plan **dest)
 {
-    crisp__trees_desc td = {.eps_px = p->desc.eps_px, .strip_count = p->desc.strip_count,
+    crisp__trees_desc td = {.eps_px = p->desc.eps_px,
+                            .strip_count = p->desc.strip_count,
                             .max_depth = p->desc.max_depth};
     crisp_status st = crisp__trees_build(p->trees, sc, cam, &td, p->pool);
     if (st) return st;
@@ -263,12 +279,14 @@ crisp_status crisp_planner_plan(crisp_planner *p, const crisp_scene *sc, const c
     memset(p->ribbon_first, 0, sc->face_count * sizeof *p->ribbon_first);
     if (!p->desc.no_ribbons && sc->face_count &&
         (st = crisp__ribbons_build(p->ribbons, p->trees, sc, UINT32_MAX, p->pool, &p->ribbon_verts,
-                                   &p->ribbon_cap, p->ribbon_first, p->ribbon_quads, &o->ribbon_quad_count)))
+                                   &p->ribbon_cap, p->ribbon_first, p->ribbon_quads,
+                                   &o->ribbon_quad_count)))
         return st;
     double t1 = crisp_time_now();
     crisp_mat4_copy(p->trees->view_proj, o->view_proj);
     for (int c = 0; c < 4; c++)
-        for (int r = 0; r < 4; r++) o->view_proj_f[4 * c + r] = (float)o->view_proj[c][r];
+        for (int r = 0; r < 4; r++)
+            o->view_proj_f[4 * c + r] = (float)o->view_proj[c][r];
     memcpy(o->eye, cam->eye, sizeof o->eye);
     o->width = cam->width;
     o->height = cam->height;
@@ -287,10 +305,12 @@ crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, 
                                        const crisp_frame_plan **dest)
 {
     if (!p->planned || p->scene != sc)
-        return crisp_error(CRISP_ERR_INVALID_ARG,
-                           "re-planning face %u: plan the whole scene with crisp_planner_plan first", face);
+        return crisp_error(
+            CRISP_ERR_INVALID_ARG,
+            "re-planning face %u: plan the whole scene with crisp_planner_plan first", face);
     if (face >= sc->face_count)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", face, sc->face_count);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", face,
+                           sc->face_count);
     double t0 = crisp_time_now();
     crisp_status st = crisp__trees_replan_trim(p->trees, sc, face, p->strips_used[face]);
     if (st) return st;
@@ -306,13 +326,17 @@ crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, 
         uint32_t old_first = p->ribbon_first[face], old_count = p->ribbon_quads[face];
         size_t after = o->ribbon_quad_count - (old_first + old_count);
         size_t n = (size_t)o->ribbon_quad_count - old_count + total;
-        if ((st = crisp_grow((void **)&p->ribbon_verts, &p->ribbon_cap, 4 * (n ? n : 1), sizeof *p->ribbon_verts)))
+        if ((st = crisp_grow((void **)&p->ribbon_verts, &p->ribbon_cap, 4 * (n ? n : 1),
+                             sizeof *p->ribbon_verts)))
             return st;
         memmove(p->ribbon_verts + 4 * ((size_t)old_first + total),
-                p->ribbon_verts + 4 * ((size_t)old_first + old_count), 4 * after * sizeof *p->ribbon_verts);
-        memcpy(p->ribbon_verts + 4 * (size_t)old_first, p->face_ribbon, 4 * (size_t)total * sizeof *p->face_ribbon);
+                p->ribbon_verts + 4 * ((size_t)old_first + old_count),
+                4 * after * sizeof *p->ribbon_verts);
+        memcpy(p->ribbon_verts + 4 * (size_t)old_first, p->face_ribbon,
+               4 * (size_t)total * sizeof *p->face_ribbon);
         for (uint32_t f = 0; f < sc->face_count; f++)
-            if (p->ribbon_first[f] > old_first) p->ribbon_first[f] = p->ribbon_first[f] - old_count + total;
+            if (p->ribbon_first[f] > old_first)
+                p->ribbon_first[f] = p->ribbon_first[f] - old_count + total;
         p->ribbon_quads[face] = total;
         o->ribbon_quad_count = (uint32_t)n;
     }
@@ -358,7 +382,8 @@ size_t crisp_plan_bytes(const crisp_frame_plan *plan)
     return (size_t)plan->leaf_count * sizeof(crisp_plan_leaf) +
            (size_t)plan->face_count * sizeof(crisp_plan_face) +
            (size_t)plan->strip_count * sizeof(crisp_plan_strip) +
-           ((size_t)plan->row_count + 1) * sizeof(uint32_t) + (size_t)plan->crossing_count * sizeof(double) +
+           ((size_t)plan->row_count + 1) * sizeof(uint32_t) +
+           (size_t)plan->crossing_count * sizeof(double) +
            4 * (size_t)plan->ribbon_quad_count * sizeof(crisp_plan_ribbon_vertex);
 }
 

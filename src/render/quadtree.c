@@ -1,12 +1,13 @@
-/* The frame planner (docs/design.md sections 2 and 4; Wu & Peters 2015): for one camera, which patches
- * are visible, the tess level of each from its screen-space SLEFE, crack-free edge levels, and
- * each visible face's trim plan (v-scan density bound, trim polylines, u-intercept table).
+/* The frame planner (docs/design.md sections 2 and 4; Wu & Peters 2015): for one camera, which
+ * patches are visible, the tess level of each from its screen-space SLEFE, crack-free edge levels,
+ * and each visible face's trim plan (v-scan density bound, trim polylines, u-intercept table).
  *
  * Per patch, a quadtree of sub-patches ("leaves"): a patch (or sub-patch) is split in four while
  * its screen SLEFE cannot be formed (it reaches the eye plane, W <= 0) or its level exceeds 64.
  * The level is the smallest tau whose sound screen-space error bound (SLEFE of the clip-space
- * patch plus the triangle twist term, crisp_slefe_patch_tess_level) is within eps. Sub-patches whose homogeneous control points all lie
- * outside one frustum plane are culled (convex hull property in clip space).
+ * patch plus the triangle twist term, crisp_slefe_patch_tess_level) is within eps. Sub-patches
+ * whose homogeneous control points all lie outside one frustum plane are culled (convex hull
+ * property in clip space).
  *
  * Edge levels. Leaves meet leaves of the same patch and, along patch boundaries, leaves of the
  * neighbouring patches of the same face. Of two leaves that share an edge the coarser one owns
@@ -163,8 +164,10 @@ static size_t forced_lower(const crisp__forced *f, size_t n, const crisp__forced
     size_t lo = 0, hi = n;
     while (lo < hi) {
         size_t mid = lo + (hi - lo) / 2;
-        if (forced_cmp(&f[mid], key) < 0) lo = mid + 1;
-        else hi = mid;
+        if (forced_cmp(&f[mid], key) < 0)
+            lo = mid + 1;
+        else
+            hi = mid;
     }
     return lo;
 }
@@ -185,8 +188,10 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
     const tree_ctx *c = b->c;
     double sz = ldexp(1.0, -depth);
     crisp_bezier_patch sub;
-    crisp__subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, b->storage[0], b->storage[1], &sub);
-    crisp__cell leaf = {.ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
+    crisp__subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, b->storage[0],
+                    b->storage[1], &sub);
+    crisp__cell leaf = {
+        .ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
     int split = 0;
     if (!outside_frustum(&sub, c->plan->view_proj, c->gx, c->gy)) {
         int tau = 0;
@@ -194,13 +199,15 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
          * hull_extent_px). */
         double hull = hull_extent_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height);
         int box_split = box && hull > c->eps && depth < c->plan->max_depth;
-        crisp_status st = hull <= c->eps || box_split
-                              ? CRISP_OK
-                              : crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
+        crisp_status st =
+            hull <= c->eps || box_split
+                ? CRISP_OK
+                : crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
         if (hull <= c->eps) tau = 1;
         if (box_split) {
             st = CRISP_ERR_NUMERIC; /* split again (below) */
-        } else if (!st && tau > 1 && tau <= CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth && isfinite(hull)) {
+        } else if (!st && tau > 1 && tau <= CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth &&
+                   isfinite(hull)) {
             /* Where the SLEFE bound asks for many more triangles than splitting until the
              * pieces' hulls are within eps would give (4^k leaves of 2 triangles for k halvings:
              * the hull shrinks about 2x per halving; a leaf costs the planner and the backend
@@ -216,8 +223,10 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
         if (st == CRISP_ERR_NUMERIC) {
             /* The sub-patch reaches the eye plane: split, and at the depth limit drop what is
              * left (a sliver of 2^-max_depth of the patch at the eye). */
-            if (depth < c->plan->max_depth) split = 1;
-            else b->pp->unresolved++;
+            if (depth < c->plan->max_depth)
+                split = 1;
+            else
+                b->pp->unresolved++;
         } else if (st) {
             b->st = st;
             return;
@@ -232,7 +241,8 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
                 leaf.tau = (uint16_t)tau;
                 leaf.culled = 0;
                 if (depth < c->plan->max_depth &&
-                    (too_large_on_screen(&sub, c->plan->view_proj, c->plan->width, c->plan->height) ||
+                    (too_large_on_screen(&sub, c->plan->view_proj, c->plan->width,
+                                         c->plan->height) ||
                      is_forced(b, b->patch, depth, ix, iy)))
                     split = 1;
             }
@@ -257,7 +267,8 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
         if (k == 0) first = ch;
     }
     b->pp->nodes[node].child = first;
-    for (int k = 0; k < 4; k++) build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), box);
+    for (int k = 0; k < 4; k++)
+        build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), box);
 }
 
 /* Items [begin, end) of the patch list (every patch, or the redo list), nodes and leaves in
@@ -294,13 +305,16 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
             /* Decided by its group: outside the frustum, or within eps on screen (tau 1). */
             crisp__cell leaf = {.tau = 1, .culled = mode == CRISP__PATCH_CULLED};
             int32_t li = push_leaf(b, &leaf);
-            if (li < 0) b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
-            else pp->nodes[root].leaf = li;
+            if (li < 0)
+                b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
+            else
+                pp->nodes[root].leaf = li;
         } else {
             build_cell(b, root, 0, 0, 0, 0);
         }
         if (b->st) plan->worker_status[worker] = b->st;
-        for (uint32_t l = 0; l < pp->leaf_count; l++) pp->visible_leaves += !pp->leaves[l].culled;
+        for (uint32_t l = 0; l < pp->leaf_count; l++)
+            pp->visible_leaves += !pp->leaves[l].culled;
     }
 }
 
@@ -370,7 +384,8 @@ static int across(const crisp__trees *plan, const crisp_scene *sc, uint32_t p, c
     if (nx < 0 || ny < 0 || nx >= n || ny >= n) {
         const crisp_scene_patch *sp = &sc->patches[p];
         const crisp_scene_face *f = &sc->faces[sp->face];
-        int64_t iu = (int64_t)sp->iu + (nx >= n) - (nx < 0), iv = (int64_t)sp->iv + (ny >= n) - (ny < 0);
+        int64_t iu = (int64_t)sp->iu + (nx >= n) - (nx < 0),
+                iv = (int64_t)sp->iv + (ny >= n) - (ny < 0);
         if (f->closed_u) iu = (iu + f->grid_u) % f->grid_u;
         if (f->closed_v) iv = (iv + f->grid_v) % f->grid_v;
         if (iu < 0 || iv < 0 || iu >= f->grid_u || iv >= f->grid_v) {
@@ -381,7 +396,8 @@ static int across(const crisp__trees *plan, const crisp_scene *sc, uint32_t p, c
         nx = (nx + n) % n;
         ny = (ny + n) % n;
     }
-    return leaves_at(&plan->patches[q], d, (uint32_t)nx, (uint32_t)ny, (side + 2) % 4, out, cap, total);
+    return leaves_at(&plan->patches[q], d, (uint32_t)nx, (uint32_t)ny, (side + 2) % 4, out, cap,
+                     total);
 }
 
 /* Level of the edge `side` of leaf L when L owns it (every leaf across is at least as fine). */
@@ -389,7 +405,8 @@ static uint32_t owner_level(const crisp__cell *L, const crisp__cell *const *nb, 
 {
     /* Vertex density in units of the finest depth: tau * 2^(dmax - d) per 2^-dmax of length. */
     int dmax = L->depth;
-    for (int k = 0; k < count; k++) dmax = nb[k]->depth > dmax ? nb[k]->depth : dmax;
+    for (int k = 0; k < count; k++)
+        dmax = nb[k]->depth > dmax ? nb[k]->depth : dmax;
     uint64_t dens = (uint64_t)L->tau << (dmax - L->depth);
     for (int k = 0; k < count; k++) {
         uint64_t dk = (uint64_t)nb[k]->tau << (dmax - nb[k]->depth);
@@ -433,8 +450,9 @@ static void edge_levels(void *vctx, size_t begin, size_t end, int worker)
                         uint32_t nside = (uint32_t)((side + 2) % 4);
                         const crisp_scene_patch *sp = &c->sc->patches[p];
                         uint32_t cells = 1u << L->depth;
-                        int leaves_patch = (side == 1 && L->ix + 1 == cells) || (side == 3 && L->ix == 0) ||
-                                           (side == 2 && L->iy + 1 == cells) || (side == 0 && L->iy == 0);
+                        int leaves_patch =
+                            (side == 1 && L->ix + 1 == cells) || (side == 3 && L->ix == 0) ||
+                            (side == 2 && L->iy + 1 == cells) || (side == 0 && L->iy == 0);
                         if (leaves_patch) {
                             const crisp_scene_face *f = &c->sc->faces[sp->face];
                             int64_t iu = (int64_t)sp->iu + (side == 1) - (side == 3);
@@ -484,7 +502,8 @@ static crisp_status split_high_levels(crisp__trees *plan, const crisp_scene *sc,
                 plan->forced[plan->forced_count++] = (crisp__forced){p, L->depth, L->ix, L->iy};
                 added++;
                 if (!marked) {
-                    if ((st = crisp_grow((void **)&plan->redo, &plan->redo_cap, redo + 1, sizeof *plan->redo)))
+                    if ((st = crisp_grow((void **)&plan->redo, &plan->redo_cap, redo + 1,
+                                         sizeof *plan->redo)))
                         return st;
                     plan->redo[redo++] = p;
                     marked = 1;
@@ -516,14 +535,16 @@ static crisp_status split_high_levels(crisp__trees *plan, const crisp_scene *sc,
     return CRISP_OK;
 }
 
-/* ---- the plan ---------------------------------------------------------------------------------- */
+/* ---- the plan ----------------------------------------------------------------------------------
+ */
 
 crisp_status crisp__trees_create(crisp__trees **dest)
 {
     crisp__trees *p = calloc(1, sizeof *p);
     if (!p) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating a frame plan");
     crisp_status st = crisp__groups_create(&p->groups);
-    for (int k = 0; !st && k < TREE_CHUNKS; k++) st = crisp_arena_create(1 << 16, &p->chunk_arenas[k]);
+    for (int k = 0; !st && k < TREE_CHUNKS; k++)
+        st = crisp_arena_create(1 << 16, &p->chunk_arenas[k]);
     if (st) {
         crisp__trees_destroy(p);
         return st;
@@ -547,8 +568,10 @@ void crisp__trees_destroy(crisp__trees *p)
     free(p->redo);
     crisp__groups_destroy(p->groups);
     free(p->patch_mode);
-    for (int k = 0; k < TREE_CHUNKS; k++) crisp_arena_destroy(p->chunk_arenas[k]);
-    for (uint32_t f = 0; f < p->face_cap; f++) crisp_trim_plan_free(&p->trims[f]);
+    for (int k = 0; k < TREE_CHUNKS; k++)
+        crisp_arena_destroy(p->chunk_arenas[k]);
+    for (uint32_t f = 0; f < p->face_cap; f++)
+        crisp_trim_plan_free(&p->trims[f]);
     free(p->trims);
     free(p->face_tau);
     free(p);
@@ -613,10 +636,12 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             tp->polyline.piece_count = 0;
             tp->v0 = sf->domain[2];
             tp->v1 = sf->domain[3];
-            crisp_status st = crisp_trim_table_build(
-                &(crisp_trim_table_desc){.polyline = NULL, .v0 = sf->domain[2], .v1 = sf->domain[3], .strip_count = 1,
-                                         .mu = &no_rows},
-                &tp->table);
+            crisp_status st = crisp_trim_table_build(&(crisp_trim_table_desc){.polyline = NULL,
+                                                                              .v0 = sf->domain[2],
+                                                                              .v1 = sf->domain[3],
+                                                                              .strip_count = 1,
+                                                                              .mu = &no_rows},
+                                                     &tp->table);
             if (st) c->status[worker] = st;
             continue;
         }
@@ -641,7 +666,7 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
 }
 
 crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const crisp_camera *cam,
-                              const crisp__trees_desc *desc, crisp_pool *pool)
+                                const crisp__trees_desc *desc, crisp_pool *pool)
 {
     crisp_status st = crisp_camera_check(cam);
     if (st) return st;
@@ -650,11 +675,12 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
     if ((st = ensure_workers(plan, workers))) return st;
     for (int w = 0; w < workers; w++) {
         crisp_arena_reset(plan->arenas[w]);
-    for (int k = 0; k < TREE_CHUNKS; k++) crisp_arena_reset(plan->chunk_arenas[k]);
+        for (int k = 0; k < TREE_CHUNKS; k++)
+            crisp_arena_reset(plan->chunk_arenas[k]);
         plan->worker_status[w] = CRISP_OK;
     }
-    if ((st = crisp_grow((void **)&plan->patches, &plan->patch_cap, sc->patch_count ? sc->patch_count : 1,
-                         sizeof *plan->patches)))
+    if ((st = crisp_grow((void **)&plan->patches, &plan->patch_cap,
+                         sc->patch_count ? sc->patch_count : 1, sizeof *plan->patches)))
         return st;
     if (sc->face_count > plan->face_cap) {
         crisp_trim_plan *t = realloc(plan->trims, sc->face_count * sizeof *t);
@@ -683,10 +709,10 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
     /* Cull against the frustum widened by 2 px so patches touching the border keep their edges. */
     tc.gx = 1 + 4.0 / cam->width;
     tc.gy = 1 + 4.0 / cam->height;
-    if ((st = crisp_grow((void **)&plan->patch_mode, &plan->mode_cap, sc->patch_count ? sc->patch_count : 1,
-                         sizeof *plan->patch_mode)) ||
-        (st = crisp__groups_classify(plan->groups, sc, plan->view_proj, cam->width, cam->height, tc.gx, tc.gy, eps,
-                                     pool, plan->patch_mode)))
+    if ((st = crisp_grow((void **)&plan->patch_mode, &plan->mode_cap,
+                         sc->patch_count ? sc->patch_count : 1, sizeof *plan->patch_mode)) ||
+        (st = crisp__groups_classify(plan->groups, sc, plan->view_proj, cam->width, cam->height,
+                                     tc.gx, tc.gy, eps, pool, plan->patch_mode)))
         return st;
     tc.mode = plan->patch_mode;
     tc.count = sc->patch_count;
@@ -714,9 +740,11 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         s->split_patches += pp->leaf_count > 1;
         uint32_t f = sc->patches[p].face;
         for (uint32_t l = 0; l < pp->leaf_count; l++)
-            if (!pp->leaves[l].culled && pp->leaves[l].tau > plan->face_tau[f]) plan->face_tau[f] = pp->leaves[l].tau;
+            if (!pp->leaves[l].culled && pp->leaves[l].tau > plan->face_tau[f])
+                plan->face_tau[f] = pp->leaves[l].tau;
     }
-    for (int w = 0; w < workers; w++) plan->worker_status[w] = CRISP_OK;
+    for (int w = 0; w < workers; w++)
+        plan->worker_status[w] = CRISP_OK;
     trim_ctx trc = {plan, sc, desc ? desc->strip_count : 0, plan->worker_status};
     crisp_pool_parallel_for(pool, sc->face_count, 1, plan_trims, &trc);
     for (int w = 0; w < workers; w++)
@@ -739,7 +767,8 @@ crisp_status crisp__trees_replan_trim(crisp__trees *plan, const crisp_scene *sc,
                                       int strip_count)
 {
     if (f >= sc->face_count || f >= plan->face_cap)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", f, sc->face_count);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", f,
+                           sc->face_count);
     if (!plan->face_tau[f]) return CRISP_OK; /* not visible: nothing to plan */
     crisp_status status = CRISP_OK;
     trim_ctx trc = {plan, sc, strip_count, &status};

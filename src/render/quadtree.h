@@ -12,7 +12,7 @@
 #include "crisp/trim.h"
 
 typedef struct crisp__cell {
-    uint32_t ix, iy;  /* cell in the patch's 2^depth x 2^depth grid of local parameters */
+    uint32_t ix, iy; /* cell in the patch's 2^depth x 2^depth grid of local parameters */
     uint8_t depth;
     uint8_t culled;   /* outside the frustum (or an unresolvable sliver at the eye plane) */
     uint16_t tau;     /* inner level, 1..64 */
@@ -51,8 +51,9 @@ crisp_status crisp__groups_create(crisp__groups **dest);
 void crisp__groups_destroy(crisp__groups *g);
 /* mode[p] for every patch of the scene: CRISP__PATCH_* (the hierarchy is rebuilt when the scene
  * changes). gx, gy: the widened frustum's NDC half-extents; eps: pixels. */
-crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj, int width,
-                                    int height, double gx, double gy, double eps, crisp_pool *pool, uint8_t *mode);
+crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj,
+                                    int width, int height, double gx, double gy, double eps,
+                                    crisp_pool *pool, uint8_t *mode);
 /* 1 when the last classify found face's whole untrimmed surface within eps on screen: every
  * point of it is then within a pixel of its trim curves, so any trim decision is allowed there
  * and the face is planned without trim loops (drawn whole, no table). */
@@ -74,11 +75,11 @@ typedef struct crisp__trees {
     int worker_cap;
     crisp__forced *forced;
     size_t forced_count, forced_cap;
-    uint32_t *redo;         /* patches to rebuild with forced splits */
+    uint32_t *redo; /* patches to rebuild with forced splits */
     size_t redo_cap;
-    crisp__groups *groups;  /* patch groups of the last scene */
+    crisp__groups *groups;                  /* patch groups of the last scene */
     crisp_arena *chunk_arenas[TREE_CHUNKS]; /* nodes and leaves of the tree pass's ranges */
-    uint8_t *patch_mode;    /* per patch this frame: CRISP__PATCH_* */
+    uint8_t *patch_mode;                    /* per patch this frame: CRISP__PATCH_* */
     size_t mode_cap;
     crisp_plan_stats stats;
 } crisp__trees;
@@ -87,8 +88,9 @@ crisp_status crisp__trees_create(crisp__trees **dest);
 void crisp__trees_destroy(crisp__trees *plan);
 /* Plan one frame. pool may be NULL. Reuses every buffer: the same scene and image size plan
  * again without allocating (unless the scene needs more leaves or rows than before). */
-crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *scene, const crisp_camera *cam,
-                                const crisp__trees_desc *desc, crisp_pool *pool);
+crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *scene,
+                                const crisp_camera *cam, const crisp__trees_desc *desc,
+                                crisp_pool *pool);
 /* Re-plan face f's trim for the camera of the last build (its strips' count is kept). */
 crisp_status crisp__trees_replan_trim(crisp__trees *plan, const crisp_scene *scene, uint32_t f,
                                       int strip_count);

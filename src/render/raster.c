@@ -9,8 +9,9 @@
 
 #define TILE 64
 #define SUB (1 << CRISP_RASTER_SUBPIXEL_BITS)
-#define CHUNKS 64          /* setup work units; fixed so the output order never depends on threads */
-#define GUARD_PX 1048576.0 /* screen coordinates stay within +-2^20 px: exact int64 edge functions */
+#define CHUNKS 64 /* setup work units; fixed so the output order never depends on threads */
+#define GUARD_PX                                                                                   \
+    1048576.0 /* screen coordinates stay within +-2^20 px: exact int64 edge functions */
 #define MAX_POLY 12
 
 typedef struct setup_tri {
@@ -33,12 +34,12 @@ struct crisp_raster {
     size_t chunk_cap[CHUNKS];
     pvert *vcache; /* per vertex, screen-space form */
     size_t vcache_cap;
-    size_t batch;  /* 0: BATCH (crisp__raster_set_batch, for tests) */
+    size_t batch; /* 0: BATCH (crisp__raster_set_batch, for tests) */
     const setup_tri **bin_items;
     size_t bin_cap;
     uint32_t *bin_start; /* per tile, tile_count + 1 */
     size_t bin_start_cap;
-    int no_hiz; /* hierarchical depth rejection off (crisp__raster_set_hiz) */
+    int no_hiz;              /* hierarchical depth rejection off (crisp__raster_set_hiz) */
     const uint8_t *untested; /* per face (crisp__raster_set_untested_faces) */
     size_t untested_count;
 };
@@ -70,7 +71,8 @@ crisp_status crisp__raster_create(crisp_raster **dest)
 void crisp__raster_destroy(crisp_raster *r)
 {
     if (!r) return;
-    for (int ch = 0; ch < CHUNKS; ch++) free(r->chunk_tris[ch]);
+    for (int ch = 0; ch < CHUNKS; ch++)
+        free(r->chunk_tris[ch]);
     free(r->vcache);
     free(r->bin_items);
     free(r->bin_start);
@@ -80,9 +82,11 @@ void crisp__raster_destroy(crisp_raster *r)
 crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int height, int samples)
 {
     if (width <= 0 || height <= 0 || width > 65536 || height > 65536)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected 1..65536", width, height);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected 1..65536", width,
+                           height);
     if (samples != 1 && samples != 4 && samples != 16)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "%d samples per pixel: expected 1, 4 or 16", samples);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%d samples per pixel: expected 1, 4 or 16",
+                           samples);
     size_t n = (size_t)width * (size_t)height * (size_t)samples;
     if (t->inv_w && (size_t)t->width * t->height * t->samples == n) {
         t->width = width;
@@ -124,7 +128,8 @@ void crisp__raster_target_clear(crisp_raster_target *t)
 void crisp__raster_sample_offset(int samples, int s, double dest[2])
 {
     /* 4: rotated grid; 16: a regular 4x4 grid. */
-    static const double rot4[4][2] = {{0.375, 0.125}, {0.875, 0.375}, {0.125, 0.625}, {0.625, 0.875}};
+    static const double rot4[4][2] = {
+        {0.375, 0.125}, {0.875, 0.375}, {0.125, 0.625}, {0.625, 0.875}};
     if (samples == 4) {
         dest[0] = rot4[s][0];
         dest[1] = rot4[s][1];
@@ -136,7 +141,8 @@ void crisp__raster_sample_offset(int samples, int s, double dest[2])
     }
 }
 
-/* ---- clipping ---------------------------------------------------------------------------------- */
+/* ---- clipping ----------------------------------------------------------------------------------
+ */
 
 typedef struct {
     double p[4 + CRISP_RASTER_ATTRS]; /* clip position then attributes */
@@ -178,7 +184,8 @@ static int clip_polygon(cvert *poly, int n, double gx, double gy)
     return n;
 }
 
-/* ---- setup ------------------------------------------------------------------------------------- */
+/* ---- setup -------------------------------------------------------------------------------------
+ */
 
 /* A vertex in screen space: position, snapped position, and 1/W and attribute/W. Computed once
  * per vertex for vertices inside every clip plane (most of them), per use for clipped ones; the
@@ -202,7 +209,8 @@ static int project(const double *p, const crisp_raster_target *t, pvert *out)
     out->fy = llround(out->sy * SUB);
     double iw = 1.0 / w;
     out->val[0] = iw;
-    for (int q = 1; q <= CRISP_RASTER_ATTRS; q++) out->val[q] = p[3 + q] * iw;
+    for (int q = 1; q <= CRISP_RASTER_ATTRS; q++)
+        out->val[q] = p[3 + q] * iw;
     return 1;
 }
 
@@ -220,8 +228,8 @@ typedef struct {
 
 /* Sets up one triangle into *out; returns 0 when it covers no sample area (degenerate or off
  * the image). */
-static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const pvert *d, uint32_t face,
-                     setup_tri *out)
+static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const pvert *d,
+                     uint32_t face, setup_tri *out)
 {
     const pvert *v[3] = {a, b, d};
     const crisp_raster_target *t = c->t;
@@ -284,7 +292,8 @@ static void project_vertices(void *vctx, size_t begin, size_t end, int worker)
             double d[6];
             plane_dists(p, c->gx, c->gy, d);
             int inside = 1;
-            for (int q = 0; q < 6; q++) inside &= d[q] >= 0 && isfinite(d[q]);
+            for (int q = 0; q < 6; q++)
+                inside &= d[q] >= 0 && isfinite(d[q]);
             double full[4 + CRISP_RASTER_ATTRS];
             memcpy(full, p, 4 * sizeof(double));
             memcpy(full + 4, c->verts[i].attr, CRISP_RASTER_ATTRS * sizeof(double));
@@ -308,8 +317,8 @@ static void setup_chunk(void *vctx, size_t begin, size_t end, int worker)
             const crisp_raster_tri *tri = &c->tris[i];
             /* Room for the most triangles one input can clip into. */
             if (n + MAX_POLY > r->chunk_cap[ch] &&
-                (c->status[ch] = crisp_grow((void **)&r->chunk_tris[ch], &r->chunk_cap[ch], n + MAX_POLY,
-                                            sizeof(setup_tri))))
+                (c->status[ch] = crisp_grow((void **)&r->chunk_tris[ch], &r->chunk_cap[ch],
+                                            n + MAX_POLY, sizeof(setup_tri))))
                 break;
             setup_tri *out = r->chunk_tris[ch];
             const pvert *a = &cache[tri->v[0]], *b = &cache[tri->v[1]], *d = &cache[tri->v[2]];
@@ -326,9 +335,11 @@ static void setup_chunk(void *vctx, size_t begin, size_t end, int worker)
             int m = clip_polygon(poly, 3, c->gx, c->gy);
             pvert pv[MAX_POLY];
             int ok[MAX_POLY];
-            for (int k = 0; k < m; k++) ok[k] = project(poly[k].p, c->t, &pv[k]);
+            for (int k = 0; k < m; k++)
+                ok[k] = project(poly[k].p, c->t, &pv[k]);
             for (int k = 1; k + 1 < m; k++)
-                if (ok[0] && ok[k] && ok[k + 1]) n += (size_t)setup_one(c, &pv[0], &pv[k], &pv[k + 1], tri->face, &out[n]);
+                if (ok[0] && ok[k] && ok[k + 1])
+                    n += (size_t)setup_one(c, &pv[0], &pv[k], &pv[k + 1], tri->face, &out[n]);
         }
         c->counts[ch] = n;
     }
@@ -341,7 +352,8 @@ static void setup_chunk(void *vctx, size_t begin, size_t end, int worker)
  * samples after a block's worth of writes). Inside a block, each row and sample tests the exact
  * integer edge functions of its (at most 8) pixels and computes their 1/W in branch-free loops the
  * compiler vectorises (coverage is bit for bit that of the per-pixel test: watertight as before);
- * only the fragments nearer than what is stored interpolate attributes and run the fragment test. */
+ * only the fragments nearer than what is stored interpolate attributes and run the fragment test.
+ */
 
 #define BLOCK 8
 #define BLOCKS (TILE / BLOCK)
@@ -368,7 +380,8 @@ static double block_min(const crisp_raster_target *t, int bx0, int by0, int bx1,
     for (int j = by0; j <= by1; j++) {
         const double *row = t->inv_w + ((size_t)j * t->width + bx0) * S;
         size_t n = (size_t)(bx1 - bx0 + 1) * S;
-        for (size_t k = 0; k < n; k++) m = row[k] < m ? row[k] : m;
+        for (size_t k = 0; k < n; k++)
+            m = row[k] < m ? row[k] : m;
     }
     return m;
 }
@@ -390,13 +403,15 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
     double hiz[BLOCKS * BLOCKS];
     uint32_t writes[BLOCKS * BLOCKS];
     uint32_t block_samples = (uint32_t)(BLOCK * BLOCK * S);
-    for (int k = 0; k < BLOCKS * BLOCKS; k++) hiz[k] = 0, writes[k] = block_samples;
+    for (int k = 0; k < BLOCKS * BLOCKS; k++)
+        hiz[k] = 0, writes[k] = block_samples;
     int use_hiz = c->hiz && !c->slack;
     for (uint32_t bi = r->bin_start[tile]; bi < r->bin_start[tile + 1]; bi++) {
         const setup_tri *st = r->bin_items[bi];
         int x0 = st->x0 > px0 ? st->x0 : px0, x1 = st->x1 < px1 ? st->x1 : px1;
         int y0 = st->y0 > py0 ? st->y0 : py0, y1 = st->y1 < py1 ? st->y1 : py1;
-        int32_t face_id = (int32_t)(st->face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST));
+        int32_t face_id =
+            (int32_t)(st->face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST));
         int run_test = c->test && !(st->face & CRISP_RASTER_FACE_NO_TEST) &&
                        !((size_t)face_id < r->untested_count && r->untested[face_id]);
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
@@ -408,7 +423,8 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
             step[k] = A[k] * SUB;
         }
         /* Rounding allowance of the 1/W plane evaluated at a block corner (see the hi-z test). */
-        double slop = 1e-12 * (fabs(st->q0[0]) + fabs(st->qx[0]) * (fabs(x0 - st->ox) + fabs(x1 + 1 - st->ox)) +
+        double slop = 1e-12 * (fabs(st->q0[0]) +
+                               fabs(st->qx[0]) * (fabs(x0 - st->ox) + fabs(x1 + 1 - st->ox)) +
                                fabs(st->qy[0]) * (fabs(y0 - st->oy) + fabs(y1 + 1 - st->oy)));
         for (int by0 = y0; by0 <= y1; by0 = (by0 / BLOCK + 1) * BLOCK) {
             int by1 = (by0 / BLOCK + 1) * BLOCK - 1 < y1 ? (by0 / BLOCK + 1) * BLOCK - 1 : y1;
@@ -417,7 +433,8 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                 int blk = ((by0 - py0) / BLOCK) * BLOCKS + (bx0 - px0) / BLOCK;
                 if (use_hiz && (bx1 - bx0 + 1) * (by1 - by0 + 1) >= HIZ_MIN_PX) {
                     if (writes[blk] >= block_samples) {
-                        int gx = px0 + (bx0 - px0) / BLOCK * BLOCK, gy = py0 + (by0 - py0) / BLOCK * BLOCK;
+                        int gx = px0 + (bx0 - px0) / BLOCK * BLOCK,
+                            gy = py0 + (by0 - py0) / BLOCK * BLOCK;
                         int gx1 = gx + BLOCK - 1 < px1 ? gx + BLOCK - 1 : px1;
                         int gy1 = gy + BLOCK - 1 < py1 ? gy + BLOCK - 1 : py1;
                         hiz[blk] = block_min(t, gx, gy, gx1, gy1);
@@ -429,7 +446,8 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                     double best = -INFINITY;
                     for (int cy = 0; cy < 2; cy++)
                         for (int cx = 0; cx < 2; cx++) {
-                            double dx = (cx ? bx1 + 1 : bx0) - st->ox, dy = (cy ? by1 + 1 : by0) - st->oy;
+                            double dx = (cx ? bx1 + 1 : bx0) - st->ox,
+                                   dy = (cy ? by1 + 1 : by0) - st->oy;
                             double v = st->q0[0] + st->qx[0] * dx + st->qy[0] * dy;
                             best = v > best ? v : best;
                         }
@@ -442,7 +460,8 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                 /* Edge values at the block's first pixel of each sample, stepped by rows. */
                 int64_t er[16][3];
                 for (int s = 0; s < S; s++) {
-                    int64_t px = (int64_t)bx0 * SUB + c->off_fx[s], py = (int64_t)by0 * SUB + c->off_fy[s];
+                    int64_t px = (int64_t)bx0 * SUB + c->off_fx[s],
+                            py = (int64_t)by0 * SUB + c->off_fy[s];
                     for (int k = 0; k < 3; k++) {
                         int a0 = (k + 1) % 3;
                         er[s][k] = A[k] * (px - st->x[a0]) + B[k] * (py - st->y[a0]) + st->bias[k];
@@ -453,7 +472,8 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                         /* Coverage, 1/W and the depth test of the block's row for this sample,
                          * in loops over at most BLOCK lanes without branches (vectorisable). */
                         int64_t e[3] = {er[s][0], er[s][1], er[s][2]};
-                        for (int k = 0; k < 3; k++) er[s][k] += B[k] * SUB;
+                        for (int k = 0; k < 3; k++)
+                            er[s][k] += B[k] * SUB;
                         int n = bx1 - bx0 + 1;
                         double dy = j + c->off_y[s] - st->oy;
                         double base = st->q0[0] + st->qy[0] * dy, gx = st->qx[0];
@@ -467,16 +487,20 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                             e[0] += step[0], e[1] += step[1], e[2] += step[2];
                         }
                         if (!any) continue;
-                        for (int q = 0; q < n; q++) iwv[q] = base + gx * (dx0 + q);
+                        for (int q = 0; q < n; q++)
+                            iwv[q] = base + gx * (dx0 + q);
                         if (c->slack) {
                             for (int q = 0; q < n; q++) {
                                 double cur = t->inv_w[idx0 + (size_t)q * S];
-                                if (cov[q] && (!(cur > 0) || 1.0 / iwv[q] < 1.0 / cur - c->slack[idx0 + (size_t)q * S]))
+                                if (cov[q] &&
+                                    (!(cur > 0) ||
+                                     1.0 / iwv[q] < 1.0 / cur - c->slack[idx0 + (size_t)q * S]))
                                     pass[np++] = q;
                             }
                         } else {
                             for (int q = 0; q < n; q++)
-                                if (cov[q] && iwv[q] > t->inv_w[idx0 + (size_t)q * S]) pass[np++] = q;
+                                if (cov[q] && iwv[q] > t->inv_w[idx0 + (size_t)q * S])
+                                    pass[np++] = q;
                         }
                         for (int pi = 0; pi < np; pi++) {
                             int q = pass[pi];
@@ -485,7 +509,8 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                             double a[CRISP_RASTER_ATTRS];
                             double w = 1.0 / iw;
                             for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
-                                a[k] = (st->q0[k + 1] + st->qx[k + 1] * dx + st->qy[k + 1] * dy) * w;
+                                a[k] =
+                                    (st->q0[k + 1] + st->qx[k + 1] * dx + st->qy[k + 1] * dy) * w;
                             if (run_test) {
                                 tested++;
                                 if (!c->test(c->test_ctx, st->face, a[0], a[1])) {
@@ -498,7 +523,8 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                             t->inv_w[idx] = iw;
                             t->face[idx] = face_id;
                             float *dst = t->attr + idx * CRISP_RASTER_ATTRS;
-                            for (int k = 0; k < CRISP_RASTER_ATTRS; k++) dst[k] = (float)a[k];
+                            for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+                                dst[k] = (float)a[k];
                             wrote++;
                         }
                     }
@@ -515,7 +541,8 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
 
 static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
 {
-    for (size_t tile = begin; tile < end; tile++) raster_tile(vctx, tile, worker);
+    for (size_t tile = begin; tile < end; tile++)
+        raster_tile(vctx, tile, worker);
 }
 
 typedef struct slack_ctx {
@@ -534,7 +561,8 @@ static int seen_side(const crisp_raster_view *v, int w, int h, int i, int j, con
 {
     if (!v) return 0;
     double x = (i + 0.5 - 0.5 * w) * v->kx, y = (0.5 * h - j - 0.5) * v->ky, dot = 0;
-    for (int k = 0; k < 3; k++) dot += a[2 + k] * (v->f[k] + x * v->r[k] + y * v->u[k]);
+    for (int k = 0; k < 3; k++)
+        dot += a[2 + k] * (v->f[k] + x * v->r[k] + y * v->u[k]);
     return dot < 0;
 }
 
@@ -551,7 +579,8 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
     float *slack = c->slack;
     int S = t->samples, w = t->width, h = t->height;
     size_t rs = (size_t)w * S;
-    for (size_t i = begin * rs; i < end * rs; i++) slack[i] = 0;
+    for (size_t i = begin * rs; i < end * rs; i++)
+        slack[i] = 0;
     for (int j = (int)begin - (begin > 0); j < (int)end; j++) {
         int own_j = j >= (int)begin, own_below = j + 1 < (int)end;
         for (int i = 0; i < w; i++)
@@ -562,13 +591,15 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
                 double W = 1.0 / t->inv_w[idx];
                 int side = seen_side(c->view, w, h, i, j, t->attr + idx * CRISP_RASTER_ATTRS);
                 if (own_j && i + 1 < w && t->face[idx + S] == f &&
-                    seen_side(c->view, w, h, i + 1, j, t->attr + (idx + S) * CRISP_RASTER_ATTRS) == side) {
+                    seen_side(c->view, w, h, i + 1, j, t->attr + (idx + S) * CRISP_RASTER_ATTRS) ==
+                        side) {
                     float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + S] - W));
                     if (d > slack[idx]) slack[idx] = d;
                     if (d > slack[idx + S]) slack[idx + S] = d;
                 }
                 if (j + 1 < h && t->face[idx + rs] == f &&
-                    seen_side(c->view, w, h, i, j + 1, t->attr + (idx + rs) * CRISP_RASTER_ATTRS) == side) {
+                    seen_side(c->view, w, h, i, j + 1, t->attr + (idx + rs) * CRISP_RASTER_ATTRS) ==
+                        side) {
                     float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + rs] - W));
                     if (own_j && d > slack[idx]) slack[idx] = d;
                     if (own_below && d > slack[idx + rs]) slack[idx + rs] = d;
@@ -578,56 +609,68 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
 }
 
 void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
-                              const crisp_raster_view *view, float *slack)
+                               const crisp_raster_view *view, float *slack)
 {
     slack_ctx c = {t, view, scale, slack};
     crisp_pool_parallel_for(pool, (size_t)t->height, 16, slack_rows, &c);
 }
 
 static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
-                         const crisp_raster_vertex *verts, size_t vert_count, const crisp_raster_tri *tris,
-                         size_t tri_count, crisp_raster_test_fn test, void *test_ctx, const float *slack,
-                         crisp_raster_stats *stats);
+                         const crisp_raster_vertex *verts, size_t vert_count,
+                         const crisp_raster_tri *tris, size_t tri_count, crisp_raster_test_fn test,
+                         void *test_ctx, const float *slack, crisp_raster_stats *stats);
 
 crisp_status crisp__raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
-                               const crisp_raster_vertex *verts, size_t vert_count,
-                               const crisp_raster_tri *tris, size_t tri_count,
-                               crisp_raster_test_fn test, void *test_ctx,
-                               crisp_raster_stats *stats)
+                                const crisp_raster_vertex *verts, size_t vert_count,
+                                const crisp_raster_tri *tris, size_t tri_count,
+                                crisp_raster_test_fn test, void *test_ctx,
+                                crisp_raster_stats *stats)
 {
     return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, NULL, stats);
 }
 
 crisp_status crisp__raster_draw_fill(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
-                                    const crisp_raster_vertex *verts, size_t vert_count,
-                                    const crisp_raster_tri *tris, size_t tri_count,
-                                    crisp_raster_test_fn test, void *test_ctx, const float *slack,
-                                    crisp_raster_stats *stats)
+                                     const crisp_raster_vertex *verts, size_t vert_count,
+                                     const crisp_raster_tri *tris, size_t tri_count,
+                                     crisp_raster_test_fn test, void *test_ctx, const float *slack,
+                                     crisp_raster_stats *stats)
 {
     return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, slack, stats);
 }
 
 static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
-                         const crisp_raster_vertex *verts, size_t vert_count, const crisp_raster_tri *tris,
-                         size_t tri_count, crisp_raster_test_fn test, void *test_ctx, const float *slack,
-                         crisp_raster_stats *stats)
+                         const crisp_raster_vertex *verts, size_t vert_count,
+                         const crisp_raster_tri *tris, size_t tri_count, crisp_raster_test_fn test,
+                         void *test_ctx, const float *slack, crisp_raster_stats *stats)
 {
     for (size_t i = 0; i < tri_count; i++)
         for (int k = 0; k < 3; k++)
             if (tris[i].v[k] >= vert_count)
                 return crisp_error(CRISP_ERR_INVALID_ARG, "triangle %zu uses vertex %u of %zu", i,
                                    tris[i].v[k], vert_count);
-    setup_ctx sc = {.r = r, .t = t, .verts = verts, .vert_count = vert_count, .tris = tris,
-                    .gx = GUARD_PX / t->width, .gy = GUARD_PX / t->height};
-    crisp_status st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1, sizeof *r->vcache);
+    setup_ctx sc = {.r = r,
+                    .t = t,
+                    .verts = verts,
+                    .vert_count = vert_count,
+                    .tris = tris,
+                    .gx = GUARD_PX / t->width,
+                    .gy = GUARD_PX / t->height};
+    crisp_status st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1,
+                                 sizeof *r->vcache);
     if (st) return st;
     crisp_pool_parallel_for(pool, CHUNKS, 1, project_vertices, &sc);
 
     int tiles_x = (t->width + TILE - 1) / TILE, tiles_y = (t->height + TILE - 1) / TILE;
     size_t tiles = (size_t)tiles_x * tiles_y;
-    if ((st = crisp_grow((void **)&r->bin_start, &r->bin_start_cap, tiles + 1, sizeof *r->bin_start)))
+    if ((st = crisp_grow((void **)&r->bin_start, &r->bin_start_cap, tiles + 1,
+                         sizeof *r->bin_start)))
         return st;
-    raster_ctx rc = {.r = r, .t = t, .tiles_x = tiles_x, .test = test, .test_ctx = test_ctx, .slack = slack,
+    raster_ctx rc = {.r = r,
+                     .t = t,
+                     .tiles_x = tiles_x,
+                     .test = test,
+                     .test_ctx = test_ctx,
+                     .slack = slack,
                      .hiz = !r->no_hiz};
     for (int s = 0; s < t->samples; s++) {
         double off[2];
@@ -657,12 +700,17 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
             for (size_t i = 0; i < sc.counts[ch]; i++) {
                 const setup_tri *s = &r->chunk_tris[ch][i];
                 for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
-                    for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++) r->bin_start[(size_t)ty * tiles_x + tx + 1]++;
-                items += (size_t)(s->y1 / TILE - s->y0 / TILE + 1) * (size_t)(s->x1 / TILE - s->x0 / TILE + 1);
+                    for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
+                        r->bin_start[(size_t)ty * tiles_x + tx + 1]++;
+                items += (size_t)(s->y1 / TILE - s->y0 / TILE + 1) *
+                         (size_t)(s->x1 / TILE - s->x0 / TILE + 1);
             }
-        if (items > UINT32_MAX) return crisp_error(CRISP_ERR_LIMIT, "%zu tile entries: the limit is 2^32", items);
-        for (size_t k = 0; k < tiles; k++) r->bin_start[k + 1] += r->bin_start[k];
-        if ((st = crisp_grow((void **)&r->bin_items, &r->bin_cap, items ? items : 1, sizeof *r->bin_items)))
+        if (items > UINT32_MAX)
+            return crisp_error(CRISP_ERR_LIMIT, "%zu tile entries: the limit is 2^32", items);
+        for (size_t k = 0; k < tiles; k++)
+            r->bin_start[k + 1] += r->bin_start[k];
+        if ((st = crisp_grow((void **)&r->bin_items, &r->bin_cap, items ? items : 1,
+                             sizeof *r->bin_items)))
             return st;
         for (int ch = 0; ch < CHUNKS; ch++)
             for (size_t i = 0; i < sc.counts[ch]; i++) {
@@ -671,7 +719,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                     for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
                         r->bin_items[r->bin_start[(size_t)ty * tiles_x + tx]++] = s;
             }
-        for (size_t k = tiles; k > 0; k--) r->bin_start[k] = r->bin_start[k - 1];
+        for (size_t k = tiles; k > 0; k--)
+            r->bin_start[k] = r->bin_start[k - 1];
         r->bin_start[0] = 0;
         crisp_pool_parallel_for(pool, tiles, 1, raster_tiles, &rc);
     }

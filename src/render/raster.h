@@ -20,7 +20,7 @@
 #define CRISP_RASTER_SUBPIXEL_BITS 8
 
 typedef struct crisp_raster_vertex {
-    double clip[4];                 /* clip-space X, Y, Z, W */
+    double clip[4];                  /* clip-space X, Y, Z, W */
     double attr[CRISP_RASTER_ATTRS]; /* interpolated perspective-correctly */
 } crisp_raster_vertex;
 
@@ -44,9 +44,9 @@ typedef int (*crisp_raster_test_fn)(void *ctx, uint32_t face, double u, double v
 /* Per-sample results; sample s of pixel (i, j) is at index (j * width + i) * samples + s. */
 typedef struct crisp_raster_target {
     int width, height, samples;
-    double *inv_w;  /* 1 / W of the visible fragment, 0 where nothing was drawn */
-    float *attr;    /* CRISP_RASTER_ATTRS per sample */
-    int32_t *face;  /* -1 where nothing was drawn */
+    double *inv_w; /* 1 / W of the visible fragment, 0 where nothing was drawn */
+    float *attr;   /* CRISP_RASTER_ATTRS per sample */
+    int32_t *face; /* -1 where nothing was drawn */
 } crisp_raster_target;
 
 typedef struct crisp_raster crisp_raster; /* reusable scratch (setup, bins) */
@@ -81,19 +81,19 @@ void crisp__raster_set_batch(crisp_raster *r, size_t triangles);
 /* Draw triangles into the target (depth test: nearer = larger 1/W wins; ties keep the earlier
  * triangle). test may be NULL (keep all). pool may be NULL (one thread). */
 crisp_status crisp__raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
-                               const crisp_raster_vertex *verts, size_t vert_count,
-                               const crisp_raster_tri *tris, size_t tri_count,
-                               crisp_raster_test_fn test, void *test_ctx,
-                               crisp_raster_stats *stats);
+                                const crisp_raster_vertex *verts, size_t vert_count,
+                                const crisp_raster_tri *tris, size_t tri_count,
+                                crisp_raster_test_fn test, void *test_ctx,
+                                crisp_raster_stats *stats);
 
 /* As crisp__raster_draw, but a fragment replaces a drawn sample only when it is nearer by more
  * than slack[sample] in W (camera depth); empty samples take any fragment. For gap fillers (the
  * CPU backend's trim ribbons) that must not show through surfaces near their own depth. */
 crisp_status crisp__raster_draw_fill(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
-                                    const crisp_raster_vertex *verts, size_t vert_count,
-                                    const crisp_raster_tri *tris, size_t tri_count,
-                                    crisp_raster_test_fn test, void *test_ctx, const float *slack,
-                                    crisp_raster_stats *stats);
+                                     const crisp_raster_vertex *verts, size_t vert_count,
+                                     const crisp_raster_tri *tris, size_t tri_count,
+                                     crisp_raster_test_fn test, void *test_ctx, const float *slack,
+                                     crisp_raster_stats *stats);
 
 /* The view direction (unnormalised) through pixel (i, j): f + (i + 0.5 - width / 2) kx r +
  * (height / 2 - j - 0.5) ky u. */
@@ -107,6 +107,6 @@ typedef struct crisp_raster_view {
  * side (the sign of normal . view direction; view may be NULL: not compared) (0 for empty
  * samples): how far a surface's depth moves over one pixel at that sample. pool may be NULL. */
 void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
-                              const crisp_raster_view *view, float *slack);
+                               const crisp_raster_view *view, float *slack);
 
 #endif

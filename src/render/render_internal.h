@@ -21,7 +21,8 @@ double crisp__view_depth(const crisp_camera *cam, const double p[3]);
  * from inside the patch (crisp_bezier_patch_normal, crisp_surface_normal). */
 static inline int crisp__normal_degenerate(const double a[3], const double b[3], const double n[3])
 {
-    double aa = a[0] * a[0] + a[1] * a[1] + a[2] * a[2], bb = b[0] * b[0] + b[1] * b[1] + b[2] * b[2];
+    double aa = a[0] * a[0] + a[1] * a[1] + a[2] * a[2],
+           bb = b[0] * b[0] + b[1] * b[1] + b[2] * b[2];
     double nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
     return !(aa > 1e-18 * bb) || !(bb > 1e-18 * aa) || !(nn > 1e-18 * aa * bb);
 }

@@ -56,9 +56,11 @@ crisp_status crisp__ribbons_create(int workers, crisp__ribbons **dest)
     rb->workers = workers;
     rb->arena = calloc((size_t)workers, sizeof *rb->arena);
     rb->wstatus = calloc((size_t)workers, sizeof *rb->wstatus);
-    crisp_status st = rb->arena && rb->wstatus ? CRISP_OK
-                                               : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
-    for (int w = 0; !st && w < workers; w++) st = crisp_arena_create(1 << 16, &rb->arena[w]);
+    crisp_status st = rb->arena && rb->wstatus
+                          ? CRISP_OK
+                          : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+    for (int w = 0; !st && w < workers; w++)
+        st = crisp_arena_create(1 << 16, &rb->arena[w]);
     if (st) {
         crisp__ribbons_destroy(rb);
         return st;
@@ -71,7 +73,8 @@ void crisp__ribbons_destroy(crisp__ribbons *rb)
 {
     if (!rb) return;
     if (rb->arena)
-        for (int w = 0; w < rb->workers; w++) crisp_arena_destroy(rb->arena[w]);
+        for (int w = 0; w < rb->workers; w++)
+            crisp_arena_destroy(rb->arena[w]);
     free(rb->arena);
     free(rb->wstatus);
     free(rb->jobs);
@@ -96,11 +99,13 @@ static void ribbon_vertex(const crisp_surface *surf, int reversed, crisp_mat4 m,
 static int in_view(const crisp_raster_vertex *a, double gx, double gy)
 {
     const double *c = a->clip;
-    return c[3] > 0 && c[2] >= -c[3] && c[2] <= c[3] && fabs(c[0]) <= gx * c[3] && fabs(c[1]) <= gy * c[3];
+    return c[3] > 0 && c[2] >= -c[3] && c[2] <= c[3] && fabs(c[0]) <= gx * c[3] &&
+           fabs(c[1]) <= gy * c[3];
 }
 
 /* Screen distance in pixels (infinite when either point is behind the eye). */
-static double screen_dist(const crisp_raster_vertex *a, const crisp_raster_vertex *b, double w, double h)
+static double screen_dist(const crisp_raster_vertex *a, const crisp_raster_vertex *b, double w,
+                          double h)
 {
     if (!(a->clip[3] > 0 && b->clip[3] > 0)) return INFINITY;
     double dx = (a->clip[0] / a->clip[3] - b->clip[0] / b->clip[3]) * 0.5 * w;
@@ -115,8 +120,10 @@ static int segment_may_show(const crisp_raster_vertex *a, const crisp_raster_ver
                             double h)
 {
     if (!(a->clip[3] > 0) || !(b->clip[3] > 0)) return 1; /* let refine() split it */
-    double ax = (a->clip[0] / a->clip[3] + 1) * 0.5 * w, ay = (1 - a->clip[1] / a->clip[3]) * 0.5 * h;
-    double bx = (b->clip[0] / b->clip[3] + 1) * 0.5 * w, by = (1 - b->clip[1] / b->clip[3]) * 0.5 * h;
+    double ax = (a->clip[0] / a->clip[3] + 1) * 0.5 * w,
+           ay = (1 - a->clip[1] / a->clip[3]) * 0.5 * h;
+    double bx = (b->clip[0] / b->clip[3] + 1) * 0.5 * w,
+           by = (1 - b->clip[1] / b->clip[3]) * 0.5 * h;
     double len = hypot(bx - ax, by - ay) + 2;
     if (!isfinite(len)) return 1;
     return fmax(ax, bx) + len >= 0 && fmin(ax, bx) - len <= w && fmax(ay, by) + len >= 0 &&
@@ -151,7 +158,8 @@ static void emit(sampler *s, const crisp_raster_vertex *v)
 }
 
 /* Samples strictly after a up to and including b, along the uv segment. */
-static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_vertex *b, int depth)
+static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_vertex *b,
+                   int depth)
 {
     if (s->failed) return;
     int va = in_view(a, s->gx, s->gy), vb = in_view(b, s->gx, s->gy);
@@ -211,12 +219,14 @@ static void path_point(const ribbon_ctx *c, const ribbon_job *job, int k, double
         uint32_t i = (uint32_t)k < f->grid_u ? (uint32_t)k : f->grid_u - 1;
         const crisp_bezier_patch *b = &c->sc->patches[f->first_patch + i].bez;
         uv[0] = (uint32_t)k < f->grid_u ? b->u0 : b->u1;
-        uv[1] = edge == 0 ? first->bez.v0 : c->sc->patches[f->first_patch + f->patch_count - 1].bez.v1;
+        uv[1] =
+            edge == 0 ? first->bez.v0 : c->sc->patches[f->first_patch + f->patch_count - 1].bez.v1;
     } else {
         uint32_t j = (uint32_t)k < f->grid_v ? (uint32_t)k : f->grid_v - 1;
         const crisp_bezier_patch *b = &c->sc->patches[f->first_patch + j * f->grid_u].bez;
         uv[1] = (uint32_t)k < f->grid_v ? b->v0 : b->v1;
-        uv[0] = edge == 3 ? first->bez.u0 : c->sc->patches[f->first_patch + f->patch_count - 1].bez.u1;
+        uv[0] =
+            edge == 3 ? first->bez.u0 : c->sc->patches[f->first_patch + f->patch_count - 1].bez.u1;
     }
 }
 
@@ -228,9 +238,14 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
         ribbon_job *job = &c->rb->jobs[j];
         const crisp_scene_face *f = &c->sc->faces[job->face];
         int n = path_points(c, job);
-        sampler s = {.arena = c->rb->arena[worker], .surf = f->src->surface,
-                     .reversed = f->src->reversed, .m = (crisp_mat4 *)&plan->view_proj, .w = plan->width,
-                     .h = plan->height, .gx = 1 + 4.0 / plan->width, .gy = 1 + 4.0 / plan->height};
+        sampler s = {.arena = c->rb->arena[worker],
+                     .surf = f->src->surface,
+                     .reversed = f->src->reversed,
+                     .m = (crisp_mat4 *)&plan->view_proj,
+                     .w = plan->width,
+                     .h = plan->height,
+                     .gx = 1 + 4.0 / plan->width,
+                     .gy = 1 + 4.0 / plan->height};
         crisp_raster_vertex a, b;
         double uv[2];
         path_point(c, job, 0, uv);
@@ -255,7 +270,9 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
             }
             a = b;
         }
-        if (s.failed) c->rb->wstatus[worker] = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+        if (s.failed)
+            c->rb->wstatus[worker] =
+                crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
         job->pts = s.pts;
         job->count = s.count;
     }
@@ -289,7 +306,8 @@ static void build_quads(void *vctx, size_t begin, size_t end, int worker)
                 memcpy(o->clip, src->clip, sizeof o->clip);
                 o->uv[0] = (float)src->attr[0];
                 o->uv[1] = (float)src->attr[1];
-                for (int k = 0; k < 3; k++) o->normal[k] = (float)src->attr[2 + k];
+                for (int k = 0; k < 3; k++)
+                    o->normal[k] = (float)src->attr[2 + k];
                 o->face = job->face;
                 if (!ok) {
                     o->clip[3] = -1; /* backends clip these triangles away */
@@ -297,7 +315,8 @@ static void build_quads(void *vctx, size_t begin, size_t end, int worker)
                 }
                 double along = corner < 2 ? -RIBBON_PX : RIBBON_PX;
                 double side = (corner == 0 || corner == 3) ? -RIBBON_PX : RIBBON_PX;
-                double ox = along * dx - side * dy, oy = along * dy + side * dx; /* pixels, y down */
+                double ox = along * dx - side * dy,
+                       oy = along * dy + side * dx; /* pixels, y down */
                 o->clip[0] += ox * sx * o->clip[3];
                 o->clip[1] -= oy * sy * o->clip[3];
             }
@@ -305,10 +324,10 @@ static void build_quads(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
-crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees, const crisp_scene *sc,
-                                  uint32_t only_face, crisp_pool *pool, crisp_plan_ribbon_vertex **verts,
-                                  size_t *cap, uint32_t *face_first, uint32_t *face_quads,
-                                  uint32_t *quad_count)
+crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
+                                  const crisp_scene *sc, uint32_t only_face, crisp_pool *pool,
+                                  crisp_plan_ribbon_vertex **verts, size_t *cap,
+                                  uint32_t *face_first, uint32_t *face_quads, uint32_t *quad_count)
 {
     crisp_status st;
     size_t jobs = 0;
@@ -320,7 +339,8 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
         if (!sf->piece_count && sf->grid_u && sf->grid_v) {
             for (uint32_t k = 0; k < 4; k++) {
                 if (((k & 1) ? sf->closed_u : sf->closed_v)) continue;
-                if ((st = crisp_grow((void **)&rb->jobs, &rb->job_cap, jobs + 1, sizeof *rb->jobs))) return st;
+                if ((st = crisp_grow((void **)&rb->jobs, &rb->job_cap, jobs + 1, sizeof *rb->jobs)))
+                    return st;
                 rb->jobs[jobs++] = (ribbon_job){.face = f, .piece = RIBBON_EDGE | k};
             }
             continue;
@@ -328,7 +348,8 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
         const crisp_trim_polyline *pl = &trees->trims[f].polyline;
         for (int k = 0; k < pl->piece_count; k++) {
             if (pl->first[k + 1] - pl->first[k] < 2) continue;
-            if ((st = crisp_grow((void **)&rb->jobs, &rb->job_cap, jobs + 1, sizeof *rb->jobs))) return st;
+            if ((st = crisp_grow((void **)&rb->jobs, &rb->job_cap, jobs + 1, sizeof *rb->jobs)))
+                return st;
             rb->jobs[jobs++] = (ribbon_job){.face = f, .piece = (uint32_t)k};
         }
     }
@@ -350,7 +371,8 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
     }
     /* Lay the quads out face after face. */
     size_t quads = 0;
-    for (uint32_t f = f0; f < f1; f++) face_quads[f - f0] = 0;
+    for (uint32_t f = f0; f < f1; f++)
+        face_quads[f - f0] = 0;
     for (size_t j = 0; j < jobs; j++) {
         ribbon_job *job = &rb->jobs[j];
         uint32_t segs = job->count ? job->count - 1 : 0;

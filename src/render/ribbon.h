@@ -14,9 +14,9 @@ void crisp__ribbons_destroy(crisp__ribbons *rb);
  * after face into *verts (4 vertices per quad; grown as needed, capacity *cap). face_first and
  * face_quads receive, per face of the range (indexed from its first face), the face's first quad
  * and quad count; *quad_count the total. */
-crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees, const crisp_scene *sc,
-                                  uint32_t only_face, crisp_pool *pool, crisp_plan_ribbon_vertex **verts,
-                                  size_t *cap, uint32_t *face_first, uint32_t *face_quads,
-                                  uint32_t *quad_count);
+crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
+                                  const crisp_scene *sc, uint32_t only_face, crisp_pool *pool,
+                                  crisp_plan_ribbon_vertex **verts, size_t *cap,
+                                  uint32_t *face_first, uint32_t *face_quads, uint32_t *quad_count);
 
 #endif

@@ -56,7 +56,8 @@ static void tile_box(const crisp_bezier_patch *p, double box[6])
 
 static double diag(const double b[6])
 {
-    return sqrt((b[3] - b[0]) * (b[3] - b[0]) + (b[4] - b[1]) * (b[4] - b[1]) + (b[5] - b[2]) * (b[5] - b[2]));
+    return sqrt((b[3] - b[0]) * (b[3] - b[0]) + (b[4] - b[1]) * (b[4] - b[1]) +
+                (b[5] - b[2]) * (b[5] - b[2]));
 }
 
 static void box_union(double box[6], const double b[6])
@@ -152,7 +153,8 @@ void crisp_scene_destroy(crisp_scene *s)
 {
     if (!s) return;
     if (s->face_patches)
-        for (uint32_t f = 0; f < s->face_count; f++) crisp_bezier_patches_free(&s->face_patches[f]);
+        for (uint32_t f = 0; f < s->face_count; f++)
+            crisp_bezier_patches_free(&s->face_patches[f]);
     free(s->face_patches);
     free(s->faces);
     free(s->patches);
@@ -173,7 +175,8 @@ static crisp_status flatten_control_points(crisp_scene *s)
     if (total > UINT32_MAX)
         return crisp_error(CRISP_ERR_LIMIT, "%zu control points in the scene: at most 2^32", total);
     s->control_points = crisp_malloc_array(total ? total : 1, 4 * sizeof(double));
-    s->patch_records = crisp_calloc_array(s->patch_count ? s->patch_count : 1, sizeof *s->patch_records);
+    s->patch_records =
+        crisp_calloc_array(s->patch_count ? s->patch_count : 1, sizeof *s->patch_records);
     if (!s->control_points || !s->patch_records)
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for %zu control points", total);
     s->control_point_count = total;
@@ -187,9 +190,14 @@ static crisp_status flatten_control_points(crisp_scene *s)
             b->cpw = s->control_points + 4 * at;
             uint32_t p = s->faces[f].first_patch + (uint32_t)k;
             s->patches[p].bez.cpw = b->cpw;
-            s->patch_records[p] = (crisp_scene_patch_record){
-                .first_cp = (uint32_t)at, .du = (uint32_t)b->du, .dv = (uint32_t)b->dv, .face = f,
-                .u0 = b->u0, .u1 = b->u1, .v0 = b->v0, .v1 = b->v1};
+            s->patch_records[p] = (crisp_scene_patch_record){.first_cp = (uint32_t)at,
+                                                             .du = (uint32_t)b->du,
+                                                             .dv = (uint32_t)b->dv,
+                                                             .face = f,
+                                                             .u0 = b->u0,
+                                                             .u1 = b->u1,
+                                                             .v0 = b->v0,
+                                                             .v1 = b->v1};
             at += n;
         }
         free(fp->storage);
@@ -204,7 +212,8 @@ static crisp_status extract_pieces(crisp_scene *s)
 {
     const crisp_model *m = s->model;
     size_t loop_total = 0;
-    for (uint32_t f = 0; f < s->face_count; f++) loop_total += (size_t)m->faces[f].loop_count;
+    for (uint32_t f = 0; f < s->face_count; f++)
+        loop_total += (size_t)m->faces[f].loop_count;
     crisp_scene_loop *loops = crisp_calloc_array(loop_total ? loop_total : 1, sizeof *loops);
     if (!loops) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim loops");
     crisp_bezier_curve *all = NULL;
@@ -230,7 +239,8 @@ static crisp_status extract_pieces(crisp_scene *s)
                                        src->source_id, l, c);
                     break;
                 }
-                st = crisp_grow((void **)&all, &piece_cap, (size_t)piece_count + (size_t)n, sizeof *all);
+                st = crisp_grow((void **)&all, &piece_cap, (size_t)piece_count + (size_t)n,
+                                sizeof *all);
                 if (!st) {
                     memcpy(all + piece_count, pieces, (size_t)n * sizeof *pieces);
                     piece_count += (uint32_t)n;
@@ -258,7 +268,8 @@ static crisp_status extract_pieces(crisp_scene *s)
 crisp_status crisp_scene_update_trim(crisp_scene *s, uint32_t face)
 {
     if (face >= s->face_count)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", face, s->face_count);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", face,
+                           s->face_count);
     return extract_pieces(s);
 }
 
@@ -301,7 +312,8 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
         /* The patches come u fastest: the first row ends where v0 changes. */
         const crisp_bezier_patches *fp = &s->face_patches[f];
         uint32_t gu = 0;
-        while (gu < (uint32_t)fp->count && fp->patches[gu].v0 == fp->patches[0].v0) gu++;
+        while (gu < (uint32_t)fp->count && fp->patches[gu].v0 == fp->patches[0].v0)
+            gu++;
         sf->grid_u = gu;
         sf->grid_v = gu ? (uint32_t)fp->count / gu : 0;
         crisp_surface_domain(surf, sf->domain);
@@ -319,7 +331,8 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
         }
     }
     if ((st = flatten_control_points(s)) || (st = extract_pieces(s))) goto fail;
-    for (uint32_t f = 0; f < s->face_count; f++) face_framing_box(s, &s->faces[f], s->box);
+    for (uint32_t f = 0; f < s->face_count; f++)
+        face_framing_box(s, &s->faces[f], s->box);
     *dest = s;
     return CRISP_OK;
 oom:
@@ -332,7 +345,8 @@ fail:
 crisp_status crisp_image_init(crisp_image *img, int width, int height)
 {
     if (width <= 0 || height <= 0 || width > 65536 || height > 65536)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected 1..65536", width, height);
+        return crisp_error(CRISP_ERR_INVALID_ARG, "image size %dx%d: expected 1..65536", width,
+                           height);
     size_t n = (size_t)width * height;
     memset(img, 0, sizeof *img);
     img->width = width;

@@ -8,9 +8,11 @@ void crisp__shade(const float base[4], const double n[3], const double view[3], 
 {
     double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     double vv = sqrt(view[0] * view[0] + view[1] * view[1] + view[2] * view[2]);
-    double c = nn > 0 && vv > 0 ? fabs(n[0] * view[0] + n[1] * view[1] + n[2] * view[2]) / (nn * vv) : 1;
+    double c =
+        nn > 0 && vv > 0 ? fabs(n[0] * view[0] + n[1] * view[1] + n[2] * view[2]) / (nn * vv) : 1;
     double k = 0.25 + 0.75 * c;
-    for (int i = 0; i < 3; i++) rgba[i] = (float)(base[i] * k);
+    for (int i = 0; i < 3; i++)
+        rgba[i] = (float)(base[i] * k);
     rgba[3] = 1.0f;
 }
 

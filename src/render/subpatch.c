@@ -12,8 +12,10 @@ static void cut(crisp_bezier_patch *a, double at, int along_u, int keep_upper, s
     crisp_bezier_patch lo = *a, hi = *a;
     lo.cpw = storage;
     hi.cpw = storage + n;
-    if (along_u) crisp_bezier_patch_split_u(a, at, &lo, &hi);
-    else crisp_bezier_patch_split_v(a, at, &lo, &hi);
+    if (along_u)
+        crisp_bezier_patch_split_u(a, at, &lo, &hi);
+    else
+        crisp_bezier_patch_split_v(a, at, &lo, &hi);
     *a = keep_upper ? hi : lo;
     memcpy(tmp, a->cpw, n * sizeof *tmp);
     a->cpw = tmp;

@@ -1,8 +1,8 @@
 /* Tensor-product SLEFEs of Bézier patches by the two-pass construction (Lutterkort & Peters 2001;
- * docs/design.md section 3): v-SLEFE every control row, then u-SLEFE the upper results keeping the upper
- * side and the lower results keeping the lower side. Valid because the Bernstein polynomials in u
- * and the hat functions in v are non-negative. Each homogeneous coordinate separately; per-tile
- * boxes (rational: divided by W) for tessellators that do not interpolate bilinearly. */
+ * docs/design.md section 3): v-SLEFE every control row, then u-SLEFE the upper results keeping the
+ * upper side and the lower results keeping the lower side. Valid because the Bernstein polynomials
+ * in u and the hat functions in v are non-negative. Each homogeneous coordinate separately;
+ * per-tile boxes (rational: divided by W) for tessellators that do not interpolate bilinearly. */
 #include "slefe_internal.h"
 
 #include <string.h>

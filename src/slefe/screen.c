@@ -1,7 +1,8 @@
 /* Screen-space SLEFEs: a patch (polynomial or rational) seen through a perspective camera. The
  * homogeneous control points (w*P, w) are mapped to clip space, where X, Y, Z, W are polynomial
- * patches; each gets a SLEFE and X/W, Y/W, Z/W are bounded by interval division (docs/design.md section 3).
- * Also the iPASS screen width of object-space boxes (docs/design.md section 4) and tau from it. */
+ * patches; each gets a SLEFE and X/W, Y/W, Z/W are bounded by interval division (docs/design.md
+ * section 3). Also the iPASS screen width of object-space boxes (docs/design.md section 4) and tau
+ * from it. */
 #include "slefe_internal.h"
 
 #define MAXD CRISP_SLEFE_MAX_DEGREE

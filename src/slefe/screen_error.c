@@ -1,7 +1,7 @@
 /* A sound screen-space error bound for the uniform tessellation of a patch, and the smallest
- * tessellation level it accepts. The iPASS rule tau = ceil(m sqrt(w_px / eps)) (docs/design.md section 4)
- * assumes the SLEFE width falls as 1/m^2 from m = 3 on, which holds only asymptotically (1.2x off
- * for cubics, more for higher degrees), and it measures the bilinear enclosure while the
+ * tessellation level it accepts. The iPASS rule tau = ceil(m sqrt(w_px / eps)) (docs/design.md
+ * section 4) assumes the SLEFE width falls as 1/m^2 from m = 3 on, which holds only asymptotically
+ * (1.2x off for cubics, more for higher degrees), and it measures the bilinear enclosure while the
  * tessellation draws triangles, whose difference from the bilinear interpolant is a quarter of
  * the cell's twist. bench_slefe's "tau check" shows both effects (up to about 3x eps).
  *

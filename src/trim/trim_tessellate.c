@@ -140,7 +140,8 @@ static void halve(const crisp_bezier_curve *b, crisp_bezier_curve *lo, crisp_bez
             hi->cpw[3 * (d - r) + c] = tmp[3 * (d - r) + c];
         }
         for (int k = 0; k < d - r; k++)
-            for (int c = 0; c < 3; c++) tmp[3 * k + c] = 0.5 * (tmp[3 * k + c] + tmp[3 * (k + 1) + c]);
+            for (int c = 0; c < 3; c++)
+                tmp[3 * k + c] = 0.5 * (tmp[3 * k + c] + tmp[3 * (k + 1) + c]);
     }
 }
 
@@ -208,15 +209,17 @@ crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_
     for (int k = 0; k < desc->piece_count; k++) {
         long n = tess_rec(&c, &desc->pieces[k], 0, 0.0, 1.0, NULL, NULL);
         if (n > (long)1 << 30)
-            return crisp_error(CRISP_ERR_LIMIT, "crisp_trim_tessellate: piece %d needs %ld segments", k, n);
+            return crisp_error(CRISP_ERR_LIMIT,
+                               "crisp_trim_tessellate: piece %d needs %ld segments", k, n);
         pl->first[k + 1] = (int)n;
         total += n + 1;
         if (total > (long)1 << 30)
-            return crisp_error(CRISP_ERR_LIMIT, "crisp_trim_tessellate: %ld polyline points, too many",
-                               total);
+            return crisp_error(CRISP_ERR_LIMIT,
+                               "crisp_trim_tessellate: %ld polyline points, too many", total);
     }
     pl->capped = c.capped;
-    if (crisp_grow((void **)&pl->uv, &pl->cap_uv, 2 * (size_t)(total ? total : 1), sizeof *pl->uv) ||
+    if (crisp_grow((void **)&pl->uv, &pl->cap_uv, 2 * (size_t)(total ? total : 1),
+                   sizeof *pl->uv) ||
         crisp_grow((void **)&pl->t, &pl->cap_t, (size_t)(total ? total : 1), sizeof *pl->t))
         return crisp_error(CRISP_ERR_NO_MEMORY,
                            "crisp_trim_tessellate: out of memory for %ld points", total);

@@ -476,7 +476,8 @@ static void test_project_pieces_through_apex(void **state)
         double tol = 1e-6, prev = 0;
         crisp_curve *pieces[4] = {NULL};
         int n = 0;
-        assert_int_equal(crisp_surface_project_curve_pieces(s, c, 0, 1, tol, 4, pieces, &n), CRISP_OK);
+        assert_int_equal(crisp_surface_project_curve_pieces(s, c, 0, 1, tol, 4, pieces, &n),
+                         CRISP_OK);
         assert_true(n >= 1 && n <= 4);
         for (int k = 0; k < n; k++) {
             double t0, t1, jump;
@@ -491,7 +492,8 @@ static void test_project_pieces_through_apex(void **state)
     }
     crisp_curve *one = NULL;
     int n1 = 0;
-    assert_int_equal(crisp_surface_project_curve_pieces(s, NULL, 0, 1, 1e-6, 0, &one, &n1), CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp_surface_project_curve_pieces(s, NULL, 0, 1, 1e-6, 0, &one, &n1),
+                     CRISP_ERR_INVALID_ARG);
     crisp_surface_destroy(s);
 }
 

@@ -17,7 +17,8 @@ static void test_error_message(void **state)
     (void)state;
     crisp_error_clear();
     assert_string_equal(crisp_error_message(), "");
-    crisp_status s = crisp_error(CRISP_ERR_PARSE, "%s:%d:%d: expected %s", "a.iges", 12, 3, "digit");
+    crisp_status s =
+        crisp_error(CRISP_ERR_PARSE, "%s:%d:%d: expected %s", "a.iges", 12, 3, "digit");
     assert_int_equal(s, CRISP_ERR_PARSE);
     assert_string_equal(crisp_error_message(), "a.iges:12:3: expected digit");
     crisp_error_prefix("reading %s", "model");
@@ -38,7 +39,8 @@ static void test_alloc_overflow(void **state)
     size_t cap = 0;
     assert_int_equal(crisp_grow((void **)&a, &cap, 100, sizeof *a), CRISP_OK);
     assert_true(cap >= 100);
-    for (int i = 0; i < 100; i++) a[i] = i;
+    for (int i = 0; i < 100; i++)
+        a[i] = i;
     assert_int_not_equal(crisp_grow((void **)&a, &cap, SIZE_MAX, sizeof *a), CRISP_OK);
     assert_int_equal(a[99], 99);
     crisp_free(a);
@@ -55,7 +57,8 @@ static void test_arena_reuse(void **state)
             double *p = crisp_arena_alloc(a, 37, sizeof(double));
             assert_non_null(p);
             assert_int_equal((uintptr_t)p % 16, 0);
-            for (int k = 0; k < 37; k++) p[k] = k;
+            for (int k = 0; k < 37; k++)
+                p[k] = k;
         }
         char *big = crisp_arena_alloc(a, 5000, 1);
         assert_non_null(big);
@@ -63,7 +66,8 @@ static void test_arena_reuse(void **state)
     }
     size_t reserved = crisp_arena_reserved(a);
     crisp_arena_reset(a);
-    for (int i = 0; i < 50; i++) crisp_arena_alloc(a, 37, sizeof(double));
+    for (int i = 0; i < 50; i++)
+        crisp_arena_alloc(a, 37, sizeof(double));
     crisp_arena_alloc(a, 5000, 1);
     assert_int_equal(crisp_arena_reserved(a), reserved); /* steady state allocates nothing */
     assert_null(crisp_arena_alloc(a, SIZE_MAX, 2));
@@ -81,7 +85,8 @@ static void test_mat4(void **state)
     crisp_vec4 e, t;
     crisp_mat4_mulp(view, eye, e);
     crisp_mat4_mulp(view, target, t);
-    for (int i = 0; i < 3; i++) assert_true(fabs(e[i]) < 1e-12);
+    for (int i = 0; i < 3; i++)
+        assert_true(fabs(e[i]) < 1e-12);
     assert_true(fabs(t[0]) < 1e-12 && fabs(t[1]) < 1e-12);
     assert_true(fabs(t[2] + sqrt(30.0)) < 1e-12);
     crisp_mat4_perspective(30, 16.0 / 9.0, 0.1, 100, proj);
@@ -89,7 +94,8 @@ static void test_mat4(void **state)
     assert_true(crisp_mat4_inverse(vp, inv));
     crisp_mat4_mul(vp, inv, id);
     for (int c = 0; c < 4; c++)
-        for (int r = 0; r < 4; r++) assert_true(fabs(id[c][r] - (c == r)) < 1e-12);
+        for (int r = 0; r < 4; r++)
+            assert_true(fabs(id[c][r] - (c == r)) < 1e-12);
     /* A point on the near plane maps to z/w = -1, on the far plane to +1. */
     crisp_vec3 pn = {0, 0, -0.1}, pf = {0, 0, -100};
     crisp_vec4 cn, cf;
@@ -116,7 +122,8 @@ static void mark(void *vctx, size_t b, size_t e, int worker)
     pool_ctx *ctx = vctx;
     (void)worker;
     atomic_fetch_add(&ctx->calls, 1);
-    for (size_t i = b; i < e; i++) atomic_fetch_add(&ctx->hits[i], 1);
+    for (size_t i = b; i < e; i++)
+        atomic_fetch_add(&ctx->hits[i], 1);
 }
 
 static void test_pool(void **state)
@@ -129,10 +136,12 @@ static void test_pool(void **state)
         enum { N = 10007 };
         static atomic_int hits[N];
         for (int rep = 0; rep < 20; rep++) {
-            for (int i = 0; i < N; i++) atomic_store(&hits[i], 0);
+            for (int i = 0; i < N; i++)
+                atomic_store(&hits[i], 0);
             pool_ctx ctx = {hits, 0};
             crisp_pool_parallel_for(p, N, 13, mark, &ctx);
-            for (int i = 0; i < N; i++) assert_int_equal(atomic_load(&hits[i]), 1);
+            for (int i = 0; i < N; i++)
+                assert_int_equal(atomic_load(&hits[i]), 1);
             assert_int_equal(atomic_load(&ctx.calls), (N + 12) / 13);
         }
         crisp_pool_destroy(p);
@@ -149,7 +158,8 @@ static void mark_error_everywhere(void *vctx, size_t b, size_t e, int worker)
         crisp_error(CRISP_ERR_IO, "caller's own");
     } else {
         /* slow workers: the caller surely runs some items itself */
-        for (int spin = 0; spin < 20000; spin++) crisp_time_ns();
+        for (int spin = 0; spin < 20000; spin++)
+            crisp_time_ns();
         crisp_error(CRISP_ERR_IO, "worker's");
     }
 }
@@ -168,7 +178,8 @@ static void fail_on_worker(void *vctx, size_t b, size_t e, int worker)
     atomic_fetch_add(&c->started, 1);
     if (worker == 0) {
         /* hold the caller until a worker has run, so one surely fails */
-        for (int spin = 0; spin < 2000000 && !atomic_load(&c->failed); spin++) crisp_time_ns();
+        for (int spin = 0; spin < 2000000 && !atomic_load(&c->failed); spin++)
+            crisp_time_ns();
         return;
     }
     int expected = 0;
@@ -210,7 +221,8 @@ static void outer_fn(void *vctx, size_t b, size_t e, int worker)
 {
     (void)worker;
     nest_ctx *c = vctx;
-    for (size_t i = b; i < e; i++) crisp_pool_parallel_for(c->pool, 10, 1, inner_fn, c);
+    for (size_t i = b; i < e; i++)
+        crisp_pool_parallel_for(c->pool, 10, 1, inner_fn, c);
 }
 
 static int progress_calls;
@@ -264,10 +276,14 @@ static void test_time(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_error_message), cmocka_unit_test(test_alloc_overflow),
-        cmocka_unit_test(test_arena_reuse),   cmocka_unit_test(test_mat4),
-        cmocka_unit_test(test_pool),          cmocka_unit_test(test_time),
-        cmocka_unit_test(test_pool_worker_error), cmocka_unit_test(test_pool_nested_kept_progress),
+        cmocka_unit_test(test_error_message),
+        cmocka_unit_test(test_alloc_overflow),
+        cmocka_unit_test(test_arena_reuse),
+        cmocka_unit_test(test_mat4),
+        cmocka_unit_test(test_pool),
+        cmocka_unit_test(test_time),
+        cmocka_unit_test(test_pool_worker_error),
+        cmocka_unit_test(test_pool_nested_kept_progress),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -10,7 +10,10 @@
 
 #include "crisp/frep.h"
 
-static inline float brute_coord(double a, double b, int n, int i) { return (float)(a + (i + 0.5) * (b - a) / n); }
+static inline float brute_coord(double a, double b, int n, int i)
+{
+    return (float)(a + (i + 0.5) * (b - a) / n);
+}
 
 /* 2D: 255 inside, 0 outside, over [-1,1]^2 at pixel centres (row 0 at y = +1). */
 static inline uint8_t *brute_2d(const crisp_frep_tape *t, int n)
@@ -25,7 +28,8 @@ static inline uint8_t *brute_2d(const crisp_frep_tape *t, int n)
             y[(size_t)j * n + i] = (float)(1 - (j + 0.5) * 2.0 / n);
         }
     crisp_frep_eval_batch(t, np, x, y, z, v);
-    for (size_t p = 0; p < np; p++) img[p] = v[p] < 0 ? 255 : 0;
+    for (size_t p = 0; p < np; p++)
+        img[p] = v[p] < 0 ? 255 : 0;
     free(x), free(y), free(z), free(v);
     return img;
 }
@@ -38,7 +42,8 @@ static inline int32_t *brute_3d(const crisp_frep_tape *t, int n)
           *v = malloc(np * sizeof *v);
     int32_t *h = malloc(np * sizeof *h);
     size_t *open = malloc(np * sizeof *open);
-    for (size_t p = 0; p < np; p++) h[p] = -1, open[p] = p;
+    for (size_t p = 0; p < np; p++)
+        h[p] = -1, open[p] = p;
     size_t nopen = np;
     for (int k = n - 1; k >= 0 && nopen; k--) {
         float zk = brute_coord(-1, 1, n, k);
@@ -52,8 +57,10 @@ static inline int32_t *brute_3d(const crisp_frep_tape *t, int n)
         crisp_frep_eval_batch(t, nopen, x, y, z, v);
         size_t m = 0;
         for (size_t q = 0; q < nopen; q++) {
-            if (v[q] < 0) h[open[q]] = k;
-            else open[m++] = open[q];
+            if (v[q] < 0)
+                h[open[q]] = k;
+            else
+                open[m++] = open[q];
         }
         nopen = m;
     }
@@ -74,8 +81,8 @@ static inline void check_model_3d(crisp_frep *f, const char *name, int n)
     int32_t *ref = brute_3d(t, n);
     crisp_frep_renderer *r[2];
     for (int b = 0; b < 2; b++) {
-        crisp_frep_render_desc d = {.width = n, .height = n, .depth = n, .threads = 2,
-                                    .flags = b ? CRISP_FREP_BRUTE : 0};
+        crisp_frep_render_desc d = {
+            .width = n, .height = n, .depth = n, .threads = 2, .flags = b ? CRISP_FREP_BRUTE : 0};
         assert_int_equal(crisp_frep_renderer_create(t, &d, &r[b]), CRISP_OK);
         assert_int_equal(crisp_frep_renderer_run(r[b]), CRISP_OK);
     }
@@ -104,22 +111,26 @@ static inline void check_model_3d(crisp_frep *f, const char *name, int n)
             float gl = sqrtf(g[1] * g[1] + g[2] * g[2] + g[3] * g[3]);
             if (isfinite(g[0]) && !isfinite(gl)) nan_grad++;
             if (gl > 0 && isfinite(gl))
-                for (int c = 0; c < 3; c++) assert_float_equal(nv[c], g[1 + c] / gl, 1e-5);
+                for (int c = 0; c < 3; c++)
+                    assert_float_equal(nv[c], g[1 + c] / gl, 1e-5);
             assert_true((img->inside[p] == 255));
         } else {
             assert_true(isinf(img->z[p]) && img->z[p] < 0);
         }
     }
     if (differ || normals || shades || nan_grad)
-        fprintf(stderr, "%s 3D %d: %zu heights, %zu normals, %zu shades differ from brute force; "
-                "%zu non-finite gradients\n", name, n, differ, normals, shades, nan_grad);
+        fprintf(stderr,
+                "%s 3D %d: %zu heights, %zu normals, %zu shades differ from brute force; "
+                "%zu non-finite gradients\n",
+                name, n, differ, normals, shades, nan_grad);
     assert_int_equal(differ, 0);
     assert_int_equal(normals, 0);
     assert_int_equal(shades, 0);
     assert_int_equal(nan_grad, 0);
     assert_true(hit > 0);
     free(sa), free(sb), free(ref);
-    for (int b = 0; b < 2; b++) crisp_frep_renderer_destroy(r[b]);
+    for (int b = 0; b < 2; b++)
+        crisp_frep_renderer_destroy(r[b]);
     crisp_frep_tape_destroy(t);
     crisp_frep_destroy(f);
 }

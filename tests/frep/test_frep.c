@@ -16,7 +16,8 @@
 #include "frep/frep_internal.h"
 #include "frep/frep_brute.h"
 
-static const char *const models[] = {"bear", "colonnade", "tanglecube", "hi", "quarter", "prospero"};
+static const char *const models[] = {"bear", "colonnade", "tanglecube",
+                                     "hi",   "quarter",   "prospero"};
 #define NMODELS (sizeof models / sizeof models[0])
 
 static crisp_frep *load_vm(const char *name)
@@ -53,9 +54,11 @@ static float math_at(const char *text, float x, float y, float z)
     return v;
 }
 
-static crisp_frep_renderer *render(const crisp_frep_tape *t, int w, int depth, int threads, unsigned flags)
+static crisp_frep_renderer *render(const crisp_frep_tape *t, int w, int depth, int threads,
+                                   unsigned flags)
 {
-    crisp_frep_render_desc d = {.width = w, .height = w, .depth = depth, .threads = threads, .flags = flags};
+    crisp_frep_render_desc d = {
+        .width = w, .height = w, .depth = depth, .threads = threads, .flags = flags};
     crisp_frep_renderer *r = NULL;
     assert_int_equal(crisp_frep_renderer_create(t, &d, &r), CRISP_OK);
     assert_int_equal(crisp_frep_renderer_run(r), CRISP_OK);
@@ -133,7 +136,8 @@ static void test_vm_errors(void **state)
     expect_error("# only a comment\n\n   \n", "no instructions", 1);
     expect_error("_0 var-x\n_1 frobnicate _0\n", "in:2:4: unknown opcode 'frobnicate'", 1);
     expect_error("_0 var-x\n_1 add _0 _9\n", "in:2:11: undefined ID '_9'", 1);
-    expect_error("_0 add _0 _0\n", "in:1:8: undefined ID '_0'", 1); /* no cycles: only earlier IDs */
+    expect_error("_0 add _0 _0\n", "in:1:8: undefined ID '_0'",
+                 1); /* no cycles: only earlier IDs */
     expect_error("_0 var-x _1\n", "'var-x' expects 0 arguments", 1);
     expect_error("_0 const\n", "'const' expects 1 argument", 1);
     expect_error("_0 const 1.5x\n", "in:1:10: expected a number", 1);
@@ -145,13 +149,15 @@ static void test_vm_semantics(void **state)
 {
     (void)state;
     /* redefinition: the latest definition wins; comments and blank lines are skipped */
-    const char *text = "# c\n_0 var-x\n\n_1 const 2\n_0 mul _0 _1\n  # indented comment\n_2 sub _0 _1\n";
+    const char *text =
+        "# c\n_0 var-x\n\n_1 const 2\n_0 mul _0 _1\n  # indented comment\n_2 sub _0 _1\n";
     crisp_frep *f = NULL;
     assert_int_equal(crisp_frep_read_vm_mem("in", text, strlen(text), &f), CRISP_OK);
     assert_float_equal(crisp_frep_eval_graph(f, 3, 0, 0), 4, 0);
     crisp_frep_destroy(f);
     /* NaN and inf constants and division by zero everywhere: defined results, nothing inside */
-    const char *bad[] = {"_0 const nan\n", "_0 const inf\n", "_0 const -inf\n_1 var-x\n_2 mul _0 _1\n",
+    const char *bad[] = {"_0 const nan\n", "_0 const inf\n",
+                         "_0 const -inf\n_1 var-x\n_2 mul _0 _1\n",
                          "_0 var-x\n_1 sub _0 _0\n_2 const 1\n_3 div _2 _1\n",
                          "_0 var-x\n_1 sub _0 _0\n_2 div _1 _1\n_3 sqrt _0\n_4 min _2 _3\n"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
@@ -230,7 +236,8 @@ static void test_big_expressions(void **state)
     size_t terms = 500000;
     s = malloc(terms * 24 + 8);
     size_t len = 0;
-    for (size_t k = 0; k < terms; k++) len += (size_t)sprintf(s + len, "%sX*%zu", k ? "+" : "", k + 2);
+    for (size_t k = 0; k < terms; k++)
+        len += (size_t)sprintf(s + len, "%sX*%zu", k ? "+" : "", k + 2);
     crisp_frep *f = parse_math(s);
     assert_true(crisp_frep_node_count(f) >= terms);
     crisp_frep_tape *t;
@@ -251,7 +258,10 @@ static uint32_t rnd(void)
     rng_state ^= rng_state << 17;
     return (uint32_t)(rng_state >> 11);
 }
-static float rndf(float a, float b) { return a + (b - a) * (float)(rnd() % 1000001) / 1000000.0f; }
+static float rndf(float a, float b)
+{
+    return a + (b - a) * (float)(rnd() % 1000001) / 1000000.0f;
+}
 
 /* A random expression of about n nodes over every op. */
 static crisp_frep *random_expr(int n)
@@ -260,7 +270,8 @@ static crisp_frep *random_expr(int n)
     crisp_frep_create(&f);
     crisp_frep_node *pool = malloc((size_t)(n + 8) * sizeof *pool);
     int m = 0;
-    for (int a = 0; a < 3; a++) crisp_frep_var(f, a, &pool[m++]);
+    for (int a = 0; a < 3; a++)
+        crisp_frep_var(f, a, &pool[m++]);
     crisp_frep_const(f, rndf(-2, 2), &pool[m++]);
     crisp_frep_const(f, 0.5f, &pool[m++]);
     while (m < n) {
@@ -271,7 +282,7 @@ static crisp_frep *random_expr(int n)
         crisp_frep_node r;
         if (rnd() % 8 == 0) crisp_frep_const(f, rndf(-3, 3), &b);
         crisp_status s = crisp_frep_op_arity(op) == 1 ? crisp_frep_unary(f, op, a, &r)
-                                                     : crisp_frep_binary(f, op, a, b, &r);
+                                                      : crisp_frep_binary(f, op, a, b, &r);
         assert_int_equal(s, CRISP_OK);
         pool[m++] = r;
     }
@@ -280,7 +291,10 @@ static crisp_frep *random_expr(int n)
     return f;
 }
 
-static int same(float a, float b) { return a == b || (a != a && b != b); }
+static int same(float a, float b)
+{
+    return a == b || (a != a && b != b);
+}
 
 static void test_interval_soundness(void **state)
 {
@@ -344,25 +358,30 @@ static void test_interval_soundness(void **state)
                 float v = crisp_frep_eval_point(t, p[0], p[1], p[2]);
                 if (l == l) {
                     if (!(v >= l && v <= h))
-                        fprintf(stderr, "expr %d box %d: %.9g outside [%.9g, %.9g]\n", e, b, v, l, h);
+                        fprintf(stderr, "expr %d box %d: %.9g outside [%.9g, %.9g]\n", e, b, v, l,
+                                h);
                     assert_true(v >= l && v <= h);
                 }
                 /* the shortened tapes give the same values inside their boxes */
                 if (ok1) {
-                    float vs = crisp__frep_eval_scalar(s1.ins, s1.len, s1.ins[s1.len - 1].out, regs, p[0], p[1], p[2]);
+                    float vs = crisp__frep_eval_scalar(s1.ins, s1.len, s1.ins[s1.len - 1].out, regs,
+                                                       p[0], p[1], p[2]);
                     assert_true(same(v, vs));
                 }
-                float vp = crisp__frep_eval_scalar(p1.ins, p1.len, p1.ins[p1.len - 1].out, regs, p[0], p[1], p[2]);
+                float vp = crisp__frep_eval_scalar(p1.ins, p1.len, p1.ins[p1.len - 1].out, regs,
+                                                   p[0], p[1], p[2]);
                 assert_true(same(v, vp));
                 if (okp) {
                     float vq = crisp_frep_eval_point(t, q[0], q[1], q[2]);
-                    float vs = crisp__frep_eval_scalar(p2.ins, p2.len, p2.ins[p2.len - 1].out, regs, q[0], q[1], q[2]);
+                    float vs = crisp__frep_eval_scalar(p2.ins, p2.len, p2.ins[p2.len - 1].out, regs,
+                                                       q[0], q[1], q[2]);
                     assert_true(same(vq, vs));
                     pruned += p2.len < p1.len;
                 }
                 if (ok2) {
                     float vq = crisp_frep_eval_point(t, q[0], q[1], q[2]);
-                    float vs = crisp__frep_eval_scalar(s2.ins, s2.len, s2.ins[s2.len - 1].out, regs, q[0], q[1], q[2]);
+                    float vs = crisp__frep_eval_scalar(s2.ins, s2.len, s2.ins[s2.len - 1].out, regs,
+                                                       q[0], q[1], q[2]);
                     assert_true(same(vq, vs));
                 }
                 checked++;
@@ -434,8 +453,10 @@ static void test_interval_lanes_match(void **state)
                     choices += sch != FREP_CHOICE_BOTH;
                 }
                 if (!same(slo[o], lo[o * L + k]) || !same(shi[o], hi[o * L + k]))
-                    fprintf(stderr, "expr %d ins %zu op %d lane %d: scalar [%.9g, %.9g] lanes [%.9g, %.9g]\n",
-                            e, i, t->ins[i].op, k, slo[o], shi[o], lo[o * L + k], hi[o * L + k]);
+                    fprintf(
+                        stderr,
+                        "expr %d ins %zu op %d lane %d: scalar [%.9g, %.9g] lanes [%.9g, %.9g]\n",
+                        e, i, t->ins[i].op, k, slo[o], shi[o], lo[o * L + k], hi[o * L + k]);
                 assert_true(same(slo[o], lo[o * L + k]) && same(shi[o], hi[o * L + k]));
                 compared++;
                 known += slo[o] == slo[o];
@@ -460,7 +481,8 @@ static void test_batch_matches_graph(void **state)
         assert_int_equal(crisp_frep_tape_create(f, &t), CRISP_OK);
         enum { N = 100 };
         float x[N], y[N], z[N], v[N], g[4 * N];
-        for (int k = 0; k < N; k++) x[k] = rndf(-3, 3), y[k] = rndf(-3, 3), z[k] = rndf(-3, 3);
+        for (int k = 0; k < N; k++)
+            x[k] = rndf(-3, 3), y[k] = rndf(-3, 3), z[k] = rndf(-3, 3);
         assert_int_equal(crisp_frep_eval_batch(t, N, x, y, z, v), CRISP_OK);
         assert_int_equal(crisp_frep_eval_grad(t, N, x, y, z, g), CRISP_OK);
         for (int k = 0; k < N; k++) {
@@ -501,11 +523,13 @@ static void test_prospero_reference(void **state)
     /* "P5\n1024 1024\n255\n" then the pixels */
     int lines = 0;
     size_t off = 0;
-    while (lines < 3 && off < (size_t)n) lines += buf[off++] == '\n';
+    while (lines < 3 && off < (size_t)n)
+        lines += buf[off++] == '\n';
     assert_int_equal((size_t)n - off, 1024 * 1024);
     const uint8_t *ref = buf + off;
     size_t ref_inside = 0;
-    for (size_t p = 0; p < 1024 * 1024; p++) ref_inside += ref[p] != 0;
+    for (size_t p = 0; p < 1024 * 1024; p++)
+        ref_inside += ref[p] != 0;
     assert_int_equal(ref_inside, 132816);
 
     crisp_frep *f = load_vm("prospero");
@@ -520,13 +544,15 @@ static void test_prospero_reference(void **state)
                 size_t p = (size_t)j * 1024 + (size_t)i;
                 if (img->inside[p] == ref[p]) continue;
                 /* allowed only where the value is within float rounding of zero */
-                float v = crisp_frep_eval_graph(f, -1 + (2 * i + 1) / 1024.0f, 1 - (2 * j + 1) / 1024.0f, 0);
+                float v = crisp_frep_eval_graph(f, -1 + (2 * i + 1) / 1024.0f,
+                                                1 - (2 * j + 1) / 1024.0f, 0);
                 fprintf(stderr, "pixel (%d, %d) differs, f = %.9g\n", i, j, v);
                 assert_true(fabsf(v) < 1e-5f);
                 differ++;
             }
-        printf("prospero 1024x1024, %d thread(s): %zu pixels differ from the reference (near zero)\n",
-               threads, differ);
+        printf(
+            "prospero 1024x1024, %d thread(s): %zu pixels differ from the reference (near zero)\n",
+            threads, differ);
         assert_true(differ <= 8);
         crisp_frep_renderer_destroy(r);
     }
@@ -544,7 +570,8 @@ static void check_model_2d(const char *name, unsigned flags)
     crisp_frep_renderer *r = render(t, 256, 0, 2, flags);
     const crisp_frep_image *img = crisp_frep_renderer_image(r);
     size_t differ = 0, inside = 0;
-    for (size_t p = 0; p < 256 * 256; p++) differ += img->inside[p] != ref[p], inside += ref[p] != 0;
+    for (size_t p = 0; p < 256 * 256; p++)
+        differ += img->inside[p] != ref[p], inside += ref[p] != 0;
     if (differ) fprintf(stderr, "%s 2D (flags %u): %zu pixels differ\n", name, flags, differ);
     assert_int_equal(differ, 0);
     free(ref);
@@ -556,7 +583,8 @@ static void check_model_2d(const char *name, unsigned flags)
 static void test_models_2d(void **state)
 {
     (void)state;
-    for (size_t m = 0; m < NMODELS; m++) check_model_2d(models[m], 0);
+    for (size_t m = 0; m < NMODELS; m++)
+        check_model_2d(models[m], 0);
     /* each optimisation switched off gives the same image */
     check_model_2d("hi", CRISP_FREP_NO_PRUNE);
     check_model_2d("hi", CRISP_FREP_NO_BATCH);
@@ -604,7 +632,9 @@ static void test_region_and_size(void **state)
                 } else {
                     int h = -1;
                     for (int k = D - 1; k >= 0 && h < 0; k--)
-                        if (crisp_frep_eval_point(t, x, y, (float)(g[4] + (k + 0.5) * (g[5] - g[4]) / D)) < 0) h = k;
+                        if (crisp_frep_eval_point(
+                                t, x, y, (float)(g[4] + (k + 0.5) * (g[5] - g[4]) / D)) < 0)
+                            h = k;
                     differ += img->heights[p] != h;
                     inside += h >= 0;
                 }
@@ -672,7 +702,8 @@ static void test_fit_region(void **state)
     assert_int_equal(crisp_frep_renderer_create(t, &d, &r), CRISP_OK);
     assert_int_equal(crisp_frep_renderer_run(r), CRISP_OK);
     size_t inside = 0;
-    for (size_t p = 0; p < 64 * 64; p++) inside += crisp_frep_renderer_image(r)->inside[p] != 0;
+    for (size_t p = 0; p < 64 * 64; p++)
+        inside += crisp_frep_renderer_image(r)->inside[p] != 0;
     assert_true(inside > 64 * 64 / 16);
     crisp_frep_renderer_destroy(r);
     crisp_frep_tape_destroy(t);
@@ -691,7 +722,8 @@ static void test_fit_region(void **state)
     /* a 2D model is unbounded in z only */
     f = load_vm("quarter");
     assert_int_equal(crisp_frep_tape_create(f, &t), CRISP_OK);
-    assert_int_equal(crisp_frep_fit_region(t, &(crisp_frep_fit_desc){.free_axes = 4}, &fit), CRISP_OK);
+    assert_int_equal(crisp_frep_fit_region(t, &(crisp_frep_fit_desc){.free_axes = 4}, &fit),
+                     CRISP_OK);
     assert_int_equal(fit.unbounded, 4);
     assert_int_equal(crisp_frep_fit_check(&fit, 4), CRISP_OK);
     crisp_frep_tape_destroy(t);
@@ -701,13 +733,19 @@ static void test_fit_region(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_math_values),       cmocka_unit_test(test_math_errors),
-        cmocka_unit_test(test_vm_errors),         cmocka_unit_test(test_vm_semantics),
-        cmocka_unit_test(test_dag),               cmocka_unit_test(test_big_expressions),
-        cmocka_unit_test(test_interval_soundness), cmocka_unit_test(test_interval_lanes_match),
+        cmocka_unit_test(test_math_values),
+        cmocka_unit_test(test_math_errors),
+        cmocka_unit_test(test_vm_errors),
+        cmocka_unit_test(test_vm_semantics),
+        cmocka_unit_test(test_dag),
+        cmocka_unit_test(test_big_expressions),
+        cmocka_unit_test(test_interval_soundness),
+        cmocka_unit_test(test_interval_lanes_match),
         cmocka_unit_test(test_batch_matches_graph),
-        cmocka_unit_test(test_prospero_reference), cmocka_unit_test(test_models_2d),
-        cmocka_unit_test(test_models_3d),          cmocka_unit_test(test_region_and_size),
+        cmocka_unit_test(test_prospero_reference),
+        cmocka_unit_test(test_models_2d),
+        cmocka_unit_test(test_models_3d),
+        cmocka_unit_test(test_region_and_size),
         cmocka_unit_test(test_fit_region),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

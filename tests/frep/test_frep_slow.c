@@ -35,11 +35,13 @@ static void test_models_512(void **state)
 {
     (void)state;
     const char *const models[] = {"bear", "colonnade", "tanglecube", "hi", "quarter"};
-    for (size_t m = 0; m < sizeof models / sizeof *models; m++) check_model_3d(load(models[m]), models[m], 512);
+    for (size_t m = 0; m < sizeof models / sizeof *models; m++)
+        check_model_3d(load(models[m]), models[m], 512);
 }
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_prospero_3d), cmocka_unit_test(test_models_512)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_prospero_3d),
+                                       cmocka_unit_test(test_models_512)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

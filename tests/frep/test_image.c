@@ -21,7 +21,8 @@ static void test_png(void **state)
     const int W = 37, H = 21;
     for (int ch = 1; ch <= 4; ch++) {
         uint8_t *px = malloc((size_t)W * H * ch);
-        for (int k = 0; k < W * H * ch; k++) px[k] = (uint8_t)(k * 7 + ch);
+        for (int k = 0; k < W * H * ch; k++)
+            px[k] = (uint8_t)(k * 7 + ch);
         char path[256];
         snprintf(path, sizeof path, "%s/test_image_%d.png", CRISP_BIN_DIR, ch);
         assert_int_equal(crisp_write_png(path, W, H, ch, px), CRISP_OK);
@@ -50,7 +51,8 @@ static void test_exr(void **state)
     const int W = 67, H = 41, C = 4; /* 16 lines per ZIP chunk: the last chunk is partial */
     const char *names[4] = {"Z", "N.x", "N.y", "N.z"};
     float *px = malloc((size_t)W * H * C * sizeof *px);
-    for (int k = 0; k < W * H * C; k++) px[k] = (float)k * 0.25f - 100.0f;
+    for (int k = 0; k < W * H * C; k++)
+        px[k] = (float)k * 0.25f - 100.0f;
     px[5 * C] = -INFINITY;
     char path[256];
     snprintf(path, sizeof path, "%s/test_image.exr", CRISP_BIN_DIR);
@@ -71,8 +73,10 @@ static void test_exr(void **state)
     int inited = 0;
     for (int32_t c = 0; c < chunks; c++) {
         exr_chunk_info_t ci;
-        assert_int_equal(exr_read_scanline_chunk_info(ctx, 0, dw.min.y + c * lines, &ci), EXR_ERR_SUCCESS);
-        assert_int_equal(inited ? exr_decoding_update(ctx, 0, &ci, &dec) : exr_decoding_initialize(ctx, 0, &ci, &dec),
+        assert_int_equal(exr_read_scanline_chunk_info(ctx, 0, dw.min.y + c * lines, &ci),
+                         EXR_ERR_SUCCESS);
+        assert_int_equal(inited ? exr_decoding_update(ctx, 0, &ci, &dec)
+                                : exr_decoding_initialize(ctx, 0, &ci, &dec),
                          EXR_ERR_SUCCESS);
         for (int k = 0; k < dec.channel_count; k++) {
             int src = -1;
@@ -86,7 +90,8 @@ static void test_exr(void **state)
             dec.channels[k].user_bytes_per_element = 4;
             dec.channels[k].user_data_type = EXR_PIXEL_FLOAT;
         }
-        if (!inited) assert_int_equal(exr_decoding_choose_default_routines(ctx, 0, &dec), EXR_ERR_SUCCESS);
+        if (!inited)
+            assert_int_equal(exr_decoding_choose_default_routines(ctx, 0, &dec), EXR_ERR_SUCCESS);
         inited = 1;
         assert_int_equal(exr_decoding_run(ctx, 0, &dec), EXR_ERR_SUCCESS);
     }

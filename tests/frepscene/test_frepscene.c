@@ -522,18 +522,16 @@ static void check_shortening_changes_nothing(const crisp_frep_part *part, const 
     crisp_frep_parts_stats sa, sb;
     assert_int_equal(crisp_image_init(&a, cam->width, cam->height), CRISP_OK);
     assert_int_equal(crisp_image_init(&b, cam->width, cam->height), CRISP_OK);
-    assert_int_equal(crisp_render_frep_parts(part, 1, cam,
-                                             &(crisp_frep_parts_desc){.threads = 2,
-                                                                      .per_pixel = per_pixel,
-                                                                      .stats = &sa},
-                                             &a),
-                     CRISP_OK);
-    assert_int_equal(crisp_render_frep_parts(part, 1, cam,
-                                             &(crisp_frep_parts_desc){.threads = 2,
-                                                                      .per_pixel = per_pixel,
-                                                                      .no_shorten = 1,
-                                                                      .stats = &sb},
-                                             &b),
+    assert_int_equal(
+        crisp_render_frep_parts(
+            part, 1, cam,
+            &(crisp_frep_parts_desc){.threads = 2, .per_pixel = per_pixel, .stats = &sa}, &a),
+        CRISP_OK);
+    assert_int_equal(crisp_render_frep_parts(
+                         part, 1, cam,
+                         &(crisp_frep_parts_desc){
+                             .threads = 2, .per_pixel = per_pixel, .no_shorten = 1, .stats = &sb},
+                         &b),
                      CRISP_OK);
     size_t n = (size_t)cam->width * cam->height, drawn = 0;
     for (size_t p = 0; p < n; p++) {
@@ -551,8 +549,10 @@ static void check_shortening_changes_nothing(const crisp_frep_part *part, const 
     assert_int_equal(sa.hits, drawn);
     assert_true(sb.tape_sum == sb.batches * crisp_frep_tape_length(part->tape));
     assert_true(sa.tape_sum < sb.tape_sum);
-    if (dest) *dest = a;
-    else crisp_image_free(&a);
+    if (dest)
+        *dest = a;
+    else
+        crisp_image_free(&a);
     crisp_image_free(&b);
 }
 
@@ -567,13 +567,15 @@ static void test_sphere_union_shortened(void **state)
     char *src = malloc(NS * 160);
     size_t len = 0;
     for (int k = 0; k < NS; k++) {
-        for (int a = 0; a < 3; a++) ctr[k][a] = 1.6 * urand() - 0.8;
+        for (int a = 0; a < 3; a++)
+            ctr[k][a] = 1.6 * urand() - 0.8;
         rad[k] = 0.08 + 0.17 * urand();
         len += (size_t)sprintf(src + len, "%ssqrt((X-%.6f)^2 + (Y-%.6f)^2 + (Z-%.6f)^2) - %.6f%s",
                                k + 1 < NS ? "min(" : "", ctr[k][0], ctr[k][1], ctr[k][2], rad[k],
                                k + 1 < NS ? ", " : "");
     }
-    for (int k = 0; k + 1 < NS; k++) src[len++] = ')';
+    for (int k = 0; k + 1 < NS; k++)
+        src[len++] = ')';
     crisp_frep *f;
     assert_int_equal(crisp_frep_read_math_mem("spheres", src, len, &f), CRISP_OK);
     free(src);
@@ -698,7 +700,8 @@ static void test_scene_camera(void **state)
     assert_float_equal(s->eye[0], -4, 0);
     assert_float_equal(s->fov_deg, 30, 0);
     crisp_scene_file_destroy(s);
-    expect_error("camera eye 0 0 5\ncamera eye 0 0 6\nfrep a.vm\n", "bad.scene:2:1:", "at most one");
+    expect_error("camera eye 0 0 5\ncamera eye 0 0 6\nfrep a.vm\n",
+                 "bad.scene:2:1:", "at most one");
     expect_error("camera fov 20\nfrep a.vm\n", "bad.scene:1:1:", "'eye x y z'");
     expect_error("camera eye 0 0 5 fov 180\nfrep a.vm\n", "bad.scene:1:18:", "(0, 180)");
     expect_error("camera eye 0 0 x\nfrep a.vm\n", "bad.scene:1:16:", "three numbers after 'eye'");

@@ -41,7 +41,8 @@ static void make_plan(hand_plan *h, const crisp_camera *cam, int trimmed, int de
     crisp_camera_matrices_compute(cam, &m);
     crisp_frame_plan *p = &h->plan;
     memcpy(p->view_proj, m.view_proj, sizeof p->view_proj);
-    for (int k = 0; k < 16; k++) p->view_proj_f[k] = (float)m.view_proj[k / 4][k % 4];
+    for (int k = 0; k < 16; k++)
+        p->view_proj_f[k] = (float)m.view_proj[k / 4][k % 4];
     memcpy(p->eye, cam->eye, sizeof p->eye);
     p->width = cam->width;
     p->height = cam->height;
@@ -50,18 +51,30 @@ static void make_plan(hand_plan *h, const crisp_camera *cam, int trimmed, int de
     for (int iy = 0; iy < n; iy++)
         for (int ix = 0; ix < n; ix++) {
             crisp_plan_leaf *L = &h->leaves[iy * n + ix];
-            *L = (crisp_plan_leaf){.patch = 0, .face = 0, .depth = (uint32_t)depth, .tau = 3,
-                                   .ix = (uint32_t)ix, .iy = (uint32_t)iy, .edge = {3, 3, 3, 3}};
+            *L = (crisp_plan_leaf){.patch = 0,
+                                   .face = 0,
+                                   .depth = (uint32_t)depth,
+                                   .tau = 3,
+                                   .ix = (uint32_t)ix,
+                                   .iy = (uint32_t)iy,
+                                   .edge = {3, 3, 3, 3}};
         }
     p->leaves = h->leaves;
     p->leaf_count = (uint32_t)(n * n);
-    h->face = (crisp_plan_face){.v0 = 0, .v1 = 1, .strip_scale = 1, .first_strip = 0, .strip_count = 1,
-                                .first_leaf = 0, .leaf_count = p->leaf_count, .flags = CRISP_PLAN_FACE_VISIBLE,
+    h->face = (crisp_plan_face){.v0 = 0,
+                                .v1 = 1,
+                                .strip_scale = 1,
+                                .first_strip = 0,
+                                .strip_count = 1,
+                                .first_leaf = 0,
+                                .leaf_count = p->leaf_count,
+                                .flags = CRISP_PLAN_FACE_VISIBLE,
                                 .tau_max = 3};
     if (!trimmed) h->face.flags |= CRISP_PLAN_FACE_ALL_INSIDE;
     p->faces = &h->face;
     p->face_count = 1;
-    h->strip = (crisp_plan_strip){.a = 0, .row_scale = rows, .first_row = 0, .row_count = (uint32_t)rows};
+    h->strip =
+        (crisp_plan_strip){.a = 0, .row_scale = rows, .first_row = 0, .row_count = (uint32_t)rows};
     p->strips = &h->strip;
     p->strip_count = 1;
     uint32_t c = 0;
@@ -96,7 +109,8 @@ static int ref_trim(const hand_plan *h, double u, double v)
 static crisp_gl *make_gl(int samples)
 {
     crisp_gl *gl = NULL;
-    crisp_status st = crisp_gl_create(crisp_gl_context_getproc(ctx), &(crisp_gl_desc){.samples = samples}, &gl);
+    crisp_status st =
+        crisp_gl_create(crisp_gl_context_getproc(ctx), &(crisp_gl_desc){.samples = samples}, &gl);
     if (st) fprintf(stderr, "%s\n", crisp_error_message());
     assert_int_equal(st, CRISP_OK);
     crisp_gl_scene_data d = {square_cps, 4, &square_rec, 1, square_color, 1};
@@ -151,14 +165,15 @@ static int check_square(int samples, const crisp_camera *cam, int trimmed, int d
             }
             covered++;
             if (img.face[k] != 0 || img.rgba[4 * k + 3] != 1)
-                fail_msg("pixel (%d, %d): face %d alpha %g, expected covered (u %g v %g)", i, j, img.face[k],
-                         img.rgba[4 * k + 3], u, v);
+                fail_msg("pixel (%d, %d): face %d alpha %g, expected covered (u %g v %g)", i, j,
+                         img.face[k], img.rgba[4 * k + 3], u, v);
             assert_true(fabs(img.depth[k] - dist) < 1e-5 * dist);
             /* uv at the nearest sample: within one pixel of the centre's */
             assert_true(fabs(img.uv[2 * k] - u) < px && fabs(img.uv[2 * k + 1] - v) < px);
             assert_true(fabs(img.normal[3 * k + 2] - 1) < 1e-5);
             /* headlight: |n . d| / |d| at the sample; frontal view, close to 1 */
-            assert_true(fabs(img.rgba[4 * k] - square_color[0] * (0.25 + 0.75 * fabs(d[2]))) < 1e-3);
+            assert_true(fabs(img.rgba[4 * k] - square_color[0] * (0.25 + 0.75 * fabs(d[2]))) <
+                        1e-3);
         }
     assert_true(covered > 0);
     /* the viewer's path: the colour blitted into an app framebuffer, the image's top row at the
@@ -167,7 +182,8 @@ static int check_square(int samples, const crisp_camera *cam, int trimmed, int d
     assert_int_equal(crisp__gl_blit_probe(gl, px8), CRISP_OK);
     for (int j = 0; j < cam->height; j++)
         for (int i = 0; i < cam->width; i++) {
-            size_t k = (size_t)j * cam->width + i, g = (size_t)(cam->height - 1 - j) * cam->width + i;
+            size_t k = (size_t)j * cam->width + i,
+                   g = (size_t)(cam->height - 1 - j) * cam->width + i;
             for (int c = 0; c < 4; c++)
                 assert_true(abs((int)px8[4 * g + c] - (int)lrintf(255 * img.rgba[4 * k + c])) <= 1);
         }
@@ -180,8 +196,14 @@ static int check_square(int samples, const crisp_camera *cam, int trimmed, int d
 
 static crisp_camera front_camera(double fov, int w, int h)
 {
-    crisp_camera cam = {.eye = {0, 0, 4}, .target = {0, 0, 0}, .up = {0, 1, 0}, .fov_deg = fov,
-                        .znear = 0.5, .zfar = 100, .width = w, .height = h};
+    crisp_camera cam = {.eye = {0, 0, 4},
+                        .target = {0, 0, 0},
+                        .up = {0, 1, 0},
+                        .fov_deg = fov,
+                        .znear = 0.5,
+                        .zfar = 100,
+                        .width = w,
+                        .height = h};
     return cam;
 }
 
@@ -226,7 +248,8 @@ static void test_zoom(void **state)
         h->crossings[0] = 0.2;
         h->crossings[1] = 0.8;
         h->row_offset[0] = 0;
-        for (int r = 1; r <= 4; r++) h->row_offset[r] = 2;
+        for (int r = 1; r <= 4; r++)
+            h->row_offset[r] = 2;
         h->strip.row_count = 1;
         h->strip.row_scale = 1;
         h->plan.row_count = 1;
@@ -246,8 +269,8 @@ static void test_zoom(void **state)
                 int want = u > 0.2;
                 size_t q = (size_t)j * cam.width + i;
                 if (img.face[q] != (want ? 0 : -1))
-                    fail_msg("fov %g: pixel (%d, %d) u - 0.2 = %g px: face %d, expected %d", cam.fov_deg, i, j,
-                             (u - 0.2) * 2 / px, img.face[q], want ? 0 : -1);
+                    fail_msg("fov %g: pixel (%d, %d) u - 0.2 = %g px: face %d, expected %d",
+                             cam.fov_deg, i, j, (u - 0.2) * 2 / px, img.face[q], want ? 0 : -1);
                 checked++;
                 inside += want;
             }
@@ -262,16 +285,21 @@ static void test_errors(void **state)
 {
     (void)state;
     /* compile and link failures name the shader and carry the log */
-    assert_int_equal(crisp__gl_try_program("broken", CRISP__GL_FRAGMENT, "void main() { nonsense; }"), CRISP_ERR_GL);
+    assert_int_equal(
+        crisp__gl_try_program("broken", CRISP__GL_FRAGMENT, "void main() { nonsense; }"),
+        CRISP_ERR_GL);
     assert_non_null(strstr(crisp_error_message(), "broken"));
-    assert_int_equal(crisp__gl_try_program("ok", CRISP__GL_COMPUTE, "layout(local_size_x = 1) in; void main() {}"),
+    assert_int_equal(crisp__gl_try_program("ok", CRISP__GL_COMPUTE,
+                                           "layout(local_size_x = 1) in; void main() {}"),
                      CRISP_OK);
-    assert_int_equal(crisp__gl_try_program("unlinked", CRISP__GL_VERTEX, "void f(); void main() { f(); }"),
-                     CRISP_ERR_GL);
+    assert_int_equal(
+        crisp__gl_try_program("unlinked", CRISP__GL_VERTEX, "void f(); void main() { f(); }"),
+        CRISP_ERR_GL);
     assert_non_null(strstr(crisp_error_message(), "unlinked"));
     /* a plan larger than the buffer limit */
     crisp_gl *gl = NULL;
-    assert_int_equal(crisp_gl_create(crisp_gl_context_getproc(ctx), &(crisp_gl_desc){.max_buffer_bytes = 1024}, &gl),
+    assert_int_equal(crisp_gl_create(crisp_gl_context_getproc(ctx),
+                                     &(crisp_gl_desc){.max_buffer_bytes = 1024}, &gl),
                      CRISP_OK);
     crisp_gl_scene_data d = {square_cps, 4, &square_rec, 1, square_color, 1};
     assert_int_equal(crisp_gl_set_scene_data(gl, &d), CRISP_OK);
@@ -294,7 +322,8 @@ static void test_errors(void **state)
     assert_int_equal(crisp_gl_read(big, &ref, NULL), CRISP_OK);
     crisp_gl_destroy(big);
     size_t n = (size_t)cam.width * cam.height, covered = 0;
-    for (size_t k = 0; k < n; k++) covered += img.face[k] == 0;
+    for (size_t k = 0; k < n; k++)
+        covered += img.face[k] == 0;
     assert_true(covered > n / 20);
     assert_memory_equal(img.face, ref.face, n * sizeof *img.face);
     assert_memory_equal(img.rgba, ref.rgba, 4 * n * sizeof *img.rgba);
@@ -320,8 +349,9 @@ static void test_errors(void **state)
     crisp_image_free(&ref);
     crisp_gl_destroy(gl);
     /* bad sample counts */
-    assert_int_equal(crisp_gl_create(crisp_gl_context_getproc(ctx), &(crisp_gl_desc){.samples = 3}, &gl),
-                     CRISP_ERR_INVALID_ARG);
+    assert_int_equal(
+        crisp_gl_create(crisp_gl_context_getproc(ctx), &(crisp_gl_desc){.samples = 3}, &gl),
+        CRISP_ERR_INVALID_ARG);
     free(h);
 }
 
@@ -335,7 +365,8 @@ static void test_layout_hand(void **state)
     make_plan(h, &cam, 1, 2, 37);
     for (int k = 0; k < 16; k++) {
         h->leaves[k].tau = 1 + (uint32_t)(k * 4);
-        for (int e = 0; e < 4; e++) h->leaves[k].edge[e] = 1 + (uint32_t)((k * 7 + e * 13) % 64);
+        for (int e = 0; e < 4; e++)
+            h->leaves[k].edge[e] = 1 + (uint32_t)((k * 7 + e * 13) % 64);
     }
     enum { N = 4000 };
     crisp__gl_query *q = calloc(N, sizeof *q);
@@ -356,7 +387,8 @@ static void test_layout_hand(void **state)
         assert_int_equal(r[k].tau, L->tau);
         assert_int_equal(r[k].depth, L->depth);
         assert_int_equal(r[k].patch, L->patch);
-        for (int e = 0; e < 4; e++) assert_int_equal(r[k].edge[e], L->edge[e]);
+        for (int e = 0; e < 4; e++)
+            assert_int_equal(r[k].edge[e], L->edge[e]);
         double sc = ldexp(1, -(int)L->depth);
         double u = (L->ix + q[k].s) * sc, v = (L->iy + q[k].t) * sc;
         assert_true(fabs(r[k].u - u) < 1e-15 && fabs(r[k].v - v) < 1e-15);
@@ -369,7 +401,8 @@ static void test_layout_hand(void **state)
 
 /* Ribbons: drawn over empty pixels; over a surface only where nearer by more than the depth slack
  * (1.5 x the surface's W change to the neighbouring pixels): the square tilted to z = y changes W
- * by about 0.04 per pixel, so a ribbon 0.01 in front of it stays hidden and one 0.3 in front shows. */
+ * by about 0.04 per pixel, so a ribbon 0.01 in front of it stays hidden and one 0.3 in front shows.
+ */
 static void test_ribbons(void **state)
 {
     (void)state;
@@ -424,7 +457,8 @@ static void test_ribbons(void **state)
                     n_over++;
                     over += img.face[k] == 1;
                     if (img.face[k] == 1)
-                        assert_true(fabs(img.uv[2 * k] - 0.25f) < 1e-6 && fabs(img.uv[2 * k + 1] - 0.75f) < 1e-6);
+                        assert_true(fabs(img.uv[2 * k] - 0.25f) < 1e-6 &&
+                                    fabs(img.uv[2 * k + 1] - 0.75f) < 1e-6);
                 } else if (x > 1.55 && x < 1.75 && fabs(y) < 0.15) {
                     n_empty++;
                     empty += img.face[k] == 1;
@@ -446,10 +480,17 @@ static void test_rational(void **state)
 {
     (void)state;
     double r = sqrt(0.5);
-    const double cps[24] = {1, -1, 0, 1, r, -r, r, r, 0, -1, 1, 1, 1, 1, 0, 1, r, r, r, r, 0, 1, 1, 1};
+    const double cps[24] = {1, -1, 0, 1, r, -r, r, r, 0, -1, 1, 1,
+                            1, 1,  0, 1, r, r,  r, r, 0, 1,  1, 1};
     crisp_scene_patch_record rec = {0, 2, 1, 0, 0, 1, 0, 1};
-    crisp_camera cam = {.eye = {4, 0, 4}, .target = {0, 0, 0}, .up = {0, 1, 0}, .fov_deg = 30,
-                        .znear = 0.5, .zfar = 100, .width = 80, .height = 60};
+    crisp_camera cam = {.eye = {4, 0, 4},
+                        .target = {0, 0, 0},
+                        .up = {0, 1, 0},
+                        .fov_deg = 30,
+                        .znear = 0.5,
+                        .zfar = 100,
+                        .width = 80,
+                        .height = 60};
     crisp_gl *gl = NULL;
     assert_int_equal(crisp_gl_create(crisp_gl_context_getproc(ctx), NULL, &gl), CRISP_OK);
     crisp_gl_scene_data d = {cps, 6, &rec, 1, square_color, 1};
@@ -458,7 +499,8 @@ static void test_rational(void **state)
     make_plan(h, &cam, 0, 1, 8);
     for (int k = 0; k < 4; k++) {
         h->leaves[k].tau = 32;
-        for (int e = 0; e < 4; e++) h->leaves[k].edge[e] = 32;
+        for (int e = 0; e < 4; e++)
+            h->leaves[k].edge[e] = 32;
     }
     crisp_image img;
     assert_int_equal(crisp_image_init(&img, cam.width, cam.height), CRISP_OK);
@@ -476,12 +518,14 @@ static void test_rational(void **state)
             size_t k = (size_t)j * cam.width + i;
             if (!(disc > 0)) continue;
             double t = (-b - sqrt(disc)) / (2 * a), P[3];
-            for (int q = 0; q < 3; q++) P[q] = o[q] + t * dd[q];
+            for (int q = 0; q < 3; q++)
+                P[q] = o[q] + t * dd[q];
             if (!(P[0] > 0.05 && P[2] > 0.05 && fabs(P[1]) < 0.9)) continue;
             checked++;
             assert_int_equal(img.face[k], 0);
             double depth = (P[0] - o[0]) * f[0] + (P[1] - o[1]) * f[1] + (P[2] - o[2]) * f[2];
-            if (fabs(img.depth[k] - depth) > 2e-3) fail_msg("pixel (%d, %d): depth %g, expected %g", i, j, img.depth[k], depth);
+            if (fabs(img.depth[k] - depth) > 2e-3)
+                fail_msg("pixel (%d, %d): depth %g, expected %g", i, j, img.depth[k], depth);
             /* outward normal (x, 0, z) up to the patch's orientation */
             double dot = img.normal[3 * k] * P[0] + img.normal[3 * k + 2] * P[2];
             assert_true(fabs(fabs(dot) - 1) < 2e-3 && fabs(img.normal[3 * k + 1]) < 2e-3);
@@ -512,8 +556,9 @@ static int teardown(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_square), cmocka_unit_test(test_trimmed), cmocka_unit_test(test_samples),
-        cmocka_unit_test(test_zoom),   cmocka_unit_test(test_errors),  cmocka_unit_test(test_layout_hand),
+        cmocka_unit_test(test_square),  cmocka_unit_test(test_trimmed),
+        cmocka_unit_test(test_samples), cmocka_unit_test(test_zoom),
+        cmocka_unit_test(test_errors),  cmocka_unit_test(test_layout_hand),
         cmocka_unit_test(test_ribbons), cmocka_unit_test(test_rational),
     };
     return cmocka_run_group_tests(tests, setup, teardown);

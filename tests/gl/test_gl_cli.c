@@ -44,7 +44,8 @@ static void test_render_gl(void **state)
         remove("cli_gl.png");
         remove("cli_gl.exr");
         snprintf(args, sizeof args,
-                 "render %s/nurbs/gpucast_teapot.igs --backend gl --samples %d --size 64x40 -o cli_gl.png "
+                 "render %s/nurbs/gpucast_teapot.igs --backend gl --samples %d --size 64x40 -o "
+                 "cli_gl.png "
                  "--aov cli_gl.exr --stats",
                  CRISP_DATA_DIR, s);
         int rc = run("", args, out, sizeof out);
@@ -65,8 +66,10 @@ static void test_render_gl(void **state)
         assert_non_null(cov);
         char gl_cov[64];
         snprintf(gl_cov, sizeof gl_cov, "%.40s", cov);
-        snprintf(args, sizeof args, "render %s/nurbs/gpucast_teapot.igs --samples %d --size 64x40 -o cli_cpu.png --stats",
-                 CRISP_DATA_DIR, s);
+        snprintf(
+            args, sizeof args,
+            "render %s/nurbs/gpucast_teapot.igs --samples %d --size 64x40 -o cli_cpu.png --stats",
+            CRISP_DATA_DIR, s);
         assert_int_equal(run("", args, out, sizeof out), 0);
         assert_non_null(strstr(out, gl_cov));
     }
@@ -78,21 +81,24 @@ static void test_no_gl(void **state)
     char out[8192], args[1024];
     const char *env = "__EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent/egl_vendor.json";
     remove("cli_nogl.png");
-    snprintf(args, sizeof args, "render %s/nurbs/gpucast_teapot.igs --backend gl --size 32x20 -o cli_nogl.png",
+    snprintf(args, sizeof args,
+             "render %s/nurbs/gpucast_teapot.igs --backend gl --size 32x20 -o cli_nogl.png",
              CRISP_DATA_DIR);
     int rc = run(env, args, out, sizeof out);
     assert_true(rc != 0);
     assert_non_null(strstr(out, "no usable OpenGL"));
     assert_null(fopen("cli_nogl.png", "rb"));
     /* the CPU backend does not need GL */
-    snprintf(args, sizeof args, "render %s/nurbs/gpucast_teapot.igs --backend cpu --size 32x20 -o cli_nogl.png",
+    snprintf(args, sizeof args,
+             "render %s/nurbs/gpucast_teapot.igs --backend cpu --size 32x20 -o cli_nogl.png",
              CRISP_DATA_DIR);
     assert_int_equal(run(env, args, out, sizeof out), 0);
     int w, h;
     png_size("cli_nogl.png", &w, &h);
     assert_int_equal(w, 32);
     /* a sample count the backend does not draw */
-    snprintf(args, sizeof args, "render %s/nurbs/gpucast_teapot.igs --backend gl --samples 3 --size 32x20 -o x.png",
+    snprintf(args, sizeof args,
+             "render %s/nurbs/gpucast_teapot.igs --backend gl --samples 3 --size 32x20 -o x.png",
              CRISP_DATA_DIR);
     assert_true(run("", args, out, sizeof out) != 0);
     assert_non_null(strstr(out, "samples"));
@@ -100,6 +106,7 @@ static void test_no_gl(void **state)
 
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_render_gl), cmocka_unit_test(test_no_gl)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_render_gl),
+                                       cmocka_unit_test(test_no_gl)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,11 +1,11 @@
 /* GL and CPU backends on the same frame plan of every bundled model (data/nurbs) under 20 cameras
- * (every file of data/nurbs; orbits at several elevations, close-ups of patch centres at 3 and 0.01 degree): face id and
- * coverage must agree on every pixel farther than 1 px from a face or background transition
- * (silhouettes, trim curves, face boundaries) and from a patch boundary in either image. Depth
- * agrees there to 1e-3 relative on all but 0.1% of them (both tessellations are within the
- * tolerance on screen, a grazing surface turns that into larger depth changes). Then the layout probe: a compute shader
- * reads each real plan's leaves and trim tables, and its lookups at many (u, v) points equal
- * crisp_plan_trim_test and the C records.
+ * (every file of data/nurbs; orbits at several elevations, close-ups of patch centres at 3 and 0.01
+ * degree): face id and coverage must agree on every pixel farther than 1 px from a face or
+ * background transition (silhouettes, trim curves, face boundaries) and from a patch boundary in
+ * either image. Depth agrees there to 1e-3 relative on all but 0.1% of them (both tessellations are
+ * within the tolerance on screen, a grazing surface turns that into larger depth changes). Then the
+ * layout probe: a compute shader reads each real plan's leaves and trim tables, and its lookups at
+ * many (u, v) points equal crisp_plan_trim_test and the C records.
  *
  * test_gl_models [--size WxH] (default 160x120; the slow variant renders 480x360). */
 #include <dirent.h>
@@ -66,7 +66,8 @@ static crisp_camera make_camera(const crisp_scene *sc, int k)
         crisp_vec3_cross(Ps, Pt, n);
         if (!crisp_vec3_normalize(n, n)) n[2] = 1;
         double tilt[3] = {0.3, 0.5, 0.2};
-        for (int a = 0; a < 3; a++) d[a] = n[a] + tilt[a];
+        for (int a = 0; a < 3; a++)
+            d[a] = n[a] + tilt[a];
         crisp_vec3_normalize(d, d);
         double r = k % 10 == 4 ? 0.3 * dist : 0.8 * dist;
         for (int a = 0; a < 3; a++) {
@@ -81,7 +82,8 @@ static crisp_camera make_camera(const crisp_scene *sc, int k)
     }
     double az = 2 * M_PI * k / CAMERAS + 0.3, el = (k % 3 - 1) * 0.6 + 0.1;
     double dir[3] = {cos(el) * sin(az), sin(el), cos(el) * cos(az)};
-    for (int a = 0; a < 3; a++) c.eye[a] = base.target[a] + dist * dir[a];
+    for (int a = 0; a < 3; a++)
+        c.eye[a] = base.target[a] + dist * dir[a];
     return c;
 }
 
@@ -102,7 +104,8 @@ typedef struct tally {
     double worst_depth;
 } tally;
 
-static void compare(const crisp_scene *sc, const crisp_image *a, const crisp_image *b, tally *t, const char *what)
+static void compare(const crisp_scene *sc, const crisp_image *a, const crisp_image *b, tally *t,
+                    const char *what)
 {
     int w = a->width, h = a->height;
     int *pa = malloc(sizeof(int) * (size_t)w * h), *pb = malloc(sizeof(int) * (size_t)w * h);
@@ -116,7 +119,8 @@ static void compare(const crisp_scene *sc, const crisp_image *a, const crisp_ima
             for (int dj = -1; dj <= 1; dj++)
                 for (int di = -1; di <= 1; di++) {
                     int q = k + dj * w + di;
-                    if (a->face[q] != a->face[k] || b->face[q] != b->face[k] || pa[q] != pa[k] || pb[q] != pb[k])
+                    if (a->face[q] != a->face[k] || b->face[q] != b->face[k] || pa[q] != pa[k] ||
+                        pb[q] != pb[k])
                         uniform = 0;
                 }
             int differs = a->face[k] != b->face[k] || a->rgba[4 * k + 3] != b->rgba[4 * k + 3];
@@ -128,8 +132,8 @@ static void compare(const crisp_scene *sc, const crisp_image *a, const crisp_ima
             t->compared++;
             if (a->face[k] != b->face[k]) {
                 if (t->face_diff < 5)
-                    fprintf(stderr, "%s: pixel (%d, %d) face cpu %d gl %d (depth %g %g)\n", what, i, j, a->face[k],
-                            b->face[k], a->depth[k], b->depth[k]);
+                    fprintf(stderr, "%s: pixel (%d, %d) face cpu %d gl %d (depth %g %g)\n", what, i,
+                            j, a->face[k], b->face[k], a->depth[k], b->depth[k]);
                 t->face_diff++;
             }
             t->alpha_diff += a->rgba[4 * k + 3] != b->rgba[4 * k + 3];
@@ -165,7 +169,8 @@ static void test_models(void **state)
         for (int k = 0; k < CAMERAS; k++) {
             crisp_camera cam = make_camera(sc, k);
             const crisp_frame_plan *plan;
-            assert_int_equal(crisp_planner_plan(crisp_renderer_planner(r), sc, &cam, &plan), CRISP_OK);
+            assert_int_equal(crisp_planner_plan(crisp_renderer_planner(r), sc, &cam, &plan),
+                             CRISP_OK);
             assert_int_equal(crisp_render_cpu_plan(r, sc, plan, &cam, &a, NULL), CRISP_OK);
             crisp_status st = crisp_gl_render(gl, sc, plan, &b, NULL);
             if (st) fail_msg("%s camera %d: %s", models[m], k, crisp_error_message());
@@ -173,9 +178,11 @@ static void test_models(void **state)
             snprintf(what, sizeof what, "%s camera %d", models[m], k);
             compare(sc, &a, &b, &t, what);
         }
-        printf("%-24s %7ld pixels compared: %ld face, %ld coverage, %ld depth (> 1e-3) differ (worst depth %.1e); "
+        printf("%-24s %7ld pixels compared: %ld face, %ld coverage, %ld depth (> 1e-3) differ "
+               "(worst depth %.1e); "
                "band %ld pixels, %ld differ\n",
-               models[m], t.compared, t.face_diff, t.alpha_diff, t.depth_diff, t.worst_depth, t.band, t.band_diff);
+               models[m], t.compared, t.face_diff, t.alpha_diff, t.depth_diff, t.worst_depth,
+               t.band, t.band_diff);
         all.compared += t.compared;
         all.face_diff += t.face_diff;
         all.alpha_diff += t.alpha_diff;
@@ -237,13 +244,15 @@ static void test_layout(void **state)
                 /* exactly on, just left and right of a crossing of the face's table */
                 const crisp_plan_face *f = &plan->faces[L->face];
                 if (f->strip_count) {
-                    const crisp_plan_strip *s = &plan->strips[f->first_strip + (uint32_t)rand() % f->strip_count];
+                    const crisp_plan_strip *s =
+                        &plan->strips[f->first_strip + (uint32_t)rand() % f->strip_count];
                     if (s->row_count) {
                         uint32_t r = s->first_row + (uint32_t)rand() % s->row_count;
                         uint32_t n = plan->row_offset[r + 1] - plan->row_offset[r];
                         if (n) {
                             double c = plan->crossings[plan->row_offset[r] + (uint32_t)rand() % n];
-                            q[k].u = k % 12 == 0 ? c : nextafter(c, k % 8 == 0 ? INFINITY : -INFINITY);
+                            q[k].u =
+                                k % 12 == 0 ? c : nextafter(c, k % 8 == 0 ? INFINITY : -INFINITY);
                             q[k].v = s->a + (r - s->first_row + 0.5) / s->row_scale;
                         }
                     }
@@ -254,23 +263,27 @@ static void test_layout(void **state)
         for (int k = 0; k < N; k++) {
             int want = crisp_plan_trim_test(plan, q[k].face, q[k].u, q[k].v);
             if ((int)res[k].inside != want)
-                fail_msg("%s query %d: face %u (u, v) = (%.17g, %.17g): shader %u, C %d", names[m], k, q[k].face, q[k].u,
-                         q[k].v, res[k].inside, want);
+                fail_msg("%s query %d: face %u (u, v) = (%.17g, %.17g): shader %u, C %d", names[m],
+                         k, q[k].face, q[k].u, q[k].v, res[k].inside, want);
             inside += want;
             const crisp_plan_leaf *L = &plan->leaves[q[k].leaf];
             assert_int_equal(res[k].tau, L->tau);
             assert_int_equal(res[k].patch, L->patch);
             assert_int_equal(res[k].depth, L->depth);
-            for (int e = 0; e < 4; e++) assert_int_equal(res[k].edge[e], L->edge[e]);
+            for (int e = 0; e < 4; e++)
+                assert_int_equal(res[k].edge[e], L->edge[e]);
             {
                 double P[3], ps[3], pt[3], sc2 = ldexp(1, -(int)L->depth);
-                crisp_bezier_patch_derivs(&sc->patches[L->patch].bez, (L->ix + q[k].s) * sc2, (L->iy + q[k].t) * sc2, P, ps, pt);
-                double e = fmax(fabs(P[0] - res[k].point[0]), fmax(fabs(P[1] - res[k].point[1]), fabs(P[2] - res[k].point[2])));
+                crisp_bezier_patch_derivs(&sc->patches[L->patch].bez, (L->ix + q[k].s) * sc2,
+                                          (L->iy + q[k].t) * sc2, P, ps, pt);
+                double e = fmax(fabs(P[0] - res[k].point[0]),
+                                fmax(fabs(P[1] - res[k].point[1]), fabs(P[2] - res[k].point[2])));
                 double size = fmax(fabs(P[0]), fmax(fabs(P[1]), fabs(P[2])));
                 if (!(e <= 1e-12 * (1 + size)))
-                    fail_msg("%s leaf %u patch %u at (%g, %g): shader (%.17g %.17g %.17g) C (%.17g %.17g %.17g)", names[m],
-                             q[k].leaf, L->patch, q[k].s, q[k].t, res[k].point[0], res[k].point[1], res[k].point[2],
-                             P[0], P[1], P[2]);
+                    fail_msg("%s leaf %u patch %u at (%g, %g): shader (%.17g %.17g %.17g) C (%.17g "
+                             "%.17g %.17g)",
+                             names[m], q[k].leaf, L->patch, q[k].s, q[k].t, res[k].point[0],
+                             res[k].point[1], res[k].point[2], P[0], P[1], P[2]);
             }
             if (k % 4) {
                 double du = fabs(res[k].u - q[k].u), dv = fabs(res[k].v - q[k].v);
@@ -313,6 +326,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "test_gl_models: %d models in %s/nurbs\n", model_count, CRISP_DATA_DIR);
         return 1;
     }
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_layout), cmocka_unit_test(test_models)};
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_layout),
+                                       cmocka_unit_test(test_models)};
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -20,11 +20,12 @@ typedef struct test_entity {
 static char *test_iges_build(const test_entity *ents, int n)
 {
     size_t cap = 4096 + (size_t)n * 400;
-    for (int i = 0; i < n; i++) cap += strlen(ents[i].params) * 2;
+    for (int i = 0; i < n; i++)
+        cap += strlen(ents[i].params) * 2;
     char *out = malloc(cap), *w = out;
     w += sprintf(w, "%-72sS%7d\n", "crisp IGES test", 1);
-    w += sprintf(w, "%-72sG%7d\n", "1H,,1H;,4Htest,8Htest.igs,,,32,308,15,308,15,,1.,2,2HMM,1,1.,,1E-6;",
-                 1);
+    w += sprintf(w, "%-72sG%7d\n",
+                 "1H,,1H;,4Htest,8Htest.igs,,,32,308,15,308,15,,1.,2,2HMM,1,1.,,1E-6;", 1);
     /* parameter lines first, to know each entity's pointer and line count */
     int *pptr = calloc((size_t)n, sizeof *pptr), *plines = calloc((size_t)n, sizeof *plines);
     char *pbuf = malloc(cap), *pw = pbuf;

@@ -128,13 +128,13 @@ static void test_conic_ellipse(void **state)
         crisp_curve_domain(c, &t0, &t1);
         for (int s = 0; s <= 40; s++) {
             crisp_curve_eval(c, t0 + (t1 - t0) * s / 40, p);
-            double q = k[i][0] * p[0] * p[0] + k[i][1] * p[0] * p[1] + k[i][2] * p[1] * p[1] +
-                       k[i][5];
+            double q =
+                k[i][0] * p[0] * p[0] + k[i][1] * p[0] * p[1] + k[i][2] * p[1] * p[1] + k[i][5];
             assert_true(fabs(q) < 1e-12);
         }
         crisp_curve_eval(c, t1, p);
-        if (i == 0) assert_true(fabs(p[0]) < 1e-12 && fabs(p[1] - 1) < 1e-12 &&
-                                fabs(p[2] - 0.5) < 1e-12);
+        if (i == 0)
+            assert_true(fabs(p[0]) < 1e-12 && fabs(p[1] - 1) < 1e-12 && fabs(p[2] - 0.5) < 1e-12);
         crisp_curve_destroy(c);
     }
     crisp__iges_file_free(&f);
@@ -145,13 +145,14 @@ static void test_parametric_spline_curve(void **state)
 {
     (void)state;
     /* two cubic segments over breaks 0, 2, 3 (only continuity C0 is needed for exactness) */
-    const double co[2][12] = {{1, 2, -1, 0.5, 0, 1, 0, -0.25, 3, 0, 0.5, 0.1},
-                              {1 + 4 - 4 + 4, 0.3, 0.2, -1, 0 + 2 - 2, 0.7, -0.4, 0.9,
-                               3 + 2 + 0.8, 1, 0, 0}};
+    const double co[2][12] = {
+        {1, 2, -1, 0.5, 0, 1, 0, -0.25, 3, 0, 0.5, 0.1},
+        {1 + 4 - 4 + 4, 0.3, 0.2, -1, 0 + 2 - 2, 0.7, -0.4, 0.9, 3 + 2 + 0.8, 1, 0, 0}};
     char params[1024];
     int n = snprintf(params, sizeof params, "3,3,3,2,0.,2.,3.");
     for (int s = 0; s < 2; s++)
-        for (int i = 0; i < 12; i++) n += snprintf(params + n, sizeof params - n, ",%.17g", co[s][i]);
+        for (int i = 0; i < 12; i++)
+            n += snprintf(params + n, sizeof params - n, ",%.17g", co[s][i]);
     snprintf(params + n, sizeof params - n, ";");
     test_entity e[] = {{112, 0, 0, NULL, 0, params}};
     iges_file f;
@@ -180,7 +181,8 @@ static void test_parametric_spline_curve(void **state)
 static double binom(int n, int k)
 {
     double r = 1;
-    for (int i = 1; i <= k; i++) r = r * (n - k + i) / i;
+    for (int i = 1; i <= k; i++)
+        r = r * (n - k + i) / i;
     return r;
 }
 
@@ -194,7 +196,8 @@ static void test_parametric_spline_surface(void **state)
     const double tu[3] = {0, 1, 2.5}, tv[2] = {-1, 1};
     double g[3][16];
     for (int d = 0; d < 3; d++)
-        for (int q = 0; q < 16; q++) g[d][q] = sin(1.3 * q + 0.7 * d);
+        for (int q = 0; q < 16; q++)
+            g[d][q] = sin(1.3 * q + 0.7 * d);
     char params[16384];
     int w = snprintf(params, sizeof params, "3,0,%d,%d,0.,1.,2.5,-1.,1.", m, n);
     for (int i = 0; i <= m; i++)
@@ -225,7 +228,8 @@ static void test_parametric_spline_surface(void **state)
             for (int d = 0; d < 3; d++) {
                 double want = 0;
                 for (int q = 0; q < 4; q++)
-                    for (int pp = 0; pp < 4; pp++) want += g[d][pp + 4 * q] * pow(u, pp) * pow(v, q);
+                    for (int pp = 0; pp < 4; pp++)
+                        want += g[d][pp + 4 * q] * pow(u, pp) * pow(v, q);
                 assert_true(fabs(p[d] - want) < 1e-9 * (1 + fabs(want)));
             }
         }
@@ -242,13 +246,13 @@ static void test_revolution_with_pcurves(void **state)
     test_entity e[] = {
         {110, 0, 0, NULL, 0, "0.,0.,0.,0.,0.,1.;"},                      /* DE 1 axis */
         {110, 0, 0, NULL, 0, "1.,0.,0.,2.,0.,3.;"},                      /* DE 3 generatrix */
-        {120, 0, 0, "00010000", 0, "1,3,0.,6.283185307179586;"},          /* DE 5 */
-        {110, 0, 0, "00010500", 0, "0.,0.,0.,1.,0.,0.;"},                 /* DE 7 */
-        {110, 0, 0, "00010500", 0, "1.,0.,0.,0.,3.141592653589793,0.;"},  /* DE 9 diagonal */
-        {110, 0, 0, "00010500", 0, "0.,3.141592653589793,0.,0.,0.,0.;"},  /* DE 11 */
-        {102, 0, 0, "00010500", 0, "3,7,9,11;"},                          /* DE 13 */
-        {142, 0, 0, "00010500", 0, "1,5,13,0,1;"},                        /* DE 15 */
-        {144, 0, 0, NULL, 4, "5,1,0,15;"},                                /* DE 17 */
+        {120, 0, 0, "00010000", 0, "1,3,0.,6.283185307179586;"},         /* DE 5 */
+        {110, 0, 0, "00010500", 0, "0.,0.,0.,1.,0.,0.;"},                /* DE 7 */
+        {110, 0, 0, "00010500", 0, "1.,0.,0.,0.,3.141592653589793,0.;"}, /* DE 9 diagonal */
+        {110, 0, 0, "00010500", 0, "0.,3.141592653589793,0.,0.,0.,0.;"}, /* DE 11 */
+        {102, 0, 0, "00010500", 0, "3,7,9,11;"},                         /* DE 13 */
+        {142, 0, 0, "00010500", 0, "1,5,13,0,1;"},                       /* DE 15 */
+        {144, 0, 0, NULL, 4, "5,1,0,15;"},                               /* DE 17 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -283,7 +287,8 @@ static void test_revolution_with_pcurves(void **state)
             crisp_surface_eval(s, q[0], q[1], p);
             double t = p[2] / 3, ang = atan2(p[1], p[0]);
             if (ang < -1e-9) ang += 2 * M_PI;
-            double on_bottom = fabs(t), on_side = fabs(ang - M_PI), on_diag = fabs(t + ang / M_PI - 1);
+            double on_bottom = fabs(t), on_side = fabs(ang - M_PI),
+                   on_diag = fabs(t + ang / M_PI - 1);
             double best = fmin(on_bottom, fmin(fmin(on_side, fabs(ang)), on_diag));
             if (on_diag < 1e-5 && on_bottom > 1e-3 && fabs(ang - M_PI) > 1e-3) diagonal_points++;
             assert_true(best < 1e-5);
@@ -299,11 +304,11 @@ static void test_ruled_and_tabulated(void **state)
 {
     (void)state;
     test_entity e[] = {
-        {110, 0, 0, "00010000", 0, "0.,0.,0.,4.,0.,0.;"},      /* DE 1 */
-        {110, 0, 0, "00010000", 0, "0.,2.,1.,4.,2.,3.;"},      /* DE 3 */
-        {118, 1, 0, NULL, 0, "1,3,0,0;"},                       /* DE 5 ruled */
-        {100, 0, 0, "00010000", 0, "0.,0.,0.,1.,0.,-1.,0.;"},  /* DE 7 half circle */
-        {122, 0, 0, NULL, 0, "7,1.,0.,5.;"},                    /* DE 9 tabulated */
+        {110, 0, 0, "00010000", 0, "0.,0.,0.,4.,0.,0.;"},     /* DE 1 */
+        {110, 0, 0, "00010000", 0, "0.,2.,1.,4.,2.,3.;"},     /* DE 3 */
+        {118, 1, 0, NULL, 0, "1,3,0,0;"},                     /* DE 5 ruled */
+        {100, 0, 0, "00010000", 0, "0.,0.,0.,1.,0.,-1.,0.;"}, /* DE 7 half circle */
+        {122, 0, 0, NULL, 0, "7,1.,0.,5.;"},                  /* DE 9 tabulated */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 2);
@@ -314,7 +319,8 @@ static void test_ruled_and_tabulated(void **state)
             double u = a / 4.0, v = b / 4.0, p[3];
             crisp_surface_eval(r, u, v, p);
             double want[3] = {4 * u, 2 * v, v * (1 + 2 * u)};
-            for (int d = 0; d < 3; d++) assert_true(fabs(p[d] - want[d]) < 1e-12);
+            for (int d = 0; d < 3; d++)
+                assert_true(fabs(p[d] - want[d]) < 1e-12);
         }
     /* tabulated cylinder: the half circle swept along z by 5 */
     const crisp_surface *t = m->faces[1].surface;
@@ -368,17 +374,17 @@ static void test_brep_face_projected(void **state)
     test_entity e[] = {
         {128, 0, 0, "00010000", 0,
          "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"
-         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"},                        /* DE 1 */
-        {110, 0, 0, "00010000", 0, "1.,1.,0.,3.,1.,0.;"},                              /* DE 3 */
-        {110, 0, 0, "00010000", 0, "3.,1.,0.,3.,3.,0.;"},                              /* DE 5 */
-        {110, 0, 0, "00010000", 0, "3.,3.,0.,1.,3.,0.;"},                              /* DE 7 */
-        {110, 0, 0, "00010000", 0, "1.,1.,0.,1.,3.,0.;"},                              /* DE 9 */
-        {502, 1, 0, "00010000", 0, "4,1.,1.,0.,3.,1.,0.,3.,3.,0.,1.,3.,0.;"},          /* DE 11 */
+         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"},                 /* DE 1 */
+        {110, 0, 0, "00010000", 0, "1.,1.,0.,3.,1.,0.;"},                     /* DE 3 */
+        {110, 0, 0, "00010000", 0, "3.,1.,0.,3.,3.,0.;"},                     /* DE 5 */
+        {110, 0, 0, "00010000", 0, "3.,3.,0.,1.,3.,0.;"},                     /* DE 7 */
+        {110, 0, 0, "00010000", 0, "1.,1.,0.,1.,3.,0.;"},                     /* DE 9 */
+        {502, 1, 0, "00010000", 0, "4,1.,1.,0.,3.,1.,0.,3.,3.,0.,1.,3.,0.;"}, /* DE 11 */
         {504, 1, 0, "00010000", 0, "4,3,11,1,11,2,5,11,2,11,3,7,11,3,11,4,9,11,1,11,4;"}, /* 13 */
-        {508, 1, 0, "00010000", 0, "4,0,13,1,1,0,0,13,2,1,0,0,13,3,1,0,0,13,4,0,0;"},    /* 15 */
-        {510, 1, 0, "00010000", 0, "1,1,1,15;"},                                        /* 17 */
-        {514, 1, 0, "00010000", 0, "1,17,1;"},                                          /* 19 */
-        {186, 0, 0, NULL, 0, "19,1,0;"},                                                /* 21 */
+        {508, 1, 0, "00010000", 0, "4,0,13,1,1,0,0,13,2,1,0,0,13,3,1,0,0,13,4,0,0;"},     /* 15 */
+        {510, 1, 0, "00010000", 0, "1,1,1,15;"},                                          /* 17 */
+        {514, 1, 0, "00010000", 0, "1,17,1;"},                                            /* 19 */
+        {186, 0, 0, NULL, 0, "19,1,0;"},                                                  /* 21 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -390,7 +396,8 @@ static void test_brep_face_projected(void **state)
     /* the square [1, 3]^2 in model space is [0.25, 0.75]^2 in (u, v): area 0.25 */
     assert_true(fabs(crisp_trim_loop_signed_area(&face->loops[0]) - 0.25) < 1e-6);
     /* nothing left over: every entity was part of the solid */
-    for (int i = 0; i < m->skip_count; i++) fprintf(stderr, "skip: %s\n", m->skips[i].what);
+    for (int i = 0; i < m->skip_count; i++)
+        fprintf(stderr, "skip: %s\n", m->skips[i].what);
     assert_int_equal(m->skip_count, 0);
     crisp_model_destroy(m);
 }
@@ -423,15 +430,15 @@ static void test_pcurve_fallback_to_projection(void **state)
     test_entity e[] = {
         {128, 0, 0, "00010000", 0,
          "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"
-         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"},             /* DE 1 */
-        {110, 0, 0, "00010500", 0, "1.,1.,0.,3.,1.,0.;"},                  /* DE 3 */
-        {110, 0, 0, "00010500", 0, "3.,1.,0.,3.,3.,0.;"},                  /* DE 5 */
-        {110, 0, 0, "00010500", 0, "3.,3.,0.,1.,3.,0.;"},                  /* DE 7 */
-        {110, 0, 0, "00010500", 0, "1.,3.,0.,1.,1.,0.;"},                  /* DE 9 */
-        {102, 0, 0, "00010500", 0, "4,3,5,7,9;"},                          /* DE 11 */
+         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"},                   /* DE 1 */
+        {110, 0, 0, "00010500", 0, "1.,1.,0.,3.,1.,0.;"},                       /* DE 3 */
+        {110, 0, 0, "00010500", 0, "3.,1.,0.,3.,3.,0.;"},                       /* DE 5 */
+        {110, 0, 0, "00010500", 0, "3.,3.,0.,1.,3.,0.;"},                       /* DE 7 */
+        {110, 0, 0, "00010500", 0, "1.,3.,0.,1.,1.,0.;"},                       /* DE 9 */
+        {102, 0, 0, "00010500", 0, "4,3,5,7,9;"},                               /* DE 11 */
         {130, 0, 0, "00010500", 0, "11,1,0,0,0,0.1,0.,0.1,0.,0.,0.,1.,0.,1.;"}, /* DE 13 */
-        {142, 0, 0, "00010500", 0, "0,1,13,11,1;"},                        /* DE 15 */
-        {144, 0, 0, NULL, 0, "1,1,0,15;"},                                 /* DE 17 */
+        {142, 0, 0, "00010500", 0, "0,1,13,11,1;"},                             /* DE 15 */
+        {144, 0, 0, NULL, 0, "1,1,0,15;"},                                      /* DE 17 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -452,7 +459,8 @@ static void test_lenient_records(void **state)
     for (const char *line = text; *line;) {
         const char *eol = strchr(line, '\n');
         int n = (int)(eol - line);
-        while (n > 0 && line[n - 1] == ' ') n--;
+        while (n > 0 && line[n - 1] == ' ')
+            n--;
         if (line[72] == 'G') {
             w += sprintf(w, "%-72sG%7d\r\n", "1H//1H!/4Htest!", 1);
         } else if (line[72] == 'P') {
@@ -508,16 +516,16 @@ static void expect_error(const test_entity *ents, int n, crisp_status want, cons
     crisp_status st = crisp_read_iges_mem("bad.igs", text, strlen(text), NULL, &m);
     free(text);
     if (st != want || !strstr(crisp_error_message(), needle))
-        fprintf(stderr, "status %d (%s), message: %s; expected \"%s\"\n", st,
-                crisp_status_name(st), crisp_error_message(), needle);
+        fprintf(stderr, "status %d (%s), message: %s; expected \"%s\"\n", st, crisp_status_name(st),
+                crisp_error_message(), needle);
     assert_int_equal(st, want);
     assert_null(m);
     assert_non_null(strstr(crisp_error_message(), "bad.igs"));
     assert_non_null(strstr(crisp_error_message(), needle));
 }
 
-#define PATCH_128                                                                            \
-    "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"                                  \
+#define PATCH_128                                                                                  \
+    "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"                                       \
     "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"
 
 /* A 126 with the given parameters as the trim of a face: the error must name its DE (3). */
@@ -598,7 +606,11 @@ static void test_deep_nesting(void **state)
     enum { DEPTH = 40 };
     test_entity e[DEPTH + 4];
     char params[DEPTH][32];
-    e[0] = (test_entity){128, 0, 0, "00010000", 0,
+    e[0] = (test_entity){128,
+                         0,
+                         0,
+                         "00010000",
+                         0,
                          "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"
                          "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"};
     for (int i = 0; i < DEPTH; i++) { /* entity 1 + i is DE 3 + 2 i, holding the next one */
@@ -619,14 +631,14 @@ static void test_unsupported_face_skipped(void **state)
 {
     (void)state;
     test_entity e[] = {
-        {110, 0, 0, "00010000", 0, "0.,0.,0.,0.,0.,1.;"},             /* DE 1 */
-        {110, 0, 0, "00010000", 0, "1.,0.,0.,2.,0.,3.;"},             /* DE 3 */
-        {110, 0, 0, "00010000", 0, "2.,0.,3.,2.,0.,4.;"},             /* DE 5 */
-        {102, 0, 0, "00010000", 0, "2,3,5;"},                         /* DE 7 */
-        {120, 0, 0, NULL, 0, "1,7,0.,6.283185307179586;"},             /* DE 9 */
+        {110, 0, 0, "00010000", 0, "0.,0.,0.,0.,0.,1.;"},  /* DE 1 */
+        {110, 0, 0, "00010000", 0, "1.,0.,0.,2.,0.,3.;"},  /* DE 3 */
+        {110, 0, 0, "00010000", 0, "2.,0.,3.,2.,0.,4.;"},  /* DE 5 */
+        {102, 0, 0, "00010000", 0, "2,3,5;"},              /* DE 7 */
+        {120, 0, 0, NULL, 0, "1,7,0.,6.283185307179586;"}, /* DE 9 */
         {128, 0, 0, NULL, 0,
          "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"
-         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"},          /* DE 11 */
+         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"}, /* DE 11 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -635,7 +647,8 @@ static void test_unsupported_face_skipped(void **state)
     for (int i = 0; i < m->skip_count; i++)
         if (strstr(m->skips[i].what, "DE 9") && strstr(m->skips[i].what, "composite")) noted = 1;
     if (!noted || m->skip_count != 1)
-        for (int i = 0; i < m->skip_count; i++) fprintf(stderr, "skip: %s\n", m->skips[i].what);
+        for (int i = 0; i < m->skip_count; i++)
+            fprintf(stderr, "skip: %s\n", m->skips[i].what);
     assert_true(noted);
     assert_int_equal(m->skip_count, 1); /* its curves are not reported as free geometry */
     crisp_model_destroy(m);

@@ -29,7 +29,8 @@ static crisp_model *load(const test_entity *ents, int n)
     crisp_status st = crisp_read_iges_mem("test.igs", text, strlen(text), NULL, &m);
     if (st) fprintf(stderr, "%s\n", crisp_error_message());
     assert_int_equal(st, CRISP_OK);
-    for (int i = 0; i < m->skip_count; i++) fprintf(stderr, "note: %s\n", m->skips[i].what);
+    for (int i = 0; i < m->skip_count; i++)
+        fprintf(stderr, "note: %s\n", m->skips[i].what);
     free(text);
     return m;
 }
@@ -64,26 +65,36 @@ static void check_trims(const crisp_face *fc, implicit_fn f, double tol, double 
 /* The loop of a quarter cylinder r = 2 about z, angle 0..90 degrees, z 0..3: the arc at z = 0
  * (100, counter-clockwise), a line up, the arc at z = 3 back (126, rational quadratic), a line
  * down; a 102 chains them. Entities DE 1..11; the 142 (DE 13) lies on surface DE `surf`. */
-#define QUARTER_LOOP(surf)                                                                                      \
-    {100, 0, 0, "00010000", 0, "0.,0.,0.,2.,0.,0.,2.;"},                                /* DE 1 */                \
-        {110, 0, 0, "00010000", 0, "0.,2.,0.,0.,2.,3.;"},                               /* DE 3 */                \
-        {126, 0, 0, "00010000", 0,                                                                                \
-         "2,2,1,0,0,0,0.,0.,0.,1.,1.,1.,1.,0.7071067811865476,1.,0.,2.,3.,2.,2.,3.,2.,0.,3.,0.,1.,0.,0.,1.;"}, \
-        {110, 0, 0, "00010000", 0, "2.,0.,3.,2.,0.,0.;"},                               /* DE 7 */                \
-        {102, 0, 0, "00010000", 0, "4,1,3,5,7;"},                                       /* DE 9 */                \
-        {116, 0, 0, "00010000", 0, "0.,0.,0.;"},                                        /* DE 11 */               \
-        {142, 0, 0, "00010500", 0, "0," #surf ",0,9,2;"}                                /* DE 13 */
+#define QUARTER_LOOP(surf)                                                                         \
+    {100, 0, 0, "00010000", 0, "0.,0.,0.,2.,0.,0.,2.;"},  /* DE 1 */                               \
+        {110, 0, 0, "00010000", 0, "0.,2.,0.,0.,2.,3.;"}, /* DE 3 */                               \
+        {126,                                                                                      \
+         0,                                                                                        \
+         0,                                                                                        \
+         "00010000",                                                                               \
+         0,                                                                                        \
+         "2,2,1,0,0,0,0.,0.,0.,1.,1.,1.,1.,0.7071067811865476,1.,0.,2.,3.,2.,2.,3.,2.,0.,3.,0.,1." \
+         ",0.,0.,1.;"},                                                                            \
+        {110, 0, 0, "00010000", 0, "2.,0.,3.,2.,0.,0.;"}, /* DE 7 */                               \
+        {102, 0, 0, "00010000", 0, "4,1,3,5,7;"},         /* DE 9 */                               \
+        {116, 0, 0, "00010000", 0, "0.,0.,0.;"},          /* DE 11 */                              \
+    {                                                                                              \
+        142, 0, 0, "00010500", 0, "0," #surf ",0,9,2;"                                             \
+    } /* DE 13 */
 
-static double on_cylinder2(const double p[3]) { return hypot(p[0], p[1]) - 2; }
+static double on_cylinder2(const double p[3])
+{
+    return hypot(p[0], p[1]) - 2;
+}
 
 static void test_cylinder_192(void **state)
 {
     (void)state;
     test_entity e[] = {
         QUARTER_LOOP(19),
-        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},     /* DE 15 axis */
-        {144, 0, 0, NULL, 0, "19,1,0,13;"},          /* DE 17 */
-        {192, 0, 0, "00010000", 0, "11,15,2.;"},      /* DE 19 */
+        {123, 0, 0, "00010000", 0, "0.,0.,1.;"}, /* DE 15 axis */
+        {144, 0, 0, NULL, 0, "19,1,0,13;"},      /* DE 17 */
+        {192, 0, 0, "00010000", 0, "11,15,2.;"}, /* DE 19 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -99,7 +110,10 @@ static void test_cylinder_192(void **state)
 /* A rational quadratic arc (126) from a through control point b to c (90 degrees). */
 #define ARC(a, b, c) "2,2,1,0,0,0,0.,0.,0.,1.,1.,1.,1.," W ",1.," a "," b "," c ",0.,1.,0.,0.,1.;"
 
-static double on_cone45(const double p[3]) { return hypot(p[0], p[1]) - (2 + p[2]); }
+static double on_cone45(const double p[3])
+{
+    return hypot(p[0], p[1]) - (2 + p[2]);
+}
 
 /* 194: the cone of radius 2 at z = 0, semi-angle 45 degrees (radius 2 + z): the quarter between
  * z = 0 and z = 3 and angles 0..90 degrees. */
@@ -107,16 +121,16 @@ static void test_cone_194(void **state)
 {
     (void)state;
     test_entity e[] = {
-        {100, 0, 0, "00010000", 0, "0.,0.,0.,2.,0.,0.,2.;"},       /* DE 1 */
-        {110, 0, 0, "00010000", 0, "0.,2.,0.,0.,5.,3.;"},          /* DE 3 */
+        {100, 0, 0, "00010000", 0, "0.,0.,0.,2.,0.,0.,2.;"},                 /* DE 1 */
+        {110, 0, 0, "00010000", 0, "0.,2.,0.,0.,5.,3.;"},                    /* DE 3 */
         {126, 0, 0, "00010000", 0, ARC("0.,5.,3.", "5.,5.,3.", "5.,0.,3.")}, /* DE 5 */
-        {110, 0, 0, "00010000", 0, "5.,0.,3.,2.,0.,0.;"},          /* DE 7 */
-        {102, 0, 0, "00010000", 0, "4,1,3,5,7;"},                  /* DE 9 */
-        {116, 0, 0, "00010000", 0, "0.,0.,0.;"},                   /* DE 11 */
-        {142, 0, 0, "00010500", 0, "0,19,0,9,2;"},                 /* DE 13 */
-        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},                   /* DE 15 */
-        {144, 0, 0, NULL, 0, "19,1,0,13;"},                        /* DE 17 */
-        {194, 0, 0, "00010000", 0, "11,15,2.,45.;"},               /* DE 19 */
+        {110, 0, 0, "00010000", 0, "5.,0.,3.,2.,0.,0.;"},                    /* DE 7 */
+        {102, 0, 0, "00010000", 0, "4,1,3,5,7;"},                            /* DE 9 */
+        {116, 0, 0, "00010000", 0, "0.,0.,0.;"},                             /* DE 11 */
+        {142, 0, 0, "00010500", 0, "0,19,0,9,2;"},                           /* DE 13 */
+        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},                             /* DE 15 */
+        {144, 0, 0, NULL, 0, "19,1,0,13;"},                                  /* DE 17 */
+        {194, 0, 0, "00010000", 0, "11,15,2.,45.;"},                         /* DE 19 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -126,7 +140,10 @@ static void test_cone_194(void **state)
     crisp_model_destroy(m);
 }
 
-static double on_sphere2(const double p[3]) { return sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 2; }
+static double on_sphere2(const double p[3])
+{
+    return sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 2;
+}
 
 /* 196: the octant x, y, z > 0 of the sphere of radius 2, bounded by the equator's quarter and two
  * meridians meeting at the north pole (where the projection's u jumps). */
@@ -136,13 +153,14 @@ static void test_sphere_196_octant(void **state)
     test_entity e[] = {
         {100, 0, 0, "00010000", 0, "0.,0.,0.,2.,0.,0.,2.;"},                 /* DE 1 equator */
         {126, 0, 0, "00010000", 0, ARC("0.,2.,0.", "0.,2.,2.", "0.,0.,2.")}, /* DE 3 meridian up */
-        {126, 0, 0, "00010000", 0, ARC("0.,0.,2.", "2.,0.,2.", "2.,0.,0.")}, /* DE 5 meridian down */
-        {102, 0, 0, "00010000", 0, "3,1,3,5;"},                              /* DE 7 */
-        {116, 0, 0, "00010000", 0, "0.,0.,0.;"},                             /* DE 9 */
-        {142, 0, 0, "00010500", 0, "0,17,0,7,2;"},                           /* DE 11 */
-        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},                             /* DE 13 */
-        {144, 0, 0, NULL, 0, "17,1,0,11;"},                                  /* DE 15 */
-        {196, 0, 0, "00010000", 0, "9,2.,13;"},                              /* DE 17 */
+        {126, 0, 0, "00010000", 0,
+         ARC("0.,0.,2.", "2.,0.,2.", "2.,0.,0.")}, /* DE 5 meridian down */
+        {102, 0, 0, "00010000", 0, "3,1,3,5;"},    /* DE 7 */
+        {116, 0, 0, "00010000", 0, "0.,0.,0.;"},   /* DE 9 */
+        {142, 0, 0, "00010500", 0, "0,17,0,7,2;"}, /* DE 11 */
+        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},   /* DE 13 */
+        {144, 0, 0, NULL, 0, "17,1,0,11;"},        /* DE 15 */
+        {196, 0, 0, "00010000", 0, "9,2.,13;"},    /* DE 17 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -164,9 +182,10 @@ static void test_torus_198(void **state)
 {
     (void)state;
     test_entity e[] = {
-        {100, 0, 0, "00010000", 0, "0.,0.,0.,4.,0.,0.,4.;"},                 /* DE 1 outer equator */
+        {100, 0, 0, "00010000", 0, "0.,0.,0.,4.,0.,0.,4.;"}, /* DE 1 outer equator */
         {126, 0, 0, "00010000", 0, ARC("0.,4.,0.", "0.,4.,1.", "0.,3.,1.")}, /* DE 3 */
-        {126, 0, 0, "00010000", 0, ARC("0.,3.,1.", "3.,3.,1.", "3.,0.,1.")}, /* DE 5 top circle back */
+        {126, 0, 0, "00010000", 0,
+         ARC("0.,3.,1.", "3.,3.,1.", "3.,0.,1.")}, /* DE 5 top circle back */
         {126, 0, 0, "00010000", 0, ARC("3.,0.,1.", "4.,0.,1.", "4.,0.,0.")}, /* DE 7 */
         {102, 0, 0, "00010000", 0, "4,1,3,5,7;"},                            /* DE 9 */
         {116, 0, 0, "00010000", 0, "0.,0.,0.;"},                             /* DE 11 */
@@ -190,9 +209,9 @@ static void test_offset_of_cylinder(void **state)
     (void)state;
     test_entity e[] = {
         QUARTER_LOOP(21),
-        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},      /* DE 15 axis */
-        {144, 0, 0, NULL, 0, "21,1,0,13;"},           /* DE 17 */
-        {192, 0, 0, "00010000", 0, "11,15,1.5;"},      /* DE 19 base */
+        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},        /* DE 15 axis */
+        {144, 0, 0, NULL, 0, "21,1,0,13;"},             /* DE 17 */
+        {192, 0, 0, "00010000", 0, "11,15,1.5;"},       /* DE 19 base */
         {140, 0, 0, "00010000", 0, "0.,0.,0.,0.5,19;"}, /* DE 21 */
     };
     crisp_model *m = load(e, N_OF(e));
@@ -212,15 +231,15 @@ static void test_offset_of_bspline_plane(void **state)
     test_entity e[] = {
         {128, 0, 0, "00010000", 0,
          "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"
-         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"},                      /* DE 1 */
-        {140, 0, 0, "00010000", 0, "0.,0.,-1.,0.25,1;"},                          /* DE 3 */
-        {110, 0, 0, "00010500", 0, "0.25,0.25,0.,0.75,0.25,0.;"},                 /* DE 5 */
-        {110, 0, 0, "00010500", 0, "0.75,0.25,0.,0.75,0.75,0.;"},                 /* DE 7 */
-        {110, 0, 0, "00010500", 0, "0.75,0.75,0.,0.25,0.75,0.;"},                 /* DE 9 */
-        {110, 0, 0, "00010500", 0, "0.25,0.75,0.,0.25,0.25,0.;"},                 /* DE 11 */
-        {102, 0, 0, "00010500", 0, "4,5,7,9,11;"},                                /* DE 13 */
-        {142, 0, 0, "00010500", 0, "1,3,13,0,1;"},                                /* DE 15 */
-        {144, 0, 0, NULL, 0, "3,1,0,15;"},                                        /* DE 17 */
+         "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"},     /* DE 1 */
+        {140, 0, 0, "00010000", 0, "0.,0.,-1.,0.25,1;"},          /* DE 3 */
+        {110, 0, 0, "00010500", 0, "0.25,0.25,0.,0.75,0.25,0.;"}, /* DE 5 */
+        {110, 0, 0, "00010500", 0, "0.75,0.25,0.,0.75,0.75,0.;"}, /* DE 7 */
+        {110, 0, 0, "00010500", 0, "0.75,0.75,0.,0.25,0.75,0.;"}, /* DE 9 */
+        {110, 0, 0, "00010500", 0, "0.25,0.75,0.,0.25,0.25,0.;"}, /* DE 11 */
+        {102, 0, 0, "00010500", 0, "4,5,7,9,11;"},                /* DE 13 */
+        {142, 0, 0, "00010500", 0, "1,3,13,0,1;"},                /* DE 15 */
+        {144, 0, 0, NULL, 0, "3,1,0,15;"},                        /* DE 17 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -230,7 +249,8 @@ static void test_offset_of_bspline_plane(void **state)
     for (int a = 0; a <= 8; a++)
         for (int b = 0; b <= 8; b++) {
             double p[3];
-            crisp_surface_eval(s, dom[0] + (dom[1] - dom[0]) * a / 8, dom[2] + (dom[3] - dom[2]) * b / 8, p);
+            crisp_surface_eval(s, dom[0] + (dom[1] - dom[0]) * a / 8,
+                               dom[2] + (dom[3] - dom[2]) * b / 8, p);
             assert_true(fabs(p[2] + 0.25) < 1e-9);
             /* same parametrisation as the base: x = 4 u, y = 4 v */
             /* (up to the rounding of the fit's difference quotients) */
@@ -247,10 +267,10 @@ static void test_offset_of_revolution(void **state)
 {
     (void)state;
     test_entity e[] = {
-        {110, 0, 0, "00010000", 0, "0.,0.,0.,0.,0.,1.;"},             /* DE 1 axis */
-        {110, 0, 0, "00010000", 0, "1.,0.,0.,2.,0.,3.;"},             /* DE 3 generatrix */
-        {120, 0, 0, "00010000", 0, "1,3,0.,3.141592653589793;"},      /* DE 5 */
-        {140, 0, 0, NULL, 0, "0.,0.,0.,0.2,5;"},                      /* DE 7 */
+        {110, 0, 0, "00010000", 0, "0.,0.,0.,0.,0.,1.;"},        /* DE 1 axis */
+        {110, 0, 0, "00010000", 0, "1.,0.,0.,2.,0.,3.;"},        /* DE 3 generatrix */
+        {120, 0, 0, "00010000", 0, "1,3,0.,3.141592653589793;"}, /* DE 5 */
+        {140, 0, 0, NULL, 0, "0.,0.,0.,0.2,5;"},                 /* DE 7 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -261,7 +281,8 @@ static void test_offset_of_revolution(void **state)
     for (int a = 0; a <= 20; a++)
         for (int b = 0; b <= 20; b++) {
             double p[3];
-            crisp_surface_eval(s, dom[0] + (dom[1] - dom[0]) * a / 20, dom[2] + (dom[3] - dom[2]) * b / 20, p);
+            crisp_surface_eval(s, dom[0] + (dom[1] - dom[0]) * a / 20,
+                               dom[2] + (dom[3] - dom[2]) * b / 20, p);
             /* distance from the cone's line rho = 1 + z / 3 in the meridian plane */
             double d = fabs((hypot(p[0], p[1]) - 1 - p[2] / 3) * c);
             worst = fmax(worst, fabs(d - 0.2));
@@ -278,7 +299,8 @@ static void test_offset_tube_file(void **state)
 {
     (void)state;
     crisp_model *m = NULL;
-    crisp_status st = crisp_read_iges(CRISP_DATA_DIR "/nurbs/occt_bug23171_tube_surf.igs", NULL, &m);
+    crisp_status st =
+        crisp_read_iges(CRISP_DATA_DIR "/nurbs/occt_bug23171_tube_surf.igs", NULL, &m);
     if (st) fprintf(stderr, "%s\n", crisp_error_message());
     assert_int_equal(st, CRISP_OK);
     assert_int_equal(m->face_count, 2);
@@ -291,7 +313,8 @@ static void test_offset_tube_file(void **state)
         for (int a = 0; a <= 10; a++)
             for (int b = 0; b <= 10; b++) {
                 double p[3];
-                crisp_surface_eval(s, d[0] + (d[1] - d[0]) * a / 10, d[2] + (d[3] - d[2]) * b / 10, p);
+                crisp_surface_eval(s, d[0] + (d[1] - d[0]) * a / 10, d[2] + (d[3] - d[2]) * b / 10,
+                                   p);
                 worst = fmax(worst, fabs(hypot(p[1] - 300, p[2]) - 106.329494));
             }
     }
@@ -302,14 +325,10 @@ static void test_offset_tube_file(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_cylinder_192),
-        cmocka_unit_test(test_cone_194),
-        cmocka_unit_test(test_sphere_196_octant),
-        cmocka_unit_test(test_torus_198),
-        cmocka_unit_test(test_offset_of_cylinder),
-        cmocka_unit_test(test_offset_of_bspline_plane),
-        cmocka_unit_test(test_offset_of_revolution),
-        cmocka_unit_test(test_offset_tube_file),
+        cmocka_unit_test(test_cylinder_192),         cmocka_unit_test(test_cone_194),
+        cmocka_unit_test(test_sphere_196_octant),    cmocka_unit_test(test_torus_198),
+        cmocka_unit_test(test_offset_of_cylinder),   cmocka_unit_test(test_offset_of_bspline_plane),
+        cmocka_unit_test(test_offset_of_revolution), cmocka_unit_test(test_offset_tube_file),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -20,7 +20,7 @@ typedef struct model_case {
 } model_case;
 
 static const model_case cases[] = {
-    {"occt_bearing.iges", 213, 0}, {"occt_hammer.iges", 45, 3},  {"gpucast_part.igs", 134, 0},
+    {"occt_bearing.iges", 213, 0}, {"occt_hammer.iges", 45, 3}, {"gpucast_part.igs", 134, 0},
     {"gpucast_teapot.igs", 32, 0}, {"impeller.igs", 277, 2},
 };
 
@@ -62,17 +62,20 @@ static int check_model(const crisp_model *m, const char *file)
             double area = crisp_trim_loop_signed_area(loop);
             worst_gap = fmax(worst_gap, gap);
             worst_excess = fmax(worst_excess, excess);
-            if (gap > 1e-9 || excess > 1e-9 || hull > 1e-9 || (loop->is_outer ? area <= 0 : area >= 0))
-                fprintf(stderr, "%s: face DE %d loop %d: gap %g excess %g area %g outer %d\n",
-                        file, f->source_id, l, gap, excess, area, loop->is_outer);
+            if (gap > 1e-9 || excess > 1e-9 || hull > 1e-9 ||
+                (loop->is_outer ? area <= 0 : area >= 0))
+                fprintf(stderr, "%s: face DE %d loop %d: gap %g excess %g area %g outer %d\n", file,
+                        f->source_id, l, gap, excess, area, loop->is_outer);
             assert_true(gap <= 1e-9);
             /* The reader refines trims whose control polygon leaves the domain (bearing: 2%) and
              * moves points out by <= 1e-4 of the domain onto its edge (hammer: a trim dips
              * 4.5e-5 below v = 0); after that the control polygons are inside. */
             assert_true(excess <= 1e-9);
             assert_true(hull <= 1e-9);
-            if (loop->is_outer) assert_true(area > 0);
-            else assert_true(area < 0);
+            if (loop->is_outer)
+                assert_true(area > 0);
+            else
+                assert_true(area < 0);
         }
     }
     int dropped = 0;
@@ -80,8 +83,9 @@ static int check_model(const crisp_model *m, const char *file)
         if (!strncmp(m->skips[i].what, "DE ", 3)) dropped += m->skips[i].count;
         fprintf(stderr, "%s: skipped %d x %s\n", file, m->skips[i].count, m->skips[i].what);
     }
-    fprintf(stderr, "%s: %d faces, worst closure gap %.3g, worst domain excess %.3g (curve) %.3g "
-                    "(control polygon) of the domain size, %d faces dropped\n",
+    fprintf(stderr,
+            "%s: %d faces, worst closure gap %.3g, worst domain excess %.3g (curve) %.3g "
+            "(control polygon) of the domain size, %d faces dropped\n",
             file, m->face_count, worst_gap, worst_excess, worst_hull, dropped);
     return dropped;
 }
@@ -103,8 +107,10 @@ static void test_bundled_models(void **state)
         assert_int_equal(s.hole_loops, cases[c].holes);
         assert_int_equal(check_model(m, cases[c].file), 0);
         /* untrimmed teapot patches have no loops; every trimmed face has its outer loop */
-        if (!strcmp(cases[c].file, "gpucast_teapot.igs")) assert_int_equal(s.outer_loops, 0);
-        else assert_int_equal(s.outer_loops, cases[c].faces);
+        if (!strcmp(cases[c].file, "gpucast_teapot.igs"))
+            assert_int_equal(s.outer_loops, 0);
+        else
+            assert_int_equal(s.outer_loops, cases[c].faces);
         /* impeller's 144s point to a 314 colour definition: 75.29% grey */
         if (!strcmp(cases[c].file, "impeller.igs"))
             for (int i = 0; i < m->face_count; i++) {
@@ -128,12 +134,14 @@ static double distance_to_curves(const iges_curves *c, const double p[3])
             crisp_curve_eval(c->items[i], t0 + (t1 - t0) * k / n, q);
             if (k > 0) {
                 double d[3], e[3];
-                for (int j = 0; j < 3; j++) d[j] = q[j] - prev[j], e[j] = p[j] - prev[j];
+                for (int j = 0; j < 3; j++)
+                    d[j] = q[j] - prev[j], e[j] = p[j] - prev[j];
                 double dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
                 double t = dd > 0 ? (e[0] * d[0] + e[1] * d[1] + e[2] * d[2]) / dd : 0;
                 t = t < 0 ? 0 : t > 1 ? 1 : t;
                 double r[3];
-                for (int j = 0; j < 3; j++) r[j] = prev[j] + t * d[j] - p[j];
+                for (int j = 0; j < 3; j++)
+                    r[j] = prev[j] + t * d[j] - p[j];
                 best = fmin(best, sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]));
             }
             memcpy(prev, q, sizeof prev);
@@ -158,9 +166,9 @@ static void test_bearing_pcurves_on_model_curves(void **state)
     double box[6];
     crisp_model_bbox(m, box);
     crisp_model_destroy(m);
-    const double diag = sqrt((box[3] - box[0]) * (box[3] - box[0]) +
-                             (box[4] - box[1]) * (box[4] - box[1]) +
-                             (box[5] - box[2]) * (box[5] - box[2]));
+    const double diag =
+        sqrt((box[3] - box[0]) * (box[3] - box[0]) + (box[4] - box[1]) * (box[4] - box[1]) +
+             (box[5] - box[2]) * (box[5] - box[2]));
     int checked = 0;
     double worst = 0;
     for (int e = 0; e < f.entity_count; e++) {
@@ -189,8 +197,9 @@ static void test_bearing_pcurves_on_model_curves(void **state)
         crisp__iges_curves_free(&model);
         crisp__iges_surface_free(&s);
     }
-    fprintf(stderr, "bearing: %d curves on surface, worst |S(B(t)) - C| = %.3g (%.3g of the "
-                    "diagonal)\n",
+    fprintf(stderr,
+            "bearing: %d curves on surface, worst |S(B(t)) - C| = %.3g (%.3g of the "
+            "diagonal)\n",
             checked, worst, worst / diag);
     assert_int_equal(checked, 213);
     /* The file's two representations agree to 6e-6 (its global section states a resolution of

@@ -19,8 +19,8 @@
 #define N_OF(a) ((int)(sizeof(a) / sizeof((a)[0])))
 
 /* A bilinear 128 over [0, 4] x [0, 4] x {0} (dependent status unless given). */
-#define SQUARE_128                                                                             \
-    "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"                                   \
+#define SQUARE_128                                                                                 \
+    "1,1,1,1,0,0,1,0,0,0.,0.,1.,1.,0.,0.,1.,1.,1.,1.,1.,1.,"                                       \
     "0.,0.,0.,4.,0.,0.,0.,4.,0.,4.,4.,0.,0.,1.,0.,1.;"
 
 static crisp_status load_text(const char *text, size_t len, crisp_model **m)
@@ -44,7 +44,8 @@ static int has_note(const crisp_model *m, const char *a, const char *b)
 {
     for (int i = 0; i < m->skip_count; i++)
         if (strstr(m->skips[i].what, a) && (!b || strstr(m->skips[i].what, b))) return 1;
-    for (int i = 0; i < m->skip_count; i++) fprintf(stderr, "note: %s\n", m->skips[i].what);
+    for (int i = 0; i < m->skip_count; i++)
+        fprintf(stderr, "note: %s\n", m->skips[i].what);
     return 0;
 }
 
@@ -54,13 +55,14 @@ static void test_bad_face_skipped(void **state)
 {
     (void)state;
     test_entity e[] = {
-        {128, 0, 0, "00010000", 0, SQUARE_128},                           /* DE 1 */
-        {126, 0, 0, "00010500", 0, "1,1,0,0,1,0,1.,0.,0.,0.,1.,1.,"
-                                   "0.25,0.25,0.,0.75,0.25,0.,0.,1.,0.,0.,1.;"}, /* DE 3 */
-        {142, 0, 0, "00010500", 0, "0,1,3,0,1;"},                         /* DE 5 */
-        {144, 0, 0, NULL, 0, "1,1,0,5;"},                                 /* DE 7 */
-        {128, 0, 0, "00010000", 0, SQUARE_128},             /* DE 9 */
-        {144, 0, 0, NULL, 0, "9,0,0,0;"},                   /* DE 11 */
+        {128, 0, 0, "00010000", 0, SQUARE_128}, /* DE 1 */
+        {126, 0, 0, "00010500", 0,
+         "1,1,0,0,1,0,1.,0.,0.,0.,1.,1.,"
+         "0.25,0.25,0.,0.75,0.25,0.,0.,1.,0.,0.,1.;"}, /* DE 3 */
+        {142, 0, 0, "00010500", 0, "0,1,3,0,1;"},      /* DE 5 */
+        {144, 0, 0, NULL, 0, "1,1,0,5;"},              /* DE 7 */
+        {128, 0, 0, "00010000", 0, SQUARE_128},        /* DE 9 */
+        {144, 0, 0, NULL, 0, "9,0,0,0;"},              /* DE 11 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -83,20 +85,20 @@ static void test_plane_190(void **state)
 {
     (void)state;
     test_entity e[] = {
-        {116, 0, 0, "00010000", 0, "0.,0.,2.,0;"},                                     /* DE 1 */
-        {123, 0, 0, "00010000", 0, "0.,0.,-1.;"},                                       /* DE 3 */
-        {123, 0, 0, "00010000", 0, "1.,0.,0.;"},                                        /* DE 5 */
-        {190, 1, 0, "00010000", 0, "1,3,5;"},                                           /* DE 7 */
-        {110, 0, 0, "00010000", 0, "1.,1.,2.,3.,1.,2.;"},                               /* DE 9 */
-        {110, 0, 0, "00010000", 0, "3.,1.,2.,3.,3.,2.;"},                               /* DE 11 */
-        {110, 0, 0, "00010000", 0, "3.,3.,2.,1.,3.,2.;"},                               /* DE 13 */
-        {110, 0, 0, "00010000", 0, "1.,1.,2.,1.,3.,2.;"},                               /* DE 15 */
-        {502, 1, 0, "00010000", 0, "4,1.,1.,2.,3.,1.,2.,3.,3.,2.,1.,3.,2.;"},           /* DE 17 */
+        {116, 0, 0, "00010000", 0, "0.,0.,2.,0;"},                            /* DE 1 */
+        {123, 0, 0, "00010000", 0, "0.,0.,-1.;"},                             /* DE 3 */
+        {123, 0, 0, "00010000", 0, "1.,0.,0.;"},                              /* DE 5 */
+        {190, 1, 0, "00010000", 0, "1,3,5;"},                                 /* DE 7 */
+        {110, 0, 0, "00010000", 0, "1.,1.,2.,3.,1.,2.;"},                     /* DE 9 */
+        {110, 0, 0, "00010000", 0, "3.,1.,2.,3.,3.,2.;"},                     /* DE 11 */
+        {110, 0, 0, "00010000", 0, "3.,3.,2.,1.,3.,2.;"},                     /* DE 13 */
+        {110, 0, 0, "00010000", 0, "1.,1.,2.,1.,3.,2.;"},                     /* DE 15 */
+        {502, 1, 0, "00010000", 0, "4,1.,1.,2.,3.,1.,2.,3.,3.,2.,1.,3.,2.;"}, /* DE 17 */
         {504, 1, 0, "00010000", 0, "4,9,17,1,17,2,11,17,2,17,3,13,17,3,17,4,15,17,1,17,4;"},
         {508, 1, 0, "00010000", 0, "4,0,19,1,1,0,0,19,2,1,0,0,19,3,1,0,0,19,4,0,0;"}, /* 21 */
-        {510, 1, 0, "00010000", 0, "7,1,1,21;"},                                        /* DE 23 */
-        {514, 1, 0, "00010000", 0, "1,23,1;"},                                          /* DE 25 */
-        {186, 0, 0, NULL, 0, "25,1,0;"},                                                /* DE 27 */
+        {510, 1, 0, "00010000", 0, "7,1,1,21;"},                                      /* DE 23 */
+        {514, 1, 0, "00010000", 0, "1,23,1;"},                                        /* DE 25 */
+        {186, 0, 0, NULL, 0, "25,1,0;"},                                              /* DE 27 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 1);
@@ -112,7 +114,8 @@ static void test_plane_190(void **state)
             double q[2], p[3];
             crisp_curve_eval(loop->curves[c], t0 + (t1 - t0) * k / 20, q);
             crisp_surface_eval(face->surface, q[0], q[1], p);
-            for (int a = 0; a < 3; a++) lo[a] = fmin(lo[a], p[a]), hi[a] = fmax(hi[a], p[a]);
+            for (int a = 0; a < 3; a++)
+                lo[a] = fmin(lo[a], p[a]), hi[a] = fmax(hi[a], p[a]);
         }
     }
     assert_true(fabs(lo[0] - 1) < 1e-9 && fabs(hi[0] - 3) < 1e-9);
@@ -135,11 +138,11 @@ static void test_subfigures(void **state)
 {
     (void)state;
     test_entity e[] = {
-        {128, 0, 0, NULL, 0, SQUARE_128},                                  /* DE 1: member */
-        {308, 0, 0, "00020200", 0, "0,4Hpart,1,1;"},                      /* DE 3 */
-        {408, 0, 0, NULL, 0, "3,10.,0.,0.,2.;"},                           /* DE 5 */
-        {124, 0, 0, NULL, 0, "-1.,0.,0.,0.,0.,1.,0.,0.,0.,0.,1.,0.;"},     /* DE 7 */
-        {408, 0, 7, NULL, 0, "3,0.,0.,5.;"},                               /* DE 9 */
+        {128, 0, 0, NULL, 0, SQUARE_128},                              /* DE 1: member */
+        {308, 0, 0, "00020200", 0, "0,4Hpart,1,1;"},                   /* DE 3 */
+        {408, 0, 0, NULL, 0, "3,10.,0.,0.,2.;"},                       /* DE 5 */
+        {124, 0, 0, NULL, 0, "-1.,0.,0.,0.,0.,1.,0.,0.,0.,0.,1.,0.;"}, /* DE 7 */
+        {408, 0, 7, NULL, 0, "3,0.,0.,5.;"},                           /* DE 9 */
     };
     crisp_model *m = load(e, N_OF(e));
     assert_int_equal(m->face_count, 2);
@@ -168,10 +171,10 @@ static void test_subfigures(void **state)
 
     /* a definition that places itself is a cycle: reported, not followed for ever */
     test_entity cyc[] = {
-        {128, 0, 0, NULL, 0, SQUARE_128},                 /* DE 1 */
-        {308, 0, 0, "00020200", 0, "0,1Hx,2,1,5;"},      /* DE 3 */
-        {408, 0, 0, "00020000", 0, "3,1.,0.,0.;"},        /* DE 5: inside DE 3 */
-        {408, 0, 0, NULL, 0, "3;"},                       /* DE 7 */
+        {128, 0, 0, NULL, 0, SQUARE_128},           /* DE 1 */
+        {308, 0, 0, "00020200", 0, "0,1Hx,2,1,5;"}, /* DE 3 */
+        {408, 0, 0, "00020000", 0, "3,1.,0.,0.;"},  /* DE 5: inside DE 3 */
+        {408, 0, 0, NULL, 0, "3;"},                 /* DE 7 */
     };
     char *text = test_iges_build(cyc, N_OF(cyc));
     crisp_status st = load_text(text, strlen(text), &m);
@@ -217,7 +220,7 @@ static void test_comment_after_delimiter(void **state)
 /* A 144 on SQUARE_128 (DE 1) trimmed by the square [0.25, 0.75]^2 of four 126 lines (DE 3 to 9),
  * a 102 (DE 11) and a 142 (DE 13); the face is DE 15. first and last, when given, replace the
  * parameters of the first and the last side. */
-#define LINE_126(x0, y0, x1, y1)                                                               \
+#define LINE_126(x0, y0, x1, y1)                                                                   \
     "1,1,0,0,1,0,0.,0.,1.,1.,1.,1.," #x0 "," #y0 ",0.," #x1 "," #y1 ",0.,0.,1.,0.,0.,1.;"
 static void square_trimmed(test_entity e[8], const char *first, const char *last)
 {
@@ -255,8 +258,8 @@ static void test_gap_bridged(void **state)
     (void)state;
     for (int big = 0; big < 2; big++) {
         test_entity e[8];
-        square_trimmed(e, NULL, big ? LINE_126(0.25, 0.75, 0.25, 0.30)
-                                    : LINE_126(0.25, 0.75, 0.25, 0.253));
+        square_trimmed(e, NULL,
+                       big ? LINE_126(0.25, 0.75, 0.25, 0.30) : LINE_126(0.25, 0.75, 0.25, 0.253));
         crisp_model *m = load(e, 8);
         if (!big) {
             assert_int_equal(m->face_count, 1);

@@ -74,7 +74,9 @@ static void test_obj_summary(void **state)
     const char *bb = strstr(out, "\"bbox\": [");
     assert_non_null(bb);
     double b[6];
-    assert_int_equal(sscanf(bb, "\"bbox\": [%lf, %lf, %lf, %lf, %lf, %lf]", b, b + 1, b + 2, b + 3, b + 4, b + 5), 6);
+    assert_int_equal(sscanf(bb, "\"bbox\": [%lf, %lf, %lf, %lf, %lf, %lf]", b, b + 1, b + 2, b + 3,
+                            b + 4, b + 5),
+                     6);
     /* contains the trimmed face, and is well inside the hull in x and y */
     assert_true(b[0] <= 0.2 + 1e-9 && b[0] > 0.1 && b[3] >= 1.8 - 1e-9 && b[3] < 1.9);
     assert_true(b[1] <= 0.2 + 1e-9 && b[1] > 0.1 && b[4] >= 0.8 - 1e-9 && b[4] < 0.9);
@@ -170,8 +172,7 @@ static void test_step_linkrods(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_obj_summary),
-        cmocka_unit_test(test_full_skip_reasons),
+        cmocka_unit_test(test_obj_summary),   cmocka_unit_test(test_full_skip_reasons),
         cmocka_unit_test(test_broken_files),
 #ifdef CRISP_TEST_HAVE_IGES
         cmocka_unit_test(test_iges_hammer),

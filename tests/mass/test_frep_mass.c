@@ -40,10 +40,12 @@ static solid ellipsoid(char *buf, size_t n)
     const double a = 0.8, b = 0.5, c = 0.3, th = PI / 6, x0 = 0.3, y0 = -0.2, z0 = 0.1;
     double cs = cos(th), sn = sin(th);
     snprintf(buf, n,
-             "((%.17g*(X-%.17g)+%.17g*(Y-%.17g))/%.17g)^2+((%.17g*(X-%.17g)+%.17g*(Y-%.17g))/%.17g)^2+((Z-%.17g)/%.17g)^2-1",
+             "((%.17g*(X-%.17g)+%.17g*(Y-%.17g))/%.17g)^2+((%.17g*(X-%.17g)+%.17g*(Y-%.17g))/"
+             "%.17g)^2+((Z-%.17g)/%.17g)^2-1",
              cs, x0, sn, y0, a, -sn, x0, cs, y0, b, z0, c);
     solid s = {.expr = buf, .volume = 4.0 / 3 * PI * a * b * c, .centroid = {x0, y0, z0}};
-    double V = s.volume, J[3] = {V / 5 * (b * b + c * c), V / 5 * (a * a + c * c), V / 5 * (a * a + b * b)};
+    double V = s.volume,
+           J[3] = {V / 5 * (b * b + c * c), V / 5 * (a * a + c * c), V / 5 * (a * a + b * b)};
     /* world from body: x = c u - s v, y = s u + c v */
     s.inertia[0] = cs * cs * J[0] + sn * sn * J[1];
     s.inertia[1] = sn * sn * J[0] + cs * cs * J[1];
@@ -63,11 +65,16 @@ static solid solids(int k, char *buf, size_t n)
         double R = 1, r = 0.3;
         V = 2 * PI * PI * R * r * r;
         double ix = V * (R * R / 2 + 5.0 / 8 * r * r);
-        return (solid){"(sqrt(X^2+Y^2)-1)^2+Z^2-0.09", V, {0, 0, 0}, {ix, ix, V * (R * R + 0.75 * r * r), 0, 0, 0}};
+        return (solid){"(sqrt(X^2+Y^2)-1)^2+Z^2-0.09",
+                       V,
+                       {0, 0, 0},
+                       {ix, ix, V * (R * R + 0.75 * r * r), 0, 0, 0}};
     }
     case 2: {
         double ix = 16.0 / 3 - PI / 2 * (3 * 0.25 + 4) / 12;
-        return (solid){"max(max(max(abs(X),abs(Y)),abs(Z))-1, 0.5-sqrt(X^2+Y^2))", 8 - PI / 2, {0, 0, 0},
+        return (solid){"max(max(max(abs(X),abs(Y)),abs(Z))-1, 0.5-sqrt(X^2+Y^2))",
+                       8 - PI / 2,
+                       {0, 0, 0},
                        {ix, ix, 16.0 / 3 - PI / 2 * 0.25 / 2, 0, 0, 0}};
     }
     default:
@@ -86,19 +93,22 @@ static void test_analytic(void **state)
         double width = INFINITY;
         for (int L = 3; L <= 6; L++) {
             crisp_frep_mass m;
-            crisp_status st = crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = L, .seed = 7}, &m);
+            crisp_status st =
+                crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = L, .seed = 7}, &m);
             if (st) fprintf(stderr, "%s\n", crisp_error_message());
             assert_int_equal(st, CRISP_OK);
-            fprintf(stderr, "%d L%d: V %.8f (true %.8f) +- %.2g in [%.6f, %.6f]\n", k, L, m.volume, s.volume,
-                    m.volume_se, m.volume_lo, m.volume_hi);
+            fprintf(stderr, "%d L%d: V %.8f (true %.8f) +- %.2g in [%.6f, %.6f]\n", k, L, m.volume,
+                    s.volume, m.volume_se, m.volume_lo, m.volume_hi);
             /* certified: the bounds hold at every level, and narrow */
             assert_true(m.volume_lo <= s.volume && s.volume <= m.volume_hi);
             assert_true(m.volume_hi - m.volume_lo < width);
             width = m.volume_hi - m.volume_lo;
             if (L < 5) continue;
             assert_true(fabs(m.volume - s.volume) < 4 * m.volume_se);
-            for (int a = 0; a < 3; a++) assert_true(fabs(m.centroid[a] - s.centroid[a]) < 4 * m.centroid_se[a] + 1e-12);
-            for (int a = 0; a < 6; a++) assert_true(fabs(m.inertia[a] - s.inertia[a]) < 4 * m.inertia_se[a] + 1e-12);
+            for (int a = 0; a < 3; a++)
+                assert_true(fabs(m.centroid[a] - s.centroid[a]) < 4 * m.centroid_se[a] + 1e-12);
+            for (int a = 0; a < 6; a++)
+                assert_true(fabs(m.inertia[a] - s.inertia[a]) < 4 * m.inertia_se[a] + 1e-12);
         }
         crisp_frep_tape_destroy(t);
         crisp_frep_destroy(f);
@@ -118,7 +128,8 @@ static void test_coverage(void **state)
         crisp_frep_tape *t = tape_of(s.expr, &f);
         crisp_frep_mass m;
         /* the region once, fitted */
-        assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 1}, &m), CRISP_OK);
+        assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 1}, &m),
+                         CRISP_OK);
         double region[6];
         memcpy(region, m.region, sizeof region);
         for (uint64_t seed = 1; seed <= 60; seed++) {
@@ -126,14 +137,17 @@ static void test_coverage(void **state)
             memcpy(d.region, region, sizeof region);
             assert_int_equal(crisp_frep_mass_level(t, &d, &m), CRISP_OK);
             cover += fabs(m.volume - s.volume) <= 1.96 * m.volume_se;
-            for (int a = 0; a < 3; a++) cover += fabs(m.centroid[a] - s.centroid[a]) <= 1.96 * m.centroid_se[a];
-            for (int a = 0; a < 6; a++) cover += fabs(m.inertia[a] - s.inertia[a]) <= 1.96 * m.inertia_se[a];
+            for (int a = 0; a < 3; a++)
+                cover += fabs(m.centroid[a] - s.centroid[a]) <= 1.96 * m.centroid_se[a];
+            for (int a = 0; a < 6; a++)
+                cover += fabs(m.inertia[a] - s.inertia[a]) <= 1.96 * m.inertia_se[a];
             total += 10;
         }
         crisp_frep_tape_destroy(t);
         crisp_frep_destroy(f);
     }
-    fprintf(stderr, "coverage of the 95%% intervals: %zu of %zu (%.1f%%)\n", cover, total, 100.0 * cover / total);
+    fprintf(stderr, "coverage of the 95%% intervals: %zu of %zu (%.1f%%)\n", cover, total,
+            100.0 * cover / total);
     assert_true(cover >= 0.95 * total);
 }
 
@@ -145,18 +159,22 @@ static void test_bad_input(void **state)
     const char *bad[3] = {"X+Y", "X^2+Y^2+Z^2+1", "sqrt(X-1000000)"};
     for (int k = 0; k < 3; k++) {
         crisp_frep_tape *t = tape_of(bad[k], &f);
-        assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 4}, &m), CRISP_ERR_NUMERIC);
+        assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 4}, &m),
+                         CRISP_ERR_NUMERIC);
         assert_true(strlen(crisp_error_message()) > 10);
         crisp_frep_tape_destroy(t);
         crisp_frep_destroy(f);
     }
     /* a region that cuts the part */
     crisp_frep_tape *t = tape_of("X^2+Y^2+Z^2-1", &f);
-    assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.region = {-0.5, 0.5, -2, 2, -2, 2}, .level = 4}, &m),
-                     CRISP_ERR_NUMERIC);
+    assert_int_equal(
+        crisp_frep_mass_level(
+            t, &(crisp_frep_mass_desc){.region = {-0.5, 0.5, -2, 2, -2, 2}, .level = 4}, &m),
+        CRISP_ERR_NUMERIC);
     assert_non_null(strstr(crisp_error_message(), "cuts"));
     assert_true(m.cut_cells > 0);
-    assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 25}, &m), CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 25}, &m),
+                     CRISP_ERR_INVALID_ARG);
     crisp_frep_tape_destroy(t);
     crisp_frep_destroy(f);
 }
@@ -167,10 +185,11 @@ static void test_fine(void **state)
     crisp_frep *f;
     crisp_frep_tape *t = tape_of("X^2+Y^2+Z^2-1", &f);
     crisp_frep_mass m;
-    assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 10, .seed = 3}, &m), CRISP_OK);
+    assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 10, .seed = 3}, &m),
+                     CRISP_OK);
     double V = 4 * PI / 3;
-    fprintf(stderr, "level 10: V %.10f +- %.2g (relative %.2g), error %.2g relative\n", m.volume, m.volume_se,
-            m.volume_se / V, fabs(m.volume - V) / V);
+    fprintf(stderr, "level 10: V %.10f +- %.2g (relative %.2g), error %.2g relative\n", m.volume,
+            m.volume_se, m.volume_se / V, fabs(m.volume - V) / V);
     assert_true(m.volume_se / V <= 1e-6);
     assert_true(fabs(m.volume - V) / V <= 4e-6);
     assert_true(fabs(m.inertia[2] - 0.4 * V) / (0.4 * V) <= 1e-5);

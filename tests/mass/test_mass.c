@@ -47,15 +47,19 @@ static void check(const crisp_model *m, double V, const double I[6], double tol)
 {
     crisp_mass_props p;
     assert_int_equal(crisp_mass_model(m, NULL, &p), CRISP_OK);
-    fprintf(stderr, "closed %d V %.15g (true %.15g, rel %.2g, est %.2g) c %.12g %.12g %.12g I %.12g %.12g %.12g\n",
-            p.closed, p.volume, V, fabs(p.volume - V) / V, p.volume_err, p.centroid[0], p.centroid[1], p.centroid[2],
-            p.inertia[0], p.inertia[1], p.inertia[2]);
+    fprintf(stderr,
+            "closed %d V %.15g (true %.15g, rel %.2g, est %.2g) c %.12g %.12g %.12g I %.12g %.12g "
+            "%.12g\n",
+            p.closed, p.volume, V, fabs(p.volume - V) / V, p.volume_err, p.centroid[0],
+            p.centroid[1], p.centroid[2], p.inertia[0], p.inertia[1], p.inertia[2]);
     assert_true(p.closed);
     assert_true(fabs(p.volume - V) <= tol * V);
     double L = pow(V, 1.0 / 3);
-    for (int a = 0; a < 3; a++) assert_true(fabs(p.centroid[a] - O[a]) <= tol * L);
+    for (int a = 0; a < 3; a++)
+        assert_true(fabs(p.centroid[a] - O[a]) <= tol * L);
     double In = fmax(I[0], fmax(I[1], I[2]));
-    for (int k = 0; k < 6; k++) assert_true(fabs(p.inertia[k] - I[k]) <= tol * In);
+    for (int k = 0; k < 6; k++)
+        assert_true(fabs(p.inertia[k] - I[k]) <= tol * In);
     assert_true(p.volume_err < 1e-6 * V);
 }
 

@@ -35,7 +35,8 @@ static crisp_status mem_triangle(void *ctx, const uint32_t v[3], const float p[3
     if (mc_grow((void **)&m->t, &m->ct, 3 * (m->nt + 1), sizeof *m->t)) return CRISP_ERR_NO_MEMORY;
     for (int k = 0; k < 3; k++) {
         assert_true(v[k] < m->nv);
-        for (int a = 0; a < 3; a++) assert_true(p[k][a] == m->p[3 * v[k] + a]);
+        for (int a = 0; a < 3; a++)
+            assert_true(p[k][a] == m->p[3 * v[k] + a]);
     }
     memcpy(m->t + 3 * m->nt++, v, 3 * sizeof *v);
     return CRISP_OK;
@@ -60,7 +61,8 @@ static crisp_frep_tape *tape_of(crisp_frep **f, const char *name_or_expr)
 
 /* a sign change of f among p and the points at distance r, 0.87 r, r/2, r/4, r/16, r/64 around
  * it in 26 directions: then the surface is within r of p */
-static int near_surface(const crisp_frep_tape *t, const double p[3], double r0, const double *region)
+static int near_surface(const crisp_frep_tape *t, const double p[3], double r0,
+                        const double *region)
 {
     static const double scale[6] = {1, 0.8660254, 0.5, 0.25, 0.0625, 0.015625};
     float x[162], y[162], z[162], v[162];
@@ -121,12 +123,15 @@ static mesh_result check_mesh(const char *what, const double region[6], int reso
     for (size_t i = 0; i < r.m.nt; i += 2 * stride + 5) {
         double p[3] = {0, 0, 0};
         for (int k = 0; k < 3; k++)
-            for (int a = 0; a < 3; a++) p[a] += r.m.p[3 * r.m.t[3 * i + k] + a] / 3;
+            for (int a = 0; a < 3; a++)
+                p[a] += r.m.p[3 * r.m.t[3 * i + k] + a] / 3;
         far += !near_surface(t, p, sqrt(3.0) * r.st.cell, region);
     }
-    fprintf(stderr, "%-40.40s %7zu triangles, cell %.4g: %zu manifold defects, %zu crossings in %zu pairs, "
+    fprintf(stderr,
+            "%-40.40s %7zu triangles, cell %.4g: %zu manifold defects, %zu crossings in %zu pairs, "
             "%zu far, volume %.6g, thin %zu, cut %zu\n",
-            what, r.m.nt, r.st.cell, bad, cross, pairs, far, mc_volume(&r.m), r.st.thin_cubes, r.st.cut_points);
+            what, r.m.nt, r.st.cell, bad, cross, pairs, far, mc_volume(&r.m), r.st.thin_cubes,
+            r.st.cut_points);
     assert_int_equal(bad, 0);
     assert_int_equal(cross, 0);
     /* the colonnade's function is -0 (outside) on whole planes with f < 0 on both sides (sheets
@@ -143,7 +148,8 @@ static mesh_result check_mesh(const char *what, const double region[6], int reso
     crisp_status ms = crisp_frep_mass_level(t, &md, &mass);
     assert_true(ms == CRISP_OK || (region && mass.cut_cells));
     double vm = mc_volume(&r.m);
-    fprintf(stderr, "    mesh volume %.6g within [%.6g, %.6g]\n", vm, mass.volume_lo, mass.volume_hi);
+    fprintf(stderr, "    mesh volume %.6g within [%.6g, %.6g]\n", vm, mass.volume_lo,
+            mass.volume_hi);
     assert_true(mass.volume_lo <= vm && vm <= mass.volume_hi);
     crisp_frep_tape_destroy(t);
     crisp_frep_destroy(f);
@@ -155,7 +161,8 @@ static void test_models(void **state)
     (void)state;
     /* 3D models over their fitted region; 2D models (unbounded in z) and the colonnade (unbounded
      * in y and z) over a region that cuts them, closed by its faces */
-    const double r1[6] = {-1, 1, -1, 1, -1, 1}, r2[6] = {-1, 1, -1, 1, -0.25, 0.25}, r3[6] = {0, 1, 0, 1, -0.2, 0.2};
+    const double r1[6] = {-1, 1, -1, 1, -1, 1}, r2[6] = {-1, 1, -1, 1, -0.25, 0.25},
+                 r3[6] = {0, 1, 0, 1, -0.2, 0.2};
     mesh_result r;
     r = check_mesh("bear.vm", NULL, 40, 0), mc_free(&r.m);
     r = check_mesh("tanglecube.vm", NULL, 40, 0);
@@ -177,33 +184,61 @@ static void test_models(void **state)
 /* distance from p to triangle abc */
 static double point_tri(const double p[3], const float *a, const float *b, const float *c)
 {
-    /* sample-free: project, clamp by barycentric regions (Ericson, Real-Time Collision Detection) */
+    /* sample-free: project, clamp by barycentric regions (Ericson, Real-Time Collision Detection)
+     */
     double ab[3], ac[3], ap[3], q[3];
-    for (int k = 0; k < 3; k++) ab[k] = b[k] - a[k], ac[k] = c[k] - a[k], ap[k] = p[k] - a[k];
+    for (int k = 0; k < 3; k++)
+        ab[k] = b[k] - a[k], ac[k] = c[k] - a[k], ap[k] = p[k] - a[k];
 #define DOT(u, v) ((u)[0] * (v)[0] + (u)[1] * (v)[1] + (u)[2] * (v)[2])
     double d1 = DOT(ab, ap), d2 = DOT(ac, ap);
-    if (d1 <= 0 && d2 <= 0) { for (int k = 0; k < 3; k++) q[k] = a[k]; goto out; }
+    if (d1 <= 0 && d2 <= 0) {
+        for (int k = 0; k < 3; k++)
+            q[k] = a[k];
+        goto out;
+    }
     double bp[3];
-    for (int k = 0; k < 3; k++) bp[k] = p[k] - b[k];
+    for (int k = 0; k < 3; k++)
+        bp[k] = p[k] - b[k];
     double d3 = DOT(ab, bp), d4 = DOT(ac, bp);
-    if (d3 >= 0 && d4 <= d3) { for (int k = 0; k < 3; k++) q[k] = b[k]; goto out; }
+    if (d3 >= 0 && d4 <= d3) {
+        for (int k = 0; k < 3; k++)
+            q[k] = b[k];
+        goto out;
+    }
     double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0 && d1 >= 0 && d3 <= 0) { double v = d1 / (d1 - d3); for (int k = 0; k < 3; k++) q[k] = a[k] + v * ab[k]; goto out; }
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+        double v = d1 / (d1 - d3);
+        for (int k = 0; k < 3; k++)
+            q[k] = a[k] + v * ab[k];
+        goto out;
+    }
     double cp[3];
-    for (int k = 0; k < 3; k++) cp[k] = p[k] - c[k];
+    for (int k = 0; k < 3; k++)
+        cp[k] = p[k] - c[k];
     double d5 = DOT(ab, cp), d6 = DOT(ac, cp);
-    if (d6 >= 0 && d5 <= d6) { for (int k = 0; k < 3; k++) q[k] = c[k]; goto out; }
+    if (d6 >= 0 && d5 <= d6) {
+        for (int k = 0; k < 3; k++)
+            q[k] = c[k];
+        goto out;
+    }
     double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0 && d2 >= 0 && d6 <= 0) { double w = d2 / (d2 - d6); for (int k = 0; k < 3; k++) q[k] = a[k] + w * ac[k]; goto out; }
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+        double w = d2 / (d2 - d6);
+        for (int k = 0; k < 3; k++)
+            q[k] = a[k] + w * ac[k];
+        goto out;
+    }
     double va = d3 * d6 - d5 * d4;
     if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
         double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        for (int k = 0; k < 3; k++) q[k] = b[k] + w * (c[k] - b[k]);
+        for (int k = 0; k < 3; k++)
+            q[k] = b[k] + w * (c[k] - b[k]);
         goto out;
     }
     {
         double den = 1 / (va + vb + vc), v = vb * den, w = vc * den;
-        for (int k = 0; k < 3; k++) q[k] = a[k] + ab[k] * v + ac[k] * w;
+        for (int k = 0; k < 3; k++)
+            q[k] = a[k] + ab[k] * v + ac[k] * w;
     }
 out:;
     double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
@@ -217,8 +252,11 @@ static void assert_covers(const mc_mesh *m, const double (*pts)[3], int n, doubl
     for (int i = 0; i < n; i++) {
         double best = INFINITY;
         for (size_t t = 0; t < m->nt && best > cell; t++)
-            best = fmin(best, point_tri(pts[i], m->p + 3 * m->t[3 * t], m->p + 3 * m->t[3 * t + 1], m->p + 3 * m->t[3 * t + 2]));
-        if (best > cell) fprintf(stderr, "surface point %g %g %g is %g from the mesh (cell %g)\n", pts[i][0], pts[i][1], pts[i][2], best, cell);
+            best = fmin(best, point_tri(pts[i], m->p + 3 * m->t[3 * t], m->p + 3 * m->t[3 * t + 1],
+                                        m->p + 3 * m->t[3 * t + 2]));
+        if (best > cell)
+            fprintf(stderr, "surface point %g %g %g is %g from the mesh (cell %g)\n", pts[i][0],
+                    pts[i][1], pts[i][2], best, cell);
         assert_true(best <= cell);
     }
 }
@@ -228,7 +266,8 @@ static void test_csg(void **state)
     (void)state;
     const double pi = 3.14159265358979;
     /* box minus cylinder: V = 8 - pi 0.5^2 2 */
-    mesh_result r = check_mesh("max(max(max(abs(X),abs(Y)),abs(Z))-1, 0.5-sqrt(X^2+Y^2))", NULL, 40, 0);
+    mesh_result r =
+        check_mesh("max(max(max(abs(X),abs(Y)),abs(Z))-1, 0.5-sqrt(X^2+Y^2))", NULL, 40, 0);
     double v = 8 - pi * 0.25 * 2;
     assert_true(fabs(mc_volume(&r.m) - v) < 0.05 * v);
     double pts[64][3];
@@ -238,20 +277,24 @@ static void test_csg(void **state)
     }
     assert_covers(&r.m, (const double(*)[3])pts, 64, r.st.cell);
     /* the box's edges and corners: sharp features within a cell */
-    for (int i = 0; i < 64; i++) pts[i][0] = 1, pts[i][1] = (i & 1) ? 1 : -1, pts[i][2] = -1 + 2 * i / 63.0;
+    for (int i = 0; i < 64; i++)
+        pts[i][0] = 1, pts[i][1] = (i & 1) ? 1 : -1, pts[i][2] = -1 + 2 * i / 63.0;
     assert_covers(&r.m, (const double(*)[3])pts, 64, r.st.cell);
     mc_free(&r.m);
     /* union of two spheres: V = two balls minus the lens */
     r = check_mesh("min(X^2+Y^2+Z^2-1, (X-1.2)^2+Y^2+Z^2-0.64)", NULL, 48, 0);
     double d = 1.2, R1 = 1, R2 = 0.8;
-    double lens = pi * pow(R1 + R2 - d, 2) * (d * d + 2 * d * R2 - 3 * R2 * R2 + 2 * d * R1 + 6 * R2 * R1 - 3 * R1 * R1) / (12 * d);
+    double lens = pi * pow(R1 + R2 - d, 2) *
+                  (d * d + 2 * d * R2 - 3 * R2 * R2 + 2 * d * R1 + 6 * R2 * R1 - 3 * R1 * R1) /
+                  (12 * d);
     v = 4.0 / 3 * pi * (1 + 0.512) - lens;
     assert_true(fabs(mc_volume(&r.m) - v) < 0.03 * v);
     for (int i = 0; i < 64; i++) {
         double th = acos(1 - 2 * (i + 0.5) / 64), ph = 2.399963 * i;
         pts[i][0] = sin(th) * cos(ph) - 0.05, pts[i][1] = sin(th) * sin(ph), pts[i][2] = cos(th);
         double n = sqrt(pts[i][0] * pts[i][0] + pts[i][1] * pts[i][1] + pts[i][2] * pts[i][2]);
-        for (int a = 0; a < 3; a++) pts[i][a] /= n; /* on the unit sphere */
+        for (int a = 0; a < 3; a++)
+            pts[i][a] /= n;                          /* on the unit sphere */
         if (pts[i][0] > 0.5) pts[i][0] = -pts[i][0]; /* away from the lens */
     }
     assert_covers(&r.m, (const double(*)[3])pts, 64, r.st.cell);
@@ -270,7 +313,8 @@ static void test_csg(void **state)
             q[axis] = -0.7 + 1.4 * (k + 0.5) / 8;
             q[(axis + 1) % 3] = 0.7 * s1, q[(axis + 2) % 3] = 0.7 * s2;
             /* world from the cube's frame: u = 0.8x + 0.6y, v = -0.6x + 0.8y */
-            edge[ne][0] = 0.8 * q[0] - 0.6 * q[1], edge[ne][1] = 0.6 * q[0] + 0.8 * q[1], edge[ne][2] = q[2];
+            edge[ne][0] = 0.8 * q[0] - 0.6 * q[1], edge[ne][1] = 0.6 * q[0] + 0.8 * q[1],
+            edge[ne][2] = q[2];
             ne++;
         }
     }
@@ -281,26 +325,36 @@ static void test_csg(void **state)
             memset(&rr, 0, sizeof rr);
             crisp_frep *cf;
             crisp_frep_tape *ct = tape_of(&cf, cube);
-            crisp_frep_mesh_sink sk = {.ctx = &rr.m, .vertex = mem_vertex, .triangle = mem_triangle};
-            assert_int_equal(crisp_frep_mesh(ct, &(crisp_frep_mesh_desc){.resolution = 32, .no_features = 1}, &sk, &rr.st), CRISP_OK);
+            crisp_frep_mesh_sink sk = {
+                .ctx = &rr.m, .vertex = mem_vertex, .triangle = mem_triangle};
+            assert_int_equal(
+                crisp_frep_mesh(ct, &(crisp_frep_mesh_desc){.resolution = 32, .no_features = 1},
+                                &sk, &rr.st),
+                CRISP_OK);
             crisp_frep_tape_destroy(ct);
             crisp_frep_destroy(cf);
         }
         for (int i = 0; i < ne; i++) {
             double best = INFINITY;
             for (size_t t2 = 0; t2 < rr.m.nt; t2++)
-                best = fmin(best, point_tri(edge[i], rr.m.p + 3 * rr.m.t[3 * t2], rr.m.p + 3 * rr.m.t[3 * t2 + 1], rr.m.p + 3 * rr.m.t[3 * t2 + 2]));
+                best = fmin(best, point_tri(edge[i], rr.m.p + 3 * rr.m.t[3 * t2],
+                                            rr.m.p + 3 * rr.m.t[3 * t2 + 1],
+                                            rr.m.p + 3 * rr.m.t[3 * t2 + 2]));
             worst[pass] = fmax(worst[pass], best / rr.st.cell);
             mean[pass] += best / rr.st.cell / ne;
         }
         mc_free(&rr.m);
     }
-    fprintf(stderr, "sharp cube edges: mean %.3f, farthest %.3f cells from the mesh with feature points (%zu); "
-            "%.3f, %.3f without\n", mean[0], worst[0], r.st.feature_points, mean[1], worst[1]);
+    fprintf(
+        stderr,
+        "sharp cube edges: mean %.3f, farthest %.3f cells from the mesh with feature points (%zu); "
+        "%.3f, %.3f without\n",
+        mean[0], worst[0], r.st.feature_points, mean[1], worst[1]);
     assert_true(mean[0] < 0.7 * mean[1]);
     assert_true(worst[0] <= worst[1] + 1e-9);
     /* a thin plate: meshed at a fine cell, and reported at a coarse one */
-    r = check_mesh("max(abs(Z)-0.02, max(abs(X),abs(Y))-0.5)", (double[6]){-0.6, 0.6, -0.6, 0.6, -0.1, 0.1}, 0, 0.01);
+    r = check_mesh("max(abs(Z)-0.02, max(abs(X),abs(Y))-0.5)",
+                   (double[6]){-0.6, 0.6, -0.6, 0.6, -0.1, 0.1}, 0, 0.01);
     assert_true(fabs(mc_volume(&r.m) - 0.04) < 0.2 * 0.04);
     assert_int_equal(r.st.thin_cubes, 0);
     mc_free(&r.m);
@@ -309,7 +363,11 @@ static void test_csg(void **state)
     crisp_frep_mesh_stats st;
     mc_mesh m = {0};
     crisp_frep_mesh_sink sink = {.ctx = &m, .vertex = mem_vertex, .triangle = mem_triangle};
-    assert_int_equal(crisp_frep_mesh(t, &(crisp_frep_mesh_desc){.region = {-1.5, 1.5, -1.5, 1.5, -1.5, 1.5}, .cell = 0.1}, &sink, &st), CRISP_OK);
+    assert_int_equal(
+        crisp_frep_mesh(
+            t, &(crisp_frep_mesh_desc){.region = {-1.5, 1.5, -1.5, 1.5, -1.5, 1.5}, .cell = 0.1},
+            &sink, &st),
+        CRISP_OK);
     assert_true(st.thin_cubes > 0);
     assert_true(fabs(st.thin_at[2]) < 0.1);
     mc_free(&m);
@@ -349,7 +407,8 @@ static void test_writers(void **state)
                 float p[12];
                 memcpy(p, b, 48);
                 for (int q = 0; q < 3; q++)
-                    for (int a = 0; a < 3; a++) assert_true(p[3 + 3 * q + a] == ref.p[3 * ref.t[3 * i + q] + a]);
+                    for (int a = 0; a < 3; a++)
+                        assert_true(p[3 + 3 * q + a] == ref.p[3 * ref.t[3 * i + q] + a]);
                 /* the facet normal points out of the sphere */
                 assert_true(p[0] * p[3] + p[1] * p[4] + p[2] * p[5] > 0);
             }
@@ -361,12 +420,14 @@ static void test_writers(void **state)
                 if (line[0] == 'v') {
                     float x, y, z;
                     assert_int_equal(sscanf(line, "v %f %f %f", &x, &y, &z), 3);
-                    assert_true(x == ref.p[3 * nv] && y == ref.p[3 * nv + 1] && z == ref.p[3 * nv + 2]);
+                    assert_true(x == ref.p[3 * nv] && y == ref.p[3 * nv + 1] &&
+                                z == ref.p[3 * nv + 2]);
                     nv++;
                 } else if (line[0] == 'f') {
                     unsigned a, b, c;
                     assert_int_equal(sscanf(line, "f %u %u %u", &a, &b, &c), 3);
-                    assert_true(a - 1 == ref.t[3 * nt] && b - 1 == ref.t[3 * nt + 1] && c - 1 == ref.t[3 * nt + 2]);
+                    assert_true(a - 1 == ref.t[3 * nt] && b - 1 == ref.t[3 * nt + 1] &&
+                                c - 1 == ref.t[3 * nt + 2]);
                     nt++;
                 }
             }
@@ -420,7 +481,8 @@ static void test_writers(void **state)
         t = tape_of(&f, bad[k]);
         mc_mesh m = {0};
         sink = (crisp_frep_mesh_sink){.ctx = &m, .vertex = mem_vertex, .triangle = mem_triangle};
-        assert_int_equal(crisp_frep_mesh(t, &(crisp_frep_mesh_desc){0}, &sink, &st), CRISP_ERR_NUMERIC);
+        assert_int_equal(crisp_frep_mesh(t, &(crisp_frep_mesh_desc){0}, &sink, &st),
+                         CRISP_ERR_NUMERIC);
         assert_true(strlen(crisp_error_message()) > 10);
         mc_free(&m);
         crisp_frep_tape_destroy(t);

@@ -34,7 +34,8 @@ static void add_square(crisp_model *m, double x0, int id)
     f.loops[0].curve_count = 4;
     f.loops[0].curves = calloc(4, sizeof(crisp_curve *));
     const double c[5][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}, {0, 0}};
-    for (int k = 0; k < 4; k++) assert_int_equal(crisp_make_line(2, c[k], c[k + 1], 0, 1, &f.loops[0].curves[k]), CRISP_OK);
+    for (int k = 0; k < 4; k++)
+        assert_int_equal(crisp_make_line(2, c[k], c[k + 1], 0, 1, &f.loops[0].curves[k]), CRISP_OK);
     assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
 }
 
@@ -83,7 +84,8 @@ static void test_cylinder_seam(void **state)
     f.loops[0].curve_count = 4;
     f.loops[0].curves = calloc(4, sizeof(crisp_curve *));
     const double c[5][2] = {{d[0], d[2]}, {d[1], d[2]}, {d[1], d[3]}, {d[0], d[3]}, {d[0], d[2]}};
-    for (int k = 0; k < 4; k++) assert_int_equal(crisp_make_line(2, c[k], c[k + 1], 0, 1, &f.loops[0].curves[k]), CRISP_OK);
+    for (int k = 0; k < 4; k++)
+        assert_int_equal(crisp_make_line(2, c[k], c[k + 1], 0, 1, &f.loops[0].curves[k]), CRISP_OK);
     assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
     crisp_gap_report r;
     assert_int_equal(crisp_model_gaps(m, 1e-6, 0.1, &r), CRISP_OK);

@@ -19,7 +19,10 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-static double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 static crisp_placement world(void)
 {
@@ -53,8 +56,10 @@ static void test_cone_apex(void **state)
         /* and the analytic normal of that generator (its angle from the surface point) */
         crisp_surface_eval(s, u, dom[3], p);
         double ang = atan2(p[1], p[0]), want[3] = {cos(ang) * cos(a), sin(ang) * cos(a), -sin(a)};
-        double sg = dot3(ref, (double[3]){cos(0.3) * cos(a), sin(0.3) * cos(a), -sin(a)}) > 0 ? 1 : -1;
-        for (int k = 0; k < 3; k++) want[k] *= sg;
+        double sg =
+            dot3(ref, (double[3]){cos(0.3) * cos(a), sin(0.3) * cos(a), -sin(a)}) > 0 ? 1 : -1;
+        for (int k = 0; k < 3; k++)
+            want[k] *= sg;
         assert_true(dot3(n, want) > 1 - 1e-9);
     }
     /* The plain cross product at the apex is (numerically) zero: what the old shading had. */
@@ -116,7 +121,8 @@ static void test_regular_points(void **state)
         c[2] = su[0] * sv[1] - su[1] * sv[0];
         double l = sqrt(dot3(c, c));
         assert_int_equal(crisp_surface_normal(s, u, v, n), 1);
-        for (int k = 0; k < 3; k++) assert_true(fabs(n[k] - c[k] / l) < 1e-14);
+        for (int k = 0; k < 3; k++)
+            assert_true(fabs(n[k] - c[k] / l) < 1e-14);
     }
     crisp_surface_destroy(s);
 }
@@ -126,8 +132,10 @@ static void test_point_patch(void **state)
 {
     (void)state;
     double cpw[3 * 3 * 4];
-    for (int i = 0; i < 9; i++) cpw[4 * i] = 1, cpw[4 * i + 1] = 2, cpw[4 * i + 2] = 3, cpw[4 * i + 3] = 1;
-    crisp_bezier_patch p = {.du = 2, .dv = 2, .rational = 0, .u0 = 0, .u1 = 1, .v0 = 0, .v1 = 1, .cpw = cpw};
+    for (int i = 0; i < 9; i++)
+        cpw[4 * i] = 1, cpw[4 * i + 1] = 2, cpw[4 * i + 2] = 3, cpw[4 * i + 3] = 1;
+    crisp_bezier_patch p = {
+        .du = 2, .dv = 2, .rational = 0, .u0 = 0, .u1 = 1, .v0 = 0, .v1 = 1, .cpw = cpw};
     double n[3] = {7, 7, 7};
     assert_int_equal(crisp_bezier_patch_normal(&p, 0.5, 0.5, n), 0);
     assert_true(n[0] == 0 && n[1] == 0 && n[2] == 0);

@@ -55,8 +55,8 @@ static inline crisp_status rb_gl_for(int samples, crisp_gl **dest)
     crisp_status st = CRISP_OK;
     if (!rb_ctx && (st = crisp_gl_context_create(&rb_ctx))) return st;
     if (!rb_gl[samples]) {
-        if ((st = crisp_gl_create(crisp_gl_context_getproc(rb_ctx), &(crisp_gl_desc){.samples = samples},
-                                  &rb_gl[samples])))
+        if ((st = crisp_gl_create(crisp_gl_context_getproc(rb_ctx),
+                                  &(crisp_gl_desc){.samples = samples}, &rb_gl[samples])))
             return st;
         crisp__gl_keep_sample_faces(rb_gl[samples]);
     }
@@ -67,8 +67,9 @@ static inline crisp_status rb_gl_for(int samples, crisp_gl **dest)
 
 /* Render a frame with `kind` (samples must be the renderer's). stats may be NULL; with the GL
  * backend only its plan's fields are filled. */
-static inline crisp_status render_backend(render_kind kind, crisp_renderer *r, int samples, const crisp_scene *sc,
-                                          const crisp_camera *cam, crisp_image *img, crisp_render_stats *stats)
+static inline crisp_status render_backend(render_kind kind, crisp_renderer *r, int samples,
+                                          const crisp_scene *sc, const crisp_camera *cam,
+                                          crisp_image *img, crisp_render_stats *stats)
 {
     rb_last_kind = kind;
     rb_last_renderer = r;

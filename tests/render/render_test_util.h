@@ -11,9 +11,10 @@
 
 /* Screen distance (max norm, pixels) between the screen point (x, y) of a triangle and the
  * surface at the triangle's perspective-correct (u, v) there (as the rasterizer interpolates). */
-static inline double rt_point_error(const crisp_camera *cam, crisp_mat4 vp, const crisp_surface *surf,
-                                    const double sx[3], const double sy[3], const double iw[3],
-                                    double uv[3][2], double x, double y)
+static inline double rt_point_error(const crisp_camera *cam, crisp_mat4 vp,
+                                    const crisp_surface *surf, const double sx[3],
+                                    const double sy[3], const double iw[3], double uv[3][2],
+                                    double x, double y)
 {
     double det = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sy[1] - sy[0]) * (sx[2] - sx[0]);
     if (!(fabs(det) > 0)) return 0;
@@ -38,7 +39,8 @@ static inline double rt_point_error(const crisp_camera *cam, crisp_mat4 vp, cons
  * that fall within 2 px of the image, and, for triangles larger than a few pixels (at extreme
  * zoom one triangle covers the whole image), at every point of an 8 px grid over the image that
  * the triangle covers. */
-static inline double rt_mesh_error(const crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam)
+static inline double rt_mesh_error(const crisp_renderer *r, const crisp_scene *sc,
+                                   const crisp_camera *cam)
 {
     const crisp_raster_vertex *v;
     const crisp_raster_tri *t;
@@ -46,15 +48,22 @@ static inline double rt_mesh_error(const crisp_renderer *r, const crisp_scene *s
     crisp__renderer_mesh(r, &v, &nv, &t, &nt);
     crisp_camera_matrices m;
     crisp_camera_matrices_compute(cam, &m);
-    static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3}, {.5, .5, 0}, {0, .5, .5}, {.5, 0, .5},
-                                      {.7, .2, .1},           {.1, .7, .2}, {.2, .1, .7}};
+    static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3},
+                                      {.5, .5, 0},
+                                      {0, .5, .5},
+                                      {.5, 0, .5},
+                                      {.7, .2, .1},
+                                      {.1, .7, .2},
+                                      {.2, .1, .7}};
     double worst = 0;
     for (size_t k = 0; k < nt; k++) {
         const crisp_raster_vertex *c[3] = {&v[t[k].v[0]], &v[t[k].v[1]], &v[t[k].v[2]]};
-        if (c[0]->clip[3] <= cam->znear || c[1]->clip[3] <= cam->znear || c[2]->clip[3] <= cam->znear)
+        if (c[0]->clip[3] <= cam->znear || c[1]->clip[3] <= cam->znear ||
+            c[2]->clip[3] <= cam->znear)
             continue;
         const crisp_surface *surf = sc->faces[t[k].face].src->surface;
-        double sx[3], sy[3], iw[3], uv[3][2], lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        double sx[3], sy[3], iw[3], uv[3][2], lo[2] = {INFINITY, INFINITY},
+                                              hi[2] = {-INFINITY, -INFINITY};
         for (int i = 0; i < 3; i++) {
             double p[3];
             crisp_camera_to_pixel(cam, c[i]->clip, p);

@@ -83,22 +83,36 @@ static void test_camera_values(void **state)
     static const struct {
         const char *opts, *expect;
     } bad[] = {
-        {"--size 0x10", "--size"},       {"--size 10x-3", "--size"},     {"--size 20000x10", "--size"},
-        {"--size 64x", "--size"},        {"--fov 0", "fov 0"},           {"--fov 180", "fov 180"},
-        {"--fov -3", "fov -3"},          {"--fov nan", "--fov"},         {"--fov 1e400", "--fov"},
-        {"--near 0", "near 0"},          {"--near -1", "near -1"},       {"--near 5 --far 2", "near 5"},
-        {"--near abc", "--near"},        {"--far inf", "--far"},         {"--samples 3", "--samples"},
-        {"--threads 0", "--threads"},    {"--eye 1,2,nan", "--eye"},
-        {"--size 16384x16384", "--max-memory"}, {"--size 4096x4096 --samples 16", "--max-memory"},
+        {"--size 0x10", "--size"},
+        {"--size 10x-3", "--size"},
+        {"--size 20000x10", "--size"},
+        {"--size 64x", "--size"},
+        {"--fov 0", "fov 0"},
+        {"--fov 180", "fov 180"},
+        {"--fov -3", "fov -3"},
+        {"--fov nan", "--fov"},
+        {"--fov 1e400", "--fov"},
+        {"--near 0", "near 0"},
+        {"--near -1", "near -1"},
+        {"--near 5 --far 2", "near 5"},
+        {"--near abc", "--near"},
+        {"--far inf", "--far"},
+        {"--samples 3", "--samples"},
+        {"--threads 0", "--threads"},
+        {"--eye 1,2,nan", "--eye"},
+        {"--size 16384x16384", "--max-memory"},
+        {"--size 4096x4096 --samples 16", "--max-memory"},
         {"--eye 0,5,0 --target 0,0,0 --up 0,2,0", "parallel"},
         {"--eye 1,1,1 --target 1,1,1", "equals target"},
     };
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
-        snprintf(args, sizeof args, "render %s/nurbs/gpucast_teapot.igs --size 16x12 -o cli_bad.png %s",
+        snprintf(args, sizeof args,
+                 "render %s/nurbs/gpucast_teapot.igs --size 16x12 -o cli_bad.png %s",
                  CRISP_DATA_DIR, bad[k].opts);
         int rc = run(args, out, sizeof out);
         if (rc == 0 || !strstr(out, bad[k].expect))
-            fprintf(stderr, "'%s': exit %d, message '%s' (expected '%s')\n", bad[k].opts, rc, out, bad[k].expect);
+            fprintf(stderr, "'%s': exit %d, message '%s' (expected '%s')\n", bad[k].opts, rc, out,
+                    bad[k].expect);
         assert_int_not_equal(rc, 0);
         assert_non_null(strstr(out, bad[k].expect));
     }

@@ -56,7 +56,8 @@ static crisp_camera random_camera(const double box[6], int w, int h, double near
     r = sqrt(r);
     double d[3], n;
     do {
-        for (int k = 0; k < 3; k++) d[k] = 2 * rnd() - 1;
+        for (int k = 0; k < 3; k++)
+            d[k] = 2 * rnd() - 1;
         n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     } while (n < 0.1 || n > 1);
     double dist = r * (1.2 + 2.8 * rnd());
@@ -71,7 +72,8 @@ static crisp_camera random_camera(const double box[6], int w, int h, double near
     return cam;
 }
 
-static void to_screen(const crisp_camera *cam, crisp_mat4 vp, const double p[3], double out[2], double *w)
+static void to_screen(const crisp_camera *cam, crisp_mat4 vp, const double p[3], double out[2],
+                      double *w)
 {
     double c[4], s[3];
     crisp_mat4_mulp(vp, p, c);
@@ -91,12 +93,18 @@ static double mesh_error(const crisp_renderer *r, const crisp_scene *sc, const c
     assert_true(nt > 0);
     crisp_camera_matrices m;
     crisp_camera_matrices_compute(cam, &m);
-    static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3}, {.5, .5, 0}, {0, .5, .5}, {.5, 0, .5},
-                                      {.7, .2, .1},           {.1, .7, .2}, {.2, .1, .7}};
+    static const double bary[7][3] = {{1. / 3, 1. / 3, 1. / 3},
+                                      {.5, .5, 0},
+                                      {0, .5, .5},
+                                      {.5, 0, .5},
+                                      {.7, .2, .1},
+                                      {.1, .7, .2},
+                                      {.2, .1, .7}};
     double worst = 0;
     for (size_t k = 0; k < nt; k++) {
         const crisp_raster_vertex *a = &v[t[k].v[0]], *b = &v[t[k].v[1]], *c = &v[t[k].v[2]];
-        if (a->clip[3] <= cam->znear || b->clip[3] <= cam->znear || c->clip[3] <= cam->znear) continue;
+        if (a->clip[3] <= cam->znear || b->clip[3] <= cam->znear || c->clip[3] <= cam->znear)
+            continue;
         const crisp_surface *surf = sc->faces[t[k].face].src->surface;
         for (int q = 0; q < 7; q++) {
             double cl[4], uv[2], P[3];
@@ -107,7 +115,8 @@ static double mesh_error(const crisp_renderer *r, const crisp_scene *sc, const c
             double tri[3], sp[2], w;
             crisp_camera_to_pixel(cam, cl, tri);
             /* Only what can be seen matters for a pixel bound. */
-            if (tri[0] < -2 || tri[1] < -2 || tri[0] > cam->width + 2 || tri[1] > cam->height + 2) continue;
+            if (tri[0] < -2 || tri[1] < -2 || tri[0] > cam->width + 2 || tri[1] > cam->height + 2)
+                continue;
             crisp_surface_eval(surf, uv[0], uv[1], P);
             to_screen(cam, m.view_proj, P, sp, &w);
             double e = fmax(fabs(sp[0] - tri[0]), fabs(sp[1] - tri[1]));
@@ -139,7 +148,8 @@ static void test_surface_accuracy(void **state)
             if (e > worst) worst = e;
             crisp_image_free(&img);
         }
-        printf("%s: largest triangle-to-surface distance %.4f px over 8 views\n", models[mi], worst);
+        printf("%s: largest triangle-to-surface distance %.4f px over 8 views\n", models[mi],
+               worst);
         assert_true(worst <= 0.5);
         crisp_scene_destroy(sc);
         crisp_model_destroy(m);
@@ -199,7 +209,8 @@ static void compare_with_exact(const char *name, int views, int w, int h)
         crisp_image_free(&cpu);
         crisp_image_free(&ex);
     }
-    printf("%s: %ld interior pixels compared over %d views, %ld differ\n", name, compared, views, differ);
+    printf("%s: %ld interior pixels compared over %d views, %ld differ\n", name, compared, views,
+           differ);
     assert_true(compared > (long)views * w * h / 4);
     assert_int_equal(differ, 0);
     crisp_renderer_destroy(r);
@@ -235,7 +246,8 @@ static void check_closed(crisp_model *m, int views, double near_scale)
             for (int i = 1; i < cam.width - 1; i++) {
                 int all = 1;
                 for (int dj = -1; dj <= 1; dj++)
-                    for (int di = -1; di <= 1; di++) all &= ex.face[(j + dj) * cam.width + i + di] >= 0;
+                    for (int di = -1; di <= 1; di++)
+                        all &= ex.face[(j + dj) * cam.width + i + di] >= 0;
                 if (!all) continue;
                 inside++;
                 if (cpu.face[j * cam.width + i] < 0)
@@ -245,8 +257,9 @@ static void check_closed(crisp_model *m, int views, double near_scale)
         crisp_image_free(&cpu);
         crisp_image_free(&ex);
     }
-    printf("closed model: %ld pixels inside the silhouette over %d views, no background among them\n",
-           inside, views);
+    printf(
+        "closed model: %ld pixels inside the silhouette over %d views, no background among them\n",
+        inside, views);
     assert_true(inside > views * 200);
     crisp_renderer_destroy(r);
     crisp_scene_destroy(sc);
@@ -268,7 +281,8 @@ static void test_no_cracks(void **state)
     double o[3] = {0.3, -0.2, 0.1}, axis[3] = {0.2, 1, 0.3};
     assert_int_equal(crisp_placement_make(o, axis, NULL, &pl), CRISP_OK);
     crisp_surface *sphere, *torus;
-    assert_int_equal(crisp_make_sphere(&pl, 1.3, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sphere), CRISP_OK);
+    assert_int_equal(crisp_make_sphere(&pl, 1.3, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sphere),
+                     CRISP_OK);
     assert_int_equal(crisp_make_torus(&pl, 2, 0.6, 0, 2 * M_PI, 0, 2 * M_PI, &torus), CRISP_OK);
     crisp_model *ms = single_surface_model(sphere), *mt = single_surface_model(torus);
     check_closed(ms, 12, 0.05);
@@ -302,7 +316,8 @@ static void check_close(crisp_model *m, const crisp_camera *cam)
         for (int i = 1; i < cam->width - 1; i++) {
             int all = 1;
             for (int dj = -1; dj <= 1; dj++)
-                for (int di = -1; di <= 1; di++) all &= ex.face[(j + dj) * cam->width + i + di] >= 0;
+                for (int di = -1; di <= 1; di++)
+                    all &= ex.face[(j + dj) * cam->width + i + di] >= 0;
             if (!all) continue;
             covered++;
             if (cpu.face[j * cam->width + i] < 0) {
@@ -311,9 +326,11 @@ static void check_close(crisp_model *m, const crisp_camera *cam)
             }
             assert_false(isnan(cpu.rgba[4 * (j * cam->width + i)]));
         }
-    printf("close camera: %ld pixels inside the silhouette, %ld missing, %u patches split, %u leaves, "
-           "%u unresolved, %llu triangles\n",
-           covered, missing, st.split_patches, st.leaves, st.unresolved, (unsigned long long)st.triangles);
+    printf(
+        "close camera: %ld pixels inside the silhouette, %ld missing, %u patches split, %u leaves, "
+        "%u unresolved, %llu triangles\n",
+        covered, missing, st.split_patches, st.leaves, st.unresolved,
+        (unsigned long long)st.triangles);
     assert_int_equal(missing, 0);
     if (rb_kind == RENDER_CPU) { /* the CPU backend's triangles */
         double err = mesh_error(r, sc, cam);
@@ -334,16 +351,29 @@ static void test_close_cameras(void **state)
     double o[3] = {0, 0, 0}, axis[3] = {0, 0, 1};
     assert_int_equal(crisp_placement_make(o, axis, NULL, &pl), CRISP_OK);
     crisp_surface *sphere, *torus;
-    assert_int_equal(crisp_make_sphere(&pl, 1.0, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sphere), CRISP_OK);
+    assert_int_equal(crisp_make_sphere(&pl, 1.0, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sphere),
+                     CRISP_OK);
     assert_int_equal(crisp_make_torus(&pl, 2, 0.5, 0, 2 * M_PI, 0, 2 * M_PI, &torus), CRISP_OK);
     crisp_model *ms = single_surface_model(sphere), *mt = single_surface_model(torus);
     /* Inside the sphere, near its wall, looking across it. */
-    crisp_camera in = {.eye = {0.2, -0.9, 0.1}, .target = {0, 1, 0}, .up = {0, 0, 1}, .fov_deg = 90,
-                       .znear = 0.001, .zfar = 10, .width = 160, .height = 120};
+    crisp_camera in = {.eye = {0.2, -0.9, 0.1},
+                       .target = {0, 1, 0},
+                       .up = {0, 0, 1},
+                       .fov_deg = 90,
+                       .znear = 0.001,
+                       .zfar = 10,
+                       .width = 160,
+                       .height = 120};
     check_close(ms, &in);
     /* 0.01 above the torus's outer equator, looking along the surface (grazing). */
-    crisp_camera graze = {.eye = {2.51, 0, 0.01}, .target = {2.5, 1, 0}, .up = {0, 0, 1},
-                          .fov_deg = 60, .znear = 0.0005, .zfar = 20, .width = 160, .height = 120};
+    crisp_camera graze = {.eye = {2.51, 0, 0.01},
+                          .target = {2.5, 1, 0},
+                          .up = {0, 0, 1},
+                          .fov_deg = 60,
+                          .znear = 0.0005,
+                          .zfar = 20,
+                          .width = 160,
+                          .height = 120};
     check_close(mt, &graze);
     crisp_model_destroy(ms);
     crisp_model_destroy(mt);
@@ -381,17 +411,30 @@ static void test_degenerate(void **state)
         f2.loops[l].curves = calloc(3, sizeof(crisp_curve *));
         for (int c = 0; c < 3; c++) {
             double pts[4] = {segs[l][c][0], segs[l][c][1], segs[l][c + 1][0], segs[l][c + 1][1]};
-            assert_int_equal(crisp_curve_create(2, 1, 2, k, pts, NULL, &f2.loops[l].curves[c]), CRISP_OK);
+            assert_int_equal(crisp_curve_create(2, 1, 2, k, pts, NULL, &f2.loops[l].curves[c]),
+                             CRISP_OK);
         }
     }
     assert_int_equal(crisp_model_add_face(m, &f2), CRISP_OK);
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     crisp_camera cams[2] = {
-        {.eye = {0.3, 0.2, 3}, .target = {0, 0, -1}, .up = {0, 1, 0}, .fov_deg = 60, .znear = 0.01,
-         .zfar = 10, .width = 64, .height = 48},
-        {.eye = {1, 1, 1}, .target = {0, 0, -1}, .up = {0, 1, 0}, .fov_deg = 120, .znear = 1e-6,
-         .zfar = 10, .width = 64, .height = 48},
+        {.eye = {0.3, 0.2, 3},
+         .target = {0, 0, -1},
+         .up = {0, 1, 0},
+         .fov_deg = 60,
+         .znear = 0.01,
+         .zfar = 10,
+         .width = 64,
+         .height = 48},
+        {.eye = {1, 1, 1},
+         .target = {0, 0, -1},
+         .up = {0, 1, 0},
+         .fov_deg = 120,
+         .znear = 1e-6,
+         .zfar = 10,
+         .width = 64,
+         .height = 48},
     };
     crisp_renderer *r;
     assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.samples = 4}, &r), CRISP_OK);
@@ -406,7 +449,8 @@ static void test_degenerate(void **state)
             assert_false(isnan(a.rgba[i]));
             assert_false(isnan(b.rgba[i]));
         }
-        for (int i = 0; i < 64 * 48; i++) assert_false(isnan(a.depth[i]) || isnan(b.depth[i]));
+        for (int i = 0; i < 64 * 48; i++)
+            assert_false(isnan(a.depth[i]) || isnan(b.depth[i]));
         crisp_image_free(&a);
         crisp_image_free(&b);
     }
@@ -419,10 +463,8 @@ int main(int argc, char **argv)
 {
     rb_parse_args(argc, argv);
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_surface_accuracy),
-        cmocka_unit_test(test_no_cracks),
-        cmocka_unit_test(test_close_cameras),
-        cmocka_unit_test(test_degenerate),
+        cmocka_unit_test(test_surface_accuracy), cmocka_unit_test(test_no_cracks),
+        cmocka_unit_test(test_close_cameras),    cmocka_unit_test(test_degenerate),
         cmocka_unit_test(test_against_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -64,8 +64,8 @@ static crisp_model *octant_sphere(void)
     for (int a = 0; a < 4; a++)
         for (int b = 0; b < 2; b++) {
             crisp_surface *s;
-            assert_int_equal(crisp_make_sphere(&pl, 1.3, a * M_PI / 2, (a + 1) * M_PI / 2, b ? 0 : -M_PI / 2,
-                                               b ? M_PI / 2 : 0, &s),
+            assert_int_equal(crisp_make_sphere(&pl, 1.3, a * M_PI / 2, (a + 1) * M_PI / 2,
+                                               b ? 0 : -M_PI / 2, b ? M_PI / 2 : 0, &s),
                              CRISP_OK);
             add_face(m, s, NULL, 0);
         }
@@ -79,8 +79,9 @@ static crisp_model *quarter_torus(void)
     assert_int_equal(crisp_model_create(&m), CRISP_OK);
     for (int a = 0; a < 4; a++) {
         crisp_surface *s;
-        assert_int_equal(crisp_make_torus(&pl, 2, 0.6, a * M_PI / 2, (a + 1) * M_PI / 2, 0, 2 * M_PI, &s),
-                         CRISP_OK);
+        assert_int_equal(
+            crisp_make_torus(&pl, 2, 0.6, a * M_PI / 2, (a + 1) * M_PI / 2, 0, 2 * M_PI, &s),
+            CRISP_OK);
         add_face(m, s, NULL, 0);
     }
     return m;
@@ -105,15 +106,18 @@ static crisp_model *capped_cylinder(void)
     const double r = 0.8, h0 = -1, h1 = 1.2;
     for (int a = 0; a < 4; a++) {
         crisp_surface *s;
-        assert_int_equal(crisp_make_cylinder(&pl, r, a * M_PI / 2, (a + 1) * M_PI / 2, h0, h1, &s), CRISP_OK);
+        assert_int_equal(crisp_make_cylinder(&pl, r, a * M_PI / 2, (a + 1) * M_PI / 2, h0, h1, &s),
+                         CRISP_OK);
         add_face(m, s, NULL, 0);
     }
     for (int end = 0; end < 2; end++) {
         crisp_placement cap = pl;
         double h = end ? h1 : h0;
-        for (int k = 0; k < 3; k++) cap.origin[k] = pl.origin[k] + h * pl.z[k];
+        for (int k = 0; k < 3; k++)
+            cap.origin[k] = pl.origin[k] + h * pl.z[k];
         crisp_surface *s;
-        assert_int_equal(crisp_make_plane(&cap, -1.2 * r, 1.2 * r, -1.2 * r, 1.2 * r, &s), CRISP_OK);
+        assert_int_equal(crisp_make_plane(&cap, -1.2 * r, 1.2 * r, -1.2 * r, 1.2 * r, &s),
+                         CRISP_OK);
         crisp_trim_loop *loops = malloc(sizeof *loops);
         assert_non_null(loops);
         loops[0] = circle_loop(r);
@@ -150,16 +154,19 @@ static crisp_camera view(const crisp_scene *sc, int k, int w, int h)
     r = sqrt(r);
     double d[3], n;
     do {
-        for (int q = 0; q < 3; q++) d[q] = 2 * rnd() - 1;
+        for (int q = 0; q < 3; q++)
+            d[q] = 2 * rnd() - 1;
         n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     } while (n < 0.1 || n > 1);
-    for (int q = 0; q < 3; q++) d[q] /= n;
+    for (int q = 0; q < 3; q++)
+        d[q] /= n;
     crisp_camera cam = {.width = w, .height = h, .up = {0.1, 1, 0.2}};
     int kind = k % 5;
     if (kind <= 1) {
         /* From outside, the whole solid (or part of it) in view. */
         double dist = r * (1.5 + 2.5 * rnd());
-        for (int q = 0; q < 3; q++) cam.eye[q] = c[q] + dist * d[q], cam.target[q] = c[q] + 0.2 * r * (2 * rnd() - 1);
+        for (int q = 0; q < 3; q++)
+            cam.eye[q] = c[q] + dist * d[q], cam.target[q] = c[q] + 0.2 * r * (2 * rnd() - 1);
         cam.fov_deg = 20 + 40 * rnd();
         cam.znear = 0.01 * dist, cam.zfar = dist + 3 * r;
     } else if (kind == 2) {
@@ -168,7 +175,8 @@ static crisp_camera view(const crisp_scene *sc, int k, int w, int h)
         uint32_t f = (uint32_t)(rnd() * sc->face_count) % sc->face_count;
         edge_point(sc, f, 0.2 + 0.6 * rnd(), P);
         double dist = r * (1.5 + rnd());
-        for (int q = 0; q < 3; q++) cam.eye[q] = P[q] + dist * d[q], cam.target[q] = P[q];
+        for (int q = 0; q < 3; q++)
+            cam.eye[q] = P[q] + dist * d[q], cam.target[q] = P[q];
         cam.fov_deg = pow(10, -1 - 4 * rnd());
         cam.znear = 0.01 * dist, cam.zfar = dist + 3 * r;
     } else if (kind == 3) {
@@ -177,13 +185,15 @@ static crisp_camera view(const crisp_scene *sc, int k, int w, int h)
         uint32_t f = (uint32_t)(rnd() * sc->face_count) % sc->face_count;
         edge_point(sc, f, 0.5, P);
         double dist = r * 3;
-        for (int q = 0; q < 3; q++) cam.eye[q] = P[q] + dist * d[q], cam.target[q] = P[q];
+        for (int q = 0; q < 3; q++)
+            cam.eye[q] = P[q] + dist * d[q], cam.target[q] = P[q];
         cam.fov_deg = 2 + 5 * rnd();
         cam.znear = 0.01 * dist, cam.zfar = dist + 3 * r;
     } else {
         /* The near plane cuts the solid: the eye just outside, near well inside. */
         double dist = r * (1.05 + 0.3 * rnd());
-        for (int q = 0; q < 3; q++) cam.eye[q] = c[q] + dist * d[q], cam.target[q] = c[q];
+        for (int q = 0; q < 3; q++)
+            cam.eye[q] = c[q] + dist * d[q], cam.target[q] = c[q];
         cam.fov_deg = 40 + 30 * rnd();
         cam.znear = (0.1 + 0.3 * rnd()) * r, cam.zfar = dist + 3 * r;
     }
@@ -198,8 +208,8 @@ typedef struct crack_count {
  * the solid's size (the tessellation may lie behind the surface along the view by far more than
  * its 0.5 px screen error at grazing angles; a surface seen through a crack lies a good part of
  * the solid behind). */
-static void compare(const crisp_image *cpu, const crisp_image *ex, const char *name, int v, int samples,
-                    double tol, crack_count *cc)
+static void compare(const crisp_image *cpu, const crisp_image *ex, const char *name, int v,
+                    int samples, double tol, crack_count *cc)
 {
     int w = ex->width, h = ex->height;
     for (int j = 1; j < h - 1; j++)
@@ -217,14 +227,17 @@ static void compare(const crisp_image *cpu, const crisp_image *ex, const char *n
             size_t p = (size_t)j * w + (size_t)i;
             if (cpu->face[p] < 0) {
                 if (cc->background + cc->deeper < 8)
-                    fprintf(stderr, "%s view %d, %d samples: background at (%d, %d)\n", name, v, samples, i, j);
+                    fprintf(stderr, "%s view %d, %d samples: background at (%d, %d)\n", name, v,
+                            samples, i, j);
                 cc->background++;
             } else if (cpu->depth[p] > far + tol) {
                 if (cc->background + cc->deeper < 8)
-                    fprintf(stderr, "%s view %d, %d samples: deeper surface at (%d, %d): %.9g > %.9g (face %d, "
-                            "exact face %d, uv %g %g / %g %g)\n", name, v, samples, i, j, cpu->depth[p], far,
-                            cpu->face[p], ex->face[p], cpu->uv[2 * p], cpu->uv[2 * p + 1], ex->uv[2 * p],
-                            ex->uv[2 * p + 1]);
+                    fprintf(
+                        stderr,
+                        "%s view %d, %d samples: deeper surface at (%d, %d): %.9g > %.9g (face %d, "
+                        "exact face %d, uv %g %g / %g %g)\n",
+                        name, v, samples, i, j, cpu->depth[p], far, cpu->face[p], ex->face[p],
+                        cpu->uv[2 * p], cpu->uv[2 * p + 1], ex->uv[2 * p], ex->uv[2 * p + 1]);
                 cc->deeper++;
             }
         }
@@ -235,12 +248,15 @@ static void check_solid(const char *name, crisp_model *m, int views)
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     crisp_renderer *r1, *r4;
-    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2, .samples = 1}, &r1), CRISP_OK);
-    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2, .samples = 4}, &r4), CRISP_OK);
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2, .samples = 1}, &r1),
+                     CRISP_OK);
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2, .samples = 4}, &r4),
+                     CRISP_OK);
     crack_count cc = {0};
     const int w = 120, h = 90;
     double tol = 0;
-    for (int q = 0; q < 3; q++) tol += (sc->box[q + 3] - sc->box[q]) * (sc->box[q + 3] - sc->box[q]);
+    for (int q = 0; q < 3; q++)
+        tol += (sc->box[q + 3] - sc->box[q]) * (sc->box[q + 3] - sc->box[q]);
     tol = 0.01 * sqrt(tol);
     crisp_image cpu, ex;
     assert_int_equal(crisp_image_init(&cpu, w, h), CRISP_OK);
@@ -254,8 +270,9 @@ static void check_solid(const char *name, crisp_model *m, int views)
         assert_int_equal(render_backend(rb_kind, r4, 4, sc, &cam, &cpu, NULL), CRISP_OK);
         compare(&cpu, &ex, name, v, 4, tol, &cc);
     }
-    printf("%s backend, %s: %d views x 2 sample counts, %ld pixels inside the silhouette, %ld background, %ld deeper\n", rb_name(),
-           name, views, cc.inside, cc.background, cc.deeper);
+    printf("%s backend, %s: %d views x 2 sample counts, %ld pixels inside the silhouette, %ld "
+           "background, %ld deeper\n",
+           rb_name(), name, views, cc.inside, cc.background, cc.deeper);
     assert_true(cc.inside > 100L * views);
     assert_int_equal(cc.background, 0);
     assert_int_equal(cc.deeper, 0);
@@ -304,8 +321,8 @@ static void test_linkrods(void **state)
 static void test_bundled(void **state)
 {
     (void)state;
-    static const char *names[] = {"gpucast_teapot.igs", "occt_bearing.iges", "gpucast_part.igs", "occt_hammer.iges",
-                                  "Ventilator.stp"};
+    static const char *names[] = {"gpucast_teapot.igs", "occt_bearing.iges", "gpucast_part.igs",
+                                  "occt_hammer.iges", "Ventilator.stp"};
     for (int k = 0; k < 5; k++) {
         crisp_model *m = load(names[k]);
         check_solid(names[k], m, full_run ? 50 : 5);
@@ -318,10 +335,8 @@ int main(int argc, char **argv)
     argc = rb_parse_args(argc, argv);
     full_run = argc > 1 && !strcmp(argv[1], "all");
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_octant_sphere),
-        cmocka_unit_test(test_capped_cylinder),
-        cmocka_unit_test(test_quarter_torus),
-        cmocka_unit_test(test_linkrods),
+        cmocka_unit_test(test_octant_sphere), cmocka_unit_test(test_capped_cylinder),
+        cmocka_unit_test(test_quarter_torus), cmocka_unit_test(test_linkrods),
         cmocka_unit_test(test_bundled),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

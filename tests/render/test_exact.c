@@ -17,7 +17,8 @@
 static crisp_surface *make_cylinder(void)
 {
     double ku[12] = {0, 0, 0, .25, .25, .5, .5, .75, .75, 1, 1, 1}, kv[4] = {0, 0, 1, 1};
-    double circ[9][2] = {{1, 0}, {1, 1}, {0, 1}, {-1, 1}, {-1, 0}, {-1, -1}, {0, -1}, {1, -1}, {1, 0}};
+    double circ[9][2] = {{1, 0},   {1, 1},  {0, 1},  {-1, 1}, {-1, 0},
+                         {-1, -1}, {0, -1}, {1, -1}, {1, 0}};
     double pts[18 * 3], w[18];
     for (int j = 0; j < 2; j++)
         for (int i = 0; i < 9; i++) {
@@ -47,11 +48,18 @@ static void test_cylinder(void **state)
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     assert_int_equal(sc->patch_count, 4);
-    crisp_camera cam = {.eye = {4, 1.5, 3.2}, .target = {0, 0, 1}, .up = {0, 0, 1}, .fov_deg = 45,
-                        .znear = 0.1, .zfar = 50, .width = 96, .height = 72};
+    crisp_camera cam = {.eye = {4, 1.5, 3.2},
+                        .target = {0, 0, 1},
+                        .up = {0, 0, 1},
+                        .fov_deg = 45,
+                        .znear = 0.1,
+                        .zfar = 50,
+                        .width = 96,
+                        .height = 72};
     crisp_image img;
     assert_int_equal(crisp_image_init(&img, cam.width, cam.height), CRISP_OK);
-    assert_int_equal(crisp_render_exact(sc, &cam, &(crisp_exact_desc){.threads = 2}, &img), CRISP_OK);
+    assert_int_equal(crisp_render_exact(sc, &cam, &(crisp_exact_desc){.threads = 2}, &img),
+                     CRISP_OK);
     int W = cam.width, H = cam.height, covered = 0;
     char *ana = calloc((size_t)W * H, 1);
     double *at = calloc((size_t)W * H, sizeof(double));
@@ -77,7 +85,8 @@ static void test_cylinder(void **state)
         for (int i = 1; i < W - 1; i++) {
             int same = 1, c = ana[j * W + i];
             for (int dj = -1; dj <= 1; dj++)
-                for (int di = -1; di <= 1; di++) same &= ana[(j + dj) * W + i + di] == c;
+                for (int di = -1; di <= 1; di++)
+                    same &= ana[(j + dj) * W + i + di] == c;
             int px = j * W + i;
             if (!same) continue;
             assert_int_equal(img.face[px] >= 0, c);
@@ -100,7 +109,8 @@ static void test_cylinder(void **state)
     assert_true(fabs(t - (5 - sqrt(1 - 0.09))) < 1e-12);
     double P[3];
     crisp_surface_eval(m->faces[0].surface, uv[0], uv[1], P);
-    assert_true(fabs(P[0] - (5 - t)) < 1e-12 && fabs(P[1] - 0.3) < 1e-12 && fabs(P[2] - 1.1) < 1e-12);
+    assert_true(fabs(P[0] - (5 - t)) < 1e-12 && fabs(P[1] - 0.3) < 1e-12 &&
+                fabs(P[2] - 1.1) < 1e-12);
     assert_true(fabs(fabs(n[0]) - sqrt(1 - 0.09)) < 1e-9);
     /* A ray that misses. */
     double o2[3] = {5, 1.2, 1.1};
@@ -134,8 +144,14 @@ static void test_bicubic_and_classify(void **state)
     crisp_model *m = model_of(s);
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
-    crisp_camera cam = {.eye = {0.4, -3, 4}, .target = {0, 0, 0}, .up = {0, 0, 1}, .fov_deg = 40,
-                        .znear = 0.1, .zfar = 50, .width = 64, .height = 48};
+    crisp_camera cam = {.eye = {0.4, -3, 4},
+                        .target = {0, 0, 0},
+                        .up = {0, 0, 1},
+                        .fov_deg = 40,
+                        .znear = 0.1,
+                        .zfar = 50,
+                        .width = 64,
+                        .height = 48};
     crisp_image img, half;
     crisp_image_init(&img, 64, 48);
     crisp_image_init(&half, 64, 48);

@@ -79,9 +79,12 @@ static void check_finite(const crisp_image *img)
 {
     size_t n = (size_t)img->width * img->height;
     for (size_t i = 0; i < n; i++) {
-        for (int k = 0; k < 4; k++) assert_true(isfinite(img->rgba[4 * i + k]));
-        for (int k = 0; k < 3; k++) assert_true(isfinite(img->normal[3 * i + k]));
-        for (int k = 0; k < 2; k++) assert_true(isfinite(img->uv[2 * i + k]));
+        for (int k = 0; k < 4; k++)
+            assert_true(isfinite(img->rgba[4 * i + k]));
+        for (int k = 0; k < 3; k++)
+            assert_true(isfinite(img->normal[3 * i + k]));
+        for (int k = 0; k < 2; k++)
+            assert_true(isfinite(img->uv[2 * i + k]));
         assert_false(isnan(img->depth[i]));
         if (img->face[i] < 0) assert_true(img->rgba[4 * i + 3] == 0);
     }
@@ -119,8 +122,8 @@ static void case_close(model_case *mc)
  * parameters), refined until 0.05 px, pruned where the piece is far (> r + its length) from the
  * point; infinite behind the eye. */
 static double piece_dist(const crisp_scene *sc, const crisp_camera *cam, crisp_mat4 vp, uint32_t f,
-                         const crisp_bezier_curve *pc, double t0, double t1, double x, double y, double r,
-                         int depth)
+                         const crisp_bezier_curve *pc, double t0, double t1, double x, double y,
+                         double r, int depth)
 {
     double p[2][2];
     int ok = 1;
@@ -153,14 +156,16 @@ static double piece_dist(const crisp_scene *sc, const crisp_camera *cam, crisp_m
 /* 1 when a trim curve of face f (visible or hidden) passes within r px of (x, y) on screen: the
  * issue's comparison leaves out pixels near trim curves, and a face's trim-boundary ribbon may
  * show there although another face hides that boundary. */
-static int near_trim_curve(const crisp_scene *sc, const crisp_camera *cam, int f, double x, double y, double r)
+static int near_trim_curve(const crisp_scene *sc, const crisp_camera *cam, int f, double x,
+                           double y, double r)
 {
     if (f < 0) return 0;
     crisp_camera_matrices m;
     crisp_camera_matrices_compute(cam, &m);
     const crisp_scene_face *sf = &sc->faces[f];
     for (uint32_t k = 0; k < sf->piece_count; k++)
-        if (piece_dist(sc, cam, m.view_proj, (uint32_t)f, &sc->pieces[sf->first_piece + k], 0, 1, x, y, r, 0) <= r)
+        if (piece_dist(sc, cam, m.view_proj, (uint32_t)f, &sc->pieces[sf->first_piece + k], 0, 1, x,
+                       y, r, 0) <= r)
             return 1;
     return 0;
 }
@@ -182,8 +187,8 @@ static int near_edge(const model_case *mc, const crisp_camera *cam, int i, int j
             uint32_t hit_face;
             crisp_camera_ray(cam, i + 0.5 + (a - 4) * 0.375, j + 0.5 + (b - 4) * 0.375, o, dir);
             double c = crisp_vec3_dot(dir, f);
-            int hit = crisp_exact_ray(mc->scene, &d, o, dir, cam->znear / c, cam->zfar / c, &t, &hit_face,
-                                      NULL, NULL);
+            int hit = crisp_exact_ray(mc->scene, &d, o, dir, cam->znear / c, cam->zfar / c, &t,
+                                      &hit_face, NULL, NULL);
             int seen = hit ? (int)hit_face : -1;
             if (seen == face) return 1;
             if (a == 0 && b == 0) first = seen;
@@ -197,8 +202,8 @@ typedef struct totals {
 } totals;
 
 /* Render one camera with both backends and compare. */
-static void compare(const model_case *mc, crisp_renderer *r, const crisp_camera *cam, const char *what,
-                    totals *tot)
+static void compare(const model_case *mc, crisp_renderer *r, const crisp_camera *cam,
+                    const char *what, totals *tot)
 {
     crisp_image cpu, ex;
     assert_int_equal(crisp_image_init(&cpu, cam->width, cam->height), CRISP_OK);
@@ -209,7 +214,8 @@ static void compare(const model_case *mc, crisp_renderer *r, const crisp_camera 
     if (s) fprintf(stderr, "%s %s: %s\n", mc->name, what, crisp_error_message());
     assert_int_equal(s, CRISP_OK);
     double t1 = crisp_time_now();
-    double mesh_err = rb_kind == RENDER_CPU ? rt_mesh_error(r, mc->scene, cam) : 0; /* CPU triangles */
+    double mesh_err =
+        rb_kind == RENDER_CPU ? rt_mesh_error(r, mc->scene, cam) : 0; /* CPU triangles */
     crisp_exact_desc d = {.threads = 2, .classify = exact_classify};
     assert_int_equal(crisp_render_exact(mc->scene, cam, &d, &ex), CRISP_OK);
     check_finite(&cpu);
@@ -225,15 +231,19 @@ static void compare(const model_case *mc, crisp_renderer *r, const crisp_camera 
                 !near_trim_curve(mc->scene, cam, cpu.face[px], i + 0.5, j + 0.5, 1.5) &&
                 !near_trim_curve(mc->scene, cam, ex.face[px], i + 0.5, j + 0.5, 1.5)) {
                 if (differ < 4)
-                    fprintf(stderr, "  %s %s pixel (%d, %d): %s face %d, exact face %d\n", mc->name, what, i,
-                            j, rb_name(), cpu.face[px], ex.face[px]);
+                    fprintf(stderr, "  %s %s pixel (%d, %d): %s face %d, exact face %d\n", mc->name,
+                            what, i, j, rb_name(), cpu.face[px], ex.face[px]);
                 differ++;
             }
         }
     if (differ)
-        fprintf(stderr, "  camera: eye %.17g,%.17g,%.17g target %.17g,%.17g,%.17g up %.17g,%.17g,%.17g fov %.17g "
-                "near %.17g far %.17g\n", cam->eye[0], cam->eye[1], cam->eye[2], cam->target[0], cam->target[1],
-                cam->target[2], cam->up[0], cam->up[1], cam->up[2], cam->fov_deg, cam->znear, cam->zfar);
+        fprintf(stderr,
+                "  camera: eye %.17g,%.17g,%.17g target %.17g,%.17g,%.17g up %.17g,%.17g,%.17g fov "
+                "%.17g "
+                "near %.17g far %.17g\n",
+                cam->eye[0], cam->eye[1], cam->eye[2], cam->target[0], cam->target[1],
+                cam->target[2], cam->up[0], cam->up[1], cam->up[2], cam->fov_deg, cam->znear,
+                cam->zfar);
     printf("%-18s %-28s %6ld covered %6ld compared %3ld differ  %8llu tris %8llu rows %3u unres  "
            "mesh %.3f px cpu %.0f ms\n",
            mc->name, what, covered, compared, differ, (unsigned long long)st.triangles,
@@ -270,7 +280,8 @@ static void sweep_model(const char *name, int w, int h, totals *tot)
     char what[64];
     /* The eye inside the model, at its centre and off-centre, looking several ways. */
     {
-        static const double dirs[4][3] = {{1, 0.2, 0.1}, {-0.3, 1, 0.2}, {0.2, -0.1, -1}, {-1, -0.5, 0.4}};
+        static const double dirs[4][3] = {
+            {1, 0.2, 0.1}, {-0.3, 1, 0.2}, {0.2, -0.1, -1}, {-1, -0.5, 0.4}};
         int nd = full_sweep ? 4 : 2;
         for (int k = 0; k < nd; k++) {
             double eye[3], tgt[3];
@@ -280,7 +291,8 @@ static void sweep_model(const char *name, int w, int h, totals *tot)
             }
             double nears[3] = {1e-6, 1e-3, 0.05};
             for (int q = 0; q < (full_sweep ? 3 : 1); q++) {
-                crisp_camera cam = look(eye, tgt, 70, nears[full_sweep ? q : k % 3] * R, 4 * R, w, h);
+                crisp_camera cam =
+                    look(eye, tgt, 70, nears[full_sweep ? q : k % 3] * R, 4 * R, w, h);
                 snprintf(what, sizeof what, "inside dir %d near %.0e", k, cam.znear / R);
                 compare(&mc, r, &cam, what, tot);
             }
@@ -312,7 +324,8 @@ static void sweep_model(const char *name, int w, int h, totals *tot)
         crisp_exact_desc d = {.classify = exact_classify};
         double tgt[3];
         if (crisp_exact_ray(mc.scene, &d, o, dir, 0, 1e300, &t, NULL, NULL, NULL)) {
-            for (int a = 0; a < 3; a++) tgt[a] = o[a] + t * dir[a];
+            for (int a = 0; a < 3; a++)
+                tgt[a] = o[a] + t * dir[a];
         } else {
             memcpy(tgt, c, sizeof tgt);
         }
@@ -346,9 +359,10 @@ static void test_real_models(void **state)
     const char *models[] = {NULL, "gpucast_part.igs", "occt_bearing.iges", "occt_linkrods.step"};
     int n = full_sweep ? 4 : 4;
     totals tot = {0};
-    for (int k = 0; k < n; k++) sweep_model(models[k], full_sweep ? 160 : 96, full_sweep ? 120 : 72, &tot);
-    printf("hard cameras: %ld frames, %ld interior pixels compared, %ld differ\n", tot.frames, tot.compared,
-           tot.differ);
+    for (int k = 0; k < n; k++)
+        sweep_model(models[k], full_sweep ? 160 : 96, full_sweep ? 120 : 72, &tot);
+    printf("hard cameras: %ld frames, %ld interior pixels compared, %ld differ\n", tot.frames,
+           tot.compared, tot.differ);
     assert_int_equal(tot.differ, 0);
 }
 
@@ -384,17 +398,24 @@ static void grazing_model(crisp_model *model, const char *name, int closed, int 
     for (int attempt = 0; done < views && attempt < 20 * views; attempt++) {
         /* A surface point seen from a random direction outside the model. */
         double dir[3], o[3], t, n[3], p[3];
-        for (int k = 0; k < 3; k++) dir[k] = 2 * rnd() - 1;
+        for (int k = 0; k < 3; k++)
+            dir[k] = 2 * rnd() - 1;
         if (!crisp_vec3_normalize(dir, dir)) continue;
-        for (int k = 0; k < 3; k++) o[k] = mc.centre[k] - 3 * mc.radius * dir[k] + 0.3 * mc.radius * (2 * rnd() - 1);
+        for (int k = 0; k < 3; k++)
+            o[k] = mc.centre[k] - 3 * mc.radius * dir[k] + 0.3 * mc.radius * (2 * rnd() - 1);
         if (!crisp_exact_ray(mc.scene, &d, o, dir, 0, 1e300, &t, NULL, NULL, n)) continue;
-        for (int k = 0; k < 3; k++) p[k] = o[k] + t * dir[k];
+        for (int k = 0; k < 3; k++)
+            p[k] = o[k] + t * dir[k];
         if (crisp_vec3_dot(n, dir) > 0) crisp_vec3_scale(n, -1, n); /* towards the viewer */
         double rand3[3] = {rnd() - 0.5, rnd() - 0.5, rnd() - 0.5}, tan[3];
         crisp_vec3_cross(n, rand3, tan);
         if (!crisp_vec3_normalize(tan, tan)) continue;
         double el = (0.5 + 4.5 * rnd()) * M_PI / 180, dist = 1.5 * mc.radius;
-        crisp_camera cam = {.fov_deg = 30, .znear = 1e-3 * mc.radius, .zfar = 8 * mc.radius, .width = w, .height = h};
+        crisp_camera cam = {.fov_deg = 30,
+                            .znear = 1e-3 * mc.radius,
+                            .zfar = 8 * mc.radius,
+                            .width = w,
+                            .height = h};
         for (int k = 0; k < 3; k++) {
             cam.eye[k] = p[k] + dist * (sin(el) * n[k] + cos(el) * tan[k]);
             cam.target[k] = p[k];
@@ -414,11 +435,13 @@ static void grazing_model(crisp_model *model, const char *name, int closed, int 
             for (int i = 1; i < w - 1; i++) {
                 int all = 1;
                 for (int dj = -1; dj <= 1; dj++)
-                    for (int di = -1; di <= 1; di++) all &= ex.face[(j + dj) * w + i + di] >= 0;
+                    for (int di = -1; di <= 1; di++)
+                        all &= ex.face[(j + dj) * w + i + di] >= 0;
                 if (!all) continue;
                 (*inside_px)++;
                 if (cpu.face[j * w + i] < 0) {
-                    if (*cracks < 5) fprintf(stderr, "  %s %s: crack at pixel (%d, %d)\n", name, what, i, j);
+                    if (*cracks < 5)
+                        fprintf(stderr, "  %s %s: crack at pixel (%d, %d)\n", name, what, i, j);
                     (*cracks)++;
                 }
             }
@@ -447,10 +470,13 @@ static void test_grazing(void **state)
     crisp_face f = {.surface = torus};
     assert_int_equal(crisp_model_add_face(mt, &f), CRISP_OK);
     grazing_model(mt, "torus", 1, v, w, h, &tot, &cracks, &inside);
-    grazing_model(load("occt_linkrods.step"), "occt_linkrods.step", 1, v, w, h, &tot, &cracks, &inside);
-    grazing_model(load("occt_bearing.iges"), "occt_bearing.iges", 0, v, w, h, &tot, &cracks, &inside);
+    grazing_model(load("occt_linkrods.step"), "occt_linkrods.step", 1, v, w, h, &tot, &cracks,
+                  &inside);
+    grazing_model(load("occt_bearing.iges"), "occt_bearing.iges", 0, v, w, h, &tot, &cracks,
+                  &inside);
     grazing_model(load("gpucast_part.igs"), "gpucast_part.igs", 0, v, w, h, &tot, &cracks, &inside);
-    printf("grazing: %ld frames, %ld interior pixels compared, %ld differ; closed models: %ld pixels inside "
+    printf("grazing: %ld frames, %ld interior pixels compared, %ld differ; closed models: %ld "
+           "pixels inside "
            "the silhouette, %ld background\n",
            tot.frames, tot.compared, tot.differ, inside, cracks);
     assert_int_equal(tot.differ, 0);
@@ -476,8 +502,9 @@ static void test_zoom_tables(void **state)
         cam.fov_deg = fovs[k];
         crisp_render_stats st;
         assert_int_equal(crisp_renderer_plan(r, sc, &cam, &st), CRISP_OK);
-        printf("impeller fov %g: %u faces in view, %llu table rows, %llu bytes\n", fovs[k], st.visible_faces,
-               (unsigned long long)st.table_rows, (unsigned long long)st.table_bytes);
+        printf("impeller fov %g: %u faces in view, %llu table rows, %llu bytes\n", fovs[k],
+               st.visible_faces, (unsigned long long)st.table_rows,
+               (unsigned long long)st.table_bytes);
         assert_true(st.table_rows < 200000);
     }
     crisp_renderer_destroy(r);
@@ -498,8 +525,12 @@ static void test_hidden_edge_ribbon(void **state)
     assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
     crisp_camera cam = {.eye = {2.9076628256253447, 3.0376292177252009, 4.0792428625672024},
                         .target = {5.9414413454826196, 3.5236693946456352, 1.1788285316695948},
-                        .up = {-0.25997513727111282, 0.96561531056672156, 0}, .fov_deg = 30,
-                        .znear = 0.0028168106828669009, .zfar = 22.534485462935208, .width = 160, .height = 120};
+                        .up = {-0.25997513727111282, 0.96561531056672156, 0},
+                        .fov_deg = 30,
+                        .znear = 0.0028168106828669009,
+                        .zfar = 22.534485462935208,
+                        .width = 160,
+                        .height = 120};
     crisp_image cpu, ex;
     assert_int_equal(crisp_image_init(&cpu, 160, 120), CRISP_OK);
     assert_int_equal(crisp_image_init(&ex, 160, 120), CRISP_OK);
@@ -513,7 +544,8 @@ static void test_hidden_edge_ribbon(void **state)
             if (!interior(&ex, i, j)) continue;
             compared++;
             if (cpu.face[px] != ex.face[px] && !near_edge(&mc, &cam, i, j, cpu.face[px])) {
-                fprintf(stderr, "  pixel (%d, %d): cpu face %d, exact face %d\n", i, j, cpu.face[px], ex.face[px]);
+                fprintf(stderr, "  pixel (%d, %d): cpu face %d, exact face %d\n", i, j,
+                        cpu.face[px], ex.face[px]);
                 differ++;
             }
         }
@@ -570,8 +602,14 @@ static void test_image_reuse(void **state)
 static void test_up_parallel(void **state)
 {
     (void)state;
-    crisp_camera cam = {.eye = {0, 0, 5}, .target = {0, 0, 0}, .up = {0, 0, 2}, .fov_deg = 40,
-                        .znear = 0.1, .zfar = 10, .width = 32, .height = 32};
+    crisp_camera cam = {.eye = {0, 0, 5},
+                        .target = {0, 0, 0},
+                        .up = {0, 0, 2},
+                        .fov_deg = 40,
+                        .znear = 0.1,
+                        .zfar = 10,
+                        .width = 32,
+                        .height = 32};
     assert_int_equal(crisp_camera_check(&cam), CRISP_ERR_INVALID_ARG);
     assert_non_null(strstr(crisp_error_message(), "parallel"));
     model_case mc;
@@ -580,7 +618,8 @@ static void test_up_parallel(void **state)
     assert_int_equal(crisp_renderer_create(NULL, &r), CRISP_OK);
     crisp_image img;
     assert_int_equal(crisp_image_init(&img, 32, 32), CRISP_OK);
-    assert_int_equal(render_backend(rb_kind, r, 1, mc.scene, &cam, &img, NULL), CRISP_ERR_INVALID_ARG);
+    assert_int_equal(render_backend(rb_kind, r, 1, mc.scene, &cam, &img, NULL),
+                     CRISP_ERR_INVALID_ARG);
     assert_int_equal(crisp_render_exact(mc.scene, &cam, NULL, &img), CRISP_ERR_INVALID_ARG);
     cam.up[0] = 1e-300; /* not parallel in exact arithmetic; still no usable frame */
     crisp_status s = crisp_camera_check(&cam);
@@ -599,12 +638,9 @@ int main(int argc, char **argv)
     full_sweep = argc > 1 && !strcmp(argv[1], "all");
     if (argc > 2) cmocka_set_test_filter(argv[2]);
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_up_parallel),
-        cmocka_unit_test(test_real_models),
-        cmocka_unit_test(test_grazing),
-        cmocka_unit_test(test_zoom_tables),
-        cmocka_unit_test(test_image_reuse),
-        cmocka_unit_test(test_hidden_edge_ribbon),
+        cmocka_unit_test(test_up_parallel), cmocka_unit_test(test_real_models),
+        cmocka_unit_test(test_grazing),     cmocka_unit_test(test_zoom_tables),
+        cmocka_unit_test(test_image_reuse), cmocka_unit_test(test_hidden_edge_ribbon),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -30,7 +30,8 @@ static void render(crisp_model *m, const double eye[3], crisp_renderer **r, cris
     assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, r), CRISP_OK);
     crisp_camera cam;
     assert_int_equal(crisp_camera_frame_box((*sc)->box, 200, 150, &cam), CRISP_OK);
-    for (int k = 0; k < 3; k++) cam.eye[k] = eye[k];
+    for (int k = 0; k < 3; k++)
+        cam.eye[k] = eye[k];
     cam.target[0] = cam.target[1] = cam.target[2] = 0;
     cam.up[0] = 0, cam.up[1] = 0, cam.up[2] = 1;
     cam.znear = 0.01, cam.zfar = 100;
@@ -66,11 +67,14 @@ static void test_cone_apex(void **state)
         double a = crisp_param_to_angle(0, 2 * M_PI, v[k].attr[0]);
         double e[3] = {cos(a) / sqrt(1 + t * t), sin(a) / sqrt(1 + t * t), -t / sqrt(1 + t * t)};
         double d = e[0] * v[k].attr[2] + e[1] * v[k].attr[3] + e[2] * v[k].attr[4];
-        if (d < 0.9999) printf("  apex vertex u %.17g: normal %g %g %g\n", v[k].attr[0], v[k].attr[2], v[k].attr[3], v[k].attr[4]);
+        if (d < 0.9999)
+            printf("  apex vertex u %.17g: normal %g %g %g\n", v[k].attr[0], v[k].attr[2],
+                   v[k].attr[3], v[k].attr[4]);
         if (!(d <= worst)) continue;
         worst = d;
     }
-    printf("cone: %d vertices on the apex, smallest cos(normal, generator's normal) %.9f\n", apex, worst);
+    printf("cone: %d vertices on the apex, smallest cos(normal, generator's normal) %.9f\n", apex,
+           worst);
     assert_true(apex > 4);
     assert_true(worst > 0.9999);
     crisp_renderer_destroy(r);

@@ -46,13 +46,16 @@ static int cameras(const crisp_scene *sc, crisp_camera *cams, int w, int h)
     double P[3];
     crisp_bezier_patch_eval(&sp->bez, 0.37, 0.61, P);
     double size = 0;
-    for (int k = 0; k < 3; k++) size = fmax(size, sc->box[k + 3] - sc->box[k]);
-    static const double dirs[4][3] = {{0.3, 0.4, 1.0}, {1.0, 0.05, 0.02}, {0.2, -1.0, 0.3}, {-0.5, 0.5, 0.7}};
+    for (int k = 0; k < 3; k++)
+        size = fmax(size, sc->box[k + 3] - sc->box[k]);
+    static const double dirs[4][3] = {
+        {0.3, 0.4, 1.0}, {1.0, 0.05, 0.02}, {0.2, -1.0, 0.3}, {-0.5, 0.5, 0.7}};
     static const double dist[4] = {0.05, 0.02, 0.3, 0.3};
     static const double fov[4] = {40, 60, 1e-2, 1e-4};
     for (int c = 0; c < 4; c++) {
         crisp_camera *cam = &cams[n++];
-        double d = sqrt(dirs[c][0] * dirs[c][0] + dirs[c][1] * dirs[c][1] + dirs[c][2] * dirs[c][2]);
+        double d =
+            sqrt(dirs[c][0] * dirs[c][0] + dirs[c][1] * dirs[c][1] + dirs[c][2] * dirs[c][2]);
         for (int k = 0; k < 3; k++) {
             cam->eye[k] = P[k] + dist[c] * size * dirs[c][k] / d;
             cam->target[k] = P[k];
@@ -69,13 +72,14 @@ static int cameras(const crisp_scene *sc, crisp_camera *cams, int w, int h)
 
 /* Screen extent of leaf L's control hull (pixels, largest of x and y); -1 when it reaches the
  * eye plane. */
-static double leaf_extent(const crisp_scene *sc, const crisp_frame_plan *plan, const crisp_plan_leaf *L)
+static double leaf_extent(const crisp_scene *sc, const crisp_frame_plan *plan,
+                          const crisp_plan_leaf *L)
 {
     double storage[2 * CRISP__PATCH_DOUBLES], tmp[CRISP__PATCH_DOUBLES];
     double sz = ldexp(1.0, -(int)L->depth);
     crisp_bezier_patch sub;
-    crisp__subpatch(&sc->patches[L->patch].bez, L->ix * sz, (L->ix + 1) * sz, L->iy * sz, (L->iy + 1) * sz,
-                    storage, tmp, &sub);
+    crisp__subpatch(&sc->patches[L->patch].bez, L->ix * sz, (L->ix + 1) * sz, L->iy * sz,
+                    (L->iy + 1) * sz, storage, tmp, &sub);
     double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
     for (int i = 0; i < (sub.du + 1) * (sub.dv + 1); i++) {
         double c[4];
@@ -89,8 +93,8 @@ static double leaf_extent(const crisp_scene *sc, const crisp_frame_plan *plan, c
 
 /* Leaf side k as a segment in the face's grid coordinates (patch column + local s, row + t):
  * fixed coordinate, along-range, and the direction (0: along s, 1: along t). */
-static void side_segment(const crisp_scene *sc, const crisp_plan_leaf *L, int k, double *fixed, double *a0,
-                         double *a1, int *dir)
+static void side_segment(const crisp_scene *sc, const crisp_plan_leaf *L, int k, double *fixed,
+                         double *a0, double *a1, int *dir)
 {
     const crisp_scene_patch *sp = &sc->patches[L->patch];
     double sz = ldexp(1.0, -(int)L->depth);
@@ -103,11 +107,11 @@ static void side_segment(const crisp_scene *sc, const crisp_plan_leaf *L, int k,
 }
 
 /* Two leaves of one face that share a piece of edge place the same vertices on it: every vertex
- * of one inside the shared piece is a vertex of the other. Checked on faces of at most max_leaves leaves
- * (pairs are examined all against all), or, with only_patch, the edges of that patch's leaves.
- * Returns the pairs checked. */
-static long check_crack_free(const crisp_scene *sc, const crisp_frame_plan *plan, uint32_t max_leaves,
-                             uint32_t only_patch)
+ * of one inside the shared piece is a vertex of the other. Checked on faces of at most max_leaves
+ * leaves (pairs are examined all against all), or, with only_patch, the edges of that patch's
+ * leaves. Returns the pairs checked. */
+static long check_crack_free(const crisp_scene *sc, const crisp_frame_plan *plan,
+                             uint32_t max_leaves, uint32_t only_patch)
 {
     long pairs = 0;
     for (uint32_t f = 0; f < plan->face_count; f++) {
@@ -116,8 +120,10 @@ static long check_crack_free(const crisp_scene *sc, const crisp_frame_plan *plan
         for (uint32_t i = 0; i < pf->leaf_count; i++)
             for (uint32_t j = 0; j < pf->leaf_count; j++) {
                 if (i == j) continue;
-                const crisp_plan_leaf *A = &plan->leaves[pf->first_leaf + i], *B = &plan->leaves[pf->first_leaf + j];
-                if (only_patch != UINT32_MAX && A->patch != only_patch && B->patch != only_patch) continue;
+                const crisp_plan_leaf *A = &plan->leaves[pf->first_leaf + i],
+                                      *B = &plan->leaves[pf->first_leaf + j];
+                if (only_patch != UINT32_MAX && A->patch != only_patch && B->patch != only_patch)
+                    continue;
                 for (int ka = 0; ka < 4; ka++) {
                     int kb = (ka + 2) % 4, da, db;
                     double fa, a0, a1, fb, b0, b1;
@@ -134,8 +140,10 @@ static long check_crack_free(const crisp_scene *sc, const crisp_frame_plan *plan
                         if (x < lo - 1e-12 || x > hi + 1e-12) continue;
                         double pos = (x - b0) / (b1 - b0) * eb;
                         if (fabs(pos - round(pos)) > 1e-6)
-                            fail_msg("face %u: leaves %u and %u: vertex %u/%u of side %d not on the "
-                                     "other's side (%g of %u)", f, i, j, q, ea, ka, pos, eb);
+                            fail_msg(
+                                "face %u: leaves %u and %u: vertex %u/%u of side %d not on the "
+                                "other's side (%g of %u)",
+                                f, i, j, q, ea, ka, pos, eb);
                     }
                 }
             }
@@ -156,7 +164,8 @@ static void check_plan(const crisp_scene *sc, const crisp_frame_plan *plan, cons
             assert_int_equal(L->face, f);
             assert_int_equal(sc->patches[L->patch].face, f);
             assert_true(L->tau >= 1 && L->tau <= CRISP_PLAN_MAX_LEVEL);
-            for (int k = 0; k < 4; k++) assert_true(L->edge[k] >= 1 && L->edge[k] <= CRISP_PLAN_MAX_LEVEL);
+            for (int k = 0; k < 4; k++)
+                assert_true(L->edge[k] >= 1 && L->edge[k] <= CRISP_PLAN_MAX_LEVEL);
             if (L->depth < CRISP_PLAN_MAX_DEPTH) {
                 double e = leaf_extent(sc, plan, L);
                 if (e > CRISP_PLAN_MAX_LEAF_PX) fail_msg("leaf %u spans %g px", l, e);
@@ -168,7 +177,8 @@ static void check_plan(const crisp_scene *sc, const crisp_frame_plan *plan, cons
         double d[4];
         crisp_surface_domain(sc->faces[f].src->surface, d);
         for (int k = 0; k < 400; k++) {
-            double u = d[0] + (d[1] - d[0]) * (1.2 * rnd() - 0.1), v = d[2] + (d[3] - d[2]) * (1.2 * rnd() - 0.1);
+            double u = d[0] + (d[1] - d[0]) * (1.2 * rnd() - 0.1),
+                   v = d[2] + (d[3] - d[2]) * (1.2 * rnd() - 0.1);
             assert_int_equal(crisp_plan_trim_test(plan, f, u, v), crisp_trim_table_test(tb, u, v));
         }
     }
@@ -191,8 +201,9 @@ static void run_model(const char *name, uint32_t *splits)
         check_plan(sc, plan, pl);
         long pairs = check_crack_free(sc, plan, 300, UINT32_MAX);
         *splits += plan->stats.level_splits;
-        printf("%s camera %d: %u leaves, %u level splits, %ld shared edges checked, %u ribbon quads\n", name, c,
-               plan->leaf_count, plan->stats.level_splits, pairs, plan->ribbon_quad_count);
+        printf(
+            "%s camera %d: %u leaves, %u level splits, %ld shared edges checked, %u ribbon quads\n",
+            name, c, plan->leaf_count, plan->stats.level_splits, pairs, plan->ribbon_quad_count);
     }
     crisp_planner_destroy(pl);
     crisp_scene_destroy(sc);
@@ -236,7 +247,8 @@ static void test_level_splits(void **state)
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     assert_int_equal(sc->patch_count, 2);
     crisp_planner *pl;
-    assert_int_equal(crisp_planner_create(&(crisp_planner_desc){.eps_px = 1e-6}, NULL, &pl), CRISP_OK);
+    assert_int_equal(crisp_planner_create(&(crisp_planner_desc){.eps_px = 1e-6}, NULL, &pl),
+                     CRISP_OK);
     crisp_camera cam;
     assert_int_equal(crisp_camera_frame_box(sc->box, 640, 480, &cam), CRISP_OK);
     const crisp_frame_plan *plan;
@@ -249,7 +261,8 @@ static void test_level_splits(void **state)
         if (L->patch == 1 && L->depth > deepest) deepest = L->depth;
         if (L->patch == 0 && L->depth < flat_depth) flat_depth = L->depth;
     }
-    printf("flat span: shallowest leaf depth %u; bent span: deepest %u; %u level splits; %ld shared edges\n",
+    printf("flat span: shallowest leaf depth %u; bent span: deepest %u; %u level splits; %ld "
+           "shared edges\n",
            flat_depth, deepest, plan->stats.level_splits, pairs);
     assert_true(plan->stats.level_splits > 0);
     assert_true(pairs > 0);
@@ -273,11 +286,13 @@ static void test_versions_and_replan(void **state)
     assert_int_equal(crisp_camera_frame_box(sc->box, 400, 300, &cam), CRISP_OK);
     const crisp_frame_plan *plan;
     assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
-    uint64_t v[4] = {plan->leaves_version, plan->faces_version, plan->table_version, plan->ribbons_version};
+    uint64_t v[4] = {plan->leaves_version, plan->faces_version, plan->table_version,
+                     plan->ribbons_version};
     assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
-    assert_true(plan->leaves_version == v[0] && plan->faces_version == v[1] && plan->table_version == v[2] &&
-                plan->ribbons_version == v[3]);
-    /* Pick the visible face with the most trim pieces and move its first hole (or loop) a little. */
+    assert_true(plan->leaves_version == v[0] && plan->faces_version == v[1] &&
+                plan->table_version == v[2] && plan->ribbons_version == v[3]);
+    /* Pick the visible face with the most trim pieces and move its first hole (or loop) a little.
+     */
     uint32_t best = UINT32_MAX;
     for (uint32_t f = 0; f < sc->face_count; f++)
         if ((plan->faces[f].flags & CRISP_PLAN_FACE_VISIBLE) && m->faces[f].loop_count > 1 &&
@@ -290,7 +305,8 @@ static void test_versions_and_replan(void **state)
     double du = 0.004 * (d[1] - d[0]);
     for (int c = 0; c < loop->curve_count; c++) {
         crisp_curve *cv = loop->curves[c];
-        for (int k = 0; k < cv->count; k++) cv->cpw[3 * k] += du * cv->cpw[3 * k + 2]; /* (w u, w v, w) */
+        for (int k = 0; k < cv->count; k++)
+            cv->cpw[3 * k] += du * cv->cpw[3 * k + 2]; /* (w u, w v, w) */
     }
     assert_int_equal(crisp_scene_update_trim(sc, best), CRISP_OK);
     assert_int_equal(crisp_planner_replan_face(pl, sc, best, &plan), CRISP_OK);
@@ -309,8 +325,8 @@ static void test_versions_and_replan(void **state)
         assert_int_equal(plan->faces[f].first_ribbon, again->faces[f].first_ribbon);
         assert_int_equal(plan->faces[f].ribbon_count, again->faces[f].ribbon_count);
     }
-    printf("replan of face %u: %.3f ms trim + %.3f ms ribbons; plan bytes %zu\n", best, plan->stats.ms_trim,
-           plan->stats.ms_ribbons, crisp_plan_bytes(plan));
+    printf("replan of face %u: %.3f ms trim + %.3f ms ribbons; plan bytes %zu\n", best,
+           plan->stats.ms_trim, plan->stats.ms_ribbons, crisp_plan_bytes(plan));
     crisp_planner_destroy(pl);
     crisp_planner_destroy(fresh);
     crisp_scene_destroy(sc);

@@ -100,8 +100,14 @@ static void test_extreme_zoom_memory(void **state)
     crisp_image img;
     assert_int_equal(crisp_image_init(&img, 160, 120), CRISP_OK);
     for (double fov = 1; fov >= 1e-8; fov *= 0.01) {
-        crisp_camera cam = {.eye = {0.1, 0.12, 0.15}, .target = {0.02, 0.03, 0.01}, .up = {0, 1, 0},
-                            .fov_deg = fov, .znear = 1e-4, .zfar = 1, .width = 160, .height = 120};
+        crisp_camera cam = {.eye = {0.1, 0.12, 0.15},
+                            .target = {0.02, 0.03, 0.01},
+                            .up = {0, 1, 0},
+                            .fov_deg = fov,
+                            .znear = 1e-4,
+                            .zfar = 1,
+                            .width = 160,
+                            .height = 120};
         crisp_renderer *r;
         assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
         counting = 1;

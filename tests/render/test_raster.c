@@ -88,7 +88,7 @@ static void test_watertight(void **state)
     memset(count, 0, sizeof count);
     count_ctx cc = {W, H, count};
     assert_int_equal(crisp__raster_draw(r, &t, NULL, verts, (N + 1) * (N + 1), tris, nt,
-                                       count_and_discard, &cc, NULL),
+                                        count_and_discard, &cc, NULL),
                      CRISP_OK);
     /* Pixels whose centre is well inside the outline are covered exactly once. */
     int inside = 0;
@@ -114,7 +114,8 @@ static int check_plane(const crisp_camera *cam, crisp_pool *pool, double half, d
     crisp_camera_matrices m;
     crisp_camera_matrices_compute(cam, &m);
     crisp_raster_vertex verts[4];
-    double corner[4][3] = {{-half, -1, -half}, {half, -1, -half}, {half, -1, half}, {-half, -1, half}};
+    double corner[4][3] = {
+        {-half, -1, -half}, {half, -1, -half}, {half, -1, half}, {-half, -1, half}};
     for (int k = 0; k < 4; k++) {
         crisp_mat4_mulp(m.view_proj, corner[k], verts[k].clip);
         verts[k].attr[0] = corner[k][0];
@@ -135,7 +136,8 @@ static int check_plane(const crisp_camera *cam, crisp_pool *pool, double half, d
     char *cover = calloc((size_t)W * H, 1);
     double *hu = calloc((size_t)W * H * 2, sizeof(double));
     double f[3], fl;
-    for (int k = 0; k < 3; k++) f[k] = cam->target[k] - cam->eye[k];
+    for (int k = 0; k < 3; k++)
+        f[k] = cam->target[k] - cam->eye[k];
     fl = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
     for (int j = 0; j < H; j++)
         for (int i = 0; i < W; i++) {
@@ -145,7 +147,8 @@ static int check_plane(const crisp_camera *cam, crisp_pool *pool, double half, d
             double s = (-1 - o[1]) / d[1];
             double x = o[0] + s * d[0], z = o[2] + s * d[2];
             double depth = s * (d[0] * f[0] + d[1] * f[1] + d[2] * f[2]) / fl;
-            if (s > 0 && depth >= cam->znear && depth <= cam->zfar && fabs(x) <= half && fabs(z) <= half) {
+            if (s > 0 && depth >= cam->znear && depth <= cam->zfar && fabs(x) <= half &&
+                fabs(z) <= half) {
                 cover[j * W + i] = 1;
                 hu[(j * W + i) * 2] = x;
                 hu[(j * W + i) * 2 + 1] = z;
@@ -158,7 +161,8 @@ static int check_plane(const crisp_camera *cam, crisp_pool *pool, double half, d
         for (int i = 1; i < W - 1; i++) {
             int c = cover[j * W + i], same = 1;
             for (int dj = -1; dj <= 1; dj++)
-                for (int di = -1; di <= 1; di++) same &= cover[(j + dj) * W + i + di] == c;
+                for (int di = -1; di <= 1; di++)
+                    same &= cover[(j + dj) * W + i + di] == c;
             int drawn = t.face[j * W + i] >= 0;
             assert_false(isnan(t.attr[(j * W + i) * CRISP_RASTER_ATTRS]));
             if (!same) continue; /* within a pixel of the boundary */
@@ -167,7 +171,8 @@ static int check_plane(const crisp_camera *cam, crisp_pool *pool, double half, d
                 assert_int_equal(t.face[j * W + i], 7);
                 double du = t.attr[(j * W + i) * CRISP_RASTER_ATTRS] - hu[(j * W + i) * 2];
                 double dv = t.attr[(j * W + i) * CRISP_RASTER_ATTRS + 1] - hu[(j * W + i) * 2 + 1];
-                double e = fmax(fabs(du), fabs(dv)) / (fabs(hu[(j * W + i) * 2]) + fabs(hu[(j * W + i) * 2 + 1]) + 1);
+                double e = fmax(fabs(du), fabs(dv)) /
+                           (fabs(hu[(j * W + i) * 2]) + fabs(hu[(j * W + i) * 2 + 1]) + 1);
                 if (e > *max_err) *max_err = e;
                 checked++;
             }
@@ -182,8 +187,14 @@ static int check_plane(const crisp_camera *cam, crisp_pool *pool, double half, d
 static void test_perspective_correct(void **state)
 {
     (void)state;
-    crisp_camera cam = {.eye = {0.3, 2, 6}, .target = {0, -1, 0}, .up = {0, 1, 0}, .fov_deg = 40,
-                        .znear = 0.1, .zfar = 100, .width = 160, .height = 120};
+    crisp_camera cam = {.eye = {0.3, 2, 6},
+                        .target = {0, -1, 0},
+                        .up = {0, 1, 0},
+                        .fov_deg = 40,
+                        .znear = 0.1,
+                        .zfar = 100,
+                        .width = 160,
+                        .height = 120};
     double err;
     int bad;
     int n = check_plane(&cam, NULL, 3, &err, &bad);
@@ -196,8 +207,14 @@ static void test_near_plane(void **state)
 {
     (void)state;
     /* A floor that extends far behind the eye: it crosses the near plane. */
-    crisp_camera cam = {.eye = {0, 0, 0}, .target = {0, -0.3, -1}, .up = {0, 1, 0}, .fov_deg = 70,
-                        .znear = 0.5, .zfar = 60, .width = 160, .height = 120};
+    crisp_camera cam = {.eye = {0, 0, 0},
+                        .target = {0, -0.3, -1},
+                        .up = {0, 1, 0},
+                        .fov_deg = 70,
+                        .znear = 0.5,
+                        .zfar = 60,
+                        .width = 160,
+                        .height = 120};
     double err;
     int bad;
     int n = check_plane(&cam, NULL, 1000, &err, &bad);
@@ -205,8 +222,14 @@ static void test_near_plane(void **state)
     assert_int_equal(bad, 0);
     assert_true(err < 1e-4);
     /* The same with the eye exactly on a grazing plane and a grazing view. */
-    crisp_camera graze = {.eye = {0, -0.999, 0}, .target = {0, -1, -1}, .up = {0, 1, 0},
-                          .fov_deg = 60, .znear = 0.01, .zfar = 100, .width = 160, .height = 120};
+    crisp_camera graze = {.eye = {0, -0.999, 0},
+                          .target = {0, -1, -1},
+                          .up = {0, 1, 0},
+                          .fov_deg = 60,
+                          .znear = 0.01,
+                          .zfar = 100,
+                          .width = 160,
+                          .height = 120};
     n = check_plane(&graze, NULL, 50, &err, &bad);
     assert_true(n > 100);
     assert_int_equal(bad, 0);
@@ -223,7 +246,8 @@ static void test_threads_identical(void **state)
         for (int q = 0; q < 3; q++) {
             double x = cx + (rnd() - 0.5) * 60, y = cy + (rnd() - 0.5) * 60;
             crisp_raster_vertex v = screen_vertex(x, y, W, H);
-            for (int c = 0; c < 4; c++) v.clip[c] *= z; /* same screen point, depth z */
+            for (int c = 0; c < 4; c++)
+                v.clip[c] *= z; /* same screen point, depth z */
             verts[k * 3 + q] = v;
         }
         tris[k] = (crisp_raster_tri){{k * 3, k * 3 + 1, k * 3 + 2}, (uint32_t)k};
@@ -231,7 +255,8 @@ static void test_threads_identical(void **state)
          * counting and writing passes of the setup must agree on them. */
         if (k % 7 == 3) verts[k * 3 + 2] = verts[k * 3];
         if (k % 11 == 5)
-            for (int q = 0; q < 3; q++) verts[k * 3 + q].clip[0] += 5 * verts[k * 3 + q].clip[3];
+            for (int q = 0; q < 3; q++)
+                verts[k * 3 + q].clip[0] += 5 * verts[k * 3 + q].clip[3];
     }
     crisp_raster_target t1 = {0}, t3 = {0};
     crisp_raster *r;
@@ -265,11 +290,14 @@ static void test_bad_input(void **state)
     assert_int_equal(crisp__raster_target_init(&t, 0, 10, 1), CRISP_ERR_INVALID_ARG);
     assert_int_equal(crisp__raster_target_init(&t, 10, 10, 1), CRISP_OK);
     crisp__raster_target_clear(&t);
-    crisp_raster_vertex v[3] = {{{NAN, 0, 0, 1}, {0}}, {{1, 0, 0, 1}, {0}}, {{0, 1, 0, INFINITY}, {0}}};
+    crisp_raster_vertex v[3] = {
+        {{NAN, 0, 0, 1}, {0}}, {{1, 0, 0, 1}, {0}}, {{0, 1, 0, INFINITY}, {0}}};
     crisp_raster_tri tri = {{0, 1, 2}, 0}, bad = {{0, 1, 5}, 0};
     assert_int_equal(crisp__raster_draw(r, &t, NULL, v, 3, &tri, 1, NULL, NULL, NULL), CRISP_OK);
-    for (int i = 0; i < 100; i++) assert_int_equal(t.face[i], -1);
-    assert_int_equal(crisp__raster_draw(r, &t, NULL, v, 3, &bad, 1, NULL, NULL, NULL), CRISP_ERR_INVALID_ARG);
+    for (int i = 0; i < 100; i++)
+        assert_int_equal(t.face[i], -1);
+    assert_int_equal(crisp__raster_draw(r, &t, NULL, v, 3, &bad, 1, NULL, NULL, NULL),
+                     CRISP_ERR_INVALID_ARG);
     crisp__raster_target_free(&t);
     crisp__raster_destroy(r);
 }
@@ -285,7 +313,8 @@ static void test_camera(void **state)
     crisp_camera_matrices_compute(&cam, &m);
     /* Every box corner projects inside the image and between near and far. */
     for (int k = 0; k < 8; k++) {
-        double p[3] = {box[(k & 1) ? 3 : 0], box[(k & 2) ? 4 : 1], box[(k & 4) ? 5 : 2]}, c[4], px[3];
+        double p[3] = {box[(k & 1) ? 3 : 0], box[(k & 2) ? 4 : 1], box[(k & 4) ? 5 : 2]}, c[4],
+               px[3];
         crisp_mat4_mulp(m.view_proj, p, c);
         crisp_camera_to_pixel(&cam, c, px);
         assert_true(px[0] > 0 && px[0] < 640 && px[1] > 0 && px[1] < 480);
@@ -294,7 +323,8 @@ static void test_camera(void **state)
     /* The ray through a pixel centre passes through the point that projects to it. */
     double o[3], d[3], q[3], c[4], px[3];
     crisp_camera_ray(&cam, 100.5, 37.5, o, d);
-    for (int i = 0; i < 3; i++) q[i] = o[i] + 7.3 * d[i];
+    for (int i = 0; i < 3; i++)
+        q[i] = o[i] + 7.3 * d[i];
     crisp_mat4_mulp(m.view_proj, q, c);
     crisp_camera_to_pixel(&cam, c, px);
     assert_true(fabs(px[0] - 100.5) < 1e-9 && fabs(px[1] - 37.5) < 1e-9);
@@ -306,9 +336,9 @@ static void test_camera(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_watertight),   cmocka_unit_test(test_perspective_correct),
-        cmocka_unit_test(test_near_plane),   cmocka_unit_test(test_threads_identical),
-        cmocka_unit_test(test_bad_input),    cmocka_unit_test(test_camera),
+        cmocka_unit_test(test_watertight), cmocka_unit_test(test_perspective_correct),
+        cmocka_unit_test(test_near_plane), cmocka_unit_test(test_threads_identical),
+        cmocka_unit_test(test_bad_input),  cmocka_unit_test(test_camera),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -33,7 +33,8 @@ enum { W = 173, H = 131, NT = 1500 };
 static void soup(crisp_raster_vertex *v, crisp_raster_tri *t)
 {
     for (int i = 0; i < NT; i++) {
-        double cx = rnd() * 2.4 - 1.2, cy = rnd() * 2.4 - 1.2, size = rnd() < 0.1 ? 1.5 : 0.12 * rnd();
+        double cx = rnd() * 2.4 - 1.2, cy = rnd() * 2.4 - 1.2,
+               size = rnd() < 0.1 ? 1.5 : 0.12 * rnd();
         double w0 = 0.5 + 4 * rnd();
         for (int k = 0; k < 3; k++) {
             crisp_raster_vertex *p = &v[3 * i + k];
@@ -42,7 +43,8 @@ static void soup(crisp_raster_vertex *v, crisp_raster_tri *t)
             double x = cx + size * (rnd() - 0.5), y = cy + size * (rnd() - 0.5);
             p->clip[0] = x * fabs(w), p->clip[1] = y * fabs(w), p->clip[3] = w;
             p->clip[2] = 0.9 * w - 0.2; /* inside [-w, w] for w > 0.1 */
-            for (int a = 0; a < CRISP_RASTER_ATTRS; a++) p->attr[a] = rnd();
+            for (int a = 0; a < CRISP_RASTER_ATTRS; a++)
+                p->attr[a] = rnd();
         }
         t[i] = (crisp_raster_tri){{3 * i, 3 * i + 1, 3 * i + 2}, (uint32_t)(i % 7)};
     }
@@ -69,15 +71,17 @@ static int keep_all(void *vctx, uint32_t face, double u, double v)
 
 static const uint8_t *untested_faces; /* crisp__raster_set_untested_faces for render() */
 
-static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn, const float *slack,
-                   crisp_raster_target *t, test_ctx *tc, crisp_raster_stats *stats)
+static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn,
+                   const float *slack, crisp_raster_target *t, test_ctx *tc,
+                   crisp_raster_stats *stats)
 {
     static crisp_raster_vertex v[3 * NT];
     static crisp_raster_tri tri[NT];
     rng_state = 0x2545F4914F6CDD1Dull;
     soup(v, tri);
     if (flag_no_test)
-        for (int i = 0; i < NT; i++) tri[i].face |= CRISP_RASTER_FACE_NO_TEST;
+        for (int i = 0; i < NT; i++)
+            tri[i].face |= CRISP_RASTER_FACE_NO_TEST;
     crisp_raster *r;
     assert_int_equal(crisp__raster_create(&r), CRISP_OK);
     crisp__raster_set_hiz(r, hiz);
@@ -88,12 +92,16 @@ static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_r
     crisp_pool *pool;
     assert_int_equal(crisp_pool_create(2, &pool), CRISP_OK);
     /* Half first, then the rest on top (a second draw into a target that holds depth). */
-    assert_int_equal(crisp__raster_draw(r, t, pool, v, 3 * NT, tri, NT / 2, fn, tc, stats), CRISP_OK);
+    assert_int_equal(crisp__raster_draw(r, t, pool, v, 3 * NT, tri, NT / 2, fn, tc, stats),
+                     CRISP_OK);
     if (slack)
-        assert_int_equal(crisp__raster_draw_fill(r, t, pool, v, 3 * NT, tri + NT / 2, NT - NT / 2, fn, tc, slack, stats),
+        assert_int_equal(crisp__raster_draw_fill(r, t, pool, v, 3 * NT, tri + NT / 2, NT - NT / 2,
+                                                 fn, tc, slack, stats),
                          CRISP_OK);
     else
-        assert_int_equal(crisp__raster_draw(r, t, pool, v, 3 * NT, tri + NT / 2, NT - NT / 2, fn, tc, stats), CRISP_OK);
+        assert_int_equal(
+            crisp__raster_draw(r, t, pool, v, 3 * NT, tri + NT / 2, NT - NT / 2, fn, tc, stats),
+            CRISP_OK);
     crisp_pool_destroy(pool);
     crisp__raster_destroy(r);
 }
@@ -110,7 +118,8 @@ static void test_hiz_and_batches_change_nothing(void **state)
 {
     (void)state;
     static float slack[W * H * 4];
-    for (int k = 0; k < W * H * 4; k++) slack[k] = (float)(0.05 * (k % 5));
+    for (int k = 0; k < W * H * 4; k++)
+        slack[k] = (float)(0.05 * (k % 5));
     for (int samples = 1; samples <= 4; samples += 3)
         for (int fill = 0; fill < 2; fill++) {
             crisp_raster_target ref = {0}, a = {0}, b = {0};
@@ -118,8 +127,10 @@ static void test_hiz_and_batches_change_nothing(void **state)
             crisp_raster_stats st_ref, st;
             render(samples, 0, 0, 0, some_test, fill ? slack : NULL, &ref, &tc, &st_ref);
             size_t covered = 0;
-            for (size_t k = 0; k < (size_t)W * H * samples; k++) covered += ref.face[k] >= 0;
-            assert_true(covered > (size_t)W * H * samples / 2); /* the soup covers most of the image */
+            for (size_t k = 0; k < (size_t)W * H * samples; k++)
+                covered += ref.face[k] >= 0;
+            assert_true(covered >
+                        (size_t)W * H * samples / 2); /* the soup covers most of the image */
             render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &tc, &st);
             assert_same(&ref, &a);
             render(samples, 1, 37, 0, some_test, fill ? slack : NULL, &b, &tc, &st);

@@ -51,13 +51,15 @@ static void test_trimmed_box(void **state)
     crisp_scene *sc = NULL;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     double want[6] = {1, 6, 0, 2, 7, 0};
-    for (int k = 0; k < 6; k++) assert_true(fabs(sc->box[k] - want[k]) < 1e-9);
+    for (int k = 0; k < 6; k++)
+        assert_true(fabs(sc->box[k] - want[k]) < 1e-9);
     crisp_scene_destroy(sc);
     /* an untrimmed face beside it frames all of itself */
     add_plane(m, 0, 3);
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     double want2[6] = {0, 0, 0, 10, 10, 3};
-    for (int k = 0; k < 6; k++) assert_true(fabs(sc->box[k] - want2[k]) < 1e-9);
+    for (int k = 0; k < 6; k++)
+        assert_true(fabs(sc->box[k] - want2[k]) < 1e-9);
     crisp_scene_destroy(sc);
     crisp_model_destroy(m);
 }

@@ -35,7 +35,8 @@
 
 static int full;
 
-/* ---- faces ------------------------------------------------------------------------------------- */
+/* ---- faces -------------------------------------------------------------------------------------
+ */
 
 enum { PATCH_KINDS = 4, TRIM_KINDS = 3 };
 
@@ -58,11 +59,14 @@ static crisp_surface *make_surface(int pk, double zoff)
         tu_patch_kind(&p, pk, cpw);
         int nu = p.du + 1, nv = p.dv + 1;
         double ku[8], kv[8], pts[48], w[16];
-        for (int i = 0; i < nu; i++) ku[i] = 0, ku[i + nu] = 1;
-        for (int i = 0; i < nv; i++) kv[i] = 0, kv[i + nv] = 1;
+        for (int i = 0; i < nu; i++)
+            ku[i] = 0, ku[i + nu] = 1;
+        for (int i = 0; i < nv; i++)
+            kv[i] = 0, kv[i + nv] = 1;
         for (int k = 0; k < nu * nv; k++) {
             w[k] = cpw[4 * k + 3];
-            for (int c = 0; c < 3; c++) pts[3 * k + c] = cpw[4 * k + c] / w[k];
+            for (int c = 0; c < 3; c++)
+                pts[3 * k + c] = cpw[4 * k + c] / w[k];
             pts[3 * k + 2] += zoff;
         }
         assert_int_equal(crisp_surface_create(p.du, p.dv, nu, nv, ku, kv, pts, w, &s), CRISP_OK);
@@ -91,7 +95,8 @@ static int make_loops(int tk, crisp_bezier_curve *pc, int *loop_len)
         loop_len[0] = tu_ellipse(pc, 0.5, 0.5, 0.4, 0.3, 0.3, 1);
         loop_len[1] = tu_ellipse(pc + 4, 0.45, 0.5, 0.1, 0.1, 0.0, 0);
     } else if (tk == 1) {
-        const double star[] = {0.1, 0.1, 0.5, 0.25, 0.9, 0.05, 0.8, 0.5, 0.95, 0.9, 0.5, 0.7, 0.15, 0.95, 0.3, 0.5};
+        const double star[] = {0.1,  0.1, 0.5, 0.25, 0.9,  0.05, 0.8, 0.5,
+                               0.95, 0.9, 0.5, 0.7,  0.15, 0.95, 0.3, 0.5};
         loop_len[0] = tu_polygon(pc, 8, star);
         const double hole[] = {0.45, 0.4, 0.45, 0.55, 0.6, 0.55, 0.6, 0.4};
         loop_len[1] = tu_polygon(pc + 8, 4, hole);
@@ -124,7 +129,8 @@ static void add_face(crisp_model *m, int pk, int tk, double zoff)
             const crisp_bezier_curve *b = &pc[first + c];
             int n = b->degree + 1;
             double knots[8], pts[8], w[4];
-            for (int i = 0; i < n; i++) knots[i] = 0, knots[i + n] = 1;
+            for (int i = 0; i < n; i++)
+                knots[i] = 0, knots[i + n] = 1;
             for (int i = 0; i < n; i++) {
                 w[i] = b->cpw[3 * i + 2];
                 pts[2 * i] = d[0] + (d[1] - d[0]) * b->cpw[3 * i] / w[i];
@@ -140,7 +146,8 @@ static void add_face(crisp_model *m, int pk, int tk, double zoff)
     assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
 }
 
-/* ---- the true boundary on screen ---------------------------------------------------------------- */
+/* ---- the true boundary on screen ----------------------------------------------------------------
+ */
 
 typedef struct segs {
     double *xy; /* 4 per segment */
@@ -227,9 +234,11 @@ static void boundary_segments(const view *vw, segs *sg)
         const double *d = sf->domain;
         bcurve cs[4 + 64];
         int n = 0;
-        const double corners[5][2] = {{d[0], d[2]}, {d[1], d[2]}, {d[1], d[3]}, {d[0], d[3]}, {d[0], d[2]}};
+        const double corners[5][2] = {
+            {d[0], d[2]}, {d[1], d[2]}, {d[1], d[3]}, {d[0], d[3]}, {d[0], d[2]}};
         for (int k = 0; k < 4; k++) {
-            cs[n] = (bcurve){NULL, {corners[k][0], corners[k][1]}, {corners[k + 1][0], corners[k + 1][1]}};
+            cs[n] = (bcurve){
+                NULL, {corners[k][0], corners[k][1]}, {corners[k + 1][0], corners[k + 1][1]}};
             n++;
         }
         for (uint32_t k = 0; k < sf->piece_count && n < 68; k++)
@@ -253,11 +262,13 @@ static double seg_dist(const double *s, double x, double y)
     return hypot(s[0] + u * dx - x, s[1] + u * dy - y);
 }
 
-/* ---- silhouettes ---------------------------------------------------------------------------------- */
+/* ---- silhouettes
+ * ---------------------------------------------------------------------------------- */
 
 /* Surface layers the ray through screen point (x, y) crosses between the near and far planes (at
  * most 8), trims ignored. */
-static int layers(const crisp_scene *sc, const crisp_camera *cam, const double fwd[3], double x, double y)
+static int layers(const crisp_scene *sc, const crisp_camera *cam, const double fwd[3], double x,
+                  double y)
 {
     double o[3], dir[3], t;
     crisp_camera_ray(cam, x, y, o, dir);
@@ -275,8 +286,8 @@ static int layers(const crisp_scene *sc, const crisp_camera *cam, const double f
  * (x, y): the number of surface layers along the ray changes somewhere on rings of radius 0.5 and
  * 1 px around it. There the image follows the surface accuracy bound (triangles within 0.5 px of
  * the surface), not the trim test. */
-static int near_silhouette(const crisp_scene *sc, const crisp_camera *cam, const double fwd[3], double x,
-                           double y)
+static int near_silhouette(const crisp_scene *sc, const crisp_camera *cam, const double fwd[3],
+                           double x, double y)
 {
     int n0 = layers(sc, cam, fwd, x, y);
     for (int r = 1; r <= 2; r++)
@@ -287,7 +298,8 @@ static int near_silhouette(const crisp_scene *sc, const crisp_camera *cam, const
     return 0;
 }
 
-/* ---- one view ------------------------------------------------------------------------------------- */
+/* ---- one view
+ * ------------------------------------------------------------------------------------- */
 
 typedef struct tally {
     long pixels, covered, inside, disagree, in_band, out_band, silhouette;
@@ -304,8 +316,8 @@ static int exact_classify(void *ctx, const crisp_scene *sc, uint32_t face, doubl
 
 /* Render with the backend under test (samples 1 or 4) and compare every sample with the exact
  * answer. */
-static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, const crisp_camera *cam,
-                       const char *what, tally *all)
+static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples,
+                       const crisp_camera *cam, const char *what, tally *all)
 {
     int w = cam->width, h = cam->height;
     crisp_image cpu, ex;
@@ -319,8 +331,10 @@ static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, co
         char fn[200];
         snprintf(fn, sizeof fn, "/tmp/dump_%s.png", rb_name());
         uint8_t *px8 = malloc((size_t)w * h * 4);
-        for (size_t k = 0; k < (size_t)w * h * 4; k++) px8[k] = (uint8_t)(255 * fminf(1, cpu.rgba[k]));
-        for (size_t k = 0; k < (size_t)w * h; k++) px8[4 * k + 3] = 255, px8[4 * k] = cpu.face[k] >= 0 ? px8[4 * k] : 255;
+        for (size_t k = 0; k < (size_t)w * h * 4; k++)
+            px8[k] = (uint8_t)(255 * fminf(1, cpu.rgba[k]));
+        for (size_t k = 0; k < (size_t)w * h; k++)
+            px8[4 * k + 3] = 255, px8[4 * k] = cpu.face[k] >= 0 ? px8[4 * k] : 255;
         crisp_write_png_rgba(fn, w, h, px8);
         free(px8);
     }
@@ -353,7 +367,8 @@ static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, co
                     double o[3], dir[3];
                     crisp_camera_ray(cam, i + off[0], j + off[1], o, dir);
                     double c = crisp_vec3_dot(dir, fwd);
-                    want = crisp_exact_ray(sc, &d, o, dir, cam->znear / c, cam->zfar / c, NULL, NULL, NULL, NULL);
+                    want = crisp_exact_ray(sc, &d, o, dir, cam->znear / c, cam->zfar / c, NULL,
+                                           NULL, NULL, NULL);
                 }
                 int got = sample_face[px * samples + q] >= 0;
                 t.pixels++;
@@ -365,7 +380,8 @@ static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, co
                     have_segs = 1;
                 }
                 double dist = HUGE_VAL;
-                for (size_t k = 0; k < sg.n; k++) dist = fmin(dist, seg_dist(sg.xy + 4 * k, i + off[0], j + off[1]));
+                for (size_t k = 0; k < sg.n; k++)
+                    dist = fmin(dist, seg_dist(sg.xy + 4 * k, i + off[0], j + off[1]));
                 if (dist <= 1.0 + 0.02) {
                     t.worst_in = fmax(t.worst_in, dist);
                     t.in_band++;
@@ -374,13 +390,17 @@ static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, co
                 } else {
                     t.out_band++;
                     if (t.out_band <= 3)
-                        fprintf(stderr, "  %s: sample (%g, %g): %s %d, exact %d, %.3f px from the boundary\n", what,
-                                i + off[0], j + off[1], rb_name(), got, want, dist);
+                        fprintf(
+                            stderr,
+                            "  %s: sample (%g, %g): %s %d, exact %d, %.3f px from the boundary\n",
+                            what, i + off[0], j + off[1], rb_name(), got, want, dist);
                 }
             }
         }
-    for (size_t px = 0; px < (size_t)w * h; px++) t.covered += cpu.face[px] >= 0;
-    printf("  %-44s %6ld px, %6ld inside, %4ld disagree (%4ld within 1 px, %ld at a silhouette, %ld beyond), "
+    for (size_t px = 0; px < (size_t)w * h; px++)
+        t.covered += cpu.face[px] >= 0;
+    printf("  %-44s %6ld px, %6ld inside, %4ld disagree (%4ld within 1 px, %ld at a silhouette, "
+           "%ld beyond), "
            "%llu rows%s\n",
            what, t.pixels, t.inside, t.disagree, t.in_band, t.silhouette, t.out_band,
            (unsigned long long)st.table_rows, st.unresolved ? " (unresolved leaves)" : "");
@@ -396,12 +416,23 @@ static void check_view(const crisp_scene *sc, crisp_renderer *r, int samples, co
     crisp_image_free(&ex);
 }
 
-/* ---- cameras ------------------------------------------------------------------------------------ */
+/* ---- cameras ------------------------------------------------------------------------------------
+ */
 
-enum { CAM_FRONTAL, CAM_GRAZE80, CAM_GRAZE85, CAM_GRAZE89, CAM_ZOOM, CAM_ZOOM_1E4, CAM_ZOOM_1E7, CAM_SKIM, CAMS };
-static const char *const cam_names[CAMS] = {"frontal", "grazing 80 deg", "grazing 85 deg", "grazing 89 deg",
-                                            "zoom: curve across", "zoom: fov 1e-4", "zoom: fov 1e-7",
-                                            "eye on the surface"};
+enum {
+    CAM_FRONTAL,
+    CAM_GRAZE80,
+    CAM_GRAZE85,
+    CAM_GRAZE89,
+    CAM_ZOOM,
+    CAM_ZOOM_1E4,
+    CAM_ZOOM_1E7,
+    CAM_SKIM,
+    CAMS
+};
+static const char *const cam_names[CAMS] = {
+    "frontal",        "grazing 80 deg", "grazing 85 deg",    "grazing 89 deg", "zoom: curve across",
+    "zoom: fov 1e-4", "zoom: fov 1e-7", "eye on the surface"};
 
 /* Surface point and unit normal (towards +z) of face 0 at the domain point mapped from (a, b). */
 static void surface_frame(const crisp_scene *sc, double a, double b, double p[3], double n[3])
@@ -418,7 +449,8 @@ static void surface_frame(const crisp_scene *sc, double a, double b, double p[3]
 
 static crisp_camera make_camera(const crisp_scene *sc, int cam, int size)
 {
-    crisp_camera c = {.up = {0, 0, 1}, .fov_deg = 45, .znear = 0.05, .zfar = 50, .width = size, .height = size};
+    crisp_camera c = {
+        .up = {0, 0, 1}, .fov_deg = 45, .znear = 0.05, .zfar = 50, .width = size, .height = size};
     if (cam == CAM_FRONTAL) {
         double e[3] = {1, 1, 3.5}, t[3] = {1, 1, 0};
         memcpy(c.eye, e, sizeof e), memcpy(c.target, t, sizeof t);
@@ -427,8 +459,10 @@ static crisp_camera make_camera(const crisp_scene *sc, int cam, int size)
         double el = (cam == CAM_GRAZE80 ? 10 : cam == CAM_GRAZE85 ? 5 : 1) * M_PI / 180;
         double p[3], n[3];
         surface_frame(sc, 0.5, 0.45, p, n);
-        for (int k = 0; k < 3; k++) c.target[k] = p[k];
-        c.eye[0] = p[0] - 3 * cos(el) * 0.8, c.eye[1] = p[1] - 3 * cos(el) * 0.6, c.eye[2] = p[2] + 3 * sin(el);
+        for (int k = 0; k < 3; k++)
+            c.target[k] = p[k];
+        c.eye[0] = p[0] - 3 * cos(el) * 0.8, c.eye[1] = p[1] - 3 * cos(el) * 0.6,
+        c.eye[2] = p[2] + 3 * sin(el);
         c.fov_deg = cam == CAM_GRAZE89 ? 3 : 20;
     } else if (cam <= CAM_ZOOM_1E7) {
         /* Straight at a point of the outer trim curve from 0.004 above, slightly oblique. */
@@ -450,7 +484,8 @@ static crisp_camera make_camera(const crisp_scene *sc, int cam, int size)
          * passes under the eye, through the near plane and behind the eye. */
         double p[3], n[3];
         surface_frame(sc, 0.75, 0.5, p, n);
-        for (int k = 0; k < 3; k++) c.eye[k] = p[k] + 0.002 * n[k];
+        for (int k = 0; k < 3; k++)
+            c.eye[k] = p[k] + 0.002 * n[k];
         c.target[0] = p[0] - 1.0, c.target[1] = p[1] + 0.15, c.target[2] = p[2] - 0.1;
         c.fov_deg = 80;
         c.znear = 1e-4;
@@ -466,10 +501,13 @@ static void run(int pk, int tk, int cam, int samples, int size, tally *all)
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     crisp_renderer *r;
-    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2, .samples = samples}, &r), CRISP_OK);
+    assert_int_equal(
+        crisp_renderer_create(&(crisp_render_desc){.threads = 2, .samples = samples}, &r),
+        CRISP_OK);
     crisp_camera c = make_camera(sc, cam, size);
     char what[96];
-    snprintf(what, sizeof what, "patch %d trim %d %s%s", pk, tk, cam_names[cam], samples == 4 ? " x4" : "");
+    snprintf(what, sizeof what, "patch %d trim %d %s%s", pk, tk, cam_names[cam],
+             samples == 4 ? " x4" : "");
     check_view(sc, r, samples, &c, what, all);
     crisp_renderer_destroy(r);
     crisp_scene_destroy(sc);
@@ -478,9 +516,11 @@ static void run(int pk, int tk, int cam, int samples, int size, tally *all)
 
 static void report(const char *name, const tally *t)
 {
-    printf("%s: %ld samples, %ld inside, %ld disagree with the exact answer: %ld within 1 px of the true "
+    printf("%s: %ld samples, %ld inside, %ld disagree with the exact answer: %ld within 1 px of "
+           "the true "
            "trim boundary (farthest %.3f px), %ld within 1 px of a silhouette, %ld beyond\n",
-           name, t->pixels, t->inside, t->disagree, t->in_band, t->worst, t->silhouette, t->out_band);
+           name, t->pixels, t->inside, t->disagree, t->in_band, t->worst, t->silhouette,
+           t->out_band);
 }
 
 static void camera_group(int cam0, int cam1, const char *name)
@@ -490,7 +530,8 @@ static void camera_group(int cam0, int cam1, const char *name)
     for (int cam = cam0; cam <= cam1; cam++)
         for (int pk = 0; pk < PATCH_KINDS; pk++)
             for (int tk = 0; tk < TRIM_KINDS; tk++) {
-                if (!full && (pk + tk + cam) % 2) continue; /* half the combinations in the fast suite */
+                if (!full && (pk + tk + cam) % 2)
+                    continue; /* half the combinations in the fast suite */
                 run(pk, tk, cam, 1, size, &all);
             }
     report(name, &all);
@@ -540,14 +581,23 @@ static void test_between_faces(void **state)
             crisp_scene *sc;
             assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
             crisp_renderer *r;
-            assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+            assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r),
+                             CRISP_OK);
             double p[3], n[3];
             surface_frame(sc, 0.8, 0.55, p, n);
-            crisp_camera c = {.up = {0, 0, 1}, .fov_deg = 90, .znear = 1e-4, .zfar = 50, .width = size, .height = size};
-            for (int k = 0; k < 3; k++) c.eye[k] = p[k] + 0.01 * n[k];
-            c.target[0] = c.eye[0] - 1, c.target[1] = c.eye[1] - 0.2, c.target[2] = c.eye[2] + 0.001;
+            crisp_camera c = {.up = {0, 0, 1},
+                              .fov_deg = 90,
+                              .znear = 1e-4,
+                              .zfar = 50,
+                              .width = size,
+                              .height = size};
+            for (int k = 0; k < 3; k++)
+                c.eye[k] = p[k] + 0.01 * n[k];
+            c.target[0] = c.eye[0] - 1, c.target[1] = c.eye[1] - 0.2,
+            c.target[2] = c.eye[2] + 0.001;
             char what[64];
-            snprintf(what, sizeof what, "patch %d trims %d/%d eye between faces", pk, tk, (tk + 1) % TRIM_KINDS);
+            snprintf(what, sizeof what, "patch %d trims %d/%d eye between faces", pk, tk,
+                     (tk + 1) % TRIM_KINDS);
             check_view(sc, r, 1, &c, what, &all);
             crisp_renderer_destroy(r);
             crisp_scene_destroy(sc);
@@ -581,9 +631,9 @@ int main(int argc, char **argv)
     argc = rb_parse_args(argc, argv);
     full = argc > 1 && !strcmp(argv[1], "all");
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_frontal),        cmocka_unit_test(test_grazing),
-        cmocka_unit_test(test_zoom),           cmocka_unit_test(test_eye_on_surface),
-        cmocka_unit_test(test_between_faces),  cmocka_unit_test(test_four_samples),
+        cmocka_unit_test(test_frontal),       cmocka_unit_test(test_grazing),
+        cmocka_unit_test(test_zoom),          cmocka_unit_test(test_eye_on_surface),
+        cmocka_unit_test(test_between_faces), cmocka_unit_test(test_four_samples),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -30,9 +30,11 @@ typedef struct surf {
 /* Clamped knots with n - p - 1 interior knots, uniform or random (some repeated up to p times). */
 static void make_knots(rng *r, int p, int n, int uniform, double *t)
 {
-    for (int i = 0; i <= p; i++) t[i] = 0, t[n + i] = 1;
+    for (int i = 0; i <= p; i++)
+        t[i] = 0, t[n + i] = 1;
     int m = n - p - 1;
-    for (int k = 0; k < m; k++) t[p + 1 + k] = uniform ? (k + 1.0) / (m + 1) : rng_uniform(r, 0.02, 0.98);
+    for (int k = 0; k < m; k++)
+        t[p + 1 + k] = uniform ? (k + 1.0) / (m + 1) : rng_uniform(r, 0.02, 0.98);
     if (!uniform) {
         /* sort, then repeat a few knots (multiplicity <= p keeps the Greville abscissae apart) */
         for (int a = 0; a < m; a++)
@@ -57,7 +59,8 @@ static void make_knots(rng *r, int p, int n, int uniform, double *t)
 static int count_spans(const double *t, int p, int n)
 {
     int c = 0;
-    for (int k = p; k < n; k++) c += t[k] < t[k + 1];
+    for (int k = p; k < n; k++)
+        c += t[k] < t[k + 1];
     return c;
 }
 
@@ -79,7 +82,8 @@ static void random_surface(rng *r, surf *dest, int *rational_out)
             pt[2] = amp * rng_uniform(r, -1, 1);
             w[j * nu + i] = rational ? rng_uniform(r, 0.7, 1.4) : 1;
         }
-    assert_int_equal(crisp_surface_create(p, q, nu, nv, tu, tv, pts, rational ? w : NULL, &dest->s), CRISP_OK);
+    assert_int_equal(crisp_surface_create(p, q, nu, nv, tu, tv, pts, rational ? w : NULL, &dest->s),
+                     CRISP_OK);
     dest->spans_u = count_spans(tu, p, nu);
     dest->spans_v = count_spans(tv, q, nv);
     *rational_out = rational;
@@ -106,8 +110,10 @@ static void basis(const double *t, int p, int k, long double x, long double *N)
 static int span_of(const double *t, int p, int n, double x)
 {
     int k = p;
-    while (k < n - 1 && !(x < t[k + 1])) k++;
-    while (!(t[k] < t[k + 1])) k--;
+    while (k < n - 1 && !(x < t[k + 1]))
+        k++;
+    while (!(t[k] < t[k + 1]))
+        k--;
     return k;
 }
 
@@ -118,11 +124,13 @@ static void eval_h(const crisp_surface *s, double u, double v, long double out[4
     long double Nu[16], Nv[16];
     basis(s->knots_u, p, ku, u, Nu);
     basis(s->knots_v, q, kv, v, Nv);
-    for (int c = 0; c < 4; c++) out[c] = 0;
+    for (int c = 0; c < 4; c++)
+        out[c] = 0;
     for (int b = 0; b <= q; b++)
         for (int a = 0; a <= p; a++) {
             const double *cp = s->cpw + 4 * ((size_t)(kv - q + b) * s->count_u + (ku - p + a));
-            for (int c = 0; c < 4; c++) out[c] += Nu[a] * Nv[b] * cp[c];
+            for (int c = 0; c < 4; c++)
+                out[c] += Nu[a] * Nv[b] * cp[c];
         }
 }
 
@@ -130,7 +138,8 @@ static void greville(const double *t, int p, int n, double *xi)
 {
     for (int i = 0; i < n; i++) {
         double sum = 0;
-        for (int r = 1; r <= p; r++) sum += t[i + r];
+        for (int r = 1; r <= p; r++)
+            sum += t[i + r];
         xi[i] = sum / p;
     }
 }
@@ -139,7 +148,8 @@ static void greville(const double *t, int p, int n, double *xi)
 static void cell(const double *xi, int n, double x, int *i, long double *a)
 {
     int k = 0;
-    while (k < n - 2 && x > xi[k + 1]) k++;
+    while (k < n - 2 && x > xi[k + 1])
+        k++;
     *i = k;
     *a = (x - xi[k]) / (long double)(xi[k + 1] - xi[k]);
 }
@@ -149,13 +159,15 @@ static void mapped(const crisp_surface *s, crisp_mat4 *m, int i, int j, long dou
     const double *c = s->cpw + 4 * ((size_t)j * s->count_u + i);
     for (int r = 0; r < 4; r++) {
         out[r] = 0;
-        for (int k = 0; k < 4; k++) out[r] += (m ? (long double)(*m)[k][r] : (long double)(k == r)) * c[k];
+        for (int k = 0; k < 4; k++)
+            out[r] += (m ? (long double)(*m)[k][r] : (long double)(k == r)) * c[k];
     }
 }
 
-/* Net value at (u, v): mode 0 bilinear, 1 triangles along the (00, 11) diagonal, 2 along (10, 01). */
-static void net_at(const crisp_surface *s, crisp_mat4 *m, const double *xi, const double *eta, double u,
-                   double v, int mode, long double out[4])
+/* Net value at (u, v): mode 0 bilinear, 1 triangles along the (00, 11) diagonal, 2 along (10, 01).
+ */
+static void net_at(const crisp_surface *s, crisp_mat4 *m, const double *xi, const double *eta,
+                   double u, double v, int mode, long double out[4])
 {
     int i, j;
     long double a, b;
@@ -168,13 +180,15 @@ static void net_at(const crisp_surface *s, crisp_mat4 *m, const double *xi, cons
     mapped(s, m, i + 1, j + 1, c11);
     for (int c = 0; c < 4; c++) {
         if (mode == 0)
-            out[c] = (1 - b) * ((1 - a) * c00[c] + a * c10[c]) + b * ((1 - a) * c01[c] + a * c11[c]);
+            out[c] =
+                (1 - b) * ((1 - a) * c00[c] + a * c10[c]) + b * ((1 - a) * c01[c] + a * c11[c]);
         else if (mode == 1)
             out[c] = a >= b ? c00[c] + a * (c10[c] - c00[c]) + b * (c11[c] - c10[c])
                             : c00[c] + a * (c11[c] - c01[c]) + b * (c01[c] - c00[c]);
         else
-            out[c] = a + b <= 1 ? c00[c] + a * (c10[c] - c00[c]) + b * (c01[c] - c00[c])
-                                : c11[c] + (1 - a) * (c01[c] - c11[c]) + (1 - b) * (c10[c] - c11[c]);
+            out[c] = a + b <= 1
+                         ? c00[c] + a * (c10[c] - c00[c]) + b * (c01[c] - c00[c])
+                         : c11[c] + (1 - a) * (c01[c] - c11[c]) + (1 - b) * (c10[c] - c11[c]);
     }
 }
 
@@ -230,7 +244,9 @@ static void test_group_bound_holds(void **state)
                     for (int c = 0; c < 4; c++) {
                         double d = (double)fabsl(S4[c] - L4[c]);
                         if (d > e[c]) {
-                            fprintf(stderr, "surface %d group %d: coordinate %d off by %g, bound %g\n", it, g, c, d, e[c]);
+                            fprintf(stderr,
+                                    "surface %d group %d: coordinate %d off by %g, bound %g\n", it,
+                                    g, c, d, e[c]);
                             fail();
                         }
                         if (e[c] > 1e-9) worst = fmax(worst, d / e[c]);
@@ -241,8 +257,8 @@ static void test_group_bound_holds(void **state)
         crisp_surface_destroy(S.s);
     }
     qsort(tight, (size_t)nt, sizeof *tight, cmp_double);
-    printf("group bound, %d groups: sampled / bound median %.3f, 90%% %.3f, max %.3f\n", nt, tight[nt / 2],
-           tight[nt * 9 / 10], tight[nt - 1]);
+    printf("group bound, %d groups: sampled / bound median %.3f, 90%% %.3f, max %.3f\n", nt,
+           tight[nt / 2], tight[nt * 9 / 10], tight[nt - 1]);
 }
 
 static void random_view(rng *r, crisp_slefe_view *v)
@@ -256,8 +272,10 @@ static void random_view(rng *r, crisp_slefe_view *v)
         }
     } while (n < 0.05 || n > 1);
     double dist = rng_uniform(r, 2.0, 20.0) / sqrt(n);
-    double target[3] = {0.5 + rng_uniform(r, -0.3, 0.3), 0.5 + rng_uniform(r, -0.3, 0.3), rng_uniform(r, -0.3, 0.3)};
-    double eye[3] = {target[0] + dir[0] * dist, target[1] + dir[1] * dist, target[2] + dir[2] * dist};
+    double target[3] = {0.5 + rng_uniform(r, -0.3, 0.3), 0.5 + rng_uniform(r, -0.3, 0.3),
+                        rng_uniform(r, -0.3, 0.3)};
+    double eye[3] = {target[0] + dir[0] * dist, target[1] + dir[1] * dist,
+                     target[2] + dir[2] * dist};
     double upv[3] = {0, 1, 0};
     if (dir[1] * dir[1] > 0.9 * n) upv[1] = 0, upv[2] = 1;
     crisp_mat4 view, proj;
@@ -333,7 +351,8 @@ static void test_group_screen_holds(void **state)
                     eval_h(s, u, v, S4);
                     for (int k = 0; k < 4; k++) {
                         P[k] = 0;
-                        for (int m = 0; m < 4; m++) P[k] += (long double)view.view_proj[m][k] * S4[m];
+                        for (int m = 0; m < 4; m++)
+                            P[k] += (long double)view.view_proj[m][k] * S4[m];
                     }
                     assert_true(P[3] > 0);
                     for (int mode = 0; mode < 3; mode++) {
@@ -343,17 +362,25 @@ static void test_group_screen_holds(void **state)
                         if (!mode && b.net_px > 1e-6) worst = fmax(worst, d / b.net_px);
                     }
                     /* The coarse quad, both diagonals. */
-                    long double su = (u <= xi[i0] ? 0 : u >= xi[i1] ? 1 : (u - xi[i0]) / (xi[i1] - xi[i0]));
-                    long double sv = (v <= eta[j0] ? 0 : v >= eta[j1] ? 1 : (v - eta[j0]) / (eta[j1] - eta[j0]));
+                    long double su = (u <= xi[i0]   ? 0
+                                      : u >= xi[i1] ? 1
+                                                    : (u - xi[i0]) / (xi[i1] - xi[i0]));
+                    long double sv = (v <= eta[j0]   ? 0
+                                      : v >= eta[j1] ? 1
+                                                     : (v - eta[j0]) / (eta[j1] - eta[j0]));
                     for (int mode = 1; mode < 3; mode++) {
                         for (int k = 0; k < 4; k++) {
                             long double a = su, bq = sv;
                             if (mode == 1)
-                                L[k] = a >= bq ? q00[k] + a * (q10[k] - q00[k]) + bq * (q11[k] - q10[k])
-                                               : q00[k] + a * (q11[k] - q01[k]) + bq * (q01[k] - q00[k]);
+                                L[k] =
+                                    a >= bq
+                                        ? q00[k] + a * (q10[k] - q00[k]) + bq * (q11[k] - q10[k])
+                                        : q00[k] + a * (q11[k] - q01[k]) + bq * (q01[k] - q00[k]);
                             else
-                                L[k] = a + bq <= 1 ? q00[k] + a * (q10[k] - q00[k]) + bq * (q01[k] - q00[k])
-                                                   : q11[k] + (1 - a) * (q01[k] - q11[k]) + (1 - bq) * (q10[k] - q11[k]);
+                                L[k] = a + bq <= 1
+                                           ? q00[k] + a * (q10[k] - q00[k]) + bq * (q01[k] - q00[k])
+                                           : q11[k] + (1 - a) * (q01[k] - q11[k]) +
+                                                 (1 - bq) * (q10[k] - q11[k]);
                         }
                         double d = px_dist(P, L, &view);
                         assert_true(d <= b.quad_px);
@@ -373,9 +400,11 @@ static void test_group_screen_holds(void **state)
     assert_true(nt > SURFACES); /* most groups are in front of the eye */
     qsort(tight, (size_t)nt, sizeof *tight, cmp_double);
     qsort(tight_q, (size_t)nt, sizeof *tight_q, cmp_double);
-    printf("group screen bound, %d groups (%d at the eye plane): net sampled / bound median %.3f, 90%% %.3f, "
+    printf("group screen bound, %d groups (%d at the eye plane): net sampled / bound median %.3f, "
+           "90%% %.3f, "
            "max %.3f; coarse quad median %.3f, max %.3f\n",
-           nt, numeric, tight[nt / 2], tight[nt * 9 / 10], tight[nt - 1], tight_q[nt / 2], tight_q[nt - 1]);
+           nt, numeric, tight[nt / 2], tight[nt * 9 / 10], tight[nt - 1], tight_q[nt / 2],
+           tight_q[nt - 1]);
 }
 
 /* A uniform cubic B-spline whose net samples z = x^2 at the Greville abscissae: S - L is the
@@ -385,7 +414,8 @@ static void test_group_bound_sharp(void **state)
     (void)state;
     enum { N = 12 };
     double t[N + 4], pts[N * 4 * 3];
-    for (int i = 0; i < N + 4; i++) t[i] = i < 4 ? 0 : i >= N ? 1 : (i - 3.0) / (N - 3);
+    for (int i = 0; i < N + 4; i++)
+        t[i] = i < 4 ? 0 : i >= N ? 1 : (i - 3.0) / (N - 3);
     double tv[8] = {0, 0, 0, 0, 1, 1, 1, 1};
     for (int j = 0; j < 4; j++)
         for (int i = 0; i < N; i++) {
@@ -399,7 +429,8 @@ static void test_group_bound_sharp(void **state)
     /* Interior spans (the clamped ends have uneven Greville spacing). */
     assert_int_equal(crisp_slefe_group_bound(s, 3, 5, 0, 0, e), CRISP_OK);
     double h = 1.0 / (N - 3), d2 = 2 * h * h; /* Delta^2 of x^2 at spacing h */
-    printf("sharp: bound %.17g, max Delta^2 / 6 = %.17g (%g %g %g)\n", e[2], d2 / 6, e[0], e[1], e[3]);
+    printf("sharp: bound %.17g, max Delta^2 / 6 = %.17g (%g %g %g)\n", e[2], d2 / 6, e[0], e[1],
+           e[3]);
     assert_true(fabs(e[2] - d2 / 6) < 1e-9 * d2);
     assert_true(e[0] < 1e-9 && e[1] < 1e-9 && e[3] < 1e-9);
     crisp_surface_destroy(s);
@@ -409,7 +440,8 @@ static void test_group_bound_bad_input(void **state)
 {
     (void)state;
     double t[8] = {0, 0, 0, 0, 1, 1, 1, 1}, pts[16 * 3] = {0};
-    for (int k = 0; k < 16; k++) pts[3 * k] = k % 4, pts[3 * k + 1] = k / 4;
+    for (int k = 0; k < 16; k++)
+        pts[3 * k] = k % 4, pts[3 * k + 1] = k / 4;
     crisp_surface *s;
     assert_int_equal(crisp_surface_create(3, 3, 4, 4, t, t, pts, NULL, &s), CRISP_OK);
     double e[4];

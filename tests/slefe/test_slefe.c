@@ -1,6 +1,6 @@
-/* Unit tests for src/slefe: table values against the closed forms and the facts in docs/design.md section 3,
- * validity of every table, univariate and curve enclosures on random inputs, shrinkage under
- * doubling m, and bad input. */
+/* Unit tests for src/slefe: table values against the closed forms and the facts in docs/design.md
+ * section 3, validity of every table, univariate and curve enclosures on random inputs, shrinkage
+ * under doubling m, and bad input. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -70,7 +70,8 @@ static void test_known_values(void **state)
     assert_int_equal(crisp_slefe_table_get(2, 3, &t), CRISP_OK);
     assert_true(fabs(table_up(&t, 1, 1) + 2.0 / 9.0) < 1e-15);
     assert_true(fabs(table_width(&t, 1) - 1.0 / 36.0) < 1e-13);
-    /* cubic m = 3 and m = 4: the same maximum width as the published tables (docs/design.md section 3). */
+    /* cubic m = 3 and m = 4: the same maximum width as the published tables (docs/design.md section
+     * 3). */
     assert_int_equal(crisp_slefe_table_get(3, 3, &t), CRISP_OK);
     assert_true(fabs(table_width(&t, 1) - 0.0695214343) < 1e-9);
     assert_true(fabs(table_up(&t, 1, 1) + 0.3703703704) < 1e-9);

@@ -27,25 +27,31 @@ static void load(const char *file, step_read_stats *stats, crisp_model **m)
     if (st) fprintf(stderr, "%s\n", crisp_error_message());
     assert_int_equal(st, CRISP_OK);
     crisp_free(data);
-    printf("%s: %d faces, %d pcurve / %d projected edge uses, %d pcurves rejected, %d faces dropped, "
-           "max trim-to-edge distance %.3g (tolerance %.3g; edges lie up to %.3g off their surfaces in the file), parse %.1f ms, total %.1f ms\n",
-           file, (*m)->face_count, stats->pcurve_edges, stats->projected_edges, stats->rejected_pcurves,
-           stats->dropped_faces, stats->max_edge_dev, stats->tol, stats->max_edge_gap, stats->parse_seconds * 1e3,
-           stats->total_seconds * 1e3);
-    for (int k = 0; k < (*m)->skip_count; k++) printf("  skipped %d x %s\n", (*m)->skips[k].count, (*m)->skips[k].what);
+    printf(
+        "%s: %d faces, %d pcurve / %d projected edge uses, %d pcurves rejected, %d faces dropped, "
+        "max trim-to-edge distance %.3g (tolerance %.3g; edges lie up to %.3g off their surfaces "
+        "in the file), parse %.1f ms, total %.1f ms\n",
+        file, (*m)->face_count, stats->pcurve_edges, stats->projected_edges,
+        stats->rejected_pcurves, stats->dropped_faces, stats->max_edge_dev, stats->tol,
+        stats->max_edge_gap, stats->parse_seconds * 1e3, stats->total_seconds * 1e3);
+    for (int k = 0; k < (*m)->skip_count; k++)
+        printf("  skipped %d x %s\n", (*m)->skips[k].count, (*m)->skips[k].what);
 }
 
 static void check_loops(const crisp_model *m, loop_check *c)
 {
     check_model_loops(m, 1e-6, 1e-9, c);
-    printf("  loops %d (%d outer, %d holes), %d curves; largest gap %.3g, largest domain excess %.3g "
-           "(fractions of the domain)\n", c->loops, c->outer, c->holes, c->curves, c->max_gap_rel, c->max_excess_rel);
+    printf(
+        "  loops %d (%d outer, %d holes), %d curves; largest gap %.3g, largest domain excess %.3g "
+        "(fractions of the domain)\n",
+        c->loops, c->outer, c->holes, c->curves, c->max_gap_rel, c->max_excess_rel);
     assert_int_equal(c->open_loops, 0);
     assert_int_equal(c->outside_loops, 0);
     assert_int_equal(c->misoriented_loops, 0);
     for (int f = 0; f < m->face_count; f++) {
         int outer = 0;
-        for (int l = 0; l < m->faces[f].loop_count; l++) outer += m->faces[f].loops[l].is_outer;
+        for (int l = 0; l < m->faces[f].loop_count; l++)
+            outer += m->faces[f].loops[l].is_outer;
         assert_int_equal(outer, 1);
     }
 }
@@ -159,8 +165,8 @@ static void test_closed_bspline_seams(void **state)
         double d[4];
         crisp_surface_domain(m->faces[f].surface, d);
         if (m->faces[f].loop_count == 1 && m->faces[f].loops[0].curve_count == 4 &&
-            fabs(crisp_trim_loop_signed_area(&m->faces[f].loops[0]) - (d[1] - d[0]) * (d[3] - d[2])) <
-                1e-6 * (d[1] - d[0]) * (d[3] - d[2]))
+            fabs(crisp_trim_loop_signed_area(&m->faces[f].loops[0]) -
+                 (d[1] - d[0]) * (d[3] - d[2])) < 1e-6 * (d[1] - d[0]) * (d[3] - d[2]))
             full++;
     }
     assert_true(full >= 6);

@@ -33,8 +33,9 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-#define HEAD "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('test'),'2;1');\n" \
-             "FILE_NAME('t','',(''),(''),'','','');\nFILE_SCHEMA(('AUTOMOTIVE_DESIGN'));\nENDSEC;\nDATA;\n"
+#define HEAD                                                                                       \
+    "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('test'),'2;1');\n"                                  \
+    "FILE_NAME('t','',(''),(''),'','','');\nFILE_SCHEMA(('AUTOMOTIVE_DESIGN'));\nENDSEC;\nDATA;\n"
 #define TAIL "ENDSEC;\nEND-ISO-10303-21;\n"
 
 static crisp_status read_str(const char *text, crisp_model **m, step_read_stats *st)
@@ -49,7 +50,8 @@ static crisp_status read_str(const char *text, crisp_model **m, step_read_stats 
 static char *replace_all(const char *text, const char *from, const char *to)
 {
     size_t nf = strlen(from), nt = strlen(to), n = 0;
-    for (const char *p = strstr(text, from); p; p = strstr(p + nf, from)) n++;
+    for (const char *p = strstr(text, from); p; p = strstr(p + nf, from))
+        n++;
     assert_true(n > 0);
     char *out = malloc(strlen(text) + n * (nt > nf ? nt - nf : 0) + 1), *o = out;
     for (const char *p = text;;) {
@@ -108,30 +110,41 @@ static void check_face(const crisp_model *m, int face, implicit_fn f, double tol
     assert_true(inside(p));
 }
 
-/* ---- a half cone: half circle + two generators meeting at the apex, no pcurves ---------------- */
+/* ---- a half cone: half circle + two generators meeting at the apex, no pcurves ----------------
+ */
 
 /* Cone x^2 + y^2 = (1 + z)^2 (radius 1 at z = 0, semi-angle 45 degrees, apex (0, 0, -1)). The
  * face: the circle from (0, 1, 0) counter-clockwise to (0, -1, 0) (the x < 0 half), the generator
  * down to the apex and back up to (0, 1, 0). The generators lie half a turn apart. */
-static const char half_cone[] = HEAD
-    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
-    "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=CONICAL_SURFACE('',#4,1.,0.785398163397448);\n"
-    "#10=CARTESIAN_POINT('',(0.,1.,0.));\n#11=CARTESIAN_POINT('',(0.,-1.,0.));\n"
-    "#12=CARTESIAN_POINT('',(0.,0.,-1.));\n"
-    "#13=VERTEX_POINT('',#10);\n#14=VERTEX_POINT('',#11);\n#15=VERTEX_POINT('',#12);\n"
-    "#20=CIRCLE('',#4,1.);\n#21=EDGE_CURVE('',#13,#14,#20,.T.);\n"
-    "#22=DIRECTION('',(0.,1.,-1.));\n#23=VECTOR('',#22,1.);\n#24=LINE('',#11,#23);\n"
-    "#25=EDGE_CURVE('',#14,#15,#24,.T.);\n"
-    "#26=DIRECTION('',(0.,1.,1.));\n#27=VECTOR('',#26,1.);\n#28=LINE('',#12,#27);\n"
-    "#29=EDGE_CURVE('',#15,#13,#28,.T.);\n"
-    "#30=ORIENTED_EDGE('',*,*,#21,.T.);\n#31=ORIENTED_EDGE('',*,*,#25,.T.);\n"
-    "#32=ORIENTED_EDGE('',*,*,#29,.T.);\n#33=EDGE_LOOP('',(#30,#31,#32));\n"
-    "#34=FACE_OUTER_BOUND('',#33,.T.);\n#35=ADVANCED_FACE('',(#34),#5,.T.);\n"
-    "#36=OPEN_SHELL('',(#35));\n" TAIL;
+static const char half_cone[] =
+    HEAD "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,"
+         "0.));\n"
+         "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=CONICAL_SURFACE('',#4,1.,0.785398163397448);\n"
+         "#10=CARTESIAN_POINT('',(0.,1.,0.));\n#11=CARTESIAN_POINT('',(0.,-1.,0.));\n"
+         "#12=CARTESIAN_POINT('',(0.,0.,-1.));\n"
+         "#13=VERTEX_POINT('',#10);\n#14=VERTEX_POINT('',#11);\n#15=VERTEX_POINT('',#12);\n"
+         "#20=CIRCLE('',#4,1.);\n#21=EDGE_CURVE('',#13,#14,#20,.T.);\n"
+         "#22=DIRECTION('',(0.,1.,-1.));\n#23=VECTOR('',#22,1.);\n#24=LINE('',#11,#23);\n"
+         "#25=EDGE_CURVE('',#14,#15,#24,.T.);\n"
+         "#26=DIRECTION('',(0.,1.,1.));\n#27=VECTOR('',#26,1.);\n#28=LINE('',#12,#27);\n"
+         "#29=EDGE_CURVE('',#15,#13,#28,.T.);\n"
+         "#30=ORIENTED_EDGE('',*,*,#21,.T.);\n#31=ORIENTED_EDGE('',*,*,#25,.T.);\n"
+         "#32=ORIENTED_EDGE('',*,*,#29,.T.);\n#33=EDGE_LOOP('',(#30,#31,#32));\n"
+         "#34=FACE_OUTER_BOUND('',#33,.T.);\n#35=ADVANCED_FACE('',(#34),#5,.T.);\n"
+         "#36=OPEN_SHELL('',(#35));\n" TAIL;
 
-static double on_cone(const double p[3]) { return hypot(p[0], p[1]) - fabs(1 + p[2]); }
-static int left_half(const double p[3]) { return p[0] < -0.1 && p[2] > -1 && p[2] < 0; }
-static int right_half(const double p[3]) { return p[0] > 0.1 && p[2] > -1 && p[2] < 0; }
+static double on_cone(const double p[3])
+{
+    return hypot(p[0], p[1]) - fabs(1 + p[2]);
+}
+static int left_half(const double p[3])
+{
+    return p[0] < -0.1 && p[2] > -1 && p[2] < 0;
+}
+static int right_half(const double p[3])
+{
+    return p[0] > 0.1 && p[2] > -1 && p[2] < 0;
+}
 
 static void test_half_cone_through_apex(void **state)
 {
@@ -143,9 +156,10 @@ static void test_half_cone_through_apex(void **state)
         for (int o = 0; o < 3; o++) {
             char *t1 = replace_all(half_cone, "(#30,#31,#32)", orders[o]);
             /* the other half: the circle with the opposite sense (an axis along -z) */
-            char *t2 = other ? replace_all(t1, "#20=CIRCLE('',#4,1.);", "#19=DIRECTION('',(0.,0.,-1.));\n"
-                                                                          "#18=AXIS2_PLACEMENT_3D('',#1,#19,#3);\n"
-                                                                          "#20=CIRCLE('',#18,1.);")
+            char *t2 = other ? replace_all(t1, "#20=CIRCLE('',#4,1.);",
+                                           "#19=DIRECTION('',(0.,0.,-1.));\n"
+                                           "#18=AXIS2_PLACEMENT_3D('',#1,#19,#3);\n"
+                                           "#20=CIRCLE('',#18,1.);")
                              : replace_all(t1, "#", "#");
             crisp_model *m;
             step_read_stats st = {0};
@@ -162,7 +176,10 @@ static void test_half_cone_through_apex(void **state)
         }
 }
 
-static int three_quarters(const double p[3]) { return p[0] < -0.1 && p[1] < -0.1 && p[2] > -1 && p[2] < 0; }
+static int three_quarters(const double p[3])
+{
+    return p[0] < -0.1 && p[1] < -0.1 && p[2] > -1 && p[2] < 0;
+}
 
 /* A sector of three quarters of a turn (the circle from (0, 1, 0) counter-clockwise to
  * (1, 0, 0)), its loop started at each edge: more than half a turn is not "winding" when the
@@ -173,8 +190,10 @@ static void test_cone_sector_three_quarters(void **state)
     const char *orders[] = {"(#30,#31,#32)", "(#31,#32,#30)", "(#32,#30,#31)"};
     for (int o = 0; o < 3; o++) {
         char *t1 = replace_all(half_cone, "(#30,#31,#32)", orders[o]);
-        char *t2 = replace_all(t1, "#11=CARTESIAN_POINT('',(0.,-1.,0.));", "#11=CARTESIAN_POINT('',(1.,0.,0.));");
-        char *t3 = replace_all(t2, "#22=DIRECTION('',(0.,1.,-1.));", "#22=DIRECTION('',(-1.,0.,-1.));");
+        char *t2 = replace_all(t1, "#11=CARTESIAN_POINT('',(0.,-1.,0.));",
+                               "#11=CARTESIAN_POINT('',(1.,0.,0.));");
+        char *t3 =
+            replace_all(t2, "#22=DIRECTION('',(0.,1.,-1.));", "#22=DIRECTION('',(-1.,0.,-1.));");
         crisp_model *m;
         step_read_stats st = {0};
         crisp_status s = read_str(t3, &m, &st);
@@ -195,16 +214,22 @@ static void test_cone_sector_three_quarters(void **state)
  * inversion used to take the foot on the wrong nappe (screw.step: 4 faces dropped, "the trim of
  * edge lies 3.09 from the edge"). */
 static const char far_nappe[] = HEAD
-    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));"
+    "\n"
     "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=CONICAL_SURFACE('',#4,1.,0.785398163397448);\n"
     "#6=CARTESIAN_POINT('',(0.,0.,-3.));\n#7=AXIS2_PLACEMENT_3D('',#6,#2,#3);\n"
     "#10=CARTESIAN_POINT('',(2.,0.,-3.));\n#12=VERTEX_POINT('',#10);\n#20=CIRCLE('',#7,2.);\n"
-    "#28=EDGE_CURVE('',#12,#12,#20,.T.);\n#60=ORIENTED_EDGE('',*,*,#28,.T.);\n#64=EDGE_LOOP('',(#60));\n"
+    "#28=EDGE_CURVE('',#12,#12,#20,.T.);\n#60=ORIENTED_EDGE('',*,*,#28,.T.);\n#64=EDGE_LOOP('',(#"
+    "60));\n"
     "#65=FACE_BOUND('',#64,.T.);\n#30=CARTESIAN_POINT('',(0.,0.,-1.));\n#31=VERTEX_POINT('',#30);\n"
-    "#32=VERTEX_LOOP('',#31);\n#33=FACE_BOUND('',#32,.T.);\n#66=ADVANCED_FACE('',(#65,#33),#5,.T.);\n"
+    "#32=VERTEX_LOOP('',#31);\n#33=FACE_BOUND('',#32,.T.);\n#66=ADVANCED_FACE('',(#65,#33),#5,.T.);"
+    "\n"
     "#67=OPEN_SHELL('',(#66));\n" TAIL;
 
-static int below_apex(const double p[3]) { return p[2] < -1.01 && p[2] > -3; }
+static int below_apex(const double p[3])
+{
+    return p[2] < -1.01 && p[2] > -3;
+}
 
 static void test_cone_far_nappe(void **state)
 {
@@ -226,22 +251,31 @@ static void test_cone_far_nappe(void **state)
  * to the north pole, then meridian B in the plane x = 0 down through (0, -1, 0) back to the south
  * pole: counter-clockwise seen from outside, the face is the quarter lune x > 0, y < 0 (angles
  * -90 to 0 degrees), not the three quarters on the other side. */
-static const char lune[] = HEAD
-    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
-    "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=SPHERICAL_SURFACE('',#4,1.);\n"
-    "#10=CARTESIAN_POINT('',(0.,0.,-1.));\n#11=CARTESIAN_POINT('',(0.,0.,1.));\n"
-    "#13=VERTEX_POINT('',#10);\n#14=VERTEX_POINT('',#11);\n"
-    "#40=DIRECTION('',(0.,-1.,0.));\n#41=AXIS2_PLACEMENT_3D('',#1,#40,#3);\n#42=CIRCLE('',#41,1.);\n"
-    "#43=EDGE_CURVE('',#13,#14,#42,.T.);\n"
-    "#50=DIRECTION('',(1.,0.,0.));\n#51=DIRECTION('',(0.,1.,0.));\n#52=AXIS2_PLACEMENT_3D('',#1,#50,#51);\n"
-    "#53=CIRCLE('',#52,1.);\n#54=EDGE_CURVE('',#14,#13,#53,.T.);\n"
-    "#30=ORIENTED_EDGE('',*,*,#43,.T.);\n#31=ORIENTED_EDGE('',*,*,#54,.T.);\n"
-    "#33=EDGE_LOOP('',(#30,#31));\n"
-    "#34=FACE_OUTER_BOUND('',#33,.T.);\n#35=ADVANCED_FACE('',(#34),#5,.T.);\n"
-    "#36=OPEN_SHELL('',(#35));\n" TAIL;
+static const char lune[] =
+    HEAD "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,"
+         "0.));\n"
+         "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=SPHERICAL_SURFACE('',#4,1.);\n"
+         "#10=CARTESIAN_POINT('',(0.,0.,-1.));\n#11=CARTESIAN_POINT('',(0.,0.,1.));\n"
+         "#13=VERTEX_POINT('',#10);\n#14=VERTEX_POINT('',#11);\n"
+         "#40=DIRECTION('',(0.,-1.,0.));\n#41=AXIS2_PLACEMENT_3D('',#1,#40,#3);\n#42=CIRCLE('',#41,"
+         "1.);\n"
+         "#43=EDGE_CURVE('',#13,#14,#42,.T.);\n"
+         "#50=DIRECTION('',(1.,0.,0.));\n#51=DIRECTION('',(0.,1.,0.));\n#52=AXIS2_PLACEMENT_3D('',#"
+         "1,#50,#51);\n"
+         "#53=CIRCLE('',#52,1.);\n#54=EDGE_CURVE('',#14,#13,#53,.T.);\n"
+         "#30=ORIENTED_EDGE('',*,*,#43,.T.);\n#31=ORIENTED_EDGE('',*,*,#54,.T.);\n"
+         "#33=EDGE_LOOP('',(#30,#31));\n"
+         "#34=FACE_OUTER_BOUND('',#33,.T.);\n#35=ADVANCED_FACE('',(#34),#5,.T.);\n"
+         "#36=OPEN_SHELL('',(#35));\n" TAIL;
 
-static double on_sphere(const double p[3]) { return sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 1; }
-static int quarter_lune(const double p[3]) { return p[0] > 0.05 && p[1] < -0.05; }
+static double on_sphere(const double p[3])
+{
+    return sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 1;
+}
+static int quarter_lune(const double p[3])
+{
+    return p[0] > 0.05 && p[1] < -0.05;
+}
 
 static void test_sphere_lune_through_poles(void **state)
 {
@@ -263,16 +297,25 @@ static void test_sphere_lune_through_poles(void **state)
  * as a jump). The turns within the tolerance of a pole are cut now and bridged along the pole. */
 static const char near_pole[] = HEAD
     "#1=CARTESIAN_POINT('',(-6.5E-011,-1.1E-010,0.));\n#2=DIRECTION('',(1.,0.,0.));\n"
-    "#3=DIRECTION('',(0.,-1.,0.));\n#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=SPHERICAL_SURFACE('',#4,6.);\n"
+    "#3=DIRECTION('',(0.,-1.,0.));\n#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=SPHERICAL_SURFACE('',#"
+    "4,6.);\n"
     "#10=CARTESIAN_POINT('',(-6.5E-011,1.9E-014,-6.));\n#11=VERTEX_POINT('',#10);\n"
     "#6=CARTESIAN_POINT('',(-6.5E-011,1.9E-014,0.));\n"
-    "#12=DIRECTION('',(0.,-1.,0.));\n#13=DIRECTION('',(0.,0.,-1.));\n#14=AXIS2_PLACEMENT_3D('',#6,#12,#13);\n"
-    "#15=CIRCLE('',#14,6.);\n#16=EDGE_CURVE('',#11,#11,#15,.F.);\n#17=ORIENTED_EDGE('',*,*,#16,.F.);\n"
+    "#12=DIRECTION('',(0.,-1.,0.));\n#13=DIRECTION('',(0.,0.,-1.));\n#14=AXIS2_PLACEMENT_3D('',#6,#"
+    "12,#13);\n"
+    "#15=CIRCLE('',#14,6.);\n#16=EDGE_CURVE('',#11,#11,#15,.F.);\n#17=ORIENTED_EDGE('',*,*,#16,.F.)"
+    ";\n"
     "#18=EDGE_LOOP('',(#17));\n#19=FACE_BOUND('',#18,.T.);\n#20=ADVANCED_FACE('',(#19),#5,.T.);\n"
     "#21=OPEN_SHELL('',(#20));\n" TAIL;
 
-static double on_sphere6(const double p[3]) { return sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 6; }
-static int off_the_circle(const double p[3]) { return fabs(p[1]) > 1; }
+static double on_sphere6(const double p[3])
+{
+    return sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 6;
+}
+static int off_the_circle(const double p[3])
+{
+    return fabs(p[1]) > 1;
+}
 
 static void test_hemisphere_near_poles(void **state)
 {
@@ -292,13 +335,17 @@ static void test_hemisphere_near_poles(void **state)
 
 /* Cylinder r = 1, z in [0, 2]: bottom circle, seam up, top circle back, seam down. */
 static const char cylinder[] = HEAD
-    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));"
+    "\n"
     "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=CYLINDRICAL_SURFACE('',#4,1.);\n"
     "#10=CARTESIAN_POINT('',(1.,0.,0.));\n#11=CARTESIAN_POINT('',(1.,0.,2.));\n"
     "#12=VERTEX_POINT('',#10);\n#13=VERTEX_POINT('',#11);\n"
-    "/* bottom circle */ #20=CIRCLE('',#4,1.);\n#21=CARTESIAN_POINT('',(0.,0.));\n#22=DIRECTION('',(1.,0.));\n"
-    "#23=VECTOR('',#22,1.);\n#24=LINE('',#21,#23);\n#25=DEFINITIONAL_REPRESENTATION('',(#24),#99);\n"
-    "#26=PCURVE('',#5,#25);\n#27=SURFACE_CURVE('',#20,(#26),.PCURVE_S1.);\n#28=EDGE_CURVE('',#12,#12,#27,.T.);\n"
+    "/* bottom circle */ "
+    "#20=CIRCLE('',#4,1.);\n#21=CARTESIAN_POINT('',(0.,0.));\n#22=DIRECTION('',(1.,0.));\n"
+    "#23=VECTOR('',#22,1.);\n#24=LINE('',#21,#23);\n#25=DEFINITIONAL_REPRESENTATION('',(#24),#99);"
+    "\n"
+    "#26=PCURVE('',#5,#25);\n#27=SURFACE_CURVE('',#20,(#26),.PCURVE_S1.);\n#28=EDGE_CURVE('',#12,#"
+    "12,#27,.T.);\n"
     "/* top circle */ #30=CARTESIAN_POINT('',(0.,0.,2.));\n#31=AXIS2_PLACEMENT_3D('',#30,#2,#3);\n"
     "#32=CIRCLE('',#31,1.);\n#33=CARTESIAN_POINT('',(0.,2.));\n#34=LINE('',#33,#23);\n"
     "#35=DEFINITIONAL_REPRESENTATION('',(#34),#99);\n#36=PCURVE('',#5,#35);\n"
@@ -312,7 +359,8 @@ static const char cylinder[] = HEAD
     "#60=ORIENTED_EDGE('',*,*,#28,.T.);\n#61=ORIENTED_EDGE('',*,*,#53,.T.);\n"
     "#62=ORIENTED_EDGE('',*,*,#38,.F.);\n#63=ORIENTED_EDGE('',*,*,#53,.F.);\n"
     "#64=EDGE_LOOP('',(#60,#61,#62,#63));\n#65=FACE_OUTER_BOUND('',#64,.T.);\n"
-    "#66=ADVANCED_FACE('',(#65),#5,.T.);\n#67=OPEN_SHELL('',(#66));\n#68=SHELL_BASED_SURFACE_MODEL('',(#67));\n"
+    "#66=ADVANCED_FACE('',(#65),#5,.T.);\n#67=OPEN_SHELL('',(#66));\n#68=SHELL_BASED_SURFACE_MODEL("
+    "'',(#67));\n"
     "#99=( GEOMETRIC_REPRESENTATION_CONTEXT(2) PARAMETRIC_REPRESENTATION_CONTEXT() "
     "REPRESENTATION_CONTEXT('2D SPACE','') );\n" TAIL;
 
@@ -323,11 +371,13 @@ static const char cylinder[] = HEAD
 static void test_pcurve_off_edge_reprojected(void **state)
 {
     (void)state;
-    char *t = replace_all(cylinder, "#25=DEFINITIONAL_REPRESENTATION('',(#24),#99);",
-                          "#80=CARTESIAN_POINT('',(0.,0.));\n#81=CARTESIAN_POINT('',(3.14159265358979,0.6));\n"
-                          "#82=CARTESIAN_POINT('',(6.28318530717959,0.));\n"
-                          "#83=B_SPLINE_CURVE_WITH_KNOTS('',2,(#80,#81,#82),.UNSPECIFIED.,.F.,.F.,(3,3),(0.,6.28318530717959),"
-                          ".UNSPECIFIED.);\n#25=DEFINITIONAL_REPRESENTATION('',(#83),#99);");
+    char *t = replace_all(
+        cylinder, "#25=DEFINITIONAL_REPRESENTATION('',(#24),#99);",
+        "#80=CARTESIAN_POINT('',(0.,0.));\n#81=CARTESIAN_POINT('',(3.14159265358979,0.6));\n"
+        "#82=CARTESIAN_POINT('',(6.28318530717959,0.));\n"
+        "#83=B_SPLINE_CURVE_WITH_KNOTS('',2,(#80,#81,#82),.UNSPECIFIED.,.F.,.F.,(3,3),(0.,6."
+        "28318530717959),"
+        ".UNSPECIFIED.);\n#25=DEFINITIONAL_REPRESENTATION('',(#83),#99);");
     crisp_model *m;
     step_read_stats st = {0};
     crisp_status s = read_str(t, &m, &st);
@@ -366,24 +416,31 @@ static void test_pcurve_off_edge_reprojected(void **state)
  * trim's control points used to be clamped into the box of the curve, which squashed the arc to
  * half its radius (occt_as1_ec.stp's bolt heads: holes 2.6 wide, found by crisp info's gaps). */
 static const char half_circle[] = HEAD
-    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,-1.));\n#3=DIRECTION('',(-1.,0.,0.));\n"
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,-1.));\n#3=DIRECTION('',(-1.,0.,0.)"
+    ");\n"
     "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=PLANE('',#4);\n"
     "#919=CARTESIAN_POINT('',(-7.5,0.,0.));\n#920=CARTESIAN_POINT('',(-7.5,-15.,0.));\n"
     "#921=CARTESIAN_POINT('',(7.5,-15.,0.));\n#922=CARTESIAN_POINT('',(7.5,0.,0.));\n"
     "#918=( BOUNDED_CURVE() B_SPLINE_CURVE(3,(#919,#920,#921,#922),.UNSPECIFIED.,.F.,.F.) "
-    "B_SPLINE_CURVE_WITH_KNOTS((4,4),(0.,0.5),.PIECEWISE_BEZIER_KNOTS.) CURVE() GEOMETRIC_REPRESENTATION_ITEM() "
+    "B_SPLINE_CURVE_WITH_KNOTS((4,4),(0.,0.5),.PIECEWISE_BEZIER_KNOTS.) CURVE() "
+    "GEOMETRIC_REPRESENTATION_ITEM() "
     "RATIONAL_B_SPLINE_CURVE((1.,0.33333333333,0.33333333333,1.)) REPRESENTATION_ITEM('') );\n"
     "#10=VERTEX_POINT('',#919);\n#11=VERTEX_POINT('',#922);\n#12=EDGE_CURVE('',#10,#11,#918,.T.);\n"
     "#20=DIRECTION('',(1.,0.,0.));\n#21=VECTOR('',#20,1.);\n#22=LINE('',#919,#21);\n"
-    "#23=EDGE_CURVE('',#10,#11,#22,.T.);\n#30=ORIENTED_EDGE('',*,*,#12,.T.);\n#31=ORIENTED_EDGE('',*,*,#23,.F.);\n"
-    "#32=EDGE_LOOP('',(#30,#31));\n#33=FACE_BOUND('',#32,.T.);\n#34=ADVANCED_FACE('',(#33),#5,.T.);\n"
+    "#23=EDGE_CURVE('',#10,#11,#22,.T.);\n#30=ORIENTED_EDGE('',*,*,#12,.T.);\n#31=ORIENTED_EDGE('',"
+    "*,*,#23,.F.);\n"
+    "#32=EDGE_LOOP('',(#30,#31));\n#33=FACE_BOUND('',#32,.T.);\n#34=ADVANCED_FACE('',(#33),#5,.T.);"
+    "\n"
     "#35=OPEN_SHELL('',(#34));\n" TAIL;
 
 static double on_half_disc_rim(const double p[3])
 {
     return fmin(fabs(p[1]), fabs(hypot(p[0], p[1]) - 7.5)) + fabs(p[2]);
 }
-static int in_half_disc(const double p[3]) { return p[1] < -1 && hypot(p[0], p[1]) < 7.5; }
+static int in_half_disc(const double p[3])
+{
+    return p[1] < -1 && hypot(p[0], p[1]) < 7.5;
+}
 
 static void test_rational_half_circle_on_plane(void **state)
 {
@@ -397,7 +454,8 @@ static void test_rational_half_circle_on_plane(void **state)
     check_face(m, 0, on_half_disc_rim, 1e-9, in_half_disc);
     /* the half disc's area, pi r^2 / 2 (the plane's (u, v) are lengths) */
     /* (the area is measured on a polyline: within 2%; the squashed arc had half of it) */
-    assert_true(fabs(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0])) - M_PI * 7.5 * 7.5 / 2) < 0.02 * M_PI * 7.5 * 7.5 / 2);
+    assert_true(fabs(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0])) -
+                     M_PI * 7.5 * 7.5 / 2) < 0.02 * M_PI * 7.5 * 7.5 / 2);
     assert_true(st.max_edge_dev < 1e-6);
     crisp_model_destroy(m);
 }
@@ -407,17 +465,20 @@ static void test_rational_half_circle_on_plane(void **state)
 /* Plane z = 0; the loop lists only the two long edges of the rectangle [0, 2] x [0, 1]: (0, 0) to
  * (2, 0) and (2, 1) to (0, 1), four distinct vertices (trj3_s1-al-214.stp writes half-cylinder
  * strips so). */
-static const char open_strip[] = HEAD
-    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
-    "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=PLANE('',#4);\n"
-    "#10=CARTESIAN_POINT('',(0.,0.,0.));\n#11=CARTESIAN_POINT('',(2.,0.,0.));\n"
-    "#12=CARTESIAN_POINT('',(2.,1.,0.));\n#13=CARTESIAN_POINT('',(0.,1.,0.));\n"
-    "#14=VERTEX_POINT('',#10);\n#15=VERTEX_POINT('',#11);\n#16=VERTEX_POINT('',#12);\n#17=VERTEX_POINT('',#13);\n"
-    "#20=DIRECTION('',(1.,0.,0.));\n#21=VECTOR('',#20,1.);\n#22=LINE('',#10,#21);\n"
-    "#23=EDGE_CURVE('',#14,#15,#22,.T.);\n#28=LINE('',#13,#21);\n#29=EDGE_CURVE('',#17,#16,#28,.T.);\n"
-    "#32=ORIENTED_EDGE('',*,*,#23,.T.);\n#34=ORIENTED_EDGE('',*,*,#29,.F.);\n"
-    "#36=EDGE_LOOP('',(#32,#34));\n#37=FACE_OUTER_BOUND('',#36,.T.);\n"
-    "#50=ADVANCED_FACE('',(#37),#5,.T.);\n#51=OPEN_SHELL('',(#50));\n" TAIL;
+static const char open_strip[] =
+    HEAD "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,"
+         "0.));\n"
+         "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=PLANE('',#4);\n"
+         "#10=CARTESIAN_POINT('',(0.,0.,0.));\n#11=CARTESIAN_POINT('',(2.,0.,0.));\n"
+         "#12=CARTESIAN_POINT('',(2.,1.,0.));\n#13=CARTESIAN_POINT('',(0.,1.,0.));\n"
+         "#14=VERTEX_POINT('',#10);\n#15=VERTEX_POINT('',#11);\n#16=VERTEX_POINT('',#12);\n#17="
+         "VERTEX_POINT('',#13);\n"
+         "#20=DIRECTION('',(1.,0.,0.));\n#21=VECTOR('',#20,1.);\n#22=LINE('',#10,#21);\n"
+         "#23=EDGE_CURVE('',#14,#15,#22,.T.);\n#28=LINE('',#13,#21);\n#29=EDGE_CURVE('',#17,#16,#"
+         "28,.T.);\n"
+         "#32=ORIENTED_EDGE('',*,*,#23,.T.);\n#34=ORIENTED_EDGE('',*,*,#29,.F.);\n"
+         "#36=EDGE_LOOP('',(#32,#34));\n#37=FACE_OUTER_BOUND('',#36,.T.);\n"
+         "#50=ADVANCED_FACE('',(#37),#5,.T.);\n#51=OPEN_SHELL('',(#50));\n" TAIL;
 
 static void test_open_loop_bridged(void **state)
 {
@@ -439,7 +500,8 @@ static void test_open_loop_bridged(void **state)
 
     /* One short edge (0.2 long) and one of 2: the bridges would be half the loop or more: the
      * face is dropped, and the note says why. */
-    char *t = replace_all(open_strip, "#13=CARTESIAN_POINT('',(0.,1.,0.));", "#13=CARTESIAN_POINT('',(1.8,1.,0.));");
+    char *t = replace_all(open_strip, "#13=CARTESIAN_POINT('',(0.,1.,0.));",
+                          "#13=CARTESIAN_POINT('',(1.8,1.,0.));");
     m = NULL;
     assert_int_not_equal(read_str(t, &m, NULL), CRISP_OK);
     assert_null(m);

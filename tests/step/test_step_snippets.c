@@ -21,19 +21,24 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-#define HEAD "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('test'),'2;1');\n" \
-             "FILE_NAME('t','',(''),(''),'','','');\nFILE_SCHEMA(('AUTOMOTIVE_DESIGN'));\nENDSEC;\nDATA;\n"
+#define HEAD                                                                                       \
+    "ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION(('test'),'2;1');\n"                                  \
+    "FILE_NAME('t','',(''),(''),'','','');\nFILE_SCHEMA(('AUTOMOTIVE_DESIGN'));\nENDSEC;\nDATA;\n"
 #define TAIL "ENDSEC;\nEND-ISO-10303-21;\n"
 
 /* Cylinder r = 1, z in [0, 2]: bottom circle, seam up, top circle back, seam down. */
 static const char cylinder[] = HEAD
-    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));"
+    "\n"
     "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=CYLINDRICAL_SURFACE('',#4,1.);\n"
     "#10=CARTESIAN_POINT('',(1.,0.,0.));\n#11=CARTESIAN_POINT('',(1.,0.,2.));\n"
     "#12=VERTEX_POINT('',#10);\n#13=VERTEX_POINT('',#11);\n"
-    "/* bottom circle */ #20=CIRCLE('',#4,1.);\n#21=CARTESIAN_POINT('',(0.,0.));\n#22=DIRECTION('',(1.,0.));\n"
-    "#23=VECTOR('',#22,1.);\n#24=LINE('',#21,#23);\n#25=DEFINITIONAL_REPRESENTATION('',(#24),#99);\n"
-    "#26=PCURVE('',#5,#25);\n#27=SURFACE_CURVE('',#20,(#26),.PCURVE_S1.);\n#28=EDGE_CURVE('',#12,#12,#27,.T.);\n"
+    "/* bottom circle */ "
+    "#20=CIRCLE('',#4,1.);\n#21=CARTESIAN_POINT('',(0.,0.));\n#22=DIRECTION('',(1.,0.));\n"
+    "#23=VECTOR('',#22,1.);\n#24=LINE('',#21,#23);\n#25=DEFINITIONAL_REPRESENTATION('',(#24),#99);"
+    "\n"
+    "#26=PCURVE('',#5,#25);\n#27=SURFACE_CURVE('',#20,(#26),.PCURVE_S1.);\n#28=EDGE_CURVE('',#12,#"
+    "12,#27,.T.);\n"
     "/* top circle */ #30=CARTESIAN_POINT('',(0.,0.,2.));\n#31=AXIS2_PLACEMENT_3D('',#30,#2,#3);\n"
     "#32=CIRCLE('',#31,1.);\n#33=CARTESIAN_POINT('',(0.,2.));\n#34=LINE('',#33,#23);\n"
     "#35=DEFINITIONAL_REPRESENTATION('',(#34),#99);\n#36=PCURVE('',#5,#35);\n"
@@ -47,27 +52,33 @@ static const char cylinder[] = HEAD
     "#60=ORIENTED_EDGE('',*,*,#28,.T.);\n#61=ORIENTED_EDGE('',*,*,#53,.T.);\n"
     "#62=ORIENTED_EDGE('',*,*,#38,.F.);\n#63=ORIENTED_EDGE('',*,*,#53,.F.);\n"
     "#64=EDGE_LOOP('',(#60,#61,#62,#63));\n#65=FACE_OUTER_BOUND('',#64,.T.);\n"
-    "#66=ADVANCED_FACE('',(#65),#5,.T.);\n#67=OPEN_SHELL('',(#66));\n#68=SHELL_BASED_SURFACE_MODEL('',(#67));\n"
+    "#66=ADVANCED_FACE('',(#65),#5,.T.);\n#67=OPEN_SHELL('',(#66));\n#68=SHELL_BASED_SURFACE_MODEL("
+    "'',(#67));\n"
     "#99=( GEOMETRIC_REPRESENTATION_CONTEXT(2) PARAMETRIC_REPRESENTATION_CONTEXT() "
     "REPRESENTATION_CONTEXT('2D SPACE','') );\n" TAIL;
 
 /* Plane z = 0: a 4 x 4 square with a hole of radius 0.5, in inches, coloured. */
 static const char plane[] = HEAD
-    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));"
+    "\n"
     "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=PLANE('',#4);\n"
     "#10=CARTESIAN_POINT('',(-2.,-2.,0.));\n#11=CARTESIAN_POINT('',(2.,-2.,0.));\n"
     "#12=CARTESIAN_POINT('',(2.,2.,0.));\n#13=CARTESIAN_POINT('',(-2.,2.,0.));\n"
-    "#14=VERTEX_POINT('',#10);\n#15=VERTEX_POINT('',#11);\n#16=VERTEX_POINT('',#12);\n#17=VERTEX_POINT('',#13);\n"
+    "#14=VERTEX_POINT('',#10);\n#15=VERTEX_POINT('',#11);\n#16=VERTEX_POINT('',#12);\n#17=VERTEX_"
+    "POINT('',#13);\n"
     "#20=DIRECTION('',(1.,0.,0.));\n#21=VECTOR('',#20,1.);\n#22=LINE('',#10,#21);\n"
     "#23=EDGE_CURVE('',#14,#15,#22,.T.);\n#24=DIRECTION('',(0.,1.,0.));\n#25=VECTOR('',#24,1.);\n"
     "#26=LINE('',#11,#25);\n#27=EDGE_CURVE('',#15,#16,#26,.T.);\n#28=LINE('',#12,#21);\n"
-    "#29=EDGE_CURVE('',#17,#16,#28,.T.);\n#30=LINE('',#13,#25);\n#31=EDGE_CURVE('',#14,#17,#30,.T.);\n"
+    "#29=EDGE_CURVE('',#17,#16,#28,.T.);\n#30=LINE('',#13,#25);\n#31=EDGE_CURVE('',#14,#17,#30,.T.)"
+    ";\n"
     "#32=ORIENTED_EDGE('',*,*,#23,.T.);\n#33=ORIENTED_EDGE('',*,*,#27,.T.);\n"
     "#34=ORIENTED_EDGE('',*,*,#29,.F.);\n#35=ORIENTED_EDGE('',*,*,#31,.F.);\n"
     "#36=EDGE_LOOP('',(#32,#33,#34,#35));\n#37=FACE_OUTER_BOUND('',#36,.T.);\n"
     "#40=CARTESIAN_POINT('',(0.5,0.,0.));\n#41=VERTEX_POINT('',#40);\n#42=CIRCLE('',#4,0.5);\n"
-    "#43=EDGE_CURVE('',#41,#41,#42,.T.);\n#44=ORIENTED_EDGE('',*,*,#43,.F.);\n#45=EDGE_LOOP('',(#44));\n"
-    "#46=FACE_BOUND('',#45,.T.);\n#50=ADVANCED_FACE('',(#37,#46),#5,.T.);\n#51=OPEN_SHELL('',(#50));\n"
+    "#43=EDGE_CURVE('',#41,#41,#42,.T.);\n#44=ORIENTED_EDGE('',*,*,#43,.F.);\n#45=EDGE_LOOP('',(#"
+    "44));\n"
+    "#46=FACE_BOUND('',#45,.T.);\n#50=ADVANCED_FACE('',(#37,#46),#5,.T.);\n#51=OPEN_SHELL('',(#50))"
+    ";\n"
     "#52=SHELL_BASED_SURFACE_MODEL('',(#51));\n"
     "#60=(LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.));\n"
     "#61=LENGTH_MEASURE_WITH_UNIT(LENGTH_MEASURE(25.4),#60);\n"
@@ -76,20 +87,25 @@ static const char plane[] = HEAD
     "#64=(NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.));\n"
     "#65=(GEOMETRIC_REPRESENTATION_CONTEXT(3) GLOBAL_UNIT_ASSIGNED_CONTEXT((#63,#64)) "
     "REPRESENTATION_CONTEXT('',''));\n"
-    "#70=COLOUR_RGB('',0.2,0.4,0.6);\n#71=FILL_AREA_STYLE_COLOUR('',#70);\n#72=FILL_AREA_STYLE('',(#71));\n"
+    "#70=COLOUR_RGB('',0.2,0.4,0.6);\n#71=FILL_AREA_STYLE_COLOUR('',#70);\n#72=FILL_AREA_STYLE('',("
+    "#71));\n"
     "#73=SURFACE_STYLE_FILL_AREA(#72);\n#74=SURFACE_SIDE_STYLE('',(#73));\n"
     "#75=SURFACE_STYLE_USAGE(.BOTH.,#74);\n#76=PRESENTATION_STYLE_ASSIGNMENT((#75));\n"
     "#77=STYLED_ITEM('color',(#76),#50);\n" TAIL;
 
 /* A quarter cylinder r = 2, z in [0, 1], as a rational B-spline surface (complex entity). */
-static const char rational[] = HEAD
-    "#1=CARTESIAN_POINT('',(2.,0.,0.));\n#2=CARTESIAN_POINT('',(2.,2.,0.));\n#3=CARTESIAN_POINT('',(0.,2.,0.));\n"
-    "#4=CARTESIAN_POINT('',(2.,0.,1.));\n#5=CARTESIAN_POINT('',(2.,2.,1.));\n#6=CARTESIAN_POINT('',(0.,2.,1.));\n"
-    "#10=( BOUNDED_SURFACE() B_SPLINE_SURFACE(2,1,((#1,#4),(#2,#5),(#3,#6)),.UNSPECIFIED.,.F.,.F.,.F.)\n"
-    "  B_SPLINE_SURFACE_WITH_KNOTS((3,3),(2,2),(0.,1.),(0.,1.),.UNSPECIFIED.) GEOMETRIC_REPRESENTATION_ITEM()\n"
-    "  RATIONAL_B_SPLINE_SURFACE(((1.,1.),(0.707106781186548,0.707106781186548),(1.,1.)))\n"
-    "  REPRESENTATION_ITEM('') SURFACE() );\n"
-    "#11=ADVANCED_FACE('',(),#10,.T.);\n#12=OPEN_SHELL('',(#11));\n" TAIL;
+static const char rational[] =
+    HEAD "#1=CARTESIAN_POINT('',(2.,0.,0.));\n#2=CARTESIAN_POINT('',(2.,2.,0.));\n#3=CARTESIAN_"
+         "POINT('',(0.,2.,0.));\n"
+         "#4=CARTESIAN_POINT('',(2.,0.,1.));\n#5=CARTESIAN_POINT('',(2.,2.,1.));\n#6=CARTESIAN_"
+         "POINT('',(0.,2.,1.));\n"
+         "#10=( BOUNDED_SURFACE() "
+         "B_SPLINE_SURFACE(2,1,((#1,#4),(#2,#5),(#3,#6)),.UNSPECIFIED.,.F.,.F.,.F.)\n"
+         "  B_SPLINE_SURFACE_WITH_KNOTS((3,3),(2,2),(0.,1.),(0.,1.),.UNSPECIFIED.) "
+         "GEOMETRIC_REPRESENTATION_ITEM()\n"
+         "  RATIONAL_B_SPLINE_SURFACE(((1.,1.),(0.707106781186548,0.707106781186548),(1.,1.)))\n"
+         "  REPRESENTATION_ITEM('') SURFACE() );\n"
+         "#11=ADVANCED_FACE('',(),#10,.T.);\n#12=OPEN_SHELL('',(#11));\n" TAIL;
 
 static crisp_status read_str(const char *text, crisp_model **m, step_read_stats *st)
 {
@@ -161,16 +177,18 @@ static void test_cylinder_seam_pcurves(void **state)
 static void test_cylinder_pcurves_in_degrees(void **state)
 {
     (void)state;
-    char *a = replace(cylinder, "#48=CARTESIAN_POINT('',(6.28318530718,0.));", "#48=CARTESIAN_POINT('',(360.,0.));");
-    char *b = replace(a, "#99=( GEOMETRIC_REPRESENTATION_CONTEXT(2)",
-                      "#80=(NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.));\n"
-                      "#81=PLANE_ANGLE_MEASURE_WITH_UNIT(PLANE_ANGLE_MEASURE(0.0174532925199433),#80);\n"
-                      "#82=DIMENSIONAL_EXPONENTS(0.,0.,0.,0.,0.,0.,0.);\n"
-                      "#83=(CONVERSION_BASED_UNIT('DEGREE',#81) NAMED_UNIT(#82) PLANE_ANGLE_UNIT());\n"
-                      "#84=(LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.));\n"
-                      "#85=(GEOMETRIC_REPRESENTATION_CONTEXT(3) GLOBAL_UNIT_ASSIGNED_CONTEXT((#84,#83)) "
-                      "REPRESENTATION_CONTEXT('',''));\n"
-                      "#99=( GEOMETRIC_REPRESENTATION_CONTEXT(2)");
+    char *a = replace(cylinder, "#48=CARTESIAN_POINT('',(6.28318530718,0.));",
+                      "#48=CARTESIAN_POINT('',(360.,0.));");
+    char *b =
+        replace(a, "#99=( GEOMETRIC_REPRESENTATION_CONTEXT(2)",
+                "#80=(NAMED_UNIT(*) PLANE_ANGLE_UNIT() SI_UNIT($,.RADIAN.));\n"
+                "#81=PLANE_ANGLE_MEASURE_WITH_UNIT(PLANE_ANGLE_MEASURE(0.0174532925199433),#80);\n"
+                "#82=DIMENSIONAL_EXPONENTS(0.,0.,0.,0.,0.,0.,0.);\n"
+                "#83=(CONVERSION_BASED_UNIT('DEGREE',#81) NAMED_UNIT(#82) PLANE_ANGLE_UNIT());\n"
+                "#84=(LENGTH_UNIT() NAMED_UNIT(*) SI_UNIT(.MILLI.,.METRE.));\n"
+                "#85=(GEOMETRIC_REPRESENTATION_CONTEXT(3) GLOBAL_UNIT_ASSIGNED_CONTEXT((#84,#83)) "
+                "REPRESENTATION_CONTEXT('',''));\n"
+                "#99=( GEOMETRIC_REPRESENTATION_CONTEXT(2)");
     crisp_model *m;
     step_read_stats st;
     assert_int_equal(read_str(b, &m, &st), CRISP_OK);
@@ -187,9 +205,12 @@ static void test_cylinder_seam_projected(void **state)
     (void)state;
     /* The same face with bare 3D curves as edge geometry: trims come from projection, and the
      * seam edge lands on u = 2 pi going up and on u = 0 coming down. */
-    char *a = replace(cylinder, "#28=EDGE_CURVE('',#12,#12,#27,.T.)", "#28=EDGE_CURVE('',#12,#12,#20,.T.)");
-    char *b = replace(a, "#38=EDGE_CURVE('',#13,#13,#37,.T.)", "#38=EDGE_CURVE('',#13,#13,#32,.T.)");
-    char *c = replace(b, "#53=EDGE_CURVE('',#12,#13,#52,.T.)", "#53=EDGE_CURVE('',#12,#13,#41,.T.)");
+    char *a = replace(cylinder, "#28=EDGE_CURVE('',#12,#12,#27,.T.)",
+                      "#28=EDGE_CURVE('',#12,#12,#20,.T.)");
+    char *b =
+        replace(a, "#38=EDGE_CURVE('',#13,#13,#37,.T.)", "#38=EDGE_CURVE('',#13,#13,#32,.T.)");
+    char *c =
+        replace(b, "#53=EDGE_CURVE('',#12,#13,#52,.T.)", "#53=EDGE_CURVE('',#12,#13,#41,.T.)");
     crisp_model *m;
     step_read_stats st;
     assert_int_equal(read_str(c, &m, &st), CRISP_OK);
@@ -206,14 +227,21 @@ static void test_cylinder_seam_projected(void **state)
 static void test_cylinder_band(void **state)
 {
     (void)state;
-    char *a = replace(cylinder, "#11=CARTESIAN_POINT('',(1.,0.,2.));", "#11=CARTESIAN_POINT('',(0.,1.,2.));");
-    char *b = replace(a, "#64=EDGE_LOOP('',(#60,#61,#62,#63));\n#65=FACE_OUTER_BOUND('',#64,.T.);\n"
-                         "#66=ADVANCED_FACE('',(#65),#5,.T.);",
-                      "#64=EDGE_LOOP('',(#60));\n#65=FACE_BOUND('',#64,.T.);\n#69=EDGE_LOOP('',(#62));\n"
-                      "#70=FACE_BOUND('',#69,.T.);\n#66=ADVANCED_FACE('',(#65,#70),#5,.T.);");
+    char *a = replace(cylinder, "#11=CARTESIAN_POINT('',(1.,0.,2.));",
+                      "#11=CARTESIAN_POINT('',(0.,1.,2.));");
+    char *b =
+        replace(a,
+                "#64=EDGE_LOOP('',(#60,#61,#62,#63));\n#65=FACE_OUTER_BOUND('',#64,.T.);\n"
+                "#66=ADVANCED_FACE('',(#65),#5,.T.);",
+                "#64=EDGE_LOOP('',(#60));\n#65=FACE_BOUND('',#64,.T.);\n#69=EDGE_LOOP('',(#62));\n"
+                "#70=FACE_BOUND('',#69,.T.);\n#66=ADVANCED_FACE('',(#65,#70),#5,.T.);");
     for (int variant = 0; variant < 2; variant++) {
-        char *c = variant ? replace(b, "#28=EDGE_CURVE('',#12,#12,#27,.T.)", "#28=EDGE_CURVE('',#12,#12,#20,.T.)") : NULL;
-        char *d = variant ? replace(c, "#38=EDGE_CURVE('',#13,#13,#37,.T.)", "#38=EDGE_CURVE('',#13,#13,#32,.T.)") : NULL;
+        char *c = variant ? replace(b, "#28=EDGE_CURVE('',#12,#12,#27,.T.)",
+                                    "#28=EDGE_CURVE('',#12,#12,#20,.T.)")
+                          : NULL;
+        char *d = variant ? replace(c, "#38=EDGE_CURVE('',#13,#13,#37,.T.)",
+                                    "#38=EDGE_CURVE('',#13,#13,#32,.T.)")
+                          : NULL;
         crisp_model *m;
         step_read_stats st;
         crisp_status s = read_str(variant ? d : b, &m, &st);
@@ -232,12 +260,15 @@ static void test_cylinder_band(void **state)
 /* A cone (r = 1 at z = 0, semi-angle 45 degrees, apex at z = -1) bounded by its base circle and
  * a VERTEX_LOOP at the apex: one loop that closes through the apex. */
 static const char cone[] = HEAD
-    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));\n"
+    "#1=CARTESIAN_POINT('',(0.,0.,0.));\n#2=DIRECTION('',(0.,0.,1.));\n#3=DIRECTION('',(1.,0.,0.));"
+    "\n"
     "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n#5=CONICAL_SURFACE('',#4,1.,0.785398163397448);\n"
     "#10=CARTESIAN_POINT('',(1.,0.,0.));\n#12=VERTEX_POINT('',#10);\n#20=CIRCLE('',#4,1.);\n"
-    "#28=EDGE_CURVE('',#12,#12,#20,.T.);\n#60=ORIENTED_EDGE('',*,*,#28,.T.);\n#64=EDGE_LOOP('',(#60));\n"
+    "#28=EDGE_CURVE('',#12,#12,#20,.T.);\n#60=ORIENTED_EDGE('',*,*,#28,.T.);\n#64=EDGE_LOOP('',(#"
+    "60));\n"
     "#65=FACE_BOUND('',#64,.T.);\n#30=CARTESIAN_POINT('',(0.,0.,-1.));\n#31=VERTEX_POINT('',#30);\n"
-    "#32=VERTEX_LOOP('',#31);\n#33=FACE_BOUND('',#32,.T.);\n#66=ADVANCED_FACE('',(#65,#33),#5,.T.);\n"
+    "#32=VERTEX_LOOP('',#31);\n#33=FACE_BOUND('',#32,.T.);\n#66=ADVANCED_FACE('',(#65,#33),#5,.T.);"
+    "\n"
     "#67=OPEN_SHELL('',(#66));\n" TAIL;
 
 static void test_cone_apex(void **state)
@@ -306,7 +337,8 @@ static void test_plane_hole_units_colour(void **state)
     crisp_model_destroy(m);
     /* The bottom edge as a TRIMMED_CURVE against its line's sense, used against its own sense. */
     char *t = replace(plane, "#23=EDGE_CURVE('',#14,#15,#22,.T.)",
-                      "#23=EDGE_CURVE('',#14,#15,#80,.F.);\n#80=TRIMMED_CURVE('',#22,(#11),(#10),.F.,.CARTESIAN.)");
+                      "#23=EDGE_CURVE('',#14,#15,#80,.F.);\n#80=TRIMMED_CURVE('',#22,(#11),(#10),."
+                      "F.,.CARTESIAN.)");
     assert_int_equal(read_str(t, &m, &st), CRISP_OK);
     assert_true(fabs(crisp_trim_loop_signed_area(&m->faces[0].loops[0]) - 16) < 1e-9);
     assert_true(st.max_edge_dev < 1e-9);
@@ -319,7 +351,8 @@ static void test_plane_hole_units_colour(void **state)
 static void test_shell_colour_trimmed_surface(void **state)
 {
     (void)state;
-    char *a = replace(plane, "#77=STYLED_ITEM('color',(#76),#50)", "#77=STYLED_ITEM('color',(#76),#51)");
+    char *a =
+        replace(plane, "#77=STYLED_ITEM('color',(#76),#50)", "#77=STYLED_ITEM('color',(#76),#51)");
     char *b = replace(a, "#50=ADVANCED_FACE('',(#37,#46),#5,.T.)",
                       "#50=ADVANCED_FACE('',(#37,#46),#81,.T.);\n"
                       "#81=RECTANGULAR_TRIMMED_SURFACE('',#5,-3.,3.,-3.,3.,.T.,.T.)");
@@ -382,30 +415,33 @@ static void test_malformed(void **state)
 {
     (void)state;
     /* missing reference */
-    expect_error_replaced("#50=ADVANCED_FACE('',(#37,#46),#5,.T.)", "#50=ADVANCED_FACE('',(#37,#46),#500,.T.)",
-                          "#500, which is not defined");
+    expect_error_replaced("#50=ADVANCED_FACE('',(#37,#46),#5,.T.)",
+                          "#50=ADVANCED_FACE('',(#37,#46),#500,.T.)", "#500, which is not defined");
     /* wrong entity type */
     expect_error_replaced("#46=FACE_BOUND('',#45,.T.)", "#46=FACE_BOUND('',#40,.T.)", "#40 (line");
     /* reference cycle */
-    expect_error_replaced("#43=EDGE_CURVE('',#41,#41,#42,.T.)",
-                          "#43=EDGE_CURVE('',#41,#41,#90,.T.);\n#90=TRIMMED_CURVE('',#90,(PARAMETER_VALUE(0.)),"
-                          "(PARAMETER_VALUE(1.)),.T.,.PARAMETER.)",
-                          "nested too deeply");
+    expect_error_replaced(
+        "#43=EDGE_CURVE('',#41,#41,#42,.T.)",
+        "#43=EDGE_CURVE('',#41,#41,#90,.T.);\n#90=TRIMMED_CURVE('',#90,(PARAMETER_VALUE(0.)),"
+        "(PARAMETER_VALUE(1.)),.T.,.PARAMETER.)",
+        "nested too deeply");
     /* a surface that trims itself */
     expect_error_replaced("#50=ADVANCED_FACE('',(#37,#46),#5,.T.)",
                           "#50=ADVANCED_FACE('',(#37,#46),#81,.T.);\n"
                           "#81=RECTANGULAR_TRIMMED_SURFACE('',#81,-3.,3.,-3.,3.,.T.,.T.)",
                           "nested too deeply");
     /* huge degree */
-    expect_error_replaced("#43=EDGE_CURVE('',#41,#41,#42,.T.)",
-                          "#43=EDGE_CURVE('',#41,#41,#91,.T.);\n#91=B_SPLINE_CURVE_WITH_KNOTS('',99,(#10,#11),"
-                          ".UNSPECIFIED.,.F.,.F.,(100,100),(0.,1.),.UNSPECIFIED.)",
-                          "#91 (line");
+    expect_error_replaced(
+        "#43=EDGE_CURVE('',#41,#41,#42,.T.)",
+        "#43=EDGE_CURVE('',#41,#41,#91,.T.);\n#91=B_SPLINE_CURVE_WITH_KNOTS('',99,(#10,#11),"
+        ".UNSPECIFIED.,.F.,.F.,(100,100),(0.,1.),.UNSPECIFIED.)",
+        "#91 (line");
     /* knot multiplicities that do not add up */
-    expect_error_replaced("#43=EDGE_CURVE('',#41,#41,#42,.T.)",
-                          "#43=EDGE_CURVE('',#41,#41,#91,.T.);\n#91=B_SPLINE_CURVE_WITH_KNOTS('',1,(#10,#11),"
-                          ".UNSPECIFIED.,.F.,.F.,(2,1),(0.,1.),.UNSPECIFIED.)",
-                          "knot multiplicities sum");
+    expect_error_replaced(
+        "#43=EDGE_CURVE('',#41,#41,#42,.T.)",
+        "#43=EDGE_CURVE('',#41,#41,#91,.T.);\n#91=B_SPLINE_CURVE_WITH_KNOTS('',1,(#10,#11),"
+        ".UNSPECIFIED.,.F.,.F.,(2,1),(0.,1.),.UNSPECIFIED.)",
+        "knot multiplicities sum");
     /* a number that overflows to infinity */
     expect_error_replaced("#42=CIRCLE('',#4,0.5)", "#42=CIRCLE('',#4,1.E999)", "#42 (line");
     /* duplicate entity */
@@ -415,13 +451,15 @@ static void test_malformed(void **state)
     /* A broken instance whose end can be found is skipped with a note naming its line; the rest
      * loads (here the face, without its colour). */
     {
-        char *t = replace(plane, "#70=COLOUR_RGB('',0.2,0.4,0.6);", "#70=COLOUR_RGB('',0.2,0.4,0.6) #71");
+        char *t =
+            replace(plane, "#70=COLOUR_RGB('',0.2,0.4,0.6);", "#70=COLOUR_RGB('',0.2,0.4,0.6) #71");
         crisp_model *m = NULL;
         assert_int_equal(read_str(t, &m, NULL), CRISP_OK);
         assert_int_equal(m->face_count, 1);
         assert_false(m->faces[0].has_color);
         int noted = 0;
-        for (int k = 0; k < m->skip_count; k++) noted |= strstr(m->skips[k].what, "broken instances skipped; first: line ") != NULL;
+        for (int k = 0; k < m->skip_count; k++)
+            noted |= strstr(m->skips[k].what, "broken instances skipped; first: line ") != NULL;
         assert_true(noted);
         crisp_model_destroy(m);
         free(t);
@@ -434,7 +472,8 @@ static void test_malformed(void **state)
         assert_int_equal(m->face_count, 1);
         assert_false(m->faces[0].has_color);
         int noted = 0;
-        for (int k = 0; k < m->skip_count; k++) noted |= strstr(m->skips[k].what, "broken instances skipped; first: line ") != NULL;
+        for (int k = 0; k < m->skip_count; k++)
+            noted |= strstr(m->skips[k].what, "broken instances skipped; first: line ") != NULL;
         assert_true(noted);
         crisp_model_destroy(m);
         free(t);

@@ -14,7 +14,8 @@ typedef struct loop_check {
 } loop_check;
 
 /* closure_rel and domain_rel: fractions of each face's domain size. */
-static inline void check_model_loops(const crisp_model *m, double closure_rel, double domain_rel, loop_check *c)
+static inline void check_model_loops(const crisp_model *m, double closure_rel, double domain_rel,
+                                     loop_check *c)
 {
     *c = (loop_check){0};
     for (int f = 0; f < m->face_count; f++) {
@@ -26,8 +27,10 @@ static inline void check_model_loops(const crisp_model *m, double closure_rel, d
             const crisp_trim_loop *lp = &face->loops[l];
             c->loops++;
             c->curves += lp->curve_count;
-            if (lp->is_outer) c->outer++;
-            else c->holes++;
+            if (lp->is_outer)
+                c->outer++;
+            else
+                c->holes++;
             double gap = crisp_trim_loop_closure_gap(lp) / size;
             double ex = crisp_trim_loop_domain_excess(lp, d) / size;
             double area = crisp_trim_loop_signed_area(lp);

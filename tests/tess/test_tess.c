@@ -47,7 +47,8 @@ static void check_mesh(const crisp_tess_levels *lv)
     size_t boundary = 0;
     for (size_t k = 0; k < nt * 3;) {
         size_t r = k;
-        while (r < nt * 3 && edges[r] == edges[k]) r++;
+        while (r < nt * 3 && edges[r] == edges[k])
+            r++;
         assert_true(r - k <= 2);
         if (r - k == 1) {
             boundary++;
@@ -92,8 +93,10 @@ static void test_meshes(void **state)
     check_mesh(&c);
     for (int k = 0; k < 300; k++) {
         crisp_tess_levels r;
-        for (int q = 0; q < 2; q++) r.inner[q] = 1 + rand() % (k < 150 ? 6 : 64);
-        for (int q = 0; q < 4; q++) r.outer[q] = 1 + rand() % (k < 150 ? 6 : 64);
+        for (int q = 0; q < 2; q++)
+            r.inner[q] = 1 + rand() % (k < 150 ? 6 : 64);
+        for (int q = 0; q < 4; q++)
+            r.outer[q] = 1 + rand() % (k < 150 ? 6 : 64);
         check_mesh(&r);
     }
 }
@@ -114,7 +117,8 @@ static void test_shared_edge_bits(void **state)
     for (size_t i = 0; i < na; i++) {
         if (sa[2 * i] != 1) continue;
         int ok = 0;
-        for (size_t j = 0; j < nb; j++) ok |= sb[2 * j] == 0 && sb[2 * j + 1] == sa[2 * i + 1];
+        for (size_t j = 0; j < nb; j++)
+            ok |= sb[2 * j] == 0 && sb[2 * j + 1] == sa[2 * i + 1];
         assert_true(ok);
         matched++;
     }
@@ -129,7 +133,8 @@ static void test_bad_levels(void **state)
 {
     (void)state;
     size_t v, t;
-    crisp_tess_levels z = {{0, 1}, {1, 1, 1, 1}}, big = {{1, 1}, {1, CRISP_TESS_MAX_EDGE_LEVEL + 1, 1, 1}},
+    crisp_tess_levels z = {{0, 1}, {1, 1, 1, 1}},
+                      big = {{1, 1}, {1, CRISP_TESS_MAX_EDGE_LEVEL + 1, 1, 1}},
                       inner = {{65, 1}, {1, 1, 1, 1}};
     assert_int_equal(crisp_tess_mesh_counts(&z, &v, &t), CRISP_ERR_INVALID_ARG);
     assert_int_equal(crisp_tess_mesh_counts(&big, &v, &t), CRISP_ERR_INVALID_ARG);

@@ -1,6 +1,6 @@
-/* Reader for infix math strings (docs/design.md section 7; the shunting-yard parser of Keeter's 2012
- * fab-modules solver, parser.cpp). Iterative: operator and operand stacks grow on the heap, so a
- * million-node expression needs no recursion. Logic is turned into the distance form (inside is
+/* Reader for infix math strings (docs/design.md section 7; the shunting-yard parser of Keeter's
+ * 2012 fab-modules solver, parser.cpp). Iterative: operator and operand stacks grow on the heap, so
+ * a million-node expression needs no recursion. Logic is turned into the distance form (inside is
  * value < 0): a < b -> a - b, a > b -> b - a, && -> max, || -> min, ! -> negation,
  * a == b -> |a - b|, a != b -> -|a - b|. */
 #include "crisp/frep.h"
@@ -11,10 +11,10 @@
 #include <string.h>
 
 enum {
-    K_PAREN,  /* '(' */
-    K_FUNC,   /* function name waiting for its '(' ... ')' */
-    K_UNARY,  /* prefix - + ! */
-    K_BINARY  /* infix operator */
+    K_PAREN, /* '(' */
+    K_FUNC,  /* function name waiting for its '(' ... ')' */
+    K_UNARY, /* prefix - + ! */
+    K_BINARY /* infix operator */
 };
 enum { B_ADD, B_SUB, B_MUL, B_DIV, B_POW, B_LT, B_LE, B_GT, B_GE, B_EQ, B_NE, B_AND, B_OR };
 enum { U_NEG, U_PLUS, U_NOT };
@@ -33,14 +33,16 @@ typedef struct m_func {
     crisp_frep_op op;
 } m_func;
 
-static const m_func funcs[] = {
-    {"sqrt", 1, CRISP_FREP_SQRT},   {"abs", 1, CRISP_FREP_ABS},     {"exp", 1, CRISP_FREP_EXP},
-    {"log", 1, CRISP_FREP_LN},      {"ln", 1, CRISP_FREP_LN},       {"sin", 1, CRISP_FREP_SIN},
-    {"cos", 1, CRISP_FREP_COS},     {"tan", 1, CRISP_FREP_TAN},     {"asin", 1, CRISP_FREP_ASIN},
-    {"acos", 1, CRISP_FREP_ACOS},   {"atan", 1, CRISP_FREP_ATAN},   {"atan2", 2, CRISP_FREP_ATAN2},
-    {"pow", 2, CRISP_FREP_OP_COUNT}, {"min", -1, CRISP_FREP_MIN},   {"max", -1, CRISP_FREP_MAX},
-    {"square", 1, CRISP_FREP_SQUARE}, {"floor", 1, CRISP_FREP_FLOOR}, {"ceil", 1, CRISP_FREP_CEIL},
-    {"round", 1, CRISP_FREP_ROUND}, {"mod", 2, CRISP_FREP_MOD}};
+static const m_func funcs[] = {{"sqrt", 1, CRISP_FREP_SQRT},    {"abs", 1, CRISP_FREP_ABS},
+                               {"exp", 1, CRISP_FREP_EXP},      {"log", 1, CRISP_FREP_LN},
+                               {"ln", 1, CRISP_FREP_LN},        {"sin", 1, CRISP_FREP_SIN},
+                               {"cos", 1, CRISP_FREP_COS},      {"tan", 1, CRISP_FREP_TAN},
+                               {"asin", 1, CRISP_FREP_ASIN},    {"acos", 1, CRISP_FREP_ACOS},
+                               {"atan", 1, CRISP_FREP_ATAN},    {"atan2", 2, CRISP_FREP_ATAN2},
+                               {"pow", 2, CRISP_FREP_OP_COUNT}, {"min", -1, CRISP_FREP_MIN},
+                               {"max", -1, CRISP_FREP_MAX},     {"square", 1, CRISP_FREP_SQUARE},
+                               {"floor", 1, CRISP_FREP_FLOOR},  {"ceil", 1, CRISP_FREP_CEIL},
+                               {"round", 1, CRISP_FREP_ROUND},  {"mod", 2, CRISP_FREP_MOD}};
 #define NFUNCS (sizeof funcs / sizeof funcs[0])
 
 /* precedence (higher binds tighter) and right-associativity */
@@ -48,14 +50,20 @@ static int prec(const m_op *o)
 {
     if (o->kind == K_UNARY) return 7;
     switch (o->code) {
-    case B_POW: return 6;
+    case B_POW:
+        return 6;
     case B_MUL:
-    case B_DIV: return 5;
+    case B_DIV:
+        return 5;
     case B_ADD:
-    case B_SUB: return 4;
-    case B_AND: return 2;
-    case B_OR: return 1;
-    default: return 3; /* comparisons */
+    case B_SUB:
+        return 4;
+    case B_AND:
+        return 2;
+    case B_OR:
+        return 1;
+    default:
+        return 3; /* comparisons */
     }
 }
 
@@ -85,8 +93,8 @@ static crisp_status push_op(m_parser *p, m_op o)
 }
 
 /* a ^ b: integer constant exponents by repeated squaring, 0.5 by sqrt, else exp(b ln a). */
-static crisp_status make_pow(crisp_frep *f, crisp_frep_node a, crisp_frep_node b, float bv, int bconst,
-                             crisp_frep_node *dest)
+static crisp_status make_pow(crisp_frep *f, crisp_frep_node a, crisp_frep_node b, float bv,
+                             int bconst, crisp_frep_node *dest)
 {
     crisp_status s;
     if (bconst && bv == floorf(bv) && fabsf(bv) <= 1024) {
@@ -96,8 +104,10 @@ static crisp_status make_pow(crisp_frep *f, crisp_frep_node a, crisp_frep_node b
         int first = 1;
         while (n) {
             if (n & 1) {
-                if (first) acc = base, first = 0;
-                else if ((s = crisp_frep_binary(f, CRISP_FREP_MUL, acc, base, &acc))) return s;
+                if (first)
+                    acc = base, first = 0;
+                else if ((s = crisp_frep_binary(f, CRISP_FREP_MUL, acc, base, &acc)))
+                    return s;
             }
             n >>= 1;
             if (n && (s = crisp_frep_unary(f, CRISP_FREP_SQUARE, base, &base))) return s;
@@ -136,16 +146,30 @@ static crisp_status apply(m_parser *p)
     }
     crisp_frep_node a = p->vals[p->nvals - 2], b = p->vals[p->nvals - 1];
     switch (o.code) {
-    case B_ADD: s = crisp_frep_binary(f, CRISP_FREP_ADD, a, b, &r); break;
+    case B_ADD:
+        s = crisp_frep_binary(f, CRISP_FREP_ADD, a, b, &r);
+        break;
     case B_SUB:
     case B_LT:
-    case B_LE: s = crisp_frep_binary(f, CRISP_FREP_SUB, a, b, &r); break;
+    case B_LE:
+        s = crisp_frep_binary(f, CRISP_FREP_SUB, a, b, &r);
+        break;
     case B_GT:
-    case B_GE: s = crisp_frep_binary(f, CRISP_FREP_SUB, b, a, &r); break;
-    case B_MUL: s = crisp_frep_binary(f, CRISP_FREP_MUL, a, b, &r); break;
-    case B_DIV: s = crisp_frep_binary(f, CRISP_FREP_DIV, a, b, &r); break;
-    case B_AND: s = crisp_frep_binary(f, CRISP_FREP_MAX, a, b, &r); break;
-    case B_OR: s = crisp_frep_binary(f, CRISP_FREP_MIN, a, b, &r); break;
+    case B_GE:
+        s = crisp_frep_binary(f, CRISP_FREP_SUB, b, a, &r);
+        break;
+    case B_MUL:
+        s = crisp_frep_binary(f, CRISP_FREP_MUL, a, b, &r);
+        break;
+    case B_DIV:
+        s = crisp_frep_binary(f, CRISP_FREP_DIV, a, b, &r);
+        break;
+    case B_AND:
+        s = crisp_frep_binary(f, CRISP_FREP_MAX, a, b, &r);
+        break;
+    case B_OR:
+        s = crisp_frep_binary(f, CRISP_FREP_MIN, a, b, &r);
+        break;
     case B_EQ:
     case B_NE:
         s = crisp_frep_binary(f, CRISP_FREP_SUB, a, b, &r);
@@ -158,7 +182,9 @@ static crisp_status apply(m_parser *p)
         s = make_pow(f, a, b, bv, bc, &r);
         break;
     }
-    default: s = crisp_error(CRISP_ERR_INTERNAL, "%s: bad operator", p->name); break;
+    default:
+        s = crisp_error(CRISP_ERR_INTERNAL, "%s: bad operator", p->name);
+        break;
     }
     if (s) return s;
     p->nvals--;
@@ -166,9 +192,18 @@ static crisp_status apply(m_parser *p)
     return CRISP_OK;
 }
 
-static int is_ident_start(char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_'; }
-static int is_ident(char c) { return is_ident_start(c) || (c >= '0' && c <= '9'); }
-static int is_digit(char c) { return c >= '0' && c <= '9'; }
+static int is_ident_start(char c)
+{
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_';
+}
+static int is_ident(char c)
+{
+    return is_ident_start(c) || (c >= '0' && c <= '9');
+}
+static int is_digit(char c)
+{
+    return c >= '0' && c <= '9';
+}
 
 crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t size,
                                       crisp_frep **dest)
@@ -191,8 +226,10 @@ crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t
         size_t col = pos - line_start + 1;
         if (pos >= size || data[pos] == '\0') {
             if (want_operand) {
-                s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: expected a number, variable, function or '(' %s",
-                                name, line, col, p.nvals || p.nops ? "before the end" : "(the expression is empty)");
+                s = crisp_error(CRISP_ERR_PARSE,
+                                "%s:%zu:%zu: expected a number, variable, function or '(' %s", name,
+                                line, col,
+                                p.nvals || p.nops ? "before the end" : "(the expression is empty)");
                 goto fail;
             }
             break;
@@ -204,18 +241,22 @@ crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t
                 char buf[128];
                 size_t n = 0;
                 size_t q = pos;
-                while (q < size && (is_digit(data[q]) || data[q] == '.')) q++;
+                while (q < size && (is_digit(data[q]) || data[q] == '.'))
+                    q++;
                 if (q < size && (data[q] == 'e' || data[q] == 'E')) {
                     size_t e = q + 1;
                     if (e < size && (data[e] == '+' || data[e] == '-')) e++;
                     if (e < size && is_digit(data[e])) {
                         q = e;
-                        while (q < size && is_digit(data[q])) q++;
+                        while (q < size && is_digit(data[q]))
+                            q++;
                     }
                 }
                 n = q - pos;
                 if (n >= sizeof buf) {
-                    s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: number of %zu characters is too long", name, line, col, n);
+                    s = crisp_error(CRISP_ERR_PARSE,
+                                    "%s:%zu:%zu: number of %zu characters is too long", name, line,
+                                    col, n);
                     goto fail;
                 }
                 memcpy(buf, data + pos, n);
@@ -223,7 +264,8 @@ crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t
                 char *e;
                 float v = strtof(buf, &e);
                 if ((size_t)(e - buf) != n) {
-                    s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: malformed number '%s'", name, line, col, buf);
+                    s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: malformed number '%s'", name,
+                                    line, col, buf);
                     goto fail;
                 }
                 crisp_frep_node node;
@@ -234,19 +276,23 @@ crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t
             }
             if (is_ident_start(c)) {
                 size_t q = pos;
-                while (q < size && is_ident(data[q])) q++;
+                while (q < size && is_ident(data[q]))
+                    q++;
                 size_t n = q - pos;
                 const char *id = data + pos;
                 crisp_frep_node node;
-                if (n == 1 && (c == 'X' || c == 'x' || c == 'Y' || c == 'y' || c == 'Z' || c == 'z')) {
+                if (n == 1 &&
+                    (c == 'X' || c == 'x' || c == 'Y' || c == 'y' || c == 'Z' || c == 'z')) {
                     int axis = (c == 'X' || c == 'x') ? 0 : (c == 'Y' || c == 'y') ? 1 : 2;
-                    if ((s = crisp_frep_var(p.f, axis, &node)) || (s = push_val(&p, node))) goto fail;
+                    if ((s = crisp_frep_var(p.f, axis, &node)) || (s = push_val(&p, node)))
+                        goto fail;
                     pos = q;
                     want_operand = 0;
                     continue;
                 }
                 if (n == 2 && !memcmp(id, "pi", 2)) {
-                    if ((s = crisp_frep_const(p.f, 3.14159265358979f, &node)) || (s = push_val(&p, node)))
+                    if ((s = crisp_frep_const(p.f, 3.14159265358979f, &node)) ||
+                        (s = push_val(&p, node)))
                         goto fail;
                     pos = q;
                     want_operand = 0;
@@ -257,39 +303,49 @@ crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t
                     if (strlen(funcs[k].name) == n && !memcmp(funcs[k].name, id, n)) fi = (int)k;
                 if (fi < 0) {
                     s = crisp_error(CRISP_ERR_PARSE,
-                                    "%s:%zu:%zu: unknown name '%.*s' (expected X, Y, Z, pi or a function such as sqrt)",
+                                    "%s:%zu:%zu: unknown name '%.*s' (expected X, Y, Z, pi or a "
+                                    "function such as sqrt)",
                                     name, line, col, (int)(n > 64 ? 64 : n), id);
                     goto fail;
                 }
                 /* the '(' must follow */
                 size_t q2 = q;
-                while (q2 < size && (data[q2] == ' ' || data[q2] == '\t')) q2++;
+                while (q2 < size && (data[q2] == ' ' || data[q2] == '\t'))
+                    q2++;
                 if (q2 >= size || data[q2] != '(') {
-                    s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: expected '(' after '%s'", name, line,
-                                    q2 - line_start + 1, funcs[fi].name);
+                    s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: expected '(' after '%s'", name,
+                                    line, q2 - line_start + 1, funcs[fi].name);
                     goto fail;
                 }
                 if ((s = push_op(&p, (m_op){.kind = K_FUNC, .func = fi, .line = line, .col = col})))
                     goto fail;
-                if ((s = push_op(&p, (m_op){.kind = K_PAREN, .func_open = 1, .func = fi, .args = 1,
-                                            .line = line, .col = q2 - line_start + 1})))
+                if ((s = push_op(&p, (m_op){.kind = K_PAREN,
+                                            .func_open = 1,
+                                            .func = fi,
+                                            .args = 1,
+                                            .line = line,
+                                            .col = q2 - line_start + 1})))
                     goto fail;
                 pos = q2 + 1;
                 continue;
             }
             if (c == '(') {
-                if ((s = push_op(&p, (m_op){.kind = K_PAREN, .func = -1, .line = line, .col = col}))) goto fail;
+                if ((s = push_op(&p,
+                                 (m_op){.kind = K_PAREN, .func = -1, .line = line, .col = col})))
+                    goto fail;
                 pos++;
                 continue;
             }
             if (c == '-' || c == '+' || c == '!' || c == '~') {
                 uint8_t code = c == '-' ? U_NEG : c == '+' ? U_PLUS : U_NOT;
-                if ((s = push_op(&p, (m_op){.kind = K_UNARY, .code = code, .line = line, .col = col})))
+                if ((s = push_op(&p,
+                                 (m_op){.kind = K_UNARY, .code = code, .line = line, .col = col})))
                     goto fail;
                 pos++;
                 continue;
             }
-            s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: expected a number, variable, function or '(', found '%c'",
+            s = crisp_error(CRISP_ERR_PARSE,
+                            "%s:%zu:%zu: expected a number, variable, function or '(', found '%c'",
                             name, line, col, c >= 32 && c < 127 ? c : '?');
             goto fail;
         }
@@ -298,13 +354,16 @@ crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t
             while (p.nops && p.ops[p.nops - 1].kind != K_PAREN)
                 if ((s = apply(&p))) goto fail;
             if (!p.nops) {
-                s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: '%c' without a matching '('", name, line, col, c);
+                s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: '%c' without a matching '('", name,
+                                line, col, c);
                 goto fail;
             }
             m_op *par = &p.ops[p.nops - 1];
             if (c == ',') {
                 if (!par->func_open) {
-                    s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: ',' outside a function's arguments", name, line, col);
+                    s = crisp_error(CRISP_ERR_PARSE,
+                                    "%s:%zu:%zu: ',' outside a function's arguments", name, line,
+                                    col);
                     goto fail;
                 }
                 par->args++;
@@ -317,9 +376,11 @@ crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t
             if (po.func_open) {
                 p.nops--; /* the K_FUNC entry */
                 const m_func *fn = &funcs[po.func];
-                if ((fn->args > 0 && po.args != (size_t)fn->args) || (fn->args < 0 && po.args < 2)) {
-                    s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: '%s' expects %s%d argument%s, found %zu",
-                                    name, line, col, fn->name, fn->args < 0 ? "at least " : "",
+                if ((fn->args > 0 && po.args != (size_t)fn->args) ||
+                    (fn->args < 0 && po.args < 2)) {
+                    s = crisp_error(CRISP_ERR_PARSE,
+                                    "%s:%zu:%zu: '%s' expects %s%d argument%s, found %zu", name,
+                                    line, col, fn->name, fn->args < 0 ? "at least " : "",
                                     fn->args < 0 ? 2 : fn->args, fn->args == 1 ? "" : "s", po.args);
                     goto fail;
                 }
@@ -331,7 +392,8 @@ crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t
                     int bc = crisp_frep_node_constant(p.f, av[1], &bv);
                     s = make_pow(p.f, av[0], av[1], bv, bc, &r);
                 } else {
-                    for (size_t k = 1; k < po.args && !s; k++) s = crisp_frep_binary(p.f, fn->op, r, av[k], &r);
+                    for (size_t k = 1; k < po.args && !s; k++)
+                        s = crisp_frep_binary(p.f, fn->op, r, av[k], &r);
                 }
                 if (s) goto fail;
                 p.nvals -= po.args - 1;
@@ -343,13 +405,27 @@ crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t
         m_op o = {.kind = K_BINARY, .line = line, .col = col};
         size_t adv = 1;
         switch (c) {
-        case '+': o.code = B_ADD; break;
-        case '-': o.code = B_SUB; break;
-        case '*': o.code = B_MUL; break;
-        case '/': o.code = B_DIV; break;
-        case '^': o.code = B_POW; break;
-        case '<': o.code = c2 == '=' ? B_LE : B_LT, adv = c2 == '=' ? 2 : 1; break;
-        case '>': o.code = c2 == '=' ? B_GE : B_GT, adv = c2 == '=' ? 2 : 1; break;
+        case '+':
+            o.code = B_ADD;
+            break;
+        case '-':
+            o.code = B_SUB;
+            break;
+        case '*':
+            o.code = B_MUL;
+            break;
+        case '/':
+            o.code = B_DIV;
+            break;
+        case '^':
+            o.code = B_POW;
+            break;
+        case '<':
+            o.code = c2 == '=' ? B_LE : B_LT, adv = c2 == '=' ? 2 : 1;
+            break;
+        case '>':
+            o.code = c2 == '=' ? B_GE : B_GT, adv = c2 == '=' ? 2 : 1;
+            break;
         case '=':
             if (c2 != '=') goto bad_op;
             o.code = B_EQ, adv = 2;
@@ -358,12 +434,17 @@ crisp_status crisp_frep_read_math_mem(const char *name, const char *data, size_t
             if (c2 != '=') goto bad_op;
             o.code = B_NE, adv = 2;
             break;
-        case '&': o.code = B_AND, adv = c2 == '&' ? 2 : 1; break;
-        case '|': o.code = B_OR, adv = c2 == '|' ? 2 : 1; break;
+        case '&':
+            o.code = B_AND, adv = c2 == '&' ? 2 : 1;
+            break;
+        case '|':
+            o.code = B_OR, adv = c2 == '|' ? 2 : 1;
+            break;
         default:
         bad_op:
-            s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: expected an operator, ')' or the end, found '%c'",
-                            name, line, col, c >= 32 && c < 127 ? c : '?');
+            s = crisp_error(CRISP_ERR_PARSE,
+                            "%s:%zu:%zu: expected an operator, ')' or the end, found '%c'", name,
+                            line, col, c >= 32 && c < 127 ? c : '?');
             goto fail;
         }
         int pr = prec(&o), right = o.code == B_POW;

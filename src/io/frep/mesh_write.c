@@ -22,7 +22,8 @@ struct crisp_frep_mesh_writer {
 
 static void put_u32(unsigned char *b, uint32_t v)
 {
-    for (int i = 0; i < 4; i++) b[i] = (unsigned char)(v >> (8 * i));
+    for (int i = 0; i < 4; i++)
+        b[i] = (unsigned char)(v >> (8 * i));
 }
 static void put_f32(unsigned char *b, float f)
 {
@@ -45,7 +46,8 @@ static crisp_status on_vertex(void *ctx, const float p[3])
         if (fprintf(w->f, "v %.9g %.9g %.9g\n", p[0], p[1], p[2]) < 0) return wfail(w);
     } else if (w->kind == W_PLY) {
         unsigned char b[12];
-        for (int a = 0; a < 3; a++) put_f32(b + 4 * a, p[a]);
+        for (int a = 0; a < 3; a++)
+            put_f32(b + 4 * a, p[a]);
         if (fwrite(b, 1, 12, w->f) != 12) return wfail(w);
     }
     return CRISP_OK;
@@ -60,14 +62,17 @@ static crisp_status on_triangle(void *ctx, const uint32_t v[3], const float p[3]
     if (w->kind == W_STL) {
         unsigned char b[50];
         double e1[3], e2[3], n[3];
-        for (int a = 0; a < 3; a++) e1[a] = (double)p[1][a] - p[0][a], e2[a] = (double)p[2][a] - p[0][a];
+        for (int a = 0; a < 3; a++)
+            e1[a] = (double)p[1][a] - p[0][a], e2[a] = (double)p[2][a] - p[0][a];
         n[0] = e1[1] * e2[2] - e1[2] * e2[1];
         n[1] = e1[2] * e2[0] - e1[0] * e2[2];
         n[2] = e1[0] * e2[1] - e1[1] * e2[0];
         double l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        for (int a = 0; a < 3; a++) put_f32(b + 4 * a, l > 0 ? (float)(n[a] / l) : 0.0f);
+        for (int a = 0; a < 3; a++)
+            put_f32(b + 4 * a, l > 0 ? (float)(n[a] / l) : 0.0f);
         for (int k = 0; k < 3; k++)
-            for (int a = 0; a < 3; a++) put_f32(b + 12 + 12 * k + 4 * a, p[k][a]);
+            for (int a = 0; a < 3; a++)
+                put_f32(b + 12 + 12 * k + 4 * a, p[k][a]);
         b[48] = b[49] = 0;
         if (fwrite(b, 1, 50, w->f) != 50) return wfail(w);
     } else if (w->kind == W_OBJ) {
@@ -75,7 +80,8 @@ static crisp_status on_triangle(void *ctx, const uint32_t v[3], const float p[3]
     } else {
         unsigned char b[13];
         b[0] = 3;
-        for (int k = 0; k < 3; k++) put_u32(b + 1 + 4 * k, v[k]);
+        for (int k = 0; k < 3; k++)
+            put_u32(b + 1 + 4 * k, v[k]);
         if (fwrite(b, 1, 13, w->faces) != 13) return wfail(w);
     }
     return CRISP_OK;
@@ -96,11 +102,16 @@ static int ends_with(const char *s, const char *t)
 crisp_status crisp_frep_mesh_writer_open(const char *path, crisp_frep_mesh_writer **dest,
                                          crisp_frep_mesh_sink *sink)
 {
-    if (!path || !dest || !sink) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_mesh_writer_open: NULL argument");
+    if (!path || !dest || !sink)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_frep_mesh_writer_open: NULL argument");
     *dest = NULL;
-    int kind = ends_with(path, ".stl") ? W_STL : ends_with(path, ".obj") ? W_OBJ : ends_with(path, ".ply") ? W_PLY : -1;
+    int kind = ends_with(path, ".stl")   ? W_STL
+               : ends_with(path, ".obj") ? W_OBJ
+               : ends_with(path, ".ply") ? W_PLY
+                                         : -1;
     if (kind < 0)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: unknown mesh format (expected .stl, .obj or .ply)", path);
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "%s: unknown mesh format (expected .stl, .obj or .ply)", path);
     crisp_frep_mesh_writer *w = calloc(1, sizeof *w);
     if (!w) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", path);
     w->kind = kind;
@@ -124,8 +135,10 @@ crisp_status crisp_frep_mesh_writer_open(const char *path, crisp_frep_mesh_write
         char h[PLY_HEADER];
         memset(h, ' ', sizeof h);
         w->faces = tmpfile();
-        if (!w->faces) s = crisp_error(CRISP_ERR_IO, "%s: cannot open a temporary file for faces", path);
-        else if (fwrite(h, 1, sizeof h, w->f) != sizeof h) s = wfail(w);
+        if (!w->faces)
+            s = crisp_error(CRISP_ERR_IO, "%s: cannot open a temporary file for faces", path);
+        else if (fwrite(h, 1, sizeof h, w->f) != sizeof h)
+            s = wfail(w);
     }
     if (s) {
         fclose(w->f);
@@ -150,10 +163,11 @@ crisp_status crisp_frep_mesh_writer_close(crisp_frep_mesh_writer *w)
     } else if (!w->failed && w->kind == W_PLY) {
         char h[PLY_HEADER + 1];
         const char *end = "element face %u\nproperty list uchar uint vertex_indices\nend_header\n";
-        int n = snprintf(h, sizeof h,
-                         "ply\nformat binary_little_endian 1.0\ncomment written by crisp frep mesh\n"
-                         "element vertex %u\nproperty float x\nproperty float y\nproperty float z\n",
-                         w->nv);
+        int n =
+            snprintf(h, sizeof h,
+                     "ply\nformat binary_little_endian 1.0\ncomment written by crisp frep mesh\n"
+                     "element vertex %u\nproperty float x\nproperty float y\nproperty float z\n",
+                     w->nv);
         char tail[160];
         int m = snprintf(tail, sizeof tail, end, w->nt);
         /* pad with a comment line so that the header keeps its reserved size */

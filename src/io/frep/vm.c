@@ -24,14 +24,16 @@ typedef struct vm_reader {
 static size_t str_hash(const char *s, size_t n)
 {
     uint64_t h = 1469598103934665603ull;
-    for (size_t i = 0; i < n; i++) h = (h ^ (unsigned char)s[i]) * 1099511628211ull;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ (unsigned char)s[i]) * 1099511628211ull;
     return (size_t)h;
 }
 
 static vm_id *id_slot(vm_reader *r, const char *s, size_t n)
 {
     size_t mask = r->cap - 1, h = str_hash(s, n) & mask;
-    while (r->ids[h].s && !(r->ids[h].len == n && !memcmp(r->ids[h].s, s, n))) h = (h + 1) & mask;
+    while (r->ids[h].s && !(r->ids[h].len == n && !memcmp(r->ids[h].s, s, n)))
+        h = (h + 1) & mask;
     return &r->ids[h];
 }
 
@@ -44,7 +46,8 @@ static crisp_status id_define(vm_reader *r, const char *s, size_t n, crisp_frep_
         r->ids = crisp_calloc_array(cap, sizeof *r->ids);
         if (!r->ids) {
             r->ids = old;
-            return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory for %zu IDs", r->name, r->count);
+            return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory for %zu IDs", r->name,
+                               r->count);
         }
         r->cap = cap;
         for (size_t i = 0; i < oldcap; i++)
@@ -57,7 +60,10 @@ static crisp_status id_define(vm_reader *r, const char *s, size_t n, crisp_frep_
     return CRISP_OK;
 }
 
-static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+static int is_space(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
 
 static crisp_frep_op find_op(const char *s, size_t n)
 {
@@ -84,24 +90,27 @@ crisp_status crisp_frep_read_vm_mem(const char *name, const char *data, size_t s
     while (pos < size) {
         line++;
         size_t end = pos;
-        while (end < size && data[end] != '\n') end++;
+        while (end < size && data[end] != '\n')
+            end++;
         /* tokens of this line */
         const char *tok[5];
         size_t len[5], col[5];
         int ntok = 0;
         size_t p = pos;
         while (p < end) {
-            while (p < end && is_space(data[p])) p++;
+            while (p < end && is_space(data[p]))
+                p++;
             if (p >= end) break;
             if (ntok == 0 && data[p] == '#') break;
             if (ntok == 5) {
-                s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: expected at most 2 arguments",
-                                name, line, p - pos + 1);
+                s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: expected at most 2 arguments", name,
+                                line, p - pos + 1);
                 goto fail;
             }
             tok[ntok] = data + p;
             col[ntok] = p - pos + 1;
-            while (p < end && !is_space(data[p])) p++;
+            while (p < end && !is_space(data[p]))
+                p++;
             len[ntok] = (size_t)(data + p - tok[ntok]);
             ntok++;
         }
@@ -150,14 +159,18 @@ crisp_status crisp_frep_read_vm_mem(const char *name, const char *data, size_t s
                 vm_id *slot = r.cap ? id_slot(&r, tok[2 + a], len[2 + a]) : NULL;
                 if (!slot || !slot->s) {
                     s = crisp_error(CRISP_ERR_PARSE, "%s:%zu:%zu: undefined ID '%.*s'", name, line,
-                                    col[2 + a], (int)(len[2 + a] > 64 ? 64 : len[2 + a]), tok[2 + a]);
+                                    col[2 + a], (int)(len[2 + a] > 64 ? 64 : len[2 + a]),
+                                    tok[2 + a]);
                     goto fail;
                 }
                 args[a] = slot->node;
             }
-            if (op <= CRISP_FREP_Z) s = crisp_frep_var(f, (int)(op - CRISP_FREP_X), &node);
-            else if (want == 1) s = crisp_frep_unary(f, op, args[0], &node);
-            else s = crisp_frep_binary(f, op, args[0], args[1], &node);
+            if (op <= CRISP_FREP_Z)
+                s = crisp_frep_var(f, (int)(op - CRISP_FREP_X), &node);
+            else if (want == 1)
+                s = crisp_frep_unary(f, op, args[0], &node);
+            else
+                s = crisp_frep_binary(f, op, args[0], args[1], &node);
         }
         if (s) goto context;
         if ((s = id_define(&r, tok[0], len[0], node))) goto fail;
@@ -165,7 +178,8 @@ crisp_status crisp_frep_read_vm_mem(const char *name, const char *data, size_t s
         have_root = 1;
     }
     if (!have_root) {
-        s = crisp_error(CRISP_ERR_PARSE, "%s: no instructions (expected lines 'ID OPCODE [ARG...]')", name);
+        s = crisp_error(CRISP_ERR_PARSE,
+                        "%s: no instructions (expected lines 'ID OPCODE [ARG...]')", name);
         goto fail;
     }
     crisp_frep_set_root(f, root);

@@ -9,8 +9,9 @@
 static crisp_status expect_type(const iges_file *f, int e, int k, int ptr, int type)
 {
     if (f->ents[ptr].type != type)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected %d",
-                         k, iges_de(ptr), f->ents[ptr].type, type);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter %d: DE %d is entity %d, expected %d", k, iges_de(ptr),
+                                f->ents[ptr].type, type);
     return CRISP_OK;
 }
 
@@ -21,7 +22,8 @@ static void reverse_range(iges_curves *c, int first)
         c->items[a] = c->items[b];
         c->items[b] = t;
     }
-    for (int j = first; j < c->count; j++) crisp_curve_reverse(c->items[j]);
+    for (int j = first; j < c->count; j++)
+        crisp_curve_reverse(c->items[j]);
 }
 
 /* The model-space curve of edge `index` (1-based) of edge list el. */
@@ -31,7 +33,8 @@ static crisp_status edge_curve(iges_file *f, int el, int index, int *dest)
     crisp_status st = crisp__iges_int_range(f, el, 1, 0, (crisp__iges_nparams(f, el) - 1) / 5, &n);
     if (st) return st;
     if (index < 1 || index > n)
-        return crisp__iges_fail(f, el, CRISP_ERR_PARSE, "edge index %d: expected 1 to %d", index, n);
+        return crisp__iges_fail(f, el, CRISP_ERR_PARSE, "edge index %d: expected 1 to %d", index,
+                                n);
     f->ents[el].used = 1;
     return crisp__iges_ptr(f, el, 2 + 5 * (index - 1), 0, dest);
 }
@@ -45,9 +48,12 @@ static crisp_status loop_508(iges_file *f, int e, const iges_surface *s, iges_cu
     int k = 2;
     for (int i = 0; i < n && !st; i++) {
         int type, edge, ndx, of, np;
-        if ((st = crisp__iges_int_range(f, e, k, 0, 1, &type)) || (st = crisp__iges_ptr(f, e, k + 1, 0, &edge)) ||
-            (st = crisp__iges_int(f, e, k + 2, &ndx)) || (st = crisp__iges_int_range(f, e, k + 3, 0, 1, &of)) ||
-            (st = crisp__iges_int_range(f, e, k + 4, 0, (crisp__iges_nparams(f, e) - k - 4) / 2, &np)))
+        if ((st = crisp__iges_int_range(f, e, k, 0, 1, &type)) ||
+            (st = crisp__iges_ptr(f, e, k + 1, 0, &edge)) ||
+            (st = crisp__iges_int(f, e, k + 2, &ndx)) ||
+            (st = crisp__iges_int_range(f, e, k + 3, 0, 1, &of)) ||
+            (st = crisp__iges_int_range(f, e, k + 4, 0, (crisp__iges_nparams(f, e) - k - 4) / 2,
+                                        &np)))
             break;
         int first = uv->count;
         if (type == 1) { /* a vertex: a degenerate edge contributes no curve */
@@ -73,8 +79,10 @@ static crisp_status loop_508(iges_file *f, int e, const iges_surface *s, iges_cu
             if (!st && of == 0) reverse_range(uv, first);
             int cp; /* the model-space curve is an alternative representation crisp did not need */
             if (!st) {
-                if (!edge_curve(f, edge, ndx, &cp)) crisp__iges_mark_used(f, cp, 0);
-                else crisp_error_clear();
+                if (!edge_curve(f, edge, ndx, &cp))
+                    crisp__iges_mark_used(f, cp, 0);
+                else
+                    crisp_error_clear();
             }
         } else {
             int cp;
@@ -99,9 +107,10 @@ crisp_status crisp__iges_face_brep(iges_file *f, int e, int reversed)
     if (st) return st;
     f->ents[e].used = 1;
     if (!crisp__iges_is_surface_type(f->ents[sp].type))
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 1: DE %d is entity %d, expected a "
-                                                "surface",
-                         iges_de(sp), f->ents[sp].type);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter 1: DE %d is entity %d, expected a "
+                                "surface",
+                                iges_de(sp), f->ents[sp].type);
     iges_surface s;
     if ((st = crisp__iges_surface_convert(f, sp, 1, &s))) return st;
     int nl = n + 1;
@@ -125,7 +134,8 @@ crisp_status crisp__iges_face_brep(iges_file *f, int e, int reversed)
     }
     if (!st) st = crisp__iges_finish_face(f, e, sp, &s, loops, outer, nl, reversed);
 done:
-    for (int i = 0; loops && i < nl; i++) crisp__iges_curves_free(&loops[i]);
+    for (int i = 0; loops && i < nl; i++)
+        crisp__iges_curves_free(&loops[i]);
     crisp_free(loops);
     crisp_free(outer);
     crisp__iges_surface_free(&s);

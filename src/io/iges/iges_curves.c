@@ -24,7 +24,8 @@ void crisp__iges_xform_mul(const iges_xform *a, const iges_xform *b, iges_xform 
     for (int i = 0; i < 3; i++) {
         for (int j = 0; j < 4; j++) {
             double s = j == 3 ? a->m[i][3] : 0;
-            for (int k = 0; k < 3; k++) s += a->m[i][k] * b->m[k][j];
+            for (int k = 0; k < 3; k++)
+                s += a->m[i][k] * b->m[k][j];
             r.m[i][j] = s;
         }
     }
@@ -45,14 +46,16 @@ crisp_status crisp__iges_entity_xform(iges_file *f, int e, int depth, iges_xform
     int de = f->ents[e].transform;
     if (de == 0) return CRISP_OK;
     if (depth > IGES_MAX_DEPTH)
-        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT,
-                         "transformation matrices nested deeper than %d (expected a chain of "
-                         "entity 124 ending in 0)",
-                         IGES_MAX_DEPTH);
+        return crisp__iges_fail(
+            f, e, CRISP_ERR_LIMIT,
+            "transformation matrices nested deeper than %d (expected a chain of "
+            "entity 124 ending in 0)",
+            IGES_MAX_DEPTH);
     int t = crisp__iges_index(f, de < 0 ? -de : de);
     if (t < 0 || f->ents[t].type != 124)
         return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
-                         "transformation matrix pointer %d: expected a DE of entity 124", de);
+                                "transformation matrix pointer %d: expected a DE of entity 124",
+                                de);
     if (f->ents[t].visiting)
         return crisp__iges_fail(f, t, CRISP_ERR_PARSE, "transformation matrix chain is a cycle");
     crisp_status st = crisp__iges_need(f, t, 12, "a transformation matrix");
@@ -75,7 +78,8 @@ crisp_status crisp__iges_entity_xform(iges_file *f, int e, int depth, iges_xform
 
 void crisp__iges_curves_free(iges_curves *c)
 {
-    for (int i = 0; i < c->count; i++) crisp_curve_destroy(c->items[i]);
+    for (int i = 0; i < c->count; i++)
+        crisp_curve_destroy(c->items[i]);
     crisp_free(c->items);
     memset(c, 0, sizeof *c);
 }
@@ -94,8 +98,8 @@ crisp_status crisp__iges_curves_push(iges_curves *c, crisp_curve *curve)
 
 int crisp__iges_is_curve_type(int type)
 {
-    return type == 100 || type == 102 || type == 104 || type == 106 || type == 110 ||
-           type == 112 || type == 126;
+    return type == 100 || type == 102 || type == 104 || type == 106 || type == 110 || type == 112 ||
+           type == 126;
 }
 
 /* A kernel failure, with the entity named in front of the kernel's message. */
@@ -167,7 +171,8 @@ static crisp_status arc_angles(double cx, double cy, const double s[2], const do
     *a1 = atan2(t[1] - cy, t[0] - cx);
     double r = hypot(s[0] - cx, s[1] - cy);
     if (hypot(s[0] - t[0], s[1] - t[1]) <= 1e-12 * (r > 0 ? r : 1)) *a1 = *a0 + 2 * M_PI;
-    while (*a1 <= *a0) *a1 += 2 * M_PI;
+    while (*a1 <= *a0)
+        *a1 += 2 * M_PI;
     return CRISP_OK;
 }
 
@@ -179,8 +184,9 @@ static crisp_status arc_100(iges_file *f, int e, crisp_curve **dest)
     if (st) return st;
     double r = hypot(v[3] - v[1], v[4] - v[2]);
     if (!(r > 0))
-        return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "radius is zero: expected a start point away "
-                                                  "from the centre");
+        return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC,
+                                "radius is zero: expected a start point away "
+                                "from the centre");
     double a0, a1;
     arc_angles(v[1], v[2], v + 3, v + 5, &a0, &a1);
     double c[3] = {v[1], v[2], v[0]}, x[3] = {1, 0, 0}, y[3] = {0, 1, 0};
@@ -234,15 +240,17 @@ static crisp_status conic_104(iges_file *f, int e, crisp_curve **dest)
     double ts[3] = {-gs[1], gs[0], 0}, tt[3] = {-gt[1], gt[0], 0};
     double den = ts[0] * tt[1] - ts[1] * tt[0];
     if (!(fabs(den) > 1e-300))
-        return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "end tangents are parallel: cannot build the "
-                                                  "conic arc");
+        return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC,
+                                "end tangents are parallel: cannot build the "
+                                "conic arc");
     double u = ((t[0] - s[0]) * tt[1] - (t[1] - s[1]) * tt[0]) / den;
     double p1[2] = {s[0] + u * ts[0], s[1] + u * ts[1]};
     double m[2] = {0.5 * (s[0] + t[0]), 0.5 * (s[1] + t[1])};
     double q0 = conic_q(k, m[0], m[1]), q1 = conic_q(k, p1[0], p1[1]);
     double qh = conic_q(k, 0.5 * (m[0] + p1[0]), 0.5 * (m[1] + p1[1]));
     double qa = 2 * q0 - 4 * qh + 2 * q1, qb = -3 * q0 + 4 * qh - q1, root = -1;
-    if (fabs(qa) < 1e-300) root = qb != 0 ? -q0 / qb : -1;
+    if (fabs(qa) < 1e-300)
+        root = qb != 0 ? -q0 / qb : -1;
     else {
         double d = qb * qb - 4 * qa * q0;
         if (d >= 0) {
@@ -271,14 +279,15 @@ static crisp_status copious_106(iges_file *f, int e, crisp_curve **dest)
 {
     int form = f->ents[e].form, ip, n;
     if (form != 11 && form != 12 && form != 63)
-        return crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
-                         "copious data form %d is not a curve crisp reads (forms 11, 12, 63)",
-                         form);
+        return crisp__iges_fail(
+            f, e, CRISP_ERR_UNSUPPORTED,
+            "copious data form %d is not a curve crisp reads (forms 11, 12, 63)", form);
     crisp_status st = crisp__iges_int_range(f, e, 1, 1, 3, &ip);
     if (!st) st = crisp__iges_int_range(f, e, 2, 2, CRISP_MAX_CONTROL_POINTS, &n);
     if (st) return st;
     int per = ip == 1 ? 2 : ip == 2 ? 3 : 6, k0 = ip == 1 ? 4 : 3;
-    if ((st = crisp__iges_need(f, e, k0 - 1 + n * per, "the points of a copious data entity"))) return st;
+    if ((st = crisp__iges_need(f, e, k0 - 1 + n * per, "the points of a copious data entity")))
+        return st;
     double zt = 0;
     if (ip == 1 && (st = crisp__iges_real(f, e, 3, &zt))) return st;
     double *pts = crisp_malloc_array((size_t)n, 3 * sizeof(double));
@@ -290,13 +299,16 @@ static crisp_status copious_106(iges_file *f, int e, crisp_curve **dest)
     }
     for (int i = 0; i < n && !st; i++) {
         for (int c = 0; c < 3 && !st; c++) {
-            if (ip == 1 && c == 2) pts[3 * i + 2] = zt;
-            else st = crisp__iges_real(f, e, k0 + i * per + c, &pts[3 * i + c]);
+            if (ip == 1 && c == 2)
+                pts[3 * i + 2] = zt;
+            else
+                st = crisp__iges_real(f, e, k0 + i * per + c, &pts[3 * i + c]);
         }
     }
     /* chord-length-free uniform parameter: the copious data has none of its own */
     knots[0] = 0;
-    for (int i = 0; i < n; i++) knots[i + 1] = i;
+    for (int i = 0; i < n; i++)
+        knots[i + 1] = i;
     knots[n + 1] = n - 1;
     if (!st) st = make_3d(f, e, 1, n, knots, pts, NULL, dest);
     crisp_free(pts);
@@ -311,7 +323,8 @@ static crisp_status spline_112(iges_file *f, int e, crisp_curve **dest)
     if (!st) st = crisp__iges_int(f, e, 2, &h);
     if (!st) st = crisp__iges_int_range(f, e, 3, 2, 3, &ndim);
     if (!st) st = crisp__iges_int_range(f, e, 4, 1, CRISP_MAX_CONTROL_POINTS / 3, &n);
-    if (!st) st = crisp__iges_need(f, e, 4 + (n + 1) + 12 * n, "the segments of a parametric spline");
+    if (!st)
+        st = crisp__iges_need(f, e, 4 + (n + 1) + 12 * n, "the segments of a parametric spline");
     if (st) return st;
     int count = 3 * n + 1;
     double *t = crisp_malloc_array((size_t)n + 1, sizeof(double));
@@ -324,8 +337,8 @@ static crisp_status spline_112(iges_file *f, int e, crisp_curve **dest)
     if ((st = read_reals(f, e, 5, n + 1, t))) goto done;
     for (int i = 0; i < n; i++) {
         if (!(t[i + 1] > t[i])) {
-            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE, "break points %d and %d are not increasing",
-                           i + 1, i + 2);
+            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                  "break points %d and %d are not increasing", i + 1, i + 2);
             goto done;
         }
     }
@@ -345,9 +358,11 @@ static crisp_status spline_112(iges_file *f, int e, crisp_curve **dest)
             p[9] = a + b + cc + d;
         }
     }
-    for (int k = 0; k < 4; k++) knots[k] = t[0], knots[count + k] = t[n];
+    for (int k = 0; k < 4; k++)
+        knots[k] = t[0], knots[count + k] = t[n];
     for (int i = 1; i < n; i++)
-        for (int k = 0; k < 3; k++) knots[1 + 3 * i + k] = t[i];
+        for (int k = 0; k < 3; k++)
+            knots[1 + 3 * i + k] = t[i];
     (void)ctype;
     (void)h;
     st = make_3d(f, e, 3, count, knots, pts, NULL, dest);
@@ -364,13 +379,15 @@ static crisp_status bspline_126(iges_file *f, int e, crisp_curve **dest)
     crisp_status st = crisp__iges_int_range(f, e, 1, 1, CRISP_MAX_CONTROL_POINTS - 1, &k);
     if (!st) st = crisp__iges_int_range(f, e, 2, 1, CRISP_MAX_DEGREE, &m);
     if (st) return st;
-    for (int i = 0; i < 4 && !st; i++) st = crisp__iges_int_def(f, e, 3 + i, 0, &prop[i]);
+    for (int i = 0; i < 4 && !st; i++)
+        st = crisp__iges_int_def(f, e, 3 + i, 0, &prop[i]);
     if (st) return st;
     int count = k + 1, nk = k + m + 2;
     if (count < m + 1)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "%d control points for degree %d: expected at "
-                                                "least %d",
-                         count, m, m + 1);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "%d control points for degree %d: expected at "
+                                "least %d",
+                                count, m, m + 1);
     int kw = 7 + nk, kp = kw + count, kr = kp + 3 * count;
     if ((st = crisp__iges_need(f, e, kr + 1, "a rational B-spline curve"))) return st;
     double *knots = crisp_malloc_array((size_t)nk, sizeof(double));
@@ -423,28 +440,44 @@ done:
 
 /* ---- dispatch ------------------------------------------------------------------------------- */
 
-crisp_status crisp__iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *parent, int depth,
-                                iges_curves *out)
+crisp_status crisp__iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *parent,
+                                       int depth, iges_curves *out)
 {
     iges_entity *x = &f->ents[e];
     if (depth > IGES_MAX_DEPTH)
-        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "curves nested deeper than %d", IGES_MAX_DEPTH);
+        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "curves nested deeper than %d",
+                                IGES_MAX_DEPTH);
     if (x->visiting)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "reference cycle: the entity contains itself");
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "reference cycle: the entity contains itself");
     x->used = 1;
     iges_xform own, total;
     crisp_status st = crisp__iges_entity_xform(f, e, depth + 1, &own);
     if (st) return st;
-    if (parent) crisp__iges_xform_mul(parent, &own, &total);
-    else total = own;
+    if (parent)
+        crisp__iges_xform_mul(parent, &own, &total);
+    else
+        total = own;
     crisp_curve *c = NULL;
     switch (x->type) {
-    case 100: st = arc_100(f, e, &c); break;
-    case 104: st = conic_104(f, e, &c); break;
-    case 106: st = copious_106(f, e, &c); break;
-    case 110: st = line_110(f, e, &c); break;
-    case 112: st = spline_112(f, e, &c); break;
-    case 126: st = bspline_126(f, e, &c); break;
+    case 100:
+        st = arc_100(f, e, &c);
+        break;
+    case 104:
+        st = conic_104(f, e, &c);
+        break;
+    case 106:
+        st = copious_106(f, e, &c);
+        break;
+    case 110:
+        st = line_110(f, e, &c);
+        break;
+    case 112:
+        st = spline_112(f, e, &c);
+        break;
+    case 126:
+        st = bspline_126(f, e, &c);
+        break;
     case 102: {
         int n;
         if ((st = crisp__iges_int_range(f, e, 1, 0, crisp__iges_nparams(f, e) - 1, &n))) return st;
@@ -459,8 +492,8 @@ crisp_status crisp__iges_curve_convert(iges_file *f, int e, int dim, const iges_
             }
             if (!crisp__iges_is_curve_type(type) && type != 130) {
                 st = crisp__iges_fail(f, e, CRISP_ERR_PARSE,
-                               "parameter %d: DE %d is entity %d, expected a curve", 2 + i,
-                               iges_de(ch), type);
+                                      "parameter %d: DE %d is entity %d, expected a curve", 2 + i,
+                                      iges_de(ch), type);
                 break;
             }
             st = crisp__iges_curve_convert(f, ch, dim, &total, depth + 1, out);
@@ -492,14 +525,17 @@ void crisp__iges_mark_used(iges_file *f, int e, int depth)
     f->ents[e].used = 1;
     int n = crisp__iges_nparams(f, e), t = f->ents[e].type;
     if (t == 102)
-        for (int k = 2; k <= n; k++) mark_param(f, e, k, depth);
+        for (int k = 2; k <= n; k++)
+            mark_param(f, e, k, depth);
     else if (t == 142)
-        for (int k = 2; k <= 4; k++) mark_param(f, e, k, depth);
+        for (int k = 2; k <= 4; k++)
+            mark_param(f, e, k, depth);
     else if (t == 144 || t == 143) { /* surface and boundaries */
         for (int k = 1; k <= n; k++)
             if (k == (t == 144 ? 1 : 2) || k >= 4) mark_param(f, e, k, depth);
     } else if (t == 120 || t == 118)
-        for (int k = 1; k <= 2; k++) mark_param(f, e, k, depth);
+        for (int k = 1; k <= 2; k++)
+            mark_param(f, e, k, depth);
     else if (t == 122)
         mark_param(f, e, 1, depth);
 }
@@ -535,7 +571,7 @@ crisp_status crisp__iges_curve_param_map(iges_file *f, int e, iges_param_map *de
         arc_angles(v[1], v[2], v + 3, v + 5, &dest->a0, &dest->a1);
     } else if (f->ents[e].type == 102) {
         return crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
-                         "a composite curve as a surface's defining curve");
+                                "a composite curve as a surface's defining curve");
     }
     return CRISP_OK;
 }

@@ -2,7 +2,8 @@
  * bounded surfaces (141 boundaries), 108 bounded planes and independent untrimmed surfaces; the
  * shared steps of every face: parameter-space curves mapped into crisp's (u, v), model-space
  * curves projected (or, on a plane, expressed exactly in the plane's frame), each loop's curves
- * oriented head to tail, colour, and the loop normalisation of model.h. IGES 5.3 sections 4.31-4.34.
+ * oriented head to tail, colour, and the loop normalisation of model.h. IGES 5.3
+ * sections 4.31-4.34.
  */
 #include "iges_internal.h"
 
@@ -102,7 +103,8 @@ static crisp_status ensure_tol3d(iges_file *f)
         double b[6];
         if (analytic) { /* unbounded: the ball of its radii around its location */
             double r = s.radius + s.radius2;
-            for (int k = 0; k < 3; k++) b[k] = s.origin[k] - r, b[3 + k] = s.origin[k] + r;
+            for (int k = 0; k < 3; k++)
+                b[k] = s.origin[k] - r, b[3 + k] = s.origin[k] + r;
         } else {
             crisp_surface_bbox(s.surface, b);
         }
@@ -121,7 +123,7 @@ static crisp_status ensure_tol3d(iges_file *f)
 }
 
 crisp_status crisp__iges_project_curves(iges_file *f, int e, const iges_surface *s,
-                                 const iges_curves *model, iges_curves *uv)
+                                        const iges_curves *model, iges_curves *uv)
 {
     crisp_status st = CRISP_OK;
     for (int i = 0; i < model->count && !st; i++) {
@@ -178,20 +180,23 @@ static crisp_status curve_on_surface(iges_file *f, int e, const iges_surface *s,
     if (st) return st;
     f->ents[e].used = 1;
     if (bp >= 0 && !crisp__iges_is_curve_type(f->ents[bp].type) && f->ents[bp].type != 130)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 3: DE %d is entity %d, expected a "
-                                                "curve",
-                         iges_de(bp), f->ents[bp].type);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter 3: DE %d is entity %d, expected a "
+                                "curve",
+                                iges_de(bp), f->ents[bp].type);
     if (cp >= 0 && !crisp__iges_is_curve_type(f->ents[cp].type) && f->ents[cp].type != 130)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 4: DE %d is entity %d, expected a "
-                                                "curve",
-                         iges_de(cp), f->ents[cp].type);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter 4: DE %d is entity %d, expected a "
+                                "curve",
+                                iges_de(cp), f->ents[cp].type);
     if (bp >= 0 && !s->is_plane && !s->analytic) {
         int first = uv->count;
         st = crisp__iges_curve_convert(f, bp, 2, NULL, 1, uv);
         if (st == CRISP_ERR_UNSUPPORTED && cp >= 0) {
             /* a parameter-space curve crisp cannot read: fall back to projecting C */
             crisp_error_clear();
-            while (uv->count > first) crisp_curve_destroy(uv->items[--uv->count]);
+            while (uv->count > first)
+                crisp_curve_destroy(uv->items[--uv->count]);
         } else {
             if (st) return st;
             if (cp >= 0) crisp__iges_mark_used(f, cp, 0);
@@ -204,11 +209,12 @@ static crisp_status curve_on_surface(iges_file *f, int e, const iges_surface *s,
     }
     if (cp < 0)
         return s->is_plane || s->analytic
-                   ? crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
-                               "a curve on a plane or an analytic surface without its model-space "
-                               "curve (parameter 4)")
+                   ? crisp__iges_fail(
+                         f, e, CRISP_ERR_UNSUPPORTED,
+                         "a curve on a plane or an analytic surface without its model-space "
+                         "curve (parameter 4)")
                    : crisp__iges_fail(f, e, CRISP_ERR_PARSE,
-                               "neither a parameter-space nor a model-space curve");
+                                      "neither a parameter-space nor a model-space curve");
     if (bp >= 0) crisp__iges_mark_used(f, bp, 0);
     iges_curves model = {0};
     st = crisp__iges_curve_convert(f, cp, 3, NULL, 1, &model);
@@ -256,8 +262,8 @@ static void note_dropped(iges_file *f, int e, const char *why)
 
 /* Exporters leave small gaps between the trims of a loop (OCCT's bug8363_f45.igs: 7e-4 and 1.6e-3
  * of the domain, 15x and 33x the closure tolerance): a gap between tol and max_gap (1e-2 of the
- * domain size) is bridged by a straight (u, v) segment, as CAD healing tools do, and noted. Larger gaps still
- * drop the face. */
+ * domain size) is bridged by a straight (u, v) segment, as CAD healing tools do, and noted. Larger
+ * gaps still drop the face. */
 static crisp_status bridge_gaps(iges_file *f, int e, crisp_face *face, double tol, double max_gap)
 {
     int bridged = 0;
@@ -272,9 +278,9 @@ static crisp_status bridge_gaps(iges_file *f, int e, crisp_face *face, double to
             double pts[4] = {a[0], a[1], b[0], b[1]}, knots[4] = {0, 0, 1, 1};
             crisp_curve *line = NULL;
             crisp_status st = crisp_curve_create(2, 1, 2, knots, pts, NULL, &line);
-            crisp_curve **grown = st ? NULL
-                                     : crisp_realloc_array(t->curves, (size_t)t->curve_count + 1,
-                                                           sizeof *grown);
+            crisp_curve **grown =
+                st ? NULL
+                   : crisp_realloc_array(t->curves, (size_t)t->curve_count + 1, sizeof *grown);
             if (!grown) {
                 crisp_curve_destroy(line);
                 return st ? st : crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
@@ -289,12 +295,14 @@ static crisp_status bridge_gaps(iges_file *f, int e, crisp_face *face, double to
         }
     }
     if (bridged) /* kept: a note, not a dropped face */
-        crisp_model_note_skipf(f->model, "DE %d entity %d %s: gaps in its trim loops bridged by straight segments",
-                               iges_de(e), f->ents[e].type, crisp__iges_type_name(f->ents[e].type));
+        crisp_model_note_skipf(
+            f->model, "DE %d entity %d %s: gaps in its trim loops bridged by straight segments",
+            iges_de(e), f->ents[e].type, crisp__iges_type_name(f->ents[e].type));
     return CRISP_OK;
 }
 
-/* ---- 192-198 analytic surfaces, built over the region their loops reach ----------------------- */
+/* ---- 192-198 analytic surfaces, built over the region their loops reach -----------------------
+ */
 
 /* (angle, height) of p on analytic surface s (see construct.h's conventions). */
 static void analytic_coords(const iges_surface *s, const double p[3], double uv[2])
@@ -306,14 +314,20 @@ static void analytic_coords(const iges_surface *s, const double p[3], double uv[
     double rho = hypot(X, Y);
     uv[0] = atan2(Y, X);
     switch (s->analytic) {
-    case 192: uv[1] = Z; break;
+    case 192:
+        uv[1] = Z;
+        break;
     case 194: { /* foot of the perpendicular on the generating line */
         double c = cos(s->semi), sn = sin(s->semi);
         uv[1] = (rho - s->radius) * sn * c + Z * c * c;
         break;
     }
-    case 196: uv[1] = atan2(Z, rho); break;
-    default: uv[1] = atan2(Z, rho - s->radius); break;
+    case 196:
+        uv[1] = atan2(Z, rho);
+        break;
+    default:
+        uv[1] = atan2(Z, rho - s->radius);
+        break;
     }
 }
 
@@ -342,11 +356,14 @@ static void angle_window(double *a, int n, double w[2])
 
 #define ANALYTIC_SAMPLES 64
 
-static crisp_status finish_analytic(iges_file *f, int e, iges_surface *s, iges_curves *loops, int loop_count)
+static crisp_status finish_analytic(iges_file *f, int e, iges_surface *s, iges_curves *loops,
+                                    int loop_count)
 {
     int total = 0;
-    for (int l = 0; l < loop_count; l++) total += loops[l].count;
-    if (total == 0) return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "analytic surface without trim curves");
+    for (int l = 0; l < loop_count; l++)
+        total += loops[l].count;
+    if (total == 0)
+        return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "analytic surface without trim curves");
     size_t n = (size_t)total * (ANALYTIC_SAMPLES + 1);
     double *us = crisp_malloc_array(n, sizeof *us), *vs = crisp_malloc_array(n, sizeof *vs);
     if (!us || !vs) {
@@ -393,10 +410,18 @@ static crisp_status finish_analytic(iges_file *f, int e, iges_surface *s, iges_c
     crisp_vec3_cross(pl.x, pl.y, pl.z);
     crisp_status st;
     switch (s->analytic) {
-    case 192: st = crisp_make_cylinder(&pl, s->radius, uw[0], uw[1], vw[0], vw[1], &s->surface); break;
-    case 194: st = crisp_make_cone(&pl, s->radius, s->semi, uw[0], uw[1], vw[0], vw[1], &s->surface); break;
-    case 196: st = crisp_make_sphere(&pl, s->radius, uw[0], uw[1], vw[0], vw[1], &s->surface); break;
-    default: st = crisp_make_torus(&pl, s->radius, s->radius2, uw[0], uw[1], vw[0], vw[1], &s->surface); break;
+    case 192:
+        st = crisp_make_cylinder(&pl, s->radius, uw[0], uw[1], vw[0], vw[1], &s->surface);
+        break;
+    case 194:
+        st = crisp_make_cone(&pl, s->radius, s->semi, uw[0], uw[1], vw[0], vw[1], &s->surface);
+        break;
+    case 196:
+        st = crisp_make_sphere(&pl, s->radius, uw[0], uw[1], vw[0], vw[1], &s->surface);
+        break;
+    default:
+        st = crisp_make_torus(&pl, s->radius, s->radius2, uw[0], uw[1], vw[0], vw[1], &s->surface);
+        break;
     }
     if (st) {
         crisp_error_prefix("%s: DE %d (entity %d)", f->name, iges_de(e), f->ents[e].type);
@@ -413,10 +438,13 @@ static crisp_status finish_analytic(iges_file *f, int e, iges_surface *s, iges_c
             crisp_curve_domain(c, &t0, &t1);
             crisp_curve *pieces[8];
             int np = 0;
-            st = crisp_surface_project_curve_pieces(s->surface, c, t0, t1, f->tol3d, 8, pieces, &np);
+            st =
+                crisp_surface_project_curve_pieces(s->surface, c, t0, t1, f->tol3d, 8, pieces, &np);
             for (int q = 0; q < np; q++) {
-                if (!st) st = crisp__iges_curves_push(&uv, pieces[q]);
-                else crisp_curve_destroy(pieces[q]);
+                if (!st)
+                    st = crisp__iges_curves_push(&uv, pieces[q]);
+                else
+                    crisp_curve_destroy(pieces[q]);
             }
         }
         if (st) {
@@ -432,8 +460,8 @@ static crisp_status finish_analytic(iges_file *f, int e, iges_surface *s, iges_c
 }
 
 crisp_status crisp__iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
-                              iges_curves *loops, const int *is_outer, int loop_count,
-                              int reversed)
+                                     iges_curves *loops, const int *is_outer, int loop_count,
+                                     int reversed)
 {
     crisp_status st = CRISP_OK;
     if (s->is_plane && !s->surface && (st = finish_plane(f, e, s, loops, loop_count))) return st;
@@ -442,7 +470,8 @@ crisp_status crisp__iges_finish_face(iges_file *f, int e, int surf_e, iges_surfa
     face.source_id = iges_de(e);
     face.reversed = reversed;
     face.has_color = crisp__iges_entity_color(f, e, face.color);
-    if (!face.has_color && surf_e >= 0) face.has_color = crisp__iges_entity_color(f, surf_e, face.color);
+    if (!face.has_color && surf_e >= 0)
+        face.has_color = crisp__iges_entity_color(f, surf_e, face.color);
     int n = 0;
     for (int l = 0; l < loop_count; l++)
         if (loops[l].count > 0) n++;
@@ -499,7 +528,8 @@ crisp_status crisp__iges_finish_face(iges_file *f, int e, int surf_e, iges_surfa
     st = crisp_face_normalize_loops(&face, tol);
     if (st) {
         /* A loop that cannot be made valid drops the face, with a note naming it. */
-        note_dropped(f, e, st == CRISP_ERR_NUMERIC ? "degenerate trim loop" : "trim loop not closed");
+        note_dropped(f, e,
+                     st == CRISP_ERR_NUMERIC ? "degenerate trim loop" : "trim loop not closed");
         crisp_error_clear();
         crisp_face_free(&face);
         return CRISP_OK;
@@ -544,13 +574,14 @@ static crisp_status pull_into_domain(iges_file *f, int e, crisp_face *face, cons
                     for (int i = k - cv->degree; i <= k && !out; i++) {
                         const double *q = cv->cpw + 3 * i;
                         double u = q[0] / q[2], v = q[1] / q[2];
-                        out = fmax(fmax(dom[0] - u, u - dom[1]), fmax(dom[2] - v, v - dom[3])) >
-                              eps;
+                        out =
+                            fmax(fmax(dom[0] - u, u - dom[1]), fmax(dom[2] - v, v - dom[3])) > eps;
                     }
                     if (out) mid[n++] = 0.5 * (cv->knots[k] + cv->knots[k + 1]);
                 }
                 crisp_status st = CRISP_OK;
-                for (int k = 0; k < n && !st; k++) st = crisp_curve_insert_knot(cv, mid[k], 1);
+                for (int k = 0; k < n && !st; k++)
+                    st = crisp_curve_insert_knot(cv, mid[k], 1);
                 crisp_free(mid);
                 if (st) {
                     crisp_error_prefix("%s: DE %d", f->name, iges_de(e));
@@ -561,8 +592,10 @@ static crisp_status pull_into_domain(iges_file *f, int e, crisp_face *face, cons
                 double *q = cv->cpw + 3 * i;
                 for (int k = 0; k < 2; k++) {
                     double x = q[k] / q[2], lo = dom[2 * k], hi = dom[2 * k + 1];
-                    if (x < lo && x >= lo - eps) q[k] = lo * q[2];
-                    else if (x > hi && x <= hi + eps) q[k] = hi * q[2];
+                    if (x < lo && x >= lo - eps)
+                        q[k] = lo * q[2];
+                    else if (x > hi && x <= hi + eps)
+                        q[k] = hi * q[2];
                 }
             }
         }
@@ -581,11 +614,15 @@ crisp_status crisp__iges_domain_loop(const iges_surface *s, iges_curves *out)
 {
     double d[4], c[5][2];
     if (!s->surface)
-        return crisp_error(CRISP_ERR_UNSUPPORTED, "an unbounded plane or analytic surface without an outer boundary");
-    if (s->narrowed) memcpy(d, s->range, sizeof d);
-    else crisp_surface_domain(s->surface, d);
+        return crisp_error(CRISP_ERR_UNSUPPORTED,
+                           "an unbounded plane or analytic surface without an outer boundary");
+    if (s->narrowed)
+        memcpy(d, s->range, sizeof d);
+    else
+        crisp_surface_domain(s->surface, d);
     double xs[5] = {d[0], d[1], d[1], d[0], d[0]}, ys[5] = {d[2], d[2], d[3], d[3], d[2]};
-    for (int i = 0; i < 5; i++) c[i][0] = xs[i], c[i][1] = ys[i];
+    for (int i = 0; i < 5; i++)
+        c[i][0] = xs[i], c[i][1] = ys[i];
     for (int i = 0; i < 4; i++) {
         double pts[4] = {c[i][0], c[i][1], c[i + 1][0], c[i + 1][1]}, knots[4] = {0, 0, 1, 1};
         crisp_curve *cv = NULL;
@@ -617,9 +654,10 @@ crisp_status crisp__iges_face_trimmed(iges_file *f, int e)
             note_dropped(f, e, why);
             return CRISP_OK;
         }
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 1: DE %d is entity %d, expected a "
-                                                "surface",
-                         iges_de(sp), f->ents[sp].type);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter 1: DE %d is entity %d, expected a "
+                                "surface",
+                                iges_de(sp), f->ents[sp].type);
     }
     iges_surface s;
     if ((st = crisp__iges_surface_convert(f, sp, 1, &s))) {
@@ -641,13 +679,16 @@ crisp_status crisp__iges_face_trimmed(iges_file *f, int e)
     outer[0] = 1;
     if (n1 == 1 && pto >= 0) {
         if (f->ents[pto].type != 142) {
-            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 4: DE %d is entity %d, expected 142",
-                           iges_de(pto), f->ents[pto].type);
+            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                  "parameter 4: DE %d is entity %d, expected 142", iges_de(pto),
+                                  f->ents[pto].type);
             goto done;
         }
         st = curve_on_surface(f, pto, &s, tol_uv, &loops[0]);
     } else if (s.is_plane || s.analytic) {
-        note_dropped(f, e, s.is_plane ? "unbounded plane" : "unbounded analytic surface (no outer boundary)");
+        note_dropped(f, e,
+                     s.is_plane ? "unbounded plane"
+                                : "unbounded analytic surface (no outer boundary)");
         goto done;
     } else if (n2 > 0 || s.narrowed) {
         st = crisp__iges_domain_loop(&s, &loops[0]);
@@ -656,8 +697,9 @@ crisp_status crisp__iges_face_trimmed(iges_file *f, int e)
         int b;
         if ((st = crisp__iges_ptr(f, e, 5 + i, 0, &b))) break;
         if (f->ents[b].type != 142) {
-            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected 142",
-                           5 + i, iges_de(b), f->ents[b].type);
+            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                  "parameter %d: DE %d is entity %d, expected 142", 5 + i,
+                                  iges_de(b), f->ents[b].type);
             break;
         }
         st = curve_on_surface(f, b, &s, tol_uv, &loops[1 + i]);
@@ -670,7 +712,8 @@ crisp_status crisp__iges_face_trimmed(iges_file *f, int e)
     }
     if (!st) st = crisp__iges_finish_face(f, e, sp, &s, loops, outer, nl, 0);
 done:
-    for (int i = 0; loops && i < nl; i++) crisp__iges_curves_free(&loops[i]);
+    for (int i = 0; loops && i < nl; i++)
+        crisp__iges_curves_free(&loops[i]);
     crisp_free(loops);
     crisp_free(outer);
     crisp__iges_surface_free(&s);
@@ -695,7 +738,8 @@ static crisp_status boundary_141(iges_file *f, int e, const iges_surface *s, dou
     int k = 5;
     for (int i = 0; i < n && !st; i++) {
         int cp, sense, np;
-        if ((st = crisp__iges_ptr(f, e, k, 0, &cp)) || (st = crisp__iges_int_range(f, e, k + 1, 1, 2, &sense)) ||
+        if ((st = crisp__iges_ptr(f, e, k, 0, &cp)) ||
+            (st = crisp__iges_int_range(f, e, k + 1, 1, 2, &sense)) ||
             (st = crisp__iges_int_range(f, e, k + 2, 0, crisp__iges_nparams(f, e) - k - 2, &np)))
             break;
         int first = uv->count;
@@ -720,7 +764,8 @@ static crisp_status boundary_141(iges_file *f, int e, const iges_surface *s, dou
                 uv->items[a] = uv->items[b];
                 uv->items[b] = t;
             }
-            for (int j = first; j < uv->count; j++) crisp_curve_reverse(uv->items[j]);
+            for (int j = first; j < uv->count; j++)
+                crisp_curve_reverse(uv->items[j]);
         }
         k += 3 + np;
     }
@@ -738,9 +783,10 @@ crisp_status crisp__iges_face_bounded(iges_file *f, int e)
     if (st) return st;
     f->ents[e].used = 1;
     if (!crisp__iges_is_surface_type(f->ents[sp].type))
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 2: DE %d is entity %d, expected a "
-                                                "surface",
-                         iges_de(sp), f->ents[sp].type);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter 2: DE %d is entity %d, expected a "
+                                "surface",
+                                iges_de(sp), f->ents[sp].type);
     iges_surface s;
     if ((st = crisp__iges_surface_convert(f, sp, 1, &s))) {
         if (st == CRISP_ERR_UNSUPPORTED) {
@@ -761,8 +807,9 @@ crisp_status crisp__iges_face_bounded(iges_file *f, int e)
         int b;
         if ((st = crisp__iges_ptr(f, e, 4 + i, 0, &b))) break;
         if (f->ents[b].type != 141) {
-            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected 141",
-                           4 + i, iges_de(b), f->ents[b].type);
+            st = crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                  "parameter %d: DE %d is entity %d, expected 141", 4 + i,
+                                  iges_de(b), f->ents[b].type);
             break;
         }
         st = boundary_141(f, b, &s, tol_uv, &loops[i]);
@@ -776,7 +823,8 @@ crisp_status crisp__iges_face_bounded(iges_file *f, int e)
     }
     if (!st) st = crisp__iges_finish_face(f, e, sp, &s, loops, outer, n, 0);
 done:
-    for (int i = 0; loops && i < n; i++) crisp__iges_curves_free(&loops[i]);
+    for (int i = 0; loops && i < n; i++)
+        crisp__iges_curves_free(&loops[i]);
     crisp_free(loops);
     crisp_free(outer);
     crisp__iges_surface_free(&s);

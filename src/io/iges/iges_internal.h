@@ -55,15 +55,16 @@ typedef struct iges_file {
     double projection_fraction; /* of the bounding-box diagonal */
     double closure_fraction;    /* closure tolerance as a fraction of a face's domain size */
     crisp_model *model;
-    crisp_status first_error;   /* of the first face skipped because it could not be built */
+    crisp_status first_error; /* of the first face skipped because it could not be built */
     char first_message[512];
-    int blanked_faces;          /* faces not drawn because the file blanks them */
-    int draw_blanked;           /* set when every face is blanked: draw them anyway */
+    int blanked_faces; /* faces not drawn because the file blanks them */
+    int draw_blanked;  /* set when every face is blanked: draw them anyway */
 } iges_file;
 
 /* ---- sections and parameters (iges_sections.c) ---------------------------------------------- */
 
-crisp_status crisp__iges_file_parse(const char *name, const char *data, size_t size, iges_file *dest);
+crisp_status crisp__iges_file_parse(const char *name, const char *data, size_t size,
+                                    iges_file *dest);
 void crisp__iges_file_free(iges_file *f);
 
 /* DE pointer of entity index i, and index of a DE pointer (-1 when out of range / even). */
@@ -120,8 +121,8 @@ crisp_status crisp__iges_curves_push(iges_curves *c, crisp_curve *curve);
  * curves) into a chain of NURBS curves of dimension dim (3: model space; 2: parameter space, z
  * dropped), each transformed by parent * (the entity's own matrix). Unsupported curve types fail
  * with CRISP_ERR_UNSUPPORTED. */
-crisp_status crisp__iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *parent, int depth,
-                                iges_curves *out);
+crisp_status crisp__iges_curve_convert(iges_file *f, int e, int dim, const iges_xform *parent,
+                                       int depth, iges_curves *out);
 int crisp__iges_is_curve_type(int type);
 /* Mark an entity and what it refers to used (an alternative representation crisp did not need,
  * or the parts of a face that was skipped), so they are not reported as free geometry. */
@@ -136,21 +137,22 @@ typedef struct iges_param_map {
 } iges_param_map;
 double crisp__iges_param_map_apply(const iges_param_map *m, double t);
 int crisp__iges_param_map_is_identity(const iges_param_map *m);
-/* The map of a single-curve entity's parameter (identity for B-splines, lines; angular for arcs). */
+/* The map of a single-curve entity's parameter (identity for B-splines, lines; angular for arcs).
+ */
 crisp_status crisp__iges_curve_param_map(iges_file *f, int e, iges_param_map *dest);
 
 /* ---- surfaces (iges_surfaces.c) ------------------------------------------------------------- */
 
 typedef struct iges_surface {
     crisp_surface *surface;
-    iges_param_map map_u, map_v; /* file (u, v) -> crisp (u, v) */
-    int is_plane;                /* 108: the (u, v) are plane coordinates along axes x, y */
-    int analytic;                /* 192-198: the entity type; the NURBS is built from the loops'
-                                    model-space curves (crisp__iges_finish_face), which are kept in 3D
-                                    until then */
+    iges_param_map map_u, map_v;  /* file (u, v) -> crisp (u, v) */
+    int is_plane;                 /* 108: the (u, v) are plane coordinates along axes x, y */
+    int analytic;                 /* 192-198: the entity type; the NURBS is built from the loops'
+                                     model-space curves (crisp__iges_finish_face), which are kept in 3D
+                                     until then */
     double radius, radius2, semi; /* 192/194/196: radius; 198: major, minor; 194: semi-angle */
-    int narrowed;                /* 128 whose parameter range is inside its knot domain */
-    double range[4];             /* that range: u0, u1, v0, v1 */
+    int narrowed;                 /* 128 whose parameter range is inside its knot domain */
+    double range[4];              /* that range: u0, u1, v0, v1 */
     double origin[3], x[3], y[3];
 } iges_surface;
 
@@ -196,10 +198,10 @@ crisp_status crisp__iges_domain_loop(const iges_surface *s, iges_curves *out);
 /* Shared by the face builders: order and orient a chain of 2D curves into a closed loop, project
  * model-space curves, finish a face (colour, normalise, add or skip). */
 crisp_status crisp__iges_project_curves(iges_file *f, int e, const iges_surface *s,
-                                 const iges_curves *model, iges_curves *uv);
+                                        const iges_curves *model, iges_curves *uv);
 crisp_status crisp__iges_finish_face(iges_file *f, int e, int surf_e, iges_surface *s,
-                              iges_curves *loops, const int *is_outer, int loop_count,
-                              int reversed);
+                                     iges_curves *loops, const int *is_outer, int loop_count,
+                                     int reversed);
 /* Colour of entity e (DE colour number or 314 definition); returns 0 when it has none. */
 int crisp__iges_entity_color(iges_file *f, int e, float rgba[4]);
 

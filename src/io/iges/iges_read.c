@@ -27,13 +27,26 @@ static void mark_consumed(iges_file *f)
 {
     for (int i = 0; i < f->entity_count; i++) {
         switch (f->ents[i].type) {
-        case 144: consume(f, i, 1); break;
-        case 142: consume(f, i, 2); break;
-        case 143: consume(f, i, 2); break;
-        case 141: consume(f, i, 3); break;
-        case 510: consume(f, i, 1); break;
-        case 140: consume(f, i, 5); break;
-        default: break;
+        case 144:
+            consume(f, i, 1);
+            break;
+        case 142:
+            consume(f, i, 2);
+            break;
+        case 143:
+            consume(f, i, 2);
+            break;
+        case 141:
+            consume(f, i, 3);
+            break;
+        case 510:
+            consume(f, i, 1);
+            break;
+        case 140:
+            consume(f, i, 5);
+            break;
+        default:
+            break;
         }
     }
 }
@@ -79,7 +92,8 @@ crisp_status crisp__iges_build_entities(iges_file *f, const int *list, int n)
 {
     crisp_status st = CRISP_OK;
     for (int k = 0; k < n && !st; k++)
-        if (f->ents[list[k]].type == 186) st = crisp__iges_soften(f, list[k], crisp__iges_brep_faces(f, list[k]));
+        if (f->ents[list[k]].type == 186)
+            st = crisp__iges_soften(f, list[k], crisp__iges_brep_faces(f, list[k]));
     for (int k = 0; k < n && !st; k++) {
         int i = list[k];
         iges_entity *x = &f->ents[i];
@@ -87,8 +101,9 @@ crisp_status crisp__iges_build_entities(iges_file *f, const int *list, int n)
         case 144:
         case 143:
             if (skip_blanked(f, x)) break;
-            st = crisp__iges_soften(f, i, x->type == 144 ? crisp__iges_face_trimmed(f, i)
-                                                  : crisp__iges_face_bounded(f, i));
+            st = crisp__iges_soften(f, i,
+                                    x->type == 144 ? crisp__iges_face_trimmed(f, i)
+                                                   : crisp__iges_face_bounded(f, i));
             break;
         case 514:
             st = crisp__iges_soften(f, i, crisp__iges_brep_faces(f, i));
@@ -103,10 +118,12 @@ crisp_status crisp__iges_build_entities(iges_file *f, const int *list, int n)
             if (x->consumed) break;
             if (skip_blanked(f, x)) break;
             x->used = 1;
-            st = crisp__iges_soften(f, i, x->type == 108 ? crisp__iges_face_plane(f, i)
-                                                  : crisp__iges_face_untrimmed(f, i));
+            st = crisp__iges_soften(f, i,
+                                    x->type == 108 ? crisp__iges_face_plane(f, i)
+                                                   : crisp__iges_face_untrimmed(f, i));
             break;
-        default: break;
+        default:
+            break;
         }
     }
     for (int k = 0; k < n && !st; k++)
@@ -131,7 +148,8 @@ static crisp_status convert(iges_file *f)
     for (int i = 0; i < f->entity_count; i++) {
         const iges_entity *x = &f->ents[i];
         if (x->used || x->consumed) continue;
-        if (crisp__iges_is_curve_type(x->type) || x->type == 116 || x->type == 142 || x->type == 141)
+        if (crisp__iges_is_curve_type(x->type) || x->type == 116 || x->type == 142 ||
+            x->type == 141)
             note(f, x->type, "free curve or point, not part of a face");
         else if (x->type == 124 || x->type == 314 || x->type == 502 || x->type == 504 ||
                  x->type == 508)
@@ -147,7 +165,7 @@ static crisp_status convert_into_new_model(iges_file *f, crisp_model **m)
 {
     crisp_status st = crisp_model_create(m);
     if (st) return st;
-    snprintf((*m)->format, sizeof (*m)->format, "IGES");
+    snprintf((*m)->format, sizeof(*m)->format, "IGES");
     (*m)->unit_to_mm = f->unit_to_mm;
     f->model = *m;
     return convert(f);
@@ -177,8 +195,9 @@ crisp_status crisp_read_iges_mem(const char *name, const char *data, size_t size
         crisp__iges_file_reset(&f);
         f.draw_blanked = 1;
         st = convert_into_new_model(&f, &m);
-        if (!st) st = crisp_model_note_skip(m, "(nothing) every face in the file is "
-                                               "blanked: drawn anyway");
+        if (!st)
+            st = crisp_model_note_skip(m, "(nothing) every face in the file is "
+                                          "blanked: drawn anyway");
     }
     if (!st) m->tolerance = f.tol3d;
     if (!st && m->face_count == 0 && f.first_error) {

@@ -40,7 +40,8 @@ static char section_letter(const char *s, int len)
 {
     if (len >= 73) return s[72];
     int i = len - 1;
-    while (i >= 0 && (s[i] == ' ' || (s[i] >= '0' && s[i] <= '9'))) i--;
+    while (i >= 0 && (s[i] == ' ' || (s[i] >= '0' && s[i] <= '9')))
+        i--;
     return i >= 0 ? s[i] : 0;
 }
 
@@ -54,45 +55,84 @@ int crisp__iges_index(const iges_file *f, int de)
 const char *crisp__iges_type_name(int type)
 {
     switch (type) {
-    case 100: return "circular arc";
-    case 102: return "composite curve";
-    case 104: return "conic arc";
-    case 106: return "copious data";
-    case 108: return "plane";
-    case 110: return "line";
-    case 112: return "parametric spline curve";
-    case 114: return "parametric spline surface";
-    case 116: return "point";
-    case 118: return "ruled surface";
-    case 120: return "surface of revolution";
-    case 122: return "tabulated cylinder";
-    case 123: return "direction";
-    case 124: return "transformation matrix";
-    case 126: return "rational B-spline curve";
-    case 128: return "rational B-spline surface";
-    case 130: return "offset curve";
-    case 140: return "offset surface";
-    case 141: return "boundary";
-    case 142: return "curve on a parametric surface";
-    case 143: return "bounded surface";
-    case 144: return "trimmed surface";
-    case 186: return "manifold solid B-rep object";
-    case 190: return "plane surface";
-    case 192: return "right circular cylindrical surface";
-    case 194: return "right circular conical surface";
-    case 196: return "spherical surface";
-    case 198: return "toroidal surface";
-    case 212: return "general note";
-    case 308: return "subfigure definition";
-    case 314: return "colour definition";
-    case 402: return "associativity instance";
-    case 406: return "property";
-    case 408: return "singular subfigure instance";
-    case 502: return "vertex list";
-    case 504: return "edge list";
-    case 508: return "loop";
-    case 510: return "face";
-    case 514: return "shell";
+    case 100:
+        return "circular arc";
+    case 102:
+        return "composite curve";
+    case 104:
+        return "conic arc";
+    case 106:
+        return "copious data";
+    case 108:
+        return "plane";
+    case 110:
+        return "line";
+    case 112:
+        return "parametric spline curve";
+    case 114:
+        return "parametric spline surface";
+    case 116:
+        return "point";
+    case 118:
+        return "ruled surface";
+    case 120:
+        return "surface of revolution";
+    case 122:
+        return "tabulated cylinder";
+    case 123:
+        return "direction";
+    case 124:
+        return "transformation matrix";
+    case 126:
+        return "rational B-spline curve";
+    case 128:
+        return "rational B-spline surface";
+    case 130:
+        return "offset curve";
+    case 140:
+        return "offset surface";
+    case 141:
+        return "boundary";
+    case 142:
+        return "curve on a parametric surface";
+    case 143:
+        return "bounded surface";
+    case 144:
+        return "trimmed surface";
+    case 186:
+        return "manifold solid B-rep object";
+    case 190:
+        return "plane surface";
+    case 192:
+        return "right circular cylindrical surface";
+    case 194:
+        return "right circular conical surface";
+    case 196:
+        return "spherical surface";
+    case 198:
+        return "toroidal surface";
+    case 212:
+        return "general note";
+    case 308:
+        return "subfigure definition";
+    case 314:
+        return "colour definition";
+    case 402:
+        return "associativity instance";
+    case 406:
+        return "property";
+    case 408:
+        return "singular subfigure instance";
+    case 502:
+        return "vertex list";
+    case 504:
+        return "edge list";
+    case 508:
+        return "loop";
+    case 510:
+        return "face";
+    case 514:
+        return "shell";
     }
     return "entity";
 }
@@ -161,11 +201,13 @@ static int parse_number(const char *t, int n, double *dest, int *is_int)
     int k = 0, i = 0, digits = 0, integer = 1;
     if (n <= 0 || n >= (int)sizeof buf) return 0;
     if (t[i] == '+' || t[i] == '-') buf[k++] = t[i++];
-    while (i < n && t[i] >= '0' && t[i] <= '9') buf[k++] = t[i++], digits++;
+    while (i < n && t[i] >= '0' && t[i] <= '9')
+        buf[k++] = t[i++], digits++;
     if (i < n && t[i] == '.') {
         integer = 0;
         buf[k++] = t[i++];
-        while (i < n && t[i] >= '0' && t[i] <= '9') buf[k++] = t[i++], digits++;
+        while (i < n && t[i] >= '0' && t[i] <= '9')
+            buf[k++] = t[i++], digits++;
     }
     if (!digits) return 0;
     if (i < n && (t[i] == 'E' || t[i] == 'e' || t[i] == 'D' || t[i] == 'd')) {
@@ -174,7 +216,8 @@ static int parse_number(const char *t, int n, double *dest, int *is_int)
         i++;
         if (i < n && (t[i] == '+' || t[i] == '-')) buf[k++] = t[i++];
         int ed = 0;
-        while (i < n && t[i] >= '0' && t[i] <= '9') buf[k++] = t[i++], ed++;
+        while (i < n && t[i] >= '0' && t[i] <= '9')
+            buf[k++] = t[i++], ed++;
         if (!ed) return 0;
     }
     if (i != n) return 0;
@@ -192,7 +235,8 @@ static crisp_status read_param(iges_file *f, cursor *c, char pd, char rd, int *e
 {
     char tok[80];
     int n = 0, start_line = cur_lineno(c);
-    while (!cur_eof(c) && cur_peek(c) == ' ') cur_next(c);
+    while (!cur_eof(c) && cur_peek(c) == ' ')
+        cur_next(c);
     /* digits then H: a Hollerith string */
     cursor save = *c;
     int count = 0, nd = 0;
@@ -216,7 +260,8 @@ static crisp_status read_param(iges_file *f, cursor *c, char pd, char rd, int *e
             cur_next(c);
         }
         p.str_len = count;
-        while (!cur_eof(c) && cur_peek(c) == ' ') cur_next(c);
+        while (!cur_eof(c) && cur_peek(c) == ' ')
+            cur_next(c);
         char d = cur_peek(c);
         if (d != pd && d != rd)
             return crisp_error(CRISP_ERR_PARSE,
@@ -264,9 +309,9 @@ static double units_from_name(const char *s, int n)
     static const struct {
         const char *name;
         double mm;
-    } u[] = {{"MM", 1},     {"IN", 25.4},   {"INCH", 25.4}, {"FT", 304.8},  {"MI", 1609344},
-             {"M", 1000},   {"KM", 1e6},    {"MIL", 0.0254}, {"UM", 0.001}, {"CM", 10},
-             {"UIN", 2.54e-5}};
+    } u[] = {{"MM", 1},       {"IN", 25.4}, {"INCH", 25.4},  {"FT", 304.8},
+             {"MI", 1609344}, {"M", 1000},  {"KM", 1e6},     {"MIL", 0.0254},
+             {"UM", 0.001},   {"CM", 10},   {"UIN", 2.54e-5}};
     for (size_t i = 0; i < sizeof u / sizeof u[0]; i++)
         if ((int)strlen(u[i].name) == n && !strncmp(u[i].name, s, (size_t)n)) return u[i].mm;
     return 1;
@@ -281,7 +326,8 @@ static crisp_status parse_global(iges_file *f, const iges_lines *g)
     cursor c = {g->items, 0, g->count, 0, 72};
     /* Parameters 1 and 2 set the delimiters themselves, so read them by hand. */
     for (int k = 0; k < 2; k++) {
-        while (!cur_eof(&c) && cur_peek(&c) == ' ') cur_next(&c);
+        while (!cur_eof(&c) && cur_peek(&c) == ' ')
+            cur_next(&c);
         if (cur_eof(&c)) return CRISP_OK;
         char ch = cur_peek(&c);
         if (ch == '1') {
@@ -295,10 +341,13 @@ static crisp_status parse_global(iges_file *f, const iges_lines *g)
                 return crisp_error(CRISP_ERR_PARSE,
                                    "%s:%d: global parameter %d: expected a delimiter character",
                                    f->name, cur_lineno(&c), k + 1);
-            if (k == 0) f->pdelim = d;
-            else f->rdelim = d;
+            if (k == 0)
+                f->pdelim = d;
+            else
+                f->rdelim = d;
             cur_next(&c);
-            while (!cur_eof(&c) && cur_peek(&c) == ' ') cur_next(&c);
+            while (!cur_eof(&c) && cur_peek(&c) == ' ')
+                cur_next(&c);
             ch = cur_peek(&c);
         }
         if (cur_eof(&c)) return CRISP_OK;
@@ -325,10 +374,11 @@ static crisp_status parse_global(iges_file *f, const iges_lines *g)
     int n = f->param_count - first;
     const iges_param *p = n > 0 ? f->params + first : NULL; /* p[0] is global parameter 3 */
     if (n >= 12 && p[11].kind == IGES_PARAM_NUMBER && fabs(p[11].num) < 100) {
-        static const double flag_mm[] = {0,    25.4,   1,      0,    304.8, 1609344,
-                                         1000, 1e6,    0.0254, 0.001, 10,   2.54e-5};
+        static const double flag_mm[] = {0,    25.4, 1,      0,     304.8, 1609344,
+                                         1000, 1e6,  0.0254, 0.001, 10,    2.54e-5};
         int flag = (int)p[11].num;
-        if (flag >= 1 && flag <= 11 && flag != 3) f->unit_to_mm = flag_mm[flag];
+        if (flag >= 1 && flag <= 11 && flag != 3)
+            f->unit_to_mm = flag_mm[flag];
         else if (n >= 13 && p[12].kind == IGES_PARAM_STRING && p[12].str_len > 0)
             f->unit_to_mm = units_from_name(f->strings + p[12].str_off, p[12].str_len);
     }
@@ -343,11 +393,13 @@ static int de_field(const iges_line *l, int k, int *dest)
 {
     int a = 8 * k, b = a + 8, v = 0, sign = 1, digits = 0, i = a;
     if (b > l->len) b = l->len;
-    while (i < b && l->s[i] == ' ') i++;
+    while (i < b && l->s[i] == ' ')
+        i++;
     if (i < b && (l->s[i] == '-' || l->s[i] == '+')) sign = l->s[i++] == '-' ? -1 : 1;
     while (i < b && l->s[i] >= '0' && l->s[i] <= '9' && digits < 9)
         v = v * 10 + (l->s[i++] - '0'), digits++;
-    while (i < b && l->s[i] == ' ') i++;
+    while (i < b && l->s[i] == ' ')
+        i++;
     if (i != b) return 0;
     *dest = sign * v;
     return 1;
@@ -365,8 +417,8 @@ static crisp_status parse_directory(iges_file *f, const iges_lines *d)
     for (int i = 0; i < f->entity_count; i++) {
         const iges_line *a = &d->items[2 * i], *b = &d->items[2 * i + 1];
         iges_entity *e = &f->ents[i];
-        int *fa[9] = {&e->type,   &e->param_ptr, &e->structure, &e->line_font,   &e->level,
-                      &e->view,   &e->transform, &e->label_display, NULL};
+        int *fa[9] = {&e->type, &e->param_ptr, &e->structure,     &e->line_font, &e->level,
+                      &e->view, &e->transform, &e->label_display, NULL};
         for (int k = 0; k < 8; k++)
             if (!de_field(a, k, fa[k]))
                 return crisp_error(CRISP_ERR_PARSE,
@@ -377,7 +429,8 @@ static crisp_status parse_directory(iges_file *f, const iges_lines *d)
             for (int j = 0; j < 2; j++) {
                 int col = 64 + 2 * k + j;
                 char ch = col < a->len ? a->s[col] : ' ';
-                if (ch >= '0' && ch <= '9') status[k] = status[k] * 10 + (ch - '0');
+                if (ch >= '0' && ch <= '9')
+                    status[k] = status[k] * 10 + (ch - '0');
                 else if (ch != ' ')
                     return crisp_error(CRISP_ERR_PARSE,
                                        "%s:%d: DE %d status: expected digits in columns 65-72",
@@ -435,7 +488,8 @@ static crisp_status parse_parameters(iges_file *f, const iges_lines *p)
         crisp_free(starts_record);
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
     }
-    for (int i = 0; i < p->count; i++) first_of_line[i] = -1;
+    for (int i = 0; i < p->count; i++)
+        first_of_line[i] = -1;
     /* lines that some DE names as its record's start */
     for (int i = 0; i < f->entity_count; i++) {
         int pl = f->ents[i].param_ptr - 1;
@@ -520,7 +574,8 @@ done:
 
 /* ---- the file ------------------------------------------------------------------------------- */
 
-crisp_status crisp__iges_file_parse(const char *name, const char *data, size_t size, iges_file *dest)
+crisp_status crisp__iges_file_parse(const char *name, const char *data, size_t size,
+                                    iges_file *dest)
 {
     memset(dest, 0, sizeof *dest);
     dest->name = name;
@@ -543,7 +598,8 @@ crisp_status crisp__iges_file_parse(const char *name, const char *data, size_t s
             next = pos + len;
         } else {
             len = 0;
-            while (pos + len < size && data[pos + len] != '\n' && data[pos + len] != '\r') len++;
+            while (pos + len < size && data[pos + len] != '\n' && data[pos + len] != '\r')
+                len++;
             next = pos + len;
             if (next < size && data[next] == '\r') next++;
             if (next < size && data[next] == '\n') next++;
@@ -552,19 +608,32 @@ crisp_status crisp__iges_file_parse(const char *name, const char *data, size_t s
         const char *s = data + pos;
         pos = next;
         int n = len > 200 ? 200 : (int)len;
-        while (n > 0 && (s[n - 1] == ' ' || s[n - 1] == '\t' || s[n - 1] == 0)) n--;
+        while (n > 0 && (s[n - 1] == ' ' || s[n - 1] == '\t' || s[n - 1] == 0))
+            n--;
         if (n == 0) continue;
         char letter = section_letter(s, n);
         int k;
         switch (letter) {
-        case 'S': k = 0; break;
-        case 'G': k = 1; break;
-        case 'D': k = 2; break;
-        case 'P': k = 3; break;
-        case 'T': k = 4; break;
+        case 'S':
+            k = 0;
+            break;
+        case 'G':
+            k = 1;
+            break;
+        case 'D':
+            k = 2;
+            break;
+        case 'P':
+            k = 3;
+            break;
+        case 'T':
+            k = 4;
+            break;
         case 'C':
-            st = crisp_error(CRISP_ERR_UNSUPPORTED, "%s:%d: compressed IGES (C section) is not "
-                                                    "supported", name, lineno);
+            st = crisp_error(CRISP_ERR_UNSUPPORTED,
+                             "%s:%d: compressed IGES (C section) is not "
+                             "supported",
+                             name, lineno);
             goto fail;
         case 'B':
             st = crisp_error(CRISP_ERR_UNSUPPORTED, "%s:%d: binary IGES is not supported", name,
@@ -572,8 +641,8 @@ crisp_status crisp__iges_file_parse(const char *name, const char *data, size_t s
             goto fail;
         default:
             st = crisp_error(CRISP_ERR_PARSE,
-                             "%s:%d: expected a section letter S, G, D, P or T in column 73",
-                             name, lineno);
+                             "%s:%d: expected a section letter S, G, D, P or T in column 73", name,
+                             lineno);
             goto fail;
         }
         if (last && letter != last) {
@@ -597,10 +666,12 @@ crisp_status crisp__iges_file_parse(const char *name, const char *data, size_t s
     if ((st = parse_global(dest, &sec[1]))) goto fail;
     if ((st = parse_directory(dest, &sec[2]))) goto fail;
     if ((st = parse_parameters(dest, &sec[3]))) goto fail;
-    for (int i = 0; i < 5; i++) crisp_free(sec[i].items);
+    for (int i = 0; i < 5; i++)
+        crisp_free(sec[i].items);
     return CRISP_OK;
 fail:
-    for (int i = 0; i < 5; i++) crisp_free(sec[i].items);
+    for (int i = 0; i < 5; i++)
+        crisp_free(sec[i].items);
     crisp__iges_file_free(dest);
     return st;
 }
@@ -643,9 +714,8 @@ static const iges_param *param_at(const iges_file *f, int e, int k)
 crisp_status crisp__iges_need(const iges_file *f, int e, int k, const char *what)
 {
     if (k > crisp__iges_nparams(f, e))
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
-                         "%s needs %d parameters, the record has %d", what, k,
-                         crisp__iges_nparams(f, e));
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "%s needs %d parameters, the record has %d",
+                                what, k, crisp__iges_nparams(f, e));
     return CRISP_OK;
 }
 
@@ -657,8 +727,8 @@ crisp_status crisp__iges_real_def(const iges_file *f, int e, int k, double def, 
         return CRISP_OK;
     }
     if (p->kind != IGES_PARAM_NUMBER)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: expected a number, found a string",
-                         k);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter %d: expected a number, found a string", k);
     *dest = p->num;
     return CRISP_OK;
 }
@@ -666,9 +736,10 @@ crisp_status crisp__iges_real_def(const iges_file *f, int e, int k, double def, 
 crisp_status crisp__iges_real(const iges_file *f, int e, int k, double *dest)
 {
     if (!param_at(f, e, k))
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
-                         "parameter %d: expected a number, the record has only %d parameters", k,
-                         crisp__iges_nparams(f, e));
+        return crisp__iges_fail(
+            f, e, CRISP_ERR_PARSE,
+            "parameter %d: expected a number, the record has only %d parameters", k,
+            crisp__iges_nparams(f, e));
     return crisp__iges_real_def(f, e, k, 0, dest);
 }
 
@@ -688,9 +759,10 @@ crisp_status crisp__iges_int_def(const iges_file *f, int e, int k, int def, int 
 crisp_status crisp__iges_int(const iges_file *f, int e, int k, int *dest)
 {
     if (!param_at(f, e, k))
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
-                         "parameter %d: expected an integer, the record has only %d parameters",
-                         k, crisp__iges_nparams(f, e));
+        return crisp__iges_fail(
+            f, e, CRISP_ERR_PARSE,
+            "parameter %d: expected an integer, the record has only %d parameters", k,
+            crisp__iges_nparams(f, e));
     return crisp__iges_int_def(f, e, k, 0, dest);
 }
 
@@ -699,8 +771,8 @@ crisp_status crisp__iges_int_range(const iges_file *f, int e, int k, int lo, int
     crisp_status st = crisp__iges_int(f, e, k, dest);
     if (st) return st;
     if (*dest < lo || *dest > hi)
-        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "parameter %d is %d, expected %d to %d", k, *dest,
-                         lo, hi);
+        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "parameter %d is %d, expected %d to %d", k,
+                                *dest, lo, hi);
     return CRISP_OK;
 }
 
@@ -716,10 +788,11 @@ crisp_status crisp__iges_ptr(const iges_file *f, int e, int k, int allow_null, i
     }
     int i = crisp__iges_index(f, de);
     if (i < 0)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
-                         "parameter %d: pointer %d does not name a directory entry (expected an "
-                         "odd number from 1 to %d)",
-                         k, de, 2 * f->entity_count - 1);
+        return crisp__iges_fail(
+            f, e, CRISP_ERR_PARSE,
+            "parameter %d: pointer %d does not name a directory entry (expected an "
+            "odd number from 1 to %d)",
+            k, de, 2 * f->entity_count - 1);
     *dest = i;
     return CRISP_OK;
 }

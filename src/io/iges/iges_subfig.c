@@ -63,14 +63,17 @@ static crisp_status instance_xform(iges_file *f, int e, int *def, iges_xform *de
 {
     double t[3], s;
     crisp_status st = crisp__iges_ptr(f, e, 1, 0, def);
-    for (int k = 0; k < 3 && !st; k++) st = crisp__iges_real_def(f, e, 2 + k, 0, &t[k]);
+    for (int k = 0; k < 3 && !st; k++)
+        st = crisp__iges_real_def(f, e, 2 + k, 0, &t[k]);
     if (!st) st = crisp__iges_real_def(f, e, 5, 1, &s);
     if (st) return st;
     if (f->ents[*def].type != 308)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 1: DE %d is entity %d, expected 308",
-                         iges_de(*def), f->ents[*def].type);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter 1: DE %d is entity %d, expected 308", iges_de(*def),
+                                f->ents[*def].type);
     if (!(s != 0) || !isfinite(s))
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "scale %g: expected a finite non-zero number", s);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "scale %g: expected a finite non-zero number", s);
     iges_xform own, local;
     if ((st = crisp__iges_entity_xform(f, e, 1, &own))) return st;
     crisp__iges_xform_identity(&local);
@@ -134,12 +137,13 @@ static crisp_status instantiate(iges_file *f, subfig_state *s, int def, const ig
 {
     if (depth > IGES_MAX_DEPTH)
         return crisp__iges_fail(f, def, CRISP_ERR_LIMIT, "subfigures nested deeper than %d",
-                         IGES_MAX_DEPTH);
+                                IGES_MAX_DEPTH);
     if (f->ents[def].visiting) return crisp__iges_fail(f, def, CRISP_ERR_PARSE, "reference cycle");
     crisp_status st = build_def(f, s, def);
     if (st) return st;
     const crisp_model *m = s->defs[def];
-    for (int i = 0; i < m->face_count && !st; i++) st = append_copy(f, &m->faces[i], x);
+    for (int i = 0; i < m->face_count && !st; i++)
+        st = append_copy(f, &m->faces[i], x);
     int n;
     if (st || (st = def_members(f, def, &n))) return st;
     f->ents[def].visiting = 1;
@@ -160,7 +164,8 @@ static crisp_status instantiate(iges_file *f, subfig_state *s, int def, const ig
 crisp_status crisp__iges_subfigure_instances(iges_file *f)
 {
     int any = 0;
-    for (int i = 0; i < f->entity_count && !any; i++) any = f->ents[i].type == 408;
+    for (int i = 0; i < f->entity_count && !any; i++)
+        any = f->ents[i].type == 408;
     if (!any) return CRISP_OK;
     subfig_state s = {crisp_calloc_array((size_t)f->entity_count, sizeof *s.defs), f->model};
     if (!s.defs) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
@@ -180,7 +185,8 @@ crisp_status crisp__iges_subfigure_instances(iges_file *f)
         if (!st) st = instantiate(f, &s, def, &place, 1);
         st = crisp__iges_soften(f, i, st);
     }
-    for (int i = 0; i < f->entity_count; i++) crisp_model_destroy(s.defs[i]);
+    for (int i = 0; i < f->entity_count; i++)
+        crisp_model_destroy(s.defs[i]);
     crisp_free(s.defs);
     return st;
 }

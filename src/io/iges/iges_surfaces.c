@@ -3,13 +3,14 @@
  * knots), 118 ruled surface, 120 surface of revolution, 122 tabulated cylinder, and the frame of a
  * 108 plane (sized later from its trims). Also the map from the file's (u, v) to crisp's: the
  * analytic surfaces take their parameters from their defining curves (an arc's angle, a line's
- * [0, 1]), which construct.h's NURBS reach through crisp_angle_to_param. IGES 5.3 sections 4.6-4.24.
- * The analytic surfaces of B-rep files (192 right circular cylinder, 194 cone, 196 sphere, 198
- * torus; IGES 5.3 sections 4.145-4.148) are read as a frame and radii here, and built over the
- * region their face's model-space curves reach (iges_faces.c), as a 108 plane is sized from its
- * trims; their parameter spaces (degrees, swapped and mirrored for the torus) are not needed:
- * their trims are projected from the model-space curves. 140 offset surfaces (section 4.23) are
- * crisp_surface_offset of their base surface (the same (u, v)), or an exact shifted plane.
+ * [0, 1]), which construct.h's NURBS reach through crisp_angle_to_param. IGES 5.3
+ * sections 4.6-4.24. The analytic surfaces of B-rep files (192 right circular cylinder, 194 cone,
+ * 196 sphere, 198 torus; IGES 5.3 sections 4.145-4.148) are read as a frame and radii here, and
+ * built over the region their face's model-space curves reach (iges_faces.c), as a 108 plane is
+ * sized from its trims; their parameter spaces (degrees, swapped and mirrored for the torus) are
+ * not needed: their trims are projected from the model-space curves. 140 offset surfaces
+ * (section 4.23) are crisp_surface_offset of their base surface (the same (u, v)), or an exact
+ * shifted plane.
  */
 #include "iges_internal.h"
 
@@ -20,9 +21,8 @@
 
 int crisp__iges_is_surface_type(int type)
 {
-    return type == 108 || type == 114 || type == 118 || type == 120 || type == 122 ||
-           type == 128 || type == 140 || type == 190 || type == 192 || type == 194 || type == 196 ||
-           type == 198;
+    return type == 108 || type == 114 || type == 118 || type == 120 || type == 122 || type == 128 ||
+           type == 140 || type == 190 || type == 192 || type == 194 || type == 196 || type == 198;
 }
 
 void crisp__iges_surface_free(iges_surface *s)
@@ -61,12 +61,13 @@ static crisp_status bspline_128(iges_file *f, int e, iges_surface *out)
     if (st) return st;
     int nu = k1 + 1, nv = k2 + 1;
     if (nu < m1 + 1 || nv < m2 + 1)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
-                         "%d x %d control points for degrees (%d, %d): expected at least %d x %d",
-                         nu, nv, m1, m2, m1 + 1, m2 + 1);
+        return crisp__iges_fail(
+            f, e, CRISP_ERR_PARSE,
+            "%d x %d control points for degrees (%d, %d): expected at least %d x %d", nu, nv, m1,
+            m2, m1 + 1, m2 + 1);
     if ((long long)nu * nv > CRISP_MAX_CONTROL_POINTS)
-        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "%d x %d control points: more than %d", nu, nv,
-                         CRISP_MAX_CONTROL_POINTS);
+        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "%d x %d control points: more than %d", nu,
+                                nv, CRISP_MAX_CONTROL_POINTS);
     int n = nu * nv, nk1 = nu + m1 + 1, nk2 = nv + m2 + 1;
     int ku = 10, kv = ku + nk1, kw = kv + nk2, kp = kw + n, kr = kp + 3 * n;
     if ((st = crisp__iges_need(f, e, kr - 1, "a rational B-spline surface"))) return st;
@@ -78,10 +79,14 @@ static crisp_status bspline_128(iges_file *f, int e, iges_surface *out)
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
         goto done;
     }
-    for (int i = 0; i < nk1 && !st; i++) st = crisp__iges_real(f, e, ku + i, &knu[i]);
-    for (int i = 0; i < nk2 && !st; i++) st = crisp__iges_real(f, e, kv + i, &knv[i]);
-    for (int i = 0; i < n && !st; i++) st = crisp__iges_real(f, e, kw + i, &w[i]);
-    for (int i = 0; i < 3 * n && !st; i++) st = crisp__iges_real(f, e, kp + i, &pts[i]);
+    for (int i = 0; i < nk1 && !st; i++)
+        st = crisp__iges_real(f, e, ku + i, &knu[i]);
+    for (int i = 0; i < nk2 && !st; i++)
+        st = crisp__iges_real(f, e, kv + i, &knv[i]);
+    for (int i = 0; i < n && !st; i++)
+        st = crisp__iges_real(f, e, kw + i, &w[i]);
+    for (int i = 0; i < 3 * n && !st; i++)
+        st = crisp__iges_real(f, e, kp + i, &pts[i]);
     if (st) goto done;
     int rational = 0;
     for (int i = 0; i < n; i++)
@@ -92,12 +97,15 @@ static crisp_status bspline_128(iges_file *f, int e, iges_surface *out)
         goto done;
     }
     /* The parameter range U0 U1 V0 V1: crisp keeps the knot domain (trims are given in the same
-     * parameters); a narrower range bounds the face like an outer loop (crisp__iges_domain_loop). */
+     * parameters); a narrower range bounds the face like an outer loop (crisp__iges_domain_loop).
+     */
     double dom[4], r[4];
     crisp_surface_domain(out->surface, dom);
-    for (int i = 0; i < 4 && !st; i++) st = crisp__iges_real_def(f, e, kr + i, dom[i], &r[i]);
+    for (int i = 0; i < 4 && !st; i++)
+        st = crisp__iges_real_def(f, e, kr + i, dom[i], &r[i]);
     if (st) goto done;
-    for (int i = 0; i < 4; i++) r[i] = fmin(fmax(r[i], dom[i & 2]), dom[(i & 2) + 1]);
+    for (int i = 0; i < 4; i++)
+        r[i] = fmin(fmax(r[i], dom[i & 2]), dom[(i & 2) + 1]);
     double eu = 1e-9 * (dom[1] - dom[0]), ev = 1e-9 * (dom[3] - dom[2]);
     if (r[1] - r[0] > eu && r[3] - r[2] > ev &&
         (r[0] > dom[0] + eu || r[1] < dom[1] - eu || r[2] > dom[2] + ev || r[3] < dom[3] - ev)) {
@@ -136,7 +144,7 @@ static crisp_status spline_114(iges_file *f, int e, crisp_surface **dest)
     int kt = 5, kc = kt + (m + 1) + (n + 1);
     /* patches (i, j) in order i outer, j inner, N + 1 per row (the last of a row is a dummy) */
     if ((st = crisp__iges_need(f, e, kc - 1 + 48 * ((m - 1) * (n + 1) + n),
-                        "the coefficients of a parametric spline surface")))
+                               "the coefficients of a parametric spline surface")))
         return st;
     int nu = 3 * m + 1, nv = 3 * n + 1;
     double *tu = crisp_malloc_array((size_t)m + 1, sizeof(double));
@@ -148,8 +156,10 @@ static crisp_status spline_114(iges_file *f, int e, crisp_surface **dest)
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
         goto done;
     }
-    for (int i = 0; i <= m && !st; i++) st = crisp__iges_real(f, e, kt + i, &tu[i]);
-    for (int j = 0; j <= n && !st; j++) st = crisp__iges_real(f, e, kt + m + 1 + j, &tv[j]);
+    for (int i = 0; i <= m && !st; i++)
+        st = crisp__iges_real(f, e, kt + i, &tu[i]);
+    for (int j = 0; j <= n && !st; j++)
+        st = crisp__iges_real(f, e, kt + m + 1 + j, &tv[j]);
     if (st) goto done;
     for (int i = 0; i < m; i++)
         if (!(tu[i + 1] > tu[i])) {
@@ -166,7 +176,8 @@ static crisp_status spline_114(iges_file *f, int e, crisp_surface **dest)
         for (int j = 0; j < n && !st; j++) {
             double hv = tv[j + 1] - tv[j], co[48];
             int k0 = kc + 48 * (i * (n + 1) + j);
-            for (int q = 0; q < 48 && !st; q++) st = crisp__iges_real(f, e, k0 + q, &co[q]);
+            for (int q = 0; q < 48 && !st; q++)
+                st = crisp__iges_real(f, e, k0 + q, &co[q]);
             if (st) break;
             for (int c = 0; c < 3; c++) {
                 /* X(s, t) = sum a[p + 4 q] s^p t^q, scaled to local [0, 1]^2 */
@@ -174,11 +185,13 @@ static crisp_status spline_114(iges_file *f, int e, crisp_surface **dest)
                 for (int q = 0; q < 4; q++)
                     for (int p = 0; p < 4; p++)
                         a[p + 4 * q] = co[16 * c + p + 4 * q] * pow(hu, p) * pow(hv, q);
-                for (int q = 0; q < 4; q++) power_to_bezier(a + 4 * q, tmp + 4 * q);
+                for (int q = 0; q < 4; q++)
+                    power_to_bezier(a + 4 * q, tmp + 4 * q);
                 for (int p = 0; p < 4; p++) {
                     double col[4] = {tmp[p], tmp[p + 4], tmp[p + 8], tmp[p + 12]}, r[4];
                     power_to_bezier(col, r);
-                    for (int q = 0; q < 4; q++) b[p + 4 * q] = r[q];
+                    for (int q = 0; q < 4; q++)
+                        b[p + 4 * q] = r[q];
                 }
                 for (int q = 0; q < 4; q++)
                     for (int p = 0; p < 4; p++)
@@ -192,9 +205,11 @@ static crisp_status spline_114(iges_file *f, int e, crisp_surface **dest)
         knv[k] = tv[0], knv[nv + k] = tv[n];
     }
     for (int i = 1; i < m; i++)
-        for (int k = 0; k < 3; k++) knu[1 + 3 * i + k] = tu[i];
+        for (int k = 0; k < 3; k++)
+            knu[1 + 3 * i + k] = tu[i];
     for (int j = 1; j < n; j++)
-        for (int k = 0; k < 3; k++) knv[1 + 3 * j + k] = tv[j];
+        for (int k = 0; k < 3; k++)
+            knv[1 + 3 * j + k] = tv[j];
     st = crisp_surface_create(3, 3, nu, nv, knu, knv, pts, NULL, dest);
     if (st) st = kernel_fail(f, e, st);
 done:
@@ -216,9 +231,10 @@ static crisp_status one_curve(iges_file *f, int e, int k, int depth, crisp_curve
     crisp_status st = crisp__iges_ptr(f, e, k, 0, &c);
     if (st) return st;
     if (!crisp__iges_is_curve_type(f->ents[c].type) && f->ents[c].type != 130)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected a "
-                                                "curve",
-                         k, iges_de(c), f->ents[c].type);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter %d: DE %d is entity %d, expected a "
+                                "curve",
+                                k, iges_de(c), f->ents[c].type);
     if (map && (st = crisp__iges_curve_param_map(f, c, map))) return st;
     iges_curves out = {0};
     if ((st = crisp__iges_curve_convert(f, c, 3, NULL, depth + 1, &out))) {
@@ -227,9 +243,9 @@ static crisp_status one_curve(iges_file *f, int e, int k, int depth, crisp_curve
     }
     if (out.count != 1) {
         crisp__iges_curves_free(&out);
-        return crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED,
-                         "parameter %d: a defining curve made of %d pieces (expected one curve)",
-                         k, out.count);
+        return crisp__iges_fail(
+            f, e, CRISP_ERR_UNSUPPORTED,
+            "parameter %d: a defining curve made of %d pieces (expected one curve)", k, out.count);
     }
     *dest = out.items[0];
     out.count = 0;
@@ -260,9 +276,9 @@ static crisp_status revolution_120(iges_file *f, int e, int depth, iges_surface 
     if (!st) st = crisp__iges_real(f, e, 4, &ta);
     if (st) return st;
     if (!(ta > sa) || ta - sa > 2 * M_PI + 1e-9)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
-                         "angles %g to %g: expected a start below the end, at most 2 pi apart",
-                         sa, ta);
+        return crisp__iges_fail(
+            f, e, CRISP_ERR_PARSE,
+            "angles %g to %g: expected a start below the end, at most 2 pi apart", sa, ta);
     if (ta - sa > 2 * M_PI) ta = sa + 2 * M_PI;
     if ((st = one_curve(f, e, 1, depth, &axis, NULL))) return st;
     if ((st = one_curve(f, e, 2, depth, &gen, &dest->map_u))) goto done;
@@ -312,7 +328,8 @@ static crisp_status tabulated_122(iges_file *f, int e, int depth, iges_surface *
     crisp_curve *c = NULL;
     double l[3];
     crisp_status st = crisp__iges_need(f, e, 4, "a tabulated cylinder");
-    for (int i = 0; i < 3 && !st; i++) st = crisp__iges_real(f, e, 2 + i, &l[i]);
+    for (int i = 0; i < 3 && !st; i++)
+        st = crisp__iges_real(f, e, 2 + i, &l[i]);
     if (!st) st = one_curve(f, e, 1, depth, &c, &dest->map_u);
     if (st) return st;
     /* the generatrix runs from the directrix start to L (both in the entity's own space: the
@@ -347,7 +364,8 @@ static crisp_status plane_108(iges_file *f, int e, iges_surface *dest)
 {
     double n[4];
     crisp_status st = crisp__iges_need(f, e, 4, "a plane");
-    for (int i = 0; i < 4 && !st; i++) st = crisp__iges_real(f, e, 1 + i, &n[i]);
+    for (int i = 0; i < 4 && !st; i++)
+        st = crisp__iges_real(f, e, 1 + i, &n[i]);
     if (st) return st;
     double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     if (!(len > 0)) return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "normal (A, B, C) is zero");
@@ -357,7 +375,8 @@ static crisp_status plane_108(iges_file *f, int e, iges_surface *dest)
 }
 
 /* Entity k of e points at a 116 point (want_dir 0) or a 123 direction (want_dir 1); its value in
- * the entity's own frame (its matrix applied: all of it to a point, the rotation to a direction). */
+ * the entity's own frame (its matrix applied: all of it to a point, the rotation to a direction).
+ */
 static crisp_status point_or_direction(iges_file *f, int e, int k, int want_dir, int depth,
                                        double dest[3])
 {
@@ -365,10 +384,12 @@ static crisp_status point_or_direction(iges_file *f, int e, int k, int want_dir,
     crisp_status st = crisp__iges_ptr(f, e, k, 0, &p);
     if (st) return st;
     if (f->ents[p].type != type)
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter %d: DE %d is entity %d, expected %d",
-                         k, iges_de(p), f->ents[p].type, type);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter %d: DE %d is entity %d, expected %d", k, iges_de(p),
+                                f->ents[p].type, type);
     double v[3];
-    for (int i = 0; i < 3 && !st; i++) st = crisp__iges_real(f, p, 1 + i, &v[i]);
+    for (int i = 0; i < 3 && !st; i++)
+        st = crisp__iges_real(f, p, 1 + i, &v[i]);
     iges_xform own;
     if (!st) st = crisp__iges_entity_xform(f, p, depth + 1, &own);
     if (st) return st;
@@ -398,7 +419,8 @@ static crisp_status analytic_19x(iges_file *f, int e, int depth, iges_surface *d
 {
     int type = f->ents[e].type, k = 1;
     double o[3], axis[3], ref[3];
-    crisp_status st = crisp__iges_need(f, e, type == 192 || type == 196 ? 3 : 4, "an analytic surface");
+    crisp_status st =
+        crisp__iges_need(f, e, type == 192 || type == 196 ? 3 : 4, "an analytic surface");
     if (!st) st = point_or_direction(f, e, k++, 0, depth, o);
     if (!st && type == 196) st = crisp__iges_real(f, e, k++, &dest->radius);
     if (!st) st = point_or_direction(f, e, k++, 1, depth, axis);
@@ -411,11 +433,13 @@ static crisp_status analytic_19x(iges_file *f, int e, int depth, iges_surface *d
     if (type == 194) {
         dest->semi *= M_PI / 180;
         if (!(dest->semi > 0 && dest->semi < M_PI / 2) || !(dest->radius >= 0))
-            return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "cone: semi-angle %g degrees, radius %g: expected an angle in "
-                             "(0, 90) and a radius >= 0", dest->semi * 180 / M_PI, dest->radius);
+            return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                    "cone: semi-angle %g degrees, radius %g: expected an angle in "
+                                    "(0, 90) and a radius >= 0",
+                                    dest->semi * 180 / M_PI, dest->radius);
     } else if (!(dest->radius > 0) || (type == 198 && !(dest->radius2 > 0))) {
         return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "radius %g%s: expected > 0", dest->radius,
-                         type == 198 ? " (or the minor radius)" : "");
+                                type == 198 ? " (or the minor radius)" : "");
     }
     crisp_placement pl;
     st = crisp_placement_make(o, axis, has_ref ? ref : NULL, &pl);
@@ -438,44 +462,54 @@ static crisp_status offset_140(iges_file *f, int e, int depth, iges_surface *des
     if (!st) st = crisp__iges_ptr(f, e, 5, 0, &b);
     if (st) return st;
     if (!crisp__iges_is_surface_type(f->ents[b].type))
-        return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "parameter 5: DE %d is entity %d, expected a surface", iges_de(b),
-                         f->ents[b].type);
+        return crisp__iges_fail(f, e, CRISP_ERR_PARSE,
+                                "parameter 5: DE %d is entity %d, expected a surface", iges_de(b),
+                                f->ents[b].type);
     double ind[3];
-    for (int k = 0; k < 3 && !st; k++) st = crisp__iges_real(f, e, 1 + k, &ind[k]);
+    for (int k = 0; k < 3 && !st; k++)
+        st = crisp__iges_real(f, e, 1 + k, &ind[k]);
     if (!st) st = crisp__iges_surface_convert(f, b, depth + 1, dest);
     if (st) return st;
-    /* The indicator points to the offset side at the base's first parameters (bug23171_tube_surf.igs:
-     * its two tube halves offset outwards, against one of their normals); a zero one leaves the
-     * normal's side, as Open CASCADE's reader always does. */
+    /* The indicator points to the offset side at the base's first parameters
+     * (bug23171_tube_surf.igs: its two tube halves offset outwards, against one of their normals);
+     * a zero one leaves the normal's side, as Open CASCADE's reader always does. */
     if (dest->surface && crisp_vec3_norm(ind) > 0) {
         double d0[4], n0[3];
         crisp_surface_domain(dest->surface, d0);
-        if (crisp_surface_normal(dest->surface, d0[0], d0[2], n0) && crisp_vec3_dot(n0, ind) < 0) dist = -dist;
+        if (crisp_surface_normal(dest->surface, d0[0], d0[2], n0) && crisp_vec3_dot(n0, ind) < 0)
+            dist = -dist;
     }
     if (dest->analytic) {
         /* exact, outwards: the radius grows by the distance (the torus's minor radius); a
          * cone's offset is the cone of the same axis and angle whose radius at the location grows
          * by d / cos(semi-angle) */
-        if (dest->analytic == 198) dest->radius2 += dist;
-        else if (dest->analytic == 194) dest->radius += dist / cos(dest->semi);
-        else dest->radius += dist;
+        if (dest->analytic == 198)
+            dest->radius2 += dist;
+        else if (dest->analytic == 194)
+            dest->radius += dist / cos(dest->semi);
+        else
+            dest->radius += dist;
         if (!(dest->radius >= 0) || (dest->analytic == 198 && !(dest->radius2 > 0)))
-            return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "offset %g turns the surface inside out", dist);
+            return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC,
+                                    "offset %g turns the surface inside out", dist);
         return CRISP_OK;
     }
     if (dest->is_plane) { /* exact: the frame moves along the plane's normal */
         double z[3], len;
         crisp_vec3_cross(dest->x, dest->y, z);
         len = crisp_vec3_norm(z);
-        for (int k = 0; k < 3; k++) dest->origin[k] += dist * z[k] / len;
+        for (int k = 0; k < 3; k++)
+            dest->origin[k] += dist * z[k] / len;
         return CRISP_OK;
     }
     double box[6];
     crisp_surface_bbox(dest->surface, box);
-    double diag = sqrt((box[3] - box[0]) * (box[3] - box[0]) + (box[4] - box[1]) * (box[4] - box[1]) +
-                       (box[5] - box[2]) * (box[5] - box[2]));
+    double diag =
+        sqrt((box[3] - box[0]) * (box[3] - box[0]) + (box[4] - box[1]) * (box[4] - box[1]) +
+             (box[5] - box[2]) * (box[5] - box[2]));
     crisp_surface *off = NULL;
-    st = crisp_surface_offset(dest->surface, dist, f->projection_fraction * (diag + fabs(dist)), 64, &off);
+    st = crisp_surface_offset(dest->surface, dist, f->projection_fraction * (diag + fabs(dist)), 64,
+                              &off);
     if (st) return kernel_fail(f, e, st);
     crisp_surface_destroy(dest->surface);
     dest->surface = off;
@@ -488,7 +522,8 @@ crisp_status crisp__iges_surface_convert(iges_file *f, int e, int depth, iges_su
     dest->map_u.scale = dest->map_v.scale = 1;
     iges_entity *x = &f->ents[e];
     if (depth > IGES_MAX_DEPTH)
-        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "surfaces nested deeper than %d", IGES_MAX_DEPTH);
+        return crisp__iges_fail(f, e, CRISP_ERR_LIMIT, "surfaces nested deeper than %d",
+                                IGES_MAX_DEPTH);
     if (x->visiting) return crisp__iges_fail(f, e, CRISP_ERR_PARSE, "reference cycle");
     x->used = 1;
     iges_xform own;
@@ -496,18 +531,36 @@ crisp_status crisp__iges_surface_convert(iges_file *f, int e, int depth, iges_su
     if (st) return st;
     x->visiting = 1;
     switch (x->type) {
-    case 128: st = bspline_128(f, e, dest); break;
-    case 114: st = spline_114(f, e, &dest->surface); break;
-    case 118: st = ruled_118(f, e, depth, dest); break;
-    case 120: st = revolution_120(f, e, depth, dest); break;
-    case 122: st = tabulated_122(f, e, depth, dest); break;
-    case 108: st = plane_108(f, e, dest); break;
-    case 190: st = plane_190(f, e, depth, dest); break;
+    case 128:
+        st = bspline_128(f, e, dest);
+        break;
+    case 114:
+        st = spline_114(f, e, &dest->surface);
+        break;
+    case 118:
+        st = ruled_118(f, e, depth, dest);
+        break;
+    case 120:
+        st = revolution_120(f, e, depth, dest);
+        break;
+    case 122:
+        st = tabulated_122(f, e, depth, dest);
+        break;
+    case 108:
+        st = plane_108(f, e, dest);
+        break;
+    case 190:
+        st = plane_190(f, e, depth, dest);
+        break;
     case 192:
     case 194:
     case 196:
-    case 198: st = analytic_19x(f, e, depth, dest); break;
-    case 140: st = offset_140(f, e, depth, dest); break;
+    case 198:
+        st = analytic_19x(f, e, depth, dest);
+        break;
+    case 140:
+        st = offset_140(f, e, depth, dest);
+        break;
     default:
         st = crisp__iges_fail(f, e, CRISP_ERR_UNSUPPORTED, "not a surface type crisp reads");
         break;
@@ -535,7 +588,9 @@ crisp_status crisp__iges_surface_convert(iges_file *f, int e, int depth, iges_su
         if (dest->analytic) {
             /* a scaling matrix scales the radii; the frame stays unit */
             double sc = crisp_vec3_norm(dest->x);
-            if (!(sc > 0)) return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC, "its transformation matrix is singular");
+            if (!(sc > 0))
+                return crisp__iges_fail(f, e, CRISP_ERR_NUMERIC,
+                                        "its transformation matrix is singular");
             crisp_vec3_scale(dest->x, 1 / sc, dest->x);
             crisp_vec3_scale(dest->y, 1 / crisp_vec3_norm(dest->y), dest->y);
             dest->radius *= sc;
@@ -564,7 +619,8 @@ static void mapped_eval(void *ctx, double t, double *dest)
 crisp_status crisp__iges_surface_map_curve(const iges_surface *s, double tol_uv, crisp_curve **c)
 {
     const iges_param_map *mu = &s->map_u, *mv = &s->map_v;
-    if (crisp__iges_param_map_is_identity(mu) && crisp__iges_param_map_is_identity(mv)) return CRISP_OK;
+    if (crisp__iges_param_map_is_identity(mu) && crisp__iges_param_map_is_identity(mv))
+        return CRISP_OK;
     crisp_curve *cv = *c;
     int n = cv->count;
     /* Exact cases: affine maps act on control points; an angular coordinate that is constant

@@ -14,14 +14,16 @@ static _Thread_local char exr_message[256];
 static void quiet_handler(exr_const_context_t ctx, exr_result_t code, const char *msg)
 {
     (void)ctx;
-    snprintf(exr_message, sizeof exr_message, "%s", msg ? msg : exr_get_default_error_message(code));
+    snprintf(exr_message, sizeof exr_message, "%s",
+             msg ? msg : exr_get_default_error_message(code));
 }
 
 crisp_status crisp_write_exr(const char *path, int width, int height, int channels,
                              const char *const *names, const float *data)
 {
     if (!path || !data || !names || width < 1 || height < 1 || channels < 1 || channels > 64)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_write_exr: %s: bad image %dx%d with %d channels",
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_write_exr: %s: bad image %dx%d with %d channels",
                            path ? path : "(null)", width, height, channels);
     exr_context_t ctx;
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
@@ -36,7 +38,8 @@ crisp_status crisp_write_exr(const char *path, int width, int height, int channe
     exr_encode_pipeline_t enc;
     int enc_init = 0;
     rv = exr_add_part(ctx, "image", EXR_STORAGE_SCANLINE, &part);
-    if (!rv) rv = exr_initialize_required_attr_simple(ctx, part, width, height, EXR_COMPRESSION_ZIP);
+    if (!rv)
+        rv = exr_initialize_required_attr_simple(ctx, part, width, height, EXR_COMPRESSION_ZIP);
     for (int c = 0; c < channels && !rv; c++)
         rv = exr_add_channel(ctx, part, names[c], EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LINEAR, 1, 1);
     if (!rv) rv = exr_write_header(ctx);
@@ -58,7 +61,8 @@ crisp_status crisp_write_exr(const char *path, int width, int height, int channe
             for (int k = 0; k < channels; k++)
                 if (!strcmp(names[k], enc.channels[c].channel_name)) src = k;
             enc.channels[c].encode_from_ptr =
-                (const uint8_t *)(data + ((size_t)y * (size_t)width) * (size_t)channels + (size_t)src);
+                (const uint8_t *)(data + ((size_t)y * (size_t)width) * (size_t)channels +
+                                  (size_t)src);
             enc.channels[c].user_pixel_stride = (int32_t)stride;
             enc.channels[c].user_line_stride = (int32_t)(stride * (size_t)width);
             enc.channels[c].user_bytes_per_element = 4;

@@ -9,7 +9,8 @@ crisp_status crisp_write_png(const char *path, int width, int height, int channe
                              const uint8_t *data)
 {
     if (!path || !data || width < 1 || height < 1 || channels < 1 || channels > 4)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_write_png: %s: bad image %dx%d with %d channels",
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_write_png: %s: bad image %dx%d with %d channels",
                            path ? path : "(null)", width, height, channels);
     static const png_uint_32 formats[4] = {PNG_FORMAT_GRAY, PNG_FORMAT_GA, PNG_FORMAT_RGB,
                                            PNG_FORMAT_RGBA};

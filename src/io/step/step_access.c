@@ -75,7 +75,8 @@ int crisp__step_text_is(const step_reader *r, const step_value *v, const char *s
 int crisp__step_value_real(const step_reader *r, const step_value *v, double *dest)
 {
     /* Typed measures (LENGTH_MEASURE(1.0), PARAMETER_VALUE(0.5)) wrap a number. */
-    for (int k = 0; k < 4 && v->kind == STEP_TYPED; k++) v = &r->f->values[v->first];
+    for (int k = 0; k < 4 && v->kind == STEP_TYPED; k++)
+        v = &r->f->values[v->first];
     if (v->kind != STEP_REAL && v->kind != STEP_INT) return 0;
     if (!isfinite(v->num)) return 0;
     *dest = v->num;
@@ -97,7 +98,8 @@ crisp_status crisp__step_get_real(const step_reader *r, const step_entity *e, co
     crisp_status st = need(r, e, p, i, &v);
     if (st) return st;
     if (!crisp__step_value_real(r, v, dest))
-        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "parameter %d: expected a finite real number", i + 1);
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                "parameter %d: expected a finite real number", i + 1);
     return CRISP_OK;
 }
 
@@ -108,8 +110,8 @@ crisp_status crisp__step_get_int(const step_reader *r, const step_entity *e, con
     crisp_status st = need(r, e, p, i, &v);
     if (st) return st;
     if (v->kind != STEP_INT || v->num < lo || v->num > hi)
-        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "parameter %d: expected an integer in %d..%d",
-                                i + 1, lo, hi);
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                "parameter %d: expected an integer in %d..%d", i + 1, lo, hi);
     *dest = (int)v->num;
     return CRISP_OK;
 }
@@ -120,7 +122,8 @@ crisp_status crisp__step_get_bool(const step_reader *r, const step_entity *e, co
     const step_value *v;
     crisp_status st = need(r, e, p, i, &v);
     if (st) return st;
-    if (v->kind == STEP_ENUM && (crisp__step_text_is(r, v, "T") || crisp__step_text_is(r, v, "F"))) {
+    if (v->kind == STEP_ENUM &&
+        (crisp__step_text_is(r, v, "T") || crisp__step_text_is(r, v, "F"))) {
         *dest = crisp__step_text_is(r, v, "T");
         return CRISP_OK;
     }
@@ -148,7 +151,8 @@ crisp_status crisp__step_deref(const step_reader *r, const step_entity *e, const
     if (!t && v->num > 2147483647.0)
         return crisp__step_fail(r, e, CRISP_ERR_PARSE, "reference #%.6g out of range", v->num);
     if (!t)
-        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "reference to #%.0f, which is not defined", v->num);
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "reference to #%.0f, which is not defined",
+                                v->num);
     *dest = t;
     return CRISP_OK;
 }
@@ -160,8 +164,8 @@ crisp_status crisp__step_get_ref(const step_reader *r, const step_entity *e, con
     crisp_status st = need(r, e, p, i, &v);
     if (st) return st;
     if (v->kind != STEP_REF)
-        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "parameter %d: expected an entity reference #n",
-                                i + 1);
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                "parameter %d: expected an entity reference #n", i + 1);
     return crisp__step_deref(r, e, v, dest);
 }
 
@@ -175,11 +179,13 @@ static crisp_status coords(step_reader *r, const step_entity *e, const char *typ
     crisp_status st = crisp__step_get_list(r, e, p, 1, &list);
     if (st) return st;
     if (list->len < 1 || list->len > 3)
-        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected 1 to 3 coordinates, found %u", list->len);
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected 1 to 3 coordinates, found %u",
+                                list->len);
     x[0] = x[1] = x[2] = 0;
     for (uint32_t k = 0; k < list->len; k++)
         if (!crisp__step_value_real(r, crisp__step_elem(r, list, k), &x[k]))
-            return crisp__step_fail(r, e, CRISP_ERR_PARSE, "coordinate %u: expected a finite real", k + 1);
+            return crisp__step_fail(r, e, CRISP_ERR_PARSE, "coordinate %u: expected a finite real",
+                                    k + 1);
     if (dim) *dim = (int)list->len;
     return CRISP_OK;
 }
@@ -196,7 +202,8 @@ crisp_status crisp__step_direction(step_reader *r, const step_entity *e, double 
     double n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     if (!(n > 1e-300) || !isfinite(n))
         return crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "expected a non-zero direction");
-    for (int k = 0; k < 3; k++) d[k] /= n;
+    for (int k = 0; k < 3; k++)
+        d[k] /= n;
     return CRISP_OK;
 }
 
@@ -211,7 +218,8 @@ crisp_status crisp__step_vector(step_reader *r, const step_entity *e, double d[3
     if (!st) st = crisp__step_get_real(r, e, p, 2, &mag);
     if (!st) st = crisp__step_direction(r, de, d);
     if (st) return st;
-    for (int k = 0; k < 3; k++) d[k] *= mag;
+    for (int k = 0; k < 3; k++)
+        d[k] *= mag;
     return CRISP_OK;
 }
 
@@ -238,10 +246,14 @@ static crisp_status make_frame(step_reader *r, const step_entity *e, const doubl
         memcpy(xx, ax, sizeof xx);
     }
     double dz = xx[0] * zz[0] + xx[1] * zz[1] + xx[2] * zz[2];
-    for (int k = 0; k < 3; k++) xx[k] -= dz * zz[k];
+    for (int k = 0; k < 3; k++)
+        xx[k] -= dz * zz[k];
     double n = sqrt(xx[0] * xx[0] + xx[1] * xx[1] + xx[2] * xx[2]);
-    if (!(n > 1e-12)) return crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "reference direction parallel to the axis");
-    for (int k = 0; k < 3; k++) xx[k] /= n;
+    if (!(n > 1e-12))
+        return crisp__step_fail(r, e, CRISP_ERR_NUMERIC,
+                                "reference direction parallel to the axis");
+    for (int k = 0; k < 3; k++)
+        xx[k] /= n;
     memcpy(dest->origin, o, sizeof dest->origin);
     memcpy(dest->z, zz, sizeof zz);
     memcpy(dest->x, xx, sizeof xx);
@@ -285,6 +297,7 @@ crisp_status crisp__step_placement(step_reader *r, const step_entity *e, crisp_p
             return st;
         return make_frame(r, e, o, ze ? z : NULL, NULL, dest);
     }
-    return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected an AXIS2_PLACEMENT_3D, AXIS2_PLACEMENT_2D "
-                                                   "or AXIS1_PLACEMENT");
+    return crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                            "expected an AXIS2_PLACEMENT_3D, AXIS2_PLACEMENT_2D "
+                            "or AXIS1_PLACEMENT");
 }

@@ -35,25 +35,25 @@ typedef double xform[3][4]; /* p' = R p + t: rows of [R | t] */
 typedef struct asm_edge {
     int parent, child; /* representation indices */
     xform t;           /* child coordinates (mm) to parent coordinates (mm) */
-    int ids[3];        /* entities naming this placement (relationship or MAPPED_ITEM, CDSR, NAUO; 0) */
+    int ids[3]; /* entities naming this placement (relationship or MAPPED_ITEM, CDSR, NAUO; 0) */
 } asm_edge;
 
 typedef struct asm_inst {
     int group;
-    xform m;     /* group coordinates (mm) to world (mm) */
-    int parent;  /* the instance this one was placed in, -1 for a root */
-    int edge;    /* the placement (edge index) that put it there, -1 for a root */
+    xform m;    /* group coordinates (mm) to world (mm) */
+    int parent; /* the instance this one was placed in, -1 for a root */
+    int edge;   /* the placement (edge index) that put it there, -1 for a root */
 } asm_inst;
 
 typedef struct asm_state {
     step_reader *r;
-    int *rep_of_entity;  /* entity index -> representation index, -1 */
-    int *item_rep;       /* entity index -> first link of the representations listing it, -1 */
+    int *rep_of_entity; /* entity index -> representation index, -1 */
+    int *item_rep;      /* entity index -> first link of the representations listing it, -1 */
     int *link_rep, *link_next; /* item links: representation, next link (-1) */
     size_t link_count, link_cap;
-    int *rep_entity;     /* representation index -> entity index */
-    double *rep_unit;    /* mm per unit of the representation's context */
-    int *parent;         /* union-find over representations */
+    int *rep_entity;  /* representation index -> entity index */
+    double *rep_unit; /* mm per unit of the representation's context */
+    int *parent;      /* union-find over representations */
     int rep_count;
     asm_edge *edges;
     size_t edge_count, edge_cap;
@@ -76,7 +76,8 @@ static void xf_mul(xform a, xform b, xform dest)
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 4; j++) {
             double s = j == 3 ? a[i][3] : 0;
-            for (int k = 0; k < 3; k++) s += a[i][k] * b[k][j];
+            for (int k = 0; k < 3; k++)
+                s += a[i][k] * b[k][j];
             c[i][j] = s;
         }
     memcpy(dest, c, sizeof c);
@@ -115,7 +116,8 @@ static int xf_is_identity(xform m)
     return 1;
 }
 
-/* ---- representations ---------------------------------------------------------------------------- */
+/* ---- representations ----------------------------------------------------------------------------
+ */
 
 /* The part of e that is a shape representation (name, items, context), or NULL. */
 static const step_part *rep_part(const step_reader *r, const step_entity *e)
@@ -138,7 +140,8 @@ static const step_part *rep_part(const step_reader *r, const step_entity *e)
 
 static int find(asm_state *s, int a)
 {
-    while (s->parent[a] != a) a = s->parent[a] = s->parent[s->parent[a]];
+    while (s->parent[a] != a)
+        a = s->parent[a] = s->parent[s->parent[a]];
     return a;
 }
 
@@ -147,7 +150,8 @@ static int rep_index(asm_state *s, const step_entity *e)
     return e ? s->rep_of_entity[e - s->r->f->entities] : -1;
 }
 
-static crisp_status add_edge(asm_state *s, int parent, int child, xform t, int id0, int id1, int id2)
+static crisp_status add_edge(asm_state *s, int parent, int child, xform t, int id0, int id1,
+                             int id2)
 {
     if (s->edge_count == s->edge_cap &&
         crisp_grow((void **)&s->edges, &s->edge_cap, s->edge_count + 1, sizeof *s->edges))
@@ -171,24 +175,35 @@ static crisp_status placement(asm_state *s, const step_entity *e, crisp_placemen
  * map from coordinates in unit u_from to coordinates in unit u_to, both scaled to mm:
  * x' = o + scale (x e1 + y e2 + z e3), the axes derived as in ISO 10303-42 (e3 from axis3, e1 the
  * projection of axis1, e2 the projection of axis2: left-handed when axis2 says so, a mirror). */
-static crisp_status cto_xform(asm_state *s, const step_entity *op, double u_from, double u_to, xform t)
+static crisp_status cto_xform(asm_state *s, const step_entity *op, double u_from, double u_to,
+                              xform t)
 {
     step_reader *r = s->r;
     const step_part *cto = crisp__step_part(r, op, "CARTESIAN_TRANSFORMATION_OPERATOR_3D");
-    if (!cto) return crisp__step_fail(r, op, CRISP_ERR_PARSE, "expected a CARTESIAN_TRANSFORMATION_OPERATOR_3D");
+    if (!cto)
+        return crisp__step_fail(r, op, CRISP_ERR_PARSE,
+                                "expected a CARTESIAN_TRANSFORMATION_OPERATOR_3D");
     const step_value *v1 = crisp__step_param(r, cto, 1), *v2 = crisp__step_param(r, cto, 2);
     const step_value *v3 = crisp__step_param(r, cto, 5), *vs = crisp__step_param(r, cto, 4);
     const step_entity *oe, *de;
     double x[3], y[3], z[3], o[3], scale = 1, sv;
     const double *px = NULL, *py = NULL, *pz = NULL;
     crisp_status st;
-    if ((st = crisp__step_get_ref(r, op, cto, 3, &oe)) || (st = crisp__step_point(r, oe, o, NULL))) return st;
-    if (v1 && v1->kind == STEP_REF && !crisp__step_deref(r, op, v1, &de) && !crisp__step_direction(r, de, x)) px = x;
-    if (v2 && v2->kind == STEP_REF && !crisp__step_deref(r, op, v2, &de) && !crisp__step_direction(r, de, y)) py = y;
-    if (v3 && v3->kind == STEP_REF && !crisp__step_deref(r, op, v3, &de) && !crisp__step_direction(r, de, z)) pz = z;
+    if ((st = crisp__step_get_ref(r, op, cto, 3, &oe)) || (st = crisp__step_point(r, oe, o, NULL)))
+        return st;
+    if (v1 && v1->kind == STEP_REF && !crisp__step_deref(r, op, v1, &de) &&
+        !crisp__step_direction(r, de, x))
+        px = x;
+    if (v2 && v2->kind == STEP_REF && !crisp__step_deref(r, op, v2, &de) &&
+        !crisp__step_direction(r, de, y))
+        py = y;
+    if (v3 && v3->kind == STEP_REF && !crisp__step_deref(r, op, v3, &de) &&
+        !crisp__step_direction(r, de, z))
+        pz = z;
     crisp_error_clear();
     if (vs && crisp__step_value_real(r, vs, &sv)) {
-        if (!(sv > 0) || sv > 1e6) return crisp__step_fail(r, op, CRISP_ERR_NUMERIC, "scale %g: expected (0, 1e6]", sv);
+        if (!(sv > 0) || sv > 1e6)
+            return crisp__step_fail(r, op, CRISP_ERR_NUMERIC, "scale %g: expected (0, 1e6]", sv);
         scale = sv;
     }
     double zz[3] = {0, 0, 1};
@@ -199,15 +214,19 @@ static crisp_status cto_xform(asm_state *s, const step_entity *op, double u_from
     }
     if (py) {
         double a = 0, b = 0, n = 0;
-        for (int k = 0; k < 3; k++) a += py[k] * pl.z[k], b += py[k] * pl.x[k];
-        for (int k = 0; k < 3; k++) y[k] = py[k] - a * pl.z[k] - b * pl.x[k], n += y[k] * y[k];
+        for (int k = 0; k < 3; k++)
+            a += py[k] * pl.z[k], b += py[k] * pl.x[k];
+        for (int k = 0; k < 3; k++)
+            y[k] = py[k] - a * pl.z[k] - b * pl.x[k], n += y[k] * y[k];
         n = sqrt(n);
         if (n > 1e-12)
-            for (int k = 0; k < 3; k++) pl.y[k] = y[k] / n;
+            for (int k = 0; k < 3; k++)
+                pl.y[k] = y[k] / n;
     }
     xf_frame(&pl, u_to, t);
     for (int i = 0; i < 3; i++)
-        for (int k = 0; k < 3; k++) t[i][k] *= scale * u_to / u_from;
+        for (int k = 0; k < 3; k++)
+            t[i][k] *= scale * u_to / u_from;
     return CRISP_OK;
 }
 
@@ -224,10 +243,13 @@ static crisp_status mapped_item(asm_state *s, const step_entity *e, int rep)
     if (st) return st;
     const step_part *mp = crisp__step_part(r, map, "REPRESENTATION_MAP");
     if (!mp) return crisp__step_fail(r, map, CRISP_ERR_PARSE, "expected a REPRESENTATION_MAP");
-    if ((st = crisp__step_get_ref(r, map, mp, 0, &origin)) || (st = crisp__step_get_ref(r, map, mp, 1, &child)))
+    if ((st = crisp__step_get_ref(r, map, mp, 0, &origin)) ||
+        (st = crisp__step_get_ref(r, map, mp, 1, &child)))
         return st;
     int c = rep_index(s, child);
-    if (c < 0) return crisp__step_fail(r, map, CRISP_ERR_PARSE, "parameter 2: expected a shape representation");
+    if (c < 0)
+        return crisp__step_fail(r, map, CRISP_ERR_PARSE,
+                                "parameter 2: expected a shape representation");
     xform a, b;
     if ((st = placement(s, origin, &po))) return st;
     if (crisp__step_is(r, target, "CARTESIAN_TRANSFORMATION_OPERATOR_3D")) {
@@ -253,7 +275,8 @@ static int pd_group(asm_state *s, const int *rep_of_pd, const step_entity *pd)
 }
 
 /* The NAUO's parent and child definitions behind a CDSR's represented_product_relation. */
-static void nauo_ends(asm_state *s, const step_entity *pds, const step_entity **parent, const step_entity **child)
+static void nauo_ends(asm_state *s, const step_entity *pds, const step_entity **parent,
+                      const step_entity **child)
 {
     step_reader *r = s->r;
     *parent = *child = NULL;
@@ -279,7 +302,8 @@ static int item_in_group(asm_state *s, const step_entity *e, int g)
 
 /* A representation relationship with a transformation (entity e): an edge. cdsr: the
  * CONTEXT_DEPENDENT_SHAPE_REPRESENTATION using it (NULL when none). */
-static crisp_status placed_relation(asm_state *s, const step_entity *e, const step_entity *cdsr, const int *rep_of_pd)
+static crisp_status placed_relation(asm_state *s, const step_entity *e, const step_entity *cdsr,
+                                    const int *rep_of_pd)
 {
     step_reader *r = s->r;
     const step_part *rr = crisp__step_part(r, e, "REPRESENTATION_RELATIONSHIP");
@@ -291,23 +315,28 @@ static crisp_status placed_relation(asm_state *s, const step_entity *e, const st
      * operator; trj9_ap209-mp.stp.) */
     int op_at = 0;
     if (!rr && rt && crisp__step_param(r, rt, 4)) rr = rt, op_at = 4;
-    if (!rr || !rt) return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected a REPRESENTATION_RELATIONSHIP");
-    if ((st = crisp__step_get_ref(r, e, rr, 2, &r1)) || (st = crisp__step_get_ref(r, e, rr, 3, &r2)) ||
+    if (!rr || !rt)
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected a REPRESENTATION_RELATIONSHIP");
+    if ((st = crisp__step_get_ref(r, e, rr, 2, &r1)) ||
+        (st = crisp__step_get_ref(r, e, rr, 3, &r2)) ||
         (st = crisp__step_get_ref(r, e, rt, op_at, &op)))
         return st;
     int a = rep_index(s, r1), b = rep_index(s, r2);
-    if (a < 0 || b < 0) return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected two shape representations");
+    if (a < 0 || b < 0)
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected two shape representations");
     /* rep_1 is the child by the recommended practice; the NAUO says otherwise when the parent's
      * representation is rep_1 and the child's rep_2. */
     int child = a, parent = b, nauo_id = 0;
     if (cdsr) {
         const step_part *cp = crisp__step_part(r, cdsr, "CONTEXT_DEPENDENT_SHAPE_REPRESENTATION");
         const step_value *v = crisp__step_param(r, cp, 1);
-        const step_entity *pds = v && v->kind == STEP_REF ? crisp__step_find(r->f, v->num) : NULL, *pp, *pc;
+        const step_entity *pds = v && v->kind == STEP_REF ? crisp__step_find(r->f, v->num) : NULL,
+                          *pp, *pc;
         if (pds) {
             const step_part *dp = crisp__step_part(r, pds, "PRODUCT_DEFINITION_SHAPE");
             const step_value *dv = dp ? crisp__step_param(r, dp, 2) : NULL;
-            if (dv && dv->kind == STEP_REF && dv->num >= 1 && dv->num <= 2147483647.0) nauo_id = (int)dv->num;
+            if (dv && dv->kind == STEP_REF && dv->num >= 1 && dv->num <= 2147483647.0)
+                nauo_id = (int)dv->num;
             nauo_ends(s, pds, &pp, &pc);
             int gp = pd_group(s, rep_of_pd, pp), gc = pd_group(s, rep_of_pd, pc);
             if (gp >= 0 && gc >= 0 && gp == find(s, a) && gc == find(s, b)) child = b, parent = a;
@@ -320,7 +349,8 @@ static crisp_status placed_relation(asm_state *s, const step_entity *e, const st
         /* The transformation takes the child's item onto the parent's: item 1 is the child's when
          * rep_1 is, unless the items say otherwise (some writers turn the representations round and
          * not the items: trj4_s1-ai-214.stp). */
-        if ((st = crisp__step_get_ref(r, op, idt, 2, &i1)) || (st = crisp__step_get_ref(r, op, idt, 3, &i2)))
+        if ((st = crisp__step_get_ref(r, op, idt, 2, &i1)) ||
+            (st = crisp__step_get_ref(r, op, idt, 3, &i2)))
             return st;
         const step_entity *ci = child == a ? i1 : i2, *pi = child == a ? i2 : i1;
         if (item_in_group(s, ci, find(s, parent)) && !item_in_group(s, ci, find(s, child)) &&
@@ -341,16 +371,19 @@ static crisp_status placed_relation(asm_state *s, const step_entity *e, const st
             /* rep_2 is the child: the inverse (a similarity: R^T / scale^2 inverts scale R) */
             xform inv;
             double s2 = 0;
-            for (int k = 0; k < 3; k++) s2 += t[k][0] * t[k][0];
+            for (int k = 0; k < 3; k++)
+                s2 += t[k][0] * t[k][0];
             for (int i = 0; i < 3; i++)
-                for (int k = 0; k < 3; k++) inv[i][k] = t[k][i] / s2;
+                for (int k = 0; k < 3; k++)
+                    inv[i][k] = t[k][i] / s2;
             for (int i = 0; i < 3; i++)
                 inv[i][3] = -(inv[i][0] * t[0][3] + inv[i][1] * t[1][3] + inv[i][2] * t[2][3]);
             memcpy(t, inv, sizeof t);
         }
     } else {
-        return crisp__step_fail(r, op, CRISP_ERR_UNSUPPORTED,
-                                "expected an ITEM_DEFINED_TRANSFORMATION or CARTESIAN_TRANSFORMATION_OPERATOR_3D");
+        return crisp__step_fail(
+            r, op, CRISP_ERR_UNSUPPORTED,
+            "expected an ITEM_DEFINED_TRANSFORMATION or CARTESIAN_TRANSFORMATION_OPERATOR_3D");
     }
     return add_edge(s, parent, child, t, e->id, cdsr ? cdsr->id : 0, nauo_id);
 }
@@ -367,15 +400,18 @@ static crisp_status note(asm_state *s, crisp_status st, const char *what, int id
     return CRISP_OK;
 }
 
-/* ---- the placement tree ----------------------------------------------------------------------- */
+/* ---- the placement tree -----------------------------------------------------------------------
+ */
 
 static crisp_status place(asm_state *s, int g, xform m, int depth, int parent, int edge)
 {
     if (s->inst_count >= ASM_MAX_INSTANCES)
-        return crisp_error(CRISP_ERR_LIMIT, "%s: the assembly places more than %d parts (instance explosion?)",
+        return crisp_error(CRISP_ERR_LIMIT,
+                           "%s: the assembly places more than %d parts (instance explosion?)",
                            s->r->f->name, ASM_MAX_INSTANCES);
     if (depth > ASM_MAX_DEPTH)
-        return crisp_error(CRISP_ERR_LIMIT, "%s: assembly nested deeper than %d levels (at representation #%d)",
+        return crisp_error(CRISP_ERR_LIMIT,
+                           "%s: assembly nested deeper than %d levels (at representation #%d)",
                            s->r->f->name, ASM_MAX_DEPTH, s->r->f->entities[s->rep_entity[g]].id);
     if (s->inst_count == s->inst_cap &&
         crisp_grow((void **)&s->inst, &s->inst_cap, s->inst_count + 1, sizeof *s->inst))
@@ -419,7 +455,8 @@ static double subtree_size(asm_state *s, double *memo, int g, int depth)
     return memo[g] = n > ASM_MAX_INSTANCES ? ASM_MAX_INSTANCES + 1.0 : n;
 }
 
-/* ---- faces -------------------------------------------------------------------------------------- */
+/* ---- faces --------------------------------------------------------------------------------------
+ */
 
 /* The representation holding face i (through its solid / surface model, its shell or set, or the
  * face itself) that the assembly places, or -1. An item can be listed by several representations
@@ -469,7 +506,8 @@ static crisp_status build_graph(asm_state *s)
         crisp_free(rep_of_pd);
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
     }
-    for (size_t i = 0; i < n; i++) s->rep_of_entity[i] = s->item_rep[i] = rep_of_pd[i] = -1;
+    for (size_t i = 0; i < n; i++)
+        s->rep_of_entity[i] = s->item_rep[i] = rep_of_pd[i] = -1;
     for (size_t i = 0; i < n; i++)
         if (rep_part(r, &f->entities[i])) s->rep_of_entity[i] = s->rep_count++;
     if (s->rep_count == 0) goto out;
@@ -506,7 +544,8 @@ static crisp_status build_graph(asm_state *s)
             if (s->link_count == s->link_cap) {
                 size_t cap = s->link_cap;
                 if (crisp_grow((void **)&s->link_rep, &cap, s->link_count + 1, sizeof(int)) ||
-                    crisp_grow((void **)&s->link_next, &s->link_cap, s->link_count + 1, sizeof(int))) {
+                    crisp_grow((void **)&s->link_next, &s->link_cap, s->link_count + 1,
+                               sizeof(int))) {
                     st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
                     break;
                 }
@@ -528,7 +567,8 @@ static crisp_status build_graph(asm_state *s)
         if (crisp__step_is(r, e, "REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION")) continue;
         if ((p = crisp__step_part(r, e, "REPRESENTATION_RELATIONSHIP")) ||
             (p = crisp__step_part(r, e, "SHAPE_REPRESENTATION_RELATIONSHIP"))) {
-            const step_value *a = p ? crisp__step_param(r, p, 2) : NULL, *b = p ? crisp__step_param(r, p, 3) : NULL;
+            const step_value *a = p ? crisp__step_param(r, p, 2) : NULL,
+                             *b = p ? crisp__step_param(r, p, 3) : NULL;
             const step_entity *ea = a && a->kind == STEP_REF ? crisp__step_find(f, a->num) : NULL;
             const step_entity *eb = b && b->kind == STEP_REF ? crisp__step_find(f, b->num) : NULL;
             int x = rep_index(s, ea), y = rep_index(s, eb);
@@ -558,7 +598,8 @@ static crisp_status build_graph(asm_state *s)
             crisp_error_clear();
             continue;
         }
-        if (!crisp__step_is(r, rel, "REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION") || done[rel - f->entities])
+        if (!crisp__step_is(r, rel, "REPRESENTATION_RELATIONSHIP_WITH_TRANSFORMATION") ||
+            done[rel - f->entities])
             continue;
         done[rel - f->entities] = 1;
         st = note(s, placed_relation(s, rel, e, rep_of_pd), "assembly placement", e->id);
@@ -601,7 +642,8 @@ static int placement_id(const step_reader *r, const step_entity *e)
 }
 
 /* Occurrence styles of the file: *occ (on occurrences) and *ctx (context dependent). */
-static crisp_status occurrence_styles(asm_state *s, occ_style **occ, int *nocc, occ_style **ctx, int *nctx)
+static crisp_status occurrence_styles(asm_state *s, occ_style **occ, int *nocc, occ_style **ctx,
+                                      int *nctx)
 {
     step_reader *r = s->r;
     const step_file *f = r->f;
@@ -616,7 +658,8 @@ static crisp_status occurrence_styles(asm_state *s, occ_style **occ, int *nocc, 
         if (!p) p = crisp__step_part(r, e, "OVER_RIDING_STYLED_ITEM");
         if (!p) continue;
         const step_value *styles = crisp__step_param(r, p, 1), *item = crisp__step_param(r, p, 2);
-        if (!item || item->kind != STEP_REF || !(item->num >= 1 && item->num <= 2147483647.0)) continue;
+        if (!item || item->kind != STEP_REF || !(item->num >= 1 && item->num <= 2147483647.0))
+            continue;
         const step_entity *it = crisp__step_find(f, item->num);
         if (!it) continue;
         const step_value *cl = dependent ? crisp__step_param(r, p, 4) : NULL;
@@ -627,14 +670,16 @@ static crisp_status occurrence_styles(asm_state *s, occ_style **occ, int *nocc, 
             uint32_t n = cl && cl->kind == STEP_LIST ? cl->len : 0;
             for (uint32_t j = 0; j < n && o.ncontext < OCC_CONTEXTS; j++) {
                 const step_value *x = &f->values[cl->first + j];
-                if (x->kind == STEP_REF && x->num >= 1 && x->num <= 2147483647.0) o.contexts[o.ncontext++] = (int)x->num;
+                if (x->kind == STEP_REF && x->num >= 1 && x->num <= 2147483647.0)
+                    o.contexts[o.ncontext++] = (int)x->num;
             }
             if (!o.ncontext) continue;
         }
         occ_style **list = dependent ? ctx : occ;
         int *count = dependent ? nctx : nocc;
         size_t *cap = dependent ? &cap_c : &cap_o;
-        if ((size_t)*count == *cap && crisp_grow((void **)list, cap, (size_t)*count + 1, sizeof **list))
+        if ((size_t)*count == *cap &&
+            crisp_grow((void **)list, cap, (size_t)*count + 1, sizeof **list))
             return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
         (*list)[(*count)++] = o;
     }
@@ -647,8 +692,9 @@ static int edge_has(const asm_edge *ed, int id)
 }
 
 /* The colour of face (id, owners) in instance k, when an occurrence style gives one. */
-static int occurrence_colour(const asm_state *s, int k, int face_id, const int *owners, const occ_style *occ,
-                             int nocc, const occ_style *ctx, int nctx, float rgb[3])
+static int occurrence_colour(const asm_state *s, int k, int face_id, const int *owners,
+                             const occ_style *occ, int nocc, const occ_style *ctx, int nctx,
+                             float rgb[3])
 {
     int found = 0, dependent = 0;
     for (int i = k; i >= 0 && s->inst[i].edge >= 0; i = s->inst[i].parent) {
@@ -671,7 +717,8 @@ static int occurrence_colour(const asm_state *s, int k, int face_id, const int *
     return found;
 }
 
-crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int *owners, int face_count)
+crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int *owners,
+                                  int face_count)
 {
     occ_style *occ = NULL, *ctx = NULL;
     int nocc = 0, nctx = 0;
@@ -698,7 +745,8 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
         s.first_edge[find(&s, s.edges[k].parent) + 1]++;
         s.incoming[find(&s, s.edges[k].child)]++;
     }
-    for (int g = 0; g < g_count; g++) s.first_edge[g + 1] += s.first_edge[g];
+    for (int g = 0; g < g_count; g++)
+        s.first_edge[g + 1] += s.first_edge[g];
     {
         int *fill = first_inst; /* borrowed as a cursor, cleared below */
         for (size_t k = 0; k < s.edge_count; k++) {
@@ -715,14 +763,16 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
         goto done;
     }
-    for (int g = 0; g < g_count; g++) memo[g] = -1;
+    for (int g = 0; g < g_count; g++)
+        memo[g] = -1;
     for (int g = 0; g < g_count; g++)
         if (find(&s, g) == g && !s.incoming[g] && s.first_edge[g + 1] > s.first_edge[g])
             planned += subtree_size(&s, memo, g, 0);
     crisp_free(memo);
     if (planned > ASM_MAX_INSTANCES) {
         st = crisp_error(CRISP_ERR_LIMIT,
-                         "%s: the assembly structure places parts more than %d times, or nests deeper than %d levels "
+                         "%s: the assembly structure places parts more than %d times, or nests "
+                         "deeper than %d levels "
                          "(instance explosion or a malformed structure)",
                          f->name, ASM_MAX_INSTANCES, ASM_MAX_DEPTH);
         goto done;
@@ -732,7 +782,8 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
             st = place(&s, g, id, 0, -1, -1);
     if (st) goto done;
     if (s.cycles) {
-        crisp_model_note_skipf(m, "STEP assembly cycle: %d placements of a part inside itself ignored", s.cycles);
+        crisp_model_note_skipf(
+            m, "STEP assembly cycle: %d placements of a part inside itself ignored", s.cycles);
     }
     /* Instances by group (CSR). */
     inst_order = crisp_malloc_array(s.inst_count + 1, sizeof(int));
@@ -740,8 +791,10 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
         goto done;
     }
-    for (size_t k = 0; k < s.inst_count; k++) first_inst[s.inst[k].group + 1]++;
-    for (int g = 0; g < g_count; g++) first_inst[g + 1] += first_inst[g];
+    for (size_t k = 0; k < s.inst_count; k++)
+        first_inst[s.inst[k].group + 1]++;
+    for (int g = 0; g < g_count; g++)
+        first_inst[g + 1] += first_inst[g];
     {
         int *fill = s.on_path; /* all 0 again after place() */
         for (size_t k = 0; k < s.inst_count; k++) {
@@ -758,8 +811,8 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
         total += face_group[i] >= 0 ? (size_t)(first_inst[g + 1] - first_inst[g]) : 1;
     }
     if (total > ASM_MAX_FACES) {
-        st = crisp_error(CRISP_ERR_LIMIT, "%s: the assembly places %zu faces (limit %d)", f->name, total,
-                         ASM_MAX_FACES);
+        st = crisp_error(CRISP_ERR_LIMIT, "%s: the assembly places %zu faces (limit %d)", f->name,
+                         total, ASM_MAX_FACES);
         goto done;
     }
     out = crisp_calloc_array(total + 1, sizeof *out);
@@ -783,7 +836,8 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
             xform x;
             memcpy(x, s.inst[inst_order[k]].m, sizeof x);
             for (int a = 0; a < 3; a++) {
-                for (int b = 0; b < 3; b++) x[a][b] *= u_in / u_out;
+                for (int b = 0; b < 3; b++)
+                    x[a][b] *= u_in / u_out;
                 x[a][3] /= u_out;
             }
             if (k + 1 < first_inst[g + 1]) {
@@ -794,23 +848,29 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
             }
             if (!xf_is_identity(x)) crisp_face_transform(&out[o], (const double(*)[4])x);
             /* each placed copy of a shell or solid is a body of its own */
-            if (out[o].body) out[o].body = (int)(((unsigned)out[o].body * 2654435761u) ^ ((unsigned)inst_order[k] + 1u)) | 1;
+            if (out[o].body)
+                out[o].body =
+                    (int)(((unsigned)out[o].body * 2654435761u) ^ ((unsigned)inst_order[k] + 1u)) |
+                    1;
             float rgb[3];
-            if ((nocc || nctx) &&
-                occurrence_colour(&s, inst_order[k], face_ids[i], owners + 2 * i, occ, nocc, ctx, nctx, rgb)) {
+            if ((nocc || nctx) && occurrence_colour(&s, inst_order[k], face_ids[i], owners + 2 * i,
+                                                    occ, nocc, ctx, nctx, rgb)) {
                 out[o].has_color = 1;
-                out[o].color[0] = rgb[0], out[o].color[1] = rgb[1], out[o].color[2] = rgb[2], out[o].color[3] = 1;
+                out[o].color[0] = rgb[0], out[o].color[1] = rgb[1], out[o].color[2] = rgb[2],
+                out[o].color[3] = 1;
             }
             o++;
         }
     }
     if (st) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory placing assembly copies", f->name);
-        for (size_t k = 0; k < o; k++) crisp_face_free(&out[k]);
+        for (size_t k = 0; k < o; k++)
+            crisp_face_free(&out[k]);
         goto done;
     }
     /* The model takes the new face array (faces not moved are empty now). */
-    for (int i = 0; i < m->face_count; i++) crisp_face_free(&m->faces[i]);
+    for (int i = 0; i < m->face_count; i++)
+        crisp_face_free(&m->faces[i]);
     crisp_free(m->faces);
     m->faces = out;
     m->face_count = (int)o;

@@ -26,16 +26,21 @@ static crisp_status curve_copy(const step_curve *c, step_curve *d)
 }
 
 /* One COMPOSITE_CURVE_SEGMENT (transition, same_sense, parent_curve) as an edge use. */
-static crisp_status segment_use(face_work *w, const step_entity *be, const step_entity *se, edge_use *eu)
+static crisp_status segment_use(face_work *w, const step_entity *be, const step_entity *se,
+                                edge_use *eu)
 {
     step_reader *r = w->r;
     const step_part *p = crisp__step_part(r, se, "COMPOSITE_CURVE_SEGMENT");
     if (!p) p = crisp__step_part(r, se, "REPARAMETRISED_COMPOSITE_CURVE_SEGMENT");
-    if (!p) return crisp__step_fail(r, be, CRISP_ERR_PARSE, "segment #%d: expected a COMPOSITE_CURVE_SEGMENT", se->id);
+    if (!p)
+        return crisp__step_fail(r, be, CRISP_ERR_PARSE,
+                                "segment #%d: expected a COMPOSITE_CURVE_SEGMENT", se->id);
     const step_entity *ce;
     int same;
     crisp_status st;
-    if ((st = crisp__step_get_bool(r, se, p, 1, &same)) || (st = crisp__step_get_ref(r, se, p, 2, &ce))) return st;
+    if ((st = crisp__step_get_bool(r, se, p, 1, &same)) ||
+        (st = crisp__step_get_ref(r, se, p, 2, &ce)))
+        return st;
     eu->id = se->id;
     const step_part *pp = crisp__step_part(r, ce, "PCURVE");
     if (pp) {
@@ -43,14 +48,16 @@ static crisp_status segment_use(face_work *w, const step_entity *be, const step_
         const step_entity *basis;
         if ((st = crisp__step_get_ref(r, ce, pp, 1, &basis))) return st;
         if (basis->id != w->s.id)
-            return crisp__step_fail(r, ce, CRISP_ERR_UNSUPPORTED, "pcurve on surface #%d, not on the bounded surface #%d",
+            return crisp__step_fail(r, ce, CRISP_ERR_UNSUPPORTED,
+                                    "pcurve on surface #%d, not on the bounded surface #%d",
                                     basis->id, w->s.id);
         if ((st = crisp__step_pcurve_curve(r, ce, &w->s, &eu->pc[0]))) return st;
         eu->npc = 1;
         if ((st = curve_copy(&eu->pc[0], &eu->c3))) return st;
     } else {
         if ((st = crisp__step_curve(r, ce, &eu->c3))) return st;
-        if (eu->c3.dim != 3) return crisp__step_fail(r, ce, CRISP_ERR_PARSE, "expected a 3D curve or a pcurve");
+        if (eu->c3.dim != 3)
+            return crisp__step_fail(r, ce, CRISP_ERR_PARSE, "expected a 3D curve or a pcurve");
         if (crisp__step_is(r, ce, "SURFACE_CURVE") || crisp__step_is(r, ce, "SEAM_CURVE") ||
             crisp__step_is(r, ce, "BOUNDED_SURFACE_CURVE"))
             if ((st = crisp__step_find_pcurves(r, ce, &w->s, eu))) return st;
@@ -61,8 +68,9 @@ static crisp_status segment_use(face_work *w, const step_entity *be, const step_
     }
     const step_curve *c = eu->npc ? &eu->pc[0] : &eu->c3;
     if (!isfinite(c->t0) || !isfinite(c->t1) || !(c->t1 > c->t0))
-        return crisp__step_fail(r, ce, CRISP_ERR_UNSUPPORTED, "boundary segment on an unbounded curve (expected a "
-                                                             "trimmed or B-spline curve)");
+        return crisp__step_fail(r, ce, CRISP_ERR_UNSUPPORTED,
+                                "boundary segment on an unbounded curve (expected a "
+                                "trimmed or B-spline curve)");
     eu->lo = eu->c3.t0;
     eu->hi = eu->c3.t1;
     if (!isfinite(eu->lo) || !isfinite(eu->hi)) eu->lo = c->t0, eu->hi = c->t1;
@@ -79,7 +87,8 @@ static crisp_status segment_use(face_work *w, const step_entity *be, const step_
             crisp__step_surface_eval(&w->s, b[0], b[1], pb);
             crisp__step_curve_eval(&eu->c3, eu->c3.reversed == c->reversed ? eu->lo : eu->hi, qa);
             crisp__step_curve_eval(&eu->c3, eu->c3.reversed == c->reversed ? eu->hi : eu->lo, qb);
-            if (crisp__step_dist3(pa, qa) > 10 * r->tol || crisp__step_dist3(pb, qb) > 10 * r->tol) {
+            if (crisp__step_dist3(pa, qa) > 10 * r->tol ||
+                crisp__step_dist3(pb, qb) > 10 * r->tol) {
                 crisp__step_curve_free(&eu->pc[0]);
                 eu->npc = 0;
                 eu->increasing = same ^ eu->c3.reversed;
@@ -121,8 +130,10 @@ static int chain_try(face_work *w, loop_work *lw, const int *given, int first, i
         use_end(w, &lw->edges[k], 0, a);
         use_end(w, &lw->edges[k], 1, b);
         if (crisp__step_dist3(prev, a) > tol) {
-            if (crisp__step_dist3(prev, b) <= tol) lw->edges[k].increasing ^= 1;
-            else open++;
+            if (crisp__step_dist3(prev, b) <= tol)
+                lw->edges[k].increasing ^= 1;
+            else
+                open++;
         }
         out[k] = lw->edges[k].increasing;
     }
@@ -138,7 +149,8 @@ static crisp_status chain_segments(face_work *w, loop_work *lw)
     int *given = crisp_malloc_array((size_t)n * 3, sizeof *given);
     if (!given) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", w->r->f->name);
     int *as_given = given + n, *turned = given + 2 * n;
-    for (int k = 0; k < n; k++) given[k] = lw->edges[k].increasing;
+    for (int k = 0; k < n; k++)
+        given[k] = lw->edges[k].increasing;
     int open_given = chain_try(w, lw, given, given[0], as_given);
     int open_turned = open_given ? chain_try(w, lw, given, !given[0], turned) : 1 << 30;
     const int *best = open_turned < open_given ? turned : as_given;
@@ -158,12 +170,15 @@ crisp_status crisp__step_read_boundaries(face_work *w)
     const step_value *bounds;
     int implicit_outer;
     crisp_status st;
-    if ((st = crisp__step_get_list(r, fe, fp, 2, &bounds)) || (st = crisp__step_get_bool(r, fe, fp, 3, &implicit_outer)))
+    if ((st = crisp__step_get_list(r, fe, fp, 2, &bounds)) ||
+        (st = crisp__step_get_bool(r, fe, fp, 3, &implicit_outer)))
         return st;
     if (implicit_outer)
-        return crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED, "implicit outer boundary (the basis surface's own "
-                                                             "boundary) is not supported");
-    if (bounds->len > MAX_BOUNDARIES) return crisp__step_fail(r, fe, CRISP_ERR_LIMIT, "more than %d boundaries", MAX_BOUNDARIES);
+        return crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED,
+                                "implicit outer boundary (the basis surface's own "
+                                "boundary) is not supported");
+    if (bounds->len > MAX_BOUNDARIES)
+        return crisp__step_fail(r, fe, CRISP_ERR_LIMIT, "more than %d boundaries", MAX_BOUNDARIES);
     w->loops = crisp_calloc_array(bounds->len ? bounds->len : 1, sizeof *w->loops);
     if (!w->loops) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
     for (uint32_t i = 0; i < bounds->len; i++) {
@@ -175,13 +190,19 @@ crisp_status crisp__step_read_boundaries(face_work *w)
         if (!bp) bp = crisp__step_part(r, be, "BOUNDARY_CURVE");
         if (!bp) bp = crisp__step_part(r, be, "COMPOSITE_CURVE_ON_SURFACE");
         if (!bp) bp = crisp__step_part(r, be, "COMPOSITE_CURVE");
-        if (!bp) return crisp__step_fail(r, be, CRISP_ERR_PARSE, "expected a BOUNDARY_CURVE or OUTER_BOUNDARY_CURVE");
+        if (!bp)
+            return crisp__step_fail(r, be, CRISP_ERR_PARSE,
+                                    "expected a BOUNDARY_CURVE or OUTER_BOUNDARY_CURVE");
         /* In a complex instance the segments are the first parameter of COMPOSITE_CURVE. */
         int idx = be->part_count > 1 ? 0 : 1;
         const step_part *cp = be->part_count > 1 ? crisp__step_part(r, be, "COMPOSITE_CURVE") : bp;
-        if (!cp || (st = crisp__step_get_list(r, be, cp, idx, &segs))) return cp ? st : crisp__step_fail(r, be, CRISP_ERR_PARSE, "expected COMPOSITE_CURVE segments");
+        if (!cp || (st = crisp__step_get_list(r, be, cp, idx, &segs)))
+            return cp ? st
+                      : crisp__step_fail(r, be, CRISP_ERR_PARSE,
+                                         "expected COMPOSITE_CURVE segments");
         if (segs->len < 1 || segs->len > MAX_SEGMENTS)
-            return crisp__step_fail(r, be, CRISP_ERR_LIMIT, "expected 1 to %d segments, found %u", MAX_SEGMENTS, segs->len);
+            return crisp__step_fail(r, be, CRISP_ERR_LIMIT, "expected 1 to %d segments, found %u",
+                                    MAX_SEGMENTS, segs->len);
         loop_work *lw = &w->loops[w->nloops++];
         lw->outer_flag = outer;
         lw->edges = crisp_calloc_array(segs->len, sizeof *lw->edges);
@@ -223,12 +244,14 @@ crisp_status crisp__step_bare_face(step_reader *r, const step_entity *e, crisp_f
     const step_part *tp = crisp__step_part(r, e, "RECTANGULAR_TRIMMED_SURFACE");
     double box[4], nbox[4];
     int usense = 1, vsense = 1;
-    for (int k = 0; tp && k < 4 && !st; k++) st = crisp__step_get_real(r, e, tp, 2 + k, &box[k]);
+    for (int k = 0; tp && k < 4 && !st; k++)
+        st = crisp__step_get_real(r, e, tp, 2 + k, &box[k]);
     if (!st && tp && (st = crisp__step_get_bool(r, e, tp, 6, &usense)) == CRISP_OK)
         st = crisp__step_get_bool(r, e, tp, 7, &vsense);
     if (st) goto fail;
     if (!tp && s.kind != STEP_SURF_BSPLINE) {
-        st = crisp__step_fail(r, e, CRISP_ERR_UNSUPPORTED, "unbounded surface outside a face (nothing to draw)");
+        st = crisp__step_fail(r, e, CRISP_ERR_UNSUPPORTED,
+                              "unbounded surface outside a face (nothing to draw)");
         goto fail;
     }
     if (tp) {
@@ -241,23 +264,28 @@ crisp_status crisp__step_bare_face(step_reader *r, const step_entity *e, crisp_f
                 double t = box[2 * k];
                 box[2 * k] = box[2 * k + 1], box[2 * k + 1] = t;
             }
-            if (!(box[2 * k + 1] > box[2 * k]) || !isfinite(box[2 * k]) || !isfinite(box[2 * k + 1])) {
+            if (!(box[2 * k + 1] > box[2 * k]) || !isfinite(box[2 * k]) ||
+                !isfinite(box[2 * k + 1])) {
                 st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "empty or invalid parameter box");
                 goto fail;
             }
         }
     }
-    if ((st = crisp__step_surface_build(r, &s, tp ? box : (const double[4]){0, 0, 0, 0}, &dest->surface, nbox)))
+    if ((st = crisp__step_surface_build(r, &s, tp ? box : (const double[4]){0, 0, 0, 0},
+                                        &dest->surface, nbox)))
         goto fail;
     if (tp && s.kind == STEP_SURF_BSPLINE) {
         /* The box within the B-spline's domain, as one rectangular loop when it is smaller. */
-        double b[4] = {fmax(box[0], nbox[0]), fmin(box[1], nbox[1]), fmax(box[2], nbox[2]), fmin(box[3], nbox[3])};
+        double b[4] = {fmax(box[0], nbox[0]), fmin(box[1], nbox[1]), fmax(box[2], nbox[2]),
+                       fmin(box[3], nbox[3])};
         double eps = 1e-12 * (nbox[1] - nbox[0] + nbox[3] - nbox[2]);
         if (!(b[1] > b[0]) || !(b[3] > b[2])) {
-            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "parameter box outside the basis surface's domain");
+            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC,
+                                  "parameter box outside the basis surface's domain");
             goto fail;
         }
-        if (b[0] > nbox[0] + eps || b[1] < nbox[1] - eps || b[2] > nbox[2] + eps || b[3] < nbox[3] - eps) {
+        if (b[0] > nbox[0] + eps || b[1] < nbox[1] - eps || b[2] > nbox[2] + eps ||
+            b[3] < nbox[3] - eps) {
             dest->loops = crisp_calloc_array(1, sizeof *dest->loops);
             crisp_trim_loop *lp = dest->loops;
             if (!lp || !(lp->curves = crisp_calloc_array(4, sizeof *lp->curves))) {

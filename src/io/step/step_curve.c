@@ -19,28 +19,32 @@ void crisp__step_curve_free(step_curve *c)
     c->nurbs = NULL;
 }
 
-/* ---- B-spline curves ---------------------------------------------------------------------------- */
+/* ---- B-spline curves ----------------------------------------------------------------------------
+ */
 
 /* Expand (multiplicities, knots) into a full knot vector of count + degree + 1 values. */
 crisp_status crisp__step_knots(step_reader *r, const step_entity *e, const step_value *mults,
                                const step_value *knots, int degree, int count, double **dest)
 {
     if (mults->len != knots->len || mults->len < 2)
-        return crisp__step_fail(r, e, CRISP_ERR_PARSE,
-                                "expected as many knot multiplicities as knots (at least 2), found %u and %u",
-                                mults->len, knots->len);
+        return crisp__step_fail(
+            r, e, CRISP_ERR_PARSE,
+            "expected as many knot multiplicities as knots (at least 2), found %u and %u",
+            mults->len, knots->len);
     long long total = 0;
     for (uint32_t k = 0; k < mults->len; k++) {
         const step_value *m = crisp__step_elem(r, mults, k);
         if (m->kind != STEP_INT || m->num < 1 || m->num > degree + 1)
-            return crisp__step_fail(r, e, CRISP_ERR_PARSE, "knot multiplicity %u: expected an integer in 1..%d",
-                                    k + 1, degree + 1);
+            return crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                    "knot multiplicity %u: expected an integer in 1..%d", k + 1,
+                                    degree + 1);
         total += (long long)m->num;
     }
     if (total != (long long)count + degree + 1)
-        return crisp__step_fail(r, e, CRISP_ERR_PARSE,
-                                "knot multiplicities sum to %lld, expected %d (control points + degree + 1)",
-                                total, count + degree + 1);
+        return crisp__step_fail(
+            r, e, CRISP_ERR_PARSE,
+            "knot multiplicities sum to %lld, expected %d (control points + degree + 1)", total,
+            count + degree + 1);
     double *kv = crisp_malloc_array((size_t)total, sizeof *kv);
     if (!kv) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
     int n = 0;
@@ -48,13 +52,16 @@ crisp_status crisp__step_knots(step_reader *r, const step_entity *e, const step_
         double t;
         if (!crisp__step_value_real(r, crisp__step_elem(r, knots, k), &t)) {
             crisp_free(kv);
-            return crisp__step_fail(r, e, CRISP_ERR_PARSE, "knot %u: expected a finite real", k + 1);
+            return crisp__step_fail(r, e, CRISP_ERR_PARSE, "knot %u: expected a finite real",
+                                    k + 1);
         }
         if (k > 0 && !(t > kv[n - 1])) {
             crisp_free(kv);
-            return crisp__step_fail(r, e, CRISP_ERR_PARSE, "knot %u: expected knots in increasing order", k + 1);
+            return crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                    "knot %u: expected knots in increasing order", k + 1);
         }
-        for (int m = 0; m < (int)crisp__step_elem(r, mults, k)->num; m++) kv[n++] = t;
+        for (int m = 0; m < (int)crisp__step_elem(r, mults, k)->num; m++)
+            kv[n++] = t;
     }
     *dest = kv;
     return CRISP_OK;
@@ -66,18 +73,22 @@ crisp_status crisp__step_knots(step_reader *r, const step_entity *e, const step_
  * at the ends (quasi-uniform), or degree inside and degree + 1 at the ends (Bezier: one segment
  * per degree control points, so count - 1 must be a multiple of the degree). `form` is the entity
  * name (UNIFORM_*, QUASI_UNIFORM_*, BEZIER_*); *dest is NULL when the form is not one of these. */
-crisp_status crisp__step_implied_knots(step_reader *r, const step_entity *e, int degree, int count, double **dest)
+crisp_status crisp__step_implied_knots(step_reader *r, const step_entity *e, int degree, int count,
+                                       double **dest)
 {
     *dest = NULL;
-    int form = crisp__step_is(r, e, "QUASI_UNIFORM_CURVE") || crisp__step_is(r, e, "QUASI_UNIFORM_SURFACE") ? 1
-               : crisp__step_is(r, e, "BEZIER_CURVE") || crisp__step_is(r, e, "BEZIER_SURFACE")              ? 2
-               : crisp__step_is(r, e, "UNIFORM_CURVE") || crisp__step_is(r, e, "UNIFORM_SURFACE")            ? 0
-                                                                                                             : -1;
+    int form =
+        crisp__step_is(r, e, "QUASI_UNIFORM_CURVE") || crisp__step_is(r, e, "QUASI_UNIFORM_SURFACE")
+            ? 1
+        : crisp__step_is(r, e, "BEZIER_CURVE") || crisp__step_is(r, e, "BEZIER_SURFACE")   ? 2
+        : crisp__step_is(r, e, "UNIFORM_CURVE") || crisp__step_is(r, e, "UNIFORM_SURFACE") ? 0
+                                                                                           : -1;
     if (form < 0) return crisp__step_fail(r, e, CRISP_ERR_UNSUPPORTED, "B-spline without knots");
     if (form == 2 && (count - 1) % degree != 0)
-        return crisp__step_fail(r, e, CRISP_ERR_PARSE,
-                                "Bezier form of degree %d: expected 1 + a multiple of %d control points, found %d",
-                                degree, degree, count);
+        return crisp__step_fail(
+            r, e, CRISP_ERR_PARSE,
+            "Bezier form of degree %d: expected 1 + a multiple of %d control points, found %d",
+            degree, degree, count);
     int n = count + degree + 1;
     double *kv = crisp_malloc_array((size_t)n, sizeof *kv);
     if (!kv) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
@@ -142,16 +153,20 @@ static crisp_status bspline_curve(step_reader *r, const step_entity *e, step_cur
         const step_value *wl;
         if (!(st = crisp__step_get_list(r, e, rp, 0, &wl))) {
             if ((int)wl->len != count)
-                st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected %d weights, found %u", count, wl->len);
+                st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected %d weights, found %u", count,
+                                      wl->len);
             else if (!(w = crisp_malloc_array((size_t)count, sizeof *w)))
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
             for (int i = 0; !st && i < count; i++)
-                if (!crisp__step_value_real(r, crisp__step_elem(r, wl, (uint32_t)i), &w[i]) || !(w[i] > 0))
-                    st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "weight %d: expected a positive real", i + 1);
+                if (!crisp__step_value_real(r, crisp__step_elem(r, wl, (uint32_t)i), &w[i]) ||
+                    !(w[i] > 0))
+                    st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC,
+                                          "weight %d: expected a positive real", i + 1);
         }
     }
     if (!st && dim == 2)
-        for (int i = 0; i < count; i++) xyz[2 * i] = xyz[3 * i], xyz[2 * i + 1] = xyz[3 * i + 1];
+        for (int i = 0; i < count; i++)
+            xyz[2 * i] = xyz[3 * i], xyz[2 * i + 1] = xyz[3 * i + 1];
     if (!st) {
         st = crisp_curve_create(dim, degree, count, kv, xyz, w, &c->nurbs);
         if (st) crisp__step_fail(r, e, st, "invalid B-spline curve: %s", crisp_error_message());
@@ -188,7 +203,8 @@ static crisp_status polyline(step_reader *r, const step_entity *e, step_curve *c
     if (st) return st;
     int count = (int)pts->len, dim = 3;
     if (count < 2 || count > CRISP_MAX_CONTROL_POINTS)
-        return crisp__step_fail(r, e, CRISP_ERR_LIMIT, "expected 2 to %d points, found %d", CRISP_MAX_CONTROL_POINTS, count);
+        return crisp__step_fail(r, e, CRISP_ERR_LIMIT, "expected 2 to %d points, found %d",
+                                CRISP_MAX_CONTROL_POINTS, count);
     double *xyz = crisp_malloc_array((size_t)count * 3, sizeof *xyz);
     double *kv = crisp_malloc_array((size_t)count + 2, sizeof *kv);
     if (!xyz || !kv) st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
@@ -201,10 +217,12 @@ static crisp_status polyline(step_reader *r, const step_entity *e, step_curve *c
     }
     if (!st) {
         kv[0] = 0;
-        for (int i = 0; i < count; i++) kv[i + 1] = i;
+        for (int i = 0; i < count; i++)
+            kv[i + 1] = i;
         kv[count + 1] = count - 1;
         if (dim == 2)
-            for (int i = 0; i < count; i++) xyz[2 * i] = xyz[3 * i], xyz[2 * i + 1] = xyz[3 * i + 1];
+            for (int i = 0; i < count; i++)
+                xyz[2 * i] = xyz[3 * i], xyz[2 * i + 1] = xyz[3 * i + 1];
         st = crisp_curve_create(dim, 1, count, kv, xyz, NULL, &c->nurbs);
         if (st) crisp__step_fail(r, e, st, "invalid polyline: %s", crisp_error_message());
     }
@@ -217,14 +235,16 @@ static crisp_status polyline(step_reader *r, const step_entity *e, step_curve *c
     return CRISP_OK;
 }
 
-/* ---- analytic curves ---------------------------------------------------------------------------- */
+/* ---- analytic curves ----------------------------------------------------------------------------
+ */
 
 static crisp_status line(step_reader *r, const step_entity *e, step_curve *c)
 {
     const step_part *p = crisp__step_part(r, e, "LINE");
     const step_entity *pe, *ve;
     crisp_status st;
-    if ((st = crisp__step_get_ref(r, e, p, 1, &pe)) || (st = crisp__step_point(r, pe, c->p, &c->dim)) ||
+    if ((st = crisp__step_get_ref(r, e, p, 1, &pe)) ||
+        (st = crisp__step_point(r, pe, c->p, &c->dim)) ||
         (st = crisp__step_get_ref(r, e, p, 2, &ve)) || (st = crisp__step_vector(r, ve, c->d)))
         return st;
     if (c->dim < 2) c->dim = 2;
@@ -244,7 +264,8 @@ static crisp_status conic_axes(step_reader *r, const step_entity *e, const char 
     const step_part *p = crisp__step_part(r, e, name);
     const step_entity *ae;
     crisp_status st;
-    if ((st = crisp__step_get_ref(r, e, p, 1, &ae)) || (st = crisp__step_placement(r, ae, &c->pl)) ||
+    if ((st = crisp__step_get_ref(r, e, p, 1, &ae)) ||
+        (st = crisp__step_placement(r, ae, &c->pl)) ||
         (st = crisp__step_get_real(r, e, p, 2, &c->rx)))
         return st;
     c->ry = c->rx;
@@ -296,18 +317,21 @@ void crisp__step_curve_eval(const step_curve *c, double t, double *dest)
     double x[3];
     switch (c->kind) {
     case STEP_CURVE_LINE:
-        for (int k = 0; k < 3; k++) x[k] = c->p[k] + t * c->d[k];
+        for (int k = 0; k < 3; k++)
+            x[k] = c->p[k] + t * c->d[k];
         break;
     case STEP_CURVE_CONIC: {
         double a = c->rx * cos(t), b = c->ry * sin(t);
-        for (int k = 0; k < 3; k++) x[k] = c->pl.origin[k] + a * c->pl.x[k] + b * c->pl.y[k];
+        for (int k = 0; k < 3; k++)
+            x[k] = c->pl.origin[k] + a * c->pl.x[k] + b * c->pl.y[k];
         break;
     }
     case STEP_CURVE_HYPERBOLA:
     case STEP_CURVE_PARABOLA: {
         double xy[2], dxy[2];
         open_conic_local(c, t, xy, dxy);
-        for (int k = 0; k < 3; k++) x[k] = c->pl.origin[k] + xy[0] * c->pl.x[k] + xy[1] * c->pl.y[k];
+        for (int k = 0; k < 3; k++)
+            x[k] = c->pl.origin[k] + xy[0] * c->pl.x[k] + xy[1] * c->pl.y[k];
         break;
     }
     default:
@@ -315,13 +339,15 @@ void crisp__step_curve_eval(const step_curve *c, double t, double *dest)
         crisp_curve_eval(c->nurbs, t, x);
         break;
     }
-    for (int k = 0; k < c->dim; k++) dest[k] = x[k];
+    for (int k = 0; k < c->dim; k++)
+        dest[k] = x[k];
 }
 
 static double dist2(const double *a, const double *b, int dim)
 {
     double s = 0;
-    for (int k = 0; k < dim; k++) s += (a[k] - b[k]) * (a[k] - b[k]);
+    for (int k = 0; k < dim; k++)
+        s += (a[k] - b[k]) * (a[k] - b[k]);
     return s;
 }
 
@@ -338,14 +364,19 @@ double crisp__step_curve_invert(const step_curve *c, const double *p, double lo,
     }
     if (c->kind == STEP_CURVE_CONIC) {
         double q[3] = {0, 0, 0}, a = 0, b = 0;
-        for (int k = 0; k < c->dim; k++) q[k] = p[k] - c->pl.origin[k];
-        for (int k = 0; k < 3; k++) a += q[k] * c->pl.x[k], b += q[k] * c->pl.y[k];
+        for (int k = 0; k < c->dim; k++)
+            q[k] = p[k] - c->pl.origin[k];
+        for (int k = 0; k < 3; k++)
+            a += q[k] * c->pl.x[k], b += q[k] * c->pl.y[k];
         double t = atan2(b / c->ry, a / c->rx);
-        if (c->rx != c->ry) { /* refine: nearest point on an ellipse is not at the eccentric angle */
+        if (c->rx !=
+            c->ry) { /* refine: nearest point on an ellipse is not at the eccentric angle */
             for (int it = 0; it < 20; it++) {
                 double ct = cos(t), s = sin(t);
-                double f = (c->ry * c->ry - c->rx * c->rx) * ct * s + a * c->rx * s - b * c->ry * ct;
-                double df = (c->ry * c->ry - c->rx * c->rx) * (ct * ct - s * s) + a * c->rx * ct + b * c->ry * s;
+                double f =
+                    (c->ry * c->ry - c->rx * c->rx) * ct * s + a * c->rx * s - b * c->ry * ct;
+                double df = (c->ry * c->ry - c->rx * c->rx) * (ct * ct - s * s) + a * c->rx * ct +
+                            b * c->ry * s;
                 if (df == 0) break;
                 double dt = f / df;
                 if (fabs(dt) > 0.5) dt = dt > 0 ? 0.5 : -0.5;
@@ -363,8 +394,10 @@ double crisp__step_curve_invert(const step_curve *c, const double *p, double lo,
     if (c->kind == STEP_CURVE_HYPERBOLA || c->kind == STEP_CURVE_PARABOLA) {
         /* From the point's local y (exact on the curve), then Newton on the squared distance. */
         double q[3] = {0, 0, 0}, a = 0, b = 0;
-        for (int k = 0; k < c->dim; k++) q[k] = p[k] - c->pl.origin[k];
-        for (int k = 0; k < 3; k++) a += q[k] * c->pl.x[k], b += q[k] * c->pl.y[k];
+        for (int k = 0; k < c->dim; k++)
+            q[k] = p[k] - c->pl.origin[k];
+        for (int k = 0; k < 3; k++)
+            a += q[k] * c->pl.x[k], b += q[k] * c->pl.y[k];
         double t = c->kind == STEP_CURVE_HYPERBOLA ? asinh(b / c->ry) : b / (2 * c->rx);
         for (int it = 0; it < 20 && isfinite(t); it++) {
             double xy[2], d1[2], d2[2], h = 1e-6 * (1 + fabs(t));
@@ -432,7 +465,9 @@ double crisp__step_curve_invert(const step_curve *c, const double *p, double lo,
 
 crisp_status crisp__step_curve_nurbs(const step_curve *c, double t0, double t1, crisp_curve **dest)
 {
-    if (!(t1 > t0)) return crisp_error(CRISP_ERR_NUMERIC, "curve #%d: empty parameter range [%g, %g]", c->id, t0, t1);
+    if (!(t1 > t0))
+        return crisp_error(CRISP_ERR_NUMERIC, "curve #%d: empty parameter range [%g, %g]", c->id,
+                           t0, t1);
     crisp_status st;
     if (c->kind == STEP_CURVE_LINE) {
         double a[3], b[3];
@@ -451,11 +486,14 @@ crisp_status crisp__step_curve_nurbs(const step_curve *c, double t0, double t1, 
          * cos of the half angle for an ellipse). Short pieces keep the control polygon close to
          * the curve (trims are clamped to a box around the curve). */
         if (!isfinite(t0) || !isfinite(t1) || t1 - t0 > 40)
-            return crisp_error(CRISP_ERR_NUMERIC, "curve #%d: hyperbola or parabola range [%g, %g] too long", c->id, t0, t1);
+            return crisp_error(CRISP_ERR_NUMERIC,
+                               "curve #%d: hyperbola or parabola range [%g, %g] too long", c->id,
+                               t0, t1);
         int n = (int)ceil((t1 - t0) / 0.25);
         if (n < 1) n = 1;
         int count = 2 * n + 1;
-        double *pts = crisp_malloc_array((size_t)count * 3, sizeof *pts), *w = crisp_malloc_array((size_t)count, sizeof *w);
+        double *pts = crisp_malloc_array((size_t)count * 3, sizeof *pts),
+               *w = crisp_malloc_array((size_t)count, sizeof *w);
         double *knots = crisp_malloc_array((size_t)count + 3, sizeof *knots);
         if (!pts || !w || !knots) {
             crisp_free(pts), crisp_free(w), crisp_free(knots);
@@ -479,24 +517,31 @@ crisp_status crisp__step_curve_nurbs(const step_curve *c, double t0, double t1, 
                 pts[c->dim * i + k] = c->pl.origin[k] + loc[0] * c->pl.x[k] + loc[1] * c->pl.y[k];
         }
         knots[0] = knots[1] = knots[2] = t0;
-        for (int j = 1; j < n; j++) knots[2 * j + 1] = knots[2 * j + 2] = t0 + (t1 - t0) * j / n;
+        for (int j = 1; j < n; j++)
+            knots[2 * j + 1] = knots[2 * j + 2] = t0 + (t1 - t0) * j / n;
         knots[2 * n + 1] = knots[2 * n + 2] = knots[2 * n + 3] = t1;
-        st = crisp_curve_create(c->dim, 2, count, knots, pts, c->kind == STEP_CURVE_HYPERBOLA ? w : NULL, dest);
+        st = crisp_curve_create(c->dim, 2, count, knots, pts,
+                                c->kind == STEP_CURVE_HYPERBOLA ? w : NULL, dest);
         crisp_free(pts), crisp_free(w), crisp_free(knots);
     } else {
         double a, b;
         crisp_curve_domain(c->nurbs, &a, &b);
-        if (t0 <= a && t1 >= b) st = crisp_curve_copy(c->nurbs, dest);
-        else st = crisp_curve_trim(c->nurbs, t0 < a ? a : t0, t1 > b ? b : t1, dest);
+        if (t0 <= a && t1 >= b)
+            st = crisp_curve_copy(c->nurbs, dest);
+        else
+            st = crisp_curve_trim(c->nurbs, t0 < a ? a : t0, t1 > b ? b : t1, dest);
     }
     if (st) crisp_error_prefix("curve #%d", c->id);
     return st;
 }
 
-const step_part *crisp__step_surface_curve_part(const step_reader *r, const step_entity *e, int *off)
+const step_part *crisp__step_surface_curve_part(const step_reader *r, const step_entity *e,
+                                                int *off)
 {
-    static const char *const names[] = {"SURFACE_CURVE", "SEAM_CURVE", "INTERSECTION_CURVE", "BOUNDED_SURFACE_CURVE"};
-    /* In a complex instance the name is REPRESENTATION_ITEM's: the partial entity starts with curve_3d. */
+    static const char *const names[] = {"SURFACE_CURVE", "SEAM_CURVE", "INTERSECTION_CURVE",
+                                        "BOUNDED_SURFACE_CURVE"};
+    /* In a complex instance the name is REPRESENTATION_ITEM's: the partial entity starts with
+     * curve_3d. */
     *off = e->part_count > 1 ? 0 : 1;
     for (size_t k = 0; k < sizeof names / sizeof *names; k++) {
         const step_part *p = crisp__step_part(r, e, names[k]);
@@ -505,7 +550,8 @@ const step_part *crisp__step_surface_curve_part(const step_reader *r, const step
     return crisp__step_part(r, e, NULL);
 }
 
-/* ---- dispatch ----------------------------------------------------------------------------------- */
+/* ---- dispatch -----------------------------------------------------------------------------------
+ */
 
 static crisp_status trimmed(step_reader *r, const step_entity *e, step_curve *c);
 
@@ -515,22 +561,32 @@ crisp_status crisp__step_curve(step_reader *r, const step_entity *e, step_curve 
     dest->id = e->id;
     if (++r->depth > STEP_MAX_DEPTH) {
         r->depth--;
-        return crisp__step_fail(r, e, CRISP_ERR_LIMIT, "curve references nested too deeply (a reference cycle?)");
+        return crisp__step_fail(r, e, CRISP_ERR_LIMIT,
+                                "curve references nested too deeply (a reference cycle?)");
     }
     crisp_status st;
-    if (crisp__step_is(r, e, "LINE")) st = line(r, e, dest);
-    else if (crisp__step_is(r, e, "CIRCLE")) st = conic(r, e, dest, 0);
-    else if (crisp__step_is(r, e, "ELLIPSE")) st = conic(r, e, dest, 1);
-    else if (crisp__step_is(r, e, "HYPERBOLA")) st = open_conic(r, e, dest, 1);
-    else if (crisp__step_is(r, e, "PARABOLA")) st = open_conic(r, e, dest, 0);
-    else if (crisp__step_is(r, e, "B_SPLINE_CURVE_WITH_KNOTS") || crisp__step_is(r, e, "B_SPLINE_CURVE") ||
+    if (crisp__step_is(r, e, "LINE"))
+        st = line(r, e, dest);
+    else if (crisp__step_is(r, e, "CIRCLE"))
+        st = conic(r, e, dest, 0);
+    else if (crisp__step_is(r, e, "ELLIPSE"))
+        st = conic(r, e, dest, 1);
+    else if (crisp__step_is(r, e, "HYPERBOLA"))
+        st = open_conic(r, e, dest, 1);
+    else if (crisp__step_is(r, e, "PARABOLA"))
+        st = open_conic(r, e, dest, 0);
+    else if (crisp__step_is(r, e, "B_SPLINE_CURVE_WITH_KNOTS") ||
+             crisp__step_is(r, e, "B_SPLINE_CURVE") ||
              crisp__step_is(r, e, "QUASI_UNIFORM_CURVE") || crisp__step_is(r, e, "UNIFORM_CURVE") ||
              crisp__step_is(r, e, "BEZIER_CURVE"))
         st = bspline_curve(r, e, dest);
-    else if (crisp__step_is(r, e, "POLYLINE")) st = polyline(r, e, dest);
-    else if (crisp__step_is(r, e, "TRIMMED_CURVE")) st = trimmed(r, e, dest);
+    else if (crisp__step_is(r, e, "POLYLINE"))
+        st = polyline(r, e, dest);
+    else if (crisp__step_is(r, e, "TRIMMED_CURVE"))
+        st = trimmed(r, e, dest);
     else if (crisp__step_is(r, e, "SURFACE_CURVE") || crisp__step_is(r, e, "SEAM_CURVE") ||
-             crisp__step_is(r, e, "INTERSECTION_CURVE") || crisp__step_is(r, e, "BOUNDED_SURFACE_CURVE")) {
+             crisp__step_is(r, e, "INTERSECTION_CURVE") ||
+             crisp__step_is(r, e, "BOUNDED_SURFACE_CURVE")) {
         const step_entity *ce;
         int off;
         const step_part *p = crisp__step_surface_curve_part(r, e, &off);
@@ -579,12 +635,14 @@ static crisp_status trimmed(step_reader *r, const step_entity *e, step_curve *c)
             const step_entity *pe;
             double x[3];
             if (v->kind != STEP_REF) continue;
-            if ((st = crisp__step_deref(r, e, v, &pe)) || (st = crisp__step_point(r, pe, x, NULL))) goto fail;
+            if ((st = crisp__step_deref(r, e, v, &pe)) || (st = crisp__step_point(r, pe, x, NULL)))
+                goto fail;
             t[k] = crisp__step_curve_invert(c, x, c->t0, c->t1);
             have[k] = 1;
         }
         if (!have[k]) {
-            st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "trim %d: expected a point or a parameter value", k + 1);
+            st = crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                  "trim %d: expected a point or a parameter value", k + 1);
             goto fail;
         }
     }
@@ -598,12 +656,15 @@ static crisp_status trimmed(step_reader *r, const step_entity *e, step_curve *c)
         /* Angles far beyond a few turns are not a trim anyone meant (and stepping a turn at a time
          * towards 1e16 never ends: found by fuzz_step). */
         if (!(fabs(t[0]) < 1e6 * c->period) || !(fabs(t[1]) < 1e6 * c->period)) {
-            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "trim parameters %g and %g: expected angles within a "
-                                                           "million turns", t[0], t[1]);
+            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC,
+                                  "trim parameters %g and %g: expected angles within a "
+                                  "million turns",
+                                  t[0], t[1]);
             goto fail;
         }
         if (t[1] <= t[0]) t[1] += c->period * ceil((t[0] - t[1]) / c->period);
-        while (t[1] <= t[0]) t[1] += c->period;
+        while (t[1] <= t[0])
+            t[1] += c->period;
     }
     if (!(t[1] > t[0])) {
         st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "empty trimmed range [%g, %g]", t[0], t[1]);

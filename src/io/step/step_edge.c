@@ -20,7 +20,8 @@
 static void edge_free(edge_use *e)
 {
     crisp__step_curve_free(&e->c3);
-    for (int k = 0; k < e->npc; k++) crisp__step_curve_free(&e->pc[k]);
+    for (int k = 0; k < e->npc; k++)
+        crisp__step_curve_free(&e->pc[k]);
     crisp_free(e->ts);
     crisp_free(e->uv);
 }
@@ -28,7 +29,8 @@ static void edge_free(edge_use *e)
 void crisp__step_work_free(face_work *w)
 {
     for (int i = 0; i < w->nloops; i++) {
-        for (int k = 0; k < w->loops[i].count; k++) edge_free(&w->loops[i].edges[k]);
+        for (int k = 0; k < w->loops[i].count; k++)
+            edge_free(&w->loops[i].edges[k]);
         crisp_free(w->loops[i].edges);
     }
     crisp_free(w->loops);
@@ -44,7 +46,8 @@ double crisp__step_curve_wrap(const step_curve *c, double t)
 
 double crisp__step_dist3(const double *a, const double *b)
 {
-    return sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+    return sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                (a[2] - b[2]) * (a[2] - b[2]));
 }
 
 static crisp_status vertex_point(step_reader *r, const step_entity *ve, double p[3])
@@ -68,13 +71,18 @@ static void pcurve_to_radians(const step_reader *r, const step_surface *s, step_
     switch (s->kind) {
     case STEP_SURF_CYLINDER:
     case STEP_SURF_CONE:
-    case STEP_SURF_REVOLUTION: k[0] = r->angle_unit; break;
+    case STEP_SURF_REVOLUTION:
+        k[0] = r->angle_unit;
+        break;
     case STEP_SURF_SPHERE:
-    case STEP_SURF_TORUS: k[0] = k[1] = r->angle_unit; break;
+    case STEP_SURF_TORUS:
+        k[0] = k[1] = r->angle_unit;
+        break;
     case STEP_SURF_EXTRUSION:
         if (s->profile.kind == STEP_CURVE_CONIC) k[0] = r->angle_unit;
         break;
-    default: return;
+    default:
+        return;
     }
     if (c->kind == STEP_CURVE_LINE) {
         /* A line along an angle coordinate is the pcurve of a circle, whose parameter is that
@@ -90,11 +98,13 @@ static void pcurve_to_radians(const step_reader *r, const step_surface *s, step_
         }
     } else if (c->kind == STEP_CURVE_BSPLINE && c->nurbs && c->nurbs->dim == 2) {
         for (int i = 0; i < c->nurbs->count; i++)
-            for (int j = 0; j < 2; j++) c->nurbs->cpw[3 * i + j] *= k[j];
+            for (int j = 0; j < 2; j++)
+                c->nurbs->cpw[3 * i + j] *= k[j];
     }
 }
 
-crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, const step_surface *s, step_curve *dest)
+crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, const step_surface *s,
+                                      step_curve *dest)
 {
     const step_part *pp = crisp__step_part(r, pe, "PCURVE");
     const step_entity *de, *ce;
@@ -103,12 +113,16 @@ crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, con
     memset(dest, 0, sizeof *dest);
     if ((st = crisp__step_get_ref(r, pe, pp, 2, &de))) return st;
     /* DEFINITIONAL_REPRESENTATION(name, items, context), or the complex instance
-     * (DEFINITIONAL_REPRESENTATION() REPRESENTATION(name, items, context) SHAPE_REPRESENTATION()). */
+     * (DEFINITIONAL_REPRESENTATION() REPRESENTATION(name, items, context) SHAPE_REPRESENTATION()).
+     */
     const step_part *dp = crisp__step_part(r, de, "DEFINITIONAL_REPRESENTATION");
-    if (!dp) return crisp__step_fail(r, de, CRISP_ERR_PARSE, "expected a DEFINITIONAL_REPRESENTATION");
-    if (de->part_count > 1 && crisp__step_part(r, de, "REPRESENTATION")) dp = crisp__step_part(r, de, "REPRESENTATION");
+    if (!dp)
+        return crisp__step_fail(r, de, CRISP_ERR_PARSE, "expected a DEFINITIONAL_REPRESENTATION");
+    if (de->part_count > 1 && crisp__step_part(r, de, "REPRESENTATION"))
+        dp = crisp__step_part(r, de, "REPRESENTATION");
     if ((st = crisp__step_get_list(r, de, dp, 1, &items))) return st;
-    if (items->len < 1) return crisp__step_fail(r, de, CRISP_ERR_PARSE, "expected a 2D curve in the items");
+    if (items->len < 1)
+        return crisp__step_fail(r, de, CRISP_ERR_PARSE, "expected a 2D curve in the items");
     if ((st = crisp__step_deref(r, de, crisp__step_elem(r, items, 0), &ce))) return st;
     if ((st = crisp__step_curve(r, ce, dest))) return st;
     if (dest->dim != 2) {
@@ -120,7 +134,8 @@ crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, con
 }
 
 /* The pcurves of a SURFACE_CURVE / SEAM_CURVE that lie on surface entity sid. */
-crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge, const step_surface *surf, edge_use *eu)
+crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge,
+                                      const step_surface *surf, edge_use *eu)
 {
     int off;
     const step_part *p = crisp__step_surface_curve_part(r, ge, &off);
@@ -149,7 +164,8 @@ static void pc_eval(const edge_use *eu, int k, double t, double uv[2])
 /* Pcurve k at loop fraction s. */
 static void pc_at(const edge_use *eu, int k, double s, double uv[2])
 {
-    double t = eu->increasing ? eu->pt0[k] + s * (eu->pt1[k] - eu->pt0[k]) : eu->pt1[k] - s * (eu->pt1[k] - eu->pt0[k]);
+    double t = eu->increasing ? eu->pt0[k] + s * (eu->pt1[k] - eu->pt0[k])
+                              : eu->pt1[k] - s * (eu->pt1[k] - eu->pt0[k]);
     pc_eval(eu, k, t, uv);
 }
 
@@ -167,13 +183,15 @@ static double pc_dist2(const face_work *w, const edge_use *eu, int k, double t, 
     double uv[2], p[3];
     pc_eval(eu, k, t, uv);
     crisp__step_surface_eval(&w->s, uv[0], uv[1], p);
-    return (p[0] - v[0]) * (p[0] - v[0]) + (p[1] - v[1]) * (p[1] - v[1]) + (p[2] - v[2]) * (p[2] - v[2]);
+    return (p[0] - v[0]) * (p[0] - v[0]) + (p[1] - v[1]) * (p[1] - v[1]) +
+           (p[2] - v[2]) * (p[2] - v[2]);
 }
 
 /* The pcurve parameter whose surface point is nearest v, searched around guess. Writers do not
  * always keep the pcurve's parameter equal to the 3D curve's (OCCT's rational pcurves of circles
  * agree only at the knots), so the vertices are located on the pcurve itself. */
-static double pc_locate(const face_work *w, const edge_use *eu, int k, double guess, double delta, const double v[3])
+static double pc_locate(const face_work *w, const edge_use *eu, int k, double guess, double delta,
+                        const double v[3])
 {
     const step_curve *pc = &eu->pc[k];
     double a = guess - delta, b = guess + delta;
@@ -190,7 +208,8 @@ static double pc_locate(const face_work *w, const edge_use *eu, int k, double gu
     for (int i = 0; i <= n; i++) {
         double t = a + (b - a) * i / n, d = pc_dist2(w, eu, k, t, v);
         /* Ties (the ends of a closed pcurve) go to the parameter nearest the guess. */
-        if (d < bd * (1 - 1e-9) || (d <= bd * (1 + 1e-9) + 1e-30 && fabs(t - guess) < fabs(best - guess)))
+        if (d < bd * (1 - 1e-9) ||
+            (d <= bd * (1 + 1e-9) + 1e-30 && fabs(t - guess) < fabs(best - guess)))
             bd = d, best = t;
     }
     double lo = best - (b - a) / n, hi = best + (b - a) / n;
@@ -200,8 +219,10 @@ static double pc_locate(const face_work *w, const edge_use *eu, int k, double gu
     double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
     double f1 = pc_dist2(w, eu, k, x1, v), f2 = pc_dist2(w, eu, k, x2, v);
     for (int it = 0; it < 90 && hi - lo > 1e-15 * (1 + fabs(lo)); it++) {
-        if (f1 < f2) hi = x2, x2 = x1, f2 = f1, x1 = hi - g * (hi - lo), f1 = pc_dist2(w, eu, k, x1, v);
-        else lo = x1, x1 = x2, f1 = f2, x2 = lo + g * (hi - lo), f2 = pc_dist2(w, eu, k, x2, v);
+        if (f1 < f2)
+            hi = x2, x2 = x1, f2 = f1, x1 = hi - g * (hi - lo), f1 = pc_dist2(w, eu, k, x1, v);
+        else
+            lo = x1, x1 = x2, f1 = f2, x2 = lo + g * (hi - lo), f2 = pc_dist2(w, eu, k, x2, v);
     }
     double t = 0.5 * (lo + hi);
     if (pc_dist2(w, eu, k, a, v) <= pc_dist2(w, eu, k, t, v)) t = a;
@@ -210,7 +231,8 @@ static double pc_locate(const face_work *w, const edge_use *eu, int k, double gu
 }
 
 /* Locate the edge's ends on pcurve k and check that its image follows the 3D curve. */
-static int pcurve_agrees(face_work *w, edge_use *eu, int k, const double first[3], const double second[3])
+static int pcurve_agrees(face_work *w, edge_use *eu, int k, const double first[3],
+                         const double second[3])
 {
     if (w->s.kind == STEP_SURF_BSPLINE && !w->s.nurbs) return 0;
     double delta = 0.25 * (eu->hi - eu->lo);
@@ -221,7 +243,8 @@ static int pcurve_agrees(face_work *w, edge_use *eu, int k, const double first[3
         pc_dist2(w, eu, k, eu->pt1[k], second) > w->r->tol * w->r->tol)
         return 0;
     const step_curve *c = &eu->c3;
-    double lo = c->kind == STEP_CURVE_BSPLINE ? c->t0 : eu->lo, hi = c->kind == STEP_CURVE_BSPLINE ? c->t1 : eu->hi;
+    double lo = c->kind == STEP_CURVE_BSPLINE ? c->t0 : eu->lo,
+           hi = c->kind == STEP_CURVE_BSPLINE ? c->t1 : eu->hi;
     for (int i = 0; i <= 8; i++) {
         double t = eu->pt0[k] + (eu->pt1[k] - eu->pt0[k]) * i / 8, uv[2], a[3], b[3];
         pc_eval(eu, k, t, uv);
@@ -244,8 +267,11 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
     for (int depth = 0; crisp__step_is(r, ee, "ORIENTED_EDGE"); depth++) {
         const step_part *p = crisp__step_part(r, ee, "ORIENTED_EDGE");
         int o;
-        if (depth > 8) return crisp__step_fail(r, oe, CRISP_ERR_LIMIT, "oriented edges nested too deeply");
-        if ((st = crisp__step_get_bool(r, ee, p, 4, &o)) || (st = crisp__step_get_ref(r, ee, p, 3, &ee))) return st;
+        if (depth > 8)
+            return crisp__step_fail(r, oe, CRISP_ERR_LIMIT, "oriented edges nested too deeply");
+        if ((st = crisp__step_get_bool(r, ee, p, 4, &o)) ||
+            (st = crisp__step_get_ref(r, ee, p, 3, &ee)))
+            return st;
         orient = orient == o;
     }
     const step_part *ep = crisp__step_part(r, ee, "EDGE_CURVE");
@@ -254,15 +280,19 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
     const step_entity *vs, *ve, *ge;
     int same;
     double ps[3], pe[3];
-    if ((st = crisp__step_get_ref(r, ee, ep, 1, &vs)) || (st = crisp__step_get_ref(r, ee, ep, 2, &ve)) ||
-        (st = crisp__step_get_ref(r, ee, ep, 3, &ge)) || (st = crisp__step_get_bool(r, ee, ep, 4, &same)) ||
-        (st = vertex_point(r, vs, ps)) || (st = vertex_point(r, ve, pe)))
+    if ((st = crisp__step_get_ref(r, ee, ep, 1, &vs)) ||
+        (st = crisp__step_get_ref(r, ee, ep, 2, &ve)) ||
+        (st = crisp__step_get_ref(r, ee, ep, 3, &ge)) ||
+        (st = crisp__step_get_bool(r, ee, ep, 4, &same)) || (st = vertex_point(r, vs, ps)) ||
+        (st = vertex_point(r, ve, pe)))
         return st;
     if (crisp__step_is(r, ge, "PCURVE"))
-        return crisp__step_fail(r, ge, CRISP_ERR_UNSUPPORTED, "edge geometry given only as a pcurve");
+        return crisp__step_fail(r, ge, CRISP_ERR_UNSUPPORTED,
+                                "edge geometry given only as a pcurve");
     if ((st = crisp__step_curve(r, ge, &eu->c3))) return st;
     step_curve *c = &eu->c3;
-    if (c->dim != 3) return crisp__step_fail(r, ge, CRISP_ERR_PARSE, "expected a 3D curve as edge geometry");
+    if (c->dim != 3)
+        return crisp__step_fail(r, ge, CRISP_ERR_PARSE, "expected a 3D curve as edge geometry");
     if (crisp__step_is(r, ge, "SURFACE_CURVE") || crisp__step_is(r, ge, "SEAM_CURVE"))
         if ((st = crisp__step_find_pcurves(r, ge, &w->s, eu))) return st;
     /* Against a reversed trimmed curve, the edge's sense is against the basis curve's. */
@@ -280,17 +310,22 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
             if (isfinite(c->t0)) { /* trimmed arc: both in [t0, t0 + 2 pi) */
                 if (!(hi > lo + eps)) hi += c->period;
             } else {
-                while (hi <= lo + eps) hi += c->period;
-                while (hi > lo + c->period + eps) hi -= c->period;
+                while (hi <= lo + eps)
+                    hi += c->period;
+                while (hi > lo + c->period + eps)
+                    hi -= c->period;
                 if (closed) hi = lo + c->period;
             }
         } else if (closed) {
             if (lo >= c->t1 - eps) lo = c->t0;
             hi = lo + c->period;
         } else if (!(hi > lo + eps)) {
-            if (lo >= c->t1 - eps) lo = c->t0;
-            else if (hi <= c->t0 + eps) hi = c->t1;
-            else hi += c->period;
+            if (lo >= c->t1 - eps)
+                lo = c->t0;
+            else if (hi <= c->t0 + eps)
+                hi = c->t1;
+            else
+                hi += c->period;
         }
     }
     if (!(hi > lo) && !c->periodic && closed && c->kind == STEP_CURVE_BSPLINE) {
@@ -309,16 +344,19 @@ static crisp_status edge_setup(face_work *w, const step_entity *oe, edge_use *eu
         r->stats->flipped_segments++;
     }
     if (!(hi > lo)) {
-        return crisp__step_fail(r, ee, CRISP_ERR_NUMERIC,
-                                "edge vertices at curve parameters %g and %g: expected an increasing range "
-                                "along #%d (same_sense %s)", lo, hi, ge->id, same ? ".T." : ".F.");
+        return crisp__step_fail(
+            r, ee, CRISP_ERR_NUMERIC,
+            "edge vertices at curve parameters %g and %g: expected an increasing range "
+            "along #%d (same_sense %s)",
+            lo, hi, ge->id, same ? ".T." : ".F.");
     }
     eu->lo = lo;
     eu->hi = hi;
     eu->increasing = same == orient;
     /* On a periodic curve the pcurve may use another turn of the parameter: move the range into
      * the pcurve's domain. */
-    if (eu->npc && c->periodic && c->kind == STEP_CURVE_CONIC && isfinite(eu->pc[0].t0) && isfinite(eu->pc[0].t1)) {
+    if (eu->npc && c->periodic && c->kind == STEP_CURVE_CONIC && isfinite(eu->pc[0].t0) &&
+        isfinite(eu->pc[0].t1)) {
         double k = floor((eu->pc[0].t0 - eu->lo) / c->period + 0.5);
         if (eu->lo + k * c->period < eu->pc[0].t0 - 1e-9 * c->period) k += 1;
         eu->lo += k * c->period;
@@ -350,17 +388,21 @@ static crisp_status alloc_samples(face_work *w, edge_use *eu)
     eu->ns = edge_samples(eu);
     eu->ts = crisp_malloc_array((size_t)eu->ns, sizeof *eu->ts);
     eu->uv = crisp_malloc_array((size_t)eu->ns * 2, sizeof *eu->uv);
-    if (!eu->ts || !eu->uv) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", w->r->f->name);
-    for (int i = 0; i < eu->ns; i++) eu->ts[i] = loop_t(eu, (double)i / (eu->ns - 1));
+    if (!eu->ts || !eu->uv)
+        return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", w->r->f->name);
+    for (int i = 0; i < eu->ns; i++)
+        eu->ts[i] = loop_t(eu, (double)i / (eu->ns - 1));
     return CRISP_OK;
 }
 
 /* Shift of uv (per periodic coordinate) that brings it nearest to ref. */
-void crisp__step_period_shift(const face_work *w, const double uv[2], const double ref[2], double shift[2])
+void crisp__step_period_shift(const face_work *w, const double uv[2], const double ref[2],
+                              double shift[2])
 {
     for (int k = 0; k < 2; k++) {
         shift[k] = 0;
-        if (w->period[k] > 0) shift[k] = w->period[k] * floor((ref[k] - uv[k]) / w->period[k] + 0.5);
+        if (w->period[k] > 0)
+            shift[k] = w->period[k] * floor((ref[k] - uv[k]) / w->period[k] + 0.5);
     }
 }
 
@@ -396,7 +438,8 @@ static void unwind_at_collapse(face_work *w, loop_work *lw)
         for (int m = 0; m < lw->count; m++) {
             edge_use *eu = &lw->edges[m];
             if (eu->npc || eu->ns < 3) continue;
-            if (collapsed_at(w, eu->uv, k) && !collapsed_at(w, eu->uv + 2, k)) eu->uv[k] = eu->uv[2 + k];
+            if (collapsed_at(w, eu->uv, k) && !collapsed_at(w, eu->uv + 2, k))
+                eu->uv[k] = eu->uv[2 + k];
             double *last = eu->uv + 2 * eu->ns - 2;
             if (collapsed_at(w, last, k) && !collapsed_at(w, last - 2, k)) last[k] = last[k - 2];
         }
@@ -413,7 +456,8 @@ static void unwind_at_collapse(face_work *w, loop_work *lw)
             sh[k] = -turns * w->period[k];
             for (int j = m; j < lw->count; j++) {
                 edge_use *e = &lw->edges[j];
-                for (int i = 0; i < e->ns; i++) e->uv[2 * i + k] += sh[k];
+                for (int i = 0; i < e->ns; i++)
+                    e->uv[2 * i + k] += sh[k];
                 e->shift[k] += sh[k];
             }
             break;
@@ -427,7 +471,8 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
     int n = lw->count;
     /* Start at an edge with at most one pcurve, so that seams are chosen by continuity. */
     int start = 0;
-    while (start < n && lw->edges[start].npc == 2) start++;
+    while (start < n && lw->edges[start].npc == 2)
+        start++;
     if (start == n) start = 0;
     double prev[2] = {0, 0};
     int have_prev = 0;
@@ -441,7 +486,8 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
                 double a[2], b[2];
                 pc_at(eu, 0, 0, a);
                 pc_at(eu, 1, 0, b);
-                double da = hypot(a[0] - prev[0], a[1] - prev[1]), db = hypot(b[0] - prev[0], b[1] - prev[1]);
+                double da = hypot(a[0] - prev[0], a[1] - prev[1]),
+                       db = hypot(b[0] - prev[0], b[1] - prev[1]);
                 eu->chosen = db < da;
             }
             /* A seam edge used twice in the loop runs along both of its pcurves, in the same
@@ -452,7 +498,8 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
             const edge_use *twin = NULL;
             int at_collapse = 0;
             for (int k = 0; k < 2 && have_prev; k++)
-                if (w->period[k] > 0 && w->s.kind != STEP_SURF_BSPLINE) at_collapse |= collapsed_at(w, prev, k);
+                if (w->period[k] > 0 && w->s.kind != STEP_SURF_BSPLINE)
+                    at_collapse |= collapsed_at(w, prev, k);
             for (int q = 0; q < m && !twin && at_collapse; q++) {
                 const edge_use *o = &lw->edges[(start + q) % n];
                 if (o->edge_id == eu->edge_id && o->npc == 2 && eu->npc == 2) twin = o;
@@ -506,7 +553,8 @@ void crisp__step_shift_loop(loop_work *lw, const double shift[2])
 {
     for (int m = 0; m < lw->count; m++) {
         edge_use *eu = &lw->edges[m];
-        for (int i = 0; i < eu->ns; i++) eu->uv[2 * i] += shift[0], eu->uv[2 * i + 1] += shift[1];
+        for (int i = 0; i < eu->ns; i++)
+            eu->uv[2 * i] += shift[0], eu->uv[2 * i + 1] += shift[1];
         eu->shift[0] += shift[0];
         eu->shift[1] += shift[1];
     }
@@ -520,11 +568,13 @@ void crisp__step_choose_box(face_work *w, int outer)
 {
     double *b = w->box;
     const loop_work *o = &w->loops[outer];
-    for (int k = 0; k < 4; k++) b[k] = o->box[k];
+    for (int k = 0; k < 4; k++)
+        b[k] = o->box[k];
     for (int i = 0; i < w->nloops; i++)
         for (int k = 0; k < 2; k++) {
             if (w->loops[i].box[2 * k] < b[2 * k]) b[2 * k] = w->loops[i].box[2 * k];
-            if (w->loops[i].box[2 * k + 1] > b[2 * k + 1]) b[2 * k + 1] = w->loops[i].box[2 * k + 1];
+            if (w->loops[i].box[2 * k + 1] > b[2 * k + 1])
+                b[2 * k + 1] = w->loops[i].box[2 * k + 1];
         }
     for (int k = 0; k < 2; k++) {
         double lo = b[2 * k], hi = b[2 * k + 1], span = hi - lo;
@@ -586,18 +636,24 @@ static crisp_status cut_loop(face_work *w, loop_work *lw, int k, double target)
             double t = target + P * floor((x0 - target) / P + 0.5);
             for (int q = -1; q <= 1 && e < 0; q++) {
                 double tt = t + q * P;
-                if ((x0 - tt) * (x1 - tt) <= 0 && x0 != x1) e = m, s0 = (double)i / (eu->ns - 1), s1 = (double)(i + 1) / (eu->ns - 1), tgt = tt;
+                if ((x0 - tt) * (x1 - tt) <= 0 && x0 != x1)
+                    e = m, s0 = (double)i / (eu->ns - 1), s1 = (double)(i + 1) / (eu->ns - 1),
+                    tgt = tt;
             }
         }
     }
-    if (e < 0) return crisp__step_fail(w->r, w->fe, CRISP_ERR_NUMERIC, "cannot find where a crisp__step_winding loop crosses the seam");
+    if (e < 0)
+        return crisp__step_fail(w->r, w->fe, CRISP_ERR_NUMERIC,
+                                "cannot find where a crisp__step_winding loop crosses the seam");
     edge_use *eu = &lw->edges[e];
     double x0 = eu->uv[2 * (int)lround(s0 * (eu->ns - 1)) + k];
     for (int it = 0; it < 60; it++) {
         double sm = 0.5 * (s0 + s1), uv[2];
         crisp__step_file_uv(w, eu, sm, uv);
-        if ((uv[k] - tgt) * (x0 - tgt) > 0) s0 = sm;
-        else s1 = sm;
+        if ((uv[k] - tgt) * (x0 - tgt) > 0)
+            s0 = sm;
+        else
+            s1 = sm;
     }
     double sc = 0.5 * (s0 + s1);
     int n = lw->count, first = e, split = sc > 1e-9 && sc < 1 - 1e-9;
@@ -612,26 +668,35 @@ static crisp_status cut_loop(face_work *w, loop_work *lw, int k, double target)
         e1.ts = e1.uv = e2.ts = e2.uv = NULL;
         memset(&e2.c3, 0, sizeof e2.c3);
         st = curve_dup(&eu->c3, &e2.c3);
-        for (int q = 0; q < eu->npc && !st; q++) st = curve_dup(&eu->pc[q], &e2.pc[q]);
+        for (int q = 0; q < eu->npc && !st; q++)
+            st = curve_dup(&eu->pc[q], &e2.pc[q]);
         if (st) {
             crisp_free(ne);
             return st;
         }
-        double t = eu->increasing ? eu->lo + sc * (eu->hi - eu->lo) : eu->hi - sc * (eu->hi - eu->lo);
-        if (eu->increasing) e1.hi = t, e2.lo = t;
-        else e1.lo = t, e2.hi = t;
+        double t =
+            eu->increasing ? eu->lo + sc * (eu->hi - eu->lo) : eu->hi - sc * (eu->hi - eu->lo);
+        if (eu->increasing)
+            e1.hi = t, e2.lo = t;
+        else
+            e1.lo = t, e2.hi = t;
         for (int q = 0; q < eu->npc; q++) {
-            double pt = eu->increasing ? eu->pt0[q] + sc * (eu->pt1[q] - eu->pt0[q]) : eu->pt1[q] - sc * (eu->pt1[q] - eu->pt0[q]);
-            if (eu->increasing) e1.pt1[q] = pt, e2.pt0[q] = pt;
-            else e1.pt0[q] = pt, e2.pt1[q] = pt;
+            double pt = eu->increasing ? eu->pt0[q] + sc * (eu->pt1[q] - eu->pt0[q])
+                                       : eu->pt1[q] - sc * (eu->pt1[q] - eu->pt0[q]);
+            if (eu->increasing)
+                e1.pt1[q] = pt, e2.pt0[q] = pt;
+            else
+                e1.pt0[q] = pt, e2.pt1[q] = pt;
         }
         crisp_free(eu->ts);
         crisp_free(eu->uv);
         ne[c++] = e2;
-        for (int m = 1; m < n; m++) ne[c++] = lw->edges[(e + m) % n];
+        for (int m = 1; m < n; m++)
+            ne[c++] = lw->edges[(e + m) % n];
         ne[c++] = e1;
     } else {
-        for (int m = 0; m < n; m++) ne[c++] = lw->edges[(first + m) % n];
+        for (int m = 0; m < n; m++)
+            ne[c++] = lw->edges[(first + m) % n];
     }
     crisp_free(lw->edges);
     lw->edges = ne;
@@ -664,7 +729,6 @@ crisp_status crisp__step_make_band(face_work *w, int a, int b, int k)
     return CRISP_OK;
 }
 
-
 /* File uv at loop fraction s by the chosen pcurve or by inversion near the sampled polyline. */
 void crisp__step_file_uv(face_work *w, edge_use *eu, double s, double uv[2])
 {
@@ -687,7 +751,8 @@ void crisp__step_file_uv(face_work *w, edge_use *eu, double s, double uv[2])
         uv[0] += eu->shift[0], uv[1] += eu->shift[1];
         return;
     }
-    double ref[2] = {eu->uv[2 * i] * (1 - f) + eu->uv[2 * i + 2] * f, eu->uv[2 * i + 1] * (1 - f) + eu->uv[2 * i + 3] * f};
+    double ref[2] = {eu->uv[2 * i] * (1 - f) + eu->uv[2 * i + 2] * f,
+                     eu->uv[2 * i + 1] * (1 - f) + eu->uv[2 * i + 3] * f};
     double p[3];
     crisp__step_curve_eval(&eu->c3, crisp__step_curve_wrap(&eu->c3, t), p);
     crisp__step_surface_invert(&w->s, p, ref, uv);
@@ -701,7 +766,8 @@ crisp_status crisp__step_read_loops(face_work *w)
     const step_value *bounds;
     crisp_status st = crisp__step_get_list(r, fe, fp, 1, &bounds);
     if (st) return st;
-    if (bounds->len > MAX_LOOPS) return crisp__step_fail(r, fe, CRISP_ERR_LIMIT, "more than %d bounds", MAX_LOOPS);
+    if (bounds->len > MAX_LOOPS)
+        return crisp__step_fail(r, fe, CRISP_ERR_LIMIT, "more than %d bounds", MAX_LOOPS);
     w->loops = crisp_calloc_array(bounds->len ? bounds->len : 1, sizeof *w->loops);
     if (!w->loops) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
     for (uint32_t i = 0; i < bounds->len; i++) {
@@ -710,12 +776,16 @@ crisp_status crisp__step_read_loops(face_work *w)
         const step_part *bp = crisp__step_part(r, be, "FACE_OUTER_BOUND");
         int outer = bp != NULL;
         if (!bp) bp = crisp__step_part(r, be, "FACE_BOUND");
-        if (!bp) return crisp__step_fail(r, be, CRISP_ERR_PARSE, "expected a FACE_BOUND or FACE_OUTER_BOUND");
+        if (!bp)
+            return crisp__step_fail(r, be, CRISP_ERR_PARSE,
+                                    "expected a FACE_BOUND or FACE_OUTER_BOUND");
         if ((st = crisp__step_get_ref(r, be, bp, 1, &le))) return st;
         if (crisp__step_is(r, le, "VERTEX_LOOP")) {
-            /* A bound of one vertex (apex, pole) adds no trim; it may close a crisp__step_winding loop. */
+            /* A bound of one vertex (apex, pole) adds no trim; it may close a crisp__step_winding
+             * loop. */
             const step_entity *ve;
-            if ((st = crisp__step_get_ref(r, le, crisp__step_part(r, le, "VERTEX_LOOP"), 1, &ve))) return st;
+            if ((st = crisp__step_get_ref(r, le, crisp__step_part(r, le, "VERTEX_LOOP"), 1, &ve)))
+                return st;
             if (w->ncap < 2 && (st = vertex_point(r, ve, w->cap_pt[w->ncap++]))) return st;
             continue;
         }
@@ -724,7 +794,8 @@ crisp_status crisp__step_read_loops(face_work *w)
         const step_value *edges;
         if ((st = crisp__step_get_list(r, le, lp, 1, &edges))) return st;
         if (edges->len < 1 || edges->len > MAX_EDGES)
-            return crisp__step_fail(r, le, CRISP_ERR_LIMIT, "expected 1 to %d edges, found %u", MAX_EDGES, edges->len);
+            return crisp__step_fail(r, le, CRISP_ERR_LIMIT, "expected 1 to %d edges, found %u",
+                                    MAX_EDGES, edges->len);
         loop_work *lw = &w->loops[w->nloops++];
         lw->outer_flag = outer;
         int orient = 1;
@@ -744,4 +815,3 @@ crisp_status crisp__step_read_loops(face_work *w)
     }
     return CRISP_OK;
 }
-

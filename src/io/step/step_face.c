@@ -22,7 +22,8 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-/* ---- trim curves in NURBS (u, v) --------------------------------------------------------------- */
+/* ---- trim curves in NURBS (u, v) ---------------------------------------------------------------
+ */
 
 typedef struct fit_ctx {
     face_work *w;
@@ -38,9 +39,11 @@ static void fit_fn(void *ctx, double s, double *dest)
 }
 
 /* Append c to out (taking ownership). */
-static crisp_status push_curve(face_work *w, crisp_curve *c, crisp_curve ***out, int *n, size_t *cap)
+static crisp_status push_curve(face_work *w, crisp_curve *c, crisp_curve ***out, int *n,
+                               size_t *cap)
 {
-    if ((size_t)*n == *cap && crisp_grow((void **)out, cap, (size_t)*n + 1, sizeof **out) != CRISP_OK) {
+    if ((size_t)*n == *cap &&
+        crisp_grow((void **)out, cap, (size_t)*n + 1, sizeof **out) != CRISP_OK) {
         crisp_curve_destroy(c);
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", w->r->f->name);
     }
@@ -60,8 +63,8 @@ static void affine2(crisp_curve *c, const double shift[2], int swap)
 }
 
 /* Largest distance between the images S(uv(s)) of curves first..n-1 and the edge's 3D curve. */
-static double verify_edge(face_work *w, const crisp_surface *s, const edge_use *eu, crisp_curve **curves, int first,
-                          int n)
+static double verify_edge(face_work *w, const crisp_surface *s, const edge_use *eu,
+                          crisp_curve **curves, int first, int n)
 {
     const step_curve *c = &eu->c3;
     double worst = 0;
@@ -98,7 +101,8 @@ static double verify_edge(face_work *w, const crisp_surface *s, const edge_use *
     return worst;
 }
 
-static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***out, int *n, size_t *cap);
+static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***out, int *n,
+                                   size_t *cap);
 
 /* An edge whose (u, v) image jumps: it passes through a pole or apex, where u is undefined and
  * changes by up to pi at once (trj4_k1_geo-tu-214.stp: an arc over a sphere's pole), or along a
@@ -114,10 +118,12 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out, int *n, size_t *cap)
+static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out, int *n,
+                                  size_t *cap)
 {
     fit_ctx fc = {w, eu};
-    double prev[2], cur[2], steps[JUMP_SAMPLES], cuts[MAX_JUMPS + 2], cut_lo[MAX_JUMPS + 2], cut_hi[MAX_JUMPS + 2];
+    double prev[2], cur[2], steps[JUMP_SAMPLES], cuts[MAX_JUMPS + 2], cut_lo[MAX_JUMPS + 2],
+        cut_hi[MAX_JUMPS + 2];
     int ncut = 0;
     fit_fn(&fc, 0, prev);
     for (int i = 1; i <= JUMP_SAMPLES; i++) {
@@ -134,9 +140,12 @@ static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out
     cuts[ncut++] = 0;
     for (int i = 0; i < JUMP_SAMPLES; i++) {
         if (!(steps[i] > limit)) continue;
-        if (ncut > MAX_JUMPS) return crisp_error(CRISP_ERR_NUMERIC, "%s: #%d: edge #%d jumps in (u, v) more than %d times",
-                                                 w->r->f->name, w->fe->id, eu->id, MAX_JUMPS);
-        double a = (double)i / JUMP_SAMPLES, b = (double)(i + 1) / JUMP_SAMPLES, pa[2], pm[2], pb[2];
+        if (ncut > MAX_JUMPS)
+            return crisp_error(CRISP_ERR_NUMERIC,
+                               "%s: #%d: edge #%d jumps in (u, v) more than %d times",
+                               w->r->f->name, w->fe->id, eu->id, MAX_JUMPS);
+        double a = (double)i / JUMP_SAMPLES, b = (double)(i + 1) / JUMP_SAMPLES, pa[2], pm[2],
+               pb[2];
         fit_fn(&fc, a, pa);
         fit_fn(&fc, b, pb);
         for (int it = 0; it < 60; it++) {
@@ -151,8 +160,10 @@ static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out
             if (crisp__step_dist3(qa, qb) <= 0.5 * w->r->tol) break;
             double m = 0.5 * (a + b);
             fit_fn(&fc, m, pm);
-            if (hypot(pm[0] - pa[0], pm[1] - pa[1]) < hypot(pb[0] - pm[0], pb[1] - pm[1])) a = m, pa[0] = pm[0], pa[1] = pm[1];
-            else b = m, pb[0] = pm[0], pb[1] = pm[1];
+            if (hypot(pm[0] - pa[0], pm[1] - pa[1]) < hypot(pb[0] - pm[0], pb[1] - pm[1]))
+                a = m, pa[0] = pm[0], pa[1] = pm[1];
+            else
+                b = m, pb[0] = pm[0], pb[1] = pm[1];
         }
         /* A true jump stays a jump however small the bracket; a fast but continuous turn (an
          * edge passing near a pole, trj6_b1-ec-214.stp) shrinks away: not cut, unless it lies
@@ -164,8 +175,9 @@ static crisp_status fit_in_pieces(face_work *w, edge_use *eu, crisp_curve ***out
     }
     cut_lo[ncut] = cut_hi[ncut] = 1;
     cuts[ncut++] = 1;
-    if (ncut == 2) return crisp_error(CRISP_ERR_NUMERIC, "%s: #%d: edge #%d: no fit within the tolerance",
-                                      w->r->f->name, w->fe->id, eu->id);
+    if (ncut == 2)
+        return crisp_error(CRISP_ERR_NUMERIC, "%s: #%d: edge #%d: no fit within the tolerance",
+                           w->r->f->name, w->fe->id, eu->id);
     for (int k = 0; k + 1 < ncut; k++) {
         double a = cut_hi[k], b = cut_lo[k + 1], eps = 1e-9;
         if (k > 0 && !(cut_hi[k] > cuts[k])) a += eps;
@@ -193,8 +205,8 @@ static void reproject_samples(face_work *w, edge_use *eu)
     }
 }
 
-static crisp_status edge_trims(face_work *w, const crisp_surface *s, edge_use *eu, crisp_curve ***out, int *n,
-                               size_t *cap)
+static crisp_status edge_trims(face_work *w, const crisp_surface *s, edge_use *eu,
+                               crisp_curve ***out, int *n, size_t *cap)
 {
     int first = *n;
     w->repaired = 0;
@@ -211,25 +223,31 @@ static crisp_status edge_trims(face_work *w, const crisp_surface *s, edge_use *e
              * files have pcurves off by several mm): the trim is projected from the 3D edge
              * instead, as if there were no pcurve, and checked again. */
             double pdev = dev;
-            for (int k = first; k < *n; k++) crisp_curve_destroy((*out)[k]);
+            for (int k = first; k < *n; k++)
+                crisp_curve_destroy((*out)[k]);
             *n = first;
             reproject_samples(w, eu);
             w->repaired = 1;
             st = edge_trims_any(w, eu, out, n, cap);
             if (!st) dev = verify_edge(w, s, eu, *out, first, *n);
             if (!st && dev <= 20 * w->r->tol)
-                crisp_model_note_skipf(w->r->model, "STEP face #%d: the pcurve of edge #%d lies %.3g from its edge "
-                                       "(tolerance %.3g): trim projected from the 3D edge instead", w->fe->id, eu->id,
-                                       pdev, w->r->tol);
+                crisp_model_note_skipf(
+                    w->r->model,
+                    "STEP face #%d: the pcurve of edge #%d lies %.3g from its edge "
+                    "(tolerance %.3g): trim projected from the 3D edge instead",
+                    w->fe->id, eu->id, pdev, w->r->tol);
         }
         if (!st && check && dev > 20 * w->r->tol)
-            st = crisp_error(CRISP_ERR_NUMERIC, "%s: #%d: the trim of edge #%d lies %.3g from the edge (tolerance %.3g)",
-                             w->r->f->name, w->fe->id, eu->id, dev, w->r->tol);
+            st = crisp_error(
+                CRISP_ERR_NUMERIC,
+                "%s: #%d: the trim of edge #%d lies %.3g from the edge (tolerance %.3g)",
+                w->r->f->name, w->fe->id, eu->id, dev, w->r->tol);
     }
     return st;
 }
 
-static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***out, int *n, size_t *cap)
+static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***out, int *n,
+                                   size_t *cap)
 {
     step_reader *r = w->r;
     crisp_status st = CRISP_OK;
@@ -240,12 +258,14 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
         const step_curve *pc = &eu->pc[eu->chosen];
         int lin = crisp__step_surface_map_linear(s, 0) && crisp__step_surface_map_linear(s, 1);
         if (lin) {
-            if ((st = crisp__step_curve_nurbs(pc, eu->pt0[eu->chosen], eu->pt1[eu->chosen], &c))) return st;
+            if ((st = crisp__step_curve_nurbs(pc, eu->pt0[eu->chosen], eu->pt1[eu->chosen], &c)))
+                return st;
             affine2(c, eu->shift, crisp__step_surface_swaps(s));
             if (!eu->increasing) crisp_curve_reverse(c);
             return push_curve(w, c, out, n, cap);
         }
-        if (pc->kind == STEP_CURVE_LINE && (fabs(pc->d[0]) <= 1e-12 * fabs(pc->d[1]) || fabs(pc->d[1]) <= 1e-12 * fabs(pc->d[0]))) {
+        if (pc->kind == STEP_CURVE_LINE && (fabs(pc->d[0]) <= 1e-12 * fabs(pc->d[1]) ||
+                                            fabs(pc->d[1]) <= 1e-12 * fabs(pc->d[0]))) {
             double a[2], b[2];
             crisp__step_surface_map(s, w->box, eu->uv, a);
             crisp__step_surface_map(s, w->box, eu->uv + 2 * eu->ns - 2, b);
@@ -270,15 +290,19 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
             if ((st = crisp__step_curve_nurbs(&eu->c3, a, b, &c3))) break;
             double *pts = crisp_malloc_array((size_t)c3->count * 2, sizeof *pts);
             double *wts = crisp_malloc_array((size_t)c3->count, sizeof *wts);
-            if (!pts || !wts) st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
+            if (!pts || !wts)
+                st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
             for (int i = 0; !st && i < c3->count; i++) {
                 const double *q = c3->cpw + 4 * i;
-                double x[3] = {q[0] / q[3] - s->pl.origin[0], q[1] / q[3] - s->pl.origin[1], q[2] / q[3] - s->pl.origin[2]};
+                double x[3] = {q[0] / q[3] - s->pl.origin[0], q[1] / q[3] - s->pl.origin[1],
+                               q[2] / q[3] - s->pl.origin[2]};
                 pts[2 * i] = x[0] * s->pl.x[0] + x[1] * s->pl.x[1] + x[2] * s->pl.x[2];
                 pts[2 * i + 1] = x[0] * s->pl.y[0] + x[1] * s->pl.y[1] + x[2] * s->pl.y[2];
                 wts[i] = q[3];
             }
-            if (!st) st = crisp_curve_create(2, c3->degree, c3->count, c3->knots, pts, c3->rational ? wts : NULL, &tmp[k]);
+            if (!st)
+                st = crisp_curve_create(2, c3->degree, c3->count, c3->knots, pts,
+                                        c3->rational ? wts : NULL, &tmp[k]);
             crisp_free(pts);
             crisp_free(wts);
             crisp_curve_destroy(c3);
@@ -326,25 +350,31 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
                 if (!st) {
                     w->repaired = 1;
                     r->stats->loose_projections++;
-                    crisp_model_note_skip(r->model, "STEP edge trim projected within 4-16x the tolerance (tighter failed)");
+                    crisp_model_note_skip(
+                        r->model,
+                        "STEP edge trim projected within 4-16x the tolerance (tighter failed)");
                 }
             }
             if (!st) ntmp[k] = 1;
-            /* The projection jumps (the edge passes a collapsed side or a pole of the patch, pr1db.stp):
-             * cut at the jumps, each piece projected on its own; the gaps lie where the surface
-             * collapses and are bridged there (bridge_degenerate), or the closure check refuses them. */
+            /* The projection jumps (the edge passes a collapsed side or a pole of the patch,
+             * pr1db.stp): cut at the jumps, each piece projected on its own; the gaps lie where the
+             * surface collapses and are bridged there (bridge_degenerate), or the closure check
+             * refuses them. */
             if (st == CRISP_ERR_LIMIT) {
                 crisp_error_clear();
                 w->repaired = 1;
-                st = crisp_surface_project_curve_pieces(s->nurbs, c3, d0, d1, r->tol, MAXP, tmp[k], &ntmp[k]);
+                st = crisp_surface_project_curve_pieces(s->nurbs, c3, d0, d1, r->tol, MAXP, tmp[k],
+                                                        &ntmp[k]);
             }
             crisp_curve_destroy(c3);
             if (st) {
-                crisp_error_prefix("%s: #%d: projecting edge #%d onto surface #%d", r->f->name, w->fe->id, eu->id, s->id);
+                crisp_error_prefix("%s: #%d: projecting edge #%d onto surface #%d", r->f->name,
+                                   w->fe->id, eu->id, s->id);
                 goto fail_bs;
             }
             if (!eu->increasing) {
-                for (int q = 0; q < ntmp[k]; q++) crisp_curve_reverse(tmp[k][q]);
+                for (int q = 0; q < ntmp[k]; q++)
+                    crisp_curve_reverse(tmp[k][q]);
                 for (int q = 0; q < ntmp[k] / 2; q++) {
                     crisp_curve *x = tmp[k][q];
                     tmp[k][q] = tmp[k][ntmp[k] - 1 - q];
@@ -363,7 +393,8 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
         return CRISP_OK;
     fail_bs:
         for (int k = 0; k < 2; k++)
-            for (int q = 0; q < MAXP; q++) crisp_curve_destroy(tmp[k][q]);
+            for (int q = 0; q < MAXP; q++)
+                crisp_curve_destroy(tmp[k][q]);
         return st;
     }
     fit_ctx fc = {w, eu};
@@ -374,7 +405,8 @@ static crisp_status edge_trims_any(face_work *w, edge_use *eu, crisp_curve ***ou
         if ((st = fit_in_pieces(w, eu, out, n, cap)) == CRISP_OK) return CRISP_OK;
     }
     if (st) {
-        crisp_error_prefix("%s: #%d: fitting the trim of edge #%d on surface #%d", r->f->name, w->fe->id, eu->id, s->id);
+        crisp_error_prefix("%s: #%d: fitting the trim of edge #%d on surface #%d", r->f->name,
+                           w->fe->id, eu->id, s->id);
         return st;
     }
     return push_curve(w, c, out, n, cap);
@@ -388,8 +420,8 @@ static double surface_speed(const crisp_surface *s, const double d[4])
     for (int i = 0; i <= 8; i++)
         for (int j = 0; j <= 8; j++) {
             double su[3], sv[3];
-            crisp_surface_derivs(s, d[0] + (d[1] - d[0]) * i / 8, d[2] + (d[3] - d[2]) * j / 8, NULL, su, sv, NULL,
-                                 NULL, NULL);
+            crisp_surface_derivs(s, d[0] + (d[1] - d[0]) * i / 8, d[2] + (d[3] - d[2]) * j / 8,
+                                 NULL, su, sv, NULL, NULL, NULL);
             double a = sqrt(su[0] * su[0] + su[1] * su[1] + su[2] * su[2]);
             double b = sqrt(sv[0] * sv[0] + sv[1] * sv[1] + sv[2] * sv[2]);
             if (a > m) m = a;
@@ -444,8 +476,10 @@ static int side_closed(const crisp_surface *s, const double d[4], int k, double 
 {
     for (int i = 0; i <= 8; i++) {
         double t = d[2 * (1 - k)] + (d[2 * (1 - k) + 1] - d[2 * (1 - k)]) * i / 8, a[3], b[3];
-        if (k == 0) crisp_surface_eval(s, d[0], t, a), crisp_surface_eval(s, d[1], t, b);
-        else crisp_surface_eval(s, t, d[2], a), crisp_surface_eval(s, t, d[3], b);
+        if (k == 0)
+            crisp_surface_eval(s, d[0], t, a), crisp_surface_eval(s, d[1], t, b);
+        else
+            crisp_surface_eval(s, t, d[2], a), crisp_surface_eval(s, t, d[3], b);
         if (crisp__step_dist3(a, b) > tol) return 0;
     }
     return 1;
@@ -453,7 +487,8 @@ static int side_closed(const crisp_surface *s, const double d[4], int k, double 
 
 /* Whether the surface maps the straight (u, v) segment pa-pb to one point (within tol): a gap
  * there lies along a pole, an apex or a collapsed side, and is bridged (bridge_degenerate). */
-static int collapsed_segment(const crisp_surface *s, const double pa[2], const double pb[2], double tol)
+static int collapsed_segment(const crisp_surface *s, const double pa[2], const double pb[2],
+                             double tol)
 {
     double p0[3], q[3];
     crisp_surface_eval(s, pa[0], pa[1], p0);
@@ -483,7 +518,8 @@ static double junction_gaps(const crisp_surface *s, const crisp_trim_loop *lp, i
 /* (A seam used twice on a surface of revolution that closes at an apex, trj3_s1-id-203.stp: both
  * uses projected onto u0; moving one to u1 leaves its other end's gap along the apex, which
  * counts as closed.) */
-static void seam_sides(const crisp_surface *s, const double d[4], crisp_trim_loop *lp, double tol, double snap)
+static void seam_sides(const crisp_surface *s, const double d[4], crisp_trim_loop *lp, double tol,
+                       double snap)
 {
     if (lp->curve_count < 2) return;
     for (int k = 0; k < 2; k++) {
@@ -499,9 +535,11 @@ static void seam_sides(const crisp_surface *s, const double d[4], crisp_trim_loo
             }
             if (at_lo == at_hi) continue;
             double before = junction_gaps(s, lp, i, tol), shift = at_lo ? hi - lo : lo - hi;
-            for (int j = 0; j < c->count; j++) c->cpw[3 * j + k] += shift * c->cpw[3 * j + 2];
+            for (int j = 0; j < c->count; j++)
+                c->cpw[3 * j + k] += shift * c->cpw[3 * j + 2];
             if (junction_gaps(s, lp, i, tol) >= before)
-                for (int j = 0; j < c->count; j++) c->cpw[3 * j + k] -= shift * c->cpw[3 * j + 2];
+                for (int j = 0; j < c->count; j++)
+                    c->cpw[3 * j + k] -= shift * c->cpw[3 * j + 2];
         }
     }
 }
@@ -511,7 +549,8 @@ static void seam_sides(const crisp_surface *s, const double d[4], crisp_trim_loo
  * the seam side from A's end to B's start, B (reversed so that it runs back), the seam side from
  * B's end to A's start, as append_band does for elementary surfaces. Returns the index of the
  * joined loop, -1 when there is nothing to join, -2 when out of memory. */
-static int join_bspline_band(const crisp_surface *s, const double d[4], crisp_face *face, double tol, double snap)
+static int join_bspline_band(const crisp_surface *s, const double d[4], crisp_face *face,
+                             double tol, double snap)
 {
     for (int k = 0; k < 2; k++) {
         if (!side_closed(s, d, k, tol)) continue;
@@ -524,7 +563,8 @@ static int join_bspline_band(const crisp_surface *s, const double d[4], crisp_fa
             double a[2], b[2];
             curve_end(lp->curves[0], 0, a);
             curve_end(lp->curves[lp->curve_count - 1], 1, b);
-            if (fabs(fabs(b[k] - a[k]) - width) > snap || fabs(b[1 - k] - a[1 - k]) > snap) continue;
+            if (fabs(fabs(b[k] - a[k]) - width) > snap || fabs(b[1 - k] - a[1 - k]) > snap)
+                continue;
             if (nw == 2) return -1;
             dir[nw] = b[k] - a[k];
             wl[nw++] = i;
@@ -541,7 +581,8 @@ static int join_bspline_band(const crisp_surface *s, const double d[4], crisp_fa
         b0[k] = a1[k];
         b1[k] = a0[k];
         crisp_curve *up = NULL, *down = NULL;
-        crisp_curve **nc = crisp_realloc_array(A->curves, (size_t)(A->curve_count + B->curve_count + 2), sizeof *nc);
+        crisp_curve **nc = crisp_realloc_array(
+            A->curves, (size_t)(A->curve_count + B->curve_count + 2), sizeof *nc);
         if (!nc) return -2;
         A->curves = nc;
         if (crisp_make_line(2, a1, b0, 0, 1, &up) || crisp_make_line(2, b1, a0, 0, 1, &down)) {
@@ -549,7 +590,8 @@ static int join_bspline_band(const crisp_surface *s, const double d[4], crisp_fa
             return -2;
         }
         nc[A->curve_count++] = up;
-        for (int i = 0; i < B->curve_count; i++) nc[A->curve_count++] = B->curves[i];
+        for (int i = 0; i < B->curve_count; i++)
+            nc[A->curve_count++] = B->curves[i];
         nc[A->curve_count++] = down;
         crisp_free(B->curves);
         B->curves = NULL;
@@ -617,7 +659,8 @@ static int bridge_open(const crisp_surface *s, crisp_trim_loop *lp, double tol, 
     int n = lp->curve_count, gaps = 0;
     if (n == 0) return 0;
     double total = 0, bridged = 0;
-    for (int i = 0; i < n; i++) total += polygon_length(lp->curves[i]);
+    for (int i = 0; i < n; i++)
+        total += polygon_length(lp->curves[i]);
     for (int i = 0; i < n; i++) {
         double pa[2], pb[2], qa[3], qb[3];
         curve_end(lp->curves[i], 1, pa);
@@ -674,13 +717,15 @@ static void clamp_loop(crisp_trim_loop *lp, const double d[4])
 }
 
 /* Loop A's curves are in lp: add the seam segment, loop B (reversed when needed), the seam back. */
-static crisp_status append_band(face_work *w, const crisp_surface *s, crisp_trim_loop *lp, size_t *cap)
+static crisp_status append_band(face_work *w, const crisp_surface *s, crisp_trim_loop *lp,
+                                size_t *cap)
 {
     if (w->band_b < 0) {
         /* Closed at a collapsed line: seam up to it, along it, seam down. */
         const loop_work *A = &w->loops[w->band_a];
         const edge_use *e0 = &A->edges[0], *e1 = &A->edges[A->count - 1];
-        double f0[2] = {e0->uv[0], e0->uv[1]}, f1[2] = {e1->uv[2 * e1->ns - 2], e1->uv[2 * e1->ns - 1]};
+        double f0[2] = {e0->uv[0], e0->uv[1]},
+               f1[2] = {e1->uv[2 * e1->ns - 2], e1->uv[2 * e1->ns - 1]};
         f0[1 - w->cap_k] = w->cap_v;
         f1[1 - w->cap_k] = w->cap_v;
         double p[4][2];
@@ -700,7 +745,8 @@ static crisp_status append_band(face_work *w, const crisp_surface *s, crisp_trim
     size_t bcap = 0;
     crisp_status st = CRISP_OK;
     loop_work *B = &w->loops[w->band_b];
-    for (int k = 0; k < B->count && !st; k++) st = edge_trims(w, s, &B->edges[k], &b.curves, &b.curve_count, &bcap);
+    for (int k = 0; k < B->count && !st; k++)
+        st = edge_trims(w, s, &B->edges[k], &b.curves, &b.curve_count, &bcap);
     if (!st && w->band_rev) crisp_trim_loop_reverse(&b);
     double a0[2], a1[2], b0[2], b1[2];
     if (!st && lp->curve_count && b.curve_count) {
@@ -722,9 +768,11 @@ static crisp_status append_band(face_work *w, const crisp_surface *s, crisp_trim
     return st;
 }
 
-/* ---- the face ----------------------------------------------------------------------------------- */
+/* ---- the face -----------------------------------------------------------------------------------
+ */
 
-crisp_status crisp__step_work_init(face_work *w, step_reader *r, const step_entity *fe, const step_entity *se)
+crisp_status crisp__step_work_init(face_work *w, step_reader *r, const step_entity *fe,
+                                   const step_entity *se)
 {
     memset(w, 0, sizeof *w);
     *w = (face_work){.r = r, .fe = fe, .band_a = -1, .band_b = -1};
@@ -744,7 +792,8 @@ crisp_status crisp__step_face(step_reader *r, const step_entity *fe, crisp_face 
     const step_entity *se;
     int same;
     crisp_status st;
-    if ((st = crisp__step_get_ref(r, fe, fp, 2, &se)) || (st = crisp__step_get_bool(r, fe, fp, 3, &same)))
+    if ((st = crisp__step_get_ref(r, fe, fp, 2, &se)) ||
+        (st = crisp__step_get_bool(r, fe, fp, 3, &same)))
         return st;
     if (!(st = crisp__step_work_init(&w, r, fe, se)) && !(st = crisp__step_read_loops(&w)))
         st = crisp__step_face_finish(&w, same, dest);
@@ -776,7 +825,8 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
     memset(dest, 0, sizeof *dest);
     int whole = 0;
     if (w.nloops == 0 && w.s.kind != STEP_SURF_BSPLINE && !(whole = whole_closed_surface(&w))) {
-        st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED, "face on an unbounded surface without edge loops");
+        st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED,
+                              "face on an unbounded surface without edge loops");
         goto done;
     }
     int outer = 0;
@@ -791,24 +841,28 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
             if (area > best) best = area, outer = i;
         }
         /* Loops that wind around a periodic direction do not close in (u, v): two of them bound
-         * a band and are joined along the seam; any other crisp__step_winding loop is not supported. */
+         * a band and are joined along the seam; any other crisp__step_winding loop is not
+         * supported. */
         int wl[2], nw = 0, wk = -1;
         for (int i = 0; i < w.nloops; i++)
             for (int k = 0; k < 2; k++)
-                if (fabs(crisp__step_winding(&w, &w.loops[i], k)) > 0.5 * w.period[k] && w.period[k] > 0 &&
-                    !w.loops[i].collapse) {
+                if (fabs(crisp__step_winding(&w, &w.loops[i], k)) > 0.5 * w.period[k] &&
+                    w.period[k] > 0 && !w.loops[i].collapse) {
                     if (nw == 2 || (wk >= 0 && wk != k)) {
-                        st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED,
-                                              "loop %d winds around the %c direction of surface #%d and is not one "
-                                              "of two loops bounding a band", i + 1, "uv"[k], w.s.id);
+                        st = crisp__step_fail(
+                            r, fe, CRISP_ERR_UNSUPPORTED,
+                            "loop %d winds around the %c direction of surface #%d and is not one "
+                            "of two loops bounding a band",
+                            i + 1, "uv"[k], w.s.id);
                         goto done;
                     }
                     wl[nw++] = i;
                     wk = k;
                 }
         if (nw == 1 && w.ncap == 1) {
-            /* One crisp__step_winding loop and a vertex loop: the face is closed at the apex or pole, where the
-             * surface collapses; the loop runs up the seam, along the collapsed line, down. */
+            /* One crisp__step_winding loop and a vertex loop: the face is closed at the apex or
+             * pole, where the surface collapses; the loop runs up the seam, along the collapsed
+             * line, down. */
             double uv[2];
             const edge_use *e0 = &w.loops[wl[0]].edges[0];
             crisp__step_surface_invert(&w.s, w.cap_pt[0], e0->uv, uv);
@@ -827,9 +881,11 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
         double vmax = 0;
         for (int k = 0; nw == 1 && k < w.loops[wl[0]].count; k++) {
             const edge_use *eu = &w.loops[wl[0]].edges[k];
-            for (int i = 0; i < eu->ns; i++) vmax = fmax(vmax, fabs(eu->uv[2 * i + 1]));
+            for (int i = 0; i < eu->ns; i++)
+                vmax = fmax(vmax, fabs(eu->uv[2 * i + 1]));
         }
-        if (nw == 1 && w.ncap == 0 && w.s.kind == STEP_SURF_SPHERE && wk == 0 && (vmax < M_PI / 2 - 0.05 || vmax > M_PI / 2 - 1e-9) &&
+        if (nw == 1 && w.ncap == 0 && w.s.kind == STEP_SURF_SPHERE && wk == 0 &&
+            (vmax < M_PI / 2 - 0.05 || vmax > M_PI / 2 - 1e-9) &&
             w.loops[wl[0]].box[1] - w.loops[wl[0]].box[0] <= 2 * M_PI * (1 + 1e-9)) {
             /* (And only when the loop spans at most one turn: one surface of one turn holds it.) */
             /* One loop around a sphere and no vertex loop (a cap bounded by a circle): the face
@@ -847,9 +903,10 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
             nw = 0;
         }
         if (nw == 1) {
-            st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED,
-                                  "loop %d winds around the %c direction of surface #%d without a seam edge", wl[0] + 1,
-                                  "uv"[wk], w.s.id);
+            st = crisp__step_fail(
+                r, fe, CRISP_ERR_UNSUPPORTED,
+                "loop %d winds around the %c direction of surface #%d without a seam edge",
+                wl[0] + 1, "uv"[wk], w.s.id);
             goto done;
         }
         if (nw == 2) {
@@ -859,9 +916,11 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
         /* Holes on periodic coordinates go to the turn of the outer loop. */
         for (int i = 0; i < w.nloops; i++) {
             if (i == outer || i == w.band_b) continue;
-            double c[2] = {0.5 * (w.loops[i].box[0] + w.loops[i].box[1]), 0.5 * (w.loops[i].box[2] + w.loops[i].box[3])};
+            double c[2] = {0.5 * (w.loops[i].box[0] + w.loops[i].box[1]),
+                           0.5 * (w.loops[i].box[2] + w.loops[i].box[3])};
             double oc[2] = {0.5 * (w.loops[outer].box[0] + w.loops[outer].box[1]),
-                            0.5 * (w.loops[outer].box[2] + w.loops[outer].box[3])}, sh[2];
+                            0.5 * (w.loops[outer].box[2] + w.loops[outer].box[3])},
+                   sh[2];
             crisp__step_period_shift(&w, c, oc, sh);
             if (sh[0] != 0 || sh[1] != 0) crisp__step_shift_loop(&w.loops[i], sh);
         }
@@ -883,10 +942,12 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
         size_t cap = 0;
         lp->is_outer = i == outer;
         for (int k = 0; k < w.loops[i].count; k++)
-            if ((st = edge_trims(&w, dest->surface, &w.loops[i].edges[k], &lp->curves, &lp->curve_count, &cap)))
+            if ((st = edge_trims(&w, dest->surface, &w.loops[i].edges[k], &lp->curves,
+                                 &lp->curve_count, &cap)))
                 goto done;
         if (i == w.band_a && (st = append_band(&w, dest->surface, lp, &cap))) goto done;
-        if (w.s.kind == STEP_SURF_BSPLINE) seam_sides(dest->surface, w.nbox, lp, r->tol, 100 * w.tol_uv);
+        if (w.s.kind == STEP_SURF_BSPLINE)
+            seam_sides(dest->surface, w.nbox, lp, r->tol, 100 * w.tol_uv);
         snap_junctions(lp, 100 * w.tol_uv);
         int added = bridge_degenerate(dest->surface, lp, r->tol, 100 * w.tol_uv);
         if (added < 0) {
@@ -939,11 +1000,13 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
                 b[2] = fmin(b[2], cb[1]), b[3] = fmax(b[3], cb[3]);
             }
             /* (After a band join, loop indices no longer match w.loops: the band is the outer.) */
-            double area = band >= 0 ? (i == band ? INFINITY : 0)
-                          : w.loops[i].outer_flag ? INFINITY : (b[1] - b[0]) * (b[3] - b[2]);
+            double area = band >= 0               ? (i == band ? INFINITY : 0)
+                          : w.loops[i].outer_flag ? INFINITY
+                                                  : (b[1] - b[0]) * (b[3] - b[2]);
             if (area > best) best = area, outer = i;
         }
-        for (int i = 0; i < dest->loop_count; i++) dest->loops[i].is_outer = i == outer;
+        for (int i = 0; i < dest->loop_count; i++)
+            dest->loops[i].is_outer = i == outer;
     }
     for (int i = 0; i < dest->loop_count; i++) {
         int added = bridge_open(dest->surface, &dest->loops[i], r->tol, 100 * w.tol_uv);
@@ -952,15 +1015,19 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
             goto done;
         }
         if (added)
-            crisp_model_note_skipf(r->model, "STEP face #%d: loop %d left open by the file (%d gaps between its edges' "
-                                   "ends): closed by straight (u, v) segments", fe->id, i + 1, added);
+            crisp_model_note_skipf(
+                r->model,
+                "STEP face #%d: loop %d left open by the file (%d gaps between its edges' "
+                "ends): closed by straight (u, v) segments",
+                fe->id, i + 1, added);
     }
     dest->source_id = fe->id;
     dest->reversed = (!same) ^ crisp__step_surface_swaps(&w.s);
     st = crisp_face_normalize_loops(dest, r->close_rel * dsize);
     if (st) {
         char type[64];
-        crisp_error_prefix("%s: #%d (line %d) %s", r->f->name, fe->id, fe->line, crisp__step_type(r, fe, type, sizeof type));
+        crisp_error_prefix("%s: #%d (line %d) %s", r->f->name, fe->id, fe->line,
+                           crisp__step_type(r, fe, type, sizeof type));
     }
 done:
     /* Sampling and band joining may have replaced the loops' arrays: hand them back to be freed. */

@@ -7,18 +7,18 @@
 #include "step_internal.h"
 
 typedef struct edge_use {
-    step_curve c3;   /* 3D curve in the file's parametrisation */
-    double lo, hi;   /* curve parameter range, lo < hi (hi may pass the end of a closed B-spline) */
-    int increasing;  /* the loop runs along increasing curve parameter */
-    int npc;         /* pcurve candidates on this face's surface */
+    step_curve c3;  /* 3D curve in the file's parametrisation */
+    double lo, hi;  /* curve parameter range, lo < hi (hi may pass the end of a closed B-spline) */
+    int increasing; /* the loop runs along increasing curve parameter */
+    int npc;        /* pcurve candidates on this face's surface */
     step_curve pc[2];
     int chosen;
     double pt0[2], pt1[2]; /* pcurve parameter range of each candidate */
-    double shift[2]; /* multiple of the period added to the chosen pcurve (file uv) */
-    int ns;          /* samples in loop order: curve parameter and file (u, v) */
+    double shift[2];       /* multiple of the period added to the chosen pcurve (file uv) */
+    int ns;                /* samples in loop order: curve parameter and file (u, v) */
     double *ts, *uv;
-    int id;          /* ORIENTED_EDGE for messages */
-    int edge_id;     /* its EDGE_CURVE (a seam is used twice in one loop) */
+    int id;      /* ORIENTED_EDGE for messages */
+    int edge_id; /* its EDGE_CURVE (a seam is used twice in one loop) */
 } edge_use;
 
 typedef struct loop_work {
@@ -27,7 +27,7 @@ typedef struct loop_work {
     int count;
     edge_use *edges;
     double box[4];
-    int collapse;   /* the loop passes through an apex or pole (its u jumps freely there) */
+    int collapse; /* the loop passes through an apex or pole (its u jumps freely there) */
 } loop_work;
 
 typedef struct face_work {
@@ -43,13 +43,14 @@ typedef struct face_work {
     int band_a, band_b, band_rev; /* two winding loops joined along the seam (band_b follows a) */
     int ncap;                     /* VERTEX_LOOP points (a cone's apex, a sphere's pole) */
     double cap_pt[2][3];
-    int cap_k;                    /* band_a closed at the degenerate line (coordinate 1 - cap_k) = cap_v */
+    int cap_k; /* band_a closed at the degenerate line (coordinate 1 - cap_k) = cap_v */
     double cap_v;
-    int repaired;                 /* the edge in progress needed a repair (checked afterwards) */
+    int repaired; /* the edge in progress needed a repair (checked afterwards) */
 } face_work;
 
 /* Set up the work of a face (or curve-bounded surface) fe on surface entity se. */
-crisp_status crisp__step_work_init(face_work *w, step_reader *r, const step_entity *fe, const step_entity *se);
+crisp_status crisp__step_work_init(face_work *w, step_reader *r, const step_entity *fe,
+                                   const step_entity *se);
 /* The crisp face from the loops in w (read by crisp__step_read_loops or from the boundaries of a
  * CURVE_BOUNDED_SURFACE): surface over the loops' box, trims, orientation and closure. `same` is
  * the face's same_sense. The caller still frees w. */
@@ -59,9 +60,12 @@ double crisp__step_dist3(const double *a, const double *b);
 double crisp__step_curve_wrap(const step_curve *c, double t);
 /* The 2D curve of a PCURVE entity pe (from its definitional representation), its angle
  * coordinates on surface s (when not NULL) converted to radians. */
-crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, const step_surface *s, step_curve *dest);
-/* The pcurves of a SURFACE_CURVE / SEAM_CURVE ge that lie on surface surf (its entity, at most 2). */
-crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge, const step_surface *surf, edge_use *eu);
+crisp_status crisp__step_pcurve_curve(step_reader *r, const step_entity *pe, const step_surface *s,
+                                      step_curve *dest);
+/* The pcurves of a SURFACE_CURVE / SEAM_CURVE ge that lie on surface surf (its entity, at most 2).
+ */
+crisp_status crisp__step_find_pcurves(step_reader *r, const step_entity *ge,
+                                      const step_surface *surf, edge_use *eu);
 /* The boundaries of a CURVE_BOUNDED_SURFACE as loops of edge uses (step_bounded.c). */
 crisp_status crisp__step_read_boundaries(face_work *w);
 void crisp__step_work_free(face_work *w);
@@ -71,7 +75,8 @@ crisp_status crisp__step_read_loops(face_work *w);
  * continuity, angles unwrapped). */
 crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw);
 /* Shift of uv (per periodic coordinate) that brings it nearest to ref. */
-void crisp__step_period_shift(const face_work *w, const double uv[2], const double ref[2], double shift[2]);
+void crisp__step_period_shift(const face_work *w, const double uv[2], const double ref[2],
+                              double shift[2]);
 void crisp__step_shift_loop(loop_work *lw, const double shift[2]);
 /* The file-uv box the NURBS surface covers (loops' box with a margin). */
 void crisp__step_choose_box(face_work *w, int outer);

@@ -13,7 +13,8 @@
 #include "crisp/construct.h"
 #include "crisp/io.h"
 
-/* ---- Part 21 entity table --------------------------------------------------------------------- */
+/* ---- Part 21 entity table ---------------------------------------------------------------------
+ */
 
 typedef enum step_kind {
     STEP_INT,
@@ -62,11 +63,11 @@ typedef struct step_file {
     size_t entity_count, entity_cap;
     int *map; /* open-addressing hash: id -> entity index + 1 (0 = empty) */
     size_t map_cap;
-    int duplicates;     /* instances defined twice with identical text (the first is kept) */
-    int broken;          /* DATA instances that did not parse and were skipped */
+    int duplicates; /* instances defined twice with identical text (the first is kept) */
+    int broken;     /* DATA instances that did not parse and were skipped */
     int first_broken_line;
     char first_broken[200]; /* the first one's error message */
-    int first_duplicate; /* id of the first such */
+    int first_duplicate;    /* id of the first such */
 } step_file;
 
 /* Parse a whole exchange structure. On failure the message names the file, line and column. */
@@ -76,22 +77,23 @@ void crisp__step_file_free(step_file *f);
  * as it was read). */
 const step_entity *crisp__step_find(const step_file *f, double id);
 
-/* ---- conversion context ----------------------------------------------------------------------- */
+/* ---- conversion context -----------------------------------------------------------------------
+ */
 
 /* What the reader did, for tests and benchmarks. */
 typedef struct step_read_stats {
-    int verify;          /* in: measure how far trims lie from their 3D edges (slower) */
-    int pcurve_edges;    /* edge uses trimmed from a PCURVE */
-    int projected_edges; /* edge uses trimmed by projecting the 3D edge */
+    int verify;           /* in: measure how far trims lie from their 3D edges (slower) */
+    int pcurve_edges;     /* edge uses trimmed from a PCURVE */
+    int projected_edges;  /* edge uses trimmed by projecting the 3D edge */
     int rejected_pcurves; /* pcurves that did not follow their 3D curve (edge projected instead) */
     int dropped_faces;
-    int degenerate_edges; /* uv segments inserted along collapsed surface boundaries */
+    int degenerate_edges;  /* uv segments inserted along collapsed surface boundaries */
     int loose_projections; /* edge trims projected only with a looser tolerance */
-    int flipped_segments; /* boundary segments whose same_sense was turned round to chain */
-    double max_edge_dev;  /* largest 3D distance of a trim's image from its edge's projection onto
-                             the surface (verify) */
-    double max_edge_gap;  /* largest distance of an edge from its face's surface in the file */
-    double tol;           /* 3D tolerance used */
+    int flipped_segments;  /* boundary segments whose same_sense was turned round to chain */
+    double max_edge_dev;   /* largest 3D distance of a trim's image from its edge's projection onto
+                              the surface (verify) */
+    double max_edge_gap;   /* largest distance of an edge from its face's surface in the file */
+    double tol;            /* 3D tolerance used */
     double parse_seconds, total_seconds;
 } step_read_stats;
 
@@ -102,10 +104,10 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
 typedef struct step_reader {
     const step_file *f;
     crisp_model *model;
-    double tol;       /* 3D tolerance (projection, vertex matching) */
-    double close_rel; /* closure tolerance, fraction of a face's domain size */
-    double angle_unit; /* radians per file angle unit */
-    int depth;        /* reference nesting of the conversion in progress (cycle guard) */
+    double tol;             /* 3D tolerance (projection, vertex matching) */
+    double close_rel;       /* closure tolerance, fraction of a face's domain size */
+    double angle_unit;      /* radians per file angle unit */
+    int depth;              /* reference nesting of the conversion in progress (cycle guard) */
     step_read_stats *stats; /* never NULL during conversion */
 } step_reader;
 
@@ -156,12 +158,13 @@ crisp_status crisp__step_vector(step_reader *r, const step_entity *e, double d[3
 /* AXIS2_PLACEMENT_3D / AXIS2_PLACEMENT_2D / AXIS1_PLACEMENT. */
 crisp_status crisp__step_placement(step_reader *r, const step_entity *e, crisp_placement *dest);
 
-/* ---- curves (step_curve.c) ---------------------------------------------------------------------- */
+/* ---- curves (step_curve.c) ----------------------------------------------------------------------
+ */
 
 typedef enum step_curve_kind {
-    STEP_CURVE_LINE,    /* p + t * d */
-    STEP_CURVE_CONIC,   /* circle or ellipse: o + rx cos t x + ry sin t y */
-    STEP_CURVE_BSPLINE, /* nurbs over its own domain */
+    STEP_CURVE_LINE,      /* p + t * d */
+    STEP_CURVE_CONIC,     /* circle or ellipse: o + rx cos t x + ry sin t y */
+    STEP_CURVE_BSPLINE,   /* nurbs over its own domain */
     STEP_CURVE_HYPERBOLA, /* o + rx cosh t x + ry sinh t y */
     STEP_CURVE_PARABOLA   /* o + rx (t^2 x + 2 t y), rx the focal distance */
 } step_curve_kind;
@@ -169,27 +172,29 @@ typedef enum step_curve_kind {
 /* A curve in the file's own parametrisation (the one vertex and pcurve parameters refer to). */
 typedef struct step_curve {
     step_curve_kind kind;
-    int dim;           /* 2 or 3 */
-    int periodic;      /* conics, closed periodic B-splines */
+    int dim;      /* 2 or 3 */
+    int periodic; /* conics, closed periodic B-splines */
     double period;
-    double p[3], d[3]; /* line */
+    double p[3], d[3];  /* line */
     crisp_placement pl; /* conic */
     double rx, ry;
     crisp_curve *nurbs; /* B-spline (owned) */
-    double t0, t1;     /* bounded parameter range (-inf/+inf for unbounded lines and conics) */
-    int id;            /* entity of the geometry, for messages */
-    int reversed;      /* a TRIMMED_CURVE against its basis' sense: the file's curve runs along
-                          decreasing parameter of this one */
+    double t0, t1;      /* bounded parameter range (-inf/+inf for unbounded lines and conics) */
+    int id;             /* entity of the geometry, for messages */
+    int reversed;       /* a TRIMMED_CURVE against its basis' sense: the file's curve runs along
+                           decreasing parameter of this one */
 } step_curve;
 
 /* Knot vector (count + degree + 1 values) implied by UNIFORM_*, QUASI_UNIFORM_* or BEZIER_* curve
  * and surface forms; an error for any other B-spline without knots. */
-crisp_status crisp__step_implied_knots(step_reader *r, const step_entity *e, int degree, int count, double **dest);
+crisp_status crisp__step_implied_knots(step_reader *r, const step_entity *e, int degree, int count,
+                                       double **dest);
 /* The SURFACE_CURVE (SEAM_CURVE, ...) part of e; *off is the index of its curve_3d parameter
  * (after the name in a simple instance, first in a complex one). */
-const step_part *crisp__step_surface_curve_part(const step_reader *r, const step_entity *e, int *off);
-/* Convert a curve entity (LINE, CIRCLE, ELLIPSE, HYPERBOLA, PARABOLA, B_SPLINE_CURVE_WITH_KNOTS (rational too),
- * TRIMMED_CURVE, SURFACE_CURVE / SEAM_CURVE (their 3D curve), POLYLINE). */
+const step_part *crisp__step_surface_curve_part(const step_reader *r, const step_entity *e,
+                                                int *off);
+/* Convert a curve entity (LINE, CIRCLE, ELLIPSE, HYPERBOLA, PARABOLA, B_SPLINE_CURVE_WITH_KNOTS
+ * (rational too), TRIMMED_CURVE, SURFACE_CURVE / SEAM_CURVE (their 3D curve), POLYLINE). */
 crisp_status crisp__step_curve(step_reader *r, const step_entity *e, step_curve *dest);
 void crisp__step_curve_free(step_curve *c);
 void crisp__step_curve_eval(const step_curve *c, double t, double *dest);
@@ -198,7 +203,8 @@ double crisp__step_curve_invert(const step_curve *c, const double *p, double lo,
 /* The curve over [t0, t1] as a NURBS in the same direction (t0 < t1). */
 crisp_status crisp__step_curve_nurbs(const step_curve *c, double t0, double t1, crisp_curve **dest);
 
-/* ---- surfaces (step_surface.c) ------------------------------------------------------------------ */
+/* ---- surfaces (step_surface.c) ------------------------------------------------------------------
+ */
 
 typedef enum step_surface_kind {
     STEP_SURF_PLANE,
@@ -214,11 +220,11 @@ typedef enum step_surface_kind {
 typedef struct step_surface {
     step_surface_kind kind;
     crisp_placement pl;
-    double r, r2, semi; /* radius, minor radius (torus), semi-angle (cone) */
-    step_curve profile; /* revolution / extrusion swept curve */
+    double r, r2, semi;          /* radius, minor radius (torus), semi-angle (cone) */
+    step_curve profile;          /* revolution / extrusion swept curve */
     double axis_p[3], axis_d[3]; /* revolution axis; extrusion vector */
-    crisp_surface *nurbs; /* B-spline (owned) */
-    int u_periodic, v_periodic; /* which file coordinates are angles (period 2 pi) */
+    crisp_surface *nurbs;        /* B-spline (owned) */
+    int u_periodic, v_periodic;  /* which file coordinates are angles (period 2 pi) */
     int id;
 } step_surface;
 
@@ -242,7 +248,8 @@ int crisp__step_surface_swaps(const step_surface *s);
 /* 1 when the map is affine in each coordinate (pcurves can be used as they are). */
 int crisp__step_surface_map_linear(const step_surface *s, int coord);
 
-/* ---- faces, units, colours ---------------------------------------------------------------------- */
+/* ---- faces, units, colours ----------------------------------------------------------------------
+ */
 
 /* Convert one ADVANCED_FACE (or FACE_SURFACE) into face (not yet added). A face that cannot be
  * made valid returns CRISP_ERR_NUMERIC / CRISP_ERR_UNSUPPORTED with a message; the caller skips. */
@@ -265,6 +272,7 @@ void crisp__step_colors(step_reader *r, const int *face_ids, const int *shell_of
  * Replace the model's faces (face i from entity face_ids[i], owners[2 i] its shell or set,
  * owners[2 i + 1] its solid or surface model, 0 when none) by one placed copy per use of the
  * representation holding them in the assembly structure; faces outside it stay as they are. */
-crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int *owners, int face_count);
+crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int *owners,
+                                  int face_count);
 
 #endif

@@ -65,8 +65,14 @@ static crisp_status skip(parser *p)
     }
 }
 
-static int is_kw_start(char c) { return isupper((unsigned char)c) || islower((unsigned char)c) || c == '_' || c == '!'; }
-static int is_kw_char(char c) { return isalnum((unsigned char)c) || c == '_' || c == '-'; }
+static int is_kw_start(char c)
+{
+    return isupper((unsigned char)c) || islower((unsigned char)c) || c == '_' || c == '!';
+}
+static int is_kw_char(char c)
+{
+    return isalnum((unsigned char)c) || c == '_' || c == '-';
+}
 
 /* A keyword at the current position: upper-cased in place (Part 21 keywords are upper case; some
  * writers are careless), returned as offset and length. */
@@ -75,8 +81,10 @@ static crisp_status keyword(parser *p, uint32_t *off, uint32_t *len)
     size_t b = p->pos;
     if (!is_kw_start(p->s[b])) return perr(p, "expected a keyword");
     size_t e = b + 1;
-    while (is_kw_char(p->s[e])) e++;
-    for (size_t i = b; i < e; i++) p->f->text[i] = (char)toupper((unsigned char)p->f->text[i]);
+    while (is_kw_char(p->s[e]))
+        e++;
+    for (size_t i = b; i < e; i++)
+        p->f->text[i] = (char)toupper((unsigned char)p->f->text[i]);
     *off = (uint32_t)b;
     *len = (uint32_t)(e - b);
     p->pos = e;
@@ -93,8 +101,8 @@ static int expect_char(parser *p, char c)
 
 static crisp_status push(parser *p, const step_value *v)
 {
-    if (p->stack_len == p->stack_cap &&
-        crisp_grow((void **)&p->stack, &p->stack_cap, p->stack_len + 1, sizeof *p->stack) != CRISP_OK)
+    if (p->stack_len == p->stack_cap && crisp_grow((void **)&p->stack, &p->stack_cap,
+                                                   p->stack_len + 1, sizeof *p->stack) != CRISP_OK)
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", p->f->name);
     p->stack[p->stack_len++] = *v;
     return CRISP_OK;
@@ -107,7 +115,8 @@ static crisp_status emit(parser *p, size_t n, uint32_t *first)
     if (f->value_count + n > UINT32_MAX / 2)
         return crisp_error(CRISP_ERR_LIMIT, "%s: too many values", f->name);
     if (f->value_count + n > f->value_cap &&
-        crisp_grow((void **)&f->values, &f->value_cap, f->value_count + n, sizeof *f->values) != CRISP_OK)
+        crisp_grow((void **)&f->values, &f->value_cap, f->value_count + n, sizeof *f->values) !=
+            CRISP_OK)
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
     if (n) memcpy(f->values + f->value_count, p->stack + p->stack_len - n, n * sizeof *f->values);
     *first = (uint32_t)f->value_count;
@@ -135,7 +144,8 @@ static crisp_status parse_value(parser *p, int depth, step_value *v)
     } else if (c == '#') {
         size_t b = ++p->pos;
         double id = 0;
-        while (isdigit((unsigned char)s[p->pos])) id = id * 10 + (s[p->pos++] - '0');
+        while (isdigit((unsigned char)s[p->pos]))
+            id = id * 10 + (s[p->pos++] - '0');
         if (p->pos == b) return perr(p, "expected an entity number after #");
         /* A number beyond any entity (#18446744073709551615, a writer's "none") parses as a
          * reference that resolves to nothing: the entity using it fails, not the file. */
@@ -154,7 +164,8 @@ static crisp_status parse_value(parser *p, int depth, step_value *v)
                  * after white space). Some writers leave a lone quote inside a string
                  * (bug28454_directives.stp: ...\X0\'h...); readers accept it as a character. */
                 size_t q = p->pos + 1;
-                while (s[q] == ' ' || s[q] == '\t' || s[q] == '\r' || s[q] == '\n') q++;
+                while (s[q] == ' ' || s[q] == '\t' || s[q] == '\r' || s[q] == '\n')
+                    q++;
                 if (s[q] == ',' || s[q] == ')' || s[q] == ';' || s[q] == '\0' || s[q] == '/') break;
             }
             if (s[p->pos] == '\n') {
@@ -169,7 +180,8 @@ static crisp_status parse_value(parser *p, int depth, step_value *v)
         p->pos++;
     } else if (c == '"') {
         size_t b = ++p->pos;
-        while (isxdigit((unsigned char)s[p->pos])) p->pos++;
+        while (isxdigit((unsigned char)s[p->pos]))
+            p->pos++;
         if (s[p->pos] != '"') return perr(p, "expected \" closing a binary value");
         v->kind = STEP_BINARY;
         v->off = (uint32_t)b;
@@ -177,23 +189,27 @@ static crisp_status parse_value(parser *p, int depth, step_value *v)
         p->pos++;
     } else if (c == '.' && is_kw_start(s[p->pos + 1])) {
         size_t b = ++p->pos;
-        while (is_kw_char(s[p->pos])) p->pos++;
+        while (is_kw_char(s[p->pos]))
+            p->pos++;
         if (s[p->pos] != '.') return perr(p, "expected . closing an enumeration");
         v->kind = STEP_ENUM;
         v->off = (uint32_t)b;
         v->len = (uint32_t)(p->pos - b);
-        for (size_t i = b; i < p->pos; i++) p->f->text[i] = (char)toupper((unsigned char)s[i]);
+        for (size_t i = b; i < p->pos; i++)
+            p->f->text[i] = (char)toupper((unsigned char)s[i]);
         p->pos++;
     } else if (c == '+' || c == '-' || c == '.' || isdigit((unsigned char)c)) {
         size_t b = p->pos;
         size_t e = b;
         if (s[e] == '+' || s[e] == '-') e++;
         int digits = 0, is_real = 0;
-        while (isdigit((unsigned char)s[e])) e++, digits++;
+        while (isdigit((unsigned char)s[e]))
+            e++, digits++;
         if (s[e] == '.') {
             is_real = 1;
             e++;
-            while (isdigit((unsigned char)s[e])) e++, digits++;
+            while (isdigit((unsigned char)s[e]))
+                e++, digits++;
         }
         if (!digits) return perr(p, "expected a number");
         if (s[e] == 'E' || s[e] == 'e') {
@@ -201,7 +217,8 @@ static crisp_status parse_value(parser *p, int depth, step_value *v)
             if (s[x] == '+' || s[x] == '-') x++;
             if (isdigit((unsigned char)s[x])) {
                 is_real = 1;
-                while (isdigit((unsigned char)s[x])) x++;
+                while (isdigit((unsigned char)s[x]))
+                    x++;
                 e = x;
             }
         }
@@ -272,8 +289,8 @@ static crisp_status parse_list(parser *p, int depth, step_value *out)
 static crisp_status add_part(parser *p, uint32_t off, uint32_t len, uint32_t params)
 {
     step_file *f = p->f;
-    if (f->part_count == f->part_cap &&
-        crisp_grow((void **)&f->parts, &f->part_cap, f->part_count + 1, sizeof *f->parts) != CRISP_OK)
+    if (f->part_count == f->part_cap && crisp_grow((void **)&f->parts, &f->part_cap,
+                                                   f->part_count + 1, sizeof *f->parts) != CRISP_OK)
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
     f->parts[f->part_count++] = (step_part){off, len, params};
     return CRISP_OK;
@@ -314,7 +331,8 @@ static crisp_status parse_instance(parser *p)
     crisp_status st = parse_value(p, 0, &ref);
     if (st) return st;
     if (ref.kind != STEP_REF) return perr(p, "expected #n at the start of an entity instance");
-    if (ref.num > 2147483647.0 || ref.num < 1) return perr(p, "entity number out of range (expected 1 to 2147483647)");
+    if (ref.num > 2147483647.0 || ref.num < 1)
+        return perr(p, "entity number out of range (expected 1 to 2147483647)");
     if (!expect_char(p, '=')) return perr(p, "expected = after the entity number");
     if ((st = skip(p))) return st;
     size_t src = p->pos;
@@ -336,7 +354,8 @@ static crisp_status parse_instance(parser *p)
     if (f->entity_count == f->entity_cap &&
         crisp_grow((void **)&f->entities, &f->entity_cap, f->entity_count + 1, sizeof *f->entities))
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
-    f->entities[f->entity_count++] = (step_entity){(int)ref.num, line, first, (uint32_t)f->part_count - first,
+    f->entities[f->entity_count++] = (step_entity){(int)ref.num,  line,
+                                                   first,         (uint32_t)f->part_count - first,
                                                    (uint32_t)src, (uint32_t)(p->pos - src)};
     return CRISP_OK;
 }
@@ -358,7 +377,8 @@ static crisp_status parse_header_entity(parser *p)
 static crisp_status build_map(step_file *f)
 {
     size_t cap = 16;
-    while (cap < f->entity_count * 2) cap *= 2;
+    while (cap < f->entity_count * 2)
+        cap *= 2;
     f->map = crisp_calloc_array(cap, sizeof *f->map);
     if (!f->map) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", f->name);
     f->map_cap = cap;
@@ -371,8 +391,10 @@ static crisp_status build_map(step_file *f)
         while (f->map[h]) {
             const step_entity *o = &f->entities[f->map[h] - 1];
             if (o->id == (int)id) {
-                if (o->src_len != e.src_len || memcmp(f->text + o->src_off, f->text + e.src_off, e.src_len) != 0)
-                    return crisp_error(CRISP_ERR_PARSE, "%s: line %d: entity #%u defined twice (first on line %d)",
+                if (o->src_len != e.src_len ||
+                    memcmp(f->text + o->src_off, f->text + e.src_off, e.src_len) != 0)
+                    return crisp_error(CRISP_ERR_PARSE,
+                                       "%s: line %d: entity #%u defined twice (first on line %d)",
                                        f->name, e.line, id, o->line);
                 dup = 1;
                 break;
@@ -423,10 +445,14 @@ static int skip_instance(parser *p, size_t at, int line)
     for (; i < p->size; i++) {
         if (p->s[i] != ';') continue;
         size_t j = i + 1;
-        while (j < p->size && (p->s[j] == ' ' || p->s[j] == '\t' || p->s[j] == '\r')) j++;
+        while (j < p->size && (p->s[j] == ' ' || p->s[j] == '\t' || p->s[j] == '\r'))
+            j++;
         if (j < p->size && p->s[j] == '\n') {
-            while (j < p->size && isspace((unsigned char)p->s[j])) j++;
-            if (p->s[j] == '#' || word_at(&(parser){.s = p->s, .pos = j, .size = p->size}, "ENDSEC")) break;
+            while (j < p->size && isspace((unsigned char)p->s[j]))
+                j++;
+            if (p->s[j] == '#' ||
+                word_at(&(parser){.s = p->s, .pos = j, .size = p->size}, "ENDSEC"))
+                break;
         }
     }
     if (i >= p->size) return 0;
@@ -449,7 +475,8 @@ static crisp_status parse_all(parser *p)
     int in_data = 0, in_header = 0, saw_data = 0;
     for (;;) {
         if ((st = skip(p))) return st;
-        if (p->pos >= p->size) return perr(p, "unexpected end of file (expected END-ISO-10303-21;)");
+        if (p->pos >= p->size)
+            return perr(p, "unexpected end of file (expected END-ISO-10303-21;)");
         char c = p->s[p->pos];
         if (c == '#') {
             if (!in_data) return perr(p, "entity instance outside the DATA section");
@@ -464,7 +491,8 @@ static crisp_status parse_all(parser *p)
             continue;
         }
         if (word_at(p, "END-ISO-10303-21")) {
-            if (in_data || in_header) return perr(p, "END-ISO-10303-21 inside a section (expected ENDSEC;)");
+            if (in_data || in_header)
+                return perr(p, "END-ISO-10303-21 inside a section (expected ENDSEC;)");
             p->pos += 16;
             if (!expect_char(p, ';')) return perr(p, "expected ; after END-ISO-10303-21");
             break;
@@ -509,7 +537,8 @@ crisp_status crisp__step_parse(const char *name, const char *data, size_t size, 
     memset(dest, 0, sizeof *dest);
     dest->name = name ? name : "(memory)";
     if (size >= UINT32_MAX - 16)
-        return crisp_error(CRISP_ERR_LIMIT, "%s: file too large (%zu bytes; the limit is 4 GB)", dest->name, size);
+        return crisp_error(CRISP_ERR_LIMIT, "%s: file too large (%zu bytes; the limit is 4 GB)",
+                           dest->name, size);
     /* A private NUL-terminated copy, with slack so lookahead of two characters stays inside. */
     dest->text = crisp_malloc_array(size + 4, 1);
     if (!dest->text) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", dest->name);
@@ -527,7 +556,8 @@ crisp_status crisp__step_parse(const char *name, const char *data, size_t size, 
         size_t nl = strlen(dest->name);
         if (strncmp(msg, dest->name, nl) == 0 && msg[nl] == ':') msg += nl + 2;
         snprintf(later, sizeof later, "%s", msg);
-        st = crisp_error(CRISP_ERR_PARSE, "%s (and the text stays broken: %s)", dest->first_broken, later);
+        st = crisp_error(CRISP_ERR_PARSE, "%s (and the text stays broken: %s)", dest->first_broken,
+                         later);
     }
     crisp_free(p.stack);
     if (!st) st = build_map(dest);

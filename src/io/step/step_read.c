@@ -16,8 +16,8 @@ typedef enum face_kind {
 } face_kind;
 
 typedef struct face_ref {
-    int id;      /* ADVANCED_FACE, CURVE_BOUNDED_SURFACE, ... */
-    int flip;    /* through an ORIENTED_FACE with orientation .F. */
+    int id;       /* ADVANCED_FACE, CURVE_BOUNDED_SURFACE, ... */
+    int flip;     /* through an ORIENTED_FACE with orientation .F. */
     int owner[2]; /* shell or set, solid (0 when none) */
     face_kind kind;
 } face_ref;
@@ -28,19 +28,21 @@ typedef struct face_list {
     unsigned char *seen; /* by entity index */
 } face_list;
 
-static crisp_status add_ref_kind(step_reader *r, face_list *fl, const step_entity *fe, int flip, int shell, int solid,
-                                 face_kind kind)
+static crisp_status add_ref_kind(step_reader *r, face_list *fl, const step_entity *fe, int flip,
+                                 int shell, int solid, face_kind kind)
 {
     size_t idx = (size_t)(fe - r->f->entities);
     if (fl->seen[idx]) return CRISP_OK;
     fl->seen[idx] = 1;
-    if (fl->count == fl->cap && crisp_grow((void **)&fl->refs, &fl->cap, fl->count + 1, sizeof *fl->refs))
+    if (fl->count == fl->cap &&
+        crisp_grow((void **)&fl->refs, &fl->cap, fl->count + 1, sizeof *fl->refs))
         return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
     fl->refs[fl->count++] = (face_ref){fe->id, flip, {shell, solid}, kind};
     return CRISP_OK;
 }
 
-static crisp_status add_ref(step_reader *r, face_list *fl, const step_entity *fe, int flip, int shell, int solid)
+static crisp_status add_ref(step_reader *r, face_list *fl, const step_entity *fe, int flip,
+                            int shell, int solid)
 {
     return add_ref_kind(r, fl, fe, flip, shell, solid, FACE_TOPOLOGY);
 }
@@ -57,11 +59,20 @@ static crisp_status note_unreadable(step_reader *r, crisp_status st, const char 
     return CRISP_OK;
 }
 
-static const char *const bare_surfaces[] = {"B_SPLINE_SURFACE_WITH_KNOTS", "B_SPLINE_SURFACE", "QUASI_UNIFORM_SURFACE",
-                                           "UNIFORM_SURFACE", "BEZIER_SURFACE", "RECTANGULAR_TRIMMED_SURFACE",
-                                           "PLANE", "CYLINDRICAL_SURFACE", "CONICAL_SURFACE", "SPHERICAL_SURFACE",
-                                           "TOROIDAL_SURFACE", "DEGENERATE_TOROIDAL_SURFACE",
-                                           "SURFACE_OF_REVOLUTION", "SURFACE_OF_LINEAR_EXTRUSION"};
+static const char *const bare_surfaces[] = {"B_SPLINE_SURFACE_WITH_KNOTS",
+                                            "B_SPLINE_SURFACE",
+                                            "QUASI_UNIFORM_SURFACE",
+                                            "UNIFORM_SURFACE",
+                                            "BEZIER_SURFACE",
+                                            "RECTANGULAR_TRIMMED_SURFACE",
+                                            "PLANE",
+                                            "CYLINDRICAL_SURFACE",
+                                            "CONICAL_SURFACE",
+                                            "SPHERICAL_SURFACE",
+                                            "TOROIDAL_SURFACE",
+                                            "DEGENERATE_TOROIDAL_SURFACE",
+                                            "SURFACE_OF_REVOLUTION",
+                                            "SURFACE_OF_LINEAR_EXTRUSION"};
 
 static int is_surface(step_reader *r, const step_entity *e)
 {
@@ -71,7 +82,8 @@ static int is_surface(step_reader *r, const step_entity *e)
 }
 
 /* The surfaces among the elements of a GEOMETRIC_SET (curves and points are wireframe). */
-static crisp_status set_faces(step_reader *r, face_list *fl, const step_entity *e, const step_part *p, int *wire)
+static crisp_status set_faces(step_reader *r, face_list *fl, const step_entity *e,
+                              const step_part *p, int *wire)
 {
     const step_value *items;
     crisp_status st = crisp__step_get_list(r, e, p, 1, &items);
@@ -79,11 +91,14 @@ static crisp_status set_faces(step_reader *r, face_list *fl, const step_entity *
     for (uint32_t k = 0; k < items->len; k++) {
         const step_entity *it;
         if ((st = crisp__step_deref(r, e, crisp__step_elem(r, items, k), &it))) return st;
-        if (crisp__step_is(r, it, "CURVE_BOUNDED_SURFACE")) st = add_ref_kind(r, fl, it, 0, e->id, 0, FACE_BOUNDED);
-        else if (is_surface(r, it)) st = add_ref_kind(r, fl, it, 0, e->id, 0, FACE_BARE);
+        if (crisp__step_is(r, it, "CURVE_BOUNDED_SURFACE"))
+            st = add_ref_kind(r, fl, it, 0, e->id, 0, FACE_BOUNDED);
+        else if (is_surface(r, it))
+            st = add_ref_kind(r, fl, it, 0, e->id, 0, FACE_BARE);
         else if (crisp__step_is(r, it, "ADVANCED_FACE") || crisp__step_is(r, it, "FACE_SURFACE"))
             st = add_ref(r, fl, it, 0, e->id, 0);
-        else (*wire)++;
+        else
+            (*wire)++;
         if (st) return st;
     }
     return CRISP_OK;
@@ -95,7 +110,8 @@ static int is_face(step_reader *r, const step_entity *e)
 }
 
 /* The faces of a CLOSED_SHELL / OPEN_SHELL (or ORIENTED_CLOSED_SHELL's shell). */
-static crisp_status shell_faces(step_reader *r, face_list *fl, const step_entity *sh, int solid, int depth)
+static crisp_status shell_faces(step_reader *r, face_list *fl, const step_entity *sh, int solid,
+                                int depth)
 {
     const step_part *p = crisp__step_part(r, sh, "CLOSED_SHELL");
     if (!p) p = crisp__step_part(r, sh, "OPEN_SHELL");
@@ -117,12 +133,15 @@ static crisp_status shell_faces(step_reader *r, face_list *fl, const step_entity
         for (int k = 0; k < 4 && crisp__step_is(r, fe, "ORIENTED_FACE"); k++) {
             const step_part *op = crisp__step_part(r, fe, "ORIENTED_FACE");
             int o;
-            if ((st = crisp__step_get_bool(r, fe, op, 3, &o)) || (st = crisp__step_get_ref(r, fe, op, 2, &fe))) return st;
+            if ((st = crisp__step_get_bool(r, fe, op, 3, &o)) ||
+                (st = crisp__step_get_ref(r, fe, op, 2, &fe)))
+                return st;
             flip ^= !o;
         }
         if (!is_face(r, fe)) {
             char type[64];
-            crisp_model_note_skipf(r->model, "STEP shell member %s: not a face", crisp__step_type(r, fe, type, sizeof type));
+            crisp_model_note_skipf(r->model, "STEP shell member %s: not a face",
+                                   crisp__step_type(r, fe, type, sizeof type));
             continue;
         }
         if ((st = add_ref(r, fl, fe, flip, sh->id, solid))) return st;
@@ -146,7 +165,8 @@ static crisp_status collect_faces(step_reader *r, face_list *fl, int *wire)
             st = crisp__step_get_ref(r, e, p, 1, &sh);
             if (!st) st = shell_faces(r, fl, sh, e->id, 0);
             if ((st = note_unreadable(r, st, "solid", e->id))) return st;
-            const step_value *voids = crisp__step_part(r, e, "BREP_WITH_VOIDS") ? crisp__step_param(r, p, 2) : NULL;
+            const step_value *voids =
+                crisp__step_part(r, e, "BREP_WITH_VOIDS") ? crisp__step_param(r, p, 2) : NULL;
             for (uint32_t k = 0; voids && voids->kind == STEP_LIST && k < voids->len; k++) {
                 st = crisp__step_deref(r, e, crisp__step_elem(r, voids, k), &sh);
                 if (!st) st = shell_faces(r, fl, sh, e->id, 0);
@@ -176,23 +196,29 @@ static crisp_status collect_faces(step_reader *r, face_list *fl, int *wire)
     for (size_t i = 0; i < f->entity_count; i++) {
         const step_entity *e = &f->entities[i];
         const step_part *p = crisp__step_part(r, e, "GEOMETRIC_SET");
-        if (p && (st = note_unreadable(r, set_faces(r, fl, e, p, wire), "geometric set", e->id))) return st;
+        if (p && (st = note_unreadable(r, set_faces(r, fl, e, p, wire), "geometric set", e->id)))
+            return st;
     }
     for (size_t i = 0; i < f->entity_count; i++) {
         const step_entity *e = &f->entities[i];
-        if (crisp__step_is(r, e, "CURVE_BOUNDED_SURFACE") && (st = add_ref_kind(r, fl, e, 0, 0, 0, FACE_BOUNDED)))
+        if (crisp__step_is(r, e, "CURVE_BOUNDED_SURFACE") &&
+            (st = add_ref_kind(r, fl, e, 0, 0, 0, FACE_BOUNDED)))
             return st;
     }
     return CRISP_OK;
 }
 
-static crisp_status convert_face(step_reader *r, const face_ref *fr, const step_entity *fe, crisp_face *face)
+static crisp_status convert_face(step_reader *r, const face_ref *fr, const step_entity *fe,
+                                 crisp_face *face)
 {
     r->depth = 0;
     switch (fr->kind) {
-    case FACE_BOUNDED: return crisp__step_bounded_face(r, fe, face);
-    case FACE_BARE: return crisp__step_bare_face(r, fe, face);
-    default: return crisp__step_face(r, fe, face);
+    case FACE_BOUNDED:
+        return crisp__step_bounded_face(r, fe, face);
+    case FACE_BARE:
+        return crisp__step_bare_face(r, fe, face);
+    default:
+        return crisp__step_face(r, fe, face);
     }
 }
 
@@ -209,11 +235,20 @@ static int count_types(step_reader *r, const char *const *types, size_t n)
     return c;
 }
 
-static const char *const mesh_types[] = {"TRIANGULATED_FACE", "COMPLEX_TRIANGULATED_FACE", "TRIANGULATED_SURFACE_SET",
-                                         "COMPLEX_TRIANGULATED_SURFACE_SET", "TESSELLATED_SHELL", "TESSELLATED_SOLID",
-                                         "TESSELLATED_FACE", "TESSELLATED_SURFACE_SET"};
-static const char *const curve_types[] = {"LINE", "CIRCLE", "ELLIPSE", "POLYLINE", "TRIMMED_CURVE", "B_SPLINE_CURVE",
-                                          "B_SPLINE_CURVE_WITH_KNOTS", "QUASI_UNIFORM_CURVE", "COMPOSITE_CURVE",
+static const char *const mesh_types[] = {
+    "TRIANGULATED_FACE",        "COMPLEX_TRIANGULATED_FACE",
+    "TRIANGULATED_SURFACE_SET", "COMPLEX_TRIANGULATED_SURFACE_SET",
+    "TESSELLATED_SHELL",        "TESSELLATED_SOLID",
+    "TESSELLATED_FACE",         "TESSELLATED_SURFACE_SET"};
+static const char *const curve_types[] = {"LINE",
+                                          "CIRCLE",
+                                          "ELLIPSE",
+                                          "POLYLINE",
+                                          "TRIMMED_CURVE",
+                                          "B_SPLINE_CURVE",
+                                          "B_SPLINE_CURVE_WITH_KNOTS",
+                                          "QUASI_UNIFORM_CURVE",
+                                          "COMPOSITE_CURVE",
                                           "TESSELLATED_CURVE_SET"};
 
 /* The error for a file in which nothing can be drawn, saying what it holds instead. */
@@ -223,20 +258,26 @@ static crisp_status nothing_drawable(step_reader *r, int wire)
     int meshes = count_types(r, mesh_types, sizeof mesh_types / sizeof *mesh_types);
     if (meshes)
         return crisp_error(CRISP_ERR_UNSUPPORTED,
-                           "%s: only tessellated geometry (%d triangulated or tessellated items, no B-rep faces or "
-                           "surfaces): crisp draws exact surfaces, not meshes", name, meshes);
+                           "%s: only tessellated geometry (%d triangulated or tessellated items, "
+                           "no B-rep faces or "
+                           "surfaces): crisp draws exact surfaces, not meshes",
+                           name, meshes);
     int curves = count_types(r, curve_types, sizeof curve_types / sizeof *curve_types);
     if (curves || wire)
-        return crisp_error(CRISP_ERR_UNSUPPORTED,
-                           "%s: only wireframe geometry (%d curves, no faces or surfaces): nothing to draw", name,
-                           curves + wire);
-    static const char *const refs[] = {"DOCUMENT_FILE", "APPLIED_DOCUMENT_REFERENCE", "DOCUMENT_REPRESENTATION_TYPE",
+        return crisp_error(
+            CRISP_ERR_UNSUPPORTED,
+            "%s: only wireframe geometry (%d curves, no faces or surfaces): nothing to draw", name,
+            curves + wire);
+    static const char *const refs[] = {"DOCUMENT_FILE", "APPLIED_DOCUMENT_REFERENCE",
+                                       "DOCUMENT_REPRESENTATION_TYPE",
                                        "NEXT_ASSEMBLY_USAGE_OCCURRENCE"};
     if (count_types(r, refs, sizeof refs / sizeof *refs))
         return crisp_error(CRISP_ERR_UNSUPPORTED,
-                           "%s: no geometry in this file (an assembly structure or references to other files only)",
+                           "%s: no geometry in this file (an assembly structure or references to "
+                           "other files only)",
                            name);
-    return crisp_error(CRISP_ERR_UNSUPPORTED, "%s: no geometry (no B-rep faces, surfaces, meshes or curves)", name);
+    return crisp_error(CRISP_ERR_UNSUPPORTED,
+                       "%s: no geometry (no B-rep faces, surfaces, meshes or curves)", name);
 }
 
 /* Tolerance scale: the box of the 3D CARTESIAN_POINTs, leaving out the origins of LINEs and the
@@ -246,7 +287,8 @@ static crisp_status nothing_drawable(step_reader *r, int wire)
 static double model_diagonal(step_reader *r, unsigned char *skip)
 {
     const step_file *f = r->f;
-    static const char *const users[] = {"LINE", "AXIS2_PLACEMENT_3D", "AXIS2_PLACEMENT_2D", "AXIS1_PLACEMENT"};
+    static const char *const users[] = {"LINE", "AXIS2_PLACEMENT_3D", "AXIS2_PLACEMENT_2D",
+                                        "AXIS1_PLACEMENT"};
     for (size_t i = 0; skip && i < f->entity_count; i++) {
         const step_entity *e = &f->entities[i], *pe;
         for (size_t k = 0; k < sizeof users / sizeof *users; k++) {
@@ -259,14 +301,18 @@ static double model_diagonal(step_reader *r, unsigned char *skip)
         double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
         for (size_t i = 0; i < f->entity_count; i++) {
             const step_entity *e = &f->entities[i];
-            if (e->part_count != 1 || (pass == 0 && skip[i]) || !crisp__step_is(r, e, "CARTESIAN_POINT")) continue;
+            if (e->part_count != 1 || (pass == 0 && skip[i]) ||
+                !crisp__step_is(r, e, "CARTESIAN_POINT"))
+                continue;
             double p[3];
             int dim;
             if (crisp__step_point(r, e, p, &dim) || dim != 3) continue;
-            for (int k = 0; k < 3; k++) lo[k] = fmin(lo[k], p[k]), hi[k] = fmax(hi[k], p[k]);
+            for (int k = 0; k < 3; k++)
+                lo[k] = fmin(lo[k], p[k]), hi[k] = fmax(hi[k], p[k]);
         }
         d = 0;
-        for (int k = 0; k < 3; k++) d += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0;
+        for (int k = 0; k < 3; k++)
+            d += hi[k] > lo[k] ? (hi[k] - lo[k]) * (hi[k] - lo[k]) : 0;
     }
     crisp_error_clear();
     return d > 0 ? sqrt(d) : 1;
@@ -279,7 +325,7 @@ static double model_diagonal(step_reader *r, unsigned char *skip)
  * size: the box of the points it references (again without line origins and placements). */
 typedef struct face_scale {
     const unsigned char *skip;
-    int *stamp;  /* by entity index: the last face that visited it */
+    int *stamp; /* by entity index: the last face that visited it */
     int face;
     int *stack;
     size_t stack_cap;
@@ -294,10 +340,13 @@ static void scale_value(step_reader *r, face_scale *fs, const step_value *v, siz
         size_t idx = (size_t)(t - r->f->entities);
         if (fs->stamp[idx] == fs->face) return;
         fs->stamp[idx] = fs->face;
-        if (*n == fs->stack_cap && crisp_grow((void **)&fs->stack, &fs->stack_cap, *n + 1, sizeof *fs->stack)) return;
+        if (*n == fs->stack_cap &&
+            crisp_grow((void **)&fs->stack, &fs->stack_cap, *n + 1, sizeof *fs->stack))
+            return;
         fs->stack[(*n)++] = (int)idx;
     } else if (v->kind == STEP_LIST && depth < 8) {
-        for (uint32_t i = 0; i < v->len; i++) scale_value(r, fs, &r->f->values[v->first + i], n, depth + 1);
+        for (uint32_t i = 0; i < v->len; i++)
+            scale_value(r, fs, &r->f->values[v->first + i], n, depth + 1);
     } else if (v->kind == STEP_TYPED && depth < 8) {
         scale_value(r, fs, &r->f->values[v->first], n, depth + 1);
     }
@@ -308,7 +357,8 @@ static double face_diagonal(step_reader *r, face_scale *fs, const step_entity *f
     const step_file *f = r->f;
     size_t n = 0;
     fs->face++;
-    for (int k = 0; k < 3; k++) fs->lo[k] = INFINITY, fs->hi[k] = -INFINITY;
+    for (int k = 0; k < 3; k++)
+        fs->lo[k] = INFINITY, fs->hi[k] = -INFINITY;
     step_value root = {.kind = STEP_REF, .num = fe->id};
     scale_value(r, fs, &root, &n, 0);
     while (n) {
@@ -317,18 +367,21 @@ static double face_diagonal(step_reader *r, face_scale *fs, const step_entity *f
             double p[3];
             int dim;
             if (!fs->skip[e - f->entities] && !crisp__step_point(r, e, p, &dim) && dim == 3)
-                for (int k = 0; k < 3; k++) fs->lo[k] = fmin(fs->lo[k], p[k]), fs->hi[k] = fmax(fs->hi[k], p[k]);
+                for (int k = 0; k < 3; k++)
+                    fs->lo[k] = fmin(fs->lo[k], p[k]), fs->hi[k] = fmax(fs->hi[k], p[k]);
             continue;
         }
         /* Styles, contexts and the like are not geometry. */
-        if (crisp__step_is(r, e, "REPRESENTATION_CONTEXT") || crisp__step_is(r, e, "GEOMETRIC_REPRESENTATION_CONTEXT"))
+        if (crisp__step_is(r, e, "REPRESENTATION_CONTEXT") ||
+            crisp__step_is(r, e, "GEOMETRIC_REPRESENTATION_CONTEXT"))
             continue;
         for (uint32_t pi = 0; pi < e->part_count; pi++)
             scale_value(r, fs, &f->values[f->parts[e->first_part + pi].params], &n, 0);
     }
     crisp_error_clear();
     double d = 0;
-    for (int k = 0; k < 3; k++) d += fs->hi[k] > fs->lo[k] ? (fs->hi[k] - fs->lo[k]) * (fs->hi[k] - fs->lo[k]) : 0;
+    for (int k = 0; k < 3; k++)
+        d += fs->hi[k] > fs->lo[k] ? (fs->hi[k] - fs->lo[k]) * (fs->hi[k] - fs->lo[k]) : 0;
     return sqrt(d);
 }
 
@@ -348,7 +401,8 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
     memset(stats, 0, sizeof *stats);
     stats->verify = verify;
     double t_start = crisp_time_now();
-    if (!dest || (!data && size)) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_step_mem: NULL argument");
+    if (!dest || (!data && size))
+        return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_step_mem: NULL argument");
     *dest = NULL;
     if (!name) name = "(memory)";
     step_file f;
@@ -364,7 +418,8 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
     snprintf(m->format, sizeof m->format, "STEP");
     step_reader r = {.f = &f, .model = m, .stats = stats};
     crisp__step_units(&r);
-    double frac = options && options->projection_tolerance > 0 ? options->projection_tolerance : 1e-5;
+    double frac =
+        options && options->projection_tolerance > 0 ? options->projection_tolerance : 1e-5;
     skip = crisp_calloc_array(f.entity_count + 1, 1);
     fs.stamp = crisp_calloc_array(f.entity_count + 1, sizeof *fs.stamp);
     if (!skip || !fs.stamp) {
@@ -377,8 +432,9 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
     stats->tol = r.tol;
     r.close_rel = options && options->closure_tolerance > 0 ? options->closure_tolerance : 1e-6;
     if (f.duplicates) {
-        crisp_model_note_skipf(m, "STEP %d entities defined twice with identical text (first #%d): copy ignored",
-                               f.duplicates, f.first_duplicate);
+        crisp_model_note_skipf(
+            m, "STEP %d entities defined twice with identical text (first #%d): copy ignored",
+            f.duplicates, f.first_duplicate);
     }
     if (f.broken) {
         /* The message names the file, line and column. */
@@ -390,11 +446,13 @@ crisp_status crisp__step_read_mem(const char *name, const char *data, size_t siz
     int wire = 0;
     if ((st = collect_faces(&r, &fl, &wire))) goto done;
     if (fl.count == 0) {
-        st = f.broken ? crisp_error(CRISP_ERR_PARSE, "%s", f.first_broken) : nothing_drawable(&r, wire);
+        st = f.broken ? crisp_error(CRISP_ERR_PARSE, "%s", f.first_broken)
+                      : nothing_drawable(&r, wire);
         goto done;
     }
     int meshes = count_types(&r, mesh_types, sizeof mesh_types / sizeof *mesh_types);
-    for (int k = 0; k < meshes; k++) crisp_model_note_skip(m, "STEP tessellated item (a mesh: not drawn)");
+    for (int k = 0; k < meshes; k++)
+        crisp_model_note_skip(m, "STEP tessellated item (a mesh: not drawn)");
     ids = crisp_malloc_array(fl.count * 3, sizeof *ids);
     if (!ids) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", name);
@@ -484,7 +542,8 @@ done:
     return CRISP_OK;
 }
 
-crisp_status crisp_read_step(const char *path, const crisp_read_options *options, crisp_model **dest)
+crisp_status crisp_read_step(const char *path, const crisp_read_options *options,
+                             crisp_model **dest)
 {
     if (!path || !dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_read_step: NULL argument");
     char *data;

@@ -19,14 +19,15 @@ static double unit_factor(step_reader *r, const step_entity *e, int length, int 
     if ((p = crisp__step_part(r, e, "SI_UNIT"))) {
         /* SI_UNIT(prefix, name) in a complex instance; SI_UNIT(*, prefix, name) when simple. */
         int off = crisp__step_param(r, p, 2) ? 1 : 0;
-        const step_value *pre = crisp__step_param(r, p, off), *name = crisp__step_param(r, p, off + 1);
+        const step_value *pre = crisp__step_param(r, p, off),
+                         *name = crisp__step_param(r, p, off + 1);
         static const struct {
             const char *name;
             double f;
-        } prefixes[] = {{"EXA", 1e18},  {"PETA", 1e15}, {"TERA", 1e12}, {"GIGA", 1e9},   {"MEGA", 1e6},
-                        {"KILO", 1e3},  {"HECTO", 1e2}, {"DECA", 1e1},  {"DECI", 1e-1},  {"CENTI", 1e-2},
-                        {"MILLI", 1e-3}, {"MICRO", 1e-6}, {"NANO", 1e-9}, {"PICO", 1e-12}, {"FEMTO", 1e-15},
-                        {"ATTO", 1e-18}};
+        } prefixes[] = {{"EXA", 1e18},  {"PETA", 1e15},  {"TERA", 1e12},   {"GIGA", 1e9},
+                        {"MEGA", 1e6},  {"KILO", 1e3},   {"HECTO", 1e2},   {"DECA", 1e1},
+                        {"DECI", 1e-1}, {"CENTI", 1e-2}, {"MILLI", 1e-3},  {"MICRO", 1e-6},
+                        {"NANO", 1e-9}, {"PICO", 1e-12}, {"FEMTO", 1e-15}, {"ATTO", 1e-18}};
         double f = 1;
         if (pre && pre->kind == STEP_ENUM)
             for (size_t k = 0; k < sizeof prefixes / sizeof *prefixes; k++)
@@ -72,11 +73,13 @@ void crisp__step_units(step_reader *r)
             const step_entity *u;
             if (v->kind != STEP_REF || !(u = crisp__step_find(f, v->num))) continue;
             double x;
-            if (!have_len && crisp__step_is(r, u, "LENGTH_UNIT") && (x = unit_factor(r, u, 1, 0)) > 0) {
+            if (!have_len && crisp__step_is(r, u, "LENGTH_UNIT") &&
+                (x = unit_factor(r, u, 1, 0)) > 0) {
                 r->model->unit_to_mm = x;
                 have_len = 1;
             }
-            if (!have_ang && crisp__step_is(r, u, "PLANE_ANGLE_UNIT") && (x = unit_factor(r, u, 0, 0)) > 0) {
+            if (!have_ang && crisp__step_is(r, u, "PLANE_ANGLE_UNIT") &&
+                (x = unit_factor(r, u, 0, 0)) > 0) {
                 r->angle_unit = x;
                 have_ang = 1;
             }
@@ -105,8 +108,8 @@ double crisp__step_context_length_unit(step_reader *r, const step_entity *ctx)
         const step_value *v = crisp__step_elem(r, units, k);
         const step_entity *u;
         double x;
-        if (v->kind == STEP_REF && (u = crisp__step_find(r->f, v->num)) && crisp__step_is(r, u, "LENGTH_UNIT") &&
-            (x = unit_factor(r, u, 1, 0)) > 0)
+        if (v->kind == STEP_REF && (u = crisp__step_find(r->f, v->num)) &&
+            crisp__step_is(r, u, "LENGTH_UNIT") && (x = unit_factor(r, u, 1, 0)) > 0)
             return x;
     }
     return 0;
@@ -130,8 +133,9 @@ static int find_colour(step_reader *r, const step_entity *e, int depth, float rg
         static const struct {
             const char *name;
             float rgb[3];
-        } named[] = {{"black", {0, 0, 0}}, {"red", {1, 0, 0}},    {"green", {0, 1, 0}}, {"blue", {0, 0, 1}},
-                     {"yellow", {1, 1, 0}}, {"magenta", {1, 0, 1}}, {"cyan", {0, 1, 1}}, {"white", {1, 1, 1}}};
+        } named[] = {{"black", {0, 0, 0}}, {"red", {1, 0, 0}},    {"green", {0, 1, 0}},
+                     {"blue", {0, 0, 1}},  {"yellow", {1, 1, 0}}, {"magenta", {1, 0, 1}},
+                     {"cyan", {0, 1, 1}},  {"white", {1, 1, 1}}};
         const step_value *v = crisp__step_param(r, p, 0);
         if (!v || v->kind != STEP_STRING) return 0;
         for (size_t k = 0; k < sizeof named / sizeof *named; k++)
@@ -154,7 +158,8 @@ static int find_colour(step_reader *r, const step_entity *e, int depth, float rg
             for (uint32_t j = 0; j < n && j < 64; j++) {
                 const step_value *x = v->kind == STEP_LIST ? &r->f->values[v->first + j] : v;
                 const step_entity *t;
-                if (x->kind == STEP_REF && (t = crisp__step_find(r->f, x->num)) && find_colour(r, t, depth + 1, rgb))
+                if (x->kind == STEP_REF && (t = crisp__step_find(r->f, x->num)) &&
+                    find_colour(r, t, depth + 1, rgb))
                     return 1;
             }
         }
@@ -168,7 +173,9 @@ int crisp__step_style_colour(step_reader *r, const step_value *styles, float rgb
     for (uint32_t j = 0; j < n; j++) {
         const step_value *x = &r->f->values[styles->first + j];
         const step_entity *t;
-        if (x->kind == STEP_REF && (t = crisp__step_find(r->f, x->num)) && find_colour(r, t, 0, rgb)) return 1;
+        if (x->kind == STEP_REF && (t = crisp__step_find(r->f, x->num)) &&
+            find_colour(r, t, 0, rgb))
+            return 1;
     }
     return 0;
 }
@@ -184,15 +191,18 @@ void crisp__step_colors(step_reader *r, const int *face_ids, const int *owner_id
             const step_part *p = crisp__step_part(r, e, "STYLED_ITEM");
             if (!p) p = crisp__step_part(r, e, "OVER_RIDING_STYLED_ITEM");
             if (!p) continue;
-            const step_value *styles = crisp__step_param(r, p, 1), *item = crisp__step_param(r, p, 2);
+            const step_value *styles = crisp__step_param(r, p, 1),
+                             *item = crisp__step_param(r, p, 2);
             if (!styles || !item || item->kind != STEP_REF) continue;
             int target = item->num >= 1 && item->num <= 2147483647.0 ? (int)item->num : -1;
             int on_face = 0;
-            for (int k = 0; k < face_count && !on_face; k++) on_face = face_ids[k] == target;
+            for (int k = 0; k < face_count && !on_face; k++)
+                on_face = face_ids[k] == target;
             if (on_face != pass) continue;
             int hit = 0;
             for (int k = 0; k < face_count && !hit; k++)
-                hit = pass ? face_ids[k] == target : (owner_ids[2 * k] == target || owner_ids[2 * k + 1] == target);
+                hit = pass ? face_ids[k] == target
+                           : (owner_ids[2 * k] == target || owner_ids[2 * k + 1] == target);
             if (!hit) continue;
             float rgb[3];
             const step_entity *t;
@@ -200,15 +210,18 @@ void crisp__step_colors(step_reader *r, const int *face_ids, const int *owner_id
             uint32_t n = styles->kind == STEP_LIST ? styles->len : 0;
             for (uint32_t j = 0; j < n && !found; j++) {
                 const step_value *x = &f->values[styles->first + j];
-                if (x->kind == STEP_REF && (t = crisp__step_find(f, x->num))) found = find_colour(r, t, 0, rgb);
+                if (x->kind == STEP_REF && (t = crisp__step_find(f, x->num)))
+                    found = find_colour(r, t, 0, rgb);
             }
             if (!found) continue;
             for (int k = 0; k < face_count; k++) {
-                int match = pass ? face_ids[k] == target : (owner_ids[2 * k] == target || owner_ids[2 * k + 1] == target);
+                int match = pass ? face_ids[k] == target
+                                 : (owner_ids[2 * k] == target || owner_ids[2 * k + 1] == target);
                 if (!match) continue;
                 crisp_face *face = &m->faces[k];
                 face->has_color = 1;
-                face->color[0] = rgb[0], face->color[1] = rgb[1], face->color[2] = rgb[2], face->color[3] = 1;
+                face->color[0] = rgb[0], face->color[1] = rgb[1], face->color[2] = rgb[2],
+                face->color[3] = 1;
             }
         }
     }

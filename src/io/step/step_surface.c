@@ -43,20 +43,25 @@ static crisp_status bspline_surface(step_reader *r, const step_entity *e, step_s
     int nu = (int)rows->len;
     const step_value *row0 = crisp__step_elem(r, rows, 0);
     if (!row0 || row0->kind != STEP_LIST)
-        return crisp__step_fail(r, e, CRISP_ERR_PARSE, "parameter %d: expected a list of lists of points", off + 3);
+        return crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                "parameter %d: expected a list of lists of points", off + 3);
     int nv = (int)row0->len;
     if (nu < du + 1 || nv < dv + 1 || (long long)nu * nv > CRISP_MAX_CONTROL_POINTS)
-        return crisp__step_fail(r, e, CRISP_ERR_LIMIT, "expected %d..%d control points (u) and %d.. (v), "
-                                                       "at most %d in all; found %d x %d",
-                                du + 1, CRISP_MAX_CONTROL_POINTS, dv + 1, CRISP_MAX_CONTROL_POINTS, nu, nv);
+        return crisp__step_fail(r, e, CRISP_ERR_LIMIT,
+                                "expected %d..%d control points (u) and %d.. (v), "
+                                "at most %d in all; found %d x %d",
+                                du + 1, CRISP_MAX_CONTROL_POINTS, dv + 1, CRISP_MAX_CONTROL_POINTS,
+                                nu, nv);
     size_t n = (size_t)nu * (size_t)nv;
     double *xyz = crisp_malloc_array(n * 3, sizeof *xyz), *w = NULL, *ku = NULL, *kv = NULL;
     if (!xyz) return crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
-    /* The file lists rows of constant u index: point (i, j) is rows[i][j]; crisp wants u fastest. */
+    /* The file lists rows of constant u index: point (i, j) is rows[i][j]; crisp wants u fastest.
+     */
     for (int i = 0; i < nu && !st; i++) {
         const step_value *row = crisp__step_elem(r, rows, (uint32_t)i);
         if (row->kind != STEP_LIST || (int)row->len != nv) {
-            st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "control point row %d: expected a list of %d points", i + 1, nv);
+            st = crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                  "control point row %d: expected a list of %d points", i + 1, nv);
             break;
         }
         for (int j = 0; j < nv && !st; j++) {
@@ -69,27 +74,37 @@ static crisp_status bspline_surface(step_reader *r, const step_entity *e, step_s
     const step_value *mu, *mv, *tu, *tv;
     if (!st && !kp) {
         /* UNIFORM_SURFACE, QUASI_UNIFORM_SURFACE, BEZIER_SURFACE: knots implied per direction. */
-        if (!(st = crisp__step_implied_knots(r, e, du, nu, &ku))) st = crisp__step_implied_knots(r, e, dv, nv, &kv);
-    } else if (!st && !(st = crisp__step_get_list(r, e, kp, ko, &mu)) && !(st = crisp__step_get_list(r, e, kp, ko + 1, &mv)) &&
-        !(st = crisp__step_get_list(r, e, kp, ko + 2, &tu)) && !(st = crisp__step_get_list(r, e, kp, ko + 3, &tv)) &&
-        !(st = crisp__step_knots(r, e, mu, tu, du, nu, &ku)))
+        if (!(st = crisp__step_implied_knots(r, e, du, nu, &ku)))
+            st = crisp__step_implied_knots(r, e, dv, nv, &kv);
+    } else if (!st && !(st = crisp__step_get_list(r, e, kp, ko, &mu)) &&
+               !(st = crisp__step_get_list(r, e, kp, ko + 1, &mv)) &&
+               !(st = crisp__step_get_list(r, e, kp, ko + 2, &tu)) &&
+               !(st = crisp__step_get_list(r, e, kp, ko + 3, &tv)) &&
+               !(st = crisp__step_knots(r, e, mu, tu, du, nu, &ku)))
         st = crisp__step_knots(r, e, mv, tv, dv, nv, &kv);
     const step_part *rp = crisp__step_part(r, e, "RATIONAL_B_SPLINE_SURFACE");
     if (!st && rp) {
         const step_value *wl;
         if (!(st = crisp__step_get_list(r, e, rp, 0, &wl))) {
-            if ((int)wl->len != nu) st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected %d rows of weights, found %u", nu, wl->len);
-            else if (!(w = crisp_malloc_array(n, sizeof *w))) st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
+            if ((int)wl->len != nu)
+                st = crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                      "expected %d rows of weights, found %u", nu, wl->len);
+            else if (!(w = crisp_malloc_array(n, sizeof *w)))
+                st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
             for (int i = 0; !st && i < nu; i++) {
                 const step_value *row = crisp__step_elem(r, wl, (uint32_t)i);
                 if (row->kind != STEP_LIST || (int)row->len != nv) {
-                    st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "weight row %d: expected %d weights", i + 1, nv);
+                    st = crisp__step_fail(r, e, CRISP_ERR_PARSE,
+                                          "weight row %d: expected %d weights", i + 1, nv);
                     break;
                 }
                 for (int j = 0; j < nv && !st; j++) {
                     double *wj = &w[(size_t)j * nu + i];
-                    if (!crisp__step_value_real(r, crisp__step_elem(r, row, (uint32_t)j), wj) || !(*wj > 0))
-                        st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "weight (%d, %d): expected a positive real", i + 1, j + 1);
+                    if (!crisp__step_value_real(r, crisp__step_elem(r, row, (uint32_t)j), wj) ||
+                        !(*wj > 0))
+                        st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC,
+                                              "weight (%d, %d): expected a positive real", i + 1,
+                                              j + 1);
                 }
             }
         }
@@ -113,7 +128,8 @@ crisp_status crisp__step_surface(step_reader *r, const step_entity *e, step_surf
     s->id = e->id;
     if (++r->depth > STEP_MAX_DEPTH) {
         r->depth--;
-        return crisp__step_fail(r, e, CRISP_ERR_LIMIT, "surface references nested too deeply (a reference cycle?)");
+        return crisp__step_fail(r, e, CRISP_ERR_LIMIT,
+                                "surface references nested too deeply (a reference cycle?)");
     }
     crisp_status st = CRISP_OK;
     const step_part *p = crisp__step_part(r, e, NULL);
@@ -134,18 +150,24 @@ crisp_status crisp__step_surface(step_reader *r, const step_entity *e, step_surf
         done = 1;
         s->kind = elementary[k].kind;
         double v[2] = {0, 0};
-        if ((st = crisp__step_get_ref(r, e, p, 1, &ae)) || (st = crisp__step_placement(r, ae, &s->pl))) break;
-        for (int i = 0; i < elementary[k].reals && !st; i++) st = crisp__step_get_real(r, e, p, 2 + i, &v[i]);
+        if ((st = crisp__step_get_ref(r, e, p, 1, &ae)) ||
+            (st = crisp__step_placement(r, ae, &s->pl)))
+            break;
+        for (int i = 0; i < elementary[k].reals && !st; i++)
+            st = crisp__step_get_real(r, e, p, 2 + i, &v[i]);
         if (st) break;
         s->r = v[0];
         if (s->kind == STEP_SURF_TORUS) s->r2 = v[1];
         if (s->kind == STEP_SURF_CONE) s->semi = v[1] * r->angle_unit;
         if (s->kind != STEP_SURF_PLANE && !(s->r > 0) && !(s->kind == STEP_SURF_CONE && s->r == 0))
-            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "expected a positive radius, found %g", s->r);
+            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "expected a positive radius, found %g",
+                                  s->r);
         else if (s->kind == STEP_SURF_TORUS && !(s->r2 > 0))
-            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "expected a positive minor radius, found %g", s->r2);
+            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC,
+                                  "expected a positive minor radius, found %g", s->r2);
         else if (s->kind == STEP_SURF_CONE && !(fabs(s->semi) < M_PI / 2 - 1e-9 && s->semi != 0))
-            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC, "expected a semi-angle in (0, pi/2), found %g", s->semi);
+            st = crisp__step_fail(r, e, CRISP_ERR_NUMERIC,
+                                  "expected a semi-angle in (0, pi/2), found %g", s->semi);
         s->u_periodic = s->kind != STEP_SURF_PLANE;
         s->v_periodic = s->kind == STEP_SURF_TORUS;
     }
@@ -153,18 +175,24 @@ crisp_status crisp__step_surface(step_reader *r, const step_entity *e, step_surf
     } else if ((p = crisp__step_part(r, e, "SURFACE_OF_REVOLUTION"))) {
         crisp_placement ax;
         s->kind = STEP_SURF_REVOLUTION;
-        if (!(st = crisp__step_get_ref(r, e, p, 1, &ce)) && !(st = crisp__step_get_ref(r, e, p, 2, &ae)) &&
-            !(st = crisp__step_placement(r, ae, &ax)) && !(st = crisp__step_curve(r, ce, &s->profile))) {
+        if (!(st = crisp__step_get_ref(r, e, p, 1, &ce)) &&
+            !(st = crisp__step_get_ref(r, e, p, 2, &ae)) &&
+            !(st = crisp__step_placement(r, ae, &ax)) &&
+            !(st = crisp__step_curve(r, ce, &s->profile))) {
             memcpy(s->axis_p, ax.origin, sizeof s->axis_p);
             memcpy(s->axis_d, ax.z, sizeof s->axis_d);
             s->u_periodic = 1;
-            if (s->profile.dim != 3) st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected a 3D swept curve");
+            if (s->profile.dim != 3)
+                st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected a 3D swept curve");
         }
     } else if ((p = crisp__step_part(r, e, "SURFACE_OF_LINEAR_EXTRUSION"))) {
         s->kind = STEP_SURF_EXTRUSION;
-        if (!(st = crisp__step_get_ref(r, e, p, 1, &ce)) && !(st = crisp__step_get_ref(r, e, p, 2, &ae)) &&
-            !(st = crisp__step_vector(r, ae, s->axis_d)) && !(st = crisp__step_curve(r, ce, &s->profile))) {
-            if (s->profile.dim != 3) st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected a 3D swept curve");
+        if (!(st = crisp__step_get_ref(r, e, p, 1, &ce)) &&
+            !(st = crisp__step_get_ref(r, e, p, 2, &ae)) &&
+            !(st = crisp__step_vector(r, ae, s->axis_d)) &&
+            !(st = crisp__step_curve(r, ce, &s->profile))) {
+            if (s->profile.dim != 3)
+                st = crisp__step_fail(r, e, CRISP_ERR_PARSE, "expected a 3D swept curve");
             s->u_periodic = s->profile.kind == STEP_CURVE_CONIC;
         }
     } else if ((p = crisp__step_part(r, e, "RECTANGULAR_TRIMMED_SURFACE"))) {
@@ -175,9 +203,10 @@ crisp_status crisp__step_surface(step_reader *r, const step_entity *e, step_surf
             st = crisp__step_surface(r, be, s);
             s->id = e->id;
         }
-    } else if (crisp__step_is(r, e, "B_SPLINE_SURFACE_WITH_KNOTS") || crisp__step_is(r, e, "B_SPLINE_SURFACE") ||
-               crisp__step_is(r, e, "QUASI_UNIFORM_SURFACE") || crisp__step_is(r, e, "UNIFORM_SURFACE") ||
-               crisp__step_is(r, e, "BEZIER_SURFACE")) {
+    } else if (crisp__step_is(r, e, "B_SPLINE_SURFACE_WITH_KNOTS") ||
+               crisp__step_is(r, e, "B_SPLINE_SURFACE") ||
+               crisp__step_is(r, e, "QUASI_UNIFORM_SURFACE") ||
+               crisp__step_is(r, e, "UNIFORM_SURFACE") || crisp__step_is(r, e, "BEZIER_SURFACE")) {
         st = bspline_surface(r, e, s);
     } else {
         char type[64];
@@ -187,20 +216,25 @@ crisp_status crisp__step_surface(step_reader *r, const step_entity *e, step_surf
     if (!st && (s->kind == STEP_SURF_REVOLUTION || s->kind == STEP_SURF_EXTRUSION) &&
         (s->profile.kind == STEP_CURVE_HYPERBOLA || s->profile.kind == STEP_CURVE_PARABOLA) &&
         !(isfinite(s->profile.t0) && isfinite(s->profile.t1)))
-        st = crisp__step_fail(r, e, CRISP_ERR_UNSUPPORTED, "swept curve: an unbounded hyperbola or parabola");
+        st = crisp__step_fail(r, e, CRISP_ERR_UNSUPPORTED,
+                              "swept curve: an unbounded hyperbola or parabola");
     r->depth--;
     if (st) crisp__step_surface_free(s);
     return st;
 }
 
-static double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 
 /* Rotate q about the unit axis a by angle t (Rodrigues). */
 static void rotate(const double q[3], const double a[3], double t, double dest[3])
 {
     double c = cos(t), s = sin(t), d = dot3(q, a);
     double x[3] = {a[1] * q[2] - a[2] * q[1], a[2] * q[0] - a[0] * q[2], a[0] * q[1] - a[1] * q[0]};
-    for (int k = 0; k < 3; k++) dest[k] = q[k] * c + x[k] * s + a[k] * d * (1 - c);
+    for (int k = 0; k < 3; k++)
+        dest[k] = q[k] * c + x[k] * s + a[k] * d * (1 - c);
 }
 
 void crisp__step_surface_eval(const step_surface *s, double u, double v, double p[3])
@@ -209,25 +243,39 @@ void crisp__step_surface_eval(const step_surface *s, double u, double v, double 
     double rad = 0, h = 0;
     switch (s->kind) {
     case STEP_SURF_PLANE:
-        for (int k = 0; k < 3; k++) p[k] = pl->origin[k] + u * pl->x[k] + v * pl->y[k];
+        for (int k = 0; k < 3; k++)
+            p[k] = pl->origin[k] + u * pl->x[k] + v * pl->y[k];
         return;
-    case STEP_SURF_CYLINDER: rad = s->r, h = v; break;
-    case STEP_SURF_CONE: rad = s->r + v * tan(s->semi), h = v; break;
-    case STEP_SURF_SPHERE: rad = s->r * cos(v), h = s->r * sin(v); break;
-    case STEP_SURF_TORUS: rad = s->r + s->r2 * cos(v), h = s->r2 * sin(v); break;
+    case STEP_SURF_CYLINDER:
+        rad = s->r, h = v;
+        break;
+    case STEP_SURF_CONE:
+        rad = s->r + v * tan(s->semi), h = v;
+        break;
+    case STEP_SURF_SPHERE:
+        rad = s->r * cos(v), h = s->r * sin(v);
+        break;
+    case STEP_SURF_TORUS:
+        rad = s->r + s->r2 * cos(v), h = s->r2 * sin(v);
+        break;
     case STEP_SURF_REVOLUTION: {
         double c[3], q[3];
         crisp__step_curve_eval(&s->profile, v, c);
-        for (int k = 0; k < 3; k++) q[k] = c[k] - s->axis_p[k];
+        for (int k = 0; k < 3; k++)
+            q[k] = c[k] - s->axis_p[k];
         rotate(q, s->axis_d, u, p);
-        for (int k = 0; k < 3; k++) p[k] += s->axis_p[k];
+        for (int k = 0; k < 3; k++)
+            p[k] += s->axis_p[k];
         return;
     }
     case STEP_SURF_EXTRUSION:
         crisp__step_curve_eval(&s->profile, u, p);
-        for (int k = 0; k < 3; k++) p[k] += v * s->axis_d[k];
+        for (int k = 0; k < 3; k++)
+            p[k] += v * s->axis_d[k];
         return;
-    case STEP_SURF_BSPLINE: crisp_surface_eval(s->nurbs, u, v, p); return;
+    case STEP_SURF_BSPLINE:
+        crisp_surface_eval(s->nurbs, u, v, p);
+        return;
     }
     for (int k = 0; k < 3; k++)
         p[k] = pl->origin[k] + rad * (cos(u) * pl->x[k] + sin(u) * pl->y[k]) + h * pl->z[k];
@@ -249,7 +297,8 @@ typedef struct profile_metric {
 static void rh(const step_surface *s, const double x[3], double out[2])
 {
     double q[3];
-    for (int k = 0; k < 3; k++) q[k] = x[k] - s->axis_p[k];
+    for (int k = 0; k < 3; k++)
+        q[k] = x[k] - s->axis_p[k];
     double h = dot3(q, s->axis_d);
     double r2 = dot3(q, q) - h * h;
     out[0] = sqrt(r2 > 0 ? r2 : 0);
@@ -267,18 +316,21 @@ static double profile_dist(const step_surface *s, const double *p, double t)
         return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]);
     }
     double d[3], dd = dot3(s->axis_d, s->axis_d);
-    for (int k = 0; k < 3; k++) d[k] = p[k] - c[k];
+    for (int k = 0; k < 3; k++)
+        d[k] = p[k] - c[k];
     double h = dot3(d, s->axis_d);
     return dot3(d, d) - h * h / dd;
 }
 
-static double profile_search(const step_surface *s, const double *p, double lo, double hi, double ref);
+static double profile_search(const step_surface *s, const double *p, double lo, double hi,
+                             double ref);
 
 /* Nearest profile parameter: a local search around the reference first (points along an edge
  * move little between calls), the whole range when the local minimum is on the window's edge. */
 /* Newton's method on the extrusion distance for a B-spline profile, from ref; NAN when it does
  * not converge inside [lo, hi]. */
-static double extrusion_newton(const step_surface *s, const double *p, double lo, double hi, double ref)
+static double extrusion_newton(const step_surface *s, const double *p, double lo, double hi,
+                               double ref)
 {
     const crisp_curve *c = s->profile.nurbs;
     double dd = dot3(s->axis_d, s->axis_d), t = ref;
@@ -289,7 +341,8 @@ static double extrusion_newton(const step_surface *s, const double *p, double lo
         const double *vec[3] = {x, d + 3, d + 6};
         for (int k = 0; k < 3; k++) { /* remove the extrusion component */
             double h = dot3(vec[k], s->axis_d) / dd;
-            for (int j = 0; j < 3; j++) q[k][j] = vec[k][j] - h * s->axis_d[j];
+            for (int j = 0; j < 3; j++)
+                q[k][j] = vec[k][j] - h * s->axis_d[j];
         }
         double f = dot3(q[0], q[1]), df = dot3(q[1], q[1]) + dot3(q[0], q[2]);
         if (!(df > 0)) return NAN;
@@ -301,7 +354,8 @@ static double extrusion_newton(const step_surface *s, const double *p, double lo
     return NAN;
 }
 
-static double profile_invert(const step_surface *s, const double *p, double lo, double hi, double ref)
+static double profile_invert(const step_surface *s, const double *p, double lo, double hi,
+                             double ref)
 {
     if (isfinite(ref) && ref >= lo && ref <= hi && s->kind == STEP_SURF_EXTRUSION &&
         s->profile.kind == STEP_CURVE_BSPLINE) {
@@ -317,8 +371,10 @@ static double profile_invert(const step_surface *s, const double *p, double lo, 
         double f1 = profile_dist(s, p, x1), f2 = profile_dist(s, p, x2);
         double a0 = a, b0 = b;
         for (int it = 0; it < 90 && b - a > 1e-15 * (1 + fabs(a)); it++) {
-            if (f1 < f2) b = x2, x2 = x1, f2 = f1, x1 = b - g * (b - a), f1 = profile_dist(s, p, x1);
-            else a = x1, x1 = x2, f1 = f2, x2 = a + g * (b - a), f2 = profile_dist(s, p, x2);
+            if (f1 < f2)
+                b = x2, x2 = x1, f2 = f1, x1 = b - g * (b - a), f1 = profile_dist(s, p, x1);
+            else
+                a = x1, x1 = x2, f1 = f2, x2 = a + g * (b - a), f2 = profile_dist(s, p, x2);
         }
         double t = 0.5 * (a + b), eps = 1e-9 * (b0 - a0);
         if ((t > a0 + eps || a0 == lo) && (t < b0 - eps || b0 == hi)) return t;
@@ -326,7 +382,8 @@ static double profile_invert(const step_surface *s, const double *p, double lo, 
     return profile_search(s, p, lo, hi, ref);
 }
 
-static double profile_search(const step_surface *s, const double *p, double lo, double hi, double ref)
+static double profile_search(const step_surface *s, const double *p, double lo, double hi,
+                             double ref)
 {
     int n = 64;
     if (s->profile.kind == STEP_CURVE_BSPLINE) n = 8 * (s->profile.nurbs->count + 1);
@@ -336,7 +393,8 @@ static double profile_search(const step_surface *s, const double *p, double lo, 
         double t = lo + (hi - lo) * i / n;
         double d = profile_dist(s, p, t);
         /* Ties (a closed profile's ends) go to the parameter nearest the reference. */
-        if (d < bd * (1 - 1e-12) || (d <= bd * (1 + 1e-12) && isfinite(ref) && fabs(t - ref) < fabs(best - ref)))
+        if (d < bd * (1 - 1e-12) ||
+            (d <= bd * (1 + 1e-12) && isfinite(ref) && fabs(t - ref) < fabs(best - ref)))
             bd = d, best = t;
     }
     double a = best - (hi - lo) / n, b = best + (hi - lo) / n;
@@ -346,8 +404,10 @@ static double profile_search(const step_surface *s, const double *p, double lo, 
     double x1 = b - g * (b - a), x2 = a + g * (b - a);
     double f1 = profile_dist(s, p, x1), f2 = profile_dist(s, p, x2);
     for (int it = 0; it < 90 && b - a > 1e-15 * (1 + fabs(a)); it++) {
-        if (f1 < f2) b = x2, x2 = x1, f2 = f1, x1 = b - g * (b - a), f1 = profile_dist(s, p, x1);
-        else a = x1, x1 = x2, f1 = f2, x2 = a + g * (b - a), f2 = profile_dist(s, p, x2);
+        if (f1 < f2)
+            b = x2, x2 = x1, f2 = f1, x1 = b - g * (b - a), f1 = profile_dist(s, p, x1);
+        else
+            a = x1, x1 = x2, f1 = f2, x2 = a + g * (b - a), f2 = profile_dist(s, p, x2);
     }
     return 0.5 * (a + b);
 }
@@ -357,13 +417,16 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
 {
     const crisp_placement *pl = &s->pl;
     double q[3];
-    for (int k = 0; k < 3; k++) q[k] = p[k] - pl->origin[k];
+    for (int k = 0; k < 3; k++)
+        q[k] = p[k] - pl->origin[k];
     double x = dot3(q, pl->x), y = dot3(q, pl->y), z = dot3(q, pl->z);
     double rho = sqrt(x * x + y * y);
     double u = 0, v = 0;
     int have_u = 1;
     switch (s->kind) {
-    case STEP_SURF_PLANE: uv[0] = x, uv[1] = y; return;
+    case STEP_SURF_PLANE:
+        uv[0] = x, uv[1] = y;
+        return;
     case STEP_SURF_CYLINDER:
     case STEP_SURF_CONE:
         u = atan2(y, x);
@@ -375,7 +438,8 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
             double c = cos(s->semi), sn = sin(s->semi);
             v = (rho - s->r) * sn * c + z * c * c;
             double vb = (-rho - s->r) * sn * c + z * c * c, t = tan(s->semi);
-            double ea = hypot(rho - (s->r + v * t), z - v), eb = hypot(-rho - (s->r + vb * t), z - vb);
+            double ea = hypot(rho - (s->r + v * t), z - v),
+                   eb = hypot(-rho - (s->r + vb * t), z - vb);
             if (eb < ea) u += M_PI, v = vb;
         }
         have_u = rho > 1e-12 * (s->r + fabs(v) + 1);
@@ -396,11 +460,14 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
             crisp__step_surface_eval(s, u, v, pa);
             crisp__step_surface_eval(s, ub, vb, pb);
             double ea = hypot(hypot(pa[0] - p[0], pa[1] - p[1]), pa[2] - p[2]);
-            double eb = hypot(hypot(pb[0] - p[0], pb[1] - p[1]), pb[2] - p[2]), tiny = 1e-9 * (s->r + s->r2);
+            double eb = hypot(hypot(pb[0] - p[0], pb[1] - p[1]), pb[2] - p[2]),
+                   tiny = 1e-9 * (s->r + s->r2);
             int use_b = eb < ea;
             if (ref && ea <= tiny && eb <= tiny) {
-                double da = fabs(near_angle(u, ref[0]) - ref[0]) + fabs(near_angle(v, ref[1]) - ref[1]);
-                double db = fabs(near_angle(ub, ref[0]) - ref[0]) + fabs(near_angle(vb, ref[1]) - ref[1]);
+                double da =
+                    fabs(near_angle(u, ref[0]) - ref[0]) + fabs(near_angle(v, ref[1]) - ref[1]);
+                double db =
+                    fabs(near_angle(ub, ref[0]) - ref[0]) + fabs(near_angle(vb, ref[1]) - ref[1]);
                 use_b = db < da;
             }
             if (use_b) u = ub, v = vb;
@@ -420,10 +487,13 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
         v = profile_invert(s, p, lo, hi, ref ? ref[1] : NAN);
         double cp[3], a[3], b[3];
         crisp__step_curve_eval(c, v, cp);
-        for (int k = 0; k < 3; k++) a[k] = cp[k] - s->axis_p[k], b[k] = p[k] - s->axis_p[k];
+        for (int k = 0; k < 3; k++)
+            a[k] = cp[k] - s->axis_p[k], b[k] = p[k] - s->axis_p[k];
         double ha = dot3(a, s->axis_d), hb = dot3(b, s->axis_d);
-        for (int k = 0; k < 3; k++) a[k] -= ha * s->axis_d[k], b[k] -= hb * s->axis_d[k];
-        double axb[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+        for (int k = 0; k < 3; k++)
+            a[k] -= ha * s->axis_d[k], b[k] -= hb * s->axis_d[k];
+        double axb[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                         a[0] * b[1] - a[1] * b[0]};
         u = atan2(dot3(axb, s->axis_d), dot3(a, b));
         have_u = sqrt(dot3(a, a)) * sqrt(dot3(b, b)) > 1e-24;
         break;
@@ -437,12 +507,14 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
         } else if (!isfinite(lo) || !isfinite(hi)) {
             double mid = ref ? ref[0] : 0;
             lo = mid - 1e6, hi = mid + 1e6;
-            if (c->kind == STEP_CURVE_LINE) lo = hi = crisp__step_curve_invert(c, p, -INFINITY, INFINITY);
+            if (c->kind == STEP_CURVE_LINE)
+                lo = hi = crisp__step_curve_invert(c, p, -INFINITY, INFINITY);
         }
         uv[0] = lo == hi ? lo : profile_invert(s, p, lo, hi, ref ? ref[0] : NAN);
         double cp[3], d[3];
         crisp__step_curve_eval(c, uv[0], cp);
-        for (int k = 0; k < 3; k++) d[k] = p[k] - cp[k];
+        for (int k = 0; k < 3; k++)
+            d[k] = p[k] - cp[k];
         uv[1] = dot3(d, s->axis_d) / dot3(s->axis_d, s->axis_d);
         if (c->kind == STEP_CURVE_CONIC && ref) uv[0] = near_angle(uv[0], ref[0]);
         return;
@@ -453,25 +525,35 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
         return;
     }
     }
-    if (!have_u) u = ref ? ref[0] : 0;
-    else if (ref) u = near_angle(u, ref[0]);
+    if (!have_u)
+        u = ref ? ref[0] : 0;
+    else if (ref)
+        u = near_angle(u, ref[0]);
     uv[0] = u;
     uv[1] = v;
 }
 
-int crisp__step_surface_swaps(const step_surface *s) { return s->kind == STEP_SURF_REVOLUTION; }
+int crisp__step_surface_swaps(const step_surface *s)
+{
+    return s->kind == STEP_SURF_REVOLUTION;
+}
 
 int crisp__step_surface_map_linear(const step_surface *s, int coord)
 {
     switch (s->kind) {
     case STEP_SURF_PLANE:
-    case STEP_SURF_BSPLINE: return 1;
+    case STEP_SURF_BSPLINE:
+        return 1;
     case STEP_SURF_CYLINDER:
-    case STEP_SURF_CONE: return coord == 1;
+    case STEP_SURF_CONE:
+        return coord == 1;
     case STEP_SURF_SPHERE:
-    case STEP_SURF_TORUS: return 0;
-    case STEP_SURF_REVOLUTION: return coord == 1 && s->profile.kind != STEP_CURVE_CONIC;
-    case STEP_SURF_EXTRUSION: return coord == 1 || s->profile.kind != STEP_CURVE_CONIC;
+    case STEP_SURF_TORUS:
+        return 0;
+    case STEP_SURF_REVOLUTION:
+        return coord == 1 && s->profile.kind != STEP_CURVE_CONIC;
+    case STEP_SURF_EXTRUSION:
+        return coord == 1 || s->profile.kind != STEP_CURVE_CONIC;
     }
     return 0;
 }
@@ -487,9 +569,13 @@ void crisp__step_surface_map(const step_surface *s, const double box[4], const d
     double u = uv[0], v = uv[1];
     switch (s->kind) {
     case STEP_SURF_PLANE:
-    case STEP_SURF_BSPLINE: dest[0] = u, dest[1] = v; return;
+    case STEP_SURF_BSPLINE:
+        dest[0] = u, dest[1] = v;
+        return;
     case STEP_SURF_CYLINDER:
-    case STEP_SURF_CONE: dest[0] = crisp_angle_to_param(box[0], box[1], u), dest[1] = v; return;
+    case STEP_SURF_CONE:
+        dest[0] = crisp_angle_to_param(box[0], box[1], u), dest[1] = v;
+        return;
     case STEP_SURF_SPHERE:
     case STEP_SURF_TORUS:
         dest[0] = crisp_angle_to_param(box[0], box[1], u);
@@ -514,11 +600,21 @@ crisp_status crisp__step_surface_build(step_reader *r, const step_surface *s, co
     double u0 = box[0], u1 = box[1], v0 = box[2], v1 = box[3];
     crisp_curve *prof = NULL;
     switch (s->kind) {
-    case STEP_SURF_PLANE: st = crisp_make_plane(&s->pl, u0, u1, v0, v1, dest); break;
-    case STEP_SURF_CYLINDER: st = crisp_make_cylinder(&s->pl, s->r, u0, u1, v0, v1, dest); break;
-    case STEP_SURF_CONE: st = crisp_make_cone(&s->pl, s->r, s->semi, u0, u1, v0, v1, dest); break;
-    case STEP_SURF_SPHERE: st = crisp_make_sphere(&s->pl, s->r, u0, u1, v0, v1, dest); break;
-    case STEP_SURF_TORUS: st = crisp_make_torus(&s->pl, s->r, s->r2, u0, u1, v0, v1, dest); break;
+    case STEP_SURF_PLANE:
+        st = crisp_make_plane(&s->pl, u0, u1, v0, v1, dest);
+        break;
+    case STEP_SURF_CYLINDER:
+        st = crisp_make_cylinder(&s->pl, s->r, u0, u1, v0, v1, dest);
+        break;
+    case STEP_SURF_CONE:
+        st = crisp_make_cone(&s->pl, s->r, s->semi, u0, u1, v0, v1, dest);
+        break;
+    case STEP_SURF_SPHERE:
+        st = crisp_make_sphere(&s->pl, s->r, u0, u1, v0, v1, dest);
+        break;
+    case STEP_SURF_TORUS:
+        st = crisp_make_torus(&s->pl, s->r, s->r2, u0, u1, v0, v1, dest);
+        break;
     case STEP_SURF_REVOLUTION:
         st = crisp__step_curve_nurbs(&s->profile, v0, v1, &prof);
         if (!st) st = crisp_make_revolution(prof, s->axis_p, s->axis_d, u0, u1, dest);
@@ -527,7 +623,9 @@ crisp_status crisp__step_surface_build(step_reader *r, const step_surface *s, co
         st = crisp__step_curve_nurbs(&s->profile, u0, u1, &prof);
         if (!st) st = crisp_make_extrusion(prof, s->axis_d, v0, v1, dest);
         break;
-    case STEP_SURF_BSPLINE: st = crisp_surface_copy(s->nurbs, dest); break;
+    case STEP_SURF_BSPLINE:
+        st = crisp_surface_copy(s->nurbs, dest);
+        break;
     }
     crisp_curve_destroy(prof);
     if (st) {
