@@ -169,8 +169,13 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
         ribbon_vertex(s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
                       0.5 * (a->attr[1] + b->attr[1]), &mid);
         /* Both ends and the middle outside the view and the piece small enough not to cross it
-         * from one side to the other: nothing of it shows. */
-        if (!va && !vb && !in_view(&mid, s->gx, s->gy) && depth > 8) {
+         * from one side to the other, or neither half's widened screen box meeting the view:
+         * nothing of it shows. (At extreme zoom a piece crossing the window would otherwise be
+         * sampled 2^8 times along its whole length, most of it far off screen.) */
+        int mid_out = !in_view(&mid, s->gx, s->gy);
+        if (!va && !vb && mid_out &&
+            (depth > 8 ||
+             (!segment_may_show(a, &mid, s->w, s->h) && !segment_may_show(&mid, b, s->w, s->h)))) {
             crisp_raster_vertex brk = *b;
             brk.clip[3] = -1;
             emit(s, &brk);
