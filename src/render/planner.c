@@ -220,8 +220,12 @@ static crisp_status ensure_faces(crisp_planner *p, uint32_t faces)
     return CRISP_OK;
 }
 
-/* Point the public plan at the arrays, set the ribbon ranges, and bump what changed. */
-static void publish(crisp_planner *p, const crisp_scene *sc)
+/* Point the public plan at the arrays, set the ribbon ranges, and bump what changed. After a
+ * re-plan of one face (one_face) the leaves are known unchanged and the tables and ribbons known
+ * changed: hashing them (megabytes of ribbons on a large model) would cost more than the re-plan,
+ * so their versions move without it and their hashes are forgotten (the next full plan bumps
+ * them once more, which only re-sends them). */
+static void publish(crisp_planner *p, const crisp_scene *sc, int one_face)
 {
     crisp_frame_plan *o = &p->out;
     for (uint32_t f = 0; f < sc->face_count; f++) {
@@ -236,20 +240,29 @@ static void publish(crisp_planner *p, const crisp_scene *sc)
     o->row_offset = p->row_offset;
     o->crossings = p->crossings;
     o->ribbon_vertices = p->ribbon_verts;
-    uint64_t h[4] = {
-        hash_bytes(p->leaves, o->leaf_count * sizeof *p->leaves),
-        hash_bytes(p->faces, sc->face_count * sizeof *p->faces),
-        hash_bytes(p->strips, o->strip_count * sizeof *p->strips) ^
-            3 * hash_bytes(p->row_offset, (o->row_count + 1) * sizeof *p->row_offset) ^
-            7 * hash_bytes(p->crossings, o->crossing_count * sizeof *p->crossings),
-        hash_bytes(p->ribbon_verts, 4 * (size_t)o->ribbon_quad_count * sizeof *p->ribbon_verts)};
     uint64_t *version[4] = {&o->leaves_version, &o->faces_version, &o->table_version,
                             &o->ribbons_version};
-    for (int k = 0; k < 4; k++)
-        if (!p->planned || h[k] != p->hash[k]) {
-            (*version[k])++;
-            p->hash[k] = h[k];
-        }
+    if (one_face) {
+        uint64_t hf = hash_bytes(p->faces, sc->face_count * sizeof *p->faces);
+        if (hf != p->hash[1]) o->faces_version++, p->hash[1] = hf;
+        o->table_version++;
+        o->ribbons_version++;
+        p->hash[2] = p->hash[3] = 0;
+    } else {
+        uint64_t h[4] = {
+            hash_bytes(p->leaves, o->leaf_count * sizeof *p->leaves),
+            hash_bytes(p->faces, sc->face_count * sizeof *p->faces),
+            hash_bytes(p->strips, o->strip_count * sizeof *p->strips) ^
+                3 * hash_bytes(p->row_offset, (o->row_count + 1) * sizeof *p->row_offset) ^
+                7 * hash_bytes(p->crossings, o->crossing_count * sizeof *p->crossings),
+            hash_bytes(p->ribbon_verts,
+                       4 * (size_t)o->ribbon_quad_count * sizeof *p->ribbon_verts)};
+        for (int k = 0; k < 4; k++)
+            if (!p->planned || h[k] != p->hash[k]) {
+                (*version[k])++;
+                p->hash[k] = h[k];
+            }
+    }
     o->stats.table_bytes = crisp_plan_bytes(o) - (size_t)o->leaf_count * sizeof *p->leaves -
                            (size_t)sc->face_count * sizeof *p->faces -
                            4 * (size_t)o->ribbon_quad_count * sizeof *p->ribbon_verts;
@@ -294,7 +307,7 @@ crisp_status crisp_planner_plan(crisp_planner *p, const crisp_scene *sc, const c
     o->stats = p->trees->stats;
     o->stats.triangles = triangles;
     o->stats.ms_ribbons = 1e3 * (t1 - t0);
-    publish(p, sc);
+    publish(p, sc, 0);
     p->scene = sc;
     p->planned = 1;
     *dest = o;
@@ -345,7 +358,7 @@ crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, 
     o->stats.ms_levels = o->stats.ms_edges = 0;
     o->stats.ms_trim = 1e3 * (t1 - t0);
     o->stats.ms_ribbons = 1e3 * (t2 - t1);
-    publish(p, sc);
+    publish(p, sc, 1);
     *dest = o;
     return CRISP_OK;
 }
