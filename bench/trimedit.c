@@ -21,11 +21,9 @@
 #include "crisp/plan.h"
 #include "crisp/render.h"
 #include "crisp/trimedit.h"
-#if defined(__has_include)
-#if __has_include("crisp/gl.h")
+#ifdef CRISP_HAVE_GL /* defined where the GL backend is built (CRISP_GL=ON) */
 #include "crisp/gl.h"
 #define HAVE_GL 1
-#endif
 #endif
 
 static int frames = 60, width = 1280, height = 720;
