@@ -111,15 +111,15 @@ void bernstein(uint n, double x, out double B[16], out double D[16])
     B[n] = saved;
 }
 
-// Point of the rational Bezier patch of degrees (du, dv) whose control points start at first_cp,
-// at its local (s, t), and the derivatives' cross product (not unit, not turned round for reversed
-// faces), in double.
-dvec3 eval_patch(uint first_cp, uint du_, uint dv_, double s, double t, out dvec3 n)
+// Homogeneous point and partials of the rational Bezier patch of degrees (du, dv) whose control
+// points start at first_cp, at its local (s, t), in double.
+void patch_derivs(uint first_cp, uint du_, uint dv_, double s, double t, out dvec4 P, out dvec4 Ps,
+                  out dvec4 Pt)
 {
     double bu[16], du[16], bv[16], dv[16];
     bernstein(du_, s, bu, du);
     bernstein(dv_, t, bv, dv);
-    dvec4 P = dvec4(0.0LF), Ps = dvec4(0.0LF), Pt = dvec4(0.0LF);
+    P = dvec4(0.0LF), Ps = dvec4(0.0LF), Pt = dvec4(0.0LF);
     for (uint j = 0u; j <= dv_; j++) {
         dvec4 row = dvec4(0.0LF), rowd = dvec4(0.0LF);
         uint base = first_cp + j * (du_ + 1u);
@@ -132,6 +132,14 @@ dvec3 eval_patch(uint first_cp, uint du_, uint dv_, double s, double t, out dvec
         Ps += bv[j] * rowd;
         Pt += dv[j] * row;
     }
+}
+
+// Point of the patch at its local (s, t), and the derivatives' cross product (not unit, not
+// turned round for reversed faces), in double.
+dvec3 eval_patch(uint first_cp, uint du_, uint dv_, double s, double t, out dvec3 n)
+{
+    dvec4 P, Ps, Pt;
+    patch_derivs(first_cp, du_, dv_, s, t, P, Ps, Pt);
     dvec3 x = P.xyz / P.w;
     dvec3 xs = (Ps.xyz - x * Ps.w) / P.w, xt = (Pt.xyz - x * Pt.w) / P.w;
     n = cross(xs, xt);
@@ -142,22 +150,7 @@ dvec3 eval_patch(uint first_cp, uint du_, uint dv_, double s, double t, out dvec
     // (crisp__normal_degenerate, crisp_bezier_patch_normal).
     double aa = dot(xs, xs), bb = dot(xt, xt), nn = dot(n, n);
     if (!(aa > 1e-18LF * bb) || !(bb > 1e-18LF * aa) || !(nn > 1e-18LF * aa * bb)) {
-        double s2 = s + 1e-6LF * (0.5LF - s), t2 = t + 1e-6LF * (0.5LF - t);
-        bernstein(du_, s2, bu, du);
-        bernstein(dv_, t2, bv, dv);
-        P = dvec4(0.0LF), Ps = dvec4(0.0LF), Pt = dvec4(0.0LF);
-        for (uint j = 0u; j <= dv_; j++) {
-            dvec4 row = dvec4(0.0LF), rowd = dvec4(0.0LF);
-            uint base = first_cp + j * (du_ + 1u);
-            for (uint i = 0u; i <= du_; i++) {
-                dvec4 c = cps[base + i];
-                row += bu[i] * c;
-                rowd += du[i] * c;
-            }
-            P += bv[j] * row;
-            Ps += bv[j] * rowd;
-            Pt += dv[j] * row;
-        }
+        patch_derivs(first_cp, du_, dv_, s + 1e-6LF * (0.5LF - s), t + 1e-6LF * (0.5LF - t), P, Ps, Pt);
         dvec3 y = P.xyz / P.w;
         n = cross((Ps.xyz - y * Ps.w) / P.w, (Pt.xyz - y * Pt.w) / P.w);
     }

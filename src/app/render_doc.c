@@ -6,6 +6,7 @@
 
 #include "crisp/app.h"
 #include "crisp/trim.h"
+#include "render/render_internal.h"
 #ifdef CRISP_HAVE_GL
 #include "crisp/gl.h"
 #endif
@@ -17,18 +18,6 @@ static int classify_exact(void *ctx, const crisp_scene *sc, uint32_t face, doubl
     const crisp_scene_face *f = &sc->faces[face];
     if (f->piece_count == 0) return 1;
     return crisp_trim_exact_classify(sc->pieces + f->first_piece, (int)f->piece_count, u, v);
-}
-
-static void image_clear(crisp_image *img)
-{
-    size_t n = (size_t)img->width * img->height;
-    memset(img->rgba, 0, n * 4 * sizeof *img->rgba);
-    memset(img->normal, 0, n * 3 * sizeof *img->normal);
-    memset(img->uv, 0, n * 2 * sizeof *img->uv);
-    for (size_t i = 0; i < n; i++) {
-        img->depth[i] = INFINITY;
-        img->face[i] = -1;
-    }
 }
 
 crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera *cam,
@@ -60,7 +49,7 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
         return crisp_error(CRISP_ERR_INVALID_ARG, "backend %d: expected cpu, exact or gl",
                            (int)d.backend);
     }
-    image_clear(img);
+    crisp__image_clear(img);
     double t0 = crisp_time_now();
     if (doc->scene && doc->scene->patch_count > 0) {
         if (d.backend == CRISP_BACKEND_CPU) {

@@ -297,6 +297,7 @@ typedef struct resolve_ctx {
     crisp_renderer *r;
     const crisp_scene *sc;
     const crisp_camera *cam;
+    crisp_raster_view view; /* the camera's view directions (raster_view) */
     crisp_image *img;
 } resolve_ctx;
 
@@ -308,16 +309,9 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
     crisp_image *img = c->img;
     int S = t->samples;
     /* The view direction of a sample (unnormalised: shading normalises): the camera ray's
-     * f + ndc_x r + ndc_y u without recomputing the basis per sample. */
+     * f + ndc_x r + ndc_y u, the basis computed once per frame (raster_view). */
     const crisp_camera *cam = c->cam;
-    double f[3], r[3], u[3], d0[3];
-    crisp_vec3_sub(cam->target, cam->eye, d0);
-    crisp_vec3_normalize(d0, f);
-    crisp_vec3_cross(f, cam->up, d0);
-    crisp_vec3_normalize(d0, r);
-    crisp_vec3_cross(r, f, u);
-    double th = tan(cam->fov_deg * (M_PI / 360.0));
-    double kx = 2.0 * th / cam->height, ky = 2.0 * th / cam->height; /* per pixel */
+    const double *f = c->view.f, *r = c->view.r, *u = c->view.u, kx = c->view.kx, ky = c->view.ky;
     for (size_t j = begin; j < end; j++)
         for (int i = 0; i < t->width; i++) {
             size_t px = j * (size_t)t->width + (size_t)i;
@@ -435,6 +429,8 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
     double t1 = crisp_time_now();
 
+    crisp_raster_view view; /* for the ribbons' depth slack and the resolve's shading */
+    raster_view(cam, &view);
     if ((st = crisp__raster_target_init(&r->target, cam->width, cam->height, r->desc.samples)))
         return st;
     crisp__raster_target_clear(&r->target);
@@ -456,8 +452,6 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     if (nt > surface_t) {
         size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
-        crisp_raster_view view;
-        raster_view(cam, &view);
         crisp__raster_depth_slack(&r->target, r->pool, 1.5, &view, r->slack);
         crisp_raster_stats rs2;
         st = crisp__raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv,
@@ -469,7 +463,7 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     }
     double t2 = crisp_time_now();
     crisp__image_clear(img);
-    resolve_ctx rc = {r, sc, cam, img};
+    resolve_ctx rc = {r, sc, cam, view, img};
     crisp_pool_parallel_for(r->pool, (size_t)cam->height, 8, resolve_rows, &rc);
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);
