@@ -49,8 +49,8 @@ typedef struct crisp_document {
     size_t part_count;
     const crisp_frep_part *parts; /* f-rep parts, each with its transform and colour */
     /* the scene file's camera line (has_camera = 0 for other files; has_target = 0: the middle of
-     * the box) */
-    int has_camera, has_target;
+     * the box; has_up = 0: +Z, or +Y / -Y looking straight down / up) */
+    int has_camera, has_target, has_up;
     double eye[3], target[3], up[3], fov_deg;
     /* what the default camera frames: points of the trimmed faces sampled on the true surfaces
      * (their trim curves mapped through the surface, and the inside points of a uv grid; clamped
