@@ -215,8 +215,7 @@ static crisp_status draw_3d(te_window *w)
         crisp_image_free(&w->img);
         if ((st = crisp_image_init(&w->img, c->width, c->height))) return st;
     }
-    if ((st = crisp_render_cpu_plan(w->renderer, w->app.scene, w->app.plan, c, &w->img, NULL)))
-        return st;
+    if ((st = te_app_draw_cpu(&w->app, w->renderer, &w->img))) return st;
     /* The whole window as one image: the 3D view on the left, the 2D view's background right. */
     uint8_t *px = realloc(w->rgba, 4 * (size_t)w->fb_w * w->fb_h);
     if (!px) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the window image");

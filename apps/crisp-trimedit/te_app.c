@@ -66,6 +66,7 @@ static void frame_face(te_app *app)
 
 static crisp_status open_face(te_app *app, int face)
 {
+    app->others_plan = -1;
     crisp_trimedit_destroy(app->ed);
     app->ed = NULL;
     app->face = face;
@@ -98,6 +99,12 @@ crisp_status te_app_open(te_app *app, crisp_model *model, int face, int width, i
     }
     if ((st = crisp_scene_prepare(model, &app->scene))) goto fail;
     if ((st = crisp_planner_create(NULL, NULL, &app->planner))) goto fail;
+    app->face_mask = calloc((size_t)model->face_count, 1);
+    app->others_mask = calloc((size_t)model->face_count, 1);
+    if (!app->face_mask || !app->others_mask) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for %d faces", model->face_count);
+        goto fail;
+    }
     te_app_layout(app, width, height);
     if ((st = open_face(app, face))) goto fail;
     frame_face(app);
@@ -115,6 +122,9 @@ void te_app_close(te_app *app)
     crisp_scene_destroy(app->bare_scene);
     crisp_model_destroy(app->bare);
     crisp_model_destroy(app->model);
+    crisp_image_free(&app->others);
+    free(app->face_mask);
+    free(app->others_mask);
     memset(app, 0, sizeof *app);
 }
 
@@ -187,6 +197,7 @@ crisp_status te_app_update(te_app *app)
         double t = crisp_time_now();
         if ((st = crisp_planner_plan(app->planner, app->scene, &app->cam, &app->plan))) return st;
         app->ms_plan = 1e3 * (crisp_time_now() - t);
+        app->whole_plans++;
         app->cam_changed = 0;
         app->planned_version = v;
     } else if (v != app->planned_version) {
@@ -199,6 +210,59 @@ crisp_status te_app_update(te_app *app)
         app->planned_version = v;
         app->replans++;
     }
+    return st;
+}
+
+int te_app_editing(const te_app *app)
+{
+    return app->drag != TE_DRAG_NONE && app->drag != TE_DRAG_PAN;
+}
+
+static void copy_image(const crisp_image *src, crisp_image *dst)
+{
+    size_t n = (size_t)src->width * src->height;
+    memcpy(dst->rgba, src->rgba, 4 * n * sizeof *dst->rgba);
+    memcpy(dst->depth, src->depth, n * sizeof *dst->depth);
+    memcpy(dst->normal, src->normal, 3 * n * sizeof *dst->normal);
+    memcpy(dst->uv, src->uv, 2 * n * sizeof *dst->uv);
+    memcpy(dst->face, src->face, n * sizeof *dst->face);
+}
+
+crisp_status te_app_draw_cpu(te_app *app, crisp_renderer *r, crisp_image *img)
+{
+    double t = crisp_time_now();
+    crisp_status st;
+    app->last_partial = 0;
+    if (!app->plan) return crisp_error(CRISP_ERR_INVALID_ARG, "draw: nothing planned yet");
+    if (!te_app_editing(app)) {
+        app->over = NULL;
+        st = crisp_render_cpu_plan(r, app->scene, app->plan, &app->cam, img, NULL);
+        app->ms_draw = 1e3 * (crisp_time_now() - t);
+        return st;
+    }
+    if (app->others_plan != app->whole_plans || app->others_face != app->face ||
+        app->others.width != img->width || app->others.height != img->height) {
+        if (app->others.width != img->width || app->others.height != img->height) {
+            crisp_image_free(&app->others);
+            if ((st = crisp_image_init(&app->others, img->width, img->height))) return st;
+        }
+        for (int f = 0; f < app->model->face_count; f++) {
+            app->face_mask[f] = f == app->face;
+            app->others_mask[f] = f != app->face;
+        }
+        if ((st = crisp_render_cpu_plan_faces(r, app->scene, app->plan, &app->cam, app->others_mask,
+                                              NULL, &app->others, NULL)))
+            return st;
+        app->others_plan = app->whole_plans;
+        app->others_face = app->face;
+        app->over = NULL;
+    }
+    if (app->over != img) copy_image(&app->others, img);
+    st = crisp_render_cpu_plan_faces(r, app->scene, app->plan, &app->cam, app->face_mask,
+                                     &app->others, img, NULL);
+    app->over = st ? NULL : img;
+    app->last_partial = !st;
+    app->ms_draw = 1e3 * (crisp_time_now() - t);
     return st;
 }
 

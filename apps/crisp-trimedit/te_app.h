@@ -84,6 +84,16 @@ typedef struct te_app {
     char message[256];   /* the last refused edit's reason, or what was done */
     int message_error;
     char save_path[1024]; /* ctrl+s writes here */
+    /* The CPU backend's frame during an edit drag (te_app_draw_cpu): the other faces drawn once. */
+    long whole_plans;        /* whole plans so far (camera changes) */
+    crisp_image others;      /* the other faces alone, for the current whole plan */
+    long others_plan;        /* whole_plans when `others` was drawn; -1: none */
+    int others_face;         /* the face left out of `others` */
+    const crisp_image *over; /* the image the last partial frame was drawn into */
+    uint8_t *face_mask;      /* per face: 1 for the edited face */
+    uint8_t *others_mask;    /* per face: 1 for every other face */
+    int last_partial;        /* the last te_app_draw_cpu drew only the edited face */
+    double ms_draw;          /* its time */
 } te_app;
 
 /* Takes ownership of model (also on failure). face < 0: the built-in example. */
@@ -110,6 +120,15 @@ void te_app_uv_to_px(const te_app *app, const double uv[2], double px[2]);
 void te_app_px_to_uv(const te_app *app, const double px[2], double uv[2]);
 /* Screen position in the 3D view of the surface point at uv; 0 when behind the eye. */
 int te_app_uv_to_px3d(const te_app *app, const double uv[2], double px[2]);
+
+/* Whether a drag is editing the face now (a control point, a loop). */
+int te_app_editing(const te_app *app);
+/* The 3D view with the CPU backend into img (the camera's size; the caller keeps img from frame
+ * to frame). While a drag edits the face, the other faces do not change: they are drawn once
+ * (app->others) and each frame only the edited face is drawn over them
+ * (crisp_render_cpu_plan_faces, 1 sample per pixel); otherwise, and after a camera change, the
+ * whole plan is drawn. r is the caller's renderer. */
+crisp_status te_app_draw_cpu(te_app *app, crisp_renderer *r, crisp_image *img);
 
 /* The 2D view's content. Returns the number of scan lines drawn. */
 long te_app_draw_2d(te_app *app, const te_draw *d);

@@ -439,6 +439,148 @@ static void test_model_face(void **state)
     te_app_close(&app);
 }
 
+/* Pixels of b that differ from a (colour, depth, face, (u, v), normal, bit for bit), counted
+ * apart where the edited face has an edge within 2 px (a pixel of the 5 x 5 square around it is
+ * the face's and another is not, in either image). */
+static void compare_frames(const crisp_image *a, const crisp_image *b, int face, long *compared,
+                           long *differ, long *differ_at_edges)
+{
+    int w = a->width, h = a->height;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            size_t p = (size_t)y * w + x;
+            int in = 0, out = 0;
+            for (int dy = -2; dy <= 2; dy++)
+                for (int dx = -2; dx <= 2; dx++) {
+                    int xx = x + dx, yy = y + dy;
+                    if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
+                    size_t q = (size_t)yy * w + xx;
+                    in |= a->face[q] == face || b->face[q] == face;
+                    out |= a->face[q] != face || b->face[q] != face;
+                }
+            int same = !memcmp(a->rgba + 4 * p, b->rgba + 4 * p, 4 * sizeof(float)) &&
+                       !memcmp(a->normal + 3 * p, b->normal + 3 * p, 3 * sizeof(float)) &&
+                       !memcmp(a->uv + 2 * p, b->uv + 2 * p, 2 * sizeof(float)) &&
+                       !memcmp(a->depth + p, b->depth + p, sizeof(float)) &&
+                       a->face[p] == b->face[p];
+            if (in && out) {
+                *differ_at_edges += !same;
+                continue;
+            }
+            ++*compared;
+            *differ += !same;
+        }
+}
+
+/* Every frame of a replayed drag (60 frames of cursor events in the 2D view), te_app_draw_cpu
+ * (the edited face alone drawn over the other faces' image) equals a full render of the same
+ * plan away from the edited face's edges; releasing the button draws the whole again. */
+static void partial_vs_full(te_app *app, crisp_trimedit_ref pt, double amp_px, const char *name)
+{
+    crisp_renderer *r1, *r2;
+    assert_int_equal(crisp_renderer_create(NULL, &r1), CRISP_OK);
+    assert_int_equal(crisp_renderer_create(NULL, &r2), CRISP_OK);
+    crisp_image img, whole;
+    assert_int_equal(crisp_image_init(&img, app->cam.width, app->cam.height), CRISP_OK);
+    assert_int_equal(crisp_image_init(&whole, app->cam.width, app->cam.height), CRISP_OK);
+    double uv0[2], px0[2];
+    assert_int_equal(crisp_trimedit_point(app->ed, pt, uv0, NULL), CRISP_OK);
+    te_app_uv_to_px(app, uv0, px0);
+    te_app_cursor(app, px0[0], px0[1]);
+    te_app_button(app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0);
+    assert_true(te_app_editing(app));
+    long compared = 0, differ = 0, at_edges = 0, face_min = -1, face_max = 0;
+    for (int k = 1; k <= 60; k++) {
+        double a = 2 * M_PI * k / 60;
+        te_app_cursor(app, px0[0] + amp_px * sin(a), px0[1] - amp_px * (1 - cos(a)));
+        assert_int_equal(te_app_update(app), CRISP_OK);
+        assert_int_equal(te_app_draw_cpu(app, r1, &img), CRISP_OK);
+        assert_true(app->last_partial);
+        assert_int_equal(crisp_render_cpu_plan(r2, app->scene, app->plan, &app->cam, &whole, NULL),
+                         CRISP_OK);
+        compare_frames(&whole, &img, app->face, &compared, &differ, &at_edges);
+        long n = 0;
+        for (size_t p = 0; p < (size_t)whole.width * whole.height; p++)
+            n += whole.face[p] == app->face;
+        face_min = face_min < 0 || n < face_min ? n : face_min;
+        face_max = n > face_max ? n : face_max;
+    }
+    print_message("%s: 60 frames drawn as the edited face over the others: %ld pixels away from "
+                  "its edges compared with a full render, %ld differ; %ld differ within 2 px of "
+                  "its edges; the face covers %ld..%ld pixels\n",
+                  name, compared, differ, at_edges, face_min, face_max);
+    assert_int_equal(differ, 0);
+    assert_true(face_min > 200 && face_max > face_min); /* seen, and the drag changed it */
+    /* The end of the drag draws the whole plan again: equal everywhere. */
+    te_app_button(app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
+    assert_int_equal(te_app_update(app), CRISP_OK);
+    assert_int_equal(te_app_draw_cpu(app, r1, &img), CRISP_OK);
+    assert_false(app->last_partial);
+    assert_int_equal(crisp_render_cpu_plan(r2, app->scene, app->plan, &app->cam, &whole, NULL),
+                     CRISP_OK);
+    long c2 = 0, d2 = 0, e2 = 0;
+    compare_frames(&whole, &img, app->face, &c2, &d2, &e2);
+    assert_int_equal(d2 + e2, 0);
+    crisp_image_free(&img);
+    crisp_image_free(&whole);
+    crisp_renderer_destroy(r1);
+    crisp_renderer_destroy(r2);
+}
+
+static void test_partial_redraw(void **state)
+{
+    (void)state;
+    te_app app;
+    assert_int_equal(te_app_open(&app, NULL, -1, 2 * W, H), CRISP_OK);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    partial_vs_full(&app, (crisp_trimedit_ref){0, 0, 3}, 30, "built-in example");
+    te_app_close(&app);
+    /* A face of a real model among its neighbours: the hammer's first face with a hole, the
+     * whole model in view. */
+    crisp_model *m;
+    assert_int_equal(crisp_model_load(CRISP_DATA_DIR "/nurbs/occt_hammer.iges", NULL, &m),
+                     CRISP_OK);
+    int face = -1;
+    for (int f = 0; f < m->face_count && face < 0; f++)
+        if (m->faces[f].loop_count > 1) face = f;
+    assert_true(face >= 0);
+    assert_int_equal(te_app_open(&app, m, face, 2 * W, H), CRISP_OK);
+    crisp_camera cam;
+    assert_int_equal(
+        crisp_camera_frame_box(app.scene->box, (int)app.view3d.w, (int)app.view3d.h, &cam),
+        CRISP_OK);
+    te_app_set_camera(&app, &cam);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    /* Of the faces with a hole, the one that covers the most pixels with its surface's box
+     * framed (the face and its neighbours in view). */
+    crisp_renderer *r;
+    crisp_image img;
+    assert_int_equal(crisp_renderer_create(NULL, &r), CRISP_OK);
+    assert_int_equal(crisp_image_init(&img, app.cam.width, app.cam.height), CRISP_OK);
+    long best = -1;
+    crisp_camera best_cam = app.cam;
+    for (int f = 0; f < m->face_count; f++) {
+        if (m->faces[f].loop_count < 2) continue;
+        double box[6];
+        crisp_surface_bbox(m->faces[f].surface, box);
+        assert_int_equal(crisp_camera_frame_box(box, img.width, img.height, &cam), CRISP_OK);
+        assert_int_equal(crisp_render_cpu(r, app.scene, &cam, &img, NULL), CRISP_OK);
+        long n = 0;
+        for (size_t p = 0; p < (size_t)img.width * img.height; p++)
+            n += img.face[p] == f;
+        if (n > best) best = n, face = f, best_cam = cam;
+    }
+    crisp_image_free(&img);
+    crisp_renderer_destroy(r);
+    assert_int_equal(te_app_open_face(&app, face), CRISP_OK);
+    te_app_set_camera(&app, &best_cam);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    char name[64];
+    snprintf(name, sizeof name, "hammer face %d", face);
+    partial_vs_full(&app, (crisp_trimedit_ref){1, 0, 0}, 20, name);
+    te_app_close(&app);
+}
+
 static double rnd(unsigned *s)
 {
     *s = *s * 1103515245u + 12345u;
@@ -495,7 +637,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_drag_undo_redo_save), cmocka_unit_test(test_refused_edits),
         cmocka_unit_test(test_drag_in_3d),          cmocka_unit_test(test_model_face),
-        cmocka_unit_test(test_random_input),
+        cmocka_unit_test(test_random_input),        cmocka_unit_test(test_partial_redraw),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
