@@ -34,8 +34,11 @@ static const char usage[] =
 static const char help[] =
     "2D view: drag a control point (g: snap to the domain edge); shift-drag moves a loop,\n"
     "ctrl-drag rotates it, alt-drag scales it; right-drag pans, wheel zooms.\n"
-    "3D view: drag a control point on the surface; right-drag orbits, middle-drag pans, wheel\n"
-    "zooms; o opens the face under the cursor.\n"
+    "3D view: drag a control point on the surface; shift-, ctrl-, alt-drag near a loop moves,\n"
+    "rotates, scales it on the surface; right-drag orbits, middle-drag pans, wheel zooms; o opens\n"
+    "the face under the cursor.\n"
+    "w: weight field of the selected point (type, enter sets, escape closes); n: polygon hole by\n"
+    "clicks in the 2D view (enter or the first corner closes, backspace, escape cancels).\n"
     "i insert knot, k remove knot, x delete point, = / - weight, 0 weight 0 (refused),\n"
     "b snap point to the edge, c / r / p add a circle / rectangle / hexagon hole, d delete hole,\n"
     "ctrl+z undo, ctrl+y redo, ctrl+s save, s strips, l scan lines, f fit, F1 help.";
@@ -121,7 +124,8 @@ static void on_key(te_window *w, int key, int action, int mods)
         w->show_help = !w->show_help;
         return;
     }
-    if (action == GLFW_PRESS && key == GLFW_KEY_ESCAPE) {
+    /* Escape closes the weight field or cancels a polygon before it quits. */
+    if (action == GLFW_PRESS && key == GLFW_KEY_ESCAPE && !w->app.entry && !w->app.poly) {
         w->quit = 1;
         return;
     }
@@ -282,6 +286,23 @@ static void draw_ui(te_window *w)
         else
             app_ui_text("%s", a->message);
     }
+    double suv[2], sw;
+    if (te_app_selected(a, suv, &sw)) {
+        const crisp_face *f = crisp_trimedit_face(a->ed);
+        int rational = f->loops[a->sel.loop].curves[a->sel.curve]->rational;
+        app_ui_text("point %d of curve %d of loop %d: (%.6g, %.6g)", a->sel.index, a->sel.curve,
+                    a->sel.loop, suv[0], suv[1]);
+        if (a->entry)
+            app_ui_text_color(1.0f, 0.9f, 0.3f, "weight: %s_   (enter sets, escape closes)",
+                              a->entry_text);
+        else
+            app_ui_text("weight %.6g%s   (w: edit)", sw, rational ? "" : " (polynomial curve)");
+        if (!a->entry && app_ui_button("edit weight (w)")) {
+            a->entry = 1;
+            a->entry_text[0] = '\0';
+        }
+    }
+    if (a->poly) app_ui_text("polygon hole: %d corners (enter closes)", a->poly_n);
     app_ui_checkbox("snap to the domain edge (g)", &a->snap);
     if (app_ui_button("undo")) te_app_key(a, GLFW_KEY_Z, GLFW_PRESS, GLFW_MOD_CONTROL);
     app_ui_same_line();
