@@ -2,7 +2,8 @@
  * face in 3D (left) and its (u, v) domain in 2D (right), on the apps' shared infrastructure
  * (apps/common: GLFW window, Dear ImGui, event replay, camera navigation). Every frame after an
  * edit only the edited face is re-planned (te_app.c) and the 3D view is drawn from the plan by
- * the GL backend (the CPU backend where crisp is built without it). README.md "crisp-trimedit".
+ * the GL backend, or by the CPU backend (--cpu, or where crisp is built without GL), which during
+ * a drag draws only the edited face over an image of the other faces. README.md "crisp-trimedit".
  */
 #include <math.h>
 #include <stdio.h>
@@ -22,13 +23,15 @@
 
 static const char usage[] =
     "usage: crisp-trimedit [MODEL --face N] [--size WxH] [--replay EVENTS] [--screenshot OUT.png]\n"
-    "                      [--save OUT.obj] [--exit-after-replay] [--no-vsync]\n"
+    "                      [--save OUT.obj] [--exit-after-replay] [--no-vsync] [--cpu]\n"
     "  MODEL --face N: edit face N of a model crisp reads (IGES, STEP, OBJ); without MODEL the\n"
     "                  built-in example (a bicubic surface with an outer loop and two holes)\n"
     "  --replay EVENTS: play a replay file (the format of crisp-view, README.md)\n"
     "  --screenshot OUT.png: after the replay, write the 3D view rendered off-screen\n"
     "  --save OUT.obj: after the replay, save the model (OBJ free-form); ctrl+s saves there too\n"
     "  --exit-after-replay: quit once the replay, screenshot and save are done\n"
+    "  --cpu: draw the 3D view with the CPU backend (during a drag only the edited face is drawn,\n"
+    "         over an image of the other faces); the GL backend otherwise, where it is built\n"
     "  Keys: F1 for the list.\n";
 
 static const char help[] =
@@ -54,12 +57,12 @@ typedef struct te_window {
     int replaying, exit_after_replay, quit, exit_code, show_help;
 #ifdef CRISP_TRIMEDIT_GL
     crisp_gl *gl;
-#else
+#endif
+    int use_cpu; /* the CPU backend draws the 3D view (--cpu, or crisp built without GL) */
     crisp_renderer *renderer;
     crisp_image img;
     app_image_view iv;
     uint8_t *rgba;
-#endif
     double ms_draw;
 } te_window;
 
@@ -207,13 +210,19 @@ static crisp_status draw_3d(te_window *w)
     double t = crisp_time_now();
     crisp_status st;
 #ifdef CRISP_TRIMEDIT_GL
-    if ((st = crisp_gl_draw(w->gl, w->app.plan, NULL))) return st;
-    glBindFramebuffer(GL_FRAMEBUFFER, 0);
-    glViewport(0, 0, w->fb_w, w->fb_h);
-    glClearColor(0.12f, 0.13f, 0.15f, 1);
-    glClear(GL_COLOR_BUFFER_BIT);
-    st = crisp_gl_blit(w->gl, 0, 0, 0, (int)w->app.view3d.w, (int)w->app.view3d.h);
-#else
+    if (!w->use_cpu) {
+        if ((st = crisp_gl_draw(w->gl, w->app.plan, NULL))) return st;
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        glViewport(0, 0, w->fb_w, w->fb_h);
+        glClearColor(0.12f, 0.13f, 0.15f, 1);
+        glClear(GL_COLOR_BUFFER_BIT);
+        st = crisp_gl_blit(w->gl, 0, 0, 0, (int)w->app.view3d.w, (int)w->app.view3d.h);
+        w->ms_draw = 1e3 * (crisp_time_now() - t);
+        return st;
+    }
+#endif
+    /* The CPU backend: during an edit drag only the edited face is drawn, over the other faces'
+     * image (te_app_draw_cpu). */
     const crisp_camera *c = &w->app.cam;
     if (w->img.width != c->width || w->img.height != c->height) {
         crisp_image_free(&w->img);
@@ -243,7 +252,6 @@ static crisp_status draw_3d(te_window *w)
     glViewport(0, 0, w->fb_w, w->fb_h);
     app_image_view_draw(&w->iv, w->fb_w, w->fb_h);
     st = CRISP_OK;
-#endif
     w->ms_draw = 1e3 * (crisp_time_now() - t);
     return st;
 }
@@ -338,16 +346,19 @@ static crisp_status screenshot(te_window *w, const char *path, int sw, int sh)
         if (!st) st = crisp_planner_plan(pl, w->app.scene, &c, &plan);
     }
 #ifdef CRISP_TRIMEDIT_GL
-    if (!st && live) st = crisp_gl_read(w->gl, &img, NULL);
-    if (!st && !live) {
+    if (!w->use_cpu && !st && live) st = crisp_gl_read(w->gl, &img, NULL);
+    if (!w->use_cpu && !st && !live) {
         st = crisp_gl_render(w->gl, w->app.scene, plan, &img, NULL);
         crisp_gl_forget_plan(w->gl);
     }
-#else
-    if (!st && live)
-        st = crisp_render_cpu_plan(w->renderer, w->app.scene, w->app.plan, &c, &img, NULL);
-    if (!st && !live) st = crisp_render_cpu_plan(w->renderer, w->app.scene, plan, &c, &img, NULL);
 #endif
+    /* CPU: the window's own image of the frame (what was shown), or a new render. */
+    if (w->use_cpu && !st && live && w->img.width == c.width && w->img.height == c.height)
+        memcpy(img.rgba, w->img.rgba, 4 * sizeof(float) * (size_t)c.width * c.height);
+    else if (w->use_cpu && !st && live)
+        st = crisp_render_cpu_plan(w->renderer, w->app.scene, w->app.plan, &c, &img, NULL);
+    if (w->use_cpu && !st && !live)
+        st = crisp_render_cpu_plan(w->renderer, w->app.scene, plan, &c, &img, NULL);
     uint8_t *px = st ? NULL : malloc(4 * (size_t)c.width * c.height);
     if (!st && !px) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the screenshot");
     if (!st) {
@@ -428,6 +439,8 @@ int main(int argc, char **argv)
             w->exit_after_replay = 1;
         } else if (!strcmp(a, "--no-vsync")) {
             no_vsync = 1;
+        } else if (!strcmp(a, "--cpu")) {
+            w->use_cpu = 1;
         } else if (a[0] == '-' && a[1] == '-' && !more) {
             fprintf(stderr, "crisp-trimedit: option %s needs a value\n", a);
             return 2;
@@ -507,20 +520,25 @@ int main(int argc, char **argv)
         goto out;
     }
 #ifdef CRISP_TRIMEDIT_GL
-    if (crisp_gl_create((crisp_gl_getproc_fn)glfwGetProcAddress, NULL, &w->gl) ||
-        crisp_gl_set_scene(w->gl, w->app.scene)) {
+    if (!w->use_cpu && (crisp_gl_create((crisp_gl_getproc_fn)glfwGetProcAddress, NULL, &w->gl) ||
+                        crisp_gl_set_scene(w->gl, w->app.scene))) {
         fprintf(stderr, "crisp-trimedit: %s\n", crisp_error_message());
         rc = 1;
         goto out;
     }
 #else
-    if (crisp_renderer_create(NULL, &w->renderer) ||
-        !app_image_view_init(&w->iv, err, sizeof err)) {
-        fprintf(stderr, "crisp-trimedit: cannot start the CPU display: %s\n", err);
-        rc = 1;
-        goto out;
-    }
+    w->use_cpu = 1;
 #endif
+    if (w->use_cpu) {
+        err[0] = '\0';
+        if (crisp_renderer_create(NULL, &w->renderer) ||
+            !app_image_view_init(&w->iv, err, sizeof err)) {
+            fprintf(stderr, "crisp-trimedit: cannot start the CPU display: %s%s\n", err,
+                    err[0] ? "" : crisp_error_message());
+            rc = 1;
+            goto out;
+        }
+    }
     /* The 3D camera: navigation on the face's box, starting from the isometric view of it. */
     {
         double box[6];
@@ -592,12 +610,11 @@ int main(int argc, char **argv)
 out:
 #ifdef CRISP_TRIMEDIT_GL
     crisp_gl_destroy(w->gl);
-#else
+#endif
     crisp_renderer_destroy(w->renderer);
     crisp_image_free(&w->img);
     if (w->iv.program) app_image_view_free(&w->iv);
     free(w->rgba);
-#endif
     te_app_close(&w->app);
     app_ui_shutdown();
     app_window_destroy(w->win);

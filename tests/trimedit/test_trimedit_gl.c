@@ -314,7 +314,9 @@ static void test_zoomed_view(void **state)
 
 /* The UI's edits through the window's replay (weight field, polygon hole by clicks, a loop
  * moved in the 3D view): the window saves the same OBJ, byte for byte, as te_app given the same
- * events (the window forwards its events to te_app), and that OBJ holds the edits. */
+ * events (the window forwards its events to te_app), and that OBJ holds the edits. The window
+ * draws with the CPU backend here (--cpu: the edited face alone over the others during the
+ * drag). */
 typedef struct replay_out {
     FILE *f;
     te_app *app;
@@ -417,8 +419,8 @@ static void test_ui_replay(void **state)
     assert_true(hypot(after[0] - before[0], after[1] - before[1]) > 1e-3);
     te_app_close(&app);
     snprintf(cmd, sizeof cmd,
-             "xvfb-run -a %s/crisp-trimedit --size %dx%d --replay %s --save %s --exit-after-replay "
-             "--no-vsync > %s 2>&1",
+             "xvfb-run -a %s/crisp-trimedit --cpu --size %dx%d --replay %s --save %s "
+             "--exit-after-replay --no-vsync > %s 2>&1",
              CRISP_BIN_DIR, WIN_W, WIN_H, replay, obj, log);
     int rc2 = system(cmd);
     if (rc2) {
