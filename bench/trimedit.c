@@ -8,7 +8,8 @@
  * plan (crisp_planner_plan) of the same camera. --gl adds the GL backend's draw. Inputs: the
  * built-in example, and the face with the most Bézier trim pieces among the bundled models (found
  * by scanning data/nurbs, or given: --model PATH --face N). Views: the default camera of the model,
- * and zoomed in on the dragged point until the trim curve crosses the window. Usage: bench_trimedit
+ * for a face of a larger model also its surface's box framed (the editor's start view), and
+ * zoomed in on the dragged point until the trim curve crosses the window. Usage: bench_trimedit
  * [--model PATH --face N] [--frames N] [--size WxH]
  */
 #include <dirent.h>
@@ -138,7 +139,7 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
     crisp_trimedit_domain(ed, dom);
     double amp = 0.01 * fmax(dom[1] - dom[0], dom[3] - dom[2]);
     crisp_camera cam;
-    if (zoomed) {
+    if (zoomed == 1) {
         /* The window spans about 40 steps of the drag on the surface. */
         double P0[3], P1[3], q[2] = {p0[0] + amp, p0[1]};
         crisp_surface_eval(f->surface, p0[0], p0[1], P0);
@@ -152,6 +153,10 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
         else
             on[0] = p0[0], on[1] = p0[1];
         zoom_camera(f->surface, on, span > 0 ? span : 1e-3, &cam);
+    } else if (zoomed == 2) {
+        double box[6];
+        crisp_surface_bbox(f->surface, box);
+        crisp_camera_frame_box(box, width, height, &cam);
     } else {
         crisp_camera_frame_box(sc->box, width, height, &cam);
     }
@@ -267,10 +272,13 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
     if (have_gl) snprintf(gls, sizeof gls, " GL draw %.2f ms (cpu %.2f)", med[GL], med[GL_CPU]);
     printf("| %-26s | %-7s | %4d | %5.1f%% | %6.3f | %6.3f | %6.3f | %7.2f | %7.2f | %7.2f | %7.2f "
            "| %7.2f | %7.2f | %7.2f | %5.1fx | %7.2f | %7.2f |%s%s\n",
-           name, zoomed ? "zoomed" : "default", face_pieces(f),
-           100.0 * (double)face_px / ((double)frames * width * height), med[REPLAN], max_replan,
-           med[REPLAN_CPU], med[FULL], med[FULL_CPU], med[PART], med[PART_CPU], pre + med[FULL],
-           pre + med[PART], med[EDIT] + med[UPD] + med[REPLAN_CPU] + med[PART_CPU],
+           name,
+           zoomed == 2 ? "face"
+           : zoomed    ? "zoomed"
+                       : "default",
+           face_pieces(f), 100.0 * (double)face_px / ((double)frames * width * height), med[REPLAN],
+           max_replan, med[REPLAN_CPU], med[FULL], med[FULL_CPU], med[PART], med[PART_CPU],
+           pre + med[FULL], pre + med[PART], med[EDIT] + med[UPD] + med[REPLAN_CPU] + med[PART_CPU],
            med[PART] > 0 ? med[FULL] / med[PART] : 0, ms_others, bench_median(full_plan, 5),
            refused ? " (some moves refused)" : "", gls);
     if (differ[0] || differ[1] || differ[2])
@@ -352,7 +360,8 @@ int main(int argc, char **argv)
         run("built-in example, face 0", m, 0, zoomed);
         crisp_model_destroy(m);
     }
-    for (int zoomed = 0; zoomed < 2; zoomed++) {
+    for (int view = 0; view < 3; view++) {
+        int zoomed = view == 0 ? 0 : view == 1 ? 2 : 1; /* default, face, zoomed */
         crisp_model *m;
         if (crisp_model_load(model, NULL, &m)) {
             fprintf(stderr, "%s\n", crisp_error_message());
