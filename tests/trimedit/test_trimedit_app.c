@@ -820,6 +820,94 @@ static void test_loop_3d(void **state)
     te_app_close(&app);
 }
 
+/* Loop transforms in the 2D view (shift-drag moves the loop by exactly the (u, v) between the
+ * cursor positions, ctrl-drag rotates and alt-drag scales it about its centre), snap while
+ * dragging (g: a point dragged near the domain edge lands on it), and the panel's figures (the
+ * edited face's plan time) after a re-plan. */
+static void test_loop_2d_and_snap(void **state)
+{
+    (void)state;
+    te_app app;
+    assert_int_equal(te_app_open(&app, NULL, -1, 2 * W, H), CRISP_OK);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    const int l = 2; /* the rectangle hole */
+    const crisp_curve *cv = crisp_trimedit_face(app.ed)->loops[l].curves[0];
+    int n = cv->count;
+    double before[16][2], on[2], t0, t1, px[2], a[2], b[2];
+    assert_true(n <= 16);
+    for (int i = 0; i < n; i++)
+        crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, before[i], NULL);
+    crisp_curve_domain(cv, &t0, &t1);
+    crisp_curve_eval(cv, t0 + 0.1 * (t1 - t0), on);
+    te_app_uv_to_px(&app, on, px);
+    te_app_cursor(&app, px[0], px[1]);
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, GLFW_MOD_SHIFT);
+    assert_int_equal(app.drag, TE_DRAG_MOVE);
+    for (int k = 1; k <= 12; k++)
+        te_app_cursor(&app, px[0] - k, px[1] + 0.5 * k);
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, GLFW_MOD_SHIFT);
+    te_app_px_to_uv(&app, px, a);
+    te_app_px_to_uv(&app, (double[2]){px[0] - 12, px[1] + 6}, b);
+    for (int i = 0; i < n; i++) {
+        double q[2];
+        crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, q, NULL);
+        assert_true(fabs(q[0] - before[i][0] - (b[0] - a[0])) < 1e-12);
+        assert_true(fabs(q[1] - before[i][1] - (b[1] - a[1])) < 1e-12);
+    }
+    for (int mode = 0; mode < 2; mode++) {
+        double c[2], pre[16][2];
+        crisp_trimedit_loop_center(app.ed, l, c);
+        for (int i = 0; i < n; i++)
+            crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, pre[i], NULL);
+        cv = crisp_trimedit_face(app.ed)->loops[l].curves[0];
+        crisp_curve_eval(cv, t0 + 0.1 * (t1 - t0), on);
+        te_app_uv_to_px(&app, on, px);
+        int mods = mode ? GLFW_MOD_ALT : GLFW_MOD_CONTROL;
+        te_app_cursor(&app, px[0], px[1]);
+        te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, mods);
+        assert_int_equal(app.drag, mode ? TE_DRAG_SCALE : TE_DRAG_ROTATE);
+        for (int k = 1; k <= 8; k++)
+            te_app_cursor(&app, px[0] + 0.7 * k, px[1] + 0.4 * k);
+        te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods);
+        double ratio = -1, moved = 0;
+        for (int i = 0; i < n; i++) {
+            double q[2];
+            crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, q, NULL);
+            double r0 = hypot(pre[i][0] - c[0], pre[i][1] - c[1]),
+                   r1 = hypot(q[0] - c[0], q[1] - c[1]);
+            if (ratio < 0) ratio = r1 / r0;
+            assert_true(fabs(r1 / r0 - ratio) < 1e-9);
+            moved = fmax(moved, hypot(q[0] - pre[i][0], q[1] - pre[i][1]));
+        }
+        assert_true(moved > 1e-3);
+        if (!mode)
+            assert_true(fabs(ratio - 1) < 1e-9);
+        else
+            assert_true(fabs(ratio - 1) > 1e-3);
+    }
+    /* Snap while dragging: the outer loop's point 3 dragged to 3 px inside the u = 1 edge. */
+    key(&app, GLFW_KEY_G);
+    assert_true(app.snap);
+    const crisp_trimedit_ref pt = {0, 0, 3};
+    double uv[2];
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, NULL), CRISP_OK);
+    te_app_uv_to_px(&app, uv, px);
+    te_app_cursor(&app, px[0], px[1]);
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0);
+    double edge[2] = {1.0, uv[1]};
+    te_app_uv_to_px(&app, edge, px);
+    te_app_cursor(&app, px[0] - 3, px[1]);
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, NULL), CRISP_OK);
+    assert_true(uv[0] == 1.0);
+    /* The re-plan of the edited face is timed (the panel shows it). */
+    long replans = app.replans;
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    assert_int_equal(app.replans, replans + 1);
+    assert_true(app.ms_face_plan > 0);
+    te_app_close(&app);
+}
+
 static double rnd(unsigned *s)
 {
     *s = *s * 1103515245u + 12345u;
@@ -883,6 +971,7 @@ int main(void)
         cmocka_unit_test(test_weight_field),
         cmocka_unit_test(test_polygon_clicks),
         cmocka_unit_test(test_loop_3d),
+        cmocka_unit_test(test_loop_2d_and_snap),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
