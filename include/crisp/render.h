@@ -196,12 +196,13 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *scene,
  * this call with the complement of faces and no base wrote): the faces are drawn over it with
  * the depth test against its depth, and only their region of img is written (their leaves' and
  * ribbons' screen boxes widened by 2 px: base's pixels where they do not win, theirs where they
- * do); the rest of img is left as it is, so it must hold base's pixels there (a copy of base made
- * once). That is the trim-editing demo's frame: while one face is edited the others do not
- * change, so they are drawn once. Its pixels equal those of crisp_render_cpu_plan of the whole
- * plan away from the drawn faces' edges (there the depth of base is compared in float, and the
- * ribbons of faces on either side of an edge are drawn in another order). With base the renderer
- * must draw 1 sample per pixel (the image holds one). */
+ * do; the previous call's region goes back to base where it is left); the rest of img is left as
+ * it is, so it must hold base's pixels there (a copy of base made once). That is the trim-editing
+ * demo's frame: while one face is edited the others do not change, so they are drawn once. Its
+ * pixels equal those of crisp_render_cpu_plan of the whole plan away from the drawn faces' edges
+ * (there the depth of base is compared in float, and the ribbons of faces on either side of an edge
+ * are drawn in another order). With base the renderer must draw 1 sample per pixel (the image holds
+ * one). */
 crisp_status crisp_render_cpu_plan_faces(crisp_renderer *r, const crisp_scene *scene,
                                          const crisp_frame_plan *plan, const crisp_camera *cam,
                                          const uint8_t *faces, const crisp_image *base,

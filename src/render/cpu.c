@@ -574,7 +574,16 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
             memset(r->over_rect, 0, sizeof r->over_rect);
         }
         faces_region(r, plan, only, rect);
-        if (memcmp(rect, r->over_rect, sizeof rect)) load_rect(&r->over, NULL, r->over_rect);
+        if (memcmp(rect, r->over_rect, sizeof rect)) {
+            /* The last region's pixels outside this one go back to base (in img too: it holds
+             * base's pixels outside the region by contract, whichever image it is). */
+            const int *o = r->over_rect;
+            for (int j = o[1]; j < o[3]; j++)
+                for (int i = o[0]; i < o[2]; i++)
+                    if (i < rect[0] || i >= rect[2] || j < rect[1] || j >= rect[3])
+                        copy_pixel(base, img, (size_t)j * cam->width + (size_t)i);
+            load_rect(&r->over, NULL, r->over_rect);
+        }
         load_rect(&r->over, base, rect);
         memcpy(r->over_rect, rect, sizeof rect);
     } else {

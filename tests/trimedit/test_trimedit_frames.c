@@ -206,6 +206,74 @@ static void test_zoomed_view(void **state)
                    "zoomed view");
 }
 
+/* crisp_render_cpu_plan_faces' contract (the partial frame of the editor): over an image of
+ * nothing, the face drawn alone equals the full render bit for bit (the other faces are none);
+ * drawing no face afterwards puts the last region back to the base; bad calls are refused. */
+static void test_faces_over_base(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    crisp_scene *sc;
+    assert_int_equal(crisp_trimedit_example(&m), CRISP_OK);
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_camera cam;
+    assert_int_equal(crisp_camera_frame_box(sc->box, 160, 120, &cam), CRISP_OK);
+    crisp_renderer *r, *r4;
+    crisp_planner *pl;
+    const crisp_frame_plan *plan;
+    assert_int_equal(crisp_renderer_create(NULL, &r), CRISP_OK);
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.samples = 4}, &r4), CRISP_OK);
+    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
+    crisp_image base, img, whole, small;
+    assert_int_equal(crisp_image_init(&base, 160, 120), CRISP_OK); /* cleared: no other face */
+    assert_int_equal(crisp_image_init(&img, 160, 120), CRISP_OK);
+    assert_int_equal(crisp_image_init(&whole, 160, 120), CRISP_OK);
+    assert_int_equal(crisp_image_init(&small, 80, 60), CRISP_OK);
+    const uint8_t one = 1, none = 0;
+    assert_int_equal(crisp_render_cpu_plan_faces(r, sc, plan, &cam, &one, &base, &img, NULL),
+                     CRISP_OK);
+    assert_int_equal(crisp_render_cpu_plan(r, sc, plan, &cam, &whole, NULL), CRISP_OK);
+    size_t n = (size_t)160 * 120;
+    long drawn = 0;
+    for (size_t p = 0; p < n; p++)
+        drawn += img.face[p] == 0;
+    assert_true(drawn > 1000);
+    assert_memory_equal(img.rgba, whole.rgba, 4 * n * sizeof(float));
+    assert_memory_equal(img.depth, whole.depth, n * sizeof(float));
+    assert_memory_equal(img.face, whole.face, n * sizeof(int32_t));
+    assert_memory_equal(img.normal, whole.normal, 3 * n * sizeof(float));
+    /* No face: the region is empty and the last one is base's again. */
+    assert_int_equal(crisp_render_cpu_plan_faces(r, sc, plan, &cam, &none, &base, &img, NULL),
+                     CRISP_OK);
+    assert_memory_equal(img.rgba, base.rgba, 4 * n * sizeof(float));
+    assert_memory_equal(img.face, base.face, n * sizeof(int32_t));
+    /* Refused: 4 samples over a base, the base drawn into, no face list, a base of another
+     * size. */
+    assert_int_equal(crisp_render_cpu_plan_faces(r4, sc, plan, &cam, &one, &base, &img, NULL),
+                     CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp_render_cpu_plan_faces(r, sc, plan, &cam, &one, &img, &img, NULL),
+                     CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp_render_cpu_plan_faces(r, sc, plan, &cam, NULL, &base, &img, NULL),
+                     CRISP_ERR_INVALID_ARG);
+    assert_int_equal(crisp_render_cpu_plan_faces(r, sc, plan, &cam, &one, &small, &img, NULL),
+                     CRISP_ERR_INVALID_ARG);
+    /* Without a base, the face alone into a cleared image (the others' image of the editor). */
+    assert_int_equal(crisp_render_cpu_plan_faces(r4, sc, plan, &cam, &none, NULL, &img, NULL),
+                     CRISP_OK);
+    for (size_t p = 0; p < n; p++)
+        assert_int_equal(img.face[p], -1);
+    crisp_image_free(&base);
+    crisp_image_free(&img);
+    crisp_image_free(&whole);
+    crisp_image_free(&small);
+    crisp_planner_destroy(pl);
+    crisp_renderer_destroy(r);
+    crisp_renderer_destroy(r4);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(int argc, char **argv)
 {
     full = argc > 1 && strcmp(argv[1], "all") == 0;
@@ -213,6 +281,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_default_view),
         cmocka_unit_test(test_zoomed_view),
         cmocka_unit_test(test_crossing_drag),
+        cmocka_unit_test(test_faces_over_base),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
