@@ -403,13 +403,26 @@ const crisp_raster_target *crisp__renderer_target(const crisp_renderer *r)
     return &r->target;
 }
 
+/* A screen box widened by 2 px, clipped to the image: x0, y0, x1, y1 (empty: all 0). */
+static void box_rect(const double lo[2], const double hi[2], int width, int height, int dest[4])
+{
+    double x0 = floor(lo[0]) - 2, y0 = floor(lo[1]) - 2, x1 = ceil(hi[0]) + 3, y1 = ceil(hi[1]) + 3;
+    dest[0] = x0 > 0 ? (x0 < width ? (int)x0 : width) : 0;
+    dest[1] = y0 > 0 ? (y0 < height ? (int)y0 : height) : 0;
+    dest[2] = x1 > 0 ? (x1 < width ? (int)x1 : width) : 0;
+    dest[3] = y1 > 0 ? (y1 < height ? (int)y1 : height) : 0;
+    if (dest[0] >= dest[2] || dest[1] >= dest[3]) dest[0] = dest[2] = dest[1] = dest[3] = 0;
+}
+
 /* The region of the image that the drawn faces can reach: the union of their leaves' screen
  * boxes (the control-point hulls find_empty_leaves took) and of their ribbon quads, widened by
- * 2 px and clipped to the image (x0, y0, x1, y1; empty when x0 >= x1). */
+ * 2 px and clipped to the image (x0, y0, x1, y1; empty when x0 >= x1); and the ribbons' part of
+ * it (where the ribbons' depth slack is needed). */
 static void faces_region(const crisp_renderer *r, const crisp_frame_plan *plan, const uint8_t *only,
-                         int dest[4])
+                         int dest[4], int ribbons[4])
 {
     double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    double rlo[2] = {INFINITY, INFINITY}, rhi[2] = {-INFINITY, -INFINITY};
     for (uint32_t f = 0; f < plan->face_count; f++) {
         if (!only[f]) continue;
         const crisp_plan_face *pf = &plan->faces[f];
@@ -427,19 +440,26 @@ static void faces_region(const crisp_renderer *r, const crisp_frame_plan *plan, 
                        y = (1 - v[k].clip[1] / v[k].clip[3]) * 0.5 * plan->height;
                 if (!(v[k].clip[3] > 0) || !isfinite(x) || !isfinite(y)) {
                     x = -INFINITY, y = -INFINITY; /* through the eye plane: anywhere */
-                    hi[0] = hi[1] = INFINITY;
+                    rhi[0] = rhi[1] = INFINITY;
                 }
-                lo[0] = fmin(lo[0], x), lo[1] = fmin(lo[1], y);
-                hi[0] = fmax(hi[0], x), hi[1] = fmax(hi[1], y);
+                rlo[0] = fmin(rlo[0], x), rlo[1] = fmin(rlo[1], y);
+                rhi[0] = fmax(rhi[0], x), rhi[1] = fmax(rhi[1], y);
             }
         }
     }
-    double x0 = floor(lo[0]) - 2, y0 = floor(lo[1]) - 2, x1 = ceil(hi[0]) + 3, y1 = ceil(hi[1]) + 3;
-    dest[0] = x0 > 0 ? (x0 < plan->width ? (int)x0 : plan->width) : 0;
-    dest[1] = y0 > 0 ? (y0 < plan->height ? (int)y0 : plan->height) : 0;
-    dest[2] = x1 > 0 ? (x1 < plan->width ? (int)x1 : plan->width) : 0;
-    dest[3] = y1 > 0 ? (y1 < plan->height ? (int)y1 : plan->height) : 0;
-    if (dest[0] >= dest[2] || dest[1] >= dest[3]) dest[0] = dest[2] = dest[1] = dest[3] = 0;
+    int leaves[4];
+    box_rect(lo, hi, plan->width, plan->height, leaves);
+    box_rect(rlo, rhi, plan->width, plan->height, ribbons);
+    if (leaves[0] >= leaves[2]) {
+        memcpy(dest, ribbons, 4 * sizeof *dest);
+    } else if (ribbons[0] >= ribbons[2]) {
+        memcpy(dest, leaves, 4 * sizeof *dest);
+    } else {
+        for (int k = 0; k < 2; k++) {
+            dest[k] = leaves[k] < ribbons[k] ? leaves[k] : ribbons[k];
+            dest[k + 2] = leaves[k + 2] > ribbons[k + 2] ? leaves[k + 2] : ribbons[k + 2];
+        }
+    }
 }
 
 /* Set the target over rectangle rc (x0, y0, x1, y1) from the image's pixels (one sample each):
@@ -565,7 +585,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
      * rest of that target is kept empty, so the rasterizer's depth bounds stay valid there);
      * otherwise the whole target starts empty. */
     crisp_raster_target *tg = base ? &r->over : &r->target;
-    int rect[4] = {0, 0, cam->width, cam->height};
+    int rect[4] = {0, 0, cam->width, cam->height}, rib[4] = {0, 0, 0, 0};
     if (base) {
         int fresh = !r->over.inv_w || r->over.width != cam->width || r->over.height != cam->height;
         if ((st = crisp__raster_target_init(&r->over, cam->width, cam->height, 1))) return st;
@@ -573,7 +593,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
             crisp__raster_target_clear(&r->over);
             memset(r->over_rect, 0, sizeof r->over_rect);
         }
-        faces_region(r, plan, only, rect);
+        faces_region(r, plan, only, rect, rib);
         if (memcmp(rect, r->over_rect, sizeof rect)) {
             /* The last region's pixels outside this one go back to base (in img too: it holds
              * base's pixels outside the region by contract, whichever image it is). */
@@ -610,19 +630,19 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
         if (base) {
-            /* The slack of the region's rows only (the ribbons land there): those rows as a
-             * target of their own, the view's centre moved to match (raster.h: the view
-             * direction through pixel (i, j) is f + (i + 0.5 - width / 2) kx r +
-             * (height / 2 - j - 0.5) ky u). */
-            size_t row0 = (size_t)rect[1] * cam->width;
+            /* The slack of the ribbons' rows only (widened by 2 px: a sample's slack looks at
+             * its neighbours): those rows as a target of their own, the view's centre moved to
+             * match (raster.h: the view direction through pixel (i, j) is
+             * f + (i + 0.5 - width / 2) kx r + (height / 2 - j - 0.5) ky u). */
+            size_t row0 = (size_t)rib[1] * cam->width;
             crisp_raster_target rows = {cam->width,
-                                        rect[3] - rect[1],
+                                        rib[3] - rib[1],
                                         1,
                                         tg->inv_w + row0,
                                         tg->attr + row0 * CRISP_RASTER_ATTRS,
                                         tg->face + row0};
             crisp_raster_view rv = view;
-            double shift = 0.5 * (cam->height - rows.height) - rect[1];
+            double shift = 0.5 * (cam->height - rows.height) - rib[1];
             for (int k = 0; k < 3; k++)
                 rv.f[k] += shift * view.ky * view.u[k];
             if (rows.height > 0)
