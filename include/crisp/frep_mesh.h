@@ -33,7 +33,7 @@ typedef struct crisp_frep_mesh_desc {
     double region[6];     /* x0, x1, y0, y1, z0, z1; all zero: crisp_frep_fit_region's box */
     int resolution;       /* grid cells along the region's longest side; 0: 128 */
     double cell;          /* > 0: the grid cell's edge instead (overrides resolution) */
-    double max_megabytes; /* the edge table's limit (it grows with the surface); 0: 8192 */
+    double max_megabytes; /* the edge table's limit (it holds the walk's front); 0: 8192 */
     int no_features;      /* 1: no feature points (plain marching tetrahedra) */
 } crisp_frep_mesh_desc;
 

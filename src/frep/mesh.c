@@ -23,8 +23,12 @@
  * Octree: cells proven inside or outside by one interval are never split; undecided cells are
  * split down to blocks of 4^3 grid cubes, which evaluate their 5^3 corners with the tape
  * shortened for them. Memory: the octree's tapes (one per level) and the edge table, which holds
- * the vertices of surface cubes only, so it grows with the surface, not the volume. Output is
- * streamed to the sink as it is made. */
+ * the vertices of surface cubes only, and only while a cube that uses them is still to be meshed:
+ * the walk visits blocks in Morton order, and when the table fills, the edges whose cubes all
+ * precede the current block are dropped (table_purge). What stays is the surface along the
+ * walk's front (the faces between visited and unvisited octree cells), which grows about like
+ * the resolution, not its square (the surface) or cube (the volume). Output is streamed to the
+ * sink as it is made. */
 #include "crisp/frep_mesh.h"
 
 #include <math.h>
@@ -60,6 +64,8 @@ typedef struct mesher {
     int features;          /* fans through a feature point where the normals disagree */
     edge_entry *table;
     size_t tcount, tcap, max_bytes;
+    size_t table_peak;  /* bytes */
+    uint64_t cur_block; /* Morton code of the block being meshed (the walk's order) */
     crisp_status status;
 } mesher;
 
@@ -87,9 +93,62 @@ static edge_entry *edge_slot(mesher *m, uint64_t key)
     return &m->table[i];
 }
 
+/* Morton code of a block (bits of x lowest), the order in which walk visits blocks */
+static uint64_t morton(const int b[3])
+{
+    uint64_t code = 0;
+    for (int bit = 0; bit < 21; bit++)
+        for (int a = 0; a < 3; a++)
+            code |= (uint64_t)((b[a] >> bit) & 1) << (3 * bit + a);
+    return code;
+}
+
+/* The last block (in the walk's order) holding a cube that contains the grid edge of key: the
+ * cubes containing the edge from lo along the offset dir have corners lo - {0,1} on the axes
+ * where dir is 0 and lo on the others; Morton order grows with each coordinate, so the last is
+ * the block of the cube at lo (clamped into the grid). */
+static uint64_t edge_last_block(const mesher *m, uint64_t key)
+{
+    uint64_t n1 = (uint64_t)m->n + 1, k = key / 8;
+    int lo[3] = {(int)(k % n1), (int)((k / n1) % n1), (int)(k / n1 / n1)}, b[3];
+    for (int a = 0; a < 3; a++)
+        b[a] = (lo[a] < m->n ? lo[a] : m->n - 1) / B;
+    return morton(b);
+}
+
+/* Drop the edges whose cubes have all been meshed (their blocks precede the current one): the
+ * table then holds the front of the walk, not the whole surface. Linear probing with backward
+ * shift deletion, in place. */
+static void table_purge(mesher *m)
+{
+    size_t mask = m->tcap - 1;
+    for (size_t i = 0; i < m->tcap; i++) {
+        while (m->table[i].key && edge_last_block(m, m->table[i].key - 1) < m->cur_block) {
+            size_t hole = i, j = i;
+            for (;;) {
+                j = (j + 1) & mask;
+                if (!m->table[j].key) break;
+                size_t home = (size_t)hash64(m->table[j].key - 1) & mask;
+                /* j's entry may fill the hole when its home is not cyclically in (hole, j] */
+                int stays = hole <= j ? (home > hole && home <= j) : (home > hole || home <= j);
+                if (!stays) {
+                    m->table[hole] = m->table[j];
+                    hole = j;
+                }
+            }
+            m->table[hole].key = 0;
+            m->tcount--;
+        }
+    }
+}
+
 static int table_grow(mesher *m)
 {
     if ((m->tcount + 1) * 2 <= m->tcap) return 0;
+    if (m->tcap) {
+        table_purge(m);
+        if (m->tcount * 4 <= m->tcap) return 0;
+    }
     size_t ncap = m->tcap ? m->tcap * 2 : 4096;
     if (ncap * sizeof *m->table > m->max_bytes) return -2;
     edge_entry *old = m->table;
@@ -103,8 +162,8 @@ static int table_grow(mesher *m)
     for (size_t i = 0; i < ocap; i++)
         if (old[i].key) *edge_slot(m, old[i].key - 1) = old[i];
     crisp_free(old);
-    size_t bytes = m->tcap * sizeof *m->table;
-    if (bytes > m->st->peak_bytes) m->st->peak_bytes = bytes;
+    size_t bytes = (m->tcap + ocap) * sizeof *m->table; /* both tables while rehashing */
+    if (bytes > m->table_peak) m->table_peak = bytes;
     return 0;
 }
 
@@ -393,6 +452,7 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
     }
     if (!any_in || !any_out) return CRISP_OK;
     m->st->leaves++;
+    m->cur_block = morton((const int[3]){i0[0] / B, i0[1] / B, i0[2] / B});
 
     /* new crossing edges of the block's tetrahedra */
     pending pe[NPTS * 7];
@@ -700,7 +760,7 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     stats->cell = h;
     for (int a = 0; a < 3; a++)
         stats->region[2 * a] = r[2 * a], stats->region[2 * a + 1] = r[2 * a + 1];
-    stats->peak_bytes += m.tcap * sizeof *m.table;
+    stats->peak_bytes += m.table_peak;
 done:
     crisp__frep_octree_free(&m.o);
     crisp_free(m.regs);

@@ -376,6 +376,50 @@ static void test_csg(void **state)
 }
 
 /* read back the three formats: same vertices and triangles */
+static crisp_status count_vertex(void *ctx, const float p[3])
+{
+    (void)p;
+    ((size_t *)ctx)[0]++;
+    return CRISP_OK;
+}
+
+static crisp_status count_triangle(void *ctx, const uint32_t v[3], const float p[3][3])
+{
+    (void)v, (void)p;
+    ((size_t *)ctx)[1]++;
+    return CRISP_OK;
+}
+
+/* Memory bounded by the walk's front, not the surface: the edge table drops the edges whose
+ * cubes have all been meshed, so its peak grows about 2x per doubling of the resolution (the
+ * surface's vertices grow 4x); at 256 it is a small fraction of 40 bytes a vertex. */
+static void test_memory(void **state)
+{
+    (void)state;
+    crisp_frep *f;
+    crisp_frep_tape *t = tape_of(&f, "(sqrt(X^2+Y^2)-1)^2+Z^2-0.09");
+    size_t peak[3], verts[3];
+    for (int k = 0; k < 3; k++) {
+        size_t counts[2] = {0, 0};
+        crisp_frep_mesh_sink sink = {
+            .ctx = counts, .vertex = count_vertex, .triangle = count_triangle};
+        crisp_frep_mesh_stats st;
+        assert_int_equal(
+            crisp_frep_mesh(t, &(crisp_frep_mesh_desc){.resolution = 64 << k}, &sink, &st),
+            CRISP_OK);
+        peak[k] = st.peak_bytes, verts[k] = counts[0];
+        fprintf(stderr, "resolution %d: %zu vertices, %zu triangles, mesher peak %.2f MB\n",
+                64 << k, counts[0], counts[1], st.peak_bytes / 1e6);
+    }
+    for (int k = 1; k < 3; k++) {
+        assert_true(verts[k] > 3.5 * verts[k - 1]);
+        assert_true(peak[k] < 3 * peak[k - 1]);
+    }
+    assert_true(peak[2] < verts[2] * 40 / 8);
+    crisp_frep_tape_destroy(t);
+    crisp_frep_destroy(f);
+}
+
 static void test_writers(void **state)
 {
     (void)state;
@@ -496,6 +540,7 @@ int main(void)
         cmocka_unit_test(test_models),
         cmocka_unit_test(test_csg),
         cmocka_unit_test(test_writers),
+        cmocka_unit_test(test_memory),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
