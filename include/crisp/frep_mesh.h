@@ -58,7 +58,8 @@ typedef struct crisp_frep_mesh_stats {
                               the mesh is closed there by the region's faces) */
     size_t nan_points;     /* grid points where f is NaN (taken as outside) */
     size_t peak_bytes;     /* the mesher's own peak memory (edge table, tapes) */
-    size_t feature_points; /* tetrahedra whose polygon was fanned from a feature point */
+    size_t feature_points; /* tetrahedra whose polygon was fanned from a cell point */
+    size_t face_points;    /* faces where a crease crosses: their path bends at a face point */
 } crisp_frep_mesh_stats;
 
 /* Mesh the part f < 0 of tape t. CRISP_ERR_INVALID_ARG on a bad region or resolution,
