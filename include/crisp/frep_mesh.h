@@ -35,6 +35,7 @@ typedef struct crisp_frep_mesh_desc {
     double cell;          /* > 0: the grid cell's edge instead (overrides resolution) */
     double max_megabytes; /* the edge table's limit (it holds the walk's front); 0: 8192 */
     int no_features;      /* 1: no feature points (plain marching tetrahedra) */
+    int no_tips;          /* 1: cell points stay inside their own tetrahedron (for measuring) */
 } crisp_frep_mesh_desc;
 
 /* Receives the mesh as it is made: vertices numbered from 0 in the order given, each triangle
@@ -60,6 +61,7 @@ typedef struct crisp_frep_mesh_stats {
     size_t peak_bytes;     /* the mesher's own peak memory (edge table, tapes) */
     size_t feature_points; /* tetrahedra whose polygon was fanned from a cell point */
     size_t face_points;    /* faces where a crease crosses: their path bends at a face point */
+    size_t tip_points;     /* cell points in the all-outside tetrahedron beside their own */
 } crisp_frep_mesh_stats;
 
 /* Mesh the part f < 0 of tape t. CRISP_ERR_INVALID_ARG on a bad region or resolution,

@@ -64,6 +64,7 @@ typedef struct mesher {
     float *regs;           /* registers x FREP_LANES */
     float *gregs;          /* registers x 4 x FREP_LANES */
     int features;          /* fans through a feature point where the normals disagree */
+    int no_tips;           /* cell points stay in their tetrahedron */
     edge_entry *table;
     size_t tcount, tcap, max_bytes;
     size_t table_peak;  /* bytes */
@@ -395,11 +396,10 @@ static int face_point(const mesher *m, const int g[3][3], const float pu[3], con
     return 1;
 }
 
-/* The cell point of a tetrahedron (corners T) for its polygon v[0 .. n) with normals nv: the
- * QEF point of the tangent planes (regularised towards the polygon's centre c, as in dual
- * contouring), or c when that is singular; then moved strictly inside the tetrahedron
- * (barycentric coordinates at least a margin). */
-static void cell_point(const double T[4][3], float (*v)[3], float (*nv)[3], int n, float out[3])
+/* The QEF point of the tangent planes at v[0 .. n) (normals nv; vertices without a normal
+ * take no part), regularised towards their centre (as in dual contouring); the centre when
+ * that is singular. */
+static void qef_point(float (*v)[3], float (*nv)[3], int n, double p[3])
 {
     double c[3] = {0, 0, 0}, A[3][3] = {{0}}, rhs[3] = {0}, x[3];
     for (int a = 0; a < n; a++)
@@ -408,7 +408,7 @@ static void cell_point(const double T[4][3], float (*v)[3], float (*nv)[3], int 
     const double lambda = 0.05;
     int planes = 0;
     for (int a = 0; a < n; a++) {
-        if (nv[a][0] == 0 && nv[a][1] == 0 && nv[a][2] == 0) continue;
+        if (zero3(nv[a])) continue;
         planes++;
         double d = 0;
         for (int k = 0; k < 3; k++)
@@ -421,40 +421,147 @@ static void cell_point(const double T[4][3], float (*v)[3], float (*nv)[3], int 
     }
     for (int i = 0; i < 3; i++)
         A[i][i] += lambda;
-    double p[3];
     if (planes && solve_rows((const double(*)[3])A, rhs, x))
         for (int k = 0; k < 3; k++)
             p[k] = c[k] + x[k];
     else
-        memcpy(p, c, sizeof p);
-    /* barycentric coordinates, clamped to a margin and renormalised */
-    double e1[3], e2[3], e3[3], r[3], l[4];
+        memcpy(p, c, sizeof c);
+}
+
+/* barycentric coordinates of p in the tetrahedron T */
+static void barycentric(const double T[4][3], const double p[3], double l[4])
+{
+    double e1[3], e2[3], e3[3], r[3];
     for (int k = 0; k < 3; k++)
         e1[k] = T[1][k] - T[0][k], e2[k] = T[2][k] - T[0][k], e3[k] = T[3][k] - T[0][k],
         r[k] = p[k] - T[0][k];
     double D = det3(e1, e2, e3);
     l[1] = det3(r, e2, e3) / D, l[2] = det3(e1, r, e3) / D, l[3] = det3(e1, e2, r) / D;
     l[0] = 1 - l[1] - l[2] - l[3];
-    const double margin = 0.01;
-    double sum = 0;
+}
+
+#define CELL_MARGIN 0.01 /* of the barycentric coordinates, or of a cell for distances */
+
+/* p moved strictly inside the tetrahedron: barycentric coordinates clamped to the margin */
+static void clamp_into(const double T[4][3], double p[3])
+{
+    double l[4], sum = 0;
+    barycentric(T, p, l);
     for (int q = 0; q < 4; q++) {
-        if (!(l[q] >= margin)) l[q] = margin; /* NaN too */
+        if (!(l[q] >= CELL_MARGIN)) l[q] = CELL_MARGIN; /* NaN too */
         sum += l[q];
     }
     for (int k = 0; k < 3; k++) {
-        double y = 0;
+        p[k] = 0;
         for (int q = 0; q < 4; q++)
-            y += l[q] / sum * T[q][k];
-        out[k] = (float)y;
+            p[k] += l[q] / sum * T[q][k];
     }
+}
+
+/* p strictly on the side of the plane (a, b, c) where o is, by the margin (h: the cell) */
+static int inner_side(const double a[3], const double b[3], const double c[3], const double o[3],
+                      const double p[3], double h)
+{
+    double u[3], w[3], nrm[3], dp[3], dop[3];
+    for (int k = 0; k < 3; k++)
+        u[k] = b[k] - a[k], w[k] = c[k] - a[k], dp[k] = p[k] - a[k], dop[k] = o[k] - a[k];
+    cross3(u, w, nrm);
+    double len = sqrt(dot3(nrm, nrm)), so = dot3(nrm, dop);
+    if (!(len > 0)) return 0;
+    return (so > 0 ? 1 : -1) * dot3(nrm, dp) / len > CELL_MARGIN * h;
+}
+
+/* A crease's tip outside the tetrahedron A (grid corners G, positions T, in tv's order): the
+ * point p lies beyond A's face F opposite corner k. When the tetrahedron Z across F has all its
+ * corners on the side opposite k's (outside the part for a convex crease, inside for a concave
+ * one; so no triangle of the plain mesh touches Z), nobody has claimed Z
+ * yet, and p lies in the kernel of A u Z (strictly inside the planes of the six faces other
+ * than F), A's fan may take p: A's polygon lies on the boundary of A u Z (F carries no path),
+ * and the fan from a kernel point of a star-shaped cell over a simple curve on its boundary is
+ * embedded, like the convex case. Z is then claimed in the table, so no other fan enters it.
+ * 1 when p may be used. */
+static int extend_into(mesher *m, const uint8_t *in, const int i0[3], const int tv[4],
+                       const int G[4][3], const double T[4][3], int k, const double p[3])
+{
+    if (m->no_tips) return 0;
+    /* the chain order of A's corners: 0 = the cube's corner 0 ... 3 = corner 7 */
+    int ch[4], pos[4];
+    for (int q = 0; q < 4; q++) {
+        int o = tv[q], bits = (o & 1) + ((o >> 1) & 1) + (o >> 2);
+        ch[bits] = q, pos[q] = bits;
+    }
+    int kc = pos[k], gn[3];
+    for (int a = 0; a < 3; a++) {
+        if (kc == 1 || kc == 2)
+            gn[a] = G[ch[kc - 1]][a] + G[ch[kc + 1]][a] - G[ch[kc]][a];
+        else if (kc == 0)
+            gn[a] = G[ch[3]][a] + G[ch[1]][a] - G[ch[0]][a];
+        else
+            gn[a] = G[ch[0]][a] - (G[ch[3]][a] - G[ch[2]][a]);
+    }
+    /* gn outside the part, within the block's evaluated points and the region */
+    int loc[3];
+    for (int a = 0; a < 3; a++) {
+        loc[a] = gn[a] - i0[a];
+        if (loc[a] < 0 || loc[a] > B) return 0;
+    }
+    /* Z's corners (F's and gn) agree in sign, against k's: no path on F, none in Z */
+    int zin = in[pidx(loc[0], loc[1], loc[2])];
+    if (!in_region(m, gn)) return 0;
+    for (int q = 0; q < 4; q++) {
+        int l3[3] = {G[q][0] - i0[0], G[q][1] - i0[1], G[q][2] - i0[2]};
+        if ((in[pidx(l3[0], l3[1], l3[2])] == zin) != (q != k)) return 0;
+    }
+    double Tn[3];
+    for (int a = 0; a < 3; a++)
+        Tn[a] = m->org[a] + gn[a] * m->h;
+    /* the kernel: A's faces through corner k, and Z's faces through gn */
+    int f[3], nf = 0;
+    for (int q = 0; q < 4; q++)
+        if (q != k) f[nf++] = q;
+    for (int j = 0; j < 3; j++) {
+        int a = f[(j + 1) % 3], b = f[(j + 2) % 3];
+        /* A's face (k, a, b), inward towards f[j]; Z's face (gn, a, b), inward towards f[j] */
+        if (!inner_side(T[k], T[a], T[b], T[f[j]], p, m->h)) return 0;
+        if (!inner_side(Tn, T[a], T[b], T[f[j]], p, m->h)) return 0;
+    }
+    /* claim Z: its lowest corner and its chain's first two axes */
+    int zc[4][3], lo[3] = {gn[0], gn[1], gn[2]};
+    for (int j = 0; j < 3; j++)
+        memcpy(zc[j], G[f[j]], sizeof zc[j]);
+    memcpy(zc[3], gn, sizeof gn);
+    for (int j = 0; j < 3; j++)
+        for (int a = 0; a < 3; a++)
+            lo[a] = zc[j][a] < lo[a] ? zc[j][a] : lo[a];
+    int ax1 = -1, ax2 = -1;
+    for (int j = 0; j < 4; j++) {
+        int d0 = zc[j][0] - lo[0], d1 = zc[j][1] - lo[1], d2 = zc[j][2] - lo[2];
+        int bits = d0 + d1 + d2;
+        if (bits == 1) ax1 = d0 ? 0 : d1 ? 1 : 2;
+        if (bits == 2) ax2 = !d0 ? 0 : !d1 ? 1 : 2; /* the axis not yet taken */
+    }
+    if (ax1 < 0 || ax2 < 0) return 0;
+    int second = 3 - ax1 - ax2; /* the chain's second axis */
+    int code = ax1 * 2 + (second == (ax1 + 1) % 3 ? 0 : 1);
+    int top[3] = {lo[0] + 1, lo[1] + 1, lo[2] + 1}; /* past every cube that may claim Z */
+    uint64_t key = FACE_BIT | (grid_lin(m, top) * 64 + (uint64_t)code);
+    if (table_grow(m)) return 0;
+    edge_entry *e = edge_slot(m, key);
+    if (e->key) return 0;
+    e->key = key + 1;
+    e->v = NO_POINT;
+    m->tcount++;
+    m->st->tip_points++;
+    return 1;
 }
 
 /* Face points on the tetrahedron's faces and its cell point's fan (see "sharp features"). The
  * polygon: poly[0 .. n) in loop order, their edge keys, tet corners, positions and normals;
  * *done = 1 when the fan was emitted (else the caller emits the plain polygon). */
-static crisp_status feature_fan(mesher *m, const int i0[3], const int c3[3], const int tv[4], int n,
-                                const uint32_t poly[4], const uint64_t ekey[4],
-                                const int ecorner[4], float (*tp)[3], float (*tn)[3], int *done)
+static crisp_status feature_fan(mesher *m, const uint8_t *in, const int i0[3], const int c3[3],
+                                const int tv[4], int n, const uint32_t poly[4],
+                                const uint64_t ekey[4], const int ecorner[4], float (*tp)[3],
+                                float (*tn)[3], int *done)
 {
     uint32_t ext[8];
     float ep[8][3];
@@ -528,16 +635,26 @@ static crisp_status feature_fan(mesher *m, const int i0[3], const int c3[3], con
         }
     }
     if (!disagree && !nface) return CRISP_OK;
-    double T[4][3];
+    double T[4][3], p[3], l[4];
+    int G[4][3];
     for (int q = 0; q < 4; q++) {
         int o = tv[q];
-        int g[3] = {i0[0] + c3[0] + (o & 1), i0[1] + c3[1] + ((o >> 1) & 1),
-                    i0[2] + c3[2] + (o >> 2)};
+        G[q][0] = i0[0] + c3[0] + (o & 1), G[q][1] = i0[1] + c3[1] + ((o >> 1) & 1),
+        G[q][2] = i0[2] + c3[2] + (o >> 2);
         for (int k = 0; k < 3; k++)
-            T[q][k] = m->org[k] + g[k] * m->h;
+            T[q][k] = m->org[k] + G[q][k] * m->h;
     }
-    float cp[3];
-    cell_point((const double(*)[3])T, tp, tn, n, cp);
+    /* the cell point: the QEF point inside A, or in the tetrahedron beyond the face it lies
+     * behind (extend_into), else moved inside A */
+    qef_point(tp, tn, n, p);
+    barycentric((const double(*)[3])T, p, l);
+    int kmin = 0;
+    for (int q = 1; q < 4; q++)
+        if (l[q] < l[kmin]) kmin = q;
+    if (!(l[kmin] >= CELL_MARGIN) && !(l[kmin] < 0 && extend_into(m, in, i0, tv, (const int(*)[3])G,
+                                                                  (const double(*)[3])T, kmin, p)))
+        clamp_into((const double(*)[3])T, p);
+    float cp[3] = {(float)p[0], (float)p[1], (float)p[2]};
     crisp_status s = m->sink->vertex(m->sink->ctx, cp);
     if (s) return s;
     uint32_t c = (uint32_t)m->st->vertices++;
@@ -795,8 +912,8 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
 #undef EV
                     if (m->features) {
                         int done = 0;
-                        crisp_status s = feature_fan(m, i0, (int[3]){cx2, cy2, cz2}, tv, ntp, poly,
-                                                     ekey, ecorner, tp, tn, &done);
+                        crisp_status s = feature_fan(m, bl.in, i0, (int[3]){cx2, cy2, cz2}, tv, ntp,
+                                                     poly, ekey, ecorner, tp, tn, &done);
                         if (s) return s;
                         if (done) continue;
                     }
@@ -904,6 +1021,7 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     m.regs = crisp_malloc_array((size_t)t->registers * FREP_LANES, sizeof *m.regs);
     m.gregs = crisp_malloc_array((size_t)t->registers * 4 * FREP_LANES, sizeof *m.gregs);
     m.features = !desc->no_features && m.n <= (1 << 18); /* face keys fit in 63 bits */
+    m.no_tips = desc->no_tips;
     if (!m.regs || !m.gregs) {
         s = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_frep_mesh: out of memory");
         goto done;
