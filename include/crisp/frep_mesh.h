@@ -11,9 +11,10 @@
  * finest grid cubes of the octree's undecided cells, with each edge's vertex found on the
  * function by regula falsi; vertices are shared by edge, so the mesh is closed and manifold
  * by construction, and each triangle lies inside its tetrahedron, so triangles of different
- * tetrahedra meet only in shared edges and vertices. Where the surface normals in a tetrahedron
- * disagree (a crease or corner), its polygon is fanned from a feature point inside it when that
- * keeps the fan from folding.
+ * tetrahedra meet only in shared edges and vertices. Creases: a crease crossing a
+ * tetrahedron's face bends the face's path at a face point, and the polygon is fanned from a
+ * cell point (the QEF point of the tangent planes) strictly inside the tetrahedron, which cannot
+ * fold. Memory: the edge table keeps only the walk's front.
  */
 #ifndef CRISP_FREP_MESH_H
 #define CRISP_FREP_MESH_H

@@ -11,12 +11,12 @@
  * edge), so every mesh edge is shared by exactly two triangles; there are no ambiguous cases.
  * Dual contouring keeps sharp corners by moving vertices off the grid edges, which is what makes
  * its triangles cross (libfive issues 284 and 150); confining its vertex to the cell does not
- * prevent folds between neighbouring cells. Sharp features here: edge vertices lie on the surface
- * (regula falsi along the edge), and where the normals at a tetrahedron's edge vertices disagree
- * by more than 30 degrees its polygon is fanned from a feature point (the QEF point of their
- * tangent planes, as in Kobbelt's extended marching cubes), accepted only inside the
- * tetrahedron and only when no fan triangle turns against the polygon's normal, which keeps both
- * guarantees (feature_point). A feature thinner than the cell that no grid corner sees is
+ * prevent folds between neighbouring cells. Sharp features here ("sharp features" below):
+ * extended marching cubes (Kobbelt et al.) on the tetrahedra: face points where a crease crosses
+ * a tetrahedron's face, and a fan from a cell point strictly inside the tetrahedron (or inside
+ * the all-outside tetrahedron beside it that holds the crease's tip), which keeps both
+ * guarantees by construction (a fan from an interior point of a star-shaped cell over a simple
+ * curve on its boundary is embedded). A feature thinner than the cell that no grid corner sees is
  * reported (a cube whose centre differs in sign from its eight agreeing corners), not lost
  * silently.
  *
