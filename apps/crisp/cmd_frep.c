@@ -1,10 +1,14 @@
 /* crisp frep: render an f-rep model (.vm file or infix math string) to a PNG (2D image or 3D
- * heightmap shaded by its normals) and an EXR of depth and normals, or time the renderer. */
+ * heightmap shaded by its normals) and an EXR of depth and normals, time the renderer, mesh the
+ * part (crisp_frep_mesh) or measure it (crisp_frep_mass). Options by getopt_long per subcommand,
+ * values checked by cli.h (messages name the option). */
+#include <getopt.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "cli.h"
 #include "crisp/frep.h"
 #include "crisp/frep_mass.h"
 #include "crisp/frep_mesh.h"
@@ -13,29 +17,76 @@
 const char crisp_cmd_frep_help[] = "frep render|bench|mesh|mass FILE  render, mesh or measure an "
                                    "implicit model (.vm or math string)";
 
-static void usage(FILE *out)
-{
-    fprintf(
-        out,
-        "usage: crisp frep render FILE [--size N | --size WxH] [--3d [--depth D]]\n"
-        "                         [--region x0,x1,y0,y1[,z0,z1]] [-o out.png] [--depth-out "
-        "out.exr]\n"
-        "                         [--threads N] [--stats] [--no-prune] [--no-batch] "
-        "[--no-subcells]\n"
-        "                         [--brute]\n"
-        "       crisp frep bench FILE [same options] [--runs N]\n"
-        "       crisp frep mesh FILE -o out.stl|out.obj|out.ply [--resolution N | --cell SIZE]\n"
-        "                         [--region x0,x1,y0,y1,z0,z1]\n"
-        "       crisp frep mass FILE [--accuracy REL] [--time SECONDS] [--predict] [--level L]\n"
-        "                         [--seed N] [--region x0,x1,y0,y1,z0,z1]\n"
-        "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
-        "sqrt, min, max, ...; inside where the value is below 0), or '-e EXPR' for a string.\n"
-        "2D: 8-bit grayscale PNG, 255 inside (f < 0), size 1024. The default region is the part's\n"
-        "bounding box found by interval subdivision (an unbounded axis shows [-1, 1]).\n"
-        "3D: a heightmap seen from +Z, shaded by its normals; --depth-out writes Z and N.x N.y "
-        "N.z\n"
-        "(Z = -inf where nothing is hit). bench prints the median render time and set-up time.\n");
-}
+static const char usage_frep[] =
+    "usage: crisp frep render FILE [options]   render to a PNG (2D, or a 3D heightmap)\n"
+    "       crisp frep bench FILE [options]    time the renderer\n"
+    "       crisp frep mesh FILE -o OUT [options]   a watertight triangle mesh\n"
+    "       crisp frep mass FILE [options]     volume, area, centroid, inertia with error bars\n"
+    "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
+    "sqrt, min, max, ...; inside where the value is below 0); -e EXPR gives the string itself.\n"
+    "crisp frep SUBCOMMAND --help lists the subcommand's options.\n";
+
+static const char usage_render[] =
+    "usage: crisp frep render FILE [options]\n"
+    "       crisp frep bench FILE [options] [--runs N]\n"
+    "  Renders the part f < 0 by interval subdivision; bench renders N times and prints the\n"
+    "  median render and set-up times. Options (default in brackets):\n"
+    "  -e, --expr EXPR       the infix math string itself instead of FILE\n"
+    "  -o, --output FILE     PNG to write: 2D 8-bit grayscale, 255 inside; 3D shaded [none]\n"
+    "      --size N|WxH      image size, each 1..16384 [1024]\n"
+    "      --3d              a heightmap seen from +Z, shaded by its normals [2D]\n"
+    "      --depth D         3D: voxels along z, 1..65536 [max(W, H)]\n"
+    "      --region x0,x1,y0,y1[,z0,z1]\n"
+    "                        the region shown [the part's box by interval subdivision, padded\n"
+    "                        4%; an unbounded axis shows [-1, 1]]\n"
+    "      --depth-out FILE.exr  also write Z and N.x N.y N.z (Z = -inf where nothing) [none]\n"
+    "      --threads N       worker threads, 1..1024 [all cores]\n"
+    "      --runs N          bench: renders, 1..100000 [20]\n"
+    "      --stats           print counts and times [off]\n"
+    "      --no-prune        no tape shortening (for measuring it) [off]\n"
+    "      --no-batch        no batched intervals (for measuring them) [off]\n"
+    "      --no-subcells     no sub-cell intervals (for measuring them) [off]\n"
+    "      --brute           evaluate every sample (reference) [off]\n"
+    "  -h, --help            print this help and exit\n"
+    "  Exit status: 0 success, 1 bad input or failure, 2 bad usage.\n";
+
+static const char usage_mesh[] =
+    "usage: crisp frep mesh FILE -o OUT [options]\n"
+    "  A closed, 2-manifold, self-intersection-free triangle mesh of the part f < 0 (marching\n"
+    "  tetrahedra on the interval octree, with feature points at creases), streamed to OUT.\n"
+    "  Warns about features thinner than the cell and about a region that cuts the part (the\n"
+    "  mesh is then closed by its faces). Options (default in brackets):\n"
+    "  -e, --expr EXPR       the infix math string itself instead of FILE\n"
+    "  -o, --output OUT      .stl (binary), .obj or .ply (binary) [required]\n"
+    "      --resolution N    grid cells along the region's longest side, 4..1048574 [128]\n"
+    "      --cell SIZE       the grid cell's edge instead, > 0 [from --resolution]\n"
+    "      --region x0,x1,y0,y1,z0,z1\n"
+    "                        the region meshed [the part's box by interval subdivision]\n"
+    "      --max-memory MB   the mesher's edge table limit in MB, >= 1 [8192]\n"
+    "      --no-features     plain marching tetrahedra (no feature points) [off]\n"
+    "      --stats           print octree counts [off]\n"
+    "  -h, --help            print this help and exit\n"
+    "  Exit status: 0 success, 1 bad input or failure, 2 bad usage.\n";
+
+static const char usage_mass[] =
+    "usage: crisp frep mass FILE [options]\n"
+    "  Volume (with certified bounds), area, centroid and inertia tensor (about the centroid,\n"
+    "  density 1) with standard errors, by octree block decomposition and stratified Monte\n"
+    "  Carlo in the boundary cells (Clark, PADL-2). Levels 3.. are run until one takes 0.1 s;\n"
+    "  their costs and errors predict the finer levels (least squares), which picks the level.\n"
+    "  Options (default in brackets):\n"
+    "  -e, --expr EXPR       the infix math string itself instead of FILE\n"
+    "      --accuracy REL    relative standard error of the volume, in [1e-12, 1] [1e-3]\n"
+    "      --time SECONDS    the finest level predicted to fit in SECONDS, in [0.001, 1e7]\n"
+    "                        [unset: --accuracy decides]\n"
+    "      --predict         print the coarse levels and the predicted time and error of the\n"
+    "                        next four [off]\n"
+    "      --level L         run level L only (cells of the region / 2^L), 1..20 [predicted]\n"
+    "      --seed N          sampling seed, 0..2147483647 [1]\n"
+    "      --region x0,x1,y0,y1,z0,z1\n"
+    "                        the region measured [the part's box, padded 2%]\n"
+    "  -h, --help            print this help and exit\n"
+    "  Exit status: 0 success, 1 bad input or failure, 2 bad usage.\n";
 
 static int ends_with(const char *s, const char *t)
 {
@@ -79,9 +130,9 @@ static crisp_status fit_region(const crisp_frep_tape *tape, int is3d, crisp_frep
     for (int a = 0; a < 3; a++) {
         if (fit.unbounded & (1u << a)) {
             fprintf(stderr,
-                    "crisp frep: the part is not bounded in %c within [%g, %g]; showing %c in "
+                    "crisp %s: the part is not bounded in %c within [%g, %g]; showing %c in "
                     "[-1, 1] (give --region to choose)\n",
-                    axis[a], fit.search[2 * a], fit.search[2 * a + 1], axis[a]);
+                    cli_cmd, axis[a], fit.search[2 * a], fit.search[2 * a + 1], axis[a]);
             mid[a] = 0, ext[a] = 2;
         } else {
             mid[a] = 0.5 * (fit.box[2 * a] + fit.box[2 * a + 1]);
@@ -103,52 +154,43 @@ static crisp_status fit_region(const crisp_frep_tape *tape, int is3d, crisp_frep
     return CRISP_OK;
 }
 
-/* Numbers on the command line: the whole word must parse, and be finite and in range. */
-static int parse_long(const char *opt, const char *v, long lo, long hi, long *dest)
+/* --region: x0,x1,y0,y1,z0,z1 (or x0,x1,y0,y1 where `planar` allows it: z in [-1, 1]), each
+ * pair increasing. */
+static int parse_region(const char *v, int planar, double g[6])
 {
-    char *end;
-    long x = v ? strtol(v, &end, 10) : 0;
-    if (!v || end == v || *end || x < lo || x > hi) {
-        fprintf(stderr, "crisp frep: %s expects an integer in %ld..%ld, found '%s'\n", opt, lo, hi,
-                v ? v : "");
-        return 0;
-    }
-    *dest = x;
-    return 1;
-}
-
-static int parse_double(const char *opt, const char *v, double lo, double hi, double *dest)
-{
-    char *end;
-    double x = v ? strtod(v, &end) : 0;
-    if (!v || end == v || *end || !(x >= lo && x <= hi)) {
-        fprintf(stderr, "crisp frep: %s expects a number in [%g, %g], found '%s'\n", opt, lo, hi,
-                v ? v : "");
-        return 0;
-    }
-    *dest = x;
-    return 1;
-}
-
-/* x0,x1,y0,y1,z0,z1: six finite numbers, each pair increasing */
-static int parse_region(const char *v, double g[6])
-{
-    const char *p = v;
-    for (int k = 0; k < 6; k++) {
-        char *end;
-        g[k] = strtod(p, &end);
-        if (end == p || !isfinite(g[k]) || (k < 5 && *end != ',') || (k == 5 && *end)) {
-            fprintf(stderr, "crisp frep: --region expects x0,x1,y0,y1,z0,z1, found '%s'\n", v);
-            return 0;
-        }
-        p = end + 1;
-    }
+    int commas = 0;
+    for (const char *p = v; *p; p++)
+        commas += *p == ',';
+    int n = planar && commas == 3 ? 4 : 6;
+    if (!cli_doubles("--region", v, n, g)) return 0;
+    if (n == 4) g[4] = -1, g[5] = 1;
     for (int a = 0; a < 3; a++)
         if (!(g[2 * a] < g[2 * a + 1])) {
-            fprintf(stderr, "crisp frep: --region axis %c: [%g, %g] is empty\n", "xyz"[a], g[2 * a],
-                    g[2 * a + 1]);
+            fprintf(stderr, "crisp %s: --region %s: axis %c [%g, %g] is empty\n", cli_cmd, v,
+                    "xyz"[a], g[2 * a], g[2 * a + 1]);
             return 0;
         }
+    return 1;
+}
+
+/* FILE (one, after or among the options) or -e EXPR; 0 after a message. */
+static int take_file(int argc, char **argv, const char *expr, const char **file, const char *usage)
+{
+    if (optind < argc && expr) {
+        fprintf(stderr, "crisp %s: both FILE ('%s') and -e given: give one\n", cli_cmd,
+                argv[optind]);
+        return 0;
+    }
+    if (optind + 1 < argc) {
+        fprintf(stderr, "crisp %s: more than one FILE given ('%s', '%s')\n", cli_cmd, argv[optind],
+                argv[optind + 1]);
+        return 0;
+    }
+    if (optind >= argc && !expr) {
+        fprintf(stderr, "crisp %s: no FILE given\n%s", cli_cmd, usage);
+        return 0;
+    }
+    *file = optind < argc ? argv[optind] : NULL;
     return 1;
 }
 
@@ -166,41 +208,95 @@ static crisp_status load_model(const char *file, const char *expr, crisp_frep **
     return s;
 }
 
+enum {
+    OPT_SIZE = 256,
+    OPT_3D,
+    OPT_DEPTH,
+    OPT_REGION,
+    OPT_DEPTH_OUT,
+    OPT_THREADS,
+    OPT_RUNS,
+    OPT_STATS,
+    OPT_NO_PRUNE,
+    OPT_NO_BATCH,
+    OPT_NO_SUBCELLS,
+    OPT_BRUTE,
+    OPT_RESOLUTION,
+    OPT_CELL,
+    OPT_MAXMEM,
+    OPT_NO_FEATURES,
+    OPT_ACCURACY,
+    OPT_TIME,
+    OPT_PREDICT,
+    OPT_LEVEL,
+    OPT_SEED
+};
+
+/* argv[0] is the subcommand; getopt_long from argv[1]. */
+static void getopt_start(void)
+{
+    optind = 0; /* GNU getopt: start afresh */
+    opterr = 0;
+}
+
 static int cmd_mesh(int argc, char **argv)
 {
+    static const struct option opts[] = {{"expr", required_argument, 0, 'e'},
+                                         {"output", required_argument, 0, 'o'},
+                                         {"resolution", required_argument, 0, OPT_RESOLUTION},
+                                         {"cell", required_argument, 0, OPT_CELL},
+                                         {"region", required_argument, 0, OPT_REGION},
+                                         {"max-memory", required_argument, 0, OPT_MAXMEM},
+                                         {"no-features", no_argument, 0, OPT_NO_FEATURES},
+                                         {"stats", no_argument, 0, OPT_STATS},
+                                         {"help", no_argument, 0, 'h'},
+                                         {0, 0, 0, 0}};
     const char *file = NULL, *expr = NULL, *out = NULL;
     crisp_frep_mesh_desc desc = {0};
-    int stats = 0;
-    for (int i = 2; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        long n;
-        if (!strcmp(a, "-o") && v) {
-            out = v, i++;
-        } else if (!strcmp(a, "--resolution") && v) {
-            if (!parse_long(a, v, 4, 1 << 20, &n)) return 2;
-            desc.resolution = (int)n, i++;
-        } else if (!strcmp(a, "--cell") && v) {
-            if (!parse_double(a, v, 1e-30, 1e30, &desc.cell)) return 2;
-            if (!(desc.cell > 0)) return 2;
-            i++;
-        } else if (!strcmp(a, "--region") && v) {
-            if (!parse_region(v, desc.region)) return 2;
-            i++;
-        } else if (!strcmp(a, "--stats")) {
+    int stats = 0, c;
+    getopt_start();
+    while ((c = getopt_long(argc, argv, ":e:o:h", opts, NULL)) != -1) {
+        switch (c) {
+        case 'e':
+            expr = optarg;
+            break;
+        case 'o':
+            out = optarg;
+            break;
+        case OPT_RESOLUTION:
+            if (!cli_int("--resolution", optarg, 4, (1 << 20) - 2, &desc.resolution)) return 2;
+            break;
+        case OPT_CELL:
+            if (!cli_double("--cell", optarg, 0, INFINITY, 1, 1, &desc.cell)) return 2;
+            break;
+        case OPT_REGION:
+            if (!parse_region(optarg, 0, desc.region)) return 2;
+            break;
+        case OPT_MAXMEM:
+            if (!cli_double("--max-memory", optarg, 1, 1e9, 0, 0, &desc.max_megabytes)) return 2;
+            break;
+        case OPT_NO_FEATURES:
+            desc.no_features = 1;
+            break;
+        case OPT_STATS:
             stats = 1;
-        } else if (!strcmp(a, "-e") && v) {
-            expr = v, i++;
-        } else if (a[0] != '-' && !file) {
-            file = a;
-        } else {
-            fprintf(stderr, "crisp frep mesh: unknown or incomplete option '%s'\n", a);
-            usage(stderr);
+            break;
+        case 'h':
+            fputs(usage_mesh, stdout);
+            return 0;
+        default:
+            cli_bad_option(c, argv);
             return 2;
         }
     }
-    if ((!file && !expr) || !out) {
-        fprintf(stderr, "crisp frep mesh: %s\n",
-                !out ? "no output given (-o out.stl|.obj|.ply)" : "no FILE given");
+    if (!take_file(argc, argv, expr, &file, usage_mesh)) return 2;
+    if (!out) {
+        fprintf(stderr, "crisp frep mesh: no output given (-o out.stl, out.obj or out.ply)\n");
+        return 2;
+    }
+    if (!ends_with(out, ".stl") && !ends_with(out, ".obj") && !ends_with(out, ".ply")) {
+        fprintf(stderr, "crisp frep mesh: -o %s: expected a name ending in .stl, .obj or .ply\n",
+                out);
         return 2;
     }
     crisp_frep *f = NULL;
@@ -301,44 +397,76 @@ static void print_level(const crisp_frep_mass *m)
            m->cpu_seconds, m->volume, m->volume_se, m->volume_lo, m->volume_hi);
 }
 
+/* One level; a region that cuts the part is a warning (once): the results are those of the part
+ * within the region. */
+static crisp_status mass_level(const crisp_frep_tape *tape, const crisp_frep_mass_desc *desc,
+                               crisp_frep_mass *dest, int *warned)
+{
+    crisp_status s = crisp_frep_mass_level(tape, desc, dest);
+    if (s && dest->cut_cells) {
+        if (!*warned) fprintf(stderr, "crisp frep mass: warning: %s\n", crisp_error_message());
+        *warned = 1;
+        crisp_error_clear();
+        s = CRISP_OK;
+    }
+    return s;
+}
+
 static int cmd_mass(int argc, char **argv)
 {
+    static const struct option opts[] = {{"expr", required_argument, 0, 'e'},
+                                         {"accuracy", required_argument, 0, OPT_ACCURACY},
+                                         {"time", required_argument, 0, OPT_TIME},
+                                         {"predict", no_argument, 0, OPT_PREDICT},
+                                         {"level", required_argument, 0, OPT_LEVEL},
+                                         {"seed", required_argument, 0, OPT_SEED},
+                                         {"region", required_argument, 0, OPT_REGION},
+                                         {"help", no_argument, 0, 'h'},
+                                         {0, 0, 0, 0}};
     const char *file = NULL, *expr = NULL;
     double accuracy = 0, time_limit = 0;
-    int predict = 0;
-    long level = 0, seed = 1;
+    int predict = 0, level = 0, seed = 1, c, warned = 0;
     crisp_frep_mass_desc desc = {0};
-    for (int i = 2; i < argc; i++) {
-        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        if (!strcmp(a, "--accuracy") && v) {
-            if (!parse_double(a, v, 1e-12, 1, &accuracy)) return 2;
-            i++;
-        } else if (!strcmp(a, "--time") && v) {
-            if (!parse_double(a, v, 1e-3, 1e7, &time_limit)) return 2;
-            i++;
-        } else if (!strcmp(a, "--level") && v) {
-            if (!parse_long(a, v, 1, 20, &level)) return 2;
-            i++;
-        } else if (!strcmp(a, "--seed") && v) {
-            if (!parse_long(a, v, 0, 2147483647L, &seed)) return 2;
-            i++;
-        } else if (!strcmp(a, "--region") && v) {
-            if (!parse_region(v, desc.region)) return 2;
-            i++;
-        } else if (!strcmp(a, "--predict")) {
+    getopt_start();
+    while ((c = getopt_long(argc, argv, ":e:h", opts, NULL)) != -1) {
+        switch (c) {
+        case 'e':
+            expr = optarg;
+            break;
+        case OPT_ACCURACY:
+            if (!cli_double("--accuracy", optarg, 1e-12, 1, 0, 0, &accuracy)) return 2;
+            break;
+        case OPT_TIME:
+            if (!cli_double("--time", optarg, 1e-3, 1e7, 0, 0, &time_limit)) return 2;
+            break;
+        case OPT_PREDICT:
             predict = 1;
-        } else if (!strcmp(a, "-e") && v) {
-            expr = v, i++;
-        } else if (a[0] != '-' && !file) {
-            file = a;
-        } else {
-            fprintf(stderr, "crisp frep mass: unknown or incomplete option '%s'\n", a);
-            usage(stderr);
+            break;
+        case OPT_LEVEL:
+            if (!cli_int("--level", optarg, 1, 20, &level)) return 2;
+            break;
+        case OPT_SEED:
+            if (!cli_int("--seed", optarg, 0, 2147483647L, &seed)) return 2;
+            break;
+        case OPT_REGION:
+            if (!parse_region(optarg, 0, desc.region)) return 2;
+            break;
+        case 'h':
+            fputs(usage_mass, stdout);
+            return 0;
+        default:
+            cli_bad_option(c, argv);
             return 2;
         }
     }
-    if (!file && !expr) {
-        fprintf(stderr, "crisp frep mass: no FILE given\n");
+    if (!take_file(argc, argv, expr, &file, usage_mass)) return 2;
+    if (level && (accuracy || time_limit || predict)) {
+        fprintf(stderr, "crisp frep mass: --level runs one level: it does not go with --accuracy, "
+                        "--time or --predict\n");
+        return 2;
+    }
+    if (accuracy && time_limit) {
+        fprintf(stderr, "crisp frep mass: --accuracy and --time both pick the level: give one\n");
         return 2;
     }
     if (!accuracy && !time_limit && !level) accuracy = 1e-3;
@@ -365,17 +493,19 @@ static int cmd_mass(int argc, char **argv)
     if (!target) {
         for (int L = 3; L <= 20; L++) {
             desc.level = L;
-            s = crisp_frep_mass_level(tape, &desc, &lv[L]);
+            s = mass_level(tape, &desc, &lv[L], &warned);
             if (s) goto fail;
             spent += lv[L].seconds;
             n = L;
             if (predict) print_level(&lv[L]);
             double rel = lv[L].volume_se / fabs(lv[L].volume);
             if (accuracy && rel <= accuracy && !predict) break;
-            if (L >= 5 && (lv[L].seconds > 0.1 || L >= 7)) break;
+            /* enough to fit: a level costing 0.1 s besides the region check (the same at every
+             * level), or level 7 */
+            if (L >= 5 && (lv[L].cpu_seconds - lv[L].cpu_fixed > 0.1 || L >= 7)) break;
         }
         /* Clark: the coarse levels' cells, time and error predict the finer ones */
-        int first = n - 2 >= 3 ? n - 2 : 3;
+        int first = 3; /* every coarse level: a least-squares fit */
         double gc = (double)lv[n].boundary_cells /
                     (double)(lv[n - 1].boundary_cells ? lv[n - 1].boundary_cells : 1);
         double K = (double)lv[n].boundary_cells / pow(4.0, n);
@@ -423,7 +553,7 @@ static int cmd_mass(int argc, char **argv)
         r = lv[n];
     } else {
         desc.level = target;
-        s = crisp_frep_mass_level(tape, &desc, &r);
+        s = mass_level(tape, &desc, &r, &warned);
         if (s) goto fail;
         if (predict) print_level(&r);
     }
@@ -454,96 +584,136 @@ done:
     return rc;
 }
 
+static int cmd_render(int argc, char **argv, int bench);
+
 int crisp_cmd_frep(int argc, char **argv)
 {
-    if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
-        usage(argc < 2 ? stderr : stdout);
-        return argc < 2 ? 2 : 0;
-    }
-    /* --help anywhere after the subcommand: the usage, exit 0 (issue 16) */
-    for (int i = 2; i < argc; i++)
-        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
-            usage(stdout);
-            return 0;
-        }
-    if (!strcmp(argv[1], "mesh")) return cmd_mesh(argc, argv);
-    if (!strcmp(argv[1], "mass")) return cmd_mass(argc, argv);
-    const char *mode = argv[1], *file = NULL, *expr = NULL, *out = NULL, *depth_out = NULL;
-    int bench = !strcmp(mode, "bench");
-    if (!bench && strcmp(mode, "render")) {
-        fprintf(stderr, "crisp frep: unknown mode '%s' (expected render, bench, mesh or mass)\n",
-                mode);
+    cli_cmd = "frep";
+    if (argc < 2) {
+        fputs(usage_frep, stderr);
         return 2;
     }
+    if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
+        fputs(usage_frep, stdout);
+        return 0;
+    }
+    static const char *const names[4] = {"frep render", "frep bench", "frep mesh", "frep mass"};
+    for (int k = 0; k < 4; k++)
+        if (!strcmp(argv[1], names[k] + 5)) {
+            cli_cmd = names[k];
+            /* getopt_long sees the subcommand as argv[0] */
+            switch (k) {
+            case 0:
+            case 1:
+                return cmd_render(argc - 1, argv + 1, k == 1);
+            case 2:
+                return cmd_mesh(argc - 1, argv + 1);
+            default:
+                return cmd_mass(argc - 1, argv + 1);
+            }
+        }
+    fprintf(stderr,
+            "crisp frep: unknown subcommand '%s' (expected render, bench, mesh or mass)\n%s",
+            argv[1], usage_frep);
+    return 2;
+}
+
+static int cmd_render(int argc, char **argv, int bench)
+{
+    static const struct option opts[] = {{"expr", required_argument, 0, 'e'},
+                                         {"output", required_argument, 0, 'o'},
+                                         {"size", required_argument, 0, OPT_SIZE},
+                                         {"3d", no_argument, 0, OPT_3D},
+                                         {"depth", required_argument, 0, OPT_DEPTH},
+                                         {"region", required_argument, 0, OPT_REGION},
+                                         {"depth-out", required_argument, 0, OPT_DEPTH_OUT},
+                                         {"threads", required_argument, 0, OPT_THREADS},
+                                         {"runs", required_argument, 0, OPT_RUNS},
+                                         {"stats", no_argument, 0, OPT_STATS},
+                                         {"no-prune", no_argument, 0, OPT_NO_PRUNE},
+                                         {"no-batch", no_argument, 0, OPT_NO_BATCH},
+                                         {"no-subcells", no_argument, 0, OPT_NO_SUBCELLS},
+                                         {"brute", no_argument, 0, OPT_BRUTE},
+                                         {"help", no_argument, 0, 'h'},
+                                         {0, 0, 0, 0}};
+    const char *file = NULL, *expr = NULL, *out = NULL, *depth_out = NULL;
     crisp_frep_render_desc desc = {.width = 1024, .height = 1024};
-    int is3d = 0, depth = 0, stats = 0, runs = 20, region_given = 0;
-    for (int i = 2; i < argc; i++) {
-        const char *a = argv[i];
-        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-        if (!strcmp(a, "--size") && v) {
-            int w, h;
-            char c;
-            if (sscanf(v, "%dx%d%c", &w, &h, &c) == 2)
-                desc.width = w, desc.height = h;
-            else if (sscanf(v, "%d%c", &w, &c) == 1)
-                desc.width = desc.height = w;
-            else {
-                fprintf(stderr, "crisp frep: --size expects N or WxH, found '%s'\n", v);
-                return 2;
+    int is3d = 0, depth = 0, stats = 0, runs = 20, region_given = 0, c;
+    getopt_start();
+    while ((c = getopt_long(argc, argv, ":e:o:h", opts, NULL)) != -1) {
+        switch (c) {
+        case 'e':
+            expr = optarg;
+            break;
+        case 'o':
+            out = optarg;
+            break;
+        case OPT_SIZE:
+            if (strchr(optarg, 'x') || strchr(optarg, 'X')) {
+                if (!cli_size("--size", optarg, 16384, &desc.width, &desc.height)) return 2;
+            } else {
+                if (!cli_int("--size", optarg, 1, 16384, &desc.width)) return 2;
+                desc.height = desc.width;
             }
-            i++;
-        } else if (!strcmp(a, "--3d")) {
+            break;
+        case OPT_3D:
             is3d = 1;
-        } else if (!strcmp(a, "--depth") && v) {
-            depth = atoi(v), i++;
-        } else if (!strcmp(a, "--region") && v) {
-            double g[6] = {0};
-            int n = sscanf(v, "%lf,%lf,%lf,%lf,%lf,%lf", &g[0], &g[1], &g[2], &g[3], &g[4], &g[5]);
-            if (n != 4 && n != 6) {
-                fprintf(stderr, "crisp frep: --region expects x0,x1,y0,y1[,z0,z1], found '%s'\n",
-                        v);
-                return 2;
-            }
-            if (n == 4) g[4] = -1, g[5] = 1;
-            memcpy(desc.region, g, sizeof g);
+            break;
+        case OPT_DEPTH:
+            if (!cli_int("--depth", optarg, 1, 65536, &depth)) return 2;
+            break;
+        case OPT_REGION:
+            if (!parse_region(optarg, 1, desc.region)) return 2;
             region_given = 1;
-            i++;
-        } else if (!strcmp(a, "-o") && v) {
-            out = v, i++;
-        } else if (!strcmp(a, "--depth-out") && v) {
-            depth_out = v, i++;
-        } else if (!strcmp(a, "--threads") && v) {
-            desc.threads = atoi(v), i++;
-        } else if (!strcmp(a, "--runs") && v) {
-            runs = atoi(v), i++;
-        } else if (!strcmp(a, "--stats")) {
+            break;
+        case OPT_DEPTH_OUT:
+            depth_out = optarg;
+            break;
+        case OPT_THREADS:
+            if (!cli_int("--threads", optarg, 1, 1024, &desc.threads)) return 2;
+            break;
+        case OPT_RUNS:
+            if (!cli_int("--runs", optarg, 1, 100000, &runs)) return 2;
+            break;
+        case OPT_STATS:
             stats = 1;
-        } else if (!strcmp(a, "--no-prune")) {
+            break;
+        case OPT_NO_PRUNE:
             desc.flags |= CRISP_FREP_NO_PRUNE;
-        } else if (!strcmp(a, "--no-subcells")) {
+            break;
+        case OPT_NO_SUBCELLS:
             desc.flags |= CRISP_FREP_NO_SUBCELLS;
-        } else if (!strcmp(a, "--no-batch")) {
+            break;
+        case OPT_NO_BATCH:
             desc.flags |= CRISP_FREP_NO_BATCH;
-        } else if (!strcmp(a, "--brute")) {
+            break;
+        case OPT_BRUTE:
             desc.flags |= CRISP_FREP_BRUTE;
-        } else if (!strcmp(a, "-e") && v) {
-            expr = v, i++;
-        } else if (a[0] != '-' && !file) {
-            file = a;
-        } else {
-            fprintf(stderr, "crisp frep: unknown or incomplete option '%s'\n", a);
-            usage(stderr);
+            break;
+        case 'h':
+            fputs(usage_render, stdout);
+            return 0;
+        default:
+            cli_bad_option(c, argv);
             return 2;
         }
     }
-    if (!file && !expr) {
-        fprintf(stderr, "crisp frep: no FILE given\n");
+    if (!take_file(argc, argv, expr, &file, usage_render)) return 2;
+    if (out && !ends_with(out, ".png")) {
+        fprintf(stderr, "crisp %s: -o %s: expected a name ending in .png\n", cli_cmd, out);
+        return 2;
+    }
+    if (depth_out && !ends_with(depth_out, ".exr")) {
+        fprintf(stderr, "crisp %s: --depth-out %s: expected a name ending in .exr\n", cli_cmd,
+                depth_out);
+        return 2;
+    }
+    if (depth && !is3d) {
+        fprintf(stderr, "crisp %s: --depth %d needs --3d\n", cli_cmd, depth);
         return 2;
     }
     if (is3d)
         desc.depth = depth > 0 ? depth : (desc.width > desc.height ? desc.width : desc.height);
-    if (runs < 1) runs = 1;
-
     int nsetup = bench ? runs : 1;
     double *setup = calloc((size_t)nsetup, sizeof *setup),
            *render = calloc((size_t)runs, sizeof *render);
@@ -569,7 +739,7 @@ int crisp_cmd_frep(int argc, char **argv)
         if (!s && !region_given && n == 0) s = fit_region(tape, is3d, &desc);
         if (!s) s = crisp_frep_renderer_create(tape, &desc, &r);
         if (s) {
-            fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
+            fprintf(stderr, "crisp %s: %s\n", cli_cmd, crisp_error_message());
             goto done;
         }
         setup[n] = crisp_time_now() - t0;
@@ -579,7 +749,7 @@ int crisp_cmd_frep(int argc, char **argv)
         crisp_status s = crisp_frep_renderer_run(r);
         render[n] = crisp_time_now() - t0;
         if (s) {
-            fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
+            fprintf(stderr, "crisp %s: %s\n", cli_cmd, crisp_error_message());
             goto done;
         }
     }
@@ -589,8 +759,8 @@ int crisp_cmd_frep(int argc, char **argv)
         inside += img->inside[p] != 0;
     if (!inside)
         fprintf(stderr,
-                "crisp frep: empty image: no sample of [%g, %g] x [%g, %g]%s is inside the part\n",
-                desc.region[0], desc.region[1], desc.region[2], desc.region[3],
+                "crisp %s: empty image: no sample of [%g, %g] x [%g, %g]%s is inside the part\n",
+                cli_cmd, desc.region[0], desc.region[1], desc.region[2], desc.region[3],
                 is3d ? " x [z]" : "");
     if (bench) {
         qsort(render, (size_t)runs, sizeof *render, cmp_double);
@@ -632,7 +802,7 @@ int crisp_cmd_frep(int argc, char **argv)
             free(shade);
         }
         if (s) {
-            fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
+            fprintf(stderr, "crisp %s: %s\n", cli_cmd, crisp_error_message());
             goto done;
         }
     }
@@ -648,7 +818,7 @@ int crisp_cmd_frep(int argc, char **argv)
         crisp_status s = crisp_write_exr(depth_out, img->width, img->height, 4, names, buf);
         free(buf);
         if (s) {
-            fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
+            fprintf(stderr, "crisp %s: %s\n", cli_cmd, crisp_error_message());
             goto done;
         }
     }

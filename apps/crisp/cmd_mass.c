@@ -35,12 +35,18 @@ int crisp_cmd_mass(int argc, char **argv)
     printf("%s: %d faces\n", argv[1], m->face_count);
     printf("area      %.15g (+- %.2g)\n", p.area, p.area_err);
     if (!p.closed) {
-        fprintf(
-            stderr,
-            "crisp mass: warning: the model is not closed (the faces' vector area is %g, %g, %g "
-            "against an area of %g): no volume, centroid or inertia\n",
-            p.vector_area[0], p.vector_area[1], p.vector_area[2], p.area);
+        fprintf(stderr,
+                "crisp mass: warning: the model is not a closed shell (the faces' vector "
+                "area is %g, %g, %g against an area of %g; the volume along x, y, z: %g, %g, %g): "
+                "no volume, centroid or inertia\n",
+                p.vector_area[0], p.vector_area[1], p.vector_area[2], p.area, p.axis_volume[0],
+                p.axis_volume[1], p.axis_volume[2]);
     } else {
+        if (!(p.volume > 0))
+            fprintf(stderr,
+                    "crisp mass: warning: the shell is closed but its faces point inwards (volume "
+                    "%g): the reader's face orientation is turned\n",
+                    p.volume);
         printf("volume    %.15g (+- %.2g)\n", p.volume, p.volume_err);
         printf("centroid  %.15g %.15g %.15g\n", p.centroid[0], p.centroid[1], p.centroid[2]);
         printf("inertia about the centroid (density 1): Ixx Iyy Izz Ixy Iyz Ixz (+- %.2g)\n  ",

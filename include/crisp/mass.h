@@ -28,19 +28,25 @@ typedef struct crisp_mass_desc {
 } crisp_mass_desc;
 
 typedef struct crisp_mass_props {
-    int closed; /* the faces' vector area vanishes (a closed, consistently oriented shell) */
+    int closed; /* a closed shell: the faces' vector area vanishes, and the volume taken along
+                   each axis (integrals of x n_x, y n_y, z n_z) agrees (volume < 0: the faces
+                   point inwards) */
     double area, volume;
     double centroid[3];
     /* about the centroid, density 1: Ixx Iyy Izz Ixy Iyz Ixz with Ixy = -integral of x y */
     double inertia[6];
     double vector_area[3]; /* integral of n dA over all faces (0 for a closed shell) */
-    double area_err, volume_err, inertia_err; /* estimates from two quadrature orders */
-    size_t evaluations;                       /* surface evaluations */
+    double axis_volume[3]; /* integrals of x n_x, y n_y, z n_z (each the volume when closed) */
+    /* estimates from two quadrature orders; volume_err adds the closure gap (the axis volumes'
+     * largest difference from the volume) */
+    double area_err, volume_err, inertia_err;
+    size_t evaluations; /* surface evaluations */
 } crisp_mass_props;
 
 /* Every face's outward normal is S_u x S_v, or its negative when face->reversed. A model that is
- * not closed (|vector area| > 1e-7 area) gets its area and closed = 0; its volume terms are
- * then meaningless and left 0. */
+ * not closed (|vector area| > 1e-7 area, or the axis volumes differing by more than 1e-7 area x
+ * the box's size) gets its area and closed = 0; its volume terms are then meaningless and left
+ * 0. */
 crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
                               crisp_mass_props *dest);
 
