@@ -190,16 +190,17 @@ typedef struct skip_ctx {
     const crisp_scene *sc;
     double off[16][2];
     int samples;
+    int win[4]; /* the pixels drawn: x0, y0, width, height */
 } skip_ctx;
 
-static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2], int width,
-                        int height)
+static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2])
 {
+    const int *w = c->win;
     for (int s = 0; s < c->samples; s++) {
-        double i0 = fmax(ceil(lo[0] - c->off[s][0]), 0),
-               i1 = fmin(floor(hi[0] - c->off[s][0]), width - 1);
-        double j0 = fmax(ceil(lo[1] - c->off[s][1]), 0),
-               j1 = fmin(floor(hi[1] - c->off[s][1]), height - 1);
+        double i0 = fmax(ceil(lo[0] - c->off[s][0]), w[0]),
+               i1 = fmin(floor(hi[0] - c->off[s][0]), w[0] + w[2] - 1);
+        double j0 = fmax(ceil(lo[1] - c->off[s][1]), w[1]),
+               j1 = fmin(floor(hi[1] - c->off[s][1]), w[1] + w[3] - 1);
         if (i0 <= i1 && j0 <= j1) return 1;
     }
     return 0;
@@ -241,7 +242,7 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
         /* Widen by the snapping (1/512 px) and rounding, generously. */
         double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
         lo[0] -= pad, lo[1] -= pad, hi[0] += pad, hi[1] += pad;
-        r->leaf_skip[j] = front && !holds_sample(c, lo, hi, plan->width, plan->height);
+        r->leaf_skip[j] = front && !holds_sample(c, lo, hi);
     }
 }
 
@@ -315,6 +316,7 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
     for (size_t j = begin; j < end; j++)
         for (int i = 0; i < t->width; i++) {
             size_t px = j * (size_t)t->width + (size_t)i;
+            int gi = t->x0 + i, gj = t->y0 + (int)j; /* the pixel in the whole image */
             float acc[4] = {0, 0, 0, 0};
             int covered = 0, best = -1;
             double best_iw = 0;
@@ -325,8 +327,8 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
                 if (t->inv_w[idx] > best_iw) best_iw = t->inv_w[idx], best = s;
                 double off[2], d[3], n[3];
                 crisp__raster_sample_offset(S, s, off);
-                double nx = (i + off[0] - 0.5 * cam->width) * kx,
-                       ny = (0.5 * cam->height - j - off[1]) * ky;
+                double nx = (gi + off[0] - 0.5 * cam->width) * kx,
+                       ny = (0.5 * cam->height - gj - off[1]) * ky;
                 for (int k = 0; k < 3; k++)
                     d[k] = f[k] + nx * r[k] + ny * u[k];
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
@@ -369,11 +371,27 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
                                    const crisp_frame_plan *plan, const crisp_camera *cam,
                                    crisp_image *img, crisp_render_stats *stats)
 {
-    if (img->width != plan->width || img->height != plan->height || cam->width != plan->width ||
+    return crisp__render_cpu_window(r, sc, plan, cam, NULL, img, stats);
+}
+
+crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
+                                      const crisp_frame_plan *plan, const crisp_camera *cam,
+                                      const int window[4], crisp_image *img,
+                                      crisp_render_stats *stats)
+{
+    int win[4] = {0, 0, plan->width, plan->height};
+    if (window) memcpy(win, window, sizeof win);
+    if (img->width != win[2] || img->height != win[3] || cam->width != plan->width ||
         cam->height != plan->height)
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "image %dx%d and camera %dx%d do not match the plan's %dx%d", img->width,
                            img->height, cam->width, cam->height, plan->width, plan->height);
+    if (win[0] < 0 || win[1] < 0 || win[2] < 1 || win[3] < 1 || win[0] + win[2] > plan->width ||
+        win[1] + win[3] > plan->height || win[0] % 8 || win[1] % 8)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "window %dx%d at (%d, %d) of the %dx%d frame: expected a window inside "
+                           "the frame at a multiple of 8",
+                           win[2], win[3], win[0], win[1], plan->width, plan->height);
     if (plan->face_count != sc->face_count)
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "the plan has %u faces, the scene %u: not the scene's plan",
@@ -393,7 +411,8 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     if ((st = crisp_grow((void **)&r->leaf_skip, &r->leaf_skip_cap, jobs ? jobs : 1,
                          sizeof *r->leaf_skip)))
         return st;
-    skip_ctx skc = {.r = r, .sc = sc, .samples = r->desc.samples};
+    skip_ctx skc = {.r = r, .sc = sc, .samples = r->desc.samples, .win = {0}};
+    memcpy(skc.win, win, sizeof win);
     for (int s = 0; s < r->desc.samples; s++)
         crisp__raster_sample_offset(r->desc.samples, s, skc.off[s]);
     crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
@@ -431,7 +450,10 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
 
     crisp_raster_view view; /* for the ribbons' depth slack and the resolve's shading */
     raster_view(cam, &view);
-    if ((st = crisp__raster_target_init(&r->target, cam->width, cam->height, r->desc.samples)))
+    if ((st = crisp__raster_target_init(&r->target, win[2], win[3], r->desc.samples)) ||
+        (st = window
+                  ? crisp__raster_target_window(&r->target, win[0], win[1], cam->width, cam->height)
+                  : crisp__raster_target_window(&r->target, 0, 0, 0, 0)))
         return st;
     crisp__raster_target_clear(&r->target);
     crisp_raster_stats rs;
@@ -450,7 +472,7 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
                             trim_test, ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {
-        size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
+        size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
         crisp__raster_depth_slack(&r->target, r->pool, 1.5, &view, r->slack);
         crisp_raster_stats rs2;
@@ -464,7 +486,7 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     double t2 = crisp_time_now();
     crisp__image_clear(img);
     resolve_ctx rc = {r, sc, cam, view, img};
-    crisp_pool_parallel_for(r->pool, (size_t)cam->height, 8, resolve_rows, &rc);
+    crisp_pool_parallel_for(r->pool, (size_t)win[3], 8, resolve_rows, &rc);
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);
     stats->vertices = surface_v;
