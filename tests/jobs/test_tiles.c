@@ -13,6 +13,7 @@
 #include <cmocka.h>
 
 #include "crisp/app.h"
+#include "crisp/frep.h"
 
 static void check_windows(const char *path, int width, int height, int samples)
 {
@@ -83,9 +84,78 @@ static void test_scene_tiles(void **state)
     check_windows(CRISP_DATA_DIR "/scenes/teapot_frep.scene", 300, 170, 4);
 }
 
+/* crisp frep render's windows: 2D images and 3D heightmaps, every output (inside, heights, z,
+ * normals) bit for bit. */
+static void check_frep_windows(const char *path, int width, int height, int depth)
+{
+    crisp_frep *f = NULL;
+    crisp_frep_tape *tape = NULL;
+    assert_int_equal(crisp_frep_read_vm(path, &f), CRISP_OK);
+    assert_int_equal(crisp_frep_tape_create(f, &tape), CRISP_OK);
+    crisp_frep_render_desc d = {.width = width, .height = height, .depth = depth, .threads = 2};
+    crisp_frep_renderer *r = NULL;
+    assert_int_equal(crisp_frep_renderer_create(tape, &d, &r), CRISP_OK);
+    assert_int_equal(crisp_frep_renderer_run(r), CRISP_OK);
+    const crisp_frep_image *full = crisp_frep_renderer_image(r);
+    size_t inside = 0;
+    for (int p = 0; p < width * height; p++)
+        inside += full->inside[p] != 0;
+    assert_true(inside > (size_t)(width * height) / 50);
+    const int wins[][4] = {{0, 0, 64, 64},
+                           {37, 11, 101, 77},
+                           {width - 45, height - 33, 45, 33},
+                           {width / 2, 0, width - width / 2, height / 3},
+                           {width / 2 + 3, height / 2 + 5, 1, 1},
+                           {0, height / 2, width, 7}};
+    for (size_t k = 0; k < sizeof wins / sizeof wins[0]; k++) {
+        const int *w = wins[k];
+        crisp_frep_render_desc dw = d;
+        memcpy(dw.window, w, sizeof dw.window);
+        dw.threads = 1 + (int)(k % 2);
+        crisp_frep_renderer *rw = NULL;
+        assert_int_equal(crisp_frep_renderer_create(tape, &dw, &rw), CRISP_OK);
+        assert_int_equal(crisp_frep_renderer_run(rw), CRISP_OK);
+        const crisp_frep_image *t = crisp_frep_renderer_image(rw);
+        assert_int_equal(t->width, w[2]);
+        assert_int_equal(t->height, w[3]);
+        size_t bad = 0;
+        for (int j = 0; j < w[3]; j++) {
+            size_t s = (size_t)(j + w[1]) * width + w[0], o = (size_t)j * w[2], n = (size_t)w[2];
+            bad += memcmp(t->inside + o, full->inside + s, n) != 0;
+            if (depth) {
+                bad += memcmp(t->heights + o, full->heights + s, n * sizeof(int32_t)) != 0;
+                bad += memcmp(t->z + o, full->z + s, n * sizeof(float)) != 0;
+                bad += memcmp(t->normal + 3 * o, full->normal + 3 * s, 3 * n * sizeof(float)) != 0;
+            }
+        }
+        if (bad)
+            fprintf(stderr, "%s: window %dx%d at (%d, %d), depth %d: %zu rows differ\n", path,
+                    w[2], w[3], w[0], w[1], depth, bad);
+        assert_int_equal(bad, 0);
+        crisp_frep_renderer_destroy(rw);
+    }
+    crisp_frep_render_desc bad = d;
+    bad.window[0] = width - 3, bad.window[2] = 4, bad.window[3] = 1;
+    crisp_frep_renderer *rb = NULL;
+    assert_int_equal(crisp_frep_renderer_create(tape, &bad, &rb), CRISP_ERR_INVALID_ARG);
+    crisp_frep_renderer_destroy(r);
+    crisp_frep_tape_destroy(tape);
+    crisp_frep_destroy(f);
+}
+
+static void test_frep_tiles(void **state)
+{
+    (void)state;
+    check_frep_windows(CRISP_DATA_DIR "/frep/prospero.vm", 517, 389, 0);
+    check_frep_windows(CRISP_DATA_DIR "/frep/quarter.vm", 300, 300, 0);
+    check_frep_windows(CRISP_DATA_DIR "/frep/tanglecube.vm", 256, 200, 256);
+    check_frep_windows(CRISP_DATA_DIR "/frep/bear.vm", 200, 230, 160);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_model_tiles),
-                                       cmocka_unit_test(test_scene_tiles)};
+                                       cmocka_unit_test(test_scene_tiles),
+                                       cmocka_unit_test(test_frep_tiles)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,0 +1,153 @@
+/* crisp render --tile and crisp merge (issue 15), through the command line: tiles merged equal
+ * the single run bit for bit (PNG RGBA, and the EXR's every channel) for a bundled model and the
+ * scene with f-rep parts; a missing tile, a truncated or changed tile, a tile of another job or of
+ * other settings, a tile given twice are refused with a message naming the cell. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include <cmocka.h>
+
+#include "jobs/image_util.h"
+
+#define CRISP CRISP_BIN_DIR "/crisp"
+
+static char dir[1024];
+
+static void make_dir(const char *name)
+{
+    assert_true(snprintf(dir, sizeof dir, "%s/test_merge_%s", CRISP_BIN_DIR, name) <
+                (int)sizeof dir);
+    char cmd[2200];
+    assert_true(snprintf(cmd, sizeof cmd, "rm -rf '%s' && mkdir -p '%s'", dir, dir) <
+                (int)sizeof cmd);
+    assert_int_equal(system(cmd), 0);
+}
+
+static void tiles_equal_whole(const char *model, const char *size, int n)
+{
+    assert_int_equal(
+        test_run(dir, "%s render %s --size %s -o full.png --aov full.exr -q", CRISP, model, size),
+        0);
+    for (int i = 0; i < n; i++)
+        assert_int_equal(test_run(dir,
+                                  "%s render %s --size %s --tile %d/%d -o t%02d.png --aov "
+                                  "t%02d.exr -q --threads %d",
+                                  CRISP, model, size, i, n, i, i, 1 + i % 2),
+                         0);
+    assert_int_equal(
+        test_run(dir, "%s merge -o m.png t*.png && %s merge -o m.exr t*.exr", CRISP, CRISP), 0);
+    char a[4200], b[4200];
+    snprintf(a, sizeof a, "%s/full.png", dir), snprintf(b, sizeof b, "%s/m.png", dir);
+    assert_true(test_same_image(a, b));
+    snprintf(a, sizeof a, "%s/full.exr", dir), snprintf(b, sizeof b, "%s/m.exr", dir);
+    assert_true(test_same_image(a, b));
+}
+
+static void test_model(void **state)
+{
+    (void)state;
+    make_dir("model");
+    tiles_equal_whole(CRISP_DATA_DIR "/nurbs/occt_bearing.iges", "333x250", 6);
+}
+
+static void test_scene(void **state)
+{
+    (void)state;
+    make_dir("scene");
+    tiles_equal_whole(CRISP_DATA_DIR "/scenes/teapot_frep.scene", "300x200", 4);
+}
+
+static void expect_refused(const char *cmd, const char *needle)
+{
+    int rc = test_run(dir, "%s", cmd);
+    const char *out = test_output(dir);
+    if (rc != 1 || !strstr(out, needle))
+        fprintf(stderr, "'%s': exit %d, expected 1 and '%s' in:\n%s\n", cmd, rc, needle, out);
+    assert_int_equal(rc, 1);
+    assert_non_null(strstr(out, needle));
+    struct stat sb;
+    char path[4200];
+    snprintf(path, sizeof path, "%s/bad.png", dir);
+    assert_int_not_equal(stat(path, &sb), 0); /* nothing written */
+}
+
+static void test_bad_cells(void **state)
+{
+    (void)state;
+    make_dir("bad");
+    const char *m = CRISP_DATA_DIR "/nurbs/gpucast_teapot.igs";
+    for (int i = 0; i < 4; i++)
+        assert_int_equal(
+            test_run(dir, "%s render %s --size 200x150 --samples 1 --tile %d/4 -o t%d.png -q",
+                     CRISP, m, i, i),
+            0);
+    /* another job (another model) and other settings (another size, another grid) */
+    assert_int_equal(test_run(dir,
+                              "%s render %s --size 200x150 --samples 1 --tile 1/4 -o other.png "
+                              "-q && %s render %s --size 200x150 --samples 4 --tile 1/4 -o "
+                              "samples.png -q && %s render %s --size 200x150 --samples 1 --tile "
+                              "1/4x1 -o grid.png -q",
+                              CRISP, CRISP_DATA_DIR "/nurbs/occt_bearing.iges", CRISP, m, CRISP, m),
+                     0);
+    char cmd[8192];
+    snprintf(cmd, sizeof cmd, "%s merge -o bad.png t0.png t1.png t3.png", CRISP);
+    expect_refused(cmd, "incomplete set: 1 of the 4 tiles");
+    expect_refused(cmd, "cell 2");
+    snprintf(cmd, sizeof cmd, "%s merge -o bad.png t0.png t1.png t1.png t3.png", CRISP);
+    expect_refused(cmd, "cell 1 is given twice");
+    snprintf(cmd, sizeof cmd, "%s merge -o bad.png t0.png other.png t2.png t3.png", CRISP);
+    expect_refused(cmd, "cell 1 has other settings");
+    snprintf(cmd, sizeof cmd, "%s merge -o bad.png t0.png samples.png t2.png t3.png", CRISP);
+    expect_refused(cmd, "samples=4");
+    snprintf(cmd, sizeof cmd, "%s merge -o bad.png t0.png grid.png t2.png t3.png", CRISP);
+    expect_refused(cmd, "grid=4x1");
+    snprintf(cmd, sizeof cmd, "%s merge -o bad.png t0.png t1.png t2.png nothere.png", CRISP);
+    expect_refused(cmd, "nothere.png: no readable cell header");
+    /* a tile whose header is gone (the run was killed before it finished) */
+    assert_int_equal(test_run(dir, "cp t2.png t9.png"), 0);
+    snprintf(cmd, sizeof cmd, "%s merge -o bad.png t0.png t1.png t9.png t3.png", CRISP);
+    expect_refused(cmd, "t9.png: no readable cell header");
+    /* the same job with an edited input file: another job */
+    assert_int_equal(test_run(dir,
+                              "cp '%s' copy.igs && %s render copy.igs --size 200x150 "
+                              "--samples 1 --tile 2/4 -o c2.png -q && echo >> copy.igs && %s "
+                              "render copy.igs --size 200x150 --samples 1 --tile 3/4 -o "
+                              "c3.png -q && cp t0.png.cell t0.png c0.png.cell 2>/dev/null; "
+                              "true",
+                              m, CRISP, CRISP),
+                     0);
+    snprintf(cmd, sizeof cmd, "%s merge -o bad.png c2.png c3.png", CRISP);
+    expect_refused(cmd, "belongs to another job");
+    /* a truncated tile, and a tile changed after it was written */
+    assert_int_equal(test_run(dir, "cp t1.png t1.bak && head -c 300 t1.bak > t1.png"), 0);
+    snprintf(cmd, sizeof cmd, "%s merge -o bad.png t0.png t1.png t2.png t3.png", CRISP);
+    expect_refused(cmd, "cell 1: ");
+    expect_refused(cmd, "is corrupt");
+    assert_int_equal(test_run(dir, "cp t1.bak t1.png && printf 'x' | dd of=t1.png bs=1 seek=100 "
+                                   "conv=notrunc 2>/dev/null"),
+                     0);
+    expect_refused(cmd, "is corrupt");
+    /* restored: the same set merges */
+    assert_int_equal(test_run(dir,
+                              "cp t1.bak t1.png && %s merge -o good.png t0.png t1.png "
+                              "t2.png t3.png",
+                              CRISP),
+                     0);
+    /* a tile's header edited to another tile's place */
+    assert_int_equal(test_run(dir, "sed -i 's/^cell 3 /cell 2 /' t3.png.cell"), 0);
+    snprintf(cmd, sizeof cmd, "%s merge -o bad.png t0.png t1.png t2.png t3.png", CRISP);
+    expect_refused(cmd, "cell 2 is given twice");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {cmocka_unit_test(test_model), cmocka_unit_test(test_scene),
+                                       cmocka_unit_test(test_bad_cells)};
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
