@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "crisp/cells.h"
 #include "crisp/frep.h"
 #include "crisp/frep_mass.h"
 #include "crisp/frep_mesh.h"
@@ -22,7 +23,7 @@ static void usage(FILE *out)
         "out.exr]\n"
         "                         [--threads N] [--stats] [--no-prune] [--no-batch] "
         "[--no-subcells]\n"
-        "                         [--brute]\n"
+        "                         [--brute] [--tile I/N]\n"
         "       crisp frep bench FILE [same options] [--runs N]\n"
         "       crisp frep mesh FILE -o out.stl|out.obj|out.ply [--resolution N | --cell SIZE]\n"
         "                         [--region x0,x1,y0,y1,z0,z1]\n"
@@ -454,6 +455,75 @@ done:
     return rc;
 }
 
+/* ---- tiles (issue 15): --tile I/N renders one tile of the image, written with its header -- */
+
+typedef struct frep_tile_out {
+    const crisp_frep_image *img;
+    int is3d, exr;
+} frep_tile_out;
+
+static crisp_status frep_tile_write(void *ctx, const char *tmp)
+{
+    const frep_tile_out *t = ctx;
+    const crisp_frep_image *img = t->img;
+    size_t npix = (size_t)img->width * (size_t)img->height;
+    crisp_status s;
+    if (!t->exr) {
+        if (!t->is3d) return crisp_write_png_gray(tmp, img->width, img->height, img->inside);
+        uint8_t *shade = malloc(npix);
+        if (!shade) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+        crisp_frep_shade(img, shade);
+        s = crisp_write_png_gray(tmp, img->width, img->height, shade);
+        free(shade);
+        return s;
+    }
+    float *buf = malloc(npix * 4 * sizeof *buf);
+    if (!buf) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+    for (size_t p = 0; p < npix; p++) {
+        buf[4 * p] = t->is3d ? img->z[p] : (img->inside[p] ? 0.0f : -INFINITY);
+        for (int c = 0; c < 3; c++)
+            buf[4 * p + 1 + (size_t)c] = t->is3d ? img->normal[3 * p + (size_t)c] : 0;
+    }
+    const char *names[4] = {"Z", "N.x", "N.y", "N.z"};
+    s = crisp_write_exr(tmp, img->width, img->height, 4, names, buf);
+    free(buf);
+    return s;
+}
+
+/* The tile's PNG and EXR, each with its header: the job is the input (file, or the -e string)
+ * and every setting that changes a pixel. */
+static int frep_write_tiles(const char *file, const char *expr, const crisp_frep_render_desc *d,
+                            const crisp_cell_spec *tile, const crisp_frep_image *img,
+                            const char *out, const char *depth_out)
+{
+    crisp_cell_header *h = calloc(1, sizeof *h);
+    if (!h) return 1;
+    snprintf(h->kind, sizeof h->kind, "image");
+    const double *g = d->region;
+    snprintf(h->settings, sizeof h->settings,
+             "frep-render size=%dx%d depth=%d region=%.17g,%.17g,%.17g,%.17g,%.17g,%.17g "
+             "flags=%u grid=%dx%d",
+             d->width, d->height, d->depth, g[0], g[1], g[2], g[3], g[4], g[5], d->flags,
+             tile->cols, tile->rows);
+    crisp_status s = CRISP_OK;
+    if (expr) {
+        h->job = crisp_hash_bytes(CRISP_HASH_SEED, expr, strlen(expr));
+        h->job = crisp_hash_bytes(h->job, h->settings, strlen(h->settings));
+    } else {
+        s = crisp_cell_job_id(file, h->settings, &h->job);
+    }
+    h->cell = *tile;
+    memcpy(h->rect, d->window, sizeof d->window);
+    h->rect[4] = d->width, h->rect[5] = d->height;
+    frep_tile_out t = {img, d->depth > 0, 0};
+    if (!s && out) s = crisp_cell_commit(out, h, frep_tile_write, &t);
+    t.exr = 1;
+    if (!s && depth_out) s = crisp_cell_commit(depth_out, h, frep_tile_write, &t);
+    free(h);
+    if (s) fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
+    return s ? 1 : 0;
+}
+
 int crisp_cmd_frep(int argc, char **argv)
 {
     if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
@@ -476,7 +546,8 @@ int crisp_cmd_frep(int argc, char **argv)
         return 2;
     }
     crisp_frep_render_desc desc = {.width = 1024, .height = 1024};
-    int is3d = 0, depth = 0, stats = 0, runs = 20, region_given = 0;
+    int is3d = 0, depth = 0, stats = 0, runs = 20, region_given = 0, tiled = 0;
+    crisp_cell_spec tile = {0};
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
@@ -526,6 +597,12 @@ int crisp_cmd_frep(int argc, char **argv)
             desc.flags |= CRISP_FREP_NO_BATCH;
         } else if (!strcmp(a, "--brute")) {
             desc.flags |= CRISP_FREP_BRUTE;
+        } else if (!strcmp(a, "--tile") && v) {
+            if (crisp_cell_parse(v, &tile) || crisp_tile_grid(desc.width, desc.height, &tile)) {
+                fprintf(stderr, "crisp frep: --tile: %s\n", crisp_error_message());
+                return 2;
+            }
+            tiled = 1, i++;
         } else if (!strcmp(a, "-e") && v) {
             expr = v, i++;
         } else if (a[0] != '-' && !file) {
@@ -567,6 +644,7 @@ int crisp_cmd_frep(int argc, char **argv)
             s = crisp_frep_read_math(file, &f);
         if (!s) s = crisp_frep_tape_create(f, &tape);
         if (!s && !region_given && n == 0) s = fit_region(tape, is3d, &desc);
+        if (!s && tiled) crisp_tile_rect(desc.width, desc.height, &tile, desc.window);
         if (!s) s = crisp_frep_renderer_create(tape, &desc, &r);
         if (s) {
             fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
@@ -619,6 +697,10 @@ int crisp_cmd_frep(int argc, char **argv)
                    crisp_frep_tape_registers(tape), st.intervals, st.filled, st.leaves,
                    st.leaves ? (double)st.tape_sum / st.leaves : 0.0, st.points, st.culled, inside,
                    npix, 1000 * render[0], 1000 * setup[0]);
+    }
+    if (tiled) {
+        rc = frep_write_tiles(file, expr, &desc, &tile, img, out, depth_out);
+        goto done;
     }
     if (out) {
         crisp_status s;

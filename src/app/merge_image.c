@@ -324,10 +324,9 @@ crisp_status crisp_merge_images(const char *const *args, size_t count, const cha
         t[k].h = &hs[k];
         s = tile_paths(&t[k]);
         if (!s && (s = crisp_cell_header_read(t[k].header, t[k].h)))
-            s = crisp_error(s,
-                            "%s: no readable cell header (%s): the tile is missing or was not "
-                            "finished",
-                            t[k].arg, crisp_error_message());
+            crisp_error_prefix("%s: no readable cell header (the tile is missing or was not "
+                               "finished)",
+                               t[k].arg);
         if (!s && strcmp(t[k].h->kind, "image"))
             s = crisp_error(CRISP_ERR_INVALID_ARG, "%s: cell %d is a '%s' cell, not an image tile",
                             t[k].header, t[k].h->cell.index, t[k].h->kind);
@@ -415,8 +414,8 @@ crisp_status crisp_merge_images(const char *const *args, size_t count, const cha
             uint64_t size, hash;
             s = crisp_file_hash(tk->data, &size, &hash);
             if (s) {
-                s = crisp_error(s, "cell %d (%s): its data file is missing: %s", h->cell.index,
-                                tk->header, crisp_error_message());
+                crisp_error_prefix("cell %d (%s): its data file is missing", h->cell.index,
+                                   tk->header);
                 break;
             }
             if (size != h->data_size || hash != h->data_hash) {
@@ -432,7 +431,7 @@ crisp_status crisp_merge_images(const char *const *args, size_t count, const cha
             raster_buf b = {0};
             s = w.is_float ? read_exr(tk->data, &b) : read_png(tk->data, &b);
             if (s) {
-                s = crisp_error(s, "cell %d: %s", h->cell.index, crisp_error_message());
+                crisp_error_prefix("cell %d", h->cell.index);
                 break;
             }
             if (b.width != h->rect[2] || b.height != h->rect[3])

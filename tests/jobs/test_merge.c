@@ -63,6 +63,47 @@ static void test_scene(void **state)
     tiles_equal_whole(CRISP_DATA_DIR "/scenes/teapot_frep.scene", "300x200", 4);
 }
 
+/* crisp frep render --tile: 2D (prospero) and a 3D heightmap (bear), PNG and the EXR of depth
+ * and normals. */
+static void test_frep(void **state)
+{
+    (void)state;
+    make_dir("frep");
+    const char *p = CRISP_DATA_DIR "/frep/prospero.vm", *b = CRISP_DATA_DIR "/frep/bear.vm";
+    assert_int_equal(
+        test_run(dir, "%s frep render %s --size 600x450 -o p.png --depth-out p.exr", CRISP, p), 0);
+    assert_int_equal(test_run(dir,
+                              "%s frep render %s --3d --size 300x260 -o b.png --depth-out "
+                              "b.exr",
+                              CRISP, b),
+                     0);
+    for (int i = 0; i < 8; i++)
+        assert_int_equal(test_run(dir,
+                                  "%s frep render %s --size 600x450 --tile %d/8 -o p%d.png "
+                                  "--depth-out p%d.exr --threads %d",
+                                  CRISP, p, i, i, i, 1 + i % 2),
+                         0);
+    for (int i = 0; i < 4; i++)
+        assert_int_equal(test_run(dir,
+                                  "%s frep render %s --3d --size 300x260 --tile %d/4 -o "
+                                  "b%d.png --depth-out b%d.exr",
+                                  CRISP, b, i, i, i),
+                         0);
+    assert_int_equal(test_run(dir,
+                              "%s merge -o pm.png p?.png && %s merge -o pm.exr p?.exr && %s "
+                              "merge -o bm.png b?.png && %s merge -o bm.exr b?.exr",
+                              CRISP, CRISP, CRISP, CRISP),
+                     0);
+    const char *pairs[4][2] = {
+        {"p.png", "pm.png"}, {"p.exr", "pm.exr"}, {"b.png", "bm.png"}, {"b.exr", "bm.exr"}};
+    for (int k = 0; k < 4; k++) {
+        char a[2100], m[2100];
+        snprintf(a, sizeof a, "%s/%s", dir, pairs[k][0]);
+        snprintf(m, sizeof m, "%s/%s", dir, pairs[k][1]);
+        assert_true(test_same_image(a, m));
+    }
+}
+
 static void expect_refused(const char *cmd, const char *needle)
 {
     int rc = test_run(dir, "%s", cmd);
@@ -148,6 +189,7 @@ static void test_bad_cells(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_model), cmocka_unit_test(test_scene),
+                                       cmocka_unit_test(test_frep),
                                        cmocka_unit_test(test_bad_cells)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
