@@ -29,6 +29,7 @@ static void usage(FILE *out)
         "                         [--region x0,x1,y0,y1,z0,z1]\n"
         "       crisp frep mass FILE [--accuracy REL] [--time SECONDS] [--predict] [--level L]\n"
         "                         [--seed N] [--region x0,x1,y0,y1,z0,z1]\n"
+        "                         [--cell I/N -o CELL]  (N = 8^k octants; level L, default 7)\n"
         "FILE is a .vm file, or any other file holding an infix math string (X, Y, Z, + - * / ^,\n"
         "sqrt, min, max, ...; inside where the value is below 0), or '-e EXPR' for a string.\n"
         "2D: 8-bit grayscale PNG, 255 inside (f < 0), size 1024. The default region is the part's\n"
@@ -302,6 +303,135 @@ static void print_level(const crisp_frep_mass *m)
            m->cpu_seconds, m->volume, m->volume_se, m->volume_lo, m->volume_hi);
 }
 
+/* ---- mass cells (issue 15): octants of the region's octree ------------------------------ */
+
+/* Cell I of N = 8^k: the octant path of I's base-8 digits (most significant first; digit bits x,
+ * y, z) through k halvings of the region, measured at level - k, so that its octree cells are
+ * the whole run's at `level`. Its sums (volume, first and raw second moments about the whole
+ * region's centre, their variances, the certified bounds) go to a cell file for crisp merge. */
+static int frep_mass_cell(const crisp_frep_tape *tape, const double region[6], int level,
+                          uint64_t seed, const crisp_cell_spec *cell, const char *file,
+                          const char *expr, const char *out)
+{
+    int k = 0;
+    long n = 1;
+    while (n < cell->count)
+        n *= 8, k++;
+    if (n != cell->count || cell->cols) {
+        fprintf(stderr,
+                "crisp frep mass: --cell %d/%d: the number of cells must be a power of 8 (1, 8, "
+                "64, 512, ...): cells are octants of the region's octree\n",
+                cell->index, cell->count);
+        return 2;
+    }
+    if (level - k < 1) {
+        fprintf(stderr, "crisp frep mass: --level %d is too coarse for %d cells (at least %d)\n",
+                level, cell->count, k + 1);
+        return 2;
+    }
+    long ix[3] = {0, 0, 0};
+    for (int d = 0; d < k; d++) {
+        int o = (cell->index >> (3 * (k - 1 - d))) & 7;
+        for (int a = 0; a < 3; a++)
+            ix[a] = 2 * ix[a] + ((o >> a) & 1);
+    }
+    crisp_frep_mass_desc d = {.level = level - k, .seed = seed * 1000003u + (uint64_t)cell->index};
+    double ref[3], span = (double)(1L << (level - k));
+    for (int a = 0; a < 3; a++) {
+        double w = (region[2 * a + 1] - region[2 * a]) / (double)(1L << level);
+        d.region[2 * a] = region[2 * a] + (double)ix[a] * span * w;
+        d.region[2 * a + 1] = ix[a] + 1 == (1L << k)
+                                  ? region[2 * a + 1]
+                                  : region[2 * a] + (double)(ix[a] + 1) * span * w;
+        ref[a] = 0.5 * (region[2 * a] + region[2 * a + 1]);
+    }
+    crisp_frep_mass r;
+    crisp_status s = crisp_frep_mass_level(tape, &d, &r);
+    int empty = s == CRISP_ERR_NUMERIC && !(r.volume > 0) && r.inside_cells == 0;
+    if (s && !r.cut_cells && !empty) {
+        fprintf(stderr, "crisp frep mass: cell %d: %s\n", cell->index, crisp_error_message());
+        return 1;
+    }
+    crisp_error_clear();
+    crisp_cell_header *h = calloc(1, sizeof *h);
+    if (!h) return 1;
+    snprintf(h->kind, sizeof h->kind, "frep-mass");
+    snprintf(h->settings, sizeof h->settings,
+             "frep-mass level=%d region=%.17g,%.17g,%.17g,%.17g,%.17g,%.17g seed=%llu cells=%d",
+             level, region[0], region[1], region[2], region[3], region[4], region[5],
+             (unsigned long long)seed, cell->count);
+    if (expr) {
+        h->job = crisp_hash_bytes(CRISP_HASH_SEED, expr, strlen(expr));
+        h->job = crisp_hash_bytes(h->job, h->settings, strlen(h->settings));
+    } else if (crisp_cell_job_id(file, h->settings, &h->job)) {
+        fprintf(stderr, "crisp frep mass: %s\n", crisp_error_message());
+        free(h);
+        return 1;
+    }
+    h->cell = *cell;
+    /* raw moments about ref from the centroid and the central moments (Ixx = Cyy + Czz,
+     * Ixy = -Cxy); variances from the standard errors (delta method, correlations dropped) */
+    double V = empty ? 0 : r.volume, c[3], sv = empty ? 0 : r.volume_se;
+    for (int a = 0; a < 3; a++)
+        c[a] = empty ? 0 : r.centroid[a] - ref[a];
+    const double *I = r.inertia, *se = r.inertia_se;
+    double C[6] = {0.5 * (I[1] + I[2] - I[0]),
+                   0.5 * (I[0] + I[2] - I[1]),
+                   0.5 * (I[0] + I[1] - I[2]),
+                   -I[3],
+                   -I[4],
+                   -I[5]};
+    double vC[6] = {0.25 * (se[0] * se[0] + se[1] * se[1] + se[2] * se[2]),
+                    0.25 * (se[0] * se[0] + se[1] * se[1] + se[2] * se[2]),
+                    0.25 * (se[0] * se[0] + se[1] * se[1] + se[2] * se[2]),
+                    se[3] * se[3],
+                    se[4] * se[4],
+                    se[5] * se[5]};
+    static const int pa[6] = {0, 1, 2, 0, 1, 0}, pb[6] = {0, 1, 2, 1, 2, 2};
+    crisp_cell_header_add_sum(h, "V", V);
+    crisp_cell_header_add_sum(h, "var_V", sv * sv);
+    static const char *const mk[3] = {"Mx", "My", "Mz"};
+    char name[32];
+    for (int a = 0; a < 3; a++) {
+        double sc = empty ? 0 : r.centroid_se[a];
+        crisp_cell_header_add_sum(h, mk[a], V * c[a]);
+        snprintf(name, sizeof name, "var_%s", mk[a]);
+        crisp_cell_header_add_sum(h, name, V * V * sc * sc + c[a] * c[a] * sv * sv);
+    }
+    static const char *const sk[6] = {"Sxx", "Syy", "Szz", "Sxy", "Syz", "Sxz"};
+    for (int q = 0; q < 6; q++) {
+        int a = pa[q], b = pb[q];
+        double S = empty ? 0 : C[q] + V * c[a] * c[b];
+        double sa = empty ? 0 : r.centroid_se[a], sb = empty ? 0 : r.centroid_se[b];
+        double var = empty ? 0
+                           : vC[q] + c[a] * c[a] * c[b] * c[b] * sv * sv +
+                                 V * V * (c[b] * c[b] * sa * sa + c[a] * c[a] * sb * sb);
+        crisp_cell_header_add_sum(h, sk[q], S);
+        snprintf(name, sizeof name, "var_%s", sk[q]);
+        crisp_cell_header_add_sum(h, name, var);
+    }
+    crisp_cell_header_add_sum(h, "lo", r.volume_lo);
+    crisp_cell_header_add_sum(h, "hi", r.volume_hi);
+    crisp_cell_header_add_sum(h, "boundary_cells", (double)r.boundary_cells);
+    crisp_cell_header_add_sum(h, "samples", (double)r.samples);
+    crisp_cell_header_add_sum(h, "seconds", r.seconds);
+    for (int a = 0; a < 3; a++) {
+        snprintf(name, sizeof name, "ref%d", a);
+        crisp_cell_header_add_sum(h, name, ref[a]);
+    }
+    crisp_status ws = crisp_cell_header_write(out, h);
+    free(h);
+    if (ws) {
+        fprintf(stderr, "crisp frep mass: %s\n", crisp_error_message());
+        return 1;
+    }
+    printf("%s: cell %d of %d (level %d of [%g, %g] x [%g, %g] x [%g, %g]): volume %.10g +- "
+           "%.2g, bounds [%.10g, %.10g], %.3f s\n",
+           out, cell->index, cell->count, d.level, d.region[0], d.region[1], d.region[2],
+           d.region[3], d.region[4], d.region[5], V, sv, r.volume_lo, r.volume_hi, r.seconds);
+    return 0;
+}
+
 static int cmd_mass(int argc, char **argv)
 {
     const char *file = NULL, *expr = NULL;
@@ -309,9 +439,20 @@ static int cmd_mass(int argc, char **argv)
     int predict = 0;
     long level = 0, seed = 1;
     crisp_frep_mass_desc desc = {0};
+    crisp_cell_spec cell = {0};
+    const char *cell_out = NULL;
+    int celled = 0;
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
-        if (!strcmp(a, "--accuracy") && v) {
+        if (!strcmp(a, "--cell") && v) {
+            if (crisp_cell_parse(v, &cell)) {
+                fprintf(stderr, "crisp frep mass: --cell: %s\n", crisp_error_message());
+                return 2;
+            }
+            celled = 1, i++;
+        } else if (!strcmp(a, "-o") && v) {
+            cell_out = v, i++;
+        } else if (!strcmp(a, "--accuracy") && v) {
             if (!parse_double(a, v, 1e-12, 1, &accuracy)) return 2;
             i++;
         } else if (!strcmp(a, "--time") && v) {
@@ -342,6 +483,10 @@ static int cmd_mass(int argc, char **argv)
         fprintf(stderr, "crisp frep mass: no FILE given\n");
         return 2;
     }
+    if (celled != (cell_out != NULL)) {
+        fprintf(stderr, "crisp frep mass: --cell and -o go together (-o names the cell file)\n");
+        return 2;
+    }
     if (!accuracy && !time_limit && !level) accuracy = 1e-3;
     crisp_frep *f = NULL;
     crisp_frep_tape *tape = NULL;
@@ -357,6 +502,12 @@ static int cmd_mass(int argc, char **argv)
         s = crisp_frep_mass_level(tape, &desc, &first);
         if (s && !first.cut_cells) goto fail;
         memcpy(desc.region, first.region, sizeof desc.region);
+    }
+    crisp_error_clear();
+    if (celled) {
+        rc = frep_mass_cell(tape, desc.region, level ? (int)level : 7, desc.seed, &cell, file, expr,
+                            cell_out);
+        goto done;
     }
     /* coarse levels (Clark: the cost and the error of a level predict the next ones) */
     crisp_frep_mass lv[21];

@@ -439,6 +439,13 @@ static int plan_mass(job *j)
 {
     int frep = j->kind == JOB_FREP_MASS;
     int n = j->cells_given ? j->cells_given : frep ? 8 : 4;
+    if (frep && (n & (n - 1) || __builtin_ctz((unsigned)n) % 3)) {
+        fprintf(stderr,
+                "crisp jobs: frep-mass --cells %d: expected a power of 8 (octants of the "
+                "octree: 8, 64, 512, ...)\n",
+                n);
+        return 2;
+    }
     char *fwd = fwd_string(j), *in = sh_quote(j->inputs[0]);
     char *list = str_printf("%s", "");
     for (int i = 0; i < n; i++) {

@@ -3,6 +3,7 @@
  * mass cells into the whole part's properties. Refuses a missing, corrupt or foreign cell and an
  * incomplete set, naming the cell. */
 #include <getopt.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -105,10 +106,224 @@ int crisp_cmd_merge(int argc, char **argv)
     return rc;
 }
 
-/* Placeholder until mass cells land (crisp mass --cell). */
-int crisp__merge_mass(const char *const *cells, size_t count, const char *out, int quiet)
+/* ---- mass cells ----------------------------------------------------------------------- */
+
+/* As crisp mass prints a whole model's properties, from its raw sums about ref (the formulas of
+ * crisp_mass_model, src/mass/brep_mass.c). */
+void crisp__mass_print(FILE *out, const char *name, int faces, const double T[15],
+                       const double err[15], const double ref[3]);
+void crisp__mass_print(FILE *out, const char *name, int faces, const double T[15],
+                       const double err[15], const double ref[3])
 {
-    (void)count, (void)out, (void)quiet;
-    fprintf(stderr, "crisp merge: %s: mass cells are not merged yet\n", cells[0]);
+    fprintf(out, "%s: %d faces\n", name, faces);
+    fprintf(out, "area      %.15g (+- %.2g)\n", T[0], err[0]);
+    double va = sqrt(T[1] * T[1] + T[2] * T[2] + T[3] * T[3]);
+    if (!(va <= 1e-7 * T[0])) {
+        fprintf(stderr,
+                "crisp mass: warning: the model is not closed (the faces' vector area is %g, %g, "
+                "%g against an area of %g): no volume, centroid or inertia\n",
+                T[1], T[2], T[3], T[0]);
+        return;
+    }
+    double V = T[4], M[3] = {T[5], T[6], T[7]}, I[6];
+    I[0] = T[9] + T[10] - (M[1] * M[1] + M[2] * M[2]) / V;
+    I[1] = T[8] + T[10] - (M[0] * M[0] + M[2] * M[2]) / V;
+    I[2] = T[8] + T[9] - (M[0] * M[0] + M[1] * M[1]) / V;
+    I[3] = -(T[11] - M[0] * M[1] / V);
+    I[4] = -(T[12] - M[1] * M[2] / V);
+    I[5] = -(T[13] - M[0] * M[2] / V);
+    double ie = 0;
+    for (int j = 8; j < 14; j++)
+        ie = fmax(ie, err[j]);
+    fprintf(out, "volume    %.15g (+- %.2g)\n", V, err[4]);
+    fprintf(out, "centroid  %.15g %.15g %.15g\n", ref[0] + M[0] / V, ref[1] + M[1] / V,
+            ref[2] + M[2] / V);
+    fprintf(out, "inertia about the centroid (density 1): Ixx Iyy Izz Ixy Iyz Ixz (+- %.2g)\n  ",
+            2 * ie);
+    for (int k = 0; k < 6; k++)
+        fprintf(out, " %.15g", I[k]);
+    fprintf(out, "\n");
+}
+
+static int by_index(const void *a, const void *b)
+{
+    const crisp_cell_header *x = a, *y = b;
+    return (x->cell.index > y->cell.index) - (x->cell.index < y->cell.index);
+}
+
+/* Every cell read and checked against the first: one job, one set of settings, each index once,
+ * all of them. Sorted by index. */
+static int load_cells(const char *const *cells, size_t n, crisp_cell_header *h)
+{
+    for (size_t k = 0; k < n; k++) {
+        if (crisp_cell_header_read(cells[k], &h[k])) {
+            fprintf(stderr, "crisp merge: %s: missing or corrupt cell: %s\n", cells[k],
+                    crisp_error_message());
+            return 0;
+        }
+        const crisp_cell_header *a = &h[0], *b = &h[k];
+        if (strcmp(a->kind, b->kind) || strcmp(a->settings, b->settings) ||
+            a->cell.count != b->cell.count) {
+            fprintf(stderr,
+                    "crisp merge: %s: cell %d has other settings than cell %d (%s): '%s %s' "
+                    "against '%s %s'\n",
+                    cells[k], b->cell.index, a->cell.index, cells[0], b->kind, b->settings, a->kind,
+                    a->settings);
+            return 0;
+        }
+        if (a->job != b->job) {
+            fprintf(stderr,
+                    "crisp merge: %s: cell %d belongs to another job (job %016llx, cell %d of %s "
+                    "is of job %016llx): the input file differs\n",
+                    cells[k], b->cell.index, (unsigned long long)b->job, a->cell.index, cells[0],
+                    (unsigned long long)a->job);
+            return 0;
+        }
+    }
+    int N = h[0].cell.count;
+    /* sort, remembering the files for the messages */
+    for (size_t k = 0; k < n; k++)
+        snprintf(h[k].data, sizeof h[k].data, "%s", cells[k]);
+    qsort(h, n, sizeof *h, by_index);
+    for (size_t k = 0; k + 1 < n; k++)
+        if (h[k].cell.index == h[k + 1].cell.index) {
+            fprintf(stderr, "crisp merge: cell %d is given twice: %s and %s\n", h[k].cell.index,
+                    h[k].data, h[k + 1].data);
+            return 0;
+        }
+    if (n != (size_t)N) {
+        fprintf(stderr, "crisp merge: incomplete set: %d of the %d cells of %s's job are missing:",
+                N - (int)n, N, cells[0]);
+        size_t k = 0;
+        int shown = 0;
+        for (int i = 0; i < N; i++) {
+            if (k < n && h[k].cell.index == i) {
+                k++;
+                continue;
+            }
+            if (shown++ < 8) fprintf(stderr, " cell %d", i);
+        }
+        fprintf(stderr, "%s\n", shown > 8 ? " ..." : "");
+        return 0;
+    }
     return 1;
+}
+
+static double sum_of(const crisp_cell_header *h, const char *name, int *missing)
+{
+    double v = crisp_cell_header_sum(h, name);
+    if (isnan(v)) {
+        fprintf(stderr, "crisp merge: %s: cell %d has no sum '%s'\n", h->data, h->cell.index, name);
+        *missing = 1;
+        return 0;
+    }
+    return v;
+}
+
+int crisp__merge_mass(const char *const *cells, size_t n, const char *out, int quiet)
+{
+    crisp_cell_header *h = calloc(n, sizeof *h);
+    if (!h) return 1;
+    int rc = 1, missing = 0;
+    FILE *f = NULL;
+    if (!load_cells(cells, n, h)) goto done;
+    f = !strcmp(out, "-") ? stdout : fopen(out, "w");
+    if (!f) {
+        fprintf(stderr, "crisp merge: %s: cannot write\n", out);
+        goto done;
+    }
+    char name[16];
+    if (!strcmp(h[0].kind, "mass")) {
+        double T[15] = {0}, E[15] = {0}, ref[3];
+        int faces = 0;
+        for (int a = 0; a < 3; a++) {
+            snprintf(name, sizeof name, "ref%d", a);
+            ref[a] = sum_of(&h[0], name, &missing);
+        }
+        for (size_t k = 0; k < n; k++) {
+            for (int j = 0; j < 15; j++) {
+                snprintf(name, sizeof name, "T%d", j);
+                T[j] += sum_of(&h[k], name, &missing);
+                snprintf(name, sizeof name, "E%d", j);
+                E[j] += sum_of(&h[k], name, &missing);
+            }
+            for (int a = 0; a < 3; a++) {
+                snprintf(name, sizeof name, "ref%d", a);
+                if (sum_of(&h[k], name, &missing) != ref[a]) {
+                    fprintf(stderr, "crisp merge: %s: cell %d measures about another point\n",
+                            h[k].data, h[k].cell.index);
+                    missing = 1;
+                }
+            }
+            if (h[k].rect[0] != faces) {
+                fprintf(stderr, "crisp merge: %s: cell %d starts at face %d, expected %d\n",
+                        h[k].data, h[k].cell.index, h[k].rect[0], faces);
+                missing = 1;
+            }
+            faces = h[k].rect[1];
+        }
+        if (missing) goto done;
+        crisp__mass_print(f, "merged", faces, T, E, ref);
+    } else {
+        /* frep-mass: volume, first and raw second moments with their variances, bounds */
+        static const char *const keys[] = {"V",   "Mx",  "My",  "Mz",  "Sxx", "Syy",
+                                           "Szz", "Sxy", "Syz", "Sxz", "lo",  "hi"};
+        double S[12] = {0}, var[10] = {0}, cells_b = 0, samples = 0, secs = 0;
+        for (size_t k = 0; k < n; k++) {
+            for (int j = 0; j < 12; j++)
+                S[j] += sum_of(&h[k], keys[j], &missing);
+            for (int j = 0; j < 10; j++) {
+                snprintf(name, sizeof name, "var_%s", keys[j]);
+                var[j] += sum_of(&h[k], name, &missing);
+            }
+            cells_b += sum_of(&h[k], "boundary_cells", &missing);
+            samples += sum_of(&h[k], "samples", &missing);
+            secs += sum_of(&h[k], "seconds", &missing);
+        }
+        if (missing) goto done;
+        double V = S[0], c[3] = {S[1] / V, S[2] / V, S[3] / V};
+        double C[6] = {S[4] - V * c[0] * c[0], S[5] - V * c[1] * c[1], S[6] - V * c[2] * c[2],
+                       S[7] - V * c[0] * c[1], S[8] - V * c[1] * c[2], S[9] - V * c[0] * c[2]};
+        double I[6] = {C[1] + C[2], C[0] + C[2], C[0] + C[1], -C[3], -C[4], -C[5]};
+        /* standard errors (delta method, the cells' moments taken as independent) */
+        double se_c[3], se_I[6], *M = S + 1;
+        for (int a = 0; a < 3; a++) {
+            int b = (a + 1) % 3, d = (a + 2) % 3;
+            double g = (M[b] * M[b] + M[d] * M[d]) / (V * V);
+            se_I[a] = sqrt(var[4 + b] + var[4 + d] + 4 * c[b] * c[b] * var[1 + b] +
+                           4 * c[d] * c[d] * var[1 + d] + g * g * var[0]);
+        }
+        static const int pq[3][2] = {{0, 1}, {1, 2}, {0, 2}};
+        for (int q = 0; q < 3; q++) {
+            int a = pq[q][0], b = pq[q][1];
+            double g = M[a] * M[b] / (V * V);
+            se_I[3 + q] = sqrt(var[7 + q] + c[b] * c[b] * var[1 + a] + c[a] * c[a] * var[1 + b] +
+                               g * g * var[0]);
+        }
+        for (int a = 0; a < 3; a++)
+            se_c[a] = sqrt(var[1 + a] + c[a] * c[a] * var[0]) / fabs(V);
+        fprintf(f, "merged %zu cells: %.0f boundary cells, %.0f samples, %.3f s in the cells\n", n,
+                cells_b, samples, secs);
+        fprintf(f, "volume    %.12g +- %.3g (standard error); certified bounds [%.12g, %.12g]\n", V,
+                sqrt(var[0]), S[10], S[11]);
+        double ref[3] = {sum_of(&h[0], "ref0", &missing), sum_of(&h[0], "ref1", &missing),
+                         sum_of(&h[0], "ref2", &missing)};
+        if (missing) goto done;
+        fprintf(f, "centroid  %.10g %.10g %.10g\n       +-  %.3g %.3g %.3g\n", ref[0] + c[0],
+                ref[1] + c[1], ref[2] + c[2], se_c[0], se_c[1], se_c[2]);
+        fprintf(f, "inertia about the centroid (density 1): Ixx Iyy Izz Ixy Iyz Ixz\n  ");
+        for (int k = 0; k < 6; k++)
+            fprintf(f, " %.10g", I[k]);
+        fprintf(f, "\n +-");
+        for (int k = 0; k < 6; k++)
+            fprintf(f, " %.3g", se_I[k]);
+        fprintf(f, "\n");
+    }
+    rc = 0;
+    if (!quiet && f != stdout) printf("merged %zu %s cells into %s\n", n, h[0].kind, out);
+done:
+    if (f && f != stdout && fclose(f)) rc = 1;
+    if (rc && f && f != stdout) remove(out);
+    free(h);
+    return rc;
 }

@@ -25,6 +25,9 @@ extern "C" {
 
 typedef struct crisp_mass_desc {
     double tolerance; /* relative, per trim piece; 0: 1e-13 */
+    /* faces [face_begin, face_end) only (a cell of a split job, issue 15); 0, 0: every face.
+     * The sums (crisp_mass_props.sums) of the cells of a split add up to the whole model's. */
+    int face_begin, face_end;
 } crisp_mass_desc;
 
 typedef struct crisp_mass_props {
@@ -36,6 +39,10 @@ typedef struct crisp_mass_props {
     double vector_area[3]; /* integral of n dA over all faces (0 for a closed shell) */
     double area_err, volume_err, inertia_err; /* estimates from two quadrature orders */
     size_t evaluations;                       /* surface evaluations */
+    /* The raw surface integrals over the faces measured, about ref (the whole model's box
+     * centre): area, vector area (3), V, Mx My Mz, Sxx Syy Szz, Sxy Syz Sxz (and one more), with
+     * their error estimates (issue 15: cells of faces add these). */
+    double sums[15], sums_err[15], ref[3];
 } crisp_mass_props;
 
 /* Every face's outward normal is S_u x S_v, or its negative when face->reversed. A model that is

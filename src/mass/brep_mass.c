@@ -196,7 +196,13 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
         c.scale[j] = pow(L, power[j]);
     double T[NQ] = {0}, T2[NQ] = {0};
     crisp_status s = CRISP_OK;
-    for (int fi = 0; fi < m->face_count; fi++) {
+    int f0 = desc ? desc->face_begin : 0, f1 = desc ? desc->face_end : 0;
+    if (!f0 && !f1) f1 = m->face_count;
+    if (f0 < 0 || f1 > m->face_count || f0 >= f1)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_mass_model: faces [%d, %d) of a model of %d faces", f0, f1,
+                           m->face_count);
+    for (int fi = f0; fi < f1; fi++) {
         const crisp_face *f = &m->faces[fi];
         const crisp_surface *S = f->surface;
         double dom[4];
@@ -257,6 +263,9 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
     for (int j = 0; j < NQ; j++)
         err[j] = c.err_outer[j] + fabs(T[j] - T2[j]);
     dest->area_err = err[0];
+    memcpy(dest->sums, T, sizeof dest->sums);
+    memcpy(dest->sums_err, err, sizeof dest->sums_err);
+    memcpy(dest->ref, c.ref, sizeof dest->ref);
     double va = sqrt(T[1] * T[1] + T[2] * T[2] + T[3] * T[3]);
     dest->closed = va <= 1e-7 * T[0];
     if (!dest->closed) return CRISP_OK;

@@ -150,6 +150,16 @@ static void test_frames(void **state)
                          "64x64 -o B -q && parallel -j2 < B/jobs.txt",
                          CRISP, m),
                      0);
+    /* mass jobs: NURBS cells of faces, f-rep octants */
+    assert_int_equal(run("%s jobs mass %s --cells 3 -o M -q && make -s -j2 -C M && grep -q "
+                         "'^volume' M/mass.txt",
+                         CRISP, CRISP_DATA_DIR "/nurbs/occt_trj9_io1.stp"),
+                     0);
+    assert_int_equal(run("%s jobs frep-mass %s --level 4 --cells 8 -o F -q && parallel -j2 < "
+                         "F/jobs.txt > /dev/null && sh F/merge.sh && grep -q 'certified bounds' "
+                         "F/mass.txt",
+                         CRISP, CRISP_DATA_DIR "/frep/bear.vm"),
+                     0);
     assert_true(mtime("B/images/00000-gpucast_teapot.png") != 0);
     assert_true(mtime("B/images/00001-occt_bearing.png") != 0);
 }

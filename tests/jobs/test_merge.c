@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <math.h>
 #include <sys/stat.h>
 
 #include <cmocka.h>
@@ -186,10 +187,91 @@ static void test_bad_cells(void **state)
     expect_refused(cmd, "cell 2 is given twice");
 }
 
+/* The numbers after `key` on its line of dir/file. */
+static int read_numbers(const char *file, const char *key, const char *fmt, double *a, double *b,
+                        double *c, double *d)
+{
+    char path[2100], line[1024];
+    snprintf(path, sizeof path, "%s/%s", dir, file);
+    FILE *f = fopen(path, "r");
+    int n = 0;
+    while (f && fgets(line, sizeof line, f))
+        if (!strncmp(line, key, strlen(key))) {
+            n = sscanf(line + strlen(key), fmt, a, b, c, d);
+            break;
+        }
+    if (f) fclose(f);
+    return n;
+}
+
+/* Mass cells: NURBS (cells of faces: the sums are exact, the merge equals the single run within
+ * its quadrature error) and f-rep (octants of the octree: the same boundary cells, so the same
+ * certified bounds; the Monte Carlo estimate within the reported errors). */
+static void test_mass(void **state)
+{
+    (void)state;
+    make_dir("mass");
+    const char *m = CRISP_DATA_DIR "/nurbs/occt_trj9_io1.stp", *b = CRISP_DATA_DIR "/frep/bear.vm";
+    assert_int_equal(test_run(dir,
+                              "%s mass %s > single.txt && for i in 0 1 2 3 4; do %s mass %s "
+                              "--cell $i/5 -o n$i.cell || exit 1; done && %s merge -o "
+                              "merged.txt n?.cell",
+                              CRISP, m, CRISP, m, CRISP),
+                     0);
+    double v1, e1, v2, e2, x;
+    assert_int_equal(read_numbers("single.txt", "volume", " %lf (+- %lf", &v1, &e1, &x, &x), 2);
+    assert_int_equal(read_numbers("merged.txt", "volume", " %lf (+- %lf", &v2, &e2, &x, &x), 2);
+    assert_true(fabs(v1 - v2) <= e1 + e2 + 1e-14 * fabs(v1));
+    double a1, a2;
+    assert_int_equal(read_numbers("single.txt", "area", " %lf", &a1, &x, &x, &x), 1);
+    assert_int_equal(read_numbers("merged.txt", "area", " %lf", &a2, &x, &x, &x), 1);
+    assert_true(fabs(a1 - a2) <= 1e-12 * a1);
+    /* f-rep: level 5, 8 octants at level 4 */
+    assert_int_equal(test_run(dir,
+                              "%s frep mass %s --level 5 > fsingle.txt && for i in 0 1 2 3 4 "
+                              "5 6 7; do %s frep mass %s --level 5 --cell $i/8 -o f$i.cell || "
+                              "exit 1; done && %s merge -o fmerged.txt f?.cell",
+                              CRISP, b, CRISP, b, CRISP),
+                     0);
+    double lo1, hi1, lo2, hi2;
+    assert_int_equal(read_numbers("fsingle.txt", "volume",
+                                  " %lf +- %lf (standard error); "
+                                  "certified bounds [%lf, %lf]",
+                                  &v1, &e1, &lo1, &hi1),
+                     4);
+    assert_int_equal(read_numbers("fmerged.txt", "volume",
+                                  " %lf +- %lf (standard error); "
+                                  "certified bounds [%lf, %lf]",
+                                  &v2, &e2, &lo2, &hi2),
+                     4);
+    assert_true(fabs(v1 - v2) <= 4 * sqrt(e1 * e1 + e2 * e2));
+    assert_true(fabs(e1 - e2) <= 0.2 * e1); /* the variances add up to the single run's */
+    assert_true(fabs(lo1 - lo2) <= 1e-9 * hi1 && fabs(hi1 - hi2) <= 1e-9 * hi1);
+    assert_true(lo2 <= v1 && v1 <= hi2);
+    /* bad sets */
+    assert_int_equal(test_run(dir, "%s merge -o bad.txt f0.cell f1.cell f2.cell", CRISP), 1);
+    assert_non_null(strstr(test_output(dir), "incomplete set: 5 of the 8 cells"));
+    assert_int_equal(test_run(dir,
+                              "%s frep mass %s --level 6 --cell 1/8 -o g1.cell > /dev/null && "
+                              "%s merge -o bad.txt f0.cell g1.cell f2.cell f3.cell f4.cell "
+                              "f5.cell f6.cell f7.cell",
+                              CRISP, b, CRISP),
+                     1);
+    assert_non_null(strstr(test_output(dir), "g1.cell: cell 1 has other settings"));
+    assert_int_equal(test_run(dir,
+                              "head -c 200 f3.cell > t3.cell && %s merge -o bad.txt f0.cell "
+                              "f1.cell f2.cell t3.cell f4.cell f5.cell f6.cell f7.cell",
+                              CRISP),
+                     1);
+    assert_non_null(strstr(test_output(dir), "t3.cell: missing or corrupt cell"));
+    assert_int_equal(test_run(dir, "%s frep mass %s --level 5 --cell 1/4 -o x.cell", CRISP, b), 2);
+    assert_non_null(strstr(test_output(dir), "power of 8"));
+}
+
 int main(void)
 {
-    const struct CMUnitTest tests[] = {cmocka_unit_test(test_model), cmocka_unit_test(test_scene),
-                                       cmocka_unit_test(test_frep),
-                                       cmocka_unit_test(test_bad_cells)};
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_model), cmocka_unit_test(test_scene), cmocka_unit_test(test_frep),
+        cmocka_unit_test(test_bad_cells), cmocka_unit_test(test_mass)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
