@@ -26,7 +26,8 @@ static void usage(FILE *out)
         "                         [--brute] [--tile I/N]\n"
         "       crisp frep bench FILE [same options] [--runs N]\n"
         "       crisp frep mesh FILE -o out.stl|out.obj|out.ply [--resolution N | --cell SIZE]\n"
-        "                         [--region x0,x1,y0,y1,z0,z1]\n"
+        "                         [--region x0,x1,y0,y1,z0,z1] [--cell I/N -o CELL.cmesh]\n"
+        "                         (--cell I/N: octant I of N = 8^k, welded by crisp merge)\n"
         "       crisp frep mass FILE [--accuracy REL] [--time SECONDS] [--predict] [--level L]\n"
         "                         [--seed N] [--region x0,x1,y0,y1,z0,z1]\n"
         "                         [--cell I/N -o CELL]  (N = 8^k octants; level L, default 7)\n"
@@ -168,15 +169,117 @@ static crisp_status load_model(const char *file, const char *expr, crisp_frep **
     return s;
 }
 
+/* ---- mesh cells (issue 15): octants of the mesher's octree, welded by crisp merge -------- */
+
+typedef struct mesh_mem {
+    float *p;
+    uint32_t *t;
+    size_t nv, nt, cv, ct;
+} mesh_mem;
+
+static crisp_status mem_vertex(void *ctx, const float p[3])
+{
+    mesh_mem *m = ctx;
+    if (m->nv == m->cv) {
+        size_t c = m->cv ? 2 * m->cv : 4096;
+        float *q = realloc(m->p, c * 3 * sizeof *q);
+        if (!q) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the mesh cell");
+        m->p = q, m->cv = c;
+    }
+    memcpy(m->p + 3 * m->nv++, p, 3 * sizeof *p);
+    return CRISP_OK;
+}
+
+static crisp_status mem_triangle(void *ctx, const uint32_t v[3], const float p[3][3])
+{
+    (void)p;
+    mesh_mem *m = ctx;
+    if (m->nt == m->ct) {
+        size_t c = m->ct ? 2 * m->ct : 4096;
+        uint32_t *q = realloc(m->t, c * 3 * sizeof *q);
+        if (!q) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the mesh cell");
+        m->t = q, m->ct = c;
+    }
+    memcpy(m->t + 3 * m->nt++, v, 3 * sizeof *v);
+    return CRISP_OK;
+}
+
+/* The cell's data: "CRISPMSH", vertex and triangle counts (uint64), the vertices (3 floats),
+ * the triangles (3 uint32), little-endian as the machine (crisp merge checks the magic). */
+static crisp_status mesh_cell_write(void *ctx, const char *tmp)
+{
+    const mesh_mem *m = ctx;
+    FILE *f = fopen(tmp, "wb");
+    if (!f) return crisp_error(CRISP_ERR_IO, "%s: cannot write", tmp);
+    uint64_t n[2] = {m->nv, m->nt};
+    int ok = fwrite("CRISPMSH", 1, 8, f) == 8 && fwrite(n, sizeof n, 1, f) == 1 &&
+             fwrite(m->p, 3 * sizeof(float), m->nv, f) == m->nv &&
+             fwrite(m->t, 3 * sizeof(uint32_t), m->nt, f) == m->nt;
+    if (fclose(f) || !ok) return crisp_error(CRISP_ERR_IO, "%s: cannot write", tmp);
+    return CRISP_OK;
+}
+
+static int mesh_cell(const crisp_frep_tape *tape, crisp_frep_mesh_desc *desc,
+                     const crisp_cell_spec *cell, const char *file, const char *expr,
+                     const char *out)
+{
+    if (cell->cols) {
+        fprintf(stderr, "crisp frep mesh: --cell I/N: N is a power of 8 (no grid)\n");
+        return 2;
+    }
+    desc->split_cell[0] = cell->index, desc->split_cell[1] = cell->count;
+    mesh_mem m = {0};
+    crisp_frep_mesh_sink sink = {.ctx = &m, .vertex = mem_vertex, .triangle = mem_triangle};
+    crisp_frep_mesh_stats st;
+    crisp_status s = crisp_frep_mesh(tape, desc, &sink, &st);
+    crisp_cell_header *h = calloc(1, sizeof *h);
+    if (!s && !h) s = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+    if (!s) {
+        snprintf(h->kind, sizeof h->kind, "mesh");
+        snprintf(h->settings, sizeof h->settings,
+                 "frep-mesh region=%.17g,%.17g,%.17g,%.17g,%.17g,%.17g cell=%.17g features=%d "
+                 "cells=%d",
+                 st.region[0], st.region[1], st.region[2], st.region[3], st.region[4], st.region[5],
+                 st.cell, !desc->no_features, cell->count);
+        if (expr) {
+            h->job = crisp_hash_bytes(CRISP_HASH_SEED, expr, strlen(expr));
+            h->job = crisp_hash_bytes(h->job, h->settings, strlen(h->settings));
+        } else {
+            s = crisp_cell_job_id(file, h->settings, &h->job);
+        }
+        h->cell = *cell;
+        crisp_cell_header_add_sum(h, "vertices", (double)m.nv);
+        crisp_cell_header_add_sum(h, "triangles", (double)m.nt);
+        crisp_cell_header_add_sum(h, "thin_cubes", (double)st.thin_cubes);
+    }
+    if (!s) s = crisp_cell_commit(out, h, mesh_cell_write, &m);
+    if (s)
+        fprintf(stderr, "crisp frep mesh: %s\n", crisp_error_message());
+    else
+        printf("%s: cell %d of %d: %zu vertices, %zu triangles\n", out, cell->index, cell->count,
+               m.nv, m.nt);
+    free(h);
+    free(m.p);
+    free(m.t);
+    return s ? 1 : 0;
+}
+
 static int cmd_mesh(int argc, char **argv)
 {
     const char *file = NULL, *expr = NULL, *out = NULL;
     crisp_frep_mesh_desc desc = {0};
-    int stats = 0;
+    int stats = 0, celled = 0;
+    crisp_cell_spec cell = {0};
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long n;
-        if (!strcmp(a, "-o") && v) {
+        if (!strcmp(a, "--cell") && v && strchr(v, '/')) {
+            if (crisp_cell_parse(v, &cell)) {
+                fprintf(stderr, "crisp frep mesh: --cell: %s\n", crisp_error_message());
+                return 2;
+            }
+            celled = 1, i++;
+        } else if (!strcmp(a, "-o") && v) {
             out = v, i++;
         } else if (!strcmp(a, "--resolution") && v) {
             if (!parse_long(a, v, 4, 1 << 20, &n)) return 2;
@@ -212,6 +315,13 @@ static int cmd_mesh(int argc, char **argv)
     crisp_frep_mesh_stats st;
     double t0 = crisp_time_now();
     crisp_status s = load_model(file, expr, &f, &tape);
+    if (celled) {
+        int rc = s ? 1 : mesh_cell(tape, &desc, &cell, file, expr, out);
+        if (s) fprintf(stderr, "crisp frep mesh: %s\n", crisp_error_message());
+        crisp_frep_tape_destroy(tape);
+        crisp_frep_destroy(f);
+        return rc;
+    }
     if (!s) s = crisp_frep_mesh_writer_open(out, &w, &sink);
     if (!s) s = crisp_frep_mesh(tape, &desc, &sink, &st);
     crisp_status s2 = crisp_frep_mesh_writer_close(w);

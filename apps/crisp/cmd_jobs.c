@@ -43,6 +43,8 @@ static const char usage_text[] =
     "    batch FILE...      one image per file (thumbnails of many models)\n"
     "    mass MODEL         NURBS mass properties in cells of faces (crisp mass --cell)\n"
     "    frep-mass FILE     f-rep mass properties in octree cells (crisp frep mass --cell)\n"
+    "    frep-mesh FILE     an f-rep mesh in octree cells welded by crisp merge (--output\n"
+    "                       mesh.stl, .obj or .ply)\n"
     "  Options not listed here are passed to each cell's command (e.g. --size, --samples,\n"
     "  --view for render; --size, --3d, --region for frep-render; --level for frep-mass).\n"
     "  -o, --dir DIR            the folder to write (created) [required]\n"
@@ -57,7 +59,15 @@ static const char usage_text[] =
     "  -q, --quiet              print nothing but errors\n"
     "  -h, --help               print this help and exit\n";
 
-enum { JOB_RENDER, JOB_FREP_RENDER, JOB_TURNTABLE, JOB_BATCH, JOB_MASS, JOB_FREP_MASS };
+enum {
+    JOB_RENDER,
+    JOB_FREP_RENDER,
+    JOB_TURNTABLE,
+    JOB_BATCH,
+    JOB_MASS,
+    JOB_FREP_MASS,
+    JOB_FREP_MESH
+};
 
 typedef struct cell {
     char *target;      /* the file the cell makes, relative to DIR */
@@ -434,10 +444,10 @@ static int plan_batch(job *j)
     return 0;
 }
 
-/* Mass jobs: N cells of the cell command, merged by crisp merge. */
+/* Mass and mesh jobs: N cells of the cell command, merged by crisp merge. */
 static int plan_mass(job *j)
 {
-    int frep = j->kind == JOB_FREP_MASS;
+    int frep = j->kind != JOB_MASS, mesh = j->kind == JOB_FREP_MESH;
     int n = j->cells_given ? j->cells_given : frep ? 8 : 4;
     if (frep && (n & (n - 1) || __builtin_ctz((unsigned)n) % 3)) {
         fprintf(stderr,
@@ -449,9 +459,12 @@ static int plan_mass(job *j)
     char *fwd = fwd_string(j), *in = sh_quote(j->inputs[0]);
     char *list = str_printf("%s", "");
     for (int i = 0; i < n; i++) {
-        char *target = str_printf("cells/m%05d.cell", i);
+        char *target = str_printf(mesh ? "cells/m%05d.cmesh" : "cells/m%05d.cell", i);
         add_cell(j, target,
-                 str_printf("%s %s %s%s --cell %d/%d -o %s", j->crisp, frep ? "frep mass" : "mass",
+                 str_printf("%s %s %s%s --cell %d/%d -o %s", j->crisp,
+                            mesh   ? "frep mesh"
+                            : frep ? "frep mass"
+                                   : "mass",
                             in, fwd, i, n, target));
         char *t = str_printf("%s %s", list, target);
         free(list);
@@ -599,15 +612,15 @@ int crisp_cmd_jobs(int argc, char **argv)
         fputs(usage_text, argc < 2 ? stderr : stdout);
         return argc < 2 ? 2 : 0;
     }
-    static const char *const kinds[] = {"render", "frep-render", "turntable",
-                                        "batch",  "mass",        "frep-mass"};
+    static const char *const kinds[] = {"render", "frep-render", "turntable", "batch",
+                                        "mass",   "frep-mass",   "frep-mesh"};
     job j = {.kind = -1, .cell_seconds = 1, .max_mem = 1ull << 30, .frames = 120, .timing = 1};
-    for (int k = 0; k < 6; k++)
+    for (int k = 0; k < 7; k++)
         if (!strcmp(argv[1], kinds[k])) j.kind = k;
     if (j.kind < 0) {
         fprintf(stderr,
                 "crisp jobs: unknown job '%s' (expected render, frep-render, turntable, batch, "
-                "mass or frep-mass)\n",
+                "mass, frep-mass or frep-mesh)\n",
                 argv[1]);
         return 2;
     }
@@ -676,14 +689,14 @@ int crisp_cmd_jobs(int argc, char **argv)
                 j.kind == JOB_BATCH ? "one or more files" : "one input file");
         return 2;
     }
-    int mass = j.kind == JOB_MASS || j.kind == JOB_FREP_MASS;
-    if (!j.output) j.output = mass ? "mass.txt" : "image.png";
+    int mass = j.kind == JOB_MASS || j.kind == JOB_FREP_MASS, mesh = j.kind == JOB_FREP_MESH;
+    if (!j.output) j.output = mass ? "mass.txt" : mesh ? "mesh.stl" : "image.png";
     if (strchr(j.output, '/') || j.output[0] == '.') {
         fprintf(stderr, "crisp jobs: --output %s: expected a plain file name (it goes in DIR)\n",
                 j.output);
         return 2;
     }
-    if (!mass && crisp_image_format_of(j.output) == CRISP_IMAGE_UNKNOWN) {
+    if (!mass && !mesh && crisp_image_format_of(j.output) == CRISP_IMAGE_UNKNOWN) {
         fprintf(stderr, "crisp jobs: --output %s: expected a name ending in .png or .exr\n",
                 j.output);
         return 2;

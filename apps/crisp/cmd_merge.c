@@ -10,6 +10,7 @@
 
 #include "cli.h"
 #include "crisp/cells.h"
+#include "crisp/frep_mesh.h"
 
 const char crisp_cmd_merge_help[] =
     "merge -o OUT CELLS...        assemble the cells of a split job (image tiles, mass cells)";
@@ -28,8 +29,8 @@ static const char usage_text[] =
     "  -h, --help          print this help and exit\n"
     "  Exit status: 0 success, 1 bad or missing cells, 2 bad usage.\n";
 
-/* mass cells: cmd_mass.c */
 int crisp__merge_mass(const char *const *cells, size_t count, const char *out, int quiet);
+static int merge_mesh(const char *const *cells, size_t count, const char *out, int quiet);
 
 int crisp_cmd_merge(int argc, char **argv)
 {
@@ -95,6 +96,8 @@ int crisp_cmd_merge(int argc, char **argv)
                        h->rect[5], 1e3 * (crisp_time_now() - t0));
             rc = 0;
         }
+    } else if (!strcmp(h->kind, "mesh")) {
+        rc = merge_mesh(cells, n, out, quiet);
     } else if (!strcmp(h->kind, "mass") || !strcmp(h->kind, "frep-mass")) {
         rc = crisp__merge_mass(cells, n, out, quiet);
     } else {
@@ -325,5 +328,168 @@ done:
     if (f && f != stdout && fclose(f)) rc = 1;
     if (rc && f && f != stdout) remove(out);
     free(h);
+    return rc;
+}
+
+/* ---- mesh cells ----------------------------------------------------------------------- */
+
+/* Welding: vertices equal bit for bit are one (a vertex on a face between cells is computed
+ * the same way by both cells: the same grid edge, the same regula falsi). */
+typedef struct weld {
+    uint32_t *slot; /* vertex index + 1, 0 empty */
+    size_t cap;
+    float *p;
+    size_t n, pcap;
+} weld;
+
+static uint64_t key_hash(const float p[3])
+{
+    uint32_t b[3];
+    memcpy(b, p, sizeof b);
+    uint64_t h = crisp_hash_bytes(CRISP_HASH_SEED, b, sizeof b);
+    return h ^ (h >> 29);
+}
+
+static int weld_add(weld *w, const float p[3], uint32_t *dest)
+{
+    if (2 * (w->n + 1) > w->cap) {
+        size_t cap = w->cap ? 2 * w->cap : 1 << 16;
+        uint32_t *slot = calloc(cap, sizeof *slot);
+        if (!slot) return 0;
+        for (size_t k = 0; k < w->cap; k++)
+            if (w->slot[k]) {
+                size_t i = key_hash(w->p + 3 * (w->slot[k] - 1)) & (cap - 1);
+                while (slot[i])
+                    i = (i + 1) & (cap - 1);
+                slot[i] = w->slot[k];
+            }
+        free(w->slot);
+        w->slot = slot, w->cap = cap;
+    }
+    size_t i = key_hash(p) & (w->cap - 1);
+    while (w->slot[i]) {
+        if (!memcmp(w->p + 3 * (w->slot[i] - 1), p, 3 * sizeof(float)))
+            return *dest = w->slot[i] - 1, 1;
+        i = (i + 1) & (w->cap - 1);
+    }
+    if (w->n == w->pcap) {
+        size_t c = w->pcap ? 2 * w->pcap : 1 << 15;
+        float *q = realloc(w->p, c * 3 * sizeof *q);
+        if (!q) return 0;
+        w->p = q, w->pcap = c;
+    }
+    memcpy(w->p + 3 * w->n, p, 3 * sizeof(float));
+    w->slot[i] = (uint32_t)(++w->n);
+    *dest = (uint32_t)(w->n - 1);
+    return 1;
+}
+
+static int merge_mesh(const char *const *args, size_t n, const char *out, int quiet)
+{
+    crisp_cell_header *h = calloc(n, sizeof *h);
+    char **heads = calloc(n, sizeof *heads);
+    int rc = 1;
+    weld w = {0};
+    uint32_t *tris = NULL;
+    size_t nt = 0, tcap = 0;
+    if (!h || !heads) goto done;
+    for (size_t k = 0; k < n; k++) {
+        size_t len = strlen(args[k]);
+        heads[k] = malloc(len + 6);
+        if (!heads[k]) goto done;
+        if (len > 5 && !strcmp(args[k] + len - 5, ".cell"))
+            memcpy(heads[k], args[k], len + 1);
+        else
+            snprintf(heads[k], len + 6, "%s.cell", args[k]);
+    }
+    if (!load_cells((const char *const *)heads, n, h)) goto done;
+    /* load_cells put each header's own path in data: the data file is beside it */
+    for (size_t k = 0; k < n; k++) {
+        crisp_cell_header hk;
+        char path[4200];
+        if (crisp_cell_header_read(h[k].data, &hk)) goto done;
+        const char *slash = strrchr(h[k].data, '/');
+        int dl = slash ? (int)(slash - h[k].data + 1) : 0;
+        snprintf(path, sizeof path, "%.*s%s", dl, h[k].data, hk.data);
+        uint64_t size, hash;
+        if (crisp_file_hash(path, &size, &hash)) {
+            fprintf(stderr, "crisp merge: cell %d (%s): its data file is missing: %s\n",
+                    hk.cell.index, h[k].data, crisp_error_message());
+            goto done;
+        }
+        if (size != hk.data_size || hash != hk.data_hash) {
+            fprintf(stderr,
+                    "crisp merge: cell %d: %s is corrupt: %llu bytes with hash %016llx, its "
+                    "header %s says %llu bytes with hash %016llx\n",
+                    hk.cell.index, path, (unsigned long long)size, (unsigned long long)hash,
+                    h[k].data, (unsigned long long)hk.data_size, (unsigned long long)hk.data_hash);
+            goto done;
+        }
+        FILE *f = fopen(path, "rb");
+        char magic[8];
+        uint64_t cnt[2];
+        if (!f || fread(magic, 1, 8, f) != 8 || memcmp(magic, "CRISPMSH", 8) ||
+            fread(cnt, sizeof cnt, 1, f) != 1 || cnt[0] > (1ull << 32) || cnt[1] > (1ull << 34)) {
+            fprintf(stderr, "crisp merge: cell %d: %s is not a mesh cell\n", hk.cell.index, path);
+            if (f) fclose(f);
+            goto done;
+        }
+        float *p = malloc(cnt[0] * 3 * sizeof *p + 1);
+        uint32_t *map = malloc(cnt[0] * sizeof *map + 1), t[3];
+        int ok = p && map && fread(p, 3 * sizeof *p, cnt[0], f) == cnt[0];
+        for (uint64_t v = 0; ok && v < cnt[0]; v++)
+            ok = weld_add(&w, p + 3 * v, &map[v]);
+        if (ok && nt + cnt[1] > tcap) {
+            size_t c = tcap ? tcap : 1 << 16;
+            while (c < nt + cnt[1])
+                c *= 2;
+            uint32_t *q = realloc(tris, c * 3 * sizeof *q);
+            ok = q != NULL;
+            if (ok) tris = q, tcap = c;
+        }
+        for (uint64_t q = 0; ok && q < cnt[1]; q++) {
+            ok = fread(t, sizeof t, 1, f) == 1 && t[0] < cnt[0] && t[1] < cnt[0] && t[2] < cnt[0];
+            for (int a = 0; ok && a < 3; a++)
+                tris[3 * nt + a] = map[t[a]];
+            nt += ok;
+        }
+        fclose(f);
+        free(p);
+        free(map);
+        if (!ok) {
+            fprintf(stderr, "crisp merge: cell %d: %s: truncated or bad mesh data\n", hk.cell.index,
+                    path);
+            goto done;
+        }
+    }
+    crisp_frep_mesh_writer *mw = NULL;
+    crisp_frep_mesh_sink sink;
+    crisp_status s = crisp_frep_mesh_writer_open(out, &mw, &sink);
+    for (size_t v = 0; !s && v < w.n; v++)
+        s = sink.vertex(sink.ctx, w.p + 3 * v);
+    for (size_t q = 0; !s && q < nt; q++) {
+        float tp[3][3];
+        for (int a = 0; a < 3; a++)
+            memcpy(tp[a], w.p + 3 * (size_t)tris[3 * q + a], sizeof tp[a]);
+        s = sink.triangle(sink.ctx, tris + 3 * q, (const float(*)[3])tp);
+    }
+    crisp_status s2 = crisp_frep_mesh_writer_close(mw);
+    if (!s) s = s2;
+    if (s) {
+        fprintf(stderr, "crisp merge: %s\n", crisp_error_message());
+        remove(out);
+        goto done;
+    }
+    if (!quiet)
+        printf("merged %zu mesh cells into %s: %zu vertices, %zu triangles\n", n, out, w.n, nt);
+    rc = 0;
+done:
+    for (size_t k = 0; heads && k < n; k++)
+        free(heads[k]);
+    free(heads);
+    free(h);
+    free(w.slot);
+    free(w.p);
+    free(tris);
     return rc;
 }

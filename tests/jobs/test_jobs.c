@@ -160,6 +160,11 @@ static void test_frames(void **state)
                          "F/mass.txt",
                          CRISP, CRISP_DATA_DIR "/frep/bear.vm"),
                      0);
+    assert_int_equal(
+        run("%s jobs frep-mesh %s --resolution 32 --cells 8 -o FM -q && make -s -j2 -C "
+            "FM && test -s FM/mesh.stl",
+            CRISP, CRISP_DATA_DIR "/frep/bear.vm"),
+        0);
     assert_true(mtime("B/images/00000-gpucast_teapot.png") != 0);
     assert_true(mtime("B/images/00001-occt_bearing.png") != 0);
 }

@@ -15,6 +15,7 @@
 #include <cmocka.h>
 
 #include "jobs/image_util.h"
+#include "mesh/mesh_check.h"
 
 #define CRISP CRISP_BIN_DIR "/crisp"
 
@@ -268,10 +269,127 @@ static void test_mass(void **state)
     assert_non_null(strstr(test_output(dir), "power of 8"));
 }
 
+/* A binary STL as triangles of 9 floats, each rotated to start at its least vertex (keeping
+ * its orientation), sorted: two meshes with the same triangles compare equal. */
+typedef struct tri9 {
+    float v[9];
+} tri9;
+
+static int cmp_tri9(const void *a, const void *b)
+{
+    return memcmp(a, b, sizeof(tri9));
+}
+
+static tri9 *read_stl(const char *name, size_t *count)
+{
+    char path[2100];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    unsigned char head[84];
+    uint32_t n = 0;
+    tri9 *t = NULL;
+    if (fread(head, 1, 84, f) == 84) {
+        memcpy(&n, head + 80, 4);
+        t = malloc((n ? n : 1) * sizeof *t);
+        for (uint32_t i = 0; t && i < n; i++) {
+            unsigned char rec[50];
+            if (fread(rec, 1, 50, f) != 50) {
+                free(t), t = NULL;
+                break;
+            }
+            float v[9];
+            memcpy(v, rec + 12, sizeof v);
+            int s = 0;
+            for (int k = 1; k < 3; k++)
+                if (memcmp(v + 3 * k, v + 3 * s, 12) < 0) s = k;
+            for (int k = 0; k < 3; k++)
+                memcpy(t[i].v + 3 * k, v + 3 * ((s + k) % 3), 12);
+        }
+    }
+    fclose(f);
+    if (t) qsort(t, n, sizeof *t, cmp_tri9);
+    *count = n;
+    return t;
+}
+
+static int cmp_vec(const void *a, const void *b)
+{
+    return memcmp(a, b, 3 * sizeof(float));
+}
+
+/* Triangles -> an indexed mesh, vertices equal bit for bit welded. */
+static void weld_tris(const tri9 *t, size_t n, mc_mesh *m)
+{
+    memset(m, 0, sizeof *m);
+    float *all = malloc(9 * n * sizeof *all + 1);
+    memcpy(all, t, 9 * n * sizeof *all);
+    qsort(all, 3 * n, 3 * sizeof(float), cmp_vec);
+    size_t nv = 0;
+    for (size_t i = 0; i < 3 * n; i++)
+        if (!nv || memcmp(all + 3 * i, all + 3 * (nv - 1), 12))
+            memmove(all + 3 * nv++, all + 3 * i, 12);
+    m->p = all, m->nv = nv;
+    m->t = malloc(3 * n * sizeof *m->t + 1), m->nt = n;
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            float *hit = bsearch(t[i].v + 3 * k, all, nv, 3 * sizeof(float), cmp_vec);
+            m->t[3 * i + k] = (uint32_t)((hit - all) / 3);
+        }
+}
+
+/* Mesh cells: octants of the grid's blocks, meshed apart and welded by crisp merge, give the
+ * single run's triangles exactly, so the merged mesh passes the mesh issue's checks (closed,
+ * 2-manifold, oriented, no self-intersection) and has its volume. */
+static void mesh_cells(const char *model, const char *opts, int n)
+{
+    assert_int_equal(test_run(dir,
+                              "%s frep mesh %s %s -o single.stl && rm -f c*.cmesh* && i=0 && "
+                              "while [ $i -lt %d ]; do %s frep mesh %s %s --cell $i/%d -o "
+                              "c$i.cmesh || exit 1; i=$((i+1)); done && %s merge -o merged.stl "
+                              "c*.cmesh",
+                              CRISP, model, opts, n, CRISP, model, opts, n, CRISP),
+                     0);
+    size_t n1, n2;
+    tri9 *a = read_stl("single.stl", &n1), *b = read_stl("merged.stl", &n2);
+    assert_non_null(a);
+    assert_non_null(b);
+    assert_true(n1 > 1000);
+    assert_int_equal(n1, n2);
+    assert_memory_equal(a, b, n1 * sizeof *a);
+    mc_mesh m;
+    weld_tris(b, n2, &m);
+    size_t pairs;
+    assert_int_equal(mc_manifold_defects(&m), 0);
+    assert_int_equal(mc_self_intersections(&m, 0.05, &pairs), 0);
+    assert_true(mc_volume(&m) > 0);
+    mc_free(&m);
+    free(a), free(b);
+}
+
+static void test_mesh(void **state)
+{
+    (void)state;
+    make_dir("mesh");
+    mesh_cells(CRISP_DATA_DIR "/frep/bear.vm", "--resolution 48", 8);
+    mesh_cells(CRISP_DATA_DIR "/frep/tanglecube.vm", "--resolution 40", 64);
+    /* a missing cell, a corrupt one */
+    assert_int_equal(test_run(dir, "%s merge -o bad.stl c0.cmesh c1.cmesh", CRISP), 1);
+    assert_non_null(strstr(test_output(dir), "incomplete set: 62 of the 64 cells"));
+    assert_int_equal(test_run(dir,
+                              "cp c0.cmesh x.bak && head -c 100 x.bak > c0.cmesh && %s merge "
+                              "-o bad.stl c*.cmesh",
+                              CRISP),
+                     1);
+    assert_non_null(strstr(test_output(dir), "cell 0: "));
+    assert_non_null(strstr(test_output(dir), "is corrupt"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_model), cmocka_unit_test(test_scene), cmocka_unit_test(test_frep),
-        cmocka_unit_test(test_bad_cells), cmocka_unit_test(test_mass)};
+        cmocka_unit_test(test_model), cmocka_unit_test(test_scene),
+        cmocka_unit_test(test_frep),  cmocka_unit_test(test_bad_cells),
+        cmocka_unit_test(test_mass),  cmocka_unit_test(test_mesh)};
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
