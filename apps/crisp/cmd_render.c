@@ -23,7 +23,8 @@ static const char usage_text[] =
     "  -o, --output FILE     image to write, .png (8-bit RGBA, alpha = coverage) or .exr (float\n"
     "                        R G B A Z N.x N.y N.z u v face) [out.png]\n"
     "      --aov FILE.exr    also write the EXR with every AOV [none]\n"
-    "      --size WxH        image size in pixels, each 1..16384 [1280x720]\n"
+    "      --size WxH        image size in pixels, each 1..16384 (with --tile 1..65536) "
+    "[1280x720]\n"
     "      --view NAME       front (seen from -Y), back, left, right, top (from +Z), bottom or "
     "iso\n"
     "                        (from 1,-1,1), +Z up, fitted to the trimmed geometry\n"
@@ -134,7 +135,7 @@ static int parse(int argc, char **argv, render_args *a)
             a->aov = optarg;
             break;
         case OPT_SIZE:
-            if (!cli_size("--size", optarg, 16384, &a->cam.width, &a->cam.height)) return 2;
+            if (!cli_size("--size", optarg, 65536, &a->cam.width, &a->cam.height)) return 2;
             break;
         case OPT_VIEW:
             if (!crisp_view_parse(optarg, &a->cam.view)) {
@@ -253,6 +254,13 @@ static int parse(int argc, char **argv, render_args *a)
     if (!a->samples_given)
         a->render.samples =
             cpu && a->out && crisp_image_format_of(a->out) == CRISP_IMAGE_PNG ? 4 : 1;
+    if (!a->tiled && (a->cam.width > 16384 || a->cam.height > 16384)) {
+        fprintf(stderr,
+                "crisp render: --size %dx%d: each side at most 16384 in one piece; larger "
+                "images are rendered in tiles (--tile, crisp jobs render)\n",
+                a->cam.width, a->cam.height);
+        return 2;
+    }
     if (a->tiled) {
         if (a->render.backend != CRISP_BACKEND_CPU) {
             fprintf(stderr, "crisp render: --tile draws with the cpu backend only\n");

@@ -33,6 +33,8 @@ struct crisp_renderer {
     size_t untested_cap;
     uint8_t *leaf_skip; /* per plan leaf: its screen hull holds no sample, nothing to draw */
     size_t leaf_skip_cap;
+    uint32_t *ribbon_keep; /* a window's frame: the ribbon quads that can reach the window */
+    size_t ribbon_keep_cap;
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -88,6 +90,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->slack);
     free(r->untested);
     free(r->leaf_skip);
+    free(r->ribbon_keep);
     free(r);
 }
 
@@ -260,6 +263,7 @@ typedef struct ribbon_ctx {
     crisp_renderer *r;
     const crisp_frame_plan *plan;
     size_t vbase, tbase;
+    const uint32_t *keep; /* the plan's quads drawn (NULL: all) */
 } ribbon_ctx;
 
 static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
@@ -267,7 +271,8 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
     (void)worker;
     ribbon_ctx *c = vctx;
     for (size_t q = begin; q < end; q++) {
-        const crisp_plan_ribbon_vertex *src = c->plan->ribbon_vertices + 4 * q;
+        size_t pq = c->keep ? c->keep[q] : q;
+        const crisp_plan_ribbon_vertex *src = c->plan->ribbon_vertices + 4 * pq;
         crisp_raster_vertex *v = c->r->verts + c->vbase + 4 * q;
         for (int k = 0; k < 4; k++) {
             memcpy(v[k].clip, src[k].clip, sizeof v[k].clip);
@@ -430,8 +435,39 @@ crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
     }
     r->leaf_vbase[jobs] = (uint32_t)nv;
     r->leaf_tbase[jobs] = (uint32_t)nt;
-    /* Ribbons after the surfaces: at equal depth the surface's own fragment stays. */
+    /* Ribbons after the surfaces: at equal depth the surface's own fragment stays. A window of
+     * the frame (issue 15: tiles of a poster have a millionth of its ribbons each) keeps the
+     * quads whose screen box, widened by 2 px, meets it, in their order; the others cover no
+     * sample of it. */
     size_t surface_v = nv, surface_t = nt, quads = plan->ribbon_quad_count;
+    const uint32_t *keep = NULL;
+    if (window && (win[2] != plan->width || win[3] != plan->height)) {
+        if ((st = crisp_grow((void **)&r->ribbon_keep, &r->ribbon_keep_cap, quads ? quads : 1,
+                             sizeof *r->ribbon_keep)))
+            return st;
+        size_t kept = 0;
+        for (size_t q = 0; q < quads; q++) {
+            const crisp_plan_ribbon_vertex *v = plan->ribbon_vertices + 4 * q;
+            double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+            int far = 0;
+            for (int k = 0; k < 4 && !far; k++) {
+                const double *c = v[k].clip;
+                if (!(c[3] > 0) || !isfinite(c[0] + c[1] + c[3])) {
+                    far = 1; /* behind the eye: kept (clipped by the rasterizer) */
+                    break;
+                }
+                double x = (c[0] / c[3] + 1) * 0.5 * plan->width,
+                       y = (1 - c[1] / c[3]) * 0.5 * plan->height;
+                lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
+                lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+            }
+            if (far || (hi[0] >= win[0] - 2 && lo[0] <= win[0] + win[2] + 2 &&
+                        hi[1] >= win[1] - 2 && lo[1] <= win[1] + win[3] + 2))
+                r->ribbon_keep[kept++] = (uint32_t)q;
+        }
+        quads = kept;
+        keep = r->ribbon_keep;
+    }
     nv += 4 * quads;
     nt += 2 * quads;
     if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
@@ -444,7 +480,7 @@ crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
     r->tri_count = surface_t;
     tess_ctx tc = {r, sc};
     crisp_pool_parallel_for(r->pool, jobs, 8, tessellate, &tc);
-    ribbon_ctx rbc = {r, plan, surface_v, surface_t};
+    ribbon_ctx rbc = {r, plan, surface_v, surface_t, keep};
     crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
     double t1 = crisp_time_now();
 
