@@ -6,8 +6,8 @@
  *
  * The cell count follows from two quick runs of the cell command itself (a corner tile of the
  * full image: the overhead of a cell, and its peak memory; the whole image at a reduced size: the
- * time per pixel), so that a cell takes at least --cell-seconds and its predicted memory stays
- * under --max-cell-memory; both predictions are printed. */
+ * time per pixel), so that a cell takes at least --cell-seconds, its overhead stays under 10% of
+ * it, and its predicted memory stays under --max-cell-memory; both predictions are printed. */
 #define _DEFAULT_SOURCE /* wait4, realpath */
 #include <errno.h>
 #include <limits.h>
@@ -274,6 +274,16 @@ static int plan_tiles(job *j)
         if (!frep) argv[n++] = "-q";
         argv[n] = NULL;
         if (!rc) rc = run_crisp(j, argv, &t_small, &m_small);
+        /* and a corner tile of the reduced image: the small run's own overhead */
+        char tile_small[64];
+        snprintf(tile_small, sizeof tile_small, "0/%dx%d", sw / 32, sh / 32);
+        const char *a3[] = {"--tile", tile_small};
+        n = base + 4 + !frep;
+        argv[n++] = (char *)a3[0], argv[n++] = (char *)a3[1];
+        argv[n] = NULL;
+        double t_small0 = 0;
+        uint64_t m_small0;
+        if (!rc) rc = run_crisp(j, argv, &t_small0, &m_small0);
         char cellf[PATH_MAX + 80];
         snprintf(cellf, sizeof cellf, "%s.cell", out);
         remove(out), remove(cellf);
@@ -285,8 +295,7 @@ static int plan_tiles(job *j)
             return 1;
         }
         overhead = t_corner;
-        /* the small run's own overhead is about a cell's at that size: at most the corner's */
-        per_px = fmax(t_small - fmin(t_corner, 0.9 * t_small), 0.02 * t_small) / ((double)sw * sh);
+        per_px = fmax(t_small - t_small0, 0.02 * t_small) / ((double)sw * sh);
         base_mem = m_corner;
     }
     int n = j->cells_given;
@@ -296,9 +305,9 @@ static int plan_tiles(job *j)
             fprintf(stderr, "crisp jobs: --no-timing needs --cells N\n");
             return 2;
         }
-        /* as many cells as keep each at least cell_seconds (the overhead counts), then at least
-         * as many as keep each under the memory limit */
-        double per_cell = j->cell_seconds > overhead ? j->cell_seconds - overhead : overhead;
+        /* as many cells as keep each at least cell_seconds long (the overhead counts) with the
+         * overhead under 10% of it, then at least as many as keep each under the memory limit */
+        double per_cell = fmax(j->cell_seconds - overhead, 9 * overhead);
         n = (int)fmax(1, floor(work / fmax(per_cell, 1e-3)));
         double room = (double)j->max_mem - (double)base_mem;
         if (room <= 0) {
@@ -479,9 +488,12 @@ static int plan_mass(job *j)
 
 /* ---- files -------------------------------------------------------------------------------- */
 
-/* $ doubled for make. */
-static void put_make(FILE *f, const char *s)
+/* $ doubled for make; the crisp path at the start of a command is $(CRISP) (make CRISP=... runs
+ * another crisp, or crisp under a wrapper such as /usr/bin/time). */
+static void put_make(FILE *f, const char *s, const char *crisp)
 {
+    size_t n = strlen(crisp);
+    if (!strncmp(s, crisp, n) && s[n] == ' ') fputs("$(CRISP)", f), s += n;
     for (; *s; s++) {
         if (*s == '$') fputc('$', f);
         fputc(*s, f);
@@ -502,13 +514,13 @@ static int write_files(const job *j, const char *cmdline)
             "interruption redoes only\n# the missing cells.\n.DELETE_ON_ERROR:\n",
             cmdline, j->cell_count, j->note, j->absdir,
             j->merge[0] ? "then the merge" : "that is all");
-    fprintf(f, "CELLS :=");
+    fprintf(f, "CRISP := %s\nCELLS :=", j->crisp);
     for (int k = 0; k < j->cell_count; k++)
         fprintf(f, " \\\n  %s", j->cells[k].target);
     fprintf(f, "\n\n%s: $(CELLS)\n", final);
     if (j->merge[0]) {
         fputc('\t', f);
-        put_make(f, j->merge);
+        put_make(f, j->merge, j->crisp);
         fputc('\n', f);
     } else {
         fprintf(f, "\t@echo %d cells done\n.PHONY: %s\n", j->cell_count, final);
@@ -521,7 +533,7 @@ static int write_files(const job *j, const char *cmdline)
         for (const char *p = j->cells[k].input; *p; p++) /* a make word: escape its spaces */
             fprintf(f, "%s%c", *p == ' ' || *p == '#' || *p == ':' ? "\\" : "", *p);
         fprintf(f, " | %.*s\n\t", (int)(slash - t), t);
-        put_make(f, j->cells[k].cmd);
+        put_make(f, j->cells[k].cmd, j->crisp);
         fprintf(f, "\n");
     }
     /* the folders of the cells */
