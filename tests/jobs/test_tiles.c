@@ -129,8 +129,8 @@ static void check_frep_windows(const char *path, int width, int height, int dept
             }
         }
         if (bad)
-            fprintf(stderr, "%s: window %dx%d at (%d, %d), depth %d: %zu rows differ\n", path,
-                    w[2], w[3], w[0], w[1], depth, bad);
+            fprintf(stderr, "%s: window %dx%d at (%d, %d), depth %d: %zu rows differ\n", path, w[2],
+                    w[3], w[0], w[1], depth, bad);
         assert_int_equal(bad, 0);
         crisp_frep_renderer_destroy(rw);
     }
