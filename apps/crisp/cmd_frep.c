@@ -859,7 +859,7 @@ int crisp_cmd_frep(int argc, char **argv)
         } else if (!strcmp(a, "--brute")) {
             desc.flags |= CRISP_FREP_BRUTE;
         } else if (!strcmp(a, "--tile") && v) {
-            if (crisp_cell_parse(v, &tile) || crisp_tile_grid(desc.width, desc.height, &tile)) {
+            if (crisp_cell_parse(v, &tile)) {
                 fprintf(stderr, "crisp frep: --tile: %s\n", crisp_error_message());
                 return 2;
             }
@@ -876,6 +876,10 @@ int crisp_cmd_frep(int argc, char **argv)
     }
     if (!file && !expr) {
         fprintf(stderr, "crisp frep: no FILE given\n");
+        return 2;
+    }
+    if (tiled && crisp_tile_grid(desc.width, desc.height, &tile)) {
+        fprintf(stderr, "crisp frep: --tile: %s\n", crisp_error_message());
         return 2;
     }
     if (is3d)
