@@ -91,6 +91,7 @@ typedef struct job {
     char *merge; /* the merge command ("" when there is none) */
     double cell_time, total_time;
     uint64_t cell_mem;
+    int measured; /* cell_time and cell_mem are cell 0's, run by crisp jobs itself */
     char note[512];
 } job;
 
@@ -486,6 +487,41 @@ static int plan_mass(job *j)
     return 0;
 }
 
+/* Jobs whose cells are whole frames, files or mass/mesh cells: cell 0 is run now (its file stays:
+ * a finished cell) and its time and peak memory stand for every cell's. */
+static int measure_first(job *j)
+{
+    const cell *c = &j->cells[0];
+    const char *slash = strrchr(c->target, '/');
+    char sub[PATH_MAX + 64];
+    snprintf(sub, sizeof sub, "%s/%.*s", j->absdir, (int)(slash - c->target), c->target);
+    mkdir(sub, 0777);
+    char *cmd = str_printf("exec %s", c->cmd);
+    double t0 = crisp_time_now();
+    pid_t pid = fork();
+    if (pid == 0) {
+        FILE *devnull = freopen("/dev/null", "w", stdout);
+        (void)devnull;
+        if (chdir(j->absdir)) _exit(126);
+        execl("/bin/sh", "sh", "-c", cmd, (char *)NULL);
+        _exit(127);
+    }
+    free(cmd);
+    int status = 0;
+    struct rusage ru;
+    if (pid < 0 || wait4(pid, &status, 0, &ru) < 0) return 1;
+    if (!WIFEXITED(status) || WEXITSTATUS(status)) {
+        fprintf(stderr, "crisp jobs: cell 0 failed (exit %d): %s\n",
+                WIFEXITED(status) ? WEXITSTATUS(status) : -1, j->cells[0].cmd);
+        return 1;
+    }
+    j->cell_time = crisp_time_now() - t0;
+    j->cell_mem = (uint64_t)ru.ru_maxrss * 1024u;
+    j->total_time = j->cell_time * j->cell_count;
+    j->measured = 1;
+    return 0;
+}
+
 /* ---- files -------------------------------------------------------------------------------- */
 
 /* $ doubled for make; the crisp path at the start of a command is $(CRISP) (make CRISP=... runs
@@ -755,16 +791,21 @@ int crisp_cmd_jobs(int argc, char **argv)
         free(q), free(cmdline);
         cmdline = t;
     }
+    if (!rc && j.timing && j.kind != JOB_RENDER && j.kind != JOB_FREP_RENDER)
+        rc = measure_first(&j);
     if (!rc) rc = write_files(&j, cmdline);
     if (!rc && !j.quiet) {
         printf("%s: %d cells (%s)\n", j.absdir, j.cell_count, j.note);
-        if (j.cell_time > 0) {
-            char mb[32];
-            cli_format_bytes(j.cell_mem, mb, sizeof mb);
+        char mb[32];
+        cli_format_bytes(j.cell_mem, mb, sizeof mb);
+        if (j.measured)
+            printf("cell 0 (run now; its file is kept): %.2f s and %s; all %d cells about %.1f s "
+                   "of work\n",
+                   j.cell_time, mb, j.cell_count, j.total_time);
+        else if (j.cell_time > 0)
             printf("predicted per cell: %.2f s and %s (one process each); the whole image in "
                    "one process: %.1f s\n",
                    j.cell_time, mb, j.total_time);
-        }
         printf("run:  make -j2 -C %s\n", j.absdir);
         printf("  or: parallel -j2 --joblog %s/joblog --resume < %s/jobs.txt && sh %s/merge.sh\n",
                j.absdir, j.absdir, j.absdir);
