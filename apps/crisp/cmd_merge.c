@@ -13,12 +13,13 @@
 #include "crisp/frep_mesh.h"
 
 const char crisp_cmd_merge_help[] =
-    "merge -o OUT CELLS...        assemble the cells of a split job (image tiles, mass cells)";
+    "merge -o OUT CELLS...        assemble the cells of a split job (tiles, mesh, mass cells)";
 
 static const char usage_text[] =
     "usage: crisp merge -o OUT [-q] CELLS...\n"
     "  Assembles the cells written by 'crisp render --tile', 'crisp frep render --tile',\n"
-    "  'crisp mass --cell' and 'crisp frep mass --cell' (crisp jobs writes the commands).\n"
+    "  'crisp frep mesh --cell', 'crisp mass --cell' and 'crisp frep mass --cell' (crisp jobs\n"
+    "  writes the commands). Mesh cells (CELL.cmesh): OUT is the welded .stl, .obj or .ply.\n"
     "  Image tiles: CELLS are the tile images (PNG or EXR; each with its header TILE.cell) and\n"
     "  OUT the whole image in the same format, every channel bit for bit. Mass cells: CELLS are\n"
     "  the cell files and OUT a text file of the merged properties ('-' for stdout).\n"
