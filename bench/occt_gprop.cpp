@@ -43,8 +43,8 @@ int main(int argc, char **argv)
         printf("%s: area %.15g (adaptive %.15g, error %.2g) volume %.15g (adaptive %.15g, error "
                "%.2g)\n  adaptive centroid %.15g %.15g %.15g\n  inertia about the centroid "
                "(Ixx Iyy Izz Ixy Iyz Ixz) %.15g %.15g %.15g %.15g %.15g %.15g (%.3f s)\n",
-               p, a.Mass(), a2.Mass(), aeps, v.Mass(), v2.Mass(), eps, c.X(), c.Y(), c.Z(),
-               m(1, 1), m(2, 2), m(3, 3), m(1, 2), m(2, 3), m(1, 3), dt);
+               p, a.Mass(), a2.Mass(), aeps, v.Mass(), v2.Mass(), eps, c.X(), c.Y(), c.Z(), m(1, 1),
+               m(2, 2), m(3, 3), m(1, 2), m(2, 3), m(1, 3), dt);
     }
     return 0;
 }
