@@ -301,6 +301,8 @@ typedef struct resolve_ctx {
     crisp_image *img;
 } resolve_ctx;
 
+/* Rows [begin, end) of the image, every pixel written (the background where no sample is
+ * covered, as crisp__image_clear leaves it), so the image needs no clearing first. */
 static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
@@ -312,6 +314,10 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
      * f + ndc_x r + ndc_y u, the basis computed once per frame (raster_view). */
     const crisp_camera *cam = c->cam;
     const double *f = c->view.f, *r = c->view.r, *u = c->view.u, kx = c->view.kx, ky = c->view.ky;
+    double off[16][2];
+    for (int s = 0; s < S; s++)
+        crisp__raster_sample_offset(S, s, off[s]);
+    const crisp_scene_face *faces = c->sc->faces;
     for (size_t j = begin; j < end; j++)
         for (int i = 0; i < t->width; i++) {
             size_t px = j * (size_t)t->width + (size_t)i;
@@ -320,23 +326,32 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
             double best_iw = 0;
             for (int s = 0; s < S; s++) {
                 size_t idx = px * S + s;
-                if (t->face[idx] < 0) continue;
+                int32_t fc = t->face[idx];
+                if (fc < 0) continue;
                 covered++;
                 if (t->inv_w[idx] > best_iw) best_iw = t->inv_w[idx], best = s;
-                double off[2], d[3], n[3];
-                crisp__raster_sample_offset(S, s, off);
-                double nx = (i + off[0] - 0.5 * cam->width) * kx,
-                       ny = (0.5 * cam->height - j - off[1]) * ky;
+                double d[3], n[3];
+                double nx = (i + off[s][0] - 0.5 * cam->width) * kx,
+                       ny = (0.5 * cam->height - j - off[s][1]) * ky;
                 for (int k = 0; k < 3; k++)
                     d[k] = f[k] + nx * r[k] + ny * u[k];
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
                 n[0] = a[2], n[1] = a[3], n[2] = a[4];
                 float rgba[4];
-                crisp__shade(c->sc->faces[t->face[idx]].color, n, d, rgba);
+                crisp__shade(faces[fc].color, n, d, rgba);
                 for (int k = 0; k < 3; k++)
                     acc[k] += rgba[k];
             }
-            if (!covered) continue;
+            if (!covered) {
+                for (int k = 0; k < 4; k++)
+                    img->rgba[4 * px + k] = 0;
+                img->face[px] = -1;
+                img->depth[px] = INFINITY;
+                img->uv[2 * px] = img->uv[2 * px + 1] = 0;
+                for (int k = 0; k < 3; k++)
+                    img->normal[3 * px + k] = 0;
+                continue;
+            }
             for (int k = 0; k < 3; k++)
                 img->rgba[4 * px + k] = acc[k] / (float)covered;
             img->rgba[4 * px + 3] = (float)covered / (float)S;
@@ -433,7 +448,7 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     raster_view(cam, &view);
     if ((st = crisp__raster_target_init(&r->target, cam->width, cam->height, r->desc.samples)))
         return st;
-    crisp__raster_target_clear(&r->target);
+    crisp__raster_target_clear_depth(&r->target, r->pool);
     crisp_raster_stats rs;
     /* Surfaces first; then the ribbons fill gaps: a ribbon sample replaces a surface sample only
      * when nearer by more than that surface's depth change over 1.5 px, so a ribbon along an
@@ -452,7 +467,11 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     if (nt > surface_t) {
         size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
-        crisp__raster_depth_slack(&r->target, r->pool, 1.5, &view, r->slack);
+        /* Only where the ribbons can land (the fill pass reads nothing else). */
+        if ((st = crisp__raster_depth_slack_tris(r->raster, &r->target, r->pool, 1.5, &view,
+                                                 r->verts, nv, r->tris + surface_t, nt - surface_t,
+                                                 r->slack)))
+            return st;
         crisp_raster_stats rs2;
         st = crisp__raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv,
                                      r->tris + surface_t, nt - surface_t, trim_test, ctx, r->slack,
@@ -462,7 +481,6 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
         rs.fragments_discarded += rs2.fragments_discarded;
     }
     double t2 = crisp_time_now();
-    crisp__image_clear(img);
     resolve_ctx rc = {r, sc, cam, view, img};
     crisp_pool_parallel_for(r->pool, (size_t)cam->height, 8, resolve_rows, &rc);
     double t3 = crisp_time_now();

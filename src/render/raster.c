@@ -42,6 +42,10 @@ struct crisp_raster {
     int no_hiz;              /* hierarchical depth rejection off (crisp__raster_set_hiz) */
     const uint8_t *untested; /* per face (crisp__raster_set_untested_faces) */
     size_t untested_count;
+    uint8_t *tile_mask; /* per tile (crisp__raster_depth_slack_tris) */
+    size_t tile_mask_cap;
+    uint32_t *bin_counts; /* per setup chunk and tile: entries (parallel binning) */
+    size_t bin_counts_cap;
 };
 
 void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count)
@@ -76,6 +80,8 @@ void crisp__raster_destroy(crisp_raster *r)
     free(r->vcache);
     free(r->bin_items);
     free(r->bin_start);
+    free(r->tile_mask);
+    free(r->bin_counts);
     free(r);
 }
 
@@ -123,6 +129,25 @@ void crisp__raster_target_clear(crisp_raster_target *t)
     memset(t->inv_w, 0, n * sizeof *t->inv_w);
     memset(t->attr, 0, n * CRISP_RASTER_ATTRS * sizeof *t->attr);
     memset(t->face, 0xff, n * sizeof *t->face);
+}
+
+typedef struct clear_ctx {
+    crisp_raster_target *t;
+} clear_ctx;
+
+static void clear_rows(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    crisp_raster_target *t = ((clear_ctx *)vctx)->t;
+    size_t rs = (size_t)t->width * t->samples, a = begin * rs, n = (end - begin) * rs;
+    memset(t->inv_w + a, 0, n * sizeof *t->inv_w);
+    memset(t->face + a, 0xff, n * sizeof *t->face);
+}
+
+void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool)
+{
+    clear_ctx c = {t};
+    crisp_pool_parallel_for(pool, (size_t)t->height, 64, clear_rows, &c);
 }
 
 void crisp__raster_sample_offset(int samples, int s, double dest[2])
@@ -197,6 +222,14 @@ typedef struct pvert {
     int ok; /* inside every clip plane, finite, W > 0 (cache only) */
 } pvert;
 
+/* llround for |x| < 2^52 (the guard band keeps screen positions far inside): the same value as
+ * the libm call (halves round away from zero), inline. x - trunc(x) is exact there. */
+static inline int64_t round_half_away(double x)
+{
+    double t = (double)(int64_t)x, f = x - t;
+    return (int64_t)t + (f >= 0.5) - (f <= -0.5);
+}
+
 /* 0 when the vertex cannot be set up (W <= 0, beyond the guard band or not finite). */
 static int project(const double *p, const crisp_raster_target *t, pvert *out)
 {
@@ -205,8 +238,8 @@ static int project(const double *p, const crisp_raster_target *t, pvert *out)
     out->sx = (p[0] / w + 1.0) * 0.5 * t->width;
     out->sy = (1.0 - p[1] / w) * 0.5 * t->height;
     if (!(fabs(out->sx) <= 2 * GUARD_PX && fabs(out->sy) <= 2 * GUARD_PX)) return 0;
-    out->fx = llround(out->sx * SUB);
-    out->fy = llround(out->sy * SUB);
+    out->fx = round_half_away(out->sx * SUB);
+    out->fy = round_half_away(out->sy * SUB);
     double iw = 1.0 / w;
     out->val[0] = iw;
     for (int q = 1; q <= CRISP_RASTER_ATTRS; q++)
@@ -240,21 +273,25 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         order[1] = 2;
         order[2] = 1;
     }
-    double minx = 1e300, miny = 1e300, maxx = -1e300, maxy = -1e300;
+    int64_t minx = INT64_MAX, miny = INT64_MAX, maxx = INT64_MIN, maxy = INT64_MIN;
     for (int k = 0; k < 3; k++) {
         int i = order[k];
         out->x[k] = v[i]->fx;
         out->y[k] = v[i]->fy;
-        minx = fmin(minx, (double)v[i]->fx / SUB);
-        maxx = fmax(maxx, (double)v[i]->fx / SUB);
-        miny = fmin(miny, (double)v[i]->fy / SUB);
-        maxy = fmax(maxy, (double)v[i]->fy / SUB);
+        minx = v[i]->fx < minx ? v[i]->fx : minx;
+        maxx = v[i]->fx > maxx ? v[i]->fx : maxx;
+        miny = v[i]->fy < miny ? v[i]->fy : miny;
+        maxy = v[i]->fy > maxy ? v[i]->fy : maxy;
     }
-    /* Samples sit at i + offset with offset in [0, 1): pixels floor(min) - 1 .. floor(max). */
-    out->x0 = (int)fmax(0, floor(minx) - 1);
-    out->y0 = (int)fmax(0, floor(miny) - 1);
-    out->x1 = (int)fmin(t->width - 1, floor(maxx));
-    out->y1 = (int)fmin(t->height - 1, floor(maxy));
+    /* Samples sit at i + offset with offset in [0, 1): pixels floor(min) - 1 .. floor(max)
+     * (floor of a fixed-point value: an arithmetic shift). */
+    int64_t x0 = (minx >> CRISP_RASTER_SUBPIXEL_BITS) - 1,
+            y0 = (miny >> CRISP_RASTER_SUBPIXEL_BITS) - 1;
+    int64_t x1 = maxx >> CRISP_RASTER_SUBPIXEL_BITS, y1 = maxy >> CRISP_RASTER_SUBPIXEL_BITS;
+    out->x0 = (int)(x0 > 0 ? x0 : 0);
+    out->y0 = (int)(y0 > 0 ? y0 : 0);
+    out->x1 = (int)(x1 < t->width - 1 ? x1 : t->width - 1);
+    out->y1 = (int)(y1 < t->height - 1 ? y1 : t->height - 1);
     if (!(out->x0 <= out->x1 && out->y0 <= out->y1)) return 0;
     double sx[3] = {a->sx, b->sx, d->sx}, sy[3] = {a->sy, b->sy, d->sy};
     double det = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sy[1] - sy[0]) * (sx[2] - sx[0]);
@@ -615,6 +652,118 @@ void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, d
     crisp_pool_parallel_for(pool, (size_t)t->height, 16, slack_rows, &c);
 }
 
+/* The slack of one tile's samples, each from its own four neighbours (the same pairs and the
+ * same arithmetic as slack_rows, gathered at each member instead of scattered from the left or
+ * upper one: |a - b| = |b - a| exactly, so the values are the same bit for bit). */
+typedef struct slack_tiles_ctx {
+    const slack_ctx *c;
+    const uint8_t *mask;
+    int tiles_x;
+} slack_tiles_ctx;
+
+static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const slack_tiles_ctx *tc = vctx;
+    const slack_ctx *c = tc->c;
+    const crisp_raster_target *t = c->t;
+    int S = t->samples, w = t->width, h = t->height;
+    size_t rs = (size_t)w * S;
+    /* The side each sample of the tile and its one-pixel border is seen from. */
+    int8_t side[(TILE + 2) * (TILE + 2)];
+    for (size_t tile = begin; tile < end; tile++) {
+        if (!tc->mask[tile]) continue;
+        int px0 = (int)(tile % (size_t)tc->tiles_x) * TILE,
+            py0 = (int)(tile / (size_t)tc->tiles_x) * TILE;
+        int px1 = px0 + TILE < w ? px0 + TILE : w, py1 = py0 + TILE < h ? py0 + TILE : h;
+        for (int s = 0; s < S; s++) {
+            for (int j = py0 - 1; j <= py1; j++)
+                for (int i = px0 - 1; i <= px1; i++) {
+                    int8_t *sd = &side[(j - py0 + 1) * (TILE + 2) + (i - px0 + 1)];
+                    *sd = -1;
+                    if (i < 0 || j < 0 || i >= w || j >= h) continue;
+                    size_t idx = ((size_t)j * w + i) * S + s;
+                    if (t->face[idx] >= 0)
+                        *sd = (int8_t)seen_side(c->view, w, h, i, j,
+                                                t->attr + idx * CRISP_RASTER_ATTRS);
+                }
+            for (int j = py0; j < py1; j++)
+                for (int i = px0; i < px1; i++) {
+                    size_t idx = ((size_t)j * w + i) * S + s;
+                    int32_t f = t->face[idx];
+                    float m = 0;
+                    if (f >= 0) {
+                        double W = 1.0 / t->inv_w[idx];
+                        const int8_t *sd = &side[(j - py0 + 1) * (TILE + 2) + (i - px0 + 1)];
+                        /* left, right, up, down */
+                        const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
+                        for (int k = 0; k < 4; k++) {
+                            int ni = i + di[k], nj = j + dj[k];
+                            if (ni < 0 || nj < 0 || ni >= w || nj >= h) continue;
+                            size_t nidx =
+                                idx + (ptrdiff_t)di[k] * S + (ptrdiff_t)dj[k] * (ptrdiff_t)rs;
+                            if (t->face[nidx] != f || sd[di[k] + dj[k] * (TILE + 2)] != sd[0])
+                                continue;
+                            float d = (float)(c->scale * fabs(1.0 / t->inv_w[nidx] - W));
+                            if (d > m) m = d;
+                        }
+                    }
+                    c->slack[idx] = m;
+                }
+        }
+    }
+}
+
+crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_target *t,
+                                            crisp_pool *pool, double scale,
+                                            const crisp_raster_view *view,
+                                            const crisp_raster_vertex *verts, size_t vert_count,
+                                            const crisp_raster_tri *tris, size_t tri_count,
+                                            float *slack)
+{
+    int tiles_x = (t->width + TILE - 1) / TILE, tiles_y = (t->height + TILE - 1) / TILE;
+    size_t tiles = (size_t)tiles_x * tiles_y;
+    crisp_status st = crisp_grow((void **)&r->tile_mask, &r->tile_mask_cap, tiles, 1);
+    if (st) return st;
+    memset(r->tile_mask, 0, tiles);
+    /* A triangle with every vertex in front of the eye (W > 0) lies, clipped or not, inside the
+     * screen box of its vertices; its samples are in pixels floor(min) - 1 .. floor(max) of the
+     * snapped positions (1/512 px away): 2 px of margin cover both. Any other triangle marks
+     * every tile. */
+    int all = 0;
+    for (size_t i = 0; i < tri_count && !all; i++) {
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        for (int k = 0; k < 3 && !all; k++) {
+            if (tris[i].v[k] >= vert_count) {
+                all = 1;
+                break;
+            }
+            const double *p = verts[tris[i].v[k]].clip;
+            double w = p[3];
+            double x = (p[0] / w + 1.0) * 0.5 * t->width, y = (1.0 - p[1] / w) * 0.5 * t->height;
+            if (!(w > 0) || !(fabs(x) <= 2 * GUARD_PX && fabs(y) <= 2 * GUARD_PX)) {
+                all = 1;
+                break;
+            }
+            lo[0] = x < lo[0] ? x : lo[0], hi[0] = x > hi[0] ? x : hi[0];
+            lo[1] = y < lo[1] ? y : lo[1], hi[1] = y > hi[1] ? y : hi[1];
+        }
+        if (all) break;
+        int x0 = (int)floor(lo[0]) - 2, x1 = (int)floor(hi[0]) + 2;
+        int y0 = (int)floor(lo[1]) - 2, y1 = (int)floor(hi[1]) + 2;
+        x0 = x0 > 0 ? x0 : 0, y0 = y0 > 0 ? y0 : 0;
+        x1 = x1 < t->width - 1 ? x1 : t->width - 1, y1 = y1 < t->height - 1 ? y1 : t->height - 1;
+        for (int ty = y0 / TILE; ty <= y1 / TILE && y0 <= y1; ty++)
+            for (int tx = x0 / TILE; tx <= x1 / TILE && x0 <= x1; tx++)
+                r->tile_mask[(size_t)ty * tiles_x + tx] = 1;
+    }
+    if (all) memset(r->tile_mask, 1, tiles);
+    slack_ctx c = {t, view, scale, slack};
+    slack_tiles_ctx tc = {&c, r->tile_mask, tiles_x};
+    crisp_pool_parallel_for(pool, tiles, 1, slack_tiles, &tc);
+    return CRISP_OK;
+}
+
 static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                          const crisp_raster_vertex *verts, size_t vert_count,
                          const crisp_raster_tri *tris, size_t tri_count, crisp_raster_test_fn test,
@@ -636,6 +785,44 @@ crisp_status crisp__raster_draw_fill(crisp_raster *r, crisp_raster_target *t, cr
                                      crisp_raster_stats *stats)
 {
     return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, slack, stats);
+}
+
+typedef struct bin_ctx {
+    crisp_raster *r;
+    const setup_ctx *sc;
+    int tiles_x;
+    size_t tiles;
+} bin_ctx;
+
+static void bin_count(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const bin_ctx *b = vctx;
+    for (size_t ch = begin; ch < end; ch++) {
+        uint32_t *cnt = b->r->bin_counts + ch * b->tiles;
+        memset(cnt, 0, b->tiles * sizeof *cnt);
+        for (size_t i = 0; i < b->sc->counts[ch]; i++) {
+            const setup_tri *s = &b->r->chunk_tris[ch][i];
+            for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
+                for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
+                    cnt[(size_t)ty * b->tiles_x + tx]++;
+        }
+    }
+}
+
+static void bin_fill(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const bin_ctx *b = vctx;
+    for (size_t ch = begin; ch < end; ch++) {
+        uint32_t *next = b->r->bin_counts + ch * b->tiles; /* the chunk's offset in each tile */
+        for (size_t i = 0; i < b->sc->counts[ch]; i++) {
+            const setup_tri *s = &b->r->chunk_tris[ch][i];
+            for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
+                for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
+                    b->r->bin_items[next[(size_t)ty * b->tiles_x + tx]++] = s;
+        }
+    }
 }
 
 static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
@@ -693,35 +880,30 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
             n += sc.counts[ch];
         }
         total += n;
-        /* Bin in submission order: count per tile, prefix sums, fill. */
-        memset(r->bin_start, 0, (tiles + 1) * sizeof *r->bin_start);
+        /* Bin in submission order: entries per setup chunk and tile (in parallel), offsets per
+         * tile in chunk order, fill (in parallel): each tile lists its triangles as the input
+         * did. */
+        if ((st = crisp_grow((void **)&r->bin_counts, &r->bin_counts_cap, CHUNKS * tiles,
+                             sizeof *r->bin_counts)))
+            return st;
+        bin_ctx bc = {r, &sc, tiles_x, tiles};
+        crisp_pool_parallel_for(pool, CHUNKS, 1, bin_count, &bc);
         size_t items = 0;
-        for (int ch = 0; ch < CHUNKS; ch++)
-            for (size_t i = 0; i < sc.counts[ch]; i++) {
-                const setup_tri *s = &r->chunk_tris[ch][i];
-                for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
-                    for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
-                        r->bin_start[(size_t)ty * tiles_x + tx + 1]++;
-                items += (size_t)(s->y1 / TILE - s->y0 / TILE + 1) *
-                         (size_t)(s->x1 / TILE - s->x0 / TILE + 1);
+        for (size_t k = 0; k < tiles; k++) {
+            r->bin_start[k] = (uint32_t)items;
+            for (int ch = 0; ch < CHUNKS; ch++) {
+                uint32_t n_ch = r->bin_counts[(size_t)ch * tiles + k];
+                r->bin_counts[(size_t)ch * tiles + k] = (uint32_t)items;
+                items += n_ch;
             }
-        if (items > UINT32_MAX)
-            return crisp_error(CRISP_ERR_LIMIT, "%zu tile entries: the limit is 2^32", items);
-        for (size_t k = 0; k < tiles; k++)
-            r->bin_start[k + 1] += r->bin_start[k];
+            if (items > UINT32_MAX)
+                return crisp_error(CRISP_ERR_LIMIT, "%zu tile entries: the limit is 2^32", items);
+        }
+        r->bin_start[tiles] = (uint32_t)items;
         if ((st = crisp_grow((void **)&r->bin_items, &r->bin_cap, items ? items : 1,
                              sizeof *r->bin_items)))
             return st;
-        for (int ch = 0; ch < CHUNKS; ch++)
-            for (size_t i = 0; i < sc.counts[ch]; i++) {
-                const setup_tri *s = &r->chunk_tris[ch][i];
-                for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
-                    for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
-                        r->bin_items[r->bin_start[(size_t)ty * tiles_x + tx]++] = s;
-            }
-        for (size_t k = tiles; k > 0; k--)
-            r->bin_start[k] = r->bin_start[k - 1];
-        r->bin_start[0] = 0;
+        crisp_pool_parallel_for(pool, CHUNKS, 1, bin_fill, &bc);
         crisp_pool_parallel_for(pool, tiles, 1, raster_tiles, &rc);
     }
     if (stats) {

@@ -58,6 +58,9 @@ void crisp__raster_destroy(crisp_raster *r);
 crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int height, int samples);
 void crisp__raster_target_free(crisp_raster_target *t);
 void crisp__raster_target_clear(crisp_raster_target *t);
+/* Clears 1/W and the face ids only, in parallel (pool may be NULL): the attributes of empty
+ * samples keep stale values, which nothing reads (a sample is drawn iff its face is >= 0). */
+void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool);
 
 /* Offsets of the samples inside a pixel, in [0, 1)^2 (x right, y down). */
 void crisp__raster_sample_offset(int samples, int s, double dest[2]);
@@ -108,5 +111,15 @@ typedef struct crisp_raster_view {
  * samples): how far a surface's depth moves over one pixel at that sample. pool may be NULL. */
 void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
                                const crisp_raster_view *view, float *slack);
+/* The same slack, computed only in the 64x64 tiles that the given triangles can cover (the
+ * samples a draw_fill of them reads; other samples of slack are left as they were): the values
+ * there equal crisp__raster_depth_slack's bit for bit. The fill pass's gap fillers cover few
+ * tiles of a close-up. */
+crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_target *t,
+                                            crisp_pool *pool, double scale,
+                                            const crisp_raster_view *view,
+                                            const crisp_raster_vertex *verts, size_t vert_count,
+                                            const crisp_raster_tri *tris, size_t tri_count,
+                                            float *slack);
 
 #endif

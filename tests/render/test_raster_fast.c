@@ -2,7 +2,8 @@
  * not change a single output bit on overlapping random triangles (1 and 4 samples, near-plane
  * crossings, a fragment test that discards some fragments, fill mode), and triangles marked
  * CRISP_RASTER_FACE_NO_TEST, or of faces marked by crisp__raster_set_untested_faces, skip the
- * fragment test but otherwise draw exactly as with a test that keeps everything. */
+ * fragment test but otherwise draw exactly as with a test that keeps everything; the depth slack
+ * computed only where some triangles land equals the whole image's there. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -185,11 +186,80 @@ static void test_no_test_flag(void **state)
     crisp__raster_target_free(&b);
 }
 
+/* The depth slack computed only in the tiles that some triangles reach equals the whole image's
+ * slack there bit for bit, and covers every sample those triangles cover. */
+static void test_slack_for_triangles(void **state)
+{
+    (void)state;
+    static crisp_raster_vertex v[3 * NT];
+    static crisp_raster_tri tri[NT];
+    static float full[W * H * 4], part[W * H * 4];
+    crisp_raster_view view = {{0.1, 0.2, -1}, {1, 0, 0.1}, {0, 1, 0.2}, 0.01, 0.012};
+    for (int samples = 1; samples <= 4; samples += 3)
+        for (int behind = 0; behind < 2; behind++) {
+            crisp_raster_target t = {0}, fill = {0};
+            test_ctx tc = {0};
+            crisp_raster_stats st;
+            render(samples, 1, 0, 0, some_test, NULL, &t, &tc, &st);
+            size_t n = (size_t)W * H * samples;
+            crisp__raster_depth_slack(&t, NULL, 1.5, &view, full);
+            /* A few small triangles (as the ribbons: thin and short); with `behind`, one of them
+             * has a vertex behind the eye, which makes every tile count. */
+            rng_state = 99;
+            soup(v, tri);
+            crisp_raster_tri few[12];
+            int m = 0;
+            for (int i = 0; i < NT && m < 12; i++) {
+                int ok = 1;
+                for (int k = 0; k < 3; k++)
+                    ok &= v[3 * i + k].clip[3] > 0;
+                if (ok) few[m++] = tri[i];
+            }
+            if (behind) v[few[5].v[0]].clip[3] = -0.2;
+            for (size_t k = 0; k < n; k++)
+                part[k] = NAN;
+            crisp_raster *r;
+            crisp_pool *pool;
+            assert_int_equal(crisp__raster_create(&r), CRISP_OK);
+            assert_int_equal(crisp_pool_create(2, &pool), CRISP_OK);
+            assert_int_equal(crisp__raster_depth_slack_tris(r, &t, pool, 1.5, &view, v, 3 * NT, few,
+                                                            (size_t)m, part),
+                             CRISP_OK);
+            size_t set = 0;
+            for (size_t k = 0; k < n; k++)
+                if (!isnan(part[k])) {
+                    set++;
+                    assert_memory_equal(&part[k], &full[k], sizeof(float));
+                }
+            assert_true(set > 0);
+            if (behind) assert_int_equal(set, n);
+            /* Every sample the triangles cover has its slack. */
+            assert_int_equal(crisp__raster_target_init(&fill, W, H, samples), CRISP_OK);
+            crisp__raster_target_clear(&fill);
+            assert_int_equal(
+                crisp__raster_draw(r, &fill, pool, v, 3 * NT, few, (size_t)m, NULL, NULL, &st),
+                CRISP_OK);
+            size_t covered = 0;
+            for (size_t k = 0; k < n; k++)
+                if (fill.face[k] >= 0) {
+                    covered++;
+                    assert_false(isnan(part[k]));
+                }
+            assert_true(covered > 0);
+            if (!behind) assert_true(set < n);
+            crisp_pool_destroy(pool);
+            crisp__raster_destroy(r);
+            crisp__raster_target_free(&t);
+            crisp__raster_target_free(&fill);
+        }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hiz_and_batches_change_nothing),
         cmocka_unit_test(test_no_test_flag),
+        cmocka_unit_test(test_slack_for_triangles),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
