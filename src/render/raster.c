@@ -652,13 +652,15 @@ void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, d
     crisp_pool_parallel_for(pool, (size_t)t->height, 16, slack_rows, &c);
 }
 
-/* The slack of one tile's samples, each from its own four neighbours (the same pairs and the
+#define CELL 16 /* the slack is computed for CELL x CELL pixel cells that triangles reach */
+
+/* The slack of one cell's samples, each from its own four neighbours (the same pairs and the
  * same arithmetic as slack_rows, gathered at each member instead of scattered from the left or
  * upper one: |a - b| = |b - a| exactly, so the values are the same bit for bit). */
 typedef struct slack_tiles_ctx {
     const slack_ctx *c;
     const uint8_t *mask;
-    int tiles_x;
+    int cells_x;
 } slack_tiles_ctx;
 
 static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
@@ -669,17 +671,17 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
     const crisp_raster_target *t = c->t;
     int S = t->samples, w = t->width, h = t->height;
     size_t rs = (size_t)w * S;
-    /* The side each sample of the tile and its one-pixel border is seen from. */
-    int8_t side[(TILE + 2) * (TILE + 2)];
+    /* The side each sample of the cell and its one-pixel border is seen from. */
+    int8_t side[(CELL + 2) * (CELL + 2)];
     for (size_t tile = begin; tile < end; tile++) {
         if (!tc->mask[tile]) continue;
-        int px0 = (int)(tile % (size_t)tc->tiles_x) * TILE,
-            py0 = (int)(tile / (size_t)tc->tiles_x) * TILE;
-        int px1 = px0 + TILE < w ? px0 + TILE : w, py1 = py0 + TILE < h ? py0 + TILE : h;
+        int px0 = (int)(tile % (size_t)tc->cells_x) * CELL,
+            py0 = (int)(tile / (size_t)tc->cells_x) * CELL;
+        int px1 = px0 + CELL < w ? px0 + CELL : w, py1 = py0 + CELL < h ? py0 + CELL : h;
         for (int s = 0; s < S; s++) {
             for (int j = py0 - 1; j <= py1; j++)
                 for (int i = px0 - 1; i <= px1; i++) {
-                    int8_t *sd = &side[(j - py0 + 1) * (TILE + 2) + (i - px0 + 1)];
+                    int8_t *sd = &side[(j - py0 + 1) * (CELL + 2) + (i - px0 + 1)];
                     *sd = -1;
                     if (i < 0 || j < 0 || i >= w || j >= h) continue;
                     size_t idx = ((size_t)j * w + i) * S + s;
@@ -694,7 +696,7 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
                     float m = 0;
                     if (f >= 0) {
                         double W = 1.0 / t->inv_w[idx];
-                        const int8_t *sd = &side[(j - py0 + 1) * (TILE + 2) + (i - px0 + 1)];
+                        const int8_t *sd = &side[(j - py0 + 1) * (CELL + 2) + (i - px0 + 1)];
                         /* left, right, up, down */
                         const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
                         for (int k = 0; k < 4; k++) {
@@ -702,7 +704,7 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
                             if (ni < 0 || nj < 0 || ni >= w || nj >= h) continue;
                             size_t nidx =
                                 idx + (ptrdiff_t)di[k] * S + (ptrdiff_t)dj[k] * (ptrdiff_t)rs;
-                            if (t->face[nidx] != f || sd[di[k] + dj[k] * (TILE + 2)] != sd[0])
+                            if (t->face[nidx] != f || sd[di[k] + dj[k] * (CELL + 2)] != sd[0])
                                 continue;
                             float d = (float)(c->scale * fabs(1.0 / t->inv_w[nidx] - W));
                             if (d > m) m = d;
@@ -721,46 +723,56 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
                                             const crisp_raster_tri *tris, size_t tri_count,
                                             float *slack)
 {
-    int tiles_x = (t->width + TILE - 1) / TILE, tiles_y = (t->height + TILE - 1) / TILE;
+    int tiles_x = (t->width + CELL - 1) / CELL, tiles_y = (t->height + CELL - 1) / CELL;
     size_t tiles = (size_t)tiles_x * tiles_y;
     crisp_status st = crisp_grow((void **)&r->tile_mask, &r->tile_mask_cap, tiles, 1);
     if (st) return st;
     memset(r->tile_mask, 0, tiles);
-    /* A triangle with every vertex in front of the eye (W > 0) lies, clipped or not, inside the
-     * screen box of its vertices; its samples are in pixels floor(min) - 1 .. floor(max) of the
-     * snapped positions (1/512 px away): 2 px of margin cover both. Any other triangle marks
-     * every tile. */
-    int all = 0;
-    for (size_t i = 0; i < tri_count && !all; i++) {
-        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-        for (int k = 0; k < 3 && !all; k++) {
+    /* The vertices setup would use for each triangle (inside every clip plane: as they are;
+     * else the clipped polygon's, as setup_chunk clips it): the triangle's samples lie in pixels
+     * floor(min) - 1 .. floor(max) of their snapped positions (1/512 px from the unsnapped
+     * ones); 2 px of margin cover both. */
+    double gx = GUARD_PX / t->width, gy = GUARD_PX / t->height;
+    for (size_t i = 0; i < tri_count; i++) {
+        cvert poly[MAX_POLY];
+        int m = 3, bad = 0;
+        for (int k = 0; k < 3; k++) {
             if (tris[i].v[k] >= vert_count) {
-                all = 1;
+                bad = 1;
                 break;
             }
-            const double *p = verts[tris[i].v[k]].clip;
-            double w = p[3];
-            double x = (p[0] / w + 1.0) * 0.5 * t->width, y = (1.0 - p[1] / w) * 0.5 * t->height;
-            if (!(w > 0) || !(fabs(x) <= 2 * GUARD_PX && fabs(y) <= 2 * GUARD_PX)) {
-                all = 1;
-                break;
-            }
-            lo[0] = x < lo[0] ? x : lo[0], hi[0] = x > hi[0] ? x : hi[0];
-            lo[1] = y < lo[1] ? y : lo[1], hi[1] = y > hi[1] ? y : hi[1];
+            const crisp_raster_vertex *sv = &verts[tris[i].v[k]];
+            memcpy(poly[k].p, sv->clip, 4 * sizeof(double));
+            memcpy(poly[k].p + 4, sv->attr, CRISP_RASTER_ATTRS * sizeof(double));
         }
-        if (all) break;
+        if (bad) continue; /* draw refuses it */
+        int inside = 1;
+        for (int k = 0; k < 3; k++) {
+            double d[6];
+            plane_dists(poly[k].p, gx, gy, d);
+            for (int q = 0; q < 6; q++)
+                inside &= d[q] >= 0 && isfinite(d[q]);
+        }
+        if (!inside) m = clip_polygon(poly, 3, gx, gy);
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        for (int k = 0; k < m; k++) {
+            pvert pv;
+            if (!project(poly[k].p, t, &pv)) continue;
+            lo[0] = pv.sx < lo[0] ? pv.sx : lo[0], hi[0] = pv.sx > hi[0] ? pv.sx : hi[0];
+            lo[1] = pv.sy < lo[1] ? pv.sy : lo[1], hi[1] = pv.sy > hi[1] ? pv.sy : hi[1];
+        }
+        if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) continue;
         int x0 = (int)floor(lo[0]) - 2, x1 = (int)floor(hi[0]) + 2;
         int y0 = (int)floor(lo[1]) - 2, y1 = (int)floor(hi[1]) + 2;
         x0 = x0 > 0 ? x0 : 0, y0 = y0 > 0 ? y0 : 0;
         x1 = x1 < t->width - 1 ? x1 : t->width - 1, y1 = y1 < t->height - 1 ? y1 : t->height - 1;
-        for (int ty = y0 / TILE; ty <= y1 / TILE && y0 <= y1; ty++)
-            for (int tx = x0 / TILE; tx <= x1 / TILE && x0 <= x1; tx++)
+        for (int ty = y0 / CELL; ty <= y1 / CELL && y0 <= y1; ty++)
+            for (int tx = x0 / CELL; tx <= x1 / CELL && x0 <= x1; tx++)
                 r->tile_mask[(size_t)ty * tiles_x + tx] = 1;
     }
-    if (all) memset(r->tile_mask, 1, tiles);
     slack_ctx c = {t, view, scale, slack};
     slack_tiles_ctx tc = {&c, r->tile_mask, tiles_x};
-    crisp_pool_parallel_for(pool, tiles, 1, slack_tiles, &tc);
+    crisp_pool_parallel_for(pool, tiles, 16, slack_tiles, &tc);
     return CRISP_OK;
 }
 

@@ -111,7 +111,7 @@ typedef struct crisp_raster_view {
  * samples): how far a surface's depth moves over one pixel at that sample. pool may be NULL. */
 void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
                                const crisp_raster_view *view, float *slack);
-/* The same slack, computed only in the 64x64 tiles that the given triangles can cover (the
+/* The same slack, computed only in the 16x16-pixel cells that the given triangles can cover (the
  * samples a draw_fill of them reads; other samples of slack are left as they were): the values
  * there equal crisp__raster_depth_slack's bit for bit. The fill pass's gap fillers cover few
  * tiles of a close-up. */
