@@ -8,8 +8,20 @@
 
 #include "crisp/plan.h"
 #include "crisp/tess.h"
+#include "nurbs/nurbs_internal.h"
 #include "raster.h"
 #include "render_internal.h"
+
+#define TESS_CACHE_BITS 7
+#define TESS_ROW_DOUBLES (2 * (CRISP_MAX_DEGREE + 1) * 4)
+
+/* Per worker: a patch's rows evaluated at a few s values (crisp__bezier_patch_rows_s), valid
+ * for one leaf (generation). */
+typedef struct tess_cache {
+    uint64_t generation;
+    uint64_t gen[1 << TESS_CACHE_BITS], key[1 << TESS_CACHE_BITS];
+    double rows[(1 << TESS_CACHE_BITS) * TESS_ROW_DOUBLES];
+} tess_cache;
 
 struct crisp_renderer {
     crisp_render_desc desc;
@@ -33,6 +45,7 @@ struct crisp_renderer {
     size_t untested_cap;
     uint8_t *leaf_skip; /* per plan leaf: its screen hull holds no sample, nothing to draw */
     size_t leaf_skip_cap;
+    tess_cache *cache; /* per worker (tessellate) */
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -57,7 +70,9 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
     if (!st) {
         r->workers = crisp_pool_threads(r->pool);
         r->st = calloc((size_t)r->workers, sizeof *r->st);
-        if (!r->st) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
+        r->cache = calloc((size_t)r->workers, sizeof *r->cache);
+        if (!r->st || !r->cache)
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
         for (int w = 0; !st && w < r->workers; w++)
             if (!(r->st[w] = crisp_malloc_array(MAX_LEAF_VERTS, 2 * sizeof(double))))
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
@@ -77,6 +92,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
         for (int w = 0; w < r->workers; w++)
             free(r->st[w]);
     free(r->st);
+    free(r->cache);
     crisp_planner_destroy(r->planner);
     crisp_pool_destroy(r->pool);
     crisp__raster_destroy(r->raster);
@@ -162,10 +178,24 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
         }
         double scale = ldexp(1.0, -(int)L->depth);
         int reversed = (plan->faces[L->face].flags & CRISP_PLAN_FACE_REVERSED) != 0;
+        /* Vertices that share s (a column of the inner grid, a side of the boundary) share the
+         * first half of the evaluation: the patch's rows at s, kept per leaf in a small table
+         * keyed by the generator's local s (the same s: the same rows, the same values). */
+        tess_cache *tc = &r->cache[worker];
+        tc->generation++;
         for (size_t k = 0; k < nv; k++) {
             double s = (L->ix + st[2 * k]) * scale, t = (L->iy + st[2 * k + 1]) * scale;
             double P[3], Ps[3], Pt[3], n[3];
-            crisp_bezier_patch_derivs(&sp->bez, s, t, P, Ps, Pt);
+            uint64_t bits;
+            memcpy(&bits, &st[2 * k], sizeof bits);
+            size_t slot = (size_t)((bits * 0x9E3779B97F4A7C15ull) >> (64 - TESS_CACHE_BITS));
+            double *rows = tc->rows + slot * TESS_ROW_DOUBLES;
+            if (tc->gen[slot] != tc->generation || tc->key[slot] != bits) {
+                crisp__bezier_patch_rows_s(&sp->bez, s, rows);
+                tc->gen[slot] = tc->generation;
+                tc->key[slot] = bits;
+            }
+            crisp__bezier_patch_derivs_rows(&sp->bez, rows, t, P, Ps, Pt);
             crisp_raster_vertex *v = &r->verts[vbase + k];
             crisp_mat4_mulp(*m, P, v->clip);
             v->attr[0] = sp->bez.u0 + s * (sp->bez.u1 - sp->bez.u0);
@@ -252,6 +282,85 @@ static int trim_test(void *ctx, uint32_t face, double u, double v)
     const crisp_frame_plan *plan = ctx;
     if (face & CRISP_RASTER_FACE_FLAG) return 1; /* a ribbon: drawn where it lands */
     return crisp_plan_trim_test(plan, face, u, v);
+}
+
+/* Crossings of table row r strictly left of u (crisp_plan_trim_test's count). */
+static uint32_t crossings_left(const crisp_frame_plan *plan, uint32_t r, double u)
+{
+    uint32_t lo = plan->row_offset[r], hi = plan->row_offset[r + 1], first = lo;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (plan->crossings[mid] < u)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo - first;
+}
+
+/* crisp_plan_trim_test's strip and row of v (v in the face's range), as it computes them. */
+static uint32_t strip_of(const crisp_plan_face *f, double v)
+{
+    double fi = (v - f->v0) * f->strip_scale;
+    return fi < (double)f->strip_count ? (uint32_t)fi : f->strip_count - 1;
+}
+
+static uint32_t row_of(const crisp_plan_strip *s, double v)
+{
+    double fj = (v - s->a) * s->row_scale;
+    return fj > 0.0 ? (fj < (double)s->row_count ? (uint32_t)fj : s->row_count - 1) : 0;
+}
+
+#define BOX_MAX_ROWS 32 /* a box over more table rows is left to the per-fragment test */
+
+/* The trim test for a box of (u, v) (the rasterizer's box test): 1 when crisp_plan_trim_test
+ * keeps every (u, v) of [lo, hi], 0 when it discards every one, -1 otherwise. Exact: every
+ * step of the lookup is monotone in v (a difference and a product, rounded, then floor and
+ * clamps), so the strips and rows the box's v can reach lie between those of lo[1] and hi[1]
+ * (each strip's rows taken with its own parameters); in one row the count of crossings left of
+ * u is monotone in u, so equal counts at lo[0] and hi[0] hold for every u between. */
+int crisp__plan_trim_box(const crisp_frame_plan *plan, uint32_t face, const double lo[2],
+                         const double hi[2])
+{
+    if (face & CRISP_RASTER_FACE_FLAG) return 1; /* a ribbon: drawn where it lands */
+    face &= ~CRISP_RASTER_FACE_NO_TEST;
+    if (face >= plan->face_count) return -1;
+    const crisp_plan_face *f = &plan->faces[face];
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) return -1; /* NaN or empty */
+    if (hi[1] < f->v0 || lo[1] > f->v1) return 0;       /* every v outside the table */
+    if (!(lo[1] >= f->v0 && hi[1] <= f->v1)) return -1;
+    if (f->flags & CRISP_PLAN_FACE_ALL_INSIDE) return 1;
+    if (!f->strip_count) return 0;
+    uint32_t i0 = strip_of(f, lo[1]), i1 = strip_of(f, hi[1]);
+    if (i1 - i0 >= BOX_MAX_ROWS) return -1;
+    int result = -2, rows = 0; /* -2: nothing seen yet */
+    for (uint32_t i = i0; i <= i1; i++) {
+        const crisp_plan_strip *s = &plan->strips[f->first_strip + i];
+        int here;
+        if (!s->row_count) {
+            here = 0;
+            if (result == -2) result = here;
+            if (result != here) return -1;
+            continue;
+        }
+        uint32_t j0 = row_of(s, lo[1]), j1 = row_of(s, hi[1]);
+        rows += (int)(j1 - j0 + 1);
+        if (rows > BOX_MAX_ROWS) return -1;
+        for (uint32_t j = j0; j <= j1; j++) {
+            uint32_t r = s->first_row + j;
+            uint32_t a = crossings_left(plan, r, lo[0]), b = crossings_left(plan, r, hi[0]);
+            if (a != b) return -1;
+            here = (int)(a & 1u);
+            if (result == -2) result = here;
+            if (result != here) return -1;
+        }
+    }
+    return result == -2 ? -1 : result;
+}
+
+static int trim_box(void *ctx, uint32_t face, const double lo[2], const double hi[2])
+{
+    return crisp__plan_trim_box(ctx, face, lo, hi);
 }
 
 /* The plan's ribbon quads as raster vertices and triangles (0 1 2, 0 2 3), after the surfaces'. */
@@ -461,6 +570,7 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     for (uint32_t f = 0; f < plan->face_count; f++)
         r->untested[f] = (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE) != 0;
     crisp__raster_set_untested_faces(r->raster, r->untested, plan->face_count);
+    crisp__raster_set_box_test(r->raster, trim_box);
     st = crisp__raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t,
                             trim_test, ctx, &rs);
     if (st) return st;

@@ -23,6 +23,14 @@ typedef struct setup_tri {
     double q0[1 + CRISP_RASTER_ATTRS], qx[1 + CRISP_RASTER_ATTRS], qy[1 + CRISP_RASTER_ATTRS];
     int x0, y0, x1, y1; /* pixel bbox, inclusive, clamped to the image */
     uint32_t face;
+    /* The fragment test decided for a box of (u, v) holding the vertices' (u, v), slightly
+     * widened (crisp__raster_set_box_test): boxed = 1 (kept) or 0 (discarded) for a fragment
+     * whose interpolated (u, v) lies in the box; -1: undecided (each 8x8 block then tries its
+     * own smaller box); -2: no box test for this triangle; -3: not classified yet (each tile
+     * classifies it when its second fragment needs the test: the first is simply tested, and
+     * hidden triangles cost nothing). */
+    int boxed;
+    double box[4]; /* u_lo, u_hi, v_lo, v_hi */
 } setup_tri;
 
 #define BATCH ((size_t)1 << 19) /* input triangles set up and binned at a time */
@@ -46,7 +54,13 @@ struct crisp_raster {
     size_t tile_mask_cap;
     uint32_t *bin_counts; /* per setup chunk and tile: entries (parallel binning) */
     size_t bin_counts_cap;
+    crisp_raster_box_fn box_test; /* crisp__raster_set_box_test */
 };
+
+void crisp__raster_set_box_test(crisp_raster *r, crisp_raster_box_fn fn)
+{
+    r->box_test = fn;
+}
 
 void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count)
 {
@@ -219,7 +233,8 @@ typedef struct pvert {
     double sx, sy;
     int64_t fx, fy;
     double val[1 + CRISP_RASTER_ATTRS];
-    int ok; /* inside every clip plane, finite, W > 0 (cache only) */
+    double uv[2]; /* attributes 0 and 1 as given (for the box of the fragment test) */
+    int ok;       /* inside every clip plane, finite, W > 0 (cache only) */
 } pvert;
 
 /* llround for |x| < 2^52 (the guard band keeps screen positions far inside): the same value as
@@ -244,6 +259,8 @@ static int project(const double *p, const crisp_raster_target *t, pvert *out)
     out->val[0] = iw;
     for (int q = 1; q <= CRISP_RASTER_ATTRS; q++)
         out->val[q] = p[3 + q] * iw;
+    out->uv[0] = p[4];
+    out->uv[1] = p[5];
     return 1;
 }
 
@@ -255,6 +272,8 @@ typedef struct {
     const crisp_raster_tri *tris;
     size_t first, count; /* the batch */
     double gx, gy;
+    crisp_raster_test_fn test;
+    void *test_ctx;
     size_t counts[CHUNKS];
     crisp_status status[CHUNKS];
 } setup_ctx;
@@ -314,6 +333,24 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         out->bias[k] = (dy < 0 || (dy == 0 && dx > 0)) ? 0 : -1;
     }
     out->face = face;
+    /* Interpolated (u, v) are convex combinations of the vertices' (up to rounding; a fragment
+     * outside the box is simply tested): the box of the three, widened a little so rounding
+     * rarely puts a fragment outside it. */
+    out->boxed = -2; /* no box test */
+    const crisp_raster *r = c->r;
+    uint32_t fid = face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST);
+    if (r->box_test && c->test && !(face & CRISP_RASTER_FACE_NO_TEST) &&
+        !(fid < r->untested_count && r->untested[fid])) {
+        for (int q = 0; q < 2; q++) {
+            double lo = a->uv[q], hi = a->uv[q];
+            lo = b->uv[q] < lo ? b->uv[q] : lo, hi = b->uv[q] > hi ? b->uv[q] : hi;
+            lo = d->uv[q] < lo ? d->uv[q] : lo, hi = d->uv[q] > hi ? d->uv[q] : hi;
+            double m = 1e-9 * (hi - lo) + 1e-14 * (fabs(lo) + fabs(hi));
+            out->box[2 * q] = lo - m;
+            out->box[2 * q + 1] = hi + m;
+        }
+        out->boxed = -3; /* classified by the tile that first needs it */
+    }
     return 1;
 }
 
@@ -406,7 +443,7 @@ typedef struct {
     double off_x[16], off_y[16];
     const float *slack; /* fill mode (crisp__raster_draw_fill) when not NULL */
     int hiz;            /* hierarchical depth rejection on */
-    atomic_size_t tested, discarded, untested, blocks_skipped;
+    atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
 } raster_ctx;
 
 /* Least 1/W over the block's samples (0 when one is empty). */
@@ -423,6 +460,40 @@ static double block_min(const crisp_raster_target *t, int bx0, int by0, int bx1,
     return m;
 }
 
+/* The box of (u, v) over a pixel block [bx0, bx1 + 1) x [by0, by1 + 1) of a triangle, and the
+ * box test's answer for it (-1: none). u = (u/W plane) / (1/W plane) is a ratio of affine
+ * functions: along any line it is monotone where 1/W keeps its sign, so over the rectangle its
+ * values lie between those at the corners; intersected with the triangle's own box and widened
+ * a little for rounding (a fragment outside the box is simply tested). */
+static int block_box(const raster_ctx *c, const setup_tri *st, int bx0, int by0, int bx1, int by1,
+                     double box[4])
+{
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int cy = 0; cy < 2; cy++)
+        for (int cx = 0; cx < 2; cx++) {
+            double dx = (cx ? bx1 + 1 : bx0) - st->ox, dy = (cy ? by1 + 1 : by0) - st->oy;
+            double iw = st->q0[0] + st->qx[0] * dx + st->qy[0] * dy;
+            if (!(iw > 0)) return -1;
+            for (int q = 0; q < 2; q++) {
+                double a = (st->q0[q + 1] + st->qx[q + 1] * dx + st->qy[q + 1] * dy) / iw;
+                lo[q] = a < lo[q] ? a : lo[q];
+                hi[q] = a > hi[q] ? a : hi[q];
+            }
+        }
+    for (int q = 0; q < 2; q++) {
+        double m = 1e-9 * (hi[q] - lo[q]) + 1e-14 * (fabs(lo[q]) + fabs(hi[q]));
+        lo[q] -= m, hi[q] += m;
+        if (st->boxed != -2) { /* the triangle's box (set whenever the box test is on) */
+            lo[q] = st->box[2 * q] > lo[q] ? st->box[2 * q] : lo[q];
+            hi[q] = st->box[2 * q + 1] < hi[q] ? st->box[2 * q + 1] : hi[q];
+        }
+        box[2 * q] = lo[q];
+        box[2 * q + 1] = hi[q];
+    }
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) return -1;
+    return c->r->box_test(c->test_ctx, st->face, lo, hi);
+}
+
 static void raster_tile(raster_ctx *c, size_t tile, int worker)
 {
     crisp_raster *r = c->r;
@@ -432,7 +503,7 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
     int px1 = px0 + TILE - 1 < t->width - 1 ? px0 + TILE - 1 : t->width - 1;
     int py1 = py0 + TILE - 1 < t->height - 1 ? py0 + TILE - 1 : t->height - 1;
     int S = t->samples;
-    size_t tested = 0, discarded = 0, untested = 0, skipped = 0;
+    size_t tested = 0, discarded = 0, untested = 0, skipped = 0, boxed = 0;
     /* Per block: a lower bound of its least 1/W. Writes only raise stored 1/W (outside fill mode,
      * which does not use it), so a bound stays valid; it is recomputed from the samples once as
      * many writes as the block has samples happened since (amortised: one scan per block's worth
@@ -451,6 +522,7 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
             (int32_t)(st->face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST));
         int run_test = c->test && !(st->face & CRISP_RASTER_FACE_NO_TEST) &&
                        !((size_t)face_id < r->untested_count && r->untested[face_id]);
+        int tboxed = st->boxed, tneed = 0; /* the triangle's box test answer (setup_tri) */
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         int64_t A[3], B[3], step[3];
         for (int k = 0; k < 3; k++) {
@@ -494,6 +566,10 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                     }
                 }
                 uint32_t wrote = 0;
+                /* The block's own (u, v) box and its test answer, found at the first fragment
+                 * that needs the test (-2: not yet). */
+                int bboxed = -2, bneed = 0;
+                double bbox[4];
                 /* Edge values at the block's first pixel of each sample, stepped by rows. */
                 int64_t er[16][3];
                 for (int s = 0; s < S; s++) {
@@ -549,8 +625,30 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                                 a[k] =
                                     (st->q0[k + 1] + st->qx[k + 1] * dx + st->qy[k + 1] * dy) * w;
                             if (run_test) {
-                                tested++;
-                                if (!c->test(c->test_ctx, st->face, a[0], a[1])) {
+                                int keep = -1;
+                                if (tboxed == -3 && ++tneed >= 2) {
+                                    double lo[2] = {st->box[0], st->box[2]},
+                                           hi[2] = {st->box[1], st->box[3]};
+                                    tboxed = r->box_test(c->test_ctx, st->face, lo, hi);
+                                }
+                                if (tboxed >= 0) {
+                                    if (a[0] >= st->box[0] && a[0] <= st->box[1] &&
+                                        a[1] >= st->box[2] && a[1] <= st->box[3])
+                                        keep = tboxed;
+                                } else if (tboxed == -1) {
+                                    if (bboxed == -2 && ++bneed >= 2)
+                                        bboxed = block_box(c, st, bx0, by0, bx1, by1, bbox);
+                                    if (bboxed >= 0 && a[0] >= bbox[0] && a[0] <= bbox[1] &&
+                                        a[1] >= bbox[2] && a[1] <= bbox[3])
+                                        keep = bboxed;
+                                }
+                                if (keep >= 0) {
+                                    boxed++;
+                                } else {
+                                    tested++;
+                                    keep = c->test(c->test_ctx, st->face, a[0], a[1]);
+                                }
+                                if (!keep) {
                                     discarded++;
                                     continue;
                                 }
@@ -574,6 +672,7 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
     atomic_fetch_add(&c->discarded, discarded);
     atomic_fetch_add(&c->untested, untested);
     atomic_fetch_add(&c->blocks_skipped, skipped);
+    atomic_fetch_add(&c->boxed, boxed);
 }
 
 static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
@@ -852,6 +951,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                     .verts = verts,
                     .vert_count = vert_count,
                     .tris = tris,
+                    .test = test,
+                    .test_ctx = test_ctx,
                     .gx = GUARD_PX / t->width,
                     .gy = GUARD_PX / t->height};
     crisp_status st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1,
@@ -924,7 +1025,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                                       .fragments_tested = atomic_load(&rc.tested),
                                       .fragments_discarded = atomic_load(&rc.discarded),
                                       .fragments_untested = atomic_load(&rc.untested),
-                                      .blocks_skipped = atomic_load(&rc.blocks_skipped)};
+                                      .blocks_skipped = atomic_load(&rc.blocks_skipped),
+                                      .fragments_boxed = atomic_load(&rc.boxed)};
     }
     return CRISP_OK;
 }

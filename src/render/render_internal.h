@@ -35,6 +35,12 @@ static inline int crisp__normal_degenerate(const double a[3], const double b[3],
 void crisp__subpatch(const crisp_bezier_patch *p, double s0, double s1, double t0, double t1,
                      double *storage, double *tmp, crisp_bezier_patch *dest);
 
+/* The CPU backend's trim test for a box of (u, v) of a face (cpu.c): 1 when
+ * crisp_plan_trim_test keeps every point of [lo, hi], 0 when it discards every one, -1 when
+ * mixed or not decided. */
+int crisp__plan_trim_box(const struct crisp_frame_plan *plan, uint32_t face, const double lo[2],
+                         const double hi[2]);
+
 /* The last frame's surface triangles (CPU backend; the trim ribbons follow them in the buffers
  * but are not counted), for tests that measure them. */
 struct crisp_raster_vertex;
