@@ -214,7 +214,8 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
  * sub-patch's control points (their vertices are surface points; W > 0 over the hull), and
  * snapping moves them by at most 1/512 px; when that box, so widened, holds no sample position
  * of the image, the leaf draws nothing and is not tessellated. The image is unchanged: far away,
- * where many patches share a pixel, most leaves fall between the samples. */
+ * where many patches share a pixel, most leaves fall between the samples. The same pass counts
+ * each drawn leaf's vertices and triangles (in parallel; the caller turns them into offsets). */
 typedef struct skip_ctx {
     crisp_renderer *r;
     const crisp_scene *sc;
@@ -272,6 +273,13 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
         double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
         lo[0] -= pad, lo[1] -= pad, hi[0] += pad, hi[1] += pad;
         r->leaf_skip[j] = front && !holds_sample(c, lo, hi, plan->width, plan->height);
+        /* The leaf's vertex and triangle counts (offsets after the prefix sum; UINT32_MAX:
+         * levels refused, the caller reports it). */
+        crisp_tess_levels lv = leaf_levels(L);
+        size_t v = 0, t = 0;
+        if (!r->leaf_skip[j] && crisp_tess_mesh_counts(&lv, &v, &t)) v = t = UINT32_MAX;
+        r->leaf_vbase[j] = (uint32_t)v;
+        r->leaf_tbase[j] = (uint32_t)t;
     }
 }
 
@@ -522,9 +530,11 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
         crisp__raster_sample_offset(r->desc.samples, s, skc.off[s]);
     crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
     for (size_t j = 0; j < jobs; j++) {
-        crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
-        size_t v = 0, t = 0;
-        if (!r->leaf_skip[j] && (st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
+        size_t v = r->leaf_vbase[j], t = r->leaf_tbase[j];
+        if (v == UINT32_MAX) {
+            crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
+            if ((st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
+        }
         r->leaf_vbase[j] = (uint32_t)nv;
         r->leaf_tbase[j] = (uint32_t)nt;
         nv += v;

@@ -936,16 +936,42 @@ static void bin_fill(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* The first triangle of each chunk with a vertex index out of range (SIZE_MAX: none). */
+typedef struct check_ctx {
+    const crisp_raster_tri *tris;
+    size_t tri_count, vert_count;
+    size_t bad[CHUNKS];
+} check_ctx;
+
+static void check_chunk(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    check_ctx *c = vctx;
+    for (size_t ch = begin; ch < end; ch++) {
+        size_t lo = c->tri_count * ch / CHUNKS, hi = c->tri_count * (ch + 1) / CHUNKS;
+        c->bad[ch] = SIZE_MAX;
+        for (size_t i = lo; i < hi && c->bad[ch] == SIZE_MAX; i++)
+            for (int k = 0; k < 3; k++)
+                if (c->tris[i].v[k] >= c->vert_count) c->bad[ch] = i;
+    }
+}
+
 static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                          const crisp_raster_vertex *verts, size_t vert_count,
                          const crisp_raster_tri *tris, size_t tri_count, crisp_raster_test_fn test,
                          void *test_ctx, const float *slack, crisp_raster_stats *stats)
 {
-    for (size_t i = 0; i < tri_count; i++)
-        for (int k = 0; k < 3; k++)
-            if (tris[i].v[k] >= vert_count)
-                return crisp_error(CRISP_ERR_INVALID_ARG, "triangle %zu uses vertex %u of %zu", i,
-                                   tris[i].v[k], vert_count);
+    check_ctx cc = {tris, tri_count, vert_count, {0}};
+    crisp_pool_parallel_for(pool, CHUNKS, 1, check_chunk, &cc);
+    for (int ch = 0; ch < CHUNKS; ch++)
+        if (cc.bad[ch] != SIZE_MAX) {
+            size_t i = cc.bad[ch];
+            uint32_t v = tris[i].v[0] >= vert_count   ? tris[i].v[0]
+                         : tris[i].v[1] >= vert_count ? tris[i].v[1]
+                                                      : tris[i].v[2];
+            return crisp_error(CRISP_ERR_INVALID_ARG, "triangle %zu uses vertex %u of %zu", i, v,
+                               vert_count);
+        }
     setup_ctx sc = {.r = r,
                     .t = t,
                     .verts = verts,
