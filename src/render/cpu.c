@@ -420,13 +420,18 @@ typedef struct resolve_ctx {
 
 /* Rows [begin, end) of the image, every pixel written (the background where no sample is
  * covered, as crisp__image_clear leaves it), so the image needs no clearing first. */
-static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
+#if defined(__GNUC__)
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE inline
+#endif
+
+/* With S the target's samples per pixel: inlined with S = 1 a constant for one-sample targets
+ * (the sample loop and the averages fold away), else with S a variable; the same code. */
+static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t end, const int S)
 {
-    (void)worker;
-    resolve_ctx *c = vctx;
     const crisp_raster_target *t = &c->r->target;
     crisp_image *img = c->img;
-    int S = t->samples;
     /* The view direction of a sample (unnormalised: shading normalises): the camera ray's
      * f + ndc_x r + ndc_y u, the basis computed once per frame (raster_view). */
     const crisp_camera *cam = c->cam;
@@ -455,7 +460,7 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
                 n[0] = a[2], n[1] = a[3], n[2] = a[4];
                 float rgba[4];
-                crisp__shade(faces[fc].color, n, d, rgba);
+                crisp__shade_inline(faces[fc].color, n, d, rgba);
                 for (int k = 0; k < 3; k++)
                     acc[k] += rgba[k];
             }
@@ -481,6 +486,16 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
             for (int k = 0; k < 3; k++)
                 img->normal[3 * px + k] = a[2 + k];
         }
+}
+
+static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    resolve_ctx *c = vctx;
+    if (c->r->target.samples == 1)
+        resolve_rows_s(c, begin, end, 1);
+    else
+        resolve_rows_s(c, begin, end, c->r->target.samples);
 }
 
 void crisp__renderer_mesh(const crisp_renderer *r, const crisp_raster_vertex **verts,

@@ -494,7 +494,16 @@ static int block_box(const raster_ctx *c, const setup_tri *st, int bx0, int by0,
     return c->r->box_test(c->test_ctx, st->face, lo, hi);
 }
 
-static void raster_tile(raster_ctx *c, size_t tile, int worker)
+/* One tile, with S the target's samples per pixel: always inlined into raster_tile with S a
+ * constant for the common one-sample target (the compiler then folds the sample loops and
+ * strides), else with S as a variable. The same code either way. */
+#if defined(__GNUC__)
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE inline
+#endif
+
+static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
 {
     crisp_raster *r = c->r;
     crisp_raster_target *t = c->t;
@@ -502,7 +511,6 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
     int px0 = tx * TILE, py0 = ty * TILE;
     int px1 = px0 + TILE - 1 < t->width - 1 ? px0 + TILE - 1 : t->width - 1;
     int py1 = py0 + TILE - 1 < t->height - 1 ? py0 + TILE - 1 : t->height - 1;
-    int S = t->samples;
     size_t tested = 0, discarded = 0, untested = 0, skipped = 0, boxed = 0;
     /* Per block: a lower bound of its least 1/W. Writes only raise stored 1/W (outside fill mode,
      * which does not use it), so a bound stays valid; it is recomputed from the samples once as
@@ -667,7 +675,6 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
             }
         }
     }
-    (void)worker;
     atomic_fetch_add(&c->tested, tested);
     atomic_fetch_add(&c->discarded, discarded);
     atomic_fetch_add(&c->untested, untested);
@@ -675,10 +682,19 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
     atomic_fetch_add(&c->boxed, boxed);
 }
 
+static void raster_tile(raster_ctx *c, size_t tile)
+{
+    if (c->t->samples == 1)
+        raster_tile_s(c, tile, 1);
+    else
+        raster_tile_s(c, tile, c->t->samples);
+}
+
 static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
 {
+    (void)worker;
     for (size_t tile = begin; tile < end; tile++)
-        raster_tile(vctx, tile, worker);
+        raster_tile(vctx, tile);
 }
 
 typedef struct slack_ctx {
