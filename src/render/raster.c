@@ -440,6 +440,7 @@ typedef struct {
     crisp_raster_test_fn test;
     void *test_ctx;
     int64_t off_fx[16], off_fy[16];
+    int64_t off_fmin[2], off_fmax[2]; /* least and greatest of off_fx (0) and off_fy (1) */
     double off_x[16], off_y[16];
     const float *slack; /* fill mode (crisp__raster_draw_fill) when not NULL */
     int hiz;            /* hierarchical depth rejection on */
@@ -548,6 +549,29 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
             for (int bx0 = x0; bx0 <= x1; bx0 = (bx0 / BLOCK + 1) * BLOCK) {
                 int bx1 = (bx0 / BLOCK + 1) * BLOCK - 1 < x1 ? (bx0 / BLOCK + 1) * BLOCK - 1 : x1;
                 int blk = ((by0 - py0) / BLOCK) * BLOCKS + (bx0 - px0) / BLOCK;
+                /* Each edge function over the block's samples (inside the rectangle of sample
+                 * positions; affine, so extreme at its corners): a block outside an edge has no
+                 * covered sample and is skipped; one inside all three is covered everywhere and
+                 * its rows skip the per-pixel edge tests. Exact integers, as the tests. */
+                int full = 1, empty = 0;
+                {
+                    int64_t sx0 = (int64_t)bx0 * SUB + c->off_fmin[0],
+                            sx1 = (int64_t)bx1 * SUB + c->off_fmax[0];
+                    int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
+                            sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
+                    for (int k = 0; k < 3; k++) {
+                        int a0 = (k + 1) % 3;
+                        int64_t ex0 = A[k] * (sx0 - st->x[a0]), ex1 = A[k] * (sx1 - st->x[a0]);
+                        int64_t ey0 = B[k] * (sy0 - st->y[a0]), ey1 = B[k] * (sy1 - st->y[a0]);
+                        int64_t lo =
+                            (ex0 < ex1 ? ex0 : ex1) + (ey0 < ey1 ? ey0 : ey1) + st->bias[k];
+                        int64_t hi =
+                            (ex0 > ex1 ? ex0 : ex1) + (ey0 > ey1 ? ey0 : ey1) + st->bias[k];
+                        empty |= hi < 0;
+                        full &= lo >= 0;
+                    }
+                }
+                if (empty) continue;
                 if (use_hiz && (bx1 - bx0 + 1) * (by1 - by0 + 1) >= HIZ_MIN_PX) {
                     if (writes[blk] >= block_samples) {
                         int gx = px0 + (bx0 - px0) / BLOCK * BLOCK,
@@ -602,10 +626,16 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                         size_t idx0 = ((size_t)j * t->width + (size_t)bx0) * S + s;
                         double iwv[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
-                        for (int q = 0; q < n; q++) {
-                            cov[q] = (e[0] | e[1] | e[2]) >= 0;
-                            any |= cov[q];
-                            e[0] += step[0], e[1] += step[1], e[2] += step[2];
+                        if (full) {
+                            for (int q = 0; q < n; q++)
+                                cov[q] = 1;
+                            any = 1;
+                        } else {
+                            for (int q = 0; q < n; q++) {
+                                cov[q] = (e[0] | e[1] | e[2]) >= 0;
+                                any |= cov[q];
+                                e[0] += step[0], e[1] += step[1], e[2] += step[2];
+                            }
                         }
                         if (!any) continue;
                         for (int q = 0; q < n; q++)
@@ -1021,6 +1051,11 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
         rc.off_y[s] = off[1];
         rc.off_fx[s] = llround(off[0] * SUB);
         rc.off_fy[s] = llround(off[1] * SUB);
+        for (int q = 0; q < 2; q++) {
+            int64_t o = q ? rc.off_fy[s] : rc.off_fx[s];
+            rc.off_fmin[q] = s == 0 || o < rc.off_fmin[q] ? o : rc.off_fmin[q];
+            rc.off_fmax[q] = s == 0 || o > rc.off_fmax[q] ? o : rc.off_fmax[q];
+        }
     }
     /* Batches of triangles, one after the other (submission order is kept): set-up records and
      * bins hold one batch, so the rasterizer's memory is bounded whatever the triangle count. */
