@@ -8,8 +8,20 @@
 
 #include "crisp/plan.h"
 #include "crisp/tess.h"
+#include "nurbs/nurbs_internal.h"
 #include "raster.h"
 #include "render_internal.h"
+
+#define TESS_CACHE_BITS 7
+#define TESS_ROW_DOUBLES (2 * (CRISP_MAX_DEGREE + 1) * 4)
+
+/* Per worker: a patch's rows evaluated at a few s values (crisp__bezier_patch_rows_s), valid
+ * for one leaf (generation). */
+typedef struct tess_cache {
+    uint64_t generation;
+    uint64_t gen[1 << TESS_CACHE_BITS], key[1 << TESS_CACHE_BITS];
+    double rows[(1 << TESS_CACHE_BITS) * TESS_ROW_DOUBLES];
+} tess_cache;
 
 struct crisp_renderer {
     crisp_render_desc desc;
@@ -40,6 +52,7 @@ struct crisp_renderer {
     size_t hull_cap;
     uint32_t *ribbon_keep; /* a window's frame: the ribbon quads that can reach the window */
     size_t ribbon_keep_cap;
+    tess_cache *cache; /* per worker (tessellate) */
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -64,7 +77,9 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
     if (!st) {
         r->workers = crisp_pool_threads(r->pool);
         r->st = calloc((size_t)r->workers, sizeof *r->st);
-        if (!r->st) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
+        r->cache = calloc((size_t)r->workers, sizeof *r->cache);
+        if (!r->st || !r->cache)
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
         for (int w = 0; !st && w < r->workers; w++)
             if (!(r->st[w] = crisp_malloc_array(MAX_LEAF_VERTS, 2 * sizeof(double))))
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
@@ -84,6 +99,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
         for (int w = 0; w < r->workers; w++)
             free(r->st[w]);
     free(r->st);
+    free(r->cache);
     crisp_planner_destroy(r->planner);
     crisp_pool_destroy(r->pool);
     crisp__raster_destroy(r->raster);
@@ -172,10 +188,24 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
         }
         double scale = ldexp(1.0, -(int)L->depth);
         int reversed = (plan->faces[L->face].flags & CRISP_PLAN_FACE_REVERSED) != 0;
+        /* Vertices that share s (a column of the inner grid, a side of the boundary) share the
+         * first half of the evaluation: the patch's rows at s, kept per leaf in a small table
+         * keyed by the generator's local s (the same s: the same rows, the same values). */
+        tess_cache *tc = &r->cache[worker];
+        tc->generation++;
         for (size_t k = 0; k < nv; k++) {
             double s = (L->ix + st[2 * k]) * scale, t = (L->iy + st[2 * k + 1]) * scale;
             double P[3], Ps[3], Pt[3], n[3];
-            crisp_bezier_patch_derivs(&sp->bez, s, t, P, Ps, Pt);
+            uint64_t bits;
+            memcpy(&bits, &st[2 * k], sizeof bits);
+            size_t slot = (size_t)((bits * 0x9E3779B97F4A7C15ull) >> (64 - TESS_CACHE_BITS));
+            double *rows = tc->rows + slot * TESS_ROW_DOUBLES;
+            if (tc->gen[slot] != tc->generation || tc->key[slot] != bits) {
+                crisp__bezier_patch_rows_s(&sp->bez, s, rows);
+                tc->gen[slot] = tc->generation;
+                tc->key[slot] = bits;
+            }
+            crisp__bezier_patch_derivs_rows(&sp->bez, rows, t, P, Ps, Pt);
             crisp_raster_vertex *v = &r->verts[vbase + k];
             crisp_mat4_mulp(*m, P, v->clip);
             v->attr[0] = sp->bez.u0 + s * (sp->bez.u1 - sp->bez.u0);
@@ -194,7 +224,8 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
  * sub-patch's control points (their vertices are surface points; W > 0 over the hull), and
  * snapping moves them by at most 1/512 px; when that box, so widened, holds no sample position
  * of the image, the leaf draws nothing and is not tessellated. The image is unchanged: far away,
- * where many patches share a pixel, most leaves fall between the samples. */
+ * where many patches share a pixel, most leaves fall between the samples. The same pass counts
+ * each drawn leaf's vertices and triangles (in parallel; the caller turns them into offsets). */
 typedef struct skip_ctx {
     crisp_renderer *r;
     const crisp_scene *sc;
@@ -229,6 +260,7 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
         const crisp_plan_leaf *L = &plan->leaves[j];
         if (c->only && !c->only[L->face]) {
             r->leaf_skip[j] = 1;
+            r->leaf_vbase[j] = r->leaf_tbase[j] = 0; /* no vertices, no triangles */
             continue;
         }
         const crisp_bezier_patch *bez = &c->sc->patches[L->patch].bez;
@@ -264,6 +296,13 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
             b[0] = front ? lo[0] : -INFINITY, b[1] = front ? lo[1] : -INFINITY;
             b[2] = front ? hi[0] : INFINITY, b[3] = front ? hi[1] : INFINITY;
         }
+        /* The leaf's vertex and triangle counts (offsets after the prefix sum; UINT32_MAX:
+         * levels refused, the caller reports it). */
+        crisp_tess_levels lv = leaf_levels(L);
+        size_t v = 0, t = 0;
+        if (!r->leaf_skip[j] && crisp_tess_mesh_counts(&lv, &v, &t)) v = t = UINT32_MAX;
+        r->leaf_vbase[j] = (uint32_t)v;
+        r->leaf_tbase[j] = (uint32_t)t;
     }
 }
 
@@ -274,6 +313,85 @@ static int trim_test(void *ctx, uint32_t face, double u, double v)
     const crisp_frame_plan *plan = ctx;
     if (face & CRISP_RASTER_FACE_FLAG) return 1; /* a ribbon: drawn where it lands */
     return crisp_plan_trim_test(plan, face, u, v);
+}
+
+/* Crossings of table row r strictly left of u (crisp_plan_trim_test's count). */
+static uint32_t crossings_left(const crisp_frame_plan *plan, uint32_t r, double u)
+{
+    uint32_t lo = plan->row_offset[r], hi = plan->row_offset[r + 1], first = lo;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (plan->crossings[mid] < u)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo - first;
+}
+
+/* crisp_plan_trim_test's strip and row of v (v in the face's range), as it computes them. */
+static uint32_t strip_of(const crisp_plan_face *f, double v)
+{
+    double fi = (v - f->v0) * f->strip_scale;
+    return fi < (double)f->strip_count ? (uint32_t)fi : f->strip_count - 1;
+}
+
+static uint32_t row_of(const crisp_plan_strip *s, double v)
+{
+    double fj = (v - s->a) * s->row_scale;
+    return fj > 0.0 ? (fj < (double)s->row_count ? (uint32_t)fj : s->row_count - 1) : 0;
+}
+
+#define BOX_MAX_ROWS 32 /* a box over more table rows is left to the per-fragment test */
+
+/* The trim test for a box of (u, v) (the rasterizer's box test): 1 when crisp_plan_trim_test
+ * keeps every (u, v) of [lo, hi], 0 when it discards every one, -1 otherwise. Exact: every
+ * step of the lookup is monotone in v (a difference and a product, rounded, then floor and
+ * clamps), so the strips and rows the box's v can reach lie between those of lo[1] and hi[1]
+ * (each strip's rows taken with its own parameters); in one row the count of crossings left of
+ * u is monotone in u, so equal counts at lo[0] and hi[0] hold for every u between. */
+int crisp__plan_trim_box(const crisp_frame_plan *plan, uint32_t face, const double lo[2],
+                         const double hi[2])
+{
+    if (face & CRISP_RASTER_FACE_FLAG) return 1; /* a ribbon: drawn where it lands */
+    face &= ~CRISP_RASTER_FACE_NO_TEST;
+    if (face >= plan->face_count) return -1;
+    const crisp_plan_face *f = &plan->faces[face];
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) return -1; /* NaN or empty */
+    if (hi[1] < f->v0 || lo[1] > f->v1) return 0;       /* every v outside the table */
+    if (!(lo[1] >= f->v0 && hi[1] <= f->v1)) return -1;
+    if (f->flags & CRISP_PLAN_FACE_ALL_INSIDE) return 1;
+    if (!f->strip_count) return 0;
+    uint32_t i0 = strip_of(f, lo[1]), i1 = strip_of(f, hi[1]);
+    if (i1 - i0 >= BOX_MAX_ROWS) return -1;
+    int result = -2, rows = 0; /* -2: nothing seen yet */
+    for (uint32_t i = i0; i <= i1; i++) {
+        const crisp_plan_strip *s = &plan->strips[f->first_strip + i];
+        int here;
+        if (!s->row_count) {
+            here = 0;
+            if (result == -2) result = here;
+            if (result != here) return -1;
+            continue;
+        }
+        uint32_t j0 = row_of(s, lo[1]), j1 = row_of(s, hi[1]);
+        rows += (int)(j1 - j0 + 1);
+        if (rows > BOX_MAX_ROWS) return -1;
+        for (uint32_t j = j0; j <= j1; j++) {
+            uint32_t r = s->first_row + j;
+            uint32_t a = crossings_left(plan, r, lo[0]), b = crossings_left(plan, r, hi[0]);
+            if (a != b) return -1;
+            here = (int)(a & 1u);
+            if (result == -2) result = here;
+            if (result != here) return -1;
+        }
+    }
+    return result == -2 ? -1 : result;
+}
+
+static int trim_box(void *ctx, uint32_t face, const double lo[2], const double hi[2])
+{
+    return crisp__plan_trim_box(ctx, face, lo, hi);
 }
 
 /* The plan's ribbon quads as raster vertices and triangles (0 1 2, 0 2 3), after the surfaces'. */
@@ -341,17 +459,29 @@ static void copy_pixel(const crisp_image *src, crisp_image *dst, size_t px)
     dst->face[px] = src->face[px];
 }
 
-static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
+/* Rows y0 + [begin, end), columns [x0, x1) of the image, every pixel there written (the
+ * background where no sample is covered, as crisp__image_clear leaves it, or base's pixel), so
+ * the image needs no clearing first. */
+#if defined(__GNUC__)
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE inline
+#endif
+
+/* With S the target's samples per pixel: inlined with S = 1 a constant for one-sample targets
+ * (the sample loop and the averages fold away), else with S a variable; the same code. */
+static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t end, const int S)
 {
-    (void)worker;
-    resolve_ctx *c = vctx;
     const crisp_raster_target *t = c->target;
     crisp_image *img = c->img;
-    int S = t->samples;
     /* The view direction of a sample (unnormalised: shading normalises): the camera ray's
      * f + ndc_x r + ndc_y u, the basis computed once per frame (raster_view). */
     const crisp_camera *cam = c->cam;
     const double *f = c->view.f, *r = c->view.r, *u = c->view.u, kx = c->view.kx, ky = c->view.ky;
+    double off[16][2];
+    for (int s = 0; s < S; s++)
+        crisp__raster_sample_offset(S, s, off[s]);
+    const crisp_scene_face *faces = c->sc->faces;
     for (size_t j = begin + (size_t)c->y0; j < end + (size_t)c->y0; j++)
         for (int i = c->x0; i < c->x1; i++) {
             size_t px = j * (size_t)t->width + (size_t)i;
@@ -365,23 +495,32 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
             double best_iw = 0;
             for (int s = 0; s < S; s++) {
                 size_t idx = px * S + s;
-                if (t->face[idx] < 0) continue;
+                int32_t fc = t->face[idx];
+                if (fc < 0) continue;
                 covered++;
                 if (t->inv_w[idx] > best_iw) best_iw = t->inv_w[idx], best = s;
-                double off[2], d[3], n[3];
-                crisp__raster_sample_offset(S, s, off);
-                double nx = (gi + off[0] - 0.5 * cam->width) * kx,
-                       ny = (0.5 * cam->height - gj - off[1]) * ky;
+                double d[3], n[3];
+                double nx = (gi + off[s][0] - 0.5 * cam->width) * kx,
+                       ny = (0.5 * cam->height - gj - off[s][1]) * ky;
                 for (int k = 0; k < 3; k++)
                     d[k] = f[k] + nx * r[k] + ny * u[k];
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
                 n[0] = a[2], n[1] = a[3], n[2] = a[4];
                 float rgba[4];
-                crisp__shade(c->sc->faces[t->face[idx]].color, n, d, rgba);
+                crisp__shade_inline(faces[fc].color, n, d, rgba);
                 for (int k = 0; k < 3; k++)
                     acc[k] += rgba[k];
             }
-            if (!covered) continue;
+            if (!covered) {
+                for (int k = 0; k < 4; k++)
+                    img->rgba[4 * px + k] = 0;
+                img->face[px] = -1;
+                img->depth[px] = INFINITY;
+                img->uv[2 * px] = img->uv[2 * px + 1] = 0;
+                for (int k = 0; k < 3; k++)
+                    img->normal[3 * px + k] = 0;
+                continue;
+            }
             for (int k = 0; k < 3; k++)
                 img->rgba[4 * px + k] = acc[k] / (float)covered;
             img->rgba[4 * px + 3] = (float)covered / (float)S;
@@ -394,6 +533,16 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
             for (int k = 0; k < 3; k++)
                 img->normal[3 * px + k] = a[2 + k];
         }
+}
+
+static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    resolve_ctx *c = vctx;
+    if (c->target->samples == 1)
+        resolve_rows_s(c, begin, end, 1);
+    else
+        resolve_rows_s(c, begin, end, c->target->samples);
 }
 
 void crisp__renderer_mesh(const crisp_renderer *r, const crisp_raster_vertex **verts,
@@ -555,9 +704,11 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         crisp__raster_sample_offset(r->desc.samples, s, skc.off[s]);
     crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
     for (size_t j = 0; j < jobs; j++) {
-        crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
-        size_t v = 0, t = 0;
-        if (!r->leaf_skip[j] && (st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
+        size_t v = r->leaf_vbase[j], t = r->leaf_tbase[j];
+        if (v == UINT32_MAX) {
+            crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
+            if ((st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
+        }
         r->leaf_vbase[j] = (uint32_t)nv;
         r->leaf_tbase[j] = (uint32_t)nt;
         nv += v;
@@ -668,7 +819,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                                                        cam->height)
                          : crisp__raster_target_window(&r->target, 0, 0, 0, 0)))
             return st;
-        crisp__raster_target_clear(&r->target);
+        crisp__raster_target_clear_depth(&r->target, r->pool);
     }
     crisp_raster_stats rs;
     /* Surfaces first; then the ribbons fill gaps: a ribbon sample replaces a surface sample only
@@ -682,33 +833,17 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     for (uint32_t f = 0; f < plan->face_count; f++)
         r->untested[f] = (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE) != 0;
     crisp__raster_set_untested_faces(r->raster, r->untested, plan->face_count);
+    crisp__raster_set_box_test(r->raster, trim_box);
     st = crisp__raster_draw(r->raster, tg, r->pool, r->verts, nv, r->tris, surface_t, trim_test,
                             ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {
         size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
-        if (base) {
-            /* The slack of the ribbons' rows only (widened by 2 px: a sample's slack looks at
-             * its neighbours): those rows as a target of their own, the view's centre moved to
-             * match (raster.h: the view direction through pixel (i, j) is
-             * f + (i + 0.5 - width / 2) kx r + (height / 2 - j - 0.5) ky u). */
-            size_t row0 = (size_t)rib[1] * cam->width;
-            crisp_raster_target rows = {.width = cam->width,
-                                        .height = rib[3] - rib[1],
-                                        .samples = 1,
-                                        .inv_w = tg->inv_w + row0,
-                                        .attr = tg->attr + row0 * CRISP_RASTER_ATTRS,
-                                        .face = tg->face + row0};
-            crisp_raster_view rv = view;
-            double shift = 0.5 * (cam->height - rows.height) - rib[1];
-            for (int k = 0; k < 3; k++)
-                rv.f[k] += shift * view.ky * view.u[k];
-            if (rows.height > 0)
-                crisp__raster_depth_slack(&rows, r->pool, 1.5, &rv, r->slack + row0);
-        } else {
-            crisp__raster_depth_slack(tg, r->pool, 1.5, &view, r->slack);
-        }
+        /* Only where the ribbons can land (the fill pass reads nothing else). */
+        if ((st = crisp__raster_depth_slack_tris(r->raster, tg, r->pool, 1.5, &view, r->verts, nv,
+                                                 r->tris + surface_t, nt - surface_t, r->slack)))
+            return st;
         crisp_raster_stats rs2;
         st = crisp__raster_draw_fill(r->raster, tg, r->pool, r->verts, nv, r->tris + surface_t,
                                      nt - surface_t, trim_test, ctx, r->slack, &rs2);
@@ -717,7 +852,6 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         rs.fragments_discarded += rs2.fragments_discarded;
     }
     double t2 = crisp_time_now();
-    if (!base) crisp__image_clear(img);
     resolve_ctx rc = {.r = r,
                       .sc = sc,
                       .cam = cam,
