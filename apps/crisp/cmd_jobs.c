@@ -173,10 +173,17 @@ static int fwd_has(const job *j, const char *name)
 
 /* ---- child runs --------------------------------------------------------------------------- */
 
-/* Runs crisp with argv (argv[0] ignored) quietly; its wall time and peak resident memory. */
+/* Processor time of a finished child (user + system): steadier than the wall clock on a loaded
+ * machine, and what a cell costs whatever the machine's other work. */
+static double cpu_seconds(const struct rusage *ru)
+{
+    return (double)ru->ru_utime.tv_sec + 1e-6 * (double)ru->ru_utime.tv_usec +
+           (double)ru->ru_stime.tv_sec + 1e-6 * (double)ru->ru_stime.tv_usec;
+}
+
+/* Runs crisp with argv (argv[0] ignored) quietly; its processor time and peak resident memory. */
 static int run_crisp(const job *j, char **argv, double *seconds, uint64_t *peak)
 {
-    double t0 = crisp_time_now();
     pid_t pid = fork();
     if (pid < 0) return -1;
     if (pid == 0) {
@@ -189,7 +196,7 @@ static int run_crisp(const job *j, char **argv, double *seconds, uint64_t *peak)
     int status = 0;
     struct rusage ru;
     if (wait4(pid, &status, 0, &ru) < 0) return -1;
-    *seconds = crisp_time_now() - t0;
+    *seconds = cpu_seconds(&ru);
     *peak = (uint64_t)ru.ru_maxrss * 1024u;
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -248,7 +255,7 @@ static int plan_tiles(job *j)
         snprintf(out, sizeof out, "%s/.timing%s", j->absdir, ext);
         snprintf(size, sizeof size, "%dx%d", W, H);
         snprintf(tile, sizeof tile, "0/%dx%d", W / 32, H / 32);
-        double f = sqrt(fmin(1.0, 512.0 * 512.0 / px));
+        double f = sqrt(fmin(1.0, 1024.0 * 1024.0 / px));
         int sw = (int)fmax(64, W * f), sh = (int)fmax(64, H * f);
         snprintf(small, sizeof small, "%dx%d", sw, sh);
         char *argv[64];
@@ -265,26 +272,32 @@ static int plan_tiles(job *j)
             argv[n++] = (char *)a1[k];
         if (!frep) argv[n++] = "-q";
         argv[n] = NULL;
-        double t_corner, t_small;
-        uint64_t m_corner, m_small;
+        double t_corner;
+        uint64_t m_corner;
         int rc = run_crisp(j, argv, &t_corner, &m_corner);
-        n = base;
-        const char *a2[] = {"--size", small, "-o", out};
-        for (int k = 0; k < 4; k++)
-            argv[n++] = (char *)a2[k];
-        if (!frep) argv[n++] = "-q";
-        argv[n] = NULL;
-        if (!rc) rc = run_crisp(j, argv, &t_small, &m_small);
-        /* and a corner tile of the reduced image: the small run's own overhead */
-        char tile_small[64];
-        snprintf(tile_small, sizeof tile_small, "0/%dx%d", sw / 32, sh / 32);
-        const char *a3[] = {"--tile", tile_small};
-        n = base + 4 + !frep;
-        argv[n++] = (char *)a3[0], argv[n++] = (char *)a3[1];
-        argv[n] = NULL;
-        double t_small0 = 0;
-        uint64_t m_small0;
-        if (!rc) rc = run_crisp(j, argv, &t_small0, &m_small0);
+        /* the whole image at two reduced sizes (about 1024^2 and 512^2 pixels), each less the
+         * overhead of its own corner tile: the work, and how it grows with the pixels (about
+         * as the pixels for a raster, as the outline for an f-rep image) */
+        double work_s[2] = {0, 0}, px_s[2] = {0, 0};
+        for (int q = 0; q < 2 && !rc; q++) {
+            int qw = (int)fmax(64, sw >> q), qh = (int)fmax(64, sh >> q);
+            char qsize[64], qtile[64];
+            snprintf(qsize, sizeof qsize, "%dx%d", qw, qh);
+            snprintf(qtile, sizeof qtile, "0/%dx%d", qw / 32, qh / 32);
+            double tq[2];
+            uint64_t mq;
+            for (int corner = 0; corner < 2 && !rc; corner++) {
+                n = base;
+                argv[n++] = "--size", argv[n++] = qsize, argv[n++] = "-o", argv[n++] = out;
+                if (!frep) argv[n++] = "-q";
+                if (corner) argv[n++] = "--tile", argv[n++] = qtile;
+                argv[n] = NULL;
+                rc = run_crisp(j, argv, &tq[corner], &mq);
+            }
+            work_s[q] = fmax(tq[0] - tq[1], 0.02 * tq[0]);
+            px_s[q] = (double)qw * qh;
+        }
+        (void)small;
         char cellf[PATH_MAX + 80];
         snprintf(cellf, sizeof cellf, "%s.cell", out);
         remove(out), remove(cellf);
@@ -296,7 +309,9 @@ static int plan_tiles(job *j)
             return 1;
         }
         overhead = t_corner;
-        per_px = fmax(t_small - t_small0, 0.02 * t_small) / ((double)sw * sh);
+        double beta = px_s[0] > px_s[1] ? log(work_s[0] / work_s[1]) / log(px_s[0] / px_s[1]) : 1;
+        beta = beta < 0.5 ? 0.5 : beta > 1 ? 1 : beta;
+        per_px = work_s[0] * pow(px / px_s[0], beta) / px; /* spread evenly over the image */
         base_mem = m_corner;
     }
     int n = j->cells_given;
@@ -497,7 +512,6 @@ static int measure_first(job *j)
     snprintf(sub, sizeof sub, "%s/%.*s", j->absdir, (int)(slash - c->target), c->target);
     mkdir(sub, 0777);
     char *cmd = str_printf("exec %s", c->cmd);
-    double t0 = crisp_time_now();
     pid_t pid = fork();
     if (pid == 0) {
         FILE *devnull = freopen("/dev/null", "w", stdout);
@@ -515,7 +529,7 @@ static int measure_first(job *j)
                 WIFEXITED(status) ? WEXITSTATUS(status) : -1, j->cells[0].cmd);
         return 1;
     }
-    j->cell_time = crisp_time_now() - t0;
+    j->cell_time = cpu_seconds(&ru);
     j->cell_mem = (uint64_t)ru.ru_maxrss * 1024u;
     j->total_time = j->cell_time * j->cell_count;
     j->measured = 1;
@@ -799,12 +813,12 @@ int crisp_cmd_jobs(int argc, char **argv)
         char mb[32];
         cli_format_bytes(j.cell_mem, mb, sizeof mb);
         if (j.measured)
-            printf("cell 0 (run now; its file is kept): %.2f s and %s; all %d cells about %.1f s "
-                   "of work\n",
+            printf("cell 0 (run now; its file is kept): %.2f processor seconds and %s; all %d "
+                   "cells about %.1f s\n",
                    j.cell_time, mb, j.cell_count, j.total_time);
         else if (j.cell_time > 0)
-            printf("predicted per cell: %.2f s and %s (one process each); the whole image in "
-                   "one process: %.1f s\n",
+            printf("predicted per cell: %.2f processor seconds and %s; the whole image in one "
+                   "process: %.1f s\n",
                    j.cell_time, mb, j.total_time);
         printf("run:  make -j2 -C %s\n", j.absdir);
         printf("  or: parallel -j2 --joblog %s/joblog --resume < %s/jobs.txt && sh %s/merge.sh\n",

@@ -179,6 +179,10 @@ static crisp_status writer_open(writer *w)
         if (setjmp(png_jmpbuf(w->png)))
             return crisp_error(CRISP_ERR_IO, "%s: cannot write PNG: %s", w->path, w->png_msg);
         png_init_io(w->png, w->fp);
+        /* a merge writes posters: the fastest zlib level and one cheap filter (the PNG tiles
+         * were written with the defaults; the pixels are the same either way) */
+        png_set_compression_level(w->png, 1);
+        png_set_filter(w->png, 0, PNG_FILTER_SUB);
         png_set_IHDR(w->png, w->info, (png_uint_32)w->width, (png_uint_32)w->height, 8,
                      types[w->channels - 1], PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
                      PNG_FILTER_TYPE_DEFAULT);
