@@ -51,7 +51,7 @@ static const char usage_text[] =
     "      --max-memory SIZE refuse a frame estimated to need more (K, M, G, T suffixes); a frame\n"
     "                        over 2 GB prints a warning [8G]\n"
     "      --tile I/N        render only tile I (0..N-1, row-major) of N tiles of the image, or\n"
-    "                        I/CxR of a C x R grid, bit for bit the same pixels (cpu backend);\n"
+    "                        I/CxR of a C x R grid, bit for bit the same pixels (cpu, exact);\n"
     "                        each output gets a header OUT.cell for crisp merge [whole image]\n"
     "      --progress        show a progress bar on stderr [only when stderr is a terminal]\n"
     "      --no-progress     never show the progress bar\n"
@@ -262,8 +262,9 @@ static int parse(int argc, char **argv, render_args *a)
         return 2;
     }
     if (a->tiled) {
-        if (a->render.backend != CRISP_BACKEND_CPU) {
-            fprintf(stderr, "crisp render: --tile draws with the cpu backend only\n");
+        if (a->render.backend == CRISP_BACKEND_GL) {
+            fprintf(stderr, "crisp render: --tile draws with the cpu and exact backends only (the "
+                            "gl backend's float rounding changes with a tile's projection)\n");
             return 2;
         }
         if (a->repeat != 1) {

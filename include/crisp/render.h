@@ -140,6 +140,9 @@ typedef struct crisp_exact_desc {
     int threads;                     /* 0: default */
     crisp_trim_classify_fn classify; /* NULL: every point of a face counts as inside */
     void *classify_ctx;
+    /* x0, y0, width, height: img holds only this window of the camera's image (every pixel is
+     * its own ray, so a window's pixels equal the whole image's); all zero: the whole image */
+    int window[4];
 } crisp_exact_desc;
 
 /* The nearest surface point inside its trim along the ray (origin, unit dir) with parameter t in

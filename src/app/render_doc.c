@@ -65,9 +65,11 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
     if (img->width != w[2] || img->height != w[3])
         return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the window's %dx%d",
                            img->width, img->height, w[2], w[3]);
-    if (d.backend != CRISP_BACKEND_CPU)
+    if (d.backend != CRISP_BACKEND_CPU && d.backend != CRISP_BACKEND_EXACT)
         return crisp_error(CRISP_ERR_UNSUPPORTED,
-                           "an image window (a tile) is drawn by the cpu backend only");
+                           "an image window (a tile) is drawn by the cpu and exact backends only "
+                           "(the gl backend's float rounding changes with the window's "
+                           "projection)");
     int e[4];
     drawn_window(cam, w, e);
     if (!memcmp(e, w, sizeof e)) return render_window(doc, cam, d, e, img, stats);
@@ -140,6 +142,7 @@ static crisp_status render_window(const crisp_document *doc, const crisp_camera 
 #endif
         } else {
             crisp_exact_desc ed = {.threads = d.threads, .classify = classify_exact};
+            if (win) memcpy(ed.window, win, sizeof ed.window);
             st = crisp_render_exact(doc->scene, cam, &ed, img);
         }
     }

@@ -430,6 +430,7 @@ typedef struct {
     const crisp_camera *cam;
     crisp_image *img;
     scratch *scr; /* one per worker */
+    int win[4];   /* the window of the camera's image drawn: x0, y0, width, height */
 } render_ctx;
 
 static void render_rows(void *vctx, size_t begin, size_t end, int worker)
@@ -439,17 +440,19 @@ static void render_rows(void *vctx, size_t begin, size_t end, int worker)
     double f[3], dd[3];
     crisp_vec3_sub(cam->target, cam->eye, dd);
     crisp_vec3_normalize(dd, f);
+    const int *w = c->win;
     for (size_t j = begin; j < end; j++)
-        for (int i = 0; i < cam->width; i++) {
+        for (int i = 0; i < w[2]; i++) {
             double o[3], d[3];
-            crisp_camera_ray(cam, i + 0.5, (double)j + 0.5, o, d);
+            /* the pixel (w[0] + i, w[1] + j) of the camera's image */
+            crisp_camera_ray(cam, w[0] + i + 0.5, (double)(w[1] + (int)j) + 0.5, o, d);
             /* near/far bound the depth along the view axis: t = depth / cos. */
             double cosang = crisp_vec3_dot(d, f);
             hit h;
             if (!trace(c->sc, c->b, c->desc, &c->scr[worker], o, d, cam->znear / cosang,
                        cam->zfar / cosang, &h))
                 continue;
-            size_t px = j * (size_t)cam->width + (size_t)i;
+            size_t px = j * (size_t)w[2] + (size_t)i;
             uint32_t face;
             double uv[2], n[3];
             hit_outputs(c->sc, &h, &face, uv, n);
@@ -469,9 +472,20 @@ crisp_status crisp_render_exact(const crisp_scene *sc, const crisp_camera *cam,
 {
     crisp_status st = crisp_camera_check(cam);
     if (st) return st;
-    if (img->width != cam->width || img->height != cam->height)
-        return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the camera's %dx%d",
-                           img->width, img->height, cam->width, cam->height);
+    int win[4] = {0, 0, cam->width, cam->height};
+    if (desc && (desc->window[0] || desc->window[1] || desc->window[2] || desc->window[3])) {
+        memcpy(win, desc->window, sizeof win);
+        if (win[0] < 0 || win[1] < 0 || win[2] < 1 || win[3] < 1 || win[0] > cam->width - win[2] ||
+            win[1] > cam->height - win[3])
+            return crisp_error(CRISP_ERR_INVALID_ARG,
+                               "window %dx%d at (%d, %d): expected a window inside the camera's "
+                               "%dx%d image",
+                               win[2], win[3], win[0], win[1], cam->width, cam->height);
+    }
+    if (img->width != win[2] || img->height != win[3])
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "image %dx%d does not match the camera's %dx%d (or the window's)",
+                           img->width, img->height, win[2], win[3]);
     crisp_pool *pool = NULL;
     int threads = desc && desc->threads > 0 ? desc->threads : crisp_pool_default_threads();
     if ((st = crisp_pool_get(threads, &pool))) return st; /* kept by crisp: no threads per call */
@@ -482,8 +496,8 @@ crisp_status crisp_render_exact(const crisp_scene *sc, const crisp_camera *cam,
     if (!st) st = bvh_build(sc, &b);
     if (!st) {
         crisp__image_clear(img);
-        render_ctx c = {sc, &b, desc, cam, img, scr};
-        crisp_pool_parallel_for(pool, (size_t)cam->height, 1, render_rows, &c);
+        render_ctx c = {sc, &b, desc, cam, img, scr, {win[0], win[1], win[2], win[3]}};
+        crisp_pool_parallel_for(pool, (size_t)win[3], 1, render_rows, &c);
     }
     bvh_free(&b);
     free(scr);

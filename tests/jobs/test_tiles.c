@@ -1,7 +1,7 @@
 /* Image tiles (issue 15): crisp_document_render with a window draws, for every pixel of the
  * window, bit for bit the rgba, depth, normal, uv and face of the same pixel of the whole image
- * (cpu backend, 1 and 4 samples), for a bundled IGES model (the ribbons' depth slack reads
- * neighbouring pixels) and the scene with f-rep parts (their 32x32 tiles are z-culled against
+ * (cpu backend, 1 and 4 samples; exact backend), for a bundled IGES model (the ribbons' depth slack
+ * reads neighbouring pixels) and the scene with f-rep parts (their 32x32 tiles are z-culled against
  * the depth already drawn). Windows at odd offsets and sizes, at the image's edges, 1x1. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -15,7 +15,8 @@
 #include "crisp/app.h"
 #include "crisp/frep.h"
 
-static void check_windows(const char *path, int width, int height, int samples)
+static void check_windows(const char *path, int width, int height, int samples,
+                          crisp_backend backend)
 {
     crisp_document *doc = NULL;
     assert_int_equal(crisp_document_open(path, NULL, &doc), CRISP_OK);
@@ -25,7 +26,7 @@ static void check_windows(const char *path, int width, int height, int samples)
         CRISP_OK);
     crisp_image full = {0};
     assert_int_equal(crisp_image_init(&full, width, height), CRISP_OK);
-    crisp_document_render_desc d = {.samples = samples, .threads = 2};
+    crisp_document_render_desc d = {.samples = samples, .threads = 2, .backend = backend};
     assert_int_equal(crisp_document_render(doc, &cam, &d, &full, NULL), CRISP_OK);
     size_t covered = 0;
     for (int p = 0; p < width * height; p++)
@@ -74,14 +75,16 @@ static void check_windows(const char *path, int width, int height, int samples)
 static void test_model_tiles(void **state)
 {
     (void)state;
-    check_windows(CRISP_DATA_DIR "/nurbs/occt_bearing.iges", 317, 203, 4);
-    check_windows(CRISP_DATA_DIR "/nurbs/gpucast_teapot.igs", 260, 190, 1);
+    check_windows(CRISP_DATA_DIR "/nurbs/occt_bearing.iges", 317, 203, 4, CRISP_BACKEND_CPU);
+    check_windows(CRISP_DATA_DIR "/nurbs/gpucast_teapot.igs", 260, 190, 1, CRISP_BACKEND_CPU);
+    /* the exact backend: a ray per pixel centre of the whole image's camera */
+    check_windows(CRISP_DATA_DIR "/nurbs/gpucast_teapot.igs", 160, 100, 1, CRISP_BACKEND_EXACT);
 }
 
 static void test_scene_tiles(void **state)
 {
     (void)state;
-    check_windows(CRISP_DATA_DIR "/scenes/teapot_frep.scene", 300, 170, 4);
+    check_windows(CRISP_DATA_DIR "/scenes/teapot_frep.scene", 300, 170, 4, CRISP_BACKEND_CPU);
 }
 
 /* crisp frep render's windows: 2D images and 3D heightmaps, every output (inside, heights, z,
