@@ -581,6 +581,24 @@ static void test_partial_redraw(void **state)
     te_app_close(&app);
 }
 
+/* What the 2D view draws at one spot: the largest circle's radius there; knot markers. */
+typedef struct spot {
+    double at[2], radius;
+    long knots;
+} spot;
+
+static void spot_line(void *ctx, double x0, double y0, double x1, double y1, uint32_t c, double w)
+{
+    (void)ctx, (void)x0, (void)y0, (void)x1, (void)y1, (void)c, (void)w;
+}
+
+static void spot_circle(void *ctx, double x, double y, double r, uint32_t c, int filled)
+{
+    spot *s = ctx;
+    if (c == 0xff2080ffu && filled) s->knots++; /* te_app_draw_2d's knot marker */
+    if (hypot(x - s->at[0], y - s->at[1]) < 1e-9 && r > s->radius) s->radius = r;
+}
+
 static void key(te_app *app, int k)
 {
     te_app_key(app, k, GLFW_PRESS, 0);
@@ -624,6 +642,22 @@ static void test_weight_field(void **state)
     assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, &w), CRISP_OK);
     assert_true(w == 2.5);
     assert_int_equal(crisp_trimedit_face(app.ed)->loops[1].curves[0]->count, count);
+    /* The 2D view shows the weight (the point's circle grows with it) and every knot span. */
+    spot sp = {{0, 0}, 0, 0};
+    te_app_uv_to_px(&app, uv, sp.at);
+    te_draw dr = {.ctx = &sp, .line = spot_line, .circle = spot_circle};
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    (void)te_app_draw_2d(&app, &dr);
+    assert_true(fabs(sp.radius - 3.5 * sqrt(2.5)) < 1e-12);
+    long spans = 0;
+    const crisp_face *ff = crisp_trimedit_face(app.ed);
+    for (int l = 0; l < ff->loop_count; l++)
+        for (int c = 0; c < ff->loops[l].curve_count; c++) {
+            const crisp_curve *cc = ff->loops[l].curves[c];
+            for (int k = cc->degree; k < cc->count; k++)
+                spans += cc->knots[k] < cc->knots[k + 1];
+        }
+    assert_int_equal(sp.knots, spans);
     /* Refused: 0, -1, "e" (no number); the field stays open with the message. */
     static const int bad[3][3] = {{GLFW_KEY_0, GLFW_KEY_ENTER, 0},
                                   {GLFW_KEY_MINUS, GLFW_KEY_1, GLFW_KEY_ENTER},
