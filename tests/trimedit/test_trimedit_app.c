@@ -474,7 +474,8 @@ static void compare_frames(const crisp_image *a, const crisp_image *b, int face,
 
 /* Every frame of a replayed drag (60 frames of cursor events in the 2D view), te_app_draw_cpu
  * (the edited face alone drawn over the other faces' image) equals a full render of the same
- * plan away from the edited face's edges; releasing the button draws the whole again. */
+ * plan away from the edited face's edges; releasing the button draws the whole again. An idle
+ * frame before the drag draws nothing but the others' image, so the drag does not wait for it. */
 static void partial_vs_full(te_app *app, crisp_trimedit_ref pt, double amp_px, const char *name)
 {
     crisp_renderer *r1, *r2;
@@ -483,6 +484,13 @@ static void partial_vs_full(te_app *app, crisp_trimedit_ref pt, double amp_px, c
     crisp_image img, whole;
     assert_int_equal(crisp_image_init(&img, app->cam.width, app->cam.height), CRISP_OK);
     assert_int_equal(crisp_image_init(&whole, app->cam.width, app->cam.height), CRISP_OK);
+    /* The whole frame, then an idle frame: nothing drawn again, the others' image made. */
+    assert_int_equal(te_app_update(app), CRISP_OK);
+    assert_int_equal(te_app_draw_cpu(app, r1, &img), CRISP_OK);
+    long full0 = app->full_draws, others0 = app->others_draws;
+    assert_int_equal(te_app_draw_cpu(app, r1, &img), CRISP_OK);
+    assert_int_equal(app->full_draws, full0);
+    assert_int_equal(app->others_draws, others0 + 1);
     double uv0[2], px0[2];
     assert_int_equal(crisp_trimedit_point(app->ed, pt, uv0, NULL), CRISP_OK);
     te_app_uv_to_px(app, uv0, px0);
@@ -511,11 +519,13 @@ static void partial_vs_full(te_app *app, crisp_trimedit_ref pt, double amp_px, c
                   name, compared, differ, at_edges, face_min, face_max);
     assert_int_equal(differ, 0);
     assert_true(face_min > 200 && face_max > face_min); /* seen, and the drag changed it */
+    assert_int_equal(app->others_draws, others0 + 1);   /* the drag did not wait for them */
     /* The end of the drag draws the whole plan again: equal everywhere. */
     te_app_button(app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
     assert_int_equal(te_app_update(app), CRISP_OK);
     assert_int_equal(te_app_draw_cpu(app, r1, &img), CRISP_OK);
     assert_false(app->last_partial);
+    assert_int_equal(app->full_draws, full0 + 1);
     assert_int_equal(crisp_render_cpu_plan(r2, app->scene, app->plan, &app->cam, &whole, NULL),
                      CRISP_OK);
     long c2 = 0, d2 = 0, e2 = 0;
