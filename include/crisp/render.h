@@ -242,6 +242,10 @@ typedef struct crisp_frep_parts_desc {
     int per_pixel; /* 1: no frustum subdivision, every pixel's ray bisected alone (exact backend) */
     int no_shorten; /* 1: evaluate the full tape in every cell (for measuring tape shortening) */
     crisp_frep_parts_stats *stats; /* NULL, or receives the call's counters */
+    /* x0, y0, width, height: img holds only this window of the camera's image (x0, y0 multiples
+     * of 32; issue 15, image tiles); all zero: the whole image. A window pixel gets the value it
+     * has in the whole image when every pixel of its 32x32 tile holds its whole-image value. */
+    int window[4];
 } crisp_frep_parts_desc;
 
 /* Draw the parts into img (which already holds the NURBS render, or a cleared image) where they

@@ -38,6 +38,8 @@ struct crisp_renderer {
     int over_rect[4];         /* x0, y0, x1, y1 of the region loaded last (empty: x0 >= x1) */
     double (*hull)[4];        /* per plan leaf: its screen box (lo x, lo y, hi x, hi y) */
     size_t hull_cap;
+    uint32_t *ribbon_keep; /* a window's frame: the ribbon quads that can reach the window */
+    size_t ribbon_keep_cap;
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -95,6 +97,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->slack);
     free(r->untested);
     free(r->leaf_skip);
+    free(r->ribbon_keep);
     free(r);
 }
 
@@ -199,16 +202,17 @@ typedef struct skip_ctx {
     int samples;
     const uint8_t *only; /* per face: draw it (NULL: every face) */
     double (*hull)[4];   /* NULL, or receives each drawn leaf's screen box */
+    int win[4];          /* the pixels drawn: x0, y0, width, height */
 } skip_ctx;
 
-static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2], int width,
-                        int height)
+static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2])
 {
+    const int *w = c->win;
     for (int s = 0; s < c->samples; s++) {
-        double i0 = fmax(ceil(lo[0] - c->off[s][0]), 0),
-               i1 = fmin(floor(hi[0] - c->off[s][0]), width - 1);
-        double j0 = fmax(ceil(lo[1] - c->off[s][1]), 0),
-               j1 = fmin(floor(hi[1] - c->off[s][1]), height - 1);
+        double i0 = fmax(ceil(lo[0] - c->off[s][0]), w[0]),
+               i1 = fmin(floor(hi[0] - c->off[s][0]), w[0] + w[2] - 1);
+        double j0 = fmax(ceil(lo[1] - c->off[s][1]), w[1]),
+               j1 = fmin(floor(hi[1] - c->off[s][1]), w[1] + w[3] - 1);
         if (i0 <= i1 && j0 <= j1) return 1;
     }
     return 0;
@@ -254,7 +258,7 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
         /* Widen by the snapping (1/512 px) and rounding, generously. */
         double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
         lo[0] -= pad, lo[1] -= pad, hi[0] += pad, hi[1] += pad;
-        r->leaf_skip[j] = front && !holds_sample(c, lo, hi, plan->width, plan->height);
+        r->leaf_skip[j] = front && !holds_sample(c, lo, hi);
         if (c->hull) {
             double *b = c->hull[j];
             b[0] = front ? lo[0] : -INFINITY, b[1] = front ? lo[1] : -INFINITY;
@@ -277,7 +281,8 @@ typedef struct ribbon_ctx {
     crisp_renderer *r;
     const crisp_frame_plan *plan;
     size_t vbase, tbase;
-    size_t first; /* the plan's quad copied to the first place */
+    size_t first;         /* the plan's quad copied to the first place */
+    const uint32_t *keep; /* the plan's quads drawn (NULL: all) */
 } ribbon_ctx;
 
 static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
@@ -285,7 +290,8 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
     (void)worker;
     ribbon_ctx *c = vctx;
     for (size_t q = begin; q < end; q++) {
-        const crisp_plan_ribbon_vertex *src = c->plan->ribbon_vertices + 4 * (c->first + q);
+        size_t pq = c->keep ? c->keep[q] : c->first + q;
+        const crisp_plan_ribbon_vertex *src = c->plan->ribbon_vertices + 4 * pq;
         crisp_raster_vertex *v = c->r->verts + c->vbase + 4 * q;
         for (int k = 0; k < 4; k++) {
             memcpy(v[k].clip, src[k].clip, sizeof v[k].clip);
@@ -353,6 +359,7 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
                 copy_pixel(c->base, img, px);
                 continue;
             }
+            int gi = t->x0 + i, gj = t->y0 + (int)j; /* the pixel in the whole image */
             float acc[4] = {0, 0, 0, 0};
             int covered = 0, best = -1;
             double best_iw = 0;
@@ -363,8 +370,8 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
                 if (t->inv_w[idx] > best_iw) best_iw = t->inv_w[idx], best = s;
                 double off[2], d[3], n[3];
                 crisp__raster_sample_offset(S, s, off);
-                double nx = (i + off[0] - 0.5 * cam->width) * kx,
-                       ny = (0.5 * cam->height - j - off[1]) * ky;
+                double nx = (gi + off[0] - 0.5 * cam->width) * kx,
+                       ny = (0.5 * cam->height - gj - off[1]) * ky;
                 for (int k = 0; k < 3; k++)
                     d[k] = f[k] + nx * r[k] + ny * u[k];
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
@@ -483,17 +490,29 @@ static void load_rect(crisp_raster_target *t, const crisp_image *base, const int
         }
 }
 
-/* crisp_render_cpu_plan (only and base NULL) and crisp_render_cpu_plan_faces. */
+/* crisp_render_cpu_plan (only, base and window NULL), crisp_render_cpu_plan_faces (a subset of
+ * the faces, over a base image) and crisp__render_cpu_window (a window of the frame). */
 static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                               const crisp_frame_plan *plan, const crisp_camera *cam,
-                              const uint8_t *only, const crisp_image *base, crisp_image *img,
-                              crisp_render_stats *stats)
+                              const uint8_t *only, const crisp_image *base, const int window[4],
+                              crisp_image *img, crisp_render_stats *stats)
 {
-    if (img->width != plan->width || img->height != plan->height || cam->width != plan->width ||
+    int win[4] = {0, 0, plan->width, plan->height};
+    if (window) memcpy(win, window, sizeof win);
+    if (window && (only || base))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "a window of the frame is drawn with every face and no base image");
+    if (img->width != win[2] || img->height != win[3] || cam->width != plan->width ||
         cam->height != plan->height)
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "image %dx%d and camera %dx%d do not match the plan's %dx%d", img->width,
                            img->height, cam->width, cam->height, plan->width, plan->height);
+    if (win[0] < 0 || win[1] < 0 || win[2] < 1 || win[3] < 1 || win[0] + win[2] > plan->width ||
+        win[1] + win[3] > plan->height || win[0] % 8 || win[1] % 8)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "window %dx%d at (%d, %d) of the %dx%d frame: expected a window inside "
+                           "the frame at a multiple of 8",
+                           win[2], win[3], win[0], win[1], plan->width, plan->height);
     if (plan->face_count != sc->face_count)
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "the plan has %u faces, the scene %u: not the scene's plan",
@@ -526,8 +545,12 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     if (base &&
         (st = crisp_grow((void **)&r->hull, &r->hull_cap, jobs ? jobs : 1, sizeof *r->hull)))
         return st;
-    skip_ctx skc = {
-        .r = r, .sc = sc, .samples = r->desc.samples, .only = only, .hull = base ? r->hull : NULL};
+    skip_ctx skc = {.r = r,
+                    .sc = sc,
+                    .samples = r->desc.samples,
+                    .only = only,
+                    .hull = base ? r->hull : NULL,
+                    .win = {win[0], win[1], win[2], win[3]}};
     for (int s = 0; s < r->desc.samples; s++)
         crisp__raster_sample_offset(r->desc.samples, s, skc.off[s]);
     crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
@@ -545,12 +568,42 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     }
     r->leaf_vbase[jobs] = (uint32_t)nv;
     r->leaf_tbase[jobs] = (uint32_t)nt;
-    /* Ribbons after the surfaces: at equal depth the surface's own fragment stays. */
+    /* Ribbons after the surfaces: at equal depth the surface's own fragment stays. A window of
+     * the frame (issue 15: tiles of a poster have a millionth of its ribbons each) keeps the
+     * quads whose screen box, widened by 2 px, meets it, in their order; the others cover no
+     * sample of it. */
     size_t surface_v = nv, surface_t = nt, quads = plan->ribbon_quad_count;
+    const uint32_t *keep = NULL;
     if (only) {
         quads = 0;
         for (uint32_t f = 0; f < plan->face_count; f++)
             if (only[f]) quads += plan->faces[f].ribbon_count;
+    } else if (window && (win[2] != plan->width || win[3] != plan->height)) {
+        if ((st = crisp_grow((void **)&r->ribbon_keep, &r->ribbon_keep_cap, quads ? quads : 1,
+                             sizeof *r->ribbon_keep)))
+            return st;
+        size_t kept = 0;
+        for (size_t q = 0; q < quads; q++) {
+            const crisp_plan_ribbon_vertex *v = plan->ribbon_vertices + 4 * q;
+            double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+            int far = 0;
+            for (int k = 0; k < 4 && !far; k++) {
+                const double *c = v[k].clip;
+                if (!(c[3] > 0) || !isfinite(c[0] + c[1] + c[3])) {
+                    far = 1; /* behind the eye: kept (clipped by the rasterizer) */
+                    break;
+                }
+                double x = (c[0] / c[3] + 1) * 0.5 * plan->width,
+                       y = (1 - c[1] / c[3]) * 0.5 * plan->height;
+                lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
+                lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+            }
+            if (far || (hi[0] >= win[0] - 2 && lo[0] <= win[0] + win[2] + 2 &&
+                        hi[1] >= win[1] - 2 && lo[1] <= win[1] + win[3] + 2))
+                r->ribbon_keep[kept++] = (uint32_t)q;
+        }
+        quads = kept;
+        keep = r->ribbon_keep;
     }
     nv += 4 * quads;
     nt += 2 * quads;
@@ -565,14 +618,15 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     tess_ctx tc = {r, sc};
     crisp_pool_parallel_for(r->pool, jobs, 8, tessellate, &tc);
     if (!only) {
-        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0};
+        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0, keep};
         crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
     } else {
         size_t done = 0; /* the drawn faces' quads, face after face */
         for (uint32_t f = 0; f < plan->face_count; f++) {
             if (!only[f] || !plan->faces[f].ribbon_count) continue;
-            ribbon_ctx rbc = {r, plan, surface_v + 4 * done, surface_t + 2 * done,
-                              plan->faces[f].first_ribbon};
+            ribbon_ctx rbc = {
+                r,   plan, surface_v + 4 * done, surface_t + 2 * done, plan->faces[f].first_ribbon,
+                NULL};
             crisp_pool_parallel_for(r->pool, plan->faces[f].ribbon_count, 256, copy_ribbons, &rbc);
             done += plan->faces[f].ribbon_count;
         }
@@ -585,10 +639,12 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
      * rest of that target is kept empty, so the rasterizer's depth bounds stay valid there);
      * otherwise the whole target starts empty. */
     crisp_raster_target *tg = base ? &r->over : &r->target;
-    int rect[4] = {0, 0, cam->width, cam->height}, rib[4] = {0, 0, 0, 0};
+    int rect[4] = {0, 0, win[2], win[3]}, rib[4] = {0, 0, 0, 0};
     if (base) {
         int fresh = !r->over.inv_w || r->over.width != cam->width || r->over.height != cam->height;
-        if ((st = crisp__raster_target_init(&r->over, cam->width, cam->height, 1))) return st;
+        if ((st = crisp__raster_target_init(&r->over, cam->width, cam->height, 1)) ||
+            (st = crisp__raster_target_window(&r->over, 0, 0, 0, 0)))
+            return st;
         if (fresh) {
             crisp__raster_target_clear(&r->over);
             memset(r->over_rect, 0, sizeof r->over_rect);
@@ -607,7 +663,10 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         load_rect(&r->over, base, rect);
         memcpy(r->over_rect, rect, sizeof rect);
     } else {
-        if ((st = crisp__raster_target_init(&r->target, cam->width, cam->height, r->desc.samples)))
+        if ((st = crisp__raster_target_init(&r->target, win[2], win[3], r->desc.samples)) ||
+            (st = window ? crisp__raster_target_window(&r->target, win[0], win[1], cam->width,
+                                                       cam->height)
+                         : crisp__raster_target_window(&r->target, 0, 0, 0, 0)))
             return st;
         crisp__raster_target_clear(&r->target);
     }
@@ -627,26 +686,24 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                             ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {
-        size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
+        size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
         if (base) {
             /* The slack of the ribbons' rows only (widened by 2 px: a sample's slack looks at
-             * its neighbours): those rows as a target of their own, the view's centre moved to
-             * match (raster.h: the view direction through pixel (i, j) is
-             * f + (i + 0.5 - width / 2) kx r + (height / 2 - j - 0.5) ky u). */
+             * its neighbours): those rows as a window of the frame (raster.h). */
             size_t row0 = (size_t)rib[1] * cam->width;
-            crisp_raster_target rows = {cam->width,
-                                        rib[3] - rib[1],
-                                        1,
-                                        tg->inv_w + row0,
-                                        tg->attr + row0 * CRISP_RASTER_ATTRS,
-                                        tg->face + row0};
-            crisp_raster_view rv = view;
-            double shift = 0.5 * (cam->height - rows.height) - rib[1];
-            for (int k = 0; k < 3; k++)
-                rv.f[k] += shift * view.ky * view.u[k];
+            crisp_raster_target rows = {.width = cam->width,
+                                        .height = rib[3] - rib[1],
+                                        .samples = 1,
+                                        .x0 = 0,
+                                        .y0 = rib[1],
+                                        .image_width = cam->width,
+                                        .image_height = cam->height,
+                                        .inv_w = tg->inv_w + row0,
+                                        .attr = tg->attr + row0 * CRISP_RASTER_ATTRS,
+                                        .face = tg->face + row0};
             if (rows.height > 0)
-                crisp__raster_depth_slack(&rows, r->pool, 1.5, &rv, r->slack + row0);
+                crisp__raster_depth_slack(&rows, r->pool, 1.5, &view, r->slack + row0);
         } else {
             crisp__raster_depth_slack(tg, r->pool, 1.5, &view, r->slack);
         }
@@ -688,7 +745,15 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
                                    const crisp_frame_plan *plan, const crisp_camera *cam,
                                    crisp_image *img, crisp_render_stats *stats)
 {
-    return draw_plan(r, sc, plan, cam, NULL, NULL, img, stats);
+    return draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats);
+}
+
+crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
+                                      const crisp_frame_plan *plan, const crisp_camera *cam,
+                                      const int window[4], crisp_image *img,
+                                      crisp_render_stats *stats)
+{
+    return draw_plan(r, sc, plan, cam, NULL, NULL, window, img, stats);
 }
 
 crisp_status crisp_render_cpu_plan_faces(crisp_renderer *r, const crisp_scene *sc,
@@ -699,7 +764,7 @@ crisp_status crisp_render_cpu_plan_faces(crisp_renderer *r, const crisp_scene *s
     if (base && !faces)
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "drawing over a base image: say which faces to draw (faces is NULL)");
-    return draw_plan(r, sc, plan, cam, faces, base, img, stats);
+    return draw_plan(r, sc, plan, cam, faces, base, NULL, img, stats);
 }
 
 crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,

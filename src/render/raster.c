@@ -109,6 +109,34 @@ crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int he
     return CRISP_OK;
 }
 
+/* The whole image's size (the target is a window of it, or all of it). */
+static int image_w(const crisp_raster_target *t)
+{
+    return t->image_width ? t->image_width : t->width;
+}
+
+static int image_h(const crisp_raster_target *t)
+{
+    return t->image_height ? t->image_height : t->height;
+}
+
+crisp_status crisp__raster_target_window(crisp_raster_target *t, int x0, int y0, int image_width,
+                                         int image_height)
+{
+    if (!image_width && !image_height && !x0 && !y0) {
+        t->x0 = t->y0 = t->image_width = t->image_height = 0;
+        return CRISP_OK;
+    }
+    if (x0 < 0 || y0 < 0 || x0 % 8 || y0 % 8 || x0 + t->width > image_width ||
+        y0 + t->height > image_height || image_width > 65536 || image_height > 65536)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "window %dx%d at (%d, %d) of a %dx%d image: expected a window inside "
+                           "the image at a multiple of 8",
+                           t->width, t->height, x0, y0, image_width, image_height);
+    t->x0 = x0, t->y0 = y0, t->image_width = image_width, t->image_height = image_height;
+    return CRISP_OK;
+}
+
 void crisp__raster_target_free(crisp_raster_target *t)
 {
     free(t->inv_w);
@@ -202,8 +230,8 @@ static int project(const double *p, const crisp_raster_target *t, pvert *out)
 {
     double w = p[3];
     if (!(w > 0)) return 0;
-    out->sx = (p[0] / w + 1.0) * 0.5 * t->width;
-    out->sy = (1.0 - p[1] / w) * 0.5 * t->height;
+    out->sx = (p[0] / w + 1.0) * 0.5 * image_w(t);
+    out->sy = (1.0 - p[1] / w) * 0.5 * image_h(t);
     if (!(fabs(out->sx) <= 2 * GUARD_PX && fabs(out->sy) <= 2 * GUARD_PX)) return 0;
     out->fx = llround(out->sx * SUB);
     out->fy = llround(out->sy * SUB);
@@ -251,10 +279,10 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         maxy = fmax(maxy, (double)v[i]->fy / SUB);
     }
     /* Samples sit at i + offset with offset in [0, 1): pixels floor(min) - 1 .. floor(max). */
-    out->x0 = (int)fmax(0, floor(minx) - 1);
-    out->y0 = (int)fmax(0, floor(miny) - 1);
-    out->x1 = (int)fmin(t->width - 1, floor(maxx));
-    out->y1 = (int)fmin(t->height - 1, floor(maxy));
+    out->x0 = (int)fmax(t->x0, floor(minx) - 1);
+    out->y0 = (int)fmax(t->y0, floor(miny) - 1);
+    out->x1 = (int)fmin(t->x0 + t->width - 1, floor(maxx));
+    out->y1 = (int)fmin(t->y0 + t->height - 1, floor(maxy));
     if (!(out->x0 <= out->x1 && out->y0 <= out->y1)) return 0;
     double sx[3] = {a->sx, b->sx, d->sx}, sy[3] = {a->sy, b->sy, d->sy};
     double det = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sy[1] - sy[0]) * (sx[2] - sx[0]);
@@ -378,7 +406,7 @@ static double block_min(const crisp_raster_target *t, int bx0, int by0, int bx1,
     int S = t->samples;
     double m = INFINITY;
     for (int j = by0; j <= by1; j++) {
-        const double *row = t->inv_w + ((size_t)j * t->width + bx0) * S;
+        const double *row = t->inv_w + ((size_t)(j - t->y0) * t->width + (bx0 - t->x0)) * S;
         size_t n = (size_t)(bx1 - bx0 + 1) * S;
         for (size_t k = 0; k < n; k++)
             m = row[k] < m ? row[k] : m;
@@ -391,9 +419,10 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
     crisp_raster *r = c->r;
     crisp_raster_target *t = c->t;
     int tx = (int)(tile % (size_t)c->tiles_x), ty = (int)(tile / (size_t)c->tiles_x);
-    int px0 = tx * TILE, py0 = ty * TILE;
-    int px1 = px0 + TILE - 1 < t->width - 1 ? px0 + TILE - 1 : t->width - 1;
-    int py1 = py0 + TILE - 1 < t->height - 1 ? py0 + TILE - 1 : t->height - 1;
+    int px0 = t->x0 + tx * TILE, py0 = t->y0 + ty * TILE; /* pixels of the whole image */
+    int ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
+    int px1 = px0 + TILE - 1 < ex ? px0 + TILE - 1 : ex;
+    int py1 = py0 + TILE - 1 < ey ? py0 + TILE - 1 : ey;
     int S = t->samples;
     size_t tested = 0, discarded = 0, untested = 0, skipped = 0;
     /* Per block: a lower bound of its least 1/W. Writes only raise stored 1/W (outside fill mode,
@@ -478,7 +507,8 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                         double dy = j + c->off_y[s] - st->oy;
                         double base = st->q0[0] + st->qy[0] * dy, gx = st->qx[0];
                         double dx0 = (double)bx0 + c->off_x[s] - st->ox;
-                        size_t idx0 = ((size_t)j * t->width + (size_t)bx0) * S + s;
+                        size_t idx0 =
+                            ((size_t)(j - t->y0) * t->width + (size_t)(bx0 - t->x0)) * S + s;
                         double iwv[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
                         for (int q = 0; q < n; q++) {
@@ -577,7 +607,8 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
     const slack_ctx *c = vctx;
     const crisp_raster_target *t = c->t;
     float *slack = c->slack;
-    int S = t->samples, w = t->width, h = t->height;
+    int S = t->samples, w = t->width, h = t->height, iw = image_w(t), ih = image_h(t);
+    int ox = t->x0, oy = t->y0;
     size_t rs = (size_t)w * S;
     for (size_t i = begin * rs; i < end * rs; i++)
         slack[i] = 0;
@@ -589,17 +620,18 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
                 int32_t f = t->face[idx];
                 if (f < 0) continue;
                 double W = 1.0 / t->inv_w[idx];
-                int side = seen_side(c->view, w, h, i, j, t->attr + idx * CRISP_RASTER_ATTRS);
+                int side =
+                    seen_side(c->view, iw, ih, ox + i, oy + j, t->attr + idx * CRISP_RASTER_ATTRS);
                 if (own_j && i + 1 < w && t->face[idx + S] == f &&
-                    seen_side(c->view, w, h, i + 1, j, t->attr + (idx + S) * CRISP_RASTER_ATTRS) ==
-                        side) {
+                    seen_side(c->view, iw, ih, ox + i + 1, oy + j,
+                              t->attr + (idx + S) * CRISP_RASTER_ATTRS) == side) {
                     float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + S] - W));
                     if (d > slack[idx]) slack[idx] = d;
                     if (d > slack[idx + S]) slack[idx + S] = d;
                 }
                 if (j + 1 < h && t->face[idx + rs] == f &&
-                    seen_side(c->view, w, h, i, j + 1, t->attr + (idx + rs) * CRISP_RASTER_ATTRS) ==
-                        side) {
+                    seen_side(c->view, iw, ih, ox + i, oy + j + 1,
+                              t->attr + (idx + rs) * CRISP_RASTER_ATTRS) == side) {
                     float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + rs] - W));
                     if (own_j && d > slack[idx]) slack[idx] = d;
                     if (own_below && d > slack[idx + rs]) slack[idx + rs] = d;
@@ -653,8 +685,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                     .verts = verts,
                     .vert_count = vert_count,
                     .tris = tris,
-                    .gx = GUARD_PX / t->width,
-                    .gy = GUARD_PX / t->height};
+                    .gx = GUARD_PX / image_w(t),
+                    .gy = GUARD_PX / image_h(t)};
     crisp_status st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1,
                                  sizeof *r->vcache);
     if (st) return st;
@@ -699,11 +731,12 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
         for (int ch = 0; ch < CHUNKS; ch++)
             for (size_t i = 0; i < sc.counts[ch]; i++) {
                 const setup_tri *s = &r->chunk_tris[ch][i];
-                for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
-                    for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
+                int tx0 = (s->x0 - t->x0) / TILE, tx1 = (s->x1 - t->x0) / TILE;
+                int ty0 = (s->y0 - t->y0) / TILE, ty1 = (s->y1 - t->y0) / TILE;
+                for (int ty = ty0; ty <= ty1; ty++)
+                    for (int tx = tx0; tx <= tx1; tx++)
                         r->bin_start[(size_t)ty * tiles_x + tx + 1]++;
-                items += (size_t)(s->y1 / TILE - s->y0 / TILE + 1) *
-                         (size_t)(s->x1 / TILE - s->x0 / TILE + 1);
+                items += (size_t)(ty1 - ty0 + 1) * (size_t)(tx1 - tx0 + 1);
             }
         if (items > UINT32_MAX)
             return crisp_error(CRISP_ERR_LIMIT, "%zu tile entries: the limit is 2^32", items);
@@ -715,8 +748,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
         for (int ch = 0; ch < CHUNKS; ch++)
             for (size_t i = 0; i < sc.counts[ch]; i++) {
                 const setup_tri *s = &r->chunk_tris[ch][i];
-                for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
-                    for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
+                for (int ty = (s->y0 - t->y0) / TILE; ty <= (s->y1 - t->y0) / TILE; ty++)
+                    for (int tx = (s->x0 - t->x0) / TILE; tx <= (s->x1 - t->x0) / TILE; tx++)
                         r->bin_items[r->bin_start[(size_t)ty * tiles_x + tx]++] = s;
             }
         for (size_t k = tiles; k > 0; k--)
