@@ -99,15 +99,19 @@ typedef struct te_app {
     int message_error;
     char save_path[1024]; /* ctrl+s writes here */
     /* The CPU backend's frame during an edit drag (te_app_draw_cpu): the other faces drawn once. */
-    long whole_plans;        /* whole plans so far (camera changes) */
-    crisp_image others;      /* the other faces alone, for the current whole plan */
-    long others_plan;        /* whole_plans when `others` was drawn; -1: none */
-    int others_face;         /* the face left out of `others` */
-    const crisp_image *over; /* the image the last partial frame was drawn into */
-    uint8_t *face_mask;      /* per face: 1 for the edited face */
-    uint8_t *others_mask;    /* per face: 1 for every other face */
-    int last_partial;        /* the last te_app_draw_cpu drew only the edited face */
-    double ms_draw;          /* its time */
+    long whole_plans;         /* whole plans so far (camera changes) */
+    crisp_image others;       /* the other faces alone, for the current whole plan */
+    long others_plan;         /* whole_plans when `others` was drawn; -1: none */
+    int others_face;          /* the face left out of `others` */
+    const crisp_image *over;  /* the image the last partial frame was drawn into */
+    uint8_t *face_mask;       /* per face: 1 for the edited face */
+    uint8_t *others_mask;     /* per face: 1 for every other face */
+    int last_partial;         /* the last te_app_draw_cpu drew only the edited face */
+    double ms_draw;           /* its time */
+    const crisp_image *shown; /* holds the whole frame of the current plan (nothing to draw) */
+    long shown_plan, shown_replans;
+    int shown_face;
+    long full_draws, others_draws; /* whole plans drawn; images of the other faces drawn */
 } te_app;
 
 /* Takes ownership of model (also on failure). face < 0: the built-in example. */
@@ -147,7 +151,9 @@ int te_app_editing(const te_app *app);
  * to frame). While a drag edits the face, the other faces do not change: they are drawn once
  * (app->others) and each frame only the edited face is drawn over them
  * (crisp_render_cpu_plan_faces, 1 sample per pixel); otherwise, and after a camera change, the
- * whole plan is drawn. r is the caller's renderer. */
+ * whole plan is drawn. A frame where nothing changed since img got the whole plan draws nothing
+ * and draws the other faces' image for the next drag instead (once per plan), so a drag's first
+ * frame does not wait for it. r is the caller's renderer. */
 crisp_status te_app_draw_cpu(te_app *app, crisp_renderer *r, crisp_image *img);
 
 /* The 2D view's content. Returns the number of scan lines drawn. */

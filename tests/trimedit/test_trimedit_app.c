@@ -474,7 +474,8 @@ static void compare_frames(const crisp_image *a, const crisp_image *b, int face,
 
 /* Every frame of a replayed drag (60 frames of cursor events in the 2D view), te_app_draw_cpu
  * (the edited face alone drawn over the other faces' image) equals a full render of the same
- * plan away from the edited face's edges; releasing the button draws the whole again. */
+ * plan away from the edited face's edges; releasing the button draws the whole again. An idle
+ * frame before the drag draws nothing but the others' image, so the drag does not wait for it. */
 static void partial_vs_full(te_app *app, crisp_trimedit_ref pt, double amp_px, const char *name)
 {
     crisp_renderer *r1, *r2;
@@ -483,6 +484,13 @@ static void partial_vs_full(te_app *app, crisp_trimedit_ref pt, double amp_px, c
     crisp_image img, whole;
     assert_int_equal(crisp_image_init(&img, app->cam.width, app->cam.height), CRISP_OK);
     assert_int_equal(crisp_image_init(&whole, app->cam.width, app->cam.height), CRISP_OK);
+    /* The whole frame, then an idle frame: nothing drawn again, the others' image made. */
+    assert_int_equal(te_app_update(app), CRISP_OK);
+    assert_int_equal(te_app_draw_cpu(app, r1, &img), CRISP_OK);
+    long full0 = app->full_draws, others0 = app->others_draws;
+    assert_int_equal(te_app_draw_cpu(app, r1, &img), CRISP_OK);
+    assert_int_equal(app->full_draws, full0);
+    assert_int_equal(app->others_draws, others0 + 1);
     double uv0[2], px0[2];
     assert_int_equal(crisp_trimedit_point(app->ed, pt, uv0, NULL), CRISP_OK);
     te_app_uv_to_px(app, uv0, px0);
@@ -511,11 +519,13 @@ static void partial_vs_full(te_app *app, crisp_trimedit_ref pt, double amp_px, c
                   name, compared, differ, at_edges, face_min, face_max);
     assert_int_equal(differ, 0);
     assert_true(face_min > 200 && face_max > face_min); /* seen, and the drag changed it */
+    assert_int_equal(app->others_draws, others0 + 1);   /* the drag did not wait for them */
     /* The end of the drag draws the whole plan again: equal everywhere. */
     te_app_button(app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
     assert_int_equal(te_app_update(app), CRISP_OK);
     assert_int_equal(te_app_draw_cpu(app, r1, &img), CRISP_OK);
     assert_false(app->last_partial);
+    assert_int_equal(app->full_draws, full0 + 1);
     assert_int_equal(crisp_render_cpu_plan(r2, app->scene, app->plan, &app->cam, &whole, NULL),
                      CRISP_OK);
     long c2 = 0, d2 = 0, e2 = 0;
@@ -581,6 +591,24 @@ static void test_partial_redraw(void **state)
     te_app_close(&app);
 }
 
+/* What the 2D view draws at one spot: the largest circle's radius there; knot markers. */
+typedef struct spot {
+    double at[2], radius;
+    long knots;
+} spot;
+
+static void spot_line(void *ctx, double x0, double y0, double x1, double y1, uint32_t c, double w)
+{
+    (void)ctx, (void)x0, (void)y0, (void)x1, (void)y1, (void)c, (void)w;
+}
+
+static void spot_circle(void *ctx, double x, double y, double r, uint32_t c, int filled)
+{
+    spot *s = ctx;
+    if (c == 0xff2080ffu && filled) s->knots++; /* te_app_draw_2d's knot marker */
+    if (hypot(x - s->at[0], y - s->at[1]) < 1e-9 && r > s->radius) s->radius = r;
+}
+
 static void key(te_app *app, int k)
 {
     te_app_key(app, k, GLFW_PRESS, 0);
@@ -624,6 +652,22 @@ static void test_weight_field(void **state)
     assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, &w), CRISP_OK);
     assert_true(w == 2.5);
     assert_int_equal(crisp_trimedit_face(app.ed)->loops[1].curves[0]->count, count);
+    /* The 2D view shows the weight (the point's circle grows with it) and every knot span. */
+    spot sp = {{0, 0}, 0, 0};
+    te_app_uv_to_px(&app, uv, sp.at);
+    te_draw dr = {.ctx = &sp, .line = spot_line, .circle = spot_circle};
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    (void)te_app_draw_2d(&app, &dr);
+    assert_true(fabs(sp.radius - 3.5 * sqrt(2.5)) < 1e-12);
+    long spans = 0;
+    const crisp_face *ff = crisp_trimedit_face(app.ed);
+    for (int l = 0; l < ff->loop_count; l++)
+        for (int c = 0; c < ff->loops[l].curve_count; c++) {
+            const crisp_curve *cc = ff->loops[l].curves[c];
+            for (int k = cc->degree; k < cc->count; k++)
+                spans += cc->knots[k] < cc->knots[k + 1];
+        }
+    assert_int_equal(sp.knots, spans);
     /* Refused: 0, -1, "e" (no number); the field stays open with the message. */
     static const int bad[3][3] = {{GLFW_KEY_0, GLFW_KEY_ENTER, 0},
                                   {GLFW_KEY_MINUS, GLFW_KEY_1, GLFW_KEY_ENTER},
