@@ -275,6 +275,35 @@ static void add_hit(hit *hits, int *nh, const crisp_scene_patch *sp, uint32_t pi
     h->v = sp->bez.v0 + t * (sp->bez.v1 - sp->bez.v0);
 }
 
+/* Whether a line through the origin separates the ray's point (0, 0) from the hull of the
+ * sub-patch's projected (homogeneous, positive-weight) control points, beyond the box test: along
+ * the direction of their centroid and across both diagonals. Sub-patches along an edge that the
+ * surface collapses to one point (a sphere's pole, a cone's apex) are thin wedges from that point;
+ * their boxes hold a ray passing near it whatever their direction, so every wedge was split down
+ * to MIN_SIZE with Newton at each level (test_cracks' octant sphere zoomed onto its pole: minutes
+ * for one view). */
+static int separated(double (*c)[2], int nu, int nv, double tol)
+{
+    int n = nu * nv;
+    double axes[3][2] = {{0, 0}, {0, 0}, {0, 0}};
+    for (int k = 0; k < n; k++)
+        axes[0][0] += c[k][0], axes[0][1] += c[k][1];
+    const double *a = c[0], *b = c[n - 1], *e = c[nu - 1], *f = c[n - nu];
+    axes[1][0] = a[1] - b[1], axes[1][1] = b[0] - a[0];
+    axes[2][0] = e[1] - f[1], axes[2][1] = f[0] - e[0];
+    for (int q = 0; q < 3; q++) {
+        double len = fabs(axes[q][0]) + fabs(axes[q][1]);
+        if (!(len > 0)) continue;
+        double lo = INFINITY, hi = -INFINITY;
+        for (int k = 0; k < n; k++) {
+            double x = c[k][0] * axes[q][0] + c[k][1] * axes[q][1];
+            lo = fmin(lo, x), hi = fmax(hi, x);
+        }
+        if (lo > tol * len || hi < -tol * len) return 1;
+    }
+    return 0;
+}
+
 static void intersect_patch(const crisp_scene *sc, uint32_t pi, const double o[3],
                             const double d[3], const double n1[3], const double n2[3], scratch *scr,
                             hit *hits, int *nh)
@@ -306,6 +335,7 @@ static void intersect_patch(const crisp_scene *sc, uint32_t pi, const double o[3
             hi1 = fmax(hi1, cur->c[k][1]);
         }
         if (lo0 > tol || hi0 < -tol || lo1 > tol || hi1 < -tol) continue;
+        if (separated(cur->c, nu, nv, tol)) continue;
         double ws = cur->s1 - cur->s0, wt = cur->t1 - cur->t0;
         if (ws <= NEWTON_SIZE && wt <= NEWTON_SIZE) {
             double s = 0.5 * (cur->s0 + cur->s1), t = 0.5 * (cur->t0 + cur->t1);

@@ -3,11 +3,13 @@
  * backend must draw a surface there too, and not one farther away than any the exact renderer
  * sees within that 3x3 neighbourhood (a deeper surface showing through a seam). Solids whose
  * faces meet along shared edges: a sphere of eight octant faces, a cylinder of four barrel
- * quarters with trimmed disk caps, a torus of four faces, and the bundled closed model
+ * quarters with trimmed disk caps, a torus of four faces, a box with a round hole through it
+ * (planar faces trimmed by a rectangle and a circle, the hole's wall of four cylinder quarters),
+ * and the bundled closed model
  * occt_linkrods.step; views from outside at random, grazing views, extreme zooms onto a shared
  * edge (fov down to 1e-5 degree) and cameras whose near plane cuts the solid; 1 and 4 samples.
  * `test_cracks all` runs 50 views per solid (the CI run takes fewer); `--backend gl` runs the same
- * checks on the GL backend. */
+ * checks on the GL backend; CRISP_TEST_ONLY=NAME runs one test. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -122,6 +124,75 @@ static crisp_model *capped_cylinder(void)
         assert_non_null(loops);
         loops[0] = circle_loop(r);
         crisp_face f = {.surface = s, .loops = loops, .loop_count = 1, .reversed = !end};
+        assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
+    }
+    return m;
+}
+
+/* A placement from pl's origin moved by o (in pl's axes) with axes a, b taken from pl's x, y, z
+ * (0, 1, 2; negative: minus that axis, -1 - k). */
+static crisp_placement sub_placement(const crisp_placement *pl, const double o[3], int a, int b)
+{
+    const double *ax[3] = {pl->x, pl->y, pl->z};
+    crisp_placement q;
+    for (int k = 0; k < 3; k++) {
+        q.origin[k] = pl->origin[k] + o[0] * pl->x[k] + o[1] * pl->y[k] + o[2] * pl->z[k];
+        q.x[k] = a >= 0 ? ax[a][k] : -ax[-1 - a][k];
+        q.y[k] = b >= 0 ? ax[b][k] : -ax[-1 - b][k];
+    }
+    q.z[0] = q.x[1] * q.y[2] - q.x[2] * q.y[1];
+    q.z[1] = q.x[2] * q.y[0] - q.x[0] * q.y[2];
+    q.z[2] = q.x[0] * q.y[1] - q.x[1] * q.y[0];
+    return q;
+}
+
+/* A box [-a, a] x [-b, b] x [h0, h1] with a round hole of radius r through it along z: top and
+ * bottom planes trimmed by their rectangle and the hole's circle, four side planes, and the hole's
+ * wall as four cylinder quarters facing the axis. */
+static crisp_model *box_with_hole(void)
+{
+    crisp_placement pl = placement();
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    const double a = 1, b = 0.8, h0 = -0.6, h1 = 0.6, r = 0.45;
+    for (int end = 0; end < 2; end++) {
+        double o[3] = {0, 0, end ? h1 : h0};
+        crisp_placement cap = sub_placement(&pl, o, 0, 1);
+        crisp_surface *s;
+        assert_int_equal(crisp_make_plane(&cap, -a, a, -b, b, &s), CRISP_OK);
+        crisp_trim_loop *loops = calloc(2, sizeof *loops);
+        assert_non_null(loops);
+        loops[0] = (crisp_trim_loop){.is_outer = 1, .curve_count = 4};
+        loops[0].curves = malloc(4 * sizeof *loops[0].curves);
+        assert_non_null(loops[0].curves);
+        const double c[5][2] = {{-a, -b}, {a, -b}, {a, b}, {-a, b}, {-a, -b}};
+        for (int k = 0; k < 4; k++)
+            assert_int_equal(crisp_make_line(2, c[k], c[k + 1], 0, 1, &loops[0].curves[k]),
+                             CRISP_OK);
+        loops[1] = circle_loop(r);
+        loops[1].is_outer = 0;
+        crisp_curve_reverse(loops[1].curves[0]);
+        crisp_face f = {.surface = s, .loops = loops, .loop_count = 2, .reversed = !end};
+        assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
+    }
+    for (int side = 0; side < 4; side++) {
+        /* x = +-a: axes y, z (normal +x); y = +-b: axes z, x (normal +y) */
+        int alongx = side < 2, plus = side % 2;
+        double o[3] = {alongx ? (plus ? a : -a) : 0, alongx ? 0 : (plus ? b : -b), 0};
+        crisp_placement q = alongx ? sub_placement(&pl, o, 1, 2) : sub_placement(&pl, o, 2, 0);
+        crisp_surface *s;
+        if (alongx)
+            assert_int_equal(crisp_make_plane(&q, -b, b, h0, h1, &s), CRISP_OK);
+        else
+            assert_int_equal(crisp_make_plane(&q, h0, h1, -a, a, &s), CRISP_OK);
+        crisp_face f = {.surface = s, .reversed = !plus};
+        assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
+    }
+    for (int k = 0; k < 4; k++) {
+        crisp_surface *s;
+        assert_int_equal(crisp_make_cylinder(&pl, r, k * M_PI / 2, (k + 1) * M_PI / 2, h0, h1, &s),
+                         CRISP_OK);
+        crisp_face f = {.surface = s, .reversed = 1};
         assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
     }
     return m;
@@ -307,6 +378,14 @@ static void test_quarter_torus(void **state)
     crisp_model_destroy(m);
 }
 
+static void test_box_with_hole(void **state)
+{
+    (void)state;
+    crisp_model *m = box_with_hole();
+    check_solid("box with a round hole", m, full_run ? 50 : 10);
+    crisp_model_destroy(m);
+}
+
 static void test_linkrods(void **state)
 {
     (void)state;
@@ -334,10 +413,17 @@ int main(int argc, char **argv)
 {
     argc = rb_parse_args(argc, argv);
     full_run = argc > 1 && !strcmp(argv[1], "all");
+    const char *only = getenv("CRISP_TEST_ONLY"); /* one test by its name (cmocka's pattern) */
+    if (only) cmocka_set_test_filter(only);
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_octant_sphere), cmocka_unit_test(test_capped_cylinder),
-        cmocka_unit_test(test_quarter_torus), cmocka_unit_test(test_linkrods),
+        cmocka_unit_test(test_octant_sphere),
+        cmocka_unit_test(test_capped_cylinder),
+        cmocka_unit_test(test_quarter_torus),
+        cmocka_unit_test(test_linkrods),
         cmocka_unit_test(test_bundled),
+        /* (last: each test's views follow from the random draws before it, so an added solid
+         * goes at the end and the others keep their views) */
+        cmocka_unit_test(test_box_with_hole),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

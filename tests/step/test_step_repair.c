@@ -509,6 +509,30 @@ static void test_open_loop_bridged(void **state)
     free(t);
 }
 
+/* A band of a B-spline surface closed in both directions (a torus of rational patches), bounded
+ * by two circles and a seam edge used twice (face #1321 of Open CASCADE's trj5_k1-id-214.stp, cut
+ * with what it references: data/cuts). The projected trims fall on either side of both seams; the
+ * loop is unwound onto one turn: the band between the circles, v in [0.5779, 1] over the whole u
+ * range [0, 3] (the same face in trj4_k1_top-id-214.stp and trj6_k1-id-203.stp was dropped as an
+ * open loop). */
+static void test_bspline_closed_both_ways(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    assert_int_equal(
+        crisp_model_load(CRISP_DATA_DIR "/cuts/occt_trj5_k1_id_face1321.stp", NULL, &m), CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-6, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    assert_int_equal(m->faces[0].loop_count, 1);
+    double a = crisp_trim_loop_signed_area(&m->faces[0].loops[0]);
+    if (fabs(a - 3 * (1 - 0.577887)) > 1e-3) fprintf(stderr, "band area %g\n", a);
+    assert_true(fabs(a - 3 * (1 - 0.577887)) < 1e-3);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -520,6 +544,7 @@ int main(void)
         cmocka_unit_test(test_pcurve_off_edge_reprojected),
         cmocka_unit_test(test_open_loop_bridged),
         cmocka_unit_test(test_rational_half_circle_on_plane),
+        cmocka_unit_test(test_bspline_closed_both_ways),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

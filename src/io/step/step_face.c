@@ -646,6 +646,81 @@ static double polygon_length(const crisp_curve *c)
     return len;
 }
 
+/* Sum of the (u, v) gaps between consecutive trims of a loop, gaps along collapsed lines
+ * counting as none. */
+static double loop_gaps(const crisp_surface *s, const crisp_trim_loop *lp, double tol)
+{
+    double g = 0;
+    for (int i = 0; i < lp->curve_count; i++) {
+        double a[2], b[2];
+        curve_end(lp->curves[(i + lp->curve_count - 1) % lp->curve_count], 1, a);
+        curve_end(lp->curves[i], 0, b);
+        double d = hypot(a[0] - b[0], a[1] - b[1]);
+        if (d > 0 && !collapsed_segment(s, a, b, tol)) g += d;
+    }
+    return g;
+}
+
+static void shift_curve(crisp_curve *c, const double sh[2])
+{
+    for (int j = 0; j < c->count; j++)
+        for (int k = 0; k < 2; k++)
+            c->cpw[3 * j + k] += sh[k] * c->cpw[3 * j + 2];
+}
+
+/* On a B-spline surface closed in both directions (a torus-like patch), a loop that crosses both
+ * seams lands its projected trims on either side of each: seam_sides moves one trim at a time and
+ * cannot move a run of them (trj5_k1-id-214.stp #1321: a band bounded by two circles and a seam
+ * edge, the far circle and the short pieces beside it projected on v = 0 instead of v = 1). The
+ * loop is unwound instead: from its longest trim on, each trim moves by whole periods to start
+ * where the one before ends. Kept when that closes the loop better and every trim stays in the
+ * domain. */
+static int unwrap_closed(const crisp_surface *s, const double d[4], crisp_trim_loop *lp, double tol,
+                         double snap)
+{
+    int n = lp->curve_count;
+    double per[2];
+    for (int k = 0; k < 2; k++)
+        per[k] = side_closed(s, d, k, tol) ? d[2 * k + 1] - d[2 * k] : 0;
+    if (n < 2 || (!(per[0] > 0) && !(per[1] > 0))) return 0;
+    double before = loop_gaps(s, lp, tol);
+    if (before <= snap) return 0;
+    double(*sh)[2] = crisp_calloc_array((size_t)n, sizeof *sh);
+    if (!sh) return -1;
+    int start = 0;
+    double best = -1;
+    for (int i = 0; i < n; i++) {
+        double len = polygon_length(lp->curves[i]);
+        if (len > best) best = len, start = i;
+    }
+    for (int m = 1; m < n; m++) {
+        int i = (start + m) % n;
+        double a[2], b[2];
+        curve_end(lp->curves[(i + n - 1) % n], 1, a);
+        curve_end(lp->curves[i], 0, b);
+        for (int k = 0; k < 2; k++)
+            if (per[k] > 0) sh[i][k] = per[k] * round((a[k] - b[k]) / per[k]);
+        shift_curve(lp->curves[i], sh[i]);
+    }
+    int inside = 1;
+    for (int i = 0; i < n && inside; i++) {
+        const crisp_curve *c = lp->curves[i];
+        for (int j = 0; j < c->count && inside; j++)
+            for (int k = 0; k < 2; k++) {
+                double x = c->cpw[3 * j + k] / c->cpw[3 * j + 2];
+                if (x < d[2 * k] - snap || x > d[2 * k + 1] + snap) inside = 0;
+            }
+    }
+    int keep = inside && loop_gaps(s, lp, tol) < before;
+    if (!keep)
+        for (int i = 0; i < n; i++) {
+            double back[2] = {-sh[i][0], -sh[i][1]};
+            shift_curve(lp->curves[i], back);
+        }
+    crisp_free(sh);
+    return keep;
+}
+
 /* A loop the file leaves open: consecutive edges whose 3D ends do not meet (trj3_s1-al-214.stp:
  * a half-cylinder strip bounded by its two arcs only, the straight edges along the cylinder left
  * out; OCCT's ShapeFix adds them). Where the gap is real in 3D as well (the two ends lie more
@@ -947,8 +1022,13 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
                                  &lp->curve_count, &cap)))
                 goto done;
         if (i == w.band_a && (st = append_band(&w, dest->surface, lp, &cap))) goto done;
-        if (w.s.kind == STEP_SURF_BSPLINE)
+        if (w.s.kind == STEP_SURF_BSPLINE) {
             seam_sides(dest->surface, w.nbox, lp, r->tol, 100 * w.tol_uv);
+            if (unwrap_closed(dest->surface, w.nbox, lp, r->tol, 100 * w.tol_uv) < 0) {
+                st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
+                goto done;
+            }
+        }
         snap_junctions(lp, 100 * w.tol_uv);
         int added = bridge_degenerate(dest->surface, lp, r->tol, 100 * w.tol_uv);
         if (added < 0) {
