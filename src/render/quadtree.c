@@ -146,6 +146,57 @@ static double hull_extent_px(const crisp_bezier_patch *p, crisp_mat4 m, int widt
     return e * (1 + 1e-9) + 1e-9;
 }
 
+/* A bound (pixels) on the screen distance between the sub-patch and any triangles with vertices
+ * on it (whatever the tessellation), from its control points' distance D to the bilinear
+ * function B through its corners in homogeneous clip coordinates: px(D) + px(D + twist(B) / 4)
+ * (patch_groups.c, group_leaf_ok, has the argument; a single patch is a block of one). INFINITY
+ * when W is not bounded away from 0. Tight for small, nearly flat pieces, where the SLEFE bound
+ * of a rational patch seen off axis can be tens of times too large. */
+static double flat_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, int height)
+{
+    int du = p->du, dv = p->dv;
+    const double *cw[4] = {p->cpw, p->cpw + 4 * du, p->cpw + 4 * (du + 1) * dv,
+                           p->cpw + 4 * ((du + 1) * dv + du)};
+    double C[4][3], wmin = INFINITY, xmax = 0, ymax = 0;
+    for (int k = 0; k < 4; k++) {
+        const double *q = cw[k];
+        for (int a = 0; a < 3; a++) {
+            int r = a == 2 ? 3 : a;
+            C[k][a] = m[0][r] * q[0] + m[1][r] * q[1] + m[2][r] * q[2] + m[3][r] * q[3];
+        }
+        if (!(C[k][2] > 0)) return INFINITY;
+        wmin = fmin(wmin, C[k][2]);
+        xmax = fmax(xmax, fabs(C[k][0] / C[k][2]));
+        ymax = fmax(ymax, fabs(C[k][1] / C[k][2]));
+    }
+    double D[3] = {0, 0, 0};
+    for (int j = 0; j <= dv; j++) {
+        double t = (double)j / dv;
+        for (int i = 0; i <= du; i++) {
+            double s = (double)i / du;
+            const double *q = p->cpw + 4 * (j * (du + 1) + i);
+            for (int a = 0; a < 3; a++) {
+                int r = a == 2 ? 3 : a;
+                double x = m[0][r] * q[0] + m[1][r] * q[1] + m[2][r] * q[2] + m[3][r] * q[3];
+                double bl = (1 - t) * ((1 - s) * C[0][a] + s * C[1][a]) +
+                            t * ((1 - s) * C[2][a] + s * C[3][a]);
+                D[a] = fmax(D[a], fabs(x - bl) + 1e-12 * (fabs(x) + fabs(bl)));
+            }
+        }
+    }
+    double px = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        double e[3];
+        for (int a = 0; a < 3; a++)
+            e[a] = D[a] + (pass ? 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]) : 0);
+        double den = wmin - e[2];
+        if (!(den > 0)) return INFINITY;
+        double dx = (e[0] + xmax * e[2]) / den, dy = (e[1] + ymax * e[2]) / den;
+        px += fmax(dx * 0.5 * width, dy * 0.5 * height) * (1 + 1e-9) + 1e-12;
+    }
+    return px;
+}
+
 static int forced_cmp(const crisp__forced *a, const crisp__forced *b)
 {
     if (a->patch != b->patch) return a->patch < b->patch ? -1 : 1;
@@ -200,6 +251,10 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
         /* Small on screen (issue 12): a hull within eps needs no SLEFE (tau 1, see
          * hull_extent_px). */
         double hull = hull_extent_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height);
+        /* Flat enough on screen for any tessellation (flat_px): tau 1, like a small hull. */
+        if (hull > c->eps &&
+            flat_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height) <= c->eps)
+            hull = 0;
         int box_split = box && hull > c->eps && depth < c->plan->max_depth;
         crisp_status st =
             hull <= c->eps || box_split
@@ -299,8 +354,9 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
         b->arena = arena;
         b->node_cap = b->leaf_cap = 0;
         b->st = CRISP_OK;
-        int32_t root = push_node(b);
         uint8_t mode = !c->redo && c->mode ? c->mode[p] : CRISP__PATCH_OPEN;
+        if (mode == CRISP__PATCH_GROUPED) continue; /* no tree: its group leaf stands for it */
+        int32_t root = push_node(b);
         if (root < 0) {
             b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
         } else if (mode == CRISP__PATCH_GROUP) {
@@ -468,17 +524,25 @@ static int across(const crisp__trees *plan, const crisp_scene *sc, uint32_t p, c
 }
 
 /* Level of the edge `side` of leaf L when L owns it (every leaf across is at most as long on the
- * side). With lengths in units of u, the largest power of two dividing every length, the edge
+ * side). With lengths in units of u, the greatest common divisor of the lengths, the edge
  * places m vertices per u, m the largest tau_k u / len_k rounded up over L and the leaves
  * across: L's level is m len_L / u and every leaf across takes m len_k / u of those vertices, an
  * integer, at the same places. */
+static uint64_t gcd64(uint64_t a, uint64_t b)
+{
+    while (b) {
+        uint64_t t = a % b;
+        a = b;
+        b = t;
+    }
+    return a;
+}
+
 static uint32_t owner_level(const crisp__cell *L, int side, const crisp__cell *const *nb, int count)
 {
-    uint64_t lenL = side_length(L, side), u = lenL & (~lenL + 1);
-    for (int k = 0; k < count; k++) {
-        uint64_t len = side_length(nb[k], side), low = len & (~len + 1);
-        u = low < u ? low : u;
-    }
+    uint64_t lenL = side_length(L, side), u = lenL;
+    for (int k = 0; k < count; k++)
+        u = gcd64(u, side_length(nb[k], side));
     uint64_t m = ((uint64_t)L->tau * u + lenL - 1) / lenL;
     for (int k = 0; k < count; k++) {
         uint64_t len = side_length(nb[k], side), mk = ((uint64_t)nb[k]->tau * u + len - 1) / len;
@@ -726,6 +790,11 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             /* n_V: the face's tess level over its patch rows (Wu & Peters' default). */
             uint32_t s = c->plan->face_tau[f] * (sf->grid_v ? sf->grid_v : 1);
             strips = (int)(s < 8 ? 8 : s > 256 ? 256 : s);
+            /* No more strips than the face is pixels across on screen (issue 12: a face a few
+             * pixels tall kept up to 256 strips). Strips only localise the density bound: the
+             * rows of any strip count keep the 1 px guarantee. */
+            double px = crisp__groups_face_px(c->plan->groups, (uint32_t)f);
+            if (px < strips) strips = px < 8 ? 8 : (int)ceil(px);
         }
         /* A face within eps on screen: every point of it is within a pixel of its trims, so
          * every decision is within the pixel band: an all-inside table, no density bound, no
