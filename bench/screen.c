@@ -12,6 +12,8 @@
  *   default  crisp_camera_frame_box of the scene
  *   close    a close-up on the middle of the model filling the screen
  *   far      the default view from 12x the distance (the instances shrink to a few pixels)
+ *   far10    (imp) the default view from 10x the distance: one impeller covering about as many
+ *            pixels as imp49's 49 instances at "far" (the instancing comparison)
  *
  * Each row runs in a child process (fork) so that its peak memory is its own: the peak resident
  * size (VmHWM) is reset after the scene is prepared (/proc/self/clear_refs) and read after the
@@ -155,10 +157,13 @@ static crisp_camera camera(const crisp_scene *sc, const char *which)
     for (int k = 0; k < 3; k++)
         d[k] = cam.eye[k] - cam.target[k];
     double dist = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    if (!strcmp(which, "far")) {
+    if (!strncmp(which, "far", 3)) {
+        /* "far": 12x the default distance; "farN": N times (imp:far10 covers about as many
+         * pixels as imp49:far's 49 instances together). */
+        double f = which[3] ? atof(which + 3) : 12;
         for (int k = 0; k < 3; k++)
-            cam.eye[k] = cam.target[k] + 12 * d[k];
-        cam.zfar = 14 * dist + (sc->box[5] - sc->box[2]);
+            cam.eye[k] = cam.target[k] + f * d[k];
+        cam.zfar = (f + 2) * dist + (sc->box[5] - sc->box[2]);
     } else if (!strcmp(which, "close")) {
         /* Look down (-Z) at the middle of the model from 1/8 of the default distance, slightly
          * tilted: the surfaces fill the screen. */
@@ -315,7 +320,7 @@ int main(int argc, char **argv)
     static const char *rows[][2] = {{"gen50", "default"}, {"gen100", "default"}, {"gen50", "close"},
                                     {"gen100", "close"},  {"gen50", "far"},      {"gen100", "far"},
                                     {"imp", "default"},   {"imp49", "default"},  {"imp49", "close"},
-                                    {"imp49", "far"}};
+                                    {"imp49", "far"},     {"imp", "far10"}};
     bench_print_machine(stdout);
     printf("load average at start %.2f; 1920x1080, %d threads, median of %d warm frames\n\n",
            loadavg(), threads, frames);
