@@ -18,6 +18,8 @@ typedef struct group {
     uint32_t g;                /* the block is 2^g x 2^g patches before clipping */
     int32_t child[4];          /* -1: none (outside the grid, or a single patch) */
     double box[6];
+    double dev[4]; /* per homogeneous object coordinate: the largest distance between a control
+                      point of the block and the bilinear through the block's corners there */
 } group;
 
 struct crisp__groups {
@@ -32,6 +34,38 @@ struct crisp__groups {
     uint32_t *counts;      /* per face: group leaves this frame */
     float *face_px;        /* per face, this frame: screen extent of its box (INFINITY: unknown) */
 };
+
+/* n->dev (see group): view-independent, so a frame bounds the block's deviation in clip space
+ * from its corners alone (|M d| <= |M| |d| per coordinate). */
+static void block_deviation(const crisp_scene *sc, const crisp_scene_face *f, group *n)
+{
+    uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
+    const crisp_bezier_patch *p00 = &sc->patches[base].bez,
+                             *p10 = &sc->patches[base + n->nu - 1].bez,
+                             *p01 = &sc->patches[base + (n->nv - 1) * f->grid_u].bez,
+                             *p11 = &sc->patches[base + (n->nv - 1) * f->grid_u + n->nu - 1].bez;
+    const double *C[4] = {p00->cpw, p10->cpw + 4 * p10->du, p01->cpw + 4 * (p01->du + 1) * p01->dv,
+                          p11->cpw + 4 * ((p11->du + 1) * p11->dv + p11->du)};
+    for (int a = 0; a < 4; a++)
+        n->dev[a] = 0;
+    for (uint32_t jv = 0; jv < n->nv; jv++)
+        for (uint32_t iu = 0; iu < n->nu; iu++) {
+            const crisp_bezier_patch *b = &sc->patches[base + jv * f->grid_u + iu].bez;
+            for (int j = 0; j <= b->dv; j++) {
+                double t = (jv + (double)j / b->dv) / n->nv;
+                for (int i = 0; i <= b->du; i++) {
+                    double u = (iu + (double)i / b->du) / n->nu;
+                    const double *q = b->cpw + 4 * (j * (b->du + 1) + i);
+                    for (int a = 0; a < 4; a++) {
+                        double bl = (1 - t) * ((1 - u) * C[0][a] + u * C[1][a]) +
+                                    t * ((1 - u) * C[2][a] + u * C[3][a]);
+                        n->dev[a] =
+                            fmax(n->dev[a], fabs(q[a] - bl) + 1e-12 * (fabs(q[a]) + fabs(bl)));
+                    }
+                }
+            }
+        }
+}
 
 /* The aligned block (g, bu, bv) of face f's grid: patches [bu 2^g, (bu + 1) 2^g) x
  * [bv 2^g, (bv + 1) 2^g) clipped to the grid. Blocks of one face nest like a quadtree, so two
@@ -51,7 +85,8 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
                f->grid_v - iv0 < size ? f->grid_v - iv0 : size,
                lv,
                {-1, -1, -1, -1},
-               {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY}};
+               {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY},
+               {0, 0, 0, 0}};
     if (lv == 0) {
         const double *b = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].box;
         memcpy(n.box, b, sizeof n.box);
@@ -68,6 +103,7 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
             }
         }
     }
+    if (n.nu * n.nv > 1) block_deviation(sc, f, &n);
     g->nodes[me] = n;
     *dest = me;
     return CRISP_OK;
@@ -228,14 +264,17 @@ static double screen_px(const double e[3], double wmin, double xmax, double ymax
  * (screen_px). This needs no B-spline form of the face, only its grid of Bézier patches. The
  * B-spline net bound (crisp_slefe_group_screen's quad_px) was tried first: on wavy bicubic
  * sheets it exceeded the block's own screen extent (tests/render/test_group_leaves.c). The leaf
- * must also stay within CRISP_PLAN_MAX_LEAF_PX (float local parameters on a GPU). Blocks wider
- * than GROUP_TRY_PX are not tried (cost only: the bound is rarely met there). */
+ * must also stay within CRISP_PLAN_MAX_LEAF_PX (float local parameters on a GPU). D is bounded
+ * first from the block's view-independent deviation (group.dev, mapped by |view_proj|): O(1) per
+ * block, so a face far away is decided at its root without reading its patches; where that is not
+ * enough, blocks of at most 64 patches and GROUP_TRY_PX pixels read their control points (cost
+ * only: larger blocks rarely pass). */
 #define GROUP_TRY_PX 64.0
 static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
                          double extent)
 {
     if (extent <= c->eps) return 1;
-    if (!isfinite(extent) || extent > GROUP_TRY_PX || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
+    if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
     const crisp_scene *sc = c->sc;
     uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
     const crisp_bezier_patch *p00 = &sc->patches[base].bez,
@@ -256,7 +295,24 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
         xmax = fmax(xmax, fabs(C[k][0] / C[k][2]));
         ymax = fmax(ymax, fabs(C[k][1] / C[k][2]));
     }
-    double D[3] = {0, 0, 0};
+    /* First from the block's view-independent deviation (O(1)); the control points themselves
+     * only for blocks of at most 64 patches where that was not enough. */
+    double D[3];
+    for (int a = 0; a < 3; a++) {
+        int r = a == 2 ? 3 : a;
+        D[a] = (fabs(c->m[0][r]) * n->dev[0] + fabs(c->m[1][r]) * n->dev[1] +
+                fabs(c->m[2][r]) * n->dev[2] + fabs(c->m[3][r]) * n->dev[3]) *
+               (1 + 1e-12);
+    }
+    double E0[3];
+    for (int a = 0; a < 3; a++)
+        E0[a] = D[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
+    if (screen_px(D, wmin, xmax, ymax, c->width, c->height) +
+            screen_px(E0, wmin, xmax, ymax, c->width, c->height) <=
+        c->eps)
+        return 1;
+    if (n->nu * n->nv > 64 || extent > GROUP_TRY_PX) return 0;
+    D[0] = D[1] = D[2] = 0;
     for (uint32_t jv = 0; jv < n->nv; jv++)
         for (uint32_t iu = 0; iu < n->nu; iu++) {
             const crisp_bezier_patch *b = &sc->patches[base + jv * f->grid_u + iu].bez;
