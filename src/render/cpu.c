@@ -211,6 +211,7 @@ static int group_empty(const skip_ctx *c, const crisp_plan_leaf *L)
     const crisp_frame_plan *plan = c->r->plan;
     crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
     uint32_t nu = L->block & 0xffffu, nv = L->block >> 16, gu = plan->faces[L->face].grid_u;
+    if (nu * nv > 16) return 0; /* not worth reading every patch box: draw it */
     double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
     for (uint32_t iv = 0; iv < nv; iv++)
         for (uint32_t iu = 0; iu < nu; iu++) {

@@ -42,6 +42,7 @@ struct crisp__ribbons {
     size_t last_used;              /* bytes of samples over all workers in the last build */
     crisp_raster_vertex **scratch; /* per worker: one job's samples while it is sampled */
     uint32_t *scratch_cap;
+    uint32_t last_max; /* most samples of one job in the last build */
 };
 
 typedef struct ribbon_ctx {
@@ -382,9 +383,17 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
      * for the whole of the last frame's samples (and a quarter more), so a steady view allocates
      * nothing whoever does the work. */
     size_t want = rb->last_used + rb->last_used / 4;
+    /* Likewise every worker's scratch holds the last build's longest job (and a quarter more). */
+    uint32_t want_pts = rb->last_max + rb->last_max / 4;
     for (int w = 0; w < rb->workers; w++) {
         crisp_arena_reset(rb->arena[w]);
         if (want && (st = crisp_arena_reserve(rb->arena[w], want))) return st;
+        if (want_pts > rb->scratch_cap[w]) {
+            crisp_raster_vertex *n = realloc(rb->scratch[w], (size_t)want_pts * sizeof *n);
+            if (!n) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+            rb->scratch[w] = n;
+            rb->scratch_cap[w] = want_pts;
+        }
         rb->wstatus[w] = CRISP_OK;
     }
     ribbon_ctx c = {rb, trees, sc, NULL};
@@ -394,6 +403,9 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
         if (rb->wstatus[w]) return rb->wstatus[w];
         rb->last_used += crisp_arena_used(rb->arena[w]);
     }
+    rb->last_max = 0;
+    for (size_t j = 0; j < jobs; j++)
+        rb->last_max = rb->jobs[j].count > rb->last_max ? rb->jobs[j].count : rb->last_max;
     /* Lay the quads out face after face. */
     size_t quads = 0;
     for (uint32_t f = f0; f < f1; f++)
