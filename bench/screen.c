@@ -12,14 +12,18 @@
  *   default  crisp_camera_frame_box of the scene
  *   close    a close-up on the middle of the model filling the screen
  *   far      the default view from 12x the distance (the instances shrink to a few pixels)
+ *   far10    (imp) the default view from 10x the distance: one impeller covering about as many
+ *            pixels as imp49's 49 instances at "far" (the instancing comparison)
  *
  * Each row runs in a child process (fork) so that its peak memory is its own: the peak resident
  * size (VmHWM) is reset after the scene is prepared (/proc/self/clear_refs) and read after the
  * frames; "frame MB" is the peak minus the resident size before the frames (model + prepared
- * scene). Warm frame = median of FRAMES crisp_render_cpu calls after one warm-up frame, on THREADS
- * threads; plan = median of crisp_renderer_plan alone; the CPU columns are the mean CPU time of
- * the process (all threads) per frame or plan, less sensitive to a loaded machine than wall
- * time. tri/px = surface triangles per covered pixel.
+ * scene). Warm frame = median of FRAMES plan + crisp_render_cpu_plan calls after one warm-up frame,
+ * on THREADS threads; plan = median of crisp_renderer_plan alone; the CPU columns are the mean CPU
+ * time of the process (all threads) per frame or plan, less sensitive to a loaded machine than wall
+ * time. tri/px = surface triangles per covered pixel. Each row runs twice: with the default
+ * planner (group leaves) and with crisp_planner_desc.no_groups (at least one leaf per visible
+ * patch), one after the other, so the two are compared under the same load.
  *
  * BENCH_SCREEN_PNG=folder writes each row's image there.
  *
@@ -37,6 +41,7 @@
 #include "crisp/construct.h"
 #include "crisp/image.h"
 #include "crisp/io.h"
+#include "crisp/plan.h"
 #include "crisp/render.h"
 
 #define GRID_X 5
@@ -152,10 +157,13 @@ static crisp_camera camera(const crisp_scene *sc, const char *which)
     for (int k = 0; k < 3; k++)
         d[k] = cam.eye[k] - cam.target[k];
     double dist = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    if (!strcmp(which, "far")) {
+    if (!strncmp(which, "far", 3)) {
+        /* "far": 12x the default distance; "farN": N times (imp:far10 covers about as many
+         * pixels as imp49:far's 49 instances together). */
+        double f = which[3] ? atof(which + 3) : 12;
         for (int k = 0; k < 3; k++)
-            cam.eye[k] = cam.target[k] + 12 * d[k];
-        cam.zfar = 14 * dist + (sc->box[5] - sc->box[2]);
+            cam.eye[k] = cam.target[k] + f * d[k];
+        cam.zfar = (f + 2) * dist + (sc->box[5] - sc->box[2]);
     } else if (!strcmp(which, "close")) {
         /* Look down (-Z) at the middle of the model from 1/8 of the default distance, slightly
          * tilted: the surfaces fill the screen. */
@@ -213,7 +221,10 @@ static double cpu_ms(void)
            1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
-static void row(const char *scene_name, const char *cam_name, int frames, int threads)
+/* One row: variant 0 = group leaves (the default planner), 1 = no group leaves (at least one
+ * leaf per visible patch, as before issue 12's group leaves). */
+static void row(const char *scene_name, const char *cam_name, int frames, int threads,
+                int no_groups)
 {
     crisp_model *m = scene_model(scene_name);
     crisp_scene *sc;
@@ -221,6 +232,9 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     crisp_camera cam = camera(sc, cam_name);
     crisp_renderer *r;
     if (crisp_renderer_create(&(crisp_render_desc){.threads = threads}, &r)) die("renderer");
+    crisp_planner *pl;
+    if (crisp_planner_create(&(crisp_planner_desc){.no_groups = no_groups}, NULL, &pl))
+        die("planner");
     crisp_image img;
     if (crisp_image_init(&img, cam.width, cam.height)) die("image");
     double scene_kb = status_kb("VmRSS:");
@@ -228,11 +242,14 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     double *tf = calloc((size_t)frames, sizeof *tf), *tp = calloc((size_t)frames, sizeof *tp);
     double *tt = calloc((size_t)frames, sizeof *tt), *tr = calloc((size_t)frames, sizeof *tr);
     crisp_render_stats st = {0};
+    const crisp_frame_plan *plan = NULL;
     double cpu_frames = 0, cpu_plans = 0;
     for (int f = -1; f < frames; f++) {
         double c0 = cpu_ms();
         double a = crisp_time_now();
-        if (crisp_render_cpu(r, sc, &cam, &img, &st)) die("render");
+        if (crisp_planner_plan(pl, sc, &cam, &plan) ||
+            crisp_render_cpu_plan(r, sc, plan, &cam, &img, &st))
+            die("render");
         double b = crisp_time_now();
         if (f < 0) continue;
         cpu_frames += cpu_ms() - c0;
@@ -242,10 +259,14 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     }
     for (int f = 0; f < frames; f++) {
         double a = crisp_time_now(), c0 = cpu_ms();
-        if (crisp_renderer_plan(r, sc, &cam, NULL)) die("plan");
+        if (crisp_planner_plan(pl, sc, &cam, &plan)) die("plan");
         tp[f] = 1e3 * (crisp_time_now() - a);
         cpu_plans += cpu_ms() - c0;
     }
+    if (getenv("BENCH_SCREEN_STAGES"))
+        fprintf(stderr, "%s %s %s: levels %.1f edges %.1f trim %.1f ribbons %.1f ms\n", scene_name,
+                cam_name, no_groups ? "no groups" : "groups", plan->stats.ms_levels,
+                plan->stats.ms_edges, plan->stats.ms_trim, plan->stats.ms_ribbons);
     double peak_kb = status_kb("VmHWM:");
     size_t covered = 0;
     for (size_t p = 0; p < (size_t)img.width * img.height; p++)
@@ -254,24 +275,27 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     const char *png = getenv("BENCH_SCREEN_PNG"); /* a folder: look at what each row draws */
     if (png) {
         char path[1200];
-        snprintf(path, sizeof path, "%s/%s_%s.png", png, scene_name, cam_name);
+        snprintf(path, sizeof path, "%s/%s_%s%s.png", png, scene_name, cam_name,
+                 no_groups ? "_nogroups" : "");
         uint8_t *rgba = malloc((size_t)img.width * img.height * 4);
         for (size_t k = 0; k < (size_t)img.width * img.height * 4; k++)
             rgba[k] = (uint8_t)lrint(255 * fmin(1, fmax(0, img.rgba[k])));
         if (crisp_write_png_rgba(path, img.width, img.height, rgba)) die(path);
         free(rgba);
     }
-    printf("| %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %llu | %zu | %.2f | %.0f | "
-           "%.0f | %.0f | %.0f |\n",
-           scene_name, cam_name, sc->patch_count, bench_median(tf, frames), cpu_frames / frames,
-           bench_median(tp, frames), cpu_plans / frames, bench_median(tt, frames),
-           bench_median(tr, frames), (unsigned long long)st.triangles, covered,
+    printf("| %s | %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %u | %u | %llu | %zu | "
+           "%.2f | %.0f | %.0f | %.0f | %.0f |\n",
+           scene_name, cam_name, no_groups ? "no groups" : "groups", sc->patch_count,
+           bench_median(tf, frames), cpu_frames / frames, bench_median(tp, frames),
+           cpu_plans / frames, bench_median(tt, frames), bench_median(tr, frames), plan->leaf_count,
+           plan->stats.group_leaves, (unsigned long long)st.triangles, covered,
            covered ? (double)st.triangles / covered : 0.0, peak_kb / 1024, frame_mb,
            peak_kb * 1024 / sc->patch_count,
            st.triangles ? frame_mb * 1048576 / st.triangles : 0.0);
     fflush(stdout);
     free(tf), free(tp), free(tt), free(tr);
     crisp_image_free(&img);
+    crisp_planner_destroy(pl);
     crisp_renderer_destroy(r);
     crisp_scene_destroy(sc);
     crisp_model_destroy(m);
@@ -291,17 +315,21 @@ int main(int argc, char **argv)
     int frames = argc > 1 ? atoi(argv[1]) : 3;
     int threads = argc > 2 ? atoi(argv[2]) : 2;
     if (frames < 1) frames = 1;
+    /* BENCH_SCREEN_GROUPS_ONLY=1: only the default planner (no "no groups" rows). */
+    int variants = getenv("BENCH_SCREEN_GROUPS_ONLY") ? 1 : 2;
     static const char *rows[][2] = {{"gen50", "default"}, {"gen100", "default"}, {"gen50", "close"},
                                     {"gen100", "close"},  {"gen50", "far"},      {"gen100", "far"},
                                     {"imp", "default"},   {"imp49", "default"},  {"imp49", "close"},
-                                    {"imp49", "far"}};
+                                    {"imp49", "far"},     {"imp", "far10"}};
     bench_print_machine(stdout);
     printf("load average at start %.2f; 1920x1080, %d threads, median of %d warm frames\n\n",
            loadavg(), threads, frames);
-    printf("| scene | camera | patches | frame ms | frame CPU ms | plan ms | plan CPU ms | tess ms "
-           "| raster ms | "
-           "triangles | covered px | tri/px | peak MB | frame MB | peak B/patch | frame B/tri |\n");
-    printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    printf("| scene | camera | planner | patches | frame ms | frame CPU ms | plan ms | plan CPU ms "
+           "| tess ms | raster ms | leaves | group leaves | triangles | covered px | tri/px | "
+           "peak MB | frame MB | peak B/patch | frame B/tri |\n");
+    printf(
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        "---:|\n");
     fflush(stdout);
     for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
         char key[64];
@@ -310,15 +338,18 @@ int main(int argc, char **argv)
         for (int a = 3; a < argc; a++)
             wanted |= !strcmp(argv[a], key);
         if (!wanted) continue;
-        pid_t pid = fork();
-        if (pid == 0) {
-            row(rows[k][0], rows[k][1], frames, threads);
-            _exit(0);
+        for (int variant = variants - 1; variant >= 0; variant--) {
+            pid_t pid = fork();
+            if (pid == 0) {
+                row(rows[k][0], rows[k][1], frames, threads, variant);
+                _exit(0);
+            }
+            int status = 0;
+            waitpid(pid, &status, 0);
+            if (!WIFEXITED(status) || WEXITSTATUS(status))
+                printf("| %s | %s | %s | failed |\n", rows[k][0], rows[k][1],
+                       variant ? "no groups" : "groups");
         }
-        int status = 0;
-        waitpid(pid, &status, 0);
-        if (!WIFEXITED(status) || WEXITSTATUS(status))
-            printf("| %s | %s | failed |\n", rows[k][0], rows[k][1]);
     }
     printf("\nload average at the end %.2f\n", loadavg());
     return 0;

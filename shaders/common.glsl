@@ -18,7 +18,7 @@ struct Face {
     double v0, v1, strip_scale;
     uint first_strip, strip_count, first_leaf, leaf_count;
     uint flags, tau_max, first_ribbon, ribbon_count;
-    uint pad0, pad1;
+    uint grid_u, grid_v;
 };
 struct Strip {
     double a, row_scale;
@@ -73,15 +73,33 @@ bool trim_test(uint f, double u, double v)
     return ((lo - first) & 1u) != 0u;
 }
 
-// (u, v) of a point of leaf L at leaf-local (s, t): the leaf is the cell [ix, ix + 1] x
-// [iy, iy + 1] * 2^-depth of its patch's local parameters, the patch maps them onto
+// The patch of leaf L under its leaf-local (S, T), and the patch-local (s, t) there
+// (crisp_plan_leaf_locate): a cell is [ix, ix + 1] x [iy, iy + 1] * 2^-depth of its patch's
+// local parameters; a group leaf (group > 0) spans nu x nv patches of its face's grid, its
+// lower-left patch first, (S, T) mapping to the grid position (S nu, T nv).
+uint leaf_locate(uvec4 a, uvec4 b, double S, double T, out double s, out double t)
+{
+    if (b.z == 0u) {
+        double scale = ldexp(1.0LF, -int(a.z));
+        s = (double(b.x) + S) * scale;
+        t = (double(b.y) + T) * scale;
+        return a.x;
+    }
+    uint nu = b.w & 0xffffu, nv = b.w >> 16;
+    double x = S * double(nu), y = T * double(nv);
+    double cx = clamp(floor(x), 0.0LF, double(nu - 1u)), cy = clamp(floor(y), 0.0LF, double(nv - 1u));
+    s = x - cx;
+    t = y - cy;
+    return a.x + uint(cy) * faces[a.y].grid_u + uint(cx);
+}
+
+// (u, v) of a point of leaf L at leaf-local (s, t): the patch maps its local parameters onto
 // [u0, u1] x [v0, v1].
 dvec2 leaf_uv(uint L, double s, double t)
 {
     uvec4 a = leaves[3u * L], b = leaves[3u * L + 1u];
-    PatchRecord p = patches[a.x];
-    double scale = ldexp(1.0LF, -int(a.z));
-    double ps = (double(b.x) + s) * scale, pt = (double(b.y) + t) * scale;
+    double ps, pt;
+    PatchRecord p = patches[leaf_locate(a, b, s, t, ps, pt)];
     return dvec2(p.u0 + ps * (p.u1 - p.u0), p.v0 + pt * (p.v1 - p.v0));
 }
 

@@ -34,10 +34,11 @@ void main()
     r.edge[1] = e.y;
     r.edge[2] = e.z;
     r.edge[3] = e.w;
-    double scale = ldexp(1.0LF, -int(a.z));
     uvec4 b = leaves[3u * q.leaf + 1u];
+    double ps, pt;
+    uint pi = leaf_locate(a, b, q.s, q.t, ps, pt);
     dvec3 n;
-    dvec3 x = patch_point(a.x, (double(b.x) + q.s) * scale, (double(b.y) + q.t) * scale, n);
+    dvec3 x = patch_point(pi, ps, pt, n);
     r.x = x.x;
     r.y = x.y;
     r.z = x.z;

@@ -9,6 +9,7 @@ patch out uint tc_leaf;
 patch out uvec4 tc_patch;   // first control point, du, dv, reversed (1) or not (0)
 patch out dvec2 tc_corner;  // (ix, iy) * 2^-depth
 patch out double tc_scale;  // 2^-depth
+patch out uvec4 tc_group;   // group leaves: lower-left patch, nu, nv, the face's grid_u; 0 else
 
 void main()
 {
@@ -26,4 +27,5 @@ void main()
     double scale = ldexp(1.0LF, -int(a.z));
     tc_scale = scale;
     tc_corner = dvec2(double(b.x) * scale, double(b.y) * scale);
+    tc_group = b.z == 0u ? uvec4(0u) : uvec4(a.x, b.w & 0xffffu, b.w >> 16, faces[a.y].grid_u);
 }

@@ -7,6 +7,7 @@ patch in uint tc_leaf;
 patch in uvec4 tc_patch;
 patch in dvec2 tc_corner;
 patch in double tc_scale;
+patch in uvec4 tc_group;
 uniform dmat4 view_proj;
 uniform dvec2 jitter;  // the sample's offset from the pixel centre, in NDC
 uniform float zconst;  // the constant clip z: window depth = zconst / W (larger = nearer)
@@ -25,7 +26,18 @@ void main()
     double s = tc_corner.x + double(gl_TessCoord.x) * tc_scale;
     double t = tc_corner.y + double(gl_TessCoord.y) * tc_scale;
     dvec3 n;
-    dvec3 x = eval_patch(tc_patch.x, tc_patch.y, tc_patch.z, s, t, n);
+    dvec3 x;
+    if (tc_group.y == 0u) {
+        x = eval_patch(tc_patch.x, tc_patch.y, tc_patch.z, s, t, n);
+    } else {
+        // A group leaf: the patch of its block under the vertex (leaf_locate in common.glsl).
+        double gx = double(gl_TessCoord.x) * double(tc_group.y);
+        double gy = double(gl_TessCoord.y) * double(tc_group.z);
+        double cx = clamp(floor(gx), 0.0LF, double(tc_group.y - 1u));
+        double cy = clamp(floor(gy), 0.0LF, double(tc_group.z - 1u));
+        PatchRecord p = patches[tc_group.x + uint(cy) * tc_group.w + uint(cx)];
+        x = eval_patch(p.first_cp, p.du, p.dv, gx - cx, gy - cy, n);
+    }
     if (tc_patch.w != 0u) n = -n;
     double nn = length(n);
     te_normal = nn > 0.0LF ? vec3(n / nn) : vec3(0.0);

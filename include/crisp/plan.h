@@ -25,6 +25,15 @@
  *     adds them to the leaf's corner in double).
  *     Leaves are grouped by face, in face order: face f owns leaves
  *     faces[f].first_leaf .. + faces[f].leaf_count - 1.
+ *   - Group leaves (issue 12): a leaf with group > 0 stands for a block of nu x nv patches of its
+ *     face's patch grid (nu, nv from `block`), patch `patch` its lower-left one. Its local
+ *     parameters (S, T) in [0, 1]^2 map to the grid position (S nu, T nv): the patch
+ *     patch + floor(T nv) * grid_u + floor(S nu) (the last column/row at S or T = 1) at its local
+ *     (S nu - column, T nv - row) (crisp_plan_leaf_locate). Its levels count over the whole
+ *     block, and its edges are crack-free against neighbouring leaves like any leaf's. The
+ *     planner makes one where every triangle with vertices on the block's surface lies within
+ *     eps_px of it (the block's screen box within eps_px, or twice the group bound's coarse-quad
+ *     distance crisp_slefe_group_screen(...).quad_px within eps_px).
  *   - Trim tables: per visible face, its strips; per strip, its rows; per row, its sorted
  *     u-crossings (crisp_trim_table in include/crisp/trim.h, concatenated: strip indices are
  *     global, row indices are global, row r holds crossings[row_offset[r] .. row_offset[r+1]-1]).
@@ -57,12 +66,16 @@ extern "C" {
 
 /* One visible leaf. std430: 48 bytes, as uvec4[3]. */
 typedef struct crisp_plan_leaf {
-    uint32_t patch;  /* index into crisp_scene.patches and crisp_scene.patch_records */
-    uint32_t face;   /* the patch's face */
-    uint32_t depth;  /* 0..CRISP_PLAN_MAX_DEPTH */
-    uint32_t tau;    /* inner level, 1..CRISP_PLAN_MAX_LEVEL */
-    uint32_t ix, iy; /* cell in the patch's 2^depth x 2^depth grid */
-    uint32_t pad[2];
+    uint32_t patch;   /* index into crisp_scene.patches and crisp_scene.patch_records */
+    uint32_t face;    /* the patch's face */
+    uint32_t depth;   /* 0..CRISP_PLAN_MAX_DEPTH */
+    uint32_t tau;     /* inner level, 1..CRISP_PLAN_MAX_LEVEL */
+    uint32_t ix, iy;  /* cell in the patch's 2^depth x 2^depth grid */
+    uint32_t group;   /* 0: the cell above. g > 0: a group leaf (depth 0, ix = iy = 0) covering the
+                         block of 2^g x 2^g patches of the face's patch grid whose lower-left patch
+                         is `patch`, clipped to the grid (see `block`) */
+    uint32_t block;   /* group leaves: patch columns | patch rows << 16 the block covers after
+                         clipping (1..2^g each); 0 for cells */
     uint32_t edge[4]; /* outer levels: t = 0, s = 1, t = 1, s = 0; 1..CRISP_PLAN_MAX_LEVEL */
 } crisp_plan_leaf;
 
@@ -83,7 +96,8 @@ typedef struct crisp_plan_face {
     uint32_t tau_max;      /* largest inner level among its leaves (0: invisible) */
     uint32_t first_ribbon; /* into ribbon quads (4 vertices each) */
     uint32_t ribbon_count;
-    uint32_t pad[2];
+    uint32_t grid_u; /* patch columns of the face's grid (the row stride of its patches) */
+    uint32_t grid_v; /* patch rows */
 } crisp_plan_face;
 
 /* One strip of a face's table. std430: 24 bytes. */
@@ -107,6 +121,7 @@ typedef struct crisp_plan_stats {
     uint32_t unresolved;   /* leaves where the bound could not be reached at the depth limit */
     uint32_t rows_clamped; /* faces whose table hit CRISP_TRIM_MAX_ROWS */
     uint32_t level_splits; /* leaves split because an edge level would exceed 64 */
+    uint32_t group_leaves, grouped_patches; /* group leaves and the patches they stand for */
     uint64_t table_rows, table_bytes, ribbon_quads;
     uint64_t triangles; /* of the leaves at their levels (crisp_tess_mesh_counts) */
     double ms_levels, ms_edges, ms_trim, ms_ribbons;
@@ -145,6 +160,7 @@ typedef struct crisp_planner_desc {
     int strip_count; /* n_V per face; 0: the face's tess level times its patch rows, 8..256 */
     int max_depth;   /* patch splits; 0: CRISP_PLAN_MAX_DEPTH */
     int no_ribbons;  /* 1: no ribbon quads (for measuring them) */
+    int no_groups;   /* 1: no group leaves: at least one leaf per visible patch (for measuring) */
 } crisp_planner_desc;
 
 typedef struct crisp_planner crisp_planner;
@@ -164,6 +180,12 @@ crisp_status crisp_planner_plan(crisp_planner *planner, const crisp_scene *scene
  * other face's table is kept and leaves are unchanged (leaves_version stays). */
 crisp_status crisp_planner_replan_face(crisp_planner *planner, const crisp_scene *scene,
                                        uint32_t face, const crisp_frame_plan **dest);
+
+/* The patch and its local (s, t) of leaf L at the leaf's local (S, T) in [0, 1]^2: for a cell,
+ * the patch L->patch at ((ix + S), (iy + T)) * 2^-depth; for a group leaf, the patch of the
+ * block under (S nu, T nv) (include above). The shaders do the same arithmetic. */
+uint32_t crisp_plan_leaf_locate(const crisp_frame_plan *plan, const crisp_plan_leaf *L, double S,
+                                double T, double *s, double *t);
 
 /* The trim test on the plan's arrays: 1 when (u, v) of face `face` is inside its trim. Exactly
  * crisp_trim_table_test on the face's table (the shaders do the same arithmetic in double). */

@@ -20,6 +20,7 @@
 typedef struct tess_cache {
     uint64_t generation;
     uint64_t gen[1 << TESS_CACHE_BITS], key[1 << TESS_CACHE_BITS];
+    uint32_t patch[1 << TESS_CACHE_BITS]; /* a group leaf's vertices of one s span patches */
     double rows[(1 << TESS_CACHE_BITS) * TESS_ROW_DOUBLES];
 } tess_cache;
 
@@ -174,7 +175,6 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
     for (size_t j = begin; j < end; j++) {
         if (r->leaf_skip[j]) continue;
         const crisp_plan_leaf *L = &plan->leaves[j];
-        const crisp_scene_patch *sp = &c->sc->patches[L->patch];
         crisp_tess_levels lv = leaf_levels(L);
         uint32_t vbase = r->leaf_vbase[j], tbase = r->leaf_tbase[j];
         size_t nv = r->leaf_vbase[j + 1] - vbase;
@@ -186,7 +186,6 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             crisp_raster_tri tri = {{idx[3 * k], idx[3 * k + 1], idx[3 * k + 2]}, L->face};
             r->tris[tbase + k] = tri;
         }
-        double scale = ldexp(1.0, -(int)L->depth);
         int reversed = (plan->faces[L->face].flags & CRISP_PLAN_FACE_REVERSED) != 0;
         /* Vertices that share s (a column of the inner grid, a side of the boundary) share the
          * first half of the evaluation: the patch's rows at s, kept per leaf in a small table
@@ -194,16 +193,19 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
         tess_cache *tc = &r->cache[worker];
         tc->generation++;
         for (size_t k = 0; k < nv; k++) {
-            double s = (L->ix + st[2 * k]) * scale, t = (L->iy + st[2 * k + 1]) * scale;
+            double s, t; /* the vertex's patch (a group leaf spans several) and its local (s, t) */
+            uint32_t pi = crisp_plan_leaf_locate(plan, L, st[2 * k], st[2 * k + 1], &s, &t);
+            const crisp_scene_patch *sp = &c->sc->patches[pi];
             double P[3], Ps[3], Pt[3], n[3];
             uint64_t bits;
             memcpy(&bits, &st[2 * k], sizeof bits);
             size_t slot = (size_t)((bits * 0x9E3779B97F4A7C15ull) >> (64 - TESS_CACHE_BITS));
             double *rows = tc->rows + slot * TESS_ROW_DOUBLES;
-            if (tc->gen[slot] != tc->generation || tc->key[slot] != bits) {
+            if (tc->gen[slot] != tc->generation || tc->key[slot] != bits || tc->patch[slot] != pi) {
                 crisp__bezier_patch_rows_s(&sp->bez, s, rows);
                 tc->gen[slot] = tc->generation;
                 tc->key[slot] = bits;
+                tc->patch[slot] = pi;
             }
             crisp__bezier_patch_derivs_rows(&sp->bez, rows, t, P, Ps, Pt);
             crisp_raster_vertex *v = &r->verts[vbase + k];
@@ -249,6 +251,44 @@ static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2
     return 0;
 }
 
+/* 1 when group leaf L's patches' boxes, projected and widened as below, hold no sample. */
+static int group_empty(const skip_ctx *c, const crisp_plan_leaf *L)
+{
+    const crisp_frame_plan *plan = c->r->plan;
+    crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
+    uint32_t nu = L->block & 0xffffu, nv = L->block >> 16, gu = plan->faces[L->face].grid_u;
+    if (nu * nv > 16) return 0; /* not worth reading every patch box: draw it */
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (uint32_t iv = 0; iv < nv; iv++)
+        for (uint32_t iu = 0; iu < nu; iu++) {
+            const double *b = c->sc->patches[L->patch + iv * gu + iu].box;
+            for (int k = 0; k < 8; k++) {
+                double p[3] = {b[(k & 1) ? 3 : 0], b[(k & 2) ? 4 : 1], b[(k & 4) ? 5 : 2]}, h[4];
+                for (int q = 0; q < 4; q++)
+                    h[q] = (*m)[0][q] * p[0] + (*m)[1][q] * p[1] + (*m)[2][q] * p[2] + (*m)[3][q];
+                if (!(h[3] > 0) || !isfinite(h[0] + h[1] + h[3])) return 0;
+                double x = (h[0] / h[3] + 1) * 0.5 * plan->width,
+                       y = (1 - h[1] / h[3]) * 0.5 * plan->height;
+                lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x), lo[1] = fmin(lo[1], y),
+                hi[1] = fmax(hi[1], y);
+            }
+        }
+    double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
+    lo[0] -= pad, lo[1] -= pad, hi[0] += pad, hi[1] += pad;
+    return !holds_sample(c, lo, hi);
+}
+
+/* Leaf j's vertex and triangle counts (offsets after the prefix sum; UINT32_MAX: levels
+ * refused, the caller reports it); none when it is skipped. */
+static void leaf_counts(crisp_renderer *r, size_t j, const crisp_plan_leaf *L)
+{
+    crisp_tess_levels lv = leaf_levels(L);
+    size_t v = 0, t = 0;
+    if (!r->leaf_skip[j] && crisp_tess_mesh_counts(&lv, &v, &t)) v = t = UINT32_MAX;
+    r->leaf_vbase[j] = (uint32_t)v;
+    r->leaf_tbase[j] = (uint32_t)t;
+}
+
 static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
 {
     skip_ctx *c = vctx;
@@ -261,6 +301,16 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
         if (c->only && !c->only[L->face]) {
             r->leaf_skip[j] = 1;
             r->leaf_vbase[j] = r->leaf_tbase[j] = 0; /* no vertices, no triangles */
+            continue;
+        }
+        if (L->group) {
+            /* A group leaf: its triangles lie in its patches' boxes. */
+            r->leaf_skip[j] = group_empty(c, L);
+            if (c->hull) { /* its screen box is not worked out: anywhere */
+                double *b = c->hull[j];
+                b[0] = b[1] = -INFINITY, b[2] = b[3] = INFINITY;
+            }
+            leaf_counts(r, j, L);
             continue;
         }
         const crisp_bezier_patch *bez = &c->sc->patches[L->patch].bez;
@@ -296,13 +346,7 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
             b[0] = front ? lo[0] : -INFINITY, b[1] = front ? lo[1] : -INFINITY;
             b[2] = front ? hi[0] : INFINITY, b[3] = front ? hi[1] : INFINITY;
         }
-        /* The leaf's vertex and triangle counts (offsets after the prefix sum; UINT32_MAX:
-         * levels refused, the caller reports it). */
-        crisp_tess_levels lv = leaf_levels(L);
-        size_t v = 0, t = 0;
-        if (!r->leaf_skip[j] && crisp_tess_mesh_counts(&lv, &v, &t)) v = t = UINT32_MAX;
-        r->leaf_vbase[j] = (uint32_t)v;
-        r->leaf_tbase[j] = (uint32_t)t;
+        leaf_counts(r, j, L);
     }
 }
 

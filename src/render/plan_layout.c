@@ -12,6 +12,8 @@ _Static_assert(offsetof(crisp_plan_leaf, depth) == 8, "leaf.depth");
 _Static_assert(offsetof(crisp_plan_leaf, tau) == 12, "leaf.tau");
 _Static_assert(offsetof(crisp_plan_leaf, ix) == 16, "leaf.ix");
 _Static_assert(offsetof(crisp_plan_leaf, iy) == 20, "leaf.iy");
+_Static_assert(offsetof(crisp_plan_leaf, group) == 24, "leaf.group");
+_Static_assert(offsetof(crisp_plan_leaf, block) == 28, "leaf.block");
 _Static_assert(offsetof(crisp_plan_leaf, edge) == 32, "leaf.edge");
 
 _Static_assert(sizeof(crisp_plan_face) == 64, "crisp_plan_face: 3 doubles + 8 uints, std430");
@@ -26,6 +28,8 @@ _Static_assert(offsetof(crisp_plan_face, flags) == 40, "face.flags");
 _Static_assert(offsetof(crisp_plan_face, tau_max) == 44, "face.tau_max");
 _Static_assert(offsetof(crisp_plan_face, first_ribbon) == 48, "face.first_ribbon");
 _Static_assert(offsetof(crisp_plan_face, ribbon_count) == 52, "face.ribbon_count");
+_Static_assert(offsetof(crisp_plan_face, grid_u) == 56, "face.grid_u");
+_Static_assert(offsetof(crisp_plan_face, grid_v) == 60, "face.grid_v");
 
 _Static_assert(sizeof(crisp_plan_strip) == 24, "crisp_plan_strip: 2 doubles + 2 uints");
 _Static_assert(offsetof(crisp_plan_strip, a) == 0, "strip.a");

@@ -4,6 +4,7 @@
  * tables concatenated (strips, rows, crossings), the ribbon quads. Buffers are kept from frame to
  * frame; each array's version is bumped only when its bytes changed, so a GPU backend uploads only
  * what changed (a trim edit with a still camera uploads one table, not the leaves). */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -121,12 +122,14 @@ static crisp_status lay_out_leaves(crisp_planner *p, const crisp_scene *sc)
                 const crisp__cell *c = &pt->leaves[l];
                 if (c->culled) continue;
                 crisp_plan_leaf *L = &p->leaves[at++];
-                *L = (crisp_plan_leaf){.patch = q,
-                                       .face = f,
-                                       .depth = c->depth,
-                                       .tau = c->tau,
-                                       .ix = c->ix,
-                                       .iy = c->iy};
+                *L = (crisp_plan_leaf){.patch = q, .face = f, .depth = c->depth, .tau = c->tau};
+                if (c->group) {
+                    L->group = c->group;
+                    L->block = c->ix | c->iy << 16;
+                } else {
+                    L->ix = c->ix;
+                    L->iy = c->iy;
+                }
                 for (int k = 0; k < 4; k++)
                     L->edge[k] = c->edge[k];
                 crisp_tess_levels lv = {
@@ -231,7 +234,8 @@ static void publish(crisp_planner *p, const crisp_scene *sc, int one_face)
     for (uint32_t f = 0; f < sc->face_count; f++) {
         p->faces[f].first_ribbon = p->ribbon_first[f];
         p->faces[f].ribbon_count = p->trees->face_tau[f] ? p->ribbon_quads[f] : 0;
-        p->faces[f].pad[0] = p->faces[f].pad[1] = 0;
+        p->faces[f].grid_u = sc->faces[f].grid_u;
+        p->faces[f].grid_v = sc->faces[f].grid_v;
     }
     o->leaves = p->leaves;
     o->faces = p->faces;
@@ -275,7 +279,8 @@ crisp_status crisp_planner_plan(crisp_planner *p, const crisp_scene *sc, const c
 {
     crisp__trees_desc td = {.eps_px = p->desc.eps_px,
                             .strip_count = p->desc.strip_count,
-                            .max_depth = p->desc.max_depth};
+                            .max_depth = p->desc.max_depth,
+                            .no_groups = p->desc.no_groups};
     crisp_status st = crisp__trees_build(p->trees, sc, cam, &td, p->pool);
     if (st) return st;
     if ((st = ensure_faces(p, sc->face_count))) return st;
@@ -361,6 +366,27 @@ crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, 
     publish(p, sc, 1);
     *dest = o;
     return CRISP_OK;
+}
+
+uint32_t crisp_plan_leaf_locate(const crisp_frame_plan *plan, const crisp_plan_leaf *L, double S,
+                                double T, double *s, double *t)
+{
+    if (!L->group) {
+        double scale = ldexp(1.0, -(int)L->depth);
+        *s = (L->ix + S) * scale;
+        *t = (L->iy + T) * scale;
+        return L->patch;
+    }
+    uint32_t nu = L->block & 0xffffu, nv = L->block >> 16;
+    double x = S * nu, y = T * nv;
+    double cx = floor(x), cy = floor(y);
+    if (cx > nu - 1) cx = nu - 1;
+    if (cy > nv - 1) cy = nv - 1;
+    if (cx < 0) cx = 0;
+    if (cy < 0) cy = 0;
+    *s = x - cx;
+    *t = y - cy;
+    return L->patch + (uint32_t)cy * plan->faces[L->face].grid_u + (uint32_t)cx;
 }
 
 int crisp_plan_trim_test(const crisp_frame_plan *plan, uint32_t face, double u, double v)

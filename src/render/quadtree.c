@@ -23,6 +23,8 @@
 
 #include "crisp/slefe.h"
 
+#define CRISP__NB_CAP 256 /* leaves across one side examined by the edge rule */
+
 /* ---- sub-patches --------------------------------------------------------------------------- */
 
 /* 1 when every control point lies outside one plane of the frustum, widened by margin. */
@@ -144,6 +146,57 @@ static double hull_extent_px(const crisp_bezier_patch *p, crisp_mat4 m, int widt
     return e * (1 + 1e-9) + 1e-9;
 }
 
+/* A bound (pixels) on the screen distance between the sub-patch and any triangles with vertices
+ * on it (whatever the tessellation), from its control points' distance D to the bilinear
+ * function B through its corners in homogeneous clip coordinates: px(D) + px(D + twist(B) / 4)
+ * (patch_groups.c, group_leaf_ok, has the argument; a single patch is a block of one). INFINITY
+ * when W is not bounded away from 0. Tight for small, nearly flat pieces, where the SLEFE bound
+ * of a rational patch seen off axis can be tens of times too large. */
+static double flat_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, int height)
+{
+    int du = p->du, dv = p->dv;
+    const double *cw[4] = {p->cpw, p->cpw + 4 * du, p->cpw + 4 * (du + 1) * dv,
+                           p->cpw + 4 * ((du + 1) * dv + du)};
+    double C[4][3], wmin = INFINITY, xmax = 0, ymax = 0;
+    for (int k = 0; k < 4; k++) {
+        const double *q = cw[k];
+        for (int a = 0; a < 3; a++) {
+            int r = a == 2 ? 3 : a;
+            C[k][a] = m[0][r] * q[0] + m[1][r] * q[1] + m[2][r] * q[2] + m[3][r] * q[3];
+        }
+        if (!(C[k][2] > 0)) return INFINITY;
+        wmin = fmin(wmin, C[k][2]);
+        xmax = fmax(xmax, fabs(C[k][0] / C[k][2]));
+        ymax = fmax(ymax, fabs(C[k][1] / C[k][2]));
+    }
+    double D[3] = {0, 0, 0};
+    for (int j = 0; j <= dv; j++) {
+        double t = (double)j / dv;
+        for (int i = 0; i <= du; i++) {
+            double s = (double)i / du;
+            const double *q = p->cpw + 4 * (j * (du + 1) + i);
+            for (int a = 0; a < 3; a++) {
+                int r = a == 2 ? 3 : a;
+                double x = m[0][r] * q[0] + m[1][r] * q[1] + m[2][r] * q[2] + m[3][r] * q[3];
+                double bl = (1 - t) * ((1 - s) * C[0][a] + s * C[1][a]) +
+                            t * ((1 - s) * C[2][a] + s * C[3][a]);
+                D[a] = fmax(D[a], fabs(x - bl) + 1e-12 * (fabs(x) + fabs(bl)));
+            }
+        }
+    }
+    double px = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        double e[3];
+        for (int a = 0; a < 3; a++)
+            e[a] = D[a] + (pass ? 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]) : 0);
+        double den = wmin - e[2];
+        if (!(den > 0)) return INFINITY;
+        double dx = (e[0] + xmax * e[2]) / den, dy = (e[1] + ymax * e[2]) / den;
+        px += fmax(dx * 0.5 * width, dy * 0.5 * height) * (1 + 1e-9) + 1e-12;
+    }
+    return px;
+}
+
 static int forced_cmp(const crisp__forced *a, const crisp__forced *b)
 {
     if (a->patch != b->patch) return a->patch < b->patch ? -1 : 1;
@@ -198,6 +251,10 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
         /* Small on screen (issue 12): a hull within eps needs no SLEFE (tau 1, see
          * hull_extent_px). */
         double hull = hull_extent_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height);
+        /* Flat enough on screen for any tessellation (flat_px): tau 1, like a small hull. */
+        if (hull > c->eps &&
+            flat_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height) <= c->eps)
+            hull = 0;
         int box_split = box && hull > c->eps && depth < c->plan->max_depth;
         crisp_status st =
             hull <= c->eps || box_split
@@ -297,13 +354,29 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
         b->arena = arena;
         b->node_cap = b->leaf_cap = 0;
         b->st = CRISP_OK;
-        int32_t root = push_node(b);
         uint8_t mode = !c->redo && c->mode ? c->mode[p] : CRISP__PATCH_OPEN;
+        if (mode == CRISP__PATCH_GROUPED) continue; /* no tree: its group leaf stands for it */
+        int32_t root = push_node(b);
         if (root < 0) {
             b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
+        } else if (mode == CRISP__PATCH_GROUP) {
+            /* The lower-left patch of a group leaf's block holds the leaf (patch_groups.c). */
+            const crisp_scene_patch *sp = &c->sc->patches[p];
+            const crisp_scene_face *f = &c->sc->faces[sp->face];
+            uint32_t g = plan->group_g[p], size = 1u << g;
+            crisp__cell leaf = {.tau = 1,
+                                .group = (uint8_t)g,
+                                .ix = f->grid_u - sp->iu < size ? f->grid_u - sp->iu : size,
+                                .iy = f->grid_v - sp->iv < size ? f->grid_v - sp->iv : size};
+            int32_t li = push_leaf(b, &leaf);
+            if (li < 0)
+                b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
+            else
+                pp->nodes[root].leaf = li;
         } else if (mode != CRISP__PATCH_OPEN) {
-            /* Decided by its group: outside the frustum, or within eps on screen (tau 1). */
-            crisp__cell leaf = {.tau = 1, .culled = mode == CRISP__PATCH_CULLED};
+            /* Decided by its group: outside the frustum, within eps on screen (tau 1), or drawn
+             * by its block's group leaf. */
+            crisp__cell leaf = {.tau = 1, .culled = mode != CRISP__PATCH_SMALL};
             int32_t li = push_leaf(b, &leaf);
             if (li < 0)
                 b->st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory planning patch leaves");
@@ -372,10 +445,60 @@ static int leaves_at(const crisp__patch_tree *pp, int depth, uint32_t ix, uint32
     return n;
 }
 
-/* The leaves across side `side` of leaf L of patch p (same patch or the face's neighbour patch). */
+/* The patch whose leaves stand for patch q: the lower-left patch of its group leaf's block, or
+ * q itself. */
+static uint32_t owner_patch(const crisp__trees *plan, uint32_t q)
+{
+    uint32_t o = plan->group_of ? plan->group_of[q] : UINT32_MAX;
+    return o == UINT32_MAX ? q : o;
+}
+
+/* Length of side `side` of a leaf in units of 2^-CRISP_PLAN_MAX_DEPTH of a patch. */
+static uint64_t side_length(const crisp__cell *L, int side)
+{
+    if (L->group) return (uint64_t)((side & 1) ? L->iy : L->ix) << CRISP_PLAN_MAX_DEPTH;
+    return 1ull << (CRISP_PLAN_MAX_DEPTH - L->depth);
+}
+
+/* The leaves across side `side` of group leaf L (lower-left patch p): per patch along the side,
+ * outside the block, its leaves touching the side (a group leaf once). */
+static int across_group(const crisp__trees *plan, const crisp_scene *sc, uint32_t p,
+                        const crisp__cell *L, int side, const crisp__cell **out, int cap,
+                        int *total)
+{
+    const crisp_scene_patch *sp = &sc->patches[p];
+    const crisp_scene_face *f = &sc->faces[sp->face];
+    int64_t iu0 = sp->iu, iv0 = sp->iv, nu = L->ix, nv = L->iy;
+    int64_t fixed = side == 0 ? iv0 - 1 : side == 1 ? iu0 + nu : side == 2 ? iv0 + nv : iu0 - 1;
+    int64_t grid_fixed = (side & 1) ? f->grid_u : f->grid_v;
+    int closed = (side & 1) ? f->closed_u : f->closed_v;
+    *total = 0;
+    if (closed) fixed = (fixed + grid_fixed) % grid_fixed;
+    if (fixed < 0 || fixed >= grid_fixed) return 0;
+    int64_t a0 = (side & 1) ? iv0 : iu0, a1 = a0 + ((side & 1) ? nv : nu);
+    int n = 0, nside = (side + 2) % 4;
+    const crisp__cell *last = NULL;
+    for (int64_t a = a0; a < a1; a++) {
+        int64_t iu = (side & 1) ? fixed : a, iv = (side & 1) ? a : fixed;
+        uint32_t q = owner_patch(plan, f->first_patch + (uint32_t)(iv * f->grid_u + iu));
+        const crisp__cell *got[CRISP__NB_CAP];
+        int t, m = leaves_at(&plan->patches[q], 0, 0, 0, nside, got, CRISP__NB_CAP, &t);
+        if (m == 1 && t == 1 && got[0] == last) continue; /* the same group leaf again */
+        for (int k = 0; k < m; k++) {
+            if (n < cap) out[n++] = got[k];
+            last = got[k];
+        }
+        *total += t;
+    }
+    return n;
+}
+
+/* The leaves across side `side` of leaf L of patch p (same patch or the face's neighbour patch,
+ * or the group leaf standing for it). */
 static int across(const crisp__trees *plan, const crisp_scene *sc, uint32_t p, const crisp__cell *L,
                   int side, const crisp__cell **out, int cap, int *total)
 {
+    if (L->group) return across_group(plan, sc, p, L, side, out, cap, total);
     int d = L->depth;
     uint32_t n = 1u << d;
     int64_t nx = (int64_t)L->ix + (side == 1) - (side == 3);
@@ -392,7 +515,7 @@ static int across(const crisp__trees *plan, const crisp_scene *sc, uint32_t p, c
             *total = 0;
             return 0;
         }
-        q = f->first_patch + (uint32_t)(iv * f->grid_u + iu);
+        q = owner_patch(plan, f->first_patch + (uint32_t)(iv * f->grid_u + iu));
         nx = (nx + n) % n;
         ny = (ny + n) % n;
     }
@@ -400,24 +523,33 @@ static int across(const crisp__trees *plan, const crisp_scene *sc, uint32_t p, c
                      total);
 }
 
-/* Level of the edge `side` of leaf L when L owns it (every leaf across is at least as fine). */
-static uint32_t owner_level(const crisp__cell *L, const crisp__cell *const *nb, int count)
+/* Level of the edge `side` of leaf L when L owns it (every leaf across is at most as long on the
+ * side). With lengths in units of u, the greatest common divisor of the lengths, the edge
+ * places m vertices per u, m the largest tau_k u / len_k rounded up over L and the leaves
+ * across: L's level is m len_L / u and every leaf across takes m len_k / u of those vertices, an
+ * integer, at the same places. */
+static uint64_t gcd64(uint64_t a, uint64_t b)
 {
-    /* Vertex density in units of the finest depth: tau * 2^(dmax - d) per 2^-dmax of length. */
-    int dmax = L->depth;
-    for (int k = 0; k < count; k++)
-        dmax = nb[k]->depth > dmax ? nb[k]->depth : dmax;
-    uint64_t dens = (uint64_t)L->tau << (dmax - L->depth);
-    for (int k = 0; k < count; k++) {
-        uint64_t dk = (uint64_t)nb[k]->tau << (dmax - nb[k]->depth);
-        dens = dk > dens ? dk : dens;
+    while (b) {
+        uint64_t t = a % b;
+        a = b;
+        b = t;
     }
-    /* L's edge spans 2^(dmax - d) finest cells; level = dens per finest cell... uniform over L's
-     * edge means: level = ceil(dens / 2^(dmax - d)) rounded up to a multiple of 2^(dmax - d). */
-    uint64_t share = 1ull << (dmax - L->depth);
-    uint64_t level = (dens + share - 1) / share;
-    level = (level + share - 1) / share * share;
-    if (level < share) level = share;
+    return a;
+}
+
+static uint32_t owner_level(const crisp__cell *L, int side, const crisp__cell *const *nb, int count)
+{
+    uint64_t lenL = side_length(L, side), u = lenL;
+    for (int k = 0; k < count; k++)
+        u = gcd64(u, side_length(nb[k], side));
+    uint64_t m = ((uint64_t)L->tau * u + lenL - 1) / lenL;
+    for (int k = 0; k < count; k++) {
+        uint64_t len = side_length(nb[k], side), mk = ((uint64_t)nb[k]->tau * u + len - 1) / len;
+        m = mk > m ? mk : m;
+    }
+    if (m < 1) m = 1;
+    uint64_t level = m * (lenL / u);
     return (uint32_t)(level > CRISP_TESS_MAX_EDGE_LEVEL ? CRISP_TESS_MAX_EDGE_LEVEL : level);
 }
 
@@ -430,7 +562,7 @@ static void edge_levels(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     edge_ctx *c = vctx;
-    enum { CAP = 256 };
+    enum { CAP = CRISP__NB_CAP };
     const crisp__cell *nb[CAP], *back[CAP];
     for (size_t p = begin; p < end; p++) {
         crisp__patch_tree *pp = &c->plan->patches[p];
@@ -439,35 +571,40 @@ static void edge_levels(void *vctx, size_t begin, size_t end, int worker)
             if (L->culled) continue;
             for (int side = 0; side < 4; side++) {
                 int total, n = across(c->plan, c->sc, (uint32_t)p, L, side, nb, CAP, &total);
-                if (total == 1 && n == 1 && nb[0]->depth < L->depth) {
-                    /* A coarser neighbour owns the edge: take this leaf's share of its level. */
+                uint64_t lenL = side_length(L, side);
+                if (total == 1 && n == 1 && side_length(nb[0], side) > lenL) {
+                    /* A longer neighbour owns the edge: take this leaf's share of its level. */
                     const crisp__cell *N = nb[0];
                     int bt, bn = 0;
-                    /* N's view across its side facing L: find N's patch by walking back. */
+                    /* N lies in p, or stands for the neighbour patch across `side`. */
                     uint32_t q = (uint32_t)p;
-                    {
-                        /* N lies in p or in the neighbour patch across `side`. */
-                        uint32_t nside = (uint32_t)((side + 2) % 4);
-                        const crisp_scene_patch *sp = &c->sc->patches[p];
-                        uint32_t cells = 1u << L->depth;
-                        int leaves_patch =
-                            (side == 1 && L->ix + 1 == cells) || (side == 3 && L->ix == 0) ||
-                            (side == 2 && L->iy + 1 == cells) || (side == 0 && L->iy == 0);
-                        if (leaves_patch) {
-                            const crisp_scene_face *f = &c->sc->faces[sp->face];
-                            int64_t iu = (int64_t)sp->iu + (side == 1) - (side == 3);
-                            int64_t iv = (int64_t)sp->iv + (side == 2) - (side == 0);
-                            if (f->closed_u) iu = (iu + f->grid_u) % f->grid_u;
-                            if (f->closed_v) iv = (iv + f->grid_v) % f->grid_v;
-                            q = f->first_patch + (uint32_t)(iv * f->grid_u + iu);
+                    uint32_t nside = (uint32_t)((side + 2) % 4);
+                    const crisp_scene_patch *sp = &c->sc->patches[p];
+                    uint32_t cells = 1u << L->depth;
+                    int leaves_patch = L->group || (side == 1 && L->ix + 1 == cells) ||
+                                       (side == 3 && L->ix == 0) ||
+                                       (side == 2 && L->iy + 1 == cells) ||
+                                       (side == 0 && L->iy == 0);
+                    if (leaves_patch) {
+                        const crisp_scene_face *f = &c->sc->faces[sp->face];
+                        int64_t iu = (int64_t)sp->iu, iv = (int64_t)sp->iv;
+                        if (L->group) {
+                            iu += side == 1 ? (int64_t)L->ix : -(side == 3);
+                            iv += side == 2 ? (int64_t)L->iy : -(side == 0);
+                        } else {
+                            iu += (side == 1) - (side == 3);
+                            iv += (side == 2) - (side == 0);
                         }
-                        bn = across(c->plan, c->sc, q, N, (int)nside, back, CAP, &bt);
+                        if (f->closed_u) iu = (iu + f->grid_u) % f->grid_u;
+                        if (f->closed_v) iv = (iv + f->grid_v) % f->grid_v;
+                        q = owner_patch(c->plan, f->first_patch + (uint32_t)(iv * f->grid_u + iu));
                     }
-                    uint32_t lv = owner_level(N, back, bn);
-                    uint32_t share = 1u << (L->depth - N->depth);
-                    L->edge[side] = lv / share ? lv / share : 1;
+                    bn = across(c->plan, c->sc, q, N, (int)nside, back, CAP, &bt);
+                    uint64_t lv = owner_level(N, (int)nside, back, bn);
+                    uint64_t share = lv * lenL / side_length(N, side);
+                    L->edge[side] = share ? (uint32_t)share : 1;
                 } else {
-                    L->edge[side] = owner_level(L, nb, n);
+                    L->edge[side] = owner_level(L, side, nb, n);
                 }
             }
         }
@@ -481,6 +618,12 @@ static void edge_levels(void *vctx, size_t begin, size_t end, int worker)
  * are recorded as forced, their patches' trees rebuilt, and the edge levels recomputed, until no
  * level is above the limit (or the depth limit stops the splitting: then the level is clamped and
  * the leaf counted as unresolved). */
+static int u32_cmp(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
 static crisp_status split_high_levels(crisp__trees *plan, const crisp_scene *sc, tree_ctx *tc,
                                       crisp_pool *pool, uint32_t *splits)
 {
@@ -496,8 +639,28 @@ static crisp_status split_high_levels(crisp__trees *plan, const crisp_scene *sc,
                 if (L->edge[0] <= CRISP_PLAN_MAX_LEVEL && L->edge[1] <= CRISP_PLAN_MAX_LEVEL &&
                     L->edge[2] <= CRISP_PLAN_MAX_LEVEL && L->edge[3] <= CRISP_PLAN_MAX_LEVEL)
                     continue;
-                crisp_status st = crisp_grow((void **)&plan->forced, &plan->forced_cap,
-                                             plan->forced_count + 1, sizeof *plan->forced);
+                crisp_status st;
+                if (L->group) {
+                    /* A group leaf is not split: its block's patches are planned one by one
+                     * (their own quadtrees) instead. */
+                    const crisp_scene_patch *sp = &sc->patches[p];
+                    const crisp_scene_face *f = &sc->faces[sp->face];
+                    uint32_t nu = L->ix, nv = L->iy;
+                    if ((st = crisp_grow((void **)&plan->redo, &plan->redo_cap,
+                                         redo + (size_t)nu * nv, sizeof *plan->redo)))
+                        return st;
+                    for (uint32_t iv = sp->iv; iv < sp->iv + nv; iv++)
+                        for (uint32_t iu = sp->iu; iu < sp->iu + nu; iu++) {
+                            uint32_t q = f->first_patch + iv * f->grid_u + iu;
+                            plan->group_of[q] = UINT32_MAX;
+                            plan->patch_mode[q] = CRISP__PATCH_OPEN;
+                            plan->redo[redo++] = q;
+                        }
+                    added++;
+                    break;
+                }
+                st = crisp_grow((void **)&plan->forced, &plan->forced_cap, plan->forced_count + 1,
+                                sizeof *plan->forced);
                 if (st) return st;
                 plan->forced[plan->forced_count++] = (crisp__forced){p, L->depth, L->ix, L->iy};
                 added++;
@@ -512,6 +675,8 @@ static crisp_status split_high_levels(crisp__trees *plan, const crisp_scene *sc,
         }
         if (!added) break;
         *splits += (uint32_t)added;
+        /* Ungrouped blocks' patches may come after later patches in the list. */
+        qsort(plan->redo, redo, sizeof *plan->redo, u32_cmp);
         qsort(plan->forced, plan->forced_count, sizeof *plan->forced, forced_qsort_cmp);
         tc->redo = plan->redo;
         tc->count = redo;
@@ -568,6 +733,8 @@ void crisp__trees_destroy(crisp__trees *p)
     free(p->redo);
     crisp__groups_destroy(p->groups);
     free(p->patch_mode);
+    free(p->group_of);
+    free(p->group_g);
     for (int k = 0; k < TREE_CHUNKS; k++)
         crisp_arena_destroy(p->chunk_arenas[k]);
     for (uint32_t f = 0; f < p->face_cap; f++)
@@ -623,6 +790,11 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             /* n_V: the face's tess level over its patch rows (Wu & Peters' default). */
             uint32_t s = c->plan->face_tau[f] * (sf->grid_v ? sf->grid_v : 1);
             strips = (int)(s < 8 ? 8 : s > 256 ? 256 : s);
+            /* No more strips than the face is pixels across on screen (issue 12: a face a few
+             * pixels tall kept up to 256 strips). Strips only localise the density bound: the
+             * rows of any strip count keep the 1 px guarantee. */
+            double px = crisp__groups_face_px(c->plan->groups, (uint32_t)f);
+            if (px < strips) strips = px < 8 ? 8 : (int)ceil(px);
         }
         /* A face within eps on screen: every point of it is within a pixel of its trims, so
          * every decision is within the pixel band: an all-inside table, no density bound, no
@@ -709,11 +881,22 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
     /* Cull against the frustum widened by 2 px so patches touching the border keep their edges. */
     tc.gx = 1 + 4.0 / cam->width;
     tc.gy = 1 + 4.0 / cam->height;
-    if ((st = crisp_grow((void **)&plan->patch_mode, &plan->mode_cap,
-                         sc->patch_count ? sc->patch_count : 1, sizeof *plan->patch_mode)) ||
-        (st = crisp__groups_classify(plan->groups, sc, plan->view_proj, cam->width, cam->height,
-                                     tc.gx, tc.gy, eps, pool, plan->patch_mode)))
+    size_t np = sc->patch_count ? sc->patch_count : 1;
+    plan->no_groups = desc && desc->no_groups;
+    if ((st = crisp_grow((void **)&plan->patch_mode, &plan->mode_cap, np,
+                         sizeof *plan->patch_mode)) ||
+        (st = crisp_grow((void **)&plan->group_of, &plan->group_of_cap, np,
+                         sizeof *plan->group_of)) ||
+        (st = crisp_grow((void **)&plan->group_g, &plan->group_g_cap, np, sizeof *plan->group_g)))
         return st;
+    crisp__patch_groups pg = {plan->patch_mode, plan->group_of, plan->group_g};
+    if (plan->no_groups) pg.group_of = NULL, pg.group_g = NULL;
+    if ((st = crisp__groups_classify(plan->groups, sc, plan->view_proj, cam->width, cam->height,
+                                     tc.gx, tc.gy, eps, pool, &pg)))
+        return st;
+    if (plan->no_groups)
+        for (uint32_t q = 0; q < sc->patch_count; q++)
+            plan->group_of[q] = UINT32_MAX;
     tc.mode = plan->patch_mode;
     tc.count = sc->patch_count;
     crisp_pool_parallel_for(pool, TREE_CHUNKS, 1, build_chunks, &tc);
@@ -739,6 +922,10 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         s->visible_patches++;
         s->split_patches += pp->leaf_count > 1;
         uint32_t f = sc->patches[p].face;
+        if (pp->leaf_count == 1 && pp->leaves[0].group) {
+            s->group_leaves++;
+            s->grouped_patches += pp->leaves[0].ix * pp->leaves[0].iy;
+        }
         for (uint32_t l = 0; l < pp->leaf_count; l++)
             if (!pp->leaves[l].culled && pp->leaves[l].tau > plan->face_tau[f])
                 plan->face_tau[f] = pp->leaves[l].tau;

@@ -12,9 +12,13 @@
 #include "crisp/trim.h"
 
 typedef struct crisp__cell {
-    uint32_t ix, iy; /* cell in the patch's 2^depth x 2^depth grid of local parameters */
+    uint32_t ix, iy; /* cell in the patch's 2^depth x 2^depth grid of local parameters; for a
+                        group leaf (group > 0): the patch columns and rows of its block */
     uint8_t depth;
     uint8_t culled;   /* outside the frustum (or an unresolvable sliver at the eye plane) */
+    uint8_t group;    /* 0: a cell of its patch; g > 0: a group leaf over the 2^g x 2^g block of the
+                         face's patch grid whose lower-left patch is this tree's (clipped to the
+                         grid: ix x iy patches), depth 0 */
     uint16_t tau;     /* inner level, 1..64 */
     uint32_t edge[4]; /* edge levels: t = 0, s = 1, t = 1, s = 0 (as crisp_tess_levels) */
 } crisp__cell;
@@ -35,6 +39,7 @@ typedef struct crisp__trees_desc {
     double eps_px;   /* screen tolerance of the tessellation; 0: 0.5 px */
     int strip_count; /* n_V per face; 0: the face's tess level times its patch rows, 8..256 */
     int max_depth;   /* patch splits; 0: CRISP_PLAN_MAX_DEPTH */
+    int no_groups;   /* 1: no group leaves (one leaf per visible patch at least) */
 } crisp__trees_desc;
 
 /* A cell that must be split although its own bound does not ask for it (one of its edge levels
@@ -43,21 +48,36 @@ typedef struct crisp__forced {
     uint32_t patch, depth, ix, iy;
 } crisp__forced;
 
-/* Patch groups (patch_groups.c): a per-face hierarchy over the patch grid, walked once per frame
- * to cull whole groups or draw them as single tau-1 leaves per patch. */
+/* Patch groups (patch_groups.c): a per-face quadtree of aligned blocks of the patch grid, walked
+ * once per frame to cull whole blocks or draw them as single group leaves. */
 typedef struct crisp__groups crisp__groups;
-enum { CRISP__PATCH_OPEN = 0, CRISP__PATCH_CULLED = 1, CRISP__PATCH_SMALL = 2 };
+enum {
+    CRISP__PATCH_OPEN = 0,    /* planned by its own quadtree */
+    CRISP__PATCH_CULLED = 1,  /* outside the frustum */
+    CRISP__PATCH_SMALL = 2,   /* one tau-1 leaf */
+    CRISP__PATCH_GROUP = 3,   /* the lower-left patch of a group leaf's block: holds the leaf */
+    CRISP__PATCH_GROUPED = 4, /* another patch of a group leaf's block: no leaf of its own */
+};
+typedef struct crisp__patch_groups {
+    uint8_t *mode;      /* per patch: CRISP__PATCH_* */
+    uint32_t *group_of; /* per patch: the lower-left patch of its group leaf's block, or
+                           UINT32_MAX; NULL: no group leaves */
+    uint8_t *group_g;   /* per patch, where mode is CRISP__PATCH_GROUP: the block's g */
+} crisp__patch_groups;
 crisp_status crisp__groups_create(crisp__groups **dest);
 void crisp__groups_destroy(crisp__groups *g);
-/* mode[p] for every patch of the scene: CRISP__PATCH_* (the hierarchy is rebuilt when the scene
- * changes). gx, gy: the widened frustum's NDC half-extents; eps: pixels. */
+/* out->mode[p] for every patch of the scene, and the group leaves' blocks (the hierarchy is
+ * rebuilt when the scene changes). gx, gy: the widened frustum's NDC half-extents; eps: pixels. */
 crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj,
                                     int width, int height, double gx, double gy, double eps,
-                                    crisp_pool *pool, uint8_t *mode);
+                                    crisp_pool *pool, crisp__patch_groups *out);
 /* 1 when the last classify found face's whole untrimmed surface within eps on screen: every
  * point of it is then within a pixel of its trim curves, so any trim decision is allowed there
  * and the face is planned without trim loops (drawn whole, no table). */
 int crisp__groups_face_small(const crisp__groups *g, uint32_t face);
+/* The screen extent in pixels (largest of x and y) of face's box in the last classify; INFINITY
+ * when it reaches the eye plane or is unknown. */
+double crisp__groups_face_px(const crisp__groups *g, uint32_t face);
 
 #define TREE_CHUNKS 64 /* fixed work ranges of the tree pass, one arena each */
 
@@ -81,6 +101,12 @@ typedef struct crisp__trees {
     crisp_arena *chunk_arenas[TREE_CHUNKS]; /* nodes and leaves of the tree pass's ranges */
     uint8_t *patch_mode;                    /* per patch this frame: CRISP__PATCH_* */
     size_t mode_cap;
+    uint32_t
+        *group_of; /* per patch this frame: lower-left patch of its group leaf, or UINT32_MAX */
+    size_t group_of_cap;
+    uint8_t *group_g; /* per patch this frame (group leaves' lower-left patches): the block's g */
+    size_t group_g_cap;
+    int no_groups; /* 1: no group leaves (crisp__trees_desc.no_groups) */
     crisp_plan_stats stats;
 } crisp__trees;
 

@@ -39,7 +39,10 @@ struct crisp__ribbons {
     crisp_status *wstatus; /* per worker */
     ribbon_job *jobs;
     size_t job_cap;
-    size_t last_used; /* bytes of samples over all workers in the last build */
+    size_t last_used;              /* bytes of samples over all workers in the last build */
+    crisp_raster_vertex **scratch; /* per worker: one job's samples while it is sampled */
+    uint32_t *scratch_cap;
+    uint32_t last_max; /* most samples of one job in the last build */
 };
 
 typedef struct ribbon_ctx {
@@ -56,7 +59,9 @@ crisp_status crisp__ribbons_create(int workers, crisp__ribbons **dest)
     rb->workers = workers;
     rb->arena = calloc((size_t)workers, sizeof *rb->arena);
     rb->wstatus = calloc((size_t)workers, sizeof *rb->wstatus);
-    crisp_status st = rb->arena && rb->wstatus
+    rb->scratch = calloc((size_t)workers, sizeof *rb->scratch);
+    rb->scratch_cap = calloc((size_t)workers, sizeof *rb->scratch_cap);
+    crisp_status st = rb->arena && rb->wstatus && rb->scratch && rb->scratch_cap
                           ? CRISP_OK
                           : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
     for (int w = 0; !st && w < workers; w++)
@@ -77,6 +82,11 @@ void crisp__ribbons_destroy(crisp__ribbons *rb)
             crisp_arena_destroy(rb->arena[w]);
     free(rb->arena);
     free(rb->wstatus);
+    if (rb->scratch)
+        for (int w = 0; w < rb->workers; w++)
+            free(rb->scratch[w]);
+    free(rb->scratch);
+    free(rb->scratch_cap);
     free(rb->jobs);
     free(rb);
 }
@@ -130,10 +140,14 @@ static int segment_may_show(const crisp_raster_vertex *a, const crisp_raster_ver
            fmin(ay, by) - len <= h;
 }
 
+/* A job's samples go to the worker's scratch buffer (kept from frame to frame), then exactly
+ * count of them to the worker's arena: most jobs of a large model far away have a few samples,
+ * and a first chunk of 64 per job in the arena made the ribbons' memory 1 GB for impeller x 49
+ * (issue 12). */
 typedef struct sampler {
-    crisp_arena *arena;
-    crisp_raster_vertex *pts;
-    uint32_t count, cap;
+    crisp_raster_vertex **pts; /* the worker's scratch buffer */
+    uint32_t *cap;
+    uint32_t count;
     const crisp_surface *surf;
     int reversed;
     crisp_mat4 *m;
@@ -143,18 +157,18 @@ typedef struct sampler {
 
 static void emit(sampler *s, const crisp_raster_vertex *v)
 {
-    if (s->count == s->cap) {
-        uint32_t cap = s->cap ? 2 * s->cap : 64;
-        crisp_raster_vertex *n = crisp_arena_alloc(s->arena, cap, sizeof *n);
+    if (s->failed) return;
+    if (s->count == *s->cap) {
+        uint32_t cap = *s->cap ? 2 * *s->cap : 256;
+        crisp_raster_vertex *n = realloc(*s->pts, (size_t)cap * sizeof *n);
         if (!n) {
             s->failed = 1;
             return;
         }
-        if (s->count) memcpy(n, s->pts, s->count * sizeof *n);
-        s->pts = n;
-        s->cap = cap;
+        *s->pts = n;
+        *s->cap = cap;
     }
-    s->pts[s->count++] = *v;
+    (*s->pts)[s->count++] = *v;
 }
 
 /* Samples strictly after a up to and including b, along the uv segment. */
@@ -243,7 +257,8 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
         ribbon_job *job = &c->rb->jobs[j];
         const crisp_scene_face *f = &c->sc->faces[job->face];
         int n = path_points(c, job);
-        sampler s = {.arena = c->rb->arena[worker],
+        sampler s = {.pts = &c->rb->scratch[worker],
+                     .cap = &c->rb->scratch_cap[worker],
                      .surf = f->src->surface,
                      .reversed = f->src->reversed,
                      .m = (crisp_mat4 *)&plan->view_proj,
@@ -275,11 +290,17 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
             }
             a = b;
         }
+        job->pts = NULL;
+        job->count = 0;
+        if (!s.failed && s.count) {
+            job->pts = crisp_arena_alloc(c->rb->arena[worker], s.count, sizeof *job->pts);
+            if (job->pts) memcpy(job->pts, *s.pts, s.count * sizeof *job->pts);
+            s.failed = !job->pts;
+            job->count = job->pts ? s.count : 0;
+        }
         if (s.failed)
             c->rb->wstatus[worker] =
                 crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
-        job->pts = s.pts;
-        job->count = s.count;
     }
 }
 
@@ -362,9 +383,17 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
      * for the whole of the last frame's samples (and a quarter more), so a steady view allocates
      * nothing whoever does the work. */
     size_t want = rb->last_used + rb->last_used / 4;
+    /* Likewise every worker's scratch holds the last build's longest job (and a quarter more). */
+    uint32_t want_pts = rb->last_max + rb->last_max / 4;
     for (int w = 0; w < rb->workers; w++) {
         crisp_arena_reset(rb->arena[w]);
         if (want && (st = crisp_arena_reserve(rb->arena[w], want))) return st;
+        if (want_pts > rb->scratch_cap[w]) {
+            crisp_raster_vertex *n = realloc(rb->scratch[w], (size_t)want_pts * sizeof *n);
+            if (!n) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+            rb->scratch[w] = n;
+            rb->scratch_cap[w] = want_pts;
+        }
         rb->wstatus[w] = CRISP_OK;
     }
     ribbon_ctx c = {rb, trees, sc, NULL};
@@ -374,6 +403,9 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
         if (rb->wstatus[w]) return rb->wstatus[w];
         rb->last_used += crisp_arena_used(rb->arena[w]);
     }
+    rb->last_max = 0;
+    for (size_t j = 0; j < jobs; j++)
+        rb->last_max = rb->jobs[j].count > rb->last_max ? rb->jobs[j].count : rb->last_max;
     /* Lay the quads out face after face. */
     size_t quads = 0;
     for (uint32_t f = f0; f < f1; f++)

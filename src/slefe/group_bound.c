@@ -182,20 +182,24 @@ static crisp_status bound_net(const net *nt, const range *g, double dest[4])
 {
     const crisp_surface *s = nt->s;
     int p = s->degree_u, q = s->degree_v, nu = s->count_u, nv = s->count_v;
-    double *xi = malloc(sizeof(double) * (size_t)(2 * (nu + nv)));
+    /* Scratch on the stack for nets of up to 512 x 512 points (the planner calls this per
+     * frame and allocates nothing in a steady state). */
+    double local[2048];
+    size_t need = (size_t)(2 * (nu + nv));
+    double *xi = need <= 2048 ? local : malloc(sizeof(double) * need);
     if (!xi) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for a group bound");
     double *eta = xi + nu, *adu = eta + nv, *adv = adu + nu;
     greville(s->knots_u, p, nu, xi);
     greville(s->knots_v, q, nv, eta);
     for (int i = 0; i + 1 < nu; i++)
         if (!(xi[i + 1] > xi[i])) {
-            free(xi);
+            if (xi != local) free(xi);
             return crisp_error(CRISP_ERR_NUMERIC,
                                "group bound: coincident Greville abscissae in u at %d", i);
         }
     for (int j = 0; j + 1 < nv; j++)
         if (!(eta[j + 1] > eta[j])) {
-            free(xi);
+            if (xi != local) free(xi);
             return crisp_error(CRISP_ERR_NUMERIC,
                                "group bound: coincident Greville abscissae in v at %d", j);
         }
@@ -250,7 +254,7 @@ static crisp_status bound_net(const net *nt, const range *g, double dest[4])
             }
         dest[c] = (bu + bv) * (1 + 1e-12) + 1e-12 * big;
     }
-    free(xi);
+    if (xi != local) free(xi);
     return CRISP_OK;
 }
 
@@ -283,7 +287,9 @@ crisp_status crisp_slefe_group_screen(const crisp_surface *s, int iu0, int iu1, 
     net_point(&nt, g.i1, g.j0, c10);
     net_point(&nt, g.i0, g.j1, c01);
     net_point(&nt, g.i1, g.j1, c11);
-    double *xi = malloc(sizeof(double) * (size_t)(s->count_u + s->count_v));
+    double local[1024];
+    size_t need = (size_t)(s->count_u + s->count_v);
+    double *xi = need <= 1024 ? local : malloc(sizeof(double) * need);
     if (!xi) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for a group bound");
     double *eta = xi + s->count_u;
     greville(s->knots_u, s->degree_u, s->count_u, xi);
@@ -314,7 +320,7 @@ crisp_status crisp_slefe_group_screen(const crisp_surface *s, int iu0, int iu1, 
                     twist[c] = fmax(twist[c], 0.25 * fabs(a[c] - b10[c] - b01[c] + b11[c]));
             }
         }
-    free(xi);
+    if (xi != local) free(xi);
     for (int c = 0; c < 4; c++)
         quad[c] += 0.25 * fabs(c00[c] - c10[c] - c01[c] + c11[c]);
     /* |X/W - X_L/W_L| <= (eX + |x_L| eW) / (W_L - eW), x_L in the hull of the net's x. */

@@ -235,11 +235,12 @@ static void test_layout(void **state)
             q[k].leaf = (uint32_t)(L - plan->leaves);
             q[k].s = rand() / (double)RAND_MAX;
             q[k].t = rand() / (double)RAND_MAX;
-            const crisp_scene_patch_record *pr = &sc->patch_records[L->patch];
-            double sc2 = ldexp(1, -(int)L->depth);
+            double ls, lt;
+            const crisp_scene_patch_record *pr =
+                &sc->patch_records[crisp_plan_leaf_locate(plan, L, q[k].s, q[k].t, &ls, &lt)];
             q[k].face = L->face;
-            q[k].u = pr->u0 + (L->ix + q[k].s) * sc2 * (pr->u1 - pr->u0);
-            q[k].v = pr->v0 + (L->iy + q[k].t) * sc2 * (pr->v1 - pr->v0);
+            q[k].u = pr->u0 + ls * (pr->u1 - pr->u0);
+            q[k].v = pr->v0 + lt * (pr->v1 - pr->v0);
             if (k % 4 == 0 && plan->crossing_count) {
                 /* exactly on, just left and right of a crossing of the face's table */
                 const crisp_plan_face *f = &plan->faces[L->face];
@@ -273,9 +274,9 @@ static void test_layout(void **state)
             for (int e = 0; e < 4; e++)
                 assert_int_equal(res[k].edge[e], L->edge[e]);
             {
-                double P[3], ps[3], pt[3], sc2 = ldexp(1, -(int)L->depth);
-                crisp_bezier_patch_derivs(&sc->patches[L->patch].bez, (L->ix + q[k].s) * sc2,
-                                          (L->iy + q[k].t) * sc2, P, ps, pt);
+                double P[3], ps[3], pt[3], ls, lt;
+                uint32_t lp = crisp_plan_leaf_locate(plan, L, q[k].s, q[k].t, &ls, &lt);
+                crisp_bezier_patch_derivs(&sc->patches[lp].bez, ls, lt, P, ps, pt);
                 double e = fmax(fabs(P[0] - res[k].point[0]),
                                 fmax(fabs(P[1] - res[k].point[1]), fabs(P[2] - res[k].point[2])));
                 double size = fmax(fabs(P[0]), fmax(fabs(P[1]), fabs(P[2])));

@@ -97,12 +97,15 @@ static void side_segment(const crisp_scene *sc, const crisp_plan_leaf *L, int k,
                          double *a0, double *a1, int *dir)
 {
     const crisp_scene_patch *sp = &sc->patches[L->patch];
-    double sz = ldexp(1.0, -(int)L->depth);
+    double sz = ldexp(1.0, -(int)L->depth), su = sz, sv = sz;
     double s0 = sp->iu + L->ix * sz, t0 = sp->iv + L->iy * sz;
+    if (L->group) { /* a group leaf: a block of patches of the grid */
+        s0 = sp->iu, t0 = sp->iv, su = L->block & 0xffff, sv = L->block >> 16;
+    }
     if (k == 0 || k == 2) {
-        *dir = 0, *fixed = t0 + (k == 2) * sz, *a0 = s0, *a1 = s0 + sz;
+        *dir = 0, *fixed = t0 + (k == 2) * sv, *a0 = s0, *a1 = s0 + su;
     } else {
-        *dir = 1, *fixed = s0 + (k == 1) * sz, *a0 = t0, *a1 = t0 + sz;
+        *dir = 1, *fixed = s0 + (k == 1) * su, *a0 = t0, *a1 = t0 + sv;
     }
 }
 

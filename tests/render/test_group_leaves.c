@@ -1,0 +1,291 @@
+/* Group leaves (include/crisp/plan.h, issue 12): a leaf that spans a block of a face's patch grid.
+ * Checked on long wavy B-spline sheets (polynomial and rational) under random grazing cameras, so
+ * that the far end of a sheet is drawn by group leaves and the near end by single patches:
+ *   - every triangle of every group leaf, tessellated at the leaf's levels with its vertices on
+ *     the surface (crisp_plan_leaf_locate), lies within eps_px of the surface at dense samples
+ *     (the triangle's homogeneous point against the surface point at the same parameters);
+ *   - a group leaf and each leaf that shares a piece of its edges (single patches, cells of
+ *     split patches, other group leaves) place the same vertices there, at the same points
+ *     (within rounding).
+ * The measured tightness (largest sampled distance / eps) is printed. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/plan.h"
+#include "crisp/render.h"
+#include "crisp/tess.h"
+
+static uint64_t rng = 0x9e3779b97f4a7c15ull;
+static double rnd(void)
+{
+    rng ^= rng << 13, rng ^= rng >> 7, rng ^= rng << 17;
+    return (double)(rng >> 11) / 9007199254740992.0;
+}
+
+enum { SU = 96, SV = 16 }; /* knot spans of a sheet */
+
+/* A bicubic sheet of SU x SV spans over [0, 96] x [0, 16] with waves; rational: weights in
+ * [0.7, 1.3] varying smoothly over the net, with a little noise (a homogeneous bound cannot group
+ * patches whose weights jump from point to point). Uniform or random interior knots. */
+static crisp_surface *sheet(int rational, int uniform)
+{
+    int nu = SU + 3, nv = SV + 3;
+    double ku[SU + 7], kv[SV + 7];
+    for (int i = 0; i < nu + 4; i++)
+        ku[i] = i < 4 ? 0 : i >= nu ? 1 : (i - 3 + (uniform ? 0 : 0.4 * (rnd() - 0.5))) / SU;
+    for (int i = 0; i < nv + 4; i++)
+        kv[i] = i < 4 ? 0 : i >= nv ? 1 : (i - 3 + (uniform ? 0 : 0.4 * (rnd() - 0.5))) / SV;
+    double *pts = malloc(sizeof(double) * 3 * (size_t)(nu * nv)),
+           *w = rational ? malloc(sizeof(double) * (size_t)(nu * nv)) : NULL;
+    double a = 1 + 2 * rnd(), b = 0.1 + 0.2 * rnd();
+    for (int j = 0; j < nv; j++)
+        for (int i = 0; i < nu; i++) {
+            double x = 96.0 * i / (nu - 1), y = 16.0 * j / (nv - 1);
+            double *p = pts + 3 * (j * nu + i);
+            p[0] = x, p[1] = y;
+            p[2] = a * sin(0.15 * x) * cos(0.2 * y) + b * sin(0.7 * x + 0.5 * y);
+            if (w) w[j * nu + i] = 1 + 0.3 * sin(0.2 * x + 0.3 * y + 0.5 * rnd());
+        }
+    crisp_surface *s;
+    assert_int_equal(crisp_surface_create(3, 3, nu, nv, ku, kv, pts, w, &s), CRISP_OK);
+    free(pts);
+    free(w);
+    return s;
+}
+
+/* A grazing camera: from beyond the sheet's near end (x < 0), looking along +x, at a random
+ * height and sideways offset, 320x240: patches a few pixels at the near end, fractions of a pixel
+ * at the far end. */
+static crisp_camera random_camera(void)
+{
+    crisp_camera c = {.fov_deg = 30 + 30 * rnd(), .width = 320, .height = 240};
+    c.eye[0] = -20 - 150 * rnd(), c.eye[1] = 8 + 30 * (rnd() - 0.5), c.eye[2] = 5 + 40 * rnd();
+    c.target[0] = 30 + 60 * rnd(), c.target[1] = 8 + 6 * (rnd() - 0.5), c.target[2] = 0;
+    c.up[2] = 1;
+    c.znear = 0.05, c.zfar = 500;
+    return c;
+}
+
+static void project(const crisp_frame_plan *plan, const double h[4], double px[2])
+{
+    px[0] = (h[0] / h[3] + 1) * 0.5 * plan->width;
+    px[1] = (1 - h[1] / h[3]) * 0.5 * plan->height;
+}
+
+/* Homogeneous clip point of leaf L at its local (S, T). */
+static void leaf_clip(const crisp_scene *sc, const crisp_frame_plan *plan, const crisp_plan_leaf *L,
+                      double S, double T, double h[4])
+{
+    double s, t, P[3];
+    uint32_t q = crisp_plan_leaf_locate(plan, L, S, T, &s, &t);
+    crisp_bezier_patch_eval(&sc->patches[q].bez, s, t, P);
+    crisp_mat4_mulp(*(crisp_mat4 *)&plan->view_proj, P, h);
+}
+
+static crisp_tess_levels levels(const crisp_plan_leaf *L)
+{
+    crisp_tess_levels lv = {{(int)L->tau, (int)L->tau}, {0}};
+    for (int k = 0; k < 4; k++)
+        lv.outer[k] = (int)L->edge[k];
+    return lv;
+}
+
+/* Largest screen distance (max of x and y, pixels) between group leaf L's triangles and the
+ * surface, at 10 x 10 barycentric samples per triangle. */
+static double leaf_distance(const crisp_scene *sc, const crisp_frame_plan *plan,
+                            const crisp_plan_leaf *L)
+{
+    crisp_tess_levels lv = levels(L);
+    size_t nv, nt;
+    assert_int_equal(crisp_tess_mesh_counts(&lv, &nv, &nt), CRISP_OK);
+    double *st = malloc(sizeof(double) * 2 * nv), *clip = malloc(sizeof(double) * 4 * nv);
+    uint32_t *tri = malloc(sizeof(uint32_t) * 3 * nt);
+    crisp_tess_mesh_generate(&lv, st, tri, 0);
+    for (size_t k = 0; k < nv; k++)
+        leaf_clip(sc, plan, L, st[2 * k], st[2 * k + 1], clip + 4 * k);
+    double worst = 0;
+    enum { N = 10 };
+    for (size_t k = 0; k < nt; k++)
+        for (int i = 0; i <= N; i++)
+            for (int j = 0; i + j <= N; j++) {
+                double l[3] = {(double)i / N, (double)j / N, (double)(N - i - j) / N};
+                double S = 0, T = 0, h[4] = {0, 0, 0, 0}, g[4], a[2], b[2];
+                for (int c = 0; c < 3; c++) {
+                    uint32_t v = tri[3 * k + c];
+                    S += l[c] * st[2 * v], T += l[c] * st[2 * v + 1];
+                    for (int q = 0; q < 4; q++)
+                        h[q] += l[c] * clip[4 * v + q];
+                }
+                leaf_clip(sc, plan, L, S, T, g);
+                project(plan, h, a);
+                project(plan, g, b);
+                worst = fmax(worst, fmax(fabs(a[0] - b[0]), fabs(a[1] - b[1])));
+            }
+    free(st);
+    free(clip);
+    free(tri);
+    return worst;
+}
+
+/* The leaf's rectangle in the face's grid coordinates (patch column + local s, row + t). */
+static void rect(const crisp_scene *sc, const crisp_plan_leaf *L, double r[4])
+{
+    const crisp_scene_patch *sp = &sc->patches[L->patch];
+    double sz = ldexp(1.0, -(int)L->depth);
+    r[0] = sp->iu + L->ix * sz, r[1] = sp->iv + L->iy * sz, r[2] = r[0] + sz, r[3] = r[1] + sz;
+    if (L->group)
+        r[0] = sp->iu, r[1] = sp->iv, r[2] = r[0] + (L->block & 0xffff),
+        r[3] = r[1] + (L->block >> 16);
+}
+
+/* Leaf-local (S, T) of vertex q of side k at level e. */
+static void side_point(int k, uint32_t q, uint32_t e, double *S, double *T)
+{
+    double x = (double)q / e;
+    if (k == 0) *S = x, *T = 0;
+    if (k == 1) *S = 1, *T = x;
+    if (k == 2) *S = x, *T = 1;
+    if (k == 3) *S = 0, *T = x;
+}
+
+/* For every group leaf A and every leaf B sharing a piece of edge with it: each vertex of either
+ * on the shared piece is a vertex of the other, and both evaluate it to the same point. Returns
+ * the pairs with B not a group leaf. */
+static long check_edges(const crisp_scene *sc, const crisp_frame_plan *plan, double *worst_rel)
+{
+    long mixed = 0;
+    for (uint32_t i = 0; i < plan->leaf_count; i++) {
+        const crisp_plan_leaf *A = &plan->leaves[i];
+        if (!A->group) continue;
+        double ra[4];
+        rect(sc, A, ra);
+        for (uint32_t j = 0; j < plan->leaf_count; j++) {
+            const crisp_plan_leaf *B = &plan->leaves[j];
+            if (i == j || B->face != A->face) continue;
+            double rb[4];
+            rect(sc, B, rb);
+            for (int ka = 0; ka < 4; ka++) {
+                int kb = (ka + 2) % 4, dir = ka & 1;
+                double fa = dir ? (ka == 1 ? ra[2] : ra[0]) : (ka == 2 ? ra[3] : ra[1]);
+                double fb = dir ? (kb == 1 ? rb[2] : rb[0]) : (kb == 2 ? rb[3] : rb[1]);
+                if (fabs(fa - fb) > 1e-12) continue;
+                double a0 = dir ? ra[1] : ra[0], a1 = dir ? ra[3] : ra[2];
+                double b0 = dir ? rb[1] : rb[0], b1 = dir ? rb[3] : rb[2];
+                double lo = fmax(a0, b0), hi = fmin(a1, b1);
+                if (!(hi - lo > 1e-12)) continue;
+                mixed += !B->group;
+                for (int pass = 0; pass < 2; pass++) {
+                    const crisp_plan_leaf *X = pass ? B : A, *Y = pass ? A : B;
+                    int kx = pass ? kb : ka, ky = pass ? ka : kb;
+                    double x0 = pass ? b0 : a0, x1 = pass ? b1 : a1;
+                    double y0 = pass ? a0 : b0, y1 = pass ? a1 : b1;
+                    uint32_t ex = X->edge[kx], ey = Y->edge[ky];
+                    for (uint32_t q = 0; q <= ex; q++) {
+                        double x = x0 + (x1 - x0) * q / ex;
+                        if (x < lo - 1e-12 || x > hi + 1e-12) continue;
+                        double pos = (x - y0) / (y1 - y0) * ey;
+                        if (fabs(pos - round(pos)) > 1e-6)
+                            fail_msg("face %u: leaves %u and %u: vertex %u/%u of side %d not on "
+                                     "the other's side (%g of %u)",
+                                     A->face, (unsigned)(X - plan->leaves),
+                                     (unsigned)(Y - plan->leaves), q, ex, kx, pos, ey);
+                        double S, T, hx[4], hy[4];
+                        side_point(kx, q, ex, &S, &T);
+                        leaf_clip(sc, plan, X, S, T, hx);
+                        side_point(ky, (uint32_t)round(pos), ey, &S, &T);
+                        leaf_clip(sc, plan, Y, S, T, hy);
+                        double d = 0, m = 0;
+                        for (int c = 0; c < 4; c++)
+                            d = fmax(d, fabs(hx[c] - hy[c])), m = fmax(m, fabs(hx[c]));
+                        *worst_rel = fmax(*worst_rel, d / m);
+                        if (d > 1e-9 * m)
+                            fail_msg("face %u: leaves %u and %u share vertex %u/%u of side %d at "
+                                     "different points (%g apart)",
+                                     A->face, (unsigned)(X - plan->leaves),
+                                     (unsigned)(Y - plan->leaves), q, ex, kx, d);
+                    }
+                }
+            }
+        }
+    }
+    return mixed;
+}
+
+static void run(int rational, int uniform, int cameras)
+{
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    crisp_face f = {.surface = sheet(rational, uniform), .source_id = 1};
+    assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_planner *pl;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    long groups = 0, mixed = 0, patches_in_groups = 0;
+    double worst = 0, worst_rel = 0;
+    for (int c = 0; c < cameras; c++) {
+        crisp_camera cam = random_camera();
+        const crisp_frame_plan *plan;
+        assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
+        for (uint32_t l = 0; l < plan->leaf_count; l++) {
+            const crisp_plan_leaf *L = &plan->leaves[l];
+            if (!L->group) continue;
+            groups++;
+            patches_in_groups += (L->block & 0xffff) * (L->block >> 16);
+            double d = leaf_distance(sc, plan, L);
+            worst = fmax(worst, d);
+            if (d > plan->eps_px)
+                fail_msg("camera %d: group leaf %u (g %u, %u x %u patches, levels %u / %u %u %u "
+                         "%u): %g px from the surface",
+                         c, l, L->group, L->block & 0xffff, L->block >> 16, L->tau, L->edge[0],
+                         L->edge[1], L->edge[2], L->edge[3], d);
+        }
+        mixed += check_edges(sc, plan, &worst_rel);
+    }
+    printf("%s, %s knots, %d cameras: %ld group leaves (%ld patches), largest distance %.3f px "
+           "(tightness %.2f of 0.5 px); %ld group / single-leaf edges, vertices equal to %.1e\n",
+           rational ? "rational" : "polynomial", uniform ? "uniform" : "random", cameras, groups,
+           patches_in_groups, worst, worst / 0.5, mixed, worst_rel);
+    /* The test means something: group leaves were made and met single-patch leaves. */
+    assert_true(groups >= cameras);
+    assert_true(mixed >= cameras);
+    crisp_planner_destroy(pl);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
+static void test_polynomial_uniform(void **state)
+{
+    (void)state;
+    run(0, 1, 12);
+}
+
+static void test_polynomial_random_knots(void **state)
+{
+    (void)state;
+    run(0, 0, 12);
+}
+
+static void test_rational(void **state)
+{
+    (void)state;
+    run(1, 0, 12);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_polynomial_uniform),
+        cmocka_unit_test(test_polynomial_random_knots),
+        cmocka_unit_test(test_rational),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
