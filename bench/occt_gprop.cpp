@@ -1,8 +1,8 @@
 // Issue 14, optional: Open CASCADE's BRepGProp on the bundled models, beside `crisp mass` (one-off
 // measurement, not built by CMake; Debian 12 packages libocct-*-dev):
-//   g++ -O2 -I/usr/include/opencascade bench/occt_gprop.cpp -o /tmp/occt_gprop -lTKSTEP -lTKIGES \
+//   g++ -O2 -I/usr/include/opencascade bench/occt_gprop.cpp -o /tmp/occt_gprop -lTKSTEP -lTKIGES
 //       -lTKXSBase -lTKTopAlgo -lTKGeomAlgo -lTKBRep -lTKGeomBase -lTKG3d -lTKG2d -lTKMath
-//       -lTKernel \ -lTKShHealing -lTKSTEPBase -lTKSTEPAttr -lTKSTEP209
+//       -lTKernel -lTKShHealing -lTKSTEPBase -lTKSTEPAttr -lTKSTEP209      (one line)
 //   [EPS=1e-13] /tmp/occt_gprop data/nurbs/occt_trj9_io1.stp   (EPS: the adaptive volume's
 //   tolerance, default 1e-9; at 1e-9 its inertia can be 1e-8 off its converged value)
 #include <BRepGProp.hxx>
