@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "crisp/cells.h"
 #include "crisp/frep.h"
 #include "crisp/frep_mass.h"
 #include "crisp/frep_mesh.h"
@@ -47,6 +48,8 @@ static const char usage_render[] =
     "      --no-batch        no batched intervals (for measuring them) [off]\n"
     "      --no-subcells     no sub-cell intervals (for measuring them) [off]\n"
     "      --brute           evaluate every sample (reference) [off]\n"
+    "      --tile I/N        render tile I of N of the image (same pixels as the whole image;\n"
+    "                        written with a cell header for crisp merge) [whole image]\n"
     "  -h, --help            print this help and exit\n"
     "  Exit status: 0 success, 1 bad input or failure, 2 bad usage.\n";
 
@@ -60,6 +63,8 @@ static const char usage_mesh[] =
     "  -o, --output OUT      .stl (binary), .obj or .ply (binary) [required]\n"
     "      --resolution N    grid cells along the region's longest side, 4..1048574 [128]\n"
     "      --cell SIZE       the grid cell's edge instead, > 0 [from --resolution]\n"
+    "      --cell I/N        mesh octant I of N = 8^k only, written to -o CELL.cmesh for\n"
+    "                        crisp merge, which welds the cells [whole mesh]\n"
     "      --region x0,x1,y0,y1,z0,z1\n"
     "                        the region meshed [the part's box by interval subdivision]\n"
     "      --max-memory MB   the mesher's edge table limit in MB, >= 1 [8192]\n"
@@ -85,6 +90,9 @@ static const char usage_mass[] =
     "      --seed N          sampling seed, 0..2147483647 [1]\n"
     "      --region x0,x1,y0,y1,z0,z1\n"
     "                        the region measured [the part's box, padded 2%]\n"
+    "      --cell I/N        measure octant I of N = 8^k only at --level L (default 7),\n"
+    "                        partial sums written to -o CELL for crisp merge [whole region]\n"
+    "  -o, --output CELL     the cell file (with --cell only)\n"
     "  -h, --help            print this help and exit\n"
     "  Exit status: 0 success, 1 bad input or failure, 2 bad usage.\n";
 
@@ -229,7 +237,8 @@ enum {
     OPT_TIME,
     OPT_PREDICT,
     OPT_LEVEL,
-    OPT_SEED
+    OPT_SEED,
+    OPT_TILE
 };
 
 /* argv[0] is the subcommand; getopt_long from argv[1]. */
@@ -237,6 +246,101 @@ static void getopt_start(void)
 {
     optind = 0; /* GNU getopt: start afresh */
     opterr = 0;
+}
+
+/* ---- mesh cells (issue 15): octants of the mesher's octree, welded by crisp merge -------- */
+
+typedef struct mesh_mem {
+    float *p;
+    uint32_t *t;
+    size_t nv, nt, cv, ct;
+} mesh_mem;
+
+static crisp_status mem_vertex(void *ctx, const float p[3])
+{
+    mesh_mem *m = ctx;
+    if (m->nv == m->cv) {
+        size_t c = m->cv ? 2 * m->cv : 4096;
+        float *q = realloc(m->p, c * 3 * sizeof *q);
+        if (!q) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the mesh cell");
+        m->p = q, m->cv = c;
+    }
+    memcpy(m->p + 3 * m->nv++, p, 3 * sizeof *p);
+    return CRISP_OK;
+}
+
+static crisp_status mem_triangle(void *ctx, const uint32_t v[3], const float p[3][3])
+{
+    (void)p;
+    mesh_mem *m = ctx;
+    if (m->nt == m->ct) {
+        size_t c = m->ct ? 2 * m->ct : 4096;
+        uint32_t *q = realloc(m->t, c * 3 * sizeof *q);
+        if (!q) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the mesh cell");
+        m->t = q, m->ct = c;
+    }
+    memcpy(m->t + 3 * m->nt++, v, 3 * sizeof *v);
+    return CRISP_OK;
+}
+
+/* The cell's data: "CRISPMSH", vertex and triangle counts (uint64), the vertices (3 floats),
+ * the triangles (3 uint32), little-endian as the machine (crisp merge checks the magic). */
+static crisp_status mesh_cell_write(void *ctx, const char *tmp)
+{
+    const mesh_mem *m = ctx;
+    FILE *f = fopen(tmp, "wb");
+    if (!f) return crisp_error(CRISP_ERR_IO, "%s: cannot write", tmp);
+    uint64_t n[2] = {m->nv, m->nt};
+    int ok = fwrite("CRISPMSH", 1, 8, f) == 8 && fwrite(n, sizeof n, 1, f) == 1 &&
+             fwrite(m->p, 3 * sizeof(float), m->nv, f) == m->nv &&
+             fwrite(m->t, 3 * sizeof(uint32_t), m->nt, f) == m->nt;
+    if (fclose(f) || !ok) return crisp_error(CRISP_ERR_IO, "%s: cannot write", tmp);
+    return CRISP_OK;
+}
+
+static int mesh_cell(const crisp_frep_tape *tape, crisp_frep_mesh_desc *desc,
+                     const crisp_cell_spec *cell, const char *file, const char *expr,
+                     const char *out)
+{
+    if (cell->cols) {
+        fprintf(stderr, "crisp frep mesh: --cell I/N: N is a power of 8 (no grid)\n");
+        return 2;
+    }
+    desc->split_cell[0] = cell->index, desc->split_cell[1] = cell->count;
+    mesh_mem m = {0};
+    crisp_frep_mesh_sink sink = {.ctx = &m, .vertex = mem_vertex, .triangle = mem_triangle};
+    crisp_frep_mesh_stats st;
+    crisp_status s = crisp_frep_mesh(tape, desc, &sink, &st);
+    crisp_cell_header *h = calloc(1, sizeof *h);
+    if (!s && !h) s = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+    if (!s) {
+        snprintf(h->kind, sizeof h->kind, "mesh");
+        snprintf(h->settings, sizeof h->settings,
+                 "frep-mesh region=%.17g,%.17g,%.17g,%.17g,%.17g,%.17g cell=%.17g features=%d "
+                 "cells=%d",
+                 st.region[0], st.region[1], st.region[2], st.region[3], st.region[4], st.region[5],
+                 st.cell, !desc->no_features, cell->count);
+        if (expr) {
+            h->job = crisp_hash_bytes(CRISP_HASH_SEED, expr, strlen(expr));
+            h->job = crisp_hash_bytes(h->job, h->settings, strlen(h->settings));
+        } else {
+            s = crisp_cell_job_id(file, h->settings, &h->job);
+        }
+        h->cell = *cell;
+        crisp_cell_header_add_sum(h, "vertices", (double)m.nv);
+        crisp_cell_header_add_sum(h, "triangles", (double)m.nt);
+        crisp_cell_header_add_sum(h, "thin_cubes", (double)st.thin_cubes);
+    }
+    if (!s) s = crisp_cell_commit(out, h, mesh_cell_write, &m);
+    if (s)
+        fprintf(stderr, "crisp frep mesh: %s\n", crisp_error_message());
+    else
+        printf("%s: cell %d of %d: %zu vertices, %zu triangles\n", out, cell->index, cell->count,
+               m.nv, m.nt);
+    free(h);
+    free(m.p);
+    free(m.t);
+    return s ? 1 : 0;
 }
 
 static int cmd_mesh(int argc, char **argv)
@@ -253,7 +357,8 @@ static int cmd_mesh(int argc, char **argv)
                                          {0, 0, 0, 0}};
     const char *file = NULL, *expr = NULL, *out = NULL;
     crisp_frep_mesh_desc desc = {0};
-    int stats = 0, c;
+    int stats = 0, c, celled = 0;
+    crisp_cell_spec cell = {0};
     getopt_start();
     while ((c = getopt_long(argc, argv, ":e:o:h", opts, NULL)) != -1) {
         switch (c) {
@@ -267,7 +372,15 @@ static int cmd_mesh(int argc, char **argv)
             if (!cli_int("--resolution", optarg, 4, (1 << 20) - 2, &desc.resolution)) return 2;
             break;
         case OPT_CELL:
-            if (!cli_double("--cell", optarg, 0, INFINITY, 1, 1, &desc.cell)) return 2;
+            if (strchr(optarg, '/')) { /* --cell I/N: one octant of the mesh */
+                if (crisp_cell_parse(optarg, &cell)) {
+                    fprintf(stderr, "crisp frep mesh: --cell: %s\n", crisp_error_message());
+                    return 2;
+                }
+                celled = 1;
+            } else if (!cli_double("--cell", optarg, 0, INFINITY, 1, 1, &desc.cell)) {
+                return 2;
+            }
             break;
         case OPT_REGION:
             if (!parse_region(optarg, 0, desc.region)) return 2;
@@ -294,7 +407,7 @@ static int cmd_mesh(int argc, char **argv)
         fprintf(stderr, "crisp frep mesh: no output given (-o out.stl, out.obj or out.ply)\n");
         return 2;
     }
-    if (!ends_with(out, ".stl") && !ends_with(out, ".obj") && !ends_with(out, ".ply")) {
+    if (!celled && !ends_with(out, ".stl") && !ends_with(out, ".obj") && !ends_with(out, ".ply")) {
         fprintf(stderr, "crisp frep mesh: -o %s: expected a name ending in .stl, .obj or .ply\n",
                 out);
         return 2;
@@ -306,6 +419,13 @@ static int cmd_mesh(int argc, char **argv)
     crisp_frep_mesh_stats st;
     double t0 = crisp_time_now();
     crisp_status s = load_model(file, expr, &f, &tape);
+    if (celled) {
+        int rc = s ? 1 : mesh_cell(tape, &desc, &cell, file, expr, out);
+        if (s) fprintf(stderr, "crisp frep mesh: %s\n", crisp_error_message());
+        crisp_frep_tape_destroy(tape);
+        crisp_frep_destroy(f);
+        return rc;
+    }
     if (!s) s = crisp_frep_mesh_writer_open(out, &w, &sink);
     if (!s) s = crisp_frep_mesh(tape, &desc, &sink, &st);
     crisp_status s2 = crisp_frep_mesh_writer_close(w);
@@ -412,6 +532,135 @@ static crisp_status mass_level(const crisp_frep_tape *tape, const crisp_frep_mas
     return s;
 }
 
+/* ---- mass cells (issue 15): octants of the region's octree ------------------------------ */
+
+/* Cell I of N = 8^k: the octant path of I's base-8 digits (most significant first; digit bits x,
+ * y, z) through k halvings of the region, measured at level - k, so that its octree cells are
+ * the whole run's at `level`. Its sums (volume, first and raw second moments about the whole
+ * region's centre, their variances, the certified bounds) go to a cell file for crisp merge. */
+static int frep_mass_cell(const crisp_frep_tape *tape, const double region[6], int level,
+                          uint64_t seed, const crisp_cell_spec *cell, const char *file,
+                          const char *expr, const char *out)
+{
+    int k = 0;
+    long n = 1;
+    while (n < cell->count)
+        n *= 8, k++;
+    if (n != cell->count || cell->cols) {
+        fprintf(stderr,
+                "crisp frep mass: --cell %d/%d: the number of cells must be a power of 8 (1, 8, "
+                "64, 512, ...): cells are octants of the region's octree\n",
+                cell->index, cell->count);
+        return 2;
+    }
+    if (level - k < 1) {
+        fprintf(stderr, "crisp frep mass: --level %d is too coarse for %d cells (at least %d)\n",
+                level, cell->count, k + 1);
+        return 2;
+    }
+    long ix[3] = {0, 0, 0};
+    for (int d = 0; d < k; d++) {
+        int o = (cell->index >> (3 * (k - 1 - d))) & 7;
+        for (int a = 0; a < 3; a++)
+            ix[a] = 2 * ix[a] + ((o >> a) & 1);
+    }
+    crisp_frep_mass_desc d = {.level = level - k, .seed = seed * 1000003u + (uint64_t)cell->index};
+    double ref[3], span = (double)(1L << (level - k));
+    for (int a = 0; a < 3; a++) {
+        double w = (region[2 * a + 1] - region[2 * a]) / (double)(1L << level);
+        d.region[2 * a] = region[2 * a] + (double)ix[a] * span * w;
+        d.region[2 * a + 1] = ix[a] + 1 == (1L << k)
+                                  ? region[2 * a + 1]
+                                  : region[2 * a] + (double)(ix[a] + 1) * span * w;
+        ref[a] = 0.5 * (region[2 * a] + region[2 * a + 1]);
+    }
+    crisp_frep_mass r;
+    crisp_status s = crisp_frep_mass_level(tape, &d, &r);
+    int empty = s == CRISP_ERR_NUMERIC && !(r.volume > 0) && r.inside_cells == 0;
+    if (s && !r.cut_cells && !empty) {
+        fprintf(stderr, "crisp frep mass: cell %d: %s\n", cell->index, crisp_error_message());
+        return 1;
+    }
+    crisp_error_clear();
+    crisp_cell_header *h = calloc(1, sizeof *h);
+    if (!h) return 1;
+    snprintf(h->kind, sizeof h->kind, "frep-mass");
+    snprintf(h->settings, sizeof h->settings,
+             "frep-mass level=%d region=%.17g,%.17g,%.17g,%.17g,%.17g,%.17g seed=%llu cells=%d",
+             level, region[0], region[1], region[2], region[3], region[4], region[5],
+             (unsigned long long)seed, cell->count);
+    if (expr) {
+        h->job = crisp_hash_bytes(CRISP_HASH_SEED, expr, strlen(expr));
+        h->job = crisp_hash_bytes(h->job, h->settings, strlen(h->settings));
+    } else if (crisp_cell_job_id(file, h->settings, &h->job)) {
+        fprintf(stderr, "crisp frep mass: %s\n", crisp_error_message());
+        free(h);
+        return 1;
+    }
+    h->cell = *cell;
+    /* raw moments about ref from the centroid and the central moments (Ixx = Cyy + Czz,
+     * Ixy = -Cxy); variances from the standard errors (delta method, correlations dropped) */
+    double V = empty ? 0 : r.volume, c[3], sv = empty ? 0 : r.volume_se;
+    for (int a = 0; a < 3; a++)
+        c[a] = empty ? 0 : r.centroid[a] - ref[a];
+    const double *I = r.inertia, *se = r.inertia_se;
+    double C[6] = {0.5 * (I[1] + I[2] - I[0]),
+                   0.5 * (I[0] + I[2] - I[1]),
+                   0.5 * (I[0] + I[1] - I[2]),
+                   -I[3],
+                   -I[4],
+                   -I[5]};
+    double vC[6] = {0.25 * (se[0] * se[0] + se[1] * se[1] + se[2] * se[2]),
+                    0.25 * (se[0] * se[0] + se[1] * se[1] + se[2] * se[2]),
+                    0.25 * (se[0] * se[0] + se[1] * se[1] + se[2] * se[2]),
+                    se[3] * se[3],
+                    se[4] * se[4],
+                    se[5] * se[5]};
+    static const int pa[6] = {0, 1, 2, 0, 1, 0}, pb[6] = {0, 1, 2, 1, 2, 2};
+    crisp_cell_header_add_sum(h, "V", V);
+    crisp_cell_header_add_sum(h, "var_V", sv * sv);
+    static const char *const mk[3] = {"Mx", "My", "Mz"};
+    char name[32];
+    for (int a = 0; a < 3; a++) {
+        double sc = empty ? 0 : r.centroid_se[a];
+        crisp_cell_header_add_sum(h, mk[a], V * c[a]);
+        snprintf(name, sizeof name, "var_%s", mk[a]);
+        crisp_cell_header_add_sum(h, name, V * V * sc * sc + c[a] * c[a] * sv * sv);
+    }
+    static const char *const sk[6] = {"Sxx", "Syy", "Szz", "Sxy", "Syz", "Sxz"};
+    for (int q = 0; q < 6; q++) {
+        int a = pa[q], b = pb[q];
+        double S = empty ? 0 : C[q] + V * c[a] * c[b];
+        double sa = empty ? 0 : r.centroid_se[a], sb = empty ? 0 : r.centroid_se[b];
+        double var = empty ? 0
+                           : vC[q] + c[a] * c[a] * c[b] * c[b] * sv * sv +
+                                 V * V * (c[b] * c[b] * sa * sa + c[a] * c[a] * sb * sb);
+        crisp_cell_header_add_sum(h, sk[q], S);
+        snprintf(name, sizeof name, "var_%s", sk[q]);
+        crisp_cell_header_add_sum(h, name, var);
+    }
+    crisp_cell_header_add_sum(h, "lo", r.volume_lo);
+    crisp_cell_header_add_sum(h, "hi", r.volume_hi);
+    crisp_cell_header_add_sum(h, "boundary_cells", (double)r.boundary_cells);
+    crisp_cell_header_add_sum(h, "samples", (double)r.samples);
+    crisp_cell_header_add_sum(h, "seconds", r.seconds);
+    for (int a = 0; a < 3; a++) {
+        snprintf(name, sizeof name, "ref%d", a);
+        crisp_cell_header_add_sum(h, name, ref[a]);
+    }
+    crisp_status ws = crisp_cell_header_write(out, h);
+    free(h);
+    if (ws) {
+        fprintf(stderr, "crisp frep mass: %s\n", crisp_error_message());
+        return 1;
+    }
+    printf("%s: cell %d of %d (level %d of [%g, %g] x [%g, %g] x [%g, %g]): volume %.10g +- "
+           "%.2g, bounds [%.10g, %.10g], %.3f s\n",
+           out, cell->index, cell->count, d.level, d.region[0], d.region[1], d.region[2],
+           d.region[3], d.region[4], d.region[5], V, sv, r.volume_lo, r.volume_hi, r.seconds);
+    return 0;
+}
+
 static int cmd_mass(int argc, char **argv)
 {
     static const struct option opts[] = {{"expr", required_argument, 0, 'e'},
@@ -421,17 +670,31 @@ static int cmd_mass(int argc, char **argv)
                                          {"level", required_argument, 0, OPT_LEVEL},
                                          {"seed", required_argument, 0, OPT_SEED},
                                          {"region", required_argument, 0, OPT_REGION},
+                                         {"cell", required_argument, 0, OPT_CELL},
+                                         {"output", required_argument, 0, 'o'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
-    const char *file = NULL, *expr = NULL;
+    const char *file = NULL, *expr = NULL, *cell_out = NULL;
+    crisp_cell_spec cell = {0};
+    int celled = 0;
     double accuracy = 0, time_limit = 0;
     int predict = 0, level = 0, seed = 1, c, warned = 0;
     crisp_frep_mass_desc desc = {0};
     getopt_start();
-    while ((c = getopt_long(argc, argv, ":e:h", opts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":e:o:h", opts, NULL)) != -1) {
         switch (c) {
         case 'e':
             expr = optarg;
+            break;
+        case 'o':
+            cell_out = optarg;
+            break;
+        case OPT_CELL:
+            if (crisp_cell_parse(optarg, &cell)) {
+                fprintf(stderr, "crisp frep mass: --cell: %s\n", crisp_error_message());
+                return 2;
+            }
+            celled = 1;
             break;
         case OPT_ACCURACY:
             if (!cli_double("--accuracy", optarg, 1e-12, 1, 0, 0, &accuracy)) return 2;
@@ -469,6 +732,10 @@ static int cmd_mass(int argc, char **argv)
         fprintf(stderr, "crisp frep mass: --accuracy and --time both pick the level: give one\n");
         return 2;
     }
+    if (celled != (cell_out != NULL)) {
+        fprintf(stderr, "crisp frep mass: --cell and -o go together (-o names the cell file)\n");
+        return 2;
+    }
     if (!accuracy && !time_limit && !level) accuracy = 1e-3;
     crisp_frep *f = NULL;
     crisp_frep_tape *tape = NULL;
@@ -484,6 +751,12 @@ static int cmd_mass(int argc, char **argv)
         s = crisp_frep_mass_level(tape, &desc, &first);
         if (s && !first.cut_cells) goto fail;
         memcpy(desc.region, first.region, sizeof desc.region);
+    }
+    crisp_error_clear();
+    if (celled) {
+        rc = frep_mass_cell(tape, desc.region, level ? (int)level : 7, desc.seed, &cell, file, expr,
+                            cell_out);
+        goto done;
     }
     /* coarse levels (Clark: the cost and the error of a level predict the next ones) */
     crisp_frep_mass lv[21];
@@ -584,6 +857,75 @@ done:
     return rc;
 }
 
+/* ---- tiles (issue 15): --tile I/N renders one tile of the image, written with its header -- */
+
+typedef struct frep_tile_out {
+    const crisp_frep_image *img;
+    int is3d, exr;
+} frep_tile_out;
+
+static crisp_status frep_tile_write(void *ctx, const char *tmp)
+{
+    const frep_tile_out *t = ctx;
+    const crisp_frep_image *img = t->img;
+    size_t npix = (size_t)img->width * (size_t)img->height;
+    crisp_status s;
+    if (!t->exr) {
+        if (!t->is3d) return crisp_write_png_gray(tmp, img->width, img->height, img->inside);
+        uint8_t *shade = malloc(npix);
+        if (!shade) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+        crisp_frep_shade(img, shade);
+        s = crisp_write_png_gray(tmp, img->width, img->height, shade);
+        free(shade);
+        return s;
+    }
+    float *buf = malloc(npix * 4 * sizeof *buf);
+    if (!buf) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+    for (size_t p = 0; p < npix; p++) {
+        buf[4 * p] = t->is3d ? img->z[p] : (img->inside[p] ? 0.0f : -INFINITY);
+        for (int c = 0; c < 3; c++)
+            buf[4 * p + 1 + (size_t)c] = t->is3d ? img->normal[3 * p + (size_t)c] : 0;
+    }
+    const char *names[4] = {"Z", "N.x", "N.y", "N.z"};
+    s = crisp_write_exr(tmp, img->width, img->height, 4, names, buf);
+    free(buf);
+    return s;
+}
+
+/* The tile's PNG and EXR, each with its header: the job is the input (file, or the -e string)
+ * and every setting that changes a pixel. */
+static int frep_write_tiles(const char *file, const char *expr, const crisp_frep_render_desc *d,
+                            const crisp_cell_spec *tile, const crisp_frep_image *img,
+                            const char *out, const char *depth_out)
+{
+    crisp_cell_header *h = calloc(1, sizeof *h);
+    if (!h) return 1;
+    snprintf(h->kind, sizeof h->kind, "image");
+    const double *g = d->region;
+    snprintf(h->settings, sizeof h->settings,
+             "frep-render size=%dx%d depth=%d region=%.17g,%.17g,%.17g,%.17g,%.17g,%.17g "
+             "flags=%u grid=%dx%d",
+             d->width, d->height, d->depth, g[0], g[1], g[2], g[3], g[4], g[5], d->flags,
+             tile->cols, tile->rows);
+    crisp_status s = CRISP_OK;
+    if (expr) {
+        h->job = crisp_hash_bytes(CRISP_HASH_SEED, expr, strlen(expr));
+        h->job = crisp_hash_bytes(h->job, h->settings, strlen(h->settings));
+    } else {
+        s = crisp_cell_job_id(file, h->settings, &h->job);
+    }
+    h->cell = *tile;
+    memcpy(h->rect, d->window, sizeof d->window);
+    h->rect[4] = d->width, h->rect[5] = d->height;
+    frep_tile_out t = {img, d->depth > 0, 0};
+    if (!s && out) s = crisp_cell_commit(out, h, frep_tile_write, &t);
+    t.exr = 1;
+    if (!s && depth_out) s = crisp_cell_commit(depth_out, h, frep_tile_write, &t);
+    free(h);
+    if (s) fprintf(stderr, "crisp frep: %s\n", crisp_error_message());
+    return s ? 1 : 0;
+}
+
 static int cmd_render(int argc, char **argv, int bench);
 
 int crisp_cmd_frep(int argc, char **argv)
@@ -634,11 +976,13 @@ static int cmd_render(int argc, char **argv, int bench)
                                          {"no-batch", no_argument, 0, OPT_NO_BATCH},
                                          {"no-subcells", no_argument, 0, OPT_NO_SUBCELLS},
                                          {"brute", no_argument, 0, OPT_BRUTE},
+                                         {"tile", required_argument, 0, OPT_TILE},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
     const char *file = NULL, *expr = NULL, *out = NULL, *depth_out = NULL;
     crisp_frep_render_desc desc = {.width = 1024, .height = 1024};
-    int is3d = 0, depth = 0, stats = 0, runs = 20, region_given = 0, c;
+    int is3d = 0, depth = 0, stats = 0, runs = 20, region_given = 0, c, tiled = 0;
+    crisp_cell_spec tile = {0};
     getopt_start();
     while ((c = getopt_long(argc, argv, ":e:o:h", opts, NULL)) != -1) {
         switch (c) {
@@ -690,6 +1034,13 @@ static int cmd_render(int argc, char **argv, int bench)
         case OPT_BRUTE:
             desc.flags |= CRISP_FREP_BRUTE;
             break;
+        case OPT_TILE:
+            if (crisp_cell_parse(optarg, &tile)) {
+                fprintf(stderr, "crisp frep: --tile: %s\n", crisp_error_message());
+                return 2;
+            }
+            tiled = 1;
+            break;
         case 'h':
             fputs(usage_render, stdout);
             return 0;
@@ -710,6 +1061,10 @@ static int cmd_render(int argc, char **argv, int bench)
     }
     if (depth && !is3d) {
         fprintf(stderr, "crisp %s: --depth %d needs --3d\n", cli_cmd, depth);
+        return 2;
+    }
+    if (tiled && crisp_tile_grid(desc.width, desc.height, &tile)) {
+        fprintf(stderr, "crisp frep: --tile: %s\n", crisp_error_message());
         return 2;
     }
     if (is3d)
@@ -737,6 +1092,7 @@ static int cmd_render(int argc, char **argv, int bench)
             s = crisp_frep_read_math(file, &f);
         if (!s) s = crisp_frep_tape_create(f, &tape);
         if (!s && !region_given && n == 0) s = fit_region(tape, is3d, &desc);
+        if (!s && tiled) crisp_tile_rect(desc.width, desc.height, &tile, desc.window);
         if (!s) s = crisp_frep_renderer_create(tape, &desc, &r);
         if (s) {
             fprintf(stderr, "crisp %s: %s\n", cli_cmd, crisp_error_message());
@@ -789,6 +1145,10 @@ static int cmd_render(int argc, char **argv, int bench)
                    crisp_frep_tape_registers(tape), st.intervals, st.filled, st.leaves,
                    st.leaves ? (double)st.tape_sum / st.leaves : 0.0, st.points, st.culled, inside,
                    npix, 1000 * render[0], 1000 * setup[0]);
+    }
+    if (tiled) {
+        rc = frep_write_tiles(file, expr, &desc, &tile, img, out, depth_out);
+        goto done;
     }
     if (out) {
         crisp_status s;

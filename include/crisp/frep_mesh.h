@@ -37,6 +37,12 @@ typedef struct crisp_frep_mesh_desc {
     double max_megabytes; /* the edge table's limit (it holds the walk's front); 0: 8192 */
     int no_features;      /* 1: no feature points (plain marching tetrahedra) */
     int no_tips;          /* 1: cell points stay inside their own tetrahedron (for measuring) */
+    /* index, count (count = 8^k): mesh only the octree's cell `index` of its 8^k cells k levels
+     * below the root (octant digits of index, most significant first; bits x, y, z). The
+     * cells' meshes are the whole mesh's pieces, vertex for vertex: a vertex on a face between
+     * cells is the same point in both (issue 15: split jobs, welded by crisp merge). 0, 0: the
+     * whole region. CRISP_ERR_INVALID_ARG when the octree has fewer than k levels. */
+    int split_cell[2];
 } crisp_frep_mesh_desc;
 
 /* Receives the mesh as it is made: vertices numbered from 0 in the order given, each triangle

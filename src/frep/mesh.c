@@ -65,6 +65,7 @@ typedef struct mesher {
     float *gregs;          /* registers x 4 x FREP_LANES */
     int features;          /* fans through a feature point where the normals disagree */
     int no_tips;           /* cell points stay in their tetrahedron */
+    int cell_lo[3], cell_hi[3]; /* desc->split_cell: the blocks meshed (grid cube indices) */
     edge_entry *table;
     size_t tcount, tcap, max_bytes;
     size_t table_peak;  /* bytes */
@@ -958,6 +959,10 @@ static crisp_status walk(mesher *m, frep_span t, const int i0[3], int size, int 
     int c = size / 2;
     for (int q = 0; q < 8; q++) {
         int ci[3] = {i0[0] + (q & 1) * c, i0[1] + ((q >> 1) & 1) * c, i0[2] + (q >> 2) * c};
+        /* a cell of a split job: only the nodes over its blocks */
+        if (ci[0] >= m->cell_hi[0] || ci[0] + c <= m->cell_lo[0] || ci[1] >= m->cell_hi[1] ||
+            ci[1] + c <= m->cell_lo[1] || ci[2] >= m->cell_hi[2] || ci[2] + c <= m->cell_lo[2])
+            continue;
         crisp_status s = walk(m, ct, ci, c, depth + 1);
         if (s) return s;
     }
@@ -1016,6 +1021,35 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     m.n = B;
     while (m.n < need)
         m.n *= 2, levels++;
+    for (int a = 0; a < 3; a++)
+        m.cell_lo[a] = 0, m.cell_hi[a] = m.n;
+    if (desc->split_cell[1] > 1) {
+        /* cell I of 8^k: along each axis the grid's cubes [0, need) in 2^k runs of whole blocks;
+         * I's base-8 digits (most significant first) give one bit per axis per halving */
+        long n8 = 1;
+        int k = 0;
+        while (n8 < desc->split_cell[1])
+            n8 *= 8, k++;
+        int parts = 1 << k, ix[3] = {0, 0, 0};
+        if (n8 != desc->split_cell[1] || desc->split_cell[0] < 0 ||
+            desc->split_cell[0] >= desc->split_cell[1] || need < B * parts)
+            return crisp_error(CRISP_ERR_INVALID_ARG,
+                               "crisp_frep_mesh: cell %d of %d: expected a power of 8 cells, of "
+                               "at least %d grid cubes a side (the grid has %d)",
+                               desc->split_cell[0], desc->split_cell[1], B, need);
+        for (int d = 0; d < k; d++) {
+            int o = (desc->split_cell[0] >> (3 * (k - 1 - d))) & 7;
+            for (int a = 0; a < 3; a++)
+                ix[a] = 2 * ix[a] + ((o >> a) & 1);
+        }
+        for (int a = 0; a < 3; a++) {
+            int na = m.lim[a] + 1;
+            m.cell_lo[a] = ix[a] ? B * (int)floor((double)ix[a] * na / (B * parts) + 0.5) : 0;
+            m.cell_hi[a] = ix[a] + 1 < parts
+                               ? B * (int)floor((double)(ix[a] + 1) * na / (B * parts) + 0.5)
+                               : m.n;
+        }
+    }
     crisp_status s = crisp__frep_octree_init(&m.o, t, levels + 1);
     if (s) return s;
     m.regs = crisp_malloc_array((size_t)t->registers * FREP_LANES, sizeof *m.regs);

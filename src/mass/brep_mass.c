@@ -17,7 +17,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define NQ 16 /* area, vector area (3), V, Mx My Mz, Sxx Syy Szz, Sxy Syz Sxz, Vx Vy */
+#define NQ                                                                                         \
+    CRISP_MASS_SUMS /* area, vector area (3), V, Mx My Mz, Sxx Syy Szz, Sxy Syz Sxz, Vx Vy         \
+                     */
 #define MAXG 24
 #define MAX_DEPTH 18
 
@@ -196,7 +198,13 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
         c.scale[j] = pow(L, power[j]);
     double T[NQ] = {0}, T2[NQ] = {0};
     crisp_status s = CRISP_OK;
-    for (int fi = 0; fi < m->face_count; fi++) {
+    int f0 = desc ? desc->face_begin : 0, f1 = desc ? desc->face_end : 0;
+    if (!f0 && !f1) f1 = m->face_count;
+    if (f0 < 0 || f1 > m->face_count || f0 >= f1)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_mass_model: faces [%d, %d) of a model of %d faces", f0, f1,
+                           m->face_count);
+    for (int fi = f0; fi < f1; fi++) {
         const crisp_face *f = &m->faces[fi];
         const crisp_surface *S = f->surface;
         double dom[4];
@@ -249,44 +257,56 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
         crisp_free(ku);
         if (s) return s;
     }
+    for (int j = 0; j < NQ; j++) {
+        dest->sums[j] = T[j];
+        dest->sums_err[j] = c.err_outer[j] + fabs(T[j] - T2[j]);
+    }
+    memcpy(dest->ref, c.ref, sizeof dest->ref);
+    dest->size = L;
+    crisp_mass_props_finish(dest);
     dest->evaluations = c.evals;
-    dest->area = T[0];
+    return CRISP_OK;
+}
+
+void crisp_mass_props_finish(crisp_mass_props *p)
+{
+    const double *T = p->sums, *err = p->sums_err, L = p->size;
+    p->area = T[0];
     for (int a = 0; a < 3; a++)
-        dest->vector_area[a] = T[1 + a];
-    double err[NQ];
-    for (int j = 0; j < NQ; j++)
-        err[j] = c.err_outer[j] + fabs(T[j] - T2[j]);
-    dest->area_err = err[0];
+        p->vector_area[a] = T[1 + a];
+    p->area_err = err[0];
     double va = sqrt(T[1] * T[1] + T[2] * T[2] + T[3] * T[3]);
     /* Closed: the vector area vanishes (the integral of n), and so does the traceless part of
      * the integral of x_i n_i: by the divergence theorem each of the integrals of x n_x, y n_y
      * and z n_z over a closed, outward shell is its volume. A tube without its ends has no vector
      * area but misses the volume along its axis. (A closed shell turned inside out stays closed,
      * with a negative volume.) */
-    dest->axis_volume[0] = T[14], dest->axis_volume[1] = T[15];
-    dest->axis_volume[2] = 3 * T[4] - T[14] - T[15];
+    p->axis_volume[0] = T[14], p->axis_volume[1] = T[15];
+    p->axis_volume[2] = 3 * T[4] - T[14] - T[15];
     double spread = 0;
     for (int a = 0; a < 3; a++)
-        spread = fmax(spread, fabs(dest->axis_volume[a] - T[4]));
-    dest->closed = va <= 1e-7 * T[0] && spread <= 1e-7 * T[0] * L;
-    if (!dest->closed) return CRISP_OK;
+        spread = fmax(spread, fabs(p->axis_volume[a] - T[4]));
+    p->closed = va <= 1e-7 * T[0] && spread <= 1e-7 * T[0] * L;
+    p->volume = p->volume_err = p->inertia_err = 0;
+    memset(p->centroid, 0, sizeof p->centroid);
+    memset(p->inertia, 0, sizeof p->inertia);
+    if (!p->closed) return;
     double V = T[4];
-    dest->volume = V;
+    p->volume = V;
     /* the quadrature's error, and the shell's closure gap (trims that do not quite meet make the
      * axis volumes differ: the volume is no better known than that) */
-    dest->volume_err = err[4] + spread;
+    p->volume_err = err[4] + spread;
     double M[3] = {T[5], T[6], T[7]};
     for (int a = 0; a < 3; a++)
-        dest->centroid[a] = c.ref[a] + M[a] / V;
-    dest->inertia[0] = T[9] + T[10] - (M[1] * M[1] + M[2] * M[2]) / V;
-    dest->inertia[1] = T[8] + T[10] - (M[0] * M[0] + M[2] * M[2]) / V;
-    dest->inertia[2] = T[8] + T[9] - (M[0] * M[0] + M[1] * M[1]) / V;
-    dest->inertia[3] = -(T[11] - M[0] * M[1] / V);
-    dest->inertia[4] = -(T[12] - M[1] * M[2] / V);
-    dest->inertia[5] = -(T[13] - M[0] * M[2] / V);
+        p->centroid[a] = p->ref[a] + M[a] / V;
+    p->inertia[0] = T[9] + T[10] - (M[1] * M[1] + M[2] * M[2]) / V;
+    p->inertia[1] = T[8] + T[10] - (M[0] * M[0] + M[2] * M[2]) / V;
+    p->inertia[2] = T[8] + T[9] - (M[0] * M[0] + M[1] * M[1]) / V;
+    p->inertia[3] = -(T[11] - M[0] * M[1] / V);
+    p->inertia[4] = -(T[12] - M[1] * M[2] / V);
+    p->inertia[5] = -(T[13] - M[0] * M[2] / V);
     double ie = 0;
     for (int j = 8; j < 14; j++)
         ie = fmax(ie, err[j]);
-    dest->inertia_err = 2 * ie;
-    return CRISP_OK;
+    p->inertia_err = 2 * ie;
 }
