@@ -1,9 +1,10 @@
 // Issue 14, optional: Open CASCADE's BRepGProp on the bundled models, beside `crisp mass` (one-off
 // measurement, not built by CMake; Debian 12 packages libocct-*-dev):
-//   g++ -O2 -I/usr/include/opencascade bench/occt_gprop.cpp -o /tmp/occt_gprop -lTKSTEP -lTKIGES \
+//   g++ -O2 -I/usr/include/opencascade bench/occt_gprop.cpp -o /tmp/occt_gprop -lTKSTEP -lTKIGES
 //       -lTKXSBase -lTKTopAlgo -lTKGeomAlgo -lTKBRep -lTKGeomBase -lTKG3d -lTKG2d -lTKMath
-//       -lTKernel \ -lTKShHealing -lTKSTEPBase -lTKSTEPAttr -lTKSTEP209
-//   /tmp/occt_gprop data/nurbs/occt_trj9_io1.stp
+//       -lTKernel -lTKShHealing -lTKSTEPBase -lTKSTEPAttr -lTKSTEP209      (one line)
+//   [EPS=1e-13] /tmp/occt_gprop data/nurbs/occt_trj9_io1.stp   (EPS: the adaptive volume's
+//   tolerance, default 1e-9; at 1e-9 its inertia can be 1e-8 off its converged value)
 #include <BRepGProp.hxx>
 #include <GProp_GProps.hxx>
 #include <IGESControl_Reader.hxx>
@@ -11,6 +12,7 @@
 #include <TopoDS_Shape.hxx>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 int main(int argc, char **argv)
@@ -35,7 +37,8 @@ int main(int argc, char **argv)
         GProp_GProps v, a, v2, a2;
         BRepGProp::VolumeProperties(s, v);
         BRepGProp::SurfaceProperties(s, a);
-        double eps = BRepGProp::VolumeProperties(s, v2, 1e-9); // adaptive, with its error
+        const char *e = getenv("EPS");
+        double eps = BRepGProp::VolumeProperties(s, v2, e ? atof(e) : 1e-9); // adaptive, its error
         double aeps = BRepGProp::SurfaceProperties(s, a2, 1e-9);
         double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         gp_Pnt c = v2.CentreOfMass();

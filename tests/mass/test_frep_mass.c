@@ -212,21 +212,30 @@ static void test_bad_input(void **state)
 }
 
 /* Accuracy 1e-6 relative is reached (issue 14): the unit sphere at level 10 (about 2 s of
- * processor time) */
+ * processor time in Release). A sanitizer build (about 30x slower) runs level 8 and holds it to
+ * its own standard error: the 1e-6 figure is the Release run's. */
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_UNDEFINED__)
+#define FINE_LEVEL 8
+#define FINE_REL 2e-5
+#else
+#define FINE_LEVEL 10
+#define FINE_REL 1e-6
+#endif
 static void test_fine(void **state)
 {
     (void)state;
     crisp_frep *f;
     crisp_frep_tape *t = tape_of("X^2+Y^2+Z^2-1", &f);
     crisp_frep_mass m;
-    assert_int_equal(crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = 10, .seed = 3}, &m),
-                     CRISP_OK);
+    assert_int_equal(
+        crisp_frep_mass_level(t, &(crisp_frep_mass_desc){.level = FINE_LEVEL, .seed = 3}, &m),
+        CRISP_OK);
     double V = 4 * PI / 3;
-    fprintf(stderr, "level 10: V %.10f +- %.2g (relative %.2g), error %.2g relative\n", m.volume,
-            m.volume_se, m.volume_se / V, fabs(m.volume - V) / V);
-    assert_true(m.volume_se / V <= 1e-6);
-    assert_true(fabs(m.volume - V) / V <= 4e-6);
-    assert_true(fabs(m.inertia[2] - 0.4 * V) / (0.4 * V) <= 1e-5);
+    fprintf(stderr, "level %d: V %.10f +- %.2g (relative %.2g), error %.2g relative\n", FINE_LEVEL,
+            m.volume, m.volume_se, m.volume_se / V, fabs(m.volume - V) / V);
+    assert_true(m.volume_se / V <= FINE_REL);
+    assert_true(fabs(m.volume - V) <= 4 * m.volume_se);
+    assert_true(fabs(m.inertia[2] - 0.4 * V) <= 4 * m.inertia_se[2]);
     crisp_frep_tape_destroy(t);
     crisp_frep_destroy(f);
 }
