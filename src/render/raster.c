@@ -33,6 +33,36 @@ typedef struct setup_tri {
     double box[4]; /* u_lo, u_hi, v_lo, v_hi */
 } setup_tri;
 
+/* A fragment's attributes: ((a/W at the origin + x gradient dx) + y gradient dy) * W. */
+static inline void attrs_scalar(const setup_tri *st, double dx, double dy, double w, double *a)
+{
+    for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+        a[k] = (st->q0[k + 1] + st->qx[k + 1] * dx + st->qy[k + 1] * dy) * w;
+}
+
+/* The same with two attributes per operation (GCC vector extensions, SSE2 on x86-64): the same
+ * IEEE operations in the same order on each lane (no fused multiply-add: ISO C mode contracts
+ * nothing), so the same values bit for bit (test_raster_fast compares both paths). */
+#if defined(__GNUC__) && CRISP_RASTER_ATTRS == 5
+#define HAVE_VECTORS 1
+typedef double v2d __attribute__((vector_size(16)));
+typedef double v2d_u __attribute__((vector_size(16), aligned(8))); /* unaligned loads, stores */
+
+static inline void attrs_vector(const setup_tri *st, double dx, double dy, double w, double *a)
+{
+    const v2d vdx = {dx, dx}, vdy = {dy, dy}, vw = {w, w};
+    for (int k = 0; k < 4; k += 2) {
+        v2d q0 = *(const v2d_u *)(st->q0 + 1 + k), qx = *(const v2d_u *)(st->qx + 1 + k),
+            qy = *(const v2d_u *)(st->qy + 1 + k);
+        *(v2d_u *)(a + k) = (q0 + qx * vdx + qy * vdy) * vw;
+    }
+    a[4] = (st->q0[5] + st->qx[5] * dx + st->qy[5] * dy) * w;
+}
+#else
+#define HAVE_VECTORS 0
+#define attrs_vector attrs_scalar
+#endif
+
 #define BATCH ((size_t)1 << 19) /* input triangles set up and binned at a time */
 
 typedef struct pvert pvert;
@@ -48,6 +78,7 @@ struct crisp_raster {
     uint32_t *bin_start; /* per tile, tile_count + 1 */
     size_t bin_start_cap;
     int no_hiz;              /* hierarchical depth rejection off (crisp__raster_set_hiz) */
+    int no_vectors;          /* the scalar path only (crisp__raster_set_vectors) */
     const uint8_t *untested; /* per face (crisp__raster_set_untested_faces) */
     size_t untested_count;
     uint8_t *tile_mask; /* per tile (crisp__raster_depth_slack_tris) */
@@ -71,6 +102,12 @@ void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, 
 void crisp__raster_set_hiz(crisp_raster *r, int on)
 {
     r->no_hiz = !on;
+}
+
+int crisp__raster_set_vectors(crisp_raster *r, int on)
+{
+    r->no_vectors = !on;
+    return HAVE_VECTORS;
 }
 
 void crisp__raster_set_batch(crisp_raster *r, size_t triangles)
@@ -444,6 +481,7 @@ typedef struct {
     double off_x[16], off_y[16];
     const float *slack; /* fill mode (crisp__raster_draw_fill) when not NULL */
     int hiz;            /* hierarchical depth rejection on */
+    int vectors;        /* the vector path (crisp__raster_set_vectors) */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
 } raster_ctx;
 
@@ -522,7 +560,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
     uint32_t block_samples = (uint32_t)(BLOCK * BLOCK * S);
     for (int k = 0; k < BLOCKS * BLOCKS; k++)
         hiz[k] = 0, writes[k] = block_samples;
-    int use_hiz = c->hiz && !c->slack;
+    int use_hiz = c->hiz && !c->slack, vectors = c->vectors;
     for (uint32_t bi = r->bin_start[tile]; bi < r->bin_start[tile + 1]; bi++) {
         const setup_tri *st = r->bin_items[bi];
         int x0 = st->x0 > px0 ? st->x0 : px0, x1 = st->x1 < px1 ? st->x1 : px1;
@@ -659,9 +697,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             double iw = iwv[q], dx = dx0 + q;
                             double a[CRISP_RASTER_ATTRS];
                             double w = 1.0 / iw;
-                            for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
-                                a[k] =
-                                    (st->q0[k + 1] + st->qx[k + 1] * dx + st->qy[k + 1] * dy) * w;
+                            if (vectors)
+                                attrs_vector(st, dx, dy, w, a);
+                            else
+                                attrs_scalar(st, dx, dy, w, a);
                             if (run_test) {
                                 int keep = -1;
                                 if (tboxed == -3 && ++tneed >= 2) {
@@ -1043,7 +1082,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                      .test = test,
                      .test_ctx = test_ctx,
                      .slack = slack,
-                     .hiz = !r->no_hiz};
+                     .hiz = !r->no_hiz,
+                     .vectors = !r->no_vectors};
     for (int s = 0; s < t->samples; s++) {
         double off[2];
         crisp__raster_sample_offset(t->samples, s, off);

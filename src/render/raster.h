@@ -75,6 +75,9 @@ typedef struct crisp_raster_stats {
 /* Hierarchical depth rejection (on by default; off only to measure it or to check that the
  * result does not depend on it). */
 void crisp__raster_set_hiz(crisp_raster *r, int on);
+/* The vector path for per-fragment arithmetic (on by default where the compiler has vector
+ * extensions; it gives the scalar path's values bit for bit). Returns 1 when the build has it. */
+int crisp__raster_set_vectors(crisp_raster *r, int on);
 /* Faces whose fragments skip the fragment test (kept as if it said 1): untested[f] != 0 for face
  * f < count (a face without trim loops: CRISP_PLAN_FACE_ALL_INSIDE). The array is read by later
  * draws until it is set again; NULL: every face is tested. */

@@ -86,6 +86,7 @@ static int keep_all(void *vctx, uint32_t face, double u, double v)
 
 static const uint8_t *untested_faces; /* crisp__raster_set_untested_faces for render() */
 static crisp_raster_box_fn box_fn;    /* crisp__raster_set_box_test for render() */
+static int scalar_only;               /* crisp__raster_set_vectors(r, 0) in render() */
 
 static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn,
                    const float *slack, crisp_raster_target *t, test_ctx *tc,
@@ -104,6 +105,7 @@ static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_r
     crisp__raster_set_batch(r, batch);
     crisp__raster_set_untested_faces(r, untested_faces, 7);
     crisp__raster_set_box_test(r, box_fn);
+    crisp__raster_set_vectors(r, !scalar_only);
     assert_int_equal(crisp__raster_target_init(t, W, H, samples), CRISP_OK);
     crisp__raster_target_clear(t);
     crisp_pool *pool;
@@ -200,6 +202,29 @@ static void test_no_test_flag(void **state)
     crisp__raster_target_free(&c);
     crisp__raster_target_free(&a);
     crisp__raster_target_free(&b);
+}
+
+/* The vector path gives the scalar path's targets bit for bit (1 and 4 samples, fill mode). */
+static void test_vectors_equal_scalar(void **state)
+{
+    (void)state;
+    static float slack[W * H * 4];
+    for (int k = 0; k < W * H * 4; k++)
+        slack[k] = (float)(0.03 * (k % 7));
+    for (int samples = 1; samples <= 4; samples += 3)
+        for (int fill = 0; fill < 2; fill++) {
+            crisp_raster_target a = {0}, b = {0};
+            test_ctx ta = {0}, tb = {0};
+            crisp_raster_stats sa, sb;
+            scalar_only = 1;
+            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &ta, &sa);
+            scalar_only = 0;
+            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &b, &tb, &sb);
+            assert_same(&a, &b);
+            assert_int_equal(ta.calls, tb.calls);
+            crisp__raster_target_free(&a);
+            crisp__raster_target_free(&b);
+        }
 }
 
 /* A box test that agrees with the fragment test changes no output bit and saves most tests. */
@@ -377,6 +402,7 @@ int main(void)
         cmocka_unit_test(test_no_test_flag),
         cmocka_unit_test(test_slack_for_triangles),
         cmocka_unit_test(test_box_test),
+        cmocka_unit_test(test_vectors_equal_scalar),
         cmocka_unit_test(test_plan_trim_box),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
