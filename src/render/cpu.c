@@ -440,7 +440,10 @@ static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t en
     for (int s = 0; s < S; s++)
         crisp__raster_sample_offset(S, s, off[s]);
     const crisp_scene_face *faces = c->sc->faces;
-    for (size_t j = begin; j < end; j++)
+    for (size_t j = begin; j < end; j++) {
+        double ny_row[16]; /* per sample: ny of this row */
+        for (int s = 0; s < S; s++)
+            ny_row[s] = (0.5 * cam->height - j - off[s][1]) * ky;
         for (int i = 0; i < t->width; i++) {
             size_t px = j * (size_t)t->width + (size_t)i;
             float acc[4] = {0, 0, 0, 0};
@@ -453,8 +456,7 @@ static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t en
                 covered++;
                 if (t->inv_w[idx] > best_iw) best_iw = t->inv_w[idx], best = s;
                 double d[3], n[3];
-                double nx = (i + off[s][0] - 0.5 * cam->width) * kx,
-                       ny = (0.5 * cam->height - j - off[s][1]) * ky;
+                double nx = (i + off[s][0] - 0.5 * cam->width) * kx, ny = ny_row[s];
                 for (int k = 0; k < 3; k++)
                     d[k] = f[k] + nx * r[k] + ny * u[k];
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
@@ -486,6 +488,7 @@ static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t en
             for (int k = 0; k < 3; k++)
                 img->normal[3 * px + k] = a[2 + k];
         }
+    }
 }
 
 static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)

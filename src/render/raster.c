@@ -180,6 +180,7 @@ void crisp__raster_target_clear(crisp_raster_target *t)
     memset(t->inv_w, 0, n * sizeof *t->inv_w);
     memset(t->attr, 0, n * CRISP_RASTER_ATTRS * sizeof *t->attr);
     memset(t->face, 0xff, n * sizeof *t->face);
+    t->clear_pending = 0;
 }
 
 typedef struct clear_ctx {
@@ -196,6 +197,13 @@ static void clear_rows(void *vctx, size_t begin, size_t end, int worker)
 }
 
 void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool)
+{
+    (void)pool;
+    t->clear_pending = 1; /* done by the next draw, tile by tile */
+}
+
+/* A pending clear_depth of the whole target, now. */
+static void clear_now(crisp_raster_target *t, crisp_pool *pool)
 {
     clear_ctx c = {t};
     crisp_pool_parallel_for(pool, (size_t)t->height, 64, clear_rows, &c);
@@ -482,6 +490,7 @@ typedef struct {
     const float *slack; /* fill mode (crisp__raster_draw_fill) when not NULL */
     int hiz;            /* hierarchical depth rejection on */
     int vectors;        /* the vector path (crisp__raster_set_vectors) */
+    int clear;          /* each tile first does the target's pending clear_depth */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
 } raster_ctx;
 
@@ -753,6 +762,19 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
 
 static void raster_tile(raster_ctx *c, size_t tile)
 {
+    if (c->clear) { /* the pending clear_depth of this tile, while it is about to be used */
+        crisp_raster_target *t = c->t;
+        int x0 = (int)(tile % (size_t)c->tiles_x) * TILE,
+            y0 = (int)(tile / (size_t)c->tiles_x) * TILE;
+        int x1 = x0 + TILE < t->width ? x0 + TILE : t->width;
+        int y1 = y0 + TILE < t->height ? y0 + TILE : t->height;
+        size_t n = (size_t)(x1 - x0) * t->samples;
+        for (int j = y0; j < y1; j++) {
+            size_t a = ((size_t)j * t->width + x0) * t->samples;
+            memset(t->inv_w + a, 0, n * sizeof *t->inv_w);
+            memset(t->face + a, 0xff, n * sizeof *t->face);
+        }
+    }
     if (c->t->samples == 1)
         raster_tile_s(c, tile, 1);
     else
@@ -1100,6 +1122,7 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
     /* Batches of triangles, one after the other (submission order is kept): set-up records and
      * bins hold one batch, so the rasterizer's memory is bounded whatever the triangle count. */
     size_t total = 0, batch = r->batch ? r->batch : BATCH;
+    rc.clear = t->clear_pending; /* the first batch's tiles clear themselves */
     for (size_t first = 0; first < tri_count; first += batch) {
         sc.first = first;
         sc.count = tri_count - first < batch ? tri_count - first : batch;
@@ -1135,6 +1158,12 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
             return st;
         crisp_pool_parallel_for(pool, CHUNKS, 1, bin_fill, &bc);
         crisp_pool_parallel_for(pool, tiles, 1, raster_tiles, &rc);
+        rc.clear = 0;
+        t->clear_pending = 0;
+    }
+    if (t->clear_pending) { /* no triangles: clear anyway */
+        clear_now(t, pool);
+        t->clear_pending = 0;
     }
     if (stats) {
         *stats = (crisp_raster_stats){.triangles_in = tri_count,

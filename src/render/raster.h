@@ -44,9 +44,10 @@ typedef int (*crisp_raster_test_fn)(void *ctx, uint32_t face, double u, double v
 /* Per-sample results; sample s of pixel (i, j) is at index (j * width + i) * samples + s. */
 typedef struct crisp_raster_target {
     int width, height, samples;
-    double *inv_w; /* 1 / W of the visible fragment, 0 where nothing was drawn */
-    float *attr;   /* CRISP_RASTER_ATTRS per sample */
-    int32_t *face; /* -1 where nothing was drawn */
+    double *inv_w;     /* 1 / W of the visible fragment, 0 where nothing was drawn */
+    float *attr;       /* CRISP_RASTER_ATTRS per sample */
+    int32_t *face;     /* -1 where nothing was drawn */
+    int clear_pending; /* crisp__raster_target_clear_depth waits for the next draw */
 } crisp_raster_target;
 
 typedef struct crisp_raster crisp_raster; /* reusable scratch (setup, bins) */
@@ -58,8 +59,10 @@ void crisp__raster_destroy(crisp_raster *r);
 crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int height, int samples);
 void crisp__raster_target_free(crisp_raster_target *t);
 void crisp__raster_target_clear(crisp_raster_target *t);
-/* Clears 1/W and the face ids only, in parallel (pool may be NULL): the attributes of empty
- * samples keep stale values, which nothing reads (a sample is drawn iff its face is >= 0). */
+/* Clears 1/W and the face ids only: the attributes of empty samples keep stale values, which
+ * nothing reads (a sample is drawn iff its face is >= 0). Deferred: the next draw clears each
+ * tile just before drawing into it (one pass over memory fewer), or the whole target when it
+ * has no triangles; read the target only after a draw. */
 void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool);
 
 /* Offsets of the samples inside a pixel, in [0, 1)^2 (x right, y down). */
