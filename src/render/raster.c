@@ -673,21 +673,42 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                         size_t idx0 = ((size_t)j * t->width + (size_t)bx0) * S + s;
                         double iwv[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
-                        if (full) {
-                            for (int q = 0; q < n; q++)
-                                cov[q] = 1;
-                            any = 1;
+                        if (!c->slack) {
+                            /* Coverage, 1/W and the depth test in one branch-free loop (the
+                             * stored 1/W is read at every lane of the row: inside the image). */
+                            const double *stored = t->inv_w + idx0;
+                            if (full)
+                                for (int q = 0; q < n; q++) {
+                                    double iwq = base + gx * (dx0 + q);
+                                    iwv[q] = iwq;
+                                    pass[np] = q;
+                                    np += iwq > stored[(size_t)q * S];
+                                }
+                            else
+                                for (int q = 0; q < n; q++) {
+                                    int cv = (e[0] | e[1] | e[2]) >= 0;
+                                    e[0] += step[0], e[1] += step[1], e[2] += step[2];
+                                    double iwq = base + gx * (dx0 + q);
+                                    iwv[q] = iwq;
+                                    pass[np] = q;
+                                    np += cv & (iwq > stored[(size_t)q * S]);
+                                }
                         } else {
-                            for (int q = 0; q < n; q++) {
-                                cov[q] = (e[0] | e[1] | e[2]) >= 0;
-                                any |= cov[q];
-                                e[0] += step[0], e[1] += step[1], e[2] += step[2];
+                            /* Fill mode: coverage first, then the slack's depth test. */
+                            if (full) {
+                                for (int q = 0; q < n; q++)
+                                    cov[q] = 1;
+                                any = 1;
+                            } else {
+                                for (int q = 0; q < n; q++) {
+                                    cov[q] = (e[0] | e[1] | e[2]) >= 0;
+                                    any |= cov[q];
+                                    e[0] += step[0], e[1] += step[1], e[2] += step[2];
+                                }
                             }
-                        }
-                        if (!any) continue;
-                        for (int q = 0; q < n; q++)
-                            iwv[q] = base + gx * (dx0 + q);
-                        if (c->slack) {
+                            if (!any) continue;
+                            for (int q = 0; q < n; q++)
+                                iwv[q] = base + gx * (dx0 + q);
                             for (int q = 0; q < n; q++) {
                                 double cur = t->inv_w[idx0 + (size_t)q * S];
                                 if (cov[q] &&
@@ -695,10 +716,6 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                                      1.0 / iwv[q] < 1.0 / cur - c->slack[idx0 + (size_t)q * S]))
                                     pass[np++] = q;
                             }
-                        } else {
-                            for (int q = 0; q < n; q++)
-                                if (cov[q] && iwv[q] > t->inv_w[idx0 + (size_t)q * S])
-                                    pass[np++] = q;
                         }
                         for (int pi = 0; pi < np; pi++) {
                             int q = pass[pi];
