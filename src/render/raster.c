@@ -17,6 +17,9 @@
 typedef struct setup_tri {
     int64_t x[3], y[3]; /* fixed point, counter-clockwise in the (x right, y down) frame */
     int64_t bias[3];    /* 0 for edges that own their samples (top-left rule), else -1 */
+    /* Edge k's function at a fixed-point sample position: E = ea px + eb py + ec (the same
+     * integer as ea (px - x_a0) + eb (py - y_a0) + bias: every term stays below 2^62). */
+    int64_t ea[3], eb[3], ec[3];
     /* 1/W and attribute/W as planes over the unsnapped screen position: value at (ox, oy) and
      * gradients. Snapping moves coverage by at most 1/512 px but not the interpolated values. */
     double ox, oy;
@@ -81,8 +84,10 @@ struct crisp_raster {
     int no_vectors;          /* the scalar path only (crisp__raster_set_vectors) */
     const uint8_t *untested; /* per face (crisp__raster_set_untested_faces) */
     size_t untested_count;
-    uint8_t *tile_mask; /* per tile (crisp__raster_depth_slack_tris) */
+    uint8_t *tile_mask; /* per cell (crisp__raster_depth_slack_tris) */
     size_t tile_mask_cap;
+    int (*tri_boxes)[4]; /* per triangle: its pixel box (crisp__raster_depth_slack_tris) */
+    size_t tri_boxes_cap;
     uint32_t *bin_counts; /* per setup chunk and tile: entries (parallel binning) */
     size_t bin_counts_cap;
     crisp_raster_box_fn box_test; /* crisp__raster_set_box_test */
@@ -132,6 +137,7 @@ void crisp__raster_destroy(crisp_raster *r)
     free(r->bin_items);
     free(r->bin_start);
     free(r->tile_mask);
+    free(r->tri_boxes);
     free(r->bin_counts);
     free(r);
 }
@@ -291,7 +297,7 @@ static inline int64_t round_half_away(double x)
 }
 
 /* 0 when the vertex cannot be set up (W <= 0, beyond the guard band or not finite). */
-static int project(const double *p, const crisp_raster_target *t, pvert *out)
+static int project2(const double *p, const double *attr, const crisp_raster_target *t, pvert *out)
 {
     double w = p[3];
     if (!(w > 0)) return 0;
@@ -303,10 +309,16 @@ static int project(const double *p, const crisp_raster_target *t, pvert *out)
     double iw = 1.0 / w;
     out->val[0] = iw;
     for (int q = 1; q <= CRISP_RASTER_ATTRS; q++)
-        out->val[q] = p[3 + q] * iw;
-    out->uv[0] = p[4];
-    out->uv[1] = p[5];
+        out->val[q] = attr[q - 1] * iw;
+    out->uv[0] = attr[0];
+    out->uv[1] = attr[1];
     return 1;
+}
+
+/* p: clip position then attributes (a clipped vertex). */
+static int project(const double *p, const crisp_raster_target *t, pvert *out)
+{
+    return project2(p, p + 4, t, out);
 }
 
 typedef struct {
@@ -376,6 +388,9 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         int a0 = (k + 1) % 3, a1 = (k + 2) % 3;
         int64_t dx = out->x[a1] - out->x[a0], dy = out->y[a1] - out->y[a0];
         out->bias[k] = (dy < 0 || (dy == 0 && dx > 0)) ? 0 : -1;
+        out->ea[k] = -dy;
+        out->eb[k] = dx;
+        out->ec[k] = -(out->ea[k] * out->x[a0] + out->eb[k] * out->y[a0]) + out->bias[k];
     }
     out->face = face;
     /* Interpolated (u, v) are convex combinations of the vertices' (up to rounding; a fragment
@@ -413,10 +428,7 @@ static void project_vertices(void *vctx, size_t begin, size_t end, int worker)
             int inside = 1;
             for (int q = 0; q < 6; q++)
                 inside &= d[q] >= 0 && isfinite(d[q]);
-            double full[4 + CRISP_RASTER_ATTRS];
-            memcpy(full, p, 4 * sizeof(double));
-            memcpy(full + 4, c->verts[i].attr, CRISP_RASTER_ATTRS * sizeof(double));
-            cache[i].ok = inside && project(full, c->t, &cache[i]);
+            cache[i].ok = inside && project2(p, c->verts[i].attr, c->t, &cache[i]);
         }
     }
 }
@@ -580,13 +592,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                        !((size_t)face_id < r->untested_count && r->untested[face_id]);
         int tboxed = st->boxed, tneed = 0; /* the triangle's box test answer (setup_tri) */
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
-        int64_t A[3], B[3], step[3];
-        for (int k = 0; k < 3; k++) {
-            int a0 = (k + 1) % 3, a1 = (k + 2) % 3;
-            A[k] = -(st->y[a1] - st->y[a0]);
-            B[k] = st->x[a1] - st->x[a0];
-            step[k] = A[k] * SUB;
-        }
+        const int64_t *A = st->ea, *B = st->eb;
+        int64_t step[3] = {A[0] * SUB, A[1] * SUB, A[2] * SUB};
         /* Rounding allowance of the 1/W plane evaluated at a block corner (see the hi-z test). */
         double slop = 1e-12 * (fabs(st->q0[0]) +
                                fabs(st->qx[0]) * (fabs(x0 - st->ox) + fabs(x1 + 1 - st->ox)) +
@@ -607,13 +614,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                     int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
                             sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
                     for (int k = 0; k < 3; k++) {
-                        int a0 = (k + 1) % 3;
-                        int64_t ex0 = A[k] * (sx0 - st->x[a0]), ex1 = A[k] * (sx1 - st->x[a0]);
-                        int64_t ey0 = B[k] * (sy0 - st->y[a0]), ey1 = B[k] * (sy1 - st->y[a0]);
-                        int64_t lo =
-                            (ex0 < ex1 ? ex0 : ex1) + (ey0 < ey1 ? ey0 : ey1) + st->bias[k];
-                        int64_t hi =
-                            (ex0 > ex1 ? ex0 : ex1) + (ey0 > ey1 ? ey0 : ey1) + st->bias[k];
+                        int64_t ex0 = A[k] * sx0, ex1 = A[k] * sx1;
+                        int64_t ey0 = B[k] * sy0, ey1 = B[k] * sy1;
+                        int64_t lo = (ex0 < ex1 ? ex0 : ex1) + (ey0 < ey1 ? ey0 : ey1) + st->ec[k];
+                        int64_t hi = (ex0 > ex1 ? ex0 : ex1) + (ey0 > ey1 ? ey0 : ey1) + st->ec[k];
                         empty |= hi < 0;
                         full &= lo >= 0;
                     }
@@ -654,10 +658,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                 for (int s = 0; s < S; s++) {
                     int64_t px = (int64_t)bx0 * SUB + c->off_fx[s],
                             py = (int64_t)by0 * SUB + c->off_fy[s];
-                    for (int k = 0; k < 3; k++) {
-                        int a0 = (k + 1) % 3;
-                        er[s][k] = A[k] * (px - st->x[a0]) + B[k] * (py - st->y[a0]) + st->bias[k];
-                    }
+                    for (int k = 0; k < 3; k++)
+                        er[s][k] = A[k] * px + B[k] * py + st->ec[k];
                 }
                 for (int j = by0; j <= by1; j++)
                     for (int s = 0; s < S; s++) {
@@ -939,6 +941,75 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* Per triangle, the pixels its samples can lie in (x0, y0, x1, y1; x0 > x1: none), from the
+ * vertices setup would use (inside every clip plane: as they are; else the clipped polygon's,
+ * as setup_chunk clips it): floor(min) - 1 .. floor(max) of their snapped positions (1/512 px
+ * from the unsnapped ones); 2 px of margin cover both. */
+typedef struct box_ctx {
+    const crisp_raster_target *t;
+    const crisp_raster_vertex *verts;
+    size_t vert_count;
+    const crisp_raster_tri *tris;
+    size_t tri_count;
+    int (*boxes)[4];
+} box_ctx;
+
+static void tri_boxes(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const box_ctx *c = vctx;
+    const crisp_raster_target *t = c->t;
+    double gx = GUARD_PX / t->width, gy = GUARD_PX / t->height;
+    for (size_t ch = begin; ch < end; ch++) {
+        size_t lo_i = c->tri_count * ch / CHUNKS, hi_i = c->tri_count * (ch + 1) / CHUNKS;
+        for (size_t i = lo_i; i < hi_i; i++) {
+            int *out = c->boxes[i];
+            out[0] = out[1] = 1, out[2] = out[3] = 0; /* none */
+            const crisp_raster_tri *tri = &c->tris[i];
+            if (tri->v[0] >= c->vert_count || tri->v[1] >= c->vert_count ||
+                tri->v[2] >= c->vert_count)
+                continue; /* draw refuses it */
+            double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+            int inside = 1;
+            for (int k = 0; k < 3 && inside; k++) { /* the common case: no clipping */
+                const double *p = c->verts[tri->v[k]].clip;
+                double d[6];
+                plane_dists(p, gx, gy, d);
+                for (int q = 0; q < 6; q++)
+                    inside &= d[q] >= 0 && isfinite(d[q]);
+                double w = p[3];
+                double sx = (p[0] / w + 1.0) * 0.5 * t->width,
+                       sy = (1.0 - p[1] / w) * 0.5 * t->height;
+                inside &= w > 0 && fabs(sx) <= 2 * GUARD_PX && fabs(sy) <= 2 * GUARD_PX;
+                lo[0] = sx < lo[0] ? sx : lo[0], hi[0] = sx > hi[0] ? sx : hi[0];
+                lo[1] = sy < lo[1] ? sy : lo[1], hi[1] = sy > hi[1] ? sy : hi[1];
+            }
+            if (!inside) {
+                cvert poly[MAX_POLY];
+                for (int k = 0; k < 3; k++) {
+                    const crisp_raster_vertex *sv = &c->verts[tri->v[k]];
+                    memcpy(poly[k].p, sv->clip, 4 * sizeof(double));
+                    memcpy(poly[k].p + 4, sv->attr, CRISP_RASTER_ATTRS * sizeof(double));
+                }
+                int m = clip_polygon(poly, 3, gx, gy);
+                lo[0] = lo[1] = INFINITY, hi[0] = hi[1] = -INFINITY;
+                for (int k = 0; k < m; k++) {
+                    pvert pv;
+                    if (!project(poly[k].p, t, &pv)) continue;
+                    lo[0] = pv.sx < lo[0] ? pv.sx : lo[0], hi[0] = pv.sx > hi[0] ? pv.sx : hi[0];
+                    lo[1] = pv.sy < lo[1] ? pv.sy : lo[1], hi[1] = pv.sy > hi[1] ? pv.sy : hi[1];
+                }
+            }
+            if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) continue;
+            int x0 = (int)floor(lo[0]) - 2, x1 = (int)floor(hi[0]) + 2;
+            int y0 = (int)floor(lo[1]) - 2, y1 = (int)floor(hi[1]) + 2;
+            out[0] = x0 > 0 ? x0 : 0, out[1] = y0 > 0 ? y0 : 0;
+            out[2] = x1 < t->width - 1 ? x1 : t->width - 1;
+            out[3] = y1 < t->height - 1 ? y1 : t->height - 1;
+        }
+    }
+}
+
 crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_target *t,
                                             crisp_pool *pool, double scale,
                                             const crisp_raster_view *view,
@@ -951,46 +1022,15 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
     crisp_status st = crisp_grow((void **)&r->tile_mask, &r->tile_mask_cap, tiles, 1);
     if (st) return st;
     memset(r->tile_mask, 0, tiles);
-    /* The vertices setup would use for each triangle (inside every clip plane: as they are;
-     * else the clipped polygon's, as setup_chunk clips it): the triangle's samples lie in pixels
-     * floor(min) - 1 .. floor(max) of their snapped positions (1/512 px from the unsnapped
-     * ones); 2 px of margin cover both. */
-    double gx = GUARD_PX / t->width, gy = GUARD_PX / t->height;
+    if ((st = crisp_grow((void **)&r->tri_boxes, &r->tri_boxes_cap, tri_count ? tri_count : 1,
+                         sizeof *r->tri_boxes)))
+        return st;
+    box_ctx bc = {t, verts, vert_count, tris, tri_count, r->tri_boxes};
+    crisp_pool_parallel_for(pool, CHUNKS, 1, tri_boxes, &bc);
     for (size_t i = 0; i < tri_count; i++) {
-        cvert poly[MAX_POLY];
-        int m = 3, bad = 0;
-        for (int k = 0; k < 3; k++) {
-            if (tris[i].v[k] >= vert_count) {
-                bad = 1;
-                break;
-            }
-            const crisp_raster_vertex *sv = &verts[tris[i].v[k]];
-            memcpy(poly[k].p, sv->clip, 4 * sizeof(double));
-            memcpy(poly[k].p + 4, sv->attr, CRISP_RASTER_ATTRS * sizeof(double));
-        }
-        if (bad) continue; /* draw refuses it */
-        int inside = 1;
-        for (int k = 0; k < 3; k++) {
-            double d[6];
-            plane_dists(poly[k].p, gx, gy, d);
-            for (int q = 0; q < 6; q++)
-                inside &= d[q] >= 0 && isfinite(d[q]);
-        }
-        if (!inside) m = clip_polygon(poly, 3, gx, gy);
-        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-        for (int k = 0; k < m; k++) {
-            pvert pv;
-            if (!project(poly[k].p, t, &pv)) continue;
-            lo[0] = pv.sx < lo[0] ? pv.sx : lo[0], hi[0] = pv.sx > hi[0] ? pv.sx : hi[0];
-            lo[1] = pv.sy < lo[1] ? pv.sy : lo[1], hi[1] = pv.sy > hi[1] ? pv.sy : hi[1];
-        }
-        if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) continue;
-        int x0 = (int)floor(lo[0]) - 2, x1 = (int)floor(hi[0]) + 2;
-        int y0 = (int)floor(lo[1]) - 2, y1 = (int)floor(hi[1]) + 2;
-        x0 = x0 > 0 ? x0 : 0, y0 = y0 > 0 ? y0 : 0;
-        x1 = x1 < t->width - 1 ? x1 : t->width - 1, y1 = y1 < t->height - 1 ? y1 : t->height - 1;
-        for (int ty = y0 / CELL; ty <= y1 / CELL && y0 <= y1; ty++)
-            for (int tx = x0 / CELL; tx <= x1 / CELL && x0 <= x1; tx++)
+        const int *b = r->tri_boxes[i];
+        for (int ty = b[1] / CELL; ty <= b[3] / CELL && b[1] <= b[3]; ty++)
+            for (int tx = b[0] / CELL; tx <= b[2] / CELL && b[0] <= b[2]; tx++)
                 r->tile_mask[(size_t)ty * tiles_x + tx] = 1;
     }
     slack_ctx c = {t, view, scale, slack};
