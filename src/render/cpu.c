@@ -392,7 +392,8 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
             for (int a = 0; a < 3; a++)
                 v[k].attr[2 + a] = src[k].normal[a];
         }
-        uint32_t base = (uint32_t)(c->vbase + 4 * q), face = src[0].face | CRISP_RASTER_FACE_FLAG;
+        /* Indices relative to the ribbons' first vertex (drawn with verts + vbase). */
+        uint32_t base = (uint32_t)(4 * q), face = src[0].face | CRISP_RASTER_FACE_FLAG;
         c->r->tris[c->tbase + 2 * q] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
         c->r->tris[c->tbase + 2 * q + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
     }
@@ -599,7 +600,8 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
         r->untested[f] = (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE) != 0;
     crisp__raster_set_untested_faces(r->raster, r->untested, plan->face_count);
     crisp__raster_set_box_test(r->raster, trim_box);
-    st = crisp__raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t,
+    /* Each pass projects only its own vertices: the surfaces', then the ribbons'. */
+    st = crisp__raster_draw(r->raster, &r->target, r->pool, r->verts, surface_v, r->tris, surface_t,
                             trim_test, ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {
@@ -607,13 +609,13 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
         /* Only where the ribbons can land (the fill pass reads nothing else). */
         if ((st = crisp__raster_depth_slack_tris(r->raster, &r->target, r->pool, 1.5, &view,
-                                                 r->verts, nv, r->tris + surface_t, nt - surface_t,
-                                                 r->slack)))
+                                                 r->verts + surface_v, nv - surface_v,
+                                                 r->tris + surface_t, nt - surface_t, r->slack)))
             return st;
         crisp_raster_stats rs2;
-        st = crisp__raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv,
-                                     r->tris + surface_t, nt - surface_t, trim_test, ctx, r->slack,
-                                     &rs2);
+        st = crisp__raster_draw_fill(r->raster, &r->target, r->pool, r->verts + surface_v,
+                                     nv - surface_v, r->tris + surface_t, nt - surface_t, trim_test,
+                                     ctx, r->slack, &rs2);
         if (st) return st;
         rs.fragments_tested += rs2.fragments_tested;
         rs.fragments_discarded += rs2.fragments_discarded;
