@@ -172,6 +172,34 @@ crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int he
     return CRISP_OK;
 }
 
+/* The whole image's size (the target is a window of it, or all of it). */
+static int image_w(const crisp_raster_target *t)
+{
+    return t->image_width ? t->image_width : t->width;
+}
+
+static int image_h(const crisp_raster_target *t)
+{
+    return t->image_height ? t->image_height : t->height;
+}
+
+crisp_status crisp__raster_target_window(crisp_raster_target *t, int x0, int y0, int image_width,
+                                         int image_height)
+{
+    if (!image_width && !image_height && !x0 && !y0) {
+        t->x0 = t->y0 = t->image_width = t->image_height = 0;
+        return CRISP_OK;
+    }
+    if (x0 < 0 || y0 < 0 || x0 % 8 || y0 % 8 || x0 + t->width > image_width ||
+        y0 + t->height > image_height || image_width > 65536 || image_height > 65536)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "window %dx%d at (%d, %d) of a %dx%d image: expected a window inside "
+                           "the image at a multiple of 8",
+                           t->width, t->height, x0, y0, image_width, image_height);
+    t->x0 = x0, t->y0 = y0, t->image_width = image_width, t->image_height = image_height;
+    return CRISP_OK;
+}
+
 void crisp__raster_target_free(crisp_raster_target *t)
 {
     free(t->inv_w);
@@ -301,8 +329,8 @@ static int project2(const double *p, const double *attr, const crisp_raster_targ
 {
     double w = p[3];
     if (!(w > 0)) return 0;
-    out->sx = (p[0] / w + 1.0) * 0.5 * t->width;
-    out->sy = (1.0 - p[1] / w) * 0.5 * t->height;
+    out->sx = (p[0] / w + 1.0) * 0.5 * image_w(t);
+    out->sy = (1.0 - p[1] / w) * 0.5 * image_h(t);
     if (!(fabs(out->sx) <= 2 * GUARD_PX && fabs(out->sy) <= 2 * GUARD_PX)) return 0;
     out->fx = round_half_away(out->sx * SUB);
     out->fy = round_half_away(out->sy * SUB);
@@ -360,14 +388,15 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         maxy = v[i]->fy > maxy ? v[i]->fy : maxy;
     }
     /* Samples sit at i + offset with offset in [0, 1): pixels floor(min) - 1 .. floor(max)
-     * (floor of a fixed-point value: an arithmetic shift). */
+     * (floor of a fixed-point value: an arithmetic shift), in the whole image's pixels. */
     int64_t x0 = (minx >> CRISP_RASTER_SUBPIXEL_BITS) - 1,
             y0 = (miny >> CRISP_RASTER_SUBPIXEL_BITS) - 1;
     int64_t x1 = maxx >> CRISP_RASTER_SUBPIXEL_BITS, y1 = maxy >> CRISP_RASTER_SUBPIXEL_BITS;
-    out->x0 = (int)(x0 > 0 ? x0 : 0);
-    out->y0 = (int)(y0 > 0 ? y0 : 0);
-    out->x1 = (int)(x1 < t->width - 1 ? x1 : t->width - 1);
-    out->y1 = (int)(y1 < t->height - 1 ? y1 : t->height - 1);
+    int64_t ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
+    out->x0 = (int)(x0 > t->x0 ? x0 : t->x0);
+    out->y0 = (int)(y0 > t->y0 ? y0 : t->y0);
+    out->x1 = (int)(x1 < ex ? x1 : ex);
+    out->y1 = (int)(y1 < ey ? y1 : ey);
     if (!(out->x0 <= out->x1 && out->y0 <= out->y1)) return 0;
     double sx[3] = {a->sx, b->sx, d->sx}, sy[3] = {a->sy, b->sy, d->sy};
     double det = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sy[1] - sy[0]) * (sx[2] - sx[0]);
@@ -512,7 +541,7 @@ static double block_min(const crisp_raster_target *t, int bx0, int by0, int bx1,
     int S = t->samples;
     double m = INFINITY;
     for (int j = by0; j <= by1; j++) {
-        const double *row = t->inv_w + ((size_t)j * t->width + bx0) * S;
+        const double *row = t->inv_w + ((size_t)(j - t->y0) * t->width + (bx0 - t->x0)) * S;
         size_t n = (size_t)(bx1 - bx0 + 1) * S;
         for (size_t k = 0; k < n; k++)
             m = row[k] < m ? row[k] : m;
@@ -568,9 +597,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
     crisp_raster *r = c->r;
     crisp_raster_target *t = c->t;
     int tx = (int)(tile % (size_t)c->tiles_x), ty = (int)(tile / (size_t)c->tiles_x);
-    int px0 = tx * TILE, py0 = ty * TILE;
-    int px1 = px0 + TILE - 1 < t->width - 1 ? px0 + TILE - 1 : t->width - 1;
-    int py1 = py0 + TILE - 1 < t->height - 1 ? py0 + TILE - 1 : t->height - 1;
+    int px0 = t->x0 + tx * TILE, py0 = t->y0 + ty * TILE; /* pixels of the whole image */
+    int ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
+    int px1 = px0 + TILE - 1 < ex ? px0 + TILE - 1 : ex;
+    int py1 = py0 + TILE - 1 < ey ? py0 + TILE - 1 : ey;
     size_t tested = 0, discarded = 0, untested = 0, skipped = 0, boxed = 0;
     /* Per block: a lower bound of its least 1/W. Writes only raise stored 1/W (outside fill mode,
      * which does not use it), so a bound stays valid; it is recomputed from the samples once as
@@ -672,7 +702,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                         double dy = j + c->off_y[s] - st->oy;
                         double base = st->q0[0] + st->qy[0] * dy, gx = st->qx[0];
                         double dx0 = (double)bx0 + c->off_x[s] - st->ox;
-                        size_t idx0 = ((size_t)j * t->width + (size_t)bx0) * S + s;
+                        size_t idx0 =
+                            ((size_t)(j - t->y0) * t->width + (size_t)(bx0 - t->x0)) * S + s;
                         double iwv[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
                         if (!c->slack) {
@@ -839,7 +870,8 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
     const slack_ctx *c = vctx;
     const crisp_raster_target *t = c->t;
     float *slack = c->slack;
-    int S = t->samples, w = t->width, h = t->height;
+    int S = t->samples, w = t->width, h = t->height, iw = image_w(t), ih = image_h(t);
+    int ox = t->x0, oy = t->y0;
     size_t rs = (size_t)w * S;
     for (size_t i = begin * rs; i < end * rs; i++)
         slack[i] = 0;
@@ -851,17 +883,18 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
                 int32_t f = t->face[idx];
                 if (f < 0) continue;
                 double W = 1.0 / t->inv_w[idx];
-                int side = seen_side(c->view, w, h, i, j, t->attr + idx * CRISP_RASTER_ATTRS);
+                int side =
+                    seen_side(c->view, iw, ih, ox + i, oy + j, t->attr + idx * CRISP_RASTER_ATTRS);
                 if (own_j && i + 1 < w && t->face[idx + S] == f &&
-                    seen_side(c->view, w, h, i + 1, j, t->attr + (idx + S) * CRISP_RASTER_ATTRS) ==
-                        side) {
+                    seen_side(c->view, iw, ih, ox + i + 1, oy + j,
+                              t->attr + (idx + S) * CRISP_RASTER_ATTRS) == side) {
                     float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + S] - W));
                     if (d > slack[idx]) slack[idx] = d;
                     if (d > slack[idx + S]) slack[idx + S] = d;
                 }
                 if (j + 1 < h && t->face[idx + rs] == f &&
-                    seen_side(c->view, w, h, i, j + 1, t->attr + (idx + rs) * CRISP_RASTER_ATTRS) ==
-                        side) {
+                    seen_side(c->view, iw, ih, ox + i, oy + j + 1,
+                              t->attr + (idx + rs) * CRISP_RASTER_ATTRS) == side) {
                     float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + rs] - W));
                     if (own_j && d > slack[idx]) slack[idx] = d;
                     if (own_below && d > slack[idx + rs]) slack[idx + rs] = d;
@@ -894,7 +927,7 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
     const slack_tiles_ctx *tc = vctx;
     const slack_ctx *c = tc->c;
     const crisp_raster_target *t = c->t;
-    int S = t->samples, w = t->width, h = t->height;
+    int S = t->samples, w = t->width, h = t->height, iw = image_w(t), ih = image_h(t);
     size_t rs = (size_t)w * S;
     /* The side each sample of the cell and its one-pixel border is seen from. */
     int8_t side[(CELL + 2) * (CELL + 2)];
@@ -911,7 +944,7 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
                     if (i < 0 || j < 0 || i >= w || j >= h) continue;
                     size_t idx = ((size_t)j * w + i) * S + s;
                     if (t->face[idx] >= 0)
-                        *sd = (int8_t)seen_side(c->view, w, h, i, j,
+                        *sd = (int8_t)seen_side(c->view, iw, ih, t->x0 + i, t->y0 + j,
                                                 t->attr + idx * CRISP_RASTER_ATTRS);
                 }
             for (int j = py0; j < py1; j++)
@@ -959,7 +992,7 @@ static void tri_boxes(void *vctx, size_t begin, size_t end, int worker)
     (void)worker;
     const box_ctx *c = vctx;
     const crisp_raster_target *t = c->t;
-    double gx = GUARD_PX / t->width, gy = GUARD_PX / t->height;
+    double gx = GUARD_PX / image_w(t), gy = GUARD_PX / image_h(t);
     for (size_t ch = begin; ch < end; ch++) {
         size_t lo_i = c->tri_count * ch / CHUNKS, hi_i = c->tri_count * (ch + 1) / CHUNKS;
         for (size_t i = lo_i; i < hi_i; i++) {
@@ -978,8 +1011,8 @@ static void tri_boxes(void *vctx, size_t begin, size_t end, int worker)
                 for (int q = 0; q < 6; q++)
                     inside &= d[q] >= 0 && isfinite(d[q]);
                 double w = p[3];
-                double sx = (p[0] / w + 1.0) * 0.5 * t->width,
-                       sy = (1.0 - p[1] / w) * 0.5 * t->height;
+                double sx = (p[0] / w + 1.0) * 0.5 * image_w(t),
+                       sy = (1.0 - p[1] / w) * 0.5 * image_h(t);
                 inside &= w > 0 && fabs(sx) <= 2 * GUARD_PX && fabs(sy) <= 2 * GUARD_PX;
                 lo[0] = sx < lo[0] ? sx : lo[0], hi[0] = sx > hi[0] ? sx : hi[0];
                 lo[1] = sy < lo[1] ? sy : lo[1], hi[1] = sy > hi[1] ? sy : hi[1];
@@ -1001,8 +1034,9 @@ static void tri_boxes(void *vctx, size_t begin, size_t end, int worker)
                 }
             }
             if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) continue;
-            int x0 = (int)floor(lo[0]) - 2, x1 = (int)floor(hi[0]) + 2;
-            int y0 = (int)floor(lo[1]) - 2, y1 = (int)floor(hi[1]) + 2;
+            /* pixels of the target (the image's, less the window's corner) */
+            int x0 = (int)floor(lo[0]) - 2 - t->x0, x1 = (int)floor(hi[0]) + 2 - t->x0;
+            int y0 = (int)floor(lo[1]) - 2 - t->y0, y1 = (int)floor(hi[1]) + 2 - t->y0;
             out[0] = x0 > 0 ? x0 : 0, out[1] = y0 > 0 ? y0 : 0;
             out[2] = x1 < t->width - 1 ? x1 : t->width - 1;
             out[3] = y1 < t->height - 1 ? y1 : t->height - 1;
@@ -1073,13 +1107,16 @@ static void bin_count(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     const bin_ctx *b = vctx;
+    const crisp_raster_target *t = b->sc->t;
     for (size_t ch = begin; ch < end; ch++) {
         uint32_t *cnt = b->r->bin_counts + ch * b->tiles;
         memset(cnt, 0, b->tiles * sizeof *cnt);
         for (size_t i = 0; i < b->sc->counts[ch]; i++) {
             const setup_tri *s = &b->r->chunk_tris[ch][i];
-            for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
-                for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
+            /* tiles of the target (whose pixel 0, 0 is the image's x0, y0) */
+            int tx0 = (s->x0 - t->x0) / TILE, tx1 = (s->x1 - t->x0) / TILE;
+            for (int ty = (s->y0 - t->y0) / TILE; ty <= (s->y1 - t->y0) / TILE; ty++)
+                for (int tx = tx0; tx <= tx1; tx++)
                     cnt[(size_t)ty * b->tiles_x + tx]++;
         }
     }
@@ -1089,12 +1126,14 @@ static void bin_fill(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     const bin_ctx *b = vctx;
+    const crisp_raster_target *t = b->sc->t;
     for (size_t ch = begin; ch < end; ch++) {
         uint32_t *next = b->r->bin_counts + ch * b->tiles; /* the chunk's offset in each tile */
         for (size_t i = 0; i < b->sc->counts[ch]; i++) {
             const setup_tri *s = &b->r->chunk_tris[ch][i];
-            for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
-                for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
+            int tx0 = (s->x0 - t->x0) / TILE, tx1 = (s->x1 - t->x0) / TILE;
+            for (int ty = (s->y0 - t->y0) / TILE; ty <= (s->y1 - t->y0) / TILE; ty++)
+                for (int tx = tx0; tx <= tx1; tx++)
                     b->r->bin_items[next[(size_t)ty * b->tiles_x + tx]++] = s;
         }
     }
@@ -1143,8 +1182,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                     .tris = tris,
                     .test = test,
                     .test_ctx = test_ctx,
-                    .gx = GUARD_PX / t->width,
-                    .gy = GUARD_PX / t->height};
+                    .gx = GUARD_PX / image_w(t),
+                    .gy = GUARD_PX / image_h(t)};
     crisp_status st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1,
                                  sizeof *r->vcache);
     if (st) return st;

@@ -44,6 +44,10 @@ typedef int (*crisp_raster_test_fn)(void *ctx, uint32_t face, double u, double v
 /* Per-sample results; sample s of pixel (i, j) is at index (j * width + i) * samples + s. */
 typedef struct crisp_raster_target {
     int width, height, samples;
+    /* A window of a larger image (issue 15, image tiles): the target's pixel (0, 0) is pixel
+     * (x0, y0) of an image_width x image_height image whose clip space the vertices are in; 0, 0,
+     * 0, 0: the target is the whole image. Set by crisp__raster_target_window after init. */
+    int x0, y0, image_width, image_height;
     double *inv_w;     /* 1 / W of the visible fragment, 0 where nothing was drawn */
     float *attr;       /* CRISP_RASTER_ATTRS per sample */
     int32_t *face;     /* -1 where nothing was drawn */
@@ -58,6 +62,11 @@ void crisp__raster_destroy(crisp_raster *r);
 /* samples: 1, 4 or 16. Reuses the target's buffers when the size is unchanged. */
 crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int height, int samples);
 void crisp__raster_target_free(crisp_raster_target *t);
+/* Make the target the window (x0, y0, its width x height) of an image_width x image_height image
+ * (x0, y0 multiples of 8, the rasterizer's block size, so that every pixel is drawn with the same
+ * arithmetic as in the whole image); (0, 0, 0, 0): the whole image. */
+crisp_status crisp__raster_target_window(crisp_raster_target *t, int x0, int y0, int image_width,
+                                         int image_height);
 void crisp__raster_target_clear(crisp_raster_target *t);
 /* Clears 1/W and the face ids only: the attributes of empty samples keep stale values, which
  * nothing reads (a sample is drawn iff its face is >= 0). Deferred: the next draw clears each

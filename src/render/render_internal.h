@@ -64,6 +64,17 @@ void crisp__renderer_mesh(const crisp_renderer *r, const struct crisp_raster_ver
                           size_t *vert_count, const struct crisp_raster_tri **tris,
                           size_t *tri_count);
 
+/* crisp_render_cpu_plan drawing only a window of the frame (issue 15, image tiles): window = x0,
+ * y0, width, height of the pixels drawn (x0, y0 multiples of 8; NULL: the whole frame), img has
+ * the window's size. Every pixel of the window is computed with the same arithmetic as in the
+ * whole frame, except that the ribbons' depth slack (which looks at the 4 neighbouring pixels)
+ * sees no neighbour outside the window: draw a margin of at least 1 pixel and crop it. */
+struct crisp_frame_plan;
+crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
+                                      const struct crisp_frame_plan *plan, const crisp_camera *cam,
+                                      const int window[4], crisp_image *img,
+                                      crisp_render_stats *stats);
+
 /* The last frame's per-sample results (CPU backend), for tests that check every sample. */
 struct crisp_raster_target;
 const struct crisp_raster_target *crisp__renderer_target(const crisp_renderer *r);
