@@ -445,6 +445,7 @@ typedef struct ribbon_ctx {
     size_t vbase, tbase;
     size_t first;         /* the plan's quad copied to the first place */
     const uint32_t *keep; /* the plan's quads drawn (NULL: all) */
+    size_t vorigin;       /* the ribbons' first vertex: triangles index from it */
 } ribbon_ctx;
 
 static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
@@ -462,7 +463,9 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
             for (int a = 0; a < 3; a++)
                 v[k].attr[2 + a] = src[k].normal[a];
         }
-        uint32_t base = (uint32_t)(c->vbase + 4 * q), face = src[0].face | CRISP_RASTER_FACE_FLAG;
+        /* Indices relative to the ribbons' first vertex (drawn with verts + vorigin). */
+        uint32_t base = (uint32_t)(c->vbase - c->vorigin + 4 * q),
+                 face = src[0].face | CRISP_RASTER_FACE_FLAG;
         c->r->tris[c->tbase + 2 * q] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
         c->r->tris[c->tbase + 2 * q + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
     }
@@ -526,14 +529,18 @@ static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t en
     for (int s = 0; s < S; s++)
         crisp__raster_sample_offset(S, s, off[s]);
     const crisp_scene_face *faces = c->sc->faces;
-    for (size_t j = begin + (size_t)c->y0; j < end + (size_t)c->y0; j++)
+    for (size_t j = begin + (size_t)c->y0; j < end + (size_t)c->y0; j++) {
+        int gj = t->y0 + (int)j; /* the row in the whole image */
+        double ny_row[16];       /* per sample: ny of this row */
+        for (int s = 0; s < S; s++)
+            ny_row[s] = (0.5 * cam->height - gj - off[s][1]) * ky;
         for (int i = c->x0; i < c->x1; i++) {
             size_t px = j * (size_t)t->width + (size_t)i;
             if (c->base && (t->face[px] < 0 || !c->only[t->face[px]])) {
                 copy_pixel(c->base, img, px);
                 continue;
             }
-            int gi = t->x0 + i, gj = t->y0 + (int)j; /* the pixel in the whole image */
+            int gi = t->x0 + i; /* the pixel's column in the whole image */
             float acc[4] = {0, 0, 0, 0};
             int covered = 0, best = -1;
             double best_iw = 0;
@@ -544,8 +551,7 @@ static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t en
                 covered++;
                 if (t->inv_w[idx] > best_iw) best_iw = t->inv_w[idx], best = s;
                 double d[3], n[3];
-                double nx = (gi + off[s][0] - 0.5 * cam->width) * kx,
-                       ny = (0.5 * cam->height - gj - off[s][1]) * ky;
+                double nx = (gi + off[s][0] - 0.5 * cam->width) * kx, ny = ny_row[s];
                 for (int k = 0; k < 3; k++)
                     d[k] = f[k] + nx * r[k] + ny * u[k];
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
@@ -577,6 +583,7 @@ static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t en
             for (int k = 0; k < 3; k++)
                 img->normal[3 * px + k] = a[2 + k];
         }
+    }
 }
 
 static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
@@ -813,15 +820,19 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     tess_ctx tc = {r, sc};
     crisp_pool_parallel_for(r->pool, jobs, 8, tessellate, &tc);
     if (!only) {
-        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0, keep};
+        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0, keep, surface_v};
         crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
     } else {
         size_t done = 0; /* the drawn faces' quads, face after face */
         for (uint32_t f = 0; f < plan->face_count; f++) {
             if (!only[f] || !plan->faces[f].ribbon_count) continue;
-            ribbon_ctx rbc = {
-                r,   plan, surface_v + 4 * done, surface_t + 2 * done, plan->faces[f].first_ribbon,
-                NULL};
+            ribbon_ctx rbc = {r,
+                              plan,
+                              surface_v + 4 * done,
+                              surface_t + 2 * done,
+                              plan->faces[f].first_ribbon,
+                              NULL,
+                              surface_v};
             crisp_pool_parallel_for(r->pool, plan->faces[f].ribbon_count, 256, copy_ribbons, &rbc);
             done += plan->faces[f].ribbon_count;
         }
@@ -878,19 +889,22 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         r->untested[f] = (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE) != 0;
     crisp__raster_set_untested_faces(r->raster, r->untested, plan->face_count);
     crisp__raster_set_box_test(r->raster, trim_box);
-    st = crisp__raster_draw(r->raster, tg, r->pool, r->verts, nv, r->tris, surface_t, trim_test,
-                            ctx, &rs);
+    /* Each pass projects only its own vertices: the surfaces', then the ribbons'. */
+    st = crisp__raster_draw(r->raster, tg, r->pool, r->verts, surface_v, r->tris, surface_t,
+                            trim_test, ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {
         size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
         /* Only where the ribbons can land (the fill pass reads nothing else). */
-        if ((st = crisp__raster_depth_slack_tris(r->raster, tg, r->pool, 1.5, &view, r->verts, nv,
+        if ((st = crisp__raster_depth_slack_tris(r->raster, tg, r->pool, 1.5, &view,
+                                                 r->verts + surface_v, nv - surface_v,
                                                  r->tris + surface_t, nt - surface_t, r->slack)))
             return st;
         crisp_raster_stats rs2;
-        st = crisp__raster_draw_fill(r->raster, tg, r->pool, r->verts, nv, r->tris + surface_t,
-                                     nt - surface_t, trim_test, ctx, r->slack, &rs2);
+        st = crisp__raster_draw_fill(r->raster, tg, r->pool, r->verts + surface_v, nv - surface_v,
+                                     r->tris + surface_t, nt - surface_t, trim_test, ctx, r->slack,
+                                     &rs2);
         if (st) return st;
         rs.fragments_tested += rs2.fragments_tested;
         rs.fragments_discarded += rs2.fragments_discarded;

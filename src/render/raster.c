@@ -17,6 +17,9 @@
 typedef struct setup_tri {
     int64_t x[3], y[3]; /* fixed point, counter-clockwise in the (x right, y down) frame */
     int64_t bias[3];    /* 0 for edges that own their samples (top-left rule), else -1 */
+    /* Edge k's function at a fixed-point sample position: E = ea px + eb py + ec (the same
+     * integer as ea (px - x_a0) + eb (py - y_a0) + bias: every term stays below 2^62). */
+    int64_t ea[3], eb[3], ec[3];
     /* 1/W and attribute/W as planes over the unsnapped screen position: value at (ox, oy) and
      * gradients. Snapping moves coverage by at most 1/512 px but not the interpolated values. */
     double ox, oy;
@@ -33,6 +36,36 @@ typedef struct setup_tri {
     double box[4]; /* u_lo, u_hi, v_lo, v_hi */
 } setup_tri;
 
+/* A fragment's attributes: ((a/W at the origin + x gradient dx) + y gradient dy) * W. */
+static inline void attrs_scalar(const setup_tri *st, double dx, double dy, double w, double *a)
+{
+    for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+        a[k] = (st->q0[k + 1] + st->qx[k + 1] * dx + st->qy[k + 1] * dy) * w;
+}
+
+/* The same with two attributes per operation (GCC vector extensions, SSE2 on x86-64): the same
+ * IEEE operations in the same order on each lane (no fused multiply-add: ISO C mode contracts
+ * nothing), so the same values bit for bit (test_raster_fast compares both paths). */
+#if defined(__GNUC__) && CRISP_RASTER_ATTRS == 5
+#define HAVE_VECTORS 1
+typedef double v2d __attribute__((vector_size(16)));
+typedef double v2d_u __attribute__((vector_size(16), aligned(8))); /* unaligned loads, stores */
+
+static inline void attrs_vector(const setup_tri *st, double dx, double dy, double w, double *a)
+{
+    const v2d vdx = {dx, dx}, vdy = {dy, dy}, vw = {w, w};
+    for (int k = 0; k < 4; k += 2) {
+        v2d q0 = *(const v2d_u *)(st->q0 + 1 + k), qx = *(const v2d_u *)(st->qx + 1 + k),
+            qy = *(const v2d_u *)(st->qy + 1 + k);
+        *(v2d_u *)(a + k) = (q0 + qx * vdx + qy * vdy) * vw;
+    }
+    a[4] = (st->q0[5] + st->qx[5] * dx + st->qy[5] * dy) * w;
+}
+#else
+#define HAVE_VECTORS 0
+#define attrs_vector attrs_scalar
+#endif
+
 #define BATCH ((size_t)1 << 19) /* input triangles set up and binned at a time */
 
 typedef struct pvert pvert;
@@ -48,10 +81,13 @@ struct crisp_raster {
     uint32_t *bin_start; /* per tile, tile_count + 1 */
     size_t bin_start_cap;
     int no_hiz;              /* hierarchical depth rejection off (crisp__raster_set_hiz) */
+    int no_vectors;          /* the scalar path only (crisp__raster_set_vectors) */
     const uint8_t *untested; /* per face (crisp__raster_set_untested_faces) */
     size_t untested_count;
-    uint8_t *tile_mask; /* per tile (crisp__raster_depth_slack_tris) */
+    uint8_t *tile_mask; /* per cell (crisp__raster_depth_slack_tris) */
     size_t tile_mask_cap;
+    int (*tri_boxes)[4]; /* per triangle: its pixel box (crisp__raster_depth_slack_tris) */
+    size_t tri_boxes_cap;
     uint32_t *bin_counts; /* per setup chunk and tile: entries (parallel binning) */
     size_t bin_counts_cap;
     crisp_raster_box_fn box_test; /* crisp__raster_set_box_test */
@@ -71,6 +107,12 @@ void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, 
 void crisp__raster_set_hiz(crisp_raster *r, int on)
 {
     r->no_hiz = !on;
+}
+
+int crisp__raster_set_vectors(crisp_raster *r, int on)
+{
+    r->no_vectors = !on;
+    return HAVE_VECTORS;
 }
 
 void crisp__raster_set_batch(crisp_raster *r, size_t triangles)
@@ -95,6 +137,7 @@ void crisp__raster_destroy(crisp_raster *r)
     free(r->bin_items);
     free(r->bin_start);
     free(r->tile_mask);
+    free(r->tri_boxes);
     free(r->bin_counts);
     free(r);
 }
@@ -171,6 +214,7 @@ void crisp__raster_target_clear(crisp_raster_target *t)
     memset(t->inv_w, 0, n * sizeof *t->inv_w);
     memset(t->attr, 0, n * CRISP_RASTER_ATTRS * sizeof *t->attr);
     memset(t->face, 0xff, n * sizeof *t->face);
+    t->clear_pending = 0;
 }
 
 typedef struct clear_ctx {
@@ -187,6 +231,13 @@ static void clear_rows(void *vctx, size_t begin, size_t end, int worker)
 }
 
 void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool)
+{
+    (void)pool;
+    t->clear_pending = 1; /* done by the next draw, tile by tile */
+}
+
+/* A pending clear_depth of the whole target, now. */
+static void clear_now(crisp_raster_target *t, crisp_pool *pool)
 {
     clear_ctx c = {t};
     crisp_pool_parallel_for(pool, (size_t)t->height, 64, clear_rows, &c);
@@ -274,7 +325,7 @@ static inline int64_t round_half_away(double x)
 }
 
 /* 0 when the vertex cannot be set up (W <= 0, beyond the guard band or not finite). */
-static int project(const double *p, const crisp_raster_target *t, pvert *out)
+static int project2(const double *p, const double *attr, const crisp_raster_target *t, pvert *out)
 {
     double w = p[3];
     if (!(w > 0)) return 0;
@@ -286,10 +337,16 @@ static int project(const double *p, const crisp_raster_target *t, pvert *out)
     double iw = 1.0 / w;
     out->val[0] = iw;
     for (int q = 1; q <= CRISP_RASTER_ATTRS; q++)
-        out->val[q] = p[3 + q] * iw;
-    out->uv[0] = p[4];
-    out->uv[1] = p[5];
+        out->val[q] = attr[q - 1] * iw;
+    out->uv[0] = attr[0];
+    out->uv[1] = attr[1];
     return 1;
+}
+
+/* p: clip position then attributes (a clipped vertex). */
+static int project(const double *p, const crisp_raster_target *t, pvert *out)
+{
+    return project2(p, p + 4, t, out);
 }
 
 typedef struct {
@@ -360,6 +417,9 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         int a0 = (k + 1) % 3, a1 = (k + 2) % 3;
         int64_t dx = out->x[a1] - out->x[a0], dy = out->y[a1] - out->y[a0];
         out->bias[k] = (dy < 0 || (dy == 0 && dx > 0)) ? 0 : -1;
+        out->ea[k] = -dy;
+        out->eb[k] = dx;
+        out->ec[k] = -(out->ea[k] * out->x[a0] + out->eb[k] * out->y[a0]) + out->bias[k];
     }
     out->face = face;
     /* Interpolated (u, v) are convex combinations of the vertices' (up to rounding; a fragment
@@ -397,10 +457,7 @@ static void project_vertices(void *vctx, size_t begin, size_t end, int worker)
             int inside = 1;
             for (int q = 0; q < 6; q++)
                 inside &= d[q] >= 0 && isfinite(d[q]);
-            double full[4 + CRISP_RASTER_ATTRS];
-            memcpy(full, p, 4 * sizeof(double));
-            memcpy(full + 4, c->verts[i].attr, CRISP_RASTER_ATTRS * sizeof(double));
-            cache[i].ok = inside && project(full, c->t, &cache[i]);
+            cache[i].ok = inside && project2(p, c->verts[i].attr, c->t, &cache[i]);
         }
     }
 }
@@ -473,6 +530,8 @@ typedef struct {
     double off_x[16], off_y[16];
     const float *slack; /* fill mode (crisp__raster_draw_fill) when not NULL */
     int hiz;            /* hierarchical depth rejection on */
+    int vectors;        /* the vector path (crisp__raster_set_vectors) */
+    int clear;          /* each tile first does the target's pending clear_depth */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
 } raster_ctx;
 
@@ -552,7 +611,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
     uint32_t block_samples = (uint32_t)(BLOCK * BLOCK * S);
     for (int k = 0; k < BLOCKS * BLOCKS; k++)
         hiz[k] = 0, writes[k] = block_samples;
-    int use_hiz = c->hiz && !c->slack;
+    int use_hiz = c->hiz && !c->slack, vectors = c->vectors;
     for (uint32_t bi = r->bin_start[tile]; bi < r->bin_start[tile + 1]; bi++) {
         const setup_tri *st = r->bin_items[bi];
         int x0 = st->x0 > px0 ? st->x0 : px0, x1 = st->x1 < px1 ? st->x1 : px1;
@@ -563,13 +622,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                        !((size_t)face_id < r->untested_count && r->untested[face_id]);
         int tboxed = st->boxed, tneed = 0; /* the triangle's box test answer (setup_tri) */
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
-        int64_t A[3], B[3], step[3];
-        for (int k = 0; k < 3; k++) {
-            int a0 = (k + 1) % 3, a1 = (k + 2) % 3;
-            A[k] = -(st->y[a1] - st->y[a0]);
-            B[k] = st->x[a1] - st->x[a0];
-            step[k] = A[k] * SUB;
-        }
+        const int64_t *A = st->ea, *B = st->eb;
+        int64_t step[3] = {A[0] * SUB, A[1] * SUB, A[2] * SUB};
         /* Rounding allowance of the 1/W plane evaluated at a block corner (see the hi-z test). */
         double slop = 1e-12 * (fabs(st->q0[0]) +
                                fabs(st->qx[0]) * (fabs(x0 - st->ox) + fabs(x1 + 1 - st->ox)) +
@@ -590,13 +644,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                     int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
                             sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
                     for (int k = 0; k < 3; k++) {
-                        int a0 = (k + 1) % 3;
-                        int64_t ex0 = A[k] * (sx0 - st->x[a0]), ex1 = A[k] * (sx1 - st->x[a0]);
-                        int64_t ey0 = B[k] * (sy0 - st->y[a0]), ey1 = B[k] * (sy1 - st->y[a0]);
-                        int64_t lo =
-                            (ex0 < ex1 ? ex0 : ex1) + (ey0 < ey1 ? ey0 : ey1) + st->bias[k];
-                        int64_t hi =
-                            (ex0 > ex1 ? ex0 : ex1) + (ey0 > ey1 ? ey0 : ey1) + st->bias[k];
+                        int64_t ex0 = A[k] * sx0, ex1 = A[k] * sx1;
+                        int64_t ey0 = B[k] * sy0, ey1 = B[k] * sy1;
+                        int64_t lo = (ex0 < ex1 ? ex0 : ex1) + (ey0 < ey1 ? ey0 : ey1) + st->ec[k];
+                        int64_t hi = (ex0 > ex1 ? ex0 : ex1) + (ey0 > ey1 ? ey0 : ey1) + st->ec[k];
                         empty |= hi < 0;
                         full &= lo >= 0;
                     }
@@ -637,10 +688,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                 for (int s = 0; s < S; s++) {
                     int64_t px = (int64_t)bx0 * SUB + c->off_fx[s],
                             py = (int64_t)by0 * SUB + c->off_fy[s];
-                    for (int k = 0; k < 3; k++) {
-                        int a0 = (k + 1) % 3;
-                        er[s][k] = A[k] * (px - st->x[a0]) + B[k] * (py - st->y[a0]) + st->bias[k];
-                    }
+                    for (int k = 0; k < 3; k++)
+                        er[s][k] = A[k] * px + B[k] * py + st->ec[k];
                 }
                 for (int j = by0; j <= by1; j++)
                     for (int s = 0; s < S; s++) {
@@ -657,21 +706,42 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             ((size_t)(j - t->y0) * t->width + (size_t)(bx0 - t->x0)) * S + s;
                         double iwv[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
-                        if (full) {
-                            for (int q = 0; q < n; q++)
-                                cov[q] = 1;
-                            any = 1;
+                        if (!c->slack) {
+                            /* Coverage, 1/W and the depth test in one branch-free loop (the
+                             * stored 1/W is read at every lane of the row: inside the image). */
+                            const double *stored = t->inv_w + idx0;
+                            if (full)
+                                for (int q = 0; q < n; q++) {
+                                    double iwq = base + gx * (dx0 + q);
+                                    iwv[q] = iwq;
+                                    pass[np] = q;
+                                    np += iwq > stored[(size_t)q * S];
+                                }
+                            else
+                                for (int q = 0; q < n; q++) {
+                                    int cv = (e[0] | e[1] | e[2]) >= 0;
+                                    e[0] += step[0], e[1] += step[1], e[2] += step[2];
+                                    double iwq = base + gx * (dx0 + q);
+                                    iwv[q] = iwq;
+                                    pass[np] = q;
+                                    np += cv & (iwq > stored[(size_t)q * S]);
+                                }
                         } else {
-                            for (int q = 0; q < n; q++) {
-                                cov[q] = (e[0] | e[1] | e[2]) >= 0;
-                                any |= cov[q];
-                                e[0] += step[0], e[1] += step[1], e[2] += step[2];
+                            /* Fill mode: coverage first, then the slack's depth test. */
+                            if (full) {
+                                for (int q = 0; q < n; q++)
+                                    cov[q] = 1;
+                                any = 1;
+                            } else {
+                                for (int q = 0; q < n; q++) {
+                                    cov[q] = (e[0] | e[1] | e[2]) >= 0;
+                                    any |= cov[q];
+                                    e[0] += step[0], e[1] += step[1], e[2] += step[2];
+                                }
                             }
-                        }
-                        if (!any) continue;
-                        for (int q = 0; q < n; q++)
-                            iwv[q] = base + gx * (dx0 + q);
-                        if (c->slack) {
+                            if (!any) continue;
+                            for (int q = 0; q < n; q++)
+                                iwv[q] = base + gx * (dx0 + q);
                             for (int q = 0; q < n; q++) {
                                 double cur = t->inv_w[idx0 + (size_t)q * S];
                                 if (cov[q] &&
@@ -679,10 +749,6 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                                      1.0 / iwv[q] < 1.0 / cur - c->slack[idx0 + (size_t)q * S]))
                                     pass[np++] = q;
                             }
-                        } else {
-                            for (int q = 0; q < n; q++)
-                                if (cov[q] && iwv[q] > t->inv_w[idx0 + (size_t)q * S])
-                                    pass[np++] = q;
                         }
                         for (int pi = 0; pi < np; pi++) {
                             int q = pass[pi];
@@ -690,9 +756,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             double iw = iwv[q], dx = dx0 + q;
                             double a[CRISP_RASTER_ATTRS];
                             double w = 1.0 / iw;
-                            for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
-                                a[k] =
-                                    (st->q0[k + 1] + st->qx[k + 1] * dx + st->qy[k + 1] * dy) * w;
+                            if (vectors)
+                                attrs_vector(st, dx, dy, w, a);
+                            else
+                                attrs_scalar(st, dx, dy, w, a);
                             if (run_test) {
                                 int keep = -1;
                                 if (tboxed == -3 && ++tneed >= 2) {
@@ -745,6 +812,19 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
 
 static void raster_tile(raster_ctx *c, size_t tile)
 {
+    if (c->clear) { /* the pending clear_depth of this tile, while it is about to be used */
+        crisp_raster_target *t = c->t;
+        int x0 = (int)(tile % (size_t)c->tiles_x) * TILE,
+            y0 = (int)(tile / (size_t)c->tiles_x) * TILE;
+        int x1 = x0 + TILE < t->width ? x0 + TILE : t->width;
+        int y1 = y0 + TILE < t->height ? y0 + TILE : t->height;
+        size_t n = (size_t)(x1 - x0) * t->samples;
+        for (int j = y0; j < y1; j++) {
+            size_t a = ((size_t)j * t->width + x0) * t->samples;
+            memset(t->inv_w + a, 0, n * sizeof *t->inv_w);
+            memset(t->face + a, 0xff, n * sizeof *t->face);
+        }
+    }
     if (c->t->samples == 1)
         raster_tile_s(c, tile, 1);
     else
@@ -894,6 +974,76 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* Per triangle, the pixels its samples can lie in (x0, y0, x1, y1; x0 > x1: none), from the
+ * vertices setup would use (inside every clip plane: as they are; else the clipped polygon's,
+ * as setup_chunk clips it): floor(min) - 1 .. floor(max) of their snapped positions (1/512 px
+ * from the unsnapped ones); 2 px of margin cover both. */
+typedef struct box_ctx {
+    const crisp_raster_target *t;
+    const crisp_raster_vertex *verts;
+    size_t vert_count;
+    const crisp_raster_tri *tris;
+    size_t tri_count;
+    int (*boxes)[4];
+} box_ctx;
+
+static void tri_boxes(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const box_ctx *c = vctx;
+    const crisp_raster_target *t = c->t;
+    double gx = GUARD_PX / image_w(t), gy = GUARD_PX / image_h(t);
+    for (size_t ch = begin; ch < end; ch++) {
+        size_t lo_i = c->tri_count * ch / CHUNKS, hi_i = c->tri_count * (ch + 1) / CHUNKS;
+        for (size_t i = lo_i; i < hi_i; i++) {
+            int *out = c->boxes[i];
+            out[0] = out[1] = 1, out[2] = out[3] = 0; /* none */
+            const crisp_raster_tri *tri = &c->tris[i];
+            if (tri->v[0] >= c->vert_count || tri->v[1] >= c->vert_count ||
+                tri->v[2] >= c->vert_count)
+                continue; /* draw refuses it */
+            double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+            int inside = 1;
+            for (int k = 0; k < 3 && inside; k++) { /* the common case: no clipping */
+                const double *p = c->verts[tri->v[k]].clip;
+                double d[6];
+                plane_dists(p, gx, gy, d);
+                for (int q = 0; q < 6; q++)
+                    inside &= d[q] >= 0 && isfinite(d[q]);
+                double w = p[3];
+                double sx = (p[0] / w + 1.0) * 0.5 * image_w(t),
+                       sy = (1.0 - p[1] / w) * 0.5 * image_h(t);
+                inside &= w > 0 && fabs(sx) <= 2 * GUARD_PX && fabs(sy) <= 2 * GUARD_PX;
+                lo[0] = sx < lo[0] ? sx : lo[0], hi[0] = sx > hi[0] ? sx : hi[0];
+                lo[1] = sy < lo[1] ? sy : lo[1], hi[1] = sy > hi[1] ? sy : hi[1];
+            }
+            if (!inside) {
+                cvert poly[MAX_POLY];
+                for (int k = 0; k < 3; k++) {
+                    const crisp_raster_vertex *sv = &c->verts[tri->v[k]];
+                    memcpy(poly[k].p, sv->clip, 4 * sizeof(double));
+                    memcpy(poly[k].p + 4, sv->attr, CRISP_RASTER_ATTRS * sizeof(double));
+                }
+                int m = clip_polygon(poly, 3, gx, gy);
+                lo[0] = lo[1] = INFINITY, hi[0] = hi[1] = -INFINITY;
+                for (int k = 0; k < m; k++) {
+                    pvert pv;
+                    if (!project(poly[k].p, t, &pv)) continue;
+                    lo[0] = pv.sx < lo[0] ? pv.sx : lo[0], hi[0] = pv.sx > hi[0] ? pv.sx : hi[0];
+                    lo[1] = pv.sy < lo[1] ? pv.sy : lo[1], hi[1] = pv.sy > hi[1] ? pv.sy : hi[1];
+                }
+            }
+            if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) continue;
+            /* pixels of the target (the image's, less the window's corner) */
+            int x0 = (int)floor(lo[0]) - 2 - t->x0, x1 = (int)floor(hi[0]) + 2 - t->x0;
+            int y0 = (int)floor(lo[1]) - 2 - t->y0, y1 = (int)floor(hi[1]) + 2 - t->y0;
+            out[0] = x0 > 0 ? x0 : 0, out[1] = y0 > 0 ? y0 : 0;
+            out[2] = x1 < t->width - 1 ? x1 : t->width - 1;
+            out[3] = y1 < t->height - 1 ? y1 : t->height - 1;
+        }
+    }
+}
+
 crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_target *t,
                                             crisp_pool *pool, double scale,
                                             const crisp_raster_view *view,
@@ -906,47 +1056,15 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
     crisp_status st = crisp_grow((void **)&r->tile_mask, &r->tile_mask_cap, tiles, 1);
     if (st) return st;
     memset(r->tile_mask, 0, tiles);
-    /* The vertices setup would use for each triangle (inside every clip plane: as they are;
-     * else the clipped polygon's, as setup_chunk clips it): the triangle's samples lie in pixels
-     * floor(min) - 1 .. floor(max) of their snapped positions (1/512 px from the unsnapped
-     * ones); 2 px of margin cover both. */
-    double gx = GUARD_PX / image_w(t), gy = GUARD_PX / image_h(t);
+    if ((st = crisp_grow((void **)&r->tri_boxes, &r->tri_boxes_cap, tri_count ? tri_count : 1,
+                         sizeof *r->tri_boxes)))
+        return st;
+    box_ctx bc = {t, verts, vert_count, tris, tri_count, r->tri_boxes};
+    crisp_pool_parallel_for(pool, CHUNKS, 1, tri_boxes, &bc);
     for (size_t i = 0; i < tri_count; i++) {
-        cvert poly[MAX_POLY];
-        int m = 3, bad = 0;
-        for (int k = 0; k < 3; k++) {
-            if (tris[i].v[k] >= vert_count) {
-                bad = 1;
-                break;
-            }
-            const crisp_raster_vertex *sv = &verts[tris[i].v[k]];
-            memcpy(poly[k].p, sv->clip, 4 * sizeof(double));
-            memcpy(poly[k].p + 4, sv->attr, CRISP_RASTER_ATTRS * sizeof(double));
-        }
-        if (bad) continue; /* draw refuses it */
-        int inside = 1;
-        for (int k = 0; k < 3; k++) {
-            double d[6];
-            plane_dists(poly[k].p, gx, gy, d);
-            for (int q = 0; q < 6; q++)
-                inside &= d[q] >= 0 && isfinite(d[q]);
-        }
-        if (!inside) m = clip_polygon(poly, 3, gx, gy);
-        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-        for (int k = 0; k < m; k++) {
-            pvert pv;
-            if (!project(poly[k].p, t, &pv)) continue;
-            lo[0] = pv.sx < lo[0] ? pv.sx : lo[0], hi[0] = pv.sx > hi[0] ? pv.sx : hi[0];
-            lo[1] = pv.sy < lo[1] ? pv.sy : lo[1], hi[1] = pv.sy > hi[1] ? pv.sy : hi[1];
-        }
-        if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) continue;
-        /* pixels of the target (the image's, less the window's corner) */
-        int x0 = (int)floor(lo[0]) - 2 - t->x0, x1 = (int)floor(hi[0]) + 2 - t->x0;
-        int y0 = (int)floor(lo[1]) - 2 - t->y0, y1 = (int)floor(hi[1]) + 2 - t->y0;
-        x0 = x0 > 0 ? x0 : 0, y0 = y0 > 0 ? y0 : 0;
-        x1 = x1 < t->width - 1 ? x1 : t->width - 1, y1 = y1 < t->height - 1 ? y1 : t->height - 1;
-        for (int ty = y0 / CELL; ty <= y1 / CELL && y0 <= y1; ty++)
-            for (int tx = x0 / CELL; tx <= x1 / CELL && x0 <= x1; tx++)
+        const int *b = r->tri_boxes[i];
+        for (int ty = b[1] / CELL; ty <= b[3] / CELL && b[1] <= b[3]; ty++)
+            for (int tx = b[0] / CELL; tx <= b[2] / CELL && b[0] <= b[2]; tx++)
                 r->tile_mask[(size_t)ty * tiles_x + tx] = 1;
     }
     slack_ctx c = {t, view, scale, slack};
@@ -1082,7 +1200,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                      .test = test,
                      .test_ctx = test_ctx,
                      .slack = slack,
-                     .hiz = !r->no_hiz};
+                     .hiz = !r->no_hiz,
+                     .vectors = !r->no_vectors};
     for (int s = 0; s < t->samples; s++) {
         double off[2];
         crisp__raster_sample_offset(t->samples, s, off);
@@ -1099,6 +1218,7 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
     /* Batches of triangles, one after the other (submission order is kept): set-up records and
      * bins hold one batch, so the rasterizer's memory is bounded whatever the triangle count. */
     size_t total = 0, batch = r->batch ? r->batch : BATCH;
+    rc.clear = t->clear_pending; /* the first batch's tiles clear themselves */
     for (size_t first = 0; first < tri_count; first += batch) {
         sc.first = first;
         sc.count = tri_count - first < batch ? tri_count - first : batch;
@@ -1134,6 +1254,12 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
             return st;
         crisp_pool_parallel_for(pool, CHUNKS, 1, bin_fill, &bc);
         crisp_pool_parallel_for(pool, tiles, 1, raster_tiles, &rc);
+        rc.clear = 0;
+        t->clear_pending = 0;
+    }
+    if (t->clear_pending) { /* no triangles: clear anyway */
+        clear_now(t, pool);
+        t->clear_pending = 0;
     }
     if (stats) {
         *stats = (crisp_raster_stats){.triangles_in = tri_count,

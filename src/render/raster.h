@@ -48,9 +48,10 @@ typedef struct crisp_raster_target {
      * (x0, y0) of an image_width x image_height image whose clip space the vertices are in; 0, 0,
      * 0, 0: the target is the whole image. Set by crisp__raster_target_window after init. */
     int x0, y0, image_width, image_height;
-    double *inv_w; /* 1 / W of the visible fragment, 0 where nothing was drawn */
-    float *attr;   /* CRISP_RASTER_ATTRS per sample */
-    int32_t *face; /* -1 where nothing was drawn */
+    double *inv_w;     /* 1 / W of the visible fragment, 0 where nothing was drawn */
+    float *attr;       /* CRISP_RASTER_ATTRS per sample */
+    int32_t *face;     /* -1 where nothing was drawn */
+    int clear_pending; /* crisp__raster_target_clear_depth waits for the next draw */
 } crisp_raster_target;
 
 typedef struct crisp_raster crisp_raster; /* reusable scratch (setup, bins) */
@@ -67,8 +68,10 @@ void crisp__raster_target_free(crisp_raster_target *t);
 crisp_status crisp__raster_target_window(crisp_raster_target *t, int x0, int y0, int image_width,
                                          int image_height);
 void crisp__raster_target_clear(crisp_raster_target *t);
-/* Clears 1/W and the face ids only, in parallel (pool may be NULL): the attributes of empty
- * samples keep stale values, which nothing reads (a sample is drawn iff its face is >= 0). */
+/* Clears 1/W and the face ids only: the attributes of empty samples keep stale values, which
+ * nothing reads (a sample is drawn iff its face is >= 0). Deferred: the next draw clears each
+ * tile just before drawing into it (one pass over memory fewer), or the whole target when it
+ * has no triangles; read the target only after a draw. */
 void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool);
 
 /* Offsets of the samples inside a pixel, in [0, 1)^2 (x right, y down). */
@@ -84,6 +87,9 @@ typedef struct crisp_raster_stats {
 /* Hierarchical depth rejection (on by default; off only to measure it or to check that the
  * result does not depend on it). */
 void crisp__raster_set_hiz(crisp_raster *r, int on);
+/* The vector path for per-fragment arithmetic (on by default where the compiler has vector
+ * extensions; it gives the scalar path's values bit for bit). Returns 1 when the build has it. */
+int crisp__raster_set_vectors(crisp_raster *r, int on);
 /* Faces whose fragments skip the fragment test (kept as if it said 1): untested[f] != 0 for face
  * f < count (a face without trim loops: CRISP_PLAN_FACE_ALL_INSIDE). The array is read by later
  * draws until it is set again; NULL: every face is tested. */

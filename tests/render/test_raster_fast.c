@@ -86,6 +86,8 @@ static int keep_all(void *vctx, uint32_t face, double u, double v)
 
 static const uint8_t *untested_faces; /* crisp__raster_set_untested_faces for render() */
 static crisp_raster_box_fn box_fn;    /* crisp__raster_set_box_test for render() */
+static int scalar_only;               /* crisp__raster_set_vectors(r, 0) in render() */
+static int deferred_clear;            /* render() fills the target with junk, then clear_depth */
 
 static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn,
                    const float *slack, crisp_raster_target *t, test_ctx *tc,
@@ -104,8 +106,15 @@ static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_r
     crisp__raster_set_batch(r, batch);
     crisp__raster_set_untested_faces(r, untested_faces, 7);
     crisp__raster_set_box_test(r, box_fn);
+    crisp__raster_set_vectors(r, !scalar_only);
     assert_int_equal(crisp__raster_target_init(t, W, H, samples), CRISP_OK);
     crisp__raster_target_clear(t);
+    if (deferred_clear) {
+        size_t n = (size_t)W * H * samples;
+        for (size_t k = 0; k < n; k++)
+            t->inv_w[k] = 1e9, t->face[k] = 5;
+        crisp__raster_target_clear_depth(t, NULL);
+    }
     crisp_pool *pool;
     assert_int_equal(crisp_pool_create(2, &pool), CRISP_OK);
     /* Half first, then the rest on top (a second draw into a target that holds depth). */
@@ -200,6 +209,69 @@ static void test_no_test_flag(void **state)
     crisp__raster_target_free(&c);
     crisp__raster_target_free(&a);
     crisp__raster_target_free(&b);
+}
+
+/* The vector path gives the scalar path's targets bit for bit (1 and 4 samples, fill mode). */
+static void test_vectors_equal_scalar(void **state)
+{
+    (void)state;
+    static float slack[W * H * 4];
+    for (int k = 0; k < W * H * 4; k++)
+        slack[k] = (float)(0.03 * (k % 7));
+    for (int samples = 1; samples <= 4; samples += 3)
+        for (int fill = 0; fill < 2; fill++) {
+            crisp_raster_target a = {0}, b = {0};
+            test_ctx ta = {0}, tb = {0};
+            crisp_raster_stats sa, sb;
+            scalar_only = 1;
+            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &ta, &sa);
+            scalar_only = 0;
+            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &b, &tb, &sb);
+            assert_same(&a, &b);
+            assert_int_equal(ta.calls, tb.calls);
+            crisp__raster_target_free(&a);
+            crisp__raster_target_free(&b);
+        }
+}
+
+/* clear_depth, deferred to the next draw's tiles, leaves what a full clear leaves (attributes
+ * aside, which only drawn samples hold); a draw of no triangles still clears. */
+static void test_deferred_clear(void **state)
+{
+    (void)state;
+    for (int samples = 1; samples <= 4; samples += 3) {
+        crisp_raster_target a = {0}, b = {0};
+        test_ctx ta = {0}, tb = {0};
+        crisp_raster_stats sa, sb;
+        render(samples, 1, 0, 0, some_test, NULL, &a, &ta, &sa);
+        deferred_clear = 1;
+        render(samples, 1, 0, 0, some_test, NULL, &b, &tb, &sb);
+        deferred_clear = 0;
+        size_t n = (size_t)W * H * samples;
+        assert_memory_equal(a.inv_w, b.inv_w, n * sizeof *a.inv_w);
+        assert_memory_equal(a.face, b.face, n * sizeof *a.face);
+        for (size_t k = 0; k < n; k++)
+            if (a.face[k] >= 0)
+                assert_memory_equal(a.attr + k * CRISP_RASTER_ATTRS,
+                                    b.attr + k * CRISP_RASTER_ATTRS,
+                                    CRISP_RASTER_ATTRS * sizeof *a.attr);
+        /* No triangles. */
+        for (size_t k = 0; k < n; k++)
+            b.inv_w[k] = 3, b.face[k] = 2;
+        crisp__raster_target_clear_depth(&b, NULL);
+        crisp_raster *r;
+        assert_int_equal(crisp__raster_create(&r), CRISP_OK);
+        crisp_raster_vertex v = {{0, 0, 0, 1}, {0}};
+        assert_int_equal(crisp__raster_draw(r, &b, NULL, &v, 1, NULL, 0, NULL, NULL, &sb),
+                         CRISP_OK);
+        for (size_t k = 0; k < n; k++) {
+            assert_true(b.inv_w[k] == 0);
+            assert_int_equal(b.face[k], -1);
+        }
+        crisp__raster_destroy(r);
+        crisp__raster_target_free(&a);
+        crisp__raster_target_free(&b);
+    }
 }
 
 /* A box test that agrees with the fragment test changes no output bit and saves most tests. */
@@ -377,6 +449,8 @@ int main(void)
         cmocka_unit_test(test_no_test_flag),
         cmocka_unit_test(test_slack_for_triangles),
         cmocka_unit_test(test_box_test),
+        cmocka_unit_test(test_vectors_equal_scalar),
+        cmocka_unit_test(test_deferred_clear),
         cmocka_unit_test(test_plan_trim_box),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
