@@ -156,6 +156,11 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
     } else if (!strcmp(name, "mark")) {
         printf("mark: %s time %.6f frames %ld refined %d scale %d frame_ms %.3f\n", arg,
                crisp_time_now(), v->frames, v->refined, v->last.scale, v->last.ms);
+    } else if (!strcmp(name, "window")) {
+        /* what the window shows (the frame, moving or refined, without the panels) after this
+         * step's frame (commands take no frame: the next input event's) */
+        snprintf(v->window_shot, sizeof v->window_shot, "%s", arg);
+
     } else if (!strcmp(name, "set-camera")) {
         char err[256];
         crisp_camera c = v->nav.cam;
@@ -180,6 +185,33 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
             v->exit_code = 1;
         }
     }
+}
+
+/* The window's framebuffer (as presented, before the panels) to the PNG v->window_shot. */
+static void write_window(view *v)
+{
+    crisp_image img = {0};
+    uint8_t *px = malloc((size_t)v->fb_w * v->fb_h * 4);
+    crisp_status st = px ? crisp_image_init(&img, v->fb_w, v->fb_h)
+                         : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+    if (!st) {
+        glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+        glPixelStorei(GL_PACK_ALIGNMENT, 1);
+        glReadPixels(0, 0, v->fb_w, v->fb_h, GL_RGBA, GL_UNSIGNED_BYTE, px);
+        for (int j = 0; j < v->fb_h; j++)
+            for (int i = 0; i < v->fb_w; i++)
+                for (int k = 0; k < 4; k++)
+                    img.rgba[4 * ((size_t)j * v->fb_w + i) + k] =
+                        px[4 * ((size_t)(v->fb_h - 1 - j) * v->fb_w + i) + k] / 255.0f;
+        st = crisp_image_write_png(&img, v->window_shot);
+    }
+    if (st)
+        view_set_error(v, "window %s: %s", v->window_shot, crisp_error_message());
+    else
+        printf("window: %s refined %d scale %d\n", v->window_shot, v->refined, v->last.scale);
+    crisp_image_free(&img);
+    free(px);
+    v->window_shot[0] = '\0';
 }
 
 /* ---- frames ------------------------------------------------------------------------------------
@@ -237,22 +269,42 @@ static void install_doc(view *v, app_doc *doc, int keep_camera)
            doc->ms_read, doc->ms_prepare);
 }
 
+/* The divisor of the window size for moving frames: aim at 25 ms of rendering per moving frame
+ * (30 frames per second with the rest), adapted as frames come (render_frame). */
+static int moving_scale(view *v)
+{
+    if (v->scale < 1) v->scale = (int)ceil(sqrt(fmax(v->last_full_ms, 1) / 25.0));
+    if (v->scale > 8) v->scale = 8;
+    return v->scale;
+}
+
 static void render_frame(view *v)
 {
     if (!v->doc) return;
     int full = !v->moving || v->no_lowres;
-    if (!v->dirty && v->refined) return;
-    if (!v->dirty && !v->refined) full = 1;
-    int scale = 1;
-    if (!full) {
-        /* aim at 25 ms of rendering per moving frame (30 frames per second with the rest) */
-        if (v->scale < 1) v->scale = (int)ceil(sqrt(fmax(v->last_full_ms, 1) / 25.0));
-        scale = v->scale < 1 ? 1 : v->scale > 8 ? 8 : v->scale;
+    if (!v->dirty && v->refined) {
+        /* idle with the refined image on screen: plan now what the next motion will reuse */
+        if (!v->motion_ready && !v->no_lowres && v->backend.prepare_motion) {
+            app_nav_update_clip(&v->nav);
+            /* the first guess of the moving scale (not the last motion's, adapted to it) */
+            int guess = (int)ceil(sqrt(fmax(v->last_full_ms, 1) / 25.0));
+            if (v->backend.prepare_motion(v->backend.self, &v->rdoc, &v->nav.cam,
+                                          guess < 1   ? 1
+                                          : guess > 8 ? 8
+                                                      : guess))
+                view_set_error(v, "render: %s", crisp_error_message());
+            v->motion_ready = 1;
+        }
+        return;
     }
+    if (!v->dirty && !v->refined) full = 1;
+    int scale = full ? 1 : moving_scale(v);
     app_nav_update_clip(&v->nav);
     view_frame_stats fs = {0};
     view_overlay ov = v->ov;
     if (v->moving) ov.samples = 1; /* moving frames: one sample per pixel, even at full size */
+    ov.moving = !full;
+    ov.no_aovs = !v->show_wire && !v->show_scan && !v->rdoc.part_count;
     crisp_status st = v->backend.frame(v->backend.self, &v->rdoc, &v->nav.cam, scale, &ov, &fs);
     if (st) {
         view_set_error(v, "render: %s", crisp_error_message());
@@ -261,17 +313,19 @@ static void render_frame(view *v)
         return;
     }
     v->last = fs;
+    v->motion_ready = 0;
     /* the least depth drawn bounds the near plane of the next frames (the navigation scales it
      * as it moves the camera) */
     if (isfinite(fs.min_depth) && fs.min_depth > 0) v->nav.depth_hint = fs.min_depth;
     if (v->show_wire) view_wire_update(v);
-    if (scale == 1) {
+    if (!ov.moving) {
         v->last_full_ms = fs.ms;
     } else {
+        /* GPU moving frames (proxy.c) cost little per pixel: come down fast */
         if (fs.ms > 25 && v->scale < 8)
             v->scale++;
-        else if (fs.ms < 8 && v->scale > 1)
-            v->scale--;
+        else if (fs.ms < 12 && v->scale > 1)
+            v->scale = v->scale * 7 / 10 > 1 ? v->scale * 7 / 10 : 1;
     }
     v->dirty = 0;
     v->refined = scale == 1 && !v->moving;
@@ -458,6 +512,7 @@ int main(int argc, char **argv)
         render_frame(v);
         v->moving = 0;
         v->backend.present(v->backend.self, v->fb_w, v->fb_h);
+        if (v->window_shot[0]) write_window(v);
         app_ui_frame_begin();
         view_draw_panels(v);
         app_ui_frame_end();

@@ -28,6 +28,12 @@ typedef struct view_overlay {
     int32_t selected_face; /* tinted; -1 none */
     int edges;             /* draw face borders, trims and silhouettes from the face ids */
     int samples;           /* per pixel in full-size frames (1 or 4); moving frames take 1 */
+    int moving;            /* a frame while the camera moves: drawn from the motion plan (planned
+                              once for a widened view, see view_backend.prepare_motion), without
+                              ribbons; the GL backend presents it without reading it back when
+                              nothing needs its AOVs (no_aovs) */
+    int no_aovs;           /* nothing needs this frame's AOVs (no f-rep parts, no debugging
+                              views): edges and tint are left out of moving GL frames */
 } view_overlay;
 
 typedef struct view_backend {
@@ -45,6 +51,11 @@ typedef struct view_backend {
     /* The last frame's plan and image (AOVs), or NULL (a backend may keep neither). */
     const struct crisp_frame_plan *(*plan)(void *self);
     const crisp_image *(*image)(void *self);
+    /* Plan (now, while the viewer is idle) the plan that frames drawn while the camera moves
+     * will reuse, for cam at 1/scale of its size with the view widened to the box's sphere;
+     * does nothing when the plan it has still serves cam. */
+    crisp_status (*prepare_motion)(void *self, const app_doc *doc, const crisp_camera *cam,
+                                   int scale);
     /* A new document is shown (frames of the old one are gone). */
     void (*set_doc)(void *self, const app_doc *doc);
     void (*destroy)(void *self);
@@ -77,10 +88,11 @@ struct view {
     char *initial_camera; /* --camera options for the first document */
 
     /* frames */
-    int dirty;   /* the camera or the overlay changed since the last frame */
-    int refined; /* the frame on screen is the full-resolution image of this camera */
-    int moving;  /* the camera changed this frame */
-    int scale;   /* resolution divisor while moving, adapted to the frame time */
+    int dirty;        /* the camera or the overlay changed since the last frame */
+    int refined;      /* the frame on screen is the full-resolution image of this camera */
+    int moving;       /* the camera changed this frame */
+    int scale;        /* resolution divisor while moving, adapted to the frame time */
+    int motion_ready; /* the backend's motion plan was prepared for the camera on screen */
     view_frame_stats last;
     double last_full_ms;
 
@@ -111,6 +123,7 @@ struct view {
     int replaying, exit_after_replay;
     int quit;
     const char *screenshot_path;
+    char window_shot[1024]; /* the replay's `window PATH`: pending */
     int shot_w, shot_h;
     int exit_code;
     int threads;

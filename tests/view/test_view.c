@@ -558,6 +558,55 @@ static void test_hide_face(void **state)
     free(out);
 }
 
+/* A frame drawn while the camera moves (the motion plan's GPU mesh, proxy.c, at a reduced size)
+ * shows the same picture as the refined frame of that camera: the window's pixels agree within
+ * 48 of 255 per channel except along the (coarser) edges and silhouettes, and the window says
+ * which one is on screen. */
+static void test_moving_frame(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), args[1024];
+    assert_non_null(out);
+    snprintf(args, sizeof args, "%s/nurbs/occt_bearing.iges --size 400x240 --no-vsync",
+             CRISP_DATA_DIR);
+    assert_int_equal(run_view(args,
+                              "idle\nwait 2\nmove 200 120\ndown left\nmove 204 121\n"
+                              "move 208 122\nmove 212 123\nmove 216 124\n"
+                              "window view_moving.png\nmove 220 125\nup left\nidle\nwait 1\n"
+                              "window view_refined.png\nwait 1\n",
+                              out),
+                     0);
+    const char *l0 = find_line(out, "window: view_moving.png", 0),
+               *l1 = find_line(out, "window: view_refined.png", 0);
+    assert_non_null(l0);
+    assert_non_null(l1);
+    int r0, s0, r1, s1;
+    assert_int_equal(sscanf(l0, "window: view_moving.png refined %d scale %d", &r0, &s0), 2);
+    assert_int_equal(sscanf(l1, "window: view_refined.png refined %d scale %d", &r1, &s1), 2);
+    assert_int_equal(r0, 0);
+    assert_int_equal(r1, 1);
+    assert_int_equal(s1, 1);
+    image8 a = read_png("view_moving.png"), b = read_png("view_refined.png");
+    assert_int_equal(a.w, b.w);
+    size_t n = (size_t)a.w * a.h, off = 0, fg = 0;
+    for (size_t i = 0; i < n; i++) {
+        int d = 0;
+        for (int k = 0; k < 3; k++)
+            d = abs(a.px[4 * i + k] - b.px[4 * i + k]) > d ? abs(a.px[4 * i + k] - b.px[4 * i + k])
+                                                           : d;
+        off += d > 48;
+        /* the model: not the background gradient's colour of the row (its pixel 0) */
+        size_t row0 = i - i % (size_t)a.w;
+        fg += abs(a.px[4 * i] - a.px[4 * row0]) + abs(a.px[4 * i + 2] - a.px[4 * row0 + 2]) > 8;
+    }
+    assert_true(fg > n / 10);
+    if (off > n / 8)
+        fail_msg("%zu of %zu pixels differ between the moving and refined frames", off, n);
+    free(a.px);
+    free(b.px);
+    free(out);
+}
+
 /* Zooming to the cursor 7,500 times into a detail: the near plane follows, so the surface under
  * the cursor is still drawn (not clipped) and still picked. */
 static void test_zoom_no_clipping(void **state)
@@ -820,6 +869,7 @@ int main(void)
         cmocka_unit_test(test_measure_vertices),
         cmocka_unit_test(test_hide_face),
         cmocka_unit_test(test_zoom_no_clipping),
+        cmocka_unit_test(test_moving_frame),
         cmocka_unit_test(test_file_watch),
         cmocka_unit_test(test_screenshot_equals_cli),
 #ifdef CRISP_HAVE_GL
