@@ -318,15 +318,20 @@ static void render_frame(view *v)
      * as it moves the camera) */
     if (isfinite(fs.min_depth) && fs.min_depth > 0) v->nav.depth_hint = fs.min_depth;
     if (v->show_wire) view_wire_update(v);
+    double now = crisp_time_now();
     if (!ov.moving) {
         v->last_full_ms = fs.ms;
     } else {
-        /* GPU moving frames (proxy.c) cost little per pixel: come down fast */
-        if (fs.ms > 25 && v->scale < 8)
+        /* aim at 30 frames per second on screen: the render time, and the whole frame's wall
+         * time (present, panels, swap) since the last moving frame; GPU moving frames
+         * (proxy.c) cost little per pixel, so come down fast */
+        double wall = v->last_moving_t > 0 ? 1e3 * (now - v->last_moving_t) : fs.ms;
+        if ((fs.ms > 25 || wall > 40) && v->scale < 8)
             v->scale++;
-        else if (fs.ms < 12 && v->scale > 1)
+        else if (fs.ms < 12 && wall < 22 && v->scale > 1)
             v->scale = v->scale * 7 / 10 > 1 ? v->scale * 7 / 10 : 1;
     }
+    v->last_moving_t = ov.moving ? now : 0;
     v->dirty = 0;
     v->refined = scale == 1 && !v->moving;
 }

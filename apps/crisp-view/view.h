@@ -88,11 +88,12 @@ struct view {
     char *initial_camera; /* --camera options for the first document */
 
     /* frames */
-    int dirty;        /* the camera or the overlay changed since the last frame */
-    int refined;      /* the frame on screen is the full-resolution image of this camera */
-    int moving;       /* the camera changed this frame */
-    int scale;        /* resolution divisor while moving, adapted to the frame time */
-    int motion_ready; /* the backend's motion plan was prepared for the camera on screen */
+    int dirty;            /* the camera or the overlay changed since the last frame */
+    int refined;          /* the frame on screen is the full-resolution image of this camera */
+    int moving;           /* the camera changed this frame */
+    int scale;            /* resolution divisor while moving, adapted to the frame time */
+    int motion_ready;     /* the backend's motion plan was prepared for the camera on screen */
+    double last_moving_t; /* when the last moving frame was rendered (0: the last was not) */
     view_frame_stats last;
     double last_full_ms;
 

@@ -42,7 +42,16 @@ struct crisp_raster {
     int no_hiz;              /* hierarchical depth rejection off (crisp__raster_set_hiz) */
     const uint8_t *untested; /* per face (crisp__raster_set_untested_faces) */
     size_t untested_count;
+    int clip_on;    /* crisp__raster_set_clip */
+    double clip[4]; /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
 };
+
+void crisp__raster_set_clip(crisp_raster *r, const double k[4])
+{
+    r->clip_on = k != NULL;
+    for (int i = 0; i < 4; i++)
+        r->clip[i] = k ? k[i] : 0;
+}
 
 void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count)
 {
@@ -506,6 +515,10 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                             int q = pass[pi];
                             size_t idx = idx0 + (size_t)q * S;
                             double iw = iwv[q], dx = dx0 + q;
+                            if (r->clip_on && r->clip[0] + r->clip[1] * (dx + st->ox) +
+                                                      r->clip[2] * (dy + st->oy) + r->clip[3] * iw <
+                                                  0)
+                                continue; /* on the clipped side of the plane */
                             double a[CRISP_RASTER_ATTRS];
                             double w = 1.0 / iw;
                             for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
