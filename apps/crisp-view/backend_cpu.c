@@ -28,6 +28,8 @@ typedef struct cpu_backend {
     int threads;
     const crisp_frame_plan *plan; /* of the last frame; NULL after an off-screen render */
     int img_stale;                /* the last frame was blitted: img is not its image */
+    int section;                  /* view_backend.set_section */
+    double plane[4], box[6];
     /* frames while the camera moves reuse one plan (motion_plan) made for a widened view */
     crisp_planner *motion_planner;
     const crisp_frame_plan *motion_plan; /* NULL: none for this document */
@@ -222,6 +224,8 @@ static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_
     crisp_status st = CRISP_OK;
     crisp_renderer *r = samples == 4 ? b->renderer_aa : b->renderer;
     b->plan = NULL;
+    const double *clip = b->section ? b->plane : NULL;
+    crisp_renderer_set_clip_plane(r, clip);
     int use_motion = moving && plan && b->motion_plan && b->motion_scene == doc->scene;
     int blit = 0;
 #ifdef CRISP_HAVE_GL
@@ -233,6 +237,7 @@ static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_
             st = crisp_gl_set_scene(b->gl[k], doc->scene);
             b->gl_scene[k] = st ? NULL : doc->scene;
         }
+        crisp_gl_set_clip_plane(b->gl[k], clip);
         if (!st && use_motion)
             p = motion_plan_for(b, cam);
         else if (!st)
@@ -271,6 +276,7 @@ static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_
     } else {
         clear_image(img);
     }
+    if (!st && b->section && !blit) view_section_cap(cam, b->plane, b->box, img);
     if (!st && doc->part_count)
         st = crisp_render_frep_parts(doc->parts, doc->part_count, cam,
                                      &(crisp_frep_parts_desc){.threads = b->threads}, img);
@@ -362,7 +368,12 @@ static crisp_status cpu_frame(void *self, const app_doc *doc, const crisp_camera
                             !b->proxy_failed && b->motion_scale ? b->motion_scale : scale);
     if (!st && ov->moving && ov->no_aovs && !b->proxy_failed && b->proxy.ready && b->motion_plan &&
         b->motion_scene == doc->scene) {
-        view_proxy_style style = {.edges = ov->edges, .selected = ov->selected_face};
+        view_proxy_style style = {
+            .edges = ov->edges, .selected = ov->selected_face, .clip = b->section};
+        if (b->section) {
+            memcpy(style.clip_plane, b->plane, sizeof style.clip_plane);
+            view_section_hatch(b->plane, b->box, style.hatch_u);
+        }
         st = view_proxy_draw(&b->proxy, &c, app_image_view_target(&b->iv, c.width, c.height),
                              &style);
         if (st) return st;
@@ -431,6 +442,16 @@ static crisp_status cpu_offscreen(void *self, const app_doc *doc, const crisp_ca
                                   int samples, crisp_image *img)
 {
     return render_into(self, doc, cam, samples, 0, img, NULL, NULL, NULL);
+}
+
+static void cpu_set_section(void *self, int on, const double plane[4], const double box[6])
+{
+    cpu_backend *b = self;
+    b->section = on;
+    if (on) {
+        memcpy(b->plane, plane, sizeof b->plane);
+        memcpy(b->box, box, sizeof b->box);
+    }
 }
 
 static const crisp_frame_plan *cpu_plan(void *self)
@@ -538,6 +559,7 @@ crisp_status view_backend_create(int threads, int use_gl, view_backend *dest)
                            .plan = cpu_plan,
                            .image = cpu_image,
                            .prepare_motion = motion_prepare,
+                           .set_section = cpu_set_section,
                            .set_doc = cpu_set_doc,
                            .destroy = cpu_destroy};
     return CRISP_OK;

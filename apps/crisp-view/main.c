@@ -81,6 +81,7 @@ crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, i
     if ((long long)(w > 0 ? w : v->nav.cam.width) * (h > 0 ? h : v->nav.cam.height) > (1ll << 26))
         return crisp_error(CRISP_ERR_LIMIT, "screenshot size %dx%d: at most 2^26 pixels", w, h);
     app_nav_update_clip(&v->nav);
+    view_sync_section(v);
     crisp_camera c = shot_camera(v, w, h);
     crisp_image img = {0};
     crisp_status st = crisp_image_init(&img, c.width, c.height);
@@ -95,6 +96,13 @@ crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, i
                strcmp(v->backend.name, "gl") ? "" : " --backend gl");
     }
     return st;
+}
+
+void view_sync_section(view *v)
+{
+    double plane[4];
+    int on = view_section_plane(v, plane);
+    v->backend.set_section(v->backend.self, on, plane, v->doc ? v->doc->box : plane);
 }
 
 int view_idle(view *v)
@@ -161,6 +169,28 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
          * step's frame (commands take no frame: the next input event's) */
         snprintf(v->window_shot, sizeof v->window_shot, "%s", arg);
 
+    } else if (!strcmp(name, "section")) {
+        /* section off | section x|y|z POSITION [flip] */
+        char ax[8] = "", fl[8] = "";
+        double pos = 0;
+        int n = sscanf(arg, "%7s %lf %7s", ax, &pos, fl);
+        if (n >= 1 && !strcmp(ax, "off")) {
+            v->section = 0;
+        } else if (n >= 2 && ax[1] == '\0' && ax[0] >= 'x' && ax[0] <= 'z' &&
+                   (n == 2 || !strcmp(fl, "flip"))) {
+            v->section = 1;
+            v->section_axis = ax[0] - 'x';
+            v->section_pos = pos;
+            v->section_flip = n == 3;
+        } else {
+            view_set_error(v,
+                           "replay line %d: expected 'section off' or 'section x|y|z POSITION "
+                           "[flip]'",
+                           line);
+            return;
+        }
+        view_print_section(v);
+        v->dirty = 1;
     } else if (!strcmp(name, "set-camera")) {
         char err[256];
         crisp_camera c = v->nav.cam;
@@ -250,6 +280,7 @@ static void install_doc(view *v, app_doc *doc, int keep_camera)
         }
         v->have_camera = 1;
     }
+    if (!keep) v->section_set = 0; /* a new model: the plane goes back to its middle (X) */
     v->sel.hit = 0;
     v->ov.selected_face = -1;
     v->meas_count = 0;
@@ -301,6 +332,7 @@ static void render_frame(view *v)
     int scale = full ? 1 : moving_scale(v);
     app_nav_update_clip(&v->nav);
     view_frame_stats fs = {0};
+    view_sync_section(v);
     view_overlay ov = v->ov;
     if (v->moving) ov.samples = 1; /* moving frames: one sample per pixel, even at full size */
     ov.moving = !full;

@@ -7,8 +7,9 @@
  * u-crossings, in double) and the backends' headlight shading (src/render/shade.c), and writes the
  * face id beside the colour so a second pass draws the face borders, trims and silhouettes as the
  * CPU overlay does (backend_cpu.c convert; every border dark here: hard and smooth are told apart
- * in the refined frame only). (u, v) are interpolated in float, so a trim edge of a
- * moving frame may sit a fraction of a pixel off the refined one's. */
+ * in the refined frame only). With a section plane, the clip distance cuts the mesh and the back
+ * faces behind the plane show the hatched cap (as section.c). (u, v) are interpolated in float, so
+ * a trim edge of a moving frame may sit a fraction of a pixel off the refined one's. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -67,6 +68,11 @@ static const char *fs_src =
     "in vec2 uv_f;\n"
     "flat in uint face_f;\n"
     "uniform uint selected;\n"
+    "uniform vec4 clip_plane;\n"
+    "uniform int cap;\n"
+    "uniform vec3 eye;\n"
+    "uniform vec3 hatch_u;\n"
+    "uniform float hatch_off;\n"
     "layout(location = 0) out vec4 color;\n"
     "layout(location = 1) out int face_out;\n"
     "bool inside(uint fi, double u, double v) {\n"
@@ -96,8 +102,19 @@ static const char *fs_src =
     "  float k = 0.25 + 0.75 * abs(dot(n, d));\n"
     "  vec3 c = faces[face_f].color.rgb * k;\n"
     "  if (face_f == selected) c = 0.55 * c + 0.45 * vec3(0.25, 0.55, 1.0);\n"
+    "  int id = int(face_f);\n"
+    "  if (cap != 0 && dot(n, d) > 0.0) {\n"
+    "    // the back of a surface behind the section plane: the cut, hatched (section.c)\n"
+    "    float nd = dot(clip_plane.xyz, d);\n"
+    "    float t = nd != 0.0 ? -(dot(clip_plane.xyz, eye) + clip_plane.w) / nd : -1.0;\n"
+    "    if (t > 0.0 && t < length(view_w)) {\n"
+    "      float s = dot(hatch_u, eye + t * d) + hatch_off;\n"
+    "      c = s - floor(s) < 0.18 ? vec3(0.30, 0.20, 0.12) : vec3(0.80, 0.62, 0.42);\n"
+    "      id = -1000000;\n"
+    "    }\n"
+    "  }\n"
     "  color = vec4(c, 1.0);\n"
-    "  face_out = int(face_f);\n"
+    "  face_out = id;\n"
     "}\n";
 
 /* The edge pass: where the face id changes between neighbours (as backend_cpu.c convert). */
@@ -180,6 +197,9 @@ crisp_status view_proxy_init(view_proxy *px)
     px->u_eye = glGetUniformLocation(px->program, "eye");
     px->u_clip = glGetUniformLocation(px->program, "clip_plane");
     px->u_selected = glGetUniformLocation(px->program, "selected");
+    px->u_cap = glGetUniformLocation(px->program, "cap");
+    px->u_hatch_u = glGetUniformLocation(px->program, "hatch_u");
+    px->u_hatch_off = glGetUniformLocation(px->program, "hatch_off");
     glCreateVertexArrays(1, &px->vao);
     glCreateVertexArrays(1, &px->edge_vao);
     return CRISP_OK;
@@ -375,6 +395,13 @@ crisp_status view_proxy_draw(view_proxy *px, const crisp_camera *cam, GLuint col
     glUniformMatrix4fv(px->u_mvp, 1, GL_FALSE, mvp);
     glUniform3fv(px->u_eye, 1, eye);
     glUniform4fv(px->u_clip, 1, plane);
+    glUniform1i(px->u_cap, style->clip);
+    glUniform3f(px->u_hatch_u, (float)style->hatch_u[0], (float)style->hatch_u[1],
+                (float)style->hatch_u[2]);
+    glUniform1f(px->u_hatch_off,
+                (float)fmod(style->hatch_u[0] * px->centre[0] + style->hatch_u[1] * px->centre[1] +
+                                style->hatch_u[2] * px->centre[2],
+                            1.0));
     glUniform1ui(px->u_selected, style->selected >= 0 ? (GLuint)style->selected : 0xffffffffu);
     for (GLuint k = 0; k < 4; k++)
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, k, px->ssbo[k]);

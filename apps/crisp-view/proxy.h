@@ -11,7 +11,7 @@
 
 typedef struct view_proxy {
     GLuint program, edge_program, vao, edge_vao, vbo, ibo, ssbo[4];
-    GLint u_mvp, u_eye, u_clip, u_selected;
+    GLint u_mvp, u_eye, u_clip, u_selected, u_cap, u_hatch_u, u_hatch_off;
     GLuint fbo, depth, face_tex, color_tex;
     int w, h;
     double centre[3]; /* vertices are stored relative to it (float precision) */
@@ -24,6 +24,7 @@ typedef struct view_proxy_style {
     int32_t selected; /* tinted; -1 none */
     int clip;         /* discard where clip_plane . (x, y, z, 1) < 0 */
     double clip_plane[4];
+    double hatch_u[3]; /* the cap's hatch (view_section_hatch) */
 } view_proxy_style;
 
 crisp_status view_proxy_init(view_proxy *px);

@@ -56,6 +56,9 @@ typedef struct view_backend {
      * does nothing when the plan it has still serves cam. */
     crisp_status (*prepare_motion)(void *self, const app_doc *doc, const crisp_camera *cam,
                                    int scale);
+    /* The section plane for the next frames and off-screen renders (on = 0: none); box spaces
+     * the cap's hatch (section.c). */
+    void (*set_section)(void *self, int on, const double plane[4], const double box[6]);
     /* A new document is shown (frames of the old one are gone). */
     void (*set_doc)(void *self, const app_doc *doc);
     void (*destroy)(void *self);
@@ -106,6 +109,11 @@ struct view {
     double pivot[3];
     int shift;
 
+    /* section view */
+    int section, section_axis, section_flip;
+    double section_pos; /* the plane is x[section_axis] = section_pos */
+    int section_set;    /* section_pos was placed for this document */
+
     /* inspection */
     view_overlay ov;
     view_hit sel, meas_a, meas_b;
@@ -152,6 +160,7 @@ struct view {
 void view_open(view *v, const char *path, int keep_camera);
 void view_set_error(view *v, const char *fmt, ...);
 void view_print_camera(view *v);
+void view_sync_section(view *v); /* hand the section plane to the backend */
 crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, int h);
 int view_idle(view *v);
 
@@ -176,6 +185,17 @@ void view_visible_free(view *v);
 int32_t view_doc_face(const view *v, int32_t drawn);
 int32_t view_drawn_face(const view *v, int32_t doc_face);
 void view_parts_panel(view *v);
+
+/* section.c: the section plane (X toggles, N next axis, shift+N flips, - and = move it) */
+#define VIEW_CAP_FACE (-1000000)                        /* the face id of cap pixels */
+int view_section_plane(const view *v, double plane[4]); /* 0: no section */
+void view_print_section(const view *v);                 /* "section: ..." on stdout */
+void view_section_key(view *v, int key, int mods);      /* X, N, -, = */
+/* The hatch's line direction over its spacing: lines where dot(hu, P) is near an integer. */
+void view_section_hatch(const double plane[4], const double box[6], double hu[3]);
+/* Paint the cut where the image shows the back of a surface behind the plane. */
+void view_section_cap(const crisp_camera *cam, const double plane[4], const double box[6],
+                      crisp_image *img);
 
 /* debugviews.c */
 void view_wire_update(view *v);
