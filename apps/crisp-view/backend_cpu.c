@@ -28,7 +28,10 @@ typedef struct cpu_backend {
     int threads;
     const crisp_frame_plan *plan; /* of the last frame; NULL after an off-screen render */
     int img_stale;                /* the last frame was blitted: img is not its image */
-    int section;                  /* view_backend.set_section */
+    const app_doc *tdoc;          /* view_backend.set_transparent */
+    crisp_renderer *renderer_t;   /* the transparent faces (1 sample per pixel) */
+    crisp_image timg;
+    int section; /* view_backend.set_section */
     double plane[4], box[6];
     /* frames while the camera moves reuse one plan (motion_plan) made for a widened view */
     crisp_planner *motion_planner;
@@ -213,6 +216,31 @@ static void clear_image(crisp_image *img)
     }
 }
 
+/* The transparent faces over img: their own frame (same clip plane), then where its nearest
+ * surface is nearer than img's, blended over it (straight alpha); the face AOV stays the opaque
+ * one. Only the nearest transparent surface is blended: one behind another is not seen. */
+static crisp_status draw_transparent(cpu_backend *b, const crisp_camera *cam, crisp_image *img)
+{
+    crisp_status st = CRISP_OK;
+    if (b->timg.width != cam->width || b->timg.height != cam->height) {
+        crisp_image_free(&b->timg);
+        if ((st = crisp_image_init(&b->timg, cam->width, cam->height))) return st;
+    }
+    crisp_renderer_set_clip_plane(b->renderer_t, b->section ? b->plane : NULL);
+    if ((st = crisp_render_cpu(b->renderer_t, b->tdoc->scene, cam, &b->timg, NULL))) return st;
+    const crisp_image *t = &b->timg;
+    for (size_t k = 0; k < (size_t)cam->width * cam->height; k++) {
+        if (t->face[k] < 0 || !(t->depth[k] < img->depth[k])) continue;
+        float A = VIEW_ALPHA * t->rgba[4 * k + 3], ao = img->rgba[4 * k + 3];
+        float out = A + ao * (1 - A);
+        for (int q = 0; q < 3; q++)
+            img->rgba[4 * k + q] =
+                (A * t->rgba[4 * k + q] + (1 - A) * ao * img->rgba[4 * k + q]) / out;
+        img->rgba[4 * k + 3] = out;
+    }
+    return CRISP_OK;
+}
+
 /* plan != NULL: plan first and keep the plan (the frames on screen); else crisp_render_cpu, as
  * `crisp render` does (screenshots). moving: draw the motion plan (motion_prepare made it) with
  * cam's matrices. *blitted (may be NULL: always read back): a moving GL frame that nothing needs
@@ -277,6 +305,7 @@ static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_
         clear_image(img);
     }
     if (!st && b->section && !blit) view_section_cap(cam, b->plane, b->box, img);
+    if (!st && b->tdoc && !blit) st = draw_transparent(b, cam, img);
     if (!st && doc->part_count)
         st = crisp_render_frep_parts(doc->parts, doc->part_count, cam,
                                      &(crisp_frep_parts_desc){.threads = b->threads}, img);
@@ -454,6 +483,11 @@ static void cpu_set_section(void *self, int on, const double plane[4], const dou
     }
 }
 
+static void cpu_set_transparent(void *self, const app_doc *tdoc)
+{
+    ((cpu_backend *)self)->tdoc = tdoc;
+}
+
 static const crisp_frame_plan *cpu_plan(void *self)
 {
     return ((cpu_backend *)self)->plan;
@@ -492,6 +526,8 @@ static void cpu_destroy(void *self)
     view_proxy_free(&b->proxy);
     crisp_renderer_destroy(b->renderer);
     crisp_renderer_destroy(b->renderer_aa);
+    crisp_renderer_destroy(b->renderer_t);
+    crisp_image_free(&b->timg);
     crisp_image_free(&b->img);
     free(b->rgba8);
     app_image_view_free(&b->iv);
@@ -537,6 +573,7 @@ crisp_status view_backend_create(int threads, int use_gl, view_backend *dest)
     if (!st)
         st = crisp_renderer_create(&(crisp_render_desc){.threads = threads, .samples = 4},
                                    &b->renderer_aa);
+    if (!st) st = crisp_renderer_create(&(crisp_render_desc){.threads = threads}, &b->renderer_t);
     if (!st)
         st = crisp_planner_create(&(crisp_planner_desc){.eps_px = MOTION_EPS_PX}, NULL,
                                   &b->motion_planner);
@@ -560,6 +597,7 @@ crisp_status view_backend_create(int threads, int use_gl, view_backend *dest)
                            .image = cpu_image,
                            .prepare_motion = motion_prepare,
                            .set_section = cpu_set_section,
+                           .set_transparent = cpu_set_transparent,
                            .set_doc = cpu_set_doc,
                            .destroy = cpu_destroy};
     return CRISP_OK;

@@ -411,8 +411,22 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
             view_visible_update(v);
         }
         break;
+    case GLFW_KEY_G: /* transparency: the selected face; shift: every face opaque again */
+        if (v->doc && v->face_hidden && (mods & GLFW_MOD_SHIFT)) {
+            for (uint32_t f = 0; f < v->doc->scene->face_count; f++)
+                if (v->face_hidden[f] == 2) v->face_hidden[f] = 0;
+            printf("transparent: none\n");
+            view_visible_update(v);
+        } else if (v->doc && v->sel.hit && v->sel.face >= 0 && v->face_hidden) {
+            v->face_hidden[v->sel.face] = 2;
+            printf("transparent: face %d\n", v->sel.face);
+            v->sel.hit = 0;
+            v->ov.selected_face = -1;
+            view_visible_update(v);
+        }
+        break;
     case GLFW_KEY_U:
-        if (v->doc && v->face_hidden && v->hidden_faces) {
+        if (v->doc && v->face_hidden && (v->hidden_faces || v->trans_faces)) {
             memset(v->face_hidden, 0, v->doc->scene->face_count);
             view_visible_update(v);
         }

@@ -103,6 +103,7 @@ void view_sync_section(view *v)
     double plane[4];
     int on = view_section_plane(v, plane);
     v->backend.set_section(v->backend.self, on, plane, v->doc ? v->doc->box : plane);
+    v->backend.set_transparent(v->backend.self, v->trans_faces && v->trans_scene ? &v->tdoc : NULL);
 }
 
 int view_idle(view *v)

@@ -25,6 +25,7 @@ static const char *const help_lines[][2] = {
     {"E", "edges (face borders, trims, silhouettes) on / off"},
     {"W", "wireframe of the current tessellation (the plan's leaves)"},
     {"T", "the selected face's trim table: scan lines in (u, v)"},
+    {"G / shift+G", "the selected face transparent / every face opaque again"},
     {"X", "section plane on / off (capped, hatched cut)"},
     {"N / shift+N", "section plane: next axis (x, y, z) / flip the kept side"},
     {"- / =", "move the section plane along its axis (1/50 of the box)"},

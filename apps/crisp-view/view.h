@@ -59,6 +59,9 @@ typedef struct view_backend {
     /* The section plane for the next frames and off-screen renders (on = 0: none); box spaces
      * the cap's hatch (section.c). */
     void (*set_section)(void *self, int on, const double plane[4], const double box[6]);
+    /* The transparent faces (NULL: none), drawn over the next frames and off-screen renders:
+     * the nearest transparent surface blended over what is behind it (VIEW_ALPHA). */
+    void (*set_transparent)(void *self, const app_doc *tdoc);
     /* A new document is shown (frames of the old one are gone). */
     void (*set_doc)(void *self, const app_doc *doc);
     void (*destroy)(void *self);
@@ -141,12 +144,18 @@ struct view {
      * scene is prepared from a shallow copy of the visible faces, and vis_map takes its face
      * indices back to the document's */
     app_doc rdoc;
-    uint8_t *face_hidden, *part_hidden;
+    uint8_t *face_hidden, *part_hidden; /* face_hidden: 0 shown, 1 hidden, 2 transparent */
     uint32_t hidden_faces, hidden_parts;
     crisp_model vis_model;
     crisp_scene *vis_scene;
     uint32_t *vis_map;
     crisp_frep_part *vis_parts;
+    /* transparency per face (face_hidden[f] == 2): drawn from a scene of their own (tdoc) and
+     * composited over the opaque image by depth */
+    uint32_t trans_faces;
+    crisp_model trans_model;
+    crisp_scene *trans_scene;
+    app_doc tdoc;
     /* debugging views (debugviews.c) */
     int show_wire, show_scan;
     float *wire; /* segments x0 y0 x1 y1 in window pixels */
@@ -188,6 +197,7 @@ void view_parts_panel(view *v);
 
 /* section.c: the section plane (X toggles, N next axis, shift+N flips, - and = move it) */
 #define VIEW_CAP_FACE (-1000000)                        /* the face id of cap pixels */
+#define VIEW_ALPHA 0.35f                                /* opacity of a transparent face */
 int view_section_plane(const view *v, double plane[4]); /* 0: no section */
 void view_print_section(const view *v);                 /* "section: ..." on stdout */
 void view_section_key(view *v, int key, int mods);      /* X, N, -, = */

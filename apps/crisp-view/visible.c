@@ -15,6 +15,11 @@ void view_visible_free(view *v)
     free(v->vis_model.faces); /* shallow: the faces' surfaces and loops belong to the document */
     free(v->vis_map);
     free(v->vis_parts);
+    crisp_scene_destroy(v->trans_scene);
+    free(v->trans_model.faces);
+    v->trans_scene = NULL;
+    memset(&v->trans_model, 0, sizeof v->trans_model);
+    memset(&v->tdoc, 0, sizeof v->tdoc);
     v->vis_scene = NULL;
     memset(&v->vis_model, 0, sizeof v->vis_model);
     v->vis_map = NULL;
@@ -43,15 +48,17 @@ void view_visible_update(view *v)
     view_visible_free(v);
     const crisp_scene *full = v->doc->scene;
     v->rdoc = *v->doc;
-    v->hidden_faces = v->hidden_parts = 0;
-    for (uint32_t f = 0; f < full->face_count; f++)
-        v->hidden_faces += v->face_hidden[f];
+    v->hidden_faces = v->hidden_parts = v->trans_faces = 0;
+    for (uint32_t f = 0; f < full->face_count; f++) {
+        v->hidden_faces += v->face_hidden[f] == 1;
+        v->trans_faces += v->face_hidden[f] == 2;
+    }
     for (size_t k = 0; k < v->doc->part_count; k++)
         v->hidden_parts += v->part_hidden[k];
     crisp_status st = CRISP_OK;
-    if (v->hidden_faces) {
+    if (v->hidden_faces || v->trans_faces) {
         const crisp_model *m = full->model;
-        uint32_t n = full->face_count - v->hidden_faces;
+        uint32_t n = full->face_count - v->hidden_faces - v->trans_faces;
         v->vis_model = *m;
         v->vis_model.faces = calloc(n + 1, sizeof *v->vis_model.faces);
         v->vis_model.face_count = v->vis_model.face_cap = (int)n;
@@ -70,6 +77,28 @@ void view_visible_update(view *v)
             st = crisp_scene_prepare(&v->vis_model, &v->vis_scene);
         }
         if (!st) v->rdoc.scene = v->vis_scene;
+    }
+    if (!st && v->trans_faces) { /* the transparent faces: a scene of their own */
+        const crisp_model *m = full->model;
+        v->trans_model = *m;
+        v->trans_model.faces = calloc(v->trans_faces + 1, sizeof *v->trans_model.faces);
+        v->trans_model.face_count = v->trans_model.face_cap = (int)v->trans_faces;
+        v->trans_model.skip_count = 0;
+        v->trans_model.skips = NULL;
+        if (!v->trans_model.faces) {
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+        } else {
+            uint32_t k = 0;
+            for (uint32_t f = 0; f < full->face_count; f++)
+                if (v->face_hidden[f] == 2) v->trans_model.faces[k++] = m->faces[f];
+            st = crisp_scene_prepare(&v->trans_model, &v->trans_scene);
+        }
+        if (!st) {
+            v->tdoc = *v->doc;
+            v->tdoc.scene = v->trans_scene;
+            v->tdoc.parts = NULL;
+            v->tdoc.part_count = 0;
+        }
     }
     if (!st && v->hidden_parts) {
         v->vis_parts = calloc(v->doc->part_count + 1, sizeof *v->vis_parts);
@@ -91,8 +120,9 @@ void view_visible_update(view *v)
     v->backend.set_doc(v->backend.self, &v->rdoc);
     v->ov.selected_face = v->sel.hit ? view_drawn_face(v, v->sel.face) : -1;
     v->dirty = 1;
-    printf("visible: %u of %u faces, %zu of %zu f-rep parts\n", full->face_count - v->hidden_faces,
-           full->face_count, v->rdoc.part_count, v->doc->part_count);
+    printf("visible: %u of %u faces (%u transparent), %zu of %zu f-rep parts\n",
+           full->face_count - v->hidden_faces, full->face_count, v->trans_faces, v->rdoc.part_count,
+           v->doc->part_count);
 }
 
 int32_t view_doc_face(const view *v, int32_t drawn)
@@ -131,7 +161,8 @@ void view_parts_panel(view *v)
             }
             app_ui_tree_pop();
         }
-        if (v->hidden_faces && app_ui_button("Show all faces (U)")) {
+        if (v->trans_faces) app_ui_text("transparent faces: %u (G, shift+G)", v->trans_faces);
+        if ((v->hidden_faces || v->trans_faces) && app_ui_button("Show all faces (U)")) {
             memset(v->face_hidden, 0, v->doc->scene->face_count);
             changed = 1;
         }

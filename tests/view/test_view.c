@@ -717,6 +717,75 @@ static void test_section(void **state)
     free(out);
 }
 
+/* Transparency per face (G): the picked face drawn at 35% opacity over what is behind it. Where
+ * the face covers something (its pixels differ between the opaque view and the view with the
+ * face hidden), the transparent view is 0.35 x opaque over the hidden view (straight alpha)
+ * within 3/255 (interior
+ * pixels); 2 px away from it the view is unchanged (within 2/255). */
+static void test_transparent_face(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), args[1024];
+    assert_non_null(out);
+    snprintf(args, sizeof args, "%s/nurbs/occt_bearing.iges --size 320x200 --no-aa",
+             CRISP_DATA_DIR);
+    assert_int_equal(run_view(args,
+                              "idle\nclick left 160 75\nscreenshot view_tr_o.png\nkey g\nidle\n"
+                              "screenshot view_tr_t.png\nkey u\nidle\nclick left 160 75\n"
+                              "key delete\nidle\nscreenshot view_tr_h.png\n",
+                              out),
+                     0);
+    assert_non_null(find_line(out, "transparent: face ", 0));
+    image8 o = read_png("view_tr_o.png"), t = read_png("view_tr_t.png"),
+           h = read_png("view_tr_h.png");
+    int W = o.w, H = o.h;
+    long blended = 0, same = 0;
+    for (int j = 2; j < H - 2; j++)
+        for (int i = 2; i < W - 2; i++) {
+            int interior = 1, covered = 0, near = 0;
+            for (int dj = -2; dj <= 2; dj++)
+                for (int di = -2; di <= 2; di++) {
+                    size_t q = (size_t)(j + dj) * W + i + di;
+                    int d = memcmp(o.px + 4 * q, h.px + 4 * q, 4) != 0;
+                    near += d;
+                    if (abs(di) > 1 || abs(dj) > 1) continue;
+                    covered += d;
+                    interior &=
+                        o.px[4 * q + 3] == 255 && (h.px[4 * q + 3] == 255 || h.px[4 * q + 3] == 0);
+                }
+            size_t k = (size_t)j * W + i;
+            if (!interior) continue;
+            if (covered == 9) {
+                /* straight alpha: over the background (hidden alpha 0) the face's own colour at
+                 * alpha 0.35 */
+                double ha = h.px[4 * k + 3] / 255.0, oa = 0.35 + 0.65 * ha;
+                if (fabs(t.px[4 * k + 3] - 255 * oa) > 3)
+                    fail_msg("pixel (%d, %d) alpha %d, expected %.1f", i, j, t.px[4 * k + 3],
+                             255 * oa);
+                for (int c = 0; c < 3; c++) {
+                    double want = (0.35 * o.px[4 * k + c] + 0.65 * ha * h.px[4 * k + c]) / oa;
+                    if (fabs(t.px[4 * k + c] - want) > 3)
+                        fail_msg("pixel (%d, %d) channel %d: %d, expected %.1f", i, j, c,
+                                 t.px[4 * k + c], want);
+                }
+                blended++;
+            } else if (near == 0) { /* 2 px from the face (its lone frame's ribbons) */
+                /* (the opaque faces' own scene may round a shade differently by 1) */
+                for (int c = 0; c < 4; c++)
+                    if (abs(t.px[4 * k + c] - o.px[4 * k + c]) > 2)
+                        fail_msg("pixel (%d, %d) channel %d: %d, opaque %d", i, j, c,
+                                 t.px[4 * k + c], o.px[4 * k + c]);
+                same++;
+            }
+        }
+    print_message("transparent face: %ld pixels blended, %ld unchanged\n", blended, same);
+    assert_true(blended > 100 && same > 1000);
+    free(o.px);
+    free(t.px);
+    free(h.px);
+    free(out);
+}
+
 /* Zooming to the cursor 7,500 times into a detail: the near plane follows, so the surface under
  * the cursor is still drawn (not clipped) and still picked. */
 static void test_zoom_no_clipping(void **state)
@@ -981,6 +1050,7 @@ int main(void)
         cmocka_unit_test(test_zoom_no_clipping),
         cmocka_unit_test(test_moving_frame),
         cmocka_unit_test(test_section),
+        cmocka_unit_test(test_transparent_face),
         cmocka_unit_test(test_file_watch),
         cmocka_unit_test(test_screenshot_equals_cli),
 #ifdef CRISP_HAVE_GL
