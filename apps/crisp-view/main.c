@@ -170,6 +170,17 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
          * step's frame (commands take no frame: the next input event's) */
         snprintf(v->window_shot, sizeof v->window_shot, "%s", arg);
 
+    } else if (!strcmp(name, "body")) {
+        /* body N on|off: show or hide a body's faces (the Parts panel's checkbox) */
+        int b = 0;
+        char what[8] = "";
+        if (!v->doc || sscanf(arg, "%d %7s", &b, what) != 2 ||
+            (strcmp(what, "on") && strcmp(what, "off")) || !view_body_faces(v, b, NULL)) {
+            view_set_error(v, "replay line %d: expected 'body N on|off' naming a body of the model",
+                           line);
+            return;
+        }
+        view_body_show(v, b, !strcmp(what, "on"));
     } else if (!strcmp(name, "section")) {
         /* section off | section x|y|z POSITION [flip] */
         char ax[8] = "", fl[8] = "";
@@ -572,6 +583,7 @@ out:
     free(v->doc_path);
     free(v->initial_camera);
     free(v->wire);
+    free(v->body_ids);
     /* forget every pointer: what was not freed above becomes a leak LeakSanitizer reports */
     memset(v, 0, sizeof *v);
     printf("exit: %d\n", rc);

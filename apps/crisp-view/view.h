@@ -153,6 +153,8 @@ struct view {
     /* transparency per face (face_hidden[f] == 2): drawn from a scene of their own (tdoc) and
      * composited over the opaque image by depth */
     uint32_t trans_faces;
+    int *body_ids; /* body_count distinct crisp_face.body values (visible.c) */
+    int body_count;
     crisp_model trans_model;
     crisp_scene *trans_scene;
     app_doc tdoc;
@@ -194,6 +196,10 @@ void view_visible_free(view *v);
 int32_t view_doc_face(const view *v, int32_t drawn);
 int32_t view_drawn_face(const view *v, int32_t doc_face);
 void view_parts_panel(view *v);
+/* Bodies (distinct non-zero crisp_face.body, numbered 1.. in order of first face): faces of
+ * body `index` and whether any is shown; show / hide them all. */
+int view_body_faces(const view *v, int body, int *shown);
+void view_body_show(view *v, int body, int show);
 
 /* section.c: the section plane (X toggles, N next axis, shift+N flips, - and = move it) */
 #define VIEW_CAP_FACE (-1000000)                        /* the face id of cap pixels */

@@ -9,6 +9,8 @@
 #include "ui.h"
 #include "view.h"
 
+static void list_bodies(view *v);
+
 void view_visible_free(view *v)
 {
     crisp_scene_destroy(v->vis_scene);
@@ -33,6 +35,7 @@ void view_visible_reset(view *v)
     free(v->part_hidden);
     v->face_hidden = v->part_hidden = NULL;
     v->hidden_faces = v->hidden_parts = 0;
+    list_bodies(v);
     if (v->doc) {
         v->rdoc = *v->doc;
         v->face_hidden = calloc(v->doc->scene->face_count + 1, 1);
@@ -141,6 +144,53 @@ int32_t view_drawn_face(const view *v, int32_t doc_face)
     return k;
 }
 
+/* Bodies: the readers give faces of one shell or solid (one placed copy of it in an assembly)
+ * a shared non-zero crisp_face.body; the Parts panel shows and hides them whole. */
+static void list_bodies(view *v)
+{
+    free(v->body_ids);
+    v->body_ids = NULL;
+    v->body_count = 0;
+    if (!v->doc) return;
+    const crisp_model *m = v->doc->scene->model;
+    v->body_ids = calloc((size_t)m->face_count + 1, sizeof *v->body_ids);
+    if (!v->body_ids) return;
+    for (int f = 0; f < m->face_count; f++) {
+        int b = m->faces[f].body, seen = 0;
+        if (!b) continue;
+        for (int k = v->body_count - 1; k >= 0 && !seen; k--)
+            seen = v->body_ids[k] == b;
+        if (!seen) v->body_ids[v->body_count++] = b;
+    }
+}
+
+int view_body_faces(const view *v, int index, int *shown)
+{
+    if (index < 1 || index > v->body_count) return 0;
+    int body = v->body_ids[index - 1];
+    const crisp_model *m = v->doc->scene->model;
+    int n = 0, vis = 0;
+    for (int f = 0; f < m->face_count; f++)
+        if (m->faces[f].body == body) {
+            n++;
+            vis += v->face_hidden[f] != 1;
+        }
+    if (shown) *shown = vis > 0;
+    return n;
+}
+
+void view_body_show(view *v, int index, int show)
+{
+    if (index < 1 || index > v->body_count) return;
+    int body = v->body_ids[index - 1];
+    const crisp_model *m = v->doc->scene->model;
+    for (int f = 0; f < m->face_count; f++)
+        if (m->faces[f].body == body) v->face_hidden[f] = show ? 0 : 1;
+    printf("body: %d %s (%d faces)\n", index, show ? "shown" : "hidden",
+           view_body_faces(v, index, NULL));
+    view_visible_update(v);
+}
+
 void view_parts_panel(view *v)
 {
     if (!v->doc) return;
@@ -151,6 +201,17 @@ void view_parts_panel(view *v)
             snprintf(label, sizeof label, "faces: %u shown, %u hidden##faces",
                      v->doc->scene->face_count - v->hidden_faces, v->hidden_faces);
             app_ui_tree_node(label, 1, 0, NULL);
+            /* the bodies (solids and shells; each placed copy in an assembly), at most 256 */
+            for (int b = 1; b <= v->body_count && b <= 256; b++) {
+                int shown, n = view_body_faces(v, b, &shown);
+                snprintf(label, sizeof label, "body %d (%d faces)", b, n);
+                if (app_ui_checkbox(label, &shown)) {
+                    view_body_show(v, b, shown);
+                    app_ui_tree_pop();
+                    app_ui_end();
+                    return;
+                }
+            }
             for (size_t k = 0; k < v->doc->part_count; k++) {
                 int shown = !v->part_hidden[k];
                 snprintf(label, sizeof label, "f-rep part %zu", k);

@@ -786,6 +786,41 @@ static void test_transparent_face(void **state)
     free(out);
 }
 
+/* Show / hide per body (the Parts panel; `body N on|off` in a replay): in the STEP assembly
+ * occt_as1_ec.stp each placed copy of a solid is a body; hiding body 1 removes exactly its faces
+ * from the view (the visible count drops by them, the picture changes), showing it again brings
+ * back the same picture. */
+static void test_bodies(void **state)
+{
+    (void)state;
+    char *out = malloc(OUT_CAP), args[1024];
+    assert_non_null(out);
+    snprintf(args, sizeof args, "%s/nurbs/occt_as1_ec.stp --size 320x200 --no-aa", CRISP_DATA_DIR);
+    assert_int_equal(run_view(args,
+                              "idle\nscreenshot view_body0.png\nbody 1 off\nidle\n"
+                              "screenshot view_body1.png\nbody 1 on\nidle\n"
+                              "screenshot view_body2.png\n",
+                              out),
+                     0);
+    int n = 0, shown = 0, total = 0;
+    const char *l = find_line(out, "body: 1 hidden", 0);
+    assert_non_null(l);
+    assert_int_equal(sscanf(l, "body: 1 hidden (%d faces)", &n), 1);
+    l = find_line(out, "visible: ", 0);
+    assert_non_null(l);
+    assert_int_equal(sscanf(l, "visible: %d of %d faces", &shown, &total), 2);
+    assert_true(n > 0 && n < total);
+    assert_int_equal(shown, total - n);
+    image8 a = read_png("view_body0.png"), b = read_png("view_body1.png"),
+           c = read_png("view_body2.png");
+    assert_true(differing(&a, &b) > 100);
+    assert_int_equal(differing(&a, &c), 0);
+    free(a.px);
+    free(b.px);
+    free(c.px);
+    free(out);
+}
+
 /* Zooming to the cursor 7,500 times into a detail: the near plane follows, so the surface under
  * the cursor is still drawn (not clipped) and still picked. */
 static void test_zoom_no_clipping(void **state)
@@ -1051,6 +1086,7 @@ int main(void)
         cmocka_unit_test(test_moving_frame),
         cmocka_unit_test(test_section),
         cmocka_unit_test(test_transparent_face),
+        cmocka_unit_test(test_bodies),
         cmocka_unit_test(test_file_watch),
         cmocka_unit_test(test_screenshot_equals_cli),
 #ifdef CRISP_HAVE_GL
