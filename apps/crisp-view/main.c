@@ -170,6 +170,20 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
          * step's frame (commands take no frame: the next input event's) */
         snprintf(v->window_shot, sizeof v->window_shot, "%s", arg);
 
+    } else if (!strcmp(name, "occurrence")) {
+        /* occurrence N on|off: show or hide an assembly occurrence (1-based, as printed) */
+        int k = 0;
+        char what[8] = "";
+        if (!v->doc || sscanf(arg, "%d %7s", &k, what) != 2 ||
+            (strcmp(what, "on") && strcmp(what, "off")) || k < 1 ||
+            k > v->doc->scene->model->occurrence_count) {
+            view_set_error(v,
+                           "replay line %d: expected 'occurrence N on|off' naming an assembly "
+                           "occurrence of the model",
+                           line);
+            return;
+        }
+        view_occurrence_show(v, k - 1, !strcmp(what, "on"));
     } else if (!strcmp(name, "body")) {
         /* body N on|off: show or hide a body's faces (the Parts panel's checkbox) */
         int b = 0;
@@ -305,6 +319,10 @@ static void install_doc(view *v, app_doc *doc, int keep_camera)
     char title[1200];
     snprintf(title, sizeof title, "crisp-view - %s", doc->path);
     glfwSetWindowTitle(v->win, title);
+    const crisp_model *dm = doc->scene->model;
+    for (int k = 0; dm && k < dm->occurrence_count; k++)
+        printf("occurrence: %d %s parent %d\n", k + 1, dm->occurrences[k].name,
+               dm->occurrences[k].parent + 1);
     printf("loaded: %s: %s, %u faces, %u patches, %zu f-rep parts, box %g %g %g %g %g %g "
            "(read %.1f ms, prepare %.1f ms)\n",
            doc->path, doc->kind, doc->scene->face_count, doc->scene->patch_count, doc->part_count,

@@ -200,6 +200,10 @@ void view_parts_panel(view *v);
  * body `index` and whether any is shown; show / hide them all. */
 int view_body_faces(const view *v, int body, int *shown);
 void view_body_show(view *v, int body, int show);
+/* The assembly tree (crisp_model.occurrences): faces of occurrence k (0-based) and its
+ * descendants, whether any is shown; show / hide them all. */
+int view_occurrence_faces(const view *v, int k, int *shown);
+void view_occurrence_show(view *v, int k, int show);
 
 /* section.c: the section plane (X toggles, N next axis, shift+N flips, - and = move it) */
 #define VIEW_CAP_FACE (-1000000)                        /* the face id of cap pixels */

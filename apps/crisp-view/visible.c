@@ -191,6 +191,71 @@ void view_body_show(view *v, int index, int show)
     view_visible_update(v);
 }
 
+/* The assembly tree (crisp_model.occurrences; STEP product occurrences): a face copy belongs to
+ * occurrence k's subtree when k is its occurrence or one of that one's ancestors. */
+static int in_subtree(const crisp_model *m, int occ, int k)
+{
+    for (int q = occ - 1, depth = 0; q >= 0 && depth <= m->occurrence_count; depth++) {
+        if (q == k) return 1;
+        q = m->occurrences[q].parent;
+    }
+    return 0;
+}
+
+int view_occurrence_faces(const view *v, int k, int *shown)
+{
+    const crisp_model *m = v->doc->scene->model;
+    int n = 0, vis = 0;
+    if (k < 0 || k >= m->occurrence_count) return 0;
+    for (int f = 0; f < m->face_count; f++)
+        if (in_subtree(m, m->faces[f].occurrence, k)) {
+            n++;
+            vis += v->face_hidden[f] != 1;
+        }
+    if (shown) *shown = vis > 0;
+    return n;
+}
+
+void view_occurrence_show(view *v, int k, int show)
+{
+    const crisp_model *m = v->doc->scene->model;
+    if (k < 0 || k >= m->occurrence_count) return;
+    for (int f = 0; f < m->face_count; f++)
+        if (in_subtree(m, m->faces[f].occurrence, k)) v->face_hidden[f] = show ? 0 : 1;
+    printf("occurrence: %d %s %s (%d faces)\n", k + 1, m->occurrences[k].name,
+           show ? "shown" : "hidden", view_occurrence_faces(v, k, NULL));
+    view_visible_update(v);
+}
+
+/* The children of occurrence `parent` (-1: the roots) as tree nodes with a show checkbox; returns
+ * 1 when something was toggled (the scene was rebuilt: stop drawing). */
+static int occurrence_nodes(view *v, int parent, int depth)
+{
+    const crisp_model *m = v->doc->scene->model;
+    for (int k = 0; k < m->occurrence_count; k++) {
+        if (m->occurrences[k].parent != parent) continue;
+        int leaf = 1;
+        for (int c = k + 1; c < m->occurrence_count && leaf; c++)
+            leaf = m->occurrences[c].parent != k;
+        int shown, n = view_occurrence_faces(v, k, &shown);
+        char label[320];
+        snprintf(label, sizeof label, "##occ%d", k);
+        if (app_ui_checkbox(label, &shown)) {
+            view_occurrence_show(v, k, shown);
+            return 1;
+        }
+        app_ui_same_line();
+        snprintf(label, sizeof label, "%s (%d faces)##node%d",
+                 m->occurrences[k].name[0] ? m->occurrences[k].name : "(root)", n, k);
+        if (app_ui_tree_node(label, leaf, 0, NULL)) {
+            int stop = !leaf && depth < 64 && occurrence_nodes(v, k, depth + 1);
+            app_ui_tree_pop();
+            if (stop) return 1;
+        }
+    }
+    return 0;
+}
+
 void view_parts_panel(view *v)
 {
     if (!v->doc) return;
@@ -201,6 +266,12 @@ void view_parts_panel(view *v)
             snprintf(label, sizeof label, "faces: %u shown, %u hidden##faces",
                      v->doc->scene->face_count - v->hidden_faces, v->hidden_faces);
             app_ui_tree_node(label, 1, 0, NULL);
+            /* the assembly tree, when the file has one */
+            if (v->doc->scene->model->occurrence_count && occurrence_nodes(v, -1, 0)) {
+                app_ui_tree_pop();
+                app_ui_end();
+                return;
+            }
             /* the bodies (solids and shells; each placed copy in an assembly), at most 256 */
             for (int b = 1; b <= v->body_count && b <= 256; b++) {
                 int shown, n = view_body_faces(v, b, &shown);

@@ -786,10 +786,11 @@ static void test_transparent_face(void **state)
     free(out);
 }
 
-/* Show / hide per body (the Parts panel; `body N on|off` in a replay): in the STEP assembly
- * occt_as1_ec.stp each placed copy of a solid is a body; hiding body 1 removes exactly its faces
- * from the view (the visible count drops by them, the picture changes), showing it again brings
- * back the same picture. */
+/* Show / hide per body and per assembly occurrence (the Parts panel; `body N on|off`,
+ * `occurrence N on|off` in a replay): in the STEP assembly occt_as1_ec.stp each placed copy of a
+ * solid is a body; hiding body 1 removes exactly its faces from the view (the visible count drops
+ * by them, the picture changes), showing it again brings back the same picture; hiding an
+ * L-bracket assembly occurrence hides its whole subtree. */
 static void test_bodies(void **state)
 {
     (void)state;
@@ -799,7 +800,8 @@ static void test_bodies(void **state)
     assert_int_equal(run_view(args,
                               "idle\nscreenshot view_body0.png\nbody 1 off\nidle\n"
                               "screenshot view_body1.png\nbody 1 on\nidle\n"
-                              "screenshot view_body2.png\n",
+                              "screenshot view_body2.png\noccurrence 2 off\nidle\n"
+                              "screenshot view_body3.png\n",
                               out),
                      0);
     int n = 0, shown = 0, total = 0;
@@ -815,9 +817,25 @@ static void test_bodies(void **state)
            c = read_png("view_body2.png");
     assert_true(differing(&a, &b) > 100);
     assert_int_equal(differing(&a, &c), 0);
+    /* the assembly tree: occurrence 2 is the first L-bracket assembly (a bracket and three
+     * nut-bolt assemblies of a nut and a bolt each); hiding it hides its subtree's faces */
+    assert_non_null(find_line(out, "occurrence: 2 -> L-Bracket Assembly parent 1", 0));
+    assert_non_null(find_line(out, "occurrence: 5 -> Nut parent 4", 0));
+    l = find_line(out, "occurrence: 2 -> L-Bracket Assembly hidden", 0);
+    assert_non_null(l);
+    int sub = 0;
+    assert_int_equal(sscanf(l, "occurrence: 2 -> L-Bracket Assembly hidden (%d faces)", &sub), 1);
+    l = find_line(out, "visible: ", 2);
+    assert_non_null(l);
+    assert_int_equal(sscanf(l, "visible: %d of %d faces", &shown, &total), 2);
+    assert_true(sub > n && sub < total);
+    assert_int_equal(shown, total - sub);
+    image8 d = read_png("view_body3.png");
+    assert_true(differing(&a, &d) > 100);
     free(a.px);
     free(b.px);
     free(c.px);
+    free(d.px);
     free(out);
 }
 
