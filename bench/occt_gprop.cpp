@@ -40,11 +40,11 @@ int main(int argc, char **argv)
         double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         gp_Pnt c = v2.CentreOfMass();
         gp_Mat m = v2.MatrixOfInertia();
-        printf(
-            "%s: area %.12g (adaptive %.12g, error %.2g) volume %.12g (adaptive %.12g, error %.2g) "
-            "adaptive centroid %.9g %.9g %.9g Ixx %.9g Iyy %.9g Izz %.9g (%.3f s)\n",
-            p, a.Mass(), a2.Mass(), aeps, v.Mass(), v2.Mass(), eps, c.X(), c.Y(), c.Z(), m(1, 1),
-            m(2, 2), m(3, 3), dt);
+        printf("%s: area %.15g (adaptive %.15g, error %.2g) volume %.15g (adaptive %.15g, error "
+               "%.2g)\n  adaptive centroid %.15g %.15g %.15g\n  inertia about the centroid "
+               "(Ixx Iyy Izz Ixy Iyz Ixz) %.15g %.15g %.15g %.15g %.15g %.15g (%.3f s)\n",
+               p, a.Mass(), a2.Mass(), aeps, v.Mass(), v2.Mass(), eps, c.X(), c.Y(), c.Z(), m(1, 1),
+               m(2, 2), m(3, 3), m(1, 2), m(2, 3), m(1, 3), dt);
     }
     return 0;
 }

@@ -1,13 +1,16 @@
 /* Trim-editing benchmark (issue 11): per frame of a drag of one control point, the work the
  * editor does: the edit itself (crisp_trimedit_move_point), taking the loops into the scene
  * (crisp_scene_update_trim), re-planning only the edited face (crisp_planner_replan_face: "the
- * plan time of the edited face", goal < 2 ms) and drawing the frame with the CPU backend
- * (crisp_render_cpu_plan at 1280x720; plan + draw goal < 33 ms). Baseline in the same run: a
- * whole-scene plan (crisp_planner_plan) of the same camera, the work without per-face
- * re-planning. Inputs: the built-in example, and the face with the most Bézier trim pieces among
- * the bundled models (found by scanning data/nurbs, or given: --model PATH --face N). Views: the
- * default camera of the model, and zoomed in on the dragged point until the trim curve crosses
- * the window. Usage: bench_trimedit [--model PATH --face N] [--frames N] [--size WxH]
+ * plan time of the edited face", goal < 2 ms) and drawing the frame with the CPU backend at
+ * 1280x720: only the edited face over an image of the other faces drawn once
+ * (crisp_render_cpu_plan_faces, what the editor does during a drag; frame goal < 33 ms).
+ * Baselines in the same run: the whole plan drawn again (crisp_render_cpu_plan) and a whole-scene
+ * plan (crisp_planner_plan) of the same camera. --gl adds the GL backend's draw. Inputs: the
+ * built-in example, and the face with the most Bézier trim pieces among the bundled models (found
+ * by scanning data/nurbs, or given: --model PATH --face N). Views: the default camera of the model,
+ * for a face of a larger model also its surface's box framed (the editor's start view), and
+ * zoomed in on the dragged point until the trim curve crosses the window. Usage: bench_trimedit
+ * [--model PATH --face N] [--frames N] [--size WxH]
  */
 #include <dirent.h>
 #include <math.h>
@@ -26,7 +29,7 @@
 #define HAVE_GL 1
 #endif
 
-static int frames = 60, width = 1280, height = 720;
+static int frames = 60, width = 1280, height = 720, with_gl = 0;
 
 /* Pieces of face f (Bézier pieces of all its loops). */
 static int face_pieces(const crisp_face *f)
@@ -136,7 +139,7 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
     crisp_trimedit_domain(ed, dom);
     double amp = 0.01 * fmax(dom[1] - dom[0], dom[3] - dom[2]);
     crisp_camera cam;
-    if (zoomed) {
+    if (zoomed == 1) {
         /* The window spans about 40 steps of the drag on the surface. */
         double P0[3], P1[3], q[2] = {p0[0] + amp, p0[1]};
         crisp_surface_eval(f->surface, p0[0], p0[1], P0);
@@ -150,40 +153,64 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
         else
             on[0] = p0[0], on[1] = p0[1];
         zoom_camera(f->surface, on, span > 0 ? span : 1e-3, &cam);
+    } else if (zoomed == 2) {
+        double box[6];
+        crisp_surface_bbox(f->surface, box);
+        crisp_camera_frame_box(box, width, height, &cam);
     } else {
         crisp_camera_frame_box(sc->box, width, height, &cam);
     }
-    crisp_renderer *r;
+    crisp_renderer *r, *r_full;
     crisp_planner *pl;
     crisp_renderer_create(NULL, &r);
+    crisp_renderer_create(NULL, &r_full);
     crisp_planner_create(NULL, NULL, &pl);
-    crisp_image img;
+    crisp_image img, img_full, others;
     crisp_image_init(&img, width, height);
+    crisp_image_init(&img_full, width, height);
+    crisp_image_init(&others, width, height);
     const crisp_frame_plan *plan;
-    double *full = malloc(sizeof(double) * 5), *edit = malloc(sizeof(double) * frames),
-           *upd = malloc(sizeof(double) * frames), *replan = malloc(sizeof(double) * frames),
-           *draw = malloc(sizeof(double) * frames), *frame = malloc(sizeof(double) * frames),
-           *replan_cpu = malloc(sizeof(double) * frames),
-           *ms_trim = malloc(sizeof(double) * frames), *ms_rib = malloc(sizeof(double) * frames),
-           *gl_draw = malloc(sizeof(double) * frames), *gl_frame = malloc(sizeof(double) * frames),
-           *draw_cpu = malloc(sizeof(double) * frames), *gl_cpu = malloc(sizeof(double) * frames);
+    enum { EDIT, UPD, REPLAN, REPLAN_CPU, FULL, FULL_CPU, PART, PART_CPU, GL, GL_CPU, COLS };
+    double *col[COLS];
+    for (int c = 0; c < COLS; c++)
+        col[c] = calloc((size_t)frames, sizeof(double));
+    double full_plan[5], ms_others = 0;
     int have_gl = 0;
 #ifdef HAVE_GL
     crisp_gl_context *glc = NULL;
     crisp_gl *gl = NULL;
-    if (!crisp_gl_context_create(&glc) &&
-        !crisp_gl_create(crisp_gl_context_getproc(glc), NULL, &gl) && !crisp_gl_set_scene(gl, sc))
-        have_gl = 1;
-    else
-        fprintf(stderr, "GL: %s\n", crisp_error_message());
+    if (with_gl) {
+        if (!crisp_gl_context_create(&glc) &&
+            !crisp_gl_create(crisp_gl_context_getproc(glc), NULL, &gl) &&
+            !crisp_gl_set_scene(gl, sc))
+            have_gl = 1;
+        else
+            fprintf(stderr, "GL: %s\n", crisp_error_message());
+    }
 #endif
     for (int k = 0; k < 5; k++) {
         double t = crisp_time_now();
         crisp_planner_plan(pl, sc, &cam, &plan);
-        full[k] = ms_since(t);
+        full_plan[k] = ms_since(t);
+    }
+    /* The other faces, drawn once for the drag (the editor does this at the drag's first frame
+     * and after a camera change); img starts as their copy. */
+    uint8_t *only = calloc(sc->face_count, 1), *rest = calloc(sc->face_count, 1);
+    for (uint32_t k = 0; k < sc->face_count; k++)
+        only[k] = (int)k == face, rest[k] = (int)k != face;
+    {
+        double t = crisp_time_now();
+        crisp_render_cpu_plan_faces(r, sc, plan, &cam, rest, NULL, &others, NULL);
+        ms_others = ms_since(t);
+        size_t n = (size_t)width * height;
+        memcpy(img.rgba, others.rgba, 4 * n * sizeof(float));
+        memcpy(img.depth, others.depth, n * sizeof(float));
+        memcpy(img.normal, others.normal, 3 * n * sizeof(float));
+        memcpy(img.uv, others.uv, 2 * n * sizeof(float));
+        memcpy(img.face, others.face, n * sizeof(int32_t));
     }
     int refused = 0;
-    uint64_t rows = 0;
+    uint64_t rows = 0, face_px = 0, differ[3] = {0, 0, 0};
     crisp_trimedit_group_begin(ed);
     for (int k = 0; k < frames; k++) {
         double a = 2 * M_PI * k / frames,
@@ -194,71 +221,85 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
         crisp_scene_update_trim(sc, (uint32_t)face);
         double t2 = crisp_time_now(), c2 = cpu_now();
         crisp_planner_replan_face(pl, sc, (uint32_t)face, &plan);
-        double t3 = crisp_time_now();
-        replan_cpu[k] = 1e3 * (cpu_now() - c2);
-        ms_trim[k] = plan->stats.ms_trim;
-        ms_rib[k] = plan->stats.ms_ribbons;
-        double c3 = cpu_now();
-        crisp_render_cpu_plan(r, sc, plan, &cam, &img, NULL);
+        double t3 = crisp_time_now(), c3 = cpu_now();
+        col[EDIT][k] = 1e3 * (t1 - t0);
+        col[UPD][k] = 1e3 * (t2 - t1);
+        col[REPLAN][k] = 1e3 * (t3 - t2);
+        col[REPLAN_CPU][k] = 1e3 * (c3 - c2);
+        /* The edited face over the others (the editor's frame), then the baseline: the whole
+         * plan drawn again. */
+        crisp_render_cpu_plan_faces(r, sc, plan, &cam, only, &others, &img, NULL);
         double t4 = crisp_time_now(), c4 = cpu_now();
-        draw_cpu[k] = 1e3 * (c4 - c3);
-        gl_cpu[k] = 0;
-        gl_draw[k] = 0;
+        col[PART][k] = 1e3 * (t4 - t3);
+        col[PART_CPU][k] = 1e3 * (c4 - c3);
+        crisp_render_cpu_plan(r_full, sc, plan, &cam, &img_full, NULL);
+        col[FULL][k] = ms_since(t4);
+        col[FULL_CPU][k] = 1e3 * (cpu_now() - c4);
 #ifdef HAVE_GL
         if (have_gl) {
+            double t5 = crisp_time_now(), c5 = cpu_now();
             crisp_gl_draw(gl, plan, NULL);
-            gl_draw[k] = ms_since(t4);
-            gl_cpu[k] = 1e3 * (cpu_now() - c4);
+            col[GL][k] = ms_since(t5);
+            col[GL_CPU][k] = 1e3 * (cpu_now() - c5);
         }
 #endif
-        gl_frame[k] = 1e3 * (t3 - t0) + gl_draw[k];
-        edit[k] = 1e3 * (t1 - t0);
-        upd[k] = 1e3 * (t2 - t1);
-        replan[k] = 1e3 * (t3 - t2);
-        draw[k] = 1e3 * (t4 - t3);
-        frame[k] = 1e3 * (t4 - t0);
         const crisp_plan_face *pf = &plan->faces[face];
         for (uint32_t s = 0; s < pf->strip_count; s++)
             rows += plan->strips[pf->first_strip + s].row_count;
+        for (size_t p = 0; p < (size_t)width * height; p++) {
+            face_px += img_full.face[p] == face;
+            if (img_full.face[p] == img.face[p] && img_full.depth[p] == img.depth[p]) continue;
+            /* The nearest pixel of the edited face (either image), in the max norm, up to 8. */
+            int x = (int)(p % (size_t)width), y = (int)(p / (size_t)width), dist = 9;
+            for (int dy = -8; dy <= 8; dy++)
+                for (int dx = -8; dx <= 8; dx++) {
+                    int xx = x + dx, yy = y + dy, d = abs(dx) > abs(dy) ? abs(dx) : abs(dy);
+                    if (xx < 0 || yy < 0 || xx >= width || yy >= height || d >= dist) continue;
+                    size_t q = (size_t)yy * width + xx;
+                    if (img_full.face[q] == face || img.face[q] == face) dist = d;
+                }
+            differ[dist <= 2 ? 0 : dist <= 8 ? 1 : 2]++;
+        }
     }
     crisp_trimedit_group_end(ed);
-    double max_replan = 0;
+    double med[COLS], max_replan = 0;
+    for (int c = 0; c < COLS; c++)
+        med[c] = bench_median(col[c], frames);
     for (int k = 0; k < frames; k++)
-        max_replan = fmax(max_replan, replan[k]);
-    char gls[64] = "    n/a |     n/a |     n/a";
-    if (have_gl)
-        snprintf(gls, sizeof gls, "%7.2f | %7.2f | %7.2f", bench_median(gl_draw, frames),
-                 bench_median(gl_cpu, frames), bench_median(gl_frame, frames));
-    double mt = bench_median(ms_trim, frames), mrib = bench_median(ms_rib, frames);
-    double mf = bench_median(full, 5);
-    double mr = bench_median(replan, frames);
-    printf("| %-30s | %-7s | %4d | %6.0f | %6.3f | %6.3f | %6.3f | %6.3f | %6.3f | %7.2f | %7.2f | "
-           "%7.2f | %s | %7.2f | %5.1fx | %5.3f + %5.3f |%s\n",
-           name, zoomed ? "zoomed" : "default", face_pieces(f), (double)rows / frames,
-           bench_median(edit, frames), bench_median(upd, frames), mr, max_replan,
-           bench_median(replan_cpu, frames), bench_median(draw, frames),
-           bench_median(draw_cpu, frames), bench_median(frame, frames), gls, mf,
-           mr > 0 ? mf / mr : 0, mt, mrib, refused ? " (some moves refused)" : "");
-    free(full);
-    free(edit);
-    free(upd);
-    free(replan);
-    free(draw);
-    free(frame);
-    free(replan_cpu);
-    free(gl_draw);
-    free(draw_cpu);
-    free(gl_cpu);
-    free(gl_frame);
+        max_replan = fmax(max_replan, col[REPLAN][k]);
+    double pre = med[EDIT] + med[UPD] + med[REPLAN];
+    char gls[64] = "";
+    if (have_gl) snprintf(gls, sizeof gls, " GL draw %.2f ms (cpu %.2f)", med[GL], med[GL_CPU]);
+    printf("| %-26s | %-7s | %4d | %5.1f%% | %6.3f | %6.3f | %6.3f | %7.2f | %7.2f | %7.2f | %7.2f "
+           "| %7.2f | %7.2f | %7.2f | %5.1fx | %7.2f | %7.2f |%s%s\n",
+           name,
+           zoomed == 2 ? "face"
+           : zoomed    ? "zoomed"
+                       : "default",
+           face_pieces(f), 100.0 * (double)face_px / ((double)frames * width * height), med[REPLAN],
+           max_replan, med[REPLAN_CPU], med[FULL], med[FULL_CPU], med[PART], med[PART_CPU],
+           pre + med[FULL], pre + med[PART], med[EDIT] + med[UPD] + med[REPLAN_CPU] + med[PART_CPU],
+           med[PART] > 0 ? med[FULL] / med[PART] : 0, ms_others, bench_median(full_plan, 5),
+           refused ? " (some moves refused)" : "", gls);
+    if (differ[0] || differ[1] || differ[2])
+        printf("  (pixels whose face or depth differ between the two draws over %d frames: %llu "
+               "within 2 px of the edited face, %llu within 3-8 px, %llu farther)\n",
+               frames, (unsigned long long)differ[0], (unsigned long long)differ[1],
+               (unsigned long long)differ[2]);
+    for (int c = 0; c < COLS; c++)
+        free(col[c]);
+    free(only);
+    free(rest);
 #ifdef HAVE_GL
     crisp_gl_destroy(gl);
     crisp_gl_context_destroy(glc);
 #endif
-    free(ms_trim);
-    free(ms_rib);
     crisp_image_free(&img);
+    crisp_image_free(&img_full);
+    crisp_image_free(&others);
     crisp_planner_destroy(pl);
     crisp_renderer_destroy(r);
+    crisp_renderer_destroy(r_full);
     crisp_scene_destroy(sc);
     crisp_trimedit_destroy(ed);
 }
@@ -276,9 +317,12 @@ int main(int argc, char **argv)
             frames = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--size") && i + 1 < argc)
             sscanf(argv[++i], "%dx%d", &width, &height);
+        else if (!strcmp(argv[i], "--gl"))
+            with_gl = 1;
         else {
-            fprintf(stderr,
-                    "usage: bench_trimedit [--model PATH --face N] [--frames N] [--size WxH]\n");
+            fprintf(
+                stderr,
+                "usage: bench_trimedit [--model PATH --face N] [--frames N] [--size WxH] [--gl]\n");
             return 2;
         }
     }
@@ -298,22 +342,26 @@ int main(int argc, char **argv)
     printf("load average %.2f; %d frames per drag at %dx%d, CPU backend, %d threads; times in ms "
            "(medians; replan max over the drag)\n\n",
            la[0], frames, width, height, crisp_pool_default_threads());
-    printf(
-        "| %-30s | %-7s | %4s | %6s | %6s | %6s | %6s | %6s | %6s | %7s | %7s | %7s | %7s | %7s | "
-        "%7s | %7s | %6s | %15s |\n",
-        "face", "view", "pcs", "rows", "edit", "update", "replan", "max", "cpu", "draw", "cpu",
-        "frame", "gl draw", "cpu", "gl frm", "plan", "ratio", "table + ribbons");
-    printf("|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|\n",
-           "--------------------------------", "---------", "------", "--------", "--------",
-           "--------", "--------", "--------", "--------", "---------", "---------", "---------",
-           "---------", "---------", "---------", "---------", "--------", "-----------------");
+    printf("| %-26s | %-7s | %4s | %6s | %6s | %6s | %6s | %7s | %7s | %7s | %7s | %7s | %7s | "
+           "%7s | %6s | %7s | %7s |\n",
+           "face", "view", "pcs", "face", "replan", "max", "cpu", "full", "cpu", "face", "cpu",
+           "frame", "frame", "frame", "ratio", "others", "plan");
+    printf("| %-26s | %-7s | %4s | %6s | %6s | %6s | %6s | %7s | %7s | %7s | %7s | %7s | %7s | "
+           "%7s | %6s | %7s | %7s |\n",
+           "", "", "", "px", "", "", "", "draw", "", "draw", "", "full", "face", "cpu", "", "once",
+           "");
+    printf("|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|%s|\n", "----------------------------",
+           "---------", "------", "--------", "--------", "--------", "--------", "---------",
+           "---------", "---------", "---------", "---------", "---------", "---------", "--------",
+           "---------", "---------");
     for (int zoomed = 0; zoomed < 2; zoomed++) {
         crisp_model *m;
         if (crisp_trimedit_example(&m)) return 1;
         run("built-in example, face 0", m, 0, zoomed);
         crisp_model_destroy(m);
     }
-    for (int zoomed = 0; zoomed < 2; zoomed++) {
+    for (int view = 0; view < 3; view++) {
+        int zoomed = view == 0 ? 0 : view == 1 ? 2 : 1; /* default, face, zoomed */
         crisp_model *m;
         if (crisp_model_load(model, NULL, &m)) {
             fprintf(stderr, "%s\n", crisp_error_message());
@@ -325,14 +373,15 @@ int main(int argc, char **argv)
         run(name, m, face, zoomed);
         crisp_model_destroy(m);
     }
-    printf(
-        "\npcs: Bézier trim pieces of the face; rows: its table rows per frame; edit: "
-        "crisp_trimedit_move_point; update: crisp_scene_update_trim; replan: "
-        "crisp_planner_replan_face (the edited face's plan), max: its slowest frame, cpu: its "
-        "process CPU time (all threads); draw: crisp_render_cpu_plan (cpu: its process CPU time); "
-        "frame: "
-        "edit + update + replan + draw; plan: a whole-scene crisp_planner_plan of the same camera "
-        "(baseline); ratio: plan / replan; table + ribbons: the replan's two parts "
-        "(crisp_plan_stats ms_trim, ms_ribbons).\n");
+    printf("\npcs: Bézier trim pieces of the edited face; face px: its share of the image; "
+           "replan: crisp_scene_update_trim is not in it, crisp_planner_replan_face is (the "
+           "edited face's plan; max: its slowest frame; cpu: its process CPU time); full draw: "
+           "crisp_render_cpu_plan of the whole plan (the baseline, cpu: process CPU time); face "
+           "draw: crisp_render_cpu_plan_faces of the edited face over the others' image (the "
+           "editor's frame during a drag); frame: edit + update + replan + that draw (frame full: "
+           "with the full draw; frame cpu: the face frame's process CPU time, edit and update "
+           "counted as wall); ratio: full "
+           "draw / face draw; others once: drawing the other faces alone, once per drag or camera "
+           "change; plan: a whole-scene crisp_planner_plan of the camera.\n");
     return 0;
 }

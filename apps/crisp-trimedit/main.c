@@ -2,7 +2,8 @@
  * face in 3D (left) and its (u, v) domain in 2D (right), on the apps' shared infrastructure
  * (apps/common: GLFW window, Dear ImGui, event replay, camera navigation). Every frame after an
  * edit only the edited face is re-planned (te_app.c) and the 3D view is drawn from the plan by
- * the GL backend (the CPU backend where crisp is built without it). README.md "crisp-trimedit".
+ * the GL backend, or by the CPU backend (--cpu, or where crisp is built without GL), which during
+ * a drag draws only the edited face over an image of the other faces. README.md "crisp-trimedit".
  */
 #include <math.h>
 #include <stdio.h>
@@ -22,20 +23,25 @@
 
 static const char usage[] =
     "usage: crisp-trimedit [MODEL --face N] [--size WxH] [--replay EVENTS] [--screenshot OUT.png]\n"
-    "                      [--save OUT.obj] [--exit-after-replay] [--no-vsync]\n"
+    "                      [--save OUT.obj] [--exit-after-replay] [--no-vsync] [--cpu]\n"
     "  MODEL --face N: edit face N of a model crisp reads (IGES, STEP, OBJ); without MODEL the\n"
     "                  built-in example (a bicubic surface with an outer loop and two holes)\n"
     "  --replay EVENTS: play a replay file (the format of crisp-view, README.md)\n"
     "  --screenshot OUT.png: after the replay, write the 3D view rendered off-screen\n"
     "  --save OUT.obj: after the replay, save the model (OBJ free-form); ctrl+s saves there too\n"
     "  --exit-after-replay: quit once the replay, screenshot and save are done\n"
+    "  --cpu: draw the 3D view with the CPU backend (during a drag only the edited face is drawn,\n"
+    "         over an image of the other faces); the GL backend otherwise, where it is built\n"
     "  Keys: F1 for the list.\n";
 
 static const char help[] =
     "2D view: drag a control point (g: snap to the domain edge); shift-drag moves a loop,\n"
     "ctrl-drag rotates it, alt-drag scales it; right-drag pans, wheel zooms.\n"
-    "3D view: drag a control point on the surface; right-drag orbits, middle-drag pans, wheel\n"
-    "zooms; o opens the face under the cursor.\n"
+    "3D view: drag a control point on the surface; shift-, ctrl-, alt-drag near a loop moves,\n"
+    "rotates, scales it on the surface; right-drag orbits, middle-drag pans, wheel zooms; o opens\n"
+    "the face under the cursor.\n"
+    "w: weight field of the selected point (type, enter sets, escape closes); n: polygon hole by\n"
+    "clicks in the 2D view (enter or the first corner closes, backspace, escape cancels).\n"
     "i insert knot, k remove knot, x delete point, = / - weight, 0 weight 0 (refused),\n"
     "b snap point to the edge, c / r / p add a circle / rectangle / hexagon hole, d delete hole,\n"
     "ctrl+z undo, ctrl+y redo, ctrl+s save, s strips, l scan lines, f fit, F1 help.";
@@ -51,12 +57,12 @@ typedef struct te_window {
     int replaying, exit_after_replay, quit, exit_code, show_help;
 #ifdef CRISP_TRIMEDIT_GL
     crisp_gl *gl;
-#else
+#endif
+    int use_cpu; /* the CPU backend draws the 3D view (--cpu, or crisp built without GL) */
     crisp_renderer *renderer;
     crisp_image img;
     app_image_view iv;
     uint8_t *rgba;
-#endif
     double ms_draw;
 } te_window;
 
@@ -121,7 +127,8 @@ static void on_key(te_window *w, int key, int action, int mods)
         w->show_help = !w->show_help;
         return;
     }
-    if (action == GLFW_PRESS && key == GLFW_KEY_ESCAPE) {
+    /* Escape closes the weight field or cancels a polygon before it quits. */
+    if (action == GLFW_PRESS && key == GLFW_KEY_ESCAPE && !w->app.entry && !w->app.poly) {
         w->quit = 1;
         return;
     }
@@ -203,20 +210,25 @@ static crisp_status draw_3d(te_window *w)
     double t = crisp_time_now();
     crisp_status st;
 #ifdef CRISP_TRIMEDIT_GL
-    if ((st = crisp_gl_draw(w->gl, w->app.plan, NULL))) return st;
-    glBindFramebuffer(GL_FRAMEBUFFER, 0);
-    glViewport(0, 0, w->fb_w, w->fb_h);
-    glClearColor(0.12f, 0.13f, 0.15f, 1);
-    glClear(GL_COLOR_BUFFER_BIT);
-    st = crisp_gl_blit(w->gl, 0, 0, 0, (int)w->app.view3d.w, (int)w->app.view3d.h);
-#else
+    if (!w->use_cpu) {
+        if ((st = crisp_gl_draw(w->gl, w->app.plan, NULL))) return st;
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        glViewport(0, 0, w->fb_w, w->fb_h);
+        glClearColor(0.12f, 0.13f, 0.15f, 1);
+        glClear(GL_COLOR_BUFFER_BIT);
+        st = crisp_gl_blit(w->gl, 0, 0, 0, (int)w->app.view3d.w, (int)w->app.view3d.h);
+        w->ms_draw = 1e3 * (crisp_time_now() - t);
+        return st;
+    }
+#endif
+    /* The CPU backend: during an edit drag only the edited face is drawn, over the other faces'
+     * image (te_app_draw_cpu). */
     const crisp_camera *c = &w->app.cam;
     if (w->img.width != c->width || w->img.height != c->height) {
         crisp_image_free(&w->img);
         if ((st = crisp_image_init(&w->img, c->width, c->height))) return st;
     }
-    if ((st = crisp_render_cpu_plan(w->renderer, w->app.scene, w->app.plan, c, &w->img, NULL)))
-        return st;
+    if ((st = te_app_draw_cpu(&w->app, w->renderer, &w->img))) return st;
     /* The whole window as one image: the 3D view on the left, the 2D view's background right. */
     uint8_t *px = realloc(w->rgba, 4 * (size_t)w->fb_w * w->fb_h);
     if (!px) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the window image");
@@ -240,7 +252,6 @@ static crisp_status draw_3d(te_window *w)
     glViewport(0, 0, w->fb_w, w->fb_h);
     app_image_view_draw(&w->iv, w->fb_w, w->fb_h);
     st = CRISP_OK;
-#endif
     w->ms_draw = 1e3 * (crisp_time_now() - t);
     return st;
 }
@@ -283,6 +294,23 @@ static void draw_ui(te_window *w)
         else
             app_ui_text("%s", a->message);
     }
+    double suv[2], sw;
+    if (te_app_selected(a, suv, &sw)) {
+        const crisp_face *f = crisp_trimedit_face(a->ed);
+        int rational = f->loops[a->sel.loop].curves[a->sel.curve]->rational;
+        app_ui_text("point %d of curve %d of loop %d: (%.6g, %.6g)", a->sel.index, a->sel.curve,
+                    a->sel.loop, suv[0], suv[1]);
+        if (a->entry)
+            app_ui_text_color(1.0f, 0.9f, 0.3f, "weight: %s_   (enter sets, escape closes)",
+                              a->entry_text);
+        else
+            app_ui_text("weight %.6g%s   (w: edit)", sw, rational ? "" : " (polynomial curve)");
+        if (!a->entry && app_ui_button("edit weight (w)")) {
+            a->entry = 1;
+            a->entry_text[0] = '\0';
+        }
+    }
+    if (a->poly) app_ui_text("polygon hole: %d corners (enter closes)", a->poly_n);
     app_ui_checkbox("snap to the domain edge (g)", &a->snap);
     if (app_ui_button("undo")) te_app_key(a, GLFW_KEY_Z, GLFW_PRESS, GLFW_MOD_CONTROL);
     app_ui_same_line();
@@ -318,16 +346,19 @@ static crisp_status screenshot(te_window *w, const char *path, int sw, int sh)
         if (!st) st = crisp_planner_plan(pl, w->app.scene, &c, &plan);
     }
 #ifdef CRISP_TRIMEDIT_GL
-    if (!st && live) st = crisp_gl_read(w->gl, &img, NULL);
-    if (!st && !live) {
+    if (!w->use_cpu && !st && live) st = crisp_gl_read(w->gl, &img, NULL);
+    if (!w->use_cpu && !st && !live) {
         st = crisp_gl_render(w->gl, w->app.scene, plan, &img, NULL);
         crisp_gl_forget_plan(w->gl);
     }
-#else
-    if (!st && live)
-        st = crisp_render_cpu_plan(w->renderer, w->app.scene, w->app.plan, &c, &img, NULL);
-    if (!st && !live) st = crisp_render_cpu_plan(w->renderer, w->app.scene, plan, &c, &img, NULL);
 #endif
+    /* CPU: the window's own image of the frame (what was shown), or a new render. */
+    if (w->use_cpu && !st && live && w->img.width == c.width && w->img.height == c.height)
+        memcpy(img.rgba, w->img.rgba, 4 * sizeof(float) * (size_t)c.width * c.height);
+    else if (w->use_cpu && !st && live)
+        st = crisp_render_cpu_plan(w->renderer, w->app.scene, w->app.plan, &c, &img, NULL);
+    if (w->use_cpu && !st && !live)
+        st = crisp_render_cpu_plan(w->renderer, w->app.scene, plan, &c, &img, NULL);
     uint8_t *px = st ? NULL : malloc(4 * (size_t)c.width * c.height);
     if (!st && !px) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the screenshot");
     if (!st) {
@@ -408,6 +439,8 @@ int main(int argc, char **argv)
             w->exit_after_replay = 1;
         } else if (!strcmp(a, "--no-vsync")) {
             no_vsync = 1;
+        } else if (!strcmp(a, "--cpu")) {
+            w->use_cpu = 1;
         } else if (a[0] == '-' && a[1] == '-' && !more) {
             fprintf(stderr, "crisp-trimedit: option %s needs a value\n", a);
             return 2;
@@ -487,20 +520,25 @@ int main(int argc, char **argv)
         goto out;
     }
 #ifdef CRISP_TRIMEDIT_GL
-    if (crisp_gl_create((crisp_gl_getproc_fn)glfwGetProcAddress, NULL, &w->gl) ||
-        crisp_gl_set_scene(w->gl, w->app.scene)) {
+    if (!w->use_cpu && (crisp_gl_create((crisp_gl_getproc_fn)glfwGetProcAddress, NULL, &w->gl) ||
+                        crisp_gl_set_scene(w->gl, w->app.scene))) {
         fprintf(stderr, "crisp-trimedit: %s\n", crisp_error_message());
         rc = 1;
         goto out;
     }
 #else
-    if (crisp_renderer_create(NULL, &w->renderer) ||
-        !app_image_view_init(&w->iv, err, sizeof err)) {
-        fprintf(stderr, "crisp-trimedit: cannot start the CPU display: %s\n", err);
-        rc = 1;
-        goto out;
-    }
+    w->use_cpu = 1;
 #endif
+    if (w->use_cpu) {
+        err[0] = '\0';
+        if (crisp_renderer_create(NULL, &w->renderer) ||
+            !app_image_view_init(&w->iv, err, sizeof err)) {
+            fprintf(stderr, "crisp-trimedit: cannot start the CPU display: %s%s\n", err,
+                    err[0] ? "" : crisp_error_message());
+            rc = 1;
+            goto out;
+        }
+    }
     /* The 3D camera: navigation on the face's box, starting from the isometric view of it. */
     {
         double box[6];
@@ -572,12 +610,11 @@ int main(int argc, char **argv)
 out:
 #ifdef CRISP_TRIMEDIT_GL
     crisp_gl_destroy(w->gl);
-#else
+#endif
     crisp_renderer_destroy(w->renderer);
     crisp_image_free(&w->img);
     if (w->iv.program) app_image_view_free(&w->iv);
     free(w->rgba);
-#endif
     te_app_close(&w->app);
     app_ui_shutdown();
     app_window_destroy(w->win);

@@ -66,6 +66,7 @@ static void frame_face(te_app *app)
 
 static crisp_status open_face(te_app *app, int face)
 {
+    app->others_plan = -1;
     crisp_trimedit_destroy(app->ed);
     app->ed = NULL;
     app->face = face;
@@ -77,6 +78,7 @@ static crisp_status open_face(te_app *app, int face)
     app->planned_version = 0;
     app->cam_changed = 1;
     app->drag = TE_DRAG_NONE;
+    app->has_sel = app->entry = app->poly = 0;
     te_app_fit_2d(app);
     return CRISP_OK;
 }
@@ -98,6 +100,12 @@ crisp_status te_app_open(te_app *app, crisp_model *model, int face, int width, i
     }
     if ((st = crisp_scene_prepare(model, &app->scene))) goto fail;
     if ((st = crisp_planner_create(NULL, NULL, &app->planner))) goto fail;
+    app->face_mask = calloc((size_t)model->face_count, 1);
+    app->others_mask = calloc((size_t)model->face_count, 1);
+    if (!app->face_mask || !app->others_mask) {
+        st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for %d faces", model->face_count);
+        goto fail;
+    }
     te_app_layout(app, width, height);
     if ((st = open_face(app, face))) goto fail;
     frame_face(app);
@@ -115,6 +123,9 @@ void te_app_close(te_app *app)
     crisp_scene_destroy(app->bare_scene);
     crisp_model_destroy(app->bare);
     crisp_model_destroy(app->model);
+    crisp_image_free(&app->others);
+    free(app->face_mask);
+    free(app->others_mask);
     memset(app, 0, sizeof *app);
 }
 
@@ -187,6 +198,7 @@ crisp_status te_app_update(te_app *app)
         double t = crisp_time_now();
         if ((st = crisp_planner_plan(app->planner, app->scene, &app->cam, &app->plan))) return st;
         app->ms_plan = 1e3 * (crisp_time_now() - t);
+        app->whole_plans++;
         app->cam_changed = 0;
         app->planned_version = v;
     } else if (v != app->planned_version) {
@@ -199,6 +211,59 @@ crisp_status te_app_update(te_app *app)
         app->planned_version = v;
         app->replans++;
     }
+    return st;
+}
+
+int te_app_editing(const te_app *app)
+{
+    return app->drag != TE_DRAG_NONE && app->drag != TE_DRAG_PAN;
+}
+
+static void copy_image(const crisp_image *src, crisp_image *dst)
+{
+    size_t n = (size_t)src->width * src->height;
+    memcpy(dst->rgba, src->rgba, 4 * n * sizeof *dst->rgba);
+    memcpy(dst->depth, src->depth, n * sizeof *dst->depth);
+    memcpy(dst->normal, src->normal, 3 * n * sizeof *dst->normal);
+    memcpy(dst->uv, src->uv, 2 * n * sizeof *dst->uv);
+    memcpy(dst->face, src->face, n * sizeof *dst->face);
+}
+
+crisp_status te_app_draw_cpu(te_app *app, crisp_renderer *r, crisp_image *img)
+{
+    double t = crisp_time_now();
+    crisp_status st;
+    app->last_partial = 0;
+    if (!app->plan) return crisp_error(CRISP_ERR_INVALID_ARG, "draw: nothing planned yet");
+    if (!te_app_editing(app)) {
+        app->over = NULL;
+        st = crisp_render_cpu_plan(r, app->scene, app->plan, &app->cam, img, NULL);
+        app->ms_draw = 1e3 * (crisp_time_now() - t);
+        return st;
+    }
+    if (app->others_plan != app->whole_plans || app->others_face != app->face ||
+        app->others.width != img->width || app->others.height != img->height) {
+        if (app->others.width != img->width || app->others.height != img->height) {
+            crisp_image_free(&app->others);
+            if ((st = crisp_image_init(&app->others, img->width, img->height))) return st;
+        }
+        for (int f = 0; f < app->model->face_count; f++) {
+            app->face_mask[f] = f == app->face;
+            app->others_mask[f] = f != app->face;
+        }
+        if ((st = crisp_render_cpu_plan_faces(r, app->scene, app->plan, &app->cam, app->others_mask,
+                                              NULL, &app->others, NULL)))
+            return st;
+        app->others_plan = app->whole_plans;
+        app->others_face = app->face;
+        app->over = NULL;
+    }
+    if (app->over != img) copy_image(&app->others, img);
+    st = crisp_render_cpu_plan_faces(r, app->scene, app->plan, &app->cam, app->face_mask,
+                                     &app->others, img, NULL);
+    app->over = st ? NULL : img;
+    app->last_partial = !st;
+    app->ms_draw = 1e3 * (crisp_time_now() - t);
     return st;
 }
 
@@ -260,6 +325,11 @@ void te_app_cursor(te_app *app, double x, double y)
     app->cursor[1] = y;
     double uv[2];
     te_app_px_to_uv(app, app->cursor, uv);
+    /* A loop transform from the 3D view follows the surface point under the cursor. */
+    if (app->drag_3d &&
+        (app->drag == TE_DRAG_MOVE || app->drag == TE_DRAG_ROTATE || app->drag == TE_DRAG_SCALE) &&
+        !uv_under_cursor_3d(app, uv))
+        return;
     switch (app->drag) {
     case TE_DRAG_POINT:
         move_dragged(app, uv);
@@ -307,12 +377,86 @@ void te_app_cursor(te_app *app, double x, double y)
     }
 }
 
+/* The loop whose image in the 3D view passes nearest the cursor (within 4 pick radii): its
+ * index and the (u, v) of that curve point. */
+static int pick_loop_3d(te_app *app, int *loop, double uv[2])
+{
+    const crisp_face *f = crisp_trimedit_face(app->ed);
+    double best = 4 * PICK_PX;
+    int found = 0;
+    for (int l = 0; l < f->loop_count; l++)
+        for (int c = 0; c < f->loops[l].curve_count; c++) {
+            const crisp_curve *cv = f->loops[l].curves[c];
+            for (int k = cv->degree; k < cv->count; k++) {
+                double a = cv->knots[k], b = cv->knots[k + 1];
+                if (!(a < b)) continue;
+                for (int i = 0; i <= 32; i++) {
+                    double q[2], px[2];
+                    crisp_curve_eval(cv, a + (b - a) * i / 32, q);
+                    if (!te_app_uv_to_px3d(app, q, px)) continue;
+                    double d = hypot(px[0] - app->cursor[0], px[1] - app->cursor[1]);
+                    if (d <= best) {
+                        best = d;
+                        *loop = l;
+                        memcpy(uv, q, sizeof q);
+                        found = 1;
+                    }
+                }
+            }
+        }
+    return found;
+}
+
+static void start_loop_drag(te_app *app, int loop, const double uv[2], int mods, int in_3d)
+{
+    app->drag_loop = loop;
+    app->drag = mods & GLFW_MOD_SHIFT     ? TE_DRAG_MOVE
+                : mods & GLFW_MOD_CONTROL ? TE_DRAG_ROTATE
+                                          : TE_DRAG_SCALE;
+    app->drag_3d = in_3d;
+    memcpy(app->drag_last, uv, 2 * sizeof *uv);
+    crisp_trimedit_loop_center(app->ed, loop, app->drag_pivot);
+    crisp_trimedit_group_begin(app->ed);
+}
+
+static void poly_finish(te_app *app)
+{
+    app->poly = 0;
+    if (app->poly_n < 3) {
+        say(app, 1, "%s", "refused: a polygon hole needs 3 corners or more");
+        return;
+    }
+    edit_done(app, crisp_trimedit_add_polygon(app->ed, app->poly_n, app->poly_uv),
+              "polygon hole added");
+}
+
+/* A left click in the 2D view while a polygon is drawn: a corner, or the first one again. */
+static void poly_click(te_app *app)
+{
+    double first[2];
+    if (app->poly_n >= 3) {
+        te_app_uv_to_px(app, app->poly_uv, first);
+        if (hypot(first[0] - app->cursor[0], first[1] - app->cursor[1]) <= PICK_PX) {
+            poly_finish(app);
+            return;
+        }
+    }
+    if (app->poly_n >= 64) {
+        say(app, 1, "%s", "a polygon hole has at most 64 corners: enter closes it");
+        return;
+    }
+    te_app_px_to_uv(app, app->cursor, app->poly_uv + 2 * app->poly_n);
+    app->poly_n++;
+}
+
 void te_app_button(te_app *app, int button, int action, int mods)
 {
     if (action == GLFW_RELEASE) {
         if (app->drag != TE_DRAG_NONE && app->drag != TE_DRAG_PAN)
             crisp_trimedit_group_end(app->ed);
+        if (app->drag == TE_DRAG_POINT || app->drag == TE_DRAG_POINT_3D) app->sel = app->drag_ref;
         app->drag = TE_DRAG_NONE;
+        app->drag_3d = 0;
         return;
     }
     if (action != GLFW_PRESS) return;
@@ -325,27 +469,37 @@ void te_app_button(te_app *app, int button, int action, int mods)
             return;
         }
         if (button != GLFW_MOUSE_BUTTON_LEFT) return;
+        if (app->poly) {
+            poly_click(app);
+            return;
+        }
         if (mods & (GLFW_MOD_SHIFT | GLFW_MOD_CONTROL | GLFW_MOD_ALT)) {
             int l, c;
             double t;
             if (!crisp_trimedit_pick_curve(app->ed, uv, 4 * radius, &l, &c, &t)) return;
-            app->drag_loop = l;
-            app->drag = mods & GLFW_MOD_SHIFT     ? TE_DRAG_MOVE
-                        : mods & GLFW_MOD_CONTROL ? TE_DRAG_ROTATE
-                                                  : TE_DRAG_SCALE;
-            memcpy(app->drag_last, uv, sizeof uv);
-            crisp_trimedit_loop_center(app->ed, l, app->drag_pivot);
-            crisp_trimedit_group_begin(app->ed);
+            start_loop_drag(app, l, uv, mods, 0);
             return;
         }
         if (crisp_trimedit_pick_point(app->ed, uv, radius, &app->drag_ref)) {
             app->drag = TE_DRAG_POINT;
+            app->has_sel = 1;
+            app->sel = app->drag_ref;
             memcpy(app->drag_start, uv, sizeof uv);
             crisp_trimedit_group_begin(app->ed);
         }
-    } else if (in_rect(&app->view3d, app->cursor) && button == GLFW_MOUSE_BUTTON_LEFT && !mods) {
-        if (pick_point_3d(app, &app->drag_ref)) {
+    } else if (in_rect(&app->view3d, app->cursor) && button == GLFW_MOUSE_BUTTON_LEFT) {
+        if (mods & (GLFW_MOD_SHIFT | GLFW_MOD_CONTROL | GLFW_MOD_ALT)) {
+            int l;
+            double on[2], suv[2];
+            if (!pick_loop_3d(app, &l, on)) return;
+            /* From the surface point under the cursor (the curve point when the ray misses). */
+            start_loop_drag(app, l, uv_under_cursor_3d(app, suv) ? suv : on, mods, 1);
+            return;
+        }
+        if (!mods && pick_point_3d(app, &app->drag_ref)) {
             app->drag = TE_DRAG_POINT_3D;
+            app->has_sel = 1;
+            app->sel = app->drag_ref;
             crisp_trimedit_group_begin(app->ed);
         }
     }
@@ -390,9 +544,98 @@ static void weight_key(te_app *app, double factor, int zero)
               "weight changed");
 }
 
+int te_app_selected(te_app *app, double uv[2], double *weight)
+{
+    double q[2], w;
+    if (!app->has_sel || crisp_trimedit_point(app->ed, app->sel, q, &w)) {
+        app->has_sel = 0;
+        return 0;
+    }
+    if (uv) memcpy(uv, q, sizeof q);
+    if (weight) *weight = w;
+    return 1;
+}
+
+crisp_status te_app_set_weight_text(te_app *app, const char *text)
+{
+    crisp_status st;
+    if (!te_app_selected(app, NULL, NULL)) {
+        st = crisp_error(CRISP_ERR_INVALID_ARG, "no control point selected");
+    } else {
+        char *end;
+        double w = strtod(text, &end);
+        while (*end == ' ')
+            end++;
+        if (end == text || *end)
+            st = crisp_error(CRISP_ERR_INVALID_ARG, "weight '%s': expected a number", text);
+        else
+            st = crisp_trimedit_set_weight(app->ed, app->sel, w);
+    }
+    edit_done(app, st, "weight set");
+    return st;
+}
+
+/* The weight field's keys: typing, backspace, enter (set), escape (close). */
+static void entry_key(te_app *app, int key)
+{
+    size_t n = strlen(app->entry_text);
+    char c = 0;
+    if (key >= GLFW_KEY_0 && key <= GLFW_KEY_9) c = (char)('0' + key - GLFW_KEY_0);
+    if (key >= GLFW_KEY_KP_0 && key <= GLFW_KEY_KP_9) c = (char)('0' + key - GLFW_KEY_KP_0);
+    if (key == GLFW_KEY_PERIOD || key == GLFW_KEY_KP_DECIMAL) c = '.';
+    if (key == GLFW_KEY_MINUS || key == GLFW_KEY_KP_SUBTRACT) c = '-';
+    if (key == GLFW_KEY_KP_ADD) c = '+';
+    if (key == GLFW_KEY_E) c = 'e';
+    if (c && n + 1 < sizeof app->entry_text) {
+        app->entry_text[n] = c;
+        app->entry_text[n + 1] = '\0';
+    } else if (key == GLFW_KEY_BACKSPACE && n > 0) {
+        app->entry_text[n - 1] = '\0';
+    } else if (key == GLFW_KEY_ENTER || key == GLFW_KEY_KP_ENTER) {
+        if (!te_app_set_weight_text(app, app->entry_text)) app->entry = 0;
+    } else if (key == GLFW_KEY_ESCAPE) {
+        app->entry = 0;
+    }
+}
+
+/* w: the weight field of the point under the cursor (selecting it) or of the selected one. */
+static void open_entry(te_app *app, int have, const double uv[2], double radius)
+{
+    crisp_trimedit_ref r;
+    if (have && crisp_trimedit_pick_point(app->ed, uv, radius, &r)) {
+        app->has_sel = 1;
+        app->sel = r;
+    }
+    double w;
+    if (!te_app_selected(app, NULL, &w)) {
+        say(app, 1, "%s", "no control point selected (press one, or point at one)");
+        return;
+    }
+    app->entry = 1;
+    app->entry_text[0] = '\0';
+    say(app, 0, "%s", "weight: type it, enter sets it, escape closes");
+}
+
 void te_app_key(te_app *app, int key, int action, int mods)
 {
     if (action != GLFW_PRESS && action != GLFW_REPEAT) return;
+    if (app->entry && !(mods & ~GLFW_MOD_SHIFT)) {
+        entry_key(app, key);
+        return;
+    }
+    if (app->poly && (key == GLFW_KEY_ENTER || key == GLFW_KEY_KP_ENTER)) {
+        poly_finish(app);
+        return;
+    }
+    if (app->poly && key == GLFW_KEY_BACKSPACE) {
+        if (app->poly_n > 0) app->poly_n--;
+        return;
+    }
+    if (app->poly && key == GLFW_KEY_ESCAPE) {
+        app->poly = 0;
+        say(app, 0, "%s", "polygon cancelled");
+        return;
+    }
     double uv[2];
     int have = key_uv(app, uv);
     double radius = key_radius(app);
@@ -481,6 +724,16 @@ void te_app_key(te_app *app, int key, int action, int mods)
             edit_done(app, crisp_trimedit_delete_loop(app->ed, l), "hole deleted");
         else
             say(app, 1, "%s", "no trim loop under the cursor");
+        break;
+    case GLFW_KEY_W:
+        open_entry(app, have, uv, radius);
+        break;
+    case GLFW_KEY_N:
+        app->poly = 1;
+        app->poly_n = 0;
+        say(app, 0, "%s",
+            "polygon hole: click its corners in the 2D view; enter or the first corner closes "
+            "it");
         break;
     case GLFW_KEY_S:
         app->show_strips = !app->show_strips;
@@ -664,11 +917,28 @@ long te_app_draw_2d(te_app *app, const te_draw *d)
                     line_uv(app, d, uv, uv2, 0x80c0c0c0u, 1);
                 }
                 te_app_uv_to_px(app, uv, px);
-                int active = app->drag == TE_DRAG_POINT && app->drag_ref.loop == l &&
-                             app->drag_ref.curve == c && app->drag_ref.index == i;
+                int active = (app->drag == TE_DRAG_POINT && app->drag_ref.loop == l &&
+                              app->drag_ref.curve == c && app->drag_ref.index == i) ||
+                             (app->drag == TE_DRAG_NONE && app->has_sel && app->sel.loop == l &&
+                              app->sel.curve == c && app->sel.index == i);
                 double rad = fmin(9.0, fmax(2.5, 3.5 * sqrt(w)));
                 circle_px(app, d, px, rad, active ? 0xff00ffffu : 0xffffffffu, active);
             }
+        }
+    }
+    if (app->poly) {
+        /* The polygon being drawn, and the edge to the cursor. */
+        for (int k = 0; k < app->poly_n; k++) {
+            double px[2];
+            te_app_uv_to_px(app, app->poly_uv + 2 * k, px);
+            circle_px(app, d, px, 3.5, 0xff40ff40u, 1);
+            if (k + 1 < app->poly_n)
+                line_uv(app, d, app->poly_uv + 2 * k, app->poly_uv + 2 * k + 2, 0xff40ff40u, 1.5);
+        }
+        if (app->poly_n > 0) {
+            double cur[2];
+            te_app_px_to_uv(app, app->cursor, cur);
+            line_uv(app, d, app->poly_uv + 2 * (app->poly_n - 1), cur, 0x8040ff40u, 1);
         }
     }
     return scan_lines;

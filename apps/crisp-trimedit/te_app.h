@@ -13,8 +13,15 @@
  * left-drag inside a loop moves the loop, ctrl + left-drag rotates it about its centre, alt +
  * left-drag scales it; right-drag pans; wheel zooms at the cursor.
  * Mouse, 3D view: left-drag a control point's surface point: the point follows the surface point
- * under the cursor (the ray against the untrimmed surface). Orbit, pan and zoom of the 3D camera
- * are the window's (apps/common navigation).
+ * under the cursor (the ray against the untrimmed surface); shift, ctrl or alt + left-drag near a
+ * loop's image moves, rotates or scales the loop with the surface point under the cursor. Orbit,
+ * pan and zoom of the 3D camera are the window's (apps/common navigation).
+ * Pressing a control point (2D or 3D) selects it. w opens the weight field of the selected point
+ * (or of the point under the cursor): digits, period, minus and e type, backspace deletes, enter
+ * sets the weight (a bad one is refused with the message), escape closes the field.
+ * n starts a polygon hole drawn by clicks in the 2D view: each left click adds a corner; a click
+ * on the first corner or enter closes it (3 corners or more), backspace removes the last corner,
+ * escape cancels.
  * Keys: ctrl+z undo, ctrl+y or ctrl+shift+z redo, ctrl+s save; i insert a knot at the curve point
  * under the cursor; k remove the knot nearest it; x or delete: delete the control point under
  * the cursor; equal / minus: weight times / over 1.25; 0: weight 0 (refused: shows the message);
@@ -72,10 +79,17 @@ typedef struct te_app {
     te_rect view3d, view2d;
     double uv_center[2], uv_scale; /* the 2D view: pixels per unit (u, v), centred here */
     double cursor[2];
-    int drag, drag_loop;
+    int drag, drag_loop, drag_3d; /* drag_3d: a loop transform driven from the 3D view */
     crisp_trimedit_ref drag_ref;
     double drag_start[2], drag_last[2], drag_pivot[2];
     int snap, show_strips, show_scanlines;
+    int has_sel;            /* a control point is selected (the last one pressed) */
+    crisp_trimedit_ref sel; /* it */
+    int entry;              /* the weight entry field is open (w) */
+    char entry_text[32];    /* what was typed */
+    int poly;               /* a polygon hole is being drawn by clicks (n) */
+    int poly_n;             /* its corners so far */
+    double poly_uv[2 * 64];
     uint64_t planned_version;
     double ms_face_plan; /* the last re-plan of the edited face (update + replan) */
     double ms_plan;      /* the last whole plan (camera change) */
@@ -84,6 +98,16 @@ typedef struct te_app {
     char message[256];   /* the last refused edit's reason, or what was done */
     int message_error;
     char save_path[1024]; /* ctrl+s writes here */
+    /* The CPU backend's frame during an edit drag (te_app_draw_cpu): the other faces drawn once. */
+    long whole_plans;        /* whole plans so far (camera changes) */
+    crisp_image others;      /* the other faces alone, for the current whole plan */
+    long others_plan;        /* whole_plans when `others` was drawn; -1: none */
+    int others_face;         /* the face left out of `others` */
+    const crisp_image *over; /* the image the last partial frame was drawn into */
+    uint8_t *face_mask;      /* per face: 1 for the edited face */
+    uint8_t *others_mask;    /* per face: 1 for every other face */
+    int last_partial;        /* the last te_app_draw_cpu drew only the edited face */
+    double ms_draw;          /* its time */
 } te_app;
 
 /* Takes ownership of model (also on failure). face < 0: the built-in example. */
@@ -110,6 +134,21 @@ void te_app_uv_to_px(const te_app *app, const double uv[2], double px[2]);
 void te_app_px_to_uv(const te_app *app, const double px[2], double uv[2]);
 /* Screen position in the 3D view of the surface point at uv; 0 when behind the eye. */
 int te_app_uv_to_px3d(const te_app *app, const double uv[2], double px[2]);
+
+/* Set the selected control point's weight from text (the weight field's Enter): refused with a
+ * message when the text is not a number or the weight is not finite and > 0. */
+crisp_status te_app_set_weight_text(te_app *app, const char *text);
+/* The selected control point, validated (0 when there is none or it no longer exists). */
+int te_app_selected(te_app *app, double uv[2], double *weight);
+
+/* Whether a drag is editing the face now (a control point, a loop). */
+int te_app_editing(const te_app *app);
+/* The 3D view with the CPU backend into img (the camera's size; the caller keeps img from frame
+ * to frame). While a drag edits the face, the other faces do not change: they are drawn once
+ * (app->others) and each frame only the edited face is drawn over them
+ * (crisp_render_cpu_plan_faces, 1 sample per pixel); otherwise, and after a camera change, the
+ * whole plan is drawn. r is the caller's renderer. */
+crisp_status te_app_draw_cpu(te_app *app, crisp_renderer *r, crisp_image *img);
 
 /* The 2D view's content. Returns the number of scan lines drawn. */
 long te_app_draw_2d(te_app *app, const te_draw *d);

@@ -10,6 +10,7 @@
 
 #include "cli.h"
 #include "crisp/app.h"
+#include "crisp/cells.h"
 
 const char crisp_cmd_render_help[] =
     "render FILE [options]       render a model, a .scene file or an f-rep part to an image";
@@ -22,7 +23,8 @@ static const char usage_text[] =
     "  -o, --output FILE     image to write, .png (8-bit RGBA, alpha = coverage) or .exr (float\n"
     "                        R G B A Z N.x N.y N.z u v face) [out.png]\n"
     "      --aov FILE.exr    also write the EXR with every AOV [none]\n"
-    "      --size WxH        image size in pixels, each 1..16384 [1280x720]\n"
+    "      --size WxH        image size in pixels, each 1..16384 (with --tile 1..65536) "
+    "[1280x720]\n"
     "      --view NAME       front (seen from -Y), back, left, right, top (from +Z), bottom or "
     "iso\n"
     "                        (from 1,-1,1), +Z up, fitted to the trimmed geometry\n"
@@ -48,6 +50,9 @@ static const char usage_text[] =
     "      --stats           print counts and each stage's time (medians over --repeat) [off]\n"
     "      --max-memory SIZE refuse a frame estimated to need more (K, M, G, T suffixes); a frame\n"
     "                        over 2 GB prints a warning [8G]\n"
+    "      --tile I/N        render only tile I (0..N-1, row-major) of N tiles of the image, or\n"
+    "                        I/CxR of a C x R grid, bit for bit the same pixels (cpu backend);\n"
+    "                        each output gets a header OUT.cell for crisp merge [whole image]\n"
     "      --progress        show a progress bar on stderr [only when stderr is a terminal]\n"
     "      --no-progress     never show the progress bar\n"
     "  -q, --quiet           do not print the 'wrote FILE (WxH, N faces, T ms)' line\n"
@@ -61,6 +66,9 @@ typedef struct render_args {
     crisp_document_render_desc render;
     int samples_given, stats, quiet, repeat, progress;
     uint64_t max_memory;
+    int tiled;            /* --tile */
+    crisp_cell_spec tile; /* its grid (crisp_tile_grid) */
+    int rect[4];          /* the tile's pixels */
 } render_args;
 
 enum {
@@ -81,7 +89,8 @@ enum {
     OPT_STATS,
     OPT_MAXMEM,
     OPT_PROGRESS,
-    OPT_NO_PROGRESS
+    OPT_NO_PROGRESS,
+    OPT_TILE
 };
 
 /* 0: run; 1: --help printed; 2: usage error (message printed). */
@@ -106,6 +115,7 @@ static int parse(int argc, char **argv, render_args *a)
                                          {"max-memory", required_argument, 0, OPT_MAXMEM},
                                          {"progress", no_argument, 0, OPT_PROGRESS},
                                          {"no-progress", no_argument, 0, OPT_NO_PROGRESS},
+                                         {"tile", required_argument, 0, OPT_TILE},
                                          {"quiet", no_argument, 0, 'q'},
                                          {"help", no_argument, 0, 'h'},
                                          {0, 0, 0, 0}};
@@ -125,7 +135,7 @@ static int parse(int argc, char **argv, render_args *a)
             a->aov = optarg;
             break;
         case OPT_SIZE:
-            if (!cli_size("--size", optarg, 16384, &a->cam.width, &a->cam.height)) return 2;
+            if (!cli_size("--size", optarg, 65536, &a->cam.width, &a->cam.height)) return 2;
             break;
         case OPT_VIEW:
             if (!crisp_view_parse(optarg, &a->cam.view)) {
@@ -198,6 +208,13 @@ static int parse(int argc, char **argv, render_args *a)
         case OPT_NO_PROGRESS:
             a->progress = 0;
             break;
+        case OPT_TILE:
+            if (crisp_cell_parse(optarg, &a->tile)) {
+                fprintf(stderr, "crisp render: --tile: %s\n", crisp_error_message());
+                return 2;
+            }
+            a->tiled = 1;
+            break;
         case 'q':
             a->quiet = 1;
             break;
@@ -237,6 +254,28 @@ static int parse(int argc, char **argv, render_args *a)
     if (!a->samples_given)
         a->render.samples =
             cpu && a->out && crisp_image_format_of(a->out) == CRISP_IMAGE_PNG ? 4 : 1;
+    if (!a->tiled && (a->cam.width > 16384 || a->cam.height > 16384)) {
+        fprintf(stderr,
+                "crisp render: --size %dx%d: each side at most 16384 in one piece; larger "
+                "images are rendered in tiles (--tile, crisp jobs render)\n",
+                a->cam.width, a->cam.height);
+        return 2;
+    }
+    if (a->tiled) {
+        if (a->render.backend != CRISP_BACKEND_CPU) {
+            fprintf(stderr, "crisp render: --tile draws with the cpu backend only\n");
+            return 2;
+        }
+        if (a->repeat != 1) {
+            fprintf(stderr, "crisp render: --tile and --repeat do not go together\n");
+            return 2;
+        }
+        if (crisp_tile_grid(a->cam.width, a->cam.height, &a->tile)) {
+            fprintf(stderr, "crisp render: --tile: %s\n", crisp_error_message());
+            return 2;
+        }
+        crisp_tile_rect(a->cam.width, a->cam.height, &a->tile, a->rect);
+    }
     return 0;
 }
 
@@ -248,7 +287,12 @@ static int check_outputs(const render_args *a)
         fprintf(stderr, "crisp render: %s\n", crisp_error_message());
         return 0;
     }
-    uint64_t need = crisp_render_memory_estimate(a->cam.width, a->cam.height, a->render.samples);
+    /* a tile draws its pixels and a ring of up to 64 more on each side (crisp_document_render) */
+    uint64_t need =
+        a->tiled
+            ? crisp_render_memory_estimate(a->rect[2] + 128, a->rect[3] + 128, a->render.samples) +
+                  (uint64_t)a->rect[2] * (uint64_t)a->rect[3] * 56u
+            : crisp_render_memory_estimate(a->cam.width, a->cam.height, a->render.samples);
     char nb[32], lb[32];
     cli_format_bytes(need, nb, sizeof nb);
     cli_format_bytes(a->max_memory, lb, sizeof lb);
@@ -333,6 +377,45 @@ static void print_stats(const render_args *a, const crisp_document *doc, const c
     printf("time write       %.1f ms\n", ms_write);
 }
 
+/* ---- tiles (issue 15) ------------------------------------------------------------------- */
+
+typedef struct tile_write {
+    const crisp_image *img;
+    int exr;
+} tile_write;
+
+static crisp_status write_tile_data(void *ctx, const char *tmp)
+{
+    const tile_write *t = ctx;
+    return t->exr ? crisp_image_write_exr(t->img, tmp) : crisp_image_write(t->img, tmp);
+}
+
+/* The tile's image through a temporary file, its header at OUT.cell: the job (the input file's
+ * bytes and every setting that changes a pixel: the camera as resolved, size, samples, backend,
+ * the grid), which tile, where. */
+static crisp_status write_tile(const render_args *a, const crisp_camera *c, const crisp_image *img,
+                               const char *path, int exr)
+{
+    crisp_cell_header *h = calloc(1, sizeof *h);
+    if (!h) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+    snprintf(h->kind, sizeof h->kind, "image");
+    snprintf(h->settings, sizeof h->settings,
+             "render size=%dx%d samples=%d backend=cpu eye=%.17g,%.17g,%.17g "
+             "target=%.17g,%.17g,%.17g up=%.17g,%.17g,%.17g fov=%.17g near=%.17g far=%.17g "
+             "grid=%dx%d",
+             c->width, c->height, a->render.samples, c->eye[0], c->eye[1], c->eye[2], c->target[0],
+             c->target[1], c->target[2], c->up[0], c->up[1], c->up[2], c->fov_deg, c->znear,
+             c->zfar, a->tile.cols, a->tile.rows);
+    crisp_status s = crisp_cell_job_id(a->path, h->settings, &h->job);
+    h->cell = a->tile;
+    memcpy(h->rect, a->rect, sizeof a->rect);
+    h->rect[4] = c->width, h->rect[5] = c->height;
+    tile_write tw = {img, exr};
+    if (!s) s = crisp_cell_commit(path, h, write_tile_data, &tw);
+    free(h);
+    return s;
+}
+
 int crisp_cmd_render(int argc, char **argv)
 {
     cli_cmd = "render";
@@ -359,7 +442,15 @@ int crisp_cmd_render(int argc, char **argv)
     cli_progress_end();
     crisp_camera cam;
     if (!st) st = crisp_document_camera(doc, &a.cam, &cam);
-    if (!st) st = crisp_image_init(&img, cam.width, cam.height);
+    if (!st && a.tiled && (cam.width != a.cam.width || cam.height != a.cam.height))
+        st = crisp_error(CRISP_ERR_INTERNAL, "the camera is %dx%d, not the --size %dx%d", cam.width,
+                         cam.height, a.cam.width, a.cam.height);
+    if (!st && a.tiled) {
+        memcpy(a.render.window, a.rect, sizeof a.rect);
+        st = crisp_image_init(&img, a.rect[2], a.rect[3]);
+    } else if (!st) {
+        st = crisp_image_init(&img, cam.width, cam.height);
+    }
     if (!st && a.render.backend == CRISP_BACKEND_CPU && doc->scene->patch_count > 0)
         st = crisp_renderer_create(
             &(crisp_render_desc){.samples = a.render.samples, .threads = a.render.threads},
@@ -386,8 +477,13 @@ int crisp_cmd_render(int argc, char **argv)
      * medians of print_stats do not mind) */
     double ms_render = st ? 0 : cli_median(ft.total, (size_t)a.repeat);
     double t_write = crisp_time_now();
-    if (!st && a.out) st = crisp_image_write(&img, a.out);
-    if (!st && a.aov) st = crisp_image_write_exr(&img, a.aov);
+    if (!st && a.tiled) {
+        if (a.out) st = write_tile(&a, &cam, &img, a.out, 0);
+        if (!st && a.aov) st = write_tile(&a, &cam, &img, a.aov, 1);
+    } else {
+        if (!st && a.out) st = crisp_image_write(&img, a.out);
+        if (!st && a.aov) st = crisp_image_write_exr(&img, a.aov);
+    }
     double ms_write = 1e3 * (crisp_time_now() - t_write);
     if (st) {
         fprintf(stderr, "crisp render: %s\n", crisp_error_message());
@@ -398,6 +494,9 @@ int crisp_cmd_render(int argc, char **argv)
                 if (files[i]) {
                     printf("wrote %s (%dx%d, %u faces", files[i], img.width, img.height,
                            doc->scene->face_count);
+                    if (a.tiled)
+                        printf(", tile %d of %d at (%d, %d) of %dx%d", a.tile.index, a.tile.count,
+                               a.rect[0], a.rect[1], cam.width, cam.height);
                     if (doc->part_count)
                         printf(", %zu f-rep part%s", doc->part_count,
                                doc->part_count > 1 ? "s" : "");

@@ -49,8 +49,8 @@ typedef struct crisp_document {
     size_t part_count;
     const crisp_frep_part *parts; /* f-rep parts, each with its transform and colour */
     /* the scene file's camera line (has_camera = 0 for other files; has_target = 0: the middle of
-     * the box) */
-    int has_camera, has_target;
+     * the box; has_up = 0: +Z, or +Y / -Y looking straight down / up) */
+    int has_camera, has_target, has_up;
     double eye[3], target[3], up[3], fov_deg;
     /* what the default camera frames: points of the trimmed faces sampled on the true surfaces
      * (their trim curves mapped through the surface, and the inside points of a uv grid; clamped
@@ -164,10 +164,14 @@ typedef struct crisp_document_render_desc {
     int threads;                 /* 0: default (CRISP_THREADS or all cores) */
     crisp_renderer *renderer;    /* cpu: reused when given (its samples win); NULL: one per call */
     crisp_document_times *times; /* NULL, or receives the call's times */
+    /* x0, y0, width, height: draw only this window of the camera's image into img (which has
+     * the window's size), each pixel bit for bit as in the whole image (issue 15, image tiles;
+     * cpu backend: a margin around it is drawn and cropped). All zero: the whole image. */
+    int window[4];
 } crisp_document_render_desc;
 
-/* Clears img (which must have the camera's size) and draws doc's faces then its f-rep parts.
- * stats (may be NULL) receives the CPU backend's counters and stage times. */
+/* Clears img (which must have the camera's size, or the window's) and draws doc's faces then its
+ * f-rep parts. stats (may be NULL) receives the CPU backend's counters and stage times. */
 crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera *cam,
                                    const crisp_document_render_desc *desc, crisp_image *img,
                                    crisp_render_stats *stats);

@@ -142,6 +142,10 @@ typedef struct crisp_frep_render_desc {
     double region[6];
     int threads;    /* <= 0: crisp_pool_default_threads() */
     unsigned flags; /* CRISP_FREP_NO_PRUNE ... (for measuring each optimisation) */
+    /* x0, y0, w, h: render only this window of the width x height image (issue 15, image
+     * tiles): the renderer's image is w x h and its pixel (i, j) samples pixel (x0 + i, y0 + j)
+     * of the whole image, at the same float coordinates. All zero: the whole image. */
+    int window[4];
 } crisp_frep_render_desc;
 
 /* Pixel (i, j), j = 0 the top row, samples x = x0 + (i+0.5)(x1-x0)/W, y = y1 - (j+0.5)(y1-y0)/H

@@ -47,7 +47,11 @@ typedef struct crisp_frep_mass {
     size_t inside_cells, boundary_cells, samples, intervals;
     double seconds;     /* time of this level (wall clock) */
     double cpu_seconds; /* and the thread's processor time (steadier under load) */
+    double cpu_fixed;   /* of which the check of the region's faces (the same at every level) */
     size_t cut_cells;   /* pieces of the region's faces holding inside points */
+    /* tape instructions evaluated: by the walk's single-box intervals, and by the boundary cells'
+     * batched passes (16-lane interval + 64-lane points); deterministic cost measures */
+    size_t walk_ops, cell_ops;
 } crisp_frep_mass;
 
 /* One level. CRISP_ERR_NUMERIC when the part is empty at this level (no inside cell or sample)
@@ -56,10 +60,12 @@ typedef struct crisp_frep_mass {
 crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_mass_desc *desc,
                                    crisp_frep_mass *dest);
 
-/* Clark's prediction from n >= 2 measured levels lv[0 .. n) (consecutive, coarse to fine): the
- * processor time and the volume's standard error of a finer level: the error falls by the last
- * two levels' factor per level; boundary cells grow by a factor and the cost per cell changes by
- * a ratio whose excesses over 4 and 1 halve per level (Clark's K 4^level in the limit). */
+/* Clark's prediction from n >= 1 measured levels lv[0 .. n) (consecutive, coarse to fine): the
+ * processor time and the volume's standard error of a finer level. Time: the region check
+ * (cpu_fixed, the same at every level) plus a least-squares fit of the other processor time
+ * per level to a 4^L + b 2^L + c (relative residuals): the surface's cells (Clark's K 4^L),
+ * those along edges and silhouettes, and a per-level overhead. Error: falls by the last two
+ * levels' factor per level. */
 void crisp_frep_mass_predict(const crisp_frep_mass *lv, int n, int level, double *seconds,
                              double *se);
 

@@ -11,9 +11,10 @@
  * finest grid cubes of the octree's undecided cells, with each edge's vertex found on the
  * function by regula falsi; vertices are shared by edge, so the mesh is closed and manifold
  * by construction, and each triangle lies inside its tetrahedron, so triangles of different
- * tetrahedra meet only in shared edges and vertices. Where the surface normals in a tetrahedron
- * disagree (a crease or corner), its polygon is fanned from a feature point inside it when that
- * keeps the fan from folding.
+ * tetrahedra meet only in shared edges and vertices. Creases: a crease crossing a
+ * tetrahedron's face bends the face's path at a face point, and the polygon is fanned from a
+ * cell point (the QEF point of the tangent planes) strictly inside the tetrahedron, which cannot
+ * fold. Memory: the edge table keeps only the walk's front.
  */
 #ifndef CRISP_FREP_MESH_H
 #define CRISP_FREP_MESH_H
@@ -33,8 +34,15 @@ typedef struct crisp_frep_mesh_desc {
     double region[6];     /* x0, x1, y0, y1, z0, z1; all zero: crisp_frep_fit_region's box */
     int resolution;       /* grid cells along the region's longest side; 0: 128 */
     double cell;          /* > 0: the grid cell's edge instead (overrides resolution) */
-    double max_megabytes; /* the edge table's limit (it grows with the surface); 0: 8192 */
+    double max_megabytes; /* the edge table's limit (it holds the walk's front); 0: 8192 */
     int no_features;      /* 1: no feature points (plain marching tetrahedra) */
+    int no_tips;          /* 1: cell points stay inside their own tetrahedron (for measuring) */
+    /* index, count (count = 8^k): mesh only the octree's cell `index` of its 8^k cells k levels
+     * below the root (octant digits of index, most significant first; bits x, y, z). The
+     * cells' meshes are the whole mesh's pieces, vertex for vertex: a vertex on a face between
+     * cells is the same point in both (issue 15: split jobs, welded by crisp merge). 0, 0: the
+     * whole region. CRISP_ERR_INVALID_ARG when the octree has fewer than k levels. */
+    int split_cell[2];
 } crisp_frep_mesh_desc;
 
 /* Receives the mesh as it is made: vertices numbered from 0 in the order given, each triangle
@@ -58,7 +66,9 @@ typedef struct crisp_frep_mesh_stats {
                               the mesh is closed there by the region's faces) */
     size_t nan_points;     /* grid points where f is NaN (taken as outside) */
     size_t peak_bytes;     /* the mesher's own peak memory (edge table, tapes) */
-    size_t feature_points; /* tetrahedra whose polygon was fanned from a feature point */
+    size_t feature_points; /* tetrahedra whose polygon was fanned from a cell point */
+    size_t face_points;    /* faces where a crease crosses: their path bends at a face point */
+    size_t tip_points;     /* cell points in the all-outside tetrahedron beside their own */
 } crisp_frep_mesh_stats;
 
 /* Mesh the part f < 0 of tape t. CRISP_ERR_INVALID_ARG on a bad region or resolution,

@@ -14,6 +14,8 @@
  *   crisp_renderer, crisp_render_cpu
  *                           the CPU backend: frame plan (SLEFE tess levels, crack-free edges,
  *                           u-intercept tables), tessellation, rasterizer with the trim test
+ *   crisp_render_cpu_plan_faces
+ *                           some faces of a plan only, alone or over an image of the others
  *   crisp_frep_part, crisp_render_frep_parts
  *                           f-rep parts composited into an image by depth (interval subdivision
  *                           of the view frustum, src/render/frep_part.c)
@@ -193,6 +195,23 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *scene,
 /* Change the renderer's clip plane (crisp_render_desc.clip_plane; NULL or all 0: none) for the
  * next frames. */
 void crisp_renderer_set_clip_plane(crisp_renderer *r, const double plane[4]);
+/* Only some faces of a plan (faces[f] != 0 for the scene's face f). base NULL: as
+ * crisp_render_cpu_plan with the other faces left out (faces NULL: every face). With base, a
+ * render of the plan's other faces for the same camera (colour, depth, normal, u, v, face: what
+ * this call with the complement of faces and no base wrote): the faces are drawn over it with
+ * the depth test against its depth, and only their region of img is written (their leaves' and
+ * ribbons' screen boxes widened by 2 px: base's pixels where they do not win, theirs where they
+ * do; the previous call's region goes back to base where it is left); the rest of img is left as
+ * it is, so it must hold base's pixels there (a copy of base made once). That is the trim-editing
+ * demo's frame: while one face is edited the others do not change, so they are drawn once. Its
+ * pixels equal those of crisp_render_cpu_plan of the whole plan away from the drawn faces' edges
+ * (there the depth of base is compared in float, and the ribbons of faces on either side of an edge
+ * are drawn in another order). With base the renderer must draw 1 sample per pixel (the image holds
+ * one). */
+crisp_status crisp_render_cpu_plan_faces(crisp_renderer *r, const crisp_scene *scene,
+                                         const crisp_frame_plan *plan, const crisp_camera *cam,
+                                         const uint8_t *faces, const crisp_image *base,
+                                         crisp_image *img, crisp_render_stats *stats);
 /* The renderer's own planner (used by crisp_render_cpu and crisp_renderer_plan). */
 crisp_planner *crisp_renderer_planner(crisp_renderer *r);
 
@@ -228,6 +247,10 @@ typedef struct crisp_frep_parts_desc {
     int per_pixel; /* 1: no frustum subdivision, every pixel's ray bisected alone (exact backend) */
     int no_shorten; /* 1: evaluate the full tape in every cell (for measuring tape shortening) */
     crisp_frep_parts_stats *stats; /* NULL, or receives the call's counters */
+    /* x0, y0, width, height: img holds only this window of the camera's image (x0, y0 multiples
+     * of 32; issue 15, image tiles); all zero: the whole image. A window pixel gets the value it
+     * has in the whole image when every pixel of its 32x32 tile holds its whole-image value. */
+    int window[4];
 } crisp_frep_parts_desc;
 
 /* Draw the parts into img (which already holds the NURBS render, or a cleared image) where they

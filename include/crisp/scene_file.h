@@ -44,9 +44,11 @@ typedef struct crisp_scene_item {
 
 typedef struct crisp_scene_file {
     char *name; /* the scene file, for messages */
-    /* camera line: has_camera = 1; has_target = 0 means the middle of the scene's box */
-    int has_camera, has_target;
-    double eye[3], target[3], up[3], fov_deg; /* up (0, 1, 0), fov 30 when not given */
+    /* camera line: has_camera = 1; has_target = 0 means the middle of the scene's box; has_up = 0
+     * means the default up of an eye given on the command line (+Z, or +Y / -Y looking straight
+     * down / up), up is then left (0, 0, 0) */
+    int has_camera, has_target, has_up;
+    double eye[3], target[3], up[3], fov_deg; /* fov 30 when not given */
     size_t item_count;
     crisp_scene_item *items;
 } crisp_scene_file;

@@ -171,7 +171,7 @@ crisp_status crisp_document_camera(const crisp_document *doc, const crisp_camera
         memcpy(eye, doc->eye, sizeof eye);
         have_eye = 1;
         if (doc->has_target) memcpy(target, doc->target, sizeof target), have_target = 1;
-        memcpy(up, doc->up, sizeof up), have_up = 1;
+        if (doc->has_up) memcpy(up, doc->up, sizeof up), have_up = 1;
         if (fov == 0) fov = doc->fov_deg;
     }
     if (d.target) memcpy(target, d.target, sizeof target), have_target = 1;

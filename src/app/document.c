@@ -288,6 +288,7 @@ crisp_status crisp_document_open(const char *path, const crisp_document_desc *de
     if (sf && sf->has_camera) {
         d->has_camera = 1;
         d->has_target = sf->has_target;
+        d->has_up = sf->has_up;
         memcpy(d->eye, sf->eye, sizeof d->eye);
         memcpy(d->target, sf->target, sizeof d->target);
         memcpy(d->up, sf->up, sizeof d->up);

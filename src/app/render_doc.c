@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "crisp/app.h"
+#include "crisp/plan.h"
 #include "crisp/trim.h"
 #include "render/render_internal.h"
 #ifdef CRISP_HAVE_GL
@@ -20,6 +21,28 @@ static int classify_exact(void *ctx, const crisp_scene *sc, uint32_t face, doubl
     return crisp_trim_exact_classify(sc->pieces + f->first_piece, (int)f->piece_count, u, v);
 }
 
+/* One frame, or the window win of it (NULL: the whole frame; else aligned as the backends need:
+ * x0, y0 multiples of 32) into img of the window's size. */
+static crisp_status render_window(const crisp_document *doc, const crisp_camera *cam,
+                                  crisp_document_render_desc d, const int *win, crisp_image *img,
+                                  crisp_render_stats *stats);
+
+/* The window drawn for a requested one (issue 15, image tiles): what a pixel of the window reads
+ * from its neighbours must be drawn too. The CPU backend's ribbons read the 4 neighbouring
+ * pixels' depth (crisp__raster_depth_slack), the f-rep parts z-cull whole 32x32 tiles of the
+ * image against the depth they hold: so the window grows to the 32-pixel grid around it plus one
+ * more 32-pixel ring (clamped to the image, whose own edges are the same as in the whole image).
+ * tests/jobs/test_tiles.c fails without the ring. */
+static void drawn_window(const crisp_camera *cam, const int win[4], int dest[4])
+{
+    enum { G = 32 };
+    int x0 = win[0] / G * G - G, y0 = win[1] / G * G - G;
+    int x1 = (win[0] + win[2] + G - 1) / G * G + G, y1 = (win[1] + win[3] + G - 1) / G * G + G;
+    x0 = x0 < 0 ? 0 : x0, y0 = y0 < 0 ? 0 : y0;
+    x1 = x1 > cam->width ? cam->width : x1, y1 = y1 > cam->height ? cam->height : y1;
+    dest[0] = x0, dest[1] = y0, dest[2] = x1 - x0, dest[3] = y1 - y0;
+}
+
 crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera *cam,
                                    const crisp_document_render_desc *desc, crisp_image *img,
                                    crisp_render_stats *stats)
@@ -28,9 +51,50 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
     if (stats) memset(stats, 0, sizeof *stats);
     if (!doc || !cam || !img)
         return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_document_render: NULL argument");
-    if (img->width != cam->width || img->height != cam->height)
+    const int *w = d.window;
+    int windowed = w[0] || w[1] || w[2] || w[3];
+    if (!windowed && (img->width != cam->width || img->height != cam->height))
         return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the camera's %dx%d",
                            img->width, img->height, cam->width, cam->height);
+    if (!windowed) return render_window(doc, cam, d, NULL, img, stats);
+    if (w[0] < 0 || w[1] < 0 || w[2] < 1 || w[3] < 1 || w[0] > cam->width - w[2] ||
+        w[1] > cam->height - w[3])
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "window %dx%d at (%d, %d) is not inside the %dx%d image", w[2], w[3],
+                           w[0], w[1], cam->width, cam->height);
+    if (img->width != w[2] || img->height != w[3])
+        return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the window's %dx%d",
+                           img->width, img->height, w[2], w[3]);
+    if (d.backend != CRISP_BACKEND_CPU)
+        return crisp_error(CRISP_ERR_UNSUPPORTED,
+                           "an image window (a tile) is drawn by the cpu backend only");
+    int e[4];
+    drawn_window(cam, w, e);
+    if (!memcmp(e, w, sizeof e)) return render_window(doc, cam, d, e, img, stats);
+    crisp_image big = {0};
+    crisp_status st = crisp_image_init(&big, e[2], e[3]);
+    if (!st) st = render_window(doc, cam, d, e, &big, stats);
+    if (!st) {
+        /* crop: the requested window's rows out of the drawn one */
+        int ox = w[0] - e[0], oy = w[1] - e[1];
+        for (int j = 0; j < w[3]; j++) {
+            size_t s = (size_t)(j + oy) * (size_t)e[2] + (size_t)ox, t = (size_t)j * (size_t)w[2];
+            size_t n = (size_t)w[2];
+            memcpy(img->rgba + 4 * t, big.rgba + 4 * s, 4 * n * sizeof *img->rgba);
+            memcpy(img->depth + t, big.depth + s, n * sizeof *img->depth);
+            memcpy(img->normal + 3 * t, big.normal + 3 * s, 3 * n * sizeof *img->normal);
+            memcpy(img->uv + 2 * t, big.uv + 2 * s, 2 * n * sizeof *img->uv);
+            memcpy(img->face + t, big.face + s, n * sizeof *img->face);
+        }
+    }
+    crisp_image_free(&big);
+    return st;
+}
+
+static crisp_status render_window(const crisp_document *doc, const crisp_camera *cam,
+                                  crisp_document_render_desc d, const int *win, crisp_image *img,
+                                  crisp_render_stats *stats)
+{
     if (d.samples == 0) d.samples = 1;
     crisp_status st = crisp_camera_check(cam);
     if (st) return st;
@@ -57,7 +121,12 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
             if (!r)
                 st = crisp_renderer_create(
                     &(crisp_render_desc){.samples = d.samples, .threads = d.threads}, &r);
-            if (!st) st = crisp_render_cpu(r, doc->scene, cam, img, stats);
+            if (!st && !win) st = crisp_render_cpu(r, doc->scene, cam, img, stats);
+            const crisp_frame_plan *plan = NULL;
+            if (!st && win)
+                st = crisp_planner_plan(crisp_renderer_planner(r), doc->scene, cam, &plan);
+            if (!st && win)
+                st = crisp__render_cpu_window(r, doc->scene, plan, cam, win, img, stats);
             if (!d.renderer) crisp_renderer_destroy(r);
         } else if (d.backend == CRISP_BACKEND_GL) {
 #ifdef CRISP_HAVE_GL
@@ -78,8 +147,10 @@ crisp_status crisp_document_render(const crisp_document *doc, const crisp_camera
     if (!st && doc->part_count)
         st = crisp_render_frep_parts(
             doc->parts, doc->part_count, cam,
-            &(crisp_frep_parts_desc){.threads = d.threads,
-                                     .per_pixel = d.backend == CRISP_BACKEND_EXACT},
+            &(crisp_frep_parts_desc){
+                .threads = d.threads,
+                .per_pixel = d.backend == CRISP_BACKEND_EXACT,
+                .window = {win ? win[0] : 0, win ? win[1] : 0, win ? win[2] : 0, win ? win[3] : 0}},
             img);
     if (d.times) {
         d.times->ms_faces = 1e3 * (t1 - t0);

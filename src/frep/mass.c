@@ -142,6 +142,7 @@ static void sample_cell(masser *m, frep_span t, const long i[3])
     const float *box[6] = {bx[0], bx[1], bx[2], bx[3], bx[4], bx[5]};
     crisp__frep_interval_lanes(t.ins, t.len, 16, m->lo, m->hi, box, NULL, NULL);
     m->out->intervals += 8;
+    m->out->cell_ops += t.len;
     uint16_t res = t.ins[t.len - 1].out;
     int cls[8];
     for (int c = 0; c < 8; c++) {
@@ -223,6 +224,7 @@ static void walk(masser *m, frep_span t, const long i[3], long size, int depth)
     size_t d;
     int cls = crisp__frep_octree_classify(&m->o, t, b, &d);
     m->out->intervals++;
+    m->out->walk_ops += t.len;
     if (cls == FREP_CELL_OUT) return;
     if (cls == FREP_CELL_IN) {
         box_moments(a[0], a[1], a[2], m->T);
@@ -372,6 +374,8 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
         dest->inertia_se[3 + k] = sqrt(fmax(var, 0));
     }
     /* does the part reach the region's faces? */
+    struct timespec f0;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &f0);
     for (int f = 0; f < 6; f++) {
         double b[6];
         memcpy(b, r, sizeof b);
@@ -382,6 +386,7 @@ crisp_status crisp_frep_mass_level(const crisp_frep_tape *t, const crisp_frep_ma
     struct timespec c1;
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
     dest->cpu_seconds = (double)(c1.tv_sec - c0.tv_sec) + 1e-9 * (double)(c1.tv_nsec - c0.tv_nsec);
+    dest->cpu_fixed = (double)(c1.tv_sec - f0.tv_sec) + 1e-9 * (double)(c1.tv_nsec - f0.tv_nsec);
     if (dest->cut_cells)
         s = crisp_error(
             CRISP_ERR_NUMERIC,
@@ -395,26 +400,83 @@ done:
     return s;
 }
 
+/* Solve the 3 x 3 system A x = b (Gaussian elimination, partial pivoting); 0 when singular. */
+static int solve3(double A[3][3], double b[3], int n, double x[3])
+{
+    for (int c = 0; c < n; c++) {
+        int p = c;
+        for (int r = c + 1; r < n; r++)
+            if (fabs(A[r][c]) > fabs(A[p][c])) p = r;
+        if (!(fabs(A[p][c]) > 1e-300)) return 0;
+        for (int k = 0; k < n; k++) {
+            double t = A[c][k];
+            A[c][k] = A[p][k], A[p][k] = t;
+        }
+        double t = b[c];
+        b[c] = b[p], b[p] = t;
+        for (int r = 0; r < n; r++) {
+            if (r == c) continue;
+            double f = A[r][c] / A[c][c];
+            for (int k = c; k < n; k++)
+                A[r][k] -= f * A[c][k];
+            b[r] -= f * b[c];
+        }
+    }
+    for (int c = 0; c < n; c++)
+        x[c] = b[c] / A[c][c];
+    return 1;
+}
+
 void crisp_frep_mass_predict(const crisp_frep_mass *lv, int n, int level, double *seconds,
                              double *se)
 {
-    /* Clark: boundary cells tend to K 4^level (a surface) and the error to a constant factor per
-     * level. Measured growth per level g (cells) and cost ratio per cell rho approach 4 and 1 as
-     * the octree resolves the part; their excess is taken to halve per level (bear, tanglecube,
-     * colonnade: bench_frep_solid mass). Processor time = cells x cost per cell. */
-    const crisp_frep_mass *a = &lv[n - 2], *b = &lv[n - 1];
-    double g = a->boundary_cells ? (double)b->boundary_cells / (double)a->boundary_cells : 4;
-    double ge = a->volume_se > 0 ? b->volume_se / a->volume_se : 0.25;
-    double ca = a->boundary_cells ? a->cpu_seconds / (double)a->boundary_cells : 0;
-    double cb = b->boundary_cells ? b->cpu_seconds / (double)b->boundary_cells : 0;
-    double rho = ca > 0 && cb > 0 ? cb / ca : 1;
-    double cells = (double)b->boundary_cells, cost = cb;
-    for (int L = b->level + 1; L <= level; L++) {
-        g = 4 + 0.5 * (g - 4);
-        rho = 1 + 0.5 * (rho - 1);
-        cells *= g;
-        cost *= rho;
+    /* Time: the check of the region's faces is the same at every level (its mean is taken); the
+     * rest, the level's cost C(L), is fitted by least squares over the measured levels to
+     * a 4^L + b 2^L + c: Clark's K 4^L for the cells meeting a surface, a term for those along
+     * its edges and silhouettes (and the coarse levels' excess), and a per-level overhead. The
+     * residuals are relative (each row divided by its C), so that the coarse levels, whose costs
+     * are tiny, count as much as the finer ones. With 2 levels: a 4^L + b 2^L through them; with
+     * 1: K 4^L. A fit that does not grow at least 4x per level past the last one falls back to
+     * 4x per level (a surface). */
+    const crisp_frep_mass *b = &lv[n - 1];
+    double fixed = 0;
+    for (int k = 0; k < n; k++)
+        fixed += lv[k].cpu_fixed / n;
+    int L0 = b->level;
+    double C[24], Ls[24];
+    int m = 0;
+    for (int k = 0; k < n && m < 24; k++) {
+        double c = lv[k].cpu_seconds - lv[k].cpu_fixed;
+        if (!(c > 1e-7)) continue;
+        C[m] = c, Ls[m++] = lv[k].level - L0; /* basis scaled to the last level: 4^(L - L0) */
     }
-    *seconds = cells * cost;
-    *se = b->volume_se * pow(ge, level - b->level);
+    double last = b->cpu_seconds - b->cpu_fixed;
+    if (!(last > 1e-7)) last = 1e-7;
+    double pred = last * pow(4.0, level - L0);
+    int nb = m >= 3 ? 3 : m;
+    if (nb >= 2) {
+        double A[3][3] = {{0}}, r[3] = {0}, x[3];
+        for (int i = 0; i < m; i++) {
+            double row[3] = {pow(4.0, Ls[i]) / C[i], pow(2.0, Ls[i]) / C[i], 1 / C[i]};
+            for (int p = 0; p < nb; p++) {
+                for (int q = 0; q < nb; q++)
+                    A[p][q] += row[p] * row[q];
+                r[p] += row[p];
+            }
+        }
+        if (solve3(A, r, nb, x)) {
+            double d = level - L0;
+            double f = x[0] * pow(4.0, d) + x[1] * pow(2.0, d) + (nb > 2 ? x[2] : 0);
+            double f1 = x[0] * 4 + x[1] * 2 + (nb > 2 ? x[2] : 0);
+            double f0 = x[0] + x[1] + (nb > 2 ? x[2] : 0);
+            /* growing (a surface): beyond the last level the fit rises at least 3x per level */
+            if (x[0] > 0 && f0 > 0 && f1 >= 3 * f0 && f > 0) pred = f;
+        }
+    }
+    *seconds = fixed + pred;
+    /* Error: falls by the last two levels' factor per level (1/4 for a resolved surface:
+     * Clark's error ~ K 2^-2L for a sampled boundary) */
+    const crisp_frep_mass *a = n >= 2 ? &lv[n - 2] : b;
+    double ge = n >= 2 && a->volume_se > 0 ? b->volume_se / a->volume_se : 0.25;
+    *se = b->volume_se * pow(ge, level - L0);
 }

@@ -11,20 +11,24 @@
  * edge), so every mesh edge is shared by exactly two triangles; there are no ambiguous cases.
  * Dual contouring keeps sharp corners by moving vertices off the grid edges, which is what makes
  * its triangles cross (libfive issues 284 and 150); confining its vertex to the cell does not
- * prevent folds between neighbouring cells. Sharp features here: edge vertices lie on the surface
- * (regula falsi along the edge), and where the normals at a tetrahedron's edge vertices disagree
- * by more than 30 degrees its polygon is fanned from a feature point (the QEF point of their
- * tangent planes, as in Kobbelt's extended marching cubes), accepted only inside the
- * tetrahedron and only when no fan triangle turns against the polygon's normal, which keeps both
- * guarantees (feature_point). A feature thinner than the cell that no grid corner sees is
+ * prevent folds between neighbouring cells. Sharp features here ("sharp features" below):
+ * extended marching cubes (Kobbelt et al.) on the tetrahedra: face points where a crease crosses
+ * a tetrahedron's face, and a fan from a cell point strictly inside the tetrahedron (or inside
+ * the all-outside tetrahedron beside it that holds the crease's tip), which keeps both
+ * guarantees by construction (a fan from an interior point of a star-shaped cell over a simple
+ * curve on its boundary is embedded). A feature thinner than the cell that no grid corner sees is
  * reported (a cube whose centre differs in sign from its eight agreeing corners), not lost
  * silently.
  *
  * Octree: cells proven inside or outside by one interval are never split; undecided cells are
  * split down to blocks of 4^3 grid cubes, which evaluate their 5^3 corners with the tape
  * shortened for them. Memory: the octree's tapes (one per level) and the edge table, which holds
- * the vertices of surface cubes only, so it grows with the surface, not the volume. Output is
- * streamed to the sink as it is made. */
+ * the vertices of surface cubes only, and only while a cube that uses them is still to be meshed:
+ * the walk visits blocks in Morton order, and when the table fills, the edges whose cubes all
+ * precede the current block are dropped (table_purge). What stays is the surface along the
+ * walk's front (the faces between visited and unvisited octree cells), which grows about like
+ * the resolution, not its square (the surface) or cube (the volume). Output is streamed to the
+ * sink as it is made. */
 #include "crisp/frep_mesh.h"
 
 #include <math.h>
@@ -38,6 +42,8 @@
 #define NPTS (BP * BP * BP)
 #define MAX_LEVELS 19 /* 4 * 2^18 = 2^20 cubes per side */
 #define FALSI_STEPS 6
+#define FACE_BIT (1ull << 63)     /* table keys of faces (face points) */
+#define NO_POINT (UINT32_MAX - 1) /* a face without a face point */
 
 typedef struct edge_entry {
     uint64_t key; /* 0 = empty (keys are stored + 1) */
@@ -58,8 +64,12 @@ typedef struct mesher {
     float *regs;           /* registers x FREP_LANES */
     float *gregs;          /* registers x 4 x FREP_LANES */
     int features;          /* fans through a feature point where the normals disagree */
+    int no_tips;           /* cell points stay in their tetrahedron */
+    int cell_lo[3], cell_hi[3]; /* desc->split_cell: the blocks meshed (grid cube indices) */
     edge_entry *table;
     size_t tcount, tcap, max_bytes;
+    size_t table_peak;  /* bytes */
+    uint64_t cur_block; /* Morton code of the block being meshed (the walk's order) */
     crisp_status status;
 } mesher;
 
@@ -87,9 +97,62 @@ static edge_entry *edge_slot(mesher *m, uint64_t key)
     return &m->table[i];
 }
 
+/* Morton code of a block (bits of x lowest), the order in which walk visits blocks */
+static uint64_t morton(const int b[3])
+{
+    uint64_t code = 0;
+    for (int bit = 0; bit < 21; bit++)
+        for (int a = 0; a < 3; a++)
+            code |= (uint64_t)((b[a] >> bit) & 1) << (3 * bit + a);
+    return code;
+}
+
+/* The last block (in the walk's order) holding a cube that contains the grid edge of key: the
+ * cubes containing the edge from lo along the offset dir have corners lo - {0,1} on the axes
+ * where dir is 0 and lo on the others; Morton order grows with each coordinate, so the last is
+ * the block of the cube at lo (clamped into the grid). */
+static uint64_t edge_last_block(const mesher *m, uint64_t key)
+{
+    uint64_t n1 = (uint64_t)m->n + 1, k = key & FACE_BIT ? (key & ~FACE_BIT) / 64 : key / 8;
+    int lo[3] = {(int)(k % n1), (int)((k / n1) % n1), (int)(k / n1 / n1)}, b[3];
+    for (int a = 0; a < 3; a++)
+        b[a] = (lo[a] < m->n ? lo[a] : m->n - 1) / B;
+    return morton(b);
+}
+
+/* Drop the edges whose cubes have all been meshed (their blocks precede the current one): the
+ * table then holds the front of the walk, not the whole surface. Linear probing with backward
+ * shift deletion, in place. */
+static void table_purge(mesher *m)
+{
+    size_t mask = m->tcap - 1;
+    for (size_t i = 0; i < m->tcap; i++) {
+        while (m->table[i].key && edge_last_block(m, m->table[i].key - 1) < m->cur_block) {
+            size_t hole = i, j = i;
+            for (;;) {
+                j = (j + 1) & mask;
+                if (!m->table[j].key) break;
+                size_t home = (size_t)hash64(m->table[j].key - 1) & mask;
+                /* j's entry may fill the hole when its home is not cyclically in (hole, j] */
+                int stays = hole <= j ? (home > hole && home <= j) : (home > hole || home <= j);
+                if (!stays) {
+                    m->table[hole] = m->table[j];
+                    hole = j;
+                }
+            }
+            m->table[hole].key = 0;
+            m->tcount--;
+        }
+    }
+}
+
 static int table_grow(mesher *m)
 {
     if ((m->tcount + 1) * 2 <= m->tcap) return 0;
+    if (m->tcap) {
+        table_purge(m);
+        if (m->tcount * 4 <= m->tcap) return 0;
+    }
     size_t ncap = m->tcap ? m->tcap * 2 : 4096;
     if (ncap * sizeof *m->table > m->max_bytes) return -2;
     edge_entry *old = m->table;
@@ -103,8 +166,8 @@ static int table_grow(mesher *m)
     for (size_t i = 0; i < ocap; i++)
         if (old[i].key) *edge_slot(m, old[i].key - 1) = old[i];
     crisp_free(old);
-    size_t bytes = m->tcap * sizeof *m->table;
-    if (bytes > m->st->peak_bytes) m->st->peak_bytes = bytes;
+    size_t bytes = (m->tcap + ocap) * sizeof *m->table; /* both tables while rehashing */
+    if (bytes > m->table_peak) m->table_peak = bytes;
     return 0;
 }
 
@@ -236,102 +299,379 @@ static uint64_t edge_key(const mesher *m, const int lo[3], int dir)
     return (((uint64_t)lo[2] * n1 + (uint64_t)lo[1]) * n1 + (uint64_t)lo[0]) * 8 + (uint64_t)dir;
 }
 
-/* A feature point for the polygon v[0 .. n) (loop order, outward) of a tetrahedron whose vertex
- * normals disagree by more than 30 degrees: the point nearest to their tangent planes (a QEF,
- * regularised towards the polygon's centre, Kobbelt's extended marching cubes / dual contouring's
- * vertex), taken only when it lies inside the tetrahedron and the fan from it over the polygon
- * keeps every triangle facing the polygon's own normal. Then the fan stays inside the
- * tetrahedron (no crossing with other tetrahedra's triangles) and projects along that normal to
- * a simple star (no crossing within it): the guarantees of the plain polygon hold. */
-static int feature_point(const mesher *m, const int i0[3], int cx, int cy, int cz, const int tv[4],
-                         float v[4][3], float nv[4][3], int n, float out[3])
+/* ---- sharp features --------------------------------------------------------------------------
+ * Extended marching cubes (Kobbelt et al. 2001) on the tetrahedra, kept embedded by construction:
+ * - a face point: where the segment of the polygon on a tetrahedron's face joins two vertices
+ *   whose normals disagree (a crease crosses the face), the point of the face's plane on both
+ *   tangent planes replaces the segment by two, when it lies inside the face. It is a function
+ *   of the face alone (its corners and the two edge vertices, taken in a canonical order), kept
+ *   in the table by face, so both tetrahedra of the face use the same point;
+ * - a cell point: a tetrahedron with a face point or disagreeing normals fans its polygon from
+ *   the QEF point of its vertices' tangent planes, moved inside the tetrahedron when outside.
+ * Why this cannot fold or cross: the polygon is a simple closed curve on the boundary of a convex
+ * tetrahedron (one path per face: its segment, or the two halves through the face point, inside
+ * the face), and the fan from any point strictly inside a convex body over a simple curve on its
+ * boundary is an embedded disk (each ray from the point meets the boundary once, so the fan's
+ * triangles meet only along the rays to shared vertices). The fan stays inside the tetrahedron,
+ * and meets the neighbouring tetrahedra's triangles only along the shared paths. */
+
+static double dot3(const double a[3], const double b[3])
 {
-    double mind = 1;
-    for (int a = 0; a < n; a++) {
-        if (nv[a][0] == 0 && nv[a][1] == 0 && nv[a][2] == 0) return 0;
-        for (int b = a + 1; b < n; b++)
-            mind = fmin(mind, nv[a][0] * nv[b][0] + nv[a][1] * nv[b][1] + nv[a][2] * nv[b][2]);
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void cross3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static double det3(const double a[3], const double b[3], const double c[3])
+{
+    double x[3];
+    cross3(b, c, x);
+    return dot3(a, x);
+}
+
+/* x with rows r: r[i] . x = d[i]; 0 when near singular (relative to the rows' lengths) */
+static int solve_rows(const double r[3][3], const double d[3], double x[3])
+{
+    double D = det3(r[0], r[1], r[2]);
+    double scale = sqrt(dot3(r[0], r[0]) * dot3(r[1], r[1]) * dot3(r[2], r[2]));
+    if (!(fabs(D) > 1e-6 * scale)) return 0;
+    /* Cramer on the columns: x_k = det(rows with column k replaced by d) / D */
+    for (int k = 0; k < 3; k++) {
+        double q[3][3];
+        memcpy(q, r, sizeof q);
+        for (int i = 0; i < 3; i++)
+            q[i][k] = d[i];
+        x[k] = det3(q[0], q[1], q[2]) / D;
     }
-    if (mind > 0.866) return 0;
-    double c[3] = {0, 0, 0}, A[3][3] = {{0}}, rhs[3] = {0};
+    return 1;
+}
+
+static int zero3(const float v[3])
+{
+    return v[0] == 0 && v[1] == 0 && v[2] == 0;
+}
+
+static uint64_t grid_lin(const mesher *m, const int g[3])
+{
+    uint64_t n1 = (uint64_t)m->n + 1;
+    return ((uint64_t)g[2] * n1 + (uint64_t)g[1]) * n1 + (uint64_t)g[0];
+}
+
+/* The face point of the face with grid corners g[3] (sorted by grid_lin) for the segment from
+ * vertex (pu, nu) to (pw, nw) (sorted by edge key): 1 and out when it lies inside the face by a
+ * margin. */
+static int face_point(const mesher *m, const int g[3][3], const float pu[3], const float nu[3],
+                      const float pw[3], const float nw[3], float out[3])
+{
+    double F[3][3], e1[3], e2[3], N[3], rows[3][3], d[3], x[3];
+    for (int q = 0; q < 3; q++)
+        for (int k = 0; k < 3; k++)
+            F[q][k] = m->org[k] + g[q][k] * m->h;
+    for (int k = 0; k < 3; k++)
+        e1[k] = F[1][k] - F[0][k], e2[k] = F[2][k] - F[0][k];
+    cross3(e1, e2, N);
+    for (int k = 0; k < 3; k++)
+        rows[0][k] = nu[k], rows[1][k] = nw[k], rows[2][k] = N[k];
+    d[0] = d[1] = 0;
+    for (int k = 0; k < 3; k++)
+        d[0] += (double)nu[k] * pu[k], d[1] += (double)nw[k] * pw[k];
+    d[2] = dot3(N, F[0]);
+    if (!solve_rows((const double(*)[3])rows, d, x)) return 0;
+    /* barycentric coordinates in the face (areas against N) */
+    double nn = dot3(N, N);
+    for (int q = 0; q < 3; q++) {
+        const double *A = F[(q + 1) % 3], *Bq = F[(q + 2) % 3];
+        double a[3], b[3], c[3];
+        for (int k = 0; k < 3; k++)
+            a[k] = A[k] - x[k], b[k] = Bq[k] - x[k];
+        cross3(a, b, c);
+        if (!(dot3(c, N) / nn > 0.02)) return 0;
+    }
+    for (int k = 0; k < 3; k++)
+        out[k] = (float)x[k];
+    return 1;
+}
+
+/* The QEF point of the tangent planes at v[0 .. n) (normals nv; vertices without a normal
+ * take no part), regularised towards their centre (as in dual contouring); the centre when
+ * that is singular. */
+static void qef_point(float (*v)[3], float (*nv)[3], int n, double p[3])
+{
+    double c[3] = {0, 0, 0}, A[3][3] = {{0}}, rhs[3] = {0}, x[3];
     for (int a = 0; a < n; a++)
         for (int k = 0; k < 3; k++)
-            c[k] += v[a][k] / n;
+            c[k] += (double)v[a][k] / n;
     const double lambda = 0.05;
+    int planes = 0;
     for (int a = 0; a < n; a++) {
+        if (zero3(nv[a])) continue;
+        planes++;
         double d = 0;
         for (int k = 0; k < 3; k++)
             d += nv[a][k] * (v[a][k] - c[k]);
         for (int i = 0; i < 3; i++) {
             rhs[i] += nv[a][i] * d;
             for (int j = 0; j < 3; j++)
-                A[i][j] += nv[a][i] * nv[a][j];
+                A[i][j] += (double)nv[a][i] * nv[a][j];
         }
     }
     for (int i = 0; i < 3; i++)
         A[i][i] += lambda;
-    /* solve A x = rhs (offset from c) by Cramer's rule */
-    double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
-                 A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
-                 A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
-    if (!(fabs(det) > 1e-12)) return 0;
-    double x[3];
-    for (int k = 0; k < 3; k++) {
-        double M[3][3];
-        memcpy(M, A, sizeof M);
-        for (int i = 0; i < 3; i++)
-            M[i][k] = rhs[i];
-        x[k] = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
-                M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
-                M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) /
-               det;
-    }
-    double p[3];
-    for (int k = 0; k < 3; k++) {
-        out[k] = (float)(c[k] + x[k]);
-        p[k] = out[k];
-    }
-    /* inside the tetrahedron: barycentric coordinates from its corners */
-    double T[4][3];
-    for (int q = 0; q < 4; q++) {
-        int o = tv[q],
-            g[3] = {i0[0] + cx + (o & 1), i0[1] + cy + ((o >> 1) & 1), i0[2] + cz + (o >> 2)};
+    if (planes && solve_rows((const double(*)[3])A, rhs, x))
         for (int k = 0; k < 3; k++)
-            T[q][k] = m->org[k] + g[k] * m->h;
-    }
+            p[k] = c[k] + x[k];
+    else
+        memcpy(p, c, sizeof c);
+}
+
+/* barycentric coordinates of p in the tetrahedron T */
+static void barycentric(const double T[4][3], const double p[3], double l[4])
+{
     double e1[3], e2[3], e3[3], r[3];
     for (int k = 0; k < 3; k++)
         e1[k] = T[1][k] - T[0][k], e2[k] = T[2][k] - T[0][k], e3[k] = T[3][k] - T[0][k],
         r[k] = p[k] - T[0][k];
-#define DET3(a, b, c)                                                                              \
-    ((a)[0] * ((b)[1] * (c)[2] - (b)[2] * (c)[1]) - (a)[1] * ((b)[0] * (c)[2] - (b)[2] * (c)[0]) + \
-     (a)[2] * ((b)[0] * (c)[1] - (b)[1] * (c)[0]))
-    double D = DET3(e1, e2, e3);
-    double l1 = DET3(r, e2, e3) / D, l2 = DET3(e1, r, e3) / D, l3 = DET3(e1, e2, r) / D,
-           l0 = 1 - l1 - l2 - l3;
-#undef DET3
-    const double margin = 1e-3;
-    if (!(l0 > margin && l1 > margin && l2 > margin && l3 > margin)) return 0;
-    /* the polygon's normal (Newell) and the fan's triangles facing it */
-    double pn[3] = {0, 0, 0};
-    for (int a = 0; a < n; a++) {
-        const float *u = v[a], *w = v[(a + 1) % n];
-        pn[0] += ((double)u[1] - w[1]) * ((double)u[2] + w[2]);
-        pn[1] += ((double)u[2] - w[2]) * ((double)u[0] + w[0]);
-        pn[2] += ((double)u[0] - w[0]) * ((double)u[1] + w[1]);
+    double D = det3(e1, e2, e3);
+    l[1] = det3(r, e2, e3) / D, l[2] = det3(e1, r, e3) / D, l[3] = det3(e1, e2, r) / D;
+    l[0] = 1 - l[1] - l[2] - l[3];
+}
+
+#define CELL_MARGIN 0.01 /* of the barycentric coordinates, or of a cell for distances */
+
+/* p moved strictly inside the tetrahedron: barycentric coordinates clamped to the margin */
+static void clamp_into(const double T[4][3], double p[3])
+{
+    double l[4], sum = 0;
+    barycentric(T, p, l);
+    for (int q = 0; q < 4; q++) {
+        if (!(l[q] >= CELL_MARGIN)) l[q] = CELL_MARGIN; /* NaN too */
+        sum += l[q];
     }
-    double pl = sqrt(pn[0] * pn[0] + pn[1] * pn[1] + pn[2] * pn[2]);
-    if (!(pl > 0)) return 0;
-    for (int a = 0; a < n; a++) {
-        double u[3], w[3];
-        for (int k = 0; k < 3; k++)
-            u[k] = v[a][k] - p[k], w[k] = v[(a + 1) % n][k] - p[k];
-        double cr[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2],
-                        u[0] * w[1] - u[1] * w[0]};
-        double cl = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
-        if (!((cr[0] * pn[0] + cr[1] * pn[1] + cr[2] * pn[2]) > 0.05 * cl * pl)) return 0;
+    for (int k = 0; k < 3; k++) {
+        p[k] = 0;
+        for (int q = 0; q < 4; q++)
+            p[k] += l[q] / sum * T[q][k];
     }
+}
+
+/* p strictly on the side of the plane (a, b, c) where o is, by the margin (h: the cell) */
+static int inner_side(const double a[3], const double b[3], const double c[3], const double o[3],
+                      const double p[3], double h)
+{
+    double u[3], w[3], nrm[3], dp[3], dop[3];
+    for (int k = 0; k < 3; k++)
+        u[k] = b[k] - a[k], w[k] = c[k] - a[k], dp[k] = p[k] - a[k], dop[k] = o[k] - a[k];
+    cross3(u, w, nrm);
+    double len = sqrt(dot3(nrm, nrm)), so = dot3(nrm, dop);
+    if (!(len > 0)) return 0;
+    return (so > 0 ? 1 : -1) * dot3(nrm, dp) / len > CELL_MARGIN * h;
+}
+
+/* A crease's tip outside the tetrahedron A (grid corners G, positions T, in tv's order): the
+ * point p lies beyond A's face F opposite corner k. When the tetrahedron Z across F has all its
+ * corners on the side opposite k's (outside the part for a convex crease, inside for a concave
+ * one; so no triangle of the plain mesh touches Z), nobody has claimed Z
+ * yet, and p lies in the kernel of A u Z (strictly inside the planes of the six faces other
+ * than F), A's fan may take p: A's polygon lies on the boundary of A u Z (F carries no path),
+ * and the fan from a kernel point of a star-shaped cell over a simple curve on its boundary is
+ * embedded, like the convex case. Z is then claimed in the table, so no other fan enters it.
+ * 1 when p may be used. */
+static int extend_into(mesher *m, const uint8_t *in, const int i0[3], const int tv[4],
+                       const int G[4][3], const double T[4][3], int k, const double p[3])
+{
+    if (m->no_tips) return 0;
+    /* the chain order of A's corners: 0 = the cube's corner 0 ... 3 = corner 7 */
+    int ch[4], pos[4];
+    for (int q = 0; q < 4; q++) {
+        int o = tv[q], bits = (o & 1) + ((o >> 1) & 1) + (o >> 2);
+        ch[bits] = q, pos[q] = bits;
+    }
+    int kc = pos[k], gn[3];
+    for (int a = 0; a < 3; a++) {
+        if (kc == 1 || kc == 2)
+            gn[a] = G[ch[kc - 1]][a] + G[ch[kc + 1]][a] - G[ch[kc]][a];
+        else if (kc == 0)
+            gn[a] = G[ch[3]][a] + G[ch[1]][a] - G[ch[0]][a];
+        else
+            gn[a] = G[ch[0]][a] - (G[ch[3]][a] - G[ch[2]][a]);
+    }
+    /* gn outside the part, within the block's evaluated points and the region */
+    int loc[3];
+    for (int a = 0; a < 3; a++) {
+        loc[a] = gn[a] - i0[a];
+        if (loc[a] < 0 || loc[a] > B) return 0;
+    }
+    /* Z's corners (F's and gn) agree in sign, against k's: no path on F, none in Z */
+    int zin = in[pidx(loc[0], loc[1], loc[2])];
+    if (!in_region(m, gn)) return 0;
+    for (int q = 0; q < 4; q++) {
+        int l3[3] = {G[q][0] - i0[0], G[q][1] - i0[1], G[q][2] - i0[2]};
+        if ((in[pidx(l3[0], l3[1], l3[2])] == zin) != (q != k)) return 0;
+    }
+    double Tn[3];
+    for (int a = 0; a < 3; a++)
+        Tn[a] = m->org[a] + gn[a] * m->h;
+    /* the kernel: A's faces through corner k, and Z's faces through gn */
+    int f[3], nf = 0;
+    for (int q = 0; q < 4; q++)
+        if (q != k) f[nf++] = q;
+    for (int j = 0; j < 3; j++) {
+        int a = f[(j + 1) % 3], b = f[(j + 2) % 3];
+        /* A's face (k, a, b), inward towards f[j]; Z's face (gn, a, b), inward towards f[j] */
+        if (!inner_side(T[k], T[a], T[b], T[f[j]], p, m->h)) return 0;
+        if (!inner_side(Tn, T[a], T[b], T[f[j]], p, m->h)) return 0;
+    }
+    /* claim Z: its lowest corner and its chain's first two axes */
+    int zc[4][3], lo[3] = {gn[0], gn[1], gn[2]};
+    for (int j = 0; j < 3; j++)
+        memcpy(zc[j], G[f[j]], sizeof zc[j]);
+    memcpy(zc[3], gn, sizeof gn);
+    for (int j = 0; j < 3; j++)
+        for (int a = 0; a < 3; a++)
+            lo[a] = zc[j][a] < lo[a] ? zc[j][a] : lo[a];
+    int ax1 = -1, ax2 = -1;
+    for (int j = 0; j < 4; j++) {
+        int d0 = zc[j][0] - lo[0], d1 = zc[j][1] - lo[1], d2 = zc[j][2] - lo[2];
+        int bits = d0 + d1 + d2;
+        if (bits == 1) ax1 = d0 ? 0 : d1 ? 1 : 2;
+        if (bits == 2) ax2 = !d0 ? 0 : !d1 ? 1 : 2; /* the axis not yet taken */
+    }
+    if (ax1 < 0 || ax2 < 0) return 0;
+    int second = 3 - ax1 - ax2; /* the chain's second axis */
+    int code = ax1 * 2 + (second == (ax1 + 1) % 3 ? 0 : 1);
+    int top[3] = {lo[0] + 1, lo[1] + 1, lo[2] + 1}; /* past every cube that may claim Z */
+    uint64_t key = FACE_BIT | (grid_lin(m, top) * 64 + (uint64_t)code);
+    if (table_grow(m)) return 0;
+    edge_entry *e = edge_slot(m, key);
+    if (e->key) return 0;
+    e->key = key + 1;
+    e->v = NO_POINT;
+    m->tcount++;
+    m->st->tip_points++;
     return 1;
+}
+
+/* Face points on the tetrahedron's faces and its cell point's fan (see "sharp features"). The
+ * polygon: poly[0 .. n) in loop order, their edge keys, tet corners, positions and normals;
+ * *done = 1 when the fan was emitted (else the caller emits the plain polygon). */
+static crisp_status feature_fan(mesher *m, const uint8_t *in, const int i0[3], const int c3[3],
+                                const int tv[4], int n, const uint32_t poly[4],
+                                const uint64_t ekey[4], const int ecorner[4], float (*tp)[3],
+                                float (*tn)[3], int *done)
+{
+    uint32_t ext[8];
+    float ep[8][3];
+    int ne = 0, nface = 0;
+    /* normals disagree: the cell point's fan (a vertex without a normal, on the region's
+     * faces, takes no part); a face point depends on its face's two vertices only, so that both
+     * tetrahedra of the face decide alike */
+    double mind = 1;
+    for (int q = 0; q < n; q++)
+        for (int r = q + 1; r < n; r++)
+            if (!zero3(tn[q]) && !zero3(tn[r]))
+                mind = fmin(mind, (double)tn[q][0] * tn[r][0] + (double)tn[q][1] * tn[r][1] +
+                                      (double)tn[q][2] * tn[r][2]);
+    int disagree = mind < 0.866;
+    for (int q = 0; q < n; q++) {
+        ext[ne] = poly[q];
+        memcpy(ep[ne++], tp[q], sizeof ep[0]);
+        int r = (q + 1) % n;
+        if (zero3(tn[q]) || zero3(tn[r])) continue;
+        double dn =
+            (double)tn[q][0] * tn[r][0] + (double)tn[q][1] * tn[r][1] + (double)tn[q][2] * tn[r][2];
+        if (!(dn < 0.866)) continue;
+        /* the face: the three tet corners of the two edges, sorted by grid index */
+        int cs = ecorner[q] | ecorner[r], g[3][3], k = 0;
+        uint64_t lin[3];
+        for (int c = 0; c < 4; c++) {
+            if (!((cs >> c) & 1)) continue;
+            int o = tv[c];
+            g[k][0] = i0[0] + c3[0] + (o & 1), g[k][1] = i0[1] + c3[1] + ((o >> 1) & 1),
+            g[k][2] = i0[2] + c3[2] + (o >> 2);
+            lin[k] = grid_lin(m, g[k]);
+            k++;
+        }
+        for (int a = 1; a < 3; a++)
+            for (int b = a; b > 0 && lin[b] < lin[b - 1]; b--) {
+                uint64_t t = lin[b];
+                lin[b] = lin[b - 1], lin[b - 1] = t;
+                int tg[3];
+                memcpy(tg, g[b], sizeof tg);
+                memcpy(g[b], g[b - 1], sizeof tg);
+                memcpy(g[b - 1], tg, sizeof tg);
+            }
+        int off1 = (g[1][0] - g[0][0]) | (g[1][1] - g[0][1]) << 1 | (g[1][2] - g[0][2]) << 2;
+        int off2 = (g[2][0] - g[0][0]) | (g[2][1] - g[0][1]) << 1 | (g[2][2] - g[0][2]) << 2;
+        uint64_t key = FACE_BIT | (lin[0] * 64 + (uint64_t)off1 * 8 + (uint64_t)off2);
+        int gr = table_grow(m);
+        if (gr)
+            return crisp_error(gr == -2 ? CRISP_ERR_LIMIT : CRISP_ERR_NO_MEMORY,
+                               "frep mesh: the edge table would pass %.0f MB; use a coarser cell",
+                               m->max_bytes / 1e6);
+        edge_entry *e = edge_slot(m, key);
+        if (!e->key) {
+            e->key = key + 1;
+            m->tcount++;
+            e->v = NO_POINT;
+            int first = ekey[q] < ekey[r] ? q : r, second = first == q ? r : q;
+            float fp[3];
+            if (face_point(m, (const int(*)[3])g, tp[first], tn[first], tp[second], tn[second],
+                           fp)) {
+                crisp_status s = m->sink->vertex(m->sink->ctx, fp);
+                if (s) return s;
+                e->v = (uint32_t)m->st->vertices++;
+                memcpy(e->p, fp, sizeof fp);
+                m->st->face_points++;
+            }
+        }
+        if (e->v != NO_POINT) {
+            ext[ne] = e->v;
+            memcpy(ep[ne++], e->p, sizeof ep[0]);
+            nface++;
+        }
+    }
+    if (!disagree && !nface) return CRISP_OK;
+    double T[4][3], p[3], l[4];
+    int G[4][3];
+    for (int q = 0; q < 4; q++) {
+        int o = tv[q];
+        G[q][0] = i0[0] + c3[0] + (o & 1), G[q][1] = i0[1] + c3[1] + ((o >> 1) & 1),
+        G[q][2] = i0[2] + c3[2] + (o >> 2);
+        for (int k = 0; k < 3; k++)
+            T[q][k] = m->org[k] + G[q][k] * m->h;
+    }
+    /* the cell point: the QEF point inside A, or in the tetrahedron beyond the face it lies
+     * behind (extend_into), else moved inside A */
+    qef_point(tp, tn, n, p);
+    barycentric((const double(*)[3])T, p, l);
+    int kmin = 0;
+    for (int q = 1; q < 4; q++)
+        if (l[q] < l[kmin]) kmin = q;
+    if (!(l[kmin] >= CELL_MARGIN) && !(l[kmin] < 0 && extend_into(m, in, i0, tv, (const int(*)[3])G,
+                                                                  (const double(*)[3])T, kmin, p)))
+        clamp_into((const double(*)[3])T, p);
+    float cp[3] = {(float)p[0], (float)p[1], (float)p[2]};
+    crisp_status s = m->sink->vertex(m->sink->ctx, cp);
+    if (s) return s;
+    uint32_t c = (uint32_t)m->st->vertices++;
+    m->st->feature_points++;
+    for (int q = 0; q < ne; q++) {
+        uint32_t ft[3] = {c, ext[q], ext[(q + 1) % ne]};
+        float fq[3][3];
+        memcpy(fq[0], cp, sizeof cp);
+        memcpy(fq[1], ep[q], sizeof cp);
+        memcpy(fq[2], ep[(q + 1) % ne], sizeof cp);
+        s = m->sink->triangle(m->sink->ctx, ft, (const float(*)[3])fq);
+        if (s) return s;
+        m->st->triangles++;
+    }
+    *done = 1;
+    return CRISP_OK;
 }
 
 static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
@@ -393,6 +733,7 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
     }
     if (!any_in || !any_out) return CRISP_OK;
     m->st->leaves++;
+    m->cur_block = morton((const int[3]){i0[0] / B, i0[1] / B, i0[2] / B});
 
     /* new crossing edges of the block's tetrahedra */
     pending pe[NPTS * 7];
@@ -516,13 +857,17 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
         } /* oa is the lower end */                                                                \
         int lo3[3] = {i0[0] + cx2 + (oa & 1), i0[1] + cy2 + ((oa >> 1) & 1),                       \
                       i0[2] + cz2 + (oa >> 2)};                                                    \
-        edge_entry *en = edge_slot(m, edge_key(m, lo3, oa ^ ob));                                  \
+        ekey[ntp] = edge_key(m, lo3, oa ^ ob);                                                     \
+        ecorner[ntp] = (1 << (P)) | (1 << (Q));                                                    \
+        edge_entry *en = edge_slot(m, ekey[ntp]);                                                  \
         DEST = en->v;                                                                              \
         memcpy(tn[ntp], en->n, sizeof tn[0]);                                                      \
         poly[ntp] = en->v;                                                                         \
         memcpy(tp[ntp++], en->p, sizeof tp[0]);                                                    \
     } while (0)
                     uint32_t tri[2][3], poly[4];
+                    uint64_t ekey[4];
+                    int ecorner[4]; /* the tet corners (bits 0..3) of each vertex's edge */
                     float tp[4][3], tq[2][3][3], tn[4][3];
                     int ntri = 0, ntp = 0;
                     if (nin == 1 || nin == 3) {
@@ -566,24 +911,12 @@ static crisp_status mesh_block(mesher *m, frep_span t, const int i0[3])
                     }
                     if (ntri == 1) memcpy(tq[0], tp, sizeof tq[0]);
 #undef EV
-                    float fp[3];
-                    if (m->features && feature_point(m, i0, cx2, cy2, cz2, tv, tp, tn, ntp, fp)) {
-                        uint32_t c;
-                        crisp_status s = m->sink->vertex(m->sink->ctx, fp);
+                    if (m->features) {
+                        int done = 0;
+                        crisp_status s = feature_fan(m, bl.in, i0, (int[3]){cx2, cy2, cz2}, tv, ntp,
+                                                     poly, ekey, ecorner, tp, tn, &done);
                         if (s) return s;
-                        c = (uint32_t)m->st->vertices++;
-                        m->st->feature_points++;
-                        for (int q = 0; q < ntp; q++) {
-                            uint32_t ft[3] = {c, poly[q], poly[(q + 1) % ntp]};
-                            float fq[3][3];
-                            memcpy(fq[0], fp, sizeof fp);
-                            memcpy(fq[1], tp[q], sizeof fp);
-                            memcpy(fq[2], tp[(q + 1) % ntp], sizeof fp);
-                            s = m->sink->triangle(m->sink->ctx, ft, (const float(*)[3])fq);
-                            if (s) return s;
-                            m->st->triangles++;
-                        }
-                        continue;
+                        if (done) continue;
                     }
                     for (int q = 0; q < ntri; q++) {
                         crisp_status s =
@@ -626,6 +959,10 @@ static crisp_status walk(mesher *m, frep_span t, const int i0[3], int size, int 
     int c = size / 2;
     for (int q = 0; q < 8; q++) {
         int ci[3] = {i0[0] + (q & 1) * c, i0[1] + ((q >> 1) & 1) * c, i0[2] + (q >> 2) * c};
+        /* a cell of a split job: only the nodes over its blocks */
+        if (ci[0] >= m->cell_hi[0] || ci[0] + c <= m->cell_lo[0] || ci[1] >= m->cell_hi[1] ||
+            ci[1] + c <= m->cell_lo[1] || ci[2] >= m->cell_hi[2] || ci[2] + c <= m->cell_lo[2])
+            continue;
         crisp_status s = walk(m, ct, ci, c, depth + 1);
         if (s) return s;
     }
@@ -684,11 +1021,41 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     m.n = B;
     while (m.n < need)
         m.n *= 2, levels++;
+    for (int a = 0; a < 3; a++)
+        m.cell_lo[a] = 0, m.cell_hi[a] = m.n;
+    if (desc->split_cell[1] > 1) {
+        /* cell I of 8^k: along each axis the grid's cubes [0, need) in 2^k runs of whole blocks;
+         * I's base-8 digits (most significant first) give one bit per axis per halving */
+        long n8 = 1;
+        int k = 0;
+        while (n8 < desc->split_cell[1])
+            n8 *= 8, k++;
+        int parts = 1 << k, ix[3] = {0, 0, 0};
+        if (n8 != desc->split_cell[1] || desc->split_cell[0] < 0 ||
+            desc->split_cell[0] >= desc->split_cell[1] || need < B * parts)
+            return crisp_error(CRISP_ERR_INVALID_ARG,
+                               "crisp_frep_mesh: cell %d of %d: expected a power of 8 cells, of "
+                               "at least %d grid cubes a side (the grid has %d)",
+                               desc->split_cell[0], desc->split_cell[1], B, need);
+        for (int d = 0; d < k; d++) {
+            int o = (desc->split_cell[0] >> (3 * (k - 1 - d))) & 7;
+            for (int a = 0; a < 3; a++)
+                ix[a] = 2 * ix[a] + ((o >> a) & 1);
+        }
+        for (int a = 0; a < 3; a++) {
+            int na = m.lim[a] + 1;
+            m.cell_lo[a] = ix[a] ? B * (int)floor((double)ix[a] * na / (B * parts) + 0.5) : 0;
+            m.cell_hi[a] = ix[a] + 1 < parts
+                               ? B * (int)floor((double)(ix[a] + 1) * na / (B * parts) + 0.5)
+                               : m.n;
+        }
+    }
     crisp_status s = crisp__frep_octree_init(&m.o, t, levels + 1);
     if (s) return s;
     m.regs = crisp_malloc_array((size_t)t->registers * FREP_LANES, sizeof *m.regs);
     m.gregs = crisp_malloc_array((size_t)t->registers * 4 * FREP_LANES, sizeof *m.gregs);
-    m.features = !desc->no_features;
+    m.features = !desc->no_features && m.n <= (1 << 18); /* face keys fit in 63 bits */
+    m.no_tips = desc->no_tips;
     if (!m.regs || !m.gregs) {
         s = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_frep_mesh: out of memory");
         goto done;
@@ -700,7 +1067,7 @@ crisp_status crisp_frep_mesh(const crisp_frep_tape *t, const crisp_frep_mesh_des
     stats->cell = h;
     for (int a = 0; a < 3; a++)
         stats->region[2 * a] = r[2 * a], stats->region[2 * a + 1] = r[2 * a + 1];
-    stats->peak_bytes += m.tcap * sizeof *m.table;
+    stats->peak_bytes += m.table_peak;
 done:
     crisp__frep_octree_free(&m.o);
     crisp_free(m.regs);

@@ -126,6 +126,20 @@ crisp_status crisp_frep_renderer_create(const crisp_frep_tape *tape,
                 goto fail;
             }
     int W = desc->width, H = desc->height, D = desc->depth;
+    /* a window of the image (issue 15): its pixels sample their whole-image coordinates */
+    const int *win = desc->window;
+    int wx = 0, wy = 0, WF = W, HF = H;
+    if (win[0] || win[1] || win[2] || win[3]) {
+        if (win[0] < 0 || win[1] < 0 || win[2] < 1 || win[3] < 1 || win[0] > W - win[2] ||
+            win[1] > H - win[3]) {
+            s = crisp_error(CRISP_ERR_INVALID_ARG,
+                            "crisp_frep_renderer_create: window %dx%d at (%d, %d) is not inside "
+                            "the %dx%d image",
+                            win[2], win[3], win[0], win[1], W, H);
+            goto fail;
+        }
+        wx = win[0], wy = win[1], W = win[2], H = win[3];
+    }
     size_t npix = (size_t)W * (size_t)H;
     r->img.width = W;
     r->img.height = H;
@@ -144,9 +158,9 @@ crisp_status crisp_frep_renderer_create(const crisp_frep_tape *tape,
         (D > 0 && (!r->img.heights || !r->img.z || !r->img.normal || !r->deferred)))
         goto oom;
     for (int i = 0; i < W; i++)
-        r->xs[i] = (float)(g[0] + (i + 0.5) * (g[1] - g[0]) / W);
+        r->xs[i] = (float)(g[0] + (wx + i + 0.5) * (g[1] - g[0]) / WF);
     for (int j = 0; j < H; j++)
-        r->ys[j] = (float)(g[3] - (j + 0.5) * (g[3] - g[2]) / H);
+        r->ys[j] = (float)(g[3] - (wy + j + 0.5) * (g[3] - g[2]) / HF);
     r->zs[0] = (float)(0.5 * (g[4] + g[5]));
     for (int k = 0; k < D; k++)
         r->zs[k] = (float)(g[4] + (k + 0.5) * (g[5] - g[4]) / D);

@@ -136,7 +136,6 @@ static crisp_status parse_camera(parser *p, crisp_scene_file *s)
     const token *t = p->tok;
     if (s->has_camera) return fail(p, t[0].col, "expected at most one 'camera' line");
     s->has_camera = 1;
-    s->up[0] = 0, s->up[1] = 1, s->up[2] = 0;
     s->fov_deg = 30;
     int k = 1, have_eye = 0, have_up = 0;
     crisp_status st;
@@ -162,7 +161,7 @@ static crisp_status parse_camera(parser *p, crisp_scene_file *s)
             return fail(p, w->col, "expected eye, target, up or fov");
         }
     }
-    (void)have_up;
+    s->has_up = have_up;
     if (!have_eye) return fail(p, t[0].col, "expected 'eye x y z' on the camera line");
     if (s->has_target && s->eye[0] == s->target[0] && s->eye[1] == s->target[1] &&
         s->eye[2] == s->target[2])

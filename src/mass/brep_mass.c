@@ -17,7 +17,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define NQ 15 /* area, vector area (3), V, Mx My Mz, Sxx Syy Szz, Sxy Syz Sxz */
+#define NQ                                                                                         \
+    CRISP_MASS_SUMS /* area, vector area (3), V, Mx My Mz, Sxx Syy Szz, Sxy Syz Sxz, Vx Vy         \
+                     */
 #define MAXG 24
 #define MAX_DEPTH 18
 
@@ -77,7 +79,7 @@ static void integrand(ctx *c, double u, double v, double *q)
     q[5] = x * x * n[0] / 2, q[6] = y * y * n[1] / 2, q[7] = z * z * n[2] / 2;
     q[8] = x * x * x * n[0] / 3, q[9] = y * y * y * n[1] / 3, q[10] = z * z * z * n[2] / 3;
     q[11] = x * x * y * n[0] / 2, q[12] = y * y * z * n[1] / 2, q[13] = z * z * x * n[2] / 2;
-    q[14] = 0;
+    q[14] = x * n[0], q[15] = y * n[1]; /* the volume by x and by y alone (closure test) */
 }
 
 /* G(u, v) with the rules gi (into G) and gi2 (into G2) */
@@ -191,12 +193,18 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
     if (!(L > 0) || !isfinite(L))
         return crisp_error(CRISP_ERR_NUMERIC,
                            "crisp_mass_model: the model's box is empty or not finite");
-    static const int power[NQ] = {2, 2, 2, 2, 3, 4, 4, 4, 5, 5, 5, 5, 5, 5, 1};
+    static const int power[NQ] = {2, 2, 2, 2, 3, 4, 4, 4, 5, 5, 5, 5, 5, 5, 3, 3};
     for (int j = 0; j < NQ; j++)
         c.scale[j] = pow(L, power[j]);
     double T[NQ] = {0}, T2[NQ] = {0};
     crisp_status s = CRISP_OK;
-    for (int fi = 0; fi < m->face_count; fi++) {
+    int f0 = desc ? desc->face_begin : 0, f1 = desc ? desc->face_end : 0;
+    if (!f0 && !f1) f1 = m->face_count;
+    if (f0 < 0 || f1 > m->face_count || f0 >= f1)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_mass_model: faces [%d, %d) of a model of %d faces", f0, f1,
+                           m->face_count);
+    for (int fi = f0; fi < f1; fi++) {
         const crisp_face *f = &m->faces[fi];
         const crisp_surface *S = f->surface;
         double dom[4];
@@ -249,32 +257,56 @@ crisp_status crisp_mass_model(const crisp_model *m, const crisp_mass_desc *desc,
         crisp_free(ku);
         if (s) return s;
     }
+    for (int j = 0; j < NQ; j++) {
+        dest->sums[j] = T[j];
+        dest->sums_err[j] = c.err_outer[j] + fabs(T[j] - T2[j]);
+    }
+    memcpy(dest->ref, c.ref, sizeof dest->ref);
+    dest->size = L;
+    crisp_mass_props_finish(dest);
     dest->evaluations = c.evals;
-    dest->area = T[0];
+    return CRISP_OK;
+}
+
+void crisp_mass_props_finish(crisp_mass_props *p)
+{
+    const double *T = p->sums, *err = p->sums_err, L = p->size;
+    p->area = T[0];
     for (int a = 0; a < 3; a++)
-        dest->vector_area[a] = T[1 + a];
-    double err[NQ];
-    for (int j = 0; j < NQ; j++)
-        err[j] = c.err_outer[j] + fabs(T[j] - T2[j]);
-    dest->area_err = err[0];
+        p->vector_area[a] = T[1 + a];
+    p->area_err = err[0];
     double va = sqrt(T[1] * T[1] + T[2] * T[2] + T[3] * T[3]);
-    dest->closed = va <= 1e-7 * T[0];
-    if (!dest->closed) return CRISP_OK;
+    /* Closed: the vector area vanishes (the integral of n), and so does the traceless part of
+     * the integral of x_i n_i: by the divergence theorem each of the integrals of x n_x, y n_y
+     * and z n_z over a closed, outward shell is its volume. A tube without its ends has no vector
+     * area but misses the volume along its axis. (A closed shell turned inside out stays closed,
+     * with a negative volume.) */
+    p->axis_volume[0] = T[14], p->axis_volume[1] = T[15];
+    p->axis_volume[2] = 3 * T[4] - T[14] - T[15];
+    double spread = 0;
+    for (int a = 0; a < 3; a++)
+        spread = fmax(spread, fabs(p->axis_volume[a] - T[4]));
+    p->closed = va <= 1e-7 * T[0] && spread <= 1e-7 * T[0] * L;
+    p->volume = p->volume_err = p->inertia_err = 0;
+    memset(p->centroid, 0, sizeof p->centroid);
+    memset(p->inertia, 0, sizeof p->inertia);
+    if (!p->closed) return;
     double V = T[4];
-    dest->volume = V;
-    dest->volume_err = err[4];
+    p->volume = V;
+    /* the quadrature's error, and the shell's closure gap (trims that do not quite meet make the
+     * axis volumes differ: the volume is no better known than that) */
+    p->volume_err = err[4] + spread;
     double M[3] = {T[5], T[6], T[7]};
     for (int a = 0; a < 3; a++)
-        dest->centroid[a] = c.ref[a] + M[a] / V;
-    dest->inertia[0] = T[9] + T[10] - (M[1] * M[1] + M[2] * M[2]) / V;
-    dest->inertia[1] = T[8] + T[10] - (M[0] * M[0] + M[2] * M[2]) / V;
-    dest->inertia[2] = T[8] + T[9] - (M[0] * M[0] + M[1] * M[1]) / V;
-    dest->inertia[3] = -(T[11] - M[0] * M[1] / V);
-    dest->inertia[4] = -(T[12] - M[1] * M[2] / V);
-    dest->inertia[5] = -(T[13] - M[0] * M[2] / V);
+        p->centroid[a] = p->ref[a] + M[a] / V;
+    p->inertia[0] = T[9] + T[10] - (M[1] * M[1] + M[2] * M[2]) / V;
+    p->inertia[1] = T[8] + T[10] - (M[0] * M[0] + M[2] * M[2]) / V;
+    p->inertia[2] = T[8] + T[9] - (M[0] * M[0] + M[1] * M[1]) / V;
+    p->inertia[3] = -(T[11] - M[0] * M[1] / V);
+    p->inertia[4] = -(T[12] - M[1] * M[2] / V);
+    p->inertia[5] = -(T[13] - M[0] * M[2] / V);
     double ie = 0;
     for (int j = 8; j < 14; j++)
         ie = fmax(ie, err[j]);
-    dest->inertia_err = 2 * ie;
-    return CRISP_OK;
+    p->inertia_err = 2 * ie;
 }

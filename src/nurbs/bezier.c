@@ -164,19 +164,48 @@ void crisp_bezier_patch_eval(const crisp_bezier_patch *p, double s, double t, do
         dest[d] = h[d] / h[3];
 }
 
-void crisp_bezier_patch_derivs(const crisp_bezier_patch *p, double s, double t, double *point,
-                               double *d_s, double *d_t)
+/* homogeneous_derivs(cpw, n, 4, t, 1, h) for 4 components and the first derivative, the same
+ * operations in the same order (so the same values bit for bit), with the component count fixed
+ * so that the compiler can unroll and vectorise it: the hot path of tessellation. */
+static void homogeneous_derivs1_4(const double *cpw, int n, double t, double *h)
 {
-    double val[(CRISP_MAX_DEGREE + 1) * 4], dsv[(CRISP_MAX_DEGREE + 1) * 4];
-    double h[2 * 4];
-    const int nu = p->du + 1;
-    for (int j = 0; j <= p->dv; j++) {
-        homogeneous_derivs(p->cpw + (size_t)j * nu * 4, p->du, 4, s, 1, h);
-        memcpy(val + j * 4, h, 4 * sizeof *val);
-        memcpy(dsv + j * 4, h + 4, 4 * sizeof *dsv);
+    if (n == 0) {
+        for (int c = 0; c < 4; c++)
+            h[c] = cpw[c], h[4 + c] = 0.0;
+        return;
     }
+    double q[(CRISP_MAX_DEGREE + 1) * 4];
+    const double s = 1.0 - t;
+    memcpy(q, cpw, (size_t)(n + 1) * 4 * sizeof *q);
+    for (int r = 1; r <= n - 1; r++)
+        for (int i = 0; i <= n - r; i++)
+            for (int c = 0; c < 4; c++)
+                q[i * 4 + c] = s * q[i * 4 + c] + t * q[(i + 1) * 4 + c];
+    const double f = (double)n;
+    for (int c = 0; c < 4; c++) {
+        h[c] = s * q[c] + t * q[4 + c];
+        h[4 + c] = f * (q[4 + c] - q[c]);
+    }
+}
+
+void crisp__bezier_patch_rows_s(const crisp_bezier_patch *p, double s, double *rows)
+{
+    const int nu = p->du + 1;
+    double h[2 * 4];
+    for (int j = 0; j <= p->dv; j++) {
+        homogeneous_derivs1_4(p->cpw + (size_t)j * nu * 4, p->du, s, h);
+        memcpy(rows + j * 4, h, 4 * sizeof *rows);
+        memcpy(rows + (p->dv + 1 + j) * 4, h + 4, 4 * sizeof *rows);
+    }
+}
+
+void crisp__bezier_patch_derivs_rows(const crisp_bezier_patch *p, const double *rows, double t,
+                                     double *point, double *d_s, double *d_t)
+{
+    double dsv[(CRISP_MAX_DEGREE + 1) * 4];
+    memcpy(dsv, rows + (p->dv + 1) * 4, (size_t)(p->dv + 1) * 4 * sizeof *dsv);
     double a[2 * 4], as[4];
-    homogeneous_derivs(val, p->dv, 4, t, 1, a); /* a: A, A_t */
+    homogeneous_derivs1_4(rows, p->dv, t, a); /* a: A, A_t */
     decasteljau(dsv, p->dv, 4, t);
     memcpy(as, dsv, sizeof as);
     double w = a[3], x[3];
@@ -187,6 +216,14 @@ void crisp_bezier_patch_derivs(const crisp_bezier_patch *p, double s, double t, 
         if (d_s) d_s[d] = (as[d] - as[3] * x[d]) / w;
         if (d_t) d_t[d] = (a[4 + d] - a[7] * x[d]) / w;
     }
+}
+
+void crisp_bezier_patch_derivs(const crisp_bezier_patch *p, double s, double t, double *point,
+                               double *d_s, double *d_t)
+{
+    double rows[2 * (CRISP_MAX_DEGREE + 1) * 4];
+    crisp__bezier_patch_rows_s(p, s, rows);
+    crisp__bezier_patch_derivs_rows(p, rows, t, point, d_s, d_t);
 }
 
 void crisp_bezier_patch_split_u(const crisp_bezier_patch *p, double s, crisp_bezier_patch *lo,

@@ -29,6 +29,13 @@ void crisp__basis_funs(const double *knots, int degree, int k, double t, double 
  * are zero. */
 void crisp__basis_ders(const double *knots, int degree, int k, double t, int nd, double *dest);
 
+/* crisp_bezier_patch_derivs in two halves, for many points that share s: rows_s evaluates the
+ * patch's rows of control points at s (rows: 2 * (dv + 1) * 4 doubles), derivs_rows finishes
+ * at t. Together they give crisp_bezier_patch_derivs(p, s, t, ...) bit for bit. */
+void crisp__bezier_patch_rows_s(const crisp_bezier_patch *p, double s, double *rows);
+void crisp__bezier_patch_derivs_rows(const crisp_bezier_patch *p, const double *rows, double t,
+                                     double *point, double *d_s, double *d_t);
+
 /* Number of non-empty knot spans inside the domain: the Bézier pieces of the spline. */
 int crisp__count_spans(const double *knots, int degree, int count);
 /* Surface spans that Bézier extraction keeps (non-empty and not negligibly narrow). */

@@ -8,8 +8,20 @@
 
 #include "crisp/plan.h"
 #include "crisp/tess.h"
+#include "nurbs/nurbs_internal.h"
 #include "raster.h"
 #include "render_internal.h"
+
+#define TESS_CACHE_BITS 7
+#define TESS_ROW_DOUBLES (2 * (CRISP_MAX_DEGREE + 1) * 4)
+
+/* Per worker: a patch's rows evaluated at a few s values (crisp__bezier_patch_rows_s), valid
+ * for one leaf (generation). */
+typedef struct tess_cache {
+    uint64_t generation;
+    uint64_t gen[1 << TESS_CACHE_BITS], key[1 << TESS_CACHE_BITS];
+    double rows[(1 << TESS_CACHE_BITS) * TESS_ROW_DOUBLES];
+} tess_cache;
 
 struct crisp_renderer {
     crisp_render_desc desc;
@@ -33,6 +45,14 @@ struct crisp_renderer {
     size_t untested_cap;
     uint8_t *leaf_skip; /* per plan leaf: its screen hull holds no sample, nothing to draw */
     size_t leaf_skip_cap;
+    /* Drawing some faces over an image of the others (crisp_render_cpu_plan_faces): */
+    crisp_raster_target over; /* its own target, empty outside the last region */
+    int over_rect[4];         /* x0, y0, x1, y1 of the region loaded last (empty: x0 >= x1) */
+    double (*hull)[4];        /* per plan leaf: its screen box (lo x, lo y, hi x, hi y) */
+    size_t hull_cap;
+    uint32_t *ribbon_keep; /* a window's frame: the ribbon quads that can reach the window */
+    size_t ribbon_keep_cap;
+    tess_cache *cache; /* per worker (tessellate) */
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -57,7 +77,9 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
     if (!st) {
         r->workers = crisp_pool_threads(r->pool);
         r->st = calloc((size_t)r->workers, sizeof *r->st);
-        if (!r->st) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
+        r->cache = calloc((size_t)r->workers, sizeof *r->cache);
+        if (!r->st || !r->cache)
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
         for (int w = 0; !st && w < r->workers; w++)
             if (!(r->st[w] = crisp_malloc_array(MAX_LEAF_VERTS, 2 * sizeof(double))))
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
@@ -77,10 +99,13 @@ void crisp_renderer_destroy(crisp_renderer *r)
         for (int w = 0; w < r->workers; w++)
             free(r->st[w]);
     free(r->st);
+    free(r->cache);
     crisp_planner_destroy(r->planner);
     crisp_pool_destroy(r->pool);
     crisp__raster_destroy(r->raster);
     crisp__raster_target_free(&r->target);
+    crisp__raster_target_free(&r->over);
+    free(r->hull);
     free(r->leaf_vbase);
     free(r->leaf_tbase);
     free(r->verts);
@@ -88,6 +113,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->slack);
     free(r->untested);
     free(r->leaf_skip);
+    free(r->ribbon_keep);
     free(r);
 }
 
@@ -168,10 +194,24 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
         }
         double scale = ldexp(1.0, -(int)L->depth);
         int reversed = (plan->faces[L->face].flags & CRISP_PLAN_FACE_REVERSED) != 0;
+        /* Vertices that share s (a column of the inner grid, a side of the boundary) share the
+         * first half of the evaluation: the patch's rows at s, kept per leaf in a small table
+         * keyed by the generator's local s (the same s: the same rows, the same values). */
+        tess_cache *tc = &r->cache[worker];
+        tc->generation++;
         for (size_t k = 0; k < nv; k++) {
             double s = (L->ix + st[2 * k]) * scale, t = (L->iy + st[2 * k + 1]) * scale;
             double P[3], Ps[3], Pt[3], n[3];
-            crisp_bezier_patch_derivs(&sp->bez, s, t, P, Ps, Pt);
+            uint64_t bits;
+            memcpy(&bits, &st[2 * k], sizeof bits);
+            size_t slot = (size_t)((bits * 0x9E3779B97F4A7C15ull) >> (64 - TESS_CACHE_BITS));
+            double *rows = tc->rows + slot * TESS_ROW_DOUBLES;
+            if (tc->gen[slot] != tc->generation || tc->key[slot] != bits) {
+                crisp__bezier_patch_rows_s(&sp->bez, s, rows);
+                tc->gen[slot] = tc->generation;
+                tc->key[slot] = bits;
+            }
+            crisp__bezier_patch_derivs_rows(&sp->bez, rows, t, P, Ps, Pt);
             crisp_raster_vertex *v = &r->verts[vbase + k];
             crisp_mat4_mulp(*m, P, v->clip);
             v->attr[0] = sp->bez.u0 + s * (sp->bez.u1 - sp->bez.u0);
@@ -190,22 +230,26 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
  * sub-patch's control points (their vertices are surface points; W > 0 over the hull), and
  * snapping moves them by at most 1/512 px; when that box, so widened, holds no sample position
  * of the image, the leaf draws nothing and is not tessellated. The image is unchanged: far away,
- * where many patches share a pixel, most leaves fall between the samples. */
+ * where many patches share a pixel, most leaves fall between the samples. The same pass counts
+ * each drawn leaf's vertices and triangles (in parallel; the caller turns them into offsets). */
 typedef struct skip_ctx {
     crisp_renderer *r;
     const crisp_scene *sc;
     double off[16][2];
     int samples;
+    const uint8_t *only; /* per face: draw it (NULL: every face) */
+    double (*hull)[4];   /* NULL, or receives each drawn leaf's screen box */
+    int win[4];          /* the pixels drawn: x0, y0, width, height */
 } skip_ctx;
 
-static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2], int width,
-                        int height)
+static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2])
 {
+    const int *w = c->win;
     for (int s = 0; s < c->samples; s++) {
-        double i0 = fmax(ceil(lo[0] - c->off[s][0]), 0),
-               i1 = fmin(floor(hi[0] - c->off[s][0]), width - 1);
-        double j0 = fmax(ceil(lo[1] - c->off[s][1]), 0),
-               j1 = fmin(floor(hi[1] - c->off[s][1]), height - 1);
+        double i0 = fmax(ceil(lo[0] - c->off[s][0]), w[0]),
+               i1 = fmin(floor(hi[0] - c->off[s][0]), w[0] + w[2] - 1);
+        double j0 = fmax(ceil(lo[1] - c->off[s][1]), w[1]),
+               j1 = fmin(floor(hi[1] - c->off[s][1]), w[1] + w[3] - 1);
         if (i0 <= i1 && j0 <= j1) return 1;
     }
     return 0;
@@ -220,6 +264,11 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
     crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
     for (size_t j = begin; j < end; j++) {
         const crisp_plan_leaf *L = &plan->leaves[j];
+        if (c->only && !c->only[L->face]) {
+            r->leaf_skip[j] = 1;
+            r->leaf_vbase[j] = r->leaf_tbase[j] = 0; /* no vertices, no triangles */
+            continue;
+        }
         const crisp_bezier_patch *bez = &c->sc->patches[L->patch].bez;
         crisp_bezier_patch sub = *bez;
         if (L->depth) {
@@ -247,7 +296,19 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
         /* Widen by the snapping (1/512 px) and rounding, generously. */
         double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
         lo[0] -= pad, lo[1] -= pad, hi[0] += pad, hi[1] += pad;
-        r->leaf_skip[j] = front && !holds_sample(c, lo, hi, plan->width, plan->height);
+        r->leaf_skip[j] = front && !holds_sample(c, lo, hi);
+        if (c->hull) {
+            double *b = c->hull[j];
+            b[0] = front ? lo[0] : -INFINITY, b[1] = front ? lo[1] : -INFINITY;
+            b[2] = front ? hi[0] : INFINITY, b[3] = front ? hi[1] : INFINITY;
+        }
+        /* The leaf's vertex and triangle counts (offsets after the prefix sum; UINT32_MAX:
+         * levels refused, the caller reports it). */
+        crisp_tess_levels lv = leaf_levels(L);
+        size_t v = 0, t = 0;
+        if (!r->leaf_skip[j] && crisp_tess_mesh_counts(&lv, &v, &t)) v = t = UINT32_MAX;
+        r->leaf_vbase[j] = (uint32_t)v;
+        r->leaf_tbase[j] = (uint32_t)t;
     }
 }
 
@@ -260,11 +321,92 @@ static int trim_test(void *ctx, uint32_t face, double u, double v)
     return crisp_plan_trim_test(plan, face, u, v);
 }
 
+/* Crossings of table row r strictly left of u (crisp_plan_trim_test's count). */
+static uint32_t crossings_left(const crisp_frame_plan *plan, uint32_t r, double u)
+{
+    uint32_t lo = plan->row_offset[r], hi = plan->row_offset[r + 1], first = lo;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (plan->crossings[mid] < u)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo - first;
+}
+
+/* crisp_plan_trim_test's strip and row of v (v in the face's range), as it computes them. */
+static uint32_t strip_of(const crisp_plan_face *f, double v)
+{
+    double fi = (v - f->v0) * f->strip_scale;
+    return fi < (double)f->strip_count ? (uint32_t)fi : f->strip_count - 1;
+}
+
+static uint32_t row_of(const crisp_plan_strip *s, double v)
+{
+    double fj = (v - s->a) * s->row_scale;
+    return fj > 0.0 ? (fj < (double)s->row_count ? (uint32_t)fj : s->row_count - 1) : 0;
+}
+
+#define BOX_MAX_ROWS 32 /* a box over more table rows is left to the per-fragment test */
+
+/* The trim test for a box of (u, v) (the rasterizer's box test): 1 when crisp_plan_trim_test
+ * keeps every (u, v) of [lo, hi], 0 when it discards every one, -1 otherwise. Exact: every
+ * step of the lookup is monotone in v (a difference and a product, rounded, then floor and
+ * clamps), so the strips and rows the box's v can reach lie between those of lo[1] and hi[1]
+ * (each strip's rows taken with its own parameters); in one row the count of crossings left of
+ * u is monotone in u, so equal counts at lo[0] and hi[0] hold for every u between. */
+int crisp__plan_trim_box(const crisp_frame_plan *plan, uint32_t face, const double lo[2],
+                         const double hi[2])
+{
+    if (face & CRISP_RASTER_FACE_FLAG) return 1; /* a ribbon: drawn where it lands */
+    face &= ~CRISP_RASTER_FACE_NO_TEST;
+    if (face >= plan->face_count) return -1;
+    const crisp_plan_face *f = &plan->faces[face];
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) return -1; /* NaN or empty */
+    if (hi[1] < f->v0 || lo[1] > f->v1) return 0;       /* every v outside the table */
+    if (!(lo[1] >= f->v0 && hi[1] <= f->v1)) return -1;
+    if (f->flags & CRISP_PLAN_FACE_ALL_INSIDE) return 1;
+    if (!f->strip_count) return 0;
+    uint32_t i0 = strip_of(f, lo[1]), i1 = strip_of(f, hi[1]);
+    if (i1 - i0 >= BOX_MAX_ROWS) return -1;
+    int result = -2, rows = 0; /* -2: nothing seen yet */
+    for (uint32_t i = i0; i <= i1; i++) {
+        const crisp_plan_strip *s = &plan->strips[f->first_strip + i];
+        int here;
+        if (!s->row_count) {
+            here = 0;
+            if (result == -2) result = here;
+            if (result != here) return -1;
+            continue;
+        }
+        uint32_t j0 = row_of(s, lo[1]), j1 = row_of(s, hi[1]);
+        rows += (int)(j1 - j0 + 1);
+        if (rows > BOX_MAX_ROWS) return -1;
+        for (uint32_t j = j0; j <= j1; j++) {
+            uint32_t r = s->first_row + j;
+            uint32_t a = crossings_left(plan, r, lo[0]), b = crossings_left(plan, r, hi[0]);
+            if (a != b) return -1;
+            here = (int)(a & 1u);
+            if (result == -2) result = here;
+            if (result != here) return -1;
+        }
+    }
+    return result == -2 ? -1 : result;
+}
+
+static int trim_box(void *ctx, uint32_t face, const double lo[2], const double hi[2])
+{
+    return crisp__plan_trim_box(ctx, face, lo, hi);
+}
+
 /* The plan's ribbon quads as raster vertices and triangles (0 1 2, 0 2 3), after the surfaces'. */
 typedef struct ribbon_ctx {
     crisp_renderer *r;
     const crisp_frame_plan *plan;
     size_t vbase, tbase;
+    size_t first;         /* the plan's quad copied to the first place */
+    const uint32_t *keep; /* the plan's quads drawn (NULL: all) */
 } ribbon_ctx;
 
 static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
@@ -272,7 +414,8 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
     (void)worker;
     ribbon_ctx *c = vctx;
     for (size_t q = begin; q < end; q++) {
-        const crisp_plan_ribbon_vertex *src = c->plan->ribbon_vertices + 4 * q;
+        size_t pq = c->keep ? c->keep[q] : c->first + q;
+        const crisp_plan_ribbon_vertex *src = c->plan->ribbon_vertices + 4 * pq;
         crisp_raster_vertex *v = c->r->verts + c->vbase + 4 * q;
         for (int k = 0; k < 4; k++) {
             memcpy(v[k].clip, src[k].clip, sizeof v[k].clip);
@@ -305,44 +448,85 @@ typedef struct resolve_ctx {
     const crisp_camera *cam;
     crisp_raster_view view; /* the camera's view directions (raster_view) */
     crisp_image *img;
+    const crisp_raster_target *target; /* the samples resolved */
+    /* Rows y0 + [begin, end) and columns [x0, x1) are resolved; with base, a pixel whose sample
+     * is not of a drawn face (only) takes base's values (one sample per pixel). */
+    int x0, x1, y0;
+    const uint8_t *only;
+    const crisp_image *base;
 } resolve_ctx;
 
-static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
+static void copy_pixel(const crisp_image *src, crisp_image *dst, size_t px)
 {
-    (void)worker;
-    resolve_ctx *c = vctx;
-    const crisp_raster_target *t = &c->r->target;
+    memcpy(dst->rgba + 4 * px, src->rgba + 4 * px, 4 * sizeof *dst->rgba);
+    memcpy(dst->normal + 3 * px, src->normal + 3 * px, 3 * sizeof *dst->normal);
+    memcpy(dst->uv + 2 * px, src->uv + 2 * px, 2 * sizeof *dst->uv);
+    dst->depth[px] = src->depth[px];
+    dst->face[px] = src->face[px];
+}
+
+/* Rows y0 + [begin, end), columns [x0, x1) of the image, every pixel there written (the
+ * background where no sample is covered, as crisp__image_clear leaves it, or base's pixel), so
+ * the image needs no clearing first. */
+#if defined(__GNUC__)
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE inline
+#endif
+
+/* With S the target's samples per pixel: inlined with S = 1 a constant for one-sample targets
+ * (the sample loop and the averages fold away), else with S a variable; the same code. */
+static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t end, const int S)
+{
+    const crisp_raster_target *t = c->target;
     crisp_image *img = c->img;
-    int S = t->samples;
     /* The view direction of a sample (unnormalised: shading normalises): the camera ray's
      * f + ndc_x r + ndc_y u, the basis computed once per frame (raster_view). */
     const crisp_camera *cam = c->cam;
     const double *f = c->view.f, *r = c->view.r, *u = c->view.u, kx = c->view.kx, ky = c->view.ky;
-    for (size_t j = begin; j < end; j++)
-        for (int i = 0; i < t->width; i++) {
+    double off[16][2];
+    for (int s = 0; s < S; s++)
+        crisp__raster_sample_offset(S, s, off[s]);
+    const crisp_scene_face *faces = c->sc->faces;
+    for (size_t j = begin + (size_t)c->y0; j < end + (size_t)c->y0; j++)
+        for (int i = c->x0; i < c->x1; i++) {
             size_t px = j * (size_t)t->width + (size_t)i;
+            if (c->base && (t->face[px] < 0 || !c->only[t->face[px]])) {
+                copy_pixel(c->base, img, px);
+                continue;
+            }
+            int gi = t->x0 + i, gj = t->y0 + (int)j; /* the pixel in the whole image */
             float acc[4] = {0, 0, 0, 0};
             int covered = 0, best = -1;
             double best_iw = 0;
             for (int s = 0; s < S; s++) {
                 size_t idx = px * S + s;
-                if (t->face[idx] < 0) continue;
+                int32_t fc = t->face[idx];
+                if (fc < 0) continue;
                 covered++;
                 if (t->inv_w[idx] > best_iw) best_iw = t->inv_w[idx], best = s;
-                double off[2], d[3], n[3];
-                crisp__raster_sample_offset(S, s, off);
-                double nx = (i + off[0] - 0.5 * cam->width) * kx,
-                       ny = (0.5 * cam->height - j - off[1]) * ky;
+                double d[3], n[3];
+                double nx = (gi + off[s][0] - 0.5 * cam->width) * kx,
+                       ny = (0.5 * cam->height - gj - off[s][1]) * ky;
                 for (int k = 0; k < 3; k++)
                     d[k] = f[k] + nx * r[k] + ny * u[k];
                 const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
                 n[0] = a[2], n[1] = a[3], n[2] = a[4];
                 float rgba[4];
-                crisp__shade(c->sc->faces[t->face[idx]].color, n, d, rgba);
+                crisp__shade_inline(faces[fc].color, n, d, rgba);
                 for (int k = 0; k < 3; k++)
                     acc[k] += rgba[k];
             }
-            if (!covered) continue;
+            if (!covered) {
+                for (int k = 0; k < 4; k++)
+                    img->rgba[4 * px + k] = 0;
+                img->face[px] = -1;
+                img->depth[px] = INFINITY;
+                img->uv[2 * px] = img->uv[2 * px + 1] = 0;
+                for (int k = 0; k < 3; k++)
+                    img->normal[3 * px + k] = 0;
+                continue;
+            }
             for (int k = 0; k < 3; k++)
                 img->rgba[4 * px + k] = acc[k] / (float)covered;
             img->rgba[4 * px + 3] = (float)covered / (float)S;
@@ -355,6 +539,16 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
             for (int k = 0; k < 3; k++)
                 img->normal[3 * px + k] = a[2 + k];
         }
+}
+
+static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    resolve_ctx *c = vctx;
+    if (c->target->samples == 1)
+        resolve_rows_s(c, begin, end, 1);
+    else
+        resolve_rows_s(c, begin, end, c->target->samples);
 }
 
 void crisp__renderer_mesh(const crisp_renderer *r, const crisp_raster_vertex **verts,
@@ -371,19 +565,123 @@ const crisp_raster_target *crisp__renderer_target(const crisp_renderer *r)
     return &r->target;
 }
 
-crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
-                                   const crisp_frame_plan *plan, const crisp_camera *cam,
-                                   crisp_image *img, crisp_render_stats *stats)
+/* A screen box widened by 2 px, clipped to the image: x0, y0, x1, y1 (empty: all 0). */
+static void box_rect(const double lo[2], const double hi[2], int width, int height, int dest[4])
 {
-    if (img->width != plan->width || img->height != plan->height || cam->width != plan->width ||
+    double x0 = floor(lo[0]) - 2, y0 = floor(lo[1]) - 2, x1 = ceil(hi[0]) + 3, y1 = ceil(hi[1]) + 3;
+    dest[0] = x0 > 0 ? (x0 < width ? (int)x0 : width) : 0;
+    dest[1] = y0 > 0 ? (y0 < height ? (int)y0 : height) : 0;
+    dest[2] = x1 > 0 ? (x1 < width ? (int)x1 : width) : 0;
+    dest[3] = y1 > 0 ? (y1 < height ? (int)y1 : height) : 0;
+    if (dest[0] >= dest[2] || dest[1] >= dest[3]) dest[0] = dest[2] = dest[1] = dest[3] = 0;
+}
+
+/* The region of the image that the drawn faces can reach: the union of their leaves' screen
+ * boxes (the control-point hulls find_empty_leaves took) and of their ribbon quads, widened by
+ * 2 px and clipped to the image (x0, y0, x1, y1; empty when x0 >= x1); and the ribbons' part of
+ * it (where the ribbons' depth slack is needed). */
+static void faces_region(const crisp_renderer *r, const crisp_frame_plan *plan, const uint8_t *only,
+                         int dest[4], int ribbons[4])
+{
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    double rlo[2] = {INFINITY, INFINITY}, rhi[2] = {-INFINITY, -INFINITY};
+    for (uint32_t f = 0; f < plan->face_count; f++) {
+        if (!only[f]) continue;
+        const crisp_plan_face *pf = &plan->faces[f];
+        for (uint32_t j = pf->first_leaf; j < pf->first_leaf + pf->leaf_count; j++) {
+            const double *b = r->hull[j];
+            lo[0] = fmin(lo[0], b[0]), lo[1] = fmin(lo[1], b[1]);
+            hi[0] = fmax(hi[0], b[2]), hi[1] = fmax(hi[1], b[3]);
+        }
+        for (uint32_t q = pf->first_ribbon; q < pf->first_ribbon + pf->ribbon_count; q++) {
+            const crisp_plan_ribbon_vertex *v = plan->ribbon_vertices + 4 * (size_t)q;
+            if (v[0].clip[3] < 0 || v[1].clip[3] < 0 || v[2].clip[3] < 0 || v[3].clip[3] < 0)
+                continue; /* a quad not drawn */
+            for (int k = 0; k < 4; k++) {
+                double x = (v[k].clip[0] / v[k].clip[3] + 1) * 0.5 * plan->width,
+                       y = (1 - v[k].clip[1] / v[k].clip[3]) * 0.5 * plan->height;
+                if (!(v[k].clip[3] > 0) || !isfinite(x) || !isfinite(y)) {
+                    x = -INFINITY, y = -INFINITY; /* through the eye plane: anywhere */
+                    rhi[0] = rhi[1] = INFINITY;
+                }
+                rlo[0] = fmin(rlo[0], x), rlo[1] = fmin(rlo[1], y);
+                rhi[0] = fmax(rhi[0], x), rhi[1] = fmax(rhi[1], y);
+            }
+        }
+    }
+    int leaves[4];
+    box_rect(lo, hi, plan->width, plan->height, leaves);
+    box_rect(rlo, rhi, plan->width, plan->height, ribbons);
+    if (leaves[0] >= leaves[2]) {
+        memcpy(dest, ribbons, 4 * sizeof *dest);
+    } else if (ribbons[0] >= ribbons[2]) {
+        memcpy(dest, leaves, 4 * sizeof *dest);
+    } else {
+        for (int k = 0; k < 2; k++) {
+            dest[k] = leaves[k] < ribbons[k] ? leaves[k] : ribbons[k];
+            dest[k + 2] = leaves[k + 2] > ribbons[k + 2] ? leaves[k + 2] : ribbons[k + 2];
+        }
+    }
+}
+
+/* Set the target over rectangle rc (x0, y0, x1, y1) from the image's pixels (one sample each):
+ * 1/W from the depth, (u, v) and normal as attributes, the face; or empty (base NULL). */
+static void load_rect(crisp_raster_target *t, const crisp_image *base, const int rc[4])
+{
+    for (int j = rc[1]; j < rc[3]; j++)
+        for (int i = rc[0]; i < rc[2]; i++) {
+            size_t px = (size_t)j * t->width + (size_t)i;
+            float *a = t->attr + px * CRISP_RASTER_ATTRS;
+            if (!base || base->face[px] < 0 || !(base->depth[px] > 0)) {
+                t->inv_w[px] = 0;
+                t->face[px] = -1;
+                memset(a, 0, CRISP_RASTER_ATTRS * sizeof *a);
+                continue;
+            }
+            t->inv_w[px] = 1.0 / base->depth[px];
+            t->face[px] = base->face[px];
+            a[0] = base->uv[2 * px], a[1] = base->uv[2 * px + 1];
+            memcpy(a + 2, base->normal + 3 * px, 3 * sizeof *a);
+        }
+}
+
+/* crisp_render_cpu_plan (only, base and window NULL), crisp_render_cpu_plan_faces (a subset of
+ * the faces, over a base image) and crisp__render_cpu_window (a window of the frame). */
+static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
+                              const crisp_frame_plan *plan, const crisp_camera *cam,
+                              const uint8_t *only, const crisp_image *base, const int window[4],
+                              crisp_image *img, crisp_render_stats *stats)
+{
+    int win[4] = {0, 0, plan->width, plan->height};
+    if (window) memcpy(win, window, sizeof win);
+    if (window && (only || base))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "a window of the frame is drawn with every face and no base image");
+    if (img->width != win[2] || img->height != win[3] || cam->width != plan->width ||
         cam->height != plan->height)
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "image %dx%d and camera %dx%d do not match the plan's %dx%d", img->width,
                            img->height, cam->width, cam->height, plan->width, plan->height);
+    if (win[0] < 0 || win[1] < 0 || win[2] < 1 || win[3] < 1 || win[0] + win[2] > plan->width ||
+        win[1] + win[3] > plan->height || win[0] % 8 || win[1] % 8)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "window %dx%d at (%d, %d) of the %dx%d frame: expected a window inside "
+                           "the frame at a multiple of 8",
+                           win[2], win[3], win[0], win[1], plan->width, plan->height);
     if (plan->face_count != sc->face_count)
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "the plan has %u faces, the scene %u: not the scene's plan",
                            plan->face_count, sc->face_count);
+    if (base && (base->width != plan->width || base->height != plan->height || base == img))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "base image %dx%d: expected the plan's size %dx%d and not the image "
+                           "drawn into",
+                           base->width, base->height, plan->width, plan->height);
+    if (base && r->desc.samples != 1)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "drawing over a base image needs 1 sample per pixel (the renderer has "
+                           "%d): the image holds one",
+                           r->desc.samples);
     crisp_render_stats local;
     if (!stats) stats = &local;
     crisp_status st;
@@ -399,14 +697,24 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     if ((st = crisp_grow((void **)&r->leaf_skip, &r->leaf_skip_cap, jobs ? jobs : 1,
                          sizeof *r->leaf_skip)))
         return st;
-    skip_ctx skc = {.r = r, .sc = sc, .samples = r->desc.samples};
+    if (base &&
+        (st = crisp_grow((void **)&r->hull, &r->hull_cap, jobs ? jobs : 1, sizeof *r->hull)))
+        return st;
+    skip_ctx skc = {.r = r,
+                    .sc = sc,
+                    .samples = r->desc.samples,
+                    .only = only,
+                    .hull = base ? r->hull : NULL,
+                    .win = {win[0], win[1], win[2], win[3]}};
     for (int s = 0; s < r->desc.samples; s++)
         crisp__raster_sample_offset(r->desc.samples, s, skc.off[s]);
     crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
     for (size_t j = 0; j < jobs; j++) {
-        crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
-        size_t v = 0, t = 0;
-        if (!r->leaf_skip[j] && (st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
+        size_t v = r->leaf_vbase[j], t = r->leaf_tbase[j];
+        if (v == UINT32_MAX) {
+            crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
+            if ((st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
+        }
         r->leaf_vbase[j] = (uint32_t)nv;
         r->leaf_tbase[j] = (uint32_t)nt;
         nv += v;
@@ -417,8 +725,43 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     }
     r->leaf_vbase[jobs] = (uint32_t)nv;
     r->leaf_tbase[jobs] = (uint32_t)nt;
-    /* Ribbons after the surfaces: at equal depth the surface's own fragment stays. */
+    /* Ribbons after the surfaces: at equal depth the surface's own fragment stays. A window of
+     * the frame (issue 15: tiles of a poster have a millionth of its ribbons each) keeps the
+     * quads whose screen box, widened by 2 px, meets it, in their order; the others cover no
+     * sample of it. */
     size_t surface_v = nv, surface_t = nt, quads = plan->ribbon_quad_count;
+    const uint32_t *keep = NULL;
+    if (only) {
+        quads = 0;
+        for (uint32_t f = 0; f < plan->face_count; f++)
+            if (only[f]) quads += plan->faces[f].ribbon_count;
+    } else if (window && (win[2] != plan->width || win[3] != plan->height)) {
+        if ((st = crisp_grow((void **)&r->ribbon_keep, &r->ribbon_keep_cap, quads ? quads : 1,
+                             sizeof *r->ribbon_keep)))
+            return st;
+        size_t kept = 0;
+        for (size_t q = 0; q < quads; q++) {
+            const crisp_plan_ribbon_vertex *v = plan->ribbon_vertices + 4 * q;
+            double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+            int far = 0;
+            for (int k = 0; k < 4 && !far; k++) {
+                const double *c = v[k].clip;
+                if (!(c[3] > 0) || !isfinite(c[0] + c[1] + c[3])) {
+                    far = 1; /* behind the eye: kept (clipped by the rasterizer) */
+                    break;
+                }
+                double x = (c[0] / c[3] + 1) * 0.5 * plan->width,
+                       y = (1 - c[1] / c[3]) * 0.5 * plan->height;
+                lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
+                lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+            }
+            if (far || (hi[0] >= win[0] - 2 && lo[0] <= win[0] + win[2] + 2 &&
+                        hi[1] >= win[1] - 2 && lo[1] <= win[1] + win[3] + 2))
+                r->ribbon_keep[kept++] = (uint32_t)q;
+        }
+        quads = kept;
+        keep = r->ribbon_keep;
+    }
     nv += 4 * quads;
     nt += 2 * quads;
     if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
@@ -431,15 +774,59 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     r->tri_count = surface_t;
     tess_ctx tc = {r, sc};
     crisp_pool_parallel_for(r->pool, jobs, 8, tessellate, &tc);
-    ribbon_ctx rbc = {r, plan, surface_v, surface_t};
-    crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
+    if (!only) {
+        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0, keep};
+        crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
+    } else {
+        size_t done = 0; /* the drawn faces' quads, face after face */
+        for (uint32_t f = 0; f < plan->face_count; f++) {
+            if (!only[f] || !plan->faces[f].ribbon_count) continue;
+            ribbon_ctx rbc = {
+                r,   plan, surface_v + 4 * done, surface_t + 2 * done, plan->faces[f].first_ribbon,
+                NULL};
+            crisp_pool_parallel_for(r->pool, plan->faces[f].ribbon_count, 256, copy_ribbons, &rbc);
+            done += plan->faces[f].ribbon_count;
+        }
+    }
     double t1 = crisp_time_now();
 
     crisp_raster_view view; /* for the ribbons' depth slack and the resolve's shading */
     raster_view(cam, &view);
-    if ((st = crisp__raster_target_init(&r->target, cam->width, cam->height, r->desc.samples)))
-        return st;
-    crisp__raster_target_clear(&r->target);
+    /* Over a base image: the faces' region of the renderer's own target is loaded from it (the
+     * rest of that target is kept empty, so the rasterizer's depth bounds stay valid there);
+     * otherwise the whole target starts empty. */
+    crisp_raster_target *tg = base ? &r->over : &r->target;
+    int rect[4] = {0, 0, win[2], win[3]}, rib[4] = {0, 0, 0, 0};
+    if (base) {
+        int fresh = !r->over.inv_w || r->over.width != cam->width || r->over.height != cam->height;
+        if ((st = crisp__raster_target_init(&r->over, cam->width, cam->height, 1)) ||
+            (st = crisp__raster_target_window(&r->over, 0, 0, 0, 0)))
+            return st;
+        if (fresh) {
+            crisp__raster_target_clear(&r->over);
+            memset(r->over_rect, 0, sizeof r->over_rect);
+        }
+        faces_region(r, plan, only, rect, rib);
+        if (memcmp(rect, r->over_rect, sizeof rect)) {
+            /* The last region's pixels outside this one go back to base (in img too: it holds
+             * base's pixels outside the region by contract, whichever image it is). */
+            const int *o = r->over_rect;
+            for (int j = o[1]; j < o[3]; j++)
+                for (int i = o[0]; i < o[2]; i++)
+                    if (i < rect[0] || i >= rect[2] || j < rect[1] || j >= rect[3])
+                        copy_pixel(base, img, (size_t)j * cam->width + (size_t)i);
+            load_rect(&r->over, NULL, r->over_rect);
+        }
+        load_rect(&r->over, base, rect);
+        memcpy(r->over_rect, rect, sizeof rect);
+    } else {
+        if ((st = crisp__raster_target_init(&r->target, win[2], win[3], r->desc.samples)) ||
+            (st = window ? crisp__raster_target_window(&r->target, win[0], win[1], cam->width,
+                                                       cam->height)
+                         : crisp__raster_target_window(&r->target, 0, 0, 0, 0)))
+            return st;
+        crisp__raster_target_clear_depth(&r->target, r->pool);
+    }
     crisp_raster_stats rs;
     /* Surfaces first; then the ribbons fill gaps: a ribbon sample replaces a surface sample only
      * when nearer by more than that surface's depth change over 1.5 px, so a ribbon along an
@@ -464,25 +851,37 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     } else {
         crisp__raster_set_clip(r->raster, NULL);
     }
-    st = crisp__raster_draw(r->raster, &r->target, r->pool, r->verts, nv, r->tris, surface_t,
-                            trim_test, ctx, &rs);
+    crisp__raster_set_box_test(r->raster, trim_box);
+    st = crisp__raster_draw(r->raster, tg, r->pool, r->verts, nv, r->tris, surface_t, trim_test,
+                            ctx, &rs);
     if (st) return st;
     if (nt > surface_t) {
-        size_t ns = (size_t)cam->width * cam->height * r->desc.samples;
+        size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
-        crisp__raster_depth_slack(&r->target, r->pool, 1.5, &view, r->slack);
+        /* Only where the ribbons can land (the fill pass reads nothing else). */
+        if ((st = crisp__raster_depth_slack_tris(r->raster, tg, r->pool, 1.5, &view, r->verts, nv,
+                                                 r->tris + surface_t, nt - surface_t, r->slack)))
+            return st;
         crisp_raster_stats rs2;
-        st = crisp__raster_draw_fill(r->raster, &r->target, r->pool, r->verts, nv,
-                                     r->tris + surface_t, nt - surface_t, trim_test, ctx, r->slack,
-                                     &rs2);
+        st = crisp__raster_draw_fill(r->raster, tg, r->pool, r->verts, nv, r->tris + surface_t,
+                                     nt - surface_t, trim_test, ctx, r->slack, &rs2);
         if (st) return st;
         rs.fragments_tested += rs2.fragments_tested;
         rs.fragments_discarded += rs2.fragments_discarded;
     }
     double t2 = crisp_time_now();
-    crisp__image_clear(img);
-    resolve_ctx rc = {r, sc, cam, view, img};
-    crisp_pool_parallel_for(r->pool, (size_t)cam->height, 8, resolve_rows, &rc);
+    resolve_ctx rc = {.r = r,
+                      .sc = sc,
+                      .cam = cam,
+                      .view = view,
+                      .img = img,
+                      .target = tg,
+                      .x0 = rect[0],
+                      .x1 = rect[2],
+                      .y0 = rect[1],
+                      .only = only,
+                      .base = base};
+    crisp_pool_parallel_for(r->pool, (size_t)(rect[3] - rect[1]), 8, resolve_rows, &rc);
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);
     stats->vertices = surface_v;
@@ -494,6 +893,32 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
     stats->ms_raster = 1e3 * (t2 - t1);
     stats->ms_resolve = 1e3 * (t3 - t2);
     return CRISP_OK;
+}
+
+crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
+                                   const crisp_frame_plan *plan, const crisp_camera *cam,
+                                   crisp_image *img, crisp_render_stats *stats)
+{
+    return draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats);
+}
+
+crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
+                                      const crisp_frame_plan *plan, const crisp_camera *cam,
+                                      const int window[4], crisp_image *img,
+                                      crisp_render_stats *stats)
+{
+    return draw_plan(r, sc, plan, cam, NULL, NULL, window, img, stats);
+}
+
+crisp_status crisp_render_cpu_plan_faces(crisp_renderer *r, const crisp_scene *sc,
+                                         const crisp_frame_plan *plan, const crisp_camera *cam,
+                                         const uint8_t *faces, const crisp_image *base,
+                                         crisp_image *img, crisp_render_stats *stats)
+{
+    if (base && !faces)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "drawing over a base image: say which faces to draw (faces is NULL)");
+    return draw_plan(r, sc, plan, cam, faces, base, NULL, img, stats);
 }
 
 crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,

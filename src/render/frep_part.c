@@ -75,7 +75,14 @@ typedef struct frep_ctx {
     double pix;              /* one pixel in normalised image units (footprint / depth) */
     int tiles_x;
     int per_pixel, shorten;
+    int wx, wy, ww, wh; /* the window of the camera's image that img holds (desc->window) */
 } frep_ctx;
+
+/* Index in img of pixel (i, j) of the camera's image. */
+static size_t pix(const frep_ctx *c, int i, int j)
+{
+    return (size_t)(j - c->wy) * (size_t)c->ww + (size_t)(i - c->wx);
+}
 
 static double nx_of(const frep_ctx *c, double i)
 {
@@ -146,10 +153,10 @@ static void flush_hits(const frep_ctx *c, frep_worker *w)
         w->hx[k] = w->hx[0], w->hy[k] = w->hy[0], w->hz[k] = w->hz[0];
     const float *g = crisp_frep_cell_grad(w->cell, t, w->hx, w->hy, w->hz);
     const part_view *pv = c->pv;
-    int W = c->cam->width;
+    int W = c->ww;
     for (int k = 0; k < n; k++) {
         size_t p = (size_t)w->hit_pixel[k];
-        int i = (int)(p % (size_t)W), j = (int)(p / (size_t)W);
+        int i = c->wx + (int)(p % (size_t)W), j = c->wy + (int)(p / (size_t)W);
         double nx = nx_of(c, i), ny = ny_of(c, j), z = w->hit_depth[k];
         double view[3], nrm[3] = {0, 0, 0};
         for (int a = 0; a < 3; a++)
@@ -176,7 +183,7 @@ static void flush_hits(const frep_ctx *c, frep_worker *w)
 /* Pixel (i, j)'s first inside depth is z: record it when nearer than what the pixel holds. */
 static void record_hit(const frep_ctx *c, frep_worker *w, int i, int j, double z)
 {
-    size_t p = (size_t)j * c->cam->width + i;
+    size_t p = pix(c, i, j);
     if (!(z < c->img->depth[p])) return;
     c->img->depth[p] = (float)z; /* z-culls the rest of this pixel at once */
     w->st.hits++;
@@ -194,8 +201,7 @@ static void fill_cell(const frep_ctx *c, frep_worker *w, int i0, int j0, int i1,
 {
     for (int j = j0; j < j1; j++)
         for (int i = i0; i < i1; i++)
-            if (!w->done[(j - w->j0) * TILE + (i - w->i0)] &&
-                z0 < pixel_limit(c, (size_t)j * c->cam->width + i))
+            if (!w->done[(j - w->j0) * TILE + (i - w->i0)] && z0 < pixel_limit(c, pix(c, i, j)))
                 record_hit(c, w, i, j, z0);
 }
 
@@ -276,7 +282,7 @@ static void leaf(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, int i0
     for (int j = j0; j < j1; j++)
         for (int i = i0; i < i1; i++) {
             if (w->done[(j - w->j0) * TILE + (i - w->i0)]) continue;
-            double lim = pixel_limit(c, (size_t)j * c->cam->width + i);
+            double lim = pixel_limit(c, pix(c, i, j));
             double end = lim < z1 ? lim : z1;
             if (!(end > z0)) continue;
             double n = ceil((end - z0) / h);
@@ -403,7 +409,7 @@ static void solve_cell(const frep_ctx *c, frep_worker *w, crisp_frep_subtape t, 
     for (int j = j0; j < j1; j++)
         for (int i = i0; i < i1; i++)
             if (!w->done[(j - w->j0) * TILE + (i - w->i0)]) {
-                double lim = pixel_limit(c, (size_t)j * c->cam->width + i);
+                double lim = pixel_limit(c, pix(c, i, j));
                 zmax = lim > zmax ? lim : zmax;
             }
     if (z0 >= zmax) return; /* z-culled */
@@ -444,12 +450,13 @@ static void render_tiles(void *ctx, size_t begin, size_t end, int worker)
     frep_worker *w = &c->workers[worker];
     crisp_frep_subtape full = crisp_frep_cell_full(w->cell);
     for (size_t t = begin; t < end; t++) {
-        int i0 = (int)(t % (size_t)c->tiles_x) * TILE, j0 = (int)(t / (size_t)c->tiles_x) * TILE;
+        int i0 = c->wx + (int)(t % (size_t)c->tiles_x) * TILE,
+            j0 = c->wy + (int)(t / (size_t)c->tiles_x) * TILE;
         w->i0 = i0, w->j0 = j0;
         w->nhit = 0;
         memset(w->done, 0, sizeof w->done);
-        int i1 = i0 + TILE < c->cam->width ? i0 + TILE : c->cam->width;
-        int j1 = j0 + TILE < c->cam->height ? j0 + TILE : c->cam->height;
+        int i1 = i0 + TILE < c->wx + c->ww ? i0 + TILE : c->wx + c->ww;
+        int j1 = j0 + TILE < c->wy + c->wh ? j0 + TILE : c->wy + c->wh;
         if (c->per_pixel) {
             for (int j = j0; j < j1; j++)
                 for (int i = i0; i < i1; i++)
@@ -500,15 +507,27 @@ crisp_status crisp_render_frep_parts(const crisp_frep_part *parts, size_t count,
 {
     crisp_status st = crisp_camera_check(cam);
     if (st) return st;
-    if (img->width != cam->width || img->height != cam->height)
+    int win[4] = {0, 0, cam->width, cam->height};
+    if (desc && (desc->window[2] || desc->window[3])) memcpy(win, desc->window, sizeof win);
+    if (win[0] < 0 || win[1] < 0 || win[2] < 1 || win[3] < 1 || win[0] + win[2] > cam->width ||
+        win[1] + win[3] > cam->height || win[0] % TILE || win[1] % TILE)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "window %dx%d at (%d, %d) of the %dx%d image: expected a window inside "
+                           "the image at a multiple of %d",
+                           win[2], win[3], win[0], win[1], cam->width, cam->height, TILE);
+    if (img->width != win[2] || img->height != win[3])
         return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the camera's %dx%d",
-                           img->width, img->height, cam->width, cam->height);
+                           img->width, img->height, win[2], win[3]);
     if (count == 0) return CRISP_OK;
     if (!parts) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_render_frep_parts: NULL parts");
     frep_ctx c = {.cam = cam,
                   .img = img,
                   .per_pixel = desc && desc->per_pixel,
-                  .shorten = !(desc && desc->no_shorten)};
+                  .shorten = !(desc && desc->no_shorten),
+                  .wx = win[0],
+                  .wy = win[1],
+                  .ww = win[2],
+                  .wh = win[3]};
     crisp_vec3 d;
     crisp_vec3_sub(cam->target, cam->eye, d);
     crisp_vec3_normalize(d, c.f);
@@ -519,8 +538,8 @@ crisp_status crisp_render_frep_parts(const crisp_frep_part *parts, size_t count,
     c.sx = t * cam->width / cam->height;
     c.sy = t;
     c.pix = 2.0 * t / cam->height;
-    c.tiles_x = (cam->width + TILE - 1) / TILE;
-    size_t tiles = (size_t)c.tiles_x * (size_t)((cam->height + TILE - 1) / TILE);
+    c.tiles_x = (win[2] + TILE - 1) / TILE;
+    size_t tiles = (size_t)c.tiles_x * (size_t)((win[3] + TILE - 1) / TILE);
     crisp_pool *pool = NULL;
     int threads = desc && desc->threads > 0 ? desc->threads : crisp_pool_default_threads();
     if ((st = crisp_pool_get(threads, &pool))) return st; /* kept by crisp: no threads per call */

@@ -23,6 +23,14 @@ typedef struct setup_tri {
     double q0[1 + CRISP_RASTER_ATTRS], qx[1 + CRISP_RASTER_ATTRS], qy[1 + CRISP_RASTER_ATTRS];
     int x0, y0, x1, y1; /* pixel bbox, inclusive, clamped to the image */
     uint32_t face;
+    /* The fragment test decided for a box of (u, v) holding the vertices' (u, v), slightly
+     * widened (crisp__raster_set_box_test): boxed = 1 (kept) or 0 (discarded) for a fragment
+     * whose interpolated (u, v) lies in the box; -1: undecided (each 8x8 block then tries its
+     * own smaller box); -2: no box test for this triangle; -3: not classified yet (each tile
+     * classifies it when its second fragment needs the test: the first is simply tested, and
+     * hidden triangles cost nothing). */
+    int boxed;
+    double box[4]; /* u_lo, u_hi, v_lo, v_hi */
 } setup_tri;
 
 #define BATCH ((size_t)1 << 19) /* input triangles set up and binned at a time */
@@ -42,8 +50,13 @@ struct crisp_raster {
     int no_hiz;              /* hierarchical depth rejection off (crisp__raster_set_hiz) */
     const uint8_t *untested; /* per face (crisp__raster_set_untested_faces) */
     size_t untested_count;
-    int clip_on;    /* crisp__raster_set_clip */
-    double clip[4]; /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
+    uint8_t *tile_mask; /* per tile (crisp__raster_depth_slack_tris) */
+    size_t tile_mask_cap;
+    uint32_t *bin_counts; /* per setup chunk and tile: entries (parallel binning) */
+    size_t bin_counts_cap;
+    crisp_raster_box_fn box_test; /* crisp__raster_set_box_test */
+    int clip_on;                  /* crisp__raster_set_clip */
+    double clip[4];               /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
 };
 
 void crisp__raster_set_clip(crisp_raster *r, const double k[4])
@@ -51,6 +64,11 @@ void crisp__raster_set_clip(crisp_raster *r, const double k[4])
     r->clip_on = k != NULL;
     for (int i = 0; i < 4; i++)
         r->clip[i] = k ? k[i] : 0;
+}
+
+void crisp__raster_set_box_test(crisp_raster *r, crisp_raster_box_fn fn)
+{
+    r->box_test = fn;
 }
 
 void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count)
@@ -85,6 +103,8 @@ void crisp__raster_destroy(crisp_raster *r)
     free(r->vcache);
     free(r->bin_items);
     free(r->bin_start);
+    free(r->tile_mask);
+    free(r->bin_counts);
     free(r);
 }
 
@@ -118,6 +138,34 @@ crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int he
     return CRISP_OK;
 }
 
+/* The whole image's size (the target is a window of it, or all of it). */
+static int image_w(const crisp_raster_target *t)
+{
+    return t->image_width ? t->image_width : t->width;
+}
+
+static int image_h(const crisp_raster_target *t)
+{
+    return t->image_height ? t->image_height : t->height;
+}
+
+crisp_status crisp__raster_target_window(crisp_raster_target *t, int x0, int y0, int image_width,
+                                         int image_height)
+{
+    if (!image_width && !image_height && !x0 && !y0) {
+        t->x0 = t->y0 = t->image_width = t->image_height = 0;
+        return CRISP_OK;
+    }
+    if (x0 < 0 || y0 < 0 || x0 % 8 || y0 % 8 || x0 + t->width > image_width ||
+        y0 + t->height > image_height || image_width > 65536 || image_height > 65536)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "window %dx%d at (%d, %d) of a %dx%d image: expected a window inside "
+                           "the image at a multiple of 8",
+                           t->width, t->height, x0, y0, image_width, image_height);
+    t->x0 = x0, t->y0 = y0, t->image_width = image_width, t->image_height = image_height;
+    return CRISP_OK;
+}
+
 void crisp__raster_target_free(crisp_raster_target *t)
 {
     free(t->inv_w);
@@ -132,6 +180,25 @@ void crisp__raster_target_clear(crisp_raster_target *t)
     memset(t->inv_w, 0, n * sizeof *t->inv_w);
     memset(t->attr, 0, n * CRISP_RASTER_ATTRS * sizeof *t->attr);
     memset(t->face, 0xff, n * sizeof *t->face);
+}
+
+typedef struct clear_ctx {
+    crisp_raster_target *t;
+} clear_ctx;
+
+static void clear_rows(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    crisp_raster_target *t = ((clear_ctx *)vctx)->t;
+    size_t rs = (size_t)t->width * t->samples, a = begin * rs, n = (end - begin) * rs;
+    memset(t->inv_w + a, 0, n * sizeof *t->inv_w);
+    memset(t->face + a, 0xff, n * sizeof *t->face);
+}
+
+void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool)
+{
+    clear_ctx c = {t};
+    crisp_pool_parallel_for(pool, (size_t)t->height, 64, clear_rows, &c);
 }
 
 void crisp__raster_sample_offset(int samples, int s, double dest[2])
@@ -203,23 +270,34 @@ typedef struct pvert {
     double sx, sy;
     int64_t fx, fy;
     double val[1 + CRISP_RASTER_ATTRS];
-    int ok; /* inside every clip plane, finite, W > 0 (cache only) */
+    double uv[2]; /* attributes 0 and 1 as given (for the box of the fragment test) */
+    int ok;       /* inside every clip plane, finite, W > 0 (cache only) */
 } pvert;
+
+/* llround for |x| < 2^52 (the guard band keeps screen positions far inside): the same value as
+ * the libm call (halves round away from zero), inline. x - trunc(x) is exact there. */
+static inline int64_t round_half_away(double x)
+{
+    double t = (double)(int64_t)x, f = x - t;
+    return (int64_t)t + (f >= 0.5) - (f <= -0.5);
+}
 
 /* 0 when the vertex cannot be set up (W <= 0, beyond the guard band or not finite). */
 static int project(const double *p, const crisp_raster_target *t, pvert *out)
 {
     double w = p[3];
     if (!(w > 0)) return 0;
-    out->sx = (p[0] / w + 1.0) * 0.5 * t->width;
-    out->sy = (1.0 - p[1] / w) * 0.5 * t->height;
+    out->sx = (p[0] / w + 1.0) * 0.5 * image_w(t);
+    out->sy = (1.0 - p[1] / w) * 0.5 * image_h(t);
     if (!(fabs(out->sx) <= 2 * GUARD_PX && fabs(out->sy) <= 2 * GUARD_PX)) return 0;
-    out->fx = llround(out->sx * SUB);
-    out->fy = llround(out->sy * SUB);
+    out->fx = round_half_away(out->sx * SUB);
+    out->fy = round_half_away(out->sy * SUB);
     double iw = 1.0 / w;
     out->val[0] = iw;
     for (int q = 1; q <= CRISP_RASTER_ATTRS; q++)
         out->val[q] = p[3 + q] * iw;
+    out->uv[0] = p[4];
+    out->uv[1] = p[5];
     return 1;
 }
 
@@ -231,6 +309,8 @@ typedef struct {
     const crisp_raster_tri *tris;
     size_t first, count; /* the batch */
     double gx, gy;
+    crisp_raster_test_fn test;
+    void *test_ctx;
     size_t counts[CHUNKS];
     crisp_status status[CHUNKS];
 } setup_ctx;
@@ -249,21 +329,26 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         order[1] = 2;
         order[2] = 1;
     }
-    double minx = 1e300, miny = 1e300, maxx = -1e300, maxy = -1e300;
+    int64_t minx = INT64_MAX, miny = INT64_MAX, maxx = INT64_MIN, maxy = INT64_MIN;
     for (int k = 0; k < 3; k++) {
         int i = order[k];
         out->x[k] = v[i]->fx;
         out->y[k] = v[i]->fy;
-        minx = fmin(minx, (double)v[i]->fx / SUB);
-        maxx = fmax(maxx, (double)v[i]->fx / SUB);
-        miny = fmin(miny, (double)v[i]->fy / SUB);
-        maxy = fmax(maxy, (double)v[i]->fy / SUB);
+        minx = v[i]->fx < minx ? v[i]->fx : minx;
+        maxx = v[i]->fx > maxx ? v[i]->fx : maxx;
+        miny = v[i]->fy < miny ? v[i]->fy : miny;
+        maxy = v[i]->fy > maxy ? v[i]->fy : maxy;
     }
-    /* Samples sit at i + offset with offset in [0, 1): pixels floor(min) - 1 .. floor(max). */
-    out->x0 = (int)fmax(0, floor(minx) - 1);
-    out->y0 = (int)fmax(0, floor(miny) - 1);
-    out->x1 = (int)fmin(t->width - 1, floor(maxx));
-    out->y1 = (int)fmin(t->height - 1, floor(maxy));
+    /* Samples sit at i + offset with offset in [0, 1): pixels floor(min) - 1 .. floor(max)
+     * (floor of a fixed-point value: an arithmetic shift), in the whole image's pixels. */
+    int64_t x0 = (minx >> CRISP_RASTER_SUBPIXEL_BITS) - 1,
+            y0 = (miny >> CRISP_RASTER_SUBPIXEL_BITS) - 1;
+    int64_t x1 = maxx >> CRISP_RASTER_SUBPIXEL_BITS, y1 = maxy >> CRISP_RASTER_SUBPIXEL_BITS;
+    int64_t ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
+    out->x0 = (int)(x0 > t->x0 ? x0 : t->x0);
+    out->y0 = (int)(y0 > t->y0 ? y0 : t->y0);
+    out->x1 = (int)(x1 < ex ? x1 : ex);
+    out->y1 = (int)(y1 < ey ? y1 : ey);
     if (!(out->x0 <= out->x1 && out->y0 <= out->y1)) return 0;
     double sx[3] = {a->sx, b->sx, d->sx}, sy[3] = {a->sy, b->sy, d->sy};
     double det = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sy[1] - sy[0]) * (sx[2] - sx[0]);
@@ -286,6 +371,24 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         out->bias[k] = (dy < 0 || (dy == 0 && dx > 0)) ? 0 : -1;
     }
     out->face = face;
+    /* Interpolated (u, v) are convex combinations of the vertices' (up to rounding; a fragment
+     * outside the box is simply tested): the box of the three, widened a little so rounding
+     * rarely puts a fragment outside it. */
+    out->boxed = -2; /* no box test */
+    const crisp_raster *r = c->r;
+    uint32_t fid = face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST);
+    if (r->box_test && c->test && !(face & CRISP_RASTER_FACE_NO_TEST) &&
+        !(fid < r->untested_count && r->untested[fid])) {
+        for (int q = 0; q < 2; q++) {
+            double lo = a->uv[q], hi = a->uv[q];
+            lo = b->uv[q] < lo ? b->uv[q] : lo, hi = b->uv[q] > hi ? b->uv[q] : hi;
+            lo = d->uv[q] < lo ? d->uv[q] : lo, hi = d->uv[q] > hi ? d->uv[q] : hi;
+            double m = 1e-9 * (hi - lo) + 1e-14 * (fabs(lo) + fabs(hi));
+            out->box[2 * q] = lo - m;
+            out->box[2 * q + 1] = hi + m;
+        }
+        out->boxed = -3; /* classified by the tile that first needs it */
+    }
     return 1;
 }
 
@@ -375,10 +478,11 @@ typedef struct {
     crisp_raster_test_fn test;
     void *test_ctx;
     int64_t off_fx[16], off_fy[16];
+    int64_t off_fmin[2], off_fmax[2]; /* least and greatest of off_fx (0) and off_fy (1) */
     double off_x[16], off_y[16];
     const float *slack; /* fill mode (crisp__raster_draw_fill) when not NULL */
     int hiz;            /* hierarchical depth rejection on */
-    atomic_size_t tested, discarded, untested, blocks_skipped;
+    atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
 } raster_ctx;
 
 /* Least 1/W over the block's samples (0 when one is empty). */
@@ -387,7 +491,7 @@ static double block_min(const crisp_raster_target *t, int bx0, int by0, int bx1,
     int S = t->samples;
     double m = INFINITY;
     for (int j = by0; j <= by1; j++) {
-        const double *row = t->inv_w + ((size_t)j * t->width + bx0) * S;
+        const double *row = t->inv_w + ((size_t)(j - t->y0) * t->width + (bx0 - t->x0)) * S;
         size_t n = (size_t)(bx1 - bx0 + 1) * S;
         for (size_t k = 0; k < n; k++)
             m = row[k] < m ? row[k] : m;
@@ -395,16 +499,59 @@ static double block_min(const crisp_raster_target *t, int bx0, int by0, int bx1,
     return m;
 }
 
-static void raster_tile(raster_ctx *c, size_t tile, int worker)
+/* The box of (u, v) over a pixel block [bx0, bx1 + 1) x [by0, by1 + 1) of a triangle, and the
+ * box test's answer for it (-1: none). u = (u/W plane) / (1/W plane) is a ratio of affine
+ * functions: along any line it is monotone where 1/W keeps its sign, so over the rectangle its
+ * values lie between those at the corners; intersected with the triangle's own box and widened
+ * a little for rounding (a fragment outside the box is simply tested). */
+static int block_box(const raster_ctx *c, const setup_tri *st, int bx0, int by0, int bx1, int by1,
+                     double box[4])
+{
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (int cy = 0; cy < 2; cy++)
+        for (int cx = 0; cx < 2; cx++) {
+            double dx = (cx ? bx1 + 1 : bx0) - st->ox, dy = (cy ? by1 + 1 : by0) - st->oy;
+            double iw = st->q0[0] + st->qx[0] * dx + st->qy[0] * dy;
+            if (!(iw > 0)) return -1;
+            for (int q = 0; q < 2; q++) {
+                double a = (st->q0[q + 1] + st->qx[q + 1] * dx + st->qy[q + 1] * dy) / iw;
+                lo[q] = a < lo[q] ? a : lo[q];
+                hi[q] = a > hi[q] ? a : hi[q];
+            }
+        }
+    for (int q = 0; q < 2; q++) {
+        double m = 1e-9 * (hi[q] - lo[q]) + 1e-14 * (fabs(lo[q]) + fabs(hi[q]));
+        lo[q] -= m, hi[q] += m;
+        if (st->boxed != -2) { /* the triangle's box (set whenever the box test is on) */
+            lo[q] = st->box[2 * q] > lo[q] ? st->box[2 * q] : lo[q];
+            hi[q] = st->box[2 * q + 1] < hi[q] ? st->box[2 * q + 1] : hi[q];
+        }
+        box[2 * q] = lo[q];
+        box[2 * q + 1] = hi[q];
+    }
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) return -1;
+    return c->r->box_test(c->test_ctx, st->face, lo, hi);
+}
+
+/* One tile, with S the target's samples per pixel: always inlined into raster_tile with S a
+ * constant for the common one-sample target (the compiler then folds the sample loops and
+ * strides), else with S as a variable. The same code either way. */
+#if defined(__GNUC__)
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE inline
+#endif
+
+static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
 {
     crisp_raster *r = c->r;
     crisp_raster_target *t = c->t;
     int tx = (int)(tile % (size_t)c->tiles_x), ty = (int)(tile / (size_t)c->tiles_x);
-    int px0 = tx * TILE, py0 = ty * TILE;
-    int px1 = px0 + TILE - 1 < t->width - 1 ? px0 + TILE - 1 : t->width - 1;
-    int py1 = py0 + TILE - 1 < t->height - 1 ? py0 + TILE - 1 : t->height - 1;
-    int S = t->samples;
-    size_t tested = 0, discarded = 0, untested = 0, skipped = 0;
+    int px0 = t->x0 + tx * TILE, py0 = t->y0 + ty * TILE; /* pixels of the whole image */
+    int ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
+    int px1 = px0 + TILE - 1 < ex ? px0 + TILE - 1 : ex;
+    int py1 = py0 + TILE - 1 < ey ? py0 + TILE - 1 : ey;
+    size_t tested = 0, discarded = 0, untested = 0, skipped = 0, boxed = 0;
     /* Per block: a lower bound of its least 1/W. Writes only raise stored 1/W (outside fill mode,
      * which does not use it), so a bound stays valid; it is recomputed from the samples once as
      * many writes as the block has samples happened since (amortised: one scan per block's worth
@@ -423,6 +570,7 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
             (int32_t)(st->face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST));
         int run_test = c->test && !(st->face & CRISP_RASTER_FACE_NO_TEST) &&
                        !((size_t)face_id < r->untested_count && r->untested[face_id]);
+        int tboxed = st->boxed, tneed = 0; /* the triangle's box test answer (setup_tri) */
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         int64_t A[3], B[3], step[3];
         for (int k = 0; k < 3; k++) {
@@ -440,6 +588,29 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
             for (int bx0 = x0; bx0 <= x1; bx0 = (bx0 / BLOCK + 1) * BLOCK) {
                 int bx1 = (bx0 / BLOCK + 1) * BLOCK - 1 < x1 ? (bx0 / BLOCK + 1) * BLOCK - 1 : x1;
                 int blk = ((by0 - py0) / BLOCK) * BLOCKS + (bx0 - px0) / BLOCK;
+                /* Each edge function over the block's samples (inside the rectangle of sample
+                 * positions; affine, so extreme at its corners): a block outside an edge has no
+                 * covered sample and is skipped; one inside all three is covered everywhere and
+                 * its rows skip the per-pixel edge tests. Exact integers, as the tests. */
+                int full = 1, empty = 0;
+                {
+                    int64_t sx0 = (int64_t)bx0 * SUB + c->off_fmin[0],
+                            sx1 = (int64_t)bx1 * SUB + c->off_fmax[0];
+                    int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
+                            sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
+                    for (int k = 0; k < 3; k++) {
+                        int a0 = (k + 1) % 3;
+                        int64_t ex0 = A[k] * (sx0 - st->x[a0]), ex1 = A[k] * (sx1 - st->x[a0]);
+                        int64_t ey0 = B[k] * (sy0 - st->y[a0]), ey1 = B[k] * (sy1 - st->y[a0]);
+                        int64_t lo =
+                            (ex0 < ex1 ? ex0 : ex1) + (ey0 < ey1 ? ey0 : ey1) + st->bias[k];
+                        int64_t hi =
+                            (ex0 > ex1 ? ex0 : ex1) + (ey0 > ey1 ? ey0 : ey1) + st->bias[k];
+                        empty |= hi < 0;
+                        full &= lo >= 0;
+                    }
+                }
+                if (empty) continue;
                 if (use_hiz && (bx1 - bx0 + 1) * (by1 - by0 + 1) >= HIZ_MIN_PX) {
                     if (writes[blk] >= block_samples) {
                         int gx = px0 + (bx0 - px0) / BLOCK * BLOCK,
@@ -466,6 +637,10 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                     }
                 }
                 uint32_t wrote = 0;
+                /* The block's own (u, v) box and its test answer, found at the first fragment
+                 * that needs the test (-2: not yet). */
+                int bboxed = -2, bneed = 0;
+                double bbox[4];
                 /* Edge values at the block's first pixel of each sample, stepped by rows. */
                 int64_t er[16][3];
                 for (int s = 0; s < S; s++) {
@@ -487,13 +662,20 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                         double dy = j + c->off_y[s] - st->oy;
                         double base = st->q0[0] + st->qy[0] * dy, gx = st->qx[0];
                         double dx0 = (double)bx0 + c->off_x[s] - st->ox;
-                        size_t idx0 = ((size_t)j * t->width + (size_t)bx0) * S + s;
+                        size_t idx0 =
+                            ((size_t)(j - t->y0) * t->width + (size_t)(bx0 - t->x0)) * S + s;
                         double iwv[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
-                        for (int q = 0; q < n; q++) {
-                            cov[q] = (e[0] | e[1] | e[2]) >= 0;
-                            any |= cov[q];
-                            e[0] += step[0], e[1] += step[1], e[2] += step[2];
+                        if (full) {
+                            for (int q = 0; q < n; q++)
+                                cov[q] = 1;
+                            any = 1;
+                        } else {
+                            for (int q = 0; q < n; q++) {
+                                cov[q] = (e[0] | e[1] | e[2]) >= 0;
+                                any |= cov[q];
+                                e[0] += step[0], e[1] += step[1], e[2] += step[2];
+                            }
                         }
                         if (!any) continue;
                         for (int q = 0; q < n; q++)
@@ -525,8 +707,30 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
                                 a[k] =
                                     (st->q0[k + 1] + st->qx[k + 1] * dx + st->qy[k + 1] * dy) * w;
                             if (run_test) {
-                                tested++;
-                                if (!c->test(c->test_ctx, st->face, a[0], a[1])) {
+                                int keep = -1;
+                                if (tboxed == -3 && ++tneed >= 2) {
+                                    double lo[2] = {st->box[0], st->box[2]},
+                                           hi[2] = {st->box[1], st->box[3]};
+                                    tboxed = r->box_test(c->test_ctx, st->face, lo, hi);
+                                }
+                                if (tboxed >= 0) {
+                                    if (a[0] >= st->box[0] && a[0] <= st->box[1] &&
+                                        a[1] >= st->box[2] && a[1] <= st->box[3])
+                                        keep = tboxed;
+                                } else if (tboxed == -1) {
+                                    if (bboxed == -2 && ++bneed >= 2)
+                                        bboxed = block_box(c, st, bx0, by0, bx1, by1, bbox);
+                                    if (bboxed >= 0 && a[0] >= bbox[0] && a[0] <= bbox[1] &&
+                                        a[1] >= bbox[2] && a[1] <= bbox[3])
+                                        keep = bboxed;
+                                }
+                                if (keep >= 0) {
+                                    boxed++;
+                                } else {
+                                    tested++;
+                                    keep = c->test(c->test_ctx, st->face, a[0], a[1]);
+                                }
+                                if (!keep) {
                                     discarded++;
                                     continue;
                                 }
@@ -545,17 +749,26 @@ static void raster_tile(raster_ctx *c, size_t tile, int worker)
             }
         }
     }
-    (void)worker;
     atomic_fetch_add(&c->tested, tested);
     atomic_fetch_add(&c->discarded, discarded);
     atomic_fetch_add(&c->untested, untested);
     atomic_fetch_add(&c->blocks_skipped, skipped);
+    atomic_fetch_add(&c->boxed, boxed);
+}
+
+static void raster_tile(raster_ctx *c, size_t tile)
+{
+    if (c->t->samples == 1)
+        raster_tile_s(c, tile, 1);
+    else
+        raster_tile_s(c, tile, c->t->samples);
 }
 
 static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
 {
+    (void)worker;
     for (size_t tile = begin; tile < end; tile++)
-        raster_tile(vctx, tile, worker);
+        raster_tile(vctx, tile);
 }
 
 typedef struct slack_ctx {
@@ -590,7 +803,8 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
     const slack_ctx *c = vctx;
     const crisp_raster_target *t = c->t;
     float *slack = c->slack;
-    int S = t->samples, w = t->width, h = t->height;
+    int S = t->samples, w = t->width, h = t->height, iw = image_w(t), ih = image_h(t);
+    int ox = t->x0, oy = t->y0;
     size_t rs = (size_t)w * S;
     for (size_t i = begin * rs; i < end * rs; i++)
         slack[i] = 0;
@@ -602,17 +816,18 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
                 int32_t f = t->face[idx];
                 if (f < 0) continue;
                 double W = 1.0 / t->inv_w[idx];
-                int side = seen_side(c->view, w, h, i, j, t->attr + idx * CRISP_RASTER_ATTRS);
+                int side =
+                    seen_side(c->view, iw, ih, ox + i, oy + j, t->attr + idx * CRISP_RASTER_ATTRS);
                 if (own_j && i + 1 < w && t->face[idx + S] == f &&
-                    seen_side(c->view, w, h, i + 1, j, t->attr + (idx + S) * CRISP_RASTER_ATTRS) ==
-                        side) {
+                    seen_side(c->view, iw, ih, ox + i + 1, oy + j,
+                              t->attr + (idx + S) * CRISP_RASTER_ATTRS) == side) {
                     float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + S] - W));
                     if (d > slack[idx]) slack[idx] = d;
                     if (d > slack[idx + S]) slack[idx + S] = d;
                 }
                 if (j + 1 < h && t->face[idx + rs] == f &&
-                    seen_side(c->view, w, h, i, j + 1, t->attr + (idx + rs) * CRISP_RASTER_ATTRS) ==
-                        side) {
+                    seen_side(c->view, iw, ih, ox + i, oy + j + 1,
+                              t->attr + (idx + rs) * CRISP_RASTER_ATTRS) == side) {
                     float d = (float)(c->scale * fabs(1.0 / t->inv_w[idx + rs] - W));
                     if (own_j && d > slack[idx]) slack[idx] = d;
                     if (own_below && d > slack[idx + rs]) slack[idx + rs] = d;
@@ -626,6 +841,131 @@ void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, d
 {
     slack_ctx c = {t, view, scale, slack};
     crisp_pool_parallel_for(pool, (size_t)t->height, 16, slack_rows, &c);
+}
+
+#define CELL 16 /* the slack is computed for CELL x CELL pixel cells that triangles reach */
+
+/* The slack of one cell's samples, each from its own four neighbours (the same pairs and the
+ * same arithmetic as slack_rows, gathered at each member instead of scattered from the left or
+ * upper one: |a - b| = |b - a| exactly, so the values are the same bit for bit). */
+typedef struct slack_tiles_ctx {
+    const slack_ctx *c;
+    const uint8_t *mask;
+    int cells_x;
+} slack_tiles_ctx;
+
+static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const slack_tiles_ctx *tc = vctx;
+    const slack_ctx *c = tc->c;
+    const crisp_raster_target *t = c->t;
+    int S = t->samples, w = t->width, h = t->height, iw = image_w(t), ih = image_h(t);
+    size_t rs = (size_t)w * S;
+    /* The side each sample of the cell and its one-pixel border is seen from. */
+    int8_t side[(CELL + 2) * (CELL + 2)];
+    for (size_t tile = begin; tile < end; tile++) {
+        if (!tc->mask[tile]) continue;
+        int px0 = (int)(tile % (size_t)tc->cells_x) * CELL,
+            py0 = (int)(tile / (size_t)tc->cells_x) * CELL;
+        int px1 = px0 + CELL < w ? px0 + CELL : w, py1 = py0 + CELL < h ? py0 + CELL : h;
+        for (int s = 0; s < S; s++) {
+            for (int j = py0 - 1; j <= py1; j++)
+                for (int i = px0 - 1; i <= px1; i++) {
+                    int8_t *sd = &side[(j - py0 + 1) * (CELL + 2) + (i - px0 + 1)];
+                    *sd = -1;
+                    if (i < 0 || j < 0 || i >= w || j >= h) continue;
+                    size_t idx = ((size_t)j * w + i) * S + s;
+                    if (t->face[idx] >= 0)
+                        *sd = (int8_t)seen_side(c->view, iw, ih, t->x0 + i, t->y0 + j,
+                                                t->attr + idx * CRISP_RASTER_ATTRS);
+                }
+            for (int j = py0; j < py1; j++)
+                for (int i = px0; i < px1; i++) {
+                    size_t idx = ((size_t)j * w + i) * S + s;
+                    int32_t f = t->face[idx];
+                    float m = 0;
+                    if (f >= 0) {
+                        double W = 1.0 / t->inv_w[idx];
+                        const int8_t *sd = &side[(j - py0 + 1) * (CELL + 2) + (i - px0 + 1)];
+                        /* left, right, up, down */
+                        const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
+                        for (int k = 0; k < 4; k++) {
+                            int ni = i + di[k], nj = j + dj[k];
+                            if (ni < 0 || nj < 0 || ni >= w || nj >= h) continue;
+                            size_t nidx =
+                                idx + (ptrdiff_t)di[k] * S + (ptrdiff_t)dj[k] * (ptrdiff_t)rs;
+                            if (t->face[nidx] != f || sd[di[k] + dj[k] * (CELL + 2)] != sd[0])
+                                continue;
+                            float d = (float)(c->scale * fabs(1.0 / t->inv_w[nidx] - W));
+                            if (d > m) m = d;
+                        }
+                    }
+                    c->slack[idx] = m;
+                }
+        }
+    }
+}
+
+crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_target *t,
+                                            crisp_pool *pool, double scale,
+                                            const crisp_raster_view *view,
+                                            const crisp_raster_vertex *verts, size_t vert_count,
+                                            const crisp_raster_tri *tris, size_t tri_count,
+                                            float *slack)
+{
+    int tiles_x = (t->width + CELL - 1) / CELL, tiles_y = (t->height + CELL - 1) / CELL;
+    size_t tiles = (size_t)tiles_x * tiles_y;
+    crisp_status st = crisp_grow((void **)&r->tile_mask, &r->tile_mask_cap, tiles, 1);
+    if (st) return st;
+    memset(r->tile_mask, 0, tiles);
+    /* The vertices setup would use for each triangle (inside every clip plane: as they are;
+     * else the clipped polygon's, as setup_chunk clips it): the triangle's samples lie in pixels
+     * floor(min) - 1 .. floor(max) of their snapped positions (1/512 px from the unsnapped
+     * ones); 2 px of margin cover both. */
+    double gx = GUARD_PX / image_w(t), gy = GUARD_PX / image_h(t);
+    for (size_t i = 0; i < tri_count; i++) {
+        cvert poly[MAX_POLY];
+        int m = 3, bad = 0;
+        for (int k = 0; k < 3; k++) {
+            if (tris[i].v[k] >= vert_count) {
+                bad = 1;
+                break;
+            }
+            const crisp_raster_vertex *sv = &verts[tris[i].v[k]];
+            memcpy(poly[k].p, sv->clip, 4 * sizeof(double));
+            memcpy(poly[k].p + 4, sv->attr, CRISP_RASTER_ATTRS * sizeof(double));
+        }
+        if (bad) continue; /* draw refuses it */
+        int inside = 1;
+        for (int k = 0; k < 3; k++) {
+            double d[6];
+            plane_dists(poly[k].p, gx, gy, d);
+            for (int q = 0; q < 6; q++)
+                inside &= d[q] >= 0 && isfinite(d[q]);
+        }
+        if (!inside) m = clip_polygon(poly, 3, gx, gy);
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        for (int k = 0; k < m; k++) {
+            pvert pv;
+            if (!project(poly[k].p, t, &pv)) continue;
+            lo[0] = pv.sx < lo[0] ? pv.sx : lo[0], hi[0] = pv.sx > hi[0] ? pv.sx : hi[0];
+            lo[1] = pv.sy < lo[1] ? pv.sy : lo[1], hi[1] = pv.sy > hi[1] ? pv.sy : hi[1];
+        }
+        if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) continue;
+        /* pixels of the target (the image's, less the window's corner) */
+        int x0 = (int)floor(lo[0]) - 2 - t->x0, x1 = (int)floor(hi[0]) + 2 - t->x0;
+        int y0 = (int)floor(lo[1]) - 2 - t->y0, y1 = (int)floor(hi[1]) + 2 - t->y0;
+        x0 = x0 > 0 ? x0 : 0, y0 = y0 > 0 ? y0 : 0;
+        x1 = x1 < t->width - 1 ? x1 : t->width - 1, y1 = y1 < t->height - 1 ? y1 : t->height - 1;
+        for (int ty = y0 / CELL; ty <= y1 / CELL && y0 <= y1; ty++)
+            for (int tx = x0 / CELL; tx <= x1 / CELL && x0 <= x1; tx++)
+                r->tile_mask[(size_t)ty * tiles_x + tx] = 1;
+    }
+    slack_ctx c = {t, view, scale, slack};
+    slack_tiles_ctx tc = {&c, r->tile_mask, tiles_x};
+    crisp_pool_parallel_for(pool, tiles, 16, slack_tiles, &tc);
+    return CRISP_OK;
 }
 
 static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
@@ -651,23 +991,94 @@ crisp_status crisp__raster_draw_fill(crisp_raster *r, crisp_raster_target *t, cr
     return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, slack, stats);
 }
 
+typedef struct bin_ctx {
+    crisp_raster *r;
+    const setup_ctx *sc;
+    int tiles_x;
+    size_t tiles;
+} bin_ctx;
+
+static void bin_count(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const bin_ctx *b = vctx;
+    const crisp_raster_target *t = b->sc->t;
+    for (size_t ch = begin; ch < end; ch++) {
+        uint32_t *cnt = b->r->bin_counts + ch * b->tiles;
+        memset(cnt, 0, b->tiles * sizeof *cnt);
+        for (size_t i = 0; i < b->sc->counts[ch]; i++) {
+            const setup_tri *s = &b->r->chunk_tris[ch][i];
+            /* tiles of the target (whose pixel 0, 0 is the image's x0, y0) */
+            int tx0 = (s->x0 - t->x0) / TILE, tx1 = (s->x1 - t->x0) / TILE;
+            for (int ty = (s->y0 - t->y0) / TILE; ty <= (s->y1 - t->y0) / TILE; ty++)
+                for (int tx = tx0; tx <= tx1; tx++)
+                    cnt[(size_t)ty * b->tiles_x + tx]++;
+        }
+    }
+}
+
+static void bin_fill(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const bin_ctx *b = vctx;
+    const crisp_raster_target *t = b->sc->t;
+    for (size_t ch = begin; ch < end; ch++) {
+        uint32_t *next = b->r->bin_counts + ch * b->tiles; /* the chunk's offset in each tile */
+        for (size_t i = 0; i < b->sc->counts[ch]; i++) {
+            const setup_tri *s = &b->r->chunk_tris[ch][i];
+            int tx0 = (s->x0 - t->x0) / TILE, tx1 = (s->x1 - t->x0) / TILE;
+            for (int ty = (s->y0 - t->y0) / TILE; ty <= (s->y1 - t->y0) / TILE; ty++)
+                for (int tx = tx0; tx <= tx1; tx++)
+                    b->r->bin_items[next[(size_t)ty * b->tiles_x + tx]++] = s;
+        }
+    }
+}
+
+/* The first triangle of each chunk with a vertex index out of range (SIZE_MAX: none). */
+typedef struct check_ctx {
+    const crisp_raster_tri *tris;
+    size_t tri_count, vert_count;
+    size_t bad[CHUNKS];
+} check_ctx;
+
+static void check_chunk(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    check_ctx *c = vctx;
+    for (size_t ch = begin; ch < end; ch++) {
+        size_t lo = c->tri_count * ch / CHUNKS, hi = c->tri_count * (ch + 1) / CHUNKS;
+        c->bad[ch] = SIZE_MAX;
+        for (size_t i = lo; i < hi && c->bad[ch] == SIZE_MAX; i++)
+            for (int k = 0; k < 3; k++)
+                if (c->tris[i].v[k] >= c->vert_count) c->bad[ch] = i;
+    }
+}
+
 static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                          const crisp_raster_vertex *verts, size_t vert_count,
                          const crisp_raster_tri *tris, size_t tri_count, crisp_raster_test_fn test,
                          void *test_ctx, const float *slack, crisp_raster_stats *stats)
 {
-    for (size_t i = 0; i < tri_count; i++)
-        for (int k = 0; k < 3; k++)
-            if (tris[i].v[k] >= vert_count)
-                return crisp_error(CRISP_ERR_INVALID_ARG, "triangle %zu uses vertex %u of %zu", i,
-                                   tris[i].v[k], vert_count);
+    check_ctx cc = {tris, tri_count, vert_count, {0}};
+    crisp_pool_parallel_for(pool, CHUNKS, 1, check_chunk, &cc);
+    for (int ch = 0; ch < CHUNKS; ch++)
+        if (cc.bad[ch] != SIZE_MAX) {
+            size_t i = cc.bad[ch];
+            uint32_t v = tris[i].v[0] >= vert_count   ? tris[i].v[0]
+                         : tris[i].v[1] >= vert_count ? tris[i].v[1]
+                                                      : tris[i].v[2];
+            return crisp_error(CRISP_ERR_INVALID_ARG, "triangle %zu uses vertex %u of %zu", i, v,
+                               vert_count);
+        }
     setup_ctx sc = {.r = r,
                     .t = t,
                     .verts = verts,
                     .vert_count = vert_count,
                     .tris = tris,
-                    .gx = GUARD_PX / t->width,
-                    .gy = GUARD_PX / t->height};
+                    .test = test,
+                    .test_ctx = test_ctx,
+                    .gx = GUARD_PX / image_w(t),
+                    .gy = GUARD_PX / image_h(t)};
     crisp_status st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1,
                                  sizeof *r->vcache);
     if (st) return st;
@@ -692,6 +1103,11 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
         rc.off_y[s] = off[1];
         rc.off_fx[s] = llround(off[0] * SUB);
         rc.off_fy[s] = llround(off[1] * SUB);
+        for (int q = 0; q < 2; q++) {
+            int64_t o = q ? rc.off_fy[s] : rc.off_fx[s];
+            rc.off_fmin[q] = s == 0 || o < rc.off_fmin[q] ? o : rc.off_fmin[q];
+            rc.off_fmax[q] = s == 0 || o > rc.off_fmax[q] ? o : rc.off_fmax[q];
+        }
     }
     /* Batches of triangles, one after the other (submission order is kept): set-up records and
      * bins hold one batch, so the rasterizer's memory is bounded whatever the triangle count. */
@@ -706,35 +1122,30 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
             n += sc.counts[ch];
         }
         total += n;
-        /* Bin in submission order: count per tile, prefix sums, fill. */
-        memset(r->bin_start, 0, (tiles + 1) * sizeof *r->bin_start);
+        /* Bin in submission order: entries per setup chunk and tile (in parallel), offsets per
+         * tile in chunk order, fill (in parallel): each tile lists its triangles as the input
+         * did. */
+        if ((st = crisp_grow((void **)&r->bin_counts, &r->bin_counts_cap, CHUNKS * tiles,
+                             sizeof *r->bin_counts)))
+            return st;
+        bin_ctx bc = {r, &sc, tiles_x, tiles};
+        crisp_pool_parallel_for(pool, CHUNKS, 1, bin_count, &bc);
         size_t items = 0;
-        for (int ch = 0; ch < CHUNKS; ch++)
-            for (size_t i = 0; i < sc.counts[ch]; i++) {
-                const setup_tri *s = &r->chunk_tris[ch][i];
-                for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
-                    for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
-                        r->bin_start[(size_t)ty * tiles_x + tx + 1]++;
-                items += (size_t)(s->y1 / TILE - s->y0 / TILE + 1) *
-                         (size_t)(s->x1 / TILE - s->x0 / TILE + 1);
+        for (size_t k = 0; k < tiles; k++) {
+            r->bin_start[k] = (uint32_t)items;
+            for (int ch = 0; ch < CHUNKS; ch++) {
+                uint32_t n_ch = r->bin_counts[(size_t)ch * tiles + k];
+                r->bin_counts[(size_t)ch * tiles + k] = (uint32_t)items;
+                items += n_ch;
             }
-        if (items > UINT32_MAX)
-            return crisp_error(CRISP_ERR_LIMIT, "%zu tile entries: the limit is 2^32", items);
-        for (size_t k = 0; k < tiles; k++)
-            r->bin_start[k + 1] += r->bin_start[k];
+            if (items > UINT32_MAX)
+                return crisp_error(CRISP_ERR_LIMIT, "%zu tile entries: the limit is 2^32", items);
+        }
+        r->bin_start[tiles] = (uint32_t)items;
         if ((st = crisp_grow((void **)&r->bin_items, &r->bin_cap, items ? items : 1,
                              sizeof *r->bin_items)))
             return st;
-        for (int ch = 0; ch < CHUNKS; ch++)
-            for (size_t i = 0; i < sc.counts[ch]; i++) {
-                const setup_tri *s = &r->chunk_tris[ch][i];
-                for (int ty = s->y0 / TILE; ty <= s->y1 / TILE; ty++)
-                    for (int tx = s->x0 / TILE; tx <= s->x1 / TILE; tx++)
-                        r->bin_items[r->bin_start[(size_t)ty * tiles_x + tx]++] = s;
-            }
-        for (size_t k = tiles; k > 0; k--)
-            r->bin_start[k] = r->bin_start[k - 1];
-        r->bin_start[0] = 0;
+        crisp_pool_parallel_for(pool, CHUNKS, 1, bin_fill, &bc);
         crisp_pool_parallel_for(pool, tiles, 1, raster_tiles, &rc);
     }
     if (stats) {
@@ -743,7 +1154,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                                       .fragments_tested = atomic_load(&rc.tested),
                                       .fragments_discarded = atomic_load(&rc.discarded),
                                       .fragments_untested = atomic_load(&rc.untested),
-                                      .blocks_skipped = atomic_load(&rc.blocks_skipped)};
+                                      .blocks_skipped = atomic_load(&rc.blocks_skipped),
+                                      .fragments_boxed = atomic_load(&rc.boxed)};
     }
     return CRISP_OK;
 }

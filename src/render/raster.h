@@ -44,6 +44,10 @@ typedef int (*crisp_raster_test_fn)(void *ctx, uint32_t face, double u, double v
 /* Per-sample results; sample s of pixel (i, j) is at index (j * width + i) * samples + s. */
 typedef struct crisp_raster_target {
     int width, height, samples;
+    /* A window of a larger image (issue 15, image tiles): the target's pixel (0, 0) is pixel
+     * (x0, y0) of an image_width x image_height image whose clip space the vertices are in; 0, 0,
+     * 0, 0: the target is the whole image. Set by crisp__raster_target_window after init. */
+    int x0, y0, image_width, image_height;
     double *inv_w; /* 1 / W of the visible fragment, 0 where nothing was drawn */
     float *attr;   /* CRISP_RASTER_ATTRS per sample */
     int32_t *face; /* -1 where nothing was drawn */
@@ -57,7 +61,15 @@ void crisp__raster_destroy(crisp_raster *r);
 /* samples: 1, 4 or 16. Reuses the target's buffers when the size is unchanged. */
 crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int height, int samples);
 void crisp__raster_target_free(crisp_raster_target *t);
+/* Make the target the window (x0, y0, its width x height) of an image_width x image_height image
+ * (x0, y0 multiples of 8, the rasterizer's block size, so that every pixel is drawn with the same
+ * arithmetic as in the whole image); (0, 0, 0, 0): the whole image. */
+crisp_status crisp__raster_target_window(crisp_raster_target *t, int x0, int y0, int image_width,
+                                         int image_height);
 void crisp__raster_target_clear(crisp_raster_target *t);
+/* Clears 1/W and the face ids only, in parallel (pool may be NULL): the attributes of empty
+ * samples keep stale values, which nothing reads (a sample is drawn iff its face is >= 0). */
+void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool);
 
 /* Offsets of the samples inside a pixel, in [0, 1)^2 (x right, y down). */
 void crisp__raster_sample_offset(int samples, int s, double dest[2]);
@@ -66,6 +78,7 @@ typedef struct crisp_raster_stats {
     size_t triangles_in, triangles_setup, fragments_tested, fragments_discarded;
     size_t fragments_untested; /* kept without the test (CRISP_RASTER_FACE_NO_TEST) */
     size_t blocks_skipped;     /* 8x8 blocks of a triangle rejected whole by the depth bound */
+    size_t fragments_boxed;    /* decided by the triangle's box (crisp__raster_set_box_test) */
 } crisp_raster_stats;
 
 /* Hierarchical depth rejection (on by default; off only to measure it or to check that the
@@ -80,6 +93,17 @@ void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, 
  * n . P + d, P on the sample's ray at depth W, times 1/W: the CPU backend's crisp_render_desc
  * clip_plane). NULL: none. Read by later draws until set again. */
 void crisp__raster_set_clip(crisp_raster *r, const double k[4]);
+/* The fragment test decided for a box of (u, v) at once: 1 when test(ctx, face, u, v) keeps
+ * every (u, v) with lo <= (u, v) <= hi, 0 when it discards every one, -1 when it cannot tell
+ * (or would rather not). It must agree with the test at every point of the box. */
+typedef int (*crisp_raster_box_fn)(void *ctx, uint32_t face, const double lo[2],
+                                   const double hi[2]);
+/* With a box test, each triangle's (u, v) box (its vertices' attributes 0 and 1, slightly
+ * widened) is classified once at setup; a fragment whose interpolated (u, v) lies in the box
+ * takes the box's answer instead of running the test (the same answer, as the box test agrees
+ * with the test there), the others run the test. Used by later draws with their test_ctx;
+ * NULL: off. */
+void crisp__raster_set_box_test(crisp_raster *r, crisp_raster_box_fn fn);
 /* Triangles set up and binned at a time (0: the default, 2^19); small values are for tests. */
 void crisp__raster_set_batch(crisp_raster *r, size_t triangles);
 
@@ -113,5 +137,15 @@ typedef struct crisp_raster_view {
  * samples): how far a surface's depth moves over one pixel at that sample. pool may be NULL. */
 void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
                                const crisp_raster_view *view, float *slack);
+/* The same slack, computed only in the 16x16-pixel cells that the given triangles can cover (the
+ * samples a draw_fill of them reads; other samples of slack are left as they were): the values
+ * there equal crisp__raster_depth_slack's bit for bit. The fill pass's gap fillers cover few
+ * tiles of a close-up. */
+crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_target *t,
+                                            crisp_pool *pool, double scale,
+                                            const crisp_raster_view *view,
+                                            const crisp_raster_vertex *verts, size_t vert_count,
+                                            const crisp_raster_tri *tris, size_t tri_count,
+                                            float *slack);
 
 #endif

@@ -2,11 +2,26 @@
 #ifndef CRISP_RENDER_INTERNAL_H
 #define CRISP_RENDER_INTERNAL_H
 
+#include <math.h>
+
 #include "crisp/render.h"
 
 /* Headlight shading: base colour times (ambient + diffuse |n . v|), two-sided; writes RGBA with
  * alpha 1. n and view (from the eye to the point) need not be unit. */
 void crisp__shade(const float base[4], const double n[3], const double view[3], float rgba[4]);
+/* crisp__shade's arithmetic (shade.c calls it), inline for the CPU backend's per-pixel resolve. */
+static inline void crisp__shade_inline(const float base[4], const double n[3], const double view[3],
+                                       float rgba[4])
+{
+    double nn = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    double vv = sqrt(view[0] * view[0] + view[1] * view[1] + view[2] * view[2]);
+    double c =
+        nn > 0 && vv > 0 ? fabs(n[0] * view[0] + n[1] * view[1] + n[2] * view[2]) / (nn * vv) : 1;
+    double k = 0.25 + 0.75 * c;
+    for (int i = 0; i < 3; i++)
+        rgba[i] = (float)(base[i] * k);
+    rgba[3] = 1.0f;
+}
 
 /* Background everywhere: rgba, normal, uv 0, depth +inf, face -1. Both backends start a frame
  * with it, so an image can be rendered into again (they write covered pixels only). */
@@ -35,6 +50,12 @@ static inline int crisp__normal_degenerate(const double a[3], const double b[3],
 void crisp__subpatch(const crisp_bezier_patch *p, double s0, double s1, double t0, double t1,
                      double *storage, double *tmp, crisp_bezier_patch *dest);
 
+/* The CPU backend's trim test for a box of (u, v) of a face (cpu.c): 1 when
+ * crisp_plan_trim_test keeps every point of [lo, hi], 0 when it discards every one, -1 when
+ * mixed or not decided. */
+int crisp__plan_trim_box(const struct crisp_frame_plan *plan, uint32_t face, const double lo[2],
+                         const double hi[2]);
+
 /* The last frame's surface triangles (CPU backend; the trim ribbons follow them in the buffers
  * but are not counted), for tests that measure them. */
 struct crisp_raster_vertex;
@@ -42,6 +63,17 @@ struct crisp_raster_tri;
 void crisp__renderer_mesh(const crisp_renderer *r, const struct crisp_raster_vertex **verts,
                           size_t *vert_count, const struct crisp_raster_tri **tris,
                           size_t *tri_count);
+
+/* crisp_render_cpu_plan drawing only a window of the frame (issue 15, image tiles): window = x0,
+ * y0, width, height of the pixels drawn (x0, y0 multiples of 8; NULL: the whole frame), img has
+ * the window's size. Every pixel of the window is computed with the same arithmetic as in the
+ * whole frame, except that the ribbons' depth slack (which looks at the 4 neighbouring pixels)
+ * sees no neighbour outside the window: draw a margin of at least 1 pixel and crop it. */
+struct crisp_frame_plan;
+crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
+                                      const struct crisp_frame_plan *plan, const crisp_camera *cam,
+                                      const int window[4], crisp_image *img,
+                                      crisp_render_stats *stats);
 
 /* The last frame's per-sample results (CPU backend), for tests that check every sample. */
 struct crisp_raster_target;

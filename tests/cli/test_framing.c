@@ -177,6 +177,11 @@ static void test_camera_rules(void **state)
     assert_true(doc->has_camera);
     assert_int_equal(crisp_document_camera(doc, NULL, &cam), CRISP_OK);
     assert_memory_equal(cam.eye, doc->eye, sizeof doc->eye);
+    assert_true(doc->has_up && cam.up[2] == 1);
+    doc->has_up = 0; /* a camera line without 'up': the command line's default, +Z */
+    doc->up[0] = 1, doc->up[1] = doc->up[2] = 0;
+    assert_int_equal(crisp_document_camera(doc, NULL, &cam), CRISP_OK);
+    assert_true(cam.up[0] == 0 && cam.up[1] == 0 && cam.up[2] == 1);
     assert_int_equal(crisp_document_camera(doc, &(crisp_camera_desc){.view = CRISP_VIEW_TOP}, &cam),
                      CRISP_OK);
     assert_true(cam.eye[2] > doc->box[5]); /* above the scene */

@@ -689,13 +689,14 @@ static void test_scene_camera(void **state)
     assert_true(s->has_camera);
     assert_false(s->has_target);
     assert_float_equal(s->eye[2], 3, 0);
-    assert_float_equal(s->up[1], 1, 0);
+    assert_false(s->has_up); /* the default up is the command line's: +Z */
     assert_float_equal(s->fov_deg, 45, 0);
     crisp_scene_file_destroy(s);
     text = "frep a.vm\ncamera up 0 0 1 target 1 1 1 eye -4 0.5 2\n";
     assert_int_equal(crisp_scene_file_read_mem("c.scene", NULL, text, strlen(text), &s), CRISP_OK);
     assert_true(s->has_camera && s->has_target);
     assert_float_equal(s->target[0], 1, 0);
+    assert_true(s->has_up);
     assert_float_equal(s->up[2], 1, 0);
     assert_float_equal(s->eye[0], -4, 0);
     assert_float_equal(s->fov_deg, 30, 0);

@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "crisp/io.h"
+#include "crisp/mass.h"
 #include "iges/iges_builder.h"
 
 #define N_OF(a) ((int)(sizeof(a) / sizeof((a)[0])))
@@ -302,6 +303,109 @@ static void test_all_blanked(void **state)
     crisp_model_destroy(m);
 }
 
+/* IGES B-rep solids for issue 14's mass properties: 186 manifold solids whose 514 shells carry
+ * each face's orientation flag (0: the face's normal is against its surface's) and whose own
+ * flags turn a shell round (a void written as a closed shell facing out of the hole, VOF 0). */
+typedef struct brep_text {
+    test_entity e[400];
+    char params[400][160];
+    int n;
+} brep_text;
+
+static int add_ent(brep_text *b, int type, int form, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(b->params[b->n], sizeof b->params[b->n], fmt, ap);
+    va_end(ap);
+    assert_true(b->n < 400);
+    b->e[b->n] = (test_entity){type, form, 0, "00010000", 0, b->params[b->n]};
+    return 2 * b->n++ + 1; /* its DE pointer */
+}
+
+/* A planar 510 face over corners c (counter-clockwise about n) on a 190 plane whose normal is n
+ * (flip 0) or -n (flip 1): its DE pointer. */
+static int brep_quad(brep_text *b, double c[4][3], const double n[3], int flip)
+{
+    double s = flip ? -1 : 1;
+    int pt = add_ent(b, 116, 0, "%g,%g,%g,0;", c[0][0], c[0][1], c[0][2]);
+    int nm = add_ent(b, 123, 0, "%g,%g,%g;", s * n[0], s * n[1], s * n[2]);
+    double r[3] = {c[1][0] - c[0][0], c[1][1] - c[0][1], c[1][2] - c[0][2]};
+    double rl = sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    int rf = add_ent(b, 123, 0, "%g,%g,%g;", r[0] / rl, r[1] / rl, r[2] / rl);
+    int pl = add_ent(b, 190, 1, "%d,%d,%d;", pt, nm, rf);
+    int ln[4];
+    for (int i = 0; i < 4; i++) {
+        const double *p = c[i], *q = c[(i + 1) % 4];
+        ln[i] = add_ent(b, 110, 0, "%g,%g,%g,%g,%g,%g;", p[0], p[1], p[2], q[0], q[1], q[2]);
+    }
+    int vl =
+        add_ent(b, 502, 1, "4,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g,%g;", c[0][0], c[0][1], c[0][2],
+                c[1][0], c[1][1], c[1][2], c[2][0], c[2][1], c[2][2], c[3][0], c[3][1], c[3][2]);
+    int el = add_ent(b, 504, 1, "4,%d,%d,1,%d,2,%d,%d,2,%d,3,%d,%d,3,%d,4,%d,%d,4,%d,1;", ln[0], vl,
+                     vl, ln[1], vl, vl, ln[2], vl, vl, ln[3], vl, vl);
+    int lp = add_ent(b, 508, 1, "4,0,%d,1,1,0,0,%d,2,1,0,0,%d,3,1,0,0,%d,4,1,0;", el, el, el, el);
+    return add_ent(b, 510, 1, "%d,1,1,%d;", pl, lp);
+}
+
+/* The 514 shell of the box [lo, hi]^3 facing out of it, its faces' planes flipped as flip[6]
+ * says (and their orientation flags with them). */
+static int brep_box(brep_text *b, double lo, double hi, const int flip[6])
+{
+    int faces[6];
+    for (int d = 0; d < 3; d++)
+        for (int s = 0; s < 2; s++) {
+            int e1 = (d + 1) % 3, e2 = (d + 2) % 3;
+            double c[4][3], n[3] = {0, 0, 0};
+            n[d] = s ? 1 : -1;
+            const int uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+            for (int i = 0; i < 4; i++) {
+                int j = s ? i : 3 - i; /* counter-clockwise about n */
+                c[i][d] = s ? hi : lo;
+                c[i][e1] = uv[j][0] ? hi : lo;
+                c[i][e2] = uv[j][1] ? hi : lo;
+            }
+            faces[2 * d + s] = brep_quad(b, c, n, flip[2 * d + s]);
+        }
+    return add_ent(b, 514, 1, "6,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d,%d;", faces[0], !flip[0],
+                   faces[1], !flip[1], faces[2], !flip[2], faces[3], !flip[3], faces[4], !flip[4],
+                   faces[5], !flip[5]);
+}
+
+static double brep_volume(brep_text *b, int *closed)
+{
+    crisp_model *m = load(b->e, b->n);
+    assert_int_equal(m->face_count, 12);
+    crisp_mass_props p;
+    assert_int_equal(crisp_mass_model(m, NULL, &p), CRISP_OK);
+    crisp_model_destroy(m);
+    *closed = p.closed;
+    return p.volume;
+}
+
+static void test_msbo_orientation(void **state)
+{
+    (void)state;
+    static brep_text b;
+    const int outer[6] = {0, 1, 1, 0, 0, 1}, inner[6] = {1, 0, 0, 1, 1, 0};
+    for (int sof = 0; sof < 2; sof++)
+        for (int vof = 0; vof < 2; vof++) {
+            memset(&b, 0, sizeof b);
+            int sh = brep_box(&b, 0, 10, outer);
+            int vs = brep_box(&b, 3, 7, inner);
+            add_ent(&b, 186, 0, "%d,%d,1,%d,%d;", sh, sof, vs, vof);
+            int closed;
+            double v = brep_volume(&b, &closed);
+            /* SOF 0 turns the outer shell inside out, VOF 1 keeps the void facing out of its
+             * hole (the void then counts as material) */
+            double want = (sof ? 1000 : -1000) + (vof ? 64 : -64);
+            if (!closed || fabs(v - want) > 1e-9)
+                fprintf(stderr, "SOF %d VOF %d: volume %g\n", sof, vof, v);
+            assert_true(closed);
+            assert_true(fabs(v - want) < 1e-9);
+        }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -312,6 +416,7 @@ int main(void)
         cmocka_unit_test(test_empty_parameter_range),
         cmocka_unit_test(test_gap_bridged),
         cmocka_unit_test(test_all_blanked),
+        cmocka_unit_test(test_msbo_orientation),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

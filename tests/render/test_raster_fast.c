@@ -2,7 +2,10 @@
  * not change a single output bit on overlapping random triangles (1 and 4 samples, near-plane
  * crossings, a fragment test that discards some fragments, fill mode), and triangles marked
  * CRISP_RASTER_FACE_NO_TEST, or of faces marked by crisp__raster_set_untested_faces, skip the
- * fragment test but otherwise draw exactly as with a test that keeps everything. */
+ * fragment test but otherwise draw exactly as with a test that keeps everything; the depth slack
+ * computed only where some triangles land equals the whole image's there; a box test (the trim
+ * test decided per triangle or block for a box of (u, v)) changes no bit, and the CPU backend's
+ * box test for plan tables agrees with crisp_plan_trim_test. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -15,7 +18,9 @@
 #include <string.h>
 
 #include "crisp/render.h"
+#include "crisp/plan.h"
 #include "render/raster.h"
+#include "render/render_internal.h"
 
 static uint64_t rng_state = 0x2545F4914F6CDD1Dull;
 static double rnd(void)
@@ -62,6 +67,16 @@ static int some_test(void *vctx, uint32_t face, double u, double v)
     return (face & 3) != 1 || u + v < 1.2;
 }
 
+/* some_test for a box: exact, since u + v rounds monotonically. */
+static int some_box(void *vctx, uint32_t face, const double lo[2], const double hi[2])
+{
+    (void)vctx;
+    if ((face & 3) != 1) return 1;
+    if (hi[0] + hi[1] < 1.2) return 1;
+    if (!(lo[0] + lo[1] < 1.2)) return 0;
+    return -1;
+}
+
 static int keep_all(void *vctx, uint32_t face, double u, double v)
 {
     (void)face, (void)u, (void)v;
@@ -70,6 +85,7 @@ static int keep_all(void *vctx, uint32_t face, double u, double v)
 }
 
 static const uint8_t *untested_faces; /* crisp__raster_set_untested_faces for render() */
+static crisp_raster_box_fn box_fn;    /* crisp__raster_set_box_test for render() */
 
 static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn,
                    const float *slack, crisp_raster_target *t, test_ctx *tc,
@@ -87,6 +103,7 @@ static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_r
     crisp__raster_set_hiz(r, hiz);
     crisp__raster_set_batch(r, batch);
     crisp__raster_set_untested_faces(r, untested_faces, 7);
+    crisp__raster_set_box_test(r, box_fn);
     assert_int_equal(crisp__raster_target_init(t, W, H, samples), CRISP_OK);
     crisp__raster_target_clear(t);
     crisp_pool *pool;
@@ -185,11 +202,182 @@ static void test_no_test_flag(void **state)
     crisp__raster_target_free(&b);
 }
 
+/* A box test that agrees with the fragment test changes no output bit and saves most tests. */
+static void test_box_test(void **state)
+{
+    (void)state;
+    static float slack[W * H * 4];
+    for (int samples = 1; samples <= 4; samples += 3)
+        for (int fill = 0; fill < 2; fill++) {
+            crisp_raster_target ref = {0}, a = {0};
+            test_ctx t_ref = {0}, t_box = {0};
+            crisp_raster_stats st_ref, st;
+            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &ref, &t_ref, &st_ref);
+            box_fn = some_box;
+            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &t_box, &st);
+            box_fn = NULL;
+            assert_same(&ref, &a);
+            assert_true(st.fragments_boxed > 0);
+            assert_true(t_box.calls < t_ref.calls / 2);
+            crisp__raster_target_free(&ref);
+            crisp__raster_target_free(&a);
+        }
+}
+
+/* crisp__plan_trim_box against crisp_plan_trim_test on random tables: whenever the box test
+ * answers 0 or 1, the point test gives that answer at dense samples of the box, at its corners
+ * and at the crossings and row and strip boundaries inside it. */
+static void test_plan_trim_box(void **state)
+{
+    (void)state;
+    enum { FACES = 3, STRIPS = 6, ROWS = 5, MAXC = 6 };
+    static crisp_plan_face faces[FACES];
+    static crisp_plan_strip strips[FACES * STRIPS];
+    static uint32_t row_offset[FACES * STRIPS * ROWS + 1];
+    static double crossings[FACES * STRIPS * ROWS * MAXC];
+    rng_state = 7;
+    uint32_t nr = 0, nc = 0;
+    for (int f = 0; f < FACES; f++) {
+        faces[f].v0 = -0.3 + 0.1 * f;
+        faces[f].v1 = faces[f].v0 + 1.0 + 0.2 * f;
+        faces[f].strip_scale = STRIPS / (faces[f].v1 - faces[f].v0);
+        faces[f].first_strip = (uint32_t)(f * STRIPS);
+        faces[f].strip_count = STRIPS;
+        faces[f].flags = f == 2 ? CRISP_PLAN_FACE_ALL_INSIDE : 0;
+        for (int i = 0; i < STRIPS; i++) {
+            crisp_plan_strip *sp = &strips[f * STRIPS + i];
+            double h = (faces[f].v1 - faces[f].v0) / STRIPS;
+            sp->a = faces[f].v0 + i * h;
+            sp->row_count = i == 3 ? 0 : ROWS;
+            sp->row_scale = ROWS / h;
+            sp->first_row = nr;
+            for (int j = 0; j < (int)sp->row_count; j++) {
+                row_offset[nr++] = nc;
+                /* 0, 2 or 4 sorted crossings; some rows share them (so boxes can be inside) */
+                int m = 2 * (int)(rnd() * 3);
+                double x = -0.2;
+                for (int k = 0; k < m; k++)
+                    crossings[nc++] = x += 0.05 + 0.4 * rnd();
+            }
+        }
+    }
+    row_offset[nr] = nc;
+    crisp_frame_plan plan = {0};
+    plan.faces = faces;
+    plan.face_count = FACES;
+    plan.strips = strips;
+    plan.strip_count = FACES * STRIPS;
+    plan.row_offset = row_offset;
+    plan.row_count = nr;
+    plan.crossings = crossings;
+    plan.crossing_count = nc;
+    int decided[2] = {0, 0};
+    for (int trial = 0; trial < 20000; trial++) {
+        uint32_t f = (uint32_t)(rnd() * FACES);
+        double size = rnd() < 0.5 ? 0.01 : 0.2;
+        double lo[2] = {-0.4 + 1.8 * rnd(), -0.5 + 1.9 * rnd()};
+        double hi[2] = {lo[0] + size * rnd(), lo[1] + size * rnd()};
+        int b = crisp__plan_trim_box(&plan, f, lo, hi);
+        if (b < 0) continue;
+        decided[b]++;
+        for (int y = 0; y <= 12; y++)
+            for (int x = 0; x <= 12; x++) {
+                double u = x == 12 ? hi[0] : lo[0] + (hi[0] - lo[0]) * x / 12;
+                double v = y == 12 ? hi[1] : lo[1] + (hi[1] - lo[1]) * y / 12;
+                assert_int_equal(crisp_plan_trim_test(&plan, f, u, v), b);
+            }
+        for (uint32_t k = 0; k < nc; k++) /* the crossings themselves */
+            if (crossings[k] >= lo[0] && crossings[k] <= hi[0]) {
+                assert_int_equal(crisp_plan_trim_test(&plan, f, crossings[k], lo[1]), b);
+                assert_int_equal(crisp_plan_trim_test(&plan, f, crossings[k], hi[1]), b);
+            }
+        for (int i = 0; i < FACES * STRIPS; i++) /* strip and row boundaries */
+            for (int j = 0; j <= ROWS; j++) {
+                double v = strips[i].a + j / strips[i].row_scale;
+                if (v >= lo[1] && v <= hi[1]) {
+                    assert_int_equal(crisp_plan_trim_test(&plan, f, lo[0], v), b);
+                    assert_int_equal(crisp_plan_trim_test(&plan, f, hi[0], v), b);
+                }
+            }
+    }
+    assert_true(decided[0] > 100 && decided[1] > 100);
+}
+
+/* The depth slack computed only in the tiles that some triangles reach equals the whole image's
+ * slack there bit for bit, and covers every sample those triangles cover. */
+static void test_slack_for_triangles(void **state)
+{
+    (void)state;
+    static crisp_raster_vertex v[3 * NT];
+    static crisp_raster_tri tri[NT];
+    static float full[W * H * 4], part[W * H * 4];
+    crisp_raster_view view = {{0.1, 0.2, -1}, {1, 0, 0.1}, {0, 1, 0.2}, 0.01, 0.012};
+    for (int samples = 1; samples <= 4; samples += 3)
+        for (int behind = 0; behind < 2; behind++) {
+            crisp_raster_target t = {0}, fill = {0};
+            test_ctx tc = {0};
+            crisp_raster_stats st;
+            render(samples, 1, 0, 0, some_test, NULL, &t, &tc, &st);
+            size_t n = (size_t)W * H * samples;
+            crisp__raster_depth_slack(&t, NULL, 1.5, &view, full);
+            /* A few small triangles (as the ribbons: thin and short); with `behind`, one of them
+             * has a vertex behind the eye (clipped: its slack is where the clipped part lands). */
+            rng_state = 99;
+            soup(v, tri);
+            crisp_raster_tri few[12];
+            int m = 0;
+            for (int i = 0; i < NT && m < 12; i++) {
+                int ok = 1;
+                for (int k = 0; k < 3; k++)
+                    ok &= v[3 * i + k].clip[3] > 0;
+                if (ok) few[m++] = tri[i];
+            }
+            if (behind) v[few[5].v[0]].clip[3] = -0.2;
+            for (size_t k = 0; k < n; k++)
+                part[k] = NAN;
+            crisp_raster *r;
+            crisp_pool *pool;
+            assert_int_equal(crisp__raster_create(&r), CRISP_OK);
+            assert_int_equal(crisp_pool_create(2, &pool), CRISP_OK);
+            assert_int_equal(crisp__raster_depth_slack_tris(r, &t, pool, 1.5, &view, v, 3 * NT, few,
+                                                            (size_t)m, part),
+                             CRISP_OK);
+            size_t set = 0;
+            for (size_t k = 0; k < n; k++)
+                if (!isnan(part[k])) {
+                    set++;
+                    assert_memory_equal(&part[k], &full[k], sizeof(float));
+                }
+            assert_true(set > 0);
+            /* Every sample the triangles cover has its slack. */
+            assert_int_equal(crisp__raster_target_init(&fill, W, H, samples), CRISP_OK);
+            crisp__raster_target_clear(&fill);
+            assert_int_equal(
+                crisp__raster_draw(r, &fill, pool, v, 3 * NT, few, (size_t)m, NULL, NULL, &st),
+                CRISP_OK);
+            size_t covered = 0;
+            for (size_t k = 0; k < n; k++)
+                if (fill.face[k] >= 0) {
+                    covered++;
+                    assert_false(isnan(part[k]));
+                }
+            assert_true(covered > 0);
+            assert_true(set < n);
+            crisp_pool_destroy(pool);
+            crisp__raster_destroy(r);
+            crisp__raster_target_free(&t);
+            crisp__raster_target_free(&fill);
+        }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hiz_and_batches_change_nothing),
         cmocka_unit_test(test_no_test_flag),
+        cmocka_unit_test(test_slack_for_triangles),
+        cmocka_unit_test(test_box_test),
+        cmocka_unit_test(test_plan_trim_box),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

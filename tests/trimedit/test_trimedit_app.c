@@ -439,6 +439,475 @@ static void test_model_face(void **state)
     te_app_close(&app);
 }
 
+/* Pixels of b that differ from a (colour, depth, face, (u, v), normal, bit for bit), counted
+ * apart where the edited face has an edge within 2 px (a pixel of the 5 x 5 square around it is
+ * the face's and another is not, in either image). */
+static void compare_frames(const crisp_image *a, const crisp_image *b, int face, long *compared,
+                           long *differ, long *differ_at_edges)
+{
+    int w = a->width, h = a->height;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            size_t p = (size_t)y * w + x;
+            int in = 0, out = 0;
+            for (int dy = -2; dy <= 2; dy++)
+                for (int dx = -2; dx <= 2; dx++) {
+                    int xx = x + dx, yy = y + dy;
+                    if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
+                    size_t q = (size_t)yy * w + xx;
+                    in |= a->face[q] == face || b->face[q] == face;
+                    out |= a->face[q] != face || b->face[q] != face;
+                }
+            int same = !memcmp(a->rgba + 4 * p, b->rgba + 4 * p, 4 * sizeof(float)) &&
+                       !memcmp(a->normal + 3 * p, b->normal + 3 * p, 3 * sizeof(float)) &&
+                       !memcmp(a->uv + 2 * p, b->uv + 2 * p, 2 * sizeof(float)) &&
+                       !memcmp(a->depth + p, b->depth + p, sizeof(float)) &&
+                       a->face[p] == b->face[p];
+            if (in && out) {
+                *differ_at_edges += !same;
+                continue;
+            }
+            ++*compared;
+            *differ += !same;
+        }
+}
+
+/* Every frame of a replayed drag (60 frames of cursor events in the 2D view), te_app_draw_cpu
+ * (the edited face alone drawn over the other faces' image) equals a full render of the same
+ * plan away from the edited face's edges; releasing the button draws the whole again. */
+static void partial_vs_full(te_app *app, crisp_trimedit_ref pt, double amp_px, const char *name)
+{
+    crisp_renderer *r1, *r2;
+    assert_int_equal(crisp_renderer_create(NULL, &r1), CRISP_OK);
+    assert_int_equal(crisp_renderer_create(NULL, &r2), CRISP_OK);
+    crisp_image img, whole;
+    assert_int_equal(crisp_image_init(&img, app->cam.width, app->cam.height), CRISP_OK);
+    assert_int_equal(crisp_image_init(&whole, app->cam.width, app->cam.height), CRISP_OK);
+    double uv0[2], px0[2];
+    assert_int_equal(crisp_trimedit_point(app->ed, pt, uv0, NULL), CRISP_OK);
+    te_app_uv_to_px(app, uv0, px0);
+    te_app_cursor(app, px0[0], px0[1]);
+    te_app_button(app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0);
+    assert_true(te_app_editing(app));
+    long compared = 0, differ = 0, at_edges = 0, face_min = -1, face_max = 0;
+    for (int k = 1; k <= 60; k++) {
+        double a = 2 * M_PI * k / 60;
+        te_app_cursor(app, px0[0] + amp_px * sin(a), px0[1] - amp_px * (1 - cos(a)));
+        assert_int_equal(te_app_update(app), CRISP_OK);
+        assert_int_equal(te_app_draw_cpu(app, r1, &img), CRISP_OK);
+        assert_true(app->last_partial);
+        assert_int_equal(crisp_render_cpu_plan(r2, app->scene, app->plan, &app->cam, &whole, NULL),
+                         CRISP_OK);
+        compare_frames(&whole, &img, app->face, &compared, &differ, &at_edges);
+        long n = 0;
+        for (size_t p = 0; p < (size_t)whole.width * whole.height; p++)
+            n += whole.face[p] == app->face;
+        face_min = face_min < 0 || n < face_min ? n : face_min;
+        face_max = n > face_max ? n : face_max;
+    }
+    print_message("%s: 60 frames drawn as the edited face over the others: %ld pixels away from "
+                  "its edges compared with a full render, %ld differ; %ld differ within 2 px of "
+                  "its edges; the face covers %ld..%ld pixels\n",
+                  name, compared, differ, at_edges, face_min, face_max);
+    assert_int_equal(differ, 0);
+    assert_true(face_min > 200 && face_max > face_min); /* seen, and the drag changed it */
+    /* The end of the drag draws the whole plan again: equal everywhere. */
+    te_app_button(app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
+    assert_int_equal(te_app_update(app), CRISP_OK);
+    assert_int_equal(te_app_draw_cpu(app, r1, &img), CRISP_OK);
+    assert_false(app->last_partial);
+    assert_int_equal(crisp_render_cpu_plan(r2, app->scene, app->plan, &app->cam, &whole, NULL),
+                     CRISP_OK);
+    long c2 = 0, d2 = 0, e2 = 0;
+    compare_frames(&whole, &img, app->face, &c2, &d2, &e2);
+    assert_int_equal(d2 + e2, 0);
+    crisp_image_free(&img);
+    crisp_image_free(&whole);
+    crisp_renderer_destroy(r1);
+    crisp_renderer_destroy(r2);
+}
+
+static void test_partial_redraw(void **state)
+{
+    (void)state;
+    te_app app;
+    assert_int_equal(te_app_open(&app, NULL, -1, 2 * W, H), CRISP_OK);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    partial_vs_full(&app, (crisp_trimedit_ref){0, 0, 3}, 30, "built-in example");
+    te_app_close(&app);
+    /* A face of a real model among its neighbours: the hammer's first face with a hole, the
+     * whole model in view. */
+    crisp_model *m;
+    assert_int_equal(crisp_model_load(CRISP_DATA_DIR "/nurbs/occt_hammer.iges", NULL, &m),
+                     CRISP_OK);
+    int face = -1;
+    for (int f = 0; f < m->face_count && face < 0; f++)
+        if (m->faces[f].loop_count > 1) face = f;
+    assert_true(face >= 0);
+    assert_int_equal(te_app_open(&app, m, face, 2 * W, H), CRISP_OK);
+    crisp_camera cam;
+    assert_int_equal(
+        crisp_camera_frame_box(app.scene->box, (int)app.view3d.w, (int)app.view3d.h, &cam),
+        CRISP_OK);
+    te_app_set_camera(&app, &cam);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    /* Of the faces with a hole, the one that covers the most pixels with its surface's box
+     * framed (the face and its neighbours in view). */
+    crisp_renderer *r;
+    crisp_image img;
+    assert_int_equal(crisp_renderer_create(NULL, &r), CRISP_OK);
+    assert_int_equal(crisp_image_init(&img, app.cam.width, app.cam.height), CRISP_OK);
+    long best = -1;
+    crisp_camera best_cam = app.cam;
+    for (int f = 0; f < m->face_count; f++) {
+        if (m->faces[f].loop_count < 2) continue;
+        double box[6];
+        crisp_surface_bbox(m->faces[f].surface, box);
+        assert_int_equal(crisp_camera_frame_box(box, img.width, img.height, &cam), CRISP_OK);
+        assert_int_equal(crisp_render_cpu(r, app.scene, &cam, &img, NULL), CRISP_OK);
+        long n = 0;
+        for (size_t p = 0; p < (size_t)img.width * img.height; p++)
+            n += img.face[p] == f;
+        if (n > best) best = n, face = f, best_cam = cam;
+    }
+    crisp_image_free(&img);
+    crisp_renderer_destroy(r);
+    assert_int_equal(te_app_open_face(&app, face), CRISP_OK);
+    te_app_set_camera(&app, &best_cam);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    char name[64];
+    snprintf(name, sizeof name, "hammer face %d", face);
+    partial_vs_full(&app, (crisp_trimedit_ref){1, 0, 0}, 20, name);
+    te_app_close(&app);
+}
+
+static void key(te_app *app, int k)
+{
+    te_app_key(app, k, GLFW_PRESS, 0);
+    te_app_key(app, k, GLFW_RELEASE, 0);
+}
+
+static void click_uv(te_app *app, const double uv[2])
+{
+    double px[2];
+    te_app_uv_to_px(app, uv, px);
+    te_app_cursor(app, px[0], px[1]);
+    te_app_button(app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0);
+    te_app_button(app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
+}
+
+/* The weight field: a pressed control point is selected, w opens the field, typed keys make
+ * the weight, enter sets it exactly; a weight of 0, a negative one or text that is no number is
+ * refused with a message and changes nothing; while the field is open the keys do not edit. */
+static void test_weight_field(void **state)
+{
+    (void)state;
+    te_app app;
+    assert_int_equal(te_app_open(&app, NULL, -1, 2 * W, H), CRISP_OK);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    const crisp_trimedit_ref pt = {1, 0, 1}; /* a point of the circle hole (rational) */
+    double uv[2], w0, w;
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, &w0), CRISP_OK);
+    assert_true(crisp_trimedit_face(app.ed)->loops[1].curves[0]->rational);
+    click_uv(&app, uv);
+    assert_true(te_app_selected(&app, NULL, NULL));
+    assert_memory_equal(&app.sel, &pt, sizeof pt);
+    te_app_cursor(&app, app.view2d.x + 2, app.view2d.y + 2); /* away: the selection is used */
+    key(&app, GLFW_KEY_W);
+    assert_true(app.entry);
+    int count = crisp_trimedit_face(app.ed)->loops[1].curves[0]->count;
+    static const int k25[] = {GLFW_KEY_2, GLFW_KEY_PERIOD, GLFW_KEY_5, GLFW_KEY_X, GLFW_KEY_ENTER};
+    for (int i = 0; i < 5; i++)
+        key(&app, k25[i]); /* x is no part of a number and deletes nothing here */
+    assert_false(app.entry);
+    assert_false(app.message_error);
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, &w), CRISP_OK);
+    assert_true(w == 2.5);
+    assert_int_equal(crisp_trimedit_face(app.ed)->loops[1].curves[0]->count, count);
+    /* Refused: 0, -1, "e" (no number); the field stays open with the message. */
+    static const int bad[3][3] = {{GLFW_KEY_0, GLFW_KEY_ENTER, 0},
+                                  {GLFW_KEY_MINUS, GLFW_KEY_1, GLFW_KEY_ENTER},
+                                  {GLFW_KEY_E, GLFW_KEY_ENTER, 0}};
+    for (int b = 0; b < 3; b++) {
+        uint64_t v = crisp_trimedit_version(app.ed);
+        key(&app, GLFW_KEY_W);
+        for (int i = 0; i < 3 && bad[b][i]; i++)
+            key(&app, bad[b][i]);
+        assert_true(app.message_error);
+        assert_non_null(strstr(app.message, "refused"));
+        assert_non_null(strstr(app.message, "weight"));
+        assert_true(app.entry);
+        assert_true(crisp_trimedit_version(app.ed) == v);
+        key(&app, GLFW_KEY_ESCAPE);
+        assert_false(app.entry);
+    }
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, &w), CRISP_OK);
+    assert_true(w == 2.5);
+    /* Backspace edits the text: "31", backspace, enter sets 3. */
+    key(&app, GLFW_KEY_W);
+    key(&app, GLFW_KEY_3);
+    key(&app, GLFW_KEY_1);
+    key(&app, GLFW_KEY_BACKSPACE);
+    key(&app, GLFW_KEY_ENTER);
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, &w), CRISP_OK);
+    assert_true(w == 3.0);
+    /* Undo twice: the weight as it was. */
+    te_app_key(&app, GLFW_KEY_Z, GLFW_PRESS, GLFW_MOD_CONTROL);
+    te_app_key(&app, GLFW_KEY_Z, GLFW_PRESS, GLFW_MOD_CONTROL);
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, &w), CRISP_OK);
+    assert_true(w == w0);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    te_app_close(&app);
+}
+
+/* A polygon hole drawn by clicks in the 2D view: n, four corners, a click on the first one
+ * closes it; a hole with its corners exactly at the clicked (u, v), clockwise. Fewer than 3
+ * corners are refused; backspace removes a corner; escape cancels. */
+static void test_polygon_clicks(void **state)
+{
+    (void)state;
+    te_app app;
+    assert_int_equal(te_app_open(&app, NULL, -1, 2 * W, H), CRISP_OK);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    int loops = crisp_trimedit_face(app.ed)->loop_count;
+    const double c[4][2] = {{0.55, 0.62}, {0.7, 0.6}, {0.72, 0.75}, {0.56, 0.72}};
+    double want[4][2], px[2];
+    key(&app, GLFW_KEY_N);
+    assert_true(app.poly);
+    click_uv(&app, c[0]);
+    click_uv(&app, c[2]); /* a wrong corner, taken back */
+    key(&app, GLFW_KEY_BACKSPACE);
+    for (int k = 1; k < 4; k++)
+        click_uv(&app, c[k]);
+    assert_int_equal(app.poly_n, 4);
+    for (int k = 0; k < 4; k++) {
+        te_app_uv_to_px(&app, c[k], px);
+        te_app_px_to_uv(&app, px, want[k]);
+    }
+    te_app_uv_to_px(&app, want[0], px);
+    te_app_cursor(&app, px[0] + 2, px[1] - 1); /* near the first corner: closes */
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0);
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
+    assert_false(app.poly);
+    assert_false(app.message_error);
+    const crisp_face *f = crisp_trimedit_face(app.ed);
+    assert_int_equal(f->loop_count, loops + 1);
+    const crisp_trim_loop *L = &f->loops[loops];
+    assert_false(L->is_outer);
+    int corners = 0, found[4] = {0, 0, 0, 0};
+    double area = 0;
+    for (int cv = 0; cv < L->curve_count; cv++) {
+        assert_int_equal(L->curves[cv]->degree, 1);
+        for (int i = 0; i + 1 < L->curves[cv]->count; i++) {
+            double q[2], q2[2];
+            assert_int_equal(
+                crisp_trimedit_point(app.ed, (crisp_trimedit_ref){loops, cv, i}, q, NULL),
+                CRISP_OK);
+            assert_int_equal(
+                crisp_trimedit_point(app.ed, (crisp_trimedit_ref){loops, cv, i + 1}, q2, NULL),
+                CRISP_OK);
+            area += q[0] * q2[1] - q2[0] * q[1];
+            corners++;
+            for (int k = 0; k < 4; k++)
+                found[k] |= q[0] == want[k][0] && q[1] == want[k][1];
+        }
+    }
+    assert_int_equal(corners, 4);
+    assert_true(found[0] && found[1] && found[2] && found[3]);
+    assert_true(area < 0); /* a hole: clockwise */
+    /* Two corners and enter: refused. One corner and escape: nothing. */
+    key(&app, GLFW_KEY_N);
+    click_uv(&app, c[0]);
+    click_uv(&app, c[1]);
+    key(&app, GLFW_KEY_ENTER);
+    assert_true(app.message_error);
+    assert_non_null(strstr(app.message, "3 corners"));
+    key(&app, GLFW_KEY_N);
+    click_uv(&app, c[0]);
+    key(&app, GLFW_KEY_ESCAPE);
+    assert_false(app.poly);
+    assert_int_equal(crisp_trimedit_face(app.ed)->loop_count, loops + 1);
+    /* A polygon leaving the domain is refused and changes nothing. */
+    const double out[3][2] = {{0.9, 0.4}, {1.05, 0.5}, {0.9, 0.6}};
+    key(&app, GLFW_KEY_N);
+    for (int k = 0; k < 3; k++)
+        click_uv(&app, out[k]);
+    assert_int_equal(app.poly_n, 3);
+    key(&app, GLFW_KEY_ENTER);
+    assert_true(app.message_error);
+    assert_int_equal(crisp_trimedit_face(app.ed)->loop_count, loops + 1);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    te_app_close(&app);
+}
+
+/* Loop transforms from the 3D view: shift-drag near the circle hole's image moves the loop by
+ * the (u, v) between the surface points under the cursor; ctrl-drag rotates it about its centre
+ * (distances to the centre kept); alt-drag scales it (all by one factor). */
+static void test_loop_3d(void **state)
+{
+    (void)state;
+    te_app app;
+    assert_int_equal(te_app_open(&app, NULL, -1, 2 * W, H), CRISP_OK);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    const int l = 1;
+    const crisp_curve *cv = crisp_trimedit_face(app.ed)->loops[l].curves[0];
+    int n = cv->count;
+    double before[64][2], after[64][2], on[2], t0, t1, px[2];
+    assert_true(n <= 64);
+    for (int i = 0; i < n; i++)
+        crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, before[i], NULL);
+    crisp_curve_domain(cv, &t0, &t1);
+    crisp_curve_eval(cv, t0 + 0.3 * (t1 - t0), on);
+    assert_true(te_app_uv_to_px3d(&app, on, px));
+    /* Move: press on the curve's image, release 15 px to the right. */
+    te_app_cursor(&app, px[0], px[1]);
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, GLFW_MOD_SHIFT);
+    assert_int_equal(app.drag, TE_DRAG_MOVE);
+    double start[2] = {app.drag_last[0], app.drag_last[1]};
+    assert_true(fabs(start[0] - on[0]) < 1e-3 && fabs(start[1] - on[1]) < 1e-3);
+    for (int k = 1; k <= 15; k++)
+        te_app_cursor(&app, px[0] + k, px[1]);
+    double end[2] = {app.drag_last[0], app.drag_last[1]};
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, GLFW_MOD_SHIFT);
+    assert_true(hypot(end[0] - start[0], end[1] - start[1]) > 1e-3);
+    cv = crisp_trimedit_face(app.ed)->loops[l].curves[0];
+    for (int i = 0; i < n; i++) {
+        crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, after[i], NULL);
+        assert_true(fabs(after[i][0] - before[i][0] - (end[0] - start[0])) < 1e-9);
+        assert_true(fabs(after[i][1] - before[i][1] - (end[1] - start[1])) < 1e-9);
+    }
+    /* Rotate and scale about the loop's centre. */
+    for (int mode = 0; mode < 2; mode++) {
+        double c[2], pre[64][2];
+        crisp_trimedit_loop_center(app.ed, l, c);
+        for (int i = 0; i < n; i++)
+            crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, pre[i], NULL);
+        cv = crisp_trimedit_face(app.ed)->loops[l].curves[0];
+        crisp_curve_eval(cv, t0 + 0.3 * (t1 - t0), on);
+        assert_true(te_app_uv_to_px3d(&app, on, px));
+        int mods = mode ? GLFW_MOD_ALT : GLFW_MOD_CONTROL;
+        te_app_cursor(&app, px[0], px[1]);
+        te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, mods);
+        assert_int_equal(app.drag, mode ? TE_DRAG_SCALE : TE_DRAG_ROTATE);
+        for (int k = 1; k <= 10; k++)
+            te_app_cursor(&app, px[0] + 0.6 * k, px[1] + 0.9 * k);
+        te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods);
+        double ratio = -1, moved = 0;
+        for (int i = 0; i < n; i++) {
+            double q[2];
+            crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, q, NULL);
+            double r0 = hypot(pre[i][0] - c[0], pre[i][1] - c[1]),
+                   r1 = hypot(q[0] - c[0], q[1] - c[1]);
+            if (ratio < 0) ratio = r1 / r0;
+            assert_true(fabs(r1 / r0 - ratio) < 1e-9);
+            moved = fmax(moved, hypot(q[0] - pre[i][0], q[1] - pre[i][1]));
+        }
+        assert_true(moved > 1e-3);
+        if (!mode)
+            assert_true(fabs(ratio - 1) < 1e-9); /* rotation keeps distances */
+        else
+            assert_true(fabs(ratio - 1) > 1e-3);
+    }
+    /* Three steps of history: undo them all. */
+    for (int k = 0; k < 3; k++)
+        te_app_key(&app, GLFW_KEY_Z, GLFW_PRESS, GLFW_MOD_CONTROL);
+    for (int i = 0; i < n; i++) {
+        double q[2];
+        crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, q, NULL);
+        assert_true(q[0] == before[i][0] && q[1] == before[i][1]);
+    }
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    te_app_close(&app);
+}
+
+/* Loop transforms in the 2D view (shift-drag moves the loop by exactly the (u, v) between the
+ * cursor positions, ctrl-drag rotates and alt-drag scales it about its centre), snap while
+ * dragging (g: a point dragged near the domain edge lands on it), and the panel's figures (the
+ * edited face's plan time) after a re-plan. */
+static void test_loop_2d_and_snap(void **state)
+{
+    (void)state;
+    te_app app;
+    assert_int_equal(te_app_open(&app, NULL, -1, 2 * W, H), CRISP_OK);
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    const int l = 2; /* the rectangle hole */
+    const crisp_curve *cv = crisp_trimedit_face(app.ed)->loops[l].curves[0];
+    int n = cv->count;
+    double before[16][2], on[2], t0, t1, px[2], a[2], b[2];
+    assert_true(n <= 16);
+    for (int i = 0; i < n; i++)
+        crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, before[i], NULL);
+    crisp_curve_domain(cv, &t0, &t1);
+    crisp_curve_eval(cv, t0 + 0.1 * (t1 - t0), on);
+    te_app_uv_to_px(&app, on, px);
+    te_app_cursor(&app, px[0], px[1]);
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, GLFW_MOD_SHIFT);
+    assert_int_equal(app.drag, TE_DRAG_MOVE);
+    for (int k = 1; k <= 12; k++)
+        te_app_cursor(&app, px[0] - k, px[1] + 0.5 * k);
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, GLFW_MOD_SHIFT);
+    te_app_px_to_uv(&app, px, a);
+    te_app_px_to_uv(&app, (double[2]){px[0] - 12, px[1] + 6}, b);
+    for (int i = 0; i < n; i++) {
+        double q[2];
+        crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, q, NULL);
+        assert_true(fabs(q[0] - before[i][0] - (b[0] - a[0])) < 1e-12);
+        assert_true(fabs(q[1] - before[i][1] - (b[1] - a[1])) < 1e-12);
+    }
+    for (int mode = 0; mode < 2; mode++) {
+        double c[2], pre[16][2];
+        crisp_trimedit_loop_center(app.ed, l, c);
+        for (int i = 0; i < n; i++)
+            crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, pre[i], NULL);
+        cv = crisp_trimedit_face(app.ed)->loops[l].curves[0];
+        crisp_curve_eval(cv, t0 + 0.1 * (t1 - t0), on);
+        te_app_uv_to_px(&app, on, px);
+        int mods = mode ? GLFW_MOD_ALT : GLFW_MOD_CONTROL;
+        te_app_cursor(&app, px[0], px[1]);
+        te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, mods);
+        assert_int_equal(app.drag, mode ? TE_DRAG_SCALE : TE_DRAG_ROTATE);
+        for (int k = 1; k <= 8; k++)
+            te_app_cursor(&app, px[0] + 0.7 * k, px[1] + 0.4 * k);
+        te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods);
+        double ratio = -1, moved = 0;
+        for (int i = 0; i < n; i++) {
+            double q[2];
+            crisp_trimedit_point(app.ed, (crisp_trimedit_ref){l, 0, i}, q, NULL);
+            double r0 = hypot(pre[i][0] - c[0], pre[i][1] - c[1]),
+                   r1 = hypot(q[0] - c[0], q[1] - c[1]);
+            if (ratio < 0) ratio = r1 / r0;
+            assert_true(fabs(r1 / r0 - ratio) < 1e-9);
+            moved = fmax(moved, hypot(q[0] - pre[i][0], q[1] - pre[i][1]));
+        }
+        assert_true(moved > 1e-3);
+        if (!mode)
+            assert_true(fabs(ratio - 1) < 1e-9);
+        else
+            assert_true(fabs(ratio - 1) > 1e-3);
+    }
+    /* Snap while dragging: the outer loop's point 3 dragged to 3 px inside the u = 1 edge. */
+    key(&app, GLFW_KEY_G);
+    assert_true(app.snap);
+    const crisp_trimedit_ref pt = {0, 0, 3};
+    double uv[2];
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, NULL), CRISP_OK);
+    te_app_uv_to_px(&app, uv, px);
+    te_app_cursor(&app, px[0], px[1]);
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0);
+    double edge[2] = {1.0, uv[1]};
+    te_app_uv_to_px(&app, edge, px);
+    te_app_cursor(&app, px[0] - 3, px[1]);
+    te_app_button(&app, GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, NULL), CRISP_OK);
+    assert_true(uv[0] == 1.0);
+    /* The re-plan of the edited face is timed (the panel shows it). */
+    long replans = app.replans;
+    assert_int_equal(te_app_update(&app), CRISP_OK);
+    assert_int_equal(app.replans, replans + 1);
+    assert_true(app.ms_face_plan > 0);
+    te_app_close(&app);
+}
+
 static double rnd(unsigned *s)
 {
     *s = *s * 1103515245u + 12345u;
@@ -493,9 +962,16 @@ static void test_random_input(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_drag_undo_redo_save), cmocka_unit_test(test_refused_edits),
-        cmocka_unit_test(test_drag_in_3d),          cmocka_unit_test(test_model_face),
+        cmocka_unit_test(test_drag_undo_redo_save),
+        cmocka_unit_test(test_refused_edits),
+        cmocka_unit_test(test_drag_in_3d),
+        cmocka_unit_test(test_model_face),
         cmocka_unit_test(test_random_input),
+        cmocka_unit_test(test_partial_redraw),
+        cmocka_unit_test(test_weight_field),
+        cmocka_unit_test(test_polygon_clicks),
+        cmocka_unit_test(test_loop_3d),
+        cmocka_unit_test(test_loop_2d_and_snap),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -20,6 +20,9 @@
 #include <cmocka.h>
 #include <png.h>
 
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
 #include "crisp/io.h"
 #include "crisp/trim.h"
 #include "crisp/trimedit.h"
@@ -309,11 +312,147 @@ static void test_zoomed_view(void **state)
     run_drag(opts, 4, "zoomed view");
 }
 
+/* The UI's edits through the window's replay (weight field, polygon hole by clicks, a loop
+ * moved in the 3D view): the window saves the same OBJ, byte for byte, as te_app given the same
+ * events (the window forwards its events to te_app), and that OBJ holds the edits. The window
+ * draws with the CPU backend here (--cpu: the edited face alone over the others during the
+ * drag). */
+typedef struct replay_out {
+    FILE *f;
+    te_app *app;
+} replay_out;
+
+static void r_move(replay_out *o, double x, double y)
+{
+    fprintf(o->f, "move %.17g %.17g\n", x, y);
+    te_app_cursor(o->app, x, y);
+}
+
+static void r_button(replay_out *o, int down, const char *mods_name, int mods)
+{
+    fprintf(o->f, "%s left%s%s\n", down ? "down" : "up", mods_name[0] ? " " : "", mods_name);
+    te_app_button(o->app, GLFW_MOUSE_BUTTON_LEFT, down ? GLFW_PRESS : GLFW_RELEASE, mods);
+}
+
+static void r_click(replay_out *o, double x, double y)
+{
+    r_move(o, x, y);
+    r_button(o, 1, "", 0);
+    r_button(o, 0, "", 0);
+}
+
+static void r_key(replay_out *o, const char *name, int key)
+{
+    fprintf(o->f, "key %s\n", name);
+    te_app_key(o->app, key, GLFW_PRESS, 0);
+    te_app_key(o->app, key, GLFW_RELEASE, 0);
+}
+
+static void test_ui_replay(void **state)
+{
+    (void)state;
+    char dir[256], replay[300], log[300], obj[300], obj2[300], cmd[4096];
+    snprintf(dir, sizeof dir, "/tmp/crisp_trimedit_gl_%ld_ui", (long)getpid());
+    /* The same file name in two folders (the OBJ names its material file after itself). */
+    snprintf(cmd, sizeof cmd, "mkdir -p %s/window %s/te_app", dir, dir);
+    assert_int_equal(system(cmd), 0);
+    snprintf(replay, sizeof replay, "%s/ui.replay", dir);
+    snprintf(log, sizeof log, "%s/log.txt", dir);
+    snprintf(obj, sizeof obj, "%s/window/saved.obj", dir);
+    snprintf(obj2, sizeof obj2, "%s/te_app/saved.obj", dir);
+    const char *cam_opts =
+        "--eye 0.5,0.5,3 --target 0.5,0.5,0 --up 0,1,0 --fov 30 --near 0.5 --far 10";
+    te_app app;
+    assert_int_equal(te_app_open(&app, NULL, -1, WIN_W, WIN_H), CRISP_OK);
+    crisp_camera cam = app.cam;
+    cam.eye[0] = 0.5, cam.eye[1] = 0.5, cam.eye[2] = 3;
+    cam.target[0] = 0.5, cam.target[1] = 0.5, cam.target[2] = 0;
+    cam.up[0] = 0, cam.up[1] = 1, cam.up[2] = 0;
+    cam.fov_deg = 30, cam.znear = 0.5, cam.zfar = 10;
+    te_app_set_camera(&app, &cam);
+    replay_out o = {fopen(replay, "w"), &app};
+    assert_non_null(o.f);
+    fprintf(o.f, "wait 2\nset-camera %s\nwait 1\n", cam_opts);
+    /* Select a point of the circle hole, weight 3; a weight of 0 refused. */
+    const crisp_trimedit_ref pt = {1, 0, 1};
+    double uv[2], px[2];
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, NULL), CRISP_OK);
+    te_app_uv_to_px(&app, uv, px);
+    r_click(&o, px[0], px[1]);
+    r_key(&o, "w", GLFW_KEY_W);
+    r_key(&o, "3", GLFW_KEY_3);
+    r_key(&o, "enter", GLFW_KEY_ENTER);
+    r_key(&o, "w", GLFW_KEY_W);
+    r_key(&o, "0", GLFW_KEY_0);
+    r_key(&o, "enter", GLFW_KEY_ENTER);
+    r_key(&o, "escape", GLFW_KEY_ESCAPE);
+    /* A polygon hole by clicks, closed on its first corner. */
+    const double c[4][2] = {{0.55, 0.62}, {0.7, 0.6}, {0.72, 0.75}, {0.56, 0.72}};
+    r_key(&o, "n", GLFW_KEY_N);
+    for (int k = 0; k < 5; k++) {
+        te_app_uv_to_px(&app, c[k % 4], px);
+        r_click(&o, px[0], px[1]);
+    }
+    /* The rectangle hole moved with a shift-drag on its image in the 3D view. */
+    const crisp_curve *rc = crisp_trimedit_face(app.ed)->loops[2].curves[0];
+    double t0, t1, on[2];
+    crisp_curve_domain(rc, &t0, &t1);
+    crisp_curve_eval(rc, t0 + 0.1 * (t1 - t0), on);
+    assert_true(te_app_uv_to_px3d(&app, on, px));
+    double before[2];
+    assert_int_equal(crisp_trimedit_point(app.ed, (crisp_trimedit_ref){2, 0, 0}, before, NULL),
+                     CRISP_OK);
+    r_move(&o, px[0], px[1]);
+    r_button(&o, 1, "shift", GLFW_MOD_SHIFT);
+    for (int k = 1; k <= 10; k++)
+        r_move(&o, px[0] - k, px[1] + 0.5 * k);
+    r_button(&o, 0, "shift", GLFW_MOD_SHIFT);
+    fclose(o.f);
+    assert_int_equal(te_app_save(&app, obj2), CRISP_OK);
+    /* te_app's result: weight 3, a fifth loop (the polygon), the rectangle moved. */
+    double w, after[2];
+    assert_int_equal(crisp_trimedit_point(app.ed, pt, uv, &w), CRISP_OK);
+    assert_true(w == 3.0);
+    assert_int_equal(crisp_trimedit_face(app.ed)->loop_count, 4);
+    assert_int_equal(crisp_trimedit_point(app.ed, (crisp_trimedit_ref){2, 0, 0}, after, NULL),
+                     CRISP_OK);
+    assert_true(hypot(after[0] - before[0], after[1] - before[1]) > 1e-3);
+    te_app_close(&app);
+    snprintf(cmd, sizeof cmd,
+             "xvfb-run -a %s/crisp-trimedit --cpu --size %dx%d --replay %s --save %s "
+             "--exit-after-replay --no-vsync > %s 2>&1",
+             CRISP_BIN_DIR, WIN_W, WIN_H, replay, obj, log);
+    int rc2 = system(cmd);
+    if (rc2) {
+        snprintf(cmd, sizeof cmd, "tail -n 20 %s", log);
+        (void)system(cmd);
+    }
+    assert_int_equal(rc2, 0);
+    int refused = 0;
+    FILE *lf = fopen(log, "r");
+    char line[1024];
+    while (lf && fgets(line, sizeof line, lf))
+        refused |= strstr(line, "refused: weight 0") != NULL;
+    if (lf) fclose(lf);
+    assert_true(refused);
+    snprintf(cmd, sizeof cmd, "cmp -s %s %s", obj, obj2);
+    assert_int_equal(system(cmd), 0);
+    crisp_model *back;
+    assert_int_equal(crisp_model_load(obj, NULL, &back), CRISP_OK);
+    assert_int_equal(back->faces[0].loop_count, 4);
+    crisp_model_destroy(back);
+    print_message("weight field, polygon by clicks, loop moved in 3D: the window's saved OBJ "
+                  "equals te_app's for the same events\n");
+    snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
+    (void)system(cmd);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_default_view),
         cmocka_unit_test(test_zoomed_view),
+        cmocka_unit_test(test_ui_replay),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

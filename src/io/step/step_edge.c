@@ -465,6 +465,75 @@ static void unwind_at_collapse(face_work *w, loop_work *lw)
     }
 }
 
+/* Twice the signed (u, v) area of a loop's samples (closed by straight segments). */
+static double loop_area2(const loop_work *lw)
+{
+    double a = 0, first[2] = {0, 0}, prev[2] = {0, 0};
+    int have = 0;
+    for (int m = 0; m < lw->count; m++) {
+        const edge_use *eu = &lw->edges[m];
+        for (int i = 0; i < eu->ns; i++) {
+            const double *p = eu->uv + 2 * i;
+            if (have)
+                a += prev[0] * p[1] - p[0] * prev[1];
+            else
+                first[0] = p[0], first[1] = p[1];
+            prev[0] = p[0], prev[1] = p[1];
+            have = 1;
+        }
+    }
+    if (have) a += prev[0] * first[1] - first[0] * prev[1];
+    return a;
+}
+
+static void shift_range(loop_work *lw, int from, int to, int k, double d)
+{
+    for (int j = from; j < to; j++) {
+        edge_use *e = &lw->edges[j];
+        for (int i = 0; i < e->ns; i++)
+            e->uv[2 * i + k] += d;
+        e->shift[k] += d;
+    }
+}
+
+/* A lone loop through an apex or a pole that does not wind (a lune of a sphere) bounds either of
+ * the two regions between its edges: the file says which by the loop's sense (ISO 10303-42: the
+ * face lies on the left of its bounds seen against the face normal; (u, v, S_u x S_v) is right
+ * handed, so the outer loop runs counter-clockwise in (u, v) when the face normal is the
+ * surface's and the bound's orientation .T.). A loop unwound the wrong way round moves its part
+ * between two collapsed vertices by a turn, to the other region (pro10363.stp's sphere of two
+ * lunes: both were read as the same half). A loop that passes one collapsed vertex only (a half
+ * cone: an arc and two generators) has no other region: it is left as it is. */
+static void orient_at_collapse(face_work *w, loop_work *lw)
+{
+    double want = (lw->sense ? -1 : 1) * (w->same ? 1 : -1);
+    if (!lw->collapse || loop_area2(lw) * want >= 0) return;
+    for (int k = 0; k < 2; k++) {
+        if (!(w->period[k] > 0)) continue;
+        int at[3], n = 0;
+        for (int m = 0; m < lw->count && n < 3; m++)
+            if (lw->edges[m].ns && collapsed_at(w, lw->edges[m].uv, k)) at[n++] = m;
+        int from, to;
+        if (n >= 2 && at[0] == 0)
+            from = at[1], to = lw->count;
+        else if (n >= 2)
+            from = at[0], to = at[1];
+        else
+            continue;
+        double best = 0, best_a = INFINITY;
+        for (int s = -1; s <= 1; s += 2) {
+            shift_range(lw, from, to, k, s * w->period[k]);
+            double a = loop_area2(lw) * want;
+            if (a > 0 && a < best_a) best_a = a, best = s * w->period[k];
+            shift_range(lw, from, to, k, -s * w->period[k]);
+        }
+        if (best != 0) {
+            shift_range(lw, from, to, k, best);
+            return;
+        }
+    }
+}
+
 /* File-uv samples of every edge of a loop, continuous along the loop. */
 crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
 {
@@ -535,6 +604,7 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
         have_prev = 1;
     }
     if (w->s.kind != STEP_SURF_BSPLINE) unwind_at_collapse(w, lw);
+    if (w->s.kind != STEP_SURF_BSPLINE && w->nloops == 1 && w->ncap == 0) orient_at_collapse(w, lw);
     lw->box[0] = lw->box[2] = INFINITY;
     lw->box[1] = lw->box[3] = -INFINITY;
     for (int m = 0; m < n; m++) {

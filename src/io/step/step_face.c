@@ -823,6 +823,7 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
     const step_entity *fe = w.fe;
     crisp_status st = CRISP_OK;
     memset(dest, 0, sizeof *dest);
+    w.same = same;
     int whole = 0;
     if (w.nloops == 0 && w.s.kind != STEP_SURF_BSPLINE && !(whole = whole_closed_surface(&w))) {
         st = crisp__step_fail(r, fe, CRISP_ERR_UNSUPPORTED,

@@ -46,6 +46,7 @@ typedef struct face_work {
     int cap_k; /* band_a closed at the degenerate line (coordinate 1 - cap_k) = cap_v */
     double cap_v;
     int repaired; /* the edge in progress needed a repair (checked afterwards) */
+    int same;     /* the face's same_sense (its normal is the surface's) */
 } face_work;
 
 /* Set up the work of a face (or curve-bounded surface) fe on surface entity se. */

@@ -110,16 +110,23 @@ static int is_face(step_reader *r, const step_entity *e)
 }
 
 /* The faces of a CLOSED_SHELL / OPEN_SHELL (or ORIENTED_CLOSED_SHELL's shell). */
-static crisp_status shell_faces(step_reader *r, face_list *fl, const step_entity *sh, int solid,
-                                int depth)
+static crisp_status shell_faces_flip(step_reader *r, face_list *fl, const step_entity *sh,
+                                     int solid, int depth, int shell_flip)
 {
     const step_part *p = crisp__step_part(r, sh, "CLOSED_SHELL");
     if (!p) p = crisp__step_part(r, sh, "OPEN_SHELL");
     if (!p) {
+        /* ORIENTED_CLOSED_SHELL (a void of a BREP_WITH_VOIDS): .F. turns every face round. */
         const step_part *op = crisp__step_part(r, sh, "ORIENTED_CLOSED_SHELL");
         const step_entity *inner;
-        if (op && depth < 4 && !crisp__step_get_ref(r, sh, op, 2, &inner))
-            return shell_faces(r, fl, inner, solid, depth + 1);
+        int o = 1;
+        if (op && depth < 4 && !crisp__step_get_ref(r, sh, op, 2, &inner)) {
+            if (crisp__step_get_bool(r, sh, op, 3, &o)) {
+                crisp_error_clear();
+                o = 1;
+            }
+            return shell_faces_flip(r, fl, inner, solid, depth + 1, shell_flip ^ !o);
+        }
         crisp_model_note_skip(r->model, "STEP shell that is not a CLOSED_SHELL or OPEN_SHELL");
         return CRISP_OK;
     }
@@ -129,7 +136,7 @@ static crisp_status shell_faces(step_reader *r, face_list *fl, const step_entity
     for (uint32_t i = 0; i < faces->len; i++) {
         const step_entity *fe;
         if ((st = crisp__step_deref(r, sh, crisp__step_elem(r, faces, i), &fe))) return st;
-        int flip = 0;
+        int flip = shell_flip;
         for (int k = 0; k < 4 && crisp__step_is(r, fe, "ORIENTED_FACE"); k++) {
             const step_part *op = crisp__step_part(r, fe, "ORIENTED_FACE");
             int o;
@@ -147,6 +154,12 @@ static crisp_status shell_faces(step_reader *r, face_list *fl, const step_entity
         if ((st = add_ref(r, fl, fe, flip, sh->id, solid))) return st;
     }
     return CRISP_OK;
+}
+
+static crisp_status shell_faces(step_reader *r, face_list *fl, const step_entity *sh, int solid,
+                                int depth)
+{
+    return shell_faces_flip(r, fl, sh, solid, depth, 0);
 }
 
 static crisp_status collect_faces(step_reader *r, face_list *fl, int *wire)

@@ -1,0 +1,232 @@
+/* bench_interactive: issue 12's interactive targets, stage by stage. Every bundled model
+ * (data/nurbs) at 1920x1080, 1 sample per pixel, with the default camera (crisp_camera_frame_box)
+ * and with a close-up whose surface fills the screen (the default camera's centre-ray hit point
+ * seen with a 1/8 field of view, as bench_gl). Per row, medians of FRAMES warm frames (after one
+ * warm-up frame) on THREADS threads: the plan (crisp_planner_plan), the CPU backend's stages
+ * (tessellate, rasterise, resolve and shade: crisp_render_stats), the whole frame (plan + draw),
+ * the process CPU time per frame (all threads; fairer than wall time on a shared machine), the
+ * triangles, covered pixels and triangles per covered pixel, the fragments that ran the trim
+ * lookup, and the lookups' estimated time (the lookups of the image's own samples replayed and
+ * timed on one thread, scaled to the frame's count and divided by the threads), and a hash of
+ * the image and its AOVs (equal hashes across builds: the same picture).
+ *
+ *   bench_interactive [FRAMES [THREADS [MODEL...]]]   (defaults 5, 2, every model; MODEL: only
+ *                                                      rows whose "model:view" contains it,
+ *                                                      e.g. bearing or bearing.iges:close) */
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+
+#include "bench_util.h"
+#include "crisp/io.h"
+#include "crisp/plan.h"
+#include "crisp/render.h"
+
+static char models[64][256];
+static int model_count;
+
+static int cmp_name(const void *a, const void *b)
+{
+    return strcmp(a, b);
+}
+
+static void list_models(void)
+{
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
+    DIR *d = opendir(dir);
+    if (!d) return;
+    struct dirent *e;
+    while ((e = readdir(d)) && model_count < 64)
+        if (e->d_name[0] != '.') snprintf(models[model_count++], sizeof models[0], "%s", e->d_name);
+    closedir(d);
+    qsort(models, (size_t)model_count, sizeof models[0], cmp_name);
+}
+
+static void die(const char *what)
+{
+    fprintf(stderr, "bench_interactive: %s: %s\n", what, crisp_error_message());
+    exit(1);
+}
+
+static double cpu_ms(void)
+{
+    struct rusage u;
+    getrusage(RUSAGE_SELF, &u);
+    return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+           1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+static crisp_camera close_up(const crisp_scene *sc, const crisp_camera *base)
+{
+    crisp_camera c = *base;
+    double o[3], d[3], t;
+    crisp_camera_ray(base, 0.5 * base->width, 0.5 * base->height, o, d);
+    if (!crisp_exact_ray(sc, NULL, o, d, base->znear, base->zfar, &t, NULL, NULL, NULL)) {
+        double P[3], Ps[3], Pt[3];
+        crisp_bezier_patch_derivs(&sc->patches[sc->patch_count / 2].bez, 0.5, 0.5, P, Ps, Pt);
+        for (int k = 0; k < 3; k++)
+            d[k] = P[k] - o[k];
+        t = crisp_vec3_norm(d);
+        crisp_vec3_normalize(d, d);
+    }
+    for (int k = 0; k < 3; k++)
+        c.target[k] = o[k] + t * d[k];
+    c.fov_deg = base->fov_deg / 8;
+    return c;
+}
+
+/* The trim lookups of the image's covered pixels (faces with trim loops), replayed and timed:
+ * ms per lookup. */
+static double lookup_ms_each(const crisp_frame_plan *plan, const crisp_image *img)
+{
+    size_t n = (size_t)img->width * img->height, m = 0;
+    uint32_t *face = malloc(n * sizeof *face);
+    double *uv = malloc(2 * n * sizeof *uv);
+    for (size_t p = 0; p < n; p++) {
+        int32_t f = img->face[p];
+        if (f < 0 || (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE)) continue;
+        face[m] = (uint32_t)f;
+        uv[2 * m] = img->uv[2 * p];
+        uv[2 * m + 1] = img->uv[2 * p + 1];
+        m++;
+    }
+    double each = 0;
+    if (m) {
+        volatile int sink = 0;
+        double t0 = crisp_time_now();
+        for (int rep = 0; rep < 3; rep++)
+            for (size_t k = 0; k < m; k++)
+                sink += crisp_plan_trim_test(plan, face[k], uv[2 * k], uv[2 * k + 1]);
+        each = 1e3 * (crisp_time_now() - t0) / (3.0 * (double)m);
+        (void)sink;
+    }
+    free(face);
+    free(uv);
+    return each;
+}
+
+/* FNV-1a over the image's buffers: the same picture and AOVs give the same value (a check that
+ * a faster build draws what the baseline drew). */
+static uint32_t image_hash(const crisp_image *img)
+{
+    size_t n = (size_t)img->width * img->height;
+    const void *bufs[5] = {img->rgba, img->depth, img->normal, img->uv, img->face};
+    const size_t sizes[5] = {16 * n, 4 * n, 12 * n, 8 * n, 4 * n};
+    uint32_t h = 2166136261u;
+    for (int b = 0; b < 5; b++)
+        for (size_t k = 0; k < sizes[b]; k++)
+            h = (h ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
+    return h;
+}
+
+static void run_view(const char *name, const char *view, const crisp_scene *sc,
+                     const crisp_camera *cam, int frames, int threads)
+{
+    crisp_renderer *r;
+    if (crisp_renderer_create(&(crisp_render_desc){.threads = threads, .samples = 1}, &r))
+        die("renderer");
+    crisp_image img;
+    if (crisp_image_init(&img, cam->width, cam->height)) die("image");
+    double *t[6];
+    for (int k = 0; k < 6; k++)
+        t[k] = calloc((size_t)frames, sizeof(double));
+    double cpu = 0;
+    crisp_render_stats st = {0};
+    const crisp_frame_plan *plan = NULL;
+    for (int f = -1; f < frames; f++) {
+        double c0 = cpu_ms(), a = crisp_time_now();
+        if (crisp_planner_plan(crisp_renderer_planner(r), sc, cam, &plan)) die("plan");
+        double b = crisp_time_now();
+        if (crisp_render_cpu_plan(r, sc, plan, cam, &img, &st)) die("frame");
+        double c = crisp_time_now();
+        if (f < 0) continue;
+        cpu += cpu_ms() - c0;
+        t[0][f] = 1e3 * (b - a);
+        t[1][f] = st.ms_tess;
+        t[2][f] = st.ms_raster;
+        t[3][f] = st.ms_resolve;
+        t[4][f] = 1e3 * (c - a);
+    }
+    size_t covered = 0;
+    for (size_t p = 0; p < (size_t)img.width * img.height; p++)
+        covered += img.face[p] >= 0;
+    double lookup_ms = lookup_ms_each(plan, &img) * (double)st.fragments_tested / threads;
+    printf("| %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %llu | %zu | %.2f | "
+           "%llu | %.1f | %08x |\n",
+           name, view, bench_median(t[0], frames), bench_median(t[1], frames),
+           bench_median(t[2], frames), bench_median(t[3], frames), bench_median(t[4], frames),
+           cpu / frames, lookup_ms, (unsigned long long)st.triangles, covered,
+           covered ? (double)st.triangles / covered : 0.0, (unsigned long long)st.fragments_tested,
+           100.0 * covered / (cam->width * cam->height), (unsigned)image_hash(&img));
+    fflush(stdout);
+    for (int k = 0; k < 6; k++)
+        free(t[k]);
+    crisp_image_free(&img);
+    crisp_renderer_destroy(r);
+}
+
+/* A row is run when no MODEL argument is given or one is part of "model:view". */
+static int wanted(int argc, char **argv, const char *model, const char *view)
+{
+    if (argc <= 3) return 1;
+    char key[300];
+    snprintf(key, sizeof key, "%.255s:%.15s", model, view);
+    for (int a = 3; a < argc; a++)
+        if (strstr(key, argv[a])) return 1;
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    int frames = argc > 1 ? atoi(argv[1]) : 5;
+    int threads = argc > 2 ? atoi(argv[2]) : 2;
+    if (frames < 1) frames = 1;
+    if (threads < 1) threads = 1;
+    list_models();
+    bench_print_machine(stdout);
+    double la = -1;
+    FILE *lf = fopen("/proc/loadavg", "r");
+    if (lf) {
+        if (fscanf(lf, "%lf", &la) != 1) la = -1;
+        fclose(lf);
+    }
+    printf("load average %.2f at the start; 1920x1080, 1 sample, %d threads, median of %d warm "
+           "frames\n\n",
+           la, threads, frames);
+    printf("| model | view | plan ms | tess ms | raster ms | resolve ms | frame ms | frame CPU ms "
+           "| trim lookups ms (est.) | triangles | covered px | tri/px | lookups | cover %% | "
+           "image hash |\n");
+    printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+    fflush(stdout);
+    for (int m = 0; m < model_count; m++) {
+        if (!wanted(argc, argv, models[m], "default") && !wanted(argc, argv, models[m], "close"))
+            continue;
+        char path[1024];
+        snprintf(path, sizeof path, "%s/nurbs/%.255s", CRISP_DATA_DIR, models[m]);
+        crisp_model *model;
+        if (crisp_model_load(path, NULL, &model)) die(path);
+        crisp_scene *sc;
+        if (crisp_scene_prepare(model, &sc)) die("scene");
+        crisp_camera cams[2];
+        if (crisp_camera_frame_box(sc->box, 1920, 1080, &cams[0])) die("camera");
+        cams[1] = close_up(sc, &cams[0]);
+        for (int v = 0; v < 2; v++) {
+            const char *view = v ? "close" : "default";
+            if (wanted(argc, argv, models[m], view))
+                run_view(models[m], view, sc, &cams[v], frames, threads);
+        }
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(model);
+    }
+    lf = fopen("/proc/loadavg", "r");
+    if (lf) {
+        if (fscanf(lf, "%lf", &la) != 1) la = -1;
+        fclose(lf);
+    }
+    printf("\nload average %.2f at the end\n", la);
+    return 0;
+}
