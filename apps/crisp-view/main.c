@@ -390,8 +390,12 @@ static void render_frame(view *v)
         double wall = v->last_moving_t > 0 ? 1e3 * (now - v->last_moving_t) : fs.ms;
         if ((fs.ms > 25 || wall > 40) && v->scale < 8)
             v->scale++;
-        else if (fs.ms < 12 && wall < 22 && v->scale > 1)
-            v->scale = v->scale * 7 / 10 > 1 ? v->scale * 7 / 10 : 1;
+        else if (fs.ms < 12 && wall < 22 && v->scale > 1) {
+            /* down only when the frame would still fit if its cost grew with the pixels */
+            int s1 = v->scale * 7 / 10 > 1 ? v->scale * 7 / 10 : 1;
+            double grow = (double)v->scale * v->scale / ((double)s1 * s1);
+            if (fs.ms * grow < 20) v->scale = s1;
+        }
     }
     v->last_moving_t = ov.moving ? now : 0;
     v->dirty = 0;
