@@ -3,13 +3,14 @@
 // are clipped away).
 uniform dvec2 jitter;
 uniform float zconst;
+uniform dvec4 clip_plane;  // the section plane in clip space (kept where dot(clip_plane, c) >= 0)
 out vec2 rb_uv;
 out vec3 rb_normal;
 flat out uint rb_face;
 
 out gl_PerVertex {
     vec4 gl_Position;
-    float gl_ClipDistance[2];
+    float gl_ClipDistance[3];
 };
 
 void main()
@@ -24,6 +25,7 @@ void main()
     gl_Position = vec4(float(c.x + c.w * jitter.x), float(-c.y + c.w * jitter.y), zconst, float(c.w));
     gl_ClipDistance[0] = dropped ? -1.0 : float(c.z + c.w);
     gl_ClipDistance[1] = dropped ? -1.0 : float(c.w - c.z);
+    gl_ClipDistance[2] = dropped ? -1.0 : float(dot(clip_plane, c));
     rb_uv = vec2(V.uv[0], V.uv[1]);
     rb_normal = vec3(V.normal[0], V.normal[1], V.normal[2]);
     rb_face = V.face;

@@ -11,6 +11,7 @@ patch in uvec4 tc_group;
 uniform dmat4 view_proj;
 uniform dvec2 jitter;  // the sample's offset from the pixel centre, in NDC
 uniform float zconst;  // the constant clip z: window depth = zconst / W (larger = nearer)
+uniform dvec4 clip_plane;  // the section plane: kept where dot(clip_plane, (x, 1)) >= 0; 0: none
 out float te_s;
 out float te_t;
 out vec3 te_normal;
@@ -18,7 +19,7 @@ flat out uint te_leaf;
 
 out gl_PerVertex {
     vec4 gl_Position;
-    float gl_ClipDistance[2];
+    float gl_ClipDistance[3];
 };
 
 void main()
@@ -46,6 +47,7 @@ void main()
     gl_Position = vec4(float(c.x + c.w * jitter.x), float(-c.y + c.w * jitter.y), zconst, float(c.w));
     gl_ClipDistance[0] = float(c.z + c.w); // near plane
     gl_ClipDistance[1] = float(c.w - c.z); // far plane
+    gl_ClipDistance[2] = float(dot(clip_plane, dvec4(x, 1.0LF)));
     te_s = gl_TessCoord.x;
     te_t = gl_TessCoord.y;
     te_leaf = tc_leaf;

@@ -237,7 +237,8 @@ static int parse_line(builder *b, char **tok, int n, const char *rest)
         if (n != 1) return fail(b, "expected 'idle'");
         PUSH(APP_EV_IDLE);
     } else if (!strcmp(cmd, "screenshot") || !strcmp(cmd, "aov") || !strcmp(cmd, "camera") ||
-               !strcmp(cmd, "set-camera") || !strcmp(cmd, "mark")) {
+               !strcmp(cmd, "set-camera") || !strcmp(cmd, "mark") || !strcmp(cmd, "window") ||
+               !strcmp(cmd, "section") || !strcmp(cmd, "body") || !strcmp(cmd, "occurrence")) {
         int needs = strcmp(cmd, "camera") != 0;
         if (needs && n < 2) return fail(b, "expected '%s ARGUMENTS'", cmd);
         if (!needs && n != 1) return fail(b, "expected 'camera'");
@@ -247,7 +248,8 @@ static int parse_line(builder *b, char **tok, int n, const char *rest)
     } else {
         return fail(b,
                     "unknown event '%s' (expected move, down, up, click, drag, wheel, key, drop, "
-                    "close, wait, sleep, idle, screenshot, aov, camera, set-camera, mark)",
+                    "close, wait, sleep, idle, screenshot, aov, camera, set-camera, mark, "
+                    "window, section, body, occurrence)",
                     cmd);
     }
     return 1;

@@ -113,7 +113,7 @@ int app_image_view_init(app_image_view *v, char *err, size_t err_size)
     return 1;
 }
 
-void app_image_view_upload(app_image_view *v, int width, int height, const uint8_t *rgba)
+GLuint app_image_view_target(app_image_view *v, int width, int height)
 {
     if (!v->tex || v->tex_w != width || v->tex_h != height) {
         if (v->tex) glDeleteTextures(1, &v->tex);
@@ -124,6 +124,12 @@ void app_image_view_upload(app_image_view *v, int width, int height, const uint8
         v->tex_w = width;
         v->tex_h = height;
     }
+    return v->tex;
+}
+
+void app_image_view_upload(app_image_view *v, int width, int height, const uint8_t *rgba)
+{
+    app_image_view_target(v, width, height);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTextureSubImage2D(v->tex, 0, 0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
 }

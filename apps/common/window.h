@@ -39,6 +39,9 @@ typedef struct app_image_view {
 int app_image_view_init(app_image_view *v, char *err, size_t err_size);
 /* width x height RGBA8 pixels, row 0 at the top. */
 void app_image_view_upload(app_image_view *v, int width, int height, const uint8_t *rgba);
+/* The texture for a width x height image drawn on the GPU (e.g. blitted into through a
+ * framebuffer of the caller's), row 0 at the top as with upload. */
+GLuint app_image_view_target(app_image_view *v, int width, int height);
 /* Draw the image over the whole framebuffer (nearest filtering when magnified by an integer). */
 void app_image_view_draw(app_image_view *v, int fb_width, int fb_height);
 void app_image_view_free(app_image_view *v);

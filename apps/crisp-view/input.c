@@ -34,10 +34,17 @@ int view_pick(view *v, double x, double y, view_hit *h)
     double o[3], d[3];
     crisp_camera_ray(&v->nav.cam, x, y, o, d);
     crisp_exact_desc desc = {.threads = 1, .classify = classify_exact};
-    double t;
+    double t, t0 = 0, t1 = INFINITY, pl[4];
     uint32_t face;
-    if (!crisp_exact_ray(v->rdoc.scene, &desc, o, d, 0, INFINITY, &t, &face, h->uv, h->normal))
-        return 0;
+    if (view_section_plane(v, pl)) { /* only what the section keeps */
+        double ne = pl[0] * o[0] + pl[1] * o[1] + pl[2] * o[2] + pl[3],
+               nd = pl[0] * d[0] + pl[1] * d[1] + pl[2] * d[2];
+        double tp = nd != 0 ? -ne / nd : INFINITY;
+        if (ne < 0 && !(nd > 0)) return 0; /* on the cut side, looking away */
+        if (ne < 0) t0 = tp;
+        if (ne >= 0 && nd < 0) t1 = tp;
+    }
+    if (!crisp_exact_ray(v->rdoc.scene, &desc, o, d, t0, t1, &t, &face, h->uv, h->normal)) return 0;
     h->hit = 1;
     h->face = view_doc_face(v, (int32_t)face);
     for (int i = 0; i < 3; i++)
@@ -370,6 +377,12 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
     case GLFW_KEY_P:
         v->show_panels = !v->show_panels;
         break;
+    case GLFW_KEY_X:
+    case GLFW_KEY_N:
+    case GLFW_KEY_MINUS:
+    case GLFW_KEY_EQUAL:
+        view_section_key(v, key, mods);
+        break;
     case GLFW_KEY_E:
         v->ov.edges = !v->ov.edges;
         v->dirty = 1;
@@ -398,8 +411,22 @@ void view_on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
             view_visible_update(v);
         }
         break;
+    case GLFW_KEY_G: /* transparency: the selected face; shift: every face opaque again */
+        if (v->doc && v->face_hidden && (mods & GLFW_MOD_SHIFT)) {
+            for (uint32_t f = 0; f < v->doc->scene->face_count; f++)
+                if (v->face_hidden[f] == 2) v->face_hidden[f] = 0;
+            printf("transparent: none\n");
+            view_visible_update(v);
+        } else if (v->doc && v->sel.hit && v->sel.face >= 0 && v->face_hidden) {
+            v->face_hidden[v->sel.face] = 2;
+            printf("transparent: face %d\n", v->sel.face);
+            v->sel.hit = 0;
+            v->ov.selected_face = -1;
+            view_visible_update(v);
+        }
+        break;
     case GLFW_KEY_U:
-        if (v->doc && v->face_hidden && v->hidden_faces) {
+        if (v->doc && v->face_hidden && (v->hidden_faces || v->trans_faces)) {
             memset(v->face_hidden, 0, v->doc->scene->face_count);
             view_visible_update(v);
         }

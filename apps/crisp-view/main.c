@@ -81,6 +81,7 @@ crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, i
     if ((long long)(w > 0 ? w : v->nav.cam.width) * (h > 0 ? h : v->nav.cam.height) > (1ll << 26))
         return crisp_error(CRISP_ERR_LIMIT, "screenshot size %dx%d: at most 2^26 pixels", w, h);
     app_nav_update_clip(&v->nav);
+    view_sync_section(v);
     crisp_camera c = shot_camera(v, w, h);
     crisp_image img = {0};
     crisp_status st = crisp_image_init(&img, c.width, c.height);
@@ -95,6 +96,14 @@ crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, i
                strcmp(v->backend.name, "gl") ? "" : " --backend gl");
     }
     return st;
+}
+
+void view_sync_section(view *v)
+{
+    double plane[4];
+    int on = view_section_plane(v, plane);
+    v->backend.set_section(v->backend.self, on, plane, v->doc ? v->doc->box : plane);
+    v->backend.set_transparent(v->backend.self, v->trans_faces && v->trans_scene ? &v->tdoc : NULL);
 }
 
 int view_idle(view *v)
@@ -156,6 +165,58 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
     } else if (!strcmp(name, "mark")) {
         printf("mark: %s time %.6f frames %ld refined %d scale %d frame_ms %.3f\n", arg,
                crisp_time_now(), v->frames, v->refined, v->last.scale, v->last.ms);
+    } else if (!strcmp(name, "window")) {
+        /* what the window shows (the frame, moving or refined, without the panels) after this
+         * step's frame (commands take no frame: the next input event's) */
+        snprintf(v->window_shot, sizeof v->window_shot, "%s", arg);
+
+    } else if (!strcmp(name, "occurrence")) {
+        /* occurrence N on|off: show or hide an assembly occurrence (1-based, as printed) */
+        int k = 0;
+        char what[8] = "";
+        if (!v->doc || sscanf(arg, "%d %7s", &k, what) != 2 ||
+            (strcmp(what, "on") && strcmp(what, "off")) || k < 1 ||
+            k > v->doc->scene->model->occurrence_count) {
+            view_set_error(v,
+                           "replay line %d: expected 'occurrence N on|off' naming an assembly "
+                           "occurrence of the model",
+                           line);
+            return;
+        }
+        view_occurrence_show(v, k - 1, !strcmp(what, "on"));
+    } else if (!strcmp(name, "body")) {
+        /* body N on|off: show or hide a body's faces (the Parts panel's checkbox) */
+        int b = 0;
+        char what[8] = "";
+        if (!v->doc || sscanf(arg, "%d %7s", &b, what) != 2 ||
+            (strcmp(what, "on") && strcmp(what, "off")) || !view_body_faces(v, b, NULL)) {
+            view_set_error(v, "replay line %d: expected 'body N on|off' naming a body of the model",
+                           line);
+            return;
+        }
+        view_body_show(v, b, !strcmp(what, "on"));
+    } else if (!strcmp(name, "section")) {
+        /* section off | section x|y|z POSITION [flip] */
+        char ax[8] = "", fl[8] = "";
+        double pos = 0;
+        int n = sscanf(arg, "%7s %lf %7s", ax, &pos, fl);
+        if (n >= 1 && !strcmp(ax, "off")) {
+            v->section = 0;
+        } else if (n >= 2 && ax[1] == '\0' && ax[0] >= 'x' && ax[0] <= 'z' &&
+                   (n == 2 || !strcmp(fl, "flip"))) {
+            v->section = 1;
+            v->section_axis = ax[0] - 'x';
+            v->section_pos = pos;
+            v->section_flip = n == 3;
+        } else {
+            view_set_error(v,
+                           "replay line %d: expected 'section off' or 'section x|y|z POSITION "
+                           "[flip]'",
+                           line);
+            return;
+        }
+        view_print_section(v);
+        v->dirty = 1;
     } else if (!strcmp(name, "set-camera")) {
         char err[256];
         crisp_camera c = v->nav.cam;
@@ -180,6 +241,33 @@ static void sink_command(void *ctx, const char *name, const char *arg, int line)
             v->exit_code = 1;
         }
     }
+}
+
+/* The window's framebuffer (as presented, before the panels) to the PNG v->window_shot. */
+static void write_window(view *v)
+{
+    crisp_image img = {0};
+    uint8_t *px = malloc((size_t)v->fb_w * v->fb_h * 4);
+    crisp_status st = px ? crisp_image_init(&img, v->fb_w, v->fb_h)
+                         : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory");
+    if (!st) {
+        glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+        glPixelStorei(GL_PACK_ALIGNMENT, 1);
+        glReadPixels(0, 0, v->fb_w, v->fb_h, GL_RGBA, GL_UNSIGNED_BYTE, px);
+        for (int j = 0; j < v->fb_h; j++)
+            for (int i = 0; i < v->fb_w; i++)
+                for (int k = 0; k < 4; k++)
+                    img.rgba[4 * ((size_t)j * v->fb_w + i) + k] =
+                        px[4 * ((size_t)(v->fb_h - 1 - j) * v->fb_w + i) + k] / 255.0f;
+        st = crisp_image_write_png(&img, v->window_shot);
+    }
+    if (st)
+        view_set_error(v, "window %s: %s", v->window_shot, crisp_error_message());
+    else
+        printf("window: %s refined %d scale %d\n", v->window_shot, v->refined, v->last.scale);
+    crisp_image_free(&img);
+    free(px);
+    v->window_shot[0] = '\0';
 }
 
 /* ---- frames ------------------------------------------------------------------------------------
@@ -218,6 +306,7 @@ static void install_doc(view *v, app_doc *doc, int keep_camera)
         }
         v->have_camera = 1;
     }
+    if (!keep) v->section_set = 0; /* a new model: the plane goes back to its middle (X) */
     v->sel.hit = 0;
     v->ov.selected_face = -1;
     v->meas_count = 0;
@@ -230,6 +319,10 @@ static void install_doc(view *v, app_doc *doc, int keep_camera)
     char title[1200];
     snprintf(title, sizeof title, "crisp-view - %s", doc->path);
     glfwSetWindowTitle(v->win, title);
+    const crisp_model *dm = doc->scene->model;
+    for (int k = 0; dm && k < dm->occurrence_count; k++)
+        printf("occurrence: %d %s parent %d\n", k + 1, dm->occurrences[k].name,
+               dm->occurrences[k].parent + 1);
     printf("loaded: %s: %s, %u faces, %u patches, %zu f-rep parts, box %g %g %g %g %g %g "
            "(read %.1f ms, prepare %.1f ms)\n",
            doc->path, doc->kind, doc->scene->face_count, doc->scene->patch_count, doc->part_count,
@@ -237,22 +330,43 @@ static void install_doc(view *v, app_doc *doc, int keep_camera)
            doc->ms_read, doc->ms_prepare);
 }
 
+/* The divisor of the window size for moving frames: aim at 25 ms of rendering per moving frame
+ * (30 frames per second with the rest), adapted as frames come (render_frame). */
+static int moving_scale(view *v)
+{
+    if (v->scale < 1) v->scale = (int)ceil(sqrt(fmax(v->last_full_ms, 1) / 25.0));
+    if (v->scale > 8) v->scale = 8;
+    return v->scale;
+}
+
 static void render_frame(view *v)
 {
     if (!v->doc) return;
     int full = !v->moving || v->no_lowres;
-    if (!v->dirty && v->refined) return;
-    if (!v->dirty && !v->refined) full = 1;
-    int scale = 1;
-    if (!full) {
-        /* aim at 25 ms of rendering per moving frame (30 frames per second with the rest) */
-        if (v->scale < 1) v->scale = (int)ceil(sqrt(fmax(v->last_full_ms, 1) / 25.0));
-        scale = v->scale < 1 ? 1 : v->scale > 8 ? 8 : v->scale;
+    if (!v->dirty && v->refined) {
+        /* idle with the refined image on screen: plan now what the next motion will reuse */
+        if (!v->motion_ready && !v->no_lowres && v->backend.prepare_motion) {
+            app_nav_update_clip(&v->nav);
+            /* the first guess of the moving scale (not the last motion's, adapted to it) */
+            int guess = (int)ceil(sqrt(fmax(v->last_full_ms, 1) / 25.0));
+            if (v->backend.prepare_motion(v->backend.self, &v->rdoc, &v->nav.cam,
+                                          guess < 1   ? 1
+                                          : guess > 8 ? 8
+                                                      : guess))
+                view_set_error(v, "render: %s", crisp_error_message());
+            v->motion_ready = 1;
+        }
+        return;
     }
+    if (!v->dirty && !v->refined) full = 1;
+    int scale = full ? 1 : moving_scale(v);
     app_nav_update_clip(&v->nav);
     view_frame_stats fs = {0};
+    view_sync_section(v);
     view_overlay ov = v->ov;
     if (v->moving) ov.samples = 1; /* moving frames: one sample per pixel, even at full size */
+    ov.moving = !full;
+    ov.no_aovs = !v->show_wire && !v->show_scan && !v->rdoc.part_count;
     crisp_status st = v->backend.frame(v->backend.self, &v->rdoc, &v->nav.cam, scale, &ov, &fs);
     if (st) {
         view_set_error(v, "render: %s", crisp_error_message());
@@ -261,18 +375,29 @@ static void render_frame(view *v)
         return;
     }
     v->last = fs;
+    v->motion_ready = 0;
     /* the least depth drawn bounds the near plane of the next frames (the navigation scales it
      * as it moves the camera) */
     if (isfinite(fs.min_depth) && fs.min_depth > 0) v->nav.depth_hint = fs.min_depth;
     if (v->show_wire) view_wire_update(v);
-    if (scale == 1) {
+    double now = crisp_time_now();
+    if (!ov.moving) {
         v->last_full_ms = fs.ms;
     } else {
-        if (fs.ms > 25 && v->scale < 8)
+        /* aim at 30 frames per second on screen: the render time, and the whole frame's wall
+         * time (present, panels, swap) since the last moving frame; GPU moving frames
+         * (proxy.c) cost little per pixel, so come down fast */
+        double wall = v->last_moving_t > 0 ? 1e3 * (now - v->last_moving_t) : fs.ms;
+        if ((fs.ms > 25 || wall > 40) && v->scale < 8)
             v->scale++;
-        else if (fs.ms < 8 && v->scale > 1)
-            v->scale--;
+        else if (fs.ms < 12 && wall < 22 && v->scale > 1) {
+            /* down only when the frame would still fit if its cost grew with the pixels */
+            int s1 = v->scale * 7 / 10 > 1 ? v->scale * 7 / 10 : 1;
+            double grow = (double)v->scale * v->scale / ((double)s1 * s1);
+            if (fs.ms * grow < 20) v->scale = s1;
+        }
     }
+    v->last_moving_t = ov.moving ? now : 0;
     v->dirty = 0;
     v->refined = scale == 1 && !v->moving;
 }
@@ -458,6 +583,7 @@ int main(int argc, char **argv)
         render_frame(v);
         v->moving = 0;
         v->backend.present(v->backend.self, v->fb_w, v->fb_h);
+        if (v->window_shot[0]) write_window(v);
         app_ui_frame_begin();
         view_draw_panels(v);
         app_ui_frame_end();
@@ -479,6 +605,7 @@ out:
     free(v->doc_path);
     free(v->initial_camera);
     free(v->wire);
+    free(v->body_ids);
     /* forget every pointer: what was not freed above becomes a leak LeakSanitizer reports */
     memset(v, 0, sizeof *v);
     printf("exit: %d\n", rc);

@@ -25,6 +25,10 @@ static const char *const help_lines[][2] = {
     {"E", "edges (face borders, trims, silhouettes) on / off"},
     {"W", "wireframe of the current tessellation (the plan's leaves)"},
     {"T", "the selected face's trim table: scan lines in (u, v)"},
+    {"G / shift+G", "the selected face transparent / every face opaque again"},
+    {"X", "section plane on / off (capped, hatched cut)"},
+    {"N / shift+N", "section plane: next axis (x, y, z) / flip the kept side"},
+    {"- / =", "move the section plane along its axis (1/50 of the box)"},
     {"R", "reload the file (keeps the camera)"},
     {"drop a file", "open it"},
     {"Esc", "cancel a load; clear the selection"},
@@ -142,6 +146,9 @@ void view_draw_panels(view *v)
             else
                 app_ui_text_color(1, 0.8f, 0.3f, "not refined (1/%d)", v->last.scale);
             app_ui_text("%s", v->nav.ortho ? "orthographic" : "perspective");
+            if (v->section)
+                app_ui_text("section %c = %g%s", 'x' + v->section_axis, v->section_pos,
+                            v->section_flip ? " (flipped)" : "");
             if (v->show_wire)
                 app_ui_text("wireframe: %u leaves, %zu segments%s", v->wire_leaves, v->wire_count,
                             v->wire_truncated ? " (truncated)" : "");

@@ -28,6 +28,12 @@ typedef struct view_overlay {
     int32_t selected_face; /* tinted; -1 none */
     int edges;             /* draw face borders, trims and silhouettes from the face ids */
     int samples;           /* per pixel in full-size frames (1 or 4); moving frames take 1 */
+    int moving;            /* a frame while the camera moves: drawn from the motion plan (planned
+                              once for a widened view, see view_backend.prepare_motion), without
+                              ribbons; the GL backend presents it without reading it back when
+                              nothing needs its AOVs (no_aovs) */
+    int no_aovs;           /* nothing needs this frame's AOVs (no f-rep parts, no debugging
+                              views): edges and tint are left out of moving GL frames */
 } view_overlay;
 
 typedef struct view_backend {
@@ -45,6 +51,17 @@ typedef struct view_backend {
     /* The last frame's plan and image (AOVs), or NULL (a backend may keep neither). */
     const struct crisp_frame_plan *(*plan)(void *self);
     const crisp_image *(*image)(void *self);
+    /* Plan (now, while the viewer is idle) the plan that frames drawn while the camera moves
+     * will reuse, for cam at 1/scale of its size with the view widened to the box's sphere;
+     * does nothing when the plan it has still serves cam. */
+    crisp_status (*prepare_motion)(void *self, const app_doc *doc, const crisp_camera *cam,
+                                   int scale);
+    /* The section plane for the next frames and off-screen renders (on = 0: none); box spaces
+     * the cap's hatch (section.c). */
+    void (*set_section)(void *self, int on, const double plane[4], const double box[6]);
+    /* The transparent faces (NULL: none), drawn over the next frames and off-screen renders:
+     * the nearest transparent surface blended over what is behind it (VIEW_ALPHA). */
+    void (*set_transparent)(void *self, const app_doc *tdoc);
     /* A new document is shown (frames of the old one are gone). */
     void (*set_doc)(void *self, const app_doc *doc);
     void (*destroy)(void *self);
@@ -77,10 +94,12 @@ struct view {
     char *initial_camera; /* --camera options for the first document */
 
     /* frames */
-    int dirty;   /* the camera or the overlay changed since the last frame */
-    int refined; /* the frame on screen is the full-resolution image of this camera */
-    int moving;  /* the camera changed this frame */
-    int scale;   /* resolution divisor while moving, adapted to the frame time */
+    int dirty;            /* the camera or the overlay changed since the last frame */
+    int refined;          /* the frame on screen is the full-resolution image of this camera */
+    int moving;           /* the camera changed this frame */
+    int scale;            /* resolution divisor while moving, adapted to the frame time */
+    int motion_ready;     /* the backend's motion plan was prepared for the camera on screen */
+    double last_moving_t; /* when the last moving frame was rendered (0: the last was not) */
     view_frame_stats last;
     double last_full_ms;
 
@@ -92,6 +111,11 @@ struct view {
     int dragged;
     double pivot[3];
     int shift;
+
+    /* section view */
+    int section, section_axis, section_flip;
+    double section_pos; /* the plane is x[section_axis] = section_pos */
+    int section_set;    /* section_pos was placed for this document */
 
     /* inspection */
     view_overlay ov;
@@ -111,6 +135,7 @@ struct view {
     int replaying, exit_after_replay;
     int quit;
     const char *screenshot_path;
+    char window_shot[1024]; /* the replay's `window PATH`: pending */
     int shot_w, shot_h;
     int exit_code;
     int threads;
@@ -119,12 +144,20 @@ struct view {
      * scene is prepared from a shallow copy of the visible faces, and vis_map takes its face
      * indices back to the document's */
     app_doc rdoc;
-    uint8_t *face_hidden, *part_hidden;
+    uint8_t *face_hidden, *part_hidden; /* face_hidden: 0 shown, 1 hidden, 2 transparent */
     uint32_t hidden_faces, hidden_parts;
     crisp_model vis_model;
     crisp_scene *vis_scene;
     uint32_t *vis_map;
     crisp_frep_part *vis_parts;
+    /* transparency per face (face_hidden[f] == 2): drawn from a scene of their own (tdoc) and
+     * composited over the opaque image by depth */
+    uint32_t trans_faces;
+    int *body_ids; /* body_count distinct crisp_face.body values (visible.c) */
+    int body_count;
+    crisp_model trans_model;
+    crisp_scene *trans_scene;
+    app_doc tdoc;
     /* debugging views (debugviews.c) */
     int show_wire, show_scan;
     float *wire; /* segments x0 y0 x1 y1 in window pixels */
@@ -138,6 +171,7 @@ struct view {
 void view_open(view *v, const char *path, int keep_camera);
 void view_set_error(view *v, const char *fmt, ...);
 void view_print_camera(view *v);
+void view_sync_section(view *v); /* hand the section plane to the backend */
 crisp_status view_screenshot(view *v, const char *png, const char *exr, int w, int h);
 int view_idle(view *v);
 
@@ -162,6 +196,26 @@ void view_visible_free(view *v);
 int32_t view_doc_face(const view *v, int32_t drawn);
 int32_t view_drawn_face(const view *v, int32_t doc_face);
 void view_parts_panel(view *v);
+/* Bodies (distinct non-zero crisp_face.body, numbered 1.. in order of first face): faces of
+ * body `index` and whether any is shown; show / hide them all. */
+int view_body_faces(const view *v, int body, int *shown);
+void view_body_show(view *v, int body, int show);
+/* The assembly tree (crisp_model.occurrences): faces of occurrence k (0-based) and its
+ * descendants, whether any is shown; show / hide them all. */
+int view_occurrence_faces(const view *v, int k, int *shown);
+void view_occurrence_show(view *v, int k, int show);
+
+/* section.c: the section plane (X toggles, N next axis, shift+N flips, - and = move it) */
+#define VIEW_CAP_FACE (-1000000)                        /* the face id of cap pixels */
+#define VIEW_ALPHA 0.35f                                /* opacity of a transparent face */
+int view_section_plane(const view *v, double plane[4]); /* 0: no section */
+void view_print_section(const view *v);                 /* "section: ..." on stdout */
+void view_section_key(view *v, int key, int mods);      /* X, N, -, = */
+/* The hatch's line direction over its spacing: lines where dot(hu, P) is near an integer. */
+void view_section_hatch(const double plane[4], const double box[6], double hu[3]);
+/* Paint the cut where the image shows the back of a surface behind the plane. */
+void view_section_cap(const crisp_camera *cam, const double plane[4], const double box[6],
+                      crisp_image *img);
 
 /* debugviews.c */
 void view_wire_update(view *v);

@@ -67,6 +67,9 @@ typedef struct crisp_gl_desc {
     size_t max_buffer_bytes; /* largest storage buffer; 0: GL_MAX_SHADER_STORAGE_BLOCK_SIZE (a
                                 smaller value tests the limit's error path) */
     int profile;             /* 1: finish the GL work after each stage to time it (slower) */
+    double clip_plane[4];    /* a, b, c, d: what lies where a x + b y + c z + d < 0 (world
+                                space) is not drawn (as crisp_render_desc.clip_plane); all 0:
+                                none */
 } crisp_gl_desc;
 
 typedef struct crisp_gl_stats {
@@ -115,6 +118,8 @@ void crisp_gl_forget_plan(crisp_gl *gl);
 /* Reads the last frame into img (its size must be the plan's): rgba straight alpha = coverage,
  * depth = camera-space depth (+inf background), world normal, u, v, face id (-1 background). */
 crisp_status crisp_gl_read(crisp_gl *gl, crisp_image *img, crisp_gl_stats *stats);
+/* Change the clip plane (crisp_gl_desc.clip_plane; NULL or all 0: none) for the next draws. */
+void crisp_gl_set_clip_plane(crisp_gl *gl, const double plane[4]);
 /* Copies the last frame's colour (straight alpha) into framebuffer `fbo` (0: the default one)
  * at (x, y, width, height) in its window coordinates, the image's top row at the top. */
 crisp_status crisp_gl_blit(crisp_gl *gl, unsigned fbo, int x, int y, int width, int height);

@@ -36,7 +36,16 @@ typedef struct crisp_face {
     int reversed;   /* 1 when the face's outward normal is -(S_u x S_v) */
     int body;       /* faces of one shell or solid (one placed copy of it) share a
                        non-zero body; 0 when the reader does not say */
+    int occurrence; /* 1 + index into crisp_model.occurrences of the assembly occurrence (STEP
+                       product occurrence) this copy of the face belongs to; 0: none */
 } crisp_face;
+
+/* One node of a model's assembly tree (STEP: a placed product occurrence). */
+typedef struct crisp_occurrence {
+    char *name;    /* owned: the occurrence's name from the file ("" when it has none) */
+    int parent;    /* index into crisp_model.occurrences, -1 for a root */
+    int source_id; /* the entity that placed it (STEP NEXT_ASSEMBLY_USAGE_OCCURRENCE #id), 0 */
+} crisp_occurrence;
 
 /* One counted kind of thing a reader skipped, with why ("entity 116 point: not a surface"), in
  * full (no length limit). */
@@ -54,6 +63,8 @@ typedef struct crisp_model {
     crisp_skip_note *skips; /* what the reader skipped and why */
     int faces_dropped;      /* faces the reader could not build (each also has a skip note) */
     double tolerance;       /* the reader's distance tolerance in model units (0: not known) */
+    int occurrence_count;   /* the assembly tree (parents before children); 0: none read */
+    crisp_occurrence *occurrences;
 } crisp_model;
 
 crisp_status crisp_model_create(crisp_model **dest);
@@ -68,6 +79,9 @@ crisp_status crisp_model_note_skip(crisp_model *m, const char *what);
 crisp_status crisp_model_note_skipf(crisp_model *m, const char *fmt, ...) CRISP_PRINTF(2, 3);
 /* A face the reader could not build: its note (printf format), and faces_dropped + 1. */
 crisp_status crisp_model_note_dropped(crisp_model *m, const char *fmt, ...) CRISP_PRINTF(2, 3);
+/* Append an assembly occurrence (name copied; NULL: ""); its index in *index (may be NULL). */
+crisp_status crisp_model_add_occurrence(crisp_model *m, const char *name, int parent, int source_id,
+                                        int *index);
 /* Box of all faces' control hulls: xmin, ymin, zmin, xmax, ymax, zmax. */
 void crisp_model_bbox(const crisp_model *m, double *dest);
 

@@ -159,10 +159,12 @@ crisp_status crisp_render_exact(const crisp_scene *scene, const crisp_camera *ca
 /* ---- CPU backend ----------------------------------------------------------------------------- */
 
 typedef struct crisp_render_desc {
-    int samples;     /* per pixel: 1 (default), 4 or 16 */
-    int threads;     /* 0: default */
-    double eps_px;   /* tessellation tolerance in pixels; 0: 0.5 */
-    int strip_count; /* trim strips per face (n_V); 0: from the face's tess level */
+    int samples;          /* per pixel: 1 (default), 4 or 16 */
+    int threads;          /* 0: default */
+    double eps_px;        /* tessellation tolerance in pixels; 0: 0.5 */
+    int strip_count;      /* trim strips per face (n_V); 0: from the face's tess level */
+    double clip_plane[4]; /* a, b, c, d: fragments where a x + b y + c z + d < 0 (world space)
+                             are discarded (a section view); all 0: none */
 } crisp_render_desc;
 
 typedef struct crisp_render_stats {
@@ -193,6 +195,9 @@ typedef struct crisp_planner crisp_planner;
 crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *scene,
                                    const crisp_frame_plan *plan, const crisp_camera *cam,
                                    crisp_image *img, crisp_render_stats *stats);
+/* Change the renderer's clip plane (crisp_render_desc.clip_plane; NULL or all 0: none) for the
+ * next frames. */
+void crisp_renderer_set_clip_plane(crisp_renderer *r, const double plane[4]);
 /* Only some faces of a plan (faces[f] != 0 for the scene's face f). base NULL: as
  * crisp_render_cpu_plan with the other faces left out (faces NULL: every face). With base, a
  * render of the plan's other faces for the same camera (colour, depth, normal, u, v, face: what

@@ -51,7 +51,7 @@ static const char *const buffer_names[B_COUNT] = {
 
 typedef struct uniforms {
     GLint leaf_base, view_proj, jitter, zconst, slack_tex, nw_tex, uv_tex, face_tex, dir0, dir_x,
-        dir_y, offset, samples, count, keep_samples, sample_index;
+        dir_y, offset, samples, count, keep_samples, sample_index, clip_plane;
 } uniforms;
 
 struct crisp_gl {
@@ -148,6 +148,7 @@ static void locate(GLuint p, uniforms *u)
 {
     u->leaf_base = glGetUniformLocation(p, "leaf_base");
     u->view_proj = glGetUniformLocation(p, "view_proj");
+    u->clip_plane = glGetUniformLocation(p, "clip_plane");
     u->jitter = glGetUniformLocation(p, "jitter");
     u->zconst = glGetUniformLocation(p, "zconst");
     u->slack_tex = glGetUniformLocation(p, "slack_tex");
@@ -616,10 +617,23 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     glDisable(GL_MULTISAMPLE);
     glEnable(GL_CLIP_DISTANCE0);
     glEnable(GL_CLIP_DISTANCE1);
+    glEnable(GL_CLIP_DISTANCE2);
     glPatchParameteri(GL_PATCH_VERTICES, 1);
     double vp[16];
     memcpy(vp, p->view_proj, sizeof vp);
     glProgramUniformMatrix4dv(gl->surface, gl->u_surface.view_proj, 1, GL_FALSE, vp);
+    /* The clip plane (crisp_gl_desc.clip_plane): world space for the surfaces; for the ribbons
+     * (clip-space vertices) the same plane through the inverse view-projection. */
+    const double *cpl = gl->desc.clip_plane;
+    double cplc[4] = {0, 0, 0, 0};
+    crisp_mat4 inv;
+    if ((cpl[0] != 0 || cpl[1] != 0 || cpl[2] != 0) &&
+        crisp_mat4_inverse(*(crisp_mat4 *)&p->view_proj, inv))
+        for (int c = 0; c < 4; c++)
+            for (int k = 0; k < 4; k++)
+                cplc[c] += cpl[k] * inv[c][k]; /* plane . (inv c), m[col][row] */
+    glProgramUniform4dv(gl->surface, gl->u_surface.clip_plane, 1, cpl);
+    glProgramUniform4dv(gl->ribbon, gl->u_ribbon.clip_plane, 1, cplc);
     glProgramUniform1ui(gl->surface, gl->u_surface.leaf_base, 0);
     glProgramUniform1f(gl->surface, gl->u_surface.zconst, zconst);
     glProgramUniform1f(gl->ribbon, gl->u_ribbon.zconst, zconst);
@@ -732,6 +746,7 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     glDisable(GL_CLIP_DISTANCE0);
     glDisable(GL_CLIP_DISTANCE1);
+    glDisable(GL_CLIP_DISTANCE2);
     glClipControl(GL_LOWER_LEFT, GL_NEGATIVE_ONE_TO_ONE);
     glDisable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
@@ -779,6 +794,12 @@ crisp_status crisp_gl_read(crisp_gl *gl, crisp_image *img, crisp_gl_stats *stats
     }
     if (stats) stats->ms_read = 1e3 * (crisp_time_now() - t0);
     return CRISP_OK;
+}
+
+void crisp_gl_set_clip_plane(crisp_gl *gl, const double plane[4])
+{
+    for (int k = 0; k < 4; k++)
+        gl->desc.clip_plane[k] = plane ? plane[k] : 0;
 }
 
 crisp_status crisp_gl_blit(crisp_gl *gl, unsigned fbo, int x, int y, int width, int height)

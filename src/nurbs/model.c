@@ -99,7 +99,33 @@ void crisp_model_destroy(crisp_model *m)
     for (int i = 0; i < m->skip_count; i++)
         crisp_free(m->skips[i].what);
     crisp_free(m->skips);
+    for (int i = 0; i < m->occurrence_count; i++)
+        crisp_free(m->occurrences[i].name);
+    crisp_free(m->occurrences);
     crisp_free(m);
+}
+
+crisp_status crisp_model_add_occurrence(crisp_model *m, const char *name, int parent, int source_id,
+                                        int *index)
+{
+    if (parent < -1 || parent >= m->occurrence_count)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "occurrence parent %d: expected -1..%d", parent,
+                           m->occurrence_count - 1);
+    size_t n = strlen(name ? name : "");
+    char *copy = crisp_malloc_array(n + 1, 1);
+    crisp_occurrence *grown =
+        crisp_realloc_array(m->occurrences, (size_t)m->occurrence_count + 1, sizeof *grown);
+    if (grown) m->occurrences = grown;
+    if (!copy || !grown) {
+        crisp_free(copy);
+        return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory adding an assembly occurrence");
+    }
+    memcpy(copy, name ? name : "", n + 1);
+    m->occurrences[m->occurrence_count] =
+        (crisp_occurrence){.name = copy, .parent = parent, .source_id = source_id};
+    if (index) *index = m->occurrence_count;
+    m->occurrence_count++;
+    return CRISP_OK;
 }
 
 crisp_status crisp_model_add_face(crisp_model *m, crisp_face *face)

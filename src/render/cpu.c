@@ -145,6 +145,12 @@ crisp_status crisp_renderer_plan(crisp_renderer *r, const crisp_scene *sc, const
     return st;
 }
 
+void crisp_renderer_set_clip_plane(crisp_renderer *r, const double plane[4])
+{
+    for (int k = 0; k < 4; k++)
+        r->desc.clip_plane[k] = plane ? plane[k] : 0;
+}
+
 crisp_planner *crisp_renderer_planner(crisp_renderer *r)
 {
     return r->planner;
@@ -888,6 +894,18 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     for (uint32_t f = 0; f < plan->face_count; f++)
         r->untested[f] = (plan->faces[f].flags & CRISP_PLAN_FACE_ALL_INSIDE) != 0;
     crisp__raster_set_untested_faces(r->raster, r->untested, plan->face_count);
+    /* The clip plane n . P + d >= 0 with P = eye + W (f + (x - w/2) kx r + (h/2 - y) ky u) on a
+     * sample's ray at depth W, divided by W: affine in the sample's (x, y) and 1/W. */
+    const double *cp = r->desc.clip_plane;
+    if (cp[0] != 0 || cp[1] != 0 || cp[2] != 0) {
+        double nf = crisp_vec3_dot(cp, view.f), nr = crisp_vec3_dot(cp, view.r),
+               nu = crisp_vec3_dot(cp, view.u);
+        double k[4] = {nf - 0.5 * cam->width * view.kx * nr + 0.5 * cam->height * view.ky * nu,
+                       view.kx * nr, -view.ky * nu, crisp_vec3_dot(cp, cam->eye) + cp[3]};
+        crisp__raster_set_clip(r->raster, k);
+    } else {
+        crisp__raster_set_clip(r->raster, NULL);
+    }
     crisp__raster_set_box_test(r->raster, trim_box);
     /* Each pass projects only its own vertices: the surfaces', then the ribbons'. */
     st = crisp__raster_draw(r->raster, tg, r->pool, r->verts, surface_v, r->tris, surface_t,

@@ -91,7 +91,16 @@ struct crisp_raster {
     uint32_t *bin_counts; /* per setup chunk and tile: entries (parallel binning) */
     size_t bin_counts_cap;
     crisp_raster_box_fn box_test; /* crisp__raster_set_box_test */
+    int clip_on;                  /* crisp__raster_set_clip */
+    double clip[4];               /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
 };
+
+void crisp__raster_set_clip(crisp_raster *r, const double k[4])
+{
+    r->clip_on = k != NULL;
+    for (int i = 0; i < 4; i++)
+        r->clip[i] = k ? k[i] : 0;
+}
 
 void crisp__raster_set_box_test(crisp_raster *r, crisp_raster_box_fn fn)
 {
@@ -754,6 +763,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             int q = pass[pi];
                             size_t idx = idx0 + (size_t)q * S;
                             double iw = iwv[q], dx = dx0 + q;
+                            if (r->clip_on && r->clip[0] + r->clip[1] * (dx + st->ox) +
+                                                      r->clip[2] * (dy + st->oy) + r->clip[3] * iw <
+                                                  0)
+                                continue; /* on the clipped side of the plane */
                             double a[CRISP_RASTER_ATTRS];
                             double w = 1.0 / iw;
                             if (vectors)

@@ -94,6 +94,11 @@ int crisp__raster_set_vectors(crisp_raster *r, int on);
  * f < count (a face without trim loops: CRISP_PLAN_FACE_ALL_INSIDE). The array is read by later
  * draws until it is set again; NULL: every face is tested. */
 void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count);
+/* A clip plane in the fragment stage: a sample at pixel position (x, y) (x right, y down, in
+ * pixels) with 1/W = iw is discarded where k0 + k1 x + k2 y + k3 iw < 0 (a world plane
+ * n . P + d, P on the sample's ray at depth W, times 1/W: the CPU backend's crisp_render_desc
+ * clip_plane). NULL: none. Read by later draws until set again. */
+void crisp__raster_set_clip(crisp_raster *r, const double k[4]);
 /* The fragment test decided for a box of (u, v) at once: 1 when test(ctx, face, u, v) keeps
  * every (u, v) with lo <= (u, v) <= hi, 0 when it discards every one, -1 when it cannot tell
  * (or would rather not). It must agree with the test at every point of the box. */

@@ -168,6 +168,15 @@ static void test_subfigures(void **state)
     /* the mirror flips the face's orientation, the scaled copy keeps it */
     assert_int_equal(m->faces[0].reversed, 0);
     assert_int_equal(m->faces[1].reversed, 1);
+    /* the assembly tree: one root occurrence per 408, named by the 308, each face copy in its */
+    assert_int_equal(m->occurrence_count, 2);
+    for (int k = 0; k < 2; k++) {
+        assert_string_equal(m->occurrences[k].name, "part");
+        assert_int_equal(m->occurrences[k].parent, -1);
+        assert_int_equal(m->faces[k].occurrence, k + 1);
+    }
+    assert_int_equal(m->occurrences[0].source_id, 5);
+    assert_int_equal(m->occurrences[1].source_id, 9);
     crisp_model_destroy(m);
 
     /* a definition that places itself is a cycle: reported, not followed for ever */

@@ -5,6 +5,7 @@
  *    boundaries, trims and silhouettes;
  *  - no cracks: closed surfaces (a sphere and a torus of rational patches) show no background
  *    pixel inside their silhouette over many views, also with the camera close enough to split.
+ *  - the clip plane (a section view) discards exactly the fragments on its cut side;
  * `--backend gl`: the image checks again on the GL backend drawing the same plans (gl label). */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -459,13 +460,104 @@ static void test_degenerate(void **state)
     crisp_model_destroy(m);
 }
 
+/* The clip plane (crisp_render_desc.clip_plane, crisp_gl_desc.clip_plane with --backend gl; a
+ * section view): a closed sphere cut by a plane
+ * through it. Every drawn pixel's point (its ray at its depth) lies on the kept side; pixels
+ * whose unclipped point was kept are unchanged (same face, same depth); and the cut opens the
+ * solid: its inside (back faces, normal along the view) shows where the front was cut away. */
+static void test_clip_plane(void **state)
+{
+    (void)state;
+    crisp_placement pl;
+    double o[3] = {0.3, -0.2, 0.1}, axis[3] = {0.2, 1, 0.3};
+    assert_int_equal(crisp_placement_make(o, axis, NULL, &pl), CRISP_OK);
+    crisp_surface *sphere;
+    assert_int_equal(crisp_make_sphere(&pl, 1.3, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sphere),
+                     CRISP_OK);
+    crisp_model *m = single_surface_model(sphere);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    double n[3] = {-0.36, -0.48, -0.8}; /* unit; the eye is on the cut side */
+    double plane[4] = {n[0], n[1], n[2], -(n[0] * o[0] + n[1] * o[1] + n[2] * o[2]) + 0.3};
+    crisp_renderer *r0, *r1;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r0), CRISP_OK);
+    crisp_render_desc d1 = {.threads = 2};
+    memcpy(d1.clip_plane, plane, sizeof plane);
+    assert_int_equal(crisp_renderer_create(&d1, &r1), CRISP_OK);
+    crisp_camera cam = {.eye = {4, -3, 5},
+                        .up = {0, 0, 1},
+                        .fov_deg = 30,
+                        .znear = 1,
+                        .zfar = 20,
+                        .width = 160,
+                        .height = 120};
+    memcpy(cam.target, o, sizeof o);
+    crisp_image a, b;
+    crisp_image_init(&a, cam.width, cam.height);
+    crisp_image_init(&b, cam.width, cam.height);
+    assert_int_equal(render_backend(rb_kind, r0, 1, sc, &cam, &a, NULL), CRISP_OK);
+#ifdef CRISP_HAVE_GL
+    crisp_gl *gl = NULL;
+    if (rb_kind == RENDER_GL) { /* the GL backend's clip distance in its shaders */
+        assert_int_equal(rb_gl_for(1, &gl), CRISP_OK);
+        crisp_gl_set_clip_plane(gl, plane);
+    }
+#endif
+    assert_int_equal(render_backend(rb_kind, r1, 1, sc, &cam, &b, NULL), CRISP_OK);
+#ifdef CRISP_HAVE_GL
+    if (gl) crisp_gl_set_clip_plane(gl, NULL);
+#endif
+    long kept = 0, inside = 0, removed = 0;
+    for (int j = 0; j < cam.height; j++)
+        for (int i = 0; i < cam.width; i++) {
+            size_t k = (size_t)j * cam.width + i;
+            double org[3], dir[3], f[3];
+            crisp_camera_ray(&cam, i + 0.5, j + 0.5, org, dir);
+            crisp_vec3_sub(cam.target, cam.eye, f);
+            crisp_vec3_normalize(f, f);
+            double t = 1.0 / crisp_vec3_dot(dir, f); /* ray length per unit depth */
+            if (b.face[k] >= 0) {
+                double P[3], dist;
+                for (int q = 0; q < 3; q++)
+                    P[q] = org[q] + dir[q] * b.depth[k] * t;
+                dist = crisp_vec3_dot(n, P) + plane[3];
+                if (dist < -1e-4) fail_msg("pixel (%d, %d) drawn %g on the cut side", i, j, dist);
+                float nd = b.normal[3 * k] * (float)dir[0] + b.normal[3 * k + 1] * (float)dir[1] +
+                           b.normal[3 * k + 2] * (float)dir[2];
+                inside += nd > 0.2f;
+            }
+            if (a.face[k] >= 0) {
+                double P[3];
+                for (int q = 0; q < 3; q++)
+                    P[q] = org[q] + dir[q] * a.depth[k] * t;
+                double dist = crisp_vec3_dot(n, P) + plane[3];
+                if (dist > 1e-3) {
+                    kept++;
+                    assert_int_equal(b.face[k], a.face[k]);
+                    assert_float_equal(b.depth[k], a.depth[k], 1e-6 * a.depth[k]); /* GL clips */
+                } else if (dist < -1e-3) {
+                    removed++;
+                }
+            }
+        }
+    printf("clip plane: %ld pixels kept unchanged, %ld cut away, %ld show the inside\n", kept,
+           removed, inside);
+    assert_true(kept > 500 && removed > 500 && inside > 500);
+    crisp_image_free(&a);
+    crisp_image_free(&b);
+    crisp_renderer_destroy(r0);
+    crisp_renderer_destroy(r1);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(int argc, char **argv)
 {
     rb_parse_args(argc, argv);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_surface_accuracy), cmocka_unit_test(test_no_cracks),
         cmocka_unit_test(test_close_cameras),    cmocka_unit_test(test_degenerate),
-        cmocka_unit_test(test_against_exact),
+        cmocka_unit_test(test_against_exact),    cmocka_unit_test(test_clip_plane),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

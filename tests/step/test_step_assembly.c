@@ -361,6 +361,54 @@ static void test_as1(void **state)
     crisp_model_destroy(m);
 }
 
+/* The assembly tree (crisp_model.occurrences): as1's product occurrences, named by their
+ * NEXT_ASSEMBLY_USAGE_OCCURRENCE, parents first; every bolt sits in a nut-bolt assembly (a nut
+ * also in the rod assembly),
+ * every face copy names the occurrence it was placed for, and each nut copy has the same faces. */
+static void test_as1_occurrences(void **state)
+{
+    (void)state;
+    crisp_model *m = NULL;
+    assert_int_equal(crisp_read_step(CRISP_DATA_DIR "/nurbs/" AS1_FILE, NULL, &m), CRISP_OK);
+    assert_true(m->occurrence_count > 0);
+    int nuts = 0, bolts = 0, nb = 0, brackets = 0, nut_faces = -1;
+    for (int k = 0; k < m->occurrence_count; k++) {
+        const crisp_occurrence *o = &m->occurrences[k];
+        assert_non_null(o->name);
+        assert_true(o->parent >= -1 && o->parent < k);
+        int nut = !strcmp(o->name, "-> Nut"), bolt = !strcmp(o->name, "-> Bolt");
+        nuts += nut, bolts += bolt;
+        nb += !strcmp(o->name, "-> Nut-Bolt Assembly");
+        brackets += !strcmp(o->name, "-> L-Bracket");
+        if (nut || bolt) {
+            assert_true(o->parent >= 0);
+            const char *p = m->occurrences[o->parent].name;
+            if (bolt || strcmp(p, "-> Rod Assembly"))
+                assert_string_equal(p, "-> Nut-Bolt Assembly");
+        }
+        if (nut) {
+            int n = 0;
+            for (int f = 0; f < m->face_count; f++)
+                n += m->faces[f].occurrence == k + 1;
+            assert_true(n > 0);
+            if (nut_faces >= 0) assert_int_equal(n, nut_faces);
+            nut_faces = n;
+        }
+    }
+    for (int f = 0; f < m->face_count; f++)
+        assert_true(m->faces[f].occurrence >= 1 && m->faces[f].occurrence <= m->occurrence_count);
+    printf("as1: %d occurrences: %d nut-bolt assemblies (%d nuts, %d bolts), %d L-brackets; "
+           "%d faces per nut\n",
+           m->occurrence_count, nb, nuts, bolts, brackets, nut_faces);
+    /* 2 L-bracket assemblies of 1 bracket and 3 nut-bolt assemblies each, 1 rod assembly with 2
+     * nuts (the file's product structure) */
+    assert_int_equal(nb, 6);
+    assert_int_equal(bolts, 6);
+    assert_int_equal(nuts, 8);
+    assert_int_equal(brackets, 2);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -371,6 +419,7 @@ int main(void)
         cmocka_unit_test(test_cartesian_operator),
         cmocka_unit_test(test_explosion),
         cmocka_unit_test(test_as1),
+        cmocka_unit_test(test_as1_occurrences),
         cmocka_unit_test(test_occurrence_colours),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

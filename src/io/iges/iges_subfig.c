@@ -6,10 +6,13 @@
  * say (real files mark them independent: OCCT's bug33327.igs). Each definition's faces are built
  * once into a model of their own; every instance appends transformed copies of them, and of the
  * definitions its nested 408s place, so a part used four times is read once and drawn four times.
+ * Each placed 408 is an occurrence of the model's assembly tree (named by its 308, under the
+ * occurrence that placed it), and its face copies name it (crisp_face.occurrence).
  */
 #include "iges_internal.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 /* The number of members of definition e (member k is its parameter 4 + k). */
@@ -122,28 +125,44 @@ static crisp_status build_def(iges_file *f, subfig_state *s, int e)
     return st;
 }
 
-static crisp_status append_copy(iges_file *f, const crisp_face *src, const iges_xform *x)
+static crisp_status append_copy(iges_file *f, const crisp_face *src, const iges_xform *x, int occ)
 {
     crisp_face face;
     crisp_status st = crisp_face_copy(src, &face);
     if (st) return st;
     crisp_face_transform(&face, (const double(*)[4])x->m);
+    face.occurrence = occ + 1;
     if ((st = crisp_model_add_face(f->model, &face))) crisp_face_free(&face);
     return st;
 }
 
+/* The assembly tree (crisp_model.occurrences): one occurrence per placed 408, named by its
+ * definition's name (308 parameter 2), under the occurrence of the 408 that placed its 308. */
+static crisp_status add_occurrence(iges_file *f, int def, int instance, int parent, int *occ)
+{
+    char name[256] = "";
+    if (crisp__iges_nparams(f, def) >= 2) {
+        const iges_param *p = &f->params[f->ents[def].first_param + 2];
+        if (p->kind == IGES_PARAM_STRING)
+            snprintf(name, sizeof name, "%.*s", p->str_len, f->strings + p->str_off);
+    }
+    return crisp_model_add_occurrence(f->model, name, parent, iges_de(instance), occ);
+}
+
 static crisp_status instantiate(iges_file *f, subfig_state *s, int def, const iges_xform *x,
-                                int depth)
+                                int depth, int instance, int parent)
 {
     if (depth > IGES_MAX_DEPTH)
         return crisp__iges_fail(f, def, CRISP_ERR_LIMIT, "subfigures nested deeper than %d",
                                 IGES_MAX_DEPTH);
     if (f->ents[def].visiting) return crisp__iges_fail(f, def, CRISP_ERR_PARSE, "reference cycle");
     crisp_status st = build_def(f, s, def);
+    int occ = -1;
+    if (!st) st = add_occurrence(f, def, instance, parent, &occ);
     if (st) return st;
     const crisp_model *m = s->defs[def];
     for (int i = 0; i < m->face_count && !st; i++)
-        st = append_copy(f, &m->faces[i], x);
+        st = append_copy(f, &m->faces[i], x, occ);
     int n;
     if (st || (st = def_members(f, def, &n))) return st;
     f->ents[def].visiting = 1;
@@ -155,7 +174,7 @@ static crisp_status instantiate(iges_file *f, subfig_state *s, int def, const ig
         f->ents[e].used = 1;
         if ((st = instance_xform(f, e, &inner, &place))) break;
         crisp__iges_xform_mul(x, &place, &total);
-        st = instantiate(f, s, inner, &total, depth + 1);
+        st = instantiate(f, s, inner, &total, depth + 1, e, occ);
     }
     f->ents[def].visiting = 0;
     return st;
@@ -182,7 +201,7 @@ crisp_status crisp__iges_subfigure_instances(iges_file *f)
         int def;
         iges_xform place;
         st = instance_xform(f, i, &def, &place);
-        if (!st) st = instantiate(f, &s, def, &place, 1);
+        if (!st) st = instantiate(f, &s, def, &place, 1, i, -1);
         st = crisp__iges_soften(f, i, st);
     }
     for (int i = 0; i < f->entity_count; i++)

@@ -717,6 +717,38 @@ static int occurrence_colour(const asm_state *s, int k, int face_id, const int *
     return found;
 }
 
+/* The assembly tree for the model: one occurrence per placed instance, named by the NAUO among
+ * the entities of its placement (its name, else its id; "" for a root), parents first (place()
+ * appends an instance after its parent). */
+static crisp_status record_occurrences(asm_state *s)
+{
+    step_reader *r = s->r;
+    crisp_model *m = r->model;
+    int base = m->occurrence_count;
+    crisp_status st = CRISP_OK;
+    for (size_t k = 0; k < s->inst_count && !st; k++) {
+        const asm_inst *in = &s->inst[k];
+        char name[256] = "";
+        int source = 0;
+        for (int q = 0; in->edge >= 0 && q < 3 && !source; q++) {
+            int id = s->edges[in->edge].ids[q];
+            const step_entity *e = id ? crisp__step_find(r->f, id) : NULL;
+            const step_part *np =
+                e ? crisp__step_part(r, e, "NEXT_ASSEMBLY_USAGE_OCCURRENCE") : NULL;
+            if (!np) continue;
+            source = id;
+            for (int a = 1; a >= 0 && !name[0]; a--) { /* name, else id */
+                const step_value *v = crisp__step_param(r, np, a);
+                if (v && v->kind == STEP_STRING && v->len > 0)
+                    snprintf(name, sizeof name, "%.*s", (int)v->len, r->f->text + v->off);
+            }
+        }
+        st = crisp_model_add_occurrence(m, name, in->parent >= 0 ? base + in->parent : -1, source,
+                                        NULL);
+    }
+    return st;
+}
+
 crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int *owners,
                                   int face_count)
 {
@@ -785,6 +817,8 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
         crisp_model_note_skipf(
             m, "STEP assembly cycle: %d placements of a part inside itself ignored", s.cycles);
     }
+    int occ_base = m->occurrence_count;
+    if ((st = record_occurrences(&s))) goto done;
     /* Instances by group (CSR). */
     inst_order = crisp_malloc_array(s.inst_count + 1, sizeof(int));
     if (!inst_order) {
@@ -847,6 +881,7 @@ crisp_status crisp__step_assembly(step_reader *r, const int *face_ids, const int
                 memset(&m->faces[i], 0, sizeof m->faces[i]);
             }
             if (!xf_is_identity(x)) crisp_face_transform(&out[o], (const double(*)[4])x);
+            out[o].occurrence = occ_base + inst_order[k] + 1;
             /* each placed copy of a shell or solid is a body of its own */
             if (out[o].body)
                 out[o].body =
