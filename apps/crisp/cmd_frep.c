@@ -291,9 +291,10 @@ static crisp_status mesh_cell_write(void *ctx, const char *tmp)
     FILE *f = fopen(tmp, "wb");
     if (!f) return crisp_error(CRISP_ERR_IO, "%s: cannot write", tmp);
     uint64_t n[2] = {m->nv, m->nt};
+    /* (a cell may be empty: no arrays) */
     int ok = fwrite("CRISPMSH", 1, 8, f) == 8 && fwrite(n, sizeof n, 1, f) == 1 &&
-             fwrite(m->p, 3 * sizeof(float), m->nv, f) == m->nv &&
-             fwrite(m->t, 3 * sizeof(uint32_t), m->nt, f) == m->nt;
+             (!m->nv || fwrite(m->p, 3 * sizeof(float), m->nv, f) == m->nv) &&
+             (!m->nt || fwrite(m->t, 3 * sizeof(uint32_t), m->nt, f) == m->nt);
     if (fclose(f) || !ok) return crisp_error(CRISP_ERR_IO, "%s: cannot write", tmp);
     return CRISP_OK;
 }
