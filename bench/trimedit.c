@@ -210,7 +210,7 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
         memcpy(img.face, others.face, n * sizeof(int32_t));
     }
     int refused = 0;
-    uint64_t rows = 0, face_px = 0, differ[3] = {0, 0, 0};
+    uint64_t face_px = 0, differ[3] = {0, 0, 0};
     crisp_trimedit_group_begin(ed);
     for (int k = 0; k < frames; k++) {
         double a = 2 * M_PI * k / frames,
@@ -243,9 +243,6 @@ static void run(const char *name, crisp_model *m, int face, int zoomed)
             col[GL_CPU][k] = 1e3 * (cpu_now() - c5);
         }
 #endif
-        const crisp_plan_face *pf = &plan->faces[face];
-        for (uint32_t s = 0; s < pf->strip_count; s++)
-            rows += plan->strips[pf->first_strip + s].row_count;
         for (size_t p = 0; p < (size_t)width * height; p++) {
             face_px += img_full.face[p] == face;
             if (img_full.face[p] == img.face[p] && img_full.depth[p] == img.depth[p]) continue;
