@@ -248,6 +248,15 @@ static void getopt_start(void)
     opterr = 0;
 }
 
+/* The cell header's job id: the -e string's or the file's bytes, with the settings. */
+static crisp_status frep_job_id(const char *file, const char *expr, crisp_cell_header *h)
+{
+    if (!expr) return crisp_cell_job_id(file, h->settings, &h->job);
+    h->job = crisp_hash_bytes(CRISP_HASH_SEED, expr, strlen(expr));
+    h->job = crisp_hash_bytes(h->job, h->settings, strlen(h->settings));
+    return CRISP_OK;
+}
+
 /* ---- mesh cells (issue 15): octants of the mesher's octree, welded by crisp merge -------- */
 
 typedef struct mesh_mem {
@@ -321,12 +330,7 @@ static int mesh_cell(const crisp_frep_tape *tape, crisp_frep_mesh_desc *desc,
                  "cells=%d",
                  st.region[0], st.region[1], st.region[2], st.region[3], st.region[4], st.region[5],
                  st.cell, !desc->no_features, cell->count);
-        if (expr) {
-            h->job = crisp_hash_bytes(CRISP_HASH_SEED, expr, strlen(expr));
-            h->job = crisp_hash_bytes(h->job, h->settings, strlen(h->settings));
-        } else {
-            s = crisp_cell_job_id(file, h->settings, &h->job);
-        }
+        s = frep_job_id(file, expr, h);
         h->cell = *cell;
         crisp_cell_header_add_sum(h, "vertices", (double)m.nv);
         crisp_cell_header_add_sum(h, "triangles", (double)m.nt);
@@ -590,10 +594,7 @@ static int frep_mass_cell(const crisp_frep_tape *tape, const double region[6], i
              "frep-mass level=%d region=%.17g,%.17g,%.17g,%.17g,%.17g,%.17g seed=%llu cells=%d",
              level, region[0], region[1], region[2], region[3], region[4], region[5],
              (unsigned long long)seed, cell->count);
-    if (expr) {
-        h->job = crisp_hash_bytes(CRISP_HASH_SEED, expr, strlen(expr));
-        h->job = crisp_hash_bytes(h->job, h->settings, strlen(h->settings));
-    } else if (crisp_cell_job_id(file, h->settings, &h->job)) {
+    if (frep_job_id(file, expr, h)) {
         fprintf(stderr, "crisp frep mass: %s\n", crisp_error_message());
         free(h);
         return 1;
@@ -908,13 +909,7 @@ static int frep_write_tiles(const char *file, const char *expr, const crisp_frep
              "flags=%u grid=%dx%d",
              d->width, d->height, d->depth, g[0], g[1], g[2], g[3], g[4], g[5], d->flags,
              tile->cols, tile->rows);
-    crisp_status s = CRISP_OK;
-    if (expr) {
-        h->job = crisp_hash_bytes(CRISP_HASH_SEED, expr, strlen(expr));
-        h->job = crisp_hash_bytes(h->job, h->settings, strlen(h->settings));
-    } else {
-        s = crisp_cell_job_id(file, h->settings, &h->job);
-    }
+    crisp_status s = frep_job_id(file, expr, h);
     h->cell = *tile;
     memcpy(h->rect, d->window, sizeof d->window);
     h->rect[4] = d->width, h->rect[5] = d->height;
