@@ -7,7 +7,6 @@
  * Times are wall clock (the GL frame ends with glFinish; llvmpipe uses every core).
  *
  *   bench_gl [FRAMES [MODEL]]   (default 5 frames, every model; MODEL: only names containing it) */
-#include <dirent.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -22,24 +21,6 @@
 /* Every bundled model: the files of data/nurbs, sorted by name. */
 static char models[64][256];
 static int model_count;
-
-static int cmp_name(const void *a, const void *b)
-{
-    return strcmp(a, b);
-}
-
-static void list_models(void)
-{
-    char dir[512];
-    snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
-    DIR *d = opendir(dir);
-    if (!d) return;
-    struct dirent *e;
-    while ((e = readdir(d)) && model_count < 64)
-        if (e->d_name[0] != '.') snprintf(models[model_count++], sizeof models[0], "%s", e->d_name);
-    closedir(d);
-    qsort(models, (size_t)model_count, sizeof models[0], cmp_name);
-}
 
 static void die(const char *what)
 {
@@ -137,7 +118,9 @@ int main(int argc, char **argv)
 {
     int frames = argc > 1 ? atoi(argv[1]) : 5;
     if (frames < 1) frames = 1;
-    list_models();
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
+    model_count = bench_list_files(dir, models, 64);
     crisp_gl_context *ctx;
     if (crisp_gl_context_create(&ctx)) die("GL context");
     crisp_gl *gl;

@@ -13,7 +13,6 @@
  *   bench_interactive [FRAMES [THREADS [MODEL...]]]   (defaults 5, 2, every model; MODEL: only
  *                                                      rows whose "model:view" contains it,
  *                                                      e.g. bearing or bearing.iges:close) */
-#include <dirent.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,24 +26,6 @@
 
 static char models[64][256];
 static int model_count;
-
-static int cmp_name(const void *a, const void *b)
-{
-    return strcmp(a, b);
-}
-
-static void list_models(void)
-{
-    char dir[512];
-    snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
-    DIR *d = opendir(dir);
-    if (!d) return;
-    struct dirent *e;
-    while ((e = readdir(d)) && model_count < 64)
-        if (e->d_name[0] != '.') snprintf(models[model_count++], sizeof models[0], "%s", e->d_name);
-    closedir(d);
-    qsort(models, (size_t)model_count, sizeof models[0], cmp_name);
-}
 
 static void die(const char *what)
 {
@@ -186,7 +167,9 @@ int main(int argc, char **argv)
     int threads = argc > 2 ? atoi(argv[2]) : 2;
     if (frames < 1) frames = 1;
     if (threads < 1) threads = 1;
-    list_models();
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
+    model_count = bench_list_files(dir, models, 64);
     bench_print_machine(stdout);
     double la = -1;
     FILE *lf = fopen("/proc/loadavg", "r");
