@@ -12,14 +12,17 @@
 #include <string.h>
 
 #include "quadtree.h"
+#include "rational_bound.h"
 
 typedef struct group {
     uint32_t iu0, iv0, nu, nv; /* patch grid block: columns iu0.., rows iv0.. (clipped) */
     uint32_t g;                /* the block is 2^g x 2^g patches before clipping */
     int32_t child[4];          /* -1: none (outside the grid, or a single patch) */
     double box[6];
-    double dev[4]; /* per homogeneous object coordinate: the largest distance between a control
-                      point of the block and the bilinear through the block's corners there */
+    double dev[4];  /* per homogeneous object coordinate: the largest distance between a control
+                       point of the block and the bilinear through the block's corners there */
+    double devq[3]; /* rational blocks: crisp__rational_block_deviation (x, y, z) */
+    int rational;   /* a patch of the block is rational */
 } group;
 
 struct crisp__groups {
@@ -86,7 +89,9 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
                lv,
                {-1, -1, -1, -1},
                {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY},
-               {0, 0, 0, 0}};
+               {0, 0, 0, 0},
+               {0, 0, 0},
+               0};
     if (lv == 0) {
         const double *b = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].box;
         memcpy(n.box, b, sizeof n.box);
@@ -103,7 +108,15 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
             }
         }
     }
+    if (lv == 0)
+        n.rational = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].bez.rational;
+    else
+        for (int k = 0; k < 4; k++)
+            if (n.child[k] >= 0) n.rational |= g->nodes[n.child[k]].rational;
     if (n.nu * n.nv > 1) block_deviation(sc, f, &n);
+    if (n.nu * n.nv > 1 && n.rational)
+        crisp__rational_block_deviation(&sc->patches[f->first_patch + iv0 * f->grid_u + iu0],
+                                        f->grid_u, n.nu, n.nv, n.devq);
     g->nodes[me] = n;
     *dest = me;
     return CRISP_OK;
@@ -311,7 +324,15 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
             screen_px(E0, wmin, xmax, ymax, c->width, c->height) <=
         c->eps)
         return 1;
+    /* Rational blocks: the same bound without dividing by the weights (rational_bound.c). */
+    double(*m)[4] = (double(*)[4])c->m;
+    if (n->rational && crisp__rational_block_px_fast(&sc->patches[base], f->grid_u, n->nu, n->nv,
+                                                     n->devq, m, c->width, c->height) <= c->eps)
+        return 1;
     if (n->nu * n->nv > 64 || extent > GROUP_TRY_PX) return 0;
+    if (n->rational && crisp__rational_block_px(&sc->patches[base], f->grid_u, n->nu, n->nv, m,
+                                                c->width, c->height, c->eps) <= c->eps)
+        return 1;
     D[0] = D[1] = D[2] = 0;
     for (uint32_t jv = 0; jv < n->nv; jv++)
         for (uint32_t iu = 0; iu < n->nu; iu++) {

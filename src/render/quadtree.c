@@ -15,6 +15,7 @@
  * asks for, with a count that is a multiple of 2^(depth difference), so every finer leaf along the
  * edge takes an equal share of those vertices. Both sides then place the same vertices. */
 #include "quadtree.h"
+#include "rational_bound.h"
 #include "render_internal.h"
 
 #include <math.h>
@@ -24,6 +25,9 @@
 #include "crisp/slefe.h"
 
 #define CRISP__NB_CAP 256 /* leaves across one side examined by the edge rule */
+#ifndef RATIONAL_SPLIT_COST
+#define RATIONAL_SPLIT_COST 2.0
+#endif
 
 /* ---- sub-patches --------------------------------------------------------------------------- */
 
@@ -197,6 +201,18 @@ static double flat_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, int 
     return px;
 }
 
+/* The smaller of flat_px and, for a rational patch, the bound of rational_bound.c (both sound;
+ * the latter does not divide by the weight, so it stays tight where the weights vary). */
+static double flat_bound(const crisp_bezier_patch *p, crisp_mat4 m, int width, int height)
+{
+    double f = flat_px(p, m, width, height);
+    if (p->rational && f > 0) {
+        crisp_scene_patch one = {.bez = *p};
+        f = fmin(f, crisp__rational_block_px(&one, 1, 1, 1, m, width, height, 0));
+    }
+    return f;
+}
+
 static int forced_cmp(const crisp__forced *a, const crisp__forced *b)
 {
     if (a->patch != b->patch) return a->patch < b->patch ? -1 : 1;
@@ -251,16 +267,26 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
         /* Small on screen (issue 12): a hull within eps needs no SLEFE (tau 1, see
          * hull_extent_px). */
         double hull = hull_extent_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height);
-        /* Flat enough on screen for any tessellation (flat_px): tau 1, like a small hull. */
-        if (hull > c->eps &&
-            flat_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height) <= c->eps)
-            hull = 0;
+        /* Flat enough on screen for any tessellation (flat_bound): tau 1, like a small hull. */
+        double flat = hull > c->eps
+                          ? flat_bound(&sub, c->plan->view_proj, c->plan->width, c->plan->height)
+                          : 0;
+        if (hull > c->eps && flat <= c->eps) hull = 0;
         int box_split = box && hull > c->eps && depth < c->plan->max_depth;
         crisp_status st =
             hull <= c->eps || box_split
                 ? CRISP_OK
                 : crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
         if (hull <= c->eps) tau = 1;
+        /* A rational sub-patch: a lower level from the bound that does not divide by the
+         * weights (rational_bound.c), also where the homogeneous one reaches W <= 0. */
+        if (sub.rational && !box_split && isfinite(flat) &&
+            ((!st && tau > 2) || (st == CRISP_ERR_NUMERIC && isfinite(hull)))) {
+            int below = st ? CRISP_TESS_MAX_LEVEL + 1 : tau;
+            int t = crisp__rational_tess_level(&sub, below, flat, c->plan->view_proj,
+                                               c->plan->width, c->plan->height, c->eps);
+            if (t < below) st = CRISP_OK, tau = t;
+        }
         if (box_split) {
             st = CRISP_ERR_NUMERIC; /* split again (below) */
         } else if (!st && tau > 1 && tau <= CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth &&
@@ -272,7 +298,13 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
              * children are decided by their hulls alone. Loose screen bounds of small rational
              * patches seen off axis made 1-2 px patches ask for tau 10-24 (impeller x 49). */
             int k = (int)ceil(log2(hull / c->eps));
-            if (k < 6 && 4.0 * ldexp(1.0, 2 * k) < (double)tau * tau) {
+            double per_leaf = 4.0;
+            /* The flat bound (rational_bound.c for rational patches) falls about 4x per halving
+             * (second order); where it predicts fewer halvings, split when that at least halves
+             * the triangles (2 per tau-1 leaf against about 2 tau^2). */
+            int kf = isfinite(flat) ? (int)ceil(0.5 * log2(flat / c->eps)) : k;
+            if (kf < k) k = kf, per_leaf = RATIONAL_SPLIT_COST;
+            if (k < 6 && per_leaf * ldexp(1.0, 2 * k) < (double)tau * tau) {
                 st = CRISP_ERR_NUMERIC;
                 box = 1;
             }
