@@ -325,13 +325,16 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
         c->eps)
         return 1;
     /* Rational blocks: the same bound without dividing by the weights (rational_bound.c). */
-    double(*m)[4] = (double(*)[4])c->m;
-    if (n->rational && crisp__rational_block_px_fast(&sc->patches[base], f->grid_u, n->nu, n->nv,
-                                                     n->devq, m, c->width, c->height) <= c->eps)
+    double(*m)[4] = (double(*)[4])c->m, fast = INFINITY;
+    if (n->rational &&
+        (fast = crisp__rational_block_px_fast(&sc->patches[base], f->grid_u, n->nu, n->nv, n->devq,
+                                              m, c->width, c->height)) <= c->eps)
         return 1;
     if (n->nu * n->nv > 64 || extent > GROUP_TRY_PX) return 0;
-    if (n->rational && crisp__rational_block_px(&sc->patches[base], f->grid_u, n->nu, n->nv, m,
-                                                c->width, c->height, c->eps) <= c->eps)
+    /* the per-control-point bound is rarely below a quarter of the O(1) one */
+    if (n->rational && fast <= 4 * c->eps &&
+        crisp__rational_block_px(&sc->patches[base], f->grid_u, n->nu, n->nv, m, c->width,
+                                 c->height, c->eps) <= c->eps)
         return 1;
     D[0] = D[1] = D[2] = 0;
     for (uint32_t jv = 0; jv < n->nv; jv++)

@@ -53,6 +53,17 @@
 
 #include "render_internal.h"
 
+/* fmax / fmin without the library call (no NaN handling needed: the inputs are finite or
+ * +-INFINITY, and a NaN would fail the callers' <= eps tests either way). */
+static inline double dmax(double a, double b)
+{
+    return a > b ? a : b;
+}
+static inline double dmin(double a, double b)
+{
+    return a < b ? a : b;
+}
+
 /* Levels above this are left to the homogeneous bound (the windows' cost grows as tau^2). */
 #define RATIONAL_MAX_SEARCH 12
 /* Halvings of the reparametrisation ratios (4 pieces per row). */
@@ -92,36 +103,38 @@ static map3 clip_map(crisp_mat4 m)
 /* Split the Bernstein coefficients c[0..p] at 1/2 into left and right halves (de Casteljau). */
 static void halve(const double *c, int p, double *left, double *right)
 {
-    double t[CRISP_MAX_DEGREE + 2] = {0};
-    for (int i = 0; i <= p && i < CRISP_MAX_DEGREE + 2; i++)
-        t[i] = c[i];
-    left[0] = t[0], right[p] = t[p];
+    /* in place in right: after step r, right[p - r] is final and right[0] is left[r] */
+    for (int i = 0; i <= p; i++)
+        right[i] = c[i];
+    left[0] = right[0];
     for (int r = 1; r <= p; r++) {
         for (int i = 0; i <= p - r; i++)
-            t[i] = 0.5 * (t[i] + t[i + 1]);
-        left[r] = t[0], right[p - r] = t[p - r];
+            right[i] = 0.5 * (right[i] + right[i + 1]);
+        left[r] = right[0];
     }
 }
 
-/* max |num / den| over [0, 1] for two polynomials of degree p in Bernstein form (den's
- * coefficients > 0), bounded by the coefficient ratios after `depth` halvings (the ratio is a
- * convex combination of them on each piece; the excess falls about 4x per halving). */
-static double ratio_bound(const double *num, const double *den, int p, int depth)
+/* max(best, max |num / den| over [0, 1]) for two polynomials of degree p in Bernstein form (den's
+ * coefficients > 0), bounded by the coefficient ratios after up to `depth` halvings (the ratio is
+ * a convex combination of them on each piece; the excess falls about 4x per halving). A piece
+ * whose coefficient ratios are all within best is not halved further. */
+static double ratio_bound(const double *num, const double *den, int p, int depth, double best)
 {
-    if (depth == 0) {
-        double r = 0;
-        for (int k = 0; k <= p; k++)
-            r = fmax(r, fabs(num[k]) / den[k]);
-        return r;
-    }
+    double r = 0;
+    for (int k = 0; k <= p; k++)
+        r = dmax(r, fabs(num[k]) / den[k]);
+    if (depth == 0 || r <= best) return dmax(best, r);
+    /* the end coefficients are the function's values there */
+    best = dmax(best, dmax(fabs(num[0]) / den[0], fabs(num[p]) / den[p]));
     double nl[CRISP_MAX_DEGREE + 2], nr[CRISP_MAX_DEGREE + 2], dl[CRISP_MAX_DEGREE + 2],
         dr[CRISP_MAX_DEGREE + 2];
     halve(num, p, nl, nr);
     halve(den, p, dl, dr);
-    return fmax(ratio_bound(nl, dl, p, depth - 1), ratio_bound(nr, dr, p, depth - 1));
+    best = ratio_bound(nl, dl, p, depth - 1, best);
+    return ratio_bound(nr, dr, p, depth - 1, best);
 }
 
-void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3])
+static void reparam(const crisp_bezier_patch *p, int halvings, double sigma[3])
 {
     sigma[0] = sigma[1] = sigma[2] = 0;
     if (!p->rational) return;
@@ -145,7 +158,7 @@ void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3])
             num[k] = (double)k * (n + 1 - k) / ((double)n * (n + 1)) * (wr - wl);
             den[k] = (k * wl + (n + 1 - k) * wr) / (n + 1);
         }
-        sigma[0] = fmax(sigma[0], ratio_bound(num, den, n + 1, REPARAM_HALVINGS));
+        sigma[0] = ratio_bound(num, den, n + 1, halvings, sigma[0]);
     }
     for (int i = 0; i <= n; i++) {
         for (int l = 0; l <= m + 1; l++) {
@@ -153,7 +166,7 @@ void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3])
             num[l] = (double)l * (m + 1 - l) / ((double)m * (m + 1)) * (wr - wl);
             den[l] = (l * wl + (m + 1 - l) * wr) / (m + 1);
         }
-        sigma[1] = fmax(sigma[1], ratio_bound(num, den, m + 1, REPARAM_HALVINGS));
+        sigma[1] = ratio_bound(num, den, m + 1, halvings, sigma[1]);
     }
     /* The mixed term: the same operator in both directions (mixed differences of w), bounded by
      * the tensor coefficient ratios (no halving: it is second order and small). */
@@ -166,12 +179,17 @@ void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3])
             double fv0 = (double)l / (m + 1), fv1 = (double)(m + 1 - l) / (m + 1);
             double d = fu0 * fv0 * OM(k - 1, l - 1) + fu1 * fv0 * OM(k, l - 1) +
                        fu0 * fv1 * OM(k - 1, l) + fu1 * fv1 * OM(k, l);
-            sigma[2] = fmax(sigma[2], a * fabs(mixed) / d);
+            sigma[2] = dmax(sigma[2], a * fabs(mixed) / d);
         }
 #undef OM
     /* a relative allowance for the rounding of the ratios and the halvings */
     for (int k = 0; k < 3; k++)
         sigma[k] = sigma[k] * (1 + 1e-12) + 1e-15;
+}
+
+void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3])
+{
+    reparam(p, REPARAM_HALVINGS, sigma);
 }
 
 /* The four corner control points (Euclidean) of the block whose corner patches are c[]. */
@@ -190,8 +208,8 @@ static void edge_terms(const double C[4][3], uint32_t nu, uint32_t nv, double eu
                        double tw[3])
 {
     for (int a = 0; a < 3; a++) {
-        eu[a] = fmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a])) / nu;
-        ev[a] = fmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a])) / nv;
+        eu[a] = dmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a])) / nu;
+        ev[a] = dmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a])) / nv;
         tw[a] = fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]) / ((double)nu * nv);
     }
 }
@@ -203,7 +221,7 @@ static double screen_px(const double e[3], double wmin, double xmax, double ymax
     double den = wmin - e[2];
     if (!(den > 0)) return INFINITY;
     double dx = (e[0] + xmax * e[2]) / den, dy = (e[1] + ymax * e[2]) / den;
-    return fmax(dx * 0.5 * width, dy * 0.5 * height) * (1 + 1e-9) + 1e-12;
+    return dmax(dx * 0.5 * width, dy * 0.5 * height) * (1 + 1e-9) + 1e-12;
 }
 
 typedef struct stop_rule {
@@ -222,14 +240,16 @@ typedef struct block_dev {
 static void dev_max(const block_dev *d, double E[3])
 {
     for (int a = 0; a < 3; a++)
-        E[a] = fmax(-d->lo[a], d->hi[a]) + d->r[a];
+        E[a] = dmax(-d->lo[a], d->hi[a]) + d->r[a];
 }
 
 /* The deviations of the block's patches in the coordinates of A, against the bilinear through C
- * (the block's corners mapped by A). 0 when a weight is not positive or (stop) the bound must
- * already exceed stop->accept: both forms in finish are at least E_S / w_min in pixels. */
+ * (the block's corners mapped by A), the sigma's after `halvings`. 0 when a weight is not
+ * positive or (stop) the bound must already exceed stop->accept: both forms in finish are at
+ * least max(|lo|, |hi|) / w_min in pixels. */
 static int block_error(const crisp_scene_patch *first, uint32_t stride, uint32_t nu, uint32_t nv,
-                       const map3 *A, const double C[4][3], const stop_rule *stop, block_dev *d)
+                       const map3 *A, const double C[4][3], const stop_rule *stop, int halvings,
+                       block_dev *d)
 {
     double eu[3], ev[3], tw[3];
     edge_terms(C, nu, nv, eu, ev, tw);
@@ -237,10 +257,8 @@ static int block_error(const crisp_scene_patch *first, uint32_t stride, uint32_t
     for (uint32_t jv = 0; jv < nv; jv++)
         for (uint32_t iu = 0; iu < nu; iu++) {
             const crisp_bezier_patch *b = &first[jv * stride + iu].bez;
-            double sigma[3];
+            double sigma[3], plo[3] = {0, 0, 0}, phi[3] = {0, 0, 0};
             if (b->du < 1 || b->dv < 1) return 0;
-            crisp__rational_reparam(b, sigma);
-            if (!isfinite(sigma[0])) return 0;
             for (int j = 0; j <= b->dv; j++) {
                 double t = (jv + (double)j / b->dv) / nv;
                 for (int i = 0; i <= b->du; i++) {
@@ -252,22 +270,46 @@ static int block_error(const crisp_scene_patch *first, uint32_t stride, uint32_t
                                     t * ((1 - s) * C[2][a] + s * C[3][a]);
                         /* a relative allowance for the rounding of both sides */
                         double slack = 1e-12 * (fabs(x[a]) + fabs(bl));
-                        d->lo[a] = fmin(d->lo[a], x[a] - bl - slack);
-                        d->hi[a] = fmax(d->hi[a], x[a] - bl + slack);
+                        plo[a] = dmin(plo[a], x[a] - bl - slack);
+                        phi[a] = dmax(phi[a], x[a] - bl + slack);
                     }
                 }
             }
+            reparam(b, halvings, sigma);
+            if (!isfinite(sigma[0])) return 0;
+            for (int a = 0; a < 3; a++) {
+                d->lo[a] = dmin(d->lo[a], plo[a]);
+                d->hi[a] = dmax(d->hi[a], phi[a]);
+            }
             for (int a = 0; a < 3; a++)
-                d->r[a] = fmax(d->r[a], (sigma[0] * eu[a] + sigma[1] * ev[a] + sigma[2] * tw[a]) *
+                d->r[a] = dmax(d->r[a], (sigma[0] * eu[a] + sigma[1] * ev[a] + sigma[2] * tw[a]) *
                                             (1 + 1e-12));
             if (stop) {
-                double E[3];
-                dev_max(d, E);
-                if (fmax(E[0] * stop->width, E[1] * stop->height) * 0.5 / stop->wmin > stop->accept)
+                double E[2];
+                for (int a = 0; a < 2; a++)
+                    E[a] = dmax(-d->lo[a], d->hi[a]);
+                if (dmax(E[0] * stop->width, E[1] * stop->height) * 0.5 / stop->wmin > stop->accept)
                     return 0;
             }
         }
     return 1;
+}
+
+/* d->r again from the sigma's after REPARAM_HALVINGS (the control points' part is kept). */
+static void block_refine(const crisp_scene_patch *first, uint32_t stride, uint32_t nu, uint32_t nv,
+                         const double C[4][3], block_dev *d)
+{
+    double eu[3], ev[3], tw[3];
+    edge_terms(C, nu, nv, eu, ev, tw);
+    d->r[0] = d->r[1] = d->r[2] = 0;
+    for (uint32_t jv = 0; jv < nv; jv++)
+        for (uint32_t iu = 0; iu < nu; iu++) {
+            double sigma[3];
+            reparam(&first[jv * stride + iu].bez, REPARAM_HALVINGS, sigma);
+            for (int a = 0; a < 3; a++)
+                d->r[a] = dmax(d->r[a], (sigma[0] * eu[a] + sigma[1] * ev[a] + sigma[2] * tw[a]) *
+                                            (1 + 1e-12));
+        }
 }
 
 /* The screen bound against the clip corners C (x, y, w) from the deviations d: the smaller of
@@ -284,9 +326,9 @@ static double finish(const double C[4][3], const block_dev *d, int width, int he
     double wmin = INFINITY, xmax = 0, ymax = 0, E[3], ET[3], dl[3];
     for (int k = 0; k < 4; k++) {
         if (!(C[k][2] > 0)) return INFINITY;
-        wmin = fmin(wmin, C[k][2]);
-        xmax = fmax(xmax, fabs(C[k][0] / C[k][2]));
-        ymax = fmax(ymax, fabs(C[k][1] / C[k][2]));
+        wmin = dmin(wmin, C[k][2]);
+        xmax = dmax(xmax, fabs(C[k][0] / C[k][2]));
+        ymax = dmax(ymax, fabs(C[k][1] / C[k][2]));
     }
     dev_max(d, E);
     for (int a = 0; a < 3; a++) {
@@ -300,8 +342,8 @@ static double finish(const double C[4][3], const block_dev *d, int width, int he
     if (!(ws > 0) || !(wt > 0)) return one;
     double xs = xmax + (E[0] + xmax * E[2]) / ws, ys = ymax + (E[1] + ymax * E[2]) / ws;
     double dx = (dl[0] + xs * dl[2]) / wt, dy = (dl[1] + ys * dl[2]) / wt;
-    double two = fmax(dx * 0.5 * width, dy * 0.5 * height) * (1 + 1e-9) + 1e-12;
-    return fmin(one, two);
+    double two = dmax(dx * 0.5 * width, dy * 0.5 * height) * (1 + 1e-9) + 1e-12;
+    return dmin(one, two);
 }
 
 /* The block's corner patches. */
@@ -324,13 +366,17 @@ double crisp__rational_block_px(const crisp_scene_patch *first, uint32_t stride,
     for (int k = 0; k < 4; k++) {
         apply(&A, P[k], C[k]);
         if (!(C[k][2] > 0)) return INFINITY;
-        stop.wmin = fmin(stop.wmin, C[k][2]);
+        stop.wmin = dmin(stop.wmin, C[k][2]);
     }
+    /* The coarse sigma's first (cheap), the halved ones only where the coarse bound does not
+     * accept; blocks stop early once the control points alone exceed accept. */
+    const stop_rule *sr = accept > 0 && nu * nv > 1 ? &stop : NULL;
     block_dev d;
-    if (!block_error(first, stride, nu, nv, &A, (const double(*)[3])C, accept > 0 ? &stop : NULL,
-                     &d))
-        return INFINITY;
-    return finish((const double(*)[3])C, &d, width, height);
+    if (!block_error(first, stride, nu, nv, &A, (const double(*)[3])C, sr, 0, &d)) return INFINITY;
+    double e = finish((const double(*)[3])C, &d, width, height);
+    if ((accept > 0 && e <= accept) || (d.r[0] == 0 && d.r[1] == 0 && d.r[2] == 0)) return e;
+    block_refine(first, stride, nu, nv, (const double(*)[3])C, &d);
+    return dmin(e, finish((const double(*)[3])C, &d, width, height));
 }
 
 void crisp__rational_block_deviation(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
@@ -342,7 +388,7 @@ void crisp__rational_block_deviation(const crisp_scene_patch *first, uint32_t st
     map3 I = {{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}}};
     block_dev d;
     if (!block_corners(cp, P) ||
-        !block_error(first, stride, nu, nv, &I, (const double(*)[3])P, NULL, &d))
+        !block_error(first, stride, nu, nv, &I, (const double(*)[3])P, NULL, REPARAM_HALVINGS, &d))
         dest[0] = dest[1] = dest[2] = INFINITY;
     else
         dev_max(&d, dest);
@@ -381,20 +427,22 @@ static double hull_px(const crisp_bezier_patch *p, const map3 *A, int width, int
         if (!euclid(p->cpw + 4 * i, P)) return INFINITY;
         apply(A, P, x);
         if (!(x[2] > 0)) return INFINITY;
-        lo[0] = fmin(lo[0], x[0] / x[2]), hi[0] = fmax(hi[0], x[0] / x[2]);
-        lo[1] = fmin(lo[1], x[1] / x[2]), hi[1] = fmax(hi[1], x[1] / x[2]);
+        lo[0] = dmin(lo[0], x[0] / x[2]), hi[0] = dmax(hi[0], x[0] / x[2]);
+        lo[1] = dmin(lo[1], x[1] / x[2]), hi[1] = dmax(hi[1], x[1] / x[2]);
     }
-    double e = fmax((hi[0] - lo[0]) * 0.5 * width, (hi[1] - lo[1]) * 0.5 * height);
+    double e = dmax((hi[0] - lo[0]) * 0.5 * width, (hi[1] - lo[1]) * 0.5 * height);
     return e * (1 + 1e-9) + 1e-9;
 }
 
 /* One window: the smaller of the any-triangle bound and the hull's extent. */
-static double window_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, int height)
+static double window_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, int height,
+                        double accept)
 {
     crisp_scene_patch one = {.bez = *p};
     map3 A = clip_map(m);
-    double e = crisp__rational_block_px(&one, 1, 1, 1, m, width, height, 0);
-    return fmin(e, hull_px(p, &A, width, height));
+    double h = hull_px(p, &A, width, height);
+    if (accept > 0 && h <= accept) return h;
+    return dmin(h, crisp__rational_block_px(&one, 1, 1, 1, m, width, height, accept));
 }
 
 /* The leaf mesh of crisp_tess_mesh_generate at inner level tau >= 2 in both directions, with
@@ -415,25 +463,30 @@ static double window_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, in
 double crisp__rational_level_px(const crisp_bezier_patch *p, int tau, crisp_mat4 m, int width,
                                 int height, double accept)
 {
-    if (tau <= 1) return window_px(p, m, width, height);
+    if (tau <= 1) return window_px(p, m, width, height, accept);
     double storage[2 * CRISP__PATCH_DOUBLES], tmp[CRISP__PATCH_DOUBLES], worst = 0, h = 1.0 / tau;
     crisp_bezier_patch sub;
     /* The four corner windows first (the widest: a rejection is found soonest), then the cells. */
     const double corner[4][4] = {
         {1 - 2 * h, 1, 0, h}, {1 - h, 1, 1 - 2 * h, 1}, {0, 2 * h, 1 - h, 1}, {0, h, 0, 2 * h}};
     for (int k = 0; k < 4; k++) {
-        crisp__subpatch(p, fmax(corner[k][0], 0), corner[k][1], fmax(corner[k][2], 0), corner[k][3],
+        crisp__subpatch(p, dmax(corner[k][0], 0), corner[k][1], dmax(corner[k][2], 0), corner[k][3],
                         storage, tmp, &sub);
-        worst = fmax(worst, window_px(&sub, m, width, height));
+        worst = dmax(worst, window_px(&sub, m, width, height, accept));
         if (accept > 0 && worst > accept) return worst;
     }
-    for (int j = 0; j < tau; j++)
+    crisp_bezier_patch strip;
+    double sstore[2 * CRISP__PATCH_DOUBLES], stmp[CRISP__PATCH_DOUBLES];
+    for (int j = 0; j < tau; j++) {
+        /* the row of cells first, then each cell of it */
+        crisp__subpatch(p, 0, 1, j * h, j + 1 == tau ? 1.0 : (j + 1) * h, sstore, stmp, &strip);
         for (int i = 0; i < tau; i++) {
-            crisp__subpatch(p, i * h, i + 1 == tau ? 1.0 : (i + 1) * h, j * h,
-                            j + 1 == tau ? 1.0 : (j + 1) * h, storage, tmp, &sub);
-            worst = fmax(worst, window_px(&sub, m, width, height));
+            crisp__subpatch(&strip, i * h, i + 1 == tau ? 1.0 : (i + 1) * h, 0, 1, storage, tmp,
+                            &sub);
+            worst = dmax(worst, window_px(&sub, m, width, height, accept));
             if (accept > 0 && worst > accept) return worst;
         }
+    }
     return worst;
 }
 
