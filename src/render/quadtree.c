@@ -25,9 +25,6 @@
 #include "crisp/slefe.h"
 
 #define CRISP__NB_CAP 256 /* leaves across one side examined by the edge rule */
-#ifndef RATIONAL_SPLIT_COST
-#define RATIONAL_SPLIT_COST 4.0
-#endif
 
 /* ---- sub-patches --------------------------------------------------------------------------- */
 
@@ -201,17 +198,18 @@ static double flat_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, int 
     return px;
 }
 
-/* The smaller of flat_px and, for a rational patch, the bound of rational_bound.c (both sound;
- * the latter does not divide by the weight, so it stays tight where the weights vary). */
+/* flat_px, or where the patch's weights vary the bound of rational_bound.c: it does not divide
+ * by the weight, so it stays tight there, and it measures the triangle point at the parameters
+ * the rasterizer interpolates (flat_px's homogeneous argument bounds another point of the same
+ * triangle when the weights differ at its vertices). Equal weights: the two are the same. */
 static double flat_bound(const crisp_bezier_patch *p, crisp_mat4 m, int width, int height,
                          double eps)
 {
-    double f = flat_px(p, m, width, height);
-    if (p->rational && f > eps) {
-        crisp_scene_patch one = {.bez = *p};
-        f = fmin(f, crisp__rational_block_px(&one, 1, 1, 1, m, width, height, eps));
-    }
-    return f;
+    double wlo, whi;
+    crisp__rational_weight_range(p, &wlo, &whi);
+    if (!(whi > wlo)) return flat_px(p, m, width, height);
+    crisp_scene_patch one = {.bez = *p};
+    return crisp__rational_block_px(&one, 1, 1, 1, m, width, height, eps);
 }
 
 static int forced_cmp(const crisp__forced *a, const crisp__forced *b)
@@ -305,13 +303,10 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
              * children are decided by their hulls alone. Loose screen bounds of small rational
              * patches seen off axis made 1-2 px patches ask for tau 10-24 (impeller x 49). */
             int k = (int)ceil(log2(hull / c->eps));
-            double per_leaf = 4.0;
-            /* The flat bound (rational_bound.c for rational patches) falls about 4x per halving
-             * (second order); where it predicts fewer halvings, split when that at least halves
-             * the triangles (2 per tau-1 leaf against about 2 tau^2). */
-            int kf = isfinite(flat) ? (int)ceil(0.5 * log2(flat / c->eps)) : k;
-            if (kf < k) k = kf, per_leaf = RATIONAL_SPLIT_COST;
-            if (k < 6 && per_leaf * ldexp(1.0, 2 * k) < (double)tau * tau) {
+            /* The flat bound (rational_bound.c where the weights vary) falls about 4x per
+             * halving (second order): it may predict fewer halvings than the hull. */
+            if (isfinite(flat)) k = (int)fmin(k, ceil(0.5 * log2(flat / c->eps)));
+            if (k < 6 && 4.0 * ldexp(1.0, 2 * k) < (double)tau * tau) {
                 st = CRISP_ERR_NUMERIC;
                 box = 1;
             }
@@ -319,7 +314,7 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
         /* (Not searched here for every rational sub-patch whose SLEFE level is above 2: the
          * windows of crisp__rational_tess_level cost about as much as splitting into tau^2
          * pieces, more than the triangles they save; impeller.igs default view: 200 k -> 165 k
-         * triangles for about 3x the planner's time.) */
+         * triangles for 739 M -> 949 M planner instructions per plan.) */
         if (st == CRISP_ERR_NUMERIC) {
             /* The sub-patch reaches the eye plane: split, and at the depth limit drop what is
              * left (a sliver of 2^-max_depth of the patch at the eye). */

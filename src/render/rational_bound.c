@@ -192,6 +192,17 @@ void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3])
     reparam(p, REPARAM_HALVINGS, sigma);
 }
 
+void crisp__rational_weight_range(const crisp_bezier_patch *p, double *lo, double *hi)
+{
+    *lo = *hi = 1;
+    if (!p->rational) return;
+    *lo = INFINITY, *hi = -INFINITY;
+    for (int i = 0; i < (p->du + 1) * (p->dv + 1); i++) {
+        *lo = dmin(*lo, p->cpw[4 * i + 3]);
+        *hi = dmax(*hi, p->cpw[4 * i + 3]);
+    }
+}
+
 /* The four corner control points (Euclidean) of the block whose corner patches are c[]. */
 static int block_corners(const crisp_bezier_patch *const c[4], double P[4][3])
 {

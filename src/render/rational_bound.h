@@ -18,6 +18,13 @@
  * All 0 for a polynomial patch or equal weights; INFINITY when a weight is not positive. */
 void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3]);
 
+/* The least and largest weight of p (1, 1 for a polynomial patch). Where they differ, the
+ * homogeneous bounds (flat_px, group_leaf_ok's, the SLEFE's) bound the distance to the triangle
+ * point sum l_k w(x_k) clip(x_k) / ..., a point of the same triangle but not the one at the
+ * parameters sum l_k x_k that the rasterizer interpolates (docs/status/issue-12-rational.md):
+ * the planner then uses the bounds here for tau 1 and group leaves. */
+void crisp__rational_weight_range(const crisp_bezier_patch *p, double *lo, double *hi);
+
 /* A bound (pixels, max of the x and y distances) on the screen distance between the nu x nv
  * block of patches (first[jv * stride + iu].bez, each the rectangle [iu, iu + 1] x [jv, jv + 1]
  * of the block's parameters scaled to [0, 1]^2; a single patch is a block of one) and any triangles
