@@ -33,6 +33,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bench_camera.h"
 #include "bench_util.h"
 #include "crisp/io.h"
 #include "crisp/render.h"
@@ -57,25 +58,6 @@ static int exact_classify(void *ctx, const crisp_scene *sc, uint32_t face, doubl
     const crisp_scene_face *f = &sc->faces[face];
     if (!f->piece_count) return 1;
     return crisp_trim_exact_classify(sc->pieces + f->first_piece, (int)f->piece_count, u, v);
-}
-
-static crisp_camera close_up(const crisp_scene *sc, const crisp_camera *base)
-{
-    crisp_camera c = *base;
-    double o[3], d[3], t;
-    crisp_camera_ray(base, 0.5 * base->width, 0.5 * base->height, o, d);
-    if (!crisp_exact_ray(sc, NULL, o, d, base->znear, base->zfar, &t, NULL, NULL, NULL)) {
-        double P[3], Ps[3], Pt[3];
-        crisp_bezier_patch_derivs(&sc->patches[sc->patch_count / 2].bez, 0.5, 0.5, P, Ps, Pt);
-        for (int k = 0; k < 3; k++)
-            d[k] = P[k] - o[k];
-        t = crisp_vec3_norm(d);
-        crisp_vec3_normalize(d, d);
-    }
-    for (int k = 0; k < 3; k++)
-        c.target[k] = o[k] + t * d[k];
-    c.fov_deg = base->fov_deg / 8;
-    return c;
 }
 
 static double nearest_depth(const double box[6], const crisp_camera *cam)
@@ -218,7 +200,7 @@ int main(int argc, char **argv)
         if (crisp_scene_prepare(model, &sc)) die("scene");
         crisp_camera cams[2];
         if (crisp_camera_frame_box(sc->box, WIDTH, HEIGHT, &cams[0])) die("camera");
-        cams[1] = close_up(sc, &cams[0]);
+        cams[1] = bench_close_up(sc, &cams[0]);
         crisp_renderer *r;
         if (crisp_renderer_create(&(crisp_render_desc){.threads = THREADS, .samples = 1}, &r))
             die("renderer");
