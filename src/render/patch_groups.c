@@ -33,6 +33,7 @@ struct crisp__groups {
     uint32_t group_leaves; /* this frame */
     uint32_t *counts;      /* per face: group leaves this frame */
     float *face_px;        /* per face, this frame: screen extent of its box (INFINITY: unknown) */
+    uint64_t generation;   /* bumped whenever the hierarchy is rebuilt (a new scene) */
 };
 
 /* n->dev (see group): view-independent, so a frame bounds the block's deviation in clip space
@@ -178,6 +179,7 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
         g->face_root[f] = (uint32_t)root;
     }
     g->scene = sc;
+    g->generation++;
     g->patch_count = sc->patch_count;
     g->face_count = sc->face_count;
     return CRISP_OK;
@@ -426,4 +428,9 @@ double crisp__groups_face_px(const crisp__groups *g, uint32_t face)
 int crisp__groups_face_small(const crisp__groups *g, uint32_t face)
 {
     return g && g->face_small && face < g->face_count && g->face_small[face];
+}
+
+uint64_t crisp__groups_generation(const crisp__groups *g)
+{
+    return g ? g->generation : 0;
 }

@@ -737,9 +737,13 @@ void crisp__trees_destroy(crisp__trees *p)
     free(p->group_g);
     for (int k = 0; k < TREE_CHUNKS; k++)
         crisp_arena_destroy(p->chunk_arenas[k]);
-    for (uint32_t f = 0; f < p->face_cap; f++)
+    for (uint32_t f = 0; f < p->face_cap; f++) {
         crisp_trim_plan_free(&p->trims[f]);
+        crisp_trim_density_tree_free(&p->density[f]);
+    }
     free(p->trims);
+    free(p->density);
+    free(p->density_gen);
     free(p->face_tau);
     free(p);
 }
@@ -817,7 +821,24 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             if (st) c->status[worker] = st;
             continue;
         }
+        /* The face's blocks for the density bound (issue 12), built once per scene. */
+        const crisp_trim_density_tree *tree = NULL;
+        uint64_t gen = crisp__groups_generation(c->plan->groups);
+        if (sf->grid_u * sf->grid_v == sf->patch_count && sf->patch_count > 1) {
+            if (c->plan->density_gen[f] != gen) {
+                crisp_status st =
+                    crisp_trim_density_tree_build(c->sc->face_patches[f].patches, (int)sf->grid_u,
+                                                  (int)sf->grid_v, &c->plan->density[f]);
+                if (st) {
+                    c->status[worker] = st;
+                    continue;
+                }
+                c->plan->density_gen[f] = gen;
+            }
+            tree = &c->plan->density[f];
+        }
         crisp_trim_plan_desc d = {
+            .tree = tree,
             .patches = c->sc->face_patches[f].patches,
             .patch_count = c->sc->face_patches[f].count,
             .pieces = sf->piece_count && !small ? c->sc->pieces + sf->first_piece : NULL,
@@ -862,6 +883,14 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         uint32_t *ft = realloc(plan->face_tau, sc->face_count * sizeof *ft);
         if (!ft) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
         plan->face_tau = ft;
+        crisp_trim_density_tree *dt = realloc(plan->density, sc->face_count * sizeof *dt);
+        if (!dt) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        memset(dt + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *dt);
+        plan->density = dt;
+        uint64_t *dg = realloc(plan->density_gen, sc->face_count * sizeof *dg);
+        if (!dg) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        memset(dg + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *dg);
+        plan->density_gen = dg;
         plan->face_cap = sc->face_count;
     }
     crisp_camera_matrices m;

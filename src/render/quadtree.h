@@ -78,6 +78,9 @@ int crisp__groups_face_small(const crisp__groups *g, uint32_t face);
 /* The screen extent in pixels (largest of x and y) of face's box in the last classify; INFINITY
  * when it reaches the eye plane or is unknown. */
 double crisp__groups_face_px(const crisp__groups *g, uint32_t face);
+/* Bumped whenever classify rebuilt the hierarchy for a new scene (1 after the first): what is
+ * built per face from the scene's patches is rebuilt when it changes. */
+uint64_t crisp__groups_generation(const crisp__groups *g);
 
 #define TREE_CHUNKS 64 /* fixed work ranges of the tree pass, one arena each */
 
@@ -86,8 +89,10 @@ typedef struct crisp__trees {
     int width, height, max_depth;
     crisp__patch_tree *patches;
     size_t patch_cap;
-    crisp_trim_plan *trims; /* per face */
-    uint32_t *face_tau;     /* per face: largest visible tau, 0 when the face is not visible */
+    crisp_trim_plan *trims;           /* per face */
+    crisp_trim_density_tree *density; /* per face: blocks for the trim density bound */
+    uint64_t *density_gen;            /* per face: groups generation it was built at (0: none) */
+    uint32_t *face_tau; /* per face: largest visible tau, 0 when the face is not visible */
     uint32_t face_cap;
     crisp_arena **arenas;
     void **build_state;

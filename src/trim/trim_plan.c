@@ -102,7 +102,8 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
                                                             .v1 = p->v1,
                                                             .strip_count = n,
                                                             .scratch = p->scratch,
-                                                            .strip_u = p->strip_u},
+                                                            .strip_u = p->strip_u,
+                                                            .tree = desc->tree},
                                  p->rho_v, p->rho_u, p->vis_v, &p->density_stats);
     if (st) return st;
     crisp_trim_rows_from_density(p->rho_v, p->vis_v, n, p->v0, p->v1, p->mu, &p->clamped);
