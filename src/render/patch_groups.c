@@ -29,7 +29,7 @@ struct crisp__groups {
     group *nodes;
     size_t node_count, node_cap;
     uint32_t *face_root; /* per face: its top group, UINT32_MAX when the face has no patches */
-    uint8_t *face_small; /* per face, this frame: the whole (untrimmed) face within eps on screen */
+    uint8_t *face_small; /* per face, this frame: the whole (untrimmed) face within FACE_SMALL_PX */
     uint32_t group_leaves; /* this frame */
     uint32_t *counts;      /* per face: group leaves this frame */
     float *face_px;        /* per face, this frame: screen extent of its box (INFINITY: unknown) */
@@ -44,6 +44,12 @@ struct crisp__groups {
     size_t *face_active_cap;
     int oom; /* a walk ran out of memory */
 };
+
+/* A face whose box spans at most this many pixels in x and in y on screen: any two of its points,
+ * in particular a pixel's point and any point of its trim curves, are at most sqrt(2) times that
+ * (< 1 px) apart, so every trim decision on it is within the 1 px guarantee of
+ * include/crisp/trim.h (crisp__groups_face_small). */
+#define FACE_SMALL_PX 0.7
 
 enum { NODE_OPEN = 0, NODE_CULLED = 1, NODE_GROUP = 2, NODE_OWN = 3 }; /* OWN: patches own trees */
 
@@ -408,7 +414,7 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
             const group *n = &g->nodes[at];
             double extent;
             int k = classify(n->box, c->m, c->gx, c->gy, c->width, c->height, c->eps, &extent);
-            if ((uint32_t)at == root && k == 2) g->face_small[fi] = 1;
+            if ((uint32_t)at == root && k != 1 && extent <= FACE_SMALL_PX) g->face_small[fi] = 1;
             if ((uint32_t)at == root) g->face_px[fi] = (float)extent;
             g->node_frame[at] = g->frame;
             g->node_kind[at] = NODE_OWN;

@@ -502,6 +502,12 @@ static int across_group(const crisp__trees *plan, const crisp_scene *sc, uint32_
             last = got[k];
         }
         *total += t;
+        if (m == 1 && got[0]->group) {
+            /* The rest of that group leaf's block along this side is the same leaf. */
+            const crisp_scene_patch *o = &sc->patches[q];
+            int64_t end = (side & 1) ? (int64_t)o->iv + got[0]->iy : (int64_t)o->iu + got[0]->ix;
+            if (end - 1 > a) a = end - 1;
+        }
     }
     return n;
 }
@@ -830,7 +836,7 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             double px = crisp__groups_face_px(c->plan->groups, (uint32_t)f);
             if (px < strips) strips = px < 8 ? 8 : (int)ceil(px);
         }
-        /* A face within eps on screen: every point of it is within a pixel of its trims, so
+        /* A face within 0.7 px on screen: every point of it is within a pixel of its trims, so
          * every decision is within the pixel band: an all-inside table, no density bound, no
          * polyline, no ribbons. */
         int small = crisp__groups_face_small(c->plan->groups, (uint32_t)f);

@@ -75,9 +75,10 @@ void crisp__groups_destroy(crisp__groups *g);
 crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj,
                                     int width, int height, double gx, double gy, double eps,
                                     crisp_pool *pool, crisp__patch_groups *out);
-/* 1 when the last classify found face's whole untrimmed surface within eps on screen: every
- * point of it is then within a pixel of its trim curves, so any trim decision is allowed there
- * and the face is planned without trim loops (drawn whole, no table). */
+/* 1 when the last classify found face's whole untrimmed surface within 0.7 px in x and y on
+ * screen: every point of it is then within a pixel of its trim curves, so any trim decision is
+ * allowed there and the face is planned without trim loops (drawn whole, no table, no ribbons).
+ */
 int crisp__groups_face_small(const crisp__groups *g, uint32_t face);
 /* The screen extent in pixels (largest of x and y) of face's box in the last classify; INFINITY
  * when it reaches the eye plane or is unknown. */
