@@ -113,6 +113,11 @@ typedef struct crisp_trim_density_desc {
      * blocks whose box bound asks for many more rows than their sampled speeds are refined to
      * sub-blocks and, below the smallest blocks, to the per-patch bound. */
     const crisp_trim_density_tree *tree;
+    /* NULL, or 2 values per strip written by crisp_trim_scan_density: a u-interval that holds
+     * every point of the strip inside the widened frustum with u in the strip's u-range (empty,
+     * lo > hi, when there is none): what the strip's part of the surface outside it is, is off
+     * screen (the trim ribbons skip it). */
+    double *vis_u;
 } crisp_trim_density_desc;
 
 typedef struct crisp_trim_density_stats {
@@ -225,6 +230,7 @@ typedef struct crisp_trim_plan {
     int strip_count;
     double *rho_v, *rho_u;
     double *vis_v;   /* 2 per strip */
+    double *vis_u;   /* 2 per strip (crisp_trim_density_desc.vis_u) */
     double *strip_u; /* 2 per strip: the u-range the trim loops can reach in the strip */
     double v0, v1;   /* the strips' v-range: the face's, narrowed to the loops' (the table's) */
     uint32_t *mu;

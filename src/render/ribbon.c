@@ -249,6 +249,33 @@ static void path_point(const ribbon_ctx *c, const ribbon_job *job, int k, double
     }
 }
 
+/* 1 when no point of the uv segment from p to q can be on screen: in each strip of the face's
+ * trim plan that the segment reaches, its part lies outside the box (vis_u x vis_v) that holds
+ * every point of the strip inside the widened frustum (crisp_trim_density_desc.vis_u), or the
+ * strip is invisible. The segment is a chord of a trim piece, inside the piece's control hull, so
+ * it stays in the u-ranges the density bound covers. Costs no surface evaluation: at a close-up
+ * most of a trim polyline is far off screen (issue 12). */
+static int uv_hidden(const crisp_trim_plan *tp, const double p[2], const double q[2])
+{
+    double ulo = fmin(p[0], q[0]), uhi = fmax(p[0], q[0]);
+    double vlo = fmin(p[1], q[1]), vhi = fmax(p[1], q[1]);
+    int n = tp->strip_count;
+    if (!(vlo >= tp->v0 && vhi <= tp->v1) || n < 1) return 0;
+    double h = (tp->v1 - tp->v0) / n;
+    int i0 = (int)floor((vlo - tp->v0) / h) - 1, i1 = (int)floor((vhi - tp->v0) / h) + 1;
+    if (i0 < 0) i0 = 0;
+    if (i1 > n - 1) i1 = n - 1;
+    for (int i = i0; i <= i1; i++) {
+        if (!(tp->rho_v[i] > 0)) continue; /* nothing of the strip in the frustum */
+        double a = fmax(vlo, tp->v0 + i * h), b = fmin(vhi, tp->v0 + (i + 1) * h);
+        if (a > b) continue;
+        if (b >= tp->vis_v[2 * i] && a <= tp->vis_v[2 * i + 1] && uhi >= tp->vis_u[2 * i] &&
+            ulo <= tp->vis_u[2 * i + 1])
+            return 0;
+    }
+    return 1;
+}
+
 static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
 {
     ribbon_ctx *c = vctx;
@@ -266,13 +293,31 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
                      .h = plan->height,
                      .gx = 1 + 4.0 / plan->width,
                      .gy = 1 + 4.0 / plan->height};
+        /* The face's strips say where its surface is off screen (not for a face drawn whole:
+         * its trim plan is not this frame's). */
+        const crisp_trim_plan *tp = &plan->trims[job->face];
+        if (crisp__groups_face_small(plan->groups, job->face) || !tp->vis_u || !tp->rho_v ||
+            !tp->vis_v)
+            tp = NULL;
         crisp_raster_vertex a, b;
-        double uv[2];
-        path_point(c, job, 0, uv);
-        ribbon_vertex(s.surf, s.reversed, *s.m, uv[0], uv[1], &a);
-        int open = 0; /* the ribbon so far ends at a */
+        double uv0[2], uv[2];
+        path_point(c, job, 0, uv0);
+        int have_a = 0, open = 0; /* open: the ribbon so far ends at a */
         for (int k = 0; k + 1 < n; k++) {
             path_point(c, job, k + 1, uv);
+            if (tp && uv_hidden(tp, uv0, uv)) {
+                if (open) {
+                    crisp_raster_vertex brk = a;
+                    brk.clip[3] = -1;
+                    emit(&s, &brk);
+                    open = 0;
+                }
+                have_a = 0;
+                uv0[0] = uv[0], uv0[1] = uv[1];
+                continue;
+            }
+            if (!have_a) ribbon_vertex(s.surf, s.reversed, *s.m, uv0[0], uv0[1], &a);
+            have_a = 1;
             ribbon_vertex(s.surf, s.reversed, *s.m, uv[0], uv[1], &b);
             /* Segments that cannot reach the view are left out without a sample (at extreme zoom
              * almost all of a polyline is off screen). */
@@ -289,6 +334,7 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
                 open = 1;
             }
             a = b;
+            uv0[0] = uv[0], uv0[1] = uv[1];
         }
         job->pts = NULL;
         job->count = 0;

@@ -60,8 +60,9 @@ typedef struct density_ctx {
     double *levels;  /* (max_depth + 1) * 4 children * 4 planes * n */
     double *scratch; /* elevated derivatives: 4 planes */
     double cur_v, cur_u;
-    double vis_lo, vis_hi; /* v-range of the sub-patches kept */
-    double ulo, uhi;       /* the strip's u-range of interest (desc->strip_u), else infinite */
+    double vis_lo, vis_hi;   /* v-range of the sub-patches kept */
+    double visu_lo, visu_hi; /* u-range of the sub-patches kept */
+    double ulo, uhi;         /* the strip's u-range of interest (desc->strip_u), else infinite */
     int visible, unbounded;
     long budget;
     crisp_trim_density_stats *stats;
@@ -332,6 +333,8 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
         if (accept) {
             c->vis_lo = fmin(c->vis_lo, va);
             c->vis_hi = fmax(c->vis_hi, vb);
+            c->visu_lo = fmin(c->visu_lo, ua);
+            c->visu_hi = fmax(c->visu_hi, ub);
             c->cur_v = fmax(c->cur_v, bv);
             c->cur_u = fmax(c->cur_u, bu);
             c->visible = 1;
@@ -340,6 +343,8 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
     } else if (last) {
         c->vis_lo = fmin(c->vis_lo, va);
         c->vis_hi = fmax(c->vis_hi, vb);
+        c->visu_lo = fmin(c->visu_lo, ua);
+        c->visu_hi = fmax(c->visu_hi, ub);
         c->unbounded = 1;
         c->visible = 1;
         return;
@@ -370,7 +375,7 @@ typedef struct patch_walk {
     const crisp_bezier_patch *bp;
     const double *clip; /* the whole patch in clip space */
     double *nodes;      /* bisection pieces: 2 per depth, 4 planes each */
-    double *rho_v, *rho_u, *vis_v;
+    double *rho_v, *rho_u, *vis_v, *vis_u;
     double hv;
     double *clip_buf, *root_buf; /* a patch in clip space, and its part in the strips' v-range */
 } patch_walk;
@@ -436,6 +441,8 @@ static void strip_part(patch_walk *w, int i, const double *node, double t0, doub
     c->unbounded = 0;
     c->vis_lo = vis_v ? vis_v[2 * i] : 0.0;
     c->vis_hi = vis_v ? vis_v[2 * i + 1] : 0.0;
+    c->visu_lo = w->vis_u ? w->vis_u[2 * i] : 0.0;
+    c->visu_hi = w->vis_u ? w->vis_u[2 * i + 1] : 0.0;
     c->floor_v = 1.0 / w->hv;
     c->budget = 16384; /* deep refinement at extreme zoom (fov 1e-7 deg) needs ~5000 */
     c->ulo = desc->strip_u ? desc->strip_u[2 * i] : -HUGE_VAL;
@@ -443,6 +450,7 @@ static void strip_part(patch_walk *w, int i, const double *node, double t0, doub
     refine(c, root, 0, 1.0 / (bp->u1 - bp->u0), 1.0 / ((bp->v1 - bp->v0) * (tb - ta)), bp->u0,
            bp->u1, bp->v0 + (bp->v1 - bp->v0) * ta, bp->v0 + (bp->v1 - bp->v0) * tb, 0.0, 0.0);
     if (vis_v) vis_v[2 * i] = c->vis_lo, vis_v[2 * i + 1] = c->vis_hi;
+    if (w->vis_u) w->vis_u[2 * i] = c->visu_lo, w->vis_u[2 * i + 1] = c->visu_hi;
     if (c->unbounded) {
         rho_v[i] = rho_u[i] = HUGE_VAL;
         c->stats->unbounded++;
@@ -495,6 +503,10 @@ static void walk_strips(patch_walk *w, const double *node, int depth, int i0, in
             if (w->vis_v) {
                 w->vis_v[2 * i] = dmin(w->vis_v[2 * i], lo);
                 w->vis_v[2 * i + 1] = dmax(w->vis_v[2 * i + 1], hi);
+            }
+            if (w->vis_u) {
+                w->vis_u[2 * i] = dmin(w->vis_u[2 * i], bp->u0);
+                w->vis_u[2 * i + 1] = dmax(w->vis_u[2 * i + 1], bp->u1);
             }
             if (w->rho_v[i] < HUGE_VAL) { /* a visible strip always needs a row */
                 w->rho_v[i] = dmax(w->rho_v[i], dmax(bv, 1e-300));
@@ -799,6 +811,10 @@ static crisp_status walk_block(patch_walk *w, int32_t bi)
                 w->vis_v[2 * i] = dmin(w->vis_v[2 * i], lo);
                 w->vis_v[2 * i + 1] = dmax(w->vis_v[2 * i + 1], hi);
             }
+            if (w->vis_u) {
+                w->vis_u[2 * i] = dmin(w->vis_u[2 * i], b->u0);
+                w->vis_u[2 * i + 1] = dmax(w->vis_u[2 * i + 1], b->u1);
+            }
             if (w->rho_v[i] < HUGE_VAL) { /* a visible strip always needs a row */
                 w->rho_v[i] = dmax(w->rho_v[i], dmax(bv, 1e-300));
                 w->rho_u[i] = dmax(w->rho_u[i], dmax(bu, 1e-300));
@@ -1020,6 +1036,7 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
     for (int i = 0; i < desc->strip_count; i++) {
         rho_v[i] = rho_u[i] = 0.0;
         if (vis_v) vis_v[2 * i] = HUGE_VAL, vis_v[2 * i + 1] = -HUGE_VAL;
+        if (desc->vis_u) desc->vis_u[2 * i] = HUGE_VAL, desc->vis_u[2 * i + 1] = -HUGE_VAL;
     }
 
     crisp_arena *arena = desc->scratch, *own = NULL;
@@ -1057,6 +1074,7 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
                        .rho_v = rho_v,
                        .rho_u = rho_u,
                        .vis_v = vis_v,
+                       .vis_u = desc->vis_u,
                        .hv = hv,
                        .clip_buf = clip,
                        .root_buf = root};
