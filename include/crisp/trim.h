@@ -81,6 +81,7 @@ typedef struct crisp_trim_density_block {
 
 typedef struct crisp_trim_density_tree {
     int grid_u, grid_v; /* patch p = iv * grid_u + iu */
+    int max_du, max_dv; /* the patches' largest degrees (checked when the tree was built) */
     int32_t root;       /* -1: no blocks (a single patch) */
     crisp_trim_density_block *blocks;
     size_t count, cap;
@@ -111,7 +112,8 @@ typedef struct crisp_trim_density_desc {
     /* NULL, or the hierarchy built from patches (crisp_trim_density_tree_build; patch_count must
      * be its grid_u * grid_v): whole blocks are culled or bounded from their boxes, and only
      * blocks whose box bound asks for many more rows than their sampled speeds are refined to
-     * sub-blocks and, below the smallest blocks, to the per-patch bound. */
+     * sub-blocks and, below the smallest blocks, to the per-patch bound. The patches are then
+     * not checked again (the tree's build checked them): O(1) per face for a face far away. */
     const crisp_trim_density_tree *tree;
     /* NULL, or 2 values per strip written by crisp_trim_scan_density: a u-interval that holds
      * every point of the strip inside the widened frustum with u in the strip's u-range (empty,

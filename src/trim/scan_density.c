@@ -939,6 +939,11 @@ crisp_status crisp_trim_density_tree_build(const crisp_bezier_patch *patches, in
     }
     dest->grid_u = grid_u;
     dest->grid_v = grid_v;
+    dest->max_du = dest->max_dv = 1;
+    for (int p = 0; p < grid_u * grid_v; p++) {
+        if (patches[p].du > dest->max_du) dest->max_du = patches[p].du;
+        if (patches[p].dv > dest->max_dv) dest->max_dv = patches[p].dv;
+    }
     dest->count = 0;
     dest->root = -1;
     int lv = 0;
@@ -1019,7 +1024,8 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
                            "crisp_trim_scan_density: a block tree of %dx%d patches for %d patches",
                            desc->tree->grid_u, desc->tree->grid_v, desc->patch_count);
     int maxdu = 1, maxdv = 1;
-    for (int p = 0; p < desc->patch_count; p++) {
+    if (desc->tree) maxdu = desc->tree->max_du, maxdv = desc->tree->max_dv;
+    for (int p = 0; !desc->tree && p < desc->patch_count; p++) {
         const crisp_bezier_patch *bp = &desc->patches[p];
         if (bp->du < 1 || bp->du > CRISP_MAX_DEGREE || bp->dv < 1 || bp->dv > CRISP_MAX_DEGREE ||
             !bp->cpw || !(bp->u1 > bp->u0) || !(bp->v1 > bp->v0))
