@@ -12,7 +12,9 @@
  *
  *   bench_interactive [FRAMES [THREADS [MODEL...]]]   (defaults 5, 2, every model; MODEL: only
  *                                                      rows whose "model:view" contains it,
- *                                                      e.g. bearing or bearing.iges:close) */
+ *                                                      e.g. bearing or bearing.iges:close)
+ * BENCH_INTERACTIVE_STAGES=1 also prints each row's plan stages (levels, edges, trim, ribbons)
+ * to stderr. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -114,6 +116,10 @@ static void run_view(const char *name, const char *view, const crisp_scene *sc,
         t[3][f] = st.ms_resolve;
         t[4][f] = 1e3 * (c - a);
     }
+    if (getenv("BENCH_INTERACTIVE_STAGES")) /* the plan's own stages (last frame) */
+        fprintf(stderr, "%s %s: plan levels %.1f edges %.1f trim %.1f ribbons %.1f ms\n", name,
+                view, plan->stats.ms_levels, plan->stats.ms_edges, plan->stats.ms_trim,
+                plan->stats.ms_ribbons);
     size_t covered = 0;
     for (size_t p = 0; p < (size_t)img.width * img.height; p++)
         covered += img.face[p] >= 0;
