@@ -54,6 +54,8 @@ struct crisp_renderer {
     uint32_t *ribbon_keep; /* a window's frame: the ribbon quads that can reach the window */
     size_t ribbon_keep_cap;
     tess_cache *cache; /* per worker (tessellate) */
+    double *col;       /* the resolve's per-column view direction part (resolve_row1) */
+    size_t col_cap;
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -115,6 +117,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->untested);
     free(r->leaf_skip);
     free(r->ribbon_keep);
+    free(r->col);
     free(r);
 }
 
@@ -501,6 +504,7 @@ typedef struct resolve_ctx {
     int x0, x1, y0;
     const uint8_t *only;
     const crisp_image *base;
+    const double *col; /* per column of the target: f + nx r (3 each); NULL: not computed */
 } resolve_ctx;
 
 static void copy_pixel(const crisp_image *src, crisp_image *dst, size_t px)
@@ -592,11 +596,63 @@ static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t en
     }
 }
 
+/* Row j of a one-sample target without a base image: resolve_rows_s's values bit for bit (the
+ * same operations in the same order: d = (f + nx r) + ny u with f + nx r per column from
+ * c->col, crisp__shade_inline's arithmetic, the colour as 0 + shade / 1), in a loop whose
+ * buffers cannot alias (restrict) so each value is loaded and stored once. */
+static void resolve_row1(const resolve_ctx *c, size_t j)
+{
+    const crisp_raster_target *t = c->target;
+    const crisp_image *img = c->img;
+    size_t p0 = j * (size_t)t->width;
+    const int32_t *restrict face = t->face + p0;
+    const double *restrict inv_w = t->inv_w + p0;
+    const float *restrict attr = t->attr + p0 * CRISP_RASTER_ATTRS;
+    float *restrict rgba = img->rgba + 4 * p0, *restrict depth = img->depth + p0;
+    float *restrict normal = img->normal + 3 * p0, *restrict uv = img->uv + 2 * p0;
+    int32_t *restrict oface = img->face + p0;
+    const double *restrict col = c->col;
+    const crisp_scene_face *faces = c->sc->faces;
+    int gj = t->y0 + (int)j;
+    double ny = (0.5 * c->cam->height - gj - 0.5) * c->view.ky;
+    const double ru0 = ny * c->view.u[0], ru1 = ny * c->view.u[1], ru2 = ny * c->view.u[2];
+    for (int i = c->x0; i < c->x1; i++) {
+        int32_t fc = face[i];
+        if (fc < 0) {
+            rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = rgba[4 * i + 3] = 0;
+            oface[i] = -1;
+            depth[i] = INFINITY;
+            uv[2 * i] = uv[2 * i + 1] = 0;
+            normal[3 * i] = normal[3 * i + 1] = normal[3 * i + 2] = 0;
+            continue;
+        }
+        const float *a = attr + (size_t)i * CRISP_RASTER_ATTRS;
+        double d0 = col[3 * i] + ru0, d1 = col[3 * i + 1] + ru1, d2 = col[3 * i + 2] + ru2;
+        double n0 = a[2], n1 = a[3], n2 = a[4];
+        double nn = sqrt(n0 * n0 + n1 * n1 + n2 * n2);
+        double vv = sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+        double cs = nn > 0 && vv > 0 ? fabs(n0 * d0 + n1 * d1 + n2 * d2) / (nn * vv) : 1;
+        double k = 0.25 + 0.75 * cs;
+        const float *base = faces[fc].color;
+        rgba[4 * i] = 0.0f + (float)(base[0] * k);
+        rgba[4 * i + 1] = 0.0f + (float)(base[1] * k);
+        rgba[4 * i + 2] = 0.0f + (float)(base[2] * k);
+        rgba[4 * i + 3] = 1.0f;
+        oface[i] = fc;
+        depth[i] = (float)(1.0 / inv_w[i]);
+        uv[2 * i] = a[0], uv[2 * i + 1] = a[1];
+        normal[3 * i] = a[2], normal[3 * i + 1] = a[3], normal[3 * i + 2] = a[4];
+    }
+}
+
 static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     resolve_ctx *c = vctx;
-    if (c->target->samples == 1)
+    if (c->target->samples == 1 && !c->base && c->col)
+        for (size_t j = begin + (size_t)c->y0; j < end + (size_t)c->y0; j++)
+            resolve_row1(c, j);
+    else if (c->target->samples == 1)
         resolve_rows_s(c, begin, end, 1);
     else
         resolve_rows_s(c, begin, end, c->target->samples);
@@ -939,6 +995,15 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                       .y0 = rect[1],
                       .only = only,
                       .base = base};
+    /* The view direction's column part, f + nx r, once per column (resolve_row1). */
+    if ((st = crisp_grow((void **)&r->col, &r->col_cap, 3 * (size_t)tg->width, sizeof *r->col)))
+        return st;
+    for (int i = 0; i < tg->width; i++) {
+        double nx = (tg->x0 + i + 0.5 - 0.5 * cam->width) * view.kx;
+        for (int k = 0; k < 3; k++)
+            r->col[3 * i + k] = view.f[k] + nx * view.r[k];
+    }
+    rc.col = r->col;
     crisp_pool_parallel_for(r->pool, (size_t)(rect[3] - rect[1]), 8, resolve_rows, &rc);
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);

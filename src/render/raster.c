@@ -4,6 +4,9 @@
 
 #include <math.h>
 #include <stdatomic.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -36,8 +39,15 @@ typedef struct setup_tri {
     double box[4]; /* u_lo, u_hi, v_lo, v_hi */
 } setup_tri;
 
+/* A triangle's attribute planes copied out of its setup record for the tile's loops (a local
+ * copy: the target's stores cannot alias it, so its values stay in registers or are loaded once).
+ */
+typedef struct planes {
+    double q0[1 + CRISP_RASTER_ATTRS], qx[1 + CRISP_RASTER_ATTRS], qy[1 + CRISP_RASTER_ATTRS];
+} planes;
+
 /* A fragment's attributes: ((a/W at the origin + x gradient dx) + y gradient dy) * W. */
-static inline void attrs_scalar(const setup_tri *st, double dx, double dy, double w, double *a)
+static inline void attrs_scalar(const planes *st, double dx, double dy, double w, double *a)
 {
     for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
         a[k] = (st->q0[k + 1] + st->qx[k + 1] * dx + st->qy[k + 1] * dy) * w;
@@ -51,7 +61,7 @@ static inline void attrs_scalar(const setup_tri *st, double dx, double dy, doubl
 typedef double v2d __attribute__((vector_size(16)));
 typedef double v2d_u __attribute__((vector_size(16), aligned(8))); /* unaligned loads, stores */
 
-static inline void attrs_vector(const setup_tri *st, double dx, double dy, double w, double *a)
+static inline void attrs_vector(const planes *st, double dx, double dy, double w, double *a)
 {
     const v2d vdx = {dx, dx}, vdy = {dy, dy}, vw = {w, w};
     for (int k = 0; k < 4; k += 2) {
@@ -545,16 +555,33 @@ typedef struct {
 } raster_ctx;
 
 /* Least 1/W over the block's samples (0 when one is empty). */
-static double block_min(const crisp_raster_target *t, int bx0, int by0, int bx1, int by1)
+static double block_min(const crisp_raster_target *t, const double *inv_w, int bx0, int by0,
+                        int bx1, int by1)
 {
     int S = t->samples;
     double m = INFINITY;
+    size_t n = (size_t)(bx1 - bx0 + 1) * S;
+#if defined(__SSE2__)
+    /* Two lanes at a time (a bound: the order of the comparisons does not matter, and stored
+     * values are never NaN). */
+    __m128d m2 = _mm_set1_pd(INFINITY);
+#endif
     for (int j = by0; j <= by1; j++) {
-        const double *row = t->inv_w + ((size_t)(j - t->y0) * t->width + (bx0 - t->x0)) * S;
-        size_t n = (size_t)(bx1 - bx0 + 1) * S;
-        for (size_t k = 0; k < n; k++)
+        const double *row = inv_w + ((size_t)(j - t->y0) * t->width + (bx0 - t->x0)) * S;
+        size_t k = 0;
+#if defined(__SSE2__)
+        for (; k + 2 <= n; k += 2)
+            m2 = _mm_min_pd(_mm_loadu_pd(row + k), m2);
+#endif
+        for (; k < n; k++)
             m = row[k] < m ? row[k] : m;
     }
+#if defined(__SSE2__)
+    double l[2];
+    _mm_storeu_pd(l, m2);
+    m = l[0] < m ? l[0] : m;
+    m = l[1] < m ? l[1] : m;
+#endif
     return m;
 }
 
@@ -601,7 +628,7 @@ static int block_box(const raster_ctx *c, const setup_tri *st, int bx0, int by0,
 #define ALWAYS_INLINE inline
 #endif
 
-static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
+static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S, int fresh)
 {
     crisp_raster *r = c->r;
     crisp_raster_target *t = c->t;
@@ -618,11 +645,24 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
     double hiz[BLOCKS * BLOCKS];
     uint32_t writes[BLOCKS * BLOCKS];
     uint32_t block_samples = (uint32_t)(BLOCK * BLOCK * S);
+    /* A tile just cleared has 0 everywhere: the bound is exact until its first writes. */
     for (int k = 0; k < BLOCKS * BLOCKS; k++)
-        hiz[k] = 0, writes[k] = block_samples;
-    int use_hiz = c->hiz && !c->slack, vectors = c->vectors;
+        hiz[k] = 0, writes[k] = fresh ? 0 : block_samples;
+    int use_hiz = c->hiz && !c->slack, vectors = c->vectors, clip_on = r->clip_on;
+    /* The target's buffers, written only through these (no store can alias a triangle's data). */
+    double *restrict inv_w = t->inv_w;
+    int32_t *restrict fbuf = t->face;
+    float *restrict abuf = t->attr;
+    const size_t tw = (size_t)t->width;
+    const int tx0 = t->x0, ty0 = t->y0;
+    const float *slack = c->slack;
     for (uint32_t bi = r->bin_start[tile]; bi < r->bin_start[tile + 1]; bi++) {
         const setup_tri *st = r->bin_items[bi];
+        planes pl;
+        memcpy(pl.q0, st->q0, sizeof pl.q0);
+        memcpy(pl.qx, st->qx, sizeof pl.qx);
+        memcpy(pl.qy, st->qy, sizeof pl.qy);
+        const double sox = st->ox, soy = st->oy;
         int x0 = st->x0 > px0 ? st->x0 : px0, x1 = st->x1 < px1 ? st->x1 : px1;
         int y0 = st->y0 > py0 ? st->y0 : py0, y1 = st->y1 < py1 ? st->y1 : py1;
         int32_t face_id =
@@ -630,6 +670,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
         int run_test = c->test && !(st->face & CRISP_RASTER_FACE_NO_TEST) &&
                        !((size_t)face_id < r->untested_count && r->untested[face_id]);
         int tboxed = st->boxed, tneed = 0; /* the triangle's box test answer (setup_tri) */
+        int xboxed = -2, xneed = 0;        /* the same for its part in this tile (-2: not yet) */
+        double xbox[4];
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         const int64_t *A = st->ea, *B = st->eb;
         int64_t step[3] = {A[0] * SUB, A[1] * SUB, A[2] * SUB};
@@ -668,7 +710,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             gy = py0 + (by0 - py0) / BLOCK * BLOCK;
                         int gx1 = gx + BLOCK - 1 < px1 ? gx + BLOCK - 1 : px1;
                         int gy1 = gy + BLOCK - 1 < py1 ? gy + BLOCK - 1 : py1;
-                        hiz[blk] = block_min(t, gx, gy, gx1, gy1);
+                        hiz[blk] = block_min(t, inv_w, gx, gy, gx1, gy1);
                         writes[blk] = 0;
                     }
                     /* The triangle's largest 1/W over the block's rectangle (an affine function:
@@ -711,14 +753,13 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                         double dy = j + c->off_y[s] - st->oy;
                         double base = st->q0[0] + st->qy[0] * dy, gx = st->qx[0];
                         double dx0 = (double)bx0 + c->off_x[s] - st->ox;
-                        size_t idx0 =
-                            ((size_t)(j - t->y0) * t->width + (size_t)(bx0 - t->x0)) * S + s;
+                        size_t idx0 = ((size_t)(j - ty0) * tw + (size_t)(bx0 - tx0)) * S + s;
                         double iwv[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
-                        if (!c->slack) {
+                        if (!slack) {
                             /* Coverage, 1/W and the depth test in one branch-free loop (the
                              * stored 1/W is read at every lane of the row: inside the image). */
-                            const double *stored = t->inv_w + idx0;
+                            const double *stored = inv_w + idx0;
                             if (full)
                                 for (int q = 0; q < n; q++) {
                                     double iwq = base + gx * (dx0 + q);
@@ -752,10 +793,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             for (int q = 0; q < n; q++)
                                 iwv[q] = base + gx * (dx0 + q);
                             for (int q = 0; q < n; q++) {
-                                double cur = t->inv_w[idx0 + (size_t)q * S];
+                                double cur = inv_w[idx0 + (size_t)q * S];
                                 if (cov[q] &&
                                     (!(cur > 0) ||
-                                     1.0 / iwv[q] < 1.0 / cur - c->slack[idx0 + (size_t)q * S]))
+                                     1.0 / iwv[q] < 1.0 / cur - slack[idx0 + (size_t)q * S]))
                                     pass[np++] = q;
                             }
                         }
@@ -763,16 +804,16 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             int q = pass[pi];
                             size_t idx = idx0 + (size_t)q * S;
                             double iw = iwv[q], dx = dx0 + q;
-                            if (r->clip_on && r->clip[0] + r->clip[1] * (dx + st->ox) +
-                                                      r->clip[2] * (dy + st->oy) + r->clip[3] * iw <
-                                                  0)
+                            if (clip_on && r->clip[0] + r->clip[1] * (dx + sox) +
+                                                   r->clip[2] * (dy + soy) + r->clip[3] * iw <
+                                               0)
                                 continue; /* on the clipped side of the plane */
                             double a[CRISP_RASTER_ATTRS];
                             double w = 1.0 / iw;
                             if (vectors)
-                                attrs_vector(st, dx, dy, w, a);
+                                attrs_vector(&pl, dx, dy, w, a);
                             else
-                                attrs_scalar(st, dx, dy, w, a);
+                                attrs_scalar(&pl, dx, dy, w, a);
                             if (run_test) {
                                 int keep = -1;
                                 if (tboxed == -3 && ++tneed >= 2) {
@@ -785,11 +826,21 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                                         a[1] >= st->box[2] && a[1] <= st->box[3])
                                         keep = tboxed;
                                 } else if (tboxed == -1) {
-                                    if (bboxed == -2 && ++bneed >= 2)
-                                        bboxed = block_box(c, st, bx0, by0, bx1, by1, bbox);
-                                    if (bboxed >= 0 && a[0] >= bbox[0] && a[0] <= bbox[1] &&
-                                        a[1] >= bbox[2] && a[1] <= bbox[3])
-                                        keep = bboxed;
+                                    /* The box of the triangle's part in this tile, then (when
+                                     * that is undecided) the block's. */
+                                    if (xboxed == -2 && ++xneed >= 2)
+                                        xboxed = block_box(c, st, x0, y0, x1, y1, xbox);
+                                    if (xboxed >= 0) {
+                                        if (a[0] >= xbox[0] && a[0] <= xbox[1] && a[1] >= xbox[2] &&
+                                            a[1] <= xbox[3])
+                                            keep = xboxed;
+                                    } else if (xboxed == -1) {
+                                        if (bboxed == -2 && ++bneed >= 2)
+                                            bboxed = block_box(c, st, bx0, by0, bx1, by1, bbox);
+                                        if (bboxed >= 0 && a[0] >= bbox[0] && a[0] <= bbox[1] &&
+                                            a[1] >= bbox[2] && a[1] <= bbox[3])
+                                            keep = bboxed;
+                                    }
                                 }
                                 if (keep >= 0) {
                                     boxed++;
@@ -804,11 +855,11 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             } else if (c->test) {
                                 untested++;
                             }
-                            t->inv_w[idx] = iw;
-                            t->face[idx] = face_id;
-                            float *dst = t->attr + idx * CRISP_RASTER_ATTRS;
-                            for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
-                                dst[k] = (float)a[k];
+                            inv_w[idx] = iw;
+                            fbuf[idx] = face_id;
+                            float *dst = abuf + idx * CRISP_RASTER_ATTRS;
+                            dst[0] = (float)a[0], dst[1] = (float)a[1], dst[2] = (float)a[2];
+                            dst[3] = (float)a[3], dst[4] = (float)a[4];
                             wrote++;
                         }
                     }
@@ -839,9 +890,9 @@ static void raster_tile(raster_ctx *c, size_t tile)
         }
     }
     if (c->t->samples == 1)
-        raster_tile_s(c, tile, 1);
+        raster_tile_s(c, tile, 1, c->clear);
     else
-        raster_tile_s(c, tile, c->t->samples);
+        raster_tile_s(c, tile, c->t->samples, c->clear);
 }
 
 static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
