@@ -619,6 +619,47 @@ static int block_box(const raster_ctx *c, const setup_tri *st, int bx0, int by0,
     return c->r->box_test(c->test_ctx, st->face, lo, hi);
 }
 
+#if defined(__GNUC__) && !defined(__clang__)
+#define PRAGMA(x) _Pragma(#x)
+#define UNROLL(n) PRAGMA(GCC unroll n)
+#else
+#define UNROLL(n)
+#endif
+
+#if defined(__SSE2__)
+/* A block row of a one-sample target, BLOCK lanes from its first pixel, two at a time: bit q
+ * set where lane q is covered (full: every lane; else the exact edge values e at lane 0 plus
+ * lane_step, sign bits of their OR) and its 1/W, base + gx (dx0 + q) (stored in iwv), is above
+ * the stored one. The scalar loops' tests, operation for operation, on each lane. */
+static inline unsigned row_mask(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full,
+                                double base, double gx, double dx0, const double *stored,
+                                double *iwv)
+{
+    static const double lane[BLOCK] = {0, 1, 2, 3, 4, 5, 6, 7};
+    unsigned m = 0, neg = 0;
+    const __m128d vb = _mm_set1_pd(base), vg = _mm_set1_pd(gx), vd = _mm_set1_pd(dx0);
+    UNROLL(4)
+    for (int h = 0; h < BLOCK / 2; h++) {
+        __m128d q = _mm_loadu_pd(lane + 2 * h);
+        __m128d iw = _mm_add_pd(vb, _mm_mul_pd(vg, _mm_add_pd(vd, q)));
+        _mm_storeu_pd(iwv + 2 * h, iw);
+        m |= (unsigned)_mm_movemask_pd(_mm_cmpgt_pd(iw, _mm_loadu_pd(stored + 2 * h))) << (2 * h);
+    }
+    if (!full) {
+        const __m128i e0 = _mm_set1_epi64x(e[0]), e1 = _mm_set1_epi64x(e[1]),
+                      e2 = _mm_set1_epi64x(e[2]);
+        UNROLL(4)
+        for (int h = 0; h < BLOCK / 2; h++) {
+            __m128i o = _mm_or_si128(_mm_or_si128(_mm_add_epi64(e0, lane_step[0][h]),
+                                                  _mm_add_epi64(e1, lane_step[1][h])),
+                                     _mm_add_epi64(e2, lane_step[2][h]));
+            neg |= (unsigned)_mm_movemask_pd(_mm_castsi128_pd(o)) << (2 * h);
+        }
+    }
+    return m & ~neg;
+}
+#endif
+
 /* One tile, with S the target's samples per pixel: always inlined into raster_tile with S a
  * constant for the common one-sample target (the compiler then folds the sample loops and
  * strides), else with S as a variable. The same code either way. */
@@ -675,6 +716,15 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         const int64_t *A = st->ea, *B = st->eb;
         int64_t step[3] = {A[0] * SUB, A[1] * SUB, A[2] * SUB};
+#if defined(__SSE2__)
+        /* Lanes 2h, 2h + 1 of a block row: edge k's steps from its first pixel (row_mask). */
+        __m128i lane_step[3][BLOCK / 2];
+        for (int k = 0; k < 3; k++)
+            for (int h = 0; h < BLOCK / 2; h++)
+                lane_step[k][h] = _mm_set_epi64x((2 * h + 1) * step[k], 2 * h * step[k]);
+#else
+        vectors = 0;
+#endif
         /* Rounding allowance of the 1/W plane evaluated at a block corner (see the hi-z test). */
         double slop = 1e-12 * (fabs(st->q0[0]) +
                                fabs(st->qx[0]) * (fabs(x0 - st->ox) + fabs(x1 + 1 - st->ox)) +
@@ -694,6 +744,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             sx1 = (int64_t)bx1 * SUB + c->off_fmax[0];
                     int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
                             sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
+                    UNROLL(3)
                     for (int k = 0; k < 3; k++) {
                         int64_t ex0 = A[k] * sx0, ex1 = A[k] * sx1;
                         int64_t ey0 = B[k] * sy0, ey1 = B[k] * sy1;
@@ -747,6 +798,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                         /* Coverage, 1/W and the depth test of the block's row for this sample,
                          * in loops over at most BLOCK lanes without branches (vectorisable). */
                         int64_t e[3] = {er[s][0], er[s][1], er[s][2]};
+                        UNROLL(3)
                         for (int k = 0; k < 3; k++)
                             er[s][k] += B[k] * SUB;
                         int n = bx1 - bx0 + 1;
@@ -756,7 +808,17 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                         size_t idx0 = ((size_t)(j - ty0) * tw + (size_t)(bx0 - tx0)) * S + s;
                         double iwv[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
-                        if (!slack) {
+                        if (!slack && S == 1 && vectors && bx0 - tx0 + BLOCK <= (int)tw) {
+#if defined(__SSE2__)
+                            /* The same tests on 8 lanes, two at a time (the row's stored 1/W
+                             * is read at 8 lanes: inside the image's row). */
+                            unsigned m =
+                                row_mask(e, lane_step, full, base, gx, dx0, inv_w + idx0, iwv) &
+                                ((1u << n) - 1);
+                            for (; m; m &= m - 1)
+                                pass[np++] = __builtin_ctz(m);
+#endif
+                        } else if (!slack) {
                             /* Coverage, 1/W and the depth test in one branch-free loop (the
                              * stored 1/W is read at every lane of the row: inside the image). */
                             const double *stored = inv_w + idx0;
