@@ -59,6 +59,7 @@ struct crisp_renderer {
     tess_cache *cache; /* per worker (tessellate) */
     double *col;       /* the resolve's per-column view direction part (resolve_row1) */
     size_t col_cap;
+    int no_vectors; /* crisp__renderer_set_vectors */
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -735,6 +736,12 @@ const crisp_raster_target *crisp__renderer_target(const crisp_renderer *r)
     return &r->target;
 }
 
+void crisp__renderer_set_vectors(crisp_renderer *r, int on)
+{
+    r->no_vectors = !on;
+    crisp__raster_set_vectors(r->raster, on);
+}
+
 /* A screen box widened by 2 px, clipped to the image: x0, y0, x1, y1 (empty: all 0). */
 static void box_rect(const double lo[2], const double hi[2], int width, int height, int dest[4])
 {
@@ -1066,7 +1073,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         for (int k = 0; k < 3; k++)
             r->col[(size_t)k * tg->width + i] = view.f[k] + nx * view.r[k];
     }
-    rc.col = r->col;
+    rc.col = r->no_vectors ? NULL : r->col; /* NULL: resolve_rows_s for every target */
     crisp_pool_parallel_for(r->pool, (size_t)(rect[3] - rect[1]), 8, resolve_rows, &rc);
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);
