@@ -1053,48 +1053,68 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
     const slack_tiles_ctx *tc = vctx;
     const slack_ctx *c = tc->c;
     const crisp_raster_target *t = c->t;
+    const crisp_raster_view *v = c->view;
     int S = t->samples, w = t->width, h = t->height, iw = image_w(t), ih = image_h(t);
-    size_t rs = (size_t)w * S;
-    /* The side each sample of the cell and its one-pixel border is seen from. */
-    int8_t side[(CELL + 2) * (CELL + 2)];
+    enum { L = CELL + 2 }; /* the cell and its one-pixel border */
+    /* Per sample of the cell and its border: face (-1: none or outside the image), the side it
+     * is seen from (seen_side's arithmetic, with the view direction's column part f + x r once
+     * per column), W. The slack of each sample of the cell then compares it with its four
+     * neighbours there, as slack_rows does (a neighbour outside the image has face -1). */
+    int32_t fl[L * L];
+    int8_t side[L * L];
+    double wl[L * L], colp[3][L];
     for (size_t tile = begin; tile < end; tile++) {
         if (!tc->mask[tile]) continue;
         int px0 = (int)(tile % (size_t)tc->cells_x) * CELL,
             py0 = (int)(tile / (size_t)tc->cells_x) * CELL;
         int px1 = px0 + CELL < w ? px0 + CELL : w, py1 = py0 + CELL < h ? py0 + CELL : h;
+        if (v)
+            for (int i = px0 - 1; i <= px1; i++) {
+                double x = (t->x0 + i + 0.5 - 0.5 * iw) * v->kx;
+                for (int k = 0; k < 3; k++)
+                    colp[k][i - px0 + 1] = v->f[k] + x * v->r[k];
+            }
         for (int s = 0; s < S; s++) {
-            for (int j = py0 - 1; j <= py1; j++)
+            for (int j = py0 - 1; j <= py1; j++) {
+                double y = v ? (0.5 * ih - (t->y0 + j) - 0.5) * v->ky : 0;
+                double yu[3] = {v ? y * v->u[0] : 0, v ? y * v->u[1] : 0, v ? y * v->u[2] : 0};
                 for (int i = px0 - 1; i <= px1; i++) {
-                    int8_t *sd = &side[(j - py0 + 1) * (CELL + 2) + (i - px0 + 1)];
-                    *sd = -1;
+                    int l = (j - py0 + 1) * L + (i - px0 + 1);
+                    fl[l] = -1, side[l] = -1;
                     if (i < 0 || j < 0 || i >= w || j >= h) continue;
                     size_t idx = ((size_t)j * w + i) * S + s;
-                    if (t->face[idx] >= 0)
-                        *sd = (int8_t)seen_side(c->view, iw, ih, t->x0 + i, t->y0 + j,
-                                                t->attr + idx * CRISP_RASTER_ATTRS);
+                    int32_t f = t->face[idx];
+                    if (f < 0) continue;
+                    fl[l] = f;
+                    wl[l] = 1.0 / t->inv_w[idx];
+                    side[l] = 0;
+                    if (v) {
+                        const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
+                        int ii = i - px0 + 1;
+                        double dot = 0;
+                        dot += a[2] * (colp[0][ii] + yu[0]);
+                        dot += a[3] * (colp[1][ii] + yu[1]);
+                        dot += a[4] * (colp[2][ii] + yu[2]);
+                        side[l] = dot < 0;
+                    }
                 }
+            }
             for (int j = py0; j < py1; j++)
                 for (int i = px0; i < px1; i++) {
-                    size_t idx = ((size_t)j * w + i) * S + s;
-                    int32_t f = t->face[idx];
+                    int l = (j - py0 + 1) * L + (i - px0 + 1);
+                    int32_t f = fl[l];
                     float m = 0;
                     if (f >= 0) {
-                        double W = 1.0 / t->inv_w[idx];
-                        const int8_t *sd = &side[(j - py0 + 1) * (CELL + 2) + (i - px0 + 1)];
-                        /* left, right, up, down */
-                        const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
+                        double W = wl[l];
+                        const int nb[4] = {l - 1, l + 1, l - L, l + L}; /* left right up down */
                         for (int k = 0; k < 4; k++) {
-                            int ni = i + di[k], nj = j + dj[k];
-                            if (ni < 0 || nj < 0 || ni >= w || nj >= h) continue;
-                            size_t nidx =
-                                idx + (ptrdiff_t)di[k] * S + (ptrdiff_t)dj[k] * (ptrdiff_t)rs;
-                            if (t->face[nidx] != f || sd[di[k] + dj[k] * (CELL + 2)] != sd[0])
-                                continue;
-                            float d = (float)(c->scale * fabs(1.0 / t->inv_w[nidx] - W));
+                            int n = nb[k];
+                            if (fl[n] != f || side[n] != side[l]) continue;
+                            float d = (float)(c->scale * fabs(wl[n] - W));
                             if (d > m) m = d;
                         }
                     }
-                    c->slack[idx] = m;
+                    c->slack[((size_t)j * w + i) * S + s] = m;
                 }
         }
     }
