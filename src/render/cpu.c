@@ -604,9 +604,9 @@ static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t en
  * values bit for bit (the same operations in the same order: d = (f + nx r) + ny u with
  * f + nx r per column from c->col, crisp__shade_inline's arithmetic, the colour as
  * 0 + shade / 1). */
-static inline void resolve_pixel1(const resolve_ctx *c, const crisp_raster_target *t,
-                                  const crisp_image *img, size_t p0, int i, double ru0, double ru1,
-                                  double ru2)
+static ALWAYS_INLINE void resolve_pixel1(const resolve_ctx *c, const crisp_raster_target *t,
+                                         const crisp_image *img, size_t p0, int i, double ru0,
+                                         double ru1, double ru2)
 {
     size_t px = p0 + (size_t)i;
     int32_t fc = t->face[px];
@@ -666,7 +666,18 @@ static void resolve_row1(const resolve_ctx *c, size_t j)
     const __m128d k0 = _mm_set1_pd(0.25), k1 = _mm_set1_pd(0.75);
     for (; i + 1 < c->x1; i += 2) {
         int32_t fa = face[i], fb = face[i + 1];
-        if ((fa | fb) < 0) { /* a background pixel: both one at a time */
+        if ((fa & fb) < 0) { /* two background pixels */
+            __m128 z = _mm_setzero_ps();
+            _mm_storeu_ps(rgba + 4 * (size_t)i, z);
+            _mm_storeu_ps(rgba + 4 * (size_t)i + 4, z);
+            _mm_storeu_ps(normal + 3 * (size_t)i, z);
+            _mm_storel_pi((__m64 *)(normal + 3 * (size_t)i + 4), z);
+            _mm_storeu_ps(uv + 2 * (size_t)i, z);
+            oface[i] = oface[i + 1] = -1;
+            depth[i] = depth[i + 1] = INFINITY;
+            continue;
+        }
+        if ((fa | fb) < 0) { /* one background pixel: both one at a time */
             resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
             resolve_pixel1(c, t, img, p0, i + 1, ru0, ru1, ru2);
             continue;

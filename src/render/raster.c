@@ -713,6 +713,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
         int tboxed = st->boxed, tneed = 0; /* the triangle's box test answer (setup_tri) */
         int xboxed = -2, xneed = 0;        /* the same for its part in this tile (-2: not yet) */
         double xbox[4];
+        if (x0 / BLOCK == x1 / BLOCK && y0 / BLOCK == y1 / BLOCK)
+            xboxed = -1; /* in one block: the block's own box is the same */
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         const int64_t *A = st->ea, *B = st->eb;
         int64_t step[3] = {A[0] * SUB, A[1] * SUB, A[2] * SUB};
