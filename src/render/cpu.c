@@ -5,6 +5,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "crisp/plan.h"
 #include "crisp/tess.h"
@@ -54,6 +57,9 @@ struct crisp_renderer {
     uint32_t *ribbon_keep; /* a window's frame: the ribbon quads that can reach the window */
     size_t ribbon_keep_cap;
     tess_cache *cache; /* per worker (tessellate) */
+    double *col;       /* the resolve's per-column view direction part (resolve_row1) */
+    size_t col_cap;
+    int no_vectors; /* crisp__renderer_set_vectors */
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -115,6 +121,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->untested);
     free(r->leaf_skip);
     free(r->ribbon_keep);
+    free(r->col);
     free(r);
 }
 
@@ -501,6 +508,7 @@ typedef struct resolve_ctx {
     int x0, x1, y0;
     const uint8_t *only;
     const crisp_image *base;
+    const double *col; /* f + nx r per column of the target: x, y, z planes; NULL: none */
 } resolve_ctx;
 
 static void copy_pixel(const crisp_image *src, crisp_image *dst, size_t px)
@@ -592,11 +600,134 @@ static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t en
     }
 }
 
+/* Pixel i of row p0 / width of a one-sample target without a base image: resolve_rows_s's
+ * values bit for bit (the same operations in the same order: d = (f + nx r) + ny u with
+ * f + nx r per column from c->col, crisp__shade_inline's arithmetic, the colour as
+ * 0 + shade / 1). */
+static ALWAYS_INLINE void resolve_pixel1(const resolve_ctx *c, const crisp_raster_target *t,
+                                         const crisp_image *img, size_t p0, int i, double ru0,
+                                         double ru1, double ru2)
+{
+    size_t px = p0 + (size_t)i;
+    int32_t fc = t->face[px];
+    if (fc < 0) {
+        img->rgba[4 * px] = img->rgba[4 * px + 1] = img->rgba[4 * px + 2] = 0;
+        img->rgba[4 * px + 3] = 0;
+        img->face[px] = -1;
+        img->depth[px] = INFINITY;
+        img->uv[2 * px] = img->uv[2 * px + 1] = 0;
+        img->normal[3 * px] = img->normal[3 * px + 1] = img->normal[3 * px + 2] = 0;
+        return;
+    }
+    const float *a = t->attr + px * CRISP_RASTER_ATTRS;
+    const double *col = c->col;
+    size_t w = (size_t)t->width;
+    double d0 = col[i] + ru0, d1 = col[w + i] + ru1, d2 = col[2 * w + i] + ru2;
+    double n0 = a[2], n1 = a[3], n2 = a[4];
+    double nn = sqrt(n0 * n0 + n1 * n1 + n2 * n2);
+    double vv = sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+    double cs = nn > 0 && vv > 0 ? fabs(n0 * d0 + n1 * d1 + n2 * d2) / (nn * vv) : 1;
+    double k = 0.25 + 0.75 * cs;
+    const float *base = c->sc->faces[fc].color;
+    img->rgba[4 * px] = 0.0f + (float)(base[0] * k);
+    img->rgba[4 * px + 1] = 0.0f + (float)(base[1] * k);
+    img->rgba[4 * px + 2] = 0.0f + (float)(base[2] * k);
+    img->rgba[4 * px + 3] = 1.0f;
+    img->face[px] = fc;
+    img->depth[px] = (float)(1.0 / t->inv_w[px]);
+    img->uv[2 * px] = a[0], img->uv[2 * px + 1] = a[1];
+    img->normal[3 * px] = a[2], img->normal[3 * px + 1] = a[3], img->normal[3 * px + 2] = a[4];
+}
+
+/* Row j of a one-sample target without a base image, as resolve_pixel1 on each pixel. */
+static void resolve_row1(const resolve_ctx *c, size_t j)
+{
+    const crisp_raster_target *t = c->target;
+    const crisp_image *img = c->img;
+    size_t p0 = j * (size_t)t->width;
+    const int32_t *restrict face = t->face + p0;
+    const double *restrict inv_w = t->inv_w + p0;
+    const float *restrict attr = t->attr + p0 * CRISP_RASTER_ATTRS;
+    float *restrict rgba = img->rgba + 4 * p0, *restrict depth = img->depth + p0;
+    float *restrict normal = img->normal + 3 * p0, *restrict uv = img->uv + 2 * p0;
+    int32_t *restrict oface = img->face + p0;
+    const double *restrict colx = c->col, *restrict coly = colx + t->width,
+                           *restrict colz = coly + t->width;
+    const crisp_scene_face *faces = c->sc->faces;
+    int gj = t->y0 + (int)j;
+    double ny = (0.5 * c->cam->height - gj - 0.5) * c->view.ky;
+    const double ru0 = ny * c->view.u[0], ru1 = ny * c->view.u[1], ru2 = ny * c->view.u[2];
+    int i = c->x0;
+#if defined(__SSE2__)
+    /* Two covered pixels at a time: the same IEEE operations on each lane (sqrt, division and
+     * the conversions to float are correctly rounded in both forms; fabs clears the sign bit). */
+    const __m128d vr0 = _mm_set1_pd(ru0), vr1 = _mm_set1_pd(ru1), vr2 = _mm_set1_pd(ru2);
+    const __m128d zero = _mm_setzero_pd(), one = _mm_set1_pd(1.0), sign = _mm_set1_pd(-0.0);
+    const __m128d k0 = _mm_set1_pd(0.25), k1 = _mm_set1_pd(0.75);
+    for (; i + 1 < c->x1; i += 2) {
+        int32_t fa = face[i], fb = face[i + 1];
+        if ((fa & fb) < 0) { /* two background pixels */
+            __m128 z = _mm_setzero_ps();
+            _mm_storeu_ps(rgba + 4 * (size_t)i, z);
+            _mm_storeu_ps(rgba + 4 * (size_t)i + 4, z);
+            _mm_storeu_ps(normal + 3 * (size_t)i, z);
+            _mm_storel_pi((__m64 *)(normal + 3 * (size_t)i + 4), z);
+            _mm_storeu_ps(uv + 2 * (size_t)i, z);
+            oface[i] = oface[i + 1] = -1;
+            depth[i] = depth[i + 1] = INFINITY;
+            continue;
+        }
+        if ((fa | fb) < 0) { /* one background pixel: both one at a time */
+            resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
+            resolve_pixel1(c, t, img, p0, i + 1, ru0, ru1, ru2);
+            continue;
+        }
+        const float *a = attr + (size_t)i * CRISP_RASTER_ATTRS, *b = a + CRISP_RASTER_ATTRS;
+        __m128d d0 = _mm_add_pd(_mm_loadu_pd(colx + i), vr0);
+        __m128d d1 = _mm_add_pd(_mm_loadu_pd(coly + i), vr1);
+        __m128d d2 = _mm_add_pd(_mm_loadu_pd(colz + i), vr2);
+        __m128d n0 = _mm_set_pd(b[2], a[2]), n1 = _mm_set_pd(b[3], a[3]),
+                n2 = _mm_set_pd(b[4], a[4]);
+        __m128d nn = _mm_sqrt_pd(
+            _mm_add_pd(_mm_add_pd(_mm_mul_pd(n0, n0), _mm_mul_pd(n1, n1)), _mm_mul_pd(n2, n2)));
+        __m128d vv = _mm_sqrt_pd(
+            _mm_add_pd(_mm_add_pd(_mm_mul_pd(d0, d0), _mm_mul_pd(d1, d1)), _mm_mul_pd(d2, d2)));
+        __m128d dot =
+            _mm_add_pd(_mm_add_pd(_mm_mul_pd(n0, d0), _mm_mul_pd(n1, d1)), _mm_mul_pd(n2, d2));
+        __m128d cs = _mm_div_pd(_mm_andnot_pd(sign, dot), _mm_mul_pd(nn, vv));
+        __m128d ok = _mm_and_pd(_mm_cmpgt_pd(nn, zero), _mm_cmpgt_pd(vv, zero));
+        cs = _mm_or_pd(_mm_and_pd(ok, cs), _mm_andnot_pd(ok, one));
+        __m128d k = _mm_add_pd(k0, _mm_mul_pd(k1, cs));
+        const float *ca = faces[fa].color, *cb = faces[fb].color;
+        __m128 zf = _mm_setzero_ps();
+        __m128 cr = _mm_add_ps(zf, _mm_cvtpd_ps(_mm_mul_pd(_mm_set_pd(cb[0], ca[0]), k)));
+        __m128 cg = _mm_add_ps(zf, _mm_cvtpd_ps(_mm_mul_pd(_mm_set_pd(cb[1], ca[1]), k)));
+        __m128 cbl = _mm_add_ps(zf, _mm_cvtpd_ps(_mm_mul_pd(_mm_set_pd(cb[2], ca[2]), k)));
+        __m128 rg = _mm_unpacklo_ps(cr, cg);                        /* ra ga rb gb */
+        __m128 b1 = _mm_unpacklo_ps(cbl, _mm_set1_ps(1.0f));        /* ba 1 bb 1 */
+        _mm_storeu_ps(rgba + 4 * (size_t)i, _mm_movelh_ps(rg, b1)); /* ra ga ba 1 */
+        _mm_storeu_ps(rgba + 4 * (size_t)i + 4, _mm_movehl_ps(b1, rg));
+        __m128 dp = _mm_cvtpd_ps(_mm_div_pd(one, _mm_loadu_pd(inv_w + i)));
+        _mm_storel_pi((__m64 *)(depth + i), dp);
+        oface[i] = fa, oface[i + 1] = fb;
+        memcpy(uv + 2 * (size_t)i, a, 2 * sizeof *uv);
+        memcpy(uv + 2 * (size_t)i + 2, b, 2 * sizeof *uv);
+        memcpy(normal + 3 * (size_t)i, a + 2, 3 * sizeof *normal);
+        memcpy(normal + 3 * (size_t)i + 3, b + 2, 3 * sizeof *normal);
+    }
+#endif
+    for (; i < c->x1; i++)
+        resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
+}
+
 static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     resolve_ctx *c = vctx;
-    if (c->target->samples == 1)
+    if (c->target->samples == 1 && !c->base && c->col)
+        for (size_t j = begin + (size_t)c->y0; j < end + (size_t)c->y0; j++)
+            resolve_row1(c, j);
+    else if (c->target->samples == 1)
         resolve_rows_s(c, begin, end, 1);
     else
         resolve_rows_s(c, begin, end, c->target->samples);
@@ -614,6 +745,12 @@ void crisp__renderer_mesh(const crisp_renderer *r, const crisp_raster_vertex **v
 const crisp_raster_target *crisp__renderer_target(const crisp_renderer *r)
 {
     return &r->target;
+}
+
+void crisp__renderer_set_vectors(crisp_renderer *r, int on)
+{
+    r->no_vectors = !on;
+    crisp__raster_set_vectors(r->raster, on);
 }
 
 /* A screen box widened by 2 px, clipped to the image: x0, y0, x1, y1 (empty: all 0). */
@@ -939,6 +1076,15 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                       .y0 = rect[1],
                       .only = only,
                       .base = base};
+    /* The view direction's column part, f + nx r, once per column (resolve_row1). */
+    if ((st = crisp_grow((void **)&r->col, &r->col_cap, 3 * (size_t)tg->width, sizeof *r->col)))
+        return st;
+    for (int i = 0; i < tg->width; i++) {
+        double nx = (tg->x0 + i + 0.5 - 0.5 * cam->width) * view.kx;
+        for (int k = 0; k < 3; k++)
+            r->col[(size_t)k * tg->width + i] = view.f[k] + nx * view.r[k];
+    }
+    rc.col = r->no_vectors ? NULL : r->col; /* NULL: resolve_rows_s for every target */
     crisp_pool_parallel_for(r->pool, (size_t)(rect[3] - rect[1]), 8, resolve_rows, &rc);
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);

@@ -4,6 +4,9 @@
 
 #include <math.h>
 #include <stdatomic.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -36,8 +39,15 @@ typedef struct setup_tri {
     double box[4]; /* u_lo, u_hi, v_lo, v_hi */
 } setup_tri;
 
+/* A triangle's attribute planes copied out of its setup record for the tile's loops (a local
+ * copy: the target's stores cannot alias it, so its values stay in registers or are loaded once).
+ */
+typedef struct planes {
+    double q0[1 + CRISP_RASTER_ATTRS], qx[1 + CRISP_RASTER_ATTRS], qy[1 + CRISP_RASTER_ATTRS];
+} planes;
+
 /* A fragment's attributes: ((a/W at the origin + x gradient dx) + y gradient dy) * W. */
-static inline void attrs_scalar(const setup_tri *st, double dx, double dy, double w, double *a)
+static inline void attrs_scalar(const planes *st, double dx, double dy, double w, double *a)
 {
     for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
         a[k] = (st->q0[k + 1] + st->qx[k + 1] * dx + st->qy[k + 1] * dy) * w;
@@ -51,7 +61,7 @@ static inline void attrs_scalar(const setup_tri *st, double dx, double dy, doubl
 typedef double v2d __attribute__((vector_size(16)));
 typedef double v2d_u __attribute__((vector_size(16), aligned(8))); /* unaligned loads, stores */
 
-static inline void attrs_vector(const setup_tri *st, double dx, double dy, double w, double *a)
+static inline void attrs_vector(const planes *st, double dx, double dy, double w, double *a)
 {
     const v2d vdx = {dx, dx}, vdy = {dy, dy}, vw = {w, w};
     for (int k = 0; k < 4; k += 2) {
@@ -545,16 +555,33 @@ typedef struct {
 } raster_ctx;
 
 /* Least 1/W over the block's samples (0 when one is empty). */
-static double block_min(const crisp_raster_target *t, int bx0, int by0, int bx1, int by1)
+static double block_min(const crisp_raster_target *t, const double *inv_w, int bx0, int by0,
+                        int bx1, int by1)
 {
     int S = t->samples;
     double m = INFINITY;
+    size_t n = (size_t)(bx1 - bx0 + 1) * S;
+#if defined(__SSE2__)
+    /* Two lanes at a time (a bound: the order of the comparisons does not matter, and stored
+     * values are never NaN). */
+    __m128d m2 = _mm_set1_pd(INFINITY);
+#endif
     for (int j = by0; j <= by1; j++) {
-        const double *row = t->inv_w + ((size_t)(j - t->y0) * t->width + (bx0 - t->x0)) * S;
-        size_t n = (size_t)(bx1 - bx0 + 1) * S;
-        for (size_t k = 0; k < n; k++)
+        const double *row = inv_w + ((size_t)(j - t->y0) * t->width + (bx0 - t->x0)) * S;
+        size_t k = 0;
+#if defined(__SSE2__)
+        for (; k + 2 <= n; k += 2)
+            m2 = _mm_min_pd(_mm_loadu_pd(row + k), m2);
+#endif
+        for (; k < n; k++)
             m = row[k] < m ? row[k] : m;
     }
+#if defined(__SSE2__)
+    double l[2];
+    _mm_storeu_pd(l, m2);
+    m = l[0] < m ? l[0] : m;
+    m = l[1] < m ? l[1] : m;
+#endif
     return m;
 }
 
@@ -592,6 +619,47 @@ static int block_box(const raster_ctx *c, const setup_tri *st, int bx0, int by0,
     return c->r->box_test(c->test_ctx, st->face, lo, hi);
 }
 
+#if defined(__GNUC__) && !defined(__clang__)
+#define PRAGMA(x) _Pragma(#x)
+#define UNROLL(n) PRAGMA(GCC unroll n)
+#else
+#define UNROLL(n)
+#endif
+
+#if defined(__SSE2__)
+/* A block row of a one-sample target, BLOCK lanes from its first pixel, two at a time: bit q
+ * set where lane q is covered (full: every lane; else the exact edge values e at lane 0 plus
+ * lane_step, sign bits of their OR) and its 1/W, base + gx (dx0 + q) (stored in iwv), is above
+ * the stored one. The scalar loops' tests, operation for operation, on each lane. */
+static inline unsigned row_mask(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full,
+                                double base, double gx, double dx0, const double *stored,
+                                double *iwv)
+{
+    static const double lane[BLOCK] = {0, 1, 2, 3, 4, 5, 6, 7};
+    unsigned m = 0, neg = 0;
+    const __m128d vb = _mm_set1_pd(base), vg = _mm_set1_pd(gx), vd = _mm_set1_pd(dx0);
+    UNROLL(4)
+    for (int h = 0; h < BLOCK / 2; h++) {
+        __m128d q = _mm_loadu_pd(lane + 2 * h);
+        __m128d iw = _mm_add_pd(vb, _mm_mul_pd(vg, _mm_add_pd(vd, q)));
+        _mm_storeu_pd(iwv + 2 * h, iw);
+        m |= (unsigned)_mm_movemask_pd(_mm_cmpgt_pd(iw, _mm_loadu_pd(stored + 2 * h))) << (2 * h);
+    }
+    if (!full) {
+        const __m128i e0 = _mm_set1_epi64x(e[0]), e1 = _mm_set1_epi64x(e[1]),
+                      e2 = _mm_set1_epi64x(e[2]);
+        UNROLL(4)
+        for (int h = 0; h < BLOCK / 2; h++) {
+            __m128i o = _mm_or_si128(_mm_or_si128(_mm_add_epi64(e0, lane_step[0][h]),
+                                                  _mm_add_epi64(e1, lane_step[1][h])),
+                                     _mm_add_epi64(e2, lane_step[2][h]));
+            neg |= (unsigned)_mm_movemask_pd(_mm_castsi128_pd(o)) << (2 * h);
+        }
+    }
+    return m & ~neg;
+}
+#endif
+
 /* One tile, with S the target's samples per pixel: always inlined into raster_tile with S a
  * constant for the common one-sample target (the compiler then folds the sample loops and
  * strides), else with S as a variable. The same code either way. */
@@ -601,7 +669,7 @@ static int block_box(const raster_ctx *c, const setup_tri *st, int bx0, int by0,
 #define ALWAYS_INLINE inline
 #endif
 
-static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
+static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S, int fresh)
 {
     crisp_raster *r = c->r;
     crisp_raster_target *t = c->t;
@@ -618,11 +686,24 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
     double hiz[BLOCKS * BLOCKS];
     uint32_t writes[BLOCKS * BLOCKS];
     uint32_t block_samples = (uint32_t)(BLOCK * BLOCK * S);
+    /* A tile just cleared has 0 everywhere: the bound is exact until its first writes. */
     for (int k = 0; k < BLOCKS * BLOCKS; k++)
-        hiz[k] = 0, writes[k] = block_samples;
-    int use_hiz = c->hiz && !c->slack, vectors = c->vectors;
+        hiz[k] = 0, writes[k] = fresh ? 0 : block_samples;
+    int use_hiz = c->hiz && !c->slack, vectors = c->vectors, clip_on = r->clip_on;
+    /* The target's buffers, written only through these (no store can alias a triangle's data). */
+    double *restrict inv_w = t->inv_w;
+    int32_t *restrict fbuf = t->face;
+    float *restrict abuf = t->attr;
+    const size_t tw = (size_t)t->width;
+    const int tx0 = t->x0, ty0 = t->y0;
+    const float *slack = c->slack;
     for (uint32_t bi = r->bin_start[tile]; bi < r->bin_start[tile + 1]; bi++) {
         const setup_tri *st = r->bin_items[bi];
+        planes pl;
+        memcpy(pl.q0, st->q0, sizeof pl.q0);
+        memcpy(pl.qx, st->qx, sizeof pl.qx);
+        memcpy(pl.qy, st->qy, sizeof pl.qy);
+        const double sox = st->ox, soy = st->oy;
         int x0 = st->x0 > px0 ? st->x0 : px0, x1 = st->x1 < px1 ? st->x1 : px1;
         int y0 = st->y0 > py0 ? st->y0 : py0, y1 = st->y1 < py1 ? st->y1 : py1;
         int32_t face_id =
@@ -630,9 +711,22 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
         int run_test = c->test && !(st->face & CRISP_RASTER_FACE_NO_TEST) &&
                        !((size_t)face_id < r->untested_count && r->untested[face_id]);
         int tboxed = st->boxed, tneed = 0; /* the triangle's box test answer (setup_tri) */
+        int xboxed = -2, xneed = 0;        /* the same for its part in this tile (-2: not yet) */
+        double xbox[4];
+        if (x0 / BLOCK == x1 / BLOCK && y0 / BLOCK == y1 / BLOCK)
+            xboxed = -1; /* in one block: the block's own box is the same */
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         const int64_t *A = st->ea, *B = st->eb;
         int64_t step[3] = {A[0] * SUB, A[1] * SUB, A[2] * SUB};
+#if defined(__SSE2__)
+        /* Lanes 2h, 2h + 1 of a block row: edge k's steps from its first pixel (row_mask). */
+        __m128i lane_step[3][BLOCK / 2];
+        for (int k = 0; k < 3; k++)
+            for (int h = 0; h < BLOCK / 2; h++)
+                lane_step[k][h] = _mm_set_epi64x((2 * h + 1) * step[k], 2 * h * step[k]);
+#else
+        vectors = 0;
+#endif
         /* Rounding allowance of the 1/W plane evaluated at a block corner (see the hi-z test). */
         double slop = 1e-12 * (fabs(st->q0[0]) +
                                fabs(st->qx[0]) * (fabs(x0 - st->ox) + fabs(x1 + 1 - st->ox)) +
@@ -652,6 +746,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             sx1 = (int64_t)bx1 * SUB + c->off_fmax[0];
                     int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
                             sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
+                    UNROLL(3)
                     for (int k = 0; k < 3; k++) {
                         int64_t ex0 = A[k] * sx0, ex1 = A[k] * sx1;
                         int64_t ey0 = B[k] * sy0, ey1 = B[k] * sy1;
@@ -668,7 +763,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             gy = py0 + (by0 - py0) / BLOCK * BLOCK;
                         int gx1 = gx + BLOCK - 1 < px1 ? gx + BLOCK - 1 : px1;
                         int gy1 = gy + BLOCK - 1 < py1 ? gy + BLOCK - 1 : py1;
-                        hiz[blk] = block_min(t, gx, gy, gx1, gy1);
+                        hiz[blk] = block_min(t, inv_w, gx, gy, gx1, gy1);
                         writes[blk] = 0;
                     }
                     /* The triangle's largest 1/W over the block's rectangle (an affine function:
@@ -705,20 +800,30 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                         /* Coverage, 1/W and the depth test of the block's row for this sample,
                          * in loops over at most BLOCK lanes without branches (vectorisable). */
                         int64_t e[3] = {er[s][0], er[s][1], er[s][2]};
+                        UNROLL(3)
                         for (int k = 0; k < 3; k++)
                             er[s][k] += B[k] * SUB;
                         int n = bx1 - bx0 + 1;
                         double dy = j + c->off_y[s] - st->oy;
                         double base = st->q0[0] + st->qy[0] * dy, gx = st->qx[0];
                         double dx0 = (double)bx0 + c->off_x[s] - st->ox;
-                        size_t idx0 =
-                            ((size_t)(j - t->y0) * t->width + (size_t)(bx0 - t->x0)) * S + s;
+                        size_t idx0 = ((size_t)(j - ty0) * tw + (size_t)(bx0 - tx0)) * S + s;
                         double iwv[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
-                        if (!c->slack) {
+                        if (!slack && S == 1 && vectors && bx0 - tx0 + BLOCK <= (int)tw) {
+#if defined(__SSE2__)
+                            /* The same tests on 8 lanes, two at a time (the row's stored 1/W
+                             * is read at 8 lanes: inside the image's row). */
+                            unsigned m =
+                                row_mask(e, lane_step, full, base, gx, dx0, inv_w + idx0, iwv) &
+                                ((1u << n) - 1);
+                            for (; m; m &= m - 1)
+                                pass[np++] = __builtin_ctz(m);
+#endif
+                        } else if (!slack) {
                             /* Coverage, 1/W and the depth test in one branch-free loop (the
                              * stored 1/W is read at every lane of the row: inside the image). */
-                            const double *stored = t->inv_w + idx0;
+                            const double *stored = inv_w + idx0;
                             if (full)
                                 for (int q = 0; q < n; q++) {
                                     double iwq = base + gx * (dx0 + q);
@@ -752,10 +857,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             for (int q = 0; q < n; q++)
                                 iwv[q] = base + gx * (dx0 + q);
                             for (int q = 0; q < n; q++) {
-                                double cur = t->inv_w[idx0 + (size_t)q * S];
+                                double cur = inv_w[idx0 + (size_t)q * S];
                                 if (cov[q] &&
                                     (!(cur > 0) ||
-                                     1.0 / iwv[q] < 1.0 / cur - c->slack[idx0 + (size_t)q * S]))
+                                     1.0 / iwv[q] < 1.0 / cur - slack[idx0 + (size_t)q * S]))
                                     pass[np++] = q;
                             }
                         }
@@ -763,16 +868,16 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             int q = pass[pi];
                             size_t idx = idx0 + (size_t)q * S;
                             double iw = iwv[q], dx = dx0 + q;
-                            if (r->clip_on && r->clip[0] + r->clip[1] * (dx + st->ox) +
-                                                      r->clip[2] * (dy + st->oy) + r->clip[3] * iw <
-                                                  0)
+                            if (clip_on && r->clip[0] + r->clip[1] * (dx + sox) +
+                                                   r->clip[2] * (dy + soy) + r->clip[3] * iw <
+                                               0)
                                 continue; /* on the clipped side of the plane */
                             double a[CRISP_RASTER_ATTRS];
                             double w = 1.0 / iw;
                             if (vectors)
-                                attrs_vector(st, dx, dy, w, a);
+                                attrs_vector(&pl, dx, dy, w, a);
                             else
-                                attrs_scalar(st, dx, dy, w, a);
+                                attrs_scalar(&pl, dx, dy, w, a);
                             if (run_test) {
                                 int keep = -1;
                                 if (tboxed == -3 && ++tneed >= 2) {
@@ -785,11 +890,21 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                                         a[1] >= st->box[2] && a[1] <= st->box[3])
                                         keep = tboxed;
                                 } else if (tboxed == -1) {
-                                    if (bboxed == -2 && ++bneed >= 2)
-                                        bboxed = block_box(c, st, bx0, by0, bx1, by1, bbox);
-                                    if (bboxed >= 0 && a[0] >= bbox[0] && a[0] <= bbox[1] &&
-                                        a[1] >= bbox[2] && a[1] <= bbox[3])
-                                        keep = bboxed;
+                                    /* The box of the triangle's part in this tile, then (when
+                                     * that is undecided) the block's. */
+                                    if (xboxed == -2 && ++xneed >= 2)
+                                        xboxed = block_box(c, st, x0, y0, x1, y1, xbox);
+                                    if (xboxed >= 0) {
+                                        if (a[0] >= xbox[0] && a[0] <= xbox[1] && a[1] >= xbox[2] &&
+                                            a[1] <= xbox[3])
+                                            keep = xboxed;
+                                    } else if (xboxed == -1) {
+                                        if (bboxed == -2 && ++bneed >= 2)
+                                            bboxed = block_box(c, st, bx0, by0, bx1, by1, bbox);
+                                        if (bboxed >= 0 && a[0] >= bbox[0] && a[0] <= bbox[1] &&
+                                            a[1] >= bbox[2] && a[1] <= bbox[3])
+                                            keep = bboxed;
+                                    }
                                 }
                                 if (keep >= 0) {
                                     boxed++;
@@ -804,11 +919,11 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S)
                             } else if (c->test) {
                                 untested++;
                             }
-                            t->inv_w[idx] = iw;
-                            t->face[idx] = face_id;
-                            float *dst = t->attr + idx * CRISP_RASTER_ATTRS;
-                            for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
-                                dst[k] = (float)a[k];
+                            inv_w[idx] = iw;
+                            fbuf[idx] = face_id;
+                            float *dst = abuf + idx * CRISP_RASTER_ATTRS;
+                            dst[0] = (float)a[0], dst[1] = (float)a[1], dst[2] = (float)a[2];
+                            dst[3] = (float)a[3], dst[4] = (float)a[4];
                             wrote++;
                         }
                     }
@@ -839,9 +954,9 @@ static void raster_tile(raster_ctx *c, size_t tile)
         }
     }
     if (c->t->samples == 1)
-        raster_tile_s(c, tile, 1);
+        raster_tile_s(c, tile, 1, c->clear);
     else
-        raster_tile_s(c, tile, c->t->samples);
+        raster_tile_s(c, tile, c->t->samples, c->clear);
 }
 
 static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
@@ -940,48 +1055,68 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
     const slack_tiles_ctx *tc = vctx;
     const slack_ctx *c = tc->c;
     const crisp_raster_target *t = c->t;
+    const crisp_raster_view *v = c->view;
     int S = t->samples, w = t->width, h = t->height, iw = image_w(t), ih = image_h(t);
-    size_t rs = (size_t)w * S;
-    /* The side each sample of the cell and its one-pixel border is seen from. */
-    int8_t side[(CELL + 2) * (CELL + 2)];
+    enum { L = CELL + 2 }; /* the cell and its one-pixel border */
+    /* Per sample of the cell and its border: face (-1: none or outside the image), the side it
+     * is seen from (seen_side's arithmetic, with the view direction's column part f + x r once
+     * per column), W. The slack of each sample of the cell then compares it with its four
+     * neighbours there, as slack_rows does (a neighbour outside the image has face -1). */
+    int32_t fl[L * L];
+    int8_t side[L * L];
+    double wl[L * L], colp[3][L];
     for (size_t tile = begin; tile < end; tile++) {
         if (!tc->mask[tile]) continue;
         int px0 = (int)(tile % (size_t)tc->cells_x) * CELL,
             py0 = (int)(tile / (size_t)tc->cells_x) * CELL;
         int px1 = px0 + CELL < w ? px0 + CELL : w, py1 = py0 + CELL < h ? py0 + CELL : h;
+        if (v)
+            for (int i = px0 - 1; i <= px1; i++) {
+                double x = (t->x0 + i + 0.5 - 0.5 * iw) * v->kx;
+                for (int k = 0; k < 3; k++)
+                    colp[k][i - px0 + 1] = v->f[k] + x * v->r[k];
+            }
         for (int s = 0; s < S; s++) {
-            for (int j = py0 - 1; j <= py1; j++)
+            for (int j = py0 - 1; j <= py1; j++) {
+                double y = v ? (0.5 * ih - (t->y0 + j) - 0.5) * v->ky : 0;
+                double yu[3] = {v ? y * v->u[0] : 0, v ? y * v->u[1] : 0, v ? y * v->u[2] : 0};
                 for (int i = px0 - 1; i <= px1; i++) {
-                    int8_t *sd = &side[(j - py0 + 1) * (CELL + 2) + (i - px0 + 1)];
-                    *sd = -1;
+                    int l = (j - py0 + 1) * L + (i - px0 + 1);
+                    fl[l] = -1, side[l] = -1;
                     if (i < 0 || j < 0 || i >= w || j >= h) continue;
                     size_t idx = ((size_t)j * w + i) * S + s;
-                    if (t->face[idx] >= 0)
-                        *sd = (int8_t)seen_side(c->view, iw, ih, t->x0 + i, t->y0 + j,
-                                                t->attr + idx * CRISP_RASTER_ATTRS);
+                    int32_t f = t->face[idx];
+                    if (f < 0) continue;
+                    fl[l] = f;
+                    wl[l] = 1.0 / t->inv_w[idx];
+                    side[l] = 0;
+                    if (v) {
+                        const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
+                        int ii = i - px0 + 1;
+                        double dot = 0;
+                        dot += a[2] * (colp[0][ii] + yu[0]);
+                        dot += a[3] * (colp[1][ii] + yu[1]);
+                        dot += a[4] * (colp[2][ii] + yu[2]);
+                        side[l] = dot < 0;
+                    }
                 }
+            }
             for (int j = py0; j < py1; j++)
                 for (int i = px0; i < px1; i++) {
-                    size_t idx = ((size_t)j * w + i) * S + s;
-                    int32_t f = t->face[idx];
+                    int l = (j - py0 + 1) * L + (i - px0 + 1);
+                    int32_t f = fl[l];
                     float m = 0;
                     if (f >= 0) {
-                        double W = 1.0 / t->inv_w[idx];
-                        const int8_t *sd = &side[(j - py0 + 1) * (CELL + 2) + (i - px0 + 1)];
-                        /* left, right, up, down */
-                        const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
+                        double W = wl[l];
+                        const int nb[4] = {l - 1, l + 1, l - L, l + L}; /* left right up down */
                         for (int k = 0; k < 4; k++) {
-                            int ni = i + di[k], nj = j + dj[k];
-                            if (ni < 0 || nj < 0 || ni >= w || nj >= h) continue;
-                            size_t nidx =
-                                idx + (ptrdiff_t)di[k] * S + (ptrdiff_t)dj[k] * (ptrdiff_t)rs;
-                            if (t->face[nidx] != f || sd[di[k] + dj[k] * (CELL + 2)] != sd[0])
-                                continue;
-                            float d = (float)(c->scale * fabs(1.0 / t->inv_w[nidx] - W));
+                            int n = nb[k];
+                            if (fl[n] != f || side[n] != side[l]) continue;
+                            float d = (float)(c->scale * fabs(wl[n] - W));
                             if (d > m) m = d;
                         }
                     }
-                    c->slack[idx] = m;
+                    c->slack[((size_t)j * w + i) * S + s] = m;
                 }
         }
     }
