@@ -252,6 +252,49 @@ static void clear_now(crisp_raster_target *t, crisp_pool *pool)
     crisp_pool_parallel_for(pool, (size_t)t->height, 64, clear_rows, &c);
 }
 
+typedef struct block_depth_ctx {
+    const crisp_raster_target *t;
+    double *dest;
+} block_depth_ctx;
+
+/* Block rows [begin, end): each block's least 1/W, row by row of pixels. */
+static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const block_depth_ctx *c = vctx;
+    const crisp_raster_target *t = c->t;
+    int S = t->samples, bw = (t->width + 7) / 8;
+    for (size_t by = begin; by < end; by++) {
+        double *out = c->dest + by * (size_t)bw;
+        for (int bx = 0; bx < bw; bx++)
+            out[bx] = INFINITY;
+        int j1 = (int)(by + 1) * 8 < t->height ? (int)(by + 1) * 8 : t->height;
+        for (int j = (int)by * 8; j < j1; j++) {
+            const double *row = t->inv_w + (size_t)j * t->width * S;
+            for (int bx = 0; bx < bw; bx++) {
+                size_t a = (size_t)bx * 8 * S,
+                       b = (size_t)(bx * 8 + 8 < t->width ? bx * 8 + 8 : t->width) * S;
+                double m = out[bx];
+                for (size_t k = a; k < b; k++)
+                    m = row[k] < m ? row[k] : m;
+                out[bx] = m;
+            }
+        }
+    }
+}
+
+void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, double *dest)
+{
+    size_t bw = ((size_t)t->width + 7) / 8, bh = ((size_t)t->height + 7) / 8;
+    if (t->clear_pending) {
+        for (size_t k = 0; k < bw * bh; k++)
+            dest[k] = 0;
+        return;
+    }
+    block_depth_ctx c = {t, dest};
+    crisp_pool_parallel_for(pool, bh, 4, block_depth_rows, &c);
+}
+
 void crisp__raster_sample_offset(int samples, int s, double dest[2])
 {
     /* 4: rotated grid; 16: a regular 4x4 grid. */
