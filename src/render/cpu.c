@@ -2,6 +2,7 @@
  * levels (crack-free edges), evaluated on the true patches, and rasterised with the u-intercept
  * table's trim test per sample; samples are then resolved into colour (headlight shading, straight
  * alpha = coverage) and AOVs (depth, normal, u, v, face of the nearest covered sample). */
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -936,7 +937,13 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
      * depth drawn so far hides are dropped, the others tessellated and drawn. */
     size_t nv = 0, nt = 0, occluded_leaves = 0, occluded_tris = 0;
     crisp_raster_stats rs = {0};
-    int drawn = 0;
+    /* The blocks the batches drawn since the last look at the depth can have reached. */
+    int drawn = 0, dirty[4] = {INT_MAX, INT_MAX, -1, -1};
+    if (occlusion) {
+        size_t blocks = (size_t)((win[2] + 7) / 8) * (size_t)((win[3] + 7) / 8);
+        if ((st = crisp_grow((void **)&r->hiz, &r->hiz_cap, blocks, sizeof *r->hiz))) return st;
+        memset(r->hiz, 0, blocks * sizeof *r->hiz); /* nothing drawn: no block hides anything */
+    }
     double t1 = crisp_time_now();
     t_tess += t1 - t0;
     for (int b = 0; b < CRISP_OCCL_BATCHES; b++) {
@@ -944,11 +951,20 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         size_t n = bstart[b + 1] - bstart[b];
         if (!n) continue;
         double ta = crisp_time_now();
-        if (drawn && nt) {
-            size_t blocks = (size_t)((win[2] + 7) / 8) * (size_t)((win[3] + 7) / 8);
-            if ((st = crisp_grow((void **)&r->hiz, &r->hiz_cap, blocks, sizeof *r->hiz))) return st;
-            crisp__raster_block_depth(tg, r->pool, r->hiz);
-            crisp__occl_cull(r->pool, r->occl, list, n, r->hiz, (win[2] + 7) / 8, r->leaf_skip);
+        if (drawn && nt && dirty[0] <= dirty[2]) {
+            /* Looking at the depth costs a pass over the samples of the blocks drawn since the
+             * last look (the others keep their values); a triangle not drawn saves its
+             * evaluation, setup and rasterisation (some hundred ns): worth it when the batch has
+             * at least a triangle per 128 such samples, else the batch is drawn as it is. */
+            size_t tris = 0, area = (size_t)(dirty[2] - dirty[0] + 1) *
+                                    (size_t)(dirty[3] - dirty[1] + 1) * 64 * r->desc.samples;
+            for (size_t i = 0; i < n; i++)
+                tris += r->leaf_tbase[list[i]];
+            if (128 * tris >= area) {
+                crisp__raster_block_depth(tg, r->pool, dirty, r->hiz);
+                crisp__occl_cull(r->pool, r->occl, list, n, r->hiz, (win[2] + 7) / 8, r->leaf_skip);
+                dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
+            }
         }
         /* Offsets of the batch's drawn leaves (in plan order), the list compacted to them. */
         size_t kept = 0, vb0 = nv, tb0 = nt;
@@ -958,6 +974,13 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                 occluded_leaves++;
                 occluded_tris += r->leaf_tbase[j];
                 continue;
+            }
+            if (occlusion) {
+                const crisp_occl_leaf *o = &r->occl[j];
+                dirty[0] = o->bx0 < dirty[0] ? o->bx0 : dirty[0];
+                dirty[1] = o->by0 < dirty[1] ? o->by0 : dirty[1];
+                dirty[2] = o->bx1 > dirty[2] ? o->bx1 : dirty[2];
+                dirty[3] = o->by1 > dirty[3] ? o->by1 : dirty[3];
             }
             size_t v = r->leaf_vbase[j], t = r->leaf_tbase[j];
             r->leaf_vbase[j] = (uint32_t)nv;

@@ -19,7 +19,7 @@
 #define KEYS 4096 /* depth buckets of the batch split */
 
 /* Where the batches end: cumulative shares of the triangles, nearest first. */
-static const double batch_end[CRISP_OCCL_BATCHES - 1] = {0.25, 0.5, 0.75};
+static const double batch_end[CRISP_OCCL_BATCHES - 1] = {0.03, 0.08, 0.18, 0.35, 0.6};
 
 void crisp__occl_set(crisp_occl_leaf *o, const int win[4], const double lo[2], const double hi[2],
                      double iw)

@@ -9,7 +9,7 @@
 
 #include "crisp/core.h"
 
-#define CRISP_OCCL_BATCHES 4
+#define CRISP_OCCL_BATCHES 6
 
 /* Per leaf: the 8x8 pixel blocks of the target its samples can lie in (inclusive) and an upper
  * bound of its fragments' 1/W (INFINITY: never culled). */

@@ -254,24 +254,25 @@ static void clear_now(crisp_raster_target *t, crisp_pool *pool)
 
 typedef struct block_depth_ctx {
     const crisp_raster_target *t;
+    int bx0, by0, bx1;
     double *dest;
 } block_depth_ctx;
 
-/* Block rows [begin, end): each block's least 1/W, row by row of pixels. */
+/* Block rows by0 + [begin, end), blocks bx0 .. bx1 of each: the least 1/W, row by row of pixels. */
 static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     const block_depth_ctx *c = vctx;
     const crisp_raster_target *t = c->t;
     int S = t->samples, bw = (t->width + 7) / 8;
-    for (size_t by = begin; by < end; by++) {
-        double *out = c->dest + by * (size_t)bw;
-        for (int bx = 0; bx < bw; bx++)
+    for (int by = c->by0 + (int)begin; by < c->by0 + (int)end; by++) {
+        double *out = c->dest + (size_t)by * (size_t)bw;
+        for (int bx = c->bx0; bx <= c->bx1; bx++)
             out[bx] = INFINITY;
-        int j1 = (int)(by + 1) * 8 < t->height ? (int)(by + 1) * 8 : t->height;
-        for (int j = (int)by * 8; j < j1; j++) {
+        int j1 = (by + 1) * 8 < t->height ? (by + 1) * 8 : t->height;
+        for (int j = by * 8; j < j1; j++) {
             const double *row = t->inv_w + (size_t)j * t->width * S;
-            for (int bx = 0; bx < bw; bx++) {
+            for (int bx = c->bx0; bx <= c->bx1; bx++) {
                 size_t a = (size_t)bx * 8 * S,
                        b = (size_t)(bx * 8 + 8 < t->width ? bx * 8 + 8 : t->width) * S;
                 double m = out[bx];
@@ -283,16 +284,25 @@ static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
-void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, double *dest)
+void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, const int *blocks,
+                               double *dest)
 {
-    size_t bw = ((size_t)t->width + 7) / 8, bh = ((size_t)t->height + 7) / 8;
+    int bw = (t->width + 7) / 8, bh = (t->height + 7) / 8;
+    int b[4] = {0, 0, bw - 1, bh - 1};
+    if (blocks)
+        for (int k = 0; k < 4; k++) {
+            int lim = k % 2 ? bh - 1 : bw - 1;
+            b[k] = blocks[k] < 0 ? 0 : blocks[k] > lim ? lim : blocks[k];
+        }
+    if (b[0] > b[2] || b[1] > b[3]) return;
     if (t->clear_pending) {
-        for (size_t k = 0; k < bw * bh; k++)
-            dest[k] = 0;
+        for (int by = b[1]; by <= b[3]; by++)
+            for (int bx = b[0]; bx <= b[2]; bx++)
+                dest[(size_t)by * bw + bx] = 0;
         return;
     }
-    block_depth_ctx c = {t, dest};
-    crisp_pool_parallel_for(pool, bh, 4, block_depth_rows, &c);
+    block_depth_ctx c = {t, b[0], b[1], b[2], dest};
+    crisp_pool_parallel_for(pool, (size_t)(b[3] - b[1] + 1), 4, block_depth_rows, &c);
 }
 
 void crisp__raster_sample_offset(int samples, int s, double dest[2])
