@@ -279,8 +279,9 @@ static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2
     return 0;
 }
 
-/* 1 when group leaf L's patches' boxes, projected and widened as below, hold no sample; with
- * c->occl, also sets leaf j's occlusion record from them (iw INFINITY over 64 patches). */
+/* 1 when group leaf L's patches' boxes, projected and widened as below, hold no sample (not
+ * tried above 16 patches); with c->occl, also sets leaf j's occlusion record from them (iw
+ * INFINITY above 64 patches). */
 static int group_empty(const skip_ctx *c, size_t j, const crisp_plan_leaf *L)
 {
     const crisp_frame_plan *plan = c->r->plan;
@@ -314,7 +315,8 @@ static int group_empty(const skip_ctx *c, size_t j, const crisp_plan_leaf *L)
     double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
     lo[0] -= pad, lo[1] -= pad, hi[0] += pad, hi[1] += pad;
     if (c->occl) crisp__occl_set(&c->occl[j], c->win, lo, hi, iw);
-    return !holds_sample(c, lo, hi);
+    /* The empty test as without culling (the same leaves drawn when culling is off). */
+    return nu * nv <= 16 && !holds_sample(c, lo, hi);
 }
 
 /* Leaf j's vertex and triangle counts (UINT32_MAX: levels refused, the caller reports it); none
