@@ -16,7 +16,8 @@
 #include <math.h>
 #include <string.h>
 
-#define KEYS 4096 /* depth buckets of the batch split */
+#define KEYS 4096      /* depth buckets of the batch split */
+#define MIN_BATCH 8192 /* triangles */
 
 /* Where the batches end: cumulative shares of the triangles, nearest first. */
 static const double batch_end[CRISP_OCCL_BATCHES - 1] = {0.03, 0.08, 0.18, 0.35, 0.6};
@@ -79,14 +80,21 @@ size_t crisp__occl_order(const crisp_occl_leaf *occl, const uint8_t *skip, const
         hist[KEY(j)] += tris[j];
         total += tris[j];
     }
+    /* A batch ends where the triangles seen reach its share, and holds at least MIN_BATCH of
+     * them (a draw has a fixed cost: small scenes are drawn in fewer batches, or one). */
     uint8_t batch_of[KEYS];
-    uint64_t seen = 0;
+    uint64_t seen = 0, since = 0;
     int b = 0;
     for (size_t k = KEYS; k-- > 0;) {
         batch_of[k] = (uint8_t)b;
         seen += hist[k];
-        while (b < CRISP_OCCL_BATCHES - 1 && (double)seen >= batch_end[b] * (double)total)
-            b++;
+        since += hist[k];
+        if (b < CRISP_OCCL_BATCHES - 1 && since >= MIN_BATCH &&
+            (double)seen >= batch_end[b] * (double)total) {
+            while (b < CRISP_OCCL_BATCHES - 1 && (double)seen >= batch_end[b] * (double)total)
+                b++;
+            since = 0;
+        }
     }
     size_t start[CRISP_OCCL_BATCHES] = {0};
     for (size_t j = 0; j < count; j++)

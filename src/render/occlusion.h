@@ -28,7 +28,8 @@ void crisp__occl_set(crisp_occl_leaf *o, const int win[4], const double lo[2], c
 /* The leaves to draw (skip[j] == 0) into order, batch after batch: batch b is order[bstart[b]
  * .. bstart[b + 1]), in plan order within it. With occl, the batches split the leaves by their
  * nearest depth (largest 1/W first; leaves never culled in the first), each holding about a
- * share of the triangles (tris[j] per leaf); occl NULL: one batch. Returns the first leaf with
+ * share of the triangles (tris[j] per leaf) and at least 8,192 of them (fewer batches in small
+ * scenes; the last ones empty); occl NULL: one batch. Returns the first leaf with
  * tris[j] == UINT32_MAX (its levels refused), or SIZE_MAX. */
 size_t crisp__occl_order(const crisp_occl_leaf *occl, const uint8_t *skip, const uint32_t *tris,
                          size_t count, uint32_t *order, uint32_t bstart[CRISP_OCCL_BATCHES + 1]);
