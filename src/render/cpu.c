@@ -940,9 +940,10 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     size_t nv = 0, nt = 0, occluded_leaves = 0, occluded_tris = 0;
     crisp_raster_stats rs = {0};
     /* The blocks the batches drawn since the last look at the depth can have reached. */
-    int drawn = 0, dirty[4] = {INT_MAX, INT_MAX, -1, -1};
+    int drawn = 0, looked = 0, dirty[4] = {INT_MAX, INT_MAX, -1, -1};
     if (occlusion) {
-        size_t blocks = (size_t)((win[2] + 7) / 8) * (size_t)((win[3] + 7) / 8);
+        size_t blocks = (size_t)((win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK) *
+                        (size_t)((win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK);
         if ((st = crisp_grow((void **)&r->hiz, &r->hiz_cap, blocks, sizeof *r->hiz))) return st;
         memset(r->hiz, 0, blocks * sizeof *r->hiz); /* nothing drawn: no block hides anything */
     }
@@ -953,20 +954,27 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         size_t n = bstart[b + 1] - bstart[b];
         if (!n) continue;
         double ta = crisp_time_now();
-        if (drawn && nt && dirty[0] <= dirty[2]) {
-            /* Looking at the depth costs a pass over the samples of the blocks drawn since the
-             * last look (the others keep their values); a triangle not drawn saves its
+        if (drawn && nt) {
+            /* Refreshing the block depth costs a pass over the samples of the blocks drawn since
+             * the last refresh (the others keep their values); a triangle not drawn saves its
              * evaluation, setup and rasterisation (some hundred ns): worth it when the batch has
-             * at least a triangle per 128 such samples, else the batch is drawn as it is. */
-            size_t tris = 0, area = (size_t)(dirty[2] - dirty[0] + 1) *
-                                    (size_t)(dirty[3] - dirty[1] + 1) * 64 * r->desc.samples;
-            for (size_t i = 0; i < n; i++)
-                tris += r->leaf_tbase[list[i]];
-            if (128 * tris >= area) {
-                crisp__raster_block_depth(tg, r->pool, dirty, r->hiz);
-                crisp__occl_cull(r->pool, r->occl, list, n, r->hiz, (win[2] + 7) / 8, r->leaf_skip);
-                dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
+             * at least a triangle per 128 such samples. Without a refresh the last one is still
+             * a valid bound (stored depth only gets nearer). */
+            if (dirty[0] <= dirty[2]) {
+                size_t tris = 0, area = (size_t)(dirty[2] - dirty[0] + 1) *
+                                        (size_t)(dirty[3] - dirty[1] + 1) * CRISP_OCCL_BLOCK *
+                                        CRISP_OCCL_BLOCK * r->desc.samples;
+                for (size_t i = 0; i < n; i++)
+                    tris += r->leaf_tbase[list[i]];
+                if (128 * tris >= area) {
+                    crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+                    dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
+                    looked = 1;
+                }
             }
+            if (looked)
+                crisp__occl_cull(r->pool, r->occl, list, n, r->hiz,
+                                 (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK, r->leaf_skip);
         }
         /* Offsets of the batch's drawn leaves (in plan order), the list compacted to them. */
         size_t kept = 0, vb0 = nv, tb0 = nt;

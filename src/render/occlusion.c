@@ -32,8 +32,10 @@ void crisp__occl_set(crisp_occl_leaf *o, const int win[4], const double lo[2], c
         b[q] = x0 > 0 ? (x0 < n ? x0 : n) : 0;
         b[2 + q] = x1 > 0 ? (x1 < n ? x1 : n) : 0;
     }
-    o->bx0 = (uint16_t)((int)b[0] / 8), o->by0 = (uint16_t)((int)b[1] / 8);
-    o->bx1 = (uint16_t)((int)b[2] / 8), o->by1 = (uint16_t)((int)b[3] / 8);
+    o->bx0 = (uint16_t)((int)b[0] / CRISP_OCCL_BLOCK),
+    o->by0 = (uint16_t)((int)b[1] / CRISP_OCCL_BLOCK);
+    o->bx1 = (uint16_t)((int)b[2] / CRISP_OCCL_BLOCK),
+    o->by1 = (uint16_t)((int)b[3] / CRISP_OCCL_BLOCK);
     /* Rounded up to a float, with a relative margin of 2^-10: a covered sample may lie up to
      * 1/512 px outside its triangle's unsnapped position while its 1/W comes from the unsnapped
      * plane, which moves it beyond the vertices' range by about 3e-6 / sin(angle between the

@@ -10,9 +10,13 @@
 #include "crisp/core.h"
 
 #define CRISP_OCCL_BATCHES 6
+/* Pixels per side of the blocks whose depth is tested (crisp__raster_block_depth). */
+#ifndef CRISP_OCCL_BLOCK
+#define CRISP_OCCL_BLOCK 4
+#endif
 
-/* Per leaf: the 8x8 pixel blocks of the target its samples can lie in (inclusive) and an upper
- * bound of its fragments' 1/W (INFINITY: never culled). */
+/* Per leaf: the CRISP_OCCL_BLOCK-pixel blocks of the target its samples can lie in (inclusive) and
+ * an upper bound of its fragments' 1/W (INFINITY: never culled). */
 typedef struct crisp_occl_leaf {
     uint16_t bx0, by0, bx1, by1;
     float iw;

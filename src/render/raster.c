@@ -254,7 +254,7 @@ static void clear_now(crisp_raster_target *t, crisp_pool *pool)
 
 typedef struct block_depth_ctx {
     const crisp_raster_target *t;
-    int bx0, by0, bx1;
+    int size, bx0, by0, bx1;
     double *dest;
 } block_depth_ctx;
 
@@ -264,17 +264,17 @@ static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
     (void)worker;
     const block_depth_ctx *c = vctx;
     const crisp_raster_target *t = c->t;
-    int S = t->samples, bw = (t->width + 7) / 8;
+    int S = t->samples, n = c->size, bw = (t->width + n - 1) / n;
     for (int by = c->by0 + (int)begin; by < c->by0 + (int)end; by++) {
         double *out = c->dest + (size_t)by * (size_t)bw;
         for (int bx = c->bx0; bx <= c->bx1; bx++)
             out[bx] = INFINITY;
-        int j1 = (by + 1) * 8 < t->height ? (by + 1) * 8 : t->height;
-        for (int j = by * 8; j < j1; j++) {
+        int j1 = (by + 1) * n < t->height ? (by + 1) * n : t->height;
+        for (int j = by * n; j < j1; j++) {
             const double *row = t->inv_w + (size_t)j * t->width * S;
             for (int bx = c->bx0; bx <= c->bx1; bx++) {
-                size_t a = (size_t)bx * 8 * S,
-                       b = (size_t)(bx * 8 + 8 < t->width ? bx * 8 + 8 : t->width) * S;
+                size_t a = (size_t)bx * n * S,
+                       b = (size_t)(bx * n + n < t->width ? bx * n + n : t->width) * S;
                 double m = out[bx];
                 for (size_t k = a; k < b; k++)
                     m = row[k] < m ? row[k] : m;
@@ -284,10 +284,10 @@ static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
-void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, const int *blocks,
-                               double *dest)
+void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, int size,
+                               const int *blocks, double *dest)
 {
-    int bw = (t->width + 7) / 8, bh = (t->height + 7) / 8;
+    int bw = (t->width + size - 1) / size, bh = (t->height + size - 1) / size;
     int b[4] = {0, 0, bw - 1, bh - 1};
     if (blocks)
         for (int k = 0; k < 4; k++) {
@@ -301,7 +301,7 @@ void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, c
                 dest[(size_t)by * bw + bx] = 0;
         return;
     }
-    block_depth_ctx c = {t, b[0], b[1], b[2], dest};
+    block_depth_ctx c = {t, size, b[0], b[1], b[2], dest};
     crisp_pool_parallel_for(pool, (size_t)(b[3] - b[1] + 1), 4, block_depth_rows, &c);
 }
 
