@@ -60,7 +60,7 @@ struct crisp_renderer {
     size_t order_cap;
     crisp_occl_leaf *occl; /* per plan leaf: its blocks and nearest depth (occlusion culling) */
     size_t occl_cap;
-    double *hiz; /* per 8x8 block of the target: the least 1/W drawn (crisp__raster_block_depth) */
+    double *hiz; /* per 4x4 block of the target: the least 1/W drawn (crisp__raster_block_depth) */
     size_t hiz_cap;
 };
 
@@ -253,7 +253,7 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
  * of the image, the leaf draws nothing and is not tessellated. The image is unchanged: far away,
  * where many patches share a pixel, most leaves fall between the samples. The same pass counts
  * each drawn leaf's vertices and triangles (in parallel; the caller turns them into offsets) and
- * keeps, for occlusion culling, the 8x8 blocks of the target its samples can lie in and the
+ * keeps, for occlusion culling, the 4x4 blocks of the target its samples can lie in and the
  * largest 1/W of its hull (crisp_occl_leaf). */
 typedef struct skip_ctx {
     crisp_renderer *r;

@@ -2,7 +2,7 @@
  * depth test (Greene, Kass & Miller, "Hierarchical Z-buffer visibility", SIGGRAPH 1993) at one
  * level, applied to a leaf's conservative bounds before it is tessellated: the leaves are drawn in
  * a few batches, nearest first, and before a batch is tessellated each of its leaves is compared
- * with the farthest depth drawn so far in every 8x8 block its samples can reach
+ * with the farthest depth drawn so far in every 4x4 block its samples can reach
  * (crisp__raster_block_depth; a block counts only where every sample has been written). A leaf's
  * triangles are surface points' triangles: inside its projected control hull (positive weights),
  * so their 1/W is at most the hull's largest 1/W, and their samples lie in its screen box widened
