@@ -269,9 +269,12 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         cpu_plans += cpu_ms() - c0;
     }
     if (getenv("BENCH_SCREEN_STAGES"))
-        fprintf(stderr, "%s %s %s: levels %.1f edges %.1f trim %.1f ribbons %.1f ms\n", scene_name,
-                cam_name, no_groups ? "no groups" : "groups", plan->stats.ms_levels,
-                plan->stats.ms_edges, plan->stats.ms_trim, plan->stats.ms_ribbons);
+        fprintf(stderr,
+                "%s %s %s: levels %.1f edges %.1f trim %.1f ribbons %.1f ms; %u visible faces, "
+                "%u table rows, %u ribbon quads\n",
+                scene_name, cam_name, no_groups ? "no groups" : "groups", plan->stats.ms_levels,
+                plan->stats.ms_edges, plan->stats.ms_trim, plan->stats.ms_ribbons,
+                plan->stats.visible_faces, plan->row_count, plan->ribbon_quad_count);
     double peak_kb = status_kb("VmHWM:");
     size_t covered = 0;
     for (size_t p = 0; p < (size_t)img.width * img.height; p++)

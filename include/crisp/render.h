@@ -106,6 +106,8 @@ typedef struct crisp_scene {
     size_t control_point_count;              /* points of 4 doubles */
     crisp_scene_patch_record *patch_records; /* patch_count */
     double box[6];
+    uint64_t serial; /* unique among the scenes this process prepared: what a renderer builds from
+                        a scene's patches is kept by it (a new scene may reuse an address) */
 } crisp_scene;
 
 crisp_status crisp_scene_prepare(const crisp_model *model, crisp_scene **dest);

@@ -66,6 +66,34 @@ crisp_status crisp_trim_pieces_check(const crisp_bezier_curve *pieces, int piece
 
 /* ---- v-scan and u-scan density --------------------------------------------------------------- */
 
+/* A view-independent hierarchy over a face's grid of Bézier patches that lets
+ * crisp_trim_scan_density bound whole blocks of patches at once (issue 12): aligned 2^g x 2^g
+ * blocks of the grid (g >= 1, clipped to the grid), each with boxes of its patches' homogeneous
+ * control points and of their degree-elevated first-derivative coefficients per unit of the
+ * face's u and v. Built once per face (crisp_trim_density_tree_build) and reused every frame. */
+typedef struct crisp_trim_density_block {
+    uint32_t iu0, iv0, nu, nv; /* patches: columns iu0 .. iu0 + nu - 1, rows iv0 .. iv0 + nv - 1 */
+    int32_t child[4];          /* sub-blocks; all -1: the block's patches are walked one by one */
+    double u0, u1, v0, v1;     /* the block's parameter box on the face */
+    double h[8];               /* lo[4], hi[4]: box of the homogeneous control points */
+    double du[8], dv[8];       /* lo[4], hi[4]: box of the derivative coefficients in u, v */
+} crisp_trim_density_block;
+
+typedef struct crisp_trim_density_tree {
+    int grid_u, grid_v; /* patch p = iv * grid_u + iu */
+    int max_du, max_dv; /* the patches' largest degrees (checked when the tree was built) */
+    int32_t root;       /* -1: no blocks (a single patch) */
+    crisp_trim_density_block *blocks;
+    size_t count, cap;
+} crisp_trim_density_tree;
+
+/* patches: grid_u * grid_v patches of one face, u fastest, patch (iu, iv) covering the parameter
+ * box [u0, u1] x [v0, v1] of column iu and row iv. Reuses dest's buffer (zero-initialise before
+ * first use). */
+crisp_status crisp_trim_density_tree_build(const crisp_bezier_patch *patches, int grid_u,
+                                           int grid_v, crisp_trim_density_tree *dest);
+void crisp_trim_density_tree_free(crisp_trim_density_tree *t);
+
 typedef struct crisp_trim_density_desc {
     const crisp_bezier_patch *patches; /* the face's Bézier patches (homogeneous, object space) */
     int patch_count;
@@ -81,6 +109,17 @@ typedef struct crisp_trim_density_desc {
      * (sub-patches wholly outside it are dropped; see crisp_trim_plan_face for why that is sound
      * for the table). */
     const double *strip_u;
+    /* NULL, or the hierarchy built from patches (crisp_trim_density_tree_build; patch_count must
+     * be its grid_u * grid_v): whole blocks are culled or bounded from their boxes, and only
+     * blocks whose box bound asks for many more rows than their sampled speeds are refined to
+     * sub-blocks and, below the smallest blocks, to the per-patch bound. The patches are then
+     * not checked again (the tree's build checked them): O(1) per face for a face far away. */
+    const crisp_trim_density_tree *tree;
+    /* NULL, or 2 values per strip written by crisp_trim_scan_density: a u-interval that holds
+     * every point of the strip inside the widened frustum with u in the strip's u-range (empty,
+     * lo > hi, when there is none): what the strip's part of the surface outside it is, is off
+     * screen (the trim ribbons skip it). */
+    double *vis_u;
 } crisp_trim_density_desc;
 
 typedef struct crisp_trim_density_stats {
@@ -193,6 +232,7 @@ typedef struct crisp_trim_plan {
     int strip_count;
     double *rho_v, *rho_u;
     double *vis_v;   /* 2 per strip */
+    double *vis_u;   /* 2 per strip (crisp_trim_density_desc.vis_u) */
     double *strip_u; /* 2 per strip: the u-range the trim loops can reach in the strip */
     double v0, v1;   /* the strips' v-range: the face's, narrowed to the loops' (the table's) */
     uint32_t *mu;
@@ -211,8 +251,9 @@ typedef struct crisp_trim_plan_desc {
     int piece_count;
     crisp_mat4 *view_proj;
     int width, height;
-    double v0, v1;   /* the face's v-range */
-    int strip_count; /* n_V; 0 means 16 */
+    double v0, v1;                       /* the face's v-range */
+    int strip_count;                     /* n_V; 0 means 16 */
+    const crisp_trim_density_tree *tree; /* NULL, or as crisp_trim_density_desc.tree */
 } crisp_trim_plan_desc;
 
 /* Only points inside the loops can be inside the face, so the strips cover the face's v-range

@@ -118,12 +118,16 @@ static void bvh_free(bvh *b)
     free(b->order);
 }
 
-/* Slab test: the ray's parameter range inside the box, intersected with [t0, t1]. */
+/* Slab test: the ray's parameter range inside the box, intersected with [t0, t1]. The box is
+ * widened by 1e-9 of its size: boxes from control points round (a sphere's quarters reach the
+ * axis only to within 1e-32), and a ray along that axis, parallel to the slabs, then missed every
+ * patch at the pole (test_normals' test_exact_singular). */
 static int ray_box(const double box[6], const double o[3], const double inv[3], double t0,
                    double t1)
 {
+    double pad = 1e-9 * fmax(fmax(box[3] - box[0], box[4] - box[1]), box[5] - box[2]);
     for (int k = 0; k < 3; k++) {
-        double a = (box[k] - o[k]) * inv[k], b = (box[k + 3] - o[k]) * inv[k];
+        double a = (box[k] - pad - o[k]) * inv[k], b = (box[k + 3] + pad - o[k]) * inv[k];
         if (a > b) {
             double t = a;
             a = b;
@@ -255,15 +259,29 @@ static int newton(const crisp_bezier_patch *p, const double o[3], const double n
     return 0;
 }
 
+/* Whether the patch's point at (s, t) lies on the ray within tol. */
+static int on_ray(const crisp_bezier_patch *p, const double o[3], const double n1[3],
+                  const double n2[3], double tol, double s, double t)
+{
+    double P[3], d[3];
+    crisp_bezier_patch_eval(p, s, t, P);
+    crisp_vec3_sub(P, o, d);
+    return fabs(crisp_vec3_dot(n1, d)) <= tol && fabs(crisp_vec3_dot(n2, d)) <= tol;
+}
+
 static void add_hit(hit *hits, int *nh, const crisp_scene_patch *sp, uint32_t pi, double s,
                     double t, const double o[3], const double d[3])
 {
     double P[3];
     crisp_bezier_patch_eval(&sp->bez, s, t, P);
     double rt = (P[0] - o[0]) * d[0] + (P[1] - o[1]) * d[1] + (P[2] - o[2]) * d[2];
+    /* The same hit again: the same local point, or the same point of the ray (along an edge the
+     * patch collapses, every wedge of it finds the pole or apex at its own parameters; they
+     * filled the list and hid the hits behind them). */
     for (int k = 0; k < *nh; k++)
-        if (hits[k].patch == pi && fabs(hits[k].local[0] - s) < 1e-7 &&
-            fabs(hits[k].local[1] - t) < 1e-7)
+        if (hits[k].patch == pi &&
+            ((fabs(hits[k].local[0] - s) < 1e-7 && fabs(hits[k].local[1] - t) < 1e-7) ||
+             fabs(hits[k].t - rt) <= 1e-13 * fabs(rt)))
             return;
     if (*nh >= MAX_HITS) return;
     hit *h = &hits[(*nh)++];
@@ -339,10 +357,21 @@ static void intersect_patch(const crisp_scene *sc, uint32_t pi, const double o[3
         double ws = cur->s1 - cur->s0, wt = cur->t1 - cur->t0;
         if (ws <= NEWTON_SIZE && wt <= NEWTON_SIZE) {
             double s = 0.5 * (cur->s0 + cur->s1), t = 0.5 * (cur->t0 + cur->t1);
-            if (newton(p, o, n1, n2, tol, &s, &t) && s >= cur->s0 - 1e-9 && s <= cur->s1 + 1e-9 &&
-                t >= cur->t0 - 1e-9 && t <= cur->t1 + 1e-9) {
-                add_hit(hits, nh, sp, pi, fmin(fmax(s, 0), 1), fmin(fmax(t, 0), 1), o, d);
-                continue;
+            if (newton(p, o, n1, n2, tol, &s, &t)) {
+                if (s >= cur->s0 - 1e-9 && s <= cur->s1 + 1e-9 && t >= cur->t0 - 1e-9 &&
+                    t <= cur->t1 + 1e-9) {
+                    add_hit(hits, nh, sp, pi, fmin(fmax(s, 0), 1), fmin(fmax(t, 0), 1), o, d);
+                    continue;
+                }
+                /* Converged outside the sub-patch: where the hit lies on an edge the patch
+                 * collapses to one point (a ray straight onto a pole or an apex), its parameter
+                 * along that edge is free and Newton leaves it anywhere; the point of the
+                 * sub-patch nearest in parameters is then the same hit. */
+                double sc = fmin(fmax(s, cur->s0), cur->s1), tc = fmin(fmax(t, cur->t0), cur->t1);
+                if (on_ray(p, o, n1, n2, 16 * tol, sc, tc)) {
+                    add_hit(hits, nh, sp, pi, sc, tc, o, d);
+                    continue;
+                }
             }
             if (ws <= MIN_SIZE && wt <= MIN_SIZE) {
                 /* Newton failed (a tangent ray): the sub-patch is below any pixel's size. */
@@ -354,6 +383,25 @@ static void intersect_patch(const crisp_scene *sc, uint32_t pi, const double o[3
         }
         if (top + 2 > STACK) continue; /* cannot happen with halving to MIN_SIZE; stay bounded */
         int along_u = ws >= wt;
+        if (ws <= NEWTON_SIZE && wt <= NEWTON_SIZE) {
+            /* Newton failed at this size (a ray grazing the surface, or passing near a point
+             * where the patch collapses): split across the longer side of the projected net.
+             * Halving the parameter sides alike split the wedges along a sphere's pole into
+             * ever thinner wedges that all still reach the ray (test_cracks' octant sphere at a
+             * grazing view of the pole: up to 48,854 sub-patches for one ray). */
+            double ls = 0, lt = 0;
+            for (int j = 0; j < nv; j++) {
+                const double *a = cur->c[j * nu], *b = cur->c[j * nu + nu - 1];
+                ls = fmax(ls, fabs(b[0] - a[0]) + fabs(b[1] - a[1]));
+            }
+            for (int i = 0; i < nu; i++) {
+                const double *a = cur->c[i], *b = cur->c[(nv - 1) * nu + i];
+                lt = fmax(lt, fabs(b[0] - a[0]) + fabs(b[1] - a[1]));
+            }
+            along_u = ls >= lt;
+            if (along_u && ws <= MIN_SIZE) along_u = 0;
+            if (!along_u && wt <= MIN_SIZE) along_u = 1;
+        }
         sub tmp = *cur; /* cur is the slot lo overwrites */
         sub *lo = &scr->stack[top], *hi = &scr->stack[top + 1];
         split_dir(&tmp, nu, nv, along_u, lo, hi);
@@ -429,6 +477,10 @@ static void hit_outputs(const crisp_scene *sc, const hit *h, uint32_t *face, dou
         crisp_bezier_patch_derivs(&sp->bez, h->local[0], h->local[1], P, Ps, Pt);
         double n[3];
         crisp_vec3_cross(Ps, Pt, n);
+        /* A hit on a collapsed edge (a cone's apex, a sphere's pole) or where the partials are
+         * parallel: the limit normal from inside the patch, as the other backends take it. */
+        if (crisp__normal_degenerate(Ps, Pt, n))
+            crisp_bezier_patch_normal(&sp->bez, h->local[0], h->local[1], n);
         if (sc->faces[sp->face].src->reversed) crisp_vec3_scale(n, -1, n);
         crisp_vec3_normalize(n, normal);
     }

@@ -12,28 +12,50 @@
 #include <string.h>
 
 #include "quadtree.h"
+#include "rational_bound.h"
 
 typedef struct group {
     uint32_t iu0, iv0, nu, nv; /* patch grid block: columns iu0.., rows iv0.. (clipped) */
     uint32_t g;                /* the block is 2^g x 2^g patches before clipping */
     int32_t child[4];          /* -1: none (outside the grid, or a single patch) */
     double box[6];
-    double dev[4]; /* per homogeneous object coordinate: the largest distance between a control
-                      point of the block and the bilinear through the block's corners there */
+    double dev[4];   /* per homogeneous object coordinate: the largest distance between a control
+                        point of the block and the bilinear through the block's corners there */
+    double devq[3];  /* rational blocks: crisp__rational_block_deviation (x, y, z) */
+    double wlo, whi; /* the least and largest weight of the block's patches */
+    int rational;    /* the weights vary over the block (whi > wlo) */
 } group;
 
 struct crisp__groups {
     const crisp_scene *scene;
-    uint64_t key; /* checksum of the patch boxes and face grids the hierarchy was built from */
+    uint64_t key; /* the serial of the scene the hierarchy was built from */
     uint32_t patch_count, face_count;
     group *nodes;
     size_t node_count, node_cap;
     uint32_t *face_root; /* per face: its top group, UINT32_MAX when the face has no patches */
-    uint8_t *face_small; /* per face, this frame: the whole (untrimmed) face within eps on screen */
+    uint8_t *face_small; /* per face, this frame: the whole (untrimmed) face within FACE_SMALL_PX */
     uint32_t group_leaves; /* this frame */
     uint32_t *counts;      /* per face: group leaves this frame */
     float *face_px;        /* per face, this frame: screen extent of its box (INFINITY: unknown) */
+    uint64_t generation;   /* bumped whenever the hierarchy is rebuilt (a new scene) */
+    /* This frame's decisions per block (node): what owns its patches. Only the blocks the walk
+     * reached are written; node_frame says which are current. */
+    uint8_t *node_kind;     /* NODE_* */
+    uint32_t *node_frame;   /* the classify call that wrote node_kind */
+    uint32_t frame;         /* classify calls so far */
+    uint32_t **face_active; /* per face: this frame's active patches (see crisp__groups_classify) */
+    uint32_t *face_active_count;
+    size_t *face_active_cap;
+    int oom; /* a walk ran out of memory */
 };
+
+/* A face whose box spans at most this many pixels in x and in y on screen: any two of its points,
+ * in particular a pixel's point and any point of its trim curves, are at most sqrt(2) times that
+ * (< 1 px) apart, so every trim decision on it is within the 1 px guarantee of
+ * include/crisp/trim.h (crisp__groups_face_small). */
+#define FACE_SMALL_PX 0.7
+
+enum { NODE_OPEN = 0, NODE_CULLED = 1, NODE_GROUP = 2, NODE_OWN = 3 }; /* OWN: patches own trees */
 
 /* n->dev (see group): view-independent, so a frame bounds the block's deviation in clip space
  * from its corners alone (|M d| <= |M| |d| per coordinate). */
@@ -86,7 +108,11 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
                lv,
                {-1, -1, -1, -1},
                {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY},
-               {0, 0, 0, 0}};
+               {0, 0, 0, 0},
+               {0, 0, 0},
+               INFINITY,
+               -INFINITY,
+               0};
     if (lv == 0) {
         const double *b = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].box;
         memcpy(n.box, b, sizeof n.box);
@@ -103,7 +129,20 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
             }
         }
     }
+    if (lv == 0)
+        crisp__rational_weight_range(&sc->patches[f->first_patch + iv0 * f->grid_u + iu0].bez,
+                                     &n.wlo, &n.whi);
+    else
+        for (int k = 0; k < 4; k++)
+            if (n.child[k] >= 0) {
+                n.wlo = fmin(n.wlo, g->nodes[n.child[k]].wlo);
+                n.whi = fmax(n.whi, g->nodes[n.child[k]].whi);
+            }
+    n.rational = n.whi > n.wlo;
     if (n.nu * n.nv > 1) block_deviation(sc, f, &n);
+    if (n.nu * n.nv > 1 && n.rational)
+        crisp__rational_block_deviation(&sc->patches[f->first_patch + iv0 * f->grid_u + iu0],
+                                        f->grid_u, n.nu, n.nv, n.devq);
     g->nodes[me] = n;
     *dest = me;
     return CRISP_OK;
@@ -117,9 +156,27 @@ crisp_status crisp__groups_create(crisp__groups **dest)
     return CRISP_OK;
 }
 
+static void free_frame_state(crisp__groups *g)
+{
+    if (g->face_active)
+        for (uint32_t f = 0; f < g->face_count; f++)
+            free(g->face_active[f]);
+    free(g->face_active);
+    free(g->face_active_count);
+    free(g->face_active_cap);
+    free(g->node_kind);
+    free(g->node_frame);
+    g->face_active = NULL;
+    g->face_active_count = NULL;
+    g->face_active_cap = NULL;
+    g->node_kind = NULL;
+    g->node_frame = NULL;
+}
+
 void crisp__groups_destroy(crisp__groups *g)
 {
     if (!g) return;
+    free_frame_state(g);
     free(g->nodes);
     free(g->face_root);
     free(g->face_small);
@@ -128,32 +185,17 @@ void crisp__groups_destroy(crisp__groups *g)
     free(g);
 }
 
-/* A scene destroyed and another prepared at the same address must not reuse the hierarchy: the
- * key covers every patch box and face grid (about a microsecond per 100 patches). */
-static uint64_t scene_key(const crisp_scene *sc)
-{
-    uint64_t h = 1469598103934665603ull ^ sc->patch_count ^ ((uint64_t)sc->face_count << 32);
-    for (uint32_t p = 0; p < sc->patch_count; p++)
-        for (int k = 0; k < 6; k++) {
-            uint64_t w;
-            memcpy(&w, &sc->patches[p].box[k], 8);
-            h = (h ^ w) * 1099511628211ull;
-        }
-    for (uint32_t f = 0; f < sc->face_count; f++)
-        h = (h ^ ((uint64_t)sc->faces[f].grid_u << 32 ^ sc->faces[f].grid_v ^
-                  (uint64_t)sc->faces[f].first_patch << 16)) *
-            1099511628211ull;
-    return h;
-}
-
 static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
 {
-    uint64_t key = scene_key(sc);
-    if (g->scene == sc && g->key == key && g->patch_count == sc->patch_count &&
+    /* A scene destroyed and another prepared at the same address must not reuse the hierarchy:
+     * scenes have serial numbers. */
+    if (g->scene == sc && g->key == sc->serial && g->patch_count == sc->patch_count &&
         g->face_count == sc->face_count)
         return CRISP_OK;
-    g->key = key;
+    g->key = sc->serial;
+    free_frame_state(g);
     g->scene = NULL;
+    g->face_count = 0;
     g->node_count = 0;
     free(g->face_root);
     free(g->face_small);
@@ -177,9 +219,19 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
         if (st) return st;
         g->face_root[f] = (uint32_t)root;
     }
-    g->scene = sc;
-    g->patch_count = sc->patch_count;
+    size_t nf = sc->face_count ? sc->face_count : 1, nn = g->node_count ? g->node_count : 1;
+    g->face_active = calloc(nf, sizeof *g->face_active);
+    g->face_active_count = calloc(nf, sizeof *g->face_active_count);
+    g->face_active_cap = calloc(nf, sizeof *g->face_active_cap);
+    g->node_kind = calloc(nn, sizeof *g->node_kind);
+    g->node_frame = calloc(nn, sizeof *g->node_frame);
     g->face_count = sc->face_count;
+    if (!g->face_active || !g->face_active_count || !g->face_active_cap || !g->node_kind ||
+        !g->node_frame)
+        return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
+    g->scene = sc;
+    g->generation++;
+    g->patch_count = sc->patch_count;
     return CRISP_OK;
 }
 
@@ -228,11 +280,27 @@ typedef struct walk_ctx {
     uint32_t *counts; /* group leaves per face */
 } walk_ctx;
 
-static void set_mode(const crisp_scene_face *f, const group *n, uint8_t mode, uint8_t *dest)
+/* Patches of face fi that get a tree of their own this frame, with their mode. */
+static void activate(walk_ctx *c, uint32_t fi, uint32_t p, uint8_t mode)
+{
+    crisp__groups *g = c->g;
+    uint32_t n = g->face_active_count[fi];
+    if (crisp_grow((void **)&g->face_active[fi], &g->face_active_cap[fi], (size_t)n + 1,
+                   sizeof **g->face_active)) {
+        g->oom = 1;
+        return;
+    }
+    g->face_active[fi][n] = p;
+    g->face_active_count[fi] = n + 1;
+    c->out->mode[p] = mode;
+}
+
+static void activate_block(walk_ctx *c, uint32_t fi, const crisp_scene_face *f, const group *n,
+                           uint8_t mode)
 {
     for (uint32_t iv = n->iv0; iv < n->iv0 + n->nv; iv++)
         for (uint32_t iu = n->iu0; iu < n->iu0 + n->nu; iu++)
-            dest[f->first_patch + iv * f->grid_u + iu] = mode;
+            activate(c, fi, f->first_patch + iv * f->grid_u + iu, mode);
 }
 
 /* Screen distance (pixels, max of x and y) bound for homogeneous clip points within e[] (x, y, w)
@@ -307,11 +375,25 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
     double E0[3];
     for (int a = 0; a < 3; a++)
         E0[a] = D[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
-    if (screen_px(D, wmin, xmax, ymax, c->width, c->height) +
-            screen_px(E0, wmin, xmax, ymax, c->width, c->height) <=
-        c->eps)
+    if (!n->rational && screen_px(D, wmin, xmax, ymax, c->width, c->height) +
+                                screen_px(E0, wmin, xmax, ymax, c->width, c->height) <=
+                            c->eps)
+        return 1;
+    /* Blocks whose weights vary: the same bound without dividing by the weights, measured at the
+     * parameters the rasterizer interpolates (rational_bound.c; the homogeneous one bounds
+     * another point of the same triangle there). */
+    double(*m)[4] = (double(*)[4])c->m, fast = INFINITY;
+    if (n->rational &&
+        (fast = crisp__rational_block_px_fast(&sc->patches[base], f->grid_u, n->nu, n->nv, n->devq,
+                                              m, c->width, c->height)) <= c->eps)
         return 1;
     if (n->nu * n->nv > 64 || extent > GROUP_TRY_PX) return 0;
+    /* the per-control-point bound is rarely below a quarter of the O(1) one */
+    if (n->rational && fast <= 4 * c->eps &&
+        crisp__rational_block_px(&sc->patches[base], f->grid_u, n->nu, n->nv, m, c->width,
+                                 c->height, c->eps) <= c->eps)
+        return 1;
+    if (n->rational) return 0;
     D[0] = D[1] = D[2] = 0;
     for (uint32_t jv = 0; jv < n->nv; jv++)
         for (uint32_t iu = 0; iu < n->nu; iu++) {
@@ -346,16 +428,17 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     walk_ctx *c = vctx;
-    uint8_t *mode = c->out->mode;
+    crisp__groups *g = c->g;
     for (size_t fi = begin; fi < end; fi++) {
         const crisp_scene_face *f = &c->sc->faces[fi];
-        uint32_t root = c->g->face_root[fi];
-        c->g->face_small[fi] = 0;
-        c->g->face_px[fi] = INFINITY;
+        uint32_t root = g->face_root[fi];
+        g->face_small[fi] = 0;
+        g->face_px[fi] = INFINITY;
+        g->face_active_count[fi] = 0;
         c->counts[fi] = 0;
         if (root == UINT32_MAX) {
             for (uint32_t p = 0; p < f->patch_count; p++)
-                mode[f->first_patch + p] = CRISP__PATCH_OPEN;
+                activate(c, (uint32_t)fi, f->first_patch + p, CRISP__PATCH_OPEN);
             continue;
         }
         int32_t stack[4 * 64];
@@ -363,32 +446,39 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
         stack[top++] = (int32_t)root;
         while (top > 0) {
             int32_t at = stack[--top];
-            const group *n = &c->g->nodes[at];
+            const group *n = &g->nodes[at];
             double extent;
             int k = classify(n->box, c->m, c->gx, c->gy, c->width, c->height, c->eps, &extent);
-            if ((uint32_t)at == root && k == 2) c->g->face_small[fi] = 1;
-            if ((uint32_t)at == root) c->g->face_px[fi] = (float)extent;
+            if ((uint32_t)at == root && k != 1 && extent <= FACE_SMALL_PX) g->face_small[fi] = 1;
+            if ((uint32_t)at == root) g->face_px[fi] = (float)extent;
+            g->node_frame[at] = g->frame;
+            g->node_kind[at] = NODE_OWN;
             if (k == 1) {
-                set_mode(f, n, CRISP__PATCH_CULLED, mode);
+                g->node_kind[at] = NODE_CULLED; /* its patches: no tree (crisp__groups_owner) */
             } else if (n->nu * n->nv == 1) {
-                set_mode(f, n, k == 2 ? CRISP__PATCH_SMALL : CRISP__PATCH_OPEN, mode);
+                activate(c, (uint32_t)fi, f->first_patch + n->iv0 * f->grid_u + n->iu0,
+                         k == 2 ? CRISP__PATCH_SMALL : CRISP__PATCH_OPEN);
             } else if (c->out->group_g && group_leaf_ok(c, f, n, extent)) {
-                set_mode(f, n, CRISP__PATCH_GROUPED, mode);
                 uint32_t origin = f->first_patch + n->iv0 * f->grid_u + n->iu0;
-                mode[origin] = CRISP__PATCH_GROUP;
+                g->node_kind[at] = NODE_GROUP;
+                activate(c, (uint32_t)fi, origin, CRISP__PATCH_GROUP);
                 c->out->group_g[origin] = (uint8_t)n->g;
-                for (uint32_t iv = n->iv0; iv < n->iv0 + n->nv; iv++)
-                    for (uint32_t iu = n->iu0; iu < n->iu0 + n->nu; iu++)
-                        c->out->group_of[f->first_patch + iv * f->grid_u + iu] = origin;
                 c->counts[fi]++;
             } else if (k == 2) {
-                set_mode(f, n, CRISP__PATCH_SMALL, mode);
+                activate_block(c, (uint32_t)fi, f, n, CRISP__PATCH_SMALL);
             } else {
+                g->node_kind[at] = NODE_OPEN;
                 for (int q = 3; q >= 0; q--)
                     if (n->child[q] >= 0) stack[top++] = n->child[q];
             }
         }
     }
+}
+
+static int u32_cmp(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
 }
 
 crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj,
@@ -398,9 +488,8 @@ crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, cri
     crisp_status st = ensure_built(g, sc);
     if (st) return st;
     uint32_t *counts = g->counts;
-    if (out->group_of)
-        for (uint32_t p = 0; p < sc->patch_count; p++)
-            out->group_of[p] = UINT32_MAX;
+    g->frame++;
+    g->oom = 0;
     walk_ctx c = {.g = g,
                   .sc = sc,
                   .gx = gx,
@@ -412,10 +501,49 @@ crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, cri
                   .counts = counts};
     crisp_mat4_copy(view_proj, c.m);
     crisp_pool_parallel_for(pool, sc->face_count, 4, walk_faces, &c);
+    if (g->oom) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
     g->group_leaves = 0;
-    for (uint32_t f = 0; f < sc->face_count; f++)
+    size_t total = 0;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
         g->group_leaves += counts[f];
+        total += g->face_active_count[f];
+    }
+    if ((st = crisp_grow((void **)out->active, out->active_cap, total ? total : 1,
+                         sizeof **out->active)))
+        return st;
+    size_t at = 0;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        uint32_t n = g->face_active_count[f];
+        if (!n) continue;
+        memcpy(*out->active + at, g->face_active[f], n * sizeof **out->active);
+        qsort(*out->active + at, n, sizeof **out->active, u32_cmp);
+        at += n;
+    }
+    *out->active_count = at;
     return CRISP_OK;
+}
+
+uint32_t crisp__groups_owner(const crisp__groups *g, const crisp_scene *sc, uint32_t q)
+{
+    const crisp_scene_patch *sp = &sc->patches[q];
+    const crisp_scene_face *f = &sc->faces[sp->face];
+    uint32_t at = g->face_root[sp->face];
+    while (at != UINT32_MAX && g->node_frame[at] == g->frame) {
+        const group *n = &g->nodes[at];
+        switch (g->node_kind[at]) {
+        case NODE_GROUP:
+            return f->first_patch + n->iv0 * f->grid_u + n->iu0;
+        case NODE_OPEN: {
+            uint32_t h = n->g - 1;
+            int k = (int)((sp->iu >> h) & 1) | (int)(((sp->iv >> h) & 1) << 1);
+            at = n->child[k] >= 0 ? (uint32_t)n->child[k] : UINT32_MAX;
+            break;
+        }
+        default:
+            return q;
+        }
+    }
+    return q;
 }
 
 double crisp__groups_face_px(const crisp__groups *g, uint32_t face)
@@ -426,4 +554,9 @@ double crisp__groups_face_px(const crisp__groups *g, uint32_t face)
 int crisp__groups_face_small(const crisp__groups *g, uint32_t face)
 {
     return g && g->face_small && face < g->face_count && g->face_small[face];
+}
+
+uint64_t crisp__groups_generation(const crisp__groups *g)
+{
+    return g ? g->generation : 0;
 }

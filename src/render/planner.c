@@ -103,19 +103,21 @@ static crisp_status lay_out_leaves(crisp_planner *p, const crisp_scene *sc)
 {
     const crisp__trees *t = p->trees;
     size_t n = 0;
-    for (uint32_t q = 0; q < sc->patch_count; q++)
-        n += t->patches[q].visible_leaves;
+    for (size_t i = 0; i < t->active_count; i++)
+        n += t->patches[t->active[i]].visible_leaves;
     if (n > UINT32_MAX / 2)
         return crisp_error(CRISP_ERR_LIMIT, "%zu leaves in one frame: too many", n);
     crisp_status st = crisp_grow((void **)&p->leaves, &p->leaf_cap, n ? n : 1, sizeof *p->leaves);
     if (st) return st;
     uint64_t triangles = 0;
-    size_t at = 0;
+    size_t at = 0, next = 0; /* the active patches are ascending: face after face */
     for (uint32_t f = 0; f < sc->face_count; f++) {
         const crisp_scene_face *sf = &sc->faces[f];
         crisp_plan_face *pf = &p->faces[f];
         pf->first_leaf = (uint32_t)at;
-        for (uint32_t q = sf->first_patch; q < sf->first_patch + sf->patch_count; q++) {
+        for (; next < t->active_count && t->active[next] < sf->first_patch + sf->patch_count;
+             next++) {
+            uint32_t q = t->active[next];
             const crisp__patch_tree *pt = &t->patches[q];
             if (!pt->visible_leaves) continue;
             for (uint32_t l = 0; l < pt->leaf_count; l++) {

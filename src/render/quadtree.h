@@ -59,25 +59,36 @@ enum {
     CRISP__PATCH_GROUPED = 4, /* another patch of a group leaf's block: no leaf of its own */
 };
 typedef struct crisp__patch_groups {
-    uint8_t *mode;      /* per patch: CRISP__PATCH_* */
-    uint32_t *group_of; /* per patch: the lower-left patch of its group leaf's block, or
-                           UINT32_MAX; NULL: no group leaves */
-    uint8_t *group_g;   /* per patch, where mode is CRISP__PATCH_GROUP: the block's g */
+    uint8_t *mode;     /* per patch, written for the active patches: CRISP__PATCH_* */
+    uint8_t *group_g;  /* per patch, where mode is CRISP__PATCH_GROUP: the block's g; NULL: no group
+                          leaves */
+    uint32_t **active; /* the patches that get a tree this frame, ascending (grown as needed) */
+    size_t *active_count, *active_cap;
 } crisp__patch_groups;
 crisp_status crisp__groups_create(crisp__groups **dest);
 void crisp__groups_destroy(crisp__groups *g);
-/* out->mode[p] for every patch of the scene, and the group leaves' blocks (the hierarchy is
- * rebuilt when the scene changes). gx, gy: the widened frustum's NDC half-extents; eps: pixels. */
+/* The active patches (those that get a tree of their own: planned by their quadtree, one tau-1
+ * leaf, or the lower-left patch of a group leaf's block) with their modes; the other patches are
+ * culled or drawn by a group leaf, and nothing per patch is written for them, so the walk costs
+ * what is on screen (the hierarchy is rebuilt when the scene changes). gx, gy: the widened
+ * frustum's NDC half-extents; eps: pixels. */
 crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, crisp_mat4 view_proj,
                                     int width, int height, double gx, double gy, double eps,
                                     crisp_pool *pool, crisp__patch_groups *out);
-/* 1 when the last classify found face's whole untrimmed surface within eps on screen: every
- * point of it is then within a pixel of its trim curves, so any trim decision is allowed there
- * and the face is planned without trim loops (drawn whole, no table). */
+/* 1 when the last classify found face's whole untrimmed surface within 0.7 px in x and y on
+ * screen: every point of it is then within a pixel of its trim curves, so any trim decision is
+ * allowed there and the face is planned without trim loops (drawn whole, no table, no ribbons).
+ */
 int crisp__groups_face_small(const crisp__groups *g, uint32_t face);
 /* The screen extent in pixels (largest of x and y) of face's box in the last classify; INFINITY
  * when it reaches the eye plane or is unknown. */
 double crisp__groups_face_px(const crisp__groups *g, uint32_t face);
+/* For a patch that is not active in the last classify: the lower-left patch of the group leaf's
+ * block that draws it, or q itself when it is culled. (Active patches: q.) O(depth). */
+uint32_t crisp__groups_owner(const crisp__groups *g, const crisp_scene *sc, uint32_t q);
+/* Bumped whenever classify rebuilt the hierarchy for a new scene (1 after the first): what is
+ * built per face from the scene's patches is rebuilt when it changes. */
+uint64_t crisp__groups_generation(const crisp__groups *g);
 
 #define TREE_CHUNKS 64 /* fixed work ranges of the tree pass, one arena each */
 
@@ -86,8 +97,10 @@ typedef struct crisp__trees {
     int width, height, max_depth;
     crisp__patch_tree *patches;
     size_t patch_cap;
-    crisp_trim_plan *trims; /* per face */
-    uint32_t *face_tau;     /* per face: largest visible tau, 0 when the face is not visible */
+    crisp_trim_plan *trims;           /* per face */
+    crisp_trim_density_tree *density; /* per face: blocks for the trim density bound */
+    uint64_t *density_gen;            /* per face: groups generation it was built at (0: none) */
+    uint32_t *face_tau; /* per face: largest visible tau, 0 when the face is not visible */
     uint32_t face_cap;
     crisp_arena **arenas;
     void **build_state;
@@ -99,11 +112,13 @@ typedef struct crisp__trees {
     size_t redo_cap;
     crisp__groups *groups;                  /* patch groups of the last scene */
     crisp_arena *chunk_arenas[TREE_CHUNKS]; /* nodes and leaves of the tree pass's ranges */
-    uint8_t *patch_mode;                    /* per patch this frame: CRISP__PATCH_* */
+    uint8_t *patch_mode;                    /* per active patch this frame: CRISP__PATCH_* */
     size_t mode_cap;
-    uint32_t
-        *group_of; /* per patch this frame: lower-left patch of its group leaf, or UINT32_MAX */
-    size_t group_of_cap;
+    uint32_t *active; /* the patches with a tree this frame (patches[p] valid), ascending */
+    size_t active_count, active_cap;
+    uint32_t *tree_frame; /* per patch: the build that wrote patches[p] */
+    size_t tree_frame_cap;
+    uint32_t frame;   /* builds so far */
     uint8_t *group_g; /* per patch this frame (group leaves' lower-left patches): the block's g */
     size_t group_g_cap;
     int no_groups; /* 1: no group leaves (crisp__trees_desc.no_groups) */

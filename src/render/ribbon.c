@@ -19,7 +19,7 @@
 
 #define RIBBON_PX 0.7
 #define RIBBON_STEP_PX 2.0
-#define RIBBON_MAX_DEPTH 20
+#define RIBBON_MAX_DEPTH 48
 /* A face without trim loops is bounded by its domain's edges (t = 0, s = 1, t = 1, s = 0 of the
  * patch grid, as leaf edges): where it meets another face there, the two faces' tessellations
  * differ as along a trim, so the edge gets a ribbon too (not the edges where the surface closes
@@ -91,11 +91,54 @@ void crisp__ribbons_destroy(crisp__ribbons *rb)
     free(rb);
 }
 
-static void ribbon_vertex(const crisp_surface *surf, int reversed, crisp_mat4 m, double u, double v,
-                          crisp_raster_vertex *out)
+/* The face's Bézier patch holding (u, v) and the local (s, t) there, found in the face's patch
+ * grid (binary search over the first row's u-ends and the first column's v-ends); NULL when its
+ * patches do not form a grid. */
+static const crisp_bezier_patch *grid_patch(const crisp_scene *sc, uint32_t face, double u,
+                                            double v, double *s, double *t)
 {
-    double P[3], Su[3], Sv[3], n[3];
-    crisp_surface_derivs(surf, u, v, P, Su, Sv, NULL, NULL, NULL);
+    const crisp_scene_face *f = &sc->faces[face];
+    if (!f->patch_count || f->grid_u * f->grid_v != f->patch_count) return NULL;
+    const crisp_scene_patch *P = sc->patches + f->first_patch;
+    uint32_t lo = 0, hi = f->grid_u - 1;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (u < P[mid].bez.u1)
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    uint32_t iu = lo;
+    lo = 0, hi = f->grid_v - 1;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (v < P[(size_t)mid * f->grid_u].bez.v1)
+            hi = mid;
+        else
+            lo = mid + 1;
+    }
+    const crisp_bezier_patch *b = &P[(size_t)lo * f->grid_u + iu].bez;
+    *s = fmin(1.0, fmax(0.0, (u - b->u0) / (b->u1 - b->u0)));
+    *t = fmin(1.0, fmax(0.0, (v - b->v0) / (b->v1 - b->v0)));
+    return b;
+}
+
+/* The surface point at (u, v) with its normal, in clip space: from the face's Bézier patch (a
+ * few times cheaper than the B-spline evaluation, issue 12), else from the surface. */
+static void ribbon_vertex(const crisp_scene *sc, uint32_t face, const crisp_surface *surf,
+                          int reversed, crisp_mat4 m, double u, double v, crisp_raster_vertex *out)
+{
+    double P[3], Su[3], Sv[3], n[3], s, t;
+    const crisp_bezier_patch *b = grid_patch(sc, face, u, v, &s, &t);
+    if (b) {
+        crisp_bezier_patch_derivs(b, s, t, P, Su, Sv);
+        for (int k = 0; k < 3; k++) {
+            Su[k] /= b->u1 - b->u0;
+            Sv[k] /= b->v1 - b->v0;
+        }
+    } else {
+        crisp_surface_derivs(surf, u, v, P, Su, Sv, NULL, NULL, NULL);
+    }
     crisp_mat4_mulp(m, P, out->clip);
     out->attr[0] = u;
     out->attr[1] = v;
@@ -149,6 +192,8 @@ typedef struct sampler {
     uint32_t *cap;
     uint32_t count;
     const crisp_surface *surf;
+    const crisp_scene *sc;
+    uint32_t face;
     int reversed;
     crisp_mat4 *m;
     double w, h, gx, gy;
@@ -180,16 +225,17 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
     double d = screen_dist(a, b, s->w, s->h);
     if (depth < RIBBON_MAX_DEPTH && d > RIBBON_STEP_PX && (va || vb || d < INFINITY ? 1 : 0)) {
         crisp_raster_vertex mid;
-        ribbon_vertex(s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
+        ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
                       0.5 * (a->attr[1] + b->attr[1]), &mid);
-        /* Both ends and the middle outside the view and the piece small enough not to cross it
-         * from one side to the other, or neither half's widened screen box meeting the view:
-         * nothing of it shows. (At extreme zoom a piece crossing the window would otherwise be
-         * sampled 2^8 times along its whole length, most of it far off screen.) */
+        /* Both ends and the middle outside the view and neither half's widened screen box
+         * meeting the view: nothing of it shows. (At extreme zoom a piece crossing the window
+         * would otherwise be sampled along its whole length, most of it far off screen; only the
+         * halves near the window are split further, a few per level. A piece crossing the window
+         * is split however deep that takes: a cut at depth 8 left a one-pixel crack on the
+         * bearing at fov 1.1e-5 degree, test_cracks' test_bearing_zoom.) */
         int mid_out = !in_view(&mid, s->gx, s->gy);
-        if (!va && !vb && mid_out &&
-            (depth > 8 ||
-             (!segment_may_show(a, &mid, s->w, s->h) && !segment_may_show(&mid, b, s->w, s->h)))) {
+        if (!va && !vb && mid_out && !segment_may_show(a, &mid, s->w, s->h) &&
+            !segment_may_show(&mid, b, s->w, s->h)) {
             crisp_raster_vertex brk = *b;
             brk.clip[3] = -1;
             emit(s, &brk);
@@ -249,6 +295,33 @@ static void path_point(const ribbon_ctx *c, const ribbon_job *job, int k, double
     }
 }
 
+/* 1 when no point of the uv segment from p to q can be on screen: in each strip of the face's
+ * trim plan that the segment reaches, its part lies outside the box (vis_u x vis_v) that holds
+ * every point of the strip inside the widened frustum (crisp_trim_density_desc.vis_u), or the
+ * strip is invisible. The segment is a chord of a trim piece, inside the piece's control hull, so
+ * it stays in the u-ranges the density bound covers. Costs no surface evaluation: at a close-up
+ * most of a trim polyline is far off screen (issue 12). */
+static int uv_hidden(const crisp_trim_plan *tp, const double p[2], const double q[2])
+{
+    double ulo = fmin(p[0], q[0]), uhi = fmax(p[0], q[0]);
+    double vlo = fmin(p[1], q[1]), vhi = fmax(p[1], q[1]);
+    int n = tp->strip_count;
+    if (!(vlo >= tp->v0 && vhi <= tp->v1) || n < 1) return 0;
+    double h = (tp->v1 - tp->v0) / n;
+    int i0 = (int)floor((vlo - tp->v0) / h) - 1, i1 = (int)floor((vhi - tp->v0) / h) + 1;
+    if (i0 < 0) i0 = 0;
+    if (i1 > n - 1) i1 = n - 1;
+    for (int i = i0; i <= i1; i++) {
+        if (!(tp->rho_v[i] > 0)) continue; /* nothing of the strip in the frustum */
+        double a = fmax(vlo, tp->v0 + i * h), b = fmin(vhi, tp->v0 + (i + 1) * h);
+        if (a > b) continue;
+        if (b >= tp->vis_v[2 * i] && a <= tp->vis_v[2 * i + 1] && uhi >= tp->vis_u[2 * i] &&
+            ulo <= tp->vis_u[2 * i + 1])
+            return 0;
+    }
+    return 1;
+}
+
 static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
 {
     ribbon_ctx *c = vctx;
@@ -260,20 +333,41 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
         sampler s = {.pts = &c->rb->scratch[worker],
                      .cap = &c->rb->scratch_cap[worker],
                      .surf = f->src->surface,
+                     .sc = c->sc,
+                     .face = job->face,
                      .reversed = f->src->reversed,
                      .m = (crisp_mat4 *)&plan->view_proj,
                      .w = plan->width,
                      .h = plan->height,
                      .gx = 1 + 4.0 / plan->width,
                      .gy = 1 + 4.0 / plan->height};
+        /* The face's strips say where its surface is off screen (not for a face drawn whole:
+         * its trim plan is not this frame's). */
+        const crisp_trim_plan *tp = &plan->trims[job->face];
+        if (crisp__groups_face_small(plan->groups, job->face) || !tp->vis_u || !tp->rho_v ||
+            !tp->vis_v)
+            tp = NULL;
         crisp_raster_vertex a, b;
-        double uv[2];
-        path_point(c, job, 0, uv);
-        ribbon_vertex(s.surf, s.reversed, *s.m, uv[0], uv[1], &a);
-        int open = 0; /* the ribbon so far ends at a */
+        double uv0[2], uv[2];
+        path_point(c, job, 0, uv0);
+        int have_a = 0, open = 0; /* open: the ribbon so far ends at a */
         for (int k = 0; k + 1 < n; k++) {
             path_point(c, job, k + 1, uv);
-            ribbon_vertex(s.surf, s.reversed, *s.m, uv[0], uv[1], &b);
+            if (tp && uv_hidden(tp, uv0, uv)) {
+                if (open) {
+                    crisp_raster_vertex brk = a;
+                    brk.clip[3] = -1;
+                    emit(&s, &brk);
+                    open = 0;
+                }
+                have_a = 0;
+                uv0[0] = uv[0], uv0[1] = uv[1];
+                continue;
+            }
+            if (!have_a)
+                ribbon_vertex(c->sc, job->face, s.surf, s.reversed, *s.m, uv0[0], uv0[1], &a);
+            have_a = 1;
+            ribbon_vertex(c->sc, job->face, s.surf, s.reversed, *s.m, uv[0], uv[1], &b);
             /* Segments that cannot reach the view are left out without a sample (at extreme zoom
              * almost all of a polyline is off screen). */
             if (!segment_may_show(&a, &b, s.w, s.h)) {
@@ -289,6 +383,7 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
                 open = 1;
             }
             a = b;
+            uv0[0] = uv[0], uv0[1] = uv[1];
         }
         job->pts = NULL;
         job->count = 0;

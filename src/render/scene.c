@@ -5,6 +5,7 @@
 #include "render_internal.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -278,6 +279,8 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
     crisp_status st = CRISP_OK;
     crisp_scene *s = calloc(1, sizeof *s);
     if (!s) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory preparing the scene");
+    static _Atomic uint64_t serials;
+    s->serial = atomic_fetch_add(&serials, 1) + 1;
     s->model = m;
     s->face_count = (uint32_t)m->face_count;
     s->faces = crisp_calloc_array(s->face_count, sizeof *s->faces);

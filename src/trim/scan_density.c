@@ -60,8 +60,9 @@ typedef struct density_ctx {
     double *levels;  /* (max_depth + 1) * 4 children * 4 planes * n */
     double *scratch; /* elevated derivatives: 4 planes */
     double cur_v, cur_u;
-    double vis_lo, vis_hi; /* v-range of the sub-patches kept */
-    double ulo, uhi;       /* the strip's u-range of interest (desc->strip_u), else infinite */
+    double vis_lo, vis_hi;   /* v-range of the sub-patches kept */
+    double visu_lo, visu_hi; /* u-range of the sub-patches kept */
+    double ulo, uhi;         /* the strip's u-range of interest (desc->strip_u), else infinite */
     int visible, unbounded;
     long budget;
     crisp_trim_density_stats *stats;
@@ -332,6 +333,8 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
         if (accept) {
             c->vis_lo = fmin(c->vis_lo, va);
             c->vis_hi = fmax(c->vis_hi, vb);
+            c->visu_lo = fmin(c->visu_lo, ua);
+            c->visu_hi = fmax(c->visu_hi, ub);
             c->cur_v = fmax(c->cur_v, bv);
             c->cur_u = fmax(c->cur_u, bu);
             c->visible = 1;
@@ -340,6 +343,8 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
     } else if (last) {
         c->vis_lo = fmin(c->vis_lo, va);
         c->vis_hi = fmax(c->vis_hi, vb);
+        c->visu_lo = fmin(c->visu_lo, ua);
+        c->visu_hi = fmax(c->visu_hi, ub);
         c->unbounded = 1;
         c->visible = 1;
         return;
@@ -370,8 +375,9 @@ typedef struct patch_walk {
     const crisp_bezier_patch *bp;
     const double *clip; /* the whole patch in clip space */
     double *nodes;      /* bisection pieces: 2 per depth, 4 planes each */
-    double *rho_v, *rho_u, *vis_v;
+    double *rho_v, *rho_u, *vis_v, *vis_u;
     double hv;
+    double *clip_buf, *root_buf; /* a patch in clip space, and its part in the strips' v-range */
 } patch_walk;
 
 /* Split a plane of rows j = 0..dv (each of len values) at v = t by de Casteljau on whole rows:
@@ -435,6 +441,8 @@ static void strip_part(patch_walk *w, int i, const double *node, double t0, doub
     c->unbounded = 0;
     c->vis_lo = vis_v ? vis_v[2 * i] : 0.0;
     c->vis_hi = vis_v ? vis_v[2 * i + 1] : 0.0;
+    c->visu_lo = w->vis_u ? w->vis_u[2 * i] : 0.0;
+    c->visu_hi = w->vis_u ? w->vis_u[2 * i + 1] : 0.0;
     c->floor_v = 1.0 / w->hv;
     c->budget = 16384; /* deep refinement at extreme zoom (fov 1e-7 deg) needs ~5000 */
     c->ulo = desc->strip_u ? desc->strip_u[2 * i] : -HUGE_VAL;
@@ -442,6 +450,7 @@ static void strip_part(patch_walk *w, int i, const double *node, double t0, doub
     refine(c, root, 0, 1.0 / (bp->u1 - bp->u0), 1.0 / ((bp->v1 - bp->v0) * (tb - ta)), bp->u0,
            bp->u1, bp->v0 + (bp->v1 - bp->v0) * ta, bp->v0 + (bp->v1 - bp->v0) * tb, 0.0, 0.0);
     if (vis_v) vis_v[2 * i] = c->vis_lo, vis_v[2 * i + 1] = c->vis_hi;
+    if (w->vis_u) w->vis_u[2 * i] = c->visu_lo, w->vis_u[2 * i + 1] = c->visu_hi;
     if (c->unbounded) {
         rho_v[i] = rho_u[i] = HUGE_VAL;
         c->stats->unbounded++;
@@ -495,6 +504,10 @@ static void walk_strips(patch_walk *w, const double *node, int depth, int i0, in
                 w->vis_v[2 * i] = dmin(w->vis_v[2 * i], lo);
                 w->vis_v[2 * i + 1] = dmax(w->vis_v[2 * i + 1], hi);
             }
+            if (w->vis_u) {
+                w->vis_u[2 * i] = dmin(w->vis_u[2 * i], bp->u0);
+                w->vis_u[2 * i + 1] = dmax(w->vis_u[2 * i + 1], bp->u1);
+            }
             if (w->rho_v[i] < HUGE_VAL) { /* a visible strip always needs a row */
                 w->rho_v[i] = dmax(w->rho_v[i], dmax(bv, 1e-300));
                 w->rho_u[i] = dmax(w->rho_u[i], dmax(bu, 1e-300));
@@ -518,6 +531,473 @@ static void walk_strips(patch_walk *w, const double *node, int depth, int i0, in
     walk_strips(w, hi, depth + 1, k, i1, tk, t1);
 }
 
+/* Patch p of the face through the strips it reaches (walk_strips), after mapping it to clip
+ * space. */
+static crisp_status walk_patch(patch_walk *w, int p)
+{
+    const crisp_trim_density_desc *desc = w->desc;
+    density_ctx *c = w->c;
+    crisp_mat4 *m = desc->view_proj;
+    double *clip = w->clip_buf, *root = w->root_buf, hv = w->hv;
+    const crisp_bezier_patch *bp = &desc->patches[p];
+    w->bp = bp;
+    w->clip = clip;
+    c->du = bp->du;
+    c->dv = bp->dv;
+    c->n = (size_t)(bp->du + 1) * (size_t)(bp->dv + 1);
+    for (size_t k = 0; k < c->n; k++) {
+        const double *h = bp->cpw + 4 * k;
+        for (int r = 0; r < 4; r++)
+            clip[r * c->n + k] =
+                (*m)[0][r] * h[0] + (*m)[1][r] * h[1] + (*m)[2][r] * h[2] + (*m)[3][r] * h[3];
+        for (int r = 0; r < 4; r++)
+            if (!isfinite(clip[r * c->n + k]))
+                return crisp_error(CRISP_ERR_NUMERIC,
+                                   "crisp_trim_scan_density: patch %d control point %zu is not "
+                                   "finite in clip space",
+                                   p, k);
+    }
+    int i0 = (int)floor((bp->v0 - desc->v0) / hv), i1 = (int)floor((bp->v1 - desc->v0) / hv);
+    if (i0 < 0) i0 = 0;
+    if (i1 > desc->strip_count - 1) i1 = desc->strip_count - 1;
+    /* The root: the patch's part inside the strips' v-range (a patch reaching beyond it would
+     * otherwise be bounded over more than its strips). */
+    double dvp = bp->v1 - bp->v0;
+    double r0 = fmax(0.0, (desc->v0 - bp->v0) / dvp), r1 = fmin(1.0, (desc->v1 - bp->v0) / dvp);
+    if (!(r1 > r0)) return CRISP_OK;
+    const double *rootp = clip;
+    if (r1 - r0 >= MIN_PIECE && (r0 > 0.0 || r1 < 1.0)) {
+        memcpy(root, clip, sizeof(double) * 4 * c->n);
+        for (int q = 0; q < 4; q++)
+            for (int col = 0; col <= c->du; col++)
+                crisp__trim_restrict(root + q * c->n + col, c->dv, c->du + 1, r0, r1);
+        rootp = root;
+    } else {
+        r0 = 0.0, r1 = 1.0;
+    }
+    walk_strips(w, rootp, 0, i0, i1, r0, r1);
+    return CRISP_OK;
+}
+
+/* ---- blocks of patches (issue 12) ------------------------------------------------------------
+ * A block B of the face's patch grid, with boxes (per homogeneous object coordinate) of its
+ * patches' control points h_k and of their degree-elevated derivative coefficients e_k per unit
+ * of the face's v (and u). At a point of B's surface, H = sum h_k B_k and H_v = sum e_k B_k (the
+ * same patch's Bernstein basis) lie in the boxes, being convex combinations. In clip space, with
+ * row vectors R_X, R_Y, R_Z, R_W of view_proj and r_x = X / W at the point,
+ *   x~_v = w_x (R_X - r_x R_W) . H_v / W,
+ * so, with R_x the range of X / W over the control-point box (a ratio of linear functions with a
+ * positive denominator takes its extremes over a box at its corners), intersected with the
+ * widened frustum's [-(1 + m_x), 1 + m_x] as in the per-patch bound, and W >= W_min over the box:
+ *   |(x~_v, y~_v)| <= sqrt(w_x^2 A_X^2 + w_y^2 A_Y^2) / W_min,
+ *   A_P = max over r in R_P (at its ends: the expression is linear in r) and e in the
+ *         derivative box of |(R_P - r R_W) . e| = |c . mid| + |c| . half (c = R_P - r R_W),
+ * and |z~_v| <= A_Z / W_min for the depth term. Every coefficient of every patch of B lies in the
+ * boxes, so this is at least the per-patch bound of the header comment for each of B's patches
+ * (tests/trim/test_trim.c checks it, and its tightness). It costs O(1) per block whatever the
+ * block's size, which is what lets a face's density bound follow its size on screen: whole
+ * blocks off screen are dropped, and a block whose bound asks for few rows, or is within the
+ * slack of the speeds sampled at its corners, gives its bound to its strips without reading its
+ * patches. */
+
+/* Min and max over the box [lo, hi] (4 coordinates) of the linear function coef . x, widened by
+ * a relative allowance for rounding. */
+static void box_range(const double coef[4], const double *lo, const double *hi, double *mn,
+                      double *mx)
+{
+    double a = 0.0, b = 0.0, mag = 0.0;
+    for (int k = 0; k < 4; k++) {
+        double p = coef[k] * lo[k], q = coef[k] * hi[k];
+        a += dmin(p, q);
+        b += dmax(p, q);
+        mag += dmax(fabs(p), fabs(q));
+    }
+    *mn = a - 1e-12 * mag;
+    *mx = b + 1e-12 * mag;
+}
+
+/* max over e in the box of |c . e|. */
+static double box_abs_max(const double c[4], const double *lo, const double *hi)
+{
+    double mid = 0.0, half = 0.0;
+    for (int k = 0; k < 4; k++) {
+        mid += c[k] * 0.5 * (lo[k] + hi[k]);
+        half += fabs(c[k]) * 0.5 * (hi[k] - lo[k]);
+    }
+    return (fabs(mid) + half) * (1.0 + 1e-12);
+}
+
+/* The bound of the comment above for one direction's derivative box d (lo[4], hi[4]): the screen
+ * speed (returned) and the depth speed (*depth), per unit of the face's parameter. */
+static double block_speed(const density_ctx *c, double R[4][4], double r[3][2], const double *d,
+                          double wmin, double *depth)
+{
+    double A[3] = {0.0, 0.0, 0.0};
+    for (int p = 0; p < 3; p++)
+        for (int e = 0; e < 2; e++) {
+            double coef[4];
+            for (int k = 0; k < 4; k++)
+                coef[k] = R[p][k] - r[p][e] * R[3][k];
+            A[p] = dmax(A[p], box_abs_max(coef, d, d + 4));
+        }
+    *depth = A[2] / wmin;
+    return sqrt(c->wx * c->wx * A[0] * A[0] + c->wy * c->wy * A[1] * A[1]) / wmin;
+}
+
+/* As node_bound, for block b from its boxes. */
+static int block_bound(const density_ctx *c, crisp_mat4 *m, const crisp_trim_density_block *b,
+                       double *bv, double *bu)
+{
+    double R[4][4]; /* rows of view_proj: X, Y, Z, W */
+    for (int r = 0; r < 4; r++)
+        for (int k = 0; k < 4; k++)
+            R[r][k] = (*m)[k][r];
+    const double *lo = b->h, *hi = b->h + 4;
+    double wmin, wmax;
+    box_range(R[3], lo, hi, &wmin, &wmax);
+    if (!(wmin > 0.0)) return 0;
+    /* Outside one plane of the widened frustum (as culled()). */
+    const double g[3] = {1.0 + c->mx, 1.0 + c->my, 1.0 + DEPTH_MARGIN};
+    for (int p = 0; p < 3; p++)
+        for (int sgn = -1; sgn <= 1; sgn += 2) {
+            double coef[4], mn, mx;
+            for (int k = 0; k < 4; k++)
+                coef[k] = g[p] * R[3][k] + sgn * R[p][k];
+            box_range(coef, lo, hi, &mn, &mx);
+            if (mx < 0.0) return -1;
+        }
+    /* Ranges of X / W, Y / W, Z / W over the box's corners. */
+    double r[3][2] = {{HUGE_VAL, -HUGE_VAL}, {HUGE_VAL, -HUGE_VAL}, {HUGE_VAL, -HUGE_VAL}};
+    for (int k = 0; k < 16; k++) {
+        double x[4], v[4];
+        for (int a = 0; a < 4; a++)
+            x[a] = (k >> a) & 1 ? hi[a] : lo[a];
+        for (int q = 0; q < 4; q++)
+            v[q] = R[q][0] * x[0] + R[q][1] * x[1] + R[q][2] * x[2] + R[q][3] * x[3];
+        if (!(v[3] > 0.0)) return 0;
+        for (int p = 0; p < 3; p++) {
+            double q = v[p] / v[3];
+            r[p][0] = dmin(r[p][0], q);
+            r[p][1] = dmax(r[p][1], q);
+        }
+    }
+    for (int p = 0; p < 3; p++) {
+        r[p][0] = dmax(r[p][0], -g[p]);
+        r[p][1] = dmin(r[p][1], g[p]);
+        if (!(r[p][0] <= r[p][1])) return -1;
+    }
+    double dv, du;
+    double sv_px = block_speed(c, R, r, b->dv, wmin, &dv);
+    double su_px = block_speed(c, R, r, b->du, wmin, &du);
+    *bv = dmax(sv_px, dv / DEPTH_MARGIN) * (1.0 + 1e-9);
+    *bu = dmax(su_px, du / DEPTH_MARGIN) * (1.0 + 1e-9);
+    return 1;
+}
+
+/* Speeds (per unit of the face's v and u) sampled at the block's four corners and at the grid
+ * vertex nearest its centre, among the points inside the widened frustum with u in [ulo, uhi]:
+ * the largest and smallest in v and the largest in u. Returns the number of such points. (Only
+ * steers refinement.) */
+static int block_samples(const density_ctx *c, const crisp_trim_density_desc *desc,
+                         const crisp_trim_density_block *b, double *ev_max, double *ev_min,
+                         double *eu_max)
+{
+    crisp_mat4 *m = desc->view_proj;
+    int gu = desc->tree->grid_u, seen = 0;
+    *ev_max = *eu_max = 0.0;
+    *ev_min = HUGE_VAL;
+    for (int k = 0; k < 5; k++) {
+        uint32_t iu = k < 4 ? b->iu0 + (k & 1) * (b->nu - 1) : b->iu0 + b->nu / 2;
+        uint32_t iv = k < 4 ? b->iv0 + (k >> 1) * (b->nv - 1) : b->iv0 + b->nv / 2;
+        int a = k < 4 ? k & 1 : 0, e = k < 4 ? k >> 1 : 0;
+        const crisp_bezier_patch *p = &desc->patches[(size_t)iv * gu + iu];
+        double u = a ? p->u1 : p->u0;
+        if (u < c->ulo || u > c->uhi) continue;
+        int du = p->du, dv = p->dv, i = a ? du : 0, j = e ? dv : 0, di = a ? -1 : 1,
+            dj = e ? -1 : 1;
+        const double *h = p->cpw + 4 * (j * (du + 1) + i),
+                     *hu = p->cpw + 4 * (j * (du + 1) + i + di),
+                     *hv = p->cpw + 4 * ((j + dj) * (du + 1) + i);
+        double H[4], Hu[4], Hv[4];
+        for (int q = 0; q < 4; q++) {
+            H[q] = h[q];
+            Hu[q] = (a ? 1 : -1) * du * (h[q] - hu[q]) / (p->u1 - p->u0);
+            Hv[q] = (e ? 1 : -1) * dv * (h[q] - hv[q]) / (p->v1 - p->v0);
+        }
+        double X[3][4]; /* clip value, d/du, d/dv of X, Y, Z, W */
+        for (int r = 0; r < 4; r++) {
+            X[0][r] = X[1][r] = X[2][r] = 0.0;
+            for (int q = 0; q < 4; q++) {
+                X[0][r] += (*m)[q][r] * H[q];
+                X[1][r] += (*m)[q][r] * Hu[q];
+                X[2][r] += (*m)[q][r] * Hv[q];
+            }
+        }
+        double W = X[0][3];
+        if (!(W > 0.0) || fabs(X[0][0]) > (1 + c->mx) * W || fabs(X[0][1]) > (1 + c->my) * W ||
+            fabs(X[0][2]) > (1 + DEPTH_MARGIN) * W)
+            continue;
+        seen++;
+        double w2 = W * W, sp[2];
+        for (int d = 1; d <= 2; d++) {
+            double xd = c->wx * (X[d][0] * W - X[0][0] * X[d][3]) / w2;
+            double yd = c->wy * (X[d][1] * W - X[0][1] * X[d][3]) / w2;
+            double zd = fabs(X[d][2] * W - X[0][2] * X[d][3]) / (w2 * DEPTH_MARGIN);
+            sp[d - 1] = dmax(sqrt(xd * xd + yd * yd), zd);
+        }
+        *eu_max = dmax(*eu_max, sp[0]);
+        *ev_max = dmax(*ev_max, sp[1]);
+        *ev_min = dmin(*ev_min, sp[1]);
+    }
+    return seen;
+}
+
+#define BLOCK_FEW_ROWS 8.0 /* a block whose bound asks for at most this many rows is accepted */
+
+/* Block bi of desc->tree through the strips it reaches: dropped, bounded as a whole, or refined
+ * to its sub-blocks (or, for the smallest blocks, to its patches' own walks). */
+static crisp_status walk_block(patch_walk *w, int32_t bi)
+{
+    const crisp_trim_density_desc *desc = w->desc;
+    const crisp_trim_density_tree *t = desc->tree;
+    const crisp_trim_density_block *b = &t->blocks[bi];
+    density_ctx *c = w->c;
+    double hv = w->hv;
+    double va = dmax(b->v0, desc->v0), vb = dmin(b->v1, desc->v1);
+    if (!(vb > va)) return CRISP_OK;
+    int i0 = (int)floor((b->v0 - desc->v0) / hv), i1 = (int)floor((b->v1 - desc->v0) / hv);
+    if (i0 < 0) i0 = 0;
+    if (i1 > desc->strip_count - 1) i1 = desc->strip_count - 1;
+    c->ulo = desc->strip_u ? HUGE_VAL : -HUGE_VAL;
+    c->uhi = desc->strip_u ? -HUGE_VAL : HUGE_VAL;
+    double min_v = HUGE_VAL, min_u = HUGE_VAL;
+    for (int i = i0; i <= i1; i++) {
+        if (desc->strip_u) {
+            c->ulo = dmin(c->ulo, desc->strip_u[2 * i]);
+            c->uhi = dmax(c->uhi, desc->strip_u[2 * i + 1]);
+        }
+        min_v = dmin(min_v, w->rho_v[i]);
+        min_u = dmin(min_u, w->rho_u[i]);
+    }
+    c->stats->subpatches++;
+    if (c->uhi < b->u0 || c->ulo > b->u1) {
+        c->stats->culled++;
+        return CRISP_OK;
+    }
+    double bv, bu;
+    int k = block_bound(c, desc->view_proj, b, &bv, &bu);
+    if (k < 0) {
+        c->stats->culled++;
+        return CRISP_OK;
+    }
+    int accept = 0;
+    if (k > 0) {
+        double ev_max, ev_min, eu_max;
+        if (bv <= min_v && bu <= min_u) accept = 1; /* nothing to gain */
+        if ((vb - va) * bv <= BLOCK_FEW_ROWS && (b->u1 - b->u0) * bu <= BLOCK_FEW_ROWS) accept = 1;
+        if (!accept && block_samples(c, desc, b, &ev_max, &ev_min, &eu_max) > 0 &&
+            bv <= dmax(c->slack * ev_min, 1.0 / hv) && bu <= c->slack * eu_max)
+            accept = 1;
+        /* As refine(): not while the block's v-range would take more scan lines than a screen
+         * can show. */
+        if ((vb - va) * bv > 32.0 * (c->wx + c->wy)) accept = 0;
+    }
+    if (accept) {
+        for (int i = i0; i <= i1; i++) {
+            double nu0 = desc->v0 + i * hv, nu1 = desc->v0 + (i + 1) * hv;
+            double lo = dmax(nu0, b->v0), hi = dmin(nu1, b->v1);
+            if (!(hi > lo)) continue;
+            if (w->vis_v) {
+                w->vis_v[2 * i] = dmin(w->vis_v[2 * i], lo);
+                w->vis_v[2 * i + 1] = dmax(w->vis_v[2 * i + 1], hi);
+            }
+            if (w->vis_u) {
+                w->vis_u[2 * i] = dmin(w->vis_u[2 * i], b->u0);
+                w->vis_u[2 * i + 1] = dmax(w->vis_u[2 * i + 1], b->u1);
+            }
+            if (w->rho_v[i] < HUGE_VAL) { /* a visible strip always needs a row */
+                w->rho_v[i] = dmax(w->rho_v[i], dmax(bv, 1e-300));
+                w->rho_u[i] = dmax(w->rho_u[i], dmax(bu, 1e-300));
+            }
+        }
+        return CRISP_OK;
+    }
+    crisp_status st = CRISP_OK;
+    if (b->child[0] >= 0 || b->child[1] >= 0 || b->child[2] >= 0 || b->child[3] >= 0) {
+        for (int q = 0; q < 4 && !st; q++)
+            if (b->child[q] >= 0) st = walk_block(w, b->child[q]);
+        return st;
+    }
+    for (uint32_t iv = b->iv0; iv < b->iv0 + b->nv && !st; iv++)
+        for (uint32_t iu = b->iu0; iu < b->iu0 + b->nu && !st; iu++)
+            st = walk_patch(w, (int)(iv * (uint32_t)t->grid_u + iu));
+    return st;
+}
+
+/* Boxes of patch p (as crisp_trim_density_block's h, du, dv), widened for rounding. */
+static void patch_boxes(const crisp_bezier_patch *p, double h[8], double du[8], double dv[8])
+{
+    int n = (p->du + 1) * (p->dv + 1);
+    double plane[(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1)];
+    double e[(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1)];
+    for (int a = 0; a < 4; a++) {
+        double mag = 0.0;
+        h[a] = du[a] = dv[a] = HUGE_VAL;
+        h[4 + a] = du[4 + a] = dv[4 + a] = -HUGE_VAL;
+        for (int k = 0; k < n; k++) {
+            plane[k] = p->cpw[4 * k + a];
+            h[a] = dmin(h[a], plane[k]);
+            h[4 + a] = dmax(h[4 + a], plane[k]);
+            mag = dmax(mag, fabs(plane[k]));
+        }
+        for (int dir = 0; dir < 2; dir++) {
+            double *box = dir ? dv : du;
+            double len = dir ? p->v1 - p->v0 : p->u1 - p->u0;
+            int d = dir ? p->dv : p->du;
+            derivative_elevated(plane, p->du, p->dv, dir, e);
+            for (int k = 0; k < n; k++) {
+                box[a] = dmin(box[a], e[k] / len);
+                box[4 + a] = dmax(box[4 + a], e[k] / len);
+            }
+            /* The differences carry rounding of the order of the coordinates' size. */
+            double slop = 1e-13 * (4.0 * d * mag / len);
+            box[a] -= slop + 1e-15 * fabs(box[a]);
+            box[4 + a] += slop + 1e-15 * fabs(box[4 + a]);
+        }
+    }
+}
+
+static void box_union(double *dest, const double *src)
+{
+    for (int a = 0; a < 4; a++) {
+        dest[a] = dmin(dest[a], src[a]);
+        dest[4 + a] = dmax(dest[4 + a], src[4 + a]);
+    }
+}
+
+/* The aligned block (lv >= 1, bu, bv): patches [bu 2^lv, (bu + 1) 2^lv) x [bv 2^lv, ...) clipped
+ * to the grid. */
+static crisp_status build_block(crisp_trim_density_tree *t, const crisp_bezier_patch *patches,
+                                int lv, uint32_t bu, uint32_t bv, int32_t *dest)
+{
+    crisp_status st = crisp_grow((void **)&t->blocks, &t->cap, t->count + 1, sizeof *t->blocks);
+    if (st) return st;
+    int32_t me = (int32_t)t->count++;
+    uint32_t gu = (uint32_t)t->grid_u, gv = (uint32_t)t->grid_v, size = 1u << lv;
+    crisp_trim_density_block b = {.iu0 = bu << lv, .iv0 = bv << lv, .child = {-1, -1, -1, -1}};
+    b.nu = gu - b.iu0 < size ? gu - b.iu0 : size;
+    b.nv = gv - b.iv0 < size ? gv - b.iv0 : size;
+    for (int a = 0; a < 4; a++) {
+        b.h[a] = b.du[a] = b.dv[a] = HUGE_VAL;
+        b.h[4 + a] = b.du[4 + a] = b.dv[4 + a] = -HUGE_VAL;
+    }
+    if (lv == 1) {
+        for (uint32_t iv = b.iv0; iv < b.iv0 + b.nv; iv++)
+            for (uint32_t iu = b.iu0; iu < b.iu0 + b.nu; iu++) {
+                double h[8], du[8], dv[8];
+                patch_boxes(&patches[iv * gu + iu], h, du, dv);
+                box_union(b.h, h);
+                box_union(b.du, du);
+                box_union(b.dv, dv);
+            }
+    } else {
+        for (int k = 0; k < 4; k++) {
+            uint32_t cu = 2 * bu + (k & 1), cv = 2 * bv + (k >> 1);
+            if ((cu << (lv - 1)) >= gu || (cv << (lv - 1)) >= gv) continue;
+            int32_t ch;
+            if ((st = build_block(t, patches, lv - 1, cu, cv, &ch))) return st;
+            b.child[k] = ch;
+            box_union(b.h, t->blocks[ch].h);
+            box_union(b.du, t->blocks[ch].du);
+            box_union(b.dv, t->blocks[ch].dv);
+        }
+    }
+    const crisp_bezier_patch *first = &patches[b.iv0 * gu + b.iu0],
+                             *last = &patches[(b.iv0 + b.nv - 1) * gu + b.iu0 + b.nu - 1];
+    b.u0 = first->u0, b.v0 = first->v0, b.u1 = last->u1, b.v1 = last->v1;
+    t->blocks[me] = b;
+    *dest = me;
+    return CRISP_OK;
+}
+
+crisp_status crisp_trim_density_tree_build(const crisp_bezier_patch *patches, int grid_u,
+                                           int grid_v, crisp_trim_density_tree *dest)
+{
+    if (!dest || grid_u < 1 || grid_v < 1 || !patches)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_trim_density_tree_build: grid %dx%d, expected positive sizes "
+                           "and patches",
+                           grid_u, grid_v);
+    for (int p = 0; p < grid_u * grid_v; p++) {
+        const crisp_bezier_patch *bp = &patches[p];
+        if (bp->du < 1 || bp->du > CRISP_MAX_DEGREE || bp->dv < 1 || bp->dv > CRISP_MAX_DEGREE ||
+            !bp->cpw || !(bp->u1 > bp->u0) || !(bp->v1 > bp->v0))
+            return crisp_error(CRISP_ERR_INVALID_ARG,
+                               "crisp_trim_density_tree_build: patch %d: degrees (%d, %d) or "
+                               "parameter box invalid, expected degrees 1..%d and a non-empty box",
+                               p, bp->du, bp->dv, CRISP_MAX_DEGREE);
+    }
+    dest->grid_u = grid_u;
+    dest->grid_v = grid_v;
+    dest->max_du = dest->max_dv = 1;
+    for (int p = 0; p < grid_u * grid_v; p++) {
+        if (patches[p].du > dest->max_du) dest->max_du = patches[p].du;
+        if (patches[p].dv > dest->max_dv) dest->max_dv = patches[p].dv;
+    }
+    dest->count = 0;
+    dest->root = -1;
+    int lv = 0;
+    while ((1 << lv) < grid_u || (1 << lv) < grid_v)
+        lv++;
+    if (lv == 0) return CRISP_OK;
+    return build_block(dest, patches, lv, 0, 0, &dest->root);
+}
+
+void crisp_trim_density_tree_free(crisp_trim_density_tree *t)
+{
+    if (!t) return;
+    crisp_free(t->blocks);
+    t->blocks = NULL;
+    t->count = t->cap = 0;
+    t->root = -1;
+}
+
+/* A density_ctx for desc's viewport, as crisp_trim_scan_density sets it up. */
+static void test_ctx(const crisp_trim_density_desc *desc, density_ctx *c)
+{
+    double margin = desc->margin_px > 0.0 ? desc->margin_px : 2.0;
+    *c = (density_ctx){.wx = 0.5 * desc->width,
+                       .wy = 0.5 * desc->height,
+                       .mx = 2.0 * margin / desc->width,
+                       .my = 2.0 * margin / desc->height};
+}
+
+int crisp__trim_block_bound(const crisp_trim_density_desc *desc, const crisp_trim_density_block *b,
+                            double *bv, double *bu)
+{
+    density_ctx c;
+    test_ctx(desc, &c);
+    return block_bound(&c, desc->view_proj, b, bv, bu);
+}
+
+int crisp__trim_patch_bound(const crisp_trim_density_desc *desc, const crisp_bezier_patch *p,
+                            double *bv, double *bu)
+{
+    density_ctx c;
+    test_ctx(desc, &c);
+    c.du = p->du;
+    c.dv = p->dv;
+    c.n = (size_t)(p->du + 1) * (size_t)(p->dv + 1);
+    double clip[4 * (CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1)];
+    double scratch[4 * (CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1)];
+    c.scratch = scratch;
+    crisp_mat4 *m = desc->view_proj;
+    for (size_t k = 0; k < c.n; k++)
+        for (int r = 0; r < 4; r++)
+            clip[r * c.n + k] = (*m)[0][r] * p->cpw[4 * k] + (*m)[1][r] * p->cpw[4 * k + 1] +
+                                (*m)[2][r] * p->cpw[4 * k + 2] + (*m)[3][r] * p->cpw[4 * k + 3];
+    return node_bound(&c, clip, 1.0 / (p->u1 - p->u0), 1.0 / (p->v1 - p->v0), bv, bu);
+}
 crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double *rho_v,
                                      double *rho_u, double *vis_v, crisp_trim_density_stats *stats)
 {
@@ -538,8 +1018,14 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
     if (!desc->view_proj || (desc->patch_count > 0 && !desc->patches) || desc->patch_count < 0)
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "crisp_trim_scan_density: missing view_proj or patches");
+    if (desc->tree && (desc->tree->grid_u < 1 || desc->tree->grid_v < 1 ||
+                       (long)desc->tree->grid_u * desc->tree->grid_v != desc->patch_count))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_trim_scan_density: a block tree of %dx%d patches for %d patches",
+                           desc->tree->grid_u, desc->tree->grid_v, desc->patch_count);
     int maxdu = 1, maxdv = 1;
-    for (int p = 0; p < desc->patch_count; p++) {
+    if (desc->tree) maxdu = desc->tree->max_du, maxdv = desc->tree->max_dv;
+    for (int p = 0; !desc->tree && p < desc->patch_count; p++) {
         const crisp_bezier_patch *bp = &desc->patches[p];
         if (bp->du < 1 || bp->du > CRISP_MAX_DEGREE || bp->dv < 1 || bp->dv > CRISP_MAX_DEGREE ||
             !bp->cpw || !(bp->u1 > bp->u0) || !(bp->v1 > bp->v0))
@@ -556,6 +1042,7 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
     for (int i = 0; i < desc->strip_count; i++) {
         rho_v[i] = rho_u[i] = 0.0;
         if (vis_v) vis_v[2 * i] = HUGE_VAL, vis_v[2 * i + 1] = -HUGE_VAL;
+        if (desc->vis_u) desc->vis_u[2 * i] = HUGE_VAL, desc->vis_u[2 * i + 1] = -HUGE_VAL;
     }
 
     crisp_arena *arena = desc->scratch, *own = NULL;
@@ -586,7 +1073,6 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
         goto done;
     }
     double hv = (desc->v1 - desc->v0) / desc->strip_count;
-    crisp_mat4 *m = desc->view_proj;
     patch_walk walk = {.desc = desc,
                        .c = &c,
                        .clip = clip,
@@ -594,47 +1080,16 @@ crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double
                        .rho_v = rho_v,
                        .rho_u = rho_u,
                        .vis_v = vis_v,
-                       .hv = hv};
-    for (int p = 0; p < desc->patch_count; p++) {
-        const crisp_bezier_patch *bp = &desc->patches[p];
-        walk.bp = bp;
-        c.du = bp->du;
-        c.dv = bp->dv;
-        c.n = (size_t)(bp->du + 1) * (size_t)(bp->dv + 1);
-        for (size_t k = 0; k < c.n; k++) {
-            const double *h = bp->cpw + 4 * k;
-            for (int r = 0; r < 4; r++)
-                clip[r * c.n + k] =
-                    (*m)[0][r] * h[0] + (*m)[1][r] * h[1] + (*m)[2][r] * h[2] + (*m)[3][r] * h[3];
-            for (int r = 0; r < 4; r++)
-                if (!isfinite(clip[r * c.n + k])) {
-                    st = crisp_error(CRISP_ERR_NUMERIC,
-                                     "crisp_trim_scan_density: patch %d control point %zu is not "
-                                     "finite in clip space",
-                                     p, k);
-                    goto done;
-                }
-        }
-        int i0 = (int)floor((bp->v0 - desc->v0) / hv), i1 = (int)floor((bp->v1 - desc->v0) / hv);
-        if (i0 < 0) i0 = 0;
-        if (i1 > desc->strip_count - 1) i1 = desc->strip_count - 1;
-        /* The root: the patch's part inside the strips' v-range (a patch reaching beyond it
-         * would otherwise be bounded over more than its strips). */
-        double dvp = bp->v1 - bp->v0;
-        double r0 = fmax(0.0, (desc->v0 - bp->v0) / dvp), r1 = fmin(1.0, (desc->v1 - bp->v0) / dvp);
-        if (!(r1 > r0)) continue;
-        const double *rootp = clip;
-        if (r1 - r0 >= MIN_PIECE && (r0 > 0.0 || r1 < 1.0)) {
-            memcpy(root, clip, sizeof(double) * 4 * c.n);
-            for (int q = 0; q < 4; q++)
-                for (int col = 0; col <= c.du; col++)
-                    crisp__trim_restrict(root + q * c.n + col, c.dv, c.du + 1, r0, r1);
-            rootp = root;
-        } else {
-            r0 = 0.0, r1 = 1.0;
-        }
-        walk_strips(&walk, rootp, 0, i0, i1, r0, r1);
-    }
+                       .vis_u = desc->vis_u,
+                       .hv = hv,
+                       .clip_buf = clip,
+                       .root_buf = root};
+    if (desc->tree && desc->tree->root >= 0)
+        st = walk_block(&walk, desc->tree->root);
+    else
+        for (int p = 0; p < desc->patch_count && !st; p++)
+            st = walk_patch(&walk, p);
+    if (st) goto done;
     /* Row ranges inside their strips; invisible strips keep their bounds. */
     for (int i = 0; vis_v && i < desc->strip_count; i++) {
         double nu0 = desc->v0 + (desc->v1 - desc->v0) * ((double)i / desc->strip_count);

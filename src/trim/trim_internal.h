@@ -26,4 +26,13 @@ void crisp__trim_product2(const double *a, int am, int an, const double *b, int 
 
 /* Value and first derivative of a univariate Bernstein polynomial at t. */
 void crisp__trim_eval_d(const double *c, int d, int stride, double t, double *val, double *der);
+
+/* For tests (scan_density.c): the bounds bv, bu (per unit of the face's v and u) that
+ * crisp_trim_scan_density takes from block b of desc->tree's boxes, and the ones it takes from
+ * patch p's own coefficients before any refinement. Return 1 with the bounds, 0 when W is not
+ * provably positive, -1 when nothing of it lies in the widened frustum. */
+int crisp__trim_block_bound(const crisp_trim_density_desc *desc, const crisp_trim_density_block *b,
+                            double *bv, double *bu);
+int crisp__trim_patch_bound(const crisp_trim_density_desc *desc, const crisp_bezier_patch *p,
+                            double *bv, double *bu);
 #endif

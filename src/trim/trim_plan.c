@@ -77,7 +77,9 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
         if (vv) p->vis_v = vv;
         double *su = crisp_realloc_array(p->strip_u, 2 * (size_t)n, sizeof *su);
         if (su) p->strip_u = su;
-        if (!rv || !ru || !mu || !vv || !su)
+        double *vu = crisp_realloc_array(p->vis_u, 2 * (size_t)n, sizeof *vu);
+        if (vu) p->vis_u = vu;
+        if (!rv || !ru || !mu || !vv || !su || !vu)
             return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_plan_face: out of memory");
         p->cap_strips = n;
     }
@@ -102,7 +104,9 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
                                                             .v1 = p->v1,
                                                             .strip_count = n,
                                                             .scratch = p->scratch,
-                                                            .strip_u = p->strip_u},
+                                                            .strip_u = p->strip_u,
+                                                            .tree = desc->tree,
+                                                            .vis_u = p->vis_u},
                                  p->rho_v, p->rho_u, p->vis_v, &p->density_stats);
     if (st) return st;
     crisp_trim_rows_from_density(p->rho_v, p->vis_v, n, p->v0, p->v1, p->mu, &p->clamped);
@@ -137,6 +141,7 @@ void crisp_trim_plan_free(crisp_trim_plan *plan)
     crisp_free(plan->mu);
     crisp_free(plan->vis_v);
     crisp_free(plan->strip_u);
+    crisp_free(plan->vis_u);
     crisp_trim_polyline_free(&plan->polyline);
     crisp_trim_table_free(&plan->table);
     crisp_arena_destroy(plan->scratch);

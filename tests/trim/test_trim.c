@@ -567,6 +567,125 @@ static void test_density_multi_patch(void **state)
     }
 }
 
+/* Issue 12: the density bound per block of patches (crisp_trim_density_tree). On random grids of
+ * rational and polynomial patches (degrees 1..3, non-unit parameter boxes) seen by random
+ * cameras, some with the surface crossing the near plane: every block's box bound is at least the
+ * per-patch bound of each of its patches (before refinement) and at least the screen speed
+ * sampled on its patches; a block found outside the frustum has no visible sample; and
+ * crisp_trim_scan_density walking the blocks bounds every strip's sampled speed. Reports the
+ * block bound's tightness against the largest per-patch bound and the largest sampled speed. */
+static void test_density_blocks(void **state)
+{
+    (void)state;
+    enum { STRIPS = 9, MAXG = 9, W = 320, H = 240 };
+    static double cpw[MAXG * MAXG][4 * 16];
+    crisp_bezier_patch pt[MAXG * MAXG];
+    static double over_patch[4096], over_sample[4096];
+    int n_patch = 0, n_sample = 0, blocks_seen = 0, blocks_culled = 0;
+    crisp_trim_density_tree tree = {0};
+    for (int trial = 0; trial < 48; trial++) {
+        int gu = 1 + trial % MAXG, gv = 1 + (trial * 5 + 3) % MAXG;
+        int d = 1 + trial % 3, rational = trial % 3 == 0;
+        double amp = rnd_in(0.05, 0.4), fx = rnd_in(1, 6), fy = rnd_in(1, 6);
+        for (int iv = 0; iv < gv; iv++)
+            for (int iu = 0; iu < gu; iu++) {
+                crisp_bezier_patch *p = &pt[iv * gu + iu];
+                tu_patch_init(p, d, d, cpw[iv * gu + iu]);
+                p->u0 = 10 + 2.0 * iu, p->u1 = p->u0 + 2;
+                p->v0 = -3 + 0.5 * iv, p->v1 = p->v0 + 0.5;
+                for (int j = 0; j <= d; j++)
+                    for (int i = 0; i <= d; i++) {
+                        double x = (iu + (double)i / d) / gu, y = (iv + (double)j / d) / gv;
+                        tu_set(p, i, j, x + rnd_in(-0.1, 0.1) / gu, y + rnd_in(-0.1, 0.1) / gv,
+                               amp * sin(fx * x) * cos(fy * y) + rnd_in(-0.02, 0.02),
+                               rational ? rnd_in(0.7, 1.4) : 1.0);
+                    }
+            }
+        double eye[3], target[3] = {rnd_in(0.3, 0.7), rnd_in(0.3, 0.7), 0};
+        double a = rnd_in(0, 2 * M_PI), el = rnd_in(0.1, 1.4);
+        double dist = trial % 4 == 0 ? rnd_in(0.2, 0.5) : rnd_in(1.0, 4);
+        eye[0] = target[0] + dist * cos(el) * cos(a);
+        eye[1] = target[1] + dist * cos(el) * sin(a);
+        eye[2] = target[2] + dist * sin(el);
+        crisp_mat4 vp;
+        tu_camera(eye, target, trial % 5 == 0 ? 10.0 : 50.0, 0.1, 100.0, W, H, vp);
+        assert_int_equal(crisp_trim_density_tree_build(pt, gu, gv, &tree), CRISP_OK);
+        assert_int_equal(tree.root >= 0, gu * gv > 1);
+        crisp_trim_density_desc desc = {.patches = pt,
+                                        .patch_count = gu * gv,
+                                        .view_proj = &vp,
+                                        .width = W,
+                                        .height = H,
+                                        .v0 = -3,
+                                        .v1 = -3 + 0.5 * gv,
+                                        .strip_count = STRIPS,
+                                        .tree = &tree};
+        for (size_t bi = 0; bi < tree.count; bi++) {
+            const crisp_trim_density_block *b = &tree.blocks[bi];
+            double bv = 0, bu = 0, pv_max = 0, sv_max = 0;
+            int k = crisp__trim_block_bound(&desc, b, &bv, &bu), any = 0;
+            blocks_seen++;
+            blocks_culled += k < 0;
+            for (uint32_t iv = b->iv0; iv < b->iv0 + b->nv; iv++)
+                for (uint32_t iu = b->iu0; iu < b->iu0 + b->nu; iu++) {
+                    const crisp_bezier_patch *p = &pt[iv * gu + iu];
+                    double pv, pu;
+                    int kp = crisp__trim_patch_bound(&desc, p, &pv, &pu);
+                    if (k > 0 && kp > 0) {
+                        assert_true(bv >= pv * (1 - 1e-9));
+                        assert_true(bu >= pu * (1 - 1e-9));
+                        pv_max = fmax(pv_max, pv);
+                        any = 1;
+                    }
+                    for (int q = 0; q < 60; q++) {
+                        double s = rnd(), t = rnd(), xy[2], ds[2], dt[2];
+                        int vis;
+                        tu_screen(p, vp, W, H, s, t, xy, ds, dt, &vis);
+                        if (!vis) continue;
+                        assert_true(k >= 0); /* a culled block shows nothing */
+                        if (k == 0) continue;
+                        double sv = hypot(dt[0], dt[1]) / (p->v1 - p->v0);
+                        double su = hypot(ds[0], ds[1]) / (p->u1 - p->u0);
+                        assert_true(sv <= bv * (1 + 1e-9));
+                        assert_true(su <= bu * (1 + 1e-9));
+                        sv_max = fmax(sv_max, sv);
+                    }
+                }
+            if (any && pv_max > 0 && n_patch < 4096) over_patch[n_patch++] = bv / pv_max;
+            if (sv_max > 0 && n_sample < 4096) over_sample[n_sample++] = bv / sv_max;
+        }
+        /* The walk over the blocks bounds every strip. */
+        double rv[STRIPS], ru[STRIPS], vis[2 * STRIPS];
+        assert_int_equal(crisp_trim_scan_density(&desc, rv, ru, vis, NULL), CRISP_OK);
+        for (int q = 0; q < 3000; q++) {
+            int iu = (int)(rnd() * gu), iv = (int)(rnd() * gv);
+            iu = iu < gu ? iu : gu - 1, iv = iv < gv ? iv : gv - 1;
+            const crisp_bezier_patch *p = &pt[iv * gu + iu];
+            double s = rnd(), t = rnd(), xy[2], ds[2], dt[2];
+            int visible;
+            tu_screen(p, vp, W, H, s, t, xy, ds, dt, &visible);
+            if (!visible) continue;
+            double v = p->v0 + t * (p->v1 - p->v0);
+            int i = (int)((v - desc.v0) / (desc.v1 - desc.v0) * STRIPS);
+            if (i > STRIPS - 1) i = STRIPS - 1;
+            assert_true(hypot(dt[0], dt[1]) / (p->v1 - p->v0) <= rv[i] * (1 + 1e-9));
+            assert_true(hypot(ds[0], ds[1]) / (p->u1 - p->u0) <= ru[i] * (1 + 1e-9));
+            assert_true(v >= vis[2 * i] && v <= vis[2 * i + 1]);
+        }
+    }
+    crisp_trim_density_tree_free(&tree);
+    assert_true(n_patch > 100 && n_sample > 100 && blocks_culled > 0);
+    qsort(over_patch, (size_t)n_patch, sizeof *over_patch, cmp_dbl);
+    qsort(over_sample, (size_t)n_sample, sizeof *over_sample, cmp_dbl);
+    print_message("density blocks: %d blocks (%d culled); block bound / largest per-patch bound: "
+                  "median %.2f, 90%% %.2f, max %.2f (%d); / largest sampled speed: median %.2f, "
+                  "90%% %.2f, max %.2f (%d)\n",
+                  blocks_seen, blocks_culled, over_patch[n_patch / 2], over_patch[n_patch * 9 / 10],
+                  over_patch[n_patch - 1], n_patch, over_sample[n_sample / 2],
+                  over_sample[n_sample * 9 / 10], over_sample[n_sample - 1], n_sample);
+    assert_true(over_patch[n_patch / 2] < 4.0); /* not absurdly loose */
+}
+
 static void test_plan_reuses_buffers(void **state)
 {
     (void)state;
@@ -660,6 +779,7 @@ int main(void)
         cmocka_unit_test(test_tessellation_bound),
         cmocka_unit_test(test_density_bound),
         cmocka_unit_test(test_density_multi_patch),
+        cmocka_unit_test(test_density_blocks),
         cmocka_unit_test(test_near_plane_paths),
         cmocka_unit_test(test_plan_reuses_buffers),
         cmocka_unit_test(test_bad_input),
