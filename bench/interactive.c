@@ -13,6 +13,9 @@
  *   bench_interactive [FRAMES [THREADS [MODEL...]]]   (defaults 5, 2, every model; MODEL: only
  *                                                      rows whose "model:view" contains it,
  *                                                      e.g. bearing or bearing.iges:close)
+ *
+ * Occlusion culling (crisp_render_desc.no_occlusion) is on; BENCH_OCCLUSION=off runs it off,
+ * BENCH_OCCLUSION=both runs every row off and then on (the same image hash expected).
  * BENCH_INTERACTIVE_STAGES=1 also prints each row's plan stages (levels, edges, trim, ribbons)
  * to stderr. */
 #include <math.h>
@@ -89,10 +92,11 @@ static uint32_t image_hash(const crisp_image *img)
 }
 
 static void run_view(const char *name, const char *view, const crisp_scene *sc,
-                     const crisp_camera *cam, int frames, int threads)
+                     const crisp_camera *cam, int frames, int threads, int occlusion)
 {
     crisp_renderer *r;
-    if (crisp_renderer_create(&(crisp_render_desc){.threads = threads, .samples = 1}, &r))
+    if (crisp_renderer_create(
+            &(crisp_render_desc){.threads = threads, .samples = 1, .no_occlusion = !occlusion}, &r))
         die("renderer");
     crisp_image img;
     if (crisp_image_init(&img, cam->width, cam->height)) die("image");
@@ -124,11 +128,12 @@ static void run_view(const char *name, const char *view, const crisp_scene *sc,
     for (size_t p = 0; p < (size_t)img.width * img.height; p++)
         covered += img.face[p] >= 0;
     double lookup_ms = lookup_ms_each(plan, &img) * (double)st.fragments_tested / threads;
-    printf("| %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %llu | %zu | %.2f | "
-           "%llu | %.1f | %08x |\n",
-           name, view, bench_median(t[0], frames), bench_median(t[1], frames),
-           bench_median(t[2], frames), bench_median(t[3], frames), bench_median(t[4], frames),
-           cpu / frames, lookup_ms, (unsigned long long)st.triangles, covered,
+    printf("| %s | %s | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %llu | %llu | %zu | "
+           "%.2f | %llu | %.1f | %08x |\n",
+           name, view, occlusion ? "on" : "off", bench_median(t[0], frames),
+           bench_median(t[1], frames), bench_median(t[2], frames), bench_median(t[3], frames),
+           bench_median(t[4], frames), cpu / frames, lookup_ms, (unsigned long long)st.triangles,
+           (unsigned long long)st.occluded_triangles, covered,
            covered ? (double)st.triangles / covered : 0.0, (unsigned long long)st.fragments_tested,
            100.0 * covered / (cam->width * cam->height), (unsigned)image_hash(&img));
     fflush(stdout);
@@ -155,6 +160,8 @@ int main(int argc, char **argv)
     int threads = argc > 2 ? atoi(argv[2]) : 2;
     if (frames < 1) frames = 1;
     if (threads < 1) threads = 1;
+    const char *oe = getenv("BENCH_OCCLUSION");
+    int occl_mode = oe && !strcmp(oe, "off") ? 0 : oe && !strcmp(oe, "both") ? 2 : 1;
     char dir[512];
     snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
     model_count = bench_list_files(dir, models, 64);
@@ -168,10 +175,10 @@ int main(int argc, char **argv)
     printf("load average %.2f at the start; 1920x1080, 1 sample, %d threads, median of %d warm "
            "frames\n\n",
            la, threads, frames);
-    printf("| model | view | plan ms | tess ms | raster ms | resolve ms | frame ms | frame CPU ms "
-           "| trim lookups ms (est.) | triangles | covered px | tri/px | lookups | cover %% | "
-           "image hash |\n");
-    printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+    printf("| model | view | occlusion | plan ms | tess ms | raster ms | resolve ms | frame ms | "
+           "frame CPU ms | trim lookups ms (est.) | triangles | occluded tri | covered px | tri/px "
+           "| lookups | cover %% | image hash |\n");
+    printf("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     fflush(stdout);
     for (int m = 0; m < model_count; m++) {
         if (!wanted(argc, argv, models[m], "default") && !wanted(argc, argv, models[m], "close"))
@@ -187,8 +194,9 @@ int main(int argc, char **argv)
         cams[1] = bench_close_up(sc, &cams[0]);
         for (int v = 0; v < 2; v++) {
             const char *view = v ? "close" : "default";
-            if (wanted(argc, argv, models[m], view))
-                run_view(models[m], view, sc, &cams[v], frames, threads);
+            if (!wanted(argc, argv, models[m], view)) continue;
+            if (occl_mode != 1) run_view(models[m], view, sc, &cams[v], frames, threads, 0);
+            if (occl_mode != 0) run_view(models[m], view, sc, &cams[v], frames, threads, 1);
         }
         crisp_scene_destroy(sc);
         crisp_model_destroy(model);

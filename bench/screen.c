@@ -25,7 +25,10 @@
  * planner (group leaves) and with crisp_planner_desc.no_groups (at least one leaf per visible
  * patch), one after the other, so the two are compared under the same load.
  *
- * BENCH_SCREEN_PNG=folder writes each row's image there.
+ * Occlusion culling (crisp_render_desc.no_occlusion) is on in every row;
+ * BENCH_SCREEN_OCCLUSION=both runs each row with the default planner, culling off then on, instead
+ * of the two planners (the image hash must be the same). BENCH_SCREEN_PNG=folder writes each row's
+ * image there.
  *
  *   bench_screen [FRAMES] [THREADS] [ROWS...]     (defaults 3, 2, all rows; a row is e.g.
  * gen50:far) */
@@ -224,14 +227,16 @@ static double cpu_ms(void)
 /* One row: variant 0 = group leaves (the default planner), 1 = no group leaves (at least one
  * leaf per visible patch, as before issue 12's group leaves). */
 static void row(const char *scene_name, const char *cam_name, int frames, int threads,
-                int no_groups)
+                int no_groups, int occlusion)
 {
     crisp_model *m = scene_model(scene_name);
     crisp_scene *sc;
     if (crisp_scene_prepare(m, &sc)) die("prepare");
     crisp_camera cam = camera(sc, cam_name);
     crisp_renderer *r;
-    if (crisp_renderer_create(&(crisp_render_desc){.threads = threads}, &r)) die("renderer");
+    if (crisp_renderer_create(&(crisp_render_desc){.threads = threads, .no_occlusion = !occlusion},
+                              &r))
+        die("renderer");
     crisp_planner *pl;
     if (crisp_planner_create(&(crisp_planner_desc){.no_groups = no_groups}, NULL, &pl))
         die("planner");
@@ -286,15 +291,24 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         if (crisp_write_png_rgba(path, img.width, img.height, rgba)) die(path);
         free(rgba);
     }
-    printf("| %s | %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %u | %u | %llu | %zu | "
-           "%.2f | %.0f | %.0f | %.0f | %.0f |\n",
-           scene_name, cam_name, no_groups ? "no groups" : "groups", sc->patch_count,
-           bench_median(tf, frames), cpu_frames / frames, bench_median(tp, frames),
+    /* FNV-1a over the image and its AOVs: culling must not change it. */
+    uint32_t hash = 2166136261u;
+    size_t npx = (size_t)img.width * img.height;
+    const void *bufs[5] = {img.rgba, img.depth, img.normal, img.uv, img.face};
+    const size_t sizes[5] = {16 * npx, 4 * npx, 12 * npx, 8 * npx, 4 * npx};
+    for (int b = 0; b < 5; b++)
+        for (size_t k = 0; k < sizes[b]; k++)
+            hash = (hash ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
+    printf("| %s | %s | %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %u | %u | %llu | "
+           "%llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f | %08x |\n",
+           scene_name, cam_name, no_groups ? "no groups" : "groups", occlusion ? "on" : "off",
+           sc->patch_count, bench_median(tf, frames), cpu_frames / frames, bench_median(tp, frames),
            cpu_plans / frames, bench_median(tt, frames), bench_median(tr, frames), plan->leaf_count,
-           plan->stats.group_leaves, (unsigned long long)st.triangles, covered,
+           plan->stats.group_leaves, (unsigned long long)st.triangles,
+           (unsigned long long)st.occluded_triangles, covered,
            covered ? (double)st.triangles / covered : 0.0, peak_kb / 1024, frame_mb,
-           peak_kb * 1024 / sc->patch_count,
-           st.triangles ? frame_mb * 1048576 / st.triangles : 0.0);
+           peak_kb * 1024 / sc->patch_count, st.triangles ? frame_mb * 1048576 / st.triangles : 0.0,
+           (unsigned)hash);
     fflush(stdout);
     free(tf), free(tp), free(tt), free(tr);
     crisp_image_free(&img);
@@ -320,6 +334,11 @@ int main(int argc, char **argv)
     if (frames < 1) frames = 1;
     /* BENCH_SCREEN_GROUPS_ONLY=1: only the default planner (no "no groups" rows). */
     int variants = getenv("BENCH_SCREEN_GROUPS_ONLY") ? 1 : 2;
+    /* BENCH_SCREEN_OCCLUSION=both: the default planner with occlusion culling off, then on
+     * (instead of the two planners; crisp_render_desc.no_occlusion). */
+    int occl_both =
+        getenv("BENCH_SCREEN_OCCLUSION") && !strcmp(getenv("BENCH_SCREEN_OCCLUSION"), "both");
+    if (occl_both) variants = 2;
     static const char *rows[][2] = {{"gen50", "default"}, {"gen100", "default"}, {"gen50", "close"},
                                     {"gen100", "close"},  {"gen50", "far"},      {"gen100", "far"},
                                     {"imp", "default"},   {"imp49", "default"},  {"imp49", "close"},
@@ -327,12 +346,12 @@ int main(int argc, char **argv)
     bench_print_machine(stdout);
     printf("load average at start %.2f; 1920x1080, %d threads, median of %d warm frames\n\n",
            loadavg(), threads, frames);
-    printf("| scene | camera | planner | patches | frame ms | frame CPU ms | plan ms | plan CPU ms "
-           "| tess ms | raster ms | leaves | group leaves | triangles | covered px | tri/px | "
-           "peak MB | frame MB | peak B/patch | frame B/tri |\n");
     printf(
-        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-        "---:|\n");
+        "| scene | camera | planner | occlusion | patches | frame ms | frame CPU ms | plan ms | "
+        "plan CPU ms | tess ms | raster ms | leaves | group leaves | triangles | occluded tri | "
+        "covered px | tri/px | peak MB | frame MB | peak B/patch | frame B/tri | image hash |\n");
+    printf("|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+           "---:|---:|---:|---|\n");
     fflush(stdout);
     for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
         char key[64];
@@ -344,14 +363,18 @@ int main(int argc, char **argv)
         for (int variant = variants - 1; variant >= 0; variant--) {
             pid_t pid = fork();
             if (pid == 0) {
-                row(rows[k][0], rows[k][1], frames, threads, variant);
+                if (occl_both)
+                    row(rows[k][0], rows[k][1], frames, threads, 0, !variant);
+                else
+                    row(rows[k][0], rows[k][1], frames, threads, variant, 1);
                 _exit(0);
             }
             int status = 0;
             waitpid(pid, &status, 0);
             if (!WIFEXITED(status) || WEXITSTATUS(status))
                 printf("| %s | %s | %s | failed |\n", rows[k][0], rows[k][1],
-                       variant ? "no groups" : "groups");
+                       occl_both ? (variant ? "occlusion off" : "occlusion on")
+                                 : (variant ? "no groups" : "groups"));
         }
     }
     printf("\nload average at the end %.2f\n", loadavg());

@@ -343,6 +343,10 @@ static void print_stats(const render_args *a, const crisp_document *doc, const c
                rs->split_patches, rs->leaves);
         printf("faces drawn      %u\n", rs->visible_faces);
         printf("triangles        %llu\n", (unsigned long long)rs->triangles);
+        if (rs->occluded_triangles)
+            printf("triangles hidden %llu not tessellated (%llu leaves behind drawn depth)\n",
+                   (unsigned long long)rs->occluded_triangles,
+                   (unsigned long long)rs->occluded_leaves);
         printf("vertices         %llu\n", (unsigned long long)rs->vertices);
         printf("table rows       %llu\n", (unsigned long long)rs->table_rows);
         printf("table bytes      %llu\n", (unsigned long long)rs->table_bytes);

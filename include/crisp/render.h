@@ -167,12 +167,15 @@ typedef struct crisp_render_desc {
     int strip_count;      /* trim strips per face (n_V); 0: from the face's tess level */
     double clip_plane[4]; /* a, b, c, d: fragments where a x + b y + c z + d < 0 (world space)
                              are discarded (a section view); all 0: none */
+    int no_occlusion;     /* 1: tessellate and draw every leaf on screen (occlusion culling off:
+                             the same image, for tests and measurements) */
 } crisp_render_desc;
 
 typedef struct crisp_render_stats {
     uint32_t patches, visible_patches, split_patches, leaves, visible_faces, unresolved;
     uint64_t vertices, triangles, ribbon_triangles, table_rows, table_bytes;
     uint64_t fragments_tested, fragments_trimmed;
+    uint64_t occluded_leaves, occluded_triangles; /* not tessellated: hidden by drawn depth */
     double ms_levels, ms_edges, ms_trim, ms_tess, ms_raster, ms_resolve;
 } crisp_render_stats;
 

@@ -2,6 +2,7 @@
  * levels (crack-free edges), evaluated on the true patches, and rasterised with the u-intercept
  * table's trim test per sample; samples are then resolved into colour (headlight shading, straight
  * alpha = coverage) and AOVs (depth, normal, u, v, face of the nearest covered sample). */
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -12,6 +13,7 @@
 #include "crisp/plan.h"
 #include "crisp/tess.h"
 #include "nurbs/nurbs_internal.h"
+#include "occlusion.h"
 #include "raster.h"
 #include "render_internal.h"
 
@@ -34,7 +36,7 @@ struct crisp_renderer {
     const crisp_frame_plan *plan; /* the frame being drawn */
     crisp_raster *raster;
     crisp_raster_target target;
-    uint32_t *leaf_vbase, *leaf_tbase; /* per plan leaf (and a sentinel) */
+    uint32_t *leaf_vbase, *leaf_tbase; /* per plan leaf: vertex, triangle counts, then offsets */
     size_t leaf_base_cap, leaf_tbase_cap;
     crisp_raster_vertex *verts;
     size_t vert_cap;
@@ -47,7 +49,7 @@ struct crisp_renderer {
     int workers;
     uint8_t *untested; /* per face: no trim loops, no trim test (the rasterizer's hook) */
     size_t untested_cap;
-    uint8_t *leaf_skip; /* per plan leaf: its screen hull holds no sample, nothing to draw */
+    uint8_t *leaf_skip; /* per plan leaf: 1: its screen hull holds no sample; 2: occluded */
     size_t leaf_skip_cap;
     /* Drawing some faces over an image of the others (crisp_render_cpu_plan_faces): */
     crisp_raster_target over; /* its own target, empty outside the last region */
@@ -59,7 +61,13 @@ struct crisp_renderer {
     tess_cache *cache; /* per worker (tessellate) */
     double *col;       /* the resolve's per-column view direction part (resolve_row1) */
     size_t col_cap;
-    int no_vectors; /* crisp__renderer_set_vectors */
+    int no_vectors;  /* crisp__renderer_set_vectors */
+    uint32_t *order; /* the leaves drawn, batch after batch (crisp__occl_order) */
+    size_t order_cap;
+    crisp_occl_leaf *occl; /* per plan leaf: its blocks and nearest depth (occlusion culling) */
+    size_t occl_cap;
+    double *hiz; /* per 4x4 block of the target: the least 1/W drawn (crisp__raster_block_depth) */
+    size_t hiz_cap;
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -122,6 +130,9 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->leaf_skip);
     free(r->ribbon_keep);
     free(r->col);
+    free(r->order);
+    free(r->occl);
+    free(r->hiz);
     free(r);
 }
 
@@ -173,9 +184,15 @@ static crisp_tess_levels leaf_levels(const crisp_plan_leaf *L)
     return lv;
 }
 
+/* One batch of leaves: list[0 .. count) (plan indices, in plan order), whose vertices and
+ * triangles start at vorigin and torigin and end at vend and tend (leaf_vbase, leaf_tbase: each
+ * leaf's offsets). Triangles index vertices from vorigin (the batch is drawn from there). */
 typedef struct tess_ctx {
     crisp_renderer *r;
     const crisp_scene *sc;
+    const uint32_t *list;
+    size_t count;
+    uint32_t vorigin, vend, tend;
 } tess_ctx;
 
 static void tessellate(void *vctx, size_t begin, size_t end, int worker)
@@ -185,15 +202,17 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
     const crisp_frame_plan *plan = r->plan;
     double *st = r->st[worker];
     crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
-    for (size_t j = begin; j < end; j++) {
-        if (r->leaf_skip[j]) continue;
+    for (size_t i = begin; i < end; i++) {
+        size_t j = c->list[i];
         const crisp_plan_leaf *L = &plan->leaves[j];
         crisp_tess_levels lv = leaf_levels(L);
         uint32_t vbase = r->leaf_vbase[j], tbase = r->leaf_tbase[j];
-        size_t nv = r->leaf_vbase[j + 1] - vbase;
-        crisp_tess_mesh_generate(&lv, st, (uint32_t *)(r->tris + tbase), vbase);
+        uint32_t vnext = i + 1 < c->count ? r->leaf_vbase[c->list[i + 1]] : c->vend,
+                 tnext = i + 1 < c->count ? r->leaf_tbase[c->list[i + 1]] : c->tend;
+        size_t nv = vnext - vbase;
+        crisp_tess_mesh_generate(&lv, st, (uint32_t *)(r->tris + tbase), vbase - c->vorigin);
         /* The generator writes index triples; the raster triangle also carries the face. */
-        size_t nt = r->leaf_tbase[j + 1] - tbase;
+        size_t nt = tnext - tbase;
         uint32_t *idx = (uint32_t *)(r->tris + tbase);
         for (size_t k = nt; k-- > 0;) {
             crisp_raster_tri tri = {{idx[3 * k], idx[3 * k + 1], idx[3 * k + 2]}, L->face};
@@ -240,15 +259,18 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
  * snapping moves them by at most 1/512 px; when that box, so widened, holds no sample position
  * of the image, the leaf draws nothing and is not tessellated. The image is unchanged: far away,
  * where many patches share a pixel, most leaves fall between the samples. The same pass counts
- * each drawn leaf's vertices and triangles (in parallel; the caller turns them into offsets). */
+ * each drawn leaf's vertices and triangles (in parallel; the caller turns them into offsets) and
+ * keeps, for occlusion culling, the 4x4 blocks of the target its samples can lie in and the
+ * largest 1/W of its hull (crisp_occl_leaf). */
 typedef struct skip_ctx {
     crisp_renderer *r;
     const crisp_scene *sc;
     double off[16][2];
     int samples;
-    const uint8_t *only; /* per face: draw it (NULL: every face) */
-    double (*hull)[4];   /* NULL, or receives each drawn leaf's screen box */
-    int win[4];          /* the pixels drawn: x0, y0, width, height */
+    const uint8_t *only;   /* per face: draw it (NULL: every face) */
+    double (*hull)[4];     /* NULL, or receives each drawn leaf's screen box */
+    int win[4];            /* the pixels drawn: x0, y0, width, height */
+    crisp_occl_leaf *occl; /* NULL, or receives each drawn leaf's occlusion record */
 } skip_ctx;
 
 static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2])
@@ -264,14 +286,20 @@ static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2
     return 0;
 }
 
-/* 1 when group leaf L's patches' boxes, projected and widened as below, hold no sample. */
-static int group_empty(const skip_ctx *c, const crisp_plan_leaf *L)
+/* 1 when group leaf L's patches' boxes, projected and widened as below, hold no sample (not
+ * tried above 16 patches); with c->occl, also sets leaf j's occlusion record from them (iw
+ * INFINITY above 64 patches). */
+static int group_empty(const skip_ctx *c, size_t j, const crisp_plan_leaf *L)
 {
     const crisp_frame_plan *plan = c->r->plan;
     crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
     uint32_t nu = L->block & 0xffffu, nv = L->block >> 16, gu = plan->faces[L->face].grid_u;
-    if (nu * nv > 16) return 0; /* not worth reading every patch box: draw it */
-    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    double whole_lo[2] = {-INFINITY, -INFINITY}, whole_hi[2] = {INFINITY, INFINITY};
+    if (nu * nv > (c->occl ? 64u : 16u)) { /* not worth reading every patch box: draw it */
+        if (c->occl) crisp__occl_set(&c->occl[j], c->win, whole_lo, whole_hi, INFINITY);
+        return 0;
+    }
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
     for (uint32_t iv = 0; iv < nv; iv++)
         for (uint32_t iu = 0; iu < nu; iu++) {
             const double *b = c->sc->patches[L->patch + iv * gu + iu].box;
@@ -279,20 +307,27 @@ static int group_empty(const skip_ctx *c, const crisp_plan_leaf *L)
                 double p[3] = {b[(k & 1) ? 3 : 0], b[(k & 2) ? 4 : 1], b[(k & 4) ? 5 : 2]}, h[4];
                 for (int q = 0; q < 4; q++)
                     h[q] = (*m)[0][q] * p[0] + (*m)[1][q] * p[1] + (*m)[2][q] * p[2] + (*m)[3][q];
-                if (!(h[3] > 0) || !isfinite(h[0] + h[1] + h[3])) return 0;
+                if (!(h[3] > 0) || !isfinite(h[0] + h[1] + h[3])) {
+                    if (c->occl) crisp__occl_set(&c->occl[j], c->win, whole_lo, whole_hi, INFINITY);
+                    return 0;
+                }
                 double x = (h[0] / h[3] + 1) * 0.5 * plan->width,
                        y = (1 - h[1] / h[3]) * 0.5 * plan->height;
                 lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x), lo[1] = fmin(lo[1], y),
                 hi[1] = fmax(hi[1], y);
+                /* In front of the near plane (clip z > -W) or never culled. */
+                iw = h[2] + h[3] > 0 ? fmax(iw, 1 / h[3]) : INFINITY;
             }
         }
     double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
     lo[0] -= pad, lo[1] -= pad, hi[0] += pad, hi[1] += pad;
-    return !holds_sample(c, lo, hi);
+    if (c->occl) crisp__occl_set(&c->occl[j], c->win, lo, hi, iw);
+    /* The empty test as without culling (the same leaves drawn when culling is off). */
+    return nu * nv <= 16 && !holds_sample(c, lo, hi);
 }
 
-/* Leaf j's vertex and triangle counts (offsets after the prefix sum; UINT32_MAX: levels
- * refused, the caller reports it); none when it is skipped. */
+/* Leaf j's vertex and triangle counts (UINT32_MAX: levels refused, the caller reports it); none
+ * when it is skipped. */
 static void leaf_counts(crisp_renderer *r, size_t j, const crisp_plan_leaf *L)
 {
     crisp_tess_levels lv = leaf_levels(L);
@@ -318,7 +353,7 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
         }
         if (L->group) {
             /* A group leaf: its triangles lie in its patches' boxes. */
-            r->leaf_skip[j] = group_empty(c, L);
+            r->leaf_skip[j] = group_empty(c, j, L);
             if (c->hull) { /* its screen box is not worked out: anywhere */
                 double *b = c->hull[j];
                 b[0] = b[1] = -INFINITY, b[2] = b[3] = INFINITY;
@@ -334,7 +369,7 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
                             storage, storage + 2 * CRISP__PATCH_DOUBLES, &sub);
         }
         int n = (sub.du + 1) * (sub.dv + 1), front = 1;
-        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
         for (int k = 0; k < n && front; k++) {
             const double *cp = sub.cpw + 4 * k;
             double h[4];
@@ -349,6 +384,11 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
                    y = (1 - h[1] / h[3]) * 0.5 * plan->height;
             lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x), lo[1] = fmin(lo[1], y),
             hi[1] = fmax(hi[1], y);
+            /* The control point's depth is W = h[3] / weight: the surface's points are convex
+             * combinations of the control points (positive weights), so their 1/W is at most the
+             * largest of these. A hull reaching the near plane (clip z > -W fails) or a weight
+             * that is not positive: never culled. */
+            iw = cp[3] > 0 && h[2] + h[3] > 0 ? fmax(iw, cp[3] / h[3]) : INFINITY;
         }
         /* Widen by the snapping (1/512 px) and rounding, generously. */
         double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
@@ -358,6 +398,13 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
             double *b = c->hull[j];
             b[0] = front ? lo[0] : -INFINITY, b[1] = front ? lo[1] : -INFINITY;
             b[2] = front ? hi[0] : INFINITY, b[3] = front ? hi[1] : INFINITY;
+        }
+        if (c->occl) {
+            double wlo[2] = {-INFINITY, -INFINITY}, whi[2] = {INFINITY, INFINITY};
+            if (front)
+                crisp__occl_set(&c->occl[j], c->win, lo, hi, iw);
+            else
+                crisp__occl_set(&c->occl[j], c->win, wlo, whi, INFINITY);
         }
         leaf_counts(r, j, L);
     }
@@ -833,6 +880,21 @@ static void load_rect(crisp_raster_target *t, const crisp_image *base, const int
         }
 }
 
+/* Triangles of a later batch index from its first vertex; the frame's mesh from vertex 0. */
+typedef struct rebase_ctx {
+    crisp_raster_tri *tris;
+    uint32_t by;
+} rebase_ctx;
+
+static void rebase_tris(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const rebase_ctx *c = vctx;
+    for (size_t i = begin; i < end; i++)
+        for (int k = 0; k < 3; k++)
+            c->tris[i].v[k] += c->by;
+}
+
 /* crisp_render_cpu_plan (only, base and window NULL), crisp_render_cpu_plan_faces (a subset of
  * the faces, over a base image) and crisp__render_cpu_window (a window of the frame). */
 static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
@@ -874,50 +936,47 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     if (!stats) stats = &local;
     crisp_status st;
     r->plan = plan;
-    double t0 = crisp_time_now();
-    /* Vertex and triangle offsets per leaf (and a sentinel). */
-    size_t jobs = plan->leaf_count, nv = 0, nt = 0;
-    if ((st = crisp_grow((void **)&r->leaf_vbase, &r->leaf_base_cap, jobs + 1,
+    double t0 = crisp_time_now(), t_tess = 0, t_raster = 0;
+    size_t jobs = plan->leaf_count;
+    int occlusion = !r->desc.no_occlusion;
+    if ((st = crisp_grow((void **)&r->leaf_vbase, &r->leaf_base_cap, jobs ? jobs : 1,
                          sizeof *r->leaf_vbase)) ||
-        (st = crisp_grow((void **)&r->leaf_tbase, &r->leaf_tbase_cap, jobs + 1,
-                         sizeof *r->leaf_tbase)))
-        return st;
-    if ((st = crisp_grow((void **)&r->leaf_skip, &r->leaf_skip_cap, jobs ? jobs : 1,
-                         sizeof *r->leaf_skip)))
+        (st = crisp_grow((void **)&r->leaf_tbase, &r->leaf_tbase_cap, jobs ? jobs : 1,
+                         sizeof *r->leaf_tbase)) ||
+        (st = crisp_grow((void **)&r->leaf_skip, &r->leaf_skip_cap, jobs ? jobs : 1,
+                         sizeof *r->leaf_skip)) ||
+        (st = crisp_grow((void **)&r->order, &r->order_cap, jobs ? jobs : 1, sizeof *r->order)))
         return st;
     if (base &&
         (st = crisp_grow((void **)&r->hull, &r->hull_cap, jobs ? jobs : 1, sizeof *r->hull)))
+        return st;
+    if (occlusion &&
+        (st = crisp_grow((void **)&r->occl, &r->occl_cap, jobs ? jobs : 1, sizeof *r->occl)))
         return st;
     skip_ctx skc = {.r = r,
                     .sc = sc,
                     .samples = r->desc.samples,
                     .only = only,
                     .hull = base ? r->hull : NULL,
-                    .win = {win[0], win[1], win[2], win[3]}};
+                    .win = {win[0], win[1], win[2], win[3]},
+                    .occl = occlusion ? r->occl : NULL};
     for (int s = 0; s < r->desc.samples; s++)
         crisp__raster_sample_offset(r->desc.samples, s, skc.off[s]);
     crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
-    for (size_t j = 0; j < jobs; j++) {
-        size_t v = r->leaf_vbase[j], t = r->leaf_tbase[j];
-        if (v == UINT32_MAX) {
-            crisp_tess_levels lv = leaf_levels(&plan->leaves[j]);
-            if ((st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
-        }
-        r->leaf_vbase[j] = (uint32_t)nv;
-        r->leaf_tbase[j] = (uint32_t)nt;
-        nv += v;
-        nt += t;
-        if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
-            return crisp_error(CRISP_ERR_LIMIT,
-                               "more than 2^31 vertices or triangles in one frame");
+    /* The leaves to draw, in batches (nearest first with occlusion culling). */
+    uint32_t bstart[CRISP_OCCL_BATCHES + 1];
+    size_t bad = crisp__occl_order(occlusion ? r->occl : NULL, r->leaf_skip, r->leaf_tbase, jobs,
+                                   r->order, bstart);
+    if (bad != SIZE_MAX) {
+        size_t v, t;
+        crisp_tess_levels lv = leaf_levels(&plan->leaves[bad]);
+        if ((st = crisp_tess_mesh_counts(&lv, &v, &t))) return st;
     }
-    r->leaf_vbase[jobs] = (uint32_t)nv;
-    r->leaf_tbase[jobs] = (uint32_t)nt;
     /* Ribbons after the surfaces: at equal depth the surface's own fragment stays. A window of
      * the frame (issue 15: tiles of a poster have a millionth of its ribbons each) keeps the
      * quads whose screen box, widened by 2 px, meets it, in their order; the others cover no
      * sample of it. */
-    size_t surface_v = nv, surface_t = nt, quads = plan->ribbon_quad_count;
+    size_t quads = plan->ribbon_quad_count;
     const uint32_t *keep = NULL;
     if (only) {
         quads = 0;
@@ -950,37 +1009,6 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         quads = kept;
         keep = r->ribbon_keep;
     }
-    nv += 4 * quads;
-    nt += 2 * quads;
-    if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
-        return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 vertices or triangles in one frame");
-    if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, nv ? nv : 1, sizeof *r->verts)))
-        return st;
-    /* A triangle record is at least as large as the generator's three indices. */
-    if ((st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris))) return st;
-    r->vert_count = surface_v; /* the surface mesh, without the ribbons */
-    r->tri_count = surface_t;
-    tess_ctx tc = {r, sc};
-    crisp_pool_parallel_for(r->pool, jobs, 8, tessellate, &tc);
-    if (!only) {
-        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0, keep, surface_v};
-        crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
-    } else {
-        size_t done = 0; /* the drawn faces' quads, face after face */
-        for (uint32_t f = 0; f < plan->face_count; f++) {
-            if (!only[f] || !plan->faces[f].ribbon_count) continue;
-            ribbon_ctx rbc = {r,
-                              plan,
-                              surface_v + 4 * done,
-                              surface_t + 2 * done,
-                              plan->faces[f].first_ribbon,
-                              NULL,
-                              surface_v};
-            crisp_pool_parallel_for(r->pool, plan->faces[f].ribbon_count, 256, copy_ribbons, &rbc);
-            done += plan->faces[f].ribbon_count;
-        }
-    }
-    double t1 = crisp_time_now();
 
     crisp_raster_view view; /* for the ribbons' depth slack and the resolve's shading */
     raster_view(cam, &view);
@@ -1019,7 +1047,6 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
             return st;
         crisp__raster_target_clear_depth(&r->target, r->pool);
     }
-    crisp_raster_stats rs;
     /* Surfaces first; then the ribbons fill gaps: a ribbon sample replaces a surface sample only
      * when nearer by more than that surface's depth change over 1.5 px, so a ribbon along an
      * edge that another face hides at nearly the same depth (seen at a grazing angle) does not
@@ -1044,10 +1071,139 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         crisp__raster_set_clip(r->raster, NULL);
     }
     crisp__raster_set_box_test(r->raster, trim_box);
-    /* Each pass projects only its own vertices: the surfaces', then the ribbons'. */
-    st = crisp__raster_draw(r->raster, tg, r->pool, r->verts, surface_v, r->tris, surface_t,
-                            trim_test, ctx, &rs);
-    if (st) return st;
+
+    /* The surfaces, batch after batch (nearest first, occlusion.c): each batch's leaves that the
+     * depth drawn so far hides are dropped, the others tessellated and drawn. */
+    size_t nv = 0, nt = 0, occluded_leaves = 0, occluded_tris = 0;
+    crisp_raster_stats rs = {0};
+    /* The blocks the batches drawn since the last look at the depth can have reached. */
+    int drawn = 0, looked = 0, dirty[4] = {INT_MAX, INT_MAX, -1, -1};
+    if (occlusion) {
+        size_t blocks = (size_t)((win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK) *
+                        (size_t)((win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK);
+        if ((st = crisp_grow((void **)&r->hiz, &r->hiz_cap, blocks, sizeof *r->hiz))) return st;
+        memset(r->hiz, 0, blocks * sizeof *r->hiz); /* nothing drawn: no block hides anything */
+    }
+    double t1 = crisp_time_now();
+    t_tess += t1 - t0;
+    for (int b = 0; b < CRISP_OCCL_BATCHES; b++) {
+        uint32_t *list = r->order + bstart[b];
+        size_t n = bstart[b + 1] - bstart[b];
+        if (!n) continue;
+        double ta = crisp_time_now();
+        if (drawn && nt) {
+            /* Refreshing the block depth costs a pass over the samples of the blocks drawn since
+             * the last refresh (the others keep their values); a triangle not drawn saves its
+             * evaluation, setup and rasterisation (some hundred ns): worth it when the batch has
+             * at least a triangle per 128 such samples. Without a refresh the last one is still
+             * a valid bound (stored depth only gets nearer). */
+            if (dirty[0] <= dirty[2]) {
+                size_t tris = 0, area = (size_t)(dirty[2] - dirty[0] + 1) *
+                                        (size_t)(dirty[3] - dirty[1] + 1) * CRISP_OCCL_BLOCK *
+                                        CRISP_OCCL_BLOCK * r->desc.samples;
+                for (size_t i = 0; i < n; i++)
+                    tris += r->leaf_tbase[list[i]];
+                if (128 * tris >= area) {
+                    crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+                    dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
+                    looked = 1;
+                }
+            }
+            if (looked)
+                crisp__occl_cull(r->pool, r->occl, list, n, r->hiz,
+                                 (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK, r->leaf_skip);
+        }
+        /* Offsets of the batch's drawn leaves (in plan order), the list compacted to them. */
+        size_t kept = 0, vb0 = nv, tb0 = nt;
+        for (size_t i = 0; i < n; i++) {
+            uint32_t j = list[i];
+            if (r->leaf_skip[j]) {
+                occluded_leaves++;
+                occluded_tris += r->leaf_tbase[j];
+                continue;
+            }
+            if (occlusion) {
+                const crisp_occl_leaf *o = &r->occl[j];
+                dirty[0] = o->bx0 < dirty[0] ? o->bx0 : dirty[0];
+                dirty[1] = o->by0 < dirty[1] ? o->by0 : dirty[1];
+                dirty[2] = o->bx1 > dirty[2] ? o->bx1 : dirty[2];
+                dirty[3] = o->by1 > dirty[3] ? o->by1 : dirty[3];
+            }
+            size_t v = r->leaf_vbase[j], t = r->leaf_tbase[j];
+            r->leaf_vbase[j] = (uint32_t)nv;
+            r->leaf_tbase[j] = (uint32_t)nt;
+            nv += v;
+            nt += t;
+            list[kept++] = j;
+            if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
+                return crisp_error(CRISP_ERR_LIMIT,
+                                   "more than 2^31 vertices or triangles in one frame");
+        }
+        /* A triangle record is at least as large as the generator's three indices. */
+        if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, nv ? nv : 1, sizeof *r->verts)) ||
+            (st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris)))
+            return st;
+        tess_ctx tc = {r, sc, list, kept, (uint32_t)vb0, (uint32_t)nv, (uint32_t)nt};
+        crisp_pool_parallel_for(r->pool, kept, 8, tessellate, &tc);
+        double tb = crisp_time_now();
+        /* Each pass projects only its own vertices: the batch's, later the ribbons'. */
+        crisp_raster_stats rsb;
+        if ((st = crisp__raster_draw(r->raster, tg, r->pool, r->verts + vb0, nv - vb0,
+                                     r->tris + tb0, nt - tb0, trim_test, ctx, &rsb)))
+            return st;
+        drawn = 1;
+        rs.fragments_tested += rsb.fragments_tested;
+        rs.fragments_discarded += rsb.fragments_discarded;
+        if (vb0) { /* the frame's mesh indexes from its first vertex (crisp__renderer_mesh) */
+            rebase_ctx rb = {r->tris + tb0, (uint32_t)vb0};
+            crisp_pool_parallel_for(r->pool, nt - tb0, 4096, rebase_tris, &rb);
+        }
+        double tc2 = crisp_time_now();
+        t_tess += tb - ta;
+        t_raster += tc2 - tb;
+    }
+    if (!drawn) { /* nothing to draw: the draw still does the target's pending clear */
+        double ta = crisp_time_now();
+        if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, 1, sizeof *r->verts)) ||
+            (st = crisp_grow((void **)&r->tris, &r->tri_cap, 1, sizeof *r->tris)))
+            return st;
+        if ((st = crisp__raster_draw(r->raster, tg, r->pool, r->verts, 0, r->tris, 0, trim_test,
+                                     ctx, &rs)))
+            return st;
+        t_raster += crisp_time_now() - ta;
+    }
+    size_t surface_v = nv, surface_t = nt;
+    r->vert_count = surface_v; /* the surface mesh, without the ribbons */
+    r->tri_count = surface_t;
+
+    double t2a = crisp_time_now();
+    nv += 4 * quads;
+    nt += 2 * quads;
+    if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
+        return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 vertices or triangles in one frame");
+    if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, nv ? nv : 1, sizeof *r->verts)) ||
+        (st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris)))
+        return st;
+    if (!only) {
+        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0, keep, surface_v};
+        crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
+    } else {
+        size_t done = 0; /* the drawn faces' quads, face after face */
+        for (uint32_t f = 0; f < plan->face_count; f++) {
+            if (!only[f] || !plan->faces[f].ribbon_count) continue;
+            ribbon_ctx rbc = {r,
+                              plan,
+                              surface_v + 4 * done,
+                              surface_t + 2 * done,
+                              plan->faces[f].first_ribbon,
+                              NULL,
+                              surface_v};
+            crisp_pool_parallel_for(r->pool, plan->faces[f].ribbon_count, 256, copy_ribbons, &rbc);
+            done += plan->faces[f].ribbon_count;
+        }
+    }
+    double t2b = crisp_time_now();
+    t_tess += t2b - t2a;
     if (nt > surface_t) {
         size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
@@ -1065,6 +1221,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         rs.fragments_discarded += rs2.fragments_discarded;
     }
     double t2 = crisp_time_now();
+    t_raster += t2 - t2b;
     resolve_ctx rc = {.r = r,
                       .sc = sc,
                       .cam = cam,
@@ -1091,10 +1248,12 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     stats->vertices = surface_v;
     stats->triangles = surface_t;
     stats->ribbon_triangles = nt - surface_t;
+    stats->occluded_leaves = occluded_leaves;
+    stats->occluded_triangles = occluded_tris;
     stats->fragments_tested = rs.fragments_tested;
     stats->fragments_trimmed = rs.fragments_discarded;
-    stats->ms_tess = 1e3 * (t1 - t0);
-    stats->ms_raster = 1e3 * (t2 - t1);
+    stats->ms_tess = 1e3 * t_tess;
+    stats->ms_raster = 1e3 * t_raster;
     stats->ms_resolve = 1e3 * (t3 - t2);
     return CRISP_OK;
 }

@@ -262,6 +262,59 @@ static void clear_now(crisp_raster_target *t, crisp_pool *pool)
     crisp_pool_parallel_for(pool, (size_t)t->height, 64, clear_rows, &c);
 }
 
+typedef struct block_depth_ctx {
+    const crisp_raster_target *t;
+    int size, bx0, by0, bx1;
+    double *dest;
+} block_depth_ctx;
+
+/* Block rows by0 + [begin, end), blocks bx0 .. bx1 of each: the least 1/W, row by row of pixels. */
+static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const block_depth_ctx *c = vctx;
+    const crisp_raster_target *t = c->t;
+    int S = t->samples, n = c->size, bw = (t->width + n - 1) / n;
+    for (int by = c->by0 + (int)begin; by < c->by0 + (int)end; by++) {
+        double *out = c->dest + (size_t)by * (size_t)bw;
+        for (int bx = c->bx0; bx <= c->bx1; bx++)
+            out[bx] = INFINITY;
+        int j1 = (by + 1) * n < t->height ? (by + 1) * n : t->height;
+        for (int j = by * n; j < j1; j++) {
+            const double *row = t->inv_w + (size_t)j * t->width * S;
+            for (int bx = c->bx0; bx <= c->bx1; bx++) {
+                size_t a = (size_t)bx * n * S,
+                       b = (size_t)(bx * n + n < t->width ? bx * n + n : t->width) * S;
+                double m = out[bx];
+                for (size_t k = a; k < b; k++)
+                    m = row[k] < m ? row[k] : m;
+                out[bx] = m;
+            }
+        }
+    }
+}
+
+void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, int size,
+                               const int *blocks, double *dest)
+{
+    int bw = (t->width + size - 1) / size, bh = (t->height + size - 1) / size;
+    int b[4] = {0, 0, bw - 1, bh - 1};
+    if (blocks)
+        for (int k = 0; k < 4; k++) {
+            int lim = k % 2 ? bh - 1 : bw - 1;
+            b[k] = blocks[k] < 0 ? 0 : blocks[k] > lim ? lim : blocks[k];
+        }
+    if (b[0] > b[2] || b[1] > b[3]) return;
+    if (t->clear_pending) {
+        for (int by = b[1]; by <= b[3]; by++)
+            for (int bx = b[0]; bx <= b[2]; bx++)
+                dest[(size_t)by * bw + bx] = 0;
+        return;
+    }
+    block_depth_ctx c = {t, size, b[0], b[1], b[2], dest};
+    crisp_pool_parallel_for(pool, (size_t)(b[3] - b[1] + 1), 4, block_depth_rows, &c);
+}
+
 void crisp__raster_sample_offset(int samples, int s, double dest[2])
 {
     /* 4: rotated grid; 16: a regular 4x4 grid. */

@@ -74,6 +74,17 @@ void crisp__raster_target_clear(crisp_raster_target *t);
  * has no triangles; read the target only after a draw. */
 void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool);
 
+/* The target's depth per size x size pixel block (size a divisor of 8, so that blocks of the
+ * target, whose corner x0, y0 is a multiple of 8, are blocks of the image):
+ * dest[by * ((width + size - 1) / size) + bx] = the least 1/W over the block's samples inside
+ * the target, 0 when one of them is empty (nothing drawn there) or a clear is pending; written
+ * for the blocks bx0 <= bx <= bx1, by0 <= by <= by1 of blocks[4] = bx0, by0, bx1, by1 (clamped
+ * to the target; NULL: all), the others left as they are. Later draws only raise stored 1/W
+ * (outside fill mode), so a fragment whose 1/W is below it anywhere in the block cannot be drawn
+ * there. pool may be NULL. */
+void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, int size,
+                               const int *blocks, double *dest);
+
 /* Offsets of the samples inside a pixel, in [0, 1)^2 (x right, y down). */
 void crisp__raster_sample_offset(int samples, int s, double dest[2]);
 

@@ -1,0 +1,313 @@
+/* Occlusion culling in the CPU backend (issue 12, src/render/occlusion.c): leaves hidden behind
+ * depth already drawn are not tessellated, and that must not change a sample. A scene of layers:
+ * a wavy front plate with three round holes (trimmed away: nothing is written there, so what is
+ * behind shows through), a small sheet in front of it, three wavy sheets behind (one rational),
+ * a sphere at the back, a tilted sheet that passes through all the layers and a sphere through
+ * the plate. Cameras: frontal
+ * views (the plate hides most of the layers: culling is expected), random cameras all around and
+ * between the layers, and cameras just above a sheet looking along it (the sheet crosses the near
+ * plane). Each frame is drawn with culling on and off (crisp_render_desc.no_occlusion) on the same
+ * plan, with 1 and 4 samples per pixel (16 in two frontal views), as a whole frame, as a window of
+ * it (crisp__render_cpu_window, the image tiles' path) and with only some faces
+ * (crisp_render_cpu_plan_faces): every sample of the target (face, 1/W, attributes) and every pixel
+ * of the image must be the same bit for bit; the leaves culled are counted and must be many in the
+ * frontal views. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/construct.h"
+#include "crisp/model.h"
+#include "crisp/plan.h"
+#include "crisp/render.h"
+#include "render/raster.h"
+#include "render/render_internal.h"
+
+#define W 128
+#define H 96
+/* Finer than the default 0.5 px: more triangles per frame, so that the frames are drawn in
+ * several batches (each holds at least 8,192 triangles). */
+#define EPS 0.15
+
+static uint64_t rng = 0x2545f4914f6cdd1dull;
+static double rnd(void)
+{
+    rng ^= rng << 13, rng ^= rng >> 7, rng ^= rng << 17;
+    return (double)(rng >> 11) / 9007199254740992.0;
+}
+
+/* A bicubic sheet of n x n spans over [x0, x1] x [y0, y1] at height z with waves of amplitude a
+ * ((u, v) in [0, 1]^2); rational: weights in [0.75, 1.25] varying over the net. */
+static crisp_surface *sheet(int n, double x0, double x1, double y0, double y1, double z, double a,
+                            int rational)
+{
+    int m = n + 3;
+    double k[64];
+    for (int i = 0; i < m + 4; i++)
+        k[i] = i < 4 ? 0 : i >= m ? 1 : (double)(i - 3) / n;
+    double pts[3 * 40 * 40], w[40 * 40];
+    for (int j = 0; j < m; j++)
+        for (int i = 0; i < m; i++) {
+            double *p = pts + 3 * (j * m + i);
+            p[0] = x0 + (x1 - x0) * i / (m - 1);
+            p[1] = y0 + (y1 - y0) * j / (m - 1);
+            p[2] = z + a * sin(1.7 * p[0] + 0.3) * cos(1.3 * p[1] - 0.2);
+            w[j * m + i] = 1 + 0.25 * sin(0.9 * i + 0.6 * j);
+        }
+    crisp_surface *s;
+    assert_int_equal(crisp_surface_create(3, 3, m, m, k, k, pts, rational ? w : NULL, &s),
+                     CRISP_OK);
+    return s;
+}
+
+static crisp_curve *line2(double x0, double y0, double x1, double y1)
+{
+    crisp_curve *c;
+    double p0[2] = {x0, y0}, p1[2] = {x1, y1};
+    assert_int_equal(crisp_make_line(2, p0, p1, 0, 1, &c), CRISP_OK);
+    return c;
+}
+
+/* The front plate: an outer rectangle inside the domain and three round holes. */
+static void add_plate(crisp_model *m)
+{
+    crisp_face f = {.surface = sheet(12, -2, 2, -1.6, 1.6, 0, 0.08, 0), .loop_count = 4};
+    f.loops = calloc(4, sizeof *f.loops);
+    assert_non_null(f.loops);
+    f.loops[0].is_outer = 1;
+    f.loops[0].curve_count = 4;
+    f.loops[0].curves = calloc(4, sizeof(crisp_curve *));
+    assert_non_null(f.loops[0].curves);
+    f.loops[0].curves[0] = line2(0.02, 0.02, 0.98, 0.02);
+    f.loops[0].curves[1] = line2(0.98, 0.02, 0.98, 0.98);
+    f.loops[0].curves[2] = line2(0.98, 0.98, 0.02, 0.98);
+    f.loops[0].curves[3] = line2(0.02, 0.98, 0.02, 0.02);
+    const double holes[3][3] = {{0.3, 0.32, 0.13}, {0.68, 0.4, 0.09}, {0.52, 0.74, 0.16}};
+    for (int h = 0; h < 3; h++) {
+        crisp_trim_loop *l = &f.loops[1 + h];
+        l->is_outer = 0;
+        l->curve_count = 1;
+        l->curves = calloc(1, sizeof(crisp_curve *));
+        assert_non_null(l->curves);
+        double c[2] = {holes[h][0], holes[h][1]}, x[2] = {1, 0}, y[2] = {0, -1};
+        assert_int_equal(
+            crisp_make_arc(2, c, x, y, holes[h][2], holes[h][2], 0, 2 * M_PI, &l->curves[0]),
+            CRISP_OK);
+    }
+    assert_int_equal(crisp_face_normalize_loops(&f, 1e-9), CRISP_OK);
+    assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
+}
+
+static crisp_model *layers(void)
+{
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    add_plate(m);
+    crisp_face f[5] = {{.surface = sheet(4, -0.8, 0.2, -0.5, 0.4, 0.7, 0.05, 0)},
+                       {.surface = sheet(16, -3, 3, -2.4, 2.4, -0.6, 0.15, 0)},
+                       {.surface = sheet(16, -3.2, 2.8, -2.2, 2.6, -1.3, 0.2, 1)},
+                       {.surface = sheet(10, -3, 3, -2.5, 2.5, -2.2, 0.3, 0)}};
+    crisp_placement pl;
+    double o[3] = {0.4, 0.2, -3.6}, z[3] = {0.2, 1, 0.3};
+    assert_int_equal(crisp_placement_make(o, z, NULL, &pl), CRISP_OK);
+    assert_int_equal(crisp_make_sphere(&pl, 1.1, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &f[4].surface),
+                     CRISP_OK);
+    for (int k = 0; k < 5; k++)
+        assert_int_equal(crisp_model_add_face(m, &f[k]), CRISP_OK);
+    /* A tilted sheet through every layer (from z = 1.2 down to -3): its leaves lie partly in
+     * front of and partly behind the plate and the sheets, so only its nearest depth may decide. */
+    crisp_surface *t = sheet(3, -2.5, 2.5, -0.6, 0.6, 0, 0.1, 0);
+    crisp_face tf = {.surface = t};
+    for (int k = 0; k < t->count_u * t->count_v; k++) {
+        double *p = t->cpw + 4 * k;
+        double x = p[0], y = p[1];
+        p[0] = 0.8 * x + 0.3 * y, p[1] = 0.4 * x + y, p[2] += -0.9 - 0.84 * x;
+    }
+    assert_int_equal(crisp_model_add_face(m, &tf), CRISP_OK);
+    /* A sphere through the plate near its second hole, half in front of it. */
+    double o2[3] = {0.9, -0.2, 0.05};
+    assert_int_equal(crisp_placement_make(o2, z, NULL, &pl), CRISP_OK);
+    crisp_face sf = {0};
+    assert_int_equal(crisp_make_sphere(&pl, 0.5, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sf.surface),
+                     CRISP_OK);
+    assert_int_equal(crisp_model_add_face(m, &sf), CRISP_OK);
+    return m;
+}
+
+static crisp_camera camera(const double eye[3], const double target[3], double fov)
+{
+    crisp_camera c = {.eye = {eye[0], eye[1], eye[2]},
+                      .target = {target[0], target[1], target[2]},
+                      .up = {0.1 * rnd(), 1, 0.1 * rnd()},
+                      .fov_deg = fov,
+                      .znear = 0.05,
+                      .zfar = 60,
+                      .width = W,
+                      .height = H};
+    return c;
+}
+
+/* Every sample of the two targets and every pixel of the two images agree bit for bit (the
+ * attributes of empty samples are not read by anything and may hold stale values). */
+static void assert_same(const crisp_renderer *a, const crisp_renderer *b, const crisp_image *ia,
+                        const crisp_image *ib, const char *what)
+{
+    const crisp_raster_target *ta = crisp__renderer_target(a), *tb = crisp__renderer_target(b);
+    size_t n = (size_t)ta->width * ta->height * ta->samples, diff = 0;
+    assert_int_equal(n, (size_t)tb->width * tb->height * tb->samples);
+    for (size_t k = 0; k < n; k++) {
+        int bad = ta->face[k] != tb->face[k] || memcmp(&ta->inv_w[k], &tb->inv_w[k], 8) ||
+                  (ta->face[k] >= 0 &&
+                   memcmp(ta->attr + k * CRISP_RASTER_ATTRS, tb->attr + k * CRISP_RASTER_ATTRS,
+                          CRISP_RASTER_ATTRS * sizeof(float)));
+        diff += bad;
+    }
+    size_t px = (size_t)ia->width * ia->height;
+    int img_diff = memcmp(ia->rgba, ib->rgba, 16 * px) || memcmp(ia->depth, ib->depth, 4 * px) ||
+                   memcmp(ia->normal, ib->normal, 12 * px) || memcmp(ia->uv, ib->uv, 8 * px) ||
+                   memcmp(ia->face, ib->face, 4 * px);
+    if (diff || img_diff)
+        printf("  %s: %zu samples differ, image differs %d\n", what, diff, img_diff);
+    assert_int_equal(diff, 0);
+    assert_int_equal(img_diff, 0);
+}
+
+typedef struct totals {
+    size_t frames, culled_frames, leaves, culled, tris, culled_tris;
+} totals;
+
+/* One camera: the whole frame, a window and a subset of faces, culling on and off. Returns the
+ * leaves culled in the whole frame. */
+static uint64_t check_camera(const crisp_scene *sc, const crisp_camera *cam, int samples,
+                             totals *tot)
+{
+    crisp_renderer *on, *off;
+    assert_int_equal(
+        crisp_renderer_create(&(crisp_render_desc){.samples = samples, .threads = 2, .eps_px = EPS},
+                              &on),
+        CRISP_OK);
+    assert_int_equal(crisp_renderer_create(
+                         &(crisp_render_desc){
+                             .samples = samples, .threads = 2, .eps_px = EPS, .no_occlusion = 1},
+                         &off),
+                     CRISP_OK);
+    const crisp_frame_plan *plan;
+    assert_int_equal(crisp_planner_plan(crisp_renderer_planner(on), sc, cam, &plan), CRISP_OK);
+    crisp_image ia, ib;
+    assert_int_equal(crisp_image_init(&ia, W, H), CRISP_OK);
+    assert_int_equal(crisp_image_init(&ib, W, H), CRISP_OK);
+    crisp_render_stats sa, sb;
+    assert_int_equal(crisp_render_cpu_plan(on, sc, plan, cam, &ia, &sa), CRISP_OK);
+    assert_int_equal(crisp_render_cpu_plan(off, sc, plan, cam, &ib, &sb), CRISP_OK);
+    assert_same(on, off, &ia, &ib, "frame");
+    assert_int_equal(sb.occluded_leaves, 0);
+    assert_int_equal(sa.triangles + sa.occluded_triangles, sb.triangles);
+    tot->frames++;
+    tot->leaves += plan->leaf_count;
+    tot->culled += sa.occluded_leaves;
+    tot->culled_tris += sa.occluded_triangles;
+    tot->tris += sb.triangles;
+    tot->culled_frames += sa.occluded_leaves > 0;
+    uint64_t culled = sa.occluded_leaves;
+    /* A window of the frame (x0, y0 multiples of 8). */
+    int win[4] = {24, 16, 72, 56};
+    crisp_image wa, wb;
+    assert_int_equal(crisp_image_init(&wa, win[2], win[3]), CRISP_OK);
+    assert_int_equal(crisp_image_init(&wb, win[2], win[3]), CRISP_OK);
+    assert_int_equal(crisp__render_cpu_window(on, sc, plan, cam, win, &wa, &sa), CRISP_OK);
+    assert_int_equal(crisp__render_cpu_window(off, sc, plan, cam, win, &wb, &sb), CRISP_OK);
+    assert_same(on, off, &wa, &wb, "window");
+    /* Every face but the front plate. */
+    uint8_t faces[8];
+    for (uint32_t f = 0; f < plan->face_count; f++)
+        faces[f] = f != 0;
+    assert_int_equal(crisp_render_cpu_plan_faces(on, sc, plan, cam, faces, NULL, &ia, &sa),
+                     CRISP_OK);
+    assert_int_equal(crisp_render_cpu_plan_faces(off, sc, plan, cam, faces, NULL, &ib, &sb),
+                     CRISP_OK);
+    assert_same(on, off, &ia, &ib, "faces");
+    crisp_image_free(&wa);
+    crisp_image_free(&wb);
+    crisp_image_free(&ia);
+    crisp_image_free(&ib);
+    crisp_renderer_destroy(on);
+    crisp_renderer_destroy(off);
+    return culled;
+}
+
+static void report(const char *what, int samples, const totals *t)
+{
+    printf("%s, %d sample(s): %zu frames, culling in %zu; leaves culled %zu of %zu, triangles "
+           "%zu of %zu (%.0f%%)\n",
+           what, samples, t->frames, t->culled_frames, t->culled, t->leaves, t->culled_tris,
+           t->tris, t->tris ? 100.0 * t->culled_tris / t->tris : 0.0);
+}
+
+/* Frontal views: the plate and the small sheet in front hide most of the layers; the holes show
+ * them in places. Culling must happen in every frame. */
+static void test_frontal(void **state)
+{
+    (void)state;
+    crisp_model *m = layers();
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    for (int samples = 1; samples <= 16; samples *= 4) {
+        totals t = {0};
+        for (int k = 0; k < (samples == 16 ? 2 : 6); k++) {
+            double eye[3] = {0.6 * (rnd() - 0.5), 0.6 * (rnd() - 0.5), 3.5 + 2 * rnd()};
+            double target[3] = {0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5), -1};
+            crisp_camera cam = camera(eye, target, 30 + 15 * rnd());
+            assert_true(check_camera(sc, &cam, samples, &t) > 0);
+        }
+        report("frontal", samples, &t);
+        assert_true(t.culled_tris > t.tris / 10);
+    }
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
+/* Random cameras around and inside the layers (eyes between sheets, close to them, wide and narrow
+ * fields of view), and eyes just above a sheet looking along it: its leaves cross the near plane
+ * and are never culled. */
+static void test_random(void **state)
+{
+    (void)state;
+    crisp_model *m = layers();
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    for (int samples = 1; samples <= 4; samples += 3) {
+        totals t = {0};
+        for (int k = 0; k < 16; k++) {
+            double eye[3] = {6 * (rnd() - 0.5), 6 * (rnd() - 0.5), -4.5 + 10 * rnd()};
+            double target[3] = {4 * (rnd() - 0.5), 4 * (rnd() - 0.5), -3 + 3.5 * rnd()};
+            crisp_camera cam = camera(eye, target, 15 + 85 * rnd());
+            check_camera(sc, &cam, samples, &t);
+        }
+        for (int k = 0; k < 4; k++) {
+            /* Just above sheet 2 (z about -0.6), looking along it towards the sphere's side. */
+            double eye[3] = {-2 + rnd(), -1 + 2 * rnd(), -0.6 + 0.03 * rnd()};
+            double target[3] = {2, 2 * (rnd() - 0.5), -1.4 - rnd()};
+            crisp_camera cam = camera(eye, target, 40 + 40 * rnd());
+            check_camera(sc, &cam, samples, &t);
+        }
+        report("random", samples, &t);
+    }
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_frontal),
+        cmocka_unit_test(test_random),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
