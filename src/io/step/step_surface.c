@@ -398,8 +398,12 @@ static double profile_search(const step_surface *s, const double *p, double lo, 
             bd = d, best = t;
     }
     double a = best - (hi - lo) / n, b = best + (hi - lo) / n;
-    if (a < lo) a = lo;
-    if (b > hi) b = hi;
+    /* (A full turn of a conic is periodic: the bracket may pass its ends. Clamped, a point just
+     * short of lo + 2 pi whose grid neighbour is lo was taken for lo: trj3_s1-tc-214.stp, an
+     * arc at the end of the range checked against the wrong end, 0.15 off.) */
+    int turn = s->profile.kind == STEP_CURVE_CONIC && hi - lo >= 2 * M_PI * (1 - 1e-12);
+    if (a < lo && !turn) a = lo;
+    if (b > hi && !turn) b = hi;
     const double g = 0.6180339887498949;
     double x1 = b - g * (b - a), x2 = a + g * (b - a);
     double f1 = profile_dist(s, p, x1), f2 = profile_dist(s, p, x2);
@@ -485,6 +489,7 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
             lo = mid - span, hi = mid + span;
         }
         v = profile_invert(s, p, lo, hi, ref ? ref[1] : NAN);
+        if (c->kind == STEP_CURVE_CONIC && !isfinite(c->t0) && !ref) v = atan2(sin(v), cos(v));
         double cp[3], a[3], b[3];
         crisp__step_curve_eval(c, v, cp);
         for (int k = 0; k < 3; k++)
@@ -516,7 +521,8 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
         for (int k = 0; k < 3; k++)
             d[k] = p[k] - cp[k];
         uv[1] = dot3(d, s->axis_d) / dot3(s->axis_d, s->axis_d);
-        if (c->kind == STEP_CURVE_CONIC && ref) uv[0] = near_angle(uv[0], ref[0]);
+        if (c->kind == STEP_CURVE_CONIC)
+            uv[0] = ref ? near_angle(uv[0], ref[0]) : atan2(sin(uv[0]), cos(uv[0]));
         return;
     }
     case STEP_SURF_BSPLINE: {
