@@ -19,6 +19,7 @@
 #include <string.h>
 #include <sys/resource.h>
 
+#include "bench_camera.h"
 #include "bench_util.h"
 #include "crisp/io.h"
 #include "crisp/plan.h"
@@ -39,25 +40,6 @@ static double cpu_ms(void)
     getrusage(RUSAGE_SELF, &u);
     return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
            1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
-static crisp_camera close_up(const crisp_scene *sc, const crisp_camera *base)
-{
-    crisp_camera c = *base;
-    double o[3], d[3], t;
-    crisp_camera_ray(base, 0.5 * base->width, 0.5 * base->height, o, d);
-    if (!crisp_exact_ray(sc, NULL, o, d, base->znear, base->zfar, &t, NULL, NULL, NULL)) {
-        double P[3], Ps[3], Pt[3];
-        crisp_bezier_patch_derivs(&sc->patches[sc->patch_count / 2].bez, 0.5, 0.5, P, Ps, Pt);
-        for (int k = 0; k < 3; k++)
-            d[k] = P[k] - o[k];
-        t = crisp_vec3_norm(d);
-        crisp_vec3_normalize(d, d);
-    }
-    for (int k = 0; k < 3; k++)
-        c.target[k] = o[k] + t * d[k];
-    c.fov_deg = base->fov_deg / 8;
-    return c;
 }
 
 /* The trim lookups of the image's covered pixels (faces with trim loops), replayed and timed:
@@ -196,7 +178,7 @@ int main(int argc, char **argv)
         if (crisp_scene_prepare(model, &sc)) die("scene");
         crisp_camera cams[2];
         if (crisp_camera_frame_box(sc->box, 1920, 1080, &cams[0])) die("camera");
-        cams[1] = close_up(sc, &cams[0]);
+        cams[1] = bench_close_up(sc, &cams[0]);
         for (int v = 0; v < 2; v++) {
             const char *view = v ? "close" : "default";
             if (wanted(argc, argv, models[m], view))

@@ -71,7 +71,7 @@ static const char *fs_src =
     "  color = vec4(mix(bg, c.rgb, c.a), 1.0);\n"
     "}\n";
 
-static GLuint compile(GLenum type, const char *src, char *err, size_t err_size)
+static GLuint compile(GLenum type, const char *src, char *log, size_t size)
 {
     GLuint s = glCreateShader(type);
     glShaderSource(s, 1, &src, NULL);
@@ -79,34 +79,44 @@ static GLuint compile(GLenum type, const char *src, char *err, size_t err_size)
     GLint ok = 0;
     glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
     if (!ok) {
-        char log[512];
-        glGetShaderInfoLog(s, sizeof log, NULL, log);
-        snprintf(err, err_size, "image view shader: %s", log);
+        glGetShaderInfoLog(s, (GLsizei)size, NULL, log);
         glDeleteShader(s);
         return 0;
     }
     return s;
 }
 
+GLuint app_gl_program(const char *vs, const char *fs, char *log, size_t size)
+{
+    GLuint a = compile(GL_VERTEX_SHADER, vs, log, size);
+    GLuint b = a ? compile(GL_FRAGMENT_SHADER, fs, log, size) : 0;
+    if (!b) {
+        glDeleteShader(a);
+        return 0;
+    }
+    GLuint p = glCreateProgram();
+    glAttachShader(p, a);
+    glAttachShader(p, b);
+    glLinkProgram(p);
+    glDeleteShader(a);
+    glDeleteShader(b);
+    GLint ok = 0;
+    glGetProgramiv(p, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        glGetProgramInfoLog(p, (GLsizei)size, NULL, log);
+        glDeleteProgram(p);
+        return 0;
+    }
+    return p;
+}
+
 int app_image_view_init(app_image_view *v, char *err, size_t err_size)
 {
     memset(v, 0, sizeof *v);
-    GLuint vs = compile(GL_VERTEX_SHADER, vs_src, err, err_size);
-    GLuint fs = vs ? compile(GL_FRAGMENT_SHADER, fs_src, err, err_size) : 0;
-    if (!fs) {
-        glDeleteShader(vs);
-        return 0;
-    }
-    v->program = glCreateProgram();
-    glAttachShader(v->program, vs);
-    glAttachShader(v->program, fs);
-    glLinkProgram(v->program);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = 0;
-    glGetProgramiv(v->program, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        snprintf(err, err_size, "image view program does not link");
+    char log[512] = "";
+    v->program = app_gl_program(vs_src, fs_src, log, sizeof log);
+    if (!v->program) {
+        snprintf(err, err_size, "image view shader: %s", log);
         return 0;
     }
     glCreateVertexArrays(1, &v->vao);

@@ -6,6 +6,7 @@
  *   app_window_create/_destroy   window + context + loader; errors as text
  *   app_image_view               a texture and the program that draws it
  *   app_image_view_init/_upload/_draw/_free
+ *   app_gl_program               a vertex + fragment program; the GL log as text on failure
  */
 #ifndef APP_WINDOW_H
 #define APP_WINDOW_H
@@ -35,6 +36,9 @@ typedef struct app_image_view {
     GLuint program, vao, tex;
     int tex_w, tex_h;
 } app_image_view;
+
+/* Compiles and links a vertex and a fragment shader; 0 with the compile or link log in LOG. */
+GLuint app_gl_program(const char *vs, const char *fs, char *log, size_t size);
 
 int app_image_view_init(app_image_view *v, char *err, size_t err_size);
 /* width x height RGBA8 pixels, row 0 at the top. */

@@ -144,51 +144,12 @@ static const char *edge_fs_src =
     "  else color = vec4(0.0, 0.0, 0.0, 0.85);\n"
     "}\n";
 
-static GLuint compile(GLenum type, const char *src, char *log, size_t size)
-{
-    GLuint s = glCreateShader(type);
-    glShaderSource(s, 1, &src, NULL);
-    glCompileShader(s);
-    GLint ok = 0;
-    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-        glGetShaderInfoLog(s, (GLsizei)size, NULL, log);
-        glDeleteShader(s);
-        return 0;
-    }
-    return s;
-}
-
-static GLuint link(const char *vs, const char *fs, char *log, size_t size)
-{
-    GLuint a = compile(GL_VERTEX_SHADER, vs, log, size);
-    GLuint b = a ? compile(GL_FRAGMENT_SHADER, fs, log, size) : 0;
-    if (!b) {
-        glDeleteShader(a);
-        return 0;
-    }
-    GLuint p = glCreateProgram();
-    glAttachShader(p, a);
-    glAttachShader(p, b);
-    glLinkProgram(p);
-    glDeleteShader(a);
-    glDeleteShader(b);
-    GLint ok = 0;
-    glGetProgramiv(p, GL_LINK_STATUS, &ok);
-    if (!ok) {
-        glGetProgramInfoLog(p, (GLsizei)size, NULL, log);
-        glDeleteProgram(p);
-        return 0;
-    }
-    return p;
-}
-
 crisp_status view_proxy_init(view_proxy *px)
 {
     memset(px, 0, sizeof *px);
     char log[1024] = "";
-    px->program = link(vs_src, fs_src, log, sizeof log);
-    if (px->program) px->edge_program = link(edge_vs_src, edge_fs_src, log, sizeof log);
+    px->program = app_gl_program(vs_src, fs_src, log, sizeof log);
+    if (px->program) px->edge_program = app_gl_program(edge_vs_src, edge_fs_src, log, sizeof log);
     if (!px->program || !px->edge_program) {
         view_proxy_free(px);
         return crisp_error(CRISP_ERR_GL, "moving-frame shaders: %s", log);

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "crisp/cells.h"
 #include "crisp/core.h"
 
 const char *cli_cmd = "";
@@ -24,6 +25,13 @@ int cli_int(const char *opt, const char *s, long lo, long hi, int *dest)
     }
     *dest = (int)x;
     return 1;
+}
+
+int cli_cell(const char *opt, const char *s, crisp_cell_spec *dest)
+{
+    if (crisp_cell_parse(s, dest) == CRISP_OK) return 1;
+    fprintf(stderr, "crisp %s: %s: %s\n", cli_cmd, opt, crisp_error_message());
+    return 0;
 }
 
 int cli_double(const char *opt, const char *s, double lo, double hi, int open_lo, int open_hi,

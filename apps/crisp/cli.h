@@ -21,6 +21,9 @@ int cli_doubles(const char *opt, const char *s, int n, double *dest);
 int cli_size(const char *opt, const char *s, int max, int *w, int *h);
 /* A byte count with an optional K, M, G or T suffix (powers of 1024), at least 1 MiB. */
 int cli_bytes(const char *opt, const char *s, uint64_t *dest);
+/* A cell or tile of a split job, "I/N" or "I/CxR" (crisp_cell_parse). */
+struct crisp_cell_spec;
+int cli_cell(const char *opt, const char *s, struct crisp_cell_spec *dest);
 /* getopt_long returned '?' or ':' (with optstring starting with ':'): print what was wrong. */
 void cli_bad_option(int c, char **argv);
 void cli_format_bytes(uint64_t bytes, char *buf, size_t cap);

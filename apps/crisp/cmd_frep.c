@@ -378,10 +378,7 @@ static int cmd_mesh(int argc, char **argv)
             break;
         case OPT_CELL:
             if (strchr(optarg, '/')) { /* --cell I/N: one octant of the mesh */
-                if (crisp_cell_parse(optarg, &cell)) {
-                    fprintf(stderr, "crisp frep mesh: --cell: %s\n", crisp_error_message());
-                    return 2;
-                }
+                if (!cli_cell("--cell", optarg, &cell)) return 2;
                 celled = 1;
             } else if (!cli_double("--cell", optarg, 0, INFINITY, 1, 1, &desc.cell)) {
                 return 2;
@@ -692,10 +689,7 @@ static int cmd_mass(int argc, char **argv)
             cell_out = optarg;
             break;
         case OPT_CELL:
-            if (crisp_cell_parse(optarg, &cell)) {
-                fprintf(stderr, "crisp frep mass: --cell: %s\n", crisp_error_message());
-                return 2;
-            }
+            if (!cli_cell("--cell", optarg, &cell)) return 2;
             celled = 1;
             break;
         case OPT_ACCURACY:
@@ -1031,10 +1025,7 @@ static int cmd_render(int argc, char **argv, int bench)
             desc.flags |= CRISP_FREP_BRUTE;
             break;
         case OPT_TILE:
-            if (crisp_cell_parse(optarg, &tile)) {
-                fprintf(stderr, "crisp frep: --tile: %s\n", crisp_error_message());
-                return 2;
-            }
+            if (!cli_cell("--tile", optarg, &tile)) return 2;
             tiled = 1;
             break;
         case 'h':

@@ -96,10 +96,7 @@ int crisp_cmd_mass(int argc, char **argv)
     while ((c = getopt_long(argc, argv, ":o:h", opts, NULL)) != -1) {
         switch (c) {
         case 'c':
-            if (crisp_cell_parse(optarg, &cell)) {
-                fprintf(stderr, "crisp mass: --cell: %s\n", crisp_error_message());
-                return 2;
-            }
+            if (!cli_cell("--cell", optarg, &cell)) return 2;
             celled = 1;
             break;
         case 'o':

@@ -209,10 +209,7 @@ static int parse(int argc, char **argv, render_args *a)
             a->progress = 0;
             break;
         case OPT_TILE:
-            if (crisp_cell_parse(optarg, &a->tile)) {
-                fprintf(stderr, "crisp render: --tile: %s\n", crisp_error_message());
-                return 2;
-            }
+            if (!cli_cell("--tile", optarg, &a->tile)) return 2;
             a->tiled = 1;
             break;
         case 'q':

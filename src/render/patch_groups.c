@@ -12,14 +12,18 @@
 #include <string.h>
 
 #include "quadtree.h"
+#include "rational_bound.h"
 
 typedef struct group {
     uint32_t iu0, iv0, nu, nv; /* patch grid block: columns iu0.., rows iv0.. (clipped) */
     uint32_t g;                /* the block is 2^g x 2^g patches before clipping */
     int32_t child[4];          /* -1: none (outside the grid, or a single patch) */
     double box[6];
-    double dev[4]; /* per homogeneous object coordinate: the largest distance between a control
-                      point of the block and the bilinear through the block's corners there */
+    double dev[4];   /* per homogeneous object coordinate: the largest distance between a control
+                        point of the block and the bilinear through the block's corners there */
+    double devq[3];  /* rational blocks: crisp__rational_block_deviation (x, y, z) */
+    double wlo, whi; /* the least and largest weight of the block's patches */
+    int rational;    /* the weights vary over the block (whi > wlo) */
 } group;
 
 struct crisp__groups {
@@ -86,7 +90,11 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
                lv,
                {-1, -1, -1, -1},
                {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY},
-               {0, 0, 0, 0}};
+               {0, 0, 0, 0},
+               {0, 0, 0},
+               INFINITY,
+               -INFINITY,
+               0};
     if (lv == 0) {
         const double *b = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].box;
         memcpy(n.box, b, sizeof n.box);
@@ -103,7 +111,20 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
             }
         }
     }
+    if (lv == 0)
+        crisp__rational_weight_range(&sc->patches[f->first_patch + iv0 * f->grid_u + iu0].bez,
+                                     &n.wlo, &n.whi);
+    else
+        for (int k = 0; k < 4; k++)
+            if (n.child[k] >= 0) {
+                n.wlo = fmin(n.wlo, g->nodes[n.child[k]].wlo);
+                n.whi = fmax(n.whi, g->nodes[n.child[k]].whi);
+            }
+    n.rational = n.whi > n.wlo;
     if (n.nu * n.nv > 1) block_deviation(sc, f, &n);
+    if (n.nu * n.nv > 1 && n.rational)
+        crisp__rational_block_deviation(&sc->patches[f->first_patch + iv0 * f->grid_u + iu0],
+                                        f->grid_u, n.nu, n.nv, n.devq);
     g->nodes[me] = n;
     *dest = me;
     return CRISP_OK;
@@ -307,11 +328,25 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
     double E0[3];
     for (int a = 0; a < 3; a++)
         E0[a] = D[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
-    if (screen_px(D, wmin, xmax, ymax, c->width, c->height) +
-            screen_px(E0, wmin, xmax, ymax, c->width, c->height) <=
-        c->eps)
+    if (!n->rational && screen_px(D, wmin, xmax, ymax, c->width, c->height) +
+                                screen_px(E0, wmin, xmax, ymax, c->width, c->height) <=
+                            c->eps)
+        return 1;
+    /* Blocks whose weights vary: the same bound without dividing by the weights, measured at the
+     * parameters the rasterizer interpolates (rational_bound.c; the homogeneous one bounds
+     * another point of the same triangle there). */
+    double(*m)[4] = (double(*)[4])c->m, fast = INFINITY;
+    if (n->rational &&
+        (fast = crisp__rational_block_px_fast(&sc->patches[base], f->grid_u, n->nu, n->nv, n->devq,
+                                              m, c->width, c->height)) <= c->eps)
         return 1;
     if (n->nu * n->nv > 64 || extent > GROUP_TRY_PX) return 0;
+    /* the per-control-point bound is rarely below a quarter of the O(1) one */
+    if (n->rational && fast <= 4 * c->eps &&
+        crisp__rational_block_px(&sc->patches[base], f->grid_u, n->nu, n->nv, m, c->width,
+                                 c->height, c->eps) <= c->eps)
+        return 1;
+    if (n->rational) return 0;
     D[0] = D[1] = D[2] = 0;
     for (uint32_t jv = 0; jv < n->nv; jv++)
         for (uint32_t iu = 0; iu < n->nu; iu++) {

@@ -7,6 +7,8 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include "cli/cli_run.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,45 +18,6 @@
 
 #define BEAR CRISP_DATA_DIR "/frep/bear.vm"
 #define SPHERE "-e 'X^2+Y^2+Z^2-1'"
-
-static char out_buf[65536], err_buf[65536];
-
-/* Runs `crisp ARGS` with stdout and stderr captured separately; returns the exit status. */
-static int run(const char *fmt, ...)
-{
-    char args[2048], cmd[4096];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(args, sizeof args, fmt, ap);
-    va_end(ap);
-    snprintf(cmd, sizeof cmd, "'%s/crisp' %s >frep_stdout.txt 2>frep_stderr.txt", CRISP_BIN_DIR,
-             args);
-    int st = system(cmd);
-    char *bufs[2] = {out_buf, err_buf};
-    const char *names[2] = {"frep_stdout.txt", "frep_stderr.txt"};
-    for (int i = 0; i < 2; i++) {
-        FILE *f = fopen(names[i], "rb");
-        size_t n = f ? fread(bufs[i], 1, sizeof out_buf - 1, f) : 0;
-        bufs[i][n] = '\0';
-        if (f) fclose(f);
-    }
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
-static int exists(const char *path)
-{
-    struct stat sb;
-    return stat(path, &sb) == 0;
-}
-
-#define EXPECT(rc, code, stream, text)                                                             \
-    do {                                                                                           \
-        if ((rc) != (code) || !strstr(stream, text))                                               \
-            fprintf(stderr, "exit %d (expected %d), looking for '%s' in:\n%s\n", rc, code, text,   \
-                    stream);                                                                       \
-        assert_int_equal(rc, code);                                                                \
-        assert_non_null(strstr(stream, text));                                                     \
-    } while (0)
 
 /* Each subcommand's --help lists its options, each with a [default] on its line or the next. */
 static void test_help(void **state)
@@ -79,24 +42,24 @@ static void test_help(void **state)
     for (size_t i = 0; i < sizeof subs / sizeof subs[0]; i++) {
         for (int h = 0; h < 3; h++) {
             /* --help, -h, and --help after other arguments */
-            int rc = run("frep %s %s", subs[i].sub,
-                         h == 0   ? "--help"
-                         : h == 1 ? "-h"
-                                  : BEAR " -e X --help");
-            EXPECT(rc, 0, out_buf, "usage: crisp frep");
-            assert_string_equal(err_buf, "");
+            int rc = cli_run("frep %s %s", subs[i].sub,
+                             h == 0   ? "--help"
+                             : h == 1 ? "-h"
+                                      : BEAR " -e X --help");
+            EXPECT(rc, 0, cli_out, "usage: crisp frep");
+            assert_string_equal(cli_err, "");
         }
         for (int k = 0; subs[i].opts[k]; k++) {
             /* the option where it starts a line of the list (not in the usage line) */
-            const char *at = out_buf;
+            const char *at = cli_out;
             while ((at = strstr(at, subs[i].opts[k]))) {
                 const char *p = at;
-                while (p > out_buf && p[-1] == ' ')
+                while (p > cli_out && p[-1] == ' ')
                     p--;
-                if (p > out_buf && p[-1] == '\n') break;
+                if (p > cli_out && p[-1] == '\n') break;
                 at++;
             }
-            if (!at) fprintf(stderr, "'%s' missing from:\n%s", subs[i].opts[k], out_buf);
+            if (!at) fprintf(stderr, "'%s' missing from:\n%s", subs[i].opts[k], cli_out);
             assert_non_null(at);
             if (!strcmp(subs[i].opts[k], "-h, --help") || !strcmp(subs[i].opts[k], "-e, --expr"))
                 continue;
@@ -107,12 +70,12 @@ static void test_help(void **state)
             assert_true(bracket && (!next || bracket < next));
         }
     }
-    int rc = run("frep --help");
-    EXPECT(rc, 0, out_buf, "crisp frep mesh FILE");
-    rc = run("frep");
-    EXPECT(rc, 2, err_buf, "usage: crisp frep");
-    rc = run("frep carve %s", BEAR);
-    EXPECT(rc, 2, err_buf, "unknown subcommand 'carve'");
+    int rc = cli_run("frep --help");
+    EXPECT(rc, 0, cli_out, "crisp frep mesh FILE");
+    rc = cli_run("frep");
+    EXPECT(rc, 2, cli_err, "usage: crisp frep");
+    rc = cli_run("frep carve %s", BEAR);
+    EXPECT(rc, 2, cli_err, "unknown subcommand 'carve'");
 }
 
 /* A bad value is named with its option and refused before any work (exit 2, no file). */
@@ -155,9 +118,9 @@ static void test_values(void **state)
     };
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
         remove("frep_x.stl");
-        int rc = run("frep %s", bad[k].args);
-        EXPECT(rc, 2, err_buf, bad[k].expect);
-        assert_false(exists("frep_x.stl"));
+        int rc = cli_run("frep %s", bad[k].args);
+        EXPECT(rc, 2, cli_err, bad[k].expect);
+        assert_false(cli_exists("frep_x.stl"));
     }
 }
 
@@ -166,27 +129,27 @@ static void test_runs(void **state)
 {
     (void)state;
     remove("frep_r.png");
-    int rc = run("frep render --size 48x32 -o frep_r.png --3d " BEAR);
+    int rc = cli_run("frep render --size 48x32 -o frep_r.png --3d " BEAR);
     assert_int_equal(rc, 0);
-    assert_true(exists("frep_r.png"));
-    rc = run("frep bench " SPHERE " --size 32 --runs 2");
-    EXPECT(rc, 0, out_buf, "render median");
-    rc = run("frep mesh " SPHERE " --resolution 8 -o frep_m.obj --stats");
-    EXPECT(rc, 0, out_buf, "frep_m.obj: ");
-    assert_non_null(strstr(out_buf, "leaves"));
-    rc = run("frep mass " SPHERE " --level 5 --seed 3");
-    EXPECT(rc, 0, out_buf, "volume    4.1");
-    rc = run("frep mass " SPHERE " --predict --accuracy 1e-2");
-    EXPECT(rc, 0, out_buf, "predicted: processor time");
+    assert_true(cli_exists("frep_r.png"));
+    rc = cli_run("frep bench " SPHERE " --size 32 --runs 2");
+    EXPECT(rc, 0, cli_out, "render median");
+    rc = cli_run("frep mesh " SPHERE " --resolution 8 -o frep_m.obj --stats");
+    EXPECT(rc, 0, cli_out, "frep_m.obj: ");
+    assert_non_null(strstr(cli_out, "leaves"));
+    rc = cli_run("frep mass " SPHERE " --level 5 --seed 3");
+    EXPECT(rc, 0, cli_out, "volume    4.1");
+    rc = cli_run("frep mass " SPHERE " --predict --accuracy 1e-2");
+    EXPECT(rc, 0, cli_out, "predicted: processor time");
     /* a region that cuts the part: a warning, and the part within it */
-    rc = run("frep mass " SPHERE " --level 4 --region 0,1,-1,1,-1,1");
-    EXPECT(rc, 0, err_buf, "warning: the region");
-    assert_non_null(strstr(out_buf, "volume    2.0"));
+    rc = cli_run("frep mass " SPHERE " --level 4 --region 0,1,-1,1,-1,1");
+    EXPECT(rc, 0, cli_err, "warning: the region");
+    assert_non_null(strstr(cli_out, "volume    2.0"));
     /* bad input: a message and exit 1 */
-    rc = run("frep mass -e 'X'");
-    EXPECT(rc, 1, err_buf, "crisp frep mass: ");
-    rc = run("frep mesh /nonexistent.vm -o frep_m.stl");
-    EXPECT(rc, 1, err_buf, "/nonexistent.vm");
+    rc = cli_run("frep mass -e 'X'");
+    EXPECT(rc, 1, cli_err, "crisp frep mass: ");
+    rc = cli_run("frep mesh /nonexistent.vm -o frep_m.stl");
+    EXPECT(rc, 1, cli_err, "/nonexistent.vm");
     remove("frep_r.png");
     remove("frep_m.obj");
 }

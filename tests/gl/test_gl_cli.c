@@ -7,34 +7,12 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include "cli/cli_run.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/wait.h>
-
-static int run(const char *env, const char *args, char *out, size_t cap)
-{
-    char cmd[2048];
-    snprintf(cmd, sizeof cmd, "%s %s/crisp %s 2>&1", env, CRISP_BIN_DIR, args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = '\0';
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
-static void png_size(const char *path, int *w, int *h)
-{
-    unsigned char b[24];
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    assert_int_equal(fread(b, 1, 24, f), 24);
-    fclose(f);
-    assert_memory_equal(b + 1, "PNG", 3);
-    *w = b[16] << 24 | b[17] << 16 | b[18] << 8 | b[19];
-    *h = b[20] << 24 | b[21] << 16 | b[22] << 8 | b[23];
-}
 
 static void test_render_gl(void **state)
 {
@@ -48,11 +26,11 @@ static void test_render_gl(void **state)
                  "cli_gl.png "
                  "--aov cli_gl.exr --stats",
                  CRISP_DATA_DIR, s);
-        int rc = run("", args, out, sizeof out);
+        int rc = cli_run_merged("", args, out, sizeof out);
         if (rc) fail_msg("%s", out);
         assert_non_null(strstr(out, "backend          gl"));
         int w, h;
-        png_size("cli_gl.png", &w, &h);
+        cli_png_size("cli_gl.png", &w, &h);
         assert_int_equal(w, 64);
         assert_int_equal(h, 40);
         FILE *f = fopen("cli_gl.exr", "rb");
@@ -70,7 +48,7 @@ static void test_render_gl(void **state)
             args, sizeof args,
             "render %s/nurbs/gpucast_teapot.igs --samples %d --size 64x40 -o cli_cpu.png --stats",
             CRISP_DATA_DIR, s);
-        assert_int_equal(run("", args, out, sizeof out), 0);
+        assert_int_equal(cli_run_merged("", args, out, sizeof out), 0);
         assert_non_null(strstr(out, gl_cov));
     }
 }
@@ -84,7 +62,7 @@ static void test_no_gl(void **state)
     snprintf(args, sizeof args,
              "render %s/nurbs/gpucast_teapot.igs --backend gl --size 32x20 -o cli_nogl.png",
              CRISP_DATA_DIR);
-    int rc = run(env, args, out, sizeof out);
+    int rc = cli_run_merged(env, args, out, sizeof out);
     assert_true(rc != 0);
     assert_non_null(strstr(out, "no usable OpenGL"));
     assert_null(fopen("cli_nogl.png", "rb"));
@@ -92,15 +70,15 @@ static void test_no_gl(void **state)
     snprintf(args, sizeof args,
              "render %s/nurbs/gpucast_teapot.igs --backend cpu --size 32x20 -o cli_nogl.png",
              CRISP_DATA_DIR);
-    assert_int_equal(run(env, args, out, sizeof out), 0);
+    assert_int_equal(cli_run_merged(env, args, out, sizeof out), 0);
     int w, h;
-    png_size("cli_nogl.png", &w, &h);
+    cli_png_size("cli_nogl.png", &w, &h);
     assert_int_equal(w, 32);
     /* a sample count the backend does not draw */
     snprintf(args, sizeof args,
              "render %s/nurbs/gpucast_teapot.igs --backend gl --samples 3 --size 32x20 -o x.png",
              CRISP_DATA_DIR);
-    assert_true(run("", args, out, sizeof out) != 0);
+    assert_true(cli_run_merged("", args, out, sizeof out) != 0);
     assert_non_null(strstr(out, "samples"));
 }
 

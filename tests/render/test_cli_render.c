@@ -6,34 +6,12 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include "cli/cli_run.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/wait.h>
-
-static int run(const char *args, char *out, size_t cap)
-{
-    char cmd[2048];
-    snprintf(cmd, sizeof cmd, "%s/crisp %s 2>&1", CRISP_BIN_DIR, args);
-    FILE *p = popen(cmd, "r");
-    assert_non_null(p);
-    size_t n = fread(out, 1, cap - 1, p);
-    out[n] = '\0';
-    int st = pclose(p);
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-}
-
-static void png_size(const char *path, int *w, int *h)
-{
-    unsigned char b[24];
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    assert_int_equal(fread(b, 1, 24, f), 24);
-    fclose(f);
-    assert_memory_equal(b + 1, "PNG", 3);
-    *w = b[16] << 24 | b[17] << 16 | b[18] << 8 | b[19];
-    *h = b[20] << 24 | b[21] << 16 | b[22] << 8 | b[23];
-}
 
 static void test_render_teapot(void **state)
 {
@@ -45,10 +23,10 @@ static void test_render_teapot(void **state)
              "render %s/nurbs/gpucast_teapot.igs --backend exact --size 64x40 -o cli_teapot.png "
              "--aov cli_teapot.exr --stats",
              CRISP_DATA_DIR);
-    assert_int_equal(run(args, out, sizeof out), 0);
+    assert_int_equal(cli_run_merged("", args, out, sizeof out), 0);
     assert_non_null(strstr(out, "patches          32"));
     int w, h;
-    png_size("cli_teapot.png", &w, &h);
+    cli_png_size("cli_teapot.png", &w, &h);
     assert_int_equal(w, 64);
     assert_int_equal(h, 40);
     FILE *f = fopen("cli_teapot.exr", "rb");
@@ -64,13 +42,14 @@ static void test_render_errors(void **state)
 {
     (void)state;
     char out[8192];
-    assert_int_not_equal(run("render /nonexistent/model.igs --backend exact", out, sizeof out), 0);
+    assert_int_not_equal(
+        cli_run_merged("", "render /nonexistent/model.igs --backend exact", out, sizeof out), 0);
     assert_non_null(strstr(out, "/nonexistent/model.igs"));
-    assert_int_not_equal(run("render x.igs --size 10by10", out, sizeof out), 0);
+    assert_int_not_equal(cli_run_merged("", "render x.igs --size 10by10", out, sizeof out), 0);
     assert_non_null(strstr(out, "--size"));
-    assert_int_not_equal(run("render x.igs --eye 1,2", out, sizeof out), 0);
+    assert_int_not_equal(cli_run_merged("", "render x.igs --eye 1,2", out, sizeof out), 0);
     assert_non_null(strstr(out, "--eye"));
-    assert_int_not_equal(run("render x.igs --backend gpu", out, sizeof out), 0);
+    assert_int_not_equal(cli_run_merged("", "render x.igs --backend gpu", out, sizeof out), 0);
     assert_non_null(strstr(out, "expected cpu, exact or gl"));
 }
 
@@ -109,7 +88,7 @@ static void test_camera_values(void **state)
         snprintf(args, sizeof args,
                  "render %s/nurbs/gpucast_teapot.igs --size 16x12 -o cli_bad.png %s",
                  CRISP_DATA_DIR, bad[k].opts);
-        int rc = run(args, out, sizeof out);
+        int rc = cli_run_merged("", args, out, sizeof out);
         if (rc == 0 || !strstr(out, bad[k].expect))
             fprintf(stderr, "'%s': exit %d, message '%s' (expected '%s')\n", bad[k].opts, rc, out,
                     bad[k].expect);
@@ -121,11 +100,11 @@ static void test_camera_values(void **state)
     snprintf(args, sizeof args,
              "render %s/nurbs/gpucast_teapot.igs --size 32x24 -o cli_down.png --eye 0,40,0 --stats",
              CRISP_DATA_DIR);
-    int rc = run(args, out, sizeof out);
+    int rc = cli_run_merged("", args, out, sizeof out);
     if (rc) fprintf(stderr, "%s\n", out);
     assert_int_equal(rc, 0);
     int w, h;
-    png_size("cli_down.png", &w, &h);
+    cli_png_size("cli_down.png", &w, &h);
     assert_int_equal(w, 32);
     assert_int_equal(h, 24);
 }

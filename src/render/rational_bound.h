@@ -1,0 +1,65 @@
+/* Screen-space flatness bounds for rational patches and blocks of patches that do not divide
+ * by the homogeneous weight (rational_bound.c has the derivation). Used by the planner next to
+ * the homogeneous bounds (quadtree.c flat_px, patch_groups.c group_leaf_ok); the smaller of the
+ * two is sound. */
+#ifndef CRISP_RENDER_RATIONAL_BOUND_H
+#define CRISP_RENDER_RATIONAL_BOUND_H
+
+#include <stdint.h>
+
+#include "crisp/core.h"
+#include "crisp/nurbs.h"
+#include "crisp/render.h"
+
+/* Reparametrisation bounds of a rational Bézier patch of degrees n x m with weights w_ij > 0
+ * (view-independent): with the convex weights r_ij(s, t) = w_ij B_i(s) B_j(t) / sum w B,
+ *   sigma[0] >= |sum r_ij i/n - s|, sigma[1] >= |sum r_ij j/m - t|,
+ *   sigma[2] >= |sum r_ij (i/n - s)(j/m - t)|   for all (s, t) in [0, 1]^2.
+ * All 0 for a polynomial patch or equal weights; INFINITY when a weight is not positive. */
+void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3]);
+
+/* The least and largest weight of p (1, 1 for a polynomial patch). Where they differ, the
+ * homogeneous bounds (flat_px, group_leaf_ok's, the SLEFE's) bound the distance to the triangle
+ * point sum l_k w(x_k) clip(x_k) / ..., a point of the same triangle but not the one at the
+ * parameters sum l_k x_k that the rasterizer interpolates (docs/status/issue-12-rational.md):
+ * the planner then uses the bounds here for tau 1 and group leaves. */
+void crisp__rational_weight_range(const crisp_bezier_patch *p, double *lo, double *hi);
+
+/* A bound (pixels, max of the x and y distances) on the screen distance between the nu x nv
+ * block of patches (first[jv * stride + iu].bez, each the rectangle [iu, iu + 1] x [jv, jv + 1]
+ * of the block's parameters scaled to [0, 1]^2; a single patch is a block of one) and any triangles
+ * with vertices on it, each triangle point compared with the surface point at the same parameters
+ * (clip-space barycentrics, as the rasterizer interpolates). INFINITY when the corners reach the
+ * eye plane or W is not bounded away from 0. accept > 0: the scan over the block's patches stops
+ * (returning INFINITY) as soon as the bound must exceed accept. */
+double crisp__rational_block_px(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
+                                uint32_t nv, crisp_mat4 m, int width, int height, double accept);
+
+/* The view-independent part of the block bound, per object coordinate x, y, z: the largest, over
+ * the block's patches, of the Euclidean control points' distance to the bilinear through the
+ * block's corner points plus the reparametrisation terms (crisp__rational_reparam times the
+ * bilinear's edges and twist). INFINITY when a weight is not positive. */
+void crisp__rational_block_deviation(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
+                                     uint32_t nv, double dest[3]);
+
+/* The block bound from dev of crisp__rational_block_deviation mapped by |view_proj| (O(1): the
+ * four corner patches are read): sound, looser than crisp__rational_block_px. */
+double crisp__rational_block_px_fast(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
+                                     uint32_t nv, const double dev[3], crisp_mat4 m, int width,
+                                     int height);
+
+/* A bound (pixels) on the distance between patch p and its leaf mesh (crisp_tess_mesh_generate)
+ * at inner level tau in both directions, with every edge level >= tau, each triangle point
+ * against the surface at the same parameters: the largest any-triangle bound over the parameter
+ * windows that hold the mesh's triangles (rational_bound.c). tau = 1: any mesh. accept > 0: stops
+ * at the first window above accept (the result is then only known to exceed it). */
+double crisp__rational_level_px(const crisp_bezier_patch *p, int tau, crisp_mat4 m, int width,
+                                int height, double accept);
+
+/* For a rational patch whose homogeneous level is `below`: a level t < below whose
+ * crisp__rational_level_px is within eps (a few levels tried from the prediction of flat, the
+ * patch's any-triangle bound), or `below`. */
+int crisp__rational_tess_level(const crisp_bezier_patch *p, int below, double flat, crisp_mat4 m,
+                               int width, int height, double eps);
+
+#endif

@@ -1,0 +1,382 @@
+/* The rational flatness bound (src/render/rational_bound.c, issue 12) on random rational patches
+ * and blocks (weights spread 0.3..3) under random cameras:
+ *   - the reparametrisation bounds hold at dense samples;
+ *   - every triangle with vertices on the patch (or block) - the two of the coarse quad, either
+ *     diagonal, random triangles, and the leaf meshes of crisp_tess at random levels - lies
+ *     within the bound of the surface at dense barycentric samples, each triangle point (clip-
+ *     space barycentrics, as the rasterizer interpolates) against the surface point at the same
+ *     parameters;
+ *   - the O(1) block bound from the view-independent deviation is at least the exact one.
+ * Prints the tightness (largest sampled distance / bound) and how the bound compares with the
+ * homogeneous SLEFE error at level 1 (crisp_slefe_patch_screen_error). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/render.h"
+#include "crisp/slefe.h"
+#include "crisp/tess.h"
+#include "render/rational_bound.h"
+
+static uint64_t rng = 0x2545f4914f6cdd1dull;
+static double rnd(void)
+{
+    rng ^= rng << 13, rng ^= rng >> 7, rng ^= rng << 17;
+    return (double)(rng >> 11) / 9007199254740992.0;
+}
+
+/* A weight in [0.3, 3], log-uniform. */
+static double weight(void)
+{
+    return exp(log(0.3) + rnd() * log(10.0));
+}
+
+/* A random rational patch of degrees du x dv over about [-1, 1]^2 with bumps of height h. */
+static void random_patch(crisp_bezier_patch *p, double *cpw, int du, int dv, double h)
+{
+    *p = (crisp_bezier_patch){.du = du, .dv = dv, .rational = 1, .u1 = 1, .v1 = 1, .cpw = cpw};
+    for (int j = 0; j <= dv; j++)
+        for (int i = 0; i <= du; i++) {
+            double *q = cpw + 4 * (j * (du + 1) + i), w = weight();
+            double x = -1 + 2.0 * i / du + 0.3 * (rnd() - 0.5);
+            double y = -1 + 2.0 * j / dv + 0.3 * (rnd() - 0.5);
+            double z = h * (rnd() - 0.5);
+            q[0] = w * x, q[1] = w * y, q[2] = w * z, q[3] = w;
+        }
+}
+
+/* A camera looking at the origin from a random direction in front (z > 0 side, up to 70 degrees
+ * off the normal) at distance dist, with the target moved off the centre of the image. */
+static void random_view(double dist, crisp_mat4 vp, int *width, int *height)
+{
+    crisp_camera c = {.fov_deg = 40, .width = 1920, .height = 1080, .znear = 0.01, .zfar = 1e5};
+    double th = 1.2 * rnd(), ph = 6.283 * rnd();
+    c.eye[0] = dist * sin(th) * cos(ph), c.eye[1] = dist * sin(th) * sin(ph);
+    c.eye[2] = dist * cos(th);
+    double off = 0.3 * dist * rnd();
+    c.target[0] = off * (rnd() - 0.5), c.target[1] = off * (rnd() - 0.5);
+    c.up[1] = 1;
+    crisp_camera_matrices m;
+    crisp_camera_matrices_compute(&c, &m);
+    crisp_mat4_copy(m.view_proj, vp);
+    *width = c.width, *height = c.height;
+}
+
+/* Clip point of the Euclidean surface point at (s, t). */
+static void clip_at(const crisp_bezier_patch *p, crisp_mat4 vp, double s, double t, double h[4])
+{
+    double P[3];
+    crisp_bezier_patch_eval(p, s, t, P);
+    crisp_mat4_mulp(vp, P, h);
+}
+
+static void to_px(const double h[4], int width, int height, double px[2])
+{
+    px[0] = (h[0] / h[3] + 1) * 0.5 * width;
+    px[1] = (1 - h[1] / h[3]) * 0.5 * height;
+}
+
+/* A block of patches: nu x nv patches (row-major); block parameters (S, T) in [0, 1]^2. */
+typedef struct block {
+    const crisp_scene_patch *first;
+    uint32_t stride, nu, nv;
+} block;
+
+static void block_clip(const block *b, crisp_mat4 vp, double S, double T, double h[4])
+{
+    double x = S * b->nu, y = T * b->nv;
+    uint32_t iu = x >= b->nu ? b->nu - 1 : (uint32_t)x, iv = y >= b->nv ? b->nv - 1 : (uint32_t)y;
+    clip_at(&b->first[iv * b->stride + iu].bez, vp, x - iu, y - iv, h);
+}
+
+/* Largest screen distance (pixels, max of x and y) between the triangle with vertices at block
+ * parameters st[0..2] and the surface, at the same parameters, over N x N barycentric samples. */
+static double triangle_distance(const block *b, crisp_mat4 vp, int width, int height,
+                                const double st[3][2], int N)
+{
+    double V[3][4], worst = 0;
+    for (int k = 0; k < 3; k++)
+        block_clip(b, vp, st[k][0], st[k][1], V[k]);
+    for (int i = 0; i <= N; i++)
+        for (int j = 0; i + j <= N; j++) {
+            double l[3] = {(double)i / N, (double)j / N, (double)(N - i - j) / N};
+            double S = 0, T = 0, h[4] = {0, 0, 0, 0}, g[4], a[2], c[2];
+            for (int k = 0; k < 3; k++) {
+                S += l[k] * st[k][0], T += l[k] * st[k][1];
+                for (int q = 0; q < 4; q++)
+                    h[q] += l[k] * V[k][q];
+            }
+            block_clip(b, vp, S, T, g);
+            to_px(h, width, height, a);
+            to_px(g, width, height, c);
+            worst = fmax(worst, fmax(fabs(a[0] - c[0]), fabs(a[1] - c[1])));
+        }
+    return worst;
+}
+
+/* The largest distance over many triangles of the block: the coarse quad along either diagonal,
+ * random triangles, and crisp_tess meshes at random levels. */
+static double block_distance(const block *b, crisp_mat4 vp, int width, int height)
+{
+    double worst = 0;
+    static const double quad[4][3][2] = {{{0, 0}, {1, 0}, {1, 1}},
+                                         {{0, 0}, {1, 1}, {0, 1}},
+                                         {{0, 0}, {1, 0}, {0, 1}},
+                                         {{1, 0}, {1, 1}, {0, 1}}};
+    for (int k = 0; k < 4; k++)
+        worst = fmax(worst, triangle_distance(b, vp, width, height, quad[k], 24));
+    for (int k = 0; k < 12; k++) {
+        double st[3][2];
+        for (int v = 0; v < 3; v++)
+            st[v][0] = rnd(), st[v][1] = rnd();
+        worst = fmax(worst, triangle_distance(b, vp, width, height, (const double(*)[2])st, 12));
+    }
+    crisp_tess_levels lv = {{1 + (int)(4 * rnd()), 1 + (int)(4 * rnd())}, {0}};
+    for (int k = 0; k < 4; k++)
+        lv.outer[k] = 1 + (int)(6 * rnd());
+    size_t nv, nt;
+    assert_int_equal(crisp_tess_mesh_counts(&lv, &nv, &nt), CRISP_OK);
+    double *st = malloc(sizeof(double) * 2 * nv);
+    uint32_t *tri = malloc(sizeof(uint32_t) * 3 * nt);
+    crisp_tess_mesh_generate(&lv, st, tri, 0);
+    for (size_t k = 0; k < nt; k++) {
+        double t3[3][2];
+        for (int v = 0; v < 3; v++)
+            t3[v][0] = st[2 * tri[3 * k + v]], t3[v][1] = st[2 * tri[3 * k + v] + 1];
+        worst = fmax(worst, triangle_distance(b, vp, width, height, (const double(*)[2])t3, 8));
+    }
+    free(st);
+    free(tri);
+    return worst;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* The reparametrisation bounds at 41 x 41 samples of random patches. */
+static void test_reparam(void **state)
+{
+    (void)state;
+    double cpw[6 * 6 * 4], worst = 0;
+    for (int trial = 0; trial < 400; trial++) {
+        crisp_bezier_patch p;
+        int du = 1 + (int)(5 * rnd()), dv = 1 + (int)(5 * rnd());
+        random_patch(&p, cpw, du, dv, 1);
+        double sigma[3];
+        crisp__rational_reparam(&p, sigma);
+        double got[3] = {0, 0, 0};
+        for (int a = 0; a <= 40; a++)
+            for (int c = 0; c <= 40; c++) {
+                double s = a / 40.0, t = c / 40.0, den = 0, ss = 0, tt = 0, st = 0;
+                for (int j = 0; j <= dv; j++)
+                    for (int i = 0; i <= du; i++) {
+                        double bi = 1, bj = 1;
+                        for (int k = 0; k < i; k++)
+                            bi *= s * (du - k) / (k + 1);
+                        bi *= pow(1 - s, du - i);
+                        for (int k = 0; k < j; k++)
+                            bj *= t * (dv - k) / (k + 1);
+                        bj *= pow(1 - t, dv - j);
+                        double r = cpw[4 * (j * (du + 1) + i) + 3] * bi * bj;
+                        den += r;
+                        ss += r * ((double)i / du - s);
+                        tt += r * ((double)j / dv - t);
+                        st += r * ((double)i / du - s) * ((double)j / dv - t);
+                    }
+                got[0] = fmax(got[0], fabs(ss / den));
+                got[1] = fmax(got[1], fabs(tt / den));
+                got[2] = fmax(got[2], fabs(st / den));
+            }
+        for (int k = 0; k < 3; k++) {
+            if (got[k] > sigma[k] * (1 + 1e-9) + 1e-14)
+                fail_msg("patch %d (%d x %d): reparametrisation %d: %g sampled, bound %g", trial,
+                         du, dv, k, got[k], sigma[k]);
+            if (sigma[k] > 1e-3) worst = fmax(worst, got[k] / sigma[k]);
+        }
+    }
+    printf("reparametrisation bounds on 400 random patches: largest sampled / bound %.2f\n", worst);
+    assert_true(worst > 0.3); /* the bound is not vacuous */
+}
+
+/* Single patches: the bound against the triangles, and against the homogeneous SLEFE level 1. */
+static void test_patches(void **state)
+{
+    (void)state;
+    enum { TRIALS = 300 };
+    double tight[TRIALS], ratio[TRIALS];
+    int n = 0, nr = 0;
+    double cpw[4 * 4 * 4];
+    for (int trial = 0; trial < TRIALS; trial++) {
+        crisp_bezier_patch p;
+        int du = 1 + (int)(3 * rnd()), dv = 1 + (int)(3 * rnd());
+        random_patch(&p, cpw, du, dv, 0.5 * rnd());
+        crisp_mat4 vp;
+        int width, height;
+        /* patches from a few pixels to a few hundred across */
+        random_view(exp(log(6.0) + rnd() * log(300.0)), vp, &width, &height);
+        crisp_scene_patch sp = {.bez = p};
+        double bound = crisp__rational_block_px(&sp, 1, 1, 1, vp, width, height, 0);
+        if (!isfinite(bound)) continue;
+        block b = {&sp, 1, 1, 1};
+        double d = block_distance(&b, vp, width, height);
+        if (d > bound)
+            fail_msg("patch %d (%d x %d): triangles %g px from the surface, bound %g px", trial, du,
+                     dv, d, bound);
+        tight[n++] = d / bound;
+        crisp_slefe_view view = {.width = width, .height = height};
+        crisp_mat4_copy(vp, view.view_proj);
+        double homog;
+        if (crisp_slefe_patch_screen_error(&p, 1, &view, &homog) == CRISP_OK)
+            ratio[nr++] = homog / bound;
+        else
+            ratio[nr++] = INFINITY;
+    }
+    qsort(tight, (size_t)n, sizeof *tight, cmp_double);
+    qsort(ratio, (size_t)nr, sizeof *ratio, cmp_double);
+    printf("rational patches (weights 0.3..3), %d cameras: tightness (sampled / bound) median "
+           "%.2f, 90%% %.2f, max %.2f; homogeneous SLEFE err(1) / this bound: 10%% %.2g, median "
+           "%.2g, 90%% %.2g\n",
+           n, tight[n / 2], tight[n * 9 / 10], tight[n - 1], ratio[nr / 10], ratio[nr / 2],
+           ratio[nr * 9 / 10]);
+    assert_true(n > TRIALS / 2);
+}
+
+/* Leaf meshes at level tau (edge levels tau..3 tau): the windowed level bound holds. */
+static void test_levels(void **state)
+{
+    (void)state;
+    enum { TRIALS = 120 };
+    double tight[TRIALS], gain[TRIALS];
+    int n = 0;
+    double cpw[4 * 4 * 4];
+    for (int trial = 0; trial < TRIALS; trial++) {
+        crisp_bezier_patch p;
+        int du = 2 + (int)(2 * rnd()), dv = 1 + (int)(3 * rnd());
+        random_patch(&p, cpw, du, dv, 0.6 * rnd());
+        crisp_mat4 vp;
+        int width, height;
+        random_view(exp(log(4.0) + rnd() * log(30.0)), vp, &width, &height);
+        int tau = 2 + trial % 5;
+        double bound = crisp__rational_level_px(&p, tau, vp, width, height, 0);
+        if (!isfinite(bound)) continue;
+        crisp_tess_levels lv = {{tau, tau}, {0}};
+        for (int k = 0; k < 4; k++)
+            lv.outer[k] = tau + (int)(2 * tau * rnd());
+        size_t nv, nt;
+        assert_int_equal(crisp_tess_mesh_counts(&lv, &nv, &nt), CRISP_OK);
+        double *st = malloc(sizeof(double) * 2 * nv);
+        uint32_t *tri = malloc(sizeof(uint32_t) * 3 * nt);
+        crisp_tess_mesh_generate(&lv, st, tri, 0);
+        crisp_scene_patch sp = {.bez = p};
+        block b = {&sp, 1, 1, 1};
+        double d = 0;
+        for (size_t k = 0; k < nt; k++) {
+            double t3[3][2];
+            for (int v = 0; v < 3; v++)
+                t3[v][0] = st[2 * tri[3 * k + v]], t3[v][1] = st[2 * tri[3 * k + v] + 1];
+            d = fmax(d, triangle_distance(&b, vp, width, height, (const double(*)[2])t3, 10));
+        }
+        free(st);
+        free(tri);
+        if (d > bound)
+            fail_msg("patch %d at level %d (edges %d %d %d %d): mesh %g px from the surface, "
+                     "bound %g px",
+                     trial, tau, lv.outer[0], lv.outer[1], lv.outer[2], lv.outer[3], d, bound);
+        tight[n] = d / bound;
+        gain[n++] = crisp__rational_level_px(&p, 1, vp, width, height, 0) / bound;
+    }
+    qsort(tight, (size_t)n, sizeof *tight, cmp_double);
+    qsort(gain, (size_t)n, sizeof *gain, cmp_double);
+    printf("leaf meshes at levels 2..6, %d patches: tightness median %.2f, max %.2f; bound at "
+           "level 1 / at tau: median %.1f\n",
+           n, tight[n / 2], tight[n - 1], gain[n / 2]);
+    assert_true(n > TRIALS / 2);
+}
+
+/* Blocks of a rational B-spline surface: the exact and the O(1) bound against triangles with
+ * vertices anywhere in the block. */
+static void test_blocks(void **state)
+{
+    (void)state;
+    enum { TRIALS = 60, NU = 6, NV = 5 };
+    double tight[TRIALS], fast_ratio[TRIALS];
+    int n = 0;
+    for (int trial = 0; trial < TRIALS; trial++) {
+        int deg = 2 + trial % 2, cu = NU + deg, cv = NV + deg;
+        double ku[NU + 8], kv[NV + 8], pts[(NU + 4) * (NV + 4) * 3], w[(NU + 4) * (NV + 4)];
+        for (int i = 0; i < cu + deg + 1; i++)
+            ku[i] = i <= deg ? 0 : i >= cu ? 1 : (double)(i - deg) / NU;
+        for (int i = 0; i < cv + deg + 1; i++)
+            kv[i] = i <= deg ? 0 : i >= cv ? 1 : (double)(i - deg) / NV;
+        for (int j = 0; j < cv; j++)
+            for (int i = 0; i < cu; i++) {
+                double *q = pts + 3 * (j * cu + i);
+                q[0] = -1 + 2.0 * i / (cu - 1) + 0.1 * (rnd() - 0.5);
+                q[1] = -1 + 2.0 * j / (cv - 1) + 0.1 * (rnd() - 0.5);
+                q[2] = 0.3 * (rnd() - 0.5);
+                w[j * cu + i] = weight();
+            }
+        crisp_surface *s;
+        assert_int_equal(crisp_surface_create(deg, deg, cu, cv, ku, kv, pts, w, &s), CRISP_OK);
+        crisp_bezier_patches bp;
+        assert_int_equal(crisp_surface_to_bezier(s, &bp), CRISP_OK);
+        assert_int_equal(bp.count, NU * NV);
+        crisp_scene_patch sp[NU * NV];
+        for (int k = 0; k < NU * NV; k++)
+            sp[k] = (crisp_scene_patch){.bez = bp.patches[k]};
+        /* a random sub-block */
+        uint32_t iu0 = (uint32_t)(rnd() * 3), iv0 = (uint32_t)(rnd() * 3);
+        uint32_t nu = 1 + (uint32_t)(rnd() * (NU - iu0)), nv = 1 + (uint32_t)(rnd() * (NV - iv0));
+        if (nu > NU - iu0) nu = NU - iu0;
+        if (nv > NV - iv0) nv = NV - iv0;
+        block b = {sp + iv0 * NU + iu0, NU, nu, nv};
+        crisp_mat4 vp;
+        int width, height;
+        random_view(exp(log(20.0) + rnd() * log(100.0)), vp, &width, &height);
+        double bound = crisp__rational_block_px(b.first, b.stride, nu, nv, vp, width, height, 0);
+        double dev[3];
+        crisp__rational_block_deviation(b.first, b.stride, nu, nv, dev);
+        double fast =
+            crisp__rational_block_px_fast(b.first, b.stride, nu, nv, dev, vp, width, height);
+        if (isfinite(bound)) {
+            double d = block_distance(&b, vp, width, height);
+            if (d > bound)
+                fail_msg("block %d (%u x %u patches, degree %d): triangles %g px from the "
+                         "surface, bound %g px",
+                         trial, nu, nv, deg, d, bound);
+            if (fast < bound * (1 - 1e-9))
+                fail_msg("block %d: O(1) bound %g below the exact bound %g", trial, fast, bound);
+            tight[n] = d / bound;
+            fast_ratio[n++] = fast / bound;
+        }
+        crisp_bezier_patches_free(&bp);
+        crisp_surface_destroy(s);
+    }
+    qsort(tight, (size_t)n, sizeof *tight, cmp_double);
+    qsort(fast_ratio, (size_t)n, sizeof *fast_ratio, cmp_double);
+    printf("rational blocks (weights 0.3..3), %d cameras: tightness median %.2f, max %.2f; O(1) "
+           "bound / exact median %.2f\n",
+           n, tight[n / 2], tight[n - 1], fast_ratio[n / 2]);
+    assert_true(n > TRIALS / 2);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_reparam),
+        cmocka_unit_test(test_patches),
+        cmocka_unit_test(test_levels),
+        cmocka_unit_test(test_blocks),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
