@@ -672,6 +672,30 @@ static void test_extrusion_arc_at_pi(void **state)
     crisp_model_destroy(m);
 }
 
+/* A face on an extrusion of a closed unclamped B-spline profile (parameters 3.32 to 62.89) whose
+ * loop starts at the profile's closure point (face #30200 of Open CASCADE's trj7_k1-sd-214.stp,
+ * data/cuts): its first sample took the end 62.89 (the two ends' distances differ by rounding
+ * only) and the loop, over [3.32, 33.10], could not run on past it: trims 19.7 off their edges,
+ * the face dropped. The end nearer the rest of the loop is taken now. */
+static void test_extrusion_closed_profile_start(void **state)
+{
+    (void)state;
+    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_trj7_k1_sd_face30200.stp");
+    crisp_model *m;
+    step_read_stats st = {0};
+    crisp_status s = read_str(t, &m, &st);
+    if (s) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-6, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    assert_true(st.max_edge_dev < 1e-6);
+    crisp_model_destroy(m);
+    free(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -687,6 +711,7 @@ int main(void)
         cmocka_unit_test(test_bspline_band_across_seam),
         cmocka_unit_test(test_bspline_strip_through_seam),
         cmocka_unit_test(test_extrusion_arc_at_pi),
+        cmocka_unit_test(test_extrusion_closed_profile_start),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -389,12 +389,15 @@ static double profile_search(const step_surface *s, const double *p, double lo, 
     if (s->profile.kind == STEP_CURVE_BSPLINE) n = 8 * (s->profile.nurbs->count + 1);
     if (n > 2048) n = 2048;
     double best = lo, bd = INFINITY;
+    /* (squared distances: ties within rounding of the point's size count as ties: at a closed
+     * profile's closure point both ends are at distance ~1e-30, trj7_k1-sd-214.stp) */
+    double tie = 1e-24 * (1 + p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
     for (int i = 0; i <= n; i++) {
         double t = lo + (hi - lo) * i / n;
         double d = profile_dist(s, p, t);
         /* Ties (a closed profile's ends) go to the parameter nearest the reference. */
-        if (d < bd * (1 - 1e-12) ||
-            (d <= bd * (1 + 1e-12) && isfinite(ref) && fabs(t - ref) < fabs(best - ref)))
+        if (d < bd * (1 - 1e-12) - tie ||
+            (d <= bd * (1 + 1e-12) + tie && isfinite(ref) && fabs(t - ref) < fabs(best - ref)))
             bd = d, best = t;
     }
     double a = best - (hi - lo) / n, b = best + (hi - lo) / n;
