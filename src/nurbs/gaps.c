@@ -16,6 +16,7 @@
 #include "nurbs_internal.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -28,11 +29,40 @@ typedef struct bseg {
     double t0, t1; /* curve parameters of a and b */
 } bseg;
 
+/* A hashed uniform grid: only the cells that hold segments are stored (open addressing on the
+ * cell's packed coordinates), so cells can be much finer than the model's box allows for a dense
+ * array. Each slot holds its cell's range in items (CSR). */
+#define GAP_EMPTY UINT64_MAX
+
 typedef struct grid {
     double lo[3], h;
     int n[3];
-    int *start, *items; /* CSR: cell -> segment indices */
+    size_t mask;      /* slots - 1 (a power of two) */
+    uint64_t *keys;   /* packed cell coordinates, GAP_EMPTY when free */
+    int *start, *cnt; /* per slot: first item and count */
+    int *items;       /* segment indices */
 } grid;
+
+static uint64_t cell_key(int x, int y, int z)
+{
+    return ((uint64_t)x << 42) | ((uint64_t)y << 21) | (uint64_t)z;
+}
+
+/* The slot of a cell: its own when present (or, with insert, a free one now taken), else -1. */
+static long long cell_slot(grid *g, uint64_t key, int insert)
+{
+    uint64_t h = key * 0x9E3779B97F4A7C15ull;
+    size_t i = (size_t)(h >> 20) & g->mask;
+    for (;;) {
+        if (g->keys[i] == key) return (long long)i;
+        if (g->keys[i] == GAP_EMPTY) {
+            if (!insert) return -1;
+            g->keys[i] = key;
+            return (long long)i;
+        }
+        i = (i + 1) & g->mask;
+    }
+}
 
 static void seg_box_cells(const grid *g, const bseg *s, int c0[3], int c1[3])
 {
@@ -177,48 +207,74 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit,
                 }
             }
     if (st || nseg == 0) goto out0;
-    grid g = {.h = limit};
-    long long cells = 1;
+    /* Cells a sixteenth of the limit wide (at least the tolerance): a sample's partner on a
+     * shared edge is found among few segments. (A dense array of cells as wide as the limit,
+     * at most 160 a side, held hundreds: 6 s for a 2,000-face assembly.) */
+    grid g = {.h = fmax(limit / 16, tol)};
+    if (!(g.h > 0)) g.h = limit;
     for (int q = 0; q < 3; q++) {
         double ext = isfinite(hi[q] - lo[q]) ? hi[q] - lo[q] : 0;
-        /* at most 160 cells per axis (4 M cells): h grows for large models with a fine limit */
-        if (ext / g.h > 160) g.h = ext / 160;
+        /* packed keys hold 2^21 cells a side: h grows for a fine limit on a huge box */
+        if (ext / g.h > (1 << 20)) g.h = ext / (1 << 20);
     }
-    for (int q = 0; q < 3; q++) {
-        double ext = isfinite(hi[q] - lo[q]) ? hi[q] - lo[q] : 0;
-        g.lo[q] = isfinite(lo[q]) ? lo[q] : 0;
-        g.n[q] = (int)(ext / g.h) + 1;
-        cells *= g.n[q];
+    /* (segment, cell) pairs bound the number of cells: the table gets twice as many slots. Long
+     * segments over fine cells (bug25837_S.igs: 16,537 segments) would cover too many: the
+     * cells grow until the pairs stay within 32 per segment (and a few million). */
+    size_t pairs = 0, most = 32 * nseg + ((size_t)1 << 22);
+    for (int grow = 0; grow < 64; grow++, g.h *= 2) {
+        for (int q = 0; q < 3; q++) {
+            double ext = isfinite(hi[q] - lo[q]) ? hi[q] - lo[q] : 0;
+            g.lo[q] = isfinite(lo[q]) ? lo[q] : 0;
+            g.n[q] = (int)(ext / g.h) + 1;
+        }
+        pairs = 0;
+        for (size_t i = 0; i < nseg && pairs <= most; i++) {
+            int c0[3], c1[3];
+            seg_box_cells(&g, &segs[i], c0, c1);
+            pairs += (size_t)(c1[0] - c0[0] + 1) * (size_t)(c1[1] - c0[1] + 1) *
+                     (size_t)(c1[2] - c0[2] + 1);
+        }
+        if (pairs <= most) break;
     }
-    g.start = crisp_calloc_array((size_t)cells + 1, sizeof *g.start);
-    if (!g.start) {
+    if (pairs > most) { /* (not reached in practice: reported as not measured) */
+        dest->incomplete = 1;
+        goto out;
+    }
+    size_t slots = 1024;
+    while (slots < 2 * pairs)
+        slots *= 2;
+    g.mask = slots - 1;
+    g.keys = crisp_malloc_array(slots, sizeof *g.keys);
+    g.start = crisp_calloc_array(slots, sizeof *g.start);
+    g.cnt = crisp_calloc_array(slots, sizeof *g.cnt);
+    g.items = crisp_malloc_array(pairs + 1, sizeof *g.items);
+    if (!g.keys || !g.start || !g.cnt || !g.items) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_model_gaps: out of memory");
         goto out;
     }
-    size_t total = 0;
-    for (int pass = 0; pass < 2 && !st; pass++) {
+    for (size_t i = 0; i < slots; i++)
+        g.keys[i] = GAP_EMPTY;
+    for (int pass = 0; pass < 2; pass++) {
         for (size_t i = 0; i < nseg; i++) {
             int c0[3], c1[3];
             seg_box_cells(&g, &segs[i], c0, c1);
             for (int z = c0[2]; z <= c1[2]; z++)
                 for (int y = c0[1]; y <= c1[1]; y++)
                     for (int x = c0[0]; x <= c1[0]; x++) {
-                        size_t cell = ((size_t)z * g.n[1] + y) * g.n[0] + x;
+                        long long k = cell_slot(&g, cell_key(x, y, z), 1);
                         if (pass == 0)
-                            g.start[cell + 1]++, total++;
+                            g.cnt[k]++;
                         else
-                            g.items[g.start[cell]++] = (int)i;
+                            g.items[g.start[k] + g.cnt[k]++] = (int)i;
                     }
         }
         if (pass == 0) {
-            for (long long c = 0; c < cells; c++)
-                g.start[c + 1] += g.start[c];
-            g.items = crisp_malloc_array(total + 1, sizeof *g.items);
-            if (!g.items) st = crisp_error(CRISP_ERR_NO_MEMORY, "crisp_model_gaps: out of memory");
-        } else {
-            for (long long c = cells; c > 0; c--)
-                g.start[c] = g.start[c - 1];
-            g.start[0] = 0;
+            int run = 0;
+            for (size_t k = 0; k < slots; k++) {
+                g.start[k] = run;
+                run += g.cnt[k];
+                g.cnt[k] = 0;
+            }
         }
     }
     if (st) goto out;
@@ -234,32 +290,38 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit,
             c[q] = (int)floor((p[q] - g.lo[q]) / g.h);
         double best = INFINITY;
         int bi = -1, seam = 0;
-        /* The sample's own cell first, then its neighbours; most samples have a partner within
-         * tol there (a shared edge) and stop at once. */
-        for (int nb = 0; nb < 27 && !(best <= tol); nb++) {
-            int dx = nb == 0 ? 0 : ((nb - (nb <= 13)) % 3) - 1,
-                dy = nb == 0 ? 0 : (((nb - (nb <= 13)) / 3) % 3) - 1,
-                dz = nb == 0 ? 0 : ((nb - (nb <= 13)) / 9) - 1;
-            {
-                {
-                    int x = c[0] + dx, y = c[1] + dy, z = c[2] + dz;
-                    if (x < 0 || y < 0 || z < 0 || x >= g.n[0] || y >= g.n[1] || z >= g.n[2])
-                        continue;
-                    size_t cell = ((size_t)z * g.n[1] + y) * g.n[0] + x;
-                    for (int j = g.start[cell]; j < g.start[cell + 1]; j++) {
-                        const bseg *o = &segs[g.items[j]];
-                        int b1 = m->faces[o->face].body, b0 = m->faces[s->face].body;
-                        if (b0 && b1 && b0 != b1) continue; /* another part */
-                        if (o->face == s->face) {
-                            /* the face's own other boundary through here: a seam, or a
-                             * collapsed side: no other face is meant to be there */
-                            if ((o->loop != s->loop || o->curve != s->curve) &&
-                                seg_dist(p, o, NULL) <= tol)
-                                seam = 1;
-                            continue;
+        /* Rings of cells around the sample's own, nearest first: after ring r every segment not
+         * yet seen lies farther than (r - 1) h. Most samples have a partner within tol in the
+         * first ring (a shared edge) and stop there; the others look as far as limit. */
+        int rmax = (int)ceil(limit / g.h) + 1;
+        for (int r = 0; r <= rmax; r++) {
+            if (r >= 1 && best <= tol) break;
+            if (r >= 2 && (seam || !(best > (r - 1) * g.h))) break;
+            for (int z = c[2] - r; z <= c[2] + r; z++) {
+                if (z < 0 || z >= g.n[2]) continue;
+                for (int y = c[1] - r; y <= c[1] + r; y++) {
+                    if (y < 0 || y >= g.n[1]) continue;
+                    for (int x = c[0] - r; x <= c[0] + r; x++) {
+                        if (x < 0 || x >= g.n[0]) continue;
+                        /* only the ring's shell: inner cells were scanned before */
+                        if (abs(x - c[0]) < r && abs(y - c[1]) < r && abs(z - c[2]) < r) continue;
+                        long long cell = cell_slot(&g, cell_key(x, y, z), 0);
+                        if (cell < 0) continue;
+                        for (int j = g.start[cell]; j < g.start[cell] + g.cnt[cell]; j++) {
+                            const bseg *o = &segs[g.items[j]];
+                            int b1 = m->faces[o->face].body, b0 = m->faces[s->face].body;
+                            if (b0 && b1 && b0 != b1) continue; /* another part */
+                            if (o->face == s->face) {
+                                /* the face's own other boundary through here: a seam, or a
+                                 * collapsed side: no other face is meant to be there */
+                                if (r <= 1 && (o->loop != s->loop || o->curve != s->curve) &&
+                                    seg_dist(p, o, NULL) <= tol)
+                                    seam = 1;
+                                continue;
+                            }
+                            double d = seg_dist(p, o, NULL);
+                            if (d < best) best = d, bi = g.items[j];
                         }
-                        double d = seg_dist(p, o, NULL);
-                        if (d < best) best = d, bi = g.items[j];
                     }
                 }
             }
@@ -313,7 +375,9 @@ crisp_status crisp_model_gaps(const crisp_model *m, double tol, double limit,
     }
     if (dest->count > 1) qsort(dest->gaps, (size_t)dest->count, sizeof *dest->gaps, cmp_gap);
 out:
+    crisp_free(g.keys);
     crisp_free(g.start);
+    crisp_free(g.cnt);
     crisp_free(g.items);
 out0:
     crisp_free(segs);

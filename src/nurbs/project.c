@@ -71,9 +71,12 @@ static void surf_info_init(const crisp_surface *s, surf_info *si)
         si->period[dir] = si->dom[2 * dir + 1] - si->dom[2 * dir];
         si->closed[dir] = 0;
     }
-    /* Closed in u when the boundary curves S(u0, v) and S(u1, v) coincide (likewise in v). */
+    /* Closed in u when the boundary curves S(u0, v) and S(u1, v) coincide (likewise in v) and
+     * are not one point (a collapsed boundary pair is not a seam). (The spread is measured along
+     * the boundary curve itself: its two ends coincide on a surface closed in both directions,
+     * a torus, which is closed in each.) */
     for (int dir = 0; dir < 2; dir++) {
-        double worst = 0;
+        double worst = 0, spread = 0, first[3];
         for (int k = 0; k <= 4; k++) {
             double o = si->dom[2 * (1 - dir)] + si->period[1 - dir] * k / 4.0, a[3], b[3];
             if (dir == 0) {
@@ -85,24 +88,72 @@ static void surf_info_init(const crisp_surface *s, surf_info *si)
             }
             double d = dist3(a, b);
             if (!(d <= worst)) worst = d;
+            if (k == 0) memcpy(first, a, sizeof first);
+            d = dist3(a, first);
+            if (d > spread) spread = d;
         }
-        /* A collapsed boundary pair (both ends one point for all v) is not a seam. */
-        double mid_a[3], mid_b[3];
-        if (dir == 0) {
-            crisp_surface_eval(s, si->dom[0], si->dom[2], mid_a);
-            crisp_surface_eval(s, si->dom[0], si->dom[3], mid_b);
-        } else {
-            crisp_surface_eval(s, si->dom[0], si->dom[2], mid_a);
-            crisp_surface_eval(s, si->dom[1], si->dom[2], mid_b);
-        }
-        si->closed[dir] = worst <= 1e-7 * si->scale && dist3(mid_a, mid_b) > 1e-7 * si->scale;
+        si->closed[dir] = worst <= 1e-7 * si->scale && spread > 1e-7 * si->scale;
     }
 }
 
 /* Damped Gauss-Newton from uv (in place, unwrapped in closed directions, clamped otherwise):
  * minimises |S(u, v) - P|^2. Returns the distance reached; norms (may be NULL) gets |S_u|, |S_v|
  * there. */
+static double newton_core(const surf_info *si, const double p[3], double uv[2], double norms[2]);
+
+/* Whether x lies on an interior knot of multiplicity >= degree (a crease: the surface is only C0
+ * there). */
+static int on_crease(const double *knots, int degree, int count, double x)
+{
+    int lo = degree + 1, hi = count - 1; /* interior knots: knots[degree + 1 .. count - 1] */
+    double span = knots[count] - knots[degree], eps = 1e-12 * (span > 0 ? span : 1);
+    for (int i = lo; i <= hi;) {
+        int m = 1;
+        while (i + m <= hi && knots[i + m] == knots[i])
+            m++;
+        if (m >= degree && fabs(x - knots[i]) <= eps) return 1;
+        i += m;
+    }
+    return 0;
+}
+
+/* Newton, then, when it stops off the surface exactly on a crease (a C0 knot line), again from a
+ * hair to either side of it: there the derivatives of one side can be orthogonal to the residual
+ * while the other side leads on (trj6_k1-al-214.stp: a polyline profile extruded, the edge
+ * starting at a corner of the profile and running along the next segment; every seeded inversion
+ * stayed at the corner, 5 units from the edge, and the fit took that for the edge lying off the
+ * surface). */
 static double newton(const surf_info *si, const double p[3], double uv[2], double norms[2])
+{
+    double d = newton_core(si, p, uv, norms);
+    if (!(d > 1e-10 * si->scale)) return d;
+    const crisp_surface *s = si->s;
+    for (int dir = 0; dir < 2; dir++) {
+        const double *kn = dir ? s->knots_v : s->knots_u;
+        int deg = dir ? s->degree_v : s->degree_u, cnt = dir ? s->count_v : s->count_u;
+        double x = si->closed[dir] ? wrap(si, dir, uv[dir]) : uv[dir];
+        if (!on_crease(kn, deg, cnt, x)) continue;
+        double best[2] = {uv[0], uv[1]}, bn[2] = {0, 0}, bd = d;
+        for (int side = -1; side <= 1; side += 2) {
+            double t[2] = {uv[0], uv[1]}, tn[2];
+            t[dir] += side * 1e-9 * si->period[dir];
+            double e = newton_core(si, p, t, tn);
+            if (e < bd * (1 - 1e-6)) {
+                bd = e;
+                best[0] = t[0], best[1] = t[1];
+                bn[0] = tn[0], bn[1] = tn[1];
+            }
+        }
+        if (bd < d) {
+            d = bd;
+            uv[0] = best[0], uv[1] = best[1];
+            if (norms) norms[0] = bn[0], norms[1] = bn[1];
+        }
+    }
+    return d;
+}
+
+static double newton_core(const surf_info *si, const double p[3], double uv[2], double norms[2])
 {
     double s[3], su[3], sv[3];
     for (int dir = 0; dir < 2; dir++)
@@ -134,6 +185,20 @@ static double newton(const surf_info *si, const double p[3], double uv[2], doubl
             }
             du = -(c2 * gu - b * gv) / det;
             dv = -(a2 * gv - b * gu) / det;
+        }
+        /* A parameter held at its bound (the foot point lies beyond the patch's edge) that the
+         * step would push out: the other is solved alone along the edge. Without this the
+         * clamped step is not the 1D Newton step, and Newton stalls short of the closest point
+         * on the edge (bm2_ec_exhaust-A.stp: edges 6e-5 off a patch along its side; two
+         * inversions of one point stopped 5e-6 apart, more than the fit's tolerance). */
+        if (!si->closed[0] &&
+            ((uv[0] <= si->dom[0] && du < 0) || (uv[0] >= si->dom[1] && du > 0))) {
+            du = 0;
+            dv = v_dead ? 0 : -gv / c2;
+        } else if (!si->closed[1] &&
+                   ((uv[1] <= si->dom[2] && dv < 0) || (uv[1] >= si->dom[3] && dv > 0))) {
+            dv = 0;
+            du = u_dead ? 0 : -gu / a2;
         }
         if (!isfinite(du) || !isfinite(dv)) break;
         double cand[2] = {uv[0] + du, uv[1] + dv};

@@ -497,6 +497,148 @@ static void test_project_pieces_through_apex(void **state)
     crisp_surface_destroy(s);
 }
 
+/* A polyline profile extruded (degree 1: C0 creases at its corners) and an edge that starts at a
+ * corner and runs along the next segment (the profile of trj6_k1-al-214.stp's face #791, 19
+ * segments, in the file's units): inversions seeded at the corner (the global search lands there
+ * from the grid points of the segment before it) must not stay there with that segment's
+ * derivatives, which are orthogonal to the edge. Both orders of the profile. */
+static void test_project_along_crease(void **state)
+{
+    (void)state;
+    static const double xy[20][2] = {
+        {104.14, 0},      {104.14, -5.08},  {101.6, -5.08},  {101.6, -22.86}, {104.14, -22.86},
+        {104.14, -15.24}, {106.68, -15.24}, {106.68, -25.4}, {109.22, -25.4}, {109.22, -15.24},
+        {111.76, -15.24}, {111.76, -25.4},  {114.3, -25.4},  {114.3, -15.24}, {116.84, -15.24},
+        {116.84, -22.86}, {119.38, -22.86}, {119.38, -5.08}, {116.84, -5.08}, {116.84, 0}};
+    double knots[22];
+    for (int i = 0; i < 22; i++)
+        knots[i] = i == 0 ? 0 : i == 21 ? 19 : i - 1;
+    for (int rev = 0; rev < 2; rev++) {
+        double q[60];
+        for (int i = 0; i < 20; i++) {
+            const double *p = xy[rev ? 19 - i : i];
+            q[3 * i] = p[0], q[3 * i + 1] = p[1], q[3 * i + 2] = 10.16;
+        }
+        crisp_curve *profile, *c, *uvc;
+        crisp_surface *s;
+        assert_int_equal(crisp_curve_create(3, 1, 20, knots, q, NULL, &profile), CRISP_OK);
+        const double dir[3] = {0, 0, -1};
+        assert_int_equal(crisp_make_extrusion(profile, dir, 0, 25.4, &s), CRISP_OK);
+        const double a[3] = {106.68, -15.24, 1.27}, b[3] = {106.68, -25.4, 1.27};
+        for (int flip = 0; flip < 2; flip++) {
+            assert_int_equal(crisp_make_line(3, flip ? b : a, flip ? a : b, 0, 1, &c), CRISP_OK);
+            double tol = 1e-5, jump, uv[2];
+            assert_int_equal(crisp_surface_project_curve(s, c, 0, 1, tol, &uvc), CRISP_OK);
+            assert_true(image_error(s, uvc, c, 0, 1, 0, &jump) <= tol);
+            crisp_curve_eval(uvc, 0.5, uv);
+            assert_true(fabs(uv[0] - (rev ? 12.5 : 6.5)) < 1e-6); /* the segment's middle */
+            crisp_curve_destroy(uvc);
+            crisp_curve_destroy(c);
+        }
+        crisp_surface_destroy(s);
+        crisp_curve_destroy(profile);
+    }
+}
+
+/* A point beyond a side of a skewed patch (S_u . S_v != 0) is nearest a point of that side; with
+ * the beyond-the-side parameter clamped, the other must be solved alone (bm2_ec_exhaust-A.stp:
+ * edges running 6e-5 outside a patch's side). The closest point and a projected curve along
+ * the side are compared with the exact foot on the side. */
+static void test_project_beyond_side(void **state)
+{
+    (void)state;
+    const double p0[3] = {0, 0, 0}, p1[3] = {1, 0, 0}, q0[3] = {0.7, 1, 0}, q1[3] = {1.7, 1, 0};
+    crisp_curve *c0, *c1, *c, *uvc;
+    crisp_surface *s;
+    assert_int_equal(crisp_make_line(3, p0, p1, 0, 1, &c0), CRISP_OK);
+    assert_int_equal(crisp_make_line(3, q0, q1, 0, 1, &c1), CRISP_OK);
+    assert_int_equal(crisp_make_ruled(c0, c1, &s), CRISP_OK);
+    /* S(u, v) = u (1, 0, 0) + v (0.7, 1, 0): the side u = 0 runs along (0.7, 1, 0). Points
+     * beyond it: x smaller than 0.7 y, lifted off the plane. */
+    double dom[4];
+    crisp_surface_domain(s, dom);
+    assert_true(dom[0] == 0 && dom[1] == 1 && dom[2] == 0 && dom[3] == 1);
+    const double side[3] = {0.7 / sqrt(1.49), 1 / sqrt(1.49), 0};
+    for (int i = 0; i < 5; i++) {
+        double y = 0.2 + 0.15 * i, p[3] = {0.7 * y - 0.01, y, 0.003}, uv[2], d;
+        assert_int_equal(crisp_surface_closest_point(s, p, uv, &d), CRISP_OK);
+        double foot_v = (p[0] * side[0] + p[1] * side[1]) / sqrt(1.49);
+        assert_true(fabs(uv[0]) < 1e-12);
+        assert_true(fabs(uv[1] - foot_v) < 1e-9);
+    }
+    const double a[3] = {0.7 * 0.1 - 0.01, 0.1, 0.003}, b[3] = {0.7 * 0.9 - 0.01, 0.9, 0.003};
+    assert_int_equal(crisp_make_line(3, a, b, 0, 1, &c), CRISP_OK);
+    assert_int_equal(crisp_surface_project_curve(s, c, 0, 1, 1e-7, &uvc), CRISP_OK);
+    for (int i = 0; i <= 100; i++) {
+        double t = i / 100.0, uv[2], p[3];
+        crisp_curve_eval(uvc, t, uv);
+        crisp_curve_eval(c, t, p);
+        double foot_v = (p[0] * side[0] + p[1] * side[1]) / sqrt(1.49);
+        assert_true(fabs(uv[0]) < 1e-9);
+        assert_true(fabs(uv[1] - foot_v) < 1e-6);
+    }
+    crisp_curve_destroy(uvc);
+    crisp_curve_destroy(c);
+    crisp_curve_destroy(c0);
+    crisp_curve_destroy(c1);
+    crisp_surface_destroy(s);
+}
+
+/* A torus closed in both directions: each direction is a seam (both boundary curves of one are
+ * one closed curve, not a point; their ends coincide because of the other direction). A minor
+ * circle across the v seam and a major circle across the u seam project continuously (pr1db.stp: a
+ * B-spline torus whose trims were stuck at the seam). */
+static void test_project_across_torus_seams(void **state)
+{
+    (void)state;
+    double o[3] = {0, 0, 0}, ax[3] = {0, 0, 1};
+    crisp_placement pl;
+    assert_int_equal(crisp_placement_make(o, ax, NULL, &pl), CRISP_OK);
+    crisp_surface *s;
+    double R = 5, r = 1.5;
+    assert_int_equal(crisp_make_torus(&pl, R, r, 0, 2 * M_PI, 0, 2 * M_PI, &s), CRISP_OK);
+    double dom[4];
+    crisp_surface_domain(s, dom);
+    for (int which = 0; which < 2; which++) {
+        crisp_curve *c, *uvc;
+        double ang = 0.7, ctr[3], x[3], y[3], rad, a0 = -1; /* from an angle of -1 rad on */
+        if (which == 0) { /* minor circle at u = 0.7, across the outer equator (v = 0) */
+            for (int k = 0; k < 3; k++) {
+                double radial = cos(ang) * pl.x[k] + sin(ang) * pl.y[k];
+                ctr[k] = R * radial, x[k] = radial, y[k] = pl.z[k];
+            }
+            rad = r;
+        } else { /* major circle on the top (v = pi / 2), across u = 0 */
+            for (int k = 0; k < 3; k++)
+                ctr[k] = r * pl.z[k], x[k] = pl.x[k], y[k] = pl.y[k];
+            rad = R;
+        }
+        assert_int_equal(crisp_make_arc(3, ctr, x, y, rad, rad, a0, a0 + 2 * M_PI, &c), CRISP_OK);
+        double t0, t1, tol = 1e-6, worst = 0, prev[2] = {0, 0}, jump = 0;
+        crisp_curve_domain(c, &t0, &t1);
+        assert_int_equal(crisp_surface_project_curve(s, c, t0, t1, tol, &uvc), CRISP_OK);
+        for (int i = 0; i <= 2000; i++) {
+            double t = t0 + (t1 - t0) * i / 2000.0, uv[2], p[3], q[3];
+            crisp_curve_eval(uvc, t, uv);
+            if (i > 0) jump = fmax(jump, hypot(uv[0] - prev[0], uv[1] - prev[1]));
+            prev[0] = uv[0], prev[1] = uv[1];
+            for (int k = 0; k < 2; k++) {
+                double w = dom[2 * k + 1] - dom[2 * k];
+                uv[k] = dom[2 * k] + fmod(uv[k] - dom[2 * k], w);
+                if (uv[k] < dom[2 * k]) uv[k] += w;
+            }
+            crisp_surface_eval(s, uv[0], uv[1], p);
+            crisp_curve_eval(c, t, q);
+            worst = fmax(worst, dist3(p, q));
+        }
+        assert_true(worst <= tol);
+        assert_true(jump < 0.05 * (dom[1] - dom[0] + dom[3] - dom[2]));
+        crisp_curve_destroy(uvc);
+        crisp_curve_destroy(c);
+    }
+    crisp_surface_destroy(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -510,6 +652,9 @@ int main(void)
         cmocka_unit_test(test_project_iso_curves),
         cmocka_unit_test(test_project_pole_and_offset),
         cmocka_unit_test(test_project_pieces_through_apex),
+        cmocka_unit_test(test_project_along_crease),
+        cmocka_unit_test(test_project_beyond_side),
+        cmocka_unit_test(test_project_across_torus_seams),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -106,6 +106,34 @@ static void test_cylinder_192(void **state)
     crisp_model_destroy(m);
 }
 
+/* The same quarter as a 143 bounded surface whose 141 boundary gives only the model-space
+ * composite curve (no parameter-space curves: their conventions differ for analytic surfaces). */
+static void test_cylinder_192_bounded(void **state)
+{
+    (void)state;
+    test_entity e[] = {
+        {100, 0, 0, "00010000", 0, "0.,0.,0.,2.,0.,0.,2.;"}, /* DE 1 */
+        {110, 0, 0, "00010000", 0, "0.,2.,0.,0.,2.,3.;"},    /* DE 3 */
+        {126, 0, 0, "00010000", 0,
+         "2,2,1,0,0,0,0.,0.,0.,1.,1.,1.,1.,0.7071067811865476,1.,0.,2.,3.,2.,2.,3.,2.,0.,3.,0.,1."
+         ",0.,0.,1.;"},                                   /* DE 5 */
+        {110, 0, 0, "00010000", 0, "2.,0.,3.,2.,0.,0.;"}, /* DE 7 */
+        {102, 0, 0, "00010000", 0, "4,1,3,5,7;"},         /* DE 9 */
+        {116, 0, 0, "00010000", 0, "0.,0.,0.;"},          /* DE 11 */
+        {141, 0, 0, "00010500", 0, "0,0,19,1,9,1,0;"},    /* DE 13 */
+        {123, 0, 0, "00010000", 0, "0.,0.,1.;"},          /* DE 15 axis */
+        {143, 0, 0, NULL, 0, "0,19,1,13;"},               /* DE 17 */
+        {192, 0, 0, "00010000", 0, "11,15,2.;"},          /* DE 19 */
+    };
+    crisp_model *m = load(e, N_OF(e));
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    double mid[3];
+    check_trims(&m->faces[0], on_cylinder2, 1e-5, mid);
+    assert_true(fabs(atan2(mid[1], mid[0]) - M_PI / 4) < 0.1 && fabs(mid[2] - 1.5) < 0.2);
+    crisp_model_destroy(m);
+}
+
 #define W "0.7071067811865476"
 /* A rational quadratic arc (126) from a through control point b to c (90 degrees). */
 #define ARC(a, b, c) "2,2,1,0,0,0,0.,0.,0.,1.,1.,1.,1.," W ",1.," a "," b "," c ",0.,1.,0.,0.,1.;"
@@ -325,10 +353,15 @@ static void test_offset_tube_file(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_cylinder_192),         cmocka_unit_test(test_cone_194),
-        cmocka_unit_test(test_sphere_196_octant),    cmocka_unit_test(test_torus_198),
-        cmocka_unit_test(test_offset_of_cylinder),   cmocka_unit_test(test_offset_of_bspline_plane),
-        cmocka_unit_test(test_offset_of_revolution), cmocka_unit_test(test_offset_tube_file),
+        cmocka_unit_test(test_cylinder_192),
+        cmocka_unit_test(test_cylinder_192_bounded),
+        cmocka_unit_test(test_cone_194),
+        cmocka_unit_test(test_sphere_196_octant),
+        cmocka_unit_test(test_torus_198),
+        cmocka_unit_test(test_offset_of_cylinder),
+        cmocka_unit_test(test_offset_of_bspline_plane),
+        cmocka_unit_test(test_offset_of_revolution),
+        cmocka_unit_test(test_offset_tube_file),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -376,6 +376,11 @@ static double brep_volume(brep_text *b, int *closed)
 {
     crisp_model *m = load(b->e, b->n);
     assert_int_equal(m->face_count, 12);
+    /* the faces of the 186 solid (its shell and its void) are one body */
+    for (int i = 0; i < 12; i++) {
+        assert_int_not_equal(m->faces[i].body, 0);
+        assert_int_equal(m->faces[i].body, m->faces[0].body);
+    }
     crisp_mass_props p;
     assert_int_equal(crisp_mass_model(m, NULL, &p), CRISP_OK);
     crisp_model_destroy(m);

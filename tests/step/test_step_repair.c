@@ -533,6 +533,169 @@ static void test_bspline_closed_both_ways(void **state)
     crisp_model_destroy(m);
 }
 
+/* The whole of a file into a string (freed by the caller). */
+static char *read_whole(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    assert_non_null(f);
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *t = malloc((size_t)n + 1);
+    assert_non_null(t);
+    assert_int_equal(fread(t, 1, (size_t)n, f), (size_t)n);
+    t[n] = 0;
+    fclose(f);
+    return t;
+}
+
+/* A band on a revolved B-spline surface closed in v, bounded by two circles (face #934 of Open
+ * CASCADE's trj3_s1-md-214.stp, data/cuts): the inner circle's projection runs continuously
+ * from v = 0.5 down across the seam to -0.5; it is cut at the seam and the part beyond moved by
+ * the period, so both circles wind and bound one band: the whole domain [0, 1] x [0, 1]. (It was
+ * clamped onto the seam and the face dropped as open.) Every trim lies on its edge. */
+static void test_bspline_band_across_seam(void **state)
+{
+    (void)state;
+    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_trj3_s1_md_face934.stp");
+    crisp_model *m;
+    step_read_stats st = {0};
+    assert_int_equal(read_str(t, &m, &st), CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-6, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    assert_int_equal(m->faces[0].loop_count, 1);
+    double a = crisp_trim_loop_signed_area(&m->faces[0].loops[0]);
+    assert_true(fabs(a - 1) < 1e-6);
+    assert_true(st.max_edge_dev < 1e-6);
+    crisp_model_destroy(m);
+    free(t);
+}
+
+/* A strip around most of a turn of a B-spline surface closed in v, through its seam (face #1485
+ * of Open CASCADE's trj5_k1-sh-203.stp, data/cuts): the loop jumps across the domain twice. It
+ * becomes two outer loops closed along the seam, v in [0, 4.03] and [4.49, 5.65], u across the
+ * strip's width 1/9 (the ends of the strip bulge a little). (It was dropped as open.) */
+static void test_bspline_strip_through_seam(void **state)
+{
+    (void)state;
+    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_trj5_k1_sh_face1485.stp");
+    crisp_model *m;
+    step_read_stats st = {0};
+    assert_int_equal(read_str(t, &m, &st), CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-6, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    assert_int_equal(m->faces[0].loop_count, 2);
+    assert_int_equal(c.outer, 2);
+    double a0 = crisp_trim_loop_signed_area(&m->faces[0].loops[0]),
+           a1 = crisp_trim_loop_signed_area(&m->faces[0].loops[1]);
+    double lo = (1.0 / 9) * 4.0329, hi = (1.0 / 9) * (5.65487 - 4.4867);
+    if (a0 < a1) {
+        double x = a0;
+        a0 = a1, a1 = x;
+    }
+    assert_true(fabs(a0 - lo) < 0.02 * lo);
+    assert_true(fabs(a1 - hi) < 0.05 * hi);
+    assert_true(st.max_edge_dev < 1e-4);
+    crisp_model_destroy(m);
+    free(t);
+}
+
+/* A face on a SURFACE_OF_LINEAR_EXTRUSION of a circle, its loop without pcurves, one arc ending
+ * at the profile's angle pi (trj3_s1-tc-214.stp #3993, written by hand): checking the trims
+ * against their edges inverted points just short of angle pi onto -pi (the search over
+ * [-pi, pi] did not wrap), so the arc's trim seemed 0.15 off its edge and the face was dropped.
+ */
+static const char *extrusion_arc_at_pi =
+    HEAD "#1=CARTESIAN_POINT('',(0.,0.,0.));\n"
+         "#2=DIRECTION('',(0.,0.,1.));\n"
+         "#3=DIRECTION('',(1.,0.,0.));\n"
+         "#4=AXIS2_PLACEMENT_3D('',#1,#2,#3);\n"
+         "#5=CIRCLE('',#4,2.);\n"
+         "#6=VECTOR('',#2,1.);\n"
+         "#7=SURFACE_OF_LINEAR_EXTRUSION('',#5,#6);\n"
+         "#10=CARTESIAN_POINT('',(-1.7551651237807455,0.958851077208406,0.));\n"
+         "#11=CARTESIAN_POINT('',(-1.7551651237807455,0.958851077208406,1.));\n"
+         "#12=CARTESIAN_POINT('',(-2.,0.,1.));\n"
+         "#13=CARTESIAN_POINT('',(-2.,0.,0.));\n"
+         "#20=VERTEX_POINT('',#10);\n"
+         "#21=VERTEX_POINT('',#11);\n"
+         "#22=VERTEX_POINT('',#12);\n"
+         "#23=VERTEX_POINT('',#13);\n"
+         "#30=LINE('',#10,#6);\n"
+         "#31=CARTESIAN_POINT('',(0.,0.,1.));\n"
+         "#32=AXIS2_PLACEMENT_3D('',#31,#2,#3);\n"
+         "#33=CIRCLE('',#32,2.);\n"
+         "#34=LINE('',#12,#35);\n"
+         "#35=VECTOR('',#36,1.);\n"
+         "#36=DIRECTION('',(0.,0.,-1.));\n"
+         "#37=CIRCLE('',#4,2.);\n"
+         "#40=EDGE_CURVE('',#20,#21,#30,.T.);\n"
+         "#41=EDGE_CURVE('',#21,#22,#33,.T.);\n"
+         "#42=EDGE_CURVE('',#22,#23,#34,.T.);\n"
+         "#43=EDGE_CURVE('',#20,#23,#37,.T.);\n"
+         "#50=ORIENTED_EDGE('',*,*,#40,.T.);\n"
+         "#51=ORIENTED_EDGE('',*,*,#41,.T.);\n"
+         "#52=ORIENTED_EDGE('',*,*,#42,.T.);\n"
+         "#53=ORIENTED_EDGE('',*,*,#43,.F.);\n"
+         "#60=EDGE_LOOP('',(#50,#51,#52,#53));\n"
+         "#61=FACE_OUTER_BOUND('',#60,.T.);\n"
+         "#62=ADVANCED_FACE('',(#61),#7,.T.);\n" TAIL;
+
+static double on_cylinder_r2(const double p[3])
+{
+    return hypot(p[0], p[1]) - 2;
+}
+static int near_angle_pi(const double p[3])
+{
+    double a = atan2(p[1], p[0]);
+    return a > M_PI - 0.5 && a < M_PI && p[2] > 0 && p[2] < 1;
+}
+
+static void test_extrusion_arc_at_pi(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    step_read_stats st = {0};
+    crisp_status s = read_str(extrusion_arc_at_pi, &m, &st);
+    if (s) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    check_face(m, 0, on_cylinder_r2, 1e-7, near_angle_pi);
+    assert_true(st.max_edge_dev < 1e-6);
+    crisp_model_destroy(m);
+}
+
+/* A face on an extrusion of a closed unclamped B-spline profile (parameters 3.32 to 62.89) whose
+ * loop starts at the profile's closure point (face #30200 of Open CASCADE's trj7_k1-sd-214.stp,
+ * data/cuts): its first sample took the end 62.89 (the two ends' distances differ by rounding
+ * only) and the loop, over [3.32, 33.10], could not run on past it: trims 19.7 off their edges,
+ * the face dropped. The end nearer the rest of the loop is taken now. */
+static void test_extrusion_closed_profile_start(void **state)
+{
+    (void)state;
+    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_trj7_k1_sd_face30200.stp");
+    crisp_model *m;
+    step_read_stats st = {0};
+    crisp_status s = read_str(t, &m, &st);
+    if (s) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-6, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    assert_true(st.max_edge_dev < 1e-6);
+    crisp_model_destroy(m);
+    free(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -545,6 +708,10 @@ int main(void)
         cmocka_unit_test(test_open_loop_bridged),
         cmocka_unit_test(test_rational_half_circle_on_plane),
         cmocka_unit_test(test_bspline_closed_both_ways),
+        cmocka_unit_test(test_bspline_band_across_seam),
+        cmocka_unit_test(test_bspline_strip_through_seam),
+        cmocka_unit_test(test_extrusion_arc_at_pi),
+        cmocka_unit_test(test_extrusion_closed_profile_start),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -162,7 +162,19 @@ static crisp_status shell_514(iges_file *f, int e, int reversed, int depth)
     return st;
 }
 
+static crisp_status brep_faces(iges_file *f, int e);
+
+/* The faces of a 186 solid or a lone 514 shell, each with the entity's DE as its body. */
 crisp_status crisp__iges_brep_faces(iges_file *f, int e)
+{
+    int outer = f->body;
+    f->body = iges_de(e);
+    crisp_status st = brep_faces(f, e);
+    f->body = outer;
+    return st;
+}
+
+static crisp_status brep_faces(iges_file *f, int e)
 {
     if (f->ents[e].type == 514) return f->ents[e].used ? CRISP_OK : shell_514(f, e, 0, 0);
     /* 186: the outer shell and its voids */

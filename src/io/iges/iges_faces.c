@@ -534,6 +534,7 @@ crisp_status crisp__iges_finish_face(iges_file *f, int e, int surf_e, iges_surfa
         crisp_face_free(&face);
         return CRISP_OK;
     }
+    face.body = f->body; /* its solid or shell (crisp_model_gaps compares within one) */
     return crisp_model_add_face(f->model, &face);
 }
 

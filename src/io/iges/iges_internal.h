@@ -59,6 +59,7 @@ typedef struct iges_file {
     char first_message[512];
     int blanked_faces; /* faces not drawn because the file blanks them */
     int draw_blanked;  /* set when every face is blanked: draw them anyway */
+    int body;          /* DE of the 186 solid or 514 shell whose faces are being built, else 0 */
 } iges_file;
 
 /* ---- sections and parameters (iges_sections.c) ---------------------------------------------- */

@@ -132,6 +132,9 @@ static crisp_status append_copy(iges_file *f, const crisp_face *src, const iges_
     if (st) return st;
     crisp_face_transform(&face, (const double(*)[4])x->m);
     face.occurrence = occ + 1;
+    /* each placed copy of a solid is a body of its own (as for STEP's placed parts) */
+    if (face.body)
+        face.body = (int)(((unsigned)face.body * 2654435761u) ^ ((unsigned)occ + 1u)) | 1;
     if ((st = crisp_model_add_face(f->model, &face))) crisp_face_free(&face);
     return st;
 }

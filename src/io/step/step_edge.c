@@ -543,8 +543,26 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
     while (start < n && lw->edges[start].npc == 2)
         start++;
     if (start == n) start = 0;
-    double prev[2] = {0, 0};
-    int have_prev = 0;
+    double prev[2] = {0, 0}, seed[2] = {0, 0};
+    int have_prev = 0, have_seed = 0;
+    /* On an extrusion of a closed B-spline profile, a loop that starts at the profile's closure
+     * point could take either end of the profile's range for its first sample, and the loop
+     * cannot run on past an end (trj7_k1-sd-214.stp: started at the end 62.89 of [3.32, 62.89],
+     * a loop over [3.32, 33.10] stuck there, its trims 20 units off). The end nearer an edge
+     * midpoint of the loop that is not at the closure is taken. */
+    if (w->s.kind == STEP_SURF_EXTRUSION && w->s.profile.kind == STEP_CURVE_BSPLINE &&
+        w->s.profile.periodic) {
+        double t0 = w->s.profile.t0, t1 = w->s.profile.t1, eps = 1e-6 * (t1 - t0);
+        for (int m = 0; m < n && !have_seed; m++) {
+            const edge_use *eu = &lw->edges[(start + m) % n];
+            double p[3], uv[2];
+            crisp__step_curve_eval(&eu->c3,
+                                   crisp__step_curve_wrap(&eu->c3, 0.5 * (eu->lo + eu->hi)), p);
+            crisp__step_surface_invert(&w->s, p, NULL, uv);
+            if (fabs(uv[0] - t0) > eps && fabs(uv[0] - t1) > eps && isfinite(uv[0]))
+                seed[0] = uv[0], seed[1] = uv[1], have_seed = 1;
+        }
+    }
     for (int m = 0; m < n; m++) {
         edge_use *eu = &lw->edges[(start + m) % n];
         crisp_status st = alloc_samples(w, eu);
@@ -594,7 +612,11 @@ crisp_status crisp__step_loop_samples(face_work *w, loop_work *lw)
             for (int i = 0; i < eu->ns; i++) {
                 double p[3];
                 crisp__step_curve_eval(&eu->c3, crisp__step_curve_wrap(&eu->c3, eu->ts[i]), p);
-                crisp__step_surface_invert(&w->s, p, have_prev || i ? prev : NULL, eu->uv + 2 * i);
+                crisp__step_surface_invert(&w->s, p,
+                                           have_prev || i ? prev
+                                           : have_seed    ? seed
+                                                          : NULL,
+                                           eu->uv + 2 * i);
                 prev[0] = eu->uv[2 * i], prev[1] = eu->uv[2 * i + 1];
                 have_prev = 1;
             }

@@ -544,6 +544,232 @@ static void seam_sides(const crisp_surface *s, const double d[4], crisp_trim_loo
     }
 }
 
+/* On a B-spline surface closed in u (or v), a trim projected continuously across the seam leaves
+ * the domain by up to a period (the projection keeps its path continuous); clamping it would
+ * squash it onto the seam. It is cut where it crosses the seam and the part beyond is moved back
+ * by the period (trj3_s1-md-214.stp #934: a band on a revolved B-spline bounded by two circles,
+ * one of them projected from v = 0.5 down to -0.5). A loop that winds around the surface then
+ * jumps across the seam once inside; it is turned to start after the jump, so that it winds
+ * from end to start as join_bspline_band expects. Returns -1 when out of memory. */
+#define SEAM_SAMPLES 64
+
+static double curve_coord(const crisp_curve *c, double t, int k)
+{
+    double p[2];
+    crisp_curve_eval(c, t, p);
+    return p[k];
+}
+
+static void shift_curve(crisp_curve *c, const double sh[2]);
+
+/* Whether a trim's image is one point (within tol): it runs along a pole or a collapsed side,
+ * where its (u, v) mean nothing (ec_turbine-A.stp: short edges at a collapsed side projected
+ * over a fourth of the v range). Coordinates beyond the domain are wrapped by its widths. */
+static int image_collapsed(const crisp_surface *s, const double d[4], const crisp_curve *c,
+                           double tol)
+{
+    double t0, t1, first[3];
+    crisp_curve_domain(c, &t0, &t1);
+    for (int j = 0; j <= 16; j++) {
+        double uv[2], p[3];
+        crisp_curve_eval(c, t0 + (t1 - t0) * j / 16, uv);
+        for (int k = 0; k < 2; k++) {
+            double w = d[2 * k + 1] - d[2 * k];
+            if (w > 0 && (uv[k] < d[2 * k] || uv[k] > d[2 * k + 1]))
+                uv[k] -= w * floor((uv[k] - d[2 * k]) / w);
+        }
+        crisp_surface_eval(s, uv[0], uv[1], p);
+        if (j == 0)
+            memcpy(first, p, sizeof first);
+        else if (crisp__step_dist3(first, p) > tol)
+            return 0;
+    }
+    return 1;
+}
+
+static int split_at_seams(const crisp_surface *s, const double d[4], crisp_trim_loop *lp,
+                          double tol, double snap)
+{
+    for (int k = 0; k < 2; k++) {
+        if (!side_closed(s, d, k, tol)) continue;
+        double lo = d[2 * k], hi = d[2 * k + 1], per = hi - lo;
+        for (int i = 0; i < lp->curve_count && lp->curve_count < 4096; i++) {
+            crisp_curve *c = lp->curves[i];
+            double t0, t1, cross = NAN, seam = 0;
+            crisp_curve_domain(c, &t0, &t1);
+            if (image_collapsed(s, d, c, tol)) continue; /* along a pole or collapsed side */
+            /* (A trim over more than a turn runs along a near-collapsed side, where its (u, v)
+             * wander: ec_turbine-A.stp, -23 to 94 on a turn of 93. Left to the clamp.) */
+            double cb[4];
+            crisp_curve_bbox(c, cb);
+            if (cb[2 + k] - cb[k] > per + snap) continue;
+            double prev = curve_coord(c, t0, k), tp = t0;
+            for (int j = 1; j <= SEAM_SAMPLES && isnan(cross); j++) {
+                double t = t0 + (t1 - t0) * j / SEAM_SAMPLES, x = curve_coord(c, t, k);
+                for (int e = 0; e < 2 && isnan(cross); e++) {
+                    double sv = e ? hi : lo;
+                    if ((prev - sv) * (x - sv) < 0) cross = tp, seam = sv;
+                }
+                if (isnan(cross)) prev = x, tp = t;
+            }
+            /* (A trim wholly beyond a side is left to the clamp, as before: it starts on the
+             * seam and runs out along a near-collapsed side in ec_turbine-A.stp.) */
+            if (isnan(cross)) continue;
+            /* the crossing is in [cross, cross + step]: bisect it */
+            double a = cross, b = fmin(t1, cross + (t1 - t0) / SEAM_SAMPLES);
+            double fa = curve_coord(c, a, k) - seam;
+            for (int it = 0; it < 80; it++) {
+                double m = 0.5 * (a + b), fm = curve_coord(c, m, k) - seam;
+                if ((fa < 0) == (fm < 0))
+                    a = m, fa = fm;
+                else
+                    b = m;
+            }
+            double tc = 0.5 * (a + b);
+            /* Only a real crossing is cut: both pieces reach farther than the snap from the
+             * seam (a trim running along the seam may graze it; one starting on the seam and
+             * running out, ec_turbine-A.stp, is left to the clamp). */
+            double ex0 = 0, ex1 = 0, rc0 = 0, rc1 = 0;
+            for (int j = 0; j <= SEAM_SAMPLES; j++) {
+                double t = t0 + (t1 - t0) * j / SEAM_SAMPLES, x = curve_coord(c, t, k);
+                double o = fmax(x - hi, lo - x);
+                if (t < tc) ex0 = fmax(ex0, o), rc0 = fmax(rc0, fabs(x - seam));
+                if (t > tc) ex1 = fmax(ex1, o), rc1 = fmax(rc1, fabs(x - seam));
+            }
+            if (!(fmax(ex0, ex1) > snap) || !(fmin(rc0, rc1) > snap) || !(tc > t0) || !(tc < t1))
+                continue;
+            crisp_curve *p0 = NULL, *p1 = NULL;
+            if (crisp_curve_trim(c, t0, tc, &p0) || crisp_curve_trim(c, tc, t1, &p1)) {
+                crisp_curve_destroy(p0);
+                crisp_error_clear();
+                continue;
+            }
+            crisp_curve **nc =
+                crisp_realloc_array(lp->curves, (size_t)lp->curve_count + 1, sizeof *nc);
+            if (!nc) {
+                crisp_curve_destroy(p0);
+                crisp_curve_destroy(p1);
+                return -1;
+            }
+            lp->curves = nc;
+            double sh[2] = {0, 0};
+            sh[k] = seam == hi ? -per : per;
+            shift_curve(ex0 > ex1 ? p0 : p1, sh);
+            /* the cut point lies exactly on the seam of both pieces */
+            double e0[2], e1[2];
+            curve_end(p0, 1, e0);
+            curve_end(p1, 0, e1);
+            e0[k] = ex0 > ex1 ? seam + sh[k] : seam;
+            e1[k] = ex0 > ex1 ? seam : seam + sh[k];
+            set_end(p0, 1, e0);
+            set_end(p1, 0, e1);
+            crisp_curve_destroy(c);
+            memmove(nc + i + 2, nc + i + 1, (size_t)(lp->curve_count - i - 1) * sizeof *nc);
+            nc[i] = p0;
+            nc[i + 1] = p1;
+            lp->curve_count++;
+            i--; /* the pieces may cross again */
+        }
+    }
+    /* One jump across a seam inside the loop, none at its closing junction: start after it. */
+    int n = lp->curve_count, jump = -1, jumps = 0;
+    for (int i = 0; i < n; i++) {
+        double a[2], b[2];
+        curve_end(lp->curves[i], 1, a);
+        curve_end(lp->curves[(i + 1) % n], 0, b);
+        for (int k = 0; k < 2; k++) {
+            double per = d[2 * k + 1] - d[2 * k];
+            if (fabs(fabs(b[k] - a[k]) - per) <= snap && fabs(b[1 - k] - a[1 - k]) <= snap &&
+                side_closed(s, d, k, tol))
+                jump = i, jumps++;
+        }
+    }
+    if (jumps == 1 && jump != n - 1) {
+        crisp_curve **tmp = crisp_malloc_array((size_t)n, sizeof *tmp);
+        if (!tmp) return -1;
+        for (int i = 0; i < n; i++)
+            tmp[i] = lp->curves[(jump + 1 + i) % n];
+        memcpy(lp->curves, tmp, (size_t)n * sizeof *tmp);
+        crisp_free(tmp);
+    }
+    return 0;
+}
+
+/* A loop that crosses the seam of a closed B-spline surface twice (a strip running around most
+ * of a turn, through the seam: trj5_k1-sh-203.stp #1485) jumps across the domain twice: no loop
+ * inside one turn of (u, v) bounds it. It becomes two loops, each closed along the seam side it
+ * reaches (the face covers the seam between the two crossings), both with the loop's role.
+ * Returns 1 when a loop was cut, 0 when none, -1 when out of memory. */
+static int jump_at(const crisp_surface *s, const double d[4], const crisp_trim_loop *lp, int i,
+                   double tol, double snap)
+{
+    int n = lp->curve_count;
+    double a[2], b[2];
+    curve_end(lp->curves[i], 1, a);
+    curve_end(lp->curves[(i + 1) % n], 0, b);
+    for (int k = 0; k < 2; k++) {
+        double per = d[2 * k + 1] - d[2 * k];
+        if (fabs(fabs(b[k] - a[k]) - per) <= snap && fabs(b[1 - k] - a[1 - k]) <= snap &&
+            side_closed(s, d, k, tol))
+            return k + 1;
+    }
+    return 0;
+}
+
+static int cut_at_seam_jumps(const crisp_surface *s, const double d[4], crisp_face *face,
+                             double tol, double snap)
+{
+    for (int l = 0; l < face->loop_count; l++) {
+        crisp_trim_loop *lp = &face->loops[l];
+        int n = lp->curve_count, j[3], nj = 0, kind[3];
+        for (int i = 0; i < n && nj < 3; i++) {
+            int k = jump_at(s, d, lp, i, tol, snap);
+            if (k) kind[nj] = k, j[nj++] = i;
+        }
+        if (nj != 2 || kind[0] != kind[1]) continue;
+        /* the two sub-loops: after the first jump up to the second, and after it round to the
+         * first; each must start and end on one seam side */
+        int k = kind[0] - 1, na = j[1] - j[0], nb = n - na;
+        double a0[2], a1[2], b0[2], b1[2];
+        curve_end(lp->curves[j[0] + 1], 0, a0);
+        curve_end(lp->curves[j[1]], 1, a1);
+        curve_end(lp->curves[(j[1] + 1) % n], 0, b0);
+        curve_end(lp->curves[j[0]], 1, b1);
+        if (fabs(a0[k] - a1[k]) > snap || fabs(b0[k] - b1[k]) > snap) continue;
+        crisp_trim_loop *nl =
+            crisp_realloc_array(face->loops, (size_t)face->loop_count + 1, sizeof *nl);
+        if (!nl) return -1;
+        face->loops = nl;
+        lp = &face->loops[l];
+        crisp_curve **ca = crisp_malloc_array((size_t)na + 1, sizeof *ca);
+        crisp_curve **cb = crisp_malloc_array((size_t)nb + 1, sizeof *cb);
+        crisp_curve *sa = NULL, *sb = NULL;
+        if (!ca || !cb || crisp_make_line(2, a1, a0, 0, 1, &sa) ||
+            crisp_make_line(2, b1, b0, 0, 1, &sb)) {
+            crisp_free(ca);
+            crisp_free(cb);
+            crisp_curve_destroy(sa);
+            return -1;
+        }
+        for (int i = 0; i < na; i++)
+            ca[i] = lp->curves[j[0] + 1 + i];
+        ca[na] = sa;
+        for (int i = 0; i < nb; i++)
+            cb[i] = lp->curves[(j[1] + 1 + i) % n];
+        cb[nb] = sb;
+        crisp_free(lp->curves);
+        lp->curves = ca;
+        lp->curve_count = na + 1;
+        crisp_trim_loop *other = &face->loops[face->loop_count++];
+        memset(other, 0, sizeof *other);
+        other->curves = cb;
+        other->curve_count = nb + 1;
+        other->is_outer = lp->is_outer;
+        return 1;
+    }
+    return 0;
+}
+
 /* Two loops that each wind once around a closed B-spline surface (two circles bounding a band on a
  * cylinder-like patch, trj4_k1_geo-tu-214.stp) do not close in (u, v): they become one loop, A,
  * the seam side from A's end to B's start, B (reversed so that it runs back), the seam side from
@@ -1023,6 +1249,10 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
                 goto done;
         if (i == w.band_a && (st = append_band(&w, dest->surface, lp, &cap))) goto done;
         if (w.s.kind == STEP_SURF_BSPLINE) {
+            if (split_at_seams(dest->surface, w.nbox, lp, r->tol, 100 * w.tol_uv) < 0) {
+                st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
+                goto done;
+            }
             seam_sides(dest->surface, w.nbox, lp, r->tol, 100 * w.tol_uv);
             if (unwrap_closed(dest->surface, w.nbox, lp, r->tol, 100 * w.tol_uv) < 0) {
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
@@ -1088,6 +1318,14 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
         }
         for (int i = 0; i < dest->loop_count; i++)
             dest->loops[i].is_outer = i == outer;
+    }
+    for (int cut = 0; w.s.kind == STEP_SURF_BSPLINE && cut < 8; cut++) {
+        int c = cut_at_seam_jumps(dest->surface, w.nbox, dest, r->tol, 100 * w.tol_uv);
+        if (c < 0) {
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "%s: out of memory", r->f->name);
+            goto done;
+        }
+        if (!c) break;
     }
     for (int i = 0; i < dest->loop_count; i++) {
         int added = bridge_open(dest->surface, &dest->loops[i], r->tol, 100 * w.tol_uv);

@@ -389,17 +389,24 @@ static double profile_search(const step_surface *s, const double *p, double lo, 
     if (s->profile.kind == STEP_CURVE_BSPLINE) n = 8 * (s->profile.nurbs->count + 1);
     if (n > 2048) n = 2048;
     double best = lo, bd = INFINITY;
+    /* (squared distances: ties within rounding of the point's size count as ties: at a closed
+     * profile's closure point both ends are at distance ~1e-30, trj7_k1-sd-214.stp) */
+    double tie = 1e-24 * (1 + p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
     for (int i = 0; i <= n; i++) {
         double t = lo + (hi - lo) * i / n;
         double d = profile_dist(s, p, t);
         /* Ties (a closed profile's ends) go to the parameter nearest the reference. */
-        if (d < bd * (1 - 1e-12) ||
-            (d <= bd * (1 + 1e-12) && isfinite(ref) && fabs(t - ref) < fabs(best - ref)))
+        if (d < bd * (1 - 1e-12) - tie ||
+            (d <= bd * (1 + 1e-12) + tie && isfinite(ref) && fabs(t - ref) < fabs(best - ref)))
             bd = d, best = t;
     }
     double a = best - (hi - lo) / n, b = best + (hi - lo) / n;
-    if (a < lo) a = lo;
-    if (b > hi) b = hi;
+    /* (A full turn of a conic is periodic: the bracket may pass its ends. Clamped, a point just
+     * short of lo + 2 pi whose grid neighbour is lo was taken for lo: trj3_s1-tc-214.stp, an
+     * arc at the end of the range checked against the wrong end, 0.15 off.) */
+    int turn = s->profile.kind == STEP_CURVE_CONIC && hi - lo >= 2 * M_PI * (1 - 1e-12);
+    if (a < lo && !turn) a = lo;
+    if (b > hi && !turn) b = hi;
     const double g = 0.6180339887498949;
     double x1 = b - g * (b - a), x2 = a + g * (b - a);
     double f1 = profile_dist(s, p, x1), f2 = profile_dist(s, p, x2);
@@ -485,6 +492,7 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
             lo = mid - span, hi = mid + span;
         }
         v = profile_invert(s, p, lo, hi, ref ? ref[1] : NAN);
+        if (c->kind == STEP_CURVE_CONIC && !isfinite(c->t0) && !ref) v = atan2(sin(v), cos(v));
         double cp[3], a[3], b[3];
         crisp__step_curve_eval(c, v, cp);
         for (int k = 0; k < 3; k++)
@@ -516,7 +524,8 @@ void crisp__step_surface_invert(const step_surface *s, const double p[3], const 
         for (int k = 0; k < 3; k++)
             d[k] = p[k] - cp[k];
         uv[1] = dot3(d, s->axis_d) / dot3(s->axis_d, s->axis_d);
-        if (c->kind == STEP_CURVE_CONIC && ref) uv[0] = near_angle(uv[0], ref[0]);
+        if (c->kind == STEP_CURVE_CONIC)
+            uv[0] = ref ? near_angle(uv[0], ref[0]) : atan2(sin(uv[0]), cos(uv[0]));
         return;
     }
     case STEP_SURF_BSPLINE: {
