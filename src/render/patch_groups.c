@@ -303,18 +303,6 @@ static void activate_block(walk_ctx *c, uint32_t fi, const crisp_scene_face *f, 
             activate(c, fi, f->first_patch + iv * f->grid_u + iu, mode);
 }
 
-/* Screen distance (pixels, max of x and y) bound for homogeneous clip points within e[] (x, y, w)
- * of a reference point whose W is at least wmin and whose |x/W|, |y/W| are at most xmax, ymax:
- * |X/W - X_R/W_R| <= (eX + |x_R| eW) / (W_R - eW). INFINITY when W is not bounded away from 0. */
-static double screen_px(const double e[3], double wmin, double xmax, double ymax, int width,
-                        int height)
-{
-    double den = wmin - e[2];
-    if (!(den > 0)) return INFINITY;
-    double dx = (e[0] + xmax * e[2]) / den, dy = (e[1] + ymax * e[2]) / den;
-    return fmax(dx * 0.5 * width, dy * 0.5 * height) * (1 + 1e-9) + 1e-12;
-}
-
 /* 1 when the block can be one group leaf: every triangle with vertices on its surface lies
  * within eps on screen, whatever its levels. Either its box is within eps, or this bound is: let
  * B be the bilinear function through the block's four corners in homogeneous clip coordinates
@@ -375,8 +363,8 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
     double E0[3];
     for (int a = 0; a < 3; a++)
         E0[a] = D[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
-    if (!n->rational && screen_px(D, wmin, xmax, ymax, c->width, c->height) +
-                                screen_px(E0, wmin, xmax, ymax, c->width, c->height) <=
+    if (!n->rational && crisp__clip_screen_px(D, wmin, xmax, ymax, c->width, c->height) +
+                                crisp__clip_screen_px(E0, wmin, xmax, ymax, c->width, c->height) <=
                             c->eps)
         return 1;
     /* Blocks whose weights vary: the same bound without dividing by the weights, measured at the
@@ -414,13 +402,14 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
                     }
                 }
             }
-            if (2 * screen_px(D, wmin, xmax, ymax, c->width, c->height) > c->eps) return 0;
+            if (2 * crisp__clip_screen_px(D, wmin, xmax, ymax, c->width, c->height) > c->eps)
+                return 0;
         }
     double E[3];
     for (int a = 0; a < 3; a++)
         E[a] = D[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
-    return screen_px(D, wmin, xmax, ymax, c->width, c->height) +
-               screen_px(E, wmin, xmax, ymax, c->width, c->height) <=
+    return crisp__clip_screen_px(D, wmin, xmax, ymax, c->width, c->height) +
+               crisp__clip_screen_px(E, wmin, xmax, ymax, c->width, c->height) <=
            c->eps;
 }
 

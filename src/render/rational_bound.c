@@ -40,8 +40,8 @@
  * (the bilinear against its linear interpolant on a triangle: L_st times a covariance of the
  * triangle's parameters, at most 1/4). Both are measured against L(x), whose w is at least the
  * corners' least w, so on screen |T(x) - Q(x)| <= px(E_S) + px(E_S + tw / 4) with
- * px(e) = (e_X + |x_L| e_W) / (w_L - e_W) (screen_px). For a block of nu x nv patches, L is
- * the bilinear through the block's corners; on a patch of the block it is a bilinear in the
+ * px(e) = (e_X + |x_L| e_W) / (w_L - e_W) (crisp__clip_screen_px). For a block of nu x nv patches,
+ * L is the bilinear through the block's corners; on a patch of the block it is a bilinear in the
  * patch's local parameters with edges 1/nu, 1/nv and twist 1/(nu nv) of the block's, and the
  * block's E_S is the largest over its patches. For a polynomial patch (all weights 1) this is
  * the homogeneous flat bound. The view-independent form (crisp__rational_block_deviation) bounds
@@ -225,9 +225,8 @@ static void edge_terms(const double C[4][3], uint32_t nu, uint32_t nv, double eu
     }
 }
 
-/* (e_X + |x_L| e_W) / (w_L - e_W) in pixels, max of x and y (patch_groups.c screen_px). */
-static double screen_px(const double e[3], double wmin, double xmax, double ymax, int width,
-                        int height)
+double crisp__clip_screen_px(const double e[3], double wmin, double xmax, double ymax, int width,
+                             int height)
 {
     double den = wmin - e[2];
     if (!(den > 0)) return INFINITY;
@@ -347,8 +346,8 @@ static double finish(const double C[4][3], const block_dev *d, int width, int he
         ET[a] = E[a] + tw;
         dl[a] = d->hi[a] - d->lo[a] + 2 * d->r[a] + tw;
     }
-    double one = screen_px(E, wmin, xmax, ymax, width, height) +
-                 screen_px(ET, wmin, xmax, ymax, width, height);
+    double one = crisp__clip_screen_px(E, wmin, xmax, ymax, width, height) +
+                 crisp__clip_screen_px(ET, wmin, xmax, ymax, width, height);
     double ws = wmin - E[2], wt = wmin - ET[2];
     if (!(ws > 0) || !(wt > 0)) return one;
     double xs = xmax + (E[0] + xmax * E[2]) / ws, ys = ymax + (E[1] + ymax * E[2]) / ws;

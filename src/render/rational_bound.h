@@ -16,6 +16,13 @@
  *   sigma[0] >= |sum r_ij i/n - s|, sigma[1] >= |sum r_ij j/m - t|,
  *   sigma[2] >= |sum r_ij (i/n - s)(j/m - t)|   for all (s, t) in [0, 1]^2.
  * All 0 for a polynomial patch or equal weights; INFINITY when a weight is not positive. */
+/* Screen distance bound (pixels, max of x and y) for homogeneous clip points within e[] (x, y, w)
+ * of a reference point whose W is at least wmin and whose |x/W|, |y/W| are at most xmax, ymax:
+ * |X/W - X_R/W_R| <= (e_X + |x_R| e_W) / (W_R - e_W). INFINITY when W is not bounded away from 0.
+ * (Also the group-leaf bound's, patch_groups.c.) */
+double crisp__clip_screen_px(const double e[3], double wmin, double xmax, double ymax, int width,
+                             int height);
+
 void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3]);
 
 /* The least and largest weight of p (1, 1 for a polynomial patch). Where they differ, the
