@@ -5,6 +5,7 @@
 // (LGPL-2.1 with its exception) as a library only, built only where it is installed
 // (scripts/setup-deps --with-occt). Faces are counted per occurrence (TopExp_Explorer), as
 // crisp places one copy of a part's faces per use. No exception leaves this file.
+#include "occt_util.hpp"
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -22,18 +23,10 @@
 #include <TopExp_Explorer.hxx>
 #include <TopoDS_Shape.hxx>
 
+using occt_util::is_step;
+
 namespace
 {
-
-bool is_step(const char *path)
-{
-    FILE *f = std::fopen(path, "rb");
-    if (!f) return false;
-    char buf[64] = {0};
-    size_t n = std::fread(buf, 1, sizeof buf - 1, f);
-    std::fclose(f);
-    return n >= 13 && std::strstr(buf, "ISO-10303-21") != nullptr;
-}
 
 void one(const char *path)
 {

@@ -6,6 +6,7 @@
 // (Poly_Triangulation's UV nodes) -- the measure of crisp's surface-accuracy test
 // (tests/render/test_cpu_render.c). Uses Open CASCADE 7.6 (LGPL-2.1 with its exception) as a
 // library only; it is optional and never a dependency of crisp. No exception leaves this file.
+#include "occt_util.hpp"
 #include "occt_mesh.h"
 
 #include <algorithm>
@@ -40,18 +41,11 @@
 #include <gp_Pnt.hxx>
 #include <gp_Pnt2d.hxx>
 
+using occt_util::fail;
+using occt_util::kBary;
+
 namespace
 {
-
-// The sample points of crisp's surface-accuracy test: the centroid, the edge midpoints and
-// three interior points.
-const double kBary[7][3] = {{1. / 3, 1. / 3, 1. / 3},
-                            {.5, .5, 0},
-                            {0, .5, .5},
-                            {.5, 0, .5},
-                            {.7, .2, .1},
-                            {.1, .7, .2},
-                            {.2, .1, .7}};
 
 struct Projector {
     const occt_mesh_desc *d;
@@ -72,12 +66,6 @@ struct Projector {
 double elapsed_ms(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b)
 {
     return std::chrono::duration<double, std::milli>(b - a).count();
-}
-
-void fail(char *err, size_t size, const char *what, const char *detail)
-{
-    if (err && size)
-        std::snprintf(err, size, "%s%s%s", what, detail ? ": " : "", detail ? detail : "");
 }
 
 int measure(const occt_mesh_desc *d, occt_mesh_result *r, char *err, size_t err_size)
@@ -212,16 +200,5 @@ int measure(const occt_mesh_desc *d, occt_mesh_result *r, char *err, size_t err_
 extern "C" int occt_mesh_measure(const occt_mesh_desc *desc, occt_mesh_result *dest, char *err,
                                  size_t err_size)
 {
-    try {
-        // Open CASCADE's reader and mesher report to stdout by default; the table is the output.
-        Message::DefaultMessenger()->RemovePrinters(STANDARD_TYPE(Message_PrinterOStream));
-        return measure(desc, dest, err, err_size);
-    } catch (const Standard_Failure &e) {
-        fail(err, err_size, "Open CASCADE failed", e.GetMessageString());
-    } catch (const std::exception &e) {
-        fail(err, err_size, "Open CASCADE failed", e.what());
-    } catch (...) {
-        fail(err, err_size, "Open CASCADE failed", "unknown exception");
-    }
-    return 1;
+    return occt_util::guarded(err, err_size, [&] { return measure(desc, dest, err, err_size); });
 }

@@ -7,6 +7,7 @@
 // surface at the interpolated (u, v) is already farther): there the mesh breaks its own
 // deflection. Uses Open CASCADE 7.6 (LGPL-2.1 with its exception) as a library only; optional,
 // never a dependency of crisp. No exception leaves this file.
+#include "occt_util.hpp"
 #include "occt_tris.h"
 
 #include <cmath>
@@ -41,32 +42,12 @@
 #include <gp_Pnt.hxx>
 #include <gp_Pnt2d.hxx>
 
+using occt_util::fail;
+using occt_util::is_step;
+using occt_util::kBary;
+
 namespace
 {
-
-const double kBary[7][3] = {{1. / 3, 1. / 3, 1. / 3},
-                            {.5, .5, 0},
-                            {0, .5, .5},
-                            {.5, 0, .5},
-                            {.7, .2, .1},
-                            {.1, .7, .2},
-                            {.2, .1, .7}};
-
-void fail(char *err, size_t size, const char *what, const char *detail)
-{
-    if (err && size)
-        std::snprintf(err, size, "%s%s%s", what, detail ? ": " : "", detail ? detail : "");
-}
-
-bool is_step(const char *path)
-{
-    FILE *f = std::fopen(path, "rb");
-    if (!f) return false;
-    char buf[64] = {0};
-    size_t n = std::fread(buf, 1, sizeof buf - 1, f);
-    std::fclose(f);
-    return n >= 13 && std::strstr(buf, "ISO-10303-21") != nullptr;
-}
 
 int mesh(const occt_tris_desc *d, occt_tris *r, char *err, size_t err_size)
 {
@@ -189,17 +170,7 @@ extern "C" int occt_tris_mesh(const occt_tris_desc *desc, occt_tris *dest, char 
                               size_t err_size)
 {
     std::memset(dest, 0, sizeof *dest);
-    try {
-        Message::DefaultMessenger()->RemovePrinters(STANDARD_TYPE(Message_PrinterOStream));
-        return mesh(desc, dest, err, err_size);
-    } catch (const Standard_Failure &e) {
-        fail(err, err_size, "Open CASCADE failed", e.GetMessageString());
-    } catch (const std::exception &e) {
-        fail(err, err_size, "Open CASCADE failed", e.what());
-    } catch (...) {
-        fail(err, err_size, "Open CASCADE failed", "unknown exception");
-    }
-    return 1;
+    return occt_util::guarded(err, err_size, [&] { return mesh(desc, dest, err, err_size); });
 }
 
 extern "C" void occt_tris_free(occt_tris *t)
