@@ -185,6 +185,22 @@ typedef struct crisp_trim_tess_desc {
 crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_polyline *dest);
 void crisp_trim_polyline_free(crisp_trim_polyline *p);
 
+/* Joins pl's pieces into chains and drops points, in place (issue 12: a face a few pixels across
+ * has tens of trim pieces of one segment each, and every segment costs the table and a ribbon
+ * quad). A chain is a maximal run of consecutive pieces where each piece starts exactly (bit for
+ * bit) where the one before ends; the shared point is kept once. Along a chain, a point is dropped
+ * when the chord that then replaces it and its neighbours stays close: there is a monotone
+ * correspondence (each dropped point to a point of the chord, in order) under which every
+ * dropped point lies within tol_u in u and tol_v in v of its chord point. Points matched linearly
+ * in between, the old and the new polyline then differ by at most (tol_u, tol_v) per coordinate
+ * at corresponding points, and the linear homotopy between them sweeps only over points that
+ * close to the old polyline: any (u, v) the two classify differently lies within (tol_u, tol_v)
+ * of the old polyline (the argument of crisp_trim_tessellate). First and last points of every
+ * chain are kept. Afterwards pl->piece_count is the number of chains, first[] their ranges, and t
+ * each kept point's parameter on its own piece. tol_u or tol_v may be HUGE_VAL (no limit in that
+ * coordinate); both must be > 0. */
+crisp_status crisp_trim_polyline_chains(crisp_trim_polyline *pl, double tol_u, double tol_v);
+
 /* ---- the two-level u-intercept table --------------------------------------------------------- */
 
 typedef struct crisp_trim_table {
@@ -237,6 +253,7 @@ typedef struct crisp_trim_plan {
     double v0, v1;   /* the strips' v-range: the face's, narrowed to the loops' (the table's) */
     uint32_t *mu;
     int clamped; /* some strip hit its row cap (crisp_trim_rows_from_density) */
+    int chains;  /* the polyline holds chains (crisp_trim_plan_desc.chains), not pieces */
     crisp_trim_density_stats density_stats;
     crisp_trim_polyline polyline;
     crisp_trim_table table;
@@ -254,6 +271,14 @@ typedef struct crisp_trim_plan_desc {
     double v0, v1;                       /* the face's v-range */
     int strip_count;                     /* n_V; 0 means 16 */
     const crisp_trim_density_tree *tree; /* NULL, or as crisp_trim_density_desc.tree */
+    /* NULL, or an arena for the density bound's scratch, reset by crisp_trim_plan_face (and free
+     * to be reused for another face afterwards): a planner of many faces keeps one per thread
+     * instead of one per face (issue 12: 13,573 small faces kept about 600 MB of scratch). */
+    crisp_arena *scratch;
+    /* 1: the polyline is crisp_trim_polyline_chains of one within half the tolerances, with the
+     * other half: chains instead of pieces (for faces a few pixels across, issue 12). The table's
+     * guarantee is the same. */
+    int chains;
 } crisp_trim_plan_desc;
 
 /* Only points inside the loops can be inside the face, so the strips cover the face's v-range

@@ -106,6 +106,8 @@ typedef struct crisp__trees {
     void **build_state;
     crisp_status *worker_status;
     int worker_cap;
+    size_t *trim_used;   /* per worker: the most trim scratch (arenas) one face took this build */
+    size_t trim_scratch; /* the most any face took so far: reserved in every worker's arena */
     crisp__forced *forced;
     size_t forced_count, forced_cap;
     uint32_t *redo; /* patches to rebuild with forced splits */
