@@ -9,6 +9,8 @@
  *   crisp_trim_rows_from_density     mu_i = ceil((b_i - a_i) rho_i) scan lines per strip
  *   crisp_trim_tessellate            trim pieces -> polylines within a quarter scan line (v) and a
  *                                    quarter pixel's worth of u of the true curves
+ *   crisp_trim_polyline_chains       pieces' polylines -> chains of fewer chords within tolerances
+ *   crisp_trim_lod_build / _free     view-independent coarse polylines of a face's loops
  *   crisp_trim_table_build / _test / _bytes / _free
  *                                    the two-level u-intercept table (CSR) and the trim test
  *   crisp_trim_plan_face / crisp_trim_plan_free
@@ -201,6 +203,27 @@ void crisp_trim_polyline_free(crisp_trim_polyline *p);
  * coordinate); both must be > 0. */
 crisp_status crisp_trim_polyline_chains(crisp_trim_polyline *pl, double tol_u, double tol_v);
 
+/* View-independent coarse polylines of a face's trim loops (issue 12): a face a few pixels across
+ * needs its loops only to a few percent of their extent, so a frame can take one of these instead
+ * of working through every piece. Level k is within tol_u[k] in u and tol_v[k] in v of the true
+ * curves (in the sense of crisp_trim_polyline_chains: a linear homotopy between them sweeps only
+ * over points that close to the curves): the pieces tessellated within half of that (Filip bound)
+ * and joined into chains with the other half. Level 0 is the coarsest (1/16 of the pieces'
+ * control-point extent in each coordinate), each next level twice as fine. */
+#define CRISP_TRIM_LOD_LEVELS 6
+typedef struct crisp_trim_lod {
+    int levels;       /* 0: none (no pieces, or pieces without extent in u or v) */
+    double box[4];    /* u0, u1, v0, v1: the pieces' control points */
+    double tol_u[CRISP_TRIM_LOD_LEVELS], tol_v[CRISP_TRIM_LOD_LEVELS];
+    crisp_trim_polyline level[CRISP_TRIM_LOD_LEVELS];
+} crisp_trim_lod;
+
+/* Checks the pieces (crisp_trim_pieces_check) and builds the levels; reuses dest's buffers
+ * (zero-initialise before first use). */
+crisp_status crisp_trim_lod_build(const crisp_bezier_curve *pieces, int piece_count,
+                                  crisp_trim_lod *dest);
+void crisp_trim_lod_free(crisp_trim_lod *lod);
+
 /* ---- the two-level u-intercept table --------------------------------------------------------- */
 
 typedef struct crisp_trim_table {
@@ -279,6 +302,11 @@ typedef struct crisp_trim_plan_desc {
      * other half: chains instead of pieces (for faces a few pixels across, issue 12). The table's
      * guarantee is the same. */
     int chains;
+    /* NULL, or crisp_trim_lod_build of the same pieces: the strips' u-ranges are taken from its
+     * box and, where one of its levels is within the polyline tolerances this frame needs, the
+     * polyline is that level (no piece is looked at: the pieces were checked when it was built).
+     * Else the pieces as without it. */
+    const crisp_trim_lod *lod;
 } crisp_trim_plan_desc;
 
 /* Only points inside the loops can be inside the face, so the strips cover the face's v-range

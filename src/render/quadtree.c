@@ -815,7 +815,10 @@ void crisp__trees_destroy(crisp__trees *p)
     for (uint32_t f = 0; f < p->face_cap; f++) {
         crisp_trim_plan_free(&p->trims[f]);
         crisp_trim_density_tree_free(&p->density[f]);
+        crisp_trim_lod_free(&p->lod[f]);
     }
+    free(p->lod);
+    free(p->lod_key);
     free(p->trims);
     free(p->density);
     free(p->density_gen);
@@ -924,12 +927,29 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
          * for impeller x 49 far away); its largest need is kept reserved in every worker's
          * arena (trim_scratch), so which worker plans which face allocates nothing new. */
         crisp_arena *scratch = c->plan->arenas[worker];
+        /* A face a few pixels across: its trim pieces joined into chains of few chords
+         * (crisp_trim_polyline_chains), for the table and the ribbons alike, or one of its
+         * view-independent coarse polylines (built once per face and trim edit). */
+        int chains = crisp__groups_face_px(c->plan->groups, (uint32_t)f) <= CHAIN_FACE_PX;
+        const crisp_trim_lod *lod = NULL;
+        if (chains && sf->piece_count) {
+            if (c->plan->lod_key[f] != c->sc->trim_serial) {
+                crisp_status st = crisp_trim_lod_build(c->sc->pieces + sf->first_piece,
+                                                       (int)sf->piece_count, &c->plan->lod[f]);
+                if (st) {
+                    crisp_error_prefix("face %zu (source entity %d)", f, sf->src->source_id);
+                    c->status[worker] = st;
+                    continue;
+                }
+                c->plan->lod_key[f] = c->sc->trim_serial;
+            }
+            lod = &c->plan->lod[f];
+        }
         crisp_trim_plan_desc d = {
             .tree = tree,
             .scratch = scratch,
-            /* A face a few pixels across: its trim pieces joined into chains of few chords
-             * (crisp_trim_polyline_chains), for the table and the ribbons alike. */
-            .chains = crisp__groups_face_px(c->plan->groups, (uint32_t)f) <= CHAIN_FACE_PX,
+            .chains = chains,
+            .lod = lod,
             .patches = c->sc->face_patches[f].patches,
             .patch_count = c->sc->face_patches[f].count,
             .pieces = sf->piece_count && !small ? c->sc->pieces + sf->first_piece : NULL,
@@ -984,6 +1004,14 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         if (!dg) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
         memset(dg + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *dg);
         plan->density_gen = dg;
+        crisp_trim_lod *lod = realloc(plan->lod, sc->face_count * sizeof *lod);
+        if (!lod) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        memset(lod + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *lod);
+        plan->lod = lod;
+        uint64_t *lk = realloc(plan->lod_key, sc->face_count * sizeof *lk);
+        if (!lk) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        memset(lk + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *lk);
+        plan->lod_key = lk;
         plan->face_cap = sc->face_count;
     }
     crisp_camera_matrices m;

@@ -359,6 +359,60 @@ crisp_status crisp_trim_polyline_chains(crisp_trim_polyline *pl, double tol_u, d
     return CRISP_OK;
 }
 
+/* ---- view-independent levels (issue 12) -------------------------------------------------------
+ */
+
+crisp_status crisp_trim_lod_build(const crisp_bezier_curve *pieces, int piece_count,
+                                  crisp_trim_lod *dest)
+{
+    if (!dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_trim_lod_build: NULL argument");
+    dest->levels = 0;
+    crisp_status st = crisp_trim_pieces_check(pieces, piece_count);
+    if (st || piece_count < 1) return st;
+    double *b = dest->box;
+    b[0] = b[2] = HUGE_VAL;
+    b[1] = b[3] = -HUGE_VAL;
+    for (int k = 0; k < piece_count; k++)
+        for (int i = 0; i <= pieces[k].degree; i++) {
+            const double *h = pieces[k].cpw + 3 * i;
+            double u = h[0] / h[2], v = h[1] / h[2];
+            b[0] = crisp__trim_min(b[0], u), b[1] = crisp__trim_max(b[1], u);
+            b[2] = crisp__trim_min(b[2], v), b[3] = crisp__trim_max(b[3], v);
+        }
+    double eu = b[1] - b[0], ev = b[3] - b[2];
+    if (!(eu > 0.0) || !(ev > 0.0) || !isfinite(eu) || !isfinite(ev)) return CRISP_OK;
+    for (int k = 0; k < CRISP_TRIM_LOD_LEVELS; k++) {
+        double tu = ldexp(eu, -4 - k), tv = ldexp(ev, -4 - k);
+        /* One strip over the box: rows of h <= 2 tv give the tessellation tv / 2 in v (a quarter
+         * of h), and rho_u = 0.5 / tu gives it tu / 2 in u; the chains take the other halves. */
+        uint32_t mu[1] = {(uint32_t)ceil(ev / (2 * tv)) + 1};
+        double rho_u[1] = {0.5 / tu};
+        crisp_trim_polyline *pl = &dest->level[k];
+        st = crisp__trim_tessellate_checked(&(crisp_trim_tess_desc){.pieces = pieces,
+                                                                    .piece_count = piece_count,
+                                                                    .v0 = b[2],
+                                                                    .v1 = b[3],
+                                                                    .strip_count = 1,
+                                                                    .mu = mu,
+                                                                    .rho_u = rho_u},
+                                            pl);
+        if (!st) st = crisp_trim_polyline_chains(pl, 0.5 * tu, 0.5 * tv);
+        if (st) return st;
+        dest->tol_u[k] = tu;
+        dest->tol_v[k] = tv;
+    }
+    dest->levels = CRISP_TRIM_LOD_LEVELS;
+    return CRISP_OK;
+}
+
+void crisp_trim_lod_free(crisp_trim_lod *lod)
+{
+    if (!lod) return;
+    for (int k = 0; k < CRISP_TRIM_LOD_LEVELS; k++)
+        crisp_trim_polyline_free(&lod->level[k]);
+    memset(lod, 0, sizeof *lod);
+}
+
 void crisp_trim_polyline_free(crisp_trim_polyline *p)
 {
     if (!p) return;

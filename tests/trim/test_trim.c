@@ -888,6 +888,83 @@ static void test_polyline_chains(void **state)
     assert_true(worst_flip > 0.5 && worst_point > 0.5);
 }
 
+/* crisp_trim_lod_build: on random loops (as test_polyline_chains builds them, the polygon here
+ * of 30..200 short lines with wider wobble), every level classifies points like the true curves
+ * (crisp_trim_exact_classify) except within its tolerances of them (measured against a dense
+ * polyline of the curves, 1% of the finest level's tolerances off at most), the levels halve, and
+ * the coarsest has few points. */
+static void test_trim_lod(void **state)
+{
+    (void)state;
+    double worst = 0;
+    long flips = 0, pts0 = 0, pieces = 0;
+    for (int trial = 0; trial < 8; trial++) {
+        crisp_bezier_curve pc[260];
+        int n = 0, nv = 30 + (int)(rnd() * 170);
+        double poly[2 * 200];
+        double cu = rnd_in(0.3, 0.7), cv = rnd_in(0.3, 0.7), r0 = rnd_in(0.1, 0.25);
+        for (int i = 0; i < nv; i++) {
+            double a = 2 * M_PI * i / nv, r = r0 * (1 + 0.3 * rnd_in(-1, 1));
+            poly[2 * i] = cu + r * cos(a);
+            poly[2 * i + 1] = cv + 0.7 * r * sin(a);
+        }
+        n += tu_polygon(pc + n, nv, poly);
+        if (trial % 2)
+            n += tu_ellipse(pc + n, rnd_in(0.4, 0.6), rnd_in(0.4, 0.6), 0.45, 0.3, rnd_in(0, 3), 1);
+        if (trial % 3 == 0) {
+            double g[4] = {0.9, rnd_in(0.8, 1.2), rnd_in(0.6, 1.0), 0.95};
+            n += tu_cubic_graph(pc + n, 0.05, 0.95, g, 0.02);
+        }
+        crisp_trim_lod lod = {0};
+        assert_int_equal(crisp_trim_lod_build(pc, n, &lod), CRISP_OK);
+        assert_int_equal(lod.levels, CRISP_TRIM_LOD_LEVELS);
+        pieces += n;
+        pts0 += lod.level[0].first[lod.level[0].piece_count];
+        /* The true curves, densely (1% of the finest level's tolerances). */
+        const int last = CRISP_TRIM_LOD_LEVELS - 1;
+        uint32_t mu[1] = {(uint32_t)ceil((lod.box[3] - lod.box[2]) / (4e-2 * lod.tol_v[last]))};
+        double rho_u[1] = {0.25 / (1e-2 * lod.tol_u[last])};
+        crisp_trim_polyline dense = {0};
+        assert_int_equal(crisp_trim_tessellate(&(crisp_trim_tess_desc){.pieces = pc,
+                                                                       .piece_count = n,
+                                                                       .v0 = lod.box[2],
+                                                                       .v1 = lod.box[3],
+                                                                       .strip_count = 1,
+                                                                       .mu = mu,
+                                                                       .rho_u = rho_u},
+                                               &dense),
+                         CRISP_OK);
+        for (int k = 0; k < lod.levels; k++) {
+            if (k) {
+                assert_true(fabs(lod.tol_u[k] - 0.5 * lod.tol_u[k - 1]) <= 1e-15);
+                assert_true(fabs(lod.tol_v[k] - 0.5 * lod.tol_v[k - 1]) <= 1e-15);
+            }
+            const crisp_trim_polyline *pl = &lod.level[k];
+            double tu = lod.tol_u[k], tv = lod.tol_v[k];
+            int np = pl->first[pl->piece_count];
+            for (int q = 0; q < 400; q++) {
+                int i = (int)(rnd() * (np - 1));
+                const double *a = pl->uv + 2 * i;
+                double l = rnd(), u = a[0] + l * (a[2] - a[0]), v = a[1] + l * (a[3] - a[1]);
+                u += rnd_in(-1.5, 1.5) * tu;
+                v += rnd_in(-1.5, 1.5) * tv;
+                if (polyline_parity(pl, u, v) == crisp_trim_exact_classify(pc, n, u, v)) continue;
+                flips++;
+                double d = box_dist(&dense, u, v, tu, tv);
+                worst = fmax(worst, d);
+                assert_true(d <= 1 + 0.02 * lod.tol_u[last] / tu);
+            }
+        }
+        crisp_trim_polyline_free(&dense);
+        crisp_trim_lod_free(&lod);
+    }
+    print_message("trim levels: %ld pieces -> %ld points at level 0; %ld points classified "
+                  "otherwise than the curves, at most %.3f tolerances from them\n",
+                  pieces, pts0, flips, worst);
+    assert_true(pts0 < pieces * 2 / 3);
+    assert_true(flips > 100 && worst > 0.25);
+}
+
 static void test_bad_input(void **state)
 {
     (void)state;
@@ -938,6 +1015,7 @@ int main(void)
         cmocka_unit_test(test_table_row_ranges),
         cmocka_unit_test(test_tessellation_bound),
         cmocka_unit_test(test_polyline_chains),
+        cmocka_unit_test(test_trim_lod),
         cmocka_unit_test(test_density_bound),
         cmocka_unit_test(test_density_multi_patch),
         cmocka_unit_test(test_density_blocks),
