@@ -212,8 +212,8 @@ crisp_status crisp_trim_polyline_chains(crisp_trim_polyline *pl, double tol_u, d
  * control-point extent in each coordinate), each next level twice as fine. */
 #define CRISP_TRIM_LOD_LEVELS 6
 typedef struct crisp_trim_lod {
-    int levels;       /* 0: none (no pieces, or pieces without extent in u or v) */
-    double box[4];    /* u0, u1, v0, v1: the pieces' control points */
+    int levels;    /* 0: none (no pieces, or pieces without extent in u or v) */
+    double box[4]; /* u0, u1, v0, v1: the pieces' control points */
     double tol_u[CRISP_TRIM_LOD_LEVELS], tol_v[CRISP_TRIM_LOD_LEVELS];
     crisp_trim_polyline level[CRISP_TRIM_LOD_LEVELS];
 } crisp_trim_lod;
