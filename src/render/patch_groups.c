@@ -18,13 +18,31 @@ typedef struct group {
     uint32_t iu0, iv0, nu, nv; /* patch grid block: columns iu0.., rows iv0.. (clipped) */
     uint32_t g;                /* the block is 2^g x 2^g patches before clipping */
     int32_t child[4];          /* -1: none (outside the grid, or a single patch) */
+    int32_t dev;               /* blocks of more than one patch: its block_dev, else -1 */
     double box[6];
-    double dev[4];   /* per homogeneous object coordinate: the largest distance between a control
-                        point of the block and the bilinear through the block's corners there */
-    double devq[3];  /* rational blocks: crisp__rational_block_deviation (x, y, z) */
     double wlo, whi; /* the least and largest weight of the block's patches */
     int rational;    /* the weights vary over the block (whi > wlo) */
 } group;
+
+/* What a frame needs to bound, in O(1), the distance between a block's control points and the
+ * bilinear B through its four corners (block_deviation, group_leaf_ok). For a control point q of
+ * a patch of the block (homogeneous object coordinates) at its block parameters (s, t), let
+ * d = q - B(s, t). A linear map m (a row of view_proj) then has |m . d| <= sum_a |m_a| box_a
+ * (the coordinate box) and <= sum_k |m_xyz . dir_k| + |m_xyz| slack + |m_w| box_w (the box in the
+ * principal axes f_k of the deviations' x, y, z parts, dir_k = h_k f_k): the second is the tight
+ * one where the deviations lie along one direction that is not a coordinate axis (the normal of a
+ * curved block), the first where they lie along an axis. For a block whose weights vary, the same
+ * is kept for its Euclidean control points (q / w, 1) against the bilinear through its Euclidean
+ * corners, the deviation that rational_bound.c's block bound starts from. */
+typedef struct block_dev {
+    double box[4];    /* per homogeneous coordinate a: the largest |d_a| (with rounding) */
+    double dir[3][3]; /* h_k f_k: f_k orthonormal, h_k the largest |d_xyz . f_k| (with rounding) */
+    double slack;     /* 1e-10 times the largest |d_xyz|: f's departure from orthonormal */
+    float wit[3][4];  /* the d whose |d_xyz . f_k| is largest: |m . wit_k| is at most the frame's
+                         largest |m . d| up to rounding (a lower bound; cost decisions only) */
+    double sigma[3];  /* rational blocks: the largest crisp__rational_reparam of its patches */
+    int bounded;      /* 0: a weight is not positive (rational blocks: no O(1) bound) */
+} block_dev;
 
 struct crisp__groups {
     const crisp_scene *scene;
@@ -32,6 +50,8 @@ struct crisp__groups {
     uint32_t patch_count, face_count;
     group *nodes;
     size_t node_count, node_cap;
+    block_dev *devs; /* of the blocks of more than one patch (group.dev) */
+    size_t dev_count, dev_cap;
     uint32_t *face_root; /* per face: its top group, UINT32_MAX when the face has no patches */
     uint8_t *face_small; /* per face, this frame: the whole (untrimmed) face within FACE_SMALL_PX */
     uint32_t group_leaves; /* this frame */
@@ -57,44 +77,227 @@ struct crisp__groups {
 
 enum { NODE_OPEN = 0, NODE_CULLED = 1, NODE_GROUP = 2, NODE_OWN = 3 }; /* OWN: patches own trees */
 
-/* n->dev (see group): view-independent, so a frame bounds the block's deviation in clip space
- * from its corners alone (|M d| <= |M| |d| per coordinate). */
-static void block_deviation(const crisp_scene *sc, const crisp_scene_face *f, group *n)
+/* The corner control points of block n (Bézier patches interpolate their corners): lower left,
+ * lower right, upper left, upper right. */
+static void block_corners(const crisp_scene *sc, const crisp_scene_face *f, const group *n,
+                          const double *dest[4])
 {
     uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
     const crisp_bezier_patch *p00 = &sc->patches[base].bez,
                              *p10 = &sc->patches[base + n->nu - 1].bez,
                              *p01 = &sc->patches[base + (n->nv - 1) * f->grid_u].bez,
                              *p11 = &sc->patches[base + (n->nv - 1) * f->grid_u + n->nu - 1].bez;
-    const double *C[4] = {p00->cpw, p10->cpw + 4 * p10->du, p01->cpw + 4 * (p01->du + 1) * p01->dv,
-                          p11->cpw + 4 * ((p11->du + 1) * p11->dv + p11->du)};
-    for (int a = 0; a < 4; a++)
-        n->dev[a] = 0;
+    dest[0] = p00->cpw;
+    dest[1] = p10->cpw + 4 * p10->du;
+    dest[2] = p01->cpw + 4 * (p01->du + 1) * p01->dv;
+    dest[3] = p11->cpw + 4 * ((p11->du + 1) * p11->dv + p11->du);
+}
+
+/* The bilinear through corner values c0 (s, t = 0, 0), c1 (1, 0), c2 (0, 1), c3 (1, 1). */
+static inline double bilinear(double c0, double c1, double c2, double c3, double s, double t)
+{
+    return (1 - t) * ((1 - s) * c0 + s * c1) + t * ((1 - s) * c2 + s * c3);
+}
+
+/* Calls visit for every control point q of every patch of block n with its block parameters
+ * (s, t) in [0, 1]^2: the patch's sub-rectangle of the block, its control points uniformly
+ * spaced there (a bilinear function restricted to the sub-rectangle and raised to the patch's
+ * degrees has exactly its values there as control points). `last` is 1 at each patch's last
+ * point. Stops and returns 0 as soon as visit returns 0. The view-independent deviation
+ * (block_deviation) and the frame's per-point bound (group_leaf_ok) both walk the block this
+ * way. */
+typedef int (*point_visit)(void *ctx, const double q[4], double s, double t, int last);
+static int block_points(const crisp_scene *sc, const crisp_scene_face *f, const group *n,
+                        point_visit visit, void *ctx)
+{
+    uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
     for (uint32_t jv = 0; jv < n->nv; jv++)
         for (uint32_t iu = 0; iu < n->nu; iu++) {
             const crisp_bezier_patch *b = &sc->patches[base + jv * f->grid_u + iu].bez;
             for (int j = 0; j <= b->dv; j++) {
                 double t = (jv + (double)j / b->dv) / n->nv;
                 for (int i = 0; i <= b->du; i++) {
-                    double u = (iu + (double)i / b->du) / n->nu;
-                    const double *q = b->cpw + 4 * (j * (b->du + 1) + i);
-                    for (int a = 0; a < 4; a++) {
-                        double bl = (1 - t) * ((1 - u) * C[0][a] + u * C[1][a]) +
-                                    t * ((1 - u) * C[2][a] + u * C[3][a]);
-                        n->dev[a] =
-                            fmax(n->dev[a], fabs(q[a] - bl) + 1e-12 * (fabs(q[a]) + fabs(bl)));
-                    }
+                    double s = (iu + (double)i / b->du) / n->nu;
+                    if (!visit(ctx, b->cpw + 4 * (j * (b->du + 1) + i), s, t,
+                               j == b->dv && i == b->du))
+                        return 0;
                 }
             }
         }
+    return 1;
+}
+
+/* Eigenvectors of the symmetric 3 x 3 matrix a (destroyed) by cyclic Jacobi rotations, as the
+ * columns of v (Golub & Van Loan, "Matrix Computations", sec. 8.5). Only their directions
+ * matter here: callers re-orthonormalise them and check the result. */
+static void jacobi_axes(double a[3][3], double v[3][3])
+{
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            v[i][j] = i == j;
+    for (int sweep = 0; sweep < 12; sweep++) {
+        double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+        double diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+        if (!(off > 1e-30 * diag)) break;
+        for (int p = 0; p < 2; p++)
+            for (int q = p + 1; q < 3; q++) {
+                if (a[p][q] == 0) continue;
+                double theta = (a[q][q] - a[p][p]) / (2 * a[p][q]);
+                double t = (theta >= 0 ? 1 : -1) / (fabs(theta) + sqrt(theta * theta + 1));
+                double c = 1 / sqrt(t * t + 1), sn = t * c;
+                for (int k = 0; k < 3; k++) { /* a <- a P, v <- v P */
+                    double akp = a[k][p], akq = a[k][q], vkp = v[k][p], vkq = v[k][q];
+                    a[k][p] = c * akp - sn * akq, a[k][q] = sn * akp + c * akq;
+                    v[k][p] = c * vkp - sn * vkq, v[k][q] = sn * vkp + c * vkq;
+                }
+                for (int k = 0; k < 3; k++) { /* a <- P^T a */
+                    double apk = a[p][k], aqk = a[q][k];
+                    a[p][k] = c * apk - sn * aqk, a[q][k] = sn * apk + c * aqk;
+                }
+            }
+    }
+}
+
+/* Orthonormal f[0..2] from the columns of v (Gram-Schmidt, f2 = f0 x f1); 0 when they are not
+ * orthonormal to 1e-12 afterwards (the caller then keeps the coordinate axes). */
+static int orthonormal_frame(double v[3][3], double f[3][3])
+{
+    for (int k = 0; k < 3; k++)
+        f[0][k] = v[k][0], f[1][k] = v[k][1];
+    double l = sqrt(f[0][0] * f[0][0] + f[0][1] * f[0][1] + f[0][2] * f[0][2]);
+    if (!(l > 0)) return 0;
+    for (int k = 0; k < 3; k++)
+        f[0][k] /= l;
+    double dot = f[1][0] * f[0][0] + f[1][1] * f[0][1] + f[1][2] * f[0][2];
+    for (int k = 0; k < 3; k++)
+        f[1][k] -= dot * f[0][k];
+    l = sqrt(f[1][0] * f[1][0] + f[1][1] * f[1][1] + f[1][2] * f[1][2]);
+    if (!(l > 0)) return 0;
+    for (int k = 0; k < 3; k++)
+        f[1][k] /= l;
+    f[2][0] = f[0][1] * f[1][2] - f[0][2] * f[1][1];
+    f[2][1] = f[0][2] * f[1][0] - f[0][0] * f[1][2];
+    f[2][2] = f[0][0] * f[1][1] - f[0][1] * f[1][0];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            double e = f[i][0] * f[j][0] + f[i][1] * f[j][1] + f[i][2] * f[j][2] - (i == j);
+            if (!(fabs(e) <= 1e-12)) return 0;
+        }
+    return 1;
+}
+
+/* block_deviation's two walks: pass 0 the coordinate box and the second moments of d_xyz,
+ * pass 1 the extents along the principal axes f and the witnesses. */
+typedef struct dev_walk {
+    const double *C[4];  /* the block's corner control points */
+    double euclid[4][4]; /* rational blocks: their Euclidean points (C points here) */
+    block_dev *d;
+    int pass, rational;
+    double moments[3][3], f[3][3], h[3], best[3];
+} dev_walk;
+
+static int dev_visit(void *vctx, const double q[4], double s, double t, int last)
+{
+    (void)last;
+    dev_walk *w = vctx;
+    block_dev *d = w->d;
+    double e[4], r = 0, P[4];
+    if (w->rational) {
+        if (!(q[3] > 0)) return d->bounded = 0;
+        P[0] = q[0] / q[3], P[1] = q[1] / q[3], P[2] = q[2] / q[3], P[3] = 1;
+        q = P;
+    }
+    for (int a = 0; a < 4; a++) {
+        double bl = bilinear(w->C[0][a], w->C[1][a], w->C[2][a], w->C[3][a], s, t);
+        /* the rounding of both sides: the exact deviation is within al of e[a] */
+        double al = 1e-12 * (fabs(q[a]) + fabs(bl));
+        e[a] = q[a] - bl;
+        if (w->pass == 0) d->box[a] = fmax(d->box[a], fabs(e[a]) + al);
+        if (a < 3) r += al;
+    }
+    if (w->pass == 0) {
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                w->moments[i][j] += e[i] * e[j];
+        d->slack = fmax(d->slack, sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) + r);
+        return 1;
+    }
+    for (int k = 0; k < 3; k++) {
+        double v = fabs(e[0] * w->f[k][0] + e[1] * w->f[k][1] + e[2] * w->f[k][2]);
+        w->h[k] = fmax(w->h[k], v + r); /* |f_k| = 1: |f_k . (exact - e)| <= r */
+        if (v > w->best[k]) {
+            w->best[k] = v;
+            for (int a = 0; a < 4; a++)
+                d->wit[k][a] = (float)e[a];
+        }
+    }
+    return 1;
+}
+
+/* The block's block_dev (view-independent): a frame bounds the block's deviation in clip space
+ * from it alone (deviation_clip). */
+static void block_deviation(const crisp_scene *sc, const crisp_scene_face *f, const group *n,
+                            block_dev *d)
+{
+    dev_walk w = {.d = d, .rational = n->rational};
+    block_corners(sc, f, n, w.C);
+    *d = (block_dev){.bounded = 1};
+    if (n->rational)
+        for (int k = 0; k < 4; k++) {
+            if (!(w.C[k][3] > 0)) d->bounded = 0;
+            for (int a = 0; a < 3; a++)
+                w.euclid[k][a] = w.C[k][a] / w.C[k][3];
+            w.euclid[k][3] = 1;
+            w.C[k] = w.euclid[k];
+        }
+    if (!d->bounded || !block_points(sc, f, n, dev_visit, &w)) {
+        d->bounded = 0;
+        return;
+    }
+    double v[3][3];
+    jacobi_axes(w.moments, v);
+    if (!orthonormal_frame(v, w.f))
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                w.f[i][j] = i == j;
+    w.pass = 1;
+    block_points(sc, f, n, dev_visit, &w);
+    for (int k = 0; k < 3; k++)
+        for (int a = 0; a < 3; a++)
+            d->dir[k][a] = w.h[k] * w.f[k][a];
+    /* |d_xyz - sum_k (d_xyz . f_k) f_k| <= 1e-11 |d_xyz| for f orthonormal to 1e-12 */
+    d->slack *= 1e-10;
+}
+
+/* Upper bounds (D) and a lower bound (low; NULL: not wanted) on the largest |x - B_x(s, t)| over
+ * the block's control points, per clip coordinate x, y, w (rows 0, 1, 3 of m), from its
+ * block_dev (see there). */
+static void deviation_clip(const block_dev *d, crisp_mat4 m, double D[3], double low[3])
+{
+    for (int a = 0; a < 3; a++) {
+        int r = a == 2 ? 3 : a;
+        double mx = m[0][r], my = m[1][r], mz = m[2][r], mw = m[3][r];
+        double box = fabs(mx) * d->box[0] + fabs(my) * d->box[1] + fabs(mz) * d->box[2] +
+                     fabs(mw) * d->box[3];
+        double axes = sqrt(mx * mx + my * my + mz * mz) * d->slack + fabs(mw) * d->box[3];
+        for (int k = 0; k < 3; k++)
+            axes += fabs(mx * d->dir[k][0] + my * d->dir[k][1] + mz * d->dir[k][2]);
+        D[a] = fmin(box, axes) * (1 + 1e-12);
+        if (!low) continue;
+        low[a] = 0;
+        for (int k = 0; k < 3; k++)
+            low[a] = fmax(low[a], fabs(mx * d->wit[k][0] + my * d->wit[k][1] + mz * d->wit[k][2] +
+                                       mw * d->wit[k][3]));
+    }
 }
 
 /* The aligned block (g, bu, bv) of face f's grid: patches [bu 2^g, (bu + 1) 2^g) x
  * [bv 2^g, (bv + 1) 2^g) clipped to the grid. Blocks of one face nest like a quadtree, so two
  * blocks' sides either contain one another or meet in at most a point (the crack-free edge rule
- * relies on it). */
+ * relies on it). sigma: the largest crisp__rational_reparam of the block's patches. */
 static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const crisp_scene_face *f,
-                                uint32_t lv, uint32_t bu, uint32_t bv, int32_t *dest)
+                                uint32_t lv, uint32_t bu, uint32_t bv, int32_t *dest,
+                                double sigma[3])
 {
     crisp_status st =
         crisp_grow((void **)&g->nodes, &g->node_cap, g->node_count + 1, sizeof *g->nodes);
@@ -107,21 +310,25 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
                f->grid_v - iv0 < size ? f->grid_v - iv0 : size,
                lv,
                {-1, -1, -1, -1},
+               -1,
                {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY},
-               {0, 0, 0, 0},
-               {0, 0, 0},
                INFINITY,
                -INFINITY,
                0};
+    sigma[0] = sigma[1] = sigma[2] = 0;
     if (lv == 0) {
         const double *b = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].box;
         memcpy(n.box, b, sizeof n.box);
+        crisp__rational_reparam(&sc->patches[f->first_patch + iv0 * f->grid_u + iu0].bez, sigma);
     } else {
         for (int k = 0; k < 4; k++) {
             uint32_t cu = 2 * bu + (k & 1), cv = 2 * bv + (k >> 1);
             if ((cu << (lv - 1)) >= f->grid_u || (cv << (lv - 1)) >= f->grid_v) continue;
             int32_t c;
-            if ((st = build_group(g, sc, f, lv - 1, cu, cv, &c))) return st;
+            double cs[3];
+            if ((st = build_group(g, sc, f, lv - 1, cu, cv, &c, cs))) return st;
+            for (int a = 0; a < 3; a++)
+                sigma[a] = fmax(sigma[a], cs[a]); /* INFINITY stays */
             n.child[k] = c;
             for (int a = 0; a < 3; a++) {
                 n.box[a] = fmin(n.box[a], g->nodes[c].box[a]);
@@ -139,10 +346,15 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
                 n.whi = fmax(n.whi, g->nodes[n.child[k]].whi);
             }
     n.rational = n.whi > n.wlo;
-    if (n.nu * n.nv > 1) block_deviation(sc, f, &n);
-    if (n.nu * n.nv > 1 && n.rational)
-        crisp__rational_block_deviation(&sc->patches[f->first_patch + iv0 * f->grid_u + iu0],
-                                        f->grid_u, n.nu, n.nv, n.devq);
+    if (n.nu * n.nv > 1) {
+        if ((st = crisp_grow((void **)&g->devs, &g->dev_cap, g->dev_count + 1, sizeof *g->devs)))
+            return st;
+        n.dev = (int32_t)g->dev_count++;
+        block_dev *d = &g->devs[n.dev];
+        block_deviation(sc, f, &n, d);
+        memcpy(d->sigma, sigma, sizeof d->sigma);
+        if (!isfinite(sigma[0]) || !isfinite(sigma[1]) || !isfinite(sigma[2])) d->bounded = 0;
+    }
     g->nodes[me] = n;
     *dest = me;
     return CRISP_OK;
@@ -178,6 +390,7 @@ void crisp__groups_destroy(crisp__groups *g)
     if (!g) return;
     free_frame_state(g);
     free(g->nodes);
+    free(g->devs);
     free(g->face_root);
     free(g->face_small);
     free(g->counts);
@@ -197,6 +410,7 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
     g->scene = NULL;
     g->face_count = 0;
     g->node_count = 0;
+    g->dev_count = 0;
     free(g->face_root);
     free(g->face_small);
     free(g->counts);
@@ -215,7 +429,8 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
         while ((1u << lv) < sf->grid_u || (1u << lv) < sf->grid_v)
             lv++;
         int32_t root;
-        crisp_status st = build_group(g, sc, sf, lv, 0, 0, &root);
+        double sigma[3];
+        crisp_status st = build_group(g, sc, sf, lv, 0, 0, &root, sigma);
         if (st) return st;
         g->face_root[f] = (uint32_t)root;
     }
@@ -321,96 +536,136 @@ static void activate_block(walk_ctx *c, uint32_t fi, const crisp_scene_face *f, 
  * B-spline net bound (crisp_slefe_group_screen's quad_px) was tried first: on wavy bicubic
  * sheets it exceeded the block's own screen extent (tests/render/test_group_leaves.c). The leaf
  * must also stay within CRISP_PLAN_MAX_LEAF_PX (float local parameters on a GPU). D is bounded
- * first from the block's view-independent deviation (group.dev, mapped by |view_proj|): O(1) per
- * block, so a face far away is decided at its root without reading its patches; where that is not
- * enough, blocks of at most 64 patches and GROUP_TRY_PX pixels read their control points (cost
- * only: larger blocks rarely pass). */
+ * first from the block's view-independent block_dev (deviation_clip): O(1) per block, so a face
+ * far away is decided at its root without reading its patches. Where that is not enough, blocks
+ * of at most 64 patches and GROUP_TRY_PX pixels may read their control points (clip_visit), but
+ * only when the block_dev's witnesses (control points of the block, so a lower bound of what
+ * that walk finds) do not already fail the test: the walk can then only confirm the refusal
+ * (cost only: larger blocks rarely pass). */
 #define GROUP_TRY_PX 64.0
+
+/* px(D) + px(D + twist / 4): the screen distance between the block's surface and its triangles
+ * for a deviation bound D (clip x, y, w) against the bilinear through the clip corners C. */
+typedef struct clip_corners {
+    double C[4][3], twist[3], wmin, xmax, ymax;
+    int width, height;
+} clip_corners;
+
+static double leaf_px(const clip_corners *k, const double D[3])
+{
+    double E[3];
+    for (int a = 0; a < 3; a++)
+        E[a] = D[a] + k->twist[a];
+    return crisp__clip_screen_px(D, k->wmin, k->xmax, k->ymax, k->width, k->height) +
+           crisp__clip_screen_px(E, k->wmin, k->xmax, k->ymax, k->width, k->height);
+}
+
+/* group_leaf_ok's walk over the block's control points in clip space: D is the largest
+ * |x - B(s, t)| so far per coordinate; stops (0) at the end of a patch once the bound must
+ * exceed eps (px(D) + px(D + twist / 4) >= 2 px(D)). */
+typedef struct clip_walk {
+    const clip_corners *k;
+    const double (*m)[4];
+    double D[3], eps;
+} clip_walk;
+
+static int clip_visit(void *vctx, const double q[4], double s, double t, int last)
+{
+    clip_walk *w = vctx;
+    const double(*C)[3] = w->k->C;
+    for (int a = 0; a < 3; a++) {
+        int r = a == 2 ? 3 : a;
+        double x = w->m[0][r] * q[0] + w->m[1][r] * q[1] + w->m[2][r] * q[2] + w->m[3][r] * q[3];
+        double bl = bilinear(C[0][a], C[1][a], C[2][a], C[3][a], s, t);
+        /* A relative allowance for the rounding of both sides. */
+        w->D[a] = fmax(w->D[a], fabs(x - bl) + 1e-12 * (fabs(x) + fabs(bl)));
+    }
+    return !last || 2 * crisp__clip_screen_px(w->D, w->k->wmin, w->k->xmax, w->k->ymax, w->k->width,
+                                              w->k->height) <=
+                        w->eps;
+}
+
+/* The block's corners (cw) in clip coordinates x, y, w, as homogeneous points or (rational) as
+ * their Euclidean points; 0 when one is not in front of the eye. */
+static int clip_corners_of(const double *const cw[4], crisp_mat4 m, int rational, int width,
+                           int height, clip_corners *k)
+{
+    *k = (clip_corners){.wmin = INFINITY, .width = width, .height = height};
+    for (int i = 0; i < 4; i++) {
+        double q[4] = {cw[i][0], cw[i][1], cw[i][2], cw[i][3]};
+        if (rational) {
+            if (!(q[3] > 0)) return 0;
+            q[0] /= q[3], q[1] /= q[3], q[2] /= q[3], q[3] = 1;
+        }
+        for (int a = 0; a < 3; a++) {
+            int r = a == 2 ? 3 : a; /* x, y, w rows of view_proj */
+            k->C[i][a] = m[0][r] * q[0] + m[1][r] * q[1] + m[2][r] * q[2] + m[3][r] * q[3];
+        }
+        if (!(k->C[i][2] > 0)) return 0;
+        k->wmin = fmin(k->wmin, k->C[i][2]);
+        k->xmax = fmax(k->xmax, fabs(k->C[i][0] / k->C[i][2]));
+        k->ymax = fmax(k->ymax, fabs(k->C[i][1] / k->C[i][2]));
+    }
+    for (int a = 0; a < 3; a++)
+        k->twist[a] = 0.25 * fabs(k->C[0][a] - k->C[1][a] - k->C[2][a] + k->C[3][a]);
+    return 1;
+}
+
+/* Blocks whose weights vary: rational_bound.c's block bound (it does not divide by the weights
+ * and measures the triangle point at the parameters the rasterizer interpolates; the homogeneous
+ * bound above bounds another point of the same triangle there) in O(1). Its control-point term
+ * D (the Euclidean control points against the bilinear L through the Euclidean corners, in clip
+ * coordinates) comes from the block_dev as above; its reparametrisation term, per patch
+ * sigma_s Eu + sigma_t Ev + sigma_st tw with L's edges and twist scaled to the patch (1 / nu,
+ * 1 / nv, 1 / (nu nv) of the block's, the same for every patch), is at most the block's largest
+ * sigma's times them. Then E_S = D + that, and the bound is px(E_S) + px(E_S + twist / 4), the
+ * first of the two forms of rational_bound.c's finish. Where that is not enough, small blocks
+ * take crisp__rational_block_px (every control point, the sigma's per patch), unless the
+ * witnesses already put the control points alone beyond eps: both of its forms are at least
+ * max |x - L_x| / w_min in pixels (its own stopping rule). */
+static int rational_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
+                            const block_dev *dev, int small)
+{
+    const double *cw[4];
+    block_corners(c->sc, f, n, cw);
+    double(*m)[4] = (double(*)[4])c->m;
+    clip_corners k;
+    if (!dev->bounded || !clip_corners_of(cw, m, 1, c->width, c->height, &k)) return 0;
+    double D[3], low[3], E[3];
+    deviation_clip(dev, m, D, small ? low : NULL);
+    for (int a = 0; a < 3; a++) {
+        double(*C)[3] = k.C;
+        double eu = fmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a])) / n->nu;
+        double ev = fmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a])) / n->nv;
+        double tw = fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]) / ((double)n->nu * n->nv);
+        E[a] = (D[a] + dev->sigma[0] * eu + dev->sigma[1] * ev + dev->sigma[2] * tw) * (1 + 1e-12);
+    }
+    if (leaf_px(&k, E) <= c->eps) return 1;
+    if (!small || fmax(low[0] * c->width, low[1] * c->height) * 0.5 / k.wmin > c->eps) return 0;
+    uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
+    return crisp__rational_block_px(&c->sc->patches[base], f->grid_u, n->nu, n->nv, m, c->width,
+                                    c->height, c->eps) <= c->eps;
+}
+
 static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
                          double extent)
 {
     if (extent <= c->eps) return 1;
     if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
-    const crisp_scene *sc = c->sc;
-    uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
-    const crisp_bezier_patch *p00 = &sc->patches[base].bez,
-                             *p10 = &sc->patches[base + n->nu - 1].bez,
-                             *p01 = &sc->patches[base + (n->nv - 1) * f->grid_u].bez,
-                             *p11 = &sc->patches[base + (n->nv - 1) * f->grid_u + n->nu - 1].bez;
-    const double *cw[4] = {p00->cpw, p10->cpw + 4 * p10->du, p01->cpw + 4 * (p01->du + 1) * p01->dv,
-                           p11->cpw + 4 * ((p11->du + 1) * p11->dv + p11->du)};
-    double C[4][3], wmin = INFINITY, xmax = 0, ymax = 0;
-    for (int k = 0; k < 4; k++) {
-        const double *q = cw[k];
-        for (int a = 0; a < 3; a++) {
-            int r = a == 2 ? 3 : a; /* x, y, w rows of view_proj */
-            C[k][a] = c->m[0][r] * q[0] + c->m[1][r] * q[1] + c->m[2][r] * q[2] + c->m[3][r] * q[3];
-        }
-        if (!(C[k][2] > 0)) return 0;
-        wmin = fmin(wmin, C[k][2]);
-        xmax = fmax(xmax, fabs(C[k][0] / C[k][2]));
-        ymax = fmax(ymax, fabs(C[k][1] / C[k][2]));
-    }
-    /* First from the block's view-independent deviation (O(1)); the control points themselves
-     * only for blocks of at most 64 patches where that was not enough. */
-    double D[3];
-    for (int a = 0; a < 3; a++) {
-        int r = a == 2 ? 3 : a;
-        D[a] = (fabs(c->m[0][r]) * n->dev[0] + fabs(c->m[1][r]) * n->dev[1] +
-                fabs(c->m[2][r]) * n->dev[2] + fabs(c->m[3][r]) * n->dev[3]) *
-               (1 + 1e-12);
-    }
-    double E0[3];
-    for (int a = 0; a < 3; a++)
-        E0[a] = D[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
-    if (!n->rational && crisp__clip_screen_px(D, wmin, xmax, ymax, c->width, c->height) +
-                                crisp__clip_screen_px(E0, wmin, xmax, ymax, c->width, c->height) <=
-                            c->eps)
-        return 1;
-    /* Blocks whose weights vary: the same bound without dividing by the weights, measured at the
-     * parameters the rasterizer interpolates (rational_bound.c; the homogeneous one bounds
-     * another point of the same triangle there). */
-    double(*m)[4] = (double(*)[4])c->m, fast = INFINITY;
-    if (n->rational &&
-        (fast = crisp__rational_block_px_fast(&sc->patches[base], f->grid_u, n->nu, n->nv, n->devq,
-                                              m, c->width, c->height)) <= c->eps)
-        return 1;
-    if (n->nu * n->nv > 64 || extent > GROUP_TRY_PX) return 0;
-    /* the per-control-point bound is rarely below a quarter of the O(1) one */
-    if (n->rational && fast <= 4 * c->eps &&
-        crisp__rational_block_px(&sc->patches[base], f->grid_u, n->nu, n->nv, m, c->width,
-                                 c->height, c->eps) <= c->eps)
-        return 1;
-    if (n->rational) return 0;
-    D[0] = D[1] = D[2] = 0;
-    for (uint32_t jv = 0; jv < n->nv; jv++)
-        for (uint32_t iu = 0; iu < n->nu; iu++) {
-            const crisp_bezier_patch *b = &sc->patches[base + jv * f->grid_u + iu].bez;
-            for (int j = 0; j <= b->dv; j++) {
-                double t = (jv + (double)j / b->dv) / n->nv;
-                for (int i = 0; i <= b->du; i++) {
-                    double s = (iu + (double)i / b->du) / n->nu;
-                    const double *q = b->cpw + 4 * (j * (b->du + 1) + i);
-                    for (int a = 0; a < 3; a++) {
-                        int r = a == 2 ? 3 : a;
-                        double x = c->m[0][r] * q[0] + c->m[1][r] * q[1] + c->m[2][r] * q[2] +
-                                   c->m[3][r] * q[3];
-                        double bl = (1 - t) * ((1 - s) * C[0][a] + s * C[1][a]) +
-                                    t * ((1 - s) * C[2][a] + s * C[3][a]);
-                        /* A relative allowance for the rounding of both sides. */
-                        D[a] = fmax(D[a], fabs(x - bl) + 1e-12 * (fabs(x) + fabs(bl)));
-                    }
-                }
-            }
-            if (2 * crisp__clip_screen_px(D, wmin, xmax, ymax, c->width, c->height) > c->eps)
-                return 0;
-        }
-    double E[3];
-    for (int a = 0; a < 3; a++)
-        E[a] = D[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
-    return crisp__clip_screen_px(D, wmin, xmax, ymax, c->width, c->height) +
-               crisp__clip_screen_px(E, wmin, xmax, ymax, c->width, c->height) <=
-           c->eps;
+    const block_dev *dev = &c->g->devs[n->dev];
+    int small = n->nu * n->nv <= 64 && extent <= GROUP_TRY_PX;
+    if (n->rational) return rational_leaf_ok(c, f, n, dev, small);
+    double(*m)[4] = (double(*)[4])c->m;
+    const double *cw[4];
+    block_corners(c->sc, f, n, cw);
+    clip_corners k;
+    if (!clip_corners_of(cw, m, 0, c->width, c->height, &k)) return 0;
+    double D[3], low[3];
+    deviation_clip(dev, m, D, small ? low : NULL);
+    if (leaf_px(&k, D) <= c->eps) return 1;
+    if (!small || leaf_px(&k, low) > c->eps) return 0;
+    clip_walk w = {.k = &k, .m = c->m, .eps = c->eps};
+    return block_points(c->sc, f, n, clip_visit, &w) && leaf_px(&k, w.D) <= c->eps;
 }
 
 static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
@@ -548,4 +803,77 @@ int crisp__groups_face_small(const crisp__groups *g, uint32_t face)
 uint64_t crisp__groups_generation(const crisp__groups *g)
 {
     return g ? g->generation : 0;
+}
+
+/* crisp__groups_test_deviations's walk: the largest |x - B_x(s, t)| over the control points, in
+ * clip coordinates, with no rounding allowance. */
+typedef struct exact_walk {
+    const clip_corners *k;
+    const double (*m)[4];
+    int rational;
+    double D[3];
+} exact_walk;
+
+static int exact_visit(void *vctx, const double q[4], double s, double t, int last)
+{
+    (void)last;
+    exact_walk *w = vctx;
+    double P[4] = {q[0], q[1], q[2], q[3]};
+    if (w->rational) P[0] /= q[3], P[1] /= q[3], P[2] /= q[3], P[3] = 1;
+    for (int a = 0; a < 3; a++) {
+        int r = a == 2 ? 3 : a;
+        double x = w->m[0][r] * P[0] + w->m[1][r] * P[1] + w->m[2][r] * P[2] + w->m[3][r] * P[3];
+        const double(*C)[3] = w->k->C;
+        w->D[a] = fmax(w->D[a], fabs(x - bilinear(C[0][a], C[1][a], C[2][a], C[3][a], s, t)));
+    }
+    return 1;
+}
+
+crisp_status crisp__groups_test_deviations(crisp__groups *g, const crisp_scene *sc, crisp_mat4 m,
+                                           void (*visit)(void *ctx,
+                                                         const crisp__groups_dev_sample *s),
+                                           void *ctx)
+{
+    crisp_status st = ensure_built(g, sc);
+    if (st) return st;
+    for (uint32_t fi = 0; fi < sc->face_count; fi++) {
+        if (g->face_root[fi] == UINT32_MAX) continue;
+        const crisp_scene_face *f = &sc->faces[fi];
+        int32_t stack[4 * 64];
+        int top = 0;
+        stack[top++] = (int32_t)g->face_root[fi];
+        while (top > 0) {
+            const group *n = &g->nodes[stack[--top]];
+            for (int q = 0; q < 4; q++)
+                if (n->child[q] >= 0) stack[top++] = n->child[q];
+            if (n->dev < 0 || !g->devs[n->dev].bounded) continue;
+            const block_dev *d = &g->devs[n->dev];
+            /* the corners mapped without the front-of-eye check (any linear map) */
+            const double *cw[4];
+            block_corners(sc, f, n, cw);
+            clip_corners k = {.wmin = 1};
+            for (int i = 0; i < 4; i++) {
+                double q[4] = {cw[i][0], cw[i][1], cw[i][2], cw[i][3]};
+                if (n->rational) q[0] /= q[3], q[1] /= q[3], q[2] /= q[3], q[3] = 1;
+                for (int a = 0; a < 3; a++) {
+                    int r = a == 2 ? 3 : a;
+                    k.C[i][a] = m[0][r] * q[0] + m[1][r] * q[1] + m[2][r] * q[2] + m[3][r] * q[3];
+                }
+            }
+            exact_walk w = {.k = &k, .m = (const double(*)[4])m, .rational = n->rational};
+            block_points(sc, f, n, exact_visit, &w);
+            crisp__groups_dev_sample s = {
+                .face = fi, .patches = n->nu * n->nv, .rational = n->rational};
+            deviation_clip(d, m, s.upper, s.low);
+            for (int a = 0; a < 3; a++) {
+                int r = a == 2 ? 3 : a;
+                s.box[a] = (fabs(m[0][r]) * d->box[0] + fabs(m[1][r]) * d->box[1] +
+                            fabs(m[2][r]) * d->box[2] + fabs(m[3][r]) * d->box[3]) *
+                           (1 + 1e-12);
+                s.exact[a] = w.D[a];
+            }
+            visit(ctx, &s);
+        }
+    }
+    return CRISP_OK;
 }

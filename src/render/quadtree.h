@@ -89,6 +89,21 @@ uint32_t crisp__groups_owner(const crisp__groups *g, const crisp_scene *sc, uint
 /* Bumped whenever classify rebuilt the hierarchy for a new scene (1 after the first): what is
  * built per face from the scene's patches is rebuilt when it changes. */
 uint64_t crisp__groups_generation(const crisp__groups *g);
+/* Test hook (tests/render/test_group_leaves.c): for every block of more than one patch in the
+ * hierarchy of sc (built if needed), under the linear map m: the O(1) bounds group_leaf_ok starts
+ * from (upper: the smaller of the coordinate box and the principal-axes box; box: the coordinate
+ * box alone; low: the witnesses), and the largest value of the quantity they bound over the
+ * block's control points (exact), per clip coordinate x, y, w. rational: the block's weights vary
+ * (its bounds are on the Euclidean control points, see block_deviation). */
+typedef struct crisp__groups_dev_sample {
+    double upper[3], box[3], low[3], exact[3];
+    uint32_t face, patches;
+    int rational;
+} crisp__groups_dev_sample;
+crisp_status crisp__groups_test_deviations(crisp__groups *g, const crisp_scene *sc, crisp_mat4 m,
+                                           void (*visit)(void *ctx,
+                                                         const crisp__groups_dev_sample *s),
+                                           void *ctx);
 
 #define TREE_CHUNKS 64 /* fixed work ranges of the tree pass, one arena each */
 
