@@ -25,23 +25,24 @@ typedef struct group {
 } group;
 
 /* What a frame needs to bound, in O(1), the distance between a block's control points and the
- * bilinear B through its four corners (block_deviation, group_leaf_ok). For a control point q of
- * a patch of the block (homogeneous object coordinates) at its block parameters (s, t), let
- * d = q - B(s, t). A linear map m (a row of view_proj) then has |m . d| <= sum_a |m_a| box_a
- * (the coordinate box) and <= sum_k |m_xyz . dir_k| + |m_xyz| slack + |m_w| box_w (the box in the
- * principal axes f_k of the deviations' x, y, z parts, dir_k = h_k f_k): the second is the tight
- * one where the deviations lie along one direction that is not a coordinate axis (the normal of a
- * curved block), the first where they lie along an axis. For a block whose weights vary, the same
- * is kept for its Euclidean control points (q / w, 1) against the bilinear through its Euclidean
- * corners, the deviation that rational_bound.c's block bound starts from. */
+ * bilinear L through its four corners (block_deviation, group_leaf_ok). For a control point of a
+ * patch of the block, Euclidean point P (its homogeneous point divided by its weight), at its
+ * block parameters (s, t), let d = P - L(s, t), L through the corners' Euclidean points. An
+ * affine map A (a row of view_proj) maps them to A P - L_A(s, t) = A_xyz . d (L_A the bilinear
+ * through the mapped corners), and A_xyz . d lies in sum_a A_a [lo_a, hi_a] (the coordinate box)
+ * and in sum_k (A_xyz . f_k) [flo_k, fhi_k] +- |A_xyz| slack (the box in the principal axes f_k of
+ * the deviations): the second is the tight one where the deviations lie along one direction that
+ * is not a coordinate axis (the normal of a curved block), the first where they lie along an
+ * axis; their intersection holds. */
 typedef struct block_dev {
-    double box[4];    /* per homogeneous coordinate a: the largest |d_a| (with rounding) */
-    double dir[3][3]; /* h_k f_k: f_k orthonormal, h_k the largest |d_xyz . f_k| (with rounding) */
-    double slack;     /* 1e-10 times the largest |d_xyz|: f's departure from orthonormal */
-    float wit[3][4];  /* the d whose |d_xyz . f_k| is largest: |m . wit_k| is at most the frame's
-                         largest |m . d| up to rounding (a lower bound; cost decisions only) */
-    double sigma[3];  /* rational blocks: the largest crisp__rational_reparam of its patches */
-    int bounded;      /* 0: a weight is not positive (rational blocks: no O(1) bound) */
+    double lo[3], hi[3];   /* d_a in [lo_a, hi_a] (lo <= 0 <= hi: the corners; with rounding) */
+    double f[3][3];        /* orthonormal to 1e-12 */
+    double flo[3], fhi[3]; /* d . f_k in [flo_k, fhi_k] (with rounding) */
+    double slack;          /* 1e-10 times the largest |d|: f's departure from orthonormal */
+    float wit[6][3]; /* the d with the least and largest d . f_k (control points of the block: a
+                        lower bound of the frame's range up to rounding, for cost decisions) */
+    double sigma[3]; /* the largest crisp__rational_reparam of its patches (0: polynomial) */
+    int bounded;     /* 0: a weight is not positive (no O(1) bound) */
 } block_dev;
 
 struct crisp__groups {
@@ -99,24 +100,24 @@ static inline double bilinear(double c0, double c1, double c2, double c3, double
     return (1 - t) * ((1 - s) * c0 + s * c1) + t * ((1 - s) * c2 + s * c3);
 }
 
-/* Calls visit for every control point q of every patch of block n with its block parameters
- * (s, t) in [0, 1]^2: the patch's sub-rectangle of the block, its control points uniformly
- * spaced there (a bilinear function restricted to the sub-rectangle and raised to the patch's
- * degrees has exactly its values there as control points). `last` is 1 at each patch's last
- * point. Stops and returns 0 as soon as visit returns 0. The view-independent deviation
- * (block_deviation) and the frame's per-point bound (group_leaf_ok) both walk the block this
- * way. */
+/* Calls visit for every control point q of every patch of block n (corners: only each patch's
+ * four corner points) with its block parameters (s, t) in [0, 1]^2: the patch's sub-rectangle of
+ * the block, its control points uniformly spaced there (a bilinear function restricted to the
+ * sub-rectangle and raised to the patch's degrees has exactly its values there as control
+ * points). `last` is 1 at each patch's last point. Stops and returns 0 as soon as visit returns
+ * 0. The hierarchy's build (block_deviation) and the test hook walk blocks this way. */
 typedef int (*point_visit)(void *ctx, const double q[4], double s, double t, int last);
 static int block_points(const crisp_scene *sc, const crisp_scene_face *f, const group *n,
-                        point_visit visit, void *ctx)
+                        int corners, point_visit visit, void *ctx)
 {
     uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
     for (uint32_t jv = 0; jv < n->nv; jv++)
         for (uint32_t iu = 0; iu < n->nu; iu++) {
             const crisp_bezier_patch *b = &sc->patches[base + jv * f->grid_u + iu].bez;
-            for (int j = 0; j <= b->dv; j++) {
+            int sj = corners && b->dv > 0 ? b->dv : 1, si = corners && b->du > 0 ? b->du : 1;
+            for (int j = 0; j <= b->dv; j += sj) {
                 double t = (jv + (double)j / b->dv) / n->nv;
-                for (int i = 0; i <= b->du; i++) {
+                for (int i = 0; i <= b->du; i += si) {
                     double s = (iu + (double)i / b->du) / n->nu;
                     if (!visit(ctx, b->cpw + 4 * (j * (b->du + 1) + i), s, t,
                                j == b->dv && i == b->du))
@@ -186,14 +187,14 @@ static int orthonormal_frame(double v[3][3], double f[3][3])
     return 1;
 }
 
-/* block_deviation's two walks: pass 0 the coordinate box and the second moments of d_xyz,
- * pass 1 the extents along the principal axes f and the witnesses. */
+/* block_deviation's two walks: pass 0 the second moments of d at the patches' corner points
+ * (they choose the axes f: any orthonormal axes are sound, these make the box tight), pass 1 over
+ * every control point the coordinate box, the ranges along f and the witnesses. */
 typedef struct dev_walk {
-    const double *C[4];  /* the block's corner control points */
-    double euclid[4][4]; /* rational blocks: their Euclidean points (C points here) */
+    double C[4][3]; /* the block's Euclidean corners */
     block_dev *d;
-    int pass, rational;
-    double moments[3][3], f[3][3], h[3], best[3];
+    int pass;
+    double moments[3][3], least[3], most[3];
 } dev_walk;
 
 static int dev_visit(void *vctx, const double q[4], double s, double t, int last)
@@ -201,93 +202,102 @@ static int dev_visit(void *vctx, const double q[4], double s, double t, int last
     (void)last;
     dev_walk *w = vctx;
     block_dev *d = w->d;
-    double e[4], r = 0, P[4];
-    if (w->rational) {
-        if (!(q[3] > 0)) return d->bounded = 0;
-        P[0] = q[0] / q[3], P[1] = q[1] / q[3], P[2] = q[2] / q[3], P[3] = 1;
-        q = P;
-    }
-    for (int a = 0; a < 4; a++) {
-        double bl = bilinear(w->C[0][a], w->C[1][a], w->C[2][a], w->C[3][a], s, t);
+    if (!(q[3] > 0)) return d->bounded = 0;
+    double e[3], r = 0;
+    for (int a = 0; a < 3; a++) {
+        double P = q[a] / q[3], bl = bilinear(w->C[0][a], w->C[1][a], w->C[2][a], w->C[3][a], s, t);
         /* the rounding of both sides: the exact deviation is within al of e[a] */
-        double al = 1e-12 * (fabs(q[a]) + fabs(bl));
-        e[a] = q[a] - bl;
-        if (w->pass == 0) d->box[a] = fmax(d->box[a], fabs(e[a]) + al);
-        if (a < 3) r += al;
+        double al = 1e-12 * (fabs(P) + fabs(bl));
+        e[a] = P - bl;
+        if (w->pass) d->lo[a] = fmin(d->lo[a], e[a] - al), d->hi[a] = fmax(d->hi[a], e[a] + al);
+        r += al;
     }
     if (w->pass == 0) {
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
                 w->moments[i][j] += e[i] * e[j];
-        d->slack = fmax(d->slack, sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) + r);
         return 1;
     }
+    d->slack = fmax(d->slack, sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) + r);
     for (int k = 0; k < 3; k++) {
-        double v = fabs(e[0] * w->f[k][0] + e[1] * w->f[k][1] + e[2] * w->f[k][2]);
-        w->h[k] = fmax(w->h[k], v + r); /* |f_k| = 1: |f_k . (exact - e)| <= r */
-        if (v > w->best[k]) {
-            w->best[k] = v;
-            for (int a = 0; a < 4; a++)
-                d->wit[k][a] = (float)e[a];
-        }
+        /* |f_k| = 1: |f_k . (exact - e)| <= r */
+        double v = e[0] * d->f[k][0] + e[1] * d->f[k][1] + e[2] * d->f[k][2];
+        d->flo[k] = fmin(d->flo[k], v - r), d->fhi[k] = fmax(d->fhi[k], v + r);
+        for (int side = 0; side < 2; side++)
+            if (side ? v > w->most[k] : v < w->least[k]) {
+                if (side)
+                    w->most[k] = v;
+                else
+                    w->least[k] = v;
+                for (int a = 0; a < 3; a++)
+                    d->wit[2 * k + side][a] = (float)e[a];
+            }
     }
     return 1;
 }
 
 /* The block's block_dev (view-independent): a frame bounds the block's deviation in clip space
- * from it alone (deviation_clip). */
+ * from it alone (deviation_range). */
 static void block_deviation(const crisp_scene *sc, const crisp_scene_face *f, const group *n,
                             block_dev *d)
 {
-    dev_walk w = {.d = d, .rational = n->rational};
-    block_corners(sc, f, n, w.C);
+    dev_walk w = {.d = d};
+    const double *cw[4];
+    block_corners(sc, f, n, cw);
     *d = (block_dev){.bounded = 1};
-    if (n->rational)
-        for (int k = 0; k < 4; k++) {
-            if (!(w.C[k][3] > 0)) d->bounded = 0;
-            for (int a = 0; a < 3; a++)
-                w.euclid[k][a] = w.C[k][a] / w.C[k][3];
-            w.euclid[k][3] = 1;
-            w.C[k] = w.euclid[k];
-        }
-    if (!d->bounded || !block_points(sc, f, n, dev_visit, &w)) {
+    for (int k = 0; k < 4; k++) {
+        if (!(cw[k][3] > 0)) d->bounded = 0;
+        for (int a = 0; a < 3; a++)
+            w.C[k][a] = cw[k][a] / cw[k][3];
+    }
+    if (!d->bounded || !block_points(sc, f, n, 1, dev_visit, &w)) {
         d->bounded = 0;
         return;
     }
     double v[3][3];
     jacobi_axes(w.moments, v);
-    if (!orthonormal_frame(v, w.f))
+    if (!orthonormal_frame(v, d->f))
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
-                w.f[i][j] = i == j;
+                d->f[i][j] = i == j;
     w.pass = 1;
-    block_points(sc, f, n, dev_visit, &w);
-    for (int k = 0; k < 3; k++)
-        for (int a = 0; a < 3; a++)
-            d->dir[k][a] = w.h[k] * w.f[k][a];
-    /* |d_xyz - sum_k (d_xyz . f_k) f_k| <= 1e-11 |d_xyz| for f orthonormal to 1e-12 */
+    if (!block_points(sc, f, n, 0, dev_visit, &w)) {
+        d->bounded = 0;
+        return;
+    }
+    /* |d - sum_k (d . f_k) f_k| <= 3e-12 |d| for f orthonormal to 1e-12 */
     d->slack *= 1e-10;
 }
 
-/* Upper bounds (D) and a lower bound (low; NULL: not wanted) on the largest |x - B_x(s, t)| over
- * the block's control points, per clip coordinate x, y, w (rows 0, 1, 3 of m), from its
- * block_dev (see there). */
-static void deviation_clip(const block_dev *d, crisp_mat4 m, double D[3], double low[3])
+/* The range [lo, hi] of A_xyz . d over the block's control points, per clip coordinate x, y, w
+ * (rows 0, 1, 3 of m), from its block_dev (see there); box_lo, box_hi (NULL: not wanted): from
+ * the coordinate box alone; wlo, whi (NULL: not wanted): the witnesses' range (with 0), within
+ * the control points' own range up to rounding. */
+static void deviation_range(const block_dev *d, crisp_mat4 m, double lo[3], double hi[3],
+                            double box_lo[3], double box_hi[3], double wlo[3], double whi[3])
 {
     for (int a = 0; a < 3; a++) {
         int r = a == 2 ? 3 : a;
-        double mx = m[0][r], my = m[1][r], mz = m[2][r], mw = m[3][r];
-        double box = fabs(mx) * d->box[0] + fabs(my) * d->box[1] + fabs(mz) * d->box[2] +
-                     fabs(mw) * d->box[3];
-        double axes = sqrt(mx * mx + my * my + mz * mz) * d->slack + fabs(mw) * d->box[3];
-        for (int k = 0; k < 3; k++)
-            axes += fabs(mx * d->dir[k][0] + my * d->dir[k][1] + mz * d->dir[k][2]);
-        D[a] = fmin(box, axes) * (1 + 1e-12);
-        if (!low) continue;
-        low[a] = 0;
-        for (int k = 0; k < 3; k++)
-            low[a] = fmax(low[a], fabs(mx * d->wit[k][0] + my * d->wit[k][1] + mz * d->wit[k][2] +
-                                       mw * d->wit[k][3]));
+        double A[3] = {m[0][r], m[1][r], m[2][r]}, blo = 0, bhi = 0, flo = 0, fhi = 0;
+        for (int c = 0; c < 3; c++) {
+            double x = A[c] * d->lo[c], y = A[c] * d->hi[c];
+            blo += fmin(x, y), bhi += fmax(x, y);
+        }
+        for (int k = 0; k < 3; k++) {
+            double af = A[0] * d->f[k][0] + A[1] * d->f[k][1] + A[2] * d->f[k][2];
+            double x = af * d->flo[k], y = af * d->fhi[k];
+            flo += fmin(x, y), fhi += fmax(x, y);
+        }
+        double s = sqrt(A[0] * A[0] + A[1] * A[1] + A[2] * A[2]) * d->slack;
+        /* both hold 0 (the corners); the factor: the rounding of these sums */
+        lo[a] = fmax(blo, flo - s) * (1 + 1e-12), hi[a] = fmin(bhi, fhi + s) * (1 + 1e-12);
+        if (box_lo) box_lo[a] = blo * (1 + 1e-12), box_hi[a] = bhi * (1 + 1e-12);
+        if (!wlo) continue;
+        wlo[a] = whi[a] = 0;
+        for (int k = 0; k < 6; k++) {
+            double x = A[0] * d->wit[k][0] + A[1] * d->wit[k][1] + A[2] * d->wit[k][2];
+            wlo[a] = fmin(wlo[a], x), whi[a] = fmax(whi[a], x);
+        }
     }
 }
 
@@ -519,132 +529,53 @@ static void activate_block(walk_ctx *c, uint32_t fi, const crisp_scene_face *f, 
 }
 
 /* 1 when the block can be one group leaf: every triangle with vertices on its surface lies
- * within eps on screen, whatever its levels. Either its box is within eps, or this bound is: let
- * B be the bilinear function through the block's four corners in homogeneous clip coordinates
- * (the corner control points of its corner patches: Bézier patches interpolate their corners),
- * and D the largest distance, per coordinate, between a control point of a patch of the block
- * and B at that control point's parameters (the patch's sub-rectangle of the block, uniformly
- * spaced: B restricted to it and raised to the patch's degrees has exactly those values as
- * control points). By the convex hull property |S(x) - B(x)| <= D for every parameter x of the
- * block. A triangle of the leaf has vertices S(p_k) and points T(x) = sum l_k S(p_k) at
- * x = sum l_k p_k (homogeneously; the drawn triangle is the same set for any positive scaling of
- * its vertices), so |T(x) - B(x)| <= |sum l_k (S(p_k) - B(p_k))| + |sum l_k B(p_k) - B(x)| <=
- * D + twist(B) / 4 (a bilinear function departs from its linear interpolant on a triangle of
- * its square by at most a quarter of its twist). Both are measured against B(x), whose W is at
- * least the corners' least W, so on screen |S(x) - T(x)| <= px(D) + px(D + twist / 4)
- * (screen_px). This needs no B-spline form of the face, only its grid of Bézier patches. The
- * B-spline net bound (crisp_slefe_group_screen's quad_px) was tried first: on wavy bicubic
- * sheets it exceeded the block's own screen extent (tests/render/test_group_leaves.c). The leaf
- * must also stay within CRISP_PLAN_MAX_LEAF_PX (float local parameters on a GPU). D is bounded
- * first from the block's view-independent block_dev (deviation_clip): O(1) per block, so a face
- * far away is decided at its root without reading its patches. Where that is not enough, blocks
- * of at most 64 patches and GROUP_TRY_PX pixels may read their control points (clip_visit), but
- * only when the block_dev's witnesses (control points of the block, so a lower bound of what
- * that walk finds) do not already fail the test: the walk can then only confirm the refusal
- * (cost only: larger blocks rarely pass). */
+ * within eps on screen, whatever its levels. Either its box is within eps, or rational_bound.c's
+ * block bound is (crisp__rational_block_px; its header has the argument): with L the bilinear
+ * through the block's four corners (the corner control points of its corner patches: Bézier
+ * patches interpolate their corners) and D the deviations, per coordinate, of its patches'
+ * control points from L at their parameters (the patch's sub-rectangle of the block, uniformly
+ * spaced: L restricted to it and raised to the patch's degrees has exactly those values as
+ * control points), the surface and the triangles drawn on it (clip-space barycentrics, as the
+ * rasterizer interpolates) are each within D plus the reparametrisation term that varying
+ * weights cause (sigma's times L's edges and twist; 0 for polynomial patches) plus, for the
+ * triangles, a quarter of L's twist, and within the range of D plus those of each other.
+ * This needs no B-spline form of the face, only its grid of Bézier patches. The B-spline net
+ * bound (crisp_slefe_group_screen's quad_px) was tried first: on wavy bicubic sheets it exceeded
+ * the block's own screen extent (tests/render/test_group_leaves.c). The leaf must also stay
+ * within CRISP_PLAN_MAX_LEAF_PX (float local parameters on a GPU).
+ * In O(1) first (the block's view-independent block_dev): D's range from deviation_range, and
+ * per patch the reparametrisation term sigma_s Eu + sigma_t Ev + sigma_st tw, with L's edges and
+ * twist scaled to the patch (1 / nu, 1 / nv, 1 / (nu nv) of the block's: the same for every
+ * patch), at most the block's largest sigma's times them. So a face far away is decided at its
+ * root without reading its patches. Where that is not enough, blocks of at most 64 patches and
+ * GROUP_TRY_PX pixels take crisp__rational_block_px (every control point, the sigma's per
+ * patch), unless the witnesses (control points of the block) already put that bound beyond eps:
+ * both of its forms are at least (dl_x + max |x_L / w_L| dl_w) / w_min in pixels (and y alike),
+ * dl = the witnesses' range + 2 x each sigma term alone + a quarter of L's twist. Cost only:
+ * larger blocks rarely pass, and on the bundled models the O(1) bound decided every block the
+ * control points would have accepted. */
 #define GROUP_TRY_PX 64.0
 
-/* px(D) + px(D + twist / 4): the screen distance between the block's surface and its triangles
- * for a deviation bound D (clip x, y, w) against the bilinear through the clip corners C. */
-typedef struct clip_corners {
-    double C[4][3], twist[3], wmin, xmax, ymax;
-    int width, height;
-} clip_corners;
-
-static double leaf_px(const clip_corners *k, const double D[3])
+/* The block's Euclidean corners (cw: homogeneous) in clip coordinates x, y, w (C), with their
+ * least w and largest |x / w|, |y / w|; 0 when one is not in front of the eye. */
+static int clip_corners(const double *const cw[4], crisp_mat4 m, double C[4][3], double *wmin,
+                        double *xmax, double *ymax)
 {
-    double E[3];
-    for (int a = 0; a < 3; a++)
-        E[a] = D[a] + k->twist[a];
-    return crisp__clip_screen_px(D, k->wmin, k->xmax, k->ymax, k->width, k->height) +
-           crisp__clip_screen_px(E, k->wmin, k->xmax, k->ymax, k->width, k->height);
-}
-
-/* group_leaf_ok's walk over the block's control points in clip space: D is the largest
- * |x - B(s, t)| so far per coordinate; stops (0) at the end of a patch once the bound must
- * exceed eps (px(D) + px(D + twist / 4) >= 2 px(D)). */
-typedef struct clip_walk {
-    const clip_corners *k;
-    const double (*m)[4];
-    double D[3], eps;
-} clip_walk;
-
-static int clip_visit(void *vctx, const double q[4], double s, double t, int last)
-{
-    clip_walk *w = vctx;
-    const double(*C)[3] = w->k->C;
-    for (int a = 0; a < 3; a++) {
-        int r = a == 2 ? 3 : a;
-        double x = w->m[0][r] * q[0] + w->m[1][r] * q[1] + w->m[2][r] * q[2] + w->m[3][r] * q[3];
-        double bl = bilinear(C[0][a], C[1][a], C[2][a], C[3][a], s, t);
-        /* A relative allowance for the rounding of both sides. */
-        w->D[a] = fmax(w->D[a], fabs(x - bl) + 1e-12 * (fabs(x) + fabs(bl)));
-    }
-    return !last || 2 * crisp__clip_screen_px(w->D, w->k->wmin, w->k->xmax, w->k->ymax, w->k->width,
-                                              w->k->height) <=
-                        w->eps;
-}
-
-/* The block's corners (cw) in clip coordinates x, y, w, as homogeneous points or (rational) as
- * their Euclidean points; 0 when one is not in front of the eye. */
-static int clip_corners_of(const double *const cw[4], crisp_mat4 m, int rational, int width,
-                           int height, clip_corners *k)
-{
-    *k = (clip_corners){.wmin = INFINITY, .width = width, .height = height};
+    *wmin = INFINITY, *xmax = *ymax = 0;
     for (int i = 0; i < 4; i++) {
-        double q[4] = {cw[i][0], cw[i][1], cw[i][2], cw[i][3]};
-        if (rational) {
-            if (!(q[3] > 0)) return 0;
-            q[0] /= q[3], q[1] /= q[3], q[2] /= q[3], q[3] = 1;
-        }
+        const double *q = cw[i];
+        if (!(q[3] > 0)) return 0;
+        double P[3] = {q[0] / q[3], q[1] / q[3], q[2] / q[3]};
         for (int a = 0; a < 3; a++) {
             int r = a == 2 ? 3 : a; /* x, y, w rows of view_proj */
-            k->C[i][a] = m[0][r] * q[0] + m[1][r] * q[1] + m[2][r] * q[2] + m[3][r] * q[3];
+            C[i][a] = m[0][r] * P[0] + m[1][r] * P[1] + m[2][r] * P[2] + m[3][r];
         }
-        if (!(k->C[i][2] > 0)) return 0;
-        k->wmin = fmin(k->wmin, k->C[i][2]);
-        k->xmax = fmax(k->xmax, fabs(k->C[i][0] / k->C[i][2]));
-        k->ymax = fmax(k->ymax, fabs(k->C[i][1] / k->C[i][2]));
+        if (!(C[i][2] > 0)) return 0;
+        *wmin = fmin(*wmin, C[i][2]);
+        *xmax = fmax(*xmax, fabs(C[i][0] / C[i][2]));
+        *ymax = fmax(*ymax, fabs(C[i][1] / C[i][2]));
     }
-    for (int a = 0; a < 3; a++)
-        k->twist[a] = 0.25 * fabs(k->C[0][a] - k->C[1][a] - k->C[2][a] + k->C[3][a]);
     return 1;
-}
-
-/* Blocks whose weights vary: rational_bound.c's block bound (it does not divide by the weights
- * and measures the triangle point at the parameters the rasterizer interpolates; the homogeneous
- * bound above bounds another point of the same triangle there) in O(1). Its control-point term
- * D (the Euclidean control points against the bilinear L through the Euclidean corners, in clip
- * coordinates) comes from the block_dev as above; its reparametrisation term, per patch
- * sigma_s Eu + sigma_t Ev + sigma_st tw with L's edges and twist scaled to the patch (1 / nu,
- * 1 / nv, 1 / (nu nv) of the block's, the same for every patch), is at most the block's largest
- * sigma's times them. Then E_S = D + that, and the bound is px(E_S) + px(E_S + twist / 4), the
- * first of the two forms of rational_bound.c's finish. Where that is not enough, small blocks
- * take crisp__rational_block_px (every control point, the sigma's per patch), unless the
- * witnesses already put the control points alone beyond eps: both of its forms are at least
- * max |x - L_x| / w_min in pixels (its own stopping rule). */
-static int rational_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
-                            const block_dev *dev, int small)
-{
-    const double *cw[4];
-    block_corners(c->sc, f, n, cw);
-    double(*m)[4] = (double(*)[4])c->m;
-    clip_corners k;
-    if (!dev->bounded || !clip_corners_of(cw, m, 1, c->width, c->height, &k)) return 0;
-    double D[3], low[3], E[3];
-    deviation_clip(dev, m, D, small ? low : NULL);
-    for (int a = 0; a < 3; a++) {
-        double(*C)[3] = k.C;
-        double eu = fmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a])) / n->nu;
-        double ev = fmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a])) / n->nv;
-        double tw = fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]) / ((double)n->nu * n->nv);
-        E[a] = (D[a] + dev->sigma[0] * eu + dev->sigma[1] * ev + dev->sigma[2] * tw) * (1 + 1e-12);
-    }
-    if (leaf_px(&k, E) <= c->eps) return 1;
-    if (!small || fmax(low[0] * c->width, low[1] * c->height) * 0.5 / k.wmin > c->eps) return 0;
-    uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
-    return crisp__rational_block_px(&c->sc->patches[base], f->grid_u, n->nu, n->nv, m, c->width,
-                                    c->height, c->eps) <= c->eps;
 }
 
 static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
@@ -653,19 +584,35 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
     if (extent <= c->eps) return 1;
     if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
     const block_dev *dev = &c->g->devs[n->dev];
-    int small = n->nu * n->nv <= 64 && extent <= GROUP_TRY_PX;
-    if (n->rational) return rational_leaf_ok(c, f, n, dev, small);
     double(*m)[4] = (double(*)[4])c->m;
     const double *cw[4];
     block_corners(c->sc, f, n, cw);
-    clip_corners k;
-    if (!clip_corners_of(cw, m, 0, c->width, c->height, &k)) return 0;
-    double D[3], low[3];
-    deviation_clip(dev, m, D, small ? low : NULL);
-    if (leaf_px(&k, D) <= c->eps) return 1;
-    if (!small || leaf_px(&k, low) > c->eps) return 0;
-    clip_walk w = {.k = &k, .m = c->m, .eps = c->eps};
-    return block_points(c->sc, f, n, clip_visit, &w) && leaf_px(&k, w.D) <= c->eps;
+    double C[4][3], wmin, xmax, ymax;
+    if (!dev->bounded || !clip_corners(cw, m, C, &wmin, &xmax, &ymax)) return 0;
+    int small = n->nu * n->nv <= 64 && extent <= GROUP_TRY_PX;
+    double lo[3], hi[3], wlo[3], whi[3], r[3], rlow[3];
+    deviation_range(dev, m, lo, hi, NULL, NULL, small ? wlo : NULL, whi);
+    for (int a = 0; a < 3; a++) {
+        double eu = fmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a])) / n->nu;
+        double ev = fmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a])) / n->nv;
+        double tw = fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]) / ((double)n->nu * n->nv);
+        double su = dev->sigma[0] * eu, sv = dev->sigma[1] * ev, st = dev->sigma[2] * tw;
+        r[a] = (su + sv + st) * (1 + 1e-12);
+        rlow[a] = fmax(su, fmax(sv, st));
+    }
+    if (crisp__rational_block_finish_px((const double(*)[3])C, lo, hi, r, c->width, c->height) <=
+        c->eps)
+        return 1;
+    if (!small) return 0;
+    double dl[3];
+    for (int a = 0; a < 3; a++)
+        dl[a] = whi[a] - wlo[a] + 2 * rlow[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
+    for (int a = 0; a < 2; a++)
+        if ((dl[a] + (a ? ymax : xmax) * dl[2]) * 0.5 * (a ? c->height : c->width) > c->eps * wmin)
+            return 0;
+    uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
+    return crisp__rational_block_px(&c->sc->patches[base], f->grid_u, n->nu, n->nv, m, c->width,
+                                    c->height, c->eps) <= c->eps;
 }
 
 static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
@@ -805,26 +752,24 @@ uint64_t crisp__groups_generation(const crisp__groups *g)
     return g ? g->generation : 0;
 }
 
-/* crisp__groups_test_deviations's walk: the largest |x - B_x(s, t)| over the control points, in
- * clip coordinates, with no rounding allowance. */
+/* crisp__groups_test_deviations's walk: the range of A_xyz . d over the control points, in clip
+ * coordinates, with no rounding allowance. */
 typedef struct exact_walk {
-    const clip_corners *k;
+    double C[4][3];
     const double (*m)[4];
-    int rational;
-    double D[3];
+    double lo[3], hi[3];
 } exact_walk;
 
 static int exact_visit(void *vctx, const double q[4], double s, double t, int last)
 {
     (void)last;
     exact_walk *w = vctx;
-    double P[4] = {q[0], q[1], q[2], q[3]};
-    if (w->rational) P[0] /= q[3], P[1] /= q[3], P[2] /= q[3], P[3] = 1;
+    double P[3] = {q[0] / q[3], q[1] / q[3], q[2] / q[3]};
     for (int a = 0; a < 3; a++) {
         int r = a == 2 ? 3 : a;
-        double x = w->m[0][r] * P[0] + w->m[1][r] * P[1] + w->m[2][r] * P[2] + w->m[3][r] * P[3];
-        const double(*C)[3] = w->k->C;
-        w->D[a] = fmax(w->D[a], fabs(x - bilinear(C[0][a], C[1][a], C[2][a], C[3][a], s, t)));
+        double x = w->m[0][r] * P[0] + w->m[1][r] * P[1] + w->m[2][r] * P[2] + w->m[3][r];
+        double e = x - bilinear(w->C[0][a], w->C[1][a], w->C[2][a], w->C[3][a], s, t);
+        w->lo[a] = fmin(w->lo[a], e), w->hi[a] = fmax(w->hi[a], e);
     }
     return 1;
 }
@@ -847,31 +792,23 @@ crisp_status crisp__groups_test_deviations(crisp__groups *g, const crisp_scene *
             for (int q = 0; q < 4; q++)
                 if (n->child[q] >= 0) stack[top++] = n->child[q];
             if (n->dev < 0 || !g->devs[n->dev].bounded) continue;
-            const block_dev *d = &g->devs[n->dev];
-            /* the corners mapped without the front-of-eye check (any linear map) */
+            /* the corners mapped without the front-of-eye check (any affine map) */
             const double *cw[4];
             block_corners(sc, f, n, cw);
-            clip_corners k = {.wmin = 1};
-            for (int i = 0; i < 4; i++) {
-                double q[4] = {cw[i][0], cw[i][1], cw[i][2], cw[i][3]};
-                if (n->rational) q[0] /= q[3], q[1] /= q[3], q[2] /= q[3], q[3] = 1;
+            exact_walk w = {.m = (const double(*)[4])m};
+            for (int i = 0; i < 4; i++)
                 for (int a = 0; a < 3; a++) {
                     int r = a == 2 ? 3 : a;
-                    k.C[i][a] = m[0][r] * q[0] + m[1][r] * q[1] + m[2][r] * q[2] + m[3][r] * q[3];
+                    w.C[i][a] =
+                        (m[0][r] * cw[i][0] + m[1][r] * cw[i][1] + m[2][r] * cw[i][2]) / cw[i][3] +
+                        m[3][r];
                 }
-            }
-            exact_walk w = {.k = &k, .m = (const double(*)[4])m, .rational = n->rational};
-            block_points(sc, f, n, exact_visit, &w);
+            block_points(sc, f, n, 0, exact_visit, &w);
             crisp__groups_dev_sample s = {
                 .face = fi, .patches = n->nu * n->nv, .rational = n->rational};
-            deviation_clip(d, m, s.upper, s.low);
-            for (int a = 0; a < 3; a++) {
-                int r = a == 2 ? 3 : a;
-                s.box[a] = (fabs(m[0][r]) * d->box[0] + fabs(m[1][r]) * d->box[1] +
-                            fabs(m[2][r]) * d->box[2] + fabs(m[3][r]) * d->box[3]) *
-                           (1 + 1e-12);
-                s.exact[a] = w.D[a];
-            }
+            deviation_range(&g->devs[n->dev], m, s.lo, s.hi, s.box_lo, s.box_hi, s.wlo, s.whi);
+            memcpy(s.exact_lo, w.lo, sizeof w.lo);
+            memcpy(s.exact_hi, w.hi, sizeof w.hi);
             visit(ctx, &s);
         }
     }
