@@ -14,6 +14,16 @@
 #include "quadtree.h"
 #include "rational_bound.h"
 
+/* fmin / fmax without the library call (the values here are finite or +-INFINITY). */
+static inline double dmin(double a, double b)
+{
+    return a < b ? a : b;
+}
+static inline double dmax(double a, double b)
+{
+    return a > b ? a : b;
+}
+
 typedef struct group {
     uint32_t iu0, iv0, nu, nv; /* patch grid block: columns iu0.., rows iv0.. (clipped) */
     uint32_t g;                /* the block is 2^g x 2^g patches before clipping */
@@ -193,8 +203,8 @@ static int orthonormal_frame(double v[3][3], double f[3][3])
 typedef struct dev_walk {
     double C[4][3]; /* the block's Euclidean corners */
     block_dev *d;
-    int pass;
-    double moments[3][3], least[3], most[3];
+    int pass, axes; /* axes: principal axes and witnesses (else the coordinate box alone) */
+    double moments[3][3], least[3], most[3], norm2, rmax;
 } dev_walk;
 
 static int dev_visit(void *vctx, const double q[4], double s, double t, int last)
@@ -203,13 +213,14 @@ static int dev_visit(void *vctx, const double q[4], double s, double t, int last
     dev_walk *w = vctx;
     block_dev *d = w->d;
     if (!(q[3] > 0)) return d->bounded = 0;
-    double e[3], r = 0;
+    double e[3], r = 0, iw = q[3] == 1 ? 1 : 1 / q[3];
     for (int a = 0; a < 3; a++) {
-        double P = q[a] / q[3], bl = bilinear(w->C[0][a], w->C[1][a], w->C[2][a], w->C[3][a], s, t);
+        /* (a relative error of 2^-52 more in P than q[a] / q[3]: within al) */
+        double P = q[a] * iw, bl = bilinear(w->C[0][a], w->C[1][a], w->C[2][a], w->C[3][a], s, t);
         /* the rounding of both sides: the exact deviation is within al of e[a] */
         double al = 1e-12 * (fabs(P) + fabs(bl));
         e[a] = P - bl;
-        if (w->pass) d->lo[a] = fmin(d->lo[a], e[a] - al), d->hi[a] = fmax(d->hi[a], e[a] + al);
+        if (w->pass) d->lo[a] = dmin(d->lo[a], e[a] - al), d->hi[a] = dmax(d->hi[a], e[a] + al);
         r += al;
     }
     if (w->pass == 0) {
@@ -218,11 +229,13 @@ static int dev_visit(void *vctx, const double q[4], double s, double t, int last
                 w->moments[i][j] += e[i] * e[j];
         return 1;
     }
-    d->slack = fmax(d->slack, sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) + r);
+    if (!w->axes) return 1;
+    w->norm2 = dmax(w->norm2, e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+    w->rmax = dmax(w->rmax, r);
     for (int k = 0; k < 3; k++) {
         /* |f_k| = 1: |f_k . (exact - e)| <= r */
         double v = e[0] * d->f[k][0] + e[1] * d->f[k][1] + e[2] * d->f[k][2];
-        d->flo[k] = fmin(d->flo[k], v - r), d->fhi[k] = fmax(d->fhi[k], v + r);
+        d->flo[k] = dmin(d->flo[k], v - r), d->fhi[k] = dmax(d->fhi[k], v + r);
         for (int side = 0; side < 2; side++)
             if (side ? v > w->most[k] : v < w->least[k]) {
                 if (side)
@@ -250,23 +263,36 @@ static void block_deviation(const crisp_scene *sc, const crisp_scene_face *f, co
         for (int a = 0; a < 3; a++)
             w.C[k][a] = cw[k][a] / cw[k][3];
     }
-    if (!d->bounded || !block_points(sc, f, n, 1, dev_visit, &w)) {
+    /* Blocks of more than 64 patches (read by no frame: group_leaf_ok's `small`) keep the
+     * coordinate box alone, at the build cost of one cheap walk; their axes are the coordinate
+     * axes and they have no witnesses (0 lies in every range). */
+    w.axes = n->nu * n->nv <= 64;
+    double v[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            d->f[i][j] = v[i][j] = i == j;
+    if (!d->bounded || (w.axes && !block_points(sc, f, n, 1, dev_visit, &w))) {
         d->bounded = 0;
         return;
     }
-    double v[3][3];
-    jacobi_axes(w.moments, v);
-    if (!orthonormal_frame(v, d->f))
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++)
-                d->f[i][j] = i == j;
+    if (w.axes) {
+        jacobi_axes(w.moments, v);
+        if (!orthonormal_frame(v, d->f))
+            for (int i = 0; i < 3; i++)
+                for (int j = 0; j < 3; j++)
+                    d->f[i][j] = i == j;
+    }
     w.pass = 1;
     if (!block_points(sc, f, n, 0, dev_visit, &w)) {
         d->bounded = 0;
         return;
     }
-    /* |d - sum_k (d . f_k) f_k| <= 3e-12 |d| for f orthonormal to 1e-12 */
-    d->slack *= 1e-10;
+    if (!w.axes)
+        for (int k = 0; k < 3; k++)
+            d->flo[k] = d->lo[k], d->fhi[k] = d->hi[k];
+    /* |d - sum_k (d . f_k) f_k| <= 3e-12 |d| for f orthonormal to 1e-12 (0 for the exact axes),
+     * and |d| <= |e| + r */
+    d->slack = 1e-10 * (sqrt(w.norm2) + w.rmax);
 }
 
 /* The range [lo, hi] of A_xyz . d over the block's control points, per clip coordinate x, y, w
@@ -281,22 +307,22 @@ static void deviation_range(const block_dev *d, crisp_mat4 m, double lo[3], doub
         double A[3] = {m[0][r], m[1][r], m[2][r]}, blo = 0, bhi = 0, flo = 0, fhi = 0;
         for (int c = 0; c < 3; c++) {
             double x = A[c] * d->lo[c], y = A[c] * d->hi[c];
-            blo += fmin(x, y), bhi += fmax(x, y);
+            blo += dmin(x, y), bhi += dmax(x, y);
         }
         for (int k = 0; k < 3; k++) {
             double af = A[0] * d->f[k][0] + A[1] * d->f[k][1] + A[2] * d->f[k][2];
             double x = af * d->flo[k], y = af * d->fhi[k];
-            flo += fmin(x, y), fhi += fmax(x, y);
+            flo += dmin(x, y), fhi += dmax(x, y);
         }
         double s = sqrt(A[0] * A[0] + A[1] * A[1] + A[2] * A[2]) * d->slack;
         /* both hold 0 (the corners); the factor: the rounding of these sums */
-        lo[a] = fmax(blo, flo - s) * (1 + 1e-12), hi[a] = fmin(bhi, fhi + s) * (1 + 1e-12);
+        lo[a] = dmax(blo, flo - s) * (1 + 1e-12), hi[a] = dmin(bhi, fhi + s) * (1 + 1e-12);
         if (box_lo) box_lo[a] = blo * (1 + 1e-12), box_hi[a] = bhi * (1 + 1e-12);
         if (!wlo) continue;
         wlo[a] = whi[a] = 0;
         for (int k = 0; k < 6; k++) {
             double x = A[0] * d->wit[k][0] + A[1] * d->wit[k][1] + A[2] * d->wit[k][2];
-            wlo[a] = fmin(wlo[a], x), whi[a] = fmax(whi[a], x);
+            wlo[a] = dmin(wlo[a], x), whi[a] = dmax(whi[a], x);
         }
     }
 }
@@ -338,11 +364,11 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
             double cs[3];
             if ((st = build_group(g, sc, f, lv - 1, cu, cv, &c, cs))) return st;
             for (int a = 0; a < 3; a++)
-                sigma[a] = fmax(sigma[a], cs[a]); /* INFINITY stays */
+                sigma[a] = dmax(sigma[a], cs[a]); /* INFINITY stays */
             n.child[k] = c;
             for (int a = 0; a < 3; a++) {
-                n.box[a] = fmin(n.box[a], g->nodes[c].box[a]);
-                n.box[3 + a] = fmax(n.box[3 + a], g->nodes[c].box[3 + a]);
+                n.box[a] = dmin(n.box[a], g->nodes[c].box[a]);
+                n.box[3 + a] = dmax(n.box[3 + a], g->nodes[c].box[3 + a]);
             }
         }
     }
@@ -352,8 +378,8 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
     else
         for (int k = 0; k < 4; k++)
             if (n.child[k] >= 0) {
-                n.wlo = fmin(n.wlo, g->nodes[n.child[k]].wlo);
-                n.whi = fmax(n.whi, g->nodes[n.child[k]].whi);
+                n.wlo = dmin(n.wlo, g->nodes[n.child[k]].wlo);
+                n.whi = dmax(n.whi, g->nodes[n.child[k]].whi);
             }
     n.rational = n.whi > n.wlo;
     if (n.nu * n.nv > 1) {
@@ -485,12 +511,12 @@ static int classify(const double *box, crisp_mat4 m, double gx, double gy, int w
             front = 0;
             continue;
         }
-        lo[0] = fmin(lo[0], x / w), hi[0] = fmax(hi[0], x / w);
-        lo[1] = fmin(lo[1], y / w), hi[1] = fmax(hi[1], y / w);
+        lo[0] = dmin(lo[0], x / w), hi[0] = dmax(hi[0], x / w);
+        lo[1] = dmin(lo[1], y / w), hi[1] = dmax(hi[1], y / w);
     }
     if (out[0] | out[1] | out[2] | out[3] | out[4] | out[5]) return 1;
     if (!front) return 0;
-    double e = fmax((hi[0] - lo[0]) * 0.5 * width, (hi[1] - lo[1]) * 0.5 * height);
+    double e = dmax((hi[0] - lo[0]) * 0.5 * width, (hi[1] - lo[1]) * 0.5 * height);
     *extent = e * (1 + 1e-9) + 1e-9;
     return *extent <= eps ? 2 : 0;
 }
@@ -571,9 +597,9 @@ static int clip_corners(const double *const cw[4], crisp_mat4 m, double C[4][3],
             C[i][a] = m[0][r] * P[0] + m[1][r] * P[1] + m[2][r] * P[2] + m[3][r];
         }
         if (!(C[i][2] > 0)) return 0;
-        *wmin = fmin(*wmin, C[i][2]);
-        *xmax = fmax(*xmax, fabs(C[i][0] / C[i][2]));
-        *ymax = fmax(*ymax, fabs(C[i][1] / C[i][2]));
+        *wmin = dmin(*wmin, C[i][2]);
+        *xmax = dmax(*xmax, fabs(C[i][0] / C[i][2]));
+        *ymax = dmax(*ymax, fabs(C[i][1] / C[i][2]));
     }
     return 1;
 }
@@ -593,12 +619,12 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
     double lo[3], hi[3], wlo[3], whi[3], r[3], rlow[3];
     deviation_range(dev, m, lo, hi, NULL, NULL, small ? wlo : NULL, whi);
     for (int a = 0; a < 3; a++) {
-        double eu = fmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a])) / n->nu;
-        double ev = fmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a])) / n->nv;
+        double eu = dmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a])) / n->nu;
+        double ev = dmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a])) / n->nv;
         double tw = fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]) / ((double)n->nu * n->nv);
         double su = dev->sigma[0] * eu, sv = dev->sigma[1] * ev, st = dev->sigma[2] * tw;
         r[a] = (su + sv + st) * (1 + 1e-12);
-        rlow[a] = fmax(su, fmax(sv, st));
+        rlow[a] = dmax(su, dmax(sv, st));
     }
     if (crisp__rational_block_finish_px((const double(*)[3])C, lo, hi, r, c->width, c->height) <=
         c->eps)
@@ -769,7 +795,7 @@ static int exact_visit(void *vctx, const double q[4], double s, double t, int la
         int r = a == 2 ? 3 : a;
         double x = w->m[0][r] * P[0] + w->m[1][r] * P[1] + w->m[2][r] * P[2] + w->m[3][r];
         double e = x - bilinear(w->C[0][a], w->C[1][a], w->C[2][a], w->C[3][a], s, t);
-        w->lo[a] = fmin(w->lo[a], e), w->hi[a] = fmax(w->hi[a], e);
+        w->lo[a] = dmin(w->lo[a], e), w->hi[a] = dmax(w->hi[a], e);
     }
     return 1;
 }
