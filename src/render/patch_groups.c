@@ -201,7 +201,7 @@ static int orthonormal_frame(double v[3][3], double f[3][3])
  * (they choose the axes f: any orthonormal axes are sound, these make the box tight), pass 1 over
  * every control point the coordinate box, the ranges along f and the witnesses. */
 typedef struct dev_walk {
-    double C[4][3]; /* the block's Euclidean corners */
+    double C[4][3], cmag[3]; /* the block's Euclidean corners, their largest |C_a| */
     block_dev *d;
     int pass, axes; /* axes: principal axes and witnesses (else the coordinate box alone) */
     double moments[3][3], least[3], most[3], norm2, rmax;
@@ -217,8 +217,9 @@ static int dev_visit(void *vctx, const double q[4], double s, double t, int last
     for (int a = 0; a < 3; a++) {
         /* (a relative error of 2^-52 more in P than q[a] / q[3]: within al) */
         double P = q[a] * iw, bl = bilinear(w->C[0][a], w->C[1][a], w->C[2][a], w->C[3][a], s, t);
-        /* the rounding of both sides: the exact deviation is within al of e[a] */
-        double al = 1e-12 * (fabs(P) + fabs(bl));
+        /* the rounding of both sides (bl's relative to the corners': |bl| <= cmag): the exact
+         * deviation is within al of e[a] */
+        double al = 1e-12 * (fabs(P) + w->cmag[a]);
         e[a] = P - bl;
         if (w->pass) d->lo[a] = dmin(d->lo[a], e[a] - al), d->hi[a] = dmax(d->hi[a], e[a] + al);
         r += al;
@@ -260,8 +261,10 @@ static void block_deviation(const crisp_scene *sc, const crisp_scene_face *f, co
     *d = (block_dev){.bounded = 1};
     for (int k = 0; k < 4; k++) {
         if (!(cw[k][3] > 0)) d->bounded = 0;
-        for (int a = 0; a < 3; a++)
+        for (int a = 0; a < 3; a++) {
             w.C[k][a] = cw[k][a] / cw[k][3];
+            w.cmag[a] = dmax(w.cmag[a], fabs(w.C[k][a]));
+        }
     }
     /* Blocks of more than 64 patches (read by no frame: group_leaf_ok's `small`) keep the
      * coordinate box alone, at the build cost of one cheap walk; their axes are the coordinate
