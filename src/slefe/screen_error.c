@@ -487,7 +487,7 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
         }
     }
     if (t_classic <= t) {
-        *tau = t;
+        *tau = t_classic; /* sound, and no more than the guess */
         return CRISP_OK;
     }
     for (;;) {
