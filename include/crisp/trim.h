@@ -141,6 +141,11 @@ typedef struct crisp_trim_density_stats {
  * strip's bounds when invisible). stats may be NULL. */
 crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double *rho_v,
                                      double *rho_u, double *vis_v, crisp_trim_density_stats *stats);
+/* The most bytes crisp_trim_scan_density takes from desc.scratch (any degree up to
+ * CRISP_MAX_DEGREE, any max_depth): an arena reserved with this (crisp_arena_reserve) and reset
+ * before each call never allocates, whichever faces it serves (issue 12: the planner's per-worker
+ * scratch). */
+size_t crisp_trim_scan_density_scratch_max(void);
 
 /* mu[i] = ceil((b_i - a_i) rho_v[i]) for visible strips (at least 1), 0 for rho_v[i] == 0, with
  * [a_i, b_i] = vis_v[2i], vis_v[2i + 1] (vis_v NULL: the whole strip). Each strip is capped at
@@ -254,6 +259,8 @@ typedef struct crisp_trim_plan_desc {
     double v0, v1;                       /* the face's v-range */
     int strip_count;                     /* n_V; 0 means 16 */
     const crisp_trim_density_tree *tree; /* NULL, or as crisp_trim_density_desc.tree */
+    crisp_arena *scratch; /* the density bound's scratch, reset here; NULL: one kept with dest
+                             (issue 12: the planner passes one per worker, not one per face) */
 } crisp_trim_plan_desc;
 
 /* Only points inside the loops can be inside the face, so the strips cover the face's v-range

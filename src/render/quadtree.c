@@ -317,8 +317,15 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
          * four tau-1 leaves (8 triangles, no more than any level above 1 draws), so split without
          * forming the SLEFE level. */
         if (!box_split && sub.rational && hull > c->eps && flat <= 4 * c->eps && isfinite(hull) &&
-            depth < c->plan->max_depth)
-            box_split = box = 1;
+            depth < c->plan->max_depth) {
+            /* (Unless its SLEFE level is 2: one leaf of the same 8 triangles.) */
+            int t2 = 0;
+            if (!known &&
+                crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, 2, &t2) == CRISP_OK && t2 <= 2)
+                known = t2;
+            else
+                box_split = box = 1;
+        }
         crisp_status st =
             hull <= c->eps || box_split || known
                 ? CRISP_OK
@@ -973,6 +980,9 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             .v0 = sf->domain[2],
             .v1 = sf->domain[3],
             .strip_count = strips,
+            /* one scratch per worker (issue 12: one per face held 220 MB at imp49's default
+             * view, 13,573 faces) */
+            .scratch = c->plan->arenas[worker],
         };
         crisp_status st = crisp_trim_plan_face(&d, &c->plan->trims[f]);
         if (st) {
@@ -995,6 +1005,10 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         for (int k = 0; k < TREE_CHUNKS; k++)
             crisp_arena_reset(plan->chunk_arenas[k]);
         plan->worker_status[w] = CRISP_OK;
+        /* the trim plans' scratch (plan_trims): room for any face, whichever faces the worker
+         * gets, so a frame allocates nothing more than the last */
+        if ((st = crisp_arena_reserve(plan->arenas[w], crisp_trim_scan_density_scratch_max())))
+            return st;
     }
     if ((st = crisp_grow((void **)&plan->patches, &plan->patch_cap,
                          sc->patch_count ? sc->patch_count : 1, sizeof *plan->patches)))

@@ -83,11 +83,15 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
             return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_plan_face: out of memory");
         p->cap_strips = n;
     }
-    if (!p->scratch) {
-        crisp_status st = crisp_arena_create(0, &p->scratch);
-        if (st) return st;
+    crisp_arena *scratch = desc->scratch;
+    if (!scratch) {
+        if (!p->scratch) {
+            crisp_status st = crisp_arena_create(0, &p->scratch);
+            if (st) return st;
+        }
+        scratch = p->scratch;
     }
-    crisp_arena_reset(p->scratch);
+    crisp_arena_reset(scratch);
     p->strip_count = n;
     if (desc->piece_count < 0 || (desc->piece_count > 0 && !desc->pieces))
         return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_trim_plan_face: %d pieces at %p",
@@ -103,7 +107,7 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
                                                             .v0 = p->v0,
                                                             .v1 = p->v1,
                                                             .strip_count = n,
-                                                            .scratch = p->scratch,
+                                                            .scratch = scratch,
                                                             .strip_u = p->strip_u,
                                                             .tree = desc->tree,
                                                             .vis_u = p->vis_u},
