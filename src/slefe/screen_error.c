@@ -133,7 +133,10 @@ static void centred_view(const crisp_bezier_patch *p, const crisp_slefe_view *vi
         }
     }
     if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) return;
-    double c[2] = {0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])};
+    /* within [-2, 2] (beyond, the patch is mostly off screen): the rounding of the translated
+     * rows then stays of the order of view_proj's own */
+    double c[2] = {crisp__max(-2.0, crisp__min(2.0, 0.5 * (lo[0] + hi[0]))),
+                   crisp__max(-2.0, crisp__min(2.0, 0.5 * (lo[1] + hi[1])))};
     for (int col = 0; col < 4; col++)
         for (int a = 0; a < 2; a++)
             dest->view_proj[col][a] = m[col][a] - c[a] * m[col][3];
