@@ -998,13 +998,6 @@ int crisp__trim_patch_bound(const crisp_trim_density_desc *desc, const crisp_bez
                                 (*m)[2][r] * p->cpw[4 * k + 2] + (*m)[3][r] * p->cpw[4 * k + 3];
     return node_bound(&c, clip, 1.0 / (p->u1 - p->u0), 1.0 / (p->v1 - p->v0), bv, bu);
 }
-size_t crisp_trim_scan_density_scratch_max(void)
-{
-    /* the five arrays below at the largest degree and depth, each rounded up to 16 bytes */
-    size_t nmax = (size_t)(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1);
-    return (4 + 61 * 8 + 4 + (60 + 2) * 16 + 4) * nmax * sizeof(double) + 5 * 16;
-}
-
 crisp_status crisp_trim_scan_density(const crisp_trim_density_desc *desc, double *rho_v,
                                      double *rho_u, double *vis_v, crisp_trim_density_stats *stats)
 {
