@@ -70,6 +70,7 @@ typedef struct build_state {
     uint32_t patch;
     crisp_arena *arena;
     double storage[2][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4 * 2];
+    double child[2][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4 * 2]; /* children_cost */
     size_t node_cap, leaf_cap;
     const crisp__forced *forced; /* this patch's forced splits */
     size_t forced_count;
@@ -249,9 +250,51 @@ static int is_forced(const build_state *b, uint32_t patch, int depth, int ix, in
     return k < b->forced_count && !forced_cmp(&b->forced[k], &key);
 }
 
+/* A rational sub-patch within 4 eps and at least this many pixels across keeps a level of 2. */
+#define MIN_T2_PX 4.0
+/* Levels at or above this, of patches of at least this degree in u or v, try the four children's
+ * levels (children_cost). */
+#define CHILD_TRY_TAU 16
+#define CHILD_TRY_DEGREE 4
+/* A leaf's cost to the planner and the backend beyond its triangles, in triangles. */
+#define LEAF_COST 8.0
+
+/* What the four children of cell (depth, ix, iy) would draw, in triangles plus LEAF_COST per
+ * visible leaf, at the levels they would get as leaves (hull within eps: 1, else their SLEFE
+ * level); INFINITY where a child cannot get a level here (W <= 0, above 64). Stops once the sum
+ * reaches limit. Issue 12: the SLEFE bound of a whole patch of high degree can be far looser than
+ * its halves' (occt_linkrods.step's 6 x 10 patches: 977 px at level 1 for 15 px sampled; a
+ * 216 px patch took level 49 where its quarters take 7 to 10), and the level's search cannot see
+ * that; the children's levels can. */
+static double children_cost(build_state *b, int depth, int ix, int iy, double limit, int taus[4])
+{
+    const tree_ctx *c = b->c;
+    double cost = 0, sz = ldexp(1.0, -(depth + 1));
+    for (int k = 0; k < 4; k++)
+        taus[k] = 0;
+    for (int k = 0; k < 4 && cost < limit; k++) {
+        int cx = 2 * ix + (k & 1), cy = 2 * iy + (k >> 1), tau = 1;
+        crisp_bezier_patch ch;
+        crisp__subpatch(b->root, cx * sz, (cx + 1) * sz, cy * sz, (cy + 1) * sz, b->child[0],
+                        b->child[1], &ch);
+        if (outside_frustum(&ch, c->plan->view_proj, c->gx, c->gy)) continue; /* culled */
+        double hull = hull_extent_px(&ch, c->plan->view_proj, c->plan->width, c->plan->height);
+        if (!isfinite(hull)) return INFINITY;
+        if (hull > c->eps &&
+            (crisp_slefe_patch_tess_level(&ch, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau) ||
+             tau > CRISP_TESS_MAX_LEVEL))
+            return INFINITY;
+        taus[k] = hull > c->eps ? tau : 0;
+        cost += 2.0 * tau * tau + LEAF_COST;
+    }
+    return cost;
+}
+
 /* Classify cell (depth, ix, iy) of the patch; node is its tree node. box: an ancestor chose to
- * split until the pieces' hulls are within eps (no SLEFE is formed below it). */
-static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, int box)
+ * split until the pieces' hulls are within eps (no SLEFE is formed below it). known > 0: the
+ * cell's SLEFE level, found by its parent's children_cost (the same sub-patch, so the same
+ * level). */
+static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, int box, int known)
 {
     if (b->st) return;
     const tree_ctx *c = b->c;
@@ -261,28 +304,40 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
                     b->storage[1], &sub);
     crisp__cell leaf = {
         .ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
-    int split = 0;
+    int split = 0, child_tau[4] = {0, 0, 0, 0}, have_child_tau = 0;
     if (!outside_frustum(&sub, c->plan->view_proj, c->gx, c->gy)) {
         int tau = 0;
         /* Small on screen (issue 12): a hull within eps needs no SLEFE (tau 1, see
          * hull_extent_px). */
         double hull = hull_extent_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height);
         /* Flat enough on screen for any tessellation (flat_bound): tau 1, like a small hull. */
-        double flat = hull > c->eps ? flat_bound(&sub, c->plan->view_proj, c->plan->width,
-                                                 c->plan->height, c->eps)
-                                    : 0;
+        double flat = hull > c->eps && !known ? flat_bound(&sub, c->plan->view_proj, c->plan->width,
+                                                           c->plan->height, c->eps)
+                      : hull > c->eps         ? INFINITY
+                                              : 0;
         if (hull > c->eps && flat <= c->eps) hull = 0;
         int box_split = box && hull > c->eps && depth < c->plan->max_depth;
         /* A rational sub-patch whose flat bound is within 4 eps: one split is predicted to give
          * four tau-1 leaves (8 triangles, no more than any level above 1 draws), so split without
          * forming the SLEFE level. */
         if (!box_split && sub.rational && hull > c->eps && flat <= 4 * c->eps && isfinite(hull) &&
-            depth < c->plan->max_depth)
-            box_split = box = 1;
+            depth < c->plan->max_depth) {
+            /* (Unless it is a few pixels across and its SLEFE level is 2: one leaf of the same 8
+             * triangles. Smaller ones are split: the backend draws no leaf whose hull holds no
+             * sample, and most children of a 1-2 px sub-patch hold none; imp far10: 9.2 k
+             * triangles split, 13.7 k as one leaf.) */
+            int t2 = 0;
+            if (!known && hull >= MIN_T2_PX &&
+                crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, 2, &t2) == CRISP_OK && t2 <= 2)
+                known = t2;
+            else
+                box_split = box = 1;
+        }
         crisp_status st =
-            hull <= c->eps || box_split
+            hull <= c->eps || box_split || known
                 ? CRISP_OK
                 : crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
+        if (known && !box_split) tau = known;
         if (hull <= c->eps) tau = 1;
         /* A rational sub-patch where the homogeneous bound reaches W <= 0: a level from the
          * bound that does not divide by the weights (rational_bound.c), if one is in reach. */
@@ -310,6 +365,18 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
             if (k < 6 && 4.0 * ldexp(1.0, 2 * k) < (double)tau * tau) {
                 st = CRISP_ERR_NUMERIC;
                 box = 1;
+            } else if (tau >= CHILD_TRY_TAU &&
+                       (sub.du >= CHILD_TRY_DEGREE || sub.dv >= CHILD_TRY_DEGREE)) {
+                /* A high level of a high degree: split where the four children draw less than
+                 * 3/4 of it (each child is then planned as any cell, so this can repeat below it
+                 * while it pays). (On every degree it also took impeller.igs default from 146 k
+                 * to 129 k triangles, but opened a one-pixel GL-only crack at the seam of
+                 * test_cracks' quarter torus, degree 2, view 9: left for the GL stitching.) */
+                double mine = 2.0 * tau * tau + LEAF_COST;
+                if (children_cost(b, depth, ix, iy, 0.75 * mine, child_tau) < 0.75 * mine) {
+                    st = CRISP_ERR_NUMERIC;
+                    have_child_tau = 1;
+                }
             }
         }
         /* (Not searched here for every rational sub-patch whose SLEFE level is above 2: the
@@ -364,7 +431,8 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
     }
     b->pp->nodes[node].child = first;
     for (int k = 0; k < 4; k++)
-        build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), box);
+        build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), box,
+                   have_child_tau ? child_tau[k] : 0);
 }
 
 /* Items [begin, end) of the patch list (every patch, or the redo list), nodes and leaves in
@@ -423,7 +491,7 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
             else
                 pp->nodes[root].leaf = li;
         } else {
-            build_cell(b, root, 0, 0, 0, 0);
+            build_cell(b, root, 0, 0, 0, 0, 0);
         }
         if (b->st) plan->worker_status[worker] = b->st;
         for (uint32_t l = 0; l < pp->leaf_count; l++)

@@ -13,7 +13,29 @@
  * most the SLEFE width at m = tau (the surface and the interpolant of its grid values both lie in
  * the bilinear enclosure) or, for any tau, the classical (h^2 / 8) (|X_ss| + |X_tt|) with second
  * derivatives bounded by the control points' second differences; the twist of a cell is at most
- * h^2 du dv max |mixed difference|. W is bounded below per tile, x_tri by the tile's box. */
+ * h^2 du dv max |mixed difference|. W is bounded below per tile, x_tri by the tile's box.
+ *
+ * Centred screen coordinates (issue 12). The distance is the same in any screen coordinates that
+ * differ by a translation, and translating NDC by -c is linear in clip space (X' = X - c_x W,
+ * Y' = Y - c_y W, W unchanged), so the bounds are formed with c the centre of the patch's
+ * projected control points: |x_tri| is then about the patch's own half-extent instead of its
+ * distance from the image centre. That matters where W is far from linear: for a rational patch
+ * W = w(s, t) W_cam and the weight's curvature enters |x_tri| |dW| (impeller x 49: patches 30-40
+ * px across, far off axis, got a bound of 130 px at tau 1 and levels 10-16).
+ *
+ * The rasterizer's point (issue 12, docs/status/issue-12-rational.md). The triangle point above,
+ * H_tri = sum l_k H(x_k), is a point of the drawn screen triangle, but the rasterizer interpolates
+ * the vertices' clip positions Q(x_k) = H(x_k) / w(x_k) (the camera's W, not the weight) with the
+ * barycentrics l: its screen point is sum mu_k q_k (q_k the vertices' screen points,
+ * mu_k = l_k Q_W,k / sum l_j Q_W,j), H_tri's is sum nu_k q_k with nu_k = mu_k w_k / w_bar,
+ * w_bar = sum mu_j w_j. Their difference is sum mu_k (w_k - w_bar) (q_k - q_bar) / w_bar, a
+ * covariance under the distribution mu over the three vertices divided by w_bar: at most
+ * (w_max - w_min) (q_max - q_min) / (4 w_min) per screen axis (Cauchy-Schwarz and Popoviciu's
+ * variance bound, range^2 / 4). This term is added for patches whose weights differ: per tile,
+ * from the SLEFE of the weight and the tile's screen box; in the classic bound, from the
+ * weight's and X's, W's derivative bounds over a cell (|x(b) - x(a)| <= (|dX| + |x| |dW|) / W
+ * along the segment): it is O(h^2) like the rest, so the classic bound still falls as 1 / tau^2.
+ * test_slefe_rational.c measures it; without the term the level fails there. */
 #include "slefe_internal.h"
 
 #include <string.h>
@@ -50,6 +72,76 @@ static void derivative_bounds(const double *clip, int du, int dv, int r, double 
     *dst = du * dv * (c + round);
 }
 
+/* First-difference bounds of coordinate r over the control net: bounds on |X_s|, |X_t| over the
+ * patch (the hodograph's control points), widened for rounding. */
+static void speed_bounds(const double *c, int du, int dv, int r, double *ds, double *dt)
+{
+    double a = 0, b = 0, mag = 0;
+    int n = du + 1;
+    for (int j = 0; j <= dv; j++)
+        for (int i = 0; i <= du; i++) {
+            double v = c[(j * n + i) * 4 + r];
+            mag = crisp__max(mag, fabs(v));
+            if (i + 1 <= du) a = crisp__max(a, fabs(c[(j * n + i + 1) * 4 + r] - v));
+            if (j + 1 <= dv) b = crisp__max(b, fabs(c[((j + 1) * n + i) * 4 + r] - v));
+        }
+    double round = 8.0 * DBL_EPSILON * mag;
+    *ds = du * (a + round);
+    *dt = dv * (b + round);
+}
+
+/* The weights of a (sub-)patch: its homogeneous control points (coordinate 3 is the weight) and
+ * their range; cpw is NULL when the weights are all equal (no redistribution term, see the top
+ * comment). */
+typedef struct weights {
+    const double *cpw;
+    double lo, hi;
+} weights;
+
+static weights weights_of(const crisp_bezier_patch *p, const double *cpw)
+{
+    weights w = {NULL, 1.0, 1.0};
+    if (!p->rational) return w;
+    int n = (p->du + 1) * (p->dv + 1);
+    w.lo = w.hi = cpw[3];
+    for (int i = 1; i < n; i++) {
+        w.lo = crisp__min(w.lo, cpw[i * 4 + 3]);
+        w.hi = crisp__max(w.hi, cpw[i * 4 + 3]);
+    }
+    if (w.hi != w.lo) w.cpw = cpw;
+    return w;
+}
+
+/* view with NDC translated by -c, c the centre of p's projected control points (those in front
+ * of the eye; c = 0 when none is): the bounds are formed in these coordinates (top comment). */
+static void centred_view(const crisp_bezier_patch *p, const crisp_slefe_view *view,
+                         crisp_slefe_view *dest)
+{
+    *dest = *view;
+    const double(*m)[4] = (const double(*)[4])view->view_proj;
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    int n = (p->du + 1) * (p->dv + 1);
+    for (int i = 0; i < n; i++) {
+        const double *v = p->cpw + i * 4;
+        double h[4];
+        for (int r = 0; r < 4; r++)
+            h[r] = m[0][r] * v[0] + m[1][r] * v[1] + m[2][r] * v[2] + m[3][r] * v[3];
+        if (!(h[3] > 0.0)) continue;
+        for (int a = 0; a < 2; a++) {
+            lo[a] = crisp__min(lo[a], h[a] / h[3]);
+            hi[a] = crisp__max(hi[a], h[a] / h[3]);
+        }
+    }
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) return;
+    /* within [-2, 2] (beyond, the patch is mostly off screen): the rounding of the translated
+     * rows then stays of the order of view_proj's own */
+    double c[2] = {crisp__max(-2.0, crisp__min(2.0, 0.5 * (lo[0] + hi[0]))),
+                   crisp__max(-2.0, crisp__min(2.0, 0.5 * (lo[1] + hi[1])))};
+    for (int col = 0; col < 4; col++)
+        for (int a = 0; a < 2; a++)
+            dest->view_proj[col][a] = m[col][a] - c[a] * m[col][3];
+}
+
 /* Largest |q| over q in [xl, xu] / [wl, wu], wl > 0. */
 static double max_abs_ratio(double xl, double xu, double wl, double wu)
 {
@@ -60,7 +152,7 @@ static double max_abs_ratio(double xl, double xu, double wl, double wu)
 
 /* The bound from derivative bounds alone (any tau), over the whole patch. */
 /* The bound from derivative bounds alone, for tu x tv segments, over the whole patch. */
-static crisp_status error_classic2(const char *fn, const crisp_bezier_patch *p,
+static crisp_status error_classic2(const char *fn, const crisp_bezier_patch *p, const weights *wt,
                                    const crisp_slefe_view *view, const double *clip,
                                    const double *hl, const double *hh, int tu, int tv, double *dest)
 {
@@ -77,21 +169,37 @@ static crisp_status error_classic2(const char *fn, const crisp_bezier_patch *p,
     }
     double ax = max_abs_ratio(hl[0], hh[0], hl[3], hh[3]);
     double ay = max_abs_ratio(hl[1], hh[1], hl[3], hh[3]);
-    double ex = (e[0] + ax * e[3]) / hl[3] * 0.5 * view->width;
-    double ey = (e[1] + ay * e[3]) / hl[3] * 0.5 * view->height;
-    *dest = crisp__max(ex, ey) * (1.0 + 1e-12);
+    double ex = (e[0] + ax * e[3]) / hl[3], ey = (e[1] + ay * e[3]) / hl[3];
+    if (wt->cpw) {
+        /* The rasterizer's point: over a cell the weight varies by at most hu |w_s| + hv |w_t|
+         * and the screen x by at most (hu |X_s| + hv |X_t| + |x| (hu |W_s| + hv |W_t|)) / W;
+         * their product over 4 w_min. */
+        if (!(wt->lo > 0.0)) {
+            *dest = INFINITY;
+            return CRISP_OK;
+        }
+        double ws, wtt, xs, xt, ys, yt, cs, ct;
+        speed_bounds(wt->cpw, p->du, p->dv, 3, &ws, &wtt);
+        speed_bounds(clip, p->du, p->dv, 0, &xs, &xt);
+        speed_bounds(clip, p->du, p->dv, 1, &ys, &yt);
+        speed_bounds(clip, p->du, p->dv, 3, &cs, &ct);
+        double q = (hu * ws + hv * wtt) / (4.0 * wt->lo) * (1.0 + 1e-12), wd = hu * cs + hv * ct;
+        ex += q * (hu * xs + hv * xt + ax * wd) / hl[3];
+        ey += q * (hu * ys + hv * yt + ay * wd) / hl[3];
+    }
+    *dest = crisp__max(ex * 0.5 * view->width, ey * 0.5 * view->height) * (1.0 + 1e-12);
     return CRISP_OK;
 }
 
-static crisp_status error_classic(const char *fn, const crisp_bezier_patch *p,
+static crisp_status error_classic(const char *fn, const crisp_bezier_patch *p, const weights *wt,
                                   const crisp_slefe_view *view, const double *clip,
                                   const double *hl, const double *hh, int tau, double *dest)
 {
-    return error_classic2(fn, p, view, clip, hl, hh, tau, tau, dest);
+    return error_classic2(fn, p, wt, view, clip, hl, hh, tau, tau, dest);
 }
 
 /* The bound from the SLEFE at m = tau (tau <= 16), per tile. */
-static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p,
+static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p, const weights *wt,
                                 const crisp_slefe_view *view, const double *clip, const double *err,
                                 const double *hl, const double *hh, int tau, double *dest)
 {
@@ -112,6 +220,13 @@ static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p,
         double dss, dtt, dst;
         derivative_bounds(clip, p->du, p->dv, r, &dss, &dtt, &dst);
         twist[r] = h2 * dst / 4.0;
+    }
+    /* The weight's SLEFE (the rasterizer's point, see the top comment). */
+    double wlo[CRISP_SLEFE_GRID(MAXM) * 4], wup[CRISP_SLEFE_GRID(MAXM) * 4];
+    if (wt->cpw) {
+        crisp_bezier_patch o = *p;
+        o.cpw = (double *)wt->cpw;
+        crisp__slefe_patch_coordinate(&o, m, 3, wlo, wup);
     }
     double best = 0.0;
     for (int kv = 0; kv < m; kv++)
@@ -142,6 +257,24 @@ static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p,
             double ay = crisp__max(fabs(cl[1]), fabs(cu[1])) * inv;
             double ex = (w[0] + twist[0] + ax * ew) * inv;
             double ey = (w[1] + twist[1] + ay * ew) * inv;
+            if (wt->cpw) {
+                /* (w_max - w_min) / (4 w_min) times the tile's screen extent */
+                double a = INFINITY, b = -INFINITY, xl, xu, yl, yu;
+                for (int c = 0; c < 4; c++) {
+                    a = crisp__min(a, wlo[g[c] * 4 + 3]);
+                    b = crisp__max(b, wup[g[c] * 4 + 3]);
+                }
+                a = crisp__max(a, wt->lo), b = crisp__min(b, wt->hi);
+                if (!(a > 0.0)) {
+                    best = INFINITY;
+                    continue;
+                }
+                double q = (b - a) / (4.0 * a) * (1.0 + 1e-12);
+                crisp__slefe_divide(cl[0], cu[0], cl[3], cu[3], &xl, &xu);
+                crisp__slefe_divide(cl[1], cu[1], cl[3], cu[3], &yl, &yu);
+                ex += q * (xu - xl);
+                ey += q * (yu - yl);
+            }
             best = crisp__max(best, crisp__max(ex * 0.5 * view->width, ey * 0.5 * view->height));
         }
     *dest = best * (1.0 + 1e-12);
@@ -168,17 +301,18 @@ static void restrict_range(double *c, int d, int stride, double t0, double t1)
 }
 
 static crisp_status screen_error_whole(const char *fn, const crisp_bezier_patch *p,
-                                       const crisp_slefe_view *view, const double *clip,
-                                       const double *err, const double *hl, const double *hh,
-                                       int tau, double accept, double *dest);
+                                       const weights *wt, const crisp_slefe_view *view,
+                                       const double *clip, const double *err, const double *hl,
+                                       const double *hh, int tau, double accept, double *dest);
 
 /* tau > 16: split the tau x tau cells into k x k blocks (k = ceil(tau / 16), block sizes differ
  * by at most one); the tessellation restricted to a block is the uniform tessellation of the
  * sub-patch over that block, so the bound is the largest of the sub-patches' bounds (SLEFE and
  * classic for square blocks, classic only for the others). */
 static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch *p,
-                                       const crisp_slefe_view *view, const double *clip,
-                                       const double *err, int tau, double accept, double *dest)
+                                       const weights *wt, const crisp_slefe_view *view,
+                                       const double *clip, const double *err, int tau,
+                                       double accept, double *dest)
 {
     int k = (tau + MAXM - 1) / MAXM;
     int du = p->du, dv = p->dv, n = (du + 1) * (dv + 1);
@@ -190,6 +324,7 @@ static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch 
         serr[r] = err[r] + 8.0 * (du + dv + 2) * DBL_EPSILON * mag;
     crisp_bezier_patch q = *p;
     q.cpw = sub;
+    double osub[(MAXD + 1) * (MAXD + 1) * 4]; /* the weights over the block */
     for (int b = 0; b < k; b++)
         for (int a = 0; a < k; a++) {
             /* cells [ca0, ca1) x [cb0, cb1) of the tau x tau grid */
@@ -200,6 +335,19 @@ static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch 
                 restrict_range(sub + j * (du + 1) * 4, du, 4, (double)ca0 / tau, (double)ca1 / tau);
             for (int i = 0; i <= du; i++)
                 restrict_range(sub + i * 4, dv, (du + 1) * 4, (double)cb0 / tau, (double)cb1 / tau);
+            weights sw = *wt;
+            if (wt->cpw) {
+                /* the block's weights: restricted the same way (de Casteljau keeps them within
+                 * the patch's range, which the bounds use as the least weight) */
+                memcpy(osub, wt->cpw, sizeof(double) * n * 4);
+                for (int j = 0; j <= dv; j++)
+                    restrict_range(osub + j * (du + 1) * 4, du, 4, (double)ca0 / tau,
+                                   (double)ca1 / tau);
+                for (int i = 0; i <= du; i++)
+                    restrict_range(osub + i * 4, dv, (du + 1) * 4, (double)cb0 / tau,
+                                   (double)cb1 / tau);
+                sw.cpw = osub;
+            }
             for (int r = 0; r < 4; r++) {
                 hl[r] = INFINITY;
                 hh[r] = -INFINITY;
@@ -213,9 +361,9 @@ static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch 
             double e;
             crisp_status s;
             if (ca1 - ca0 == cb1 - cb0)
-                s = screen_error_whole(fn, &q, view, sub, serr, hl, hh, ca1 - ca0, accept, &e);
+                s = screen_error_whole(fn, &q, &sw, view, sub, serr, hl, hh, ca1 - ca0, accept, &e);
             else /* unequal counts (tau not a multiple of k): the classic bound only */
-                s = error_classic2(fn, &q, view, sub, hl, hh, ca1 - ca0, cb1 - cb0, &e);
+                s = error_classic2(fn, &q, &sw, view, sub, hl, hh, ca1 - ca0, cb1 - cb0, &e);
             if (s) return s;
             best = crisp__max(best, e);
             if (accept > 0.0 && best > accept) {
@@ -228,19 +376,21 @@ static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch 
     return CRISP_OK;
 }
 
-static crisp_status screen_error(const char *fn, const crisp_bezier_patch *p,
+static crisp_status screen_error(const char *fn, const crisp_bezier_patch *p, const weights *wt,
                                  const crisp_slefe_view *view, const double *clip,
                                  const double *err, const double *hl, const double *hh, int tau,
                                  double accept, double *dest)
 {
-    if (tau <= MAXM) return screen_error_whole(fn, p, view, clip, err, hl, hh, tau, accept, dest);
+    if (tau <= MAXM)
+        return screen_error_whole(fn, p, wt, view, clip, err, hl, hh, tau, accept, dest);
     /* the whole-patch classic bound is cheap: try it first */
     double classic;
-    if (error_classic(fn, p, view, clip, hl, hh, tau, &classic) == CRISP_OK && classic <= accept) {
+    if (error_classic(fn, p, wt, view, clip, hl, hh, tau, &classic) == CRISP_OK &&
+        classic <= accept) {
         *dest = classic;
         return CRISP_OK;
     }
-    return screen_error_split(fn, p, view, clip, err, tau, accept, dest);
+    return screen_error_split(fn, p, wt, view, clip, err, tau, accept, dest);
 }
 
 /* Both bounds where they apply; the smaller is returned (each is sound on its own). With
@@ -248,18 +398,18 @@ static crisp_status screen_error(const char *fn, const crisp_bezier_patch *p,
  * above accept may be a partial maximum (enough to reject tau, not a bound). accept = 0: the
  * full bound. */
 static crisp_status screen_error_whole(const char *fn, const crisp_bezier_patch *p,
-                                       const crisp_slefe_view *view, const double *clip,
-                                       const double *err, const double *hl, const double *hh,
-                                       int tau, double accept, double *dest)
+                                       const weights *wt, const crisp_slefe_view *view,
+                                       const double *clip, const double *err, const double *hl,
+                                       const double *hh, int tau, double accept, double *dest)
 {
     double classic = INFINITY, slefe = INFINITY;
-    crisp_status s1 = error_classic(fn, p, view, clip, hl, hh, tau, &classic);
+    crisp_status s1 = error_classic(fn, p, wt, view, clip, hl, hh, tau, &classic);
     if (s1 == CRISP_OK && classic <= accept) {
         *dest = classic;
         return CRISP_OK;
     }
     if (tau <= MAXM) {
-        crisp_status s2 = error_slefe(fn, p, view, clip, err, hl, hh, tau, &slefe);
+        crisp_status s2 = error_slefe(fn, p, wt, view, clip, err, hl, hh, tau, &slefe);
         if (s2 == CRISP_OK) {
             *dest = crisp__min(classic, slefe);
             return CRISP_OK;
@@ -284,9 +434,12 @@ crisp_status crisp_slefe_patch_screen_error(const crisp_bezier_patch *p, int tau
     if (!err_px) return crisp_error(CRISP_ERR_INVALID_ARG, "%s: NULL output", fn);
     crisp__slefe_tables_init();
     double clip[(MAXD + 1) * (MAXD + 1) * 4], err[4], hl[4], hh[4];
-    s = crisp__slefe_to_clip(fn, p, view, clip, err, hl, hh);
+    crisp_slefe_view cv;
+    centred_view(p, view, &cv);
+    s = crisp__slefe_to_clip(fn, p, &cv, clip, err, hl, hh);
     if (s) return s;
-    return screen_error(fn, p, view, clip, err, hl, hh, tau, 0.0, err_px);
+    weights wt = weights_of(p, p->cpw);
+    return screen_error(fn, p, &wt, &cv, clip, err, hl, hh, tau, 0.0, err_px);
 }
 
 crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const crisp_slefe_view *view,
@@ -302,8 +455,12 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
                            fn, eps, max_level, CRISP_SLEFE_MAX_TESS_LEVEL);
     crisp__slefe_tables_init();
     double clip[(MAXD + 1) * (MAXD + 1) * 4], err[4], hl[4], hh[4];
+    crisp_slefe_view cv;
+    centred_view(p, view, &cv);
+    view = &cv;
     s = crisp__slefe_to_clip(fn, p, view, clip, err, hl, hh);
     if (s) return s;
+    weights wt = weights_of(p, p->cpw);
     /* Start from the iPASS guess, then raise tau until the sound bound accepts it. */
     double w_px;
     s = crisp_slefe_patch_screen(p, 3, view, NULL, NULL, &w_px);
@@ -319,7 +476,7 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
      * bound. */
     int t_classic = max_level + 1;
     double c1;
-    if (error_classic(fn, p, view, clip, hl, hh, 1, &c1) == CRISP_OK) {
+    if (error_classic(fn, p, &wt, view, clip, hl, hh, 1, &c1) == CRISP_OK) {
         double tc = ceil(sqrt(c1 / eps));
         if (tc < 1.0) tc = 1.0;
         if (tc <= max_level) {
@@ -327,17 +484,18 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
             /* rounding of c1 / t^2: confirm, and step up in the rare case it fails */
             double e;
             while (t_classic <= max_level &&
-                   error_classic(fn, p, view, clip, hl, hh, t_classic, &e) == CRISP_OK && e > eps)
+                   error_classic(fn, p, &wt, view, clip, hl, hh, t_classic, &e) == CRISP_OK &&
+                   e > eps)
                 t_classic++;
         }
     }
     if (t_classic <= t) {
-        *tau = t;
+        *tau = t_classic; /* sound, and no more than the guess */
         return CRISP_OK;
     }
     for (;;) {
         double e;
-        s = screen_error(fn, p, view, clip, err, hl, hh, t, eps, &e);
+        s = screen_error(fn, p, &wt, view, clip, err, hl, hh, t, eps, &e);
         if (s) return s;
         if (e <= eps) {
             *tau = t;
