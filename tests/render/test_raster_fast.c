@@ -84,10 +84,26 @@ static int keep_all(void *vctx, uint32_t face, double u, double v)
     return 1;
 }
 
+/* Keeps u below THRESH; its box test is exact (a box below or above it decides). */
+#define THRESH 0.6
+static int thresh_test(void *vctx, uint32_t face, double u, double v)
+{
+    (void)face, (void)v;
+    atomic_fetch_add(&((test_ctx *)vctx)->calls, 1);
+    return u < THRESH;
+}
+
+static int thresh_box(void *vctx, uint32_t face, const double lo[2], const double hi[2])
+{
+    (void)vctx, (void)face;
+    return hi[0] < THRESH ? 1 : lo[0] >= THRESH ? 0 : -1;
+}
+
 static const uint8_t *untested_faces; /* crisp__raster_set_untested_faces for render() */
-static crisp_raster_box_fn box_fn;    /* crisp__raster_set_box_test for render() */
-static int scalar_only;               /* crisp__raster_set_vectors(r, 0) in render() */
-static int deferred_clear;            /* render() fills the target with junk, then clear_depth */
+static int edge_soup;              /* render(): u within 3 ulps of THRESH on every other triangle */
+static crisp_raster_box_fn box_fn; /* crisp__raster_set_box_test for render() */
+static int scalar_only;            /* crisp__raster_set_vectors(r, 0) in render() */
+static int deferred_clear;         /* render() fills the target with junk, then clear_depth */
 
 static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn,
                    const float *slack, crisp_raster_target *t, test_ctx *tc,
@@ -97,6 +113,15 @@ static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_r
     static crisp_raster_tri tri[NT];
     rng_state = 0x2545F4914F6CDD1Dull;
     soup(v, tri);
+    if (edge_soup)
+        for (int i = 0; i < NT; i++)
+            for (int k = 0; k < 3; k++) {
+                double u = THRESH - 1e-4 * rnd();
+                if (i % 2) /* 1 to 4 ulps below */
+                    for (int j = 0, n = 1 + (i + k) % 4; j < n; j++)
+                        u = nextafter(j ? u : THRESH, 0);
+                v[3 * i + k].attr[0] = u;
+            }
     if (flag_no_test)
         for (int i = 0; i < NT; i++)
             tri[i].face |= CRISP_RASTER_FACE_NO_TEST;
@@ -218,20 +243,28 @@ static void test_vectors_equal_scalar(void **state)
     static float slack[W * H * 4];
     for (int k = 0; k < W * H * 4; k++)
         slack[k] = (float)(0.03 * (k % 7));
-    for (int samples = 1; samples <= 4; samples += 3)
-        for (int fill = 0; fill < 2; fill++) {
-            crisp_raster_target a = {0}, b = {0};
-            test_ctx ta = {0}, tb = {0};
-            crisp_raster_stats sa, sb;
-            scalar_only = 1;
-            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &ta, &sa);
-            scalar_only = 0;
-            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &b, &tb, &sb);
-            assert_same(&a, &b);
-            assert_int_equal(ta.calls, tb.calls);
-            crisp__raster_target_free(&a);
-            crisp__raster_target_free(&b);
-        }
+    /* Without a box test; with one (whole rows of kept fragments take the vector path's
+     * row stores); with faces 2 and 5 untested (the same). */
+    static const uint8_t two_five[7] = {0, 0, 1, 0, 0, 1, 0};
+    for (int mode = 0; mode < 3; mode++)
+        for (int samples = 1; samples <= 4; samples += 3)
+            for (int fill = 0; fill < 2; fill++) {
+                crisp_raster_target a = {0}, b = {0};
+                test_ctx ta = {0}, tb = {0};
+                crisp_raster_stats sa, sb;
+                box_fn = mode == 1 ? some_box : NULL;
+                untested_faces = mode == 2 ? two_five : NULL;
+                scalar_only = 1;
+                render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &ta, &sa);
+                scalar_only = 0;
+                render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &b, &tb, &sb);
+                box_fn = NULL;
+                untested_faces = NULL;
+                assert_same(&a, &b);
+                assert_int_equal(ta.calls, tb.calls);
+                crisp__raster_target_free(&a);
+                crisp__raster_target_free(&b);
+            }
 }
 
 /* clear_depth, deferred to the next draw's tiles, leaves what a full clear leaves (attributes
@@ -294,6 +327,36 @@ static void test_box_test(void **state)
             crisp__raster_target_free(&ref);
             crisp__raster_target_free(&a);
         }
+}
+
+/* The tiles decide the fragment test for whole triangles, parts of them in a tile and 8x8 blocks
+ * from a box that must hold every fragment's computed (u, v), rounding and all: on triangles
+ * whose vertices' u lie 1 to 4 ulps below the threshold (computed fragment values fall on both
+ * sides of it) among others well below it, the box test changes no bit (1 and 4 samples, the
+ * vector and the scalar paths), and it does decide fragments. */
+static void test_box_enclosure_sound(void **state)
+{
+    (void)state;
+    edge_soup = 1;
+    for (int samples = 1; samples <= 4; samples += 3)
+        for (int vec = 0; vec < 2; vec++) {
+            crisp_raster_target ref = {0}, a = {0};
+            test_ctx t_ref = {0}, t_box = {0};
+            crisp_raster_stats st_ref, st;
+            scalar_only = !vec;
+            render(samples, 1, 0, 0, thresh_test, NULL, &ref, &t_ref, &st_ref);
+            box_fn = thresh_box;
+            render(samples, 1, 0, 0, thresh_test, NULL, &a, &t_box, &st);
+            box_fn = NULL;
+            scalar_only = 0;
+            assert_same(&ref, &a);
+            assert_true(st_ref.fragments_discarded > 0); /* fragments at the threshold */
+            assert_true(st.fragments_boxed > 0);
+            assert_true(t_box.calls < t_ref.calls);
+            crisp__raster_target_free(&ref);
+            crisp__raster_target_free(&a);
+        }
+    edge_soup = 0;
 }
 
 /* crisp__plan_trim_box against crisp_plan_trim_test on random tables: whenever the box test
@@ -449,6 +512,7 @@ int main(void)
         cmocka_unit_test(test_no_test_flag),
         cmocka_unit_test(test_slack_for_triangles),
         cmocka_unit_test(test_box_test),
+        cmocka_unit_test(test_box_enclosure_sound),
         cmocka_unit_test(test_vectors_equal_scalar),
         cmocka_unit_test(test_deferred_clear),
         cmocka_unit_test(test_plan_trim_box),
