@@ -524,8 +524,9 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
                 v[k].attr[2 + a] = src[k].normal[a];
         }
         /* Indices relative to the ribbons' first vertex (drawn with verts + vorigin). */
+        /* The trim test keeps every ribbon fragment (trim_test): not run at all. */
         uint32_t base = (uint32_t)(c->vbase - c->vorigin + 4 * q),
-                 face = src[0].face | CRISP_RASTER_FACE_FLAG;
+                 face = src[0].face | CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST;
         c->r->tris[c->tbase + 2 * q] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
         c->r->tris[c->tbase + 2 * q + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
     }

@@ -83,6 +83,10 @@ struct crisp_raster {
     size_t chunk_cap[CHUNKS];
     pvert *vcache; /* per vertex, screen-space form */
     size_t vcache_cap;
+    /* The vertices and target vcache holds (crisp__raster_depth_slack_tris), for the next draw. */
+    const crisp_raster_vertex *vcache_verts;
+    size_t vcache_count;
+    const crisp_raster_target *vcache_t;
     size_t batch; /* 0: BATCH (crisp__raster_set_batch, for tests) */
     const setup_tri **bin_items;
     size_t bin_cap;
@@ -814,6 +818,24 @@ static inline unsigned store_row1(const planes *pl, const pair_planes *pp, doubl
 }
 #endif
 
+#if defined(__SSE2__)
+/* Bit q set where lane q of a block row is inside all three edges (row_mask's coverage). */
+static inline unsigned row_cover(const int64_t e[3], __m128i lane_step[3][BLOCK / 2])
+{
+    unsigned neg = 0;
+    const __m128i e0 = _mm_set1_epi64x(e[0]), e1 = _mm_set1_epi64x(e[1]),
+                  e2 = _mm_set1_epi64x(e[2]);
+    UNROLL(4)
+    for (int h = 0; h < BLOCK / 2; h++) {
+        __m128i o = _mm_or_si128(
+            _mm_or_si128(_mm_add_epi64(e0, lane_step[0][h]), _mm_add_epi64(e1, lane_step[1][h])),
+            _mm_add_epi64(e2, lane_step[2][h]));
+        neg |= (unsigned)_mm_movemask_pd(_mm_castsi128_pd(o)) << (2 * h);
+    }
+    return ~neg & 0xffu;
+}
+#endif
+
 /* One tile, with S the target's samples per pixel: always inlined into raster_tile with S a
  * constant for the common one-sample target (the compiler then folds the sample loops and
  * strides), else with S as a variable. The same code either way. */
@@ -1003,6 +1025,21 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                                     pass[np] = q;
                                     np += cv & (iwq > stored[(size_t)q * S]);
                                 }
+                        } else if (S == 1 && vectors && bx0 - tx0 + BLOCK <= (int)tw) {
+#if defined(__SSE2__)
+                            /* Fill mode, one sample, the lanes' coverage two at a time (most
+                             * rows of a ribbon's blocks have none), then the loop below on the
+                             * covered lanes. */
+                            unsigned cm =
+                                (full ? 0xffu : row_cover(e, lane_step)) & ((1u << n) - 1);
+                            for (; cm; cm &= cm - 1) {
+                                int q = __builtin_ctz(cm);
+                                double iwq = base + gx * (dx0 + q), cur = inv_w[idx0 + (size_t)q];
+                                iwv[q] = iwq;
+                                if (!(cur > 0) || 1.0 / iwq < 1.0 / cur - slack[idx0 + (size_t)q])
+                                    pass[np++] = q;
+                            }
+#endif
                         } else {
                             /* Fill mode: coverage first, then the slack's depth test. */
                             if (full) {
@@ -1319,6 +1356,7 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
  * from the unsnapped ones); 2 px of margin cover both. */
 typedef struct box_ctx {
     const crisp_raster_target *t;
+    const pvert *cache; /* the vertices projected (project_vertices) */
     const crisp_raster_vertex *verts;
     size_t vert_count;
     const crisp_raster_tri *tris;
@@ -1344,17 +1382,10 @@ static void tri_boxes(void *vctx, size_t begin, size_t end, int worker)
             double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
             int inside = 1;
             for (int k = 0; k < 3 && inside; k++) { /* the common case: no clipping */
-                const double *p = c->verts[tri->v[k]].clip;
-                double d[6];
-                plane_dists(p, gx, gy, d);
-                for (int q = 0; q < 6; q++)
-                    inside &= d[q] >= 0 && isfinite(d[q]);
-                double w = p[3];
-                double sx = (p[0] / w + 1.0) * 0.5 * image_w(t),
-                       sy = (1.0 - p[1] / w) * 0.5 * image_h(t);
-                inside &= w > 0 && fabs(sx) <= 2 * GUARD_PX && fabs(sy) <= 2 * GUARD_PX;
-                lo[0] = sx < lo[0] ? sx : lo[0], hi[0] = sx > hi[0] ? sx : hi[0];
-                lo[1] = sy < lo[1] ? sy : lo[1], hi[1] = sy > hi[1] ? sy : hi[1];
+                const pvert *pv = &c->cache[tri->v[k]];
+                inside &= pv->ok;
+                lo[0] = pv->sx < lo[0] ? pv->sx : lo[0], hi[0] = pv->sx > hi[0] ? pv->sx : hi[0];
+                lo[1] = pv->sy < lo[1] ? pv->sy : lo[1], hi[1] = pv->sy > hi[1] ? pv->sy : hi[1];
             }
             if (!inside) {
                 cvert poly[MAX_POLY];
@@ -1398,7 +1429,19 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
     if ((st = crisp_grow((void **)&r->tri_boxes, &r->tri_boxes_cap, tri_count ? tri_count : 1,
                          sizeof *r->tri_boxes)))
         return st;
-    box_ctx bc = {t, verts, vert_count, tris, tri_count, r->tri_boxes};
+    /* Each vertex projected once (as a draw does; kept for the draw that follows). */
+    if ((st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1,
+                         sizeof *r->vcache)))
+        return st;
+    setup_ctx sc = {.r = r,
+                    .t = t,
+                    .verts = verts,
+                    .vert_count = vert_count,
+                    .gx = GUARD_PX / image_w(t),
+                    .gy = GUARD_PX / image_h(t)};
+    crisp_pool_parallel_for(pool, CHUNKS, 1, project_vertices, &sc);
+    r->vcache_verts = verts, r->vcache_count = vert_count, r->vcache_t = t;
+    box_ctx bc = {t, r->vcache, verts, vert_count, tris, tri_count, r->tri_boxes};
     crisp_pool_parallel_for(pool, CHUNKS, 1, tri_boxes, &bc);
     for (size_t i = 0; i < tri_count; i++) {
         const int *b = r->tri_boxes[i];
@@ -1526,7 +1569,9 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
     crisp_status st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1,
                                  sizeof *r->vcache);
     if (st) return st;
-    crisp_pool_parallel_for(pool, CHUNKS, 1, project_vertices, &sc);
+    if (!(r->vcache_verts == verts && r->vcache_count == vert_count && r->vcache_t == t))
+        crisp_pool_parallel_for(pool, CHUNKS, 1, project_vertices, &sc);
+    r->vcache_verts = NULL; /* kept for one draw only */
 
     int tiles_x = (t->width + TILE - 1) / TILE, tiles_y = (t->height + TILE - 1) / TILE;
     size_t tiles = (size_t)tiles_x * tiles_y;

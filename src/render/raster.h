@@ -157,7 +157,9 @@ void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, d
 /* The same slack, computed only in the 16x16-pixel cells that the given triangles can cover (the
  * samples a draw_fill of them reads; other samples of slack are left as they were): the values
  * there equal crisp__raster_depth_slack's bit for bit. The fill pass's gap fillers cover few
- * tiles of a close-up. */
+ * tiles of a close-up. The vertices' screen positions are kept for the next draw of the same
+ * vertices into the same target (it does not compute them again), so they must not change in
+ * between. */
 crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_target *t,
                                             crisp_pool *pool, double scale,
                                             const crisp_raster_view *view,
