@@ -282,13 +282,44 @@ static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
         for (int bx = c->bx0; bx <= c->bx1; bx++)
             out[bx] = INFINITY;
         int j1 = (by + 1) * n < t->height ? (by + 1) * n : t->height;
+        int gx0 = c->bx0; /* the blocks left to the loop below */
+#if defined(__SSE2__)
+        if (S == 1 && n == 4) { /* the common case: each block's 4 x 4 values in registers */
+            int bxe = c->bx1 < t->width / 4 ? c->bx1 + 1 : t->width / 4; /* whole blocks */
+            for (int bx = c->bx0; bx < bxe; bx++) {
+                const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
+                __m128d m2 = _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2));
+                for (int j = by * 4 + 1; j < j1; j++) {
+                    p += t->width;
+                    m2 = _mm_min_pd(m2, _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2)));
+                }
+                double l[2];
+                _mm_storeu_pd(l, m2);
+                out[bx] = l[0] < l[1] ? l[0] : l[1];
+            }
+            gx0 = bxe > gx0 ? bxe : gx0;
+        }
+#endif
         for (int j = by * n; j < j1; j++) {
             const double *row = t->inv_w + (size_t)j * t->width * S;
-            for (int bx = c->bx0; bx <= c->bx1; bx++) {
+            for (int bx = gx0; bx <= c->bx1; bx++) {
                 size_t a = (size_t)bx * n * S,
                        b = (size_t)(bx * n + n < t->width ? bx * n + n : t->width) * S;
                 double m = out[bx];
-                for (size_t k = a; k < b; k++)
+                size_t k = a;
+#if defined(__SSE2__)
+                /* Two lanes at a time (a least value: the order does not matter; stored values
+                 * are never NaN). */
+                if (k + 2 <= b) {
+                    __m128d m2 = _mm_set1_pd(m);
+                    for (; k + 2 <= b; k += 2)
+                        m2 = _mm_min_pd(_mm_loadu_pd(row + k), m2);
+                    double l[2];
+                    _mm_storeu_pd(l, m2);
+                    m = l[0] < l[1] ? l[0] : l[1];
+                }
+#endif
+                for (; k < b; k++)
                     m = row[k] < m ? row[k] : m;
                 out[bx] = m;
             }

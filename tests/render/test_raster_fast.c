@@ -359,6 +359,56 @@ static void test_box_enclosure_sound(void **state)
     edge_soup = 0;
 }
 
+/* crisp__raster_block_depth: each block's least 1/W over its samples, as a plain loop finds it
+ * (1, 4 and 16 samples, block sizes 2, 4 and 8, image sizes that are not multiples of them,
+ * the whole target and a rectangle of blocks; blocks outside the rectangle keep their values;
+ * a pending clear gives 0). */
+static void test_block_depth(void **state)
+{
+    (void)state;
+    static const int sizes[3][2] = {{37, 23}, {64, 16}, {18, 41}};
+    crisp_pool *pool;
+    assert_int_equal(crisp_pool_create(2, &pool), CRISP_OK);
+    rng_state = 11;
+    for (int z = 0; z < 3; z++)
+        for (int samples = 1; samples <= 16; samples *= 4)
+            for (int n = 2; n <= 8; n *= 2)
+                for (int part = 0; part < 2; part++) {
+                    int w = sizes[z][0], h = sizes[z][1], bw = (w + n - 1) / n,
+                        bh = (h + n - 1) / n;
+                    crisp_raster_target t = {0};
+                    assert_int_equal(crisp__raster_target_init(&t, w, h, samples), CRISP_OK);
+                    for (size_t k = 0; k < (size_t)w * h * samples; k++)
+                        t.inv_w[k] = rnd() < 0.05 ? 0 : rnd();
+                    t.clear_pending = 0;
+                    double *got = malloc((size_t)bw * bh * sizeof *got);
+                    for (int k = 0; k < bw * bh; k++)
+                        got[k] = -1;
+                    int rect[4] = {1, 1, bw - 2, bh - 1};
+                    crisp__raster_block_depth(&t, pool, n, part ? rect : NULL, got);
+                    for (int by = 0; by < bh; by++)
+                        for (int bx = 0; bx < bw; bx++) {
+                            int in = !part || (bx >= rect[0] && bx <= rect[2] && by >= rect[1] &&
+                                               by <= rect[3]);
+                            double m = INFINITY;
+                            for (int j = by * n; j < (by + 1) * n && j < h; j++)
+                                for (int i = bx * n; i < (bx + 1) * n && i < w; i++)
+                                    for (int s = 0; s < samples; s++) {
+                                        double v = t.inv_w[((size_t)j * w + i) * samples + s];
+                                        m = v < m ? v : m;
+                                    }
+                            assert_true(got[(size_t)by * bw + bx] == (in ? m : -1));
+                        }
+                    t.clear_pending = 1;
+                    crisp__raster_block_depth(&t, pool, n, NULL, got);
+                    for (int k = 0; k < bw * bh; k++)
+                        assert_true(got[k] == 0);
+                    free(got);
+                    crisp__raster_target_free(&t);
+                }
+    crisp_pool_destroy(pool);
+}
+
 /* crisp__plan_trim_box against crisp_plan_trim_test on random tables: whenever the box test
  * answers 0 or 1, the point test gives that answer at dense samples of the box, at its corners
  * and at the crossings and row and strip boundaries inside it. */
@@ -513,6 +563,7 @@ int main(void)
         cmocka_unit_test(test_slack_for_triangles),
         cmocka_unit_test(test_box_test),
         cmocka_unit_test(test_box_enclosure_sound),
+        cmocka_unit_test(test_block_depth),
         cmocka_unit_test(test_vectors_equal_scalar),
         cmocka_unit_test(test_deferred_clear),
         cmocka_unit_test(test_plan_trim_box),
