@@ -20,6 +20,13 @@
     1048576.0 /* screen coordinates stay within +-2^20 px: exact int64 edge functions */
 #define MAX_POLY 12
 
+#if defined(__GNUC__) && !defined(__clang__)
+#define PRAGMA(x) _Pragma(#x)
+#define UNROLL(n) PRAGMA(GCC unroll n)
+#else
+#define UNROLL(n)
+#endif
+
 typedef struct setup_tri {
     int64_t x[3], y[3]; /* fixed point, counter-clockwise in the (x right, y down) frame */
     int64_t bias[3];    /* 0 for edges that own their samples (top-left rule), else -1 */
@@ -515,6 +522,7 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
      * this frame the inside is E >= 0. A sample exactly on an edge belongs to it when the edge's
      * direction lies in a half-open half-circle; the opposite edge of a neighbour then does not
      * own it, so shared edges are covered once. */
+    UNROLL(3)
     for (int k = 0; k < 3; k++) {
         int a0 = (k + 1) % 3, a1 = (k + 2) % 3;
         int64_t dx = out->x[a1] - out->x[a0], dy = out->y[a1] - out->y[a0];
@@ -747,13 +755,6 @@ static int tri_decision(const raster_ctx *c, const setup_tri *st, double tbox[4]
     double lo[2] = {tbox[0], tbox[2]}, hi[2] = {tbox[1], tbox[3]};
     return c->r->box_test(c->test_ctx, st->face, lo, hi);
 }
-
-#if defined(__GNUC__) && !defined(__clang__)
-#define PRAGMA(x) _Pragma(#x)
-#define UNROLL(n) PRAGMA(GCC unroll n)
-#else
-#define UNROLL(n)
-#endif
 
 #if defined(__SSE2__)
 /* A block row of a one-sample target, BLOCK lanes from its first pixel, two at a time: bit q
