@@ -100,12 +100,16 @@ typedef struct crisp__trees {
     crisp_trim_plan *trims;           /* per face */
     crisp_trim_density_tree *density; /* per face: blocks for the trim density bound */
     uint64_t *density_gen;            /* per face: groups generation it was built at (0: none) */
-    uint32_t *face_tau; /* per face: largest visible tau, 0 when the face is not visible */
+    crisp_trim_lod *lod; /* per face: coarse trim polylines of faces a few pixels across */
+    uint64_t *lod_key;   /* per face: the scene's trim_serial it was built from (0: none) */
+    uint32_t *face_tau;  /* per face: largest visible tau, 0 when the face is not visible */
     uint32_t face_cap;
     crisp_arena **arenas;
     void **build_state;
     crisp_status *worker_status;
     int worker_cap;
+    size_t *trim_used;   /* per worker: the most trim scratch (arenas) one face took this build */
+    size_t trim_scratch; /* the most any face took so far: reserved in every worker's arena */
     crisp__forced *forced;
     size_t forced_count, forced_cap;
     uint32_t *redo; /* patches to rebuild with forced splits */
