@@ -124,6 +124,13 @@ static void run_view(const char *name, const char *view, const crisp_scene *sc,
         fprintf(stderr, "%s %s: plan levels %.1f edges %.1f trim %.1f ribbons %.1f ms\n", name,
                 view, plan->stats.ms_levels, plan->stats.ms_edges, plan->stats.ms_trim,
                 plan->stats.ms_ribbons);
+    if (getenv("BENCH_INTERACTIVE_STAGES")) /* the draw's counts (last frame) */
+        fprintf(stderr,
+                "%s %s: leaves %llu, vertices %llu, ribbon triangles %llu, fragments tested "
+                "%llu, trimmed %llu\n",
+                name, view, (unsigned long long)st.leaves, (unsigned long long)st.vertices,
+                (unsigned long long)st.ribbon_triangles, (unsigned long long)st.fragments_tested,
+                (unsigned long long)st.fragments_trimmed);
     size_t covered = 0;
     for (size_t p = 0; p < (size_t)img.width * img.height; p++)
         covered += img.face[p] >= 0;

@@ -524,8 +524,9 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
                 v[k].attr[2 + a] = src[k].normal[a];
         }
         /* Indices relative to the ribbons' first vertex (drawn with verts + vorigin). */
+        /* The trim test keeps every ribbon fragment (trim_test): not run at all. */
         uint32_t base = (uint32_t)(c->vbase - c->vorigin + 4 * q),
-                 face = src[0].face | CRISP_RASTER_FACE_FLAG;
+                 face = src[0].face | CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST;
         c->r->tris[c->tbase + 2 * q] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
         c->r->tris[c->tbase + 2 * q + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
     }
@@ -733,8 +734,12 @@ static void resolve_row1(const resolve_ctx *c, size_t j)
         __m128d d0 = _mm_add_pd(_mm_loadu_pd(colx + i), vr0);
         __m128d d1 = _mm_add_pd(_mm_loadu_pd(coly + i), vr1);
         __m128d d2 = _mm_add_pd(_mm_loadu_pd(colz + i), vr2);
-        __m128d n0 = _mm_set_pd(b[2], a[2]), n1 = _mm_set_pd(b[3], a[3]),
-                n2 = _mm_set_pd(b[4], a[4]);
+        /* The two samples' attributes: a0..a3, a1..a4, b0..b3, b1..b4 (inside the pair). */
+        __m128 fa0 = _mm_loadu_ps(a), fa1 = _mm_loadu_ps(a + 1), fb0 = _mm_loadu_ps(b),
+               fb1 = _mm_loadu_ps(b + 1);
+        __m128 lo = _mm_unpacklo_ps(fa1, fb1), hi = _mm_unpackhi_ps(fa1, fb1); /* a1 b1 a2 b2 */
+        __m128d n0 = _mm_cvtps_pd(_mm_movehl_ps(lo, lo)), n1 = _mm_cvtps_pd(hi),
+                n2 = _mm_cvtps_pd(_mm_movehl_ps(hi, hi)); /* exact conversions */
         __m128d nn = _mm_sqrt_pd(
             _mm_add_pd(_mm_add_pd(_mm_mul_pd(n0, n0), _mm_mul_pd(n1, n1)), _mm_mul_pd(n2, n2)));
         __m128d vv = _mm_sqrt_pd(
@@ -757,10 +762,11 @@ static void resolve_row1(const resolve_ctx *c, size_t j)
         __m128 dp = _mm_cvtpd_ps(_mm_div_pd(one, _mm_loadu_pd(inv_w + i)));
         _mm_storel_pi((__m64 *)(depth + i), dp);
         oface[i] = fa, oface[i + 1] = fb;
-        memcpy(uv + 2 * (size_t)i, a, 2 * sizeof *uv);
-        memcpy(uv + 2 * (size_t)i + 2, b, 2 * sizeof *uv);
-        memcpy(normal + 3 * (size_t)i, a + 2, 3 * sizeof *normal);
-        memcpy(normal + 3 * (size_t)i + 3, b + 2, 3 * sizeof *normal);
+        _mm_storeu_ps(uv + 2 * (size_t)i, _mm_movelh_ps(fa0, fb0)); /* a0 a1 b0 b1 */
+        /* a2 a3 a4 (a4), then a4 b2 b3 b4 over the last two: the pair's six floats. */
+        __m128 t4 = _mm_shuffle_ps(fa1, fb1, _MM_SHUFFLE(1, 1, 3, 3)); /* a4 a4 b2 b2 */
+        _mm_storeu_ps(normal + 3 * (size_t)i, _mm_shuffle_ps(fa1, fa1, _MM_SHUFFLE(3, 3, 2, 1)));
+        _mm_storeu_ps(normal + 3 * (size_t)i + 2, _mm_shuffle_ps(t4, fb1, _MM_SHUFFLE(3, 2, 2, 0)));
     }
 #endif
     for (; i < c->x1; i++)

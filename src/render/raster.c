@@ -9,6 +9,9 @@
 #endif
 #include <stdlib.h>
 #include <string.h>
+#ifdef DEBUG_BOX
+#include <stdio.h>
+#endif
 
 #define TILE 64
 #define SUB (1 << CRISP_RASTER_SUBPIXEL_BITS)
@@ -16,6 +19,13 @@
 #define GUARD_PX                                                                                   \
     1048576.0 /* screen coordinates stay within +-2^20 px: exact int64 edge functions */
 #define MAX_POLY 12
+
+#if defined(__GNUC__) && !defined(__clang__)
+#define PRAGMA(x) _Pragma(#x)
+#define UNROLL(n) PRAGMA(GCC unroll n)
+#else
+#define UNROLL(n)
+#endif
 
 typedef struct setup_tri {
     int64_t x[3], y[3]; /* fixed point, counter-clockwise in the (x right, y down) frame */
@@ -29,14 +39,9 @@ typedef struct setup_tri {
     double q0[1 + CRISP_RASTER_ATTRS], qx[1 + CRISP_RASTER_ATTRS], qy[1 + CRISP_RASTER_ATTRS];
     int x0, y0, x1, y1; /* pixel bbox, inclusive, clamped to the image */
     uint32_t face;
-    /* The fragment test decided for a box of (u, v) holding the vertices' (u, v), slightly
-     * widened (crisp__raster_set_box_test): boxed = 1 (kept) or 0 (discarded) for a fragment
-     * whose interpolated (u, v) lies in the box; -1: undecided (each 8x8 block then tries its
-     * own smaller box); -2: no box test for this triangle; -3: not classified yet (each tile
-     * classifies it when its second fragment needs the test: the first is simply tested, and
-     * hidden triangles cost nothing). */
+    /* -3: the fragment test is decided for boxes of (u, v) by the box test where it can be
+     * (crisp__raster_set_box_test; raster_tile_s), -2: every fragment runs the test (or none). */
     int boxed;
-    double box[4]; /* u_lo, u_hi, v_lo, v_hi */
 } setup_tri;
 
 /* A triangle's attribute planes copied out of its setup record for the tile's loops (a local
@@ -85,6 +90,10 @@ struct crisp_raster {
     size_t chunk_cap[CHUNKS];
     pvert *vcache; /* per vertex, screen-space form */
     size_t vcache_cap;
+    /* The vertices and target vcache holds (crisp__raster_depth_slack_tris), for the next draw. */
+    const crisp_raster_vertex *vcache_verts;
+    size_t vcache_count;
+    const crisp_raster_target *vcache_t;
     size_t batch; /* 0: BATCH (crisp__raster_set_batch, for tests) */
     const setup_tri **bin_items;
     size_t bin_cap;
@@ -280,13 +289,44 @@ static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
         for (int bx = c->bx0; bx <= c->bx1; bx++)
             out[bx] = INFINITY;
         int j1 = (by + 1) * n < t->height ? (by + 1) * n : t->height;
+        int gx0 = c->bx0; /* the blocks left to the loop below */
+#if defined(__SSE2__)
+        if (S == 1 && n == 4) { /* the common case: each block's 4 x 4 values in registers */
+            int bxe = c->bx1 < t->width / 4 ? c->bx1 + 1 : t->width / 4; /* whole blocks */
+            for (int bx = c->bx0; bx < bxe; bx++) {
+                const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
+                __m128d m2 = _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2));
+                for (int j = by * 4 + 1; j < j1; j++) {
+                    p += t->width;
+                    m2 = _mm_min_pd(m2, _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2)));
+                }
+                double l[2];
+                _mm_storeu_pd(l, m2);
+                out[bx] = l[0] < l[1] ? l[0] : l[1];
+            }
+            gx0 = bxe > gx0 ? bxe : gx0;
+        }
+#endif
         for (int j = by * n; j < j1; j++) {
             const double *row = t->inv_w + (size_t)j * t->width * S;
-            for (int bx = c->bx0; bx <= c->bx1; bx++) {
+            for (int bx = gx0; bx <= c->bx1; bx++) {
                 size_t a = (size_t)bx * n * S,
                        b = (size_t)(bx * n + n < t->width ? bx * n + n : t->width) * S;
                 double m = out[bx];
-                for (size_t k = a; k < b; k++)
+                size_t k = a;
+#if defined(__SSE2__)
+                /* Two lanes at a time (a least value: the order does not matter; stored values
+                 * are never NaN). */
+                if (k + 2 <= b) {
+                    __m128d m2 = _mm_set1_pd(m);
+                    for (; k + 2 <= b; k += 2)
+                        m2 = _mm_min_pd(_mm_loadu_pd(row + k), m2);
+                    double l[2];
+                    _mm_storeu_pd(l, m2);
+                    m = l[0] < l[1] ? l[0] : l[1];
+                }
+#endif
+                for (; k < b; k++)
                     m = row[k] < m ? row[k] : m;
                 out[bx] = m;
             }
@@ -384,8 +424,7 @@ typedef struct pvert {
     double sx, sy;
     int64_t fx, fy;
     double val[1 + CRISP_RASTER_ATTRS];
-    double uv[2]; /* attributes 0 and 1 as given (for the box of the fragment test) */
-    int ok;       /* inside every clip plane, finite, W > 0 (cache only) */
+    int ok; /* inside every clip plane, finite, W > 0 (cache only) */
 } pvert;
 
 /* llround for |x| < 2^52 (the guard band keeps screen positions far inside): the same value as
@@ -410,8 +449,6 @@ static int project2(const double *p, const double *attr, const crisp_raster_targ
     out->val[0] = iw;
     for (int q = 1; q <= CRISP_RASTER_ATTRS; q++)
         out->val[q] = attr[q - 1] * iw;
-    out->uv[0] = attr[0];
-    out->uv[1] = attr[1];
     return 1;
 }
 
@@ -485,6 +522,7 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
      * this frame the inside is E >= 0. A sample exactly on an edge belongs to it when the edge's
      * direction lies in a half-open half-circle; the opposite edge of a neighbour then does not
      * own it, so shared edges are covered once. */
+    UNROLL(3)
     for (int k = 0; k < 3; k++) {
         int a0 = (k + 1) % 3, a1 = (k + 2) % 3;
         int64_t dx = out->x[a1] - out->x[a0], dy = out->y[a1] - out->y[a0];
@@ -494,24 +532,13 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         out->ec[k] = -(out->ea[k] * out->x[a0] + out->eb[k] * out->y[a0]) + out->bias[k];
     }
     out->face = face;
-    /* Interpolated (u, v) are convex combinations of the vertices' (up to rounding; a fragment
-     * outside the box is simply tested): the box of the three, widened a little so rounding
-     * rarely puts a fragment outside it. */
-    out->boxed = -2; /* no box test */
+    /* With a box test, the tiles decide the test for boxes of (u, v) (raster_tile_s). */
     const crisp_raster *r = c->r;
     uint32_t fid = face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST);
-    if (r->box_test && c->test && !(face & CRISP_RASTER_FACE_NO_TEST) &&
-        !(fid < r->untested_count && r->untested[fid])) {
-        for (int q = 0; q < 2; q++) {
-            double lo = a->uv[q], hi = a->uv[q];
-            lo = b->uv[q] < lo ? b->uv[q] : lo, hi = b->uv[q] > hi ? b->uv[q] : hi;
-            lo = d->uv[q] < lo ? d->uv[q] : lo, hi = d->uv[q] > hi ? d->uv[q] : hi;
-            double m = 1e-9 * (hi - lo) + 1e-14 * (fabs(lo) + fabs(hi));
-            out->box[2 * q] = lo - m;
-            out->box[2 * q + 1] = hi + m;
-        }
-        out->boxed = -3; /* classified by the tile that first needs it */
-    }
+    out->boxed = r->box_test && c->test && !(face & CRISP_RASTER_FACE_NO_TEST) &&
+                         !(fid < r->untested_count && r->untested[fid])
+                     ? -3
+                     : -2;
     return 1;
 }
 
@@ -600,6 +627,7 @@ typedef struct {
     int64_t off_fx[16], off_fy[16];
     int64_t off_fmin[2], off_fmax[2]; /* least and greatest of off_fx (0) and off_fy (1) */
     double off_x[16], off_y[16];
+    double off_xmin, off_xmax, off_ymin, off_ymax; /* least and greatest of off_x, off_y */
     const float *slack; /* fill mode (crisp__raster_draw_fill) when not NULL */
     int hiz;            /* hierarchical depth rejection on */
     int vectors;        /* the vector path (crisp__raster_set_vectors) */
@@ -638,46 +666,95 @@ static double block_min(const crisp_raster_target *t, const double *inv_w, int b
     return m;
 }
 
-/* The box of (u, v) over a pixel block [bx0, bx1 + 1) x [by0, by1 + 1) of a triangle, and the
- * box test's answer for it (-1: none). u = (u/W plane) / (1/W plane) is a ratio of affine
- * functions: along any line it is monotone where 1/W keeps its sign, so over the rectangle its
- * values lie between those at the corners; intersected with the triangle's own box and widened
- * a little for rounding (a fragment outside the box is simply tested). */
-static int block_box(const raster_ctx *c, const setup_tri *st, int bx0, int by0, int bx1, int by1,
-                     double box[4])
+/* A box of (u, v) holding what the per-fragment path computes (attributes 0 and 1 of attrs_*,
+ * rounding and all) at every sample whose position lies in the convex hull of the n points
+ * (hx[i], hy[i]) (pixels of the whole image, exact doubles); 0 when no bound is found (1/W not
+ * safely positive there, or values not finite).
+ *
+ * Why it holds. A fragment at dx, dy from (ox, oy) computes D = (q0 + qx dx) + qy dy (1/W; the
+ * same three terms in another order), N = (p0 + px dx) + py dy, w = 1 / D and a = N * w, each
+ * rounded; dx and dy are themselves rounded differences within a few pixels of the hull's, so
+ * |dx| < mx and |dy| < my with 16 px to spare. With u = 2^-53, |computed - exact| <= 8 u (|q0| +
+ * |qx| mx + |qy| my) =: E for N and D alike (the position's rounding included, generously). The
+ * exact N / D of an affine pair is monotone along lines where D > 0, so over the hull it lies
+ * between its values at the hull's points; those are computed here with the same rounding, and
+ * |N / D| <= B there. Then every computed N' / D' is within (E_N + B E_D) / (D_min - E_D) of the
+ * exact ratio at its point, and w, a add two roundings (2 u B): the corner values' and the
+ * fragments' errors together are below W = 4 (E_N + B E_D) / (min D' - 2 E_D) + 8 u B (twice
+ * what the sum needs). The result: [least corner value - W, greatest + W]. */
+static int uv_hull_box(const setup_tri *st, const double *hx, const double *hy, int n,
+                       double box[4])
 {
-    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-    for (int cy = 0; cy < 2; cy++)
-        for (int cx = 0; cx < 2; cx++) {
-            double dx = (cx ? bx1 + 1 : bx0) - st->ox, dy = (cy ? by1 + 1 : by0) - st->oy;
-            double iw = st->q0[0] + st->qx[0] * dx + st->qy[0] * dy;
-            if (!(iw > 0)) return -1;
-            for (int q = 0; q < 2; q++) {
-                double a = (st->q0[q + 1] + st->qx[q + 1] * dx + st->qy[q + 1] * dy) / iw;
-                lo[q] = a < lo[q] ? a : lo[q];
-                hi[q] = a > hi[q] ? a : hi[q];
-            }
-        }
-    for (int q = 0; q < 2; q++) {
-        double m = 1e-9 * (hi[q] - lo[q]) + 1e-14 * (fabs(lo[q]) + fabs(hi[q]));
-        lo[q] -= m, hi[q] += m;
-        if (st->boxed != -2) { /* the triangle's box (set whenever the box test is on) */
-            lo[q] = st->box[2 * q] > lo[q] ? st->box[2 * q] : lo[q];
-            hi[q] = st->box[2 * q + 1] < hi[q] ? st->box[2 * q + 1] : hi[q];
-        }
-        box[2 * q] = lo[q];
-        box[2 * q + 1] = hi[q];
+    const double u = 0x1p-53;
+    double dx[4], dy[4], mx = 0, my = 0;
+    for (int i = 0; i < n; i++) {
+        dx[i] = hx[i] - st->ox, dy[i] = hy[i] - st->oy;
+        mx = fabs(dx[i]) > mx ? fabs(dx[i]) : mx;
+        my = fabs(dy[i]) > my ? fabs(dy[i]) : my;
     }
+    mx += 16, my += 16;
+    double e[3];
+    for (int k = 0; k < 3; k++)
+        e[k] = 8 * u * (fabs(st->q0[k]) + fabs(st->qx[k]) * mx + fabs(st->qy[k]) * my);
+    double dmin = INFINITY, lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    double nmax[2] = {0, 0};
+    for (int i = 0; i < n; i++) {
+        double d = st->q0[0] + st->qx[0] * dx[i] + st->qy[0] * dy[i];
+        dmin = d < dmin ? d : dmin;
+        for (int q = 0; q < 2; q++) {
+            double a = st->q0[q + 1] + st->qx[q + 1] * dx[i] + st->qy[q + 1] * dy[i];
+            double r = a / d;
+            lo[q] = r < lo[q] ? r : lo[q];
+            hi[q] = r > hi[q] ? r : hi[q];
+            /* |N / D| at this point, from above: (|N'| + E_N) / (D' - E_D). */
+            double b = (fabs(a) + e[q + 1]) / (d - e[0]);
+            nmax[q] = b > nmax[q] ? b : nmax[q];
+        }
+    }
+    double dlow = dmin - 2 * e[0];
+    if (!(dlow > 0)) return 0; /* also NaN */
+    for (int q = 0; q < 2; q++) {
+        double B = nmax[q] * (1 + 16 * u);
+        double W = 4 * (e[q + 1] + B * e[0]) / dlow + 8 * u * B + 0x1p-1000;
+        box[2 * q] = lo[q] - W;
+        box[2 * q + 1] = hi[q] + W;
+        if (!(isfinite(box[2 * q]) && isfinite(box[2 * q + 1]) && isfinite(W))) return 0;
+    }
+    return 1;
+}
+
+/* The box test's answer for the fragments of triangle st whose samples lie in pixels
+ * [x0, x1] x [y0, y1] (sample offsets c->off_*): from uv_hull_box on the rectangle of their
+ * sample positions, intersected with tbox (NULL: none; a box from the triangle itself). 1:
+ * every such fragment keeps, 0: every one is discarded, -1: not decided. */
+static int rect_decision(const raster_ctx *c, const setup_tri *st, int x0, int y0, int x1, int y1,
+                         const double *tbox)
+{
+    double ax = x0 + c->off_xmin, bx = x1 + c->off_xmax, ay = y0 + c->off_ymin,
+           by = y1 + c->off_ymax;
+    double hx[4] = {ax, bx, ax, bx}, hy[4] = {ay, ay, by, by}, box[4];
+    if (!uv_hull_box(st, hx, hy, 4, box)) return -1;
+    if (tbox)
+        for (int q = 0; q < 2; q++) {
+            box[2 * q] = tbox[2 * q] > box[2 * q] ? tbox[2 * q] : box[2 * q];
+            box[2 * q + 1] = tbox[2 * q + 1] < box[2 * q + 1] ? tbox[2 * q + 1] : box[2 * q + 1];
+        }
+    double lo[2] = {box[0], box[2]}, hi[2] = {box[1], box[3]};
     if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) return -1;
     return c->r->box_test(c->test_ctx, st->face, lo, hi);
 }
 
-#if defined(__GNUC__) && !defined(__clang__)
-#define PRAGMA(x) _Pragma(#x)
-#define UNROLL(n) PRAGMA(GCC unroll n)
-#else
-#define UNROLL(n)
-#endif
+/* The same for all of triangle st's fragments (its covered samples lie in its snapped
+ * triangle): the box goes to tbox (valid when the answer is not -2), -2 when there is none. */
+static int tri_decision(const raster_ctx *c, const setup_tri *st, double tbox[4])
+{
+    double hx[3], hy[3];
+    for (int k = 0; k < 3; k++)
+        hx[k] = (double)st->x[k] / SUB, hy[k] = (double)st->y[k] / SUB;
+    if (!uv_hull_box(st, hx, hy, 3, tbox)) return -2;
+    double lo[2] = {tbox[0], tbox[2]}, hi[2] = {tbox[1], tbox[3]};
+    return c->r->box_test(c->test_ctx, st->face, lo, hi);
+}
 
 #if defined(__SSE2__)
 /* A block row of a one-sample target, BLOCK lanes from its first pixel, two at a time: bit q
@@ -710,6 +787,84 @@ static inline unsigned row_mask(const int64_t e[3], __m128i lane_step[3][BLOCK /
         }
     }
     return m & ~neg;
+}
+#endif
+
+#if defined(__SSE2__)
+/* The fragments of lanes m of a block row of a one-sample target whose trim decision is "keep"
+ * (or that have no test): attributes and stores, two lanes at a time where both are in m. The
+ * per-fragment path's values bit for bit: w = 1 / iw and ((p0 + px dx) + py dy) * w on each lane,
+ * with dx = dx0 + lane and py dy the same product as there (computed once per row); the
+ * conversions to float are correctly rounded either way. idx0: the row's first sample. */
+typedef struct pair_planes {
+    __m128d q0[CRISP_RASTER_ATTRS], qx[CRISP_RASTER_ATTRS]; /* attribute k's, on both lanes */
+} pair_planes;
+
+static inline unsigned store_row1(const planes *pl, const pair_planes *pp, double dx0, double dy,
+                                  const double *iwv, unsigned m, size_t idx0,
+                                  double *restrict inv_w, int32_t *restrict fbuf,
+                                  float *restrict abuf, int32_t face_id)
+{
+    const __m128d *q0 = pp->q0, *qx = pp->qx;
+    __m128d qyd[CRISP_RASTER_ATTRS];
+    for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+        qyd[k] = _mm_set1_pd(pl->qy[k + 1] * dy);
+    const __m128d one = _mm_set1_pd(1.0), vd = _mm_set1_pd(dx0);
+    unsigned stored = 0;
+    for (int h = 0; h < BLOCK / 2; h++) {
+        unsigned bits = (m >> (2 * h)) & 3u;
+        if (!bits) continue;
+        stored += 1 + (bits == 3u);
+        if (bits != 3u) { /* one lane: the per-fragment arithmetic */
+            int q = 2 * h + (bits == 2u);
+            size_t idx = idx0 + (size_t)q;
+            double iw = iwv[q], dx = dx0 + q, w = 1.0 / iw, a[CRISP_RASTER_ATTRS];
+            attrs_vector(pl, dx, dy, w, a);
+            inv_w[idx] = iw;
+            fbuf[idx] = face_id;
+            float *dst = abuf + idx * CRISP_RASTER_ATTRS;
+            dst[0] = (float)a[0], dst[1] = (float)a[1], dst[2] = (float)a[2];
+            dst[3] = (float)a[3], dst[4] = (float)a[4];
+            continue;
+        }
+        size_t idx = idx0 + (size_t)(2 * h);
+        __m128d iw = _mm_loadu_pd(iwv + 2 * h);
+        __m128d w = _mm_div_pd(one, iw);
+        __m128d dx = _mm_add_pd(vd, _mm_set_pd(2 * h + 1, 2 * h));
+        __m128 f[CRISP_RASTER_ATTRS];
+        for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+            f[k] = _mm_cvtpd_ps(
+                _mm_mul_pd(_mm_add_pd(_mm_add_pd(q0[k], _mm_mul_pd(qx[k], dx)), qyd[k]), w));
+        /* lane 0: a0 a1 a2 a3 | a4, lane 1: a0 a1 a2 a3 | a4, five floats per sample. */
+        __m128 t01 = _mm_unpacklo_ps(f[0], f[1]); /* a0 a1 of lane 0, a0 a1 of lane 1 */
+        __m128 t23 = _mm_unpacklo_ps(f[2], f[3]);
+        float *dst = abuf + idx * CRISP_RASTER_ATTRS;
+        _mm_storeu_ps(dst, _mm_movelh_ps(t01, t23));
+        _mm_store_ss(dst + 4, f[4]);
+        _mm_storeu_ps(dst + 5, _mm_movehl_ps(t23, t01));
+        _mm_store_ss(dst + 9, _mm_shuffle_ps(f[4], f[4], 1));
+        _mm_storeu_pd(inv_w + idx, iw);
+        fbuf[idx] = face_id, fbuf[idx + 1] = face_id;
+    }
+    return stored;
+}
+#endif
+
+#if defined(__SSE2__)
+/* Bit q set where lane q of a block row is inside all three edges (row_mask's coverage). */
+static inline unsigned row_cover(const int64_t e[3], __m128i lane_step[3][BLOCK / 2])
+{
+    unsigned neg = 0;
+    const __m128i e0 = _mm_set1_epi64x(e[0]), e1 = _mm_set1_epi64x(e[1]),
+                  e2 = _mm_set1_epi64x(e[2]);
+    UNROLL(4)
+    for (int h = 0; h < BLOCK / 2; h++) {
+        __m128i o = _mm_or_si128(
+            _mm_or_si128(_mm_add_epi64(e0, lane_step[0][h]), _mm_add_epi64(e1, lane_step[1][h])),
+            _mm_add_epi64(e2, lane_step[2][h]));
+        neg |= (unsigned)_mm_movemask_pd(_mm_castsi128_pd(o)) << (2 * h);
+    }
+    return ~neg & 0xffu;
 }
 #endif
 
@@ -763,11 +918,18 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
             (int32_t)(st->face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST));
         int run_test = c->test && !(st->face & CRISP_RASTER_FACE_NO_TEST) &&
                        !((size_t)face_id < r->untested_count && r->untested[face_id]);
-        int tboxed = st->boxed, tneed = 0; /* the triangle's box test answer (setup_tri) */
-        int xboxed = -2, xneed = 0;        /* the same for its part in this tile (-2: not yet) */
-        double xbox[4];
-        if (x0 / BLOCK == x1 / BLOCK && y0 / BLOCK == y1 / BLOCK)
-            xboxed = -1; /* in one block: the block's own box is the same */
+        /* The fragment test decided for a box of (u, v) that holds every fragment's (u, v)
+         * (uv_hull_box), found when a block first has a fragment that passes the depth test:
+         * for the whole triangle (tdec), then its part in this tile (xdec, when the triangle
+         * reaches beyond the tile), then the block (bdec, when the part spans several
+         * blocks). 1: kept, 0: discarded, -1: not decided (each fragment is tested), -3: not
+         * looked at yet. Without a test every fragment is kept. */
+        int box_on = run_test && st->boxed != -2;
+        int tdec = !run_test ? 1 : box_on ? -3 : -1, xdec = -3;
+        double tbox[4];
+        int tbox_ok = 0;
+        int part_blocks = x0 / BLOCK != x1 / BLOCK || y0 / BLOCK != y1 / BLOCK;
+        int beyond = st->x0 < px0 || st->x1 > px1 || st->y0 < py0 || st->y1 > py1;
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         const int64_t *A = st->ea, *B = st->eb;
         int64_t step[3] = {A[0] * SUB, A[1] * SUB, A[2] * SUB};
@@ -777,6 +939,9 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
         for (int k = 0; k < 3; k++)
             for (int h = 0; h < BLOCK / 2; h++)
                 lane_step[k][h] = _mm_set_epi64x((2 * h + 1) * step[k], 2 * h * step[k]);
+        pair_planes pp;
+        for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+            pp.q0[k] = _mm_set1_pd(pl.q0[k + 1]), pp.qx[k] = _mm_set1_pd(pl.qx[k + 1]);
 #else
         vectors = 0;
 #endif
@@ -789,6 +954,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
             for (int bx0 = x0; bx0 <= x1; bx0 = (bx0 / BLOCK + 1) * BLOCK) {
                 int bx1 = (bx0 / BLOCK + 1) * BLOCK - 1 < x1 ? (bx0 / BLOCK + 1) * BLOCK - 1 : x1;
                 int blk = ((by0 - py0) / BLOCK) * BLOCKS + (bx0 - px0) / BLOCK;
+                if (tdec == 0 || xdec == 0) goto triangle_done; /* every fragment discarded */
                 /* Each edge function over the block's samples (inside the rectangle of sample
                  * positions; affine, so extreme at its corners): a block outside an edge has no
                  * covered sample and is skipped; one inside all three is covered everywhere and
@@ -836,10 +1002,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                     }
                 }
                 uint32_t wrote = 0;
-                /* The block's own (u, v) box and its test answer, found at the first fragment
-                 * that needs the test (-2: not yet). */
-                int bboxed = -2, bneed = 0;
-                double bbox[4];
+                int bdec = -3; /* the block's decision (-3: not yet) */
                 /* Edge values at the block's first pixel of each sample, stepped by rows. */
                 int64_t er[16][3];
                 for (int s = 0; s < S; s++) {
@@ -863,15 +1026,16 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                         size_t idx0 = ((size_t)(j - ty0) * tw + (size_t)(bx0 - tx0)) * S + s;
                         double iwv[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
+#if defined(__SSE2__)
+                        unsigned m = 0;
+#endif
                         if (!slack && S == 1 && vectors && bx0 - tx0 + BLOCK <= (int)tw) {
 #if defined(__SSE2__)
                             /* The same tests on 8 lanes, two at a time (the row's stored 1/W
                              * is read at 8 lanes: inside the image's row). */
-                            unsigned m =
-                                row_mask(e, lane_step, full, base, gx, dx0, inv_w + idx0, iwv) &
+                            m = row_mask(e, lane_step, full, base, gx, dx0, inv_w + idx0, iwv) &
                                 ((1u << n) - 1);
-                            for (; m; m &= m - 1)
-                                pass[np++] = __builtin_ctz(m);
+                            np = m != 0;
 #endif
                         } else if (!slack) {
                             /* Coverage, 1/W and the depth test in one branch-free loop (the
@@ -893,6 +1057,21 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                                     pass[np] = q;
                                     np += cv & (iwq > stored[(size_t)q * S]);
                                 }
+                        } else if (S == 1 && vectors && bx0 - tx0 + BLOCK <= (int)tw) {
+#if defined(__SSE2__)
+                            /* Fill mode, one sample, the lanes' coverage two at a time (most
+                             * rows of a ribbon's blocks have none), then the loop below on the
+                             * covered lanes. */
+                            unsigned cm =
+                                (full ? 0xffu : row_cover(e, lane_step)) & ((1u << n) - 1);
+                            for (; cm; cm &= cm - 1) {
+                                int q = __builtin_ctz(cm);
+                                double iwq = base + gx * (dx0 + q), cur = inv_w[idx0 + (size_t)q];
+                                iwv[q] = iwq;
+                                if (!(cur > 0) || 1.0 / iwq < 1.0 / cur - slack[idx0 + (size_t)q])
+                                    pass[np++] = q;
+                            }
+#endif
                         } else {
                             /* Fill mode: coverage first, then the slack's depth test. */
                             if (full) {
@@ -917,6 +1096,50 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                                     pass[np++] = q;
                             }
                         }
+                        if (!np) continue;
+                        if (bdec == -3) { /* the first fragment that needs the decision */
+                            if (tdec == -3) {
+                                tdec = tri_decision(c, st, tbox);
+                                tbox_ok = tdec != -2;
+                                tdec = tdec == -2 ? -1 : tdec;
+                            }
+                            bdec = tdec;
+                            if (bdec == -1 && box_on && beyond && part_blocks) {
+                                if (xdec == -3)
+                                    xdec =
+                                        rect_decision(c, st, x0, y0, x1, y1, tbox_ok ? tbox : NULL);
+                                bdec = xdec;
+                            }
+                            if (bdec == -1 && box_on && part_blocks)
+                                bdec =
+                                    rect_decision(c, st, bx0, by0, bx1, by1, tbox_ok ? tbox : NULL);
+                            if (bdec == 0) { /* every fragment of the block is discarded */
+#if defined(__SSE2__)
+                                boxed += m ? (size_t)__builtin_popcount(m) : (size_t)np;
+#else
+                                boxed += (size_t)np;
+#endif
+                                goto block_done;
+                            }
+                        }
+#if defined(__SSE2__)
+                        if (bdec == 1 && !clip_on && (m & (m >> 1) & 0x55u)) {
+                            /* Every fragment of the row is kept, two neighbours among them: no
+                             * per-fragment work but the attributes and the stores, two lanes
+                             * at a time. */
+                            unsigned k = store_row1(&pl, &pp, dx0, dy, iwv, m, idx0, inv_w, fbuf,
+                                                    abuf, face_id);
+                            if (run_test)
+                                boxed += k;
+                            else if (c->test)
+                                untested += k;
+                            wrote += k;
+                            continue;
+                        }
+                        if (m) /* the vector path's lanes */
+                            for (np = 0; m; m &= m - 1)
+                                pass[np++] = __builtin_ctz(m);
+#endif
                         for (int pi = 0; pi < np; pi++) {
                             int q = pass[pi];
                             size_t idx = idx0 + (size_t)q * S;
@@ -931,44 +1154,26 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                                 attrs_vector(&pl, dx, dy, w, a);
                             else
                                 attrs_scalar(&pl, dx, dy, w, a);
-                            if (run_test) {
-                                int keep = -1;
-                                if (tboxed == -3 && ++tneed >= 2) {
-                                    double lo[2] = {st->box[0], st->box[2]},
-                                           hi[2] = {st->box[1], st->box[3]};
-                                    tboxed = r->box_test(c->test_ctx, st->face, lo, hi);
-                                }
-                                if (tboxed >= 0) {
-                                    if (a[0] >= st->box[0] && a[0] <= st->box[1] &&
-                                        a[1] >= st->box[2] && a[1] <= st->box[3])
-                                        keep = tboxed;
-                                } else if (tboxed == -1) {
-                                    /* The box of the triangle's part in this tile, then (when
-                                     * that is undecided) the block's. */
-                                    if (xboxed == -2 && ++xneed >= 2)
-                                        xboxed = block_box(c, st, x0, y0, x1, y1, xbox);
-                                    if (xboxed >= 0) {
-                                        if (a[0] >= xbox[0] && a[0] <= xbox[1] && a[1] >= xbox[2] &&
-                                            a[1] <= xbox[3])
-                                            keep = xboxed;
-                                    } else if (xboxed == -1) {
-                                        if (bboxed == -2 && ++bneed >= 2)
-                                            bboxed = block_box(c, st, bx0, by0, bx1, by1, bbox);
-                                        if (bboxed >= 0 && a[0] >= bbox[0] && a[0] <= bbox[1] &&
-                                            a[1] >= bbox[2] && a[1] <= bbox[3])
-                                            keep = bboxed;
-                                    }
-                                }
-                                if (keep >= 0) {
-                                    boxed++;
-                                } else {
-                                    tested++;
-                                    keep = c->test(c->test_ctx, st->face, a[0], a[1]);
-                                }
-                                if (!keep) {
+                            if (bdec == -1) {
+                                tested++;
+                                if (!c->test(c->test_ctx, st->face, a[0], a[1])) {
                                     discarded++;
                                     continue;
                                 }
+                            } else if (run_test) {
+                                boxed++;
+#ifdef DEBUG_BOX
+                                if (!c->test(c->test_ctx, st->face, a[0], a[1])) {
+                                    double tb2[4];
+                                    int td = tri_decision(c, st, tb2);
+                                    fprintf(stderr,
+                                            "MISMATCH face %u u %.17g v %.17g bdec %d tdec %d xdec "
+                                            "%d tbox %.17g %.17g %.17g %.17g blk %d %d %d %d part "
+                                            "%d %d %d %d\n",
+                                            st->face, a[0], a[1], bdec, td, xdec, tb2[0], tb2[1],
+                                            tb2[2], tb2[3], bx0, by0, bx1, by1, x0, y0, x1, y1);
+                                }
+#endif
                             } else if (c->test) {
                                 untested++;
                             }
@@ -980,9 +1185,11 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             wrote++;
                         }
                     }
+            block_done:
                 writes[blk] += wrote;
             }
         }
+    triangle_done:;
     }
     atomic_fetch_add(&c->tested, tested);
     atomic_fetch_add(&c->discarded, discarded);
@@ -1181,6 +1388,7 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
  * from the unsnapped ones); 2 px of margin cover both. */
 typedef struct box_ctx {
     const crisp_raster_target *t;
+    const pvert *cache; /* the vertices projected (project_vertices) */
     const crisp_raster_vertex *verts;
     size_t vert_count;
     const crisp_raster_tri *tris;
@@ -1206,17 +1414,10 @@ static void tri_boxes(void *vctx, size_t begin, size_t end, int worker)
             double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
             int inside = 1;
             for (int k = 0; k < 3 && inside; k++) { /* the common case: no clipping */
-                const double *p = c->verts[tri->v[k]].clip;
-                double d[6];
-                plane_dists(p, gx, gy, d);
-                for (int q = 0; q < 6; q++)
-                    inside &= d[q] >= 0 && isfinite(d[q]);
-                double w = p[3];
-                double sx = (p[0] / w + 1.0) * 0.5 * image_w(t),
-                       sy = (1.0 - p[1] / w) * 0.5 * image_h(t);
-                inside &= w > 0 && fabs(sx) <= 2 * GUARD_PX && fabs(sy) <= 2 * GUARD_PX;
-                lo[0] = sx < lo[0] ? sx : lo[0], hi[0] = sx > hi[0] ? sx : hi[0];
-                lo[1] = sy < lo[1] ? sy : lo[1], hi[1] = sy > hi[1] ? sy : hi[1];
+                const pvert *pv = &c->cache[tri->v[k]];
+                inside &= pv->ok;
+                lo[0] = pv->sx < lo[0] ? pv->sx : lo[0], hi[0] = pv->sx > hi[0] ? pv->sx : hi[0];
+                lo[1] = pv->sy < lo[1] ? pv->sy : lo[1], hi[1] = pv->sy > hi[1] ? pv->sy : hi[1];
             }
             if (!inside) {
                 cvert poly[MAX_POLY];
@@ -1260,7 +1461,19 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
     if ((st = crisp_grow((void **)&r->tri_boxes, &r->tri_boxes_cap, tri_count ? tri_count : 1,
                          sizeof *r->tri_boxes)))
         return st;
-    box_ctx bc = {t, verts, vert_count, tris, tri_count, r->tri_boxes};
+    /* Each vertex projected once (as a draw does; kept for the draw that follows). */
+    if ((st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1,
+                         sizeof *r->vcache)))
+        return st;
+    setup_ctx sc = {.r = r,
+                    .t = t,
+                    .verts = verts,
+                    .vert_count = vert_count,
+                    .gx = GUARD_PX / image_w(t),
+                    .gy = GUARD_PX / image_h(t)};
+    crisp_pool_parallel_for(pool, CHUNKS, 1, project_vertices, &sc);
+    r->vcache_verts = verts, r->vcache_count = vert_count, r->vcache_t = t;
+    box_ctx bc = {t, r->vcache, verts, vert_count, tris, tri_count, r->tri_boxes};
     crisp_pool_parallel_for(pool, CHUNKS, 1, tri_boxes, &bc);
     for (size_t i = 0; i < tri_count; i++) {
         const int *b = r->tri_boxes[i];
@@ -1388,7 +1601,9 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
     crisp_status st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1,
                                  sizeof *r->vcache);
     if (st) return st;
-    crisp_pool_parallel_for(pool, CHUNKS, 1, project_vertices, &sc);
+    if (!(r->vcache_verts == verts && r->vcache_count == vert_count && r->vcache_t == t))
+        crisp_pool_parallel_for(pool, CHUNKS, 1, project_vertices, &sc);
+    r->vcache_verts = NULL; /* kept for one draw only */
 
     int tiles_x = (t->width + TILE - 1) / TILE, tiles_y = (t->height + TILE - 1) / TILE;
     size_t tiles = (size_t)tiles_x * tiles_y;
@@ -1408,6 +1623,10 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
         crisp__raster_sample_offset(t->samples, s, off);
         rc.off_x[s] = off[0];
         rc.off_y[s] = off[1];
+        rc.off_xmin = s == 0 || off[0] < rc.off_xmin ? off[0] : rc.off_xmin;
+        rc.off_xmax = s == 0 || off[0] > rc.off_xmax ? off[0] : rc.off_xmax;
+        rc.off_ymin = s == 0 || off[1] < rc.off_ymin ? off[1] : rc.off_ymin;
+        rc.off_ymax = s == 0 || off[1] > rc.off_ymax ? off[1] : rc.off_ymax;
         rc.off_fx[s] = llround(off[0] * SUB);
         rc.off_fy[s] = llround(off[1] * SUB);
         for (int q = 0; q < 2; q++) {

@@ -92,7 +92,8 @@ typedef struct crisp_raster_stats {
     size_t triangles_in, triangles_setup, fragments_tested, fragments_discarded;
     size_t fragments_untested; /* kept without the test (CRISP_RASTER_FACE_NO_TEST) */
     size_t blocks_skipped;     /* 8x8 blocks of a triangle rejected whole by the depth bound */
-    size_t fragments_boxed;    /* decided by the triangle's box (crisp__raster_set_box_test) */
+    size_t fragments_boxed;    /* decided by a box (crisp__raster_set_box_test; of a block
+                                  found all discarded, only the fragments of its first row) */
 } crisp_raster_stats;
 
 /* Hierarchical depth rejection (on by default; off only to measure it or to check that the
@@ -115,11 +116,11 @@ void crisp__raster_set_clip(crisp_raster *r, const double k[4]);
  * (or would rather not). It must agree with the test at every point of the box. */
 typedef int (*crisp_raster_box_fn)(void *ctx, uint32_t face, const double lo[2],
                                    const double hi[2]);
-/* With a box test, each triangle's (u, v) box (its vertices' attributes 0 and 1, slightly
- * widened) is classified once at setup; a fragment whose interpolated (u, v) lies in the box
- * takes the box's answer instead of running the test (the same answer, as the box test agrees
- * with the test there), the others run the test. Used by later draws with their test_ctx;
- * NULL: off. */
+/* With a box test, the test is decided for a box of (u, v) that holds every computed (u, v) of
+ * a triangle's fragments (rounding included), else of its part in a tile, else of an 8x8 block,
+ * when that part first has a fragment passing the depth test: kept (no test), discarded (the
+ * block skipped) or undecided (each fragment runs the test). The same answers as the test, as
+ * the box test agrees with it in the box. Used by later draws with their test_ctx; NULL: off. */
 void crisp__raster_set_box_test(crisp_raster *r, crisp_raster_box_fn fn);
 /* Triangles set up and binned at a time (0: the default, 2^19); small values are for tests. */
 void crisp__raster_set_batch(crisp_raster *r, size_t triangles);
@@ -157,7 +158,9 @@ void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, d
 /* The same slack, computed only in the 16x16-pixel cells that the given triangles can cover (the
  * samples a draw_fill of them reads; other samples of slack are left as they were): the values
  * there equal crisp__raster_depth_slack's bit for bit. The fill pass's gap fillers cover few
- * tiles of a close-up. */
+ * tiles of a close-up. The vertices' screen positions are kept for the next draw of the same
+ * vertices into the same target (it does not compute them again), so they must not change in
+ * between. */
 crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_target *t,
                                             crisp_pool *pool, double scale,
                                             const crisp_raster_view *view,

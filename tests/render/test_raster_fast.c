@@ -84,10 +84,26 @@ static int keep_all(void *vctx, uint32_t face, double u, double v)
     return 1;
 }
 
+/* Keeps u below THRESH; its box test is exact (a box below or above it decides). */
+#define THRESH 0.6
+static int thresh_test(void *vctx, uint32_t face, double u, double v)
+{
+    (void)face, (void)v;
+    atomic_fetch_add(&((test_ctx *)vctx)->calls, 1);
+    return u < THRESH;
+}
+
+static int thresh_box(void *vctx, uint32_t face, const double lo[2], const double hi[2])
+{
+    (void)vctx, (void)face;
+    return hi[0] < THRESH ? 1 : lo[0] >= THRESH ? 0 : -1;
+}
+
 static const uint8_t *untested_faces; /* crisp__raster_set_untested_faces for render() */
-static crisp_raster_box_fn box_fn;    /* crisp__raster_set_box_test for render() */
-static int scalar_only;               /* crisp__raster_set_vectors(r, 0) in render() */
-static int deferred_clear;            /* render() fills the target with junk, then clear_depth */
+static int edge_soup;              /* render(): u within 3 ulps of THRESH on every other triangle */
+static crisp_raster_box_fn box_fn; /* crisp__raster_set_box_test for render() */
+static int scalar_only;            /* crisp__raster_set_vectors(r, 0) in render() */
+static int deferred_clear;         /* render() fills the target with junk, then clear_depth */
 
 static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn,
                    const float *slack, crisp_raster_target *t, test_ctx *tc,
@@ -97,6 +113,15 @@ static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_r
     static crisp_raster_tri tri[NT];
     rng_state = 0x2545F4914F6CDD1Dull;
     soup(v, tri);
+    if (edge_soup)
+        for (int i = 0; i < NT; i++)
+            for (int k = 0; k < 3; k++) {
+                double u = THRESH - 1e-4 * rnd();
+                if (i % 2) /* 1 to 4 ulps below */
+                    for (int j = 0, n = 1 + (i + k) % 4; j < n; j++)
+                        u = nextafter(j ? u : THRESH, 0);
+                v[3 * i + k].attr[0] = u;
+            }
     if (flag_no_test)
         for (int i = 0; i < NT; i++)
             tri[i].face |= CRISP_RASTER_FACE_NO_TEST;
@@ -218,20 +243,28 @@ static void test_vectors_equal_scalar(void **state)
     static float slack[W * H * 4];
     for (int k = 0; k < W * H * 4; k++)
         slack[k] = (float)(0.03 * (k % 7));
-    for (int samples = 1; samples <= 4; samples += 3)
-        for (int fill = 0; fill < 2; fill++) {
-            crisp_raster_target a = {0}, b = {0};
-            test_ctx ta = {0}, tb = {0};
-            crisp_raster_stats sa, sb;
-            scalar_only = 1;
-            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &ta, &sa);
-            scalar_only = 0;
-            render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &b, &tb, &sb);
-            assert_same(&a, &b);
-            assert_int_equal(ta.calls, tb.calls);
-            crisp__raster_target_free(&a);
-            crisp__raster_target_free(&b);
-        }
+    /* Without a box test; with one (whole rows of kept fragments take the vector path's
+     * row stores); with faces 2 and 5 untested (the same). */
+    static const uint8_t two_five[7] = {0, 0, 1, 0, 0, 1, 0};
+    for (int mode = 0; mode < 3; mode++)
+        for (int samples = 1; samples <= 4; samples += 3)
+            for (int fill = 0; fill < 2; fill++) {
+                crisp_raster_target a = {0}, b = {0};
+                test_ctx ta = {0}, tb = {0};
+                crisp_raster_stats sa, sb;
+                box_fn = mode == 1 ? some_box : NULL;
+                untested_faces = mode == 2 ? two_five : NULL;
+                scalar_only = 1;
+                render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &ta, &sa);
+                scalar_only = 0;
+                render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &b, &tb, &sb);
+                box_fn = NULL;
+                untested_faces = NULL;
+                assert_same(&a, &b);
+                assert_int_equal(ta.calls, tb.calls);
+                crisp__raster_target_free(&a);
+                crisp__raster_target_free(&b);
+            }
 }
 
 /* clear_depth, deferred to the next draw's tiles, leaves what a full clear leaves (attributes
@@ -294,6 +327,86 @@ static void test_box_test(void **state)
             crisp__raster_target_free(&ref);
             crisp__raster_target_free(&a);
         }
+}
+
+/* The tiles decide the fragment test for whole triangles, parts of them in a tile and 8x8 blocks
+ * from a box that must hold every fragment's computed (u, v), rounding and all: on triangles
+ * whose vertices' u lie 1 to 4 ulps below the threshold (computed fragment values fall on both
+ * sides of it) among others well below it, the box test changes no bit (1 and 4 samples, the
+ * vector and the scalar paths), and it does decide fragments. */
+static void test_box_enclosure_sound(void **state)
+{
+    (void)state;
+    edge_soup = 1;
+    for (int samples = 1; samples <= 4; samples += 3)
+        for (int vec = 0; vec < 2; vec++) {
+            crisp_raster_target ref = {0}, a = {0};
+            test_ctx t_ref = {0}, t_box = {0};
+            crisp_raster_stats st_ref, st;
+            scalar_only = !vec;
+            render(samples, 1, 0, 0, thresh_test, NULL, &ref, &t_ref, &st_ref);
+            box_fn = thresh_box;
+            render(samples, 1, 0, 0, thresh_test, NULL, &a, &t_box, &st);
+            box_fn = NULL;
+            scalar_only = 0;
+            assert_same(&ref, &a);
+            assert_true(st_ref.fragments_discarded > 0); /* fragments at the threshold */
+            assert_true(st.fragments_boxed > 0);
+            assert_true(t_box.calls < t_ref.calls);
+            crisp__raster_target_free(&ref);
+            crisp__raster_target_free(&a);
+        }
+    edge_soup = 0;
+}
+
+/* crisp__raster_block_depth: each block's least 1/W over its samples, as a plain loop finds it
+ * (1, 4 and 16 samples, block sizes 2, 4 and 8, image sizes that are not multiples of them,
+ * the whole target and a rectangle of blocks; blocks outside the rectangle keep their values;
+ * a pending clear gives 0). */
+static void test_block_depth(void **state)
+{
+    (void)state;
+    static const int sizes[3][2] = {{37, 23}, {64, 16}, {18, 41}};
+    crisp_pool *pool;
+    assert_int_equal(crisp_pool_create(2, &pool), CRISP_OK);
+    rng_state = 11;
+    for (int z = 0; z < 3; z++)
+        for (int samples = 1; samples <= 16; samples *= 4)
+            for (int n = 2; n <= 8; n *= 2)
+                for (int part = 0; part < 2; part++) {
+                    int w = sizes[z][0], h = sizes[z][1], bw = (w + n - 1) / n,
+                        bh = (h + n - 1) / n;
+                    crisp_raster_target t = {0};
+                    assert_int_equal(crisp__raster_target_init(&t, w, h, samples), CRISP_OK);
+                    for (size_t k = 0; k < (size_t)w * h * samples; k++)
+                        t.inv_w[k] = rnd() < 0.05 ? 0 : rnd();
+                    t.clear_pending = 0;
+                    double *got = malloc((size_t)bw * bh * sizeof *got);
+                    for (int k = 0; k < bw * bh; k++)
+                        got[k] = -1;
+                    int rect[4] = {1, 1, bw - 2, bh - 1};
+                    crisp__raster_block_depth(&t, pool, n, part ? rect : NULL, got);
+                    for (int by = 0; by < bh; by++)
+                        for (int bx = 0; bx < bw; bx++) {
+                            int in = !part || (bx >= rect[0] && bx <= rect[2] && by >= rect[1] &&
+                                               by <= rect[3]);
+                            double m = INFINITY;
+                            for (int j = by * n; j < (by + 1) * n && j < h; j++)
+                                for (int i = bx * n; i < (bx + 1) * n && i < w; i++)
+                                    for (int s = 0; s < samples; s++) {
+                                        double v = t.inv_w[((size_t)j * w + i) * samples + s];
+                                        m = v < m ? v : m;
+                                    }
+                            assert_true(got[(size_t)by * bw + bx] == (in ? m : -1));
+                        }
+                    t.clear_pending = 1;
+                    crisp__raster_block_depth(&t, pool, n, NULL, got);
+                    for (int k = 0; k < bw * bh; k++)
+                        assert_true(got[k] == 0);
+                    free(got);
+                    crisp__raster_target_free(&t);
+                }
+    crisp_pool_destroy(pool);
 }
 
 /* crisp__plan_trim_box against crisp_plan_trim_test on random tables: whenever the box test
@@ -449,6 +562,8 @@ int main(void)
         cmocka_unit_test(test_no_test_flag),
         cmocka_unit_test(test_slack_for_triangles),
         cmocka_unit_test(test_box_test),
+        cmocka_unit_test(test_box_enclosure_sound),
+        cmocka_unit_test(test_block_depth),
         cmocka_unit_test(test_vectors_equal_scalar),
         cmocka_unit_test(test_deferred_clear),
         cmocka_unit_test(test_plan_trim_box),
