@@ -372,6 +372,13 @@ static double face_diagonal(step_reader *r, face_scale *fs, const step_entity *f
     fs->face++;
     for (int k = 0; k < 3; k++)
         fs->lo[k] = INFINITY, fs->hi[k] = -INFINITY;
+    /* The face's own size is that of its bounds: its surface (and the pcurves' references to
+     * it) is left out, whose control net can reach far beyond the face (trj6_b1-ec-214.stp
+     * #6387: a lens 1.5 long and 0.046 high on a patch whose net is 30,000 long; the
+     * tolerance from the net's size let the trims wander 0.14 off the lens's edges). */
+    const step_entity *se;
+    if (!crisp__step_get_ref(r, fe, crisp__step_part(r, fe, NULL), 2, &se))
+        fs->stamp[se - f->entities] = fs->face;
     step_value root = {.kind = STEP_REF, .num = fe->id};
     scale_value(r, fs, &root, &n, 0);
     while (n) {
