@@ -675,6 +675,30 @@ static void test_lens_on_long_patch(void **state)
     }
 }
 
+/* An octant of a sphere (radius 200) whose pcurves give latitudes 270 to 360 degrees (face #355
+ * of Open CASCADE's bm2_pe_t4-A.stp, data/cuts): the sphere's parametrisation repeats every turn
+ * of latitude, so these are -90 to 0; the face was dropped for an empty latitude range [4.70,
+ * 1.57]. Kept: the octant's area pi 200^2 / 2 (Open CASCADE's BRepGProp gives the same). */
+static void test_sphere_latitudes_a_turn_away(void **state)
+{
+    (void)state;
+    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_bm2_pe_t4_a_face355.stp");
+    crisp_model *m;
+    step_read_stats st = {0};
+    assert_int_equal(read_str(t, &m, &st), CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-6, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    assert_true(st.max_edge_dev < 1e-6);
+    crisp_mass_props mp;
+    assert_int_equal(crisp_mass_model(m, NULL, &mp), CRISP_OK);
+    assert_true(fabs(mp.area - M_PI * 200 * 200 / 2) < 1e-6 * mp.area);
+    crisp_model_destroy(m);
+    free(t);
+}
+
 /* A face on a SURFACE_OF_LINEAR_EXTRUSION of a circle, its loop without pcurves, one arc ending
  * at the profile's angle pi (trj3_s1-tc-214.stp #3993, written by hand): checking the trims
  * against their edges inverted points just short of angle pi onto -pi (the search over
@@ -781,6 +805,7 @@ int main(void)
         cmocka_unit_test(test_bspline_strip_through_seam),
         cmocka_unit_test(test_band_seam_clear_of_holes),
         cmocka_unit_test(test_lens_on_long_patch),
+        cmocka_unit_test(test_sphere_latitudes_a_turn_away),
         cmocka_unit_test(test_extrusion_arc_at_pi),
         cmocka_unit_test(test_extrusion_closed_profile_start),
     };
