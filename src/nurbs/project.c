@@ -870,8 +870,10 @@ crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const cr
     if (!st && *count == 0)
         st = crisp_error(CRISP_ERR_NUMERIC, "%s: the curve projects to a point", fn);
     if (st) {
-        for (int k = 0; k < *count; k++)
+        for (int k = 0; k < *count; k++) {
             crisp_curve_destroy(dest[k]);
+            dest[k] = NULL; /* the caller may destroy its array too (fuzz_step found it) */
+        }
         *count = 0;
         crisp_error_prefix("%s: %d jumps cut", fn, ncut);
     }
