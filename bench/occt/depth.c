@@ -26,8 +26,10 @@
  * At up to 200 of a row's differing pixels the exact renderer (true surfaces and trims) says which
  * side is off: crisp's depth farther than tol from it, Open CASCADE's, both or neither; and how
  * many of those pixels have another face within 1 px in crisp's image.
- * Environment: BENCH_DEPTH_PPM=DIR writes DIR/<model>-<view>.ppm (differences red: crisp nearer,
- * blue: Open CASCADE nearer, yellow: one side only; grey: compared and equal; dark: left out). */
+ * Environment: BENCH_DEPTH_DIR=DIR takes the models from DIR instead of data/nurbs (the cut
+ * faces of issue 13: each file's faces against Open CASCADE's); BENCH_DEPTH_PPM=DIR writes
+ * DIR/<model>-<view>.ppm (differences red: crisp nearer, blue: Open CASCADE nearer, yellow: one
+ * side only; grey: compared and equal; dark: left out). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -168,6 +170,7 @@ int main(int argc, char **argv)
     static char names[MAX_MODELS][256];
     char dir[1024];
     snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
+    if (getenv("BENCH_DEPTH_DIR")) snprintf(dir, sizeof dir, "%s", getenv("BENCH_DEPTH_DIR"));
     int model_count = bench_list_files(dir, names, MAX_MODELS);
     const char *ppm = getenv("BENCH_DEPTH_PPM");
     printf(

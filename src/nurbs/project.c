@@ -163,7 +163,7 @@ static double newton_core(const surf_info *si, const double p[3], double uv[2], 
     double d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2];
     double lam = 0;
     double tiny = 1e-300;
-    int nudges = 0;
+    int nudges = 0, valley = 0;
     for (int it = 0; it < NEWTON_ITERS && d2 > 0; it++) {
         double a = crisp_vec3_dot(su, su), b = crisp_vec3_dot(su, sv), c = crisp_vec3_dot(sv, sv);
         double gu = crisp_vec3_dot(r, su), gv = crisp_vec3_dot(r, sv);
@@ -224,6 +224,52 @@ static double newton_core(const surf_info *si, const double p[3], double uv[2], 
             if (lam < 1e-12) lam = 0;
             if (converged) break;
         } else {
+            /* The step left a narrow curved valley of the distance (a patch far longer in one
+             * direction of space than the others: the edges of trj6_b1-ec-214.stp #6387 lie
+             * on a level curve of a coordinate that changes 10^5 times faster across it than
+             * along it). The damping that shortens the step also turns it across the valley, so
+             * Levenberg-Marquardt creeps along it; instead the undamped step is followed by
+             * Gauss-Newton corrections back onto the valley floor, kept when they end nearer.
+             * Once per inversion, after 8 iterations (Newton is done by then everywhere else)
+             * while the damping is light; each evaluation counts as an iteration. On inputs
+             * where Newton gets nowhere (fuzzed files) the extra evaluations cost up to ~10%. */
+            if (it >= 8 && !valley && lam < 1e-2) {
+                double pc[2], ps[3], psu[3], psv[3], pr[3], pe = INFINITY;
+                int ok = 0;
+                valley = 1;
+                double a0 = a, c0 = c, det0 = a0 * c0 - b * b;
+                if (det0 > 1e-15 * a0 * c0 && !u_dead && !v_dead) {
+                    pc[0] = uv[0] - (c0 * gu - b * gv) / det0;
+                    pc[1] = uv[1] - (a0 * gv - b * gu) / det0;
+                    ok = 1;
+                }
+                for (int k = 0; k < 3 && ok; k++) {
+                    for (int dir = 0; dir < 2; dir++)
+                        if (!si->closed[dir]) pc[dir] = wrap(si, dir, pc[dir]);
+                    eval_wrapped(si, pc, ps, psu, psv);
+                    it++; /* the evaluations count against the iterations */
+                    for (int q = 0; q < 3; q++)
+                        pr[q] = ps[q] - p[q];
+                    pe = crisp_vec3_dot(pr, pr);
+                    if (!(pe == pe)) ok = 0;
+                    if (pe < d2 || !ok) break;
+                    double ka = crisp_vec3_dot(psu, psu), kb = crisp_vec3_dot(psu, psv),
+                           kc = crisp_vec3_dot(psv, psv), kg = crisp_vec3_dot(pr, psu),
+                           kh = crisp_vec3_dot(pr, psv), kd = ka * kc - kb * kb;
+                    if (!(kd > 1e-15 * ka * kc)) break;
+                    pc[0] -= (kc * kg - kb * kh) / kd;
+                    pc[1] -= (ka * kh - kb * kg) / kd;
+                }
+                if (ok && pe < d2) {
+                    uv[0] = pc[0], uv[1] = pc[1];
+                    memcpy(s, ps, sizeof s);
+                    memcpy(su, psu, sizeof su);
+                    memcpy(sv, psv, sizeof sv);
+                    memcpy(r, pr, sizeof r);
+                    d2 = pe;
+                    continue; /* (lam kept: a Newton that gets nowhere still stops early) */
+                }
+            }
             if (lam > 1e2 && nudges < 4 && step > 0) {
                 /* Stalled: typically on a crease (a C0 knot line) with the derivatives of the
                  * side we came from. Step across by a hair and take the other side's. */
@@ -824,8 +870,10 @@ crisp_status crisp_surface_project_curve_pieces(const crisp_surface *s, const cr
     if (!st && *count == 0)
         st = crisp_error(CRISP_ERR_NUMERIC, "%s: the curve projects to a point", fn);
     if (st) {
-        for (int k = 0; k < *count; k++)
+        for (int k = 0; k < *count; k++) {
             crisp_curve_destroy(dest[k]);
+            dest[k] = NULL; /* the caller may destroy its array too (fuzz_step found it) */
+        }
         *count = 0;
         crisp_error_prefix("%s: %d jumps cut", fn, ncut);
     }

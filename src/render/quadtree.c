@@ -15,6 +15,7 @@
  * asks for, with a count that is a multiple of 2^(depth difference), so every finer leaf along the
  * edge takes an equal share of those vertices. Both sides then place the same vertices. */
 #include "quadtree.h"
+#include "depth_bound.h"
 #include "rational_bound.h"
 #include "render_internal.h"
 
@@ -394,6 +395,9 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
             b->st = st;
             return;
         } else {
+            /* Within eps along the view too (issue 13, depth_bound.c). */
+            tau = crisp__depth_tess_level(&sub, c->plan->view_proj, c->plan->width, c->plan->height,
+                                          c->eps, tau, CRISP_TESS_MAX_LEVEL);
             if (tau > CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth) {
                 split = 1;
             } else {

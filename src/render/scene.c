@@ -102,6 +102,93 @@ static void patch_box(const crisp_bezier_patch *p, int depth, double box[6])
     }
 }
 
+/* 1 when the Bezier coefficients of coordinate q's derivative along dir (0: s, 1: t) of p keep
+ * one strict sign: q is then monotone along dir over the patch, with no extreme inside it. */
+static int monotone(const crisp_bezier_patch *p, int q, int dir)
+{
+    int nu = p->du + 1, sign = 0;
+    if (p->rational) return 0;
+    for (int j = 0; j <= p->dv - dir; j++)
+        for (int i = 0; i <= p->du - (1 - dir); i++) {
+            const double *a = p->cpw + 4 * (j * nu + i);
+            const double *b = p->cpw + 4 * (dir ? (j + 1) * nu + i : j * nu + i + 1);
+            double d = b[q] - a[q];
+            int sg = d > 0 ? 1 : d < 0 ? -1 : 0;
+            if (!sg || (sign && sg != sign)) return 0;
+            sign = sg;
+        }
+    return sign != 0;
+}
+
+/* A face whose trimmed region is a thin sliver of the (u, v) box of its loops (its loops' area
+ * under 1/16 of that box, as a lens between two close edges along a diagonal of a patch:
+ * trj6_b1-ec-214.stp #6387, 1e-6 of its patch's v range wide, on a patch 30,000 long): the
+ * patches clipped to the box reach far beyond what is drawn. Where a coordinate is monotone along
+ * s or t over such a patch piece, it takes its extremes on the region's boundary, so the box of
+ * the boundary's points (the trim pieces' images, sampled) bounds it; other coordinates keep the
+ * clipped box (the sampled box widened by 1% of its diagonal). Returns 0 when the face is not thin
+ * (or too large to look at), leaving box. */
+static int thin_face_box(const crisp_scene *s, const crisp_scene_face *sf, const double lo[2],
+                         const double hi[2], const double clipped[6], double box[6])
+{
+    if (sf->piece_count == 0 || sf->piece_count > 4096) return 0;
+    double area = 0;
+    for (uint32_t i = sf->first_piece; i < sf->first_piece + sf->piece_count; i++) {
+        const crisp_bezier_curve *c = &s->pieces[i];
+        for (int k = 0; k < c->degree; k++) {
+            const double *a = c->cpw + 3 * k, *b = c->cpw + 3 * (k + 1);
+            area += (a[0] / a[2]) * (b[1] / b[2]) - (b[0] / b[2]) * (a[1] / a[2]);
+        }
+    }
+    area = 0.5 * fabs(area);
+    if (!(area < (hi[0] - lo[0]) * (hi[1] - lo[1]) / 16)) return 0;
+    /* Which coordinates are monotone on every patch the loops' box meets. */
+    int mono[3] = {1, 1, 1};
+    double storage[2 * CRISP__PATCH_DOUBLES], tmp[CRISP__PATCH_DOUBLES];
+    for (uint32_t k = sf->first_patch; k < sf->first_patch + sf->patch_count; k++) {
+        const crisp_bezier_patch *b = &s->patches[k].bez;
+        double su = b->u1 - b->u0, sv = b->v1 - b->v0;
+        if (!(su > 0) || !(sv > 0)) return 0;
+        double s0 = fmax(0, (lo[0] - b->u0) / su), s1 = fmin(1, (hi[0] - b->u0) / su);
+        double t0 = fmax(0, (lo[1] - b->v0) / sv), t1 = fmin(1, (hi[1] - b->v0) / sv);
+        if (!(s0 <= s1 && t0 <= t1)) continue;
+        crisp_bezier_patch cell;
+        crisp__subpatch(b, s0, s1, t0, t1, storage, tmp, &cell);
+        for (int q = 0; q < 3; q++)
+            mono[q] &= monotone(&cell, q, 0) || monotone(&cell, q, 1);
+    }
+    if (!mono[0] && !mono[1] && !mono[2]) return 0;
+    /* The boundary's points: every piece at 33 parameters, on the patch holding each. */
+    double bb[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    uint32_t hint = sf->first_patch;
+    for (uint32_t i = sf->first_piece; i < sf->first_piece + sf->piece_count; i++)
+        for (int k = 0; k <= 32; k++) {
+            double uv[3], P[3];
+            crisp_bezier_curve_eval(&s->pieces[i], k / 32.0, uv);
+            uint32_t at = UINT32_MAX;
+            for (uint32_t m = 0; m < sf->patch_count && at == UINT32_MAX; m++) {
+                uint32_t pk = sf->first_patch + (hint - sf->first_patch + m) % sf->patch_count;
+                const crisp_bezier_patch *b = &s->patches[pk].bez;
+                if (uv[0] >= b->u0 && uv[0] <= b->u1 && uv[1] >= b->v0 && uv[1] <= b->v1) at = pk;
+            }
+            if (at == UINT32_MAX) return 0;
+            hint = at;
+            const crisp_bezier_patch *b = &s->patches[at].bez;
+            crisp_bezier_patch_eval(b, (uv[0] - b->u0) / (b->u1 - b->u0),
+                                    (uv[1] - b->v0) / (b->v1 - b->v0), P);
+            for (int q = 0; q < 3; q++)
+                bb[q] = fmin(bb[q], P[q]), bb[q + 3] = fmax(bb[q + 3], P[q]);
+        }
+    double margin = 0.01 * diag(bb); /* for the samples' chords */
+    for (int q = 0; q < 3; q++) {
+        double l = mono[q] ? bb[q] - margin : clipped[q];
+        double h = mono[q] ? bb[q + 3] + margin : clipped[q + 3];
+        box[q] = fmin(box[q], l);
+        box[q + 3] = fmax(box[q + 3], h);
+    }
+    return 1;
+}
+
 /* Add to box what face sf can show: its patches clipped to the (u, v) box of its trim loops (the
  * control polygons of the loops' pieces, which contain the curves). A large base surface trimmed
  * to a small face (real files do this: OCCT's PRO20358-W7.igs draws 1/8 of its surface) would
@@ -123,31 +210,35 @@ static void face_framing_box(const crisp_scene *s, const crisp_scene_face *sf, d
     }
     int trimmed = sf->piece_count > 0 && lo[0] <= hi[0] && lo[1] <= hi[1];
     double storage[2 * CRISP__PATCH_DOUBLES], tmp[CRISP__PATCH_DOUBLES];
+    double clipped[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    double *into = box;
+    if (trimmed) into = clipped;
     for (uint32_t k = sf->first_patch; k < sf->first_patch + sf->patch_count; k++) {
         const crisp_scene_patch *p = &s->patches[k];
         const crisp_bezier_patch *b = &p->bez;
         if (!trimmed) {
-            box_union(box, p->box);
+            box_union(into, p->box);
             continue;
         }
         double su = b->u1 - b->u0, sv = b->v1 - b->v0;
         if (!(su > 0) || !(sv > 0)) {
-            box_union(box, p->box);
+            box_union(into, p->box);
             continue;
         }
         double s0 = fmax(0, (lo[0] - b->u0) / su), s1 = fmin(1, (hi[0] - b->u0) / su);
         double t0 = fmax(0, (lo[1] - b->v0) / sv), t1 = fmin(1, (hi[1] - b->v0) / sv);
         if (!(s0 <= s1 && t0 <= t1)) continue; /* outside every loop: never drawn */
         if (s0 <= 0 && s1 >= 1 && t0 <= 0 && t1 >= 1) {
-            box_union(box, p->box);
+            box_union(into, p->box);
             continue;
         }
         crisp_bezier_patch cell;
         double cb[6];
         crisp__subpatch(b, s0, s1, t0, t1, storage, tmp, &cell);
         patch_box(&cell, 0, cb);
-        box_union(box, cb);
+        box_union(into, cb);
     }
+    if (trimmed && !thin_face_box(s, sf, lo, hi, clipped, box)) box_union(box, clipped);
 }
 
 void crisp_scene_destroy(crisp_scene *s)

@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "crisp/io.h"
+#include "crisp/mass.h"
 #include "iges/iges_builder.h"
 
 #ifndef M_PI
@@ -319,6 +320,51 @@ static void test_offset_of_revolution(void **state)
     crisp_model_destroy(m);
 }
 
+/* A 144 whose pcurves give three sides of its (u, v) rectangle (Open CASCADE's
+ * bug22566_test_Bad.igs DE 351, written out here): a sphere of radius 10 as a 120 revolution of
+ * a half circle, the pcurves running from the equator up a meridian to the pole, along the pole
+ * and down again half a turn away; the fourth side, half the equator, is missing (20 apart in
+ * 3D). The face was dropped ("trim loop not closed"); the gap is bridged as the STEP reader
+ * bridges loops the file leaves open (the bridge is under half the loop) and the face is the
+ * quarter sphere Open CASCADE draws: area 100 pi. */
+static void test_loop_open_by_a_side(void **state)
+{
+    (void)state;
+    const char *dep = "00010000";
+    test_entity e[] = {
+        {110, 0, 0, dep, 0, "0.,-115.,0.,0.,-125.,0.;"},       /* DE 1 axis */
+        {100, 0, 0, dep, 0, "0.,0.,-115.,0.,-105.,0.,-125.;"}, /* DE 3 half circle */
+        {120, 0, 0, dep, 0, "1,3,0.,6.28318530717959;"},       /* DE 5 sphere */
+        {126, 0, 0, dep, 0,                                    /* DE 7 */
+         "1,1,1,0,1,0,0.,0.,1.,1.,1.,1.,3.141592644,3.141592654,0.,1.570796317,3.141592654,0.,"
+         "0.,1.,0.,0.,1.;"},
+        {126, 0, 0, dep, 0, /* DE 9 */
+         "1,1,1,0,1,0,0.,0.,1.,1.,1.,1.,1.570796317,3.141592654,0.,1.570796317,4.71238898,0.,0.,"
+         "1.,0.,0.,1.;"},
+        {126, 0, 0, dep, 0, /* DE 11 */
+         "1,1,1,0,1,0,0.,0.,1.,1.,1.,1.,1.570796317,4.71238898,0.,1.570796317,6.283185307,0.,0.,"
+         "1.,0.,0.,1.;"},
+        {126, 0, 0, dep, 0, /* DE 13 */
+         "1,1,1,0,1,0,0.,0.,1.,1.,1.,1.,1.570796317,6.283185307,0.,3.141592644,6.283185307,0.,"
+         "0.,1.,0.,0.,1.;"},
+        {102, 0, 0, dep, 0, "4,7,9,11,13;"},                     /* DE 15 pcurves */
+        {100, 0, 0, dep, 0, "0.,0.,-115.,0.,-125.,10.,-115.;"},  /* DE 17 */
+        {100, 0, 0, dep, 0, "0.,0.,-115.,10.,-115.,0.,-105.;"},  /* DE 19 */
+        {100, 0, 0, dep, 0, "0.,0.,-115.,10.,-115.,0.,-105.;"},  /* DE 21 */
+        {100, 0, 0, dep, 0, "0.,0.,-115.,-10.,-115.,0.,-125.;"}, /* DE 23 */
+        {102, 0, 0, dep, 0, "4,17,19,21,23;"},                   /* DE 25 model space */
+        {142, 0, 0, dep, 0, "1,5,15,25,1;"},                     /* DE 27 */
+        {144, 0, 0, NULL, 0, "5,1,0,27;"},                       /* DE 29 */
+    };
+    crisp_model *m = load(e, N_OF(e));
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    crisp_mass_props mp;
+    assert_int_equal(crisp_mass_model(m, NULL, &mp), CRISP_OK);
+    assert_true(fabs(mp.area - 100 * M_PI) < 1e-6 * mp.area);
+    crisp_model_destroy(m);
+}
+
 /* Open CASCADE's bug23171_tube_surf.igs: two 144 faces on 140 offsets (by 6.33) of 120 surfaces
  * of revolution (a tube of radius 100): both faces kept (they were dropped, and their base
  * surfaces drawn as stray faces) and in Open CASCADE 7.6.3's box in y and z: radius 106.33
@@ -362,6 +408,7 @@ int main(void)
         cmocka_unit_test(test_offset_of_bspline_plane),
         cmocka_unit_test(test_offset_of_revolution),
         cmocka_unit_test(test_offset_tube_file),
+        cmocka_unit_test(test_loop_open_by_a_side),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

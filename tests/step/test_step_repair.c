@@ -26,6 +26,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "crisp/mass.h"
+#include "crisp/render.h"
 #include "io/step/step_internal.h"
 #include "step/test_step_util.h"
 
@@ -606,6 +608,97 @@ static void test_bspline_strip_through_seam(void **state)
     free(t);
 }
 
+/* A band on a cylinder between its end circle and a notched loop, with two holes, one of them
+ * straddling the angle where the end circle starts (face #1446 of Open CASCADE's
+ * trj5_k1-sh-203.stp, data/cuts): the band's seam ran from that start through the hole, which
+ * then lay half beyond the band's turn ("the trim of edge #471 lies 0.0837 from the edge"; the
+ * face was dropped). The seam now runs where no hole is: one outer loop and two holes, every
+ * trim on its edge, and the face's area is Open CASCADE's (BRepGProp, adaptive: 0.78355276). */
+static void test_band_seam_clear_of_holes(void **state)
+{
+    (void)state;
+    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_trj5_k1_sh_face1446.stp");
+    crisp_model *m;
+    step_read_stats st = {0};
+    assert_int_equal(read_str(t, &m, &st), CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-6, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    assert_int_equal(m->faces[0].loop_count, 3);
+    assert_int_equal(c.outer, 1);
+    assert_true(st.max_edge_dev < 1e-4);
+    crisp_mass_props mp;
+    assert_int_equal(crisp_mass_model(m, NULL, &mp), CRISP_OK);
+    assert_true(fabs(mp.area - 0.78355276) < 1e-6);
+    crisp_model_destroy(m);
+    free(t);
+}
+
+/* A lens between two edges 0.046 apart at most, on a degree 8 x 8 patch whose control net is 2
+ * units across and 30,000 long (faces #6387 and #9226, mirror images, of Open CASCADE's
+ * trj6_b1-ec-214.stp, data/cuts): the edges lie on a level curve of z, which changes 2.4e5 times
+ * faster across it than the other coordinates along it. Three causes dropped them: Newton crept
+ * along that narrow curved valley of the distance (the projections stopped 0.3 off the edges
+ * and the loop was open by 1.3 in (u, v)); the face's tolerance came from the size of its
+ * surface's net (the trims could wander 0.14 off edges 0.046 apart); and the framing box was the
+ * patch clipped to the loops' (u, v) box (z over +-14,000). Now: kept, every trim on its edge,
+ * the area that of the lens (the strip between the two edges over their common path in x, y:
+ * 0.0580657, computed from the edges alone), and the box the lens's. */
+static void test_lens_on_long_patch(void **state)
+{
+    (void)state;
+    const char *files[2] = {CRISP_DATA_DIR "/cuts/occt_trj6_b1_ec_face6387.stp",
+                            CRISP_DATA_DIR "/cuts/occt_trj6_b1_ec_face9226.stp"};
+    for (int k = 0; k < 2; k++) {
+        char *t = read_whole(files[k]);
+        crisp_model *m;
+        step_read_stats st = {0};
+        assert_int_equal(read_str(t, &m, &st), CRISP_OK);
+        assert_int_equal(m->face_count, 1);
+        assert_int_equal(m->faces_dropped, 0);
+        loop_check c;
+        check_model_loops(m, 1e-6, 1e-6, &c);
+        assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+        assert_true(st.max_edge_dev < 1e-3);
+        crisp_mass_props mp;
+        assert_int_equal(crisp_mass_model(m, NULL, &mp), CRISP_OK);
+        assert_true(fabs(mp.area - 0.0580657) < 2e-4 * 0.0580657);
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+        assert_true(sc->box[2] > -5.05 && sc->box[5] < -4.95);
+        assert_true(sc->box[3] - sc->box[0] < 1.6 && sc->box[4] - sc->box[1] < 1.5);
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(m);
+        free(t);
+    }
+}
+
+/* An octant of a sphere (radius 200) whose pcurves give latitudes 270 to 360 degrees (face #355
+ * of Open CASCADE's bm2_pe_t4-A.stp, data/cuts): the sphere's parametrisation repeats every turn
+ * of latitude, so these are -90 to 0; the face was dropped for an empty latitude range [4.70,
+ * 1.57]. Kept: the octant's area pi 200^2 / 2 (Open CASCADE's BRepGProp gives the same). */
+static void test_sphere_latitudes_a_turn_away(void **state)
+{
+    (void)state;
+    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_bm2_pe_t4_a_face355.stp");
+    crisp_model *m;
+    step_read_stats st = {0};
+    assert_int_equal(read_str(t, &m, &st), CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    loop_check c;
+    check_model_loops(m, 1e-6, 1e-6, &c);
+    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    assert_true(st.max_edge_dev < 1e-6);
+    crisp_mass_props mp;
+    assert_int_equal(crisp_mass_model(m, NULL, &mp), CRISP_OK);
+    assert_true(fabs(mp.area - M_PI * 200 * 200 / 2) < 1e-6 * mp.area);
+    crisp_model_destroy(m);
+    free(t);
+}
+
 /* A face on a SURFACE_OF_LINEAR_EXTRUSION of a circle, its loop without pcurves, one arc ending
  * at the profile's angle pi (trj3_s1-tc-214.stp #3993, written by hand): checking the trims
  * against their edges inverted points just short of angle pi onto -pi (the search over
@@ -710,6 +803,9 @@ int main(void)
         cmocka_unit_test(test_bspline_closed_both_ways),
         cmocka_unit_test(test_bspline_band_across_seam),
         cmocka_unit_test(test_bspline_strip_through_seam),
+        cmocka_unit_test(test_band_seam_clear_of_holes),
+        cmocka_unit_test(test_lens_on_long_patch),
+        cmocka_unit_test(test_sphere_latitudes_a_turn_away),
         cmocka_unit_test(test_extrusion_arc_at_pi),
         cmocka_unit_test(test_extrusion_closed_profile_start),
     };

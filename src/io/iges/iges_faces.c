@@ -260,21 +260,54 @@ static void note_dropped(iges_file *f, int e, const char *why)
                              crisp__iges_type_name(f->ents[e].type), why);
 }
 
+/* Length of a trim curve's control polygon (Euclidean points). */
+static double polygon_length(const crisp_curve *c)
+{
+    double len = 0;
+    for (int k = 0; k + 1 < c->count; k++) {
+        const double *a = c->cpw + 3 * k, *b = c->cpw + 3 * (k + 1);
+        len += hypot(b[0] / b[2] - a[0] / a[2], b[1] / b[2] - a[1] / a[2]);
+    }
+    return len;
+}
+
 /* Exporters leave small gaps between the trims of a loop (OCCT's bug8363_f45.igs: 7e-4 and 1.6e-3
  * of the domain, 15x and 33x the closure tolerance): a gap between tol and max_gap (1e-2 of the
- * domain size) is bridged by a straight (u, v) segment, as CAD healing tools do, and noted. Larger
- * gaps still drop the face. */
+ * domain size) is bridged by a straight (u, v) segment, as CAD healing tools do, and noted.
+ * Larger gaps are bridged too when each is real in 3D (its ends more than 10x the projection
+ * tolerance apart on the surface) and the bridges make up less than half of the loop, the STEP
+ * reader's rule for loops the file leaves open (bug22566_test_Bad.igs DE 351: a quarter sphere
+ * whose pcurves give three sides of its (u, v) rectangle; Open CASCADE closes it the same way);
+ * else the face is dropped. */
 static crisp_status bridge_gaps(iges_file *f, int e, crisp_face *face, double tol, double max_gap)
 {
-    int bridged = 0;
+    int bridged = 0, large = 0;
     for (int l = 0; l < face->loop_count; l++) {
         crisp_trim_loop *t = &face->loops[l];
+        /* Gaps beyond max_gap: all real in 3D and under half the loop, or none bridged. */
+        double total = 0, over = 0, limit = max_gap;
+        int real = 1, n_over = 0;
+        for (int c = 0; c < t->curve_count; c++) {
+            double a[2], b[2], junk[2], pa[3], pb[3], d3[3];
+            total += polygon_length(t->curves[c]);
+            curve_ends(t->curves[c], junk, a);
+            curve_ends(t->curves[(c + 1) % t->curve_count], b, junk);
+            double gap = dist2(a, b);
+            if (!(gap > max_gap)) continue;
+            n_over++;
+            over += gap;
+            crisp_surface_eval(face->surface, a[0], a[1], pa);
+            crisp_surface_eval(face->surface, b[0], b[1], pb);
+            crisp_vec3_sub(pa, pb, d3);
+            if (!(crisp_vec3_norm(d3) > 10 * f->tol3d)) real = 0;
+        }
+        if (n_over && real && over < 0.5 * (total + over)) limit = INFINITY, large++;
         for (int c = 0; c < t->curve_count; c++) {
             double a[2], b[2], junk[2];
             curve_ends(t->curves[c], junk, a);
             curve_ends(t->curves[(c + 1) % t->curve_count], b, junk);
             double gap = dist2(a, b);
-            if (!(gap > tol) || !(gap <= max_gap)) continue;
+            if (!(gap > tol) || !(gap <= limit)) continue;
             double pts[4] = {a[0], a[1], b[0], b[1]}, knots[4] = {0, 0, 1, 1};
             crisp_curve *line = NULL;
             crisp_status st = crisp_curve_create(2, 1, 2, knots, pts, NULL, &line);
@@ -294,7 +327,12 @@ static crisp_status bridge_gaps(iges_file *f, int e, crisp_face *face, double to
             bridged++;
         }
     }
-    if (bridged) /* kept: a note, not a dropped face */
+    if (large) /* kept: a note, not a dropped face */
+        crisp_model_note_skipf(f->model,
+                               "DE %d entity %d %s: trim loop left open by the file (a gap of "
+                               "more than 1/100 of its domain): closed by straight (u, v) segments",
+                               iges_de(e), f->ents[e].type, crisp__iges_type_name(f->ents[e].type));
+    else if (bridged)
         crisp_model_note_skipf(
             f->model, "DE %d entity %d %s: gaps in its trim loops bridged by straight segments",
             iges_de(e), f->ents[e].type, crisp__iges_type_name(f->ents[e].type));

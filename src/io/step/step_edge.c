@@ -802,12 +802,58 @@ static crisp_status cut_loop(face_work *w, loop_work *lw, int k, double target)
     return crisp__step_loop_samples(w, lw);
 }
 
+/* 1 when x lies in [lo, hi] widened by m, modulo the period P. */
+static int in_turn(double x, double lo, double hi, double m, double P)
+{
+    double d = fmod(x - (lo - m), P);
+    if (d < 0) d += P;
+    return d <= hi - lo + 2 * m;
+}
+
+/* Where the band's seam runs (coordinate k): at A's start unless that passes through one of the
+ * face's other loops (a hole), else in the middle of the widest stretch of the turn that no hole
+ * covers (trj5_k1-sh-203.stp #1446: a band on a cylinder whose end circle starts at the angle
+ * where a hole straddles the band; the seam through the hole cut it in two, and half of it lay
+ * beyond the band's turn). NAN: keep A's start (no hole in the way, or no free stretch). */
+static double band_seam(const face_work *w, int a, int b, int k, double ua)
+{
+    double P = w->period[k], m = 1e-3 * P;
+    int hit = 0;
+    for (int i = 0; i < w->nloops; i++)
+        if (i != a && i != b && w->loops[i].count &&
+            in_turn(ua, w->loops[i].box[2 * k], w->loops[i].box[2 * k + 1], m, P))
+            hit = 1;
+    if (!hit) return NAN;
+    /* The free stretches start where a hole ends and run to the nearest start of a hole. */
+    double best = -1, at = NAN;
+    for (int i = 0; i < w->nloops; i++) {
+        if (i == a || i == b || !w->loops[i].count) continue;
+        const double *bi = w->loops[i].box;
+        if (bi[2 * k + 1] - bi[2 * k] >= P) return NAN;
+        double g0 = bi[2 * k + 1], len = P;
+        int inside = 0;
+        for (int j = 0; j < w->nloops; j++) {
+            if (j == a || j == b || !w->loops[j].count) continue;
+            const double *bj = w->loops[j].box;
+            if (j != i && in_turn(g0, bj[2 * k], bj[2 * k + 1], 0, P)) inside = 1;
+            double d = fmod(bj[2 * k] - g0, P);
+            if (d < 0) d += P;
+            if (d < len) len = d;
+        }
+        if (!inside && len > best) best = len, at = g0 + 0.5 * len;
+    }
+    return best > 2 * m ? at : NAN;
+}
+
 /* Join crisp__step_winding loops a and b (coordinate k) as described above. */
 crisp_status crisp__step_make_band(face_work *w, int a, int b, int k)
 {
     loop_work *A = &w->loops[a], *B = &w->loops[b];
+    crisp_status st;
+    double seam = band_seam(w, a, b, k, A->edges[0].uv[k]);
+    if (!isnan(seam) && (st = cut_loop(w, A, k, seam))) return st;
     double ua = A->edges[0].uv[k], da = crisp__step_winding(w, A, k) > 0 ? 1 : -1;
-    crisp_status st = cut_loop(w, B, k, ua);
+    st = cut_loop(w, B, k, ua);
     if (st) return st;
     double db = crisp__step_winding(w, B, k) > 0 ? 1 : -1;
     w->band_rev = da == db;

@@ -1134,6 +1134,16 @@ crisp_status crisp__step_face_finish(face_work *wp, int same, crisp_face *dest)
     int outer = 0;
     for (int i = 0; i < w.nloops; i++)
         if ((st = crisp__step_loop_samples(&w, &w.loops[i]))) goto done;
+    /* Latitudes written a turn away (bm2_pe_t4-A.stp #355: an octant's pcurves at latitudes 270
+     * to 360 degrees, which the sphere's parametrisation takes as -90 to 0) go back by whole
+     * turns into [-90, 90] degrees, where the loop fits there. */
+    for (int i = 0; i < w.nloops && w.s.kind == STEP_SURF_SPHERE; i++) {
+        loop_work *lw = &w.loops[i];
+        double k = round(0.5 * (lw->box[2] + lw->box[3]) / (2 * M_PI)), eps = 1e-9;
+        double sh[2] = {0, -2 * M_PI * k};
+        if (k != 0 && lw->box[2] + sh[1] >= -M_PI / 2 - eps && lw->box[3] + sh[1] <= M_PI / 2 + eps)
+            crisp__step_shift_loop(lw, sh);
+    }
     if (w.s.kind != STEP_SURF_BSPLINE && !whole) {
         double best = -1;
         for (int i = 0; i < w.nloops; i++) {
