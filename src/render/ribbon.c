@@ -20,6 +20,7 @@
 #define RIBBON_PX 0.7
 #define RIBBON_STEP_PX 2.0
 #define RIBBON_MAX_DEPTH 48
+#define RIBBON_BOW_PX 0.1 /* largest distance of a piece's middle from its chord on screen */
 /* A face without trim loops is bounded by its domain's edges (t = 0, s = 1, t = 1, s = 0 of the
  * patch grid, as leaf edges): where it meets another face there, the two faces' tessellations
  * differ as along a trim, so the edge gets a ribbon too (not the edges where the surface closes
@@ -216,15 +217,42 @@ static void emit(sampler *s, const crisp_raster_vertex *v)
     (*s->pts)[s->count++] = *v;
 }
 
-/* Samples strictly after a up to and including b, along the uv segment. */
+/* Screen distance in pixels from m to the chord from a to b (all three in front of the eye). */
+static double chord_dist(const crisp_raster_vertex *a, const crisp_raster_vertex *m,
+                         const crisp_raster_vertex *b, double w, double h)
+{
+    double ax = a->clip[0] / a->clip[3] * 0.5 * w, ay = a->clip[1] / a->clip[3] * 0.5 * h;
+    double bx = b->clip[0] / b->clip[3] * 0.5 * w - ax, by = b->clip[1] / b->clip[3] * 0.5 * h - ay;
+    double mx = m->clip[0] / m->clip[3] * 0.5 * w - ax, my = m->clip[1] / m->clip[3] * 0.5 * h - ay;
+    double len2 = bx * bx + by * by, t = len2 > 0 ? (mx * bx + my * by) / len2 : 0;
+    t = t < 0 ? 0 : (t > 1 ? 1 : t);
+    return hypot(mx - t * bx, my - t * by);
+}
+
+/* Samples strictly after a up to and including b, along the uv segment. A piece shorter than
+ * RIBBON_STEP_PX is still split where its middle lies more than RIBBON_BOW_PX off its chord: a
+ * trim edge running over its surface's silhouette folds back on screen, and its chord there can
+ * be short while the curve bows a pixel away from it (occt_bearing.iges: a 1.9 px chord with the
+ * edge 1.3 px off it, a one-pixel hole beside the ribbon; test_cracks' test_bearing_fold). */
 static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_vertex *b,
                    int depth)
 {
     if (s->failed) return;
     int va = in_view(a, s->gx, s->gy), vb = in_view(b, s->gx, s->gy);
     double d = screen_dist(a, b, s->w, s->h);
-    if (depth < RIBBON_MAX_DEPTH && d > RIBBON_STEP_PX && (va || vb || d < INFINITY ? 1 : 0)) {
-        crisp_raster_vertex mid;
+    crisp_raster_vertex mid;
+    int split = depth < RIBBON_MAX_DEPTH && d > RIBBON_STEP_PX && (va || vb || d < INFINITY);
+    if (!split && depth < RIBBON_MAX_DEPTH && d > RIBBON_BOW_PX && d < INFINITY && (va || vb)) {
+        ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
+                      0.5 * (a->attr[1] + b->attr[1]), &mid);
+        split = mid.clip[3] > 0 && chord_dist(a, &mid, b, s->w, s->h) > RIBBON_BOW_PX;
+        if (split) {
+            refine(s, a, &mid, depth + 1);
+            refine(s, &mid, b, depth + 1);
+            return;
+        }
+    }
+    if (split) {
         ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
                       0.5 * (a->attr[1] + b->attr[1]), &mid);
         /* Both ends and the middle outside the view and neither half's widened screen box
