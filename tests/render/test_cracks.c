@@ -515,6 +515,28 @@ static void test_torus_seam(void **state)
     crisp_model_destroy(m);
 }
 
+/* test_cracks all, linkrods view 20: at (75, 47) the plan's table trims face 7 0.08 px inside its
+ * true boundary; behind it face 10 is steep (0.28 in depth per pixel), and the ribbon's lead of
+ * 0.30 to 0.38 was within the quads' slack (1.5 x 0.28): face 10 showed. The pixel lies within
+ * 0.1 px of the ribbon's centre line, in its core, whose slack is 0.95 x 0.28 (ribbon.h). */
+static void test_linkrods_steep_behind(void **state)
+{
+    (void)state;
+    crisp_model *m = load("occt_linkrods.step");
+    crisp_camera cam = {
+        .width = 120,
+        .height = 90,
+        .eye = {1.6200848440359215, 7.2287771358391009, -5.7980336025621062},
+        .target = {6.0875893573939477, 3.3082656526980712, 0.56112136810378044},
+        .up = {0.1, 1, 0.2},
+        .fov_deg = 58.328863056562469,
+        .znear = 0.088410754529432256,
+        .zfar = 17.573440924296939,
+    };
+    assert_int_equal(check_views("occt_linkrods.step, a steep face behind", m, 0, &cam), 0);
+    crisp_model_destroy(m);
+}
+
 int main(int argc, char **argv)
 {
     argc = rb_parse_args(argc, argv);
@@ -538,6 +560,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_bearing_zoom),
         cmocka_unit_test(test_bearing_fold),
         cmocka_unit_test(test_torus_seam),
+        cmocka_unit_test(test_linkrods_steep_behind),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
