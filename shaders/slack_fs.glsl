@@ -1,5 +1,5 @@
-// Depth slack of the ribbons' fill pass (crisp_raster_depth_slack), before its scale (the ribbon
-// pass multiplies: ribbon_fs.glsl): the largest change
+// Depth slack of the ribbons' fill pass (crisp_raster_depth_slack) before its scale, which the
+// ribbon pass applies (ribbon_fs.glsl: 1.5 for the quads, 0.95 for their cores): the largest change
 // of W between the sample and the same sample of its four neighbouring pixels where they show
 // the same face seen from the same side (the sign of the normal against the view ray through the
 // pixel centre, as the CPU backend: a face seen through a crack at its own seam shows its inside

@@ -544,6 +544,49 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* After the quads' fill pass: keeps (first, in order) the cores (triangle pairs of tris, their
+ * vertices verts) that can still write a sample: some sample of the pixels under the core holds
+ * nothing, or a surface farther than the core's nearest vertex by more than the core's slack
+ * there. Most cores lie over what their quad drew, or over the face they meet at its own depth,
+ * and are not drawn (a core's triangles cost the rasterizer about as much as its quad's).
+ * Returns the cores kept. */
+static size_t cores_needed(const crisp_raster_target *tg, const crisp_frame_plan *plan,
+                           const crisp_raster_vertex *verts, crisp_raster_tri *tris, size_t quads,
+                           const float *slack)
+{
+    size_t kept = 0;
+    int S = tg->samples;
+    for (size_t q = 0; q < quads; q++) {
+        const crisp_raster_tri *t = &tris[2 * q];
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, wmin = INFINITY;
+        int ok = 1;
+        for (int k = 0; k < 4 && ok; k++) {
+            const double *c = verts[k < 3 ? t->v[k] : t[1].v[2]].clip;
+            ok = c[3] > 0 && isfinite(c[0] + c[1] + c[3]);
+            double x = (c[0] / c[3] + 1) * 0.5 * plan->width - tg->x0,
+                   y = (1 - c[1] / c[3]) * 0.5 * plan->height - tg->y0;
+            lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
+            lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+            wmin = fmin(wmin, c[3]);
+        }
+        if (!ok || hi[0] < 0 || hi[1] < 0 || lo[0] >= tg->width || lo[1] >= tg->height) continue;
+        int x0 = lo[0] > 0 ? (int)lo[0] : 0, y0 = lo[1] > 0 ? (int)lo[1] : 0;
+        int x1 = hi[0] < tg->width - 1 ? (int)hi[0] : tg->width - 1;
+        int y1 = hi[1] < tg->height - 1 ? (int)hi[1] : tg->height - 1;
+        int need = 0;
+        for (int j = y0; j <= y1 && !need; j++)
+            for (int i = x0; i <= x1 && !need; i++)
+                for (int sm = 0; sm < S && !need; sm++) {
+                    size_t idx = ((size_t)j * tg->width + i) * S + sm;
+                    need = tg->face[idx] < 0 || 1.0 / tg->inv_w[idx] - slack[idx] > wmin;
+                }
+        if (!need) continue;
+        if (kept != q) memmove(&tris[2 * kept], t, 2 * sizeof *t);
+        kept++;
+    }
+    return kept;
+}
+
 /* The camera's view directions per pixel for the rasterizer (as crisp_camera_ray, unnormalised). */
 static void raster_view(const crisp_camera *cam, crisp_raster_view *v)
 {
@@ -1221,25 +1264,25 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     t_tess += t2b - t2a;
     if (nt > surface_t) {
         /* The quads with their slack, then their cores with the cores' (ribbon.h); both slacks
-         * from the surfaces alone, each only where its ribbons can land (the fill pass reads
-         * nothing else). */
+         * from the surfaces alone, only where the quads can land (the cores lie inside them; the
+         * fill pass reads nothing else). */
         size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, 2 * ns, sizeof *r->slack)))
             return st;
-        for (int pass = 0; pass < 2; pass++) {
-            const crisp_raster_vertex *pv = r->verts + surface_v + (pass ? 4 * quads : 0);
-            const crisp_raster_tri *pt = r->tris + surface_t + (pass ? 2 * quads : 0);
-            double scale = pass ? CRISP__RIBBON_CORE_SLACK : CRISP__RIBBON_SLACK;
-            if ((st = crisp__raster_depth_slack_tris(r->raster, tg, r->pool, scale, &view, pv,
-                                                     4 * quads, pt, 2 * quads,
-                                                     r->slack + (pass ? ns : 0))))
-                return st;
-        }
+        if ((st = crisp__raster_depth_slack2_tris(
+                 r->raster, tg, r->pool, CRISP__RIBBON_SLACK, CRISP__RIBBON_CORE_SLACK, &view,
+                 r->verts + surface_v, 4 * quads, r->tris + surface_t, 2 * quads, r->slack,
+                 r->slack + ns)))
+            return st;
         for (int pass = 0; pass < 2; pass++) {
             crisp_raster_stats rs2;
+            size_t ntris = 2 * quads;
+            if (pass)
+                ntris = 2 * cores_needed(tg, plan, r->verts + surface_v + 4 * quads,
+                                         r->tris + surface_t + 2 * quads, quads, r->slack + ns);
             st = crisp__raster_draw_fill(r->raster, tg, r->pool,
                                          r->verts + surface_v + (pass ? 4 * quads : 0), 4 * quads,
-                                         r->tris + surface_t + (pass ? 2 * quads : 0), 2 * quads,
+                                         r->tris + surface_t + (pass ? 2 * quads : 0), ntris,
                                          trim_test, ctx, r->slack + (pass ? ns : 0), &rs2);
             if (st) return st;
             rs.fragments_tested += rs2.fragments_tested;

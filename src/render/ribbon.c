@@ -233,22 +233,26 @@ static double chord_dist(const crisp_raster_vertex *a, const crisp_raster_vertex
  * RIBBON_STEP_PX is still split where its middle lies more than RIBBON_BOW_PX off its chord: a
  * trim edge running over its surface's silhouette folds back on screen, and its chord there can
  * be short while the curve bows a pixel away from it (occt_bearing.iges: a 1.9 px chord with the
- * edge 1.3 px off it, a one-pixel hole beside the ribbon; test_cracks' test_bearing_fold). */
+ * edge 1.3 px off it, a one-pixel hole beside the ribbon; test_cracks' test_bearing_fold). The
+ * middle is evaluated for that only where the piece's parent bowed more than 4 RIBBON_BOW_PX off
+ * its own chord (a half of a smooth piece bows about a quarter as much), or the piece has no
+ * parent (parent_bow infinite): most pieces cost no extra evaluation. */
 static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_vertex *b,
-                   int depth)
+                   int depth, double parent_bow)
 {
     if (s->failed) return;
     int va = in_view(a, s->gx, s->gy), vb = in_view(b, s->gx, s->gy);
     double d = screen_dist(a, b, s->w, s->h);
     crisp_raster_vertex mid;
     int split = depth < RIBBON_MAX_DEPTH && d > RIBBON_STEP_PX && (va || vb || d < INFINITY);
-    if (!split && depth < RIBBON_MAX_DEPTH && d > RIBBON_BOW_PX && d < INFINITY && (va || vb)) {
+    if (!split && depth < RIBBON_MAX_DEPTH && d > RIBBON_BOW_PX && d < INFINITY && (va || vb) &&
+        parent_bow > 4 * RIBBON_BOW_PX) {
         ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
                       0.5 * (a->attr[1] + b->attr[1]), &mid);
-        split = mid.clip[3] > 0 && chord_dist(a, &mid, b, s->w, s->h) > RIBBON_BOW_PX;
-        if (split) {
-            refine(s, a, &mid, depth + 1);
-            refine(s, &mid, b, depth + 1);
+        double bow = mid.clip[3] > 0 ? chord_dist(a, &mid, b, s->w, s->h) : 0;
+        if (bow > RIBBON_BOW_PX) {
+            refine(s, a, &mid, depth + 1, bow);
+            refine(s, &mid, b, depth + 1, bow);
             return;
         }
     }
@@ -270,8 +274,10 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
             emit(s, b);
             return;
         }
-        refine(s, a, &mid, depth + 1);
-        refine(s, &mid, b, depth + 1);
+        double bow =
+            d < INFINITY && mid.clip[3] > 0 ? chord_dist(a, &mid, b, s->w, s->h) : INFINITY;
+        refine(s, a, &mid, depth + 1, bow);
+        refine(s, &mid, b, depth + 1, bow);
         return;
     }
     if (d > RIBBON_STEP_PX) {
@@ -407,7 +413,7 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
                 }
             } else {
                 if (!open) emit(&s, &a);
-                refine(&s, &a, &b, 0);
+                refine(&s, &a, &b, 0, INFINITY);
                 open = 1;
             }
             a = b;
