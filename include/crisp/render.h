@@ -108,6 +108,8 @@ typedef struct crisp_scene {
     double box[6];
     uint64_t serial; /* unique among the scenes this process prepared: what a renderer builds from
                         a scene's patches is kept by it (a new scene may reuse an address) */
+    uint64_t trim_serial; /* likewise for the trim pieces: new whenever they are rebuilt
+                             (crisp_scene_update_trim) */
 } crisp_scene;
 
 crisp_status crisp_scene_prepare(const crisp_model *model, crisp_scene **dest);

@@ -9,6 +9,8 @@
  *   crisp_trim_rows_from_density     mu_i = ceil((b_i - a_i) rho_i) scan lines per strip
  *   crisp_trim_tessellate            trim pieces -> polylines within a quarter scan line (v) and a
  *                                    quarter pixel's worth of u of the true curves
+ *   crisp_trim_polyline_chains       pieces' polylines -> chains of fewer chords within tolerances
+ *   crisp_trim_lod_build / _free     view-independent coarse polylines of a face's loops
  *   crisp_trim_table_build / _test / _bytes / _free
  *                                    the two-level u-intercept table (CSR) and the trim test
  *   crisp_trim_plan_face / crisp_trim_plan_free
@@ -185,6 +187,43 @@ typedef struct crisp_trim_tess_desc {
 crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_polyline *dest);
 void crisp_trim_polyline_free(crisp_trim_polyline *p);
 
+/* Joins pl's pieces into chains and drops points, in place (issue 12: a face a few pixels across
+ * has tens of trim pieces of one segment each, and every segment costs the table and a ribbon
+ * quad). A chain is a maximal run of consecutive pieces where each piece starts exactly (bit for
+ * bit) where the one before ends; the shared point is kept once. Along a chain, a point is dropped
+ * when the chord that then replaces it and its neighbours stays close: there is a monotone
+ * correspondence (each dropped point to a point of the chord, in order) under which every
+ * dropped point lies within tol_u in u and tol_v in v of its chord point. Points matched linearly
+ * in between, the old and the new polyline then differ by at most (tol_u, tol_v) per coordinate
+ * at corresponding points, and the linear homotopy between them sweeps only over points that
+ * close to the old polyline: any (u, v) the two classify differently lies within (tol_u, tol_v)
+ * of the old polyline (the argument of crisp_trim_tessellate). First and last points of every
+ * chain are kept. Afterwards pl->piece_count is the number of chains, first[] their ranges, and t
+ * each kept point's parameter on its own piece. tol_u or tol_v may be HUGE_VAL (no limit in that
+ * coordinate); both must be > 0. */
+crisp_status crisp_trim_polyline_chains(crisp_trim_polyline *pl, double tol_u, double tol_v);
+
+/* View-independent coarse polylines of a face's trim loops (issue 12): a face a few pixels across
+ * needs its loops only to a few percent of their extent, so a frame can take one of these instead
+ * of working through every piece. Level k is within tol_u[k] in u and tol_v[k] in v of the true
+ * curves (in the sense of crisp_trim_polyline_chains: a linear homotopy between them sweeps only
+ * over points that close to the curves): the pieces tessellated within half of that (Filip bound)
+ * and joined into chains with the other half. Level 0 is the coarsest (1/16 of the pieces'
+ * control-point extent in each coordinate), each next level twice as fine. */
+#define CRISP_TRIM_LOD_LEVELS 6
+typedef struct crisp_trim_lod {
+    int levels;    /* 0: none (no pieces, or pieces without extent in u or v) */
+    double box[4]; /* u0, u1, v0, v1: the pieces' control points */
+    double tol_u[CRISP_TRIM_LOD_LEVELS], tol_v[CRISP_TRIM_LOD_LEVELS];
+    crisp_trim_polyline level[CRISP_TRIM_LOD_LEVELS];
+} crisp_trim_lod;
+
+/* Checks the pieces (crisp_trim_pieces_check) and builds the levels; reuses dest's buffers
+ * (zero-initialise before first use). */
+crisp_status crisp_trim_lod_build(const crisp_bezier_curve *pieces, int piece_count,
+                                  crisp_trim_lod *dest);
+void crisp_trim_lod_free(crisp_trim_lod *lod);
+
 /* ---- the two-level u-intercept table --------------------------------------------------------- */
 
 typedef struct crisp_trim_table {
@@ -237,6 +276,7 @@ typedef struct crisp_trim_plan {
     double v0, v1;   /* the strips' v-range: the face's, narrowed to the loops' (the table's) */
     uint32_t *mu;
     int clamped; /* some strip hit its row cap (crisp_trim_rows_from_density) */
+    int chains;  /* the polyline holds chains (crisp_trim_plan_desc.chains), not pieces */
     crisp_trim_density_stats density_stats;
     crisp_trim_polyline polyline;
     crisp_trim_table table;
@@ -254,6 +294,19 @@ typedef struct crisp_trim_plan_desc {
     double v0, v1;                       /* the face's v-range */
     int strip_count;                     /* n_V; 0 means 16 */
     const crisp_trim_density_tree *tree; /* NULL, or as crisp_trim_density_desc.tree */
+    /* NULL, or an arena for the density bound's scratch, reset by crisp_trim_plan_face (and free
+     * to be reused for another face afterwards): a planner of many faces keeps one per thread
+     * instead of one per face (issue 12: 13,573 small faces kept about 600 MB of scratch). */
+    crisp_arena *scratch;
+    /* 1: the polyline is crisp_trim_polyline_chains of one within half the tolerances, with the
+     * other half: chains instead of pieces (for faces a few pixels across, issue 12). The table's
+     * guarantee is the same. */
+    int chains;
+    /* NULL, or crisp_trim_lod_build of the same pieces: the strips' u-ranges are taken from its
+     * box and, where one of its levels is within the polyline tolerances this frame needs, the
+     * polyline is that level (no piece is looked at: the pieces were checked when it was built).
+     * Else the pieces as without it. */
+    const crisp_trim_lod *lod;
 } crisp_trim_plan_desc;
 
 /* Only points inside the loops can be inside the face, so the strips cover the face's v-range

@@ -14,17 +14,46 @@
 #include "quadtree.h"
 #include "rational_bound.h"
 
+/* fmin / fmax without the library call (the values here are finite or +-INFINITY). */
+static inline double dmin(double a, double b)
+{
+    return a < b ? a : b;
+}
+static inline double dmax(double a, double b)
+{
+    return a > b ? a : b;
+}
+
 typedef struct group {
     uint32_t iu0, iv0, nu, nv; /* patch grid block: columns iu0.., rows iv0.. (clipped) */
     uint32_t g;                /* the block is 2^g x 2^g patches before clipping */
     int32_t child[4];          /* -1: none (outside the grid, or a single patch) */
+    int32_t dev;               /* blocks of more than one patch: its block_dev, else -1 */
     double box[6];
-    double dev[4];   /* per homogeneous object coordinate: the largest distance between a control
-                        point of the block and the bilinear through the block's corners there */
-    double devq[3];  /* rational blocks: crisp__rational_block_deviation (x, y, z) */
     double wlo, whi; /* the least and largest weight of the block's patches */
     int rational;    /* the weights vary over the block (whi > wlo) */
 } group;
+
+/* What a frame needs to bound, in O(1), the distance between a block's control points and the
+ * bilinear L through its four corners (block_deviation, group_leaf_ok). For a control point of a
+ * patch of the block, Euclidean point P (its homogeneous point divided by its weight), at its
+ * block parameters (s, t), let d = P - L(s, t), L through the corners' Euclidean points. An
+ * affine map A (a row of view_proj) maps them to A P - L_A(s, t) = A_xyz . d (L_A the bilinear
+ * through the mapped corners), and A_xyz . d lies in sum_a A_a [lo_a, hi_a] (the coordinate box)
+ * and in sum_k (A_xyz . f_k) [flo_k, fhi_k] +- |A_xyz| slack (the box in the principal axes f_k of
+ * the deviations): the second is the tight one where the deviations lie along one direction that
+ * is not a coordinate axis (the normal of a curved block), the first where they lie along an
+ * axis; their intersection holds. */
+typedef struct block_dev {
+    double lo[3], hi[3];   /* d_a in [lo_a, hi_a] (lo <= 0 <= hi: the corners; with rounding) */
+    double f[3][3];        /* orthonormal to 1e-12 */
+    double flo[3], fhi[3]; /* d . f_k in [flo_k, fhi_k] (with rounding) */
+    double slack;          /* 1e-10 times the largest |d|: f's departure from orthonormal */
+    float wit[6][3]; /* the d with the least and largest d . f_k (control points of the block: a
+                        lower bound of the frame's range up to rounding, for cost decisions) */
+    double sigma[3]; /* the largest crisp__rational_reparam of its patches (0: polynomial) */
+    int bounded;     /* 0: a weight is not positive (no O(1) bound) */
+} block_dev;
 
 struct crisp__groups {
     const crisp_scene *scene;
@@ -32,6 +61,8 @@ struct crisp__groups {
     uint32_t patch_count, face_count;
     group *nodes;
     size_t node_count, node_cap;
+    block_dev *devs; /* of the blocks of more than one patch (group.dev) */
+    size_t dev_count, dev_cap;
     uint32_t *face_root; /* per face: its top group, UINT32_MAX when the face has no patches */
     uint8_t *face_small; /* per face, this frame: the whole (untrimmed) face within FACE_SMALL_PX */
     uint32_t group_leaves; /* this frame */
@@ -57,44 +88,255 @@ struct crisp__groups {
 
 enum { NODE_OPEN = 0, NODE_CULLED = 1, NODE_GROUP = 2, NODE_OWN = 3 }; /* OWN: patches own trees */
 
-/* n->dev (see group): view-independent, so a frame bounds the block's deviation in clip space
- * from its corners alone (|M d| <= |M| |d| per coordinate). */
-static void block_deviation(const crisp_scene *sc, const crisp_scene_face *f, group *n)
+/* The corner control points of block n (Bézier patches interpolate their corners): lower left,
+ * lower right, upper left, upper right. */
+static void block_corners(const crisp_scene *sc, const crisp_scene_face *f, const group *n,
+                          const double *dest[4])
 {
     uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
     const crisp_bezier_patch *p00 = &sc->patches[base].bez,
                              *p10 = &sc->patches[base + n->nu - 1].bez,
                              *p01 = &sc->patches[base + (n->nv - 1) * f->grid_u].bez,
                              *p11 = &sc->patches[base + (n->nv - 1) * f->grid_u + n->nu - 1].bez;
-    const double *C[4] = {p00->cpw, p10->cpw + 4 * p10->du, p01->cpw + 4 * (p01->du + 1) * p01->dv,
-                          p11->cpw + 4 * ((p11->du + 1) * p11->dv + p11->du)};
-    for (int a = 0; a < 4; a++)
-        n->dev[a] = 0;
+    dest[0] = p00->cpw;
+    dest[1] = p10->cpw + 4 * p10->du;
+    dest[2] = p01->cpw + 4 * (p01->du + 1) * p01->dv;
+    dest[3] = p11->cpw + 4 * ((p11->du + 1) * p11->dv + p11->du);
+}
+
+/* The bilinear through corner values c0 (s, t = 0, 0), c1 (1, 0), c2 (0, 1), c3 (1, 1). */
+static inline double bilinear(double c0, double c1, double c2, double c3, double s, double t)
+{
+    return (1 - t) * ((1 - s) * c0 + s * c1) + t * ((1 - s) * c2 + s * c3);
+}
+
+/* Calls visit for every control point q of every patch of block n (corners: only each patch's
+ * four corner points) with its block parameters (s, t) in [0, 1]^2: the patch's sub-rectangle of
+ * the block, its control points uniformly spaced there (a bilinear function restricted to the
+ * sub-rectangle and raised to the patch's degrees has exactly its values there as control
+ * points). `last` is 1 at each patch's last point. Stops and returns 0 as soon as visit returns
+ * 0. The hierarchy's build (block_deviation) and the test hook walk blocks this way. */
+typedef int (*point_visit)(void *ctx, const double q[4], double s, double t, int last);
+static int block_points(const crisp_scene *sc, const crisp_scene_face *f, const group *n,
+                        int corners, point_visit visit, void *ctx)
+{
+    uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
     for (uint32_t jv = 0; jv < n->nv; jv++)
         for (uint32_t iu = 0; iu < n->nu; iu++) {
             const crisp_bezier_patch *b = &sc->patches[base + jv * f->grid_u + iu].bez;
-            for (int j = 0; j <= b->dv; j++) {
+            int sj = corners && b->dv > 0 ? b->dv : 1, si = corners && b->du > 0 ? b->du : 1;
+            for (int j = 0; j <= b->dv; j += sj) {
                 double t = (jv + (double)j / b->dv) / n->nv;
-                for (int i = 0; i <= b->du; i++) {
-                    double u = (iu + (double)i / b->du) / n->nu;
-                    const double *q = b->cpw + 4 * (j * (b->du + 1) + i);
-                    for (int a = 0; a < 4; a++) {
-                        double bl = (1 - t) * ((1 - u) * C[0][a] + u * C[1][a]) +
-                                    t * ((1 - u) * C[2][a] + u * C[3][a]);
-                        n->dev[a] =
-                            fmax(n->dev[a], fabs(q[a] - bl) + 1e-12 * (fabs(q[a]) + fabs(bl)));
-                    }
+                for (int i = 0; i <= b->du; i += si) {
+                    double s = (iu + (double)i / b->du) / n->nu;
+                    if (!visit(ctx, b->cpw + 4 * (j * (b->du + 1) + i), s, t,
+                               j == b->dv && i == b->du))
+                        return 0;
                 }
             }
         }
+    return 1;
+}
+
+/* Eigenvectors of the symmetric 3 x 3 matrix a (destroyed) by cyclic Jacobi rotations, as the
+ * columns of v (Golub & Van Loan, "Matrix Computations", sec. 8.5). Only their directions
+ * matter here: callers re-orthonormalise them and check the result. */
+static void jacobi_axes(double a[3][3], double v[3][3])
+{
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            v[i][j] = i == j;
+    for (int sweep = 0; sweep < 12; sweep++) {
+        double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+        double diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+        if (!(off > 1e-30 * diag)) break;
+        for (int p = 0; p < 2; p++)
+            for (int q = p + 1; q < 3; q++) {
+                if (a[p][q] == 0) continue;
+                double theta = (a[q][q] - a[p][p]) / (2 * a[p][q]);
+                double t = (theta >= 0 ? 1 : -1) / (fabs(theta) + sqrt(theta * theta + 1));
+                double c = 1 / sqrt(t * t + 1), sn = t * c;
+                for (int k = 0; k < 3; k++) { /* a <- a P, v <- v P */
+                    double akp = a[k][p], akq = a[k][q], vkp = v[k][p], vkq = v[k][q];
+                    a[k][p] = c * akp - sn * akq, a[k][q] = sn * akp + c * akq;
+                    v[k][p] = c * vkp - sn * vkq, v[k][q] = sn * vkp + c * vkq;
+                }
+                for (int k = 0; k < 3; k++) { /* a <- P^T a */
+                    double apk = a[p][k], aqk = a[q][k];
+                    a[p][k] = c * apk - sn * aqk, a[q][k] = sn * apk + c * aqk;
+                }
+            }
+    }
+}
+
+/* Orthonormal f[0..2] from the columns of v (Gram-Schmidt, f2 = f0 x f1); 0 when they are not
+ * orthonormal to 1e-12 afterwards (the caller then keeps the coordinate axes). */
+static int orthonormal_frame(double v[3][3], double f[3][3])
+{
+    for (int k = 0; k < 3; k++)
+        f[0][k] = v[k][0], f[1][k] = v[k][1];
+    double l = sqrt(f[0][0] * f[0][0] + f[0][1] * f[0][1] + f[0][2] * f[0][2]);
+    if (!(l > 0)) return 0;
+    for (int k = 0; k < 3; k++)
+        f[0][k] /= l;
+    double dot = f[1][0] * f[0][0] + f[1][1] * f[0][1] + f[1][2] * f[0][2];
+    for (int k = 0; k < 3; k++)
+        f[1][k] -= dot * f[0][k];
+    l = sqrt(f[1][0] * f[1][0] + f[1][1] * f[1][1] + f[1][2] * f[1][2]);
+    if (!(l > 0)) return 0;
+    for (int k = 0; k < 3; k++)
+        f[1][k] /= l;
+    f[2][0] = f[0][1] * f[1][2] - f[0][2] * f[1][1];
+    f[2][1] = f[0][2] * f[1][0] - f[0][0] * f[1][2];
+    f[2][2] = f[0][0] * f[1][1] - f[0][1] * f[1][0];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            double e = f[i][0] * f[j][0] + f[i][1] * f[j][1] + f[i][2] * f[j][2] - (i == j);
+            if (!(fabs(e) <= 1e-12)) return 0;
+        }
+    return 1;
+}
+
+/* block_deviation's two walks: pass 0 the second moments of d at the patches' corner points
+ * (they choose the axes f: any orthonormal axes are sound, these make the box tight), pass 1 over
+ * every control point the coordinate box, the ranges along f and the witnesses. */
+typedef struct dev_walk {
+    double C[4][3], cmag[3]; /* the block's Euclidean corners, their largest |C_a| */
+    block_dev *d;
+    int pass, axes; /* axes: principal axes and witnesses (else the coordinate box alone) */
+    double moments[3][3], least[3], most[3], norm2, rmax;
+} dev_walk;
+
+static int dev_visit(void *vctx, const double q[4], double s, double t, int last)
+{
+    (void)last;
+    dev_walk *w = vctx;
+    block_dev *d = w->d;
+    if (!(q[3] > 0)) return d->bounded = 0;
+    double e[3], r = 0, iw = q[3] == 1 ? 1 : 1 / q[3];
+    for (int a = 0; a < 3; a++) {
+        /* (a relative error of 2^-52 more in P than q[a] / q[3]: within al) */
+        double P = q[a] * iw, bl = bilinear(w->C[0][a], w->C[1][a], w->C[2][a], w->C[3][a], s, t);
+        /* the rounding of both sides (bl's relative to the corners': |bl| <= cmag): the exact
+         * deviation is within al of e[a] */
+        double al = 1e-12 * (fabs(P) + w->cmag[a]);
+        e[a] = P - bl;
+        if (w->pass) d->lo[a] = dmin(d->lo[a], e[a] - al), d->hi[a] = dmax(d->hi[a], e[a] + al);
+        r += al;
+    }
+    if (w->pass == 0) {
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                w->moments[i][j] += e[i] * e[j];
+        return 1;
+    }
+    if (!w->axes) return 1;
+    w->norm2 = dmax(w->norm2, e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+    w->rmax = dmax(w->rmax, r);
+    for (int k = 0; k < 3; k++) {
+        /* |f_k| = 1: |f_k . (exact - e)| <= r */
+        double v = e[0] * d->f[k][0] + e[1] * d->f[k][1] + e[2] * d->f[k][2];
+        d->flo[k] = dmin(d->flo[k], v - r), d->fhi[k] = dmax(d->fhi[k], v + r);
+        for (int side = 0; side < 2; side++)
+            if (side ? v > w->most[k] : v < w->least[k]) {
+                if (side)
+                    w->most[k] = v;
+                else
+                    w->least[k] = v;
+                for (int a = 0; a < 3; a++)
+                    d->wit[2 * k + side][a] = (float)e[a];
+            }
+    }
+    return 1;
+}
+
+/* The block's block_dev (view-independent): a frame bounds the block's deviation in clip space
+ * from it alone (deviation_range). */
+static void block_deviation(const crisp_scene *sc, const crisp_scene_face *f, const group *n,
+                            block_dev *d)
+{
+    dev_walk w = {.d = d};
+    const double *cw[4];
+    block_corners(sc, f, n, cw);
+    *d = (block_dev){.bounded = 1};
+    for (int k = 0; k < 4; k++) {
+        if (!(cw[k][3] > 0)) d->bounded = 0;
+        for (int a = 0; a < 3; a++) {
+            w.C[k][a] = cw[k][a] / cw[k][3];
+            w.cmag[a] = dmax(w.cmag[a], fabs(w.C[k][a]));
+        }
+    }
+    /* Blocks of more than 64 patches (read by no frame: group_leaf_ok's `small`) keep the
+     * coordinate box alone, at the build cost of one cheap walk; their axes are the coordinate
+     * axes and they have no witnesses (0 lies in every range). */
+    w.axes = n->nu * n->nv <= 64;
+    double v[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            d->f[i][j] = v[i][j] = i == j;
+    if (!d->bounded || (w.axes && !block_points(sc, f, n, 1, dev_visit, &w))) {
+        d->bounded = 0;
+        return;
+    }
+    if (w.axes) {
+        jacobi_axes(w.moments, v);
+        if (!orthonormal_frame(v, d->f))
+            for (int i = 0; i < 3; i++)
+                for (int j = 0; j < 3; j++)
+                    d->f[i][j] = i == j;
+    }
+    w.pass = 1;
+    if (!block_points(sc, f, n, 0, dev_visit, &w)) {
+        d->bounded = 0;
+        return;
+    }
+    if (!w.axes)
+        for (int k = 0; k < 3; k++)
+            d->flo[k] = d->lo[k], d->fhi[k] = d->hi[k];
+    /* |d - sum_k (d . f_k) f_k| <= 3e-12 |d| for f orthonormal to 1e-12 (0 for the exact axes),
+     * and |d| <= |e| + r */
+    d->slack = 1e-10 * (sqrt(w.norm2) + w.rmax);
+}
+
+/* The range [lo, hi] of A_xyz . d over the block's control points, per clip coordinate x, y, w
+ * (rows 0, 1, 3 of m), from its block_dev (see there); box_lo, box_hi (NULL: not wanted): from
+ * the coordinate box alone; wlo, whi (NULL: not wanted): the witnesses' range (with 0), within
+ * the control points' own range up to rounding. */
+static void deviation_range(const block_dev *d, crisp_mat4 m, double lo[3], double hi[3],
+                            double box_lo[3], double box_hi[3], double wlo[3], double whi[3])
+{
+    for (int a = 0; a < 3; a++) {
+        int r = a == 2 ? 3 : a;
+        double A[3] = {m[0][r], m[1][r], m[2][r]}, blo = 0, bhi = 0, flo = 0, fhi = 0;
+        for (int c = 0; c < 3; c++) {
+            double x = A[c] * d->lo[c], y = A[c] * d->hi[c];
+            blo += dmin(x, y), bhi += dmax(x, y);
+        }
+        for (int k = 0; k < 3; k++) {
+            double af = A[0] * d->f[k][0] + A[1] * d->f[k][1] + A[2] * d->f[k][2];
+            double x = af * d->flo[k], y = af * d->fhi[k];
+            flo += dmin(x, y), fhi += dmax(x, y);
+        }
+        double s = sqrt(A[0] * A[0] + A[1] * A[1] + A[2] * A[2]) * d->slack;
+        /* both hold 0 (the corners); the factor: the rounding of these sums */
+        lo[a] = dmax(blo, flo - s) * (1 + 1e-12), hi[a] = dmin(bhi, fhi + s) * (1 + 1e-12);
+        if (box_lo) box_lo[a] = blo * (1 + 1e-12), box_hi[a] = bhi * (1 + 1e-12);
+        if (!wlo) continue;
+        wlo[a] = whi[a] = 0;
+        for (int k = 0; k < 6; k++) {
+            double x = A[0] * d->wit[k][0] + A[1] * d->wit[k][1] + A[2] * d->wit[k][2];
+            wlo[a] = dmin(wlo[a], x), whi[a] = dmax(whi[a], x);
+        }
+    }
 }
 
 /* The aligned block (g, bu, bv) of face f's grid: patches [bu 2^g, (bu + 1) 2^g) x
  * [bv 2^g, (bv + 1) 2^g) clipped to the grid. Blocks of one face nest like a quadtree, so two
  * blocks' sides either contain one another or meet in at most a point (the crack-free edge rule
- * relies on it). */
+ * relies on it). sigma: the largest crisp__rational_reparam of the block's patches. */
 static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const crisp_scene_face *f,
-                                uint32_t lv, uint32_t bu, uint32_t bv, int32_t *dest)
+                                uint32_t lv, uint32_t bu, uint32_t bv, int32_t *dest,
+                                double sigma[3])
 {
     crisp_status st =
         crisp_grow((void **)&g->nodes, &g->node_cap, g->node_count + 1, sizeof *g->nodes);
@@ -107,25 +349,29 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
                f->grid_v - iv0 < size ? f->grid_v - iv0 : size,
                lv,
                {-1, -1, -1, -1},
+               -1,
                {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY},
-               {0, 0, 0, 0},
-               {0, 0, 0},
                INFINITY,
                -INFINITY,
                0};
+    sigma[0] = sigma[1] = sigma[2] = 0;
     if (lv == 0) {
         const double *b = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].box;
         memcpy(n.box, b, sizeof n.box);
+        crisp__rational_reparam(&sc->patches[f->first_patch + iv0 * f->grid_u + iu0].bez, sigma);
     } else {
         for (int k = 0; k < 4; k++) {
             uint32_t cu = 2 * bu + (k & 1), cv = 2 * bv + (k >> 1);
             if ((cu << (lv - 1)) >= f->grid_u || (cv << (lv - 1)) >= f->grid_v) continue;
             int32_t c;
-            if ((st = build_group(g, sc, f, lv - 1, cu, cv, &c))) return st;
+            double cs[3];
+            if ((st = build_group(g, sc, f, lv - 1, cu, cv, &c, cs))) return st;
+            for (int a = 0; a < 3; a++)
+                sigma[a] = dmax(sigma[a], cs[a]); /* INFINITY stays */
             n.child[k] = c;
             for (int a = 0; a < 3; a++) {
-                n.box[a] = fmin(n.box[a], g->nodes[c].box[a]);
-                n.box[3 + a] = fmax(n.box[3 + a], g->nodes[c].box[3 + a]);
+                n.box[a] = dmin(n.box[a], g->nodes[c].box[a]);
+                n.box[3 + a] = dmax(n.box[3 + a], g->nodes[c].box[3 + a]);
             }
         }
     }
@@ -135,14 +381,19 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
     else
         for (int k = 0; k < 4; k++)
             if (n.child[k] >= 0) {
-                n.wlo = fmin(n.wlo, g->nodes[n.child[k]].wlo);
-                n.whi = fmax(n.whi, g->nodes[n.child[k]].whi);
+                n.wlo = dmin(n.wlo, g->nodes[n.child[k]].wlo);
+                n.whi = dmax(n.whi, g->nodes[n.child[k]].whi);
             }
     n.rational = n.whi > n.wlo;
-    if (n.nu * n.nv > 1) block_deviation(sc, f, &n);
-    if (n.nu * n.nv > 1 && n.rational)
-        crisp__rational_block_deviation(&sc->patches[f->first_patch + iv0 * f->grid_u + iu0],
-                                        f->grid_u, n.nu, n.nv, n.devq);
+    if (n.nu * n.nv > 1) {
+        if ((st = crisp_grow((void **)&g->devs, &g->dev_cap, g->dev_count + 1, sizeof *g->devs)))
+            return st;
+        n.dev = (int32_t)g->dev_count++;
+        block_dev *d = &g->devs[n.dev];
+        block_deviation(sc, f, &n, d);
+        memcpy(d->sigma, sigma, sizeof d->sigma);
+        if (!isfinite(sigma[0]) || !isfinite(sigma[1]) || !isfinite(sigma[2])) d->bounded = 0;
+    }
     g->nodes[me] = n;
     *dest = me;
     return CRISP_OK;
@@ -178,6 +429,7 @@ void crisp__groups_destroy(crisp__groups *g)
     if (!g) return;
     free_frame_state(g);
     free(g->nodes);
+    free(g->devs);
     free(g->face_root);
     free(g->face_small);
     free(g->counts);
@@ -197,6 +449,7 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
     g->scene = NULL;
     g->face_count = 0;
     g->node_count = 0;
+    g->dev_count = 0;
     free(g->face_root);
     free(g->face_small);
     free(g->counts);
@@ -215,7 +468,8 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
         while ((1u << lv) < sf->grid_u || (1u << lv) < sf->grid_v)
             lv++;
         int32_t root;
-        crisp_status st = build_group(g, sc, sf, lv, 0, 0, &root);
+        double sigma[3];
+        crisp_status st = build_group(g, sc, sf, lv, 0, 0, &root, sigma);
         if (st) return st;
         g->face_root[f] = (uint32_t)root;
     }
@@ -260,12 +514,12 @@ static int classify(const double *box, crisp_mat4 m, double gx, double gy, int w
             front = 0;
             continue;
         }
-        lo[0] = fmin(lo[0], x / w), hi[0] = fmax(hi[0], x / w);
-        lo[1] = fmin(lo[1], y / w), hi[1] = fmax(hi[1], y / w);
+        lo[0] = dmin(lo[0], x / w), hi[0] = dmax(hi[0], x / w);
+        lo[1] = dmin(lo[1], y / w), hi[1] = dmax(hi[1], y / w);
     }
     if (out[0] | out[1] | out[2] | out[3] | out[4] | out[5]) return 1;
     if (!front) return 0;
-    double e = fmax((hi[0] - lo[0]) * 0.5 * width, (hi[1] - lo[1]) * 0.5 * height);
+    double e = dmax((hi[0] - lo[0]) * 0.5 * width, (hi[1] - lo[1]) * 0.5 * height);
     *extent = e * (1 + 1e-9) + 1e-9;
     return *extent <= eps ? 2 : 0;
 }
@@ -304,113 +558,90 @@ static void activate_block(walk_ctx *c, uint32_t fi, const crisp_scene_face *f, 
 }
 
 /* 1 when the block can be one group leaf: every triangle with vertices on its surface lies
- * within eps on screen, whatever its levels. Either its box is within eps, or this bound is: let
- * B be the bilinear function through the block's four corners in homogeneous clip coordinates
- * (the corner control points of its corner patches: Bézier patches interpolate their corners),
- * and D the largest distance, per coordinate, between a control point of a patch of the block
- * and B at that control point's parameters (the patch's sub-rectangle of the block, uniformly
- * spaced: B restricted to it and raised to the patch's degrees has exactly those values as
- * control points). By the convex hull property |S(x) - B(x)| <= D for every parameter x of the
- * block. A triangle of the leaf has vertices S(p_k) and points T(x) = sum l_k S(p_k) at
- * x = sum l_k p_k (homogeneously; the drawn triangle is the same set for any positive scaling of
- * its vertices), so |T(x) - B(x)| <= |sum l_k (S(p_k) - B(p_k))| + |sum l_k B(p_k) - B(x)| <=
- * D + twist(B) / 4 (a bilinear function departs from its linear interpolant on a triangle of
- * its square by at most a quarter of its twist). Both are measured against B(x), whose W is at
- * least the corners' least W, so on screen |S(x) - T(x)| <= px(D) + px(D + twist / 4)
- * (screen_px). This needs no B-spline form of the face, only its grid of Bézier patches. The
- * B-spline net bound (crisp_slefe_group_screen's quad_px) was tried first: on wavy bicubic
- * sheets it exceeded the block's own screen extent (tests/render/test_group_leaves.c). The leaf
- * must also stay within CRISP_PLAN_MAX_LEAF_PX (float local parameters on a GPU). D is bounded
- * first from the block's view-independent deviation (group.dev, mapped by |view_proj|): O(1) per
- * block, so a face far away is decided at its root without reading its patches; where that is not
- * enough, blocks of at most 64 patches and GROUP_TRY_PX pixels read their control points (cost
- * only: larger blocks rarely pass). */
+ * within eps on screen, whatever its levels. Either its box is within eps, or rational_bound.c's
+ * block bound is (crisp__rational_block_px; its header has the argument): with L the bilinear
+ * through the block's four corners (the corner control points of its corner patches: Bézier
+ * patches interpolate their corners) and D the deviations, per coordinate, of its patches'
+ * control points from L at their parameters (the patch's sub-rectangle of the block, uniformly
+ * spaced: L restricted to it and raised to the patch's degrees has exactly those values as
+ * control points), the surface and the triangles drawn on it (clip-space barycentrics, as the
+ * rasterizer interpolates) are each within D plus the reparametrisation term that varying
+ * weights cause (sigma's times L's edges and twist; 0 for polynomial patches) plus, for the
+ * triangles, a quarter of L's twist, and within the range of D plus those of each other.
+ * This needs no B-spline form of the face, only its grid of Bézier patches. The B-spline net
+ * bound (crisp_slefe_group_screen's quad_px) was tried first: on wavy bicubic sheets it exceeded
+ * the block's own screen extent (tests/render/test_group_leaves.c). The leaf must also stay
+ * within CRISP_PLAN_MAX_LEAF_PX (float local parameters on a GPU).
+ * In O(1) first (the block's view-independent block_dev): D's range from deviation_range, and
+ * per patch the reparametrisation term sigma_s Eu + sigma_t Ev + sigma_st tw, with L's edges and
+ * twist scaled to the patch (1 / nu, 1 / nv, 1 / (nu nv) of the block's: the same for every
+ * patch), at most the block's largest sigma's times them. So a face far away is decided at its
+ * root without reading its patches. Where that is not enough, blocks of at most 64 patches and
+ * GROUP_TRY_PX pixels take crisp__rational_block_px (every control point, the sigma's per
+ * patch), unless the witnesses (control points of the block) already put that bound beyond eps:
+ * both of its forms are at least (dl_x + max |x_L / w_L| dl_w) / w_min in pixels (and y alike),
+ * dl = the witnesses' range + 2 x each sigma term alone + a quarter of L's twist. Cost only:
+ * larger blocks rarely pass, and on the bundled models the O(1) bound decided every block the
+ * control points would have accepted. */
 #define GROUP_TRY_PX 64.0
+
+/* The block's Euclidean corners (cw: homogeneous) in clip coordinates x, y, w (C), with their
+ * least w and largest |x / w|, |y / w|; 0 when one is not in front of the eye. */
+static int clip_corners(const double *const cw[4], crisp_mat4 m, double C[4][3], double *wmin,
+                        double *xmax, double *ymax)
+{
+    *wmin = INFINITY, *xmax = *ymax = 0;
+    for (int i = 0; i < 4; i++) {
+        const double *q = cw[i];
+        if (!(q[3] > 0)) return 0;
+        double P[3] = {q[0] / q[3], q[1] / q[3], q[2] / q[3]};
+        for (int a = 0; a < 3; a++) {
+            int r = a == 2 ? 3 : a; /* x, y, w rows of view_proj */
+            C[i][a] = m[0][r] * P[0] + m[1][r] * P[1] + m[2][r] * P[2] + m[3][r];
+        }
+        if (!(C[i][2] > 0)) return 0;
+        *wmin = dmin(*wmin, C[i][2]);
+        *xmax = dmax(*xmax, fabs(C[i][0] / C[i][2]));
+        *ymax = dmax(*ymax, fabs(C[i][1] / C[i][2]));
+    }
+    return 1;
+}
+
 static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
                          double extent)
 {
     if (extent <= c->eps) return 1;
     if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
-    const crisp_scene *sc = c->sc;
-    uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
-    const crisp_bezier_patch *p00 = &sc->patches[base].bez,
-                             *p10 = &sc->patches[base + n->nu - 1].bez,
-                             *p01 = &sc->patches[base + (n->nv - 1) * f->grid_u].bez,
-                             *p11 = &sc->patches[base + (n->nv - 1) * f->grid_u + n->nu - 1].bez;
-    const double *cw[4] = {p00->cpw, p10->cpw + 4 * p10->du, p01->cpw + 4 * (p01->du + 1) * p01->dv,
-                           p11->cpw + 4 * ((p11->du + 1) * p11->dv + p11->du)};
-    double C[4][3], wmin = INFINITY, xmax = 0, ymax = 0;
-    for (int k = 0; k < 4; k++) {
-        const double *q = cw[k];
-        for (int a = 0; a < 3; a++) {
-            int r = a == 2 ? 3 : a; /* x, y, w rows of view_proj */
-            C[k][a] = c->m[0][r] * q[0] + c->m[1][r] * q[1] + c->m[2][r] * q[2] + c->m[3][r] * q[3];
-        }
-        if (!(C[k][2] > 0)) return 0;
-        wmin = fmin(wmin, C[k][2]);
-        xmax = fmax(xmax, fabs(C[k][0] / C[k][2]));
-        ymax = fmax(ymax, fabs(C[k][1] / C[k][2]));
-    }
-    /* First from the block's view-independent deviation (O(1)); the control points themselves
-     * only for blocks of at most 64 patches where that was not enough. */
-    double D[3];
+    const block_dev *dev = &c->g->devs[n->dev];
+    double(*m)[4] = (double(*)[4])c->m;
+    const double *cw[4];
+    block_corners(c->sc, f, n, cw);
+    double C[4][3], wmin, xmax, ymax;
+    if (!dev->bounded || !clip_corners(cw, m, C, &wmin, &xmax, &ymax)) return 0;
+    int small = n->nu * n->nv <= 64 && extent <= GROUP_TRY_PX;
+    double lo[3], hi[3], wlo[3], whi[3], r[3], rlow[3];
+    deviation_range(dev, m, lo, hi, NULL, NULL, small ? wlo : NULL, whi);
     for (int a = 0; a < 3; a++) {
-        int r = a == 2 ? 3 : a;
-        D[a] = (fabs(c->m[0][r]) * n->dev[0] + fabs(c->m[1][r]) * n->dev[1] +
-                fabs(c->m[2][r]) * n->dev[2] + fabs(c->m[3][r]) * n->dev[3]) *
-               (1 + 1e-12);
+        double eu = dmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a])) / n->nu;
+        double ev = dmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a])) / n->nv;
+        double tw = fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]) / ((double)n->nu * n->nv);
+        double su = dev->sigma[0] * eu, sv = dev->sigma[1] * ev, st = dev->sigma[2] * tw;
+        r[a] = (su + sv + st) * (1 + 1e-12);
+        rlow[a] = dmax(su, dmax(sv, st));
     }
-    double E0[3];
+    if (crisp__rational_block_finish_px((const double(*)[3])C, lo, hi, r, c->width, c->height) <=
+        c->eps)
+        return 1;
+    if (!small) return 0;
+    double dl[3];
     for (int a = 0; a < 3; a++)
-        E0[a] = D[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
-    if (!n->rational && crisp__clip_screen_px(D, wmin, xmax, ymax, c->width, c->height) +
-                                crisp__clip_screen_px(E0, wmin, xmax, ymax, c->width, c->height) <=
-                            c->eps)
-        return 1;
-    /* Blocks whose weights vary: the same bound without dividing by the weights, measured at the
-     * parameters the rasterizer interpolates (rational_bound.c; the homogeneous one bounds
-     * another point of the same triangle there). */
-    double(*m)[4] = (double(*)[4])c->m, fast = INFINITY;
-    if (n->rational &&
-        (fast = crisp__rational_block_px_fast(&sc->patches[base], f->grid_u, n->nu, n->nv, n->devq,
-                                              m, c->width, c->height)) <= c->eps)
-        return 1;
-    if (n->nu * n->nv > 64 || extent > GROUP_TRY_PX) return 0;
-    /* the per-control-point bound is rarely below a quarter of the O(1) one */
-    if (n->rational && fast <= 4 * c->eps &&
-        crisp__rational_block_px(&sc->patches[base], f->grid_u, n->nu, n->nv, m, c->width,
-                                 c->height, c->eps) <= c->eps)
-        return 1;
-    if (n->rational) return 0;
-    D[0] = D[1] = D[2] = 0;
-    for (uint32_t jv = 0; jv < n->nv; jv++)
-        for (uint32_t iu = 0; iu < n->nu; iu++) {
-            const crisp_bezier_patch *b = &sc->patches[base + jv * f->grid_u + iu].bez;
-            for (int j = 0; j <= b->dv; j++) {
-                double t = (jv + (double)j / b->dv) / n->nv;
-                for (int i = 0; i <= b->du; i++) {
-                    double s = (iu + (double)i / b->du) / n->nu;
-                    const double *q = b->cpw + 4 * (j * (b->du + 1) + i);
-                    for (int a = 0; a < 3; a++) {
-                        int r = a == 2 ? 3 : a;
-                        double x = c->m[0][r] * q[0] + c->m[1][r] * q[1] + c->m[2][r] * q[2] +
-                                   c->m[3][r] * q[3];
-                        double bl = (1 - t) * ((1 - s) * C[0][a] + s * C[1][a]) +
-                                    t * ((1 - s) * C[2][a] + s * C[3][a]);
-                        /* A relative allowance for the rounding of both sides. */
-                        D[a] = fmax(D[a], fabs(x - bl) + 1e-12 * (fabs(x) + fabs(bl)));
-                    }
-                }
-            }
-            if (2 * crisp__clip_screen_px(D, wmin, xmax, ymax, c->width, c->height) > c->eps)
-                return 0;
-        }
-    double E[3];
-    for (int a = 0; a < 3; a++)
-        E[a] = D[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
-    return crisp__clip_screen_px(D, wmin, xmax, ymax, c->width, c->height) +
-               crisp__clip_screen_px(E, wmin, xmax, ymax, c->width, c->height) <=
-           c->eps;
+        dl[a] = whi[a] - wlo[a] + 2 * rlow[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
+    for (int a = 0; a < 2; a++)
+        if ((dl[a] + (a ? ymax : xmax) * dl[2]) * 0.5 * (a ? c->height : c->width) > c->eps * wmin)
+            return 0;
+    uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
+    return crisp__rational_block_px(&c->sc->patches[base], f->grid_u, n->nu, n->nv, m, c->width,
+                                    c->height, c->eps) <= c->eps;
 }
 
 static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
@@ -548,4 +779,67 @@ int crisp__groups_face_small(const crisp__groups *g, uint32_t face)
 uint64_t crisp__groups_generation(const crisp__groups *g)
 {
     return g ? g->generation : 0;
+}
+
+/* crisp__groups_test_deviations's walk: the range of A_xyz . d over the control points, in clip
+ * coordinates, with no rounding allowance. */
+typedef struct exact_walk {
+    double C[4][3];
+    const double (*m)[4];
+    double lo[3], hi[3];
+} exact_walk;
+
+static int exact_visit(void *vctx, const double q[4], double s, double t, int last)
+{
+    (void)last;
+    exact_walk *w = vctx;
+    double P[3] = {q[0] / q[3], q[1] / q[3], q[2] / q[3]};
+    for (int a = 0; a < 3; a++) {
+        int r = a == 2 ? 3 : a;
+        double x = w->m[0][r] * P[0] + w->m[1][r] * P[1] + w->m[2][r] * P[2] + w->m[3][r];
+        double e = x - bilinear(w->C[0][a], w->C[1][a], w->C[2][a], w->C[3][a], s, t);
+        w->lo[a] = dmin(w->lo[a], e), w->hi[a] = dmax(w->hi[a], e);
+    }
+    return 1;
+}
+
+crisp_status crisp__groups_test_deviations(crisp__groups *g, const crisp_scene *sc, crisp_mat4 m,
+                                           void (*visit)(void *ctx,
+                                                         const crisp__groups_dev_sample *s),
+                                           void *ctx)
+{
+    crisp_status st = ensure_built(g, sc);
+    if (st) return st;
+    for (uint32_t fi = 0; fi < sc->face_count; fi++) {
+        if (g->face_root[fi] == UINT32_MAX) continue;
+        const crisp_scene_face *f = &sc->faces[fi];
+        int32_t stack[4 * 64];
+        int top = 0;
+        stack[top++] = (int32_t)g->face_root[fi];
+        while (top > 0) {
+            const group *n = &g->nodes[stack[--top]];
+            for (int q = 0; q < 4; q++)
+                if (n->child[q] >= 0) stack[top++] = n->child[q];
+            if (n->dev < 0 || !g->devs[n->dev].bounded) continue;
+            /* the corners mapped without the front-of-eye check (any affine map) */
+            const double *cw[4];
+            block_corners(sc, f, n, cw);
+            exact_walk w = {.m = (const double(*)[4])m};
+            for (int i = 0; i < 4; i++)
+                for (int a = 0; a < 3; a++) {
+                    int r = a == 2 ? 3 : a;
+                    w.C[i][a] =
+                        (m[0][r] * cw[i][0] + m[1][r] * cw[i][1] + m[2][r] * cw[i][2]) / cw[i][3] +
+                        m[3][r];
+                }
+            block_points(sc, f, n, 0, exact_visit, &w);
+            crisp__groups_dev_sample s = {
+                .face = fi, .patches = n->nu * n->nv, .rational = n->rational};
+            deviation_range(&g->devs[n->dev], m, s.lo, s.hi, s.box_lo, s.box_hi, s.wlo, s.whi);
+            memcpy(s.exact_lo, w.lo, sizeof w.lo);
+            memcpy(s.exact_hi, w.hi, sizeof w.hi);
+            visit(ctx, &s);
+        }
+    }
+    return CRISP_OK;
 }

@@ -801,6 +801,7 @@ void crisp__trees_destroy(crisp__trees *p)
     free(p->arenas);
     free(p->build_state);
     free(p->worker_status);
+    free(p->trim_used);
     free(p->patches);
     free(p->forced);
     free(p->redo);
@@ -814,7 +815,10 @@ void crisp__trees_destroy(crisp__trees *p)
     for (uint32_t f = 0; f < p->face_cap; f++) {
         crisp_trim_plan_free(&p->trims[f]);
         crisp_trim_density_tree_free(&p->density[f]);
+        crisp_trim_lod_free(&p->lod[f]);
     }
+    free(p->lod);
+    free(p->lod_key);
     free(p->trims);
     free(p->density);
     free(p->density_gen);
@@ -834,6 +838,9 @@ static crisp_status ensure_workers(crisp__trees *p, int workers)
     crisp_status *s = realloc(p->worker_status, (size_t)workers * sizeof *s);
     if (!s) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for planner workers");
     p->worker_status = s;
+    size_t *u = realloc(p->trim_used, (size_t)workers * sizeof *u);
+    if (!u) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for planner workers");
+    p->trim_used = u;
     for (int w = p->worker_cap; w < workers; w++) {
         p->arenas[w] = NULL;
         p->build_state[w] = NULL;
@@ -855,7 +862,11 @@ typedef struct trim_ctx {
     const crisp_scene *sc;
     int strip_count;
     crisp_status *status;
+    size_t *scratch_used; /* per worker: the most scratch one face took */
 } trim_ctx;
+
+/* Faces at most this many pixels across (their box) get chains (crisp_trim_plan_desc.chains). */
+#define CHAIN_FACE_PX 64.0
 
 static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
 {
@@ -869,10 +880,10 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             uint32_t s = c->plan->face_tau[f] * (sf->grid_v ? sf->grid_v : 1);
             strips = (int)(s < 8 ? 8 : s > 256 ? 256 : s);
             /* No more strips than the face is pixels across on screen (issue 12: a face a few
-             * pixels tall kept up to 256 strips). Strips only localise the density bound: the
-             * rows of any strip count keep the 1 px guarantee. */
+             * pixels tall kept up to 256 strips; one strip for a face within a pixel). Strips only
+             * localise the density bound: the rows of any strip count keep the 1 px guarantee. */
             double px = crisp__groups_face_px(c->plan->groups, (uint32_t)f);
-            if (px < strips) strips = px < 8 ? 8 : (int)ceil(px);
+            if (px < strips) strips = px < 1 ? 1 : (int)ceil(px);
         }
         /* A face within 0.7 px on screen: every point of it is within a pixel of its trims, so
          * every decision is within the pixel band: an all-inside table, no density bound, no
@@ -884,6 +895,7 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             tp->strip_count = 1;
             tp->clamped = 0;
             tp->polyline.piece_count = 0;
+            tp->chains = 0;
             tp->v0 = sf->domain[2];
             tp->v1 = sf->domain[3];
             crisp_status st = crisp_trim_table_build(&(crisp_trim_table_desc){.polyline = NULL,
@@ -911,8 +923,33 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             }
             tree = &c->plan->density[f];
         }
+        /* Scratch of the density bound: the worker's arena (one per face kept about 600 MB
+         * for impeller x 49 far away); its largest need is kept reserved in every worker's
+         * arena (trim_scratch), so which worker plans which face allocates nothing new. */
+        crisp_arena *scratch = c->plan->arenas[worker];
+        /* A face a few pixels across: its trim pieces joined into chains of few chords
+         * (crisp_trim_polyline_chains), for the table and the ribbons alike, or one of its
+         * view-independent coarse polylines (built once per face and trim edit). */
+        int chains = crisp__groups_face_px(c->plan->groups, (uint32_t)f) <= CHAIN_FACE_PX;
+        const crisp_trim_lod *lod = NULL;
+        if (chains && sf->piece_count) {
+            if (c->plan->lod_key[f] != c->sc->trim_serial) {
+                crisp_status st = crisp_trim_lod_build(c->sc->pieces + sf->first_piece,
+                                                       (int)sf->piece_count, &c->plan->lod[f]);
+                if (st) {
+                    crisp_error_prefix("face %zu (source entity %d)", f, sf->src->source_id);
+                    c->status[worker] = st;
+                    continue;
+                }
+                c->plan->lod_key[f] = c->sc->trim_serial;
+            }
+            lod = &c->plan->lod[f];
+        }
         crisp_trim_plan_desc d = {
             .tree = tree,
+            .scratch = scratch,
+            .chains = chains,
+            .lod = lod,
             .patches = c->sc->face_patches[f].patches,
             .patch_count = c->sc->face_patches[f].count,
             .pieces = sf->piece_count && !small ? c->sc->pieces + sf->first_piece : NULL,
@@ -925,6 +962,8 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
             .strip_count = strips,
         };
         crisp_status st = crisp_trim_plan_face(&d, &c->plan->trims[f]);
+        size_t used = crisp_arena_used(scratch);
+        if (used > c->scratch_used[worker]) c->scratch_used[worker] = used;
         if (st) {
             crisp_error_prefix("face %zu (source entity %d)", f, sf->src->source_id);
             c->status[worker] = st;
@@ -965,6 +1004,14 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         if (!dg) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
         memset(dg + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *dg);
         plan->density_gen = dg;
+        crisp_trim_lod *lod = realloc(plan->lod, sc->face_count * sizeof *lod);
+        if (!lod) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        memset(lod + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *lod);
+        plan->lod = lod;
+        uint64_t *lk = realloc(plan->lod_key, sc->face_count * sizeof *lk);
+        if (!lk) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        memset(lk + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *lk);
+        plan->lod_key = lk;
         plan->face_cap = sc->face_count;
     }
     crisp_camera_matrices m;
@@ -1043,12 +1090,18 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
             if (!pp->leaves[l].culled && pp->leaves[l].tau > plan->face_tau[f])
                 plan->face_tau[f] = pp->leaves[l].tau;
     }
-    for (int w = 0; w < workers; w++)
+    size_t *scratch_used = plan->trim_used;
+    for (int w = 0; w < workers; w++) {
         plan->worker_status[w] = CRISP_OK;
-    trim_ctx trc = {plan, sc, desc ? desc->strip_count : 0, plan->worker_status};
+        scratch_used[w] = 0;
+        if ((st = crisp_arena_reserve(plan->arenas[w], plan->trim_scratch))) return st;
+    }
+    trim_ctx trc = {plan, sc, desc ? desc->strip_count : 0, plan->worker_status, scratch_used};
     crisp_pool_parallel_for(pool, sc->face_count, 1, plan_trims, &trc);
-    for (int w = 0; w < workers; w++)
+    for (int w = 0; w < workers; w++) {
         if (plan->worker_status[w]) return plan->worker_status[w];
+        if (scratch_used[w] > plan->trim_scratch) plan->trim_scratch = scratch_used[w];
+    }
     for (uint32_t f = 0; f < sc->face_count; f++) {
         if (!plan->face_tau[f]) continue;
         s->visible_faces++;
@@ -1071,7 +1124,8 @@ crisp_status crisp__trees_replan_trim(crisp__trees *plan, const crisp_scene *sc,
                            sc->face_count);
     if (!plan->face_tau[f]) return CRISP_OK; /* not visible: nothing to plan */
     crisp_status status = CRISP_OK;
-    trim_ctx trc = {plan, sc, strip_count, &status};
+    size_t used = 0;
+    trim_ctx trc = {plan, sc, strip_count, &status, &used};
     plan_trims(&trc, f, f + 1, 0);
     return status;
 }

@@ -89,6 +89,21 @@ uint32_t crisp__groups_owner(const crisp__groups *g, const crisp_scene *sc, uint
 /* Bumped whenever classify rebuilt the hierarchy for a new scene (1 after the first): what is
  * built per face from the scene's patches is rebuilt when it changes. */
 uint64_t crisp__groups_generation(const crisp__groups *g);
+/* Test hook (tests/render/test_group_leaves.c): for every block of more than one patch in the
+ * hierarchy of sc (built if needed), under the affine map m, per clip coordinate x, y, w: the
+ * ranges group_leaf_ok's O(1) bound takes for the deviations of the block's Euclidean control
+ * points from the bilinear through its corners ([lo, hi]: the coordinate box and the
+ * principal-axes box together; box: the coordinate box alone; w: the witnesses), and their
+ * range over the control points computed directly (exact). rational: the block's weights vary. */
+typedef struct crisp__groups_dev_sample {
+    double lo[3], hi[3], box_lo[3], box_hi[3], wlo[3], whi[3], exact_lo[3], exact_hi[3];
+    uint32_t face, patches;
+    int rational;
+} crisp__groups_dev_sample;
+crisp_status crisp__groups_test_deviations(crisp__groups *g, const crisp_scene *sc, crisp_mat4 m,
+                                           void (*visit)(void *ctx,
+                                                         const crisp__groups_dev_sample *s),
+                                           void *ctx);
 
 #define TREE_CHUNKS 64 /* fixed work ranges of the tree pass, one arena each */
 
@@ -100,12 +115,16 @@ typedef struct crisp__trees {
     crisp_trim_plan *trims;           /* per face */
     crisp_trim_density_tree *density; /* per face: blocks for the trim density bound */
     uint64_t *density_gen;            /* per face: groups generation it was built at (0: none) */
-    uint32_t *face_tau; /* per face: largest visible tau, 0 when the face is not visible */
+    crisp_trim_lod *lod; /* per face: coarse trim polylines of faces a few pixels across */
+    uint64_t *lod_key;   /* per face: the scene's trim_serial it was built from (0: none) */
+    uint32_t *face_tau;  /* per face: largest visible tau, 0 when the face is not visible */
     uint32_t face_cap;
     crisp_arena **arenas;
     void **build_state;
     crisp_status *worker_status;
     int worker_cap;
+    size_t *trim_used;   /* per worker: the most trim scratch (arenas) one face took this build */
+    size_t trim_scratch; /* the most any face took so far: reserved in every worker's arena */
     crisp__forced *forced;
     size_t forced_count, forced_cap;
     uint32_t *redo; /* patches to rebuild with forced splits */

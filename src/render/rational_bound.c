@@ -517,3 +517,12 @@ int crisp__rational_tess_level(const crisp_bezier_patch *p, int below, double fl
     }
     return below;
 }
+
+double crisp__rational_block_finish_px(const double C[4][3], const double lo[3], const double hi[3],
+                                       const double r[3], int width, int height)
+{
+    block_dev d;
+    for (int a = 0; a < 3; a++)
+        d.lo[a] = lo[a], d.hi[a] = hi[a], d.r[a] = r[a];
+    return finish(C, &d, width, height);
+}

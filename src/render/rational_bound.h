@@ -55,6 +55,13 @@ double crisp__rational_block_px_fast(const crisp_scene_patch *first, uint32_t st
                                      uint32_t nv, const double dev[3], crisp_mat4 m, int width,
                                      int height);
 
+/* The block bound's last step on its own (patch_groups.c keeps the deviations per block): C the
+ * block's Euclidean corners in clip coordinates x, y, w; every control point's deviation from the
+ * bilinear through them, per coordinate, in [lo, hi] (lo <= 0 <= hi); the reparametrisation term
+ * at most r. INFINITY when W is not bounded away from 0. */
+double crisp__rational_block_finish_px(const double C[4][3], const double lo[3], const double hi[3],
+                                       const double r[3], int width, int height);
+
 /* A bound (pixels) on the distance between patch p and its leaf mesh (crisp_tess_mesh_generate)
  * at inner level tau in both directions, with every edge level >= tau, each triangle point
  * against the surface at the same parameters: the largest any-triangle bound over the parameter

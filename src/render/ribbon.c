@@ -198,6 +198,7 @@ typedef struct sampler {
     int reversed;
     crisp_mat4 *m;
     double w, h, gx, gy;
+    const crisp_trim_plan *tp; /* a face with chains: its strips (speed bounds); else NULL */
     int failed;
 } sampler;
 
@@ -229,6 +230,23 @@ static double chord_dist(const crisp_raster_vertex *a, const crisp_raster_vertex
     return hypot(mx - t * bx, my - t * by);
 }
 
+/* The largest finite speed bounds (pixels per unit u and v) of the strips that v-range [va, vb]
+ * (either order) reaches, and of one strip more on each side. */
+static void strip_speeds(const crisp_trim_plan *tp, double va, double vb, double *ru, double *rv)
+{
+    *ru = *rv = 0.0;
+    int n = tp->strip_count;
+    if (n < 1 || !(tp->v1 > tp->v0)) return;
+    double h = (tp->v1 - tp->v0) / n;
+    double f0 = floor((fmin(va, vb) - tp->v0) / h) - 1, f1 = floor((fmax(va, vb) - tp->v0) / h) + 1;
+    int i0 = f0 < 0 ? 0 : f0 > n - 1 ? n - 1 : (int)f0;
+    int i1 = f1 < 0 ? 0 : f1 > n - 1 ? n - 1 : (int)f1;
+    for (int i = i0; i <= i1; i++) {
+        if (isfinite(tp->rho_u[i]) && tp->rho_u[i] > *ru) *ru = tp->rho_u[i];
+        if (isfinite(tp->rho_v[i]) && tp->rho_v[i] > *rv) *rv = tp->rho_v[i];
+    }
+}
+
 /* Samples strictly after a up to and including b, along the uv segment. A piece shorter than
  * RIBBON_STEP_PX is still split where its middle lies more than RIBBON_BOW_PX off its chord: a
  * trim edge running over its surface's silhouette folds back on screen, and its chord there can
@@ -243,22 +261,38 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
     if (s->failed) return;
     int va = in_view(a, s->gx, s->gy), vb = in_view(b, s->gx, s->gy);
     double d = screen_dist(a, b, s->w, s->h);
+    int split = d > RIBBON_STEP_PX;
     crisp_raster_vertex mid;
-    int split = depth < RIBBON_MAX_DEPTH && d > RIBBON_STEP_PX && (va || vb || d < INFINITY);
-    if (!split && depth < RIBBON_MAX_DEPTH && d > RIBBON_BOW_PX && d < INFINITY && (va || vb) &&
-        parent_bow > 4 * RIBBON_BOW_PX) {
-        ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
-                      0.5 * (a->attr[1] + b->attr[1]), &mid);
-        double bow = mid.clip[3] > 0 ? chord_dist(a, &mid, b, s->w, s->h) : 0;
-        if (bow > RIBBON_BOW_PX) {
-            refine(s, a, &mid, depth + 1, bow);
-            refine(s, &mid, b, depth + 1, bow);
-            return;
+    int have_mid = 0;
+    /* The ends' distance does not bound the image of the uv segment between them: a chord of a
+     * chain (crisp_trim_polyline_chains) can run along a closed surface's seam and end where it
+     * starts on screen. Where the strips' speed bounds allow an image longer than a step, the
+     * middle is looked at: a path through it longer than a step splits too. */
+    if (!split && s->tp && depth < RIBBON_MAX_DEPTH && d < INFINITY) {
+        double ru, rv;
+        strip_speeds(s->tp, a->attr[1], b->attr[1], &ru, &rv);
+        double len = ru * fabs(b->attr[0] - a->attr[0]) + rv * fabs(b->attr[1] - a->attr[1]);
+        if (len > RIBBON_STEP_PX) {
+            ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m,
+                          0.5 * (a->attr[0] + b->attr[0]), 0.5 * (a->attr[1] + b->attr[1]), &mid);
+            have_mid = 1;
+            split = screen_dist(a, &mid, s->w, s->h) + screen_dist(&mid, b, s->w, s->h) >
+                    RIBBON_STEP_PX;
         }
     }
-    if (split) {
-        ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
-                      0.5 * (a->attr[1] + b->attr[1]), &mid);
+    /* The bow of a short piece (above). */
+    if (!split && depth < RIBBON_MAX_DEPTH && d > RIBBON_BOW_PX && d < INFINITY && (va || vb) &&
+        (have_mid || parent_bow > 4 * RIBBON_BOW_PX)) {
+        if (!have_mid)
+            ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m,
+                          0.5 * (a->attr[0] + b->attr[0]), 0.5 * (a->attr[1] + b->attr[1]), &mid);
+        have_mid = 1;
+        split = mid.clip[3] > 0 && chord_dist(a, &mid, b, s->w, s->h) > RIBBON_BOW_PX;
+    }
+    if (depth < RIBBON_MAX_DEPTH && split && (va || vb || d < INFINITY)) {
+        if (!have_mid)
+            ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m,
+                          0.5 * (a->attr[0] + b->attr[0]), 0.5 * (a->attr[1] + b->attr[1]), &mid);
         /* Both ends and the middle outside the view and neither half's widened screen box
          * meeting the view: nothing of it shows. (At extreme zoom a piece crossing the window
          * would otherwise be sampled along its whole length, most of it far off screen; only the
@@ -381,6 +415,7 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
         if (crisp__groups_face_small(plan->groups, job->face) || !tp->vis_u || !tp->rho_v ||
             !tp->vis_v)
             tp = NULL;
+        s.tp = tp && tp->chains ? tp : NULL;
         crisp_raster_vertex a, b;
         double uv0[2], uv[2];
         path_point(c, job, 0, uv0);

@@ -207,6 +207,8 @@ static crisp_status flatten_control_points(crisp_scene *s)
     return CRISP_OK;
 }
 
+static _Atomic uint64_t trim_serials; /* crisp_scene.trim_serial */
+
 /* The Bézier pieces of every face's trim loops, loop after loop, face after face (rebuilt whole
  * when one face's loops change: pieces are few next to patches). */
 static crisp_status extract_pieces(crisp_scene *s)
@@ -263,6 +265,7 @@ static crisp_status extract_pieces(crisp_scene *s)
     s->pieces = all;
     s->loop_count = loop_count;
     s->piece_count = piece_count;
+    s->trim_serial = atomic_fetch_add(&trim_serials, 1) + 1;
     return CRISP_OK;
 }
 

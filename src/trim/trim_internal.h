@@ -5,6 +5,17 @@
 
 #include "crisp/trim.h"
 
+/* min and max of finite values without the library calls (fmin and fmax are calls that handle
+ * NaN; the trim pieces' coordinates are checked finite). */
+static inline double crisp__trim_min(double a, double b)
+{
+    return a < b ? a : b;
+}
+static inline double crisp__trim_max(double a, double b)
+{
+    return a > b ? a : b;
+}
+
 /* Binomial coefficient C(n, k) for 0 <= k <= n <= 2 * CRISP_MAX_DEGREE + 1, as a double. */
 double crisp__trim_binom(int n, int k);
 
@@ -35,4 +46,8 @@ int crisp__trim_block_bound(const crisp_trim_density_desc *desc, const crisp_tri
                             double *bv, double *bu);
 int crisp__trim_patch_bound(const crisp_trim_density_desc *desc, const crisp_bezier_patch *p,
                             double *bv, double *bu);
+/* crisp_trim_tessellate for pieces that have passed crisp_trim_pieces_check (crisp_trim_plan_face
+ * checks them once per face and frame). */
+crisp_status crisp__trim_tessellate_checked(const crisp_trim_tess_desc *desc,
+                                            crisp_trim_polyline *dest);
 #endif

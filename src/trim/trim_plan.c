@@ -15,10 +15,10 @@ static void piece_box(const crisp_bezier_curve *b, double box[4])
     box[1] = box[3] = -HUGE_VAL;
     for (int i = 0; i <= b->degree; i++) {
         double u = b->cpw[3 * i] / b->cpw[3 * i + 2], v = b->cpw[3 * i + 1] / b->cpw[3 * i + 2];
-        box[0] = fmin(box[0], u);
-        box[1] = fmax(box[1], u);
-        box[2] = fmin(box[2], v);
-        box[3] = fmax(box[3], v);
+        box[0] = crisp__trim_min(box[0], u);
+        box[1] = crisp__trim_max(box[1], u);
+        box[2] = crisp__trim_min(box[2], v);
+        box[3] = crisp__trim_max(box[3], v);
     }
 }
 
@@ -30,11 +30,11 @@ static void trim_extent(const crisp_trim_plan_desc *desc, crisp_trim_plan *p, in
     double tv0 = HUGE_VAL, tv1 = -HUGE_VAL, box[4];
     for (int k = 0; k < desc->piece_count; k++) {
         piece_box(&desc->pieces[k], box);
-        tv0 = fmin(tv0, box[2]);
-        tv1 = fmax(tv1, box[3]);
+        tv0 = crisp__trim_min(tv0, box[2]);
+        tv1 = crisp__trim_max(tv1, box[3]);
     }
-    p->v0 = fmax(desc->v0, tv0);
-    p->v1 = fmin(desc->v1, tv1);
+    p->v0 = crisp__trim_max(desc->v0, tv0);
+    p->v1 = crisp__trim_min(desc->v1, tv1);
     int none = !(p->v1 > p->v0); /* no loops, or loops without area inside the domain */
     if (none) p->v0 = desc->v0, p->v1 = desc->v1;
     for (int i = 0; i < n; i++) {
@@ -51,9 +51,24 @@ static void trim_extent(const crisp_trim_plan_desc *desc, crisp_trim_plan *p, in
         int i0 = f0 < 0 ? 0 : f0 > n - 1 ? n - 1 : (int)f0;
         int i1 = f1 < 0 ? 0 : f1 > n - 1 ? n - 1 : (int)f1;
         for (int i = i0; i <= i1; i++) {
-            p->strip_u[2 * i] = fmin(p->strip_u[2 * i], box[0]);
-            p->strip_u[2 * i + 1] = fmax(p->strip_u[2 * i + 1], box[1]);
+            p->strip_u[2 * i] = crisp__trim_min(p->strip_u[2 * i], box[0]);
+            p->strip_u[2 * i + 1] = crisp__trim_max(p->strip_u[2 * i + 1], box[1]);
         }
+    }
+}
+
+/* trim_extent from a view-independent level set's box: the strips' v-range as there, every strip's
+ * u-range the whole box (a superset of the pieces' boxes that reach it: the bound covers more,
+ * and stays a bound). */
+static void lod_extent(const crisp_trim_plan_desc *desc, const crisp_trim_lod *lod,
+                       crisp_trim_plan *p, int n)
+{
+    p->v0 = crisp__trim_max(desc->v0, lod->box[2]);
+    p->v1 = crisp__trim_min(desc->v1, lod->box[3]);
+    if (!(p->v1 > p->v0)) p->v0 = desc->v0, p->v1 = desc->v1;
+    for (int i = 0; i < n; i++) {
+        p->strip_u[2 * i] = lod->box[0];
+        p->strip_u[2 * i + 1] = lod->box[1];
     }
 }
 
@@ -83,18 +98,27 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
             return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_plan_face: out of memory");
         p->cap_strips = n;
     }
-    if (!p->scratch) {
-        crisp_status st = crisp_arena_create(0, &p->scratch);
-        if (st) return st;
+    crisp_arena *scratch = desc->scratch;
+    if (!scratch) {
+        if (!p->scratch) {
+            crisp_status st = crisp_arena_create(0, &p->scratch);
+            if (st) return st;
+        }
+        scratch = p->scratch;
     }
-    crisp_arena_reset(p->scratch);
+    crisp_arena_reset(scratch);
     p->strip_count = n;
     if (desc->piece_count < 0 || (desc->piece_count > 0 && !desc->pieces))
         return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_trim_plan_face: %d pieces at %p",
                            desc->piece_count, (const void *)desc->pieces);
-    crisp_status st = crisp_trim_pieces_check(desc->pieces, desc->piece_count);
+    const crisp_trim_lod *lod =
+        desc->lod && desc->lod->levels > 0 && desc->piece_count > 0 ? desc->lod : NULL;
+    crisp_status st = lod ? CRISP_OK : crisp_trim_pieces_check(desc->pieces, desc->piece_count);
     if (st) return st;
-    trim_extent(desc, p, n);
+    if (lod)
+        lod_extent(desc, lod, p, n);
+    else
+        trim_extent(desc, p, n);
     st = crisp_trim_scan_density(&(crisp_trim_density_desc){.patches = desc->patches,
                                                             .patch_count = desc->patch_count,
                                                             .view_proj = desc->view_proj,
@@ -103,7 +127,7 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
                                                             .v0 = p->v0,
                                                             .v1 = p->v1,
                                                             .strip_count = n,
-                                                            .scratch = p->scratch,
+                                                            .scratch = scratch,
                                                             .strip_u = p->strip_u,
                                                             .tree = desc->tree,
                                                             .vis_u = p->vis_u},
@@ -111,17 +135,69 @@ crisp_status crisp_trim_plan_face(const crisp_trim_plan_desc *desc, crisp_trim_p
     if (st) return st;
     crisp_trim_rows_from_density(p->rho_v, p->vis_v, n, p->v0, p->v1, p->mu, &p->clamped);
     const crisp_trim_polyline *pl = NULL;
-    if (desc->piece_count > 0) {
-        st = crisp_trim_tessellate(&(crisp_trim_tess_desc){.pieces = desc->pieces,
-                                                           .piece_count = desc->piece_count,
-                                                           .v0 = p->v0,
-                                                           .v1 = p->v1,
-                                                           .strip_count = n,
-                                                           .mu = p->mu,
-                                                           .row_v = p->vis_v,
-                                                           .rho_u = p->rho_u},
-                                   &p->polyline);
+    p->chains = 0;
+    /* The tolerances the polyline needs (crisp_trim_tessellate's defaults over the finest visible
+     * strip) and the coarsest view-independent level within them. */
+    double h = HUGE_VAL, rho_u = 0.0;
+    for (int i = 0; i < n; i++) {
+        if (!p->mu[i]) continue;
+        h = fmin(h, (p->vis_v[2 * i + 1] - p->vis_v[2 * i]) / p->mu[i]);
+        if (isfinite(p->rho_u[i])) rho_u = fmax(rho_u, p->rho_u[i]);
+    }
+    /* The coarsest level within half of them, then chains with what is left (at least the other
+     * half): a level's factor 2 steps would otherwise waste up to half the allowance. */
+    int level = -1;
+    for (int k = 0; lod && k < lod->levels && level < 0; k++)
+        if (lod->tol_v[k] <= 0.125 * h && lod->tol_u[k] * rho_u <= 0.125) level = k;
+    if (level >= 0) {
+        const crisp_trim_polyline *src = &lod->level[level];
+        size_t pts = (size_t)src->first[src->piece_count];
+        crisp_trim_polyline *d = &p->polyline;
+        if (crisp_grow((void **)&d->first, &d->cap_first, (size_t)src->piece_count + 1,
+                       sizeof *d->first) ||
+            crisp_grow((void **)&d->uv, &d->cap_uv, 2 * (pts ? pts : 1), sizeof *d->uv) ||
+            crisp_grow((void **)&d->t, &d->cap_t, pts ? pts : 1, sizeof *d->t))
+            return crisp_error(CRISP_ERR_NO_MEMORY, "crisp_trim_plan_face: out of memory");
+        d->piece_count = src->piece_count;
+        d->capped = 0;
+        memcpy(d->first, src->first, ((size_t)src->piece_count + 1) * sizeof *d->first);
+        memcpy(d->uv, src->uv, 2 * pts * sizeof *d->uv);
+        memcpy(d->t, src->t, pts * sizeof *d->t);
+        if (isfinite(h)) {
+            double left_u = rho_u > 0.0 ? 0.25 / rho_u - lod->tol_u[level] : HUGE_VAL;
+            double left_v = 0.25 * h - lod->tol_v[level];
+            if (left_u > 0.0 && left_v > 0.0 &&
+                (st = crisp_trim_polyline_chains(d, left_u, left_v)))
+                return st;
+        }
+        p->chains = 1;
+        pl = d;
+    } else if (desc->piece_count > 0) {
+        /* With chains, half of each tolerance for the pieces' polylines and half for the chains'
+         * chords (the chords' halves over the finest visible strip: then every strip keeps
+         * h_i / 4 and 1 / (4 rho_u) in all). */
+        double f = desc->chains ? 0.125 : 0.25;
+        st =
+            crisp__trim_tessellate_checked(&(crisp_trim_tess_desc){.pieces = desc->pieces,
+                                                                   .piece_count = desc->piece_count,
+                                                                   .v0 = p->v0,
+                                                                   .v1 = p->v1,
+                                                                   .strip_count = n,
+                                                                   .mu = p->mu,
+                                                                   .row_v = p->vis_v,
+                                                                   .rho_u = p->rho_u,
+                                                                   .tol_u = f,
+                                                                   .tol_v = f},
+                                           &p->polyline);
         if (st) return st;
+        if (desc->chains) {
+            if (h > 0.0 && isfinite(h)) {
+                st = crisp_trim_polyline_chains(&p->polyline, rho_u > 0.0 ? f / rho_u : HUGE_VAL,
+                                                f * h);
+                if (st) return st;
+                p->chains = 1;
+            }
+        }
         pl = &p->polyline;
     }
     return crisp_trim_table_build(&(crisp_trim_table_desc){.polyline = pl,

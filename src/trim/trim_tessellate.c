@@ -52,19 +52,19 @@ static double segments_needed(const crisp_bezier_curve *b, double tol_u, double 
     for (int i = 0; i <= d; i++) {
         const double *h = b->cpw + 3 * i;
         for (int c = 0; c < 2; c++) {
-            lo[c] = fmin(lo[c], h[c] / h[2]);
-            hi[c] = fmax(hi[c], h[c] / h[2]);
+            lo[c] = crisp__trim_min(lo[c], h[c] / h[2]);
+            hi[c] = crisp__trim_max(hi[c], h[c] / h[2]);
         }
-        wmin = fmin(wmin, h[2]);
+        wmin = crisp__trim_min(wmin, h[2]);
     }
     double mw = 0.0, mp[2] = {0.0, 0.0};
     for (int i = 0; i + 2 <= d; i++) {
         const double *h0 = b->cpw + 3 * i, *h1 = h0 + 3, *h2 = h0 + 6;
-        mw = fmax(mw, fabs(h0[2] - 2 * h1[2] + h2[2]));
+        mw = crisp__trim_max(mw, fabs(h0[2] - 2 * h1[2] + h2[2]));
         for (int c = 0; c < 2; c++) {
             double ctr = 0.5 * (lo[c] + hi[c]);
             double p0 = h0[c] - ctr * h0[2], p1 = h1[c] - ctr * h1[2], p2 = h2[c] - ctr * h2[2];
-            mp[c] = fmax(mp[c], fabs(p0 - 2 * p1 + p2));
+            mp[c] = crisp__trim_max(mp[c], fabs(p0 - 2 * p1 + p2));
         }
     }
     double tol[2] = {tol_u, tol_v}, n = 1.0;
@@ -72,7 +72,7 @@ static double segments_needed(const crisp_bezier_curve *b, double tol_u, double 
         double r = 0.5 * (hi[c] - lo[c]);
         double num = d * (d - 1) * (mp[c] + r * mw) * (1.0 + 1e-12);
         double need = sqrt(num / (8.0 * wmin * tol[c]));
-        n = fmax(n, ceil(need));
+        n = crisp__trim_max(n, ceil(need));
     }
     return n;
 }
@@ -101,8 +101,8 @@ static double piece_need(const tess_ctx *c, const crisp_bezier_curve *b)
     double vmin = HUGE_VAL, vmax = -HUGE_VAL;
     for (int i = 0; i <= b->degree; i++) {
         double v = b->cpw[3 * i + 1] / b->cpw[3 * i + 2];
-        vmin = fmin(vmin, v);
-        vmax = fmax(vmax, v);
+        vmin = crisp__trim_min(vmin, v);
+        vmax = crisp__trim_max(vmax, v);
     }
     if (!(vmax >= desc->v0 && vmin <= desc->v1)) return 1.0;
     double fs = floor((vmin - desc->v0) / c->hv), fe = floor((vmax - desc->v0) / c->hv);
@@ -116,10 +116,10 @@ static double piece_need(const tess_ctx *c, const crisp_bezier_curve *b)
         if (!desc->mu[i]) continue;
         visible = 1;
         double range = desc->row_v ? desc->row_v[2 * i + 1] - desc->row_v[2 * i] : c->hv;
-        hmin = fmin(hmin, range / desc->mu[i]);
+        hmin = crisp__trim_min(hmin, range / desc->mu[i]);
         /* An unbounded strip (HUGE_VAL) has lost its guarantee already; letting it ask for
          * infinitely fine polylines would only cost memory. */
-        if (isfinite(desc->rho_u[i])) rho_u = fmax(rho_u, desc->rho_u[i]);
+        if (isfinite(desc->rho_u[i])) rho_u = crisp__trim_max(rho_u, desc->rho_u[i]);
     }
     if (!visible) return 1.0;
     double tol_u = rho_u > 0.0 ? c->fu / rho_u : HUGE_VAL;
@@ -152,6 +152,9 @@ static void halve(const crisp_bezier_curve *b, crisp_bezier_curve *lo, crisp_bez
  * points and its end point) when uv is not NULL; returns how many. */
 #define LEAF_SEGMENTS 32
 #define MAX_HALVINGS 40
+static long tess_leaf(tess_ctx *c, const crisp_bezier_curve *b, double n, double t0, double t1,
+                      double *uv, double *tp);
+
 static long tess_rec(tess_ctx *c, const crisp_bezier_curve *b, int depth, double t0, double t1,
                      double *uv, double *tp)
 {
@@ -163,6 +166,13 @@ static long tess_rec(tess_ctx *c, const crisp_bezier_curve *b, int depth, double
         long a = tess_rec(c, &lo, depth + 1, t0, tm, uv, tp);
         return a + tess_rec(c, &hi, depth + 1, tm, t1, uv ? uv + 2 * a : NULL, tp ? tp + a : NULL);
     }
+    return tess_leaf(c, b, n, t0, t1, uv, tp);
+}
+
+/* A leaf of n uniform segments (capped at CRISP_TRIM_MAX_SEGMENTS_PER_PIECE). */
+static long tess_leaf(tess_ctx *c, const crisp_bezier_curve *b, double n, double t0, double t1,
+                      double *uv, double *tp)
+{
     if (!(n <= CRISP_TRIM_MAX_SEGMENTS_PER_PIECE)) {
         n = CRISP_TRIM_MAX_SEGMENTS_PER_PIECE;
         if (!uv) c->capped++;
@@ -189,6 +199,12 @@ crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_
         return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_trim_tessellate: NULL argument");
     crisp_status st = crisp_trim_pieces_check(desc->pieces, desc->piece_count);
     if (st) return st;
+    return crisp__trim_tessellate_checked(desc, dest);
+}
+
+crisp_status crisp__trim_tessellate_checked(const crisp_trim_tess_desc *desc,
+                                            crisp_trim_polyline *dest)
+{
     if (desc->strip_count < 1 || !desc->mu || !desc->rho_u || !(desc->v1 > desc->v0))
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "crisp_trim_tessellate: strips %d over [%g, %g], expected >= 1 strips "
@@ -207,6 +223,14 @@ crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_
     long total = 0;
     pl->first[0] = 0;
     for (int k = 0; k < desc->piece_count; k++) {
+        /* A piece that is a single leaf (most of them) keeps its count as -n: pass 2 then
+         * does not form its bound again. */
+        double need = piece_need(&c, &desc->pieces[k]);
+        if (need <= LEAF_SEGMENTS) {
+            pl->first[k + 1] = -(int)need;
+            total += (long)need + 1;
+            continue;
+        }
         long n = tess_rec(&c, &desc->pieces[k], 0, 0.0, 1.0, NULL, NULL);
         if (n > (long)1 << 30)
             return crisp_error(CRISP_ERR_LIMIT,
@@ -233,11 +257,160 @@ crisp_status crisp_trim_tessellate(const crisp_trim_tess_desc *desc, crisp_trim_
         uv[0] = b->cpw[0] / b->cpw[2];
         uv[1] = b->cpw[1] / b->cpw[2];
         pl->t[at] = 0.0;
-        tess_rec(&c, b, 0, 0.0, 1.0, uv + 2, pl->t + at + 1);
+        if (n < 0) {
+            n = -n;
+            tess_leaf(&c, b, n, 0.0, 1.0, uv + 2, pl->t + at + 1);
+        } else {
+            tess_rec(&c, b, 0, 0.0, 1.0, uv + 2, pl->t + at + 1);
+        }
         at += n + 1;
     }
     pl->first[desc->piece_count] = at;
     return CRISP_OK;
+}
+
+/* ---- chains (issue 12) ------------------------------------------------------------------------
+ */
+
+#define CHAIN_RUN 64 /* points one chord may replace: bounds the quadratic greedy search */
+
+/* 1 when the chord from point i to point c of pl replaces the points between within (tol_u,
+ * tol_v): each point j in between is matched to the chord point at s_j, the projection in the
+ * metric scaled by the tolerances (su, sv = 1 / tol), clamped to [s_{j-1}, 1] (monotone, s_i = 0,
+ * s_c = 1), and must lie within the tolerances of it per coordinate. */
+static int chord_fits(const double *uv, int i, int c, double tol_u, double tol_v, double su,
+                      double sv)
+{
+    double au = uv[2 * i], av = uv[2 * i + 1];
+    double du = uv[2 * c] - au, dv = uv[2 * c + 1] - av;
+    double l2 = su * su * du * du + sv * sv * dv * dv;
+    double s_prev = 0.0;
+    for (int j = i + 1; j < c; j++) {
+        double pu = uv[2 * j] - au, pv = uv[2 * j + 1] - av;
+        double s = l2 > 0.0 ? (su * su * pu * du + sv * sv * pv * dv) / l2 : 0.0;
+        if (!(s >= s_prev)) s = s_prev; /* also NaN */
+        if (s > 1.0) s = 1.0;
+        if (!(fabs(pu - s * du) <= tol_u && fabs(pv - s * dv) <= tol_v)) return 0;
+        s_prev = s;
+    }
+    return 1;
+}
+
+crisp_status crisp_trim_polyline_chains(crisp_trim_polyline *pl, double tol_u, double tol_v)
+{
+    if (!pl || !(tol_u > 0.0) || !(tol_v > 0.0))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "crisp_trim_polyline_chains: tolerances %g, %g, expected > 0 with a "
+                           "polyline",
+                           tol_u, tol_v);
+    int n = pl->piece_count;
+    if (n < 1) return CRISP_OK;
+    /* Pass 1: pieces -> chains, the shared point kept once (writes never pass reads). */
+    int w = 0, chains = 0, open = 0;
+    int a = pl->first[0];
+    for (int k = 0; k < n; k++) {
+        int b = pl->first[k + 1]; /* read before first[chains <= k] is written */
+        if (b - a < 1) {
+            a = b;
+            continue;
+        }
+        int joins = open && pl->uv[2 * (w - 1)] == pl->uv[2 * a] &&
+                    pl->uv[2 * (w - 1) + 1] == pl->uv[2 * a + 1];
+        if (joins) {
+            a++;
+        } else {
+            pl->first[chains++] = w;
+            open = 1;
+        }
+        for (int q = a; q < b; q++, w++) {
+            pl->uv[2 * w] = pl->uv[2 * q];
+            pl->uv[2 * w + 1] = pl->uv[2 * q + 1];
+            pl->t[w] = pl->t[q];
+        }
+        a = b;
+    }
+    pl->first[chains] = w;
+    pl->piece_count = chains;
+    /* Pass 2: along each chain, greedily the longest chord that fits (at most CHAIN_RUN points
+     * apart); again in place. */
+    double su = isfinite(tol_u) ? 1.0 / tol_u : 0.0, sv = isfinite(tol_v) ? 1.0 / tol_v : 0.0;
+    int out = 0, s = pl->first[0];
+    for (int c = 0; c < chains; c++) {
+        int e = pl->first[c + 1]; /* the chain's points s .. e - 1 (first[c + 1] not yet written) */
+        pl->first[c] = out;
+        int i = s;
+        pl->uv[2 * out] = pl->uv[2 * i];
+        pl->uv[2 * out + 1] = pl->uv[2 * i + 1];
+        pl->t[out++] = pl->t[i];
+        while (i < e - 1) {
+            int best = i + 1;
+            for (int c2 = i + 2; c2 < e && c2 - i <= CHAIN_RUN; c2++) {
+                if (!chord_fits(pl->uv, i, c2, tol_u, tol_v, su, sv)) break;
+                best = c2;
+            }
+            pl->uv[2 * out] = pl->uv[2 * best];
+            pl->uv[2 * out + 1] = pl->uv[2 * best + 1];
+            pl->t[out++] = pl->t[best];
+            i = best;
+        }
+        s = e;
+    }
+    pl->first[chains] = out;
+    return CRISP_OK;
+}
+
+/* ---- view-independent levels (issue 12) -------------------------------------------------------
+ */
+
+crisp_status crisp_trim_lod_build(const crisp_bezier_curve *pieces, int piece_count,
+                                  crisp_trim_lod *dest)
+{
+    if (!dest) return crisp_error(CRISP_ERR_INVALID_ARG, "crisp_trim_lod_build: NULL argument");
+    dest->levels = 0;
+    crisp_status st = crisp_trim_pieces_check(pieces, piece_count);
+    if (st || piece_count < 1) return st;
+    double *b = dest->box;
+    b[0] = b[2] = HUGE_VAL;
+    b[1] = b[3] = -HUGE_VAL;
+    for (int k = 0; k < piece_count; k++)
+        for (int i = 0; i <= pieces[k].degree; i++) {
+            const double *h = pieces[k].cpw + 3 * i;
+            double u = h[0] / h[2], v = h[1] / h[2];
+            b[0] = crisp__trim_min(b[0], u), b[1] = crisp__trim_max(b[1], u);
+            b[2] = crisp__trim_min(b[2], v), b[3] = crisp__trim_max(b[3], v);
+        }
+    double eu = b[1] - b[0], ev = b[3] - b[2];
+    if (!(eu > 0.0) || !(ev > 0.0) || !isfinite(eu) || !isfinite(ev)) return CRISP_OK;
+    for (int k = 0; k < CRISP_TRIM_LOD_LEVELS; k++) {
+        double tu = ldexp(eu, -4 - k), tv = ldexp(ev, -4 - k);
+        /* One strip over the box: rows of h <= 2 tv give the tessellation tv / 2 in v (a quarter
+         * of h), and rho_u = 0.5 / tu gives it tu / 2 in u; the chains take the other halves. */
+        uint32_t mu[1] = {(uint32_t)ceil(ev / (2 * tv)) + 1};
+        double rho_u[1] = {0.5 / tu};
+        crisp_trim_polyline *pl = &dest->level[k];
+        st = crisp__trim_tessellate_checked(&(crisp_trim_tess_desc){.pieces = pieces,
+                                                                    .piece_count = piece_count,
+                                                                    .v0 = b[2],
+                                                                    .v1 = b[3],
+                                                                    .strip_count = 1,
+                                                                    .mu = mu,
+                                                                    .rho_u = rho_u},
+                                            pl);
+        if (!st) st = crisp_trim_polyline_chains(pl, 0.5 * tu, 0.5 * tv);
+        if (st) return st;
+        dest->tol_u[k] = tu;
+        dest->tol_v[k] = tv;
+    }
+    dest->levels = CRISP_TRIM_LOD_LEVELS;
+    return CRISP_OK;
+}
+
+void crisp_trim_lod_free(crisp_trim_lod *lod)
+{
+    if (!lod) return;
+    for (int k = 0; k < CRISP_TRIM_LOD_LEVELS; k++)
+        crisp_trim_polyline_free(&lod->level[k]);
+    memset(lod, 0, sizeof *lod);
 }
 
 void crisp_trim_polyline_free(crisp_trim_polyline *p)

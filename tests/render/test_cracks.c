@@ -537,6 +537,59 @@ static void test_linkrods_steep_behind(void **state)
     crisp_model_destroy(m);
 }
 
+static double own_rnd(uint64_t *s)
+{
+    *s ^= *s << 13, *s ^= *s >> 7, *s ^= *s << 17;
+    return (double)(*s >> 11) / 9007199254740992.0;
+}
+
+/* Faces a few pixels across (issue 12: their trim loops become chains of few chords, the ribbons
+ * follow the chains): the solids from far away, the bounding sphere 12 to 30 px in radius on screen
+ * (the linkrods 18 to 45 px, the bundled bearing, a thin ring, 24 to 60 px), views from random
+ * directions, the same criteria. */
+static void test_tiny_faces(void **state)
+{
+    (void)state;
+    crisp_model *models[4] = {box_with_hole(), capped_cylinder(), load("occt_linkrods.step"),
+                              load("occt_bearing.iges")};
+    static const char *names[4] = {"box with a round hole, tiny", "capped cylinder, tiny",
+                                   "occt_linkrods.step, tiny", "occt_bearing.iges, tiny"};
+    static const double radius_px[4] = {12, 16, 22, 30};
+    static const double scale[4] = {1, 1, 1.5, 2}; /* the rods and the bearing's ring are thin */
+    uint64_t seed = 0x9e3779b97f4a7c15ull; /* views of their own: not shifted by other tests */
+    long cracks = 0;
+    for (int k = 0; k < 4; k++) {
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(models[k], &sc), CRISP_OK);
+        double c[3], r = 0;
+        for (int q = 0; q < 3; q++) {
+            c[q] = 0.5 * (sc->box[q] + sc->box[q + 3]);
+            r += 0.25 * (sc->box[q + 3] - sc->box[q]) * (sc->box[q + 3] - sc->box[q]);
+        }
+        r = sqrt(r);
+        crisp_scene_destroy(sc);
+        for (int v = 0; v < (full_run ? 16 : 4); v++) {
+            double d[3], n;
+            do {
+                for (int q = 0; q < 3; q++)
+                    d[q] = 2 * own_rnd(&seed) - 1;
+                n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            } while (n < 0.1 || n > 1);
+            crisp_camera cam = {.width = 120, .height = 90, .up = {0.1, 1, 0.2}, .fov_deg = 30};
+            double px = radius_px[v % 4] * scale[k];
+            double dist = r * 45 / (px * tan(15 * M_PI / 180));
+            for (int q = 0; q < 3; q++)
+                cam.eye[q] = c[q] + dist * d[q] / n, cam.target[q] = c[q];
+            cam.znear = 0.5 * dist, cam.zfar = 2 * dist;
+            char what[96];
+            snprintf(what, sizeof what, "%s, view %d (%g px)", names[k], v, px);
+            cracks += check_views(what, models[k], 0, &cam);
+        }
+        crisp_model_destroy(models[k]);
+    }
+    assert_int_equal(cracks, 0);
+}
+
 int main(int argc, char **argv)
 {
     argc = rb_parse_args(argc, argv);
@@ -561,6 +614,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_bearing_fold),
         cmocka_unit_test(test_torus_seam),
         cmocka_unit_test(test_linkrods_steep_behind),
+        cmocka_unit_test(test_tiny_faces),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -7,7 +7,10 @@
  *   - a group leaf and each leaf that shares a piece of its edges (single patches, cells of
  *     split patches, other group leaves) place the same vertices there, at the same points
  *     (within rounding).
- * The measured tightness (largest sampled distance / eps) is printed. */
+ * The measured tightness (largest sampled distance / eps) is printed.
+ * The O(1) per-block deviation ranges the walk starts from (patch_groups.c, block_dev) are checked
+ * directly on random surfaces under random affine maps: they hold the deviations of every control
+ * point of the block, and the witnesses' range lies within those (test_block_deviation). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -22,6 +25,7 @@
 #include "crisp/plan.h"
 #include "crisp/render.h"
 #include "crisp/tess.h"
+#include "render/quadtree.h"
 
 static uint64_t rng = 0x9e3779b97f4a7c15ull;
 static double rnd(void)
@@ -280,12 +284,140 @@ static void test_rational(void **state)
     run(1, 0, 12);
 }
 
+/* A random B-spline surface of degrees 1..3 with 5..12 spans each way, uniform or jittered
+ * knots: a wavy sheet, scaled unevenly, turned to a random orientation and moved off the origin,
+ * so that its deviations from bilinear lie along no coordinate axis; a third rational (weights
+ * 0.5..2, smooth or from point to point). */
+static crisp_surface *random_surface(void)
+{
+    int du = 1 + (int)(3 * rnd()), dv = 1 + (int)(3 * rnd());
+    int su = 5 + (int)(8 * rnd()), sv = 5 + (int)(8 * rnd());
+    int nu = su + du, nv = sv + dv, uniform = rnd() < 0.5, rational = rnd() < 0.34;
+    double ku[32], kv[32];
+    for (int i = 0; i < nu + du + 1; i++)
+        ku[i] = i <= du ? 0 : i >= nu ? 1 : (i - du + (uniform ? 0 : 0.4 * (rnd() - 0.5))) / su;
+    for (int i = 0; i < nv + dv + 1; i++)
+        kv[i] = i <= dv ? 0 : i >= nv ? 1 : (i - dv + (uniform ? 0 : 0.4 * (rnd() - 0.5))) / sv;
+    /* a random rotation (normalised random quaternion) and offset */
+    double qw = rnd() - 0.5, qx = rnd() - 0.5, qy = rnd() - 0.5, qz = rnd() - 0.5;
+    double ql = sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
+    qw /= ql, qx /= ql, qy /= ql, qz /= ql;
+    double R[3][3] = {
+        {1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)},
+        {2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)},
+        {2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)}};
+    double off[3] = {100 * (rnd() - 0.5), 100 * (rnd() - 0.5), 100 * (rnd() - 0.5)};
+    double sx = 5 + 20 * rnd(), sy = 5 + 20 * rnd(), amp = 0.2 + 3 * rnd(), fr = 0.5 + 2 * rnd();
+    int noisy = rnd() < 0.5;
+    double *pts = malloc(sizeof(double) * 3 * (size_t)(nu * nv)),
+           *w = rational ? malloc(sizeof(double) * (size_t)(nu * nv)) : NULL;
+    for (int j = 0; j < nv; j++)
+        for (int i = 0; i < nu; i++) {
+            double x = sx * i / (nu - 1), y = sy * j / (nv - 1);
+            double z = amp * sin(fr * x) * cos(0.7 * fr * y) + 0.05 * amp * (rnd() - 0.5);
+            double l[3] = {x, y, z};
+            for (int a = 0; a < 3; a++)
+                pts[3 * (j * nu + i) + a] =
+                    off[a] + R[a][0] * l[0] + R[a][1] * l[1] + R[a][2] * l[2];
+            if (w) w[j * nu + i] = noisy ? 0.5 + 1.5 * rnd() : 1 + 0.5 * sin(0.3 * x + 0.2 * y);
+        }
+    crisp_surface *s;
+    assert_int_equal(crisp_surface_create(du, dv, nu, nv, ku, kv, pts, w, &s), CRISP_OK);
+    free(pts);
+    free(w);
+    return s;
+}
+
+typedef struct dev_stats {
+    long blocks, rational, tighter;
+    double worst_low;          /* largest witnesses' range / control points' range */
+    double *ratio, *ratio_box; /* control points' range / bound's range, / the box's alone */
+    size_t count, cap;
+} dev_stats;
+
+static void check_deviation(void *ctx, const crisp__groups_dev_sample *s)
+{
+    dev_stats *st = ctx;
+    st->blocks++;
+    st->rational += s->rational;
+    for (int a = 0; a < 3; a++) {
+        if (!(s->lo[a] <= s->exact_lo[a] && s->exact_hi[a] <= s->hi[a]))
+            fail_msg("face %u, block of %u patches%s, clip coordinate %d: control points' "
+                     "deviations in [%.17g, %.17g], bound [%.17g, %.17g]",
+                     s->face, s->patches, s->rational ? " (rational)" : "", a, s->exact_lo[a],
+                     s->exact_hi[a], s->lo[a], s->hi[a]);
+        assert_true(s->box_lo[a] <= s->lo[a] && s->hi[a] <= s->box_hi[a]);
+        /* the witnesses are control points of the block, stored as floats (each coordinate
+         * within 1e-7 relative: their image within that of the coordinate box) */
+        double tol = 1e-6 * (s->box_hi[a] - s->box_lo[a]);
+        if (!(s->exact_lo[a] - tol <= s->wlo[a] && s->whi[a] <= s->exact_hi[a] + tol))
+            fail_msg("face %u: witnesses [%.17g, %.17g] outside the control points' [%.17g, %.17g]",
+                     s->face, s->wlo[a], s->whi[a], s->exact_lo[a], s->exact_hi[a]);
+        double range = s->exact_hi[a] - s->exact_lo[a];
+        if (range > 0) st->worst_low = fmax(st->worst_low, (s->whi[a] - s->wlo[a]) / range);
+        st->tighter += s->hi[a] - s->lo[a] < 0.999 * (s->box_hi[a] - s->box_lo[a]);
+        if (st->count == st->cap) {
+            st->cap = st->cap ? 2 * st->cap : 1024;
+            st->ratio = realloc(st->ratio, st->cap * sizeof *st->ratio);
+            st->ratio_box = realloc(st->ratio_box, st->cap * sizeof *st->ratio_box);
+        }
+        st->ratio[st->count] = s->hi[a] > s->lo[a] ? range / (s->hi[a] - s->lo[a]) : 1;
+        st->ratio_box[st->count++] =
+            s->box_hi[a] > s->box_lo[a] ? range / (s->box_hi[a] - s->box_lo[a]) : 1;
+    }
+}
+
+static int dbl_cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* The O(1) ranges of every block of 30 random surfaces under 20 random affine maps each. */
+static void test_block_deviation(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    for (int k = 0; k < 30; k++) {
+        crisp_face f = {.surface = random_surface(), .source_id = k};
+        assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
+    }
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp__groups *g;
+    assert_int_equal(crisp__groups_create(&g), CRISP_OK);
+    dev_stats st = {0};
+    for (int c = 0; c < 20; c++) {
+        crisp_mat4 mat;
+        for (int i = 0; i < 4; i++)
+            for (int j = 0; j < 4; j++)
+                mat[i][j] = 2 * rnd() - 1;
+        assert_int_equal(crisp__groups_test_deviations(g, sc, mat, check_deviation, &st), CRISP_OK);
+    }
+    qsort(st.ratio, st.count, sizeof *st.ratio, dbl_cmp);
+    qsort(st.ratio_box, st.count, sizeof *st.ratio_box, dbl_cmp);
+    printf("block deviation: %ld blocks (%ld rational) x 3 coordinates: control points' range / "
+           "O(1) range median %.2f, 10%% %.2f (coordinate box alone: median %.2f, 10%% %.2f; "
+           "principal axes tighter in %.0f%%); witnesses' range / control points' at most %.2f\n",
+           st.blocks, st.rational, st.ratio[st.count / 2], st.ratio[st.count / 10],
+           st.ratio_box[st.count / 2], st.ratio_box[st.count / 10], 100.0 * st.tighter / st.count,
+           st.worst_low);
+    assert_true(st.blocks > 1000 && st.rational > 100);
+    free(st.ratio);
+    free(st.ratio_box);
+    crisp__groups_destroy(g);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_polynomial_uniform),
         cmocka_unit_test(test_polynomial_random_knots),
         cmocka_unit_test(test_rational),
+        cmocka_unit_test(test_block_deviation),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

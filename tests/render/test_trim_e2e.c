@@ -619,6 +619,42 @@ static void test_between_faces_edge(void **state)
     assert_int_equal(all.out_band, 0);
 }
 
+/* Faces a few pixels across (issue 12: one strip per pixel, trim loops as chains of few chords):
+ * every face kind and trim seen obliquely from 2, 4 and 9 times the frontal distance (about 20, 9
+ * and 4 px across). */
+static void test_tiny_faces(void **state)
+{
+    (void)state;
+    tally all = {0};
+    static const double far[3] = {2, 4, 9};
+    for (int k = 0; k < 3; k++)
+        for (int pk = 0; pk < PATCH_KINDS; pk++)
+            for (int tk = 0; tk < TRIM_KINDS; tk++) {
+                crisp_model *m;
+                assert_int_equal(crisp_model_create(&m), CRISP_OK);
+                add_face(m, pk, tk, 0);
+                crisp_scene *sc;
+                assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+                crisp_renderer *r;
+                assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r),
+                                 CRISP_OK);
+                crisp_camera c = make_camera(sc, CAM_FRONTAL, 64);
+                const double dir[3] = {0.9, -0.7, 3.2};
+                for (int q = 0; q < 3; q++)
+                    c.eye[q] = c.target[q] + far[k] * dir[q];
+                c.zfar = 4 * far[k] * 3.5;
+                char what[64];
+                snprintf(what, sizeof what, "patch %d trim %d from %gx as far", pk, tk, far[k]);
+                check_view(sc, r, 1, &c, what, &all);
+                crisp_renderer_destroy(r);
+                crisp_scene_destroy(sc);
+                crisp_model_destroy(m);
+            }
+    report("tiny faces", &all);
+    assert_true(all.inside > 300);
+    assert_int_equal(all.out_band, 0);
+}
+
 /* Four samples per pixel: every sample agrees with the exact answer for its own ray, or lies
  * within 1 px of the true boundary. */
 static void test_four_samples(void **state)
@@ -648,6 +684,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_between_faces),
         cmocka_unit_test(test_four_samples),
         cmocka_unit_test(test_between_faces_edge),
+        cmocka_unit_test(test_tiny_faces),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -728,6 +728,243 @@ static void test_plan_reuses_buffers(void **state)
     crisp_trim_plan_free(&plan);
 }
 
+/* ---- chains (crisp_trim_polyline_chains) ------------------------------------------------------
+ */
+
+/* Parity of the crossings of (u, v)'s scan line strictly left of u (the table's half-open rule),
+ * over every segment of the polyline. */
+static int polyline_parity(const crisp_trim_polyline *pl, double u, double v)
+{
+    int odd = 0;
+    for (int k = 0; k < pl->piece_count; k++)
+        for (int q = pl->first[k]; q + 1 < pl->first[k + 1]; q++) {
+            const double *a = pl->uv + 2 * q, *b = a + 2;
+            if (!(fmin(a[1], b[1]) < v && v <= fmax(a[1], b[1]))) continue;
+            double uc = a[0] + (v - a[1]) * (b[0] - a[0]) / (b[1] - a[1]);
+            odd ^= uc < u;
+        }
+    return odd;
+}
+
+/* min over the segment a-b of max(|du| / tu, |dv| / tv) from (u, v): convex along the segment,
+ * so a ternary search finds it. */
+static double box_dist_seg(const double *a, const double *b, double u, double v, double tu,
+                           double tv)
+{
+    double lo = 0, hi = 1;
+    for (int it = 0; it < 100; it++) {
+        double m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
+        double f1 = fmax(fabs(a[0] + m1 * (b[0] - a[0]) - u) / tu,
+                         fabs(a[1] + m1 * (b[1] - a[1]) - v) / tv);
+        double f2 = fmax(fabs(a[0] + m2 * (b[0] - a[0]) - u) / tu,
+                         fabs(a[1] + m2 * (b[1] - a[1]) - v) / tv);
+        if (f1 < f2)
+            hi = m2;
+        else
+            lo = m1;
+    }
+    double t = 0.5 * (lo + hi);
+    return fmax(fabs(a[0] + t * (b[0] - a[0]) - u) / tu, fabs(a[1] + t * (b[1] - a[1]) - v) / tv);
+}
+
+static double box_dist(const crisp_trim_polyline *pl, double u, double v, double tu, double tv)
+{
+    double best = HUGE_VAL;
+    for (int k = 0; k < pl->piece_count; k++)
+        for (int q = pl->first[k]; q < pl->first[k + 1]; q++) {
+            const double *a = pl->uv + 2 * q;
+            const double *b = q + 1 < pl->first[k + 1] ? a + 2 : a;
+            best = fmin(best, box_dist_seg(a, b, u, v, tu, tv));
+        }
+    return best;
+}
+
+/* Random loops (a wobbly polygon of 30..200 short lines, as trim loops of imported faces a few
+ * pixels across have; an ellipse of rational quadratics; a cubic graph), tessellated finely, then
+ * joined into chains with random tolerances: (u, v) points that the chains classify otherwise than
+ * the pieces' polyline lie within the tolerances of that polyline (per coordinate), every point of
+ * the old polyline lies within them of the chains, the chains' ends are old points, and closed
+ * loops stay closed. The tolerances are met, not wasted: the largest deviation found is more than
+ * half of them, and the polygons lose most of their points. */
+static void test_polyline_chains(void **state)
+{
+    (void)state;
+    double worst_flip = 0, worst_point = 0;
+    long flips = 0, samples = 0, before = 0, after = 0;
+    for (int trial = 0; trial < 40; trial++) {
+        crisp_bezier_curve pc[260];
+        int n = 0;
+        int nv = 30 + (int)(rnd() * 170);
+        double poly[2 * 200];
+        double cu = rnd_in(0.3, 0.7), cv = rnd_in(0.3, 0.7), r0 = rnd_in(0.1, 0.25);
+        for (int i = 0; i < nv; i++) {
+            double a = 2 * M_PI * i / nv, r = r0 * (1 + 0.1 * rnd_in(-1, 1));
+            poly[2 * i] = cu + r * cos(a);
+            poly[2 * i + 1] = cv + 0.7 * r * sin(a);
+        }
+        n += tu_polygon(pc + n, nv, poly);
+        if (trial % 2)
+            n += tu_ellipse(pc + n, rnd_in(0.4, 0.6), rnd_in(0.4, 0.6), 0.45, 0.3, rnd_in(0, 3), 1);
+        if (trial % 3 == 0) {
+            double g[4] = {0.9, rnd_in(0.8, 1.2), rnd_in(0.6, 1.0), 0.95};
+            n += tu_cubic_graph(pc + n, 0.05, 0.95, g, 0.02);
+        }
+        uint32_t mu[1] = {4000};
+        double rho_u[1] = {4000};
+        crisp_trim_polyline pl = {0}, old = {0};
+        assert_int_equal(crisp_trim_tessellate(&(crisp_trim_tess_desc){.pieces = pc,
+                                                                       .piece_count = n,
+                                                                       .v0 = -0.5,
+                                                                       .v1 = 1.5,
+                                                                       .strip_count = 1,
+                                                                       .mu = mu,
+                                                                       .rho_u = rho_u},
+                                               &pl),
+                         CRISP_OK);
+        int npts = pl.first[n];
+        old.piece_count = n;
+        old.first = malloc((size_t)(n + 1) * sizeof *old.first);
+        old.uv = malloc(2 * (size_t)npts * sizeof *old.uv);
+        assert_non_null(old.first);
+        assert_non_null(old.uv);
+        memcpy(old.first, pl.first, (size_t)(n + 1) * sizeof *old.first);
+        memcpy(old.uv, pl.uv, 2 * (size_t)npts * sizeof *old.uv);
+        double tu = pow(10, rnd_in(-3.5, -1.5)), tv = pow(10, rnd_in(-3.5, -1.5));
+        if (trial == 5) tu = HUGE_VAL; /* no limit in u */
+        assert_int_equal(crisp_trim_polyline_chains(&pl, tu, tv), CRISP_OK);
+        double stu = isfinite(tu) ? tu : 1e300;
+        /* Chains: at most one per piece, each from an old point to an old point; one loop each
+         * here, closed as the loops are. */
+        assert_true(pl.piece_count >= 1 && pl.piece_count <= n);
+        int loops = 1 + (trial % 2) + (trial % 3 == 0);
+        assert_int_equal(pl.piece_count, loops);
+        for (int c = 0; c < pl.piece_count; c++) {
+            const double *a = pl.uv + 2 * pl.first[c], *b = pl.uv + 2 * (pl.first[c + 1] - 1);
+            assert_true(pl.first[c + 1] - pl.first[c] >= 2);
+            assert_true(a[0] == b[0] && a[1] == b[1]);
+        }
+        for (int q = 0; q < pl.first[pl.piece_count]; q++) {
+            int found = 0;
+            for (int o = 0; o < npts && !found; o++)
+                found = pl.uv[2 * q] == old.uv[2 * o] && pl.uv[2 * q + 1] == old.uv[2 * o + 1];
+            assert_true(found);
+        }
+        before += npts;
+        after += pl.first[pl.piece_count];
+        /* Every old point within the tolerances of the chains. */
+        for (int o = 0; o < npts; o++) {
+            double d = box_dist(&pl, old.uv[2 * o], old.uv[2 * o + 1], stu, tv);
+            assert_true(d <= 1 + 1e-9);
+            worst_point = fmax(worst_point, d);
+        }
+        /* Points near the chords (where they leave the old polyline), classified both ways. */
+        for (int k = 0; k < 3000; k++) {
+            int q = (int)(rnd() * (pl.first[pl.piece_count] - 1));
+            const double *a = pl.uv + 2 * q;
+            double l = rnd(), u = a[0] + l * (a[2] - a[0]), v = a[1] + l * (a[3] - a[1]);
+            u += rnd_in(-2, 2) * fmin(stu, 0.05);
+            v += rnd_in(-2, 2) * tv;
+            samples++;
+            if (polyline_parity(&pl, u, v) == polyline_parity(&old, u, v)) continue;
+            flips++;
+            double d = box_dist(&old, u, v, stu, tv);
+            if (d > 1 + 1e-9)
+                print_message("trial %d: (%.9g, %.9g) flips at %.6f tolerances from the old "
+                              "polyline\n",
+                              trial, u, v, d);
+            assert_true(d <= 1 + 1e-9);
+            worst_flip = fmax(worst_flip, d);
+        }
+        free(old.first);
+        free(old.uv);
+        crisp_trim_polyline_free(&pl);
+    }
+    print_message(
+        "chains: %ld -> %ld points; %ld of %ld samples classified otherwise, at most "
+        "%.3f tolerances from the old polyline; old points at most %.3f from the chains\n",
+        before, after, flips, samples, worst_flip, worst_point);
+    assert_true(after < before / 2);
+    assert_true(flips > 100);
+    assert_true(worst_flip > 0.5 && worst_point > 0.5);
+}
+
+/* crisp_trim_lod_build: on random loops (as test_polyline_chains builds them, the polygon here
+ * of 30..200 short lines with wider wobble), every level classifies points like the true curves
+ * (crisp_trim_exact_classify) except within its tolerances of them (measured against a dense
+ * polyline of the curves, 1% of the finest level's tolerances off at most), the levels halve, and
+ * the coarsest has few points. */
+static void test_trim_lod(void **state)
+{
+    (void)state;
+    double worst = 0;
+    long flips = 0, pts0 = 0, pieces = 0;
+    for (int trial = 0; trial < 8; trial++) {
+        crisp_bezier_curve pc[260];
+        int n = 0, nv = 30 + (int)(rnd() * 170);
+        double poly[2 * 200];
+        double cu = rnd_in(0.3, 0.7), cv = rnd_in(0.3, 0.7), r0 = rnd_in(0.1, 0.25);
+        for (int i = 0; i < nv; i++) {
+            double a = 2 * M_PI * i / nv, r = r0 * (1 + 0.3 * rnd_in(-1, 1));
+            poly[2 * i] = cu + r * cos(a);
+            poly[2 * i + 1] = cv + 0.7 * r * sin(a);
+        }
+        n += tu_polygon(pc + n, nv, poly);
+        if (trial % 2)
+            n += tu_ellipse(pc + n, rnd_in(0.4, 0.6), rnd_in(0.4, 0.6), 0.45, 0.3, rnd_in(0, 3), 1);
+        if (trial % 3 == 0) {
+            double g[4] = {0.9, rnd_in(0.8, 1.2), rnd_in(0.6, 1.0), 0.95};
+            n += tu_cubic_graph(pc + n, 0.05, 0.95, g, 0.02);
+        }
+        crisp_trim_lod lod = {0};
+        assert_int_equal(crisp_trim_lod_build(pc, n, &lod), CRISP_OK);
+        assert_int_equal(lod.levels, CRISP_TRIM_LOD_LEVELS);
+        pieces += n;
+        pts0 += lod.level[0].first[lod.level[0].piece_count];
+        /* The true curves, densely (1% of the finest level's tolerances). */
+        const int last = CRISP_TRIM_LOD_LEVELS - 1;
+        uint32_t mu[1] = {(uint32_t)ceil((lod.box[3] - lod.box[2]) / (4e-2 * lod.tol_v[last]))};
+        double rho_u[1] = {0.25 / (1e-2 * lod.tol_u[last])};
+        crisp_trim_polyline dense = {0};
+        assert_int_equal(crisp_trim_tessellate(&(crisp_trim_tess_desc){.pieces = pc,
+                                                                       .piece_count = n,
+                                                                       .v0 = lod.box[2],
+                                                                       .v1 = lod.box[3],
+                                                                       .strip_count = 1,
+                                                                       .mu = mu,
+                                                                       .rho_u = rho_u},
+                                               &dense),
+                         CRISP_OK);
+        for (int k = 0; k < lod.levels; k++) {
+            if (k) {
+                assert_true(fabs(lod.tol_u[k] - 0.5 * lod.tol_u[k - 1]) <= 1e-15);
+                assert_true(fabs(lod.tol_v[k] - 0.5 * lod.tol_v[k - 1]) <= 1e-15);
+            }
+            const crisp_trim_polyline *pl = &lod.level[k];
+            double tu = lod.tol_u[k], tv = lod.tol_v[k];
+            int np = pl->first[pl->piece_count];
+            for (int q = 0; q < 400; q++) {
+                int i = (int)(rnd() * (np - 1));
+                const double *a = pl->uv + 2 * i;
+                double l = rnd(), u = a[0] + l * (a[2] - a[0]), v = a[1] + l * (a[3] - a[1]);
+                u += rnd_in(-1.5, 1.5) * tu;
+                v += rnd_in(-1.5, 1.5) * tv;
+                if (polyline_parity(pl, u, v) == crisp_trim_exact_classify(pc, n, u, v)) continue;
+                flips++;
+                double d = box_dist(&dense, u, v, tu, tv);
+                worst = fmax(worst, d);
+                assert_true(d <= 1 + 0.02 * lod.tol_u[last] / tu);
+            }
+        }
+        crisp_trim_polyline_free(&dense);
+        crisp_trim_lod_free(&lod);
+    }
+    print_message("trim levels: %ld pieces -> %ld points at level 0; %ld points classified "
+                  "otherwise than the curves, at most %.3f tolerances from them\n",
+                  pieces, pts0, flips, worst);
+    assert_true(pts0 < pieces * 2 / 3);
+    assert_true(flips > 100 && worst > 0.25);
+}
+
 static void test_bad_input(void **state)
 {
     (void)state;
@@ -777,6 +1014,8 @@ int main(void)
         cmocka_unit_test(test_table_polygon),
         cmocka_unit_test(test_table_row_ranges),
         cmocka_unit_test(test_tessellation_bound),
+        cmocka_unit_test(test_polyline_chains),
+        cmocka_unit_test(test_trim_lod),
         cmocka_unit_test(test_density_bound),
         cmocka_unit_test(test_density_multi_patch),
         cmocka_unit_test(test_density_blocks),
