@@ -1,4 +1,5 @@
-// Depth slack of the ribbons' fill pass (crisp_raster_depth_slack): 1.5 times the largest change
+// Depth slack of the ribbons' fill pass (crisp_raster_depth_slack) before its scale, which the
+// ribbon pass applies (ribbon_fs.glsl: 1.5 for the quads, 0.95 for their cores): the largest change
 // of W between the sample and the same sample of its four neighbouring pixels where they show
 // the same face seen from the same side (the sign of the normal against the view ray through the
 // pixel centre, as the CPU backend: a face seen through a crack at its own seam shows its inside
@@ -33,5 +34,5 @@ void main()
             d = max(d, abs(nq.w - W));
         }
     }
-    o_slack = 1.5 * d;
+    o_slack = d;
 }

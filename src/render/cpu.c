@@ -16,6 +16,7 @@
 #include "occlusion.h"
 #include "raster.h"
 #include "render_internal.h"
+#include "ribbon.h"
 
 #define TESS_CACHE_BITS 7
 #define TESS_ROW_DOUBLES (2 * (CRISP_MAX_DEGREE + 1) * 4)
@@ -498,7 +499,9 @@ static int trim_box(void *ctx, uint32_t face, const double lo[2], const double h
     return crisp__plan_trim_box(ctx, face, lo, hi);
 }
 
-/* The plan's ribbon quads as raster vertices and triangles (0 1 2, 0 2 3), after the surfaces'. */
+/* The plan's ribbon quads as raster vertices and triangles (0 1 2, 0 2 3), after the surfaces',
+ * and after all of them their cores (crisp__ribbon_core), laid out alike core_v vertices and
+ * core_t triangles further on (the cores' triangles index from vorigin + core_v). */
 typedef struct ribbon_ctx {
     crisp_renderer *r;
     const crisp_frame_plan *plan;
@@ -506,7 +509,19 @@ typedef struct ribbon_ctx {
     size_t first;         /* the plan's quad copied to the first place */
     const uint32_t *keep; /* the plan's quads drawn (NULL: all) */
     size_t vorigin;       /* the ribbons' first vertex: triangles index from it */
+    size_t core_v, core_t;
 } ribbon_ctx;
+
+static void ribbon_quad(const crisp_plan_ribbon_vertex *src, crisp_raster_vertex *v)
+{
+    for (int k = 0; k < 4; k++) {
+        memcpy(v[k].clip, src[k].clip, sizeof v[k].clip);
+        v[k].attr[0] = src[k].uv[0];
+        v[k].attr[1] = src[k].uv[1];
+        for (int a = 0; a < 3; a++)
+            v[k].attr[2 + a] = src[k].normal[a];
+    }
+}
 
 static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
 {
@@ -515,21 +530,62 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
     for (size_t q = begin; q < end; q++) {
         size_t pq = c->keep ? c->keep[q] : c->first + q;
         const crisp_plan_ribbon_vertex *src = c->plan->ribbon_vertices + 4 * pq;
-        crisp_raster_vertex *v = c->r->verts + c->vbase + 4 * q;
-        for (int k = 0; k < 4; k++) {
-            memcpy(v[k].clip, src[k].clip, sizeof v[k].clip);
-            v[k].attr[0] = src[k].uv[0];
-            v[k].attr[1] = src[k].uv[1];
-            for (int a = 0; a < 3; a++)
-                v[k].attr[2 + a] = src[k].normal[a];
-        }
+        crisp_plan_ribbon_vertex core[4];
+        crisp__ribbon_core(src, c->plan->width, c->plan->height, core);
+        ribbon_quad(src, c->r->verts + c->vbase + 4 * q);
+        ribbon_quad(core, c->r->verts + c->vbase + c->core_v + 4 * q);
         /* Indices relative to the ribbons' first vertex (drawn with verts + vorigin). */
         /* The trim test keeps every ribbon fragment (trim_test): not run at all. */
         uint32_t base = (uint32_t)(c->vbase - c->vorigin + 4 * q),
                  face = src[0].face | CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST;
-        c->r->tris[c->tbase + 2 * q] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
-        c->r->tris[c->tbase + 2 * q + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
+        for (size_t t = c->tbase + 2 * q; t <= c->tbase + c->core_t + 2 * q; t += c->core_t) {
+            c->r->tris[t] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
+            c->r->tris[t + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
+        }
     }
+}
+
+/* After the quads' fill pass: keeps (first, in order) the cores (triangle pairs of tris, their
+ * vertices verts) that can still write a sample: some sample of the pixels under the core holds
+ * nothing, or a surface farther than the core's nearest vertex by more than the core's slack
+ * there. Most cores lie over what their quad drew, or over the face they meet at its own depth,
+ * and are not drawn (a core's triangles cost the rasterizer about as much as its quad's).
+ * Returns the cores kept. */
+static size_t cores_needed(const crisp_raster_target *tg, const crisp_frame_plan *plan,
+                           const crisp_raster_vertex *verts, crisp_raster_tri *tris, size_t quads,
+                           const float *slack)
+{
+    size_t kept = 0;
+    int S = tg->samples;
+    for (size_t q = 0; q < quads; q++) {
+        const crisp_raster_tri *t = &tris[2 * q];
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, wmin = INFINITY;
+        int ok = 1;
+        for (int k = 0; k < 4 && ok; k++) {
+            const double *c = verts[k < 3 ? t->v[k] : t[1].v[2]].clip;
+            ok = c[3] > 0 && isfinite(c[0] + c[1] + c[3]);
+            double x = (c[0] / c[3] + 1) * 0.5 * plan->width - tg->x0,
+                   y = (1 - c[1] / c[3]) * 0.5 * plan->height - tg->y0;
+            lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
+            lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+            wmin = fmin(wmin, c[3]);
+        }
+        if (!ok || hi[0] < 0 || hi[1] < 0 || lo[0] >= tg->width || lo[1] >= tg->height) continue;
+        int x0 = lo[0] > 0 ? (int)lo[0] : 0, y0 = lo[1] > 0 ? (int)lo[1] : 0;
+        int x1 = hi[0] < tg->width - 1 ? (int)hi[0] : tg->width - 1;
+        int y1 = hi[1] < tg->height - 1 ? (int)hi[1] : tg->height - 1;
+        int need = 0;
+        for (int j = y0; j <= y1 && !need; j++)
+            for (int i = x0; i <= x1 && !need; i++)
+                for (int sm = 0; sm < S && !need; sm++) {
+                    size_t idx = ((size_t)j * tg->width + i) * S + sm;
+                    need = tg->face[idx] < 0 || 1.0 / tg->inv_w[idx] - slack[idx] > wmin;
+                }
+        if (!need) continue;
+        if (kept != q) memmove(&tris[2 * kept], t, 2 * sizeof *t);
+        kept++;
+    }
+    return kept;
 }
 
 /* The camera's view directions per pixel for the rasterizer (as crisp_camera_ray, unnormalised). */
@@ -1183,15 +1239,15 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     r->tri_count = surface_t;
 
     double t2a = crisp_time_now();
-    nv += 4 * quads;
-    nt += 2 * quads;
+    nv += 8 * quads; /* the quads, then their cores */
+    nt += 4 * quads;
     if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
         return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 vertices or triangles in one frame");
     if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, nv ? nv : 1, sizeof *r->verts)) ||
         (st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris)))
         return st;
     if (!only) {
-        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0, keep, surface_v};
+        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0, keep, surface_v, 4 * quads, 2 * quads};
         crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
     } else {
         size_t done = 0; /* the drawn faces' quads, face after face */
@@ -1203,7 +1259,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                               surface_t + 2 * done,
                               plan->faces[f].first_ribbon,
                               NULL,
-                              surface_v};
+                              surface_v,
+                              4 * quads,
+                              2 * quads};
             crisp_pool_parallel_for(r->pool, plan->faces[f].ribbon_count, 256, copy_ribbons, &rbc);
             done += plan->faces[f].ribbon_count;
         }
@@ -1211,20 +1269,31 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     double t2b = crisp_time_now();
     t_tess += t2b - t2a;
     if (nt > surface_t) {
+        /* The quads with their slack, then their cores with the cores' (ribbon.h); both slacks
+         * from the surfaces alone, only where the quads can land (the cores lie inside them; the
+         * fill pass reads nothing else). */
         size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
-        if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, ns, sizeof *r->slack))) return st;
-        /* Only where the ribbons can land (the fill pass reads nothing else). */
-        if ((st = crisp__raster_depth_slack_tris(r->raster, tg, r->pool, 1.5, &view,
-                                                 r->verts + surface_v, nv - surface_v,
-                                                 r->tris + surface_t, nt - surface_t, r->slack)))
+        if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, 2 * ns, sizeof *r->slack)))
             return st;
-        crisp_raster_stats rs2;
-        st = crisp__raster_draw_fill(r->raster, tg, r->pool, r->verts + surface_v, nv - surface_v,
-                                     r->tris + surface_t, nt - surface_t, trim_test, ctx, r->slack,
-                                     &rs2);
-        if (st) return st;
-        rs.fragments_tested += rs2.fragments_tested;
-        rs.fragments_discarded += rs2.fragments_discarded;
+        if ((st = crisp__raster_depth_slack2_tris(
+                 r->raster, tg, r->pool, CRISP__RIBBON_SLACK, CRISP__RIBBON_CORE_SLACK, &view,
+                 r->verts + surface_v, 4 * quads, r->tris + surface_t, 2 * quads, r->slack,
+                 r->slack + ns)))
+            return st;
+        for (int pass = 0; pass < 2; pass++) {
+            crisp_raster_stats rs2;
+            size_t ntris = 2 * quads;
+            if (pass)
+                ntris = 2 * cores_needed(tg, plan, r->verts + surface_v + 4 * quads,
+                                         r->tris + surface_t + 2 * quads, quads, r->slack + ns);
+            st = crisp__raster_draw_fill(r->raster, tg, r->pool,
+                                         r->verts + surface_v + (pass ? 4 * quads : 0), 4 * quads,
+                                         r->tris + surface_t + (pass ? 2 * quads : 0), ntris,
+                                         trim_test, ctx, r->slack + (pass ? ns : 0), &rs2);
+            if (st) return st;
+            rs.fragments_tested += rs2.fragments_tested;
+            rs.fragments_discarded += rs2.fragments_discarded;
+        }
     }
     double t2 = crisp_time_now();
     t_raster += t2 - t2b;

@@ -1231,6 +1231,8 @@ typedef struct slack_ctx {
     const crisp_raster_view *view;
     double scale;
     float *slack;
+    double scale2; /* slack_tiles: a second slack at another scale, when slack2 is not NULL */
+    float *slack2;
 } slack_ctx;
 
 /* The side a sample's surface is seen from: the sign of its normal (attributes 2..4) against the
@@ -1294,7 +1296,7 @@ static void slack_rows(void *vctx, size_t begin, size_t end, int worker)
 void crisp__raster_depth_slack(const crisp_raster_target *t, crisp_pool *pool, double scale,
                                const crisp_raster_view *view, float *slack)
 {
-    slack_ctx c = {t, view, scale, slack};
+    slack_ctx c = {t, view, scale, slack, 0, NULL};
     crisp_pool_parallel_for(pool, (size_t)t->height, 16, slack_rows, &c);
 }
 
@@ -1365,18 +1367,20 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
                 for (int i = px0; i < px1; i++) {
                     int l = (j - py0 + 1) * L + (i - px0 + 1);
                     int32_t f = fl[l];
-                    float m = 0;
+                    double m = 0; /* rounding is monotone: the largest rounded = the largest's */
                     if (f >= 0) {
                         double W = wl[l];
                         const int nb[4] = {l - 1, l + 1, l - L, l + L}; /* left right up down */
                         for (int k = 0; k < 4; k++) {
                             int n = nb[k];
                             if (fl[n] != f || side[n] != side[l]) continue;
-                            float d = (float)(c->scale * fabs(wl[n] - W));
+                            double d = fabs(wl[n] - W);
                             if (d > m) m = d;
                         }
                     }
-                    c->slack[((size_t)j * w + i) * S + s] = m;
+                    size_t out = ((size_t)j * w + i) * S + s;
+                    c->slack[out] = (float)(c->scale * m);
+                    if (c->slack2) c->slack2[out] = (float)(c->scale2 * m);
                 }
         }
     }
@@ -1453,6 +1457,17 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
                                             const crisp_raster_tri *tris, size_t tri_count,
                                             float *slack)
 {
+    return crisp__raster_depth_slack2_tris(r, t, pool, scale, 0, view, verts, vert_count, tris,
+                                           tri_count, slack, NULL);
+}
+
+crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster_target *t,
+                                             crisp_pool *pool, double scale, double scale2,
+                                             const crisp_raster_view *view,
+                                             const crisp_raster_vertex *verts, size_t vert_count,
+                                             const crisp_raster_tri *tris, size_t tri_count,
+                                             float *slack, float *slack2)
+{
     int tiles_x = (t->width + CELL - 1) / CELL, tiles_y = (t->height + CELL - 1) / CELL;
     size_t tiles = (size_t)tiles_x * tiles_y;
     crisp_status st = crisp_grow((void **)&r->tile_mask, &r->tile_mask_cap, tiles, 1);
@@ -1481,7 +1496,7 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
             for (int tx = b[0] / CELL; tx <= b[2] / CELL && b[0] <= b[2]; tx++)
                 r->tile_mask[(size_t)ty * tiles_x + tx] = 1;
     }
-    slack_ctx c = {t, view, scale, slack};
+    slack_ctx c = {t, view, scale, slack, scale2, slack2};
     slack_tiles_ctx tc = {&c, r->tile_mask, tiles_x};
     crisp_pool_parallel_for(pool, tiles, 16, slack_tiles, &tc);
     return CRISP_OK;

@@ -167,5 +167,13 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
                                             const crisp_raster_vertex *verts, size_t vert_count,
                                             const crisp_raster_tri *tris, size_t tri_count,
                                             float *slack);
+/* The same with a second slack at scale2 into slack2 (NULL: none), in the same cells: the CPU
+ * backend's ribbon quads and their cores (src/render/ribbon.h), whose cells the quads' cover. */
+crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster_target *t,
+                                             crisp_pool *pool, double scale, double scale2,
+                                             const crisp_raster_view *view,
+                                             const crisp_raster_vertex *verts, size_t vert_count,
+                                             const crisp_raster_tri *tris, size_t tri_count,
+                                             float *slack, float *slack2);
 
 #endif

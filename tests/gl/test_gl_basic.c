@@ -48,16 +48,20 @@ static void make_plan(hand_plan *h, const crisp_camera *cam, int trimmed, int de
     p->height = cam->height;
     p->eps_px = 0.5;
     int n = 1 << depth;
+    /* Levels 4: a vertex's leaf-local k / 4 is exact in float, so the float (s, t) the fragment
+     * stage receives are the vertices' parameters even for test_zoom's single leaf of 2e10 px
+     * (the plan splits leaves over CRISP_PLAN_MAX_LEAF_PX; at level 3 the shaders' exact k / 3
+     * for edge vertices, surface_tes.glsl, is 1e-8 off its float copy: 100 px on that leaf). */
     for (int iy = 0; iy < n; iy++)
         for (int ix = 0; ix < n; ix++) {
             crisp_plan_leaf *L = &h->leaves[iy * n + ix];
             *L = (crisp_plan_leaf){.patch = 0,
                                    .face = 0,
                                    .depth = (uint32_t)depth,
-                                   .tau = 3,
+                                   .tau = 4,
                                    .ix = (uint32_t)ix,
                                    .iy = (uint32_t)iy,
-                                   .edge = {3, 3, 3, 3}};
+                                   .edge = {4, 4, 4, 4}};
         }
     p->leaves = h->leaves;
     p->leaf_count = (uint32_t)(n * n);
@@ -69,7 +73,7 @@ static void make_plan(hand_plan *h, const crisp_camera *cam, int trimmed, int de
                                 .first_leaf = 0,
                                 .leaf_count = p->leaf_count,
                                 .flags = CRISP_PLAN_FACE_VISIBLE,
-                                .tau_max = 3};
+                                .tau_max = 4};
     if (!trimmed) h->face.flags |= CRISP_PLAN_FACE_ALL_INSIDE;
     p->faces = &h->face;
     p->face_count = 1;

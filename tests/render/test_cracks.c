@@ -469,6 +469,74 @@ static void test_bearing_zoom(void **state)
     crisp_model_destroy(m);
 }
 
+/* test_cracks all, bearing view 18: face 42's domain edge u = 0 runs over its surface's
+ * silhouette and folds back on screen; the ribbon took its 1.9 px chord while the edge bowed 1.3 px
+ * off it, and one pixel at (60, 27) showed a farther part of face 29 (both backends, 1 sample). */
+static void test_bearing_fold(void **state)
+{
+    (void)state;
+    crisp_model *m = load("occt_bearing.iges");
+    crisp_camera cam = {
+        .width = 120,
+        .height = 90,
+        .eye = {-0.15236213310753921, -0.094065229405443651, -0.15766125673791193},
+        .target = {-0.016986109999999999, 0.0088063503749999991, 0.01473686125},
+        .up = {0.1, 1, 0.2},
+        .fov_deg = 5.5954796783128717,
+        .znear = 0.0024213702865260238,
+        .zfar = 0.48427405730520473,
+    };
+    assert_int_equal(check_views("occt_bearing.iges, an edge folding on screen", m, 0, &cam), 0);
+    crisp_model_destroy(m);
+}
+
+/* test_cracks all, torus views 3 and 5: one pixel each at the wrap seam v = 0 = 2 pi of a face
+ * showed the far side of the tube on the GL backend (the float interpolation of the leaf's local t
+ * overshot 1 at the seam, so (u, v) fell outside the face's v range and the trim test dropped the
+ * sample). */
+static void test_torus_seam(void **state)
+{
+    (void)state;
+    crisp_model *m = quarter_torus();
+    static const double cams[2][9] = {
+        {-12.379925908220063, -5.8914458428598975, -0.17804552273632779, -1.5056450321978805,
+         0.65959367503548505, -1.5615488953196965, 2.6693778451154553, 0.1277028523242916,
+         25.54057046485832},
+        {0.63192578895245544, 3.9935437250581423, -11.641312682929751, 0.84587082969787963,
+         0.43935217492793588, 0.8383757194021374, 33.141261686922221, 0.12472145253390585,
+         25.242430485819746}};
+    for (int k = 0; k < 2; k++) {
+        crisp_camera cam = {.width = 120, .height = 90, .up = {0.1, 1, 0.2}};
+        for (int q = 0; q < 3; q++)
+            cam.eye[q] = cams[k][q], cam.target[q] = cams[k][3 + q];
+        cam.fov_deg = cams[k][6], cam.znear = cams[k][7], cam.zfar = cams[k][8];
+        assert_int_equal(check_views("torus of 4 faces at its wrap seam", m, 0, &cam), 0);
+    }
+    crisp_model_destroy(m);
+}
+
+/* test_cracks all, linkrods view 20: at (75, 47) the plan's table trims face 7 0.08 px inside its
+ * true boundary; behind it face 10 is steep (0.28 in depth per pixel), and the ribbon's lead of
+ * 0.30 to 0.38 was within the quads' slack (1.5 x 0.28): face 10 showed. The pixel lies within
+ * 0.1 px of the ribbon's centre line, in its core, whose slack is 0.95 x 0.28 (ribbon.h). */
+static void test_linkrods_steep_behind(void **state)
+{
+    (void)state;
+    crisp_model *m = load("occt_linkrods.step");
+    crisp_camera cam = {
+        .width = 120,
+        .height = 90,
+        .eye = {1.6200848440359215, 7.2287771358391009, -5.7980336025621062},
+        .target = {6.0875893573939477, 3.3082656526980712, 0.56112136810378044},
+        .up = {0.1, 1, 0.2},
+        .fov_deg = 58.328863056562469,
+        .znear = 0.088410754529432256,
+        .zfar = 17.573440924296939,
+    };
+    assert_int_equal(check_views("occt_linkrods.step, a steep face behind", m, 0, &cam), 0);
+    crisp_model_destroy(m);
+}
+
 static double own_rnd(uint64_t *s)
 {
     *s ^= *s << 13, *s ^= *s >> 7, *s ^= *s << 17;
@@ -543,6 +611,9 @@ int main(int argc, char **argv)
          * goes at the end and the others keep their views) */
         cmocka_unit_test(test_box_with_hole),
         cmocka_unit_test(test_bearing_zoom),
+        cmocka_unit_test(test_bearing_fold),
+        cmocka_unit_test(test_torus_seam),
+        cmocka_unit_test(test_linkrods_steep_behind),
         cmocka_unit_test(test_tiny_faces),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -564,8 +564,34 @@ static void test_eye_on_surface(void **state)
     camera_group(CAM_SKIM, CAM_SKIM, "eye on the surface");
 }
 
-/* Two parallel trimmed faces 0.02 apart with the eye between them, looking along them: both
- * cross the near plane and the eye plane. */
+/* Two parallel trimmed faces 0.02 apart (patch kind pk, trims tk and the next) with the eye
+ * between them, looking along them: both cross the near plane and the eye plane. */
+static void between_faces(int pk, int tk, int size, tally *all)
+{
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    add_face(m, pk, tk, 0);
+    add_face(m, pk, (tk + 1) % TRIM_KINDS, 0.02);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+    double p[3], n[3];
+    surface_frame(sc, 0.8, 0.55, p, n);
+    crisp_camera c = {
+        .up = {0, 0, 1}, .fov_deg = 90, .znear = 1e-4, .zfar = 50, .width = size, .height = size};
+    for (int k = 0; k < 3; k++)
+        c.eye[k] = p[k] + 0.01 * n[k];
+    c.target[0] = c.eye[0] - 1, c.target[1] = c.eye[1] - 0.2, c.target[2] = c.eye[2] + 0.001;
+    char what[64];
+    snprintf(what, sizeof what, "patch %d trims %d/%d eye between faces", pk, tk,
+             (tk + 1) % TRIM_KINDS);
+    check_view(sc, r, 1, &c, what, all);
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 static void test_between_faces(void **state)
 {
     (void)state;
@@ -573,39 +599,23 @@ static void test_between_faces(void **state)
     int size = full ? 160 : 64;
     for (int pk = 0; pk < PATCH_KINDS; pk++) {
         if (pk == 2 || pk == 3) continue; /* the curved ones intersect each other at 0.02 apart */
-        for (int tk = 0; tk < TRIM_KINDS; tk++) {
-            crisp_model *m;
-            assert_int_equal(crisp_model_create(&m), CRISP_OK);
-            add_face(m, pk, tk, 0);
-            add_face(m, pk, (tk + 1) % TRIM_KINDS, 0.02);
-            crisp_scene *sc;
-            assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
-            crisp_renderer *r;
-            assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r),
-                             CRISP_OK);
-            double p[3], n[3];
-            surface_frame(sc, 0.8, 0.55, p, n);
-            crisp_camera c = {.up = {0, 0, 1},
-                              .fov_deg = 90,
-                              .znear = 1e-4,
-                              .zfar = 50,
-                              .width = size,
-                              .height = size};
-            for (int k = 0; k < 3; k++)
-                c.eye[k] = p[k] + 0.01 * n[k];
-            c.target[0] = c.eye[0] - 1, c.target[1] = c.eye[1] - 0.2,
-            c.target[2] = c.eye[2] + 0.001;
-            char what[64];
-            snprintf(what, sizeof what, "patch %d trims %d/%d eye between faces", pk, tk,
-                     (tk + 1) % TRIM_KINDS);
-            check_view(sc, r, 1, &c, what, &all);
-            crisp_renderer_destroy(r);
-            crisp_scene_destroy(sc);
-            crisp_model_destroy(m);
-        }
+        for (int tk = 0; tk < TRIM_KINDS; tk++)
+            between_faces(pk, tk, size, &all);
     }
     report("eye between two faces", &all);
     assert_true(all.inside > all.pixels / 10);
+    assert_int_equal(all.out_band, 0);
+}
+
+/* One view of test_between_faces' full run (160 x 160) where the GL backend left one sample
+ * 5.5 px inside the plane uncovered: leaves of different sizes placed their shared edge's
+ * vertices at the tessellator's float coordinates, rounded differently on either side
+ * (shaders/surface_tes.glsl now takes k / n exactly on outer edges). */
+static void test_between_faces_edge(void **state)
+{
+    (void)state;
+    tally all = {0};
+    between_faces(0, 0, 160, &all);
     assert_int_equal(all.out_band, 0);
 }
 
@@ -667,9 +677,13 @@ int main(int argc, char **argv)
     argc = rb_parse_args(argc, argv);
     full = argc > 1 && !strcmp(argv[1], "all");
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_frontal),       cmocka_unit_test(test_grazing),
-        cmocka_unit_test(test_zoom),          cmocka_unit_test(test_eye_on_surface),
-        cmocka_unit_test(test_between_faces), cmocka_unit_test(test_four_samples),
+        cmocka_unit_test(test_frontal),
+        cmocka_unit_test(test_grazing),
+        cmocka_unit_test(test_zoom),
+        cmocka_unit_test(test_eye_on_surface),
+        cmocka_unit_test(test_between_faces),
+        cmocka_unit_test(test_four_samples),
+        cmocka_unit_test(test_between_faces_edge),
         cmocka_unit_test(test_tiny_faces),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
