@@ -779,6 +779,29 @@ static double box_dist(const crisp_trim_polyline *pl, double u, double v, double
     return best;
 }
 
+/* The loops test_polyline_chains and test_trim_lod chain: a polygon of 30 to 200 points around a
+ * random centre (radius jittered by the fraction jitter), an ellipse on odd trials and a cubic
+ * graph on every third; pc holds up to 260 pieces. Returns the pieces written. */
+static int random_loops(int trial, double jitter, crisp_bezier_curve *pc)
+{
+    int n = 0, nv = 30 + (int)(rnd() * 170);
+    double poly[2 * 200];
+    double cu = rnd_in(0.3, 0.7), cv = rnd_in(0.3, 0.7), r0 = rnd_in(0.1, 0.25);
+    for (int i = 0; i < nv; i++) {
+        double a = 2 * M_PI * i / nv, r = r0 * (1 + jitter * rnd_in(-1, 1));
+        poly[2 * i] = cu + r * cos(a);
+        poly[2 * i + 1] = cv + 0.7 * r * sin(a);
+    }
+    n += tu_polygon(pc + n, nv, poly);
+    if (trial % 2)
+        n += tu_ellipse(pc + n, rnd_in(0.4, 0.6), rnd_in(0.4, 0.6), 0.45, 0.3, rnd_in(0, 3), 1);
+    if (trial % 3 == 0) {
+        double g[4] = {0.9, rnd_in(0.8, 1.2), rnd_in(0.6, 1.0), 0.95};
+        n += tu_cubic_graph(pc + n, 0.05, 0.95, g, 0.02);
+    }
+    return n;
+}
+
 /* Random loops (a wobbly polygon of 30..200 short lines, as trim loops of imported faces a few
  * pixels across have; an ellipse of rational quadratics; a cubic graph), tessellated finely, then
  * joined into chains with random tolerances: (u, v) points that the chains classify otherwise than
@@ -793,22 +816,7 @@ static void test_polyline_chains(void **state)
     long flips = 0, samples = 0, before = 0, after = 0;
     for (int trial = 0; trial < 40; trial++) {
         crisp_bezier_curve pc[260];
-        int n = 0;
-        int nv = 30 + (int)(rnd() * 170);
-        double poly[2 * 200];
-        double cu = rnd_in(0.3, 0.7), cv = rnd_in(0.3, 0.7), r0 = rnd_in(0.1, 0.25);
-        for (int i = 0; i < nv; i++) {
-            double a = 2 * M_PI * i / nv, r = r0 * (1 + 0.1 * rnd_in(-1, 1));
-            poly[2 * i] = cu + r * cos(a);
-            poly[2 * i + 1] = cv + 0.7 * r * sin(a);
-        }
-        n += tu_polygon(pc + n, nv, poly);
-        if (trial % 2)
-            n += tu_ellipse(pc + n, rnd_in(0.4, 0.6), rnd_in(0.4, 0.6), 0.45, 0.3, rnd_in(0, 3), 1);
-        if (trial % 3 == 0) {
-            double g[4] = {0.9, rnd_in(0.8, 1.2), rnd_in(0.6, 1.0), 0.95};
-            n += tu_cubic_graph(pc + n, 0.05, 0.95, g, 0.02);
-        }
+        int n = random_loops(trial, 0.1, pc);
         uint32_t mu[1] = {4000};
         double rho_u[1] = {4000};
         crisp_trim_polyline pl = {0}, old = {0};
@@ -900,21 +908,7 @@ static void test_trim_lod(void **state)
     long flips = 0, pts0 = 0, pieces = 0;
     for (int trial = 0; trial < 8; trial++) {
         crisp_bezier_curve pc[260];
-        int n = 0, nv = 30 + (int)(rnd() * 170);
-        double poly[2 * 200];
-        double cu = rnd_in(0.3, 0.7), cv = rnd_in(0.3, 0.7), r0 = rnd_in(0.1, 0.25);
-        for (int i = 0; i < nv; i++) {
-            double a = 2 * M_PI * i / nv, r = r0 * (1 + 0.3 * rnd_in(-1, 1));
-            poly[2 * i] = cu + r * cos(a);
-            poly[2 * i + 1] = cv + 0.7 * r * sin(a);
-        }
-        n += tu_polygon(pc + n, nv, poly);
-        if (trial % 2)
-            n += tu_ellipse(pc + n, rnd_in(0.4, 0.6), rnd_in(0.4, 0.6), 0.45, 0.3, rnd_in(0, 3), 1);
-        if (trial % 3 == 0) {
-            double g[4] = {0.9, rnd_in(0.8, 1.2), rnd_in(0.6, 1.0), 0.95};
-            n += tu_cubic_graph(pc + n, 0.05, 0.95, g, 0.02);
-        }
+        int n = random_loops(trial, 0.3, pc);
         crisp_trim_lod lod = {0};
         assert_int_equal(crisp_trim_lod_build(pc, n, &lod), CRISP_OK);
         assert_int_equal(lod.levels, CRISP_TRIM_LOD_LEVELS);
