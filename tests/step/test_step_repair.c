@@ -551,6 +551,24 @@ static char *read_whole(const char *path)
     return t;
 }
 
+/* Reads path (its text in *text, freed by the caller after the model), which must give one face,
+ * none dropped, whose loops are closed, inside its domain and oriented (*c: check_model_loops at
+ * 1e-6). */
+static crisp_model *read_one_clean_face(const char *path, char **text, step_read_stats *st,
+                                        loop_check *c)
+{
+    *text = read_whole(path);
+    crisp_model *m;
+    crisp_status s = read_str(*text, &m, st);
+    if (s) fprintf(stderr, "%s: %s\n", path, crisp_error_message());
+    assert_int_equal(s, CRISP_OK);
+    assert_int_equal(m->face_count, 1);
+    assert_int_equal(m->faces_dropped, 0);
+    check_model_loops(m, 1e-6, 1e-6, c);
+    assert_int_equal(c->open_loops + c->outside_loops + c->misoriented_loops, 0);
+    return m;
+}
+
 /* A band on a revolved B-spline surface closed in v, bounded by two circles (face #934 of Open
  * CASCADE's trj3_s1-md-214.stp, data/cuts): the inner circle's projection runs continuously
  * from v = 0.5 down across the seam to -0.5; it is cut at the seam and the part beyond moved by
@@ -559,15 +577,11 @@ static char *read_whole(const char *path)
 static void test_bspline_band_across_seam(void **state)
 {
     (void)state;
-    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_trj3_s1_md_face934.stp");
-    crisp_model *m;
+    char *t;
     step_read_stats st = {0};
-    assert_int_equal(read_str(t, &m, &st), CRISP_OK);
-    assert_int_equal(m->face_count, 1);
-    assert_int_equal(m->faces_dropped, 0);
     loop_check c;
-    check_model_loops(m, 1e-6, 1e-6, &c);
-    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    crisp_model *m =
+        read_one_clean_face(CRISP_DATA_DIR "/cuts/occt_trj3_s1_md_face934.stp", &t, &st, &c);
     assert_int_equal(m->faces[0].loop_count, 1);
     double a = crisp_trim_loop_signed_area(&m->faces[0].loops[0]);
     assert_true(fabs(a - 1) < 1e-6);
@@ -583,15 +597,11 @@ static void test_bspline_band_across_seam(void **state)
 static void test_bspline_strip_through_seam(void **state)
 {
     (void)state;
-    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_trj5_k1_sh_face1485.stp");
-    crisp_model *m;
+    char *t;
     step_read_stats st = {0};
-    assert_int_equal(read_str(t, &m, &st), CRISP_OK);
-    assert_int_equal(m->face_count, 1);
-    assert_int_equal(m->faces_dropped, 0);
     loop_check c;
-    check_model_loops(m, 1e-6, 1e-6, &c);
-    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    crisp_model *m =
+        read_one_clean_face(CRISP_DATA_DIR "/cuts/occt_trj5_k1_sh_face1485.stp", &t, &st, &c);
     assert_int_equal(m->faces[0].loop_count, 2);
     assert_int_equal(c.outer, 2);
     double a0 = crisp_trim_loop_signed_area(&m->faces[0].loops[0]),
@@ -617,15 +627,11 @@ static void test_bspline_strip_through_seam(void **state)
 static void test_band_seam_clear_of_holes(void **state)
 {
     (void)state;
-    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_trj5_k1_sh_face1446.stp");
-    crisp_model *m;
+    char *t;
     step_read_stats st = {0};
-    assert_int_equal(read_str(t, &m, &st), CRISP_OK);
-    assert_int_equal(m->face_count, 1);
-    assert_int_equal(m->faces_dropped, 0);
     loop_check c;
-    check_model_loops(m, 1e-6, 1e-6, &c);
-    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    crisp_model *m =
+        read_one_clean_face(CRISP_DATA_DIR "/cuts/occt_trj5_k1_sh_face1446.stp", &t, &st, &c);
     assert_int_equal(m->faces[0].loop_count, 3);
     assert_int_equal(c.outer, 1);
     assert_true(st.max_edge_dev < 1e-4);
@@ -652,15 +658,10 @@ static void test_lens_on_long_patch(void **state)
     const char *files[2] = {CRISP_DATA_DIR "/cuts/occt_trj6_b1_ec_face6387.stp",
                             CRISP_DATA_DIR "/cuts/occt_trj6_b1_ec_face9226.stp"};
     for (int k = 0; k < 2; k++) {
-        char *t = read_whole(files[k]);
-        crisp_model *m;
+        char *t;
         step_read_stats st = {0};
-        assert_int_equal(read_str(t, &m, &st), CRISP_OK);
-        assert_int_equal(m->face_count, 1);
-        assert_int_equal(m->faces_dropped, 0);
         loop_check c;
-        check_model_loops(m, 1e-6, 1e-6, &c);
-        assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+        crisp_model *m = read_one_clean_face(files[k], &t, &st, &c);
         assert_true(st.max_edge_dev < 1e-3);
         crisp_mass_props mp;
         assert_int_equal(crisp_mass_model(m, NULL, &mp), CRISP_OK);
@@ -682,15 +683,11 @@ static void test_lens_on_long_patch(void **state)
 static void test_sphere_latitudes_a_turn_away(void **state)
 {
     (void)state;
-    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_bm2_pe_t4_a_face355.stp");
-    crisp_model *m;
+    char *t;
     step_read_stats st = {0};
-    assert_int_equal(read_str(t, &m, &st), CRISP_OK);
-    assert_int_equal(m->face_count, 1);
-    assert_int_equal(m->faces_dropped, 0);
     loop_check c;
-    check_model_loops(m, 1e-6, 1e-6, &c);
-    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    crisp_model *m =
+        read_one_clean_face(CRISP_DATA_DIR "/cuts/occt_bm2_pe_t4_a_face355.stp", &t, &st, &c);
     assert_true(st.max_edge_dev < 1e-6);
     crisp_mass_props mp;
     assert_int_equal(crisp_mass_model(m, NULL, &mp), CRISP_OK);
@@ -773,17 +770,11 @@ static void test_extrusion_arc_at_pi(void **state)
 static void test_extrusion_closed_profile_start(void **state)
 {
     (void)state;
-    char *t = read_whole(CRISP_DATA_DIR "/cuts/occt_trj7_k1_sd_face30200.stp");
-    crisp_model *m;
+    char *t;
     step_read_stats st = {0};
-    crisp_status s = read_str(t, &m, &st);
-    if (s) fprintf(stderr, "%s\n", crisp_error_message());
-    assert_int_equal(s, CRISP_OK);
-    assert_int_equal(m->face_count, 1);
-    assert_int_equal(m->faces_dropped, 0);
     loop_check c;
-    check_model_loops(m, 1e-6, 1e-6, &c);
-    assert_int_equal(c.open_loops + c.outside_loops + c.misoriented_loops, 0);
+    crisp_model *m =
+        read_one_clean_face(CRISP_DATA_DIR "/cuts/occt_trj7_k1_sd_face30200.stp", &t, &st, &c);
     assert_true(st.max_edge_dev < 1e-6);
     crisp_model_destroy(m);
     free(t);
