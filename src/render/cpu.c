@@ -175,6 +175,15 @@ crisp_planner *crisp_renderer_planner(crisp_renderer *r)
     return r->planner;
 }
 
+/* Extends the pixel box [lo, hi] of the plan's image by the clip-space point c (W > 0). */
+static inline void box_add_clip(const crisp_frame_plan *plan, const double c[4], double lo[2],
+                                double hi[2])
+{
+    double x = (c[0] / c[3] + 1) * 0.5 * plan->width, y = (1 - c[1] / c[3]) * 0.5 * plan->height;
+    lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
+    lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+}
+
 /* ---- tessellation -------------------------------------------------------------------------- */
 
 static crisp_tess_levels leaf_levels(const crisp_plan_leaf *L)
@@ -312,10 +321,7 @@ static int group_empty(const skip_ctx *c, size_t j, const crisp_plan_leaf *L)
                     if (c->occl) crisp__occl_set(&c->occl[j], c->win, whole_lo, whole_hi, INFINITY);
                     return 0;
                 }
-                double x = (h[0] / h[3] + 1) * 0.5 * plan->width,
-                       y = (1 - h[1] / h[3]) * 0.5 * plan->height;
-                lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x), lo[1] = fmin(lo[1], y),
-                hi[1] = fmax(hi[1], y);
+                box_add_clip(plan, h, lo, hi);
                 /* In front of the near plane (clip z > -W) or never culled. */
                 iw = h[2] + h[3] > 0 ? fmax(iw, 1 / h[3]) : INFINITY;
             }
@@ -381,10 +387,7 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
                 front = 0;
                 break;
             }
-            double x = (h[0] / h[3] + 1) * 0.5 * plan->width,
-                   y = (1 - h[1] / h[3]) * 0.5 * plan->height;
-            lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x), lo[1] = fmin(lo[1], y),
-            hi[1] = fmax(hi[1], y);
+            box_add_clip(plan, h, lo, hi);
             /* The control point's depth is W = h[3] / weight: the surface's points are convex
              * combinations of the control points (positive weights), so their 1/W is at most the
              * largest of these. A hull reaching the near plane (clip z > -W fails) or a weight
@@ -564,13 +567,12 @@ static size_t cores_needed(const crisp_raster_target *tg, const crisp_frame_plan
         for (int k = 0; k < 4 && ok; k++) {
             const double *c = verts[k < 3 ? t->v[k] : t[1].v[2]].clip;
             ok = c[3] > 0 && isfinite(c[0] + c[1] + c[3]);
-            double x = (c[0] / c[3] + 1) * 0.5 * plan->width - tg->x0,
-                   y = (1 - c[1] / c[3]) * 0.5 * plan->height - tg->y0;
-            lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
-            lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+            box_add_clip(plan, c, lo, hi);
             wmin = fmin(wmin, c[3]);
         }
-        if (!ok || hi[0] < 0 || hi[1] < 0 || lo[0] >= tg->width || lo[1] >= tg->height) continue;
+        if (!ok) continue;
+        lo[0] -= tg->x0, hi[0] -= tg->x0, lo[1] -= tg->y0, hi[1] -= tg->y0; /* in the window */
+        if (hi[0] < 0 || hi[1] < 0 || lo[0] >= tg->width || lo[1] >= tg->height) continue;
         int x0 = lo[0] > 0 ? (int)lo[0] : 0, y0 = lo[1] > 0 ? (int)lo[1] : 0;
         int x1 = hi[0] < tg->width - 1 ? (int)hi[0] : tg->width - 1;
         int y1 = hi[1] < tg->height - 1 ? (int)hi[1] : tg->height - 1;
@@ -1059,10 +1061,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                     far = 1; /* behind the eye: kept (clipped by the rasterizer) */
                     break;
                 }
-                double x = (c[0] / c[3] + 1) * 0.5 * plan->width,
-                       y = (1 - c[1] / c[3]) * 0.5 * plan->height;
-                lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
-                lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+                box_add_clip(plan, c, lo, hi);
             }
             if (far || (hi[0] >= win[0] - 2 && lo[0] <= win[0] + win[2] + 2 &&
                         hi[1] >= win[1] - 2 && lo[1] <= win[1] + win[3] + 2))
