@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "depth_bound.h"
 #include "quadtree.h"
 #include "rational_bound.h"
 
@@ -529,10 +530,38 @@ typedef struct walk_ctx {
     const crisp_scene *sc;
     crisp_mat4 m;
     double gx, gy, eps;
+    double depth_scale; /* crisp__depth_px_scale: a pixel's world size per unit of clip W */
     int width, height;
     crisp__patch_groups *out;
     uint32_t *counts; /* group leaves per face */
 } walk_ctx;
+
+/* Depth along the view (issue 13, depth_bound.c): a leaf drawn at level 1 without a tree of its
+ * own (a block's group leaf, or a patch or block within eps on screen) must also lie within eps
+ * pixels' world size of the surface along the view, as build_cell's leaves do
+ * (crisp__depth_tess_level). The depth the rasterizer writes is the triangle point's clip W, a
+ * convex combination (clip-space barycentrics) of surface points' W; the surface point's W at the
+ * same parameters is another: both lie in the W range of the block's box, so that range is a
+ * bound on the depth error; the allowance is eps times the pixel's world size at the box's least
+ * W (depth_allow). No allowance (not a perspective view: crisp__depth_px_scale 0): no bound, as
+ * in crisp__depth_tess_level. */
+static double depth_allow(const walk_ctx *c, double wmin)
+{
+    return c->eps * c->depth_scale * wmin;
+}
+
+static int box_depth_ok(const walk_ctx *c, const double box[6])
+{
+    double w = c->m[3][3], half = 0;
+    for (int a = 0; a < 3; a++) {
+        double mid = 0.5 * (box[a] + box[3 + a]), ext = 0.5 * (box[3 + a] - box[a]);
+        w += c->m[a][3] * mid;
+        half += fabs(c->m[a][3]) * ext;
+    }
+    half = half * (1 + 1e-12) + 1e-12 * fabs(w);
+    double allow = depth_allow(c, w - half);
+    return !(allow > 0) || 2 * half <= allow;
+}
 
 /* Patches of face fi that get a tree of their own this frame, with their mode. */
 static void activate(walk_ctx *c, uint32_t fi, uint32_t p, uint8_t mode)
@@ -610,7 +639,8 @@ static int clip_corners(const double *const cw[4], crisp_mat4 m, double C[4][3],
 static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
                          double extent)
 {
-    if (extent <= c->eps) return 1;
+    int box_depth = box_depth_ok(c, n->box);
+    if (extent <= c->eps && box_depth) return 1;
     if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
     const block_dev *dev = &c->g->devs[n->dev];
     double(*m)[4] = (double(*)[4])c->m;
@@ -629,6 +659,19 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
         r[a] = (su + sv + st) * (1 + 1e-12);
         rlow[a] = dmax(su, dmax(sv, st));
     }
+    if (!box_depth) {
+        /* The depth error along the view: |T_w - S_w| <= hi_w - lo_w + 2 r_w + tw_w / 4 (the
+         * direct form of rational_bound.c's finish, its W coordinate), against the allowance at
+         * a least W of the surface (L's least plus the least deviation, or the box's). */
+        double tw = 0.25 * fabs(C[0][2] - C[1][2] - C[2][2] + C[3][2]);
+        double dw = (hi[2] - lo[2] + 2 * r[2] + tw) * (1 + 1e-9);
+        double bw = c->m[3][3];
+        for (int a = 0; a < 3; a++)
+            bw += c->m[a][3] < 0 ? c->m[a][3] * n->box[3 + a] : c->m[a][3] * n->box[a];
+        double allow = depth_allow(c, dmax(wmin + lo[2] - r[2], bw) * (1 - 1e-9));
+        if (!(dw <= allow)) return 0;
+    }
+    if (extent <= c->eps) return 1;
     if (crisp__rational_block_finish_px((const double(*)[3])C, lo, hi, r, c->width, c->height) <=
         c->eps)
         return 1;
@@ -676,15 +719,18 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
             if (k == 1) {
                 g->node_kind[at] = NODE_CULLED; /* its patches: no tree (crisp__groups_owner) */
             } else if (n->nu * n->nv == 1) {
+                /* (Within eps on screen but not along the view: its tree's leaf takes the depth
+                 * bound's level, build_cell.) */
                 activate(c, (uint32_t)fi, f->first_patch + n->iv0 * f->grid_u + n->iu0,
-                         k == 2 ? CRISP__PATCH_SMALL : CRISP__PATCH_OPEN);
+                         k == 2 && box_depth_ok(c, n->box) ? CRISP__PATCH_SMALL
+                                                           : CRISP__PATCH_OPEN);
             } else if (c->out->group_g && group_leaf_ok(c, f, n, extent)) {
                 uint32_t origin = f->first_patch + n->iv0 * f->grid_u + n->iu0;
                 g->node_kind[at] = NODE_GROUP;
                 activate(c, (uint32_t)fi, origin, CRISP__PATCH_GROUP);
                 c->out->group_g[origin] = (uint8_t)n->g;
                 c->counts[fi]++;
-            } else if (k == 2) {
+            } else if (k == 2 && box_depth_ok(c, n->box)) {
                 activate_block(c, (uint32_t)fi, f, n, CRISP__PATCH_SMALL);
             } else {
                 g->node_kind[at] = NODE_OPEN;
@@ -718,7 +764,8 @@ crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, cri
                   .width = width,
                   .height = height,
                   .out = out,
-                  .counts = counts};
+                  .counts = counts,
+                  .depth_scale = crisp__depth_px_scale(view_proj, width, height)};
     crisp_mat4_copy(view_proj, c.m);
     crisp_pool_parallel_for(pool, sc->face_count, 4, walk_faces, &c);
     if (g->oom) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");

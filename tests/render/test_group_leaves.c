@@ -103,9 +103,12 @@ static crisp_tess_levels levels(const crisp_plan_leaf *L)
 }
 
 /* Largest screen distance (max of x and y, pixels) between group leaf L's triangles and the
- * surface, at 10 x 10 barycentric samples per triangle. */
+ * surface, at 10 x 10 barycentric samples per triangle; *depth: the largest distance along the
+ * view (the triangle point's clip W, the depth the rasterizer writes, against the surface
+ * point's) in pixels' world size at the surface point's depth (px_per_w: pixels per unit of
+ * world size at W = 1, from the camera). */
 static double leaf_distance(const crisp_scene *sc, const crisp_frame_plan *plan,
-                            const crisp_plan_leaf *L)
+                            const crisp_plan_leaf *L, double px_per_w, double *depth)
 {
     crisp_tess_levels lv = levels(L);
     size_t nv, nt;
@@ -116,6 +119,7 @@ static double leaf_distance(const crisp_scene *sc, const crisp_frame_plan *plan,
     for (size_t k = 0; k < nv; k++)
         leaf_clip(sc, plan, L, st[2 * k], st[2 * k + 1], clip + 4 * k);
     double worst = 0;
+    *depth = 0;
     enum { N = 10 };
     for (size_t k = 0; k < nt; k++)
         for (int i = 0; i <= N; i++)
@@ -132,6 +136,7 @@ static double leaf_distance(const crisp_scene *sc, const crisp_frame_plan *plan,
                 project(plan, h, a);
                 project(plan, g, b);
                 worst = fmax(worst, fmax(fabs(a[0] - b[0]), fabs(a[1] - b[1])));
+                *depth = fmax(*depth, fabs(h[3] - g[3]) * px_per_w / g[3]);
             }
     free(st);
     free(clip);
@@ -234,30 +239,52 @@ static void run(int rational, int uniform, int cameras)
     crisp_planner *pl;
     assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
     long groups = 0, mixed = 0, patches_in_groups = 0;
-    double worst = 0, worst_rel = 0;
+    double worst = 0, worst_rel = 0, worst_depth = 0, worst_single = 0;
+    long singles = 0;
     for (int c = 0; c < cameras; c++) {
         crisp_camera cam = random_camera();
         const crisp_frame_plan *plan;
         assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
+        /* a pixel's world size at depth W is W / px_per_w (square pixels) */
+        double px_per_w = 0.5 * cam.height / tan(0.5 * cam.fov_deg * 3.14159265358979323846 / 180);
         for (uint32_t l = 0; l < plan->leaf_count; l++) {
             const crisp_plan_leaf *L = &plan->leaves[l];
+            if (!L->group && L->tau == 1 && L->depth == 0) {
+                /* A whole patch at level 1: within eps on screen, so the walk may have decided
+                 * it without a tree (patch_groups.c); along the view too. */
+                double dz, d = leaf_distance(sc, plan, L, px_per_w, &dz);
+                singles++;
+                worst_single = fmax(worst_single, dz);
+                if (d > plan->eps_px || dz > plan->eps_px)
+                    fail_msg("camera %d: patch %u at level 1: %g px from the surface, %g px' "
+                             "world size along the view",
+                             c, L->patch, d, dz);
+            }
             if (!L->group) continue;
             groups++;
             patches_in_groups += (L->block & 0xffff) * (L->block >> 16);
-            double d = leaf_distance(sc, plan, L);
+            double dz, d = leaf_distance(sc, plan, L, px_per_w, &dz);
             worst = fmax(worst, d);
+            worst_depth = fmax(worst_depth, dz);
             if (d > plan->eps_px)
                 fail_msg("camera %d: group leaf %u (g %u, %u x %u patches, levels %u / %u %u %u "
                          "%u): %g px from the surface",
                          c, l, L->group, L->block & 0xffff, L->block >> 16, L->tau, L->edge[0],
                          L->edge[1], L->edge[2], L->edge[3], d);
+            if (dz > plan->eps_px)
+                fail_msg("camera %d: group leaf %u (g %u, %u x %u patches): %g px' world size "
+                         "from the surface along the view",
+                         c, l, L->group, L->block & 0xffff, L->block >> 16, dz);
         }
         mixed += check_edges(sc, plan, &worst_rel);
     }
     printf("%s, %s knots, %d cameras: %ld group leaves (%ld patches), largest distance %.3f px "
-           "(tightness %.2f of 0.5 px); %ld group / single-leaf edges, vertices equal to %.1e\n",
+           "(tightness %.2f of 0.5 px), along the view %.3f px; %ld group / single-leaf edges, "
+           "vertices equal to %.1e\n",
            rational ? "rational" : "polynomial", uniform ? "uniform" : "random", cameras, groups,
-           patches_in_groups, worst, worst / 0.5, mixed, worst_rel);
+           patches_in_groups, worst, worst / 0.5, worst_depth, mixed, worst_rel);
+    printf("  %ld whole patches at level 1: along the view at most %.3f px\n", singles,
+           worst_single);
     /* The test means something: group leaves were made and met single-patch leaves. */
     assert_true(groups >= cameras);
     assert_true(mixed >= cameras);
