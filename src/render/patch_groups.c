@@ -687,6 +687,76 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
                                     c->height, c->eps) <= c->eps;
 }
 
+/* 1 when the single patch of node n (extent: its box's screen extent) can be one leaf at level 1
+ * without a tree: every triangle with vertices on it lies within eps of it on screen
+ * (rational_bound.c's bound from its control points, as group_leaf_ok's for a block of one
+ * patch; build_cell's flat_bound is the same bound) and along the view (box_depth_ok, or the
+ * same bound's W coordinate). Cost only: a patch this refuses gets its tree (build_cell), which
+ * decides as before (depth_bound.c's crisp__depth_tess_level is not called here: where the cheap
+ * bound refuses, build_cell calls it, and calling it here too doubled it at close-ups). At the
+ * default view of bench_screen's gen50 (wavy sheets facing the eye) most visible patches take
+ * level 1 this way instead of a quadtree, a SLEFE level and the curvature bound each. */
+static int patch_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
+                         double extent)
+{
+    if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
+    const crisp_bezier_patch *p = &c->sc->patches[f->first_patch + n->iv0 * f->grid_u + n->iu0].bez;
+    if (p->du < 1 || p->dv < 1) return 0;
+    double(*m)[4] = (double(*)[4])c->m;
+    const double *cw[4];
+    block_corners(c->sc, f, n, cw);
+    double C[4][3], wmin, xmax, ymax, lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, sigma[3], r[3];
+    if (!clip_corners(cw, m, C, &wmin, &xmax, &ymax)) return 0;
+    /* Every control point's clip deviation from the bilinear through C at its grid parameters
+     * (i / du, j / dv): L along a row of constant t is linear in s, between its ends e0, e1. */
+    double mag = 0, pmag = 1;
+    for (int jj = 0; jj <= p->dv; jj++) {
+        double t = (double)jj / p->dv, e0[3], e1[3];
+        for (int a = 0; a < 3; a++) {
+            e0[a] = (1 - t) * C[0][a] + t * C[2][a], e1[a] = (1 - t) * C[1][a] + t * C[3][a];
+            mag = dmax(mag, dmax(fabs(e0[a]), fabs(e1[a])));
+        }
+        for (int ii = 0; ii <= p->du; ii++) {
+            const double *q = p->cpw + 4 * (jj * (p->du + 1) + ii);
+            if (!(q[3] > 0)) return 0;
+            double s = (double)ii / p->du, iw = q[3] == 1 ? 1 : 1 / q[3];
+            double P[3] = {q[0] * iw, q[1] * iw, q[2] * iw};
+            pmag = dmax(pmag, dmax(fabs(P[0]), dmax(fabs(P[1]), fabs(P[2]))));
+            for (int a = 0; a < 3; a++) {
+                int row = a == 2 ? 3 : a;
+                double x = m[0][row] * P[0] + m[1][row] * P[1] + m[2][row] * P[2] + m[3][row];
+                double e = x - ((1 - s) * e0[a] + s * e1[a]);
+                lo[a] = dmin(lo[a], e), hi[a] = dmax(hi[a], e);
+                mag = dmax(mag, fabs(x));
+            }
+        }
+    }
+    /* the rounding of both sides: each within 1e-12 of the largest magnitude involved (the
+     * terms of the map's rows, the mapped points, the corners) */
+    for (int a = 0; a < 3; a++) {
+        int row = a == 2 ? 3 : a;
+        double terms =
+            (fabs(m[0][row]) + fabs(m[1][row]) + fabs(m[2][row])) * pmag + fabs(m[3][row]);
+        lo[a] -= 1e-12 * (terms + mag), hi[a] += 1e-12 * (terms + mag);
+    }
+    crisp__rational_reparam(p, sigma);
+    for (int a = 0; a < 3; a++) {
+        double eu = dmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a]));
+        double ev = dmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a]));
+        double tw = fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
+        r[a] = (sigma[0] * eu + sigma[1] * ev + sigma[2] * tw) * (1 + 1e-12);
+    }
+    if (!(crisp__rational_block_finish_px((const double(*)[3])C, lo, hi, r, c->width, c->height) <=
+          c->eps))
+        return 0;
+    /* (finish within eps puts every control point in front of the eye: its W is at least
+     * wmin + lo_w > E_w + lo_w >= 0) */
+    if (box_depth_ok(c, n->box)) return 1;
+    double tw = 0.25 * fabs(C[0][2] - C[1][2] - C[2][2] + C[3][2]);
+    double dw = (hi[2] - lo[2] + 2 * r[2] + tw) * (1 + 1e-9);
+    return dw <= depth_allow(c, (wmin + lo[2] - r[2]) * (1 - 1e-9));
+}
+
 static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
@@ -721,9 +791,10 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
             } else if (n->nu * n->nv == 1) {
                 /* (Within eps on screen but not along the view: its tree's leaf takes the depth
                  * bound's level, build_cell.) */
+                int small = (k == 2 && box_depth_ok(c, n->box)) ||
+                            (c->out->group_g && patch_flat_ok(c, f, n, extent));
                 activate(c, (uint32_t)fi, f->first_patch + n->iv0 * f->grid_u + n->iu0,
-                         k == 2 && box_depth_ok(c, n->box) ? CRISP__PATCH_SMALL
-                                                           : CRISP__PATCH_OPEN);
+                         small ? CRISP__PATCH_SMALL : CRISP__PATCH_OPEN);
             } else if (c->out->group_g && group_leaf_ok(c, f, n, extent)) {
                 uint32_t origin = f->first_patch + n->iv0 * f->grid_u + n->iu0;
                 g->node_kind[at] = NODE_GROUP;
