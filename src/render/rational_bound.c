@@ -44,8 +44,8 @@
  * L is the bilinear through the block's corners; on a patch of the block it is a bilinear in the
  * patch's local parameters with edges 1/nu, 1/nv and twist 1/(nu nv) of the block's, and the
  * block's E_S is the largest over its patches. For a polynomial patch (all weights 1) this is
- * the homogeneous flat bound. The view-independent form (crisp__rational_block_deviation) bounds
- * E_S per object coordinate; a linear map m gives |m_r . v| <= |m_r| . |v| per clip row r. */
+ * the homogeneous flat bound. patch_groups.c keeps view-independent ranges of the deviations per
+ * block and ends with this bound's last step (crisp__rational_block_finish_px). */
 #include "rational_bound.h"
 
 #include <float.h>
@@ -254,12 +254,11 @@ static void dev_max(const block_dev *d, double E[3])
 }
 
 /* The deviations of the block's patches in the coordinates of A, against the bilinear through C
- * (the block's corners mapped by A), the sigma's after `halvings`. 0 when a weight is not
+ * (the block's corners mapped by A), the sigma's without halvings. 0 when a weight is not
  * positive or (stop) the bound must already exceed stop->accept: both forms in finish are at
  * least max(|lo|, |hi|) / w_min in pixels. */
 static int block_error(const crisp_scene_patch *first, uint32_t stride, uint32_t nu, uint32_t nv,
-                       const map3 *A, const double C[4][3], const stop_rule *stop, int halvings,
-                       block_dev *d)
+                       const map3 *A, const double C[4][3], const stop_rule *stop, block_dev *d)
 {
     double eu[3], ev[3], tw[3];
     edge_terms(C, nu, nv, eu, ev, tw);
@@ -285,7 +284,7 @@ static int block_error(const crisp_scene_patch *first, uint32_t stride, uint32_t
                     }
                 }
             }
-            reparam(b, halvings, sigma);
+            reparam(b, 0, sigma);
             if (!isfinite(sigma[0])) return 0;
             for (int a = 0; a < 3; a++) {
                 d->lo[a] = dmin(d->lo[a], plo[a]);
@@ -382,47 +381,11 @@ double crisp__rational_block_px(const crisp_scene_patch *first, uint32_t stride,
      * accept; blocks stop early once the control points alone exceed accept. */
     const stop_rule *sr = accept > 0 && nu * nv > 1 ? &stop : NULL;
     block_dev d;
-    if (!block_error(first, stride, nu, nv, &A, (const double(*)[3])C, sr, 0, &d)) return INFINITY;
+    if (!block_error(first, stride, nu, nv, &A, (const double(*)[3])C, sr, &d)) return INFINITY;
     double e = finish((const double(*)[3])C, &d, width, height);
     if ((accept > 0 && e <= accept) || (d.r[0] == 0 && d.r[1] == 0 && d.r[2] == 0)) return e;
     block_refine(first, stride, nu, nv, (const double(*)[3])C, &d);
     return dmin(e, finish((const double(*)[3])C, &d, width, height));
-}
-
-void crisp__rational_block_deviation(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
-                                     uint32_t nv, double dest[3])
-{
-    const crisp_bezier_patch *cp[4];
-    corner_patches(first, stride, nu, nv, cp);
-    double P[4][3];
-    map3 I = {{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}}};
-    block_dev d;
-    if (!block_corners(cp, P) ||
-        !block_error(first, stride, nu, nv, &I, (const double(*)[3])P, NULL, REPARAM_HALVINGS, &d))
-        dest[0] = dest[1] = dest[2] = INFINITY;
-    else
-        dev_max(&d, dest);
-}
-
-double crisp__rational_block_px_fast(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
-                                     uint32_t nv, const double dev[3], crisp_mat4 m, int width,
-                                     int height)
-{
-    if (!isfinite(dev[0]) || !isfinite(dev[1]) || !isfinite(dev[2])) return INFINITY;
-    const crisp_bezier_patch *cp[4];
-    corner_patches(first, stride, nu, nv, cp);
-    double P[4][3], C[4][3], E[3];
-    if (!block_corners(cp, P)) return INFINITY;
-    map3 A = clip_map(m);
-    for (int k = 0; k < 4; k++)
-        apply(&A, P[k], C[k]);
-    block_dev d;
-    for (int r = 0; r < 3; r++) {
-        E[r] = (fabs(A.a[r][0]) * dev[0] + fabs(A.a[r][1]) * dev[1] + fabs(A.a[r][2]) * dev[2]) *
-               (1 + 1e-12);
-        d.lo[r] = -E[r], d.hi[r] = E[r], d.r[r] = 0;
-    }
-    return finish((const double(*)[3])C, &d, width, height);
 }
 
 /* The largest screen extent (pixels, max of x and y) of the patch's projected control points,

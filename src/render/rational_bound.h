@@ -42,19 +42,6 @@ void crisp__rational_weight_range(const crisp_bezier_patch *p, double *lo, doubl
 double crisp__rational_block_px(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
                                 uint32_t nv, crisp_mat4 m, int width, int height, double accept);
 
-/* The view-independent part of the block bound, per object coordinate x, y, z: the largest, over
- * the block's patches, of the Euclidean control points' distance to the bilinear through the
- * block's corner points plus the reparametrisation terms (crisp__rational_reparam times the
- * bilinear's edges and twist). INFINITY when a weight is not positive. */
-void crisp__rational_block_deviation(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
-                                     uint32_t nv, double dest[3]);
-
-/* The block bound from dev of crisp__rational_block_deviation mapped by |view_proj| (O(1): the
- * four corner patches are read): sound, looser than crisp__rational_block_px. */
-double crisp__rational_block_px_fast(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
-                                     uint32_t nv, const double dev[3], crisp_mat4 m, int width,
-                                     int height);
-
 /* The block bound's last step on its own (patch_groups.c keeps the deviations per block): C the
  * block's Euclidean corners in clip coordinates x, y, w; every control point's deviation from the
  * bilinear through them, per coordinate, in [lo, hi] (lo <= 0 <= hi); the reparametrisation term
