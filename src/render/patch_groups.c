@@ -50,10 +50,12 @@ typedef struct block_dev {
     double f[3][3];        /* orthonormal to 1e-12 */
     double flo[3], fhi[3]; /* d . f_k in [flo_k, fhi_k] (with rounding) */
     double slack;          /* 1e-10 times the largest |d|: f's departure from orthonormal */
-    float wit[6][3]; /* the d with the least and largest d . f_k (control points of the block: a
-                        lower bound of the frame's range up to rounding, for cost decisions) */
-    double sigma[3]; /* the largest crisp__rational_reparam of its patches (0: polynomial) */
-    int bounded;     /* 0: a weight is not positive (no O(1) bound) */
+    float wit[6][3];     /* the d with the least and largest d . f_k (control points of the block: a
+                            lower bound of the frame's range up to rounding, for cost decisions) */
+    double sigma[3];     /* the largest crisp__rational_reparam of its patches (0: polynomial) */
+    double corner[4][3]; /* its Euclidean corners (block_corners' points; the frame reads these,
+                            not the corner patches scattered over the scene's memory) */
+    int bounded;         /* 0: a weight is not positive (no O(1) bound) */
 } block_dev;
 
 struct crisp__groups {
@@ -265,6 +267,7 @@ static void block_deviation(const crisp_scene *sc, const crisp_scene_face *f, co
         for (int a = 0; a < 3; a++) {
             w.C[k][a] = cw[k][a] / cw[k][3];
             w.cmag[a] = dmax(w.cmag[a], fabs(w.C[k][a]));
+            d->corner[k][a] = w.C[k][a];
         }
     }
     /* Blocks of more than 64 patches (read by no frame: group_leaf_ok's `small`) keep the
@@ -614,19 +617,16 @@ static void activate_block(walk_ctx *c, uint32_t fi, const crisp_scene_face *f, 
  * control points would have accepted. */
 #define GROUP_TRY_PX 64.0
 
-/* The block's Euclidean corners (cw: homogeneous) in clip coordinates x, y, w (C), with their
- * least w and largest |x / w|, |y / w|; 0 when one is not in front of the eye. */
-static int clip_corners(const double *const cw[4], crisp_mat4 m, double C[4][3], double *wmin,
-                        double *xmax, double *ymax)
+/* The block's Euclidean corners P in clip coordinates x, y, w (C), with their least w and largest
+ * |x / w|, |y / w|; 0 when one is not in front of the eye. */
+static int clip_points(const double P[4][3], crisp_mat4 m, double C[4][3], double *wmin,
+                       double *xmax, double *ymax)
 {
     *wmin = INFINITY, *xmax = *ymax = 0;
     for (int i = 0; i < 4; i++) {
-        const double *q = cw[i];
-        if (!(q[3] > 0)) return 0;
-        double P[3] = {q[0] / q[3], q[1] / q[3], q[2] / q[3]};
         for (int a = 0; a < 3; a++) {
             int r = a == 2 ? 3 : a; /* x, y, w rows of view_proj */
-            C[i][a] = m[0][r] * P[0] + m[1][r] * P[1] + m[2][r] * P[2] + m[3][r];
+            C[i][a] = m[0][r] * P[i][0] + m[1][r] * P[i][1] + m[2][r] * P[i][2] + m[3][r];
         }
         if (!(C[i][2] > 0)) return 0;
         *wmin = dmin(*wmin, C[i][2]);
@@ -634,6 +634,19 @@ static int clip_corners(const double *const cw[4], crisp_mat4 m, double C[4][3],
         *ymax = dmax(*ymax, fabs(C[i][1] / C[i][2]));
     }
     return 1;
+}
+
+/* clip_points from the homogeneous corners cw. */
+static int clip_corners(const double *const cw[4], crisp_mat4 m, double C[4][3], double *wmin,
+                        double *xmax, double *ymax)
+{
+    double P[4][3];
+    for (int i = 0; i < 4; i++) {
+        const double *q = cw[i];
+        if (!(q[3] > 0)) return 0;
+        P[i][0] = q[0] / q[3], P[i][1] = q[1] / q[3], P[i][2] = q[2] / q[3];
+    }
+    return clip_points((const double(*)[3])P, m, C, wmin, xmax, ymax);
 }
 
 static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
@@ -644,10 +657,9 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
     if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
     const block_dev *dev = &c->g->devs[n->dev];
     double(*m)[4] = (double(*)[4])c->m;
-    const double *cw[4];
-    block_corners(c->sc, f, n, cw);
     double C[4][3], wmin, xmax, ymax;
-    if (!dev->bounded || !clip_corners(cw, m, C, &wmin, &xmax, &ymax)) return 0;
+    if (!dev->bounded || !clip_points((const double(*)[3])dev->corner, m, C, &wmin, &xmax, &ymax))
+        return 0;
     int small = n->nu * n->nv <= 64 && extent <= GROUP_TRY_PX;
     double lo[3], hi[3], wlo[3], whi[3], r[3], rlow[3];
     deviation_range(dev, m, lo, hi, NULL, NULL, small ? wlo : NULL, whi);
