@@ -100,9 +100,20 @@ static void piece_sums(const double *c, int nc, int du, int dv, double *K)
         if (!(w[i] > 0)) return;
         wlo = crisp__min(wlo, w[i]), whi = crisp__max(whi, w[i]);
     }
+    if (!(whi > wlo)) {
+        /* equal weights: f = g / w, the classical bound of g's second differences */
+        for (int r = 0; r < nc; r++) {
+            double g[QN * QN], d1[2], d2[3];
+            for (int i = 0; i < n; i++)
+                g[i] = c[st * i + r];
+            diff_bounds(g, du, dv, d1, d2);
+            K[r] = (d2[0] + d2[1] + 2 * d2[2]) / wlo * (1 + 1e-9);
+        }
+        return;
+    }
     double w1[2], w2[3], we1[2], we2[3];
     diff_bounds(w, du, dv, w1, w2);
-    int fit = whi > wlo && du + 1 < QN && dv + 1 < QN;
+    int fit = du + 1 < QN && dv + 1 < QN;
     if (fit) {
         double one[4] = {1, 1, 1, 1};
         times_bilinear(one, w, du, dv, we);
@@ -155,54 +166,69 @@ static void piece_sums(const double *c, int nc, int du, int dv, double *K)
     }
 }
 
-/* Restrict the interleaved coefficients c (st values per control point, degrees du x dv) to
- * [s0, s1] x [t0, t1] in place (de Casteljau). */
-static void restrict_piece(double *c, int st, int du, int dv, double s0, double s1, double t0,
-                           double t1)
+/* Split the interleaved coefficients c (st values per control point, degrees du x dv) at the
+ * middle of direction dir (0: s, 1: t) into lo and hi (de Casteljau at 1/2). Coordinates from
+ * `from` on are copied unchanged (a weight that is the same everywhere stays so). */
+static void split_half(const double *c, int st, int from, int du, int dv, int dir, double *lo,
+                       double *hi)
 {
-    for (int dir = 0; dir < 2; dir++) {
-        int d = dir ? dv : du, rows = dir ? du + 1 : dv + 1;
-        int stride = dir ? st * (du + 1) : st, row_step = dir ? st : st * (du + 1);
-        double a = dir ? t0 : s0, b = dir ? t1 : s1, r0 = a / b;
-        for (int row = 0; row < rows; row++) {
-            double *x = c + row * row_step;
-            if (b < 1.0)
-                for (int r = 1; r <= d; r++)
-                    for (int i = d; i >= r; i--)
-                        for (int q = 0; q < st; q++)
-                            x[i * stride + q] =
-                                (1 - b) * x[(i - 1) * stride + q] + b * x[i * stride + q];
-            if (r0 > 0.0)
-                for (int r = 1; r <= d; r++)
-                    for (int i = 0; i <= d - r; i++)
-                        for (int q = 0; q < st; q++)
-                            x[i * stride + q] =
-                                (1 - r0) * x[i * stride + q] + r0 * x[(i + 1) * stride + q];
+    int d = dir ? dv : du, rows = dir ? du + 1 : dv + 1;
+    int stride = dir ? st * (du + 1) : st, row_step = dir ? st : st * (du + 1);
+    double tmp[QN];
+    for (int row = 0; row < rows; row++)
+        for (int q = 0; q < st; q++) {
+            const double *x = c + row * row_step + q;
+            double *L = lo + row * row_step + q, *H = hi + row * row_step + q;
+            if (q >= from) {
+                for (int i = 0; i <= d; i++)
+                    L[i * stride] = H[i * stride] = x[i * stride];
+                continue;
+            }
+            for (int i = 0; i <= d; i++)
+                tmp[i] = x[i * stride];
+            L[0] = tmp[0], H[d * stride] = tmp[d];
+            for (int r = 1; r <= d; r++) {
+                for (int i = 0; i <= d - r; i++)
+                    tmp[i] = 0.5 * (tmp[i] + tmp[i + 1]);
+                L[r * stride] = tmp[0], H[(d - r) * stride] = tmp[d - r];
+            }
         }
+}
+
+/* The largest piece_sums over the pieces of c halved su times in s and sv times in t, into K
+ * (the caller's maxima so far). */
+static void halves(const double *c, int nc, int from, int du, int dv, int su, int sv, double *K)
+{
+    if (!su && !sv) {
+        double Kp[4];
+        piece_sums(c, nc, du, dv, Kp);
+        for (int r = 0; r < nc; r++)
+            K[r] = crisp__max(K[r], Kp[r]);
+        return;
     }
+    double lo[4 * QN * QN], hi[4 * QN * QN];
+    int dir = su ? 0 : 1;
+    split_half(c, nc + 1, from, du, dv, dir, lo, hi);
+    halves(lo, nc, from, du, dv, su - !dir, sv - dir, K);
+    halves(hi, nc, from, du, dv, su - !dir, sv - dir, K);
 }
 
 void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, int k, double *K)
 {
-    int st = nc + 1, n = st * (du + 1) * (dv + 1);
+    int st = nc + 1, n = (du + 1) * (dv + 1);
     if (k <= 1 || du >= QN - 1 || dv >= QN - 1) {
         piece_sums(c, nc, du, dv, K);
         return;
     }
-    /* Restricted coefficients differ from exact ones by a few ulps of their magnitude, which
-     * diff_bounds' rounding term covers. */
-    double piece[4 * QN * QN], Kp[4];
+    /* The halves' coefficients differ from exact ones by a few ulps of their magnitude, which
+     * diff_bounds' rounding term covers. A weight the same everywhere is not split. */
+    int from = nc;
+    for (int i = 1; i < n && from == nc; i++)
+        if (c[st * i + nc] != c[nc]) from = nc + 1;
+    int levels = k >= 4 ? 2 : 1;
     for (int r = 0; r < nc; r++)
         K[r] = 0;
-    for (int j = 0; j < k; j++)
-        for (int i = 0; i < k; i++) {
-            memcpy(piece, c, sizeof(double) * (size_t)n);
-            restrict_piece(piece, st, du, dv, (double)i / k, (double)(i + 1) / k, (double)j / k,
-                           (double)(j + 1) / k);
-            piece_sums(piece, nc, du, dv, Kp);
-            for (int r = 0; r < nc; r++)
-                K[r] = crisp__max(K[r], (double)k * k * Kp[r]);
-        }
+    halves(c, nc, from, du, dv, levels, levels, K);
     for (int r = 0; r < nc; r++)
-        K[r] *= 1 + 1e-9;
+        K[r] *= (double)k * k * (1 + 1e-9);
 }

@@ -509,6 +509,33 @@ static int euclid_level(double c1, double eps, int t_max)
     return t;
 }
 
+crisp_status crisp__slefe_euclid_screen_error(const crisp_bezier_patch *p, int tau,
+                                              const crisp_slefe_view *view, double *err_px)
+{
+    const char *fn = "crisp__slefe_euclid_screen_error";
+    crisp_status s = crisp__slefe_check_patch(fn, p, 1);
+    if (!s) s = crisp__slefe_check_view(fn, view);
+    if (s) return s;
+    if (tau < 1 || !err_px)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: tau %d (expected >= 1) or NULL output", fn,
+                           tau);
+    double clip[(MAXD + 1) * (MAXD + 1) * 4], err[4], hl[4], hh[4];
+    crisp_slefe_view cv;
+    centred_view(p, view, &cv);
+    s = crisp__slefe_to_clip(fn, p, &cv, clip, err, hl, hh);
+    if (s) return s;
+    if (!p->rational)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: the patch is not rational", fn);
+    weights wt = weights_of(p, p->cpw);
+    wt.cpw = p->cpw; /* equal weights too (then it is the classical bound of the clip patch) */
+    double c1 = euclid_c1(p, &wt, &cv, clip, err, 0.0);
+    if (!isfinite(c1))
+        return crisp_error(CRISP_ERR_NUMERIC,
+                           "%s: a weight or a control point's clip W is not positive", fn);
+    *err_px = c1 / ((double)tau * tau);
+    return CRISP_OK;
+}
+
 crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const crisp_slefe_view *view,
                                           double eps, int max_level, int *tau)
 {

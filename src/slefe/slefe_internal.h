@@ -105,6 +105,12 @@ crisp_status crisp__slefe_to_clip(const char *fn, const crisp_bezier_patch *p,
  * tighter; quotient.c has the argument). INFINITY where a weight is not positive. */
 void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, int k, double *K);
 
+/* The Euclidean screen bound alone (screen_error.c, euclid_c1) of the uniform tessellation of a
+ * rational patch at level tau, in pixels: for tests. CRISP_ERR_NUMERIC where a weight or a
+ * control point's clip W is not positive. */
+crisp_status crisp__slefe_euclid_screen_error(const crisp_bezier_patch *p, int tau,
+                                              const crisp_slefe_view *view, double *err_px);
+
 /* One side of the enclosure: with (first, second) = (upper, lower) tables and sign = +1 this is
  * up[k]; with (lower, upper) and sign = -1 it is lo[k]. */
 static inline void crisp__slefe_side(int d, const double *b, int stride, double guard,
