@@ -65,23 +65,30 @@ static double quotient_sum(const double *h, const double w1[2], const double w2[
     return (A + B + 2 * C) * (1 + 1e-9);
 }
 
-/* The product of the degree (1, 1) patch l (corners l00, l10, l01, l11) and x (du x dv), in
- * degrees (du + 1) x (dv + 1). */
-static void times_bilinear(const double l[4], const double *x, int du, int dv, double *dest)
+/* dest = x + l y in degrees (du + 1) x (dv + 1): x raised by one degree in s and t, plus the
+ * product of the degree (1, 1) patch l (corners l00, l10, l01, l11) and y (y NULL: x alone).
+ * Each coefficient of x and y is spread onto the four it reaches. */
+static void raise_plus(const double *x, const double l[4], const double *y, int du, int dv,
+                       double *dest)
 {
+    static const double none[4] = {0, 0, 0, 0};
+    if (!y) l = none;
     int n = du + 1, m = dv + 1;
+    double cs[2][QN + 1], ct[2][QN + 1];
+    for (int i = 0; i <= n; i++)
+        cs[0][i] = (double)(n - i) / n, cs[1][i] = (double)i / n;
     for (int k = 0; k <= m; k++)
-        for (int i = 0; i <= n; i++) {
-            double sum = 0;
-            for (int b = 0; b < 2; b++)
-                for (int a = 0; a < 2; a++) {
-                    int ii = i - a, kk = k - b;
-                    if (ii < 0 || ii > du || kk < 0 || kk > dv) continue;
-                    double cs = a ? (double)i / n : (double)(n - i) / n;
-                    double ct = b ? (double)k / m : (double)(m - k) / m;
-                    sum += l[b * 2 + a] * cs * ct * x[kk * (du + 1) + ii];
-                }
-            dest[k * (n + 1) + i] = sum;
+        ct[0][k] = (double)(m - k) / m, ct[1][k] = (double)k / m;
+    memset(dest, 0, sizeof(double) * (size_t)((n + 1) * (m + 1)));
+    for (int kk = 0; kk <= dv; kk++)
+        for (int ii = 0; ii <= du; ii++) {
+            double v = x[kk * n + ii], yv = y ? y[kk * n + ii] : 0;
+            double *d0 = dest + kk * (n + 1) + ii, *d1 = d0 + (n + 1);
+            double a0 = cs[0][ii], a1 = cs[1][ii + 1], b0 = ct[0][kk], b1 = ct[1][kk + 1];
+            d0[0] += a0 * b0 * (v + l[0] * yv);
+            d0[1] += a1 * b0 * (v + l[1] * yv);
+            d1[0] += a0 * b1 * (v + l[2] * yv);
+            d1[1] += a1 * b1 * (v + l[3] * yv);
         }
 }
 
@@ -115,8 +122,7 @@ static void piece_sums(const double *c, int nc, int du, int dv, double *K)
     diff_bounds(w, du, dv, w1, w2);
     int fit = du + 1 < QN && dv + 1 < QN;
     if (fit) {
-        double one[4] = {1, 1, 1, 1};
-        times_bilinear(one, w, du, dv, we);
+        raise_plus(w, NULL, NULL, du, dv, we);
         diff_bounds(we, du + 1, dv + 1, we1, we2);
     }
     for (int r = 0; r < nc; r++) {
@@ -149,17 +155,18 @@ static void piece_sums(const double *c, int nc, int du, int dv, double *K)
                         ct * (dv ? (double)j / dv : 0);
         mean /= n;
         /* h = g - l w in degrees one higher: the raised g minus the product l w */
-        double l[4] = {-mean, -(mean + bs), -(mean + ct), -(mean + bs + ct)}, one[4] = {1, 1, 1, 1};
-        double he[QN * QN], lw[QN * QN], Q = 0, emag = 0;
-        for (int i = 0; i < n; i++)
+        double l[4] = {-mean, -(mean + bs), -(mean + ct), -(mean + bs + ct)};
+        double he[QN * QN], Q = 0, gmax = 0, wmax = 0, lmax = 0;
+        for (int i = 0; i < n; i++) {
             g[i] = c[st * i + r];
-        times_bilinear(one, g, du, dv, he);
-        times_bilinear(l, w, du, dv, lw);
-        for (int i = 0; i < ne; i++) {
-            emag = crisp__max(emag, crisp__max(fabs(he[i]), fabs(lw[i])));
-            he[i] += lw[i];
-            Q = crisp__max(Q, fabs(he[i] / we[i]));
+            gmax = crisp__max(gmax, fabs(g[i])), wmax = crisp__max(wmax, w[i]);
         }
+        for (int q = 0; q < 4; q++)
+            lmax = crisp__max(lmax, fabs(l[q]));
+        raise_plus(g, l, w, du, dv, he);
+        for (int i = 0; i < ne; i++)
+            Q = crisp__max(Q, fabs(he[i] / we[i]));
+        double emag = gmax + lmax * wmax; /* bounds every term above (convex combinations) */
         /* the products and sums above round by a few ulps of their magnitude */
         Q = Q * (1 + 1e-12) + 16 * DBL_EPSILON * emag / wlo;
         K[r] = crisp__min(K[r], quotient_sum(he, we1, we2, du + 1, dv + 1, Q, wlo));
