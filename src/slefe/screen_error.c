@@ -555,19 +555,9 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
     s = crisp__slefe_to_clip(fn, p, view, clip, err, hl, hh);
     if (s) return s;
     weights wt = weights_of(p, p->cpw);
-    /* Start from the iPASS guess, then raise tau until the sound bound accepts it. */
-    double w_px;
-    s = crisp_slefe_patch_screen(p, 3, view, NULL, NULL, &w_px);
-    if (s) return s;
-    int t = crisp_slefe_tess_level(w_px, 3, eps);
-    if (t > max_level) {
-        /* the sound level is at least the guess here (the search only goes up): split */
-        *tau = max_level + 1;
-        return CRISP_OK;
-    }
     /* The classic bound falls exactly as 1 / tau^2, so it names a sound level at once: the answer
-     * lies between the guess and that level, and only levels below it need the (costlier) SLEFE
-     * bound. */
+     * lies between the iPASS guess (below) and that level, and only levels below it need the
+     * (costlier) SLEFE bound. */
     int t_classic = max_level + 1;
     double c1;
     if (error_classic(fn, p, &wt, view, clip, hl, hh, 1, &c1) == CRISP_OK) {
@@ -588,6 +578,25 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
      * the level found would otherwise be above the guess (below). */
     if (wt.cpw)
         t_classic = euclid_level(euclid_c1(p, &wt, view, clip, err, INFINITY), eps, t_classic);
+    if (t_classic <= 2) {
+        /* level 1 or 2: the bound at 1 decides, no guess needed (these are most sub-patches) */
+        double e;
+        if (t_classic == 2 && screen_error(fn, p, &wt, view, clip, err, hl, hh, 1, eps, &e) == 0 &&
+            e <= eps)
+            t_classic = 1;
+        *tau = t_classic;
+        return CRISP_OK;
+    }
+    /* Start from the iPASS guess, then raise tau until the sound bound accepts it. */
+    double w_px;
+    s = crisp_slefe_patch_screen(p, 3, view, NULL, NULL, &w_px);
+    if (s) return s;
+    int t = crisp_slefe_tess_level(w_px, 3, eps);
+    if (t > max_level) {
+        /* the sound level is at least the guess here (the search only goes up): split */
+        *tau = max_level + 1;
+        return CRISP_OK;
+    }
     if (t_classic <= t) {
         *tau = t_classic; /* sound, and no more than the guess */
         return CRISP_OK;
