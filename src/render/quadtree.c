@@ -939,8 +939,12 @@ typedef struct trim_ctx {
     size_t *scratch_used; /* per worker: the most scratch one face took */
 } trim_ctx;
 
-/* Faces at most this many pixels across (their box) get chains (crisp_trim_plan_desc.chains). */
-#define CHAIN_FACE_PX 64.0
+/* Faces at most this many pixels across (their box) get chains (crisp_trim_plan_desc.chains).
+ * 64 until session 7: 256 takes impeller x 49 at the default view from 185 k to 147 k ribbon quads
+ * (faces of 64-256 px kept a quad per trim piece at least); at close-ups faces are larger, and
+ * chains there cost the ribbons' middle probes (impeller close-up +5% plan instructions with every
+ * face on chains). */
+#define CHAIN_FACE_PX 256.0
 
 /* 1 when visible face f gets chains and a coarse polyline this frame (a face a few pixels
  * across, not drawn whole). */
