@@ -17,13 +17,17 @@
  *
  * Each row runs in a child process (fork) so that its peak memory is its own: the peak resident
  * size (VmHWM) is reset after the scene is prepared (/proc/self/clear_refs) and read after the
- * frames; "frame MB" is the peak minus the resident size before the frames (model + prepared
- * scene). Warm frame = median of FRAMES plan + crisp_render_cpu_plan calls after one warm-up frame,
- * on THREADS threads; plan = median of crisp_renderer_plan alone; the CPU columns are the mean CPU
- * time of the process (all threads) per frame or plan, less sensitive to a loaded machine than wall
- * time. tri/px = surface triangles per covered pixel. Each row runs twice: with the default
- * planner (group leaves) and with crisp_planner_desc.no_groups (at least one leaf per visible
- * patch), one after the other, so the two are compared under the same load.
+ * frames; "frame MB" is the peak minus the resident size before the frames ("scene MB": model +
+ * prepared scene). Per patch and per triangle drawn: "peak B/patch" (the whole peak over the
+ * model's patches), "frame B/tri" (frame memory over the surface triangles, as before session 7)
+ * and "frame B/drawn tri" (over every triangle drawn: surfaces and trim ribbons, whose quads are
+ * two triangles and a core of two more). Warm frame = median of FRAMES plan + crisp_render_cpu_plan
+ * calls after one warm-up frame, on THREADS threads; plan = median of crisp_renderer_plan alone;
+ * the CPU columns are the mean CPU time of the process (all threads) per frame or plan, less
+ * sensitive to a loaded machine than wall time. tri/px = surface triangles per covered pixel. Each
+ * row runs twice: with the default planner (group leaves) and with crisp_planner_desc.no_groups (at
+ * least one leaf per visible patch), one after the other, so the two are compared under the same
+ * load.
  *
  * Occlusion culling (crisp_render_desc.no_occlusion) is on in every row;
  * BENCH_SCREEN_OCCLUSION=both runs each row with the default planner, culling off then on, instead
@@ -300,14 +304,18 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         for (size_t k = 0; k < sizes[b]; k++)
             hash = (hash ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
     printf("| %s | %s | %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %u | %u | %llu | "
-           "%llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f | %08x |\n",
+           "%llu | %llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %08x |\n",
            scene_name, cam_name, no_groups ? "no groups" : "groups", occlusion ? "on" : "off",
            sc->patch_count, bench_median(tf, frames), cpu_frames / frames, bench_median(tp, frames),
            cpu_plans / frames, bench_median(tt, frames), bench_median(tr, frames), plan->leaf_count,
            plan->stats.group_leaves, (unsigned long long)st.triangles,
-           (unsigned long long)st.occluded_triangles, covered,
-           covered ? (double)st.triangles / covered : 0.0, peak_kb / 1024, frame_mb,
-           peak_kb * 1024 / sc->patch_count, st.triangles ? frame_mb * 1048576 / st.triangles : 0.0,
+           (unsigned long long)st.occluded_triangles, (unsigned long long)st.ribbon_triangles,
+           covered, covered ? (double)st.triangles / covered : 0.0, peak_kb / 1024, scene_kb / 1024,
+           frame_mb, peak_kb * 1024 / sc->patch_count,
+           st.triangles ? frame_mb * 1048576 / st.triangles : 0.0,
+           st.triangles + st.ribbon_triangles
+               ? frame_mb * 1048576 / (double)(st.triangles + st.ribbon_triangles)
+               : 0.0,
            (unsigned)hash);
     fflush(stdout);
     free(tf), free(tp), free(tt), free(tr);
@@ -349,9 +357,10 @@ int main(int argc, char **argv)
     printf(
         "| scene | camera | planner | occlusion | patches | frame ms | frame CPU ms | plan ms | "
         "plan CPU ms | tess ms | raster ms | leaves | group leaves | triangles | occluded tri | "
-        "covered px | tri/px | peak MB | frame MB | peak B/patch | frame B/tri | image hash |\n");
+        "ribbon tri | covered px | tri/px | peak MB | scene MB | frame MB | peak B/patch | frame "
+        "B/tri | frame B/drawn tri | image hash |\n");
     printf("|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-           "---:|---:|---:|---|\n");
+           "---:|---:|---:|---:|---:|---:|---|\n");
     fflush(stdout);
     for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
         char key[64];

@@ -70,7 +70,8 @@ typedef struct crisp_scene_face {
     int closed_u, closed_v;  /* the surface closes on itself across its u (v) domain ends: the
                                 first and last patch columns (rows) share an edge */
     double domain[4];        /* u0, u1, v0, v1 of the surface */
-    uint32_t first_piece, piece_count; /* Bézier trim pieces of all loops, loop after loop */
+    uint32_t first_piece, piece_count; /* Bézier trim pieces of all loops, loop after loop
+                                          (faces with the same pieces share one range) */
     uint32_t first_loop, loop_count;
     float color[4];
 } crisp_scene_face;

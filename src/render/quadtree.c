@@ -891,6 +891,8 @@ void crisp__trees_destroy(crisp__trees *p)
     }
     free(p->lod);
     free(p->lod_key);
+    free(p->lod_face);
+    free(p->lod_todo);
     free(p->trims);
     free(p->density);
     free(p->density_gen);
@@ -937,8 +939,91 @@ typedef struct trim_ctx {
     size_t *scratch_used; /* per worker: the most scratch one face took */
 } trim_ctx;
 
-/* Faces at most this many pixels across (their box) get chains (crisp_trim_plan_desc.chains). */
-#define CHAIN_FACE_PX 64.0
+/* Faces at most this many pixels across (their box) get chains (crisp_trim_plan_desc.chains).
+ * 64 until session 7: 256 takes impeller x 49 at the default view from 185 k to 147 k ribbon quads
+ * (faces of 64-256 px kept a quad per trim piece at least); at close-ups faces are larger, and
+ * chains there cost the ribbons' middle probes (impeller close-up +5% plan instructions with every
+ * face on chains). */
+#define CHAIN_FACE_PX 256.0
+
+/* 1 when visible face f gets chains and a coarse polyline this frame (a face a few pixels
+ * across, not drawn whole). */
+static int wants_lod(const crisp__trees *plan, uint32_t f)
+{
+    return crisp__groups_face_px(plan->groups, f) <= CHAIN_FACE_PX;
+}
+
+typedef struct lod_ctx {
+    crisp__trees *plan;
+    const crisp_scene *sc;
+    crisp_status *status;
+} lod_ctx;
+
+static void build_lods(void *vctx, size_t begin, size_t end, int worker)
+{
+    lod_ctx *c = vctx;
+    for (size_t i = begin; i < end; i++) {
+        uint32_t f = c->plan->lod_todo[i];
+        const crisp_scene_face *sf = &c->sc->faces[f];
+        crisp_status st = crisp_trim_lod_build(c->sc->pieces + sf->first_piece,
+                                               (int)sf->piece_count, &c->plan->lod[f]);
+        if (st) {
+            crisp_error_prefix("face %u (source entity %d)", f, sf->src->source_id);
+            c->status[worker] = st;
+            c->plan->lod_key[f] = 0;
+        }
+    }
+}
+
+/* The coarse trim polylines (crisp_trim_lod) that faces f0 .. f1 - 1 want this frame and that
+ * are not built yet, built in parallel before the trim plans read them. They are view-independent
+ * and kept per range of pieces: faces with the same pieces (the scene shares their range, one
+ * part instanced many times) share one (impeller x 49: 13,573 builds and 107 MB -> 277 builds). */
+static crisp_status make_lods(crisp__trees *plan, const crisp_scene *sc, uint32_t f0, uint32_t f1,
+                              crisp_pool *pool)
+{
+    if (plan->lod_map != sc->trim_serial) {
+        /* Which face's lod each face uses: the first face with its range of pieces. */
+        uint32_t *first = crisp_malloc_array(sc->piece_count ? sc->piece_count : 1, sizeof *first);
+        if (!first) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        memset(first, 0xff, (sc->piece_count ? sc->piece_count : 1) * sizeof *first);
+        for (uint32_t f = 0; f < sc->face_count; f++) {
+            const crisp_scene_face *sf = &sc->faces[f];
+            plan->lod_face[f] = f;
+            if (!sf->piece_count) continue;
+            if (first[sf->first_piece] == UINT32_MAX) first[sf->first_piece] = f;
+            plan->lod_face[f] = first[sf->first_piece];
+            if (plan->lod_face[f] != f) { /* a copy's lod from an older mapping: not needed */
+                crisp_trim_lod_free(&plan->lod[f]);
+                plan->lod_key[f] = 0;
+            }
+        }
+        free(first);
+        plan->lod_map = sc->trim_serial;
+    }
+    size_t n = 0;
+    for (uint32_t f = f0; f < f1; f++) {
+        if (!plan->face_tau[f] || !sc->faces[f].piece_count ||
+            crisp__groups_face_small(plan->groups, f) || !wants_lod(plan, f))
+            continue;
+        uint32_t o = plan->lod_face[f];
+        if (plan->lod_key[o] == sc->trim_serial) continue;
+        crisp_status st = crisp_grow((void **)&plan->lod_todo, &plan->lod_todo_cap, n + 1,
+                                     sizeof *plan->lod_todo);
+        if (st) return st;
+        plan->lod_todo[n++] = o;
+        plan->lod_key[o] = sc->trim_serial; /* claimed: listed once */
+    }
+    if (!n) return CRISP_OK;
+    int workers = crisp_pool_threads(pool);
+    for (int w = 0; w < workers; w++)
+        plan->worker_status[w] = CRISP_OK;
+    lod_ctx c = {plan, sc, plan->worker_status};
+    crisp_pool_parallel_for(pool, n, 1, build_lods, &c);
+    for (int w = 0; w < workers; w++)
+        if (plan->worker_status[w]) return plan->worker_status[w];
+    return CRISP_OK;
+}
 
 static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
 {
@@ -1002,20 +1087,12 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
         /* A face a few pixels across: its trim pieces joined into chains of few chords
          * (crisp_trim_polyline_chains), for the table and the ribbons alike, or one of its
          * view-independent coarse polylines (built once per face and trim edit). */
-        int chains = crisp__groups_face_px(c->plan->groups, (uint32_t)f) <= CHAIN_FACE_PX;
+        int chains = wants_lod(c->plan, (uint32_t)f);
         const crisp_trim_lod *lod = NULL;
         if (chains && sf->piece_count) {
-            if (c->plan->lod_key[f] != c->sc->trim_serial) {
-                crisp_status st = crisp_trim_lod_build(c->sc->pieces + sf->first_piece,
-                                                       (int)sf->piece_count, &c->plan->lod[f]);
-                if (st) {
-                    crisp_error_prefix("face %zu (source entity %d)", f, sf->src->source_id);
-                    c->status[worker] = st;
-                    continue;
-                }
-                c->plan->lod_key[f] = c->sc->trim_serial;
-            }
-            lod = &c->plan->lod[f];
+            /* Made by make_lods before this pass (shared by the faces with the same pieces). */
+            uint32_t o = c->plan->lod_face[f];
+            if (c->plan->lod_key[o] == c->sc->trim_serial) lod = &c->plan->lod[o];
         }
         crisp_trim_plan_desc d = {
             .tree = tree,
@@ -1084,6 +1161,10 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         if (!lk) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
         memset(lk + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *lk);
         plan->lod_key = lk;
+        uint32_t *lf = realloc(plan->lod_face, sc->face_count * sizeof *lf);
+        if (!lf) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        plan->lod_face = lf;
+        plan->lod_map = 0;
         plan->face_cap = sc->face_count;
     }
     crisp_camera_matrices m;
@@ -1162,6 +1243,7 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
             if (!pp->leaves[l].culled && pp->leaves[l].tau > plan->face_tau[f])
                 plan->face_tau[f] = pp->leaves[l].tau;
     }
+    if ((st = make_lods(plan, sc, 0, sc->face_count, pool))) return st;
     size_t *scratch_used = plan->trim_used;
     for (int w = 0; w < workers; w++) {
         plan->worker_status[w] = CRISP_OK;
@@ -1195,7 +1277,8 @@ crisp_status crisp__trees_replan_trim(crisp__trees *plan, const crisp_scene *sc,
         return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", f,
                            sc->face_count);
     if (!plan->face_tau[f]) return CRISP_OK; /* not visible: nothing to plan */
-    crisp_status status = CRISP_OK;
+    crisp_status status = make_lods(plan, sc, f, f + 1, NULL);
+    if (status) return status;
     size_t used = 0;
     trim_ctx trc = {plan, sc, strip_count, &status, &used};
     plan_trims(&trc, f, f + 1, 0);

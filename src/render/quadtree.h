@@ -117,7 +117,11 @@ typedef struct crisp__trees {
     uint64_t *density_gen;            /* per face: groups generation it was built at (0: none) */
     crisp_trim_lod *lod; /* per face: coarse trim polylines of faces a few pixels across */
     uint64_t *lod_key;   /* per face: the scene's trim_serial it was built from (0: none) */
-    uint32_t *face_tau;  /* per face: largest visible tau, 0 when the face is not visible */
+    uint32_t *lod_face;  /* per face: the face whose lod it uses (the first with its pieces) */
+    uint64_t lod_map;    /* the trim_serial lod_face was made for (0: none) */
+    uint32_t *lod_todo;  /* faces whose lod this build makes */
+    size_t lod_todo_cap;
+    uint32_t *face_tau; /* per face: largest visible tau, 0 when the face is not visible */
     uint32_t face_cap;
     crisp_arena **arenas;
     void **build_state;

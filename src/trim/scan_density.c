@@ -47,7 +47,11 @@
 #include <string.h>
 
 #define MIN_PIECE 0x1p-20 /* a strip part thinner than this (of the patch) is a rounding sliver */
-#define DEPTH_MARGIN 1.0  /* delta: the bound covers NDC depth z~ in [-1 - delta, 1 + delta] */
+/* A (sub-)patch or block whose bound asks for at most this many rows and u-pixels over its
+ * parameter box is accepted without refining (a bound over it is a bound; refining would only
+ * save a few rows). */
+#define FEW_ROWS 8.0
+#define DEPTH_MARGIN 1.0 /* delta: the bound covers NDC depth z~ in [-1 - delta, 1 + delta] */
 
 typedef struct density_ctx {
     int du, dv;
@@ -325,6 +329,8 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
             accept = (seen > 0 || pev > 0.0) && ok_v && ok_u;
             /* Nothing to gain: the bound is already covered by what other parts need. */
             if (bv <= fmax(c->cur_v, c->floor_v) && bu <= c->cur_u) accept = 1;
+            /* Few rows and u-pixels in all, as for blocks (walk_block). */
+            if ((vb - va) * bv <= FEW_ROWS && (ub - ua) * bu <= FEW_ROWS) accept = 1;
             /* Not while the sub-patch's v-range would take more scan lines than a screen can
              * show (16 (w + h)): at extreme zoom it is mostly off screen, and refining shrinks
              * the visible v-range (a face zoomed to fov 1e-7 deg otherwise took 2^22 rows). */
@@ -493,9 +499,10 @@ static void walk_strips(patch_walk *w, const double *node, int depth, int i0, in
         c->stats->culled++;
         return;
     }
-    if (b > 0 && sample_speeds(c, node, sv, su, bp->u0, bp->u1, &ev, &eu, &ev_min) > 0 &&
-        bv <= dmax(c->slack * ev_min, 1.0 / w->hv) && bu <= c->slack * eu &&
-        dv * (t1 - t0) * bv <= 32.0 * (c->wx + c->wy)) {
+    if (b > 0 && ((dv * (t1 - t0) * bv <= FEW_ROWS && (bp->u1 - bp->u0) * bu <= FEW_ROWS) ||
+                  (sample_speeds(c, node, sv, su, bp->u0, bp->u1, &ev, &eu, &ev_min) > 0 &&
+                   bv <= dmax(c->slack * ev_min, 1.0 / w->hv) && bu <= c->slack * eu &&
+                   dv * (t1 - t0) * bv <= 32.0 * (c->wx + c->wy)))) {
         for (int i = i0; i <= i1; i++) {
             double nu0 = desc->v0 + i * w->hv, nu1 = desc->v0 + (i + 1) * w->hv;
             double lo = dmax(nu0, bp->v0), hi = dmin(nu1, bp->v1);
@@ -752,8 +759,6 @@ static int block_samples(const density_ctx *c, const crisp_trim_density_desc *de
     return seen;
 }
 
-#define BLOCK_FEW_ROWS 8.0 /* a block whose bound asks for at most this many rows is accepted */
-
 /* Block bi of desc->tree through the strips it reaches: dropped, bounded as a whole, or refined
  * to its sub-blocks (or, for the smallest blocks, to its patches' own walks). */
 static crisp_status walk_block(patch_walk *w, int32_t bi)
@@ -794,7 +799,7 @@ static crisp_status walk_block(patch_walk *w, int32_t bi)
     if (k > 0) {
         double ev_max, ev_min, eu_max;
         if (bv <= min_v && bu <= min_u) accept = 1; /* nothing to gain */
-        if ((vb - va) * bv <= BLOCK_FEW_ROWS && (b->u1 - b->u0) * bu <= BLOCK_FEW_ROWS) accept = 1;
+        if ((vb - va) * bv <= FEW_ROWS && (b->u1 - b->u0) * bu <= FEW_ROWS) accept = 1;
         if (!accept && block_samples(c, desc, b, &ev_max, &ev_min, &eu_max) > 0 &&
             bv <= dmax(c->slack * ev_min, 1.0 / hv) && bu <= c->slack * eu_max)
             accept = 1;

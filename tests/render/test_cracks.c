@@ -26,6 +26,7 @@
 
 #include "crisp/construct.h"
 #include "crisp/io.h"
+#include "crisp/plan.h"
 #include "crisp/render.h"
 #include "crisp/trim.h"
 #include "render_backend.h"
@@ -610,6 +611,99 @@ static void test_tiny_faces(void **state)
     assert_int_equal(cracks, 0);
 }
 
+/* Screen position of clip point c, in pixels (y down). */
+static void to_px(const double c[4], int w, int h, double p[2])
+{
+    p[0] = (c[0] / c[3] + 1) * 0.5 * w;
+    p[1] = (1 - c[1] / c[3]) * 0.5 * h;
+}
+
+static double seg_dist(const double p[2], const double a[2], const double b[2])
+{
+    double dx = b[0] - a[0], dy = b[1] - a[1], l2 = dx * dx + dy * dy;
+    double t = l2 > 0 ? ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2 : 0;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    return hypot(p[0] - a[0] - t * dx, p[1] - a[1] - t * dy);
+}
+
+/* The ribbons follow the trim curves' images (issue 12: ribbon samples are up to RIBBON_STEP_PX
+ * apart, with the chord's middle checked against the image where it may bow): every point of a
+ * visible face's true trim curves, mapped onto its surface and into the view (2 px inside the
+ * border), lies within the ribbon's half-width (0.7 px) of the centre line of one of the face's
+ * ribbon quads, so the ribbon covers the true boundary. Views from outside as in the crack tests
+ * (kinds 0 and 1) at 640x480, and the tiny views. */
+static void test_ribbons_follow_curves(void **state)
+{
+    (void)state;
+    crisp_model *models[3] = {box_with_hole(), capped_cylinder(), load("occt_bearing.iges")};
+    uint64_t seed = 0x51ed270b27c4d3a5ull;
+    double worst = 0;
+    long checked = 0;
+    for (int k = 0; k < 3; k++) {
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(models[k], &sc), CRISP_OK);
+        crisp_planner *pl;
+        assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+        for (int v = 0; v < 6; v++) {
+            crisp_camera cam = view(sc, (v & 1) ? 1 : 0, 640, 480);
+            if (v >= 4) { /* far away: faces a few pixels across */
+                for (int q = 0; q < 3; q++)
+                    cam.eye[q] =
+                        cam.target[q] + (8 + 8 * own_rnd(&seed)) * (cam.eye[q] - cam.target[q]);
+                cam.zfar *= 20;
+            }
+            const crisp_frame_plan *plan;
+            assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
+            crisp_camera_matrices mx;
+            crisp_camera_matrices_compute(&cam, &mx);
+            for (uint32_t f = 0; f < sc->face_count; f++) {
+                const crisp_plan_face *pf = &plan->faces[f];
+                const crisp_scene_face *sf = &sc->faces[f];
+                if (!(pf->flags & CRISP_PLAN_FACE_VISIBLE) ||
+                    (pf->flags & CRISP_PLAN_FACE_ALL_INSIDE) || !sf->piece_count)
+                    continue;
+                for (uint32_t i = 0; i < sf->piece_count; i++)
+                    for (int t = 0; t <= 64; t++) {
+                        double uv[2], P[3], c[4], p[2];
+                        crisp_bezier_curve_eval(&sc->pieces[sf->first_piece + i], t / 64.0, uv);
+                        crisp_surface_eval(sf->src->surface, uv[0], uv[1], P);
+                        crisp_mat4_mulp(mx.view_proj, P, c);
+                        if (!(c[3] > 0) || c[2] < -c[3] || c[2] > c[3]) continue;
+                        to_px(c, 640, 480, p);
+                        if (p[0] < 2 || p[0] > 638 || p[1] < 2 || p[1] > 478) continue;
+                        double best = INFINITY;
+                        for (uint32_t q = 0; q < pf->ribbon_count; q++) {
+                            const crisp_plan_ribbon_vertex *rv =
+                                plan->ribbon_vertices + 4 * ((size_t)pf->first_ribbon + q);
+                            if (!(rv[0].clip[3] > 0 && rv[2].clip[3] > 0)) continue;
+                            double a0[2], a1[2], b0[2], b1[2], a[2], b[2];
+                            to_px(rv[0].clip, 640, 480, a0), to_px(rv[1].clip, 640, 480, a1);
+                            to_px(rv[2].clip, 640, 480, b0), to_px(rv[3].clip, 640, 480, b1);
+                            for (int e = 0; e < 2; e++)
+                                a[e] = 0.5 * (a0[e] + a1[e]), b[e] = 0.5 * (b0[e] + b1[e]);
+                            best = fmin(best, seg_dist(p, a, b));
+                        }
+                        checked++;
+                        if (best > worst) worst = best;
+                        if (best > 0.7)
+                            fprintf(stderr,
+                                    "model %d view %d face %u piece %u t %d: %.3f px from the "
+                                    "ribbons (%u quads, at %g %g)\n",
+                                    k, v, f, i, t, best, pf->ribbon_count, p[0], p[1]);
+                        assert_true(best <= 0.7);
+                    }
+            }
+        }
+        crisp_planner_destroy(pl);
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(models[k]);
+    }
+    printf("ribbons: %ld curve points in view, farthest %.3f px from a ribbon's centre line (0.7 "
+           "allowed)\n",
+           checked, worst);
+    assert_true(checked > 1000);
+}
+
 int main(int argc, char **argv)
 {
     argc = rb_parse_args(argc, argv);
@@ -636,6 +730,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_linkrods_steep_behind),
         cmocka_unit_test(test_linkrods_seam_at_border),
         cmocka_unit_test(test_tiny_faces),
+        cmocka_unit_test(test_ribbons_follow_curves),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
