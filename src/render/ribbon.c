@@ -247,6 +247,20 @@ static void strip_speeds(const crisp_trim_plan *tp, double va, double vb, double
     }
 }
 
+/* 1 when the strips' speed bounds allow the image of the uv segment from a to b a longer path on
+ * screen than a step: its chord then says little of where it runs (a chord of a chain can run
+ * around a closed surface's whole turn, both ends at one point: occt_linkrods.step face 0's edge
+ * v = 2 pi is one chord from u = 2 pi to 0, and with the seam just off screen the whole edge had
+ * no ribbon; test_cracks test_linkrods_seam_at_border). */
+static int image_may_be_long(const sampler *s, const crisp_raster_vertex *a,
+                             const crisp_raster_vertex *b)
+{
+    if (!s->tp) return 0;
+    double ru, rv;
+    strip_speeds(s->tp, a->attr[1], b->attr[1], &ru, &rv);
+    return ru * fabs(b->attr[0] - a->attr[0]) + rv * fabs(b->attr[1] - a->attr[1]) > RIBBON_STEP_PX;
+}
+
 /* Samples strictly after a up to and including b, along the uv segment. A piece shorter than
  * RIBBON_STEP_PX is still split where its middle lies more than RIBBON_BOW_PX off its chord: a
  * trim edge running over its surface's silhouette folds back on screen, and its chord there can
@@ -438,8 +452,9 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
             have_a = 1;
             ribbon_vertex(c->sc, job->face, s.surf, s.reversed, *s.m, uv[0], uv[1], &b);
             /* Segments that cannot reach the view are left out without a sample (at extreme zoom
-             * almost all of a polyline is off screen). */
-            if (!segment_may_show(&a, &b, s.w, s.h)) {
+             * almost all of a polyline is off screen); where the image may run far from the
+             * chord, refine() looks at the middle. */
+            if (!segment_may_show(&a, &b, s.w, s.h) && !image_may_be_long(&s, &a, &b)) {
                 if (open) {
                     crisp_raster_vertex brk = a;
                     brk.clip[3] = -1;

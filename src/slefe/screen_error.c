@@ -42,6 +42,7 @@
 
 #define MAXD CRISP_SLEFE_MAX_DEGREE
 #define MAXM CRISP_SLEFE_MAX_SEGMENTS
+#define EUCLID_PIECES_RATIO 1.1
 
 /* Second-difference bounds of clip coordinate r over the control net: dss, dtt (pure second
  * differences scaled by d(d-1)) and dst (mixed, scaled by du dv): bounds on |X_ss|, |X_tt|,
@@ -189,6 +190,51 @@ static crisp_status error_classic2(const char *fn, const crisp_bezier_patch *p, 
     }
     *dest = crisp__max(ex * 0.5 * view->width, ey * 0.5 * view->height) * (1.0 + 1e-12);
     return CRISP_OK;
+}
+
+/* For a patch whose weights vary: the bound at tau = 1 from the curvature of the Euclidean clip
+ * coordinates (quotient.c), the "joint" bound of the top comment's two terms. The rasterizer draws
+ * T = sum l_k Q(x_k), Q = H / w the clip point of the surface point (the camera's W), for the
+ * parameters x = sum l_k x_k, so with S = Q(x): x_T - x_S = ((T_x - S_x) - x_S (T_w - S_w)) / T_w,
+ * |T_r - S_r| <= K_r h^2 / 8 (quotient.c), T_w >= the least W of the patch, which is at least
+ * min_k H_w,k / w_k, and |x_S| <= max_k |H_x,k / H_w,k| (the projected patch lies in the hull of
+ * its projected control points where every H_w,k > 0). The bound at tau is c1 / tau^2 exactly.
+ * INFINITY where a weight or a control point's W is not positive. */
+static double euclid_c1(const crisp_bezier_patch *p, const weights *wt,
+                        const crisp_slefe_view *view, const double *clip, const double *err,
+                        double target)
+{
+    int n = (p->du + 1) * (p->dv + 1);
+    double c[(MAXD + 1) * (MAXD + 1) * 4], wlo = INFINITY, ax = 0, ay = 0, w1 = 0;
+    for (int i = 0; i < n; i++) {
+        const double *h = clip + 4 * i;
+        double w = wt->cpw[4 * i + 3];
+        if (!(w > 0.0) || !(h[3] > err[3])) return INFINITY;
+        c[4 * i] = h[0], c[4 * i + 1] = h[1], c[4 * i + 2] = h[3], c[4 * i + 3] = w;
+        wlo = crisp__min(wlo, (h[3] - err[3]) / w);
+        ax = crisp__max(ax, (fabs(h[0]) + err[0]) / (h[3] - err[3]));
+        ay = crisp__max(ay, (fabs(h[1]) + err[1]) / (h[3] - err[3]));
+        w1 = crisp__max(w1, w);
+    }
+    if (!(wlo > 0.0)) return INFINITY;
+    /* The clip transform's rounding (err per coordinate, on every coefficient): a perturbation
+     * e / w of f whose second derivatives are at most (du + dv)^2 4 e / w_lo times the weight's
+     * relative variation (at most w_hi / w_lo per derivative order), generously. */
+    double d = p->du + p->dv, rel = w1 / wt->lo, round[3];
+    for (int r = 0; r < 3; r++)
+        round[r] = 16.0 * d * d * err[r == 2 ? 3 : r] / wt->lo * (1 + 2 * rel + rel * rel);
+    /* The whole patch's coefficients, then (while above target) its 2 x 2 and 4 x 4 pieces. */
+    double best = INFINITY;
+    for (int k = 1; k <= 4 && (k == 1 || best > target); k *= 2) {
+        double K[3];
+        crisp__slefe_quotient_curvature(c, 3, p->du, p->dv, k, K);
+        for (int r = 0; r < 3; r++)
+            K[r] += round[r];
+        double ex = (K[0] + ax * K[2]) / (8.0 * wlo), ey = (K[1] + ay * K[2]) / (8.0 * wlo);
+        double e = crisp__max(ex * 0.5 * view->width, ey * 0.5 * view->height) * (1.0 + 1e-9);
+        best = crisp__min(best, e);
+    }
+    return best;
 }
 
 static crisp_status error_classic(const char *fn, const crisp_bezier_patch *p, const weights *wt,
@@ -439,7 +485,55 @@ crisp_status crisp_slefe_patch_screen_error(const crisp_bezier_patch *p, int tau
     s = crisp__slefe_to_clip(fn, p, &cv, clip, err, hl, hh);
     if (s) return s;
     weights wt = weights_of(p, p->cpw);
-    return screen_error(fn, p, &wt, &cv, clip, err, hl, hh, tau, 0.0, err_px);
+    s = screen_error(fn, p, &wt, &cv, clip, err, hl, hh, tau, 0.0, err_px);
+    if (wt.cpw) {
+        /* the Euclidean bound (euclid_c1) is sound on its own: the smaller is kept */
+        double e = euclid_c1(p, &wt, &cv, clip, err, 0.0) / ((double)tau * tau);
+        if (s == CRISP_OK && e < *err_px) *err_px = e;
+        if (s != CRISP_OK && isfinite(e)) {
+            *err_px = e;
+            s = CRISP_OK;
+        }
+    }
+    return s;
+}
+
+/* The least level <= t_max at which c1 / tau^2 <= eps, else t_max. */
+static int euclid_level(double c1, double eps, int t_max)
+{
+    double te = ceil(sqrt(c1 / eps));
+    if (!(te < t_max)) return t_max;
+    int t = te < 1.0 ? 1 : (int)te;
+    while (t < t_max && c1 / ((double)t * t) > eps) /* rounding of the square root */
+        t++;
+    return t;
+}
+
+crisp_status crisp__slefe_euclid_screen_error(const crisp_bezier_patch *p, int tau,
+                                              const crisp_slefe_view *view, double *err_px)
+{
+    const char *fn = "crisp__slefe_euclid_screen_error";
+    crisp_status s = crisp__slefe_check_patch(fn, p, 1);
+    if (!s) s = crisp__slefe_check_view(fn, view);
+    if (s) return s;
+    if (tau < 1 || !err_px)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: tau %d (expected >= 1) or NULL output", fn,
+                           tau);
+    double clip[(MAXD + 1) * (MAXD + 1) * 4], err[4], hl[4], hh[4];
+    crisp_slefe_view cv;
+    centred_view(p, view, &cv);
+    s = crisp__slefe_to_clip(fn, p, &cv, clip, err, hl, hh);
+    if (s) return s;
+    if (!p->rational)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "%s: the patch is not rational", fn);
+    weights wt = weights_of(p, p->cpw);
+    wt.cpw = p->cpw; /* equal weights too (then it is the classical bound of the clip patch) */
+    double c1 = euclid_c1(p, &wt, &cv, clip, err, 0.0);
+    if (!isfinite(c1))
+        return crisp_error(CRISP_ERR_NUMERIC,
+                           "%s: a weight or a control point's clip W is not positive", fn);
+    *err_px = c1 / ((double)tau * tau);
+    return CRISP_OK;
 }
 
 crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const crisp_slefe_view *view,
@@ -461,19 +555,9 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
     s = crisp__slefe_to_clip(fn, p, view, clip, err, hl, hh);
     if (s) return s;
     weights wt = weights_of(p, p->cpw);
-    /* Start from the iPASS guess, then raise tau until the sound bound accepts it. */
-    double w_px;
-    s = crisp_slefe_patch_screen(p, 3, view, NULL, NULL, &w_px);
-    if (s) return s;
-    int t = crisp_slefe_tess_level(w_px, 3, eps);
-    if (t > max_level) {
-        /* the sound level is at least the guess here (the search only goes up): split */
-        *tau = max_level + 1;
-        return CRISP_OK;
-    }
     /* The classic bound falls exactly as 1 / tau^2, so it names a sound level at once: the answer
-     * lies between the guess and that level, and only levels below it need the (costlier) SLEFE
-     * bound. */
+     * lies between the iPASS guess (below) and that level, and only levels below it need the
+     * (costlier) SLEFE bound. */
     int t_classic = max_level + 1;
     double c1;
     if (error_classic(fn, p, &wt, view, clip, hl, hh, 1, &c1) == CRISP_OK) {
@@ -489,10 +573,35 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
                 t_classic++;
         }
     }
+    /* For a patch whose weights vary the Euclidean bound (euclid_c1, c1 / tau^2) names a sound
+     * level at once too: from the whole patch's coefficients here, from its pieces only where
+     * the level found would otherwise be above the guess (below). */
+    if (wt.cpw)
+        t_classic = euclid_level(euclid_c1(p, &wt, view, clip, err, INFINITY), eps, t_classic);
+    if (t_classic <= 2) {
+        /* level 1 or 2: the bound at 1 decides, no guess needed (these are most sub-patches) */
+        double e;
+        if (t_classic == 2 && screen_error(fn, p, &wt, view, clip, err, hl, hh, 1, eps, &e) == 0 &&
+            e <= eps)
+            t_classic = 1;
+        *tau = t_classic;
+        return CRISP_OK;
+    }
+    /* Start from the iPASS guess, then raise tau until the sound bound accepts it. */
+    double w_px;
+    s = crisp_slefe_patch_screen(p, 3, view, NULL, NULL, &w_px);
+    if (s) return s;
+    int t = crisp_slefe_tess_level(w_px, 3, eps);
+    if (t > max_level) {
+        /* the sound level is at least the guess here (the search only goes up): split */
+        *tau = max_level + 1;
+        return CRISP_OK;
+    }
     if (t_classic <= t) {
         *tau = t_classic; /* sound, and no more than the guess */
         return CRISP_OK;
     }
+    int first = 1;
     for (;;) {
         double e;
         s = screen_error(fn, p, &wt, view, clip, err, hl, hh, t, eps, &e);
@@ -501,6 +610,12 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
             *tau = t;
             return CRISP_OK;
         }
+        if (first && wt.cpw && t_classic > t + 1 && wt.hi > EUCLID_PIECES_RATIO * wt.lo) {
+            /* above the guess: the Euclidean bound over the pieces, until it names t + 1 */
+            double target = eps * (t + 1.0) * (t + 1.0);
+            t_classic = euclid_level(euclid_c1(p, &wt, view, clip, err, target), eps, t_classic);
+        }
+        first = 0;
         if (t >= max_level) {
             *tau = max_level + 1;
             return CRISP_OK;

@@ -99,6 +99,18 @@ crisp_status crisp__slefe_to_clip(const char *fn, const crisp_bezier_patch *p,
                                   const crisp_slefe_view *view, double *clip, double *err,
                                   double *hl, double *hh);
 
+/* Bounds K[r] on |f_ss| + |f_tt| + 2 |f_st| over the patch of f_r = c_r / w, r < nc (nc <= 3),
+ * for the patch of degrees du x dv with coefficients c (nc + 1 values per control point, the
+ * weight w last), from its k x k pieces (k = 1: the whole patch; the bound over k = 2, 4 pieces is
+ * tighter; quotient.c has the argument). INFINITY where a weight is not positive. */
+void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, int k, double *K);
+
+/* The Euclidean screen bound alone (screen_error.c, euclid_c1) of the uniform tessellation of a
+ * rational patch at level tau, in pixels: for tests. CRISP_ERR_NUMERIC where a weight or a
+ * control point's clip W is not positive. */
+crisp_status crisp__slefe_euclid_screen_error(const crisp_bezier_patch *p, int tau,
+                                              const crisp_slefe_view *view, double *err_px);
+
 /* One side of the enclosure: with (first, second) = (upper, lower) tables and sign = +1 this is
  * up[k]; with (lower, upper) and sign = -1 it is lo[k]. */
 static inline void crisp__slefe_side(int d, const double *b, int stride, double guard,

@@ -538,6 +538,26 @@ static void test_linkrods_steep_behind(void **state)
     crisp_model_destroy(m);
 }
 
+/* test_cracks all, linkrods view 30: at (1, 55), 0.0096 from face 0's wrap seam (v = 2 pi) at the
+ * window's left edge, face 1 behind showed through (issue 13, docs/status/issue-13-cracks.md). */
+static void test_linkrods_seam_at_border(void **state)
+{
+    (void)state;
+    crisp_model *m = load("occt_linkrods.step");
+    crisp_camera cam = {
+        .width = 120,
+        .height = 90,
+        .eye = {1.5986738962283411, 0.97505089698042369, -2.4164602086445965},
+        .target = {5.248023144395308, 2.8877824625347159, 1.5429163572110154},
+        .up = {0.1, 1, 0.2},
+        .fov_deg = 36.429238351842109,
+        .znear = 0.057567934987485442,
+        .zfar = 14.48915897010226,
+    };
+    assert_int_equal(check_views("occt_linkrods.step, a wrap seam at the border", m, 0, &cam), 0);
+    crisp_model_destroy(m);
+}
+
 static double own_rnd(uint64_t *s)
 {
     *s ^= *s << 13, *s ^= *s >> 7, *s ^= *s << 17;
@@ -717,6 +737,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_bearing_fold),
         cmocka_unit_test(test_torus_seam),
         cmocka_unit_test(test_linkrods_steep_behind),
+        cmocka_unit_test(test_linkrods_seam_at_border),
         cmocka_unit_test(test_tiny_faces),
         cmocka_unit_test(test_ribbon_slack),
     };

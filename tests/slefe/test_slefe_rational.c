@@ -21,6 +21,7 @@
 
 #include "crisp/render.h"
 #include "crisp/slefe.h"
+#include "slefe/slefe_internal.h"
 #include "slefe/slefe_test_util.h"
 
 #define MAXN ((CRISP_SLEFE_MAX_DEGREE + 1) * (CRISP_SLEFE_MAX_DEGREE + 1) * 4)
@@ -229,10 +230,67 @@ static void test_rational_screen_error(void **state)
     assert_true(tight[n - 1] > 0.2); /* not vacuous */
 }
 
+/* The Euclidean bound alone (issue 12, session 7: screen_error.c euclid_c1, quotient.c), which
+ * crisp_slefe_patch_screen_error takes where it is the smaller: on the same kinds of patches and
+ * cameras, every level's samples within it; prints its tightness and, against the bound of
+ * crisp_slefe_patch_screen_error before it (the homogeneous SLEFE plus the rasterizer's-point
+ * term, which it replaces where smaller), how often and by how much it is the smaller. */
+static void test_euclid_bound(void **state)
+{
+    (void)state;
+    enum { TRIALS = 200 };
+    rng r = {20261203};
+    static double tight[3 * TRIALS];
+    int n = 0, refused = 0, smaller = 0, cyl = 0, cyl_smaller = 0;
+    for (int trial = 0; trial < TRIALS; trial++) {
+        double cpw[MAXN];
+        crisp_bezier_patch p;
+        int kind = trial % 3 == 1;
+        rational_patch(&r, kind, cpw, &p);
+        crisp_slefe_view v;
+        int near = trial % 4 == 3;
+        any_view(&r, near, &v);
+        int taus[3] = {1, rng_int(&r, 2, 16), rng_int(&r, 17, 40)};
+        for (int k = 0; k < 3; k++) {
+            double bound;
+            crisp_status st = crisp__slefe_euclid_screen_error(&p, taus[k], &v, &bound);
+            if (st) {
+                assert_int_equal(st, CRISP_ERR_NUMERIC); /* reaches the eye plane */
+                refused += k == 0;
+                break;
+            }
+            double e = sampled_error(&p, &v, taus[k], (trial + k) % 2, k == 2 ? 5 : 12, &r);
+            assert_true(e >= 0);
+            if (!(e <= bound))
+                fail_msg("trial %d (%d x %d%s) tau %d: sampled %g px > Euclidean bound %g px",
+                         trial, p.du, p.dv, near ? ", near" : "", taus[k], e, bound);
+            if (bound > 0.05) tight[n++] = e / bound;
+            if (k == 0) {
+                /* the combined bound is the smaller of the two */
+                double both;
+                assert_int_equal(crisp_slefe_patch_screen_error(&p, 1, &v, &both), CRISP_OK);
+                assert_true(both <= bound);
+                smaller += both == bound;
+                cyl += kind;
+                cyl_smaller += kind && both == bound;
+            }
+        }
+    }
+    qsort(tight, (size_t)n, sizeof *tight, cmp_double);
+    printf("Euclidean bound on rational patches: %d bounds (%d patches refused): tightness median "
+           "%.2f, 90%% %.2f, max %.2f; the smaller of the two bounds at level 1 on %d of %d "
+           "patches (%d of %d cylinder strips)\n",
+           n, refused, tight[n / 2], tight[n * 9 / 10], tight[n - 1], smaller, TRIALS - refused,
+           cyl_smaller, cyl);
+    assert_true(n > TRIALS);
+    assert_true(tight[n - 1] > 0.2); /* not vacuous */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rational_screen_error),
+        cmocka_unit_test(test_euclid_bound),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

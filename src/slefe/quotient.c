@@ -1,0 +1,241 @@
+/* Second-derivative bounds of the coordinates of a rational Bézier patch, f = g / w with g and w
+ * polynomial patches (issue 12, session 7): what the interpolation error of flat triangles drawn
+ * with clip-space barycentrics needs (screen_error.c's bound for patches whose weights vary, and
+ * src/render/depth_bound.c's bound along the view, which share this code).
+ *
+ * A triangle of a cell (hu x hv in parameters) with vertices x_j and clip-space barycentrics l_j
+ * gives the point sum l_j f(x_j), and the rasterizer pairs it with the parameters x = sum l_j x_j.
+ * Taylor at x: |sum l_j f(x_j) - f(x)| <= 1/2 sum l_j (A a_j^2 + B b_j^2 + 2 C |a_j b_j|)
+ * <= (A hu^2 + B hv^2 + 2 C hu hv) / 8, a_j, b_j the offsets of x_j from x (a variance of values
+ * within a range hu: at most hu^2 / 4; Cauchy-Schwarz for the mixed sum), A, B, C bounds on
+ * |f_ss|, |f_tt|, |f_st|. With q = f - l (l linear in s, t: its second derivatives are 0),
+ * g - l w = q w; differentiating,
+ *   q_s = (h_s - q w_s) / w,  q_ss = (h_ss - 2 q_s w_s - q w_ss) / w,
+ *   q_st = (h_st - q_s w_t - q_t w_s - q w_st) / w,   h = g - l w,
+ * bounded with the Bézier coefficients' first and second differences, |q| <= max |h_k / w_k|
+ * (h and w in the same degree) and the least weight. Two choices of l are tried, the smaller
+ * bound kept: the middle of the control points' values (no degree raise) and, where the weights
+ * vary, l fitted to the values' mean slopes (h then has degrees one higher): its quotient terms
+ * shrink with |f - l|. Over 2 x 2 and 4 x 4 pieces (a piece's second derivatives in the patch's
+ * parameters are k^2 its own) the bound converges to the true maximum, where the whole patch's
+ * coefficients can be several times it (weights far from 1, high degrees). For a polynomial patch
+ * (w = 1) the bound is the classical second-difference one. */
+#include "slefe_internal.h"
+
+#include <string.h>
+
+#define QN (CRISP_SLEFE_MAX_DEGREE + 2) /* coefficients per side after one degree raise */
+
+/* Bounds on |x_s|, |x_t| (d1) and |x_ss|, |x_tt|, |x_st| (d2) of the Bézier patch with scalar
+ * coefficients x (du + 1 per row), widened for rounding. */
+static void diff_bounds(const double *x, int du, int dv, double d1[2], double d2[3])
+{
+    double a = 0, b = 0, c = 0, e = 0, f = 0, mag = 0;
+    int n = du + 1;
+    for (int j = 0; j <= dv; j++)
+        for (int i = 0; i <= du; i++) {
+            double v = x[j * n + i];
+            mag = crisp__max(mag, fabs(v));
+            if (i + 1 <= du) e = crisp__max(e, fabs(x[j * n + i + 1] - v));
+            if (j + 1 <= dv) f = crisp__max(f, fabs(x[(j + 1) * n + i] - v));
+            if (i + 2 <= du) a = crisp__max(a, fabs(v - 2 * x[j * n + i + 1] + x[j * n + i + 2]));
+            if (j + 2 <= dv)
+                b = crisp__max(b, fabs(v - 2 * x[(j + 1) * n + i] + x[(j + 2) * n + i]));
+            if (i + 1 <= du && j + 1 <= dv)
+                c = crisp__max(
+                    c, fabs(v - x[j * n + i + 1] - x[(j + 1) * n + i] + x[(j + 1) * n + i + 1]));
+        }
+    double round = 16.0 * DBL_EPSILON * mag;
+    d1[0] = du * (e + round), d1[1] = dv * (f + round);
+    d2[0] = du * (du - 1) * (a + round), d2[1] = dv * (dv - 1) * (b + round);
+    d2[2] = du * dv * (c + round);
+}
+
+/* A + B + 2 C of q = h / w from the coefficients of h (degrees n x m) and the bounds w1, w2 of
+ * w's derivatives (diff_bounds), |q| <= Q, the least weight wlo. */
+static double quotient_sum(const double *h, const double w1[2], const double w2[3], int n, int m,
+                           double Q, double wlo)
+{
+    double h1[2], h2[3];
+    diff_bounds(h, n, m, h1, h2);
+    double qs = (h1[0] + Q * w1[0]) / wlo, qt = (h1[1] + Q * w1[1]) / wlo;
+    double A = (h2[0] + 2 * qs * w1[0] + Q * w2[0]) / wlo;
+    double B = (h2[1] + 2 * qt * w1[1] + Q * w2[1]) / wlo;
+    double C = (h2[2] + qs * w1[1] + qt * w1[0] + Q * w2[2]) / wlo;
+    return (A + B + 2 * C) * (1 + 1e-9);
+}
+
+/* dest = x + l y in degrees (du + 1) x (dv + 1): x raised by one degree in s and t, plus the
+ * product of the degree (1, 1) patch l (corners l00, l10, l01, l11) and y (y NULL: x alone).
+ * Each coefficient of x and y is spread onto the four it reaches. */
+static void raise_plus(const double *x, const double l[4], const double *y, int du, int dv,
+                       double *dest)
+{
+    static const double none[4] = {0, 0, 0, 0};
+    if (!y) l = none;
+    int n = du + 1, m = dv + 1;
+    double cs[2][QN + 1], ct[2][QN + 1];
+    for (int i = 0; i <= n; i++)
+        cs[0][i] = (double)(n - i) / n, cs[1][i] = (double)i / n;
+    for (int k = 0; k <= m; k++)
+        ct[0][k] = (double)(m - k) / m, ct[1][k] = (double)k / m;
+    memset(dest, 0, sizeof(double) * (size_t)((n + 1) * (m + 1)));
+    for (int kk = 0; kk <= dv; kk++)
+        for (int ii = 0; ii <= du; ii++) {
+            double v = x[kk * n + ii], yv = y ? y[kk * n + ii] : 0;
+            double *d0 = dest + kk * (n + 1) + ii, *d1 = d0 + (n + 1);
+            double a0 = cs[0][ii], a1 = cs[1][ii + 1], b0 = ct[0][kk], b1 = ct[1][kk + 1];
+            d0[0] += a0 * b0 * (v + l[0] * yv);
+            d0[1] += a1 * b0 * (v + l[1] * yv);
+            d1[0] += a0 * b1 * (v + l[2] * yv);
+            d1[1] += a1 * b1 * (v + l[3] * yv);
+        }
+}
+
+/* A + B + 2 C of each coordinate r < nc of the patch with interleaved coefficients c (nc + 1
+ * values per control point, the weight last), in its own parameters, into K; INFINITY when a
+ * weight is not positive. */
+static void piece_sums(const double *c, int nc, int du, int dv, double *K)
+{
+    int n = (du + 1) * (dv + 1), st = nc + 1, ne = (du + 2) * (dv + 2);
+    double w[QN * QN], we[QN * QN], wlo = INFINITY, whi = -INFINITY;
+    for (int r = 0; r < nc; r++)
+        K[r] = INFINITY;
+    if (n < 1 || n > QN * QN) return;
+    for (int i = 0; i < n; i++) {
+        w[i] = c[st * i + nc];
+        if (!(w[i] > 0)) return;
+        wlo = crisp__min(wlo, w[i]), whi = crisp__max(whi, w[i]);
+    }
+    if (!(whi > wlo)) {
+        /* equal weights: f = g / w, the classical bound of g's second differences */
+        for (int r = 0; r < nc; r++) {
+            double g[QN * QN], d1[2], d2[3];
+            for (int i = 0; i < n; i++)
+                g[i] = c[st * i + r];
+            diff_bounds(g, du, dv, d1, d2);
+            K[r] = (d2[0] + d2[1] + 2 * d2[2]) / wlo * (1 + 1e-9);
+        }
+        return;
+    }
+    double w1[2], w2[3], we1[2], we2[3];
+    diff_bounds(w, du, dv, w1, w2);
+    int fit = du + 1 < QN && dv + 1 < QN;
+    if (fit) {
+        raise_plus(w, NULL, NULL, du, dv, we);
+        diff_bounds(we, du + 1, dv + 1, we1, we2);
+    }
+    for (int r = 0; r < nc; r++) {
+        double g[QN * QN], d[QN * QN], lo = INFINITY, hi = -INFINITY;
+        int ok = 1;
+        for (int i = 0; i < n; i++) {
+            g[i] = c[st * i + r];
+            d[i] = g[i] / w[i];
+            ok &= isfinite(d[i]);
+            lo = crisp__min(lo, d[i]), hi = crisp__max(hi, d[i]);
+        }
+        if (!ok) continue;
+        double mid = 0.5 * (lo + hi), mag = crisp__max(fabs(lo), fabs(hi));
+        for (int i = 0; i < n; i++)
+            g[i] -= mid * w[i];
+        /* |q| <= half the range (convex combination), widened for the roundings of d and g */
+        double Q0 = 0.5 * (hi - lo) * (1 + 1e-12) + 8 * DBL_EPSILON * mag;
+        K[r] = quotient_sum(g, w1, w2, du, dv, Q0, wlo);
+        if (!fit) continue;
+        /* l = a + b s + c t: b, c the mean slopes of the values across the net, a centring it. */
+        double bs = 0, ct = 0, mean = 0;
+        for (int j = 0; j <= dv; j++)
+            bs += d[j * (du + 1) + du] - d[j * (du + 1)];
+        for (int i = 0; i <= du; i++)
+            ct += d[dv * (du + 1) + i] - d[i];
+        bs /= dv + 1, ct /= du + 1;
+        for (int j = 0; j <= dv; j++)
+            for (int i = 0; i <= du; i++)
+                mean += d[j * (du + 1) + i] - bs * (du ? (double)i / du : 0) -
+                        ct * (dv ? (double)j / dv : 0);
+        mean /= n;
+        /* h = g - l w in degrees one higher: the raised g minus the product l w */
+        double l[4] = {-mean, -(mean + bs), -(mean + ct), -(mean + bs + ct)};
+        double he[QN * QN], Q = 0, gmax = 0, wmax = 0, lmax = 0;
+        for (int i = 0; i < n; i++) {
+            g[i] = c[st * i + r];
+            gmax = crisp__max(gmax, fabs(g[i])), wmax = crisp__max(wmax, w[i]);
+        }
+        for (int q = 0; q < 4; q++)
+            lmax = crisp__max(lmax, fabs(l[q]));
+        raise_plus(g, l, w, du, dv, he);
+        for (int i = 0; i < ne; i++)
+            Q = crisp__max(Q, fabs(he[i] / we[i]));
+        double emag = gmax + lmax * wmax; /* bounds every term above (convex combinations) */
+        /* the products and sums above round by a few ulps of their magnitude */
+        Q = Q * (1 + 1e-12) + 16 * DBL_EPSILON * emag / wlo;
+        K[r] = crisp__min(K[r], quotient_sum(he, we1, we2, du + 1, dv + 1, Q, wlo));
+    }
+}
+
+/* Split the interleaved coefficients c (st values per control point, degrees du x dv) at the
+ * middle of direction dir (0: s, 1: t) into lo and hi (de Casteljau at 1/2). Coordinates from
+ * `from` on are copied unchanged (a weight that is the same everywhere stays so). */
+static void split_half(const double *c, int st, int from, int du, int dv, int dir, double *lo,
+                       double *hi)
+{
+    int d = dir ? dv : du, rows = dir ? du + 1 : dv + 1;
+    int stride = dir ? st * (du + 1) : st, row_step = dir ? st : st * (du + 1);
+    double tmp[QN];
+    for (int row = 0; row < rows; row++)
+        for (int q = 0; q < st; q++) {
+            const double *x = c + row * row_step + q;
+            double *L = lo + row * row_step + q, *H = hi + row * row_step + q;
+            if (q >= from) {
+                for (int i = 0; i <= d; i++)
+                    L[i * stride] = H[i * stride] = x[i * stride];
+                continue;
+            }
+            for (int i = 0; i <= d; i++)
+                tmp[i] = x[i * stride];
+            L[0] = tmp[0], H[d * stride] = tmp[d];
+            for (int r = 1; r <= d; r++) {
+                for (int i = 0; i <= d - r; i++)
+                    tmp[i] = 0.5 * (tmp[i] + tmp[i + 1]);
+                L[r * stride] = tmp[0], H[(d - r) * stride] = tmp[d - r];
+            }
+        }
+}
+
+/* The largest piece_sums over the pieces of c halved su times in s and sv times in t, into K
+ * (the caller's maxima so far). */
+static void halves(const double *c, int nc, int from, int du, int dv, int su, int sv, double *K)
+{
+    if (!su && !sv) {
+        double Kp[4];
+        piece_sums(c, nc, du, dv, Kp);
+        for (int r = 0; r < nc; r++)
+            K[r] = crisp__max(K[r], Kp[r]);
+        return;
+    }
+    double lo[4 * QN * QN], hi[4 * QN * QN];
+    int dir = su ? 0 : 1;
+    split_half(c, nc + 1, from, du, dv, dir, lo, hi);
+    halves(lo, nc, from, du, dv, su - !dir, sv - dir, K);
+    halves(hi, nc, from, du, dv, su - !dir, sv - dir, K);
+}
+
+void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, int k, double *K)
+{
+    int st = nc + 1, n = (du + 1) * (dv + 1);
+    if (k <= 1 || du >= QN - 1 || dv >= QN - 1) {
+        piece_sums(c, nc, du, dv, K);
+        return;
+    }
+    /* The halves' coefficients differ from exact ones by a few ulps of their magnitude, which
+     * diff_bounds' rounding term covers. A weight the same everywhere is not split. */
+    int from = nc;
+    for (int i = 1; i < n && from == nc; i++)
+        if (c[st * i + nc] != c[nc]) from = nc + 1;
+    int levels = k >= 4 ? 2 : 1;
+    for (int r = 0; r < nc; r++)
+        K[r] = 0;
+    halves(c, nc, from, du, dv, levels, levels, K);
+    for (int r = 0; r < nc; r++)
+        K[r] *= (double)k * k * (1 + 1e-9);
+}
