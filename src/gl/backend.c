@@ -52,8 +52,8 @@ static const char *const buffer_names[B_COUNT] = {
 
 typedef struct uniforms {
     GLint leaf_base, view_proj, jitter, zconst, slack_tex, nw_tex, uv_tex, face_tex, dir0, dir_x,
-        dir_y, offset, samples, count, keep_samples, sample_index, clip_plane, core, image_size,
-        slack_scale;
+        dir_y, offset, samples, count, keep_samples, sample_index, clip_plane, image_size,
+        slack_scale, core_scale;
 } uniforms;
 
 struct crisp_gl {
@@ -165,9 +165,9 @@ static void locate(GLuint p, uniforms *u)
     u->count = glGetUniformLocation(p, "count");
     u->keep_samples = glGetUniformLocation(p, "keep_samples");
     u->sample_index = glGetUniformLocation(p, "sample_index");
-    u->core = glGetUniformLocation(p, "core");
     u->image_size = glGetUniformLocation(p, "image_size");
     u->slack_scale = glGetUniformLocation(p, "slack_scale");
+    u->core_scale = glGetUniformLocation(p, "core_scale");
 }
 
 crisp_status crisp__gl_try_program(const char *name, int stage, const char *src)
@@ -644,6 +644,8 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     glProgramUniform1f(gl->ribbon, gl->u_ribbon.zconst, zconst);
     glProgramUniform1i(gl->ribbon, gl->u_ribbon.slack_tex, 2);
     glProgramUniform2d(gl->ribbon, gl->u_ribbon.image_size, W, H);
+    glProgramUniform1f(gl->ribbon, gl->u_ribbon.slack_scale, (float)CRISP__RIBBON_SLACK);
+    glProgramUniform1f(gl->ribbon, gl->u_ribbon.core_scale, (float)CRISP__RIBBON_CORE_SLACK);
     glProgramUniform1i(gl->slack, gl->u_slack.nw_tex, 0);
     glProgramUniform1i(gl->slack, gl->u_slack.face_tex, 1);
     glProgramUniform3dv(gl->slack, gl->u_slack.dir0, 1, dir0);
@@ -722,20 +724,15 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
             glEnable(GL_DEPTH_TEST);
             glUseProgram(gl->ribbon);
             size_t qb = 4 * sizeof(crisp_plan_ribbon_vertex);
-            /* The quads, then their cores with the cores' slack (src/render/ribbon.h), as the
-             * CPU backend's two fill passes. */
-            for (int core = 0; core < 2; core++) {
-                glProgramUniform1i(gl->ribbon, gl->u_ribbon.core, core);
-                glProgramUniform1f(gl->ribbon, gl->u_ribbon.slack_scale,
-                                   (float)(core ? CRISP__RIBBON_CORE_SLACK : CRISP__RIBBON_SLACK));
-                for (size_t first = 0; first < p->ribbon_quad_count; first += gl->chunk_quads) {
-                    size_t n = p->ribbon_quad_count - first < gl->chunk_quads
-                                   ? p->ribbon_quad_count - first
-                                   : gl->chunk_quads;
-                    glBindBufferRange(GL_SHADER_STORAGE_BUFFER, B_RIBBONS, gl->buf[B_RIBBONS],
-                                      (GLintptr)(first * qb), (GLsizeiptr)(n * qb));
-                    glDrawArrays(GL_TRIANGLES, 0, (GLsizei)(6 * n));
-                }
+            /* The quads, in their cores with the cores' slack too (src/render/ribbon.h), as
+             * the CPU backend's fill pass. */
+            for (size_t first = 0; first < p->ribbon_quad_count; first += gl->chunk_quads) {
+                size_t n = p->ribbon_quad_count - first < gl->chunk_quads
+                               ? p->ribbon_quad_count - first
+                               : gl->chunk_quads;
+                glBindBufferRange(GL_SHADER_STORAGE_BUFFER, B_RIBBONS, gl->buf[B_RIBBONS],
+                                  (GLintptr)(first * qb), (GLsizeiptr)(n * qb));
+                glDrawArrays(GL_TRIANGLES, 0, (GLsizei)(6 * n));
             }
         }
         double ts2 = 0;

@@ -46,6 +46,8 @@ struct crisp_renderer {
     size_t vert_count, tri_count; /* of the last frame */
     float *slack;                 /* per sample: depth slack for the ribbons (fill pass) */
     size_t slack_cap;
+    crisp_raster_core *cores; /* per ribbon triangle: its quad's core (ribbon_core) */
+    size_t cores_cap;
     double **st; /* per worker: local (s, t) of one leaf's mesh */
     int workers;
     uint8_t *untested; /* per face: no trim loops, no trim test (the rasterizer's hook) */
@@ -127,6 +129,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->verts);
     free(r->tris);
     free(r->slack);
+    free(r->cores);
     free(r->untested);
     free(r->leaf_skip);
     free(r->ribbon_keep);
@@ -512,8 +515,7 @@ static int trim_box(void *ctx, uint32_t face, const double lo[2], const double h
 }
 
 /* The plan's ribbon quads as raster vertices and triangles (0 1 2, 0 2 3), after the surfaces',
- * and after all of them their cores (crisp__ribbon_core), laid out alike core_v vertices and
- * core_t triangles further on (the cores' triangles index from vorigin + core_v). */
+ * and per triangle its quad's core (ribbon_core; cores[t - torigin] for triangle t). */
 typedef struct ribbon_ctx {
     crisp_renderer *r;
     const crisp_frame_plan *plan;
@@ -521,7 +523,7 @@ typedef struct ribbon_ctx {
     size_t first;         /* the plan's quad copied to the first place */
     const uint32_t *keep; /* the plan's quads drawn (NULL: all) */
     size_t vorigin;       /* the ribbons' first vertex: triangles index from it */
-    size_t core_v, core_t;
+    size_t torigin;       /* the ribbons' first triangle: cores index from it */
 } ribbon_ctx;
 
 static void ribbon_quad(const crisp_plan_ribbon_vertex *src, crisp_raster_vertex *v)
@@ -535,6 +537,46 @@ static void ribbon_quad(const crisp_plan_ribbon_vertex *src, crisp_raster_vertex
     }
 }
 
+/* The core of ribbon quad q (src/render/ribbon.h: the part within CRISP__RIBBON_CORE_PX of its
+ * centre line and between its two curve points) for the fill pass's second test
+ * (crisp_raster_core), in pixels of the plan's width x height image. The quad is a rectangle on
+ * screen: corners 0, 1 at its start (its half-width before the first curve point), 2, 3 at its
+ * end, 0 and 3 on one side; W is the first curve point's at corners 0, 1 and the second's at 2, 3.
+ * The core's 1/W is affine along the centre line between the curve points' (as the core drawn as
+ * its own quad: constant across, 1 / W at each curve point). A quad with a vertex behind the eye,
+ * or not longer than its width, has no core. */
+static void ribbon_core(const crisp_plan_ribbon_vertex *q, double width, double height,
+                        crisp_raster_core *k)
+{
+    static const crisp_raster_core none = {{2, 0, 0}, {2, 0, 0}, {0, 0, 0}};
+    double p[4][2];
+    for (int c = 0; c < 4; c++) {
+        if (!(q[c].clip[3] > 0)) {
+            *k = none;
+            return;
+        }
+        p[c][0] = (q[c].clip[0] / q[c].clip[3] + 1) * 0.5 * width;
+        p[c][1] = (1 - q[c].clip[1] / q[c].clip[3]) * 0.5 * height;
+    }
+    double pa[2] = {0.5 * (p[0][0] + p[1][0]), 0.5 * (p[0][1] + p[1][1])};
+    double pb[2] = {0.5 * (p[2][0] + p[3][0]), 0.5 * (p[2][1] + p[3][1])};
+    double L = hypot(pb[0] - pa[0], pb[1] - pa[1]),
+           half = 0.5 * hypot(p[1][0] - p[0][0], p[1][1] - p[0][1]);
+    double len = L - 2 * half; /* between the curve points */
+    if (!(len > 0) || !isfinite(L)) {
+        *k = none;
+        return;
+    }
+    double e[2] = {(pb[0] - pa[0]) / L, (pb[1] - pa[1]) / L}, n[2] = {-e[1], e[0]};
+    double A[2] = {pa[0] + half * e[0], pa[1] + half * e[1]}; /* the first curve point */
+    /* across: n . (P - A) / core px; along: 2 e . (P - A) / len - 1; both in [-1, 1] */
+    double ga = 1 / CRISP__RIBBON_CORE_PX, gb = 2 / len;
+    k->a[1] = ga * n[0], k->a[2] = ga * n[1], k->a[0] = -(k->a[1] * A[0] + k->a[2] * A[1]);
+    k->b[1] = gb * e[0], k->b[2] = gb * e[1], k->b[0] = -(k->b[1] * A[0] + k->b[2] * A[1]) - 1;
+    double ia = 1 / q[0].clip[3], ib = 1 / q[2].clip[3], gi = (ib - ia) / len;
+    k->iw[1] = gi * e[0], k->iw[2] = gi * e[1], k->iw[0] = ia - (k->iw[1] * A[0] + k->iw[2] * A[1]);
+}
+
 static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
@@ -542,61 +584,18 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
     for (size_t q = begin; q < end; q++) {
         size_t pq = c->keep ? c->keep[q] : c->first + q;
         const crisp_plan_ribbon_vertex *src = c->plan->ribbon_vertices + 4 * pq;
-        crisp_plan_ribbon_vertex core[4];
-        crisp__ribbon_core(src, c->plan->width, c->plan->height, core);
         ribbon_quad(src, c->r->verts + c->vbase + 4 * q);
-        ribbon_quad(core, c->r->verts + c->vbase + c->core_v + 4 * q);
+        size_t t = c->tbase + 2 * q;
+        crisp_raster_core *k = c->r->cores + (t - c->torigin);
+        ribbon_core(src, c->plan->width, c->plan->height, k);
+        k[1] = k[0];
         /* Indices relative to the ribbons' first vertex (drawn with verts + vorigin). */
         /* The trim test keeps every ribbon fragment (trim_test): not run at all. */
         uint32_t base = (uint32_t)(c->vbase - c->vorigin + 4 * q),
                  face = src[0].face | CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST;
-        for (size_t t = c->tbase + 2 * q; t <= c->tbase + c->core_t + 2 * q; t += c->core_t) {
-            c->r->tris[t] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
-            c->r->tris[t + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
-        }
+        c->r->tris[t] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
+        c->r->tris[t + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
     }
-}
-
-/* After the quads' fill pass: keeps (first, in order) the cores (triangle pairs of tris, their
- * vertices verts) that can still write a sample: some sample of the pixels under the core holds
- * nothing, or a surface farther than the core's nearest vertex by more than the core's slack
- * there. Most cores lie over what their quad drew, or over the face they meet at its own depth,
- * and are not drawn (a core's triangles cost the rasterizer about as much as its quad's).
- * Returns the cores kept. */
-static size_t cores_needed(const crisp_raster_target *tg, const crisp_frame_plan *plan,
-                           const crisp_raster_vertex *verts, crisp_raster_tri *tris, size_t quads,
-                           const float *slack)
-{
-    size_t kept = 0;
-    int S = tg->samples;
-    for (size_t q = 0; q < quads; q++) {
-        const crisp_raster_tri *t = &tris[2 * q];
-        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, wmin = INFINITY;
-        int ok = 1;
-        for (int k = 0; k < 4 && ok; k++) {
-            const double *c = verts[k < 3 ? t->v[k] : t[1].v[2]].clip;
-            ok = c[3] > 0 && isfinite(c[0] + c[1] + c[3]);
-            box_add_clip(plan, c, lo, hi);
-            wmin = fmin(wmin, c[3]);
-        }
-        if (!ok) continue;
-        lo[0] -= tg->x0, hi[0] -= tg->x0, lo[1] -= tg->y0, hi[1] -= tg->y0; /* in the window */
-        if (hi[0] < 0 || hi[1] < 0 || lo[0] >= tg->width || lo[1] >= tg->height) continue;
-        int x0 = lo[0] > 0 ? (int)lo[0] : 0, y0 = lo[1] > 0 ? (int)lo[1] : 0;
-        int x1 = hi[0] < tg->width - 1 ? (int)hi[0] : tg->width - 1;
-        int y1 = hi[1] < tg->height - 1 ? (int)hi[1] : tg->height - 1;
-        int need = 0;
-        for (int j = y0; j <= y1 && !need; j++)
-            for (int i = x0; i <= x1 && !need; i++)
-                for (int sm = 0; sm < S && !need; sm++) {
-                    size_t idx = ((size_t)j * tg->width + i) * S + sm;
-                    need = tg->face[idx] < 0 || 1.0 / tg->inv_w[idx] - slack[idx] > wmin;
-                }
-        if (!need) continue;
-        if (kept != q) memmove(&tris[2 * kept], t, 2 * sizeof *t);
-        kept++;
-    }
-    return kept;
 }
 
 /* The camera's view directions per pixel for the rasterizer (as crisp_camera_ray, unnormalised). */
@@ -1247,15 +1246,17 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     r->tri_count = surface_t;
 
     double t2a = crisp_time_now();
-    nv += 8 * quads; /* the quads, then their cores */
-    nt += 4 * quads;
+    nv += 4 * quads;
+    nt += 2 * quads;
     if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
         return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 vertices or triangles in one frame");
     if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, nv ? nv : 1, sizeof *r->verts)) ||
-        (st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris)))
+        (st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris)) ||
+        (st = crisp_grow((void **)&r->cores, &r->cores_cap, quads ? 2 * quads : 1,
+                         sizeof *r->cores)))
         return st;
     if (!only) {
-        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0, keep, surface_v, 4 * quads, 2 * quads};
+        ribbon_ctx rbc = {r, plan, surface_v, surface_t, 0, keep, surface_v, surface_t};
         crisp_pool_parallel_for(r->pool, quads, 256, copy_ribbons, &rbc);
     } else {
         size_t done = 0; /* the drawn faces' quads, face after face */
@@ -1268,8 +1269,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                               plan->faces[f].first_ribbon,
                               NULL,
                               surface_v,
-                              4 * quads,
-                              2 * quads};
+                              surface_t};
             crisp_pool_parallel_for(r->pool, plan->faces[f].ribbon_count, 256, copy_ribbons, &rbc);
             done += plan->faces[f].ribbon_count;
         }
@@ -1277,9 +1277,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     double t2b = crisp_time_now();
     t_tess += t2b - t2a;
     if (nt > surface_t) {
-        /* The quads with their slack, then their cores with the cores' (ribbon.h); both slacks
-         * from the surfaces alone, only where the quads can land (the cores lie inside them; the
-         * fill pass reads nothing else). */
+        /* The quads with their slack, in their cores the cores' (ribbon.h), in one fill pass;
+         * both slacks from the surfaces alone, only where the quads can land (the fill pass
+         * reads nothing else). */
         size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, 2 * ns, sizeof *r->slack)))
             return st;
@@ -1288,20 +1288,13 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                  r->verts + surface_v, 4 * quads, r->tris + surface_t, 2 * quads, r->slack,
                  r->slack + ns)))
             return st;
-        for (int pass = 0; pass < 2; pass++) {
-            crisp_raster_stats rs2;
-            size_t ntris = 2 * quads;
-            if (pass)
-                ntris = 2 * cores_needed(tg, plan, r->verts + surface_v + 4 * quads,
-                                         r->tris + surface_t + 2 * quads, quads, r->slack + ns);
-            st = crisp__raster_draw_fill(r->raster, tg, r->pool,
-                                         r->verts + surface_v + (pass ? 4 * quads : 0), 4 * quads,
-                                         r->tris + surface_t + (pass ? 2 * quads : 0), ntris,
-                                         trim_test, ctx, r->slack + (pass ? ns : 0), &rs2);
-            if (st) return st;
-            rs.fragments_tested += rs2.fragments_tested;
-            rs.fragments_discarded += rs2.fragments_discarded;
-        }
+        crisp_raster_stats rs2;
+        if ((st = crisp__raster_draw_fill2(r->raster, tg, r->pool, r->verts + surface_v, 4 * quads,
+                                           r->tris + surface_t, 2 * quads, trim_test, ctx, r->slack,
+                                           r->cores, r->slack + ns, &rs2)))
+            return st;
+        rs.fragments_tested += rs2.fragments_tested;
+        rs.fragments_discarded += rs2.fragments_discarded;
     }
     double t2 = crisp_time_now();
     t_raster += t2 - t2b;

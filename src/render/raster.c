@@ -42,6 +42,7 @@ typedef struct setup_tri {
     /* -3: the fragment test is decided for boxes of (u, v) by the box test where it can be
      * (crisp__raster_set_box_test; raster_tile_s), -2: every fragment runs the test (or none). */
     int boxed;
+    const crisp_raster_core *core; /* fill mode: the triangle's core (crisp__raster_draw_fill2) */
 } setup_tri;
 
 /* A triangle's attribute planes copied out of its setup record for the tile's loops (a local
@@ -472,6 +473,7 @@ typedef struct {
     double gx, gy;
     crisp_raster_test_fn test;
     void *test_ctx;
+    const crisp_raster_core *cores; /* per triangle (crisp__raster_draw_fill2), NULL: none */
     size_t counts[CHUNKS];
     crisp_status status[CHUNKS];
 } setup_ctx;
@@ -479,7 +481,7 @@ typedef struct {
 /* Sets up one triangle into *out; returns 0 when it covers no sample area (degenerate or off
  * the image). */
 static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const pvert *d,
-                     uint32_t face, setup_tri *out)
+                     uint32_t face, const crisp_raster_core *core, setup_tri *out)
 {
     const pvert *v[3] = {a, b, d};
     const crisp_raster_target *t = c->t;
@@ -536,6 +538,7 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         out->ec[k] = -(out->ea[k] * out->x[a0] + out->eb[k] * out->y[a0]) + out->bias[k];
     }
     out->face = face;
+    out->core = core;
     /* With a box test, the tiles decide the test for boxes of (u, v) (raster_tile_s). */
     const crisp_raster *r = c->r;
     uint32_t fid = face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST);
@@ -585,8 +588,9 @@ static void setup_chunk(void *vctx, size_t begin, size_t end, int worker)
                 break;
             setup_tri *out = r->chunk_tris[ch];
             const pvert *a = &cache[tri->v[0]], *b = &cache[tri->v[1]], *d = &cache[tri->v[2]];
+            const crisp_raster_core *core = c->cores ? &c->cores[i] : NULL;
             if (a->ok && b->ok && d->ok) {
-                n += (size_t)setup_one(c, a, b, d, tri->face, &out[n]);
+                n += (size_t)setup_one(c, a, b, d, tri->face, core, &out[n]);
                 continue;
             }
             cvert poly[MAX_POLY];
@@ -602,7 +606,7 @@ static void setup_chunk(void *vctx, size_t begin, size_t end, int worker)
                 ok[k] = project(poly[k].p, c->t, &pv[k]);
             for (int k = 1; k + 1 < m; k++)
                 if (ok[0] && ok[k] && ok[k + 1])
-                    n += (size_t)setup_one(c, &pv[0], &pv[k], &pv[k + 1], tri->face, &out[n]);
+                    n += (size_t)setup_one(c, &pv[0], &pv[k], &pv[k + 1], tri->face, core, &out[n]);
         }
         c->counts[ch] = n;
     }
@@ -632,10 +636,11 @@ typedef struct {
     int64_t off_fmin[2], off_fmax[2]; /* least and greatest of off_fx (0) and off_fy (1) */
     double off_x[16], off_y[16];
     double off_xmin, off_xmax, off_ymin, off_ymax; /* least and greatest of off_x, off_y */
-    const float *slack; /* fill mode (crisp__raster_draw_fill) when not NULL */
-    int hiz;            /* hierarchical depth rejection on */
-    int vectors;        /* the vector path (crisp__raster_set_vectors) */
-    int clear;          /* each tile first does the target's pending clear_depth */
+    const float *slack;  /* fill mode (crisp__raster_draw_fill) when not NULL */
+    const float *slack2; /* the cores' slack (crisp__raster_draw_fill2) */
+    int hiz;             /* hierarchical depth rejection on */
+    int vectors;         /* the vector path (crisp__raster_set_vectors) */
+    int clear;           /* each tile first does the target's pending clear_depth */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
 } raster_ctx;
 
@@ -872,6 +877,21 @@ static inline unsigned row_cover(const int64_t e[3], __m128i lane_step[3][BLOCK 
 }
 #endif
 
+/* Fill mode: a fragment at (x, y) (pixels of the whole image) that the slack test refused, tested
+ * in the triangle's core k (crisp_raster_core) against the stored 1/W cur (> 0) and the core's
+ * slack s2: 1 and *iw = the core's 1/W there when it lies in the core and is nearer than cur by
+ * more than s2 in W. */
+static inline int core_pass(const crisp_raster_core *k, double x, double y, double cur, float s2,
+                            double *iw)
+{
+    double a = k->a[0] + k->a[1] * x + k->a[2] * y, b = k->b[0] + k->b[1] * x + k->b[2] * y;
+    if (!(fabs(a) <= 1 && fabs(b) <= 1)) return 0;
+    double iwc = k->iw[0] + k->iw[1] * x + k->iw[2] * y;
+    if (!(iwc > 0 && 1.0 / iwc < 1.0 / cur - s2)) return 0;
+    *iw = iwc;
+    return 1;
+}
+
 /* One tile, with S the target's samples per pixel: always inlined into raster_tile with S a
  * constant for the common one-sample target (the compiler then folds the sample loops and
  * strides), else with S as a variable. The same code either way. */
@@ -908,7 +928,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
     float *restrict abuf = t->attr;
     const size_t tw = (size_t)t->width;
     const int tx0 = t->x0, ty0 = t->y0;
-    const float *slack = c->slack;
+    const float *slack = c->slack, *slack2 = c->slack2;
     for (uint32_t bi = r->bin_start[tile]; bi < r->bin_start[tile + 1]; bi++) {
         const setup_tri *st = r->bin_items[bi];
         planes pl;
@@ -920,6 +940,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
         int y0 = st->y0 > py0 ? st->y0 : py0, y1 = st->y1 < py1 ? st->y1 : py1;
         int32_t face_id =
             (int32_t)(st->face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST));
+        const crisp_raster_core *core = slack2 ? st->core : NULL; /* fill mode's second test */
         int run_test = c->test && !(st->face & CRISP_RASTER_FACE_NO_TEST) &&
                        !((size_t)face_id < r->untested_count && r->untested[face_id]);
         /* The fragment test decided for a box of (u, v) that holds every fragment's (u, v)
@@ -1028,7 +1049,9 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                         double base = st->q0[0] + st->qy[0] * dy, gx = st->qx[0];
                         double dx0 = (double)bx0 + c->off_x[s] - st->ox;
                         size_t idx0 = ((size_t)(j - ty0) * tw + (size_t)(bx0 - tx0)) * S + s;
-                        double iwv[BLOCK];
+                        /* iwv: 1/W stored; fill mode: iwa, the triangle's own 1/W (for the
+                         * attributes) where a core's differs */
+                        double iwv[BLOCK], iwa[BLOCK];
                         int cov[BLOCK], pass[BLOCK], np = 0, any = 0;
 #if defined(__SSE2__)
                         unsigned m = 0;
@@ -1071,8 +1094,11 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             for (; cm; cm &= cm - 1) {
                                 int q = __builtin_ctz(cm);
                                 double iwq = base + gx * (dx0 + q), cur = inv_w[idx0 + (size_t)q];
-                                iwv[q] = iwq;
-                                if (!(cur > 0) || 1.0 / iwq < 1.0 / cur - slack[idx0 + (size_t)q])
+                                iwv[q] = iwa[q] = iwq;
+                                if (!(cur > 0) || 1.0 / iwq < 1.0 / cur - slack[idx0 + (size_t)q] ||
+                                    (core && core_pass(core, (double)(bx0 + q) + c->off_x[s],
+                                                       j + c->off_y[s], cur,
+                                                       slack2[idx0 + (size_t)q], &iwv[q])))
                                     pass[np++] = q;
                             }
 #endif
@@ -1091,12 +1117,15 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             }
                             if (!any) continue;
                             for (int q = 0; q < n; q++)
-                                iwv[q] = base + gx * (dx0 + q);
+                                iwv[q] = iwa[q] = base + gx * (dx0 + q);
                             for (int q = 0; q < n; q++) {
                                 double cur = inv_w[idx0 + (size_t)q * S];
                                 if (cov[q] &&
                                     (!(cur > 0) ||
-                                     1.0 / iwv[q] < 1.0 / cur - slack[idx0 + (size_t)q * S]))
+                                     1.0 / iwv[q] < 1.0 / cur - slack[idx0 + (size_t)q * S] ||
+                                     (core && core_pass(core, (double)(bx0 + q) + c->off_x[s],
+                                                        j + c->off_y[s], cur,
+                                                        slack2[idx0 + (size_t)q * S], &iwv[q]))))
                                     pass[np++] = q;
                             }
                         }
@@ -1153,7 +1182,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                                                0)
                                 continue; /* on the clipped side of the plane */
                             double a[CRISP_RASTER_ATTRS];
-                            double w = 1.0 / iw;
+                            double w = 1.0 / (slack ? iwa[q] : iw);
                             if (vectors)
                                 attrs_vector(&pl, dx, dy, w, a);
                             else
@@ -1509,7 +1538,8 @@ crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster
 static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                          const crisp_raster_vertex *verts, size_t vert_count,
                          const crisp_raster_tri *tris, size_t tri_count, crisp_raster_test_fn test,
-                         void *test_ctx, const float *slack, crisp_raster_stats *stats);
+                         void *test_ctx, const float *slack, const crisp_raster_core *cores,
+                         const float *slack2, crisp_raster_stats *stats);
 
 crisp_status crisp__raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                                 const crisp_raster_vertex *verts, size_t vert_count,
@@ -1517,7 +1547,8 @@ crisp_status crisp__raster_draw(crisp_raster *r, crisp_raster_target *t, crisp_p
                                 crisp_raster_test_fn test, void *test_ctx,
                                 crisp_raster_stats *stats)
 {
-    return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, NULL, stats);
+    return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, NULL, NULL, NULL,
+                stats);
 }
 
 crisp_status crisp__raster_draw_fill(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
@@ -1526,7 +1557,19 @@ crisp_status crisp__raster_draw_fill(crisp_raster *r, crisp_raster_target *t, cr
                                      crisp_raster_test_fn test, void *test_ctx, const float *slack,
                                      crisp_raster_stats *stats)
 {
-    return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, slack, stats);
+    return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, slack, NULL, NULL,
+                stats);
+}
+
+crisp_status crisp__raster_draw_fill2(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+                                      const crisp_raster_vertex *verts, size_t vert_count,
+                                      const crisp_raster_tri *tris, size_t tri_count,
+                                      crisp_raster_test_fn test, void *test_ctx, const float *slack,
+                                      const crisp_raster_core *cores, const float *slack2,
+                                      crisp_raster_stats *stats)
+{
+    return draw(r, t, pool, verts, vert_count, tris, tri_count, test, test_ctx, slack, cores,
+                slack2, stats);
 }
 
 typedef struct bin_ctx {
@@ -1595,7 +1638,8 @@ static void check_chunk(void *vctx, size_t begin, size_t end, int worker)
 static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
                          const crisp_raster_vertex *verts, size_t vert_count,
                          const crisp_raster_tri *tris, size_t tri_count, crisp_raster_test_fn test,
-                         void *test_ctx, const float *slack, crisp_raster_stats *stats)
+                         void *test_ctx, const float *slack, const crisp_raster_core *cores,
+                         const float *slack2, crisp_raster_stats *stats)
 {
     check_ctx cc = {tris, tri_count, vert_count, {0}};
     crisp_pool_parallel_for(pool, CHUNKS, 1, check_chunk, &cc);
@@ -1615,6 +1659,7 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                     .tris = tris,
                     .test = test,
                     .test_ctx = test_ctx,
+                    .cores = slack && slack2 ? cores : NULL,
                     .gx = GUARD_PX / image_w(t),
                     .gy = GUARD_PX / image_h(t)};
     crisp_status st = crisp_grow((void **)&r->vcache, &r->vcache_cap, vert_count ? vert_count : 1,
@@ -1635,6 +1680,7 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                      .test = test,
                      .test_ctx = test_ctx,
                      .slack = slack,
+                     .slack2 = slack && cores ? slack2 : NULL,
                      .hiz = !r->no_hiz,
                      .vectors = !r->no_vectors};
     for (int s = 0; s < t->samples; s++) {

@@ -142,6 +142,26 @@ crisp_status crisp__raster_draw_fill(crisp_raster *r, crisp_raster_target *t, cr
                                      crisp_raster_test_fn test, void *test_ctx, const float *slack,
                                      crisp_raster_stats *stats);
 
+/* A second depth test for part of a fill-pass triangle (its core): a sample at (x, y) (pixels of
+ * the whole image, x right, y down, as the vertices' screen positions) with |a[0] + a[1] x +
+ * a[2] y| <= 1 and |b[0] + b[1] x + b[2] y| <= 1 lies in the core. There a fragment that the
+ * slack test refuses is tested again with 1/W = iw[0] + iw[1] x + iw[2] y against slack2, and
+ * when that passes it is drawn with that 1/W (its attributes as the triangle's). The CPU
+ * backend's ribbon quads (src/render/ribbon.h): their cores take the smaller slack in the one fill
+ * pass. An absent core: a = {2, 0, 0}. */
+typedef struct crisp_raster_core {
+    double a[3], b[3], iw[3];
+} crisp_raster_core;
+
+/* crisp__raster_draw_fill with a core per triangle (cores[i] for tris[i]; NULL: none) and its
+ * slack slack2 (per sample, as slack). */
+crisp_status crisp__raster_draw_fill2(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,
+                                      const crisp_raster_vertex *verts, size_t vert_count,
+                                      const crisp_raster_tri *tris, size_t tri_count,
+                                      crisp_raster_test_fn test, void *test_ctx, const float *slack,
+                                      const crisp_raster_core *cores, const float *slack2,
+                                      crisp_raster_stats *stats);
+
 /* The view direction (unnormalised) through pixel (i, j): f + (i + 0.5 - width / 2) kx r +
  * (height / 2 - j - 0.5) ky u. */
 typedef struct crisp_raster_view {
@@ -168,7 +188,7 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
                                             const crisp_raster_tri *tris, size_t tri_count,
                                             float *slack);
 /* The same with a second slack at scale2 into slack2 (NULL: none), in the same cells: the CPU
- * backend's ribbon quads and their cores (src/render/ribbon.h), whose cells the quads' cover. */
+ * backend's ribbon quads and their cores' (crisp__raster_draw_fill2; src/render/ribbon.h). */
 crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster_target *t,
                                              crisp_pool *pool, double scale, double scale2,
                                              const crisp_raster_view *view,

@@ -611,36 +611,3 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
     *quad_count = (uint32_t)quads;
     return CRISP_OK;
 }
-
-void crisp__ribbon_core(const crisp_plan_ribbon_vertex q[4], double width, double height,
-                        crisp_plan_ribbon_vertex out[4])
-{
-    memcpy(out, q, 4 * sizeof *out);
-    double n[4][2];
-    int ok = 1;
-    for (int k = 0; k < 4; k++) {
-        ok &= q[k].clip[3] > 0;
-        n[k][0] = q[k].clip[0] / q[k].clip[3];
-        n[k][1] = q[k].clip[1] / q[k].clip[3];
-    }
-    /* The quad is a rectangle on screen: corners 0, 1 at its start (0.7 px before the first
-     * curve point), 2, 3 at its end; 0 and 3 on one side, 1 and 2 on the other. */
-    double pa[2] = {0.5 * (n[0][0] + n[1][0]), 0.5 * (n[0][1] + n[1][1])};
-    double pb[2] = {0.5 * (n[2][0] + n[3][0]), 0.5 * (n[2][1] + n[3][1])};
-    double len = hypot((pb[0] - pa[0]) * 0.5 * width, (pb[1] - pa[1]) * 0.5 * height);
-    if (!ok || !(len > 2 * RIBBON_PX) || !isfinite(len)) {
-        for (int k = 0; k < 4; k++)
-            out[k].clip[3] = -1;
-        return;
-    }
-    double f = RIBBON_PX / len, g = CRISP__RIBBON_CORE_PX / RIBBON_PX;
-    for (int k = 0; k < 4; k++) {
-        int end = k >= 2, side = (k == 1 || k == 2) ? 1 : -1;
-        double t = end ? 1 - f : f, w = q[k].clip[3];
-        for (int a = 0; a < 2; a++) {
-            double c = pa[a] + t * (pb[a] - pa[a]);
-            double half = 0.5 * (end ? n[2][a] - n[3][a] : n[1][a] - n[0][a]);
-            out[k].clip[a] = (c + side * g * half) * w;
-        }
-    }
-}

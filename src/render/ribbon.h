@@ -20,21 +20,16 @@ void crisp__ribbons_destroy(crisp__ribbons *rb);
  * screen, and the ribbon's depth is that of its curve point, up to 0.7 px across and 0.7 px
  * along (0.99 px) from the fragment: a ribbon hidden under a surface by less than 1.5 px of the
  * surface's depth change could otherwise show through it. Each quad's core, the part within
- * CRISP__RIBBON_CORE_PX across its centre line and between its two curve points, is drawn again
- * with the smaller slack CRISP__RIBBON_CORE_SLACK (0.5 px, its 0.35 px reach and the 0.1 px a
- * piece's middle may lie off its chord): a pixel whose face was trimmed a little inside its true
- * boundary, with a steep face behind, is filled there (occt_linkrods.step, test_cracks'
- * test_linkrods_steep_behind). */
+ * CRISP__RIBBON_CORE_PX across its centre line and between its two curve points, takes the
+ * smaller slack CRISP__RIBBON_CORE_SLACK (0.5 px, its 0.35 px reach and the 0.1 px a piece's
+ * middle may lie off its chord) at the core's own depth (the curve points' 1/W, affine between
+ * them): a fragment there that the quad's slack refuses is tested again so, in the same fill pass
+ * (the CPU backend's ribbon_core and crisp__raster_draw_fill2, the GL ribbon shaders). A pixel
+ * whose face was trimmed a little inside its true boundary, with a steep face behind, is filled
+ * there (occt_linkrods.step, test_cracks' test_linkrods_steep_behind). */
 #define CRISP__RIBBON_SLACK 1.5
 #define CRISP__RIBBON_CORE_PX 0.35
 #define CRISP__RIBBON_CORE_SLACK 0.95
-
-/* The core of ribbon quad q (the plan's 4 vertices) in an image of width x height pixels: the
- * same vertex order and attributes, its corners CRISP__RIBBON_CORE_PX either side of the centre
- * line at the quad's two curve points (the shaders' ribbon_vs.glsl does the same arithmetic).
- * A quad with a vertex behind the eye, or without length, gives a core with clip[3] = -1. */
-void crisp__ribbon_core(const crisp_plan_ribbon_vertex q[4], double width, double height,
-                        crisp_plan_ribbon_vertex out[4]);
 
 crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
                                   const crisp_scene *sc, uint32_t only_face, crisp_pool *pool,
