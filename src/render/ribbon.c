@@ -394,15 +394,25 @@ static int uv_hidden(const crisp_trim_plan *tp, const double p[2], const double 
     int n = tp->strip_count;
     if (!(vlo >= tp->v0 && vhi <= tp->v1) || n < 1) return 0;
     double h = (tp->v1 - tp->v0) / n;
+    /* Strip ends computed here, in the density walk and in its row ranges round differently (at
+     * v = v1 the last strip's v0 + n h was 1 ulp short of v1, and a trim segment lying on the
+     * domain edge v = v1 reached no strip: issue 13). So each strip reaches tol beyond its ends
+     * (the first and last strips to the plan's ends), and so do the row ranges it is compared
+     * with; likewise in u, where a piece on a domain edge may lie an ulp outside the patches' u
+     * ends. A bigger box only hides less. */
+    double tol = 1e-12 * (fabs(tp->v0) + fabs(tp->v1));
     int i0 = (int)floor((vlo - tp->v0) / h) - 1, i1 = (int)floor((vhi - tp->v0) / h) + 1;
     if (i0 < 0) i0 = 0;
     if (i1 > n - 1) i1 = n - 1;
     for (int i = i0; i <= i1; i++) {
         if (!(tp->rho_v[i] > 0)) continue; /* nothing of the strip in the frustum */
-        double a = fmax(vlo, tp->v0 + i * h), b = fmin(vhi, tp->v0 + (i + 1) * h);
+        double a = i == 0 ? vlo : fmax(vlo, tp->v0 + i * h - tol);
+        double b = i == n - 1 ? vhi : fmin(vhi, tp->v0 + (i + 1) * h + tol);
         if (a > b) continue;
-        if (b >= tp->vis_v[2 * i] && a <= tp->vis_v[2 * i + 1] && uhi >= tp->vis_u[2 * i] &&
-            ulo <= tp->vis_u[2 * i + 1])
+        double ul = tp->vis_u[2 * i], uh = tp->vis_u[2 * i + 1];
+        double tol_u = 1e-12 * (fabs(ul) + fabs(uh));
+        if (b >= tp->vis_v[2 * i] - tol && a <= tp->vis_v[2 * i + 1] + tol && uhi >= ul - tol_u &&
+            ulo <= uh + tol_u)
             return 0;
     }
     return 1;

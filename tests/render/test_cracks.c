@@ -632,15 +632,21 @@ static double seg_dist(const double p[2], const double a[2], const double b[2])
  * visible face's true trim curves, mapped onto its surface and into the view (2 px inside the
  * border), lies within the ribbon's half-width (0.7 px) of the centre line of one of the face's
  * ribbon quads, so the ribbon covers the true boundary. Views from outside as in the crack tests
- * (kinds 0 and 1) at 640x480, and the tiny views. */
+ * (kinds 0 and 1) at 640x480, and the tiny views. occt_linkrods.step has trim pieces lying on a
+ * domain edge v = v1 (faces 17-19): ribbon.c's uv_hidden lost them to 1 ulp of rounding in its
+ * last strip's end (667 points up to 14 px from every ribbon before the fix, issue 13). The 2 px
+ * margin is the ribbons' own frustum widening (sample_ribbons' gx, gy): a curve point 2 px inside
+ * the border has its segment kept; with the fix no point between 2 and 4 px of the border misses
+ * either. */
 static void test_ribbons_follow_curves(void **state)
 {
     (void)state;
-    crisp_model *models[3] = {box_with_hole(), capped_cylinder(), load("occt_bearing.iges")};
+    crisp_model *models[4] = {box_with_hole(), capped_cylinder(), load("occt_bearing.iges"),
+                              load("occt_linkrods.step")};
     uint64_t seed = 0x51ed270b27c4d3a5ull;
     double worst = 0;
-    long checked = 0;
-    for (int k = 0; k < 3; k++) {
+    long checked = 0, missed = 0;
+    for (int k = 0; k < 4; k++) {
         crisp_scene *sc;
         assert_int_equal(crisp_scene_prepare(models[k], &sc), CRISP_OK);
         crisp_planner *pl;
@@ -686,12 +692,12 @@ static void test_ribbons_follow_curves(void **state)
                         }
                         checked++;
                         if (best > worst) worst = best;
-                        if (best > 0.7)
+                        if (best > 0.7 && missed++ < 20)
                             fprintf(stderr,
                                     "model %d view %d face %u piece %u t %d: %.3f px from the "
-                                    "ribbons (%u quads, at %g %g)\n",
-                                    k, v, f, i, t, best, pf->ribbon_count, p[0], p[1]);
-                        assert_true(best <= 0.7);
+                                    "ribbons (%u quads, at %g %g; uv %.9g %.9g)\n",
+                                    k, v, f, i, t, best, pf->ribbon_count, p[0], p[1], uv[0],
+                                    uv[1]);
                     }
             }
         }
@@ -700,8 +706,9 @@ static void test_ribbons_follow_curves(void **state)
         crisp_model_destroy(models[k]);
     }
     printf("ribbons: %ld curve points in view, farthest %.3f px from a ribbon's centre line (0.7 "
-           "allowed)\n",
-           checked, worst);
+           "allowed), %ld farther\n",
+           checked, worst, missed);
+    assert_int_equal(missed, 0);
     assert_true(checked > 1000);
 }
 
