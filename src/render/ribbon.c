@@ -298,9 +298,11 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
                     RIBBON_STEP_PX;
         }
     }
-    /* The bow of a short piece (above). */
-    if (!split && depth < RIBBON_MAX_DEPTH && d > RIBBON_BOW_PX && d < INFINITY && (va || vb) &&
-        (have_mid || parent_bow > 4 * RIBBON_BOW_PX)) {
+    /* The bow of a short piece (above); where the middle was looked at, also of a chord whose
+     * ends are one point (a chain around a closed turn only a few pixels across, at a far view:
+     * occt_linkrods.step face 5, 4.4 px from a ribbon that was one point; issue 13). */
+    if (!split && depth < RIBBON_MAX_DEPTH && (d > RIBBON_BOW_PX || have_mid) && d < INFINITY &&
+        (va || vb) && (have_mid || parent_bow > 4 * RIBBON_BOW_PX)) {
         if (!have_mid)
             ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m,
                           0.5 * (a->attr[0] + b->attr[0]), 0.5 * (a->attr[1] + b->attr[1]), &mid);
