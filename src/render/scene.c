@@ -1,6 +1,7 @@
 /* Preparing a model for rendering (docs/design.md section 2, "prepare"): Bézier extraction of every
  * face's surface and trim curves, patch boxes, and the scene box. View-independent; rebuilt only
  * when the model changes. */
+#include "crisp/cells.h" /* crisp_hash_bytes */
 #include "crisp/slefe.h"
 #include "render_internal.h"
 
@@ -300,20 +301,15 @@ static crisp_status flatten_control_points(crisp_scene *s)
 
 static _Atomic uint64_t trim_serials; /* crisp_scene.trim_serial */
 
-/* The Bézier pieces of every face's trim loops, loop after loop, face after face (rebuilt whole
- * when one face's loops change: pieces are few next to patches). */
-/* FNV-1a over what a Bézier trim piece is made of (not its unused control-point slots). */
+/* FNV-1a (crisp_hash_bytes, chained) over what a Bézier trim piece is made of (not its unused
+ * control-point slots). */
 static uint64_t piece_hash(uint64_t h, const crisp_bezier_curve *c)
 {
     int head[3] = {c->dim, c->degree, c->rational};
-    const unsigned char *parts[3] = {(const unsigned char *)head, (const unsigned char *)&c->t0,
-                                     (const unsigned char *)c->cpw};
-    size_t sizes[3] = {sizeof head, 2 * sizeof c->t0,
-                       (size_t)(c->degree + 1) * (size_t)(c->dim + 1) * sizeof *c->cpw};
-    for (int k = 0; k < 3; k++)
-        for (size_t b = 0; b < sizes[k]; b++)
-            h = (h ^ parts[k][b]) * 1099511628211ull;
-    return h;
+    h = crisp_hash_bytes(h, head, sizeof head);
+    h = crisp_hash_bytes(h, &c->t0, 2 * sizeof c->t0);
+    return crisp_hash_bytes(h, c->cpw,
+                            (size_t)(c->degree + 1) * (size_t)(c->dim + 1) * sizeof *c->cpw);
 }
 
 static int piece_equal(const crisp_bezier_curve *a, const crisp_bezier_curve *b)
@@ -323,11 +319,12 @@ static int piece_equal(const crisp_bezier_curve *a, const crisp_bezier_curve *b)
            !memcmp(a->cpw, b->cpw, (size_t)(a->degree + 1) * (size_t)(a->dim + 1) * sizeof *a->cpw);
 }
 
-/* The faces' trim pieces, face after face; a face whose pieces are the same as an earlier face's,
- * piece for piece (instances of one part in an assembly: impeller.igs x 49 held 540,000 pieces of
- * 544 bytes, 290 MB, for 11,000 different ones; issue 12), takes that face's range instead of a
- * copy: crisp_scene_face.first_piece may be shared, and what is built per range of pieces (the
- * planner's coarse trim polylines) can be shared too. */
+/* The Bézier pieces of every face's trim loops, loop after loop, face after face (rebuilt whole
+ * when one face's loops change: pieces are few next to patches). A face whose pieces are the same
+ * as an earlier face's, piece for piece (instances of one part in an assembly: impeller.igs x 49
+ * held 540,000 pieces of 544 bytes, 290 MB, for 11,000 different ones; issue 12), takes that
+ * face's range instead of a copy: crisp_scene_face.first_piece may be shared, and what is built
+ * per range of pieces (the planner's coarse trim polylines) can be shared too. */
 static crisp_status extract_pieces(crisp_scene *s)
 {
     const crisp_model *m = s->model;
