@@ -208,14 +208,20 @@ dvec3 limit_normal(uint first_cp, uint du_, uint dv_, double s, double t, dvec3 
 }
 
 // Point of the patch at its local (s, t), and its normal (the derivatives' cross product, or
-// limit_normal's where that is not to be trusted; not unit, not turned round for reversed
-// faces), in double.
+// limit_normal's where that is not to be trusted: crisp__normal_degenerate's test, squared as
+// there; not unit, not turned round for reversed faces), in double.
 dvec3 eval_patch(uint first_cp, uint du_, uint dv_, double s, double t, out dvec3 n)
 {
-    dvec3 x;
-    double la, lb;
-    double q0 = cross_at(first_cp, du_, dv_, s, t, x, n, la, lb);
-    if (!(q0 > NORMAL_TAU)) n = limit_normal(first_cp, du_, dv_, s, t, n, q0, la, lb);
+    dvec4 P, Ps, Pt;
+    patch_derivs(first_cp, du_, dv_, s, t, P, Ps, Pt);
+    dvec3 x = P.xyz / P.w;
+    dvec3 xs = (Ps.xyz - x * Ps.w) / P.w, xt = (Pt.xyz - x * Pt.w) / P.w;
+    n = cross(xs, xt);
+    double aa = dot(xs, xs), bb = dot(xt, xt), nn = dot(n, n), t2 = NORMAL_TAU * NORMAL_TAU;
+    if (!(aa > t2 * bb) || !(bb > t2 * aa) || !(nn > t2 * aa * bb)) {
+        double la = sqrt(aa), lb = sqrt(bb);
+        n = limit_normal(first_cp, du_, dv_, s, t, n, cross_quality(la, lb, sqrt(nn)), la, lb);
+    }
     return x;
 }
 
