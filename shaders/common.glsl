@@ -183,7 +183,8 @@ double cross_at(uint first_cp, uint du_, uint dv_, double s, double t, out dvec3
 // takes it (crisp__normal_degenerate, crisp_bezier_patch_normal; the rule is src/nurbs/normal.c's,
 // step for step): along the direction that leaves the degenerate side, towards the patch's
 // middle, Richardson 2 n(h) - n(2h) at the first h of 1e-6, 1e-5, ..., 1e-2 whose two points have
-// 100 times the quality q0 of (s, t); else the cross product n0 at (s, t) itself. Not unit.
+// 100 times the quality q0 of (s, t); else the cross product n0 at (s, t) itself (if q0 > 1e-9).
+// Not unit.
 dvec3 limit_normal(uint first_cp, uint du_, uint dv_, double s, double t, dvec3 n0, double q0,
                    double la, double lb)
 {
@@ -204,7 +205,9 @@ dvec3 limit_normal(uint first_cp, uint du_, uint dv_, double s, double t, dvec3 
         double ln = length(n);
         if (ln > 0.5LF) return n / ln; // else the normal turns fast here: keep the nearer one
     }
-    return n0; // no point nearby is better: a stretched but regular point keeps its own normal
+    // No point nearby is better: a stretched but regular point keeps its own normal; below 1e-9
+    // the cross product is rounding (the patch is a curve or a point there): no normal.
+    return q0 > 1e-9LF ? n0 : dvec3(0.0LF);
 }
 
 // Point of the patch at its local (s, t), and its normal (the derivatives' cross product, or

@@ -16,9 +16,10 @@
  * the parameter range, times 10) until both nearby points have 100 times the quality of the
  * point itself, i.e. lie well outside the rounded side's noise (whose error there is about
  * 1/100 rad). Where no h does (a regular point of a parametrisation stretched 1e5 : 1, whose
- * quality is low everywhere near it) the point's own cross product is kept. This is the
- * directional limit the shading of a mesh vertex at the singular point needs: around a cone's
- * apex each generator keeps its own normal.
+ * quality is low everywhere near it) the point's own cross product is kept if its quality is
+ * above 1e-9 (below, it is rounding: the patch is a curve or a point there, and has no normal).
+ * This is the directional limit the shading of a mesh vertex at the singular point needs: around a
+ * cone's apex each generator keeps its own normal.
  *
  * The GL backend's evaluation stage does the same in GLSL (shaders/common.glsl, limit_normal),
  * and the renderers' test for "degenerate" (crisp__normal_degenerate, render_internal.h) is the
@@ -100,8 +101,9 @@ static int robust_normal(derivs_fn f, const void *surf, const double dom[4], dou
             dest[k] = n[k] / ln;
         return 1;
     }
-    /* no point nearby is better: a stretched but regular point keeps its own normal */
-    if (l0 > 0) {
+    /* No point nearby is better: a stretched but regular point keeps its own normal; below 1e-9
+     * the cross product is rounding (a patch collapsed to a curve or a point): no normal. */
+    if (q0 > 1e-9) {
         for (int k = 0; k < 3; k++)
             dest[k] = n0[k] / l0;
         return 1;

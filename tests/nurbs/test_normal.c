@@ -2,8 +2,8 @@
  * singular points: a cone's apex (each generator keeps its own normal), a sphere's poles (the
  * axis), a torus's regular points (equal to the plain cross product), a cone whose apex points
  * coincide only to a file's rounding, a regular point of a stretched patch, and nothing (0) on a
- * patch collapsed to a point. Surfaces from crisp_make_cone / _sphere / _torus and their Bézier
- * patches; expected normals are analytic. */
+ * patch collapsed to a segment or a point. Surfaces from crisp_make_cone / _sphere / _torus and
+ * their Bézier patches; expected normals are analytic. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -193,6 +193,19 @@ static void test_stretched_patch(void **state)
         assert_true(fabs(n[k] - c[k] / l) < 1e-12);
 }
 
+/* A patch collapsed to a segment (its two rows 1e-18 apart: rounding) has no normal either:
+ * 0, not the direction of that rounding. */
+static void test_curve_patch(void **state)
+{
+    (void)state;
+    double cpw[2 * 2 * 4] = {0, 0, 0, 1, 1, 0, 0, 1, 0, 1e-18, 0, 1, 1, 1e-18, 0, 1};
+    crisp_bezier_patch p = {
+        .du = 1, .dv = 1, .rational = 0, .u0 = 0, .u1 = 1, .v0 = 0, .v1 = 1, .cpw = cpw};
+    double n[3] = {7, 7, 7};
+    assert_int_equal(crisp_bezier_patch_normal(&p, 0.4, 0.3, n), 0);
+    assert_true(n[0] == 0 && n[1] == 0 && n[2] == 0);
+}
+
 /* A patch that is one point has no normal: 0 and a zero vector, no NaN. */
 static void test_point_patch(void **state)
 {
@@ -212,7 +225,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cone_apex),       cmocka_unit_test(test_sphere_poles),
         cmocka_unit_test(test_regular_points),  cmocka_unit_test(test_rounded_apex),
-        cmocka_unit_test(test_stretched_patch), cmocka_unit_test(test_point_patch),
+        cmocka_unit_test(test_stretched_patch), cmocka_unit_test(test_curve_patch),
+        cmocka_unit_test(test_point_patch),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
