@@ -152,8 +152,67 @@ void patch_derivs(uint first_cp, uint du_, uint dv_, double s, double t, out dve
     }
 }
 
-// Point of the patch at its local (s, t), and the derivatives' cross product (not unit, not
-// turned round for reversed faces), in double.
+// The quality of a cross product n = a x b from |a|, |b|, |n| (src/nurbs/normal.c): the smaller
+// partial against the larger and the sine of their angle, the smaller of the two; 0 when a
+// partial is 0. Below CRISP_NORMAL_TAU (include/crisp/nurbs.h) the cross product is not trusted.
+#define NORMAL_TAU 1e-5LF
+double cross_quality(double la, double lb, double ln)
+{
+    double lo = min(la, lb), hi = max(la, lb);
+    return lo > 0.0LF ? min(lo / hi, ln / (la * lb)) : 0.0LF;
+}
+
+// The Euclidean partials' cross product of the patch at (s, t), its partials' lengths and its
+// quality; the point in *x.
+double cross_at(uint first_cp, uint du_, uint dv_, double s, double t, out dvec3 x, out dvec3 n,
+                out double la, out double lb)
+{
+    dvec4 P, Ps, Pt;
+    patch_derivs(first_cp, du_, dv_, s, t, P, Ps, Pt);
+    x = P.xyz / P.w;
+    dvec3 xs = (Ps.xyz - x * Ps.w) / P.w, xt = (Pt.xyz - x * Pt.w) / P.w;
+    n = cross(xs, xt);
+    la = length(xs);
+    lb = length(xt);
+    return cross_quality(la, lb, length(n));
+}
+
+// At an apex, a pole or a collapsed side one partial vanishes next to the other (rounding, or the
+// file's rounding of the apex points, leaves it 1e-16..1e-6 of the other, pointing anywhere), or
+// the two are parallel: there the normal is the limit from inside the patch, as the CPU backend
+// takes it (crisp__normal_degenerate, crisp_bezier_patch_normal; the rule is src/nurbs/normal.c's,
+// step for step): along the direction that leaves the degenerate side, towards the patch's
+// middle, Richardson 2 n(h) - n(2h) at the first h of 1e-6, 1e-5, ..., 1e-2 whose two points have
+// 100 times the quality q0 of (s, t); else the cross product n0 at (s, t) itself (if q0 > 1e-9).
+// Not unit.
+dvec3 limit_normal(uint first_cp, uint du_, uint dv_, double s, double t, dvec3 n0, double q0,
+                   double la, double lb)
+{
+    dvec2 dir = dvec2(s < 0.5LF ? 1.0LF : -1.0LF, t < 0.5LF ? 1.0LF : -1.0LF);
+    if (la < NORMAL_TAU * lb)
+        dir.x = 0.0LF;
+    else if (lb < NORMAL_TAU * la)
+        dir.y = 0.0LF;
+    for (double h = 1e-6LF; h < 2e-2LF; h *= 10.0LF) {
+        dvec3 x, n1, n2;
+        double a, b;
+        if (!(cross_at(first_cp, du_, dv_, s + dir.x * h, t + dir.y * h, x, n1, a, b) > 100.0LF * q0))
+            continue;
+        if (!(cross_at(first_cp, du_, dv_, s + 2.0LF * dir.x * h, t + 2.0LF * dir.y * h, x, n2, a, b) >
+              100.0LF * q0))
+            continue;
+        dvec3 n = 2.0LF * (n1 / length(n1)) - n2 / length(n2);
+        double ln = length(n);
+        if (ln > 0.5LF) return n / ln; // else the normal turns fast here: keep the nearer one
+    }
+    // No point nearby is better: a stretched but regular point keeps its own normal; below 1e-9
+    // the cross product is rounding (the patch is a curve or a point there): no normal.
+    return q0 > 1e-9LF ? n0 : dvec3(0.0LF);
+}
+
+// Point of the patch at its local (s, t), and its normal (the derivatives' cross product, or
+// limit_normal's where that is not to be trusted: crisp__normal_degenerate's test, squared as
+// there; not unit, not turned round for reversed faces), in double.
 dvec3 eval_patch(uint first_cp, uint du_, uint dv_, double s, double t, out dvec3 n)
 {
     dvec4 P, Ps, Pt;
@@ -161,16 +220,10 @@ dvec3 eval_patch(uint first_cp, uint du_, uint dv_, double s, double t, out dvec
     dvec3 x = P.xyz / P.w;
     dvec3 xs = (Ps.xyz - x * Ps.w) / P.w, xt = (Pt.xyz - x * Pt.w) / P.w;
     n = cross(xs, xt);
-    // At an apex, a pole or a collapsed side one partial vanishes (rounding leaves it ~1e-16 of
-    // the other, pointing anywhere) or the two are parallel: there the normal is the limit from
-    // inside the patch, the cross product one millionth of the way towards the patch's middle
-    // (each generator of a cone keeps its own normal), as the CPU backend does
-    // (crisp__normal_degenerate, crisp_bezier_patch_normal).
-    double aa = dot(xs, xs), bb = dot(xt, xt), nn = dot(n, n);
-    if (!(aa > 1e-18LF * bb) || !(bb > 1e-18LF * aa) || !(nn > 1e-18LF * aa * bb)) {
-        patch_derivs(first_cp, du_, dv_, s + 1e-6LF * (0.5LF - s), t + 1e-6LF * (0.5LF - t), P, Ps, Pt);
-        dvec3 y = P.xyz / P.w;
-        n = cross((Ps.xyz - y * Ps.w) / P.w, (Pt.xyz - y * Pt.w) / P.w);
+    double aa = dot(xs, xs), bb = dot(xt, xt), nn = dot(n, n), t2 = NORMAL_TAU * NORMAL_TAU;
+    if (!(aa > t2 * bb) || !(bb > t2 * aa) || !(nn > t2 * aa * bb)) {
+        double la = sqrt(aa), lb = sqrt(bb);
+        n = limit_normal(first_cp, du_, dv_, s, t, n, cross_quality(la, lb, sqrt(nn)), la, lb);
     }
     return x;
 }

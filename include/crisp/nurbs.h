@@ -151,11 +151,19 @@ void crisp_bezier_patch_bbox(const crisp_bezier_patch *p, double *dest); /* 6 va
 /* ---- normals ----------------------------------------------------------------------------------
  */
 
+/* A cross product S_s x S_t is trusted as a normal when the smaller partial is more than this
+ * fraction of the larger and the sine of their angle is more than it too; below, the side is
+ * collapsed (exactly, or as a file's rounding leaves it: apex points 1e-9..1e-6 apart) or the
+ * partials are parallel. The renderers use the same threshold (crisp__normal_degenerate, and the
+ * GL backend's shaders/common.glsl). */
+#define CRISP_NORMAL_TAU 1e-5
+
 /* The unit normal S_s x S_t / |S_s x S_t| of the patch at local (s, t), also where the cross
- * product vanishes (a cone's apex, a sphere's pole, a collapsed side, parallel partials): there
- * the limit of the normal from inside the patch along the direction that leaves the degenerate
- * side (around an apex each generator keeps its own normal). Returns 1, or 0 with dest = 0 when
- * the patch has no normal near (s, t) at all (it is a point or a curve there). */
+ * product vanishes or is not to be trusted (CRISP_NORMAL_TAU: a cone's apex, a sphere's pole, a
+ * collapsed side, parallel partials): there the limit of the normal from inside the patch along
+ * the direction that leaves the degenerate side (around an apex each generator keeps its own
+ * normal). Returns 1, or 0 with dest = 0 when the patch has no normal near (s, t) at all (it is a
+ * point or a curve there). */
 int crisp_bezier_patch_normal(const crisp_bezier_patch *p, double s, double t, double dest[3]);
 /* The same for a NURBS surface at (u, v) of its domain. */
 int crisp_surface_normal(const crisp_surface *s, double u, double v, double dest[3]);

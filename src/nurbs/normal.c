@@ -2,14 +2,28 @@
  * collapsed patch sides, where S_u x S_v vanishes and a plain normalisation gives zero, NaN or a
  * direction made of rounding noise (the "starburst" at a cone's apex).
  *
- * Where the cross product is degenerate (one partial derivative vanishes, or both are parallel),
- * the normal is taken as its limit from inside the parameter domain, along the direction that
- * leaves the degenerate side: for a side that collapses in s the limit along t, and so on. The
- * limit is estimated from normals at two nearby interior points (h and 2h away, Richardson
- * extrapolation 2 n(h) - n(2h), exact for a cone, whose normal is constant along a generator, and
- * O(h^2) for a sphere's pole); h grows (1e-7, 1e-5, 1e-3 of the parameter range) until the
- * nearby normals are regular. This is the directional limit the shading of a mesh vertex at the
- * singular point needs: around a cone's apex each generator keeps its own normal. */
+ * The cross product is trusted when the smaller partial is more than CRISP_NORMAL_TAU = 1e-5 of
+ * the larger and the sine of their angle is more than that too (its "quality" q, 0..1). Below
+ * that it is a collapsed side (or parallel partials), exact or as a file rounds it: an apex whose
+ * control points coincide only to 1e-9..1e-6 of the size (written decimals, a fit) has a regular
+ * but meaningless cross product there, made of that noise (up to 160 degrees off before this
+ * threshold was raised from 1e-9). Then the normal is taken as its limit from inside the
+ * parameter domain, along the direction that leaves the degenerate side: along t where S_s is the
+ * small one (the side t = const collapses), along s where S_t is, diagonally for parallel
+ * partials; always towards the domain's middle. The limit is estimated from normals at two
+ * nearby points (h and 2h away, Richardson extrapolation 2 n(h) - n(2h), exact for a cone, whose
+ * normal is constant along a generator, and O(h^2) for a sphere's pole); h grows (1e-6 to 1e-2 of
+ * the parameter range, times 10) until both nearby points have 100 times the quality of the
+ * point itself, i.e. lie well outside the rounded side's noise (whose error there is about
+ * 1/100 rad). Where no h does (a regular point of a parametrisation stretched 1e5 : 1, whose
+ * quality is low everywhere near it) the point's own cross product is kept if its quality is
+ * above 1e-9 (below, it is rounding: the patch is a curve or a point there, and has no normal).
+ * This is the directional limit the shading of a mesh vertex at the singular point needs: around a
+ * cone's apex each generator keeps its own normal.
+ *
+ * The GL backend's evaluation stage does the same in GLSL (shaders/common.glsl, limit_normal),
+ * and the renderers' test for "degenerate" (crisp__normal_degenerate, render_internal.h) is the
+ * same threshold, so the CPU backend, the exact renderer, the ribbons and the GL backend agree. */
 #include "crisp/nurbs.h"
 
 #include "nurbs_internal.h"
@@ -30,41 +44,53 @@ static void cross3(const double *a, const double *b, double *d)
     d[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-/* The cross product at (a, b) when it is regular (not degenerate by `scale`), else 0. */
-static int regular_cross(derivs_fn f, const void *surf, double a, double b, double scale,
-                         double n[3])
+/* The cross product n at (a, b), its partials' lengths and its quality: min(smaller partial /
+ * larger, sine of their angle), 0 when either partial is 0. */
+static double cross_at(derivs_fn f, const void *surf, double a, double b, double n[3], double *la,
+                       double *lb)
 {
     double p[3], da[3], db[3];
     f(surf, a, b, p, da, db);
     cross3(da, db, n);
-    double la = norm3(da), lb = norm3(db), ln = norm3(n);
-    if (!(la > 1e-9 * scale) || !(lb > 1e-9 * scale) || !(ln > 1e-9 * la * lb)) return 0;
+    *la = norm3(da), *lb = norm3(db);
+    double lo = fmin(*la, *lb), hi = fmax(*la, *lb);
+    if (!(lo > 0)) return 0;
+    return fmin(lo / hi, norm3(n) / (*la * *lb));
+}
+
+/* The unit cross product at (a, b) when its quality exceeds q_min, else 0. */
+static int good_cross(derivs_fn f, const void *surf, double a, double b, double q_min, double n[3])
+{
+    double la, lb;
+    if (!(cross_at(f, surf, a, b, n, &la, &lb) > q_min)) return 0;
+    double ln = norm3(n);
     for (int k = 0; k < 3; k++)
         n[k] /= ln;
     return 1;
 }
 
-/* dom: a0, a1, b0, b1; scale: a length of the surface (for "vanishing"). */
+/* dom: a0, a1, b0, b1. */
 static int robust_normal(derivs_fn f, const void *surf, const double dom[4], double a, double b,
-                         double scale, double dest[3])
+                         double dest[3])
 {
-    if (regular_cross(f, surf, a, b, scale, dest)) return 1;
-    double p[3], da[3], db[3];
-    f(surf, a, b, p, da, db);
-    double la = norm3(da), lb = norm3(db), ra = dom[1] - dom[0], rb = dom[3] - dom[2];
-    /* Which way leaves the degenerate side: along b when S_a vanishes (the side b = const
-     * collapses), along a when S_b does, diagonally otherwise; always towards the domain's
-     * middle. */
+    double n0[3], la, lb;
+    double q0 = cross_at(f, surf, a, b, n0, &la, &lb), l0 = norm3(n0);
+    if (q0 > CRISP_NORMAL_TAU) {
+        for (int k = 0; k < 3; k++)
+            dest[k] = n0[k] / l0;
+        return 1;
+    }
+    double ra = dom[1] - dom[0], rb = dom[3] - dom[2];
     double sa = a < 0.5 * (dom[0] + dom[1]) ? 1 : -1, sb = b < 0.5 * (dom[2] + dom[3]) ? 1 : -1;
     double dir[2] = {sa, sb};
-    if (!(la > 1e-9 * scale) && lb > 1e-9 * scale)
+    if (la < CRISP_NORMAL_TAU * lb)
         dir[0] = 0;
-    else if (!(lb > 1e-9 * scale) && la > 1e-9 * scale)
+    else if (lb < CRISP_NORMAL_TAU * la)
         dir[1] = 0;
-    for (double h = 1e-7; h < 2e-3; h *= 100) {
+    for (double h = 1e-6; h < 2e-2; h *= 10) {
         double n1[3], n2[3];
-        if (!regular_cross(f, surf, a + dir[0] * h * ra, b + dir[1] * h * rb, scale, n1) ||
-            !regular_cross(f, surf, a + 2 * dir[0] * h * ra, b + 2 * dir[1] * h * rb, scale, n2))
+        if (!good_cross(f, surf, a + dir[0] * h * ra, b + dir[1] * h * rb, 100 * q0, n1) ||
+            !good_cross(f, surf, a + 2 * dir[0] * h * ra, b + 2 * dir[1] * h * rb, 100 * q0, n2))
             continue;
         double n[3];
         for (int k = 0; k < 3; k++)
@@ -73,6 +99,13 @@ static int robust_normal(derivs_fn f, const void *surf, const double dom[4], dou
         if (!(ln > 0.5)) continue; /* the normal turns fast here: keep the nearer one */
         for (int k = 0; k < 3; k++)
             dest[k] = n[k] / ln;
+        return 1;
+    }
+    /* No point nearby is better: a stretched but regular point keeps its own normal; below 1e-9
+     * the cross product is rounding (a patch collapsed to a curve or a point): no normal. */
+    if (q0 > 1e-9) {
+        for (int k = 0; k < 3; k++)
+            dest[k] = n0[k] / l0;
         return 1;
     }
     dest[0] = dest[1] = dest[2] = 0;
@@ -91,20 +124,13 @@ static void surface_derivs(const void *surf, double a, double b, double *p, doub
 
 int crisp_bezier_patch_normal(const crisp_bezier_patch *p, double s, double t, double dest[3])
 {
-    double box[6];
-    crisp_bezier_patch_bbox(p, box);
-    double scale = hypot(hypot(box[3] - box[0], box[4] - box[1]), box[5] - box[2]);
     const double dom[4] = {0, 1, 0, 1};
-    return robust_normal(bezier_derivs, p, dom, s, t, scale, dest);
+    return robust_normal(bezier_derivs, p, dom, s, t, dest);
 }
 
 int crisp_surface_normal(const crisp_surface *s, double u, double v, double dest[3])
 {
-    double box[6], dom[4];
-    crisp_surface_bbox(s, box);
+    double dom[4];
     crisp_surface_domain(s, dom);
-    double scale = hypot(hypot(box[3] - box[0], box[4] - box[1]), box[5] - box[2]);
-    /* per unit of the larger parameter range, as for a patch's [0, 1] */
-    scale /= fmax(dom[1] - dom[0], dom[3] - dom[2]);
-    return robust_normal(surface_derivs, s, dom, u, v, scale, dest);
+    return robust_normal(surface_derivs, s, dom, u, v, dest);
 }

@@ -30,16 +30,18 @@ void crisp__image_clear(crisp_image *img);
 /* Camera-space depth of a world point (distance along the view axis). */
 double crisp__view_depth(const crisp_camera *cam, const double p[3]);
 
-/* 1 when the normal n = a x b of partials a, b is not to be trusted: one partial vanishes next
- * to the other (an apex, a pole, a collapsed side: rounding leaves |a| ~ 1e-16 |b| whose cross
- * product points anywhere) or the partials are parallel. Then the backends take the limit normal
- * from inside the patch (crisp_bezier_patch_normal, crisp_surface_normal). */
+/* 1 when the normal n = a x b of partials a, b is not to be trusted: one partial is within
+ * CRISP_NORMAL_TAU of vanishing next to the other (an apex, a pole, a collapsed side: rounding
+ * leaves |a| ~ 1e-16 |b|, a file's rounding of the apex points 1e-9..1e-6, and the cross product
+ * points anywhere) or the partials are that close to parallel. Then the backends take the limit
+ * normal from inside the patch (crisp_bezier_patch_normal, crisp_surface_normal; the GL
+ * backend's patch_normal in shaders/common.glsl tests the same). */
 static inline int crisp__normal_degenerate(const double a[3], const double b[3], const double n[3])
 {
     double aa = a[0] * a[0] + a[1] * a[1] + a[2] * a[2],
            bb = b[0] * b[0] + b[1] * b[1] + b[2] * b[2];
-    double nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
-    return !(aa > 1e-18 * bb) || !(bb > 1e-18 * aa) || !(nn > 1e-18 * aa * bb);
+    double nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2], t2 = CRISP_NORMAL_TAU * CRISP_NORMAL_TAU;
+    return !(aa > t2 * bb) || !(bb > t2 * aa) || !(nn > t2 * aa * bb);
 }
 
 /* Doubles in the largest patch's control net. */

@@ -1,8 +1,9 @@
 /* crisp_bezier_patch_normal / crisp_surface_normal (issue 13): unit normals everywhere, also at
  * singular points: a cone's apex (each generator keeps its own normal), a sphere's poles (the
- * axis), a torus's regular points (equal to the plain cross product), and nothing (0) on a patch
- * collapsed to a point. Surfaces from crisp_make_cone / _sphere / _torus and their Bézier patches;
- * expected normals are analytic. */
+ * axis), a torus's regular points (equal to the plain cross product), a cone whose apex points
+ * coincide only to a file's rounding, a regular point of a stretched patch, and nothing (0) on a
+ * patch collapsed to a segment or a point. Surfaces from crisp_make_cone / _sphere / _torus and
+ * their Bézier patches; expected normals are analytic. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -10,6 +11,7 @@
 #include <cmocka.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "crisp/construct.h"
@@ -127,6 +129,83 @@ static void test_regular_points(void **state)
     crisp_surface_destroy(s);
 }
 
+/* A cone whose apex control points coincide only to 1e-8 .. 1e-6 (a written file's rounding):
+ * the cross product at the apex is regular but made of that noise; the normal there is still
+ * each generator's (within 1.5 degrees: the limit is taken where the noise is 1/100 of the
+ * partial), on the surface and on its Bézier patches. */
+static void test_rounded_apex(void **state)
+{
+    (void)state;
+    crisp_placement pl = world();
+    double a = M_PI / 6, apex = -1 / tan(a);
+    for (double noise = 1e-8; noise < 2e-6; noise *= 10) {
+        crisp_surface *s;
+        assert_int_equal(crisp_make_cone(&pl, 1, a, 0, 2 * M_PI, apex, 0, &s), CRISP_OK);
+        unsigned seed = 5;
+        for (int i = 0; i < s->count_u; i++) /* row v = v0: the apex */
+            for (int k = 0; k < 3; k++) {
+                seed = seed * 1103515245u + 12345u;
+                s->cpw[4 * i + k] +=
+                    noise * s->cpw[4 * i + 3] * (((seed >> 8) & 0xffff) / 32768.0 - 1);
+            }
+        double dom[4];
+        crisp_surface_domain(s, dom);
+        double worst = 1;
+        for (int i = 0; i <= 16; i++) {
+            double u = dom[0] + (dom[1] - dom[0]) * (i + 0.25) / 17, n[3], q[3];
+            assert_int_equal(crisp_surface_normal(s, u, dom[2], n), 1);
+            assert_int_equal(crisp_surface_normal(s, u, 0.5 * (dom[2] + dom[3]), q), 1);
+            worst = fmin(worst, dot3(n, q));
+        }
+        crisp_bezier_patches bz;
+        assert_int_equal(crisp_surface_to_bezier(s, &bz), CRISP_OK);
+        for (int k = 0; k < bz.count; k++)
+            for (int i = 0; i <= 8; i++) {
+                double n[3], q[3];
+                assert_int_equal(crisp_bezier_patch_normal(&bz.patches[k], i / 8.0, 0, n), 1);
+                assert_int_equal(crisp_bezier_patch_normal(&bz.patches[k], i / 8.0, 0.5, q), 1);
+                worst = fmin(worst, dot3(n, q));
+            }
+        printf("apex points %g apart: largest angle to the generator's normal %.3g deg\n", noise,
+               acos(fmin(1, worst)) * 180 / M_PI);
+        assert_true(worst > cos(1.5 * M_PI / 180));
+        crisp_bezier_patches_free(&bz);
+        crisp_surface_destroy(s);
+    }
+}
+
+/* A regular point of a patch stretched 1e6 : 1 (its quality is below CRISP_NORMAL_TAU there and
+ * everywhere near it): the plain normalised cross product, not 0. */
+static void test_stretched_patch(void **state)
+{
+    (void)state;
+    double cpw[2 * 2 * 4] = {0, 0, 0, 1, 1e6, 0, 0, 1, 0, 1, 0, 1, 1e6, 1, 0.3, 1};
+    crisp_bezier_patch p = {
+        .du = 1, .dv = 1, .rational = 0, .u0 = 0, .u1 = 1, .v0 = 0, .v1 = 1, .cpw = cpw};
+    double P[3], Ps[3], Pt[3], c[3], n[3];
+    crisp_bezier_patch_derivs(&p, 0.3, 0.6, P, Ps, Pt);
+    c[0] = Ps[1] * Pt[2] - Ps[2] * Pt[1];
+    c[1] = Ps[2] * Pt[0] - Ps[0] * Pt[2];
+    c[2] = Ps[0] * Pt[1] - Ps[1] * Pt[0];
+    double l = sqrt(dot3(c, c));
+    assert_int_equal(crisp_bezier_patch_normal(&p, 0.3, 0.6, n), 1);
+    for (int k = 0; k < 3; k++)
+        assert_true(fabs(n[k] - c[k] / l) < 1e-12);
+}
+
+/* A patch collapsed to a segment (its two rows 1e-18 apart: rounding) has no normal either:
+ * 0, not the direction of that rounding. */
+static void test_curve_patch(void **state)
+{
+    (void)state;
+    double cpw[2 * 2 * 4] = {0, 0, 0, 1, 1, 0, 0, 1, 0, 1e-18, 0, 1, 1, 1e-18, 0, 1};
+    crisp_bezier_patch p = {
+        .du = 1, .dv = 1, .rational = 0, .u0 = 0, .u1 = 1, .v0 = 0, .v1 = 1, .cpw = cpw};
+    double n[3] = {7, 7, 7};
+    assert_int_equal(crisp_bezier_patch_normal(&p, 0.4, 0.3, n), 0);
+    assert_true(n[0] == 0 && n[1] == 0 && n[2] == 0);
+}
+
 /* A patch that is one point has no normal: 0 and a zero vector, no NaN. */
 static void test_point_patch(void **state)
 {
@@ -144,9 +223,9 @@ static void test_point_patch(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_cone_apex),
-        cmocka_unit_test(test_sphere_poles),
-        cmocka_unit_test(test_regular_points),
+        cmocka_unit_test(test_cone_apex),       cmocka_unit_test(test_sphere_poles),
+        cmocka_unit_test(test_regular_points),  cmocka_unit_test(test_rounded_apex),
+        cmocka_unit_test(test_stretched_patch), cmocka_unit_test(test_curve_patch),
         cmocka_unit_test(test_point_patch),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

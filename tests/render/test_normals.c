@@ -3,7 +3,9 @@
  * inside the patch (each cone generator its own), not the normalised zero cross product; the
  * exact renderer's hits on an apex or a pole do too; and the images of the CPU backend (or, with
  * `--backend gl`, the GL backend's) have the exact renderer's normals around a cone's apex and a
- * sphere's pole. */
+ * sphere's pole, also where the file's apex or pole control points coincide only to its
+ * precision (a few 1e-9 to 1e-6 of the size apart: the rounding of a written file or a fit), where
+ * the cross product at the collapsed side is regular but made of that noise. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -245,6 +247,83 @@ static void test_image_apex(void **state)
     crisp_model_destroy(m);
 }
 
+/* The control points of row j (v index) of s moved by up to `noise` (relative to the weight: the
+ * Euclidean points move by up to noise) in each coordinate, pseudo-randomly: a collapsed side as
+ * a file rounds it. */
+static void jitter_row(crisp_surface *s, int j, double noise, unsigned seed)
+{
+    for (int i = 0; i < s->count_u; i++) {
+        double *c = s->cpw + 4 * ((size_t)j * s->count_u + i);
+        for (int k = 0; k < 3; k++) {
+            seed = seed * 1103515245u + 12345u;
+            c[k] += noise * c[3] * (((seed >> 8) & 0xffff) / 32768.0 - 1);
+        }
+    }
+}
+
+/* The backend's vertices on a cone's apex whose control points are `noise` apart: each carries
+ * its generator's normal (the first row of triangles would otherwise shade as a starburst). */
+static void check_noisy_apex_vertices(double noise)
+{
+    double v0;
+    crisp_model *m = cone_model(&v0);
+    jitter_row(m->faces[0].surface, 0, noise, 7);
+    crisp_renderer *r;
+    crisp_scene *sc;
+    render(m, (double[3]){3, -2, -2.5}, &r, &sc);
+    const crisp_raster_vertex *v;
+    const crisp_raster_tri *tri;
+    size_t nv, nt;
+    crisp__renderer_mesh(r, &v, &nv, &tri, &nt);
+    const double t = tan(M_PI / 6);
+    int apex = 0;
+    double worst = 1;
+    for (size_t k = 0; k < nv; k++) {
+        if (fabs(v[k].attr[1] - v0) > 1e-9) continue;
+        apex++;
+        double a = crisp_param_to_angle(0, 2 * M_PI, v[k].attr[0]);
+        double e[3] = {cos(a) / sqrt(1 + t * t), sin(a) / sqrt(1 + t * t), -t / sqrt(1 + t * t)};
+        worst = fmin(worst, e[0] * v[k].attr[2] + e[1] * v[k].attr[3] + e[2] * v[k].attr[4]);
+    }
+    printf("cone, apex points %g apart: %d vertices on the apex, smallest cos %.9f (%.3g deg)\n",
+           noise, apex, worst, acos(fmin(1, worst)) * 180 / M_PI);
+    assert_true(apex > 4);
+    assert_true(worst > cos(1 * M_PI / 180));
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
+static void test_noisy_apex_vertices(void **state)
+{
+    (void)state;
+    check_noisy_apex_vertices(1e-9);
+    check_noisy_apex_vertices(1e-7);
+    check_noisy_apex_vertices(2e-6);
+}
+
+/* The images around an apex and a pole whose control points are 1e-8 and 1e-6 apart (the
+ * starburst: up to 118 degrees off on both backends before). */
+static void test_image_noisy(void **state)
+{
+    (void)state;
+    for (int k = 0; k < 2; k++) {
+        double noise = k ? 1e-6 : 1e-8, v0;
+        crisp_model *m = cone_model(&v0);
+        jitter_row(m->faces[0].surface, 0, noise, 11);
+        char name[64];
+        snprintf(name, sizeof name, "cone apex %g apart", noise);
+        check_image_normals(name, m, (double[3]){0.8, -0.5, v0 - 3}, (double[3]){0, 0, v0});
+        crisp_model_destroy(m);
+        m = sphere_model();
+        crisp_surface *s = m->faces[0].surface;
+        jitter_row(s, s->count_v - 1, noise, 13);
+        snprintf(name, sizeof name, "sphere pole %g apart", noise);
+        check_image_normals(name, m, (double[3]){1.2, -0.9, 3}, (double[3]){0, 0, 1});
+        crisp_model_destroy(m);
+    }
+}
+
 static void test_image_pole(void **state)
 {
     (void)state;
@@ -260,7 +339,8 @@ int main(int argc, char **argv)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cone_apex),      cmocka_unit_test(test_sphere_poles),
         cmocka_unit_test(test_exact_singular), cmocka_unit_test(test_image_apex),
-        cmocka_unit_test(test_image_pole),
+        cmocka_unit_test(test_image_pole),     cmocka_unit_test(test_noisy_apex_vertices),
+        cmocka_unit_test(test_image_noisy),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
