@@ -154,6 +154,23 @@ static void ribbon_vertex(const crisp_scene *sc, uint32_t face, const crisp_surf
     crisp_vec3_normalize(n, out->attr + 2);
 }
 
+/* ribbon_vertex's clip position and (u, v) alone (no normal): a chord's middle looked at only for
+ * the bow and step checks in refine() becomes a sample (and gets its normal) in the few cases
+ * where it splits the chord (issue 12: about 1 in 25 at impeller x 49 far). */
+static void ribbon_point(const crisp_scene *sc, uint32_t face, const crisp_surface *surf,
+                         crisp_mat4 m, double u, double v, crisp_raster_vertex *out)
+{
+    double P[3], s, t;
+    const crisp_bezier_patch *b = grid_patch(sc, face, u, v, &s, &t);
+    if (b)
+        crisp_bezier_patch_eval(b, s, t, P);
+    else
+        crisp_surface_eval(surf, u, v, P);
+    crisp_mat4_mulp(m, P, out->clip);
+    out->attr[0] = u;
+    out->attr[1] = v;
+}
+
 static int in_view(const crisp_raster_vertex *a, double gx, double gy)
 {
     const double *c = a->clip;
@@ -291,8 +308,8 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
         strip_speeds(s->tp, a->attr[1], b->attr[1], &ru, &rv);
         double len = ru * fabs(b->attr[0] - a->attr[0]) + rv * fabs(b->attr[1] - a->attr[1]);
         if (len > RIBBON_STEP_PX) {
-            ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m,
-                          0.5 * (a->attr[0] + b->attr[0]), 0.5 * (a->attr[1] + b->attr[1]), &mid);
+            ribbon_point(s->sc, s->face, s->surf, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
+                         0.5 * (a->attr[1] + b->attr[1]), &mid);
             have_mid = 1;
             split = screen_dist(a, &mid, s->w, s->h) + screen_dist(&mid, b, s->w, s->h) >
                     RIBBON_STEP_PX;
@@ -304,15 +321,15 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
     if (!split && depth < RIBBON_MAX_DEPTH && (d > RIBBON_BOW_PX || have_mid) && d < INFINITY &&
         (va || vb) && (have_mid || parent_bow > 4 * RIBBON_BOW_PX)) {
         if (!have_mid)
-            ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m,
-                          0.5 * (a->attr[0] + b->attr[0]), 0.5 * (a->attr[1] + b->attr[1]), &mid);
+            ribbon_point(s->sc, s->face, s->surf, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
+                         0.5 * (a->attr[1] + b->attr[1]), &mid);
         have_mid = 1;
         split = mid.clip[3] > 0 && chord_dist(a, &mid, b, s->w, s->h) > RIBBON_BOW_PX;
     }
     if (depth < RIBBON_MAX_DEPTH && split && (va || vb || d < INFINITY)) {
-        if (!have_mid)
-            ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m,
-                          0.5 * (a->attr[0] + b->attr[0]), 0.5 * (a->attr[1] + b->attr[1]), &mid);
+        /* The middle becomes a sample: its point and normal (over the position looked at). */
+        ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
+                      0.5 * (a->attr[1] + b->attr[1]), &mid);
         /* Both ends and the middle outside the view and neither half's widened screen box
          * meeting the view: nothing of it shows. (At extreme zoom a piece crossing the window
          * would otherwise be sampled along its whole length, most of it far off screen; only the

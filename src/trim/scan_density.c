@@ -49,8 +49,11 @@
 #define MIN_PIECE 0x1p-20 /* a strip part thinner than this (of the patch) is a rounding sliver */
 /* A (sub-)patch or block whose bound asks for at most this many rows and u-pixels over its
  * parameter box is accepted without refining (a bound over it is a bound; refining would only
- * save a few rows). */
-#define FEW_ROWS 8.0
+ * save a few rows). 8 until session 8 (issue 12): 32 takes impeller x 49 far's density walk from
+ * 214 M to 151 M instructions for 23 k -> 32 k table rows; the impeller's default view and
+ * close-up get 0.3% more rows and a few per cent fewer plan instructions. */
+#define FEW_ROWS 32.0
+#define SMALL_BLOCK 16u  /* blocks of at most this many patches: see walk_block */
 #define DEPTH_MARGIN 1.0 /* delta: the bound covers NDC depth z~ in [-1 - delta, 1 + delta] */
 
 typedef struct density_ctx {
@@ -319,14 +322,6 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
     if (b > 0) {
         int accept = last;
         if (!accept) {
-            int seen = sample_speeds(c, s, sv, su, ua, ub, &ev, &eu, NULL);
-            /* A sub-patch on the region's edge may have no sample inside: judge it by its
-             * ancestor's samples, or it is split along the edge down to the depth limit, where
-             * rounding in its coefficients makes the bound loose. */
-            if (!seen) ev = pev, eu = peu;
-            int ok_v = bv <= fmax(fmax(c->slack * ev, c->cur_v), c->floor_v);
-            int ok_u = bu <= fmax(c->slack * eu, c->cur_u);
-            accept = (seen > 0 || pev > 0.0) && ok_v && ok_u;
             /* Nothing to gain: the bound is already covered by what other parts need. */
             if (bv <= fmax(c->cur_v, c->floor_v) && bu <= c->cur_u) accept = 1;
             /* Few rows and u-pixels in all, as for blocks (walk_block). */
@@ -334,7 +329,21 @@ static void refine(density_ctx *c, const double *s, int depth, double su, double
             /* Not while the sub-patch's v-range would take more scan lines than a screen can
              * show (16 (w + h)): at extreme zoom it is mostly off screen, and refining shrinks
              * the visible v-range (a face zoomed to fov 1e-7 deg otherwise took 2^22 rows). */
-            if ((vb - va) * bv > 32.0 * (c->wx + c->wy)) accept = 0;
+            int too_many = (vb - va) * bv > 32.0 * (c->wx + c->wy);
+            /* Else the bound within the slack of the speeds sampled on the sub-patch (sampled
+             * only where it may be refined: a sub-patch accepted above has no children to pass
+             * them to; issue 12, a fifth of the density walk's work at impeller x 49 far). */
+            if (!accept || too_many) {
+                int seen = sample_speeds(c, s, sv, su, ua, ub, &ev, &eu, NULL);
+                /* A sub-patch on the region's edge may have no sample inside: judge it by its
+                 * ancestor's samples, or it is split along the edge down to the depth limit,
+                 * where rounding in its coefficients makes the bound loose. */
+                if (!seen) ev = pev, eu = peu;
+                int ok_v = bv <= fmax(fmax(c->slack * ev, c->cur_v), c->floor_v);
+                int ok_u = bu <= fmax(c->slack * eu, c->cur_u);
+                accept = (seen > 0 || pev > 0.0) && ok_v && ok_u;
+            }
+            if (too_many) accept = 0;
         }
         if (accept) {
             c->vis_lo = fmin(c->vis_lo, va);
@@ -828,7 +837,13 @@ static crisp_status walk_block(patch_walk *w, int32_t bi)
         return CRISP_OK;
     }
     crisp_status st = CRISP_OK;
-    if (b->child[0] >= 0 || b->child[1] >= 0 || b->child[2] >= 0 || b->child[3] >= 0) {
+    /* A refused block of at most SMALL_BLOCK patches goes to its patches' own walks, not to its
+     * sub-blocks: their box bounds mostly fail with it (rational patches with varying weights,
+     * whose homogeneous boxes are loose), and each costs as much as a patch's bound (issue 12:
+     * impeller x 49 far, density walk 124 -> 86 M instructions; the generated sheets' faces, whose
+     * blocks are accepted higher up, unchanged). */
+    if (b->nu * b->nv > SMALL_BLOCK &&
+        (b->child[0] >= 0 || b->child[1] >= 0 || b->child[2] >= 0 || b->child[3] >= 0)) {
         for (int q = 0; q < 4 && !st; q++)
             if (b->child[q] >= 0) st = walk_block(w, b->child[q]);
         return st;
