@@ -84,7 +84,9 @@ int crisp__groups_face_small(const crisp__groups *g, uint32_t face);
  * when it reaches the eye plane or is unknown. */
 double crisp__groups_face_px(const crisp__groups *g, uint32_t face);
 /* For a patch that is not active in the last classify: the lower-left patch of the group leaf's
- * block that draws it, or q itself when it is culled. (Active patches: q.) O(depth). */
+ * block that draws it, or q itself when it is culled. (Active patches: q.) One array read for
+ * a patch on the perimeter of a group leaf's block (every patch the edge rule asks about), else
+ * O(depth). */
 uint32_t crisp__groups_owner(const crisp__groups *g, const crisp_scene *sc, uint32_t q);
 /* Bumped whenever classify rebuilt the hierarchy for a new scene (1 after the first): what is
  * built per face from the scene's patches is rebuilt when it changes. */
