@@ -92,7 +92,9 @@ struct crisp__groups {
  * include/crisp/trim.h (crisp__groups_face_small). */
 #define FACE_SMALL_PX 0.7
 
-enum { NODE_OPEN = 0, NODE_CULLED = 1, NODE_GROUP = 2, NODE_OWN = 3 }; /* OWN: patches own trees */
+/* OWN: patches own trees; PASS / FAIL: not reached by the walk, but tried as a cell of its parent
+ * this frame (cells_flat_ok), with that result */
+enum { NODE_OPEN = 0, NODE_CULLED = 1, NODE_GROUP = 2, NODE_OWN = 3, NODE_PASS = 4, NODE_FAIL = 5 };
 
 /* The corner control points of block n (Bézier patches interpolate their corners): lower left,
  * lower right, upper left, upper right. */
@@ -806,6 +808,42 @@ static void mark_perimeter(crisp__groups *g, const crisp_scene_face *f, const gr
         row0[(size_t)j * f->grid_u] = row0[(size_t)j * f->grid_u + n->nu - 1] = e;
 }
 
+/* 1 when block n (extent: its box's screen extent) can be one group leaf at level 2 whose four
+ * cells are its four children (blocks or single patches): each child passes as a leaf at level 1
+ * (group_leaf_ok, or patch_flat_ok for a single patch: every triangle with vertices on the child
+ * within eps on screen and along the view; given the block's extent, which is at least the
+ * child's: the extent only ever lets a bound accept more). That bound holds for the leaf's mesh
+ * when every triangle of it lies in one cell of the 2 x 2 grid: so it does when every edge level
+ * is a multiple of 2 (crisp_tess_mesh_generate's zipper then never takes an outer segment across
+ * a cell's side; tests/render/test_group_leaves.c's test_tau_cells checks it), which the edge
+ * rule makes sure of (quadtree.c split_high_levels plans the block's patches one by one
+ * otherwise). Only whole blocks (2^g x 2^g patches: the cells are then the children). So a
+ * bench_screen gen100 block of 2 x 2 patches, one gen50 patch, is one leaf at level 2 as that
+ * patch is at the close-up: the hierarchy stops at the same screen-sized leaves whatever the knot
+ * count, and at the default view a leaf of 2 x 2 cells stands for four leaves at level 1 (the
+ * same triangles). Each child's result is kept for the walk (NODE_PASS / NODE_FAIL), which reaches
+ * it when the block is refused: a child is tried once per frame. */
+static int child_ok(const walk_ctx *c, const crisp_scene_face *f, uint32_t at, double extent)
+{
+    crisp__groups *g = c->g;
+    if (g->node_frame[at] == g->frame) return g->node_kind[at] == NODE_PASS;
+    const group *n = &g->nodes[at];
+    int ok = n->nu * n->nv == 1 ? patch_flat_ok(c, f, n, extent) : group_leaf_ok(c, f, n, extent);
+    g->node_frame[at] = g->frame;
+    g->node_kind[at] = ok ? NODE_PASS : NODE_FAIL;
+    return ok;
+}
+
+static int cells_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
+                         double extent)
+{
+    if (n->g < 1 || n->nu != 1u << n->g || n->nv != 1u << n->g) return 0;
+    if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
+    for (int k = 0; k < 4; k++)
+        if (n->child[k] < 0 || !child_ok(c, f, (uint32_t)n->child[k], extent)) return 0;
+    return 1;
+}
+
 static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
@@ -831,6 +869,8 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
             const group *n = &g->nodes[at];
             double extent;
             int k = classify(n->box, c->m, c->gx, c->gy, c->width, c->height, c->eps, &extent);
+            /* tried as a cell of its parent this frame: that result (cells_flat_ok) */
+            int tried = g->node_frame[at] == g->frame ? g->node_kind[at] : -1;
             if ((uint32_t)at == root && k != 1 && extent <= FACE_SMALL_PX) g->face_small[fi] = 1;
             if ((uint32_t)at == root) g->face_px[fi] = (float)extent;
             g->node_frame[at] = g->frame;
@@ -840,11 +880,15 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
             } else if (n->nu * n->nv == 1) {
                 /* (Within eps on screen but not along the view: its tree's leaf takes the depth
                  * bound's level, build_cell.) */
-                int small = (k == 2 && box_depth_ok(c, n->box)) ||
-                            (c->out->group_g && patch_flat_ok(c, f, n, extent));
+                int small =
+                    (k == 2 && box_depth_ok(c, n->box)) ||
+                    (c->out->group_g && (tried == NODE_PASS ||
+                                         (tried != NODE_FAIL && patch_flat_ok(c, f, n, extent))));
                 activate(c, (uint32_t)fi, f->first_patch + n->iv0 * f->grid_u + n->iu0,
                          small ? CRISP__PATCH_SMALL : CRISP__PATCH_OPEN);
-            } else if (c->out->group_g && group_leaf_ok(c, f, n, extent)) {
+            } else if (c->out->group_g &&
+                       (tried == NODE_PASS ||
+                        (tried != NODE_FAIL && group_leaf_ok(c, f, n, extent)))) {
                 uint32_t origin = f->first_patch + n->iv0 * f->grid_u + n->iu0;
                 g->node_kind[at] = NODE_GROUP;
                 mark_perimeter(g, f, n, origin);
@@ -853,6 +897,13 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
                 c->counts[fi]++;
             } else if (k == 2 && box_depth_ok(c, n->box)) {
                 activate_block(c, (uint32_t)fi, f, n, CRISP__PATCH_SMALL);
+            } else if (c->out->group_g && cells_flat_ok(c, f, n, extent)) {
+                uint32_t origin = f->first_patch + n->iv0 * f->grid_u + n->iu0;
+                g->node_kind[at] = NODE_GROUP;
+                mark_perimeter(g, f, n, origin);
+                activate(c, (uint32_t)fi, origin, CRISP__PATCH_GROUP);
+                c->out->group_g[origin] = (uint8_t)(n->g | 1u << 4); /* tau 2 */
+                c->counts[fi]++;
             } else {
                 g->node_kind[at] = NODE_OPEN;
                 for (int q = 3; q >= 0; q--)

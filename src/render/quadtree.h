@@ -60,7 +60,8 @@ enum {
 };
 typedef struct crisp__patch_groups {
     uint8_t *mode;     /* per patch, written for the active patches: CRISP__PATCH_* */
-    uint8_t *group_g;  /* per patch, where mode is CRISP__PATCH_GROUP: the block's g; NULL: no group
+    uint8_t *group_g;  /* per patch, where mode is CRISP__PATCH_GROUP: the block's g (bits 0-3)
+                          and the leaf's tau as log2 (bits 4-7: 0 for tau 1); NULL: no group
                           leaves */
     uint32_t **active; /* the patches that get a tree this frame, ascending (grown as needed) */
     size_t *active_count, *active_cap;
