@@ -80,6 +80,9 @@ struct crisp__groups {
     uint32_t **face_active; /* per face: this frame's active patches (see crisp__groups_classify) */
     uint32_t *face_active_count;
     size_t *face_active_cap;
+    /* Per patch: (frame << 32) | the lower-left patch of the group leaf that draws it, written
+     * for the patches on the perimeter of each group leaf's block (crisp__groups_owner). */
+    uint64_t *patch_owner;
     int oom; /* a walk ran out of memory */
 };
 
@@ -89,7 +92,9 @@ struct crisp__groups {
  * include/crisp/trim.h (crisp__groups_face_small). */
 #define FACE_SMALL_PX 0.7
 
-enum { NODE_OPEN = 0, NODE_CULLED = 1, NODE_GROUP = 2, NODE_OWN = 3 }; /* OWN: patches own trees */
+/* OWN: patches own trees; PASS / FAIL: not reached by the walk, but tried as a cell of its parent
+ * this frame (cells_flat_ok), with that result */
+enum { NODE_OPEN = 0, NODE_CULLED = 1, NODE_GROUP = 2, NODE_OWN = 3, NODE_PASS = 4, NODE_FAIL = 5 };
 
 /* The corner control points of block n (Bézier patches interpolate their corners): lower left,
  * lower right, upper left, upper right. */
@@ -302,6 +307,21 @@ static void block_deviation(const crisp_scene *sc, const crisp_scene_face *f, co
     d->slack = 1e-10 * (sqrt(w.norm2) + w.rmax);
 }
 
+/* The witnesses' range [wlo, whi] (with 0) of A_xyz . d per clip coordinate x, y, w (rows 0, 1,
+ * 3 of m): within the control points' own range up to rounding (cost decisions only). */
+static void witness_range(const block_dev *d, crisp_mat4 m, double wlo[3], double whi[3])
+{
+    for (int a = 0; a < 3; a++) {
+        int r = a == 2 ? 3 : a;
+        double A[3] = {m[0][r], m[1][r], m[2][r]};
+        wlo[a] = whi[a] = 0;
+        for (int k = 0; k < 6; k++) {
+            double x = A[0] * d->wit[k][0] + A[1] * d->wit[k][1] + A[2] * d->wit[k][2];
+            wlo[a] = dmin(wlo[a], x), whi[a] = dmax(whi[a], x);
+        }
+    }
+}
+
 /* The range [lo, hi] of A_xyz . d over the block's control points, per clip coordinate x, y, w
  * (rows 0, 1, 3 of m), from its block_dev (see there); box_lo, box_hi (NULL: not wanted): from
  * the coordinate box alone; wlo, whi (NULL: not wanted): the witnesses' range (with 0), within
@@ -325,13 +345,8 @@ static void deviation_range(const block_dev *d, crisp_mat4 m, double lo[3], doub
         /* both hold 0 (the corners); the factor: the rounding of these sums */
         lo[a] = dmax(blo, flo - s) * (1 + 1e-12), hi[a] = dmin(bhi, fhi + s) * (1 + 1e-12);
         if (box_lo) box_lo[a] = blo * (1 + 1e-12), box_hi[a] = bhi * (1 + 1e-12);
-        if (!wlo) continue;
-        wlo[a] = whi[a] = 0;
-        for (int k = 0; k < 6; k++) {
-            double x = A[0] * d->wit[k][0] + A[1] * d->wit[k][1] + A[2] * d->wit[k][2];
-            wlo[a] = dmin(wlo[a], x), whi[a] = dmax(whi[a], x);
-        }
     }
+    if (wlo) witness_range(d, m, wlo, whi);
 }
 
 /* The aligned block (g, bu, bv) of face f's grid: patches [bu 2^g, (bu + 1) 2^g) x
@@ -359,6 +374,13 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
                -INFINITY,
                0};
     sigma[0] = sigma[1] = sigma[2] = 0;
+    /* The block's block_dev is placed now, before its children's, so that devs lie in the same
+     * (depth-first) order as the nodes and the frame's walk reads both front to back. */
+    if (n.nu * n.nv > 1) {
+        if ((st = crisp_grow((void **)&g->devs, &g->dev_cap, g->dev_count + 1, sizeof *g->devs)))
+            return st;
+        n.dev = (int32_t)g->dev_count++;
+    }
     if (lv == 0) {
         const double *b = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].box;
         memcpy(n.box, b, sizeof n.box);
@@ -389,10 +411,7 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
                 n.whi = dmax(n.whi, g->nodes[n.child[k]].whi);
             }
     n.rational = n.whi > n.wlo;
-    if (n.nu * n.nv > 1) {
-        if ((st = crisp_grow((void **)&g->devs, &g->dev_cap, g->dev_count + 1, sizeof *g->devs)))
-            return st;
-        n.dev = (int32_t)g->dev_count++;
+    if (n.dev >= 0) {
         block_dev *d = &g->devs[n.dev];
         block_deviation(sc, f, &n, d);
         memcpy(d->sigma, sigma, sizeof d->sigma);
@@ -421,6 +440,8 @@ static void free_frame_state(crisp__groups *g)
     free(g->face_active_cap);
     free(g->node_kind);
     free(g->node_frame);
+    free(g->patch_owner);
+    g->patch_owner = NULL;
     g->face_active = NULL;
     g->face_active_count = NULL;
     g->face_active_cap = NULL;
@@ -483,9 +504,10 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
     g->face_active_cap = calloc(nf, sizeof *g->face_active_cap);
     g->node_kind = calloc(nn, sizeof *g->node_kind);
     g->node_frame = calloc(nn, sizeof *g->node_frame);
+    g->patch_owner = calloc(sc->patch_count ? sc->patch_count : 1, sizeof *g->patch_owner);
     g->face_count = sc->face_count;
     if (!g->face_active || !g->face_active_count || !g->face_active_cap || !g->node_kind ||
-        !g->node_frame)
+        !g->node_frame || !g->patch_owner)
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
     g->scene = sc;
     g->generation++;
@@ -662,7 +684,7 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
         return 0;
     int small = n->nu * n->nv <= 64 && extent <= GROUP_TRY_PX;
     double lo[3], hi[3], wlo[3], whi[3], r[3], rlow[3];
-    deviation_range(dev, m, lo, hi, NULL, NULL, small ? wlo : NULL, whi);
+    deviation_range(dev, m, lo, hi, NULL, NULL, NULL, NULL);
     for (int a = 0; a < 3; a++) {
         double eu = dmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a])) / n->nu;
         double ev = dmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a])) / n->nv;
@@ -688,6 +710,7 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
         c->eps)
         return 1;
     if (!small) return 0;
+    witness_range(dev, m, wlo, whi);
     double dl[3];
     for (int a = 0; a < 3; a++)
         dl[a] = whi[a] - wlo[a] + 2 * rlow[a] + 0.25 * fabs(C[0][a] - C[1][a] - C[2][a] + C[3][a]);
@@ -769,6 +792,58 @@ static int patch_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
     return dw <= depth_allow(c, (wmin + lo[2] - r[2]) * (1 - 1e-9));
 }
 
+/* The edge rule asks who draws a patch only for patches next to another leaf's, so on the
+ * perimeter of the block whose group leaf draws them (a patch inside the block has all four
+ * neighbours in it). Those are stamped with this frame and the leaf's lower-left patch: the
+ * lookup is then one read of one array (in patch order, like the edge rule's walk) instead of a
+ * descent from the face's root through the hierarchy's nodes scattered in memory. */
+static void mark_perimeter(crisp__groups *g, const crisp_scene_face *f, const group *n,
+                           uint32_t origin)
+{
+    uint64_t e = (uint64_t)g->frame << 32 | origin;
+    uint64_t *row0 = g->patch_owner + origin, *row1 = row0 + (size_t)(n->nv - 1) * f->grid_u;
+    for (uint32_t i = 0; i < n->nu; i++)
+        row0[i] = row1[i] = e;
+    for (uint32_t j = 1; j + 1 < n->nv; j++)
+        row0[(size_t)j * f->grid_u] = row0[(size_t)j * f->grid_u + n->nu - 1] = e;
+}
+
+/* 1 when block n (extent: its box's screen extent) can be one group leaf at level 2 whose four
+ * cells are its four children (blocks or single patches): each child passes as a leaf at level 1
+ * (group_leaf_ok, or patch_flat_ok for a single patch: every triangle with vertices on the child
+ * within eps on screen and along the view; given the block's extent, which is at least the
+ * child's: the extent only ever lets a bound accept more). That bound holds for the leaf's mesh
+ * when every triangle of it lies in one cell of the 2 x 2 grid: so it does when every edge level
+ * is a multiple of 2 (crisp_tess_mesh_generate's zipper then never takes an outer segment across
+ * a cell's side; tests/render/test_group_leaves.c's test_tau_cells checks it), which the edge
+ * rule makes sure of (quadtree.c split_high_levels plans the block's patches one by one
+ * otherwise). Only whole blocks (2^g x 2^g patches: the cells are then the children). So a
+ * bench_screen gen100 block of 2 x 2 patches, one gen50 patch, is one leaf at level 2 as that
+ * patch is at the close-up: the hierarchy stops at the same screen-sized leaves whatever the knot
+ * count, and at the default view a leaf of 2 x 2 cells stands for four leaves at level 1 (the
+ * same triangles). Each child's result is kept for the walk (NODE_PASS / NODE_FAIL), which reaches
+ * it when the block is refused: a child is tried once per frame. */
+static int child_ok(const walk_ctx *c, const crisp_scene_face *f, uint32_t at, double extent)
+{
+    crisp__groups *g = c->g;
+    if (g->node_frame[at] == g->frame) return g->node_kind[at] == NODE_PASS;
+    const group *n = &g->nodes[at];
+    int ok = n->nu * n->nv == 1 ? patch_flat_ok(c, f, n, extent) : group_leaf_ok(c, f, n, extent);
+    g->node_frame[at] = g->frame;
+    g->node_kind[at] = ok ? NODE_PASS : NODE_FAIL;
+    return ok;
+}
+
+static int cells_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
+                         double extent)
+{
+    if (n->g < 1 || n->nu != 1u << n->g || n->nv != 1u << n->g) return 0;
+    if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
+    for (int k = 0; k < 4; k++)
+        if (n->child[k] < 0 || !child_ok(c, f, (uint32_t)n->child[k], extent)) return 0;
+    return 1;
+}
+
 static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
@@ -794,6 +869,8 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
             const group *n = &g->nodes[at];
             double extent;
             int k = classify(n->box, c->m, c->gx, c->gy, c->width, c->height, c->eps, &extent);
+            /* tried as a cell of its parent this frame: that result (cells_flat_ok) */
+            int tried = g->node_frame[at] == g->frame ? g->node_kind[at] : -1;
             if ((uint32_t)at == root && k != 1 && extent <= FACE_SMALL_PX) g->face_small[fi] = 1;
             if ((uint32_t)at == root) g->face_px[fi] = (float)extent;
             g->node_frame[at] = g->frame;
@@ -803,18 +880,30 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
             } else if (n->nu * n->nv == 1) {
                 /* (Within eps on screen but not along the view: its tree's leaf takes the depth
                  * bound's level, build_cell.) */
-                int small = (k == 2 && box_depth_ok(c, n->box)) ||
-                            (c->out->group_g && patch_flat_ok(c, f, n, extent));
+                int small =
+                    (k == 2 && box_depth_ok(c, n->box)) ||
+                    (c->out->group_g && (tried == NODE_PASS ||
+                                         (tried != NODE_FAIL && patch_flat_ok(c, f, n, extent))));
                 activate(c, (uint32_t)fi, f->first_patch + n->iv0 * f->grid_u + n->iu0,
                          small ? CRISP__PATCH_SMALL : CRISP__PATCH_OPEN);
-            } else if (c->out->group_g && group_leaf_ok(c, f, n, extent)) {
+            } else if (c->out->group_g &&
+                       (tried == NODE_PASS ||
+                        (tried != NODE_FAIL && group_leaf_ok(c, f, n, extent)))) {
                 uint32_t origin = f->first_patch + n->iv0 * f->grid_u + n->iu0;
                 g->node_kind[at] = NODE_GROUP;
+                mark_perimeter(g, f, n, origin);
                 activate(c, (uint32_t)fi, origin, CRISP__PATCH_GROUP);
                 c->out->group_g[origin] = (uint8_t)n->g;
                 c->counts[fi]++;
             } else if (k == 2 && box_depth_ok(c, n->box)) {
                 activate_block(c, (uint32_t)fi, f, n, CRISP__PATCH_SMALL);
+            } else if (c->out->group_g && cells_flat_ok(c, f, n, extent)) {
+                uint32_t origin = f->first_patch + n->iv0 * f->grid_u + n->iu0;
+                g->node_kind[at] = NODE_GROUP;
+                mark_perimeter(g, f, n, origin);
+                activate(c, (uint32_t)fi, origin, CRISP__PATCH_GROUP);
+                c->out->group_g[origin] = (uint8_t)(n->g | 1u << 4); /* tau 2 */
+                c->counts[fi]++;
             } else {
                 g->node_kind[at] = NODE_OPEN;
                 for (int q = 3; q >= 0; q--)
@@ -837,7 +926,11 @@ crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, cri
     crisp_status st = ensure_built(g, sc);
     if (st) return st;
     uint32_t *counts = g->counts;
-    g->frame++;
+    if (++g->frame == 0) { /* stamps of 0 never match; after 2^32 walks clear them once */
+        memset(g->node_frame, 0, (g->node_count ? g->node_count : 1) * sizeof *g->node_frame);
+        memset(g->patch_owner, 0, (g->patch_count ? g->patch_count : 1) * sizeof *g->patch_owner);
+        g->frame = 1;
+    }
     g->oom = 0;
     walk_ctx c = {.g = g,
                   .sc = sc,
@@ -875,6 +968,9 @@ crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, cri
 
 uint32_t crisp__groups_owner(const crisp__groups *g, const crisp_scene *sc, uint32_t q)
 {
+    uint64_t e = g->patch_owner[q];
+    if ((uint32_t)(e >> 32) == g->frame) return (uint32_t)e;
+    /* Not on a group leaf's perimeter this frame: culled, or inside a block (the descent). */
     const crisp_scene_patch *sp = &sc->patches[q];
     const crisp_scene_face *f = &sc->faces[sp->face];
     uint32_t at = g->face_root[sp->face];

@@ -475,8 +475,8 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
             /* The lower-left patch of a group leaf's block holds the leaf (patch_groups.c). */
             const crisp_scene_patch *sp = &c->sc->patches[p];
             const crisp_scene_face *f = &c->sc->faces[sp->face];
-            uint32_t g = plan->group_g[p], size = 1u << g;
-            crisp__cell leaf = {.tau = 1,
+            uint32_t g = plan->group_g[p] & 15u, size = 1u << g;
+            crisp__cell leaf = {.tau = (uint16_t)(1u << (plan->group_g[p] >> 4)),
                                 .group = (uint8_t)g,
                                 .ix = f->grid_u - sp->iu < size ? f->grid_u - sp->iu : size,
                                 .iy = f->grid_v - sp->iv < size ? f->grid_v - sp->iv : size};
@@ -768,13 +768,21 @@ static crisp_status split_high_levels(crisp__trees *plan, const crisp_scene *sc,
             for (uint32_t l = 0; l < pp->leaf_count; l++) {
                 const crisp__cell *L = &pp->leaves[l];
                 if (L->culled || L->depth >= plan->max_depth) continue;
-                if (L->edge[0] <= CRISP_PLAN_MAX_LEVEL && L->edge[1] <= CRISP_PLAN_MAX_LEVEL &&
-                    L->edge[2] <= CRISP_PLAN_MAX_LEVEL && L->edge[3] <= CRISP_PLAN_MAX_LEVEL)
+                /* A group leaf above level 1 is bounded cell by cell (patch_groups.c
+                 * cells_flat_ok): every edge level must be a multiple of its tau. */
+                int cells = 1;
+                if (L->group && L->tau > 1)
+                    for (int k = 0; k < 4; k++)
+                        cells &= L->edge[k] % L->tau == 0;
+                if (cells && L->edge[0] <= CRISP_PLAN_MAX_LEVEL &&
+                    L->edge[1] <= CRISP_PLAN_MAX_LEVEL && L->edge[2] <= CRISP_PLAN_MAX_LEVEL &&
+                    L->edge[3] <= CRISP_PLAN_MAX_LEVEL)
                     continue;
                 crisp_status st;
                 if (L->group) {
                     /* A group leaf is not split: its block's patches are planned one by one
-                     * (their own quadtrees) instead. */
+                     * (their own quadtrees) instead (a level above the limit, or one that is not
+                     * a multiple of its tau). */
                     const crisp_scene_patch *sp = &sc->patches[p];
                     const crisp_scene_face *f = &sc->faces[sp->face];
                     uint32_t nu = L->ix, nv = L->iy;

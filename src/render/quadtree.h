@@ -60,7 +60,8 @@ enum {
 };
 typedef struct crisp__patch_groups {
     uint8_t *mode;     /* per patch, written for the active patches: CRISP__PATCH_* */
-    uint8_t *group_g;  /* per patch, where mode is CRISP__PATCH_GROUP: the block's g; NULL: no group
+    uint8_t *group_g;  /* per patch, where mode is CRISP__PATCH_GROUP: the block's g (bits 0-3)
+                          and the leaf's tau as log2 (bits 4-7: 0 for tau 1); NULL: no group
                           leaves */
     uint32_t **active; /* the patches that get a tree this frame, ascending (grown as needed) */
     size_t *active_count, *active_cap;
@@ -84,7 +85,9 @@ int crisp__groups_face_small(const crisp__groups *g, uint32_t face);
  * when it reaches the eye plane or is unknown. */
 double crisp__groups_face_px(const crisp__groups *g, uint32_t face);
 /* For a patch that is not active in the last classify: the lower-left patch of the group leaf's
- * block that draws it, or q itself when it is culled. (Active patches: q.) O(depth). */
+ * block that draws it, or q itself when it is culled. (Active patches: q.) One array read for
+ * a patch on the perimeter of a group leaf's block (every patch the edge rule asks about), else
+ * O(depth). */
 uint32_t crisp__groups_owner(const crisp__groups *g, const crisp_scene *sc, uint32_t q);
 /* Bumped whenever classify rebuilt the hierarchy for a new scene (1 after the first): what is
  * built per face from the scene's patches is rebuilt when it changes. */

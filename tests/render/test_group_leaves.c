@@ -238,7 +238,8 @@ static void run(int rational, int uniform, int cameras)
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     crisp_planner *pl;
     assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
-    long groups = 0, mixed = 0, patches_in_groups = 0;
+    long groups = 0, mixed = 0, patches_in_groups = 0, above1 = 0;
+    double worst_above1 = 0;
     double worst = 0, worst_rel = 0, worst_depth = 0, worst_single = 0;
     long singles = 0;
     for (int c = 0; c < cameras; c++) {
@@ -266,6 +267,14 @@ static void run(int rational, int uniform, int cameras)
             double dz, d = leaf_distance(sc, plan, L, px_per_w, &dz);
             worst = fmax(worst, d);
             worst_depth = fmax(worst_depth, dz);
+            if (L->tau > 1) {
+                /* drawn cell by cell (patch_groups.c cells_flat_ok): every edge level a multiple
+                 * of tau, so each triangle lies in one cell (test_tau_cells) */
+                above1++;
+                worst_above1 = fmax(worst_above1, fmax(d, dz));
+                for (int k = 0; k < 4; k++)
+                    assert_int_equal(L->edge[k] % L->tau, 0);
+            }
             if (d > plan->eps_px)
                 fail_msg("camera %d: group leaf %u (g %u, %u x %u patches, levels %u / %u %u %u "
                          "%u): %g px from the surface",
@@ -285,6 +294,8 @@ static void run(int rational, int uniform, int cameras)
            patches_in_groups, worst, worst / 0.5, worst_depth, mixed, worst_rel);
     printf("  %ld whole patches at level 1: along the view at most %.3f px\n", singles,
            worst_single);
+    printf("  %ld group leaves above level 1: at most %.3f px on screen or along the view\n",
+           above1, worst_above1);
     /* The test means something: group leaves were made and met single-patch leaves. */
     assert_true(groups >= cameras);
     assert_true(mixed >= cameras);
@@ -438,13 +449,64 @@ static void test_block_deviation(void **state)
     crisp_model_destroy(m);
 }
 
+/* What cells_flat_ok (patch_groups.c) relies on: with inner level tau and every edge level a
+ * multiple of tau, each triangle of crisp_tess_mesh_generate lies in one cell [i / tau, (i + 1) /
+ * tau] x [j / tau, (j + 1) / tau] (its three vertices do, and cells are convex). Levels up to 64
+ * with random multiples; also shows that a level that is not a multiple does put a triangle
+ * across two cells (so the edge rule's check in quadtree.c is needed). */
+static int mesh_in_cells(int tau, const int e[4])
+{
+    crisp_tess_levels lv = {{tau, tau}, {e[0], e[1], e[2], e[3]}};
+    size_t nv, nt;
+    assert_int_equal(crisp_tess_mesh_counts(&lv, &nv, &nt), CRISP_OK);
+    double *st = malloc(sizeof(double) * 2 * nv);
+    uint32_t *tri = malloc(sizeof(uint32_t) * 3 * nt);
+    crisp_tess_mesh_generate(&lv, st, tri, 0);
+    int ok = 1;
+    for (size_t k = 0; k < nt && ok; k++) {
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+        for (int c = 0; c < 3; c++)
+            for (int a = 0; a < 2; a++) {
+                double x = st[2 * tri[3 * k + c] + a] * tau; /* in cells */
+                lo[a] = fmin(lo[a], x), hi[a] = fmax(hi[a], x);
+            }
+        for (int a = 0; a < 2; a++) /* one cell: [i, i + 1] holds both ends */
+            ok &= hi[a] <= floor(lo[a] + 1e-9) + 1 + 1e-9;
+    }
+    free(st);
+    free(tri);
+    return ok;
+}
+
+static void test_tau_cells(void **state)
+{
+    (void)state;
+    long meshes = 0, crossing = 0;
+    for (int tau = 2; tau <= 32; tau *= 2)
+        for (int rep = 0; rep < 200; rep++) {
+            int e[4];
+            for (int k = 0; k < 4; k++)
+                e[k] = tau * (1 + (int)(rnd() * (64 / tau)));
+            if (!mesh_in_cells(tau, e))
+                fail_msg("tau %d, edges %d %d %d %d: a triangle spans "
+                         "two cells",
+                         tau, e[0], e[1], e[2], e[3]);
+            meshes++;
+            e[(int)(rnd() * 4)] = (tau + 1 + (int)(rnd() * (63 - tau))) | 1; /* odd: no multiple */
+            crossing += !mesh_in_cells(tau, e);
+        }
+    printf("tau cells: %ld meshes with edge levels multiples of tau, every triangle in one cell; "
+           "%ld of %ld with one odd edge level have a triangle across two cells\n",
+           meshes, crossing, meshes);
+    assert_true(crossing > 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_polynomial_uniform),
-        cmocka_unit_test(test_polynomial_random_knots),
-        cmocka_unit_test(test_rational),
-        cmocka_unit_test(test_block_deviation),
+        cmocka_unit_test(test_polynomial_uniform), cmocka_unit_test(test_polynomial_random_knots),
+        cmocka_unit_test(test_rational),           cmocka_unit_test(test_block_deviation),
+        cmocka_unit_test(test_tau_cells),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
