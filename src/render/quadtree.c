@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "crisp/slefe.h"
+#include "slefe/slefe_internal.h"
 
 #define CRISP__NB_CAP 256 /* leaves across one side examined by the edge rule */
 
@@ -267,12 +268,15 @@ static int is_forced(const build_state *b, uint32_t patch, int depth, int ix, in
  * its halves' (occt_linkrods.step's 6 x 10 patches: 977 px at level 1 for 15 px sampled; a
  * 216 px patch took level 49 where its quarters take 7 to 10), and the level's search cannot see
  * that; the children's levels can. */
-static double children_cost(build_state *b, int depth, int ix, int iy, double limit, int taus[4])
+static double children_cost(build_state *b, int depth, int ix, int iy, double limit, int taus[4],
+                            crisp__slefe_level_info infos[4])
 {
     const tree_ctx *c = b->c;
     double cost = 0, sz = ldexp(1.0, -(depth + 1));
-    for (int k = 0; k < 4; k++)
+    for (int k = 0; k < 4; k++) {
         taus[k] = 0;
+        infos[k] = (crisp__slefe_level_info){{NAN, NAN, NAN}};
+    }
     for (int k = 0; k < 4 && cost < limit; k++) {
         int cx = 2 * ix + (k & 1), cy = 2 * iy + (k >> 1), tau = 1;
         crisp_bezier_patch ch;
@@ -281,9 +285,9 @@ static double children_cost(build_state *b, int depth, int ix, int iy, double li
         if (outside_frustum(&ch, c->plan->view_proj, c->gx, c->gy)) continue; /* culled */
         double hull = hull_extent_px(&ch, c->plan->view_proj, c->plan->width, c->plan->height);
         if (!isfinite(hull)) return INFINITY;
-        if (hull > c->eps &&
-            (crisp_slefe_patch_tess_level(&ch, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau) ||
-             tau > CRISP_TESS_MAX_LEVEL))
+        if (hull > c->eps && (crisp__slefe_patch_tess_level(
+                                  &ch, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau, &infos[k]) ||
+                              tau > CRISP_TESS_MAX_LEVEL))
             return INFINITY;
         taus[k] = hull > c->eps ? tau : 0;
         cost += 2.0 * tau * tau + LEAF_COST;
@@ -294,8 +298,9 @@ static double children_cost(build_state *b, int depth, int ix, int iy, double li
 /* Classify cell (depth, ix, iy) of the patch; node is its tree node. box: an ancestor chose to
  * split until the pieces' hulls are within eps (no SLEFE is formed below it). known > 0: the
  * cell's SLEFE level, found by its parent's children_cost (the same sub-patch, so the same
- * level). */
-static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, int box, int known)
+ * level), with what that search formed (known_info; NULL: nothing). */
+static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, int box, int known,
+                       const crisp__slefe_level_info *known_info)
 {
     if (b->st) return;
     const tree_ctx *c = b->c;
@@ -306,6 +311,10 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
     crisp__cell leaf = {
         .ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
     int split = 0, child_tau[4] = {0, 0, 0, 0}, have_child_tau = 0;
+    /* what the level searches of this cell and of its children formed (the depth bound reuses
+     * the W curvature) */
+    crisp__slefe_level_info info = {{NAN, NAN, NAN}}, child_info[4];
+    if (known_info) info = *known_info;
     if (!outside_frustum(&sub, c->plan->view_proj, c->gx, c->gy)) {
         int tau = 0;
         /* Small on screen (issue 12): a hull within eps needs no SLEFE (tau 1, see
@@ -329,15 +338,16 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
              * triangles split, 13.7 k as one leaf.) */
             int t2 = 0;
             if (!known && hull >= MIN_T2_PX &&
-                crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, 2, &t2) == CRISP_OK && t2 <= 2)
+                crisp__slefe_patch_tess_level(&sub, &c->view, c->eps, 2, &t2, &info) == CRISP_OK &&
+                t2 <= 2)
                 known = t2;
             else
                 box_split = box = 1;
         }
-        crisp_status st =
-            hull <= c->eps || box_split || known
-                ? CRISP_OK
-                : crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
+        crisp_status st = hull <= c->eps || box_split || known
+                              ? CRISP_OK
+                              : crisp__slefe_patch_tess_level(&sub, &c->view, c->eps,
+                                                              CRISP_TESS_MAX_LEVEL, &tau, &info);
         if (known && !box_split) tau = known;
         if (hull <= c->eps) tau = 1;
         /* A rational sub-patch where the homogeneous bound reaches W <= 0: a level from the
@@ -374,7 +384,8 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
                  * to 129 k triangles, but opened a one-pixel GL-only crack at the seam of
                  * test_cracks' quarter torus, degree 2, view 9: left for the GL stitching.) */
                 double mine = 2.0 * tau * tau + LEAF_COST;
-                if (children_cost(b, depth, ix, iy, 0.75 * mine, child_tau) < 0.75 * mine) {
+                if (children_cost(b, depth, ix, iy, 0.75 * mine, child_tau, child_info) <
+                    0.75 * mine) {
                     st = CRISP_ERR_NUMERIC;
                     have_child_tau = 1;
                 }
@@ -396,8 +407,9 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
             return;
         } else {
             /* Within eps along the view too (issue 13, depth_bound.c). */
-            tau = crisp__depth_tess_level(&sub, c->plan->view_proj, c->plan->width, c->plan->height,
-                                          c->eps, tau, CRISP_TESS_MAX_LEVEL);
+            tau = crisp__depth_tess_level_kw(&sub, c->plan->view_proj, c->plan->width,
+                                             c->plan->height, c->eps, tau, CRISP_TESS_MAX_LEVEL,
+                                             info.kw);
             if (tau > CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth) {
                 split = 1;
             } else {
@@ -436,7 +448,7 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
     b->pp->nodes[node].child = first;
     for (int k = 0; k < 4; k++)
         build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), box,
-                   have_child_tau ? child_tau[k] : 0);
+                   have_child_tau ? child_tau[k] : 0, have_child_tau ? &child_info[k] : NULL);
 }
 
 /* Items [begin, end) of the patch list (every patch, or the redo list), nodes and leaves in
@@ -495,7 +507,7 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
             else
                 pp->nodes[root].leaf = li;
         } else {
-            build_cell(b, root, 0, 0, 0, 0, 0);
+            build_cell(b, root, 0, 0, 0, 0, 0, NULL);
         }
         if (b->st) plan->worker_status[worker] = b->st;
         for (uint32_t l = 0; l < pp->leaf_count; l++)
