@@ -73,11 +73,42 @@ typedef struct build_state {
     crisp_arena *arena;
     double storage[2][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4 * 2];
     double child[2][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4 * 2]; /* children_cost */
+    /* The patch's four quarters (depth-1 cells), made once per patch when first needed: one split
+     * in u and two in v, the same numbers crisp__subpatch gives each of them from the patch with
+     * two cuts (its cuts at 1/2 are these splits), for 3 splits instead of 8. */
+    double quarter[4][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4];
+    crisp_bezier_patch quarter_patch[4];
+    int have_quarters;
     size_t node_cap, leaf_cap;
     const crisp__forced *forced; /* this patch's forced splits */
     size_t forced_count;
     crisp_status st;
 } build_state;
+
+/* Sub-patch (depth, ix, iy) of the patch into storage (or the kept quarter at depth 1). */
+static void cell_patch(build_state *b, int depth, int ix, int iy, double *storage, double *tmp,
+                       crisp_bezier_patch *dest)
+{
+    if (depth == 1) {
+        if (!b->have_quarters) {
+            const crisp_bezier_patch *p = b->root;
+            crisp_bezier_patch half[2] = {*p, *p}, *q = b->quarter_patch;
+            half[0].cpw = storage, half[1].cpw = tmp;
+            crisp_bezier_patch_split_u(p, 0.5, &half[0], &half[1]);
+            for (int k = 0; k < 4; k++) {
+                q[k] = half[k & 1];
+                q[k].cpw = b->quarter[k];
+            }
+            crisp_bezier_patch_split_v(&half[0], 0.5, &q[0], &q[2]);
+            crisp_bezier_patch_split_v(&half[1], 0.5, &q[1], &q[3]);
+            b->have_quarters = 1;
+        }
+        *dest = b->quarter_patch[ix + 2 * iy];
+        return;
+    }
+    double sz = ldexp(1.0, -depth);
+    crisp__subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, storage, tmp, dest);
+}
 
 static int32_t push_node(build_state *b)
 {
@@ -272,7 +303,7 @@ static double children_cost(build_state *b, int depth, int ix, int iy, double li
                             crisp__slefe_level_info infos[4])
 {
     const tree_ctx *c = b->c;
-    double cost = 0, sz = ldexp(1.0, -(depth + 1));
+    double cost = 0;
     for (int k = 0; k < 4; k++) {
         taus[k] = 0;
         infos[k] = (crisp__slefe_level_info){{NAN, NAN, NAN}};
@@ -280,8 +311,7 @@ static double children_cost(build_state *b, int depth, int ix, int iy, double li
     for (int k = 0; k < 4 && cost < limit; k++) {
         int cx = 2 * ix + (k & 1), cy = 2 * iy + (k >> 1), tau = 1;
         crisp_bezier_patch ch;
-        crisp__subpatch(b->root, cx * sz, (cx + 1) * sz, cy * sz, (cy + 1) * sz, b->child[0],
-                        b->child[1], &ch);
+        cell_patch(b, depth + 1, cx, cy, b->child[0], b->child[1], &ch);
         if (outside_frustum(&ch, c->plan->view_proj, c->gx, c->gy)) continue; /* culled */
         double hull = hull_extent_px(&ch, c->plan->view_proj, c->plan->width, c->plan->height);
         if (!isfinite(hull)) return INFINITY;
@@ -304,10 +334,8 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
 {
     if (b->st) return;
     const tree_ctx *c = b->c;
-    double sz = ldexp(1.0, -depth);
     crisp_bezier_patch sub;
-    crisp__subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, b->storage[0],
-                    b->storage[1], &sub);
+    cell_patch(b, depth, ix, iy, b->storage[0], b->storage[1], &sub);
     crisp__cell leaf = {
         .ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
     int split = 0, child_tau[4] = {0, 0, 0, 0}, have_child_tau = 0;
@@ -477,6 +505,7 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
         }
         b->arena = arena;
         b->node_cap = b->leaf_cap = 0;
+        b->have_quarters = 0;
         b->st = CRISP_OK;
         uint8_t mode = !c->redo && c->mode ? c->mode[p] : CRISP__PATCH_OPEN;
         if (mode == CRISP__PATCH_GROUPED) continue; /* no tree: its group leaf stands for it */

@@ -30,21 +30,29 @@
  * coefficients x (du + 1 per row), widened for rounding. */
 static void diff_bounds(const double *x, int du, int dv, double d1[2], double d2[3])
 {
+    /* row by row, each difference in its own loop (no branches in the inner loops; the maxima do
+     * not depend on the order they are taken in) */
     double a = 0, b = 0, c = 0, e = 0, f = 0, mag = 0;
     int n = du + 1;
-    for (int j = 0; j <= dv; j++)
-        for (int i = 0; i <= du; i++) {
-            double v = x[j * n + i];
-            mag = crisp__max(mag, fabs(v));
-            if (i + 1 <= du) e = crisp__max(e, fabs(x[j * n + i + 1] - v));
-            if (j + 1 <= dv) f = crisp__max(f, fabs(x[(j + 1) * n + i] - v));
-            if (i + 2 <= du) a = crisp__max(a, fabs(v - 2 * x[j * n + i + 1] + x[j * n + i + 2]));
-            if (j + 2 <= dv)
-                b = crisp__max(b, fabs(v - 2 * x[(j + 1) * n + i] + x[(j + 2) * n + i]));
-            if (i + 1 <= du && j + 1 <= dv)
-                c = crisp__max(
-                    c, fabs(v - x[j * n + i + 1] - x[(j + 1) * n + i] + x[(j + 1) * n + i + 1]));
-        }
+    for (int j = 0; j <= dv; j++) {
+        const double *r = x + j * n;
+        for (int i = 0; i <= du; i++)
+            mag = crisp__max(mag, fabs(r[i]));
+        for (int i = 0; i < du; i++)
+            e = crisp__max(e, fabs(r[i + 1] - r[i]));
+        for (int i = 0; i + 2 <= du; i++)
+            a = crisp__max(a, fabs(r[i] - 2 * r[i + 1] + r[i + 2]));
+        if (j == dv) continue;
+        const double *q = r + n;
+        for (int i = 0; i <= du; i++)
+            f = crisp__max(f, fabs(q[i] - r[i]));
+        for (int i = 0; i < du; i++)
+            c = crisp__max(c, fabs(r[i] - r[i + 1] - q[i] + q[i + 1]));
+        if (j + 2 > dv) continue;
+        const double *o = q + n;
+        for (int i = 0; i <= du; i++)
+            b = crisp__max(b, fabs(r[i] - 2 * q[i] + o[i]));
+    }
     double round = 16.0 * DBL_EPSILON * mag;
     d1[0] = du * (e + round), d1[1] = dv * (f + round);
     d2[0] = du * (du - 1) * (a + round), d2[1] = dv * (dv - 1) * (b + round);
