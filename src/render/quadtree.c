@@ -79,6 +79,7 @@ typedef struct build_state {
     double quarter[4][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4];
     crisp_bezier_patch quarter_patch[4];
     int have_quarters;
+    crisp__slefe_search search; /* build_cell's level search, between its two steps */
     size_t node_cap, leaf_cap;
     const crisp__forced *forced; /* this patch's forced splits */
     size_t forced_count;
@@ -299,28 +300,38 @@ static int is_forced(const build_state *b, uint32_t patch, int depth, int ix, in
  * its halves' (occt_linkrods.step's 6 x 10 patches: 977 px at level 1 for 15 px sampled; a
  * 216 px patch took level 49 where its quarters take 7 to 10), and the level's search cannot see
  * that; the children's levels can. */
-static double children_cost(build_state *b, int depth, int ix, int iy, double limit, int taus[4],
-                            crisp__slefe_level_info infos[4])
+typedef struct child_memo {
+    int done;       /* children formed so far, in order */
+    double term[4]; /* each one's cost: 0 when culled, INFINITY when it cannot get a level here */
+    int taus[4];    /* its level, 0 when culled or within eps (a tau-1 leaf decided by its hull) */
+    crisp__slefe_level_info infos[4]; /* what its level search formed */
+} child_memo;
+
+static double children_cost(build_state *b, int depth, int ix, int iy, double limit, child_memo *m)
 {
     const tree_ctx *c = b->c;
     double cost = 0;
-    for (int k = 0; k < 4; k++) {
-        taus[k] = 0;
-        infos[k] = (crisp__slefe_level_info){{NAN, NAN, NAN}};
-    }
     for (int k = 0; k < 4 && cost < limit; k++) {
-        int cx = 2 * ix + (k & 1), cy = 2 * iy + (k >> 1), tau = 1;
-        crisp_bezier_patch ch;
-        cell_patch(b, depth + 1, cx, cy, b->child[0], b->child[1], &ch);
-        if (outside_frustum(&ch, c->plan->view_proj, c->gx, c->gy)) continue; /* culled */
-        double hull = hull_extent_px(&ch, c->plan->view_proj, c->plan->width, c->plan->height);
-        if (!isfinite(hull)) return INFINITY;
-        if (hull > c->eps && (crisp__slefe_patch_tess_level(
-                                  &ch, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau, &infos[k]) ||
-                              tau > CRISP_TESS_MAX_LEVEL))
-            return INFINITY;
-        taus[k] = hull > c->eps ? tau : 0;
-        cost += 2.0 * tau * tau + LEAF_COST;
+        if (k == m->done) {
+            int cx = 2 * ix + (k & 1), cy = 2 * iy + (k >> 1), tau = 1;
+            crisp_bezier_patch ch;
+            cell_patch(b, depth + 1, cx, cy, b->child[0], b->child[1], &ch);
+            m->done++;
+            m->term[k] = 0;
+            if (outside_frustum(&ch, c->plan->view_proj, c->gx, c->gy)) continue; /* culled */
+            double hull = hull_extent_px(&ch, c->plan->view_proj, c->plan->width, c->plan->height);
+            m->term[k] = INFINITY;
+            if (!isfinite(hull)) return INFINITY;
+            if (hull > c->eps &&
+                (crisp__slefe_patch_tess_level(&ch, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau,
+                                               &m->infos[k]) ||
+                 tau > CRISP_TESS_MAX_LEVEL))
+                return INFINITY;
+            m->taus[k] = hull > c->eps ? tau : 0;
+            m->term[k] = 2.0 * tau * tau + LEAF_COST;
+        }
+        if (!isfinite(m->term[k])) return INFINITY;
+        cost += m->term[k];
     }
     return cost;
 }
@@ -338,10 +349,13 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
     cell_patch(b, depth, ix, iy, b->storage[0], b->storage[1], &sub);
     crisp__cell leaf = {
         .ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
-    int split = 0, child_tau[4] = {0, 0, 0, 0}, have_child_tau = 0;
+    int split = 0, have_child_tau = 0;
     /* what the level searches of this cell and of its children formed (the depth bound reuses
      * the W curvature) */
-    crisp__slefe_level_info info = {{NAN, NAN, NAN}}, child_info[4];
+    crisp__slefe_level_info info = {{NAN, NAN, NAN}};
+    child_memo kids = {.done = 0};
+    for (int k = 0; k < 4; k++)
+        kids.infos[k] = info;
     if (known_info) info = *known_info;
     if (!outside_frustum(&sub, c->plan->view_proj, c->gx, c->gy)) {
         int tau = 0;
@@ -372,15 +386,36 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
             else
                 box_split = box = 1;
         }
-        crisp_status st = hull <= c->eps || box_split || known
-                              ? CRISP_OK
-                              : crisp__slefe_patch_tess_level(&sub, &c->view, c->eps,
-                                                              CRISP_TESS_MAX_LEVEL, &tau, &info);
+        crisp_status st = CRISP_OK;
+        int early = 0; /* split by the children's rule from the level's range alone (below) */
+        if (!(hull <= c->eps || box_split || known)) {
+            int lo = 0, hi = 0;
+            st = crisp__slefe_search_begin(&b->search, &sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL,
+                                           &tau, &lo, &hi, &info);
+            if (!st && !tau) {
+                /* The search's loop (the SLEFE at high levels: most of a high-degree patch's
+                 * search) is not needed where the children's rule below splits whatever level in
+                 * [lo, hi] it names: every such level is one the rule applies to (at least
+                 * CHILD_TRY_TAU, at most 64, none that the hull's rule splits first), and the
+                 * children draw less than 3/4 of the least of them. The children's levels are
+                 * kept (kids) for the rule below where this does not decide. */
+                int kh = isfinite(hull) ? (int)ceil(log2(hull / c->eps)) : 0;
+                if (lo >= CHILD_TRY_TAU && hi <= CRISP_TESS_MAX_LEVEL &&
+                    depth < c->plan->max_depth && isfinite(hull) &&
+                    (sub.du >= CHILD_TRY_DEGREE || sub.dv >= CHILD_TRY_DEGREE) &&
+                    !(kh < 6 && 4.0 * ldexp(1.0, 2 * kh) < (double)hi * hi)) {
+                    double least = 2.0 * lo * lo + LEAF_COST;
+                    if (children_cost(b, depth, ix, iy, 0.75 * least, &kids) < 0.75 * least)
+                        early = have_child_tau = 1, st = CRISP_ERR_NUMERIC;
+                }
+                if (!early) st = crisp__slefe_search_finish(&b->search, &sub, &tau, &info);
+            }
+        }
         if (known && !box_split) tau = known;
         if (hull <= c->eps) tau = 1;
         /* A rational sub-patch where the homogeneous bound reaches W <= 0: a level from the
          * bound that does not divide by the weights (rational_bound.c), if one is in reach. */
-        if (sub.rational && !box_split && isfinite(flat) && st == CRISP_ERR_NUMERIC &&
+        if (sub.rational && !box_split && !early && isfinite(flat) && st == CRISP_ERR_NUMERIC &&
             isfinite(hull)) {
             int t =
                 crisp__rational_tess_level(&sub, CRISP_TESS_MAX_LEVEL + 1, flat, c->plan->view_proj,
@@ -412,8 +447,7 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
                  * to 129 k triangles, but opened a one-pixel GL-only crack at the seam of
                  * test_cracks' quarter torus, degree 2, view 9: left for the GL stitching.) */
                 double mine = 2.0 * tau * tau + LEAF_COST;
-                if (children_cost(b, depth, ix, iy, 0.75 * mine, child_tau, child_info) <
-                    0.75 * mine) {
+                if (children_cost(b, depth, ix, iy, 0.75 * mine, &kids) < 0.75 * mine) {
                     st = CRISP_ERR_NUMERIC;
                     have_child_tau = 1;
                 }
@@ -476,7 +510,7 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
     b->pp->nodes[node].child = first;
     for (int k = 0; k < 4; k++)
         build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), box,
-                   have_child_tau ? child_tau[k] : 0, have_child_tau ? &child_info[k] : NULL);
+                   have_child_tau ? kids.taus[k] : 0, have_child_tau ? &kids.infos[k] : NULL);
 }
 
 /* Items [begin, end) of the patch list (every patch, or the redo list), nodes and leaves in

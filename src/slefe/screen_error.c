@@ -196,10 +196,7 @@ static crisp_status error_classic2(const char *fn, const crisp_bezier_patch *p, 
  * patch (k = 1) and its 2 x 2 and 4 x 4 pieces, formed once per level search: the search asks for
  * them in turn (the whole patch first, the pieces while the bound is above its target), and the
  * depth bound along the view (depth_bound.c) needs W's (crisp__slefe_level_info). */
-typedef struct euclid_sums {
-    double K[3][3]; /* [piece level: k = 1, 2, 4][X', Y', W], without the rounding allowance */
-    int formed;     /* piece levels formed so far */
-} euclid_sums;
+typedef crisp__slefe_euclid_sums euclid_sums;
 
 /* For a patch whose weights vary: the bound at tau = 1 from the curvature of the Euclidean clip
  * coordinates (quotient.c), the "joint" bound of the top comment's two terms. The rasterizer draws
@@ -594,11 +591,14 @@ static crisp_status ipass_w_px(const char *fn, const crisp_bezier_patch *p,
     return CRISP_OK;
 }
 
-/* crisp_slefe_patch_tess_level's search; sums: the Euclidean bound's curvature sums it formed. */
-static crisp_status level_search(const char *fn, const crisp_bezier_patch *p,
-                                 const crisp_slefe_view *view, double eps, int max_level, int *tau,
-                                 euclid_sums *sums)
+/* crisp_slefe_patch_tess_level's search up to its loop: *tau > 0 where it is decided there, else
+ * 0 and [*lo, *hi] holds the level the loop (search_finish) names, or it names max_level + 1. */
+static crisp_status search_begin(const char *fn, crisp__slefe_search *sr,
+                                 const crisp_bezier_patch *p, const crisp_slefe_view *view,
+                                 double eps, int max_level, int *tau, int *lo, int *hi)
 {
+    sr->sums.formed = 0;
+    if (tau) *tau = 0;
     crisp_status s = crisp__slefe_check_patch(fn, p, 1);
     if (!s) s = crisp__slefe_check_view(fn, view);
     if (s) return s;
@@ -607,13 +607,14 @@ static crisp_status level_search(const char *fn, const crisp_bezier_patch *p,
                            "%s: eps %g (expected > 0), max_level %d (expected 1..%d) or NULL tau",
                            fn, eps, max_level, CRISP_SLEFE_MAX_TESS_LEVEL);
     crisp__slefe_tables_init();
-    double clip[(MAXD + 1) * (MAXD + 1) * 4], err[4], hl[4], hh[4];
-    crisp_slefe_view cv;
-    centred_view(p, view, &cv);
-    view = &cv;
+    double *clip = sr->clip, *err = sr->err, *hl = sr->hl, *hh = sr->hh;
+    centred_view(p, view, &sr->view);
+    view = &sr->view;
     s = crisp__slefe_to_clip(fn, p, view, clip, err, hl, hh);
     if (s) return s;
     weights wt = weights_of(p, p->cpw);
+    sr->wcpw = wt.cpw, sr->wlo = wt.lo, sr->whi = wt.hi;
+    sr->eps = eps, sr->max_level = max_level;
     /* The classic bound falls exactly as 1 / tau^2, so it names a sound level at once: the answer
      * lies between the iPASS guess (below) and that level, and only levels below it need the
      * (costlier) SLEFE bound. */
@@ -637,7 +638,7 @@ static crisp_status level_search(const char *fn, const crisp_bezier_patch *p,
      * the level found would otherwise be above the guess (below). */
     if (wt.cpw)
         t_classic =
-            euclid_level(euclid_c1(p, &wt, view, clip, err, INFINITY, sums), eps, t_classic);
+            euclid_level(euclid_c1(p, &wt, view, clip, err, INFINITY, &sr->sums), eps, t_classic);
     if (t_classic <= 2) {
         /* level 1 or 2: the bound at 1 decides, no guess needed (these are most sub-patches) */
         double e;
@@ -661,6 +662,25 @@ static crisp_status level_search(const char *fn, const crisp_bezier_patch *p,
         *tau = t_classic; /* sound, and no more than the guess */
         return CRISP_OK;
     }
+    sr->t = t, sr->t_classic = t_classic;
+    /* The loop (search_finish) names a level it tested (from the guess up, each below
+     * t_classic), t_classic or max_level + 1; or, where it may form the Euclidean bound over the
+     * pieces, that bound's level, which may lie below the guess. */
+    *lo = wt.cpw && wt.hi > EUCLID_PIECES_RATIO * wt.lo ? 1 : t;
+    *hi = t_classic;
+    return CRISP_OK;
+}
+
+/* The search's loop, from where search_begin left it. */
+static crisp_status search_finish(const char *fn, crisp__slefe_search *sr,
+                                  const crisp_bezier_patch *p, int *tau)
+{
+    const crisp_slefe_view *view = &sr->view;
+    const double *clip = sr->clip, *err = sr->err, *hl = sr->hl, *hh = sr->hh;
+    weights wt = {sr->wcpw, sr->wlo, sr->whi};
+    double eps = sr->eps;
+    int max_level = sr->max_level, t = sr->t, t_classic = sr->t_classic;
+    crisp_status s;
     int first = 1;
     for (;;) {
         double e;
@@ -674,7 +694,7 @@ static crisp_status level_search(const char *fn, const crisp_bezier_patch *p,
             /* above the guess: the Euclidean bound over the pieces, until it names t + 1 */
             double target = eps * (t + 1.0) * (t + 1.0);
             t_classic =
-                euclid_level(euclid_c1(p, &wt, view, clip, err, target, sums), eps, t_classic);
+                euclid_level(euclid_c1(p, &wt, view, clip, err, target, &sr->sums), eps, t_classic);
         }
         first = 0;
         if (t >= max_level) {
@@ -694,9 +714,39 @@ static crisp_status level_search(const char *fn, const crisp_bezier_patch *p,
         if (k > 1) {
             int rounded = (nt + k - 1) / k * k;
             nt = rounded <= max_level ? rounded : max_level;
+            if (nt >= t_classic) {
+                /* (the rounding reached the classic level, which is sound: until session 8 the
+                 * search went on at the rounded level and could name one above it) */
+                *tau = t_classic;
+                return CRISP_OK;
+            }
         }
         t = nt;
     }
+}
+
+static void search_info(const crisp__slefe_search *sr, crisp__slefe_level_info *info)
+{
+    for (int i = 0; i < 3; i++)
+        info->kw[i] = i < sr->sums.formed ? sr->sums.K[i][2] : NAN;
+}
+
+crisp_status crisp__slefe_search_begin(crisp__slefe_search *sr, const crisp_bezier_patch *p,
+                                       const crisp_slefe_view *view, double eps, int max_level,
+                                       int *tau, int *lo, int *hi, crisp__slefe_level_info *info)
+{
+    crisp_status s =
+        search_begin("crisp_slefe_patch_tess_level", sr, p, view, eps, max_level, tau, lo, hi);
+    if (info) search_info(sr, info);
+    return s;
+}
+
+crisp_status crisp__slefe_search_finish(crisp__slefe_search *sr, const crisp_bezier_patch *p,
+                                        int *tau, crisp__slefe_level_info *info)
+{
+    crisp_status s = search_finish("crisp_slefe_patch_tess_level", sr, p, tau);
+    if (info) search_info(sr, info);
+    return s;
 }
 
 crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const crisp_slefe_view *view,
@@ -709,14 +759,9 @@ crisp_status crisp__slefe_patch_tess_level(const crisp_bezier_patch *p,
                                            const crisp_slefe_view *view, double eps, int max_level,
                                            int *tau, crisp__slefe_level_info *info)
 {
-    const char *fn = "crisp_slefe_patch_tess_level";
-    euclid_sums sums = {.formed = 0};
-    if (info)
-        for (int i = 0; i < 3; i++)
-            info->kw[i] = NAN;
-    crisp_status s = level_search(fn, p, view, eps, max_level, tau, &sums);
-    if (info)
-        for (int i = 0; i < sums.formed; i++)
-            info->kw[i] = sums.K[i][2];
-    return s;
+    crisp__slefe_search sr;
+    int lo, hi;
+    crisp_status s = crisp__slefe_search_begin(&sr, p, view, eps, max_level, tau, &lo, &hi, info);
+    if (s || *tau) return s;
+    return crisp__slefe_search_finish(&sr, p, tau, info);
 }

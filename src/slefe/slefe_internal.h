@@ -120,6 +120,33 @@ typedef struct crisp__slefe_level_info {
     double kw[3];
 } crisp__slefe_level_info;
 
+/* The Euclidean bound's curvature sums (screen_error.c euclid_c1) formed so far by a level search:
+ * K[i] over the 2^i x 2^i pieces, for X', Y', W. */
+typedef struct crisp__slefe_euclid_sums {
+    double K[3][3];
+    int formed; /* piece levels formed */
+} crisp__slefe_euclid_sums;
+
+/* crisp_slefe_patch_tess_level's search in two steps (screen_error.c), for a caller that can
+ * decide from the level's range alone (src/render/quadtree.c, the children's rule). begin: what
+ * comes before the search's loop; *tau > 0 where the level is decided there, else *tau = 0 and the
+ * level finish names lies in [*lo, *hi] or is max_level + 1. finish (only after a begin that left
+ * *tau = 0, with the same p): the loop. info: as crisp__slefe_patch_tess_level's. */
+typedef struct crisp__slefe_search {
+    crisp_slefe_view view; /* the view centred on the patch */
+    double clip[(CRISP_SLEFE_MAX_DEGREE + 1) * (CRISP_SLEFE_MAX_DEGREE + 1) * 4];
+    double err[4], hl[4], hh[4], eps;
+    const double *wcpw; /* the weights (p's control points) when they vary, else NULL */
+    double wlo, whi;
+    crisp__slefe_euclid_sums sums;
+    int max_level, t, t_classic;
+} crisp__slefe_search;
+crisp_status crisp__slefe_search_begin(crisp__slefe_search *s, const crisp_bezier_patch *p,
+                                       const crisp_slefe_view *view, double eps, int max_level,
+                                       int *tau, int *lo, int *hi, crisp__slefe_level_info *info);
+crisp_status crisp__slefe_search_finish(crisp__slefe_search *s, const crisp_bezier_patch *p,
+                                        int *tau, crisp__slefe_level_info *info);
+
 /* crisp_slefe_patch_tess_level, and (info not NULL) what it formed on the way. */
 crisp_status crisp__slefe_patch_tess_level(const crisp_bezier_patch *p,
                                            const crisp_slefe_view *view, double eps, int max_level,

@@ -8,7 +8,10 @@
  * - the cheaper curvature bound the depth check tries first (crisp__slefe_quotient_curvature_mid)
  *   is never below the full one, and the depth level is the one the full bounds over 1, 2 x 2
  *   and 4 x 4 pieces name (computed here the way depth_bound.c did before the shortcut);
- * - crisp__slefe_patch_tess_level gives crisp_slefe_patch_tess_level's level. */
+ * - crisp__slefe_patch_tess_level gives crisp_slefe_patch_tess_level's level;
+ * - the range crisp__slefe_search_begin names before the search's loop holds the level the loop
+ *   names (build_cell's children's rule splits from the range alone where every level in it
+ *   would make the rule split). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -219,11 +222,51 @@ static void test_mid_bound(void **state)
     assert_true(raised > 100);
 }
 
+static void test_search_range(void **state)
+{
+    (void)state;
+    double cpw[16 * 16 * 4];
+    int ranges = 0, narrow = 0, decided = 0;
+    for (int trial = 0; trial < 1500; trial++) {
+        int du = 1 + (int)(10 * rnd()), dv = 1 + (int)(10 * rnd());
+        crisp_bezier_patch p;
+        double size = exp(log(0.01) + rnd() * log(100.0));
+        random_patch(&p, cpw, du, dv, size, size * 2 * rnd(), trial % 3);
+        crisp_slefe_view v;
+        random_view(2 + 4 * rnd(), &v);
+        crisp__slefe_search sr;
+        int tau = -1, lo = 0, hi = 0, full = -1;
+        crisp_status st = crisp__slefe_search_begin(&sr, &p, &v, 0.5, 64, &tau, &lo, &hi, NULL);
+        crisp_status st_full = crisp_slefe_patch_tess_level(&p, &v, 0.5, 64, &full);
+        if (st || tau) {
+            assert_int_equal(st, st_full);
+            if (!st) assert_int_equal(tau, full);
+            decided += !st;
+            continue;
+        }
+        int got = -1;
+        assert_int_equal(crisp__slefe_search_finish(&sr, &p, &got, NULL), st_full);
+        if (st_full) continue;
+        assert_int_equal(got, full);
+        if (!(full == 65 || (lo <= full && full <= hi)))
+            fail_msg("trial %d (%d x %d, weights %d): level %d outside the range [%d, %d]", trial,
+                     du, dv, trial % 3, full, lo, hi);
+        ranges++;
+        narrow += lo > 1;
+    }
+    printf("search range: %d levels decided before the loop, %d inside the range named before "
+           "it (%d with a lower end above 1)\n",
+           decided, ranges, narrow);
+    assert_true(ranges > 100);
+    assert_true(narrow > 50);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_shared_w_curvature),
         cmocka_unit_test(test_mid_bound),
+        cmocka_unit_test(test_search_range),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
