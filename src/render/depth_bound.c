@@ -56,9 +56,14 @@ static int clip_depths(const crisp_bezier_patch *p, crisp_mat4 m, double *c)
  * src/slefe/quotient.c's (shared with the screen bound): f - l over the quotient's derivatives,
  * l the middle of the depths or, for varying weights, fitted to their slopes. INFINITY when a
  * weight or a depth is not positive. kw (or NULL): the same bounds where the screen bound's level
- * search formed them (crisp__slefe_level_info; NAN where not), taken instead of forming them. */
+ * search formed them (crisp__slefe_level_info; NAN where not), taken instead of forming them.
+ * allow > 0: the caller only asks whether level tau is enough along the view with allowance allow
+ * (ceil(sqrt(K / (8 allow))) <= tau); -1 where the cheaper bounds of quotient.c already show it
+ * (crisp__slefe_quotient_curvature_mid, never below the full ones: where it names tau, so would
+ * the full bound, and every later step only lowers K), tried first over the whole patch where the
+ * weights vary (over the pieces it saved less than it cost on occt_linkrods.step). */
 static double curvature_sum(const double *c, int du, int dv, double enough, const double *kw,
-                            double *dmin, double *dmax)
+                            double allow, int tau, double *dmin, double *dmax)
 {
     int n = (du + 1) * (dv + 1);
     double lo = INFINITY, hi = -INFINITY;
@@ -68,13 +73,22 @@ static double curvature_sum(const double *c, int du, int dv, double enough, cons
         lo = fmin(lo, d), hi = fmax(hi, d);
     }
     *dmin = lo, *dmax = hi;
+    int vary = 0;
+    for (int i = 1; i < n; i++)
+        vary |= c[2 * i + 1] != c[1];
     double K = INFINITY;
     for (int i = 0; i < 3 && (i == 0 || K > enough); i++) {
         double Kk;
-        if (kw && !isnan(kw[i]))
+        if (kw && !isnan(kw[i])) {
             Kk = kw[i];
-        else
+        } else {
+            if (vary && allow > 0 && i == 0) {
+                double km;
+                crisp__slefe_quotient_curvature_mid(c, 1, du, dv, 1 << i, &km);
+                if (ceil(sqrt(crisp__min(K, km) / (8 * allow))) <= tau) return -1;
+            }
             crisp__slefe_quotient_curvature(c, 1, du, dv, 1 << i, &Kk);
+        }
         K = fmin(K, Kk);
     }
     return K;
@@ -86,7 +100,7 @@ double crisp__depth_error_bound(const crisp_bezier_patch *p, crisp_mat4 view_pro
     double lo = 0, hi = 0, c[2 * MAXN * MAXN];
     if (wmin) *wmin = 0;
     if (!clip_depths(p, view_proj, c)) return 0;
-    double k = curvature_sum(c, p->du, p->dv, 0, NULL, &lo, &hi);
+    double k = curvature_sum(c, p->du, p->dv, 0, NULL, 0, 0, &lo, &hi);
     if (wmin) *wmin = lo;
     if (!isfinite(k)) return INFINITY;
     double h = 1.0 / (tau < 1 ? 1 : tau);
@@ -115,26 +129,17 @@ int crisp__depth_tess_level_kw(const crisp_bezier_patch *p, crisp_mat4 view_proj
 {
     double lo = INFINITY, hi = -INFINITY, c[2 * MAXN * MAXN];
     if (!clip_depths(p, view_proj, c)) return tau;
-    int n = (p->du + 1) * (p->dv + 1), vary = 0;
+    int n = (p->du + 1) * (p->dv + 1);
     for (int i = 0; i < n; i++) {
         double d = c[2 * i] / c[2 * i + 1];
         if (!(d > 0) || !isfinite(d)) return tau;
         lo = crisp__min(lo, d), hi = crisp__max(hi, d);
-        vary |= c[2 * i + 1] != c[1];
     }
     double allow = eps * crisp__depth_px_scale(view_proj, width, height) * lo;
     if (!(allow > 0) || hi - lo <= allow) return tau;
-    /* Level tau is enough while K / (8 tau^2) <= allow. Where the weights vary, the cheaper bound
-     * crisp__slefe_quotient_curvature_mid (never below the one curvature_sum forms) first: where
-     * it already names tau, so would the other (ceil(sqrt(K / (8 allow))) does not fall as K
-     * rises), and the level is the same. */
-    if (vary && (!kw || isnan(kw[0]))) {
-        double km;
-        crisp__slefe_quotient_curvature_mid(c, 1, p->du, p->dv, &km);
-        if (isfinite(km) && ceil(sqrt(km / (8 * allow))) <= tau) return tau;
-    }
-    double k = curvature_sum(c, p->du, p->dv, 8 * allow * tau * tau, kw, &lo, &hi);
-    if (!isfinite(k)) return tau;
+    /* Level tau is enough while K / (8 tau^2) <= allow. */
+    double k = curvature_sum(c, p->du, p->dv, 8 * allow * tau * tau, kw, allow, tau, &lo, &hi);
+    if (!isfinite(k) || k < 0) return tau;
     double need = ceil(sqrt(k / (8 * allow)));
     if (!(need <= max_level)) return max_level + 1;
     return (int)need > tau ? (int)need : tau;

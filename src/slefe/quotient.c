@@ -213,11 +213,12 @@ static void split_half(const double *c, int st, int from, int du, int dv, int di
 
 /* The largest piece_sums over the pieces of c halved su times in s and sv times in t, into K
  * (the caller's maxima so far). */
-static void halves(const double *c, int nc, int from, int du, int dv, int su, int sv, double *K)
+static void halves(const double *c, int nc, int from, int du, int dv, int su, int sv, int mid_only,
+                   double *K)
 {
     if (!su && !sv) {
         double Kp[4];
-        piece_sums(c, nc, du, dv, 0, Kp);
+        piece_sums(c, nc, du, dv, mid_only, Kp);
         for (int r = 0; r < nc; r++)
             K[r] = crisp__max(K[r], Kp[r]);
         return;
@@ -225,15 +226,15 @@ static void halves(const double *c, int nc, int from, int du, int dv, int su, in
     double lo[4 * QN * QN], hi[4 * QN * QN];
     int dir = su ? 0 : 1;
     split_half(c, nc + 1, from, du, dv, dir, lo, hi);
-    halves(lo, nc, from, du, dv, su - !dir, sv - dir, K);
-    halves(hi, nc, from, du, dv, su - !dir, sv - dir, K);
+    halves(lo, nc, from, du, dv, su - !dir, sv - dir, mid_only, K);
+    halves(hi, nc, from, du, dv, su - !dir, sv - dir, mid_only, K);
 }
 
-void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, int k, double *K)
+static void curvature(const double *c, int nc, int du, int dv, int k, int mid_only, double *K)
 {
     int st = nc + 1, n = (du + 1) * (dv + 1);
     if (k <= 1 || du >= QN - 1 || dv >= QN - 1) {
-        piece_sums(c, nc, du, dv, 0, K);
+        piece_sums(c, nc, du, dv, mid_only, K);
         return;
     }
     /* The halves' coefficients differ from exact ones by a few ulps of their magnitude, which
@@ -244,12 +245,17 @@ void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, in
     int levels = k >= 4 ? 2 : 1;
     for (int r = 0; r < nc; r++)
         K[r] = 0;
-    halves(c, nc, from, du, dv, levels, levels, K);
+    halves(c, nc, from, du, dv, levels, levels, mid_only, K);
     for (int r = 0; r < nc; r++)
         K[r] *= (double)k * k * (1 + 1e-9);
 }
 
-void crisp__slefe_quotient_curvature_mid(const double *c, int nc, int du, int dv, double *K)
+void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, int k, double *K)
 {
-    piece_sums(c, nc, du, dv, 1, K);
+    curvature(c, nc, du, dv, k, 0, K);
+}
+
+void crisp__slefe_quotient_curvature_mid(const double *c, int nc, int du, int dv, int k, double *K)
+{
+    curvature(c, nc, du, dv, k, 1, K);
 }

@@ -104,11 +104,10 @@ crisp_status crisp__slefe_to_clip(const char *fn, const crisp_bezier_patch *p,
  * weight w last), from its k x k pieces (k = 1: the whole patch; the bound over k = 2, 4 pieces is
  * tighter; quotient.c has the argument). INFINITY where a weight is not positive. */
 void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, int k, double *K);
-/* A cheaper bound of the same kind over the whole patch, never below
- * crisp__slefe_quotient_curvature(c, nc, du, dv, 1, K) (bit for bit its first candidate: l the
- * middle of the values, without the fitted l's degree raise): enough where a caller only needs
- * K below some threshold and this one is. */
-void crisp__slefe_quotient_curvature_mid(const double *c, int nc, int du, int dv, double *K);
+/* A cheaper bound of the same kind, never below crisp__slefe_quotient_curvature(c, nc, du, dv, k,
+ * K) (per piece bit for bit its first candidate: l the middle of the values, without the fitted
+ * l's degree raise): enough where a caller only needs K below some threshold and this one is. */
+void crisp__slefe_quotient_curvature_mid(const double *c, int nc, int du, int dv, int k, double *K);
 
 /* What crisp__slefe_patch_tess_level formed on the way that another bound of the same patch can
  * reuse: kw[i], the curvature sum K of the Euclidean clip W = H_w / w over the patch's 2^i x 2^i

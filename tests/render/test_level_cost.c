@@ -195,7 +195,7 @@ static void test_mid_bound(void **state)
         }
         double full[3], mid[3];
         crisp__slefe_quotient_curvature(c, 3, du, dv, 1, full);
-        crisp__slefe_quotient_curvature_mid(c, 3, du, dv, mid);
+        crisp__slefe_quotient_curvature_mid(c, 3, du, dv, 1, mid);
         for (int r = 0; r < 3; r++) {
             if (!(mid[r] >= full[r]))
                 fail_msg("trial %d (%d x %d) coordinate %d: mid-only bound %.17g below the full "
