@@ -65,30 +65,29 @@ static int clip_depths(const crisp_bezier_patch *p, crisp_mat4 m, double *c)
 static double curvature_sum(const double *c, int du, int dv, double enough, const double *kw,
                             double allow, int tau, double *dmin, double *dmax)
 {
-    int n = (du + 1) * (dv + 1);
+    int n = (du + 1) * (dv + 1), vary = 0;
+    for (int i = 1; i < n; i++)
+        vary |= c[2 * i + 1] != c[1];
+    if (vary && allow > 0 && !(kw && !isnan(kw[0]))) {
+        /* (a weight that is not positive makes it INFINITY: the loop below then returns that) */
+        double km;
+        crisp__slefe_quotient_curvature_mid(c, 1, du, dv, 1, &km);
+        if (ceil(sqrt(km / (8 * allow))) <= tau) return -1;
+    }
     double lo = INFINITY, hi = -INFINITY;
     for (int i = 0; i < n; i++) {
         double w = c[2 * i + 1], d = c[2 * i] / w;
         if (!(w > 0) || !(d > 0) || !isfinite(d)) return INFINITY;
-        lo = fmin(lo, d), hi = fmax(hi, d);
+        lo = crisp__min(lo, d), hi = crisp__max(hi, d);
     }
     *dmin = lo, *dmax = hi;
-    int vary = 0;
-    for (int i = 1; i < n; i++)
-        vary |= c[2 * i + 1] != c[1];
     double K = INFINITY;
     for (int i = 0; i < 3 && (i == 0 || K > enough); i++) {
         double Kk;
-        if (kw && !isnan(kw[i])) {
+        if (kw && !isnan(kw[i]))
             Kk = kw[i];
-        } else {
-            if (vary && allow > 0 && i == 0) {
-                double km;
-                crisp__slefe_quotient_curvature_mid(c, 1, du, dv, 1 << i, &km);
-                if (ceil(sqrt(crisp__min(K, km) / (8 * allow))) <= tau) return -1;
-            }
+        else
             crisp__slefe_quotient_curvature(c, 1, du, dv, 1 << i, &Kk);
-        }
         K = fmin(K, Kk);
     }
     return K;
