@@ -318,6 +318,8 @@ static double children_cost(build_state *b, int depth, int ix, int iy, double li
             cell_patch(b, depth + 1, cx, cy, b->child[0], b->child[1], &ch);
             m->done++;
             m->term[k] = 0;
+            m->taus[k] = 0;
+            m->infos[k] = (crisp__slefe_level_info){{NAN, NAN, NAN}};
             if (outside_frustum(&ch, c->plan->view_proj, c->gx, c->gy)) continue; /* culled */
             double hull = hull_extent_px(&ch, c->plan->view_proj, c->plan->width, c->plan->height);
             m->term[k] = INFINITY;
@@ -353,9 +355,8 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
     /* what the level searches of this cell and of its children formed (the depth bound reuses
      * the W curvature) */
     crisp__slefe_level_info info = {{NAN, NAN, NAN}};
-    child_memo kids = {.done = 0};
-    for (int k = 0; k < 4; k++)
-        kids.infos[k] = info;
+    child_memo kids; /* formed by children_cost, in order */
+    kids.done = 0;
     if (known_info) info = *known_info;
     if (!outside_frustum(&sub, c->plan->view_proj, c->gx, c->gy)) {
         int tau = 0;
