@@ -55,22 +55,39 @@ static int clip_depths(const crisp_bezier_patch *p, crisp_mat4 m, double *c)
  * asks for more than `enough`; the control points' depth range into dmin, dmax. The bounds are
  * src/slefe/quotient.c's (shared with the screen bound): f - l over the quotient's derivatives,
  * l the middle of the depths or, for varying weights, fitted to their slopes. INFINITY when a
- * weight or a depth is not positive. */
-static double curvature_sum(const double *c, int du, int dv, double enough, double *dmin,
-                            double *dmax)
+ * weight or a depth is not positive. kw (or NULL): the same bounds where the screen bound's level
+ * search formed them (crisp__slefe_level_info; NAN where not), taken instead of forming them.
+ * allow > 0: the caller only asks whether level tau is enough along the view with allowance allow
+ * (ceil(sqrt(K / (8 allow))) <= tau); -1 where the cheaper bounds of quotient.c already show it
+ * (crisp__slefe_quotient_curvature_mid, never below the full ones: where it names tau, so would
+ * the full bound, and every later step only lowers K), tried first over the whole patch where the
+ * weights vary (over the pieces it saved less than it cost on occt_linkrods.step). */
+static double curvature_sum(const double *c, int du, int dv, double enough, const double *kw,
+                            double allow, int tau, double *dmin, double *dmax)
 {
-    int n = (du + 1) * (dv + 1);
+    int n = (du + 1) * (dv + 1), vary = 0;
+    for (int i = 1; i < n; i++)
+        vary |= c[2 * i + 1] != c[1];
+    if (vary && allow > 0 && !(kw && !isnan(kw[0]))) {
+        /* (a weight that is not positive makes it INFINITY: the loop below then returns that) */
+        double km;
+        crisp__slefe_quotient_curvature_mid(c, 1, du, dv, 1, &km);
+        if (ceil(sqrt(km / (8 * allow))) <= tau) return -1;
+    }
     double lo = INFINITY, hi = -INFINITY;
     for (int i = 0; i < n; i++) {
         double w = c[2 * i + 1], d = c[2 * i] / w;
         if (!(w > 0) || !(d > 0) || !isfinite(d)) return INFINITY;
-        lo = fmin(lo, d), hi = fmax(hi, d);
+        lo = crisp__min(lo, d), hi = crisp__max(hi, d);
     }
     *dmin = lo, *dmax = hi;
     double K = INFINITY;
-    for (int k = 1; k <= 4 && (k == 1 || K > enough); k *= 2) {
+    for (int i = 0; i < 3 && (i == 0 || K > enough); i++) {
         double Kk;
-        crisp__slefe_quotient_curvature(c, 1, du, dv, k, &Kk);
+        if (kw && !isnan(kw[i]))
+            Kk = kw[i];
+        else
+            crisp__slefe_quotient_curvature(c, 1, du, dv, 1 << i, &Kk);
         K = fmin(K, Kk);
     }
     return K;
@@ -82,7 +99,7 @@ double crisp__depth_error_bound(const crisp_bezier_patch *p, crisp_mat4 view_pro
     double lo = 0, hi = 0, c[2 * MAXN * MAXN];
     if (wmin) *wmin = 0;
     if (!clip_depths(p, view_proj, c)) return 0;
-    double k = curvature_sum(c, p->du, p->dv, 0, &lo, &hi);
+    double k = curvature_sum(c, p->du, p->dv, 0, NULL, 0, 0, &lo, &hi);
     if (wmin) *wmin = lo;
     if (!isfinite(k)) return INFINITY;
     double h = 1.0 / (tau < 1 ? 1 : tau);
@@ -103,19 +120,25 @@ double crisp__depth_px_scale(crisp_mat4 m, int width, int height)
 int crisp__depth_tess_level(const crisp_bezier_patch *p, crisp_mat4 view_proj, int width,
                             int height, double eps, int tau, int max_level)
 {
+    return crisp__depth_tess_level_kw(p, view_proj, width, height, eps, tau, max_level, NULL);
+}
+
+int crisp__depth_tess_level_kw(const crisp_bezier_patch *p, crisp_mat4 view_proj, int width,
+                               int height, double eps, int tau, int max_level, const double *kw)
+{
     double lo = INFINITY, hi = -INFINITY, c[2 * MAXN * MAXN];
     if (!clip_depths(p, view_proj, c)) return tau;
     int n = (p->du + 1) * (p->dv + 1);
     for (int i = 0; i < n; i++) {
         double d = c[2 * i] / c[2 * i + 1];
         if (!(d > 0) || !isfinite(d)) return tau;
-        lo = fmin(lo, d), hi = fmax(hi, d);
+        lo = crisp__min(lo, d), hi = crisp__max(hi, d);
     }
     double allow = eps * crisp__depth_px_scale(view_proj, width, height) * lo;
     if (!(allow > 0) || hi - lo <= allow) return tau;
     /* Level tau is enough while K / (8 tau^2) <= allow. */
-    double k = curvature_sum(c, p->du, p->dv, 8 * allow * tau * tau, &lo, &hi);
-    if (!isfinite(k)) return tau;
+    double k = curvature_sum(c, p->du, p->dv, 8 * allow * tau * tau, kw, allow, tau, &lo, &hi);
+    if (!isfinite(k) || k < 0) return tau;
     double need = ceil(sqrt(k / (8 * allow)));
     if (!(need <= max_level)) return max_level + 1;
     return (int)need > tau ? (int)need : tau;

@@ -26,5 +26,10 @@ double crisp__depth_px_scale(crisp_mat4 view_proj, int width, int height);
  * reaches the eye plane (no depth bound there: the screen bound splits such patches). */
 int crisp__depth_tess_level(const crisp_bezier_patch *p, crisp_mat4 view_proj, int width,
                             int height, double eps, int tau, int max_level);
+/* The same, with the curvature bounds of p's Euclidean clip W that the screen bound's level search
+ * formed for p with the same view_proj (crisp__slefe_level_info.kw; NULL or NAN entries: formed
+ * here): the same level, without forming them twice. */
+int crisp__depth_tess_level_kw(const crisp_bezier_patch *p, crisp_mat4 view_proj, int width,
+                               int height, double eps, int tau, int max_level, const double *kw);
 
 #endif

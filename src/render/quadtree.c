@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "crisp/slefe.h"
+#include "slefe/slefe_internal.h"
 
 #define CRISP__NB_CAP 256 /* leaves across one side examined by the edge rule */
 
@@ -72,11 +73,43 @@ typedef struct build_state {
     crisp_arena *arena;
     double storage[2][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4 * 2];
     double child[2][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4 * 2]; /* children_cost */
+    /* The patch's four quarters (depth-1 cells), made once per patch when first needed: one split
+     * in u and two in v, the same numbers crisp__subpatch gives each of them from the patch with
+     * two cuts (its cuts at 1/2 are these splits), for 3 splits instead of 8. */
+    double quarter[4][(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4];
+    crisp_bezier_patch quarter_patch[4];
+    int have_quarters;
+    crisp__slefe_search search; /* build_cell's level search, between its two steps */
     size_t node_cap, leaf_cap;
     const crisp__forced *forced; /* this patch's forced splits */
     size_t forced_count;
     crisp_status st;
 } build_state;
+
+/* Sub-patch (depth, ix, iy) of the patch into storage (or the kept quarter at depth 1). */
+static void cell_patch(build_state *b, int depth, int ix, int iy, double *storage, double *tmp,
+                       crisp_bezier_patch *dest)
+{
+    if (depth == 1) {
+        if (!b->have_quarters) {
+            const crisp_bezier_patch *p = b->root;
+            crisp_bezier_patch half[2] = {*p, *p}, *q = b->quarter_patch;
+            half[0].cpw = storage, half[1].cpw = tmp;
+            crisp_bezier_patch_split_u(p, 0.5, &half[0], &half[1]);
+            for (int k = 0; k < 4; k++) {
+                q[k] = half[k & 1];
+                q[k].cpw = b->quarter[k];
+            }
+            crisp_bezier_patch_split_v(&half[0], 0.5, &q[0], &q[2]);
+            crisp_bezier_patch_split_v(&half[1], 0.5, &q[1], &q[3]);
+            b->have_quarters = 1;
+        }
+        *dest = b->quarter_patch[ix + 2 * iy];
+        return;
+    }
+    double sz = ldexp(1.0, -depth);
+    crisp__subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, storage, tmp, dest);
+}
 
 static int32_t push_node(build_state *b)
 {
@@ -267,26 +300,40 @@ static int is_forced(const build_state *b, uint32_t patch, int depth, int ix, in
  * its halves' (occt_linkrods.step's 6 x 10 patches: 977 px at level 1 for 15 px sampled; a
  * 216 px patch took level 49 where its quarters take 7 to 10), and the level's search cannot see
  * that; the children's levels can. */
-static double children_cost(build_state *b, int depth, int ix, int iy, double limit, int taus[4])
+typedef struct child_memo {
+    int done;       /* children formed so far, in order */
+    double term[4]; /* each one's cost: 0 when culled, INFINITY when it cannot get a level here */
+    int taus[4];    /* its level, 0 when culled or within eps (a tau-1 leaf decided by its hull) */
+    crisp__slefe_level_info infos[4]; /* what its level search formed */
+} child_memo;
+
+static double children_cost(build_state *b, int depth, int ix, int iy, double limit, child_memo *m)
 {
     const tree_ctx *c = b->c;
-    double cost = 0, sz = ldexp(1.0, -(depth + 1));
-    for (int k = 0; k < 4; k++)
-        taus[k] = 0;
+    double cost = 0;
     for (int k = 0; k < 4 && cost < limit; k++) {
-        int cx = 2 * ix + (k & 1), cy = 2 * iy + (k >> 1), tau = 1;
-        crisp_bezier_patch ch;
-        crisp__subpatch(b->root, cx * sz, (cx + 1) * sz, cy * sz, (cy + 1) * sz, b->child[0],
-                        b->child[1], &ch);
-        if (outside_frustum(&ch, c->plan->view_proj, c->gx, c->gy)) continue; /* culled */
-        double hull = hull_extent_px(&ch, c->plan->view_proj, c->plan->width, c->plan->height);
-        if (!isfinite(hull)) return INFINITY;
-        if (hull > c->eps &&
-            (crisp_slefe_patch_tess_level(&ch, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau) ||
-             tau > CRISP_TESS_MAX_LEVEL))
-            return INFINITY;
-        taus[k] = hull > c->eps ? tau : 0;
-        cost += 2.0 * tau * tau + LEAF_COST;
+        if (k == m->done) {
+            int cx = 2 * ix + (k & 1), cy = 2 * iy + (k >> 1), tau = 1;
+            crisp_bezier_patch ch;
+            cell_patch(b, depth + 1, cx, cy, b->child[0], b->child[1], &ch);
+            m->done++;
+            m->term[k] = 0;
+            m->taus[k] = 0;
+            m->infos[k] = (crisp__slefe_level_info){{NAN, NAN, NAN}};
+            if (outside_frustum(&ch, c->plan->view_proj, c->gx, c->gy)) continue; /* culled */
+            double hull = hull_extent_px(&ch, c->plan->view_proj, c->plan->width, c->plan->height);
+            m->term[k] = INFINITY;
+            if (!isfinite(hull)) return INFINITY;
+            if (hull > c->eps &&
+                (crisp__slefe_patch_tess_level(&ch, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau,
+                                               &m->infos[k]) ||
+                 tau > CRISP_TESS_MAX_LEVEL))
+                return INFINITY;
+            m->taus[k] = hull > c->eps ? tau : 0;
+            m->term[k] = 2.0 * tau * tau + LEAF_COST;
+        }
+        if (!isfinite(m->term[k])) return INFINITY;
+        cost += m->term[k];
     }
     return cost;
 }
@@ -294,18 +341,23 @@ static double children_cost(build_state *b, int depth, int ix, int iy, double li
 /* Classify cell (depth, ix, iy) of the patch; node is its tree node. box: an ancestor chose to
  * split until the pieces' hulls are within eps (no SLEFE is formed below it). known > 0: the
  * cell's SLEFE level, found by its parent's children_cost (the same sub-patch, so the same
- * level). */
-static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, int box, int known)
+ * level), with what that search formed (known_info; NULL: nothing). */
+static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, int box, int known,
+                       const crisp__slefe_level_info *known_info)
 {
     if (b->st) return;
     const tree_ctx *c = b->c;
-    double sz = ldexp(1.0, -depth);
     crisp_bezier_patch sub;
-    crisp__subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, b->storage[0],
-                    b->storage[1], &sub);
+    cell_patch(b, depth, ix, iy, b->storage[0], b->storage[1], &sub);
     crisp__cell leaf = {
         .ix = (uint32_t)ix, .iy = (uint32_t)iy, .depth = (uint8_t)depth, .tau = 1, .culled = 1};
-    int split = 0, child_tau[4] = {0, 0, 0, 0}, have_child_tau = 0;
+    int split = 0, have_child_tau = 0;
+    /* what the level searches of this cell and of its children formed (the depth bound reuses
+     * the W curvature) */
+    crisp__slefe_level_info info = {{NAN, NAN, NAN}};
+    child_memo kids; /* formed by children_cost, in order */
+    kids.done = 0;
+    if (known_info) info = *known_info;
     if (!outside_frustum(&sub, c->plan->view_proj, c->gx, c->gy)) {
         int tau = 0;
         /* Small on screen (issue 12): a hull within eps needs no SLEFE (tau 1, see
@@ -329,20 +381,42 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
              * triangles split, 13.7 k as one leaf.) */
             int t2 = 0;
             if (!known && hull >= MIN_T2_PX &&
-                crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, 2, &t2) == CRISP_OK && t2 <= 2)
+                crisp__slefe_patch_tess_level(&sub, &c->view, c->eps, 2, &t2, &info) == CRISP_OK &&
+                t2 <= 2)
                 known = t2;
             else
                 box_split = box = 1;
         }
-        crisp_status st =
-            hull <= c->eps || box_split || known
-                ? CRISP_OK
-                : crisp_slefe_patch_tess_level(&sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL, &tau);
+        crisp_status st = CRISP_OK;
+        int early = 0; /* split by the children's rule from the level's range alone (below) */
+        if (!(hull <= c->eps || box_split || known)) {
+            int lo = 0, hi = 0;
+            st = crisp__slefe_search_begin(&b->search, &sub, &c->view, c->eps, CRISP_TESS_MAX_LEVEL,
+                                           &tau, &lo, &hi, &info);
+            if (!st && !tau) {
+                /* The search's loop (the SLEFE at high levels: most of a high-degree patch's
+                 * search) is not needed where the children's rule below splits whatever level in
+                 * [lo, hi] it names: every such level is one the rule applies to (at least
+                 * CHILD_TRY_TAU, at most 64, none that the hull's rule splits first), and the
+                 * children draw less than 3/4 of the least of them. The children's levels are
+                 * kept (kids) for the rule below where this does not decide. */
+                int kh = isfinite(hull) ? (int)ceil(log2(hull / c->eps)) : 0;
+                if (lo >= CHILD_TRY_TAU && hi <= CRISP_TESS_MAX_LEVEL &&
+                    depth < c->plan->max_depth && isfinite(hull) &&
+                    (sub.du >= CHILD_TRY_DEGREE || sub.dv >= CHILD_TRY_DEGREE) &&
+                    !(kh < 6 && 4.0 * ldexp(1.0, 2 * kh) < (double)hi * hi)) {
+                    double least = 2.0 * lo * lo + LEAF_COST;
+                    if (children_cost(b, depth, ix, iy, 0.75 * least, &kids) < 0.75 * least)
+                        early = have_child_tau = 1, st = CRISP_ERR_NUMERIC;
+                }
+                if (!early) st = crisp__slefe_search_finish(&b->search, &sub, &tau, &info);
+            }
+        }
         if (known && !box_split) tau = known;
         if (hull <= c->eps) tau = 1;
         /* A rational sub-patch where the homogeneous bound reaches W <= 0: a level from the
          * bound that does not divide by the weights (rational_bound.c), if one is in reach. */
-        if (sub.rational && !box_split && isfinite(flat) && st == CRISP_ERR_NUMERIC &&
+        if (sub.rational && !box_split && !early && isfinite(flat) && st == CRISP_ERR_NUMERIC &&
             isfinite(hull)) {
             int t =
                 crisp__rational_tess_level(&sub, CRISP_TESS_MAX_LEVEL + 1, flat, c->plan->view_proj,
@@ -374,7 +448,7 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
                  * to 129 k triangles, but opened a one-pixel GL-only crack at the seam of
                  * test_cracks' quarter torus, degree 2, view 9: left for the GL stitching.) */
                 double mine = 2.0 * tau * tau + LEAF_COST;
-                if (children_cost(b, depth, ix, iy, 0.75 * mine, child_tau) < 0.75 * mine) {
+                if (children_cost(b, depth, ix, iy, 0.75 * mine, &kids) < 0.75 * mine) {
                     st = CRISP_ERR_NUMERIC;
                     have_child_tau = 1;
                 }
@@ -396,8 +470,9 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
             return;
         } else {
             /* Within eps along the view too (issue 13, depth_bound.c). */
-            tau = crisp__depth_tess_level(&sub, c->plan->view_proj, c->plan->width, c->plan->height,
-                                          c->eps, tau, CRISP_TESS_MAX_LEVEL);
+            tau = crisp__depth_tess_level_kw(&sub, c->plan->view_proj, c->plan->width,
+                                             c->plan->height, c->eps, tau, CRISP_TESS_MAX_LEVEL,
+                                             info.kw);
             if (tau > CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth) {
                 split = 1;
             } else {
@@ -436,7 +511,7 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
     b->pp->nodes[node].child = first;
     for (int k = 0; k < 4; k++)
         build_cell(b, first + k, depth + 1, 2 * ix + (k & 1), 2 * iy + (k >> 1), box,
-                   have_child_tau ? child_tau[k] : 0);
+                   have_child_tau ? kids.taus[k] : 0, have_child_tau ? &kids.infos[k] : NULL);
 }
 
 /* Items [begin, end) of the patch list (every patch, or the redo list), nodes and leaves in
@@ -465,6 +540,7 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
         }
         b->arena = arena;
         b->node_cap = b->leaf_cap = 0;
+        b->have_quarters = 0;
         b->st = CRISP_OK;
         uint8_t mode = !c->redo && c->mode ? c->mode[p] : CRISP__PATCH_OPEN;
         if (mode == CRISP__PATCH_GROUPED) continue; /* no tree: its group leaf stands for it */
@@ -495,7 +571,7 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
             else
                 pp->nodes[root].leaf = li;
         } else {
-            build_cell(b, root, 0, 0, 0, 0, 0);
+            build_cell(b, root, 0, 0, 0, 0, 0, NULL);
         }
         if (b->st) plan->worker_status[worker] = b->st;
         for (uint32_t l = 0; l < pp->leaf_count; l++)

@@ -30,21 +30,29 @@
  * coefficients x (du + 1 per row), widened for rounding. */
 static void diff_bounds(const double *x, int du, int dv, double d1[2], double d2[3])
 {
+    /* row by row, each difference in its own loop (no branches in the inner loops; the maxima do
+     * not depend on the order they are taken in) */
     double a = 0, b = 0, c = 0, e = 0, f = 0, mag = 0;
     int n = du + 1;
-    for (int j = 0; j <= dv; j++)
-        for (int i = 0; i <= du; i++) {
-            double v = x[j * n + i];
-            mag = crisp__max(mag, fabs(v));
-            if (i + 1 <= du) e = crisp__max(e, fabs(x[j * n + i + 1] - v));
-            if (j + 1 <= dv) f = crisp__max(f, fabs(x[(j + 1) * n + i] - v));
-            if (i + 2 <= du) a = crisp__max(a, fabs(v - 2 * x[j * n + i + 1] + x[j * n + i + 2]));
-            if (j + 2 <= dv)
-                b = crisp__max(b, fabs(v - 2 * x[(j + 1) * n + i] + x[(j + 2) * n + i]));
-            if (i + 1 <= du && j + 1 <= dv)
-                c = crisp__max(
-                    c, fabs(v - x[j * n + i + 1] - x[(j + 1) * n + i] + x[(j + 1) * n + i + 1]));
-        }
+    for (int j = 0; j <= dv; j++) {
+        const double *r = x + j * n;
+        for (int i = 0; i <= du; i++)
+            mag = crisp__max(mag, fabs(r[i]));
+        for (int i = 0; i < du; i++)
+            e = crisp__max(e, fabs(r[i + 1] - r[i]));
+        for (int i = 0; i + 2 <= du; i++)
+            a = crisp__max(a, fabs(r[i] - 2 * r[i + 1] + r[i + 2]));
+        if (j == dv) continue;
+        const double *q = r + n;
+        for (int i = 0; i <= du; i++)
+            f = crisp__max(f, fabs(q[i] - r[i]));
+        for (int i = 0; i < du; i++)
+            c = crisp__max(c, fabs(r[i] - r[i + 1] - q[i] + q[i + 1]));
+        if (j + 2 > dv) continue;
+        const double *o = q + n;
+        for (int i = 0; i <= du; i++)
+            b = crisp__max(b, fabs(r[i] - 2 * q[i] + o[i]));
+    }
     double round = 16.0 * DBL_EPSILON * mag;
     d1[0] = du * (e + round), d1[1] = dv * (f + round);
     d2[0] = du * (du - 1) * (a + round), d2[1] = dv * (dv - 1) * (b + round);
@@ -94,8 +102,9 @@ static void raise_plus(const double *x, const double l[4], const double *y, int 
 
 /* A + B + 2 C of each coordinate r < nc of the patch with interleaved coefficients c (nc + 1
  * values per control point, the weight last), in its own parameters, into K; INFINITY when a
- * weight is not positive. */
-static void piece_sums(const double *c, int nc, int du, int dv, double *K)
+ * weight is not positive. mid_only: l the middle of the values alone (the fitted l is not tried:
+ * a bound never below the full one, for about a third of its cost). */
+static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, double *K)
 {
     int n = (du + 1) * (dv + 1), st = nc + 1, ne = (du + 2) * (dv + 2);
     double w[QN * QN], we[QN * QN], wlo = INFINITY, whi = -INFINITY;
@@ -120,7 +129,7 @@ static void piece_sums(const double *c, int nc, int du, int dv, double *K)
     }
     double w1[2], w2[3], we1[2], we2[3];
     diff_bounds(w, du, dv, w1, w2);
-    int fit = du + 1 < QN && dv + 1 < QN;
+    int fit = !mid_only && du + 1 < QN && dv + 1 < QN;
     if (fit) {
         raise_plus(w, NULL, NULL, du, dv, we);
         diff_bounds(we, du + 1, dv + 1, we1, we2);
@@ -204,11 +213,12 @@ static void split_half(const double *c, int st, int from, int du, int dv, int di
 
 /* The largest piece_sums over the pieces of c halved su times in s and sv times in t, into K
  * (the caller's maxima so far). */
-static void halves(const double *c, int nc, int from, int du, int dv, int su, int sv, double *K)
+static void halves(const double *c, int nc, int from, int du, int dv, int su, int sv, int mid_only,
+                   double *K)
 {
     if (!su && !sv) {
         double Kp[4];
-        piece_sums(c, nc, du, dv, Kp);
+        piece_sums(c, nc, du, dv, mid_only, Kp);
         for (int r = 0; r < nc; r++)
             K[r] = crisp__max(K[r], Kp[r]);
         return;
@@ -216,15 +226,15 @@ static void halves(const double *c, int nc, int from, int du, int dv, int su, in
     double lo[4 * QN * QN], hi[4 * QN * QN];
     int dir = su ? 0 : 1;
     split_half(c, nc + 1, from, du, dv, dir, lo, hi);
-    halves(lo, nc, from, du, dv, su - !dir, sv - dir, K);
-    halves(hi, nc, from, du, dv, su - !dir, sv - dir, K);
+    halves(lo, nc, from, du, dv, su - !dir, sv - dir, mid_only, K);
+    halves(hi, nc, from, du, dv, su - !dir, sv - dir, mid_only, K);
 }
 
-void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, int k, double *K)
+static void curvature(const double *c, int nc, int du, int dv, int k, int mid_only, double *K)
 {
     int st = nc + 1, n = (du + 1) * (dv + 1);
     if (k <= 1 || du >= QN - 1 || dv >= QN - 1) {
-        piece_sums(c, nc, du, dv, K);
+        piece_sums(c, nc, du, dv, mid_only, K);
         return;
     }
     /* The halves' coefficients differ from exact ones by a few ulps of their magnitude, which
@@ -235,7 +245,17 @@ void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, in
     int levels = k >= 4 ? 2 : 1;
     for (int r = 0; r < nc; r++)
         K[r] = 0;
-    halves(c, nc, from, du, dv, levels, levels, K);
+    halves(c, nc, from, du, dv, levels, levels, mid_only, K);
     for (int r = 0; r < nc; r++)
         K[r] *= (double)k * k * (1 + 1e-9);
+}
+
+void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, int k, double *K)
+{
+    curvature(c, nc, du, dv, k, 0, K);
+}
+
+void crisp__slefe_quotient_curvature_mid(const double *c, int nc, int du, int dv, int k, double *K)
+{
+    curvature(c, nc, du, dv, k, 1, K);
 }

@@ -192,6 +192,12 @@ static crisp_status error_classic2(const char *fn, const crisp_bezier_patch *p, 
     return CRISP_OK;
 }
 
+/* The curvature sums (quotient.c) of the Euclidean clip coordinates X', Y', W over the whole
+ * patch (k = 1) and its 2 x 2 and 4 x 4 pieces, formed once per level search: the search asks for
+ * them in turn (the whole patch first, the pieces while the bound is above its target), and the
+ * depth bound along the view (depth_bound.c) needs W's (crisp__slefe_level_info). */
+typedef crisp__slefe_euclid_sums euclid_sums;
+
 /* For a patch whose weights vary: the bound at tau = 1 from the curvature of the Euclidean clip
  * coordinates (quotient.c), the "joint" bound of the top comment's two terms. The rasterizer draws
  * T = sum l_k Q(x_k), Q = H / w the clip point of the surface point (the camera's W), for the
@@ -199,10 +205,11 @@ static crisp_status error_classic2(const char *fn, const crisp_bezier_patch *p, 
  * |T_r - S_r| <= K_r h^2 / 8 (quotient.c), T_w >= the least W of the patch, which is at least
  * min_k H_w,k / w_k, and |x_S| <= max_k |H_x,k / H_w,k| (the projected patch lies in the hull of
  * its projected control points where every H_w,k > 0). The bound at tau is c1 / tau^2 exactly.
- * INFINITY where a weight or a control point's W is not positive. */
+ * INFINITY where a weight or a control point's W is not positive. sums: what earlier calls for
+ * the same patch formed (read and extended). */
 static double euclid_c1(const crisp_bezier_patch *p, const weights *wt,
                         const crisp_slefe_view *view, const double *clip, const double *err,
-                        double target)
+                        double target, euclid_sums *sums)
 {
     int n = (p->du + 1) * (p->dv + 1);
     double c[(MAXD + 1) * (MAXD + 1) * 4], wlo = INFINITY, ax = 0, ay = 0, w1 = 0;
@@ -225,11 +232,14 @@ static double euclid_c1(const crisp_bezier_patch *p, const weights *wt,
         round[r] = 16.0 * d * d * err[r == 2 ? 3 : r] / wt->lo * (1 + 2 * rel + rel * rel);
     /* The whole patch's coefficients, then (while above target) its 2 x 2 and 4 x 4 pieces. */
     double best = INFINITY;
-    for (int k = 1; k <= 4 && (k == 1 || best > target); k *= 2) {
+    for (int i = 0; i < 3 && (i == 0 || best > target); i++) {
+        if (i >= sums->formed) {
+            crisp__slefe_quotient_curvature(c, 3, p->du, p->dv, 1 << i, sums->K[i]);
+            sums->formed = i + 1;
+        }
         double K[3];
-        crisp__slefe_quotient_curvature(c, 3, p->du, p->dv, k, K);
         for (int r = 0; r < 3; r++)
-            K[r] += round[r];
+            K[r] = sums->K[i][r] + round[r];
         double ex = (K[0] + ax * K[2]) / (8.0 * wlo), ey = (K[1] + ay * K[2]) / (8.0 * wlo);
         double e = crisp__max(ex * 0.5 * view->width, ey * 0.5 * view->height) * (1.0 + 1e-9);
         best = crisp__min(best, e);
@@ -488,7 +498,8 @@ crisp_status crisp_slefe_patch_screen_error(const crisp_bezier_patch *p, int tau
     s = screen_error(fn, p, &wt, &cv, clip, err, hl, hh, tau, 0.0, err_px);
     if (wt.cpw) {
         /* the Euclidean bound (euclid_c1) is sound on its own: the smaller is kept */
-        double e = euclid_c1(p, &wt, &cv, clip, err, 0.0) / ((double)tau * tau);
+        euclid_sums sums = {.formed = 0};
+        double e = euclid_c1(p, &wt, &cv, clip, err, 0.0, &sums) / ((double)tau * tau);
         if (s == CRISP_OK && e < *err_px) *err_px = e;
         if (s != CRISP_OK && isfinite(e)) {
             *err_px = e;
@@ -528,7 +539,8 @@ crisp_status crisp__slefe_euclid_screen_error(const crisp_bezier_patch *p, int t
         return crisp_error(CRISP_ERR_INVALID_ARG, "%s: the patch is not rational", fn);
     weights wt = weights_of(p, p->cpw);
     wt.cpw = p->cpw; /* equal weights too (then it is the classical bound of the clip patch) */
-    double c1 = euclid_c1(p, &wt, &cv, clip, err, 0.0);
+    euclid_sums sums = {.formed = 0};
+    double c1 = euclid_c1(p, &wt, &cv, clip, err, 0.0, &sums);
     if (!isfinite(c1))
         return crisp_error(CRISP_ERR_NUMERIC,
                            "%s: a weight or a control point's clip W is not positive", fn);
@@ -536,10 +548,57 @@ crisp_status crisp__slefe_euclid_screen_error(const crisp_bezier_patch *p, int t
     return CRISP_OK;
 }
 
-crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const crisp_slefe_view *view,
-                                          double eps, int max_level, int *tau)
+/* The iPASS width (crisp_slefe_patch_screen's w_px at 3 segments) from the clip-space control
+ * points the level search formed: the SLEFEs of X, Y and W (Z plays no part in the width). */
+static crisp_status ipass_w_px(const char *fn, const crisp_bezier_patch *p,
+                               const crisp_slefe_view *view, const double *clip, const double *err,
+                               const double *hl, const double *hh, double *w_px)
 {
-    const char *fn = "crisp_slefe_patch_tess_level";
+    crisp_bezier_patch q = *p;
+    q.cpw = (double *)clip;
+    q.rational = 1;
+    enum { M = 3, N = CRISP_SLEFE_GRID(M) };
+    double lo[N * 4], up[N * 4];
+    for (int r = 0; r < 4; r += r == 1 ? 2 : 1)
+        crisp__slefe_patch_coordinate(&q, M, r, lo, up);
+    double wmin = INFINITY;
+    for (int g = 0; g < N; g++) {
+        for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
+            lo[g * 4 + r] -= err[r];
+            up[g * 4 + r] += err[r];
+        }
+        wmin = crisp__min(wmin, crisp__max(lo[g * 4 + 3], hl[3]));
+    }
+    if (!(wmin > 0.0))
+        return crisp_error(CRISP_ERR_NUMERIC,
+                           "%s: lower bound %g of clip-space W is not positive (the patch reaches "
+                           "the eye plane: split or cull it)",
+                           fn, wmin);
+    double best = 0.0;
+    for (int g = 0; g < N; g++) {
+        double l[4], u[4], xl, xu, yl, yu;
+        for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
+            l[r] = crisp__max(lo[g * 4 + r], hl[r]);
+            u[r] = crisp__min(up[g * 4 + r], hh[r]);
+        }
+        crisp__slefe_divide(l[0], u[0], l[3], u[3], &xl, &xu);
+        crisp__slefe_divide(l[1], u[1], l[3], u[3], &yl, &yu);
+        double wx = 0.5 * (xu - xl) * view->width, wy = 0.5 * (yu - yl) * view->height;
+        if (wx > best) best = wx;
+        if (wy > best) best = wy;
+    }
+    *w_px = best;
+    return CRISP_OK;
+}
+
+/* crisp_slefe_patch_tess_level's search up to its loop: *tau > 0 where it is decided there, else
+ * 0 and [*lo, *hi] holds the level the loop (search_finish) names, or it names max_level + 1. */
+static crisp_status search_begin(const char *fn, crisp__slefe_search *sr,
+                                 const crisp_bezier_patch *p, const crisp_slefe_view *view,
+                                 double eps, int max_level, int *tau, int *lo, int *hi)
+{
+    sr->sums.formed = 0;
+    if (tau) *tau = 0;
     crisp_status s = crisp__slefe_check_patch(fn, p, 1);
     if (!s) s = crisp__slefe_check_view(fn, view);
     if (s) return s;
@@ -548,13 +607,14 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
                            "%s: eps %g (expected > 0), max_level %d (expected 1..%d) or NULL tau",
                            fn, eps, max_level, CRISP_SLEFE_MAX_TESS_LEVEL);
     crisp__slefe_tables_init();
-    double clip[(MAXD + 1) * (MAXD + 1) * 4], err[4], hl[4], hh[4];
-    crisp_slefe_view cv;
-    centred_view(p, view, &cv);
-    view = &cv;
+    double *clip = sr->clip, *err = sr->err, *hl = sr->hl, *hh = sr->hh;
+    centred_view(p, view, &sr->view);
+    view = &sr->view;
     s = crisp__slefe_to_clip(fn, p, view, clip, err, hl, hh);
     if (s) return s;
     weights wt = weights_of(p, p->cpw);
+    sr->wcpw = wt.cpw, sr->wlo = wt.lo, sr->whi = wt.hi;
+    sr->eps = eps, sr->max_level = max_level;
     /* The classic bound falls exactly as 1 / tau^2, so it names a sound level at once: the answer
      * lies between the iPASS guess (below) and that level, and only levels below it need the
      * (costlier) SLEFE bound. */
@@ -577,7 +637,8 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
      * level at once too: from the whole patch's coefficients here, from its pieces only where
      * the level found would otherwise be above the guess (below). */
     if (wt.cpw)
-        t_classic = euclid_level(euclid_c1(p, &wt, view, clip, err, INFINITY), eps, t_classic);
+        t_classic =
+            euclid_level(euclid_c1(p, &wt, view, clip, err, INFINITY, &sr->sums), eps, t_classic);
     if (t_classic <= 2) {
         /* level 1 or 2: the bound at 1 decides, no guess needed (these are most sub-patches) */
         double e;
@@ -588,8 +649,8 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
         return CRISP_OK;
     }
     /* Start from the iPASS guess, then raise tau until the sound bound accepts it. */
-    double w_px;
-    s = crisp_slefe_patch_screen(p, 3, view, NULL, NULL, &w_px);
+    double w_px = 0.0;
+    s = ipass_w_px(fn, p, view, clip, err, hl, hh, &w_px);
     if (s) return s;
     int t = crisp_slefe_tess_level(w_px, 3, eps);
     if (t > max_level) {
@@ -601,6 +662,25 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
         *tau = t_classic; /* sound, and no more than the guess */
         return CRISP_OK;
     }
+    sr->t = t, sr->t_classic = t_classic;
+    /* The loop (search_finish) names a level it tested (from the guess up, each below
+     * t_classic), t_classic or max_level + 1; or, where it may form the Euclidean bound over the
+     * pieces, that bound's level, which may lie below the guess. */
+    *lo = wt.cpw && wt.hi > EUCLID_PIECES_RATIO * wt.lo ? 1 : t;
+    *hi = t_classic;
+    return CRISP_OK;
+}
+
+/* The search's loop, from where search_begin left it. */
+static crisp_status search_finish(const char *fn, crisp__slefe_search *sr,
+                                  const crisp_bezier_patch *p, int *tau)
+{
+    const crisp_slefe_view *view = &sr->view;
+    const double *clip = sr->clip, *err = sr->err, *hl = sr->hl, *hh = sr->hh;
+    weights wt = {sr->wcpw, sr->wlo, sr->whi};
+    double eps = sr->eps;
+    int max_level = sr->max_level, t = sr->t, t_classic = sr->t_classic;
+    crisp_status s;
     int first = 1;
     for (;;) {
         double e;
@@ -613,7 +693,8 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
         if (first && wt.cpw && t_classic > t + 1 && wt.hi > EUCLID_PIECES_RATIO * wt.lo) {
             /* above the guess: the Euclidean bound over the pieces, until it names t + 1 */
             double target = eps * (t + 1.0) * (t + 1.0);
-            t_classic = euclid_level(euclid_c1(p, &wt, view, clip, err, target), eps, t_classic);
+            t_classic =
+                euclid_level(euclid_c1(p, &wt, view, clip, err, target, &sr->sums), eps, t_classic);
         }
         first = 0;
         if (t >= max_level) {
@@ -633,7 +714,54 @@ crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const cri
         if (k > 1) {
             int rounded = (nt + k - 1) / k * k;
             nt = rounded <= max_level ? rounded : max_level;
+            if (nt >= t_classic) {
+                /* (the rounding reached the classic level, which is sound: until session 8 the
+                 * search went on at the rounded level and could name one above it) */
+                *tau = t_classic;
+                return CRISP_OK;
+            }
         }
         t = nt;
     }
+}
+
+static void search_info(const crisp__slefe_search *sr, crisp__slefe_level_info *info)
+{
+    for (int i = 0; i < 3; i++)
+        info->kw[i] = i < sr->sums.formed ? sr->sums.K[i][2] : NAN;
+}
+
+crisp_status crisp__slefe_search_begin(crisp__slefe_search *sr, const crisp_bezier_patch *p,
+                                       const crisp_slefe_view *view, double eps, int max_level,
+                                       int *tau, int *lo, int *hi, crisp__slefe_level_info *info)
+{
+    crisp_status s =
+        search_begin("crisp_slefe_patch_tess_level", sr, p, view, eps, max_level, tau, lo, hi);
+    if (info) search_info(sr, info);
+    return s;
+}
+
+crisp_status crisp__slefe_search_finish(crisp__slefe_search *sr, const crisp_bezier_patch *p,
+                                        int *tau, crisp__slefe_level_info *info)
+{
+    crisp_status s = search_finish("crisp_slefe_patch_tess_level", sr, p, tau);
+    if (info) search_info(sr, info);
+    return s;
+}
+
+crisp_status crisp_slefe_patch_tess_level(const crisp_bezier_patch *p, const crisp_slefe_view *view,
+                                          double eps, int max_level, int *tau)
+{
+    return crisp__slefe_patch_tess_level(p, view, eps, max_level, tau, NULL);
+}
+
+crisp_status crisp__slefe_patch_tess_level(const crisp_bezier_patch *p,
+                                           const crisp_slefe_view *view, double eps, int max_level,
+                                           int *tau, crisp__slefe_level_info *info)
+{
+    crisp__slefe_search sr;
+    int lo, hi;
+    crisp_status s = crisp__slefe_search_begin(&sr, p, view, eps, max_level, tau, &lo, &hi, info);
+    if (s || *tau) return s;
+    return crisp__slefe_search_finish(&sr, p, tau, info);
 }

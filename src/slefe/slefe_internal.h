@@ -104,6 +104,52 @@ crisp_status crisp__slefe_to_clip(const char *fn, const crisp_bezier_patch *p,
  * weight w last), from its k x k pieces (k = 1: the whole patch; the bound over k = 2, 4 pieces is
  * tighter; quotient.c has the argument). INFINITY where a weight is not positive. */
 void crisp__slefe_quotient_curvature(const double *c, int nc, int du, int dv, int k, double *K);
+/* A cheaper bound of the same kind, never below crisp__slefe_quotient_curvature(c, nc, du, dv, k,
+ * K) (per piece bit for bit its first candidate: l the middle of the values, without the fitted
+ * l's degree raise): enough where a caller only needs K below some threshold and this one is. */
+void crisp__slefe_quotient_curvature_mid(const double *c, int nc, int du, int dv, int k, double *K);
+
+/* What crisp__slefe_patch_tess_level formed on the way that another bound of the same patch can
+ * reuse: kw[i], the curvature sum K of the Euclidean clip W = H_w / w over the patch's 2^i x 2^i
+ * pieces (crisp__slefe_quotient_curvature(c, 1, du, dv, 2^i, &K) with c the clip W and weight of
+ * each control point: the same numbers, bit for bit), NAN where the search did not form it (it
+ * forms them only for patches whose weights vary). src/render/depth_bound.c's bound along the
+ * view needs exactly these. */
+typedef struct crisp__slefe_level_info {
+    double kw[3];
+} crisp__slefe_level_info;
+
+/* The Euclidean bound's curvature sums (screen_error.c euclid_c1) formed so far by a level search:
+ * K[i] over the 2^i x 2^i pieces, for X', Y', W. */
+typedef struct crisp__slefe_euclid_sums {
+    double K[3][3];
+    int formed; /* piece levels formed */
+} crisp__slefe_euclid_sums;
+
+/* crisp_slefe_patch_tess_level's search in two steps (screen_error.c), for a caller that can
+ * decide from the level's range alone (src/render/quadtree.c, the children's rule). begin: what
+ * comes before the search's loop; *tau > 0 where the level is decided there, else *tau = 0 and the
+ * level finish names lies in [*lo, *hi] or is max_level + 1. finish (only after a begin that left
+ * *tau = 0, with the same p): the loop. info: as crisp__slefe_patch_tess_level's. */
+typedef struct crisp__slefe_search {
+    crisp_slefe_view view; /* the view centred on the patch */
+    double clip[(CRISP_SLEFE_MAX_DEGREE + 1) * (CRISP_SLEFE_MAX_DEGREE + 1) * 4];
+    double err[4], hl[4], hh[4], eps;
+    const double *wcpw; /* the weights (p's control points) when they vary, else NULL */
+    double wlo, whi;
+    crisp__slefe_euclid_sums sums;
+    int max_level, t, t_classic;
+} crisp__slefe_search;
+crisp_status crisp__slefe_search_begin(crisp__slefe_search *s, const crisp_bezier_patch *p,
+                                       const crisp_slefe_view *view, double eps, int max_level,
+                                       int *tau, int *lo, int *hi, crisp__slefe_level_info *info);
+crisp_status crisp__slefe_search_finish(crisp__slefe_search *s, const crisp_bezier_patch *p,
+                                        int *tau, crisp__slefe_level_info *info);
+
+/* crisp_slefe_patch_tess_level, and (info not NULL) what it formed on the way. */
+crisp_status crisp__slefe_patch_tess_level(const crisp_bezier_patch *p,
+                                           const crisp_slefe_view *view, double eps, int max_level,
+                                           int *tau, crisp__slefe_level_info *info);
 
 /* The Euclidean screen bound alone (screen_error.c, euclid_c1) of the uniform tessellation of a
  * rational patch at level tau, in pixels: for tests. CRISP_ERR_NUMERIC where a weight or a
