@@ -499,8 +499,9 @@ int crisp__plan_trim_box(const crisp_frame_plan *plan, uint32_t face, const doub
         if (rows > BOX_MAX_ROWS) return -1;
         for (uint32_t j = j0; j <= j1; j++) {
             uint32_t r = s->first_row + j;
-            uint32_t a = crossings_left(plan, r, lo[0]), b = crossings_left(plan, r, hi[0]);
-            if (a != b) return -1;
+            /* Equal counts at lo[0] and hi[0] (sorted crossings): none in [lo[0], hi[0]). */
+            uint32_t a = crossings_left(plan, r, lo[0]), at = plan->row_offset[r] + a;
+            if (at < plan->row_offset[r + 1] && !(plan->crossings[at] >= hi[0])) return -1;
             here = (int)(a & 1u);
             if (result == -2) result = here;
             if (result != here) return -1;
@@ -1215,7 +1216,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         tess_ctx tc = {r, sc, list, kept, (uint32_t)vb0, (uint32_t)nv, (uint32_t)nt};
         crisp_pool_parallel_for(r->pool, kept, 8, tessellate, &tc);
         double tb = crisp_time_now();
-        /* Each pass projects only its own vertices: the batch's, later the ribbons'. */
+        /* Each pass projects only its own vertices: the batch's, later the ribbons'. The block
+         * depth also drops the kept leaves' hidden triangles at set-up. */
+        crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
         crisp_raster_stats rsb;
         if ((st = crisp__raster_draw(r->raster, tg, r->pool, r->verts + vb0, nv - vb0,
                                      r->tris + tb0, nt - tb0, trim_test, ctx, &rsb)))
@@ -1280,13 +1283,21 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         /* The quads with their slack, in their cores the cores' (ribbon.h), in one fill pass;
          * both slacks from the surfaces alone, only where the quads can land (the fill pass
          * reads nothing else). */
+        /* The block depth of the surfaces drawn, for the quads hidden behind them (no sample of
+         * theirs could pass the fill pass's depth test). */
+        if (occlusion && drawn && nt) {
+            crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+            dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
+            looked = 1;
+        }
+        crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
         size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, 2 * ns, sizeof *r->slack)))
             return st;
         if ((st = crisp__raster_depth_slack2_tris(
                  r->raster, tg, r->pool, CRISP__RIBBON_SLACK, CRISP__RIBBON_CORE_SLACK, &view,
-                 r->verts + surface_v, 4 * quads, r->tris + surface_t, 2 * quads, r->slack,
-                 r->slack + ns)))
+                 r->verts + surface_v, 4 * quads, r->tris + surface_t, 2 * quads, r->cores,
+                 r->slack, r->slack + ns)))
             return st;
         crisp_raster_stats rs2;
         if ((st = crisp__raster_draw_fill2(r->raster, tg, r->pool, r->verts + surface_v, 4 * quads,
@@ -1296,6 +1307,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         rs.fragments_tested += rs2.fragments_tested;
         rs.fragments_discarded += rs2.fragments_discarded;
     }
+    crisp__raster_set_occlusion(r->raster, NULL, 0);
     double t2 = crisp_time_now();
     t_raster += t2 - t2b;
     resolve_ctx rc = {.r = r,
