@@ -462,7 +462,7 @@ static uint32_t row_of(const crisp_plan_strip *s, double v)
     return fj > 0.0 ? (fj < (double)s->row_count ? (uint32_t)fj : s->row_count - 1) : 0;
 }
 
-#define BOX_MAX_ROWS 32 /* a box over more table rows is left to the per-fragment test */
+#define BOX_MAX_ROWS 256 /* a box over more table rows is left to the per-fragment test */
 
 /* The trim test for a box of (u, v) (the rasterizer's box test): 1 when crisp_plan_trim_test
  * keeps every (u, v) of [lo, hi], 0 when it discards every one, -1 otherwise. Exact: every
