@@ -453,6 +453,39 @@ typedef struct piece_ctx {
     int blocks_x;
 } piece_ctx;
 
+/* Piece (pi, pj) of leaf L's (s, t) square: the screen box of its control hull (widened as in
+ * find_empty_leaves) and the largest 1/W of its points; 0 when they are not known (a control
+ * point behind the eye or at the near plane, not finite, or a weight not positive). */
+static int piece_bound(const skip_ctx *c, const crisp_plan_leaf *L, int pi, int pj, double *storage,
+                       double b[4], double *iwp)
+{
+    const crisp_frame_plan *plan = c->r->plan;
+    const crisp_bezier_patch *bez = &c->sc->patches[L->patch].bez;
+    crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
+    double s0, s1, t0, t1;
+    crisp_plan_leaf_locate(plan, L, (double)pi / PIECES, (double)pj / PIECES, &s0, &t0);
+    crisp_plan_leaf_locate(plan, L, (double)(pi + 1) / PIECES, (double)(pj + 1) / PIECES, &s1, &t1);
+    crisp_bezier_patch sub;
+    crisp__subpatch(bez, s0, s1, t0, t1, storage, storage + 2 * CRISP__PATCH_DOUBLES, &sub);
+    int n = (sub.du + 1) * (sub.dv + 1);
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
+    for (int k = 0; k < n; k++) {
+        const double *cp = sub.cpw + 4 * k;
+        double h[4];
+        for (int q = 0; q < 4; q++)
+            h[q] =
+                (*m)[0][q] * cp[0] + (*m)[1][q] * cp[1] + (*m)[2][q] * cp[2] + (*m)[3][q] * cp[3];
+        if (!(h[3] > 0) || !isfinite(h[0] + h[1] + h[3]) || !(cp[3] > 0) || !(h[2] + h[3] > 0))
+            return 0;
+        box_add_clip(plan, h, lo, hi);
+        iw = fmax(iw, cp[3] / h[3]);
+    }
+    double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
+    b[0] = lo[0] - pad, b[1] = lo[1] - pad, b[2] = hi[0] + pad, b[3] = hi[1] + pad;
+    *iwp = iw;
+    return 1;
+}
+
 static int leaf_pieces_hidden(const piece_ctx *pc, uint32_t j, int worker)
 {
     const skip_ctx *c = pc->skc;
@@ -461,47 +494,23 @@ static int leaf_pieces_hidden(const piece_ctx *pc, uint32_t j, int worker)
     const crisp_plan_leaf *L = &plan->leaves[j];
     if (L->group || r->leaf_tbase[j] < PIECE_MIN_TRIS || r->leaf_tbase[j] > 2 * MAX_LEAF_VERTS)
         return 0;
-    const crisp_bezier_patch *bez = &c->sc->patches[L->patch].bez;
-    crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
     double *storage = r->st[worker];
     double box[PIECES][PIECES][4], iwp[PIECES][PIECES];
-    for (int pj = 0; pj < PIECES; pj++)
-        for (int pi = 0; pi < PIECES; pi++) {
-            double s0, s1, t0, t1;
-            crisp_plan_leaf_locate(plan, L, (double)pi / PIECES, (double)pj / PIECES, &s0, &t0);
-            crisp_plan_leaf_locate(plan, L, (double)(pi + 1) / PIECES, (double)(pj + 1) / PIECES,
-                                   &s1, &t1);
-            crisp_bezier_patch sub;
-            crisp__subpatch(bez, s0, s1, t0, t1, storage, storage + 2 * CRISP__PATCH_DOUBLES, &sub);
-            int n = (sub.du + 1) * (sub.dv + 1);
-            double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
-            for (int k = 0; k < n; k++) {
-                const double *cp = sub.cpw + 4 * k;
-                double h[4];
-                for (int q = 0; q < 4; q++)
-                    h[q] = (*m)[0][q] * cp[0] + (*m)[1][q] * cp[1] + (*m)[2][q] * cp[2] +
-                           (*m)[3][q] * cp[3];
-                /* Behind the eye, not finite, at the near plane or a weight not positive: the
-                 * piece's box and depth are not known (find_empty_leaves' rules). */
-                if (!(h[3] > 0) || !isfinite(h[0] + h[1] + h[3]) || !(cp[3] > 0) ||
-                    !(h[2] + h[3] > 0))
-                    return 0;
-                box_add_clip(plan, h, lo, hi);
-                iw = fmax(iw, cp[3] / h[3]);
-            }
-            double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
-            double *b = box[pj][pi];
-            b[0] = lo[0] - pad, b[1] = lo[1] - pad, b[2] = hi[0] + pad, b[3] = hi[1] + pad;
-            iwp[pj][pi] = iw;
-        }
+    uint8_t known[PIECES][PIECES] = {{0}}; /* pieces projected so far (on demand: a leaf on the
+                                              screen usually fails at its first window) */
     for (int wj = 0; wj + 1 < PIECES; wj++)
         for (int wi = 0; wi + 1 < PIECES; wi++) {
             double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
             for (int k = 0; k < 4; k++) {
-                const double *b = box[wj + k / 2][wi + k % 2];
+                int pj = wj + k / 2, pi = wi + k % 2;
+                if (!known[pj][pi]) {
+                    if (!piece_bound(c, L, pi, pj, storage, box[pj][pi], &iwp[pj][pi])) return 0;
+                    known[pj][pi] = 1;
+                }
+                const double *b = box[pj][pi];
                 lo[0] = fmin(lo[0], b[0]), lo[1] = fmin(lo[1], b[1]);
                 hi[0] = fmax(hi[0], b[2]), hi[1] = fmax(hi[1], b[3]);
-                iw = fmax(iw, iwp[wj + k / 2][wi + k % 2]);
+                iw = fmax(iw, iwp[pj][pi]);
             }
             if (!holds_sample(c, lo, hi)) continue;
             if (!pc->hiz) return 0;
