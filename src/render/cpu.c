@@ -48,7 +48,8 @@ struct crisp_renderer {
     size_t slack_cap;
     crisp_raster_core *cores; /* per ribbon triangle: its quad's core (ribbon_core) */
     size_t cores_cap;
-    double **st; /* per worker: local (s, t) of one leaf's mesh */
+    double **st;     /* per worker: local (s, t) of one leaf's mesh */
+    uint32_t **pidx; /* per worker: one leaf's triangles (leaf_pieces_hidden), 2 MAX_LEAF_VERTS */
     int workers;
     uint8_t *untested; /* per face: no trim loops, no trim test (the rasterizer's hook) */
     size_t untested_cap;
@@ -96,10 +97,12 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
         r->workers = crisp_pool_threads(r->pool);
         r->st = calloc((size_t)r->workers, sizeof *r->st);
         r->cache = calloc((size_t)r->workers, sizeof *r->cache);
-        if (!r->st || !r->cache)
+        r->pidx = calloc((size_t)r->workers, sizeof *r->pidx);
+        if (!r->st || !r->cache || !r->pidx)
             st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
         for (int w = 0; !st && w < r->workers; w++)
-            if (!(r->st[w] = crisp_malloc_array(MAX_LEAF_VERTS, 2 * sizeof(double))))
+            if (!(r->st[w] = crisp_malloc_array(MAX_LEAF_VERTS, 2 * sizeof(double))) ||
+                !(r->pidx[w] = crisp_malloc_array(MAX_LEAF_VERTS, 6 * sizeof(uint32_t))))
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
     }
     if (st) {
@@ -117,6 +120,10 @@ void crisp_renderer_destroy(crisp_renderer *r)
         for (int w = 0; w < r->workers; w++)
             free(r->st[w]);
     free(r->st);
+    if (r->pidx)
+        for (int w = 0; w < r->workers; w++)
+            free(r->pidx[w]);
+    free(r->pidx);
     free(r->cache);
     crisp_planner_destroy(r->planner);
     crisp_pool_destroy(r->pool);
@@ -426,6 +433,121 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* Large leaves that no sample of theirs can reach after all, seen piece by piece (issue 12): a
+ * leaf's control hull can cover much of the screen where its surface does not (a quarter of a
+ * cylinder seen along its axis: the hull spans the hole that the screen lies in) or lie in front
+ * of drawn depth only at a corner. The leaf's (s, t) square is cut into PIECES x PIECES pieces,
+ * each piece's control hull (crisp__subpatch) projected as find_empty_leaves projects a leaf's. A
+ * triangle lies in the convex hull of its vertices, surface points of the pieces they are in, so
+ * its screen box lies in the box of those pieces' boxes and its 1/W is at most their largest.
+ * When every triangle's vertices lie in some 2 x 2 window of pieces (checked on the leaf's own
+ * mesh) and every window's box holds no sample or is hidden by the block depth (crisp__occl_set,
+ * crisp__occl_hidden, as a leaf), no triangle of the leaf writes a sample: it is dropped. */
+#define PIECES 8
+#define PIECE_MIN_TRIS 1024 /* smaller leaves: not worth PIECES^2 sub-patches */
+
+typedef struct piece_ctx {
+    const skip_ctx *skc;
+    const uint32_t *list;
+    const double *hiz; /* the block depth (NULL: not looked at yet) */
+    int blocks_x;
+} piece_ctx;
+
+/* Piece (pi, pj) of leaf L's (s, t) square: the screen box of its control hull (widened as in
+ * find_empty_leaves) and the largest 1/W of its points; 0 when they are not known (a control
+ * point behind the eye or at the near plane, not finite, or a weight not positive). */
+static int piece_bound(const skip_ctx *c, const crisp_plan_leaf *L, int pi, int pj, double *storage,
+                       double b[4], double *iwp)
+{
+    const crisp_frame_plan *plan = c->r->plan;
+    const crisp_bezier_patch *bez = &c->sc->patches[L->patch].bez;
+    crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
+    double s0, s1, t0, t1;
+    crisp_plan_leaf_locate(plan, L, (double)pi / PIECES, (double)pj / PIECES, &s0, &t0);
+    crisp_plan_leaf_locate(plan, L, (double)(pi + 1) / PIECES, (double)(pj + 1) / PIECES, &s1, &t1);
+    crisp_bezier_patch sub;
+    crisp__subpatch(bez, s0, s1, t0, t1, storage, storage + 2 * CRISP__PATCH_DOUBLES, &sub);
+    int n = (sub.du + 1) * (sub.dv + 1);
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
+    for (int k = 0; k < n; k++) {
+        const double *cp = sub.cpw + 4 * k;
+        double h[4];
+        for (int q = 0; q < 4; q++)
+            h[q] =
+                (*m)[0][q] * cp[0] + (*m)[1][q] * cp[1] + (*m)[2][q] * cp[2] + (*m)[3][q] * cp[3];
+        if (!(h[3] > 0) || !isfinite(h[0] + h[1] + h[3]) || !(cp[3] > 0) || !(h[2] + h[3] > 0))
+            return 0;
+        box_add_clip(plan, h, lo, hi);
+        iw = fmax(iw, cp[3] / h[3]);
+    }
+    double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));
+    b[0] = lo[0] - pad, b[1] = lo[1] - pad, b[2] = hi[0] + pad, b[3] = hi[1] + pad;
+    *iwp = iw;
+    return 1;
+}
+
+static int leaf_pieces_hidden(const piece_ctx *pc, uint32_t j, int worker)
+{
+    const skip_ctx *c = pc->skc;
+    crisp_renderer *r = c->r;
+    const crisp_frame_plan *plan = r->plan;
+    const crisp_plan_leaf *L = &plan->leaves[j];
+    if (L->group || r->leaf_tbase[j] < PIECE_MIN_TRIS || r->leaf_tbase[j] > 2 * MAX_LEAF_VERTS)
+        return 0;
+    double *storage = r->st[worker];
+    double box[PIECES][PIECES][4], iwp[PIECES][PIECES];
+    uint8_t known[PIECES][PIECES] = {{0}}; /* pieces projected so far (on demand: a leaf on the
+                                              screen usually fails at its first window) */
+    for (int wj = 0; wj + 1 < PIECES; wj++)
+        for (int wi = 0; wi + 1 < PIECES; wi++) {
+            double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
+            for (int k = 0; k < 4; k++) {
+                int pj = wj + k / 2, pi = wi + k % 2;
+                if (!known[pj][pi]) {
+                    if (!piece_bound(c, L, pi, pj, storage, box[pj][pi], &iwp[pj][pi])) return 0;
+                    known[pj][pi] = 1;
+                }
+                const double *b = box[pj][pi];
+                lo[0] = fmin(lo[0], b[0]), lo[1] = fmin(lo[1], b[1]);
+                hi[0] = fmax(hi[0], b[2]), hi[1] = fmax(hi[1], b[3]);
+                iw = fmax(iw, iwp[pj][pi]);
+            }
+            if (!holds_sample(c, lo, hi)) continue;
+            if (!pc->hiz) return 0;
+            crisp_occl_leaf o;
+            crisp__occl_set(&o, c->win, lo, hi, iw);
+            if (!crisp__occl_hidden(&o, pc->hiz, pc->blocks_x)) return 0;
+        }
+    /* Every window is dead: the leaf is, when each triangle lies in a window. */
+    crisp_tess_levels lv = leaf_levels(L);
+    double *st = r->st[worker];
+    uint32_t *idx = r->pidx[worker];
+    crisp_tess_mesh_generate(&lv, st, idx, 0);
+    for (uint32_t k = 0; k < r->leaf_tbase[j]; k++) {
+        int i0 = PIECES, i1 = -1, j0 = PIECES, j1 = -1;
+        for (int v = 0; v < 3; v++) {
+            const double *p = st + 2 * idx[3 * k + v];
+            int pi = (int)(p[0] * PIECES), pj = (int)(p[1] * PIECES);
+            pi = pi < 0 ? 0 : pi > PIECES - 1 ? PIECES - 1 : pi;
+            pj = pj < 0 ? 0 : pj > PIECES - 1 ? PIECES - 1 : pj;
+            i0 = pi < i0 ? pi : i0, i1 = pi > i1 ? pi : i1;
+            j0 = pj < j0 ? pj : j0, j1 = pj > j1 ? pj : j1;
+        }
+        if (i1 - i0 > 1 || j1 - j0 > 1) return 0;
+    }
+    return 1;
+}
+
+static void pieces_range(void *vctx, size_t begin, size_t end, int worker)
+{
+    const piece_ctx *pc = vctx;
+    for (size_t i = begin; i < end; i++) {
+        uint32_t j = pc->list[i];
+        if (!pc->skc->r->leaf_skip[j] && leaf_pieces_hidden(pc, j, worker))
+            pc->skc->r->leaf_skip[j] = 2;
+    }
+}
+
 /* ---- trim test and resolve ------------------------------------------------------------------- */
 
 static int trim_test(void *ctx, uint32_t face, double u, double v)
@@ -462,7 +584,7 @@ static uint32_t row_of(const crisp_plan_strip *s, double v)
     return fj > 0.0 ? (fj < (double)s->row_count ? (uint32_t)fj : s->row_count - 1) : 0;
 }
 
-#define BOX_MAX_ROWS 32 /* a box over more table rows is left to the per-fragment test */
+#define BOX_MAX_ROWS 256 /* a box over more table rows is left to the per-fragment test */
 
 /* The trim test for a box of (u, v) (the rasterizer's box test): 1 when crisp_plan_trim_test
  * keeps every (u, v) of [lo, hi], 0 when it discards every one, -1 otherwise. Exact: every
@@ -499,8 +621,9 @@ int crisp__plan_trim_box(const crisp_frame_plan *plan, uint32_t face, const doub
         if (rows > BOX_MAX_ROWS) return -1;
         for (uint32_t j = j0; j <= j1; j++) {
             uint32_t r = s->first_row + j;
-            uint32_t a = crossings_left(plan, r, lo[0]), b = crossings_left(plan, r, hi[0]);
-            if (a != b) return -1;
+            /* Equal counts at lo[0] and hi[0] (sorted crossings): none in [lo[0], hi[0]). */
+            uint32_t a = crossings_left(plan, r, lo[0]), at = plan->row_offset[r] + a;
+            if (at < plan->row_offset[r + 1] && !(plan->crossings[at] >= hi[0])) return -1;
             here = (int)(a & 1u);
             if (result == -2) result = here;
             if (result != here) return -1;
@@ -1182,6 +1305,11 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                 crisp__occl_cull(r->pool, r->occl, list, n, r->hiz,
                                  (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK, r->leaf_skip);
         }
+        if (occlusion) { /* large leaves, piece by piece */
+            piece_ctx pc = {&skc, list, looked ? r->hiz : NULL,
+                            (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK};
+            crisp_pool_parallel_for(r->pool, n, 1, pieces_range, &pc);
+        }
         /* Offsets of the batch's drawn leaves (in plan order), the list compacted to them. */
         size_t kept = 0, vb0 = nv, tb0 = nt;
         for (size_t i = 0; i < n; i++) {
@@ -1215,7 +1343,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         tess_ctx tc = {r, sc, list, kept, (uint32_t)vb0, (uint32_t)nv, (uint32_t)nt};
         crisp_pool_parallel_for(r->pool, kept, 8, tessellate, &tc);
         double tb = crisp_time_now();
-        /* Each pass projects only its own vertices: the batch's, later the ribbons'. */
+        /* Each pass projects only its own vertices: the batch's, later the ribbons'. The block
+         * depth also drops the kept leaves' hidden triangles at set-up. */
+        crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
         crisp_raster_stats rsb;
         if ((st = crisp__raster_draw(r->raster, tg, r->pool, r->verts + vb0, nv - vb0,
                                      r->tris + tb0, nt - tb0, trim_test, ctx, &rsb)))
@@ -1280,13 +1410,21 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         /* The quads with their slack, in their cores the cores' (ribbon.h), in one fill pass;
          * both slacks from the surfaces alone, only where the quads can land (the fill pass
          * reads nothing else). */
+        /* The block depth of the surfaces drawn, for the quads hidden behind them (no sample of
+         * theirs could pass the fill pass's depth test). */
+        if (occlusion && drawn && nt) {
+            crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+            dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
+            looked = 1;
+        }
+        crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
         size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, 2 * ns, sizeof *r->slack)))
             return st;
         if ((st = crisp__raster_depth_slack2_tris(
                  r->raster, tg, r->pool, CRISP__RIBBON_SLACK, CRISP__RIBBON_CORE_SLACK, &view,
-                 r->verts + surface_v, 4 * quads, r->tris + surface_t, 2 * quads, r->slack,
-                 r->slack + ns)))
+                 r->verts + surface_v, 4 * quads, r->tris + surface_t, 2 * quads, r->cores,
+                 r->slack, r->slack + ns)))
             return st;
         crisp_raster_stats rs2;
         if ((st = crisp__raster_draw_fill2(r->raster, tg, r->pool, r->verts + surface_v, 4 * quads,
@@ -1296,6 +1434,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         rs.fragments_tested += rs2.fragments_tested;
         rs.fragments_discarded += rs2.fragments_discarded;
     }
+    crisp__raster_set_occlusion(r->raster, NULL, 0);
     double t2 = crisp_time_now();
     t_raster += t2 - t2b;
     resolve_ctx rc = {.r = r,

@@ -115,8 +115,10 @@ struct crisp_raster {
     uint32_t *bin_counts; /* per setup chunk and tile: entries (parallel binning) */
     size_t bin_counts_cap;
     crisp_raster_box_fn box_test; /* crisp__raster_set_box_test */
-    int clip_on;                  /* crisp__raster_set_clip */
-    double clip[4];               /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
+    const double *occl_hiz;       /* crisp__raster_set_occlusion: per block, least 1/W drawn */
+    int occl_size;
+    int clip_on;    /* crisp__raster_set_clip */
+    double clip[4]; /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
 };
 
 void crisp__raster_set_clip(crisp_raster *r, const double k[4])
@@ -129,6 +131,12 @@ void crisp__raster_set_clip(crisp_raster *r, const double k[4])
 void crisp__raster_set_box_test(crisp_raster *r, crisp_raster_box_fn fn)
 {
     r->box_test = fn;
+}
+
+void crisp__raster_set_occlusion(crisp_raster *r, const double *hiz, int size)
+{
+    r->occl_hiz = hiz;
+    r->occl_size = size > 0 ? size : 1;
 }
 
 void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count)
@@ -478,8 +486,63 @@ typedef struct {
     crisp_status status[CHUNKS];
 } setup_ctx;
 
+/* 1 when the block depth of crisp__raster_set_occlusion shows that no sample of the triangle a, b,
+ * d (projected vertices) in pixels [x0, x1] x [y0, y1] of the whole image (inside the target) can
+ * pass the depth test: the largest 1/W its fragments can compute is below the least 1/W stored in
+ * every block of that rectangle. Covered samples lie in the snapped triangle, where the affine
+ * 1/W plane setup_one computes (the same expressions) is largest at a snapped vertex; the slop
+ * covers the rounding of its evaluation at a sample (as the tiles' own depth bound). In fill mode
+ * a fragment passes only where it is empty (0 in the block depth) or where its 1/W, or its core's
+ * (core_pass: the core's plane, also largest at a snapped vertex), is above the stored one, so
+ * the same bound holds with the core's plane included. */
+static int tri_hidden(const crisp_raster *r, const crisp_raster_target *t, const pvert *a,
+                      const pvert *b, const pvert *d, const crisp_raster_core *core, int x0, int y0,
+                      int x1, int y1)
+{
+    const double *hz = r->occl_hiz;
+    if (!hz) return 0;
+    int n = r->occl_size, bw = (t->width + n - 1) / n;
+    int bx0 = (x0 - t->x0) / n, bx1 = (x1 - t->x0) / n, by0 = (y0 - t->y0) / n,
+        by1 = (y1 - t->y0) / n;
+    /* The first block: most visible triangles stop here. */
+    double first = hz[(size_t)by0 * bw + bx0];
+    if (!(first > 0)) return 0;
+    double det = (b->sx - a->sx) * (d->sy - a->sy) - (b->sy - a->sy) * (d->sx - a->sx);
+    if (!(fabs(det) > 0)) return 0;
+    double d1 = b->val[0] - a->val[0], d2 = d->val[0] - a->val[0];
+    double qx = (d1 * (d->sy - a->sy) - d2 * (b->sy - a->sy)) / det;
+    double qy = (d2 * (b->sx - a->sx) - d1 * (d->sx - a->sx)) / det;
+    const pvert *v[3] = {a, b, d};
+    double best = -INFINITY, cbest = -INFINITY;
+    for (int k = 0; k < 3; k++) {
+        double px = (double)v[k]->fx / SUB, py = (double)v[k]->fy / SUB;
+        double w = a->val[0] + qx * (px - a->sx) + qy * (py - a->sy);
+        best = w > best ? w : best;
+        if (core) {
+            double wc = core->iw[0] + core->iw[1] * px + core->iw[2] * py;
+            cbest = wc > cbest ? wc : cbest;
+        }
+    }
+    double mx = fabs(x0 - a->sx) > fabs(x1 + 1 - a->sx) ? fabs(x0 - a->sx) : fabs(x1 + 1 - a->sx);
+    double my = fabs(y0 - a->sy) > fabs(y1 + 1 - a->sy) ? fabs(y0 - a->sy) : fabs(y1 + 1 - a->sy);
+    best += 1e-12 * (fabs(a->val[0]) + fabs(qx) * mx + fabs(qy) * my);
+    if (core) {
+        double X = fabs((double)x0) > fabs(x1 + 1.0) ? fabs((double)x0) : fabs(x1 + 1.0);
+        double Y = fabs((double)y0) > fabs(y1 + 1.0) ? fabs((double)y0) : fabs(y1 + 1.0);
+        cbest += 1e-12 * (fabs(core->iw[0]) + fabs(core->iw[1]) * X + fabs(core->iw[2]) * Y);
+        best = cbest > best ? cbest : best;
+    }
+    if (!(best < first)) return 0; /* also NaN */
+    for (int by = by0; by <= by1; by++) {
+        const double *row = hz + (size_t)by * bw;
+        for (int bx = bx0; bx <= bx1; bx++)
+            if (!(best < row[bx])) return 0;
+    }
+    return 1;
+}
+
 /* Sets up one triangle into *out; returns 0 when it covers no sample area (degenerate or off
- * the image). */
+ * the image) or when the block depth hides it (tri_hidden). */
 static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const pvert *d,
                      uint32_t face, const crisp_raster_core *core, setup_tri *out)
 {
@@ -513,6 +576,7 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
     out->x1 = (int)(x1 < ex ? x1 : ex);
     out->y1 = (int)(y1 < ey ? y1 : ey);
     if (!(out->x0 <= out->x1 && out->y0 <= out->y1)) return 0;
+    if (tri_hidden(c->r, t, a, b, d, core, out->x0, out->y0, out->x1, out->y1)) return 0;
     double sx[3] = {a->sx, b->sx, d->sx}, sy[3] = {a->sy, b->sy, d->sy};
     double det = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sy[1] - sy[0]) * (sx[2] - sx[0]);
     if (!(fabs(det) > 0)) return 0;
@@ -750,7 +814,8 @@ static int rect_decision(const raster_ctx *c, const setup_tri *st, int x0, int y
         }
     double lo[2] = {box[0], box[2]}, hi[2] = {box[1], box[3]};
     if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) return -1;
-    return c->r->box_test(c->test_ctx, st->face, lo, hi);
+    int res = c->r->box_test(c->test_ctx, st->face, lo, hi);
+    return res;
 }
 
 /* The same for all of triangle st's fragments (its covered samples lie in its snapped
@@ -762,7 +827,8 @@ static int tri_decision(const raster_ctx *c, const setup_tri *st, double tbox[4]
         hx[k] = (double)st->x[k] / SUB, hy[k] = (double)st->y[k] / SUB;
     if (!uv_hull_box(st, hx, hy, 3, tbox)) return -2;
     double lo[2] = {tbox[0], tbox[2]}, hi[2] = {tbox[1], tbox[3]};
-    return c->r->box_test(c->test_ctx, st->face, lo, hi);
+    int res = c->r->box_test(c->test_ctx, st->face, lo, hi);
+    return res;
 }
 
 #if defined(__SSE2__)
@@ -1424,6 +1490,8 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
  * as setup_chunk clips it): floor(min) - 1 .. floor(max) of their snapped positions (1/512 px
  * from the unsnapped ones); 2 px of margin cover both. */
 typedef struct box_ctx {
+    const crisp_raster *r;
+    const crisp_raster_core *cores; /* per triangle, NULL: none (as the fill draw's) */
     const crisp_raster_target *t;
     const pvert *cache; /* the vertices projected (project_vertices) */
     const crisp_raster_vertex *verts;
@@ -1456,7 +1524,26 @@ static void tri_boxes(void *vctx, size_t begin, size_t end, int worker)
                 lo[0] = pv->sx < lo[0] ? pv->sx : lo[0], hi[0] = pv->sx > hi[0] ? pv->sx : hi[0];
                 lo[1] = pv->sy < lo[1] ? pv->sy : lo[1], hi[1] = pv->sy > hi[1] ? pv->sy : hi[1];
             }
-            if (!inside) {
+            if (inside) {
+                /* Hidden (tri_hidden, on setup_one's pixel box): setup_one drops it too. */
+                const pvert *a = &c->cache[tri->v[0]], *b = &c->cache[tri->v[1]],
+                            *d = &c->cache[tri->v[2]];
+                int64_t mnx = a->fx < b->fx ? a->fx : b->fx, mxx = a->fx > b->fx ? a->fx : b->fx;
+                int64_t mny = a->fy < b->fy ? a->fy : b->fy, mxy = a->fy > b->fy ? a->fy : b->fy;
+                mnx = d->fx < mnx ? d->fx : mnx, mxx = d->fx > mxx ? d->fx : mxx;
+                mny = d->fy < mny ? d->fy : mny, mxy = d->fy > mxy ? d->fy : mxy;
+                int64_t px0 = (mnx >> CRISP_RASTER_SUBPIXEL_BITS) - 1,
+                        py0 = (mny >> CRISP_RASTER_SUBPIXEL_BITS) - 1;
+                int64_t px1 = mxx >> CRISP_RASTER_SUBPIXEL_BITS,
+                        py1 = mxy >> CRISP_RASTER_SUBPIXEL_BITS;
+                int64_t ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
+                int bx0 = (int)(px0 > t->x0 ? px0 : t->x0), by0 = (int)(py0 > t->y0 ? py0 : t->y0);
+                int bx1 = (int)(px1 < ex ? px1 : ex), by1 = (int)(py1 < ey ? py1 : ey);
+                if (bx0 <= bx1 && by0 <= by1 &&
+                    tri_hidden(c->r, t, a, b, d, c->cores ? &c->cores[i] : NULL, bx0, by0, bx1,
+                               by1))
+                    continue;
+            } else {
                 cvert poly[MAX_POLY];
                 for (int k = 0; k < 3; k++) {
                     const crisp_raster_vertex *sv = &c->verts[tri->v[k]];
@@ -1491,7 +1578,7 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
                                             float *slack)
 {
     return crisp__raster_depth_slack2_tris(r, t, pool, scale, 0, view, verts, vert_count, tris,
-                                           tri_count, slack, NULL);
+                                           tri_count, NULL, slack, NULL);
 }
 
 crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster_target *t,
@@ -1499,7 +1586,8 @@ crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster
                                              const crisp_raster_view *view,
                                              const crisp_raster_vertex *verts, size_t vert_count,
                                              const crisp_raster_tri *tris, size_t tri_count,
-                                             float *slack, float *slack2)
+                                             const crisp_raster_core *cores, float *slack,
+                                             float *slack2)
 {
     int tiles_x = (t->width + CELL - 1) / CELL, tiles_y = (t->height + CELL - 1) / CELL;
     size_t tiles = (size_t)tiles_x * tiles_y;
@@ -1521,7 +1609,7 @@ crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster
                     .gy = GUARD_PX / image_h(t)};
     crisp_pool_parallel_for(pool, CHUNKS, 1, project_vertices, &sc);
     r->vcache_verts = verts, r->vcache_count = vert_count, r->vcache_t = t;
-    box_ctx bc = {t, r->vcache, verts, vert_count, tris, tri_count, r->tri_boxes};
+    box_ctx bc = {r, cores, t, r->vcache, verts, vert_count, tris, tri_count, r->tri_boxes};
     crisp_pool_parallel_for(pool, CHUNKS, 1, tri_boxes, &bc);
     for (size_t i = 0; i < tri_count; i++) {
         const int *b = r->tri_boxes[i];

@@ -96,6 +96,13 @@ typedef struct crisp_raster_stats {
                                   found all discarded, only the fragments of its first row) */
 } crisp_raster_stats;
 
+/* Whole triangles hidden by a block depth (occlusion culling, src/render/occlusion.c): hiz[by *
+ * bw + bx] (bw = ceil(target width / size)) at most the least 1/W stored in block (bx, by) of
+ * size x size pixels of the target (0 where a sample is empty: crisp__raster_block_depth), valid
+ * for the draws that follow (stored 1/W only rises). A triangle whose fragments' 1/W (in fill
+ * mode also its core's) is below it in every block its samples can reach is dropped at set-up:
+ * it could not write a sample. Read by later draws until set again; NULL: none. */
+void crisp__raster_set_occlusion(crisp_raster *r, const double *hiz, int size);
 /* Hierarchical depth rejection (on by default; off only to measure it or to check that the
  * result does not depend on it). */
 void crisp__raster_set_hiz(crisp_raster *r, int on);
@@ -188,12 +195,16 @@ crisp_status crisp__raster_depth_slack_tris(crisp_raster *r, const crisp_raster_
                                             const crisp_raster_tri *tris, size_t tri_count,
                                             float *slack);
 /* The same with a second slack at scale2 into slack2 (NULL: none), in the same cells: the CPU
- * backend's ribbon quads and their cores' (crisp__raster_draw_fill2; src/render/ribbon.h). */
+ * backend's ribbon quads and their cores' (crisp__raster_draw_fill2; src/render/ribbon.h). With
+ * a block depth set (crisp__raster_set_occlusion), the triangles it hides reach no cell (the fill
+ * draw that follows, with the same cores (NULL: none), the same vertices and the same block depth,
+ * drops them); they must be the same for that draw. */
 crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster_target *t,
                                              crisp_pool *pool, double scale, double scale2,
                                              const crisp_raster_view *view,
                                              const crisp_raster_vertex *verts, size_t vert_count,
                                              const crisp_raster_tri *tris, size_t tri_count,
-                                             float *slack, float *slack2);
+                                             const crisp_raster_core *cores, float *slack,
+                                             float *slack2);
 
 #endif

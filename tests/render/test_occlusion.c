@@ -303,11 +303,53 @@ static void test_random(void **state)
     crisp_model_destroy(m);
 }
 
+/* A sheet and a short cylinder band in front of it, around the view axis: seen along the axis
+ * with a narrow field of view the band lies outside the screen, while each quarter's control
+ * hull spans the screen (the hole); seen from the side or at an angle it is on screen. Large
+ * leaves are then tested piece by piece (cpu.c, leaf_pieces_hidden): along the axis they must be
+ * dropped (triangles culled with nothing drawn in front of the band's hole but the sheet), and
+ * every frame must stay as without culling. */
+static void test_pieces(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    crisp_face f[2] = {{.surface = sheet(6, -4, 4, -4, 4, -2, 0.1, 0)}};
+    crisp_placement pl;
+    double o[3] = {0, 0, -1}, z[3] = {0, 0, 1};
+    assert_int_equal(crisp_placement_make(o, z, NULL, &pl), CRISP_OK);
+    assert_int_equal(crisp_make_cylinder(&pl, 3, 0, 2 * M_PI, 0, 0.3, &f[1].surface), CRISP_OK);
+    for (int k = 0; k < 2; k++)
+        assert_int_equal(crisp_model_add_face(m, &f[k]), CRISP_OK);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    totals t = {0};
+    for (int k = 0; k < 4; k++) { /* along the axis: the band off the screen */
+        double eye[3] = {0.05 * (rnd() - 0.5), 0.05 * (rnd() - 0.5), 1.5 + rnd()};
+        double target[3] = {0.1 * (rnd() - 0.5), 0.1 * (rnd() - 0.5), -2};
+        crisp_camera cam = camera(eye, target, 20 + 10 * rnd());
+        size_t before = t.culled_tris;
+        check_camera(sc, &cam, 1, &t);
+        assert_true(t.culled_tris > before);
+    }
+    report("pieces, along the axis", 1, &t);
+    for (int k = 0; k < 8; k++) { /* the band on the screen, partly or whole */
+        double eye[3] = {4 * (rnd() - 0.5), 4 * (rnd() - 0.5), 1 + 4 * rnd()};
+        double target[3] = {2 * (rnd() - 0.5), 2 * (rnd() - 0.5), -1.5};
+        crisp_camera cam = camera(eye, target, 30 + 60 * rnd());
+        check_camera(sc, &cam, k % 2 ? 4 : 1, &t);
+    }
+    report("pieces", 1, &t);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_frontal),
         cmocka_unit_test(test_random),
+        cmocka_unit_test(test_pieces),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
