@@ -71,6 +71,9 @@ struct crisp__groups {
     uint32_t group_leaves; /* this frame */
     uint32_t *counts;      /* per face: group leaves this frame */
     float *face_px;        /* per face, this frame: screen extent of its box (INFINITY: unknown) */
+    double *patch_sigma;   /* per scene patch of a face with a hierarchy: its
+                              crisp__rational_reparam (3 values; they depend on the weights only,
+                              so they are formed once with the hierarchy, not per frame) */
     uint64_t generation;   /* bumped whenever the hierarchy is rebuilt (a new scene) */
     /* This frame's decisions per block (node): what owns its patches. Only the blocks the walk
      * reached are written; node_frame says which are current. */
@@ -384,7 +387,9 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
     if (lv == 0) {
         const double *b = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].box;
         memcpy(n.box, b, sizeof n.box);
-        crisp__rational_reparam(&sc->patches[f->first_patch + iv0 * f->grid_u + iu0].bez, sigma);
+        uint32_t pi = f->first_patch + iv0 * f->grid_u + iu0;
+        crisp__rational_reparam(&sc->patches[pi].bez, sigma);
+        memcpy(g->patch_sigma + 3 * (size_t)pi, sigma, 3 * sizeof *sigma);
     } else {
         for (int k = 0; k < 4; k++) {
             uint32_t cu = 2 * bu + (k & 1), cv = 2 * bv + (k >> 1);
@@ -459,6 +464,7 @@ void crisp__groups_destroy(crisp__groups *g)
     free(g->face_small);
     free(g->counts);
     free(g->face_px);
+    free(g->patch_sigma);
     free(g);
 }
 
@@ -479,11 +485,14 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
     free(g->face_small);
     free(g->counts);
     free(g->face_px);
+    free(g->patch_sigma);
     g->face_px = malloc((sc->face_count ? sc->face_count : 1) * sizeof *g->face_px);
+    g->patch_sigma =
+        crisp_malloc_array(sc->patch_count ? sc->patch_count : 1, 3 * sizeof *g->patch_sigma);
     g->face_root = malloc((sc->face_count ? sc->face_count : 1) * sizeof *g->face_root);
     g->face_small = calloc(sc->face_count ? sc->face_count : 1, 1);
     g->counts = calloc(sc->face_count ? sc->face_count : 1, sizeof *g->counts);
-    if (!g->face_root || !g->face_small || !g->counts || !g->face_px)
+    if (!g->face_root || !g->face_small || !g->counts || !g->face_px || !g->patch_sigma)
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
     for (uint32_t f = 0; f < sc->face_count; f++) {
         const crisp_scene_face *sf = &sc->faces[f];
@@ -735,7 +744,8 @@ static int patch_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
                          double extent)
 {
     if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
-    const crisp_bezier_patch *p = &c->sc->patches[f->first_patch + n->iv0 * f->grid_u + n->iu0].bez;
+    uint32_t pi = f->first_patch + n->iv0 * f->grid_u + n->iu0;
+    const crisp_bezier_patch *p = &c->sc->patches[pi].bez;
     if (p->du < 1 || p->dv < 1) return 0;
     double(*m)[4] = (double(*)[4])c->m;
     const double *cw[4];
@@ -774,7 +784,8 @@ static int patch_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
             (fabs(m[0][row]) + fabs(m[1][row]) + fabs(m[2][row])) * pmag + fabs(m[3][row]);
         lo[a] -= 1e-12 * (terms + mag), hi[a] += 1e-12 * (terms + mag);
     }
-    crisp__rational_reparam(p, sigma);
+    memcpy(sigma, c->g->patch_sigma + 3 * (size_t)pi,
+           sizeof sigma); /* crisp__rational_reparam(p) */
     for (int a = 0; a < 3; a++) {
         double eu = dmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a]));
         double ev = dmax(fabs(C[2][a] - C[0][a]), fabs(C[3][a] - C[1][a]));
