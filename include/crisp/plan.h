@@ -83,6 +83,7 @@ typedef struct crisp_plan_leaf {
 #define CRISP_PLAN_FACE_VISIBLE 1u    /* has leaves and a trim plan this frame */
 #define CRISP_PLAN_FACE_ALL_INSIDE 2u /* no trim loops: every (u, v) in [v0, v1] is inside */
 #define CRISP_PLAN_FACE_REVERSED 4u   /* normals point the other way (crisp_face.reversed) */
+#define CRISP_PLAN_FACE_SPLATS 8u     /* drawn as splats this frame: no leaves, strips or ribbons */
 
 /* One face of the scene (every face has a record, visible or not). std430: 64 bytes. */
 typedef struct crisp_plan_face {
@@ -116,6 +117,23 @@ typedef struct crisp_plan_ribbon_vertex {
     uint32_t face;
 } crisp_plan_ribbon_vertex;
 
+/* One splat (issue 12): a point sample of a trimmed face, from a set whose samples cover the face
+ * (src/render/splat.h: every point of the trimmed face lies within the set's radius of a sample).
+ * std430: 36 bytes, scalars only (a shader declares float arrays, not vec3). */
+typedef struct crisp_plan_splat {
+    float p[3]; /* position minus the face's splat origin (model units) */
+    uint32_t face;
+    float n[3];  /* unit normal of the surface there as crisp_surface_normal gives it (not flipped
+                    for reversed faces: backends flip it as they do for leaves) */
+    float uv[2]; /* surface parameters of the sample */
+} crisp_plan_splat;
+
+/* A run of splats drawn this frame: splats[first .. first + count - 1], all of one face.
+ * std430: 8 bytes. */
+typedef struct crisp_plan_splat_range {
+    uint32_t first, count;
+} crisp_plan_splat_range;
+
 typedef struct crisp_plan_stats {
     uint32_t patches, visible_patches, split_patches, leaves, visible_faces;
     uint32_t unresolved;   /* leaves where the bound could not be reached at the depth limit */
@@ -123,7 +141,10 @@ typedef struct crisp_plan_stats {
     uint32_t level_splits; /* leaves split because an edge level would exceed 64 */
     uint32_t group_leaves, grouped_patches; /* group leaves and the patches they stand for */
     uint64_t table_rows, table_bytes, ribbon_quads;
-    uint64_t triangles; /* of the leaves at their levels (crisp_tess_mesh_counts) */
+    uint64_t triangles;    /* of the leaves at their levels (crisp_tess_mesh_counts) */
+    uint32_t splat_faces;  /* faces drawn as splats */
+    uint64_t splats_drawn; /* splats in splat_ranges */
+    uint64_t splat_bytes;  /* of the planner's splat store */
     double ms_levels, ms_edges, ms_trim, ms_ribbons;
 } crisp_plan_stats;
 
@@ -148,9 +169,25 @@ typedef struct crisp_frame_plan {
     const crisp_plan_ribbon_vertex *ribbon_vertices; /* 4 per quad */
     uint32_t ribbon_quad_count;
 
+    /* Splats (issue 12, docs/status/issue-12-splats.md). A face with CRISP_PLAN_FACE_SPLATS is
+     * drawn as its splat ranges: each splat a screen-aligned square of half-size splat_half_px
+     * (x and y) centred on its projection, at the splat's own depth (1/W constant over the
+     * square), with its normal and (u, v), under the usual depth test. A sample at (x, y) (pixels,
+     * y down) is covered when cx - h <= x < cx + h and cy - h <= y < cy + h. The planner draws a
+     * face so only when its set's radius projects, at the face's nearest point, to at most
+     * splat_half_px less a margin, so every pixel centre whose ray meets the face is covered.
+     * A splat's clip position, in float: splat_clip_origin[4 face + k] + sum over j of
+     * view_proj_f[k + 4 j] p[j] (the face's origin is projected in double by the planner). */
+    const crisp_plan_splat *splats; /* the planner's store: every face set built so far */
+    uint32_t splat_count;
+    const crisp_plan_splat_range *splat_ranges; /* the runs drawn this frame */
+    uint32_t splat_range_count;
+    const float *splat_clip_origin; /* 4 per face (face_count); set for faces drawn as splats */
+    double splat_half_px;
+
     /* Bumped when the array's content changed since the previous plan of this planner (a backend
-     * uploads only what changed). */
-    uint64_t leaves_version, faces_version, table_version, ribbons_version;
+     * uploads only what changed). splats_version: splats[] (grown or rebuilt). */
+    uint64_t leaves_version, faces_version, table_version, ribbons_version, splats_version;
 
     crisp_plan_stats stats;
 } crisp_frame_plan;
@@ -161,6 +198,7 @@ typedef struct crisp_planner_desc {
     int max_depth;   /* patch splits; 0: CRISP_PLAN_MAX_DEPTH */
     int no_ribbons;  /* 1: no ribbon quads (for measuring them) */
     int no_groups;   /* 1: no group leaves: at least one leaf per visible patch (for measuring) */
+    int no_splats;   /* 1: no face is drawn as splats (for measuring and comparing) */
 } crisp_planner_desc;
 
 typedef struct crisp_planner crisp_planner;
