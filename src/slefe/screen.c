@@ -64,6 +64,46 @@ crisp_status crisp__slefe_to_clip(const char *fn, const crisp_bezier_patch *p,
     return CRISP_OK;
 }
 
+/* The grid bounds lo, up (4 coordinates per grid point, n points) widened by the transform's
+ * rounding err[r] for each clip coordinate r in mask (bit r), the W > 0 check, and when w_px is
+ * not NULL the iPASS width: the widest x or y extent in pixels over the grid points, each bound
+ * clamped to the control points' range hl, hh (convex hull) before the division by W. */
+crisp_status crisp__slefe_grid_width(const char *fn, const crisp_slefe_view *view, int n,
+                                     unsigned mask, double *lo, double *up, const double *err,
+                                     const double *hl, const double *hh, double *w_px)
+{
+    double wmin = INFINITY;
+    for (int g = 0; g < n; g++) {
+        for (int r = 0; r < 4; r++)
+            if (mask >> r & 1u) {
+                lo[g * 4 + r] -= err[r];
+                up[g * 4 + r] += err[r];
+            }
+        wmin = crisp__min(wmin, crisp__max(lo[g * 4 + 3], hl[3]));
+    }
+    if (!(wmin > 0.0))
+        return crisp_error(CRISP_ERR_NUMERIC,
+                           "%s: lower bound %g of clip-space W is not positive (the patch reaches "
+                           "the eye plane: split or cull it)",
+                           fn, wmin);
+    if (!w_px) return CRISP_OK;
+    double best = 0.0;
+    for (int g = 0; g < n; g++) {
+        double l[4], u[4], xl, xu, yl, yu;
+        for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
+            l[r] = crisp__max(lo[g * 4 + r], hl[r]);
+            u[r] = crisp__min(up[g * 4 + r], hh[r]);
+        }
+        crisp__slefe_divide(l[0], u[0], l[3], u[3], &xl, &xu);
+        crisp__slefe_divide(l[1], u[1], l[3], u[3], &yl, &yu);
+        double wx = 0.5 * (xu - xl) * view->width, wy = 0.5 * (yu - yl) * view->height;
+        if (wx > best) best = wx;
+        if (wy > best) best = wy;
+    }
+    *w_px = best;
+    return CRISP_OK;
+}
+
 crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
                                       const crisp_slefe_view *view, double *ndc_lo, double *ndc_hi,
                                       double *w_px)
@@ -86,35 +126,8 @@ crisp_status crisp_slefe_patch_screen(const crisp_bezier_patch *p, int segments,
     crisp__slefe_patch_nocheck(&q, m, 4, lo, up);
     /* Grid bounds widened by the transform's rounding; at the grid points (not in between) they
      * may also be clipped to the control points' range (convex hull). */
-    double wmin = INFINITY;
-    for (int g = 0; g < n; g++) {
-        for (int r = 0; r < 4; r++) {
-            lo[g * 4 + r] -= err[r];
-            up[g * 4 + r] += err[r];
-        }
-        wmin = crisp__min(wmin, crisp__max(lo[g * 4 + 3], hl[3]));
-    }
-    if (!(wmin > 0.0))
-        return crisp_error(CRISP_ERR_NUMERIC,
-                           "%s: lower bound %g of clip-space W is not positive (the patch reaches "
-                           "the eye plane: split or cull it)",
-                           fn, wmin);
-    if (w_px) {
-        double best = 0.0;
-        for (int g = 0; g < n; g++) {
-            double l[4], u[4], xl, xu, yl, yu;
-            for (int r = 0; r < 4; r++) {
-                l[r] = crisp__max(lo[g * 4 + r], hl[r]);
-                u[r] = crisp__min(up[g * 4 + r], hh[r]);
-            }
-            crisp__slefe_divide(l[0], u[0], l[3], u[3], &xl, &xu);
-            crisp__slefe_divide(l[1], u[1], l[3], u[3], &yl, &yu);
-            double wx = 0.5 * (xu - xl) * view->width, wy = 0.5 * (yu - yl) * view->height;
-            if (wx > best) best = wx;
-            if (wy > best) best = wy;
-        }
-        *w_px = best;
-    }
+    s = crisp__slefe_grid_width(fn, view, n, 0xfu, lo, up, err, hl, hh, w_px);
+    if (s) return s;
     if (ndc_lo && ndc_hi) return crisp__slefe_tiles(fn, m, lo, up, hl, hh, ndc_lo, ndc_hi);
     return CRISP_OK;
 }

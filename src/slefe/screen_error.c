@@ -561,34 +561,8 @@ static crisp_status ipass_w_px(const char *fn, const crisp_bezier_patch *p,
     double lo[N * 4], up[N * 4];
     for (int r = 0; r < 4; r += r == 1 ? 2 : 1)
         crisp__slefe_patch_coordinate(&q, M, r, lo, up);
-    double wmin = INFINITY;
-    for (int g = 0; g < N; g++) {
-        for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
-            lo[g * 4 + r] -= err[r];
-            up[g * 4 + r] += err[r];
-        }
-        wmin = crisp__min(wmin, crisp__max(lo[g * 4 + 3], hl[3]));
-    }
-    if (!(wmin > 0.0))
-        return crisp_error(CRISP_ERR_NUMERIC,
-                           "%s: lower bound %g of clip-space W is not positive (the patch reaches "
-                           "the eye plane: split or cull it)",
-                           fn, wmin);
-    double best = 0.0;
-    for (int g = 0; g < N; g++) {
-        double l[4], u[4], xl, xu, yl, yu;
-        for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
-            l[r] = crisp__max(lo[g * 4 + r], hl[r]);
-            u[r] = crisp__min(up[g * 4 + r], hh[r]);
-        }
-        crisp__slefe_divide(l[0], u[0], l[3], u[3], &xl, &xu);
-        crisp__slefe_divide(l[1], u[1], l[3], u[3], &yl, &yu);
-        double wx = 0.5 * (xu - xl) * view->width, wy = 0.5 * (yu - yl) * view->height;
-        if (wx > best) best = wx;
-        if (wy > best) best = wy;
-    }
-    *w_px = best;
-    return CRISP_OK;
+    /* X, Y and W only: Z plays no part in the width. */
+    return crisp__slefe_grid_width(fn, view, N, 0xbu, lo, up, err, hl, hh, w_px);
 }
 
 /* crisp_slefe_patch_tess_level's search up to its loop: *tau > 0 where it is decided there, else

@@ -95,6 +95,11 @@ crisp_status crisp__slefe_check_view(const char *fn, const crisp_slefe_view *vie
 /* Clip-space control points of p (same layout as p->cpw); err[4]: bound on their rounding per
  * coordinate; hl, hh [4]: range of each clip coordinate over the control points, widened by err
  * (bounds over the whole patch by the convex hull). CRISP_ERR_NUMERIC on overflow. */
+/* Widen grid bounds by the transform's rounding (clip coordinates in mask), check W > 0, and the
+ * iPASS width in pixels (w_px may be NULL): src/slefe/screen.c. */
+crisp_status crisp__slefe_grid_width(const char *fn, const crisp_slefe_view *view, int n,
+                                     unsigned mask, double *lo, double *up, const double *err,
+                                     const double *hl, const double *hh, double *w_px);
 crisp_status crisp__slefe_to_clip(const char *fn, const crisp_bezier_patch *p,
                                   const crisp_slefe_view *view, double *clip, double *err,
                                   double *hl, double *hh);
