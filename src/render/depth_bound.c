@@ -33,8 +33,7 @@
 
 #define MAXN 16 /* degrees up to 15 (CRISP_SLEFE_MAX_DEGREE) */
 
-/* The clip W and weight coefficients of p, interleaved; 0 when the degrees are out of range. */
-static int clip_depths(const crisp_bezier_patch *p, crisp_mat4 m, double *c)
+int crisp__depth_clip_coefficients(const crisp_bezier_patch *p, crisp_mat4 m, double *c)
 {
     if (p->du < 1 && p->dv < 1) return 0;
     if (p->du < 0 || p->dv < 0 || p->du >= MAXN || p->dv >= MAXN) return 0;
@@ -98,7 +97,7 @@ double crisp__depth_error_bound(const crisp_bezier_patch *p, crisp_mat4 view_pro
 {
     double lo = 0, hi = 0, c[2 * MAXN * MAXN];
     if (wmin) *wmin = 0;
-    if (!clip_depths(p, view_proj, c)) return 0;
+    if (!crisp__depth_clip_coefficients(p, view_proj, c)) return 0;
     double k = curvature_sum(c, p->du, p->dv, 0, NULL, 0, 0, &lo, &hi);
     if (wmin) *wmin = lo;
     if (!isfinite(k)) return INFINITY;
@@ -127,7 +126,7 @@ int crisp__depth_tess_level_kw(const crisp_bezier_patch *p, crisp_mat4 view_proj
                                int height, double eps, int tau, int max_level, const double *kw)
 {
     double lo = INFINITY, hi = -INFINITY, c[2 * MAXN * MAXN];
-    if (!clip_depths(p, view_proj, c)) return tau;
+    if (!crisp__depth_clip_coefficients(p, view_proj, c)) return tau;
     int n = (p->du + 1) * (p->dv + 1);
     for (int i = 0; i < n; i++) {
         double d = c[2 * i] / c[2 * i + 1];

@@ -8,6 +8,9 @@
 #include "crisp/core.h"
 #include "crisp/nurbs.h"
 
+/* The clip W and weight coefficients of p's control points, interleaved (c holds 2 per point);
+ * 0 when the degrees are out of range (1..15, not both 0). */
+int crisp__depth_clip_coefficients(const crisp_bezier_patch *p, crisp_mat4 m, double *c);
 /* A bound on |depth(T) - depth(S)| over the uniform tessellation of p at tau segments per
  * direction (triangles spanning at most a cell in s and in t), for every triangle point T against
  * the surface point S at the same parameters (clip-space barycentrics, as the rasterizer

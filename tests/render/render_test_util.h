@@ -9,6 +9,30 @@
 #include "render/raster.h"
 #include "render/render_internal.h"
 
+/* A random perspective camera for the bound tests, drawing from rnd() (uniform in [0, 1)): the
+ * eye at distance dist from the origin, at a polar angle up to th_max from +Z, looking at a point
+ * off the origin by up to off * dist in x and y, +Y up. With random_size, a field of view of
+ * 10-70 degrees and a 640-1920 x 360-1080 image (drawn first); else 40 degrees at 1920 x 1080. */
+static inline void rt_random_camera(double (*rnd)(void), double dist, int random_size,
+                                    double th_max, double off, double znear, crisp_camera *dest,
+                                    crisp_camera_matrices *m)
+{
+    crisp_camera c = {.fov_deg = 40, .width = 1920, .height = 1080, .znear = znear, .zfar = 1e5};
+    if (random_size) {
+        c.fov_deg = 10 + 60 * rnd();
+        c.width = 640 + (int)(1280 * rnd());
+        c.height = 360 + (int)(720 * rnd());
+    }
+    double th = th_max * rnd(), ph = 6.283 * rnd();
+    c.eye[0] = dist * sin(th) * cos(ph), c.eye[1] = dist * sin(th) * sin(ph);
+    c.eye[2] = dist * cos(th);
+    double o = off * dist * rnd();
+    c.target[0] = o * (rnd() - 0.5), c.target[1] = o * (rnd() - 0.5);
+    c.up[1] = 1;
+    crisp_camera_matrices_compute(&c, m);
+    *dest = c;
+}
+
 /* Screen distance (max norm, pixels) between the screen point (x, y) of a triangle and the
  * surface at the triangle's perspective-correct (u, v) there (as the rasterizer interpolates). */
 static inline double rt_point_error(const crisp_camera *cam, crisp_mat4 vp,

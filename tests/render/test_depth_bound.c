@@ -20,6 +20,7 @@
 #include "crisp/render.h"
 #include "crisp/tess.h"
 #include "render/depth_bound.h"
+#include "render/render_test_util.h"
 
 static uint64_t rng = 0x9e3779b97f4a7c15ull;
 static double rnd(void)
@@ -57,19 +58,9 @@ typedef struct view {
  * target moved off the centre; fov 10-70 degrees. */
 static void random_view(double dist, view *v)
 {
-    crisp_camera c = {.fov_deg = 10 + 60 * rnd(),
-                      .width = 640 + (int)(1280 * rnd()),
-                      .height = 360 + (int)(720 * rnd()),
-                      .znear = 0.001,
-                      .zfar = 1e5};
-    double th = 1.4 * rnd(), ph = 6.283 * rnd();
-    c.eye[0] = dist * sin(th) * cos(ph), c.eye[1] = dist * sin(th) * sin(ph);
-    c.eye[2] = dist * cos(th);
-    double off = 0.2 * dist * rnd();
-    c.target[0] = off * (rnd() - 0.5), c.target[1] = off * (rnd() - 0.5);
-    c.up[1] = 1;
+    crisp_camera c;
     crisp_camera_matrices m;
-    crisp_camera_matrices_compute(&c, &m);
+    rt_random_camera(rnd, dist, 1, 1.4, 0.2, 0.001, &c, &m);
     crisp_mat4_copy(m.view_proj, v->vp);
     v->width = c.width, v->height = c.height;
     v->px_per_rad = 0.5 * c.height / tan(0.5 * c.fov_deg * 3.14159265358979323846 / 180);

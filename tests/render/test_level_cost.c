@@ -25,6 +25,7 @@
 #include "crisp/render.h"
 #include "crisp/slefe.h"
 #include "render/depth_bound.h"
+#include "render/render_test_util.h"
 #include "slefe/slefe_internal.h"
 
 static uint64_t rng = 0x2545f4914f6cdd1dull;
@@ -58,33 +59,11 @@ static void random_patch(crisp_bezier_patch *p, double *cpw, int du, int dv, dou
  * target moved off the centre; fov 10-70 degrees. */
 static void random_view(double dist, crisp_slefe_view *v)
 {
-    crisp_camera c = {.fov_deg = 10 + 60 * rnd(),
-                      .width = 640 + (int)(1280 * rnd()),
-                      .height = 360 + (int)(720 * rnd()),
-                      .znear = 0.001,
-                      .zfar = 1e5};
-    double th = 1.4 * rnd(), ph = 6.283 * rnd();
-    c.eye[0] = dist * sin(th) * cos(ph), c.eye[1] = dist * sin(th) * sin(ph);
-    c.eye[2] = dist * cos(th);
-    double off = 0.4 * dist * rnd();
-    c.target[0] = off * (rnd() - 0.5), c.target[1] = off * (rnd() - 0.5);
-    c.up[1] = 1;
+    crisp_camera c;
     crisp_camera_matrices m;
-    crisp_camera_matrices_compute(&c, &m);
+    rt_random_camera(rnd, dist, 1, 1.4, 0.4, 0.001, &c, &m);
     crisp_mat4_copy(m.view_proj, v->view_proj);
     v->width = c.width, v->height = c.height;
-}
-
-/* The clip W and weight of every control point, interleaved (depth_bound.c's clip_depths). */
-static void clip_depths(const crisp_bezier_patch *p, crisp_mat4 m, double *c)
-{
-    int n = (p->du + 1) * (p->dv + 1);
-    for (int i = 0; i < n; i++) {
-        const double *q = p->cpw + 4 * i;
-        double w = p->rational ? q[3] : 1;
-        c[2 * i] = m[0][3] * q[0] + m[1][3] * q[1] + m[2][3] * q[2] + m[3][3] * w;
-        c[2 * i + 1] = w;
-    }
 }
 
 /* The depth level as depth_bound.c formed it before the shortcuts: the full bound over the whole
@@ -93,7 +72,7 @@ static int reference_depth_level(const crisp_bezier_patch *p, const crisp_slefe_
                                  int tau, int max_level)
 {
     double c[2 * 16 * 16], lo = INFINITY, hi = -INFINITY;
-    clip_depths(p, (double(*)[4])v->view_proj, c);
+    crisp__depth_clip_coefficients(p, (double(*)[4])v->view_proj, c);
     int n = (p->du + 1) * (p->dv + 1);
     for (int i = 0; i < n; i++) {
         double d = c[2 * i] / c[2 * i + 1];
@@ -134,7 +113,7 @@ static void test_shared_w_curvature(void **state)
         assert_int_equal(st, st_pub);
         if (!st) assert_int_equal(tau, tau_pub);
         double c[2 * 7 * 7];
-        clip_depths(&p, (double(*)[4])v.view_proj, c);
+        crisp__depth_clip_coefficients(&p, (double(*)[4])v.view_proj, c);
         for (int i = 0; i < 3; i++) {
             if (isnan(info.kw[i])) continue;
             double K;

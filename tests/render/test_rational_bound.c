@@ -26,6 +26,7 @@
 #include "crisp/slefe.h"
 #include "crisp/tess.h"
 #include "render/rational_bound.h"
+#include "render/render_test_util.h"
 
 static uint64_t rng = 0x2545f4914f6cdd1dull;
 static double rnd(void)
@@ -58,15 +59,9 @@ static void random_patch(crisp_bezier_patch *p, double *cpw, int du, int dv, dou
  * off the normal) at distance dist, with the target moved off the centre of the image. */
 static void random_view(double dist, crisp_mat4 vp, int *width, int *height)
 {
-    crisp_camera c = {.fov_deg = 40, .width = 1920, .height = 1080, .znear = 0.01, .zfar = 1e5};
-    double th = 1.2 * rnd(), ph = 6.283 * rnd();
-    c.eye[0] = dist * sin(th) * cos(ph), c.eye[1] = dist * sin(th) * sin(ph);
-    c.eye[2] = dist * cos(th);
-    double off = 0.3 * dist * rnd();
-    c.target[0] = off * (rnd() - 0.5), c.target[1] = off * (rnd() - 0.5);
-    c.up[1] = 1;
+    crisp_camera c;
     crisp_camera_matrices m;
-    crisp_camera_matrices_compute(&c, &m);
+    rt_random_camera(rnd, dist, 0, 1.2, 0.3, 0.01, &c, &m);
     crisp_mat4_copy(m.view_proj, vp);
     *width = c.width, *height = c.height;
 }

@@ -84,4 +84,35 @@ static inline void random_patch(rng *r, int du, int dv, int rational, double *cp
         .du = du, .dv = dv, .rational = rational, .u0 = 0, .u1 = 1, .v0 = 0, .v1 = 1, .cpw = cpw};
 }
 
+/* A random perspective view for the bound tests: the eye at a random direction from centre, at
+ * a distance drawn in [dist_lo, dist_hi] and divided by the direction's length (drawn in the unit
+ * ball, not too short), looking at centre moved by up to 0.3 on each axis; a 200-2000 px image
+ * and a field of view in [fov_lo, fov_hi] degrees; near 0.1, far 100. */
+static inline void random_slefe_view(rng *r, double dist_lo, double dist_hi, const double centre[3],
+                                     double fov_lo, double fov_hi, crisp_slefe_view *v)
+{
+    double dir[3], n;
+    do {
+        n = 0;
+        for (int i = 0; i < 3; i++) {
+            dir[i] = rng_uniform(r, -1, 1);
+            n += dir[i] * dir[i];
+        }
+    } while (n < 0.05 || n > 1);
+    double dist = rng_uniform(r, dist_lo, dist_hi) / sqrt(n);
+    double eye[3], target[3];
+    for (int i = 0; i < 3; i++) {
+        target[i] = centre[i] + rng_uniform(r, -0.3, 0.3);
+        eye[i] = centre[i] + dir[i] * dist;
+    }
+    double upv[3] = {0, 1, 0};
+    if (dir[1] * dir[1] > 0.9 * n) upv[1] = 0, upv[2] = 1;
+    crisp_mat4 view, proj;
+    assert_true(crisp_mat4_lookat(eye, target, upv, view));
+    v->width = rng_int(r, 200, 2000);
+    v->height = rng_int(r, 200, 2000);
+    crisp_mat4_perspective(rng_uniform(r, fov_lo, fov_hi), v->width / v->height, 0.1, 100.0, proj);
+    crisp_mat4_mul(proj, view, v->view_proj);
+}
+
 #endif

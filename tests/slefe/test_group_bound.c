@@ -261,31 +261,6 @@ static void test_group_bound_holds(void **state)
            tight[nt / 2], tight[nt * 9 / 10], tight[nt - 1]);
 }
 
-static void random_view(rng *r, crisp_slefe_view *v)
-{
-    double dir[3], n;
-    do {
-        n = 0;
-        for (int i = 0; i < 3; i++) {
-            dir[i] = rng_uniform(r, -1, 1);
-            n += dir[i] * dir[i];
-        }
-    } while (n < 0.05 || n > 1);
-    double dist = rng_uniform(r, 2.0, 20.0) / sqrt(n);
-    double target[3] = {0.5 + rng_uniform(r, -0.3, 0.3), 0.5 + rng_uniform(r, -0.3, 0.3),
-                        rng_uniform(r, -0.3, 0.3)};
-    double eye[3] = {target[0] + dir[0] * dist, target[1] + dir[1] * dist,
-                     target[2] + dir[2] * dist};
-    double upv[3] = {0, 1, 0};
-    if (dir[1] * dir[1] > 0.9 * n) upv[1] = 0, upv[2] = 1;
-    crisp_mat4 view, proj;
-    assert_true(crisp_mat4_lookat(eye, target, upv, view));
-    v->width = rng_int(r, 200, 2000);
-    v->height = rng_int(r, 200, 2000);
-    crisp_mat4_perspective(rng_uniform(r, 5, 90), v->width / v->height, 0.1, 100.0, proj);
-    crisp_mat4_mul(proj, view, v->view_proj);
-}
-
 static double px_dist(const long double a[4], const long double b[4], const crisp_slefe_view *v)
 {
     double dx = (double)fabsl(a[0] / a[3] - b[0] / b[3]) * 0.5 * v->width;
@@ -309,7 +284,7 @@ static void test_group_screen_holds(void **state)
         greville(s->knots_v, s->degree_v, s->count_v, eta);
         for (int g = 0; g < 2; g++) {
             crisp_slefe_view view;
-            random_view(&r, &view);
+            random_slefe_view(&r, 2.0, 20.0, (const double[3]){0.5, 0.5, 0}, 5, 90, &view);
             int iu0 = rng_int(&r, 0, S.spans_u - 1), iu1 = rng_int(&r, iu0, S.spans_u - 1);
             int iv0 = rng_int(&r, 0, S.spans_v - 1), iv1 = rng_int(&r, iv0, S.spans_v - 1);
             crisp_slefe_group_screen_bound b;

@@ -179,32 +179,6 @@ static void test_bicubic_matches_two_pass(void **state)
 }
 
 /* A camera looking at the origin from distance 3.5..8 in a random direction. */
-static void random_view(rng *r, crisp_slefe_view *v)
-{
-    double dir[3], n = 0;
-    do {
-        n = 0;
-        for (int i = 0; i < 3; i++) {
-            dir[i] = rng_uniform(r, -1, 1);
-            n += dir[i] * dir[i];
-        }
-    } while (n < 0.05 || n > 1);
-    double dist = rng_uniform(r, 3.5, 8.0) / sqrt(n);
-    double eye[3] = {dir[0] * dist, dir[1] * dist, dir[2] * dist};
-    double target[3] = {rng_uniform(r, -0.3, 0.3), rng_uniform(r, -0.3, 0.3),
-                        rng_uniform(r, -0.3, 0.3)};
-    double upv[3] = {0, 1, 0};
-    if (fabs(dir[1]) * fabs(dir[1]) > 0.9 * n) {
-        upv[1] = 0;
-        upv[2] = 1;
-    }
-    crisp_mat4 view, proj;
-    assert_true(crisp_mat4_lookat(eye, target, upv, view));
-    v->width = rng_int(r, 200, 2000);
-    v->height = rng_int(r, 200, 2000);
-    crisp_mat4_perspective(rng_uniform(r, 20, 90), v->width / v->height, 0.1, 100.0, proj);
-    crisp_mat4_mul(proj, view, v->view_proj);
-}
 
 /* Random patches (polynomial and rational, bicubic and (5, 6)) through random perspective cameras:
  * the projected surface (NDC x, y, z) lies in the NDC box of its tile at dense samples, and w_px
@@ -221,7 +195,7 @@ static void test_screen_enclosure(void **state)
         crisp_bezier_patch p;
         random_patch(&r, du, dv, rational, cpw, &p);
         crisp_slefe_view v;
-        random_view(&r, &v);
+        random_slefe_view(&r, 3.5, 8.0, (const double[3]){0, 0, 0}, 20, 90, &v);
         /* every control point is in front of the camera, so W > 0 by the hull even at m = 1 */
         assert_int_equal(crisp_slefe_patch_screen(&p, m, &v, bl, bh, &w_px), CRISP_OK);
         assert_true(w_px > 0.0 && isfinite(w_px));
@@ -259,7 +233,7 @@ static void test_screen_width_shrinks(void **state)
         crisp_bezier_patch p;
         random_patch(&r, 3, 3, trial % 2, cpw, &p);
         crisp_slefe_view v;
-        random_view(&r, &v);
+        random_slefe_view(&r, 3.5, 8.0, (const double[3]){0, 0, 0}, 20, 90, &v);
         assert_int_equal(crisp_slefe_patch_screen(&p, 3, &v, NULL, NULL, &w3), CRISP_OK);
         assert_int_equal(crisp_slefe_patch_screen(&p, 6, &v, NULL, NULL, &w6), CRISP_OK);
         assert_true(w6 < 0.5 * w3);
@@ -422,7 +396,7 @@ static void test_screen_error_bound(void **state)
         crisp_bezier_patch p;
         random_patch(&r, du, dv, rational, cpw, &p);
         crisp_slefe_view v;
-        random_view(&r, &v);
+        random_slefe_view(&r, 3.5, 8.0, (const double[3]){0, 0, 0}, 20, 90, &v);
         int taus[3] = {rng_int(&r, 1, 16), rng_int(&r, 17, 40), 36};
         for (int k = 0; k < 3; k++) {
             double bound;
@@ -446,7 +420,7 @@ static void test_screen_error_bound(void **state)
     crisp_bezier_patch p;
     random_patch(&r, 3, 3, 1, cpw, &p);
     crisp_slefe_view v;
-    random_view(&r, &v);
+    random_slefe_view(&r, 3.5, 8.0, (const double[3]){0, 0, 0}, 20, 90, &v);
     assert_int_equal(crisp_slefe_patch_screen_error(&p, 64, &v, &e64), CRISP_OK);
     assert_int_equal(crisp_slefe_patch_screen_error(&p, 1021, &v, &e1021), CRISP_OK);
     assert_int_equal(crisp_slefe_patch_screen_error(&p, 2048, &v, &e2048), CRISP_OK);
