@@ -122,6 +122,8 @@ static void grid_free(grid *g)
 typedef struct check_result {
     double tightness; /* largest sampled nearest distance / radius */
     long inside;      /* samples inside the trim */
+    double curve_tightness;
+    long curve; /* samples on the trim curves */
     uint32_t splats;
 } check_result;
 
@@ -190,7 +192,7 @@ static check_result check_face(const crisp_scene *sc, uint32_t face, double r, i
     /* Coverage at dense samples inside the trim. */
     grid g;
     grid_build(&g, &set, r);
-    check_result res = {0.0, 0, set.count};
+    check_result res = {.splats = set.count};
     for (int j = 0; j < n; j++)
         for (int i = 0; i < n; i++) {
             double u = dom[0] + (dom[1] - dom[0]) * (i + rnd()) / n;
@@ -208,6 +210,38 @@ static check_result check_face(const crisp_scene *sc, uint32_t face, double r, i
             assert_true(d <= set.radius * (1 + 1e-9));
             res.tightness = fmax(res.tightness, d / r);
         }
+    /* Points of the trim curves in the domain: each borders inside points (the parity flips
+     * across it), so by continuity it is within the radius too. These find a builder that
+     * covers the band along the curves too loosely. */
+    for (uint32_t k = 0; k < f->piece_count; k++) {
+        const crisp_bezier_curve *b = &sc->pieces[f->first_piece + k];
+        for (int i = 0; i <= 4 * n; i++) {
+            double uv[2];
+            crisp_bezier_curve_eval(b, (i + 0.5 * rnd()) / (4 * n + 0.5), uv);
+            if (uv[0] < dom[0] || uv[0] > dom[1] || uv[1] < dom[2] || uv[1] > dom[3]) continue;
+            double x[3];
+            /* Points just off the curve, inside: the band where the cells' centres lie outside. */
+            for (int q = 0; q < 4; q++) {
+                double del = ulen * 1e-3 * rnd();
+                double u = uv[0] + (q & 1 ? del : -del), v = uv[1] + (q & 2 ? del : -del);
+                if (u < dom[0] || u > dom[1] || v < dom[2] || v > dom[3]) continue;
+                if (!classify(sc, face, u, v)) continue;
+                crisp_surface_eval(s, u, v, x);
+                double d = grid_nearest(&g, x);
+                assert_true(d <= r);
+                res.tightness = fmax(res.tightness, d / r);
+                res.inside++;
+            }
+            crisp_surface_eval(s, uv[0], uv[1], x);
+            double d = grid_nearest(&g, x);
+            res.curve++;
+            if (d > r)
+                fprintf(stderr, "face %u r %g: curve point (%g, %g) is %g from a splat\n", face, r,
+                        uv[0], uv[1], d);
+            assert_true(d <= r);
+            res.curve_tightness = fmax(res.curve_tightness, d / r);
+        }
+    }
     grid_free(&g);
     crisp__splat_set_free(&set);
     assert_null(set.splats);
@@ -323,8 +357,8 @@ static void test_random_faces(void **state)
     (void)state;
     static const int deg[][2] = {{1, 1}, {2, 2}, {3, 3}, {3, 2}, {5, 4}, {2, 5}};
     static const double div[] = {8, 25, 70};
-    double worst = 0.0;
-    long samples = 0, splats = 0;
+    double worst = 0.0, worst_curve = 0.0;
+    long samples = 0, splats = 0, curve = 0;
     for (int t = 0; t < 6; t++)
         for (int kind = 0; kind < 4; kind++) {
             crisp_model *m = random_model(deg[t][0], deg[t][1], kind);
@@ -334,14 +368,17 @@ static void test_random_faces(void **state)
             for (int k = 0; k < 3; k++) {
                 check_result res = check_face(sc, 0, diag / div[k], 120);
                 worst = fmax(worst, res.tightness);
+                worst_curve = fmax(worst_curve, res.curve_tightness);
                 samples += res.inside;
+                curve += res.curve;
                 splats += res.splats;
             }
             crisp_scene_destroy(sc);
             crisp_model_destroy(m);
         }
-    printf("random faces: %ld samples inside, %ld splats, tightness %.3f\n", samples, splats,
-           worst);
+    printf("random faces: %ld samples inside, %ld on curves, %ld splats, tightness %.3f inside, "
+           "%.3f on curves\n",
+           samples, curve, splats, worst, worst_curve);
     assert_true(samples > 100000);
     assert_true(worst > 0.5); /* the check would catch a builder at twice the radius */
 }
