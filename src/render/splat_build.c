@@ -32,6 +32,7 @@
  * set->radius is the largest bound met (r_in for the centre cells, 2 R_C + s for the others).
  */
 #include <float.h>
+#include <stdio.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -39,9 +40,14 @@
 #include "crisp/trim.h"
 #include "splat.h"
 
-#define SPLAT_MAX_CELL_DEPTH 24  /* levels of a patch's quadtree */
+#define SPLAT_MAX_CELL_DEPTH 24 /* a cell is at least 2^-24 of its patch's parameter sides */
+/* Side of the squares a cell of known class is cut into, in units of the bound B (a flat square
+ * of side sqrt(2) B meets R_C = B exactly; a little less leaves room for curvature). */
+#define SPLAT_GRID_SIDE 1.3
 #define SPLAT_MAX_CURVE_DEPTH 40 /* halvings of a trim piece */
-#define SPLAT_NEAR_DEPTH 30      /* halvings of a trim piece in the cell-curve test */
+
+typedef struct cell cell;
+#define SPLAT_NEAR_DEPTH 30 /* halvings of a trim piece in the cell-curve test */
 /* Share of the radius the curve samples meet (s = SPLAT_CURVE_SHARE r): cells whose centre lies
  * outside near a curve then need 2 R_C <= (1 - share) r. */
 #define SPLAT_CURVE_SHARE 0.5
@@ -60,11 +66,14 @@ typedef struct splat_ctx {
     double r_out; /* bound for R_C of cells with the centre outside: (r_in - s) / 2 */
     double s;     /* bound for the curve samples */
     double got_in, got_out, got_s; /* largest bounds met */
+    uint64_t dbg[4];
     uint32_t max_count;
     uint64_t cells, max_cells;
     crisp_splat_set *set;
     uint32_t cap;
-    double *cpw; /* a cell's control points */
+    double *cpw, *euc; /* a cell's control points, homogeneous and Euclidean */
+    cell *stack;       /* pending cells of a patch */
+    size_t stack_count, stack_cap;
 } splat_ctx;
 
 /* ---- small Bernstein helpers ---------------------------------------------------------------- */
@@ -122,17 +131,25 @@ static void restrict_patch(const crisp_bezier_patch *p, double s0, double s1, do
             restrict_points(dest + 4 * i, p->dv, 4 * (ptrdiff_t)nu, t0, t1);
 }
 
-/* max_i |P_i - x| over n homogeneous points. */
-static double hull_radius(const double *cpw, int n, const double x[3])
+/* max_i |P_i - x| over n Euclidean points. */
+static double hull_radius(const double *e, int n, const double x[3])
 {
     double m = 0.0;
     for (int i = 0; i < n; i++) {
-        const double *h = cpw + 4 * i;
-        double dx = h[0] / h[3] - x[0], dy = h[1] / h[3] - x[1], dz = h[2] / h[3] - x[2];
+        const double *h = e + 3 * i;
+        double dx = h[0] - x[0], dy = h[1] - x[1], dz = h[2] - x[2];
         double d = dx * dx + dy * dy + dz * dz;
         if (d > m) m = d;
     }
     return sqrt(m);
+}
+
+/* Euclidean points of n homogeneous ones. */
+static void euclid(const double *cpw, int n, double *e)
+{
+    for (int i = 0; i < n; i++)
+        for (int q = 0; q < 3; q++)
+            e[3 * i + q] = cpw[4 * i + q] / cpw[4 * i + 3];
 }
 
 /* ---- emitting -------------------------------------------------------------------------------- */
@@ -202,23 +219,64 @@ static int cell_near(const splat_ctx *c, const double rect[4])
 /* ---- cells ------------------------------------------------------------------------------------
  */
 
-/* One patch's quadtree, depth first; each cell's control points are restricted from the patch. */
+/* One patch's cells, depth first; each cell's control points are restricted from the patch. */
 typedef struct cell {
     double s0, s1, t0, t1; /* local parameters in the top patch */
-    int depth;
-    int known; /* 1: no curve meets the cell and it is inside */
+    int known;             /* 1: no curve meets the cell and it is inside */
 } cell;
+
+static crisp_status push_cell(splat_ctx *c, cell k)
+{
+    if (c->stack_count == c->stack_cap) {
+        size_t cap = c->stack_cap ? 2 * c->stack_cap : 256;
+        cell *n = crisp_realloc_array(c->stack, cap, sizeof *n);
+        if (!n) return crisp_error(CRISP_ERR_NO_MEMORY, "splat cells of face %u", c->face);
+        c->stack = n;
+        c->stack_cap = cap;
+    }
+    c->stack[c->stack_count++] = k;
+    return CRISP_OK;
+}
+
+/* Lengths of the Euclidean control net along u and v (the longest row and column): how long the
+ * cell is in model units, for choosing how to split it (only a guide; the bounds are checked). */
+static void net_lengths(const double *e, int du, int dv, double *lu, double *lv)
+{
+    const int nu = du + 1;
+    double mu = 0.0, mv = 0.0;
+    for (int j = 0; j <= dv; j++) {
+        double l = 0.0;
+        for (int i = 0; i < du; i++) {
+            const double *a = e + 3 * (j * nu + i), *b = a + 3;
+            l += sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) +
+                      (b[2] - a[2]) * (b[2] - a[2]));
+        }
+        mu = fmax(mu, l);
+    }
+    for (int i = 0; i <= du; i++) {
+        double l = 0.0;
+        for (int j = 0; j < dv; j++) {
+            const double *a = e + 3 * (j * nu + i), *b = a + 3 * nu;
+            l += sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) +
+                      (b[2] - a[2]) * (b[2] - a[2]));
+        }
+        mv = fmax(mv, l);
+    }
+    *lu = mu;
+    *lv = mv;
+}
 
 static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top)
 {
     const int n = (top->du + 1) * (top->dv + 1);
-    cell st[4 * SPLAT_MAX_CELL_DEPTH + 8];
-    int sp = 0;
-    st[sp++] = (cell){0.0, 1.0, 0.0, 1.0, 0, c->piece_count == 0};
     const double du = top->u1 - top->u0, dv = top->v1 - top->v0;
-    while (sp > 0) {
-        cell k = st[--sp];
-        double *cpw = c->cpw;
+    const double min_size = ldexp(1.0, -SPLAT_MAX_CELL_DEPTH);
+    crisp_status st;
+    c->stack_count = 0;
+    if ((st = push_cell(c, (cell){0.0, 1.0, 0.0, 1.0, c->piece_count == 0}))) return st;
+    while (c->stack_count > 0) {
+        cell k = c->stack[--c->stack_count];
+        double *cpw = c->cpw, *e = c->euc;
         if (++c->cells > c->max_cells)
             return crisp_error(CRISP_ERR_LIMIT, "face %u: more than %llu cells at radius %g",
                                c->face, (unsigned long long)c->max_cells, c->r_in);
@@ -235,29 +293,59 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top)
             if (!near && !inside) continue; /* wholly outside */
         }
         restrict_patch(top, k.s0, k.s1, k.t0, k.t1, cpw);
+        euclid(cpw, n, e);
         double x[3];
         crisp_bezier_patch_eval(top, sc, tc, x);
-        double rc = hull_radius(cpw, n, x);
-        if (inside) {
-            if (rc <= c->r_in) {
-                if (rc > c->got_in) c->got_in = rc;
-                crisp_status s = emit(c, uc, vc, x);
-                if (s) return s;
+        double rc = hull_radius(e, n, x);
+        double bound = inside ? c->r_in : c->r_out;
+        if (rc <= bound) {
+            if (!inside) {
+                if (rc > c->got_out) c->got_out = rc;
                 continue;
             }
-        } else if (rc <= c->r_out) {
-            if (rc > c->got_out) c->got_out = rc;
+            if (rc > c->got_in) c->got_in = rc;
+            c->dbg[near]++;
+            if ((st = emit(c, uc, vc, x))) return st;
             continue;
         }
-        if (k.depth >= SPLAT_MAX_CELL_DEPTH)
+        /* Split: a cell whose class is known into a grid of about square cells of the size the
+         * bound allows (a flat square of side sqrt(2) B has R_C = B); a cell near a curve in
+         * halves (its parts are classified again), along its longer side only when it is much
+         * longer. */
+        double lu, lv;
+        net_lengths(e, top->du, top->dv, &lu, &lv);
+        int nu = 2, nv = 2;
+        int known = inside && !near;
+        if (known) {
+            double side = SPLAT_GRID_SIDE * bound;
+            nu = (int)fmin(ceil(lu / side), 64.0);
+            nv = (int)fmin(ceil(lv / side), 64.0);
+            nu = nu < 1 ? 1 : nu;
+            nv = nv < 1 ? 1 : nv;
+            if (nu * nv == 1) {
+                if (lu >= lv)
+                    nu = 2;
+                else
+                    nv = 2;
+            }
+        } else if (lu > 1.5 * lv)
+            nv = 1;
+        else if (lv > 1.5 * lu)
+            nu = 1;
+        if ((k.s1 - k.s0) / nu < min_size) nu = 1;
+        if ((k.t1 - k.t0) / nv < min_size) nv = 1;
+        if (nu * nv == 1)
             return crisp_error(CRISP_ERR_NUMERIC,
-                               "face %u: a cell %d levels deep still spans %g (radius %g)", c->face,
-                               k.depth, rc, c->r_in);
-        int kn = inside && !near;
-        st[sp++] = (cell){k.s0, sc, k.t0, tc, k.depth + 1, kn};
-        st[sp++] = (cell){sc, k.s1, k.t0, tc, k.depth + 1, kn};
-        st[sp++] = (cell){k.s0, sc, tc, k.t1, k.depth + 1, kn};
-        st[sp++] = (cell){sc, k.s1, tc, k.t1, k.depth + 1, kn};
+                               "face %u: a cell 2^-%d of its patch still spans %g (radius %g)",
+                               c->face, SPLAT_MAX_CELL_DEPTH, rc, c->r_in);
+        for (int j = 0; j < nv; j++)
+            for (int i = 0; i < nu; i++) {
+                double s0 = k.s0 + (k.s1 - k.s0) * i / nu, s1 = k.s0 + (k.s1 - k.s0) * (i + 1) / nu;
+                double t0 = k.t0 + (k.t1 - k.t0) * j / nv, t1 = k.t0 + (k.t1 - k.t0) * (j + 1) / nv;
+                if (i == nu - 1) s1 = k.s1;
+                if (j == nv - 1) t1 = k.t1;
+                if ((st = push_cell(c, (cell){s0, s1, t0, t1, known}))) return st;
+            }
     }
     return CRISP_OK;
 }
@@ -339,10 +427,12 @@ static crisp_status curve_piece(splat_ctx *c, const double *cpw, int d, int dept
             double s0 = fmax((a0 - p->u0) / wu, 0.0), s1 = fmin((a1 - p->u0) / wu, 1.0);
             double t0 = fmax((b0 - p->v0) / wv, 0.0), t1 = fmin((b1 - p->v0) / wv, 1.0);
             restrict_patch(p, s0, s1, t0, t1, buf);
-            rad = fmax(rad, hull_radius(buf, (p->du + 1) * (p->dv + 1), x));
+            euclid(buf, (p->du + 1) * (p->dv + 1), c->euc);
+            rad = fmax(rad, hull_radius(c->euc, (p->du + 1) * (p->dv + 1), x));
         }
     if (rad <= c->s) {
         if (rad > c->got_s) c->got_s = rad;
+        c->dbg[2]++;
         return emit(c, um, vm, x);
     }
     if (depth >= SPLAT_MAX_CURVE_DEPTH)
@@ -432,8 +522,9 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
     c.boxes = crisp_malloc_array(f->piece_count ? f->piece_count : 1, sizeof *c.boxes);
     size_t ncp = (size_t)(maxd + 1) * (size_t)(maxd + 1) * 4;
     c.cpw = crisp_malloc_array(ncp, sizeof(double));
+    c.euc = crisp_malloc_array(ncp, sizeof(double));
     crisp_status st = CRISP_OK;
-    if (!c.cu || !c.cv || !c.boxes || !c.cpw) {
+    if (!c.cu || !c.cv || !c.boxes || !c.cpw || !c.euc) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "splat build of face %u", face);
         goto done;
     }
@@ -471,10 +562,20 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
     for (int k = 0; k < c.piece_count && !st; k++)
         st = curve_piece(&c, c.pieces[k].cpw, c.pieces[k].degree, 0);
 done:
+    if (getenv("SPLAT_DEBUG")) {
+        static uint64_t tot[4];
+        for (int i = 0; i < 3; i++)
+            tot[i] += c.dbg[i];
+        tot[3] += c.cells;
+        fprintf(stderr, "far %llu near %llu curve %llu cells %llu\n", (unsigned long long)tot[0],
+                (unsigned long long)tot[1], (unsigned long long)tot[2], (unsigned long long)tot[3]);
+    }
     crisp_free(c.cu);
     crisp_free(c.cv);
     crisp_free(c.boxes);
     crisp_free(c.cpw);
+    crisp_free(c.euc);
+    crisp_free(c.stack);
     if (st) {
         crisp__splat_set_free(dest);
         return st;
