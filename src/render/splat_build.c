@@ -91,23 +91,32 @@ static void split_points(const double *c, int d, int dim, double t, double *lo, 
     }
 }
 
-/* Restrict d + 1 homogeneous 4D points (stride `stride` doubles) to the local interval [a, b]. */
+/* Restrict d + 1 homogeneous 4D points (stride `stride` doubles) to the local interval [a, b],
+ * in place: de Casteljau's left part at b, then the right part of that at a / b. */
 static void restrict_points(double *c, int d, ptrdiff_t stride, double a, double b)
 {
-    double p[(CRISP_MAX_DEGREE + 1) * 4], lo[(CRISP_MAX_DEGREE + 1) * 4],
-        hi[(CRISP_MAX_DEGREE + 1) * 4];
-    for (int i = 0; i <= d; i++)
-        memcpy(p + 4 * i, c + i * stride, sizeof(double) * 4);
     if (b < 1.0) {
-        split_points(p, d, 4, b, lo, hi);
-        memcpy(p, lo, sizeof(double) * 4 * (size_t)(d + 1));
+        const double s = 1.0 - b;
+        for (int r = 1; r <= d; r++)
+            for (int i = d; i >= r; i--) {
+                double *p = c + i * stride, *q = p - stride;
+                p[0] = s * q[0] + b * p[0];
+                p[1] = s * q[1] + b * p[1];
+                p[2] = s * q[2] + b * p[2];
+                p[3] = s * q[3] + b * p[3];
+            }
     }
     if (a > 0.0) {
-        split_points(p, d, 4, b > 0.0 ? a / b : 0.0, lo, hi);
-        memcpy(p, hi, sizeof(double) * 4 * (size_t)(d + 1));
+        const double t = b > 0.0 ? a / b : 0.0, s = 1.0 - t;
+        for (int r = 1; r <= d; r++)
+            for (int i = 0; i <= d - r; i++) {
+                double *p = c + i * stride, *q = p + stride;
+                p[0] = s * p[0] + t * q[0];
+                p[1] = s * p[1] + t * q[1];
+                p[2] = s * p[2] + t * q[2];
+                p[3] = s * p[3] + t * q[3];
+            }
     }
-    for (int i = 0; i <= d; i++)
-        memcpy(c + i * stride, p + 4 * i, sizeof(double) * 4);
 }
 
 /* The control points of patch p restricted to local [s0, s1] x [t0, t1] into dest. */
