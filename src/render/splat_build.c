@@ -65,7 +65,10 @@ typedef struct splat_ctx {
     crisp_splat_set *set;
     uint32_t cap;
     double *cpw, *euc; /* a cell's control points, homogeneous and Euclidean */
-    cell *stack;       /* pending cells of a patch */
+    double *col;       /* col_patch restricted to [col_s0, col_s1] in u */
+    const crisp_bezier_patch *col_patch;
+    double col_s0, col_s1;
+    cell *stack; /* pending cells of a patch */
     size_t stack_count, stack_cap;
 } splat_ctx;
 
@@ -117,20 +120,6 @@ static void restrict_points(double *c, int d, ptrdiff_t stride, double a, double
                 p[3] = s * p[3] + t * q[3];
             }
     }
-}
-
-/* The control points of patch p restricted to local [s0, s1] x [t0, t1] into dest. */
-static void restrict_patch(const crisp_bezier_patch *p, double s0, double s1, double t0, double t1,
-                           double *dest)
-{
-    const int nu = p->du + 1, nv = p->dv + 1;
-    memcpy(dest, p->cpw, sizeof(double) * 4 * (size_t)(nu * nv));
-    if (s0 > 0.0 || s1 < 1.0)
-        for (int j = 0; j < nv; j++)
-            restrict_points(dest + 4 * j * nu, p->du, 4, s0, s1);
-    if (t0 > 0.0 || t1 < 1.0)
-        for (int i = 0; i < nu; i++)
-            restrict_points(dest + 4 * i, p->dv, 4 * (ptrdiff_t)nu, t0, t1);
 }
 
 /* max_i |P_i - x| over n Euclidean points. */
@@ -248,6 +237,20 @@ static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[
     return got;
 }
 
+/* crisp_trim_exact_classify over the pieces that can cross (u, v)'s scan line left of u: its
+ * parity is the exclusive or of the pieces' own, and a piece whose control points all have
+ * v >= v_s, or all v < v_s, or all u >= u (the same quotients as the classifier's) adds 0. */
+static int classify(const splat_ctx *c, double u, double v)
+{
+    int parity = 0;
+    for (int k = 0; k < c->piece_count; k++) {
+        const double *b = c->boxes[k];
+        if (b[2] < v && b[3] >= v && b[0] < u)
+            parity ^= crisp_trim_exact_classify(c->pieces + k, 1, u, v);
+    }
+    return parity;
+}
+
 /* ---- cells ------------------------------------------------------------------------------------
  */
 
@@ -322,11 +325,24 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int
             inside = 1;
         else {
             near = cell_curve_point(c, rect, pt);
-            inside = crisp_trim_exact_classify(c->pieces, c->piece_count, uc, vc);
+            inside = classify(c, uc, vc);
             if (!near && !inside) continue; /* wholly outside */
             if (inside) pt[0] = uc, pt[1] = vc;
         }
-        restrict_patch(top, k.s0, k.s1, k.t0, k.t1, cpw);
+        /* The u-restriction of the last cell's column is kept: cells of a grid come column by
+         * column. */
+        const int nu_ = top->du + 1, nv_ = top->dv + 1;
+        if (c->col_patch != top || c->col_s0 != k.s0 || c->col_s1 != k.s1) {
+            memcpy(c->col, top->cpw, sizeof(double) * 4 * (size_t)n);
+            if (k.s0 > 0.0 || k.s1 < 1.0)
+                for (int j = 0; j < nv_; j++)
+                    restrict_points(c->col + 4 * j * nu_, top->du, 4, k.s0, k.s1);
+            c->col_patch = top, c->col_s0 = k.s0, c->col_s1 = k.s1;
+        }
+        memcpy(cpw, c->col, sizeof(double) * 4 * (size_t)n);
+        if (k.t0 > 0.0 || k.t1 < 1.0)
+            for (int i = 0; i < nu_; i++)
+                restrict_points(cpw + 4 * i, top->dv, 4 * (ptrdiff_t)nu_, k.t0, k.t1);
         euclid(cpw, n, e);
         double x[3];
         crisp_bezier_patch_eval(top, (pt[0] - top->u0) / du, (pt[1] - top->v0) / dv, x);
@@ -366,8 +382,9 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int
             return crisp_error(CRISP_ERR_NUMERIC,
                                "face %u: a cell 2^-%d of its patch still spans %g (radius %g)",
                                c->face, SPLAT_MAX_CELL_DEPTH, rc, c->r_in);
-        for (int j = 0; j < nv; j++)
-            for (int i = 0; i < nu; i++) {
+        /* Column by column: cells popped one after the other share their u-restriction. */
+        for (int i = 0; i < nu; i++)
+            for (int j = 0; j < nv; j++) {
                 double s0 = k.s0 + (k.s1 - k.s0) * i / nu, s1 = k.s0 + (k.s1 - k.s0) * (i + 1) / nu;
                 double t0 = k.t0 + (k.t1 - k.t0) * j / nv, t1 = k.t0 + (k.t1 - k.t0) * (j + 1) / nv;
                 if (i == nu - 1) s1 = k.s1;
@@ -405,7 +422,7 @@ static crisp_status block_cells(splat_ctx *c, uint32_t iu0, uint32_t iu1, uint32
     int near = 0, inside = 1;
     if (!known) {
         near = cell_curve_point(c, rect, pt);
-        inside = crisp_trim_exact_classify(c->pieces, c->piece_count, uc, vc);
+        inside = classify(c, uc, vc);
         if (!near && !inside) return CRISP_OK;
         if (inside) pt[0] = uc, pt[1] = vc;
     }
@@ -515,8 +532,9 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
     size_t ncp = (size_t)(maxd + 1) * (size_t)(maxd + 1) * 4;
     c.cpw = crisp_malloc_array(ncp, sizeof(double));
     c.euc = crisp_malloc_array(ncp, sizeof(double));
+    c.col = crisp_malloc_array(ncp, sizeof(double));
     crisp_status st = CRISP_OK;
-    if (!c.boxes || !c.cpw || !c.euc) {
+    if (!c.boxes || !c.cpw || !c.euc || !c.col) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "splat build of face %u", face);
         goto done;
     }
@@ -544,6 +562,7 @@ done:
     crisp_free(c.boxes);
     crisp_free(c.cpw);
     crisp_free(c.euc);
+    crisp_free(c.col);
     crisp_free(c.stack);
     if (st) {
         crisp__splat_set_free(dest);
