@@ -491,6 +491,13 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
                    .max_count = max_count,
                    .set = dest};
     if (!f->patch_count) return CRISP_OK;
+    if (c.piece_count) {
+        crisp_status ps = crisp_trim_pieces_check(c.pieces, c.piece_count);
+        if (ps) {
+            crisp_error_prefix("splat build of face %u", face);
+            return ps;
+        }
+    }
     /* The face's box (origin) and its largest coordinate (rounding margin); weights positive. */
     double box[6] = {HUGE_VAL, HUGE_VAL, HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL}, big = 0.0;
     int maxd = 0;

@@ -414,8 +414,16 @@ static void check_model(const char *name, int faces)
             splats += res.splats;
         }
     }
-    printf("%s: %d faces, %ld samples inside, %ld splats, tightness %.3f\n", name, faces, samples,
-           splats, worst);
+    /* Every face at a coarse radius (the regime of faces a few pixels across), fewer samples. */
+    for (uint32_t face = 0; face < sc->face_count; face++) {
+        check_result res = check_face(sc, face, face_diagonal(sc, face) / 6, 16);
+        worst = fmax(worst, res.tightness);
+        samples += res.inside;
+        splats += res.splats;
+    }
+    printf("%s: %d faces at two radii and all %u at d/6, %ld samples inside, %ld splats, "
+           "tightness %.3f\n",
+           name, faces, sc->face_count, samples, splats, worst);
     assert_true(samples > 1000);
     crisp_scene_destroy(sc);
     crisp_model_destroy(m);
