@@ -18,7 +18,8 @@
  *     the left is constant on a connected set that misses the curves); c decides
  *     (crisp_trim_exact_classify). Outside: dropped (no point of the face). Inside: its
  *     sub-cells inherit the class without a test.
- *   - The sample point x of the cell: c when c is inside, else the curve point b. Both are points
+ *   - The sample point x of the cell: c when c is inside, else a curve point in K (b, or one
+ *     nearer c found by a pruned search: a smaller R_x). Both are points
  *     of the trimmed face (inside, or on a trim curve) and lie in K.
  *   - R_x <= r: a splat at S(x); by (1) it covers every point of the cell's surface, trimmed or
  *     not. Otherwise the cell is split and its parts are treated the same way.
@@ -239,6 +240,53 @@ static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[
     return got;
 }
 
+/* A point of the sub-curve in the closed rectangle near its centre m (a sample point there has a
+ * smaller hull radius than one at the rectangle's edge): the sub-curves' end points in the
+ * rectangle, searched nearer half first and pruned by box distance, down to sub-curves of a
+ * sixteenth of the rectangle. best: squared uv distance of pt to m so far. */
+static void curve_point_near(const double *cpw, int d, const double rect[4], const double m[2],
+                             double tiny, int depth, double pt[2], double *best)
+{
+    double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
+    for (int i = 0; i <= d; i++)
+        for (int q = 0; q < 2; q++) {
+            double x = cpw[3 * i + q] / cpw[3 * i + 2];
+            lo[q] = x < lo[q] ? x : lo[q];
+            hi[q] = x > hi[q] ? x : hi[q];
+        }
+    if (hi[0] < rect[0] || lo[0] > rect[1] || hi[1] < rect[2] || lo[1] > rect[3]) return;
+    double ex = fmax(fmax(lo[0] - m[0], m[0] - hi[0]), 0.0);
+    double ey = fmax(fmax(lo[1] - m[1], m[1] - hi[1]), 0.0);
+    if (ex * ex + ey * ey >= *best) return;
+    for (int e = 0; e <= d; e += d) {
+        double u = cpw[3 * e] / cpw[3 * e + 2], v = cpw[3 * e + 1] / cpw[3 * e + 2];
+        double dd = (u - m[0]) * (u - m[0]) + (v - m[1]) * (v - m[1]);
+        if (u >= rect[0] && u <= rect[1] && v >= rect[2] && v <= rect[3] && dd < *best) {
+            *best = dd;
+            pt[0] = u, pt[1] = v;
+        }
+    }
+    if (depth >= SPLAT_FIND_DEPTH || fmax(hi[0] - lo[0], hi[1] - lo[1]) <= tiny) return;
+    double l[3 * (CRISP_MAX_DEGREE + 1)], r[3 * (CRISP_MAX_DEGREE + 1)];
+    split_points(cpw, d, 3, 0.5, l, r);
+    curve_point_near(l, d, rect, m, tiny, depth + 1, pt, best);
+    curve_point_near(r, d, rect, m, tiny, depth + 1, pt, best);
+}
+
+/* pt: a point of the curves in the rectangle (cell_curve_point's); moved to one nearer the
+ * centre when the search finds one. */
+static void cell_curve_point_near(const splat_ctx *c, const double rect[4], double pt[2])
+{
+    double m[2] = {0.5 * (rect[0] + rect[1]), 0.5 * (rect[2] + rect[3])};
+    double best = (pt[0] - m[0]) * (pt[0] - m[0]) + (pt[1] - m[1]) * (pt[1] - m[1]);
+    double tiny = 0.0625 * fmax(rect[1] - rect[0], rect[3] - rect[2]);
+    for (int k = 0; k < c->piece_count; k++) {
+        const double *b = c->boxes[k];
+        if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
+        curve_point_near(c->pieces[k].cpw, c->pieces[k].degree, rect, m, tiny, 0, pt, &best);
+    }
+}
+
 /* crisp_trim_exact_classify over the pieces that can cross (u, v)'s scan line left of u: its
  * parity is the exclusive or of the pieces' own, and a piece whose control points all have
  * v >= v_s, or all v < v_s, or all u >= u (the same quotients as the classifier's) adds 0. */
@@ -329,7 +377,10 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int
             near = cell_curve_point(c, rect, pt);
             inside = classify(c, uc, vc);
             if (!near && !inside) continue; /* wholly outside */
-            if (inside) pt[0] = uc, pt[1] = vc;
+            if (inside)
+                pt[0] = uc, pt[1] = vc;
+            else
+                cell_curve_point_near(c, rect, pt);
         }
         /* The u-restriction of the last cell's column is kept: cells of a grid come column by
          * column. */
@@ -426,7 +477,10 @@ static crisp_status block_cells(splat_ctx *c, uint32_t iu0, uint32_t iu1, uint32
         near = cell_curve_point(c, rect, pt);
         inside = classify(c, uc, vc);
         if (!near && !inside) return CRISP_OK;
-        if (inside) pt[0] = uc, pt[1] = vc;
+        if (inside)
+            pt[0] = uc, pt[1] = vc;
+        else
+            cell_curve_point_near(c, rect, pt);
     }
     /* The patch that holds the point, and the point. */
     uint32_t ju = iu0, jv = iv0;
