@@ -631,6 +631,10 @@ done:
         crisp__splat_set_free(dest);
         return st;
     }
+    if (dest->count && dest->count < c.cap) { /* give back the growth's slack */
+        crisp_plan_splat *fit = crisp_realloc_array(dest->splats, dest->count, sizeof *fit);
+        if (fit) dest->splats = fit;
+    }
     dest->radius = dest->count ? fmin(radius, c.got + margin) : radius;
     return CRISP_OK;
 }
