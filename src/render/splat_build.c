@@ -53,6 +53,9 @@ typedef struct cell cell;
 #define SPLAT_GRID_SIDE 1.4
 
 #define SPLAT_FIND_DEPTH 44 /* halvings of a trim piece looking for a point of it in a cell */
+/* Sub-pieces looked at per piece and cell (a piece running along a cell's edge just outside it
+ * could otherwise be halved everywhere): past it the answer is 2 (see curve_point). */
+#define SPLAT_FIND_BUDGET 4096
 
 typedef struct splat_ctx {
     const crisp_scene *scene;
@@ -182,10 +185,13 @@ static crisp_status emit(splat_ctx *c, double u, double v, const double x[3])
 /* Whether the sub-curve (homogeneous uv points, degree d) meets the closed rectangle rect
  * (u0, u1, v0, v1): 0 when it provably does not (its control-point box, which holds it, misses
  * the rectangle at every level), 1 with a point of the curve in the rectangle in pt (an end
- * point of a sub-curve), 2 when the halvings ran out with a sub-curve's box (2^-SPLAT_FIND_DEPTH
- * of the piece's parameter range) still touching the rectangle: pt is its end point clamped
- * into the rectangle, a point of the rectangle within that box's size of the curve. */
-static int curve_point(const double *cpw, int d, const double rect[4], int depth, double pt[2])
+ * point of a sub-curve), 2 when the halvings ran out (2^-SPLAT_FIND_DEPTH of the piece's parameter
+ * range, or SPLAT_FIND_BUDGET sub-pieces) with a sub-curve's box still touching the rectangle: pt
+ * is that sub-curve's end point clamped into the rectangle, within the box's size of the curve.
+ * The cell then counts as near a curve: its sample still covers it (any point of the cell does,
+ * by (1)); only its being on the curve is approximate. */
+static int curve_point(const double *cpw, int d, const double rect[4], int depth, int *budget,
+                       double pt[2])
 {
     double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
     for (int i = 0; i <= d; i++)
@@ -202,7 +208,7 @@ static int curve_point(const double *cpw, int d, const double rect[4], int depth
             return 1;
         }
     }
-    if (depth >= SPLAT_FIND_DEPTH) {
+    if (depth >= SPLAT_FIND_DEPTH || --*budget < 0) {
         pt[0] = fmin(fmax(cpw[0] / cpw[2], rect[0]), rect[1]);
         pt[1] = fmin(fmax(cpw[1] / cpw[2], rect[2]), rect[3]);
         return 2;
@@ -210,10 +216,10 @@ static int curve_point(const double *cpw, int d, const double rect[4], int depth
     double l[3 * (CRISP_MAX_DEGREE + 1)], r[3 * (CRISP_MAX_DEGREE + 1)];
     split_points(cpw, d, 3, 0.5, l, r);
     /* The middle point first: a curve crossing the rectangle is found at the first levels. */
-    int got = curve_point(l, d, rect, depth + 1, pt);
+    int got = curve_point(l, d, rect, depth + 1, budget, pt);
     if (got == 1) return 1;
     double p2[2];
-    int got2 = curve_point(r, d, rect, depth + 1, p2);
+    int got2 = curve_point(r, d, rect, depth + 1, budget, p2);
     if (got2 == 1 || (got2 && !got)) {
         pt[0] = p2[0], pt[1] = p2[1];
         return got2;
@@ -229,7 +235,8 @@ static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[
     for (int k = 0; k < c->piece_count; k++) {
         const double *b = c->boxes[k];
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
-        int g = curve_point(c->pieces[k].cpw, c->pieces[k].degree, rect, 0, q);
+        int budget = SPLAT_FIND_BUDGET;
+        int g = curve_point(c->pieces[k].cpw, c->pieces[k].degree, rect, 0, &budget, q);
         if (g == 1) {
             pt[0] = q[0], pt[1] = q[1];
             return 1;
