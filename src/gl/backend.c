@@ -14,12 +14,18 @@
 #include "gl_internal.h"
 #include "render/ribbon.h"
 
+/* Splats are drawn as points this much larger than the plan's 2 h (px) and the samples outside
+ * the rule's square discarded (splat_fs.glsl): llvmpipe's snapping of the point's centre and
+ * size to 1/256 px moves its square's sides by less than 1/128 px. */
+#define CRISP__GL_SPLAT_MARGIN (1.0 / 16)
+
 /* The records the shaders read: their C layout must be the std430 layout in common.glsl. */
 _Static_assert(sizeof(crisp_plan_leaf) == 48, "crisp_plan_leaf: 3 uvec4");
 _Static_assert(sizeof(crisp_plan_face) == 64, "crisp_plan_face: std430 Face");
 _Static_assert(sizeof(crisp_plan_strip) == 24, "crisp_plan_strip: std430 Strip");
 _Static_assert(sizeof(crisp_plan_ribbon_vertex) == 56,
                "crisp_plan_ribbon_vertex: std430 RibbonVertex");
+_Static_assert(sizeof(crisp_plan_splat) == 36, "crisp_plan_splat: std430 Splat (splat_vs.glsl)");
 _Static_assert(sizeof(crisp_scene_patch_record) == 48,
                "crisp_scene_patch_record: std430 PatchRecord");
 _Static_assert(sizeof(crisp__gl_query) == 48 && sizeof(crisp__gl_result) == 72,
@@ -29,7 +35,8 @@ extern const char crisp__shader_common_glsl[], crisp__shader_surface_vs_glsl[],
     crisp__shader_surface_tcs_glsl[], crisp__shader_surface_tes_glsl[],
     crisp__shader_surface_fs_glsl[], crisp__shader_ribbon_vs_glsl[], crisp__shader_ribbon_fs_glsl[],
     crisp__shader_fullscreen_vs_glsl[], crisp__shader_slack_fs_glsl[],
-    crisp__shader_accum_cs_glsl[], crisp__shader_finish_cs_glsl[], crisp__shader_layout_cs_glsl[];
+    crisp__shader_accum_cs_glsl[], crisp__shader_finish_cs_glsl[], crisp__shader_layout_cs_glsl[],
+    crisp__shader_splat_vs_glsl[], crisp__shader_splat_fs_glsl[];
 
 enum {
     B_LEAVES,
@@ -43,17 +50,19 @@ enum {
     B_COLORS,
     B_QUERIES,
     B_RESULTS,
+    B_SPLATS,        /* binding 11: the plan's splat store */
+    B_SPLAT_ORIGINS, /* binding 12: splat_clip_origin, 4 floats per face */
     B_COUNT
 };
 static const char *const buffer_names[B_COUNT] = {
-    "leaves",         "faces",           "trim strips",   "trim rows",
-    "trim crossings", "ribbon vertices", "patch records", "control points",
-    "face colours",   "layout queries",  "layout results"};
+    "leaves",          "faces",         "trim strips",       "trim rows",    "trim crossings",
+    "ribbon vertices", "patch records", "control points",    "face colours", "layout queries",
+    "layout results",  "splats",        "splat clip origins"};
 
 typedef struct uniforms {
     GLint leaf_base, view_proj, jitter, zconst, slack_tex, nw_tex, uv_tex, face_tex, dir0, dir_x,
         dir_y, offset, samples, count, keep_samples, sample_index, clip_plane, image_size,
-        slack_scale, core_scale;
+        slack_scale, core_scale, view_proj_f, view, point_size, half_px, raw;
 } uniforms;
 
 struct crisp_gl {
@@ -62,8 +71,8 @@ struct crisp_gl {
     size_t max_block;
     size_t chunk_leaves, chunk_quads; /* leaves and ribbon quads drawn per bound buffer range */
     GLuint vao;
-    GLuint surface, ribbon, slack, accum, finish, layout;
-    uniforms u_surface, u_ribbon, u_slack, u_accum, u_finish, u_layout;
+    GLuint surface, ribbon, slack, accum, finish, layout, splat;
+    uniforms u_surface, u_ribbon, u_slack, u_accum, u_finish, u_layout, u_splat;
     GLuint buf[B_COUNT];
     size_t buf_cap[B_COUNT];
     /* targets */
@@ -72,7 +81,7 @@ struct crisp_gl {
     GLuint fbo_pass, fbo_slack, fbo_out;
     /* what is uploaded */
     const crisp_frame_plan *plan;
-    uint64_t v_leaves, v_faces, v_table, v_ribbons;
+    uint64_t v_leaves, v_faces, v_table, v_ribbons, v_splats;
     const crisp_scene *scene;
     int have_scene, drawn;
     uint32_t scene_patches, scene_faces;
@@ -82,6 +91,13 @@ struct crisp_gl {
     int keep_samples;      /* tests: keep every sample's face (crisp__gl_sample_faces) */
     GLuint t_sample_faces; /* GL_R32I, one layer per sample */
     int sample_w, sample_h;
+    /* splats: the largest point size, the viewport limit, the draw's firsts and counts */
+    float max_point;
+    int max_viewport[2];
+    GLint *splat_first;
+    GLsizei *splat_n;
+    size_t splat_cap;
+    int splat_raw; /* tests: GL's point coverage without the exact test (crisp__gl_splat_raw) */
 };
 
 /* ---- shaders ----------------------------------------------------------------------------------
@@ -168,6 +184,11 @@ static void locate(GLuint p, uniforms *u)
     u->image_size = glGetUniformLocation(p, "image_size");
     u->slack_scale = glGetUniformLocation(p, "slack_scale");
     u->core_scale = glGetUniformLocation(p, "core_scale");
+    u->view_proj_f = glGetUniformLocation(p, "view_proj_f");
+    u->view = glGetUniformLocation(p, "view");
+    u->point_size = glGetUniformLocation(p, "point_size");
+    u->half_px = glGetUniformLocation(p, "half_px");
+    u->raw = glGetUniformLocation(p, "raw");
 }
 
 crisp_status crisp__gl_try_program(const char *name, int stage, const char *src)
@@ -264,6 +285,9 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
         gl->finish = program("finish", NULL, NULL, NULL, NULL, crisp__shader_finish_cs_glsl, &st);
     if (!st)
         gl->layout = program("layout", NULL, NULL, NULL, NULL, crisp__shader_layout_cs_glsl, &st);
+    if (!st)
+        gl->splat = program("splat", crisp__shader_splat_vs_glsl, NULL, NULL,
+                            crisp__shader_splat_fs_glsl, NULL, &st);
     if (st) {
         crisp_gl_destroy(gl);
         return st;
@@ -274,6 +298,11 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
     locate(gl->accum, &gl->u_accum);
     locate(gl->finish, &gl->u_finish);
     locate(gl->layout, &gl->u_layout);
+    locate(gl->splat, &gl->u_splat);
+    GLfloat point_range[2] = {1, 1};
+    glGetFloatv(GL_POINT_SIZE_RANGE, point_range);
+    gl->max_point = point_range[1];
+    glGetIntegerv(GL_MAX_VIEWPORT_DIMS, gl->max_viewport);
     glCreateVertexArrays(1, &gl->vao);
     glCreateBuffers(B_COUNT, gl->buf);
     glCreateFramebuffers(1, &gl->fbo_pass);
@@ -300,7 +329,8 @@ static void free_targets(crisp_gl *gl)
 void crisp_gl_destroy(crisp_gl *gl)
 {
     if (!gl) return;
-    GLuint progs[] = {gl->surface, gl->ribbon, gl->slack, gl->accum, gl->finish, gl->layout};
+    GLuint progs[] = {gl->surface, gl->ribbon, gl->slack, gl->accum,
+                      gl->finish,  gl->layout, gl->splat};
     for (size_t k = 0; k < sizeof progs / sizeof *progs; k++)
         if (progs[k]) glDeleteProgram(progs[k]);
     if (gl->vao) {
@@ -313,6 +343,8 @@ void crisp_gl_destroy(crisp_gl *gl)
     }
     if (gl->t_sample_faces) glDeleteTextures(1, &gl->t_sample_faces);
     free(gl->tmp);
+    free(gl->splat_first);
+    free(gl->splat_n);
     free(gl);
 }
 
@@ -449,6 +481,20 @@ static crisp_status upload_plan(crisp_gl *gl, const crisp_frame_plan *p, uint64_
         st = upload(gl, B_RIBBONS, p->ribbon_vertices,
                     4 * (size_t)p->ribbon_quad_count * sizeof *p->ribbon_vertices, bytes);
     }
+    /* The splat store: the planner's every face set built so far, uploaded whole when it changed
+     * (grown or rebuilt). The planner appends sets as faces first need them, so on a real GPU an
+     * app would upload only the store's new tail (a persistently mapped buffer grown by
+     * doubling, glNamedBufferSubData of [old count, count)) and the whole store only when a set
+     * was rebuilt; the plan's single version does not tell the two apart yet. */
+    if (!st && (all || p->splats_version != gl->v_splats)) {
+        for (uint32_t k = 0; k < p->splat_count; k++)
+            if (p->splats[k].face >= p->face_count) {
+                gl->plan = NULL;
+                return crisp_error(CRISP_ERR_INVALID_ARG, "plan splat %u: face %u of %u", k,
+                                   p->splats[k].face, p->face_count);
+            }
+        st = upload(gl, B_SPLATS, p->splats, (size_t)p->splat_count * sizeof *p->splats, bytes);
+    }
     if (st) {
         gl->plan = NULL;
         return st;
@@ -458,9 +504,59 @@ static crisp_status upload_plan(crisp_gl *gl, const crisp_frame_plan *p, uint64_
     gl->v_faces = p->faces_version;
     gl->v_table = p->table_version;
     gl->v_ribbons = p->ribbons_version;
+    gl->v_splats = p->splats_version;
     for (int b = 0; b < B_QUERIES; b++)
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, (GLuint)b, gl->buf[b]);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, B_SPLATS, gl->buf[B_SPLATS]);
     return gl_check("uploading the plan");
+}
+
+/* The frame's splat ranges as glMultiDrawArrays' firsts and counts, checked against the store;
+ * the faces' clip origins uploaded (per frame: they move with the camera). *draws: the ranges. */
+static crisp_status prepare_splats(crisp_gl *gl, const crisp_frame_plan *p, uint64_t *bytes,
+                                   GLsizei *draws)
+{
+    *draws = 0;
+    if (!p->splat_range_count) return CRISP_OK;
+    if (!p->splat_clip_origin || !p->splats)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "the plan has %u splat ranges but no splat store or clip origins",
+                           p->splat_range_count);
+    if (p->splat_range_count > INT32_MAX)
+        return crisp_error(CRISP_ERR_LIMIT, "%u splat ranges: GL draws at most %d in one call",
+                           p->splat_range_count, INT32_MAX);
+    double h = p->splat_half_px;
+    if (!(h > 0) || !(2 * h + CRISP__GL_SPLAT_MARGIN <= gl->max_point))
+        return crisp_error(CRISP_ERR_LIMIT,
+                           "splat half-size %g px: the GL backend draws splats of 0..%g px (half "
+                           "of GL_POINT_SIZE_RANGE's largest, less a margin)",
+                           h, 0.5 * (gl->max_point - CRISP__GL_SPLAT_MARGIN));
+    if (gl->splat_cap < p->splat_range_count) {
+        size_t cap = p->splat_range_count + p->splat_range_count / 4;
+        GLint *f = realloc(gl->splat_first, cap * sizeof *f);
+        if (f) gl->splat_first = f;
+        GLsizei *n = realloc(gl->splat_n, cap * sizeof *n);
+        if (n) gl->splat_n = n;
+        if (!f || !n)
+            return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory drawing %u splat ranges",
+                               p->splat_range_count);
+        gl->splat_cap = cap;
+    }
+    GLsizei m = 0;
+    for (uint32_t k = 0; k < p->splat_range_count; k++) {
+        crisp_plan_splat_range r = p->splat_ranges[k];
+        if ((uint64_t)r.first + r.count > p->splat_count || r.first > INT32_MAX ||
+            r.count > INT32_MAX)
+            return crisp_error(CRISP_ERR_INVALID_ARG,
+                               "plan splat range %u: splats %u + %u, the store holds %u", k,
+                               r.first, r.count, p->splat_count);
+        if (!r.count) continue;
+        gl->splat_first[m] = (GLint)r.first;
+        gl->splat_n[m++] = (GLsizei)r.count;
+    }
+    *draws = m;
+    return upload(gl, B_SPLAT_ORIGINS, p->splat_clip_origin,
+                  (size_t)p->face_count * 4 * sizeof(float), bytes);
 }
 
 /* ---- targets ----------------------------------------------------------------------------------
@@ -601,6 +697,8 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     crisp_status st = view_dirs(p, dir0, dir_x, dir_y);
     if (!st) st = ensure_targets(gl, p->width, p->height);
     if (!st) st = upload_plan(gl, p, &stats->bytes_uploaded);
+    GLsizei splat_draws = 0;
+    if (!st) st = prepare_splats(gl, p, &stats->bytes_uploaded, &splat_draws);
     if (st) return st;
     double t1 = crisp_time_now();
     int W = p->width, H = p->height, S = gl->desc.samples;
@@ -658,6 +756,31 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     glProgramUniform3dv(gl->accum, gl->u_accum.dir_x, 1, dir_x);
     glProgramUniform3dv(gl->accum, gl->u_accum.dir_y, 1, dir_y);
     glProgramUniform1f(gl->finish, gl->u_finish.samples, (float)S);
+    /* Splats: points in a viewport grown by a margin of more than the half-size on each side (a
+     * point whose centre is outside the viewport is clipped away whole, but its square may
+     * still cover the image's border). The viewport's size is limited (GL_MAX_VIEWPORT_DIMS):
+     * on an image within P px of that limit the margin shrinks, and a splat centred outside the
+     * image by more than the shrunk margin is lost (not the case below 16384 - 2 P px on
+     * llvmpipe). */
+    int margin = 0;
+    if (splat_draws) {
+        double h = p->splat_half_px;
+        margin = (int)ceil(h + CRISP__GL_SPLAT_MARGIN) + 1;
+        if (W + 2 * margin > gl->max_viewport[0]) margin = (gl->max_viewport[0] - W) / 2;
+        if (H + 2 * margin > gl->max_viewport[1]) margin = (gl->max_viewport[1] - H) / 2;
+        if (margin < 0) margin = 0;
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, B_SPLAT_ORIGINS, gl->buf[B_SPLAT_ORIGINS]);
+        glProgramUniformMatrix4fv(gl->splat, gl->u_splat.view_proj_f, 1, GL_FALSE, p->view_proj_f);
+        glProgramUniform2d(gl->splat, gl->u_splat.image_size, W, H);
+        glProgramUniform4d(gl->splat, gl->u_splat.view, -margin, -margin, W + 2 * margin,
+                           H + 2 * margin);
+        glProgramUniform1f(gl->splat, gl->u_splat.point_size,
+                           (float)(2 * h + (gl->splat_raw ? 0 : CRISP__GL_SPLAT_MARGIN)));
+        glProgramUniform1d(gl->splat, gl->u_splat.half_px, h);
+        glProgramUniform1i(gl->splat, gl->u_splat.raw, gl->splat_raw);
+        glProgramUniform1f(gl->splat, gl->u_splat.zconst, zconst);
+        glProgramUniform4dv(gl->splat, gl->u_splat.clip_plane, 1, cplc);
+    }
     glBindTextureUnit(0, gl->t_nw);
     glBindTextureUnit(1, gl->t_face);
     glBindTextureUnit(2, gl->t_slack);
@@ -687,6 +810,7 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
         glProgramUniform2dv(gl->surface, gl->u_surface.jitter, 1, jitter);
         glProgramUniform2dv(gl->ribbon, gl->u_ribbon.jitter, 1, jitter);
         glProgramUniform2dv(gl->accum, gl->u_accum.offset, 1, off);
+        glProgramUniform2dv(gl->splat, gl->u_splat.offset, 1, off);
         glProgramUniform1i(gl->accum, gl->u_accum.sample_index, s);
 
         glBindFramebuffer(GL_FRAMEBUFFER, gl->fbo_pass);
@@ -714,6 +838,23 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
             glFinish();
             ts1 = crisp_time_now();
             stats->ms_surfaces += 1e3 * (ts1 - ts0);
+        }
+        if (splat_draws) {
+            /* Every range in one call: gl_VertexID runs over first .. first + count - 1 of each,
+             * the splats' indices in the store. Drawn after the surfaces under the same depth
+             * test (nearer wins, equal depth keeps what was drawn first). */
+            glViewport(-margin, -margin, W + 2 * margin, H + 2 * margin);
+            glEnable(GL_PROGRAM_POINT_SIZE);
+            glUseProgram(gl->splat);
+            glMultiDrawArrays(GL_POINTS, gl->splat_first, gl->splat_n, splat_draws);
+            glDisable(GL_PROGRAM_POINT_SIZE);
+            glViewport(0, 0, W, H);
+            if (gl->desc.profile) {
+                glFinish();
+                double t = crisp_time_now();
+                stats->ms_splats += 1e3 * (t - ts1);
+                ts1 = t;
+            }
         }
         if (p->ribbon_quad_count) {
             glBindFramebuffer(GL_FRAMEBUFFER, gl->fbo_slack);
@@ -766,6 +907,8 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     stats->scene_bytes = gl->scene_bytes;
     stats->leaves = p->leaf_count;
     stats->ribbon_quads = p->ribbon_quad_count;
+    for (GLsizei k = 0; k < splat_draws; k++)
+        stats->splats += (uint64_t)gl->splat_n[k];
     stats->passes = (uint32_t)S;
     stats->ms_upload = 1e3 * (t1 - t0);
     stats->ms_draw = 1e3 * (t2 - t1);
@@ -824,6 +967,11 @@ crisp_status crisp_gl_blit(crisp_gl *gl, unsigned fbo, int x, int y, int width, 
 unsigned crisp_gl_color_texture(const crisp_gl *gl)
 {
     return gl->t_acc;
+}
+
+void crisp__gl_splat_raw(crisp_gl *gl, int raw)
+{
+    gl->splat_raw = raw;
 }
 
 void crisp__gl_keep_sample_faces(crisp_gl *gl)
