@@ -6,12 +6,14 @@
  * (the first drawn among equal depths). The image's face, depth, normal (flipped for reversed
  * faces) and (u, v) are the nearest sample's, alpha the covered fraction. At 1 and 4 samples:
  *   - test_exact: a view matrix that makes every centre an exact binary fraction, centres on and
- *     beside (2^-10 px) the squares' sides and outside the image by up to 3 px, several h;
+ *     beside (2^-12 .. 2^-6 px) the squares' sides and outside the image by up to 3 px, several h;
  *   - test_camera: a real camera, splats on planes at several depths, and the same with the
  *     plane z = 0 drawn as a surface leaf between them (splats in front of it win, behind lose);
  *   - test_raw: GL's own point rasterization (size 2 h, no coverage test in the fragment stage)
- *     against the rule: llvmpipe differs only within 1/128 px of a square's side (its 1/256 px
- *     snapping), which is why the backend draws points a margin larger and tests the rule itself;
+ *     against the rule: on llvmpipe a sample exactly on a side is covered as the rule says
+ *     (closed left and top, open right and bottom), but one within 1/512 px of a side may not be
+ *     (it rounds the point's centre to 1/256 px), which is why the backend draws points a margin
+ *     larger and tests the rule itself;
  *   - test_upload: the store goes up only when splats_version changes; bad ranges, bad faces and
  *     a half-size beyond the point size limit are errors. */
 #include <math.h>
@@ -292,7 +294,7 @@ static void make_ranges(splat_plan *s)
 
 /* view_proj_f maps p to clip (p0, p1, 0, 0) and each face's origin adds (0, 0, 0, W_f) (W_f a
  * power of two): the centre is exactly (p0 / W_f + 1) 32, (1 - p1 / W_f) 32 on the 64x64 image, so
- * centres can be put exactly on the squares' sides, or 2^-10 px beside them. */
+ * centres can be put exactly on the squares' sides, or 2^-12 .. 2^-6 px beside them. */
 static void fill_exact(splat_plan *s, int count)
 {
     crisp_frame_plan *p = &s->plan;
@@ -311,12 +313,12 @@ static void fill_exact(splat_plan *s, int count)
         double c[2];
         for (int a = 0; a < 2; a++) {
             /* a sample position (a multiple of 1/8 at 1 and 4 samples), minus or plus h (on a
-             * side), and sometimes 2^-10 px beside that, over [-3, 67] */
+             * side), or 2^-12 .. 2^-6 px beside that, over [-3, 67] */
             double x = -3 + floor(urand() * 70 * 8) / 8;
             int kind = rand() % 4;
             if (kind == 1) x += h;
             if (kind == 2) x -= h;
-            if (kind == 3) x += (rand() % 2 ? 1 : -1) * ldexp(1, -10);
+            if (kind == 3) x += (rand() % 2 ? 1 : -1) * ldexp(1 + rand() % 64, -12);
             c[a] = x;
         }
         float w = ws[f];
@@ -430,9 +432,12 @@ static void test_raw(void **state)
     splat_plan *s = malloc(sizeof *s);
     crisp_camera cam = front_camera(4, 64, 64);
     long on_side = 0, near_side = 0, total = 0;
+    double worst = 0;
     for (int samples = 1; samples <= 4; samples += 3) {
         crisp_gl *gl = make_gl(samples);
         crisp__gl_splat_raw(gl, 1);
+        /* elsewhere the sides' convention and the rounding may differ: only reported */
+        int llvmpipe = strstr(crisp_gl_renderer(gl), "llvmpipe") != NULL;
         int W = cam.width, H = cam.height, S = samples;
         size_t n = (size_t)W * H;
         ref_sample *ref = malloc(n * S * sizeof *ref);
@@ -462,13 +467,25 @@ static void test_raw(void **state)
                     double off[2];
                     sample_offset(S, (int)(q % S), off);
                     double X = (double)(q / S % W) + off[0], Y = (double)(q / S / W) + off[1];
-                    /* distance to the square's nearest side */
-                    double d = fmin(fmin(fabs(X - (cx - h)), fabs(X - (cx + h))),
-                                    fmin(fabs(Y - (cy - h)), fabs(Y - (cy + h))));
-                    if (d >= 1.0 / 128)
+                    /* how far the sample is from the side(s) GL put elsewhere: covered by
+                     * GL only, from each side the rule has it outside of (GL moved them all);
+                     * covered by the rule only, from its nearest side */
+                    double dx = fmin(fabs(X - (cx - h)), fabs(X - (cx + h))),
+                           dy = fmin(fabs(Y - (cy - h)), fabs(Y - (cy + h))), d;
+                    if (faces[q] >= 0) {
+                        int in_x = cx - h <= X && X < cx + h, in_y = cy - h <= Y && Y < cy + h;
+                        d = fmax(in_x ? 0 : dx, in_y ? 0 : dy);
+                    } else {
+                        d = fmin(dx, dy);
+                    }
+                    /* llvmpipe (Mesa 22.3, lp_setup_point.c) rounds the point's window position to
+                     * 1/256 px; its size 2 h here is a multiple of 1/128 px, so the sides move by
+                     * at most 1/512 px */
+                    if (llvmpipe && !(d > 0 && d <= 1.0 / 512))
                         fail_msg("h %g centre (%g, %g): GL's point %s sample (%g, %g), %g px "
                                  "from the square's side",
                                  h, cx, cy, faces[q] >= 0 ? "covers" : "misses", X, Y, d);
+                    if (d > worst) worst = d;
                     if (d == 0)
                         on_side++;
                     else
@@ -481,8 +498,8 @@ static void test_raw(void **state)
         crisp_gl_destroy(gl);
     }
     printf("GL points without the rule's test: %ld samples covered by the rule; %ld differ on a "
-           "square's side, %ld within 1/128 px of one\n",
-           total, on_side, near_side);
+           "square's side, %ld beside one (at most %.4g px from it)\n",
+           total, on_side, near_side, worst);
     free(s);
 }
 
