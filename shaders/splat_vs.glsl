@@ -1,6 +1,7 @@
 // Splat pass, vertex stage (issue 12, include/crisp/plan.h): one GL point per splat of the plan's
 // store, fetched by gl_VertexID (glMultiDrawArrays over the frame's splat ranges: gl_VertexID is
-// the splat's index in the store). The splat's clip position in float, exactly the plan's rule:
+// the splat's index in the store; a store above the storage block limit is bound a chunk at a
+// time, splat_base its first splat). The splat's clip position in float, exactly the plan's rule:
 // splat_clip_origin[face] + sum over j of view_proj_f column j times p[j], summed in that order
 // (`precise`: no fused multiply-add). Its centre on the image (pixels, y down) in double from
 // that float position goes flat to the fragment stage, which keeps exactly the samples the rule
@@ -16,6 +17,7 @@ struct Splat {
 };
 layout(std430, binding = 11) readonly buffer Splats { Splat splats[]; };
 layout(std430, binding = 12) readonly buffer SplatOrigins { vec4 splat_clip_origin[]; };
+uniform uint splat_base;   // the first splat of the bound range of the store (a chunk of it)
 uniform mat4 view_proj_f;
 uniform dvec2 offset;      // the sample's position in its pixel (x right, y down)
 uniform dvec2 image_size;  // pixels
@@ -37,7 +39,7 @@ out gl_PerVertex {
 
 void main()
 {
-    Splat s = splats[gl_VertexID];
+    Splat s = splats[uint(gl_VertexID) - splat_base];
     precise vec4 c = splat_clip_origin[s.face];
     c += view_proj_f[0] * s.p[0];
     c += view_proj_f[1] * s.p[1];

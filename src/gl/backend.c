@@ -62,7 +62,7 @@ static const char *const buffer_names[B_COUNT] = {
 typedef struct uniforms {
     GLint leaf_base, view_proj, jitter, zconst, slack_tex, nw_tex, uv_tex, face_tex, dir0, dir_x,
         dir_y, offset, samples, count, keep_samples, sample_index, clip_plane, image_size,
-        slack_scale, core_scale, view_proj_f, view, point_size, half_px, raw;
+        slack_scale, core_scale, view_proj_f, view, point_size, half_px, raw, splat_base;
 } uniforms;
 
 struct crisp_gl {
@@ -70,6 +70,7 @@ struct crisp_gl {
     char renderer[300];
     size_t max_block;
     size_t chunk_leaves, chunk_quads; /* leaves and ribbon quads drawn per bound buffer range */
+    size_t chunk_splats;              /* splats of the store bound at once */
     GLuint vao;
     GLuint surface, ribbon, slack, accum, finish, layout, splat;
     uniforms u_surface, u_ribbon, u_slack, u_accum, u_finish, u_layout, u_splat;
@@ -94,9 +95,14 @@ struct crisp_gl {
     /* splats: the largest point size, the viewport limit, the draw's firsts and counts */
     float max_point;
     int max_viewport[2];
-    GLint *splat_first;
+    GLint *splat_first; /* the frame's runs of splats (absolute indices into the store) */
     GLsizei *splat_n;
-    size_t splat_cap;
+    size_t splat_cap, splat_pieces;
+    struct splat_batch {
+        size_t chunk, first_piece, pieces; /* one glMultiDrawArrays with the chunk bound */
+    } * splat_batch;
+    size_t batch_cap, splat_batches;
+    uint64_t splats_drawn;
     int splat_raw; /* tests: GL's point coverage without the exact test (crisp__gl_splat_raw) */
 };
 
@@ -189,6 +195,7 @@ static void locate(GLuint p, uniforms *u)
     u->point_size = glGetUniformLocation(p, "point_size");
     u->half_px = glGetUniformLocation(p, "half_px");
     u->raw = glGetUniformLocation(p, "raw");
+    u->splat_base = glGetUniformLocation(p, "splat_base");
 }
 
 crisp_status crisp__gl_try_program(const char *name, int stage, const char *src)
@@ -267,6 +274,11 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
         unit_l += (size_t)align;
     while (unit_q % (4 * sizeof(crisp_plan_ribbon_vertex)))
         unit_q += (size_t)align;
+    size_t unit_s = (size_t)align;
+    while (unit_s % sizeof(crisp_plan_splat))
+        unit_s += (size_t)align;
+    gl->chunk_splats = gl->max_block / unit_s * (unit_s / sizeof(crisp_plan_splat));
+    if (gl->chunk_splats > (1u << 30)) gl->chunk_splats = 1u << 30;
     gl->chunk_leaves = gl->max_block / unit_l * (unit_l / sizeof(crisp_plan_leaf));
     gl->chunk_quads = gl->max_block / unit_q * (unit_q / (4 * sizeof(crisp_plan_ribbon_vertex)));
     if (gl->chunk_leaves > (1u << 30)) gl->chunk_leaves = 1u << 30;
@@ -345,6 +357,7 @@ void crisp_gl_destroy(crisp_gl *gl)
     free(gl->tmp);
     free(gl->splat_first);
     free(gl->splat_n);
+    free(gl->splat_batch);
     free(gl);
 }
 
@@ -358,8 +371,9 @@ const char *crisp_gl_renderer(const crisp_gl *gl)
 
 static crisp_status upload(crisp_gl *gl, int b, const void *data, size_t bytes, uint64_t *counter)
 {
-    int streamed = b == B_LEAVES || b == B_RIBBONS; /* drawn in chunks */
-    if (bytes > gl->max_block && !(streamed && gl->chunk_leaves && gl->chunk_quads))
+    int streamed = b == B_LEAVES || b == B_RIBBONS || b == B_SPLATS; /* drawn in chunks */
+    if (bytes > gl->max_block &&
+        !(streamed && gl->chunk_leaves && gl->chunk_quads && gl->chunk_splats))
         return crisp_error(
             CRISP_ERR_LIMIT,
             "the %s need %zu bytes, more than the GL storage buffer limit of %zu bytes "
@@ -507,54 +521,76 @@ static crisp_status upload_plan(crisp_gl *gl, const crisp_frame_plan *p, uint64_
     gl->v_splats = p->splats_version;
     for (int b = 0; b < B_QUERIES; b++)
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, (GLuint)b, gl->buf[b]);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, B_SPLATS, gl->buf[B_SPLATS]);
     return gl_check("uploading the plan");
 }
 
-/* The frame's splat ranges as glMultiDrawArrays' firsts and counts, checked against the store;
- * the faces' clip origins uploaded (per frame: they move with the camera). *draws: the ranges. */
-static crisp_status prepare_splats(crisp_gl *gl, const crisp_frame_plan *p, uint64_t *bytes,
-                                   GLsizei *draws)
+/* Appends a run of splats to the frame's list; a new batch when its chunk differs from the last
+ * run's. */
+static int add_piece(crisp_gl *gl, size_t chunk, uint32_t first, uint32_t count)
 {
-    *draws = 0;
+    if (gl->splat_pieces == gl->splat_cap) {
+        size_t cap = gl->splat_cap ? 2 * gl->splat_cap : 1024;
+        GLint *f = realloc(gl->splat_first, cap * sizeof *f);
+        if (f) gl->splat_first = f;
+        GLsizei *n = realloc(gl->splat_n, cap * sizeof *n);
+        if (n) gl->splat_n = n;
+        if (!f || !n) return 0;
+        gl->splat_cap = cap;
+    }
+    if (!gl->splat_batches || gl->splat_batch[gl->splat_batches - 1].chunk != chunk) {
+        if (gl->splat_batches == gl->batch_cap) {
+            size_t cap = gl->batch_cap ? 2 * gl->batch_cap : 16;
+            struct splat_batch *b = realloc(gl->splat_batch, cap * sizeof *b);
+            if (!b) return 0;
+            gl->splat_batch = b;
+            gl->batch_cap = cap;
+        }
+        gl->splat_batch[gl->splat_batches++] = (struct splat_batch){chunk, gl->splat_pieces, 0};
+    }
+    gl->splat_batch[gl->splat_batches - 1].pieces++;
+    gl->splat_first[gl->splat_pieces] = (GLint)first;
+    gl->splat_n[gl->splat_pieces++] = (GLsizei)count;
+    gl->splats_drawn += count;
+    return 1;
+}
+
+/* The frame's splat ranges as glMultiDrawArrays' firsts and counts, checked against the store,
+ * in the plan's order (equal depths keep the first drawn); a range across a chunk boundary of the
+ * store (a store above the storage block limit is bound a chunk at a time) is split there. The
+ * faces' clip origins are uploaded (per frame: they move with the camera). */
+static crisp_status prepare_splats(crisp_gl *gl, const crisp_frame_plan *p, uint64_t *bytes)
+{
+    gl->splat_pieces = gl->splat_batches = 0;
+    gl->splats_drawn = 0;
     if (!p->splat_range_count) return CRISP_OK;
     if (!p->splat_clip_origin || !p->splats)
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "the plan has %u splat ranges but no splat store or clip origins",
                            p->splat_range_count);
-    if (p->splat_range_count > INT32_MAX)
-        return crisp_error(CRISP_ERR_LIMIT, "%u splat ranges: GL draws at most %d in one call",
-                           p->splat_range_count, INT32_MAX);
     double h = p->splat_half_px;
     if (!(h > 0) || !(2 * h + CRISP__GL_SPLAT_MARGIN <= gl->max_point))
         return crisp_error(CRISP_ERR_LIMIT,
                            "splat half-size %g px: the GL backend draws splats of 0..%g px (half "
                            "of GL_POINT_SIZE_RANGE's largest, less a margin)",
                            h, 0.5 * (gl->max_point - CRISP__GL_SPLAT_MARGIN));
-    if (gl->splat_cap < p->splat_range_count) {
-        size_t cap = p->splat_range_count + p->splat_range_count / 4;
-        GLint *f = realloc(gl->splat_first, cap * sizeof *f);
-        if (f) gl->splat_first = f;
-        GLsizei *n = realloc(gl->splat_n, cap * sizeof *n);
-        if (n) gl->splat_n = n;
-        if (!f || !n)
-            return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory drawing %u splat ranges",
-                               p->splat_range_count);
-        gl->splat_cap = cap;
-    }
-    GLsizei m = 0;
+    size_t chunk = gl->chunk_splats;
     for (uint32_t k = 0; k < p->splat_range_count; k++) {
         crisp_plan_splat_range r = p->splat_ranges[k];
-        if ((uint64_t)r.first + r.count > p->splat_count || r.first > INT32_MAX ||
-            r.count > INT32_MAX)
+        if ((uint64_t)r.first + r.count > p->splat_count || (uint64_t)r.first + r.count > INT32_MAX)
             return crisp_error(CRISP_ERR_INVALID_ARG,
                                "plan splat range %u: splats %u + %u, the store holds %u", k,
                                r.first, r.count, p->splat_count);
-        if (!r.count) continue;
-        gl->splat_first[m] = (GLint)r.first;
-        gl->splat_n[m++] = (GLsizei)r.count;
+        while (r.count) {
+            size_t c = r.first / chunk;
+            uint32_t n = (uint32_t)((c + 1) * chunk - r.first < r.count ? (c + 1) * chunk - r.first
+                                                                        : r.count);
+            if (!add_piece(gl, c, r.first, n))
+                return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory drawing %u splat ranges",
+                                   p->splat_range_count);
+            r.first += n;
+            r.count -= n;
+        }
     }
-    *draws = m;
     return upload(gl, B_SPLAT_ORIGINS, p->splat_clip_origin,
                   (size_t)p->face_count * 4 * sizeof(float), bytes);
 }
@@ -697,8 +733,8 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     crisp_status st = view_dirs(p, dir0, dir_x, dir_y);
     if (!st) st = ensure_targets(gl, p->width, p->height);
     if (!st) st = upload_plan(gl, p, &stats->bytes_uploaded);
-    GLsizei splat_draws = 0;
-    if (!st) st = prepare_splats(gl, p, &stats->bytes_uploaded, &splat_draws);
+    if (!st) st = prepare_splats(gl, p, &stats->bytes_uploaded);
+    size_t splat_draws = gl->splat_pieces;
     if (st) return st;
     double t1 = crisp_time_now();
     int W = p->width, H = p->height, S = gl->desc.samples;
@@ -846,7 +882,18 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
             glViewport(-margin, -margin, W + 2 * margin, H + 2 * margin);
             glEnable(GL_PROGRAM_POINT_SIZE);
             glUseProgram(gl->splat);
-            glMultiDrawArrays(GL_POINTS, gl->splat_first, gl->splat_n, splat_draws);
+            for (size_t b = 0; b < gl->splat_batches; b++) {
+                const struct splat_batch *B = &gl->splat_batch[b];
+                size_t base = B->chunk * gl->chunk_splats,
+                       n = p->splat_count - base < gl->chunk_splats ? p->splat_count - base
+                                                                    : gl->chunk_splats;
+                glBindBufferRange(GL_SHADER_STORAGE_BUFFER, B_SPLATS, gl->buf[B_SPLATS],
+                                  (GLintptr)(base * sizeof(crisp_plan_splat)),
+                                  (GLsizeiptr)(n * sizeof(crisp_plan_splat)));
+                glProgramUniform1ui(gl->splat, gl->u_splat.splat_base, (GLuint)base);
+                glMultiDrawArrays(GL_POINTS, gl->splat_first + B->first_piece,
+                                  gl->splat_n + B->first_piece, (GLsizei)B->pieces);
+            }
             glDisable(GL_PROGRAM_POINT_SIZE);
             glViewport(0, 0, W, H);
             if (gl->desc.profile) {
@@ -907,8 +954,7 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     stats->scene_bytes = gl->scene_bytes;
     stats->leaves = p->leaf_count;
     stats->ribbon_quads = p->ribbon_quad_count;
-    for (GLsizei k = 0; k < splat_draws; k++)
-        stats->splats += (uint64_t)gl->splat_n[k];
+    stats->splats = gl->splats_drawn;
     stats->passes = (uint32_t)S;
     stats->ms_upload = 1e3 * (t1 - t0);
     stats->ms_draw = 1e3 * (t2 - t1);

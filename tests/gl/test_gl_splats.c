@@ -15,7 +15,8 @@
  *     (it rounds the point's centre to 1/256 px), which is why the backend draws points a margin
  *     larger and tests the rule itself;
  *   - test_upload: the store goes up only when splats_version changes; bad ranges, bad faces and
- *     a half-size beyond the point size limit are errors. */
+ *     a half-size beyond the point size limit are errors;
+ *   - test_chunks: a store above the storage block limit, drawn a chunk at a time. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -107,17 +108,23 @@ static void plan_init(splat_plan *s, const crisp_camera *cam, int with_leaf, dou
         p->splats_version = version;
 }
 
-static crisp_gl *make_gl(int samples)
+static crisp_gl *make_gl_limit(int samples, size_t max_buffer_bytes)
 {
     crisp_gl *gl = NULL;
-    crisp_status st =
-        crisp_gl_create(crisp_gl_context_getproc(ctx), &(crisp_gl_desc){.samples = samples}, &gl);
+    crisp_status st = crisp_gl_create(
+        crisp_gl_context_getproc(ctx),
+        &(crisp_gl_desc){.samples = samples, .max_buffer_bytes = max_buffer_bytes}, &gl);
     if (st) fprintf(stderr, "%s\n", crisp_error_message());
     assert_int_equal(st, CRISP_OK);
     crisp_gl_scene_data d = {square_cps, 4, &square_rec, 1, colors, NF};
     assert_int_equal(crisp_gl_set_scene_data(gl, &d), CRISP_OK);
     crisp__gl_keep_sample_faces(gl);
     return gl;
+}
+
+static crisp_gl *make_gl(int samples)
+{
+    return make_gl_limit(samples, 0);
 }
 
 /* ---- the reference ------------------------------------------------------------------------ */
@@ -557,6 +564,27 @@ static void test_upload(void **state)
     crisp_gl_destroy(gl);
 }
 
+/* A store larger than the storage block limit is bound a chunk at a time (of 28 splats at a
+ * 1 kB limit and llvmpipe's 16-byte offset alignment: ranges of up to 40 cross chunks): the same
+ * samples as the rule. */
+static void test_chunks(void **state)
+{
+    (void)state;
+    splat_plan *s = malloc(sizeof *s);
+    crisp_camera cam = front_camera(4, 64, 64);
+    for (int samples = 1; samples <= 4; samples += 3) {
+        crisp_gl *gl = make_gl_limit(samples, 1024);
+        srand(23);
+        plan_init(s, &cam, 0, 1.25);
+        fill_exact(s, 500);
+        assert_true(s->plan.splat_count * sizeof(crisp_plan_splat) > 10 * 1024);
+        long covered = check_plan(gl, &s->plan, samples, NULL, NULL);
+        assert_true(covered > 500 * samples);
+        crisp_gl_destroy(gl);
+    }
+    free(s);
+}
+
 static int setup(void **state)
 {
     (void)state;
@@ -577,10 +605,8 @@ static int teardown(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_exact),
-        cmocka_unit_test(test_camera),
-        cmocka_unit_test(test_raw),
-        cmocka_unit_test(test_upload),
+        cmocka_unit_test(test_exact),  cmocka_unit_test(test_camera), cmocka_unit_test(test_raw),
+        cmocka_unit_test(test_upload), cmocka_unit_test(test_chunks),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
