@@ -8,7 +8,10 @@
 // covers (cx - h <= x < cx + h, cy - h <= y < cy + h): the point is drawn a little larger than
 // 2 h (splat_fs.glsl). The point is placed in an enlarged viewport (`view`: the image's window
 // grown by a margin of more than h on each side), so a splat whose centre is just outside the
-// image, which GL clips away as a point, still covers the image's border pixels.
+// image, which GL clips away as a point, still covers the image's border pixels. As the CPU
+// backend (src/render/splat_raster.c): a splat is not drawn where W <= 0, its clip z is outside
+// [-W, W] (near and far planes) or its clip x + y is not finite; the section plane is tested per
+// sample in the fragment stage.
 struct Splat {
     float p[3];
     uint face;
@@ -24,8 +27,8 @@ uniform dvec2 image_size;  // pixels
 uniform dvec4 view;        // the enlarged viewport in the pass's window: x0, y0, width, height
 uniform float point_size;  // 2 h and the margin
 uniform float zconst;
-uniform dvec4 clip_plane;  // the section plane in clip space (kept where dot(clip_plane, c) >= 0)
 flat out dvec2 sp_centre;  // image pixels, y down
+flat out vec2 sp_zw;       // clip z and W
 flat out vec3 sp_normal;
 flat out vec2 sp_uv;
 flat out uint sp_face;
@@ -50,15 +53,15 @@ void main()
     // The sample at (i + offset) lands on the pass's pixel centre (i + 0.5).
     dvec2 win = centre + 0.5LF - offset;
     dvec2 ndc = 2.0LF * (win - view.xy) / view.zw - 1.0LF;
-    bool front = c.w > 0.0;
-    gl_Position = front ? vec4(vec2(ndc), zconst / c.w, 1.0) : vec4(2.0, 2.0, 0.5, 1.0);
+    bool drawn = c.w > 0.0 && c.z >= -c.w && c.z <= c.w && !isinf(c.x + c.y) && !isnan(c.x + c.y);
+    // not drawn: outside the clip volume, and clipped by the (enabled) clip distances too
+    gl_Position = drawn ? vec4(vec2(ndc), zconst / c.w, 1.0) : vec4(2.0, 2.0, 0.5, 1.0);
     gl_PointSize = point_size;
-    gl_ClipDistance[0] = front ? c.z + c.w : -1.0; // near plane
-    gl_ClipDistance[1] = front ? c.w - c.z : -1.0; // far plane
-    gl_ClipDistance[2] = front ? float(dot(clip_plane, dvec4(c))) : -1.0;
+    for (int k = 0; k < 3; k++) gl_ClipDistance[k] = drawn ? 1.0 : -1.0;
     vec3 n = vec3(s.n[0], s.n[1], s.n[2]);
     sp_normal = (faces[s.face].flags & FACE_REVERSED) != 0u ? -n : n;
     sp_centre = centre;
+    sp_zw = c.zw;
     sp_uv = vec2(s.uv[0], s.uv[1]);
     sp_face = s.face;
     sp_w = c.w;

@@ -9,6 +9,7 @@
  *     beside (2^-12 .. 2^-6 px) the squares' sides and outside the image by up to 3 px, several h;
  *   - test_camera: a real camera, splats on planes at several depths, and the same with the
  *     plane z = 0 drawn as a surface leaf between them (splats in front of it win, behind lose);
+ *   - test_clip: the section plane cuts the squares per sample;
  *   - test_raw: GL's own point rasterization (size 2 h, no coverage test in the fragment stage)
  *     against the rule: on llvmpipe a sample exactly on a side is covered as the rule says
  *     (closed left and top, open right and bottom), but one within 1/512 px of a side may not be
@@ -170,6 +171,8 @@ typedef struct ref_sample {
 
 /* Every sample's nearest covering splat (samples in the CPU backend's layout: (j W + i) S + s);
  * under[] (may be NULL): what a sample holds before the splats (face, depth W). */
+static const double *plane; /* the section plane in clip space (test_clip), NULL: none */
+
 static void reference(const crisp_frame_plan *p, int S, const ref_sample *under, ref_sample *out)
 {
     int W = p->width, H = p->height;
@@ -182,7 +185,9 @@ static void reference(const crisp_frame_plan *p, int S, const ref_sample *under,
             const crisp_plan_splat *sp = &p->splats[i];
             float c[4];
             splat_clip(p, sp, c);
-            if (!(c[3] > 0)) continue;
+            /* behind the eye, beyond the near or far plane: not drawn (as the CPU backend) */
+            if (!(c[3] > 0) || !(c[2] >= -c[3]) || !(c[2] <= c[3]) || !isfinite(c[0] + c[1]))
+                continue;
             double cx, cy;
             splat_centre(p, c, &cx, &cy);
             for (int j = (int)floor(cy - h) - 1; j <= (int)ceil(cy + h) + 1; j++)
@@ -193,6 +198,13 @@ static void reference(const crisp_frame_plan *p, int S, const ref_sample *under,
                         sample_offset(S, s, off);
                         double X = x + off[0], Y = j + off[1];
                         if (!(cx - h <= X && X < cx + h && cy - h <= Y && Y < cy + h)) continue;
+                        /* the section plane at the sample's point of the square */
+                        double w = c[3],
+                               cc[4] = {(2 * X / W - 1) * w, (1 - 2 * Y / H) * w, c[2], w};
+                        if (plane && plane[0] * cc[0] + plane[1] * cc[1] + plane[2] * cc[2] +
+                                             plane[3] * cc[3] <
+                                         0)
+                            continue;
                         ref_sample *o = &out[((size_t)j * W + x) * S + s];
                         /* the depth test: nearer wins (the backends compare 1 / W), equal keeps
                          * the first */
@@ -299,15 +311,17 @@ static void make_ranges(splat_plan *s)
 
 /* ---- tests ---------------------------------------------------------------------------------- */
 
-/* view_proj_f maps p to clip (p0, p1, 0, 0) and each face's origin adds (0, 0, 0, W_f) (W_f a
+/* view_proj_f maps p to clip (p0, p1, p2, 0) and each face's origin adds (0, 0, 0, W_f) (W_f a
  * power of two): the centre is exactly (p0 / W_f + 1) 32, (1 - p1 / W_f) 32 on the 64x64 image, so
- * centres can be put exactly on the squares' sides, or 2^-12 .. 2^-6 px beside them. */
+ * centres can be put exactly on the squares' sides, or 2^-12 .. 2^-6 px beside them; clip z = p2
+ * puts a sixth of them beyond the near or the far plane. */
 static void fill_exact(splat_plan *s, int count)
 {
     crisp_frame_plan *p = &s->plan;
     memset(p->view_proj_f, 0, sizeof p->view_proj_f);
     p->view_proj_f[0] = 1;
     p->view_proj_f[5] = 1;
+    p->view_proj_f[10] = 1;
     static const float ws[NF] = {1, 4, 2, 4}; /* faces 1 and 3 at the same depth */
     for (int f = 0; f < NF; f++) {
         s->origin[4 * f + 0] = s->origin[4 * f + 1] = s->origin[4 * f + 2] = 0;
@@ -331,7 +345,7 @@ static void fill_exact(splat_plan *s, int count)
         float w = ws[f];
         sp->p[0] = (float)((c[0] / 32 - 1) * w);
         sp->p[1] = (float)((1 - c[1] / 32) * w);
-        sp->p[2] = (float)urand();
+        sp->p[2] = (float)((urand() * 2.4 - 1.2) * w);
         assert_true((double)sp->p[0] == (c[0] / 32 - 1) * w);
         sp->face = f;
         random_normal(sp->n);
@@ -426,6 +440,42 @@ static void test_camera(void **state)
                 assert_true(covered >= (with_leaf ? (long)W * H * samples : 500));
             }
         free(under);
+        crisp_gl_destroy(gl);
+    }
+    free(s);
+}
+
+/* The section plane (crisp_gl_set_clip_plane) cuts the squares per sample, as on the CPU: the
+ * plane in clip space (through the inverse view-projection, as the backend) at each sample's
+ * point of its square (its image position at the splat's clip z and W). */
+static void test_clip(void **state)
+{
+    (void)state;
+    splat_plan *s = malloc(sizeof *s);
+    crisp_camera cam = front_camera(1, 80, 60);
+    const double world[4] = {1, 0.3, 0.2, -0.05};
+    for (int samples = 1; samples <= 4; samples += 3) {
+        crisp_gl *gl = make_gl(samples);
+        crisp_gl_set_clip_plane(gl, world);
+        srand(41);
+        plan_init(s, &cam, 0, 1.3);
+        double zs[NF] = {0, 0.02, -0.05, 0.1};
+        fill_camera(s, 900, zs);
+        crisp_mat4 m, inv;
+        memcpy(m, s->plan.view_proj, sizeof m);
+        assert_true(crisp_mat4_inverse(m, inv));
+        double cpl[4] = {0, 0, 0, 0};
+        for (int c = 0; c < 4; c++)
+            for (int k = 0; k < 4; k++)
+                cpl[c] += world[k] * inv[c][k];
+        plane = cpl;
+        long covered = check_plan(gl, &s->plan, samples, NULL, NULL);
+        plane = NULL;
+        /* about half the splats' samples are cut away */
+        crisp_gl_set_clip_plane(gl, NULL);
+        long all = check_plan(gl, &s->plan, samples, NULL, NULL);
+        printf("clip: %d samples: %ld of %ld samples kept\n", samples, covered, all);
+        assert_true(covered > all / 4 && covered < 3 * all / 4);
         crisp_gl_destroy(gl);
     }
     free(s);
@@ -605,8 +655,8 @@ static int teardown(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_exact),  cmocka_unit_test(test_camera), cmocka_unit_test(test_raw),
-        cmocka_unit_test(test_upload), cmocka_unit_test(test_chunks),
+        cmocka_unit_test(test_exact), cmocka_unit_test(test_camera), cmocka_unit_test(test_clip),
+        cmocka_unit_test(test_raw),   cmocka_unit_test(test_upload), cmocka_unit_test(test_chunks),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
