@@ -231,7 +231,7 @@ static double cpu_ms(void)
 /* One row: variant 0 = group leaves (the default planner), 1 = no group leaves (at least one
  * leaf per visible patch, as before issue 12's group leaves). */
 static void row(const char *scene_name, const char *cam_name, int frames, int threads,
-                int no_groups, int occlusion)
+                int no_groups, int occlusion, int no_splats)
 {
     crisp_model *m = scene_model(scene_name);
     crisp_scene *sc;
@@ -242,7 +242,8 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
                               &r))
         die("renderer");
     crisp_planner *pl;
-    if (crisp_planner_create(&(crisp_planner_desc){.no_groups = no_groups}, NULL, &pl))
+    if (crisp_planner_create(&(crisp_planner_desc){.no_groups = no_groups, .no_splats = no_splats},
+                             NULL, &pl))
         die("planner");
     crisp_image img;
     if (crisp_image_init(&img, cam.width, cam.height)) die("image");
@@ -287,8 +288,8 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     const char *png = getenv("BENCH_SCREEN_PNG"); /* a folder: look at what each row draws */
     if (png) {
         char path[1200];
-        snprintf(path, sizeof path, "%s/%s_%s%s.png", png, scene_name, cam_name,
-                 no_groups ? "_nogroups" : "");
+        snprintf(path, sizeof path, "%s/%s_%s%s%s.png", png, scene_name, cam_name,
+                 no_groups ? "_nogroups" : "", no_splats ? "_nosplats" : "");
         uint8_t *rgba = malloc((size_t)img.width * img.height * 4);
         for (size_t k = 0; k < (size_t)img.width * img.height * 4; k++)
             rgba[k] = (uint8_t)lrint(255 * fmin(1, fmax(0, img.rgba[k])));
@@ -303,20 +304,27 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     for (int b = 0; b < 5; b++)
         for (size_t k = 0; k < sizes[b]; k++)
             hash = (hash ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
-    printf("| %s | %s | %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %u | %u | %llu | "
-           "%llu | %llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %08x |\n",
-           scene_name, cam_name, no_groups ? "no groups" : "groups", occlusion ? "on" : "off",
-           sc->patch_count, bench_median(tf, frames), cpu_frames / frames, bench_median(tp, frames),
-           cpu_plans / frames, bench_median(tt, frames), bench_median(tr, frames), plan->leaf_count,
-           plan->stats.group_leaves, (unsigned long long)st.triangles,
-           (unsigned long long)st.occluded_triangles, (unsigned long long)st.ribbon_triangles,
-           covered, covered ? (double)st.triangles / covered : 0.0, peak_kb / 1024, scene_kb / 1024,
-           frame_mb, peak_kb * 1024 / sc->patch_count,
-           st.triangles ? frame_mb * 1048576 / st.triangles : 0.0,
-           st.triangles + st.ribbon_triangles
-               ? frame_mb * 1048576 / (double)(st.triangles + st.ribbon_triangles)
-               : 0.0,
-           (unsigned)hash);
+    printf(
+        "| %s | %s | %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %u | %u | %llu | "
+        "%llu | %llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %u | %llu | %.2f | "
+        "%.1f | %08x |\n",
+        scene_name, cam_name,
+        no_groups   ? "no groups"
+        : no_splats ? "groups, no splats"
+                    : "groups, splats",
+        occlusion ? "on" : "off", sc->patch_count, bench_median(tf, frames), cpu_frames / frames,
+        bench_median(tp, frames), cpu_plans / frames, bench_median(tt, frames),
+        bench_median(tr, frames), plan->leaf_count, plan->stats.group_leaves,
+        (unsigned long long)st.triangles, (unsigned long long)st.occluded_triangles,
+        (unsigned long long)st.ribbon_triangles, covered,
+        covered ? (double)st.triangles / covered : 0.0, peak_kb / 1024, scene_kb / 1024, frame_mb,
+        peak_kb * 1024 / sc->patch_count, st.triangles ? frame_mb * 1048576 / st.triangles : 0.0,
+        st.triangles + st.ribbon_triangles
+            ? frame_mb * 1048576 / (double)(st.triangles + st.ribbon_triangles)
+            : 0.0,
+        plan->stats.splat_faces, (unsigned long long)plan->stats.splats_drawn,
+        covered ? (double)(st.triangles + plan->stats.splats_drawn) / covered : 0.0,
+        plan->stats.splat_bytes / 1048576.0, (unsigned)hash);
     fflush(stdout);
     free(tf), free(tp), free(tt), free(tr);
     crisp_image_free(&img);
@@ -347,6 +355,11 @@ int main(int argc, char **argv)
     int occl_both =
         getenv("BENCH_SCREEN_OCCLUSION") && !strcmp(getenv("BENCH_SCREEN_OCCLUSION"), "both");
     if (occl_both) variants = 2;
+    /* BENCH_SCREEN_SPLATS=both: the default planner without splats, then with them (issue 12:
+     * crisp_planner_desc.no_splats, the same binary), instead of the two planners. */
+    int splats_both =
+        getenv("BENCH_SCREEN_SPLATS") && !strcmp(getenv("BENCH_SCREEN_SPLATS"), "both");
+    if (splats_both) variants = 2;
     static const char *rows[][2] = {{"gen50", "default"}, {"gen100", "default"}, {"gen50", "close"},
                                     {"gen100", "close"},  {"gen50", "far"},      {"gen100", "far"},
                                     {"imp", "default"},   {"imp49", "default"},  {"imp49", "close"},
@@ -358,9 +371,10 @@ int main(int argc, char **argv)
         "| scene | camera | planner | occlusion | patches | frame ms | frame CPU ms | plan ms | "
         "plan CPU ms | tess ms | raster ms | leaves | group leaves | triangles | occluded tri | "
         "ribbon tri | covered px | tri/px | peak MB | scene MB | frame MB | peak B/patch | frame "
-        "B/tri | frame B/drawn tri | image hash |\n");
+        "B/tri | frame B/drawn tri | splat faces | splats | (tri+splats)/px | splat store MB | "
+        "image hash |\n");
     printf("|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-           "---:|---:|---:|---:|---:|---:|---|\n");
+           "---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     fflush(stdout);
     for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
         char key[64];
@@ -372,18 +386,21 @@ int main(int argc, char **argv)
         for (int variant = variants - 1; variant >= 0; variant--) {
             pid_t pid = fork();
             if (pid == 0) {
-                if (occl_both)
-                    row(rows[k][0], rows[k][1], frames, threads, 0, !variant);
+                if (splats_both)
+                    row(rows[k][0], rows[k][1], frames, threads, 0, 1, variant);
+                else if (occl_both)
+                    row(rows[k][0], rows[k][1], frames, threads, 0, !variant, 0);
                 else
-                    row(rows[k][0], rows[k][1], frames, threads, variant, 1);
+                    row(rows[k][0], rows[k][1], frames, threads, variant, 1, 0);
                 _exit(0);
             }
             int status = 0;
             waitpid(pid, &status, 0);
             if (!WIFEXITED(status) || WEXITSTATUS(status))
                 printf("| %s | %s | %s | failed |\n", rows[k][0], rows[k][1],
-                       occl_both ? (variant ? "occlusion off" : "occlusion on")
-                                 : (variant ? "no groups" : "groups"));
+                       splats_both ? (variant ? "no splats" : "splats")
+                       : occl_both ? (variant ? "occlusion off" : "occlusion on")
+                                   : (variant ? "no groups" : "groups"));
         }
     }
     printf("\nload average at the end %.2f\n", loadavg());

@@ -172,6 +172,7 @@ typedef struct crisp_render_desc {
                              are discarded (a section view); all 0: none */
     int no_occlusion;     /* 1: tessellate and draw every leaf on screen (occlusion culling off:
                              the same image, for tests and measurements) */
+    int no_splats;        /* 1: no face is drawn as splats (crisp_planner_desc.no_splats) */
 } crisp_render_desc;
 
 typedef struct crisp_render_stats {
@@ -179,6 +180,8 @@ typedef struct crisp_render_stats {
     uint64_t vertices, triangles, ribbon_triangles, table_rows, table_bytes;
     uint64_t fragments_tested, fragments_trimmed;
     uint64_t occluded_leaves, occluded_triangles; /* not tessellated: hidden by drawn depth */
+    uint32_t splat_faces;                         /* faces drawn as splats (issue 12) */
+    uint64_t splats; /* splats drawn (of faces not hidden whole by drawn depth) */
     double ms_levels, ms_edges, ms_trim, ms_tess, ms_raster, ms_resolve;
 } crisp_render_stats;
 

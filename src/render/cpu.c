@@ -17,6 +17,7 @@
 #include "raster.h"
 #include "render_internal.h"
 #include "ribbon.h"
+#include "splat_raster.h"
 
 #define TESS_CACHE_BITS 7
 #define TESS_ROW_DOUBLES (2 * (CRISP_MAX_DEGREE + 1) * 4)
@@ -72,6 +73,7 @@ struct crisp_renderer {
     size_t occl_cap;
     double *hiz; /* per 4x4 block of the target: the least 1/W drawn (crisp__raster_block_depth) */
     size_t hiz_cap;
+    crisp__splat_scratch splat; /* the splat draw's (splat_raster.c) */
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -89,9 +91,10 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
                          r->desc.samples);
     if (!st) st = crisp_pool_create(r->desc.threads, &r->pool);
     if (!st)
-        st = crisp_planner_create(
-            &(crisp_planner_desc){.eps_px = r->desc.eps_px, .strip_count = r->desc.strip_count},
-            r->pool, &r->planner);
+        st = crisp_planner_create(&(crisp_planner_desc){.eps_px = r->desc.eps_px,
+                                                        .strip_count = r->desc.strip_count,
+                                                        .no_splats = r->desc.no_splats},
+                                  r->pool, &r->planner);
     if (!st) st = crisp__raster_create(&r->raster);
     if (!st) {
         r->workers = crisp_pool_threads(r->pool);
@@ -144,6 +147,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->order);
     free(r->occl);
     free(r->hiz);
+    crisp__splat_scratch_free(&r->splat);
     free(r);
 }
 
@@ -1039,6 +1043,23 @@ static void faces_region(const crisp_renderer *r, const crisp_frame_plan *plan, 
             }
         }
     }
+    /* Faces drawn as splats: their squares (the plan's rule in float, as the draw). */
+    for (uint32_t q = 0; q < plan->splat_range_count; q++) {
+        const crisp_plan_splat_range *rg = &plan->splat_ranges[q];
+        if (!rg->count || !only[plan->splats[rg->first].face]) continue;
+        for (uint32_t k = 0; k < rg->count; k++) {
+            const crisp_plan_splat *sp = &plan->splats[rg->first + k];
+            const float *o = plan->splat_clip_origin + 4 * (size_t)sp->face, *m = plan->view_proj_f;
+            float c[4];
+            for (int a = 0; a < 4; a++)
+                c[a] = o[a] + m[a] * sp->p[0] + m[a + 4] * sp->p[1] + m[a + 8] * sp->p[2];
+            if (!(c[3] > 0)) continue;
+            double h = plan->splat_half_px, x = ((double)c[0] / c[3] + 1) * 0.5 * plan->width,
+                   y = (1 - (double)c[1] / c[3]) * 0.5 * plan->height;
+            lo[0] = fmin(lo[0], x - h), lo[1] = fmin(lo[1], y - h);
+            hi[0] = fmax(hi[0], x + h), hi[1] = fmax(hi[1], y + h);
+        }
+    }
     int leaves[4];
     box_rect(lo, hi, plan->width, plan->height, leaves);
     box_rect(rlo, rhi, plan->width, plan->height, ribbons);
@@ -1253,11 +1274,14 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     /* The clip plane n . P + d >= 0 with P = eye + W (f + (x - w/2) kx r + (h/2 - y) ky u) on a
      * sample's ray at depth W, divided by W: affine in the sample's (x, y) and 1/W. */
     const double *cp = r->desc.clip_plane;
-    if (cp[0] != 0 || cp[1] != 0 || cp[2] != 0) {
+    double clip_k[4] = {0, 0, 0, 0};
+    int clip_on = cp[0] != 0 || cp[1] != 0 || cp[2] != 0;
+    if (clip_on) {
         double nf = crisp_vec3_dot(cp, view.f), nr = crisp_vec3_dot(cp, view.r),
                nu = crisp_vec3_dot(cp, view.u);
         double k[4] = {nf - 0.5 * cam->width * view.kx * nr + 0.5 * cam->height * view.ky * nu,
                        view.kx * nr, -view.ky * nu, crisp_vec3_dot(cp, cam->eye) + cp[3]};
+        memcpy(clip_k, k, sizeof k);
         crisp__raster_set_clip(r->raster, k);
     } else {
         crisp__raster_set_clip(r->raster, NULL);
@@ -1371,6 +1395,32 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
             return st;
         t_raster += crisp_time_now() - ta;
     }
+    /* The faces drawn as splats (issue 12, splat_raster.c), with the surfaces: before the
+     * ribbons' depth slack is taken. A face whose squares the depth drawn so far hides whole is
+     * skipped (the block depth refreshed first where the surfaces were drawn). */
+    crisp__splat_draw_stats sds = {0};
+    if (plan->splat_range_count) {
+        double ta = crisp_time_now();
+        if (occlusion && drawn && nt && dirty[0] <= dirty[2]) {
+            crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+            dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
+            looked = 1;
+        }
+        crisp__splat_draw_desc sd = {.plan = plan,
+                                     .only = only,
+                                     .clip = clip_on ? clip_k : NULL,
+                                     .hiz = occlusion && looked ? r->hiz : NULL,
+                                     .win = {win[0], win[1], win[2], win[3]}};
+        if ((st = crisp__splat_draw(&r->splat, tg, r->pool, &sd, &sds))) return st;
+        if (sds.box[0] <= sds.box[2]) {
+            dirty[0] = sds.box[0] < dirty[0] ? sds.box[0] : dirty[0];
+            dirty[1] = sds.box[1] < dirty[1] ? sds.box[1] : dirty[1];
+            dirty[2] = sds.box[2] > dirty[2] ? sds.box[2] : dirty[2];
+            dirty[3] = sds.box[3] > dirty[3] ? sds.box[3] : dirty[3];
+            drawn = 1;
+        }
+        t_raster += crisp_time_now() - ta;
+    }
     size_t surface_v = nv, surface_t = nt;
     r->vert_count = surface_v; /* the surface mesh, without the ribbons */
     r->tri_count = surface_t;
@@ -1412,7 +1462,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
          * reads nothing else). */
         /* The block depth of the surfaces drawn, for the quads hidden behind them (no sample of
          * theirs could pass the fill pass's depth test). */
-        if (occlusion && drawn && nt) {
+        if (occlusion && drawn && (surface_t || sds.ranges)) {
             crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
             dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
             looked = 1;
@@ -1465,6 +1515,8 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     stats->ribbon_triangles = nt - surface_t;
     stats->occluded_leaves = occluded_leaves;
     stats->occluded_triangles = occluded_tris;
+    stats->splat_faces = (uint32_t)(sds.ranges - sds.hidden_ranges);
+    stats->splats = sds.splats;
     stats->fragments_tested = rs.fragments_tested;
     stats->fragments_trimmed = rs.fragments_discarded;
     stats->ms_tess = 1e3 * t_tess;

@@ -867,6 +867,7 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
         g->face_px[fi] = INFINITY;
         g->face_active_count[fi] = 0;
         c->counts[fi] = 0;
+        if (c->out->skip_faces && c->out->skip_faces[fi]) continue; /* drawn as splats */
         if (root == UINT32_MAX) {
             for (uint32_t p = 0; p < f->patch_count; p++)
                 activate(c, (uint32_t)fi, f->first_patch + p, CRISP__PATCH_OPEN);

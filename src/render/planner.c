@@ -12,6 +12,7 @@
 #include "quadtree.h"
 #include "render_internal.h"
 #include "ribbon.h"
+#include "splat_store.h"
 
 struct crisp_planner {
     crisp_planner_desc desc;
@@ -36,6 +37,10 @@ struct crisp_planner {
     int *strips_used; /* per face: the strip count of its last trim plan (replan keeps it) */
     size_t strips_used_cap;
     uint64_t hash[4]; /* leaves, faces, table, ribbons of the last plan */
+    crisp__splat_store *splats;
+    uint8_t *splat_face; /* per face: drawn as splats this frame */
+    size_t splat_face_cap;
+    crisp_camera cam; /* of the last plan (a re-plan of a splatted face plans it again) */
     const crisp_scene *scene;
     int planned;
 };
@@ -55,6 +60,7 @@ crisp_status crisp_planner_create(const crisp_planner_desc *desc, crisp_pool *po
     p->pool = pool ? pool : crisp_pool_shared();
     crisp_status st = crisp__trees_create(&p->trees);
     if (!st) st = crisp__ribbons_create(crisp_pool_threads(p->pool), &p->ribbons);
+    if (!st) st = crisp__splat_store_create(&p->splats);
     if (st) {
         crisp_planner_destroy(p);
         return st;
@@ -68,6 +74,8 @@ void crisp_planner_destroy(crisp_planner *p)
     if (!p) return;
     crisp__trees_destroy(p->trees);
     crisp__ribbons_destroy(p->ribbons);
+    crisp__splat_store_destroy(p->splats);
+    free(p->splat_face);
     free(p->leaves);
     free(p->faces);
     free(p->strips);
@@ -220,7 +228,9 @@ static crisp_status ensure_faces(crisp_planner *p, uint32_t faces)
                          sizeof *p->ribbon_first)) ||
         (st = crisp_grow((void **)&p->ribbon_quads, &p->ribbon_quads_cap, n,
                          sizeof *p->ribbon_quads)) ||
-        (st = crisp_grow((void **)&p->strips_used, &p->strips_used_cap, n, sizeof *p->strips_used)))
+        (st = crisp_grow((void **)&p->strips_used, &p->strips_used_cap, n,
+                         sizeof *p->strips_used)) ||
+        (st = crisp_grow((void **)&p->splat_face, &p->splat_face_cap, n, sizeof *p->splat_face)))
         return st;
     return CRISP_OK;
 }
@@ -279,13 +289,27 @@ static void publish(crisp_planner *p, const crisp_scene *sc, int one_face)
 crisp_status crisp_planner_plan(crisp_planner *p, const crisp_scene *sc, const crisp_camera *cam,
                                 const crisp_frame_plan **dest)
 {
+    crisp_status st = crisp_camera_check(cam);
+    if (st) return st;
+    if ((st = ensure_faces(p, sc->face_count))) return st;
+    /* Faces drawn as splats (issue 12, splat_store.c) are chosen first: they get no leaves, trim
+     * table or ribbons. */
+    double ts = crisp_time_now();
+    memset(p->splat_face, 0, sc->face_count ? sc->face_count : 1);
+    if (!p->desc.no_splats) {
+        crisp_camera_matrices cm;
+        crisp_camera_matrices_compute(cam, &cm);
+        if ((st = crisp__splat_store_choose(p->splats, sc, cm.view_proj, cam->width, cam->height,
+                                            p->pool, p->splat_face)))
+            return st;
+    }
+    double ms_splats = 1e3 * (crisp_time_now() - ts);
     crisp__trees_desc td = {.eps_px = p->desc.eps_px,
                             .strip_count = p->desc.strip_count,
                             .max_depth = p->desc.max_depth,
-                            .no_groups = p->desc.no_groups};
-    crisp_status st = crisp__trees_build(p->trees, sc, cam, &td, p->pool);
-    if (st) return st;
-    if ((st = ensure_faces(p, sc->face_count))) return st;
+                            .no_groups = p->desc.no_groups,
+                            .skip_faces = p->splat_face};
+    if ((st = crisp__trees_build(p->trees, sc, cam, &td, p->pool))) return st;
     double t0 = crisp_time_now();
     crisp_frame_plan *o = &p->out;
     uint64_t triangles = 0;
@@ -314,7 +338,10 @@ crisp_status crisp_planner_plan(crisp_planner *p, const crisp_scene *sc, const c
     o->stats = p->trees->stats;
     o->stats.triangles = triangles;
     o->stats.ms_ribbons = 1e3 * (t1 - t0);
+    o->stats.ms_levels += ms_splats; /* the splat choice counts as level choice */
+    if ((st = crisp__splat_store_publish(p->splats, sc, p->splat_face, p->faces, o))) return st;
     publish(p, sc, 0);
+    p->cam = *cam;
     p->scene = sc;
     p->planned = 1;
     *dest = o;
@@ -331,10 +358,16 @@ crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, 
     if (face >= sc->face_count)
         return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", face,
                            sc->face_count);
+    /* Splats: the face's sets are of its old trim. A face drawn as splats is planned again
+     * whole (its new set may be over its budget: then it needs leaves). */
+    crisp__splat_store_drop_face(p->splats, face);
+    if (p->splat_face[face]) return crisp_planner_plan(p, sc, &p->cam, dest);
     double t0 = crisp_time_now();
     crisp_status st = crisp__trees_replan_trim(p->trees, sc, face, p->strips_used[face]);
     if (st) return st;
     if ((st = lay_out_tables(p, sc))) return st;
+    if ((st = crisp__splat_store_publish(p->splats, sc, p->splat_face, p->faces, &p->out)))
+        return st;
     double t1 = crisp_time_now();
     crisp_frame_plan *o = &p->out;
     if (!p->desc.no_ribbons && p->trees->face_tau[face]) {

@@ -1293,8 +1293,9 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         memset(plan->tree_frame, 0, plan->tree_frame_cap * sizeof *plan->tree_frame);
         plan->frame = 1;
     }
-    crisp__patch_groups pg = {plan->patch_mode, plan->group_g, &plan->active, &plan->active_count,
-                              &plan->active_cap};
+    crisp__patch_groups pg = {plan->patch_mode,  plan->group_g,
+                              &plan->active,     &plan->active_count,
+                              &plan->active_cap, desc ? desc->skip_faces : NULL};
     if (plan->no_groups) pg.group_g = NULL;
     if ((st = crisp__groups_classify(plan->groups, sc, plan->view_proj, cam->width, cam->height,
                                      tc.gx, tc.gy, eps, pool, &pg)))

@@ -40,6 +40,8 @@ typedef struct crisp__trees_desc {
     int strip_count; /* n_V per face; 0: the face's tess level times its patch rows, 8..256 */
     int max_depth;   /* patch splits; 0: CRISP_PLAN_MAX_DEPTH */
     int no_groups;   /* 1: no group leaves (one leaf per visible patch at least) */
+    const uint8_t *skip_faces; /* per face: 1 = drawn otherwise (splats): no leaves, no trim
+                                  plan (NULL: none) */
 } crisp__trees_desc;
 
 /* A cell that must be split although its own bound does not ask for it (one of its edge levels
@@ -65,6 +67,8 @@ typedef struct crisp__patch_groups {
                           leaves */
     uint32_t **active; /* the patches that get a tree this frame, ascending (grown as needed) */
     size_t *active_count, *active_cap;
+    const uint8_t *skip_faces; /* per face: 1 = not planned this frame (drawn as splats: every
+                                  patch of it gets no tree, like a culled one); NULL: none */
 } crisp__patch_groups;
 crisp_status crisp__groups_create(crisp__groups **dest);
 void crisp__groups_destroy(crisp__groups *g);

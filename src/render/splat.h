@@ -21,9 +21,9 @@
 #include "crisp/render.h"
 
 typedef struct crisp_splat_set {
-    double origin[3];         /* splats[i].p are positions minus origin (float offsets stay
-                                 precise for faces far from the model's origin) */
-    double radius;            /* the covering radius the set is proven to meet (<= the asked) */
+    double origin[3]; /* splats[i].p are positions minus origin (float offsets stay
+                         precise for faces far from the model's origin) */
+    double radius;    /* the covering radius the set is proven to meet (<= the asked) */
     uint32_t count;
     crisp_plan_splat *splats; /* count; face = the face asked for */
 } crisp_splat_set;

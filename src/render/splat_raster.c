@@ -1,0 +1,222 @@
+/* The CPU backend's splat draw (issue 12; splat_raster.h, docs/status/issue-12-splats.md
+ * "Planner and CPU draw"). A splat is a screen-aligned square of half-size h pixels at its own
+ * depth: the planner draws a face so only when every point of it that a pixel centre sees lies
+ * within h - margin px (x and y) of a splat's projection (splat_store.c), so every such pixel
+ * centre is covered and shows a true point of the face within h px.
+ *
+ * Two passes: the splats' pixel positions and 1 / W, range by range in parallel (with each
+ * range's screen box and nearest depth); then bands of rows in parallel, each band drawing every
+ * range that reaches it in plan order, so a sample's writes come in the same order whatever the
+ * thread count. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "occlusion.h"
+#include "splat_raster.h"
+
+#define BAND_ROWS 16
+
+void crisp__splat_scratch_free(crisp__splat_scratch *s)
+{
+    free(s->xyw);
+    free(s->list);
+    free(s->box);
+    free(s->base);
+    free(s->hidden);
+    memset(s, 0, sizeof *s);
+}
+
+typedef struct project_ctx {
+    crisp__splat_scratch *s;
+    const crisp_frame_plan *plan;
+} project_ctx;
+
+/* Range i of the list: each splat's pixel position and 1 / W, the range's box and largest 1/W. */
+static void project_ranges(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    project_ctx *c = vctx;
+    const crisp_frame_plan *plan = c->plan;
+    const float *m = plan->view_proj_f;
+    double h = plan->splat_half_px, sx = 0.5 * plan->width, sy = 0.5 * plan->height;
+    for (size_t i = begin; i < end; i++) {
+        const crisp_plan_splat_range *rg = &plan->splat_ranges[c->s->list[i]];
+        double *out = c->s->xyw + 3 * (size_t)c->s->base[i];
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iwmax = 0;
+        for (uint32_t k = 0; k < rg->count; k++) {
+            const crisp_plan_splat *sp = &plan->splats[rg->first + k];
+            const float *o = plan->splat_clip_origin + 4 * (size_t)sp->face;
+            float cl[4];
+            for (int q = 0; q < 4; q++)
+                cl[q] = o[q] + m[q] * sp->p[0] + m[q + 4] * sp->p[1] + m[q + 8] * sp->p[2];
+            double *xyw = out + 3 * (size_t)k;
+            double w = cl[3];
+            if (!(w > 0) || !(cl[2] >= -w) || !(cl[2] <= w) || !isfinite(cl[0] + cl[1])) {
+                xyw[0] = xyw[1] = xyw[2] = 0;
+                continue;
+            }
+            double x = ((double)cl[0] / w + 1) * sx, y = (1 - (double)cl[1] / w) * sy;
+            xyw[0] = x, xyw[1] = y, xyw[2] = 1.0 / w;
+            lo[0] = fmin(lo[0], x), lo[1] = fmin(lo[1], y);
+            hi[0] = fmax(hi[0], x), hi[1] = fmax(hi[1], y);
+            iwmax = fmax(iwmax, xyw[2]);
+        }
+        double *b = c->s->box + 5 * i;
+        b[0] = lo[0] - h, b[1] = lo[1] - h, b[2] = hi[0] + h, b[3] = hi[1] + h, b[4] = iwmax;
+    }
+}
+
+typedef struct band_ctx {
+    crisp__splat_scratch *s;
+    const crisp__splat_draw_desc *d;
+    crisp_raster_target *t;
+    size_t count; /* ranges in the list */
+    double off[16][2];
+    size_t *written; /* per worker */
+} band_ctx;
+
+static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
+{
+    band_ctx *c = vctx;
+    const crisp_frame_plan *plan = c->d->plan;
+    crisp_raster_target *t = c->t;
+    const int S = t->samples, x0 = c->d->win[0], y0 = c->d->win[1];
+    const double h = plan->splat_half_px;
+    const double *k = c->d->clip;
+    size_t written = 0;
+    for (size_t band = begin; band < end; band++) {
+        /* rows [r0, r1) of the whole image */
+        int r0 = y0 + (int)band * BAND_ROWS, r1 = r0 + BAND_ROWS;
+        if (r1 > y0 + t->height) r1 = y0 + t->height;
+        for (size_t i = 0; i < c->count; i++) {
+            const double *b = c->s->box + 5 * i;
+            if (c->s->hidden[i] || b[3] < r0 || b[1] >= r1 || b[2] < x0 || b[0] >= x0 + t->width)
+                continue;
+            const crisp_plan_splat_range *rg = &plan->splat_ranges[c->s->list[i]];
+            const double *xyw = c->s->xyw + 3 * (size_t)c->s->base[i];
+            for (uint32_t q = 0; q < rg->count; q++, xyw += 3) {
+                double iw = xyw[2];
+                if (!(iw > 0)) continue;
+                double cx = xyw[0], cy = xyw[1];
+                if (cy + h < r0 || cy - h >= r1) continue;
+                const crisp_plan_splat *sp = &plan->splats[rg->first + q];
+                float attr[CRISP_RASTER_ATTRS] = {0};
+                int have_attr = 0;
+                for (int s = 0; s < S; s++) {
+                    const double ox = c->off[s][0], oy = c->off[s][1];
+                    /* samples gi + ox with cx - h <= gi + ox < cx + h */
+                    double fi0 = ceil(cx - h - ox), fi1 = ceil(cx + h - ox) - 1;
+                    double fj0 = ceil(cy - h - oy), fj1 = ceil(cy + h - oy) - 1;
+                    if (fi0 < x0) fi0 = x0;
+                    if (fi1 > x0 + t->width - 1) fi1 = x0 + t->width - 1;
+                    if (fj0 < r0) fj0 = r0;
+                    if (fj1 > r1 - 1) fj1 = r1 - 1;
+                    for (int gj = (int)fj0; gj <= (int)fj1; gj++)
+                        for (int gi = (int)fi0; gi <= (int)fi1; gi++) {
+                            size_t idx =
+                                ((size_t)(gj - y0) * (size_t)t->width + (size_t)(gi - x0)) *
+                                    (size_t)S +
+                                (size_t)s;
+                            if (!(iw > t->inv_w[idx])) continue;
+                            if (k && k[0] + k[1] * (gi + ox) + k[2] * (gj + oy) + k[3] * iw < 0)
+                                continue;
+                            if (!have_attr) {
+                                float sg = (plan->faces[sp->face].flags & CRISP_PLAN_FACE_REVERSED)
+                                               ? -1.0f
+                                               : 1.0f;
+                                attr[0] = sp->uv[0], attr[1] = sp->uv[1];
+                                attr[2] = sg * sp->n[0], attr[3] = sg * sp->n[1];
+                                attr[4] = sg * sp->n[2];
+                                have_attr = 1;
+                            }
+                            t->inv_w[idx] = iw;
+                            memcpy(t->attr + idx * CRISP_RASTER_ATTRS, attr, sizeof attr);
+                            t->face[idx] = (int32_t)sp->face;
+                            written++;
+                        }
+                }
+            }
+        }
+    }
+    c->written[worker] += written;
+}
+
+crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, crisp_pool *pool,
+                               const crisp__splat_draw_desc *d, crisp__splat_draw_stats *stats)
+{
+    const crisp_frame_plan *plan = d->plan;
+    crisp__splat_draw_stats local;
+    if (!stats) stats = &local;
+    memset(stats, 0, sizeof *stats);
+    stats->box[0] = stats->box[1] = 1, stats->box[2] = stats->box[3] = 0;
+    if (!plan->splat_range_count || t->clear_pending) return CRISP_OK;
+    size_t n = plan->splat_range_count;
+    crisp_status st;
+    if ((st = crisp_grow((void **)&s->list, &s->list_cap, n, sizeof *s->list))) return st;
+    size_t cap = s->list_cap;
+    uint32_t *base = realloc(s->base, cap * sizeof *base);
+    if (!base) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for splats");
+    s->base = base;
+    double *box = realloc(s->box, cap * 5 * sizeof *box);
+    if (!box) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for splats");
+    s->box = box;
+    uint8_t *hidden = realloc(s->hidden, cap);
+    if (!hidden) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for splats");
+    s->hidden = hidden;
+    size_t count = 0, splats = 0;
+    for (size_t r = 0; r < n; r++) {
+        const crisp_plan_splat_range *rg = &plan->splat_ranges[r];
+        if (!rg->count) continue;
+        if (d->only && !d->only[plan->splats[rg->first].face]) continue;
+        s->list[count] = (uint32_t)r;
+        s->base[count] = (uint32_t)splats;
+        count++;
+        splats += rg->count;
+    }
+    if (!count) return CRISP_OK;
+    if ((st = crisp_grow((void **)&s->xyw, &s->xyw_cap, 3 * splats, sizeof *s->xyw))) return st;
+    project_ctx pc = {s, plan};
+    crisp_pool_parallel_for(pool, count, 16, project_ranges, &pc);
+    /* Ranges hidden whole by the depth drawn; the blocks the others can reach. */
+    int bw = (d->win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (size_t i = 0; i < count; i++) {
+        const double *b = s->box + 5 * i;
+        s->hidden[i] = !(b[4] > 0); /* no splat in front of the eye */
+        if (!s->hidden[i] && d->hiz) {
+            crisp_occl_leaf o;
+            crisp__occl_set(&o, d->win, b, b + 2, b[4]);
+            s->hidden[i] = (uint8_t)crisp__occl_hidden(&o, d->hiz, bw);
+        }
+        if (s->hidden[i]) {
+            stats->hidden_ranges++;
+            continue;
+        }
+        lo[0] = fmin(lo[0], b[0]), lo[1] = fmin(lo[1], b[1]);
+        hi[0] = fmax(hi[0], b[2]), hi[1] = fmax(hi[1], b[3]);
+    }
+    if (lo[0] <= hi[0]) {
+        double bx0 = floor((lo[0] - d->win[0] - 1) / CRISP_OCCL_BLOCK),
+               by0 = floor((lo[1] - d->win[1] - 1) / CRISP_OCCL_BLOCK),
+               bx1 = floor((hi[0] - d->win[0] + 1) / CRISP_OCCL_BLOCK),
+               by1 = floor((hi[1] - d->win[1] + 1) / CRISP_OCCL_BLOCK);
+        double mx = (d->win[2] - 1) / CRISP_OCCL_BLOCK, my = (d->win[3] - 1) / CRISP_OCCL_BLOCK;
+        stats->box[0] = (int)fmax(0, fmin(bx0, mx)), stats->box[1] = (int)fmax(0, fmin(by0, my));
+        stats->box[2] = (int)fmax(0, fmin(bx1, mx)), stats->box[3] = (int)fmax(0, fmin(by1, my));
+    }
+    int workers = crisp_pool_threads(pool);
+    size_t written[64] = {0};
+    if (workers > 64) workers = 64;
+    band_ctx bc = {.s = s, .d = d, .t = t, .count = count, .written = written};
+    for (int q = 0; q < t->samples; q++)
+        crisp__raster_sample_offset(t->samples, q, bc.off[q]);
+    size_t bands = (size_t)(t->height + BAND_ROWS - 1) / BAND_ROWS;
+    if (workers > 1 && crisp_pool_threads(pool) > 64) pool = NULL; /* written[] per worker */
+    crisp_pool_parallel_for(pool, bands, 1, draw_bands, &bc);
+    stats->ranges = count;
+    stats->splats = splats;
+    for (int w = 0; w < 64; w++)
+        stats->samples_written += written[w];
+    return CRISP_OK;
+}

@@ -1,0 +1,53 @@
+/* The CPU backend's splat draw (issue 12, splat_raster.c): the plan's splat ranges
+ * (include/crisp/plan.h) drawn into the rasterizer's target as screen-aligned squares. */
+#ifndef CRISP_RENDER_SPLAT_RASTER_H
+#define CRISP_RENDER_SPLAT_RASTER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "crisp/plan.h"
+#include "raster.h"
+
+/* Scratch kept from frame to frame (zero-initialised; crisp__splat_scratch_free). */
+typedef struct crisp__splat_scratch {
+    double *xyw; /* per splat drawn: pixel x, y (whole image), 1 / W (W <= 0 or beyond the near or
+                    far plane: 1 / W = 0, not drawn) */
+    size_t xyw_cap;
+    uint32_t *list; /* the ranges drawn (plan indices) */
+    double *box;    /* per range drawn: lo x, lo y, hi x, hi y of its squares, then its largest
+                       1 / W */
+    uint32_t *base; /* per range drawn: its first entry in xyw */
+    uint8_t *hidden;
+    size_t list_cap;
+} crisp__splat_scratch;
+
+void crisp__splat_scratch_free(crisp__splat_scratch *s);
+
+typedef struct crisp__splat_draw_desc {
+    const crisp_frame_plan *plan;
+    const uint8_t *only; /* per face: draw its ranges (NULL: all) */
+    const double *clip;  /* the rasterizer's clip plane k (crisp__raster_set_clip), NULL: none */
+    const double *hiz;   /* block depth (crisp__raster_block_depth at CRISP_OCCL_BLOCK), NULL */
+    int win[4];          /* the target's window of the plan's image: x0, y0, width, height */
+} crisp__splat_draw_desc;
+
+typedef struct crisp__splat_draw_stats {
+    size_t ranges, splats, hidden_ranges, samples_written;
+    int box[4]; /* the target's 4x4 blocks the drawn squares can reach: bx0, by0, bx1, by1
+                   (bx0 > bx1: none) */
+} crisp__splat_draw_stats;
+
+/* Draw the plan's splat ranges into t (its pending clear done: after a crisp__raster_draw):
+ * each splat's clip position by the plan's rule (in float), skipped where W <= 0 or outside the
+ * near or far plane; a sample at (x, y) (pixels of the whole image) is covered when
+ * cx - h <= x < cx + h and cy - h <= y < cy + h (h = plan->splat_half_px); 1 / W constant over
+ * the square; the depth test as the rasterizer's (a larger 1 / W wins, ties keep what was drawn
+ * first: the surfaces, then the ranges in plan order, each in its order); writes 1 / W, the
+ * attributes (u, v, normal, flipped for reversed faces) and the face. Rows of the target are
+ * split in bands, each drawn by one worker: the result does not depend on the thread count.
+ * A range whose squares the block depth hides whole (hiz) is skipped. pool may be NULL. */
+crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, crisp_pool *pool,
+                               const crisp__splat_draw_desc *desc, crisp__splat_draw_stats *stats);
+
+#endif

@@ -1,0 +1,397 @@
+/* The planner's splat store (issue 12; splat_store.h, docs/status/issue-12-splats.md "Planner and
+ * CPU draw"). Per face, splat sets at radii s_k = s_0 2^-k (s_0: the diagonal of the face's box)
+ * are built when a frame first needs them (crisp__splat_build, in parallel) and kept, all in one
+ * growing array of crisp_plan_splat that the plan hands to backends as it is; a level whose set
+ * would exceed the face's budget (CRISP_SPLAT_PER_PATCH patches + CRISP_SPLAT_PER_FACE) is
+ * refused once and never tried again (finer levels hold more splats). Sets are dropped when the
+ * scene changes (crisp_scene.serial) and, per face, when its trim pieces change (checked by a
+ * hash of the pieces when crisp_scene.trim_serial moves).
+ *
+ * The choice per frame: a face whose box lies wholly between the near and far planes and meets
+ * the frustum, with P_px = the pixels per model unit at the box's nearest point, is drawn as
+ * the set at the coarsest level whose radius r has r P_px <= h - margin. P_px bounds the screen
+ * distance of two points of the face at most a model unit apart where one of them shows at a
+ * pixel: for points p, s of the face with d = p - s, x_p - x_s = (X_d - ndc_x(p) W_d) / W_s in
+ * NDC (X_d, W_d: the linear part of view_proj's x and w rows applied to d), |ndc_x(p)| <= a_x =
+ * min(1, the box's largest |ndc_x|) for a p that a pixel centre sees, W_s >= the box's least W;
+ * so |x_p - x_s| <= (width / 2) (|row x| + a_x |row w|) |d| / W_min pixels, and y alike. Every
+ * point p of the face that a pixel centre sees is within r of a splat s, so s projects within
+ * h - margin px of the pixel centre in x and in y and its square (half-size h) covers it. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "splat.h"
+#include "splat_store.h"
+
+typedef struct face_sets {
+    double s0;        /* radius of level 0: the face box's diagonal (0: never splatted) */
+    double origin[3]; /* the face's splat origin (its first set's): p are offsets from it */
+    double radius[CRISP_SPLAT_LEVELS]; /* proven radius of each built level */
+    uint32_t first[CRISP_SPLAT_LEVELS], count[CRISP_SPLAT_LEVELS];
+    uint32_t built;  /* bit k: level k is in the store */
+    uint8_t refused; /* levels >= refused are over the budget (CRISP_SPLAT_LEVELS: none) */
+    uint8_t has_origin;
+    uint64_t trim_hash; /* of the face's trim pieces when its sets were built */
+} face_sets;
+
+struct crisp__splat_store {
+    uint64_t serial, trim_serial; /* the scene the store was built from (0: none) */
+    uint32_t face_count;
+    face_sets *faces;
+    double *box; /* 6 per face: the union of its patches' boxes */
+    crisp_plan_splat *splats;
+    size_t count, cap, dead; /* splats stored, allocated, and belonging to dropped sets */
+    int8_t *want;            /* per face this frame: the level drawn, -1: not splatted */
+    uint32_t *todo;          /* faces whose wanted level is built this frame */
+    size_t todo_cap;
+    crisp_splat_set *sets; /* per todo entry */
+    crisp_status *status;
+    size_t sets_cap;
+    crisp_plan_splat_range *ranges;
+    size_t range_cap;
+    float *clip_origin;
+    size_t clip_cap;
+    crisp_mat4 view_proj;
+    int changed; /* the splats array changed since the last publish */
+};
+
+crisp_status crisp__splat_store_create(crisp__splat_store **dest)
+{
+    crisp__splat_store *s = calloc(1, sizeof *s);
+    if (!s) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
+    *dest = s;
+    return CRISP_OK;
+}
+
+static void clear_scene(crisp__splat_store *s)
+{
+    free(s->faces);
+    free(s->box);
+    free(s->want);
+    s->faces = NULL, s->box = NULL, s->want = NULL;
+    s->face_count = 0;
+    s->count = s->dead = 0;
+    s->serial = s->trim_serial = 0;
+    s->changed = 1;
+}
+
+void crisp__splat_store_destroy(crisp__splat_store *s)
+{
+    if (!s) return;
+    clear_scene(s);
+    free(s->splats);
+    free(s->todo);
+    free(s->sets);
+    free(s->status);
+    free(s->ranges);
+    free(s->clip_origin);
+    free(s);
+}
+
+/* FNV-1a over the used part of face f's trim pieces. */
+static uint64_t trim_hash(const crisp_scene *sc, uint32_t f)
+{
+    const crisp_scene_face *sf = &sc->faces[f];
+    uint64_t h = 1469598103934665603ull ^ sf->piece_count;
+    for (uint32_t i = 0; i < sf->piece_count; i++) {
+        const crisp_bezier_curve *c = &sc->pieces[sf->first_piece + i];
+        size_t n = (size_t)(c->degree + 1) * (size_t)(c->dim + 1);
+        if (n > sizeof c->cpw / sizeof c->cpw[0]) n = sizeof c->cpw / sizeof c->cpw[0];
+        const unsigned char *b = (const unsigned char *)c->cpw;
+        for (size_t k = 0; k < n * sizeof(double); k++)
+            h = (h ^ b[k]) * 1099511628211ull;
+        h = (h ^ (uint64_t)(c->degree | c->dim << 8 | c->rational << 16)) * 1099511628211ull;
+    }
+    return h;
+}
+
+void crisp__splat_store_drop_face(crisp__splat_store *s, uint32_t f)
+{
+    if (!s->faces || f >= s->face_count) return;
+    face_sets *fs = &s->faces[f];
+    for (int k = 0; k < CRISP_SPLAT_LEVELS; k++)
+        if (fs->built >> k & 1u) s->dead += fs->count[k];
+    double s0 = fs->s0;
+    memset(fs, 0, sizeof *fs);
+    fs->s0 = s0;
+    fs->refused = CRISP_SPLAT_LEVELS;
+    s->changed = 1;
+}
+
+/* The store for scene sc: rebuilt for a new scene, faces with changed trims dropped, dropped
+ * sets compacted away once they are most of the array. */
+static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
+{
+    if (s->serial != sc->serial || s->face_count != sc->face_count) {
+        clear_scene(s);
+        size_t n = sc->face_count ? sc->face_count : 1;
+        s->faces = calloc(n, sizeof *s->faces);
+        s->box = crisp_malloc_array(n, 6 * sizeof *s->box);
+        s->want = crisp_malloc_array(n, sizeof *s->want);
+        if (!s->faces || !s->box || !s->want) {
+            clear_scene(s);
+            return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
+        }
+        for (uint32_t f = 0; f < sc->face_count; f++) {
+            const crisp_scene_face *sf = &sc->faces[f];
+            double *b = s->box + 6 * (size_t)f;
+            b[0] = b[1] = b[2] = INFINITY, b[3] = b[4] = b[5] = -INFINITY;
+            for (uint32_t p = 0; p < sf->patch_count; p++) {
+                const double *pb = sc->patches[sf->first_patch + p].box;
+                for (int k = 0; k < 3; k++) {
+                    b[k] = fmin(b[k], pb[k]);
+                    b[k + 3] = fmax(b[k + 3], pb[k + 3]);
+                }
+            }
+            double d = 0;
+            for (int k = 0; k < 3; k++)
+                d += (b[k + 3] - b[k]) * (b[k + 3] - b[k]);
+            d = sqrt(d);
+            s->faces[f].s0 = sf->patch_count && isfinite(d) && d > 0 ? d : 0;
+            s->faces[f].refused = CRISP_SPLAT_LEVELS;
+        }
+        s->face_count = sc->face_count;
+        s->serial = sc->serial;
+        s->trim_serial = sc->trim_serial;
+    }
+    if (s->trim_serial != sc->trim_serial) {
+        for (uint32_t f = 0; f < sc->face_count; f++)
+            if (s->faces[f].built && trim_hash(sc, f) != s->faces[f].trim_hash)
+                crisp__splat_store_drop_face(s, f);
+        s->trim_serial = sc->trim_serial;
+    }
+    if (s->dead > 4096 && 2 * s->dead > s->count) { /* compact: live sets moved down */
+        size_t at = 0;
+        for (uint32_t f = 0; f < s->face_count; f++) {
+            face_sets *fs = &s->faces[f];
+            for (int k = 0; k < CRISP_SPLAT_LEVELS; k++) {
+                if (!(fs->built >> k & 1u)) continue;
+                memmove(s->splats + at, s->splats + fs->first[k], fs->count[k] * sizeof *s->splats);
+                fs->first[k] = (uint32_t)at;
+                at += fs->count[k];
+            }
+        }
+        s->count = at;
+        s->dead = 0;
+        s->changed = 1;
+    }
+    return CRISP_OK;
+}
+
+static uint32_t budget(const crisp_scene *sc, uint32_t f)
+{
+    uint64_t b = (uint64_t)CRISP_SPLAT_PER_PATCH * sc->faces[f].patch_count + CRISP_SPLAT_PER_FACE;
+    return b > UINT32_MAX / 2 ? UINT32_MAX / 2 : (uint32_t)b;
+}
+
+typedef struct choose_ctx {
+    crisp__splat_store *s;
+    const crisp_scene *sc;
+    int width, height;
+    double rx, ry, rw; /* |row x|, |row y|, |row w| of view_proj's linear part */
+} choose_ctx;
+
+/* The level face f wants this frame (-1: planned as patches). */
+static int want_level(const choose_ctx *c, uint32_t f)
+{
+    const crisp__splat_store *s = c->s;
+    const face_sets *fs = &s->faces[f];
+    if (!(fs->s0 > 0) || !fs->refused) return -1;
+    const double *b = s->box + 6 * (size_t)f;
+    crisp_mat4 *m = (crisp_mat4 *)&s->view_proj;
+    int out[4] = {1, 1, 1, 1};
+    double wmin = INFINITY, ax = 0, ay = 0;
+    for (int k = 0; k < 8; k++) {
+        double p[3] = {b[(k & 1) ? 3 : 0], b[(k & 2) ? 4 : 1], b[(k & 4) ? 5 : 2]}, h[4];
+        for (int q = 0; q < 4; q++)
+            h[q] = (*m)[0][q] * p[0] + (*m)[1][q] * p[1] + (*m)[2][q] * p[2] + (*m)[3][q];
+        /* wholly between the near and far planes (W > 0 follows) */
+        if (!(h[2] > -h[3]) || !(h[2] < h[3]) || !(h[3] > 0)) return -1;
+        out[0] &= h[0] > h[3], out[1] &= h[0] < -h[3];
+        out[2] &= h[1] > h[3], out[3] &= h[1] < -h[3];
+        wmin = fmin(wmin, h[3]);
+        ax = fmax(ax, fabs(h[0] / h[3]));
+        ay = fmax(ay, fabs(h[1] / h[3]));
+    }
+    if (out[0] | out[1] | out[2] | out[3]) return -1; /* off screen: culled as patches */
+    ax = fmin(ax, 1), ay = fmin(ay, 1);
+    double ppu =
+        fmax(0.5 * c->width * (c->rx + ax * c->rw), 0.5 * c->height * (c->ry + ay * c->rw)) / wmin *
+        (1 + 1e-9);
+    double rt = (CRISP_SPLAT_HALF_PX - CRISP_SPLAT_MARGIN_PX) / ppu;
+    if (!(rt > 0)) return -1;
+    double lk = ceil(log2(fs->s0 / rt));
+    int k = lk < 0 ? 0 : lk >= CRISP_SPLAT_LEVELS ? CRISP_SPLAT_LEVELS : (int)lk;
+    /* The asked radius s0 2^-k may round above rt: one level finer then. */
+    while (k < CRISP_SPLAT_LEVELS && ldexp(fs->s0, -k) > rt)
+        k++;
+    if (k >= CRISP_SPLAT_LEVELS || k >= fs->refused) return -1;
+    /* A coarser set already built whose proven radius is small enough. */
+    if (k > 0 && (fs->built >> (k - 1) & 1u) && fs->radius[k - 1] <= rt) k--;
+    if ((fs->built >> k & 1u) && !(fs->radius[k] <= rt)) return -1;
+    return k;
+}
+
+static void choose_range(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    choose_ctx *c = vctx;
+    for (size_t f = begin; f < end; f++)
+        c->s->want[f] = (int8_t)want_level(c, (uint32_t)f);
+}
+
+typedef struct build_ctx {
+    crisp__splat_store *s;
+    const crisp_scene *sc;
+} build_ctx;
+
+static void build_range(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    build_ctx *c = vctx;
+    crisp__splat_store *s = c->s;
+    for (size_t i = begin; i < end; i++) {
+        uint32_t f = s->todo[i];
+        int k = s->want[f];
+        s->status[i] =
+            crisp__splat_build(c->sc, f, ldexp(s->faces[f].s0, -k), budget(c->sc, f), &s->sets[i]);
+    }
+}
+
+/* Append set i (face f, level k) to the store. */
+static crisp_status store_set(crisp__splat_store *s, const crisp_scene *sc, uint32_t f, int k,
+                              crisp_splat_set *set)
+{
+    face_sets *fs = &s->faces[f];
+    if (s->count + set->count > UINT32_MAX / 2)
+        return crisp_error(CRISP_ERR_LIMIT, "more than 2^31 splats in the store");
+    crisp_status st =
+        crisp_grow((void **)&s->splats, &s->cap, s->count + set->count + 1, sizeof *s->splats);
+    if (st) return st;
+    if (!fs->has_origin) {
+        memcpy(fs->origin, set->origin, sizeof fs->origin);
+        fs->has_origin = 1;
+        fs->trim_hash = trim_hash(sc, f);
+    }
+    double d[3];
+    for (int a = 0; a < 3; a++)
+        d[a] = set->origin[a] - fs->origin[a];
+    crisp_plan_splat *dst = s->splats + s->count;
+    for (uint32_t i = 0; i < set->count; i++) {
+        dst[i] = set->splats[i];
+        dst[i].face = f;
+        if (d[0] != 0 || d[1] != 0 || d[2] != 0)
+            for (int a = 0; a < 3; a++)
+                dst[i].p[a] = (float)((double)set->splats[i].p[a] + d[a]);
+    }
+    fs->first[k] = (uint32_t)s->count;
+    fs->count[k] = set->count;
+    fs->radius[k] = set->radius;
+    fs->built |= 1u << k;
+    s->count += set->count;
+    s->changed = 1;
+    return CRISP_OK;
+}
+
+crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene *sc,
+                                       crisp_mat4 view_proj, int width, int height,
+                                       crisp_pool *pool, uint8_t *splat)
+{
+    crisp_status st = ensure_scene(s, sc);
+    if (st) return st;
+    crisp_mat4_copy(view_proj, s->view_proj);
+    choose_ctx c = {.s = s, .sc = sc, .width = width, .height = height};
+    double r[3] = {0, 0, 0};
+    for (int a = 0; a < 3; a++)
+        for (int q = 0; q < 3; q++) {
+            int row = q == 2 ? 3 : q;
+            r[q] += view_proj[a][row] * view_proj[a][row];
+        }
+    c.rx = sqrt(r[0]), c.ry = sqrt(r[1]), c.rw = sqrt(r[2]);
+    crisp_pool_parallel_for(pool, sc->face_count, 256, choose_range, &c);
+    /* The sets wanted and not built yet: built in parallel, stored in face order. */
+    size_t n = 0;
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        if (s->want[f] >= 0 && !(s->faces[f].built >> s->want[f] & 1u)) {
+            if ((st = crisp_grow((void **)&s->todo, &s->todo_cap, n + 1, sizeof *s->todo)))
+                return st;
+            s->todo[n++] = f;
+        }
+    if (n) {
+        if ((st = crisp_grow((void **)&s->sets, &s->sets_cap, n, sizeof *s->sets))) return st;
+        crisp_status *stt = realloc(s->status, s->sets_cap * sizeof *stt);
+        if (!stt) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
+        s->status = stt;
+        memset(s->sets, 0, n * sizeof *s->sets);
+        build_ctx bc = {s, sc};
+        crisp_pool_parallel_for(pool, n, 1, build_range, &bc);
+        crisp_status first_error = CRISP_OK;
+        for (size_t i = 0; i < n; i++) {
+            uint32_t f = s->todo[i];
+            int k = s->want[f];
+            crisp_status bs = s->status[i];
+            if (!bs && s->sets[i].count <= budget(sc, f) &&
+                s->sets[i].radius <= ldexp(s->faces[f].s0, -k)) {
+                bs = store_set(s, sc, f, k, &s->sets[i]);
+                if (bs && !first_error) first_error = bs;
+            } else if (bs == CRISP_ERR_NO_MEMORY) {
+                if (!first_error) first_error = bs;
+            } else {
+                /* Over the budget (or a face the builder cannot sample): this level and every
+                 * finer one are planned as patches. */
+                if (k < s->faces[f].refused) s->faces[f].refused = (uint8_t)k;
+                s->want[f] = -1;
+            }
+            crisp__splat_set_free(&s->sets[i]);
+        }
+        if (first_error) return first_error;
+        crisp_error_clear();
+    }
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        splat[f] = s->want[f] >= 0;
+    return CRISP_OK;
+}
+
+crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene *sc,
+                                        const uint8_t *splat, crisp_plan_face *faces,
+                                        crisp_frame_plan *out)
+{
+    size_t nf = sc->face_count ? sc->face_count : 1;
+    crisp_status st;
+    if ((st = crisp_grow((void **)&s->ranges, &s->range_cap, nf, sizeof *s->ranges)) ||
+        (st = crisp_grow((void **)&s->clip_origin, &s->clip_cap, 4 * nf, sizeof *s->clip_origin)))
+        return st;
+    uint32_t nr = 0, nfaces = 0;
+    uint64_t drawn = 0;
+    crisp_mat4 *m = (crisp_mat4 *)&s->view_proj;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        float *co = s->clip_origin + 4 * (size_t)f;
+        int k = splat[f] && s->faces && f < s->face_count ? s->want[f] : -1;
+        if (k < 0) {
+            co[0] = co[1] = co[2] = co[3] = 0;
+            continue;
+        }
+        const face_sets *fs = &s->faces[f];
+        for (int q = 0; q < 4; q++)
+            co[q] = (float)((*m)[0][q] * fs->origin[0] + (*m)[1][q] * fs->origin[1] +
+                            (*m)[2][q] * fs->origin[2] + (*m)[3][q]);
+        faces[f].flags |= CRISP_PLAN_FACE_SPLATS;
+        s->ranges[nr++] = (crisp_plan_splat_range){fs->first[k], fs->count[k]};
+        nfaces++;
+        drawn += fs->count[k];
+    }
+    out->splats = s->splats;
+    out->splat_count = (uint32_t)s->count;
+    out->splat_ranges = s->ranges;
+    out->splat_range_count = nr;
+    out->splat_clip_origin = s->clip_origin;
+    out->splat_half_px = CRISP_SPLAT_HALF_PX;
+    if (s->changed) out->splats_version++;
+    s->changed = 0;
+    out->stats.splat_faces = nfaces;
+    out->stats.splats_drawn = drawn;
+    out->stats.splat_bytes = s->cap * sizeof *s->splats +
+                             (size_t)s->face_count * (sizeof *s->faces + 6 * sizeof(double) + 1);
+    return CRISP_OK;
+}

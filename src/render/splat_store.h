@@ -1,0 +1,58 @@
+/* The planner's splat store (issue 12, splat_store.c): per face, splat sets at radii
+ * s_k = s_0 2^-k built lazily (crisp__splat_build) and kept across frames, and the per-frame
+ * choice of the faces drawn as splats (docs/status/issue-12-splats.md, "Planner and CPU draw").
+ *
+ * Offers:
+ *   crisp__splat_store_create / _destroy
+ *   crisp__splat_store_choose   which faces this frame draws as splats, at which level
+ *   crisp__splat_store_publish  the plan's splat arrays for the faces chosen
+ *   crisp__splat_store_drop_face forget one face's sets (its trim changed) */
+#ifndef CRISP_RENDER_SPLAT_STORE_H
+#define CRISP_RENDER_SPLAT_STORE_H
+
+#include <stdint.h>
+
+#include "crisp/plan.h"
+#include "crisp/render.h"
+
+/* Levels per face: s_0 2^-k for k < CRISP_SPLAT_LEVELS. */
+#define CRISP_SPLAT_LEVELS 20
+
+/* The splat budget of a face of P patches: A P + B splats (a set above it is not built, the face
+ * is planned as patches). Tuned by instruction counts (bench/RESULTS.md, issue 12, session 9). */
+#ifndef CRISP_SPLAT_PER_PATCH
+#define CRISP_SPLAT_PER_PATCH 16
+#endif
+#ifndef CRISP_SPLAT_PER_FACE
+#define CRISP_SPLAT_PER_FACE 64
+#endif
+/* A splat's half-size on screen (pixels) and the margin kept below it for the set's radius. */
+#define CRISP_SPLAT_HALF_PX 0.5
+#define CRISP_SPLAT_MARGIN_PX 0.1
+
+typedef struct crisp__splat_store crisp__splat_store;
+
+crisp_status crisp__splat_store_create(crisp__splat_store **dest);
+void crisp__splat_store_destroy(crisp__splat_store *s);
+
+/* The faces of sc drawn as splats for view_proj at width x height: splat[f] = 1 for those,
+ * 0 for the others (planned as patches as before). A face is drawn so when its box (the union of
+ * its patches' boxes) lies wholly between the near and far planes and meets the frustum, and
+ * its set at the coarsest level whose radius, projected at the box's nearest point, is at most
+ * CRISP_SPLAT_HALF_PX - CRISP_SPLAT_MARGIN_PX pixels, holds at most the face's budget of splats
+ * (built now when it is not yet). pool may be NULL. */
+crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene *sc,
+                                       crisp_mat4 view_proj, int width, int height,
+                                       crisp_pool *pool, uint8_t *splat);
+
+/* Fill the plan's splat fields (splats, ranges, clip origins, half size, splats_version and the
+ * splat stats) for the faces with splat[f] != 0 (a subset of the last choose's; all 0: none) and
+ * flag their records (faces: the plan's, sc->face_count of them) with CRISP_PLAN_FACE_SPLATS. */
+crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene *sc,
+                                        const uint8_t *splat, crisp_plan_face *faces,
+                                        crisp_frame_plan *out);
+
+/* Forget face f's sets (they are rebuilt when next needed). */
+void crisp__splat_store_drop_face(crisp__splat_store *s, uint32_t f);
+
+#endif

@@ -1,0 +1,569 @@
+/* Splats (issue 12, src/render/splat_store.c, splat_raster.c): faces so small on screen that
+ * their point samples are drawn instead of their patches.
+ *
+ * - test_draw_reference: hand-made splat sets drawn into a target that already holds depth,
+ *   at 1, 4 and 16 samples, on 1 and 3 threads: every sample equals a reference computed here
+ *   (the squares cx - h <= x < cx + h, cy - h <= y < cy + h; larger 1/W wins, ties keep the
+ *   earlier; reversed faces' normals flipped; W <= 0 and splats beyond near or far skipped).
+ * - test_choice_near_plane: a thin strip along the view axis, a fraction of a pixel on screen,
+ *   is splatted when its box lies in front of the near plane and not when the near plane cuts
+ *   its box; desc.no_splats turns splats off; a splatted face has no leaves, strips or ribbons.
+ * - test_true_points, test_no_holes: bundled models at far views (1 sample): every pixel that
+ *   shows a splatted face shows a true point of it (its (u, v) inside the trim by the exact
+ *   classifier, the surface point there within 0.5 px of the pixel centre in x and y), and every
+ *   pixel centre whose exact ray meets a splatted face is covered.
+ * - test_solids_far: closed solids far away (splatted and patch-drawn faces mixed, 1 and 4
+ *   samples): no background pixel wherever the exact renderer sees the solid on the pixel and
+ *   its 8 neighbours.
+ * - test_near_edges: images with and without splats differ only at pixels that lie at a face
+ *   edge (a 3x3 neighbour of another face or the background) in one of the two images. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "crisp/io.h"
+#include "crisp/plan.h"
+#include "crisp/render.h"
+#include "crisp/trim.h"
+#include "render/raster.h"
+#include "render/splat_raster.h"
+
+static uint64_t rng = 0x853c49e6748fea9bull;
+static double rnd(void)
+{
+    rng ^= rng << 13, rng ^= rng >> 7, rng ^= rng << 17;
+    return (double)(rng >> 11) / 9007199254740992.0;
+}
+
+/* ---- the draw against a reference ----------------------------------------------------------- */
+
+#define NF 3
+
+static void draw_case(int samples, int width, int height)
+{
+    crisp_camera cam = {.eye = {0.3, -0.2, 6},
+                        .target = {0, 0, 0},
+                        .up = {0, 1, 0},
+                        .fov_deg = 40,
+                        .znear = 1,
+                        .zfar = 9,
+                        .width = width,
+                        .height = height};
+    crisp_camera_matrices cm;
+    crisp_camera_matrices_compute(&cam, &cm);
+    crisp_frame_plan plan = {0};
+    crisp_mat4_copy(cm.view_proj, plan.view_proj);
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 4; r++)
+            plan.view_proj_f[4 * c + r] = (float)cm.view_proj[c][r];
+    plan.width = width, plan.height = height;
+    plan.splat_half_px = 0.5;
+    crisp_plan_face faces[NF] = {{0}};
+    faces[1].flags = CRISP_PLAN_FACE_REVERSED | CRISP_PLAN_FACE_SPLATS;
+    faces[0].flags = faces[2].flags = CRISP_PLAN_FACE_SPLATS;
+    plan.faces = faces, plan.face_count = NF;
+    double origin[NF][3] = {{0.5, 0.2, 0}, {-0.4, 0.1, 1}, {0, -0.3, -1}};
+    float clip_origin[4 * NF];
+    for (int f = 0; f < NF; f++) {
+        double h[4];
+        crisp_mat4_mulp(cm.view_proj, origin[f], h);
+        for (int q = 0; q < 4; q++)
+            clip_origin[4 * f + q] = (float)h[q];
+    }
+    plan.splat_clip_origin = clip_origin;
+    enum { N = 400 };
+    crisp_plan_splat sp[N];
+    crisp_plan_splat_range ranges[NF] = {{0, 150}, {150, 130}, {280, 120}};
+    for (int f = 0, k = 0; f < NF; f++)
+        for (uint32_t q = 0; q < ranges[f].count; q++, k++) {
+            crisp_plan_splat *s = &sp[k];
+            s->face = (uint32_t)f;
+            for (int a = 0; a < 3; a++)
+                s->p[a] = (float)(2.4 * rnd() - 1.2);
+            if (k % 37 == 0) s->p[2] = (float)(7 - origin[f][2]);   /* behind the eye */
+            if (k % 41 == 0) s->p[2] = (float)(5.5 - origin[f][2]); /* before the near plane */
+            if (k % 43 == 0) s->p[2] = s->p[2] - 4.5f;              /* beyond the far plane */
+            if (k % 5 == 0 && k)
+                s->p[0] = sp[k - 1].p[0], s->p[1] = sp[k - 1].p[1],
+                s->p[2] = sp[k - 1].p[2]; /* a tie: the earlier stays */
+            s->n[0] = (float)rnd(), s->n[1] = (float)rnd(), s->n[2] = 1;
+            s->uv[0] = (float)k, s->uv[1] = (float)(0.5 * k);
+        }
+    plan.splats = sp, plan.splat_count = N;
+    plan.splat_ranges = ranges, plan.splat_range_count = NF;
+
+    crisp_raster_target t[2];
+    memset(t, 0, sizeof t);
+    size_t ns = (size_t)width * height * samples;
+    double *ref_iw = calloc(ns, sizeof *ref_iw);
+    int32_t *ref_face = malloc(ns * sizeof *ref_face);
+    float *ref_attr = calloc(ns * CRISP_RASTER_ATTRS, sizeof *ref_attr);
+    for (int k = 0; k < 2; k++) {
+        assert_int_equal(crisp__raster_target_init(&t[k], width, height, samples), CRISP_OK);
+        crisp__raster_target_clear(&t[k]);
+    }
+    /* Depth already drawn (a surface at W = 6 over the left half): splats behind it stay hidden. */
+    for (size_t i = 0; i < ns; i++) {
+        size_t px = i / (size_t)samples;
+        int x = (int)(px % (size_t)width);
+        ref_face[i] = -1;
+        if (x < width / 2) {
+            ref_iw[i] = 1.0 / 6, ref_face[i] = 7;
+            for (int a = 0; a < CRISP_RASTER_ATTRS; a++)
+                ref_attr[i * CRISP_RASTER_ATTRS + a] = -3;
+        }
+    }
+    for (int k = 0; k < 2; k++) {
+        memcpy(t[k].inv_w, ref_iw, ns * sizeof *ref_iw);
+        memcpy(t[k].face, ref_face, ns * sizeof *ref_face);
+        memcpy(t[k].attr, ref_attr, ns * CRISP_RASTER_ATTRS * sizeof *ref_attr);
+    }
+    /* The reference: every splat against every sample, in draw order. */
+    long covered = 0;
+    for (int k = 0; k < N; k++) {
+        const crisp_plan_splat *s = &sp[k];
+        const float *o = clip_origin + 4 * s->face, *m = plan.view_proj_f;
+        float c[4];
+        for (int q = 0; q < 4; q++)
+            c[q] = o[q] + m[q] * s->p[0] + m[q + 4] * s->p[1] + m[q + 8] * s->p[2];
+        double w = c[3];
+        if (!(w > 0) || !(c[2] >= -w) || !(c[2] <= w)) continue;
+        double cx = ((double)c[0] / w + 1) * 0.5 * width,
+               cy = (1 - (double)c[1] / w) * 0.5 * height;
+        double iw = 1.0 / w;
+        for (int j = 0; j < height; j++)
+            for (int i = 0; i < width; i++)
+                for (int q = 0; q < samples; q++) {
+                    double off[2];
+                    crisp__raster_sample_offset(samples, q, off);
+                    double x = i + off[0], y = j + off[1];
+                    if (!(cx - 0.5 <= x && x < cx + 0.5 && cy - 0.5 <= y && y < cy + 0.5)) continue;
+                    covered++;
+                    size_t idx = ((size_t)j * width + i) * samples + q;
+                    if (!(iw > ref_iw[idx])) continue;
+                    ref_iw[idx] = iw;
+                    ref_face[idx] = (int32_t)s->face;
+                    float sg = s->face == 1 ? -1.0f : 1.0f;
+                    float *a = ref_attr + idx * CRISP_RASTER_ATTRS;
+                    a[0] = s->uv[0], a[1] = s->uv[1];
+                    a[2] = sg * s->n[0], a[3] = sg * s->n[1], a[4] = sg * s->n[2];
+                }
+    }
+    assert_true(covered > 50);
+    crisp_pool *pool;
+    assert_int_equal(crisp_pool_create(3, &pool), CRISP_OK);
+    crisp__splat_scratch scratch = {0};
+    crisp__splat_draw_desc d = {.plan = &plan, .win = {0, 0, width, height}};
+    crisp__splat_draw_stats stats;
+    assert_int_equal(crisp__splat_draw(&scratch, &t[0], NULL, &d, &stats), CRISP_OK);
+    assert_int_equal(stats.ranges, NF);
+    assert_int_equal(crisp__splat_draw(&scratch, &t[1], pool, &d, NULL), CRISP_OK);
+    long differ = 0;
+    for (size_t i = 0; i < ns; i++) {
+        int bad = t[0].face[i] != ref_face[i] || t[0].inv_w[i] != ref_iw[i] ||
+                  memcmp(t[0].attr + i * CRISP_RASTER_ATTRS, ref_attr + i * CRISP_RASTER_ATTRS,
+                         CRISP_RASTER_ATTRS * sizeof(float));
+        if (bad && differ < 5)
+            fprintf(stderr, "%d samples: sample %zu: face %d iw %g, reference face %d iw %g\n",
+                    samples, i, t[0].face[i], t[0].inv_w[i], ref_face[i], ref_iw[i]);
+        differ += bad;
+    }
+    assert_int_equal(differ, 0);
+    /* The same on 3 threads, bit for bit. */
+    assert_memory_equal(t[0].inv_w, t[1].inv_w, ns * sizeof *ref_iw);
+    assert_memory_equal(t[0].face, t[1].face, ns * sizeof *ref_face);
+    assert_memory_equal(t[0].attr, t[1].attr, ns * CRISP_RASTER_ATTRS * sizeof *ref_attr);
+    crisp__splat_scratch_free(&scratch);
+    crisp_pool_destroy(pool);
+    for (int k = 0; k < 2; k++)
+        crisp__raster_target_free(&t[k]);
+    free(ref_iw), free(ref_face), free(ref_attr);
+}
+
+static void test_draw_reference(void **state)
+{
+    (void)state;
+    draw_case(1, 37, 23);
+    draw_case(4, 29, 41);
+    draw_case(16, 19, 17);
+    draw_case(1, 64, 48);
+}
+
+/* ---- the choice ------------------------------------------------------------------------------ */
+
+/* A bilinear strip from (x0, 0, z0) to (x0 + w, 0, z1): along the view axis (-Z) when seen from
+ * +Z. */
+static crisp_model *strip_model(double x0, double w, double z0, double z1)
+{
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    double knots[4] = {0, 0, 1, 1};
+    double pts[12] = {x0, 0, z0, x0 + w, 0, z0, x0, 0, z1, x0 + w, 0, z1};
+    crisp_surface *s;
+    assert_int_equal(crisp_surface_create(1, 1, 2, 2, knots, knots, pts, NULL, &s), CRISP_OK);
+    crisp_face f = {.surface = s};
+    assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
+    return m;
+}
+
+static void test_choice_near_plane(void **state)
+{
+    (void)state;
+    /* The strip x in [0, 0.01], z from 0 to -0.1; the eye at z = 10.2 looking down -Z. Its box
+     * spans W from 10.2 to 10.3: about 0.1 px across at 64 px wide. */
+    crisp_model *m = strip_model(0, 0.01, 0, -0.1);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_camera cam = {.eye = {0.002, 0.001, 10.2},
+                        .target = {0.002, 0.001, 0},
+                        .up = {0, 1, 0},
+                        .fov_deg = 30,
+                        .znear = 1,
+                        .zfar = 100,
+                        .width = 64,
+                        .height = 48};
+    crisp_planner *pl, *off;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    assert_int_equal(crisp_planner_create(&(crisp_planner_desc){.no_splats = 1}, NULL, &off),
+                     CRISP_OK);
+    const crisp_frame_plan *plan;
+    assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
+    assert_true(plan->faces[0].flags & CRISP_PLAN_FACE_SPLATS);
+    assert_int_equal(plan->faces[0].leaf_count, 0);
+    assert_int_equal(plan->faces[0].strip_count, 0);
+    assert_int_equal(plan->faces[0].ribbon_count, 0);
+    assert_int_equal(plan->splat_range_count, 1);
+    assert_true(plan->splat_ranges[0].count > 0);
+    assert_int_equal(plan->stats.splat_faces, 1);
+    assert_true(plan->stats.splat_bytes > 0);
+    for (uint32_t k = 0; k < plan->splat_ranges[0].count; k++)
+        assert_int_equal(plan->splats[plan->splat_ranges[0].first + k].face, 0);
+    /* The near plane through the box (at z = -0.05 of the strip): not splatted, planned as a
+     * patch. */
+    crisp_camera cut = cam;
+    cut.znear = 10.25;
+    assert_int_equal(crisp_planner_plan(pl, sc, &cut, &plan), CRISP_OK);
+    assert_false(plan->faces[0].flags & CRISP_PLAN_FACE_SPLATS);
+    assert_int_equal(plan->splat_range_count, 0);
+    assert_true(plan->faces[0].leaf_count > 0);
+    /* Splats off. */
+    assert_int_equal(crisp_planner_plan(off, sc, &cam, &plan), CRISP_OK);
+    assert_false(plan->faces[0].flags & CRISP_PLAN_FACE_SPLATS);
+    assert_int_equal(plan->splat_range_count, 0);
+    assert_true(plan->faces[0].leaf_count > 0);
+    crisp_planner_destroy(pl);
+    crisp_planner_destroy(off);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
+/* ---- images of bundled models -----------------------------------------------------------------
+ */
+
+static int exact_classify(void *ctx, const crisp_scene *sc, uint32_t face, double u, double v)
+{
+    (void)ctx;
+    const crisp_scene_face *f = &sc->faces[face];
+    if (!f->piece_count) return 1;
+    return crisp_trim_exact_classify(sc->pieces + f->first_piece, (int)f->piece_count, u, v);
+}
+
+static crisp_model *load(const char *name)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
+    crisp_model *m = NULL;
+    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
+    return m;
+}
+
+/* A view of the scene from a random direction with its bounding sphere radius_px on screen. */
+static crisp_camera far_view(const crisp_scene *sc, double radius_px, int w, int h)
+{
+    double c[3], r = 0, d[3], n;
+    for (int q = 0; q < 3; q++) {
+        c[q] = 0.5 * (sc->box[q] + sc->box[q + 3]);
+        r += 0.25 * (sc->box[q + 3] - sc->box[q]) * (sc->box[q + 3] - sc->box[q]);
+    }
+    r = sqrt(r);
+    do {
+        for (int q = 0; q < 3; q++)
+            d[q] = 2 * rnd() - 1;
+        n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    } while (n < 0.1 || n > 1);
+    crisp_camera cam = {.width = w, .height = h, .up = {0.1, 1, 0.2}, .fov_deg = 30};
+    double dist = r * (0.5 * h) / (radius_px * tan(15 * M_PI / 180));
+    for (int q = 0; q < 3; q++)
+        cam.eye[q] = c[q] + dist * d[q] / n, cam.target[q] = c[q] + 0.1 * r * (2 * rnd() - 1);
+    cam.znear = 0.5 * dist, cam.zfar = 2 * dist;
+    return cam;
+}
+
+typedef struct view_case {
+    const char *model;
+    double radius_px;
+} view_case;
+
+static const view_case cases[] = {
+    {"occt_linkrods.step", 15}, {"occt_linkrods.step", 30}, {"occt_bearing.iges", 20},
+    {"occt_bearing.iges", 40},  {"impeller.igs", 25},       {"impeller.igs", 50},
+    {"gpucast_teapot.igs", 15}, {"occt_hammer.iges", 30},
+};
+
+/* For each case: a far view, the CPU image with splats (1 sample), its plan, and the exact image;
+ * calls check() on them. */
+typedef void (*check_fn)(const crisp_scene *sc, const crisp_camera *cam,
+                         const crisp_frame_plan *plan, const crisp_image *cpu,
+                         const crisp_image *ex, long *counts);
+
+static void run_cases(check_fn check, long *counts, int views)
+{
+    long splat_faces = 0;
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        crisp_model *m = load(cases[k].model);
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+        crisp_renderer *r;
+        assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+        crisp_image cpu, ex;
+        const int w = 160, h = 120;
+        assert_int_equal(crisp_image_init(&cpu, w, h), CRISP_OK);
+        assert_int_equal(crisp_image_init(&ex, w, h), CRISP_OK);
+        for (int v = 0; v < views; v++) {
+            crisp_camera cam = far_view(sc, cases[k].radius_px, w, h);
+            crisp_render_stats st;
+            assert_int_equal(crisp_render_cpu(r, sc, &cam, &cpu, &st), CRISP_OK);
+            const crisp_frame_plan *plan;
+            assert_int_equal(crisp_planner_plan(crisp_renderer_planner(r), sc, &cam, &plan),
+                             CRISP_OK);
+            splat_faces += plan->stats.splat_faces;
+            crisp_exact_desc ed = {.threads = 2, .classify = exact_classify};
+            assert_int_equal(crisp_render_exact(sc, &cam, &ed, &ex), CRISP_OK);
+            check(sc, &cam, plan, &cpu, &ex, counts);
+        }
+        crisp_image_free(&cpu);
+        crisp_image_free(&ex);
+        crisp_renderer_destroy(r);
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(m);
+    }
+    printf("%ld faces drawn as splats over the views\n", splat_faces);
+    assert_true(splat_faces > 20);
+}
+
+/* counts: [0] pixels of splatted faces checked, [1] of them not a true point within 0.5 px. */
+static void check_true_points(const crisp_scene *sc, const crisp_camera *cam,
+                              const crisp_frame_plan *plan, const crisp_image *cpu,
+                              const crisp_image *ex, long *counts)
+{
+    (void)ex;
+    crisp_camera_matrices cm;
+    crisp_camera_matrices_compute(cam, &cm);
+    for (int j = 0; j < cpu->height; j++)
+        for (int i = 0; i < cpu->width; i++) {
+            size_t p = (size_t)j * cpu->width + (size_t)i;
+            int32_t f = cpu->face[p];
+            if (f < 0 || !(plan->faces[f].flags & CRISP_PLAN_FACE_SPLATS)) continue;
+            counts[0]++;
+            double u = cpu->uv[2 * p], v = cpu->uv[2 * p + 1], P[3], c[4], s[3];
+            /* inside the trim, or on a trim curve (splats are points of the trimmed face, its
+             * boundary included; (u, v) in float) */
+            int inside = exact_classify(NULL, sc, (uint32_t)f, u, v);
+            const crisp_scene_face *sf = &sc->faces[f];
+            if (!inside) {
+                double ext =
+                    fmax(fabs(sf->domain[1] - sf->domain[0]), fabs(sf->domain[3] - sf->domain[2]));
+                double dist = crisp_trim_exact_distance(sc->pieces + sf->first_piece,
+                                                        (int)sf->piece_count, u, v);
+                inside = dist <= 1e-6 * ext + 1e-6 * (fabs(u) + fabs(v));
+            }
+            crisp_surface_eval(sc->faces[f].src->surface, u, v, P);
+            crisp_mat4_mulp(cm.view_proj, P, c);
+            crisp_camera_to_pixel(cam, c, s);
+            /* 0.5 px, and float (u, v) and clip arithmetic: 1e-3 px */
+            double e = fmax(fabs(s[0] - (i + 0.5)), fabs(s[1] - (j + 0.5)));
+            if (!inside || !(e <= 0.5 + 1e-3)) {
+                if (counts[1] < 8)
+                    fprintf(stderr, "pixel (%d, %d) face %d: uv %g %g inside %d, %.4f px away\n", i,
+                            j, f, u, v, inside, e);
+                counts[1]++;
+            }
+        }
+}
+
+static void test_true_points(void **state)
+{
+    (void)state;
+    long counts[2] = {0, 0};
+    run_cases(check_true_points, counts, 3);
+    printf("%ld pixels of splatted faces, %ld not a true point within 0.5 px\n", counts[0],
+           counts[1]);
+    assert_true(counts[0] > 30);
+    assert_int_equal(counts[1], 0);
+}
+
+/* counts: [0] pixel centres whose exact ray meets a splatted face, [1] of them not covered. */
+static void check_no_holes(const crisp_scene *sc, const crisp_camera *cam,
+                           const crisp_frame_plan *plan, const crisp_image *cpu,
+                           const crisp_image *ex, long *counts)
+{
+    (void)sc, (void)cam;
+    for (size_t p = 0; p < (size_t)ex->width * ex->height; p++) {
+        int32_t f = ex->face[p];
+        if (f < 0 || !(plan->faces[f].flags & CRISP_PLAN_FACE_SPLATS)) continue;
+        counts[0]++;
+        if (cpu->face[p] < 0) {
+            if (counts[1] < 8)
+                fprintf(stderr, "pixel (%zu, %zu): exact face %d (splatted), background drawn\n",
+                        p % (size_t)ex->width, p / (size_t)ex->width, f);
+            counts[1]++;
+        }
+    }
+}
+
+static void test_no_holes(void **state)
+{
+    (void)state;
+    long counts[2] = {0, 0};
+    run_cases(check_no_holes, counts, 3);
+    printf("%ld pixel centres on splatted faces, %ld not covered\n", counts[0], counts[1]);
+    assert_true(counts[0] > 30);
+    assert_int_equal(counts[1], 0);
+}
+
+/* Closed solids far away: no background where the exact image sees the solid on a pixel and its
+ * 8 neighbours. */
+static void test_solids_far(void **state)
+{
+    (void)state;
+    static const char *names[2] = {"occt_linkrods.step", "occt_bearing.iges"};
+    long inside = 0, background = 0, splat_faces = 0, patch_faces = 0;
+    for (int k = 0; k < 2; k++) {
+        crisp_model *m = load(names[k]);
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+        for (int samples = 1; samples <= 4; samples *= 4) {
+            crisp_renderer *r;
+            assert_int_equal(
+                crisp_renderer_create(&(crisp_render_desc){.threads = 2, .samples = samples}, &r),
+                CRISP_OK);
+            const int w = 120, h = 90;
+            crisp_image cpu, ex;
+            assert_int_equal(crisp_image_init(&cpu, w, h), CRISP_OK);
+            assert_int_equal(crisp_image_init(&ex, w, h), CRISP_OK);
+            for (int v = 0; v < 4; v++) {
+                crisp_camera cam = far_view(sc, 15 + 12 * v, w, h);
+                crisp_render_stats st;
+                assert_int_equal(crisp_render_cpu(r, sc, &cam, &cpu, &st), CRISP_OK);
+                splat_faces += st.splat_faces;
+                patch_faces += st.visible_faces;
+                crisp_exact_desc ed = {.threads = 2, .classify = exact_classify};
+                assert_int_equal(crisp_render_exact(sc, &cam, &ed, &ex), CRISP_OK);
+                for (int j = 1; j < h - 1; j++)
+                    for (int i = 1; i < w - 1; i++) {
+                        int all = 1;
+                        for (int dj = -1; dj <= 1; dj++)
+                            for (int di = -1; di <= 1; di++)
+                                all &= ex.face[(size_t)(j + dj) * w + (size_t)(i + di)] >= 0;
+                        if (!all) continue;
+                        inside++;
+                        if (cpu.face[(size_t)j * w + (size_t)i] < 0) {
+                            if (background < 8)
+                                fprintf(stderr, "%s view %d, %d samples: background at (%d, %d)\n",
+                                        names[k], v, samples, i, j);
+                            background++;
+                        }
+                    }
+            }
+            crisp_image_free(&cpu);
+            crisp_image_free(&ex);
+            crisp_renderer_destroy(r);
+        }
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(m);
+    }
+    printf(
+        "%ld pixels inside silhouettes, %ld background; %ld splatted and %ld patch-drawn faces\n",
+        inside, background, splat_faces, patch_faces);
+    assert_true(inside > 1000);
+    assert_true(splat_faces > 50 && patch_faces > 10); /* both kinds of faces side by side */
+    assert_int_equal(background, 0);
+}
+
+static int at_edge(const crisp_image *im, int i, int j)
+{
+    int32_t f = im->face[(size_t)j * im->width + (size_t)i];
+    for (int dj = -1; dj <= 1; dj++)
+        for (int di = -1; di <= 1; di++) {
+            int x = i + di, y = j + dj;
+            if (x < 0 || y < 0 || x >= im->width || y >= im->height) continue;
+            if (im->face[(size_t)y * im->width + (size_t)x] != f) return 1;
+        }
+    return 0;
+}
+
+static void test_near_edges(void **state)
+{
+    (void)state;
+    long differ = 0, inner = 0, splat_faces = 0;
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        crisp_model *m = load(cases[k].model);
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+        crisp_renderer *on, *off;
+        assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &on), CRISP_OK);
+        assert_int_equal(
+            crisp_renderer_create(&(crisp_render_desc){.threads = 2, .no_splats = 1}, &off),
+            CRISP_OK);
+        const int w = 160, h = 120;
+        crisp_image a, b;
+        assert_int_equal(crisp_image_init(&a, w, h), CRISP_OK);
+        assert_int_equal(crisp_image_init(&b, w, h), CRISP_OK);
+        for (int v = 0; v < 2; v++) {
+            crisp_camera cam = far_view(sc, cases[k].radius_px, w, h);
+            crisp_render_stats st;
+            assert_int_equal(crisp_render_cpu(on, sc, &cam, &a, &st), CRISP_OK);
+            splat_faces += st.splat_faces;
+            assert_int_equal(crisp_render_cpu(off, sc, &cam, &b, NULL), CRISP_OK);
+            for (int j = 0; j < h; j++)
+                for (int i = 0; i < w; i++) {
+                    size_t p = (size_t)j * w + (size_t)i;
+                    if (a.face[p] == b.face[p]) continue;
+                    differ++;
+                    if (!at_edge(&a, i, j) && !at_edge(&b, i, j)) {
+                        if (inner < 8)
+                            fprintf(stderr, "%s: (%d, %d) face %d with splats, %d without\n",
+                                    cases[k].model, i, j, a.face[p], b.face[p]);
+                        inner++;
+                    }
+                }
+        }
+        crisp_image_free(&a);
+        crisp_image_free(&b);
+        crisp_renderer_destroy(on);
+        crisp_renderer_destroy(off);
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(m);
+    }
+    printf("%ld pixels differ with splats (%ld splatted faces), %ld away from face edges\n", differ,
+           splat_faces, inner);
+    assert_true(splat_faces > 20);
+    assert_int_equal(inner, 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_draw_reference), cmocka_unit_test(test_choice_near_plane),
+        cmocka_unit_test(test_true_points),    cmocka_unit_test(test_no_holes),
+        cmocka_unit_test(test_solids_far),     cmocka_unit_test(test_near_edges),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
