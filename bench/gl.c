@@ -202,6 +202,12 @@ static void splat_row(crisp_gl *gl, const char *scene_name, const char *cam_name
                 later_upload = gs.bytes_uploaded;
         }
         double gl_cpu = (process_cpu_ms() - c0) / frames;
+        if (getenv("PROFILE"))
+            fprintf(stderr,
+                    "  %s:%s %s: surfaces %.1f ms, splats %.1f ms, ribbons %.1f ms, "
+                    "resolve %.1f ms (last frame)\n",
+                    scene_name, cam_name, v ? "no_splats" : "splats", gs.ms_surfaces, gs.ms_splats,
+                    gs.ms_ribbons, gs.ms_resolve);
         double gl_frame = bench_median(t + 1, frames);
         if (crisp_gl_read(gl, &b, &gs)) die("gl read");
         long covered = 0, differ = 0;
