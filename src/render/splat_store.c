@@ -241,6 +241,68 @@ static void choose_range(void *vctx, size_t begin, size_t end, int worker)
         c->s->want[f] = (int8_t)want_level(c, (uint32_t)f);
 }
 
+/* Thinning (the levels' counts): the builder's sets hold at least a splat or so per patch at
+ * any radius (cells per patch), far more than a face much smaller than its radius needs. Level k
+ * (radius R_k = s0 2^-k) is made from the builder's set at R_{k+1} (proven radius rho <= R_{k+1})
+ * by keeping a d-net of it with d = R_k - rho >= R_k / 2: a splat is dropped when a kept one lies
+ * within d (Euclidean, greedy in the set's order), so every point of the face is within rho of
+ * a splat and that splat within d of a kept one: within R_k of a kept splat, and every kept
+ * splat is one of the builder's (a point of the trimmed face). Keys of a grid of side d find the
+ * kept splats near a splat (its cell and the 26 around it). Returns the count kept (moved to the
+ * front, in their order); n when there is no memory (nothing dropped). */
+static uint64_t cell_hash(const int64_t k[3])
+{
+    uint64_t h = ((uint64_t)k[0] * 0x9E3779B97F4A7C15ull) ^
+                 ((uint64_t)k[1] * 0xC2B2AE3D27D4EB4Full) ^
+                 ((uint64_t)k[2] * 0x165667B19E3779F9ull);
+    return h ^ h >> 29;
+}
+
+static uint32_t thin_set(crisp_plan_splat *sp, uint32_t n, double d)
+{
+    if (n < 2 || !(d > 0)) return n;
+    size_t cap = 16;
+    while (cap < 2 * (size_t)n)
+        cap *= 2;
+    uint32_t *slot = calloc(cap, sizeof *slot); /* kept index + 1, 0: empty */
+    int64_t(*key)[3] = malloc(cap * sizeof *key);
+    if (!slot || !key) {
+        free(slot), free(key);
+        return n;
+    }
+    double dd = d * d * (1 - 1e-6); /* float offsets: keep a hair inside d */
+    uint32_t kept = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        float p[3] = {sp[i].p[0], sp[i].p[1], sp[i].p[2]};
+        int64_t c[3];
+        for (int a = 0; a < 3; a++)
+            c[a] = (int64_t)floor((double)p[a] / d);
+        int near = 0;
+        for (int q = 0; q < 27 && !near; q++) {
+            int64_t k[3] = {c[0] + q % 3 - 1, c[1] + q / 3 % 3 - 1, c[2] + q / 9 - 1};
+            for (size_t at = cell_hash(k) & (cap - 1); slot[at]; at = (at + 1) & (cap - 1)) {
+                if (key[at][0] != k[0] || key[at][1] != k[1] || key[at][2] != k[2]) continue;
+                const float *o = sp[slot[at] - 1].p;
+                double dx = (double)o[0] - p[0], dy = (double)o[1] - p[1], dz = (double)o[2] - p[2];
+                if (dx * dx + dy * dy + dz * dz <= dd) {
+                    near = 1;
+                    break;
+                }
+            }
+        }
+        if (near) continue;
+        sp[kept] = sp[i];
+        size_t at = cell_hash(c) & (cap - 1);
+        while (slot[at])
+            at = (at + 1) & (cap - 1);
+        slot[at] = kept + 1;
+        memcpy(key[at], c, sizeof c);
+        kept++;
+    }
+    free(slot), free(key);
+    return kept;
+}
+
 typedef struct build_ctx {
     crisp__splat_store *s;
     const crisp_scene *sc;
@@ -254,8 +316,16 @@ static void build_range(void *vctx, size_t begin, size_t end, int worker)
     for (size_t i = begin; i < end; i++) {
         uint32_t f = s->todo[i];
         int k = s->want[f];
-        s->status[i] =
-            crisp__splat_build(c->sc, f, ldexp(s->faces[f].s0, -k), budget(c->sc, f), &s->sets[i]);
+        /* the set at R_{k+1}, thinned to R_k (thin_set); up to 4x the budget before thinning */
+        double rk = ldexp(s->faces[f].s0, -k);
+        uint64_t cap = 4 * (uint64_t)budget(c->sc, f);
+        crisp_splat_set *set = &s->sets[i];
+        s->status[i] = crisp__splat_build(
+            c->sc, f, 0.5 * rk, cap > UINT32_MAX / 2 ? UINT32_MAX / 2 : (uint32_t)cap, set);
+        if (!s->status[i] && set->radius <= 0.5 * rk) {
+            set->count = thin_set(set->splats, set->count, rk - set->radius);
+            set->radius = rk;
+        }
     }
 }
 
