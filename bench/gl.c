@@ -156,6 +156,19 @@ static double process_cpu_ms(void)
            1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
+/* FNV-1a over an image and its AOVs (as bench_screen's image hash). */
+static uint32_t image_hash(const crisp_image *img)
+{
+    uint32_t hash = 2166136261u;
+    size_t npx = (size_t)img->width * img->height;
+    const void *bufs[5] = {img->rgba, img->depth, img->normal, img->uv, img->face};
+    const size_t sizes[5] = {16 * npx, 4 * npx, 12 * npx, 8 * npx, 4 * npx};
+    for (int b = 0; b < 5; b++)
+        for (size_t k = 0; k < sizes[b]; k++)
+            hash = (hash ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
+    return hash;
+}
+
 static void splat_row(crisp_gl *gl, const char *scene_name, const char *cam_name, int frames)
 {
     crisp_model *m = instanced("impeller.igs", strcmp(scene_name, "imp49") ? 1 : 7,
@@ -216,13 +229,14 @@ static void splat_row(crisp_gl *gl, const char *scene_name, const char *cam_name
             differ += a.face[k] != b.face[k];
         }
         printf("| %s:%s | %s | %u | %llu | %u | %llu | %.1f | %llu | %llu | %.1f | %.1f | %.1f | "
-               "%.1f | %ld | %ld |\n",
+               "%.1f | %ld | %ld | %08x | %08x |\n",
                scene_name, cam_name, v ? "no_splats" : "splats", plan->leaf_count,
                (unsigned long long)plan->stats.triangles, plan->stats.splat_faces,
                (unsigned long long)plan->stats.splats_drawn,
                (double)plan->splat_count * sizeof(crisp_plan_splat) / 1e6,
                (unsigned long long)first_upload, (unsigned long long)later_upload, plan_ms,
-               cpu_frame, gl_frame, gl_cpu, covered, differ);
+               cpu_frame, gl_frame, gl_cpu, covered, differ, (unsigned)image_hash(&a),
+               (unsigned)image_hash(&b));
         fflush(stdout);
         crisp_planner_destroy(pl);
     }
@@ -238,8 +252,8 @@ static int splat_bench(crisp_gl *gl, int frames, int argc, char **argv)
 {
     printf("| row | planner | leaves | triangles | splat faces | splats drawn | store MB | first "
            "upload B | upload B per frame | plan ms | CPU frame ms | GL frame ms | GL CPU ms per "
-           "frame | covered px (GL) | face differs CPU/GL px |\n");
-    printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+           "frame | covered px (GL) | face differs CPU/GL px | CPU image hash | GL image hash |\n");
+    printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n");
     static const char *const rows[] = {"imp49:far", "imp:far10", "imp49:default"};
     for (size_t k = 0; k < sizeof rows / sizeof *rows; k++) {
         int wanted = argc <= 3;
