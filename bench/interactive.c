@@ -16,6 +16,7 @@
  *
  * Occlusion culling (crisp_render_desc.no_occlusion) is on; BENCH_OCCLUSION=off runs it off,
  * BENCH_OCCLUSION=both runs every row off and then on (the same image hash expected).
+ * BENCH_SPLATS=off: no face drawn as splats (crisp_render_desc.no_splats; issue 12, session 9).
  * BENCH_INTERACTIVE_STAGES=1 also prints each row's plan stages (levels, edges, trim, ribbons)
  * to stderr. */
 #include <math.h>
@@ -96,7 +97,12 @@ static void run_view(const char *name, const char *view, const crisp_scene *sc,
 {
     crisp_renderer *r;
     if (crisp_renderer_create(
-            &(crisp_render_desc){.threads = threads, .samples = 1, .no_occlusion = !occlusion}, &r))
+            &(crisp_render_desc){.threads = threads,
+                                 .samples = 1,
+                                 .no_occlusion = !occlusion,
+                                 .no_splats = getenv("BENCH_SPLATS") &&
+                                              !strcmp(getenv("BENCH_SPLATS"), "off")},
+            &r))
         die("renderer");
     crisp_image img;
     if (crisp_image_init(&img, cam->width, cam->height)) die("image");

@@ -1,35 +1,36 @@
 /* The splat builder (issue 12, src/render/splat.h): point samples of one trimmed face such that
  * every point of the trimmed face lies within a given Euclidean radius r of a sample.
  *
- * The proof (docs/status/issue-12-splats.md, "Builder"). The face's Bézier patches are rational
- * with positive weights, so the surface over any parameter rectangle R of a patch lies in the
- * convex hull H of the Euclidean control points of the patch restricted to R (de Casteljau).
- *   (1) For a point X, the distance |Y - X| is convex in Y, so its largest value over H is taken
- *       at a control point: R_X = max_i |P_i - X| bounds |S(q) - X| for every q in R.
- *   (2) Any two points of H are at most 2 R_X apart (both within R_X of X).
- * Cells are rectangles of a quadtree per patch; c is the cell's centre, R_C = R_{S(c)}.
- *   - A cell whose closed rectangle meets no trim curve (control-point boxes of the curve pieces,
- *     subdivided, are disjoint from it) is wholly inside or wholly outside: the parity of the
- *     crossings to the left is constant on a connected set that misses the curves. Its centre's
- *     class (crisp_trim_exact_classify) decides; its sub-cells inherit it.
- *   - A cell with its centre inside gets a splat at S(c) when R_C <= r: by (1) every point of the
- *     cell's surface is within r of it. Otherwise it is split.
- *   - A cell whose centre is outside but which may meet a curve is dropped when 2 R_C + s <= r and
- *     split otherwise. Why dropping is sound: an inside point q of the cell is joined to c by the
- *     segment [q, c], which lies in the (convex) cell; its ends have different classes, so it
- *     meets a trim curve at some b in the cell (in the face's domain). By (2) |S(q) - S(b)| <=
- *     2 R_C, and the curve samples below put a splat within s of S(b).
- *   - Curve samples: each Bézier trim piece is halved in t until, for its sub-piece with uv box B
- *     (control points: it contains the sub-piece), the surface over B (clipped to the domain) lies
- *     within s of the surface point at the sub-piece's middle point m: (1) on each patch's part of
- *     B. Every curve point in the domain then is within s of S(m), a splat on the trim curve.
- *   - A cell with its centre outside and no curve point in it has no inside point (the same
- *     segment argument): those dropped cells cost nothing.
- * The sample points are points of the trimmed face: cell centres classified inside, or points of
- * the trim curves (clamped into the domain: a curve leaving the domain is not part of the face).
+ * The proof (also docs/status/issue-12-splats.md, "Builder"). The face's Bézier patches are
+ * rational with positive weights (checked), so the surface over any parameter rectangle of a
+ * patch lies in the convex hull H of the Euclidean control points of the patch restricted to it
+ * (de Casteljau), and the surface over a block of patches in the union of their hulls.
+ *   (1) For a point X, |Y - X| is convex in Y, so its largest value over a hull is taken at a
+ *       control point: R_X = max_i |P_i - X| bounds |S(q) - X| for every q of the cell.
+ * Cells: blocks of the face's patch grid, halved by patches while they fail, then rectangles of
+ * one patch (halved, or cut into a grid of about square cells once their class is known). For
+ * each cell, with its closed rectangle K and centre c:
+ *   - Curve test: the trim pieces are halved (control-point boxes, which hold each sub-piece)
+ *     until every box misses K (no curve point in K), or a sub-piece's end point b lies in K (a
+ *     point of the curve in K), or 2^-44 of the piece's range is reached with a box touching K
+ *     (b: that end point clamped into K, a point of K within 2^-44 of a piece of the curve).
+ *   - No curve point in K: K is wholly inside or wholly outside (the parity of the crossings to
+ *     the left is constant on a connected set that misses the curves); c decides
+ *     (crisp_trim_exact_classify). Outside: dropped (no point of the face). Inside: its
+ *     sub-cells inherit the class without a test.
+ *   - The sample point x of the cell: c when c is inside, else the curve point b. Both are points
+ *     of the trimmed face (inside, or on a trim curve) and lie in K.
+ *   - R_x <= r: a splat at S(x); by (1) it covers every point of the cell's surface, trimmed or
+ *     not. Otherwise the cell is split and its parts are treated the same way.
+ * Every inside point lies in some final cell that is not dropped (dropped cells hold none), so it
+ * is within r of that cell's splat. A cell near a curve whose centre is outside gets a splat on
+ * the curve even when the trimmed face only touches it: the count's price for not having to
+ * refine along the curves.
  * The bounds are tested with a margin for rounding and for storing p as float offsets from the
  * origin (set->origin, the face's box centre), so the stored floats meet the radius as well.
- * set->radius is the largest bound met (r_in for the centre cells, 2 R_C + s for the others).
+ * set->radius is the largest R_x met plus that margin (at most the radius asked).
+ * Cells of a patch split until 2^-24 of the patch (then CRISP_ERR_NUMERIC); max_count bounds the
+ * splats and (64 max_count + 2^20) the cells visited (CRISP_ERR_LIMIT).
  */
 #include <float.h>
 #include <math.h>
@@ -39,12 +40,14 @@
 #include "crisp/trim.h"
 #include "splat.h"
 
-#define SPLAT_MAX_CELL_DEPTH 24  /* levels of a patch's quadtree */
-#define SPLAT_MAX_CURVE_DEPTH 40 /* halvings of a trim piece */
-#define SPLAT_NEAR_DEPTH 30      /* halvings of a trim piece in the cell-curve test */
-/* Share of the radius the curve samples meet (s = SPLAT_CURVE_SHARE r): cells whose centre lies
- * outside near a curve then need 2 R_C <= (1 - share) r. */
-#define SPLAT_CURVE_SHARE 0.5
+typedef struct cell cell;
+
+#define SPLAT_MAX_CELL_DEPTH 24 /* a cell is at least 2^-24 of its patch's parameter sides */
+/* Side of the squares a cell of known class is cut into, in units of the bound B (a flat square
+ * of side sqrt(2) B meets R_C = B exactly; a little less leaves room for curvature). */
+#define SPLAT_GRID_SIDE 1.4
+
+#define SPLAT_FIND_DEPTH 44 /* halvings of a trim piece looking for a point of it in a cell */
 
 typedef struct splat_ctx {
     const crisp_scene *scene;
@@ -54,17 +57,16 @@ typedef struct splat_ctx {
     int piece_count;
     double piece_box[4]; /* umin, umax, vmin, vmax of every piece's control points */
     double (*boxes)[4];  /* per piece */
-    double *cu, *cv;     /* patch column / row boundaries of the face's grid */
     uint32_t face;
-    double r_in;  /* bound for cells with their centre inside (r less the margin) */
-    double r_out; /* bound for R_C of cells with the centre outside: (r_in - s) / 2 */
-    double s;     /* bound for the curve samples */
-    double got_in, got_out, got_s; /* largest bounds met */
+    double r_in; /* the bound every cell meets: the radius less the rounding margin */
+    double got;  /* the largest bound met */
     uint32_t max_count;
     uint64_t cells, max_cells;
     crisp_splat_set *set;
     uint32_t cap;
-    double *cpw; /* a cell's control points */
+    double *cpw, *euc; /* a cell's control points, homogeneous and Euclidean */
+    cell *stack;       /* pending cells of a patch */
+    size_t stack_count, stack_cap;
 } splat_ctx;
 
 /* ---- small Bernstein helpers ---------------------------------------------------------------- */
@@ -122,17 +124,25 @@ static void restrict_patch(const crisp_bezier_patch *p, double s0, double s1, do
             restrict_points(dest + 4 * i, p->dv, 4 * (ptrdiff_t)nu, t0, t1);
 }
 
-/* max_i |P_i - x| over n homogeneous points. */
-static double hull_radius(const double *cpw, int n, const double x[3])
+/* max_i |P_i - x| over n Euclidean points. */
+static double hull_radius(const double *e, int n, const double x[3])
 {
     double m = 0.0;
     for (int i = 0; i < n; i++) {
-        const double *h = cpw + 4 * i;
-        double dx = h[0] / h[3] - x[0], dy = h[1] / h[3] - x[1], dz = h[2] / h[3] - x[2];
+        const double *h = e + 3 * i;
+        double dx = h[0] - x[0], dy = h[1] - x[1], dz = h[2] - x[2];
         double d = dx * dx + dy * dy + dz * dz;
         if (d > m) m = d;
     }
     return sqrt(m);
+}
+
+/* Euclidean points of n homogeneous ones. */
+static void euclid(const double *cpw, int n, double *e)
+{
+    for (int i = 0; i < n; i++)
+        for (int q = 0; q < 3; q++)
+            e[3 * i + q] = cpw[4 * i + q] / cpw[4 * i + 3];
 }
 
 /* ---- emitting -------------------------------------------------------------------------------- */
@@ -166,9 +176,13 @@ static crisp_status emit(splat_ctx *c, double u, double v, const double x[3])
 /* ---- cell-curve test --------------------------------------------------------------------------
  */
 
-/* 1 when the sub-curve (homogeneous uv points, degree d) may meet the closed rectangle rect
- * (u0, u1, v0, v1); 0 when it provably does not. */
-static int curve_near(const double *cpw, int d, const double rect[4], double tiny, int depth)
+/* Whether the sub-curve (homogeneous uv points, degree d) meets the closed rectangle rect
+ * (u0, u1, v0, v1): 0 when it provably does not (its control-point box, which holds it, misses
+ * the rectangle at every level), 1 with a point of the curve in the rectangle in pt (an end
+ * point of a sub-curve), 2 when the halvings ran out with a sub-curve's box (2^-SPLAT_FIND_DEPTH
+ * of the piece's parameter range) still touching the rectangle: pt is its end point clamped
+ * into the rectangle, a point of the rectangle within that box's size of the curve. */
+static int curve_point(const double *cpw, int d, const double rect[4], int depth, double pt[2])
 {
     double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
     for (int i = 0; i <= d; i++)
@@ -178,47 +192,114 @@ static int curve_near(const double *cpw, int d, const double rect[4], double tin
             hi[q] = x > hi[q] ? x : hi[q];
         }
     if (hi[0] < rect[0] || lo[0] > rect[1] || hi[1] < rect[2] || lo[1] > rect[3]) return 0;
-    for (int e = 0; e <= d; e += d) { /* an end point in the rectangle: it meets it */
+    for (int e = 0; e <= d; e += d) {
         double u = cpw[3 * e] / cpw[3 * e + 2], v = cpw[3 * e + 1] / cpw[3 * e + 2];
-        if (u >= rect[0] && u <= rect[1] && v >= rect[2] && v <= rect[3]) return 1;
+        if (u >= rect[0] && u <= rect[1] && v >= rect[2] && v <= rect[3]) {
+            pt[0] = u, pt[1] = v;
+            return 1;
+        }
     }
-    if (depth >= SPLAT_NEAR_DEPTH || (hi[0] - lo[0] <= tiny && hi[1] - lo[1] <= tiny)) return 1;
+    if (depth >= SPLAT_FIND_DEPTH) {
+        pt[0] = fmin(fmax(cpw[0] / cpw[2], rect[0]), rect[1]);
+        pt[1] = fmin(fmax(cpw[1] / cpw[2], rect[2]), rect[3]);
+        return 2;
+    }
     double l[3 * (CRISP_MAX_DEGREE + 1)], r[3 * (CRISP_MAX_DEGREE + 1)];
     split_points(cpw, d, 3, 0.5, l, r);
-    return curve_near(l, d, rect, tiny, depth + 1) || curve_near(r, d, rect, tiny, depth + 1);
+    /* The middle point first: a curve crossing the rectangle is found at the first levels. */
+    int got = curve_point(l, d, rect, depth + 1, pt);
+    if (got == 1) return 1;
+    double p2[2];
+    int got2 = curve_point(r, d, rect, depth + 1, p2);
+    if (got2 == 1 || (got2 && !got)) {
+        pt[0] = p2[0], pt[1] = p2[1];
+        return got2;
+    }
+    return got;
 }
 
-static int cell_near(const splat_ctx *c, const double rect[4])
+/* The trim curves against a cell's closed rectangle (curve_point's answer over every piece). */
+static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[2])
 {
-    double tiny = 0.0625 * fmax(rect[1] - rect[0], rect[3] - rect[2]);
+    int got = 0;
+    double q[2];
     for (int k = 0; k < c->piece_count; k++) {
         const double *b = c->boxes[k];
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
-        if (curve_near(c->pieces[k].cpw, c->pieces[k].degree, rect, tiny, 0)) return 1;
+        int g = curve_point(c->pieces[k].cpw, c->pieces[k].degree, rect, 0, q);
+        if (g == 1) {
+            pt[0] = q[0], pt[1] = q[1];
+            return 1;
+        }
+        if (g && !got) {
+            pt[0] = q[0], pt[1] = q[1];
+            got = g;
+        }
     }
-    return 0;
+    return got;
 }
 
 /* ---- cells ------------------------------------------------------------------------------------
  */
 
-/* One patch's quadtree, depth first; each cell's control points are restricted from the patch. */
+/* One patch's cells, depth first; each cell's control points are restricted from the patch. */
 typedef struct cell {
     double s0, s1, t0, t1; /* local parameters in the top patch */
-    int depth;
-    int known; /* 1: no curve meets the cell and it is inside */
+    int known;             /* 1: no curve meets the cell and it is inside */
 } cell;
 
-static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top)
+static crisp_status push_cell(splat_ctx *c, cell k)
+{
+    if (c->stack_count == c->stack_cap) {
+        size_t cap = c->stack_cap ? 2 * c->stack_cap : 256;
+        cell *n = crisp_realloc_array(c->stack, cap, sizeof *n);
+        if (!n) return crisp_error(CRISP_ERR_NO_MEMORY, "splat cells of face %u", c->face);
+        c->stack = n;
+        c->stack_cap = cap;
+    }
+    c->stack[c->stack_count++] = k;
+    return CRISP_OK;
+}
+
+/* Lengths of the Euclidean control net along u and v (the longest row and column): how long the
+ * cell is in model units, for choosing how to split it (only a guide; the bounds are checked). */
+static void net_lengths(const double *e, int du, int dv, double *lu, double *lv)
+{
+    const int nu = du + 1;
+    double mu = 0.0, mv = 0.0;
+    for (int j = 0; j <= dv; j++) {
+        double l = 0.0;
+        for (int i = 0; i < du; i++) {
+            const double *a = e + 3 * (j * nu + i), *b = a + 3;
+            l += sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) +
+                      (b[2] - a[2]) * (b[2] - a[2]));
+        }
+        mu = fmax(mu, l);
+    }
+    for (int i = 0; i <= du; i++) {
+        double l = 0.0;
+        for (int j = 0; j < dv; j++) {
+            const double *a = e + 3 * (j * nu + i), *b = a + 3 * nu;
+            l += sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) +
+                      (b[2] - a[2]) * (b[2] - a[2]));
+        }
+        mv = fmax(mv, l);
+    }
+    *lu = mu;
+    *lv = mv;
+}
+
+static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int known)
 {
     const int n = (top->du + 1) * (top->dv + 1);
-    cell st[4 * SPLAT_MAX_CELL_DEPTH + 8];
-    int sp = 0;
-    st[sp++] = (cell){0.0, 1.0, 0.0, 1.0, 0, c->piece_count == 0};
     const double du = top->u1 - top->u0, dv = top->v1 - top->v0;
-    while (sp > 0) {
-        cell k = st[--sp];
-        double *cpw = c->cpw;
+    const double min_size = ldexp(1.0, -SPLAT_MAX_CELL_DEPTH);
+    crisp_status st;
+    c->stack_count = 0;
+    if ((st = push_cell(c, (cell){0.0, 1.0, 0.0, 1.0, known}))) return st;
+    while (c->stack_count > 0) {
+        cell k = c->stack[--c->stack_count];
+        double *cpw = c->cpw, *e = c->euc;
         if (++c->cells > c->max_cells)
             return crisp_error(CRISP_ERR_LIMIT, "face %u: more than %llu cells at radius %g",
                                c->face, (unsigned long long)c->max_cells, c->r_in);
@@ -227,131 +308,128 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top)
         double sc = 0.5 * (k.s0 + k.s1), tc = 0.5 * (k.t0 + k.t1);
         double uc = top->u0 + sc * du, vc = top->v0 + tc * dv;
         int inside, near = 0;
+        double pt[2] = {uc, vc};
         if (k.known)
             inside = 1;
         else {
-            near = cell_near(c, rect);
+            near = cell_curve_point(c, rect, pt);
             inside = crisp_trim_exact_classify(c->pieces, c->piece_count, uc, vc);
             if (!near && !inside) continue; /* wholly outside */
+            if (inside) pt[0] = uc, pt[1] = vc;
         }
         restrict_patch(top, k.s0, k.s1, k.t0, k.t1, cpw);
+        euclid(cpw, n, e);
         double x[3];
-        crisp_bezier_patch_eval(top, sc, tc, x);
-        double rc = hull_radius(cpw, n, x);
-        if (inside) {
-            if (rc <= c->r_in) {
-                if (rc > c->got_in) c->got_in = rc;
-                crisp_status s = emit(c, uc, vc, x);
-                if (s) return s;
-                continue;
-            }
-        } else if (rc <= c->r_out) {
-            if (rc > c->got_out) c->got_out = rc;
+        crisp_bezier_patch_eval(top, (pt[0] - top->u0) / du, (pt[1] - top->v0) / dv, x);
+        double rc = hull_radius(e, n, x), bound = c->r_in;
+        if (rc <= bound) {
+            if (rc > c->got) c->got = rc;
+            if ((st = emit(c, pt[0], pt[1], x))) return st;
             continue;
         }
-        if (k.depth >= SPLAT_MAX_CELL_DEPTH)
+        /* Split: a cell whose class is known into a grid of about square cells of the size the
+         * bound allows (a flat square of side sqrt(2) B has R_C = B); a cell near a curve in
+         * halves (its parts are classified again), along its longer side only when it is much
+         * longer. */
+        double lu, lv;
+        net_lengths(e, top->du, top->dv, &lu, &lv);
+        int nu = 2, nv = 2;
+        int known = inside && !near;
+        if (known) {
+            double side = SPLAT_GRID_SIDE * bound;
+            nu = (int)fmin(ceil(lu / side), 64.0);
+            nv = (int)fmin(ceil(lv / side), 64.0);
+            nu = nu < 1 ? 1 : nu;
+            nv = nv < 1 ? 1 : nv;
+            if (nu * nv == 1) {
+                if (lu >= lv)
+                    nu = 2;
+                else
+                    nv = 2;
+            }
+        } else if (lu > 1.5 * lv)
+            nv = 1;
+        else if (lv > 1.5 * lu)
+            nu = 1;
+        if ((k.s1 - k.s0) / nu < min_size) nu = 1;
+        if ((k.t1 - k.t0) / nv < min_size) nv = 1;
+        if (nu * nv == 1)
             return crisp_error(CRISP_ERR_NUMERIC,
-                               "face %u: a cell %d levels deep still spans %g (radius %g)", c->face,
-                               k.depth, rc, c->r_in);
-        int kn = inside && !near;
-        st[sp++] = (cell){k.s0, sc, k.t0, tc, k.depth + 1, kn};
-        st[sp++] = (cell){sc, k.s1, k.t0, tc, k.depth + 1, kn};
-        st[sp++] = (cell){k.s0, sc, tc, k.t1, k.depth + 1, kn};
-        st[sp++] = (cell){sc, k.s1, tc, k.t1, k.depth + 1, kn};
+                               "face %u: a cell 2^-%d of its patch still spans %g (radius %g)",
+                               c->face, SPLAT_MAX_CELL_DEPTH, rc, c->r_in);
+        for (int j = 0; j < nv; j++)
+            for (int i = 0; i < nu; i++) {
+                double s0 = k.s0 + (k.s1 - k.s0) * i / nu, s1 = k.s0 + (k.s1 - k.s0) * (i + 1) / nu;
+                double t0 = k.t0 + (k.t1 - k.t0) * j / nv, t1 = k.t0 + (k.t1 - k.t0) * (j + 1) / nv;
+                if (i == nu - 1) s1 = k.s1;
+                if (j == nv - 1) t1 = k.t1;
+                if ((st = push_cell(c, (cell){s0, s1, t0, t1, known}))) return st;
+            }
     }
     return CRISP_OK;
 }
 
-/* ---- curve samples ----------------------------------------------------------------------------
+/* ---- blocks of patches ------------------------------------------------------------------------
  */
-
-/* First index i with a[i + 1] > x among the n cells of boundaries a[0 .. n] (clamped). */
-static uint32_t find_cell(const double *a, uint32_t n, double x)
-{
-    uint32_t lo = 0, hi = n - 1;
-    while (lo < hi) {
-        uint32_t mid = (lo + hi) / 2;
-        if (a[mid + 1] < x)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
-}
 
 static const crisp_bezier_patch *patch_at(const splat_ctx *c, uint32_t iu, uint32_t iv)
 {
     return &c->scene->patches[c->f->first_patch + iv * c->f->grid_u + iu].bez;
 }
 
-static crisp_status curve_piece(splat_ctx *c, const double *cpw, int d, int depth)
+/* The block of patches iu0 <= iu < iu1, iv0 <= iv < iv1 of the face's grid as one cell: the
+ * surface over it lies in the union of its patches' hulls, so R_X is the largest distance from X
+ * to any of their control points. A block that fails is halved (by patches); a single patch is
+ * cut into cells (patch_cells). known: as for cells. */
+static crisp_status block_cells(splat_ctx *c, uint32_t iu0, uint32_t iu1, uint32_t iv0,
+                                uint32_t iv1, int known)
 {
-    const crisp_scene_face *f = c->f;
-    double box[4] = {HUGE_VAL, -HUGE_VAL, HUGE_VAL, -HUGE_VAL};
-    for (int i = 0; i <= d; i++) {
-        double u = cpw[3 * i] / cpw[3 * i + 2], v = cpw[3 * i + 1] / cpw[3 * i + 2];
-        box[0] = fmin(box[0], u), box[1] = fmax(box[1], u);
-        box[2] = fmin(box[2], v), box[3] = fmax(box[3], v);
+    double rect[4] = {patch_at(c, iu0, iv0)->u0, patch_at(c, iu1 - 1, iv0)->u1,
+                      patch_at(c, iu0, iv0)->v0, patch_at(c, iu0, iv1 - 1)->v1};
+    /* Outside the loops' box there is no inside point (an inside point has curve points to its
+     * left and right on its scan line). */
+    if (c->piece_count && (rect[1] < c->piece_box[0] || rect[0] > c->piece_box[1] ||
+                           rect[3] < c->piece_box[2] || rect[2] > c->piece_box[3]))
+        return CRISP_OK;
+    if (iu1 - iu0 == 1 && iv1 - iv0 == 1) return patch_cells(c, patch_at(c, iu0, iv0), known);
+    double uc = 0.5 * (rect[0] + rect[1]), vc = 0.5 * (rect[2] + rect[3]), pt[2] = {uc, vc};
+    int near = 0, inside = 1;
+    if (!known) {
+        near = cell_curve_point(c, rect, pt);
+        inside = crisp_trim_exact_classify(c->pieces, c->piece_count, uc, vc);
+        if (!near && !inside) return CRISP_OK;
+        if (inside) pt[0] = uc, pt[1] = vc;
     }
-    /* Only the curve's points in the domain belong to the face. */
-    box[0] = fmax(box[0], f->domain[0]), box[1] = fmin(box[1], f->domain[1]);
-    box[2] = fmax(box[2], f->domain[2]), box[3] = fmin(box[3], f->domain[3]);
-    if (box[0] > box[1] || box[2] > box[3]) return CRISP_OK;
-    /* The sample: the sub-piece's middle point, or an end point when the middle lies outside
-     * the domain; when all three do, the halves decide (at the depth limit: the middle clamped
-     * into the domain, within 2^-40 of the piece's parameter range of the curve). */
-    double l[3 * (CRISP_MAX_DEGREE + 1)], r[3 * (CRISP_MAX_DEGREE + 1)];
-    split_points(cpw, d, 3, 0.5, l, r);
-    const double *cand[3] = {r, cpw, cpw + 3 * d}, *pick = NULL;
-    for (int i = 0; i < 3 && !pick; i++) {
-        double u = cand[i][0] / cand[i][2], v = cand[i][1] / cand[i][2];
-        if (u >= f->domain[0] && u <= f->domain[1] && v >= f->domain[2] && v <= f->domain[3])
-            pick = cand[i];
-    }
-    if (!pick && depth < SPLAT_MAX_CURVE_DEPTH) {
-        crisp_status s = curve_piece(c, l, d, depth + 1);
-        return s ? s : curve_piece(c, r, d, depth + 1);
-    }
-    if (!pick) pick = r;
-    double um = pick[0] / pick[2], vm = pick[1] / pick[2];
-    um = fmin(fmax(um, f->domain[0]), f->domain[1]);
-    vm = fmin(fmax(vm, f->domain[2]), f->domain[3]);
-    uint32_t iu = find_cell(c->cu, f->grid_u, um), iv = find_cell(c->cv, f->grid_v, vm);
-    const crisp_bezier_patch *pm = patch_at(c, iu, iv);
+    /* The patch that holds the point, and the point. */
+    uint32_t ju = iu0, jv = iv0;
+    while (ju + 1 < iu1 && patch_at(c, ju, iv0)->u1 < pt[0])
+        ju++;
+    while (jv + 1 < iv1 && patch_at(c, iu0, jv)->v1 < pt[1])
+        jv++;
+    const crisp_bezier_patch *p = patch_at(c, ju, jv);
     double x[3];
-    crisp_bezier_patch_eval(pm, (um - pm->u0) / (pm->u1 - pm->u0),
-                            (vm - pm->v0) / (pm->v1 - pm->v0), x);
-    /* The surface over the box, patch by patch. */
-    uint32_t iu0 = find_cell(c->cu, f->grid_u, box[0]), iu1 = find_cell(c->cu, f->grid_u, box[1]);
-    uint32_t iv0 = find_cell(c->cv, f->grid_v, box[2]), iv1 = find_cell(c->cv, f->grid_v, box[3]);
-    /* A box edge on a patch boundary also touches the patch before it. */
-    if (iu0 > 0 && box[0] <= c->cu[iu0]) iu0--;
-    if (iv0 > 0 && box[2] <= c->cv[iv0]) iv0--;
-    double rad = 0.0;
-    double buf[(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4];
-    for (uint32_t jv = iv0; jv <= iv1 && rad <= c->s; jv++)
-        for (uint32_t ju = iu0; ju <= iu1 && rad <= c->s; ju++) {
-            const crisp_bezier_patch *p = patch_at(c, ju, jv);
-            double a0 = fmax(box[0], p->u0), a1 = fmin(box[1], p->u1);
-            double b0 = fmax(box[2], p->v0), b1 = fmin(box[3], p->v1);
-            if (a0 > a1 || b0 > b1) continue;
-            double wu = p->u1 - p->u0, wv = p->v1 - p->v0;
-            double s0 = fmax((a0 - p->u0) / wu, 0.0), s1 = fmin((a1 - p->u0) / wu, 1.0);
-            double t0 = fmax((b0 - p->v0) / wv, 0.0), t1 = fmin((b1 - p->v0) / wv, 1.0);
-            restrict_patch(p, s0, s1, t0, t1, buf);
-            rad = fmax(rad, hull_radius(buf, (p->du + 1) * (p->dv + 1), x));
+    crisp_bezier_patch_eval(p, (pt[0] - p->u0) / (p->u1 - p->u0), (pt[1] - p->v0) / (p->v1 - p->v0),
+                            x);
+    double rc = 0.0;
+    for (uint32_t iv = iv0; iv < iv1 && rc <= c->r_in; iv++)
+        for (uint32_t iu = iu0; iu < iu1 && rc <= c->r_in; iu++) {
+            const crisp_bezier_patch *q = patch_at(c, iu, iv);
+            int n = (q->du + 1) * (q->dv + 1);
+            euclid(q->cpw, n, c->euc);
+            rc = fmax(rc, hull_radius(c->euc, n, x));
         }
-    if (rad <= c->s) {
-        if (rad > c->got_s) c->got_s = rad;
-        return emit(c, um, vm, x);
+    if (rc <= c->r_in) {
+        if (rc > c->got) c->got = rc;
+        return emit(c, pt[0], pt[1], x);
     }
-    if (depth >= SPLAT_MAX_CURVE_DEPTH)
-        return crisp_error(CRISP_ERR_NUMERIC,
-                           "face %u: a trim piece halved %d times still spans %g (radius %g)",
-                           c->face, depth, rad, c->s);
-    crisp_status s = curve_piece(c, l, d, depth + 1);
-    if (s) return s;
-    return curve_piece(c, r, d, depth + 1);
+    int kn = inside && !near;
+    uint32_t mu = iu1 - iu0 > 1 ? iu0 + (iu1 - iu0) / 2 : iu1;
+    uint32_t mv = iv1 - iv0 > 1 ? iv0 + (iv1 - iv0) / 2 : iv1;
+    crisp_status st = block_cells(c, iu0, mu, iv0, mv, kn);
+    if (!st && mu < iu1) st = block_cells(c, mu, iu1, iv0, mv, kn);
+    if (!st && mv < iv1) st = block_cells(c, iu0, mu, mv, iv1, kn);
+    if (!st && mu < iu1 && mv < iv1) st = block_cells(c, mu, iu1, mv, iv1, kn);
+    return st;
 }
 
 /* ---- the builder ------------------------------------------------------------------------------
@@ -423,26 +501,16 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
         return crisp_error(CRISP_ERR_LIMIT,
                            "face %u: radius %g is below the float precision of the face (%g)", face,
                            radius, margin);
-    c.s = SPLAT_CURVE_SHARE * c.r_in;
-    c.r_out = 0.5 * (c.r_in - c.s);
     c.max_cells = max_count ? 64ull * max_count + (1ull << 20) : UINT64_MAX;
-    /* Patch grid boundaries (for the curve samples). */
-    c.cu = crisp_malloc_array(f->grid_u + 1, sizeof(double));
-    c.cv = crisp_malloc_array(f->grid_v + 1, sizeof(double));
     c.boxes = crisp_malloc_array(f->piece_count ? f->piece_count : 1, sizeof *c.boxes);
     size_t ncp = (size_t)(maxd + 1) * (size_t)(maxd + 1) * 4;
     c.cpw = crisp_malloc_array(ncp, sizeof(double));
+    c.euc = crisp_malloc_array(ncp, sizeof(double));
     crisp_status st = CRISP_OK;
-    if (!c.cu || !c.cv || !c.boxes || !c.cpw) {
+    if (!c.boxes || !c.cpw || !c.euc) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "splat build of face %u", face);
         goto done;
     }
-    for (uint32_t i = 0; i < f->grid_u; i++)
-        c.cu[i] = patch_at(&c, i, 0)->u0;
-    c.cu[f->grid_u] = patch_at(&c, f->grid_u - 1, 0)->u1;
-    for (uint32_t j = 0; j < f->grid_v; j++)
-        c.cv[j] = patch_at(&c, 0, j)->v0;
-    c.cv[f->grid_v] = patch_at(&c, 0, f->grid_v - 1)->v1;
     c.piece_box[0] = c.piece_box[2] = HUGE_VAL;
     c.piece_box[1] = c.piece_box[3] = -HUGE_VAL;
     for (int k = 0; k < c.piece_count; k++) {
@@ -458,29 +526,20 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
         c.piece_box[0] = fmin(c.piece_box[0], bb[0]), c.piece_box[1] = fmax(c.piece_box[1], bb[1]);
         c.piece_box[2] = fmin(c.piece_box[2], bb[2]), c.piece_box[3] = fmax(c.piece_box[3], bb[3]);
     }
-    /* Cells, patch by patch (a patch outside the loops' box has no inside point: an inside point
-     * has curve points left and right of it on its scan line). */
-    for (uint32_t k = 0; k < f->patch_count && !st; k++) {
-        const crisp_bezier_patch *p = &scene->patches[f->first_patch + k].bez;
-        if (c.piece_count && (p->u1 < c.piece_box[0] || p->u0 > c.piece_box[1] ||
-                              p->v1 < c.piece_box[2] || p->v0 > c.piece_box[3]))
-            continue;
-        st = patch_cells(&c, p);
-    }
-    /* Curve samples. */
-    for (int k = 0; k < c.piece_count && !st; k++)
-        st = curve_piece(&c, c.pieces[k].cpw, c.pieces[k].degree, 0);
+    if (f->grid_u * f->grid_v == f->patch_count)
+        st = block_cells(&c, 0, f->grid_u, 0, f->grid_v, c.piece_count == 0);
+    else /* not a grid: patch by patch */
+        for (uint32_t k = 0; k < f->patch_count && !st; k++)
+            st = patch_cells(&c, &scene->patches[f->first_patch + k].bez, c.piece_count == 0);
 done:
-    crisp_free(c.cu);
-    crisp_free(c.cv);
     crisp_free(c.boxes);
     crisp_free(c.cpw);
+    crisp_free(c.euc);
+    crisp_free(c.stack);
     if (st) {
         crisp__splat_set_free(dest);
         return st;
     }
-    double got = c.got_in;
-    if (c.piece_count) got = fmax(got, 2.0 * c.got_out + c.got_s);
-    dest->radius = dest->count ? fmin(radius, got + margin) : radius;
+    dest->radius = dest->count ? fmin(radius, c.got + margin) : radius;
     return CRISP_OK;
 }

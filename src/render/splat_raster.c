@@ -58,13 +58,21 @@ static void project_ranges(void *vctx, size_t begin, size_t end, int worker)
             }
             double x = ((double)cl[0] / w + 1) * sx, y = (1 - (double)cl[1] / w) * sy;
             xyw[0] = x, xyw[1] = y, xyw[2] = 1.0 / w;
-            lo[0] = fmin(lo[0], x), lo[1] = fmin(lo[1], y);
-            hi[0] = fmax(hi[0], x), hi[1] = fmax(hi[1], y);
-            iwmax = fmax(iwmax, xyw[2]);
+            lo[0] = x < lo[0] ? x : lo[0], lo[1] = y < lo[1] ? y : lo[1];
+            hi[0] = x > hi[0] ? x : hi[0], hi[1] = y > hi[1] ? y : hi[1];
+            iwmax = xyw[2] > iwmax ? xyw[2] : iwmax;
         }
         double *b = c->s->box + 5 * i;
         b[0] = lo[0] - h, b[1] = lo[1] - h, b[2] = hi[0] + h, b[3] = hi[1] + h, b[4] = iwmax;
     }
+}
+
+/* ceil(a), a clamped to +-1e9 first (pixel positions), without a libm call. */
+static inline int ceil_px(double a)
+{
+    a = a < -1e9 ? -1e9 : a > 1e9 ? 1e9 : a;
+    int i = (int)a; /* towards zero: ceil for a <= 0, floor for a > 0 */
+    return i < a ? i + 1 : i;
 }
 
 typedef struct band_ctx {
@@ -106,14 +114,14 @@ static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
                 for (int s = 0; s < S; s++) {
                     const double ox = c->off[s][0], oy = c->off[s][1];
                     /* samples gi + ox with cx - h <= gi + ox < cx + h */
-                    double fi0 = ceil(cx - h - ox), fi1 = ceil(cx + h - ox) - 1;
-                    double fj0 = ceil(cy - h - oy), fj1 = ceil(cy + h - oy) - 1;
+                    int fi0 = ceil_px(cx - h - ox), fi1 = ceil_px(cx + h - ox) - 1;
+                    int fj0 = ceil_px(cy - h - oy), fj1 = ceil_px(cy + h - oy) - 1;
                     if (fi0 < x0) fi0 = x0;
                     if (fi1 > x0 + t->width - 1) fi1 = x0 + t->width - 1;
                     if (fj0 < r0) fj0 = r0;
                     if (fj1 > r1 - 1) fj1 = r1 - 1;
-                    for (int gj = (int)fj0; gj <= (int)fj1; gj++)
-                        for (int gi = (int)fi0; gi <= (int)fi1; gi++) {
+                    for (int gj = fj0; gj <= fj1; gj++)
+                        for (int gi = fi0; gi <= fi1; gi++) {
                             size_t idx =
                                 ((size_t)(gj - y0) * (size_t)t->width + (size_t)(gi - x0)) *
                                     (size_t)S +
@@ -205,14 +213,12 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
         stats->box[0] = (int)fmax(0, fmin(bx0, mx)), stats->box[1] = (int)fmax(0, fmin(by0, my));
         stats->box[2] = (int)fmax(0, fmin(bx1, mx)), stats->box[3] = (int)fmax(0, fmin(by1, my));
     }
-    int workers = crisp_pool_threads(pool);
-    size_t written[64] = {0};
-    if (workers > 64) workers = 64;
+    size_t written[64] = {0}; /* per worker */
+    if (crisp_pool_threads(pool) > 64) pool = NULL;
     band_ctx bc = {.s = s, .d = d, .t = t, .count = count, .written = written};
     for (int q = 0; q < t->samples; q++)
         crisp__raster_sample_offset(t->samples, q, bc.off[q]);
     size_t bands = (size_t)(t->height + BAND_ROWS - 1) / BAND_ROWS;
-    if (workers > 1 && crisp_pool_threads(pool) > 64) pool = NULL; /* written[] per worker */
     crisp_pool_parallel_for(pool, bands, 1, draw_bands, &bc);
     stats->ranges = count;
     stats->splats = splats;
