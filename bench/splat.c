@@ -4,6 +4,8 @@
  * points at the centres of squares of side sqrt(2) r needs a^2 / (2 r^2); below 1 is not
  * possible for a flat face, curved faces need a little more).
  *   bench_splat [MODEL (under data/nurbs, default impeller.igs)] [KMIN KMAX (6 10)]
+ * A second table: radii relative to each face (its box diagonal d / 2^j, j = 1..5), the regime of
+ * faces a few pixels across.
  */
 #include <math.h>
 #include <stdio.h>
@@ -37,9 +39,11 @@ int main(int argc, char **argv)
     }
     bench_print_machine(stdout);
     double *area = calloc(sc->face_count, sizeof *area), total_area = 0.0;
-    for (uint32_t f = 0; f < sc->face_count; f++) {
+    /* BENCH_SPLAT_NO_AREA=1: skip the areas (for profiling the builder alone). */
+    const char *no_area = getenv("BENCH_SPLAT_NO_AREA");
+    for (uint32_t f = 0; f < sc->face_count && !(no_area && *no_area == '1'); f++) {
         crisp_mass_props mp;
-        crisp_mass_desc md = {.face_begin = (int)f, .face_end = (int)f + 1};
+        crisp_mass_desc md = {.tolerance = 1e-6, .face_begin = (int)f, .face_end = (int)f + 1};
         if (crisp_mass_model(m, &md, &mp) == CRISP_OK) area[f] = fabs(mp.area);
         total_area += area[f];
     }
@@ -73,6 +77,35 @@ int main(int argc, char **argv)
         printf("| %d | %.4g | %.0f | %llu | %.1f / %u | %u | %.2f | %u | %.3f |\n", k, r, ms,
                (unsigned long long)total, (double)total / sc->face_count, maxc, failed,
                total * 2 * r * r / total_area, wasteful, met);
+    }
+    printf("\n| j | radius d/2^j per face | build ms (all faces) | splats | per face mean / max | "
+           "faces failed |\n|---|---|---|---|---|---|\n");
+    for (int j = 1; j <= 5; j++) {
+        double t0 = now_ms();
+        uint64_t total = 0;
+        uint32_t maxc = 0, failed = 0;
+        for (uint32_t f = 0; f < sc->face_count; f++) {
+            const crisp_scene_face *sf = &sc->faces[f];
+            double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL},
+                   hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+            for (uint32_t k = 0; k < sf->patch_count; k++)
+                for (int q = 0; q < 3; q++) {
+                    lo[q] = fmin(lo[q], sc->patches[sf->first_patch + k].box[q]);
+                    hi[q] = fmax(hi[q], sc->patches[sf->first_patch + k].box[q + 3]);
+                }
+            double fd = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                             (hi[2] - lo[2]) * (hi[2] - lo[2]));
+            crisp_splat_set set;
+            if (!(fd > 0) || crisp__splat_build(sc, f, fd / ldexp(1.0, j), 0, &set)) {
+                failed++;
+                continue;
+            }
+            total += set.count;
+            maxc = set.count > maxc ? set.count : maxc;
+            crisp__splat_set_free(&set);
+        }
+        printf("| %d | d/%d | %.0f | %llu | %.1f / %u | %u |\n", j, 1 << j, now_ms() - t0,
+               (unsigned long long)total, (double)total / sc->face_count, maxc, failed);
     }
     free(area);
     crisp_scene_destroy(sc);

@@ -8,7 +8,7 @@
  *   (1) For a point X, |Y - X| is convex in Y, so its largest value over a hull is taken at a
  *       control point: R_X = max_i |P_i - X| bounds |S(q) - X| for every q of the cell.
  * Cells: blocks of the face's patch grid, halved by patches while they fail, then rectangles of
- * one patch (halved, or cut into a grid of about square cells once their class is known). For
+ * one patch (cut into grids of about square cells while they fail). For
  * each cell, with its closed rectangle K and centre c:
  *   - Curve test: the trim pieces are halved (control-point boxes, which hold each sub-piece)
  *     until every box misses K (no curve point in K), or a sub-piece's end point b lies in K (a
@@ -18,7 +18,8 @@
  *     the left is constant on a connected set that misses the curves); c decides
  *     (crisp_trim_exact_classify). Outside: dropped (no point of the face). Inside: its
  *     sub-cells inherit the class without a test.
- *   - The sample point x of the cell: c when c is inside, else the curve point b. Both are points
+ *   - The sample point x of the cell: c when c is inside, else a curve point in K (b, or one
+ *     nearer c found by a pruned search: a smaller R_x). Both are points
  *     of the trimmed face (inside, or on a trim curve) and lie in K.
  *   - R_x <= r: a splat at S(x); by (1) it covers every point of the cell's surface, trimmed or
  *     not. Otherwise the cell is split and its parts are treated the same way.
@@ -43,11 +44,18 @@
 typedef struct cell cell;
 
 #define SPLAT_MAX_CELL_DEPTH 24 /* a cell is at least 2^-24 of its patch's parameter sides */
-/* Side of the squares a cell of known class is cut into, in units of the bound B (a flat square
- * of side sqrt(2) B meets R_C = B exactly; a little less leaves room for curvature). */
+/* Side of the squares a failing cell is cut into, in units of the bound B (a flat square of side
+ * sqrt(2) B meets R_C = B exactly; a little less leaves room for curvature). The counts per
+ * direction are rounded to the nearest (a cell a little too big is split again): on impeller.igs
+ * 1-7% fewer splats than rounding up. Cells near curves are cut the same way (halving them in
+ * both directions instead gave 10% more splats on impeller and 27% more on linkrods at radii of
+ * d/2..d/32 per face, 12% fewer on linkrods at D/512..D/1024 of the model). */
 #define SPLAT_GRID_SIDE 1.4
 
 #define SPLAT_FIND_DEPTH 44 /* halvings of a trim piece looking for a point of it in a cell */
+/* Sub-pieces looked at per piece and cell (a piece running along a cell's edge just outside it
+ * could otherwise be halved everywhere): past it the answer is 2 (see curve_point). */
+#define SPLAT_FIND_BUDGET 4096
 
 typedef struct splat_ctx {
     const crisp_scene *scene;
@@ -65,7 +73,10 @@ typedef struct splat_ctx {
     crisp_splat_set *set;
     uint32_t cap;
     double *cpw, *euc; /* a cell's control points, homogeneous and Euclidean */
-    cell *stack;       /* pending cells of a patch */
+    double *col;       /* col_patch restricted to [col_s0, col_s1] in u */
+    const crisp_bezier_patch *col_patch;
+    double col_s0, col_s1;
+    cell *stack; /* pending cells of a patch */
     size_t stack_count, stack_cap;
 } splat_ctx;
 
@@ -91,37 +102,32 @@ static void split_points(const double *c, int d, int dim, double t, double *lo, 
     }
 }
 
-/* Restrict d + 1 homogeneous 4D points (stride `stride` doubles) to the local interval [a, b]. */
+/* Restrict d + 1 homogeneous 4D points (stride `stride` doubles) to the local interval [a, b],
+ * in place: de Casteljau's left part at b, then the right part of that at a / b. */
 static void restrict_points(double *c, int d, ptrdiff_t stride, double a, double b)
 {
-    double p[(CRISP_MAX_DEGREE + 1) * 4], lo[(CRISP_MAX_DEGREE + 1) * 4],
-        hi[(CRISP_MAX_DEGREE + 1) * 4];
-    for (int i = 0; i <= d; i++)
-        memcpy(p + 4 * i, c + i * stride, sizeof(double) * 4);
     if (b < 1.0) {
-        split_points(p, d, 4, b, lo, hi);
-        memcpy(p, lo, sizeof(double) * 4 * (size_t)(d + 1));
+        const double s = 1.0 - b;
+        for (int r = 1; r <= d; r++)
+            for (int i = d; i >= r; i--) {
+                double *p = c + i * stride, *q = p - stride;
+                p[0] = s * q[0] + b * p[0];
+                p[1] = s * q[1] + b * p[1];
+                p[2] = s * q[2] + b * p[2];
+                p[3] = s * q[3] + b * p[3];
+            }
     }
     if (a > 0.0) {
-        split_points(p, d, 4, b > 0.0 ? a / b : 0.0, lo, hi);
-        memcpy(p, hi, sizeof(double) * 4 * (size_t)(d + 1));
+        const double t = b > 0.0 ? a / b : 0.0, s = 1.0 - t;
+        for (int r = 1; r <= d; r++)
+            for (int i = 0; i <= d - r; i++) {
+                double *p = c + i * stride, *q = p + stride;
+                p[0] = s * p[0] + t * q[0];
+                p[1] = s * p[1] + t * q[1];
+                p[2] = s * p[2] + t * q[2];
+                p[3] = s * p[3] + t * q[3];
+            }
     }
-    for (int i = 0; i <= d; i++)
-        memcpy(c + i * stride, p + 4 * i, sizeof(double) * 4);
-}
-
-/* The control points of patch p restricted to local [s0, s1] x [t0, t1] into dest. */
-static void restrict_patch(const crisp_bezier_patch *p, double s0, double s1, double t0, double t1,
-                           double *dest)
-{
-    const int nu = p->du + 1, nv = p->dv + 1;
-    memcpy(dest, p->cpw, sizeof(double) * 4 * (size_t)(nu * nv));
-    if (s0 > 0.0 || s1 < 1.0)
-        for (int j = 0; j < nv; j++)
-            restrict_points(dest + 4 * j * nu, p->du, 4, s0, s1);
-    if (t0 > 0.0 || t1 < 1.0)
-        for (int i = 0; i < nu; i++)
-            restrict_points(dest + 4 * i, p->dv, 4 * (ptrdiff_t)nu, t0, t1);
 }
 
 /* max_i |P_i - x| over n Euclidean points. */
@@ -179,10 +185,13 @@ static crisp_status emit(splat_ctx *c, double u, double v, const double x[3])
 /* Whether the sub-curve (homogeneous uv points, degree d) meets the closed rectangle rect
  * (u0, u1, v0, v1): 0 when it provably does not (its control-point box, which holds it, misses
  * the rectangle at every level), 1 with a point of the curve in the rectangle in pt (an end
- * point of a sub-curve), 2 when the halvings ran out with a sub-curve's box (2^-SPLAT_FIND_DEPTH
- * of the piece's parameter range) still touching the rectangle: pt is its end point clamped
- * into the rectangle, a point of the rectangle within that box's size of the curve. */
-static int curve_point(const double *cpw, int d, const double rect[4], int depth, double pt[2])
+ * point of a sub-curve), 2 when the halvings ran out (2^-SPLAT_FIND_DEPTH of the piece's parameter
+ * range, or SPLAT_FIND_BUDGET sub-pieces) with a sub-curve's box still touching the rectangle: pt
+ * is that sub-curve's end point clamped into the rectangle, within the box's size of the curve.
+ * The cell then counts as near a curve: its sample still covers it (any point of the cell does,
+ * by (1)); only its being on the curve is approximate. */
+static int curve_point(const double *cpw, int d, const double rect[4], int depth, int *budget,
+                       double pt[2])
 {
     double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
     for (int i = 0; i <= d; i++)
@@ -199,7 +208,7 @@ static int curve_point(const double *cpw, int d, const double rect[4], int depth
             return 1;
         }
     }
-    if (depth >= SPLAT_FIND_DEPTH) {
+    if (depth >= SPLAT_FIND_DEPTH || --*budget < 0) {
         pt[0] = fmin(fmax(cpw[0] / cpw[2], rect[0]), rect[1]);
         pt[1] = fmin(fmax(cpw[1] / cpw[2], rect[2]), rect[3]);
         return 2;
@@ -207,10 +216,10 @@ static int curve_point(const double *cpw, int d, const double rect[4], int depth
     double l[3 * (CRISP_MAX_DEGREE + 1)], r[3 * (CRISP_MAX_DEGREE + 1)];
     split_points(cpw, d, 3, 0.5, l, r);
     /* The middle point first: a curve crossing the rectangle is found at the first levels. */
-    int got = curve_point(l, d, rect, depth + 1, pt);
+    int got = curve_point(l, d, rect, depth + 1, budget, pt);
     if (got == 1) return 1;
     double p2[2];
-    int got2 = curve_point(r, d, rect, depth + 1, p2);
+    int got2 = curve_point(r, d, rect, depth + 1, budget, p2);
     if (got2 == 1 || (got2 && !got)) {
         pt[0] = p2[0], pt[1] = p2[1];
         return got2;
@@ -226,7 +235,8 @@ static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[
     for (int k = 0; k < c->piece_count; k++) {
         const double *b = c->boxes[k];
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
-        int g = curve_point(c->pieces[k].cpw, c->pieces[k].degree, rect, 0, q);
+        int budget = SPLAT_FIND_BUDGET;
+        int g = curve_point(c->pieces[k].cpw, c->pieces[k].degree, rect, 0, &budget, q);
         if (g == 1) {
             pt[0] = q[0], pt[1] = q[1];
             return 1;
@@ -237,6 +247,67 @@ static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[
         }
     }
     return got;
+}
+
+/* A point of the sub-curve in the closed rectangle near its centre m (a sample point there has a
+ * smaller hull radius than one at the rectangle's edge): the sub-curves' end points in the
+ * rectangle, searched nearer half first and pruned by box distance, down to sub-curves of a
+ * sixteenth of the rectangle. best: squared uv distance of pt to m so far. */
+static void curve_point_near(const double *cpw, int d, const double rect[4], const double m[2],
+                             double tiny, int depth, double pt[2], double *best)
+{
+    double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
+    for (int i = 0; i <= d; i++)
+        for (int q = 0; q < 2; q++) {
+            double x = cpw[3 * i + q] / cpw[3 * i + 2];
+            lo[q] = x < lo[q] ? x : lo[q];
+            hi[q] = x > hi[q] ? x : hi[q];
+        }
+    if (hi[0] < rect[0] || lo[0] > rect[1] || hi[1] < rect[2] || lo[1] > rect[3]) return;
+    double ex = fmax(fmax(lo[0] - m[0], m[0] - hi[0]), 0.0);
+    double ey = fmax(fmax(lo[1] - m[1], m[1] - hi[1]), 0.0);
+    if (ex * ex + ey * ey >= *best) return;
+    for (int e = 0; e <= d; e += d) {
+        double u = cpw[3 * e] / cpw[3 * e + 2], v = cpw[3 * e + 1] / cpw[3 * e + 2];
+        double dd = (u - m[0]) * (u - m[0]) + (v - m[1]) * (v - m[1]);
+        if (u >= rect[0] && u <= rect[1] && v >= rect[2] && v <= rect[3] && dd < *best) {
+            *best = dd;
+            pt[0] = u, pt[1] = v;
+        }
+    }
+    if (depth >= SPLAT_FIND_DEPTH || fmax(hi[0] - lo[0], hi[1] - lo[1]) <= tiny) return;
+    double l[3 * (CRISP_MAX_DEGREE + 1)], r[3 * (CRISP_MAX_DEGREE + 1)];
+    split_points(cpw, d, 3, 0.5, l, r);
+    curve_point_near(l, d, rect, m, tiny, depth + 1, pt, best);
+    curve_point_near(r, d, rect, m, tiny, depth + 1, pt, best);
+}
+
+/* pt: a point of the curves in the rectangle (cell_curve_point's); moved to one nearer the
+ * centre when the search finds one. */
+static void cell_curve_point_near(const splat_ctx *c, const double rect[4], double pt[2])
+{
+    double m[2] = {0.5 * (rect[0] + rect[1]), 0.5 * (rect[2] + rect[3])};
+    double best = (pt[0] - m[0]) * (pt[0] - m[0]) + (pt[1] - m[1]) * (pt[1] - m[1]);
+    double tiny = 0.0625 * fmax(rect[1] - rect[0], rect[3] - rect[2]);
+    for (int k = 0; k < c->piece_count; k++) {
+        const double *b = c->boxes[k];
+        if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
+        curve_point_near(c->pieces[k].cpw, c->pieces[k].degree, rect, m, tiny, 0, pt, &best);
+    }
+}
+
+/* crisp_trim_exact_classify over the pieces that can cross (u, v)'s scan line left of u: its
+ * parity is the exclusive or of the pieces' own, and a piece whose control points all have
+ * v >= v_s, or all v < v_s, or all u >= u (the same quotients as the classifier's) adds 0. */
+static int classify(const splat_ctx *c, double u, double v)
+{
+    int parity = 0;
+    for (int k = 0; k < c->piece_count; k++) {
+        const double *b = c->boxes[k];
+        if (b[2] < v && b[3] >= v && b[0] < u)
+            parity ^= crisp_trim_exact_classify(c->pieces + k, 1, u, v);
+    }
+    return parity;
 }
 
 /* ---- cells ------------------------------------------------------------------------------------
@@ -313,11 +384,27 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int
             inside = 1;
         else {
             near = cell_curve_point(c, rect, pt);
-            inside = crisp_trim_exact_classify(c->pieces, c->piece_count, uc, vc);
+            inside = classify(c, uc, vc);
             if (!near && !inside) continue; /* wholly outside */
-            if (inside) pt[0] = uc, pt[1] = vc;
+            if (inside)
+                pt[0] = uc, pt[1] = vc;
+            else
+                cell_curve_point_near(c, rect, pt);
         }
-        restrict_patch(top, k.s0, k.s1, k.t0, k.t1, cpw);
+        /* The u-restriction of the last cell's column is kept: cells of a grid come column by
+         * column. */
+        const int nu_ = top->du + 1, nv_ = top->dv + 1;
+        if (c->col_patch != top || c->col_s0 != k.s0 || c->col_s1 != k.s1) {
+            memcpy(c->col, top->cpw, sizeof(double) * 4 * (size_t)n);
+            if (k.s0 > 0.0 || k.s1 < 1.0)
+                for (int j = 0; j < nv_; j++)
+                    restrict_points(c->col + 4 * j * nu_, top->du, 4, k.s0, k.s1);
+            c->col_patch = top, c->col_s0 = k.s0, c->col_s1 = k.s1;
+        }
+        memcpy(cpw, c->col, sizeof(double) * 4 * (size_t)n);
+        if (k.t0 > 0.0 || k.t1 < 1.0)
+            for (int i = 0; i < nu_; i++)
+                restrict_points(cpw + 4 * i, top->dv, 4 * (ptrdiff_t)nu_, k.t0, k.t1);
         euclid(cpw, n, e);
         double x[3];
         crisp_bezier_patch_eval(top, (pt[0] - top->u0) / du, (pt[1] - top->v0) / dv, x);
@@ -327,38 +414,31 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int
             if ((st = emit(c, pt[0], pt[1], x))) return st;
             continue;
         }
-        /* Split: a cell whose class is known into a grid of about square cells of the size the
-         * bound allows (a flat square of side sqrt(2) B has R_C = B); a cell near a curve in
-         * halves (its parts are classified again), along its longer side only when it is much
-         * longer. */
+        /* Split into a grid of about square cells of the size the bound allows (a flat square of
+         * side sqrt(2) B has R_C = B), from the control net's lengths; a cell only a little too
+         * big is halved along its longer side. The parts of a cell near a curve are classified
+         * again; the others inherit "inside". */
         double lu, lv;
         net_lengths(e, top->du, top->dv, &lu, &lv);
-        int nu = 2, nv = 2;
         int known = inside && !near;
-        if (known) {
-            double side = SPLAT_GRID_SIDE * bound;
-            nu = (int)fmin(ceil(lu / side), 64.0);
-            nv = (int)fmin(ceil(lv / side), 64.0);
-            nu = nu < 1 ? 1 : nu;
-            nv = nv < 1 ? 1 : nv;
-            if (nu * nv == 1) {
-                if (lu >= lv)
-                    nu = 2;
-                else
-                    nv = 2;
-            }
-        } else if (lu > 1.5 * lv)
-            nv = 1;
-        else if (lv > 1.5 * lu)
-            nu = 1;
+        double side = SPLAT_GRID_SIDE * bound;
+        int nu = (int)fmax(fmin(round(lu / side), 64.0), 1.0);
+        int nv = (int)fmax(fmin(round(lv / side), 64.0), 1.0);
+        if (nu * nv == 1) { /* a little too big: halve the longer side */
+            if (lu >= lv)
+                nu = 2;
+            else
+                nv = 2;
+        }
         if ((k.s1 - k.s0) / nu < min_size) nu = 1;
         if ((k.t1 - k.t0) / nv < min_size) nv = 1;
         if (nu * nv == 1)
             return crisp_error(CRISP_ERR_NUMERIC,
                                "face %u: a cell 2^-%d of its patch still spans %g (radius %g)",
                                c->face, SPLAT_MAX_CELL_DEPTH, rc, c->r_in);
-        for (int j = 0; j < nv; j++)
-            for (int i = 0; i < nu; i++) {
+        /* Column by column: cells popped one after the other share their u-restriction. */
+        for (int i = 0; i < nu; i++)
+            for (int j = 0; j < nv; j++) {
                 double s0 = k.s0 + (k.s1 - k.s0) * i / nu, s1 = k.s0 + (k.s1 - k.s0) * (i + 1) / nu;
                 double t0 = k.t0 + (k.t1 - k.t0) * j / nv, t1 = k.t0 + (k.t1 - k.t0) * (j + 1) / nv;
                 if (i == nu - 1) s1 = k.s1;
@@ -396,9 +476,12 @@ static crisp_status block_cells(splat_ctx *c, uint32_t iu0, uint32_t iu1, uint32
     int near = 0, inside = 1;
     if (!known) {
         near = cell_curve_point(c, rect, pt);
-        inside = crisp_trim_exact_classify(c->pieces, c->piece_count, uc, vc);
+        inside = classify(c, uc, vc);
         if (!near && !inside) return CRISP_OK;
-        if (inside) pt[0] = uc, pt[1] = vc;
+        if (inside)
+            pt[0] = uc, pt[1] = vc;
+        else
+            cell_curve_point_near(c, rect, pt);
     }
     /* The patch that holds the point, and the point. */
     uint32_t ju = iu0, jv = iv0;
@@ -463,6 +546,13 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
                    .max_count = max_count,
                    .set = dest};
     if (!f->patch_count) return CRISP_OK;
+    if (c.piece_count) {
+        crisp_status ps = crisp_trim_pieces_check(c.pieces, c.piece_count);
+        if (ps) {
+            crisp_error_prefix("splat build of face %u", face);
+            return ps;
+        }
+    }
     /* The face's box (origin) and its largest coordinate (rounding margin); weights positive. */
     double box[6] = {HUGE_VAL, HUGE_VAL, HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL}, big = 0.0;
     int maxd = 0;
@@ -506,8 +596,9 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
     size_t ncp = (size_t)(maxd + 1) * (size_t)(maxd + 1) * 4;
     c.cpw = crisp_malloc_array(ncp, sizeof(double));
     c.euc = crisp_malloc_array(ncp, sizeof(double));
+    c.col = crisp_malloc_array(ncp, sizeof(double));
     crisp_status st = CRISP_OK;
-    if (!c.boxes || !c.cpw || !c.euc) {
+    if (!c.boxes || !c.cpw || !c.euc || !c.col) {
         st = crisp_error(CRISP_ERR_NO_MEMORY, "splat build of face %u", face);
         goto done;
     }
@@ -535,10 +626,15 @@ done:
     crisp_free(c.boxes);
     crisp_free(c.cpw);
     crisp_free(c.euc);
+    crisp_free(c.col);
     crisp_free(c.stack);
     if (st) {
         crisp__splat_set_free(dest);
         return st;
+    }
+    if (dest->count && dest->count < c.cap) { /* give back the growth's slack */
+        crisp_plan_splat *fit = crisp_realloc_array(dest->splats, dest->count, sizeof *fit);
+        if (fit) dest->splats = fit;
     }
     dest->radius = dest->count ? fmin(radius, c.got + margin) : radius;
     return CRISP_OK;

@@ -23,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "crisp/construct.h"
 #include "crisp/io.h"
 #include "crisp/render.h"
 #include "crisp/trim.h"
@@ -383,6 +384,51 @@ static void test_random_faces(void **state)
     assert_true(worst > 0.5); /* the check would catch a builder at twice the radius */
 }
 
+/* ---- degenerate patches ------------------------------------------------------------------------
+ */
+
+/* Faces whose patches collapse to a point on a side (sphere poles, a cone's apex): the hull radii
+ * still shrink with the cells, and the normals there are crisp_surface_normal's limits. */
+static void test_degenerate(void **state)
+{
+    (void)state;
+    crisp_placement pl;
+    double o[3] = {0.3, -0.2, 0.1}, axis[3] = {0.2, 1, 0.3};
+    assert_int_equal(crisp_placement_make(o, axis, NULL, &pl), CRISP_OK);
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    crisp_surface *sphere, *cone, *sphere2;
+    assert_int_equal(crisp_make_sphere(&pl, 1.3, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sphere),
+                     CRISP_OK);
+    assert_int_equal(crisp_make_cone(&pl, 0.0, 0.4, 0, 2 * M_PI, 0, 2, &cone), CRISP_OK);
+    assert_int_equal(crisp_make_sphere(&pl, 2, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sphere2),
+                     CRISP_OK);
+    crisp_face f0 = {.surface = sphere}, f1 = {.surface = cone}, f2 = {.surface = sphere2};
+    /* A loop on the second sphere reaching almost to the north pole, with a hole. */
+    f2.loop_count = 1;
+    f2.loops = crisp_malloc_array(1, sizeof *f2.loops);
+    static const double pts[][2] = {{0.5, -1.2}, {5.5, -1.4}, {6.0, 1.5}, {3.0, 1.565}, {0.3, 1.2}};
+    f2.loops[0] = (crisp_trim_loop){.is_outer = 1, .curve_count = 5};
+    f2.loops[0].curves = crisp_malloc_array(5, sizeof *f2.loops[0].curves);
+    for (int i = 0; i < 5; i++)
+        f2.loops[0].curves[i] = segment(pts[i], pts[(i + 1) % 5], i % 2);
+    assert_int_equal(crisp_model_add_face(m, &f0), CRISP_OK);
+    assert_int_equal(crisp_model_add_face(m, &f1), CRISP_OK);
+    assert_int_equal(crisp_model_add_face(m, &f2), CRISP_OK);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    double worst = 0.0;
+    for (uint32_t face = 0; face < 3; face++)
+        for (int k = 0; k < 3; k++) {
+            check_result res = check_face(sc, face, face_diagonal(sc, face) / (5 + 20 * k), 100);
+            assert_true(res.inside > 1000);
+            worst = fmax(worst, res.tightness);
+        }
+    printf("spheres and a cone: tightness %.3f\n", worst);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 /* ---- bundled models ---------------------------------------------------------------------------
  */
 
@@ -414,8 +460,16 @@ static void check_model(const char *name, int faces)
             splats += res.splats;
         }
     }
-    printf("%s: %d faces, %ld samples inside, %ld splats, tightness %.3f\n", name, faces, samples,
-           splats, worst);
+    /* Every face at a coarse radius (the regime of faces a few pixels across), fewer samples. */
+    for (uint32_t face = 0; face < sc->face_count; face++) {
+        check_result res = check_face(sc, face, face_diagonal(sc, face) / 6, 16);
+        worst = fmax(worst, res.tightness);
+        samples += res.inside;
+        splats += res.splats;
+    }
+    printf("%s: %d faces at two radii and all %u at d/6, %ld samples inside, %ld splats, "
+           "tightness %.3f\n",
+           name, faces, sc->face_count, samples, splats, worst);
     assert_true(samples > 1000);
     crisp_scene_destroy(sc);
     crisp_model_destroy(m);
@@ -471,6 +525,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_random_faces),
+        cmocka_unit_test(test_degenerate),
         cmocka_unit_test(test_models),
         cmocka_unit_test(test_limits),
     };
