@@ -6,7 +6,16 @@
  * backend uploads the arrays whose version changed (bytes per frame against the whole plan).
  * Times are wall clock (the GL frame ends with glFinish; llvmpipe uses every core).
  *
- *   bench_gl [FRAMES [MODEL]]   (default 5 frames, every model; MODEL: only names containing it) */
+ *   bench_gl [FRAMES [MODEL]]   (default 5 frames, every model; MODEL: only names containing it)
+ *
+ * Splats (issue 12): `bench_gl FRAMES splats [ROWS...]` draws bench_screen's far views (rows
+ * imp49:far, imp:far10, imp49:default; impeller.igs instanced 7 x 7, the default camera from 12x
+ * its distance, imp alone from 10x) with the default planner (faces drawn as splats where the plan
+ * says) and with crisp_planner_desc.no_splats, one after the other: plan, CPU and GL frame times
+ * (median wall time; the process's CPU time per frame, all threads, llvmpipe's included), the
+ * splats drawn, the store's bytes (uploaded by the first frame only) and the bytes uploaded per
+ * later frame, and the pixels whose face differs between the two backends. */
+#include <sys/resource.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -95,10 +104,176 @@ static void edit_trim(crisp_model *m, int f)
         }
 }
 
+/* ---- splats ---------------------------------------------------------------------------------- */
+
+/* impeller.igs instanced nx x ny times in a grid (bench_screen's imp49). */
+static crisp_model *instanced(const char *name, int nx, int ny)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
+    crisp_model *src = NULL, *m;
+    if (crisp_model_load(path, NULL, &src)) die(path);
+    if (nx * ny == 1) return src;
+    if (crisp_model_create(&m)) die("model");
+    double box[6];
+    crisp_model_bbox(src, box);
+    double sx = 1.1 * (box[3] - box[0]), sy = 1.1 * (box[4] - box[1]);
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++)
+            for (int f = 0; f < src->face_count; f++) {
+                crisp_face face;
+                if (crisp_face_copy(&src->faces[f], &face)) die("face copy");
+                const double t[3][4] = {{1, 0, 0, i * sx}, {0, 1, 0, j * sy}, {0, 0, 1, 0}};
+                crisp_face_transform(&face, t);
+                if (crisp_model_add_face(m, &face)) die("add face");
+            }
+    crisp_model_destroy(src);
+    return m;
+}
+
+/* bench_screen's cameras: "default", "far" (12x the distance), "farN" (N times). */
+static crisp_camera far_camera(const crisp_scene *sc, const char *which)
+{
+    crisp_camera cam;
+    if (crisp_camera_frame_box(sc->box, 1920, 1080, &cam)) die("camera");
+    if (strncmp(which, "far", 3)) return cam;
+    double d[3];
+    for (int k = 0; k < 3; k++)
+        d[k] = cam.eye[k] - cam.target[k];
+    double dist = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    double f = which[3] ? atof(which + 3) : 12;
+    for (int k = 0; k < 3; k++)
+        cam.eye[k] = cam.target[k] + f * d[k];
+    cam.zfar = (f + 2) * dist + (sc->box[5] - sc->box[2]);
+    return cam;
+}
+
+static double process_cpu_ms(void)
+{
+    struct rusage u;
+    getrusage(RUSAGE_SELF, &u);
+    return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+           1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+/* FNV-1a over an image and its AOVs (as bench_screen's image hash). */
+static uint32_t image_hash(const crisp_image *img)
+{
+    uint32_t hash = 2166136261u;
+    size_t npx = (size_t)img->width * img->height;
+    const void *bufs[5] = {img->rgba, img->depth, img->normal, img->uv, img->face};
+    const size_t sizes[5] = {16 * npx, 4 * npx, 12 * npx, 8 * npx, 4 * npx};
+    for (int b = 0; b < 5; b++)
+        for (size_t k = 0; k < sizes[b]; k++)
+            hash = (hash ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
+    return hash;
+}
+
+static void splat_row(crisp_gl *gl, const char *scene_name, const char *cam_name, int frames)
+{
+    crisp_model *m = instanced("impeller.igs", strcmp(scene_name, "imp49") ? 1 : 7,
+                               strcmp(scene_name, "imp49") ? 1 : 7);
+    crisp_scene *sc;
+    if (crisp_scene_prepare(m, &sc)) die("prepare");
+    crisp_camera cam = far_camera(sc, cam_name);
+    crisp_renderer *r;
+    if (crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r)) die("renderer");
+    crisp_image a, b;
+    if (crisp_image_init(&a, cam.width, cam.height) || crisp_image_init(&b, cam.width, cam.height))
+        die("image");
+    double *t = malloc(sizeof(double) * (size_t)(frames + 1));
+    for (int v = 0; v < 2; v++) {
+        crisp_planner *pl;
+        if (crisp_planner_create(&(crisp_planner_desc){.no_splats = v}, NULL, &pl)) die("planner");
+        const crisp_frame_plan *plan = NULL;
+        /* plan: a warm-up (builds the splat sets), then frames */
+        for (int f = 0; f <= frames; f++) {
+            double t0 = crisp_time_now();
+            if (crisp_planner_plan(pl, sc, &cam, &plan)) die("plan");
+            t[f] = 1e3 * (crisp_time_now() - t0);
+        }
+        double plan_ms = bench_median(t + 1, frames);
+        for (int f = 0; f <= frames; f++) {
+            double t0 = crisp_time_now();
+            if (crisp_render_cpu_plan(r, sc, plan, &cam, &a, NULL)) die("cpu frame");
+            t[f] = 1e3 * (crisp_time_now() - t0);
+        }
+        double cpu_frame = bench_median(t + 1, frames);
+        crisp_gl_stats gs;
+        crisp_gl_forget_plan(gl);
+        if (crisp_gl_set_scene(gl, sc)) die("gl scene");
+        uint64_t first_upload = 0, later_upload = 0;
+        double c0 = 0;
+        for (int f = 0; f <= frames; f++) {
+            if (f == 1) c0 = process_cpu_ms();
+            double t0 = crisp_time_now();
+            if (crisp_gl_draw(gl, plan, &gs)) die("gl frame");
+            t[f] = 1e3 * (crisp_time_now() - t0);
+            if (f == 0)
+                first_upload = gs.bytes_uploaded;
+            else
+                later_upload = gs.bytes_uploaded;
+        }
+        double gl_cpu = (process_cpu_ms() - c0) / frames;
+        if (getenv("PROFILE"))
+            fprintf(stderr,
+                    "  %s:%s %s: surfaces %.1f ms, splats %.1f ms, ribbons %.1f ms, "
+                    "resolve %.1f ms (last frame)\n",
+                    scene_name, cam_name, v ? "no_splats" : "splats", gs.ms_surfaces, gs.ms_splats,
+                    gs.ms_ribbons, gs.ms_resolve);
+        double gl_frame = bench_median(t + 1, frames);
+        if (crisp_gl_read(gl, &b, &gs)) die("gl read");
+        long covered = 0, differ = 0;
+        for (size_t k = 0; k < (size_t)cam.width * cam.height; k++) {
+            covered += b.face[k] >= 0;
+            differ += a.face[k] != b.face[k];
+        }
+        printf("| %s:%s | %s | %u | %llu | %u | %llu | %.1f | %llu | %llu | %.1f | %.1f | %.1f | "
+               "%.1f | %ld | %ld | %08x | %08x |\n",
+               scene_name, cam_name, v ? "no_splats" : "splats", plan->leaf_count,
+               (unsigned long long)plan->stats.triangles, plan->stats.splat_faces,
+               (unsigned long long)plan->stats.splats_drawn,
+               (double)plan->splat_count * sizeof(crisp_plan_splat) / 1e6,
+               (unsigned long long)first_upload, (unsigned long long)later_upload, plan_ms,
+               cpu_frame, gl_frame, gl_cpu, covered, differ, (unsigned)image_hash(&a),
+               (unsigned)image_hash(&b));
+        fflush(stdout);
+        crisp_planner_destroy(pl);
+    }
+    free(t);
+    crisp_image_free(&a);
+    crisp_image_free(&b);
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
+static int splat_bench(crisp_gl *gl, int frames, int argc, char **argv)
+{
+    printf("| row | planner | leaves | triangles | splat faces | splats drawn | store MB | first "
+           "upload B | upload B per frame | plan ms | CPU frame ms | GL frame ms | GL CPU ms per "
+           "frame | covered px (GL) | face differs CPU/GL px | CPU image hash | GL image hash |\n");
+    printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n");
+    static const char *const rows[] = {"imp49:far", "imp:far10", "imp49:default"};
+    for (size_t k = 0; k < sizeof rows / sizeof *rows; k++) {
+        int wanted = argc <= 3;
+        for (int a = 3; a < argc; a++)
+            wanted |= !strcmp(argv[a], rows[k]);
+        if (!wanted) continue;
+        char name[64];
+        snprintf(name, sizeof name, "%s", rows[k]);
+        char *colon = strchr(name, ':');
+        *colon = 0;
+        splat_row(gl, name, colon + 1, frames);
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     int frames = argc > 1 ? atoi(argv[1]) : 5;
     if (frames < 1) frames = 1;
+    int splats = argc > 2 && !strcmp(argv[2], "splats");
     char dir[512];
     snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
     model_count = bench_list_files(dir, models, 64);
@@ -118,6 +293,12 @@ int main(int argc, char **argv)
     printf("GL: %s; load average %.2f at the start; 1920x1080, 1 sample, median of %d frames after "
            "one\n\n",
            crisp_gl_renderer(gl), la[0], frames);
+    if (splats) {
+        int rc = splat_bench(gl, frames, argc, argv);
+        crisp_gl_destroy(gl);
+        crisp_gl_context_destroy(ctx);
+        return rc;
+    }
     printf("| model | view | leaves | triangles | ribbon quads | plan bytes | CPU ms | GL ms | "
            "GL/CPU | read-back ms |\n");
     printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");

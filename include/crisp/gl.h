@@ -24,7 +24,10 @@
  * backend (a fill pass that replaces a sample only when nearer by more than the depth slack).
  * Samples (1, 4, 16) are drawn as one pass per sample at the CPU backend's sample positions
  * (crisp__raster_sample_offset), so every sample is tested exactly as the CPU backend tests it,
- * on any GL implementation; the passes are resolved as the CPU backend resolves them. f-rep
+ * on any GL implementation; the passes are resolved as the CPU backend resolves them. Faces the
+ * plan draws as splats (CRISP_PLAN_FACE_SPLATS) are GL points fetched from the plan's splat store
+ * (uploaded when splats_version changes), one glMultiDrawArrays over the frame's splat ranges
+ * per pass, each point's samples kept by the plan's coverage rule exactly. f-rep
  * parts are not drawn by this backend: composite them into the read-back image with
  * crisp_render_frep_parts (the CPU path), as `crisp render --backend gl` does.
  */
@@ -76,10 +79,12 @@ typedef struct crisp_gl_stats {
     uint64_t bytes_uploaded; /* plan bytes uploaded by the last crisp_gl_draw */
     uint64_t scene_bytes;    /* bytes of the scene's buffers */
     uint32_t leaves, ribbon_quads, passes;
+    uint64_t splats;           /* splats drawn (per sample pass) */
     double ms_upload, ms_draw; /* wall time of the upload and of the draw calls until glFinish */
     double ms_read;
     double ms_surfaces, ms_ribbons, ms_resolve; /* with crisp_gl_desc.profile: the stages, summed
                                                    over the sample passes */
+    double ms_splats;                           /* the same for the splat draw */
 } crisp_gl_stats;
 
 typedef struct crisp_gl crisp_gl;
@@ -105,7 +110,7 @@ crisp_status crisp_gl_set_scene(crisp_gl *gl, const crisp_scene *scene);
 crisp_status crisp_gl_set_scene_data(crisp_gl *gl, const crisp_gl_scene_data *data);
 /* GL state: crisp_gl_draw, crisp_gl_read and crisp_gl_blit leave the context with framebuffer 0,
  * program 0, clip control (lower left, -1..1), depth test off, GL_LESS; they change the viewport,
- * the vertex array binding, texture units 0-3, image units 0-4, storage buffer bindings 0-10 and
+ * the vertex array binding, texture units 0-3, image units 0-4, storage buffer bindings 0-12 and
  * the pack alignment (1). An app that shares the context sets what it needs after them. */
 /* Draws the plan (of the scene last set) into the backend's targets. Uploads only the arrays
  * whose *_version differs from the last plan drawn (everything when the plan pointer changed,

@@ -14,12 +14,18 @@
 #include "gl_internal.h"
 #include "render/ribbon.h"
 
+/* Splats are drawn as points this much larger than the plan's 2 h (px) and the samples outside
+ * the rule's square discarded (splat_fs.glsl): llvmpipe's snapping of the point's centre and
+ * size to 1/256 px moves its square's sides by less than 1/128 px. */
+#define CRISP__GL_SPLAT_MARGIN (1.0 / 16)
+
 /* The records the shaders read: their C layout must be the std430 layout in common.glsl. */
 _Static_assert(sizeof(crisp_plan_leaf) == 48, "crisp_plan_leaf: 3 uvec4");
 _Static_assert(sizeof(crisp_plan_face) == 64, "crisp_plan_face: std430 Face");
 _Static_assert(sizeof(crisp_plan_strip) == 24, "crisp_plan_strip: std430 Strip");
 _Static_assert(sizeof(crisp_plan_ribbon_vertex) == 56,
                "crisp_plan_ribbon_vertex: std430 RibbonVertex");
+_Static_assert(sizeof(crisp_plan_splat) == 36, "crisp_plan_splat: std430 Splat (splat_vs.glsl)");
 _Static_assert(sizeof(crisp_scene_patch_record) == 48,
                "crisp_scene_patch_record: std430 PatchRecord");
 _Static_assert(sizeof(crisp__gl_query) == 48 && sizeof(crisp__gl_result) == 72,
@@ -29,7 +35,8 @@ extern const char crisp__shader_common_glsl[], crisp__shader_surface_vs_glsl[],
     crisp__shader_surface_tcs_glsl[], crisp__shader_surface_tes_glsl[],
     crisp__shader_surface_fs_glsl[], crisp__shader_ribbon_vs_glsl[], crisp__shader_ribbon_fs_glsl[],
     crisp__shader_fullscreen_vs_glsl[], crisp__shader_slack_fs_glsl[],
-    crisp__shader_accum_cs_glsl[], crisp__shader_finish_cs_glsl[], crisp__shader_layout_cs_glsl[];
+    crisp__shader_accum_cs_glsl[], crisp__shader_finish_cs_glsl[], crisp__shader_layout_cs_glsl[],
+    crisp__shader_splat_vs_glsl[], crisp__shader_splat_fs_glsl[];
 
 enum {
     B_LEAVES,
@@ -43,17 +50,19 @@ enum {
     B_COLORS,
     B_QUERIES,
     B_RESULTS,
+    B_SPLATS,        /* binding 11: the plan's splat store */
+    B_SPLAT_ORIGINS, /* binding 12: splat_clip_origin, 4 floats per face */
     B_COUNT
 };
 static const char *const buffer_names[B_COUNT] = {
-    "leaves",         "faces",           "trim strips",   "trim rows",
-    "trim crossings", "ribbon vertices", "patch records", "control points",
-    "face colours",   "layout queries",  "layout results"};
+    "leaves",          "faces",         "trim strips",       "trim rows",    "trim crossings",
+    "ribbon vertices", "patch records", "control points",    "face colours", "layout queries",
+    "layout results",  "splats",        "splat clip origins"};
 
 typedef struct uniforms {
     GLint leaf_base, view_proj, jitter, zconst, slack_tex, nw_tex, uv_tex, face_tex, dir0, dir_x,
         dir_y, offset, samples, count, keep_samples, sample_index, clip_plane, image_size,
-        slack_scale, core_scale;
+        slack_scale, core_scale, view_proj_f, view, point_size, half_px, raw, splat_base;
 } uniforms;
 
 struct crisp_gl {
@@ -61,9 +70,10 @@ struct crisp_gl {
     char renderer[300];
     size_t max_block;
     size_t chunk_leaves, chunk_quads; /* leaves and ribbon quads drawn per bound buffer range */
+    size_t chunk_splats;              /* splats of the store bound at once */
     GLuint vao;
-    GLuint surface, ribbon, slack, accum, finish, layout;
-    uniforms u_surface, u_ribbon, u_slack, u_accum, u_finish, u_layout;
+    GLuint surface, ribbon, slack, accum, finish, layout, splat;
+    uniforms u_surface, u_ribbon, u_slack, u_accum, u_finish, u_layout, u_splat;
     GLuint buf[B_COUNT];
     size_t buf_cap[B_COUNT];
     /* targets */
@@ -72,7 +82,7 @@ struct crisp_gl {
     GLuint fbo_pass, fbo_slack, fbo_out;
     /* what is uploaded */
     const crisp_frame_plan *plan;
-    uint64_t v_leaves, v_faces, v_table, v_ribbons;
+    uint64_t v_leaves, v_faces, v_table, v_ribbons, v_splats;
     const crisp_scene *scene;
     int have_scene, drawn;
     uint32_t scene_patches, scene_faces;
@@ -82,6 +92,18 @@ struct crisp_gl {
     int keep_samples;      /* tests: keep every sample's face (crisp__gl_sample_faces) */
     GLuint t_sample_faces; /* GL_R32I, one layer per sample */
     int sample_w, sample_h;
+    /* splats: the largest point size, the viewport limit, the draw's firsts and counts */
+    float max_point;
+    int max_viewport[2];
+    GLint *splat_first; /* the frame's runs of splats (absolute indices into the store) */
+    GLsizei *splat_n;
+    size_t splat_cap, splat_pieces;
+    struct splat_batch {
+        size_t chunk, first_piece, pieces; /* one glMultiDrawArrays with the chunk bound */
+    } * splat_batch;
+    size_t batch_cap, splat_batches;
+    uint64_t splats_drawn;
+    int splat_raw; /* tests: GL's point coverage without the exact test (crisp__gl_splat_raw) */
 };
 
 /* ---- shaders ----------------------------------------------------------------------------------
@@ -168,6 +190,12 @@ static void locate(GLuint p, uniforms *u)
     u->image_size = glGetUniformLocation(p, "image_size");
     u->slack_scale = glGetUniformLocation(p, "slack_scale");
     u->core_scale = glGetUniformLocation(p, "core_scale");
+    u->view_proj_f = glGetUniformLocation(p, "view_proj_f");
+    u->view = glGetUniformLocation(p, "view");
+    u->point_size = glGetUniformLocation(p, "point_size");
+    u->half_px = glGetUniformLocation(p, "half_px");
+    u->raw = glGetUniformLocation(p, "raw");
+    u->splat_base = glGetUniformLocation(p, "splat_base");
 }
 
 crisp_status crisp__gl_try_program(const char *name, int stage, const char *src)
@@ -246,6 +274,11 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
         unit_l += (size_t)align;
     while (unit_q % (4 * sizeof(crisp_plan_ribbon_vertex)))
         unit_q += (size_t)align;
+    size_t unit_s = (size_t)align;
+    while (unit_s % sizeof(crisp_plan_splat))
+        unit_s += (size_t)align;
+    gl->chunk_splats = gl->max_block / unit_s * (unit_s / sizeof(crisp_plan_splat));
+    if (gl->chunk_splats > (1u << 30)) gl->chunk_splats = 1u << 30;
     gl->chunk_leaves = gl->max_block / unit_l * (unit_l / sizeof(crisp_plan_leaf));
     gl->chunk_quads = gl->max_block / unit_q * (unit_q / (4 * sizeof(crisp_plan_ribbon_vertex)));
     if (gl->chunk_leaves > (1u << 30)) gl->chunk_leaves = 1u << 30;
@@ -264,6 +297,9 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
         gl->finish = program("finish", NULL, NULL, NULL, NULL, crisp__shader_finish_cs_glsl, &st);
     if (!st)
         gl->layout = program("layout", NULL, NULL, NULL, NULL, crisp__shader_layout_cs_glsl, &st);
+    if (!st)
+        gl->splat = program("splat", crisp__shader_splat_vs_glsl, NULL, NULL,
+                            crisp__shader_splat_fs_glsl, NULL, &st);
     if (st) {
         crisp_gl_destroy(gl);
         return st;
@@ -274,6 +310,11 @@ crisp_status crisp_gl_create(crisp_gl_getproc_fn getproc, const crisp_gl_desc *d
     locate(gl->accum, &gl->u_accum);
     locate(gl->finish, &gl->u_finish);
     locate(gl->layout, &gl->u_layout);
+    locate(gl->splat, &gl->u_splat);
+    GLfloat point_range[2] = {1, 1};
+    glGetFloatv(GL_POINT_SIZE_RANGE, point_range);
+    gl->max_point = point_range[1];
+    glGetIntegerv(GL_MAX_VIEWPORT_DIMS, gl->max_viewport);
     glCreateVertexArrays(1, &gl->vao);
     glCreateBuffers(B_COUNT, gl->buf);
     glCreateFramebuffers(1, &gl->fbo_pass);
@@ -300,7 +341,8 @@ static void free_targets(crisp_gl *gl)
 void crisp_gl_destroy(crisp_gl *gl)
 {
     if (!gl) return;
-    GLuint progs[] = {gl->surface, gl->ribbon, gl->slack, gl->accum, gl->finish, gl->layout};
+    GLuint progs[] = {gl->surface, gl->ribbon, gl->slack, gl->accum,
+                      gl->finish,  gl->layout, gl->splat};
     for (size_t k = 0; k < sizeof progs / sizeof *progs; k++)
         if (progs[k]) glDeleteProgram(progs[k]);
     if (gl->vao) {
@@ -313,6 +355,9 @@ void crisp_gl_destroy(crisp_gl *gl)
     }
     if (gl->t_sample_faces) glDeleteTextures(1, &gl->t_sample_faces);
     free(gl->tmp);
+    free(gl->splat_first);
+    free(gl->splat_n);
+    free(gl->splat_batch);
     free(gl);
 }
 
@@ -326,8 +371,9 @@ const char *crisp_gl_renderer(const crisp_gl *gl)
 
 static crisp_status upload(crisp_gl *gl, int b, const void *data, size_t bytes, uint64_t *counter)
 {
-    int streamed = b == B_LEAVES || b == B_RIBBONS; /* drawn in chunks */
-    if (bytes > gl->max_block && !(streamed && gl->chunk_leaves && gl->chunk_quads))
+    int streamed = b == B_LEAVES || b == B_RIBBONS || b == B_SPLATS; /* drawn in chunks */
+    if (bytes > gl->max_block &&
+        !(streamed && gl->chunk_leaves && gl->chunk_quads && gl->chunk_splats))
         return crisp_error(
             CRISP_ERR_LIMIT,
             "the %s need %zu bytes, more than the GL storage buffer limit of %zu bytes "
@@ -449,6 +495,20 @@ static crisp_status upload_plan(crisp_gl *gl, const crisp_frame_plan *p, uint64_
         st = upload(gl, B_RIBBONS, p->ribbon_vertices,
                     4 * (size_t)p->ribbon_quad_count * sizeof *p->ribbon_vertices, bytes);
     }
+    /* The splat store: the planner's every face set built so far, uploaded whole when it changed
+     * (grown or rebuilt). The planner appends sets as faces first need them, so on a real GPU an
+     * app would upload only the store's new tail (a persistently mapped buffer grown by
+     * doubling, glNamedBufferSubData of [old count, count)) and the whole store only when a set
+     * was rebuilt; the plan's single version does not tell the two apart yet. */
+    if (!st && (all || p->splats_version != gl->v_splats)) {
+        for (uint32_t k = 0; k < p->splat_count; k++)
+            if (p->splats[k].face >= p->face_count) {
+                gl->plan = NULL;
+                return crisp_error(CRISP_ERR_INVALID_ARG, "plan splat %u: face %u of %u", k,
+                                   p->splats[k].face, p->face_count);
+            }
+        st = upload(gl, B_SPLATS, p->splats, (size_t)p->splat_count * sizeof *p->splats, bytes);
+    }
     if (st) {
         gl->plan = NULL;
         return st;
@@ -458,9 +518,81 @@ static crisp_status upload_plan(crisp_gl *gl, const crisp_frame_plan *p, uint64_
     gl->v_faces = p->faces_version;
     gl->v_table = p->table_version;
     gl->v_ribbons = p->ribbons_version;
+    gl->v_splats = p->splats_version;
     for (int b = 0; b < B_QUERIES; b++)
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, (GLuint)b, gl->buf[b]);
     return gl_check("uploading the plan");
+}
+
+/* Appends a run of splats to the frame's list; a new batch when its chunk differs from the last
+ * run's. */
+static int add_piece(crisp_gl *gl, size_t chunk, uint32_t first, uint32_t count)
+{
+    if (gl->splat_pieces == gl->splat_cap) {
+        size_t cap = gl->splat_cap ? 2 * gl->splat_cap : 1024;
+        GLint *f = realloc(gl->splat_first, cap * sizeof *f);
+        if (f) gl->splat_first = f;
+        GLsizei *n = realloc(gl->splat_n, cap * sizeof *n);
+        if (n) gl->splat_n = n;
+        if (!f || !n) return 0;
+        gl->splat_cap = cap;
+    }
+    if (!gl->splat_batches || gl->splat_batch[gl->splat_batches - 1].chunk != chunk) {
+        if (gl->splat_batches == gl->batch_cap) {
+            size_t cap = gl->batch_cap ? 2 * gl->batch_cap : 16;
+            struct splat_batch *b = realloc(gl->splat_batch, cap * sizeof *b);
+            if (!b) return 0;
+            gl->splat_batch = b;
+            gl->batch_cap = cap;
+        }
+        gl->splat_batch[gl->splat_batches++] = (struct splat_batch){chunk, gl->splat_pieces, 0};
+    }
+    gl->splat_batch[gl->splat_batches - 1].pieces++;
+    gl->splat_first[gl->splat_pieces] = (GLint)first;
+    gl->splat_n[gl->splat_pieces++] = (GLsizei)count;
+    gl->splats_drawn += count;
+    return 1;
+}
+
+/* The frame's splat ranges as glMultiDrawArrays' firsts and counts, checked against the store,
+ * in the plan's order (equal depths keep the first drawn); a range across a chunk boundary of the
+ * store (a store above the storage block limit is bound a chunk at a time) is split there. The
+ * faces' clip origins are uploaded (per frame: they move with the camera). */
+static crisp_status prepare_splats(crisp_gl *gl, const crisp_frame_plan *p, uint64_t *bytes)
+{
+    gl->splat_pieces = gl->splat_batches = 0;
+    gl->splats_drawn = 0;
+    if (!p->splat_range_count) return CRISP_OK;
+    if (!p->splat_clip_origin || !p->splats)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "the plan has %u splat ranges but no splat store or clip origins",
+                           p->splat_range_count);
+    double h = p->splat_half_px;
+    if (!(h > 0) || !(2 * h + CRISP__GL_SPLAT_MARGIN <= gl->max_point))
+        return crisp_error(CRISP_ERR_LIMIT,
+                           "splat half-size %g px: the GL backend draws splats of 0..%g px (half "
+                           "of GL_POINT_SIZE_RANGE's largest, less a margin)",
+                           h, 0.5 * (gl->max_point - CRISP__GL_SPLAT_MARGIN));
+    size_t chunk = gl->chunk_splats;
+    for (uint32_t k = 0; k < p->splat_range_count; k++) {
+        crisp_plan_splat_range r = p->splat_ranges[k];
+        if ((uint64_t)r.first + r.count > p->splat_count || (uint64_t)r.first + r.count > INT32_MAX)
+            return crisp_error(CRISP_ERR_INVALID_ARG,
+                               "plan splat range %u: splats %u + %u, the store holds %u", k,
+                               r.first, r.count, p->splat_count);
+        while (r.count) {
+            size_t c = r.first / chunk;
+            uint32_t n = (uint32_t)((c + 1) * chunk - r.first < r.count ? (c + 1) * chunk - r.first
+                                                                        : r.count);
+            if (!add_piece(gl, c, r.first, n))
+                return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory drawing %u splat ranges",
+                                   p->splat_range_count);
+            r.first += n;
+            r.count -= n;
+        }
+    }
+    return upload(gl, B_SPLAT_ORIGINS, p->splat_clip_origin,
+                  (size_t)p->face_count * 4 * sizeof(float), bytes);
 }
 
 /* ---- targets ----------------------------------------------------------------------------------
@@ -601,6 +733,8 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     crisp_status st = view_dirs(p, dir0, dir_x, dir_y);
     if (!st) st = ensure_targets(gl, p->width, p->height);
     if (!st) st = upload_plan(gl, p, &stats->bytes_uploaded);
+    if (!st) st = prepare_splats(gl, p, &stats->bytes_uploaded);
+    size_t splat_draws = gl->splat_pieces;
     if (st) return st;
     double t1 = crisp_time_now();
     int W = p->width, H = p->height, S = gl->desc.samples;
@@ -658,6 +792,31 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     glProgramUniform3dv(gl->accum, gl->u_accum.dir_x, 1, dir_x);
     glProgramUniform3dv(gl->accum, gl->u_accum.dir_y, 1, dir_y);
     glProgramUniform1f(gl->finish, gl->u_finish.samples, (float)S);
+    /* Splats: points in a viewport grown by a margin of more than the half-size on each side (a
+     * point whose centre is outside the viewport is clipped away whole, but its square may
+     * still cover the image's border). The viewport's size is limited (GL_MAX_VIEWPORT_DIMS):
+     * on an image within P px of that limit the margin shrinks, and a splat centred outside the
+     * image by more than the shrunk margin is lost (not the case below 16384 - 2 P px on
+     * llvmpipe). */
+    int margin = 0;
+    if (splat_draws) {
+        double h = p->splat_half_px;
+        margin = (int)ceil(h + CRISP__GL_SPLAT_MARGIN) + 1;
+        if (W + 2 * margin > gl->max_viewport[0]) margin = (gl->max_viewport[0] - W) / 2;
+        if (H + 2 * margin > gl->max_viewport[1]) margin = (gl->max_viewport[1] - H) / 2;
+        if (margin < 0) margin = 0;
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, B_SPLAT_ORIGINS, gl->buf[B_SPLAT_ORIGINS]);
+        glProgramUniformMatrix4fv(gl->splat, gl->u_splat.view_proj_f, 1, GL_FALSE, p->view_proj_f);
+        glProgramUniform2d(gl->splat, gl->u_splat.image_size, W, H);
+        glProgramUniform4d(gl->splat, gl->u_splat.view, -margin, -margin, W + 2 * margin,
+                           H + 2 * margin);
+        glProgramUniform1f(gl->splat, gl->u_splat.point_size,
+                           (float)(2 * h + (gl->splat_raw ? 0 : CRISP__GL_SPLAT_MARGIN)));
+        glProgramUniform1d(gl->splat, gl->u_splat.half_px, h);
+        glProgramUniform1i(gl->splat, gl->u_splat.raw, gl->splat_raw);
+        glProgramUniform1f(gl->splat, gl->u_splat.zconst, zconst);
+        glProgramUniform4dv(gl->splat, gl->u_splat.clip_plane, 1, cplc);
+    }
     glBindTextureUnit(0, gl->t_nw);
     glBindTextureUnit(1, gl->t_face);
     glBindTextureUnit(2, gl->t_slack);
@@ -687,6 +846,7 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
         glProgramUniform2dv(gl->surface, gl->u_surface.jitter, 1, jitter);
         glProgramUniform2dv(gl->ribbon, gl->u_ribbon.jitter, 1, jitter);
         glProgramUniform2dv(gl->accum, gl->u_accum.offset, 1, off);
+        glProgramUniform2dv(gl->splat, gl->u_splat.offset, 1, off);
         glProgramUniform1i(gl->accum, gl->u_accum.sample_index, s);
 
         glBindFramebuffer(GL_FRAMEBUFFER, gl->fbo_pass);
@@ -714,6 +874,34 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
             glFinish();
             ts1 = crisp_time_now();
             stats->ms_surfaces += 1e3 * (ts1 - ts0);
+        }
+        if (splat_draws) {
+            /* Every range in one call: gl_VertexID runs over first .. first + count - 1 of each,
+             * the splats' indices in the store. Drawn after the surfaces under the same depth
+             * test (nearer wins, equal depth keeps what was drawn first). */
+            glViewport(-margin, -margin, W + 2 * margin, H + 2 * margin);
+            glEnable(GL_PROGRAM_POINT_SIZE);
+            glUseProgram(gl->splat);
+            for (size_t b = 0; b < gl->splat_batches; b++) {
+                const struct splat_batch *B = &gl->splat_batch[b];
+                size_t base = B->chunk * gl->chunk_splats,
+                       n = p->splat_count - base < gl->chunk_splats ? p->splat_count - base
+                                                                    : gl->chunk_splats;
+                glBindBufferRange(GL_SHADER_STORAGE_BUFFER, B_SPLATS, gl->buf[B_SPLATS],
+                                  (GLintptr)(base * sizeof(crisp_plan_splat)),
+                                  (GLsizeiptr)(n * sizeof(crisp_plan_splat)));
+                glProgramUniform1ui(gl->splat, gl->u_splat.splat_base, (GLuint)base);
+                glMultiDrawArrays(GL_POINTS, gl->splat_first + B->first_piece,
+                                  gl->splat_n + B->first_piece, (GLsizei)B->pieces);
+            }
+            glDisable(GL_PROGRAM_POINT_SIZE);
+            glViewport(0, 0, W, H);
+            if (gl->desc.profile) {
+                glFinish();
+                double t = crisp_time_now();
+                stats->ms_splats += 1e3 * (t - ts1);
+                ts1 = t;
+            }
         }
         if (p->ribbon_quad_count) {
             glBindFramebuffer(GL_FRAMEBUFFER, gl->fbo_slack);
@@ -766,6 +954,7 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     stats->scene_bytes = gl->scene_bytes;
     stats->leaves = p->leaf_count;
     stats->ribbon_quads = p->ribbon_quad_count;
+    stats->splats = gl->splats_drawn;
     stats->passes = (uint32_t)S;
     stats->ms_upload = 1e3 * (t1 - t0);
     stats->ms_draw = 1e3 * (t2 - t1);
@@ -824,6 +1013,11 @@ crisp_status crisp_gl_blit(crisp_gl *gl, unsigned fbo, int x, int y, int width, 
 unsigned crisp_gl_color_texture(const crisp_gl *gl)
 {
     return gl->t_acc;
+}
+
+void crisp__gl_splat_raw(crisp_gl *gl, int raw)
+{
+    gl->splat_raw = raw;
 }
 
 void crisp__gl_keep_sample_faces(crisp_gl *gl)

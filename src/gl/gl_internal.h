@@ -35,6 +35,11 @@ crisp_status crisp__gl_sample_faces(crisp_gl *gl, int32_t *dest);
  * (row 0 = the bottom: the image's last row). */
 crisp_status crisp__gl_blit_probe(crisp_gl *gl, uint8_t *rgba);
 
+/* Tests: 1 draws splats as GL's points of size 2 h alone (no margin, no exact coverage test in
+ * splat_fs.glsl), to measure how the GL implementation's point rasterization differs from the
+ * plan's rule; 0 (the default) draws them by the rule. */
+void crisp__gl_splat_raw(crisp_gl *gl, int raw);
+
 enum { CRISP__GL_VERTEX, CRISP__GL_FRAGMENT, CRISP__GL_COMPUTE };
 /* Compiles and links one shader of the given stage (after the #version line and common.glsl)
  * and deletes the program: the compile and link error path, for tests. */

@@ -47,7 +47,7 @@ crisp_status crisp_gl_render_once(const crisp_scene *scene, const crisp_camera *
                              &gl);
     if (!st && renderer && renderer_size)
         snprintf(renderer, renderer_size, "%s", crisp_gl_renderer(gl));
-    if (!st) st = crisp_planner_create(&(crisp_planner_desc){.no_splats = 1}, NULL, &planner);
+    if (!st) st = crisp_planner_create(NULL, NULL, &planner);
     if (!st) st = crisp_planner_plan(planner, scene, cam, &plan);
     if (!st) st = crisp_gl_render(gl, scene, plan, img, stats);
     crisp_planner_destroy(planner);
