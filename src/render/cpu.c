@@ -60,8 +60,10 @@ struct crisp_renderer {
     int over_rect[4];         /* x0, y0, x1, y1 of the region loaded last (empty: x0 >= x1) */
     double (*hull)[4];        /* per plan leaf: its screen box (lo x, lo y, hi x, hi y) */
     size_t hull_cap;
-    uint32_t *ribbon_keep; /* a window's frame: the ribbon quads that can reach the window */
+    uint32_t *ribbon_keep; /* the ribbon quads drawn (a window's, those not hidden) */
     size_t ribbon_keep_cap;
+    uint8_t *ribbon_hidden; /* per ribbon quad looked at: hidden (cull_ribbons) */
+    size_t ribbon_hidden_cap;
     tess_cache *cache; /* per worker (tessellate) */
     double *col;       /* the resolve's per-column view direction part (resolve_row1) */
     size_t col_cap;
@@ -140,6 +142,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->untested);
     free(r->leaf_skip);
     free(r->ribbon_keep);
+    free(r->ribbon_hidden);
     free(r->col);
     free(r->order);
     free(r->occl);
@@ -718,6 +721,34 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
                  face = src[0].face | CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST;
         c->r->tris[t] = (crisp_raster_tri){{base, base + 1, base + 2}, face};
         c->r->tris[t + 1] = (crisp_raster_tri){{base, base + 2, base + 3}, face};
+    }
+}
+
+/* Ribbon quads that the surfaces drawn hide (issue 12): a close-up's ribbons lie mostly behind
+ * nearer faces. A quad whose two triangles the fill draw's set-up would drop (no sample area, or
+ * hidden by the block depth: crisp__raster_quad_hidden with the quad's core, as the fill draw
+ * sets them up) writes no sample; it is not copied, projected, nor given slack cells. The image
+ * is the same: the cells its triangles reached were those of kept triangles too (hidden triangles
+ * reach none), and its triangles were dropped at set-up. */
+typedef struct ribbon_cull_ctx {
+    crisp_renderer *r;
+    const crisp_raster_target *t;
+    const uint32_t *keep; /* the plan's quads looked at (NULL: all) */
+    uint8_t *hidden;      /* per quad looked at */
+} ribbon_cull_ctx;
+
+static void cull_ribbons(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const ribbon_cull_ctx *c = vctx;
+    const crisp_frame_plan *plan = c->r->plan;
+    for (size_t q = begin; q < end; q++) {
+        size_t pq = c->keep ? c->keep[q] : q;
+        const crisp_plan_ribbon_vertex *src = plan->ribbon_vertices + 4 * pq;
+        crisp_raster_core k;
+        ribbon_core(src, plan->width, plan->height, &k);
+        const double *clip[4] = {src[0].clip, src[1].clip, src[2].clip, src[3].clip};
+        c->hidden[q] = (uint8_t)crisp__raster_quad_hidden(c->r->raster, c->t, clip, &k);
     }
 }
 
@@ -1376,6 +1407,29 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     r->tri_count = surface_t;
 
     double t2a = crisp_time_now();
+    /* The block depth of the surfaces drawn, for the quads hidden behind them (no sample of
+     * theirs could pass the fill pass's depth test): whole quads dropped here, the other hidden
+     * triangles at the fill draw's set-up. */
+    if (occlusion && drawn && quads) {
+        crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+        dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
+        looked = 1;
+    }
+    crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
+    if (looked && quads && !only) {
+        if ((st = crisp_grow((void **)&r->ribbon_keep, &r->ribbon_keep_cap, quads,
+                             sizeof *r->ribbon_keep)) ||
+            (st = crisp_grow((void **)&r->ribbon_hidden, &r->ribbon_hidden_cap, quads,
+                             sizeof *r->ribbon_hidden)))
+            return st;
+        ribbon_cull_ctx cc = {r, tg, keep, r->ribbon_hidden};
+        crisp_pool_parallel_for(r->pool, quads, 256, cull_ribbons, &cc);
+        size_t kept = 0; /* in order; in place when keep is already the list */
+        for (size_t q = 0; q < quads; q++)
+            if (!r->ribbon_hidden[q]) r->ribbon_keep[kept++] = keep ? keep[q] : (uint32_t)q;
+        quads = kept;
+        keep = r->ribbon_keep;
+    }
     nv += 4 * quads;
     nt += 2 * quads;
     if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
@@ -1410,14 +1464,6 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         /* The quads with their slack, in their cores the cores' (ribbon.h), in one fill pass;
          * both slacks from the surfaces alone, only where the quads can land (the fill pass
          * reads nothing else). */
-        /* The block depth of the surfaces drawn, for the quads hidden behind them (no sample of
-         * theirs could pass the fill pass's depth test). */
-        if (occlusion && drawn && nt) {
-            crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
-            dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
-            looked = 1;
-        }
-        crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
         size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, 2 * ns, sizeof *r->slack)))
             return st;

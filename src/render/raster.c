@@ -541,6 +541,46 @@ static int tri_hidden(const crisp_raster *r, const crisp_raster_target *t, const
     return 1;
 }
 
+/* 1 when triangle a, b, d (projected, every vertex inside the clip planes) writes no sample in a
+ * draw with the block depth set: setup_one would drop it (no sample area, or tri_hidden on its
+ * pixel box, the same expressions). */
+static int tri_dropped(const crisp_raster *r, const crisp_raster_target *t, const pvert *a,
+                       const pvert *b, const pvert *d, const crisp_raster_core *core)
+{
+    int64_t area = (b->fx - a->fx) * (d->fy - a->fy) - (b->fy - a->fy) * (d->fx - a->fx);
+    if (area == 0) return 1;
+    int64_t minx = a->fx < b->fx ? a->fx : b->fx, maxx = a->fx > b->fx ? a->fx : b->fx;
+    int64_t miny = a->fy < b->fy ? a->fy : b->fy, maxy = a->fy > b->fy ? a->fy : b->fy;
+    minx = d->fx < minx ? d->fx : minx, maxx = d->fx > maxx ? d->fx : maxx;
+    miny = d->fy < miny ? d->fy : miny, maxy = d->fy > maxy ? d->fy : maxy;
+    int64_t x0 = (minx >> CRISP_RASTER_SUBPIXEL_BITS) - 1,
+            y0 = (miny >> CRISP_RASTER_SUBPIXEL_BITS) - 1;
+    int64_t x1 = maxx >> CRISP_RASTER_SUBPIXEL_BITS, y1 = maxy >> CRISP_RASTER_SUBPIXEL_BITS;
+    int64_t ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
+    int bx0 = (int)(x0 > t->x0 ? x0 : t->x0), by0 = (int)(y0 > t->y0 ? y0 : t->y0);
+    int bx1 = (int)(x1 < ex ? x1 : ex), by1 = (int)(y1 < ey ? y1 : ey);
+    if (!(bx0 <= bx1 && by0 <= by1)) return 1;
+    return tri_hidden(r, t, a, b, d, core, bx0, by0, bx1, by1);
+}
+
+int crisp__raster_quad_hidden(const crisp_raster *r, const crisp_raster_target *t,
+                              const double *const clip[4], const crisp_raster_core *core)
+{
+    if (!r->occl_hiz) return 0;
+    double gx = GUARD_PX / image_w(t), gy = GUARD_PX / image_h(t);
+    static const double no_attr[CRISP_RASTER_ATTRS] = {0};
+    pvert v[4];
+    for (int k = 0; k < 4; k++) { /* as project_vertices: only corners needing no clipping */
+        double d[6];
+        plane_dists(clip[k], gx, gy, d);
+        for (int q = 0; q < 6; q++)
+            if (!(d[q] >= 0 && isfinite(d[q]))) return 0;
+        if (!project2(clip[k], no_attr, t, &v[k])) return 0;
+    }
+    return tri_dropped(r, t, &v[0], &v[1], &v[2], core) &&
+           tri_dropped(r, t, &v[0], &v[2], &v[3], core);
+}
+
 /* Sets up one triangle into *out; returns 0 when it covers no sample area (degenerate or off
  * the image) or when the block depth hides it (tri_hidden). */
 static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const pvert *d,
