@@ -4,6 +4,7 @@
  * alpha = coverage) and AOVs (depth, normal, u, v, face of the nearest covered sample). */
 #include <limits.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #if defined(__SSE2__)
@@ -553,9 +554,18 @@ static void pieces_range(void *vctx, size_t begin, size_t end, int worker)
 
 /* ---- trim test and resolve ------------------------------------------------------------------- */
 
+/* The fragment and box tests' context: the plan, and the draw's number for the box test's cache
+ * (a renderer's plan buffers are reused frame after frame). */
+typedef struct trim_ctx {
+    const crisp_frame_plan *plan;
+    uint64_t generation;
+} trim_ctx;
+
+static atomic_uint_fast64_t trim_generation;
+
 static int trim_test(void *ctx, uint32_t face, double u, double v)
 {
-    const crisp_frame_plan *plan = ctx;
+    const crisp_frame_plan *plan = ((const trim_ctx *)ctx)->plan;
     if (face & CRISP_RASTER_FACE_FLAG) return 1; /* a ribbon: drawn where it lands */
     return crisp_plan_trim_test(plan, face, u, v);
 }
@@ -635,9 +645,102 @@ int crisp__plan_trim_box(const crisp_frame_plan *plan, uint32_t face, const doub
     return result == -2 ? -1 : result;
 }
 
+/* Row r's gap around [u0, u1]: 1 when no crossing of the row lies in [u0, u1) and the count
+ * left of u0 has the parity `want` (-1: either; then *want is set); the gap (ua, ub] is
+ * intersected into *ua, *ub (every u there has that count). */
+static int row_gap(const crisp_frame_plan *plan, uint32_t r, double u0, double u1, int *want,
+                   double *ua, double *ub)
+{
+    uint32_t first = plan->row_offset[r], end = plan->row_offset[r + 1];
+    uint32_t a = crossings_left(plan, r, u0), at = first + a;
+    if (at < end && !(plan->crossings[at] >= u1)) return 0;
+    if (*want < 0) *want = (int)(a & 1u);
+    if ((int)(a & 1u) != *want) return 0;
+    if (at > first && plan->crossings[at - 1] > *ua) *ua = plan->crossings[at - 1];
+    if (at < end && plan->crossings[at] < *ub) *ub = plan->crossings[at];
+    return 1;
+}
+
+/* The box test with a memory of decided row ranges (issue 12: a close-up's triangles decide
+ * their boxes one by one, each a binary search in each of tens of table rows, ~1,700
+ * instructions; a triangle's neighbours fall in the same rows and the same gap between
+ * crossings). An entry says: strips ia .. ib of face `face` all have rows, stored one after the
+ * other, and in their rows ra .. rb (global row indices) the count of crossings left of u is the
+ * same for every u with ua < u <= ub, with the parity `answer`. crisp__plan_trim_box walks, for
+ * a box whose v lie in those strips, rows between row_of(lo[1]) of its first strip and
+ * row_of(hi[1]) of its last (both monotone in v); when those lie in ra .. rb and its u in
+ * (ua, ub], it would find equal counts of that parity in every row it walks: the answer, without
+ * a search. Entries are made from boxes decided by walking every row between those two (so also
+ * rows the search might leave out), then widened by rows above and below while they keep the
+ * parity and the box's u in their gap. The answer can be 0 or 1 where crisp__plan_trim_box would
+ * say -1 (its row limit, rows it does not walk); it is exact either way. */
+int crisp__plan_trim_box_cached(crisp_trim_box_cache *c, const crisp_frame_plan *plan,
+                                uint32_t face, const double lo[2], const double hi[2])
+{
+    uint32_t fid = face & ~CRISP_RASTER_FACE_NO_TEST;
+    if ((face & CRISP_RASTER_FACE_FLAG) || fid >= plan->face_count)
+        return crisp__plan_trim_box(plan, face, lo, hi);
+    const crisp_plan_face *f = &plan->faces[fid];
+    /* The cases crisp__plan_trim_box answers before its row walk. */
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1]) || !(lo[1] >= f->v0 && hi[1] <= f->v1) ||
+        (f->flags & CRISP_PLAN_FACE_ALL_INSIDE) || !f->strip_count)
+        return crisp__plan_trim_box(plan, face, lo, hi);
+    uint32_t i0 = strip_of(f, lo[1]), i1 = strip_of(f, hi[1]);
+    if (i1 - i0 >= BOX_MAX_ROWS) return crisp__plan_trim_box(plan, face, lo, hi);
+    const crisp_plan_strip *st = plan->strips + f->first_strip;
+    if (!st[i0].row_count || !st[i1].row_count) return crisp__plan_trim_box(plan, face, lo, hi);
+    uint32_t r0 = st[i0].first_row + row_of(&st[i0], lo[1]),
+             r1 = st[i1].first_row + row_of(&st[i1], hi[1]);
+    crisp_trim_box_entry *e = &c->entry[(fid * 31u + i0) & (CRISP_TRIM_BOX_CACHE - 1)];
+    if (e->generation == c->generation && e->face == fid && e->ia <= i0 && i1 <= e->ib &&
+        e->ra <= r0 && r1 <= e->rb && lo[0] > e->ua && hi[0] <= e->ub)
+        return e->answer;
+    /* Every strip between with rows, stored one after the other: rows r0 .. r1 hold every row
+     * the search walks. */
+    for (uint32_t i = i0; i < i1; i++)
+        if (!st[i + 1].row_count || st[i + 1].first_row != st[i].first_row + st[i].row_count)
+            return crisp__plan_trim_box(plan, face, lo, hi);
+    if (r1 < r0 || r1 - r0 >= BOX_MAX_ROWS) return crisp__plan_trim_box(plan, face, lo, hi);
+    int res = -1;
+    double ua = -INFINITY, ub = INFINITY;
+    for (uint32_t r = r0; r <= r1; r++)
+        if (!row_gap(plan, r, lo[0], hi[0], &res, &ua, &ub))
+            return crisp__plan_trim_box(plan, face, lo, hi);
+    /* Widen by up to as many rows again below and above, across strip boundaries as above. */
+    uint32_t span = r1 - r0 + 1, ia = i0, ib = i1, ra = r0, rb = r1;
+    for (uint32_t k = 0; k < span; k++) {
+        if (ra == st[ia].first_row) {
+            if (ia == 0 || !st[ia - 1].row_count ||
+                st[ia - 1].first_row + st[ia - 1].row_count != ra)
+                break;
+            ia--;
+        }
+        if (!row_gap(plan, ra - 1, lo[0], hi[0], &res, &ua, &ub)) break;
+        ra--;
+    }
+    if (ra >= st[ia].first_row + st[ia].row_count) ia++; /* a strip stepped into, row refused */
+    for (uint32_t k = 0; k < span; k++) {
+        if (rb + 1 == st[ib].first_row + st[ib].row_count) {
+            if (ib + 1 >= f->strip_count || !st[ib + 1].row_count || st[ib + 1].first_row != rb + 1)
+                break;
+            ib++;
+        }
+        if (!row_gap(plan, rb + 1, lo[0], hi[0], &res, &ua, &ub)) break;
+        rb++;
+    }
+    if (rb < st[ib].first_row) ib--;
+    *e = (crisp_trim_box_entry){c->generation, ua, ub, fid, ia, ib, ra, rb, res};
+    return res;
+}
+
+/* Per thread (the rasterizer's workers call the box test): its cache, valid for one draw. */
+static _Thread_local crisp_trim_box_cache box_cache;
+
 static int trim_box(void *ctx, uint32_t face, const double lo[2], const double hi[2])
 {
-    return crisp__plan_trim_box(ctx, face, lo, hi);
+    const trim_ctx *t = ctx;
+    if (box_cache.generation != t->generation) box_cache.generation = t->generation;
+    return crisp__plan_trim_box_cached(&box_cache, t->plan, face, lo, hi);
 }
 
 /* The plan's ribbon quads as raster vertices and triangles (0 1 2, 0 2 3), after the surfaces',
@@ -1274,7 +1377,8 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
      * when nearer by more than that surface's depth change over 1.5 px, so a ribbon along an
      * edge that another face hides at nearly the same depth (seen at a grazing angle) does not
      * show through it. */
-    void *ctx = (void *)plan;
+    trim_ctx tctx = {plan, atomic_fetch_add(&trim_generation, 1) + 1};
+    void *ctx = &tctx;
     if ((st = crisp_grow((void **)&r->untested, &r->untested_cap,
                          plan->face_count ? plan->face_count : 1, sizeof *r->untested)))
         return st;
