@@ -843,6 +843,17 @@ typedef struct ribbon_cull_ctx {
     uint8_t *hidden;      /* per quad looked at */
 } ribbon_cull_ctx;
 
+typedef struct core_src {
+    const crisp_plan_ribbon_vertex *q;
+    double width, height;
+} core_src;
+
+static void quad_core(const void *ctx, crisp_raster_core *k)
+{
+    const core_src *c = ctx;
+    ribbon_core(c->q, c->width, c->height, k);
+}
+
 static void cull_ribbons(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
@@ -851,10 +862,9 @@ static void cull_ribbons(void *vctx, size_t begin, size_t end, int worker)
     for (size_t q = begin; q < end; q++) {
         size_t pq = c->keep ? c->keep[q] : q;
         const crisp_plan_ribbon_vertex *src = plan->ribbon_vertices + 4 * pq;
-        crisp_raster_core k;
-        ribbon_core(src, plan->width, plan->height, &k);
         const double *clip[4] = {src[0].clip, src[1].clip, src[2].clip, src[3].clip};
-        c->hidden[q] = (uint8_t)crisp__raster_quad_hidden(c->r->raster, c->t, clip, &k);
+        core_src cs = {src, plan->width, plan->height};
+        c->hidden[q] = (uint8_t)crisp__raster_quad_hidden(c->r->raster, c->t, clip, quad_core, &cs);
     }
 }
 
@@ -1514,6 +1524,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     /* The surfaces, batch after batch (nearest first, occlusion.c): each batch's leaves that the
      * depth drawn so far hides are dropped, the others tessellated and drawn. */
     size_t nv = 0, nt = 0, occluded_leaves = 0, occluded_tris = 0;
+    size_t tris_dropped = 0; /* not set up: hidden by the block depth or covering no sample */
     crisp_raster_stats rs = {0};
     /* The blocks the batches drawn since the last look at the depth can have reached. */
     int drawn = 0, looked = 0, dirty[4] = {INT_MAX, INT_MAX, -1, -1};
@@ -1598,6 +1609,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                                      r->tris + tb0, nt - tb0, trim_test, ctx, &rsb)))
             return st;
         drawn = 1;
+        tris_dropped += rsb.triangles_in - rsb.triangles_setup;
         rs.fragments_tested += rsb.fragments_tested;
         rs.fragments_discarded += rsb.fragments_discarded;
         if (vb0) { /* the frame's mesh indexes from its first vertex (crisp__renderer_mesh) */
@@ -1632,7 +1644,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         looked = 1;
     }
     crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
-    if (looked && quads && !only) {
+    /* Worth it where the surfaces' own triangles were found hidden (depth complexity): in a
+     * view of the outside of a model the ribbons lie on the faces drawn and few are hidden. */
+    if (looked && quads && !only && 10 * (occluded_tris + tris_dropped) >= nt + occluded_tris) {
         if ((st = crisp_grow((void **)&r->ribbon_keep, &r->ribbon_keep_cap, quads,
                              sizeof *r->ribbon_keep)) ||
             (st = crisp_grow((void **)&r->ribbon_hidden, &r->ribbon_hidden_cap, quads,
