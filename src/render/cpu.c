@@ -4,10 +4,14 @@
  * alpha = coverage) and AOVs (depth, normal, u, v, face of the nearest covered sample). */
 #include <limits.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #if defined(__SSE2__)
 #include <emmintrin.h>
+#endif
+#if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
+#include <immintrin.h>
 #endif
 
 #include "crisp/plan.h"
@@ -61,8 +65,10 @@ struct crisp_renderer {
     int over_rect[4];         /* x0, y0, x1, y1 of the region loaded last (empty: x0 >= x1) */
     double (*hull)[4];        /* per plan leaf: its screen box (lo x, lo y, hi x, hi y) */
     size_t hull_cap;
-    uint32_t *ribbon_keep; /* a window's frame: the ribbon quads that can reach the window */
+    uint32_t *ribbon_keep; /* the ribbon quads drawn (a window's, those not hidden) */
     size_t ribbon_keep_cap;
+    uint8_t *ribbon_hidden; /* per ribbon quad looked at: hidden (cull_ribbons) */
+    size_t ribbon_hidden_cap;
     tess_cache *cache; /* per worker (tessellate) */
     double *col;       /* the resolve's per-column view direction part (resolve_row1) */
     size_t col_cap;
@@ -143,6 +149,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->untested);
     free(r->leaf_skip);
     free(r->ribbon_keep);
+    free(r->ribbon_hidden);
     free(r->col);
     free(r->order);
     free(r->occl);
@@ -554,9 +561,18 @@ static void pieces_range(void *vctx, size_t begin, size_t end, int worker)
 
 /* ---- trim test and resolve ------------------------------------------------------------------- */
 
+/* The fragment and box tests' context: the plan, and the draw's number for the box test's cache
+ * (a renderer's plan buffers are reused frame after frame). */
+typedef struct trim_ctx {
+    const crisp_frame_plan *plan;
+    uint64_t generation;
+} trim_ctx;
+
+static atomic_uint_fast64_t trim_generation;
+
 static int trim_test(void *ctx, uint32_t face, double u, double v)
 {
-    const crisp_frame_plan *plan = ctx;
+    const crisp_frame_plan *plan = ((const trim_ctx *)ctx)->plan;
     if (face & CRISP_RASTER_FACE_FLAG) return 1; /* a ribbon: drawn where it lands */
     return crisp_plan_trim_test(plan, face, u, v);
 }
@@ -636,9 +652,102 @@ int crisp__plan_trim_box(const crisp_frame_plan *plan, uint32_t face, const doub
     return result == -2 ? -1 : result;
 }
 
+/* Row r's gap around [u0, u1]: 1 when no crossing of the row lies in [u0, u1) and the count
+ * left of u0 has the parity `want` (-1: either; then *want is set); the gap (ua, ub] is
+ * intersected into *ua, *ub (every u there has that count). */
+static int row_gap(const crisp_frame_plan *plan, uint32_t r, double u0, double u1, int *want,
+                   double *ua, double *ub)
+{
+    uint32_t first = plan->row_offset[r], end = plan->row_offset[r + 1];
+    uint32_t a = crossings_left(plan, r, u0), at = first + a;
+    if (at < end && !(plan->crossings[at] >= u1)) return 0;
+    if (*want < 0) *want = (int)(a & 1u);
+    if ((int)(a & 1u) != *want) return 0;
+    if (at > first && plan->crossings[at - 1] > *ua) *ua = plan->crossings[at - 1];
+    if (at < end && plan->crossings[at] < *ub) *ub = plan->crossings[at];
+    return 1;
+}
+
+/* The box test with a memory of decided row ranges (issue 12: a close-up's triangles decide
+ * their boxes one by one, each a binary search in each of tens of table rows, ~1,700
+ * instructions; a triangle's neighbours fall in the same rows and the same gap between
+ * crossings). An entry says: strips ia .. ib of face `face` all have rows, stored one after the
+ * other, and in their rows ra .. rb (global row indices) the count of crossings left of u is the
+ * same for every u with ua < u <= ub, with the parity `answer`. crisp__plan_trim_box walks, for
+ * a box whose v lie in those strips, rows between row_of(lo[1]) of its first strip and
+ * row_of(hi[1]) of its last (both monotone in v); when those lie in ra .. rb and its u in
+ * (ua, ub], it would find equal counts of that parity in every row it walks: the answer, without
+ * a search. Entries are made from boxes decided by walking every row between those two (so also
+ * rows the search might leave out), then widened by rows above and below while they keep the
+ * parity and the box's u in their gap. The answer can be 0 or 1 where crisp__plan_trim_box would
+ * say -1 (its row limit, rows it does not walk); it is exact either way. */
+int crisp__plan_trim_box_cached(crisp_trim_box_cache *c, const crisp_frame_plan *plan,
+                                uint32_t face, const double lo[2], const double hi[2])
+{
+    uint32_t fid = face & ~CRISP_RASTER_FACE_NO_TEST;
+    if ((face & CRISP_RASTER_FACE_FLAG) || fid >= plan->face_count)
+        return crisp__plan_trim_box(plan, face, lo, hi);
+    const crisp_plan_face *f = &plan->faces[fid];
+    /* The cases crisp__plan_trim_box answers before its row walk. */
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1]) || !(lo[1] >= f->v0 && hi[1] <= f->v1) ||
+        (f->flags & CRISP_PLAN_FACE_ALL_INSIDE) || !f->strip_count)
+        return crisp__plan_trim_box(plan, face, lo, hi);
+    uint32_t i0 = strip_of(f, lo[1]), i1 = strip_of(f, hi[1]);
+    if (i1 - i0 >= BOX_MAX_ROWS) return crisp__plan_trim_box(plan, face, lo, hi);
+    const crisp_plan_strip *st = plan->strips + f->first_strip;
+    if (!st[i0].row_count || !st[i1].row_count) return crisp__plan_trim_box(plan, face, lo, hi);
+    uint32_t r0 = st[i0].first_row + row_of(&st[i0], lo[1]),
+             r1 = st[i1].first_row + row_of(&st[i1], hi[1]);
+    crisp_trim_box_entry *e = &c->entry[(fid * 31u + i0) & (CRISP_TRIM_BOX_CACHE - 1)];
+    if (e->generation == c->generation && e->face == fid && e->ia <= i0 && i1 <= e->ib &&
+        e->ra <= r0 && r1 <= e->rb && lo[0] > e->ua && hi[0] <= e->ub)
+        return e->answer;
+    /* Every strip between with rows, stored one after the other: rows r0 .. r1 hold every row
+     * the search walks. */
+    for (uint32_t i = i0; i < i1; i++)
+        if (!st[i + 1].row_count || st[i + 1].first_row != st[i].first_row + st[i].row_count)
+            return crisp__plan_trim_box(plan, face, lo, hi);
+    if (r1 < r0 || r1 - r0 >= BOX_MAX_ROWS) return crisp__plan_trim_box(plan, face, lo, hi);
+    int res = -1;
+    double ua = -INFINITY, ub = INFINITY;
+    for (uint32_t r = r0; r <= r1; r++)
+        if (!row_gap(plan, r, lo[0], hi[0], &res, &ua, &ub))
+            return crisp__plan_trim_box(plan, face, lo, hi);
+    /* Widen by up to as many rows again below and above, across strip boundaries as above. */
+    uint32_t span = r1 - r0 + 1, ia = i0, ib = i1, ra = r0, rb = r1;
+    for (uint32_t k = 0; k < span; k++) {
+        if (ra == st[ia].first_row) {
+            if (ia == 0 || !st[ia - 1].row_count ||
+                st[ia - 1].first_row + st[ia - 1].row_count != ra)
+                break;
+            ia--;
+        }
+        if (!row_gap(plan, ra - 1, lo[0], hi[0], &res, &ua, &ub)) break;
+        ra--;
+    }
+    if (ra >= st[ia].first_row + st[ia].row_count) ia++; /* a strip stepped into, row refused */
+    for (uint32_t k = 0; k < span; k++) {
+        if (rb + 1 == st[ib].first_row + st[ib].row_count) {
+            if (ib + 1 >= f->strip_count || !st[ib + 1].row_count || st[ib + 1].first_row != rb + 1)
+                break;
+            ib++;
+        }
+        if (!row_gap(plan, rb + 1, lo[0], hi[0], &res, &ua, &ub)) break;
+        rb++;
+    }
+    if (rb < st[ib].first_row) ib--;
+    *e = (crisp_trim_box_entry){c->generation, ua, ub, fid, ia, ib, ra, rb, res};
+    return res;
+}
+
+/* Per thread (the rasterizer's workers call the box test): its cache, valid for one draw. */
+static _Thread_local crisp_trim_box_cache box_cache;
+
 static int trim_box(void *ctx, uint32_t face, const double lo[2], const double hi[2])
 {
-    return crisp__plan_trim_box(ctx, face, lo, hi);
+    const trim_ctx *t = ctx;
+    if (box_cache.generation != t->generation) box_cache.generation = t->generation;
+    return crisp__plan_trim_box_cached(&box_cache, t->plan, face, lo, hi);
 }
 
 /* The plan's ribbon quads as raster vertices and triangles (0 1 2, 0 2 3), after the surfaces',
@@ -725,6 +834,44 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* Ribbon quads that the surfaces drawn hide (issue 12): a close-up's ribbons lie mostly behind
+ * nearer faces. A quad whose two triangles the fill draw's set-up would drop (no sample area, or
+ * hidden by the block depth: crisp__raster_quad_hidden with the quad's core, as the fill draw
+ * sets them up) writes no sample; it is not copied, projected, nor given slack cells. The image
+ * is the same: the cells its triangles reached were those of kept triangles too (hidden triangles
+ * reach none), and its triangles were dropped at set-up. */
+typedef struct ribbon_cull_ctx {
+    crisp_renderer *r;
+    const crisp_raster_target *t;
+    const uint32_t *keep; /* the plan's quads looked at (NULL: all) */
+    uint8_t *hidden;      /* per quad looked at */
+} ribbon_cull_ctx;
+
+typedef struct core_src {
+    const crisp_plan_ribbon_vertex *q;
+    double width, height;
+} core_src;
+
+static void quad_core(const void *ctx, crisp_raster_core *k)
+{
+    const core_src *c = ctx;
+    ribbon_core(c->q, c->width, c->height, k);
+}
+
+static void cull_ribbons(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const ribbon_cull_ctx *c = vctx;
+    const crisp_frame_plan *plan = c->r->plan;
+    for (size_t q = begin; q < end; q++) {
+        size_t pq = c->keep ? c->keep[q] : q;
+        const crisp_plan_ribbon_vertex *src = plan->ribbon_vertices + 4 * pq;
+        const double *clip[4] = {src[0].clip, src[1].clip, src[2].clip, src[3].clip};
+        core_src cs = {src, plan->width, plan->height};
+        c->hidden[q] = (uint8_t)crisp__raster_quad_hidden(c->r->raster, c->t, clip, quad_core, &cs);
+    }
+}
+
 /* The camera's view directions per pixel for the rasterizer (as crisp_camera_ray, unnormalised). */
 static void raster_view(const crisp_camera *cam, crisp_raster_view *v)
 {
@@ -750,6 +897,7 @@ typedef struct resolve_ctx {
     const uint8_t *only;
     const crisp_image *base;
     const double *col; /* f + nx r per column of the target: x, y, z planes; NULL: none */
+    int avx;           /* resolve_row1_avx rather than resolve_row1 */
 } resolve_ctx;
 
 static void copy_pixel(const crisp_image *src, crisp_image *dst, size_t px)
@@ -966,14 +1114,122 @@ static void resolve_row1(const resolve_ctx *c, size_t j)
         resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
 }
 
+#if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
+#define HAVE_AVX_RESOLVE 1
+/* resolve_row1 four covered pixels at a time with AVX where the processor has it (chosen at run
+ * time): the same IEEE operations on each lane as resolve_pixel1 (sqrt, division and the
+ * conversions to float are correctly rounded in every form; no fused multiply-add), so the same
+ * values bit for bit (test_vectors_equal_scalar compares it with the scalar resolve). Groups of
+ * four with a background pixel: all background stored at once, mixed ones pixel by pixel. */
+__attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c, size_t j)
+{
+    const crisp_raster_target *t = c->target;
+    const crisp_image *img = c->img;
+    size_t p0 = j * (size_t)t->width;
+    const int32_t *restrict face = t->face + p0;
+    const double *restrict inv_w = t->inv_w + p0;
+    const float *restrict attr = t->attr + p0 * CRISP_RASTER_ATTRS;
+    float *restrict rgba = img->rgba + 4 * p0, *restrict depth = img->depth + p0;
+    float *restrict normal = img->normal + 3 * p0, *restrict uv = img->uv + 2 * p0;
+    int32_t *restrict oface = img->face + p0;
+    const double *restrict colx = c->col, *restrict coly = colx + t->width,
+                           *restrict colz = coly + t->width;
+    const crisp_scene_face *faces = c->sc->faces;
+    int gj = t->y0 + (int)j;
+    double ny = (0.5 * c->cam->height - gj - 0.5) * c->view.ky;
+    const double ru0 = ny * c->view.u[0], ru1 = ny * c->view.u[1], ru2 = ny * c->view.u[2];
+    const __m256d vr0 = _mm256_set1_pd(ru0), vr1 = _mm256_set1_pd(ru1), vr2 = _mm256_set1_pd(ru2);
+    const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0),
+                  sign = _mm256_set1_pd(-0.0);
+    const __m256d k0 = _mm256_set1_pd(0.25), k1 = _mm256_set1_pd(0.75);
+    int i = c->x0;
+    for (; i + 3 < c->x1; i += 4) {
+        int32_t f0 = face[i], f1 = face[i + 1], f2 = face[i + 2], f3 = face[i + 3];
+        if ((f0 & f1 & f2 & f3) < 0) { /* four background pixels */
+            __m128 z = _mm_setzero_ps();
+            for (int q = 0; q < 4; q++)
+                _mm_storeu_ps(rgba + 4 * (size_t)(i + q), z);
+            for (int q = 0; q < 3; q++)
+                _mm_storeu_ps(normal + 3 * (size_t)i + 4 * q, z);
+            _mm_storeu_ps(uv + 2 * (size_t)i, z);
+            _mm_storeu_ps(uv + 2 * (size_t)i + 4, z);
+            _mm_storeu_si128((__m128i *)(oface + i), _mm_set1_epi32(-1));
+            _mm_storeu_ps(depth + i, _mm_set1_ps(INFINITY));
+            continue;
+        }
+        if ((f0 | f1 | f2 | f3) < 0) {
+            for (int q = 0; q < 4; q++)
+                resolve_pixel1(c, t, img, p0, i + q, ru0, ru1, ru2);
+            continue;
+        }
+        const float *a = attr + (size_t)i * CRISP_RASTER_ATTRS; /* pixel q's at a + 5 q */
+        __m256d d0 = _mm256_add_pd(_mm256_loadu_pd(colx + i), vr0);
+        __m256d d1 = _mm256_add_pd(_mm256_loadu_pd(coly + i), vr1);
+        __m256d d2 = _mm256_add_pd(_mm256_loadu_pd(colz + i), vr2);
+        __m256d n0 = _mm256_set_pd(a[17], a[12], a[7], a[2]); /* exact conversions */
+        __m256d n1 = _mm256_set_pd(a[18], a[13], a[8], a[3]);
+        __m256d n2 = _mm256_set_pd(a[19], a[14], a[9], a[4]);
+        __m256d nn = _mm256_sqrt_pd(_mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(n0, n0), _mm256_mul_pd(n1, n1)), _mm256_mul_pd(n2, n2)));
+        __m256d vv = _mm256_sqrt_pd(_mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(d0, d0), _mm256_mul_pd(d1, d1)), _mm256_mul_pd(d2, d2)));
+        __m256d dot = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(n0, d0), _mm256_mul_pd(n1, d1)),
+                                    _mm256_mul_pd(n2, d2));
+        __m256d cs = _mm256_div_pd(_mm256_andnot_pd(sign, dot), _mm256_mul_pd(nn, vv));
+        __m256d ok =
+            _mm256_and_pd(_mm256_cmp_pd(nn, zero, _CMP_GT_OQ), _mm256_cmp_pd(vv, zero, _CMP_GT_OQ));
+        cs = _mm256_or_pd(_mm256_and_pd(ok, cs), _mm256_andnot_pd(ok, one));
+        __m256d k = _mm256_add_pd(k0, _mm256_mul_pd(k1, cs));
+        const float *c0 = faces[f0].color, *c1 = faces[f1].color, *c2 = faces[f2].color,
+                    *c3 = faces[f3].color;
+        __m128 zf = _mm_setzero_ps();
+        __m128 cr = _mm_add_ps(
+            zf, _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_set_pd(c3[0], c2[0], c1[0], c0[0]), k)));
+        __m128 cg = _mm_add_ps(
+            zf, _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_set_pd(c3[1], c2[1], c1[1], c0[1]), k)));
+        __m128 cb = _mm_add_ps(
+            zf, _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_set_pd(c3[2], c2[2], c1[2], c0[2]), k)));
+        __m128 co = _mm_set1_ps(1.0f);
+        _MM_TRANSPOSE4_PS(cr, cg, cb, co); /* pixel q's r g b 1 */
+        _mm_storeu_ps(rgba + 4 * (size_t)i, cr);
+        _mm_storeu_ps(rgba + 4 * (size_t)i + 4, cg);
+        _mm_storeu_ps(rgba + 4 * (size_t)i + 8, cb);
+        _mm_storeu_ps(rgba + 4 * (size_t)i + 12, co);
+        _mm_storeu_ps(depth + i, _mm256_cvtpd_ps(_mm256_div_pd(one, _mm256_loadu_pd(inv_w + i))));
+        _mm_storeu_si128((__m128i *)(oface + i), _mm_loadu_si128((const __m128i *)(face + i)));
+        for (int h = 0; h < 4; h += 2) { /* a pair's (u, v) and normals, as resolve_row1 */
+            const float *pa = a + 5 * h, *pb = pa + CRISP_RASTER_ATTRS;
+            size_t ii = (size_t)(i + h);
+            __m128 fa0 = _mm_loadu_ps(pa), fa1 = _mm_loadu_ps(pa + 1), fb0 = _mm_loadu_ps(pb),
+                   fb1 = _mm_loadu_ps(pb + 1);
+            _mm_storeu_ps(uv + 2 * ii, _mm_movelh_ps(fa0, fb0));
+            __m128 t4 = _mm_shuffle_ps(fa1, fb1, _MM_SHUFFLE(1, 1, 3, 3));
+            _mm_storeu_ps(normal + 3 * ii, _mm_shuffle_ps(fa1, fa1, _MM_SHUFFLE(3, 3, 2, 1)));
+            _mm_storeu_ps(normal + 3 * ii + 2, _mm_shuffle_ps(t4, fb1, _MM_SHUFFLE(3, 2, 2, 0)));
+        }
+    }
+    for (; i < c->x1; i++)
+        resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
+}
+#else
+#define HAVE_AVX_RESOLVE 0
+#endif
+
 static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     resolve_ctx *c = vctx;
-    if (c->target->samples == 1 && !c->base && c->col)
+    if (c->target->samples == 1 && !c->base && c->col) {
+#if HAVE_AVX_RESOLVE
+        if (c->avx) {
+            for (size_t j = begin + (size_t)c->y0; j < end + (size_t)c->y0; j++)
+                resolve_row1_avx(c, j);
+            return;
+        }
+#endif
         for (size_t j = begin + (size_t)c->y0; j < end + (size_t)c->y0; j++)
             resolve_row1(c, j);
-    else if (c->target->samples == 1)
+    } else if (c->target->samples == 1)
         resolve_rows_s(c, begin, end, 1);
     else
         resolve_rows_s(c, begin, end, c->target->samples);
@@ -1264,7 +1520,8 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
      * when nearer by more than that surface's depth change over 1.5 px, so a ribbon along an
      * edge that another face hides at nearly the same depth (seen at a grazing angle) does not
      * show through it. */
-    void *ctx = (void *)plan;
+    trim_ctx tctx = {plan, atomic_fetch_add(&trim_generation, 1) + 1};
+    void *ctx = &tctx;
     if ((st = crisp_grow((void **)&r->untested, &r->untested_cap,
                          plan->face_count ? plan->face_count : 1, sizeof *r->untested)))
         return st;
@@ -1291,6 +1548,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     /* The surfaces, batch after batch (nearest first, occlusion.c): each batch's leaves that the
      * depth drawn so far hides are dropped, the others tessellated and drawn. */
     size_t nv = 0, nt = 0, occluded_leaves = 0, occluded_tris = 0;
+    size_t tris_dropped = 0; /* not set up: hidden by the block depth or covering no sample */
     crisp_raster_stats rs = {0};
     /* The blocks the batches drawn since the last look at the depth can have reached. */
     int drawn = 0, looked = 0, dirty[4] = {INT_MAX, INT_MAX, -1, -1};
@@ -1375,6 +1633,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                                      r->tris + tb0, nt - tb0, trim_test, ctx, &rsb)))
             return st;
         drawn = 1;
+        tris_dropped += rsb.triangles_in - rsb.triangles_setup;
         rs.fragments_tested += rsb.fragments_tested;
         rs.fragments_discarded += rsb.fragments_discarded;
         if (vb0) { /* the frame's mesh indexes from its first vertex (crisp__renderer_mesh) */
@@ -1426,6 +1685,31 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     r->tri_count = surface_t;
 
     double t2a = crisp_time_now();
+    /* The block depth of the surfaces drawn, for the quads hidden behind them (no sample of
+     * theirs could pass the fill pass's depth test): whole quads dropped here, the other hidden
+     * triangles at the fill draw's set-up. */
+    if (occlusion && drawn && quads) {
+        crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+        dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
+        looked = 1;
+    }
+    crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
+    /* Worth it where the surfaces' own triangles were found hidden (depth complexity): in a
+     * view of the outside of a model the ribbons lie on the faces drawn and few are hidden. */
+    if (looked && quads && !only && 10 * (occluded_tris + tris_dropped) >= nt + occluded_tris) {
+        if ((st = crisp_grow((void **)&r->ribbon_keep, &r->ribbon_keep_cap, quads,
+                             sizeof *r->ribbon_keep)) ||
+            (st = crisp_grow((void **)&r->ribbon_hidden, &r->ribbon_hidden_cap, quads,
+                             sizeof *r->ribbon_hidden)))
+            return st;
+        ribbon_cull_ctx cc = {r, tg, keep, r->ribbon_hidden};
+        crisp_pool_parallel_for(r->pool, quads, 256, cull_ribbons, &cc);
+        size_t kept = 0; /* in order; in place when keep is already the list */
+        for (size_t q = 0; q < quads; q++)
+            if (!r->ribbon_hidden[q]) r->ribbon_keep[kept++] = keep ? keep[q] : (uint32_t)q;
+        quads = kept;
+        keep = r->ribbon_keep;
+    }
     nv += 4 * quads;
     nt += 2 * quads;
     if (nv > UINT32_MAX / 2 || nt > UINT32_MAX / 2)
@@ -1460,14 +1744,6 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         /* The quads with their slack, in their cores the cores' (ribbon.h), in one fill pass;
          * both slacks from the surfaces alone, only where the quads can land (the fill pass
          * reads nothing else). */
-        /* The block depth of the surfaces drawn, for the quads hidden behind them (no sample of
-         * theirs could pass the fill pass's depth test). */
-        if (occlusion && drawn && (surface_t || sds.ranges)) {
-            crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
-            dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
-            looked = 1;
-        }
-        crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
         size_t ns = (size_t)win[2] * win[3] * r->desc.samples;
         if ((st = crisp_grow((void **)&r->slack, &r->slack_cap, 2 * ns, sizeof *r->slack)))
             return st;
@@ -1507,6 +1783,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
             r->col[(size_t)k * tg->width + i] = view.f[k] + nx * view.r[k];
     }
     rc.col = r->no_vectors ? NULL : r->col; /* NULL: resolve_rows_s for every target */
+#if HAVE_AVX_RESOLVE
+    rc.avx = __builtin_cpu_supports("avx");
+#endif
     crisp_pool_parallel_for(r->pool, (size_t)(rect[3] - rect[1]), 8, resolve_rows, &rc);
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);

@@ -7,6 +7,9 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
+#include <immintrin.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 #ifdef DEBUG_BOX
@@ -495,9 +498,36 @@ typedef struct {
  * a fragment passes only where it is empty (0 in the block depth) or where its 1/W, or its core's
  * (core_pass: the core's plane, also largest at a snapped vertex), is above the stored one, so
  * the same bound holds with the core's plane included. */
+static double core_bound(const crisp_raster_core *core, const pvert *const v[3], int x0, int y0,
+                         int x1, int y1)
+{
+    double cbest = -INFINITY;
+    for (int k = 0; k < 3; k++) {
+        double px = (double)v[k]->fx / SUB, py = (double)v[k]->fy / SUB;
+        double wc = core->iw[0] + core->iw[1] * px + core->iw[2] * py;
+        cbest = wc > cbest ? wc : cbest;
+    }
+    double X = fabs((double)x0) > fabs(x1 + 1.0) ? fabs((double)x0) : fabs(x1 + 1.0);
+    double Y = fabs((double)y0) > fabs(y1 + 1.0) ? fabs((double)y0) : fabs(y1 + 1.0);
+    return cbest + 1e-12 * (fabs(core->iw[0]) + fabs(core->iw[1]) * X + fabs(core->iw[2]) * Y);
+}
+
+/* tri_hidden, and when it is hidden the least block value of its box in *least (NULL: not
+ * wanted). */
+static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t, const pvert *a,
+                            const pvert *b, const pvert *d, const crisp_raster_core *core, int x0,
+                            int y0, int x1, int y1, double *least);
+
 static int tri_hidden(const crisp_raster *r, const crisp_raster_target *t, const pvert *a,
                       const pvert *b, const pvert *d, const crisp_raster_core *core, int x0, int y0,
                       int x1, int y1)
+{
+    return tri_hidden_least(r, t, a, b, d, core, x0, y0, x1, y1, NULL);
+}
+
+static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t, const pvert *a,
+                            const pvert *b, const pvert *d, const crisp_raster_core *core, int x0,
+                            int y0, int x1, int y1, double *least)
 {
     const double *hz = r->occl_hiz;
     if (!hz) return 0;
@@ -513,30 +543,88 @@ static int tri_hidden(const crisp_raster *r, const crisp_raster_target *t, const
     double qx = (d1 * (d->sy - a->sy) - d2 * (b->sy - a->sy)) / det;
     double qy = (d2 * (b->sx - a->sx) - d1 * (d->sx - a->sx)) / det;
     const pvert *v[3] = {a, b, d};
-    double best = -INFINITY, cbest = -INFINITY;
+    double best = -INFINITY;
     for (int k = 0; k < 3; k++) {
         double px = (double)v[k]->fx / SUB, py = (double)v[k]->fy / SUB;
         double w = a->val[0] + qx * (px - a->sx) + qy * (py - a->sy);
         best = w > best ? w : best;
-        if (core) {
-            double wc = core->iw[0] + core->iw[1] * px + core->iw[2] * py;
-            cbest = wc > cbest ? wc : cbest;
-        }
     }
     double mx = fabs(x0 - a->sx) > fabs(x1 + 1 - a->sx) ? fabs(x0 - a->sx) : fabs(x1 + 1 - a->sx);
     double my = fabs(y0 - a->sy) > fabs(y1 + 1 - a->sy) ? fabs(y0 - a->sy) : fabs(y1 + 1 - a->sy);
     best += 1e-12 * (fabs(a->val[0]) + fabs(qx) * mx + fabs(qy) * my);
     if (core) {
-        double X = fabs((double)x0) > fabs(x1 + 1.0) ? fabs((double)x0) : fabs(x1 + 1.0);
-        double Y = fabs((double)y0) > fabs(y1 + 1.0) ? fabs((double)y0) : fabs(y1 + 1.0);
-        cbest += 1e-12 * (fabs(core->iw[0]) + fabs(core->iw[1]) * X + fabs(core->iw[2]) * Y);
+        double cbest = core_bound(core, v, x0, y0, x1, y1);
         best = cbest > best ? cbest : best;
     }
     if (!(best < first)) return 0; /* also NaN */
+    double low = first;
     for (int by = by0; by <= by1; by++) {
         const double *row = hz + (size_t)by * bw;
-        for (int bx = bx0; bx <= bx1; bx++)
+        for (int bx = bx0; bx <= bx1; bx++) {
             if (!(best < row[bx])) return 0;
+            low = row[bx] < low ? row[bx] : low;
+        }
+    }
+    if (least) *least = low;
+    return 1;
+}
+
+/* 1 when triangle a, b, d (projected, every vertex inside the clip planes) writes no sample in a
+ * draw with the block depth set: setup_one would drop it (no sample area, or tri_hidden on its
+ * pixel box, the same expressions). *least: the least block value of that box when hidden there
+ * (INFINITY when it covers no sample area), box[4]: the box. */
+static int tri_dropped(const crisp_raster *r, const crisp_raster_target *t, const pvert *a,
+                       const pvert *b, const pvert *d, double *least, int box[4])
+{
+    *least = INFINITY;
+    int64_t area = (b->fx - a->fx) * (d->fy - a->fy) - (b->fy - a->fy) * (d->fx - a->fx);
+    if (area == 0) return 1;
+    int64_t minx = a->fx < b->fx ? a->fx : b->fx, maxx = a->fx > b->fx ? a->fx : b->fx;
+    int64_t miny = a->fy < b->fy ? a->fy : b->fy, maxy = a->fy > b->fy ? a->fy : b->fy;
+    minx = d->fx < minx ? d->fx : minx, maxx = d->fx > maxx ? d->fx : maxx;
+    miny = d->fy < miny ? d->fy : miny, maxy = d->fy > maxy ? d->fy : maxy;
+    int64_t x0 = (minx >> CRISP_RASTER_SUBPIXEL_BITS) - 1,
+            y0 = (miny >> CRISP_RASTER_SUBPIXEL_BITS) - 1;
+    int64_t x1 = maxx >> CRISP_RASTER_SUBPIXEL_BITS, y1 = maxy >> CRISP_RASTER_SUBPIXEL_BITS;
+    int64_t ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
+    box[0] = (int)(x0 > t->x0 ? x0 : t->x0), box[1] = (int)(y0 > t->y0 ? y0 : t->y0);
+    box[2] = (int)(x1 < ex ? x1 : ex), box[3] = (int)(y1 < ey ? y1 : ey);
+    if (!(box[0] <= box[2] && box[1] <= box[3])) return 1;
+    return tri_hidden_least(r, t, a, b, d, NULL, box[0], box[1], box[2], box[3], least);
+}
+
+int crisp__raster_quad_hidden(const crisp_raster *r, const crisp_raster_target *t,
+                              const double *const clip[4],
+                              void (*core_fn)(const void *ctx, crisp_raster_core *core),
+                              const void *core_ctx)
+{
+    if (!r->occl_hiz) return 0;
+    double gx = GUARD_PX / image_w(t), gy = GUARD_PX / image_h(t);
+    static const double no_attr[CRISP_RASTER_ATTRS] = {0};
+    pvert v[4];
+    for (int k = 0; k < 4; k++) { /* as project_vertices: only corners needing no clipping */
+        double d[6];
+        plane_dists(clip[k], gx, gy, d);
+        for (int q = 0; q < 6; q++)
+            if (!(d[q] >= 0 && isfinite(d[q]))) return 0;
+        if (!project2(clip[k], no_attr, t, &v[k])) return 0;
+    }
+    /* Without the core first: a quad that is not hidden stops here, before its core is worked
+     * out; a hidden one is with the core when the core's bound (tri_hidden's, on the same
+     * triangle and box) is also below the least block value of the box. */
+    double least[2];
+    int box[2][4];
+    if (!tri_dropped(r, t, &v[0], &v[1], &v[2], &least[0], box[0]) ||
+        !tri_dropped(r, t, &v[0], &v[2], &v[3], &least[1], box[1]))
+        return 0;
+    if (!core_fn) return 1;
+    crisp_raster_core core;
+    core_fn(core_ctx, &core);
+    const pvert *t0[3] = {&v[0], &v[1], &v[2]}, *t1[3] = {&v[0], &v[2], &v[3]};
+    for (int k = 0; k < 2; k++) {
+        if (least[k] == INFINITY) continue; /* no sample area: nothing drawn with any core */
+        const int *b = box[k];
+        if (!(core_bound(&core, k ? t1 : t0, b[0], b[1], b[2], b[3]) < least[k])) return 0;
     }
     return 1;
 }
@@ -705,6 +793,7 @@ typedef struct {
     int hiz;             /* hierarchical depth rejection on */
     int vectors;         /* the vector path (crisp__raster_set_vectors) */
     int clear;           /* each tile first does the target's pending clear_depth */
+    int avx;             /* one-sample tiles through raster_tile1_avx */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
 } raster_ctx;
 
@@ -925,6 +1014,60 @@ static inline unsigned store_row1(const planes *pl, const pair_planes *pp, doubl
 }
 #endif
 
+#if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
+#define HAVE_AVX_TILES 1
+/* store_row1 four lanes at a time with AVX where all four of a half row are kept (raster_tile
+ * compiled for AVX, chosen at run time): the same IEEE operations per lane as store_row1 and the
+ * per-fragment path (dx = dx0 + lane, ((p0 + px dx) + py dy) * w, w = 1 / iw; no fused
+ * multiply-add), so the same values bit for bit; other halves as store_row1. */
+__attribute__((target("avx"))) static unsigned
+store_row1_avx(const planes *pl, const pair_planes *pp, double dx0, double dy, const double *iwv,
+               unsigned m, size_t idx0, double *restrict inv_w, int32_t *restrict fbuf,
+               float *restrict abuf, int32_t face_id)
+{
+    unsigned stored = 0, rest = 0;
+    __m256d qyd[CRISP_RASTER_ATTRS], q0[CRISP_RASTER_ATTRS], qx[CRISP_RASTER_ATTRS];
+    int any = (m & 15u) == 15u || (m >> 4) == 15u;
+    if (any)
+        for (int k = 0; k < CRISP_RASTER_ATTRS; k++) {
+            qyd[k] = _mm256_set1_pd(pl->qy[k + 1] * dy);
+            q0[k] = _mm256_set1_pd(pl->q0[k + 1]);
+            qx[k] = _mm256_set1_pd(pl->qx[k + 1]);
+        }
+    const __m256d one = _mm256_set1_pd(1.0), vd = _mm256_set1_pd(dx0);
+    for (int h = 0; h < BLOCK / 4; h++) {
+        unsigned bits = (m >> (4 * h)) & 15u;
+        if (bits != 15u) {
+            rest |= bits << (4 * h);
+            continue;
+        }
+        stored += 4;
+        size_t idx = idx0 + (size_t)(4 * h);
+        __m256d iw = _mm256_loadu_pd(iwv + 4 * h);
+        __m256d w = _mm256_div_pd(one, iw);
+        __m256d dx = _mm256_add_pd(vd, _mm256_set_pd(4 * h + 3, 4 * h + 2, 4 * h + 1, 4 * h));
+        __m128 f[CRISP_RASTER_ATTRS];
+        for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+            f[k] = _mm256_cvtpd_ps(_mm256_mul_pd(
+                _mm256_add_pd(_mm256_add_pd(q0[k], _mm256_mul_pd(qx[k], dx)), qyd[k]), w));
+        _MM_TRANSPOSE4_PS(f[0], f[1], f[2], f[3]); /* f[q]: lane q's attributes 0..3 */
+        float *dst = abuf + idx * CRISP_RASTER_ATTRS;
+        for (int q = 0; q < 4; q++)
+            _mm_storeu_ps(dst + 5 * q, f[q]);
+        _mm_store_ss(dst + 4, f[4]);
+        _mm_store_ss(dst + 9, _mm_shuffle_ps(f[4], f[4], 1));
+        _mm_store_ss(dst + 14, _mm_shuffle_ps(f[4], f[4], 2));
+        _mm_store_ss(dst + 19, _mm_shuffle_ps(f[4], f[4], 3));
+        _mm256_storeu_pd(inv_w + idx, iw);
+        _mm_storeu_si128((__m128i *)(fbuf + idx), _mm_set1_epi32(face_id));
+    }
+    if (rest) stored += store_row1(pl, pp, dx0, dy, iwv, rest, idx0, inv_w, fbuf, abuf, face_id);
+    return stored;
+}
+#else
+#define HAVE_AVX_TILES 0
+#endif
+
 #if defined(__SSE2__)
 /* Bit q set where lane q of a block row is inside all three edges (row_mask's coverage). */
 static inline unsigned row_cover(const int64_t e[3], __m128i lane_step[3][BLOCK / 2])
@@ -967,7 +1110,8 @@ static inline int core_pass(const crisp_raster_core *k, double x, double y, doub
 #define ALWAYS_INLINE inline
 #endif
 
-static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S, int fresh)
+static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S, int fresh,
+                                        const int avx)
 {
     crisp_raster *r = c->r;
     crisp_raster_target *t = c->t;
@@ -1226,8 +1370,15 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             /* Every fragment of the row is kept, two neighbours among them: no
                              * per-fragment work but the attributes and the stores, two lanes
                              * at a time. */
-                            unsigned k = store_row1(&pl, &pp, dx0, dy, iwv, m, idx0, inv_w, fbuf,
-                                                    abuf, face_id);
+                            unsigned k;
+#if HAVE_AVX_TILES
+                            if (avx)
+                                k = store_row1_avx(&pl, &pp, dx0, dy, iwv, m, idx0, inv_w, fbuf,
+                                                   abuf, face_id);
+                            else
+#endif
+                                k = store_row1(&pl, &pp, dx0, dy, iwv, m, idx0, inv_w, fbuf, abuf,
+                                               face_id);
                             if (run_test)
                                 boxed += k;
                             else if (c->test)
@@ -1297,6 +1448,16 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
     atomic_fetch_add(&c->boxed, boxed);
 }
 
+#if HAVE_AVX_TILES
+/* raster_tile_s for one-sample targets compiled for AVX (store_row1_avx). */
+__attribute__((target("avx"))) static void raster_tile1_avx(raster_ctx *c, size_t tile)
+{
+    raster_tile_s(c, tile, 1, c->clear, 1);
+}
+#else
+#define raster_tile1_avx(c, tile) raster_tile_s(c, tile, 1, (c)->clear, 0)
+#endif
+
 static void raster_tile(raster_ctx *c, size_t tile)
 {
     if (c->clear) { /* the pending clear_depth of this tile, while it is about to be used */
@@ -1312,10 +1473,12 @@ static void raster_tile(raster_ctx *c, size_t tile)
             memset(t->face + a, 0xff, n * sizeof *t->face);
         }
     }
-    if (c->t->samples == 1)
-        raster_tile_s(c, tile, 1, c->clear);
+    if (c->t->samples == 1 && c->avx)
+        raster_tile1_avx(c, tile);
+    else if (c->t->samples == 1)
+        raster_tile_s(c, tile, 1, c->clear, 0);
     else
-        raster_tile_s(c, tile, c->t->samples, c->clear);
+        raster_tile_s(c, tile, c->t->samples, c->clear, 0);
 }
 
 static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
@@ -1771,6 +1934,9 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                      .slack2 = slack && cores ? slack2 : NULL,
                      .hiz = !r->no_hiz,
                      .vectors = !r->no_vectors};
+#if HAVE_AVX_TILES
+    rc.avx = !r->no_vectors && __builtin_cpu_supports("avx");
+#endif
     for (int s = 0; s < t->samples; s++) {
         double off[2];
         crisp__raster_sample_offset(t->samples, s, off);

@@ -160,6 +160,18 @@ typedef struct crisp_raster_core {
     double a[3], b[3], iw[3];
 } crisp_raster_core;
 
+/* 1 when no sample of the quad with clip-space corners clip[0..3] (triangles 0 1 2 and 0 2 3,
+ * as a fill draw sets them up with the core core_fn(core_ctx, &core) gives for both, asked only
+ * when needed; core_fn NULL: none) could be written into t:
+ * every corner is inside the clip planes and each triangle covers no sample area or is hidden by
+ * the block depth set with crisp__raster_set_occlusion (the test a draw's set-up applies); 0
+ * otherwise, and always without a block depth. Only reads: callable from several threads. For
+ * the CPU backend's ribbon quads, culled before they are copied. */
+int crisp__raster_quad_hidden(const crisp_raster *r, const crisp_raster_target *t,
+                              const double *const clip[4],
+                              void (*core_fn)(const void *ctx, crisp_raster_core *core),
+                              const void *core_ctx);
+
 /* crisp__raster_draw_fill with a core per triangle (cores[i] for tris[i]; NULL: none) and its
  * slack slack2 (per sample, as slack). */
 crisp_status crisp__raster_draw_fill2(crisp_raster *r, crisp_raster_target *t, crisp_pool *pool,

@@ -58,6 +58,25 @@ void crisp__subpatch(const crisp_bezier_patch *p, double s0, double s1, double t
 int crisp__plan_trim_box(const struct crisp_frame_plan *plan, uint32_t face, const double lo[2],
                          const double hi[2]);
 
+/* crisp__plan_trim_box with a memory of the row ranges it decided (cpu.c): the same answers
+ * where that gives 0 or 1, and 0 or 1 (still exact: the point test's answer on all of the box)
+ * for boxes inside a decided range of one strip's rows and one gap between crossings. One cache
+ * per thread; entries count only while their generation is the cache's (set it to a new value
+ * for each plan drawn, nonzero). */
+#define CRISP_TRIM_BOX_CACHE 256
+typedef struct crisp_trim_box_entry {
+    uint64_t generation;
+    double ua, ub;                 /* u in (ua, ub] */
+    uint32_t face, ia, ib, ra, rb; /* strips ia .. ib, their global rows ra .. rb */
+    int answer;
+} crisp_trim_box_entry;
+typedef struct crisp_trim_box_cache {
+    uint64_t generation;
+    crisp_trim_box_entry entry[CRISP_TRIM_BOX_CACHE];
+} crisp_trim_box_cache;
+int crisp__plan_trim_box_cached(crisp_trim_box_cache *c, const struct crisp_frame_plan *plan,
+                                uint32_t face, const double lo[2], const double hi[2]);
+
 /* The last frame's surface triangles (CPU backend; the trim ribbons follow them in the buffers
  * but are not counted), for tests that measure them. */
 struct crisp_raster_vertex;

@@ -488,6 +488,125 @@ static void test_plan_trim_box(void **state)
     assert_true(decided[0] > 100 && decided[1] > 100);
 }
 
+/* crisp__plan_trim_box_cached against the point test on random tables whose rows often repeat
+ * the row below (gaps that run over rows and strips), boxes in runs of neighbours (the cache's
+ * hits): every 0 or 1 it answers is the point test's at dense samples of the box and at the
+ * crossings and row boundaries inside it, and it decides every box crisp__plan_trim_box does,
+ * the same way. The cache's entries are used (more boxes decided without a search than the
+ * misses that made them) and a new generation forgets them. */
+static void test_plan_trim_box_cached(void **state)
+{
+    (void)state;
+    enum { FACES = 2, STRIPS = 6, ROWS = 8, MAXC = 6 };
+    static crisp_plan_face faces[FACES];
+    static crisp_plan_strip strips[FACES * STRIPS];
+    static uint32_t row_offset[FACES * STRIPS * ROWS + 1];
+    static double crossings[FACES * STRIPS * ROWS * MAXC];
+    rng_state = 11;
+    uint32_t nr = 0, nc = 0;
+    for (int f = 0; f < FACES; f++) {
+        faces[f].v0 = -0.3 + 0.1 * f;
+        faces[f].v1 = faces[f].v0 + 1.0 + 0.2 * f;
+        faces[f].strip_scale = STRIPS / (faces[f].v1 - faces[f].v0);
+        faces[f].first_strip = (uint32_t)(f * STRIPS);
+        faces[f].strip_count = STRIPS;
+        int m = 0;
+        for (int i = 0; i < STRIPS; i++) {
+            crisp_plan_strip *sp = &strips[f * STRIPS + i];
+            double h = (faces[f].v1 - faces[f].v0) / STRIPS;
+            sp->a = faces[f].v0 + i * h;
+            sp->row_count = i == 4 ? 0 : ROWS;
+            sp->row_scale = ROWS / h;
+            sp->first_row = nr;
+            for (int j = 0; j < (int)sp->row_count; j++) {
+                row_offset[nr++] = nc;
+                if (nr > 1 && rnd() < 0.7) { /* the row below's crossings, one moved a little */
+                    uint32_t b = row_offset[nr - 2];
+                    for (int k = 0; k < m; k++)
+                        crossings[nc + k] = crossings[b + k];
+                    if (m && rnd() < 0.5) crossings[nc + m - 1] += 0.02 * rnd();
+                    nc += (uint32_t)m;
+                    continue;
+                }
+                m = 2 * (int)(rnd() * 3);
+                double x = -0.2;
+                for (int k = 0; k < m; k++)
+                    crossings[nc++] = x += 0.05 + 0.4 * rnd();
+            }
+        }
+    }
+    row_offset[nr] = nc;
+    crisp_frame_plan plan = {0};
+    plan.faces = faces;
+    plan.face_count = FACES;
+    plan.strips = strips;
+    plan.strip_count = FACES * STRIPS;
+    plan.row_offset = row_offset;
+    plan.row_count = nr;
+    plan.crossings = crossings;
+    plan.crossing_count = nc;
+    static crisp_trim_box_cache cache;
+    memset(&cache, 0, sizeof cache);
+    cache.generation = 1;
+    int decided = 0, searched = 0;
+    for (int run = 0; run < 3000; run++) {
+        uint32_t f = (uint32_t)(rnd() * FACES);
+        double size = rnd() < 0.5 ? 0.01 : 0.06;
+        double c0[2] = {-0.4 + 1.8 * rnd(), -0.4 + 1.7 * rnd()};
+        if (run == 1500) cache.generation++; /* the old entries must not count */
+        for (int n = 0; n < 12; n++) {
+            double lo[2] = {c0[0] + size * (rnd() - 0.5), c0[1] + size * (rnd() - 0.5)};
+            double hi[2] = {lo[0] + size * rnd(), lo[1] + size * rnd()};
+            int exact = crisp__plan_trim_box(&plan, f, lo, hi);
+            int b = crisp__plan_trim_box_cached(&cache, &plan, f, lo, hi);
+            if (exact >= 0) assert_int_equal(b, exact);
+            if (b < 0) continue;
+            decided++;
+            searched += exact >= 0;
+            for (int y = 0; y <= 10; y++)
+                for (int x = 0; x <= 10; x++) {
+                    double u = x == 10 ? hi[0] : lo[0] + (hi[0] - lo[0]) * x / 10;
+                    double v = y == 10 ? hi[1] : lo[1] + (hi[1] - lo[1]) * y / 10;
+                    assert_int_equal(crisp_plan_trim_test(&plan, f, u, v), b);
+                }
+            for (uint32_t k = 0; k < nc; k++)
+                if (crossings[k] >= lo[0] && crossings[k] <= hi[0]) {
+                    assert_int_equal(crisp_plan_trim_test(&plan, f, crossings[k], lo[1]), b);
+                    assert_int_equal(crisp_plan_trim_test(&plan, f, crossings[k], hi[1]), b);
+                }
+            for (int i = 0; i < FACES * STRIPS; i++)
+                for (int j = 0; j <= ROWS; j++) {
+                    double v = strips[i].a + j / strips[i].row_scale;
+                    if (v >= lo[1] && v <= hi[1]) {
+                        assert_int_equal(crisp_plan_trim_test(&plan, f, lo[0], v), b);
+                        assert_int_equal(crisp_plan_trim_test(&plan, f, hi[0], v), b);
+                    }
+                }
+        }
+    }
+    int hits = 0; /* decided from an entry: the table's boxes again, after one search each */
+    for (int i = 0; i < CRISP_TRIM_BOX_CACHE; i++) {
+        crisp_trim_box_entry e = cache.entry[i];
+        if (e.generation != cache.generation || !(e.ua < e.ub)) continue;
+        double lo[2], hi[2];
+        const crisp_plan_strip *sa = &strips[faces[e.face].first_strip + e.ia];
+        const crisp_plan_strip *sb = &strips[faces[e.face].first_strip + e.ib];
+        lo[1] = sa->a + (e.ra - sa->first_row + 0.25) / sa->row_scale;
+        hi[1] = sb->a + (e.rb - sb->first_row + 0.75) / sb->row_scale;
+        lo[0] = isfinite(e.ua) ? e.ua + 1e-9 : -0.5;
+        hi[0] = isfinite(e.ub) ? e.ub : 1.5;
+        if (!(lo[1] <= hi[1] && lo[0] <= hi[0])) continue;
+        int b = crisp__plan_trim_box_cached(&cache, &plan, e.face, lo, hi);
+        hits += b == e.answer;
+        for (int k = 0; k <= 20; k++) {
+            double u = lo[0] + (hi[0] - lo[0]) * k / 20, v = lo[1] + (hi[1] - lo[1]) * k / 20;
+            if (b >= 0) assert_int_equal(crisp_plan_trim_test(&plan, e.face, u, v), b);
+        }
+    }
+    assert_true(decided > 1000 && hits >= 8);
+    assert_true(decided >= searched);
+}
+
 /* The depth slack computed only in the tiles that some triangles reach equals the whole image's
  * slack there bit for bit, and covers every sample those triangles cover. */
 static void test_slack_for_triangles(void **state)
@@ -567,6 +686,7 @@ int main(void)
         cmocka_unit_test(test_vectors_equal_scalar),
         cmocka_unit_test(test_deferred_clear),
         cmocka_unit_test(test_plan_trim_box),
+        cmocka_unit_test(test_plan_trim_box_cached),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
