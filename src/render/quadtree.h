@@ -125,6 +125,8 @@ typedef struct crisp__trees {
     uint32_t *lod_todo;  /* faces whose lod this build makes */
     size_t lod_todo_cap;
     uint32_t *face_tau; /* per face: largest visible tau, 0 when the face is not visible */
+    float *face_rows;   /* per visible face: largest tessellation rows per patch row of a leaf
+                           (tau; a group leaf's tau over the patch rows of its block) */
     uint32_t face_cap;
     crisp_arena **arenas;
     void **build_state;
