@@ -948,6 +948,22 @@ static int patch_quarters_ok(const walk_ctx *c, const crisp_scene_face *f, const
     return quarters_ok(c, p, p->du, p->dv);
 }
 
+int crisp__groups_test_quarters(const crisp_bezier_patch *p, crisp_mat4 view_proj, int width,
+                                int height, double eps)
+{
+    double wlo, whi;
+    crisp__rational_weight_range(p, &wlo, &whi);
+    if (whi > wlo || p->du < 1 || p->dv < 1 || p->du > QUARTER_MAX_DEGREE ||
+        p->dv > QUARTER_MAX_DEGREE)
+        return 0;
+    walk_ctx c = {.eps = eps,
+                  .width = width,
+                  .height = height,
+                  .depth_scale = crisp__depth_px_scale(view_proj, width, height)};
+    crisp_mat4_copy(view_proj, c.m);
+    return quarters_ok(&c, p, p->du, p->dv);
+}
+
 /* 1 when block n (whole: 2^g x 2^g patches, g >= 1) can be one group leaf at level 2^j (j = 1,
  * 2) whose cells are its descendants j levels down, each passing as a leaf at level 1 (child_ok),
  * or, one level below a single patch, that patch's quarters (patch_quarters_ok). Every triangle of
