@@ -869,7 +869,7 @@ static inline void halve(double *v, int n, double *out, int st)
  * range, both being convex combinations of surface points in its hull, and at most hi_w - lo_w +
  * tw_w / 4, the finish's direct form; against the allowance at the least W of the hull). The
  * rounding of the map and the splits is covered by err (1e-12 of the largest magnitudes
- * involved, per coordinate). du, dv: the patch's degrees (constants where inlined). */
+ * involved, per coordinate). du, dv: the patch's degrees. */
 static inline int quarters_ok(const walk_ctx *c, const crisp_bezier_patch *p, int du, int dv)
 {
     enum { N = 2 * QUARTER_MAX_DEGREE + 1 };
@@ -942,7 +942,7 @@ static int patch_quarters_ok(const walk_ctx *c, const crisp_scene_face *f, const
 {
     if (n->rational) return 0;
     const crisp_bezier_patch *p = &c->sc->patches[f->first_patch + n->iv0 * f->grid_u + n->iu0].bez;
-    if (p->du == 3 && p->dv == 3) return quarters_ok(c, p, 3, 3); /* bicubic: unrolled */
+    if (p->du == 3 && p->dv == 3) return quarters_ok(c, p, 3, 3); /* (not unrolled at -O2) */
     if (p->du < 1 || p->dv < 1 || p->du > QUARTER_MAX_DEGREE || p->dv > QUARTER_MAX_DEGREE)
         return 0;
     return quarters_ok(c, p, p->du, p->dv);
