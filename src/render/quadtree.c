@@ -981,6 +981,7 @@ void crisp__trees_destroy(crisp__trees *p)
     free(p->density);
     free(p->density_gen);
     free(p->face_tau);
+    free(p->face_rows);
     free(p);
 }
 
@@ -1121,8 +1122,12 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
         const crisp_scene_face *sf = &c->sc->faces[f];
         int strips = c->strip_count;
         if (strips <= 0) {
-            /* n_V: the face's tess level over its patch rows (Wu & Peters' default). */
-            uint32_t s = c->plan->face_tau[f] * (sf->grid_v ? sf->grid_v : 1);
+            /* n_V: the face's tess level over its patch rows (Wu & Peters' default). A group
+             * leaf's rows are its tau over its block's patch rows (session 9: with its tau
+             * alone, gen100's 4 x 4 blocks at level 2 asked for twice gen50's strips for the same
+             * surface and triangles, and the trim polylines, whose tolerance is a quarter strip,
+             * gave 23% more ribbon quads). */
+            double s = ceil(c->plan->face_rows[f] * (sf->grid_v ? sf->grid_v : 1) - 1e-9);
             strips = (int)(s < 8 ? 8 : s > 256 ? 256 : s);
             /* No more strips than the face is pixels across on screen (issue 12: a face a few
              * pixels tall kept up to 256 strips; one strip for a face within a pixel). Strips only
@@ -1236,6 +1241,9 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         uint32_t *ft = realloc(plan->face_tau, sc->face_count * sizeof *ft);
         if (!ft) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
         plan->face_tau = ft;
+        float *fr = realloc(plan->face_rows, sc->face_count * sizeof *fr);
+        if (!fr) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
+        plan->face_rows = fr;
         crisp_trim_density_tree *dt = realloc(plan->density, sc->face_count * sizeof *dt);
         if (!dt) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim plans");
         memset(dt + plan->face_cap, 0, (sc->face_count - plan->face_cap) * sizeof *dt);
@@ -1316,6 +1324,7 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
 
     /* Faces with a visible leaf get a trim plan. */
     memset(plan->face_tau, 0, sc->face_count * sizeof *plan->face_tau);
+    memset(plan->face_rows, 0, sc->face_count * sizeof *plan->face_rows);
     crisp_plan_stats *s = &plan->stats;
     *s = (crisp_plan_stats){.patches = sc->patch_count, .level_splits = level_splits};
     for (size_t i = 0; i < plan->active_count; i++) {
@@ -1331,9 +1340,13 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
             s->group_leaves++;
             s->grouped_patches += pp->leaves[0].ix * pp->leaves[0].iy;
         }
-        for (uint32_t l = 0; l < pp->leaf_count; l++)
-            if (!pp->leaves[l].culled && pp->leaves[l].tau > plan->face_tau[f])
-                plan->face_tau[f] = pp->leaves[l].tau;
+        for (uint32_t l = 0; l < pp->leaf_count; l++) {
+            const crisp__cell *L = &pp->leaves[l];
+            if (L->culled) continue;
+            if (L->tau > plan->face_tau[f]) plan->face_tau[f] = L->tau;
+            float rows = L->group ? (float)L->tau / (float)L->iy : (float)L->tau;
+            if (rows > plan->face_rows[f]) plan->face_rows[f] = rows;
+        }
     }
     if ((st = make_lods(plan, sc, 0, sc->face_count, pool))) return st;
     size_t *scratch_used = plan->trim_used;

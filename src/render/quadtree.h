@@ -112,6 +112,13 @@ crisp_status crisp__groups_test_deviations(crisp__groups *g, const crisp_scene *
                                                          const crisp__groups_dev_sample *s),
                                            void *ctx);
 
+/* Test hook (tests/render/test_group_leaves.c): patch_groups.c's quarter cells of patch p (its
+ * weights equal) under view_proj: 1 when each quarter ([0, 1/2]^2 .. of its parameters) passes as
+ * a cell of a group leaf (every triangle with vertices on the quarter within eps on screen and
+ * eps pixels' world size along the view); 0 otherwise or when p is not tried. */
+int crisp__groups_test_quarters(const crisp_bezier_patch *p, crisp_mat4 view_proj, int width,
+                                int height, double eps);
+
 #define TREE_CHUNKS 64 /* fixed work ranges of the tree pass, one arena each */
 
 typedef struct crisp__trees {
@@ -129,6 +136,8 @@ typedef struct crisp__trees {
     uint32_t *lod_todo;  /* faces whose lod this build makes */
     size_t lod_todo_cap;
     uint32_t *face_tau; /* per face: largest visible tau, 0 when the face is not visible */
+    float *face_rows;   /* per visible face: largest tessellation rows per patch row of a leaf
+                           (tau; a group leaf's tau over the patch rows of its block) */
     uint32_t face_cap;
     crisp_arena **arenas;
     void **build_state;

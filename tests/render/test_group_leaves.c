@@ -501,12 +501,130 @@ static void test_tau_cells(void **state)
     assert_true(crossing > 0);
 }
 
+/* patch_groups.c's quarter cells (group leaves at level 4 over 2 x 2 blocks): random bicubic
+ * patches (wavy, scaled unevenly, turned, some with equal weights other than 1) under random
+ * perspective cameras (320x240, the patch 2-100 px across). Where crisp__groups_test_quarters
+ * accepts a patch at eps 0.5, random triangles with their vertices in one quarter (uniform in its
+ * parameter rectangle) are checked at 66 barycentric samples each: the triangle's clip point
+ * against the surface at the same parameters, on screen and along the view (pixels' world size
+ * from the camera, not from crisp__depth_px_scale). Accepting at eps 2 instead is shown to let
+ * some triangles beyond 0.5 px through (the samples do see a bound that is too loose). */
+static double quarter_tri_distance(const crisp_bezier_patch *p, crisp_mat4 vp, int width,
+                                   int height, double px_per_w, double x[3][2], double *depth)
+{
+    double q[3][4], worst = 0;
+    *depth = 0;
+    for (int k = 0; k < 3; k++) {
+        double P[3];
+        crisp_bezier_patch_eval(p, x[k][0], x[k][1], P);
+        crisp_mat4_mulp(vp, P, q[k]);
+    }
+    enum { N = 10 };
+    for (int i = 0; i <= N; i++)
+        for (int j = 0; i + j <= N; j++) {
+            double l[3] = {(double)i / N, (double)j / N, (double)(N - i - j) / N};
+            double h[4] = {0, 0, 0, 0}, s = 0, t = 0, P[3], g[4];
+            for (int k = 0; k < 3; k++) {
+                s += l[k] * x[k][0], t += l[k] * x[k][1];
+                for (int a = 0; a < 4; a++)
+                    h[a] += l[k] * q[k][a];
+            }
+            crisp_bezier_patch_eval(p, s, t, P);
+            crisp_mat4_mulp(vp, P, g);
+            double dx = (h[0] / h[3] - g[0] / g[3]) * 0.5 * width;
+            double dy = (h[1] / h[3] - g[1] / g[3]) * 0.5 * height;
+            worst = fmax(worst, fmax(fabs(dx), fabs(dy)));
+            *depth = fmax(*depth, fabs(h[3] - g[3]) * px_per_w / g[3]);
+        }
+    return worst;
+}
+
+static void test_quarter_cells(void **state)
+{
+    (void)state;
+    long tried = 0, accepted = 0, loose_over = 0, loose_accepted = 0;
+    double worst = 0, worst_depth = 0;
+    for (int rep = 0; rep < 60; rep++) {
+        /* a bicubic patch over [0, sx] x [0, sy] with random heights, turned and moved */
+        double cp[16 * 4], sx = 1 + 20 * rnd(), sy = 1 + 20 * rnd(), amp = 0.05 + 3 * rnd();
+        double wt = rnd() < 0.3 ? 0.5 + 2 * rnd() : 1;
+        double qw = rnd() - 0.5, qx = rnd() - 0.5, qy = rnd() - 0.5, qz = rnd() - 0.5;
+        double ql = sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
+        qw /= ql, qx /= ql, qy /= ql, qz /= ql;
+        double R[3][3] = {
+            {1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)},
+            {2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)},
+            {2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)}};
+        double off[3] = {50 * (rnd() - 0.5), 50 * (rnd() - 0.5), 50 * (rnd() - 0.5)}, mid[3];
+        for (int j = 0; j < 4; j++)
+            for (int i = 0; i < 4; i++) {
+                double l[3] = {sx * i / 3, sy * j / 3, amp * (rnd() - 0.5)};
+                for (int a = 0; a < 3; a++) {
+                    double v = off[a] + R[a][0] * l[0] + R[a][1] * l[1] + R[a][2] * l[2];
+                    cp[4 * (4 * j + i) + a] = wt * v;
+                }
+                cp[4 * (4 * j + i) + 3] = wt;
+            }
+        crisp_bezier_patch p = {.du = 3, .dv = 3, .u1 = 1, .v1 = 1, .cpw = cp};
+        crisp_bezier_patch_eval(&p, 0.5, 0.5, mid);
+        double size = fmax(sx, sy);
+        for (int c = 0; c < 40; c++) {
+            crisp_camera cam = {.fov_deg = 20 + 40 * rnd(), .width = 320, .height = 240};
+            double dir[3] = {rnd() - 0.5, rnd() - 0.5, rnd() - 0.5};
+            double dl = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+            /* at a distance where the patch spans about 2-100 px */
+            double px = 2 * pow(50, rnd());
+            double dist = size * 0.5 * cam.height / tan(0.5 * cam.fov_deg * M_PI / 180) / px;
+            for (int a = 0; a < 3; a++) {
+                cam.eye[a] = mid[a] + dist * dir[a] / dl;
+                cam.target[a] = mid[a] + 0.2 * size * (rnd() - 0.5);
+            }
+            cam.up[2] = 1;
+            cam.znear = 0.01 * dist, cam.zfar = 10 * (dist + size);
+            crisp_camera_matrices mx;
+            crisp_camera_matrices_compute(&cam, &mx);
+            double px_per_w = 0.5 * cam.height / tan(0.5 * cam.fov_deg * M_PI / 180);
+            tried++;
+            int ok = crisp__groups_test_quarters(&p, mx.view_proj, cam.width, cam.height, 0.5);
+            int loose = crisp__groups_test_quarters(&p, mx.view_proj, cam.width, cam.height, 2.0);
+            if (!ok && !loose) continue;
+            accepted += ok;
+            loose_accepted += loose && !ok;
+            double over = 0;
+            for (int k = 0; k < 4; k++)
+                for (int n = 0; n < 40; n++) {
+                    double x[3][2], d;
+                    for (int v = 0; v < 3; v++) /* vertices in quarter k */
+                        x[v][0] = 0.5 * ((k & 1) + rnd()), x[v][1] = 0.5 * ((k >> 1) + rnd());
+                    double e = quarter_tri_distance(&p, mx.view_proj, cam.width, cam.height,
+                                                    px_per_w, x, &d);
+                    if (ok) {
+                        if (e > 0.5 || d > 0.5)
+                            fail_msg("patch %d camera %d quarter %d: a triangle %g px from the "
+                                     "surface on screen, %g px' world size along the view",
+                                     rep, c, k, e, d);
+                        worst = fmax(worst, e), worst_depth = fmax(worst_depth, d);
+                    }
+                    over = fmax(over, fmax(e, d));
+                }
+            loose_over += !ok && over > 0.5;
+        }
+    }
+    printf("quarter cells: %ld of %ld patch x camera pairs accepted at 0.5 px, their sampled "
+           "triangles at most %.3f px on screen (tightness %.2f), %.3f px along the view (%.2f); "
+           "accepted at 2 px only: %ld, of them %ld with a sampled triangle beyond 0.5 px\n",
+           accepted, tried, worst, worst / 0.5, worst_depth, worst_depth / 0.5, loose_accepted,
+           loose_over);
+    assert_true(accepted > 100);
+    assert_true(loose_over > 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_polynomial_uniform), cmocka_unit_test(test_polynomial_random_knots),
         cmocka_unit_test(test_rational),           cmocka_unit_test(test_block_deviation),
-        cmocka_unit_test(test_tau_cells),
+        cmocka_unit_test(test_tau_cells),          cmocka_unit_test(test_quarter_cells),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
