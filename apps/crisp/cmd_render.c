@@ -342,6 +342,10 @@ static void print_stats(const render_args *a, const crisp_document *doc, const c
         printf("patches drawn    %u (%u split, %u leaves)\n", rs->visible_patches,
                rs->split_patches, rs->leaves);
         printf("faces drawn      %u\n", rs->visible_faces);
+        if (rs->splat_faces)
+            printf("faces as splats  %u (%llu splats: faces so small on screen that point samples "
+                   "cover them)\n",
+                   rs->splat_faces, (unsigned long long)rs->splats);
         printf("triangles        %llu\n", (unsigned long long)rs->triangles);
         if (rs->occluded_triangles)
             printf("triangles hidden %llu not tessellated (%llu leaves behind drawn depth)\n",
