@@ -459,7 +459,12 @@ int crisp_cmd_render(int argc, char **argv)
     }
     if (!st && a.render.backend == CRISP_BACKEND_CPU && doc->scene->patch_count > 0)
         st = crisp_renderer_create(
-            &(crisp_render_desc){.samples = a.render.samples, .threads = a.render.threads},
+            /* Splat sets are built the first time a frame wants them and pay off over the
+             * frames that follow (docs/status/issue-12-splats.md): one frame draws every face
+             * by tessellation. */
+            &(crisp_render_desc){.samples = a.render.samples,
+                                 .threads = a.render.threads,
+                                 .no_splats = a.repeat == 1},
             &renderer);
     a.render.renderer = renderer;
     crisp_document_times dt = {0};

@@ -122,7 +122,10 @@ static crisp_status render_window(const crisp_document *doc, const crisp_camera 
             crisp_renderer *r = d.renderer;
             if (!r)
                 st = crisp_renderer_create(
-                    &(crisp_render_desc){.samples = d.samples, .threads = d.threads}, &r);
+                    /* a renderer for this frame only: no splat sets (they pay off over frames) */
+                    &(crisp_render_desc){
+                        .samples = d.samples, .threads = d.threads, .no_splats = 1},
+                    &r);
             if (!st && !win) st = crisp_render_cpu(r, doc->scene, cam, img, stats);
             const crisp_frame_plan *plan = NULL;
             if (!st && win)
