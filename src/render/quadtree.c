@@ -892,7 +892,7 @@ static crisp_status split_high_levels(crisp__trees *plan, const crisp_scene *sc,
         *splits += (uint32_t)added;
         /* Ungrouped blocks' patches may come after later patches in the list; those without a
          * tree of their own so far join the active patches. */
-        qsort(plan->redo, redo, sizeof *plan->redo, u32_cmp);
+        if (redo) qsort(plan->redo, redo, sizeof *plan->redo, u32_cmp);
         size_t join = 0;
         for (size_t k = 0; k < redo; k++)
             join += plan->tree_frame[plan->redo[k]] != plan->frame;
@@ -906,7 +906,8 @@ static crisp_status split_high_levels(crisp__trees *plan, const crisp_scene *sc,
             qsort(plan->active, plan->active_count, sizeof *plan->active, u32_cmp);
             tc->active = plan->active;
         }
-        qsort(plan->forced, plan->forced_count, sizeof *plan->forced, forced_qsort_cmp);
+        if (plan->forced_count) /* forced is NULL until a leaf is forced (qsort takes no NULL) */
+            qsort(plan->forced, plan->forced_count, sizeof *plan->forced, forced_qsort_cmp);
         tc->redo = plan->redo;
         tc->count = redo;
         crisp_pool_parallel_for(pool, TREE_CHUNKS, 1, build_chunks, tc);
