@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "bench_camera.h"
+#include "bench_scenes.h"
 #include "bench_util.h"
 #include "crisp/gl.h"
 #include "crisp/io.h"
@@ -106,31 +107,6 @@ static void edit_trim(crisp_model *m, int f)
 
 /* ---- splats ---------------------------------------------------------------------------------- */
 
-/* impeller.igs instanced nx x ny times in a grid (bench_screen's imp49). */
-static crisp_model *instanced(const char *name, int nx, int ny)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
-    crisp_model *src = NULL, *m;
-    if (crisp_model_load(path, NULL, &src)) die(path);
-    if (nx * ny == 1) return src;
-    if (crisp_model_create(&m)) die("model");
-    double box[6];
-    crisp_model_bbox(src, box);
-    double sx = 1.1 * (box[3] - box[0]), sy = 1.1 * (box[4] - box[1]);
-    for (int j = 0; j < ny; j++)
-        for (int i = 0; i < nx; i++)
-            for (int f = 0; f < src->face_count; f++) {
-                crisp_face face;
-                if (crisp_face_copy(&src->faces[f], &face)) die("face copy");
-                const double t[3][4] = {{1, 0, 0, i * sx}, {0, 1, 0, j * sy}, {0, 0, 1, 0}};
-                crisp_face_transform(&face, t);
-                if (crisp_model_add_face(m, &face)) die("add face");
-            }
-    crisp_model_destroy(src);
-    return m;
-}
-
 /* bench_screen's cameras: "default", "far" (12x the distance), "farN" (N times). */
 static crisp_camera far_camera(const crisp_scene *sc, const char *which)
 {
@@ -171,8 +147,8 @@ static uint32_t image_hash(const crisp_image *img)
 
 static void splat_row(crisp_gl *gl, const char *scene_name, const char *cam_name, int frames)
 {
-    crisp_model *m = instanced("impeller.igs", strcmp(scene_name, "imp49") ? 1 : 7,
-                               strcmp(scene_name, "imp49") ? 1 : 7);
+    int n = strcmp(scene_name, "imp49") ? 1 : 7;
+    crisp_model *m = bench_instanced("impeller.igs", n, n, die);
     crisp_scene *sc;
     if (crisp_scene_prepare(m, &sc)) die("prepare");
     crisp_camera cam = far_camera(sc, cam_name);

@@ -44,6 +44,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "bench_scenes.h"
 #include "bench_util.h"
 #include "crisp/construct.h"
 #include "crisp/image.h"
@@ -129,30 +130,6 @@ static crisp_model *generated(int spans, int refine)
     return m;
 }
 
-static crisp_model *instanced(const char *name, int nx, int ny)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
-    crisp_model *src = NULL, *m;
-    if (crisp_model_load(path, NULL, &src)) die(path);
-    if (nx * ny == 1) return src;
-    if (crisp_model_create(&m)) die("model");
-    double box[6];
-    crisp_model_bbox(src, box);
-    double sx = 1.1 * (box[3] - box[0]), sy = 1.1 * (box[4] - box[1]);
-    for (int j = 0; j < ny; j++)
-        for (int i = 0; i < nx; i++)
-            for (int f = 0; f < src->face_count; f++) {
-                crisp_face face;
-                if (crisp_face_copy(&src->faces[f], &face)) die("face copy");
-                const double t[3][4] = {{1, 0, 0, i * sx}, {0, 1, 0, j * sy}, {0, 0, 1, 0}};
-                crisp_face_transform(&face, t);
-                if (crisp_model_add_face(m, &face)) die("add face");
-            }
-    crisp_model_destroy(src);
-    return m;
-}
-
 /* ---- cameras ------------------------------------------------------------------------------------
  */
 
@@ -212,8 +189,8 @@ static crisp_model *scene_model(const char *name)
 {
     if (!strcmp(name, "gen50")) return generated(50, 0);
     if (!strcmp(name, "gen100")) return generated(50, 1);
-    if (!strcmp(name, "imp49")) return instanced("impeller.igs", 7, 7);
-    if (!strcmp(name, "imp")) return instanced("impeller.igs", 1, 1);
+    if (!strcmp(name, "imp49")) return bench_instanced("impeller.igs", 7, 7, die);
+    if (!strcmp(name, "imp")) return bench_instanced("impeller.igs", 1, 1, die);
     fprintf(stderr, "bench_screen: unknown scene %s\n", name);
     exit(1);
 }
