@@ -4,10 +4,24 @@
 #define CRISP_RENDER_TEST_UTIL_H
 
 #include <math.h>
+#include <stdio.h>
 
+#include "crisp/io.h"
 #include "crisp/render.h"
 #include "render/raster.h"
 #include "render/render_internal.h"
+
+/* data/nurbs/NAME loaded (the test fails, printing the error, when it does not load). */
+static inline crisp_model *rt_load_model(const char *name)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
+    crisp_model *m = NULL;
+    crisp_status st = crisp_model_load(path, NULL, &m);
+    if (st) fprintf(stderr, "%s\n", crisp_error_message());
+    assert_int_equal(st, CRISP_OK);
+    return m;
+}
 
 /* A random perspective camera for the bound tests, drawing from rnd() (uniform in [0, 1)): the
  * eye at distance dist from the origin, at a polar angle up to th_max from +Z, looking at a point

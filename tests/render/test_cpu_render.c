@@ -18,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "render/render_test_util.h"
 #include "crisp/construct.h"
 #include "crisp/io.h"
 #include "crisp/render.h"
@@ -33,17 +34,6 @@ static double rnd(void)
     rng ^= rng >> 7;
     rng ^= rng << 17;
     return (double)(rng >> 11) / 9007199254740992.0;
-}
-
-static crisp_model *load(const char *name)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
-    crisp_model *m = NULL;
-    crisp_status st = crisp_model_load(path, NULL, &m);
-    if (st) fprintf(stderr, "%s\n", crisp_error_message());
-    assert_int_equal(st, CRISP_OK);
-    return m;
 }
 
 /* A random camera looking at the box from outside, at 1.2 to 4 radii. */
@@ -135,7 +125,7 @@ static void test_surface_accuracy(void **state)
     crisp_renderer *r;
     assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
     for (int mi = 0; mi < 3; mi++) {
-        crisp_model *m = load(models[mi]);
+        crisp_model *m = rt_load_model(models[mi]);
         crisp_scene *sc;
         assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
         double worst = 0;
@@ -182,7 +172,7 @@ static int exact_classify(void *ctx, const crisp_scene *sc, uint32_t face, doubl
 
 static void compare_with_exact(const char *name, int views, int w, int h)
 {
-    crisp_model *m = load(name);
+    crisp_model *m = rt_load_model(name);
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     crisp_renderer *r;
@@ -292,7 +282,7 @@ static void test_no_cracks(void **state)
     crisp_model_destroy(mt);
     /* A closed solid of trimmed faces meeting along shared edges (STEP): the trim ribbons close
      * the sub-pixel gaps that both faces' 1 px bands can leave. */
-    crisp_model *rods = load("occt_linkrods.step");
+    crisp_model *rods = rt_load_model("occt_linkrods.step");
     check_closed(rods, 10, 0.05);
     crisp_model_destroy(rods);
 }
@@ -472,7 +462,7 @@ static void test_vectors_equal_scalar(void **state)
 {
     (void)state;
     if (rb_kind != RENDER_CPU) skip();
-    crisp_model *m = load("occt_bearing.iges");
+    crisp_model *m = rt_load_model("occt_bearing.iges");
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     crisp_renderer *r[2];

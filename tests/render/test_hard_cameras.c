@@ -30,17 +30,6 @@
 
 static int full_sweep;
 
-static crisp_model *load(const char *name)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
-    crisp_model *m = NULL;
-    crisp_status st = crisp_model_load(path, NULL, &m);
-    if (st) fprintf(stderr, "%s\n", crisp_error_message());
-    assert_int_equal(st, CRISP_OK);
-    return m;
-}
-
 static crisp_model *sphere_model(void)
 {
     crisp_placement pl;
@@ -100,7 +89,7 @@ typedef struct model_case {
 static void case_open(model_case *mc, const char *name)
 {
     mc->name = name;
-    mc->model = name ? load(name) : sphere_model();
+    mc->model = name ? rt_load_model(name) : sphere_model();
     if (!name) mc->name = "sphere";
     assert_int_equal(crisp_scene_prepare(mc->model, &mc->scene), CRISP_OK);
     double r = 0;
@@ -470,11 +459,12 @@ static void test_grazing(void **state)
     crisp_face f = {.surface = torus};
     assert_int_equal(crisp_model_add_face(mt, &f), CRISP_OK);
     grazing_model(mt, "torus", 1, v, w, h, &tot, &cracks, &inside);
-    grazing_model(load("occt_linkrods.step"), "occt_linkrods.step", 1, v, w, h, &tot, &cracks,
+    grazing_model(rt_load_model("occt_linkrods.step"), "occt_linkrods.step", 1, v, w, h, &tot,
+                  &cracks, &inside);
+    grazing_model(rt_load_model("occt_bearing.iges"), "occt_bearing.iges", 0, v, w, h, &tot,
+                  &cracks, &inside);
+    grazing_model(rt_load_model("gpucast_part.igs"), "gpucast_part.igs", 0, v, w, h, &tot, &cracks,
                   &inside);
-    grazing_model(load("occt_bearing.iges"), "occt_bearing.iges", 0, v, w, h, &tot, &cracks,
-                  &inside);
-    grazing_model(load("gpucast_part.igs"), "gpucast_part.igs", 0, v, w, h, &tot, &cracks, &inside);
     printf("grazing: %ld frames, %ld interior pixels compared, %ld differ; closed models: %ld "
            "pixels inside "
            "the silhouette, %ld background\n",
@@ -490,7 +480,7 @@ static void test_grazing(void **state)
 static void test_zoom_tables(void **state)
 {
     (void)state;
-    crisp_model *m = load("impeller.igs");
+    crisp_model *m = rt_load_model("impeller.igs");
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     crisp_renderer *r;

@@ -23,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "render/render_test_util.h"
 #include "crisp/construct.h"
 #include "crisp/io.h"
 #include "crisp/render.h"
@@ -432,20 +433,9 @@ static void test_degenerate(void **state)
 /* ---- bundled models ---------------------------------------------------------------------------
  */
 
-static crisp_model *load(const char *name)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
-    crisp_model *m = NULL;
-    crisp_status st = crisp_model_load(path, NULL, &m);
-    if (st) fprintf(stderr, "%s\n", crisp_error_message());
-    assert_int_equal(st, CRISP_OK);
-    return m;
-}
-
 static void check_model(const char *name, int faces)
 {
-    crisp_model *m = load(name);
+    crisp_model *m = rt_load_model(name);
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     double worst = 0.0;
