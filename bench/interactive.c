@@ -1,7 +1,9 @@
 /* bench_interactive: issue 12's interactive targets, stage by stage. Every bundled model
  * (data/nurbs) at 1920x1080, 1 sample per pixel, with the default camera (crisp_camera_frame_box)
- * and with a close-up whose surface fills the screen (the default camera's centre-ray hit point
- * seen with a 1/8 field of view, as bench_gl). Per row, medians of FRAMES warm frames (after one
+ * with a close-up whose surface fills the screen (the default camera's centre-ray hit point
+ * seen with a 1/8 field of view, as bench_gl) and with an extreme zoom (view "zoom": the trim
+ * curve point nearest that hit point at 1/10,000 of the default field of view, a trim edge
+ * across the screen: bench_camera.h). Per row, medians of FRAMES warm frames (after one
  * warm-up frame) on THREADS threads: the plan (crisp_planner_plan), the CPU backend's stages
  * (tessellate, rasterise, resolve and shade: crisp_render_stats), the whole frame (plan + draw),
  * the process CPU time per frame (all threads; fairer than wall time on a shared machine), the
@@ -194,7 +196,8 @@ int main(int argc, char **argv)
     printf("|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     fflush(stdout);
     for (int m = 0; m < model_count; m++) {
-        if (!wanted(argc, argv, models[m], "default") && !wanted(argc, argv, models[m], "close"))
+        if (!wanted(argc, argv, models[m], "default") && !wanted(argc, argv, models[m], "close") &&
+            !wanted(argc, argv, models[m], "zoom"))
             continue;
         char path[1024];
         snprintf(path, sizeof path, "%s/nurbs/%.255s", CRISP_DATA_DIR, models[m]);
@@ -202,11 +205,13 @@ int main(int argc, char **argv)
         if (crisp_model_load(path, NULL, &model)) die(path);
         crisp_scene *sc;
         if (crisp_scene_prepare(model, &sc)) die("scene");
-        crisp_camera cams[2];
+        crisp_camera cams[3];
         if (crisp_camera_frame_box(sc->box, 1920, 1080, &cams[0])) die("camera");
         cams[1] = bench_close_up(sc, &cams[0]);
-        for (int v = 0; v < 2; v++) {
-            const char *view = v ? "close" : "default";
+        cams[2] = bench_zoom(sc, &cams[0], 1e4);
+        static const char *const views[3] = {"default", "close", "zoom"};
+        for (int v = 0; v < 3; v++) {
+            const char *view = views[v];
             if (!wanted(argc, argv, models[m], view)) continue;
             if (occl_mode != 1) run_view(models[m], view, sc, &cams[v], frames, threads, 0);
             if (occl_mode != 0) run_view(models[m], view, sc, &cams[v], frames, threads, 1);
