@@ -698,10 +698,17 @@ int crisp__plan_trim_box_cached(crisp_trim_box_cache *c, const crisp_frame_plan 
     if (!st[i0].row_count || !st[i1].row_count) return crisp__plan_trim_box(plan, face, lo, hi);
     uint32_t r0 = st[i0].first_row + row_of(&st[i0], lo[1]),
              r1 = st[i1].first_row + row_of(&st[i1], hi[1]);
-    crisp_trim_box_entry *e = &c->entry[(fid * 31u + i0) & (CRISP_TRIM_BOX_CACHE - 1)];
-    if (e->generation == c->generation && e->face == fid && e->ia <= i0 && i1 <= e->ib &&
-        e->ra <= r0 && r1 <= e->rb && lo[0] > e->ua && hi[0] <= e->ub)
-        return e->answer;
+    /* A set of CRISP_TRIM_BOX_WAYS entries per face and strip: a zoomed face lies in one strip,
+     * and the row ranges and gaps of its boxes on both sides of a trim curve, or in rows far
+     * apart on screen, would otherwise replace one another. */
+    crisp_trim_box_entry *set =
+        &c->entry[((fid * 31u + i0) * CRISP_TRIM_BOX_WAYS) & (CRISP_TRIM_BOX_CACHE - 1)];
+    for (int w = 0; w < CRISP_TRIM_BOX_WAYS; w++) {
+        const crisp_trim_box_entry *e = &set[w];
+        if (e->generation == c->generation && e->face == fid && e->ia <= i0 && i1 <= e->ib &&
+            e->ra <= r0 && r1 <= e->rb && lo[0] > e->ua && hi[0] <= e->ub)
+            return e->answer;
+    }
     /* Every strip between with rows, stored one after the other: rows r0 .. r1 hold every row
      * the search walks. */
     for (uint32_t i = i0; i < i1; i++)
@@ -736,7 +743,17 @@ int crisp__plan_trim_box_cached(crisp_trim_box_cache *c, const crisp_frame_plan 
         rb++;
     }
     if (rb < st[ib].first_row) ib--;
-    *e = (crisp_trim_box_entry){c->generation, ua, ub, fid, ia, ib, ra, rb, res};
+    /* Replace the set's oldest entry (or one from an earlier draw). */
+    int victim = 0;
+    for (int w = 0; w < CRISP_TRIM_BOX_WAYS; w++) {
+        if (set[w].generation != c->generation) {
+            victim = w;
+            break;
+        }
+        if (set[w].stamp < set[victim].stamp) victim = w;
+    }
+    set[victim] =
+        (crisp_trim_box_entry){c->generation, ua, ub, fid, ia, ib, ra, rb, res, ++c->stamp};
     return res;
 }
 

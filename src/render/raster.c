@@ -1101,6 +1101,36 @@ static inline int core_pass(const crisp_raster_core *k, double x, double y, doub
     return 1;
 }
 
+/* The columns x0 .. x1 of the block row by0 .. by1 that a triangle's blocks can occupy: the
+ * per-block edge test in raster_tile_s rejects a block when one edge function is negative at
+ * all of its samples; for an edge with A > 0 (A < 0) that holds for every block left (right) of
+ * a threshold x found here in doubles, with a pixel's margin for their rounding. Blocks outside
+ * [*rx0, *rx1] would all be rejected, so a thin triangle across the screen walks its own blocks
+ * rather than its bounding box's; the exact test still decides the blocks walked. 0 when none. */
+static inline int row_span(const setup_tri *st, const raster_ctx *c, int x0, int x1, int by0,
+                           int by1, int *rx0, int *rx1)
+{
+    int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1], sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
+    double lo = x0, hi = x1;
+    for (int k = 0; k < 3; k++) {
+        int64_t A = st->ea[k], y0 = st->eb[k] * sy0, y1 = st->eb[k] * sy1;
+        if (!A) continue;
+        /* The block passes edge k when A sx + (the edge's largest B sy + C) >= 0 at one of its
+         * sample x: sx >= xs (A > 0) or sx <= xs (A < 0). */
+        double xs = -(double)((y0 > y1 ? y0 : y1) + st->ec[k]) / (double)A;
+        if (A > 0) {
+            double p = (xs - (double)c->off_fmax[0]) / SUB - 1; /* the block's last sample x */
+            lo = p > lo ? p : lo;
+        } else {
+            double p = (xs - (double)c->off_fmin[0]) / SUB + 1; /* its first */
+            hi = p < hi ? p : hi;
+        }
+    }
+    if (!(lo <= hi)) return 0;
+    *rx0 = (int)floor(lo), *rx1 = (int)ceil(hi);
+    return 1;
+}
+
 /* One tile, with S the target's samples per pixel: always inlined into raster_tile with S a
  * constant for the common one-sample target (the compiler then folds the sample loops and
  * strides), else with S as a variable. The same code either way. */
@@ -1186,7 +1216,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                                fabs(st->qy[0]) * (fabs(y0 - st->oy) + fabs(y1 + 1 - st->oy)));
         for (int by0 = y0; by0 <= y1; by0 = (by0 / BLOCK + 1) * BLOCK) {
             int by1 = (by0 / BLOCK + 1) * BLOCK - 1 < y1 ? (by0 / BLOCK + 1) * BLOCK - 1 : y1;
-            for (int bx0 = x0; bx0 <= x1; bx0 = (bx0 / BLOCK + 1) * BLOCK) {
+            int rx0, rx1; /* the pixels of the row whose blocks the edges may not all reject */
+            if (!row_span(st, c, x0, x1, by0, by1, &rx0, &rx1)) continue;
+            for (int bx0 = rx0 / BLOCK * BLOCK > x0 ? rx0 / BLOCK * BLOCK : x0; bx0 <= rx1;
+                 bx0 = (bx0 / BLOCK + 1) * BLOCK) {
                 int bx1 = (bx0 / BLOCK + 1) * BLOCK - 1 < x1 ? (bx0 / BLOCK + 1) * BLOCK - 1 : x1;
                 int blk = ((by0 - py0) / BLOCK) * BLOCKS + (bx0 - px0) / BLOCK;
                 if (tdec == 0 || xdec == 0) goto triangle_done; /* every fragment discarded */

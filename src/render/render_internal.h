@@ -63,15 +63,18 @@ int crisp__plan_trim_box(const struct crisp_frame_plan *plan, uint32_t face, con
  * for boxes inside a decided range of one strip's rows and one gap between crossings. One cache
  * per thread; entries count only while their generation is the cache's (set it to a new value
  * for each plan drawn, nonzero). */
-#define CRISP_TRIM_BOX_CACHE 256
+#define CRISP_TRIM_BOX_CACHE 1024
+#define CRISP_TRIM_BOX_WAYS 16 /* entries per face and strip (a set; the oldest replaced) */
 typedef struct crisp_trim_box_entry {
     uint64_t generation;
     double ua, ub;                 /* u in (ua, ub] */
     uint32_t face, ia, ib, ra, rb; /* strips ia .. ib, their global rows ra .. rb */
     int answer;
+    uint32_t stamp; /* when it was made (the cache's count) */
 } crisp_trim_box_entry;
 typedef struct crisp_trim_box_cache {
     uint64_t generation;
+    uint32_t stamp;
     crisp_trim_box_entry entry[CRISP_TRIM_BOX_CACHE];
 } crisp_trim_box_cache;
 int crisp__plan_trim_box_cached(crisp_trim_box_cache *c, const struct crisp_frame_plan *plan,

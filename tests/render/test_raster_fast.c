@@ -599,7 +599,9 @@ static void test_plan_trim_box_cached(void **state)
         int b = crisp__plan_trim_box_cached(&cache, &plan, e.face, lo, hi);
         hits += b == e.answer;
         for (int k = 0; k <= 20; k++) {
-            double u = lo[0] + (hi[0] - lo[0]) * k / 20, v = lo[1] + (hi[1] - lo[1]) * k / 20;
+            /* the box's corner itself at k = 20 (lo + (hi - lo) can round past hi) */
+            double u = k == 20 ? hi[0] : lo[0] + (hi[0] - lo[0]) * k / 20,
+                   v = k == 20 ? hi[1] : lo[1] + (hi[1] - lo[1]) * k / 20;
             if (b >= 0) assert_int_equal(crisp_plan_trim_test(&plan, e.face, u, v), b);
         }
     }
