@@ -14,8 +14,7 @@
 
 #include "crisp/gl.h"
 #include "gl/gl_internal.h"
-
-static crisp_gl_context *ctx;
+#include "gl/gl_test_util.h"
 
 /* The square [-1, 1]^2 in z = 0 as one bilinear patch, u = (x + 1) / 2, v = (y + 1) / 2. */
 static const double square_cps[16] = {-1, -1, 0, 1, 1, -1, 0, 1, -1, 1, 0, 1, 1, 1, 0, 1};
@@ -540,23 +539,6 @@ static void test_rational(void **state)
     crisp_gl_destroy(gl);
 }
 
-static int setup(void **state)
-{
-    (void)state;
-    if (crisp_gl_context_create(&ctx)) {
-        fprintf(stderr, "test_gl_basic: %s\n", crisp_error_message());
-        return -1;
-    }
-    return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    crisp_gl_context_destroy(ctx);
-    return 0;
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -565,5 +547,5 @@ int main(void)
         cmocka_unit_test(test_errors),  cmocka_unit_test(test_layout_hand),
         cmocka_unit_test(test_ribbons), cmocka_unit_test(test_rational),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, gl_setup, gl_teardown);
 }

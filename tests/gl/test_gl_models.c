@@ -25,8 +25,8 @@
 #include "crisp/io.h"
 #include "crisp/plan.h"
 #include "gl/gl_internal.h"
+#include "gl/gl_test_util.h"
 
-static crisp_gl_context *ctx;
 static int W = 160, H = 120;
 
 /* Every bundled model: the files of data/nurbs, sorted by name. */
@@ -480,23 +480,6 @@ static void test_layout(void **state)
     crisp_gl_destroy(gl);
 }
 
-static int setup(void **state)
-{
-    (void)state;
-    if (crisp_gl_context_create(&ctx)) {
-        fprintf(stderr, "test_gl_models: %s\n", crisp_error_message());
-        return -1;
-    }
-    return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    crisp_gl_context_destroy(ctx);
-    return 0;
-}
-
 int main(int argc, char **argv)
 {
     for (int i = 1; i + 1 < argc; i++)
@@ -508,5 +491,5 @@ int main(int argc, char **argv)
     }
     const struct CMUnitTest tests[] = {cmocka_unit_test(test_layout), cmocka_unit_test(test_models),
                                        cmocka_unit_test(test_splats)};
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, gl_setup, gl_teardown);
 }

@@ -30,8 +30,7 @@
 
 #include "crisp/gl.h"
 #include "gl/gl_internal.h"
-
-static crisp_gl_context *ctx;
+#include "gl/gl_test_util.h"
 
 /* The square [-1, 1]^2 in z = 0 as one bilinear patch of face 0 (as test_gl_basic). */
 static const double square_cps[16] = {-1, -1, 0, 1, 1, -1, 0, 1, -1, 1, 0, 1, 1, 1, 0, 1};
@@ -635,28 +634,11 @@ static void test_chunks(void **state)
     free(s);
 }
 
-static int setup(void **state)
-{
-    (void)state;
-    if (crisp_gl_context_create(&ctx)) {
-        fprintf(stderr, "no headless GL context: %s\n", crisp_error_message());
-        return -1;
-    }
-    return 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    crisp_gl_context_destroy(ctx);
-    return 0;
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_exact), cmocka_unit_test(test_camera), cmocka_unit_test(test_clip),
         cmocka_unit_test(test_raw),   cmocka_unit_test(test_upload), cmocka_unit_test(test_chunks),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, gl_setup, gl_teardown);
 }
