@@ -72,8 +72,9 @@ struct crisp__groups {
     uint32_t *counts;      /* per face: group leaves this frame */
     float *face_px;        /* per face, this frame: screen extent of its box (INFINITY: unknown) */
     double *patch_sigma;   /* per scene patch of a face with a hierarchy: its
-                              crisp__rational_reparam (3 values; they depend on the weights only,
-                              so they are formed once with the hierarchy, not per frame) */
+                              crisp__rational_sigmas (CRISP__SIGMA_STRIDE values, the last 3 its
+                              crisp__rational_reparam; they depend on the weights only, so they
+                              are formed once with the hierarchy, not per frame) */
     uint64_t generation;   /* bumped whenever the hierarchy is rebuilt (a new scene) */
     /* This frame's decisions per block (node): what owns its patches. Only the blocks the walk
      * reached are written; node_frame says which are current. */
@@ -388,8 +389,9 @@ static crisp_status build_group(crisp__groups *g, const crisp_scene *sc, const c
         const double *b = sc->patches[f->first_patch + iv0 * f->grid_u + iu0].box;
         memcpy(n.box, b, sizeof n.box);
         uint32_t pi = f->first_patch + iv0 * f->grid_u + iu0;
-        crisp__rational_reparam(&sc->patches[pi].bez, sigma);
-        memcpy(g->patch_sigma + 3 * (size_t)pi, sigma, 3 * sizeof *sigma);
+        double *ps = g->patch_sigma + CRISP__SIGMA_STRIDE * (size_t)pi;
+        crisp__rational_sigmas(&sc->patches[pi].bez, ps);
+        memcpy(sigma, ps + 3, 3 * sizeof *sigma);
     } else {
         for (int k = 0; k < 4; k++) {
             uint32_t cu = 2 * bu + (k & 1), cv = 2 * bv + (k >> 1);
@@ -487,8 +489,8 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
     free(g->face_px);
     free(g->patch_sigma);
     g->face_px = malloc((sc->face_count ? sc->face_count : 1) * sizeof *g->face_px);
-    g->patch_sigma =
-        crisp_malloc_array(sc->patch_count ? sc->patch_count : 1, 3 * sizeof *g->patch_sigma);
+    g->patch_sigma = crisp_malloc_array(sc->patch_count ? sc->patch_count : 1,
+                                        CRISP__SIGMA_STRIDE * sizeof *g->patch_sigma);
     g->face_root = malloc((sc->face_count ? sc->face_count : 1) * sizeof *g->face_root);
     g->face_small = calloc(sc->face_count ? sc->face_count : 1, 1);
     g->counts = calloc(sc->face_count ? sc->face_count : 1, sizeof *g->counts);
@@ -727,8 +729,9 @@ static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
         if ((dl[a] + (a ? ymax : xmax) * dl[2]) * 0.5 * (a ? c->height : c->width) > c->eps * wmin)
             return 0;
     uint32_t base = f->first_patch + n->iv0 * f->grid_u + n->iu0;
-    return crisp__rational_block_px(&c->sc->patches[base], f->grid_u, n->nu, n->nv, m, c->width,
-                                    c->height, c->eps) <= c->eps;
+    return crisp__rational_block_px_sigmas(
+               &c->sc->patches[base], c->g->patch_sigma + CRISP__SIGMA_STRIDE * (size_t)base,
+               f->grid_u, n->nu, n->nv, m, c->width, c->height, c->eps) <= c->eps;
 }
 
 /* 1 when the single patch of node n (extent: its box's screen extent) can be one leaf at level 1
@@ -784,7 +787,7 @@ static int patch_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
             (fabs(m[0][row]) + fabs(m[1][row]) + fabs(m[2][row])) * pmag + fabs(m[3][row]);
         lo[a] -= 1e-12 * (terms + mag), hi[a] += 1e-12 * (terms + mag);
     }
-    memcpy(sigma, c->g->patch_sigma + 3 * (size_t)pi,
+    memcpy(sigma, c->g->patch_sigma + CRISP__SIGMA_STRIDE * (size_t)pi + 3,
            sizeof sigma); /* crisp__rational_reparam(p) */
     for (int a = 0; a < 3; a++) {
         double eu = dmax(fabs(C[1][a] - C[0][a]), fabs(C[3][a] - C[2][a]));
@@ -1157,6 +1160,14 @@ double crisp__groups_face_px(const crisp__groups *g, uint32_t face)
 int crisp__groups_face_small(const crisp__groups *g, uint32_t face)
 {
     return g && g->face_small && face < g->face_count && g->face_small[face];
+}
+
+const double *crisp__groups_patch_sigmas(const crisp__groups *g, const crisp_scene *sc,
+                                         uint32_t patch)
+{
+    if (!g || g->scene != sc || g->key != sc->serial || patch >= g->patch_count) return NULL;
+    if (g->face_root[sc->patches[patch].face] == UINT32_MAX) return NULL; /* not formed */
+    return g->patch_sigma + CRISP__SIGMA_STRIDE * (size_t)patch;
 }
 
 uint64_t crisp__groups_generation(const crisp__groups *g)

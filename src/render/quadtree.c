@@ -238,14 +238,14 @@ static double flat_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, int 
  * by the weight, so it stays tight there, and it measures the triangle point at the parameters
  * the rasterizer interpolates (flat_px's homogeneous argument bounds another point of the same
  * triangle when the weights differ at its vertices). Equal weights: the two are the same. */
-static double flat_bound(const crisp_bezier_patch *p, crisp_mat4 m, int width, int height,
-                         double eps)
+static double flat_bound(const crisp_bezier_patch *p, const double *sigmas, crisp_mat4 m, int width,
+                         int height, double eps)
 {
     double wlo, whi;
     crisp__rational_weight_range(p, &wlo, &whi);
     if (!(whi > wlo)) return flat_px(p, m, width, height);
     crisp_scene_patch one = {.bez = *p};
-    return crisp__rational_block_px(&one, 1, 1, 1, m, width, height, eps);
+    return crisp__rational_block_px_sigmas(&one, sigmas, 1, 1, 1, m, width, height, eps);
 }
 
 static int forced_cmp(const crisp__forced *a, const crisp__forced *b)
@@ -364,8 +364,11 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
          * hull_extent_px). */
         double hull = hull_extent_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height);
         /* Flat enough on screen for any tessellation (flat_bound): tau 1, like a small hull. */
-        double flat = hull > c->eps && !known ? flat_bound(&sub, c->plan->view_proj, c->plan->width,
-                                                           c->plan->height, c->eps)
+        /* (the whole patch's sigma's were formed once with the patch groups) */
+        const double *sigmas =
+            depth == 0 ? crisp__groups_patch_sigmas(c->plan->groups, c->sc, b->patch) : NULL;
+        double flat = hull > c->eps && !known ? flat_bound(&sub, sigmas, c->plan->view_proj,
+                                                           c->plan->width, c->plan->height, c->eps)
                       : hull > c->eps         ? INFINITY
                                               : 0;
         if (hull > c->eps && flat <= c->eps) hull = 0;

@@ -93,6 +93,11 @@ double crisp__groups_face_px(const crisp__groups *g, uint32_t face);
  * a patch on the perimeter of a group leaf's block (every patch the edge rule asks about), else
  * O(depth). */
 uint32_t crisp__groups_owner(const crisp__groups *g, const crisp_scene *sc, uint32_t q);
+/* The patch's crisp__rational_sigmas, formed with the hierarchy of scene sc (view-independent,
+ * kept until the scene changes), or NULL when they were not formed (no hierarchy for its face, or
+ * the hierarchy is of another scene): the caller then forms them. */
+const double *crisp__groups_patch_sigmas(const crisp__groups *g, const crisp_scene *sc,
+                                         uint32_t patch);
 /* Bumped whenever classify rebuilt the hierarchy for a new scene (1 after the first): what is
  * built per face from the scene's patches is rebuilt when it changes. */
 uint64_t crisp__groups_generation(const crisp__groups *g);

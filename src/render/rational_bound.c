@@ -50,6 +50,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 #include "render_internal.h"
 
@@ -192,6 +193,12 @@ void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3])
     reparam(p, REPARAM_HALVINGS, sigma);
 }
 
+void crisp__rational_sigmas(const crisp_bezier_patch *p, double dest[CRISP__SIGMA_STRIDE])
+{
+    reparam(p, 0, dest);
+    reparam(p, REPARAM_HALVINGS, dest + 3);
+}
+
 void crisp__rational_weight_range(const crisp_bezier_patch *p, double *lo, double *hi)
 {
     *lo = *hi = 1;
@@ -257,8 +264,9 @@ static void dev_max(const block_dev *d, double E[3])
  * (the block's corners mapped by A), the sigma's without halvings. 0 when a weight is not
  * positive or (stop) the bound must already exceed stop->accept: both forms in finish are at
  * least max(|lo|, |hi|) / w_min in pixels. */
-static int block_error(const crisp_scene_patch *first, uint32_t stride, uint32_t nu, uint32_t nv,
-                       const map3 *A, const double C[4][3], const stop_rule *stop, block_dev *d)
+static int block_error(const crisp_scene_patch *first, const double *sigmas, uint32_t stride,
+                       uint32_t nu, uint32_t nv, const map3 *A, const double C[4][3],
+                       const stop_rule *stop, block_dev *d)
 {
     double eu[3], ev[3], tw[3];
     edge_terms(C, nu, nv, eu, ev, tw);
@@ -284,7 +292,11 @@ static int block_error(const crisp_scene_patch *first, uint32_t stride, uint32_t
                     }
                 }
             }
-            reparam(b, 0, sigma);
+            if (sigmas)
+                memcpy(sigma, sigmas + CRISP__SIGMA_STRIDE * ((size_t)jv * stride + iu),
+                       sizeof sigma);
+            else
+                reparam(b, 0, sigma);
             if (!isfinite(sigma[0])) return 0;
             for (int a = 0; a < 3; a++) {
                 d->lo[a] = dmin(d->lo[a], plo[a]);
@@ -305,8 +317,8 @@ static int block_error(const crisp_scene_patch *first, uint32_t stride, uint32_t
 }
 
 /* d->r again from the sigma's after REPARAM_HALVINGS (the control points' part is kept). */
-static void block_refine(const crisp_scene_patch *first, uint32_t stride, uint32_t nu, uint32_t nv,
-                         const double C[4][3], block_dev *d)
+static void block_refine(const crisp_scene_patch *first, const double *sigmas, uint32_t stride,
+                         uint32_t nu, uint32_t nv, const double C[4][3], block_dev *d)
 {
     double eu[3], ev[3], tw[3];
     edge_terms(C, nu, nv, eu, ev, tw);
@@ -314,7 +326,11 @@ static void block_refine(const crisp_scene_patch *first, uint32_t stride, uint32
     for (uint32_t jv = 0; jv < nv; jv++)
         for (uint32_t iu = 0; iu < nu; iu++) {
             double sigma[3];
-            reparam(&first[jv * stride + iu].bez, REPARAM_HALVINGS, sigma);
+            if (sigmas)
+                memcpy(sigma, sigmas + CRISP__SIGMA_STRIDE * ((size_t)jv * stride + iu) + 3,
+                       sizeof sigma);
+            else
+                reparam(&first[jv * stride + iu].bez, REPARAM_HALVINGS, sigma);
             for (int a = 0; a < 3; a++)
                 d->r[a] = dmax(d->r[a], (sigma[0] * eu[a] + sigma[1] * ev[a] + sigma[2] * tw[a]) *
                                             (1 + 1e-12));
@@ -366,6 +382,13 @@ static void corner_patches(const crisp_scene_patch *first, uint32_t stride, uint
 double crisp__rational_block_px(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
                                 uint32_t nv, crisp_mat4 m, int width, int height, double accept)
 {
+    return crisp__rational_block_px_sigmas(first, NULL, stride, nu, nv, m, width, height, accept);
+}
+
+double crisp__rational_block_px_sigmas(const crisp_scene_patch *first, const double *sigmas,
+                                       uint32_t stride, uint32_t nu, uint32_t nv, crisp_mat4 m,
+                                       int width, int height, double accept)
+{
     const crisp_bezier_patch *cp[4];
     corner_patches(first, stride, nu, nv, cp);
     double P[4][3], C[4][3];
@@ -381,10 +404,11 @@ double crisp__rational_block_px(const crisp_scene_patch *first, uint32_t stride,
      * accept; blocks stop early once the control points alone exceed accept. */
     const stop_rule *sr = accept > 0 && nu * nv > 1 ? &stop : NULL;
     block_dev d;
-    if (!block_error(first, stride, nu, nv, &A, (const double(*)[3])C, sr, &d)) return INFINITY;
+    if (!block_error(first, sigmas, stride, nu, nv, &A, (const double(*)[3])C, sr, &d))
+        return INFINITY;
     double e = finish((const double(*)[3])C, &d, width, height);
     if ((accept > 0 && e <= accept) || (d.r[0] == 0 && d.r[1] == 0 && d.r[2] == 0)) return e;
-    block_refine(first, stride, nu, nv, (const double(*)[3])C, &d);
+    block_refine(first, sigmas, stride, nu, nv, (const double(*)[3])C, &d);
     return dmin(e, finish((const double(*)[3])C, &d, width, height));
 }
 

@@ -25,6 +25,12 @@ double crisp__clip_screen_px(const double e[3], double wmin, double xmax, double
 
 void crisp__rational_reparam(const crisp_bezier_patch *p, double sigma[3]);
 
+/* Both sigma triples crisp__rational_block_px forms per patch (view-independent: the weights
+ * only): dest[0..2] without halvings (its coarse first try), dest[3..5] crisp__rational_reparam's.
+ * The planner keeps them per scene patch (patch_groups.c) so that no frame forms them again. */
+#define CRISP__SIGMA_STRIDE 6
+void crisp__rational_sigmas(const crisp_bezier_patch *p, double dest[CRISP__SIGMA_STRIDE]);
+
 /* The least and largest weight of p (1, 1 for a polynomial patch). Where they differ, the
  * homogeneous bounds (flat_px, group_leaf_ok's, the SLEFE's) bound the distance to the triangle
  * point sum l_k w(x_k) clip(x_k) / ..., a point of the same triangle but not the one at the
@@ -41,6 +47,12 @@ void crisp__rational_weight_range(const crisp_bezier_patch *p, double *lo, doubl
  * (returning INFINITY) as soon as the bound must exceed accept. */
 double crisp__rational_block_px(const crisp_scene_patch *first, uint32_t stride, uint32_t nu,
                                 uint32_t nv, crisp_mat4 m, int width, int height, double accept);
+/* The same bound (the same number) with each patch's crisp__rational_sigmas read from sigmas
+ * (CRISP__SIGMA_STRIDE doubles per patch, laid out like first: patch (iu, jv) at
+ * sigmas + CRISP__SIGMA_STRIDE * (jv * stride + iu)) instead of formed; NULL: formed. */
+double crisp__rational_block_px_sigmas(const crisp_scene_patch *first, const double *sigmas,
+                                       uint32_t stride, uint32_t nu, uint32_t nv, crisp_mat4 m,
+                                       int width, int height, double accept);
 
 /* The block bound's last step on its own (patch_groups.c keeps the deviations per block): C the
  * block's Euclidean corners in clip coordinates x, y, w; every control point's deviation from the

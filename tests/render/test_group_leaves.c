@@ -26,6 +26,7 @@
 #include "crisp/render.h"
 #include "crisp/tess.h"
 #include "render/quadtree.h"
+#include "render/rational_bound.h"
 
 static uint64_t rng = 0x9e3779b97f4a7c15ull;
 static double rnd(void)
@@ -619,12 +620,100 @@ static void test_quarter_cells(void **state)
     assert_true(loose_over > 0);
 }
 
+/* The per-patch sigma's the planner keeps between frames (patch_groups.c patch_sigma, read by
+ * group_leaf_ok, patch_flat_ok and build_cell's whole-patch flat bound): each is exactly what
+ * crisp__rational_sigmas forms from the patch, for the scene the hierarchy was built from and for
+ * no other (two rational sheets with different weights, alternated in one crisp__groups); and a
+ * planner that planned one scene plans another exactly as a new planner does. */
+static int same_doubles(const double *a, const double *b, int n)
+{
+    return memcmp(a, b, sizeof(double) * (size_t)n) == 0;
+}
+
+static void check_kept_sigmas(crisp__groups *g, const crisp_scene *sc, const crisp_scene *other)
+{
+    crisp_mat4 mat;
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            mat[i][j] = i == j;
+    dev_stats st = {0};
+    assert_int_equal(crisp__groups_test_deviations(g, sc, mat, check_deviation, &st), CRISP_OK);
+    free(st.ratio);
+    free(st.ratio_box);
+    long rational = 0;
+    for (uint32_t q = 0; q < sc->patch_count; q++) {
+        const double *kept = crisp__groups_patch_sigmas(g, sc, q);
+        assert_non_null(kept);
+        double want[CRISP__SIGMA_STRIDE];
+        crisp__rational_sigmas(&sc->patches[q].bez, want);
+        if (!same_doubles(kept, want, CRISP__SIGMA_STRIDE))
+            fail_msg("patch %u: kept sigma's (%g %g %g | %g %g %g) differ from the patch's (%g %g "
+                     "%g | %g %g %g)",
+                     q, kept[0], kept[1], kept[2], kept[3], kept[4], kept[5], want[0], want[1],
+                     want[2], want[3], want[4], want[5]);
+        rational += want[3] > 0;
+    }
+    assert_true(rational > (long)sc->patch_count / 2);
+    /* built from sc: nothing for another scene */
+    assert_null(crisp__groups_patch_sigmas(g, other, 0));
+}
+
+static crisp_scene *sheet_scene(crisp_model **m)
+{
+    assert_int_equal(crisp_model_create(m), CRISP_OK);
+    crisp_face f = {.surface = sheet(1, 1), .source_id = 1};
+    assert_int_equal(crisp_model_add_face(*m, &f), CRISP_OK);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(*m, &sc), CRISP_OK);
+    return sc;
+}
+
+static void test_kept_sigmas(void **state)
+{
+    (void)state;
+    crisp_model *ma, *mb;
+    crisp_scene *a = sheet_scene(&ma), *b = sheet_scene(&mb);
+    assert_int_equal(a->patch_count, b->patch_count);
+    crisp__groups *g;
+    assert_int_equal(crisp__groups_create(&g), CRISP_OK);
+    check_kept_sigmas(g, a, b);
+    check_kept_sigmas(g, b, a);
+    check_kept_sigmas(g, a, b);
+    crisp__groups_destroy(g);
+    /* The planner: a, then b, against a new planner on b (same leaves, same levels). */
+    crisp_planner *used, *fresh;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &used), CRISP_OK);
+    assert_int_equal(crisp_planner_create(NULL, NULL, &fresh), CRISP_OK);
+    long compared = 0;
+    for (int c = 0; c < 6; c++) {
+        crisp_camera cam = random_camera();
+        const crisp_frame_plan *pa, *pb, *pf;
+        assert_int_equal(crisp_planner_plan(used, a, &cam, &pa), CRISP_OK);
+        assert_int_equal(crisp_planner_plan(used, b, &cam, &pb), CRISP_OK);
+        assert_int_equal(crisp_planner_plan(fresh, b, &cam, &pf), CRISP_OK);
+        assert_int_equal(pb->leaf_count, pf->leaf_count);
+        assert_memory_equal(pb->leaves, pf->leaves, pb->leaf_count * sizeof *pb->leaves);
+        compared += pb->leaf_count;
+    }
+    printf("kept sigma's: %u patches x 3 scene switches exact; %ld leaves planned as a new "
+           "planner does after a scene switch\n",
+           a->patch_count, compared);
+    assert_true(compared > 1000);
+    crisp_planner_destroy(used);
+    crisp_planner_destroy(fresh);
+    crisp_scene_destroy(a);
+    crisp_scene_destroy(b);
+    crisp_model_destroy(ma);
+    crisp_model_destroy(mb);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_polynomial_uniform), cmocka_unit_test(test_polynomial_random_knots),
         cmocka_unit_test(test_rational),           cmocka_unit_test(test_block_deviation),
         cmocka_unit_test(test_tau_cells),          cmocka_unit_test(test_quarter_cells),
+        cmocka_unit_test(test_kept_sigmas),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

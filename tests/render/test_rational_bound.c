@@ -343,6 +343,23 @@ static void test_blocks(void **state)
         int width, height;
         random_view(exp(log(20.0) + rnd() * log(100.0)), vp, &width, &height);
         double bound = crisp__rational_block_px(b.first, b.stride, nu, nv, vp, width, height, 0);
+        /* The planner's form with each patch's sigma's formed once and kept (patch_groups.c):
+         * the same number, at every accept (the coarse sigma's decide some, the halved ones
+         * others). */
+        double sig[NU * NV * CRISP__SIGMA_STRIDE];
+        for (int k = 0; k < NU * NV; k++)
+            crisp__rational_sigmas(&sp[k].bez, sig + CRISP__SIGMA_STRIDE * k);
+        for (int k = 0; k < 4; k++) {
+            double accept = k == 0 ? 0 : bound * (k == 1 ? 0.5 : k == 2 ? 1.0 : 2.0);
+            double with = crisp__rational_block_px_sigmas(
+                b.first, sig + CRISP__SIGMA_STRIDE * (iv0 * NU + iu0), b.stride, nu, nv, vp, width,
+                height, accept);
+            double without =
+                crisp__rational_block_px(b.first, b.stride, nu, nv, vp, width, height, accept);
+            if (!(with == without || (isnan(with) && isnan(without))))
+                fail_msg("block %d, accept %g: %.17g with kept sigma's, %.17g formed", trial,
+                         accept, with, without);
+        }
         if (isfinite(bound)) {
             double d = block_distance(&b, vp, width, height);
             if (d > bound)
