@@ -75,7 +75,14 @@ struct crisp__groups {
                               crisp__rational_sigmas (CRISP__SIGMA_STRIDE values, the last 3 its
                               crisp__rational_reparam; they depend on the weights only, so they
                               are formed once with the hierarchy, not per frame) */
-    uint64_t generation;   /* bumped whenever the hierarchy is rebuilt (a new scene) */
+    /* Per scene patch whose weights vary: the crisp__rational_sigmas of its four quarters
+     * (build_cell's depth-1 cells), formed the first time a frame asks and kept with the scene.
+     * quarter_slot: per patch, its slot or UINT32_MAX; quarter_formed: per slot, a bit per
+     * quarter. */
+    uint32_t *quarter_slot;
+    double *quarter_sigma; /* 4 x CRISP__SIGMA_STRIDE per slot */
+    uint8_t *quarter_formed;
+    uint64_t generation; /* bumped whenever the hierarchy is rebuilt (a new scene) */
     /* This frame's decisions per block (node): what owns its patches. Only the blocks the walk
      * reached are written; node_frame says which are current. */
     uint8_t *node_kind;     /* NODE_* */
@@ -467,7 +474,34 @@ void crisp__groups_destroy(crisp__groups *g)
     free(g->counts);
     free(g->face_px);
     free(g->patch_sigma);
+    free(g->quarter_slot);
+    free(g->quarter_sigma);
+    free(g->quarter_formed);
     free(g);
+}
+
+/* The quarter slots of scene sc (after the hierarchy is built for it). */
+static crisp_status build_quarter_slots(crisp__groups *g, const crisp_scene *sc)
+{
+    free(g->quarter_slot);
+    free(g->quarter_sigma);
+    free(g->quarter_formed);
+    g->quarter_sigma = NULL;
+    g->quarter_formed = NULL;
+    g->quarter_slot = crisp_malloc_array(sc->patch_count ? sc->patch_count : 1, sizeof(uint32_t));
+    if (!g->quarter_slot) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
+    uint32_t slots = 0;
+    for (uint32_t q = 0; q < sc->patch_count; q++) {
+        double lo, hi;
+        crisp__rational_weight_range(&sc->patches[q].bez, &lo, &hi);
+        g->quarter_slot[q] = hi > lo ? slots++ : UINT32_MAX;
+    }
+    g->quarter_sigma =
+        crisp_malloc_array(slots ? slots : 1, 4 * CRISP__SIGMA_STRIDE * sizeof(double));
+    g->quarter_formed = calloc(slots ? slots : 1, 1);
+    if (!g->quarter_sigma || !g->quarter_formed)
+        return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
+    return CRISP_OK;
 }
 
 static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
@@ -520,6 +554,8 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
     if (!g->face_active || !g->face_active_count || !g->face_active_cap || !g->node_kind ||
         !g->node_frame || !g->patch_owner)
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
+    crisp_status st = build_quarter_slots(g, sc);
+    if (st) return st;
     g->scene = sc;
     g->generation++;
     g->patch_count = sc->patch_count;
@@ -1168,6 +1204,20 @@ const double *crisp__groups_patch_sigmas(const crisp__groups *g, const crisp_sce
     if (!g || g->scene != sc || g->key != sc->serial || patch >= g->patch_count) return NULL;
     if (g->face_root[sc->patches[patch].face] == UINT32_MAX) return NULL; /* not formed */
     return g->patch_sigma + CRISP__SIGMA_STRIDE * (size_t)patch;
+}
+
+const double *crisp__groups_quarter_sigmas(crisp__groups *g, const crisp_scene *sc, uint32_t patch,
+                                           int quarter, const crisp_bezier_patch *q)
+{
+    if (!g || g->scene != sc || g->key != sc->serial || patch >= g->patch_count) return NULL;
+    uint32_t slot = g->quarter_slot[patch];
+    if (slot == UINT32_MAX || quarter < 0 || quarter > 3) return NULL;
+    double *s = g->quarter_sigma + CRISP__SIGMA_STRIDE * (4 * (size_t)slot + (size_t)quarter);
+    if (!(g->quarter_formed[slot] >> quarter & 1)) {
+        crisp__rational_sigmas(q, s);
+        g->quarter_formed[slot] |= (uint8_t)(1u << quarter);
+    }
+    return s;
 }
 
 uint64_t crisp__groups_generation(const crisp__groups *g)

@@ -364,9 +364,15 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
          * hull_extent_px). */
         double hull = hull_extent_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height);
         /* Flat enough on screen for any tessellation (flat_bound): tau 1, like a small hull. */
-        /* (the whole patch's sigma's were formed once with the patch groups) */
+        /* (the sigma's of the whole patch and of its quarters depend on the weights only: they
+         * are kept with the patch groups, formed once per scene) */
         const double *sigmas =
-            depth == 0 ? crisp__groups_patch_sigmas(c->plan->groups, c->sc, b->patch) : NULL;
+            hull > c->eps && !known && sub.rational
+                ? depth == 0   ? crisp__groups_patch_sigmas(c->plan->groups, c->sc, b->patch)
+                  : depth == 1 ? crisp__groups_quarter_sigmas(c->plan->groups, c->sc, b->patch,
+                                                              ix + 2 * iy, &sub)
+                               : NULL
+                : NULL;
         double flat = hull > c->eps && !known ? flat_bound(&sub, sigmas, c->plan->view_proj,
                                                            c->plan->width, c->plan->height, c->eps)
                       : hull > c->eps         ? INFINITY

@@ -98,6 +98,13 @@ uint32_t crisp__groups_owner(const crisp__groups *g, const crisp_scene *sc, uint
  * the hierarchy is of another scene): the caller then forms them. */
 const double *crisp__groups_patch_sigmas(const crisp__groups *g, const crisp_scene *sc,
                                          uint32_t patch);
+/* The crisp__rational_sigmas of quarter `quarter` (ix + 2 iy: [ix / 2, (ix + 1) / 2] x ..) of
+ * scene patch `patch`, whose control points are q (build_cell's depth-1 cell: always the same
+ * numbers for the same patch): formed from q the first time, then kept until the scene changes.
+ * NULL where the patch's weights do not vary or the hierarchy is of another scene. A patch's
+ * quarters are asked for by the one worker that plans it (no lock). */
+const double *crisp__groups_quarter_sigmas(crisp__groups *g, const crisp_scene *sc, uint32_t patch,
+                                           int quarter, const crisp_bezier_patch *q);
 /* Bumped whenever classify rebuilt the hierarchy for a new scene (1 after the first): what is
  * built per face from the scene's patches is rebuilt when it changes. */
 uint64_t crisp__groups_generation(const crisp__groups *g);

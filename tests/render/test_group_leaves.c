@@ -652,6 +652,35 @@ static void check_kept_sigmas(crisp__groups *g, const crisp_scene *sc, const cri
                      q, kept[0], kept[1], kept[2], kept[3], kept[4], kept[5], want[0], want[1],
                      want[2], want[3], want[4], want[5]);
         rational += want[3] > 0;
+        /* the quarters (build_cell's depth-1 cells, made as cell_patch makes them) */
+        const crisp_bezier_patch *p = &sc->patches[q].bez;
+        double wlo, whi;
+        crisp__rational_weight_range(p, &wlo, &whi);
+        if (!(whi > wlo)) {
+            assert_null(crisp__groups_quarter_sigmas(g, sc, q, 0, p));
+            continue;
+        }
+        enum { N = 16 * 4 };
+        double h[2][N], qc[4][N];
+        crisp_bezier_patch half[2] = {*p, *p}, quarter[4];
+        half[0].cpw = h[0], half[1].cpw = h[1];
+        crisp_bezier_patch_split_u(p, 0.5, &half[0], &half[1]);
+        for (int k = 0; k < 4; k++)
+            quarter[k] = half[k & 1], quarter[k].cpw = qc[k];
+        crisp_bezier_patch_split_v(&half[0], 0.5, &quarter[0], &quarter[2]);
+        crisp_bezier_patch_split_v(&half[1], 0.5, &quarter[1], &quarter[3]);
+        for (int k = 0; k < 4; k++) {
+            const double *got = crisp__groups_quarter_sigmas(g, sc, q, k, &quarter[k]);
+            assert_non_null(got);
+            crisp__rational_sigmas(&quarter[k], want);
+            if (!same_doubles(got, want, CRISP__SIGMA_STRIDE))
+                fail_msg("patch %u, quarter %d: kept sigma's %g %g %g differ from the quarter's "
+                         "%g %g %g",
+                         q, k, got[3], got[4], got[5], want[3], want[4], want[5]);
+            /* kept: asked again (with other control points), the same numbers come back */
+            got = crisp__groups_quarter_sigmas(g, sc, q, k, p);
+            assert_true(same_doubles(got, want, CRISP__SIGMA_STRIDE));
+        }
     }
     assert_true(rational > (long)sc->patch_count / 2);
     /* built from sc: nothing for another scene */
@@ -695,7 +724,8 @@ static void test_kept_sigmas(void **state)
         assert_memory_equal(pb->leaves, pf->leaves, pb->leaf_count * sizeof *pb->leaves);
         compared += pb->leaf_count;
     }
-    printf("kept sigma's: %u patches x 3 scene switches exact; %ld leaves planned as a new "
+    printf("kept sigma's (patches and quarters): %u patches x 3 scene switches exact; %ld leaves "
+           "planned as a new "
            "planner does after a scene switch\n",
            a->patch_count, compared);
     assert_true(compared > 1000);
