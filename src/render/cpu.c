@@ -54,6 +54,7 @@ struct crisp_renderer {
     crisp_raster_core *cores; /* per ribbon triangle: its quad's core (ribbon_core) */
     size_t cores_cap;
     double **st;     /* per worker: local (s, t) of one leaf's mesh */
+    double **path;   /* per worker: CRISP_PLAN_MAX_DEPTH cells' control nets (find_empty_leaves) */
     uint32_t **pidx; /* per worker: one leaf's triangles (leaf_pieces_hidden), 2 MAX_LEAF_VERTS */
     int workers;
     uint8_t *untested; /* per face: no trim loops, no trim test (the rasterizer's hook) */
@@ -105,12 +106,15 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
     if (!st) {
         r->workers = crisp_pool_threads(r->pool);
         r->st = calloc((size_t)r->workers, sizeof *r->st);
+        r->path = calloc((size_t)r->workers, sizeof *r->path);
         r->cache = calloc((size_t)r->workers, sizeof *r->cache);
         r->pidx = calloc((size_t)r->workers, sizeof *r->pidx);
-        if (!r->st || !r->cache || !r->pidx)
+        if (!r->st || !r->path || !r->cache || !r->pidx)
             st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
         for (int w = 0; !st && w < r->workers; w++)
             if (!(r->st[w] = crisp_malloc_array(MAX_LEAF_VERTS, 2 * sizeof(double))) ||
+                !(r->path[w] = crisp_malloc_array(
+                      (size_t)CRISP_PLAN_MAX_DEPTH * CRISP__PATCH_DOUBLES, sizeof(double))) ||
                 !(r->pidx[w] = crisp_malloc_array(MAX_LEAF_VERTS, 6 * sizeof(uint32_t))))
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
     }
@@ -129,6 +133,10 @@ void crisp_renderer_destroy(crisp_renderer *r)
         for (int w = 0; w < r->workers; w++)
             free(r->st[w]);
     free(r->st);
+    if (r->path)
+        for (int w = 0; w < r->workers; w++)
+            free(r->path[w]);
+    free(r->path);
     if (r->pidx)
         for (int w = 0; w < r->workers; w++)
             free(r->pidx[w]);
@@ -374,13 +382,46 @@ static void leaf_counts(crisp_renderer *r, size_t j, const crisp_plan_leaf *L)
     r->leaf_tbase[j] = (uint32_t)t;
 }
 
+/* The cells of one patch down to a leaf's, halved one level at a time (crisp__subpatch_quarter):
+ * a split patch's leaves come in quadtree order, so a leaf's parent is usually the one already
+ * made for its sibling and each leaf costs one halving in u and v (issue 12: re-extracting every
+ * leaf's cell from its patch with four general cuts was 454 M of imp49's 772 M here). The nets
+ * are those of the exact cells to rounding, which the hull's padding (1/128 px) covers many
+ * times: a sound hull, as before. */
+typedef struct cell_path {
+    uint32_t patch; /* whose cells are kept (UINT32_MAX: none) */
+    int have;       /* cells kept: depths 1 .. have */
+    uint32_t ix[CRISP_PLAN_MAX_DEPTH + 1], iy[CRISP_PLAN_MAX_DEPTH + 1];
+    crisp_bezier_patch cell[CRISP_PLAN_MAX_DEPTH + 1];
+    double *nets; /* the worker's path buffer: depth k's net at (k - 1) CRISP__PATCH_DOUBLES */
+} cell_path;
+
+static const crisp_bezier_patch *path_cell(cell_path *cp, const crisp_bezier_patch *bez,
+                                           uint32_t patch, const crisp_plan_leaf *L)
+{
+    int d = (int)L->depth;
+    if (!d) return bez;
+    if (cp->patch != patch) cp->patch = patch, cp->have = 0;
+    int k = cp->have < d ? cp->have : d; /* the deepest kept ancestor (or the leaf itself) */
+    while (k > 0 && (cp->ix[k] != L->ix >> (d - k) || cp->iy[k] != L->iy >> (d - k)))
+        k--;
+    for (; k < d; k++) {
+        uint32_t ix = L->ix >> (d - k - 1), iy = L->iy >> (d - k - 1);
+        crisp__subpatch_quarter(k ? &cp->cell[k] : bez, (int)(ix & 1), (int)(iy & 1),
+                                cp->nets + (size_t)k * CRISP__PATCH_DOUBLES, &cp->cell[k + 1]);
+        cp->ix[k + 1] = ix, cp->iy[k + 1] = iy;
+    }
+    cp->have = d;
+    return &cp->cell[d];
+}
+
 static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
 {
     skip_ctx *c = vctx;
     crisp_renderer *r = c->r;
     const crisp_frame_plan *plan = r->plan;
-    double *storage = r->st[worker];
     crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
+    cell_path path = {.patch = UINT32_MAX, .nets = r->path[worker]};
     for (size_t j = begin; j < end; j++) {
         const crisp_plan_leaf *L = &plan->leaves[j];
         if (c->only && !c->only[L->face]) {
@@ -398,13 +439,8 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
             leaf_counts(r, j, L);
             continue;
         }
-        const crisp_bezier_patch *bez = &c->sc->patches[L->patch].bez;
-        crisp_bezier_patch sub = *bez;
-        if (L->depth) {
-            double sz = ldexp(1.0, -(int)L->depth);
-            crisp__subpatch(bez, L->ix * sz, (L->ix + 1) * sz, L->iy * sz, (L->iy + 1) * sz,
-                            storage, storage + 2 * CRISP__PATCH_DOUBLES, &sub);
-        }
+        const crisp_bezier_patch sub =
+            *path_cell(&path, &c->sc->patches[L->patch].bez, L->patch, L);
         int n = (sub.du + 1) * (sub.dv + 1), front = 1;
         double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
         for (int k = 0; k < n && front; k++) {
