@@ -26,13 +26,21 @@
 #define TESS_CACHE_BITS 7
 #define TESS_ROW_DOUBLES (2 * (CRISP_MAX_DEGREE + 1) * 4)
 
-/* Per worker: a patch's rows evaluated at a few s values (crisp__bezier_patch_rows_s), valid
- * for one leaf (generation). */
+#define TESS_VERT_BITS 8
+
+/* Per worker: a patch's rows evaluated at a few s values (crisp__bezier_patch_rows_s) and whole
+ * vertices at a few (s, t), keyed by the patch and the bits of its local s (and t), valid for one
+ * tessellation pass (generation: the same scene, patches and view). A vertex is a function of
+ * these alone, so what the tables give is what evaluating again would give, bit for bit; they
+ * pay where leaves of one patch meet (issue 12: a split patch's small leaves share most of their
+ * vertices with their neighbours, each of which evaluated them again). */
 typedef struct tess_cache {
-    uint64_t generation;
     uint64_t gen[1 << TESS_CACHE_BITS], key[1 << TESS_CACHE_BITS];
     uint32_t patch[1 << TESS_CACHE_BITS]; /* a group leaf's vertices of one s span patches */
     double rows[(1 << TESS_CACHE_BITS) * TESS_ROW_DOUBLES];
+    uint64_t vgen[1 << TESS_VERT_BITS], vs[1 << TESS_VERT_BITS], vt[1 << TESS_VERT_BITS];
+    uint32_t vpatch[1 << TESS_VERT_BITS];
+    crisp_raster_vertex vert[1 << TESS_VERT_BITS];
 } tess_cache;
 
 struct crisp_renderer {
@@ -70,8 +78,9 @@ struct crisp_renderer {
     size_t ribbon_keep_cap;
     uint8_t *ribbon_hidden; /* per ribbon quad looked at: hidden (cull_ribbons) */
     size_t ribbon_hidden_cap;
-    tess_cache *cache; /* per worker (tessellate) */
-    double *col;       /* the resolve's per-column view direction part (resolve_row1) */
+    tess_cache *cache;        /* per worker (tessellate) */
+    uint64_t tess_generation; /* of the last tessellation pass (tess_cache) */
+    double *col;              /* the resolve's per-column view direction part (resolve_row1) */
     size_t col_cap;
     int no_vectors;  /* crisp__renderer_set_vectors */
     uint32_t *order; /* the leaves drawn, batch after batch (crisp__occl_order) */
@@ -232,6 +241,7 @@ typedef struct tess_ctx {
     const uint32_t *list;
     size_t count;
     uint32_t vorigin, vend, tend;
+    uint64_t generation; /* the pass's (tess_cache) */
 } tess_ctx;
 
 static void tessellate(void *vctx, size_t begin, size_t end, int worker)
@@ -259,27 +269,39 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
         }
         int reversed = (plan->faces[L->face].flags & CRISP_PLAN_FACE_REVERSED) != 0;
         /* Vertices that share s (a column of the inner grid, a side of the boundary) share the
-         * first half of the evaluation: the patch's rows at s, kept per leaf in a small table
-         * keyed by the generator's local s (the same s: the same rows, the same values). */
+         * first half of the evaluation: the patch's rows at s, kept in a small table keyed by the
+         * patch and s (the same s: the same rows, the same values); vertices met before in the
+         * pass (a corner or side shared with a neighbouring leaf of the patch) are copied. */
         tess_cache *tc = &r->cache[worker];
-        tc->generation++;
         for (size_t k = 0; k < nv; k++) {
             double s, t; /* the vertex's patch (a group leaf spans several) and its local (s, t) */
             uint32_t pi = crisp_plan_leaf_locate(plan, L, st[2 * k], st[2 * k + 1], &s, &t);
             const crisp_scene_patch *sp = &c->sc->patches[pi];
+            crisp_raster_vertex *v = &r->verts[vbase + k];
+            uint64_t sbits, tbits;
+            memcpy(&sbits, &s, sizeof sbits);
+            memcpy(&tbits, &t, sizeof tbits);
+            size_t vslot =
+                (size_t)(((sbits * 0x9E3779B97F4A7C15ull) ^ (tbits * 0xC2B2AE3D27D4EB4Full) ^
+                          (pi * 0x165667B19E3779F9ull)) >>
+                         (64 - TESS_VERT_BITS));
+            if (tc->vgen[vslot] == c->generation && tc->vs[vslot] == sbits &&
+                tc->vt[vslot] == tbits && tc->vpatch[vslot] == pi) {
+                *v = tc->vert[vslot];
+                continue;
+            }
             double P[3], Ps[3], Pt[3], n[3];
-            uint64_t bits;
-            memcpy(&bits, &st[2 * k], sizeof bits);
-            size_t slot = (size_t)((bits * 0x9E3779B97F4A7C15ull) >> (64 - TESS_CACHE_BITS));
+            size_t slot =
+                (size_t)(((sbits * 0x9E3779B97F4A7C15ull) ^ (pi * 0x165667B19E3779F9ull)) >>
+                         (64 - TESS_CACHE_BITS));
             double *rows = tc->rows + slot * TESS_ROW_DOUBLES;
-            if (tc->gen[slot] != tc->generation || tc->key[slot] != bits || tc->patch[slot] != pi) {
+            if (tc->gen[slot] != c->generation || tc->key[slot] != sbits || tc->patch[slot] != pi) {
                 crisp__bezier_patch_rows_s(&sp->bez, s, rows);
-                tc->gen[slot] = tc->generation;
-                tc->key[slot] = bits;
+                tc->gen[slot] = c->generation;
+                tc->key[slot] = sbits;
                 tc->patch[slot] = pi;
             }
             crisp__bezier_patch_derivs_rows(&sp->bez, rows, t, P, Ps, Pt);
-            crisp_raster_vertex *v = &r->verts[vbase + k];
             crisp_mat4_mulp(*m, P, v->clip);
             v->attr[0] = sp->bez.u0 + s * (sp->bez.u1 - sp->bez.u0);
             v->attr[1] = sp->bez.v0 + t * (sp->bez.v1 - sp->bez.v0);
@@ -289,6 +311,11 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             if (crisp__normal_degenerate(Ps, Pt, n)) crisp_bezier_patch_normal(&sp->bez, s, t, n);
             if (reversed) crisp_vec3_scale(n, -1, n);
             crisp_vec3_normalize(n, v->attr + 2);
+            tc->vgen[vslot] = c->generation;
+            tc->vs[vslot] = sbits;
+            tc->vt[vslot] = tbits;
+            tc->vpatch[vslot] = pi;
+            tc->vert[vslot] = *v;
         }
     }
 }
@@ -1675,7 +1702,8 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         if ((st = crisp_grow((void **)&r->verts, &r->vert_cap, nv ? nv : 1, sizeof *r->verts)) ||
             (st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris)))
             return st;
-        tess_ctx tc = {r, sc, list, kept, (uint32_t)vb0, (uint32_t)nv, (uint32_t)nt};
+        tess_ctx tc = {
+            r, sc, list, kept, (uint32_t)vb0, (uint32_t)nv, (uint32_t)nt, ++r->tess_generation};
         crisp_pool_parallel_for(r->pool, kept, 8, tessellate, &tc);
         double tb = crisp_time_now();
         /* Each pass projects only its own vertices: the batch's, later the ribbons'. The block
