@@ -285,7 +285,9 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
                 (size_t)(((sbits * 0x9E3779B97F4A7C15ull) ^ (tbits * 0xC2B2AE3D27D4EB4Full) ^
                           (pi * 0x165667B19E3779F9ull)) >>
                          (64 - TESS_VERT_BITS));
-            if (tc->vgen[vslot] == c->generation && tc->vs[vslot] == sbits &&
+            /* Only a vertex on the leaf's boundary can be another leaf's. */
+            int side = st[2 * k] == 0 || st[2 * k] == 1 || st[2 * k + 1] == 0 || st[2 * k + 1] == 1;
+            if (side && tc->vgen[vslot] == c->generation && tc->vs[vslot] == sbits &&
                 tc->vt[vslot] == tbits && tc->vpatch[vslot] == pi) {
                 *v = tc->vert[vslot];
                 continue;
@@ -311,6 +313,7 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             if (crisp__normal_degenerate(Ps, Pt, n)) crisp_bezier_patch_normal(&sp->bez, s, t, n);
             if (reversed) crisp_vec3_scale(n, -1, n);
             crisp_vec3_normalize(n, v->attr + 2);
+            if (!side) continue;
             tc->vgen[vslot] = c->generation;
             tc->vs[vslot] = sbits;
             tc->vt[vslot] = tbits;
