@@ -27,6 +27,7 @@
 #define TESS_ROW_DOUBLES (2 * (CRISP_MAX_DEGREE + 1) * 4)
 
 #define TESS_VERT_BITS 8
+#define NET5 ((CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 5) /* find_empty_leaves' nets */
 
 /* Per worker: a patch's rows evaluated at a few s values (crisp__bezier_patch_rows_s) and whole
  * vertices at a few (s, t), keyed by the patch and the bits of its local s (and t), valid for one
@@ -61,8 +62,8 @@ struct crisp_renderer {
     size_t slack_cap;
     crisp_raster_core *cores; /* per ribbon triangle: its quad's core (ribbon_core) */
     size_t cores_cap;
-    double **st;     /* per worker: local (s, t) of one leaf's mesh */
-    double **path;   /* per worker: CRISP_PLAN_MAX_DEPTH cells' control nets (find_empty_leaves) */
+    double **st;   /* per worker: local (s, t) of one leaf's mesh */
+    double **path; /* per worker: a leaf's cells' clip-space nets, depths 0.. (find_empty_leaves) */
     uint32_t **pidx; /* per worker: one leaf's triangles (leaf_pieces_hidden), 2 MAX_LEAF_VERTS */
     int workers;
     uint8_t *untested; /* per face: no trim loops, no trim test (the rasterizer's hook) */
@@ -412,37 +413,74 @@ static void leaf_counts(crisp_renderer *r, size_t j, const crisp_plan_leaf *L)
     r->leaf_tbase[j] = (uint32_t)t;
 }
 
-/* The cells of one patch down to a leaf's, halved one level at a time (crisp__subpatch_quarter):
- * a split patch's leaves come in quadtree order, so a leaf's parent is usually the one already
- * made for its sibling and each leaf costs one halving in u and v (issue 12: re-extracting every
- * leaf's cell from its patch with four general cuts was 454 M of imp49's 772 M here). The nets
- * are those of the exact cells to rounding, which the hull's padding (1/128 px) covers many
- * times: a sound hull, as before. */
+/* A leaf's control net in clip space, 5 numbers per control point: X, Y, W, Z + W and the weight
+ * (view_proj applied to the homogeneous point, which is linear, so restricting the projected net
+ * gives the projected restricted net). The cells of one patch down to a leaf's are halved one
+ * level at a time: a split patch's leaves come in quadtree order, so a leaf's parent is usually
+ * the one already made for its sibling, and each leaf costs one halving in u and v of a net
+ * projected once per patch (issue 12: re-extracting every leaf's cell from its patch with four
+ * general cuts, then projecting it, was 454 + ~150 M of imp49's 772 M here). The nets are the
+ * exact cells' to rounding, which the hull's padding (1/128 px) covers many times: a sound hull,
+ * as before. */
 typedef struct cell_path {
     uint32_t patch; /* whose cells are kept (UINT32_MAX: none) */
-    int have;       /* cells kept: depths 1 .. have */
+    int have;       /* cells kept: depths 0 .. have */
     uint32_t ix[CRISP_PLAN_MAX_DEPTH + 1], iy[CRISP_PLAN_MAX_DEPTH + 1];
-    crisp_bezier_patch cell[CRISP_PLAN_MAX_DEPTH + 1];
-    double *nets; /* the worker's path buffer: depth k's net at (k - 1) CRISP__PATCH_DOUBLES */
+    double *nets; /* the worker's path buffer: depth k's net at k NET5 */
 } cell_path;
 
-static const crisp_bezier_patch *path_cell(cell_path *cp, const crisp_bezier_patch *bez,
-                                           uint32_t patch, const crisp_plan_leaf *L)
+/* One line of n + 1 points of 5 numbers (stride apart) restricted in place to its half `upper`. */
+static void halve_line5(double *q, ptrdiff_t stride, int n, int upper)
+{
+    if (upper) {
+        for (int r = 1; r <= n; r++)
+            for (int i = 0; i <= n - r; i++) {
+                double *a = q + i * stride, *b = a + stride;
+                for (int c = 0; c < 5; c++)
+                    a[c] = (a[c] + b[c]) * 0.5;
+            }
+    } else {
+        for (int r = 1; r <= n; r++)
+            for (int i = n; i >= r; i--) {
+                double *b = q + i * stride, *a = b - stride;
+                for (int c = 0; c < 5; c++)
+                    b[c] = (a[c] + b[c]) * 0.5;
+            }
+    }
+}
+
+/* Leaf L's clip-space net (bez: its patch, numbered `patch`). */
+static const double *path_cell(cell_path *cp, const crisp_bezier_patch *bez, uint32_t patch,
+                               const crisp_plan_leaf *L, const crisp_mat4 *m)
 {
     int d = (int)L->depth;
-    if (!d) return bez;
-    if (cp->patch != patch) cp->patch = patch, cp->have = 0;
+    const int nu = bez->du + 1, n = nu * (bez->dv + 1);
+    if (cp->patch != patch) {
+        cp->patch = patch, cp->have = 0;
+        for (int k = 0; k < n; k++) {
+            const double *h = bez->cpw + 4 * k;
+            double c[4], *o = cp->nets + 5 * k;
+            for (int q = 0; q < 4; q++)
+                c[q] =
+                    (*m)[0][q] * h[0] + (*m)[1][q] * h[1] + (*m)[2][q] * h[2] + (*m)[3][q] * h[3];
+            o[0] = c[0], o[1] = c[1], o[2] = c[3], o[3] = c[2] + c[3], o[4] = h[3];
+        }
+    }
     int k = cp->have < d ? cp->have : d; /* the deepest kept ancestor (or the leaf itself) */
     while (k > 0 && (cp->ix[k] != L->ix >> (d - k) || cp->iy[k] != L->iy >> (d - k)))
         k--;
     for (; k < d; k++) {
         uint32_t ix = L->ix >> (d - k - 1), iy = L->iy >> (d - k - 1);
-        crisp__subpatch_quarter(k ? &cp->cell[k] : bez, (int)(ix & 1), (int)(iy & 1),
-                                cp->nets + (size_t)k * CRISP__PATCH_DOUBLES, &cp->cell[k + 1]);
+        double *dst = cp->nets + (size_t)(k + 1) * NET5;
+        memcpy(dst, cp->nets + (size_t)k * NET5, (size_t)n * 5 * sizeof *dst);
+        for (int j = 0; j <= bez->dv; j++)
+            halve_line5(dst + (size_t)j * nu * 5, 5, bez->du, (int)(ix & 1));
+        for (int i = 0; i < nu; i++)
+            halve_line5(dst + (size_t)i * 5, (ptrdiff_t)nu * 5, bez->dv, (int)(iy & 1));
         cp->ix[k + 1] = ix, cp->iy[k + 1] = iy;
     }
     cp->have = d;
-    return &cp->cell[d];
+    return cp->nets + (size_t)d * NET5;
 }
 
 static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
@@ -450,7 +488,7 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
     skip_ctx *c = vctx;
     crisp_renderer *r = c->r;
     const crisp_frame_plan *plan = r->plan;
-    crisp_mat4 *m = (crisp_mat4 *)&plan->view_proj;
+    const crisp_mat4 *m = (const crisp_mat4 *)&plan->view_proj;
     cell_path path = {.patch = UINT32_MAX, .nets = r->path[worker]};
     for (size_t j = begin; j < end; j++) {
         const crisp_plan_leaf *L = &plan->leaves[j];
@@ -469,26 +507,25 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
             leaf_counts(r, j, L);
             continue;
         }
-        const crisp_bezier_patch sub =
-            *path_cell(&path, &c->sc->patches[L->patch].bez, L->patch, L);
-        int n = (sub.du + 1) * (sub.dv + 1), front = 1;
+        const crisp_bezier_patch *bez = &c->sc->patches[L->patch].bez;
+        const double *net = path_cell(&path, bez, L->patch, L, m);
+        int n = (bez->du + 1) * (bez->dv + 1), front = 1;
         double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
-        for (int k = 0; k < n && front; k++) {
-            const double *cp = sub.cpw + 4 * k;
-            double h[4];
-            for (int q = 0; q < 4; q++)
-                h[q] = (*m)[0][q] * cp[0] + (*m)[1][q] * cp[1] + (*m)[2][q] * cp[2] +
-                       (*m)[3][q] * cp[3];
-            if (!(h[3] > 0) || !isfinite(h[0] + h[1] + h[3])) {
+        for (int k = 0; k < n; k++) {
+            const double *h = net + 5 * k; /* X, Y, W, Z + W, weight */
+            if (!(h[2] > 0) || !isfinite(h[0] + h[1] + h[2])) {
                 front = 0;
                 break;
             }
-            box_add_clip(plan, h, lo, hi);
-            /* The control point's depth is W = h[3] / weight: the surface's points are convex
+            double x = (h[0] / h[2] + 1) * 0.5 * plan->width,
+                   y = (1 - h[1] / h[2]) * 0.5 * plan->height;
+            lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
+            lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+            /* The control point's depth is W / weight: the surface's points are convex
              * combinations of the control points (positive weights), so their 1/W is at most the
              * largest of these. A hull reaching the near plane (clip z > -W fails) or a weight
              * that is not positive: never culled. */
-            iw = cp[3] > 0 && h[2] + h[3] > 0 ? fmax(iw, cp[3] / h[3]) : INFINITY;
+            iw = h[4] > 0 && h[3] > 0 ? fmax(iw, h[4] / h[2]) : INFINITY;
         }
         /* Widen by the snapping (1/512 px) and rounding, generously. */
         double pad = 1.0 / 128 + 1e-9 * (fabs(lo[0]) + fabs(hi[0]) + fabs(lo[1]) + fabs(hi[1]));

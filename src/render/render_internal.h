@@ -53,12 +53,6 @@ static inline int crisp__normal_degenerate(const double a[3], const double b[3],
  * of the rest, then likewise in v. */
 void crisp__subpatch(const crisp_bezier_patch *p, double s0, double s1, double t0, double t1,
                      double *storage, double *tmp, crisp_bezier_patch *dest);
-/* The quarter [iu / 2, (iu + 1) / 2] x [iv / 2, (iv + 1) / 2] (iu, iv in {0, 1}) of p, its control
- * points in storage ((du + 1) (dv + 1) 4 doubles, apart from p's); dest->cpw = storage. Halving
- * down a quadtree this way gives the cells' control nets to rounding (not the bits of
- * crisp__subpatch, which cuts from the patch). */
-void crisp__subpatch_quarter(const crisp_bezier_patch *p, int iu, int iv, double *storage,
-                             crisp_bezier_patch *dest);
 
 /* The CPU backend's trim test for a box of (u, v) of a face (cpu.c): 1 when
  * crisp_plan_trim_test keeps every point of [lo, hi], 0 when it discards every one, -1 when

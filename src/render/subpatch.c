@@ -76,16 +76,3 @@ void crisp__subpatch(const crisp_bezier_patch *p, double s0, double s1, double t
     if (t1 < 1) cut(&a, t1, 0, 0);
     *dest = a;
 }
-
-/* The quarter [iu / 2, (iu + 1) / 2] x [iv / 2, (iv + 1) / 2] of p (local parameters) into storage
- * (n doubles, not overlapping p's). */
-void crisp__subpatch_quarter(const crisp_bezier_patch *p, int iu, int iv, double *storage,
-                             crisp_bezier_patch *dest)
-{
-    crisp_bezier_patch a = *p;
-    memcpy(storage, p->cpw, (size_t)(p->du + 1) * (p->dv + 1) * 4 * sizeof *storage);
-    a.cpw = storage;
-    cut(&a, 0.5, 1, iu);
-    cut(&a, 0.5, 0, iv);
-    *dest = a;
-}
