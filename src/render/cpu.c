@@ -123,8 +123,8 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
             st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
         for (int w = 0; !st && w < r->workers; w++)
             if (!(r->st[w] = crisp_malloc_array(MAX_LEAF_VERTS, 2 * sizeof(double))) ||
-                !(r->path[w] = crisp_malloc_array(
-                      (size_t)CRISP_PLAN_MAX_DEPTH * CRISP__PATCH_DOUBLES, sizeof(double))) ||
+                !(r->path[w] = crisp_malloc_array((size_t)(CRISP_PLAN_MAX_DEPTH + 1) * NET5,
+                                                  sizeof(double))) ||
                 !(r->pidx[w] = crisp_malloc_array(MAX_LEAF_VERTS, 6 * sizeof(uint32_t))))
                 st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory creating the renderer");
     }
