@@ -1016,53 +1016,72 @@ static inline unsigned store_row1(const planes *pl, const pair_planes *pp, doubl
 
 #if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
 #define HAVE_AVX_TILES 1
-/* store_row1 four lanes at a time with AVX where all four of a half row are kept (raster_tile
- * compiled for AVX, chosen at run time): the same IEEE operations per lane as store_row1 and the
- * per-fragment path (dx = dx0 + lane, ((p0 + px dx) + py dy) * w, w = 1 / iw; no fused
- * multiply-add), so the same values bit for bit; other halves as store_row1. */
+/* store_row1 four lanes at a time with AVX (raster_tile compiled for AVX, chosen at run time):
+ * every quarter-row with a lane in m is computed on all four lanes and stored on those in m
+ * (masked stores; the other lanes' values, whatever they are, are never written). The same IEEE
+ * operations per lane as store_row1 and the per-fragment path (dx = dx0 + lane, ((p0 + px dx) +
+ * py dy) * w, w = 1 / iw; no fused multiply-add), so the same values bit for bit. */
+typedef double v4d __attribute__((vector_size(32))); /* __m256d's type */
+typedef struct quad_planes {
+    v4d q0[CRISP_RASTER_ATTRS], qx[CRISP_RASTER_ATTRS]; /* attribute k's, on four lanes */
+} quad_planes;
+
 __attribute__((target("avx"))) static unsigned
-store_row1_avx(const planes *pl, const pair_planes *pp, double dx0, double dy, const double *iwv,
+store_row1_avx(const planes *pl, const quad_planes *qp, double dx0, double dy, const double *iwv,
                unsigned m, size_t idx0, double *restrict inv_w, int32_t *restrict fbuf,
                float *restrict abuf, int32_t face_id)
 {
-    unsigned stored = 0, rest = 0;
-    __m256d qyd[CRISP_RASTER_ATTRS], q0[CRISP_RASTER_ATTRS], qx[CRISP_RASTER_ATTRS];
-    int any = (m & 15u) == 15u || (m >> 4) == 15u;
-    if (any)
-        for (int k = 0; k < CRISP_RASTER_ATTRS; k++) {
-            qyd[k] = _mm256_set1_pd(pl->qy[k + 1] * dy);
-            q0[k] = _mm256_set1_pd(pl->q0[k + 1]);
-            qx[k] = _mm256_set1_pd(pl->qx[k + 1]);
-        }
+    const __m256d *q0 = qp->q0, *qx = qp->qx;
+    __m256d qyd[CRISP_RASTER_ATTRS];
+    UNROLL(5)
+    for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+        qyd[k] = _mm256_set1_pd(pl->qy[k + 1] * dy);
     const __m256d one = _mm256_set1_pd(1.0), vd = _mm256_set1_pd(dx0);
+    const __m128 face = _mm_castsi128_ps(_mm_set1_epi32(face_id));
     for (int h = 0; h < BLOCK / 4; h++) {
         unsigned bits = (m >> (4 * h)) & 15u;
-        if (bits != 15u) {
-            rest |= bits << (4 * h);
-            continue;
-        }
-        stored += 4;
+        if (!bits) continue;
         size_t idx = idx0 + (size_t)(4 * h);
         __m256d iw = _mm256_loadu_pd(iwv + 4 * h);
         __m256d w = _mm256_div_pd(one, iw);
         __m256d dx = _mm256_add_pd(vd, _mm256_set_pd(4 * h + 3, 4 * h + 2, 4 * h + 1, 4 * h));
         __m128 f[CRISP_RASTER_ATTRS];
+        UNROLL(5)
         for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
             f[k] = _mm256_cvtpd_ps(_mm256_mul_pd(
                 _mm256_add_pd(_mm256_add_pd(q0[k], _mm256_mul_pd(qx[k], dx)), qyd[k]), w));
         _MM_TRANSPOSE4_PS(f[0], f[1], f[2], f[3]); /* f[q]: lane q's attributes 0..3 */
         float *dst = abuf + idx * CRISP_RASTER_ATTRS;
-        for (int q = 0; q < 4; q++)
+        if (bits == 15u) {
+            for (int q = 0; q < 4; q++)
+                _mm_storeu_ps(dst + 5 * q, f[q]);
+            _mm_store_ss(dst + 4, f[4]);
+            _mm_store_ss(dst + 9, _mm_shuffle_ps(f[4], f[4], 1));
+            _mm_store_ss(dst + 14, _mm_shuffle_ps(f[4], f[4], 2));
+            _mm_store_ss(dst + 19, _mm_shuffle_ps(f[4], f[4], 3));
+            _mm256_storeu_pd(inv_w + idx, iw);
+            _mm_storeu_ps((float *)(fbuf + idx), face);
+            continue;
+        }
+        float a4[4];
+        _mm_storeu_ps(a4, f[4]);
+        for (unsigned b = bits; b; b &= b - 1) {
+            int q = __builtin_ctz(b);
             _mm_storeu_ps(dst + 5 * q, f[q]);
-        _mm_store_ss(dst + 4, f[4]);
-        _mm_store_ss(dst + 9, _mm_shuffle_ps(f[4], f[4], 1));
-        _mm_store_ss(dst + 14, _mm_shuffle_ps(f[4], f[4], 2));
-        _mm_store_ss(dst + 19, _mm_shuffle_ps(f[4], f[4], 3));
-        _mm256_storeu_pd(inv_w + idx, iw);
-        _mm_storeu_si128((__m128i *)(fbuf + idx), _mm_set1_epi32(face_id));
+            dst[5 * q + 4] = a4[q];
+        }
+        /* lane q's mask: the sign bit of its 64-bit (32-bit) element */
+        const __m256i lanes64 = _mm256_set_epi64x(8, 4, 2, 1);
+        const __m128i lanes32 = _mm_set_epi32(8, 4, 2, 1), vb32 = _mm_set1_epi32((int)bits);
+        __m128i sel32 = _mm_cmpeq_epi32(_mm_and_si128(vb32, lanes32), lanes32);
+        __m256i sel64 = _mm256_castpd_si256(
+            _mm256_cmp_pd(_mm256_and_pd(_mm256_castsi256_pd(_mm256_set1_epi64x(bits)),
+                                        _mm256_castsi256_pd(lanes64)),
+                          _mm256_setzero_pd(), _CMP_NEQ_UQ));
+        _mm256_maskstore_pd(inv_w + idx, sel64, iw);
+        _mm_maskstore_ps((float *)(fbuf + idx), sel32, face);
     }
-    if (rest) stored += store_row1(pl, pp, dx0, dy, iwv, rest, idx0, inv_w, fbuf, abuf, face_id);
-    return stored;
+    return (unsigned)__builtin_popcount(m);
 }
 #else
 #define HAVE_AVX_TILES 0
@@ -1101,33 +1120,43 @@ static inline int core_pass(const crisp_raster_core *k, double x, double y, doub
     return 1;
 }
 
-/* The columns x0 .. x1 of the block row by0 .. by1 that a triangle's blocks can occupy: the
- * per-block edge test in raster_tile_s rejects a block when one edge function is negative at
- * all of its samples; for an edge with A > 0 (A < 0) that holds for every block left (right) of
- * a threshold x found here in doubles, with a pixel's margin for their rounding. Blocks outside
- * [*rx0, *rx1] would all be rejected, so a thin triangle across the screen walks its own blocks
- * rather than its bounding box's; the exact test still decides the blocks walked. 0 when none. */
-static inline int row_span(const setup_tri *st, const raster_ctx *c, int x0, int x1, int by0,
-                           int by1, int *rx0, int *rx1)
+/* The blocks of triangle st in the band of pixel rows [by0, by1] that can hold a covered sample:
+ * narrows [*bxs, *bxe] (the triangle's pixel columns in the tile) to the columns of those blocks;
+ * 0 when there are none. The block walk's edge test (raster_tile_s) rejects a block when, for one
+ * edge k, the greatest E_k over the rectangle of its sample positions is negative; in a band that
+ * greatest value is A_k sx1 + K (A_k > 0, sx1 the rectangle's right end) or A_k sx0 + K (A_k < 0),
+ * monotone along the band, so the rejected blocks of an edge are a prefix or a suffix of the
+ * band. Their limits are found here in doubles (a few roundings, relative error below 2^-50 of
+ * a column within 2^21 px where it matters) with a pixel to spare on each side; a block left in
+ * is still tested exactly, so the walk covers exactly the samples it covered without this. */
+static inline int band_span(const setup_tri *st, const raster_ctx *c, int by0, int by1, int *bxs,
+                            int *bxe)
 {
-    int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1], sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
-    double lo = x0, hi = x1;
+    const int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
+                  sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
+    double lo = *bxs, hi = *bxe;
+    UNROLL(3)
     for (int k = 0; k < 3; k++) {
-        int64_t A = st->ea[k], y0 = st->eb[k] * sy0, y1 = st->eb[k] * sy1;
-        if (!A) continue;
-        /* The block passes edge k when A sx + (the edge's largest B sy + C) >= 0 at one of its
-         * sample x: sx >= xs (A > 0) or sx <= xs (A < 0). */
-        double xs = -(double)((y0 > y1 ? y0 : y1) + st->ec[k]) / (double)A;
-        if (A > 0) {
-            double p = (xs - (double)c->off_fmax[0]) / SUB - 1; /* the block's last sample x */
-            lo = p > lo ? p : lo;
-        } else {
-            double p = (xs - (double)c->off_fmin[0]) / SUB + 1; /* its first */
-            hi = p < hi ? p : hi;
+        int64_t a = st->ea[k], b = st->eb[k];
+        if (a == 0) continue;
+        int64_t ey0 = b * sy0, ey1 = b * sy1;
+        /* E_k at column 0 and the band's row that maximises it (an edge value of the image's
+         * range: exact in int64; as a double, relative error 2^-53) */
+        double K = (double)((ey0 > ey1 ? ey0 : ey1) + st->ec[k]);
+        if (a > 0) { /* kept: x1 SUB + off_fmax >= -K / a, x1 the block's last column */
+            double x = ((-K / (double)a) - (double)c->off_fmax[0]) / SUB - 1;
+            lo = x > lo ? x : lo;
+        } else { /* kept: x0 SUB + off_fmin <= K / -a, x0 the block's first column */
+            double x = ((K / (double)-a) - (double)c->off_fmin[0]) / SUB + 1;
+            hi = x < hi ? x : hi;
         }
     }
     if (!(lo <= hi)) return 0;
-    *rx0 = (int)floor(lo), *rx1 = (int)ceil(hi);
+    /* The block holding column floor(lo) and every block after it up to column hi. */
+    int s = (int)lo, e = (int)hi; /* in [*bxs, *bxe]: truncation is floor there */
+    s = s / BLOCK * BLOCK;
+    *bxs = s > *bxs ? s : *bxs;
+    *bxe = e;
     return 1;
 }
 
@@ -1198,6 +1227,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         const int64_t *A = st->ea, *B = st->eb;
         int64_t step[3] = {A[0] * SUB, A[1] * SUB, A[2] * SUB};
+        const int64_t bstep0 = B[0] * SUB, bstep1 = B[1] * SUB, bstep2 = B[2] * SUB;
 #if defined(__SSE2__)
         /* Lanes 2h, 2h + 1 of a block row: edge k's steps from its first pixel (row_mask). */
         __m128i lane_step[3][BLOCK / 2];
@@ -1205,8 +1235,17 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
             for (int h = 0; h < BLOCK / 2; h++)
                 lane_step[k][h] = _mm_set_epi64x((2 * h + 1) * step[k], 2 * h * step[k]);
         pair_planes pp;
-        for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
-            pp.q0[k] = _mm_set1_pd(pl.q0[k + 1]), pp.qx[k] = _mm_set1_pd(pl.qx[k + 1]);
+        if (!avx)
+            for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+                pp.q0[k] = _mm_set1_pd(pl.q0[k + 1]), pp.qx[k] = _mm_set1_pd(pl.qx[k + 1]);
+#if HAVE_AVX_TILES
+        quad_planes qp;
+        if (avx)
+            for (int k = 0; k < CRISP_RASTER_ATTRS; k++) {
+                double a = pl.q0[k + 1], b = pl.qx[k + 1];
+                qp.q0[k] = (v4d){a, a, a, a}, qp.qx[k] = (v4d){b, b, b, b};
+            }
+#endif
 #else
         vectors = 0;
 #endif
@@ -1216,10 +1255,9 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                                fabs(st->qy[0]) * (fabs(y0 - st->oy) + fabs(y1 + 1 - st->oy)));
         for (int by0 = y0; by0 <= y1; by0 = (by0 / BLOCK + 1) * BLOCK) {
             int by1 = (by0 / BLOCK + 1) * BLOCK - 1 < y1 ? (by0 / BLOCK + 1) * BLOCK - 1 : y1;
-            int rx0, rx1; /* the pixels of the row whose blocks the edges may not all reject */
-            if (!row_span(st, c, x0, x1, by0, by1, &rx0, &rx1)) continue;
-            for (int bx0 = rx0 / BLOCK * BLOCK > x0 ? rx0 / BLOCK * BLOCK : x0; bx0 <= rx1;
-                 bx0 = (bx0 / BLOCK + 1) * BLOCK) {
+            int bxs = x0, bxe = x1; /* the band's blocks that may be non-empty (band_span) */
+            if (!band_span(st, c, by0, by1, &bxs, &bxe)) continue;
+            for (int bx0 = bxs; bx0 <= bxe; bx0 = (bx0 / BLOCK + 1) * BLOCK) {
                 int bx1 = (bx0 / BLOCK + 1) * BLOCK - 1 < x1 ? (bx0 / BLOCK + 1) * BLOCK - 1 : x1;
                 int blk = ((by0 - py0) / BLOCK) * BLOCKS + (bx0 - px0) / BLOCK;
                 if (tdec == 0 || xdec == 0) goto triangle_done; /* every fragment discarded */
@@ -1279,15 +1317,22 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                     for (int k = 0; k < 3; k++)
                         er[s][k] = A[k] * px + B[k] * py + st->ec[k];
                 }
+                /* Edge k's greatest value along a row over its first: a row whose greatest
+                 * value is negative for one edge has no covered lane (a thin triangle's block has
+                 * many such rows) and is skipped before any per-lane work. */
+                const int n = bx1 - bx0 + 1;
+                int64_t rmax[3];
+                UNROLL(3)
+                for (int k = 0; k < 3; k++)
+                    rmax[k] = step[k] > 0 ? step[k] * (n - 1) : 0;
                 for (int j = by0; j <= by1; j++)
                     for (int s = 0; s < S; s++) {
                         /* Coverage, 1/W and the depth test of the block's row for this sample,
                          * in loops over at most BLOCK lanes without branches (vectorisable). */
                         int64_t e[3] = {er[s][0], er[s][1], er[s][2]};
-                        UNROLL(3)
-                        for (int k = 0; k < 3; k++)
-                            er[s][k] += B[k] * SUB;
-                        int n = bx1 - bx0 + 1;
+                        er[s][0] += bstep0, er[s][1] += bstep1, er[s][2] += bstep2;
+                        if (!full && ((e[0] + rmax[0]) | (e[1] + rmax[1]) | (e[2] + rmax[2])) < 0)
+                            continue;
                         double dy = j + c->off_y[s] - st->oy;
                         double base = st->q0[0] + st->qy[0] * dy, gx = st->qx[0];
                         double dx0 = (double)bx0 + c->off_x[s] - st->ox;
@@ -1399,14 +1444,14 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             }
                         }
 #if defined(__SSE2__)
-                        if (bdec == 1 && !clip_on && (m & (m >> 1) & 0x55u)) {
-                            /* Every fragment of the row is kept, two neighbours among them: no
-                             * per-fragment work but the attributes and the stores, two lanes
-                             * at a time. */
+                        if (bdec == 1 && !clip_on && m && (avx || (m & (m >> 1) & 0x55u))) {
+                            /* Every fragment of the row is kept (with SSE2 only, two neighbours
+                             * among them): no per-fragment work but the attributes and the
+                             * stores, two (AVX: four) lanes at a time. */
                             unsigned k;
 #if HAVE_AVX_TILES
                             if (avx)
-                                k = store_row1_avx(&pl, &pp, dx0, dy, iwv, m, idx0, inv_w, fbuf,
+                                k = store_row1_avx(&pl, &qp, dx0, dy, iwv, m, idx0, inv_w, fbuf,
                                                    abuf, face_id);
                             else
 #endif
