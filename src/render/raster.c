@@ -1257,6 +1257,19 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
             int by1 = (by0 / BLOCK + 1) * BLOCK - 1 < y1 ? (by0 / BLOCK + 1) * BLOCK - 1 : y1;
             int bxs = x0, bxe = x1; /* the band's blocks that may be non-empty (band_span) */
             if (!band_span(st, c, by0, by1, &bxs, &bxe)) continue;
+            /* The edge test's row part over the band (exact integers, so the sums below are
+             * those of the whole expression): least and greatest of B sy + C. */
+            int64_t eyl[3], eyh[3];
+            {
+                int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
+                        sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
+                UNROLL(3)
+                for (int k = 0; k < 3; k++) {
+                    int64_t ey0 = B[k] * sy0, ey1 = B[k] * sy1;
+                    eyl[k] = (ey0 < ey1 ? ey0 : ey1) + st->ec[k];
+                    eyh[k] = (ey0 > ey1 ? ey0 : ey1) + st->ec[k];
+                }
+            }
             for (int bx0 = bxs; bx0 <= bxe; bx0 = (bx0 / BLOCK + 1) * BLOCK) {
                 int bx1 = (bx0 / BLOCK + 1) * BLOCK - 1 < x1 ? (bx0 / BLOCK + 1) * BLOCK - 1 : x1;
                 int blk = ((by0 - py0) / BLOCK) * BLOCKS + (bx0 - px0) / BLOCK;
@@ -1269,14 +1282,11 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                 {
                     int64_t sx0 = (int64_t)bx0 * SUB + c->off_fmin[0],
                             sx1 = (int64_t)bx1 * SUB + c->off_fmax[0];
-                    int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
-                            sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
                     UNROLL(3)
                     for (int k = 0; k < 3; k++) {
                         int64_t ex0 = A[k] * sx0, ex1 = A[k] * sx1;
-                        int64_t ey0 = B[k] * sy0, ey1 = B[k] * sy1;
-                        int64_t lo = (ex0 < ex1 ? ex0 : ex1) + (ey0 < ey1 ? ey0 : ey1) + st->ec[k];
-                        int64_t hi = (ex0 > ex1 ? ex0 : ex1) + (ey0 > ey1 ? ey0 : ey1) + st->ec[k];
+                        int64_t lo = (ex0 < ex1 ? ex0 : ex1) + eyl[k];
+                        int64_t hi = (ex0 > ex1 ? ex0 : ex1) + eyh[k];
                         empty |= hi < 0;
                         full &= lo >= 0;
                     }
@@ -1711,6 +1721,7 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
                     if (f >= 0) {
                         double W = wl[l];
                         const int nb[4] = {l - 1, l + 1, l - L, l + L}; /* left right up down */
+                        UNROLL(4)
                         for (int k = 0; k < 4; k++) {
                             int n = nb[k];
                             if (fl[n] != f || side[n] != side[l]) continue;
