@@ -1038,12 +1038,22 @@ store_row1_avx(const planes *pl, const quad_planes *qp, double dx0, double dy, c
         qyd[k] = _mm256_set1_pd(pl->qy[k + 1] * dy);
     const __m256d one = _mm256_set1_pd(1.0), vd = _mm256_set1_pd(dx0);
     const __m128 face = _mm_castsi128_ps(_mm_set1_epi32(face_id));
+    const __m128i lanes32 = _mm_set_epi32(8, 4, 2, 1);
     for (int h = 0; h < BLOCK / 4; h++) {
         unsigned bits = (m >> (4 * h)) & 15u;
         if (!bits) continue;
         size_t idx = idx0 + (size_t)(4 * h);
         __m256d iw = _mm256_loadu_pd(iwv + 4 * h);
-        __m256d w = _mm256_div_pd(one, iw);
+        /* Lane q is stored where bit q of bits is set: all ones in its 32-bit (sel32) and 64-bit
+         * (sel64) element, from integer compares (a floating-point compare would depend on the
+         * denormals-are-zero mode). Lanes not stored divide by 1, not by their (possibly zero)
+         * 1/W, so they raise no floating-point flag. */
+        __m128i sel32 = _mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32((int)bits), lanes32), lanes32);
+        __m256i sel64 =
+            _mm256_insertf128_si256(_mm256_castsi128_si256(_mm_unpacklo_epi32(sel32, sel32)),
+                                    _mm_unpackhi_epi32(sel32, sel32), 1);
+        __m256d w = _mm256_div_pd(
+            one, bits == 15u ? iw : _mm256_blendv_pd(one, iw, _mm256_castsi256_pd(sel64)));
         __m256d dx = _mm256_add_pd(vd, _mm256_set_pd(4 * h + 3, 4 * h + 2, 4 * h + 1, 4 * h));
         __m128 f[CRISP_RASTER_ATTRS];
         UNROLL(5)
@@ -1070,14 +1080,6 @@ store_row1_avx(const planes *pl, const quad_planes *qp, double dx0, double dy, c
             _mm_storeu_ps(dst + 5 * q, f[q]);
             dst[5 * q + 4] = a4[q];
         }
-        /* lane q's mask: the sign bit of its 64-bit (32-bit) element */
-        const __m256i lanes64 = _mm256_set_epi64x(8, 4, 2, 1);
-        const __m128i lanes32 = _mm_set_epi32(8, 4, 2, 1), vb32 = _mm_set1_epi32((int)bits);
-        __m128i sel32 = _mm_cmpeq_epi32(_mm_and_si128(vb32, lanes32), lanes32);
-        __m256i sel64 = _mm256_castpd_si256(
-            _mm256_cmp_pd(_mm256_and_pd(_mm256_castsi256_pd(_mm256_set1_epi64x(bits)),
-                                        _mm256_castsi256_pd(lanes64)),
-                          _mm256_setzero_pd(), _CMP_NEQ_UQ));
         _mm256_maskstore_pd(inv_w + idx, sel64, iw);
         _mm_maskstore_ps((float *)(fbuf + idx), sel32, face);
     }
