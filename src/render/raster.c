@@ -1018,7 +1018,9 @@ static inline unsigned store_row1(const planes *pl, const pair_planes *pp, doubl
 #define HAVE_AVX_TILES 1
 /* store_row1 four lanes at a time with AVX (raster_tile compiled for AVX, chosen at run time):
  * every quarter-row with a lane in m is computed on all four lanes and stored on those in m
- * (masked stores; the other lanes' values, whatever they are, are never written). The same IEEE
+ * (masked stores; the other lanes' values, whatever they are, are never written; their 1 / iw
+ * may raise the divide-by-zero flag, which nothing reads, with floating-point traps off as
+ * always). The same IEEE
  * operations per lane as store_row1 and the per-fragment path (dx = dx0 + lane, ((p0 + px dx) +
  * py dy) * w, w = 1 / iw; no fused multiply-add), so the same values bit for bit. */
 typedef double v4d __attribute__((vector_size(32))); /* __m256d's type */
@@ -1038,22 +1040,12 @@ store_row1_avx(const planes *pl, const quad_planes *qp, double dx0, double dy, c
         qyd[k] = _mm256_set1_pd(pl->qy[k + 1] * dy);
     const __m256d one = _mm256_set1_pd(1.0), vd = _mm256_set1_pd(dx0);
     const __m128 face = _mm_castsi128_ps(_mm_set1_epi32(face_id));
-    const __m128i lanes32 = _mm_set_epi32(8, 4, 2, 1);
     for (int h = 0; h < BLOCK / 4; h++) {
         unsigned bits = (m >> (4 * h)) & 15u;
         if (!bits) continue;
         size_t idx = idx0 + (size_t)(4 * h);
         __m256d iw = _mm256_loadu_pd(iwv + 4 * h);
-        /* Lane q is stored where bit q of bits is set: all ones in its 32-bit (sel32) and 64-bit
-         * (sel64) element, from integer compares (a floating-point compare would depend on the
-         * denormals-are-zero mode). Lanes not stored divide by 1, not by their (possibly zero)
-         * 1/W, so they raise no floating-point flag. */
-        __m128i sel32 = _mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32((int)bits), lanes32), lanes32);
-        __m256i sel64 =
-            _mm256_insertf128_si256(_mm256_castsi128_si256(_mm_unpacklo_epi32(sel32, sel32)),
-                                    _mm_unpackhi_epi32(sel32, sel32), 1);
-        __m256d w = _mm256_div_pd(
-            one, bits == 15u ? iw : _mm256_blendv_pd(one, iw, _mm256_castsi256_pd(sel64)));
+        __m256d w = _mm256_div_pd(one, iw);
         __m256d dx = _mm256_add_pd(vd, _mm256_set_pd(4 * h + 3, 4 * h + 2, 4 * h + 1, 4 * h));
         __m128 f[CRISP_RASTER_ATTRS];
         UNROLL(5)
@@ -1080,6 +1072,14 @@ store_row1_avx(const planes *pl, const quad_planes *qp, double dx0, double dy, c
             _mm_storeu_ps(dst + 5 * q, f[q]);
             dst[5 * q + 4] = a4[q];
         }
+        /* Lane q is stored where bit q of bits is set: all ones in its 32-bit (sel32) and 64-bit
+         * (sel64) element, from integer compares (a floating-point compare of the bits would
+         * depend on the denormals-are-zero mode). */
+        const __m128i lanes32 = _mm_set_epi32(8, 4, 2, 1);
+        __m128i sel32 = _mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32((int)bits), lanes32), lanes32);
+        __m256i sel64 =
+            _mm256_insertf128_si256(_mm256_castsi128_si256(_mm_unpacklo_epi32(sel32, sel32)),
+                                    _mm_unpackhi_epi32(sel32, sel32), 1);
         _mm256_maskstore_pd(inv_w + idx, sel64, iw);
         _mm_maskstore_ps((float *)(fbuf + idx), sel32, face);
     }
