@@ -12,6 +12,7 @@
 
 #include "crisp/gl.h"
 #include "gl_internal.h"
+#include "render/raster.h"
 #include "render/ribbon.h"
 
 /* Splats are drawn as points this much larger than the plan's 2 h (px) and the samples outside
@@ -664,22 +665,6 @@ static crisp_status ensure_targets(crisp_gl *gl, int w, int h)
 /* ---- drawing ----------------------------------------------------------------------------------
  */
 
-/* The CPU backend's sample positions in a pixel (x right, y down): crisp__raster_sample_offset. */
-static void sample_offset(int samples, int s, double dest[2])
-{
-    static const double rot4[4][2] = {
-        {0.375, 0.125}, {0.875, 0.375}, {0.125, 0.625}, {0.625, 0.875}};
-    if (samples == 4) {
-        dest[0] = rot4[s][0];
-        dest[1] = rot4[s][1];
-    } else if (samples == 16) {
-        dest[0] = (s % 4 + 0.5) / 4.0;
-        dest[1] = (s / 4 + 0.5) / 4.0;
-    } else {
-        dest[0] = dest[1] = 0.5;
-    }
-}
-
 /* The near plane's camera depth from a perspective view-projection (clip z = A z_eye + B, clip
  * w = -z_eye): 0 when the matrix is not one. */
 static double near_depth(const crisp_frame_plan *p)
@@ -840,7 +825,7 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
     float nw_clear[4] = {0, 0, 0, inf}, depth_clear = 0;
     for (int s = 0; s < S; s++) {
         double off[2];
-        sample_offset(S, s, off);
+        crisp__raster_sample_offset(S, s, off); /* the CPU backend's positions */
         /* The sample at (i + off) lands on the pass's pixel centre (i + 0.5). */
         double jitter[2] = {2 * (0.5 - off[0]) / W, 2 * (0.5 - off[1]) / H};
         glProgramUniform2dv(gl->surface, gl->u_surface.jitter, 1, jitter);

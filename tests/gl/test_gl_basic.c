@@ -36,16 +36,8 @@ typedef struct hand_plan {
 static void make_plan(hand_plan *h, const crisp_camera *cam, int trimmed, int depth, int rows)
 {
     memset(h, 0, sizeof *h);
-    crisp_camera_matrices m;
-    crisp_camera_matrices_compute(cam, &m);
     crisp_frame_plan *p = &h->plan;
-    memcpy(p->view_proj, m.view_proj, sizeof p->view_proj);
-    for (int k = 0; k < 16; k++)
-        p->view_proj_f[k] = (float)m.view_proj[k / 4][k % 4];
-    memcpy(p->eye, cam->eye, sizeof p->eye);
-    p->width = cam->width;
-    p->height = cam->height;
-    p->eps_px = 0.5;
+    gl_plan_camera(p, cam);
     int n = 1 << depth;
     /* Levels 4: a vertex's leaf-local k / 4 is exact in float, so the float (s, t) the fragment
      * stage receives are the vertices' parameters even for test_zoom's single leaf of 2e10 px

@@ -31,6 +31,7 @@
 #include "crisp/gl.h"
 #include "gl/gl_internal.h"
 #include "gl/gl_test_util.h"
+#include "render/raster.h"
 
 /* The square [-1, 1]^2 in z = 0 as one bilinear patch of face 0 (as test_gl_basic). */
 static const double square_cps[16] = {-1, -1, 0, 1, 1, -1, 0, 1, -1, 1, 0, 1, 1, 1, 0, 1};
@@ -70,16 +71,8 @@ static crisp_camera front_camera(double dist, int w, int h)
 static void plan_init(splat_plan *s, const crisp_camera *cam, int with_leaf, double h)
 {
     memset(s, 0, sizeof *s);
-    crisp_camera_matrices m;
-    crisp_camera_matrices_compute(cam, &m);
     crisp_frame_plan *p = &s->plan;
-    memcpy(p->view_proj, m.view_proj, sizeof p->view_proj);
-    for (int k = 0; k < 16; k++)
-        p->view_proj_f[k] = (float)m.view_proj[k / 4][k % 4];
-    memcpy(p->eye, cam->eye, sizeof p->eye);
-    p->width = cam->width;
-    p->height = cam->height;
-    p->eps_px = 0.5;
+    gl_plan_camera(p, cam);
     s->leaf = (crisp_plan_leaf){.tau = 4, .edge = {4, 4, 4, 4}};
     p->leaves = &s->leaf;
     p->leaf_count = with_leaf ? 1 : 0;
@@ -128,19 +121,6 @@ static crisp_gl *make_gl(int samples)
 }
 
 /* ---- the reference ------------------------------------------------------------------------ */
-
-/* The CPU backend's sample positions (crisp__raster_sample_offset). */
-static void sample_offset(int samples, int s, double dest[2])
-{
-    static const double rot4[4][2] = {
-        {0.375, 0.125}, {0.875, 0.375}, {0.125, 0.625}, {0.625, 0.875}};
-    if (samples == 4) {
-        dest[0] = rot4[s][0];
-        dest[1] = rot4[s][1];
-    } else {
-        dest[0] = dest[1] = 0.5;
-    }
-}
 
 /* The rule's float clip position of a splat and its centre on the image (double). */
 static void splat_clip(const crisp_frame_plan *p, const crisp_plan_splat *sp, float c[4])
@@ -194,7 +174,7 @@ static void reference(const crisp_frame_plan *p, int S, const ref_sample *under,
                     if (x < 0 || j < 0 || x >= W || j >= H) continue;
                     for (int s = 0; s < S; s++) {
                         double off[2];
-                        sample_offset(S, s, off);
+                        crisp__raster_sample_offset(S, s, off);
                         double X = x + off[0], Y = j + off[1];
                         if (!(cx - h <= X && X < cx + h && cy - h <= Y && Y < cy + h)) continue;
                         /* the section plane at the sample's point of the square */
@@ -521,7 +501,7 @@ static void test_raw(void **state)
                     total += ref[q].face >= 0;
                     if ((faces[q] >= 0) == (ref[q].face >= 0)) continue;
                     double off[2];
-                    sample_offset(S, (int)(q % S), off);
+                    crisp__raster_sample_offset(S, (int)(q % S), off);
                     double X = (double)(q / S % W) + off[0], Y = (double)(q / S / W) + off[1];
                     /* how far the sample is from the side(s) GL put elsewhere: covered by
                      * GL only, from each side the rule has it outside of (GL moved them all);
