@@ -323,6 +323,20 @@ static void test_rational(void **state)
     run(1, 0, 12);
 }
 
+/* A random rotation: the matrix of a normalised random quaternion (4 draws of rnd()). */
+static void random_rotation(double R[3][3])
+{
+    double qw = rnd() - 0.5, qx = rnd() - 0.5, qy = rnd() - 0.5, qz = rnd() - 0.5;
+    double ql = sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
+    qw /= ql, qx /= ql, qy /= ql, qz /= ql;
+    R[0][0] = 1 - 2 * (qy * qy + qz * qz), R[0][1] = 2 * (qx * qy - qz * qw),
+    R[0][2] = 2 * (qx * qz + qy * qw);
+    R[1][0] = 2 * (qx * qy + qz * qw), R[1][1] = 1 - 2 * (qx * qx + qz * qz),
+    R[1][2] = 2 * (qy * qz - qx * qw);
+    R[2][0] = 2 * (qx * qz - qy * qw), R[2][1] = 2 * (qy * qz + qx * qw),
+    R[2][2] = 1 - 2 * (qx * qx + qy * qy);
+}
+
 /* A random B-spline surface of degrees 1..3 with 5..12 spans each way, uniform or jittered
  * knots: a wavy sheet, scaled unevenly, turned to a random orientation and moved off the origin,
  * so that its deviations from bilinear lie along no coordinate axis; a third rational (weights
@@ -337,14 +351,9 @@ static crisp_surface *random_surface(void)
         ku[i] = i <= du ? 0 : i >= nu ? 1 : (i - du + (uniform ? 0 : 0.4 * (rnd() - 0.5))) / su;
     for (int i = 0; i < nv + dv + 1; i++)
         kv[i] = i <= dv ? 0 : i >= nv ? 1 : (i - dv + (uniform ? 0 : 0.4 * (rnd() - 0.5))) / sv;
-    /* a random rotation (normalised random quaternion) and offset */
-    double qw = rnd() - 0.5, qx = rnd() - 0.5, qy = rnd() - 0.5, qz = rnd() - 0.5;
-    double ql = sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
-    qw /= ql, qx /= ql, qy /= ql, qz /= ql;
-    double R[3][3] = {
-        {1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)},
-        {2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)},
-        {2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)}};
+    /* a random rotation and offset */
+    double R[3][3];
+    random_rotation(R);
     double off[3] = {100 * (rnd() - 0.5), 100 * (rnd() - 0.5), 100 * (rnd() - 0.5)};
     double sx = 5 + 20 * rnd(), sy = 5 + 20 * rnd(), amp = 0.2 + 3 * rnd(), fr = 0.5 + 2 * rnd();
     int noisy = rnd() < 0.5;
@@ -549,13 +558,8 @@ static void test_quarter_cells(void **state)
         /* a bicubic patch over [0, sx] x [0, sy] with random heights, turned and moved */
         double cp[16 * 4], sx = 1 + 20 * rnd(), sy = 1 + 20 * rnd(), amp = 0.05 + 3 * rnd();
         double wt = rnd() < 0.3 ? 0.5 + 2 * rnd() : 1;
-        double qw = rnd() - 0.5, qx = rnd() - 0.5, qy = rnd() - 0.5, qz = rnd() - 0.5;
-        double ql = sqrt(qw * qw + qx * qx + qy * qy + qz * qz);
-        qw /= ql, qx /= ql, qy /= ql, qz /= ql;
-        double R[3][3] = {
-            {1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)},
-            {2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)},
-            {2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)}};
+        double R[3][3];
+        random_rotation(R);
         double off[3] = {50 * (rnd() - 0.5), 50 * (rnd() - 0.5), 50 * (rnd() - 0.5)}, mid[3];
         for (int j = 0; j < 4; j++)
             for (int i = 0; i < 4; i++) {
