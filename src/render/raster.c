@@ -569,16 +569,14 @@ static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t,
     return 1;
 }
 
-/* 1 when triangle a, b, d (projected, every vertex inside the clip planes) writes no sample in a
- * draw with the block depth set: setup_one would drop it (no sample area, or tri_hidden on its
- * pixel box, the same expressions). *least: the least block value of that box when hidden there
- * (INFINITY when it covers no sample area), box[4]: the box. */
-static int tri_dropped(const crisp_raster *r, const crisp_raster_target *t, const pvert *a,
-                       const pvert *b, const pvert *d, double *least, int box[4])
+/* The pixels box[0] .. box[2] (x), box[1] .. box[3] (y) (whole-image pixels, clamped to the
+ * target) whose samples the triangle with fixed-point vertices a, b, d can cover: samples sit at
+ * i + offset with offset in [0, 1), so pixels floor(min) - 1 .. floor(max) (floor of a
+ * fixed-point value: an arithmetic shift). 0 when none lies in the target. setup_one, tri_dropped
+ * and tri_boxes take the same box. */
+static inline int tri_pixel_box(const crisp_raster_target *t, const pvert *a, const pvert *b,
+                                const pvert *d, int box[4])
 {
-    *least = INFINITY;
-    int64_t area = (b->fx - a->fx) * (d->fy - a->fy) - (b->fy - a->fy) * (d->fx - a->fx);
-    if (area == 0) return 1;
     int64_t minx = a->fx < b->fx ? a->fx : b->fx, maxx = a->fx > b->fx ? a->fx : b->fx;
     int64_t miny = a->fy < b->fy ? a->fy : b->fy, maxy = a->fy > b->fy ? a->fy : b->fy;
     minx = d->fx < minx ? d->fx : minx, maxx = d->fx > maxx ? d->fx : maxx;
@@ -589,7 +587,20 @@ static int tri_dropped(const crisp_raster *r, const crisp_raster_target *t, cons
     int64_t ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
     box[0] = (int)(x0 > t->x0 ? x0 : t->x0), box[1] = (int)(y0 > t->y0 ? y0 : t->y0);
     box[2] = (int)(x1 < ex ? x1 : ex), box[3] = (int)(y1 < ey ? y1 : ey);
-    if (!(box[0] <= box[2] && box[1] <= box[3])) return 1;
+    return box[0] <= box[2] && box[1] <= box[3];
+}
+
+/* 1 when triangle a, b, d (projected, every vertex inside the clip planes) writes no sample in a
+ * draw with the block depth set: setup_one would drop it (no sample area, or tri_hidden on its
+ * pixel box, the same expressions). *least: the least block value of that box when hidden there
+ * (INFINITY when it covers no sample area), box[4]: the box. */
+static int tri_dropped(const crisp_raster *r, const crisp_raster_target *t, const pvert *a,
+                       const pvert *b, const pvert *d, double *least, int box[4])
+{
+    *least = INFINITY;
+    int64_t area = (b->fx - a->fx) * (d->fy - a->fy) - (b->fy - a->fy) * (d->fx - a->fx);
+    if (area == 0) return 1;
+    if (!tri_pixel_box(t, a, b, d, box)) return 1;
     return tri_hidden_least(r, t, a, b, d, NULL, box[0], box[1], box[2], box[3], least);
 }
 
@@ -643,27 +654,13 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
         order[1] = 2;
         order[2] = 1;
     }
-    int64_t minx = INT64_MAX, miny = INT64_MAX, maxx = INT64_MIN, maxy = INT64_MIN;
     for (int k = 0; k < 3; k++) {
-        int i = order[k];
-        out->x[k] = v[i]->fx;
-        out->y[k] = v[i]->fy;
-        minx = v[i]->fx < minx ? v[i]->fx : minx;
-        maxx = v[i]->fx > maxx ? v[i]->fx : maxx;
-        miny = v[i]->fy < miny ? v[i]->fy : miny;
-        maxy = v[i]->fy > maxy ? v[i]->fy : maxy;
+        out->x[k] = v[order[k]]->fx;
+        out->y[k] = v[order[k]]->fy;
     }
-    /* Samples sit at i + offset with offset in [0, 1): pixels floor(min) - 1 .. floor(max)
-     * (floor of a fixed-point value: an arithmetic shift), in the whole image's pixels. */
-    int64_t x0 = (minx >> CRISP_RASTER_SUBPIXEL_BITS) - 1,
-            y0 = (miny >> CRISP_RASTER_SUBPIXEL_BITS) - 1;
-    int64_t x1 = maxx >> CRISP_RASTER_SUBPIXEL_BITS, y1 = maxy >> CRISP_RASTER_SUBPIXEL_BITS;
-    int64_t ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
-    out->x0 = (int)(x0 > t->x0 ? x0 : t->x0);
-    out->y0 = (int)(y0 > t->y0 ? y0 : t->y0);
-    out->x1 = (int)(x1 < ex ? x1 : ex);
-    out->y1 = (int)(y1 < ey ? y1 : ey);
-    if (!(out->x0 <= out->x1 && out->y0 <= out->y1)) return 0;
+    int box[4];
+    if (!tri_pixel_box(t, a, b, d, box)) return 0;
+    out->x0 = box[0], out->y0 = box[1], out->x1 = box[2], out->y1 = box[3];
     if (tri_hidden(c->r, t, a, b, d, core, out->x0, out->y0, out->x1, out->y1)) return 0;
     double sx[3] = {a->sx, b->sx, d->sx}, sy[3] = {a->sy, b->sy, d->sy};
     double det = (sx[1] - sx[0]) * (sy[2] - sy[0]) - (sy[1] - sy[0]) * (sx[2] - sx[0]);
@@ -1782,20 +1779,10 @@ static void tri_boxes(void *vctx, size_t begin, size_t end, int worker)
                 /* Hidden (tri_hidden, on setup_one's pixel box): setup_one drops it too. */
                 const pvert *a = &c->cache[tri->v[0]], *b = &c->cache[tri->v[1]],
                             *d = &c->cache[tri->v[2]];
-                int64_t mnx = a->fx < b->fx ? a->fx : b->fx, mxx = a->fx > b->fx ? a->fx : b->fx;
-                int64_t mny = a->fy < b->fy ? a->fy : b->fy, mxy = a->fy > b->fy ? a->fy : b->fy;
-                mnx = d->fx < mnx ? d->fx : mnx, mxx = d->fx > mxx ? d->fx : mxx;
-                mny = d->fy < mny ? d->fy : mny, mxy = d->fy > mxy ? d->fy : mxy;
-                int64_t px0 = (mnx >> CRISP_RASTER_SUBPIXEL_BITS) - 1,
-                        py0 = (mny >> CRISP_RASTER_SUBPIXEL_BITS) - 1;
-                int64_t px1 = mxx >> CRISP_RASTER_SUBPIXEL_BITS,
-                        py1 = mxy >> CRISP_RASTER_SUBPIXEL_BITS;
-                int64_t ex = t->x0 + t->width - 1, ey = t->y0 + t->height - 1;
-                int bx0 = (int)(px0 > t->x0 ? px0 : t->x0), by0 = (int)(py0 > t->y0 ? py0 : t->y0);
-                int bx1 = (int)(px1 < ex ? px1 : ex), by1 = (int)(py1 < ey ? py1 : ey);
-                if (bx0 <= bx1 && by0 <= by1 &&
-                    tri_hidden(c->r, t, a, b, d, c->cores ? &c->cores[i] : NULL, bx0, by0, bx1,
-                               by1))
+                int bb[4];
+                if (tri_pixel_box(t, a, b, d, bb) &&
+                    tri_hidden(c->r, t, a, b, d, c->cores ? &c->cores[i] : NULL, bb[0], bb[1],
+                               bb[2], bb[3]))
                     continue;
             } else {
                 cvert poly[MAX_POLY];
