@@ -34,7 +34,9 @@ static inline crisp_camera bench_close_up(const crisp_scene *sc, const crisp_cam
  * nearest to the surface point under the image centre (the middle of a trim piece of any face;
  * the centre point itself when no face has trim pieces) at the default field of view divided by
  * `factor` (1e4: a default pixel of a 100 mm part at 30 degrees is about 0.1 mm, zoomed it is
- * about 10 nm), so a trim edge crosses the screen. */
+ * about 10 nm). The point is not tested for visibility: on impeller.igs and occt_linkrods.step
+ * two faces meet across the screen there, on occt_hammer.iges a face in front covers it (the
+ * trim curve is behind; its rows still run the trim lookups of the hidden triangles). */
 static inline crisp_camera bench_zoom(const crisp_scene *sc, const crisp_camera *base,
                                       double factor)
 {

@@ -2,8 +2,8 @@
  * (data/nurbs) at 1920x1080, 1 sample per pixel, with the default camera (crisp_camera_frame_box)
  * with a close-up whose surface fills the screen (the default camera's centre-ray hit point
  * seen with a 1/8 field of view, as bench_gl) and with an extreme zoom (view "zoom": the trim
- * curve point nearest that hit point at 1/10,000 of the default field of view, a trim edge
- * across the screen: bench_camera.h). Per row, medians of FRAMES warm frames (after one
+ * curve point nearest that hit point at 1/10,000 of the default field of view; not tested
+ * for visibility: bench_camera.h). Per row, medians of FRAMES warm frames (after one
  * warm-up frame) on THREADS threads: the plan (crisp_planner_plan), the CPU backend's stages
  * (tessellate, rasterise, resolve and shade: crisp_render_stats), the whole frame (plan + draw),
  * the process CPU time per frame (all threads; fairer than wall time on a shared machine), the
