@@ -1,9 +1,9 @@
 /* bench_interactive: issue 12's interactive targets, stage by stage. Every bundled model
  * (data/nurbs) at 1920x1080, 1 sample per pixel, with the default camera (crisp_camera_frame_box)
  * with a close-up whose surface fills the screen (the default camera's centre-ray hit point
- * seen with a 1/8 field of view, as bench_gl) and with an extreme zoom (view "zoom": the trim
- * curve point nearest that hit point at 1/10,000 of the default field of view; not tested
- * for visibility: bench_camera.h). Per row, medians of FRAMES warm frames (after one
+ * seen with a 1/8 field of view, as bench_gl) and with an extreme zoom (view "zoom": the visible
+ * trim curve point nearest that hit point at 1/10,000 of the default field of view:
+ * bench_camera.h). Per row, medians of FRAMES warm frames (after one
  * warm-up frame) on THREADS threads: the plan (crisp_planner_plan), the CPU backend's stages
  * (tessellate, rasterise, resolve and shade: crisp_render_stats), the whole frame (plan + draw),
  * the process CPU time per frame (all threads; fairer than wall time on a shared machine), the
@@ -19,6 +19,7 @@
  * Occlusion culling (crisp_render_desc.no_occlusion) is on; BENCH_OCCLUSION=off runs it off,
  * BENCH_OCCLUSION=both runs every row off and then on (the same image hash expected).
  * BENCH_SPLATS=off: no face drawn as splats (crisp_render_desc.no_splats; issue 12, session 9).
+ * BENCH_INTERACTIVE_PNG=folder writes each row's image there (MODEL_VIEW.png).
  * BENCH_INTERACTIVE_STAGES=1 also prints each row's plan stages (levels, edges, trim, ribbons)
  * to stderr. */
 #include <math.h>
@@ -28,6 +29,7 @@
 #include <sys/resource.h>
 
 #include "bench_camera.h"
+#include "bench_image.h"
 #include "bench_util.h"
 #include "crisp/io.h"
 #include "crisp/plan.h"
@@ -139,6 +141,12 @@ static void run_view(const char *name, const char *view, const crisp_scene *sc,
                 name, view, (unsigned long long)st.leaves, (unsigned long long)st.vertices,
                 (unsigned long long)st.ribbon_triangles, (unsigned long long)st.fragments_tested,
                 (unsigned long long)st.fragments_trimmed);
+    const char *png = getenv("BENCH_INTERACTIVE_PNG"); /* a folder: look at what each row draws */
+    if (png) {
+        char path[1200];
+        snprintf(path, sizeof path, "%s/%s_%s.png", png, name, view);
+        if (bench_write_png(path, &img)) die(path);
+    }
     size_t covered = 0;
     for (size_t p = 0; p < (size_t)img.width * img.height; p++)
         covered += img.face[p] >= 0;

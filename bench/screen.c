@@ -44,6 +44,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "bench_image.h"
 #include "bench_scenes.h"
 #include "bench_util.h"
 #include "crisp/construct.h"
@@ -287,11 +288,7 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         char path[1200];
         snprintf(path, sizeof path, "%s/%s_%s%s%s.png", png, scene_name, cam_name,
                  no_groups ? "_nogroups" : "", no_splats ? "_nosplats" : "");
-        uint8_t *rgba = malloc((size_t)img.width * img.height * 4);
-        for (size_t k = 0; k < (size_t)img.width * img.height * 4; k++)
-            rgba[k] = (uint8_t)lrint(255 * fmin(1, fmax(0, img.rgba[k])));
-        if (crisp_write_png_rgba(path, img.width, img.height, rgba)) die(path);
-        free(rgba);
+        if (bench_write_png(path, &img)) die(path);
     }
     /* FNV-1a over the image and its AOVs: culling must not change it. */
     uint32_t hash = 2166136261u;
