@@ -42,9 +42,13 @@ typedef struct setup_tri {
     double q0[1 + CRISP_RASTER_ATTRS], qx[1 + CRISP_RASTER_ATTRS], qy[1 + CRISP_RASTER_ATTRS];
     int x0, y0, x1, y1; /* pixel bbox, inclusive, clamped to the image */
     uint32_t face;
-    /* -3: the fragment test is decided for boxes of (u, v) by the box test where it can be
-     * (crisp__raster_set_box_test; raster_tile_s), -2: every fragment runs the test (or none). */
-    int boxed;
+    /* -2: every fragment runs the test (or none); else the box test decides it for boxes of
+     * (u, v) where it can (crisp__raster_set_box_test; raster_tile_s), and boxed is its answer for
+     * the whole triangle, found at set-up: 1 every fragment kept, -1 not decided (a triangle whose
+     * every fragment is discarded is not set up). tbox: the triangle's box of (u, v)
+     * (uv_hull_box), when tbox_ok. */
+    int boxed, tbox_ok;
+    double tbox[4];
     const crisp_raster_core *core; /* fill mode: the triangle's core (crisp__raster_draw_fill2) */
 } setup_tri;
 
@@ -640,8 +644,26 @@ int crisp__raster_quad_hidden(const crisp_raster *r, const crisp_raster_target *
     return 1;
 }
 
+static int uv_hull_box(const setup_tri *st, const double *hx, const double *hy, int n,
+                       double box[4]);
+
+/* The box test's answer for all of triangle st's fragments (its covered samples lie in its snapped
+ * triangle): the box goes to tbox (valid when the answer is not -2), -2 when there is none. */
+static int tri_decision(const crisp_raster *r, void *test_ctx, const setup_tri *st, double tbox[4])
+{
+    double hx[3], hy[3];
+    for (int k = 0; k < 3; k++)
+        hx[k] = (double)st->x[k] / SUB, hy[k] = (double)st->y[k] / SUB;
+    if (!uv_hull_box(st, hx, hy, 3, tbox)) return -2;
+    double lo[2] = {tbox[0], tbox[2]}, hi[2] = {tbox[1], tbox[3]};
+    return r->box_test(test_ctx, st->face, lo, hi);
+}
+
 /* Sets up one triangle into *out; returns 0 when it covers no sample area (degenerate or off
- * the image) or when the block depth hides it (tri_hidden). */
+ * the image), when the block depth hides it (tri_hidden) or when the box test discards every
+ * fragment of it (issue 12: a close-up's nearest leaves are mostly trimmed away; their triangles
+ * were binned and walked up to their first fragment, in every tile they reach, before the same
+ * decision dropped them). */
 static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const pvert *d,
                      uint32_t face, const crisp_raster_core *core, setup_tri *out)
 {
@@ -691,10 +713,14 @@ static int setup_one(const setup_ctx *c, const pvert *a, const pvert *b, const p
     /* With a box test, the tiles decide the test for boxes of (u, v) (raster_tile_s). */
     const crisp_raster *r = c->r;
     uint32_t fid = face & ~(CRISP_RASTER_FACE_FLAG | CRISP_RASTER_FACE_NO_TEST);
-    out->boxed = r->box_test && c->test && !(face & CRISP_RASTER_FACE_NO_TEST) &&
-                         !(fid < r->untested_count && r->untested[fid])
-                     ? -3
-                     : -2;
+    out->boxed = -2, out->tbox_ok = 0;
+    if (r->box_test && c->test && !(face & CRISP_RASTER_FACE_NO_TEST) &&
+        !(fid < r->untested_count && r->untested[fid])) {
+        int dec = tri_decision(r, c->test_ctx, out, out->tbox);
+        if (dec == 0) return 0; /* it writes no sample */
+        out->tbox_ok = dec != -2;
+        out->boxed = dec == 1 ? 1 : -1;
+    }
     return 1;
 }
 
@@ -900,19 +926,6 @@ static int rect_decision(const raster_ctx *c, const setup_tri *st, int x0, int y
         }
     double lo[2] = {box[0], box[2]}, hi[2] = {box[1], box[3]};
     if (!(lo[0] <= hi[0] && lo[1] <= hi[1])) return -1;
-    int res = c->r->box_test(c->test_ctx, st->face, lo, hi);
-    return res;
-}
-
-/* The same for all of triangle st's fragments (its covered samples lie in its snapped
- * triangle): the box goes to tbox (valid when the answer is not -2), -2 when there is none. */
-static int tri_decision(const raster_ctx *c, const setup_tri *st, double tbox[4])
-{
-    double hx[3], hy[3];
-    for (int k = 0; k < 3; k++)
-        hx[k] = (double)st->x[k] / SUB, hy[k] = (double)st->y[k] / SUB;
-    if (!uv_hull_box(st, hx, hy, 3, tbox)) return -2;
-    double lo[2] = {tbox[0], tbox[2]}, hi[2] = {tbox[1], tbox[3]};
     int res = c->r->box_test(c->test_ctx, st->face, lo, hi);
     return res;
 }
@@ -1212,15 +1225,14 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
         int run_test = c->test && !(st->face & CRISP_RASTER_FACE_NO_TEST) &&
                        !((size_t)face_id < r->untested_count && r->untested[face_id]);
         /* The fragment test decided for a box of (u, v) that holds every fragment's (u, v)
-         * (uv_hull_box), found when a block first has a fragment that passes the depth test:
-         * for the whole triangle (tdec), then its part in this tile (xdec, when the triangle
-         * reaches beyond the tile), then the block (bdec, when the part spans several
+         * (uv_hull_box): for the whole triangle at set-up (tdec), then, found when a block first
+         * has a fragment that passes the depth test, for its part in this tile (xdec, when the
+         * triangle reaches beyond the tile), then the block (bdec, when the part spans several
          * blocks). 1: kept, 0: discarded, -1: not decided (each fragment is tested), -3: not
          * looked at yet. Without a test every fragment is kept. */
         int box_on = run_test && st->boxed != -2;
-        int tdec = !run_test ? 1 : box_on ? -3 : -1, xdec = -3;
-        double tbox[4];
-        int tbox_ok = 0;
+        int tdec = !run_test ? 1 : box_on ? st->boxed : -1, xdec = -3;
+        const double *tbox = box_on && st->tbox_ok ? st->tbox : NULL;
         int part_blocks = x0 / BLOCK != x1 / BLOCK || y0 / BLOCK != y1 / BLOCK;
         int beyond = st->x0 < px0 || st->x1 > px1 || st->y0 < py0 || st->y1 > py1;
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
@@ -1428,21 +1440,13 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                         }
                         if (!np) continue;
                         if (bdec == -3) { /* the first fragment that needs the decision */
-                            if (tdec == -3) {
-                                tdec = tri_decision(c, st, tbox);
-                                tbox_ok = tdec != -2;
-                                tdec = tdec == -2 ? -1 : tdec;
-                            }
                             bdec = tdec;
                             if (bdec == -1 && box_on && beyond && part_blocks) {
-                                if (xdec == -3)
-                                    xdec =
-                                        rect_decision(c, st, x0, y0, x1, y1, tbox_ok ? tbox : NULL);
+                                if (xdec == -3) xdec = rect_decision(c, st, x0, y0, x1, y1, tbox);
                                 bdec = xdec;
                             }
                             if (bdec == -1 && box_on && part_blocks)
-                                bdec =
-                                    rect_decision(c, st, bx0, by0, bx1, by1, tbox_ok ? tbox : NULL);
+                                bdec = rect_decision(c, st, bx0, by0, bx1, by1, tbox);
                             if (bdec == 0) { /* every fragment of the block is discarded */
 #if defined(__SSE2__)
                                 boxed += m ? (size_t)__builtin_popcount(m) : (size_t)np;
@@ -1502,7 +1506,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
 #ifdef DEBUG_BOX
                                 if (!c->test(c->test_ctx, st->face, a[0], a[1])) {
                                     double tb2[4];
-                                    int td = tri_decision(c, st, tb2);
+                                    int td = tri_decision(r, c->test_ctx, st, tb2);
                                     fprintf(stderr,
                                             "MISMATCH face %u u %.17g v %.17g bdec %d tdec %d xdec "
                                             "%d tbox %.17g %.17g %.17g %.17g blk %d %d %d %d part "

@@ -124,9 +124,10 @@ void crisp__raster_set_clip(crisp_raster *r, const double k[4]);
 typedef int (*crisp_raster_box_fn)(void *ctx, uint32_t face, const double lo[2],
                                    const double hi[2]);
 /* With a box test, the test is decided for a box of (u, v) that holds every computed (u, v) of
- * a triangle's fragments (rounding included), else of its part in a tile, else of an 8x8 block,
- * when that part first has a fragment passing the depth test: kept (no test), discarded (the
- * block skipped) or undecided (each fragment runs the test). The same answers as the test, as
+ * a triangle's fragments (rounding included) at set-up (a triangle so discarded is not set up),
+ * else, when that part first has a fragment passing the depth test, of its part in a tile, else
+ * of an 8x8 block: kept (no test), discarded (the block skipped) or undecided (each fragment
+ * runs the test). The same answers as the test, as
  * the box test agrees with it in the box. Used by later draws with their test_ctx; NULL: off. */
 void crisp__raster_set_box_test(crisp_raster *r, crisp_raster_box_fn fn);
 /* Triangles set up and binned at a time (0: the default, 2^19); small values are for tests. */
