@@ -1286,9 +1286,12 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
         __m256d d0 = _mm256_add_pd(_mm256_loadu_pd(colx + i), vr0);
         __m256d d1 = _mm256_add_pd(_mm256_loadu_pd(coly + i), vr1);
         __m256d d2 = _mm256_add_pd(_mm256_loadu_pd(colz + i), vr2);
-        __m256d n0 = _mm256_set_pd(a[17], a[12], a[7], a[2]); /* exact conversions */
-        __m256d n1 = _mm256_set_pd(a[18], a[13], a[8], a[3]);
-        __m256d n2 = _mm256_set_pd(a[19], a[14], a[9], a[4]);
+        /* The four normals: attributes 1..4 of each pixel (inside its own five), transposed,
+         * then widened (exact conversions). */
+        __m128 r0 = _mm_loadu_ps(a + 1), r1 = _mm_loadu_ps(a + 6), r2 = _mm_loadu_ps(a + 11),
+               r3 = _mm_loadu_ps(a + 16);
+        _MM_TRANSPOSE4_PS(r0, r1, r2, r3); /* r1, r2, r3: the pixels' nx, ny, nz */
+        __m256d n0 = _mm256_cvtps_pd(r1), n1 = _mm256_cvtps_pd(r2), n2 = _mm256_cvtps_pd(r3);
         __m256d nn = _mm256_sqrt_pd(_mm256_add_pd(
             _mm256_add_pd(_mm256_mul_pd(n0, n0), _mm256_mul_pd(n1, n1)), _mm256_mul_pd(n2, n2)));
         __m256d vv = _mm256_sqrt_pd(_mm256_add_pd(
@@ -1300,15 +1303,21 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
             _mm256_and_pd(_mm256_cmp_pd(nn, zero, _CMP_GT_OQ), _mm256_cmp_pd(vv, zero, _CMP_GT_OQ));
         cs = _mm256_or_pd(_mm256_and_pd(ok, cs), _mm256_andnot_pd(ok, one));
         __m256d k = _mm256_add_pd(k0, _mm256_mul_pd(k1, cs));
-        const float *c0 = faces[f0].color, *c1 = faces[f1].color, *c2 = faces[f2].color,
-                    *c3 = faces[f3].color;
+        /* The faces' colours, per lane (one load each when the four pixels show one face). */
+        __m256d base[3];
+        const float *c0 = faces[f0].color;
+        if (f0 == f1 && f0 == f2 && f0 == f3) {
+            for (int q = 0; q < 3; q++)
+                base[q] = _mm256_set1_pd(c0[q]);
+        } else {
+            const float *c1 = faces[f1].color, *c2 = faces[f2].color, *c3 = faces[f3].color;
+            for (int q = 0; q < 3; q++)
+                base[q] = _mm256_set_pd(c3[q], c2[q], c1[q], c0[q]);
+        }
         __m128 zf = _mm_setzero_ps();
-        __m128 cr = _mm_add_ps(
-            zf, _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_set_pd(c3[0], c2[0], c1[0], c0[0]), k)));
-        __m128 cg = _mm_add_ps(
-            zf, _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_set_pd(c3[1], c2[1], c1[1], c0[1]), k)));
-        __m128 cb = _mm_add_ps(
-            zf, _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_set_pd(c3[2], c2[2], c1[2], c0[2]), k)));
+        __m128 cr = _mm_add_ps(zf, _mm256_cvtpd_ps(_mm256_mul_pd(base[0], k)));
+        __m128 cg = _mm_add_ps(zf, _mm256_cvtpd_ps(_mm256_mul_pd(base[1], k)));
+        __m128 cb = _mm_add_ps(zf, _mm256_cvtpd_ps(_mm256_mul_pd(base[2], k)));
         __m128 co = _mm_set1_ps(1.0f);
         _MM_TRANSPOSE4_PS(cr, cg, cb, co); /* pixel q's r g b 1 */
         _mm_storeu_ps(rgba + 4 * (size_t)i, cr);

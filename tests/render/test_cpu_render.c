@@ -465,6 +465,12 @@ static void test_vectors_equal_scalar(void **state)
     crisp_model *m = rt_load_model("occt_bearing.iges");
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    /* A colour of its own per face: the resolve's lanes of different faces must not mix. */
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        sc->faces[f].color[0] = (float)(f % 7) / 7.0f;
+        sc->faces[f].color[1] = (float)(f % 5) / 5.0f;
+        sc->faces[f].color[2] = (float)(f % 3) / 3.0f;
+    }
     crisp_renderer *r[2];
     for (int k = 0; k < 2; k++) {
         assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r[k]),
