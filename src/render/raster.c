@@ -1038,6 +1038,38 @@ typedef struct quad_planes {
     v4d q0[CRISP_RASTER_ATTRS], qx[CRISP_RASTER_ATTRS]; /* attribute k's, on four lanes */
 } quad_planes;
 
+/* row_mask with the 1/W and depth test four lanes at a time (the same IEEE operations per lane:
+ * base + gx (dx0 + q); the compare ordered and signalling, as _mm_cmpgt_pd). */
+__attribute__((target("avx"))) static inline unsigned
+row_mask_avx(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base, double gx,
+             double dx0, const double *stored, double *iwv)
+{
+    static const double lane[BLOCK] = {0, 1, 2, 3, 4, 5, 6, 7};
+    unsigned m = 0, neg = 0;
+    const __m256d vb = _mm256_set1_pd(base), vg = _mm256_set1_pd(gx), vd = _mm256_set1_pd(dx0);
+    UNROLL(2)
+    for (int h = 0; h < BLOCK / 4; h++) {
+        __m256d q = _mm256_loadu_pd(lane + 4 * h);
+        __m256d iw = _mm256_add_pd(vb, _mm256_mul_pd(vg, _mm256_add_pd(vd, q)));
+        _mm256_storeu_pd(iwv + 4 * h, iw);
+        m |= (unsigned)_mm256_movemask_pd(
+                 _mm256_cmp_pd(iw, _mm256_loadu_pd(stored + 4 * h), _CMP_GT_OS))
+             << (4 * h);
+    }
+    if (!full) {
+        const __m128i e0 = _mm_set1_epi64x(e[0]), e1 = _mm_set1_epi64x(e[1]),
+                      e2 = _mm_set1_epi64x(e[2]);
+        UNROLL(4)
+        for (int h = 0; h < BLOCK / 2; h++) {
+            __m128i o = _mm_or_si128(_mm_or_si128(_mm_add_epi64(e0, lane_step[0][h]),
+                                                  _mm_add_epi64(e1, lane_step[1][h])),
+                                     _mm_add_epi64(e2, lane_step[2][h]));
+            neg |= (unsigned)_mm_movemask_pd(_mm_castsi128_pd(o)) << (2 * h);
+        }
+    }
+    return m & ~neg;
+}
+
 __attribute__((target("avx"))) static unsigned
 store_row1_avx(const planes *pl, const quad_planes *qp, double dx0, double dy, const double *iwv,
                unsigned m, size_t idx0, double *restrict inv_w, int32_t *restrict fbuf,
@@ -1369,8 +1401,14 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
 #if defined(__SSE2__)
                             /* The same tests on 8 lanes, two at a time (the row's stored 1/W
                              * is read at 8 lanes: inside the image's row). */
-                            m = row_mask(e, lane_step, full, base, gx, dx0, inv_w + idx0, iwv) &
-                                ((1u << n) - 1);
+#if HAVE_AVX_TILES
+                            if (avx)
+                                m = row_mask_avx(e, lane_step, full, base, gx, dx0, inv_w + idx0,
+                                                 iwv);
+                            else
+#endif
+                                m = row_mask(e, lane_step, full, base, gx, dx0, inv_w + idx0, iwv);
+                            m &= (1u << n) - 1;
                             np = m != 0;
 #endif
                         } else if (!slack) {
