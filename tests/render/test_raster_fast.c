@@ -165,6 +165,41 @@ static void assert_same(const crisp_raster_target *a, const crisp_raster_target 
     assert_memory_equal(a->attr, b->attr, n * CRISP_RASTER_ATTRS * sizeof *a->attr);
 }
 
+/* Ties keep the earlier triangle, on every path: the soup drawn, then drawn again on top with
+ * other face ids (the same 1/W at every sample) leaves every sample as the first draw left it
+ * (1 and 4 samples, the vector and the scalar paths, depth rejection on and off). */
+static void test_ties_keep_earlier(void **state)
+{
+    (void)state;
+    static crisp_raster_vertex v[3 * NT];
+    static crisp_raster_tri tri[2 * NT];
+    rng_state = 0x2545F4914F6CDD1Dull;
+    soup(v, tri);
+    for (int i = 0; i < NT; i++)
+        tri[NT + i] = (crisp_raster_tri){{tri[i].v[0], tri[i].v[1], tri[i].v[2]}, tri[i].face + 7};
+    for (int samples = 1; samples <= 4; samples += 3)
+        for (int vec = 0; vec < 2; vec++)
+            for (int hiz = 0; hiz < 2; hiz++) {
+                crisp_raster_target a = {0}, b = {0};
+                crisp_raster *r;
+                assert_int_equal(crisp__raster_create(&r), CRISP_OK);
+                crisp__raster_set_vectors(r, vec);
+                crisp__raster_set_hiz(r, hiz);
+                crisp_raster_target *t[2] = {&a, &b};
+                for (int k = 0; k < 2; k++) {
+                    assert_int_equal(crisp__raster_target_init(t[k], W, H, samples), CRISP_OK);
+                    crisp__raster_target_clear(t[k]);
+                    assert_int_equal(crisp__raster_draw(r, t[k], NULL, v, 3 * NT, tri,
+                                                        k ? 2 * NT : NT, NULL, NULL, NULL),
+                                     CRISP_OK);
+                }
+                assert_same(&a, &b);
+                crisp__raster_destroy(r);
+                crisp__raster_target_free(&a);
+                crisp__raster_target_free(&b);
+            }
+}
+
 static void test_hiz_and_batches_change_nothing(void **state)
 {
     (void)state;
@@ -680,6 +715,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hiz_and_batches_change_nothing),
+        cmocka_unit_test(test_ties_keep_earlier),
         cmocka_unit_test(test_no_test_flag),
         cmocka_unit_test(test_slack_for_triangles),
         cmocka_unit_test(test_box_test),
