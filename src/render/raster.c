@@ -113,6 +113,7 @@ struct crisp_raster {
     size_t bin_start_cap;
     int no_hiz;              /* hierarchical depth rejection off (crisp__raster_set_hiz) */
     int no_vectors;          /* the scalar path only (crisp__raster_set_vectors) */
+    int no_avx2;             /* not the AVX2 tiles (crisp__raster_set_vectors(r, 2)) */
     const uint8_t *untested; /* per face (crisp__raster_set_untested_faces) */
     size_t untested_count;
     uint8_t *tile_mask; /* per cell (crisp__raster_depth_slack_tris) */
@@ -160,6 +161,7 @@ void crisp__raster_set_hiz(crisp_raster *r, int on)
 int crisp__raster_set_vectors(crisp_raster *r, int on)
 {
     r->no_vectors = !on;
+    r->no_avx2 = on == 2;
     return HAVE_VECTORS;
 }
 
@@ -816,7 +818,7 @@ typedef struct {
     int hiz;             /* hierarchical depth rejection on */
     int vectors;         /* the vector path (crisp__raster_set_vectors) */
     int clear;           /* each tile first does the target's pending clear_depth */
-    int avx;             /* one-sample tiles through raster_tile1_avx */
+    int avx; /* one-sample tiles through raster_tile1_avx (1) or raster_tile1_avx2 (2) */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
 } raster_ctx;
 
@@ -1065,6 +1067,41 @@ row_mask_avx(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, doub
                                                   _mm_add_epi64(e1, lane_step[1][h])),
                                      _mm_add_epi64(e2, lane_step[2][h]));
             neg |= (unsigned)_mm_movemask_pd(_mm_castsi128_pd(o)) << (2 * h);
+        }
+    }
+    return m & ~neg;
+}
+
+/* row_mask_avx with the edge tests four lanes at a time too (AVX2's 64-bit integer lanes; the
+ * same exact sums, their sign bits ORed). */
+__attribute__((target("avx2"))) static inline unsigned
+row_mask_avx2(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base, double gx,
+              double dx0, const double *stored, double *iwv)
+{
+    static const double lane[BLOCK] = {0, 1, 2, 3, 4, 5, 6, 7};
+    unsigned m = 0, neg = 0;
+    const __m256d vb = _mm256_set1_pd(base), vg = _mm256_set1_pd(gx), vd = _mm256_set1_pd(dx0);
+    UNROLL(2)
+    for (int h = 0; h < BLOCK / 4; h++) {
+        __m256d q = _mm256_loadu_pd(lane + 4 * h);
+        __m256d iw = _mm256_add_pd(vb, _mm256_mul_pd(vg, _mm256_add_pd(vd, q)));
+        _mm256_storeu_pd(iwv + 4 * h, iw);
+        m |= (unsigned)_mm256_movemask_pd(
+                 _mm256_cmp_pd(iw, _mm256_loadu_pd(stored + 4 * h), _CMP_GT_OS))
+             << (4 * h);
+    }
+    if (!full) {
+        const __m256i e0 = _mm256_set1_epi64x(e[0]), e1 = _mm256_set1_epi64x(e[1]),
+                      e2 = _mm256_set1_epi64x(e[2]);
+        UNROLL(2)
+        for (int h = 0; h < BLOCK / 4; h++) { /* lanes 4h .. 4h + 3: two lane_step pairs */
+            __m256i l0 = _mm256_loadu_si256((const __m256i *)&lane_step[0][2 * h]),
+                    l1 = _mm256_loadu_si256((const __m256i *)&lane_step[1][2 * h]),
+                    l2 = _mm256_loadu_si256((const __m256i *)&lane_step[2][2 * h]);
+            __m256i o =
+                _mm256_or_si256(_mm256_or_si256(_mm256_add_epi64(e0, l0), _mm256_add_epi64(e1, l1)),
+                                _mm256_add_epi64(e2, l2));
+            neg |= (unsigned)_mm256_movemask_pd(_mm256_castsi256_pd(o)) << (4 * h);
         }
     }
     return m & ~neg;
@@ -1402,7 +1439,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             /* The same tests on 8 lanes, two at a time (the row's stored 1/W
                              * is read at 8 lanes: inside the image's row). */
 #if HAVE_AVX_TILES
-                            if (avx)
+                            if (avx == 2)
+                                m = row_mask_avx2(e, lane_step, full, base, gx, dx0, inv_w + idx0,
+                                                  iwv);
+                            else if (avx)
                                 m = row_mask_avx(e, lane_step, full, base, gx, dx0, inv_w + idx0,
                                                  iwv);
                             else
@@ -1583,8 +1623,15 @@ __attribute__((target("avx"))) static void raster_tile1_avx(raster_ctx *c, size_
 {
     raster_tile_s(c, tile, 1, c->clear, 1);
 }
+
+/* The same compiled for AVX2 (row_mask_avx2; the compiler's own integer code may use it too). */
+__attribute__((target("avx2"))) static void raster_tile1_avx2(raster_ctx *c, size_t tile)
+{
+    raster_tile_s(c, tile, 1, c->clear, 2);
+}
 #else
 #define raster_tile1_avx(c, tile) raster_tile_s(c, tile, 1, (c)->clear, 0)
+#define raster_tile1_avx2(c, tile) raster_tile_s(c, tile, 1, (c)->clear, 0)
 #endif
 
 static void raster_tile(raster_ctx *c, size_t tile)
@@ -1602,7 +1649,9 @@ static void raster_tile(raster_ctx *c, size_t tile)
             memset(t->face + a, 0xff, n * sizeof *t->face);
         }
     }
-    if (c->t->samples == 1 && c->avx)
+    if (c->t->samples == 1 && c->avx == 2)
+        raster_tile1_avx2(c, tile);
+    else if (c->t->samples == 1 && c->avx)
         raster_tile1_avx(c, tile);
     else if (c->t->samples == 1)
         raster_tile_s(c, tile, 1, c->clear, 0);
@@ -2055,7 +2104,9 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                      .hiz = !r->no_hiz,
                      .vectors = !r->no_vectors};
 #if HAVE_AVX_TILES
-    rc.avx = !r->no_vectors && __builtin_cpu_supports("avx");
+    rc.avx = !r->no_vectors && __builtin_cpu_supports("avx")
+                 ? (!r->no_avx2 && __builtin_cpu_supports("avx2") ? 2 : 1)
+                 : 0;
 #endif
     for (int s = 0; s < t->samples; s++) {
         double off[2];

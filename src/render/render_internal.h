@@ -105,7 +105,8 @@ crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
 struct crisp_raster_target;
 const struct crisp_raster_target *crisp__renderer_target(const crisp_renderer *r);
 /* The SIMD paths (the rasterizer's vector path and the resolve's two-pixel one) on (default)
- * or off (the scalar code, for tests that compare the two bit for bit). */
+ * or off (the scalar code, for tests that compare the two bit for bit); 2: on, but not the
+ * rasterizer's AVX2 tiles (crisp__raster_set_vectors). */
 void crisp__renderer_set_vectors(crisp_renderer *r, int on);
 
 /* The trim table the planner built for face f in its last plan (for tests that hold the plan's

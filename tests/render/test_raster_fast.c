@@ -103,7 +103,8 @@ static const uint8_t *untested_faces; /* crisp__raster_set_untested_faces for re
 static int edge_soup;              /* render(): u within 3 ulps of THRESH on every other triangle */
 static crisp_raster_box_fn box_fn; /* crisp__raster_set_box_test for render() */
 static int scalar_only;            /* crisp__raster_set_vectors(r, 0) in render() */
-static int deferred_clear;         /* render() fills the target with junk, then clear_depth */
+static int vector_level = 1; /* else crisp__raster_set_vectors(r, vector_level) (2: no AVX2) */
+static int deferred_clear;   /* render() fills the target with junk, then clear_depth */
 
 static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn,
                    const float *slack, crisp_raster_target *t, test_ctx *tc,
@@ -131,7 +132,7 @@ static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_r
     crisp__raster_set_batch(r, batch);
     crisp__raster_set_untested_faces(r, untested_faces, 7);
     crisp__raster_set_box_test(r, box_fn);
-    crisp__raster_set_vectors(r, !scalar_only);
+    crisp__raster_set_vectors(r, scalar_only ? 0 : vector_level);
     assert_int_equal(crisp__raster_target_init(t, W, H, samples), CRISP_OK);
     crisp__raster_target_clear(t);
     if (deferred_clear) {
@@ -178,7 +179,7 @@ static void test_ties_keep_earlier(void **state)
     for (int i = 0; i < NT; i++)
         tri[NT + i] = (crisp_raster_tri){{tri[i].v[0], tri[i].v[1], tri[i].v[2]}, tri[i].face + 7};
     for (int samples = 1; samples <= 4; samples += 3)
-        for (int vec = 0; vec < 2; vec++)
+        for (int vec = 0; vec < 3; vec++) /* scalar, every vector path, not AVX2 */
             for (int hiz = 0; hiz < 2; hiz++) {
                 crisp_raster_target a = {0}, b = {0};
                 crisp_raster *r;
@@ -292,11 +293,16 @@ static void test_vectors_equal_scalar(void **state)
                 scalar_only = 1;
                 render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &ta, &sa);
                 scalar_only = 0;
-                render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &b, &tb, &sb);
+                /* every vector path, then without the AVX2 tiles */
+                for (vector_level = 2; vector_level >= 1; vector_level--) {
+                    tb.calls = 0;
+                    render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &b, &tb, &sb);
+                    assert_same(&a, &b);
+                    assert_int_equal(ta.calls, tb.calls);
+                }
+                vector_level = 1;
                 box_fn = NULL;
                 untested_faces = NULL;
-                assert_same(&a, &b);
-                assert_int_equal(ta.calls, tb.calls);
                 crisp__raster_target_free(&a);
                 crisp__raster_target_free(&b);
             }
@@ -374,16 +380,18 @@ static void test_box_enclosure_sound(void **state)
     (void)state;
     edge_soup = 1;
     for (int samples = 1; samples <= 4; samples += 3)
-        for (int vec = 0; vec < 2; vec++) {
+        for (int vec = 0; vec < 3; vec++) { /* scalar, every vector path, not AVX2 */
             crisp_raster_target ref = {0}, a = {0};
             test_ctx t_ref = {0}, t_box = {0};
             crisp_raster_stats st_ref, st;
             scalar_only = !vec;
+            vector_level = vec ? vec : 1;
             render(samples, 1, 0, 0, thresh_test, NULL, &ref, &t_ref, &st_ref);
             box_fn = thresh_box;
             render(samples, 1, 0, 0, thresh_test, NULL, &a, &t_box, &st);
             box_fn = NULL;
             scalar_only = 0;
+            vector_level = 1;
             assert_same(&ref, &a);
             assert_true(st_ref.fragments_discarded > 0); /* fragments at the threshold */
             assert_true(st.fragments_boxed > 0);
