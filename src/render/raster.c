@@ -23,6 +23,12 @@
     1048576.0 /* screen coordinates stay within +-2^20 px: exact int64 edge functions */
 #define MAX_POLY 12
 
+#if defined(__GNUC__)
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define ALWAYS_INLINE inline
+#endif
+
 #if defined(__GNUC__) && !defined(__clang__)
 #define PRAGMA(x) _Pragma(#x)
 #define UNROLL(n) PRAGMA(GCC unroll n)
@@ -1244,11 +1250,6 @@ static inline int band_span(const setup_tri *st, const raster_ctx *c, int by0, i
 /* One tile, with S the target's samples per pixel: always inlined into raster_tile with S a
  * constant for the common one-sample target (the compiler then folds the sample loops and
  * strides), else with S as a variable. The same code either way. */
-#if defined(__GNUC__)
-#define ALWAYS_INLINE inline __attribute__((always_inline))
-#else
-#define ALWAYS_INLINE inline
-#endif
 
 static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S, int fresh,
                                         const int avx)
@@ -1619,13 +1620,13 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
 
 #if HAVE_AVX_TILES
 /* raster_tile_s for one-sample targets compiled for AVX (store_row1_avx). */
-__attribute__((target("avx"))) static void raster_tile1_avx(raster_ctx *c, size_t tile)
+__attribute__((target("avx"), flatten)) static void raster_tile1_avx(raster_ctx *c, size_t tile)
 {
     raster_tile_s(c, tile, 1, c->clear, 1);
 }
 
 /* The same compiled for AVX2 (row_mask_avx2; the compiler's own integer code may use it too). */
-__attribute__((target("avx2"))) static void raster_tile1_avx2(raster_ctx *c, size_t tile)
+__attribute__((target("avx2"), flatten)) static void raster_tile1_avx2(raster_ctx *c, size_t tile)
 {
     raster_tile_s(c, tile, 1, c->clear, 2);
 }
