@@ -14,12 +14,14 @@
 // sample in the fragment stage.
 struct Splat {
     float p[3];
-    uint face;
-    float n[3];
+    uint n; // octahedral normal (crisp_plan_splat_normal)
     float uv[2];
 };
 layout(std430, binding = 11) readonly buffer Splats { Splat splats[]; };
 layout(std430, binding = 12) readonly buffer SplatOrigins { vec4 splat_clip_origin[]; };
+// The frame's ranges as (first, face), sorted by first: a splat's face is its run's.
+layout(std430, binding = 13) readonly buffer SplatRuns { uvec2 runs[]; };
+uniform uint run_count;
 uniform uint splat_base;   // the first splat of the bound range of the store (a chunk of it)
 uniform mat4 view_proj_f;
 uniform dvec2 offset;      // the sample's position in its pixel (x right, y down)
@@ -40,10 +42,38 @@ out gl_PerVertex {
     float gl_ClipDistance[3];
 };
 
+// The face of splat i of the store: the last run whose first is at most i.
+uint splat_face(uint i)
+{
+    uint lo = 0u, hi = run_count;
+    while (hi - lo > 1u) {
+        uint mid = (lo + hi) / 2u;
+        if (runs[mid].x <= i) lo = mid; else hi = mid;
+    }
+    return runs[lo].y;
+}
+
+// crisp_plan_splat_normal: the same float arithmetic in the same order.
+vec3 splat_normal(uint n)
+{
+    precise float x = float(int(n << 16) >> 16) * (1.0 / 32768.0);
+    precise float y = float(int(n) >> 16) * (1.0 / 32768.0);
+    precise float z = 1.0 - abs(x) - abs(y);
+    if (z < 0.0) {
+        precise float fx = (1.0 - abs(y)) * (x < 0.0 ? -1.0 : 1.0);
+        precise float fy = (1.0 - abs(x)) * (y < 0.0 ? -1.0 : 1.0);
+        x = fx;
+        y = fy;
+    }
+    precise float len = sqrt(x * x + y * y + z * z);
+    return vec3(x / len, y / len, z / len);
+}
+
 void main()
 {
     Splat s = splats[uint(gl_VertexID) - splat_base];
-    precise vec4 c = splat_clip_origin[s.face];
+    uint face = splat_face(uint(gl_VertexID));
+    precise vec4 c = splat_clip_origin[face];
     c += view_proj_f[0] * s.p[0];
     c += view_proj_f[1] * s.p[1];
     c += view_proj_f[2] * s.p[2];
@@ -58,11 +88,11 @@ void main()
     gl_Position = drawn ? vec4(vec2(ndc), zconst / c.w, 1.0) : vec4(2.0, 2.0, 0.5, 1.0);
     gl_PointSize = point_size;
     for (int k = 0; k < 3; k++) gl_ClipDistance[k] = drawn ? 1.0 : -1.0;
-    vec3 n = vec3(s.n[0], s.n[1], s.n[2]);
-    sp_normal = (faces[s.face].flags & FACE_REVERSED) != 0u ? -n : n;
+    vec3 n = splat_normal(s.n);
+    sp_normal = (faces[face].flags & FACE_REVERSED) != 0u ? -n : n;
     sp_centre = centre;
     sp_zw = c.zw;
     sp_uv = vec2(s.uv[0], s.uv[1]);
-    sp_face = s.face;
+    sp_face = face;
     sp_w = c.w;
 }

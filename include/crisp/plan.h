@@ -119,19 +119,20 @@ typedef struct crisp_plan_ribbon_vertex {
 
 /* One splat (issue 12): a point sample of a trimmed face, from a set whose samples cover the face
  * (src/render/splat.h: every point of the trimmed face lies within the set's radius of a sample).
- * std430: 36 bytes, scalars only (a shader declares float arrays, not vec3). */
+ * std430: 24 bytes, scalars only (a shader declares float arrays, not vec3). Its face is its
+ * range's (every set is one face's). */
 typedef struct crisp_plan_splat {
-    float p[3]; /* position minus the face's splat origin (model units) */
-    uint32_t face;
-    float n[3];  /* unit normal of the surface there as crisp_surface_normal gives it (not flipped
-                    for reversed faces: backends flip it as they do for leaves) */
+    float p[3];  /* position minus the face's splat origin (model units) */
+    uint32_t n;  /* unit normal of the surface there as crisp_surface_normal gives it (not flipped
+                    for reversed faces: backends flip it as they do for leaves), octahedral, two
+                    16-bit integers: crisp_plan_splat_normal */
     float uv[2]; /* surface parameters of the sample */
 } crisp_plan_splat;
 
-/* A run of splats drawn this frame: splats[first .. first + count - 1], all of one face.
- * std430: 8 bytes. */
+/* A run of splats drawn this frame: splats[first .. first + count - 1], all of face `face`. */
 typedef struct crisp_plan_splat_range {
     uint32_t first, count;
+    uint32_t face;
 } crisp_plan_splat_range;
 
 typedef struct crisp_plan_stats {
@@ -180,7 +181,8 @@ typedef struct crisp_frame_plan {
      * view_proj_f[k + 4 j] p[j] (the face's origin is projected in double by the planner). */
     const crisp_plan_splat *splats; /* the planner's store: every face set built so far */
     uint32_t splat_count;
-    const crisp_plan_splat_range *splat_ranges; /* the runs drawn this frame */
+    const crisp_plan_splat_range *splat_ranges; /* the runs drawn this frame, nearest first (the
+                                                   least W of the face's box) */
     uint32_t splat_range_count;
     const float *splat_clip_origin; /* 4 per face (face_count); set for faces drawn as splats */
     double splat_half_px;
@@ -228,6 +230,12 @@ uint32_t crisp_plan_leaf_locate(const crisp_frame_plan *plan, const crisp_plan_l
 /* The trim test on the plan's arrays: 1 when (u, v) of face `face` is inside its trim. Exactly
  * crisp_trim_table_test on the face's table (the shaders do the same arithmetic in double). */
 int crisp_plan_trim_test(const crisp_frame_plan *plan, uint32_t face, double u, double v);
+
+/* A splat's normal from its packed form (crisp_plan_splat.n): the octahedral point (x, y) =
+ * (low, high 16 bits as signed integers) * 2^-15, z = 1 - |x| - |y|, folded where z < 0 ((x, y) =
+ * ((1 - |y|) sign x, (1 - |x|) sign y), sign 0 = +1), divided by its length; in float, in that
+ * order (the shaders do the same arithmetic). Within 1e-4 of the normal packed. */
+void crisp_plan_splat_normal(uint32_t n, float dest[3]);
 
 /* Bytes of the arrays a GPU backend uploads: leaves, faces, strips, rows, crossings, ribbons. */
 size_t crisp_plan_bytes(const crisp_frame_plan *plan);

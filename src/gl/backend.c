@@ -26,7 +26,7 @@ _Static_assert(sizeof(crisp_plan_face) == 64, "crisp_plan_face: std430 Face");
 _Static_assert(sizeof(crisp_plan_strip) == 24, "crisp_plan_strip: std430 Strip");
 _Static_assert(sizeof(crisp_plan_ribbon_vertex) == 56,
                "crisp_plan_ribbon_vertex: std430 RibbonVertex");
-_Static_assert(sizeof(crisp_plan_splat) == 36, "crisp_plan_splat: std430 Splat (splat_vs.glsl)");
+_Static_assert(sizeof(crisp_plan_splat) == 24, "crisp_plan_splat: std430 Splat (splat_vs.glsl)");
 _Static_assert(sizeof(crisp_scene_patch_record) == 48,
                "crisp_scene_patch_record: std430 PatchRecord");
 _Static_assert(sizeof(crisp__gl_query) == 48 && sizeof(crisp__gl_result) == 72,
@@ -53,17 +53,18 @@ enum {
     B_RESULTS,
     B_SPLATS,        /* binding 11: the plan's splat store */
     B_SPLAT_ORIGINS, /* binding 12: splat_clip_origin, 4 floats per face */
+    B_SPLAT_RUNS,    /* binding 13: the frame's ranges as (first, face), by first */
     B_COUNT
 };
 static const char *const buffer_names[B_COUNT] = {
-    "leaves",          "faces",         "trim strips",       "trim rows",    "trim crossings",
-    "ribbon vertices", "patch records", "control points",    "face colours", "layout queries",
-    "layout results",  "splats",        "splat clip origins"};
+    "leaves",          "faces",         "trim strips",        "trim rows",    "trim crossings",
+    "ribbon vertices", "patch records", "control points",     "face colours", "layout queries",
+    "layout results",  "splats",        "splat clip origins", "splat runs"};
 
 typedef struct uniforms {
     GLint leaf_base, view_proj, jitter, zconst, slack_tex, nw_tex, uv_tex, face_tex, dir0, dir_x,
         dir_y, offset, samples, count, keep_samples, sample_index, clip_plane, image_size,
-        slack_scale, core_scale, view_proj_f, view, point_size, half_px, raw, splat_base;
+        slack_scale, core_scale, view_proj_f, view, point_size, half_px, raw, splat_base, run_count;
 } uniforms;
 
 struct crisp_gl {
@@ -103,6 +104,8 @@ struct crisp_gl {
         size_t chunk, first_piece, pieces; /* one glMultiDrawArrays with the chunk bound */
     } * splat_batch;
     size_t batch_cap, splat_batches;
+    uint32_t *runs; /* the frame's ranges: first, face; sorted by first */
+    size_t runs_cap;
     uint64_t splats_drawn;
     int splat_raw; /* tests: GL's point coverage without the exact test (crisp__gl_splat_raw) */
 };
@@ -197,6 +200,7 @@ static void locate(GLuint p, uniforms *u)
     u->half_px = glGetUniformLocation(p, "half_px");
     u->raw = glGetUniformLocation(p, "raw");
     u->splat_base = glGetUniformLocation(p, "splat_base");
+    u->run_count = glGetUniformLocation(p, "run_count");
 }
 
 crisp_status crisp__gl_try_program(const char *name, int stage, const char *src)
@@ -359,6 +363,7 @@ void crisp_gl_destroy(crisp_gl *gl)
     free(gl->splat_first);
     free(gl->splat_n);
     free(gl->splat_batch);
+    free(gl->runs);
     free(gl);
 }
 
@@ -502,12 +507,6 @@ static crisp_status upload_plan(crisp_gl *gl, const crisp_frame_plan *p, uint64_
      * doubling, glNamedBufferSubData of [old count, count)) and the whole store only when a set
      * was rebuilt; the plan's single version does not tell the two apart yet. */
     if (!st && (all || p->splats_version != gl->v_splats)) {
-        for (uint32_t k = 0; k < p->splat_count; k++)
-            if (p->splats[k].face >= p->face_count) {
-                gl->plan = NULL;
-                return crisp_error(CRISP_ERR_INVALID_ARG, "plan splat %u: face %u of %u", k,
-                                   p->splats[k].face, p->face_count);
-            }
         st = upload(gl, B_SPLATS, p->splats, (size_t)p->splat_count * sizeof *p->splats, bytes);
     }
     if (st) {
@@ -555,6 +554,12 @@ static int add_piece(crisp_gl *gl, size_t chunk, uint32_t first, uint32_t count)
     return 1;
 }
 
+static int by_first(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
 /* The frame's splat ranges as glMultiDrawArrays' firsts and counts, checked against the store,
  * in the plan's order (equal depths keep the first drawn); a range across a chunk boundary of the
  * store (a store above the storage block limit is bound a chunk at a time) is split there. The
@@ -574,6 +579,9 @@ static crisp_status prepare_splats(crisp_gl *gl, const crisp_frame_plan *p, uint
                            "splat half-size %g px: the GL backend draws splats of 0..%g px (half "
                            "of GL_POINT_SIZE_RANGE's largest, less a margin)",
                            h, 0.5 * (gl->max_point - CRISP__GL_SPLAT_MARGIN));
+    crisp_status gs = crisp_grow((void **)&gl->runs, &gl->runs_cap,
+                                 2 * (size_t)p->splat_range_count, sizeof *gl->runs);
+    if (gs) return gs;
     size_t chunk = gl->chunk_splats;
     for (uint32_t k = 0; k < p->splat_range_count; k++) {
         crisp_plan_splat_range r = p->splat_ranges[k];
@@ -581,6 +589,10 @@ static crisp_status prepare_splats(crisp_gl *gl, const crisp_frame_plan *p, uint
             return crisp_error(CRISP_ERR_INVALID_ARG,
                                "plan splat range %u: splats %u + %u, the store holds %u", k,
                                r.first, r.count, p->splat_count);
+        if (r.face >= p->face_count)
+            return crisp_error(CRISP_ERR_INVALID_ARG, "plan splat range %u: face %u of %u", k,
+                               r.face, p->face_count);
+        gl->runs[2 * k] = r.first, gl->runs[2 * k + 1] = r.face;
         while (r.count) {
             size_t c = r.first / chunk;
             uint32_t n = (uint32_t)((c + 1) * chunk - r.first < r.count ? (c + 1) * chunk - r.first
@@ -592,6 +604,11 @@ static crisp_status prepare_splats(crisp_gl *gl, const crisp_frame_plan *p, uint
             r.count -= n;
         }
     }
+    /* The vertex stage finds a splat's face by its index: the run holding it (binary search). */
+    qsort(gl->runs, p->splat_range_count, 2 * sizeof *gl->runs, by_first);
+    crisp_status st = upload(gl, B_SPLAT_RUNS, gl->runs,
+                             (size_t)p->splat_range_count * 2 * sizeof *gl->runs, bytes);
+    if (st) return st;
     return upload(gl, B_SPLAT_ORIGINS, p->splat_clip_origin,
                   (size_t)p->face_count * 4 * sizeof(float), bytes);
 }
@@ -791,6 +808,8 @@ crisp_status crisp_gl_draw(crisp_gl *gl, const crisp_frame_plan *p, crisp_gl_sta
         if (H + 2 * margin > gl->max_viewport[1]) margin = (gl->max_viewport[1] - H) / 2;
         if (margin < 0) margin = 0;
         glBindBufferBase(GL_SHADER_STORAGE_BUFFER, B_SPLAT_ORIGINS, gl->buf[B_SPLAT_ORIGINS]);
+        glBindBufferBase(GL_SHADER_STORAGE_BUFFER, B_SPLAT_RUNS, gl->buf[B_SPLAT_RUNS]);
+        glProgramUniform1ui(gl->splat, gl->u_splat.run_count, p->splat_range_count);
         glProgramUniformMatrix4fv(gl->splat, gl->u_splat.view_proj_f, 1, GL_FALSE, p->view_proj_f);
         glProgramUniform2d(gl->splat, gl->u_splat.image_size, W, H);
         glProgramUniform4d(gl->splat, gl->u_splat.view, -margin, -margin, W + 2 * margin,

@@ -1431,10 +1431,10 @@ static void faces_region(const crisp_renderer *r, const crisp_frame_plan *plan, 
     /* Faces drawn as splats: their squares (the plan's rule in float, as the draw). */
     for (uint32_t q = 0; q < plan->splat_range_count; q++) {
         const crisp_plan_splat_range *rg = &plan->splat_ranges[q];
-        if (!rg->count || !only[plan->splats[rg->first].face]) continue;
+        if (!rg->count || !only[rg->face]) continue;
         for (uint32_t k = 0; k < rg->count; k++) {
             const crisp_plan_splat *sp = &plan->splats[rg->first + k];
-            const float *o = plan->splat_clip_origin + 4 * (size_t)sp->face, *m = plan->view_proj_f;
+            const float *o = plan->splat_clip_origin + 4 * (size_t)rg->face, *m = plan->view_proj_f;
             float c[4];
             for (int a = 0; a < 4; a++)
                 c[a] = o[a] + m[a] * sp->p[0] + m[a + 4] * sp->p[1] + m[a + 8] * sp->p[2];
@@ -1799,7 +1799,8 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                                      .only = only,
                                      .clip = clip_on ? clip_k : NULL,
                                      .hiz = occlusion && looked ? r->hiz : NULL,
-                                     .win = {win[0], win[1], win[2], win[3]}};
+                                     .win = {win[0], win[1], win[2], win[3]},
+                                     .occlude = occlusion};
         if ((st = crisp__splat_draw(&r->splat, tg, r->pool, &sd, &sds))) return st;
         if (sds.box[0] <= sds.box[2]) {
             dirty[0] = sds.box[0] < dirty[0] ? sds.box[0] : dirty[0];

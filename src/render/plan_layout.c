@@ -51,11 +51,10 @@ _Static_assert(offsetof(crisp_scene_patch_record, face) == 12, "patch.face");
 _Static_assert(offsetof(crisp_scene_patch_record, u0) == 16, "patch.u0");
 _Static_assert(offsetof(crisp_scene_patch_record, v1) == 40, "patch.v1");
 
-_Static_assert(sizeof(crisp_plan_splat) == 36, "crisp_plan_splat: 9 x 32-bit, std430 scalars");
-_Static_assert(offsetof(crisp_plan_splat, face) == 12, "splat.face");
-_Static_assert(offsetof(crisp_plan_splat, n) == 16, "splat.n");
-_Static_assert(offsetof(crisp_plan_splat, uv) == 28, "splat.uv");
-_Static_assert(sizeof(crisp_plan_splat_range) == 8, "crisp_plan_splat_range: 2 uints");
+_Static_assert(sizeof(crisp_plan_splat) == 24, "crisp_plan_splat: 6 x 32-bit, std430 scalars");
+_Static_assert(offsetof(crisp_plan_splat, n) == 12, "splat.n");
+_Static_assert(offsetof(crisp_plan_splat, uv) == 16, "splat.uv");
+_Static_assert(sizeof(crisp_plan_splat_range) == 12, "crisp_plan_splat_range: 3 uints");
 
 /* Not empty as a translation unit. */
 size_t crisp__plan_layout_leaf_size(void);

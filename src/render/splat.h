@@ -20,12 +20,19 @@
 #include "crisp/plan.h"
 #include "crisp/render.h"
 
+/* One sample as the builder makes it (the store packs it into a crisp_plan_splat). */
+typedef struct crisp_splat {
+    float p[3];  /* position minus the set's origin (model units) */
+    float n[3];  /* unit normal of the surface there (crisp_surface_normal) */
+    float uv[2]; /* surface parameters of the sample */
+} crisp_splat;
+
 typedef struct crisp_splat_set {
     double origin[3]; /* splats[i].p are positions minus origin (float offsets stay
                          precise for faces far from the model's origin) */
     double radius;    /* the covering radius the set is proven to meet (<= the asked) */
     uint32_t count;
-    crisp_plan_splat *splats; /* count; face = the face asked for */
+    crisp_splat *splats; /* count */
 } crisp_splat_set;
 
 /* The splats of face `face` of `scene` with a covering radius at most `radius` (> 0). Fails with
@@ -34,5 +41,8 @@ typedef struct crisp_splat_set {
 crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double radius,
                                 uint32_t max_count, crisp_splat_set *dest);
 void crisp__splat_set_free(crisp_splat_set *set);
+
+/* The packed form of unit normal n (crisp_plan_splat.n; crisp_plan_splat_normal unpacks it). */
+uint32_t crisp__splat_pack_normal(const float n[3]);
 
 #endif

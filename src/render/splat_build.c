@@ -161,12 +161,12 @@ static crisp_status emit(splat_ctx *c, double u, double v, const double x[3])
                            c->max_count, c->r_in);
     if (set->count == c->cap) {
         uint32_t cap = c->cap ? 2 * c->cap : 64;
-        crisp_plan_splat *n = crisp_realloc_array(set->splats, cap, sizeof *n);
+        crisp_splat *n = crisp_realloc_array(set->splats, cap, sizeof *n);
         if (!n) return crisp_error(CRISP_ERR_NO_MEMORY, "splats of face %u", c->face);
         set->splats = n;
         c->cap = cap;
     }
-    crisp_plan_splat *sp = &set->splats[set->count++];
+    crisp_splat *sp = &set->splats[set->count++];
     double nrm[3];
     crisp_surface_normal(c->surface, u, v, nrm);
     for (int k = 0; k < 3; k++) {
@@ -175,7 +175,6 @@ static crisp_status emit(splat_ctx *c, double u, double v, const double x[3])
     }
     sp->uv[0] = (float)u;
     sp->uv[1] = (float)v;
-    sp->face = c->face;
     return CRISP_OK;
 }
 
@@ -633,7 +632,7 @@ done:
         return st;
     }
     if (dest->count && dest->count < c.cap) { /* give back the growth's slack */
-        crisp_plan_splat *fit = crisp_realloc_array(dest->splats, dest->count, sizeof *fit);
+        crisp_splat *fit = crisp_realloc_array(dest->splats, dest->count, sizeof *fit);
         if (fit) dest->splats = fit;
     }
     dest->radius = dest->count ? fmin(radius, c.got + margin) : radius;

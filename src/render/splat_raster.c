@@ -4,10 +4,11 @@
  * within h - margin px (x and y) of a splat's projection (splat_store.c), so every such pixel
  * centre is covered and shows a true point of the face within h px.
  *
- * Two passes: the splats' pixel positions and 1 / W, range by range in parallel (with each
- * range's screen box and nearest depth); then bands of rows in parallel, each band drawing every
- * range that reaches it in plan order, so a sample's writes come in the same order whatever the
- * thread count. */
+ * Two passes: each range's screen box and nearest depth (its splats projected), range by range in
+ * parallel; then bands of rows in parallel, each band drawing every range that reaches it in plan
+ * order (its splats projected again), so a sample's writes come in the same order whatever the
+ * thread count. Each band keeps the block depth of what it holds: the planner orders the ranges
+ * nearest first, and a range that the band's blocks hide is skipped there. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,12 +20,26 @@
 
 void crisp__splat_scratch_free(crisp__splat_scratch *s)
 {
-    free(s->xyw);
     free(s->list);
     free(s->box);
-    free(s->base);
     free(s->hidden);
+    free(s->blocks);
     memset(s, 0, sizeof *s);
+}
+
+/* Splat sp's pixel position (whole image) and 1 / W by the plan's rule (clip position in float);
+ * 0 when it is not drawn (W <= 0, beyond the near or far plane, or not finite). */
+static inline int project(const crisp_frame_plan *plan, const float *o, const crisp_plan_splat *sp,
+                          double sx, double sy, double *x, double *y, double *iw)
+{
+    const float *m = plan->view_proj_f;
+    float cl[4];
+    for (int q = 0; q < 4; q++)
+        cl[q] = o[q] + m[q] * sp->p[0] + m[q + 4] * sp->p[1] + m[q + 8] * sp->p[2];
+    double w = cl[3];
+    if (!(w > 0) || !(cl[2] >= -w) || !(cl[2] <= w) || !isfinite(cl[0] + cl[1])) return 0;
+    *x = ((double)cl[0] / w + 1) * sx, *y = (1 - (double)cl[1] / w) * sy, *iw = 1.0 / w;
+    return 1;
 }
 
 typedef struct project_ctx {
@@ -32,35 +47,24 @@ typedef struct project_ctx {
     const crisp_frame_plan *plan;
 } project_ctx;
 
-/* Range i of the list: each splat's pixel position and 1 / W, the range's box and largest 1/W. */
+/* Range i of the list: the box of its squares and its largest 1/W (the positions themselves are
+ * computed again where they are drawn: storing them cost 24 bytes per splat drawn). */
 static void project_ranges(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     project_ctx *c = vctx;
     const crisp_frame_plan *plan = c->plan;
-    const float *m = plan->view_proj_f;
     double h = plan->splat_half_px, sx = 0.5 * plan->width, sy = 0.5 * plan->height;
     for (size_t i = begin; i < end; i++) {
         const crisp_plan_splat_range *rg = &plan->splat_ranges[c->s->list[i]];
-        double *out = c->s->xyw + 3 * (size_t)c->s->base[i];
+        const float *o = plan->splat_clip_origin + 4 * (size_t)rg->face;
         double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iwmax = 0;
         for (uint32_t k = 0; k < rg->count; k++) {
-            const crisp_plan_splat *sp = &plan->splats[rg->first + k];
-            const float *o = plan->splat_clip_origin + 4 * (size_t)sp->face;
-            float cl[4];
-            for (int q = 0; q < 4; q++)
-                cl[q] = o[q] + m[q] * sp->p[0] + m[q + 4] * sp->p[1] + m[q + 8] * sp->p[2];
-            double *xyw = out + 3 * (size_t)k;
-            double w = cl[3];
-            if (!(w > 0) || !(cl[2] >= -w) || !(cl[2] <= w) || !isfinite(cl[0] + cl[1])) {
-                xyw[0] = xyw[1] = xyw[2] = 0;
-                continue;
-            }
-            double x = ((double)cl[0] / w + 1) * sx, y = (1 - (double)cl[1] / w) * sy;
-            xyw[0] = x, xyw[1] = y, xyw[2] = 1.0 / w;
+            double x, y, iw;
+            if (!project(plan, o, &plan->splats[rg->first + k], sx, sy, &x, &y, &iw)) continue;
             lo[0] = x < lo[0] ? x : lo[0], lo[1] = y < lo[1] ? y : lo[1];
             hi[0] = x > hi[0] ? x : hi[0], hi[1] = y > hi[1] ? y : hi[1];
-            iwmax = xyw[2] > iwmax ? xyw[2] : iwmax;
+            iwmax = iw > iwmax ? iw : iwmax;
         }
         double *b = c->s->box + 5 * i;
         b[0] = lo[0] - h, b[1] = lo[1] - h, b[2] = hi[0] + h, b[3] = hi[1] + h, b[4] = iwmax;
@@ -80,9 +84,26 @@ typedef struct band_ctx {
     const crisp__splat_draw_desc *d;
     crisp_raster_target *t;
     size_t count; /* ranges in the list */
+    int occlude;  /* keep a block depth per band and skip the ranges it hides */
+    int bw;       /* blocks per row of the target */
     double off[16][2];
-    size_t *written; /* per worker */
+    size_t *written, *culled; /* per worker */
 } band_ctx;
+
+/* The least 1/W of the samples of block (bx, by) of the target (0 where one is empty). */
+static double block_least(const crisp_raster_target *t, int bx, int by)
+{
+    int x0 = bx * CRISP_OCCL_BLOCK, y0 = by * CRISP_OCCL_BLOCK;
+    int x1 = x0 + CRISP_OCCL_BLOCK < t->width ? x0 + CRISP_OCCL_BLOCK : t->width;
+    int y1 = y0 + CRISP_OCCL_BLOCK < t->height ? y0 + CRISP_OCCL_BLOCK : t->height;
+    double m = INFINITY;
+    for (int y = y0; y < y1; y++) {
+        const double *row = t->inv_w + ((size_t)y * (size_t)t->width + (size_t)x0) * t->samples;
+        for (int k = 0; k < (x1 - x0) * t->samples; k++)
+            m = row[k] < m ? row[k] : m;
+    }
+    return m;
+}
 
 static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
 {
@@ -90,25 +111,53 @@ static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
     const crisp_frame_plan *plan = c->d->plan;
     crisp_raster_target *t = c->t;
     const int S = t->samples, x0 = c->d->win[0], y0 = c->d->win[1];
-    const double h = plan->splat_half_px;
+    const double h = plan->splat_half_px, sx = 0.5 * plan->width, sy = 0.5 * plan->height;
     const double *k = c->d->clip;
-    size_t written = 0;
+    /* The band's block depth: BAND_ROWS / CRISP_OCCL_BLOCK rows of blocks, from the surfaces'
+     * (hiz) and then lowered by each range drawn, so that a range behind what the band holds
+     * (the ranges come nearest first: splat_store.c) is skipped. */
+    double *blk = c->s->blocks + (size_t)worker * (BAND_ROWS / CRISP_OCCL_BLOCK) * (size_t)c->bw;
+    size_t written = 0, culled = 0;
     for (size_t band = begin; band < end; band++) {
         /* rows [r0, r1) of the whole image */
         int r0 = y0 + (int)band * BAND_ROWS, r1 = r0 + BAND_ROWS;
         if (r1 > y0 + t->height) r1 = y0 + t->height;
+        int by_lo = (r0 - y0) / CRISP_OCCL_BLOCK, by_hi = (r1 - 1 - y0) / CRISP_OCCL_BLOCK;
+        if (c->occlude)
+            for (int by = by_lo; by <= by_hi; by++)
+                for (int bx = 0; bx < c->bw; bx++)
+                    blk[(size_t)(by - by_lo) * c->bw + bx] =
+                        c->d->hiz ? c->d->hiz[(size_t)by * c->bw + bx] : 0;
         for (size_t i = 0; i < c->count; i++) {
             const double *b = c->s->box + 5 * i;
             if (c->s->hidden[i] || b[3] < r0 || b[1] >= r1 || b[2] < x0 || b[0] >= x0 + t->width)
                 continue;
+            crisp_occl_leaf o;
+            int ba = 0, bb = -1;
+            if (c->occlude) {
+                crisp__occl_set(&o, c->d->win, b, b + 2, b[4]);
+                ba = o.by0 > by_lo ? o.by0 : by_lo, bb = o.by1 < by_hi ? o.by1 : by_hi;
+                int hidden = o.iw < INFINITY;
+                for (int by = ba; by <= bb && hidden; by++)
+                    for (int bx = o.bx0; bx <= o.bx1; bx++)
+                        if (!(o.iw < blk[(size_t)(by - by_lo) * c->bw + bx])) {
+                            hidden = 0;
+                            break;
+                        }
+                if (hidden) {
+                    culled++;
+                    continue;
+                }
+            }
             const crisp_plan_splat_range *rg = &plan->splat_ranges[c->s->list[i]];
-            const double *xyw = c->s->xyw + 3 * (size_t)c->s->base[i];
-            for (uint32_t q = 0; q < rg->count; q++, xyw += 3) {
-                double iw = xyw[2];
-                if (!(iw > 0)) continue;
-                double cx = xyw[0], cy = xyw[1];
-                if (cy + h < r0 || cy - h >= r1) continue;
+            const uint32_t face = rg->face;
+            const float *org = plan->splat_clip_origin + 4 * (size_t)face;
+            const float sg = (plan->faces[face].flags & CRISP_PLAN_FACE_REVERSED) ? -1.0f : 1.0f;
+            for (uint32_t q = 0; q < rg->count; q++) {
                 const crisp_plan_splat *sp = &plan->splats[rg->first + q];
+                double cx, cy, iw;
+                if (!project(plan, org, sp, sx, sy, &cx, &cy, &iw)) continue;
+                if (cy + h < r0 || cy - h >= r1) continue;
                 float attr[CRISP_RASTER_ATTRS] = {0};
                 int have_attr = 0;
                 for (int s = 0; s < S; s++) {
@@ -130,24 +179,27 @@ static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
                             if (k && k[0] + k[1] * (gi + ox) + k[2] * (gj + oy) + k[3] * iw < 0)
                                 continue;
                             if (!have_attr) {
-                                float sg = (plan->faces[sp->face].flags & CRISP_PLAN_FACE_REVERSED)
-                                               ? -1.0f
-                                               : 1.0f;
+                                float n[3];
+                                crisp_plan_splat_normal(sp->n, n);
                                 attr[0] = sp->uv[0], attr[1] = sp->uv[1];
-                                attr[2] = sg * sp->n[0], attr[3] = sg * sp->n[1];
-                                attr[4] = sg * sp->n[2];
+                                attr[2] = sg * n[0], attr[3] = sg * n[1], attr[4] = sg * n[2];
                                 have_attr = 1;
                             }
                             t->inv_w[idx] = iw;
                             memcpy(t->attr + idx * CRISP_RASTER_ATTRS, attr, sizeof attr);
-                            t->face[idx] = (int32_t)sp->face;
+                            t->face[idx] = (int32_t)face;
                             written++;
                         }
                 }
             }
+            if (c->occlude) /* the blocks the range may have drawn in */
+                for (int by = ba; by <= bb; by++)
+                    for (int bx = o.bx0; bx <= o.bx1; bx++)
+                        blk[(size_t)(by - by_lo) * c->bw + bx] = block_least(t, bx, by);
         }
     }
     c->written[worker] += written;
+    c->culled[worker] += culled;
 }
 
 crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, crisp_pool *pool,
@@ -163,9 +215,6 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
     crisp_status st;
     if ((st = crisp_grow((void **)&s->list, &s->list_cap, n, sizeof *s->list))) return st;
     size_t cap = s->list_cap;
-    uint32_t *base = realloc(s->base, cap * sizeof *base);
-    if (!base) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for splats");
-    s->base = base;
     double *box = realloc(s->box, cap * 5 * sizeof *box);
     if (!box) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for splats");
     s->box = box;
@@ -176,14 +225,12 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
     for (size_t r = 0; r < n; r++) {
         const crisp_plan_splat_range *rg = &plan->splat_ranges[r];
         if (!rg->count) continue;
-        if (d->only && !d->only[plan->splats[rg->first].face]) continue;
+        if (d->only && !d->only[rg->face]) continue;
         s->list[count] = (uint32_t)r;
-        s->base[count] = (uint32_t)splats;
         count++;
         splats += rg->count;
     }
     if (!count) return CRISP_OK;
-    if ((st = crisp_grow((void **)&s->xyw, &s->xyw_cap, 3 * splats, sizeof *s->xyw))) return st;
     project_ctx pc = {s, plan};
     crisp_pool_parallel_for(pool, count, 16, project_ranges, &pc);
     /* Ranges hidden whole by the depth drawn; the blocks the others can reach. */
@@ -213,16 +260,31 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
         stats->box[0] = (int)fmax(0, fmin(bx0, mx)), stats->box[1] = (int)fmax(0, fmin(by0, my));
         stats->box[2] = (int)fmax(0, fmin(bx1, mx)), stats->box[3] = (int)fmax(0, fmin(by1, my));
     }
-    size_t written[64] = {0}; /* per worker */
+    size_t written[64] = {0}, culled[64] = {0}; /* per worker */
     if (crisp_pool_threads(pool) > 64) pool = NULL;
-    band_ctx bc = {.s = s, .d = d, .t = t, .count = count, .written = written};
+    int workers = pool ? crisp_pool_threads(pool) : 1;
+    band_ctx bc = {.s = s,
+                   .d = d,
+                   .t = t,
+                   .count = count,
+                   .occlude = d->occlude,
+                   .bw = bw,
+                   .written = written,
+                   .culled = culled};
+    if (bc.occlude &&
+        (st = crisp_grow((void **)&s->blocks, &s->blocks_cap,
+                         (size_t)workers * (BAND_ROWS / CRISP_OCCL_BLOCK) * (size_t)bw,
+                         sizeof *s->blocks)))
+        return st;
     for (int q = 0; q < t->samples; q++)
         crisp__raster_sample_offset(t->samples, q, bc.off[q]);
     size_t bands = (size_t)(t->height + BAND_ROWS - 1) / BAND_ROWS;
     crisp_pool_parallel_for(pool, bands, 1, draw_bands, &bc);
     stats->ranges = count;
     stats->splats = splats;
-    for (int w = 0; w < 64; w++)
+    for (int w = 0; w < 64; w++) {
         stats->samples_written += written[w];
+        stats->culled += culled[w];
+    }
     return CRISP_OK;
 }

@@ -11,15 +11,13 @@
 
 /* Scratch kept from frame to frame (zero-initialised; crisp__splat_scratch_free). */
 typedef struct crisp__splat_scratch {
-    double *xyw; /* per splat drawn: pixel x, y (whole image), 1 / W (W <= 0 or beyond the near or
-                    far plane: 1 / W = 0, not drawn) */
-    size_t xyw_cap;
     uint32_t *list; /* the ranges drawn (plan indices) */
     double *box;    /* per range drawn: lo x, lo y, hi x, hi y of its squares, then its largest
                        1 / W */
-    uint32_t *base; /* per range drawn: its first entry in xyw */
     uint8_t *hidden;
     size_t list_cap;
+    double *blocks; /* per worker: a band's block depth */
+    size_t blocks_cap;
 } crisp__splat_scratch;
 
 void crisp__splat_scratch_free(crisp__splat_scratch *s);
@@ -30,12 +28,14 @@ typedef struct crisp__splat_draw_desc {
     const double *clip;  /* the rasterizer's clip plane k (crisp__raster_set_clip), NULL: none */
     const double *hiz;   /* block depth (crisp__raster_block_depth at CRISP_OCCL_BLOCK), NULL */
     int win[4];          /* the target's window of the plan's image: x0, y0, width, height */
+    int occlude; /* 1: skip ranges that the depth drawn hides (per band of rows, as drawn) */
 } crisp__splat_draw_desc;
 
 typedef struct crisp__splat_draw_stats {
     size_t ranges, splats, hidden_ranges, samples_written;
-    int box[4]; /* the target's 4x4 blocks the drawn squares can reach: bx0, by0, bx1, by1
-                   (bx0 > bx1: none) */
+    size_t culled; /* a range skipped in a band of rows whose block depth hides it there */
+    int box[4];    /* the target's 4x4 blocks the drawn squares can reach: bx0, by0, bx1, by1
+                      (bx0 > bx1: none) */
 } crisp__splat_draw_stats;
 
 /* Draw the plan's splat ranges into t (its pending clear done: after a crisp__raster_draw):
@@ -46,7 +46,9 @@ typedef struct crisp__splat_draw_stats {
  * first: the surfaces, then the ranges in plan order, each in its order); writes 1 / W, the
  * attributes (u, v, normal, flipped for reversed faces) and the face. Rows of the target are
  * split in bands, each drawn by one worker: the result does not depend on the thread count.
- * A range whose squares the block depth hides whole (hiz) is skipped. pool may be NULL. */
+ * A range whose squares the block depth hides whole (hiz) is skipped; with occlude, so is a range
+ * in a band of rows whose depth (hiz, then what the band drew) hides its part there. pool may be
+ * NULL. */
 crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, crisp_pool *pool,
                                const crisp__splat_draw_desc *desc, crisp__splat_draw_stats *stats);
 

@@ -1,7 +1,7 @@
 /* The planner's splat store (issue 12; splat_store.h, docs/status/issue-12-splats.md "Planner and
- * CPU draw"). Per face, splat sets at radii s_k = s_0 2^-k (s_0: the diagonal of the face's box)
- * are built when a frame first needs them (crisp__splat_build, in parallel) and kept, all in one
- * growing array of crisp_plan_splat that the plan hands to backends as it is; a level whose set
+ * CPU draw"). Per face, splat sets at radii s_k = s_0 2^(-k/2) (s_0: the diagonal of the face's
+ * box) are built when a frame first needs them (crisp__splat_build, in parallel) and kept, all in
+ * one growing array of crisp_plan_splat that the plan hands to backends as it is; a level whose set
  * would exceed the face's budget (CRISP_SPLAT_PER_PATCH patches + CRISP_SPLAT_PER_FACE) is
  * refused once and never tried again (finer levels hold more splats). Sets are dropped when the
  * scene changes (crisp_scene.serial) and, per face, when its trim pieces change (checked by a
@@ -12,9 +12,12 @@
  * the set at the coarsest level whose radius r has r P_px <= h - margin. P_px bounds the screen
  * distance of two points of the face at most a model unit apart where one of them shows at a
  * pixel: for points p, s of the face with d = p - s, x_p - x_s = (X_d - ndc_x(p) W_d) / W_s in
- * NDC (X_d, W_d: the linear part of view_proj's x and w rows applied to d), |ndc_x(p)| <= a_x =
- * min(1, the box's largest |ndc_x|) for a p that a pixel centre sees, W_s >= the box's least W;
- * so |x_p - x_s| <= (width / 2) (|row x| + a_x |row w|) |d| / W_min pixels, and y alike. Every
+ * NDC (X_d, W_d: the linear part of view_proj's x and w rows applied to d), and ndc_x(p) lies in
+ * N_x = the box's NDC x range met with [-1, 1] for a p that a pixel centre sees, W_s >= the box's
+ * least W; so |x_p - x_s| = |(row x - ndc_x(p) row w) . d| / W_s <= (width / 2) max over n in N_x
+ * of |row x - n row w| |d| / W_min pixels (the max of a convex function of n: at an end of N_x;
+ * session 9 bounded it by |row x| + max |n| |row w|, up to 1.4x more at the image's sides), and y
+ * alike. Every
  * point p of the face that a pixel centre sees is within r of a splat s, so s projects within
  * h - margin px of the pixel centre in x and in y and its square (half-size h) covers it. */
 #include <math.h>
@@ -29,11 +32,16 @@ typedef struct face_sets {
     double origin[3]; /* the face's splat origin (its first set's): p are offsets from it */
     double radius[CRISP_SPLAT_LEVELS]; /* proven radius of each built level */
     uint32_t first[CRISP_SPLAT_LEVELS], count[CRISP_SPLAT_LEVELS];
-    uint32_t built;  /* bit k: level k is in the store */
+    uint64_t built;  /* bit k: level k is in the store */
     uint8_t refused; /* levels >= refused are over the budget (CRISP_SPLAT_LEVELS: none) */
     uint8_t has_origin;
     uint64_t trim_hash; /* of the face's trim pieces when its sets were built */
 } face_sets;
+
+typedef struct range_key {
+    double near;
+    crisp_plan_splat_range range;
+} range_key;
 
 struct crisp__splat_store {
     uint64_t serial, trim_serial; /* the scene the store was built from (0: none) */
@@ -43,6 +51,7 @@ struct crisp__splat_store {
     crisp_plan_splat *splats;
     size_t count, cap, dead; /* splats stored, allocated, and belonging to dropped sets */
     int8_t *want;            /* per face this frame: the level drawn, -1: not splatted */
+    double *near;            /* per face this frame: its box's least W (the draw order) */
     uint32_t *todo;          /* faces whose wanted level is built this frame */
     size_t todo_cap;
     crisp_splat_set *sets; /* per todo entry */
@@ -50,6 +59,8 @@ struct crisp__splat_store {
     size_t sets_cap;
     crisp_plan_splat_range *ranges;
     size_t range_cap;
+    range_key *order; /* publish's sort */
+    size_t order_cap;
     float *clip_origin;
     size_t clip_cap;
     crisp_mat4 view_proj;
@@ -69,7 +80,8 @@ static void clear_scene(crisp__splat_store *s)
     free(s->faces);
     free(s->box);
     free(s->want);
-    s->faces = NULL, s->box = NULL, s->want = NULL;
+    free(s->near);
+    s->faces = NULL, s->box = NULL, s->want = NULL, s->near = NULL;
     s->face_count = 0;
     s->count = s->dead = 0;
     s->serial = s->trim_serial = 0;
@@ -85,8 +97,43 @@ void crisp__splat_store_destroy(crisp__splat_store *s)
     free(s->sets);
     free(s->status);
     free(s->ranges);
+    free(s->order);
     free(s->clip_origin);
     free(s);
+}
+
+/* Octahedral packing (crisp_plan_splat_normal): n / (|x| + |y| + |z|), the lower half folded
+ * over, each coordinate rounded to a multiple of 2^-15 in [-1, 1 - 2^-15]. */
+static inline float sign1(float a)
+{
+    return a < 0 ? -1.0f : 1.0f;
+}
+
+uint32_t crisp__splat_pack_normal(const float n[3])
+{
+    float l1 = fabsf(n[0]) + fabsf(n[1]) + fabsf(n[2]);
+    float x = l1 > 0 ? n[0] / l1 : 0, y = l1 > 0 ? n[1] / l1 : 0;
+    if (l1 > 0 && n[2] < 0) {
+        float fx = (1 - fabsf(y)) * sign1(x), fy = (1 - fabsf(x)) * sign1(y);
+        x = fx, y = fy;
+    }
+    long q[2] = {lrintf(x * 32768.0f), lrintf(y * 32768.0f)};
+    for (int a = 0; a < 2; a++)
+        q[a] = q[a] < -32768 ? -32768 : q[a] > 32767 ? 32767 : q[a];
+    return (uint32_t)(uint16_t)(int16_t)q[0] | (uint32_t)(uint16_t)(int16_t)q[1] << 16;
+}
+
+void crisp_plan_splat_normal(uint32_t n, float dest[3])
+{
+    float x = (float)(int16_t)(uint16_t)(n & 0xffffu) * (1.0f / 32768.0f);
+    float y = (float)(int16_t)(uint16_t)(n >> 16) * (1.0f / 32768.0f);
+    float z = 1.0f - fabsf(x) - fabsf(y);
+    if (z < 0) {
+        float fx = (1.0f - fabsf(y)) * sign1(x), fy = (1.0f - fabsf(x)) * sign1(y);
+        x = fx, y = fy;
+    }
+    float len = sqrtf(x * x + y * y + z * z);
+    dest[0] = x / len, dest[1] = y / len, dest[2] = z / len;
 }
 
 /* FNV-1a over the used part of face f's trim pieces. */
@@ -129,7 +176,8 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
         s->faces = calloc(n, sizeof *s->faces);
         s->box = crisp_malloc_array(n, 6 * sizeof *s->box);
         s->want = crisp_malloc_array(n, sizeof *s->want);
-        if (!s->faces || !s->box || !s->want) {
+        s->near = crisp_malloc_array(n, sizeof *s->near);
+        if (!s->faces || !s->box || !s->want || !s->near) {
             clear_scene(s);
             return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
         }
@@ -179,6 +227,12 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
     return CRISP_OK;
 }
 
+/* The radius of level k of a face whose level 0 is s0: s0 2^(-k/2). */
+static double level_radius(double s0, int k)
+{
+    return ldexp(s0, -(k / 2)) * (k & 1 ? 0.70710678118654752440 : 1.0);
+}
+
 static uint32_t budget(const crisp_scene *sc, uint32_t f)
 {
     uint64_t b = (uint64_t)CRISP_SPLAT_PER_PATCH * sc->faces[f].patch_count + CRISP_SPLAT_PER_FACE;
@@ -189,11 +243,11 @@ typedef struct choose_ctx {
     crisp__splat_store *s;
     const crisp_scene *sc;
     int width, height;
-    double rx, ry, rw; /* |row x|, |row y|, |row w| of view_proj's linear part */
+    double row[3][3]; /* rows x, y and w of view_proj's linear part */
 } choose_ctx;
 
-/* The level face f wants this frame (-1: planned as patches). */
-static int want_level(const choose_ctx *c, uint32_t f)
+/* The level face f wants this frame (-1: planned as patches); its box's least W in *near. */
+static int want_level(const choose_ctx *c, uint32_t f, double *near)
 {
     const crisp__splat_store *s = c->s;
     const face_sets *fs = &s->faces[f];
@@ -201,7 +255,7 @@ static int want_level(const choose_ctx *c, uint32_t f)
     const double *b = s->box + 6 * (size_t)f;
     crisp_mat4 *m = (crisp_mat4 *)&s->view_proj;
     int out[4] = {1, 1, 1, 1};
-    double wmin = INFINITY, ax = 0, ay = 0;
+    double wmin = INFINITY, nlo[2] = {INFINITY, INFINITY}, nhi[2] = {-INFINITY, -INFINITY};
     for (int k = 0; k < 8; k++) {
         double p[3] = {b[(k & 1) ? 3 : 0], b[(k & 2) ? 4 : 1], b[(k & 4) ? 5 : 2]}, h[4];
         for (int q = 0; q < 4; q++)
@@ -211,20 +265,32 @@ static int want_level(const choose_ctx *c, uint32_t f)
         out[0] &= h[0] > h[3], out[1] &= h[0] < -h[3];
         out[2] &= h[1] > h[3], out[3] &= h[1] < -h[3];
         wmin = fmin(wmin, h[3]);
-        ax = fmax(ax, fabs(h[0] / h[3]));
-        ay = fmax(ay, fabs(h[1] / h[3]));
+        for (int a = 0; a < 2; a++) {
+            nlo[a] = fmin(nlo[a], h[a] / h[3]);
+            nhi[a] = fmax(nhi[a], h[a] / h[3]);
+        }
     }
     if (out[0] | out[1] | out[2] | out[3]) return -1; /* off screen: culled as patches */
-    ax = fmin(ax, 1), ay = fmin(ay, 1);
-    double ppu =
-        fmax(0.5 * c->width * (c->rx + ax * c->rw), 0.5 * c->height * (c->ry + ay * c->rw)) / wmin *
-        (1 + 1e-9);
+    *near = wmin;
+    /* the largest |row_a - n row_w| over n in the box's NDC range met with [-1, 1] (convex in n:
+     * at an end) */
+    double g[2] = {0, 0};
+    for (int a = 0; a < 2; a++)
+        for (int e = 0; e < 2; e++) {
+            double n = fmax(-1, fmin(1, e ? nhi[a] : nlo[a])), q = 0;
+            for (int j = 0; j < 3; j++) {
+                double v = c->row[a][j] - n * c->row[2][j];
+                q += v * v;
+            }
+            g[a] = fmax(g[a], sqrt(q));
+        }
+    double ppu = fmax(0.5 * c->width * g[0], 0.5 * c->height * g[1]) / wmin * (1 + 1e-9);
     double rt = (CRISP_SPLAT_HALF_PX - CRISP_SPLAT_MARGIN_PX) / ppu;
     if (!(rt > 0)) return -1;
-    double lk = ceil(log2(fs->s0 / rt));
+    double lk = ceil(2 * log2(fs->s0 / rt));
     int k = lk < 0 ? 0 : lk >= CRISP_SPLAT_LEVELS ? CRISP_SPLAT_LEVELS : (int)lk;
-    /* The asked radius s0 2^-k may round above rt: one level finer then. */
-    while (k < CRISP_SPLAT_LEVELS && ldexp(fs->s0, -k) > rt)
+    /* The level's radius may round above rt: one level finer then. */
+    while (k < CRISP_SPLAT_LEVELS && level_radius(fs->s0, k) > rt)
         k++;
     if (k >= CRISP_SPLAT_LEVELS || k >= fs->refused) return -1;
     /* A coarser set already built whose proven radius is small enough. */
@@ -238,13 +304,13 @@ static void choose_range(void *vctx, size_t begin, size_t end, int worker)
     (void)worker;
     choose_ctx *c = vctx;
     for (size_t f = begin; f < end; f++)
-        c->s->want[f] = (int8_t)want_level(c, (uint32_t)f);
+        c->s->want[f] = (int8_t)want_level(c, (uint32_t)f, &c->s->near[f]);
 }
 
 /* Thinning (the levels' counts): the builder's sets hold at least a splat or so per patch at
  * any radius (cells per patch), far more than a face much smaller than its radius needs. Level k
- * (radius R_k = s0 2^-k) is made from the builder's set at R_{k+1} (proven radius rho <= R_{k+1})
- * by keeping a d-net of it with d = R_k - rho >= R_k / 2: a splat is dropped when a kept one lies
+ * (radius R_k = s0 2^(-k/2)) is made from the builder's set at THIN_FRACTION R_k (proven radius
+ * rho < R_k) by keeping a d-net of it with d = R_k - rho: a splat is dropped when a kept one lies
  * within d (Euclidean, greedy in the set's order), so every point of the face is within rho of
  * a splat and that splat within d of a kept one: within R_k of a kept splat, and every kept
  * splat is one of the builder's (a point of the trimmed face). Keys of a grid of side d find the
@@ -258,7 +324,7 @@ static uint64_t cell_hash(const int64_t k[3])
     return h ^ h >> 29;
 }
 
-static uint32_t thin_set(crisp_plan_splat *sp, uint32_t n, double d)
+static uint32_t thin_set(crisp_splat *sp, uint32_t n, double d)
 {
     if (n < 2 || !(d > 0)) return n;
     size_t cap = 16;
@@ -309,6 +375,11 @@ typedef struct build_ctx {
     size_t first; /* todo[first + i] is built into sets[i] */
 } build_ctx;
 
+/* Level k's set is the builder's at THIN_FRACTION R_k, thinned to R_k (thin_set). 0.5 (session 9):
+ * imp49 default at the 4x budget 6.38 M splats; 0.7: 5.95 M, and the builder makes half as many
+ * splats before thinning. */
+#define THIN_FRACTION 0.7
+
 /* Faces whose sets are built at a time (each chunk's sets are held until stored). */
 #define BUILD_CHUNK 512
 
@@ -320,22 +391,23 @@ static void build_range(void *vctx, size_t begin, size_t end, int worker)
     for (size_t i = begin; i < end; i++) {
         uint32_t f = s->todo[c->first + i];
         int k = s->want[f];
-        /* the set at R_{k+1}, thinned to R_k (thin_set); up to 4x the budget before thinning (a
-         * set at half the radius holds about 4x a set at R_k). 16x let a few more faces through
+        /* the set at THIN_FRACTION R_k, thinned to R_k (thin_set); up to 4x the budget before
+         * thinning. 16x let a few more faces through
          * (imp49 far: 98 of 13,573) but a face refused after building 16x its budget is what
          * made a view's first frame slow (impeller at 400x300, 51 faces splatted: 850 -> 340 ms
          * of which the base frame is 55) */
-        double rk = ldexp(s->faces[f].s0, -k);
+        double rk = level_radius(s->faces[f].s0, k);
         uint64_t cap = 4 * (uint64_t)budget(c->sc, f);
         crisp_splat_set *set = &s->sets[i];
-        s->status[i] = crisp__splat_build(
-            c->sc, f, 0.5 * rk, cap > UINT32_MAX / 2 ? UINT32_MAX / 2 : (uint32_t)cap, set);
-        if (!s->status[i] && set->radius <= 0.5 * rk) {
+        s->status[i] =
+            crisp__splat_build(c->sc, f, THIN_FRACTION * rk,
+                               cap > UINT32_MAX / 2 ? UINT32_MAX / 2 : (uint32_t)cap, set);
+        if (!s->status[i] && set->radius < rk) {
             set->count = thin_set(set->splats, set->count, rk - set->radius);
             set->radius = rk;
             /* every face's set is held until they are stored: give the dropped ones back now
              * (imp49 default: the frame's peak 1,040 MB with the unthinned arrays, 16x cap) */
-            crisp_plan_splat *fit =
+            crisp_splat *fit =
                 crisp_realloc_array(set->splats, set->count ? set->count : 1, sizeof *fit);
             if (fit) set->splats = fit;
         }
@@ -362,16 +434,17 @@ static crisp_status store_set(crisp__splat_store *s, const crisp_scene *sc, uint
         d[a] = set->origin[a] - fs->origin[a];
     crisp_plan_splat *dst = s->splats + s->count;
     for (uint32_t i = 0; i < set->count; i++) {
-        dst[i] = set->splats[i];
-        dst[i].face = f;
-        if (d[0] != 0 || d[1] != 0 || d[2] != 0)
-            for (int a = 0; a < 3; a++)
-                dst[i].p[a] = (float)((double)set->splats[i].p[a] + d[a]);
+        const crisp_splat *src = &set->splats[i];
+        for (int a = 0; a < 3; a++)
+            dst[i].p[a] =
+                d[0] != 0 || d[1] != 0 || d[2] != 0 ? (float)((double)src->p[a] + d[a]) : src->p[a];
+        dst[i].n = crisp__splat_pack_normal(src->n);
+        dst[i].uv[0] = src->uv[0], dst[i].uv[1] = src->uv[1];
     }
     fs->first[k] = (uint32_t)s->count;
     fs->count[k] = set->count;
     fs->radius[k] = set->radius;
-    fs->built |= 1u << k;
+    fs->built |= (uint64_t)1 << k;
     s->count += set->count;
     s->changed = 1;
     return CRISP_OK;
@@ -385,13 +458,9 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
     if (st) return st;
     crisp_mat4_copy(view_proj, s->view_proj);
     choose_ctx c = {.s = s, .sc = sc, .width = width, .height = height};
-    double r[3] = {0, 0, 0};
     for (int a = 0; a < 3; a++)
-        for (int q = 0; q < 3; q++) {
-            int row = q == 2 ? 3 : q;
-            r[q] += view_proj[a][row] * view_proj[a][row];
-        }
-    c.rx = sqrt(r[0]), c.ry = sqrt(r[1]), c.rw = sqrt(r[2]);
+        for (int q = 0; q < 3; q++)
+            c.row[q][a] = view_proj[a][q == 2 ? 3 : q];
     crisp_pool_parallel_for(pool, sc->face_count, 256, choose_range, &c);
     /* The sets wanted and not built yet: built in parallel, stored in face order. */
     size_t n = 0;
@@ -416,7 +485,7 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
             int k = s->want[f];
             crisp_status bs = s->status[i];
             if (!bs && s->sets[i].count <= budget(sc, f) &&
-                s->sets[i].radius <= ldexp(s->faces[f].s0, -k)) {
+                s->sets[i].radius <= level_radius(s->faces[f].s0, k)) {
                 bs = store_set(s, sc, f, k, &s->sets[i]);
                 if (bs && !first_error) first_error = bs;
             } else if (bs == CRISP_ERR_NO_MEMORY) {
@@ -435,6 +504,13 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
     for (uint32_t f = 0; f < sc->face_count; f++)
         splat[f] = s->want[f] >= 0;
     return CRISP_OK;
+}
+
+static int nearer(const void *a, const void *b)
+{
+    const range_key *x = a, *y = b;
+    if (x->near != y->near) return x->near < y->near ? -1 : 1;
+    return x->range.face < y->range.face ? -1 : x->range.face > y->range.face;
 }
 
 crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene *sc,
@@ -461,9 +537,19 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
             co[q] = (float)((*m)[0][q] * fs->origin[0] + (*m)[1][q] * fs->origin[1] +
                             (*m)[2][q] * fs->origin[2] + (*m)[3][q]);
         faces[f].flags |= CRISP_PLAN_FACE_SPLATS;
-        s->ranges[nr++] = (crisp_plan_splat_range){fs->first[k], fs->count[k]};
+        s->ranges[nr++] = (crisp_plan_splat_range){fs->first[k], fs->count[k], f};
         nfaces++;
         drawn += fs->count[k];
+    }
+    /* Nearest first (the least W of the faces' boxes; ties in face order): a backend that keeps
+     * the depth drawn skips the ranges hidden by nearer ones (splat_raster.c). */
+    if (nr > 1) {
+        if ((st = crisp_grow((void **)&s->order, &s->order_cap, nr, sizeof *s->order))) return st;
+        for (uint32_t i = 0; i < nr; i++)
+            s->order[i] = (range_key){s->near[s->ranges[i].face], s->ranges[i]};
+        qsort(s->order, nr, sizeof *s->order, nearer);
+        for (uint32_t i = 0; i < nr; i++)
+            s->ranges[i] = s->order[i].range;
     }
     out->splats = s->splats;
     out->splat_count = (uint32_t)s->count;

@@ -1,5 +1,5 @@
 /* The planner's splat store (issue 12, splat_store.c): per face, splat sets at radii
- * s_k = s_0 2^-k built lazily (crisp__splat_build) and kept across frames, and the per-frame
+ * s_k = s_0 2^(-k/2) built lazily (crisp__splat_build) and kept across frames, and the per-frame
  * choice of the faces drawn as splats (docs/status/issue-12-splats.md, "Planner and CPU draw").
  *
  * Offers:
@@ -15,20 +15,25 @@
 #include "crisp/plan.h"
 #include "crisp/render.h"
 
-/* Levels per face: s_0 2^-k for k < CRISP_SPLAT_LEVELS. */
-#define CRISP_SPLAT_LEVELS 20
+/* Levels per face: s_0 2^(-k / 2) for k < CRISP_SPLAT_LEVELS (steps of 2^-1/2 in the radius, so
+ * the level chosen for a frame holds at most about 2x the splats that the exact radius needs, not
+ * 4x as with halvings). */
+#define CRISP_SPLAT_LEVELS 40
 
 /* The splat budget of a face of P patches: A P + B splats (a set above it is not built, the face
  * is planned as patches). Tuned by instruction counts (bench/RESULTS.md, issue 12, session 9). */
 #ifndef CRISP_SPLAT_PER_PATCH
-#define CRISP_SPLAT_PER_PATCH 16
+#define CRISP_SPLAT_PER_PATCH 64
 #endif
 #ifndef CRISP_SPLAT_PER_FACE
-#define CRISP_SPLAT_PER_FACE 64
+#define CRISP_SPLAT_PER_FACE 256
 #endif
 /* A splat's half-size on screen (pixels) and the margin kept below it for the set's radius. */
 #define CRISP_SPLAT_HALF_PX 0.5
-#define CRISP_SPLAT_MARGIN_PX 0.1
+/* The margin is for the float arithmetic of the splats' clip positions (about 1e-3 px at 1080p,
+ * relative 5e-7 of the image's size); 0.1 in session 9, 0.05 now: (0.4 / 0.45)^2 = 0.79x the
+ * splats. */
+#define CRISP_SPLAT_MARGIN_PX 0.05
 
 typedef struct crisp__splat_store crisp__splat_store;
 

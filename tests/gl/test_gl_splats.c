@@ -32,6 +32,7 @@
 #include "gl/gl_internal.h"
 #include "gl/gl_test_util.h"
 #include "render/raster.h"
+#include "render/splat.h"
 
 /* The square [-1, 1]^2 in z = 0 as one bilinear patch of face 0 (as test_gl_basic). */
 static const double square_cps[16] = {-1, -1, 0, 1, 1, -1, 0, 1, -1, 1, 0, 1, 1, 1, 0, 1};
@@ -47,6 +48,7 @@ typedef struct splat_plan {
     crisp_plan_strip strip;
     uint32_t row_offset[2];
     crisp_plan_splat splats[MAX_SPLATS];
+    uint32_t face[MAX_SPLATS]; /* each splat's face (the ranges carry it) */
     crisp_plan_splat_range ranges[MAX_RANGES];
     float origin[4 * NF];
 } splat_plan;
@@ -123,10 +125,11 @@ static crisp_gl *make_gl(int samples)
 /* ---- the reference ------------------------------------------------------------------------ */
 
 /* The rule's float clip position of a splat and its centre on the image (double). */
-static void splat_clip(const crisp_frame_plan *p, const crisp_plan_splat *sp, float c[4])
+static void splat_clip(const crisp_frame_plan *p, uint32_t face, const crisp_plan_splat *sp,
+                       float c[4])
 {
     for (int k = 0; k < 4; k++) {
-        float v = p->splat_clip_origin[4 * sp->face + k];
+        float v = p->splat_clip_origin[4 * face + k];
         for (int j = 0; j < 3; j++) {
             volatile float t = p->view_proj_f[k + 4 * j] * sp->p[j]; /* no fused multiply-add */
             v = v + t;
@@ -162,8 +165,9 @@ static void reference(const crisp_frame_plan *p, int S, const ref_sample *under,
         for (uint32_t i = p->splat_ranges[r].first;
              i < p->splat_ranges[r].first + p->splat_ranges[r].count; i++) {
             const crisp_plan_splat *sp = &p->splats[i];
+            uint32_t face = p->splat_ranges[r].face;
             float c[4];
-            splat_clip(p, sp, c);
+            splat_clip(p, face, sp, c);
             /* behind the eye, beyond the near or far plane: not drawn (as the CPU backend) */
             if (!(c[3] > 0) || !(c[2] >= -c[3]) || !(c[2] <= c[3]) || !isfinite(c[0] + c[1]))
                 continue;
@@ -187,7 +191,7 @@ static void reference(const crisp_frame_plan *p, int S, const ref_sample *under,
                         ref_sample *o = &out[((size_t)j * W + x) * S + s];
                         /* the depth test: nearer wins (the backends compare 1 / W), equal keeps
                          * the first */
-                        if (c[3] < o->w) *o = (ref_sample){(int32_t)sp->face, (int32_t)i, c[3]};
+                        if (c[3] < o->w) *o = (ref_sample){(int32_t)face, (int32_t)i, c[3]};
                     }
                 }
         }
@@ -247,9 +251,10 @@ static long check_plan(crisp_gl *gl, const crisp_frame_plan *p, int S, const ref
         }
         const crisp_plan_splat *sp = &p->splats[r->splat];
         assert_true(img.depth[k] == r->w);
-        float sign = (p->faces[sp->face].flags & CRISP_PLAN_FACE_REVERSED) ? -1.0f : 1.0f;
+        float sign = (p->faces[r->face].flags & CRISP_PLAN_FACE_REVERSED) ? -1.0f : 1.0f, nrm[3];
+        crisp_plan_splat_normal(sp->n, nrm);
         for (int a = 0; a < 3; a++)
-            assert_true(img.normal[3 * k + a] == sign * sp->n[a]);
+            assert_true(img.normal[3 * k + a] == sign * nrm[a]);
         assert_true(img.uv[2 * k] == sp->uv[0] && img.uv[2 * k + 1] == sp->uv[1]);
     }
     free(faces);
@@ -263,12 +268,15 @@ static double urand(void)
     return rand() / (RAND_MAX + 1.0);
 }
 
-static void random_normal(float n[3])
+/* A random unit normal, packed (some pointing away: the octahedron's folded half). */
+static uint32_t random_normal(void)
 {
-    double v[3] = {urand() - 0.5, urand() - 0.5, urand() + 0.2},
+    double v[3] = {urand() - 0.5, urand() - 0.5, urand() - 0.3},
            l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    float n[3];
     for (int a = 0; a < 3; a++)
         n[a] = (float)(v[a] / l);
+    return crisp__splat_pack_normal(n);
 }
 
 /* Ranges over the store: runs of up to 40 splats of one face (splats are made face by face),
@@ -278,12 +286,12 @@ static void make_ranges(splat_plan *s)
     crisp_frame_plan *p = &s->plan;
     uint32_t first = 0, r = 0;
     for (int run = 0; first < p->splat_count && r + 1 < MAX_RANGES; run++) {
-        uint32_t f = s->splats[first].face, n = 1;
-        while (first + n < p->splat_count && n < 40 && s->splats[first + n].face == f)
+        uint32_t f = s->face[first], n = 1;
+        while (first + n < p->splat_count && n < 40 && s->face[first + n] == f)
             n++;
-        if (run % 5 != 3) s->ranges[r++] = (crisp_plan_splat_range){first, n};
+        if (run % 5 != 3) s->ranges[r++] = (crisp_plan_splat_range){first, n, f};
         first += n;
-        if (r == 2) s->ranges[r++] = (crisp_plan_splat_range){first, 0};
+        if (r == 2) s->ranges[r++] = (crisp_plan_splat_range){first, 0, 1};
     }
     p->splat_range_count = r;
 }
@@ -326,8 +334,8 @@ static void fill_exact(splat_plan *s, int count)
         sp->p[1] = (float)((1 - c[1] / 32) * w);
         sp->p[2] = (float)((urand() * 2.4 - 1.2) * w);
         assert_true((double)sp->p[0] == (c[0] / 32 - 1) * w);
-        sp->face = f;
-        random_normal(sp->n);
+        s->face[k] = f;
+        sp->n = random_normal();
         sp->uv[0] = (float)urand();
         sp->uv[1] = (float)urand();
     }
@@ -378,8 +386,8 @@ static void fill_camera(splat_plan *s, int count, const double zs[NF])
         sp->p[0] = (float)(x - O[f][0]);
         sp->p[1] = (float)(y - O[f][1]);
         sp->p[2] = 0;
-        sp->face = f;
-        random_normal(sp->n);
+        s->face[k] = f;
+        sp->n = random_normal();
         sp->uv[0] = (float)urand();
         sp->uv[1] = (float)urand();
     }
@@ -486,16 +494,18 @@ static void test_raw(void **state)
             crisp_frame_plan *p = &s->plan;
             for (int rep = 0; rep < 200; rep++) {
                 fill_exact(s, 1);
-                s->splats[0].face = 1 + (uint32_t)(rep % 3);
-                s->splats[0].p[0] *= s->origin[4 * s->splats[0].face + 3] / s->origin[4 + 3];
-                s->splats[0].p[1] *= s->origin[4 * s->splats[0].face + 3] / s->origin[4 + 3];
+                uint32_t f = 1 + (uint32_t)(rep % 3);
+                s->face[0] = f;
+                s->splats[0].p[0] *= s->origin[4 * f + 3] / s->origin[4 + 3];
+                s->splats[0].p[1] *= s->origin[4 * f + 3] / s->origin[4 + 3];
+                make_ranges(s);
                 p->splats_version = ++version;
                 reference(p, S, NULL, ref);
                 assert_int_equal(crisp_gl_draw(gl, p, NULL), CRISP_OK);
                 assert_int_equal(crisp__gl_sample_faces(gl, faces), CRISP_OK);
                 float c[4];
                 double cx, cy, h = hs[k];
-                splat_clip(p, &s->splats[0], c);
+                splat_clip(p, f, &s->splats[0], c);
                 splat_centre(p, c, &cx, &cy);
                 for (size_t q = 0; q < n * S; q++) {
                     total += ref[q].face >= 0;
@@ -551,36 +561,36 @@ static void test_upload(void **state)
     crisp_frame_plan *p = &s->plan;
     crisp_gl_stats gs;
     assert_int_equal(crisp_gl_draw(gl, p, &gs), CRISP_OK);
-    size_t store = p->splat_count * sizeof(crisp_plan_splat), origins = NF * 4 * sizeof(float);
-    assert_true(gs.bytes_uploaded >= store + origins);
-    /* same versions: only the clip origins go up (per frame); the store stays as it was, so a
-     * store changed without a new version is not seen */
+    size_t store = p->splat_count * sizeof(crisp_plan_splat), origins = NF * 4 * sizeof(float),
+           runs = p->splat_range_count * 2 * sizeof(uint32_t);
+    assert_true(gs.bytes_uploaded >= store + origins + runs);
+    /* same versions: only the clip origins and the ranges' faces go up (per frame); the store
+     * stays as it was, so a store changed without a new version is not seen */
     crisp_plan_splat saved[300];
     memcpy(saved, s->splats, sizeof saved);
     for (uint32_t k = 0; k < p->splat_count; k++)
-        s->splats[k].face = 1;
+        s->splats[k].p[0] += 0.75f, s->splats[k].uv[0] = -1;
     assert_int_equal(crisp_gl_draw(gl, p, &gs), CRISP_OK);
-    assert_true(gs.bytes_uploaded == origins);
+    assert_true(gs.bytes_uploaded == origins + runs);
     memcpy(s->splats, saved, sizeof saved);
     check_plan(gl, p, 1, NULL, NULL); /* the old store = saved: the reference holds */
     for (uint32_t k = 0; k < p->splat_count; k++)
-        s->splats[k].face = 2;
+        s->splats[k].p[0] += 0.75f, s->splats[k].uv[0] = -1;
     p->splats_version = ++version;
     check_plan(gl, p, 1, NULL, NULL);
     assert_int_equal(crisp_gl_draw(gl, p, &gs), CRISP_OK);
-    assert_true(gs.bytes_uploaded == origins);
-    /* a range beyond the store, a splat of a face the scene has not, a half-size beyond the
+    assert_true(gs.bytes_uploaded == origins + runs);
+    /* a range beyond the store, a range of a face the scene has not, a half-size beyond the
      * point size limit or not positive */
     crisp_plan_splat_range r0 = s->ranges[1];
     s->ranges[1].count = p->splat_count - r0.first + 1;
     assert_int_equal(crisp_gl_draw(gl, p, NULL), CRISP_ERR_INVALID_ARG);
     assert_non_null(strstr(crisp_error_message(), "splat range 1"));
     s->ranges[1] = r0;
-    s->splats[5].face = NF;
-    p->splats_version = ++version;
+    s->ranges[1].face = NF;
     assert_int_equal(crisp_gl_draw(gl, p, NULL), CRISP_ERR_INVALID_ARG);
-    assert_non_null(strstr(crisp_error_message(), "splat 5"));
-    s->splats[5].face = 2;
+    assert_non_null(strstr(crisp_error_message(), "splat range 1: face"));
+    s->ranges[1] = r0;
     p->splats_version = ++version;
     p->splat_half_px = 1e4;
     assert_int_equal(crisp_gl_draw(gl, p, NULL), CRISP_ERR_LIMIT);

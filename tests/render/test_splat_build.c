@@ -164,8 +164,7 @@ static check_result check_face(const crisp_scene *sc, uint32_t face, double r, i
     }
     /* Every splat: a point of the trimmed face with the surface's normal. */
     for (uint32_t i = 0; i < set.count; i++) {
-        const crisp_plan_splat *sp = &set.splats[i];
-        assert_int_equal(sp->face, face);
+        const crisp_splat *sp = &set.splats[i];
         double u = sp->uv[0], v = sp->uv[1];
         assert_true(u >= dom[0] - 1e-6 * ulen && u <= dom[1] + 1e-6 * ulen);
         assert_true(v >= dom[2] - 1e-6 * ulen && v <= dom[3] + 1e-6 * ulen);

@@ -32,7 +32,9 @@
 #include "crisp/plan.h"
 #include "crisp/render.h"
 #include "crisp/trim.h"
+#include "render/occlusion.h"
 #include "render/raster.h"
+#include "render/splat.h"
 #include "render/splat_raster.h"
 
 static uint64_t rng = 0x853c49e6748fea9bull;
@@ -78,34 +80,45 @@ static void draw_case(int samples, int width, int height)
             clip_origin[4 * f + q] = (float)h[q];
     }
     plan.splat_clip_origin = clip_origin;
-    enum { N = 400 };
+    enum { N = 440, NR = NF + 1 };
     crisp_plan_splat sp[N];
-    crisp_plan_splat_range ranges[NF] = {{0, 150}, {150, 130}, {280, 120}};
-    for (int f = 0, k = 0; f < NF; f++)
-        for (uint32_t q = 0; q < ranges[f].count; q++, k++) {
+    uint32_t sp_face[N];
+    /* the last range: behind the surface drawn over the left half (culled with occlude) */
+    crisp_plan_splat_range ranges[NR] = {{0, 150, 0}, {150, 130, 1}, {280, 120, 2}, {400, 40, 0}};
+    for (int r = 0, k = 0; r < NR; r++)
+        for (uint32_t q = 0; q < ranges[r].count; q++, k++) {
             crisp_plan_splat *s = &sp[k];
-            s->face = (uint32_t)f;
+            int f = (int)ranges[r].face;
+            sp_face[k] = (uint32_t)f;
             for (int a = 0; a < 3; a++)
                 s->p[a] = (float)(2.4 * rnd() - 1.2);
+            if (r == NF) {
+                s->p[0] = (float)(-1.5 - 0.4 * rnd()), s->p[1] = (float)(0.6 * rnd() - 0.5);
+                s->p[2] = (float)(-0.3 - 0.5 * rnd());
+            }
             if (k % 37 == 0) s->p[2] = (float)(7 - origin[f][2]);   /* behind the eye */
             if (k % 41 == 0) s->p[2] = (float)(5.5 - origin[f][2]); /* before the near plane */
             if (k % 43 == 0) s->p[2] = s->p[2] - 4.5f;              /* beyond the far plane */
-            if (k % 5 == 0 && k)
+            if (k % 5 == 0 && k && r < NF)
                 s->p[0] = sp[k - 1].p[0], s->p[1] = sp[k - 1].p[1],
                 s->p[2] = sp[k - 1].p[2]; /* a tie: the earlier stays */
-            s->n[0] = (float)rnd(), s->n[1] = (float)rnd(), s->n[2] = 1;
+            float n[3] = {(float)rnd(), (float)rnd(), k % 3 ? 1.0f : -1.0f};
+            float l = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            for (int a = 0; a < 3; a++)
+                n[a] /= l;
+            s->n = crisp__splat_pack_normal(n);
             s->uv[0] = (float)k, s->uv[1] = (float)(0.5 * k);
         }
     plan.splats = sp, plan.splat_count = N;
-    plan.splat_ranges = ranges, plan.splat_range_count = NF;
+    plan.splat_ranges = ranges, plan.splat_range_count = NR;
 
-    crisp_raster_target t[2];
+    crisp_raster_target t[4]; /* 1 and 3 threads; culling from the splats, and from hiz too */
     memset(t, 0, sizeof t);
     size_t ns = (size_t)width * height * samples;
     double *ref_iw = calloc(ns, sizeof *ref_iw);
     int32_t *ref_face = malloc(ns * sizeof *ref_face);
     float *ref_attr = calloc(ns * CRISP_RASTER_ATTRS, sizeof *ref_attr);
-    for (int k = 0; k < 2; k++) {
+    for (int k = 0; k < 4; k++) {
         assert_int_equal(crisp__raster_target_init(&t[k], width, height, samples), CRISP_OK);
         crisp__raster_target_clear(&t[k]);
     }
@@ -120,7 +133,7 @@ static void draw_case(int samples, int width, int height)
                 ref_attr[i * CRISP_RASTER_ATTRS + a] = -3;
         }
     }
-    for (int k = 0; k < 2; k++) {
+    for (int k = 0; k < 4; k++) {
         memcpy(t[k].inv_w, ref_iw, ns * sizeof *ref_iw);
         memcpy(t[k].face, ref_face, ns * sizeof *ref_face);
         memcpy(t[k].attr, ref_attr, ns * CRISP_RASTER_ATTRS * sizeof *ref_attr);
@@ -129,7 +142,7 @@ static void draw_case(int samples, int width, int height)
     long covered = 0;
     for (int k = 0; k < N; k++) {
         const crisp_plan_splat *s = &sp[k];
-        const float *o = clip_origin + 4 * s->face, *m = plan.view_proj_f;
+        const float *o = clip_origin + 4 * sp_face[k], *m = plan.view_proj_f;
         float c[4];
         for (int q = 0; q < 4; q++)
             c[q] = o[q] + m[q] * s->p[0] + m[q + 4] * s->p[1] + m[q + 8] * s->p[2];
@@ -149,11 +162,12 @@ static void draw_case(int samples, int width, int height)
                     size_t idx = ((size_t)j * width + i) * samples + q;
                     if (!(iw > ref_iw[idx])) continue;
                     ref_iw[idx] = iw;
-                    ref_face[idx] = (int32_t)s->face;
-                    float sg = s->face == 1 ? -1.0f : 1.0f;
+                    ref_face[idx] = (int32_t)sp_face[k];
+                    float sg = sp_face[k] == 1 ? -1.0f : 1.0f, n[3];
+                    crisp_plan_splat_normal(s->n, n);
                     float *a = ref_attr + idx * CRISP_RASTER_ATTRS;
                     a[0] = s->uv[0], a[1] = s->uv[1];
-                    a[2] = sg * s->n[0], a[3] = sg * s->n[1], a[4] = sg * s->n[2];
+                    a[2] = sg * n[0], a[3] = sg * n[1], a[4] = sg * n[2];
                 }
     }
     assert_true(covered > 50);
@@ -163,8 +177,26 @@ static void draw_case(int samples, int width, int height)
     crisp__splat_draw_desc d = {.plan = &plan, .win = {0, 0, width, height}};
     crisp__splat_draw_stats stats;
     assert_int_equal(crisp__splat_draw(&scratch, &t[0], NULL, &d, &stats), CRISP_OK);
-    assert_int_equal(stats.ranges, NF);
+    assert_int_equal(stats.ranges, NR);
     assert_int_equal(crisp__splat_draw(&scratch, &t[1], pool, &d, NULL), CRISP_OK);
+    /* Culling (occlude) skips only what could not be drawn: the same samples. */
+    int bw = (width + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+        bh = (height + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
+    double *hiz = malloc((size_t)bw * bh * sizeof *hiz);
+    crisp__raster_block_depth(&t[3], NULL, CRISP_OCCL_BLOCK, NULL, hiz);
+    crisp__splat_draw_desc dc = d;
+    dc.occlude = 1;
+    crisp__splat_draw_stats sc;
+    assert_int_equal(crisp__splat_draw(&scratch, &t[2], pool, &dc, &sc), CRISP_OK);
+    dc.hiz = hiz;
+    assert_int_equal(crisp__splat_draw(&scratch, &t[3], NULL, &dc, &sc), CRISP_OK);
+    assert_true(sc.hidden_ranges + sc.culled > 0);
+    for (int k = 2; k < 4; k++) {
+        assert_memory_equal(t[0].inv_w, t[k].inv_w, ns * sizeof *ref_iw);
+        assert_memory_equal(t[0].face, t[k].face, ns * sizeof *ref_face);
+        assert_memory_equal(t[0].attr, t[k].attr, ns * CRISP_RASTER_ATTRS * sizeof *ref_attr);
+    }
+    free(hiz);
     long differ = 0;
     for (size_t i = 0; i < ns; i++) {
         int bad = t[0].face[i] != ref_face[i] || t[0].inv_w[i] != ref_iw[i] ||
@@ -182,7 +214,7 @@ static void draw_case(int samples, int width, int height)
     assert_memory_equal(t[0].attr, t[1].attr, ns * CRISP_RASTER_ATTRS * sizeof *ref_attr);
     crisp__splat_scratch_free(&scratch);
     crisp_pool_destroy(pool);
-    for (int k = 0; k < 2; k++)
+    for (int k = 0; k < 4; k++)
         crisp__raster_target_free(&t[k]);
     free(ref_iw), free(ref_face), free(ref_attr);
 }
@@ -243,8 +275,7 @@ static void test_choice_near_plane(void **state)
     assert_true(plan->splat_ranges[0].count > 0);
     assert_int_equal(plan->stats.splat_faces, 1);
     assert_true(plan->stats.splat_bytes > 0);
-    for (uint32_t k = 0; k < plan->splat_ranges[0].count; k++)
-        assert_int_equal(plan->splats[plan->splat_ranges[0].first + k].face, 0);
+    assert_int_equal(plan->splat_ranges[0].face, 0);
     /* The near plane through the box (at z = -0.05 of the strip): not splatted, planned as a
      * patch. */
     crisp_camera cut = cam;
