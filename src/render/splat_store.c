@@ -236,7 +236,7 @@ static double level_radius(double s0, int k)
 static uint32_t budget(const crisp_scene *sc, uint32_t f)
 {
     uint64_t b = (uint64_t)CRISP_SPLAT_PER_PATCH * sc->faces[f].patch_count + CRISP_SPLAT_PER_FACE;
-    return b > UINT32_MAX / 2 ? UINT32_MAX / 2 : (uint32_t)b;
+    return b > CRISP_SPLAT_MAX_FACE ? CRISP_SPLAT_MAX_FACE : (uint32_t)b;
 }
 
 typedef struct choose_ctx {

@@ -20,13 +20,20 @@
  * 4x as with halvings). */
 #define CRISP_SPLAT_LEVELS 40
 
-/* The splat budget of a face of P patches: A P + B splats (a set above it is not built, the face
- * is planned as patches). Tuned by instruction counts (bench/RESULTS.md, issue 12, session 9). */
+/* The splat budget of a face of P patches: min(A P + B, C) splats (a set above it is not built,
+ * the face is planned as patches). A = 16, B = 64 in session 9; 64 and 256 since the record is
+ * 24 bytes and the draw culls (bench/RESULTS.md, issue 12, session 11, splat2). */
 #ifndef CRISP_SPLAT_PER_PATCH
 #define CRISP_SPLAT_PER_PATCH 64
 #endif
 #ifndef CRISP_SPLAT_PER_FACE
 #define CRISP_SPLAT_PER_FACE 256
+#endif
+/* ... and never more than this per face: splats are for faces a few pixels across. gen100
+ * default (20 faces of 10,000 patches about a pixel each) would otherwise draw 3.3 M splats for
+ * 310 k pixels (the frame 4x slower). */
+#ifndef CRISP_SPLAT_MAX_FACE
+#define CRISP_SPLAT_MAX_FACE 32768
 #endif
 /* A splat's half-size on screen (pixels) and the margin kept below it for the set's radius. */
 #define CRISP_SPLAT_HALF_PX 0.5
