@@ -17,6 +17,9 @@
 #include "splat_raster.h"
 
 #define BAND_ROWS 16
+/* A band holds whole rows of occlusion blocks (the window's y0 is a multiple of 8). */
+_Static_assert(BAND_ROWS % CRISP_OCCL_BLOCK == 0 && 8 % CRISP_OCCL_BLOCK == 0,
+               "splat bands: whole block rows");
 
 void crisp__splat_scratch_free(crisp__splat_scratch *s)
 {
@@ -24,6 +27,9 @@ void crisp__splat_scratch_free(crisp__splat_scratch *s)
     free(s->box);
     free(s->hidden);
     free(s->blocks);
+    free(s->band_start);
+    free(s->band_list);
+    free(s->band_fill);
     memset(s, 0, sizeof *s);
 }
 
@@ -128,7 +134,8 @@ static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
                 for (int bx = 0; bx < c->bw; bx++)
                     blk[(size_t)(by - by_lo) * c->bw + bx] =
                         c->d->hiz ? c->d->hiz[(size_t)by * c->bw + bx] : 0;
-        for (size_t i = 0; i < c->count; i++) {
+        for (uint32_t e = c->s->band_start[band]; e < c->s->band_start[band + 1]; e++) {
+            size_t i = c->s->band_list[e];
             const double *b = c->s->box + 5 * i;
             if (c->s->hidden[i] || b[3] < r0 || b[1] >= r1 || b[2] < x0 || b[0] >= x0 + t->width)
                 continue;
@@ -279,6 +286,41 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
     for (int q = 0; q < t->samples; q++)
         crisp__raster_sample_offset(t->samples, q, bc.off[q]);
     size_t bands = (size_t)(t->height + BAND_ROWS - 1) / BAND_ROWS;
+    /* Each band's ranges, in list order (a band then looks only at the ranges that may reach
+     * it: a band of a range's box, one more each side; draw_bands tests the box exactly). */
+    if ((st = crisp_grow((void **)&s->band_start, &s->band_start_cap, bands + 1,
+                         sizeof *s->band_start)))
+        return st;
+    memset(s->band_start, 0, (bands + 1) * sizeof *s->band_start);
+    for (int pass = 0; pass < 2; pass++) {
+        size_t total = 0;
+        for (size_t i = 0; i < count; i++) {
+            const double *b = s->box + 5 * i;
+            if (s->hidden[i]) continue;
+            double lo = floor((b[1] - d->win[1]) / BAND_ROWS) - 1,
+                   hi = floor((b[3] - d->win[1]) / BAND_ROWS) + 1;
+            if (!(hi >= 0) || !(lo <= (double)bands - 1)) continue;
+            size_t b0 = lo < 0 ? 0 : (size_t)lo,
+                   b1 = hi > (double)bands - 1 ? bands - 1 : (size_t)hi;
+            for (size_t k = b0; k <= b1; k++) {
+                if (pass == 0)
+                    s->band_start[k + 1]++;
+                else
+                    s->band_list[s->band_fill[k]++] = (uint32_t)i;
+            }
+            total += b1 - b0 + 1;
+        }
+        if (pass == 0) {
+            for (size_t k = 0; k < bands; k++)
+                s->band_start[k + 1] += s->band_start[k];
+            if ((st = crisp_grow((void **)&s->band_list, &s->band_list_cap, total ? total : 1,
+                                 sizeof *s->band_list)) ||
+                (st = crisp_grow((void **)&s->band_fill, &s->band_fill_cap, bands,
+                                 sizeof *s->band_fill)))
+                return st;
+            memcpy(s->band_fill, s->band_start, bands * sizeof *s->band_fill);
+        }
+    }
     crisp_pool_parallel_for(pool, bands, 1, draw_bands, &bc);
     stats->ranges = count;
     stats->splats = splats;

@@ -18,6 +18,8 @@ typedef struct crisp__splat_scratch {
     size_t list_cap;
     double *blocks; /* per worker: a band's block depth */
     size_t blocks_cap;
+    uint32_t *band_start, *band_list, *band_fill; /* per band of rows: its ranges (list indices) */
+    size_t band_start_cap, band_list_cap, band_fill_cap;
 } crisp__splat_scratch;
 
 void crisp__splat_scratch_free(crisp__splat_scratch *s);

@@ -38,11 +38,6 @@ typedef struct face_sets {
     uint64_t trim_hash; /* of the face's trim pieces when its sets were built */
 } face_sets;
 
-typedef struct range_key {
-    double near;
-    crisp_plan_splat_range range;
-} range_key;
-
 struct crisp__splat_store {
     uint64_t serial, trim_serial; /* the scene the store was built from (0: none) */
     uint32_t face_count;
@@ -59,8 +54,10 @@ struct crisp__splat_store {
     size_t sets_cap;
     crisp_plan_splat_range *ranges;
     size_t range_cap;
-    range_key *order; /* publish's sort */
+    uint64_t *order; /* publish's sort: keys, then the same count of scratch */
     size_t order_cap;
+    crisp_plan_splat_range *sorted;
+    size_t sorted_cap;
     float *clip_origin;
     size_t clip_cap;
     crisp_mat4 view_proj;
@@ -98,6 +95,7 @@ void crisp__splat_store_destroy(crisp__splat_store *s)
     free(s->status);
     free(s->ranges);
     free(s->order);
+    free(s->sorted);
     free(s->clip_origin);
     free(s);
 }
@@ -506,11 +504,23 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
     return CRISP_OK;
 }
 
-static int nearer(const void *a, const void *b)
+/* Sorts n keys ascending (LSD radix, 8-bit digits; tmp: n more). */
+static void radix_sort(uint64_t *key, uint64_t *tmp, uint32_t n)
 {
-    const range_key *x = a, *y = b;
-    if (x->near != y->near) return x->near < y->near ? -1 : 1;
-    return x->range.face < y->range.face ? -1 : x->range.face > y->range.face;
+    for (int shift = 0; shift < 64; shift += 8) {
+        uint32_t count[257] = {0};
+        for (uint32_t i = 0; i < n; i++)
+            count[(key[i] >> shift & 0xffu) + 1]++;
+        int one = 0; /* every key has the same digit: nothing moves */
+        for (int d = 1; d <= 256 && !one; d++)
+            one = count[d] == n;
+        if (one) continue;
+        for (int d = 0; d < 256; d++)
+            count[d + 1] += count[d];
+        for (uint32_t i = 0; i < n; i++)
+            tmp[count[key[i] >> shift & 0xffu]++] = key[i];
+        memcpy(key, tmp, n * sizeof *key);
+    }
 }
 
 crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene *sc,
@@ -544,12 +554,24 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
     /* Nearest first (the least W of the faces' boxes; ties in face order): a backend that keeps
      * the depth drawn skips the ranges hidden by nearer ones (splat_raster.c). */
     if (nr > 1) {
-        if ((st = crisp_grow((void **)&s->order, &s->order_cap, nr, sizeof *s->order))) return st;
+        if ((st = crisp_grow((void **)&s->order, &s->order_cap, 2 * (size_t)nr, sizeof *s->order)))
+            return st;
+        /* key: the least W as a float (rounded up; W > 0: its bits order as the values), then
+         * the range's index (ranges are in face order) */
+        for (uint32_t i = 0; i < nr; i++) {
+            double w = s->near[s->ranges[i].face];
+            float f = (float)w;
+            if ((double)f < w) f = nextafterf(f, INFINITY);
+            uint32_t bits;
+            memcpy(&bits, &f, sizeof bits);
+            s->order[i] = (uint64_t)bits << 32 | i;
+        }
+        radix_sort(s->order, s->order + nr, nr);
+        if ((st = crisp_grow((void **)&s->sorted, &s->sorted_cap, nr, sizeof *s->sorted)))
+            return st;
         for (uint32_t i = 0; i < nr; i++)
-            s->order[i] = (range_key){s->near[s->ranges[i].face], s->ranges[i]};
-        qsort(s->order, nr, sizeof *s->order, nearer);
-        for (uint32_t i = 0; i < nr; i++)
-            s->ranges[i] = s->order[i].range;
+            s->sorted[i] = s->ranges[(uint32_t)s->order[i]];
+        memcpy(s->ranges, s->sorted, nr * sizeof *s->ranges);
     }
     out->splats = s->splats;
     out->splat_count = (uint32_t)s->count;
