@@ -63,6 +63,7 @@ typedef struct tree_ctx {
     size_t count;           /* items: active patches, or the redo list's length */
     crisp_slefe_view view;
     double eps, gx, gy;
+    double depth_scale; /* crisp__depth_px_scale: a pixel's world size per unit of clip W */
 } tree_ctx;
 
 typedef struct build_state {
@@ -86,22 +87,51 @@ typedef struct build_state {
     crisp_status st;
 } build_state;
 
+/* De Casteljau at 1/2 of the n + 1 homogeneous points src[i * st] (4 doubles each) into the
+ * halves' points left[i * st], right[i * st]: the arithmetic of crisp_bezier_patch_split_u / _v at
+ * 1/2 (s q_i + t q_(i+1), s = 1 - t = t = 1/2), so the same bits, without their copies. */
+static void halve_points(const double *src, ptrdiff_t st, int n, double *left, double *right)
+{
+    double q[(CRISP_MAX_DEGREE + 1) * 4];
+    const double t = 0.5, s = 1.0 - t;
+    for (int i = 0; i <= n; i++)
+        for (int c = 0; c < 4; c++)
+            q[4 * i + c] = src[i * st + c];
+    for (int c = 0; c < 4; c++)
+        left[c] = q[c], right[n * st + c] = q[4 * n + c];
+    for (int r = 1; r <= n; r++) {
+        for (int i = 0; i <= n - r; i++)
+            for (int c = 0; c < 4; c++)
+                q[4 * i + c] = s * q[4 * i + c] + t * q[4 * (i + 1) + c];
+        for (int c = 0; c < 4; c++)
+            left[r * st + c] = q[c], right[(n - r) * st + c] = q[4 * (n - r) + c];
+    }
+}
+
 /* Sub-patch (depth, ix, iy) of the patch into storage (or the kept quarter at depth 1). */
 static void cell_patch(build_state *b, int depth, int ix, int iy, double *storage, double *tmp,
                        crisp_bezier_patch *dest)
 {
     if (depth == 1) {
         if (!b->have_quarters) {
+            /* split in u, then each half in v (crisp_bezier_patch_split_u / _v's numbers) */
             const crisp_bezier_patch *p = b->root;
-            crisp_bezier_patch half[2] = {*p, *p}, *q = b->quarter_patch;
-            half[0].cpw = storage, half[1].cpw = tmp;
-            crisp_bezier_patch_split_u(p, 0.5, &half[0], &half[1]);
+            crisp_bezier_patch *q = b->quarter_patch;
+            int nu = p->du + 1;
+            ptrdiff_t row = 4 * (ptrdiff_t)nu;
+            for (int j = 0; j <= p->dv; j++)
+                halve_points(p->cpw + j * row, 4, p->du, storage + j * row, tmp + j * row);
             for (int k = 0; k < 4; k++) {
-                q[k] = half[k & 1];
+                q[k] = *p;
                 q[k].cpw = b->quarter[k];
             }
-            crisp_bezier_patch_split_v(&half[0], 0.5, &q[0], &q[2]);
-            crisp_bezier_patch_split_v(&half[1], 0.5, &q[1], &q[3]);
+            for (int i = 0; i < nu; i++) {
+                halve_points(storage + 4 * i, row, p->dv, q[0].cpw + 4 * i, q[2].cpw + 4 * i);
+                halve_points(tmp + 4 * i, row, p->dv, q[1].cpw + 4 * i, q[3].cpw + 4 * i);
+            }
+            double um = p->u0 + 0.5 * (p->u1 - p->u0), vm = p->v0 + 0.5 * (p->v1 - p->v0);
+            q[0].u1 = q[2].u1 = um, q[1].u0 = q[3].u0 = um;
+            q[0].v1 = q[1].v1 = vm, q[2].v0 = q[3].v0 = vm;
             b->have_quarters = 1;
         }
         *dest = b->quarter_patch[ix + 2 * iy];
@@ -161,6 +191,17 @@ static int too_large_on_screen(const crisp_bezier_patch *p, crisp_mat4 m, int wi
            (hi[1] - lo[1]) * 0.5 * height > CRISP_PLAN_MAX_LEAF_PX;
 }
 
+/* fmin / fmax of an accumulator that is never NaN (it starts at +-INFINITY) and a value: the same
+ * result (a NaN value leaves the accumulator), without the library call. */
+static inline double least(double acc, double v)
+{
+    return v < acc ? v : acc;
+}
+static inline double most(double acc, double v)
+{
+    return v > acc ? v : acc;
+}
+
 /* Largest screen extent in pixels (max of the x and y extents) of the sub-patch's projected
  * control hull; INFINITY when the hull reaches W <= 0. The sub-patch and every triangle with its
  * vertices on it lie inside the hull (convex hull property; W > 0 over the hull), so a hull at
@@ -175,8 +216,9 @@ static double hull_extent_px(const crisp_bezier_patch *p, crisp_mat4 m, int widt
         double y = m[0][1] * c[0] + m[1][1] * c[1] + m[2][1] * c[2] + m[3][1] * c[3];
         double w = m[0][3] * c[0] + m[1][3] * c[1] + m[2][3] * c[2] + m[3][3] * c[3];
         if (!(w > 0)) return INFINITY;
-        lo[0] = fmin(lo[0], x / w), hi[0] = fmax(hi[0], x / w);
-        lo[1] = fmin(lo[1], y / w), hi[1] = fmax(hi[1], y / w);
+        double sx = x / w, sy = y / w;
+        lo[0] = least(lo[0], sx), hi[0] = most(hi[0], sx);
+        lo[1] = least(lo[1], sy), hi[1] = most(hi[1], sy);
     }
     /* A relative allowance for the rounding of the projection. */
     double e = fmax((hi[0] - lo[0]) * 0.5 * width, (hi[1] - lo[1]) * 0.5 * height);
@@ -237,15 +279,18 @@ static double flat_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, int 
 /* flat_px, or where the patch's weights vary the bound of rational_bound.c: it does not divide
  * by the weight, so it stays tight there, and it measures the triangle point at the parameters
  * the rasterizer interpolates (flat_px's homogeneous argument bounds another point of the same
- * triangle when the weights differ at its vertices). Equal weights: the two are the same. */
+ * triangle when the weights differ at its vertices). Equal weights: the two are the same.
+ * depth: the W part of rational_bound.c's bound (crisp__rational_block_px_depth; INFINITY, 0
+ * where it was not formed). */
 static double flat_bound(const crisp_bezier_patch *p, const double *sigmas, crisp_mat4 m, int width,
-                         int height, double eps)
+                         int height, double eps, double depth[2])
 {
     double wlo, whi;
+    depth[0] = INFINITY, depth[1] = 0;
     crisp__rational_weight_range(p, &wlo, &whi);
     if (!(whi > wlo)) return flat_px(p, m, width, height);
     crisp_scene_patch one = {.bez = *p};
-    return crisp__rational_block_px_sigmas(&one, sigmas, 1, 1, 1, m, width, height, eps);
+    return crisp__rational_block_px_depth(&one, sigmas, 1, 1, 1, m, width, height, eps, depth);
 }
 
 static int forced_cmp(const crisp__forced *a, const crisp__forced *b)
@@ -363,6 +408,9 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
         /* Small on screen (issue 12): a hull within eps needs no SLEFE (tau 1, see
          * hull_extent_px). */
         double hull = hull_extent_px(&sub, c->plan->view_proj, c->plan->width, c->plan->height);
+        /* (too_large_on_screen's extents are the hull's before its allowance: within this, the
+         * leaf is not too large) */
+        int fits = hull <= CRISP_PLAN_MAX_LEAF_PX;
         /* Flat enough on screen for any tessellation (flat_bound): tau 1, like a small hull. */
         /* (the sigma's of the whole patch and of its quarters depend on the weights only: they
          * are kept with the patch groups, formed once per scene) */
@@ -373,11 +421,20 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
                                                               ix + 2 * iy, &sub)
                                : NULL
                 : NULL;
-        double flat = hull > c->eps && !known ? flat_bound(&sub, sigmas, c->plan->view_proj,
-                                                           c->plan->width, c->plan->height, c->eps)
-                      : hull > c->eps         ? INFINITY
-                                              : 0;
-        if (hull > c->eps && flat <= c->eps) hull = 0;
+        double depth_dev[2] = {INFINITY, 0};
+        double flat = hull > c->eps && !known
+                          ? flat_bound(&sub, sigmas, c->plan->view_proj, c->plan->width,
+                                       c->plan->height, c->eps, depth_dev)
+                      : hull > c->eps ? INFINITY
+                                      : 0;
+        /* Level 1 is then enough along the view too where the same bound's W part is within
+         * eps pixels' world size at the surface's least W (as patch_groups.c's patch_flat_ok
+         * takes it): the depth bound below is not needed. */
+        int depth_ok = 0;
+        if (hull > c->eps && flat <= c->eps) {
+            hull = 0;
+            depth_ok = depth_dev[0] <= c->eps * c->depth_scale * depth_dev[1];
+        }
         int box_split = box && hull > c->eps && depth < c->plan->max_depth;
         /* A rational sub-patch whose flat bound is within 4 eps: one split is predicted to give
          * four tau-1 leaves (8 triangles, no more than any level above 1 draws), so split without
@@ -479,9 +536,10 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
             return;
         } else {
             /* Within eps along the view too (issue 13, depth_bound.c). */
-            tau = crisp__depth_tess_level_kw(&sub, c->plan->view_proj, c->plan->width,
-                                             c->plan->height, c->eps, tau, CRISP_TESS_MAX_LEVEL,
-                                             info.kw);
+            if (!(depth_ok && tau == 1))
+                tau = crisp__depth_tess_level_kw(&sub, c->plan->view_proj, c->plan->width,
+                                                 c->plan->height, c->eps, tau, CRISP_TESS_MAX_LEVEL,
+                                                 info.kw);
             if (tau > CRISP_TESS_MAX_LEVEL && depth < c->plan->max_depth) {
                 split = 1;
             } else {
@@ -492,8 +550,8 @@ static void build_cell(build_state *b, int32_t node, int depth, int ix, int iy, 
                 leaf.tau = (uint16_t)tau;
                 leaf.culled = 0;
                 if (depth < c->plan->max_depth &&
-                    (too_large_on_screen(&sub, c->plan->view_proj, c->plan->width,
-                                         c->plan->height) ||
+                    ((!fits && too_large_on_screen(&sub, c->plan->view_proj, c->plan->width,
+                                                   c->plan->height)) ||
                      is_forced(b, b->patch, depth, ix, iy)))
                     split = 1;
             }
@@ -1293,6 +1351,7 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
     /* Cull against the frustum widened by 2 px so patches touching the border keep their edges. */
     tc.gx = 1 + 4.0 / cam->width;
     tc.gy = 1 + 4.0 / cam->height;
+    tc.depth_scale = crisp__depth_px_scale(m.view_proj, cam->width, cam->height);
     size_t np = sc->patch_count ? sc->patch_count : 1;
     plan->no_groups = desc && desc->no_groups;
     size_t old_cap = plan->tree_frame_cap;

@@ -84,7 +84,7 @@ typedef struct map3 {
     double a[3][4];
 } map3;
 
-static void apply(const map3 *A, const double P[3], double out[3])
+static inline void apply(const map3 *A, const double P[3], double out[3])
 {
     for (int r = 0; r < 3; r++)
         out[r] = A->a[r][0] * P[0] + A->a[r][1] * P[1] + A->a[r][2] * P[2] + A->a[r][3];
@@ -385,10 +385,25 @@ double crisp__rational_block_px(const crisp_scene_patch *first, uint32_t stride,
     return crisp__rational_block_px_sigmas(first, NULL, stride, nu, nv, m, width, height, accept);
 }
 
-double crisp__rational_block_px_sigmas(const crisp_scene_patch *first, const double *sigmas,
-                                       uint32_t stride, uint32_t nu, uint32_t nv, crisp_mat4 m,
-                                       int width, int height, double accept)
+/* The W part of the bound from the deviations d (finish's direct form, its W coordinate): every
+ * triangle point's clip W is within depth[0] of the surface point's at the same parameters, and
+ * the surface's clip W is at least depth[1] (L's least W, the corners', plus the least
+ * deviation). */
+static void depth_part(const double C[4][3], const block_dev *d, double depth[2])
 {
+    double wmin = INFINITY;
+    for (int k = 0; k < 4; k++)
+        wmin = dmin(wmin, C[k][2]);
+    double tw = 0.25 * fabs(C[0][2] - C[1][2] - C[2][2] + C[3][2]);
+    depth[0] = (d->hi[2] - d->lo[2] + 2 * d->r[2] + tw) * (1 + 1e-9);
+    depth[1] = (wmin + d->lo[2] - d->r[2]) * (1 - 1e-9);
+}
+
+static double block_px(const crisp_scene_patch *first, const double *sigmas, uint32_t stride,
+                       uint32_t nu, uint32_t nv, crisp_mat4 m, int width, int height, double accept,
+                       double depth[2])
+{
+    if (depth) depth[0] = INFINITY, depth[1] = 0;
     const crisp_bezier_patch *cp[4];
     corner_patches(first, stride, nu, nv, cp);
     double P[4][3], C[4][3];
@@ -407,9 +422,27 @@ double crisp__rational_block_px_sigmas(const crisp_scene_patch *first, const dou
     if (!block_error(first, sigmas, stride, nu, nv, &A, (const double(*)[3])C, sr, &d))
         return INFINITY;
     double e = finish((const double(*)[3])C, &d, width, height);
-    if ((accept > 0 && e <= accept) || (d.r[0] == 0 && d.r[1] == 0 && d.r[2] == 0)) return e;
+    if ((accept > 0 && e <= accept) || (d.r[0] == 0 && d.r[1] == 0 && d.r[2] == 0)) {
+        if (depth) depth_part((const double(*)[3])C, &d, depth);
+        return e;
+    }
     block_refine(first, sigmas, stride, nu, nv, (const double(*)[3])C, &d);
+    if (depth) depth_part((const double(*)[3])C, &d, depth);
     return dmin(e, finish((const double(*)[3])C, &d, width, height));
+}
+
+double crisp__rational_block_px_sigmas(const crisp_scene_patch *first, const double *sigmas,
+                                       uint32_t stride, uint32_t nu, uint32_t nv, crisp_mat4 m,
+                                       int width, int height, double accept)
+{
+    return block_px(first, sigmas, stride, nu, nv, m, width, height, accept, NULL);
+}
+
+double crisp__rational_block_px_depth(const crisp_scene_patch *first, const double *sigmas,
+                                      uint32_t stride, uint32_t nu, uint32_t nv, crisp_mat4 m,
+                                      int width, int height, double accept, double depth[2])
+{
+    return block_px(first, sigmas, stride, nu, nv, m, width, height, accept, depth);
 }
 
 /* The largest screen extent (pixels, max of x and y) of the patch's projected control points,

@@ -54,6 +54,15 @@ double crisp__rational_block_px_sigmas(const crisp_scene_patch *first, const dou
                                        uint32_t stride, uint32_t nu, uint32_t nv, crisp_mat4 m,
                                        int width, int height, double accept);
 
+/* crisp__rational_block_px_sigmas, and the W part of the same bound (the direct form of its
+ * finish, W coordinate, as patch_groups.c's patch_flat_ok takes it): every triangle point's clip W
+ * (the depth the rasterizer writes) is within depth[0] of the surface point's at the same
+ * parameters, and the surface's clip W is at least depth[1]; INFINITY and 0 where the bound is
+ * not finite. */
+double crisp__rational_block_px_depth(const crisp_scene_patch *first, const double *sigmas,
+                                      uint32_t stride, uint32_t nu, uint32_t nv, crisp_mat4 m,
+                                      int width, int height, double accept, double depth[2]);
+
 /* The block bound's last step on its own (patch_groups.c keeps the deviations per block): C the
  * block's Euclidean corners in clip coordinates x, y, w; every control point's deviation from the
  * bilinear through them, per coordinate, in [lo, hi] (lo <= 0 <= hi); the reparametrisation term

@@ -377,13 +377,126 @@ static void test_blocks(void **state)
     assert_true(n > TRIALS / 2);
 }
 
+/* Largest |T_w - S_w| (clip W: the depth the rasterizer writes) between the triangle with vertices
+ * at block parameters st[0..2] and the surface at the same parameters, over N x N barycentric
+ * samples; the least surface W into *wmin. */
+static double triangle_depth(const block *b, crisp_mat4 vp, const double st[3][2], int N,
+                             double *wmin)
+{
+    double V[3][4], worst = 0;
+    for (int k = 0; k < 3; k++)
+        block_clip(b, vp, st[k][0], st[k][1], V[k]);
+    for (int i = 0; i <= N; i++)
+        for (int j = 0; i + j <= N; j++) {
+            double l[3] = {(double)i / N, (double)j / N, (double)(N - i - j) / N};
+            double S = 0, T = 0, hw = 0, g[4];
+            for (int k = 0; k < 3; k++) {
+                S += l[k] * st[k][0], T += l[k] * st[k][1];
+                hw += l[k] * V[k][3];
+            }
+            block_clip(b, vp, S, T, g);
+            worst = fmax(worst, fabs(hw - g[3]));
+            *wmin = fmin(*wmin, g[3]);
+        }
+    return worst;
+}
+
+/* block_distance's triangles, along the view. */
+static double block_depth(const block *b, crisp_mat4 vp, double *wmin)
+{
+    double worst = 0;
+    static const double quad[4][3][2] = {{{0, 0}, {1, 0}, {1, 1}},
+                                         {{0, 0}, {1, 1}, {0, 1}},
+                                         {{0, 0}, {1, 0}, {0, 1}},
+                                         {{1, 0}, {1, 1}, {0, 1}}};
+    for (int k = 0; k < 4; k++)
+        worst = fmax(worst, triangle_depth(b, vp, quad[k], 24, wmin));
+    for (int k = 0; k < 12; k++) {
+        double st[3][2];
+        for (int v = 0; v < 3; v++)
+            st[v][0] = rnd(), st[v][1] = rnd();
+        worst = fmax(worst, triangle_depth(b, vp, (const double(*)[2])st, 12, wmin));
+    }
+    crisp_tess_levels lv = {{1 + (int)(4 * rnd()), 1 + (int)(4 * rnd())}, {0}};
+    for (int k = 0; k < 4; k++)
+        lv.outer[k] = 1 + (int)(6 * rnd());
+    size_t nv, nt;
+    assert_int_equal(crisp_tess_mesh_counts(&lv, &nv, &nt), CRISP_OK);
+    double *st = malloc(sizeof(double) * 2 * nv);
+    uint32_t *tri = malloc(sizeof(uint32_t) * 3 * nt);
+    crisp_tess_mesh_generate(&lv, st, tri, 0);
+    for (size_t k = 0; k < nt; k++) {
+        double t3[3][2];
+        for (int v = 0; v < 3; v++)
+            t3[v][0] = st[2 * tri[3 * k + v]], t3[v][1] = st[2 * tri[3 * k + v] + 1];
+        worst = fmax(worst, triangle_depth(b, vp, (const double(*)[2])t3, 8, wmin));
+    }
+    free(st);
+    free(tri);
+    return worst;
+}
+
+/* The bound's W part (crisp__rational_block_px_depth, which the planner takes as a level-1
+ * leaf's depth bound, quadtree.c build_cell): on random patches and cameras, every triangle's
+ * clip W within depth[0] of the surface's at the same parameters and the surface's W at least
+ * depth[1], at dense samples, for every accept (the coarse and the halved sigma's each give it);
+ * the screen bound is crisp__rational_block_px_sigmas's number. */
+static void test_depth_part(void **state)
+{
+    (void)state;
+    enum { TRIALS = 300 };
+    double tight[TRIALS], margin[TRIALS];
+    int n = 0;
+    double cpw[6 * 6 * 4];
+    for (int trial = 0; trial < TRIALS; trial++) {
+        crisp_bezier_patch p;
+        int du = 1 + (int)(5 * rnd()), dv = 1 + (int)(5 * rnd());
+        random_patch(&p, cpw, du, dv, 0.5 * rnd());
+        crisp_mat4 vp;
+        int width, height;
+        random_view(exp(log(4.0) + rnd() * log(300.0)), vp, &width, &height);
+        crisp_scene_patch sp = {.bez = p};
+        double sig[CRISP__SIGMA_STRIDE];
+        crisp__rational_sigmas(&p, sig);
+        double full = crisp__rational_block_px_sigmas(&sp, sig, 1, 1, 1, vp, width, height, 0);
+        if (!isfinite(full)) continue;
+        block b = {&sp, 1, 1, 1};
+        double wmin = INFINITY, d = block_depth(&b, vp, &wmin), loosest = 0, least = INFINITY;
+        for (int k = 0; k < 3; k++) {
+            double accept = k == 0 ? 0 : full * (k == 1 ? 0.5 : 2.0), depth[2];
+            double e =
+                crisp__rational_block_px_depth(&sp, sig, 1, 1, 1, vp, width, height, accept, depth);
+            double want =
+                crisp__rational_block_px_sigmas(&sp, sig, 1, 1, 1, vp, width, height, accept);
+            if (!(e == want))
+                fail_msg("patch %d, accept %g: %.17g with the depth part, %.17g without", trial,
+                         accept, e, want);
+            if (d > depth[0] || wmin < depth[1])
+                fail_msg("patch %d (%d x %d), accept %g: triangles' W %g from the surface's "
+                         "(bound %g), least W %g (bound %g)",
+                         trial, du, dv, accept, d, depth[0], wmin, depth[1]);
+            loosest = fmax(loosest, depth[0]);
+            least = fmin(least, depth[1]);
+        }
+        tight[n] = d / loosest;
+        margin[n++] = least / wmin;
+    }
+    qsort(tight, (size_t)n, sizeof *tight, cmp_double);
+    qsort(margin, (size_t)n, sizeof *margin, cmp_double);
+    printf(
+        "W part on %d rational patches (weights 0.3..3): tightness (sampled |T_w - S_w| / bound) "
+        "median %.2f, 90%% %.2f, max %.2f; least W bound / sampled: median %.4f, min %.4f\n",
+        n, tight[n / 2], tight[n * 9 / 10], tight[n - 1], margin[n / 2], margin[0]);
+    assert_true(n > TRIALS / 2);
+    assert_true(tight[n - 1] > 0.2); /* not vacuous */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_reparam),
-        cmocka_unit_test(test_patches),
-        cmocka_unit_test(test_levels),
-        cmocka_unit_test(test_blocks),
+        cmocka_unit_test(test_reparam),    cmocka_unit_test(test_patches),
+        cmocka_unit_test(test_levels),     cmocka_unit_test(test_blocks),
+        cmocka_unit_test(test_depth_part),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
