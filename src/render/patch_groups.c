@@ -792,9 +792,11 @@ static int patch_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
     double C[4][3], wmin, xmax, ymax, lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0}, sigma[3], r[3];
     if (!clip_corners(cw, m, C, &wmin, &xmax, &ymax)) return 0;
     /* Every control point's clip deviation from the bilinear through C at its grid parameters
-     * (i / du, j / dv): L along a row of constant t is linear in s, between its ends e0, e1. */
+     * (i / du, j / dv): L along a row of constant t is linear in s, between its ends e0, e1.
+     * The middle row first (the ranges do not depend on the order; see the early refusal). */
     double mag = 0, pmag = 1;
-    for (int jj = 0; jj <= p->dv; jj++) {
+    for (int k = 0; k <= p->dv; k++) {
+        int jj = k == 0 ? p->dv / 2 : k <= p->dv / 2 ? k - 1 : k;
         double t = (double)jj / p->dv, e0[3], e1[3];
         for (int a = 0; a < 3; a++) {
             e0[a] = (1 - t) * C[0][a] + t * C[2][a], e1[a] = (1 - t) * C[1][a] + t * C[3][a];
@@ -814,6 +816,14 @@ static int patch_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
                 mag = dmax(mag, fabs(x));
             }
         }
+        /* Refused early where the rows so far already put the bound beyond eps: both forms in
+         * finish are at least max(-lo, hi) / w_min in pixels per coordinate (lo <= 0 <= hi only
+         * widen with more points, the allowance and r; the factor: their roundings), so the
+         * decision is the full scan's. */
+        if (k < p->dv &&
+            dmax(dmax(-lo[0], hi[0]) * c->width, dmax(-lo[1], hi[1]) * c->height) * 0.5 >
+                c->eps * wmin * (1 + 1e-6))
+            return 0;
     }
     /* the rounding of both sides: each within 1e-12 of the largest magnitude involved (the
      * terms of the map's rows, the mapped points, the corners) */
