@@ -275,16 +275,25 @@ static int block_error(const crisp_scene_patch *first, const double *sigmas, uin
         for (uint32_t iu = 0; iu < nu; iu++) {
             const crisp_bezier_patch *b = &first[jv * stride + iu].bez;
             double sigma[3], plo[3] = {0, 0, 0}, phi[3] = {0, 0, 0};
-            if (b->du < 1 || b->dv < 1) return 0;
+            if (b->du < 1 || b->dv < 1 || b->du > CRISP_MAX_DEGREE) return 0;
+            /* L(s, t) = (1 - t) bot(s) + t top(s): the two rows' terms per column, formed once
+             * (the same operations as the whole expression, so the same numbers) */
+            double bot[CRISP_MAX_DEGREE + 1][3], top[CRISP_MAX_DEGREE + 1][3];
+            for (int i = 0; i <= b->du; i++) {
+                double s = (iu + (double)i / b->du) / nu;
+                for (int a = 0; a < 3; a++) {
+                    bot[i][a] = (1 - s) * C[0][a] + s * C[1][a];
+                    top[i][a] = (1 - s) * C[2][a] + s * C[3][a];
+                }
+            }
             for (int j = 0; j <= b->dv; j++) {
                 double t = (jv + (double)j / b->dv) / nv;
                 for (int i = 0; i <= b->du; i++) {
-                    double s = (iu + (double)i / b->du) / nu, P[3], x[3];
+                    double P[3], x[3];
                     if (!euclid(b->cpw + 4 * (j * (b->du + 1) + i), P)) return 0;
                     apply(A, P, x);
                     for (int a = 0; a < 3; a++) {
-                        double bl = (1 - t) * ((1 - s) * C[0][a] + s * C[1][a]) +
-                                    t * ((1 - s) * C[2][a] + s * C[3][a]);
+                        double bl = (1 - t) * bot[i][a] + t * top[i][a];
                         /* a relative allowance for the rounding of both sides */
                         double slack = 1e-12 * (fabs(x[a]) + fabs(bl));
                         plo[a] = dmin(plo[a], x[a] - bl - slack);

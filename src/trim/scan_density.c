@@ -107,12 +107,17 @@ static void derivative_elevated(const double *c, int du, int dv, int dir, double
     for (int l = 0; l < lines; l++) {
         const double *p = dir ? c + l : c + (size_t)l * (du + 1);
         double *q = dir ? dest + l : dest + (size_t)l * (du + 1);
-        for (int j = 0; j <= d; j++) {
-            double e = 0.0;
-            if (j > 0) e += j * (p[j * step] - p[(j - 1) * step]);
-            if (j < d) e += (d - j) * (p[(j + 1) * step] - p[j * step]);
-            q[j * step] = e;
+        if (d == 0) {
+            q[0] = 0.0;
+            continue;
         }
+        /* the ends apart (no branches inside; the same sums, 0 + a [+ b], so the same numbers) */
+        q[0] = 0.0 + d * (p[step] - p[0]);
+        for (int j = 1; j < d; j++) {
+            double e = 0.0 + j * (p[j * step] - p[(j - 1) * step]);
+            q[j * step] = e + (d - j) * (p[(j + 1) * step] - p[j * step]);
+        }
+        q[d * step] = 0.0 + d * (p[d * step] - p[(d - 1) * step]);
     }
 }
 
