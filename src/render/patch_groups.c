@@ -571,12 +571,22 @@ static int classify(const double *box, crisp_mat4 m, double gx, double gy, int w
     *extent = INFINITY;
     int out[6] = {1, 1, 1, 1, 1, 1}, front = 1;
     double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    /* Each clip coordinate of a corner is ((m_0r p_0 + m_1r p_1) + m_2r p_2) + m_3r: the
+     * products per axis and side, and the first sums per (x, y) side pair, are formed once for
+     * the eight corners (the same operations on the same operands, so the same numbers). */
+    double t[4][3][2], xy[4][4];
+    for (int r = 0; r < 4; r++) {
+        for (int a = 0; a < 3; a++)
+            t[r][a][0] = m[a][r] * box[a], t[r][a][1] = m[a][r] * box[3 + a];
+        for (int k = 0; k < 4; k++)
+            xy[r][k] = t[r][0][k & 1] + t[r][1][(k >> 1) & 1];
+    }
     for (int k = 0; k < 8; k++) {
-        double p[3] = {box[(k & 1) ? 3 : 0], box[(k & 2) ? 4 : 1], box[(k & 4) ? 5 : 2]};
-        double x = m[0][0] * p[0] + m[1][0] * p[1] + m[2][0] * p[2] + m[3][0];
-        double y = m[0][1] * p[0] + m[1][1] * p[1] + m[2][1] * p[2] + m[3][1];
-        double z = m[0][2] * p[0] + m[1][2] * p[1] + m[2][2] * p[2] + m[3][2];
-        double w = m[0][3] * p[0] + m[1][3] * p[1] + m[2][3] * p[2] + m[3][3];
+        int z2 = (k >> 2) & 1;
+        double x = xy[0][k & 3] + t[0][2][z2] + m[3][0];
+        double y = xy[1][k & 3] + t[1][2][z2] + m[3][1];
+        double z = xy[2][k & 3] + t[2][2][z2] + m[3][2];
+        double w = xy[3][k & 3] + t[3][2][z2] + m[3][3];
         out[0] &= x > gx * w;
         out[1] &= x < -gx * w;
         out[2] &= y > gy * w;
