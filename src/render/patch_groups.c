@@ -826,11 +826,12 @@ static int patch_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const gro
                 mag = dmax(mag, fabs(x));
             }
         }
-        /* Refused early where the rows so far already put the bound beyond eps: both forms in
+        /* Refused early where the middle row already puts the bound beyond eps: both forms in
          * finish are at least max(-lo, hi) / w_min in pixels per coordinate (lo <= 0 <= hi only
          * widen with more points, the allowance and r; the factor: their roundings), so the
-         * decision is the full scan's. */
-        if (k < p->dv &&
+         * decision is the full scan's. (Once: a test after every row cost the patches that pass
+         * more than it saved, gen50 default +0.8%.) */
+        if (k == 0 && p->dv > 0 &&
             dmax(dmax(-lo[0], hi[0]) * c->width, dmax(-lo[1], hi[1]) * c->height) * 0.5 >
                 c->eps * wmin * (1 + 1e-6))
             return 0;
