@@ -1046,14 +1046,14 @@ typedef struct quad_planes {
     v4d q0[CRISP_RASTER_ATTRS], qx[CRISP_RASTER_ATTRS]; /* attribute k's, on four lanes */
 } quad_planes;
 
-/* row_mask with the 1/W and depth test four lanes at a time (the same IEEE operations per lane:
- * base + gx (dx0 + q); the compare ordered and signalling, as _mm_cmpgt_pd). */
+/* The depth half of row_mask_avx and row_mask_avx2: 1/W of the row's eight lanes into iwv and
+ * the lanes where it is above the stored 1/W (base + gx (dx0 + q); the compare ordered and
+ * signalling, as _mm_cmpgt_pd). */
 __attribute__((target("avx"))) static inline unsigned
-row_mask_avx(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base, double gx,
-             double dx0, const double *stored, double *iwv)
+depth_mask_avx(double base, double gx, double dx0, const double *stored, double *iwv)
 {
     static const double lane[BLOCK] = {0, 1, 2, 3, 4, 5, 6, 7};
-    unsigned m = 0, neg = 0;
+    unsigned m = 0;
     const __m256d vb = _mm256_set1_pd(base), vg = _mm256_set1_pd(gx), vd = _mm256_set1_pd(dx0);
     UNROLL(2)
     for (int h = 0; h < BLOCK / 4; h++) {
@@ -1064,6 +1064,16 @@ row_mask_avx(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, doub
                  _mm256_cmp_pd(iw, _mm256_loadu_pd(stored + 4 * h), _CMP_GT_OS))
              << (4 * h);
     }
+    return m;
+}
+
+/* row_mask with the 1/W and depth test four lanes at a time (depth_mask_avx: the same IEEE
+ * operations per lane). */
+__attribute__((target("avx"))) static inline unsigned
+row_mask_avx(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base, double gx,
+             double dx0, const double *stored, double *iwv)
+{
+    unsigned m = depth_mask_avx(base, gx, dx0, stored, iwv), neg = 0;
     if (!full) {
         const __m128i e0 = _mm_set1_epi64x(e[0]), e1 = _mm_set1_epi64x(e[1]),
                       e2 = _mm_set1_epi64x(e[2]);
@@ -1084,18 +1094,7 @@ __attribute__((target("avx2"))) static inline unsigned
 row_mask_avx2(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base, double gx,
               double dx0, const double *stored, double *iwv)
 {
-    static const double lane[BLOCK] = {0, 1, 2, 3, 4, 5, 6, 7};
-    unsigned m = 0, neg = 0;
-    const __m256d vb = _mm256_set1_pd(base), vg = _mm256_set1_pd(gx), vd = _mm256_set1_pd(dx0);
-    UNROLL(2)
-    for (int h = 0; h < BLOCK / 4; h++) {
-        __m256d q = _mm256_loadu_pd(lane + 4 * h);
-        __m256d iw = _mm256_add_pd(vb, _mm256_mul_pd(vg, _mm256_add_pd(vd, q)));
-        _mm256_storeu_pd(iwv + 4 * h, iw);
-        m |= (unsigned)_mm256_movemask_pd(
-                 _mm256_cmp_pd(iw, _mm256_loadu_pd(stored + 4 * h), _CMP_GT_OS))
-             << (4 * h);
-    }
+    unsigned m = depth_mask_avx(base, gx, dx0, stored, iwv), neg = 0;
     if (!full) {
         const __m256i e0 = _mm256_set1_epi64x(e[0]), e1 = _mm256_set1_epi64x(e[1]),
                       e2 = _mm256_set1_epi64x(e[2]);
