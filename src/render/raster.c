@@ -939,6 +939,23 @@ static int rect_decision(const raster_ctx *c, const setup_tri *st, int x0, int y
 }
 
 #if defined(__SSE2__)
+/* The edge half of row_mask and row_mask_avx: bit q set where lane q is outside an edge (the
+ * exact edge values e at lane 0 plus lane_step, the sign bits of their OR), two lanes at a time. */
+static inline unsigned edge_neg_sse2(const int64_t e[3], __m128i lane_step[3][BLOCK / 2])
+{
+    unsigned neg = 0;
+    const __m128i e0 = _mm_set1_epi64x(e[0]), e1 = _mm_set1_epi64x(e[1]),
+                  e2 = _mm_set1_epi64x(e[2]);
+    UNROLL(4)
+    for (int h = 0; h < BLOCK / 2; h++) {
+        __m128i o = _mm_or_si128(
+            _mm_or_si128(_mm_add_epi64(e0, lane_step[0][h]), _mm_add_epi64(e1, lane_step[1][h])),
+            _mm_add_epi64(e2, lane_step[2][h]));
+        neg |= (unsigned)_mm_movemask_pd(_mm_castsi128_pd(o)) << (2 * h);
+    }
+    return neg;
+}
+
 /* A block row of a one-sample target, BLOCK lanes from its first pixel, two at a time: bit q
  * set where lane q is covered (full: every lane; else the exact edge values e at lane 0 plus
  * lane_step, sign bits of their OR) and its 1/W, base + gx (dx0 + q) (stored in iwv), is above
@@ -948,7 +965,7 @@ static inline unsigned row_mask(const int64_t e[3], __m128i lane_step[3][BLOCK /
                                 double *iwv)
 {
     static const double lane[BLOCK] = {0, 1, 2, 3, 4, 5, 6, 7};
-    unsigned m = 0, neg = 0;
+    unsigned m = 0;
     const __m128d vb = _mm_set1_pd(base), vg = _mm_set1_pd(gx), vd = _mm_set1_pd(dx0);
     UNROLL(4)
     for (int h = 0; h < BLOCK / 2; h++) {
@@ -957,18 +974,7 @@ static inline unsigned row_mask(const int64_t e[3], __m128i lane_step[3][BLOCK /
         _mm_storeu_pd(iwv + 2 * h, iw);
         m |= (unsigned)_mm_movemask_pd(_mm_cmpgt_pd(iw, _mm_loadu_pd(stored + 2 * h))) << (2 * h);
     }
-    if (!full) {
-        const __m128i e0 = _mm_set1_epi64x(e[0]), e1 = _mm_set1_epi64x(e[1]),
-                      e2 = _mm_set1_epi64x(e[2]);
-        UNROLL(4)
-        for (int h = 0; h < BLOCK / 2; h++) {
-            __m128i o = _mm_or_si128(_mm_or_si128(_mm_add_epi64(e0, lane_step[0][h]),
-                                                  _mm_add_epi64(e1, lane_step[1][h])),
-                                     _mm_add_epi64(e2, lane_step[2][h]));
-            neg |= (unsigned)_mm_movemask_pd(_mm_castsi128_pd(o)) << (2 * h);
-        }
-    }
-    return m & ~neg;
+    return full ? m : m & ~edge_neg_sse2(e, lane_step);
 }
 #endif
 
@@ -1073,19 +1079,8 @@ __attribute__((target("avx"))) static inline unsigned
 row_mask_avx(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base, double gx,
              double dx0, const double *stored, double *iwv)
 {
-    unsigned m = depth_mask_avx(base, gx, dx0, stored, iwv), neg = 0;
-    if (!full) {
-        const __m128i e0 = _mm_set1_epi64x(e[0]), e1 = _mm_set1_epi64x(e[1]),
-                      e2 = _mm_set1_epi64x(e[2]);
-        UNROLL(4)
-        for (int h = 0; h < BLOCK / 2; h++) {
-            __m128i o = _mm_or_si128(_mm_or_si128(_mm_add_epi64(e0, lane_step[0][h]),
-                                                  _mm_add_epi64(e1, lane_step[1][h])),
-                                     _mm_add_epi64(e2, lane_step[2][h]));
-            neg |= (unsigned)_mm_movemask_pd(_mm_castsi128_pd(o)) << (2 * h);
-        }
-    }
-    return m & ~neg;
+    unsigned m = depth_mask_avx(base, gx, dx0, stored, iwv);
+    return full ? m : m & ~edge_neg_sse2(e, lane_step);
 }
 
 /* row_mask_avx with the edge tests four lanes at a time too (AVX2's 64-bit integer lanes; the
