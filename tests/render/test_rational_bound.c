@@ -248,6 +248,28 @@ static void test_patches(void **state)
     assert_true(n > TRIALS / 2);
 }
 
+/* The triangles of the tessellation mesh at levels lv, each as its three (s, t) corners;
+ * *count of them (free the array). */
+static double (*mesh_triangles(const crisp_tess_levels *lv, size_t *count))[3][2]
+{
+    size_t nv, nt;
+    assert_int_equal(crisp_tess_mesh_counts(lv, &nv, &nt), CRISP_OK);
+    double *st = malloc(sizeof(double) * 2 * nv);
+    uint32_t *tri = malloc(sizeof(uint32_t) * 3 * nt);
+    double(*t3)[3][2] = malloc(sizeof *t3 * nt);
+    assert_non_null(st);
+    assert_non_null(tri);
+    assert_non_null(t3);
+    crisp_tess_mesh_generate(lv, st, tri, 0);
+    for (size_t k = 0; k < nt; k++)
+        for (int v = 0; v < 3; v++)
+            t3[k][v][0] = st[2 * tri[3 * k + v]], t3[k][v][1] = st[2 * tri[3 * k + v] + 1];
+    free(st);
+    free(tri);
+    *count = nt;
+    return t3;
+}
+
 /* Leaf meshes at level tau (edge levels tau..3 tau): the windowed level bound holds. */
 static void test_levels(void **state)
 {
@@ -269,22 +291,14 @@ static void test_levels(void **state)
         crisp_tess_levels lv = {{tau, tau}, {0}};
         for (int k = 0; k < 4; k++)
             lv.outer[k] = tau + (int)(2 * tau * rnd());
-        size_t nv, nt;
-        assert_int_equal(crisp_tess_mesh_counts(&lv, &nv, &nt), CRISP_OK);
-        double *st = malloc(sizeof(double) * 2 * nv);
-        uint32_t *tri = malloc(sizeof(uint32_t) * 3 * nt);
-        crisp_tess_mesh_generate(&lv, st, tri, 0);
+        size_t nt;
+        double(*t3)[3][2] = mesh_triangles(&lv, &nt);
         crisp_scene_patch sp = {.bez = p};
         block b = {&sp, 1, 1, 1};
         double d = 0;
-        for (size_t k = 0; k < nt; k++) {
-            double t3[3][2];
-            for (int v = 0; v < 3; v++)
-                t3[v][0] = st[2 * tri[3 * k + v]], t3[v][1] = st[2 * tri[3 * k + v] + 1];
-            d = fmax(d, triangle_distance(&b, vp, width, height, (const double(*)[2])t3, 10));
-        }
-        free(st);
-        free(tri);
+        for (size_t k = 0; k < nt; k++)
+            d = fmax(d, triangle_distance(&b, vp, width, height, (const double(*)[2])t3[k], 10));
+        free(t3);
         if (d > bound)
             fail_msg("patch %d at level %d (edges %d %d %d %d): mesh %g px from the surface, "
                      "bound %g px",
@@ -420,19 +434,11 @@ static double block_depth(const block *b, crisp_mat4 vp, double *wmin)
     crisp_tess_levels lv = {{1 + (int)(4 * rnd()), 1 + (int)(4 * rnd())}, {0}};
     for (int k = 0; k < 4; k++)
         lv.outer[k] = 1 + (int)(6 * rnd());
-    size_t nv, nt;
-    assert_int_equal(crisp_tess_mesh_counts(&lv, &nv, &nt), CRISP_OK);
-    double *st = malloc(sizeof(double) * 2 * nv);
-    uint32_t *tri = malloc(sizeof(uint32_t) * 3 * nt);
-    crisp_tess_mesh_generate(&lv, st, tri, 0);
-    for (size_t k = 0; k < nt; k++) {
-        double t3[3][2];
-        for (int v = 0; v < 3; v++)
-            t3[v][0] = st[2 * tri[3 * k + v]], t3[v][1] = st[2 * tri[3 * k + v] + 1];
-        worst = fmax(worst, triangle_depth(b, vp, (const double(*)[2])t3, 8, wmin));
-    }
-    free(st);
-    free(tri);
+    size_t nt;
+    double(*t3)[3][2] = mesh_triangles(&lv, &nt);
+    for (size_t k = 0; k < nt; k++)
+        worst = fmax(worst, triangle_depth(b, vp, (const double(*)[2])t3[k], 8, wmin));
+    free(t3);
     return worst;
 }
 
