@@ -20,6 +20,9 @@ typedef struct crisp__splat_scratch {
     size_t blocks_cap;
     uint32_t *band_start, *band_list, *band_fill; /* per band of rows: its ranges (list indices) */
     size_t band_start_cap, band_list_cap, band_fill_cap;
+    uint32_t *chunk_first; /* per range drawn: its first chunk (chunks of SPLAT_CHUNK splats) */
+    double *chunk_box;     /* per chunk: its box and largest 1 / W, as box */
+    size_t chunk_first_cap, chunk_box_cap;
 } crisp__splat_scratch;
 
 void crisp__splat_scratch_free(crisp__splat_scratch *s);
@@ -35,9 +38,10 @@ typedef struct crisp__splat_draw_desc {
 
 typedef struct crisp__splat_draw_stats {
     size_t ranges, splats, hidden_ranges, samples_written;
-    size_t culled; /* a range skipped in a band of rows whose block depth hides it there */
-    int box[4];    /* the target's 4x4 blocks the drawn squares can reach: bx0, by0, bx1, by1
-                      (bx0 > bx1: none) */
+    size_t culled;        /* a range skipped in a band of rows whose block depth hides it there */
+    size_t chunks_culled; /* a chunk of a range (splat_raster.c) skipped so */
+    int box[4];           /* the target's 4x4 blocks the drawn squares can reach: bx0, by0, bx1, by1
+                             (bx0 > bx1: none) */
 } crisp__splat_draw_stats;
 
 /* Draw the plan's splat ranges into t (its pending clear done: after a crisp__raster_draw):
