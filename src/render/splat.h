@@ -9,7 +9,8 @@
  * The guarantee a set carries: every point of the trimmed face (its surface over the (u, v)
  * that crisp_trim_exact_classify puts inside its loops; the whole domain for a face without
  * loops) lies within `radius` (Euclidean, model units) of the position of one of its splats, and
- * every splat is a point of the trimmed face (on it or on its trim curves). The radius is proven
+ * every splat is a point of the trimmed face (on it or on its trim curves); more finely, within
+ * the rho of some splat (each splat's own cell radius). The radius is proven
  * (control-net convex hulls), not estimated; tests check it at dense samples. */
 #ifndef CRISP_RENDER_SPLAT_H
 #define CRISP_RENDER_SPLAT_H
@@ -25,6 +26,8 @@ typedef struct crisp_splat {
     float p[3];  /* position minus the set's origin (model units) */
     float n[3];  /* unit normal of the surface there (crisp_surface_normal) */
     float uv[2]; /* surface parameters of the sample */
+    float rho;   /* the radius of its cell: every point of the trimmed face lies within the rho
+                    of some splat of the set (at most the set's radius rounded up to a float) */
 } crisp_splat;
 
 typedef struct crisp_splat_set {

@@ -29,7 +29,9 @@
  * refine along the curves.
  * The bounds are tested with a margin for rounding and for storing p as float offsets from the
  * origin (set->origin, the face's box centre), so the stored floats meet the radius as well.
- * set->radius is the largest R_x met plus that margin (at most the radius asked).
+ * set->radius is the largest R_x met plus that margin (at most the radius asked); each splat's
+ * rho is its own cell's R_x plus the margin, so every point of the trimmed face lies within the
+ * rho of some splat (a store can thin a set with it: splat_store.c).
  * Cells of a patch split until 2^-24 of the patch (then CRISP_ERR_NUMERIC); max_count bounds the
  * splats and (64 max_count + 2^20) the cells visited (CRISP_ERR_LIMIT).
  */
@@ -66,8 +68,9 @@ typedef struct splat_ctx {
     double piece_box[4]; /* umin, umax, vmin, vmax of every piece's control points */
     double (*boxes)[4];  /* per piece */
     uint32_t face;
-    double r_in; /* the bound every cell meets: the radius less the rounding margin */
-    double got;  /* the largest bound met */
+    double r_in;   /* the bound every cell meets: the radius less the rounding margin */
+    double margin; /* that margin */
+    double got;    /* the largest bound met */
     uint32_t max_count;
     uint64_t cells, max_cells;
     crisp_splat_set *set;
@@ -153,7 +156,8 @@ static void euclid(const double *cpw, int n, double *e)
 
 /* ---- emitting -------------------------------------------------------------------------------- */
 
-static crisp_status emit(splat_ctx *c, double u, double v, const double x[3])
+/* A splat at S(u, v) = x for a cell whose surface lies within rc of x (R_X of the cell). */
+static crisp_status emit(splat_ctx *c, double u, double v, const double x[3], double rc)
 {
     crisp_splat_set *set = c->set;
     if (c->max_count && set->count >= c->max_count)
@@ -175,6 +179,11 @@ static crisp_status emit(splat_ctx *c, double u, double v, const double x[3])
     }
     sp->uv[0] = (float)u;
     sp->uv[1] = (float)v;
+    /* its cell's radius with the margin (as set->radius), rounded up to a float */
+    double rho = rc + c->margin;
+    float fr = (float)rho;
+    if ((double)fr < rho) fr = nextafterf(fr, INFINITY);
+    sp->rho = fr;
     return CRISP_OK;
 }
 
@@ -410,7 +419,7 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int
         double rc = hull_radius(e, n, x), bound = c->r_in;
         if (rc <= bound) {
             if (rc > c->got) c->got = rc;
-            if ((st = emit(c, pt[0], pt[1], x))) return st;
+            if ((st = emit(c, pt[0], pt[1], x, rc))) return st;
             continue;
         }
         /* Split into a grid of about square cells of the size the bound allows (a flat square of
@@ -502,7 +511,7 @@ static crisp_status block_cells(splat_ctx *c, uint32_t iu0, uint32_t iu1, uint32
         }
     if (rc <= c->r_in) {
         if (rc > c->got) c->got = rc;
-        return emit(c, pt[0], pt[1], x);
+        return emit(c, pt[0], pt[1], x, rc);
     }
     int kn = inside && !near;
     uint32_t mu = iu1 - iu0 > 1 ? iu0 + (iu1 - iu0) / 2 : iu1;
@@ -586,6 +595,7 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
      * largest coordinate). */
     double margin = 1.1e-7 * half + 1e-12 * big;
     c.r_in = radius - margin;
+    c.margin = margin;
     if (!(c.r_in > 0.5 * radius))
         return crisp_error(CRISP_ERR_LIMIT,
                            "face %u: radius %g is below the float precision of the face (%g)", face,

@@ -306,14 +306,17 @@ static void choose_range(void *vctx, size_t begin, size_t end, int worker)
 }
 
 /* Thinning (the levels' counts): the builder's sets hold at least a splat or so per patch at
- * any radius (cells per patch), far more than a face much smaller than its radius needs. Level k
- * (radius R_k = s0 2^(-k/2)) is made from the builder's set at THIN_FRACTION R_k (proven radius
- * rho < R_k) by keeping a d-net of it with d = R_k - rho: a splat is dropped when a kept one lies
- * within d (Euclidean, greedy in the set's order), so every point of the face is within rho of
- * a splat and that splat within d of a kept one: within R_k of a kept splat, and every kept
- * splat is one of the builder's (a point of the trimmed face). Keys of a grid of side d find the
- * kept splats near a splat (its cell and the 26 around it). Returns the count kept (moved to the
- * front, in their order); n when there is no memory (nothing dropped). */
+ * any radius (cells per patch), and the cells it halves are smaller than the radius needs. Level
+ * k (radius R_k = s0 2^(-k/2)) is the builder's set at R_k thinned with each splat's own cell
+ * radius rho_i (splat.h: every point of the face is within the rho_i of some splat i): splat i
+ * is dropped when a kept splat j lies within d_i = R_k - rho_i of it (Euclidean), so every point
+ * within rho_i of i is within R_k of j; every kept splat is one of the builder's (a point of the
+ * trimmed face). Splats are taken largest rho first (they can be dropped least; ties in the set's
+ * order) and the kept ones keep the set's order (the draw's chunks are runs of it:
+ * splat_raster.c). Keys of a grid of side max d_i find the kept splats near a splat (its cell
+ * and the 26 around it). Session 11 built at 0.7 R_k and thinned with the set's radius instead
+ * (one d for all): 1.7-1.9x the splats on impeller.igs at radii of d/16 .. d/64 of each face.
+ * Returns the count kept (moved to the front); n when there is no memory (nothing dropped). */
 static uint64_t cell_hash(const int64_t k[3])
 {
     uint64_t h = ((uint64_t)k[0] * 0x9E3779B97F4A7C15ull) ^
@@ -322,28 +325,50 @@ static uint64_t cell_hash(const int64_t k[3])
     return h ^ h >> 29;
 }
 
-static uint32_t thin_set(crisp_splat *sp, uint32_t n, double d)
+/* Largest rho first, then the set's order. */
+static int by_rho(const void *a, const void *b)
 {
-    if (n < 2 || !(d > 0)) return n;
+    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+uint32_t crisp__splat_thin(crisp_splat *sp, uint32_t n, double radius)
+{
+    if (n < 2) return n;
+    float rmin = sp[0].rho;
+    for (uint32_t i = 1; i < n; i++)
+        rmin = sp[i].rho < rmin ? sp[i].rho : rmin;
+    double d = radius - (double)rmin; /* the largest d_i */
+    if (!(d > 0)) return n;
     size_t cap = 16;
     while (cap < 2 * (size_t)n)
         cap *= 2;
     uint32_t *slot = calloc(cap, sizeof *slot); /* kept index + 1, 0: empty */
     int64_t(*key)[3] = malloc(cap * sizeof *key);
-    if (!slot || !key) {
-        free(slot), free(key);
+    uint64_t *order = malloc((size_t)n * sizeof *order);
+    uint8_t *keep = malloc(n);
+    if (!slot || !key || !order || !keep) {
+        free(slot), free(key), free(order), free(keep);
         return n;
     }
-    double dd = d * d * (1 - 1e-6); /* float offsets: keep a hair inside d */
-    uint32_t kept = 0;
+    /* key: ~rho's bits (rho > 0: its bits order as its values), then the index */
     for (uint32_t i = 0; i < n; i++) {
-        float p[3] = {sp[i].p[0], sp[i].p[1], sp[i].p[2]};
+        uint32_t bits;
+        memcpy(&bits, &sp[i].rho, sizeof bits);
+        order[i] = (uint64_t)~bits << 32 | i;
+    }
+    qsort(order, n, sizeof *order, by_rho);
+    for (uint32_t q = 0; q < n; q++) {
+        uint32_t i = (uint32_t)order[q];
+        const float *p = sp[i].p;
+        double di = radius - (double)sp[i].rho;
+        double dd = di * di * (1 - 1e-6); /* float offsets: keep a hair inside d_i */
         int64_t c[3];
         for (int a = 0; a < 3; a++)
             c[a] = (int64_t)floor((double)p[a] / d);
         int near = 0;
-        for (int q = 0; q < 27 && !near; q++) {
-            int64_t k[3] = {c[0] + q % 3 - 1, c[1] + q / 3 % 3 - 1, c[2] + q / 9 - 1};
+        for (int t = 0; t < 27 && !near && di > 0; t++) {
+            int64_t k[3] = {c[0] + t % 3 - 1, c[1] + t / 3 % 3 - 1, c[2] + t / 9 - 1};
             for (size_t at = cell_hash(k) & (cap - 1); slot[at]; at = (at + 1) & (cap - 1)) {
                 if (key[at][0] != k[0] || key[at][1] != k[1] || key[at][2] != k[2]) continue;
                 const float *o = sp[slot[at] - 1].p;
@@ -354,16 +379,18 @@ static uint32_t thin_set(crisp_splat *sp, uint32_t n, double d)
                 }
             }
         }
+        keep[i] = (uint8_t)!near;
         if (near) continue;
-        sp[kept] = sp[i];
         size_t at = cell_hash(c) & (cap - 1);
         while (slot[at])
             at = (at + 1) & (cap - 1);
-        slot[at] = kept + 1;
+        slot[at] = i + 1;
         memcpy(key[at], c, sizeof c);
-        kept++;
     }
-    free(slot), free(key);
+    uint32_t kept = 0;
+    for (uint32_t i = 0; i < n; i++)
+        if (keep[i]) sp[kept++] = sp[i];
+    free(slot), free(key), free(order), free(keep);
     return kept;
 }
 
@@ -372,11 +399,6 @@ typedef struct build_ctx {
     const crisp_scene *sc;
     size_t first; /* todo[first + i] is built into sets[i] */
 } build_ctx;
-
-/* Level k's set is the builder's at THIN_FRACTION R_k, thinned to R_k (thin_set). 0.5 (session 9):
- * imp49 default at the 4x budget 6.38 M splats; 0.7: 5.95 M, and the builder makes half as many
- * splats before thinning. */
-#define THIN_FRACTION 0.7
 
 /* Faces whose sets are built at a time (each chunk's sets are held until stored). */
 #define BUILD_CHUNK 512
@@ -389,25 +411,28 @@ static void build_range(void *vctx, size_t begin, size_t end, int worker)
     for (size_t i = begin; i < end; i++) {
         uint32_t f = s->todo[c->first + i];
         int k = s->want[f];
-        /* the set at THIN_FRACTION R_k, thinned to R_k (thin_set); up to 4x the budget before
-         * thinning. 16x let a few more faces through
-         * (imp49 far: 98 of 13,573) but a face refused after building 16x its budget is what
-         * made a view's first frame slow (impeller at 400x300, 51 faces splatted: 850 -> 340 ms
-         * of which the base frame is 55) */
+        /* the set at R_k, thinned (crisp__splat_thin); up to 2x the budget before thinning
+         * (thinning keeps 0.8-0.9 of a set on impeller.igs: more would be built to be refused) */
         double rk = level_radius(s->faces[f].s0, k);
-        uint64_t cap = 4 * (uint64_t)budget(c->sc, f);
+        uint64_t cap = 2 * (uint64_t)budget(c->sc, f);
         crisp_splat_set *set = &s->sets[i];
-        s->status[i] =
-            crisp__splat_build(c->sc, f, THIN_FRACTION * rk,
-                               cap > UINT32_MAX / 2 ? UINT32_MAX / 2 : (uint32_t)cap, set);
-        if (!s->status[i] && set->radius < rk) {
-            set->count = thin_set(set->splats, set->count, rk - set->radius);
+        s->status[i] = crisp__splat_build(
+            c->sc, f, rk, cap > UINT32_MAX / 2 ? UINT32_MAX / 2 : (uint32_t)cap, set);
+        if (!s->status[i]) {
+            uint32_t n = crisp__splat_thin(set->splats, set->count, rk);
+            /* the level's radius, not the builder's (smaller when nothing was dropped): a
+             * coarser level's proven radius then never stands in for a finer one (want_level),
+             * so a view draws the same sets whatever views came before (test_view compares the
+             * viewer's screenshot with one `crisp render`) */
             set->radius = rk;
-            /* every face's set is held until they are stored: give the dropped ones back now
-             * (imp49 default: the frame's peak 1,040 MB with the unthinned arrays, 16x cap) */
-            crisp_splat *fit =
-                crisp_realloc_array(set->splats, set->count ? set->count : 1, sizeof *fit);
-            if (fit) set->splats = fit;
+            if (n < set->count) {
+                set->count = n;
+                /* every face's set is held until they are stored: give the dropped ones back
+                 * now (imp49 default: the frame's peak 1,040 MB with the unthinned arrays, 16x
+                 * cap) */
+                crisp_splat *fit = crisp_realloc_array(set->splats, n ? n : 1, sizeof *fit);
+                if (fit) set->splats = fit;
+            }
         }
     }
 }

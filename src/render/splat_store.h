@@ -6,7 +6,8 @@
  *   crisp__splat_store_create / _destroy
  *   crisp__splat_store_choose   which faces this frame draws as splats, at which level
  *   crisp__splat_store_publish  the plan's splat arrays for the faces chosen
- *   crisp__splat_store_drop_face forget one face's sets (its trim changed) */
+ *   crisp__splat_store_drop_face forget one face's sets (its trim changed)
+ *   crisp__splat_thin           a builder's set at radius r thinned to fewer splats, radius r */
 #ifndef CRISP_RENDER_SPLAT_STORE_H
 #define CRISP_RENDER_SPLAT_STORE_H
 
@@ -14,6 +15,7 @@
 
 #include "crisp/plan.h"
 #include "crisp/render.h"
+#include "splat.h"
 
 /* Levels per face: s_0 2^(-k / 2) for k < CRISP_SPLAT_LEVELS (steps of 2^-1/2 in the radius, so
  * the level chosen for a frame holds at most about 2x the splats that the exact radius needs, not
@@ -63,6 +65,12 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
 crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene *sc,
                                         const uint8_t *splat, crisp_plan_face *faces,
                                         crisp_frame_plan *out);
+
+/* Thin sp[0 .. n - 1], a builder's set of radius at most `radius` with each splat's own rho
+ * (splat.h), to a subset that covers the face within `radius`: a splat is dropped when a kept one
+ * lies within radius - rho of it. The kept splats are moved to the front in their order; returns
+ * their count (n when there is no memory). */
+uint32_t crisp__splat_thin(crisp_splat *sp, uint32_t n, double radius);
 
 /* Forget face f's sets (they are rebuilt when next needed). */
 void crisp__splat_store_drop_face(crisp__splat_store *s, uint32_t f);

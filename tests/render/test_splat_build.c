@@ -29,6 +29,7 @@
 #include "crisp/render.h"
 #include "crisp/trim.h"
 #include "render/splat.h"
+#include "render/splat_store.h"
 
 static uint64_t rng = 0x2545f4914f6cdd1dull;
 static double rnd(void)
@@ -111,6 +112,28 @@ static double grid_nearest(const grid *g, const double x[3])
     return best;
 }
 
+/* The least |x - splat i| - rho_i over the splats within h of x (HUGE_VAL: none): at most 0
+ * when one splat's own radius covers x. */
+static double grid_rho_slack(const grid *g, const crisp_splat_set *set, const double x[3])
+{
+    double best = HUGE_VAL;
+    int64_t c[3];
+    for (int k = 0; k < 3; k++)
+        c[k] = (int64_t)floor(x[k] / g->h);
+    for (int dz = -1; dz <= 1; dz++)
+        for (int dy = -1; dy <= 1; dy++)
+            for (int dx = -1; dx <= 1; dx++) {
+                uint32_t b = hash3(c[0] + dx, c[1] + dy, c[2] + dz, g->mask);
+                for (uint32_t i = g->start[b]; i < g->start[b + 1]; i++) {
+                    const double *p = g->pos[g->items[i]];
+                    double d = sqrt((p[0] - x[0]) * (p[0] - x[0]) + (p[1] - x[1]) * (p[1] - x[1]) +
+                                    (p[2] - x[2]) * (p[2] - x[2]));
+                    if (d <= g->h) best = fmin(best, d - set->splats[g->items[i]].rho);
+                }
+            }
+    return best;
+}
+
 static void grid_free(grid *g)
 {
     free(g->start);
@@ -122,8 +145,11 @@ static void grid_free(grid *g)
  */
 
 typedef struct check_result {
-    double tightness; /* largest sampled nearest distance / radius */
-    long inside;      /* samples inside the trim */
+    double tightness;      /* largest sampled nearest distance / radius */
+    double rho_tightness;  /* largest sampled least (distance - rho) over the splats / radius */
+    double thin_tightness; /* largest sampled nearest distance in the thinned set / radius */
+    uint32_t thinned;      /* splats kept by crisp__splat_thin */
+    long inside;           /* samples inside the trim */
     double curve_tightness;
     long curve; /* samples on the trim curves */
     uint32_t splats;
@@ -162,9 +188,11 @@ static check_result check_face(const crisp_scene *sc, uint32_t face, double r, i
         size = fmax(size, hi[q] - lo[q]);
         big = fmax(big, fmax(fabs(lo[q]), fabs(hi[q])));
     }
-    /* Every splat: a point of the trimmed face with the surface's normal. */
+    /* Every splat: a point of the trimmed face with the surface's normal, and its own radius
+     * within the set's (rounded up to a float). */
     for (uint32_t i = 0; i < set.count; i++) {
         const crisp_splat *sp = &set.splats[i];
+        assert_true(sp->rho > 0 && sp->rho <= nextafterf((float)set.radius, INFINITY));
         double u = sp->uv[0], v = sp->uv[1];
         assert_true(u >= dom[0] - 1e-6 * ulen && u <= dom[1] + 1e-6 * ulen);
         assert_true(v >= dom[2] - 1e-6 * ulen && v <= dom[3] + 1e-6 * ulen);
@@ -190,10 +218,17 @@ static check_result check_face(const crisp_scene *sc, uint32_t face, double r, i
             assert_true(dot > 0.999);
         }
     }
+    /* The store's thinning of the set (crisp__splat_thin): a subset, covering within r. */
+    crisp_splat_set thin = set;
+    thin.splats = malloc((set.count ? set.count : 1) * sizeof *thin.splats);
+    memcpy(thin.splats, set.splats, set.count * sizeof *thin.splats);
+    thin.count = crisp__splat_thin(thin.splats, set.count, r);
+    assert_true(thin.count <= set.count && (thin.count > 0 || set.count == 0));
     /* Coverage at dense samples inside the trim. */
-    grid g;
+    grid g, gt;
     grid_build(&g, &set, r);
-    check_result res = {.splats = set.count};
+    grid_build(&gt, &thin, r);
+    check_result res = {.splats = set.count, .rho_tightness = -1};
     for (int j = 0; j < n; j++)
         for (int i = 0; i < n; i++) {
             double u = dom[0] + (dom[1] - dom[0]) * (i + rnd()) / n;
@@ -210,6 +245,19 @@ static check_result check_face(const crisp_scene *sc, uint32_t face, double r, i
             assert_true(d <= r);
             assert_true(d <= set.radius * (1 + 1e-9));
             res.tightness = fmax(res.tightness, d / r);
+            /* within its own splat's rho (the stores' thinning relies on it) */
+            double e = grid_rho_slack(&g, &set, x);
+            if (e > 1e-9 * r)
+                fprintf(stderr, "face %u r %g: (%g, %g) is %g beyond every splat's rho\n", face, r,
+                        u, v, e);
+            assert_true(e <= 1e-9 * r);
+            res.rho_tightness = fmax(res.rho_tightness, e / r);
+            double dt = grid_nearest(&gt, x);
+            if (dt > r)
+                fprintf(stderr, "face %u r %g: (%g, %g) is %g from a thinned splat\n", face, r, u,
+                        v, dt);
+            assert_true(dt <= r);
+            res.thin_tightness = fmax(res.thin_tightness, dt / r);
         }
     /* Points of the trim curves in the domain: each borders inside points (the parity flips
      * across it), so by continuity it is within the radius too. These find a builder that
@@ -230,11 +278,14 @@ static check_result check_face(const crisp_scene *sc, uint32_t face, double r, i
                 crisp_surface_eval(s, u, v, x);
                 double d = grid_nearest(&g, x);
                 assert_true(d <= r);
+                assert_true(grid_nearest(&gt, x) <= r);
                 res.tightness = fmax(res.tightness, d / r);
                 res.inside++;
             }
             crisp_surface_eval(s, uv[0], uv[1], x);
             double d = grid_nearest(&g, x);
+            assert_true(grid_rho_slack(&g, &set, x) <= 1e-9 * r);
+            assert_true(grid_nearest(&gt, x) <= r);
             res.curve++;
             if (d > r)
                 fprintf(stderr, "face %u r %g: curve point (%g, %g) is %g from a splat\n", face, r,
@@ -244,6 +295,9 @@ static check_result check_face(const crisp_scene *sc, uint32_t face, double r, i
         }
     }
     grid_free(&g);
+    grid_free(&gt);
+    res.thinned = thin.count;
+    free(thin.splats);
     crisp__splat_set_free(&set);
     assert_null(set.splats);
     return res;
@@ -358,8 +412,9 @@ static void test_random_faces(void **state)
     (void)state;
     static const int deg[][2] = {{1, 1}, {2, 2}, {3, 3}, {3, 2}, {5, 4}, {2, 5}};
     static const double div[] = {8, 25, 70};
-    double worst = 0.0, worst_curve = 0.0;
-    long samples = 0, splats = 0, curve = 0;
+    double worst = 0.0, worst_curve = 0.0, worst_rho = -1.0;
+    long samples = 0, splats = 0, curve = 0, thinned = 0;
+    double worst_thin = 0.0;
     for (int t = 0; t < 6; t++)
         for (int kind = 0; kind < 4; kind++) {
             crisp_model *m = random_model(deg[t][0], deg[t][1], kind);
@@ -370,6 +425,9 @@ static void test_random_faces(void **state)
                 check_result res = check_face(sc, 0, diag / div[k], 120);
                 worst = fmax(worst, res.tightness);
                 worst_curve = fmax(worst_curve, res.curve_tightness);
+                worst_rho = fmax(worst_rho, res.rho_tightness);
+                worst_thin = fmax(worst_thin, res.thin_tightness);
+                thinned += res.thinned;
                 samples += res.inside;
                 curve += res.curve;
                 splats += res.splats;
@@ -378,10 +436,14 @@ static void test_random_faces(void **state)
             crisp_model_destroy(m);
         }
     printf("random faces: %ld samples inside, %ld on curves, %ld splats, tightness %.3f inside, "
-           "%.3f on curves\n",
-           samples, curve, splats, worst, worst_curve);
+           "%.3f on curves; largest (distance - rho) / radius %.3f; thinned to %ld splats, "
+           "tightness %.3f\n",
+           samples, curve, splats, worst, worst_curve, worst_rho, thinned, worst_thin);
     assert_true(samples > 100000);
     assert_true(worst > 0.5); /* the check would catch a builder at twice the radius */
+    /* and one whose rho were a quarter of the radius too small */
+    assert_true(worst_rho > -0.25);
+    assert_true(worst_thin > 0.5);
 }
 
 /* ---- degenerate patches ------------------------------------------------------------------------
