@@ -66,6 +66,44 @@ typedef struct project_ctx {
  * of SPLAT_CHUNK splats of it (the positions themselves are computed again where they are drawn:
  * storing them cost 24 bytes per splat drawn). A chunk with no splat drawn gets an empty box
  * (lo > hi) and 1/W 0. */
+/* A box (lo x, lo y, hi x, hi y, largest 1/W) that holds the pixel positions, and a 1/W at least
+ * those, that project gives the splats sp[0 .. n - 1] (clip origin o), from the box of their
+ * positions: the float clip coordinates of a position p in the box [plo, phi] lie within the
+ * exact o + M p over the box widened by 4e-7 (|o| + sum |M_j| max |p_j|) (four float roundings
+ * of at most 2^-24 of that sum each, and the double sums here), and x / W, y / W are monotone in
+ * each over a box of W > 0, where correctly rounded operations keep the order. 0 when W may
+ * reach 0 (then the caller projects the splats). */
+static int chunk_box(const crisp_frame_plan *plan, const float *o, const crisp_plan_splat *sp,
+                     uint32_t n, double sx, double sy, double box[5])
+{
+    float x0 = sp[0].p[0], x1 = x0, y0 = sp[0].p[1], y1 = y0, z0 = sp[0].p[2], z1 = z0;
+    for (uint32_t k = 1; k < n; k++) {
+        float x = sp[k].p[0], y = sp[k].p[1], z = sp[k].p[2];
+        x0 = x < x0 ? x : x0, x1 = x > x1 ? x : x1;
+        y0 = y < y0 ? y : y0, y1 = y > y1 ? y : y1;
+        z0 = z < z0 ? z : z0, z1 = z > z1 ? z : z1;
+    }
+    const float plo[3] = {x0, y0, z0}, phi[3] = {x1, y1, z1};
+    const float *m = plan->view_proj_f;
+    double lo[4], hi[4];
+    for (int q = 0; q < 4; q += q == 1 ? 2 : 1) { /* x, y and W */
+        double l = o[q], h = o[q], mag = fabs((double)o[q]);
+        for (int j = 0; j < 3; j++) {
+            double u = (double)m[q + 4 * j] * plo[j], v = (double)m[q + 4 * j] * phi[j];
+            l += u < v ? u : v, h += u < v ? v : u;
+            mag += fabs(u) > fabs(v) ? fabs(u) : fabs(v);
+        }
+        lo[q] = l - 4e-7 * mag, hi[q] = h + 4e-7 * mag;
+    }
+    if (!(lo[3] > 0) || !isfinite(hi[3]) || !isfinite(lo[0] + hi[0] + lo[1] + hi[1])) return 0;
+    double a0 = lo[0] / lo[3], a1 = lo[0] / hi[3], b0 = hi[0] / lo[3], b1 = hi[0] / hi[3];
+    double c0 = lo[1] / lo[3], c1 = lo[1] / hi[3], d0 = hi[1] / lo[3], d1 = hi[1] / hi[3];
+    box[0] = ((a0 < a1 ? a0 : a1) + 1) * sx, box[2] = ((b0 > b1 ? b0 : b1) + 1) * sx;
+    box[1] = (1 - (d0 > d1 ? d0 : d1)) * sy, box[3] = (1 - (c0 < c1 ? c0 : c1)) * sy;
+    box[4] = 1.0 / lo[3];
+    return isfinite(box[0] + box[1] + box[2] + box[3] + box[4]);
+}
+
 static void project_ranges(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
@@ -80,13 +118,18 @@ static void project_ranges(void *vctx, size_t begin, size_t end, int worker)
         for (uint32_t k0 = 0; k0 < rg->count; k0 += SPLAT_CHUNK, cb += 5) {
             uint32_t k1 = rg->count - k0 < SPLAT_CHUNK ? rg->count : k0 + SPLAT_CHUNK;
             double clo[2] = {INFINITY, INFINITY}, chi[2] = {-INFINITY, -INFINITY}, ciw = 0;
-            for (uint32_t k = k0; k < k1; k++) {
-                double x, y, iw;
-                if (!project(plan, o, &plan->splats[rg->first + k], sx, sy, &x, &y, &iw)) continue;
-                clo[0] = x < clo[0] ? x : clo[0], clo[1] = y < clo[1] ? y : clo[1];
-                chi[0] = x > chi[0] ? x : chi[0], chi[1] = y > chi[1] ? y : chi[1];
-                ciw = iw > ciw ? iw : ciw;
-            }
+            double bx[5];
+            if (chunk_box(plan, o, &plan->splats[rg->first + k0], k1 - k0, sx, sy, bx)) {
+                clo[0] = bx[0], clo[1] = bx[1], chi[0] = bx[2], chi[1] = bx[3], ciw = bx[4];
+            } else
+                for (uint32_t k = k0; k < k1; k++) {
+                    double x, y, iw;
+                    if (!project(plan, o, &plan->splats[rg->first + k], sx, sy, &x, &y, &iw))
+                        continue;
+                    clo[0] = x < clo[0] ? x : clo[0], clo[1] = y < clo[1] ? y : clo[1];
+                    chi[0] = x > chi[0] ? x : chi[0], chi[1] = y > chi[1] ? y : chi[1];
+                    ciw = iw > ciw ? iw : ciw;
+                }
             cb[0] = clo[0] - h, cb[1] = clo[1] - h, cb[2] = chi[0] + h, cb[3] = chi[1] + h;
             cb[4] = ciw;
             lo[0] = clo[0] < lo[0] ? clo[0] : lo[0], lo[1] = clo[1] < lo[1] ? clo[1] : lo[1];
@@ -114,6 +157,7 @@ typedef struct band_ctx {
     int occlude;  /* keep a block depth per band and skip the ranges it hides */
     int bw;       /* blocks per row of the target */
     double off[16][2];
+    double omin[2], omax[2];                  /* the least and largest sample offsets in x and y */
     size_t *written, *culled, *chunks_culled; /* per worker */
 } band_ctx;
 
@@ -200,13 +244,18 @@ static int band_hides(const band_ctx *c, const double *blk, int by_lo, int by_hi
     return 1;
 }
 
-/* Whether every sample of t in box b (lo x, lo y, hi x, hi y, largest 1/W) within the rows
- * [r0, r1) holds a larger 1/W than b's: then no square of b wins a sample there. */
-static int box_hidden(const crisp_raster_target *t, const double *b, int x0, int y0, int r0, int r1)
+/* Whether every sample of t that a square of box b (lo x, lo y, hi x, hi y, largest 1/W) may
+ * cover within the rows [r0, r1) holds a larger 1/W than b's: then none of its squares wins a
+ * sample there. The samples are gi + ox with b[0] <= fl(cx - h) and fl(fl(cx - h) - ox) >=
+ * fl(b[0] - omax) (rounding keeps the order), so gi >= ceil(fl(b[0] - omax)); and gi <=
+ * ceil(fl(b[2] - omin)) - 1 alike (draw_splats' rule); rows the same with oy. */
+static int box_hidden(const band_ctx *c, const double *b, int r0, int r1)
 {
+    const crisp_raster_target *t = c->t;
+    const int x0 = c->d->win[0], y0 = c->d->win[1];
     if (!(b[4] > 0)) return 1;
-    /* samples gi + o (o in [0, 1)) with b[0] <= gi + o < b[2], and rows alike */
-    int i0 = ceil_px(b[0]) - 2, i1 = ceil_px(b[2]), j0 = ceil_px(b[1]) - 2, j1 = ceil_px(b[3]);
+    int i0 = ceil_px(b[0] - c->omax[0]), i1 = ceil_px(b[2] - c->omin[0]) - 1;
+    int j0 = ceil_px(b[1] - c->omax[1]), j1 = ceil_px(b[3] - c->omin[1]) - 1;
     if (i0 < x0) i0 = x0;
     if (i1 > x0 + t->width - 1) i1 = x0 + t->width - 1;
     if (j0 < r0) j0 = r0;
@@ -260,7 +309,7 @@ static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
             const double *cb = c->s->chunk_box + 5 * (size_t)c->s->chunk_first[i];
             for (uint32_t q0 = 0; q0 < rg->count; q0 += SPLAT_CHUNK, cb += 5) {
                 if (cb[3] < r0 || cb[1] >= r1 || cb[2] < x0 || cb[0] >= x0 + t->width) continue;
-                if (c->occlude && box_hidden(t, cb, x0, y0, r0, r1)) {
+                if (c->occlude && box_hidden(c, cb, r0, r1)) {
                     chunks_culled++;
                     continue;
                 }
@@ -370,8 +419,14 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
                          (size_t)workers * (BAND_ROWS / CRISP_OCCL_BLOCK) * (size_t)bw,
                          sizeof *s->blocks)))
         return st;
-    for (int q = 0; q < t->samples; q++)
+    bc.omin[0] = bc.omin[1] = 1, bc.omax[0] = bc.omax[1] = 0;
+    for (int q = 0; q < t->samples; q++) {
         crisp__raster_sample_offset(t->samples, q, bc.off[q]);
+        for (int a = 0; a < 2; a++) {
+            bc.omin[a] = bc.off[q][a] < bc.omin[a] ? bc.off[q][a] : bc.omin[a];
+            bc.omax[a] = bc.off[q][a] > bc.omax[a] ? bc.off[q][a] : bc.omax[a];
+        }
+    }
     size_t bands = (size_t)(t->height + BAND_ROWS - 1) / BAND_ROWS;
     /* Each band's ranges, in list order (a band then looks only at the ranges that may reach
      * it: a band of a range's box, one more each side; draw_bands tests the box exactly). */
