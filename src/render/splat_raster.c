@@ -8,10 +8,12 @@
  * chunks (runs of SPLAT_CHUNK splats), range by range in parallel; then bands of rows in
  * parallel, each band drawing every range that reaches it in plan order (the splats of its chunks
  * that reach the band projected again), so a sample's writes come in the same order whatever the
- * thread count. The planner orders the ranges nearest first; each band keeps the block depth of
- * what it holds and skips a range that its blocks hide there, and a chunk behind every sample of
- * its box (most splats of a frame like imp49's lose the depth test: 65 splats per covered pixel).
- * Skipping changes nothing drawn. */
+ * thread count. The planner orders the ranges nearest first; a band skips a range, and then a
+ * chunk, whose largest 1/W is below that of every sample its squares may cover there (drawn by
+ * the surfaces and the nearer ranges): most splats of a frame like imp49's lose the depth test
+ * (65 splats per covered pixel at imp49 far3). Skipping changes nothing drawn. (Session 11 kept
+ * a block depth per band, lowered after each range; the samples themselves are cheaper to test
+ * and exact.) */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,18 +24,15 @@
 #define BAND_ROWS 16
 /* Splats per chunk: each chunk of a range (consecutive splats of its set, which the builder makes
  * cell by cell, so near each other) has its own screen box and nearest depth, so that a band
- * skips the chunks that miss its rows or that its block depth hides. */
+ * skips the chunks that miss its rows or that the depth drawn hides. 8 and 32 cost 1.10x and
+ * 1.03x the instructions of 16 at imp49 far3. */
 #define SPLAT_CHUNK 16
-/* A band holds whole rows of occlusion blocks (the window's y0 is a multiple of 8). */
-_Static_assert(BAND_ROWS % CRISP_OCCL_BLOCK == 0 && 8 % CRISP_OCCL_BLOCK == 0,
-               "splat bands: whole block rows");
 
 void crisp__splat_scratch_free(crisp__splat_scratch *s)
 {
     free(s->list);
     free(s->box);
     free(s->hidden);
-    free(s->blocks);
     free(s->band_start);
     free(s->band_list);
     free(s->band_fill);
@@ -154,27 +153,11 @@ typedef struct band_ctx {
     const crisp__splat_draw_desc *d;
     crisp_raster_target *t;
     size_t count; /* ranges in the list */
-    int occlude;  /* keep a block depth per band and skip the ranges it hides */
-    int bw;       /* blocks per row of the target */
+    int occlude;  /* skip the ranges and chunks that the depth drawn hides */
     double off[16][2];
     double omin[2], omax[2];                  /* the least and largest sample offsets in x and y */
     size_t *written, *culled, *chunks_culled; /* per worker */
 } band_ctx;
-
-/* The least 1/W of the samples of block (bx, by) of the target (0 where one is empty). */
-static double block_least(const crisp_raster_target *t, int bx, int by)
-{
-    int x0 = bx * CRISP_OCCL_BLOCK, y0 = by * CRISP_OCCL_BLOCK;
-    int x1 = x0 + CRISP_OCCL_BLOCK < t->width ? x0 + CRISP_OCCL_BLOCK : t->width;
-    int y1 = y0 + CRISP_OCCL_BLOCK < t->height ? y0 + CRISP_OCCL_BLOCK : t->height;
-    double m = INFINITY;
-    for (int y = y0; y < y1; y++) {
-        const double *row = t->inv_w + ((size_t)y * (size_t)t->width + (size_t)x0) * t->samples;
-        for (int k = 0; k < (x1 - x0) * t->samples; k++)
-            m = row[k] < m ? row[k] : m;
-    }
-    return m;
-}
 
 /* The splats [q0, q1) of range rg (its face's clip origin org, normal sign sg) drawn into the
  * rows [r0, r1) of t; S: the target's samples (a constant where inlined). Returns the samples
@@ -230,20 +213,6 @@ draw_splats(const band_ctx *c, const crisp_plan_splat_range *rg, uint32_t q0, ui
     return written;
 }
 
-/* Whether the band's block depth blk (block rows by_lo.., clipped to [ba, bb]) hides the squares
- * of box b (lo x, lo y, hi x, hi y, largest 1/W); *o: the blocks the box reaches. */
-static int band_hides(const band_ctx *c, const double *blk, int by_lo, int by_hi, const double *b,
-                      crisp_occl_leaf *o, int *ba, int *bb)
-{
-    crisp__occl_set(o, c->d->win, b, b + 2, b[4]);
-    *ba = o->by0 > by_lo ? o->by0 : by_lo, *bb = o->by1 < by_hi ? o->by1 : by_hi;
-    if (!(o->iw < INFINITY)) return 0;
-    for (int by = *ba; by <= *bb; by++)
-        for (int bx = o->bx0; bx <= o->bx1; bx++)
-            if (!(o->iw < blk[(size_t)(by - by_lo) * c->bw + bx])) return 0;
-    return 1;
-}
-
 /* Whether every sample of t that a square of box b (lo x, lo y, hi x, hi y, largest 1/W) may
  * cover within the rows [r0, r1) holds a larger 1/W than b's: then none of its squares wins a
  * sample there. The samples are gi + ox with b[0] <= fl(cx - h) and fl(fl(cx - h) - ox) >=
@@ -276,29 +245,19 @@ static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
     const crisp_frame_plan *plan = c->d->plan;
     crisp_raster_target *t = c->t;
     const int x0 = c->d->win[0], y0 = c->d->win[1];
-    /* The band's block depth: BAND_ROWS / CRISP_OCCL_BLOCK rows of blocks, from the surfaces'
-     * (hiz) and then lowered by each range drawn, so that a range, or a chunk of one, behind
-     * what the band holds (the ranges come nearest first: splat_store.c) is skipped. */
-    double *blk = c->s->blocks + (size_t)worker * (BAND_ROWS / CRISP_OCCL_BLOCK) * (size_t)c->bw;
     size_t written = 0, culled = 0, chunks_culled = 0;
     for (size_t band = begin; band < end; band++) {
         /* rows [r0, r1) of the whole image */
         int r0 = y0 + (int)band * BAND_ROWS, r1 = r0 + BAND_ROWS;
         if (r1 > y0 + t->height) r1 = y0 + t->height;
-        int by_lo = (r0 - y0) / CRISP_OCCL_BLOCK, by_hi = (r1 - 1 - y0) / CRISP_OCCL_BLOCK;
-        if (c->occlude)
-            for (int by = by_lo; by <= by_hi; by++)
-                for (int bx = 0; bx < c->bw; bx++)
-                    blk[(size_t)(by - by_lo) * c->bw + bx] =
-                        c->d->hiz ? c->d->hiz[(size_t)by * c->bw + bx] : 0;
         for (uint32_t e = c->s->band_start[band]; e < c->s->band_start[band + 1]; e++) {
             size_t i = c->s->band_list[e];
             const double *b = c->s->box + 5 * i;
             if (c->s->hidden[i] || b[3] < r0 || b[1] >= r1 || b[2] < x0 || b[0] >= x0 + t->width)
                 continue;
-            crisp_occl_leaf o;
-            int ba = 0, bb = -1;
-            if (c->occlude && band_hides(c, blk, by_lo, by_hi, b, &o, &ba, &bb)) {
+            /* behind every sample the range's squares may cover in the band (what the surfaces
+             * and the nearer ranges drew: the ranges come nearest first, splat_store.c) */
+            if (c->occlude && box_hidden(c, b, r0, r1)) {
                 culled++;
                 continue;
             }
@@ -318,10 +277,6 @@ static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
                                ? draw_splats(c, rg, q0, q1, org, sg, r0, r1, 1)
                                : draw_splats(c, rg, q0, q1, org, sg, r0, r1, t->samples);
             }
-            if (c->occlude) /* the blocks the range may have drawn in */
-                for (int by = ba; by <= bb; by++)
-                    for (int bx = o.bx0; bx <= o.bx1; bx++)
-                        blk[(size_t)(by - by_lo) * c->bw + bx] = block_least(t, bx, by);
         }
     }
     c->written[worker] += written;
@@ -404,21 +359,14 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
     }
     size_t written[64] = {0}, culled[64] = {0}, chunks_culled[64] = {0}; /* per worker */
     if (crisp_pool_threads(pool) > 64) pool = NULL;
-    int workers = pool ? crisp_pool_threads(pool) : 1;
     band_ctx bc = {.s = s,
                    .d = d,
                    .t = t,
                    .count = count,
                    .occlude = d->occlude,
-                   .bw = bw,
                    .written = written,
                    .culled = culled,
                    .chunks_culled = chunks_culled};
-    if (bc.occlude &&
-        (st = crisp_grow((void **)&s->blocks, &s->blocks_cap,
-                         (size_t)workers * (BAND_ROWS / CRISP_OCCL_BLOCK) * (size_t)bw,
-                         sizeof *s->blocks)))
-        return st;
     bc.omin[0] = bc.omin[1] = 1, bc.omax[0] = bc.omax[1] = 0;
     for (int q = 0; q < t->samples; q++) {
         crisp__raster_sample_offset(t->samples, q, bc.off[q]);

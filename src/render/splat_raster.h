@@ -16,8 +16,6 @@ typedef struct crisp__splat_scratch {
                        1 / W */
     uint8_t *hidden;
     size_t list_cap;
-    double *blocks; /* per worker: a band's block depth */
-    size_t blocks_cap;
     uint32_t *band_start, *band_list, *band_fill; /* per band of rows: its ranges (list indices) */
     size_t band_start_cap, band_list_cap, band_fill_cap;
     uint32_t *chunk_first; /* per range drawn: its first chunk (chunks of SPLAT_CHUNK splats) */
@@ -33,7 +31,7 @@ typedef struct crisp__splat_draw_desc {
     const double *clip;  /* the rasterizer's clip plane k (crisp__raster_set_clip), NULL: none */
     const double *hiz;   /* block depth (crisp__raster_block_depth at CRISP_OCCL_BLOCK), NULL */
     int win[4];          /* the target's window of the plan's image: x0, y0, width, height */
-    int occlude; /* 1: skip ranges that the depth drawn hides (per band of rows, as drawn) */
+    int occlude; /* 1: skip ranges and chunks that the depth drawn hides (per band of rows) */
 } crisp__splat_draw_desc;
 
 typedef struct crisp__splat_draw_stats {
@@ -52,9 +50,9 @@ typedef struct crisp__splat_draw_stats {
  * first: the surfaces, then the ranges in plan order, each in its order); writes 1 / W, the
  * attributes (u, v, normal, flipped for reversed faces) and the face. Rows of the target are
  * split in bands, each drawn by one worker: the result does not depend on the thread count.
- * A range whose squares the block depth hides whole (hiz) is skipped; with occlude, so is a range
- * in a band of rows whose depth (hiz, then what the band drew) hides its part there. pool may be
- * NULL. */
+ * A range whose squares the block depth hides whole (hiz) is skipped; with occlude, so is a range,
+ * or a chunk of one, in a band of rows where every sample its squares may cover holds a larger
+ * 1 / W (drawn before it). pool may be NULL. */
 crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, crisp_pool *pool,
                                const crisp__splat_draw_desc *desc, crisp__splat_draw_stats *stats);
 
