@@ -748,21 +748,29 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
     return CRISP_OK;
 }
 
-/* Sorts n keys ascending (LSD radix, 8-bit digits; tmp: n more). */
+/* Sorts n keys ascending by their upper 32 bits, equal ones kept in their order (LSD radix, 8-bit
+ * digits, stable; the four digits' counts in one pass; tmp: n more). publish's keys hold their
+ * index in the lower bits and come in index order, so that is their full order (ties in face
+ * order) with half the passes. */
 static void radix_sort(uint64_t *key, uint64_t *tmp, uint32_t n)
 {
-    for (int shift = 0; shift < 64; shift += 8) {
-        uint32_t count[257] = {0};
-        for (uint32_t i = 0; i < n; i++)
-            count[(key[i] >> shift & 0xffu) + 1]++;
+    uint32_t count[4][257] = {{0}};
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t hi = (uint32_t)(key[i] >> 32);
+        count[0][(hi & 0xffu) + 1]++, count[1][(hi >> 8 & 0xffu) + 1]++;
+        count[2][(hi >> 16 & 0xffu) + 1]++, count[3][(hi >> 24) + 1]++;
+    }
+    for (int d = 0; d < 4; d++) {
+        uint32_t *c = count[d];
         int one = 0; /* every key has the same digit: nothing moves */
-        for (int d = 1; d <= 256 && !one; d++)
-            one = count[d] == n;
+        for (int v = 1; v <= 256 && !one; v++)
+            one = c[v] == n;
         if (one) continue;
-        for (int d = 0; d < 256; d++)
-            count[d + 1] += count[d];
+        for (int v = 0; v < 256; v++)
+            c[v + 1] += c[v];
+        int shift = 32 + 8 * d;
         for (uint32_t i = 0; i < n; i++)
-            tmp[count[key[i] >> shift & 0xffu]++] = key[i];
+            tmp[c[key[i] >> shift & 0xffu]++] = key[i];
         memcpy(key, tmp, n * sizeof *key);
     }
 }

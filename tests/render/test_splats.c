@@ -705,13 +705,64 @@ static void test_group_choice(void **state)
     assert_true(total[0] > (uint64_t)faces / 20 && total[1] > (uint64_t)faces / 4);
 }
 
+/* The plan's splat ranges come nearest first: by the least W of the face's box (as a float
+ * rounded up), ties in face order (publish's radix sort; the draw's culling and its ties rely on
+ * it). */
+static void test_range_order(void **state)
+{
+    (void)state;
+    crisp_model *m = instanced("impeller.igs", 2);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_planner *pl;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    long ranges = 0;
+    for (int v = 0; v < 6; v++) {
+        crisp_camera cam = group_view_camera(sc, 30 + 40 * v, 0.3, 3, 320, 240);
+        const crisp_frame_plan *plan;
+        assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
+        crisp_camera_matrices cm;
+        crisp_camera_matrices_compute(&cam, &cm);
+        float last = 0;
+        uint32_t last_face = 0;
+        for (uint32_t i = 0; i < plan->splat_range_count; i++) {
+            uint32_t f = plan->splat_ranges[i].face;
+            const crisp_scene_face *sf = &sc->faces[f];
+            double b[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+            for (uint32_t p = 0; p < sf->patch_count; p++)
+                for (int a = 0; a < 3; a++) {
+                    b[a] = fmin(b[a], sc->patches[sf->first_patch + p].box[a]);
+                    b[a + 3] = fmax(b[a + 3], sc->patches[sf->first_patch + p].box[a + 3]);
+                }
+            double w = INFINITY;
+            for (int k = 0; k < 8; k++)
+                w = fmin(w, cm.view_proj[0][3] * b[k & 1 ? 3 : 0] +
+                                cm.view_proj[1][3] * b[k & 2 ? 4 : 1] +
+                                cm.view_proj[2][3] * b[k & 4 ? 5 : 2] + cm.view_proj[3][3]);
+            float key = (float)w;
+            if ((double)key < w) key = nextafterf(key, INFINITY);
+            if (i > 0) {
+                assert_true(key >= last);
+                if (key == last) assert_true(f > last_face);
+            }
+            last = key, last_face = f;
+            ranges++;
+        }
+    }
+    printf("%ld ranges in order\n", ranges);
+    assert_true(ranges > 100);
+    crisp_planner_destroy(pl);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_draw_reference), cmocka_unit_test(test_choice_near_plane),
         cmocka_unit_test(test_true_points),    cmocka_unit_test(test_no_holes),
         cmocka_unit_test(test_solids_far),     cmocka_unit_test(test_near_edges),
-        cmocka_unit_test(test_group_choice),
+        cmocka_unit_test(test_group_choice),   cmocka_unit_test(test_range_order),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
