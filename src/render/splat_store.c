@@ -410,9 +410,13 @@ static void view_group(const choose_ctx *c, const double *b, group_view *v)
             h[q] = (*m)[0][q] * p[0] + (*m)[1][q] * p[1] + (*m)[2][q] * p[2] + (*m)[3][q];
         in &= h[3] > ew && h[2] + h[3] > ez && h[3] - h[2] > ez && h[3] - h[0] > ex &&
               h[3] + h[0] > ex && h[3] - h[1] > ey && h[3] + h[1] > ey;
-        out[0] &= h[0] - h[3] > ex, out[1] &= h[0] + h[3] < -ex;
-        out[2] &= h[1] - h[3] > ey, out[3] &= h[1] + h[3] < -ey;
-        out[4] &= h[2] + h[3]<-ez, out[5] &= h[2] - h[3]> ez, out[6] &= h[3] < -ew;
+        out[0] &= h[0] - h[3] > ex;
+        out[1] &= h[0] + h[3] < -ex;
+        out[2] &= h[1] - h[3] > ey;
+        out[3] &= h[1] + h[3] < -ey;
+        out[4] &= h[2] + h[3] < -ez; /* in front of the near plane */
+        out[5] &= h[2] - h[3] > ez;  /* beyond the far plane */
+        out[6] &= h[3] < -ew;        /* behind the eye */
         if (!in) continue;
         wlo = fmin(wlo, h[3]), whi = fmax(whi, h[3]);
         for (int a = 0; a < 2; a++) {
