@@ -22,13 +22,23 @@
 /* Where the batches end: cumulative shares of the triangles, nearest first. */
 static const double batch_end[CRISP_OCCL_BATCHES - 1] = {0.03, 0.08, 0.18, 0.35, 0.6};
 
+/* floor(x) without the libm call (it was most of crisp__occl_set, which the splat draw calls
+ * for every range in every band: 13,573 ranges at imp49 far): truncation corrected below zero
+ * where the integer conversion is exact, the library elsewhere (infinite or huge boxes). */
+static inline double floor_fast(double x)
+{
+    if (!(x > -4.0e15 && x < 4.0e15)) return floor(x);
+    double t = (double)(int64_t)x;
+    return t > x ? t - 1 : t;
+}
+
 void crisp__occl_set(crisp_occl_leaf *o, const int win[4], const double lo[2], const double hi[2],
                      double iw)
 {
     double b[4];
     for (int q = 0; q < 2; q++) {
         double n = win[2 + q] - 1;
-        double x0 = floor(lo[q]) - 1 - win[q], x1 = floor(hi[q]) - win[q];
+        double x0 = floor_fast(lo[q]) - 1 - win[q], x1 = floor_fast(hi[q]) - win[q];
         b[q] = x0 > 0 ? (x0 < n ? x0 : n) : 0;
         b[2 + q] = x1 > 0 ? (x1 < n ? x1 : n) : 0;
     }
@@ -42,9 +52,18 @@ void crisp__occl_set(crisp_occl_leaf *o, const int win[4], const double lo[2], c
      * view ray and the triangle) relative at 1080p; the margin covers triangles more than about
      * 0.2 degrees from edge-on, and rounding. */
     double m = iw * (1.0 + 1.0 / 1024);
-    float f = (float)m;
-    if ((double)f < m) f = nextafterf(f, INFINITY);
-    o->iw = m > 0 && m < 3.0e38 ? f : INFINITY;
+    if (!(m > 0 && m < 3.0e38)) {
+        o->iw = INFINITY;
+        return;
+    }
+    float f = (float)m; /* positive, below FLT_MAX: the next float up is its bits plus one */
+    if ((double)f < m) {
+        uint32_t bits;
+        memcpy(&bits, &f, sizeof bits);
+        bits++;
+        memcpy(&f, &bits, sizeof f);
+    }
+    o->iw = f;
 }
 
 size_t crisp__occl_order(const crisp_occl_leaf *occl, const uint8_t *skip, const uint32_t *tris,

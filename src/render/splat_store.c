@@ -24,17 +24,18 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "face_tree.h"
 #include "splat.h"
 #include "splat_store.h"
 
 typedef struct face_sets {
-    double s0;        /* radius of level 0: the face box's diagonal (0: never splatted) */
-    double origin[3]; /* the face's splat origin (its first set's): p are offsets from it */
-    double radius[CRISP_SPLAT_LEVELS]; /* proven radius of each built level */
-    uint32_t first[CRISP_SPLAT_LEVELS], count[CRISP_SPLAT_LEVELS];
+    double s0;       /* radius of level 0: the face box's diagonal (0: never splatted) */
     uint64_t built;  /* bit k: level k is in the store */
     uint8_t refused; /* levels >= refused are over the budget (CRISP_SPLAT_LEVELS: none) */
     uint8_t has_origin;
+    double origin[3]; /* the face's splat origin (its first set's): p are offsets from it */
+    double radius[CRISP_SPLAT_LEVELS]; /* proven radius of each built level */
+    uint32_t first[CRISP_SPLAT_LEVELS], count[CRISP_SPLAT_LEVELS];
     uint64_t trim_hash; /* of the face's trim pieces when its sets were built */
 } face_sets;
 
@@ -42,7 +43,11 @@ struct crisp__splat_store {
     uint64_t serial, trim_serial; /* the scene the store was built from (0: none) */
     uint32_t face_count;
     face_sets *faces;
-    double *box; /* 6 per face: the union of its patches' boxes */
+    double *box;                 /* 6 per face: the union of its patches' boxes */
+    double *log_s0;              /* per face: 2 log2 s0 (the choice per group of faces) */
+    crisp__face_tree tree;       /* of the faces with s0 > 0 (their boxes) */
+    uint64_t (*chunk_counts)[3]; /* per chunk of the tree, the last choose's choice_counts */
+    uint64_t counts[3];          /* crisp__splat_store_choice_counts */
     crisp_plan_splat *splats;
     size_t count, cap, dead; /* splats stored, allocated, and belonging to dropped sets */
     int8_t *want;            /* per face this frame: the level drawn, -1: not splatted */
@@ -78,7 +83,11 @@ static void clear_scene(crisp__splat_store *s)
     free(s->box);
     free(s->want);
     free(s->near);
-    s->faces = NULL, s->box = NULL, s->want = NULL, s->near = NULL;
+    free(s->log_s0);
+    free(s->chunk_counts);
+    crisp__face_tree_free(&s->tree);
+    s->faces = NULL, s->box = NULL, s->want = NULL, s->near = NULL, s->log_s0 = NULL;
+    s->chunk_counts = NULL;
     s->face_count = 0;
     s->count = s->dead = 0;
     s->serial = s->trim_serial = 0;
@@ -175,7 +184,8 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
         s->box = crisp_malloc_array(n, 6 * sizeof *s->box);
         s->want = crisp_malloc_array(n, sizeof *s->want);
         s->near = crisp_malloc_array(n, sizeof *s->near);
-        if (!s->faces || !s->box || !s->want || !s->near) {
+        s->log_s0 = crisp_malloc_array(n, sizeof *s->log_s0);
+        if (!s->faces || !s->box || !s->want || !s->near || !s->log_s0) {
             clear_scene(s);
             return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
         }
@@ -196,6 +206,17 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
             d = sqrt(d);
             s->faces[f].s0 = sf->patch_count && isfinite(d) && d > 0 ? d : 0;
             s->faces[f].refused = CRISP_SPLAT_LEVELS;
+            s->log_s0[f] = s->faces[f].s0 > 0 ? 2 * log2(s->faces[f].s0) : 0;
+            s->want[f] = s->faces[f].s0 > 0; /* (the tree's faces) */
+        }
+        crisp_status st =
+            crisp__face_tree_build(s->box, (const uint8_t *)s->want, sc->face_count, &s->tree);
+        if (!st && !(s->chunk_counts = crisp_malloc_array(
+                         s->tree.chunk_count ? s->tree.chunk_count : 1, sizeof *s->chunk_counts)))
+            st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
+        if (st) {
+            clear_scene(s);
+            return st;
         }
         s->face_count = sc->face_count;
         s->serial = sc->serial;
@@ -297,12 +318,244 @@ static int want_level(const choose_ctx *c, uint32_t f, double *near)
     return k;
 }
 
-static void choose_range(void *vctx, size_t begin, size_t end, int worker)
+/* ---- the choice per group of faces ----------------------------------------------------------
+ *
+ * want_level's work per face (the box's 8 corners projected, its NDC range, square roots and a
+ * logarithm: about 1,800 instructions) made imp49 far's choice (13,573 faces of a pixel or less)
+ * cost more than the frame's whole plan at imp far10 (255 faces): a choice that follows the
+ * faces, not the screen. The faces' tree (face_tree.h) decides groups at once instead, with the
+ * same answers as want_level (tested: test_splats' test_group_choice):
+ * - a node whose box lies beyond one plane of the frustum (outside one side of the screen, in
+ *   front of the near plane, beyond the far plane, behind the eye) by more than the rounding: each
+ *   of its faces has a corner beyond that plane or all corners out on that side, so want_level
+ *   returns -1 for each; none of them is visited.
+ * - a node whose box lies within the frustum by more than the rounding: no face of it is refused
+ *   for the planes or the screen, and its box bounds every face's quantities: the least W of a
+ *   face box lies in [wlo, whi] (the node's least and largest corner W) and g_a (the largest
+ *   |row_a - n row_w| over the face's NDC range, met with [-1, 1]) in [min, max] of the same
+ *   convex function over the node's NDC range. So each face's rt (want_level's radius bound) lies
+ *   in [rt_lo, rt_hi], and its 2 log2 (s0 / rt) in [log_s0 + a_lo, log_s0 + a_hi] with a = -2
+ *   log2 rt. Where that interval, widened by GROUP_DELTA for the rounding of both computations,
+ *   holds no integer (or lies below 0, or above the last level), the face's level is its ceiling
+ *   (want_level's ceil, and its loop does not move it: the level's radius is below rt by more
+ *   than the rounding), decided with a few additions; else want_level decides the face. The
+ *   face's least W (the draw order) is computed exactly as want_level does (face_wmin). */
+
+/* The rounding allowance in 2 log2 (s0 / rt): the two computations' errors are about 1e-13. */
+#define GROUP_DELTA 1e-9
+/* A node within the frustum is decided as a group when its interval's width times its faces is
+ * at most this (about the faces that want_level would then decide one by one); else its
+ * children are tried (each costs about one face's want_level). */
+#define GROUP_SPREAD 2.0
+
+/* The least W over face f's box, bit for bit as want_level's least of its 8 corners: the computed
+ * W is monotone in each coordinate (products and sums round monotonically), so the corner with
+ * each coordinate at the end that lowers W gives the least computed value. */
+static double face_wmin(const choose_ctx *c, uint32_t f)
+{
+    const double *b = c->s->box + 6 * (size_t)f;
+    const crisp_mat4 *m = (const crisp_mat4 *)&c->s->view_proj;
+    double p[3];
+    for (int j = 0; j < 3; j++)
+        p[j] = (*m)[j][3] >= 0 ? b[j] : b[j + 3];
+    return (*m)[0][3] * p[0] + (*m)[1][3] * p[1] + (*m)[2][3] * p[2] + (*m)[3][3];
+}
+
+typedef struct group_view {
+    int culled;          /* every face of the node: want_level returns -1 */
+    int inside;          /* the node lies within the frustum; then: */
+    double a_lo, a_hi;   /* 2 log2 (s0 / rt) - log_s0 of each face lies in [a_lo, a_hi] */
+    double rt_lo, rt_hi; /* each face's rt lies in [rt_lo, rt_hi] */
+} group_view;
+
+/* min and max over n in [lo, hi] of |r - n w| (convex in n), widened for the rounding of the
+ * face's computation (relative 1e-12; the minimiser's rounding moves the value by at most |w|
+ * times it). */
+static void row_range(const double r[3], const double w[3], double lo, double hi, double *gmin,
+                      double *gmax)
+{
+    double rw = 0, ww = 0, ga = 0, gb = 0, gm = 0;
+    for (int j = 0; j < 3; j++) {
+        rw += r[j] * w[j], ww += w[j] * w[j];
+        ga += (r[j] - lo * w[j]) * (r[j] - lo * w[j]);
+        gb += (r[j] - hi * w[j]) * (r[j] - hi * w[j]);
+    }
+    double n = ww > 0 ? rw / ww : lo;
+    n = n < lo ? lo : n > hi ? hi : n;
+    for (int j = 0; j < 3; j++)
+        gm += (r[j] - n * w[j]) * (r[j] - n * w[j]);
+    *gmax = fmax(sqrt(ga), sqrt(gb)) * (1 + 1e-12);
+    *gmin = (sqrt(gm) - 1e-12 * sqrt(ww) * (1 + fabs(n))) * (1 - 1e-12);
+}
+
+static void view_group(const choose_ctx *c, const double *b, group_view *v)
+{
+    const crisp_mat4 *m = (const crisp_mat4 *)&c->s->view_proj;
+    /* e[q]: far more than the rounding of row q's sum of four products at any point of the box
+     * (a few ulps of the sum of the terms' magnitudes) */
+    double e[4];
+    for (int q = 0; q < 4; q++) {
+        double sum = fabs((*m)[3][q]);
+        for (int j = 0; j < 3; j++)
+            sum += fabs((*m)[j][q]) * fmax(fabs(b[j]), fabs(b[j + 3]));
+        e[q] = 1e-12 * sum;
+    }
+    double ex = 2 * (e[0] + e[3]), ey = 2 * (e[1] + e[3]), ez = 2 * (e[2] + e[3]), ew = 2 * e[3];
+    int in = 1, out[7] = {1, 1, 1, 1, 1, 1, 1};
+    double wlo = INFINITY, whi = -INFINITY, nlo[2] = {INFINITY, INFINITY},
+           nhi[2] = {-INFINITY, -INFINITY};
+    for (int k = 0; k < 8; k++) {
+        double p[3] = {b[(k & 1) ? 3 : 0], b[(k & 2) ? 4 : 1], b[(k & 4) ? 5 : 2]}, h[4];
+        for (int q = 0; q < 4; q++)
+            h[q] = (*m)[0][q] * p[0] + (*m)[1][q] * p[1] + (*m)[2][q] * p[2] + (*m)[3][q];
+        in &= h[3] > ew && h[2] + h[3] > ez && h[3] - h[2] > ez && h[3] - h[0] > ex &&
+              h[3] + h[0] > ex && h[3] - h[1] > ey && h[3] + h[1] > ey;
+        out[0] &= h[0] - h[3] > ex;
+        out[1] &= h[0] + h[3] < -ex;
+        out[2] &= h[1] - h[3] > ey;
+        out[3] &= h[1] + h[3] < -ey;
+        out[4] &= h[2] + h[3] < -ez; /* in front of the near plane */
+        out[5] &= h[2] - h[3] > ez;  /* beyond the far plane */
+        out[6] &= h[3] < -ew;        /* behind the eye */
+        if (!in) continue;
+        wlo = fmin(wlo, h[3]), whi = fmax(whi, h[3]);
+        for (int a = 0; a < 2; a++) {
+            nlo[a] = fmin(nlo[a], h[a] / h[3]);
+            nhi[a] = fmax(nhi[a], h[a] / h[3]);
+        }
+    }
+    v->culled = out[0] | out[1] | out[2] | out[3] | out[4] | out[5] | out[6];
+    v->inside = in;
+    if (!in) return;
+    wlo -= e[3], whi += e[3];
+    double glo[2], ghi[2];
+    for (int a = 0; a < 2; a++)
+        row_range(c->row[a], c->row[2], fmax(-1, nlo[a] - 1e-9), fmin(1, nhi[a] + 1e-9), &glo[a],
+                  &ghi[a]);
+    double Glo = fmax(0.5 * c->width * glo[0], 0.5 * c->height * glo[1]);
+    double Ghi = fmax(0.5 * c->width * ghi[0], 0.5 * c->height * ghi[1]);
+    double h = CRISP_SPLAT_HALF_PX - CRISP_SPLAT_MARGIN_PX;
+    v->rt_lo = h * wlo / (Ghi * (1 + 1e-9)) * (1 - 1e-12);
+    v->rt_hi = h * whi / (Glo * (1 + 1e-9)) * (1 + 1e-12);
+    /* (a zero or odd bound: not decided as a group) */
+    if (!(wlo > 0) || !(Glo > 0) || !(v->rt_lo > 0) || !(v->rt_hi < INFINITY)) v->inside = 0;
+    v->a_lo = -2 * log2(v->rt_hi);
+    v->a_hi = -2 * log2(v->rt_lo);
+}
+
+#define UNDECIDED (-2)
+
+/* want_level's answer for face f of a node inside the frustum (v), or UNDECIDED. */
+static int want_level_grouped(const choose_ctx *c, const group_view *v, uint32_t f, double *near)
+{
+    const crisp__splat_store *s = c->s;
+    const face_sets *fs = &s->faces[f];
+    if (!(fs->s0 > 0) || !fs->refused) return -1;
+    double lo = s->log_s0[f] + v->a_lo - GROUP_DELTA, hi = s->log_s0[f] + v->a_hi + 2 * GROUP_DELTA;
+    if (lo > CRISP_SPLAT_LEVELS - 1) return -1; /* want_level's k at CRISP_SPLAT_LEVELS or more */
+    double kk = ceil(hi);
+    int k;
+    if (kk <= 0)
+        k = 0;
+    else if (lo > kk - 1)
+        k = (int)kk;
+    else
+        return UNDECIDED;
+    if (k >= CRISP_SPLAT_LEVELS || k >= fs->refused) return -1;
+    *near = face_wmin(c, f);
+    if (k > 0 && (fs->built >> (k - 1) & 1u)) {
+        if (fs->radius[k - 1] <= v->rt_lo)
+            k--;
+        else if (!(fs->radius[k - 1] > v->rt_hi))
+            return UNDECIDED;
+    }
+    if ((fs->built >> k & 1u) && !(fs->radius[k] <= v->rt_lo))
+        return fs->radius[k] > v->rt_hi ? -1 : UNDECIDED;
+    return k;
+}
+
+/* Chunk i of the faces' tree: its faces' want and near (want is -1 for every face on entry);
+ * counts: faces decided [0] culled with their node, [1] by their node's bound, [2] one by one. */
+static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     choose_ctx *c = vctx;
-    for (size_t f = begin; f < end; f++)
-        c->s->want[f] = (int8_t)want_level(c, (uint32_t)f, &c->s->near[f]);
+    crisp__splat_store *s = c->s;
+    const crisp__face_tree *t = &s->tree;
+    for (size_t i = begin; i < end; i++) {
+        uint64_t *counts = s->chunk_counts[i];
+        counts[0] = counts[1] = counts[2] = 0;
+        uint32_t stack[64];
+        int top = 0;
+        stack[top++] = t->chunks[i];
+        while (top > 0) {
+            const crisp__face_node *n = &t->nodes[stack[--top]];
+            group_view v = {0};
+            view_group(c, n->box, &v);
+            if (v.culled) {
+                counts[0] += n->count;
+                continue;
+            }
+            int leaf = n->child[0] < 0;
+            if (!leaf && (!v.inside || (v.a_hi - v.a_lo) * n->count > GROUP_SPREAD) &&
+                top + 2 <= 64) {
+                stack[top++] = (uint32_t)n->child[1];
+                stack[top++] = (uint32_t)n->child[0];
+                continue;
+            }
+            for (uint32_t j = n->first; j < n->first + n->count; j++) {
+                uint32_t f = t->order[j];
+                int k = v.inside ? want_level_grouped(c, &v, f, &s->near[f]) : UNDECIDED;
+                if (k == UNDECIDED) {
+                    k = want_level(c, f, &s->near[f]);
+                    counts[2]++;
+                } else {
+                    counts[1]++;
+                }
+                s->want[f] = (int8_t)k;
+            }
+        }
+    }
+}
+
+void crisp__splat_store_choice_counts(const crisp__splat_store *s, uint64_t dest[3])
+{
+    memcpy(dest, s->counts, sizeof s->counts);
+}
+
+/* want and near of every face for view_proj (the store's sets as they are): by the faces' tree
+ * (grouped) or face by face. */
+static void choose_levels(crisp__splat_store *s, const crisp_scene *sc, crisp_mat4 view_proj,
+                          int width, int height, crisp_pool *pool, int grouped)
+{
+    crisp_mat4_copy(view_proj, s->view_proj);
+    choose_ctx c = {.s = s, .sc = sc, .width = width, .height = height};
+    for (int a = 0; a < 3; a++)
+        for (int q = 0; q < 3; q++)
+            c.row[q][a] = view_proj[a][q == 2 ? 3 : q];
+    memset(s->counts, 0, sizeof s->counts);
+    if (!grouped) {
+        for (uint32_t f = 0; f < sc->face_count; f++)
+            s->want[f] = (int8_t)want_level(&c, f, &s->near[f]);
+        return;
+    }
+    memset(s->want, -1, sc->face_count);
+    crisp_pool_parallel_for(pool, s->tree.chunk_count, 1, choose_chunk, &c);
+    for (uint32_t i = 0; i < s->tree.chunk_count; i++)
+        for (int k = 0; k < 3; k++)
+            s->counts[k] += s->chunk_counts[i][k];
+}
+
+crisp_status crisp__splat_store_test_want(crisp__splat_store *s, const crisp_scene *sc,
+                                          crisp_mat4 view_proj, int width, int height, int grouped,
+                                          int8_t *want, double *near)
+{
+    crisp_status st = ensure_scene(s, sc);
+    if (st) return st;
+    choose_levels(s, sc, view_proj, width, height, NULL, grouped);
+    memcpy(want, s->want, sc->face_count * sizeof *want);
+    memcpy(near, s->near, sc->face_count * sizeof *near);
+    return CRISP_OK;
 }
 
 /* Thinning (the levels' counts): the builder's sets hold at least a splat or so per patch at
@@ -479,12 +732,7 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
 {
     crisp_status st = ensure_scene(s, sc);
     if (st) return st;
-    crisp_mat4_copy(view_proj, s->view_proj);
-    choose_ctx c = {.s = s, .sc = sc, .width = width, .height = height};
-    for (int a = 0; a < 3; a++)
-        for (int q = 0; q < 3; q++)
-            c.row[q][a] = view_proj[a][q == 2 ? 3 : q];
-    crisp_pool_parallel_for(pool, sc->face_count, 256, choose_range, &c);
+    choose_levels(s, sc, view_proj, width, height, pool, 1);
     /* The sets wanted and not built yet: built in parallel, stored in face order. */
     size_t n = 0;
     for (uint32_t f = 0; f < sc->face_count; f++)
@@ -529,21 +777,29 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
     return CRISP_OK;
 }
 
-/* Sorts n keys ascending (LSD radix, 8-bit digits; tmp: n more). */
+/* Sorts n keys ascending by their upper 32 bits, equal ones kept in their order (LSD radix, 8-bit
+ * digits, stable; the four digits' counts in one pass; tmp: n more). publish's keys hold their
+ * index in the lower bits and come in index order, so that is their full order (ties in face
+ * order) with half the passes. */
 static void radix_sort(uint64_t *key, uint64_t *tmp, uint32_t n)
 {
-    for (int shift = 0; shift < 64; shift += 8) {
-        uint32_t count[257] = {0};
-        for (uint32_t i = 0; i < n; i++)
-            count[(key[i] >> shift & 0xffu) + 1]++;
+    uint32_t count[4][257] = {{0}};
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t hi = (uint32_t)(key[i] >> 32);
+        count[0][(hi & 0xffu) + 1]++, count[1][(hi >> 8 & 0xffu) + 1]++;
+        count[2][(hi >> 16 & 0xffu) + 1]++, count[3][(hi >> 24) + 1]++;
+    }
+    for (int d = 0; d < 4; d++) {
+        uint32_t *c = count[d];
         int one = 0; /* every key has the same digit: nothing moves */
-        for (int d = 1; d <= 256 && !one; d++)
-            one = count[d] == n;
+        for (int v = 1; v <= 256 && !one; v++)
+            one = c[v] == n;
         if (one) continue;
-        for (int d = 0; d < 256; d++)
-            count[d + 1] += count[d];
+        for (int v = 0; v < 256; v++)
+            c[v + 1] += c[v];
+        int shift = 32 + 8 * d;
         for (uint32_t i = 0; i < n; i++)
-            tmp[count[key[i] >> shift & 0xffu]++] = key[i];
+            tmp[c[key[i] >> shift & 0xffu]++] = key[i];
         memcpy(key, tmp, n * sizeof *key);
     }
 }

@@ -75,4 +75,15 @@ uint32_t crisp__splat_thin(crisp_splat *sp, uint32_t n, double radius);
 /* Forget face f's sets (they are rebuilt when next needed). */
 void crisp__splat_store_drop_face(crisp__splat_store *s, uint32_t f);
 
+/* Test hooks (tests/render/test_splats.c). The last choice's faces decided by the faces' tree
+ * (dest[0]: culled with their group, dest[1]: their level from their group's bound) and one by one
+ * (dest[2]). */
+void crisp__splat_store_choice_counts(const crisp__splat_store *s, uint64_t dest[3]);
+/* The level each face of sc wants for view_proj with the store's sets as they are (-1: planned as
+ * patches; nothing is built) and its box's least W (where want >= 0), chosen through the faces'
+ * tree (grouped = 1, as crisp__splat_store_choose does) or face by face (0). */
+crisp_status crisp__splat_store_test_want(crisp__splat_store *s, const crisp_scene *sc,
+                                          crisp_mat4 view_proj, int width, int height, int grouped,
+                                          int8_t *want, double *near);
+
 #endif

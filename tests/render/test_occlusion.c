@@ -27,6 +27,7 @@
 #include "crisp/model.h"
 #include "crisp/plan.h"
 #include "crisp/render.h"
+#include "render/occlusion.h"
 #include "render/raster.h"
 #include "render/render_internal.h"
 
@@ -344,12 +345,73 @@ static void test_pieces(void **state)
     crisp_model_destroy(m);
 }
 
+/* crisp__occl_set's record against the same arithmetic with libm's floor and nextafterf (its own
+ * floor and next float up avoid the calls): boxes near integers, at zero and -0, negative, far
+ * off the window, huge, infinite and NaN; 1/W near 0, near the float limit, and not positive. */
+static void test_occl_set(void **state)
+{
+    (void)state;
+    const int win[4] = {8, 16, 200, 120};
+    long same = 0;
+    for (int k = 0; k < 200000; k++) {
+        double lo[2], hi[2], iw;
+        for (int q = 0; q < 2; q++) {
+            double r = rnd(), a;
+            if (r < 0.4)
+                a = 300 * rnd() - 50;
+            else if (r < 0.6)
+                a = floor(300 * rnd() - 50) + (rnd() < 0.5 ? 0 : rnd() < 0.5 ? 1e-12 : -1e-12);
+            else if (r < 0.7)
+                a = rnd() < 0.5 ? 0.0 : -0.0;
+            else if (r < 0.8)
+                a = (rnd() < 0.5 ? -1 : 1) * pow(10, 20 * rnd());
+            else if (r < 0.85)
+                a = (rnd() < 0.5 ? -1 : 1) * INFINITY;
+            else if (r < 0.88)
+                a = NAN;
+            else
+                a = (rnd() - 0.5) * 4e15 * 2;
+            lo[q] = a;
+            hi[q] = rnd() < 0.1 ? a : a + 30 * rnd();
+        }
+        double r = rnd();
+        iw = r < 0.5    ? rnd()
+             : r < 0.7  ? pow(10, -40 * rnd())
+             : r < 0.8  ? 3.0e38 * (0.99 + 0.02 * rnd())
+             : r < 0.9  ? -rnd()
+             : r < 0.95 ? 0.0
+                        : INFINITY;
+        crisp_occl_leaf o;
+        crisp__occl_set(&o, win, lo, hi, iw);
+        /* the reference: occlusion.c's arithmetic with the library calls */
+        double b[4];
+        for (int q = 0; q < 2; q++) {
+            double n = win[2 + q] - 1;
+            double x0 = floor(lo[q]) - 1 - win[q], x1 = floor(hi[q]) - win[q];
+            b[q] = x0 > 0 ? (x0 < n ? x0 : n) : 0;
+            b[2 + q] = x1 > 0 ? (x1 < n ? x1 : n) : 0;
+        }
+        double m = iw * (1.0 + 1.0 / 1024);
+        float f = (float)m;
+        if ((double)f < m) f = nextafterf(f, INFINITY);
+        float ref = m > 0 && m < 3.0e38 ? f : INFINITY;
+        assert_int_equal(o.bx0, (int)b[0] / CRISP_OCCL_BLOCK);
+        assert_int_equal(o.by0, (int)b[1] / CRISP_OCCL_BLOCK);
+        assert_int_equal(o.bx1, (int)b[2] / CRISP_OCCL_BLOCK);
+        assert_int_equal(o.by1, (int)b[3] / CRISP_OCCL_BLOCK);
+        assert_memory_equal(&o.iw, &ref, sizeof ref);
+        same++;
+    }
+    printf("occl_set: %ld records as the library's arithmetic\n", same);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_frontal),
         cmocka_unit_test(test_random),
         cmocka_unit_test(test_pieces),
+        cmocka_unit_test(test_occl_set),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

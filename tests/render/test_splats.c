@@ -36,6 +36,7 @@
 #include "render/raster.h"
 #include "render/splat.h"
 #include "render/splat_raster.h"
+#include "render/splat_store.h"
 
 static uint64_t rng = 0x853c49e6748fea9bull;
 static double rnd(void)
@@ -589,12 +590,179 @@ static void test_near_edges(void **state)
     assert_int_equal(inner, 0);
 }
 
+/* ---- the choice per group of faces ------------------------------------------------------------
+ */
+
+/* impeller.igs n x n times in a grid (bench/bench_scenes.h's instancing) */
+static crisp_model *instanced(const char *name, int n)
+{
+    crisp_model *src = load(name), *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    double box[6];
+    crisp_model_bbox(src, box);
+    double sx = 1.1 * (box[3] - box[0]), sy = 1.1 * (box[4] - box[1]);
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++)
+            for (int f = 0; f < src->face_count; f++) {
+                crisp_face face;
+                assert_int_equal(crisp_face_copy(&src->faces[f], &face), CRISP_OK);
+                const double t[3][4] = {{1, 0, 0, i * sx}, {0, 1, 0, j * sy}, {0, 0, 1, 0}};
+                crisp_face_transform(&face, t);
+                assert_int_equal(crisp_model_add_face(m, &face), CRISP_OK);
+            }
+    crisp_model_destroy(src);
+    return m;
+}
+
+/* A view from a random direction with the scene's bounding sphere radius_px on screen, aimed at a
+ * random point up to `off` radii from its centre (so part of it may be off screen), the near
+ * plane at `cut` radii in front of the centre (below 1: through the scene). */
+static crisp_camera group_view_camera(const crisp_scene *sc, double radius_px, double off,
+                                      double cut, int w, int h)
+{
+    crisp_camera cam = far_view(sc, radius_px, w, h);
+    double c[3], r = 0, d = 0;
+    for (int q = 0; q < 3; q++) {
+        c[q] = 0.5 * (sc->box[q] + sc->box[q + 3]);
+        r += 0.25 * (sc->box[q + 3] - sc->box[q]) * (sc->box[q + 3] - sc->box[q]);
+        d += (cam.eye[q] - c[q]) * (cam.eye[q] - c[q]);
+    }
+    r = sqrt(r), d = sqrt(d);
+    for (int q = 0; q < 3; q++)
+        cam.target[q] = c[q] + off * r * (2 * rnd() - 1);
+    cam.znear = d - cut * r > 1e-3 * d ? d - cut * r : 1e-3 * d;
+    cam.zfar = d + 1.2 * r;
+    return cam;
+}
+
+/* crisp__splat_store_choose decides groups of faces at once (the faces' tree: whole groups off
+ * screen, or far enough that one bound gives each face its level). Its levels and near W must be
+ * want_level's, face by face, bit for bit: random views of impeller.igs 3 x 3 and of
+ * occt_linkrods.step, far (a few pixels per face) to close, partly off screen, the near and far
+ * planes through the scene, with the sets built by earlier choices (built and refused levels). */
+static void test_group_choice(void **state)
+{
+    (void)state;
+    static const double radii[] = {4, 12, 40, 120, 400, 1500};
+    uint64_t total[3] = {0, 0, 0};
+    long faces = 0, splatted = 0, differ = 0;
+    for (int k = 0; k < 2; k++) {
+        crisp_model *m = k ? load("occt_linkrods.step") : instanced("impeller.igs", 3);
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+        crisp__splat_store *s;
+        assert_int_equal(crisp__splat_store_create(&s), CRISP_OK);
+        int8_t *wa = malloc(sc->face_count), *wb = malloc(sc->face_count);
+        uint8_t *splat = malloc(sc->face_count);
+        double *na = malloc(sc->face_count * sizeof *na), *nb = malloc(sc->face_count * sizeof *nb);
+        assert_non_null(wa), assert_non_null(wb), assert_non_null(splat);
+        assert_non_null(na), assert_non_null(nb);
+        const int w = 320, h = 240;
+        for (int v = 0; v < 60; v++) {
+            double radius = radii[v % 6] * (0.8 + 0.4 * rnd());
+            double off = v % 3 == 0 ? 0 : v % 3 == 1 ? 0.5 : 1.5;
+            double cut = v % 4 == 3 ? 0.3 : 3;
+            crisp_camera cam = group_view_camera(sc, radius, off, cut, w, h);
+            crisp_camera_matrices cm;
+            crisp_camera_matrices_compute(&cam, &cm);
+            if (v % 5 == 0) /* builds the sets this view wants (later views meet them) */
+                assert_int_equal(crisp__splat_store_choose(s, sc, cm.view_proj, w, h, NULL, splat),
+                                 CRISP_OK);
+            assert_int_equal(crisp__splat_store_test_want(s, sc, cm.view_proj, w, h, 0, wa, na),
+                             CRISP_OK);
+            assert_int_equal(crisp__splat_store_test_want(s, sc, cm.view_proj, w, h, 1, wb, nb),
+                             CRISP_OK);
+            uint64_t counts[3];
+            crisp__splat_store_choice_counts(s, counts);
+            assert_int_equal(counts[0] + counts[1] + counts[2], sc->face_count);
+            for (int q = 0; q < 3; q++)
+                total[q] += counts[q];
+            for (uint32_t f = 0; f < sc->face_count; f++) {
+                faces++;
+                splatted += wa[f] >= 0;
+                if (wa[f] == wb[f] && (wa[f] < 0 || memcmp(&na[f], &nb[f], sizeof na[f]) == 0))
+                    continue;
+                if (differ < 8)
+                    fprintf(stderr,
+                            "view %d face %u: level %d (W %.17g) face by face, %d (%.17g) "
+                            "by groups\n",
+                            v, f, wa[f], na[f], wb[f], nb[f]);
+                differ++;
+            }
+        }
+        free(wa), free(wb), free(splat), free(na), free(nb);
+        crisp__splat_store_destroy(s);
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(m);
+    }
+    printf("%ld face choices (%ld splatted): %llu culled by groups, %llu by their group's bound, "
+           "%llu one by one; %ld differ\n",
+           faces, splatted, (unsigned long long)total[0], (unsigned long long)total[1],
+           (unsigned long long)total[2], differ);
+    assert_int_equal(differ, 0);
+    /* the groups' rules are used: most faces are decided by them */
+    assert_true(splatted > faces / 10);
+    assert_true(total[0] > (uint64_t)faces / 20 && total[1] > (uint64_t)faces / 4);
+}
+
+/* The plan's splat ranges come nearest first: by the least W of the face's box (as a float
+ * rounded up), ties in face order (publish's radix sort; the draw's culling and its ties rely on
+ * it). */
+static void test_range_order(void **state)
+{
+    (void)state;
+    crisp_model *m = instanced("impeller.igs", 2);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_planner *pl;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    long ranges = 0;
+    for (int v = 0; v < 6; v++) {
+        crisp_camera cam = group_view_camera(sc, 30 + 40 * v, 0.3, 3, 320, 240);
+        const crisp_frame_plan *plan;
+        assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
+        crisp_camera_matrices cm;
+        crisp_camera_matrices_compute(&cam, &cm);
+        float last = 0;
+        uint32_t last_face = 0;
+        for (uint32_t i = 0; i < plan->splat_range_count; i++) {
+            uint32_t f = plan->splat_ranges[i].face;
+            const crisp_scene_face *sf = &sc->faces[f];
+            double b[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+            for (uint32_t p = 0; p < sf->patch_count; p++)
+                for (int a = 0; a < 3; a++) {
+                    b[a] = fmin(b[a], sc->patches[sf->first_patch + p].box[a]);
+                    b[a + 3] = fmax(b[a + 3], sc->patches[sf->first_patch + p].box[a + 3]);
+                }
+            double w = INFINITY;
+            for (int k = 0; k < 8; k++)
+                w = fmin(w, cm.view_proj[0][3] * b[k & 1 ? 3 : 0] +
+                                cm.view_proj[1][3] * b[k & 2 ? 4 : 1] +
+                                cm.view_proj[2][3] * b[k & 4 ? 5 : 2] + cm.view_proj[3][3]);
+            float key = (float)w;
+            if ((double)key < w) key = nextafterf(key, INFINITY);
+            if (i > 0) {
+                assert_true(key >= last);
+                if (key == last) assert_true(f > last_face);
+            }
+            last = key, last_face = f;
+            ranges++;
+        }
+    }
+    printf("%ld ranges in order\n", ranges);
+    assert_true(ranges > 100);
+    crisp_planner_destroy(pl);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_draw_reference), cmocka_unit_test(test_choice_near_plane),
         cmocka_unit_test(test_true_points),    cmocka_unit_test(test_no_holes),
         cmocka_unit_test(test_solids_far),     cmocka_unit_test(test_near_edges),
+        cmocka_unit_test(test_group_choice),   cmocka_unit_test(test_range_order),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
