@@ -26,30 +26,51 @@
 
 #define QN (CRISP_SLEFE_MAX_DEGREE + 2) /* coefficients per side after one degree raise */
 
+/* piece_sums and what it calls are inlined into copies for the common degrees (PIECE_CASES), so
+ * that their loops have constant trip counts; the same operations in the same order. */
+#if defined(__GNUC__)
+#define INLINE_BODY inline __attribute__((always_inline))
+#else
+#define INLINE_BODY inline
+#endif
+#if defined(__GNUC__) && !defined(__clang__)
+#define PRAGMA(x) _Pragma(#x)
+#define UNROLL(n) PRAGMA(GCC unroll n)
+#else
+#define UNROLL(n)
+#endif
+
 /* Bounds on |x_s|, |x_t| (d1) and |x_ss|, |x_tt|, |x_st| (d2) of the Bézier patch with scalar
  * coefficients x (du + 1 per row), widened for rounding. */
-static void diff_bounds(const double *x, int du, int dv, double d1[2], double d2[3])
+static INLINE_BODY void diff_bounds(const double *x, int du, int dv, double d1[2], double d2[3])
 {
     /* row by row, each difference in its own loop (no branches in the inner loops; the maxima do
      * not depend on the order they are taken in) */
     double a = 0, b = 0, c = 0, e = 0, f = 0, mag = 0;
     int n = du + 1;
+    UNROLL(8)
     for (int j = 0; j <= dv; j++) {
         const double *r = x + j * n;
+        UNROLL(8)
         for (int i = 0; i <= du; i++)
             mag = crisp__max(mag, fabs(r[i]));
+        UNROLL(8)
         for (int i = 0; i < du; i++)
             e = crisp__max(e, fabs(r[i + 1] - r[i]));
+        UNROLL(8)
         for (int i = 0; i + 2 <= du; i++)
             a = crisp__max(a, fabs(r[i] - 2 * r[i + 1] + r[i + 2]));
         if (j == dv) continue;
         const double *q = r + n;
+        UNROLL(8)
         for (int i = 0; i <= du; i++)
             f = crisp__max(f, fabs(q[i] - r[i]));
+        UNROLL(8)
         for (int i = 0; i < du; i++)
             c = crisp__max(c, fabs(r[i] - r[i + 1] - q[i] + q[i + 1]));
         if (j + 2 > dv) continue;
         const double *o = q + n;
+        UNROLL(8)
         for (int i = 0; i <= du; i++)
             b = crisp__max(b, fabs(r[i] - 2 * q[i] + o[i]));
     }
@@ -61,8 +82,8 @@ static void diff_bounds(const double *x, int du, int dv, double d1[2], double d2
 
 /* A + B + 2 C of q = h / w from the coefficients of h (degrees n x m) and the bounds w1, w2 of
  * w's derivatives (diff_bounds), |q| <= Q, the least weight wlo. */
-static double quotient_sum(const double *h, const double w1[2], const double w2[3], int n, int m,
-                           double Q, double wlo)
+static INLINE_BODY double quotient_sum(const double *h, const double w1[2], const double w2[3],
+                                       int n, int m, double Q, double wlo)
 {
     double h1[2], h2[3];
     diff_bounds(h, n, m, h1, h2);
@@ -76,35 +97,40 @@ static double quotient_sum(const double *h, const double w1[2], const double w2[
 /* dest = x + l y in degrees (du + 1) x (dv + 1): x raised by one degree in s and t, plus the
  * product of the degree (1, 1) patch l (corners l00, l10, l01, l11) and y (y NULL: x alone).
  * Each coefficient of x and y is spread onto the four it reaches. */
-static void raise_plus(const double *x, const double l[4], const double *y, int du, int dv,
-                       double *dest)
+static INLINE_BODY void raise_plus(const double *x, const double l[4], const double *y, int du,
+                                   int dv, double *dest)
 {
     static const double none[4] = {0, 0, 0, 0};
     if (!y) l = none;
     int n = du + 1, m = dv + 1;
     double cs[2][QN + 1], ct[2][QN + 1];
+    UNROLL(8)
     for (int i = 0; i <= n; i++)
         cs[0][i] = (double)(n - i) / n, cs[1][i] = (double)i / n;
+    UNROLL(8)
     for (int k = 0; k <= m; k++)
         ct[0][k] = (double)(m - k) / m, ct[1][k] = (double)k / m;
     memset(dest, 0, sizeof(double) * (size_t)((n + 1) * (m + 1)));
+    UNROLL(8)
     for (int kk = 0; kk <= dv; kk++)
-        for (int ii = 0; ii <= du; ii++) {
-            double v = x[kk * n + ii], yv = y ? y[kk * n + ii] : 0;
-            double *d0 = dest + kk * (n + 1) + ii, *d1 = d0 + (n + 1);
-            double a0 = cs[0][ii], a1 = cs[1][ii + 1], b0 = ct[0][kk], b1 = ct[1][kk + 1];
-            d0[0] += a0 * b0 * (v + l[0] * yv);
-            d0[1] += a1 * b0 * (v + l[1] * yv);
-            d1[0] += a0 * b1 * (v + l[2] * yv);
-            d1[1] += a1 * b1 * (v + l[3] * yv);
-        }
+        UNROLL(8)
+    for (int ii = 0; ii <= du; ii++) {
+        double v = x[kk * n + ii], yv = y ? y[kk * n + ii] : 0;
+        double *d0 = dest + kk * (n + 1) + ii, *d1 = d0 + (n + 1);
+        double a0 = cs[0][ii], a1 = cs[1][ii + 1], b0 = ct[0][kk], b1 = ct[1][kk + 1];
+        d0[0] += a0 * b0 * (v + l[0] * yv);
+        d0[1] += a1 * b0 * (v + l[1] * yv);
+        d1[0] += a0 * b1 * (v + l[2] * yv);
+        d1[1] += a1 * b1 * (v + l[3] * yv);
+    }
 }
 
 /* A + B + 2 C of each coordinate r < nc of the patch with interleaved coefficients c (nc + 1
  * values per control point, the weight last), in its own parameters, into K; INFINITY when a
  * weight is not positive. mid_only: l the middle of the values alone (the fitted l is not tried:
  * a bound never below the full one, for about a third of its cost). */
-static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, double *K)
+static INLINE_BODY void piece_sums_body(const double *c, int nc, int du, int dv, int mid_only,
+                                        double *K)
 {
     int n = (du + 1) * (dv + 1), st = nc + 1, ne = (du + 2) * (dv + 2);
     double w[QN * QN], we[QN * QN], wlo = INFINITY, whi = -INFINITY;
@@ -127,7 +153,7 @@ static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, do
         }
         return;
     }
-    double w1[2], w2[3], we1[2], we2[3];
+    double w1[2], w2[3], we1[2] = {0, 0}, we2[3] = {0, 0, 0}; /* we: only with fit */
     diff_bounds(w, du, dv, w1, w2);
     int fit = !mid_only && du + 1 < QN && dv + 1 < QN;
     if (fit) {
@@ -182,11 +208,25 @@ static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, do
     }
 }
 
+/* piece_sums_body with constant degrees where they are common: cubic by quadratic rational
+ * patches (impeller.igs), bicubic, linear by quadratic and biquintic. */
+static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, double *K)
+{
+    if (du == 3 && dv == 2)
+        piece_sums_body(c, nc, 3, 2, mid_only, K);
+    else if (du == 3 && dv == 3)
+        piece_sums_body(c, nc, 3, 3, mid_only, K);
+    else if (du == 1 && dv == 2)
+        piece_sums_body(c, nc, 1, 2, mid_only, K);
+    else
+        piece_sums_body(c, nc, du, dv, mid_only, K);
+}
+
 /* Split the interleaved coefficients c (st values per control point, degrees du x dv) at the
  * middle of direction dir (0: s, 1: t) into lo and hi (de Casteljau at 1/2). Coordinates from
  * `from` on are copied unchanged (a weight that is the same everywhere stays so). */
-static void split_half(const double *c, int st, int from, int du, int dv, int dir, double *lo,
-                       double *hi)
+static INLINE_BODY void split_half_body(const double *c, int st, int from, int du, int dv, int dir,
+                                        double *lo, double *hi)
 {
     int d = dir ? dv : du, rows = dir ? du + 1 : dv + 1;
     int stride = dir ? st * (du + 1) : st, row_step = dir ? st : st * (du + 1);
@@ -200,15 +240,32 @@ static void split_half(const double *c, int st, int from, int du, int dv, int di
                     L[i * stride] = H[i * stride] = x[i * stride];
                 continue;
             }
+            UNROLL(8)
             for (int i = 0; i <= d; i++)
                 tmp[i] = x[i * stride];
             L[0] = tmp[0], H[d * stride] = tmp[d];
+            UNROLL(8)
             for (int r = 1; r <= d; r++) {
+                UNROLL(8)
                 for (int i = 0; i <= d - r; i++)
                     tmp[i] = 0.5 * (tmp[i] + tmp[i + 1]);
                 L[r * stride] = tmp[0], H[(d - r) * stride] = tmp[d - r];
             }
         }
+}
+
+/* split_half_body with the degrees of piece_sums' constant cases. */
+static void split_half(const double *c, int st, int from, int du, int dv, int dir, double *lo,
+                       double *hi)
+{
+    if (du == 3 && dv == 2 && dir)
+        split_half_body(c, st, from, 3, 2, 1, lo, hi);
+    else if (du == 3 && dv == 2)
+        split_half_body(c, st, from, 3, 2, 0, lo, hi);
+    else if (du == 3 && dv == 3)
+        split_half_body(c, st, from, 3, 3, dir, lo, hi);
+    else
+        split_half_body(c, st, from, du, dv, dir, lo, hi);
 }
 
 /* The largest piece_sums over the pieces of c halved su times in s and sv times in t, into K
