@@ -167,7 +167,12 @@ void crisp_bezier_patch_eval(const crisp_bezier_patch *p, double s, double t, do
 /* homogeneous_derivs(cpw, n, 4, t, 1, h) for 4 components and the first derivative, the same
  * operations in the same order (so the same values bit for bit), with the component count fixed
  * so that the compiler can unroll and vectorise it: the hot path of tessellation. */
-static void homogeneous_derivs1_4(const double *cpw, int n, double t, double *h)
+#if defined(__GNUC__)
+#define INLINE_BODY inline __attribute__((always_inline))
+#else
+#define INLINE_BODY inline
+#endif
+static INLINE_BODY void homogeneous_derivs1_4_body(const double *cpw, int n, double t, double *h)
 {
     if (n == 0) {
         for (int c = 0; c < 4; c++)
@@ -186,6 +191,18 @@ static void homogeneous_derivs1_4(const double *cpw, int n, double t, double *h)
         h[c] = s * q[c] + t * q[4 + c];
         h[4 + c] = f * (q[4 + c] - q[c]);
     }
+}
+
+/* homogeneous_derivs1_4_body with the degree a constant where it is common (quadratic and
+ * cubic rows: impeller.igs), so that its loops unroll. */
+static void homogeneous_derivs1_4(const double *cpw, int n, double t, double *h)
+{
+    if (n == 3)
+        homogeneous_derivs1_4_body(cpw, 3, t, h);
+    else if (n == 2)
+        homogeneous_derivs1_4_body(cpw, 2, t, h);
+    else
+        homogeneous_derivs1_4_body(cpw, n, t, h);
 }
 
 void crisp__bezier_patch_rows_s(const crisp_bezier_patch *p, double s, double *rows)
