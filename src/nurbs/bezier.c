@@ -199,15 +199,26 @@ static INLINE_BODY void homogeneous_derivs1_4_body(const double *cpw, int n, dou
 }
 
 /* homogeneous_derivs1_4_body with the degree a constant where it is common (quadratic and
- * cubic rows: impeller.igs), so that its loops unroll. */
+ * cubic rows: impeller.igs; quintic: Ventilator.stp; sextic: occt_linkrods.step), so that its
+ * loops unroll. */
 static void homogeneous_derivs1_4(const double *cpw, int n, double t, double *h)
 {
-    if (n == 3)
-        homogeneous_derivs1_4_body(cpw, 3, t, h);
-    else if (n == 2)
+    switch (n) {
+    case 2:
         homogeneous_derivs1_4_body(cpw, 2, t, h);
-    else
+        break;
+    case 3:
+        homogeneous_derivs1_4_body(cpw, 3, t, h);
+        break;
+    case 5:
+        homogeneous_derivs1_4_body(cpw, 5, t, h);
+        break;
+    case 6:
+        homogeneous_derivs1_4_body(cpw, 6, t, h);
+        break;
+    default:
         homogeneous_derivs1_4_body(cpw, n, t, h);
+    }
 }
 
 void crisp__bezier_patch_rows_s(const crisp_bezier_patch *p, double s, double *rows)
@@ -244,12 +255,22 @@ static INLINE_BODY void derivs_rows_body(int dv, const double *rows, double t, d
 void crisp__bezier_patch_derivs_rows(const crisp_bezier_patch *p, const double *rows, double t,
                                      double *point, double *d_s, double *d_t)
 {
-    if (p->dv == 2)
+    switch (p->dv) {
+    case 2:
         derivs_rows_body(2, rows, t, point, d_s, d_t);
-    else if (p->dv == 3)
+        break;
+    case 3:
         derivs_rows_body(3, rows, t, point, d_s, d_t);
-    else
+        break;
+    case 5:
+        derivs_rows_body(5, rows, t, point, d_s, d_t);
+        break;
+    case 10:
+        derivs_rows_body(10, rows, t, point, d_s, d_t);
+        break;
+    default:
         derivs_rows_body(p->dv, rows, t, point, d_s, d_t);
+    }
 }
 
 void crisp_bezier_patch_derivs(const crisp_bezier_patch *p, double s, double t, double *point,

@@ -80,17 +80,27 @@ static INLINE_BODY void general_body(const crisp_bezier_patch *p, int du, int dv
     }
 }
 
-/* general_body with constant degrees for the common cubic by quadratic rational patches
- * (impeller.igs): the same operations in the same order. */
+/* general_body with constant degrees for the common cases (cubic by quadratic: impeller.igs;
+ * quintic: Ventilator.stp; 6 x 10: occt_linkrods.step; quadratic by linear or quadratic): the
+ * same operations in the same order. */
 static void general(const crisp_bezier_patch *p, int c, int m, const crisp_slefe_table *tu,
                     const crisp_slefe_table *tv, double *lo, double *up)
 {
-    if (p->du == 3 && p->dv == 2)
+    int du = p->du, dv = p->dv;
+    if (du == 3 && dv == 2)
         general_body(p, 3, 2, c, m, tu, tv, lo, up);
-    else if (p->du == 2 && p->dv == 3)
+    else if (du == 2 && dv == 3)
         general_body(p, 2, 3, c, m, tu, tv, lo, up);
+    else if (du == 2 && dv == 1)
+        general_body(p, 2, 1, c, m, tu, tv, lo, up);
+    else if (du == 2 && dv == 2)
+        general_body(p, 2, 2, c, m, tu, tv, lo, up);
+    else if (du == 5 && dv == 5)
+        general_body(p, 5, 5, c, m, tu, tv, lo, up);
+    else if (du == 6 && dv == 10)
+        general_body(p, 6, 10, c, m, tu, tv, lo, up);
     else
-        general_body(p, p->du, p->dv, c, m, tu, tv, lo, up);
+        general_body(p, du, dv, c, m, tu, tv, lo, up);
 }
 
 void crisp__slefe_patch_coordinate(const crisp_bezier_patch *p, int m, int c, double *lo,
