@@ -26,18 +26,20 @@
 
 #define QN (CRISP_SLEFE_MAX_DEGREE + 2) /* coefficients per side after one degree raise */
 
-/* piece_sums and what it calls are inlined into copies for the common degrees (PIECE_CASES), so
- * that their loops have constant trip counts; the same operations in the same order. */
+/* piece_sums and what it calls, and split_half, are inlined into copies for the common degrees
+ * (piece_sums, split_half), so that their loops have constant trip counts; the same operations
+ * in the same order. */
 #if defined(__GNUC__)
 #define INLINE_BODY inline __attribute__((always_inline))
 #else
 #define INLINE_BODY inline
 #endif
+/* Their loops of constant trip count peeled whole (GCC's -fpeel-loops, on for these two only:
+ * #pragma GCC unroll also unrolled the generic copy's loops at run time, 68 KB of code). */
 #if defined(__GNUC__) && !defined(__clang__)
-#define PRAGMA(x) _Pragma(#x)
-#define UNROLL(n) PRAGMA(GCC unroll n)
+#define PEEL_LOOPS __attribute__((optimize("peel-loops")))
 #else
-#define UNROLL(n)
+#define PEEL_LOOPS
 #endif
 
 /* Bounds on |x_s|, |x_t| (d1) and |x_ss|, |x_tt|, |x_st| (d2) of the Bézier patch with scalar
@@ -48,29 +50,22 @@ static INLINE_BODY void diff_bounds(const double *x, int du, int dv, double d1[2
      * not depend on the order they are taken in) */
     double a = 0, b = 0, c = 0, e = 0, f = 0, mag = 0;
     int n = du + 1;
-    UNROLL(8)
     for (int j = 0; j <= dv; j++) {
         const double *r = x + j * n;
-        UNROLL(8)
         for (int i = 0; i <= du; i++)
             mag = crisp__max(mag, fabs(r[i]));
-        UNROLL(8)
         for (int i = 0; i < du; i++)
             e = crisp__max(e, fabs(r[i + 1] - r[i]));
-        UNROLL(8)
         for (int i = 0; i + 2 <= du; i++)
             a = crisp__max(a, fabs(r[i] - 2 * r[i + 1] + r[i + 2]));
         if (j == dv) continue;
         const double *q = r + n;
-        UNROLL(8)
         for (int i = 0; i <= du; i++)
             f = crisp__max(f, fabs(q[i] - r[i]));
-        UNROLL(8)
         for (int i = 0; i < du; i++)
             c = crisp__max(c, fabs(r[i] - r[i + 1] - q[i] + q[i + 1]));
         if (j + 2 > dv) continue;
         const double *o = q + n;
-        UNROLL(8)
         for (int i = 0; i <= du; i++)
             b = crisp__max(b, fabs(r[i] - 2 * q[i] + o[i]));
     }
@@ -104,25 +99,21 @@ static INLINE_BODY void raise_plus(const double *x, const double l[4], const dou
     if (!y) l = none;
     int n = du + 1, m = dv + 1;
     double cs[2][QN + 1], ct[2][QN + 1];
-    UNROLL(8)
     for (int i = 0; i <= n; i++)
         cs[0][i] = (double)(n - i) / n, cs[1][i] = (double)i / n;
-    UNROLL(8)
     for (int k = 0; k <= m; k++)
         ct[0][k] = (double)(m - k) / m, ct[1][k] = (double)k / m;
     memset(dest, 0, sizeof(double) * (size_t)((n + 1) * (m + 1)));
-    UNROLL(8)
     for (int kk = 0; kk <= dv; kk++)
-        UNROLL(8)
-    for (int ii = 0; ii <= du; ii++) {
-        double v = x[kk * n + ii], yv = y ? y[kk * n + ii] : 0;
-        double *d0 = dest + kk * (n + 1) + ii, *d1 = d0 + (n + 1);
-        double a0 = cs[0][ii], a1 = cs[1][ii + 1], b0 = ct[0][kk], b1 = ct[1][kk + 1];
-        d0[0] += a0 * b0 * (v + l[0] * yv);
-        d0[1] += a1 * b0 * (v + l[1] * yv);
-        d1[0] += a0 * b1 * (v + l[2] * yv);
-        d1[1] += a1 * b1 * (v + l[3] * yv);
-    }
+        for (int ii = 0; ii <= du; ii++) {
+            double v = x[kk * n + ii], yv = y ? y[kk * n + ii] : 0;
+            double *d0 = dest + kk * (n + 1) + ii, *d1 = d0 + (n + 1);
+            double a0 = cs[0][ii], a1 = cs[1][ii + 1], b0 = ct[0][kk], b1 = ct[1][kk + 1];
+            d0[0] += a0 * b0 * (v + l[0] * yv);
+            d0[1] += a1 * b0 * (v + l[1] * yv);
+            d1[0] += a0 * b1 * (v + l[2] * yv);
+            d1[1] += a1 * b1 * (v + l[3] * yv);
+        }
 }
 
 /* A + B + 2 C of each coordinate r < nc of the patch with interleaved coefficients c (nc + 1
@@ -210,7 +201,7 @@ static INLINE_BODY void piece_sums_body(const double *c, int nc, int du, int dv,
 
 /* piece_sums_body with constant degrees where they are common: cubic by quadratic rational
  * patches (impeller.igs), bicubic, linear by quadratic and biquintic. */
-static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, double *K)
+PEEL_LOOPS static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, double *K)
 {
     if (du == 3 && dv == 2)
         piece_sums_body(c, nc, 3, 2, mid_only, K);
@@ -240,13 +231,10 @@ static INLINE_BODY void split_half_body(const double *c, int st, int from, int d
                     L[i * stride] = H[i * stride] = x[i * stride];
                 continue;
             }
-            UNROLL(8)
             for (int i = 0; i <= d; i++)
                 tmp[i] = x[i * stride];
             L[0] = tmp[0], H[d * stride] = tmp[d];
-            UNROLL(8)
             for (int r = 1; r <= d; r++) {
-                UNROLL(8)
                 for (int i = 0; i <= d - r; i++)
                     tmp[i] = 0.5 * (tmp[i] + tmp[i + 1]);
                 L[r * stride] = tmp[0], H[(d - r) * stride] = tmp[d - r];
@@ -255,8 +243,8 @@ static INLINE_BODY void split_half_body(const double *c, int st, int from, int d
 }
 
 /* split_half_body with the degrees of piece_sums' constant cases. */
-static void split_half(const double *c, int st, int from, int du, int dv, int dir, double *lo,
-                       double *hi)
+PEEL_LOOPS static void split_half(const double *c, int st, int from, int du, int dv, int dir,
+                                  double *lo, double *hi)
 {
     if (du == 3 && dv == 2 && dir)
         split_half_body(c, st, from, 3, 2, 1, lo, hi);
