@@ -200,7 +200,7 @@ static INLINE_BODY void piece_sums_body(const double *c, int nc, int du, int dv,
 }
 
 /* piece_sums_body with constant degrees where they are common: cubic by quadratic rational
- * patches (impeller.igs), bicubic, linear by quadratic and biquintic. */
+ * patches (impeller.igs), bicubic, linear by quadratic and 6 x 10 (occt_linkrods.step). */
 PEEL_LOOPS static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, double *K)
 {
     if (du == 3 && dv == 2)
@@ -209,6 +209,8 @@ PEEL_LOOPS static void piece_sums(const double *c, int nc, int du, int dv, int m
         piece_sums_body(c, nc, 3, 3, mid_only, K);
     else if (du == 1 && dv == 2)
         piece_sums_body(c, nc, 1, 2, mid_only, K);
+    else if (du == 6 && dv == 10)
+        piece_sums_body(c, nc, 6, 10, mid_only, K);
     else
         piece_sums_body(c, nc, du, dv, mid_only, K);
 }
