@@ -8,13 +8,23 @@
 #include <string.h>
 
 /* de Casteljau on n + 1 points of nc doubles (packed), in place: leaves the point at t in q[0]. */
-static void decasteljau(double *q, int n, int nc, double t)
+#if defined(__GNUC__)
+#define INLINE_BODY inline __attribute__((always_inline))
+#else
+#define INLINE_BODY inline
+#endif
+static INLINE_BODY void decasteljau_body(double *q, int n, int nc, double t)
 {
     const double s = 1.0 - t;
     for (int r = 1; r <= n; r++)
         for (int i = 0; i <= n - r; i++)
             for (int c = 0; c < nc; c++)
                 q[i * nc + c] = s * q[i * nc + c] + t * q[(i + 1) * nc + c];
+}
+
+static void decasteljau(double *q, int n, int nc, double t)
+{
+    decasteljau_body(q, n, nc, t);
 }
 
 /* All Bernstein polynomials of degree n at t (The NURBS Book A1.3): positive weights, so the
@@ -167,7 +177,7 @@ void crisp_bezier_patch_eval(const crisp_bezier_patch *p, double s, double t, do
 /* homogeneous_derivs(cpw, n, 4, t, 1, h) for 4 components and the first derivative, the same
  * operations in the same order (so the same values bit for bit), with the component count fixed
  * so that the compiler can unroll and vectorise it: the hot path of tessellation. */
-static void homogeneous_derivs1_4(const double *cpw, int n, double t, double *h)
+static INLINE_BODY void homogeneous_derivs1_4_body(const double *cpw, int n, double t, double *h)
 {
     if (n == 0) {
         for (int c = 0; c < 4; c++)
@@ -188,6 +198,29 @@ static void homogeneous_derivs1_4(const double *cpw, int n, double t, double *h)
     }
 }
 
+/* homogeneous_derivs1_4_body with the degree a constant where it is common (quadratic and
+ * cubic rows: impeller.igs; quintic: Ventilator.stp; sextic: occt_linkrods.step), so that its
+ * loops unroll. */
+static void homogeneous_derivs1_4(const double *cpw, int n, double t, double *h)
+{
+    switch (n) {
+    case 2:
+        homogeneous_derivs1_4_body(cpw, 2, t, h);
+        break;
+    case 3:
+        homogeneous_derivs1_4_body(cpw, 3, t, h);
+        break;
+    case 5:
+        homogeneous_derivs1_4_body(cpw, 5, t, h);
+        break;
+    case 6:
+        homogeneous_derivs1_4_body(cpw, 6, t, h);
+        break;
+    default:
+        homogeneous_derivs1_4_body(cpw, n, t, h);
+    }
+}
+
 void crisp__bezier_patch_rows_s(const crisp_bezier_patch *p, double s, double *rows)
 {
     const int nu = p->du + 1;
@@ -199,14 +232,15 @@ void crisp__bezier_patch_rows_s(const crisp_bezier_patch *p, double s, double *r
     }
 }
 
-void crisp__bezier_patch_derivs_rows(const crisp_bezier_patch *p, const double *rows, double t,
-                                     double *point, double *d_s, double *d_t)
+/* crisp__bezier_patch_derivs_rows for v-degree dv (a constant in its common cases). */
+static INLINE_BODY void derivs_rows_body(int dv, const double *rows, double t, double *point,
+                                         double *d_s, double *d_t)
 {
     double dsv[(CRISP_MAX_DEGREE + 1) * 4];
-    memcpy(dsv, rows + (p->dv + 1) * 4, (size_t)(p->dv + 1) * 4 * sizeof *dsv);
+    memcpy(dsv, rows + (dv + 1) * 4, (size_t)(dv + 1) * 4 * sizeof *dsv);
     double a[2 * 4], as[4];
-    homogeneous_derivs1_4(rows, p->dv, t, a); /* a: A, A_t */
-    decasteljau(dsv, p->dv, 4, t);
+    homogeneous_derivs1_4_body(rows, dv, t, a); /* a: A, A_t */
+    decasteljau_body(dsv, dv, 4, t);
     memcpy(as, dsv, sizeof as);
     double w = a[3], x[3];
     for (int d = 0; d < 3; d++)
@@ -215,6 +249,27 @@ void crisp__bezier_patch_derivs_rows(const crisp_bezier_patch *p, const double *
         if (point) point[d] = x[d];
         if (d_s) d_s[d] = (as[d] - as[3] * x[d]) / w;
         if (d_t) d_t[d] = (a[4 + d] - a[7] * x[d]) / w;
+    }
+}
+
+void crisp__bezier_patch_derivs_rows(const crisp_bezier_patch *p, const double *rows, double t,
+                                     double *point, double *d_s, double *d_t)
+{
+    switch (p->dv) {
+    case 2:
+        derivs_rows_body(2, rows, t, point, d_s, d_t);
+        break;
+    case 3:
+        derivs_rows_body(3, rows, t, point, d_s, d_t);
+        break;
+    case 5:
+        derivs_rows_body(5, rows, t, point, d_s, d_t);
+        break;
+    case 10:
+        derivs_rows_body(10, rows, t, point, d_s, d_t);
+        break;
+    default:
+        derivs_rows_body(p->dv, rows, t, point, d_s, d_t);
     }
 }
 

@@ -42,11 +42,18 @@ static void bicubic3(const double *cpw, int c, const crisp_slefe_table *t, doubl
     }
 }
 
-/* Coordinate c of a general patch. */
-static void general(const crisp_bezier_patch *p, int c, int m, const crisp_slefe_table *tu,
-                    const crisp_slefe_table *tv, double *lo, double *up)
+#if defined(__GNUC__)
+#define INLINE_BODY inline __attribute__((always_inline))
+#else
+#define INLINE_BODY inline
+#endif
+
+/* Coordinate c of a general patch of degrees du x dv (general: constants for the common ones). */
+static INLINE_BODY void general_body(const crisp_bezier_patch *p, int du, int dv, int c, int m,
+                                     const crisp_slefe_table *tu, const crisp_slefe_table *tv,
+                                     double *lo, double *up)
 {
-    int du = p->du, dv = p->dv, n = m + 1;
+    int n = m + 1;
     double rl[(MAXD + 1) * (MAXM + 1)], ru[(MAXD + 1) * (MAXM + 1)]; /* [i * n + kv] */
     for (int i = 0; i <= du; i++) {
         const double *b = p->cpw + i * 4 + c;
@@ -71,6 +78,29 @@ static void general(const crisp_bezier_patch *p, int c, int m, const crisp_slefe
             crisp__slefe_kernel(du, rl + kv, n, tu, m, ol, 4, scratch, 1);
         }
     }
+}
+
+/* general_body with constant degrees for the common cases (cubic by quadratic: impeller.igs;
+ * quintic: Ventilator.stp; 6 x 10: occt_linkrods.step; quadratic by linear or quadratic): the
+ * same operations in the same order. */
+static void general(const crisp_bezier_patch *p, int c, int m, const crisp_slefe_table *tu,
+                    const crisp_slefe_table *tv, double *lo, double *up)
+{
+    int du = p->du, dv = p->dv;
+    if (du == 3 && dv == 2)
+        general_body(p, 3, 2, c, m, tu, tv, lo, up);
+    else if (du == 2 && dv == 3)
+        general_body(p, 2, 3, c, m, tu, tv, lo, up);
+    else if (du == 2 && dv == 1)
+        general_body(p, 2, 1, c, m, tu, tv, lo, up);
+    else if (du == 2 && dv == 2)
+        general_body(p, 2, 2, c, m, tu, tv, lo, up);
+    else if (du == 5 && dv == 5)
+        general_body(p, 5, 5, c, m, tu, tv, lo, up);
+    else if (du == 6 && dv == 10)
+        general_body(p, 6, 10, c, m, tu, tv, lo, up);
+    else
+        general_body(p, du, dv, c, m, tu, tv, lo, up);
 }
 
 void crisp__slefe_patch_coordinate(const crisp_bezier_patch *p, int m, int c, double *lo,

@@ -26,9 +26,25 @@
 
 #define QN (CRISP_SLEFE_MAX_DEGREE + 2) /* coefficients per side after one degree raise */
 
+/* piece_sums and what it calls, and split_half, are inlined into copies for the common degrees
+ * (piece_sums, split_half), so that their loops have constant trip counts; the same operations
+ * in the same order. */
+#if defined(__GNUC__)
+#define INLINE_BODY inline __attribute__((always_inline))
+#else
+#define INLINE_BODY inline
+#endif
+/* Their loops of constant trip count peeled whole (GCC's -fpeel-loops, on for these two only:
+ * #pragma GCC unroll also unrolled the generic copy's loops at run time, 68 KB of code). */
+#if defined(__GNUC__) && !defined(__clang__)
+#define PEEL_LOOPS __attribute__((optimize("peel-loops")))
+#else
+#define PEEL_LOOPS
+#endif
+
 /* Bounds on |x_s|, |x_t| (d1) and |x_ss|, |x_tt|, |x_st| (d2) of the Bézier patch with scalar
  * coefficients x (du + 1 per row), widened for rounding. */
-static void diff_bounds(const double *x, int du, int dv, double d1[2], double d2[3])
+static INLINE_BODY void diff_bounds(const double *x, int du, int dv, double d1[2], double d2[3])
 {
     /* row by row, each difference in its own loop (no branches in the inner loops; the maxima do
      * not depend on the order they are taken in) */
@@ -61,8 +77,8 @@ static void diff_bounds(const double *x, int du, int dv, double d1[2], double d2
 
 /* A + B + 2 C of q = h / w from the coefficients of h (degrees n x m) and the bounds w1, w2 of
  * w's derivatives (diff_bounds), |q| <= Q, the least weight wlo. */
-static double quotient_sum(const double *h, const double w1[2], const double w2[3], int n, int m,
-                           double Q, double wlo)
+static INLINE_BODY double quotient_sum(const double *h, const double w1[2], const double w2[3],
+                                       int n, int m, double Q, double wlo)
 {
     double h1[2], h2[3];
     diff_bounds(h, n, m, h1, h2);
@@ -76,8 +92,8 @@ static double quotient_sum(const double *h, const double w1[2], const double w2[
 /* dest = x + l y in degrees (du + 1) x (dv + 1): x raised by one degree in s and t, plus the
  * product of the degree (1, 1) patch l (corners l00, l10, l01, l11) and y (y NULL: x alone).
  * Each coefficient of x and y is spread onto the four it reaches. */
-static void raise_plus(const double *x, const double l[4], const double *y, int du, int dv,
-                       double *dest)
+static INLINE_BODY void raise_plus(const double *x, const double l[4], const double *y, int du,
+                                   int dv, double *dest)
 {
     static const double none[4] = {0, 0, 0, 0};
     if (!y) l = none;
@@ -104,7 +120,8 @@ static void raise_plus(const double *x, const double l[4], const double *y, int 
  * values per control point, the weight last), in its own parameters, into K; INFINITY when a
  * weight is not positive. mid_only: l the middle of the values alone (the fitted l is not tried:
  * a bound never below the full one, for about a third of its cost). */
-static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, double *K)
+static INLINE_BODY void piece_sums_body(const double *c, int nc, int du, int dv, int mid_only,
+                                        double *K)
 {
     int n = (du + 1) * (dv + 1), st = nc + 1, ne = (du + 2) * (dv + 2);
     double w[QN * QN], we[QN * QN], wlo = INFINITY, whi = -INFINITY;
@@ -127,7 +144,7 @@ static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, do
         }
         return;
     }
-    double w1[2], w2[3], we1[2], we2[3];
+    double w1[2], w2[3], we1[2] = {0, 0}, we2[3] = {0, 0, 0}; /* we: only with fit */
     diff_bounds(w, du, dv, w1, w2);
     int fit = !mid_only && du + 1 < QN && dv + 1 < QN;
     if (fit) {
@@ -182,11 +199,27 @@ static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, do
     }
 }
 
+/* piece_sums_body with constant degrees where they are common: cubic by quadratic rational
+ * patches (impeller.igs), bicubic, linear by quadratic and 6 x 10 (occt_linkrods.step). */
+PEEL_LOOPS static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, double *K)
+{
+    if (du == 3 && dv == 2)
+        piece_sums_body(c, nc, 3, 2, mid_only, K);
+    else if (du == 3 && dv == 3)
+        piece_sums_body(c, nc, 3, 3, mid_only, K);
+    else if (du == 1 && dv == 2)
+        piece_sums_body(c, nc, 1, 2, mid_only, K);
+    else if (du == 6 && dv == 10)
+        piece_sums_body(c, nc, 6, 10, mid_only, K);
+    else
+        piece_sums_body(c, nc, du, dv, mid_only, K);
+}
+
 /* Split the interleaved coefficients c (st values per control point, degrees du x dv) at the
  * middle of direction dir (0: s, 1: t) into lo and hi (de Casteljau at 1/2). Coordinates from
  * `from` on are copied unchanged (a weight that is the same everywhere stays so). */
-static void split_half(const double *c, int st, int from, int du, int dv, int dir, double *lo,
-                       double *hi)
+static INLINE_BODY void split_half_body(const double *c, int st, int from, int du, int dv, int dir,
+                                        double *lo, double *hi)
 {
     int d = dir ? dv : du, rows = dir ? du + 1 : dv + 1;
     int stride = dir ? st * (du + 1) : st, row_step = dir ? st : st * (du + 1);
@@ -209,6 +242,20 @@ static void split_half(const double *c, int st, int from, int du, int dv, int di
                 L[r * stride] = tmp[0], H[(d - r) * stride] = tmp[d - r];
             }
         }
+}
+
+/* split_half_body with the degrees of piece_sums' constant cases. */
+PEEL_LOOPS static void split_half(const double *c, int st, int from, int du, int dv, int dir,
+                                  double *lo, double *hi)
+{
+    if (du == 3 && dv == 2 && dir)
+        split_half_body(c, st, from, 3, 2, 1, lo, hi);
+    else if (du == 3 && dv == 2)
+        split_half_body(c, st, from, 3, 2, 0, lo, hi);
+    else if (du == 3 && dv == 3)
+        split_half_body(c, st, from, 3, 3, dir, lo, hi);
+    else
+        split_half_body(c, st, from, du, dv, dir, lo, hi);
 }
 
 /* The largest piece_sums over the pieces of c halved su times in s and sv times in t, into K

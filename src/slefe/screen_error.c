@@ -44,6 +44,13 @@
 #define MAXM CRISP_SLEFE_MAX_SEGMENTS
 #define EUCLID_PIECES_RATIO 1.1
 
+#if defined(__GNUC__) && !defined(__clang__)
+#define PRAGMA(x) _Pragma(#x)
+#define UNROLL(n) PRAGMA(GCC unroll n)
+#else
+#define UNROLL(n)
+#endif
+
 /* Second-difference bounds of clip coordinate r over the control net: dss, dtt (pure second
  * differences scaled by d(d-1)) and dst (mixed, scaled by du dv): bounds on |X_ss|, |X_tt|,
  * |X_st| over the patch, widened for rounding. */
@@ -266,11 +273,14 @@ static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p, con
     double lo[CRISP_SLEFE_GRID(MAXM) * 4], up[CRISP_SLEFE_GRID(MAXM) * 4];
     for (int r = 0; r < 4; r += r == 1 ? 2 : 1) /* X, Y, W: Z plays no part */
         crisp__slefe_patch_coordinate(&q, m, r, lo, up);
-    for (int g = 0; g < n * n; g++)
-        for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
+    for (int g = 0; g < n * n; g++) {
+        UNROLL(3)
+        for (int ri = 0; ri < 3; ri++) {
+            const int r = ri == 2 ? 3 : ri;
             lo[g * 4 + r] -= err[r];
             up[g * 4 + r] += err[r];
         }
+    }
     double h2 = 1.0 / ((double)tau * tau), twist[4] = {0, 0, 0, 0};
     for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
         double dss, dtt, dst;
@@ -289,10 +299,14 @@ static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p, con
         for (int ku = 0; ku < m; ku++) {
             int g[4] = {kv * n + ku, kv * n + ku + 1, (kv + 1) * n + ku, (kv + 1) * n + ku + 1};
             double cl[4], cu[4], w[4];
-            for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
+            /* (X, Y, W as r = 0, 1, 3: a loop the compiler unrolls) */
+            UNROLL(3)
+            for (int ri = 0; ri < 3; ri++) {
+                const int r = ri == 2 ? 3 : ri;
                 cl[r] = INFINITY;
                 cu[r] = -INFINITY;
                 w[r] = 0.0;
+                UNROLL(4)
                 for (int c = 0; c < 4; c++) {
                     cl[r] = crisp__min(cl[r], lo[g[c] * 4 + r]);
                     cu[r] = crisp__max(cu[r], up[g[c] * 4 + r]);
