@@ -56,6 +56,9 @@ struct crisp__splat_store {
     size_t todo_cap;
     crisp_splat_set *sets; /* per todo entry */
     crisp_status *status;
+    uint32_t *made;   /* per todo entry: splats the builder made (before thinning; a refused
+                         build: its cap) */
+    uint32_t pending; /* faces of the last choose whose set was left for later frames */
     size_t sets_cap;
     crisp_plan_splat_range *ranges;
     size_t range_cap;
@@ -102,6 +105,7 @@ void crisp__splat_store_destroy(crisp__splat_store *s)
     free(s->todo);
     free(s->sets);
     free(s->status);
+    free(s->made);
     free(s->ranges);
     free(s->order);
     free(s->sorted);
@@ -686,8 +690,12 @@ typedef struct build_ctx {
     size_t first; /* todo[first + i] is built into sets[i] */
 } build_ctx;
 
-/* Faces whose sets are built at a time (each chunk's sets are held until stored). */
+/* Faces whose sets are built at a time (each chunk's sets are held until stored); with a build
+ * limit (crisp_planner_desc.splat_build_limit) fewer, so that a frame stops near its limit (the
+ * chunks are the same on any number of threads: which faces a frame builds does not depend on
+ * them). */
 #define BUILD_CHUNK 512
+#define BUILD_CHUNK_LIMITED 32
 
 static void build_range(void *vctx, size_t begin, size_t end, int worker)
 {
@@ -702,8 +710,9 @@ static void build_range(void *vctx, size_t begin, size_t end, int worker)
         double rk = level_radius(s->faces[f].s0, k);
         uint64_t cap = 2 * (uint64_t)budget(c->sc, f);
         crisp_splat_set *set = &s->sets[i];
-        s->status[i] = crisp__splat_build(
-            c->sc, f, rk, cap > UINT32_MAX / 2 ? UINT32_MAX / 2 : (uint32_t)cap, set);
+        cap = cap > UINT32_MAX / 2 ? UINT32_MAX / 2 : cap;
+        s->status[i] = crisp__splat_build(c->sc, f, rk, (uint32_t)cap, set);
+        s->made[i] = s->status[i] == CRISP_ERR_LIMIT ? (uint32_t)cap : set->count;
         if (!s->status[i]) {
             uint32_t n = crisp__splat_thin(set->splats, set->count, rk);
             /* the level's radius, not the builder's (smaller when nothing was dropped): a
@@ -761,7 +770,7 @@ static crisp_status store_set(crisp__splat_store *s, const crisp_scene *sc, uint
 
 crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene *sc,
                                        crisp_mat4 view_proj, int width, int height,
-                                       crisp_pool *pool, uint8_t *splat)
+                                       uint64_t build_limit, crisp_pool *pool, uint8_t *splat)
 {
     crisp_status st = ensure_scene(s, sc);
     if (st) return st;
@@ -774,12 +783,19 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
                 return st;
             s->todo[n++] = f;
         }
-    for (size_t c0 = 0; c0 < n; c0 += BUILD_CHUNK) {
-        size_t m = n - c0 < BUILD_CHUNK ? n - c0 : BUILD_CHUNK;
+    /* With a build limit the frame stops after the chunk that reaches it; the faces left keep
+     * want -1 (planned as patches, with their own guarantee) and are built by later frames. */
+    size_t chunk = build_limit ? BUILD_CHUNK_LIMITED : BUILD_CHUNK, c0 = 0;
+    uint64_t made = 0;
+    for (; c0 < n && !(build_limit && made >= build_limit); c0 += chunk) {
+        size_t m = n - c0 < chunk ? n - c0 : chunk;
         if ((st = crisp_grow((void **)&s->sets, &s->sets_cap, m, sizeof *s->sets))) return st;
         crisp_status *stt = realloc(s->status, s->sets_cap * sizeof *stt);
         if (!stt) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
         s->status = stt;
+        uint32_t *mt = realloc(s->made, s->sets_cap * sizeof *mt);
+        if (!mt) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
+        s->made = mt;
         memset(s->sets, 0, m * sizeof *s->sets);
         build_ctx bc = {s, sc, c0};
         crisp_pool_parallel_for(pool, m, 1, build_range, &bc);
@@ -788,6 +804,7 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
             uint32_t f = s->todo[c0 + i];
             int k = s->want[f];
             crisp_status bs = s->status[i];
+            made += s->made[i];
             if (!bs && s->sets[i].count <= budget(sc, f) &&
                 s->sets[i].radius <= level_radius(s->faces[f].s0, k)) {
                 bs = store_set(s, sc, f, k, &s->sets[i]);
@@ -805,6 +822,9 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
         if (first_error) return first_error;
         crisp_error_clear();
     }
+    s->pending = c0 < n ? (uint32_t)(n - c0) : 0;
+    for (; c0 < n; c0++)
+        s->want[s->todo[c0]] = -1;
     for (uint32_t f = 0; f < sc->face_count; f++)
         splat[f] = s->want[f] >= 0;
     return CRISP_OK;
@@ -869,6 +889,7 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
     if (s->changed) out->splats_version++;
     s->changed = 0;
     out->stats.splat_faces = nfaces;
+    out->stats.splat_pending = s->pending;
     out->stats.splats_drawn = drawn;
     out->stats.splat_bytes = s->cap * sizeof *s->splats +
                              (size_t)s->face_count * (sizeof *s->faces + 6 * sizeof(double) + 1);
