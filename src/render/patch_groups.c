@@ -364,23 +364,40 @@ static void deviation_range(const block_dev *d, crisp_mat4 m, double lo[3], doub
  * [bv 2^g, (bv + 1) 2^g) clipped to the grid. Blocks of one face nest like a quadtree, so two
  * blocks' sides either contain one another or meet in at most a point (the crack-free edge rule
  * relies on it). sigma: the largest crisp__rational_reparam of the block's patches. */
-/* Where build_group puts a face's blocks: one per worker of ensure_built's parallel build (its
- * faces' blocks one after the other, then copied into the hierarchy in face order). */
+/* Where build_group puts a face's blocks: the face's own range of the hierarchy's arrays (sized
+ * beforehand by count_blocks, so faces are built in parallel into place). */
 typedef struct group_arena {
     group *nodes;
-    size_t node_count, node_cap;
+    size_t node_count, node_end; /* the next node; the end of the face's range */
     block_dev *devs;
-    size_t dev_count, dev_cap;
-    int oom;
+    size_t dev_count, dev_end;
 } group_arena;
+
+/* The blocks build_group makes for block (lv, bu, bv) of a grid_u x grid_v grid: nodes, and
+ * devs (the blocks of more than one patch). */
+static void count_blocks(uint32_t grid_u, uint32_t grid_v, uint32_t lv, uint32_t bu, uint32_t bv,
+                         size_t *nodes, size_t *devs)
+{
+    uint32_t iu0 = bu << lv, iv0 = bv << lv, size = 1u << lv;
+    uint32_t nu = grid_u - iu0 < size ? grid_u - iu0 : size;
+    uint32_t nv = grid_v - iv0 < size ? grid_v - iv0 : size;
+    ++*nodes;
+    if (nu * nv > 1) ++*devs;
+    if (lv == 0) return;
+    for (int k = 0; k < 4; k++) {
+        uint32_t cu = 2 * bu + (k & 1), cv = 2 * bv + (k >> 1);
+        if ((cu << (lv - 1)) >= grid_u || (cv << (lv - 1)) >= grid_v) continue;
+        count_blocks(grid_u, grid_v, lv - 1, cu, cv, nodes, devs);
+    }
+}
 
 static crisp_status build_group(group_arena *g, double *patch_sigma, const crisp_scene *sc,
                                 const crisp_scene_face *f, uint32_t lv, uint32_t bu, uint32_t bv,
                                 int32_t *dest, double sigma[3])
 {
-    crisp_status st =
-        crisp_grow((void **)&g->nodes, &g->node_cap, g->node_count + 1, sizeof *g->nodes);
-    if (st) return st;
+    crisp_status st = CRISP_OK;
+    if (g->node_count >= g->node_end)
+        return crisp_error(CRISP_ERR_INVALID_ARG, "patch groups: a face's blocks miscounted");
     int32_t me = (int32_t)g->node_count++;
     uint32_t iu0 = bu << lv, iv0 = bv << lv, size = 1u << lv;
     group n = {iu0,
@@ -398,8 +415,8 @@ static crisp_status build_group(group_arena *g, double *patch_sigma, const crisp
     /* The block's block_dev is placed now, before its children's, so that devs lie in the same
      * (depth-first) order as the nodes and the frame's walk reads both front to back. */
     if (n.nu * n.nv > 1) {
-        if ((st = crisp_grow((void **)&g->devs, &g->dev_cap, g->dev_count + 1, sizeof *g->devs)))
-            return st;
+        if (g->dev_count >= g->dev_end)
+            return crisp_error(CRISP_ERR_INVALID_ARG, "patch groups: a face's blocks miscounted");
         n.dev = (int32_t)g->dev_count++;
     }
     if (lv == 0) {
@@ -514,77 +531,70 @@ static crisp_status build_quarter_slots(crisp__groups *g, const crisp_scene *sc)
     return CRISP_OK;
 }
 
-/* The faces' hierarchies are independent: built in parallel, each face's blocks in its worker's
- * arena, then copied into g->nodes and g->devs in face order with their indices moved, so the
- * hierarchy is the one a serial build makes (the same blocks, numbers and order). imp49 default:
- * 5.7 G instructions on one thread, the largest serial part of its first frame (session 13). */
+/* The faces' hierarchies are independent: each face's blocks are counted first (count_blocks),
+ * which places every face's range in g->nodes and g->devs where a serial build puts it (face
+ * after face, each depth first), then the faces are built in parallel into their ranges: the
+ * same hierarchy, numbers and order as a serial build. imp49 default: 5.7 G instructions on one
+ * thread, the largest serial part of its first frame (session 13). */
 typedef struct faces_build {
     crisp__groups *g;
     const crisp_scene *sc;
-    group_arena *arena; /* per worker */
-    uint32_t *face_worker;
-    size_t (*face_at)[4]; /* per face: its nodes and devs in its worker's arena, [0] to [2]
-                             and [1] to [3] */
+    size_t (*at)[2]; /* per face + 1: its first node and dev */
+    int failed;
 } faces_build;
+
+static uint32_t face_levels(const crisp_scene_face *sf)
+{
+    uint32_t lv = 0;
+    while ((1u << lv) < sf->grid_u || (1u << lv) < sf->grid_v)
+        lv++;
+    return lv;
+}
+
+static int face_has_groups(const crisp_scene_face *sf)
+{
+    return sf->patch_count && sf->grid_u * sf->grid_v == sf->patch_count;
+}
 
 static void build_faces_range(void *vctx, size_t begin, size_t end, int worker)
 {
+    (void)worker;
     faces_build *b = vctx;
-    group_arena *a = &b->arena[worker];
-    for (size_t f = begin; f < end && !a->oom; f++) {
+    for (size_t f = begin; f < end; f++) {
         const crisp_scene_face *sf = &b->sc->faces[f];
-        b->face_worker[f] = (uint32_t)worker;
-        b->face_at[f][0] = b->face_at[f][2] = a->node_count;
-        b->face_at[f][1] = b->face_at[f][3] = a->dev_count;
-        if (!sf->patch_count || sf->grid_u * sf->grid_v != sf->patch_count) continue;
-        uint32_t lv = 0;
-        while ((1u << lv) < sf->grid_u || (1u << lv) < sf->grid_v)
-            lv++;
+        if (!face_has_groups(sf)) continue;
+        group_arena a = {b->g->nodes, b->at[f][0], b->at[f + 1][0],
+                         b->g->devs,  b->at[f][1], b->at[f + 1][1]};
         int32_t root;
         double sigma[3];
-        if (build_group(a, b->g->patch_sigma, b->sc, sf, lv, 0, 0, &root, sigma)) a->oom = 1;
-        b->face_at[f][2] = a->node_count, b->face_at[f][3] = a->dev_count;
+        if (build_group(&a, b->g->patch_sigma, b->sc, sf, face_levels(sf), 0, 0, &root, sigma) ||
+            a.node_count != a.node_end || a.dev_count != a.dev_end)
+            b->failed = 1;
     }
 }
 
 static crisp_status build_faces(crisp__groups *g, const crisp_scene *sc, crisp_pool *pool)
 {
-    int workers = crisp_pool_threads(pool);
-    size_t nf = sc->face_count ? sc->face_count : 1;
-    faces_build b = {.g = g,
-                     .sc = sc,
-                     .arena = calloc((size_t)workers, sizeof *b.arena),
-                     .face_worker = malloc(nf * sizeof *b.face_worker),
-                     .face_at = malloc(nf * sizeof *b.face_at)};
-    crisp_status st = CRISP_OK;
-    if (!b.arena || !b.face_worker || !b.face_at)
-        st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
-    if (!st) crisp_pool_parallel_for(pool, sc->face_count, 16, build_faces_range, &b);
+    faces_build b = {.g = g, .sc = sc, .at = malloc(((size_t)sc->face_count + 1) * sizeof *b.at)};
+    if (!b.at) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
     size_t nodes = 0, devs = 0;
-    for (int w = 0; !st && w < workers; w++) {
-        if (b.arena[w].oom) st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
-        nodes += b.arena[w].node_count, devs += b.arena[w].dev_count;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        const crisp_scene_face *sf = &sc->faces[f];
+        b.at[f][0] = nodes, b.at[f][1] = devs;
+        g->face_root[f] = face_has_groups(sf) ? (uint32_t)nodes : UINT32_MAX;
+        if (face_has_groups(sf))
+            count_blocks(sf->grid_u, sf->grid_v, face_levels(sf), 0, 0, &nodes, &devs);
     }
-    if (!st) st = crisp_grow((void **)&g->nodes, &g->node_cap, nodes ? nodes : 1, sizeof *g->nodes);
+    b.at[sc->face_count][0] = nodes, b.at[sc->face_count][1] = devs;
+    crisp_status st =
+        crisp_grow((void **)&g->nodes, &g->node_cap, nodes ? nodes : 1, sizeof *g->nodes);
     if (!st) st = crisp_grow((void **)&g->devs, &g->dev_cap, devs ? devs : 1, sizeof *g->devs);
-    for (uint32_t f = 0; !st && f < sc->face_count; f++) {
-        const group_arena *a = &b.arena[b.face_worker[f]];
-        size_t n0 = b.face_at[f][0], d0 = b.face_at[f][1], n1 = b.face_at[f][2],
-               d1 = b.face_at[f][3];
-        g->face_root[f] = n1 > n0 ? (uint32_t)g->node_count : UINT32_MAX;
-        for (size_t k = n0; k < n1; k++) {
-            group n = a->nodes[k];
-            for (int c = 0; c < 4; c++)
-                if (n.child[c] >= 0) n.child[c] = (int32_t)(n.child[c] - n0 + g->node_count);
-            if (n.dev >= 0) n.dev = (int32_t)(n.dev - d0 + g->dev_count);
-            g->nodes[g->node_count + (k - n0)] = n;
-        }
-        if (d1 > d0) memcpy(g->devs + g->dev_count, a->devs + d0, (d1 - d0) * sizeof *g->devs);
-        g->node_count += n1 - n0, g->dev_count += d1 - d0;
+    if (!st) {
+        crisp_pool_parallel_for(pool, sc->face_count, 16, build_faces_range, &b);
+        if (b.failed) st = crisp_error(CRISP_ERR_NO_MEMORY, "patch groups: building a face failed");
+        g->node_count = nodes, g->dev_count = devs;
     }
-    for (int w = 0; b.arena && w < workers; w++)
-        free(b.arena[w].nodes), free(b.arena[w].devs);
-    free(b.arena), free(b.face_worker), free(b.face_at);
+    free(b.at);
     return st;
 }
 
