@@ -29,6 +29,13 @@
  * least one leaf per visible patch), one after the other, so the two are compared under the same
  * load.
  *
+ * First frame = the row's first plan + crisp_render_cpu_plan (wall and process CPU time: what a
+ * viewer opening the model waits for, the planner's kept data built); BENCH_SCREEN_BUILD_LIMIT=N
+ * plans with crisp_planner_desc.splat_build_limit N, and the frames after the first are drawn
+ * until no splat set is pending ("build frames" of them, "built ms" from the first frame's start:
+ * the warm frames then are those of the planner without a limit, the same image). The peak memory
+ * includes the first frames.
+ *
  * Occlusion culling (crisp_render_desc.no_occlusion) is on in every row;
  * BENCH_SCREEN_OCCLUSION=both runs each row with the default planner, culling off then on, instead
  * of the two planners (the image hash must be the same). BENCH_SCREEN_PNG=folder writes each row's
@@ -218,6 +225,17 @@ static __attribute__((noinline)) int warm_frame(crisp_planner *pl, crisp_rendere
            crisp_render_cpu_plan(r, sc, *plan, cam, img, st);
 }
 
+/* The first frame (what the planner keeps is built: per-patch bounds, splat sets), out of line
+ * for --toggle-collect=first_frame. */
+static __attribute__((noinline)) int first_frame(crisp_planner *pl, crisp_renderer *r,
+                                                 const crisp_scene *sc, const crisp_camera *cam,
+                                                 const crisp_frame_plan **plan, crisp_image *img,
+                                                 crisp_render_stats *st)
+{
+    return crisp_planner_plan(pl, sc, cam, plan) ||
+           crisp_render_cpu_plan(r, sc, *plan, cam, img, st);
+}
+
 static __attribute__((noinline)) int warm_plan(crisp_planner *pl, const crisp_scene *sc,
                                                const crisp_camera *cam,
                                                const crisp_frame_plan **plan)
@@ -239,8 +257,12 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
                               &r))
         die("renderer");
     crisp_planner *pl;
-    if (crisp_planner_create(&(crisp_planner_desc){.no_groups = no_groups, .no_splats = no_splats},
-                             NULL, &pl))
+    const char *lim = getenv("BENCH_SCREEN_BUILD_LIMIT");
+    if (crisp_planner_create(
+            &(crisp_planner_desc){.no_groups = no_groups,
+                                  .no_splats = no_splats,
+                                  .splat_build_limit = lim ? strtoull(lim, NULL, 10) : 0},
+            NULL, &pl))
         die("planner");
     crisp_image img;
     if (crisp_image_init(&img, cam.width, cam.height)) die("image");
@@ -251,15 +273,25 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     crisp_render_stats st = {0};
     const crisp_frame_plan *plan = NULL;
     double cpu_frames = 0, cpu_plans = 0;
-    for (int f = -1; f < frames; f++) {
+    /* The first frame; with a build limit, the frames after it until no splat set is pending
+     * (then the warm frames are those of the unlimited planner). */
+    double c_first = cpu_ms(), t_first = crisp_time_now();
+    if (first_frame(pl, r, sc, &cam, &plan, &img, &st)) die("render");
+    double ms_first = 1e3 * (crisp_time_now() - t_first);
+    double cpu_first = cpu_ms() - c_first;
+    int build_frames = 1;
+    while (plan->stats.splat_pending) {
+        if (crisp_planner_plan(pl, sc, &cam, &plan) ||
+            crisp_render_cpu_plan(r, sc, plan, &cam, &img, &st))
+            die("render");
+        build_frames++;
+    }
+    double ms_built = 1e3 * (crisp_time_now() - t_first);
+    for (int f = 0; f < frames; f++) {
         double c0 = cpu_ms();
         double a = crisp_time_now();
-        if (f < 0 ? crisp_planner_plan(pl, sc, &cam, &plan) ||
-                        crisp_render_cpu_plan(r, sc, plan, &cam, &img, &st)
-                  : warm_frame(pl, r, sc, &cam, &plan, &img, &st))
-            die("render");
+        if (warm_frame(pl, r, sc, &cam, &plan, &img, &st)) die("render");
         double b = crisp_time_now();
-        if (f < 0) continue;
         cpu_frames += cpu_ms() - c0;
         tf[f] = 1e3 * (b - a);
         tt[f] = st.ms_tess;
@@ -301,7 +333,7 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     printf(
         "| %s | %s | %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %u | %u | %llu | "
         "%llu | %llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %u | %llu | %.2f | "
-        "%.1f | %08x |\n",
+        "%.1f | %.1f | %.1f | %d | %.1f | %08x |\n",
         scene_name, cam_name,
         no_groups   ? "no groups"
         : no_splats ? "groups, no splats"
@@ -318,7 +350,8 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
             : 0.0,
         plan->stats.splat_faces, (unsigned long long)plan->stats.splats_drawn,
         covered ? (double)(st.triangles + plan->stats.splats_drawn) / covered : 0.0,
-        plan->stats.splat_bytes / 1048576.0, (unsigned)hash);
+        plan->stats.splat_bytes / 1048576.0, ms_first, cpu_first, build_frames, ms_built,
+        (unsigned)hash);
     fflush(stdout);
     free(tf), free(tp), free(tt), free(tr);
     crisp_image_free(&img);
@@ -366,9 +399,9 @@ int main(int argc, char **argv)
         "plan CPU ms | tess ms | raster ms | leaves | group leaves | triangles | occluded tri | "
         "ribbon tri | covered px | tri/px | peak MB | scene MB | frame MB | peak B/patch | frame "
         "B/tri | frame B/drawn tri | splat faces | splats | (tri+splats)/px | splat store MB | "
-        "image hash |\n");
+        "first frame ms | first frame CPU ms | build frames | built ms | image hash |\n");
     printf("|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-           "---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+           "---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     fflush(stdout);
     for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
         char key[64];

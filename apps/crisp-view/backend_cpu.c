@@ -65,6 +65,10 @@ typedef struct cpu_backend {
  * ribbons (clip-space quads of the planned camera) are left out. */
 
 #define MOTION_EPS_PX 1.0 /* tolerance of the motion plan, in its own (reduced) pixels */
+/* Splats made per full frame for splat sets not built yet (crisp_planner_desc.splat_build_limit):
+ * a large model's first frame draws its faces as patches instead of waiting for every set (imp49
+ * default: about 4 M splats, seconds); the frames after it build the rest. */
+#define VIEW_SPLAT_BUILD_LIMIT 500000
 #define MOTION_MAX_WIDEN 8.0
 #define MOTION_PROXY_SCALE 2 /* the GPU mesh's plan: at most half size */
 
@@ -426,6 +430,7 @@ static crisp_status cpu_frame(void *self, const app_doc *doc, const crisp_camera
     stats->samples = samples;
     if (st) return st;
     b->plan = plan;
+    stats->pending = plan ? plan->stats.splat_pending : 0;
     stats->ms = 1e3 * (crisp_time_now() - t0);
     stats->triangles = rs.triangles + rs.ribbon_triangles;
     stats->table_bytes = rs.table_bytes;
@@ -470,6 +475,18 @@ static void cpu_present(void *self, int fb_width, int fb_height)
 static crisp_status cpu_offscreen(void *self, const app_doc *doc, const crisp_camera *cam,
                                   int samples, crisp_image *img)
 {
+    /* a screenshot is what `crisp render` draws: every splat set built first */
+    cpu_backend *b = self;
+    crisp_planner *pl = crisp_renderer_planner(samples == 4 ? b->renderer_aa : b->renderer);
+#ifdef CRISP_HAVE_GL
+    if (b->use_gl) pl = b->planner;
+#endif
+    if (!doc->scene->patch_count) pl = NULL;
+    const crisp_frame_plan *p = NULL;
+    crisp_status st = CRISP_OK;
+    while (pl && !st && (!p || p->stats.splat_pending))
+        st = crisp_planner_plan(pl, doc->scene, cam, &p);
+    if (st) return st;
     return render_into(self, doc, cam, samples, 0, img, NULL, NULL, NULL);
 }
 
@@ -561,7 +578,10 @@ crisp_status view_backend_create(int threads, int use_gl, view_backend *dest)
         if (!gs)
             gs = crisp_gl_create((crisp_gl_getproc_fn)glfwGetProcAddress,
                                  &(crisp_gl_desc){.samples = 4}, &b->gl[1]);
-        if (!gs) gs = crisp_planner_create(NULL, NULL, &b->planner);
+        if (!gs)
+            gs = crisp_planner_create(
+                &(crisp_planner_desc){.splat_build_limit = VIEW_SPLAT_BUILD_LIMIT}, NULL,
+                &b->planner);
         if (gs) {
             cpu_destroy(b);
             return gs;
@@ -569,10 +589,14 @@ crisp_status view_backend_create(int threads, int use_gl, view_backend *dest)
     }
 #endif
     char err[512];
-    crisp_status st = crisp_renderer_create(&(crisp_render_desc){.threads = threads}, &b->renderer);
+    crisp_status st = crisp_renderer_create(
+        &(crisp_render_desc){.threads = threads, .splat_build_limit = VIEW_SPLAT_BUILD_LIMIT},
+        &b->renderer);
     if (!st)
-        st = crisp_renderer_create(&(crisp_render_desc){.threads = threads, .samples = 4},
-                                   &b->renderer_aa);
+        st = crisp_renderer_create(
+            &(crisp_render_desc){
+                .threads = threads, .samples = 4, .splat_build_limit = VIEW_SPLAT_BUILD_LIMIT},
+            &b->renderer_aa);
     if (!st) st = crisp_renderer_create(&(crisp_render_desc){.threads = threads}, &b->renderer_t);
     if (!st)
         st = crisp_planner_create(&(crisp_planner_desc){.eps_px = MOTION_EPS_PX}, NULL,

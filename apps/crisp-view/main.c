@@ -400,6 +400,8 @@ static void render_frame(view *v)
     v->last_moving_t = ov.moving ? now : 0;
     v->dirty = 0;
     v->refined = scale == 1 && !v->moving;
+    /* splat sets still being built (a large model's first frames): draw again */
+    if (full && fs.pending) v->dirty = 1, v->refined = 0;
 }
 
 static void poll_loader(view *v)

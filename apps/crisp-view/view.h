@@ -22,6 +22,8 @@ typedef struct view_frame_stats {
     int samples;      /* per pixel */
     double min_depth; /* least camera-space depth drawn (inf: nothing) */
     double cover[4];  /* x0, y0, x1, y1 of the drawn pixels, full-size pixel units */
+    uint32_t pending; /* faces whose splat sets later frames build (drawn as patches now:
+                         crisp_plan_stats.splat_pending); the viewer draws again until 0 */
 } view_frame_stats;
 
 typedef struct view_overlay {

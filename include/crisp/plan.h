@@ -142,10 +142,12 @@ typedef struct crisp_plan_stats {
     uint32_t level_splits; /* leaves split because an edge level would exceed 64 */
     uint32_t group_leaves, grouped_patches; /* group leaves and the patches they stand for */
     uint64_t table_rows, table_bytes, ribbon_quads;
-    uint64_t triangles;    /* of the leaves at their levels (crisp_tess_mesh_counts) */
-    uint32_t splat_faces;  /* faces drawn as splats */
-    uint64_t splats_drawn; /* splats in splat_ranges */
-    uint64_t splat_bytes;  /* of the planner's splat store */
+    uint64_t triangles;     /* of the leaves at their levels (crisp_tess_mesh_counts) */
+    uint32_t splat_faces;   /* faces drawn as splats */
+    uint64_t splats_drawn;  /* splats in splat_ranges */
+    uint64_t splat_bytes;   /* of the planner's splat store */
+    uint32_t splat_pending; /* faces that want a splat set not built yet (drawn as patches this
+                               frame; crisp_planner_desc.splat_build_limit): plan again */
     double ms_levels, ms_edges, ms_trim, ms_ribbons;
 } crisp_plan_stats;
 
@@ -201,6 +203,13 @@ typedef struct crisp_planner_desc {
     int no_ribbons;  /* 1: no ribbon quads (for measuring them) */
     int no_groups;   /* 1: no group leaves: at least one leaf per visible patch (for measuring) */
     int no_splats;   /* 1: no face is drawn as splats (for measuring and comparing) */
+    /* Splat sets built per frame (issue 12, session 13): about this many splats at most (the
+     * faces whose sets are not built yet are drawn as patches this frame, with their own
+     * guarantee, and stats.splat_pending counts them; the next plans build more). A viewer's
+     * first frame of a large model then costs its patches instead of every splat set (imp49
+     * default: 12,907 sets). Once nothing is pending a plan is the same as without a limit. 0: no
+     * limit (every set the frame wants is built by it: one-shot renders, benchmarks). */
+    uint64_t splat_build_limit;
 } crisp_planner_desc;
 
 typedef struct crisp_planner crisp_planner;

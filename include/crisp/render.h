@@ -173,6 +173,8 @@ typedef struct crisp_render_desc {
     int no_occlusion;     /* 1: tessellate and draw every leaf on screen (occlusion culling off:
                              the same image, for tests and measurements) */
     int no_splats;        /* 1: no face is drawn as splats (crisp_planner_desc.no_splats) */
+    uint64_t splat_build_limit; /* splats built per frame (crisp_planner_desc.splat_build_limit;
+                                   0: no limit) */
 } crisp_render_desc;
 
 typedef struct crisp_render_stats {

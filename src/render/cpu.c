@@ -108,10 +108,12 @@ crisp_status crisp_renderer_create(const crisp_render_desc *desc, crisp_renderer
                          r->desc.samples);
     if (!st) st = crisp_pool_create(r->desc.threads, &r->pool);
     if (!st)
-        st = crisp_planner_create(&(crisp_planner_desc){.eps_px = r->desc.eps_px,
-                                                        .strip_count = r->desc.strip_count,
-                                                        .no_splats = r->desc.no_splats},
-                                  r->pool, &r->planner);
+        st = crisp_planner_create(
+            &(crisp_planner_desc){.eps_px = r->desc.eps_px,
+                                  .strip_count = r->desc.strip_count,
+                                  .no_splats = r->desc.no_splats,
+                                  .splat_build_limit = r->desc.splat_build_limit},
+            r->pool, &r->planner);
     if (!st) st = crisp__raster_create(&r->raster);
     if (!st) {
         r->workers = crisp_pool_threads(r->pool);

@@ -300,7 +300,7 @@ crisp_status crisp_planner_plan(crisp_planner *p, const crisp_scene *sc, const c
         crisp_camera_matrices cm;
         crisp_camera_matrices_compute(cam, &cm);
         if ((st = crisp__splat_store_choose(p->splats, sc, cm.view_proj, cam->width, cam->height,
-                                            p->pool, p->splat_face)))
+                                            p->desc.splat_build_limit, p->pool, p->splat_face)))
             return st;
     }
     double ms_splats = 1e3 * (crisp_time_now() - ts);

@@ -36,6 +36,7 @@
  * splats and (64 max_count + 2^20) the cells visited (CRISP_ERR_LIMIT).
  */
 #include <float.h>
+#include <immintrin.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -79,6 +80,7 @@ typedef struct splat_ctx {
     double *col;       /* col_patch restricted to [col_s0, col_s1] in u */
     const crisp_bezier_patch *col_patch;
     double col_s0, col_s1;
+    int avx;     /* restrict_points_avx may run */
     cell *stack; /* pending cells of a patch */
     size_t stack_count, stack_cap;
 } splat_ctx;
@@ -131,6 +133,44 @@ static void restrict_points(double *c, int d, ptrdiff_t stride, double a, double
                 p[3] = s * p[3] + t * q[3];
             }
     }
+}
+
+/* restrict_points with the four coordinates of a point in one AVX register: the same products
+ * and sums in the same order (no fused multiply-add), so the same bits; about a third of the
+ * instructions (issue 12, session 13: restriction was 18% of imp49 default's first frame). */
+__attribute__((target("avx"))) static void restrict_points_avx(double *c, int d, ptrdiff_t stride,
+                                                               double a, double b)
+{
+    if (b < 1.0) {
+        const __m256d vs = _mm256_set1_pd(1.0 - b), vb = _mm256_set1_pd(b);
+        for (int r = 1; r <= d; r++)
+            for (int i = d; i >= r; i--) {
+                double *p = c + i * stride, *q = p - stride;
+                __m256d sq = _mm256_mul_pd(vs, _mm256_loadu_pd(q));
+                __m256d bp = _mm256_mul_pd(vb, _mm256_loadu_pd(p));
+                _mm256_storeu_pd(p, _mm256_add_pd(sq, bp));
+            }
+    }
+    if (a > 0.0) {
+        const double t = b > 0.0 ? a / b : 0.0, s = 1.0 - t;
+        const __m256d vs = _mm256_set1_pd(s), vt = _mm256_set1_pd(t);
+        for (int r = 1; r <= d; r++)
+            for (int i = 0; i <= d - r; i++) {
+                double *p = c + i * stride, *q = p + stride;
+                __m256d sp = _mm256_mul_pd(vs, _mm256_loadu_pd(p));
+                __m256d tq = _mm256_mul_pd(vt, _mm256_loadu_pd(q));
+                _mm256_storeu_pd(p, _mm256_add_pd(sp, tq));
+            }
+    }
+}
+
+static void restrict_any(const splat_ctx *c, double *pts, int d, ptrdiff_t stride, double a,
+                         double b)
+{
+    if (c->avx)
+        restrict_points_avx(pts, d, stride, a, b);
+    else
+        restrict_points(pts, d, stride, a, b);
 }
 
 /* max_i |P_i - x| over n Euclidean points. */
@@ -406,13 +446,13 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int
             memcpy(c->col, top->cpw, sizeof(double) * 4 * (size_t)n);
             if (k.s0 > 0.0 || k.s1 < 1.0)
                 for (int j = 0; j < nv_; j++)
-                    restrict_points(c->col + 4 * j * nu_, top->du, 4, k.s0, k.s1);
+                    restrict_any(c, c->col + 4 * j * nu_, top->du, 4, k.s0, k.s1);
             c->col_patch = top, c->col_s0 = k.s0, c->col_s1 = k.s1;
         }
         memcpy(cpw, c->col, sizeof(double) * 4 * (size_t)n);
         if (k.t0 > 0.0 || k.t1 < 1.0)
             for (int i = 0; i < nu_; i++)
-                restrict_points(cpw + 4 * i, top->dv, 4 * (ptrdiff_t)nu_, k.t0, k.t1);
+                restrict_any(c, cpw + 4 * i, top->dv, 4 * (ptrdiff_t)nu_, k.t0, k.t1);
         euclid(cpw, n, e);
         double x[3];
         crisp_bezier_patch_eval(top, (pt[0] - top->u0) / du, (pt[1] - top->v0) / dv, x);
@@ -552,6 +592,7 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
                    .piece_count = (int)f->piece_count,
                    .face = face,
                    .max_count = max_count,
+                   .avx = __builtin_cpu_supports("avx"),
                    .set = dest};
     if (!f->patch_count) return CRISP_OK;
     if (c.piece_count) {

@@ -56,6 +56,9 @@ struct crisp__splat_store {
     size_t todo_cap;
     crisp_splat_set *sets; /* per todo entry */
     crisp_status *status;
+    uint32_t *made;   /* per todo entry: splats the builder made (before thinning; a refused
+                         build: its cap) */
+    uint32_t pending; /* faces of the last choose whose set was left for later frames */
     size_t sets_cap;
     crisp_plan_splat_range *ranges;
     size_t range_cap;
@@ -102,6 +105,7 @@ void crisp__splat_store_destroy(crisp__splat_store *s)
     free(s->todo);
     free(s->sets);
     free(s->status);
+    free(s->made);
     free(s->ranges);
     free(s->order);
     free(s->sorted);
@@ -567,9 +571,10 @@ crisp_status crisp__splat_store_test_want(crisp__splat_store *s, const crisp_sce
  * trimmed face). Splats are taken largest rho first (they can be dropped least; ties in the set's
  * order) and the kept ones keep the set's order (the draw's chunks are runs of it:
  * splat_raster.c). Keys of a grid of side max d_i find the kept splats near a splat (its cell
- * and the 26 around it). Session 11 built at 0.7 R_k and thinned with the set's radius instead
- * (one d for all): 1.7-1.9x the splats on impeller.igs at radii of d/16 .. d/64 of each face.
- * Returns the count kept (moved to the front); n when there is no memory (nothing dropped). */
+ * and those of the 26 around it that lie within its d_i). Session 11 built at 0.7 R_k and thinned
+ * with the set's radius instead (one d for all): 1.7-1.9x the splats on impeller.igs at radii of
+ * d/16 .. d/64 of each face. Returns the count kept (moved to the front); n when there is no memory
+ * (nothing dropped). */
 static uint64_t cell_hash(const int64_t k[3])
 {
     uint64_t h = ((uint64_t)k[0] * 0x9E3779B97F4A7C15ull) ^
@@ -578,11 +583,31 @@ static uint64_t cell_hash(const int64_t k[3])
     return h ^ h >> 29;
 }
 
-/* Largest rho first, then the set's order. */
-static int by_rho(const void *a, const void *b)
+/* Sorts n keys ascending by their upper 32 bits, equal ones kept in their order (LSD radix, 8-bit
+ * digits, stable; the four digits' counts in one pass; tmp: n more). publish's and
+ * crisp__splat_thin's keys hold their index in the lower bits and come in index order, so that is
+ * their full order (ties in index order) with half the passes. */
+static void radix_sort(uint64_t *key, uint64_t *tmp, uint32_t n)
 {
-    const uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return x < y ? -1 : x > y;
+    uint32_t count[4][257] = {{0}};
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t hi = (uint32_t)(key[i] >> 32);
+        count[0][(hi & 0xffu) + 1]++, count[1][(hi >> 8 & 0xffu) + 1]++;
+        count[2][(hi >> 16 & 0xffu) + 1]++, count[3][(hi >> 24) + 1]++;
+    }
+    for (int d = 0; d < 4; d++) {
+        uint32_t *c = count[d];
+        int one = 0; /* every key has the same digit: nothing moves */
+        for (int v = 1; v <= 256 && !one; v++)
+            one = c[v] == n;
+        if (one) continue;
+        for (int v = 0; v < 256; v++)
+            c[v + 1] += c[v];
+        int shift = 32 + 8 * d;
+        for (uint32_t i = 0; i < n; i++)
+            tmp[c[key[i] >> shift & 0xffu]++] = key[i];
+        memcpy(key, tmp, n * sizeof *key);
+    }
 }
 
 uint32_t crisp__splat_thin(crisp_splat *sp, uint32_t n, double radius)
@@ -598,7 +623,7 @@ uint32_t crisp__splat_thin(crisp_splat *sp, uint32_t n, double radius)
         cap *= 2;
     uint32_t *slot = calloc(cap, sizeof *slot); /* kept index + 1, 0: empty */
     int64_t(*key)[3] = malloc(cap * sizeof *key);
-    uint64_t *order = malloc((size_t)n * sizeof *order);
+    uint64_t *order = malloc(2 * (size_t)n * sizeof *order); /* keys, then radix scratch */
     uint8_t *keep = malloc(n);
     if (!slot || !key || !order || !keep) {
         free(slot), free(key), free(order), free(keep);
@@ -610,18 +635,30 @@ uint32_t crisp__splat_thin(crisp_splat *sp, uint32_t n, double radius)
         memcpy(&bits, &sp[i].rho, sizeof bits);
         order[i] = (uint64_t)~bits << 32 | i;
     }
-    qsort(order, n, sizeof *order, by_rho);
+    radix_sort(order, order + n, n); /* keys are unique: the same order as a full sort */
     for (uint32_t q = 0; q < n; q++) {
         uint32_t i = (uint32_t)order[q];
         const float *p = sp[i].p;
         double di = radius - (double)sp[i].rho;
         double dd = di * di * (1 - 1e-6); /* float offsets: keep a hair inside d_i */
+        /* The kept splats within d_i <= d lie in the grid cells next to p's (per axis: its own,
+         * and a neighbour only when p is within d_i of that side, with a margin far above the
+         * rounding of the cell keys): 1-8 cells instead of all 27, the same splats found. */
         int64_t c[3];
-        for (int a = 0; a < 3; a++)
-            c[a] = (int64_t)floor((double)p[a] / d);
+        int lo[3], hi[3];
+        for (int a = 0; a < 3; a++) {
+            double t = (double)p[a] / d, fl = floor(t), reach = di / d * (1 + 1e-6) + 1e-6;
+            c[a] = (int64_t)fl;
+            lo[a] = t - fl <= reach ? -1 : 0;
+            hi[a] = fl + 1 - t <= reach ? 1 : 0;
+        }
         int near = 0;
         for (int t = 0; t < 27 && !near && di > 0; t++) {
-            int64_t k[3] = {c[0] + t % 3 - 1, c[1] + t / 3 % 3 - 1, c[2] + t / 9 - 1};
+            int o[3] = {t % 3 - 1, t / 3 % 3 - 1, t / 9 - 1};
+            if (o[0] < lo[0] || o[0] > hi[0] || o[1] < lo[1] || o[1] > hi[1] || o[2] < lo[2] ||
+                o[2] > hi[2])
+                continue;
+            int64_t k[3] = {c[0] + o[0], c[1] + o[1], c[2] + o[2]};
             for (size_t at = cell_hash(k) & (cap - 1); slot[at]; at = (at + 1) & (cap - 1)) {
                 if (key[at][0] != k[0] || key[at][1] != k[1] || key[at][2] != k[2]) continue;
                 const float *o = sp[slot[at] - 1].p;
@@ -653,8 +690,12 @@ typedef struct build_ctx {
     size_t first; /* todo[first + i] is built into sets[i] */
 } build_ctx;
 
-/* Faces whose sets are built at a time (each chunk's sets are held until stored). */
+/* Faces whose sets are built at a time (each chunk's sets are held until stored); with a build
+ * limit (crisp_planner_desc.splat_build_limit) fewer, so that a frame stops near its limit (the
+ * chunks are the same on any number of threads: which faces a frame builds does not depend on
+ * them). */
 #define BUILD_CHUNK 512
+#define BUILD_CHUNK_LIMITED 32
 
 static void build_range(void *vctx, size_t begin, size_t end, int worker)
 {
@@ -669,8 +710,9 @@ static void build_range(void *vctx, size_t begin, size_t end, int worker)
         double rk = level_radius(s->faces[f].s0, k);
         uint64_t cap = 2 * (uint64_t)budget(c->sc, f);
         crisp_splat_set *set = &s->sets[i];
-        s->status[i] = crisp__splat_build(
-            c->sc, f, rk, cap > UINT32_MAX / 2 ? UINT32_MAX / 2 : (uint32_t)cap, set);
+        cap = cap > UINT32_MAX / 2 ? UINT32_MAX / 2 : cap;
+        s->status[i] = crisp__splat_build(c->sc, f, rk, (uint32_t)cap, set);
+        s->made[i] = s->status[i] == CRISP_ERR_LIMIT ? (uint32_t)cap : set->count;
         if (!s->status[i]) {
             uint32_t n = crisp__splat_thin(set->splats, set->count, rk);
             /* the level's radius, not the builder's (smaller when nothing was dropped): a
@@ -728,7 +770,7 @@ static crisp_status store_set(crisp__splat_store *s, const crisp_scene *sc, uint
 
 crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene *sc,
                                        crisp_mat4 view_proj, int width, int height,
-                                       crisp_pool *pool, uint8_t *splat)
+                                       uint64_t build_limit, crisp_pool *pool, uint8_t *splat)
 {
     crisp_status st = ensure_scene(s, sc);
     if (st) return st;
@@ -741,12 +783,19 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
                 return st;
             s->todo[n++] = f;
         }
-    for (size_t c0 = 0; c0 < n; c0 += BUILD_CHUNK) {
-        size_t m = n - c0 < BUILD_CHUNK ? n - c0 : BUILD_CHUNK;
+    /* With a build limit the frame stops after the chunk that reaches it; the faces left keep
+     * want -1 (planned as patches, with their own guarantee) and are built by later frames. */
+    size_t chunk = build_limit ? BUILD_CHUNK_LIMITED : BUILD_CHUNK, c0 = 0;
+    uint64_t made = 0;
+    for (; c0 < n && !(build_limit && made >= build_limit); c0 += chunk) {
+        size_t m = n - c0 < chunk ? n - c0 : chunk;
         if ((st = crisp_grow((void **)&s->sets, &s->sets_cap, m, sizeof *s->sets))) return st;
         crisp_status *stt = realloc(s->status, s->sets_cap * sizeof *stt);
         if (!stt) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
         s->status = stt;
+        uint32_t *mt = realloc(s->made, s->sets_cap * sizeof *mt);
+        if (!mt) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
+        s->made = mt;
         memset(s->sets, 0, m * sizeof *s->sets);
         build_ctx bc = {s, sc, c0};
         crisp_pool_parallel_for(pool, m, 1, build_range, &bc);
@@ -755,6 +804,7 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
             uint32_t f = s->todo[c0 + i];
             int k = s->want[f];
             crisp_status bs = s->status[i];
+            made += s->made[i];
             if (!bs && s->sets[i].count <= budget(sc, f) &&
                 s->sets[i].radius <= level_radius(s->faces[f].s0, k)) {
                 bs = store_set(s, sc, f, k, &s->sets[i]);
@@ -772,36 +822,12 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
         if (first_error) return first_error;
         crisp_error_clear();
     }
+    s->pending = c0 < n ? (uint32_t)(n - c0) : 0;
+    for (; c0 < n; c0++)
+        s->want[s->todo[c0]] = -1;
     for (uint32_t f = 0; f < sc->face_count; f++)
         splat[f] = s->want[f] >= 0;
     return CRISP_OK;
-}
-
-/* Sorts n keys ascending by their upper 32 bits, equal ones kept in their order (LSD radix, 8-bit
- * digits, stable; the four digits' counts in one pass; tmp: n more). publish's keys hold their
- * index in the lower bits and come in index order, so that is their full order (ties in face
- * order) with half the passes. */
-static void radix_sort(uint64_t *key, uint64_t *tmp, uint32_t n)
-{
-    uint32_t count[4][257] = {{0}};
-    for (uint32_t i = 0; i < n; i++) {
-        uint32_t hi = (uint32_t)(key[i] >> 32);
-        count[0][(hi & 0xffu) + 1]++, count[1][(hi >> 8 & 0xffu) + 1]++;
-        count[2][(hi >> 16 & 0xffu) + 1]++, count[3][(hi >> 24) + 1]++;
-    }
-    for (int d = 0; d < 4; d++) {
-        uint32_t *c = count[d];
-        int one = 0; /* every key has the same digit: nothing moves */
-        for (int v = 1; v <= 256 && !one; v++)
-            one = c[v] == n;
-        if (one) continue;
-        for (int v = 0; v < 256; v++)
-            c[v + 1] += c[v];
-        int shift = 32 + 8 * d;
-        for (uint32_t i = 0; i < n; i++)
-            tmp[c[key[i] >> shift & 0xffu]++] = key[i];
-        memcpy(key, tmp, n * sizeof *key);
-    }
 }
 
 crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene *sc,
@@ -863,6 +889,7 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
     if (s->changed) out->splats_version++;
     s->changed = 0;
     out->stats.splat_faces = nfaces;
+    out->stats.splat_pending = s->pending;
     out->stats.splats_drawn = drawn;
     out->stats.splat_bytes = s->cap * sizeof *s->splats +
                              (size_t)s->face_count * (sizeof *s->faces + 6 * sizeof(double) + 1);

@@ -54,14 +54,19 @@ void crisp__splat_store_destroy(crisp__splat_store *s);
  * its patches' boxes) lies wholly between the near and far planes and meets the frustum, and
  * its set at the coarsest level whose radius, projected at the box's nearest point, is at most
  * CRISP_SPLAT_HALF_PX - CRISP_SPLAT_MARGIN_PX pixels, holds at most the face's budget of splats
- * (built now when it is not yet). pool may be NULL. */
+ * (built now when it is not yet). build_limit > 0: the sets not built yet are built in chunks
+ * of faces until about that many splats were made this frame (the chunk that passes it is
+ * finished); the faces left are planned as patches this frame (splat[f] = 0) and counted as
+ * pending (crisp_plan_stats.splat_pending); later frames build them. 0: every set now. pool may
+ * be NULL. */
 crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene *sc,
                                        crisp_mat4 view_proj, int width, int height,
-                                       crisp_pool *pool, uint8_t *splat);
+                                       uint64_t build_limit, crisp_pool *pool, uint8_t *splat);
 
 /* Fill the plan's splat fields (splats, ranges, clip origins, half size, splats_version and the
- * splat stats) for the faces with splat[f] != 0 (a subset of the last choose's; all 0: none) and
- * flag their records (faces: the plan's, sc->face_count of them) with CRISP_PLAN_FACE_SPLATS. */
+ * splat stats, the last choose's pending faces included) for the faces with splat[f] != 0 (a subset
+ * of the last choose's; all 0: none) and flag their records (faces: the plan's, sc->face_count of
+ * them) with CRISP_PLAN_FACE_SPLATS. */
 crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene *sc,
                                         const uint8_t *splat, crisp_plan_face *faces,
                                         crisp_frame_plan *out);

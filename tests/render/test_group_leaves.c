@@ -22,6 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "crisp/io.h"
 #include "crisp/plan.h"
 #include "crisp/render.h"
 #include "crisp/tess.h"
@@ -741,13 +742,64 @@ static void test_kept_sigmas(void **state)
     crisp_model_destroy(mb);
 }
 
+/* The hierarchy is built face by face in parallel (patch_groups.c build_faces) and must be the one
+ * a serial build makes: plans of impeller.igs (277 faces of different grids) by planners on pools
+ * of 1 and 3 threads are the same, leaves and face records bit for bit, at views from the whole
+ * model to close-ups (group leaves at the far views). */
+static void test_parallel_build(void **state)
+{
+    (void)state;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/impeller.igs", CRISP_DATA_DIR);
+    crisp_model *m;
+    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_pool *one, *three;
+    assert_int_equal(crisp_pool_create(1, &one), CRISP_OK);
+    assert_int_equal(crisp_pool_create(3, &three), CRISP_OK);
+    crisp_planner *a, *b;
+    assert_int_equal(crisp_planner_create(&(crisp_planner_desc){.no_splats = 1}, one, &a),
+                     CRISP_OK);
+    assert_int_equal(crisp_planner_create(&(crisp_planner_desc){.no_splats = 1}, three, &b),
+                     CRISP_OK);
+    long leaves = 0, groups = 0;
+    for (int v = 0; v < 4; v++) {
+        crisp_camera cam;
+        assert_int_equal(crisp_camera_frame_box(sc->box, 640, 480, &cam), CRISP_OK);
+        double f = v == 0 ? 1 : v == 1 ? 8 : v == 2 ? 30 : 0.3;
+        for (int k = 0; k < 3; k++)
+            cam.eye[k] = cam.target[k] + f * (cam.eye[k] - cam.target[k]);
+        cam.znear *= f < 1 ? f * 0.5 : 1;
+        cam.zfar *= f > 1 ? f + 2 : 1;
+        const crisp_frame_plan *pa, *pb;
+        assert_int_equal(crisp_planner_plan(a, sc, &cam, &pa), CRISP_OK);
+        assert_int_equal(crisp_planner_plan(b, sc, &cam, &pb), CRISP_OK);
+        assert_int_equal(pa->leaf_count, pb->leaf_count);
+        assert_memory_equal(pa->leaves, pb->leaves, pa->leaf_count * sizeof *pa->leaves);
+        assert_memory_equal(pa->faces, pb->faces, pa->face_count * sizeof *pa->faces);
+        leaves += pa->leaf_count;
+        groups += pa->stats.group_leaves;
+    }
+    printf("parallel hierarchy build: %ld leaves (%ld group leaves) planned the same on 1 and 3 "
+           "threads\n",
+           leaves, groups);
+    assert_true(leaves > 1000 && groups > 10);
+    crisp_planner_destroy(a);
+    crisp_planner_destroy(b);
+    crisp_pool_destroy(one);
+    crisp_pool_destroy(three);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_polynomial_uniform), cmocka_unit_test(test_polynomial_random_knots),
         cmocka_unit_test(test_rational),           cmocka_unit_test(test_block_deviation),
         cmocka_unit_test(test_tau_cells),          cmocka_unit_test(test_quarter_cells),
-        cmocka_unit_test(test_kept_sigmas),
+        cmocka_unit_test(test_kept_sigmas),        cmocka_unit_test(test_parallel_build),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

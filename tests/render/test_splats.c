@@ -16,7 +16,9 @@
  *   samples): no background pixel wherever the exact renderer sees the solid on the pixel and
  *   its 8 neighbours.
  * - test_near_edges: images with and without splats differ only at pixels that lie at a face
- *   edge (a 3x3 neighbour of another face or the background) in one of the two images. */
+ *   edge (a 3x3 neighbour of another face or the background) in one of the two images.
+ * - test_build_limit: with a per-frame build limit, every frame of a view keeps those guarantees
+ *   until the sets are built, and the last frame is bit for bit the one without a limit. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -590,6 +592,109 @@ static void test_near_edges(void **state)
     assert_int_equal(inner, 0);
 }
 
+/* ---- a per-frame build limit ---------------------------------------------------------------- */
+
+static int images_equal(const crisp_image *a, const crisp_image *b)
+{
+    size_t n = (size_t)a->width * a->height;
+    return !memcmp(a->rgba, b->rgba, 4 * n * sizeof *a->rgba) &&
+           !memcmp(a->depth, b->depth, n * sizeof *a->depth) &&
+           !memcmp(a->normal, b->normal, 3 * n * sizeof *a->normal) &&
+           !memcmp(a->uv, b->uv, 2 * n * sizeof *a->uv) &&
+           !memcmp(a->face, b->face, n * sizeof *a->face);
+}
+
+/* crisp_planner_desc.splat_build_limit: a view planned and drawn frame after frame with a small
+ * limit (each frame builds one chunk of sets, the faces not built yet are drawn as patches) until
+ * nothing is pending. Every frame keeps the guarantee: its splatted faces' pixels are true points
+ * within 0.5 px and cover every pixel centre whose exact ray meets them, and its pixels differ
+ * from the image without splats only at face edges (as test_near_edges); each frame splats more
+ * faces and leaves fewer pending; the last frame is bit for bit the one a planner without a limit
+ * draws (so are the frames after it). */
+static void test_build_limit(void **state)
+{
+    (void)state;
+    static const view_case lim_cases[] = {{"impeller.igs", 60}, {"occt_bearing.iges", 40}};
+    long frames = 0, counts_tp[2] = {0, 0}, counts_nh[2] = {0, 0}, inner = 0;
+    for (size_t k = 0; k < sizeof lim_cases / sizeof lim_cases[0]; k++) {
+        crisp_model *m = load(lim_cases[k].model);
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+        crisp_renderer *r;
+        assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+        crisp_planner *full, *lim, *off;
+        assert_int_equal(crisp_planner_create(NULL, NULL, &full), CRISP_OK);
+        assert_int_equal(
+            crisp_planner_create(&(crisp_planner_desc){.splat_build_limit = 1}, NULL, &lim),
+            CRISP_OK);
+        assert_int_equal(crisp_planner_create(&(crisp_planner_desc){.no_splats = 1}, NULL, &off),
+                         CRISP_OK);
+        const int w = 240, h = 180;
+        crisp_image ref, img, ex, nos;
+        assert_int_equal(crisp_image_init(&ref, w, h), CRISP_OK);
+        assert_int_equal(crisp_image_init(&img, w, h), CRISP_OK);
+        assert_int_equal(crisp_image_init(&ex, w, h), CRISP_OK);
+        assert_int_equal(crisp_image_init(&nos, w, h), CRISP_OK);
+        crisp_camera cam = far_view(sc, lim_cases[k].radius_px, w, h);
+        const crisp_frame_plan *plan;
+        assert_int_equal(crisp_planner_plan(full, sc, &cam, &plan), CRISP_OK);
+        uint32_t want = plan->stats.splat_faces;
+        assert_int_equal(plan->stats.splat_pending, 0);
+        assert_int_equal(crisp_render_cpu_plan(r, sc, plan, &cam, &ref, NULL), CRISP_OK);
+        assert_int_equal(crisp_planner_plan(off, sc, &cam, &plan), CRISP_OK);
+        assert_int_equal(crisp_render_cpu_plan(r, sc, plan, &cam, &nos, NULL), CRISP_OK);
+        crisp_exact_desc ed = {.threads = 2, .classify = exact_classify};
+        assert_int_equal(crisp_render_exact(sc, &cam, &ed, &ex), CRISP_OK);
+        uint32_t last_faces = 0, last_pending = UINT32_MAX;
+        int n = 0;
+        for (;; n++) {
+            assert_true(n < 100);
+            assert_int_equal(crisp_planner_plan(lim, sc, &cam, &plan), CRISP_OK);
+            assert_int_equal(crisp_render_cpu_plan(r, sc, plan, &cam, &img, NULL), CRISP_OK);
+            uint32_t pending = plan->stats.splat_pending;
+            printf("%s frame %d: %u faces splatted, %u pending\n", lim_cases[k].model, n,
+                   plan->stats.splat_faces, pending);
+            assert_true(pending < last_pending);
+            assert_true(plan->stats.splat_faces >= last_faces);
+            /* the faces left are pending (some of them may be refused when built) */
+            assert_true(plan->stats.splat_faces <= want);
+            assert_true((uint64_t)plan->stats.splat_faces + pending >= want);
+            last_faces = plan->stats.splat_faces, last_pending = pending;
+            check_true_points(sc, &cam, plan, &img, &ex, counts_tp);
+            check_no_holes(sc, &cam, plan, &img, &ex, counts_nh);
+            for (int j = 0; j < h; j++)
+                for (int i = 0; i < w; i++) {
+                    size_t p = (size_t)j * w + (size_t)i;
+                    if (img.face[p] != nos.face[p] && !at_edge(&img, i, j) && !at_edge(&nos, i, j))
+                        inner++;
+                }
+            if (!pending) break;
+            assert_false(images_equal(&img, &ref) && n == 0); /* the first frame is not the last */
+        }
+        frames += n + 1;
+        assert_true(n >= 2); /* the limit spread the builds over several frames */
+        assert_int_equal(plan->stats.splat_faces, want);
+        assert_true(images_equal(&img, &ref));
+        /* and the frame after it too */
+        assert_int_equal(crisp_planner_plan(lim, sc, &cam, &plan), CRISP_OK);
+        assert_int_equal(crisp_render_cpu_plan(r, sc, plan, &cam, &img, NULL), CRISP_OK);
+        assert_true(images_equal(&img, &ref));
+        crisp_image_free(&ref), crisp_image_free(&img), crisp_image_free(&ex);
+        crisp_image_free(&nos);
+        crisp_planner_destroy(full), crisp_planner_destroy(lim), crisp_planner_destroy(off);
+        crisp_renderer_destroy(r);
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(m);
+    }
+    printf("%ld frames; splatted pixels %ld (%ld not true points), splatted centres %ld (%ld "
+           "holes), %ld pixels differing from the image without splats away from edges\n",
+           frames, counts_tp[0], counts_tp[1], counts_nh[0], counts_nh[1], inner);
+    assert_true(counts_tp[0] > 100 && counts_nh[0] > 100);
+    assert_int_equal(counts_tp[1], 0);
+    assert_int_equal(counts_nh[1], 0);
+    assert_int_equal(inner, 0);
+}
+
 /* ---- the choice per group of faces ------------------------------------------------------------
  */
 
@@ -666,8 +771,8 @@ static void test_group_choice(void **state)
             crisp_camera_matrices cm;
             crisp_camera_matrices_compute(&cam, &cm);
             if (v % 5 == 0) /* builds the sets this view wants (later views meet them) */
-                assert_int_equal(crisp__splat_store_choose(s, sc, cm.view_proj, w, h, NULL, splat),
-                                 CRISP_OK);
+                assert_int_equal(
+                    crisp__splat_store_choose(s, sc, cm.view_proj, w, h, 0, NULL, splat), CRISP_OK);
             assert_int_equal(crisp__splat_store_test_want(s, sc, cm.view_proj, w, h, 0, wa, na),
                              CRISP_OK);
             assert_int_equal(crisp__splat_store_test_want(s, sc, cm.view_proj, w, h, 1, wb, nb),
@@ -763,6 +868,7 @@ int main(void)
         cmocka_unit_test(test_true_points),    cmocka_unit_test(test_no_holes),
         cmocka_unit_test(test_solids_far),     cmocka_unit_test(test_near_edges),
         cmocka_unit_test(test_group_choice),   cmocka_unit_test(test_range_order),
+        cmocka_unit_test(test_build_limit),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
