@@ -807,16 +807,7 @@ static void setup_chunk(void *vctx, size_t begin, size_t end, int worker)
 
 #define BLOCK 8
 #define BLOCKS (TILE / BLOCK)
-#define HIZ_MIN_PX 16  /* a triangle covering fewer pixels of a block does not consult its bound */
-#define TILE_RANGES 64 /* at most this many home ranges of tiles (raster_tiles) */
-
-/* A worker's home range of tiles [lo, hi) (bits 0-31 and 32-63 of ends): its owner takes tiles
- * from the front, other workers, once their own range is done, from the back. On a line of its
- * own: the ranges' counters are written by different workers. */
-typedef struct tile_range {
-    _Atomic uint64_t ends;
-    char pad[64 - sizeof(uint64_t)];
-} tile_range;
+#define HIZ_MIN_PX 16 /* a triangle covering fewer pixels of a block does not consult its bound */
 
 typedef struct {
     crisp_raster *r;
@@ -835,8 +826,7 @@ typedef struct {
     int clear;           /* each tile first does the target's pending clear_depth */
     int avx; /* one-sample tiles through raster_tile1_avx (1) or raster_tile1_avx2 (2) */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
-    int ranges; /* the tiles split into this many home ranges, one per worker */
-    _Alignas(64) tile_range range[TILE_RANGES];
+    crisp_raster_share share; /* the tiles, one home range per worker (raster_tiles) */
 } raster_ctx;
 
 /* Least 1/W over the block's samples (0 when one is empty). */
@@ -1665,21 +1655,6 @@ static void raster_tile(raster_ctx *c, size_t tile)
         raster_tile_s(c, tile, c->t->samples, c->clear, 0);
 }
 
-/* The next tile of range g, from its front or its back; 0 when it is empty. */
-static int take_tile(tile_range *g, int back, size_t *tile)
-{
-    uint64_t e = atomic_load_explicit(&g->ends, memory_order_relaxed);
-    for (;;) {
-        uint32_t lo = (uint32_t)e, hi = (uint32_t)(e >> 32);
-        if (lo >= hi) return 0;
-        uint64_t n = back ? (uint64_t)(hi - 1) << 32 | lo : (uint64_t)hi << 32 | (lo + 1);
-        if (atomic_compare_exchange_weak(&g->ends, &e, n)) {
-            *tile = back ? hi - 1 : lo;
-            return 1;
-        }
-    }
-}
-
 /* The tiles, shared out so that two workers seldom draw tiles next to each other at the same
  * time, and a tile goes to the same worker draw after draw while the work stays alike: each
  * worker first takes the tiles of its home range (a band of tile rows) from the front, then those
@@ -1694,13 +1669,41 @@ static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)begin, (void)end;
     raster_ctx *c = vctx;
-    int home = worker % c->ranges;
+    int k = 0;
     size_t tile;
-    for (int k = 0; k < c->ranges; k++) {
-        tile_range *g = &c->range[(home + k) % c->ranges];
-        while (take_tile(g, k != 0, &tile))
-            raster_tile(c, tile);
+    while (crisp__raster_share_next(&c->share, worker, &k, &tile))
+        raster_tile(c, tile);
+}
+
+void crisp__raster_share_init(crisp_raster_share *s, size_t count, int workers)
+{
+    s->ranges = workers < 1                        ? 1
+                : workers < CRISP_RASTER_SHARE_MAX ? workers
+                                                   : CRISP_RASTER_SHARE_MAX;
+    for (int g = 0; g < s->ranges; g++) {
+        uint64_t lo = count * (size_t)g / (size_t)s->ranges,
+                 hi = count * (size_t)(g + 1) / (size_t)s->ranges;
+        atomic_store(&s->range[g].ends, hi << 32 | lo);
     }
+}
+
+int crisp__raster_share_next(crisp_raster_share *s, int worker, int *k, size_t *item)
+{
+    for (; *k < s->ranges; ++*k) {
+        _Atomic uint64_t *ends = &s->range[(worker % s->ranges + *k) % s->ranges].ends;
+        int back = *k != 0; /* another worker's range: from its back */
+        uint64_t e = atomic_load_explicit(ends, memory_order_relaxed);
+        for (;;) {
+            uint32_t lo = (uint32_t)e, hi = (uint32_t)(e >> 32);
+            if (lo >= hi) break;
+            uint64_t n = back ? (uint64_t)(hi - 1) << 32 | lo : (uint64_t)hi << 32 | (lo + 1);
+            if (atomic_compare_exchange_weak(ends, &e, n)) {
+                *item = back ? hi - 1 : lo;
+                return 1;
+            }
+        }
+    }
+    return 0;
 }
 
 typedef struct slack_ctx {
@@ -2139,9 +2142,7 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                      .slack = slack,
                      .slack2 = slack && cores ? slack2 : NULL,
                      .hiz = !r->no_hiz,
-                     .vectors = !r->no_vectors,
-                     .ranges = crisp_pool_threads(pool) < TILE_RANGES ? crisp_pool_threads(pool)
-                                                                      : TILE_RANGES};
+                     .vectors = !r->no_vectors};
 #if HAVE_AVX_TILES
     rc.avx = !r->no_vectors && __builtin_cpu_supports("avx")
                  ? (!r->no_avx2 && __builtin_cpu_supports("avx2") ? 2 : 1)
@@ -2202,12 +2203,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                              sizeof *r->bin_items)))
             return st;
         crisp_pool_parallel_for(pool, CHUNKS, 1, bin_fill, &bc);
-        for (int g = 0; g < rc.ranges; g++) {
-            uint64_t lo = tiles * (size_t)g / (size_t)rc.ranges,
-                     hi = tiles * (size_t)(g + 1) / (size_t)rc.ranges;
-            atomic_store(&rc.range[g].ends, hi << 32 | lo);
-        }
-        crisp_pool_parallel_for(pool, (size_t)rc.ranges, 1, raster_tiles, &rc);
+        crisp__raster_share_init(&rc.share, tiles, crisp_pool_threads(pool));
+        crisp_pool_parallel_for(pool, (size_t)rc.share.ranges, 1, raster_tiles, &rc);
         rc.clear = 0;
         t->clear_pending = 0;
     }
