@@ -1018,9 +1018,13 @@ typedef struct resolve_ctx {
     int x0, x1, y0;
     const uint8_t *only;
     const crisp_image *base;
-    const double *col; /* f + nx r per column of the target: x, y, z planes; NULL: none */
-    int avx;           /* resolve_row1_avx rather than resolve_row1 */
+    const double *col;        /* f + nx r per column of the target: x, y, z planes; NULL: none */
+    int avx;                  /* resolve_row1_avx rather than resolve_row1 */
+    size_t rows;              /* rows [0, rows) of the region */
+    crisp_raster_share share; /* groups of RESOLVE_ROWS rows, one home range per worker */
 } resolve_ctx;
+
+#define RESOLVE_ROWS 8 /* rows a worker takes at a time */
 
 static void copy_pixel(const crisp_image *src, crisp_image *dst, size_t px)
 {
@@ -1364,6 +1368,22 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
         resolve_rows_s(c, begin, end, 1);
     else
         resolve_rows_s(c, begin, end, c->target->samples);
+}
+
+/* The rows in groups shared out as the rasterizer's tiles (crisp_raster_share): a worker resolves
+ * the band of rows whose tiles it mostly drew, their samples still in its caches, and two workers
+ * seldom read and write neighbouring rows at once. */
+static void resolve_groups(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)begin, (void)end;
+    resolve_ctx *c = vctx;
+    int k = 0;
+    size_t g;
+    while (crisp__raster_share_next(&c->share, worker, &k, &g)) {
+        size_t j0 = g * RESOLVE_ROWS,
+               j1 = j0 + RESOLVE_ROWS < c->rows ? j0 + RESOLVE_ROWS : c->rows;
+        resolve_rows(c, j0, j1, worker);
+    }
 }
 
 void crisp__renderer_mesh(const crisp_renderer *r, const crisp_raster_vertex **verts,
@@ -1919,7 +1939,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
 #if HAVE_AVX_RESOLVE
     rc.avx = __builtin_cpu_supports("avx");
 #endif
-    crisp_pool_parallel_for(r->pool, (size_t)(rect[3] - rect[1]), 8, resolve_rows, &rc);
+    rc.rows = (size_t)(rect[3] - rect[1]);
+    crisp__raster_share_init(&rc.share, (rc.rows + RESOLVE_ROWS - 1) / RESOLVE_ROWS, r->workers);
+    crisp_pool_parallel_for(r->pool, (size_t)rc.share.ranges, 1, resolve_groups, &rc);
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);
     stats->vertices = surface_v;

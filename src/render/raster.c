@@ -826,6 +826,7 @@ typedef struct {
     int clear;           /* each tile first does the target's pending clear_depth */
     int avx; /* one-sample tiles through raster_tile1_avx (1) or raster_tile1_avx2 (2) */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
+    crisp_raster_share share; /* the tiles, one home range per worker (raster_tiles) */
 } raster_ctx;
 
 /* Least 1/W over the block's samples (0 when one is empty). */
@@ -1654,11 +1655,55 @@ static void raster_tile(raster_ctx *c, size_t tile)
         raster_tile_s(c, tile, c->t->samples, c->clear, 0);
 }
 
+/* The tiles, shared out so that two workers seldom draw tiles next to each other at the same
+ * time, and a tile goes to the same worker draw after draw while the work stays alike: each
+ * worker first takes the tiles of its home range (a band of tile rows) from the front, then those
+ * left in the others' from their back. On a two-core machine, tiles handed out one by one in
+ * row order put the two workers on horizontally adjacent tiles all the time, and the tiles took
+ * 2.3x the CPU time of one worker (a close-up of large triangles, little work per pixel; with
+ * tiles far apart 1.3x: measured, docs/status/issue-12-tiles.md; the cores contend for the lines
+ * of the rows the two tiles share, and each tile's lines sit in the other core's caches from the
+ * draw before). Any worker may take any tile: the balance stays dynamic, and the picture does not
+ * depend on who draws a tile. */
 static void raster_tiles(void *vctx, size_t begin, size_t end, int worker)
 {
-    (void)worker;
-    for (size_t tile = begin; tile < end; tile++)
-        raster_tile(vctx, tile);
+    (void)begin, (void)end;
+    raster_ctx *c = vctx;
+    int k = 0;
+    size_t tile;
+    while (crisp__raster_share_next(&c->share, worker, &k, &tile))
+        raster_tile(c, tile);
+}
+
+void crisp__raster_share_init(crisp_raster_share *s, size_t count, int workers)
+{
+    s->ranges = workers < 1                        ? 1
+                : workers < CRISP_RASTER_SHARE_MAX ? workers
+                                                   : CRISP_RASTER_SHARE_MAX;
+    for (int g = 0; g < s->ranges; g++) {
+        uint64_t lo = count * (size_t)g / (size_t)s->ranges,
+                 hi = count * (size_t)(g + 1) / (size_t)s->ranges;
+        atomic_store(&s->range[g].ends, hi << 32 | lo);
+    }
+}
+
+int crisp__raster_share_next(crisp_raster_share *s, int worker, int *k, size_t *item)
+{
+    for (; *k < s->ranges; ++*k) {
+        _Atomic uint64_t *ends = &s->range[(worker % s->ranges + *k) % s->ranges].ends;
+        int back = *k != 0; /* another worker's range: from its back */
+        uint64_t e = atomic_load_explicit(ends, memory_order_relaxed);
+        for (;;) {
+            uint32_t lo = (uint32_t)e, hi = (uint32_t)(e >> 32);
+            if (lo >= hi) break;
+            uint64_t n = back ? (uint64_t)(hi - 1) << 32 | lo : (uint64_t)hi << 32 | (lo + 1);
+            if (atomic_compare_exchange_weak(ends, &e, n)) {
+                *item = back ? hi - 1 : lo;
+                return 1;
+            }
+        }
+    }
+    return 0;
 }
 
 typedef struct slack_ctx {
@@ -2085,7 +2130,7 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
     r->vcache_verts = NULL; /* kept for one draw only */
 
     int tiles_x = (t->width + TILE - 1) / TILE, tiles_y = (t->height + TILE - 1) / TILE;
-    size_t tiles = (size_t)tiles_x * tiles_y;
+    size_t tiles = (size_t)tiles_x * tiles_y; /* below 2^32: the target is at most 65536^2 */
     if ((st = crisp_grow((void **)&r->bin_start, &r->bin_start_cap, tiles + 1,
                          sizeof *r->bin_start)))
         return st;
@@ -2158,7 +2203,8 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
                              sizeof *r->bin_items)))
             return st;
         crisp_pool_parallel_for(pool, CHUNKS, 1, bin_fill, &bc);
-        crisp_pool_parallel_for(pool, tiles, 1, raster_tiles, &rc);
+        crisp__raster_share_init(&rc.share, tiles, crisp_pool_threads(pool));
+        crisp_pool_parallel_for(pool, (size_t)rc.share.ranges, 1, raster_tiles, &rc);
         rc.clear = 0;
         t->clear_pending = 0;
     }

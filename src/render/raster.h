@@ -222,4 +222,24 @@ crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster
                                              const crisp_raster_core *cores, float *slack,
                                              float *slack2);
 
+/* Work items [0, count) shared out among the workers of a pool (crisp__raster_draw's tiles, the
+ * CPU backend's resolve): one home range of consecutive items per worker, which it takes from
+ * the front; a worker done with its own takes the items left in the others' from their back.
+ * Two workers then seldom work on neighbouring items at once, and item i goes to the same worker
+ * call after call while the work stays alike (its data still in that core's caches); the balance
+ * is still dynamic. Use: init with the pool's thread count, then a parallel_for over `ranges`
+ * items whose function takes items with share_next (k = 0 first) until it returns 0. */
+#define CRISP_RASTER_SHARE_MAX 64
+typedef struct crisp_raster_share {
+    int ranges; /* one per worker, at most CRISP_RASTER_SHARE_MAX */
+    struct {
+        _Alignas(64) _Atomic uint64_t ends; /* [lo, hi) in bits 0-31, 32-63; a line each */
+    } range[CRISP_RASTER_SHARE_MAX];
+} crisp_raster_share;
+
+/* count below 2^32. */
+void crisp__raster_share_init(crisp_raster_share *s, size_t count, int workers);
+/* The next item for worker (its index in the pool) into *item; 0 when none is left. */
+int crisp__raster_share_next(crisp_raster_share *s, int worker, int *k, size_t *item);
+
 #endif

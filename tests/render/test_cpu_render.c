@@ -455,6 +455,63 @@ static void test_degenerate(void **state)
  * through it. Every drawn pixel's point (its ray at its depth) lies on the kept side; pixels
  * whose unclipped point was kept are unchanged (same face, same depth); and the cut opens the
  * solid: its inside (back faces, normal along the view) shows where the front was cut away. */
+/* The image does not depend on the thread count: the tiles and the resolve's rows are shared out
+ * in one home range per worker (crisp_raster_share); with 1, 3 and 8 threads (more workers than
+ * some ranges have rows of a small window) every pixel is resolved, and the same. The images start
+ * as garbage: a row left out keeps it. */
+static void test_threads_equal(void **state)
+{
+    (void)state;
+    if (rb_kind != RENDER_CPU) skip();
+    crisp_model *m = rt_load_model("occt_bearing.iges");
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    static const int threads[3] = {1, 3, 8};
+    crisp_renderer *r[3];
+    for (int k = 0; k < 3; k++)
+        assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = threads[k]}, &r[k]),
+                         CRISP_OK);
+    crisp_camera cam;
+    assert_int_equal(crisp_camera_frame_box(sc->box, 333, 190, &cam), CRISP_OK);
+    for (int view = 0; view < 3; view++) {
+        if (view == 1) cam.fov_deg = 8; /* closer: the model fills the image */
+        int win[4] = {8, 16, 200, 20};  /* view 2: a window of 20 rows of the close frame */
+        int w = view == 2 ? win[2] : cam.width, h = view == 2 ? win[3] : cam.height;
+        crisp_image img[3];
+        size_t n = (size_t)w * h;
+        for (int k = 0; k < 3; k++) {
+            assert_int_equal(crisp_image_init(&img[k], w, h), CRISP_OK);
+            memset(img[k].rgba, 0x55, 4 * n * sizeof(float));
+            memset(img[k].depth, 0x55, n * sizeof(float));
+            memset(img[k].face, 0x55, n * sizeof(int32_t));
+            const crisp_frame_plan *plan;
+            assert_int_equal(crisp_planner_plan(crisp_renderer_planner(r[k]), sc, &cam, &plan),
+                             CRISP_OK);
+            if (view == 2)
+                assert_int_equal(crisp__render_cpu_window(r[k], sc, plan, &cam, win, &img[k], NULL),
+                                 CRISP_OK);
+            else
+                assert_int_equal(crisp_render_cpu_plan(r[k], sc, plan, &cam, &img[k], NULL),
+                                 CRISP_OK);
+        }
+        size_t covered = 0;
+        for (size_t p = 0; p < n; p++)
+            covered += img[0].face[p] >= 0;
+        assert_true(covered > n / 20 && covered < n); /* some of each kind of pixel */
+        for (int k = 1; k < 3; k++) {
+            assert_memory_equal(img[0].rgba, img[k].rgba, 4 * n * sizeof(float));
+            assert_memory_equal(img[0].depth, img[k].depth, n * sizeof(float));
+            assert_memory_equal(img[0].face, img[k].face, n * sizeof(int32_t));
+        }
+        for (int k = 0; k < 3; k++)
+            crisp_image_free(&img[k]);
+    }
+    for (int k = 0; k < 3; k++)
+        crisp_renderer_destroy(r[k]);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 /* The SIMD paths (rasterizer and resolve) give the scalar code's image and AOVs bit for bit: a
  * trimmed model at its default view and closer (partly covered blocks, background pixels, an odd
  * width for the resolve's last pixel), whole frames and a window. */
@@ -609,7 +666,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_surface_accuracy),     cmocka_unit_test(test_no_cracks),
         cmocka_unit_test(test_close_cameras),        cmocka_unit_test(test_degenerate),
         cmocka_unit_test(test_against_exact),        cmocka_unit_test(test_clip_plane),
-        cmocka_unit_test(test_vectors_equal_scalar),
+        cmocka_unit_test(test_vectors_equal_scalar), cmocka_unit_test(test_threads_equal),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
