@@ -9,6 +9,7 @@
  * `--backend gl`: the image checks again on the GL backend drawing the same plans (gl label). */
 #include <setjmp.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
@@ -455,6 +456,52 @@ static void test_degenerate(void **state)
  * through it. Every drawn pixel's point (its ray at its depth) lies on the kept side; pixels
  * whose unclipped point was kept are unchanged (same face, same depth); and the cut opens the
  * solid: its inside (back faces, normal along the view) shows where the front was cut away. */
+/* Renders occt_bearing.iges with the three renderers at its default view, closer (the model
+ * fills the image) and a window of win_h rows of the close frame, and checks the three images
+ * and AOVs are equal bit for bit. With garbage, the images start as 0x55 bytes, so a pixel
+ * left out keeps it. */
+static void assert_three_equal(crisp_renderer *r[3], crisp_scene *sc, int win_h, bool garbage)
+{
+    crisp_camera cam;
+    assert_int_equal(crisp_camera_frame_box(sc->box, 333, 190, &cam), CRISP_OK);
+    for (int view = 0; view < 3; view++) {
+        if (view == 1) cam.fov_deg = 8;   /* closer: the model fills the image */
+        int win[4] = {8, 16, 200, win_h}; /* view 2: a window of the close frame */
+        int w = view == 2 ? win[2] : cam.width, h = view == 2 ? win[3] : cam.height;
+        size_t n = (size_t)w * h, covered = 0;
+        crisp_image img[3];
+        for (int k = 0; k < 3; k++) {
+            assert_int_equal(crisp_image_init(&img[k], w, h), CRISP_OK);
+            if (garbage) {
+                memset(img[k].rgba, 0x55, 4 * n * sizeof(float));
+                memset(img[k].depth, 0x55, n * sizeof(float));
+                memset(img[k].face, 0x55, n * sizeof(int32_t));
+            }
+            const crisp_frame_plan *plan;
+            assert_int_equal(crisp_planner_plan(crisp_renderer_planner(r[k]), sc, &cam, &plan),
+                             CRISP_OK);
+            if (view == 2)
+                assert_int_equal(crisp__render_cpu_window(r[k], sc, plan, &cam, win, &img[k], NULL),
+                                 CRISP_OK);
+            else
+                assert_int_equal(crisp_render_cpu_plan(r[k], sc, plan, &cam, &img[k], NULL),
+                                 CRISP_OK);
+        }
+        for (size_t p = 0; p < n; p++)
+            covered += img[0].face[p] >= 0;
+        assert_true(covered > n / 20 && covered < n); /* some of each kind of pixel */
+        for (int k = 1; k < 3; k++) {
+            assert_memory_equal(img[0].rgba, img[k].rgba, 4 * n * sizeof(float));
+            assert_memory_equal(img[0].depth, img[k].depth, n * sizeof(float));
+            assert_memory_equal(img[0].normal, img[k].normal, 3 * n * sizeof(float));
+            assert_memory_equal(img[0].uv, img[k].uv, 2 * n * sizeof(float));
+            assert_memory_equal(img[0].face, img[k].face, n * sizeof(int32_t));
+        }
+        for (int k = 0; k < 3; k++)
+            crisp_image_free(&img[k]);
+    }
+}
+
 /* The image does not depend on the thread count: the tiles and the resolve's rows are shared out
  * in one home range per worker (crisp_raster_share); with 1, 3 and 8 threads (more workers than
  * some ranges have rows of a small window) every pixel is resolved, and the same. The images start
@@ -471,41 +518,7 @@ static void test_threads_equal(void **state)
     for (int k = 0; k < 3; k++)
         assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = threads[k]}, &r[k]),
                          CRISP_OK);
-    crisp_camera cam;
-    assert_int_equal(crisp_camera_frame_box(sc->box, 333, 190, &cam), CRISP_OK);
-    for (int view = 0; view < 3; view++) {
-        if (view == 1) cam.fov_deg = 8; /* closer: the model fills the image */
-        int win[4] = {8, 16, 200, 20};  /* view 2: a window of 20 rows of the close frame */
-        int w = view == 2 ? win[2] : cam.width, h = view == 2 ? win[3] : cam.height;
-        crisp_image img[3];
-        size_t n = (size_t)w * h;
-        for (int k = 0; k < 3; k++) {
-            assert_int_equal(crisp_image_init(&img[k], w, h), CRISP_OK);
-            memset(img[k].rgba, 0x55, 4 * n * sizeof(float));
-            memset(img[k].depth, 0x55, n * sizeof(float));
-            memset(img[k].face, 0x55, n * sizeof(int32_t));
-            const crisp_frame_plan *plan;
-            assert_int_equal(crisp_planner_plan(crisp_renderer_planner(r[k]), sc, &cam, &plan),
-                             CRISP_OK);
-            if (view == 2)
-                assert_int_equal(crisp__render_cpu_window(r[k], sc, plan, &cam, win, &img[k], NULL),
-                                 CRISP_OK);
-            else
-                assert_int_equal(crisp_render_cpu_plan(r[k], sc, plan, &cam, &img[k], NULL),
-                                 CRISP_OK);
-        }
-        size_t covered = 0;
-        for (size_t p = 0; p < n; p++)
-            covered += img[0].face[p] >= 0;
-        assert_true(covered > n / 20 && covered < n); /* some of each kind of pixel */
-        for (int k = 1; k < 3; k++) {
-            assert_memory_equal(img[0].rgba, img[k].rgba, 4 * n * sizeof(float));
-            assert_memory_equal(img[0].depth, img[k].depth, n * sizeof(float));
-            assert_memory_equal(img[0].face, img[k].face, n * sizeof(int32_t));
-        }
-        for (int k = 0; k < 3; k++)
-            crisp_image_free(&img[k]);
-    }
+    assert_three_equal(r, sc, 20, true); /* 20 rows: fewer than some workers' ranges */
     for (int k = 0; k < 3; k++)
         crisp_renderer_destroy(r[k]);
     crisp_scene_destroy(sc);
@@ -534,39 +547,7 @@ static void test_vectors_equal_scalar(void **state)
                          CRISP_OK);
         crisp__renderer_set_vectors(r[k], k);
     }
-    crisp_camera cam;
-    assert_int_equal(crisp_camera_frame_box(sc->box, 333, 190, &cam), CRISP_OK);
-    for (int view = 0; view < 3; view++) {
-        if (view == 1) cam.fov_deg = 8; /* closer: the model fills the image */
-        int win[4] = {8, 16, 200, 120}; /* view 2: a window of the close frame */
-        int w = view == 2 ? win[2] : cam.width, h = view == 2 ? win[3] : cam.height;
-        crisp_image img[3];
-        for (int k = 0; k < 3; k++) {
-            assert_int_equal(crisp_image_init(&img[k], w, h), CRISP_OK);
-            const crisp_frame_plan *plan;
-            assert_int_equal(crisp_planner_plan(crisp_renderer_planner(r[k]), sc, &cam, &plan),
-                             CRISP_OK);
-            if (view == 2)
-                assert_int_equal(crisp__render_cpu_window(r[k], sc, plan, &cam, win, &img[k], NULL),
-                                 CRISP_OK);
-            else
-                assert_int_equal(crisp_render_cpu_plan(r[k], sc, plan, &cam, &img[k], NULL),
-                                 CRISP_OK);
-        }
-        size_t n = (size_t)w * h, covered = 0;
-        for (size_t p = 0; p < n; p++)
-            covered += img[0].face[p] >= 0;
-        assert_true(covered > n / 20 && covered < n); /* some of each kind of pixel */
-        for (int k = 1; k < 3; k++) {
-            assert_memory_equal(img[0].rgba, img[k].rgba, 4 * n * sizeof(float));
-            assert_memory_equal(img[0].depth, img[k].depth, n * sizeof(float));
-            assert_memory_equal(img[0].normal, img[k].normal, 3 * n * sizeof(float));
-            assert_memory_equal(img[0].uv, img[k].uv, 2 * n * sizeof(float));
-            assert_memory_equal(img[0].face, img[k].face, n * sizeof(int32_t));
-        }
-        for (int k = 0; k < 3; k++)
-            crisp_image_free(&img[k]);
-    }
+    assert_three_equal(r, sc, 120, false);
     for (int k = 0; k < 3; k++)
         crisp_renderer_destroy(r[k]);
     crisp_scene_destroy(sc);
