@@ -16,6 +16,7 @@
 
 #include "crisp/plan.h"
 #include "crisp/tess.h"
+#include "core/compiler.h"
 #include "nurbs/nurbs_internal.h"
 #include "occlusion.h"
 #include "raster.h"
@@ -1038,12 +1039,6 @@ static void copy_pixel(const crisp_image *src, crisp_image *dst, size_t px)
 /* Rows y0 + [begin, end), columns [x0, x1) of the image, every pixel there written (the
  * background where no sample is covered, as crisp__image_clear leaves it, or base's pixel), so
  * the image needs no clearing first. */
-#if defined(__GNUC__)
-#define ALWAYS_INLINE inline __attribute__((always_inline))
-#else
-#define ALWAYS_INLINE inline
-#endif
-
 /* With S the target's samples per pixel: inlined with S = 1 a constant for one-sample targets
  * (the sample loop and the averages fold away), else with S a variable; the same code. */
 static ALWAYS_INLINE void resolve_rows_s(resolve_ctx *c, size_t begin, size_t end, const int S)

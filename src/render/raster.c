@@ -2,6 +2,8 @@
  * rule, order-preserving tile binning and per-tile parallel rasterisation. */
 #include "raster.h"
 
+#include "core/compiler.h"
+
 #include <math.h>
 #include <stdatomic.h>
 #if defined(__SSE2__)
@@ -22,19 +24,6 @@
 #define GUARD_PX                                                                                   \
     1048576.0 /* screen coordinates stay within +-2^20 px: exact int64 edge functions */
 #define MAX_POLY 12
-
-#if defined(__GNUC__)
-#define ALWAYS_INLINE inline __attribute__((always_inline))
-#else
-#define ALWAYS_INLINE inline
-#endif
-
-#if defined(__GNUC__) && !defined(__clang__)
-#define PRAGMA(x) _Pragma(#x)
-#define UNROLL(n) PRAGMA(GCC unroll n)
-#else
-#define UNROLL(n)
-#endif
 
 typedef struct setup_tri {
     int64_t x[3], y[3]; /* fixed point, counter-clockwise in the (x right, y down) frame */

@@ -36,6 +36,7 @@
  * weight's and X's, W's derivative bounds over a cell (|x(b) - x(a)| <= (|dX| + |x| |dW|) / W
  * along the segment): it is O(h^2) like the rest, so the classic bound still falls as 1 / tau^2.
  * test_slefe_rational.c measures it; without the term the level fails there. */
+#include "core/compiler.h"
 #include "slefe_internal.h"
 
 #include <string.h>
@@ -43,13 +44,6 @@
 #define MAXD CRISP_SLEFE_MAX_DEGREE
 #define MAXM CRISP_SLEFE_MAX_SEGMENTS
 #define EUCLID_PIECES_RATIO 1.1
-
-#if defined(__GNUC__) && !defined(__clang__)
-#define PRAGMA(x) _Pragma(#x)
-#define UNROLL(n) PRAGMA(GCC unroll n)
-#else
-#define UNROLL(n)
-#endif
 
 /* Second-difference bounds of clip coordinate r over the control net: dss, dtt (pure second
  * differences scaled by d(d-1)) and dst (mixed, scaled by du dv): bounds on |X_ss|, |X_tt|,
