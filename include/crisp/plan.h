@@ -146,6 +146,8 @@ typedef struct crisp_plan_stats {
     uint32_t splat_faces;  /* faces drawn as splats */
     uint64_t splats_drawn; /* splats in splat_ranges */
     uint64_t splat_bytes;  /* of the planner's splat store */
+    uint32_t hidden_faces; /* faces the CPU backend's two-stage frame found hidden by the nearer
+                              faces before planning them (crisp_render_cpu; 0 otherwise) */
     double ms_levels, ms_edges, ms_trim, ms_ribbons;
 } crisp_plan_stats;
 
