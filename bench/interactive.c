@@ -148,11 +148,11 @@ static void run_view(const char *name, const char *view, const crisp_scene *sc,
                 plan->stats.ms_ribbons);
     if (getenv("BENCH_INTERACTIVE_STAGES")) /* the draw's counts (last frame) */
         fprintf(stderr,
-                "%s %s: leaves %llu, vertices %llu, ribbon triangles %llu, fragments tested "
-                "%llu, trimmed %llu\n",
-                name, view, (unsigned long long)st.leaves, (unsigned long long)st.vertices,
-                (unsigned long long)st.ribbon_triangles, (unsigned long long)st.fragments_tested,
-                (unsigned long long)st.fragments_trimmed);
+                "%s %s: faces visible %u, hidden before planning %u, leaves %llu, vertices %llu, "
+                "ribbon triangles %llu, fragments tested %llu, trimmed %llu\n",
+                name, view, st.visible_faces, st.hidden_faces, (unsigned long long)st.leaves,
+                (unsigned long long)st.vertices, (unsigned long long)st.ribbon_triangles,
+                (unsigned long long)st.fragments_tested, (unsigned long long)st.fragments_trimmed);
     const char *png = getenv("BENCH_INTERACTIVE_PNG"); /* a folder: look at what each row draws */
     if (png) {
         char path[1200];

@@ -2028,6 +2028,7 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     if ((st = crisp__planner_plan_near(r->planner, sc, cam, &plan, &later))) return st;
     if (!later) {
         if ((st = crisp_render_cpu_plan(r, sc, plan, cam, img, stats))) return st;
+        if (!crisp__planner_seen_wanted(r->planner, sc)) return CRISP_OK;
         return crisp__planner_seen(r->planner, sc, img->face, (size_t)img->width * img->height);
     }
     if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats, &(draw_part){1, NULL})))

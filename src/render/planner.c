@@ -66,7 +66,14 @@ struct crisp_planner {
                       stage's faces next time: an order, not a decision) */
     size_t seen_cap;
     uint64_t seen_serial; /* the scene the marks are of (0: none) */
-    double *face_box;     /* per face: the union of its patches' boxes (of face_box_serial) */
+    /* Whether stages pay (crisp__planner_plan_near): after a frame in stages of scene pays_serial
+     * that hid too little, frames are planned in one stage, and every STAGE_PROBE-th one in
+     * stages again. */
+    uint64_t pays_serial;
+    int pays;
+    uint32_t quiet;   /* frames in one stage since */
+    int always;       /* crisp__planner_always_stages */
+    double *face_box; /* per face: the union of its patches' boxes (of face_box_serial) */
     size_t face_box_cap;
     uint8_t *patch_in; /* per patch: its parameter box meets its face's trim pieces' box */
     size_t patch_in_cap;
@@ -521,6 +528,13 @@ static int near_key_cmp(const void *a, const void *b)
 }
 
 #define STAGE_HIDDEN 255
+/* Frames in stages go on while the hidden faces' patches are at least STAGE_PAYS_MIN and
+ * STAGE_PAYS of those and the patches planned (a frame in stages costs a second trees build, a
+ * block depth pass, the tests, and the draw's leaves batched by depth per stage rather than over
+ * the frame); after one that hid less, every STAGE_PROBE-th frame tries again. */
+#define STAGE_PAYS 0.125
+#define STAGE_PAYS_MIN 64
+#define STAGE_PROBE 16
 /* Where the stages end: the screens the faces' boxes (clipped to the image) cover together, the
  * faces taken nearest first; the faces beyond the last are the last stage's. */
 static const double stage_screens[] = {1, 4, 16};
@@ -686,8 +700,10 @@ crisp_status crisp__planner_plan_near(crisp_planner *p, const crisp_scene *sc,
     }
     double ms_splats = 1e3 * (crisp_time_now() - ts);
     uint32_t deferred = 0;
-    if ((st = choose_stages(p, sc, cam, &deferred))) return st;
     *later = NULL;
+    int probe =
+        p->always || p->pays_serial != sc->serial || p->pays || ++p->quiet % STAGE_PROBE == 0;
+    if (probe && (st = choose_stages(p, sc, cam, &deferred))) return st;
     if (!deferred) { /* one stage: the whole plan */
         p->staged = 0;
         if ((st = plan_faces(p, sc, cam, NULL, 1)) || (st = finish_plan(p, sc, cam, NULL)))
@@ -812,6 +828,16 @@ crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, c
     o->ribbon_quad_count = (uint32_t)at;
     o->stats = p->kept_stats;
     o->stats.hidden_faces = p->hidden;
+    /* Whether they paid: at least STAGE_PAYS_MIN hidden faces' patches, and STAGE_PAYS of those
+     * and the patches planned with visible leaves. */
+    uint64_t hidden_patches = 0;
+    for (uint32_t f = 0; f < n; f++)
+        if (p->stage[f] == STAGE_HIDDEN) hidden_patches += sc->faces[f].patch_count;
+    p->pays = hidden_patches >= STAGE_PAYS_MIN &&
+              (double)hidden_patches >=
+                  STAGE_PAYS * (double)(hidden_patches + p->kept_stats.visible_patches);
+    p->pays_serial = sc->serial;
+    p->quiet = 0;
     if ((st = finish_plan(p, sc, cam, p->skip))) return st;
     p->staged = 1;
     return CRISP_OK;
@@ -832,6 +858,17 @@ crisp_status crisp__planner_seen(crisp_planner *p, const crisp_scene *sc, const 
         }
     p->seen_serial = sc->serial;
     return CRISP_OK;
+}
+
+void crisp__planner_always_stages(crisp_planner *p, int on)
+{
+    p->always = on;
+}
+
+int crisp__planner_seen_wanted(const crisp_planner *p, const crisp_scene *sc)
+{
+    return p->always || p->pays_serial != sc->serial || p->pays ||
+           (p->quiet + 1) % STAGE_PROBE == 0;
 }
 
 crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, uint32_t face,

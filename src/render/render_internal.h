@@ -123,7 +123,8 @@ const struct crisp_trim_table *crisp__planner_table(const struct crisp_planner *
  * last frame (crisp__planner_seen), then nearest first by their boxes' least W, a stage ending
  * where their screen boxes cover 1, 4, 16 images; the rest last)
  * and the first stage planned: a plan of its faces' leaves and tables to draw the surfaces from
- * (no splats, no versions: not to be handed on). *later is NULL when there is one stage: then the
+ * (no splats, no versions: not to be handed on). Stages are tried while they hide enough (an
+ * eighth of the patches), else every 16th frame. *later is NULL when there is one stage: then the
  * plan is crisp_planner_plan's, final. Else *later (per face) marks the faces of the stage
  * planned last (updated by each call below).
  * crisp__planner_plan_next: the later stages' faces none of whose patches' boxes (widened by 2 px
@@ -141,6 +142,12 @@ crisp_status crisp__planner_plan_near(struct crisp_planner *p, const crisp_scene
  * next crisp__planner_plan_near of scene sc (an order only: see there). */
 crisp_status crisp__planner_seen(struct crisp_planner *p, const crisp_scene *sc,
                                  const int32_t *face, size_t count);
+/* 1 when the next crisp__planner_plan_near of scene sc may plan in stages (after a frame in
+ * stages that hid too little, every 16th frame does): only then are crisp__planner_seen's marks
+ * read. */
+int crisp__planner_seen_wanted(const struct crisp_planner *p, const crisp_scene *sc);
+/* Test hook: 1 = every crisp__planner_plan_near plans in stages (whether they pay or not). */
+void crisp__planner_always_stages(struct crisp_planner *p, int on);
 crisp_status crisp__planner_plan_next(struct crisp_planner *p, const crisp_scene *sc,
                                       const double *hiz, const int win[4],
                                       const struct crisp_frame_plan **dest, int *last);
