@@ -116,31 +116,43 @@ static void run_view(const char *name, const char *view, const crisp_scene *sc,
     double cpu = 0;
     crisp_render_stats st = {0};
     const crisp_frame_plan *plan = NULL;
+    /* The frame as crisp_render_cpu draws it (with occlusion culling: the plan in two stages, the
+     * faces that the near ones hide not planned); BENCH_INTERACTIVE_SPLIT=1: crisp_planner_plan
+     * then crisp_render_cpu_plan (the whole plan first, as before session 13). The plan column
+     * is crisp_planner_plan's time, or with crisp_render_cpu the plan's stages (levels, edges,
+     * trim and ribbons: the plan's own stats, without the lay-out of its arrays). */
+    int split = getenv("BENCH_INTERACTIVE_SPLIT") && atoi(getenv("BENCH_INTERACTIVE_SPLIT"));
     for (int f = -1; f < frames; f++) {
-        double c0 = cpu_ms(), a = crisp_time_now();
-        if (crisp_planner_plan(crisp_renderer_planner(r), sc, cam, &plan)) die("plan");
-        double b = crisp_time_now();
-        if (crisp_render_cpu_plan(r, sc, plan, cam, &img, &st)) die("frame");
+        double c0 = cpu_ms(), a = crisp_time_now(), b = a;
+        if (split) {
+            if (crisp_planner_plan(crisp_renderer_planner(r), sc, cam, &plan)) die("plan");
+            b = crisp_time_now();
+            if (crisp_render_cpu_plan(r, sc, plan, cam, &img, &st)) die("frame");
+        } else if (crisp_render_cpu(r, sc, cam, &img, &st)) {
+            die("frame");
+        }
         double c = crisp_time_now();
         if (f < 0) continue;
         cpu += cpu_ms() - c0;
-        t[0][f] = 1e3 * (b - a);
+        t[0][f] = split ? 1e3 * (b - a) : st.ms_levels + st.ms_edges + st.ms_trim;
         t[1][f] = st.ms_tess;
         t[2][f] = st.ms_raster;
         t[3][f] = st.ms_resolve;
         t[4][f] = 1e3 * (c - a);
     }
+    /* The plan of the last frame's camera, for the lookups and the stages below. */
+    if (!split && crisp_planner_plan(crisp_renderer_planner(r), sc, cam, &plan)) die("plan");
     if (getenv("BENCH_INTERACTIVE_STAGES")) /* the plan's own stages (last frame) */
         fprintf(stderr, "%s %s: plan levels %.1f edges %.1f trim %.1f ribbons %.1f ms\n", name,
                 view, plan->stats.ms_levels, plan->stats.ms_edges, plan->stats.ms_trim,
                 plan->stats.ms_ribbons);
     if (getenv("BENCH_INTERACTIVE_STAGES")) /* the draw's counts (last frame) */
         fprintf(stderr,
-                "%s %s: leaves %llu, vertices %llu, ribbon triangles %llu, fragments tested "
-                "%llu, trimmed %llu\n",
-                name, view, (unsigned long long)st.leaves, (unsigned long long)st.vertices,
-                (unsigned long long)st.ribbon_triangles, (unsigned long long)st.fragments_tested,
-                (unsigned long long)st.fragments_trimmed);
+                "%s %s: faces visible %u, hidden before planning %u, leaves %llu, vertices %llu, "
+                "ribbon triangles %llu, fragments tested %llu, trimmed %llu\n",
+                name, view, st.visible_faces, st.hidden_faces, (unsigned long long)st.leaves,
+                (unsigned long long)st.vertices, (unsigned long long)st.ribbon_triangles,
+                (unsigned long long)st.fragments_tested, (unsigned long long)st.fragments_trimmed);
     const char *png = getenv("BENCH_INTERACTIVE_PNG"); /* a folder: look at what each row draws */
     if (png) {
         char path[1200];

@@ -148,6 +148,8 @@ typedef struct crisp_plan_stats {
     uint64_t splat_bytes;   /* of the planner's splat store */
     uint32_t splat_pending; /* faces that want a splat set not built yet (drawn as patches this
                                frame; crisp_planner_desc.splat_build_limit): plan again */
+    uint32_t hidden_faces;  /* faces the CPU backend's two-stage frame found hidden by the nearer
+                               faces before planning them (crisp_render_cpu; 0 otherwise) */
     double ms_levels, ms_edges, ms_trim, ms_ribbons;
 } crisp_plan_stats;
 

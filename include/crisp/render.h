@@ -182,8 +182,10 @@ typedef struct crisp_render_stats {
     uint64_t vertices, triangles, ribbon_triangles, table_rows, table_bytes;
     uint64_t fragments_tested, fragments_trimmed;
     uint64_t occluded_leaves, occluded_triangles; /* not tessellated: hidden by drawn depth */
-    uint32_t splat_faces; /* faces drawn as splats (issue 12), less those hidden whole */
-    uint64_t splats;      /* splats of the faces drawn as splats (some may be hidden) */
+    uint32_t hidden_faces; /* not planned: hidden whole by the nearer faces drawn first
+                              (crisp_render_cpu with occlusion culling; 0 otherwise) */
+    uint32_t splat_faces;  /* faces drawn as splats (issue 12), less those hidden whole */
+    uint64_t splats;       /* splats of the faces drawn as splats (some may be hidden) */
     double ms_levels, ms_edges, ms_trim, ms_tess, ms_raster, ms_resolve;
 } crisp_render_stats;
 
@@ -196,7 +198,10 @@ void crisp_renderer_destroy(crisp_renderer *r);
 crisp_status crisp_renderer_plan(crisp_renderer *r, const crisp_scene *scene,
                                  const crisp_camera *cam, crisp_render_stats *stats);
 /* Plan, tessellate, rasterise with the per-sample trim test, shade. img must match the camera's
- * size. stats may be NULL. */
+ * size. stats may be NULL. With occlusion culling (the default) the frame is planned in two
+ * stages: the nearest faces are planned and drawn first, and the other faces that their depth
+ * hides whole are not planned at all (stats->hidden_faces); the image is the one
+ * crisp_planner_plan + crisp_render_cpu_plan draw. */
 crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *scene, const crisp_camera *cam,
                               crisp_image *img, crisp_render_stats *stats);
 

@@ -92,6 +92,12 @@ struct crisp_renderer {
     double *hiz; /* per 4x4 block of the target: the least 1/W drawn (crisp__raster_block_depth) */
     size_t hiz_cap;
     crisp__splat_scratch splat; /* the splat draw's (splat_raster.c) */
+    struct {                    /* what the first part of a two-part draw leaves (draw_plan) */
+        size_t nv, nt, occluded_leaves, occluded_tris, tris_dropped;
+        crisp_raster_stats rs;
+        int drawn, looked, dirty[4];
+        double t_tess, t_raster;
+    } carry;
 };
 
 #define MAX_LEAF_VERTS                                                                             \
@@ -192,6 +198,7 @@ static void copy_plan_stats(const crisp_plan_stats *p, crisp_render_stats *s)
     s->ms_levels = p->ms_levels;
     s->ms_edges = p->ms_edges;
     s->ms_trim = p->ms_trim + p->ms_ribbons;
+    s->hidden_faces = p->hidden_faces;
 }
 
 crisp_status crisp_renderer_plan(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,
@@ -344,6 +351,7 @@ typedef struct skip_ctx {
     double (*hull)[4];     /* NULL, or receives each drawn leaf's screen box */
     int win[4];            /* the pixels drawn: x0, y0, width, height */
     crisp_occl_leaf *occl; /* NULL, or receives each drawn leaf's occlusion record */
+    const uint8_t *later;  /* per face: 0 = drawn by the first part (NULL: draw every face) */
 } skip_ctx;
 
 static int holds_sample(const skip_ctx *c, const double lo[2], const double hi[2])
@@ -495,7 +503,7 @@ static void find_empty_leaves(void *vctx, size_t begin, size_t end, int worker)
     cell_path path = {.patch = UINT32_MAX, .nets = r->path[worker]};
     for (size_t j = begin; j < end; j++) {
         const crisp_plan_leaf *L = &plan->leaves[j];
-        if (c->only && !c->only[L->face]) {
+        if ((c->only && !c->only[L->face]) || (c->later && !c->later[L->face])) {
             r->leaf_skip[j] = 1;
             r->leaf_vbase[j] = r->leaf_tbase[j] = 0; /* no vertices, no triangles */
             continue;
@@ -1513,13 +1521,28 @@ static void rebase_tris(void *vctx, size_t begin, size_t end, int worker)
             c->tris[i].v[k] += c->by;
 }
 
+/* A draw in parts (crisp_render_cpu, the plan's stages): part 1 starts the target and draws a
+ * plan's surfaces, part 3 draws another plan's surfaces over them, each keeping the target, the
+ * mesh and the block depth of what was drawn (r->hiz, up to date); part 2 draws the leaves of the
+ * faces with later[f] != 0 of the final plan over them, then the splats, the ribbons of every face
+ * and the resolve. */
+typedef struct draw_part {
+    int part; /* 0: the whole draw in one; 1, 3, 2 */
+    const uint8_t *later;
+} draw_part;
+
 /* crisp_render_cpu_plan (only, base and window NULL), crisp_render_cpu_plan_faces (a subset of
- * the faces, over a base image) and crisp__render_cpu_window (a window of the frame). */
+ * the faces, over a base image), crisp__render_cpu_window (a window of the frame) and
+ * crisp_render_cpu's two parts (part; NULL: one). */
 static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                               const crisp_frame_plan *plan, const crisp_camera *cam,
                               const uint8_t *only, const crisp_image *base, const int window[4],
-                              crisp_image *img, crisp_render_stats *stats)
+                              crisp_image *img, crisp_render_stats *stats, const draw_part *part)
 {
+    int stage = part ? part->part : 0;
+    if (stage && (only || base || window))
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "a frame drawn in two parts is drawn whole, without a base image");
     int win[4] = {0, 0, plan->width, plan->height};
     if (window) memcpy(win, window, sizeof win);
     if (window && (only || base))
@@ -1577,7 +1600,8 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                     .only = only,
                     .hull = base ? r->hull : NULL,
                     .win = {win[0], win[1], win[2], win[3]},
-                    .occl = occlusion ? r->occl : NULL};
+                    .occl = occlusion ? r->occl : NULL,
+                    .later = stage == 2 ? part->later : NULL};
     for (int s = 0; s < r->desc.samples; s++)
         crisp__raster_sample_offset(r->desc.samples, s, skc.off[s]);
     crisp_pool_parallel_for(r->pool, jobs, 64, find_empty_leaves, &skc);
@@ -1654,7 +1678,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         }
         load_rect(&r->over, base, rect);
         memcpy(r->over_rect, rect, sizeof rect);
-    } else {
+    } else if (stage < 2) {
         if ((st = crisp__raster_target_init(&r->target, win[2], win[3], r->desc.samples)) ||
             (st = window ? crisp__raster_target_window(&r->target, win[0], win[1], cam->width,
                                                        cam->height)
@@ -1698,7 +1722,15 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     crisp_raster_stats rs = {0};
     /* The blocks the batches drawn since the last look at the depth can have reached. */
     int drawn = 0, looked = 0, dirty[4] = {INT_MAX, INT_MAX, -1, -1};
-    if (occlusion) {
+    if (stage >= 2) { /* over the earlier parts' surfaces */
+        nv = r->carry.nv, nt = r->carry.nt;
+        occluded_leaves = r->carry.occluded_leaves, occluded_tris = r->carry.occluded_tris;
+        tris_dropped = r->carry.tris_dropped;
+        rs = r->carry.rs;
+        drawn = r->carry.drawn, looked = r->carry.looked;
+        memcpy(dirty, r->carry.dirty, sizeof dirty);
+        t_tess = r->carry.t_tess, t_raster = r->carry.t_raster;
+    } else if (occlusion) {
         size_t blocks = (size_t)((win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK) *
                         (size_t)((win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK);
         if ((st = crisp_grow((void **)&r->hiz, &r->hiz_cap, blocks, sizeof *r->hiz))) return st;
@@ -1790,6 +1822,22 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         double tc2 = crisp_time_now();
         t_tess += tb - ta;
         t_raster += tc2 - tb;
+    }
+    if (stage == 1 || stage == 3) {
+        /* The block depth of everything drawn, for the planner's next stage. */
+        if (occlusion && drawn && nt && dirty[0] <= dirty[2]) {
+            crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+            dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
+            looked = 1;
+        }
+        r->carry.nv = nv, r->carry.nt = nt;
+        r->carry.occluded_leaves = occluded_leaves, r->carry.occluded_tris = occluded_tris;
+        r->carry.tris_dropped = tris_dropped;
+        r->carry.rs = rs;
+        r->carry.drawn = drawn, r->carry.looked = looked;
+        memcpy(r->carry.dirty, dirty, sizeof dirty);
+        r->carry.t_tess = t_tess, r->carry.t_raster = t_raster;
+        return CRISP_OK;
     }
     if (!drawn) { /* nothing to draw: the draw still does the target's pending clear */
         double ta = crisp_time_now();
@@ -1958,7 +2006,7 @@ crisp_status crisp_render_cpu_plan(crisp_renderer *r, const crisp_scene *sc,
                                    const crisp_frame_plan *plan, const crisp_camera *cam,
                                    crisp_image *img, crisp_render_stats *stats)
 {
-    return draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats);
+    return draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats, NULL);
 }
 
 crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
@@ -1966,7 +2014,7 @@ crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
                                       const int window[4], crisp_image *img,
                                       crisp_render_stats *stats)
 {
-    return draw_plan(r, sc, plan, cam, NULL, NULL, window, img, stats);
+    return draw_plan(r, sc, plan, cam, NULL, NULL, window, img, stats, NULL);
 }
 
 crisp_status crisp_render_cpu_plan_faces(crisp_renderer *r, const crisp_scene *sc,
@@ -1977,7 +2025,7 @@ crisp_status crisp_render_cpu_plan_faces(crisp_renderer *r, const crisp_scene *s
     if (base && !faces)
         return crisp_error(CRISP_ERR_INVALID_ARG,
                            "drawing over a base image: say which faces to draw (faces is NULL)");
-    return draw_plan(r, sc, plan, cam, faces, base, NULL, img, stats);
+    return draw_plan(r, sc, plan, cam, faces, base, NULL, img, stats, NULL);
 }
 
 crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,
@@ -1987,7 +2035,35 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
         return crisp_error(CRISP_ERR_INVALID_ARG, "image %dx%d does not match the camera's %dx%d",
                            img->width, img->height, cam->width, cam->height);
     const crisp_frame_plan *plan;
-    crisp_status st = crisp_planner_plan(r->planner, sc, cam, &plan);
-    if (st) return st;
-    return crisp_render_cpu_plan(r, sc, plan, cam, img, stats);
+    crisp_status st;
+    if (r->desc.no_occlusion) {
+        if ((st = crisp_planner_plan(r->planner, sc, cam, &plan))) return st;
+        return crisp_render_cpu_plan(r, sc, plan, cam, img, stats);
+    }
+    /* In stages (issue 12): the nearest faces planned and their surfaces drawn; then the planner
+     * drops the faces of the next stage that this depth hides whole (they would draw no sample)
+     * and plans the others, drawn over them; and so on. */
+    const uint8_t *later;
+    if ((st = crisp__planner_plan_near(r->planner, sc, cam, &plan, &later))) return st;
+    if (!later) {
+        if ((st = crisp_render_cpu_plan(r, sc, plan, cam, img, stats))) return st;
+        if (!crisp__planner_seen_wanted(r->planner, sc)) return CRISP_OK;
+        return crisp__planner_seen(r->planner, sc, img->face, (size_t)img->width * img->height);
+    }
+    if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats, &(draw_part){1, NULL})))
+        return st;
+    int win[4] = {0, 0, cam->width, cam->height};
+    for (;;) {
+        int last;
+        if ((st = crisp__planner_plan_next(r->planner, sc, r->hiz, win, &plan, &last))) return st;
+        if (last) {
+            if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats,
+                                &(draw_part){2, later})))
+                return st;
+            /* The faces on screen: the next frame's first stage. */
+            return crisp__planner_seen(r->planner, sc, img->face, (size_t)img->width * img->height);
+        }
+        if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats, &(draw_part){3, NULL})))
+            return st;
+    }
 }

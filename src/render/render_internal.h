@@ -115,4 +115,41 @@ struct crisp_trim_table;
 struct crisp_planner;
 const struct crisp_trim_table *crisp__planner_table(const struct crisp_planner *p, uint32_t f);
 
+/* The plan in stages (crisp_render_cpu, issue 12): a face that the nearer faces hide whole needs
+ * no levels, trim plan or ribbons, and every other face's are what a one-stage plan gives (the
+ * edge rule and the trim plans are per face), so the CPU backend plans the nearest faces, draws
+ * them, plans the next ones that the depth drawn does not hide, draws them, and so on.
+ * crisp__planner_plan_near: the splat choice, then the faces' stages (first the faces seen in the
+ * last frame (crisp__planner_seen), then nearest first by their boxes' least W, a stage ending
+ * where their screen boxes cover 1, 4, 16 images; the rest last)
+ * and the first stage planned: a plan of its faces' leaves and tables to draw the surfaces from
+ * (no splats, no versions: not to be handed on). Stages are tried while they hide enough (an
+ * eighth of the patches), else every 16th frame. *later is NULL when there is one stage: then the
+ * plan is crisp_planner_plan's, final. Else *later (per face) marks the faces of the stage
+ * planned last (updated by each call below).
+ * crisp__planner_plan_next: the later stages' faces none of whose patches' boxes (widened by 2 px
+ * for the ribbons; only the patches that the face's trim pieces' box reaches, unless the face is
+ * a few pixels across) reach a sample of window win (x0, y0, width, height of the image) that hiz
+ * (crisp__raster_block_depth at CRISP_OCCL_BLOCK over the window of what was drawn so far; NULL:
+ * none hidden) does not show nearer are dropped (stats.hidden_faces), and the next stage planned.
+ * *last = 0: a plan of that stage's faces, drawn like the first; *last = 1: the final plan of every
+ * stage (the same leaves, tables and ribbons per face as crisp_planner_plan's; hidden faces
+ * invisible), published, whose faces with later[f] are still to be drawn. */
+crisp_status crisp__planner_plan_near(struct crisp_planner *p, const crisp_scene *sc,
+                                      const crisp_camera *cam, const struct crisp_frame_plan **dest,
+                                      const uint8_t **later);
+/* The faces with a pixel in face[0 .. count) (an image's face ids) are the first stage of the
+ * next crisp__planner_plan_near of scene sc (an order only: see there). */
+crisp_status crisp__planner_seen(struct crisp_planner *p, const crisp_scene *sc,
+                                 const int32_t *face, size_t count);
+/* 1 when the next crisp__planner_plan_near of scene sc may plan in stages (after a frame in
+ * stages that hid too little, every 16th frame does): only then are crisp__planner_seen's marks
+ * read. */
+int crisp__planner_seen_wanted(const struct crisp_planner *p, const crisp_scene *sc);
+/* Test hook: 1 = every crisp__planner_plan_near plans in stages (whether they pay or not). */
+void crisp__planner_always_stages(struct crisp_planner *p, int on);
+crisp_status crisp__planner_plan_next(struct crisp_planner *p, const crisp_scene *sc,
+                                      const double *hiz, const int win[4],
+                                      const struct crisp_frame_plan **dest, int *last);
+
 #endif

@@ -345,6 +345,115 @@ static void test_pieces(void **state)
     crisp_model_destroy(m);
 }
 
+/* A wall (a wavy sheet without holes) with sheets, a sphere and a tilted sheet behind it, some
+ * reaching out past its edges, a small sheet in front, and a sheet through the wall (its box's
+ * nearest point behind the wall's, its waves showing through the wall's troughs). */
+static crisp_model *wall(void)
+{
+    crisp_model *m;
+    assert_int_equal(crisp_model_create(&m), CRISP_OK);
+    crisp_face through = {.surface = sheet(2, -1.2, 1.1, -1.0, 0.8, -0.08, 0, 0)};
+    for (int k = 0; k < through.surface->count_u * through.surface->count_v; k++) {
+        double *p = through.surface->cpw + 4 * k;
+        p[2] += 0.14 * cos(2.3 * p[0] + 1.1 * p[1]);
+    }
+    assert_int_equal(crisp_model_add_face(m, &through), CRISP_OK);
+    crisp_face f[7] = {{.surface = sheet(10, -2.2, 2.2, -1.8, 1.8, 0, 0.1, 0)},
+                       {.surface = sheet(4, -0.6, 0.3, -0.4, 0.5, 0.8, 0.05, 1)},
+                       {.surface = sheet(6, -1.5, 1.0, -1.2, 0.9, -0.7, 0.2, 0)},
+                       {.surface = sheet(8, -1.0, 2.9, -0.8, 1.2, -1.4, 0.25, 1)},
+                       {.surface = sheet(5, -1.9, -0.2, -1.7, 0.1, -0.3, 0.1, 0)}};
+    crisp_placement pl;
+    double o[3] = {-0.3, 0.4, -2.5}, z[3] = {0.2, 1, 0.3};
+    assert_int_equal(crisp_placement_make(o, z, NULL, &pl), CRISP_OK);
+    assert_int_equal(crisp_make_sphere(&pl, 0.9, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &f[5].surface),
+                     CRISP_OK);
+    crisp_surface *t = sheet(3, -1.5, 1.5, -0.5, 0.5, 0, 0.1, 0);
+    for (int k = 0; k < t->count_u * t->count_v; k++) {
+        double *p = t->cpw + 4 * k;
+        double x = p[0], y = p[1];
+        p[0] = 0.8 * x + 0.3 * y, p[1] = 0.4 * x + y, p[2] += -1.2 - 0.5 * x;
+    }
+    f[6].surface = t;
+    for (int k = 0; k < 7; k++)
+        assert_int_equal(crisp_model_add_face(m, &f[k]), CRISP_OK);
+    return m;
+}
+
+/* crisp_render_cpu's stages (the faces that the depth drawn by the earlier stages hides whole are
+ * not planned) on renderer a, planning in stages every frame, against crisp_planner_plan +
+ * crisp_render_cpu_plan on renderer b: every sample and pixel the same bit for bit, in two frames
+ * of the camera (the second's first stage is the faces the first showed; a's first frame of a
+ * camera starts from the faces the last camera showed). Returns the faces found hidden. */
+static uint32_t check_stages(crisp_renderer *a, crisp_renderer *b, const crisp_scene *sc,
+                             const crisp_camera *cam)
+{
+    crisp_image ia, ib;
+    assert_int_equal(crisp_image_init(&ia, W, H), CRISP_OK);
+    assert_int_equal(crisp_image_init(&ib, W, H), CRISP_OK);
+    crisp_render_stats sa, sb;
+    const crisp_frame_plan *plan;
+    uint32_t hidden = 0;
+    for (int rep = 0; rep < 2; rep++) {
+        assert_int_equal(crisp_render_cpu(a, sc, cam, &ia, &sa), CRISP_OK);
+        assert_int_equal(crisp_planner_plan(crisp_renderer_planner(b), sc, cam, &plan), CRISP_OK);
+        assert_int_equal(crisp_render_cpu_plan(b, sc, plan, cam, &ib, &sb), CRISP_OK);
+        assert_same(a, b, &ia, &ib, "stages");
+        assert_int_equal(sb.hidden_faces, 0);
+        assert_true(sa.visible_faces <= sb.visible_faces);
+        hidden += sa.hidden_faces;
+    }
+    crisp_image_free(&ia);
+    crisp_image_free(&ib);
+    return hidden;
+}
+
+static void test_hidden_faces(void **state)
+{
+    (void)state;
+    crisp_model *models[2] = {wall(), layers()};
+    for (int s = 0; s < 2; s++) {
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(models[s], &sc), CRISP_OK);
+        uint32_t frontal = 0, other = 0;
+        for (int samples = 1; samples <= 4; samples += 3) {
+            crisp_renderer *a, *b;
+            crisp_render_desc d = {.samples = samples, .threads = 2, .eps_px = EPS};
+            assert_int_equal(crisp_renderer_create(&d, &a), CRISP_OK);
+            assert_int_equal(crisp_renderer_create(&d, &b), CRISP_OK);
+            crisp__planner_always_stages(crisp_renderer_planner(a), 1);
+            for (int k = 0; k < (samples == 1 ? 8 : 2); k++) {
+                /* frontal: the wall hides most of what is behind */
+                double eye[3] = {0.8 * (rnd() - 0.5), 0.8 * (rnd() - 0.5), 2.5 + 3 * rnd()};
+                double target[3] = {0.6 * (rnd() - 0.5), 0.6 * (rnd() - 0.5), -1};
+                crisp_camera cam = camera(eye, target, 20 + 40 * rnd());
+                frontal += check_stages(a, b, sc, &cam);
+            }
+            for (int k = 0; k < (samples == 1 ? 16 : 4); k++) {
+                /* all around, between the layers, wide and narrow */
+                double eye[3] = {6 * (rnd() - 0.5), 6 * (rnd() - 0.5), -4.5 + 10 * rnd()};
+                double target[3] = {4 * (rnd() - 0.5), 4 * (rnd() - 0.5), -3 + 3.5 * rnd()};
+                crisp_camera cam = camera(eye, target, 10 + 90 * rnd());
+                other += check_stages(a, b, sc, &cam);
+            }
+            for (int k = 0; k < (samples == 1 ? 4 : 1); k++) {
+                /* grazing: just in front of the wall, along it */
+                double eye[3] = {-2.5 + rnd(), 2 * (rnd() - 0.5), 0.05 + 0.1 * rnd()};
+                double target[3] = {2, 2 * (rnd() - 0.5), -0.3 - rnd()};
+                crisp_camera cam = camera(eye, target, 30 + 50 * rnd());
+                other += check_stages(a, b, sc, &cam);
+            }
+            crisp_renderer_destroy(a);
+            crisp_renderer_destroy(b);
+        }
+        printf("%s: faces hidden before planning %u in the frontal views, %u in the others\n",
+               s ? "layers" : "wall", frontal, other);
+        if (s == 0) assert_true(frontal >= 16); /* the wall hides something in every view */
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(models[s]);
+    }
+}
+
 /* crisp__occl_set's record against the same arithmetic with libm's floor and nextafterf (its own
  * floor and next float up avoid the calls): boxes near integers, at zero and -0, negative, far
  * off the window, huge, infinite and NaN; 1/W near 0, near the float limit, and not positive. */
@@ -408,9 +517,8 @@ static void test_occl_set(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_frontal),
-        cmocka_unit_test(test_random),
-        cmocka_unit_test(test_pieces),
+        cmocka_unit_test(test_frontal),  cmocka_unit_test(test_random),
+        cmocka_unit_test(test_pieces),   cmocka_unit_test(test_hidden_faces),
         cmocka_unit_test(test_occl_set),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
