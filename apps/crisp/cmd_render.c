@@ -346,6 +346,9 @@ static void print_stats(const render_args *a, const crisp_document *doc, const c
             printf("faces as splats  %u (%llu splats: faces so small on screen that point samples "
                    "cover them)\n",
                    rs->splat_faces, (unsigned long long)rs->splats);
+        if (rs->hidden_faces)
+            printf("faces hidden     %u not planned (hidden whole behind the faces drawn first)\n",
+                   rs->hidden_faces);
         printf("triangles        %llu\n", (unsigned long long)rs->triangles);
         if (rs->occluded_triangles)
             printf("triangles hidden %llu not tessellated (%llu leaves behind drawn depth)\n",
