@@ -354,6 +354,7 @@ crisp_status crisp__planner_finish_plan(crisp_planner *p, const crisp_scene *sc,
     p->cam = *cam;
     p->scene = sc;
     p->planned = 1;
+    p->finished = 1;
     return CRISP_OK;
 }
 
@@ -364,11 +365,17 @@ crisp_status crisp_planner_plan(crisp_planner *p, const crisp_scene *sc, const c
     if (st) return st;
     if ((st = crisp__planner_ensure_faces(p, sc->face_count))) return st;
     p->staged = 0;
+    p->finished = 0;
     if ((st = crisp__planner_plan_faces(p, sc, cam, NULL, 0)) ||
         (st = crisp__planner_finish_plan(p, sc, cam, NULL)))
         return st;
     *dest = &p->out;
     return CRISP_OK;
+}
+
+const crisp_frame_plan *crisp_planner_last_plan(const crisp_planner *p)
+{
+    return p->finished ? &p->out : NULL;
 }
 
 crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, uint32_t face,
@@ -387,6 +394,7 @@ crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, 
     /* After a plan in stages the trees hold the last stage's faces only: plan again whole. */
     if (p->splat_face[face] || p->staged) return crisp_planner_plan(p, sc, &p->cam, dest);
     double t0 = crisp_time_now();
+    p->finished = 0;
     crisp_status st = crisp__trees_replan_trim(p->trees, sc, face, p->strips_used[face]);
     if (st) return st;
     if ((st = crisp__planner_lay_out_tables(p, sc))) return st;
@@ -423,6 +431,7 @@ crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, 
     o->stats.ms_trim = 1e3 * (t1 - t0);
     o->stats.ms_ribbons = 1e3 * (t2 - t1);
     publish(p, sc, 1);
+    p->finished = 1;
     *dest = o;
     return CRISP_OK;
 }

@@ -75,7 +75,8 @@ struct crisp_planner {
     crisp_camera cam; /* of the last plan (a re-plan of a splatted face plans it again) */
     const crisp_scene *scene;
     int planned;
-    int staged; /* 0: the last plan was made in one stage; 1: in stages (final); 2: a stage's */
+    int finished; /* the last plan was made whole (crisp_planner_last_plan) */
+    int staged;   /* 0: the last plan was made in one stage; 1: in stages (final); 2: a stage's */
     crisp__stages stages;
 };
 

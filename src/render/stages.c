@@ -257,6 +257,7 @@ crisp_status crisp__planner_plan_near(crisp_planner *p, const crisp_scene *sc,
     crisp__stages *s = &p->stages;
     crisp_status st = crisp_camera_check(cam);
     if (st) return st;
+    p->finished = 0;
     if ((st = crisp__planner_ensure_faces(p, sc->face_count))) return st;
     size_t nf = sc->face_count ? sc->face_count : 1;
     if ((st = crisp_grow((void **)&s->stage, &s->stage_cap, nf, 1)) ||
