@@ -28,6 +28,7 @@
 #include "crisp/plan.h"
 #include "crisp/render.h"
 #include "render/occlusion.h"
+#include "render/planner.h"
 #include "render/raster.h"
 #include "render/render_internal.h"
 
@@ -516,6 +517,43 @@ static void test_hidden_faces(void **state)
     }
 }
 
+/* crisp__planner_seen's marks (the next frame's first stage) are exactly the faces with a pixel:
+ * face id arrays of every length up to 99 and runs of 1..40 of one id (the pass skips runs of 8
+ * pixels of the face seen last), with the background (-1), f-rep ids (< -1) and ids past the
+ * scene's faces (not marked). */
+static void test_seen_marks(void **state)
+{
+    (void)state;
+    crisp_model *m = wall();
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_planner *p;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &p), CRISP_OK);
+    int32_t face[4096];
+    uint32_t n = sc->face_count, arrays = 0;
+    for (int k = 0; k < 3000; k++) {
+        size_t count = k < 100 ? (size_t)k : (size_t)(rnd() * 4096);
+        for (size_t i = 0; i < count;) {
+            int32_t f = (int32_t)(rnd() * (n + 4)) - 2;
+            size_t run = 1 + (size_t)(rnd() * (rnd() < 0.5 ? 40 : 4));
+            for (; run-- && i < count; i++)
+                face[i] = f;
+        }
+        assert_int_equal(crisp__planner_seen(p, sc, face, count), CRISP_OK);
+        for (uint32_t f = 0; f < n; f++) {
+            int want = 0;
+            for (size_t i = 0; i < count && !want; i++)
+                want = face[i] == (int32_t)f;
+            assert_int_equal(p->stages.seen[f], want);
+        }
+        arrays++;
+    }
+    printf("seen marks: %u arrays as the faces they hold\n", arrays);
+    crisp_planner_destroy(p);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 /* crisp__occl_set's record against the same arithmetic with libm's floor and nextafterf (its own
  * floor and next float up avoid the calls): boxes near integers, at zero and -0, negative, far
  * off the window, huge, infinite and NaN; 1/W near 0, near the float limit, and not positive. */
@@ -581,7 +619,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_frontal),  cmocka_unit_test(test_random),
         cmocka_unit_test(test_pieces),   cmocka_unit_test(test_hidden_faces),
-        cmocka_unit_test(test_occl_set),
+        cmocka_unit_test(test_occl_set), cmocka_unit_test(test_seen_marks),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
