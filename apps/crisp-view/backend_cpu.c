@@ -1,5 +1,5 @@
 /* crisp-view's display backend: a frame into a crisp_image, shown through a texture. The frame
- * comes from the CPU backend (crisp_render_cpu_plan) or, where crisp is built with the GL backend
+ * comes from the CPU backend (crisp_render_cpu) or, where crisp is built with the GL backend
  * (CRISP_HAVE_GL) and --backend gl asks for it, from the GL backend on the window's own context
  * (crisp_gl_draw of the same plan, read back); f-rep parts are composited on the CPU either way.
  * Overlays are applied while converting to 8 bits: the selected face is tinted, and edges come from
@@ -65,6 +65,12 @@ typedef struct cpu_backend {
  * ribbons (clip-space quads of the planned camera) are left out. */
 
 #define MOTION_EPS_PX 1.0 /* tolerance of the motion plan, in its own (reduced) pixels */
+/* The motion plan's faces: the GPU mesh (proxy.c) draws leaves only, so with it the motion
+ * planner draws no face as splats (a splatted face would be missing from the moving frames, and
+ * its splat set is the costliest part of a large model's first motion plan: imp49 default at
+ * 960x540: 3.4 s of CPU with every set, 1.2 s without splats). Without it (moving frames on the
+ * CPU) the motion plan draws splats, its sets built VIEW_SPLAT_BUILD_LIMIT splats at a time: the
+ * rest while the viewer is idle (view_backend.prepare_motion's *more). */
 /* Splats made per full frame for splat sets not built yet (crisp_planner_desc.splat_build_limit):
  * a large model's first frame draws its faces as patches instead of waiting for every set (imp49
  * default: about 4 M splats, seconds); the frames after it build the rest. */
@@ -160,18 +166,24 @@ static int motion_serves(const cpu_backend *b, const app_doc *doc, const crisp_c
     return acos(fmax(-1, fmin(1, cosang))) + diag <= b->motion_half;
 }
 
+/* more (NULL: the plan is needed now, for a moving frame): set to 1 when the motion plan still
+ * has splat sets to build (the viewer calls again while idle: each call builds more). */
 static crisp_status motion_prepare(void *self, const app_doc *doc, const crisp_camera *cam,
-                                   int scale)
+                                   int scale, int *more)
 {
     cpu_backend *b = self;
+    if (more) *more = 0;
     if (scale < 1) scale = 1;
     /* the GPU mesh is drawn at any scale the frame time allows; its plan's size (its number of
      * triangles) follows the viewer's first guess of the moving scale, at least half size */
     if (!b->proxy_failed && scale < MOTION_PROXY_SCALE) scale = MOTION_PROXY_SCALE;
-    if (!doc->scene->patch_count || motion_serves(b, doc, cam, scale)) return CRISP_OK;
     crisp_camera mc;
     int whole;
     double half;
+    if (!doc->scene->patch_count) return CRISP_OK;
+    /* idle with sets pending: planned again, building the next ones */
+    if (motion_serves(b, doc, cam, scale) && (!more || !b->motion_plan->stats.splat_pending))
+        return CRISP_OK;
     motion_camera(cam, doc->box, scale, &mc, &whole, &half);
     const crisp_frame_plan *p;
     b->motion_plan = NULL;
@@ -187,6 +199,7 @@ static crisp_status motion_prepare(void *self, const app_doc *doc, const crisp_c
     b->motion_scale = scale;
     b->motion_whole = whole;
     b->motion_half = half;
+    if (more) *more = p->stats.splat_pending > 0;
     return CRISP_OK;
 }
 
@@ -245,10 +258,11 @@ static crisp_status draw_transparent(cpu_backend *b, const crisp_camera *cam, cr
     return CRISP_OK;
 }
 
-/* plan != NULL: plan first and keep the plan (the frames on screen); else crisp_render_cpu, as
- * `crisp render` does (screenshots). moving: draw the motion plan (motion_prepare made it) with
- * cam's matrices. *blitted (may be NULL: always read back): a moving GL frame that nothing needs
- * the AOVs of is copied into the image view's texture on the GPU instead of read back. */
+/* crisp_render_cpu, as `crisp render` draws (the frame planned in stages); plan != NULL (the
+ * frames on screen): the plan drawn is kept there (crisp_planner_last_plan: the faces found
+ * hidden have no leaves or table in it). moving: draw the motion plan (motion_prepare made it)
+ * with cam's matrices. *blitted (may be NULL: always read back): a moving GL frame that nothing
+ * needs the AOVs of is copied into the image view's texture on the GPU instead of read back. */
 static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_camera *cam,
                                 int samples, int moving, crisp_image *img, crisp_render_stats *rs,
                                 const crisp_frame_plan **plan, int *blitted)
@@ -300,11 +314,10 @@ static crisp_status render_into(cpu_backend *b, const app_doc *doc, const crisp_
         if (doc->scene->patch_count > 0 && use_motion) {
         *plan = motion_plan_for(b, cam);
         st = crisp_render_cpu_plan(r, doc->scene, *plan, cam, img, rs);
-    } else if (doc->scene->patch_count > 0 && plan) {
-        st = crisp_planner_plan(crisp_renderer_planner(r), doc->scene, cam, plan);
-        if (!st) st = crisp_render_cpu_plan(r, doc->scene, *plan, cam, img, rs);
     } else if (doc->scene->patch_count > 0) {
+        /* planned in stages (the faces the nearer ones hide get no plan); the final plan kept */
         st = crisp_render_cpu(r, doc->scene, cam, img, rs);
+        if (!st && plan) *plan = crisp_planner_last_plan(crisp_renderer_planner(r));
     } else {
         clear_image(img);
     }
@@ -398,7 +411,7 @@ static crisp_status cpu_frame(void *self, const app_doc *doc, const crisp_camera
     crisp_status st = CRISP_OK;
     if (ov->moving)
         st = motion_prepare(b, doc, cam,
-                            !b->proxy_failed && b->motion_scale ? b->motion_scale : scale);
+                            !b->proxy_failed && b->motion_scale ? b->motion_scale : scale, NULL);
     if (!st && ov->moving && ov->no_aovs && !b->proxy_failed && b->proxy.ready && b->motion_plan &&
         b->motion_scene == doc->scene) {
         view_proxy_style style = {
@@ -598,9 +611,6 @@ crisp_status view_backend_create(int threads, int use_gl, view_backend *dest)
                 .threads = threads, .samples = 4, .splat_build_limit = VIEW_SPLAT_BUILD_LIMIT},
             &b->renderer_aa);
     if (!st) st = crisp_renderer_create(&(crisp_render_desc){.threads = threads}, &b->renderer_t);
-    if (!st)
-        st = crisp_planner_create(&(crisp_planner_desc){.eps_px = MOTION_EPS_PX}, NULL,
-                                  &b->motion_planner);
     if (!st && !app_image_view_init(&b->iv, err, sizeof err))
         st = crisp_error(CRISP_ERR_GL, "%s", err);
     if (!st && view_proxy_init(&b->proxy)) {
@@ -608,6 +618,12 @@ crisp_status view_backend_create(int threads, int use_gl, view_backend *dest)
         fprintf(stderr, "crisp-view: %s\n", crisp_error_message());
         b->proxy_failed = 1;
     }
+    if (!st)
+        st =
+            crisp_planner_create(&(crisp_planner_desc){.eps_px = MOTION_EPS_PX,
+                                                       .no_splats = !b->proxy_failed,
+                                                       .splat_build_limit = VIEW_SPLAT_BUILD_LIMIT},
+                                 NULL, &b->motion_planner);
     if (st) {
         cpu_destroy(b);
         return st;

@@ -348,13 +348,14 @@ static void render_frame(view *v)
         if (!v->motion_ready && !v->no_lowres && v->backend.prepare_motion) {
             app_nav_update_clip(&v->nav);
             /* the first guess of the moving scale (not the last motion's, adapted to it) */
-            int guess = (int)ceil(sqrt(fmax(v->last_full_ms, 1) / 25.0));
+            int guess = (int)ceil(sqrt(fmax(v->last_full_ms, 1) / 25.0)), more = 0;
             if (v->backend.prepare_motion(v->backend.self, &v->rdoc, &v->nav.cam,
                                           guess < 1   ? 1
                                           : guess > 8 ? 8
-                                                      : guess))
+                                                      : guess,
+                                          &more))
                 view_set_error(v, "render: %s", crisp_error_message());
-            v->motion_ready = 1;
+            v->motion_ready = !more; /* else the next idle frame builds more of its splat sets */
         }
         return;
     }

@@ -55,9 +55,10 @@ typedef struct view_backend {
     const crisp_image *(*image)(void *self);
     /* Plan (now, while the viewer is idle) the plan that frames drawn while the camera moves
      * will reuse, for cam at 1/scale of its size with the view widened to the box's sphere;
-     * does nothing when the plan it has still serves cam. */
+     * does nothing when the plan it has still serves cam. *more = 1: its splat sets are not all
+     * built yet (crisp_plan_stats.splat_pending): call again while idle. */
     crisp_status (*prepare_motion)(void *self, const app_doc *doc, const crisp_camera *cam,
-                                   int scale);
+                                   int scale, int *more);
     /* The section plane for the next frames and off-screen renders (on = 0: none); box spaces
      * the cap's hatch (section.c). */
     void (*set_section)(void *self, int on, const double plane[4], const double box[6]);

@@ -6,6 +6,7 @@
  *   crisp_planner_replan_face
  *                            re-plan one face's trim (table and ribbons) after its loops changed,
  *                            keeping every other face's plan (the trim-editing case)
+ *   crisp_planner_last_plan  the last plan made (also crisp_render_cpu's, planned in stages)
  *   crisp_frame_plan         flat arrays a GPU uploads as they are: leaves, faces, trim strips,
  *                            rows and crossings concatenated over faces, ribbon quads
  *   crisp_plan_trim_test     the trim test on the flat arrays (what the fragment shader does)
@@ -225,6 +226,14 @@ void crisp_planner_destroy(crisp_planner *planner);
  * again allocates nothing unless the scene needs more leaves or rows than before. */
 crisp_status crisp_planner_plan(crisp_planner *planner, const crisp_scene *scene,
                                 const crisp_camera *cam, const crisp_frame_plan **dest);
+
+/* The planner's last plan (crisp_planner_plan's, crisp_planner_replan_face's, or the final plan
+ * of a frame that crisp_render_cpu planned in stages with its renderer's planner), NULL when it
+ * has none or its last plan did not finish. Valid until the planner plans again. A frame planned
+ * in stages leaves out the faces it found hidden (stats.hidden_faces: no leaves, table or
+ * ribbons, not CRISP_PLAN_FACE_VISIBLE; they would draw no sample); every other face's leaves,
+ * record, table and ribbons are those crisp_planner_plan gives it. */
+const crisp_frame_plan *crisp_planner_last_plan(const crisp_planner *planner);
 
 /* After face `face`'s trim pieces changed in the scene (crisp_scene_update_trim), re-plan only
  * that face's trim table and ribbons for the same camera as the last crisp_planner_plan; every

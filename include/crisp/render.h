@@ -201,7 +201,8 @@ crisp_status crisp_renderer_plan(crisp_renderer *r, const crisp_scene *scene,
  * size. stats may be NULL. With occlusion culling (the default) the frame is planned in two
  * stages: the nearest faces are planned and drawn first, and the other faces that their depth
  * hides whole are not planned at all (stats->hidden_faces); the image is the one
- * crisp_planner_plan + crisp_render_cpu_plan draw. */
+ * crisp_planner_plan + crisp_render_cpu_plan draw. The plan drawn (the final plan of the stages:
+ * the hidden faces left out) is crisp_planner_last_plan(crisp_renderer_planner(r)) afterwards. */
 crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *scene, const crisp_camera *cam,
                               crisp_image *img, crisp_render_stats *stats);
 

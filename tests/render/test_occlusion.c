@@ -28,6 +28,7 @@
 #include "crisp/plan.h"
 #include "crisp/render.h"
 #include "render/occlusion.h"
+#include "render/planner.h"
 #include "render/raster.h"
 #include "render/render_internal.h"
 
@@ -380,11 +381,67 @@ static crisp_model *wall(void)
     return m;
 }
 
+/* The final plan of a frame in stages (pa: crisp_planner_last_plan after crisp_render_cpu)
+ * against crisp_planner_plan's (pb) for the same camera: every face pa shows has the same record
+ * (but its ranges' starts), leaves, trim table and ribbons bit for bit; the faces pb shows and pa
+ * does not are at most the hidden ones (stats.hidden_faces, which pa reports). */
+static void assert_plans_agree(const crisp_frame_plan *pa, const crisp_frame_plan *pb,
+                               uint32_t hidden)
+{
+    assert_int_equal(pa->face_count, pb->face_count);
+    assert_int_equal(pa->stats.hidden_faces, hidden);
+    uint32_t dropped = 0;
+    for (uint32_t f = 0; f < pa->face_count; f++) {
+        const crisp_plan_face *a = &pa->faces[f], *b = &pb->faces[f];
+        if (!(a->flags & CRISP_PLAN_FACE_VISIBLE) && (b->flags & CRISP_PLAN_FACE_VISIBLE)) {
+            assert_int_equal(a->leaf_count + a->strip_count + a->ribbon_count, 0);
+            dropped++;
+            continue;
+        }
+        assert_int_equal(a->flags, b->flags);
+        assert_int_equal(a->leaf_count, b->leaf_count);
+        assert_int_equal(a->tau_max, b->tau_max);
+        assert_int_equal(a->strip_count, b->strip_count);
+        assert_int_equal(a->ribbon_count, b->ribbon_count);
+        assert_int_equal(a->grid_u, b->grid_u);
+        assert_int_equal(a->grid_v, b->grid_v);
+        assert_memory_equal(&a->v0, &b->v0, sizeof a->v0);
+        assert_memory_equal(&a->v1, &b->v1, sizeof a->v1);
+        assert_memory_equal(&a->strip_scale, &b->strip_scale, sizeof a->strip_scale);
+        if (a->leaf_count)
+            assert_memory_equal(pa->leaves + a->first_leaf, pb->leaves + b->first_leaf,
+                                a->leaf_count * sizeof *pa->leaves);
+        if (a->ribbon_count)
+            assert_memory_equal(pa->ribbon_vertices + 4 * (size_t)a->first_ribbon,
+                                pb->ribbon_vertices + 4 * (size_t)b->first_ribbon,
+                                4 * (size_t)a->ribbon_count * sizeof *pa->ribbon_vertices);
+        for (uint32_t s = 0; s < a->strip_count; s++) {
+            const crisp_plan_strip *x = &pa->strips[a->first_strip + s],
+                                   *y = &pb->strips[b->first_strip + s];
+            assert_memory_equal(&x->a, &y->a, sizeof x->a);
+            assert_memory_equal(&x->row_scale, &y->row_scale, sizeof x->row_scale);
+            assert_int_equal(x->row_count, y->row_count);
+            for (uint32_t r = 0; r < x->row_count; r++) {
+                const uint32_t *ox = pa->row_offset + x->first_row + r,
+                               *oy = pb->row_offset + y->first_row + r;
+                assert_int_equal(ox[1] - ox[0], oy[1] - oy[0]);
+                if (ox[1] > ox[0])
+                    assert_memory_equal(pa->crossings + ox[0], pb->crossings + oy[0],
+                                        (ox[1] - ox[0]) * sizeof *pa->crossings);
+            }
+        }
+    }
+    assert_true(dropped <= hidden);
+}
+
 /* crisp_render_cpu's stages (the faces that the depth drawn by the earlier stages hides whole are
  * not planned) on renderer a, planning in stages every frame, against crisp_planner_plan +
  * crisp_render_cpu_plan on renderer b: every sample and pixel the same bit for bit, in two frames
  * of the camera (the second's first stage is the faces the first showed; a's first frame of a
- * camera starts from the faces the last camera showed). Returns the faces found hidden. */
+ * camera starts from the faces the last camera showed). The final plan a hands back
+ * (crisp_planner_last_plan: what crisp-view keeps) agrees with b's (assert_plans_agree) and,
+ * drawn again by crisp_render_cpu_plan, draws b's samples and image. Returns the faces found
+ * hidden. */
 static uint32_t check_stages(crisp_renderer *a, crisp_renderer *b, const crisp_scene *sc,
                              const crisp_camera *cam)
 {
@@ -401,7 +458,13 @@ static uint32_t check_stages(crisp_renderer *a, crisp_renderer *b, const crisp_s
         assert_same(a, b, &ia, &ib, "stages");
         assert_int_equal(sb.hidden_faces, 0);
         assert_true(sa.visible_faces <= sb.visible_faces);
-        hidden += sa.hidden_faces;
+        const crisp_frame_plan *pa = crisp_planner_last_plan(crisp_renderer_planner(a));
+        assert_non_null(pa);
+        assert_ptr_equal(crisp_planner_last_plan(crisp_renderer_planner(b)), plan);
+        assert_plans_agree(pa, plan, sa.hidden_faces);
+        assert_int_equal(crisp_render_cpu_plan(a, sc, pa, cam, &ia, NULL), CRISP_OK);
+        assert_same(a, b, &ia, &ib, "the staged plan drawn again");
+        hidden += pa->stats.hidden_faces;
     }
     crisp_image_free(&ia);
     crisp_image_free(&ib);
@@ -452,6 +515,43 @@ static void test_hidden_faces(void **state)
         crisp_scene_destroy(sc);
         crisp_model_destroy(models[s]);
     }
+}
+
+/* crisp__planner_seen's marks (the next frame's first stage) are exactly the faces with a pixel:
+ * face id arrays of every length up to 99 and runs of 1..40 of one id (the pass skips runs of 8
+ * pixels of the face seen last), with the background (-1), f-rep ids (< -1) and ids past the
+ * scene's faces (not marked). */
+static void test_seen_marks(void **state)
+{
+    (void)state;
+    crisp_model *m = wall();
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_planner *p;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &p), CRISP_OK);
+    int32_t face[4096];
+    uint32_t n = sc->face_count, arrays = 0;
+    for (int k = 0; k < 3000; k++) {
+        size_t count = k < 100 ? (size_t)k : (size_t)(rnd() * 4096);
+        for (size_t i = 0; i < count;) {
+            int32_t f = (int32_t)(rnd() * (n + 4)) - 2;
+            size_t run = 1 + (size_t)(rnd() * (rnd() < 0.5 ? 40 : 4));
+            for (; run-- && i < count; i++)
+                face[i] = f;
+        }
+        assert_int_equal(crisp__planner_seen(p, sc, face, count), CRISP_OK);
+        for (uint32_t f = 0; f < n; f++) {
+            int want = 0;
+            for (size_t i = 0; i < count && !want; i++)
+                want = face[i] == (int32_t)f;
+            assert_int_equal(p->stages.seen[f], want);
+        }
+        arrays++;
+    }
+    printf("seen marks: %u arrays as the faces they hold\n", arrays);
+    crisp_planner_destroy(p);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
 }
 
 /* crisp__occl_set's record against the same arithmetic with libm's floor and nextafterf (its own
@@ -519,7 +619,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_frontal),  cmocka_unit_test(test_random),
         cmocka_unit_test(test_pieces),   cmocka_unit_test(test_hidden_faces),
-        cmocka_unit_test(test_occl_set),
+        cmocka_unit_test(test_occl_set), cmocka_unit_test(test_seen_marks),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

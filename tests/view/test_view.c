@@ -588,7 +588,7 @@ static void test_moving_frame(void **state)
     assert_int_equal(s1, 1);
     image8 a = read_png("view_moving.png"), b = read_png("view_refined.png");
     assert_int_equal(a.w, b.w);
-    size_t n = (size_t)a.w * a.h, off = 0, fg = 0;
+    size_t n = (size_t)a.w * a.h, off = 0, fg = 0, fg_refined = 0, holes = 0;
     for (size_t i = 0; i < n; i++) {
         int d = 0;
         for (int k = 0; k < 3; k++)
@@ -597,9 +597,20 @@ static void test_moving_frame(void **state)
         off += d > 48;
         /* the model: not the background gradient's colour of the row (its pixel 0) */
         size_t row0 = i - i % (size_t)a.w;
-        fg += abs(a.px[4 * i] - a.px[4 * row0]) + abs(a.px[4 * i + 2] - a.px[4 * row0 + 2]) > 8;
+        int ma = abs(a.px[4 * i] - a.px[4 * row0]) + abs(a.px[4 * i + 2] - a.px[4 * row0 + 2]) > 8;
+        int mb = abs(b.px[4 * i] - b.px[4 * row0]) + abs(b.px[4 * i + 2] - b.px[4 * row0 + 2]) > 8;
+        fg += ma;
+        fg_refined += mb;
+        holes += mb && !ma;
     }
     assert_true(fg > n / 10);
+    /* every face is in the moving frame: the model's pixels of the refined frame that show the
+     * background in the moving one are only those the last move and the edges account for (a
+     * motion plan whose small faces were splats, which the GPU mesh does not draw: 14%) */
+    print_message("moving frame: %zu of the refined frame's %zu model pixels are background\n",
+                  holes, fg_refined);
+    if (holes > fg_refined / 12)
+        fail_msg("%zu of %zu model pixels missing from the moving frame", holes, fg_refined);
     print_message("moving frame (scale %d): %zu of %zu pixels differ from the refined one\n", s0,
                   off, n);
     if (off > n / 8)

@@ -1,0 +1,485 @@
+/* The CPU backend's frames planned in stages (issue 12; render_internal.h says how
+ * crisp_render_cpu uses them): the nearest faces (those seen in the last frame, else by their
+ * boxes) planned and drawn first, then the faces of each later stage that the depth drawn so far
+ * does not hide whole, and so on; a hidden face gets no trees, trim plan or ribbons. Every other
+ * face gets what a one-stage plan (crisp_planner_plan) gives it, and the last stage's plan is
+ * laid out as that one is, from the steps planner.c shares (planner.h). Whether stages pay is
+ * decided frame by frame (STAGE_PAYS). */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include "occlusion.h"
+#include "planner.h"
+#include "render_internal.h"
+
+/* Per face, the union of its patches' boxes; per patch, whether its parameter box meets the box
+ * of its face's trim pieces' control points (kept while the scene and its trims are the same). A
+ * point of the face that the trim table keeps lies in that box: the table keeps only v in the
+ * pieces' v-range, and u between two crossings of its row with the trim polylines, whose vertices
+ * are points of the pieces (crisp_trim_tessellate; chains and levels of detail join such
+ * vertices), so in their control points' convex hulls; the ribbons' curve points too. A face
+ * without pieces keeps every patch. */
+static crisp_status face_boxes(crisp_planner *p, const crisp_scene *sc)
+{
+    crisp__stages *s = &p->stages;
+    if (s->face_box && s->face_box_serial == sc->serial && s->face_box_trim == sc->trim_serial)
+        return CRISP_OK;
+    crisp_status st;
+    if ((st = crisp_grow((void **)&s->face_box, &s->face_box_cap,
+                         6 * (size_t)(sc->face_count ? sc->face_count : 1), sizeof(double))) ||
+        (st = crisp_grow((void **)&s->patch_in, &s->patch_in_cap,
+                         sc->patch_count ? sc->patch_count : 1, 1)))
+        return st;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        double *b = s->face_box + 6 * (size_t)f;
+        for (int a = 0; a < 3; a++)
+            b[a] = INFINITY, b[a + 3] = -INFINITY;
+        const crisp_scene_face *sf = &sc->faces[f];
+        double t[4] = {INFINITY, -INFINITY, INFINITY, -INFINITY}; /* u0, u1, v0, v1 */
+        for (uint32_t k = sf->first_piece; k < sf->first_piece + sf->piece_count; k++) {
+            const crisp_bezier_curve *c = &sc->pieces[k];
+            for (int i = 0; i <= c->degree; i++) {
+                double u = c->cpw[3 * i] / c->cpw[3 * i + 2],
+                       v = c->cpw[3 * i + 1] / c->cpw[3 * i + 2];
+                t[0] = fmin(t[0], u), t[1] = fmax(t[1], u);
+                t[2] = fmin(t[2], v), t[3] = fmax(t[3], v);
+                if (!(c->cpw[3 * i + 2] > 0) || !isfinite(u + v)) /* not a hull: keep all */
+                    t[0] = t[2] = -INFINITY, t[1] = t[3] = INFINITY;
+            }
+        }
+        for (uint32_t q = sf->first_patch; q < sf->first_patch + sf->patch_count; q++) {
+            const crisp_bezier_patch *z = &sc->patches[q].bez;
+            s->patch_in[q] =
+                !sf->piece_count || !(z->u1 < t[0] || z->u0 > t[1] || z->v1 < t[2] || z->v0 > t[3]);
+            for (int a = 0; a < 3; a++) {
+                b[a] = fmin(b[a], sc->patches[q].box[a]);
+                b[a + 3] = fmax(b[a + 3], sc->patches[q].box[a + 3]);
+            }
+        }
+    }
+    s->face_box_serial = sc->serial;
+    s->face_box_trim = sc->trim_serial;
+    return CRISP_OK;
+}
+
+/* The box's corners in clip space: screen box lo, hi (pixels, y down) and the W range. Returns 0
+ * when a corner is not in front of the eye (W <= 0 or not finite): then nothing is set but w0. */
+static int box_screen(const double box[6], crisp_mat4 m, int width, int height, double lo[2],
+                      double hi[2], double *w0, double *w1)
+{
+    lo[0] = lo[1] = INFINITY, hi[0] = hi[1] = -INFINITY;
+    *w0 = INFINITY, *w1 = -INFINITY;
+    for (int k = 0; k < 8; k++) {
+        double c[3] = {box[(k & 1) ? 3 : 0], box[(k & 2) ? 4 : 1], box[(k & 4) ? 5 : 2]};
+        double x = m[0][0] * c[0] + m[1][0] * c[1] + m[2][0] * c[2] + m[3][0];
+        double y = m[0][1] * c[0] + m[1][1] * c[1] + m[2][1] * c[2] + m[3][1];
+        double w = m[0][3] * c[0] + m[1][3] * c[1] + m[2][3] * c[2] + m[3][3];
+        if (!(w > 0) || !isfinite(x + y + w)) {
+            *w0 = -INFINITY;
+            return 0;
+        }
+        double px = (x / w + 1) * 0.5 * width, py = (1 - y / w) * 0.5 * height;
+        lo[0] = fmin(lo[0], px), hi[0] = fmax(hi[0], px);
+        lo[1] = fmin(lo[1], py), hi[1] = fmax(hi[1], py);
+        *w0 = fmin(*w0, w), *w1 = fmax(*w1, w);
+    }
+    return 1;
+}
+
+typedef struct near_key {
+    double w;
+    uint32_t face;
+} near_key;
+
+static int near_key_cmp(const void *a, const void *b)
+{
+    const near_key *x = a, *y = b;
+    if (x->w != y->w) return x->w < y->w ? -1 : 1;
+    return x->face < y->face ? -1 : x->face > y->face;
+}
+
+#define STAGE_HIDDEN 255
+/* Frames in stages go on while the hidden faces' patches are at least STAGE_PAYS_MIN and
+ * STAGE_PAYS of those and the patches planned (a frame in stages costs a second trees build, a
+ * block depth pass, the tests, and the draw's leaves batched by depth per stage rather than over
+ * the frame); after one that hid less, every STAGE_PROBE-th frame tries again. */
+#define STAGE_PAYS 0.125
+#define STAGE_PAYS_MIN 64
+#define STAGE_PROBE 16
+/* Where the stages end: the screens the faces' boxes (clipped to the image) cover together, the
+ * faces taken nearest first; the faces beyond the last are the last stage's. */
+static const double stage_screens[] = {1, 4, 16};
+#define STAGES ((int)(sizeof stage_screens / sizeof *stage_screens) + 1)
+
+/* p->stages.stage: each face's stage. The faces seen in the last frame drawn in stages (of this
+ * scene) are the first stage: a camera that moved a little sees most of them again, and their depth
+ * hides most of the others. The other faces are taken nearest first (the least W of their box) and
+ * a stage ends where their screen boxes, clipped to the image, add up to stage_screens images (the
+ * first stage's included); faces that reach the eye plane are in the first stage, as are the
+ * splat faces. Which stage a face is in changes the cost only : a face is dropped only when the
+ * depth drawn hides it. Returns the count of faces not in the first stage. */
+static crisp_status choose_stages(crisp_planner *p, const crisp_scene *sc, const crisp_camera *cam,
+                                  uint32_t *deferred)
+{
+    crisp__stages *s = &p->stages;
+    crisp_status st;
+    *deferred = 0;
+    if ((st = face_boxes(p, sc))) return st;
+    uint32_t n = sc->face_count;
+    near_key *key = crisp_malloc_array(n ? n : 1, sizeof *key);
+    double *area = crisp_malloc_array(n ? n : 1, sizeof *area);
+    if (!key || !area) {
+        free(key);
+        free(area);
+        return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory ordering %u faces", n);
+    }
+    crisp_camera_matrices cm;
+    crisp_camera_matrices_compute(cam, &cm);
+    uint32_t m = 0;
+    double screen = (double)cam->width * cam->height, covered = 0;
+    int seen = s->seen && s->seen_serial == sc->serial;
+    for (uint32_t f = 0; f < n; f++) {
+        s->stage[f] = 0;
+        if (p->splat_face[f] || !sc->faces[f].patch_count) continue;
+        if (seen && s->seen[f]) {
+            covered = screen; /* the other faces come after it */
+            continue;
+        }
+        double lo[2], hi[2], w0, w1;
+        const double *b = s->face_box + 6 * (size_t)f;
+        if (!box_screen(b, cm.view_proj, cam->width, cam->height, lo, hi, &w0, &w1)) {
+            area[f] = screen;
+            key[m++] = (near_key){-INFINITY, f};
+            continue;
+        }
+        double x0 = fmax(lo[0], 0), x1 = fmin(hi[0], cam->width);
+        double y0 = fmax(lo[1], 0), y1 = fmin(hi[1], cam->height);
+        area[f] = x1 > x0 && y1 > y0 ? (x1 - x0) * (y1 - y0) : 0;
+        key[m++] = (near_key){w0, f};
+    }
+    qsort(key, m, sizeof *key, near_key_cmp);
+    int at = 0;
+    for (uint32_t i = 0; i < m; i++) {
+        uint32_t f = key[i].face;
+        /* After the seen faces, one stage: their depth is most of the frame's. */
+        int end = seen ? 1 : STAGES - 1;
+        while (at < end && covered >= stage_screens[at] * screen && key[i].w > -INFINITY)
+            at++;
+        s->stage[f] = (uint8_t)at;
+        *deferred += at > 0;
+        covered += area[f];
+    }
+    s->stage_count = at + 1;
+    free(key);
+    free(area);
+    return CRISP_OK;
+}
+
+/* The current stage's faces (later) kept: their leaves (laid out), ribbons, levels and stats. */
+static crisp_status keep_stage(crisp_planner *p, const crisp_scene *sc)
+{
+    crisp__stages *s = &p->stages;
+    crisp_status st;
+    const crisp_frame_plan *o = &p->out;
+    size_t leaves = s->kept_leaf_count + o->leaf_count,
+           quads = s->kept_quads + o->ribbon_quad_count;
+    if ((st = crisp_grow((void **)&s->kept_leaves, &s->kept_leaf_cap, leaves ? leaves : 1,
+                         sizeof *s->kept_leaves)) ||
+        (st = crisp_grow((void **)&s->kept_ribbons, &s->kept_ribbon_cap, 4 * (quads ? quads : 1),
+                         sizeof *s->kept_ribbons)))
+        return st;
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        if (!s->later[f]) continue;
+        uint32_t *k = s->kept + 5 * (size_t)f;
+        const crisp_plan_face *pf = &p->faces[f];
+        k[0] = (uint32_t)s->kept_leaf_count;
+        k[1] = pf->leaf_count;
+        memcpy(s->kept_leaves + s->kept_leaf_count, p->leaves + pf->first_leaf,
+               pf->leaf_count * sizeof *p->leaves);
+        s->kept_leaf_count += pf->leaf_count;
+        k[2] = (uint32_t)s->kept_quads;
+        k[3] = p->trees->face_tau[f] ? p->ribbon_quads[f] : 0;
+        memcpy(s->kept_ribbons + 4 * s->kept_quads,
+               p->ribbon_verts + 4 * (size_t)p->ribbon_first[f],
+               4 * (size_t)k[3] * sizeof *p->ribbon_verts);
+        s->kept_quads += k[3];
+        k[4] = p->trees->face_tau[f];
+        s->kept_rows[f] = p->trees->face_rows[f];
+    }
+    crisp_plan_stats *k = &s->kept_stats;
+    const crisp_plan_stats *a = &o->stats;
+    k->patches = a->patches;
+    k->visible_patches += a->visible_patches;
+    k->split_patches += a->split_patches;
+    k->leaves += a->leaves;
+    k->visible_faces += a->visible_faces;
+    k->unresolved += a->unresolved;
+    k->rows_clamped += a->rows_clamped;
+    k->level_splits += a->level_splits;
+    k->group_leaves += a->group_leaves;
+    k->grouped_patches += a->grouped_patches;
+    k->ms_levels += a->ms_levels;
+    k->ms_edges += a->ms_edges;
+    k->ms_trim += a->ms_trim;
+    k->ms_ribbons += a->ms_ribbons;
+    return CRISP_OK;
+}
+
+/* Plan the faces of the current stage (later), laid out to be drawn; kept for the final plan. */
+static crisp_status plan_stage(crisp_planner *p, const crisp_scene *sc, const crisp_camera *cam)
+{
+    crisp__stages *s = &p->stages;
+    crisp_status st;
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        s->skip[f] = p->splat_face[f] || !s->later[f];
+    if ((st = crisp__planner_plan_faces(p, sc, cam, s->skip, 1)) ||
+        (st = crisp__planner_lay_out_leaves(p, sc, NULL)) ||
+        (st = crisp__planner_lay_out_tables(p, sc)))
+        return st;
+    crisp__planner_face_ribbons_grids(p, sc);
+    crisp_frame_plan *o = &p->out;
+    o->leaves = p->leaves;
+    o->faces = p->faces;
+    o->face_count = sc->face_count;
+    o->strips = p->strips;
+    o->row_offset = p->row_offset;
+    o->crossings = p->crossings;
+    o->ribbon_vertices = p->ribbon_verts;
+    o->splat_range_count = 0;
+    return keep_stage(p, sc);
+}
+
+crisp_status crisp__planner_plan_near(crisp_planner *p, const crisp_scene *sc,
+                                      const crisp_camera *cam, const crisp_frame_plan **dest,
+                                      const uint8_t **later)
+{
+    crisp__stages *s = &p->stages;
+    crisp_status st = crisp_camera_check(cam);
+    if (st) return st;
+    p->finished = 0;
+    if ((st = crisp__planner_ensure_faces(p, sc->face_count))) return st;
+    size_t nf = sc->face_count ? sc->face_count : 1;
+    if ((st = crisp_grow((void **)&s->stage, &s->stage_cap, nf, 1)) ||
+        (st = crisp_grow((void **)&s->later, &s->later_cap, nf, 1)) ||
+        (st = crisp_grow((void **)&s->skip, &s->skip_cap, nf, 1)) ||
+        (st = crisp_grow((void **)&s->kept, &s->kept_cap, 5 * nf, sizeof *s->kept)) ||
+        (st = crisp_grow((void **)&s->kept_rows, &s->kept_rows_cap, nf, sizeof *s->kept_rows)))
+        return st;
+    /* The splat choice first (a splat face is drawn as splats whichever stage). */
+    double ts = crisp_time_now();
+    if ((st = crisp__planner_choose_splats(p, sc, cam))) return st;
+    double ms_splats = 1e3 * (crisp_time_now() - ts);
+    uint32_t deferred = 0;
+    *later = NULL;
+    int probe =
+        s->always || s->pays_serial != sc->serial || s->pays || ++s->quiet % STAGE_PROBE == 0;
+    if (probe && (st = choose_stages(p, sc, cam, &deferred))) return st;
+    if (!deferred) { /* one stage: the whole plan */
+        p->staged = 0;
+        if ((st = crisp__planner_plan_faces(p, sc, cam, NULL, 1)) ||
+            (st = crisp__planner_finish_plan(p, sc, cam, NULL)))
+            return st;
+        p->out.stats.ms_levels += ms_splats;
+        *dest = &p->out;
+        return CRISP_OK;
+    }
+    memset(s->kept, 0, 5 * nf * sizeof *s->kept);
+    memset(s->kept_rows, 0, nf * sizeof *s->kept_rows);
+    s->kept_leaf_count = s->kept_quads = 0;
+    s->kept_stats = (crisp_plan_stats){.ms_levels = ms_splats};
+    s->hidden = 0;
+    s->stage_at = 0;
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        s->later[f] = s->stage[f] == 0;
+    if ((st = plan_stage(p, sc, cam))) return st;
+    p->staged = 2;
+    p->cam = *cam;
+    p->scene = sc;
+    *later = s->later;
+    *dest = &p->out;
+    return CRISP_OK;
+}
+
+/* 1 when every sample that face f's surface or ribbons could reach holds a nearer depth in hiz:
+ * each of its patches' boxes (which hold the surface and so the curve points of its ribbons) is
+ * outside the widened frustum, or in front of the eye with its screen box widened by 2 px (the
+ * ribbons reach 1 px from their curve points) hidden (crisp__occl_hidden at the box's least W). */
+static int face_hidden(const crisp_planner *p, const crisp_scene *sc, uint32_t f, crisp_mat4 m,
+                       int width, int height, const int win[4], const double *hiz, int blocks_x)
+{
+    const crisp__stages *s = &p->stages;
+    const crisp_scene_face *sf = &sc->faces[f];
+    double gx = 1 + 4.0 / width, gy = 1 + 4.0 / height;
+    /* A face within FACE_SMALL_PX (patch_groups.c) on screen is drawn untrimmed: all patches. */
+    double flo[2], fhi[2], fw0, fw1;
+    int all = !box_screen(s->face_box + 6 * (size_t)f, m, width, height, flo, fhi, &fw0, &fw1) ||
+              (fhi[0] - flo[0] <= 2 && fhi[1] - flo[1] <= 2);
+    for (uint32_t q = sf->first_patch; q < sf->first_patch + sf->patch_count; q++) {
+        if (!all && !s->patch_in[q]) continue; /* trimmed away whole */
+        const double *box = sc->patches[q].box;
+        double lo[2], hi[2], w0, w1;
+        int front = box_screen(box, m, width, height, lo, hi, &w0, &w1);
+        if (!front) {
+            /* Behind the eye in part: hidden only when wholly outside one side plane. */
+            int out[4] = {1, 1, 1, 1};
+            for (int k = 0; k < 8; k++) {
+                double c[3] = {box[(k & 1) ? 3 : 0], box[(k & 2) ? 4 : 1], box[(k & 4) ? 5 : 2]};
+                double x = m[0][0] * c[0] + m[1][0] * c[1] + m[2][0] * c[2] + m[3][0];
+                double y = m[0][1] * c[0] + m[1][1] * c[1] + m[2][1] * c[2] + m[3][1];
+                double w = m[0][3] * c[0] + m[1][3] * c[1] + m[2][3] * c[2] + m[3][3];
+                out[0] &= x > gx * w, out[1] &= x < -gx * w;
+                out[2] &= y > gy * w, out[3] &= y < -gy * w;
+            }
+            if (out[0] | out[1] | out[2] | out[3]) continue;
+            return 0;
+        }
+        lo[0] -= 2, lo[1] -= 2, hi[0] += 2, hi[1] += 2;
+        if (hi[0] < win[0] || hi[1] < win[1] || lo[0] > win[0] + win[2] || lo[1] > win[1] + win[3])
+            continue; /* no sample of the window */
+        crisp_occl_leaf o;
+        crisp__occl_set(&o, win, lo, hi, 1.0 / w0);
+        if (!crisp__occl_hidden(&o, hiz, blocks_x)) return 0;
+    }
+    return 1;
+}
+
+crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, const double *hiz,
+                                      const int win[4], const crisp_frame_plan **dest, int *last)
+{
+    crisp__stages *s = &p->stages;
+    if (p->staged != 2 || p->scene != sc)
+        return crisp_error(CRISP_ERR_INVALID_ARG,
+                           "planning a later stage: plan the first stage of this scene first");
+    crisp_status st;
+    const crisp_camera *cam = &p->cam;
+    crisp_frame_plan *o = &p->out;
+    uint32_t n = sc->face_count;
+    /* The later stages' faces that the depth drawn hides get nothing. */
+    int next = STAGES;
+    for (uint32_t f = 0; f < n; f++) {
+        if (s->stage[f] <= s->stage_at || s->stage[f] == STAGE_HIDDEN) continue;
+        if (hiz && face_hidden(p, sc, f, p->trees->view_proj, cam->width, cam->height, win, hiz,
+                               (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK)) {
+            s->stage[f] = STAGE_HIDDEN;
+            s->hidden++;
+        } else if (s->stage[f] < next) {
+            next = s->stage[f];
+        }
+    }
+    /* The next stage with faces left, planned; the last one's faces drawn over the final plan. */
+    int more = 0;
+    for (uint32_t f = 0; f < n; f++) {
+        s->later[f] = s->stage[f] == next;
+        more |= s->stage[f] > next && s->stage[f] != STAGE_HIDDEN;
+    }
+    s->stage_at = next;
+    if (next < STAGES && (st = plan_stage(p, sc, cam))) return st;
+    *last = !more;
+    *dest = o;
+    if (more) return CRISP_OK;
+    /* The final plan: every stage's leaves, levels and ribbons, face after face. */
+    size_t nf = n ? n : 1;
+    for (uint32_t f = 0; f < n; f++) {
+        p->trees->face_tau[f] = s->kept[5 * (size_t)f + 4];
+        p->trees->face_rows[f] = s->kept_rows[f];
+        s->skip[f] = 1;
+    }
+    if ((st = crisp_grow((void **)&p->ribbon_verts, &p->ribbon_cap,
+                         4 * (s->kept_quads ? s->kept_quads : 1), sizeof *p->ribbon_verts)))
+        return st;
+    size_t at = 0;
+    for (uint32_t f = 0; f < n; f++) {
+        const uint32_t *k = s->kept + 5 * (size_t)f;
+        if (k[3])
+            memcpy(p->ribbon_verts + 4 * at, s->kept_ribbons + 4 * (size_t)k[2],
+                   4 * (size_t)k[3] * sizeof *p->ribbon_verts);
+        p->ribbon_first[f] = (uint32_t)at;
+        p->ribbon_quads[f] = k[3];
+        at += k[3];
+    }
+    (void)nf;
+    o->ribbon_quad_count = (uint32_t)at;
+    o->stats = s->kept_stats;
+    o->stats.hidden_faces = s->hidden;
+    /* Whether they paid: at least STAGE_PAYS_MIN hidden faces' patches, and STAGE_PAYS of those
+     * and the patches planned with visible leaves. */
+    uint64_t hidden_patches = 0;
+    for (uint32_t f = 0; f < n; f++)
+        if (s->stage[f] == STAGE_HIDDEN) hidden_patches += sc->faces[f].patch_count;
+    s->pays = hidden_patches >= STAGE_PAYS_MIN &&
+              (double)hidden_patches >=
+                  STAGE_PAYS * (double)(hidden_patches + s->kept_stats.visible_patches);
+    s->pays_serial = sc->serial;
+    s->quiet = 0;
+    if ((st = crisp__planner_finish_plan(p, sc, cam, s->skip))) return st;
+    p->staged = 1;
+    return CRISP_OK;
+}
+
+crisp_status crisp__planner_seen(crisp_planner *p, const crisp_scene *sc, const int32_t *face,
+                                 size_t count)
+{
+    crisp__stages *s = &p->stages;
+    crisp_status st =
+        crisp_grow((void **)&s->seen, &s->seen_cap, sc->face_count ? sc->face_count : 1, 1);
+    if (st) return st;
+    memset(s->seen, 0, sc->face_count);
+    int32_t last = -1; /* neighbouring pixels mostly show the same face */
+    size_t i = 0;
+#if defined(__SSE2__)
+    /* Runs of 8 pixels of the face seen last skipped 8 at a time (most of an image): the same
+     * marks as the loop below, about a sixth of its instructions. */
+    __m128i l = _mm_set1_epi32(last);
+    for (; i + 8 <= count; i += 8) {
+        __m128i a = _mm_loadu_si128((const __m128i *)(face + i)),
+                b = _mm_loadu_si128((const __m128i *)(face + i + 4));
+        if (_mm_movemask_epi8(_mm_and_si128(_mm_cmpeq_epi32(a, l), _mm_cmpeq_epi32(b, l))) ==
+            0xffff)
+            continue;
+        for (size_t k = i; k < i + 8; k++)
+            if (face[k] != last) {
+                last = face[k];
+                if (last >= 0 && (uint32_t)last < sc->face_count) s->seen[last] = 1;
+            }
+        l = _mm_set1_epi32(last);
+    }
+#endif
+    for (; i < count; i++)
+        if (face[i] != last) {
+            last = face[i];
+            if (last >= 0 && (uint32_t)last < sc->face_count) s->seen[last] = 1;
+        }
+    s->seen_serial = sc->serial;
+    return CRISP_OK;
+}
+
+void crisp__planner_always_stages(crisp_planner *p, int on)
+{
+    crisp__stages *s = &p->stages;
+    s->always = on;
+}
+
+int crisp__planner_seen_wanted(const crisp_planner *p, const crisp_scene *sc)
+{
+    const crisp__stages *s = &p->stages;
+    return s->always || s->pays_serial != sc->serial || s->pays ||
+           (s->quiet + 1) % STAGE_PROBE == 0;
+}
+
+void crisp__stages_free(crisp__stages *s)
+{
+    free(s->stage);
+    free(s->later);
+    free(s->skip);
+    free(s->kept_leaves);
+    free(s->kept_ribbons);
+    free(s->kept);
+    free(s->kept_rows);
+    free(s->seen);
+    free(s->face_box);
+    free(s->patch_in);
+}
