@@ -91,11 +91,15 @@ struct crisp_renderer {
     size_t occl_cap;
     double *hiz; /* per 4x4 block of the target: the least 1/W drawn (crisp__raster_block_depth) */
     size_t hiz_cap;
+    /* The same kept up to date by the surfaces' draws (crisp__raster_set_live_depth): hiz's
+     * refreshes copy from it while live_ok (draw_plan). */
+    double *hiz_live;
+    size_t hiz_live_cap;
     crisp__splat_scratch splat; /* the splat draw's (splat_raster.c) */
     struct {                    /* what the first part of a two-part draw leaves (draw_plan) */
         size_t nv, nt, occluded_leaves, occluded_tris, tris_dropped;
         crisp_raster_stats rs;
-        int drawn, looked, dirty[4];
+        int drawn, looked, dirty[4], live_ok;
         double t_tess, t_raster;
     } carry;
 };
@@ -181,6 +185,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->order);
     free(r->occl);
     free(r->hiz);
+    free(r->hiz_live);
     crisp__splat_scratch_free(&r->splat);
     free(r);
 }
@@ -1531,6 +1536,18 @@ typedef struct draw_part {
     const uint8_t *later;
 } draw_part;
 
+/* The block depth of the blocks dirty[] into r->hiz (crisp__raster_block_depth): copied from the
+ * live block depth the surfaces' draws keep when live_ok (the same values), else read from the
+ * samples. */
+static void refresh_depth(crisp_renderer *r, const crisp_raster_target *tg, int live_ok,
+                          const int dirty[4])
+{
+    if (live_ok && !tg->clear_pending)
+        crisp__raster_block_depth_copy(tg, CRISP_OCCL_BLOCK, dirty, r->hiz_live, r->hiz);
+    else
+        crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+}
+
 /* crisp_render_cpu_plan (only, base and window NULL), crisp_render_cpu_plan_faces (a subset of
  * the faces, over a base image), crisp__render_cpu_window (a window of the frame) and
  * crisp_render_cpu's two parts (part; NULL: one). */
@@ -1722,6 +1739,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     crisp_raster_stats rs = {0};
     /* The blocks the batches drawn since the last look at the depth can have reached. */
     int drawn = 0, looked = 0, dirty[4] = {INT_MAX, INT_MAX, -1, -1};
+    /* The surfaces' draws keep the live block depth (every write to the target since its clear
+     * goes through them until the splats are drawn): the refreshes copy it. */
+    int live_ok = 0;
     if (stage >= 2) { /* over the earlier parts' surfaces */
         nv = r->carry.nv, nt = r->carry.nt;
         occluded_leaves = r->carry.occluded_leaves, occluded_tris = r->carry.occluded_tris;
@@ -1730,11 +1750,15 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         drawn = r->carry.drawn, looked = r->carry.looked;
         memcpy(dirty, r->carry.dirty, sizeof dirty);
         t_tess = r->carry.t_tess, t_raster = r->carry.t_raster;
+        live_ok = r->carry.live_ok;
     } else if (occlusion) {
         size_t blocks = (size_t)((win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK) *
                         (size_t)((win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK);
-        if ((st = crisp_grow((void **)&r->hiz, &r->hiz_cap, blocks, sizeof *r->hiz))) return st;
+        if ((st = crisp_grow((void **)&r->hiz, &r->hiz_cap, blocks, sizeof *r->hiz)) ||
+            (st = crisp_grow((void **)&r->hiz_live, &r->hiz_live_cap, blocks, sizeof *r->hiz_live)))
+            return st;
         memset(r->hiz, 0, blocks * sizeof *r->hiz); /* nothing drawn: no block hides anything */
+        live_ok = !base && tg->clear_pending;       /* the first draw clears every tile */
     }
     double t1 = crisp_time_now();
     t_tess += t1 - t0;
@@ -1756,7 +1780,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                 for (size_t i = 0; i < n; i++)
                     tris += r->leaf_tbase[list[i]];
                 if (128 * tris >= area) {
-                    crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+                    refresh_depth(r, tg, live_ok, dirty);
                     dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
                     looked = 1;
                 }
@@ -1807,10 +1831,12 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         /* Each pass projects only its own vertices: the batch's, later the ribbons'. The block
          * depth also drops the kept leaves' hidden triangles at set-up. */
         crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
+        crisp__raster_set_live_depth(r->raster, live_ok ? r->hiz_live : NULL, CRISP_OCCL_BLOCK);
         crisp_raster_stats rsb;
-        if ((st = crisp__raster_draw(r->raster, tg, r->pool, r->verts + vb0, nv - vb0,
-                                     r->tris + tb0, nt - tb0, trim_test, ctx, &rsb)))
-            return st;
+        st = crisp__raster_draw(r->raster, tg, r->pool, r->verts + vb0, nv - vb0, r->tris + tb0,
+                                nt - tb0, trim_test, ctx, &rsb);
+        crisp__raster_set_live_depth(r->raster, NULL, 0);
+        if (st) return st;
         drawn = 1;
         tris_dropped += rsb.triangles_in - rsb.triangles_setup;
         rs.fragments_tested += rsb.fragments_tested;
@@ -1826,7 +1852,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     if (stage == 1 || stage == 3) {
         /* The block depth of everything drawn, for the planner's next stage. */
         if (occlusion && drawn && nt && dirty[0] <= dirty[2]) {
-            crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+            refresh_depth(r, tg, live_ok, dirty);
             dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
             looked = 1;
         }
@@ -1836,6 +1862,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         r->carry.rs = rs;
         r->carry.drawn = drawn, r->carry.looked = looked;
         memcpy(r->carry.dirty, dirty, sizeof dirty);
+        r->carry.live_ok = live_ok;
         r->carry.t_tess = t_tess, r->carry.t_raster = t_raster;
         return CRISP_OK;
     }
@@ -1856,7 +1883,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     if (plan->splat_range_count) {
         double ta = crisp_time_now();
         if (occlusion && drawn && nt && dirty[0] <= dirty[2]) {
-            crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+            refresh_depth(r, tg, live_ok, dirty);
             dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
             looked = 1;
         }
@@ -1867,6 +1894,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                                      .win = {win[0], win[1], win[2], win[3]},
                                      .occlude = occlusion};
         if ((st = crisp__splat_draw(&r->splat, tg, r->pool, &sd, &sds))) return st;
+        live_ok = 0; /* the splats' samples are not in it */
         if (sds.box[0] <= sds.box[2]) {
             dirty[0] = sds.box[0] < dirty[0] ? sds.box[0] : dirty[0];
             dirty[1] = sds.box[1] < dirty[1] ? sds.box[1] : dirty[1];
@@ -1885,7 +1913,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
      * theirs could pass the fill pass's depth test): whole quads dropped here, the other hidden
      * triangles at the fill draw's set-up. */
     if (occlusion && drawn && quads) {
-        crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+        refresh_depth(r, tg, live_ok, dirty);
         dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
         looked = 1;
     }

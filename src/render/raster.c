@@ -122,6 +122,8 @@ struct crisp_raster {
     int occl_size;
     int clip_on;    /* crisp__raster_set_clip */
     double clip[4]; /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
+    double *live;   /* crisp__raster_set_live_depth: the block depth kept by the draws */
+    int live_size;
 };
 
 void crisp__raster_set_clip(crisp_raster *r, const double k[4])
@@ -146,6 +148,12 @@ void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, 
 {
     r->untested = untested;
     r->untested_count = untested ? count : 0;
+}
+
+void crisp__raster_set_live_depth(crisp_raster *r, double *dest, int size)
+{
+    r->live = dest && size > 0 && TILE % size == 0 ? dest : NULL;
+    r->live_size = size;
 }
 
 void crisp__raster_set_hiz(crisp_raster *r, int on)
@@ -294,23 +302,21 @@ typedef struct block_depth_ctx {
     double *dest;
 } block_depth_ctx;
 
-/* Block rows by0 + [begin, end), blocks bx0 .. bx1 of each: the least 1/W, row by row of pixels. */
-static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
+/* Blocks bx0 .. bx1 of block row by (size n): the least 1/W of each, row by row of pixels. */
+static void block_depth_row(const crisp_raster_target *t, int n, int by, int bx0, int bx1,
+                            double *dest)
 {
-    (void)worker;
-    const block_depth_ctx *c = vctx;
-    const crisp_raster_target *t = c->t;
-    int S = t->samples, n = c->size, bw = (t->width + n - 1) / n;
-    for (int by = c->by0 + (int)begin; by < c->by0 + (int)end; by++) {
-        double *out = c->dest + (size_t)by * (size_t)bw;
-        for (int bx = c->bx0; bx <= c->bx1; bx++)
+    int S = t->samples, bw = (t->width + n - 1) / n;
+    {
+        double *out = dest + (size_t)by * (size_t)bw;
+        for (int bx = bx0; bx <= bx1; bx++)
             out[bx] = INFINITY;
         int j1 = (by + 1) * n < t->height ? (by + 1) * n : t->height;
-        int gx0 = c->bx0; /* the blocks left to the loop below */
+        int gx0 = bx0; /* the blocks left to the loop below */
 #if defined(__SSE2__)
         if (S == 1 && n == 4) { /* the common case: each block's 4 x 4 values in registers */
-            int bxe = c->bx1 < t->width / 4 ? c->bx1 + 1 : t->width / 4; /* whole blocks */
-            for (int bx = c->bx0; bx < bxe; bx++) {
+            int bxe = bx1 < t->width / 4 ? bx1 + 1 : t->width / 4; /* whole blocks */
+            for (int bx = bx0; bx < bxe; bx++) {
                 const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
                 __m128d m2 = _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2));
                 for (int j = by * 4 + 1; j < j1; j++) {
@@ -326,7 +332,7 @@ static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
 #endif
         for (int j = by * n; j < j1; j++) {
             const double *row = t->inv_w + (size_t)j * t->width * S;
-            for (int bx = gx0; bx <= c->bx1; bx++) {
+            for (int bx = gx0; bx <= bx1; bx++) {
                 size_t a = (size_t)bx * n * S,
                        b = (size_t)(bx * n + n < t->width ? bx * n + n : t->width) * S;
                 double m = out[bx];
@@ -351,6 +357,15 @@ static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* Block rows by0 + [begin, end), blocks bx0 .. bx1 of each. */
+static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const block_depth_ctx *c = vctx;
+    for (int by = c->by0 + (int)begin; by < c->by0 + (int)end; by++)
+        block_depth_row(c->t, c->size, by, c->bx0, c->bx1, c->dest);
+}
+
 void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, int size,
                                const int *blocks, double *dest)
 {
@@ -370,6 +385,34 @@ void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, i
     }
     block_depth_ctx c = {t, size, b[0], b[1], b[2], dest};
     crisp_pool_parallel_for(pool, (size_t)(b[3] - b[1] + 1), 4, block_depth_rows, &c);
+}
+
+void crisp__raster_block_depth_copy(const crisp_raster_target *t, int size, const int *blocks,
+                                    const double *live, double *dest)
+{
+    int bw = (t->width + size - 1) / size, bh = (t->height + size - 1) / size;
+    int b[4] = {0, 0, bw - 1, bh - 1};
+    if (blocks)
+        for (int k = 0; k < 4; k++) {
+            int lim = k % 2 ? bh - 1 : bw - 1;
+            b[k] = blocks[k] < 0 ? 0 : blocks[k] > lim ? lim : blocks[k];
+        }
+    if (b[0] > b[2] || b[1] > b[3]) return;
+    for (int by = b[1]; by <= b[3]; by++) {
+        size_t a = (size_t)by * bw + (size_t)b[0];
+        memcpy(dest + a, live + a, (size_t)(b[2] - b[0] + 1) * sizeof *dest);
+    }
+}
+
+/* The live block depth of one tile (crisp__raster_set_live_depth): its blocks, from its samples. */
+static void live_tile(const crisp_raster *r, const crisp_raster_target *t, int tiles_x, size_t tile)
+{
+    int n = r->live_size;
+    int x0 = (int)(tile % (size_t)tiles_x) * TILE, y0 = (int)(tile / (size_t)tiles_x) * TILE;
+    int x1 = x0 + TILE < t->width ? x0 + TILE : t->width;
+    int y1 = y0 + TILE < t->height ? y0 + TILE : t->height;
+    for (int by = y0 / n; by <= (y1 - 1) / n; by++)
+        block_depth_row(t, n, by, x0 / n, (x1 - 1) / n, r->live);
 }
 
 void crisp__raster_sample_offset(int samples, int s, double dest[2])
@@ -1642,6 +1685,9 @@ static void raster_tile(raster_ctx *c, size_t tile)
         raster_tile_s(c, tile, 1, c->clear, 0);
     else
         raster_tile_s(c, tile, c->t->samples, c->clear, 0);
+    const crisp_raster *r = c->r;
+    if (r->live && (c->clear || r->bin_start[tile] != r->bin_start[tile + 1]))
+        live_tile(r, c->t, c->tiles_x, tile);
 }
 
 /* The tiles, shared out so that two workers seldom draw tiles next to each other at the same
@@ -2200,6 +2246,11 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
     if (t->clear_pending) { /* no triangles: clear anyway */
         clear_now(t, pool);
         t->clear_pending = 0;
+        if (r->live) { /* every block empty */
+            size_t blocks = (size_t)((t->width + r->live_size - 1) / r->live_size) *
+                            (size_t)((t->height + r->live_size - 1) / r->live_size);
+            memset(r->live, 0, blocks * sizeof *r->live);
+        }
     }
     if (stats) {
         *stats = (crisp_raster_stats){.triangles_in = tri_count,
