@@ -859,6 +859,11 @@ typedef struct {
     int avx; /* one-sample tiles through raster_tile1_avx (1) or raster_tile1_avx2 (2) */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
     crisp_raster_share share; /* the tiles, one home range per worker (raster_tiles) */
+    /* The live block depth at size live_size (crisp__raster_set_live_depth), the target's when
+     * its tile is not cleared: each tile's 8x8 block bounds start from it (exact) instead of a
+     * pass over the block's samples at its first triangle. NULL: not there. */
+    const double *live;
+    int live_size;
 } raster_ctx;
 
 /* Least 1/W over the block's samples (0 when one is empty). */
@@ -1299,6 +1304,24 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
     /* A tile just cleared has 0 everywhere: the bound is exact until its first writes. */
     for (int k = 0; k < BLOCKS * BLOCKS; k++)
         hiz[k] = 0, writes[k] = fresh ? 0 : block_samples;
+    if (!fresh && c->live && r->bin_start[tile] != r->bin_start[tile + 1]) {
+        /* Each block's least 1/W: the least of the live blocks it holds (within the target). */
+        int n = c->live_size, lw = (t->width + n - 1) / n;
+        int x0t = tx * TILE, y0t = ty * TILE;
+        for (int bj = 0; bj < BLOCKS && y0t + bj * BLOCK < t->height; bj++)
+            for (int bi = 0; bi < BLOCKS && x0t + bi * BLOCK < t->width; bi++) {
+                int gx = x0t + bi * BLOCK, gy = y0t + bj * BLOCK;
+                int lx1 = (gx + BLOCK - 1 < t->width ? gx + BLOCK - 1 : t->width - 1) / n;
+                int ly1 = (gy + BLOCK - 1 < t->height ? gy + BLOCK - 1 : t->height - 1) / n;
+                double m = INFINITY;
+                for (int ly = gy / n; ly <= ly1; ly++)
+                    for (int lx = gx / n; lx <= lx1; lx++) {
+                        double l = c->live[(size_t)ly * lw + lx];
+                        m = l < m ? l : m;
+                    }
+                hiz[bj * BLOCKS + bi] = m, writes[bj * BLOCKS + bi] = 0;
+            }
+    }
     int use_hiz = c->hiz && !c->slack, vectors = c->vectors, clip_on = r->clip_on;
     /* The target's buffers, written only through these (no store can alias a triangle's data). */
     double *restrict inv_w = t->inv_w;
@@ -2204,6 +2227,7 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
      * bins hold one batch, so the rasterizer's memory is bounded whatever the triangle count. */
     size_t total = 0, batch = r->batch ? r->batch : BATCH;
     rc.clear = t->clear_pending; /* the first batch's tiles clear themselves */
+    if (r->live && BLOCK % r->live_size == 0) rc.live = r->live, rc.live_size = r->live_size;
     for (size_t first = 0; first < tri_count; first += batch) {
         sc.first = first;
         sc.count = tri_count - first < batch ? tri_count - first : batch;

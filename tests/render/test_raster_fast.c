@@ -458,7 +458,8 @@ static void test_block_depth(void **state)
  * a junk-filled target with a pending clear; 1 and 4 samples, block sizes 2, 4 and 8, a target
  * whose size is not a multiple of the tile or the block, 1 and 2 threads): bit for bit the block
  * depth crisp__raster_block_depth reads from the samples, and crisp__raster_block_depth_copy of a
- * rectangle copies it there and nowhere else. */
+ * rectangle copies it there and nowhere else; the tiles' depth bounds start from it, and the
+ * target ends bit for bit as drawn without it. */
 static void test_live_depth(void **state)
 {
     (void)state;
@@ -474,8 +475,10 @@ static void test_live_depth(void **state)
             for (int n = 2; n <= 8; n *= 2) {
                 crisp_raster *r;
                 assert_int_equal(crisp__raster_create(&r), CRISP_OK);
-                crisp_raster_target t = {0};
+                crisp_raster_target t = {0}, ref = {0};
                 assert_int_equal(crisp__raster_target_init(&t, W, H, samples), CRISP_OK);
+                assert_int_equal(crisp__raster_target_init(&ref, W, H, samples), CRISP_OK);
+                crisp__raster_target_clear(&ref);
                 size_t ns = (size_t)W * H * samples;
                 memset(t.inv_w, 0x55, ns * sizeof *t.inv_w);
                 memset(t.face, 0x55, ns * sizeof *t.face);
@@ -495,6 +498,9 @@ static void test_live_depth(void **state)
                                                         cut[d + 1] - cut[d], NULL, NULL, NULL),
                                      CRISP_OK);
                     crisp__raster_set_live_depth(r, NULL, 0);
+                    assert_int_equal(crisp__raster_draw(r, &ref, pool, v, 3 * NT, tri + cut[d],
+                                                        cut[d + 1] - cut[d], NULL, NULL, NULL),
+                                     CRISP_OK);
                     crisp__raster_block_depth(&t, pool, n, NULL, want);
                     assert_memory_equal(live, want, nb * sizeof *live);
                     for (size_t k = 0; k < nb; k++)
@@ -508,8 +514,16 @@ static void test_live_depth(void **state)
                             assert_true(in ? got[k] == want[k] : got[k] == -2);
                         }
                 }
+                assert_memory_equal(t.inv_w, ref.inv_w, ns * sizeof *t.inv_w);
+                assert_memory_equal(t.face, ref.face, ns * sizeof *t.face);
+                for (size_t k = 0; k < ns; k++) /* attributes where a sample was drawn */
+                    if (t.face[k] >= 0)
+                        assert_memory_equal(t.attr + k * CRISP_RASTER_ATTRS,
+                                            ref.attr + k * CRISP_RASTER_ATTRS,
+                                            CRISP_RASTER_ATTRS * sizeof *t.attr);
                 free(live), free(want), free(got);
                 crisp__raster_target_free(&t);
+                crisp__raster_target_free(&ref);
                 crisp__raster_destroy(r);
             }
         if (pool) crisp_pool_destroy(pool);
