@@ -95,6 +95,10 @@ struct crisp_renderer {
      * refreshes copy from it while live_ok (draw_plan). */
     double *hiz_live;
     size_t hiz_live_cap;
+    uint8_t *seen_marks; /* per worker and face (draw_part.seen) */
+    size_t seen_marks_cap;
+    int32_t *seen_list; /* the faces the last image drawn with draw_part.seen shows */
+    size_t seen_list_cap, seen_count;
     crisp__splat_scratch splat; /* the splat draw's (splat_raster.c) */
     struct {                    /* what the first part of a two-part draw leaves (draw_plan) */
         size_t nv, nt, occluded_leaves, occluded_tris, tris_dropped;
@@ -186,6 +190,8 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->occl);
     free(r->hiz);
     free(r->hiz_live);
+    free(r->seen_marks);
+    free(r->seen_list);
     crisp__splat_scratch_free(&r->splat);
     free(r);
 }
@@ -1036,6 +1042,9 @@ typedef struct resolve_ctx {
     int avx;                  /* resolve_row1_avx rather than resolve_row1 */
     size_t rows;              /* rows [0, rows) of the region */
     crisp_raster_share share; /* groups of RESOLVE_ROWS rows, one home range per worker */
+    /* Per worker, per face: 1 where a resolved pixel shows it (the planner's seen faces, marked
+     * while the rows are in the cache); NULL: not wanted. */
+    uint8_t *seen;
 } resolve_ctx;
 
 #define RESOLVE_ROWS 8 /* rows a worker takes at a time */
@@ -1387,10 +1396,21 @@ static void resolve_groups(void *vctx, size_t begin, size_t end, int worker)
     resolve_ctx *c = vctx;
     int k = 0;
     size_t g;
+    uint32_t fc = c->sc->face_count;
+    uint8_t *seen = c->seen ? c->seen + (size_t)worker * fc : NULL;
     while (crisp__raster_share_next(&c->share, worker, &k, &g)) {
         size_t j0 = g * RESOLVE_ROWS,
                j1 = j0 + RESOLVE_ROWS < c->rows ? j0 + RESOLVE_ROWS : c->rows;
         resolve_rows(c, j0, j1, worker);
+        for (size_t j = j0 + (size_t)c->y0; seen && j < j1 + (size_t)c->y0; j++) {
+            const int32_t *face = c->img->face + j * (size_t)c->img->width;
+            int32_t last = -1; /* neighbouring pixels mostly show the same face */
+            for (int i = c->x0; i < c->x1; i++)
+                if (face[i] != last) {
+                    last = face[i];
+                    if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
+                }
+        }
     }
 }
 
@@ -1401,6 +1421,12 @@ void crisp__renderer_mesh(const crisp_renderer *r, const crisp_raster_vertex **v
     *tris = r->tris;
     *vert_count = r->vert_count;
     *tri_count = r->tri_count;
+}
+
+void crisp__renderer_seen(const crisp_renderer *r, const int32_t **faces, size_t *count)
+{
+    *faces = r->seen_list;
+    *count = r->seen_count;
 }
 
 const crisp_raster_target *crisp__renderer_target(const crisp_renderer *r)
@@ -1534,6 +1560,9 @@ static void rebase_tris(void *vctx, size_t begin, size_t end, int worker)
 typedef struct draw_part {
     int part; /* 0: the whole draw in one; 1, 3, 2 */
     const uint8_t *later;
+    /* 1: the faces the image shows are listed in r->seen_list (seen_count of them), the
+     * planner's seen faces (crisp__planner_seen), found by the resolve. */
+    int seen;
 } draw_part;
 
 /* The block depth of the blocks dirty[] into r->hiz (crisp__raster_block_depth): copied from the
@@ -2011,8 +2040,30 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     rc.avx = __builtin_cpu_supports("avx");
 #endif
     rc.rows = (size_t)(rect[3] - rect[1]);
+    uint32_t fc = plan->face_count;
+    int seen = part && part->seen;
+    r->seen_count = 0;
+    if (seen) {
+        if ((st = crisp_grow((void **)&r->seen_marks, &r->seen_marks_cap,
+                             (size_t)r->workers * (fc ? fc : 1), 1)) ||
+            (st = crisp_grow((void **)&r->seen_list, &r->seen_list_cap, fc ? fc : 1,
+                             sizeof *r->seen_list)))
+            return st;
+        memset(r->seen_marks, 0, (size_t)r->workers * fc);
+        rc.seen = r->seen_marks;
+    }
     crisp__raster_share_init(&rc.share, (rc.rows + RESOLVE_ROWS - 1) / RESOLVE_ROWS, r->workers);
     crisp_pool_parallel_for(r->pool, (size_t)rc.share.ranges, 1, resolve_groups, &rc);
+    if (seen) {
+        size_t n = 0;
+        for (uint32_t f = 0; f < fc; f++) {
+            uint8_t any = 0;
+            for (int w = 0; w < r->workers; w++)
+                any |= r->seen_marks[(size_t)w * fc + f];
+            if (any) r->seen_list[n++] = (int32_t)f;
+        }
+        r->seen_count = n;
+    }
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);
     stats->vertices = surface_v;
@@ -2074,11 +2125,14 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     const uint8_t *later;
     if ((st = crisp__planner_plan_near(r->planner, sc, cam, &plan, &later))) return st;
     if (!later) {
-        if ((st = crisp_render_cpu_plan(r, sc, plan, cam, img, stats))) return st;
-        if (!crisp__planner_seen_wanted(r->planner, sc)) return CRISP_OK;
-        return crisp__planner_seen(r->planner, sc, img->face, (size_t)img->width * img->height);
+        /* The faces on screen (the next frame's first stage) when the planner wants them. */
+        int seen = crisp__planner_seen_wanted(r->planner, sc);
+        if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats,
+                            &(draw_part){0, NULL, seen})))
+            return st;
+        return seen ? crisp__planner_seen(r->planner, sc, r->seen_list, r->seen_count) : CRISP_OK;
     }
-    if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats, &(draw_part){1, NULL})))
+    if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats, &(draw_part){1, NULL, 0})))
         return st;
     int win[4] = {0, 0, cam->width, cam->height};
     for (;;) {
@@ -2086,12 +2140,13 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
         if ((st = crisp__planner_plan_next(r->planner, sc, r->hiz, win, &plan, &last))) return st;
         if (last) {
             if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats,
-                                &(draw_part){2, later})))
+                                &(draw_part){2, later, 1})))
                 return st;
             /* The faces on screen: the next frame's first stage. */
-            return crisp__planner_seen(r->planner, sc, img->face, (size_t)img->width * img->height);
+            return crisp__planner_seen(r->planner, sc, r->seen_list, r->seen_count);
         }
-        if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats, &(draw_part){3, NULL})))
+        if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats,
+                            &(draw_part){3, NULL, 0})))
             return st;
     }
 }
