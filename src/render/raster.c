@@ -495,8 +495,9 @@ static inline int64_t round_half_away(double x)
     return (int64_t)t + (f >= 0.5) - (f <= -0.5);
 }
 
-/* 0 when the vertex cannot be set up (W <= 0, beyond the guard band or not finite). */
-static int project2(const double *p, const double *attr, const crisp_raster_target *t, pvert *out)
+/* 0 when the vertex cannot be set up (W <= 0, beyond the guard band or not finite); else its
+ * screen position and 1/W (val[0]), without the attributes. */
+static ALWAYS_INLINE int project_depth(const double *p, const crisp_raster_target *t, pvert *out)
 {
     double w = p[3];
     if (!(w > 0)) return 0;
@@ -505,8 +506,15 @@ static int project2(const double *p, const double *attr, const crisp_raster_targ
     if (!(fabs(out->sx) <= 2 * GUARD_PX && fabs(out->sy) <= 2 * GUARD_PX)) return 0;
     out->fx = round_half_away(out->sx * SUB);
     out->fy = round_half_away(out->sy * SUB);
-    double iw = 1.0 / w;
-    out->val[0] = iw;
+    out->val[0] = 1.0 / w;
+    return 1;
+}
+
+/* project_depth and the attributes over W. */
+static int project2(const double *p, const double *attr, const crisp_raster_target *t, pvert *out)
+{
+    if (!project_depth(p, t, out)) return 0;
+    double iw = out->val[0];
     for (int q = 1; q <= CRISP_RASTER_ATTRS; q++)
         out->val[q] = attr[q - 1] * iw;
     return 1;
@@ -655,14 +663,13 @@ int crisp__raster_quad_hidden(const crisp_raster *r, const crisp_raster_target *
 {
     if (!r->occl_hiz) return 0;
     double gx = GUARD_PX / image_w(t), gy = GUARD_PX / image_h(t);
-    static const double no_attr[CRISP_RASTER_ATTRS] = {0};
-    pvert v[4];
+    pvert v[4];                   /* only positions and 1/W are read (tri_dropped, core_bound) */
     for (int k = 0; k < 4; k++) { /* as project_vertices: only corners needing no clipping */
         double d[6];
         plane_dists(clip[k], gx, gy, d);
         for (int q = 0; q < 6; q++)
             if (!(d[q] >= 0 && isfinite(d[q]))) return 0;
-        if (!project2(clip[k], no_attr, t, &v[k])) return 0;
+        if (!project_depth(clip[k], t, &v[k])) return 0;
     }
     /* Without the core first: a quad that is not hidden stops here, before its core is worked
      * out; a hidden one is with the core when the core's bound (tri_hidden's, on the same
