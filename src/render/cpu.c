@@ -1565,16 +1565,19 @@ typedef struct draw_part {
     int seen;
 } draw_part;
 
-/* The block depth of the blocks dirty[] into r->hiz (crisp__raster_block_depth): copied from the
- * live block depth the surfaces' draws keep when live_ok (the same values), else read from the
+/* The block depth of the blocks dirty[] into r->hiz (crisp__raster_block_depth): from the live
+ * block depth the surfaces' draws keep when live_ok (the same values), else read from the
  * samples. */
 static void refresh_depth(crisp_renderer *r, const crisp_raster_target *tg, int live_ok,
                           const int dirty[4])
 {
-    if (live_ok && !tg->clear_pending)
-        crisp__raster_block_depth_copy(tg, CRISP_OCCL_BLOCK, dirty, r->hiz_live, r->hiz);
-    else
+    if (live_ok) {
+        crisp__raster_set_live_depth(r->raster, r->hiz_live, CRISP_OCCL_BLOCK);
+        crisp__raster_block_depth_live(r->raster, tg, r->pool, dirty, r->hiz);
+        crisp__raster_set_live_depth(r->raster, NULL, 0);
+    } else {
         crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+    }
 }
 
 /* crisp_render_cpu_plan (only, base and window NULL), crisp_render_cpu_plan_faces (a subset of
@@ -1860,7 +1863,26 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         /* Each pass projects only its own vertices: the batch's, later the ribbons'. The block
          * depth also drops the kept leaves' hidden triangles at set-up. */
         crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
+        /* The live block depth computed by this draw's tiles when the block depth is refreshed
+         * before the next draw (the rule above on the next batch; after the last batch, the
+         * stage's end, the splats' or the ribbons' refresh): the tiles not computed are read at
+         * the refresh, so any answer gives the same values. */
+        int follows = 1;
+        for (int b2 = b + 1; b2 < CRISP_OCCL_BATCHES; b2++) {
+            if (bstart[b2 + 1] == bstart[b2]) continue;
+            follows = 0;
+            if (nt && dirty[0] <= dirty[2]) {
+                size_t tris = 0, area = (size_t)(dirty[2] - dirty[0] + 1) *
+                                        (size_t)(dirty[3] - dirty[1] + 1) * CRISP_OCCL_BLOCK *
+                                        CRISP_OCCL_BLOCK * r->desc.samples;
+                for (uint32_t i = bstart[b2]; i < bstart[b2 + 1]; i++)
+                    tris += r->leaf_tbase[r->order[i]];
+                follows = 128 * tris >= area;
+            }
+            break;
+        }
         crisp__raster_set_live_depth(r->raster, live_ok ? r->hiz_live : NULL, CRISP_OCCL_BLOCK);
+        crisp__raster_live_compute(r->raster, follows);
         crisp_raster_stats rsb;
         st = crisp__raster_draw(r->raster, tg, r->pool, r->verts + vb0, nv - vb0, r->tris + tb0,
                                 nt - tb0, trim_test, ctx, &rsb);

@@ -124,6 +124,9 @@ struct crisp_raster {
     double clip[4]; /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
     double *live;   /* crisp__raster_set_live_depth: the block depth kept by the draws */
     int live_size;
+    int live_compute;   /* crisp__raster_live_compute */
+    uint8_t *live_tile; /* per tile: 1 when live holds its blocks' present values */
+    size_t live_tile_cap;
 };
 
 void crisp__raster_set_clip(crisp_raster *r, const double k[4])
@@ -154,6 +157,11 @@ void crisp__raster_set_live_depth(crisp_raster *r, double *dest, int size)
 {
     r->live = dest && size > 0 && TILE % size == 0 ? dest : NULL;
     r->live_size = size;
+}
+
+void crisp__raster_live_compute(crisp_raster *r, int on)
+{
+    r->live_compute = on;
 }
 
 void crisp__raster_set_hiz(crisp_raster *r, int on)
@@ -192,6 +200,7 @@ void crisp__raster_destroy(crisp_raster *r)
     free(r->tile_mask);
     free(r->tri_boxes);
     free(r->bin_counts);
+    free(r->live_tile);
     free(r);
 }
 
@@ -387,9 +396,52 @@ void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, i
     crisp_pool_parallel_for(pool, (size_t)(b[3] - b[1] + 1), 4, block_depth_rows, &c);
 }
 
-void crisp__raster_block_depth_copy(const crisp_raster_target *t, int size, const int *blocks,
-                                    const double *live, double *dest)
+/* The live block depth of one tile (crisp__raster_set_live_depth): its blocks, from its samples,
+ * or 0 when it is just cleared (empty). */
+static void live_tile(const crisp_raster *r, const crisp_raster_target *t, int tiles_x, size_t tile,
+                      int empty)
 {
+    int n = r->live_size, bw = (t->width + n - 1) / n;
+    int x0 = (int)(tile % (size_t)tiles_x) * TILE, y0 = (int)(tile / (size_t)tiles_x) * TILE;
+    int x1 = x0 + TILE < t->width ? x0 + TILE : t->width;
+    int y1 = y0 + TILE < t->height ? y0 + TILE : t->height;
+    for (int by = y0 / n; by <= (y1 - 1) / n; by++)
+        if (empty)
+            memset(r->live + (size_t)by * bw + x0 / n, 0,
+                   (size_t)((x1 - 1) / n - x0 / n + 1) * sizeof *r->live);
+        else
+            block_depth_row(t, n, by, x0 / n, (x1 - 1) / n, r->live);
+}
+
+typedef struct live_ctx {
+    crisp_raster *r;
+    const crisp_raster_target *t;
+    int tiles_x, tx0, tx1, ty0;
+} live_ctx;
+
+/* Tile rows ty0 + [begin, end) of tiles tx0 .. tx1: those live does not hold, from their samples.
+ */
+static void live_rows(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const live_ctx *c = vctx;
+    for (int ty = c->ty0 + (int)begin; ty < c->ty0 + (int)end; ty++)
+        for (int tx = c->tx0; tx <= c->tx1; tx++) {
+            size_t tile = (size_t)ty * c->tiles_x + tx;
+            if (c->r->live_tile[tile]) continue;
+            live_tile(c->r, c->t, c->tiles_x, tile, 0);
+            c->r->live_tile[tile] = 1;
+        }
+}
+
+void crisp__raster_block_depth_live(crisp_raster *r, const crisp_raster_target *t, crisp_pool *pool,
+                                    const int *blocks, double *dest)
+{
+    int size = r->live_size;
+    if (!r->live || t->clear_pending) {
+        crisp__raster_block_depth(t, pool, size, blocks, dest);
+        return;
+    }
     int bw = (t->width + size - 1) / size, bh = (t->height + size - 1) / size;
     int b[4] = {0, 0, bw - 1, bh - 1};
     if (blocks)
@@ -398,21 +450,13 @@ void crisp__raster_block_depth_copy(const crisp_raster_target *t, int size, cons
             b[k] = blocks[k] < 0 ? 0 : blocks[k] > lim ? lim : blocks[k];
         }
     if (b[0] > b[2] || b[1] > b[3]) return;
+    int per = TILE / size;
+    live_ctx c = {r, t, (t->width + TILE - 1) / TILE, b[0] / per, b[2] / per, b[1] / per};
+    crisp_pool_parallel_for(pool, (size_t)(b[3] / per - c.ty0 + 1), 1, live_rows, &c);
     for (int by = b[1]; by <= b[3]; by++) {
         size_t a = (size_t)by * bw + (size_t)b[0];
-        memcpy(dest + a, live + a, (size_t)(b[2] - b[0] + 1) * sizeof *dest);
+        memcpy(dest + a, r->live + a, (size_t)(b[2] - b[0] + 1) * sizeof *dest);
     }
-}
-
-/* The live block depth of one tile (crisp__raster_set_live_depth): its blocks, from its samples. */
-static void live_tile(const crisp_raster *r, const crisp_raster_target *t, int tiles_x, size_t tile)
-{
-    int n = r->live_size;
-    int x0 = (int)(tile % (size_t)tiles_x) * TILE, y0 = (int)(tile / (size_t)tiles_x) * TILE;
-    int x1 = x0 + TILE < t->width ? x0 + TILE : t->width;
-    int y1 = y0 + TILE < t->height ? y0 + TILE : t->height;
-    for (int by = y0 / n; by <= (y1 - 1) / n; by++)
-        block_depth_row(t, n, by, x0 / n, (x1 - 1) / n, r->live);
 }
 
 void crisp__raster_sample_offset(int samples, int s, double dest[2])
@@ -1311,7 +1355,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
     /* A tile just cleared has 0 everywhere: the bound is exact until its first writes. */
     for (int k = 0; k < BLOCKS * BLOCKS; k++)
         hiz[k] = 0, writes[k] = fresh ? 0 : block_samples;
-    if (!fresh && c->live && r->bin_start[tile] != r->bin_start[tile + 1]) {
+    if (!fresh && c->live && r->live_tile[tile] && r->bin_start[tile] != r->bin_start[tile + 1]) {
         /* Each block's least 1/W: the least of the live blocks it holds (within the target). */
         int n = c->live_size, lw = (t->width + n - 1) / n;
         int x0t = tx * TILE, y0t = ty * TILE;
@@ -1716,8 +1760,11 @@ static void raster_tile(raster_ctx *c, size_t tile)
     else
         raster_tile_s(c, tile, c->t->samples, c->clear, 0);
     const crisp_raster *r = c->r;
-    if (r->live && (c->clear || r->bin_start[tile] != r->bin_start[tile + 1]))
-        live_tile(r, c->t, c->tiles_x, tile);
+    int drawn = r->bin_start[tile] != r->bin_start[tile + 1];
+    if (r->live && (c->clear || drawn)) {
+        if (r->live_compute) live_tile(r, c->t, c->tiles_x, tile, !drawn);
+        r->live_tile[tile] = (uint8_t)(r->live_compute != 0);
+    }
 }
 
 /* The tiles, shared out so that two workers seldom draw tiles next to each other at the same
@@ -2234,7 +2281,11 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
      * bins hold one batch, so the rasterizer's memory is bounded whatever the triangle count. */
     size_t total = 0, batch = r->batch ? r->batch : BATCH;
     rc.clear = t->clear_pending; /* the first batch's tiles clear themselves */
-    if (r->live && BLOCK % r->live_size == 0) rc.live = r->live, rc.live_size = r->live_size;
+    if (r->live) {
+        if ((st = crisp_grow((void **)&r->live_tile, &r->live_tile_cap, tiles, 1))) return st;
+        if (t->clear_pending) memset(r->live_tile, 0, tiles); /* each set as its tile clears */
+        if (BLOCK % r->live_size == 0) rc.live = r->live, rc.live_size = r->live_size;
+    }
     for (size_t first = 0; first < tri_count; first += batch) {
         sc.first = first;
         sc.count = tri_count - first < batch ? tri_count - first : batch;
@@ -2277,10 +2328,11 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
     if (t->clear_pending) { /* no triangles: clear anyway */
         clear_now(t, pool);
         t->clear_pending = 0;
-        if (r->live) { /* every block empty */
+        if (r->live && r->live_compute) { /* every block empty */
             size_t blocks = (size_t)((t->width + r->live_size - 1) / r->live_size) *
                             (size_t)((t->height + r->live_size - 1) / r->live_size);
             memset(r->live, 0, blocks * sizeof *r->live);
+            memset(r->live_tile, 1, tiles);
         }
     }
     if (stats) {
