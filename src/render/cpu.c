@@ -1405,7 +1405,20 @@ static void resolve_groups(void *vctx, size_t begin, size_t end, int worker)
         for (size_t j = j0 + (size_t)c->y0; seen && j < j1 + (size_t)c->y0; j++) {
             const int32_t *face = c->img->face + j * (size_t)c->img->width;
             int32_t last = -1; /* neighbouring pixels mostly show the same face */
-            for (int i = c->x0; i < c->x1; i++)
+            int i = c->x0;
+#if defined(__SSE2__)
+            for (; i + 3 < c->x1; i += 4) { /* four pixels of the last face: nothing to mark */
+                __m128i f4 = _mm_loadu_si128((const __m128i *)(face + i));
+                if (_mm_movemask_epi8(_mm_cmpeq_epi32(f4, _mm_set1_epi32(last))) == 0xffff)
+                    continue;
+                for (int q = 0; q < 4; q++)
+                    if (face[i + q] != last) {
+                        last = face[i + q];
+                        if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
+                    }
+            }
+#endif
+            for (; i < c->x1; i++)
                 if (face[i] != last) {
                     last = face[i];
                     if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
