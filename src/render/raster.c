@@ -316,52 +316,50 @@ static void block_depth_row(const crisp_raster_target *t, int n, int by, int bx0
                             double *dest)
 {
     int S = t->samples, bw = (t->width + n - 1) / n;
-    {
-        double *out = dest + (size_t)by * (size_t)bw;
-        for (int bx = bx0; bx <= bx1; bx++)
-            out[bx] = INFINITY;
-        int j1 = (by + 1) * n < t->height ? (by + 1) * n : t->height;
-        int gx0 = bx0; /* the blocks left to the loop below */
+    double *out = dest + (size_t)by * (size_t)bw;
+    for (int bx = bx0; bx <= bx1; bx++)
+        out[bx] = INFINITY;
+    int j1 = (by + 1) * n < t->height ? (by + 1) * n : t->height;
+    int gx0 = bx0; /* the blocks left to the loop below */
 #if defined(__SSE2__)
-        if (S == 1 && n == 4) { /* the common case: each block's 4 x 4 values in registers */
-            int bxe = bx1 < t->width / 4 ? bx1 + 1 : t->width / 4; /* whole blocks */
-            for (int bx = bx0; bx < bxe; bx++) {
-                const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
-                __m128d m2 = _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2));
-                for (int j = by * 4 + 1; j < j1; j++) {
-                    p += t->width;
-                    m2 = _mm_min_pd(m2, _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2)));
-                }
+    if (S == 1 && n == 4) { /* the common case: each block's 4 x 4 values in registers */
+        int bxe = bx1 < t->width / 4 ? bx1 + 1 : t->width / 4; /* whole blocks */
+        for (int bx = bx0; bx < bxe; bx++) {
+            const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
+            __m128d m2 = _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2));
+            for (int j = by * 4 + 1; j < j1; j++) {
+                p += t->width;
+                m2 = _mm_min_pd(m2, _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2)));
+            }
+            double l[2];
+            _mm_storeu_pd(l, m2);
+            out[bx] = l[0] < l[1] ? l[0] : l[1];
+        }
+        gx0 = bxe > gx0 ? bxe : gx0;
+    }
+#endif
+    for (int j = by * n; j < j1; j++) {
+        const double *row = t->inv_w + (size_t)j * t->width * S;
+        for (int bx = gx0; bx <= bx1; bx++) {
+            size_t a = (size_t)bx * n * S,
+                   b = (size_t)(bx * n + n < t->width ? bx * n + n : t->width) * S;
+            double m = out[bx];
+            size_t k = a;
+#if defined(__SSE2__)
+            /* Two lanes at a time (a least value: the order does not matter; stored values
+             * are never NaN). */
+            if (k + 2 <= b) {
+                __m128d m2 = _mm_set1_pd(m);
+                for (; k + 2 <= b; k += 2)
+                    m2 = _mm_min_pd(_mm_loadu_pd(row + k), m2);
                 double l[2];
                 _mm_storeu_pd(l, m2);
-                out[bx] = l[0] < l[1] ? l[0] : l[1];
+                m = l[0] < l[1] ? l[0] : l[1];
             }
-            gx0 = bxe > gx0 ? bxe : gx0;
-        }
 #endif
-        for (int j = by * n; j < j1; j++) {
-            const double *row = t->inv_w + (size_t)j * t->width * S;
-            for (int bx = gx0; bx <= bx1; bx++) {
-                size_t a = (size_t)bx * n * S,
-                       b = (size_t)(bx * n + n < t->width ? bx * n + n : t->width) * S;
-                double m = out[bx];
-                size_t k = a;
-#if defined(__SSE2__)
-                /* Two lanes at a time (a least value: the order does not matter; stored values
-                 * are never NaN). */
-                if (k + 2 <= b) {
-                    __m128d m2 = _mm_set1_pd(m);
-                    for (; k + 2 <= b; k += 2)
-                        m2 = _mm_min_pd(_mm_loadu_pd(row + k), m2);
-                    double l[2];
-                    _mm_storeu_pd(l, m2);
-                    m = l[0] < l[1] ? l[0] : l[1];
-                }
-#endif
-                for (; k < b; k++)
-                    m = row[k] < m ? row[k] : m;
-                out[bx] = m;
-            }
+            for (; k < b; k++)
+                m = row[k] < m ? row[k] : m;
+            out[bx] = m;
         }
     }
 }
@@ -438,7 +436,8 @@ void crisp__raster_block_depth_live(crisp_raster *r, const crisp_raster_target *
                                     const int *blocks, double *dest)
 {
     int size = r->live_size;
-    if (!r->live || t->clear_pending) {
+    size_t tiles = (size_t)((t->width + TILE - 1) / TILE) * (size_t)((t->height + TILE - 1) / TILE);
+    if (!r->live || t->clear_pending || r->live_tile_cap < tiles) { /* nothing held */
         crisp__raster_block_depth(t, pool, size, blocks, dest);
         return;
     }
@@ -910,9 +909,9 @@ typedef struct {
     int avx; /* one-sample tiles through raster_tile1_avx (1) or raster_tile1_avx2 (2) */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
     crisp_raster_share share; /* the tiles, one home range per worker (raster_tiles) */
-    /* The live block depth at size live_size (crisp__raster_set_live_depth), the target's when
-     * its tile is not cleared: each tile's 8x8 block bounds start from it (exact) instead of a
-     * pass over the block's samples at its first triangle. NULL: not there. */
+    /* The live block depth at size live_size (crisp__raster_set_live_depth): a tile that the draw
+     * does not clear and whose blocks it holds (live_tile) starts its 8x8 block bounds from it
+     * (exact) instead of a pass over a block's samples at its first triangle. NULL: none. */
     const double *live;
     int live_size;
 } raster_ctx;
