@@ -91,11 +91,19 @@ struct crisp_renderer {
     size_t occl_cap;
     double *hiz; /* per 4x4 block of the target: the least 1/W drawn (crisp__raster_block_depth) */
     size_t hiz_cap;
+    /* The same kept up to date by the surfaces' draws (crisp__raster_set_live_depth): hiz's
+     * refreshes copy from it while live_ok (draw_plan). */
+    double *hiz_live;
+    size_t hiz_live_cap;
+    uint8_t *seen_marks; /* per worker and face (draw_part.seen) */
+    size_t seen_marks_cap;
+    int32_t *seen_list; /* the faces the last image drawn with draw_part.seen shows */
+    size_t seen_list_cap, seen_count;
     crisp__splat_scratch splat; /* the splat draw's (splat_raster.c) */
     struct {                    /* what the first part of a two-part draw leaves (draw_plan) */
         size_t nv, nt, occluded_leaves, occluded_tris, tris_dropped;
         crisp_raster_stats rs;
-        int drawn, looked, dirty[4];
+        int drawn, looked, dirty[4], live_ok;
         double t_tess, t_raster;
     } carry;
 };
@@ -181,6 +189,9 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->order);
     free(r->occl);
     free(r->hiz);
+    free(r->hiz_live);
+    free(r->seen_marks);
+    free(r->seen_list);
     crisp__splat_scratch_free(&r->splat);
     free(r);
 }
@@ -1031,6 +1042,9 @@ typedef struct resolve_ctx {
     int avx;                  /* resolve_row1_avx rather than resolve_row1 */
     size_t rows;              /* rows [0, rows) of the region */
     crisp_raster_share share; /* groups of RESOLVE_ROWS rows, one home range per worker */
+    /* Per worker, per face: 1 where a resolved pixel shows it (the planner's seen faces, marked
+     * while the rows are in the cache); NULL: not wanted. */
+    uint8_t *seen;
 } resolve_ctx;
 
 #define RESOLVE_ROWS 8 /* rows a worker takes at a time */
@@ -1382,10 +1396,34 @@ static void resolve_groups(void *vctx, size_t begin, size_t end, int worker)
     resolve_ctx *c = vctx;
     int k = 0;
     size_t g;
+    uint32_t fc = c->sc->face_count;
+    uint8_t *seen = c->seen ? c->seen + (size_t)worker * fc : NULL;
     while (crisp__raster_share_next(&c->share, worker, &k, &g)) {
         size_t j0 = g * RESOLVE_ROWS,
                j1 = j0 + RESOLVE_ROWS < c->rows ? j0 + RESOLVE_ROWS : c->rows;
         resolve_rows(c, j0, j1, worker);
+        for (size_t j = j0 + (size_t)c->y0; seen && j < j1 + (size_t)c->y0; j++) {
+            const int32_t *face = c->img->face + j * (size_t)c->img->width;
+            int32_t last = -1; /* neighbouring pixels mostly show the same face */
+            int i = c->x0;
+#if defined(__SSE2__)
+            for (; i + 3 < c->x1; i += 4) { /* four pixels of the last face: nothing to mark */
+                __m128i f4 = _mm_loadu_si128((const __m128i *)(face + i));
+                if (_mm_movemask_epi8(_mm_cmpeq_epi32(f4, _mm_set1_epi32(last))) == 0xffff)
+                    continue;
+                for (int q = 0; q < 4; q++)
+                    if (face[i + q] != last) {
+                        last = face[i + q];
+                        if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
+                    }
+            }
+#endif
+            for (; i < c->x1; i++)
+                if (face[i] != last) {
+                    last = face[i];
+                    if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
+                }
+        }
     }
 }
 
@@ -1396,6 +1434,12 @@ void crisp__renderer_mesh(const crisp_renderer *r, const crisp_raster_vertex **v
     *tris = r->tris;
     *vert_count = r->vert_count;
     *tri_count = r->tri_count;
+}
+
+void crisp__renderer_seen(const crisp_renderer *r, const int32_t **faces, size_t *count)
+{
+    *faces = r->seen_list;
+    *count = r->seen_count;
 }
 
 const crisp_raster_target *crisp__renderer_target(const crisp_renderer *r)
@@ -1529,7 +1573,25 @@ static void rebase_tris(void *vctx, size_t begin, size_t end, int worker)
 typedef struct draw_part {
     int part; /* 0: the whole draw in one; 1, 3, 2 */
     const uint8_t *later;
+    /* 1: the faces the image shows are listed in r->seen_list (seen_count of them), the
+     * planner's seen faces (crisp__planner_seen), found by the resolve. */
+    int seen;
 } draw_part;
+
+/* The block depth of the blocks dirty[] into r->hiz (crisp__raster_block_depth): from the live
+ * block depth the surfaces' draws keep when live_ok (the same values), else read from the
+ * samples. */
+static void refresh_depth(crisp_renderer *r, const crisp_raster_target *tg, int live_ok,
+                          const int dirty[4])
+{
+    if (live_ok) {
+        crisp__raster_set_live_depth(r->raster, r->hiz_live, CRISP_OCCL_BLOCK);
+        crisp__raster_block_depth_live(r->raster, tg, r->pool, dirty, r->hiz);
+        crisp__raster_set_live_depth(r->raster, NULL, 0);
+    } else {
+        crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+    }
+}
 
 /* crisp_render_cpu_plan (only, base and window NULL), crisp_render_cpu_plan_faces (a subset of
  * the faces, over a base image), crisp__render_cpu_window (a window of the frame) and
@@ -1722,6 +1784,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     crisp_raster_stats rs = {0};
     /* The blocks the batches drawn since the last look at the depth can have reached. */
     int drawn = 0, looked = 0, dirty[4] = {INT_MAX, INT_MAX, -1, -1};
+    /* The surfaces' draws keep the live block depth (every write to the target since its clear
+     * goes through them until the splats are drawn): the refreshes copy it. */
+    int live_ok = 0;
     if (stage >= 2) { /* over the earlier parts' surfaces */
         nv = r->carry.nv, nt = r->carry.nt;
         occluded_leaves = r->carry.occluded_leaves, occluded_tris = r->carry.occluded_tris;
@@ -1730,11 +1795,15 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         drawn = r->carry.drawn, looked = r->carry.looked;
         memcpy(dirty, r->carry.dirty, sizeof dirty);
         t_tess = r->carry.t_tess, t_raster = r->carry.t_raster;
+        live_ok = r->carry.live_ok;
     } else if (occlusion) {
         size_t blocks = (size_t)((win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK) *
                         (size_t)((win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK);
-        if ((st = crisp_grow((void **)&r->hiz, &r->hiz_cap, blocks, sizeof *r->hiz))) return st;
+        if ((st = crisp_grow((void **)&r->hiz, &r->hiz_cap, blocks, sizeof *r->hiz)) ||
+            (st = crisp_grow((void **)&r->hiz_live, &r->hiz_live_cap, blocks, sizeof *r->hiz_live)))
+            return st;
         memset(r->hiz, 0, blocks * sizeof *r->hiz); /* nothing drawn: no block hides anything */
+        live_ok = !base && tg->clear_pending;       /* the first draw clears every tile */
     }
     double t1 = crisp_time_now();
     t_tess += t1 - t0;
@@ -1756,7 +1825,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                 for (size_t i = 0; i < n; i++)
                     tris += r->leaf_tbase[list[i]];
                 if (128 * tris >= area) {
-                    crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+                    refresh_depth(r, tg, live_ok, dirty);
                     dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
                     looked = 1;
                 }
@@ -1807,10 +1876,31 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         /* Each pass projects only its own vertices: the batch's, later the ribbons'. The block
          * depth also drops the kept leaves' hidden triangles at set-up. */
         crisp__raster_set_occlusion(r->raster, looked ? r->hiz : NULL, CRISP_OCCL_BLOCK);
+        /* The live block depth computed by this draw's tiles when the block depth is refreshed
+         * before the next draw (the rule above on the next batch; after the last batch, the
+         * stage's end, the splats' or the ribbons' refresh): the tiles not computed are read at
+         * the refresh, so any answer gives the same values. */
+        int follows = 1;
+        for (int b2 = b + 1; b2 < CRISP_OCCL_BATCHES; b2++) {
+            if (bstart[b2 + 1] == bstart[b2]) continue;
+            follows = 0;
+            if (nt && dirty[0] <= dirty[2]) {
+                size_t tris = 0, area = (size_t)(dirty[2] - dirty[0] + 1) *
+                                        (size_t)(dirty[3] - dirty[1] + 1) * CRISP_OCCL_BLOCK *
+                                        CRISP_OCCL_BLOCK * r->desc.samples;
+                for (uint32_t i = bstart[b2]; i < bstart[b2 + 1]; i++)
+                    tris += r->leaf_tbase[r->order[i]];
+                follows = 128 * tris >= area;
+            }
+            break;
+        }
+        crisp__raster_set_live_depth(r->raster, live_ok ? r->hiz_live : NULL, CRISP_OCCL_BLOCK);
+        crisp__raster_live_compute(r->raster, follows);
         crisp_raster_stats rsb;
-        if ((st = crisp__raster_draw(r->raster, tg, r->pool, r->verts + vb0, nv - vb0,
-                                     r->tris + tb0, nt - tb0, trim_test, ctx, &rsb)))
-            return st;
+        st = crisp__raster_draw(r->raster, tg, r->pool, r->verts + vb0, nv - vb0, r->tris + tb0,
+                                nt - tb0, trim_test, ctx, &rsb);
+        crisp__raster_set_live_depth(r->raster, NULL, 0);
+        if (st) return st;
         drawn = 1;
         tris_dropped += rsb.triangles_in - rsb.triangles_setup;
         rs.fragments_tested += rsb.fragments_tested;
@@ -1826,7 +1916,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     if (stage == 1 || stage == 3) {
         /* The block depth of everything drawn, for the planner's next stage. */
         if (occlusion && drawn && nt && dirty[0] <= dirty[2]) {
-            crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+            refresh_depth(r, tg, live_ok, dirty);
             dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
             looked = 1;
         }
@@ -1836,6 +1926,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         r->carry.rs = rs;
         r->carry.drawn = drawn, r->carry.looked = looked;
         memcpy(r->carry.dirty, dirty, sizeof dirty);
+        r->carry.live_ok = live_ok;
         r->carry.t_tess = t_tess, r->carry.t_raster = t_raster;
         return CRISP_OK;
     }
@@ -1856,7 +1947,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     if (plan->splat_range_count) {
         double ta = crisp_time_now();
         if (occlusion && drawn && nt && dirty[0] <= dirty[2]) {
-            crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+            refresh_depth(r, tg, live_ok, dirty);
             dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
             looked = 1;
         }
@@ -1867,6 +1958,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
                                      .win = {win[0], win[1], win[2], win[3]},
                                      .occlude = occlusion};
         if ((st = crisp__splat_draw(&r->splat, tg, r->pool, &sd, &sds))) return st;
+        live_ok = 0; /* the splats' samples are not in it */
         if (sds.box[0] <= sds.box[2]) {
             dirty[0] = sds.box[0] < dirty[0] ? sds.box[0] : dirty[0];
             dirty[1] = sds.box[1] < dirty[1] ? sds.box[1] : dirty[1];
@@ -1885,7 +1977,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
      * theirs could pass the fill pass's depth test): whole quads dropped here, the other hidden
      * triangles at the fill draw's set-up. */
     if (occlusion && drawn && quads) {
-        crisp__raster_block_depth(tg, r->pool, CRISP_OCCL_BLOCK, dirty, r->hiz);
+        refresh_depth(r, tg, live_ok, dirty);
         dirty[0] = dirty[1] = INT_MAX, dirty[2] = dirty[3] = -1;
         looked = 1;
     }
@@ -1983,8 +2075,30 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     rc.avx = __builtin_cpu_supports("avx");
 #endif
     rc.rows = (size_t)(rect[3] - rect[1]);
+    uint32_t fc = plan->face_count;
+    int seen = part && part->seen;
+    r->seen_count = 0;
+    if (seen) {
+        if ((st = crisp_grow((void **)&r->seen_marks, &r->seen_marks_cap,
+                             (size_t)r->workers * (fc ? fc : 1), 1)) ||
+            (st = crisp_grow((void **)&r->seen_list, &r->seen_list_cap, fc ? fc : 1,
+                             sizeof *r->seen_list)))
+            return st;
+        memset(r->seen_marks, 0, (size_t)r->workers * fc);
+        rc.seen = r->seen_marks;
+    }
     crisp__raster_share_init(&rc.share, (rc.rows + RESOLVE_ROWS - 1) / RESOLVE_ROWS, r->workers);
     crisp_pool_parallel_for(r->pool, (size_t)rc.share.ranges, 1, resolve_groups, &rc);
+    if (seen) {
+        size_t n = 0;
+        for (uint32_t f = 0; f < fc; f++) {
+            uint8_t any = 0;
+            for (int w = 0; w < r->workers; w++)
+                any |= r->seen_marks[(size_t)w * fc + f];
+            if (any) r->seen_list[n++] = (int32_t)f;
+        }
+        r->seen_count = n;
+    }
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);
     stats->vertices = surface_v;
@@ -2046,11 +2160,14 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
     const uint8_t *later;
     if ((st = crisp__planner_plan_near(r->planner, sc, cam, &plan, &later))) return st;
     if (!later) {
-        if ((st = crisp_render_cpu_plan(r, sc, plan, cam, img, stats))) return st;
-        if (!crisp__planner_seen_wanted(r->planner, sc)) return CRISP_OK;
-        return crisp__planner_seen(r->planner, sc, img->face, (size_t)img->width * img->height);
+        /* The faces on screen (the next frame's first stage) when the planner wants them. */
+        int seen = crisp__planner_seen_wanted(r->planner, sc);
+        if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats,
+                            &(draw_part){0, NULL, seen})))
+            return st;
+        return seen ? crisp__planner_seen(r->planner, sc, r->seen_list, r->seen_count) : CRISP_OK;
     }
-    if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats, &(draw_part){1, NULL})))
+    if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats, &(draw_part){1, NULL, 0})))
         return st;
     int win[4] = {0, 0, cam->width, cam->height};
     for (;;) {
@@ -2058,12 +2175,13 @@ crisp_status crisp_render_cpu(crisp_renderer *r, const crisp_scene *sc, const cr
         if ((st = crisp__planner_plan_next(r->planner, sc, r->hiz, win, &plan, &last))) return st;
         if (last) {
             if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats,
-                                &(draw_part){2, later})))
+                                &(draw_part){2, later, 1})))
                 return st;
             /* The faces on screen: the next frame's first stage. */
-            return crisp__planner_seen(r->planner, sc, img->face, (size_t)img->width * img->height);
+            return crisp__planner_seen(r->planner, sc, r->seen_list, r->seen_count);
         }
-        if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats, &(draw_part){3, NULL})))
+        if ((st = draw_plan(r, sc, plan, cam, NULL, NULL, NULL, img, stats,
+                            &(draw_part){3, NULL, 0})))
             return st;
     }
 }

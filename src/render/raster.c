@@ -122,6 +122,11 @@ struct crisp_raster {
     int occl_size;
     int clip_on;    /* crisp__raster_set_clip */
     double clip[4]; /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
+    double *live;   /* crisp__raster_set_live_depth: the block depth kept by the draws */
+    int live_size;
+    int live_compute;   /* crisp__raster_live_compute */
+    uint8_t *live_tile; /* per tile: 1 when live holds its blocks' present values */
+    size_t live_tile_cap;
 };
 
 void crisp__raster_set_clip(crisp_raster *r, const double k[4])
@@ -146,6 +151,17 @@ void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, 
 {
     r->untested = untested;
     r->untested_count = untested ? count : 0;
+}
+
+void crisp__raster_set_live_depth(crisp_raster *r, double *dest, int size)
+{
+    r->live = dest && size > 0 && TILE % size == 0 ? dest : NULL;
+    r->live_size = size;
+}
+
+void crisp__raster_live_compute(crisp_raster *r, int on)
+{
+    r->live_compute = on;
 }
 
 void crisp__raster_set_hiz(crisp_raster *r, int on)
@@ -184,6 +200,7 @@ void crisp__raster_destroy(crisp_raster *r)
     free(r->tile_mask);
     free(r->tri_boxes);
     free(r->bin_counts);
+    free(r->live_tile);
     free(r);
 }
 
@@ -294,61 +311,66 @@ typedef struct block_depth_ctx {
     double *dest;
 } block_depth_ctx;
 
-/* Block rows by0 + [begin, end), blocks bx0 .. bx1 of each: the least 1/W, row by row of pixels. */
+/* Blocks bx0 .. bx1 of block row by (size n): the least 1/W of each, row by row of pixels. */
+static void block_depth_row(const crisp_raster_target *t, int n, int by, int bx0, int bx1,
+                            double *dest)
+{
+    int S = t->samples, bw = (t->width + n - 1) / n;
+    double *out = dest + (size_t)by * (size_t)bw;
+    for (int bx = bx0; bx <= bx1; bx++)
+        out[bx] = INFINITY;
+    int j1 = (by + 1) * n < t->height ? (by + 1) * n : t->height;
+    int gx0 = bx0; /* the blocks left to the loop below */
+#if defined(__SSE2__)
+    if (S == 1 && n == 4) { /* the common case: each block's 4 x 4 values in registers */
+        int bxe = bx1 < t->width / 4 ? bx1 + 1 : t->width / 4; /* whole blocks */
+        for (int bx = bx0; bx < bxe; bx++) {
+            const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
+            __m128d m2 = _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2));
+            for (int j = by * 4 + 1; j < j1; j++) {
+                p += t->width;
+                m2 = _mm_min_pd(m2, _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2)));
+            }
+            double l[2];
+            _mm_storeu_pd(l, m2);
+            out[bx] = l[0] < l[1] ? l[0] : l[1];
+        }
+        gx0 = bxe > gx0 ? bxe : gx0;
+    }
+#endif
+    for (int j = by * n; j < j1; j++) {
+        const double *row = t->inv_w + (size_t)j * t->width * S;
+        for (int bx = gx0; bx <= bx1; bx++) {
+            size_t a = (size_t)bx * n * S,
+                   b = (size_t)(bx * n + n < t->width ? bx * n + n : t->width) * S;
+            double m = out[bx];
+            size_t k = a;
+#if defined(__SSE2__)
+            /* Two lanes at a time (a least value: the order does not matter; stored values
+             * are never NaN). */
+            if (k + 2 <= b) {
+                __m128d m2 = _mm_set1_pd(m);
+                for (; k + 2 <= b; k += 2)
+                    m2 = _mm_min_pd(_mm_loadu_pd(row + k), m2);
+                double l[2];
+                _mm_storeu_pd(l, m2);
+                m = l[0] < l[1] ? l[0] : l[1];
+            }
+#endif
+            for (; k < b; k++)
+                m = row[k] < m ? row[k] : m;
+            out[bx] = m;
+        }
+    }
+}
+
+/* Block rows by0 + [begin, end), blocks bx0 .. bx1 of each. */
 static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     const block_depth_ctx *c = vctx;
-    const crisp_raster_target *t = c->t;
-    int S = t->samples, n = c->size, bw = (t->width + n - 1) / n;
-    for (int by = c->by0 + (int)begin; by < c->by0 + (int)end; by++) {
-        double *out = c->dest + (size_t)by * (size_t)bw;
-        for (int bx = c->bx0; bx <= c->bx1; bx++)
-            out[bx] = INFINITY;
-        int j1 = (by + 1) * n < t->height ? (by + 1) * n : t->height;
-        int gx0 = c->bx0; /* the blocks left to the loop below */
-#if defined(__SSE2__)
-        if (S == 1 && n == 4) { /* the common case: each block's 4 x 4 values in registers */
-            int bxe = c->bx1 < t->width / 4 ? c->bx1 + 1 : t->width / 4; /* whole blocks */
-            for (int bx = c->bx0; bx < bxe; bx++) {
-                const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
-                __m128d m2 = _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2));
-                for (int j = by * 4 + 1; j < j1; j++) {
-                    p += t->width;
-                    m2 = _mm_min_pd(m2, _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2)));
-                }
-                double l[2];
-                _mm_storeu_pd(l, m2);
-                out[bx] = l[0] < l[1] ? l[0] : l[1];
-            }
-            gx0 = bxe > gx0 ? bxe : gx0;
-        }
-#endif
-        for (int j = by * n; j < j1; j++) {
-            const double *row = t->inv_w + (size_t)j * t->width * S;
-            for (int bx = gx0; bx <= c->bx1; bx++) {
-                size_t a = (size_t)bx * n * S,
-                       b = (size_t)(bx * n + n < t->width ? bx * n + n : t->width) * S;
-                double m = out[bx];
-                size_t k = a;
-#if defined(__SSE2__)
-                /* Two lanes at a time (a least value: the order does not matter; stored values
-                 * are never NaN). */
-                if (k + 2 <= b) {
-                    __m128d m2 = _mm_set1_pd(m);
-                    for (; k + 2 <= b; k += 2)
-                        m2 = _mm_min_pd(_mm_loadu_pd(row + k), m2);
-                    double l[2];
-                    _mm_storeu_pd(l, m2);
-                    m = l[0] < l[1] ? l[0] : l[1];
-                }
-#endif
-                for (; k < b; k++)
-                    m = row[k] < m ? row[k] : m;
-                out[bx] = m;
-            }
-        }
-    }
+    for (int by = c->by0 + (int)begin; by < c->by0 + (int)end; by++)
+        block_depth_row(c->t, c->size, by, c->bx0, c->bx1, c->dest);
 }
 
 void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, int size,
@@ -370,6 +392,70 @@ void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, i
     }
     block_depth_ctx c = {t, size, b[0], b[1], b[2], dest};
     crisp_pool_parallel_for(pool, (size_t)(b[3] - b[1] + 1), 4, block_depth_rows, &c);
+}
+
+/* The live block depth of one tile (crisp__raster_set_live_depth): its blocks, from its samples,
+ * or 0 when it is just cleared (empty). */
+static void live_tile(const crisp_raster *r, const crisp_raster_target *t, int tiles_x, size_t tile,
+                      int empty)
+{
+    int n = r->live_size, bw = (t->width + n - 1) / n;
+    int x0 = (int)(tile % (size_t)tiles_x) * TILE, y0 = (int)(tile / (size_t)tiles_x) * TILE;
+    int x1 = x0 + TILE < t->width ? x0 + TILE : t->width;
+    int y1 = y0 + TILE < t->height ? y0 + TILE : t->height;
+    for (int by = y0 / n; by <= (y1 - 1) / n; by++)
+        if (empty)
+            memset(r->live + (size_t)by * bw + x0 / n, 0,
+                   (size_t)((x1 - 1) / n - x0 / n + 1) * sizeof *r->live);
+        else
+            block_depth_row(t, n, by, x0 / n, (x1 - 1) / n, r->live);
+}
+
+typedef struct live_ctx {
+    crisp_raster *r;
+    const crisp_raster_target *t;
+    int tiles_x, tx0, tx1, ty0;
+} live_ctx;
+
+/* Tile rows ty0 + [begin, end) of tiles tx0 .. tx1: those live does not hold, from their samples.
+ */
+static void live_rows(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const live_ctx *c = vctx;
+    for (int ty = c->ty0 + (int)begin; ty < c->ty0 + (int)end; ty++)
+        for (int tx = c->tx0; tx <= c->tx1; tx++) {
+            size_t tile = (size_t)ty * c->tiles_x + tx;
+            if (c->r->live_tile[tile]) continue;
+            live_tile(c->r, c->t, c->tiles_x, tile, 0);
+            c->r->live_tile[tile] = 1;
+        }
+}
+
+void crisp__raster_block_depth_live(crisp_raster *r, const crisp_raster_target *t, crisp_pool *pool,
+                                    const int *blocks, double *dest)
+{
+    int size = r->live_size;
+    size_t tiles = (size_t)((t->width + TILE - 1) / TILE) * (size_t)((t->height + TILE - 1) / TILE);
+    if (!r->live || t->clear_pending || r->live_tile_cap < tiles) { /* nothing held */
+        crisp__raster_block_depth(t, pool, size, blocks, dest);
+        return;
+    }
+    int bw = (t->width + size - 1) / size, bh = (t->height + size - 1) / size;
+    int b[4] = {0, 0, bw - 1, bh - 1};
+    if (blocks)
+        for (int k = 0; k < 4; k++) {
+            int lim = k % 2 ? bh - 1 : bw - 1;
+            b[k] = blocks[k] < 0 ? 0 : blocks[k] > lim ? lim : blocks[k];
+        }
+    if (b[0] > b[2] || b[1] > b[3]) return;
+    int per = TILE / size;
+    live_ctx c = {r, t, (t->width + TILE - 1) / TILE, b[0] / per, b[2] / per, b[1] / per};
+    crisp_pool_parallel_for(pool, (size_t)(b[3] / per - c.ty0 + 1), 1, live_rows, &c);
+    for (int by = b[1]; by <= b[3]; by++) {
+        size_t a = (size_t)by * bw + (size_t)b[0];
+        memcpy(dest + a, r->live + a, (size_t)(b[2] - b[0] + 1) * sizeof *dest);
+    }
 }
 
 void crisp__raster_sample_offset(int samples, int s, double dest[2])
@@ -452,8 +538,9 @@ static inline int64_t round_half_away(double x)
     return (int64_t)t + (f >= 0.5) - (f <= -0.5);
 }
 
-/* 0 when the vertex cannot be set up (W <= 0, beyond the guard band or not finite). */
-static int project2(const double *p, const double *attr, const crisp_raster_target *t, pvert *out)
+/* 0 when the vertex cannot be set up (W <= 0, beyond the guard band or not finite); else its
+ * screen position and 1/W (val[0]), without the attributes. */
+static ALWAYS_INLINE int project_depth(const double *p, const crisp_raster_target *t, pvert *out)
 {
     double w = p[3];
     if (!(w > 0)) return 0;
@@ -462,8 +549,15 @@ static int project2(const double *p, const double *attr, const crisp_raster_targ
     if (!(fabs(out->sx) <= 2 * GUARD_PX && fabs(out->sy) <= 2 * GUARD_PX)) return 0;
     out->fx = round_half_away(out->sx * SUB);
     out->fy = round_half_away(out->sy * SUB);
-    double iw = 1.0 / w;
-    out->val[0] = iw;
+    out->val[0] = 1.0 / w;
+    return 1;
+}
+
+/* project_depth and the attributes over W. */
+static int project2(const double *p, const double *attr, const crisp_raster_target *t, pvert *out)
+{
+    if (!project_depth(p, t, out)) return 0;
+    double iw = out->val[0];
     for (int q = 1; q <= CRISP_RASTER_ATTRS; q++)
         out->val[q] = attr[q - 1] * iw;
     return 1;
@@ -612,14 +706,13 @@ int crisp__raster_quad_hidden(const crisp_raster *r, const crisp_raster_target *
 {
     if (!r->occl_hiz) return 0;
     double gx = GUARD_PX / image_w(t), gy = GUARD_PX / image_h(t);
-    static const double no_attr[CRISP_RASTER_ATTRS] = {0};
-    pvert v[4];
+    pvert v[4];                   /* only positions and 1/W are read (tri_dropped, core_bound) */
     for (int k = 0; k < 4; k++) { /* as project_vertices: only corners needing no clipping */
         double d[6];
         plane_dists(clip[k], gx, gy, d);
         for (int q = 0; q < 6; q++)
             if (!(d[q] >= 0 && isfinite(d[q]))) return 0;
-        if (!project2(clip[k], no_attr, t, &v[k])) return 0;
+        if (!project_depth(clip[k], t, &v[k])) return 0;
     }
     /* Without the core first: a quad that is not hidden stops here, before its core is worked
      * out; a hidden one is with the core when the core's bound (tri_hidden's, on the same
@@ -816,6 +909,11 @@ typedef struct {
     int avx; /* one-sample tiles through raster_tile1_avx (1) or raster_tile1_avx2 (2) */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
     crisp_raster_share share; /* the tiles, one home range per worker (raster_tiles) */
+    /* The live block depth at size live_size (crisp__raster_set_live_depth): a tile that the draw
+     * does not clear and whose blocks it holds (live_tile) starts its 8x8 block bounds from it
+     * (exact) instead of a pass over a block's samples at its first triangle. NULL: none. */
+    const double *live;
+    int live_size;
 } raster_ctx;
 
 /* Least 1/W over the block's samples (0 when one is empty). */
@@ -1256,6 +1354,24 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
     /* A tile just cleared has 0 everywhere: the bound is exact until its first writes. */
     for (int k = 0; k < BLOCKS * BLOCKS; k++)
         hiz[k] = 0, writes[k] = fresh ? 0 : block_samples;
+    if (!fresh && c->live && r->live_tile[tile] && r->bin_start[tile] != r->bin_start[tile + 1]) {
+        /* Each block's least 1/W: the least of the live blocks it holds (within the target). */
+        int n = c->live_size, lw = (t->width + n - 1) / n;
+        int x0t = tx * TILE, y0t = ty * TILE;
+        for (int bj = 0; bj < BLOCKS && y0t + bj * BLOCK < t->height; bj++)
+            for (int bi = 0; bi < BLOCKS && x0t + bi * BLOCK < t->width; bi++) {
+                int gx = x0t + bi * BLOCK, gy = y0t + bj * BLOCK;
+                int lx1 = (gx + BLOCK - 1 < t->width ? gx + BLOCK - 1 : t->width - 1) / n;
+                int ly1 = (gy + BLOCK - 1 < t->height ? gy + BLOCK - 1 : t->height - 1) / n;
+                double m = INFINITY;
+                for (int ly = gy / n; ly <= ly1; ly++)
+                    for (int lx = gx / n; lx <= lx1; lx++) {
+                        double l = c->live[(size_t)ly * lw + lx];
+                        m = l < m ? l : m;
+                    }
+                hiz[bj * BLOCKS + bi] = m, writes[bj * BLOCKS + bi] = 0;
+            }
+    }
     int use_hiz = c->hiz && !c->slack, vectors = c->vectors, clip_on = r->clip_on;
     /* The target's buffers, written only through these (no store can alias a triangle's data). */
     double *restrict inv_w = t->inv_w;
@@ -1642,6 +1758,12 @@ static void raster_tile(raster_ctx *c, size_t tile)
         raster_tile_s(c, tile, 1, c->clear, 0);
     else
         raster_tile_s(c, tile, c->t->samples, c->clear, 0);
+    const crisp_raster *r = c->r;
+    int drawn = r->bin_start[tile] != r->bin_start[tile + 1];
+    if (r->live && (c->clear || drawn)) {
+        if (r->live_compute) live_tile(r, c->t, c->tiles_x, tile, !drawn);
+        r->live_tile[tile] = (uint8_t)(r->live_compute != 0);
+    }
 }
 
 /* The tiles, shared out so that two workers seldom draw tiles next to each other at the same
@@ -2158,6 +2280,11 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
      * bins hold one batch, so the rasterizer's memory is bounded whatever the triangle count. */
     size_t total = 0, batch = r->batch ? r->batch : BATCH;
     rc.clear = t->clear_pending; /* the first batch's tiles clear themselves */
+    if (r->live) {
+        if ((st = crisp_grow((void **)&r->live_tile, &r->live_tile_cap, tiles, 1))) return st;
+        if (t->clear_pending) memset(r->live_tile, 0, tiles); /* each set as its tile clears */
+        if (BLOCK % r->live_size == 0) rc.live = r->live, rc.live_size = r->live_size;
+    }
     for (size_t first = 0; first < tri_count; first += batch) {
         sc.first = first;
         sc.count = tri_count - first < batch ? tri_count - first : batch;
@@ -2200,6 +2327,12 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
     if (t->clear_pending) { /* no triangles: clear anyway */
         clear_now(t, pool);
         t->clear_pending = 0;
+        if (r->live && r->live_compute) { /* every block empty */
+            size_t blocks = (size_t)((t->width + r->live_size - 1) / r->live_size) *
+                            (size_t)((t->height + r->live_size - 1) / r->live_size);
+            memset(r->live, 0, blocks * sizeof *r->live);
+            memset(r->live_tile, 1, tiles);
+        }
     }
     if (stats) {
         *stats = (crisp_raster_stats){.triangles_in = tri_count,

@@ -84,6 +84,19 @@ void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool);
  * there. pool may be NULL. */
 void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, int size,
                                const int *blocks, double *dest);
+/* The live block depth (issue 12): while dest is set (NULL: off; size divides the 64-pixel
+ * tile), each draw that computes it (crisp__raster_live_compute) also writes the block depth at
+ * size (crisp__raster_block_depth's values) of every tile it clears or draws a triangle in into
+ * dest, tile by tile just after the tile's triangles while its samples are still in the cache;
+ * a draw that does not marks those tiles as not held. crisp__raster_block_depth_live then gives
+ * crisp__raster_block_depth's values for blocks[4] from dest, reading the samples only of the
+ * tiles dest does not hold (a close-up's frame took four to five passes over most of the screen
+ * for its block depth). dest holds a tile from the draw that clears it, for as long as only
+ * draws with dest set write the target; the tiles' depth bounds start from it. */
+void crisp__raster_set_live_depth(crisp_raster *r, double *dest, int size);
+void crisp__raster_live_compute(crisp_raster *r, int on);
+void crisp__raster_block_depth_live(crisp_raster *r, const crisp_raster_target *t, crisp_pool *pool,
+                                    const int *blocks, double *dest);
 
 /* Offsets of the samples inside a pixel, in [0, 1)^2 (x right, y down). */
 void crisp__raster_sample_offset(int samples, int s, double dest[2]);

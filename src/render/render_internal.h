@@ -104,6 +104,10 @@ crisp_status crisp__render_cpu_window(crisp_renderer *r, const crisp_scene *sc,
 /* The last frame's per-sample results (CPU backend), for tests that check every sample. */
 struct crisp_raster_target;
 const struct crisp_raster_target *crisp__renderer_target(const crisp_renderer *r);
+/* The faces the last image drawn by crisp_render_cpu shows, as its resolve listed them for the
+ * planner's next first stage (crisp__planner_seen), in face order; count 0 when the planner did
+ * not want them. */
+void crisp__renderer_seen(const crisp_renderer *r, const int32_t **faces, size_t *count);
 /* The SIMD paths (the rasterizer's vector path and the resolve's two-pixel one) on (default)
  * or off (the scalar code, for tests that compare the two bit for bit); 2: on, but not the
  * rasterizer's AVX2 tiles (crisp__raster_set_vectors). */

@@ -452,6 +452,93 @@ static void test_block_depth(void **state)
     crisp_pool_destroy(pool);
 }
 
+/* The live block depth (crisp__raster_set_live_depth) over several draws into one cleared
+ * target (the soup in five parts, the first empty or two triangles, the third in batches of 100
+ * triangles, the draws computing it or not in turn; a junk-filled target with a pending clear;
+ * 1 and 4 samples, block sizes 2, 4 and 8, a target whose size is not a multiple of the tile or
+ * the block, 1 and 2 threads): after each draw crisp__raster_block_depth_live gives
+ * crisp__raster_block_depth's values bit for bit in a rectangle of blocks and leaves the others,
+ * and the whole target; the tiles' depth bounds start from it, and the target ends bit for bit
+ * as drawn without it. */
+static void test_live_depth(void **state)
+{
+    (void)state;
+    static crisp_raster_vertex v[3 * NT];
+    static crisp_raster_tri tri[NT];
+    rng_state = 23;
+    soup(v, tri);
+    size_t cut[6] = {0, 0, 300, 1100, 1300, NT};
+    for (int threads = 1; threads <= 2; threads++) {
+        crisp_pool *pool = NULL;
+        if (threads > 1) assert_int_equal(crisp_pool_create(threads, &pool), CRISP_OK);
+        for (int samples = 1; samples <= 4; samples += 3)
+            for (int n = 2; n <= 8; n *= 2)
+                for (int compute = 0; compute < 4; compute++) {
+                    crisp_raster *r;
+                    assert_int_equal(crisp__raster_create(&r), CRISP_OK);
+                    crisp_raster_target t = {0}, ref = {0};
+                    assert_int_equal(crisp__raster_target_init(&t, W, H, samples), CRISP_OK);
+                    assert_int_equal(crisp__raster_target_init(&ref, W, H, samples), CRISP_OK);
+                    crisp__raster_target_clear(&ref);
+                    size_t ns = (size_t)W * H * samples;
+                    memset(t.inv_w, 0x55, ns * sizeof *t.inv_w);
+                    memset(t.face, 0x55, ns * sizeof *t.face);
+                    crisp__raster_target_clear_depth(&t, pool);
+                    int bw = (W + n - 1) / n, bh = (H + n - 1) / n;
+                    size_t nb = (size_t)bw * bh;
+                    double *live = malloc(nb * sizeof *live), *want = malloc(nb * sizeof *want),
+                           *got = malloc(nb * sizeof *got);
+                    for (size_t k = 0; k < nb; k++)
+                        live[k] = -1;
+                    /* the first draw clears every tile: empty, or two triangles */
+                    cut[1] = n == 2 ? 0 : 2;
+                    for (int d = 0; d < 5; d++) {
+                        crisp__raster_set_batch(r, d == 2 ? 100 : 0);
+                        crisp__raster_set_live_depth(r, live, n);
+                        /* computed by every draw, none, every other one, the others */
+                        crisp__raster_live_compute(r, compute == 0 ||
+                                                          (compute > 1 && (d + compute) % 2 == 0));
+                        assert_int_equal(crisp__raster_draw(r, &t, pool, v, 3 * NT, tri + cut[d],
+                                                            cut[d + 1] - cut[d], NULL, NULL, NULL),
+                                         CRISP_OK);
+                        crisp__raster_set_live_depth(r, NULL, 0);
+                        assert_int_equal(crisp__raster_draw(r, &ref, pool, v, 3 * NT, tri + cut[d],
+                                                            cut[d + 1] - cut[d], NULL, NULL, NULL),
+                                         CRISP_OK);
+                        crisp__raster_block_depth(&t, pool, n, NULL, want);
+                        for (size_t k = 0; k < nb; k++)
+                            got[k] = -2;
+                        int rect[4] = {1 + d, 2, bw - 3, bh + 5};
+                        crisp__raster_set_live_depth(r, live, n);
+                        crisp__raster_block_depth_live(r, &t, pool, rect, got);
+                        for (int by = 0; by < bh; by++)
+                            for (int bx = 0; bx < bw; bx++) {
+                                size_t k = (size_t)by * bw + bx;
+                                int in = bx >= 1 + d && bx <= bw - 3 && by >= 2;
+                                assert_true(in ? got[k] == want[k] : got[k] == -2);
+                            }
+                        if (d == 4) { /* the whole target */
+                            crisp__raster_block_depth_live(r, &t, pool, NULL, got);
+                            assert_memory_equal(got, want, nb * sizeof *got);
+                        }
+                        crisp__raster_set_live_depth(r, NULL, 0);
+                    }
+                    assert_memory_equal(t.inv_w, ref.inv_w, ns * sizeof *t.inv_w);
+                    assert_memory_equal(t.face, ref.face, ns * sizeof *t.face);
+                    for (size_t k = 0; k < ns; k++) /* attributes where a sample was drawn */
+                        if (t.face[k] >= 0)
+                            assert_memory_equal(t.attr + k * CRISP_RASTER_ATTRS,
+                                                ref.attr + k * CRISP_RASTER_ATTRS,
+                                                CRISP_RASTER_ATTRS * sizeof *t.attr);
+                    free(live), free(want), free(got);
+                    crisp__raster_target_free(&t);
+                    crisp__raster_target_free(&ref);
+                    crisp__raster_destroy(r);
+                }
+        if (pool) crisp_pool_destroy(pool);
+    }
+}
+
 /* crisp__plan_trim_box against crisp_plan_trim_test on random tables: whenever the box test
  * answers 0 or 1, the point test gives that answer at dense samples of the box, at its corners
  * and at the crossings and row and strip boundaries inside it. */
@@ -729,6 +816,7 @@ int main(void)
         cmocka_unit_test(test_box_test),
         cmocka_unit_test(test_box_enclosure_sound),
         cmocka_unit_test(test_block_depth),
+        cmocka_unit_test(test_live_depth),
         cmocka_unit_test(test_vectors_equal_scalar),
         cmocka_unit_test(test_deferred_clear),
         cmocka_unit_test(test_plan_trim_box),
