@@ -42,6 +42,7 @@
 #include <string.h>
 
 #include "crisp/trim.h"
+#include "nurbs/nurbs_internal.h"
 #include "splat.h"
 
 typedef struct cell cell;
@@ -64,6 +65,7 @@ typedef struct splat_ctx {
     const crisp_scene *scene;
     const crisp_scene_face *f;
     const crisp_surface *surface;
+    crisp__surface_normals normals; /* crisp_surface_normal of surface, cheaper */
     const crisp_bezier_curve *pieces;
     int piece_count;
     double piece_box[4]; /* umin, umax, vmin, vmax of every piece's control points */
@@ -212,7 +214,7 @@ static crisp_status emit(splat_ctx *c, double u, double v, const double x[3], do
     }
     crisp_splat *sp = &set->splats[set->count++];
     double nrm[3];
-    crisp_surface_normal(c->surface, u, v, nrm);
+    crisp__surface_normals_at(&c->normals, u, v, nrm);
     for (int k = 0; k < 3; k++) {
         sp->p[k] = (float)(x[k] - set->origin[k]);
         sp->n[k] = (float)nrm[k];
@@ -647,11 +649,10 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
     c.cpw = crisp_malloc_array(ncp, sizeof(double));
     c.euc = crisp_malloc_array(ncp, sizeof(double));
     c.col = crisp_malloc_array(ncp, sizeof(double));
-    crisp_status st = CRISP_OK;
-    if (!c.boxes || !c.cpw || !c.euc || !c.col) {
+    crisp_status st = crisp__surface_normals_init(&c.normals, c.surface);
+    if (!st && (!c.boxes || !c.cpw || !c.euc || !c.col))
         st = crisp_error(CRISP_ERR_NO_MEMORY, "splat build of face %u", face);
-        goto done;
-    }
+    if (st) goto done;
     c.piece_box[0] = c.piece_box[2] = HUGE_VAL;
     c.piece_box[1] = c.piece_box[3] = -HUGE_VAL;
     for (int k = 0; k < c.piece_count; k++) {
@@ -673,6 +674,7 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
         for (uint32_t k = 0; k < f->patch_count && !st; k++)
             st = patch_cells(&c, &scene->patches[f->first_patch + k].bez, c.piece_count == 0);
 done:
+    crisp__surface_normals_free(&c.normals);
     crisp_free(c.boxes);
     crisp_free(c.cpw);
     crisp_free(c.euc);
