@@ -37,6 +37,13 @@ void crisp__bezier_patch_rows_s(const crisp_bezier_patch *p, double s, double *r
 void crisp__bezier_patch_derivs_rows(const crisp_bezier_patch *p, const double *rows, double t,
                                      double *point, double *d_s, double *d_t);
 
+/* crisp_bezier_patch_eval in two halves, for many points that share s (a column of cells):
+ * eval_rows_s sums the patch's rows at s (rows: (dv + 1) * 4 doubles), eval_rows finishes at t.
+ * Together they give crisp_bezier_patch_eval(p, s, t, dest) bit for bit. */
+void crisp__bezier_patch_eval_rows_s(const crisp_bezier_patch *p, double s, double *rows);
+void crisp__bezier_patch_eval_rows(const crisp_bezier_patch *p, const double *rows, double t,
+                                   double *dest);
+
 /* crisp_surface_normal at many points of one surface, bit for bit the same normals, cheaper
  * (issue 12, session 14: the splat builder's normals were a quarter of a large model's first
  * frame). The basis functions and derivatives of the last CRISP__BASIS_CACHE parameter values

@@ -82,6 +82,9 @@ typedef struct splat_ctx {
     double *col;       /* col_patch restricted to [col_s0, col_s1] in u */
     const crisp_bezier_patch *col_patch;
     double col_s0, col_s1;
+    const crisp_bezier_patch *eval_patch; /* eval_rows: eval_patch's rows summed at eval_s */
+    uint64_t eval_s;                      /* (its bits) */
+    double *eval_rows;
     int avx;     /* restrict_points_avx may run */
     cell *stack; /* pending cells of a patch */
     size_t stack_count, stack_cap;
@@ -194,6 +197,37 @@ static void euclid(const double *cpw, int n, double *e)
     for (int i = 0; i < n; i++)
         for (int q = 0; q < 3; q++)
             e[3 * i + q] = cpw[4 * i + q] / cpw[4 * i + 3];
+}
+
+/* euclid with a point's four coordinates divided at once (the same quotients); writes e[3 n]
+ * too (the last point's w / w: the arrays have room). */
+__attribute__((target("avx"))) static void euclid_avx(const double *cpw, int n, double *e)
+{
+    for (int i = 0; i < n; i++)
+        _mm256_storeu_pd(
+            e + 3 * i, _mm256_div_pd(_mm256_loadu_pd(cpw + 4 * i), _mm256_set1_pd(cpw[4 * i + 3])));
+}
+
+static void euclid_any(const splat_ctx *c, const double *cpw, int n, double *e)
+{
+    if (c->avx)
+        euclid_avx(cpw, n, e);
+    else
+        euclid(cpw, n, e);
+}
+
+/* crisp_bezier_patch_eval(p, s, t, x) with p's rows summed at s kept from the last call (the
+ * cells of a column share s): the same bits. */
+static void patch_point(splat_ctx *c, const crisp_bezier_patch *p, double s, double t, double x[3])
+{
+    uint64_t bits;
+    memcpy(&bits, &s, sizeof bits);
+    if (c->eval_patch != p || c->eval_s != bits) {
+        crisp__bezier_patch_eval_rows_s(p, s, c->eval_rows);
+        c->eval_patch = p;
+        c->eval_s = bits;
+    }
+    crisp__bezier_patch_eval_rows(p, c->eval_rows, t, x);
 }
 
 /* ---- emitting -------------------------------------------------------------------------------- */
@@ -455,9 +489,9 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int
         if (k.t0 > 0.0 || k.t1 < 1.0)
             for (int i = 0; i < nu_; i++)
                 restrict_any(c, cpw + 4 * i, top->dv, 4 * (ptrdiff_t)nu_, k.t0, k.t1);
-        euclid(cpw, n, e);
+        euclid_any(c, cpw, n, e);
         double x[3];
-        crisp_bezier_patch_eval(top, (pt[0] - top->u0) / du, (pt[1] - top->v0) / dv, x);
+        patch_point(c, top, (pt[0] - top->u0) / du, (pt[1] - top->v0) / dv, x);
         double rc = hull_radius(e, n, x), bound = c->r_in;
         if (rc <= bound) {
             if (rc > c->got) c->got = rc;
@@ -548,7 +582,7 @@ static crisp_status block_cells(splat_ctx *c, uint32_t iu0, uint32_t iu1, uint32
         for (uint32_t iu = iu0; iu < iu1 && rc <= c->r_in; iu++) {
             const crisp_bezier_patch *q = patch_at(c, iu, iv);
             int n = (q->du + 1) * (q->dv + 1);
-            euclid(q->cpw, n, c->euc);
+            euclid_any(c, q->cpw, n, c->euc);
             rc = fmax(rc, hull_radius(c->euc, n, x));
         }
     if (rc <= c->r_in) {
@@ -649,8 +683,9 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
     c.cpw = crisp_malloc_array(ncp, sizeof(double));
     c.euc = crisp_malloc_array(ncp, sizeof(double));
     c.col = crisp_malloc_array(ncp, sizeof(double));
+    c.eval_rows = crisp_malloc_array((size_t)(maxd + 1) * 4, sizeof(double));
     crisp_status st = crisp__surface_normals_init(&c.normals, c.surface);
-    if (!st && (!c.boxes || !c.cpw || !c.euc || !c.col))
+    if (!st && (!c.boxes || !c.cpw || !c.euc || !c.col || !c.eval_rows))
         st = crisp_error(CRISP_ERR_NO_MEMORY, "splat build of face %u", face);
     if (st) goto done;
     c.piece_box[0] = c.piece_box[2] = HUGE_VAL;
@@ -679,6 +714,7 @@ done:
     crisp_free(c.cpw);
     crisp_free(c.euc);
     crisp_free(c.col);
+    crisp_free(c.eval_rows);
     crisp_free(c.stack);
     if (st) {
         crisp__splat_set_free(dest);
