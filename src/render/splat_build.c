@@ -70,6 +70,12 @@ typedef struct splat_ctx {
     int piece_count;
     double piece_box[4]; /* umin, umax, vmin, vmax of every piece's control points */
     double (*boxes)[4];  /* per piece */
+    /* The pieces the cell tests look at, in piece order: every piece in block_cells; in
+     * patch_cells those that can meet the patch's cells (near: their box meets the patch's
+     * rectangle; left: they can cross a scan line of the patch left of its points). */
+    int *all, *near_list, *left_list;
+    const int *near_idx, *left_idx;
+    int near_count, left_count;
     uint32_t face;
     double r_in;   /* the bound every cell meets: the radius less the rounding margin */
     double margin; /* that margin */
@@ -316,7 +322,8 @@ static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[
 {
     int got = 0;
     double q[2];
-    for (int k = 0; k < c->piece_count; k++) {
+    for (int i = 0; i < c->near_count; i++) {
+        const int k = c->near_idx[i];
         const double *b = c->boxes[k];
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
         int budget = SPLAT_FIND_BUDGET;
@@ -373,7 +380,8 @@ static void cell_curve_point_near(const splat_ctx *c, const double rect[4], doub
     double m[2] = {0.5 * (rect[0] + rect[1]), 0.5 * (rect[2] + rect[3])};
     double best = (pt[0] - m[0]) * (pt[0] - m[0]) + (pt[1] - m[1]) * (pt[1] - m[1]);
     double tiny = 0.0625 * fmax(rect[1] - rect[0], rect[3] - rect[2]);
-    for (int k = 0; k < c->piece_count; k++) {
+    for (int i = 0; i < c->near_count; i++) {
+        const int k = c->near_idx[i];
         const double *b = c->boxes[k];
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
         curve_point_near(c->pieces[k].cpw, c->pieces[k].degree, rect, m, tiny, 0, pt, &best);
@@ -386,7 +394,8 @@ static void cell_curve_point_near(const splat_ctx *c, const double rect[4], doub
 static int classify(const splat_ctx *c, double u, double v)
 {
     int parity = 0;
-    for (int k = 0; k < c->piece_count; k++) {
+    for (int i = 0; i < c->left_count; i++) {
+        const int k = c->left_idx[i];
         const double *b = c->boxes[k];
         if (b[2] < v && b[3] >= v && b[0] < u)
             parity ^= crisp_trim_exact_classify(c->pieces + k, 1, u, v);
@@ -444,7 +453,41 @@ static void net_lengths(const double *e, int du, int dv, double *lu, double *lv)
     *lv = mv;
 }
 
+/* The pieces the cells of patch top look at (splat_ctx.near_idx, left_idx): the tests skip the
+ * others for every cell of the patch (its cells' rectangles and centres lie in the patch's
+ * rectangle, up to the rounding of top->u0 + s du: widened by far more), so the same answers in
+ * the same piece order. */
+static void patch_pieces(splat_ctx *c, const crisp_bezier_patch *top)
+{
+    double mu = 1e-9 * (fabs(top->u0) + fabs(top->u1)), mv = 1e-9 * (fabs(top->v0) + fabs(top->v1));
+    double u0 = top->u0 - mu, u1 = top->u1 + mu, v0 = top->v0 - mv, v1 = top->v1 + mv;
+    int nn = 0, nl = 0;
+    for (int k = 0; k < c->piece_count; k++) {
+        const double *b = c->boxes[k];
+        if (!(b[1] < u0 || b[0] > u1 || b[3] < v0 || b[2] > v1)) c->near_list[nn++] = k;
+        if (b[2] < v1 && b[3] >= v0 && b[0] < u1) c->left_list[nl++] = k;
+    }
+    c->near_idx = c->near_list, c->near_count = nn;
+    c->left_idx = c->left_list, c->left_count = nl;
+}
+
+static void all_pieces(splat_ctx *c)
+{
+    c->near_idx = c->left_idx = c->all;
+    c->near_count = c->left_count = c->piece_count;
+}
+
+static crisp_status patch_cells_in(splat_ctx *c, const crisp_bezier_patch *top, int known);
+
 static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int known)
+{
+    patch_pieces(c, top);
+    crisp_status st = patch_cells_in(c, top, known);
+    all_pieces(c);
+    return st;
+}
+
+static crisp_status patch_cells_in(splat_ctx *c, const crisp_bezier_patch *top, int known)
 {
     const int n = (top->du + 1) * (top->dv + 1);
     const double du = top->u1 - top->u0, dv = top->v1 - top->v0;
@@ -679,15 +722,20 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
                            radius, margin);
     c.max_cells = max_count ? 64ull * max_count + (1ull << 20) : UINT64_MAX;
     c.boxes = crisp_malloc_array(f->piece_count ? f->piece_count : 1, sizeof *c.boxes);
+    c.all = crisp_malloc_array(3 * (size_t)(f->piece_count ? f->piece_count : 1), sizeof(int));
     size_t ncp = (size_t)(maxd + 1) * (size_t)(maxd + 1) * 4;
     c.cpw = crisp_malloc_array(ncp, sizeof(double));
     c.euc = crisp_malloc_array(ncp, sizeof(double));
     c.col = crisp_malloc_array(ncp, sizeof(double));
     c.eval_rows = crisp_malloc_array((size_t)(maxd + 1) * 4, sizeof(double));
     crisp_status st = crisp__surface_normals_init(&c.normals, c.surface);
-    if (!st && (!c.boxes || !c.cpw || !c.euc || !c.col || !c.eval_rows))
+    if (!st && (!c.boxes || !c.all || !c.cpw || !c.euc || !c.col || !c.eval_rows))
         st = crisp_error(CRISP_ERR_NO_MEMORY, "splat build of face %u", face);
     if (st) goto done;
+    c.near_list = c.all + c.piece_count, c.left_list = c.all + 2 * c.piece_count;
+    for (int k = 0; k < c.piece_count; k++)
+        c.all[k] = k;
+    all_pieces(&c);
     c.piece_box[0] = c.piece_box[2] = HUGE_VAL;
     c.piece_box[1] = c.piece_box[3] = -HUGE_VAL;
     for (int k = 0; k < c.piece_count; k++) {
@@ -711,6 +759,7 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
 done:
     crisp__surface_normals_free(&c.normals);
     crisp_free(c.boxes);
+    crisp_free(c.all);
     crisp_free(c.cpw);
     crisp_free(c.euc);
     crisp_free(c.col);
