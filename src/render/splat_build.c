@@ -41,6 +41,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/compiler.h"
 #include "crisp/trim.h"
 #include "nurbs/nurbs_internal.h"
 #include "splat.h"
@@ -88,9 +89,13 @@ typedef struct splat_ctx {
     double *col;       /* col_patch restricted to [col_s0, col_s1] in u */
     const crisp_bezier_patch *col_patch;
     double col_s0, col_s1;
-    const crisp_bezier_patch *eval_patch; /* eval_rows: eval_patch's rows summed at eval_s */
-    uint64_t eval_s;                      /* (its bits) */
+    /* eval_rows: EVAL_CACHE entries of eval_patch's rows summed at an s (eval_s: its bits;
+     * eval_ok: the entry is filled) */
+    const crisp_bezier_patch *eval_patch;
+    uint64_t eval_s[64];
+    uint8_t eval_ok[64];
     double *eval_rows;
+    size_t eval_stride;
     int avx;     /* restrict_points_avx may run */
     cell *stack; /* pending cells of a patch */
     size_t stack_count, stack_cap;
@@ -149,8 +154,8 @@ static void restrict_points(double *c, int d, ptrdiff_t stride, double a, double
 /* restrict_points with the four coordinates of a point in one AVX register: the same products
  * and sums in the same order (no fused multiply-add), so the same bits; about a third of the
  * instructions (issue 12, session 13: restriction was 18% of imp49 default's first frame). */
-__attribute__((target("avx"))) static void restrict_points_avx(double *c, int d, ptrdiff_t stride,
-                                                               double a, double b)
+__attribute__((target("avx"))) static ALWAYS_INLINE void
+restrict_points_avx_body(double *c, int d, ptrdiff_t stride, double a, double b)
 {
     if (b < 1.0) {
         const __m256d vs = _mm256_set1_pd(1.0 - b), vb = _mm256_set1_pd(b);
@@ -175,10 +180,34 @@ __attribute__((target("avx"))) static void restrict_points_avx(double *c, int d,
     }
 }
 
+/* The body for any degree, and with the degree a constant for the common ones (bicubic and
+ * biquadratic patches: the loops unrolled, the same operations). */
+__attribute__((target("avx"))) static void restrict_points_avx(double *c, int d, ptrdiff_t stride,
+                                                               double a, double b)
+{
+    restrict_points_avx_body(c, d, stride, a, b);
+}
+
+__attribute__((target("avx"))) static void restrict_points_avx2(double *c, ptrdiff_t stride,
+                                                                double a, double b)
+{
+    restrict_points_avx_body(c, 2, stride, a, b);
+}
+
+__attribute__((target("avx"))) static void restrict_points_avx3(double *c, ptrdiff_t stride,
+                                                                double a, double b)
+{
+    restrict_points_avx_body(c, 3, stride, a, b);
+}
+
 static void restrict_any(const splat_ctx *c, double *pts, int d, ptrdiff_t stride, double a,
                          double b)
 {
-    if (c->avx)
+    if (c->avx && d == 3)
+        restrict_points_avx3(pts, stride, a, b);
+    else if (c->avx && d == 2)
+        restrict_points_avx2(pts, stride, a, b);
+    else if (c->avx)
         restrict_points_avx(pts, d, stride, a, b);
     else
         restrict_points(pts, d, stride, a, b);
@@ -222,18 +251,25 @@ static void euclid_any(const splat_ctx *c, const double *cpw, int n, double *e)
         euclid(cpw, n, e);
 }
 
-/* crisp_bezier_patch_eval(p, s, t, x) with p's rows summed at s kept from the last call (the
- * cells of a column share s): the same bits. */
+/* crisp_bezier_patch_eval(p, s, t, x) with p's rows summed at the last 64 values of s kept (the
+ * cells of a column share s; other cells' subtrees come in between): the same bits. */
+#define EVAL_CACHE 64
 static void patch_point(splat_ctx *c, const crisp_bezier_patch *p, double s, double t, double x[3])
 {
     uint64_t bits;
     memcpy(&bits, &s, sizeof bits);
-    if (c->eval_patch != p || c->eval_s != bits) {
-        crisp__bezier_patch_eval_rows_s(p, s, c->eval_rows);
+    if (c->eval_patch != p) {
+        memset(c->eval_ok, 0, sizeof c->eval_ok);
         c->eval_patch = p;
-        c->eval_s = bits;
     }
-    crisp__bezier_patch_eval_rows(p, c->eval_rows, t, x);
+    size_t e = (size_t)((bits * 0x9E3779B97F4A7C15ull) >> 58); /* 6 bits: EVAL_CACHE */
+    double *rows = c->eval_rows + e * c->eval_stride;
+    if (!c->eval_ok[e] || c->eval_s[e] != bits) {
+        crisp__bezier_patch_eval_rows_s(p, s, rows);
+        c->eval_ok[e] = 1;
+        c->eval_s[e] = bits;
+    }
+    crisp__bezier_patch_eval_rows(p, rows, t, x);
 }
 
 /* ---- emitting -------------------------------------------------------------------------------- */
@@ -727,7 +763,8 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
     c.cpw = crisp_malloc_array(ncp, sizeof(double));
     c.euc = crisp_malloc_array(ncp, sizeof(double));
     c.col = crisp_malloc_array(ncp, sizeof(double));
-    c.eval_rows = crisp_malloc_array((size_t)(maxd + 1) * 4, sizeof(double));
+    c.eval_stride = (size_t)(maxd + 1) * 4;
+    c.eval_rows = crisp_malloc_array(EVAL_CACHE * c.eval_stride, sizeof(double));
     crisp_status st = crisp__surface_normals_init(&c.normals, c.surface);
     if (!st && (!c.boxes || !c.all || !c.cpw || !c.euc || !c.col || !c.eval_rows))
         st = crisp_error(CRISP_ERR_NO_MEMORY, "splat build of face %u", face);

@@ -656,22 +656,23 @@ uint32_t crisp__splat_thin(crisp_splat *sp, uint32_t n, double radius)
             hi[a] = fl + 1 - t <= reach ? 1 : 0;
         }
         int near = 0;
-        for (int t = 0; t < 27 && !near && di > 0; t++) {
-            int o[3] = {t % 3 - 1, t / 3 % 3 - 1, t / 9 - 1};
-            if (o[0] < lo[0] || o[0] > hi[0] || o[1] < lo[1] || o[1] > hi[1] || o[2] < lo[2] ||
-                o[2] > hi[2])
-                continue;
-            int64_t k[3] = {c[0] + o[0], c[1] + o[1], c[2] + o[2]};
-            for (size_t at = cell_hash(k) & (cap - 1); slot[at]; at = (at + 1) & (cap - 1)) {
-                if (key[at][0] != k[0] || key[at][1] != k[1] || key[at][2] != k[2]) continue;
-                const float *o = sp[slot[at] - 1].p;
-                double dx = (double)o[0] - p[0], dy = (double)o[1] - p[1], dz = (double)o[2] - p[2];
-                if (dx * dx + dy * dy + dz * dz <= dd) {
-                    near = 1;
-                    break;
+        for (int o2 = lo[2]; o2 <= hi[2] && !near && di > 0; o2++)
+            for (int o1 = lo[1]; o1 <= hi[1] && !near; o1++)
+                for (int o0 = lo[0]; o0 <= hi[0] && !near; o0++) {
+                    int64_t k[3] = {c[0] + o0, c[1] + o1, c[2] + o2};
+                    for (size_t at = cell_hash(k) & (cap - 1); slot[at];
+                         at = (at + 1) & (cap - 1)) {
+                        if (key[at][0] != k[0] || key[at][1] != k[1] || key[at][2] != k[2])
+                            continue;
+                        const float *o = sp[slot[at] - 1].p;
+                        double dx = (double)o[0] - p[0], dy = (double)o[1] - p[1],
+                               dz = (double)o[2] - p[2];
+                        if (dx * dx + dy * dy + dz * dz <= dd) {
+                            near = 1;
+                            break;
+                        }
+                    }
                 }
-            }
-        }
         keep[i] = (uint8_t)!near;
         if (near) continue;
         size_t at = cell_hash(c) & (cap - 1);
