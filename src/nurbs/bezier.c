@@ -174,6 +174,34 @@ void crisp_bezier_patch_eval(const crisp_bezier_patch *p, double s, double t, do
         dest[d] = h[d] / h[3];
 }
 
+void crisp__bezier_patch_eval_rows_s(const crisp_bezier_patch *p, double s, double *rows)
+{
+    double bs[CRISP_MAX_DEGREE + 1];
+    const int nu = p->du + 1;
+    all_bernstein(p->du, s, bs);
+    for (int j = 0; j <= p->dv; j++) {
+        const double *row = p->cpw + (size_t)j * nu * 4;
+        double *r = rows + 4 * j;
+        for (int c = 0; c < 4; c++)
+            r[c] = 0;
+        for (int i = 0; i < nu; i++)
+            for (int c = 0; c < 4; c++)
+                r[c] += bs[i] * row[i * 4 + c];
+    }
+}
+
+void crisp__bezier_patch_eval_rows(const crisp_bezier_patch *p, const double *rows, double t,
+                                   double *dest)
+{
+    double bt[CRISP_MAX_DEGREE + 1], h[4] = {0, 0, 0, 0};
+    all_bernstein(p->dv, t, bt);
+    for (int j = 0; j <= p->dv; j++)
+        for (int c = 0; c < 4; c++)
+            h[c] += bt[j] * rows[4 * j + c];
+    for (int d = 0; d < 3; d++)
+        dest[d] = h[d] / h[3];
+}
+
 /* homogeneous_derivs(cpw, n, 4, t, 1, h) for 4 components and the first derivative, the same
  * operations in the same order (so the same values bit for bit), with the component count fixed
  * so that the compiler can unroll and vectorise it: the hot path of tessellation. */

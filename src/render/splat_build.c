@@ -41,7 +41,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/compiler.h"
 #include "crisp/trim.h"
+#include "nurbs/nurbs_internal.h"
 #include "splat.h"
 
 typedef struct cell cell;
@@ -64,10 +66,17 @@ typedef struct splat_ctx {
     const crisp_scene *scene;
     const crisp_scene_face *f;
     const crisp_surface *surface;
+    crisp__surface_normals normals; /* crisp_surface_normal of surface, cheaper */
     const crisp_bezier_curve *pieces;
     int piece_count;
     double piece_box[4]; /* umin, umax, vmin, vmax of every piece's control points */
     double (*boxes)[4];  /* per piece */
+    /* The pieces the cell tests look at, in piece order: every piece in block_cells; in
+     * patch_cells those that can meet the patch's cells (near: their box meets the patch's
+     * rectangle; left: they can cross a scan line of the patch left of its points). */
+    int *all, *near_list, *left_list;
+    const int *near_idx, *left_idx;
+    int near_count, left_count;
     uint32_t face;
     double r_in;   /* the bound every cell meets: the radius less the rounding margin */
     double margin; /* that margin */
@@ -80,6 +89,13 @@ typedef struct splat_ctx {
     double *col;       /* col_patch restricted to [col_s0, col_s1] in u */
     const crisp_bezier_patch *col_patch;
     double col_s0, col_s1;
+    /* eval_rows: EVAL_CACHE entries of eval_patch's rows summed at an s (eval_s: its bits;
+     * eval_ok: the entry is filled) */
+    const crisp_bezier_patch *eval_patch;
+    uint64_t eval_s[64];
+    uint8_t eval_ok[64];
+    double *eval_rows;
+    size_t eval_stride;
     int avx;     /* restrict_points_avx may run */
     cell *stack; /* pending cells of a patch */
     size_t stack_count, stack_cap;
@@ -138,8 +154,8 @@ static void restrict_points(double *c, int d, ptrdiff_t stride, double a, double
 /* restrict_points with the four coordinates of a point in one AVX register: the same products
  * and sums in the same order (no fused multiply-add), so the same bits; about a third of the
  * instructions (issue 12, session 13: restriction was 18% of imp49 default's first frame). */
-__attribute__((target("avx"))) static void restrict_points_avx(double *c, int d, ptrdiff_t stride,
-                                                               double a, double b)
+__attribute__((target("avx"))) static ALWAYS_INLINE void
+restrict_points_avx_body(double *c, int d, ptrdiff_t stride, double a, double b)
 {
     if (b < 1.0) {
         const __m256d vs = _mm256_set1_pd(1.0 - b), vb = _mm256_set1_pd(b);
@@ -164,10 +180,34 @@ __attribute__((target("avx"))) static void restrict_points_avx(double *c, int d,
     }
 }
 
+/* The body for any degree, and with the degree a constant for the common ones (bicubic and
+ * biquadratic patches: the loops unrolled, the same operations). */
+__attribute__((target("avx"))) static void restrict_points_avx(double *c, int d, ptrdiff_t stride,
+                                                               double a, double b)
+{
+    restrict_points_avx_body(c, d, stride, a, b);
+}
+
+__attribute__((target("avx"))) static void restrict_points_avx2(double *c, ptrdiff_t stride,
+                                                                double a, double b)
+{
+    restrict_points_avx_body(c, 2, stride, a, b);
+}
+
+__attribute__((target("avx"))) static void restrict_points_avx3(double *c, ptrdiff_t stride,
+                                                                double a, double b)
+{
+    restrict_points_avx_body(c, 3, stride, a, b);
+}
+
 static void restrict_any(const splat_ctx *c, double *pts, int d, ptrdiff_t stride, double a,
                          double b)
 {
-    if (c->avx)
+    if (c->avx && d == 3)
+        restrict_points_avx3(pts, stride, a, b);
+    else if (c->avx && d == 2)
+        restrict_points_avx2(pts, stride, a, b);
+    else if (c->avx)
         restrict_points_avx(pts, d, stride, a, b);
     else
         restrict_points(pts, d, stride, a, b);
@@ -194,6 +234,44 @@ static void euclid(const double *cpw, int n, double *e)
             e[3 * i + q] = cpw[4 * i + q] / cpw[4 * i + 3];
 }
 
+/* euclid with a point's four coordinates divided at once (the same quotients); writes e[3 n]
+ * too (the last point's w / w: the arrays have room). */
+__attribute__((target("avx"))) static void euclid_avx(const double *cpw, int n, double *e)
+{
+    for (int i = 0; i < n; i++)
+        _mm256_storeu_pd(
+            e + 3 * i, _mm256_div_pd(_mm256_loadu_pd(cpw + 4 * i), _mm256_set1_pd(cpw[4 * i + 3])));
+}
+
+static void euclid_any(const splat_ctx *c, const double *cpw, int n, double *e)
+{
+    if (c->avx)
+        euclid_avx(cpw, n, e);
+    else
+        euclid(cpw, n, e);
+}
+
+/* crisp_bezier_patch_eval(p, s, t, x) with p's rows summed at the last 64 values of s kept (the
+ * cells of a column share s; other cells' subtrees come in between): the same bits. */
+#define EVAL_CACHE 64
+static void patch_point(splat_ctx *c, const crisp_bezier_patch *p, double s, double t, double x[3])
+{
+    uint64_t bits;
+    memcpy(&bits, &s, sizeof bits);
+    if (c->eval_patch != p) {
+        memset(c->eval_ok, 0, sizeof c->eval_ok);
+        c->eval_patch = p;
+    }
+    size_t e = (size_t)((bits * 0x9E3779B97F4A7C15ull) >> 58); /* 6 bits: EVAL_CACHE */
+    double *rows = c->eval_rows + e * c->eval_stride;
+    if (!c->eval_ok[e] || c->eval_s[e] != bits) {
+        crisp__bezier_patch_eval_rows_s(p, s, rows);
+        c->eval_ok[e] = 1;
+        c->eval_s[e] = bits;
+    }
+    crisp__bezier_patch_eval_rows(p, rows, t, x);
+}
+
 /* ---- emitting -------------------------------------------------------------------------------- */
 
 /* A splat at S(u, v) = x for a cell whose surface lies within rc of x (R_X of the cell). */
@@ -212,7 +290,7 @@ static crisp_status emit(splat_ctx *c, double u, double v, const double x[3], do
     }
     crisp_splat *sp = &set->splats[set->count++];
     double nrm[3];
-    crisp_surface_normal(c->surface, u, v, nrm);
+    crisp__surface_normals_at(&c->normals, u, v, nrm);
     for (int k = 0; k < 3; k++) {
         sp->p[k] = (float)(x[k] - set->origin[k]);
         sp->n[k] = (float)nrm[k];
@@ -280,7 +358,8 @@ static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[
 {
     int got = 0;
     double q[2];
-    for (int k = 0; k < c->piece_count; k++) {
+    for (int i = 0; i < c->near_count; i++) {
+        const int k = c->near_idx[i];
         const double *b = c->boxes[k];
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
         int budget = SPLAT_FIND_BUDGET;
@@ -337,7 +416,8 @@ static void cell_curve_point_near(const splat_ctx *c, const double rect[4], doub
     double m[2] = {0.5 * (rect[0] + rect[1]), 0.5 * (rect[2] + rect[3])};
     double best = (pt[0] - m[0]) * (pt[0] - m[0]) + (pt[1] - m[1]) * (pt[1] - m[1]);
     double tiny = 0.0625 * fmax(rect[1] - rect[0], rect[3] - rect[2]);
-    for (int k = 0; k < c->piece_count; k++) {
+    for (int i = 0; i < c->near_count; i++) {
+        const int k = c->near_idx[i];
         const double *b = c->boxes[k];
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
         curve_point_near(c->pieces[k].cpw, c->pieces[k].degree, rect, m, tiny, 0, pt, &best);
@@ -350,7 +430,8 @@ static void cell_curve_point_near(const splat_ctx *c, const double rect[4], doub
 static int classify(const splat_ctx *c, double u, double v)
 {
     int parity = 0;
-    for (int k = 0; k < c->piece_count; k++) {
+    for (int i = 0; i < c->left_count; i++) {
+        const int k = c->left_idx[i];
         const double *b = c->boxes[k];
         if (b[2] < v && b[3] >= v && b[0] < u)
             parity ^= crisp_trim_exact_classify(c->pieces + k, 1, u, v);
@@ -408,7 +489,41 @@ static void net_lengths(const double *e, int du, int dv, double *lu, double *lv)
     *lv = mv;
 }
 
+/* The pieces the cells of patch top look at (splat_ctx.near_idx, left_idx): the tests skip the
+ * others for every cell of the patch (its cells' rectangles and centres lie in the patch's
+ * rectangle, up to the rounding of top->u0 + s du: widened by far more), so the same answers in
+ * the same piece order. */
+static void patch_pieces(splat_ctx *c, const crisp_bezier_patch *top)
+{
+    double mu = 1e-9 * (fabs(top->u0) + fabs(top->u1)), mv = 1e-9 * (fabs(top->v0) + fabs(top->v1));
+    double u0 = top->u0 - mu, u1 = top->u1 + mu, v0 = top->v0 - mv, v1 = top->v1 + mv;
+    int nn = 0, nl = 0;
+    for (int k = 0; k < c->piece_count; k++) {
+        const double *b = c->boxes[k];
+        if (!(b[1] < u0 || b[0] > u1 || b[3] < v0 || b[2] > v1)) c->near_list[nn++] = k;
+        if (b[2] < v1 && b[3] >= v0 && b[0] < u1) c->left_list[nl++] = k;
+    }
+    c->near_idx = c->near_list, c->near_count = nn;
+    c->left_idx = c->left_list, c->left_count = nl;
+}
+
+static void all_pieces(splat_ctx *c)
+{
+    c->near_idx = c->left_idx = c->all;
+    c->near_count = c->left_count = c->piece_count;
+}
+
+static crisp_status patch_cells_in(splat_ctx *c, const crisp_bezier_patch *top, int known);
+
 static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int known)
+{
+    patch_pieces(c, top);
+    crisp_status st = patch_cells_in(c, top, known);
+    all_pieces(c);
+    return st;
+}
+
+static crisp_status patch_cells_in(splat_ctx *c, const crisp_bezier_patch *top, int known)
 {
     const int n = (top->du + 1) * (top->dv + 1);
     const double du = top->u1 - top->u0, dv = top->v1 - top->v0;
@@ -453,9 +568,9 @@ static crisp_status patch_cells(splat_ctx *c, const crisp_bezier_patch *top, int
         if (k.t0 > 0.0 || k.t1 < 1.0)
             for (int i = 0; i < nu_; i++)
                 restrict_any(c, cpw + 4 * i, top->dv, 4 * (ptrdiff_t)nu_, k.t0, k.t1);
-        euclid(cpw, n, e);
+        euclid_any(c, cpw, n, e);
         double x[3];
-        crisp_bezier_patch_eval(top, (pt[0] - top->u0) / du, (pt[1] - top->v0) / dv, x);
+        patch_point(c, top, (pt[0] - top->u0) / du, (pt[1] - top->v0) / dv, x);
         double rc = hull_radius(e, n, x), bound = c->r_in;
         if (rc <= bound) {
             if (rc > c->got) c->got = rc;
@@ -546,7 +661,7 @@ static crisp_status block_cells(splat_ctx *c, uint32_t iu0, uint32_t iu1, uint32
         for (uint32_t iu = iu0; iu < iu1 && rc <= c->r_in; iu++) {
             const crisp_bezier_patch *q = patch_at(c, iu, iv);
             int n = (q->du + 1) * (q->dv + 1);
-            euclid(q->cpw, n, c->euc);
+            euclid_any(c, q->cpw, n, c->euc);
             rc = fmax(rc, hull_radius(c->euc, n, x));
         }
     if (rc <= c->r_in) {
@@ -643,15 +758,21 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
                            radius, margin);
     c.max_cells = max_count ? 64ull * max_count + (1ull << 20) : UINT64_MAX;
     c.boxes = crisp_malloc_array(f->piece_count ? f->piece_count : 1, sizeof *c.boxes);
+    c.all = crisp_malloc_array(3 * (size_t)(f->piece_count ? f->piece_count : 1), sizeof(int));
     size_t ncp = (size_t)(maxd + 1) * (size_t)(maxd + 1) * 4;
     c.cpw = crisp_malloc_array(ncp, sizeof(double));
     c.euc = crisp_malloc_array(ncp, sizeof(double));
     c.col = crisp_malloc_array(ncp, sizeof(double));
-    crisp_status st = CRISP_OK;
-    if (!c.boxes || !c.cpw || !c.euc || !c.col) {
+    c.eval_stride = (size_t)(maxd + 1) * 4;
+    c.eval_rows = crisp_malloc_array(EVAL_CACHE * c.eval_stride, sizeof(double));
+    crisp_status st = crisp__surface_normals_init(&c.normals, c.surface);
+    if (!st && (!c.boxes || !c.all || !c.cpw || !c.euc || !c.col || !c.eval_rows))
         st = crisp_error(CRISP_ERR_NO_MEMORY, "splat build of face %u", face);
-        goto done;
-    }
+    if (st) goto done;
+    c.near_list = c.all + c.piece_count, c.left_list = c.all + 2 * c.piece_count;
+    for (int k = 0; k < c.piece_count; k++)
+        c.all[k] = k;
+    all_pieces(&c);
     c.piece_box[0] = c.piece_box[2] = HUGE_VAL;
     c.piece_box[1] = c.piece_box[3] = -HUGE_VAL;
     for (int k = 0; k < c.piece_count; k++) {
@@ -673,10 +794,13 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
         for (uint32_t k = 0; k < f->patch_count && !st; k++)
             st = patch_cells(&c, &scene->patches[f->first_patch + k].bez, c.piece_count == 0);
 done:
+    crisp__surface_normals_free(&c.normals);
     crisp_free(c.boxes);
+    crisp_free(c.all);
     crisp_free(c.cpw);
     crisp_free(c.euc);
     crisp_free(c.col);
+    crisp_free(c.eval_rows);
     crisp_free(c.stack);
     if (st) {
         crisp__splat_set_free(dest);

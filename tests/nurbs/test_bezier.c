@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "crisp/nurbs.h"
+#include "nurbs/nurbs_internal.h"
 #include "nurbs/test_util.h"
 
 static int inside_box(const double *p, const double *box, int dim, double tol)
@@ -222,10 +223,59 @@ static void test_curve_reverse_trim(void **state)
     }
 }
 
+/* crisp__bezier_patch_eval_rows_s + _eval_rows (the splat builder's cells of a column) against
+ * crisp_bezier_patch_eval, bit for bit: random rational and polynomial patches of degrees 1..15,
+ * several t per s, parameters inside [0, 1], at its ends and beyond. */
+static void test_patch_eval_rows(void **state)
+{
+    (void)state;
+    uint64_t x = 0x9E3779B97F4A7C15ull;
+    double cpw[(CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4],
+        rows[(CRISP_MAX_DEGREE + 1) * 4];
+    long checked = 0;
+    for (int k = 0; k < 3000; k++) {
+        double r[64];
+        for (int q = 0; q < 64; q++) {
+            x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+            r[q] = (double)(x >> 11) * 0x1p-53;
+        }
+        int du = 1 + (int)(r[0] * 15), dv = 1 + (int)(r[1] * 15), rational = r[2] < 0.6;
+        if (k % 3) du = 1 + (int)(r[0] * 5), dv = 1 + (int)(r[1] * 5);
+        crisp_bezier_patch p = {.du = du,
+                                .dv = dv,
+                                .rational = rational,
+                                .u0 = 0,
+                                .u1 = 1,
+                                .v0 = 0,
+                                .v1 = 1,
+                                .cpw = cpw};
+        for (int i = 0; i < (du + 1) * (dv + 1); i++) {
+            x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+            double w = rational ? 0.3 + 2.7 * (double)(x >> 11) * 0x1p-53 : 1.0;
+            for (int c = 0; c < 3; c++) {
+                x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+                cpw[4 * i + c] = w * (4 * (double)(x >> 11) * 0x1p-53 - 2);
+            }
+            cpw[4 * i + 3] = w;
+        }
+        double s = k % 7 == 0 ? 0.0 : k % 7 == 1 ? 1.0 : 1.2 * r[3] - 0.1;
+        crisp__bezier_patch_eval_rows_s(&p, s, rows);
+        for (int j = 0; j < 20; j++) {
+            double t = j == 0 ? 0.0 : j == 1 ? 1.0 : 1.2 * r[4 + j] - 0.1, a[3], b[3];
+            crisp_bezier_patch_eval(&p, s, t, a);
+            crisp__bezier_patch_eval_rows(&p, rows, t, b);
+            assert_memory_equal(a, b, sizeof a);
+            checked++;
+        }
+    }
+    printf("patch eval rows: %ld points bit for bit\n", checked);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_bezier_curve_split_bbox_derivs),
+        cmocka_unit_test(test_patch_eval_rows),
         cmocka_unit_test(test_bezier_patch_split_bbox_derivs),
         cmocka_unit_test(test_curve_reverse_trim),
     };

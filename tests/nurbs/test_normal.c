@@ -12,10 +12,12 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "crisp/construct.h"
 #include "crisp/nurbs.h"
+#include "nurbs/nurbs_internal.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -220,13 +222,141 @@ static void test_point_patch(void **state)
     assert_true(n[0] == 0 && n[1] == 0 && n[2] == 0);
 }
 
+/* crisp__surface_normals (the splat builder's normals, nurbs_internal.h) against
+ * crisp_surface_normal, bit for bit: random B-spline surfaces (degrees 1..15, clamped and
+ * unclamped knot vectors with repeated knots, rational and not, some with a collapsed side so
+ * that the robust path runs), at parameters visited as the builder does (grids column by column:
+ * the basis cache's hits), at random points, at knots, outside the domain (clamped) and at more
+ * distinct values than the cache holds; both the AVX and the scalar sums. */
+static uint64_t rng_state = 0x243F6A8885A308D3ull;
+
+static double rnd(void) /* [0, 1) */
+{
+    rng_state ^= rng_state << 13, rng_state ^= rng_state >> 7, rng_state ^= rng_state << 17;
+    return (double)(rng_state >> 11) * 0x1p-53;
+}
+
+static crisp_surface *random_surface(int collapse)
+{
+    for (;;) {
+        int deg[2], cnt[2];
+        double *kn[2];
+        for (int d = 0; d < 2; d++) {
+            deg[d] = rnd() < 0.1 ? 7 + (int)(rnd() * 9) : 1 + (int)(rnd() * 5);
+            cnt[d] = deg[d] + 1 + (int)(rnd() * 6);
+            int n = cnt[d] + deg[d] + 1, clamped = rnd() < 0.6;
+            kn[d] = malloc((size_t)n * sizeof(double));
+            double t = rnd() * 4 - 2;
+            for (int i = 0; i < n; i++) {
+                if (!(clamped && (i <= deg[d] || i >= cnt[d])) && !(i && rnd() < 0.25))
+                    t += 0.05 + rnd();
+                kn[d][i] = t;
+            }
+            if (clamped) /* the ends: degree + 1 equal knots */
+                for (int i = cnt[d]; i < n; i++)
+                    kn[d][i] = kn[d][cnt[d]];
+        }
+        int np = cnt[0] * cnt[1], rational = rnd() < 0.6;
+        double *pts = malloc((size_t)np * 3 * sizeof(double)),
+               *w = malloc((size_t)np * sizeof(double));
+        for (int i = 0; i < np; i++) {
+            for (int k = 0; k < 3; k++)
+                pts[3 * i + k] = collapse && i < cnt[0] ? 0.25 : 2 * rnd() - 1;
+            w[i] = 0.3 + 2.7 * rnd();
+        }
+        crisp_surface *s = NULL;
+        crisp_status st = crisp_surface_create(deg[0], deg[1], cnt[0], cnt[1], kn[0], kn[1], pts,
+                                               rational ? w : NULL, &s);
+        free(kn[0]), free(kn[1]), free(pts), free(w);
+        if (!st) return s;
+    }
+}
+
+static void expect_same(crisp__surface_normals *c, double u, double v, long *fast)
+{
+    double a[3] = {7, 7, 7}, b[3] = {8, 8, 8};
+    int ra = crisp_surface_normal(c->s, u, v, a), rb = crisp__surface_normals_at(c, u, v, b);
+    if (ra != rb || memcmp(a, b, sizeof a)) {
+        printf("u %.17g v %.17g: %d (%.17g %.17g %.17g) vs %d (%.17g %.17g %.17g)\n", u, v, ra,
+               a[0], a[1], a[2], rb, b[0], b[1], b[2]);
+        fail();
+    }
+    *fast += ra;
+}
+
+static void test_many_normals(void **state)
+{
+    (void)state;
+    long checked = 0, fast = 0;
+    for (int si = 0; si < 400; si++) {
+        crisp_surface *s = random_surface(si % 8 == 7);
+        double dom[4];
+        crisp_surface_domain(s, dom);
+        for (int avx = 0; avx < 2; avx++) {
+            crisp__surface_normals c;
+            assert_int_equal(crisp__surface_normals_init(&c, s), CRISP_OK);
+            if (!avx) c.avx = 0;
+            double du = dom[1] - dom[0], dv = dom[3] - dom[2];
+            /* grids of cells' centres, column by column, last column first (the builder's
+             * stack) */
+            for (int g = 0; g < 3; g++) {
+                int nu = 1 + (int)(rnd() * 70), nv = 1 + (int)(rnd() * 70);
+                double s0 = rnd() * 0.5, s1 = s0 + rnd() * 0.5;
+                for (int i = nu - 1; i >= 0; i--)
+                    for (int j = nv - 1; j >= 0; j--) {
+                        double a0 = s0 + (s1 - s0) * i / nu, a1 = s0 + (s1 - s0) * (i + 1) / nu;
+                        double b0 = (double)j / nv, b1 = (double)(j + 1) / nv;
+                        expect_same(&c, dom[0] + 0.5 * (a0 + a1) * du,
+                                    dom[2] + 0.5 * (b0 + b1) * dv, &fast);
+                        checked++;
+                    }
+            }
+            /* random points, the domain's corners and sides, beyond it, the knots */
+            for (int k = 0; k < 300; k++) {
+                double u = dom[0] + (rnd() * 1.2 - 0.1) * du, v = dom[2] + (rnd() * 1.2 - 0.1) * dv;
+                if (k % 5 == 1) u = dom[rnd() < 0.5 ? 0 : 1];
+                if (k % 5 == 2) v = dom[rnd() < 0.5 ? 2 : 3];
+                if (k % 5 == 3) u = s->knots_u[(int)(rnd() * (s->count_u + s->degree_u + 1))];
+                if (k % 5 == 4) v = s->knots_v[(int)(rnd() * (s->count_v + s->degree_v + 1))];
+                expect_same(&c, u, v, &fast);
+                checked++;
+            }
+            crisp__surface_normals_free(&c);
+        }
+        crisp_surface_destroy(s);
+    }
+    /* surfaces with poles and an apex (rational, the robust path at their sides) */
+    crisp_placement pl = world();
+    crisp_surface *sph, *cone;
+    assert_int_equal(crisp_make_sphere(&pl, 2, 0, 2 * M_PI, -M_PI / 2, M_PI / 2, &sph), CRISP_OK);
+    assert_int_equal(crisp_make_cone(&pl, 1, M_PI / 6, 0, 2 * M_PI, -1 / tan(M_PI / 6), 0, &cone),
+                     CRISP_OK);
+    crisp_surface *both[2] = {sph, cone};
+    for (int k = 0; k < 2; k++) {
+        crisp__surface_normals c;
+        assert_int_equal(crisp__surface_normals_init(&c, both[k]), CRISP_OK);
+        double dom[4];
+        crisp_surface_domain(both[k], dom);
+        for (int i = 0; i <= 40; i++)
+            for (int j = 0; j <= 40; j++) {
+                expect_same(&c, dom[0] + (dom[1] - dom[0]) * i / 40,
+                            dom[2] + (dom[3] - dom[2]) * j / 40, &fast);
+                checked++;
+            }
+        crisp__surface_normals_free(&c);
+        crisp_surface_destroy(both[k]);
+    }
+    printf("many normals: %ld points, %ld with a normal\n", checked, fast);
+    assert_true(fast > checked / 2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cone_apex),       cmocka_unit_test(test_sphere_poles),
         cmocka_unit_test(test_regular_points),  cmocka_unit_test(test_rounded_apex),
         cmocka_unit_test(test_stretched_patch), cmocka_unit_test(test_curve_patch),
-        cmocka_unit_test(test_point_patch),
+        cmocka_unit_test(test_point_patch),     cmocka_unit_test(test_many_normals),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -18,7 +18,10 @@
  * - test_near_edges: images with and without splats differ only at pixels that lie at a face
  *   edge (a 3x3 neighbour of another face or the background) in one of the two images.
  * - test_build_limit: with a per-frame build limit, every frame of a view keeps those guarantees
- *   until the sets are built, and the last frame is bit for bit the one without a limit. */
+ *   until the sets are built, and the last frame is bit for bit the one without a limit.
+ * - test_build_order: with a build limit, the faces built first are those whose patches cost the
+ *   most per splat they need (patches / 2^level): every face the first frame splats ranks at
+ *   least as high as every face left pending. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -861,6 +864,56 @@ static void test_range_order(void **state)
     crisp_model_destroy(m);
 }
 
+/* With a build limit the store builds the faces of the largest patches / 2^level first
+ * (splat_store.c, order_todo): after one limited choice, every splatted face's key is at least
+ * every pending face's (refused faces are neither). Face order (the earlier rule) fails it. */
+static void test_build_order(void **state)
+{
+    (void)state;
+    static const view_case cases[] = {{"impeller.igs", 60}, {"occt_bearing.iges", 40}};
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        crisp_model *m = load(cases[k].model);
+        crisp_scene *sc;
+        assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+        const int w = 240, h = 180;
+        crisp_camera cam = far_view(sc, cases[k].radius_px, w, h);
+        crisp_camera_matrices cm;
+        crisp_camera_matrices_compute(&cam, &cm);
+        crisp__splat_store *s;
+        assert_int_equal(crisp__splat_store_create(&s), CRISP_OK);
+        uint32_t nf = sc->face_count;
+        int8_t *want = malloc(nf), *after = malloc(nf);
+        double *near = malloc(nf * sizeof *near);
+        uint8_t *splat = malloc(nf);
+        assert_int_equal(crisp__splat_store_test_want(s, sc, cm.view_proj, w, h, 1, want, near),
+                         CRISP_OK);
+        assert_int_equal(crisp__splat_store_choose(s, sc, cm.view_proj, w, h, 1, NULL, splat),
+                         CRISP_OK);
+        assert_int_equal(crisp__splat_store_test_want(s, sc, cm.view_proj, w, h, 1, after, near),
+                         CRISP_OK);
+        double lo = INFINITY, hi = -INFINITY;
+        uint32_t built = 0, pending = 0;
+        for (uint32_t f = 0; f < nf; f++) {
+            if (want[f] < 0) continue;
+            double key = ldexp((double)sc->faces[f].patch_count, -want[f]);
+            if (splat[f]) {
+                assert_int_equal(after[f], want[f]);
+                lo = fmin(lo, key), built++;
+            } else if (after[f] >= 0) { /* pending (not refused) */
+                hi = fmax(hi, key), pending++;
+            }
+        }
+        printf("%s: %u faces built first (keys >= %g), %u pending (keys <= %g)\n", cases[k].model,
+               built, lo, pending, hi);
+        assert_true(built > 0 && pending > 0);
+        assert_true(lo >= hi);
+        free(want), free(after), free(near), free(splat);
+        crisp__splat_store_destroy(s);
+        crisp_scene_destroy(sc);
+        crisp_model_destroy(m);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -868,7 +921,7 @@ int main(void)
         cmocka_unit_test(test_true_points),    cmocka_unit_test(test_no_holes),
         cmocka_unit_test(test_solids_far),     cmocka_unit_test(test_near_edges),
         cmocka_unit_test(test_group_choice),   cmocka_unit_test(test_range_order),
-        cmocka_unit_test(test_build_limit),
+        cmocka_unit_test(test_build_limit),    cmocka_unit_test(test_build_order),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
