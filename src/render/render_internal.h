@@ -142,8 +142,9 @@ const struct crisp_trim_table *crisp__planner_table(const struct crisp_planner *
 crisp_status crisp__planner_plan_near(struct crisp_planner *p, const crisp_scene *sc,
                                       const crisp_camera *cam, const struct crisp_frame_plan **dest,
                                       const uint8_t **later);
-/* The faces with a pixel in face[0 .. count) (an image's face ids) are the first stage of the
- * next crisp__planner_plan_near of scene sc (an order only: see there). */
+/* The faces in face[0 .. count) (the faces an image shows, as the CPU backend's resolve lists
+ * them; repeats, the background's -1 and ids past the scene's faces allowed) are the first stage
+ * of the next crisp__planner_plan_near of scene sc (an order only: see there). */
 crisp_status crisp__planner_seen(struct crisp_planner *p, const crisp_scene *sc,
                                  const int32_t *face, size_t count);
 /* 1 when the next crisp__planner_plan_near of scene sc may plan in stages (after a frame in

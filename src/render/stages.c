@@ -8,9 +8,6 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 #include "occlusion.h"
 #include "planner.h"
@@ -428,31 +425,8 @@ crisp_status crisp__planner_seen(crisp_planner *p, const crisp_scene *sc, const 
         crisp_grow((void **)&s->seen, &s->seen_cap, sc->face_count ? sc->face_count : 1, 1);
     if (st) return st;
     memset(s->seen, 0, sc->face_count);
-    int32_t last = -1; /* neighbouring pixels mostly show the same face */
-    size_t i = 0;
-#if defined(__SSE2__)
-    /* Runs of 8 pixels of the face seen last skipped 8 at a time (most of an image): the same
-     * marks as the loop below, about a sixth of its instructions. */
-    __m128i l = _mm_set1_epi32(last);
-    for (; i + 8 <= count; i += 8) {
-        __m128i a = _mm_loadu_si128((const __m128i *)(face + i)),
-                b = _mm_loadu_si128((const __m128i *)(face + i + 4));
-        if (_mm_movemask_epi8(_mm_and_si128(_mm_cmpeq_epi32(a, l), _mm_cmpeq_epi32(b, l))) ==
-            0xffff)
-            continue;
-        for (size_t k = i; k < i + 8; k++)
-            if (face[k] != last) {
-                last = face[k];
-                if (last >= 0 && (uint32_t)last < sc->face_count) s->seen[last] = 1;
-            }
-        l = _mm_set1_epi32(last);
-    }
-#endif
-    for (; i < count; i++)
-        if (face[i] != last) {
-            last = face[i];
-            if (last >= 0 && (uint32_t)last < sc->face_count) s->seen[last] = 1;
-        }
+    for (size_t i = 0; i < count; i++)
+        if (face[i] >= 0 && (uint32_t)face[i] < sc->face_count) s->seen[face[i]] = 1;
     s->seen_serial = sc->serial;
     return CRISP_OK;
 }

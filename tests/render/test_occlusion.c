@@ -531,10 +531,9 @@ static void test_hidden_faces(void **state)
     }
 }
 
-/* crisp__planner_seen's marks (the next frame's first stage) are exactly the faces with a pixel:
- * face id arrays of every length up to 99 and runs of 1..40 of one id (the pass skips runs of 8
- * pixels of the face seen last), with the background (-1), f-rep ids (< -1) and ids past the
- * scene's faces (not marked). */
+/* crisp__planner_seen's marks (the next frame's first stage) are exactly the faces listed:
+ * face id arrays of every length up to 99 and runs of 1..40 of one id, with the background (-1),
+ * f-rep ids (< -1) and ids past the scene's faces (not marked). */
 static void test_seen_marks(void **state)
 {
     (void)state;
