@@ -4,11 +4,15 @@
 #define CRISP_BENCH_UTIL_H
 
 #include <dirent.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <sys/resource.h>
 #include <unistd.h>
+
+#include "crisp/render.h"
 
 static inline void bench_print_machine(FILE *out)
 {
@@ -66,6 +70,30 @@ static inline int bench_list_files(const char *dir, char (*names)[256], int cap)
     closedir(d);
     qsort(names, (size_t)n, sizeof names[0], bench_cmp_name);
     return n;
+}
+
+/* CPU time of the process (all threads), in ms: less sensitive to other processes' load than
+ * wall time. */
+static inline double bench_cpu_ms(void)
+{
+    struct rusage u;
+    getrusage(RUSAGE_SELF, &u);
+    return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+           1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+/* FNV-1a over an image and its AOVs: the same picture and AOVs give the same value (a check that
+ * a faster build draws what the baseline drew). */
+static inline uint32_t bench_image_hash(const crisp_image *img)
+{
+    size_t n = (size_t)img->width * img->height;
+    const void *bufs[5] = {img->rgba, img->depth, img->normal, img->uv, img->face};
+    const size_t sizes[5] = {16 * n, 4 * n, 12 * n, 8 * n, 4 * n};
+    uint32_t h = 2166136261u;
+    for (int b = 0; b < 5; b++)
+        for (size_t k = 0; k < sizes[b]; k++)
+            h = (h ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
+    return h;
 }
 
 #endif

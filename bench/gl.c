@@ -124,27 +124,6 @@ static crisp_camera far_camera(const crisp_scene *sc, const char *which)
     return cam;
 }
 
-static double process_cpu_ms(void)
-{
-    struct rusage u;
-    getrusage(RUSAGE_SELF, &u);
-    return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-           1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
-/* FNV-1a over an image and its AOVs (as bench_screen's image hash). */
-static uint32_t image_hash(const crisp_image *img)
-{
-    uint32_t hash = 2166136261u;
-    size_t npx = (size_t)img->width * img->height;
-    const void *bufs[5] = {img->rgba, img->depth, img->normal, img->uv, img->face};
-    const size_t sizes[5] = {16 * npx, 4 * npx, 12 * npx, 8 * npx, 4 * npx};
-    for (int b = 0; b < 5; b++)
-        for (size_t k = 0; k < sizes[b]; k++)
-            hash = (hash ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
-    return hash;
-}
-
 static void splat_row(crisp_gl *gl, const char *scene_name, const char *cam_name, int frames)
 {
     int n = strcmp(scene_name, "imp49") ? 1 : 7;
@@ -181,7 +160,7 @@ static void splat_row(crisp_gl *gl, const char *scene_name, const char *cam_name
         uint64_t first_upload = 0, later_upload = 0;
         double c0 = 0;
         for (int f = 0; f <= frames; f++) {
-            if (f == 1) c0 = process_cpu_ms();
+            if (f == 1) c0 = bench_cpu_ms();
             double t0 = crisp_time_now();
             if (crisp_gl_draw(gl, plan, &gs)) die("gl frame");
             t[f] = 1e3 * (crisp_time_now() - t0);
@@ -190,7 +169,7 @@ static void splat_row(crisp_gl *gl, const char *scene_name, const char *cam_name
             else
                 later_upload = gs.bytes_uploaded;
         }
-        double gl_cpu = (process_cpu_ms() - c0) / frames;
+        double gl_cpu = (bench_cpu_ms() - c0) / frames;
         if (getenv("PROFILE"))
             fprintf(stderr,
                     "  %s:%s %s: surfaces %.1f ms, splats %.1f ms, ribbons %.1f ms, "
@@ -211,8 +190,8 @@ static void splat_row(crisp_gl *gl, const char *scene_name, const char *cam_name
                (unsigned long long)plan->stats.splats_drawn,
                (double)plan->splat_count * sizeof(crisp_plan_splat) / 1e6,
                (unsigned long long)first_upload, (unsigned long long)later_upload, plan_ms,
-               cpu_frame, gl_frame, gl_cpu, covered, differ, (unsigned)image_hash(&a),
-               (unsigned)image_hash(&b));
+               cpu_frame, gl_frame, gl_cpu, covered, differ, (unsigned)bench_image_hash(&a),
+               (unsigned)bench_image_hash(&b));
         fflush(stdout);
         crisp_planner_destroy(pl);
     }

@@ -44,14 +44,6 @@ static void die(const char *what)
     exit(1);
 }
 
-static double cpu_ms(void)
-{
-    struct rusage u;
-    getrusage(RUSAGE_SELF, &u);
-    return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-           1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
 /* The trim lookups of the image's covered pixels (faces with trim loops), replayed and timed:
  * ms per lookup. */
 static double lookup_ms_each(const crisp_frame_plan *plan, const crisp_image *img)
@@ -82,20 +74,6 @@ static double lookup_ms_each(const crisp_frame_plan *plan, const crisp_image *im
     return each;
 }
 
-/* FNV-1a over the image's buffers: the same picture and AOVs give the same value (a check that
- * a faster build draws what the baseline drew). */
-static uint32_t image_hash(const crisp_image *img)
-{
-    size_t n = (size_t)img->width * img->height;
-    const void *bufs[5] = {img->rgba, img->depth, img->normal, img->uv, img->face};
-    const size_t sizes[5] = {16 * n, 4 * n, 12 * n, 8 * n, 4 * n};
-    uint32_t h = 2166136261u;
-    for (int b = 0; b < 5; b++)
-        for (size_t k = 0; k < sizes[b]; k++)
-            h = (h ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
-    return h;
-}
-
 static void run_view(const char *name, const char *view, const crisp_scene *sc,
                      const crisp_camera *cam, int frames, int threads, int occlusion)
 {
@@ -123,7 +101,7 @@ static void run_view(const char *name, const char *view, const crisp_scene *sc,
      * trim and ribbons: the plan's own stats, without the lay-out of its arrays). */
     int split = getenv("BENCH_INTERACTIVE_SPLIT") && atoi(getenv("BENCH_INTERACTIVE_SPLIT"));
     for (int f = -1; f < frames; f++) {
-        double c0 = cpu_ms(), a = crisp_time_now(), b = a;
+        double c0 = bench_cpu_ms(), a = crisp_time_now(), b = a;
         if (split) {
             if (crisp_planner_plan(crisp_renderer_planner(r), sc, cam, &plan)) die("plan");
             b = crisp_time_now();
@@ -133,7 +111,7 @@ static void run_view(const char *name, const char *view, const crisp_scene *sc,
         }
         double c = crisp_time_now();
         if (f < 0) continue;
-        cpu += cpu_ms() - c0;
+        cpu += bench_cpu_ms() - c0;
         t[0][f] = split ? 1e3 * (b - a) : st.ms_levels + st.ms_edges + st.ms_trim;
         t[1][f] = st.ms_tess;
         t[2][f] = st.ms_raster;
@@ -170,7 +148,7 @@ static void run_view(const char *name, const char *view, const crisp_scene *sc,
            bench_median(t[4], frames), cpu / frames, lookup_ms, (unsigned long long)st.triangles,
            (unsigned long long)st.occluded_triangles, covered,
            covered ? (double)st.triangles / covered : 0.0, (unsigned long long)st.fragments_tested,
-           100.0 * covered / (cam->width * cam->height), (unsigned)image_hash(&img));
+           100.0 * covered / (cam->width * cam->height), (unsigned)bench_image_hash(&img));
     fflush(stdout);
     for (int k = 0; k < 6; k++)
         free(t[k]);

@@ -33,27 +33,6 @@ static void die(const char *what)
     exit(1);
 }
 
-static double cpu_ms(void)
-{
-    struct rusage u;
-    getrusage(RUSAGE_SELF, &u);
-    return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-           1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
-/* FNV-1a over the image's buffers (as bench_interactive's). */
-static uint32_t image_hash(const crisp_image *img)
-{
-    size_t n = (size_t)img->width * img->height;
-    const void *bufs[5] = {img->rgba, img->depth, img->normal, img->uv, img->face};
-    const size_t sizes[5] = {16 * n, 4 * n, 12 * n, 8 * n, 4 * n};
-    uint32_t h = 2166136261u;
-    for (int b = 0; b < 5; b++)
-        for (size_t k = 0; k < sizes[b]; k++)
-            h = (h ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
-    return h;
-}
-
 /* Camera k of the orbit: base's eye turned about the line through its target along its up axis
  * by k * step degrees (Rodrigues' rotation). */
 static crisp_camera orbit_camera(const crisp_camera *base, int k, double step)
@@ -102,12 +81,12 @@ static void orbit(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *
 {
     double busy = 0;
     for (int f = 0; f < frames; f++) {
-        double t0 = crisp_time_now(), b0 = cpu_ms();
+        double t0 = crisp_time_now(), b0 = bench_cpu_ms();
         crisp_render_stats st;
         (stages ? frame_stages : frame_plan)(r, sc, &cams[f], img, &st);
         o->ms[f] = 1e3 * (crisp_time_now() - t0);
-        busy += cpu_ms() - b0;
-        o->hash[f] = image_hash(img);
+        busy += bench_cpu_ms() - b0;
+        o->hash[f] = bench_image_hash(img);
         o->hidden += st.hidden_faces;
         o->triangles += st.triangles;
     }

@@ -203,16 +203,6 @@ static crisp_model *scene_model(const char *name)
     exit(1);
 }
 
-/* CPU time of the process (all threads), in ms: less sensitive to other processes' load than
- * wall time. */
-static double cpu_ms(void)
-{
-    struct rusage u;
-    getrusage(RUSAGE_SELF, &u);
-    return 1e3 * (u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-           1e-3 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
 /* One warm frame and one plan, kept out of line so that callgrind can count them alone
  * (--toggle-collect=warm_frame, --toggle-collect=warm_plan: the warm-up frame, which builds what
  * the planner keeps, is not counted). */
@@ -275,10 +265,10 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     double cpu_frames = 0, cpu_plans = 0;
     /* The first frame; with a build limit, the frames after it until no splat set is pending
      * (then the warm frames are those of the unlimited planner). */
-    double c_first = cpu_ms(), t_first = crisp_time_now();
+    double c_first = bench_cpu_ms(), t_first = crisp_time_now();
     if (first_frame(pl, r, sc, &cam, &plan, &img, &st)) die("render");
     double ms_first = 1e3 * (crisp_time_now() - t_first);
-    double cpu_first = cpu_ms() - c_first;
+    double cpu_first = bench_cpu_ms() - c_first;
     int build_frames = 1;
     while (plan->stats.splat_pending) {
         if (crisp_planner_plan(pl, sc, &cam, &plan) ||
@@ -288,20 +278,20 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     }
     double ms_built = 1e3 * (crisp_time_now() - t_first);
     for (int f = 0; f < frames; f++) {
-        double c0 = cpu_ms();
+        double c0 = bench_cpu_ms();
         double a = crisp_time_now();
         if (warm_frame(pl, r, sc, &cam, &plan, &img, &st)) die("render");
         double b = crisp_time_now();
-        cpu_frames += cpu_ms() - c0;
+        cpu_frames += bench_cpu_ms() - c0;
         tf[f] = 1e3 * (b - a);
         tt[f] = st.ms_tess;
         tr[f] = st.ms_raster;
     }
     for (int f = 0; f < frames; f++) {
-        double a = crisp_time_now(), c0 = cpu_ms();
+        double a = crisp_time_now(), c0 = bench_cpu_ms();
         if (warm_plan(pl, sc, &cam, &plan)) die("plan");
         tp[f] = 1e3 * (crisp_time_now() - a);
-        cpu_plans += cpu_ms() - c0;
+        cpu_plans += bench_cpu_ms() - c0;
     }
     if (getenv("BENCH_SCREEN_STAGES"))
         fprintf(stderr,
@@ -322,14 +312,7 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
                  no_groups ? "_nogroups" : "", no_splats ? "_nosplats" : "");
         if (bench_write_png(path, &img)) die(path);
     }
-    /* FNV-1a over the image and its AOVs: culling must not change it. */
-    uint32_t hash = 2166136261u;
-    size_t npx = (size_t)img.width * img.height;
-    const void *bufs[5] = {img.rgba, img.depth, img.normal, img.uv, img.face};
-    const size_t sizes[5] = {16 * npx, 4 * npx, 12 * npx, 8 * npx, 4 * npx};
-    for (int b = 0; b < 5; b++)
-        for (size_t k = 0; k < sizes[b]; k++)
-            hash = (hash ^ ((const uint8_t *)bufs[b])[k]) * 16777619u;
+    uint32_t hash = bench_image_hash(&img); /* culling must not change it */
     printf(
         "| %s | %s | %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %u | %u | %llu | "
         "%llu | %llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %u | %llu | %.2f | "
