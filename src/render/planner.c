@@ -224,8 +224,8 @@ crisp_status crisp__planner_ensure_faces(crisp_planner *p, uint32_t faces)
     return CRISP_OK;
 }
 
-/* The faces' ribbon ranges and patch grids. */
-void crisp__planner_face_ribbons_grids(crisp_planner *p, const crisp_scene *sc)
+/* The faces' ribbon ranges and patch grids, and the public plan pointed at the arrays. */
+void crisp__planner_point_out(crisp_planner *p, const crisp_scene *sc)
 {
     for (uint32_t f = 0; f < sc->face_count; f++) {
         p->faces[f].first_ribbon = p->ribbon_first[f];
@@ -233,6 +233,14 @@ void crisp__planner_face_ribbons_grids(crisp_planner *p, const crisp_scene *sc)
         p->faces[f].grid_u = sc->faces[f].grid_u;
         p->faces[f].grid_v = sc->faces[f].grid_v;
     }
+    crisp_frame_plan *o = &p->out;
+    o->leaves = p->leaves;
+    o->faces = p->faces;
+    o->face_count = sc->face_count;
+    o->strips = p->strips;
+    o->row_offset = p->row_offset;
+    o->crossings = p->crossings;
+    o->ribbon_vertices = p->ribbon_verts;
 }
 
 /* Point the public plan at the arrays, set the ribbon ranges, and bump what changed. After a
@@ -243,14 +251,7 @@ void crisp__planner_face_ribbons_grids(crisp_planner *p, const crisp_scene *sc)
 static void publish(crisp_planner *p, const crisp_scene *sc, int one_face)
 {
     crisp_frame_plan *o = &p->out;
-    crisp__planner_face_ribbons_grids(p, sc);
-    o->leaves = p->leaves;
-    o->faces = p->faces;
-    o->face_count = sc->face_count;
-    o->strips = p->strips;
-    o->row_offset = p->row_offset;
-    o->crossings = p->crossings;
-    o->ribbon_vertices = p->ribbon_verts;
+    crisp__planner_point_out(p, sc);
     uint64_t *version[4] = {&o->leaves_version, &o->faces_version, &o->table_version,
                             &o->ribbons_version};
     if (one_face) {

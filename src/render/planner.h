@@ -98,8 +98,8 @@ crisp_status crisp__planner_lay_out_leaves(crisp_planner *p, const crisp_scene *
                                            const uint8_t *kept);
 /* Every visible face's trim table, concatenated: strips, rows (global offsets), crossings. */
 crisp_status crisp__planner_lay_out_tables(crisp_planner *p, const crisp_scene *sc);
-/* The faces' ribbon ranges and patch grids. */
-void crisp__planner_face_ribbons_grids(crisp_planner *p, const crisp_scene *sc);
+/* The faces' ribbon ranges and patch grids, and the public plan pointed at the arrays. */
+void crisp__planner_point_out(crisp_planner *p, const crisp_scene *sc);
 /* Leaves and tables laid out (kept: as crisp__planner_lay_out_leaves), the splats and the
  * versions published. */
 crisp_status crisp__planner_finish_plan(crisp_planner *p, const crisp_scene *sc,

@@ -373,17 +373,27 @@ static void block_depth_rows(void *vctx, size_t begin, size_t end, int worker)
         block_depth_row(c->t, c->size, by, c->bx0, c->bx1, c->dest);
 }
 
-void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, int size,
-                               const int *blocks, double *dest)
+/* b: the block rectangle blocks (x0, y0, x1, y1; NULL: all) of size x size blocks clamped to
+ * the target; 0 when it is empty. */
+static int clamp_blocks(const crisp_raster_target *t, int size, const int *blocks, int b[4])
 {
     int bw = (t->width + size - 1) / size, bh = (t->height + size - 1) / size;
-    int b[4] = {0, 0, bw - 1, bh - 1};
+    b[0] = b[1] = 0;
+    b[2] = bw - 1;
+    b[3] = bh - 1;
     if (blocks)
         for (int k = 0; k < 4; k++) {
             int lim = k % 2 ? bh - 1 : bw - 1;
             b[k] = blocks[k] < 0 ? 0 : blocks[k] > lim ? lim : blocks[k];
         }
-    if (b[0] > b[2] || b[1] > b[3]) return;
+    return b[0] <= b[2] && b[1] <= b[3];
+}
+
+void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, int size,
+                               const int *blocks, double *dest)
+{
+    int bw = (t->width + size - 1) / size, b[4];
+    if (!clamp_blocks(t, size, blocks, b)) return;
     if (t->clear_pending) {
         for (int by = b[1]; by <= b[3]; by++)
             for (int bx = b[0]; bx <= b[2]; bx++)
@@ -441,14 +451,8 @@ void crisp__raster_block_depth_live(crisp_raster *r, const crisp_raster_target *
         crisp__raster_block_depth(t, pool, size, blocks, dest);
         return;
     }
-    int bw = (t->width + size - 1) / size, bh = (t->height + size - 1) / size;
-    int b[4] = {0, 0, bw - 1, bh - 1};
-    if (blocks)
-        for (int k = 0; k < 4; k++) {
-            int lim = k % 2 ? bh - 1 : bw - 1;
-            b[k] = blocks[k] < 0 ? 0 : blocks[k] > lim ? lim : blocks[k];
-        }
-    if (b[0] > b[2] || b[1] > b[3]) return;
+    int bw = (t->width + size - 1) / size, b[4];
+    if (!clamp_blocks(t, size, blocks, b)) return;
     int per = TILE / size;
     live_ctx c = {r, t, (t->width + TILE - 1) / TILE, b[0] / per, b[2] / per, b[1] / per};
     crisp_pool_parallel_for(pool, (size_t)(b[3] / per - c.ty0 + 1), 1, live_rows, &c);

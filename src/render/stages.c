@@ -237,16 +237,8 @@ static crisp_status plan_stage(crisp_planner *p, const crisp_scene *sc, const cr
         (st = crisp__planner_lay_out_leaves(p, sc, NULL)) ||
         (st = crisp__planner_lay_out_tables(p, sc)))
         return st;
-    crisp__planner_face_ribbons_grids(p, sc);
-    crisp_frame_plan *o = &p->out;
-    o->leaves = p->leaves;
-    o->faces = p->faces;
-    o->face_count = sc->face_count;
-    o->strips = p->strips;
-    o->row_offset = p->row_offset;
-    o->crossings = p->crossings;
-    o->ribbon_vertices = p->ribbon_verts;
-    o->splat_range_count = 0;
+    crisp__planner_point_out(p, sc);
+    p->out.splat_range_count = 0;
     return keep_stage(p, sc);
 }
 
