@@ -96,4 +96,14 @@ static inline uint32_t bench_image_hash(const crisp_image *img)
     return h;
 }
 
+/* The 1-minute load average (/proc/loadavg), or -1 when it cannot be read. */
+static inline double bench_load_average(void)
+{
+    double l = -1;
+    FILE *f = fopen("/proc/loadavg", "r");
+    if (f && fscanf(f, "%lf", &l) != 1) l = -1;
+    if (f) fclose(f);
+    return l;
+}
+
 #endif

@@ -171,12 +171,7 @@ int main(int argc, char **argv)
     snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
     int model_count = bench_list_files(dir, models, 64);
     bench_print_machine(stdout);
-    double la = -1;
-    FILE *lf = fopen("/proc/loadavg", "r");
-    if (lf) {
-        if (fscanf(lf, "%lf", &la) != 1) la = -1;
-        fclose(lf);
-    }
+    double la = bench_load_average();
     printf("load average %.2f at the start; 1920x1080, 1 sample, %d threads, an orbit of %d "
            "frames after a warm-up frame\n\n",
            la, threads, frames);

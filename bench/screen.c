@@ -344,15 +344,6 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     crisp_model_destroy(m);
 }
 
-static double loadavg(void)
-{
-    double l = -1;
-    FILE *f = fopen("/proc/loadavg", "r");
-    if (f && fscanf(f, "%lf", &l) != 1) l = -1;
-    if (f) fclose(f);
-    return l;
-}
-
 int main(int argc, char **argv)
 {
     int frames = argc > 1 ? atoi(argv[1]) : 3;
@@ -376,7 +367,7 @@ int main(int argc, char **argv)
                                     {"imp49", "far"},     {"imp", "far10"}};
     bench_print_machine(stdout);
     printf("load average at start %.2f; 1920x1080, %d threads, median of %d warm frames\n\n",
-           loadavg(), threads, frames);
+           bench_load_average(), threads, frames);
     printf(
         "| scene | camera | planner | occlusion | patches | frame ms | frame CPU ms | plan ms | "
         "plan CPU ms | tess ms | raster ms | leaves | group leaves | triangles | occluded tri | "
@@ -413,6 +404,6 @@ int main(int argc, char **argv)
                                    : (variant ? "no groups" : "groups"));
         }
     }
-    printf("\nload average at the end %.2f\n", loadavg());
+    printf("\nload average at the end %.2f\n", bench_load_average());
     return 0;
 }
