@@ -94,15 +94,9 @@ int main(int argc, char **argv)
     int quick = argc > 1 && !strcmp(argv[1], "--quick");
     int R = quick ? 5 : 15;
     bench_print_machine(stdout);
-    double load[3] = {0};
-    FILE *la = fopen("/proc/loadavg", "r");
-    if (la) {
-        if (fscanf(la, "%lf %lf %lf", &load[0], &load[1], &load[2]) != 3) load[0] = -1;
-        fclose(la);
-    }
-    printf("load average at start: %.2f %.2f %.2f (other processes share the cores: wall times are "
+    printf("load average at start: %.2f (other processes share the cores: wall times are "
            "noisy)\n\n",
-           load[0], load[1], load[2]);
+           bench_load_average());
     printf("| case | model | size | threads | runs | median ms | min ms | CPU ms | set-up ms | vs "
            "full | inside px |\n");
     printf("|---|---|---|---|---|---|---|---|---|---|---|\n");

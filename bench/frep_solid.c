@@ -154,11 +154,7 @@ int main(int argc, char **argv)
     const char *what = argc > 1 ? argv[1] : "all";
     int maxres = argc > 2 ? (int)strtol(argv[2], NULL, 10) : 512;
     bench_print_machine(stdout);
-    FILE *l = fopen("/proc/loadavg", "r");
-    char load[64] = "?";
-    if (l && fgets(load, sizeof load, l)) load[strcspn(load, "\n")] = 0;
-    if (l) fclose(l);
-    printf("load average: %s\n", load);
+    printf("load average: %.2f\n", bench_load_average());
     if (!strcmp(what, "mesh") || !strcmp(what, "all")) bench_mesh(maxres);
     if (!strcmp(what, "mass") || !strcmp(what, "all")) bench_mass();
     return 0;

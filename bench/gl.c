@@ -239,15 +239,9 @@ int main(int argc, char **argv)
                         &(crisp_gl_desc){.profile = getenv("PROFILE") != NULL}, &gl))
         die("GL backend");
     bench_print_machine(stdout);
-    double la[3] = {0};
-    FILE *lf = fopen("/proc/loadavg", "r");
-    if (lf) {
-        if (fscanf(lf, "%lf %lf %lf", &la[0], &la[1], &la[2]) != 3) la[0] = -1;
-        fclose(lf);
-    }
     printf("GL: %s; load average %.2f at the start; 1920x1080, 1 sample, median of %d frames after "
            "one\n\n",
-           crisp_gl_renderer(gl), la[0], frames);
+           crisp_gl_renderer(gl), bench_load_average(), frames);
     if (splats) {
         int rc = splat_bench(gl, frames, argc, argv);
         crisp_gl_destroy(gl);

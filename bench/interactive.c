@@ -179,15 +179,9 @@ int main(int argc, char **argv)
     snprintf(dir, sizeof dir, "%s/nurbs", CRISP_DATA_DIR);
     model_count = bench_list_files(dir, models, 64);
     bench_print_machine(stdout);
-    double la = -1;
-    FILE *lf = fopen("/proc/loadavg", "r");
-    if (lf) {
-        if (fscanf(lf, "%lf", &la) != 1) la = -1;
-        fclose(lf);
-    }
     printf("load average %.2f at the start; 1920x1080, 1 sample, %d threads, median of %d warm "
            "frames\n\n",
-           la, threads, frames);
+           bench_load_average(), threads, frames);
     printf("| model | view | occlusion | plan ms | tess ms | raster ms | resolve ms | frame ms | "
            "frame CPU ms | trim lookups ms (est.) | triangles | occluded tri | covered px | tri/px "
            "| lookups | cover %% | image hash |\n");
@@ -217,11 +211,6 @@ int main(int argc, char **argv)
         crisp_scene_destroy(sc);
         crisp_model_destroy(model);
     }
-    lf = fopen("/proc/loadavg", "r");
-    if (lf) {
-        if (fscanf(lf, "%lf", &la) != 1) la = -1;
-        fclose(lf);
-    }
-    printf("\nload average %.2f at the end\n", la);
+    printf("\nload average %.2f at the end\n", bench_load_average());
     return 0;
 }

@@ -330,15 +330,9 @@ int main(int argc, char **argv)
         return 1;
     }
     bench_print_machine(stdout);
-    double la[3] = {0};
-    FILE *lf = fopen("/proc/loadavg", "r");
-    if (lf) {
-        if (fscanf(lf, "%lf %lf %lf", &la[0], &la[1], &la[2]) != 3) la[0] = -1;
-        fclose(lf);
-    }
     printf("load average %.2f; %d frames per drag at %dx%d, CPU backend, %d threads; times in ms "
            "(medians; replan max over the drag)\n\n",
-           la[0], frames, width, height, crisp_pool_default_threads());
+           bench_load_average(), frames, width, height, crisp_pool_default_threads());
     printf("| %-26s | %-7s | %4s | %6s | %6s | %6s | %6s | %7s | %7s | %7s | %7s | %7s | %7s | "
            "%7s | %6s | %7s | %7s |\n",
            "face", "view", "pcs", "face", "replan", "max", "cpu", "full", "cpu", "face", "cpu",
