@@ -75,7 +75,7 @@ struct crisp__groups {
     const crisp_scene *scene;
     uint64_t key; /* the serial of the scene the hierarchy was built from */
     uint32_t patch_count, face_count;
-    face_hier *hier; /* per face (faces without a grid of patches, face_has_groups: none) */
+    face_hier *hier;     /* per face (faces without a grid of patches, face_has_groups: none) */
     uint8_t *face_small; /* per face, this frame: the whole (untrimmed) face within FACE_SMALL_PX */
     uint32_t group_leaves; /* this frame */
     uint32_t *counts;      /* per face: group leaves this frame */

@@ -943,8 +943,8 @@ static void test_trim_rule(void **state)
     assert_int_equal(trims, t0 + 1);
     crisp_planner *full, *lim;
     assert_int_equal(crisp_planner_create(NULL, NULL, &full), CRISP_OK);
-    assert_int_equal(crisp_planner_create(&(crisp_planner_desc){.splat_build_limit = 1}, NULL, &lim),
-                     CRISP_OK);
+    assert_int_equal(
+        crisp_planner_create(&(crisp_planner_desc){.splat_build_limit = 1}, NULL, &lim), CRISP_OK);
     crisp_camera cam = far_view(sc, 60, 240, 180);
     const crisp_frame_plan *plan;
     assert_int_equal(crisp_planner_plan(full, sc, &cam, &plan), CRISP_OK);
