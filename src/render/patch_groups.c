@@ -6,7 +6,9 @@
  * a bound from its patches' control points against the block's corners, see group_leaf_ok). Only
  * the patches of the blocks left open get their own quadtree, SLEFE levels and frustum tests, so a
  * plan's cost follows what is on screen.
- * The hierarchy is built once per scene (view-independent) and kept by the planner. */
+ * A face's hierarchy (view-independent) is built the first time a frame walks the face and kept
+ * by the planner until the scene changes: faces drawn as splats (skip_faces) never build it
+ * (imp49 default: 12,907 of 13,573 faces; the whole scene's took 5.7 G instructions and 157 MB). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -58,15 +60,22 @@ typedef struct block_dev {
     int bounded;         /* 0: a weight is not positive (no O(1) bound) */
 } block_dev;
 
+/* One face's hierarchy, in one allocation (at nodes): its blocks depth first from the root (node
+ * 0), the block_devs of its blocks of more than one patch (group.dev) in the same order, and this
+ * frame's decision per block (node_kind, current where node_frame is the classify call's). */
+typedef struct face_hier {
+    group *nodes; /* NULL: not built yet */
+    block_dev *devs;
+    uint32_t *node_frame; /* the classify call that wrote node_kind (0: none) */
+    uint8_t *node_kind;   /* NODE_* */
+    uint32_t node_count;
+} face_hier;
+
 struct crisp__groups {
     const crisp_scene *scene;
     uint64_t key; /* the serial of the scene the hierarchy was built from */
     uint32_t patch_count, face_count;
-    group *nodes;
-    size_t node_count, node_cap;
-    block_dev *devs; /* of the blocks of more than one patch (group.dev) */
-    size_t dev_count, dev_cap;
-    uint32_t *face_root; /* per face: its top group, UINT32_MAX when the face has no patches */
+    face_hier *hier;     /* per face (faces without a grid of patches, face_has_groups: none) */
     uint8_t *face_small; /* per face, this frame: the whole (untrimmed) face within FACE_SMALL_PX */
     uint32_t group_leaves; /* this frame */
     uint32_t *counts;      /* per face: group leaves this frame */
@@ -83,10 +92,8 @@ struct crisp__groups {
     double *quarter_sigma; /* 4 x CRISP__SIGMA_STRIDE per slot */
     uint8_t *quarter_formed;
     uint64_t generation; /* bumped whenever the hierarchy is rebuilt (a new scene) */
-    /* This frame's decisions per block (node): what owns its patches. Only the blocks the walk
-     * reached are written; node_frame says which are current. */
-    uint8_t *node_kind;     /* NODE_* */
-    uint32_t *node_frame;   /* the classify call that wrote node_kind */
+    /* This frame's decisions per block (face_hier.node_kind): what owns its patches. Only the
+     * blocks the walk reached are written; node_frame says which are current. */
     uint32_t frame;         /* classify calls so far */
     uint32_t **face_active; /* per face: this frame's active patches (see crisp__groups_classify) */
     uint32_t *face_active_count;
@@ -364,11 +371,10 @@ static void deviation_range(const block_dev *d, crisp_mat4 m, double lo[3], doub
  * [bv 2^g, (bv + 1) 2^g) clipped to the grid. Blocks of one face nest like a quadtree, so two
  * blocks' sides either contain one another or meet in at most a point (the crack-free edge rule
  * relies on it). sigma: the largest crisp__rational_reparam of the block's patches. */
-/* Where build_group puts a face's blocks: the face's own range of the hierarchy's arrays (sized
- * beforehand by count_blocks, so faces are built in parallel into place). */
+/* Where build_group puts a face's blocks: the face's arrays (sized beforehand by count_blocks). */
 typedef struct group_arena {
     group *nodes;
-    size_t node_count, node_end; /* the next node; the end of the face's range */
+    size_t node_count, node_end; /* the next node; the end of the face's array */
     block_dev *devs;
     size_t dev_count, dev_end;
 } group_arena;
@@ -479,24 +485,27 @@ static void free_frame_state(crisp__groups *g)
     free(g->face_active);
     free(g->face_active_count);
     free(g->face_active_cap);
-    free(g->node_kind);
-    free(g->node_frame);
     free(g->patch_owner);
     g->patch_owner = NULL;
     g->face_active = NULL;
     g->face_active_count = NULL;
     g->face_active_cap = NULL;
-    g->node_kind = NULL;
-    g->node_frame = NULL;
+}
+
+static void free_hier(crisp__groups *g)
+{
+    if (g->hier)
+        for (uint32_t f = 0; f < g->face_count; f++)
+            free(g->hier[f].nodes);
+    free(g->hier);
+    g->hier = NULL;
 }
 
 void crisp__groups_destroy(crisp__groups *g)
 {
     if (!g) return;
     free_frame_state(g);
-    free(g->nodes);
-    free(g->devs);
-    free(g->face_root);
+    free_hier(g);
     free(g->face_small);
     free(g->counts);
     free(g->face_px);
@@ -531,18 +540,6 @@ static crisp_status build_quarter_slots(crisp__groups *g, const crisp_scene *sc)
     return CRISP_OK;
 }
 
-/* The faces' hierarchies are independent: each face's blocks are counted first (count_blocks),
- * which places every face's range in g->nodes and g->devs where a serial build puts it (face
- * after face, each depth first), then the faces are built in parallel into their ranges: the
- * same hierarchy, numbers and order as a serial build. imp49 default: 5.7 G instructions on one
- * thread, the largest serial part of its first frame (session 13). */
-typedef struct faces_build {
-    crisp__groups *g;
-    const crisp_scene *sc;
-    size_t (*at)[2]; /* per face + 1: its first node and dev */
-    int failed;
-} faces_build;
-
 static uint32_t face_levels(const crisp_scene_face *sf)
 {
     uint32_t lv = 0;
@@ -556,49 +553,36 @@ static int face_has_groups(const crisp_scene_face *sf)
     return sf->patch_count && sf->grid_u * sf->grid_v == sf->patch_count;
 }
 
-static void build_faces_range(void *vctx, size_t begin, size_t end, int worker)
+/* Builds face fi's hierarchy (face_has_groups) the first time it is asked for; 0 when out of
+ * memory. Faces are independent: the walk's workers build the faces they walk. */
+static int ensure_face(crisp__groups *g, const crisp_scene *sc, uint32_t fi)
 {
-    (void)worker;
-    faces_build *b = vctx;
-    for (size_t f = begin; f < end; f++) {
-        const crisp_scene_face *sf = &b->sc->faces[f];
-        if (!face_has_groups(sf)) continue;
-        group_arena a = {b->g->nodes, b->at[f][0], b->at[f + 1][0],
-                         b->g->devs,  b->at[f][1], b->at[f + 1][1]};
-        int32_t root;
-        double sigma[3];
-        if (build_group(&a, b->g->patch_sigma, b->sc, sf, face_levels(sf), 0, 0, &root, sigma) ||
-            a.node_count != a.node_end || a.dev_count != a.dev_end)
-            b->failed = 1;
+    face_hier *h = &g->hier[fi];
+    if (h->nodes) return 1;
+    const crisp_scene_face *sf = &sc->faces[fi];
+    size_t nn = 0, nd = 0;
+    count_blocks(sf->grid_u, sf->grid_v, face_levels(sf), 0, 0, &nn, &nd);
+    /* sizeof (group) and sizeof (block_dev) are multiples of 8 (they hold doubles) */
+    size_t bytes = nn * (sizeof(group) + sizeof(uint32_t) + 1) + nd * sizeof(block_dev);
+    char *mem = malloc(bytes);
+    if (!mem) return 0;
+    group *nodes = (group *)mem;
+    block_dev *devs = (block_dev *)(mem + nn * sizeof(group));
+    uint32_t *frame = (uint32_t *)(mem + nn * sizeof(group) + nd * sizeof(block_dev));
+    group_arena a = {nodes, 0, nn, devs, 0, nd};
+    int32_t root;
+    double sigma[3];
+    if (build_group(&a, g->patch_sigma, sc, sf, face_levels(sf), 0, 0, &root, sigma) ||
+        a.node_count != nn || a.dev_count != nd) {
+        free(mem);
+        return 0;
     }
+    memset(frame, 0, nn * sizeof *frame);
+    *h = (face_hier){nodes, devs, frame, (uint8_t *)(frame + nn), (uint32_t)nn};
+    return 1;
 }
 
-static crisp_status build_faces(crisp__groups *g, const crisp_scene *sc, crisp_pool *pool)
-{
-    faces_build b = {.g = g, .sc = sc, .at = malloc(((size_t)sc->face_count + 1) * sizeof *b.at)};
-    if (!b.at) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
-    size_t nodes = 0, devs = 0;
-    for (uint32_t f = 0; f < sc->face_count; f++) {
-        const crisp_scene_face *sf = &sc->faces[f];
-        b.at[f][0] = nodes, b.at[f][1] = devs;
-        g->face_root[f] = face_has_groups(sf) ? (uint32_t)nodes : UINT32_MAX;
-        if (face_has_groups(sf))
-            count_blocks(sf->grid_u, sf->grid_v, face_levels(sf), 0, 0, &nodes, &devs);
-    }
-    b.at[sc->face_count][0] = nodes, b.at[sc->face_count][1] = devs;
-    crisp_status st =
-        crisp_grow((void **)&g->nodes, &g->node_cap, nodes ? nodes : 1, sizeof *g->nodes);
-    if (!st) st = crisp_grow((void **)&g->devs, &g->dev_cap, devs ? devs : 1, sizeof *g->devs);
-    if (!st) {
-        crisp_pool_parallel_for(pool, sc->face_count, 16, build_faces_range, &b);
-        if (b.failed) st = crisp_error(CRISP_ERR_NO_MEMORY, "patch groups: building a face failed");
-        g->node_count = nodes, g->dev_count = devs;
-    }
-    free(b.at);
-    return st;
-}
-
-static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc, crisp_pool *pool)
+static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
 {
     /* A scene destroyed and another prepared at the same address must not reuse the hierarchy:
      * scenes have serial numbers. */
@@ -607,11 +591,9 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc, crisp_
         return CRISP_OK;
     g->key = sc->serial;
     free_frame_state(g);
+    free_hier(g);
     g->scene = NULL;
     g->face_count = 0;
-    g->node_count = 0;
-    g->dev_count = 0;
-    free(g->face_root);
     free(g->face_small);
     free(g->counts);
     free(g->face_px);
@@ -619,25 +601,21 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc, crisp_
     g->face_px = malloc((sc->face_count ? sc->face_count : 1) * sizeof *g->face_px);
     g->patch_sigma = crisp_malloc_array(sc->patch_count ? sc->patch_count : 1,
                                         CRISP__SIGMA_STRIDE * sizeof *g->patch_sigma);
-    g->face_root = malloc((sc->face_count ? sc->face_count : 1) * sizeof *g->face_root);
-    g->face_small = calloc(sc->face_count ? sc->face_count : 1, 1);
-    g->counts = calloc(sc->face_count ? sc->face_count : 1, sizeof *g->counts);
-    if (!g->face_root || !g->face_small || !g->counts || !g->face_px || !g->patch_sigma)
+    size_t nf = sc->face_count ? sc->face_count : 1;
+    g->hier = calloc(nf, sizeof *g->hier);
+    g->face_small = calloc(nf, 1);
+    g->counts = calloc(nf, sizeof *g->counts);
+    if (!g->hier || !g->face_small || !g->counts || !g->face_px || !g->patch_sigma)
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
-    crisp_status st = build_faces(g, sc, pool);
-    if (st) return st;
-    size_t nf = sc->face_count ? sc->face_count : 1, nn = g->node_count ? g->node_count : 1;
+    g->face_count = sc->face_count;
     g->face_active = calloc(nf, sizeof *g->face_active);
     g->face_active_count = calloc(nf, sizeof *g->face_active_count);
     g->face_active_cap = calloc(nf, sizeof *g->face_active_cap);
-    g->node_kind = calloc(nn, sizeof *g->node_kind);
-    g->node_frame = calloc(nn, sizeof *g->node_frame);
     g->patch_owner = calloc(sc->patch_count ? sc->patch_count : 1, sizeof *g->patch_owner);
-    g->face_count = sc->face_count;
-    if (!g->face_active || !g->face_active_count || !g->face_active_cap || !g->node_kind ||
-        !g->node_frame || !g->patch_owner)
+    if (!g->face_active || !g->face_active_count || !g->face_active_cap || !g->patch_owner)
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
-    if ((st = build_quarter_slots(g, sc))) return st;
+    crisp_status st = build_quarter_slots(g, sc);
+    if (st) return st;
     g->scene = sc;
     g->generation++;
     g->patch_count = sc->patch_count;
@@ -810,13 +788,13 @@ static int clip_corners(const double *const cw[4], crisp_mat4 m, double C[4][3],
     return clip_points((const double(*)[3])P, m, C, wmin, xmax, ymax);
 }
 
-static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n,
-                         double extent)
+static int group_leaf_ok(const walk_ctx *c, const crisp_scene_face *f, const face_hier *h,
+                         const group *n, double extent)
 {
     int box_depth = box_depth_ok(c, n->box);
     if (extent <= c->eps && box_depth) return 1;
     if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
-    const block_dev *dev = &c->g->devs[n->dev];
+    const block_dev *dev = &h->devs[n->dev];
     double(*m)[4] = (double(*)[4])c->m;
     double C[4][3], wmin, xmax, ymax;
     if (!dev->bounded || !clip_points((const double(*)[3])dev->corner, m, C, &wmin, &xmax, &ymax))
@@ -976,14 +954,16 @@ static void mark_perimeter(crisp__groups *g, const crisp_scene_face *f, const gr
  * count, and at the default view a leaf of 2 x 2 cells stands for four leaves at level 1 (the
  * same triangles). Each child's result is kept for the walk (NODE_PASS / NODE_FAIL), which reaches
  * it when the block is refused: a child is tried once per frame. */
-static int child_ok(const walk_ctx *c, const crisp_scene_face *f, uint32_t at, double extent)
+static int child_ok(const walk_ctx *c, const crisp_scene_face *f, const face_hier *h, uint32_t at,
+                    double extent)
 {
-    crisp__groups *g = c->g;
-    if (g->node_frame[at] == g->frame) return g->node_kind[at] == NODE_PASS;
-    const group *n = &g->nodes[at];
-    int ok = n->nu * n->nv == 1 ? patch_flat_ok(c, f, n, extent) : group_leaf_ok(c, f, n, extent);
-    g->node_frame[at] = g->frame;
-    g->node_kind[at] = ok ? NODE_PASS : NODE_FAIL;
+    uint32_t frame = c->g->frame;
+    if (h->node_frame[at] == frame) return h->node_kind[at] == NODE_PASS;
+    const group *n = &h->nodes[at];
+    int ok =
+        n->nu * n->nv == 1 ? patch_flat_ok(c, f, n, extent) : group_leaf_ok(c, f, h, n, extent);
+    h->node_frame[at] = frame;
+    h->node_kind[at] = ok ? NODE_PASS : NODE_FAIL;
     return ok;
 }
 
@@ -1112,13 +1092,14 @@ int crisp__groups_test_quarters(const crisp_bezier_patch *p, crisp_mat4 view_pro
  * the leaf's mesh lies in one cell of the 2^j x 2^j grid when every edge level is a multiple of
  * 2^j (test_group_leaves' test_tau_cells; quadtree.c split_high_levels plans the block's patches
  * one by one otherwise), so each cell's bound holds for the triangles in it. */
-static int cells_ok(const walk_ctx *c, const crisp_scene_face *f, uint32_t at, int j, double extent)
+static int cells_ok(const walk_ctx *c, const crisp_scene_face *f, const face_hier *h, uint32_t at,
+                    int j, double extent)
 {
-    if (j == 0) return child_ok(c, f, at, extent);
-    const group *n = &c->g->nodes[at];
+    if (j == 0) return child_ok(c, f, h, at, extent);
+    const group *n = &h->nodes[at];
     if (n->nu * n->nv == 1) return j == 1 && patch_quarters_ok(c, f, n);
     for (int k = 0; k < 4; k++)
-        if (n->child[k] < 0 || !cells_ok(c, f, (uint32_t)n->child[k], j - 1, extent)) return 0;
+        if (n->child[k] < 0 || !cells_ok(c, f, h, (uint32_t)n->child[k], j - 1, extent)) return 0;
     return 1;
 }
 
@@ -1128,14 +1109,14 @@ static int cells_ok(const walk_ctx *c, const crisp_scene_face *f, uint32_t at, i
  * leaves each for 0.4-0.8% more triangles, but impeller.igs at far10 5-12% more triangles (a
  * child refused at level 1 as a block still gets level 1 patch by patch in its own trees) with or
  * without a rule taking level 4 only where no child passes at level 1; not kept. */
-static int cells_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const group *n, int j,
-                         double extent)
+static int cells_flat_ok(const walk_ctx *c, const crisp_scene_face *f, const face_hier *h,
+                         const group *n, int j, double extent)
 {
     if (n->g < 1 || n->nu != 1u << n->g || n->nv != 1u << n->g) return 0;
     if (!isfinite(extent) || extent > CRISP_PLAN_MAX_LEAF_PX) return 0;
     if (j == 2 && (n->g != 1 || n->rational)) return 0;
     for (int k = 0; k < 4; k++)
-        if (n->child[k] < 0 || !cells_ok(c, f, (uint32_t)n->child[k], j - 1, extent)) return 0;
+        if (n->child[k] < 0 || !cells_ok(c, f, h, (uint32_t)n->child[k], j - 1, extent)) return 0;
     return 1;
 }
 
@@ -1146,34 +1127,39 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
     crisp__groups *g = c->g;
     for (size_t fi = begin; fi < end; fi++) {
         const crisp_scene_face *f = &c->sc->faces[fi];
-        uint32_t root = g->face_root[fi];
         g->face_small[fi] = 0;
         g->face_px[fi] = INFINITY;
         g->face_active_count[fi] = 0;
         c->counts[fi] = 0;
         if (c->out->skip_faces && c->out->skip_faces[fi]) continue; /* drawn as splats */
-        if (root == UINT32_MAX) {
+        if (!face_has_groups(f)) {
             for (uint32_t p = 0; p < f->patch_count; p++)
                 activate(c, (uint32_t)fi, f->first_patch + p, CRISP__PATCH_OPEN);
             continue;
         }
+        if (!ensure_face(g, c->sc, (uint32_t)fi)) {
+            g->oom = 1;
+            continue;
+        }
+        face_hier *h = &g->hier[fi];
+        const int32_t root = 0;
         int32_t stack[4 * 64];
         int top = 0;
-        stack[top++] = (int32_t)root;
+        stack[top++] = root;
         while (top > 0) {
             int32_t at = stack[--top];
-            const group *n = &g->nodes[at];
+            const group *n = &h->nodes[at];
             double extent;
             int j;
             int k = classify(n->box, c->m, c->gx, c->gy, c->width, c->height, c->eps, &extent);
             /* tried as a cell of its parent this frame: that result (cells_flat_ok) */
-            int tried = g->node_frame[at] == g->frame ? g->node_kind[at] : -1;
-            if ((uint32_t)at == root && k != 1 && extent <= FACE_SMALL_PX) g->face_small[fi] = 1;
-            if ((uint32_t)at == root) g->face_px[fi] = (float)extent;
-            g->node_frame[at] = g->frame;
-            g->node_kind[at] = NODE_OWN;
+            int tried = h->node_frame[at] == g->frame ? h->node_kind[at] : -1;
+            if (at == root && k != 1 && extent <= FACE_SMALL_PX) g->face_small[fi] = 1;
+            if (at == root) g->face_px[fi] = (float)extent;
+            h->node_frame[at] = g->frame;
+            h->node_kind[at] = NODE_OWN;
             if (k == 1) {
-                g->node_kind[at] = NODE_CULLED; /* its patches: no tree (crisp__groups_owner) */
+                h->node_kind[at] = NODE_CULLED; /* its patches: no tree (crisp__groups_owner) */
             } else if (n->nu * n->nv == 1) {
                 /* (Within eps on screen but not along the view: its tree's leaf takes the depth
                  * bound's level, build_cell.) */
@@ -1185,26 +1171,26 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
                          small ? CRISP__PATCH_SMALL : CRISP__PATCH_OPEN);
             } else if (c->out->group_g &&
                        (tried == NODE_PASS ||
-                        (tried != NODE_FAIL && group_leaf_ok(c, f, n, extent)))) {
+                        (tried != NODE_FAIL && group_leaf_ok(c, f, h, n, extent)))) {
                 uint32_t origin = f->first_patch + n->iv0 * f->grid_u + n->iu0;
-                g->node_kind[at] = NODE_GROUP;
+                h->node_kind[at] = NODE_GROUP;
                 mark_perimeter(g, f, n, origin);
                 activate(c, (uint32_t)fi, origin, CRISP__PATCH_GROUP);
                 c->out->group_g[origin] = (uint8_t)n->g;
                 c->counts[fi]++;
             } else if (k == 2 && box_depth_ok(c, n->box)) {
                 activate_block(c, (uint32_t)fi, f, n, CRISP__PATCH_SMALL);
-            } else if (c->out->group_g && (j = cells_flat_ok(c, f, n, 1, extent)   ? 1
-                                               : cells_flat_ok(c, f, n, 2, extent) ? 2
-                                                                                   : 0)) {
+            } else if (c->out->group_g && (j = cells_flat_ok(c, f, h, n, 1, extent)   ? 1
+                                               : cells_flat_ok(c, f, h, n, 2, extent) ? 2
+                                                                                      : 0)) {
                 uint32_t origin = f->first_patch + n->iv0 * f->grid_u + n->iu0;
-                g->node_kind[at] = NODE_GROUP;
+                h->node_kind[at] = NODE_GROUP;
                 mark_perimeter(g, f, n, origin);
                 activate(c, (uint32_t)fi, origin, CRISP__PATCH_GROUP);
                 c->out->group_g[origin] = (uint8_t)(n->g | (unsigned)j << 4); /* tau 2^j */
                 c->counts[fi]++;
             } else {
-                g->node_kind[at] = NODE_OPEN;
+                h->node_kind[at] = NODE_OPEN;
                 for (int q = 3; q >= 0; q--)
                     if (n->child[q] >= 0) stack[top++] = n->child[q];
             }
@@ -1222,11 +1208,14 @@ crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, cri
                                     int width, int height, double gx, double gy, double eps,
                                     crisp_pool *pool, crisp__patch_groups *out)
 {
-    crisp_status st = ensure_built(g, sc, pool);
+    crisp_status st = ensure_built(g, sc);
     if (st) return st;
     uint32_t *counts = g->counts;
     if (++g->frame == 0) { /* stamps of 0 never match; after 2^32 walks clear them once */
-        memset(g->node_frame, 0, (g->node_count ? g->node_count : 1) * sizeof *g->node_frame);
+        for (uint32_t f = 0; f < g->face_count; f++)
+            if (g->hier[f].nodes)
+                memset(g->hier[f].node_frame, 0,
+                       g->hier[f].node_count * sizeof *g->hier[f].node_frame);
         memset(g->patch_owner, 0, (g->patch_count ? g->patch_count : 1) * sizeof *g->patch_owner);
         g->frame = 1;
     }
@@ -1272,10 +1261,11 @@ uint32_t crisp__groups_owner(const crisp__groups *g, const crisp_scene *sc, uint
     /* Not on a group leaf's perimeter this frame: culled, or inside a block (the descent). */
     const crisp_scene_patch *sp = &sc->patches[q];
     const crisp_scene_face *f = &sc->faces[sp->face];
-    uint32_t at = g->face_root[sp->face];
-    while (at != UINT32_MAX && g->node_frame[at] == g->frame) {
-        const group *n = &g->nodes[at];
-        switch (g->node_kind[at]) {
+    const face_hier *h = &g->hier[sp->face];
+    uint32_t at = h->nodes ? 0 : UINT32_MAX; /* not built: never walked */
+    while (at != UINT32_MAX && h->node_frame[at] == g->frame) {
+        const group *n = &h->nodes[at];
+        switch (h->node_kind[at]) {
         case NODE_GROUP:
             return f->first_patch + n->iv0 * f->grid_u + n->iu0;
         case NODE_OPEN: {
@@ -1305,7 +1295,7 @@ const double *crisp__groups_patch_sigmas(const crisp__groups *g, const crisp_sce
                                          uint32_t patch)
 {
     if (!g || g->scene != sc || g->key != sc->serial || patch >= g->patch_count) return NULL;
-    if (g->face_root[sc->patches[patch].face] == UINT32_MAX) return NULL; /* not formed */
+    if (!g->hier[sc->patches[patch].face].nodes) return NULL; /* not formed */
     return g->patch_sigma + CRISP__SIGMA_STRIDE * (size_t)patch;
 }
 
@@ -1355,19 +1345,22 @@ crisp_status crisp__groups_test_deviations(crisp__groups *g, const crisp_scene *
                                                          const crisp__groups_dev_sample *s),
                                            void *ctx)
 {
-    crisp_status st = ensure_built(g, sc, NULL);
+    crisp_status st = ensure_built(g, sc);
     if (st) return st;
     for (uint32_t fi = 0; fi < sc->face_count; fi++) {
-        if (g->face_root[fi] == UINT32_MAX) continue;
         const crisp_scene_face *f = &sc->faces[fi];
+        if (!face_has_groups(f)) continue;
+        if (!ensure_face(g, sc, fi))
+            return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
+        const face_hier *h = &g->hier[fi];
         int32_t stack[4 * 64];
         int top = 0;
-        stack[top++] = (int32_t)g->face_root[fi];
+        stack[top++] = 0;
         while (top > 0) {
-            const group *n = &g->nodes[stack[--top]];
+            const group *n = &h->nodes[stack[--top]];
             for (int q = 0; q < 4; q++)
                 if (n->child[q] >= 0) stack[top++] = n->child[q];
-            if (n->dev < 0 || !g->devs[n->dev].bounded) continue;
+            if (n->dev < 0 || !h->devs[n->dev].bounded) continue;
             /* the corners mapped without the front-of-eye check (any affine map) */
             const double *cw[4];
             block_corners(sc, f, n, cw);
@@ -1382,7 +1375,7 @@ crisp_status crisp__groups_test_deviations(crisp__groups *g, const crisp_scene *
             block_points(sc, f, n, 0, exact_visit, &w);
             crisp__groups_dev_sample s = {
                 .face = fi, .patches = n->nu * n->nv, .rational = n->rational};
-            deviation_range(&g->devs[n->dev], m, s.lo, s.hi, s.box_lo, s.box_hi, s.wlo, s.whi);
+            deviation_range(&h->devs[n->dev], m, s.lo, s.hi, s.box_lo, s.box_hi, s.wlo, s.whi);
             memcpy(s.exact_lo, w.lo, sizeof w.lo);
             memcpy(s.exact_hi, w.hi, sizeof w.hi);
             visit(ctx, &s);

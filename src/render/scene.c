@@ -9,6 +9,9 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef __GLIBC__ /* (defined by the headers above) */
+#include <malloc.h>
+#endif
 
 /* 1 when the surface's control net closes on itself: the first and last columns (dir 0) or
  * rows (dir 1) of Euclidean control points coincide, so the boundary curves are one curve. */
@@ -491,6 +494,14 @@ crisp_status crisp_scene_prepare(const crisp_model *m, crisp_scene **dest)
     if ((st = flatten_control_points(s)) || (st = extract_pieces(s))) goto fail;
     for (uint32_t f = 0; f < s->face_count; f++)
         face_framing_box(s, &s->faces[f], s->box);
+#ifdef __GLIBC__
+    /* The conversions' temporaries (the faces' Bézier patches and trim pieces before they are
+     * flattened and shared) leave their memory free in malloc's arenas but resident, between
+     * what the scene keeps: give it back to the system here, before any frame (imp49: 105 MB
+     * free, RSS 412 -> 324 MB, about 100 ms; inside the first frame it cost imp49 far's 130 ms
+     * more, session 14). */
+    malloc_trim(0);
+#endif
     *dest = s;
     return CRISP_OK;
 oom:

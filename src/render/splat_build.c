@@ -71,6 +71,7 @@ typedef struct splat_ctx {
     int piece_count;
     double piece_box[4]; /* umin, umax, vmin, vmax of every piece's control points */
     double (*boxes)[4];  /* per piece */
+    uint8_t *poly;       /* per piece: every weight is 1 (curve_point_uv, curve_point_near_uv) */
     /* The pieces the cell tests look at, in piece order: every piece in block_cells; in
      * patch_cells those that can meet the patch's cells (near: their box meets the patch's
      * rectangle; left: they can cross a scan line of the patch left of its points). */
@@ -353,6 +354,65 @@ static int curve_point(const double *cpw, int d, const double rect[4], int depth
     return got;
 }
 
+/* Polynomial pieces (every weight 1): the halvings keep every weight exactly 1 (0.5 * 1 + 0.5 * 1)
+ * and u = x / 1 = x, so curve_point and curve_point_near take the same steps on the same numbers
+ * with the (u, v) coordinates alone and no divisions. halve_uv: split_points at 0.5 of the (u, v)
+ * of d + 1 points (stride st doubles: 3 for a piece's cpw, 2 for a half) into lo, hi (stride 2). */
+static void halve_uv(const double *c, ptrdiff_t st, int d, double *lo, double *hi)
+{
+    const double t = 0.5;
+    double tmp[2 * (CRISP_MAX_DEGREE + 1)];
+    for (int i = 0; i <= d; i++)
+        tmp[2 * i] = c[st * i], tmp[2 * i + 1] = c[st * i + 1];
+    lo[0] = tmp[0], lo[1] = tmp[1];
+    hi[2 * d] = tmp[2 * d], hi[2 * d + 1] = tmp[2 * d + 1];
+    for (int r = 1; r <= d; r++) {
+        for (int i = 0; i <= d - r; i++) {
+            tmp[2 * i] = (1 - t) * tmp[2 * i] + t * tmp[2 * i + 2];
+            tmp[2 * i + 1] = (1 - t) * tmp[2 * i + 1] + t * tmp[2 * i + 3];
+        }
+        lo[2 * r] = tmp[0], lo[2 * r + 1] = tmp[1];
+        hi[2 * (d - r)] = tmp[2 * (d - r)], hi[2 * (d - r) + 1] = tmp[2 * (d - r) + 1];
+    }
+}
+
+/* curve_point of a polynomial piece's (u, v) points (stride st). */
+static int curve_point_uv(const double *c, ptrdiff_t st, int d, const double rect[4], int depth,
+                          int *budget, double pt[2])
+{
+    double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
+    for (int i = 0; i <= d; i++)
+        for (int q = 0; q < 2; q++) {
+            double x = c[st * i + q];
+            lo[q] = x < lo[q] ? x : lo[q];
+            hi[q] = x > hi[q] ? x : hi[q];
+        }
+    if (hi[0] < rect[0] || lo[0] > rect[1] || hi[1] < rect[2] || lo[1] > rect[3]) return 0;
+    for (int e = 0; e <= d; e += d) {
+        double u = c[st * e], v = c[st * e + 1];
+        if (u >= rect[0] && u <= rect[1] && v >= rect[2] && v <= rect[3]) {
+            pt[0] = u, pt[1] = v;
+            return 1;
+        }
+    }
+    if (depth >= SPLAT_FIND_DEPTH || --*budget < 0) {
+        pt[0] = fmin(fmax(c[0], rect[0]), rect[1]);
+        pt[1] = fmin(fmax(c[1], rect[2]), rect[3]);
+        return 2;
+    }
+    double l[2 * (CRISP_MAX_DEGREE + 1)], r[2 * (CRISP_MAX_DEGREE + 1)];
+    halve_uv(c, st, d, l, r);
+    int got = curve_point_uv(l, 2, d, rect, depth + 1, budget, pt);
+    if (got == 1) return 1;
+    double p2[2];
+    int got2 = curve_point_uv(r, 2, d, rect, depth + 1, budget, p2);
+    if (got2 == 1 || (got2 && !got)) {
+        pt[0] = p2[0], pt[1] = p2[1];
+        return got2;
+    }
+    return got;
+}
+
 /* The trim curves against a cell's closed rectangle (curve_point's answer over every piece). */
 static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[2])
 {
@@ -363,7 +423,9 @@ static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[
         const double *b = c->boxes[k];
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
         int budget = SPLAT_FIND_BUDGET;
-        int g = curve_point(c->pieces[k].cpw, c->pieces[k].degree, rect, 0, &budget, q);
+        const crisp_bezier_curve *p = &c->pieces[k];
+        int g = c->poly[k] ? curve_point_uv(p->cpw, 3, p->degree, rect, 0, &budget, q)
+                           : curve_point(p->cpw, p->degree, rect, 0, &budget, q);
         if (g == 1) {
             pt[0] = q[0], pt[1] = q[1];
             return 1;
@@ -409,6 +471,37 @@ static void curve_point_near(const double *cpw, int d, const double rect[4], con
     curve_point_near(r, d, rect, m, tiny, depth + 1, pt, best);
 }
 
+/* curve_point_near of a polynomial piece's (u, v) points (stride st; see halve_uv). */
+static void curve_point_near_uv(const double *c, ptrdiff_t st, int d, const double rect[4],
+                                const double m[2], double tiny, int depth, double pt[2],
+                                double *best)
+{
+    double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
+    for (int i = 0; i <= d; i++)
+        for (int q = 0; q < 2; q++) {
+            double x = c[st * i + q];
+            lo[q] = x < lo[q] ? x : lo[q];
+            hi[q] = x > hi[q] ? x : hi[q];
+        }
+    if (hi[0] < rect[0] || lo[0] > rect[1] || hi[1] < rect[2] || lo[1] > rect[3]) return;
+    double ex = fmax(fmax(lo[0] - m[0], m[0] - hi[0]), 0.0);
+    double ey = fmax(fmax(lo[1] - m[1], m[1] - hi[1]), 0.0);
+    if (ex * ex + ey * ey >= *best) return;
+    for (int e = 0; e <= d; e += d) {
+        double u = c[st * e], v = c[st * e + 1];
+        double dd = (u - m[0]) * (u - m[0]) + (v - m[1]) * (v - m[1]);
+        if (u >= rect[0] && u <= rect[1] && v >= rect[2] && v <= rect[3] && dd < *best) {
+            *best = dd;
+            pt[0] = u, pt[1] = v;
+        }
+    }
+    if (depth >= SPLAT_FIND_DEPTH || fmax(hi[0] - lo[0], hi[1] - lo[1]) <= tiny) return;
+    double l[2 * (CRISP_MAX_DEGREE + 1)], r[2 * (CRISP_MAX_DEGREE + 1)];
+    halve_uv(c, st, d, l, r);
+    curve_point_near_uv(l, 2, d, rect, m, tiny, depth + 1, pt, best);
+    curve_point_near_uv(r, 2, d, rect, m, tiny, depth + 1, pt, best);
+}
+
 /* pt: a point of the curves in the rectangle (cell_curve_point's); moved to one nearer the
  * centre when the search finds one. */
 static void cell_curve_point_near(const splat_ctx *c, const double rect[4], double pt[2])
@@ -420,7 +513,11 @@ static void cell_curve_point_near(const splat_ctx *c, const double rect[4], doub
         const int k = c->near_idx[i];
         const double *b = c->boxes[k];
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
-        curve_point_near(c->pieces[k].cpw, c->pieces[k].degree, rect, m, tiny, 0, pt, &best);
+        const crisp_bezier_curve *p = &c->pieces[k];
+        if (c->poly[k])
+            curve_point_near_uv(p->cpw, 3, p->degree, rect, m, tiny, 0, pt, &best);
+        else
+            curve_point_near(p->cpw, p->degree, rect, m, tiny, 0, pt, &best);
     }
 }
 
@@ -759,6 +856,7 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
     c.max_cells = max_count ? 64ull * max_count + (1ull << 20) : UINT64_MAX;
     c.boxes = crisp_malloc_array(f->piece_count ? f->piece_count : 1, sizeof *c.boxes);
     c.all = crisp_malloc_array(3 * (size_t)(f->piece_count ? f->piece_count : 1), sizeof(int));
+    c.poly = crisp_malloc_array(f->piece_count ? f->piece_count : 1, 1);
     size_t ncp = (size_t)(maxd + 1) * (size_t)(maxd + 1) * 4;
     c.cpw = crisp_malloc_array(ncp, sizeof(double));
     c.euc = crisp_malloc_array(ncp, sizeof(double));
@@ -766,7 +864,7 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
     c.eval_stride = (size_t)(maxd + 1) * 4;
     c.eval_rows = crisp_malloc_array(EVAL_CACHE * c.eval_stride, sizeof(double));
     crisp_status st = crisp__surface_normals_init(&c.normals, c.surface);
-    if (!st && (!c.boxes || !c.all || !c.cpw || !c.euc || !c.col || !c.eval_rows))
+    if (!st && (!c.boxes || !c.all || !c.poly || !c.cpw || !c.euc || !c.col || !c.eval_rows))
         st = crisp_error(CRISP_ERR_NO_MEMORY, "splat build of face %u", face);
     if (st) goto done;
     c.near_list = c.all + c.piece_count, c.left_list = c.all + 2 * c.piece_count;
@@ -780,7 +878,9 @@ crisp_status crisp__splat_build(const crisp_scene *scene, uint32_t face, double 
         double *bb = c.boxes[k];
         bb[0] = bb[2] = HUGE_VAL;
         bb[1] = bb[3] = -HUGE_VAL;
+        c.poly[k] = 1;
         for (int i = 0; i <= b->degree; i++) {
+            c.poly[k] &= b->cpw[3 * i + 2] == 1.0;
             double u = b->cpw[3 * i] / b->cpw[3 * i + 2], v = b->cpw[3 * i + 1] / b->cpw[3 * i + 2];
             bb[0] = fmin(bb[0], u), bb[1] = fmax(bb[1], u);
             bb[2] = fmin(bb[2], v), bb[3] = fmax(bb[3], v);
@@ -797,6 +897,7 @@ done:
     crisp__surface_normals_free(&c.normals);
     crisp_free(c.boxes);
     crisp_free(c.all);
+    crisp_free(c.poly);
     crisp_free(c.cpw);
     crisp_free(c.euc);
     crisp_free(c.col);

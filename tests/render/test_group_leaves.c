@@ -742,10 +742,10 @@ static void test_kept_sigmas(void **state)
     crisp_model_destroy(mb);
 }
 
-/* The hierarchy is built face by face in parallel (patch_groups.c build_faces) and must be the one
- * a serial build makes: plans of impeller.igs (277 faces of different grids) by planners on pools
- * of 1 and 3 threads are the same, leaves and face records bit for bit, at views from the whole
- * model to close-ups (group leaves at the far views). */
+/* The hierarchy is built face by face by the walk's workers (patch_groups.c ensure_face) and must
+ * not depend on which worker builds which face: plans of impeller.igs (277 faces of different
+ * grids) by planners on pools of 1 and 3 threads are the same, leaves and face records bit for
+ * bit, at views from the whole model to close-ups (group leaves at the far views). */
 static void test_parallel_build(void **state)
 {
     (void)state;
@@ -793,6 +793,112 @@ static void test_parallel_build(void **state)
     crisp_model_destroy(m);
 }
 
+/* One classify of sc under cam by g (skip: per face, 1 = not walked); the active patches sorted
+ * into *active (count returned) and their modes and group_g in mode, group_g (per patch). */
+static size_t classify_all(crisp__groups *g, const crisp_scene *sc, const crisp_camera *cam,
+                           const uint8_t *skip, uint8_t *mode, uint8_t *group_g, uint32_t **active,
+                           size_t *cap)
+{
+    crisp_camera_matrices mx;
+    crisp_camera_matrices_compute(cam, &mx);
+    size_t count = 0;
+    crisp__patch_groups pg = {mode, group_g, active, &count, cap, skip};
+    assert_int_equal(crisp__groups_classify(g, sc, mx.view_proj, cam->width, cam->height, 1.2, 1.2,
+                                            0.5, NULL, &pg),
+                     CRISP_OK);
+    return count;
+}
+
+/* A face's hierarchy is built the first time a walk reaches it: faces skipped (drawn as splats)
+ * build none (their patches' sigma's are not formed), and the faces walked get the same active
+ * patches, modes and group leaves as from a hierarchy built for every face; walked later, the
+ * skipped faces too. impeller.igs at four views. */
+static void test_lazy_faces(void **state)
+{
+    (void)state;
+    char path[1024];
+    snprintf(path, sizeof path, "%s/nurbs/impeller.igs", CRISP_DATA_DIR);
+    crisp_model *m;
+    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    size_t np = sc->patch_count;
+    uint8_t *skip = calloc(sc->face_count, 1), *mode[2], *gg[2];
+    uint32_t *active[2] = {NULL, NULL};
+    size_t cap[2] = {0, 0};
+    for (int k = 0; k < 2; k++) {
+        mode[k] = calloc(np, 1);
+        gg[k] = calloc(np, 1);
+    }
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        skip[f] = f % 3 != 0;
+    long compared = 0, groups = 0;
+    for (int v = 0; v < 4; v++) {
+        crisp_camera cam;
+        assert_int_equal(crisp_camera_frame_box(sc->box, 640, 480, &cam), CRISP_OK);
+        double fac = v == 0 ? 1 : v == 1 ? 8 : v == 2 ? 30 : 0.3;
+        for (int k = 0; k < 3; k++)
+            cam.eye[k] = cam.target[k] + fac * (cam.eye[k] - cam.target[k]);
+        cam.znear *= fac < 1 ? fac * 0.5 : 1;
+        cam.zfar *= fac > 1 ? fac + 2 : 1;
+        crisp__groups *lazy, *full;
+        assert_int_equal(crisp__groups_create(&lazy), CRISP_OK);
+        assert_int_equal(crisp__groups_create(&full), CRISP_OK);
+        size_t nl = classify_all(lazy, sc, &cam, skip, mode[0], gg[0], &active[0], &cap[0]);
+        size_t nf = classify_all(full, sc, &cam, NULL, mode[1], gg[1], &active[1], &cap[1]);
+        /* the walked faces' active patches: those of the full walk on the same faces */
+        size_t j = 0;
+        for (size_t i = 0; i < nf; i++) {
+            uint32_t q = active[1][i];
+            if (skip[sc->patches[q].face]) continue;
+            assert_true(j < nl);
+            assert_int_equal(active[0][j], q);
+            assert_int_equal(mode[0][q], mode[1][q]);
+            if (mode[1][q] == CRISP__PATCH_GROUP) {
+                assert_int_equal(gg[0][q], gg[1][q]);
+                groups++;
+            }
+            j++;
+        }
+        assert_int_equal(j, nl);
+        compared += (long)nl;
+        for (uint32_t q = 0; q < np; q++) {
+            const crisp_scene_face *f = &sc->faces[sc->patches[q].face];
+            int grid = f->grid_u * f->grid_v == f->patch_count;
+            if (skip[sc->patches[q].face] || !grid)
+                assert_null(crisp__groups_patch_sigmas(lazy, sc, q));
+            else
+                assert_non_null(crisp__groups_patch_sigmas(lazy, sc, q));
+        }
+        /* every face walked now: the same as the full hierarchy's */
+        nl = classify_all(lazy, sc, &cam, NULL, mode[0], gg[0], &active[0], &cap[0]);
+        assert_int_equal(nl, nf);
+        assert_memory_equal(active[0], active[1], nf * sizeof *active[0]);
+        for (size_t i = 0; i < nf; i++) {
+            uint32_t q = active[1][i];
+            assert_int_equal(mode[0][q], mode[1][q]);
+            if (mode[1][q] == CRISP__PATCH_GROUP) assert_int_equal(gg[0][q], gg[1][q]);
+            assert_int_equal(crisp__groups_owner(lazy, sc, q), crisp__groups_owner(full, sc, q));
+        }
+        for (uint32_t q = 0; q < np; q++)
+            assert_int_equal(crisp__groups_owner(lazy, sc, q), crisp__groups_owner(full, sc, q));
+        crisp__groups_destroy(lazy);
+        crisp__groups_destroy(full);
+    }
+    printf("lazy hierarchies: %ld active patches (%ld group leaves) of the walked faces as with "
+           "every face's hierarchy; skipped faces built none\n",
+           compared, groups);
+    assert_true(compared > 1000 && groups > 10);
+    for (int k = 0; k < 2; k++) {
+        free(mode[k]);
+        free(gg[k]);
+        free(active[k]);
+    }
+    free(skip);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -800,6 +906,7 @@ int main(void)
         cmocka_unit_test(test_rational),           cmocka_unit_test(test_block_deviation),
         cmocka_unit_test(test_tau_cells),          cmocka_unit_test(test_quarter_cells),
         cmocka_unit_test(test_kept_sigmas),        cmocka_unit_test(test_parallel_build),
+        cmocka_unit_test(test_lazy_faces),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

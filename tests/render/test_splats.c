@@ -21,7 +21,9 @@
  *   until the sets are built, and the last frame is bit for bit the one without a limit.
  * - test_build_order: with a build limit, the faces built first are those whose patches cost the
  *   most per splat they need (patches / 2^level): every face the first frame splats ranks at
- *   least as high as every face left pending. */
+ *   least as high as every face left pending.
+ * - test_trim_rule: malloc_trim (glibc) once when a scene is prepared, not after a frame that built
+ *   a few sets, after each frame that built its build limit's worth. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -42,6 +44,18 @@
 #include "render/splat.h"
 #include "render/splat_raster.h"
 #include "render/splat_store.h"
+
+#ifdef __GLIBC__
+#include <malloc.h>
+/* The library's malloc_trim calls (this definition takes glibc's place in the test program). */
+static int trims;
+int malloc_trim(size_t pad)
+{
+    (void)pad;
+    trims++;
+    return 0;
+}
+#endif
 
 static uint64_t rng = 0x853c49e6748fea9bull;
 static double rnd(void)
@@ -914,6 +928,47 @@ static void test_build_order(void **state)
     }
 }
 
+/* When the library gives malloc's free memory back (scene.c, splat_store.c): once at the end of
+ * crisp_scene_prepare (the conversions' temporaries), not after a frame that built a few sets
+ * (fewer than a million splats), after every frame that built its build limit's worth, and not
+ * after a frame that built nothing. */
+static void test_trim_rule(void **state)
+{
+    (void)state;
+#ifdef __GLIBC__
+    crisp_model *m = load("impeller.igs");
+    int t0 = trims;
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    assert_int_equal(trims, t0 + 1);
+    crisp_planner *full, *lim;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &full), CRISP_OK);
+    assert_int_equal(
+        crisp_planner_create(&(crisp_planner_desc){.splat_build_limit = 1}, NULL, &lim), CRISP_OK);
+    crisp_camera cam = far_view(sc, 60, 240, 180);
+    const crisp_frame_plan *plan;
+    assert_int_equal(crisp_planner_plan(full, sc, &cam, &plan), CRISP_OK);
+    assert_true(plan->stats.splat_faces > 10 && plan->stats.splats_drawn < 1000000);
+    assert_int_equal(trims, t0 + 1); /* sets built, a few */
+    int frames = 0, before = trims;
+    do {
+        assert_true(frames < 100);
+        assert_int_equal(crisp_planner_plan(lim, sc, &cam, &plan), CRISP_OK);
+        frames++;
+        assert_int_equal(trims, before + frames); /* each built at least its limit, 1 */
+    } while (plan->stats.splat_pending);
+    assert_true(frames >= 2);
+    assert_int_equal(crisp_planner_plan(lim, sc, &cam, &plan), CRISP_OK);
+    assert_int_equal(trims, before + frames); /* nothing built */
+    printf("malloc_trim: once for the scene, none after a frame of %u faces' sets, one after each "
+           "of %d limited frames\n",
+           plan->stats.splat_faces, frames);
+    crisp_planner_destroy(full), crisp_planner_destroy(lim);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+#endif
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -922,6 +977,7 @@ int main(void)
         cmocka_unit_test(test_solids_far),     cmocka_unit_test(test_near_edges),
         cmocka_unit_test(test_group_choice),   cmocka_unit_test(test_range_order),
         cmocka_unit_test(test_build_limit),    cmocka_unit_test(test_build_order),
+        cmocka_unit_test(test_trim_rule),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
