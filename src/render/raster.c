@@ -1586,7 +1586,15 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                 UNROLL(3)
                 for (int k = 0; k < 3; k++)
                     rmax[k] = step[k] > 0 ? step[k] * (n - 1) : 0;
-                for (int j = by0; j <= by1; j++)
+                /* The block's own per-row values: each sample's column offset from the planes'
+                 * origin, the first row's first sample, whether its rows are whole BLOCK lanes
+                 * inside the image (the vector paths). */
+                double dx0s[16];
+                for (int s = 0; s < S; s++)
+                    dx0s[s] = (double)bx0 + c->off_x[s] - st->ox;
+                const int in_row = bx0 - tx0 + BLOCK <= (int)tw;
+                size_t row0 = ((size_t)(by0 - ty0) * tw + (size_t)(bx0 - tx0)) * S;
+                for (int j = by0; j <= by1; j++, row0 += tw * S)
                     for (int s = 0; s < S; s++) {
                         /* Coverage, 1/W and the depth test of the block's row for this sample,
                          * in loops over at most BLOCK lanes without branches (vectorisable). */
@@ -1596,8 +1604,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             continue;
                         double dy = j + c->off_y[s] - st->oy;
                         double base = st->q0[0] + st->qy[0] * dy, gx = st->qx[0];
-                        double dx0 = (double)bx0 + c->off_x[s] - st->ox;
-                        size_t idx0 = ((size_t)(j - ty0) * tw + (size_t)(bx0 - tx0)) * S + s;
+                        double dx0 = dx0s[s];
+                        size_t idx0 = row0 + (size_t)s;
                         /* iwv: 1/W stored; fill mode: iwa, the triangle's own 1/W (for the
                          * attributes) where a core's differs */
                         double iwv[BLOCK], iwa[BLOCK];
@@ -1605,7 +1613,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
 #if defined(__SSE2__)
                         unsigned m = 0;
 #endif
-                        if (!slack && S == 1 && vectors && bx0 - tx0 + BLOCK <= (int)tw) {
+                        if (!slack && S == 1 && vectors && in_row) {
 #if defined(__SSE2__)
                             /* The same tests on 8 lanes, two at a time (the row's stored 1/W
                              * is read at 8 lanes: inside the image's row). */
@@ -1642,7 +1650,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                                     pass[np] = q;
                                     np += cv & (iwq > stored[(size_t)q * S]);
                                 }
-                        } else if (S == 1 && vectors && bx0 - tx0 + BLOCK <= (int)tw) {
+                        } else if (S == 1 && vectors && in_row) {
 #if defined(__SSE2__)
                             /* Fill mode, one sample, the lanes' coverage two at a time (most
                              * rows of a ribbon's blocks have none), then the loop below on the
