@@ -1807,6 +1807,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     }
     double t1 = crisp_time_now();
     t_tess += t1 - t0;
+    /* The surfaces' draws clear a tile of the target when they first draw there (flushed below,
+     * before the splats, ribbons and resolve read the samples). */
+    crisp__raster_set_defer_clear(r->raster, !base);
     for (int b = 0; b < CRISP_OCCL_BATCHES; b++) {
         uint32_t *list = r->order + bstart[b];
         size_t n = bstart[b + 1] - bstart[b];
@@ -1940,6 +1943,8 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
             return st;
         t_raster += crisp_time_now() - ta;
     }
+    crisp__raster_set_defer_clear(r->raster, 0);
+    crisp__raster_target_flush(tg, r->pool);
     /* The faces drawn as splats (issue 12, splat_raster.c), with the surfaces: before the
      * ribbons' depth slack is taken. A face whose squares the depth drawn so far hides whole is
      * skipped (the block depth refreshed first where the surfaces were drawn). */

@@ -107,5 +107,12 @@ crisp_status crisp__planner_finish_plan(crisp_planner *p, const crisp_scene *sc,
 
 /* stages.c: the stages' arrays freed (crisp_planner_destroy). */
 void crisp__stages_free(crisp__stages *s);
+/* The bound the later stages' face test (stages.c) takes for a piece of patch z: the screen box
+ * lo, hi (pixels of a width x height image, y down) and the least W of the convex hull of the
+ * piece's control points projected by m (clip space), the piece found by halving the patch splits
+ * times (0..4; halving k in u when k is even, in v when odd, its upper half when bit k of piece
+ * is set). 0 when a control point is not in front of the eye. For tests. */
+int crisp__stages_hull_piece(const crisp_bezier_patch *z, crisp_mat4 m, int width, int height,
+                             int splits, unsigned piece, double lo[2], double hi[2], double *w0);
 
 #endif

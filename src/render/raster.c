@@ -127,6 +127,7 @@ struct crisp_raster {
     int live_compute;   /* crisp__raster_live_compute */
     uint8_t *live_tile; /* per tile: 1 when live holds its blocks' present values */
     size_t live_tile_cap;
+    int defer_clear; /* crisp__raster_set_defer_clear */
 };
 
 void crisp__raster_set_clip(crisp_raster *r, const double k[4])
@@ -162,6 +163,11 @@ void crisp__raster_set_live_depth(crisp_raster *r, double *dest, int size)
 void crisp__raster_live_compute(crisp_raster *r, int on)
 {
     r->live_compute = on;
+}
+
+void crisp__raster_set_defer_clear(crisp_raster *r, int on)
+{
+    r->defer_clear = on;
 }
 
 void crisp__raster_set_hiz(crisp_raster *r, int on)
@@ -267,6 +273,7 @@ void crisp__raster_target_free(crisp_raster_target *t)
     free(t->inv_w);
     free(t->attr);
     free(t->face);
+    free(t->pending);
     memset(t, 0, sizeof *t);
 }
 
@@ -276,7 +283,7 @@ void crisp__raster_target_clear(crisp_raster_target *t)
     memset(t->inv_w, 0, n * sizeof *t->inv_w);
     memset(t->attr, 0, n * CRISP_RASTER_ATTRS * sizeof *t->attr);
     memset(t->face, 0xff, n * sizeof *t->face);
-    t->clear_pending = 0;
+    t->clear_pending = t->tiles_pending = 0;
 }
 
 typedef struct clear_ctx {
@@ -296,6 +303,61 @@ void crisp__raster_target_clear_depth(crisp_raster_target *t, crisp_pool *pool)
 {
     (void)pool;
     t->clear_pending = 1; /* done by the next draw, tile by tile */
+    t->tiles_pending = 0;
+}
+
+/* Tile `tile` of the target (tiles_x per row) cleared as clear_depth does. */
+static void clear_tile(crisp_raster_target *t, int tiles_x, size_t tile)
+{
+    int x0 = (int)(tile % (size_t)tiles_x) * TILE, y0 = (int)(tile / (size_t)tiles_x) * TILE;
+    int x1 = x0 + TILE < t->width ? x0 + TILE : t->width;
+    int y1 = y0 + TILE < t->height ? y0 + TILE : t->height;
+    size_t n = (size_t)(x1 - x0) * t->samples;
+    for (int j = y0; j < y1; j++) {
+        size_t a = ((size_t)j * t->width + x0) * t->samples;
+        memset(t->inv_w + a, 0, n * sizeof *t->inv_w);
+        memset(t->face + a, 0xff, n * sizeof *t->face);
+    }
+}
+
+static void flush_tiles(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    crisp_raster_target *t = vctx;
+    int tiles_x = (t->width + TILE - 1) / TILE;
+    for (size_t tile = begin; tile < end; tile++)
+        if (t->pending[tile]) {
+            clear_tile(t, tiles_x, tile);
+            t->pending[tile] = 0;
+        }
+}
+
+void crisp__raster_target_flush(crisp_raster_target *t, crisp_pool *pool)
+{
+    if (!t->tiles_pending) return;
+    size_t tiles = (size_t)((t->width + TILE - 1) / TILE) * (size_t)((t->height + TILE - 1) / TILE);
+    crisp_pool_parallel_for(pool, tiles, 8, flush_tiles, t);
+    t->tiles_pending = 0;
+}
+
+/* The blocks of size x size pixels within b (clamp_blocks) that hold a sample of a tile whose
+ * clear is pending: 0 (empty) in dest, whatever the samples hold. */
+static void zero_pending_blocks(const crisp_raster_target *t, int size, const int b[4],
+                                double *dest)
+{
+    int tiles_x = (t->width + TILE - 1) / TILE, tiles_y = (t->height + TILE - 1) / TILE;
+    int bw = (t->width + size - 1) / size;
+    for (int ty = 0; ty < tiles_y; ty++)
+        for (int tx = 0; tx < tiles_x; tx++) {
+            if (!t->pending[(size_t)ty * tiles_x + tx]) continue;
+            int bx0 = tx * TILE / size, bx1 = ((tx + 1) * TILE - 1) / size;
+            int by0 = ty * TILE / size, by1 = ((ty + 1) * TILE - 1) / size;
+            bx0 = bx0 > b[0] ? bx0 : b[0], bx1 = bx1 < b[2] ? bx1 : b[2];
+            by0 = by0 > b[1] ? by0 : b[1], by1 = by1 < b[3] ? by1 : b[3];
+            for (int by = by0; by <= by1; by++)
+                for (int bx = bx0; bx <= bx1; bx++)
+                    dest[(size_t)by * bw + bx] = 0;
+        }
 }
 
 /* A pending clear_depth of the whole target, now. */
@@ -402,6 +464,7 @@ void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, i
     }
     block_depth_ctx c = {t, size, b[0], b[1], b[2], dest};
     crisp_pool_parallel_for(pool, (size_t)(b[3] - b[1] + 1), 4, block_depth_rows, &c);
+    if (t->tiles_pending) zero_pending_blocks(t, size, b, dest);
 }
 
 /* The live block depth of one tile (crisp__raster_set_live_depth): its blocks, from its samples,
@@ -437,7 +500,7 @@ static void live_rows(void *vctx, size_t begin, size_t end, int worker)
         for (int tx = c->tx0; tx <= c->tx1; tx++) {
             size_t tile = (size_t)ty * c->tiles_x + tx;
             if (c->r->live_tile[tile]) continue;
-            live_tile(c->r, c->t, c->tiles_x, tile, 0);
+            live_tile(c->r, c->t, c->tiles_x, tile, c->t->tiles_pending && c->t->pending[tile]);
             c->r->live_tile[tile] = 1;
         }
 }
@@ -909,7 +972,10 @@ typedef struct {
     const float *slack2; /* the cores' slack (crisp__raster_draw_fill2) */
     int hiz;             /* hierarchical depth rejection on */
     int vectors;         /* the vector path (crisp__raster_set_vectors) */
-    int clear;           /* each tile first does the target's pending clear_depth */
+    /* Per tile: its clear_depth still pending (NULL: none); a tile does it first when it draws
+     * something, or whatever it draws when not defer (crisp__raster_set_defer_clear). */
+    uint8_t *pending;
+    int defer;
     int avx; /* one-sample tiles through raster_tile1_avx (1) or raster_tile1_avx2 (2) */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
     crisp_raster_share share; /* the tiles, one home range per worker (raster_tiles) */
@@ -1520,7 +1586,15 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                 UNROLL(3)
                 for (int k = 0; k < 3; k++)
                     rmax[k] = step[k] > 0 ? step[k] * (n - 1) : 0;
-                for (int j = by0; j <= by1; j++)
+                /* The block's own per-row values: each sample's column offset from the planes'
+                 * origin, the first row's first sample, whether its rows are whole BLOCK lanes
+                 * inside the image (the vector paths). */
+                double dx0s[16];
+                for (int s = 0; s < S; s++)
+                    dx0s[s] = (double)bx0 + c->off_x[s] - st->ox;
+                const int in_row = bx0 - tx0 + BLOCK <= (int)tw;
+                size_t row0 = ((size_t)(by0 - ty0) * tw + (size_t)(bx0 - tx0)) * S;
+                for (int j = by0; j <= by1; j++, row0 += tw * S)
                     for (int s = 0; s < S; s++) {
                         /* Coverage, 1/W and the depth test of the block's row for this sample,
                          * in loops over at most BLOCK lanes without branches (vectorisable). */
@@ -1530,8 +1604,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             continue;
                         double dy = j + c->off_y[s] - st->oy;
                         double base = st->q0[0] + st->qy[0] * dy, gx = st->qx[0];
-                        double dx0 = (double)bx0 + c->off_x[s] - st->ox;
-                        size_t idx0 = ((size_t)(j - ty0) * tw + (size_t)(bx0 - tx0)) * S + s;
+                        double dx0 = dx0s[s];
+                        size_t idx0 = row0 + (size_t)s;
                         /* iwv: 1/W stored; fill mode: iwa, the triangle's own 1/W (for the
                          * attributes) where a core's differs */
                         double iwv[BLOCK], iwa[BLOCK];
@@ -1539,7 +1613,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
 #if defined(__SSE2__)
                         unsigned m = 0;
 #endif
-                        if (!slack && S == 1 && vectors && bx0 - tx0 + BLOCK <= (int)tw) {
+                        if (!slack && S == 1 && vectors && in_row) {
 #if defined(__SSE2__)
                             /* The same tests on 8 lanes, two at a time (the row's stored 1/W
                              * is read at 8 lanes: inside the image's row). */
@@ -1576,7 +1650,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                                     pass[np] = q;
                                     np += cv & (iwq > stored[(size_t)q * S]);
                                 }
-                        } else if (S == 1 && vectors && bx0 - tx0 + BLOCK <= (int)tw) {
+                        } else if (S == 1 && vectors && in_row) {
 #if defined(__SSE2__)
                             /* Fill mode, one sample, the lanes' coverage two at a time (most
                              * rows of a ribbon's blocks have none), then the loop below on the
@@ -1724,47 +1798,43 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
 
 #if HAVE_AVX_TILES
 /* raster_tile_s for one-sample targets compiled for AVX (store_row1_avx). */
-__attribute__((target("avx"), flatten)) static void raster_tile1_avx(raster_ctx *c, size_t tile)
+__attribute__((target("avx"), flatten)) static void raster_tile1_avx(raster_ctx *c, size_t tile,
+                                                                     int fresh)
 {
-    raster_tile_s(c, tile, 1, c->clear, 1);
+    raster_tile_s(c, tile, 1, fresh, 1);
 }
 
 /* The same compiled for AVX2 (row_mask_avx2; the compiler's own integer code may use it too). */
-__attribute__((target("avx2"), flatten)) static void raster_tile1_avx2(raster_ctx *c, size_t tile)
+__attribute__((target("avx2"), flatten)) static void raster_tile1_avx2(raster_ctx *c, size_t tile,
+                                                                       int fresh)
 {
-    raster_tile_s(c, tile, 1, c->clear, 2);
+    raster_tile_s(c, tile, 1, fresh, 2);
 }
 #else
-#define raster_tile1_avx(c, tile) raster_tile_s(c, tile, 1, (c)->clear, 0)
-#define raster_tile1_avx2(c, tile) raster_tile_s(c, tile, 1, (c)->clear, 0)
+#define raster_tile1_avx(c, tile, fresh) raster_tile_s(c, tile, 1, fresh, 0)
+#define raster_tile1_avx2(c, tile, fresh) raster_tile_s(c, tile, 1, fresh, 0)
 #endif
 
 static void raster_tile(raster_ctx *c, size_t tile)
 {
-    if (c->clear) { /* the pending clear_depth of this tile, while it is about to be used */
-        crisp_raster_target *t = c->t;
-        int x0 = (int)(tile % (size_t)c->tiles_x) * TILE,
-            y0 = (int)(tile / (size_t)c->tiles_x) * TILE;
-        int x1 = x0 + TILE < t->width ? x0 + TILE : t->width;
-        int y1 = y0 + TILE < t->height ? y0 + TILE : t->height;
-        size_t n = (size_t)(x1 - x0) * t->samples;
-        for (int j = y0; j < y1; j++) {
-            size_t a = ((size_t)j * t->width + x0) * t->samples;
-            memset(t->inv_w + a, 0, n * sizeof *t->inv_w);
-            memset(t->face + a, 0xff, n * sizeof *t->face);
-        }
-    }
-    if (c->t->samples == 1 && c->avx == 2)
-        raster_tile1_avx2(c, tile);
-    else if (c->t->samples == 1 && c->avx)
-        raster_tile1_avx(c, tile);
-    else if (c->t->samples == 1)
-        raster_tile_s(c, tile, 1, c->clear, 0);
-    else
-        raster_tile_s(c, tile, c->t->samples, c->clear, 0);
     const crisp_raster *r = c->r;
     int drawn = r->bin_start[tile] != r->bin_start[tile + 1];
-    if (r->live && (c->clear || drawn)) {
+    /* The pending clear_depth of this tile, while it is about to be used (deferred: while the
+     * tile has nothing to draw, it stays pending and reads as empty). */
+    int pending = c->pending && c->pending[tile], fresh = pending && (drawn || !c->defer);
+    if (fresh) {
+        clear_tile(c->t, c->tiles_x, tile);
+        c->pending[tile] = 0;
+    }
+    if (c->t->samples == 1 && c->avx == 2)
+        raster_tile1_avx2(c, tile, fresh);
+    else if (c->t->samples == 1 && c->avx)
+        raster_tile1_avx(c, tile, fresh);
+    else if (c->t->samples == 1)
+        raster_tile_s(c, tile, 1, fresh, 0);
+    else
+        raster_tile_s(c, tile, c->t->samples, fresh, 0);
+    if (r->live && (pending || drawn)) {
         if (r->live_compute) live_tile(r, c->t, c->tiles_x, tile, !drawn);
         r->live_tile[tile] = (uint8_t)(r->live_compute != 0);
     }
@@ -2283,12 +2353,18 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
     /* Batches of triangles, one after the other (submission order is kept): set-up records and
      * bins hold one batch, so the rasterizer's memory is bounded whatever the triangle count. */
     size_t total = 0, batch = r->batch ? r->batch : BATCH;
-    rc.clear = t->clear_pending; /* the first batch's tiles clear themselves */
     if (r->live) {
         if ((st = crisp_grow((void **)&r->live_tile, &r->live_tile_cap, tiles, 1))) return st;
         if (t->clear_pending) memset(r->live_tile, 0, tiles); /* each set as its tile clears */
         if (BLOCK % r->live_size == 0) rc.live = r->live, rc.live_size = r->live_size;
     }
+    if (t->clear_pending && tri_count) { /* each tile clears itself (the first batch's) */
+        if ((st = crisp_grow((void **)&t->pending, &t->pending_cap, tiles, 1))) return st;
+        memset(t->pending, 1, tiles);
+        t->clear_pending = 0, t->tiles_pending = 1;
+    }
+    rc.pending = t->tiles_pending ? t->pending : NULL;
+    rc.defer = r->defer_clear;
     for (size_t first = 0; first < tri_count; first += batch) {
         sc.first = first;
         sc.count = tri_count - first < batch ? tri_count - first : batch;
@@ -2325,8 +2401,11 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
         crisp_pool_parallel_for(pool, CHUNKS, 1, bin_fill, &bc);
         crisp__raster_share_init(&rc.share, tiles, crisp_pool_threads(pool));
         crisp_pool_parallel_for(pool, (size_t)rc.share.ranges, 1, raster_tiles, &rc);
-        rc.clear = 0;
-        t->clear_pending = 0;
+    }
+    if (rc.pending) { /* the tiles left pending (deferred ones only) */
+        t->tiles_pending = 0;
+        for (size_t k = 0; k < tiles && !t->tiles_pending; k++)
+            t->tiles_pending = t->pending[k];
     }
     if (t->clear_pending) { /* no triangles: clear anyway */
         clear_now(t, pool);

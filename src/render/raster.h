@@ -52,6 +52,12 @@ typedef struct crisp_raster_target {
     float *attr;       /* CRISP_RASTER_ATTRS per sample */
     int32_t *face;     /* -1 where nothing was drawn */
     int clear_pending; /* crisp__raster_target_clear_depth waits for the next draw */
+    /* A draw with crisp__raster_set_defer_clear on leaves the pending clear of the tiles it
+     * draws nothing in: tiles_pending set, pending[tile] != 0 for those (each read as empty by
+     * the block depths; the next draw that draws in one clears it first). */
+    int tiles_pending;
+    uint8_t *pending;
+    size_t pending_cap;
 } crisp_raster_target;
 
 typedef struct crisp_raster crisp_raster; /* reusable scratch (setup, bins) */
@@ -68,6 +74,9 @@ void crisp__raster_target_free(crisp_raster_target *t);
 crisp_status crisp__raster_target_window(crisp_raster_target *t, int x0, int y0, int image_width,
                                          int image_height);
 void crisp__raster_target_clear(crisp_raster_target *t);
+/* Clear now the tiles whose clear_depth a deferring draw left pending (before anything but a draw
+ * or the block depths reads the target's samples). */
+void crisp__raster_target_flush(crisp_raster_target *t, crisp_pool *pool);
 /* Clears 1/W and the face ids only: the attributes of empty samples keep stale values, which
  * nothing reads (a sample is drawn iff its face is >= 0). Deferred: the next draw clears each
  * tile just before drawing into it (one pass over memory fewer), or the whole target when it
@@ -94,6 +103,13 @@ void crisp__raster_block_depth(const crisp_raster_target *t, crisp_pool *pool, i
  * for its block depth). dest holds a tile from the draw that clears it, for as long as only
  * draws with dest set write the target; the tiles' depth bounds start from it. */
 void crisp__raster_set_live_depth(crisp_raster *r, double *dest, int size);
+/* On (1): a draw into a target whose clear_depth is pending clears only the tiles it draws
+ * something in, each just before it draws there (its samples then stay in the cache for the
+ * draw; a close-up's first draw cleared 25 MB that the next draws read back from memory); the
+ * others stay pending (crisp_raster_target.tiles_pending) until a later draw draws there or
+ * crisp__raster_target_flush, which must come before anything but a draw or the block depths
+ * reads the samples. Off (0, the default): every tile is cleared by the first draw. */
+void crisp__raster_set_defer_clear(crisp_raster *r, int on);
 void crisp__raster_live_compute(crisp_raster *r, int on);
 void crisp__raster_block_depth_live(crisp_raster *r, const crisp_raster_target *t, crisp_pool *pool,
                                     const int *blocks, double *dest);

@@ -293,6 +293,143 @@ crisp_status crisp__planner_plan_near(crisp_planner *p, const crisp_scene *sc,
     return CRISP_OK;
 }
 
+/* A patch's control net projected: per control point its clip x, y and W times its weight, and
+ * the weight (homogeneous, so de Casteljau's subdivision applies to it as to the net); nu x nv
+ * points, u fastest. */
+#define HULL_SPLITS 4 /* halvings of a net, u and v in turn: at most 16 pieces a patch */
+typedef struct hull_net {
+    int nu, nv;
+    double (*p)[4];
+} hull_net;
+
+/* The screen box lo, hi (pixels, y down) and the least W of the convex hull of the net's control
+ * points: the patch piece, its tessellation (chords of its surface points) and its ribbons' curve
+ * points lie in that hull, and a projection keeps a point of the hull of points in front of the
+ * eye in the hull of their images (a point of the patch is a convex combination of the control
+ * points with weights B_i w_i; on screen of their images with weights B_i W_i w_i, and its W of
+ * their W). 0 when a control point is not in front of the eye (or its weight not positive). */
+static int hull_screen(const hull_net *n, int width, int height, double lo[2], double hi[2],
+                       double *w0)
+{
+    lo[0] = lo[1] = INFINITY, hi[0] = hi[1] = -INFINITY;
+    *w0 = INFINITY;
+    for (int k = 0; k < n->nu * n->nv; k++) {
+        const double *c = n->p[k];
+        if (!(c[2] > 0 && c[3] > 0) || !isfinite(c[0] + c[1] + c[2] + c[3])) return 0;
+        double px = (c[0] / c[2] + 1) * 0.5 * width, py = (1 - c[1] / c[2]) * 0.5 * height;
+        lo[0] = fmin(lo[0], px), hi[0] = fmax(hi[0], px);
+        lo[1] = fmin(lo[1], py), hi[1] = fmax(hi[1], py);
+        *w0 = fmin(*w0, c[2] / c[3]);
+    }
+    return 1;
+}
+
+/* The two halves a, b of net n at the middle of u (dir 0) or v (dir 1), by de Casteljau. */
+static void hull_split(const hull_net *n, int dir, hull_net *a, hull_net *b)
+{
+    a->nu = b->nu = n->nu, a->nv = b->nv = n->nv;
+    int len = dir ? n->nv : n->nu, lines = dir ? n->nu : n->nv;
+    int step = dir ? n->nu : 1, next = dir ? 1 : n->nu; /* along a line; to the next line */
+    for (int l = 0; l < lines; l++) {
+        double t[16][4];
+        for (int i = 0; i < len; i++)
+            memcpy(t[i], n->p[l * next + i * step], sizeof t[i]);
+        for (int r = 0; r < len; r++) {
+            memcpy(a->p[l * next + r * step], t[0], sizeof t[0]);
+            memcpy(b->p[l * next + (len - 1 - r) * step], t[len - 1 - r], sizeof t[0]);
+            for (int i = 0; i < len - 1 - r; i++)
+                for (int q = 0; q < 4; q++)
+                    t[i][q] = 0.5 * (t[i][q] + t[i + 1][q]);
+        }
+    }
+}
+
+static int rect_hidden(const double lo_in[2], const double hi_in[2], double w0, const int win[4],
+                       const double *hiz, int blocks_x);
+
+/* 1 when rect_hidden holds for the net's hull, or for those of both its halves (level: the
+ * halvings done; the next is in u on even levels, in v on odd ones; scratch: room for two nets
+ * per halving left). */
+static int net_hidden(const hull_net *n, int width, int height, const int win[4], const double *hiz,
+                      int blocks_x, int level, double (*scratch)[4])
+{
+    double lo[2], hi[2], w0;
+    if (!hull_screen(n, width, height, lo, hi, &w0)) return 0;
+    if (rect_hidden(lo, hi, w0, win, hiz, blocks_x)) return 1;
+    if (level == HULL_SPLITS) return 0;
+    int np = n->nu * n->nv;
+    hull_net h[2] = {{0, 0, scratch}, {0, 0, scratch + np}};
+    hull_split(n, level & 1, &h[0], &h[1]);
+    return net_hidden(&h[0], width, height, win, hiz, blocks_x, level + 1, scratch + 2 * np) &&
+           net_hidden(&h[1], width, height, win, hiz, blocks_x, level + 1, scratch + 2 * np);
+}
+
+/* Patch z's control net projected by m into n (its points: (1 + 2 HULL_SPLITS) nets of room,
+ * allocated here; NULL when z's degrees are above 15 or there is no memory). */
+static double (*hull_project(const crisp_bezier_patch *z, crisp_mat4 m, hull_net *n))[4]
+{
+    if (z->du < 0 || z->dv < 0 || z->du > 15 || z->dv > 15) return NULL;
+    int np = (z->du + 1) * (z->dv + 1);
+    double(*p)[4] = malloc((size_t)(1 + 2 * HULL_SPLITS) * (size_t)np * sizeof *p);
+    if (!p) return NULL;
+    *n = (hull_net){z->du + 1, z->dv + 1, p};
+    for (int k = 0; k < np; k++) {
+        const double *c = z->cpw + 4 * (size_t)k;
+        for (int r = 0; r < 3; r++) {
+            int row = r < 2 ? r : 3; /* clip x, y, W */
+            p[k][r] = m[0][row] * c[0] + m[1][row] * c[1] + m[2][row] * c[2] + m[3][row] * c[3];
+        }
+        p[k][3] = c[3];
+    }
+    return p;
+}
+
+/* net_hidden of patch z's control net (not hidden when it cannot be projected: always safe). */
+static int patch_hidden(const crisp_bezier_patch *z, crisp_mat4 m, int width, int height,
+                        const int win[4], const double *hiz, int blocks_x)
+{
+    hull_net n;
+    double(*p)[4] = hull_project(z, m, &n);
+    if (!p) return 0;
+    int hidden = net_hidden(&n, width, height, win, hiz, blocks_x, 0, p + n.nu * n.nv);
+    free(p);
+    return hidden;
+}
+
+int crisp__stages_hull_piece(const crisp_bezier_patch *z, crisp_mat4 m, int width, int height,
+                             int splits, unsigned piece, double lo[2], double hi[2], double *w0)
+{
+    hull_net n;
+    double(*p)[4] = hull_project(z, m, &n);
+    if (!p || splits < 0 || splits > HULL_SPLITS) {
+        free(p);
+        return 0;
+    }
+    int np = n.nu * n.nv;
+    for (int level = 0; level < splits; level++) {
+        double(*at)[4] = p + (1 + 2 * level) * np;
+        hull_net h[2] = {{0, 0, at}, {0, 0, at + np}};
+        hull_split(&n, level & 1, &h[0], &h[1]);
+        n = h[(piece >> level) & 1];
+    }
+    int ok = hull_screen(&n, width, height, lo, hi, w0);
+    free(p);
+    return ok;
+}
+
+/* 1 when the screen box lo, hi widened by 2 px (the ribbons reach 1 px from their curve points)
+ * at least W w0 is hidden by hiz (crisp__occl_hidden), or holds no sample of the window. */
+static int rect_hidden(const double lo_in[2], const double hi_in[2], double w0, const int win[4],
+                       const double *hiz, int blocks_x)
+{
+    double lo[2] = {lo_in[0] - 2, lo_in[1] - 2}, hi[2] = {hi_in[0] + 2, hi_in[1] + 2};
+    if (hi[0] < win[0] || hi[1] < win[1] || lo[0] > win[0] + win[2] || lo[1] > win[1] + win[3])
+        return 1; /* no sample of the window */
+    crisp_occl_leaf o;
+    crisp__occl_set(&o, win, lo, hi, 1.0 / w0);
+    return crisp__occl_hidden(&o, hiz, blocks_x);
+}
+
 /* 1 when every sample that face f's surface or ribbons could reach holds a nearer depth in hiz:
  * each of its patches' boxes (which hold the surface and so the curve points of its ribbons) is
  * outside the widened frustum, or in front of the eye with its screen box widened by 2 px (the
@@ -326,14 +463,32 @@ static int face_hidden(const crisp_planner *p, const crisp_scene *sc, uint32_t f
             if (out[0] | out[1] | out[2] | out[3]) continue;
             return 0;
         }
-        lo[0] -= 2, lo[1] -= 2, hi[0] += 2, hi[1] += 2;
-        if (hi[0] < win[0] || hi[1] < win[1] || lo[0] > win[0] + win[2] || lo[1] > win[1] + win[3])
-            continue; /* no sample of the window */
-        crisp_occl_leaf o;
-        crisp__occl_set(&o, win, lo, hi, 1.0 / w0);
-        if (!crisp__occl_hidden(&o, hiz, blocks_x)) return 0;
+        if (!rect_hidden(lo, hi, w0, win, hiz, blocks_x) &&
+            !patch_hidden(&sc->patches[q].bez, m, width, height, win, hiz, blocks_x))
+            return 0;
     }
     return 1;
+}
+
+typedef struct hidden_ctx {
+    const crisp_planner *p;
+    const crisp_scene *sc;
+    const double *hiz;
+    const int *win;
+    uint8_t *hidden; /* per face: face_hidden, for the later stages' faces not yet hidden */
+} hidden_ctx;
+
+static void faces_hidden(void *vctx, size_t begin, size_t end, int worker)
+{
+    (void)worker;
+    const hidden_ctx *c = vctx;
+    const crisp__stages *s = &c->p->stages;
+    const crisp_camera *cam = &c->p->cam;
+    int blocks_x = (c->win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
+    for (size_t f = begin; f < end; f++)
+        c->hidden[f] = s->stage[f] > s->stage_at && s->stage[f] != STAGE_HIDDEN &&
+                       face_hidden(c->p, c->sc, (uint32_t)f, c->p->trees->view_proj, cam->width,
+                                   cam->height, c->win, c->hiz, blocks_x);
 }
 
 crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, const double *hiz,
@@ -347,12 +502,16 @@ crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, c
     const crisp_camera *cam = &p->cam;
     crisp_frame_plan *o = &p->out;
     uint32_t n = sc->face_count;
-    /* The later stages' faces that the depth drawn hides get nothing. */
+    /* The later stages' faces that the depth drawn hides get nothing (tested in parallel into
+     * skip, which plan_stage sets afresh). */
     int next = STAGES;
+    if (hiz) {
+        hidden_ctx hc = {p, sc, hiz, win, s->skip};
+        crisp_pool_parallel_for(p->pool, n, 4, faces_hidden, &hc);
+    }
     for (uint32_t f = 0; f < n; f++) {
         if (s->stage[f] <= s->stage_at || s->stage[f] == STAGE_HIDDEN) continue;
-        if (hiz && face_hidden(p, sc, f, p->trees->view_proj, cam->width, cam->height, win, hiz,
-                               (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK)) {
+        if (hiz && s->skip[f]) {
             s->stage[f] = STAGE_HIDDEN;
             s->hidden++;
         } else if (s->stage[f] < next) {

@@ -627,12 +627,102 @@ static void test_occl_set(void **state)
     printf("occl_set: %ld records as the library's arithmetic\n", same);
 }
 
+/* The bound of the later stages' face test (crisp__stages_hull_piece): every point of a patch
+ * piece lies on screen inside the box of its control net's hull and at a W no less than its least
+ * W. Random rational patches (degrees 1..4, weights 0.3..3), cameras all around them; the piece's
+ * points on a 13 x 13 grid of its parameter rectangle, for every piece of 0..4 halvings (u, v in
+ * turn). The box must also be tight enough to matter: its area within 4x of the points' box on
+ * average for the whole patch. A W bound without the weights, or halves swapped, fails it. */
+static void test_hull_bound(void **state)
+{
+    (void)state;
+    long points = 0, boxes = 0;
+    double ratio = 0;
+    int ratios = 0;
+    for (int k = 0; k < 300; k++) {
+        crisp_bezier_patch z = {.du = 1 + (int)(4 * rnd()),
+                                .dv = 1 + (int)(4 * rnd()),
+                                .rational = 1,
+                                .u0 = 0,
+                                .u1 = 1,
+                                .v0 = 0,
+                                .v1 = 1};
+        double cpw[25 * 4];
+        z.cpw = cpw;
+        for (int j = 0; j <= z.dv; j++)
+            for (int i = 0; i <= z.du; i++) {
+                double *c = cpw + 4 * (j * (z.du + 1) + i), w = 0.3 + 2.7 * rnd();
+                double x = (double)i / z.du - 0.5 + 0.3 * (rnd() - 0.5),
+                       y = (double)j / z.dv - 0.5 + 0.3 * (rnd() - 0.5), zz = rnd() - 0.5;
+                c[0] = x * w, c[1] = y * w, c[2] = zz * w, c[3] = w;
+            }
+        double a = 2 * M_PI * rnd(), e = M_PI * (rnd() - 0.5), dist = 1.5 + 3 * rnd();
+        double eye[3] = {dist * cos(e) * cos(a), dist * cos(e) * sin(a), dist * sin(e)};
+        double target[3] = {0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5)};
+        crisp_camera cam = camera(eye, target, 30 + 60 * rnd());
+        crisp_camera_matrices cm;
+        crisp_camera_matrices_compute(&cam, &cm);
+        for (int splits = 0; splits <= 4; splits++)
+            for (unsigned piece = 0; piece < 1u << splits; piece++) {
+                double lo[2], hi[2], w0;
+                if (!crisp__stages_hull_piece(&z, cm.view_proj, W, H, splits, piece, lo, hi, &w0))
+                    continue;
+                boxes++;
+                double s0 = 0, s1 = 1, t0 = 0, t1 = 1; /* the piece's parameter rectangle */
+                for (int l = 0; l < splits; l++) {
+                    int upper = (piece >> l) & 1;
+                    if (l % 2 == 0) {
+                        double m = 0.5 * (s0 + s1);
+                        if (upper)
+                            s0 = m;
+                        else
+                            s1 = m;
+                    } else {
+                        double m = 0.5 * (t0 + t1);
+                        if (upper)
+                            t0 = m;
+                        else
+                            t1 = m;
+                    }
+                }
+                double plo[2] = {INFINITY, INFINITY}, phi[2] = {-INFINITY, -INFINITY};
+                for (int j = 0; j <= 12; j++)
+                    for (int i = 0; i <= 12; i++) {
+                        double p[3], (*m)[4] = cm.view_proj;
+                        crisp_bezier_patch_eval(&z, s0 + (s1 - s0) * i / 12,
+                                                t0 + (t1 - t0) * j / 12, p);
+                        double x = m[0][0] * p[0] + m[1][0] * p[1] + m[2][0] * p[2] + m[3][0];
+                        double y = m[0][1] * p[0] + m[1][1] * p[1] + m[2][1] * p[2] + m[3][1];
+                        double w = m[0][3] * p[0] + m[1][3] * p[1] + m[2][3] * p[2] + m[3][3];
+                        double px = (x / w + 1) * 0.5 * W, py = (1 - y / w) * 0.5 * H;
+                        double tol = 1e-9 * (1 + fabs(px) + fabs(py));
+                        assert_true(w >= w0 * (1 - 1e-12));
+                        assert_true(px >= lo[0] - tol && px <= hi[0] + tol);
+                        assert_true(py >= lo[1] - tol && py <= hi[1] + tol);
+                        plo[0] = fmin(plo[0], px), phi[0] = fmax(phi[0], px);
+                        plo[1] = fmin(plo[1], py), phi[1] = fmax(phi[1], py);
+                        points++;
+                    }
+                if (splits == 0 && phi[0] > plo[0] && phi[1] > plo[1]) {
+                    ratio +=
+                        (hi[0] - lo[0]) * (hi[1] - lo[1]) / ((phi[0] - plo[0]) * (phi[1] - plo[1]));
+                    ratios++;
+                }
+            }
+    }
+    printf("hull bound: %ld points in %ld piece boxes, box area / points' box %.2f on average\n",
+           points, boxes, ratio / ratios);
+    assert_true(boxes > 3000);
+    assert_true(ratio / ratios < 4);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_frontal),  cmocka_unit_test(test_random),
-        cmocka_unit_test(test_pieces),   cmocka_unit_test(test_hidden_faces),
-        cmocka_unit_test(test_occl_set), cmocka_unit_test(test_seen_marks),
+        cmocka_unit_test(test_frontal),    cmocka_unit_test(test_random),
+        cmocka_unit_test(test_pieces),     cmocka_unit_test(test_hidden_faces),
+        cmocka_unit_test(test_occl_set),   cmocka_unit_test(test_seen_marks),
+        cmocka_unit_test(test_hull_bound),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -459,7 +459,10 @@ static void test_block_depth(void **state)
  * the block, 1 and 2 threads): after each draw crisp__raster_block_depth_live gives
  * crisp__raster_block_depth's values bit for bit in a rectangle of blocks and leaves the others,
  * and the whole target; the tiles' depth bounds start from it, and the target ends bit for bit
- * as drawn without it. */
+ * as drawn without it. With the clear deferred (crisp__raster_set_defer_clear) over stale samples,
+ * the tiles not drawn yet stay pending: both block depths give those of the target drawn without
+ * either (0 there), and after crisp__raster_target_flush the target is that target bit for bit.
+ */
 static void test_live_depth(void **state)
 {
     (void)state;
@@ -473,9 +476,11 @@ static void test_live_depth(void **state)
         if (threads > 1) assert_int_equal(crisp_pool_create(threads, &pool), CRISP_OK);
         for (int samples = 1; samples <= 4; samples += 3)
             for (int n = 2; n <= 8; n *= 2)
-                for (int compute = 0; compute < 4; compute++) {
+                for (int compute = 0; compute < 8; compute++) {
+                    int defer = compute >= 4, pended = 0;
                     crisp_raster *r;
                     assert_int_equal(crisp__raster_create(&r), CRISP_OK);
+                    crisp__raster_set_defer_clear(r, defer);
                     crisp_raster_target t = {0}, ref = {0};
                     assert_int_equal(crisp__raster_target_init(&t, W, H, samples), CRISP_OK);
                     assert_int_equal(crisp__raster_target_init(&ref, W, H, samples), CRISP_OK);
@@ -496,8 +501,8 @@ static void test_live_depth(void **state)
                         crisp__raster_set_batch(r, d == 2 ? 100 : 0);
                         crisp__raster_set_live_depth(r, live, n);
                         /* computed by every draw, none, every other one, the others */
-                        crisp__raster_live_compute(r, compute == 0 ||
-                                                          (compute > 1 && (d + compute) % 2 == 0));
+                        int c4 = compute % 4;
+                        crisp__raster_live_compute(r, c4 == 0 || (c4 > 1 && (d + c4) % 2 == 0));
                         assert_int_equal(crisp__raster_draw(r, &t, pool, v, 3 * NT, tri + cut[d],
                                                             cut[d + 1] - cut[d], NULL, NULL, NULL),
                                          CRISP_OK);
@@ -505,7 +510,10 @@ static void test_live_depth(void **state)
                         assert_int_equal(crisp__raster_draw(r, &ref, pool, v, 3 * NT, tri + cut[d],
                                                             cut[d + 1] - cut[d], NULL, NULL, NULL),
                                          CRISP_OK);
-                        crisp__raster_block_depth(&t, pool, n, NULL, want);
+                        pended |= t.tiles_pending;
+                        crisp__raster_block_depth(&ref, pool, n, NULL, want);
+                        crisp__raster_block_depth(&t, pool, n, NULL, got);
+                        assert_memory_equal(got, want, nb * sizeof *got);
                         for (size_t k = 0; k < nb; k++)
                             got[k] = -2;
                         int rect[4] = {1 + d, 2, bw - 3, bh + 5};
@@ -522,6 +530,32 @@ static void test_live_depth(void **state)
                             assert_memory_equal(got, want, nb * sizeof *got);
                         }
                         crisp__raster_set_live_depth(r, NULL, 0);
+                    }
+                    assert_int_equal(pended,
+                                     defer && cut[1] > 0); /* an empty first draw clears all */
+                    crisp__raster_target_flush(&t, pool);
+                    assert_int_equal(t.tiles_pending, 0);
+                    if (defer) { /* flushed while tiles are pending: two triangles drawn */
+                        crisp_raster_target a = {0}, b = {0};
+                        assert_int_equal(crisp__raster_target_init(&a, W, H, samples), CRISP_OK);
+                        assert_int_equal(crisp__raster_target_init(&b, W, H, samples), CRISP_OK);
+                        crisp__raster_target_clear(&b);
+                        memset(a.inv_w, 0x55, ns * sizeof *a.inv_w);
+                        memset(a.face, 0x55, ns * sizeof *a.face);
+                        crisp__raster_target_clear_depth(&a, pool);
+                        assert_int_equal(
+                            crisp__raster_draw(r, &a, pool, v, 3 * NT, tri, 2, NULL, NULL, NULL),
+                            CRISP_OK);
+                        assert_int_equal(a.tiles_pending, 1);
+                        crisp__raster_set_defer_clear(r, 0);
+                        assert_int_equal(
+                            crisp__raster_draw(r, &b, pool, v, 3 * NT, tri, 2, NULL, NULL, NULL),
+                            CRISP_OK);
+                        crisp__raster_target_flush(&a, pool);
+                        assert_memory_equal(a.inv_w, b.inv_w, ns * sizeof *a.inv_w);
+                        assert_memory_equal(a.face, b.face, ns * sizeof *a.face);
+                        crisp__raster_target_free(&a);
+                        crisp__raster_target_free(&b);
                     }
                     assert_memory_equal(t.inv_w, ref.inv_w, ns * sizeof *t.inv_w);
                     assert_memory_equal(t.face, ref.face, ns * sizeof *t.face);
