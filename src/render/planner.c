@@ -70,12 +70,12 @@ static uint64_t hash_bytes(const void *data, size_t bytes)
     uint64_t lane[4] = {1469598103934665603ull, 1469598103934665603ull ^ 1,
                         1469598103934665603ull ^ 2, 1469598103934665603ull ^ 3};
     size_t k = 0;
-    for (; k + 32 <= bytes; k += 32)
-        for (int l = 0; l < 4; l++) {
-            uint64_t w;
-            memcpy(&w, b + k + 8 * l, 8);
-            lane[l] = (lane[l] ^ w) * prime;
-        }
+    for (; k + 32 <= bytes; k += 32) {
+        uint64_t w[4];
+        memcpy(w, b + k, 32);
+        lane[0] = (lane[0] ^ w[0]) * prime, lane[1] = (lane[1] ^ w[1]) * prime;
+        lane[2] = (lane[2] ^ w[2]) * prime, lane[3] = (lane[3] ^ w[3]) * prime;
+    }
     uint64_t h = lane[0];
     for (int l = 1; l < 4; l++)
         h = (h ^ lane[l]) * prime;

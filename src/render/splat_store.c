@@ -687,31 +687,53 @@ static uint64_t cell_hash(const int64_t k[3])
     return h ^ h >> 29;
 }
 
-/* Sorts n keys ascending by their upper 32 bits, equal ones kept in their order (LSD radix, 8-bit
- * digits, stable; the four digits' counts in one pass; tmp: n more). publish's and
- * crisp__splat_thin's keys hold their index in the lower bits and come in index order, so that is
- * their full order (ties in index order) with half the passes. */
+/* Sorts n keys ascending by their upper 32 bits, equal ones kept in their order (LSD radix,
+ * stable; every digit's counts in one pass; tmp: n more). publish's and crisp__splat_thin's keys
+ * hold their index in the lower bits and come in index order, so that is their full order (ties in
+ * index order) with half the passes. Digits of 8 bits (4 passes) for a few keys, of 11 bits (3
+ * passes: 2,048 counts each) from RADIX_WIDE keys on; each pass moves the keys between key and
+ * tmp (copied back once at the end when they end in tmp), a digit that every key shares moves
+ * nothing. */
+#define RADIX_WIDE 4096
+/* One digit's pass: keys from -> to by digit d (counts c, `size` of them, the first 0). Returns 0
+ * when every key has the same digit (nothing moved). */
+static inline int radix_pass(const uint64_t *from, uint64_t *to, uint32_t n, uint32_t *c,
+                             uint32_t size, int shift, uint32_t mask)
+{
+    for (uint32_t v = 1; v < size; v++)
+        if (c[v] == n) return 0;
+    for (uint32_t v = 0; v + 1 < size; v++)
+        c[v + 1] += c[v];
+    for (uint32_t i = 0; i < n; i++)
+        to[c[from[i] >> shift & mask]++] = from[i];
+    return 1;
+}
+
 static void radix_sort(uint64_t *key, uint64_t *tmp, uint32_t n)
 {
-    uint32_t count[4][257] = {{0}};
-    for (uint32_t i = 0; i < n; i++) {
-        uint32_t hi = (uint32_t)(key[i] >> 32);
-        count[0][(hi & 0xffu) + 1]++, count[1][(hi >> 8 & 0xffu) + 1]++;
-        count[2][(hi >> 16 & 0xffu) + 1]++, count[3][(hi >> 24) + 1]++;
+    uint64_t *from = key, *to = tmp, *t;
+    if (n >= RADIX_WIDE) {
+        uint32_t count[3][2049] = {{0}}; /* (24 KB of stack) */
+        for (uint32_t i = 0; i < n; i++) {
+            uint32_t hi = (uint32_t)(key[i] >> 32);
+            count[0][(hi & 0x7ffu) + 1]++, count[1][(hi >> 11 & 0x7ffu) + 1]++;
+            count[2][(hi >> 22) + 1]++;
+        }
+        for (int d = 0; d < 3; d++)
+            if (radix_pass(from, to, n, count[d], 2049, 32 + 11 * d, 0x7ffu))
+                t = from, from = to, to = t;
+    } else {
+        uint32_t count[4][257] = {{0}};
+        for (uint32_t i = 0; i < n; i++) {
+            uint32_t hi = (uint32_t)(key[i] >> 32);
+            count[0][(hi & 0xffu) + 1]++, count[1][(hi >> 8 & 0xffu) + 1]++;
+            count[2][(hi >> 16 & 0xffu) + 1]++, count[3][(hi >> 24) + 1]++;
+        }
+        for (int d = 0; d < 4; d++)
+            if (radix_pass(from, to, n, count[d], 257, 32 + 8 * d, 0xffu))
+                t = from, from = to, to = t;
     }
-    for (int d = 0; d < 4; d++) {
-        uint32_t *c = count[d];
-        int one = 0; /* every key has the same digit: nothing moves */
-        for (int v = 1; v <= 256 && !one; v++)
-            one = c[v] == n;
-        if (one) continue;
-        for (int v = 0; v < 256; v++)
-            c[v + 1] += c[v];
-        int shift = 32 + 8 * d;
-        for (uint32_t i = 0; i < n; i++)
-            tmp[c[key[i] >> shift & 0xffu]++] = key[i];
-        memcpy(key, tmp, n * sizeof *key);
-    }
+    if (from != key) memcpy(key, from, n * sizeof *key);
 }
 
 uint32_t crisp__splat_thin(crisp_splat *sp, uint32_t n, double radius)
@@ -1011,7 +1033,10 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
             return st;
         for (uint32_t i = 0; i < nr; i++)
             s->sorted[i] = s->ranges[(uint32_t)s->order[i]];
-        memcpy(s->ranges, s->sorted, nr * sizeof *s->ranges);
+        crisp_plan_splat_range *r = s->ranges; /* (the two arrays trade places) */
+        size_t cap = s->range_cap;
+        s->ranges = s->sorted, s->range_cap = s->sorted_cap;
+        s->sorted = r, s->sorted_cap = cap;
     }
     out->splats = s->splats;
     out->splat_count = (uint32_t)s->count;
