@@ -205,8 +205,8 @@ static crisp_model *scene_model(const char *name)
 
 /* One warm frame and one plan, kept out of line so that callgrind can count them alone
  * (--toggle-collect=warm_frame, --toggle-collect=warm_plan: the warm-up frame, which builds what
- * the planner keeps, is not counted). */
-static __attribute__((noinline)) int warm_frame(crisp_planner *pl, crisp_renderer *r,
+ * the planner keeps, is not counted; no_icf: GCC would fold the identical first_frame into it). */
+static __attribute__((noinline, no_icf)) int warm_frame(crisp_planner *pl, crisp_renderer *r,
                                                 const crisp_scene *sc, const crisp_camera *cam,
                                                 const crisp_frame_plan **plan, crisp_image *img,
                                                 crisp_render_stats *st)
@@ -217,7 +217,7 @@ static __attribute__((noinline)) int warm_frame(crisp_planner *pl, crisp_rendere
 
 /* The first frame (what the planner keeps is built: per-patch bounds, splat sets), out of line
  * for --toggle-collect=first_frame. */
-static __attribute__((noinline)) int first_frame(crisp_planner *pl, crisp_renderer *r,
+static __attribute__((noinline, no_icf)) int first_frame(crisp_planner *pl, crisp_renderer *r,
                                                  const crisp_scene *sc, const crisp_camera *cam,
                                                  const crisp_frame_plan **plan, crisp_image *img,
                                                  crisp_render_stats *st)
@@ -226,7 +226,7 @@ static __attribute__((noinline)) int first_frame(crisp_planner *pl, crisp_render
            crisp_render_cpu_plan(r, sc, *plan, cam, img, st);
 }
 
-static __attribute__((noinline)) int warm_plan(crisp_planner *pl, const crisp_scene *sc,
+static __attribute__((noinline, no_icf)) int warm_plan(crisp_planner *pl, const crisp_scene *sc,
                                                const crisp_camera *cam,
                                                const crisp_frame_plan **plan)
 {

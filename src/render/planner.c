@@ -363,8 +363,12 @@ crisp_status crisp__planner_finish_plan(crisp_planner *p, const crisp_scene *sc,
     stats.triangles = o->stats.triangles;
     o->stats = stats;
     if ((st = crisp__planner_lay_out_tables(p, sc))) return st;
-    for (uint32_t f = 0; f < sc->face_count; f++)
+    /* (the faces planned this frame: the others' trim plans, and so their counts, are as before;
+     * a face without a plan is not re-planned) */
+    for (size_t i = 0; i < p->trees->visible_count; i++) {
+        uint32_t f = p->trees->visible[i];
         p->strips_used[f] = p->trees->trims[f].strip_count;
+    }
     if ((st = crisp__splat_store_publish(p->splats, sc, p->splat_face, p->faces, o))) return st;
     publish(p, sc, 0);
     p->cam = *cam;

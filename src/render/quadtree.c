@@ -1385,7 +1385,8 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
     tc.mode = plan->patch_mode;
     tc.active = plan->active;
     tc.count = plan->active_count;
-    crisp_pool_parallel_for(pool, TREE_CHUNKS, 1, build_chunks, &tc);
+    /* (no patch to plan, as when every face is drawn as splats: no job for the workers) */
+    if (tc.count) crisp_pool_parallel_for(pool, TREE_CHUNKS, 1, build_chunks, &tc);
     for (int w = 0; w < workers; w++)
         if (plan->worker_status[w]) return plan->worker_status[w];
     double t1 = crisp_time_now();

@@ -71,6 +71,7 @@ struct crisp__splat_store {
     uint8_t *ready;          /* per face: the choice found its level built, and set its clip
                                 origin and range (the others: publish does) */
     uint32_t (*range)[2];    /* per face with ready: first and count of its set */
+    uint32_t *key;           /* per face drawn: near as a float rounded up, its bits (the order) */
     uint32_t *chunk_todo;    /* per chunk of the tree: its faces whose wanted level is not built */
     uint32_t *todo;          /* faces whose wanted level is built this frame */
     size_t todo_cap;
@@ -106,8 +107,9 @@ static void clear_scene(crisp__splat_store *s)
     free(s->levels);
     free(s->ready);
     free(s->range);
+    free(s->key);
     free(s->chunk_todo);
-    s->levels = NULL, s->ready = NULL, s->range = NULL, s->chunk_todo = NULL;
+    s->levels = NULL, s->ready = NULL, s->range = NULL, s->key = NULL, s->chunk_todo = NULL;
     free(s->box);
     free(s->want);
     free(s->near);
@@ -222,8 +224,9 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
         s->log_s0 = crisp_malloc_array(n, sizeof *s->log_s0);
         s->ready = calloc(n, sizeof *s->ready);
         s->range = crisp_malloc_array(n, sizeof *s->range);
+        s->key = crisp_malloc_array(n, sizeof *s->key);
         if (!s->faces || !s->levels || !s->box || !s->want || !s->near || !s->log_s0 || !s->ready ||
-            !s->range) {
+            !s->range || !s->key) {
             clear_scene(s);
             return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
         }
@@ -553,6 +556,16 @@ static void draw_set(crisp__splat_store *s, uint32_t f, int k, float *co)
                         (*m)[2][q] * fs->origin[2] + (*m)[3][q]);
 }
 
+/* The draw order's key of a face whose box's least W is w > 0: w as a float rounded up (its bits
+ * order as the values; the next float up is the bits plus one, as nextafterf gives). */
+static inline uint32_t near_key(double w)
+{
+    float fw = (float)w;
+    uint32_t bits;
+    memcpy(&bits, &fw, sizeof bits);
+    return (double)fw < w ? bits + 1 : bits;
+}
+
 /* Chunk i of the faces' tree: its faces' want and near (want is -1 and ready 0 for every face on
  * entry), and for those whose level is built, their range and clip origin (draw_set; ready);
  * counts: faces decided [0] culled with their node, [1] by their node's bound, [2] one by one;
@@ -596,6 +609,7 @@ static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
                 }
                 s->want[f] = (int8_t)k;
                 if (k < 0) continue;
+                s->key[f] = near_key(s->near[f]);
                 if (s->faces[f].built >> k & 1u) {
                     draw_set(s, f, k, s->clip_origin + 4 * (size_t)f);
                     s->ready[f] = 1;
@@ -632,8 +646,10 @@ static size_t choose_levels(crisp__splat_store *s, const crisp_scene *sc, crisp_
     memset(s->counts, 0, sizeof s->counts);
     memset(s->ready, 0, sc->face_count);
     if (!grouped) {
-        for (uint32_t f = 0; f < sc->face_count; f++)
+        for (uint32_t f = 0; f < sc->face_count; f++) {
             s->want[f] = (int8_t)want_level(&c, f, &s->near[f]);
+            if (s->want[f] >= 0) s->key[f] = near_key(s->near[f]);
+        }
         return sc->face_count;
     }
     memset(s->want, -1, sc->face_count);
@@ -1012,15 +1028,9 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
         if (!s->ready[f]) draw_set(s, f, k, co); /* built after the choice */
         faces[f].flags |= CRISP_PLAN_FACE_SPLATS;
         s->ranges[nr] = (crisp_plan_splat_range){s->range[f][0], s->range[f][1], f};
-        /* The draw order's key: the least W as a float rounded up (W > 0 here: its bits order as
-         * the values; the next float up is the bits plus one, as nextafterf gives), then the
-         * range's index (ranges are in face order). */
-        double w = s->near[f];
-        float fw = (float)w;
-        uint32_t bits;
-        memcpy(&bits, &fw, sizeof bits);
-        if ((double)fw < w) bits++;
-        s->order[nr] = (uint64_t)bits << 32 | nr;
+        /* the draw order's key (near_key, set by the choice), then the range's index (ranges are
+         * in face order) */
+        s->order[nr] = (uint64_t)s->key[f] << 32 | nr;
         nr++;
         nfaces++;
         drawn += s->range[f][1];
