@@ -577,8 +577,9 @@ static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
     crisp__splat_store *s = c->s;
     const crisp__face_tree *t = &s->tree;
     for (size_t i = begin; i < end; i++) {
-        uint64_t *counts = s->chunk_counts[i];
-        counts[0] = counts[1] = counts[2] = 0;
+        /* counted here and stored once: neighbouring chunks' counts share a cache line, which two
+         * threads writing per face passed back and forth */
+        uint64_t counts[3] = {0, 0, 0};
         uint32_t todo = 0;
         uint32_t stack[64];
         int top = 0;
@@ -618,6 +619,7 @@ static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
                 }
             }
         }
+        memcpy(s->chunk_counts[i], counts, sizeof counts);
         s->chunk_todo[i] = todo;
     }
 }
