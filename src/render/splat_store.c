@@ -655,7 +655,10 @@ static size_t choose_levels(crisp__splat_store *s, const crisp_scene *sc, crisp_
         return sc->face_count;
     }
     memset(s->want, -1, sc->face_count);
-    crisp_pool_parallel_for(pool, s->tree.chunk_count, 1, choose_chunk, &c);
+    /* runs of neighbouring chunks per item: neighbours (one instance's halves at imp49 far) hold
+     * faces of interleaved indices, whose per-face outputs share cache lines */
+    size_t grain = s->tree.chunk_count / 16 > 1 ? s->tree.chunk_count / 16 : 1;
+    crisp_pool_parallel_for(pool, s->tree.chunk_count, grain, choose_chunk, &c);
     size_t todo = 0;
     for (uint32_t i = 0; i < s->tree.chunk_count; i++) {
         for (int k = 0; k < 3; k++)
