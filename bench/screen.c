@@ -39,7 +39,7 @@
  * Occlusion culling (crisp_render_desc.no_occlusion) is on in every row;
  * BENCH_SCREEN_OCCLUSION=both runs each row with the default planner, culling off then on, instead
  * of the two planners (the image hash must be the same). BENCH_SCREEN_PNG=folder writes each row's
- * image there.
+ * image there. BENCH_SCREEN_PERF_CTL=FIFO: perf_control below.
  *
  *   bench_screen [FRAMES] [THREADS] [ROWS...]     (defaults 3, 2, all rows; a row is e.g.
  * gen50:far) */
@@ -205,8 +205,8 @@ static crisp_model *scene_model(const char *name)
 
 /* One warm frame and one plan, kept out of line so that callgrind can count them alone
  * (--toggle-collect=warm_frame, --toggle-collect=warm_plan: the warm-up frame, which builds what
- * the planner keeps, is not counted). */
-static __attribute__((noinline)) int warm_frame(crisp_planner *pl, crisp_renderer *r,
+ * the planner keeps, is not counted; no_icf: GCC would fold the identical first_frame into it). */
+static __attribute__((noinline, no_icf)) int warm_frame(crisp_planner *pl, crisp_renderer *r,
                                                 const crisp_scene *sc, const crisp_camera *cam,
                                                 const crisp_frame_plan **plan, crisp_image *img,
                                                 crisp_render_stats *st)
@@ -217,7 +217,7 @@ static __attribute__((noinline)) int warm_frame(crisp_planner *pl, crisp_rendere
 
 /* The first frame (what the planner keeps is built: per-patch bounds, splat sets), out of line
  * for --toggle-collect=first_frame. */
-static __attribute__((noinline)) int first_frame(crisp_planner *pl, crisp_renderer *r,
+static __attribute__((noinline, no_icf)) int first_frame(crisp_planner *pl, crisp_renderer *r,
                                                  const crisp_scene *sc, const crisp_camera *cam,
                                                  const crisp_frame_plan **plan, crisp_image *img,
                                                  crisp_render_stats *st)
@@ -226,11 +226,24 @@ static __attribute__((noinline)) int first_frame(crisp_planner *pl, crisp_render
            crisp_render_cpu_plan(r, sc, *plan, cam, img, st);
 }
 
-static __attribute__((noinline)) int warm_plan(crisp_planner *pl, const crisp_scene *sc,
+static __attribute__((noinline, no_icf)) int warm_plan(crisp_planner *pl, const crisp_scene *sc,
                                                const crisp_camera *cam,
                                                const crisp_frame_plan **plan)
 {
     return crisp_planner_plan(pl, sc, cam, plan);
+}
+
+/* BENCH_SCREEN_PERF_CTL=FIFO: "enable" and "disable" written to FIFO around the warm frames (not
+ * the warm plans), for `perf record -D -1 --control=fifo:FIFO`: a profile of the warm frames
+ * alone. */
+static void perf_control(const char *command)
+{
+    const char *path = getenv("BENCH_SCREEN_PERF_CTL");
+    if (!path) return;
+    FILE *f = fopen(path, "w");
+    if (!f) die(path);
+    fprintf(f, "%s\n", command);
+    fclose(f);
 }
 
 /* One row: variant 0 = group leaves (the default planner), 1 = no group leaves (at least one
@@ -277,6 +290,7 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         build_frames++;
     }
     double ms_built = 1e3 * (crisp_time_now() - t_first);
+    perf_control("enable");
     for (int f = 0; f < frames; f++) {
         double c0 = bench_cpu_ms();
         double a = crisp_time_now();
@@ -287,6 +301,7 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         tt[f] = st.ms_tess;
         tr[f] = st.ms_raster;
     }
+    perf_control("disable");
     for (int f = 0; f < frames; f++) {
         double a = crisp_time_now(), c0 = bench_cpu_ms();
         if (warm_plan(pl, sc, &cam, &plan)) die("plan");

@@ -58,19 +58,34 @@ void crisp_planner_destroy(crisp_planner *p)
     free(p);
 }
 
-/* FNV-1a over 64-bit words (the arrays are multiples of 8 bytes, or padded by the caller). */
+/* FNV-1a over 64-bit words (the arrays are multiples of 8 bytes, or padded by the caller), in
+ * four lanes of every fourth word, joined at the end: each lane's chain of multiplies is
+ * independent, so the processor runs them side by side (one chain over the plan's faces, 870 KB at
+ * imp49 far, took ~0.15 ms). Each step is one-to-one in the word, so a change in one word changes
+ * its lane's value and the joined value. */
 static uint64_t hash_bytes(const void *data, size_t bytes)
 {
     const unsigned char *b = data;
-    uint64_t h = 1469598103934665603ull;
+    const uint64_t prime = 1099511628211ull;
+    uint64_t lane[4] = {1469598103934665603ull, 1469598103934665603ull ^ 1,
+                        1469598103934665603ull ^ 2, 1469598103934665603ull ^ 3};
     size_t k = 0;
+    for (; k + 32 <= bytes; k += 32) {
+        uint64_t w[4];
+        memcpy(w, b + k, 32);
+        lane[0] = (lane[0] ^ w[0]) * prime, lane[1] = (lane[1] ^ w[1]) * prime;
+        lane[2] = (lane[2] ^ w[2]) * prime, lane[3] = (lane[3] ^ w[3]) * prime;
+    }
+    uint64_t h = lane[0];
+    for (int l = 1; l < 4; l++)
+        h = (h ^ lane[l]) * prime;
     for (; k + 8 <= bytes; k += 8) {
         uint64_t w;
         memcpy(&w, b + k, 8);
-        h = (h ^ w) * 1099511628211ull;
+        h = (h ^ w) * prime;
     }
     for (; k < bytes; k++)
-        h = (h ^ b[k]) * 1099511628211ull;
+        h = (h ^ b[k]) * prime;
     return h;
 }
 
@@ -348,8 +363,12 @@ crisp_status crisp__planner_finish_plan(crisp_planner *p, const crisp_scene *sc,
     stats.triangles = o->stats.triangles;
     o->stats = stats;
     if ((st = crisp__planner_lay_out_tables(p, sc))) return st;
-    for (uint32_t f = 0; f < sc->face_count; f++)
+    /* (the faces planned this frame: the others' trim plans, and so their counts, are as before;
+     * a face without a plan is not re-planned) */
+    for (size_t i = 0; i < p->trees->visible_count; i++) {
+        uint32_t f = p->trees->visible[i];
         p->strips_used[f] = p->trees->trims[f].strip_count;
+    }
     if ((st = crisp__splat_store_publish(p->splats, sc, p->splat_face, p->faces, o))) return st;
     publish(p, sc, 0);
     p->cam = *cam;

@@ -1050,6 +1050,7 @@ void crisp__trees_destroy(crisp__trees *p)
     free(p->density_gen);
     free(p->face_tau);
     free(p->face_rows);
+    free(p->visible);
     free(p);
 }
 
@@ -1087,6 +1088,7 @@ static crisp_status ensure_workers(crisp__trees *p, int workers)
 typedef struct trim_ctx {
     crisp__trees *plan;
     const crisp_scene *sc;
+    const uint32_t *faces; /* the faces planned: faces[begin .. end) of the parallel_for */
     int strip_count;
     crisp_status *status;
     size_t *scratch_used; /* per worker: the most scratch one face took */
@@ -1128,12 +1130,13 @@ static void build_lods(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
-/* The coarse trim polylines (crisp_trim_lod) that faces f0 .. f1 - 1 want this frame and that
- * are not built yet, built in parallel before the trim plans read them. They are view-independent
- * and kept per range of pieces: faces with the same pieces (the scene shares their range, one
- * part instanced many times) share one (impeller x 49: 13,573 builds and 107 MB -> 277 builds). */
-static crisp_status make_lods(crisp__trees *plan, const crisp_scene *sc, uint32_t f0, uint32_t f1,
-                              crisp_pool *pool)
+/* The coarse trim polylines (crisp_trim_lod) that faces faces[0 .. n - 1] want this frame and
+ * that are not built yet, built in parallel before the trim plans read them. They are
+ * view-independent and kept per range of pieces: faces with the same pieces (the scene shares their
+ * range, one part instanced many times) share one (impeller x 49: 13,573 builds and 107 MB -> 277
+ * builds). */
+static crisp_status make_lods(crisp__trees *plan, const crisp_scene *sc, const uint32_t *faces,
+                              size_t count, crisp_pool *pool)
 {
     if (plan->lod_map != sc->trim_serial) {
         /* Which face's lod each face uses: the first face with its range of pieces. */
@@ -1155,7 +1158,8 @@ static crisp_status make_lods(crisp__trees *plan, const crisp_scene *sc, uint32_
         plan->lod_map = sc->trim_serial;
     }
     size_t n = 0;
-    for (uint32_t f = f0; f < f1; f++) {
+    for (size_t i = 0; i < count; i++) {
+        uint32_t f = faces[i];
         if (!plan->face_tau[f] || !sc->faces[f].piece_count ||
             crisp__groups_face_small(plan->groups, f) || !wants_lod(plan, f))
             continue;
@@ -1185,7 +1189,8 @@ static crisp_status make_lods(crisp__trees *plan, const crisp_scene *sc, uint32_
 static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
 {
     trim_ctx *c = vctx;
-    for (size_t f = begin; f < end; f++) {
+    for (size_t i = begin; i < end; i++) {
+        size_t f = c->faces[i];
         if (!c->plan->face_tau[f]) continue;
         const crisp_scene_face *sf = &c->sc->faces[f];
         int strips = c->strip_count;
@@ -1380,7 +1385,8 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
     tc.mode = plan->patch_mode;
     tc.active = plan->active;
     tc.count = plan->active_count;
-    crisp_pool_parallel_for(pool, TREE_CHUNKS, 1, build_chunks, &tc);
+    /* (no patch to plan, as when every face is drawn as splats: no job for the workers) */
+    if (tc.count) crisp_pool_parallel_for(pool, TREE_CHUNKS, 1, build_chunks, &tc);
     for (int w = 0; w < workers; w++)
         if (plan->worker_status[w]) return plan->worker_status[w];
     double t1 = crisp_time_now();
@@ -1396,6 +1402,7 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
     memset(plan->face_rows, 0, sc->face_count * sizeof *plan->face_rows);
     crisp_plan_stats *s = &plan->stats;
     *s = (crisp_plan_stats){.patches = sc->patch_count, .level_splits = level_splits};
+    plan->visible_count = 0;
     for (size_t i = 0; i < plan->active_count; i++) {
         uint32_t p = plan->active[i];
         const crisp__patch_tree *pp = &plan->patches[p];
@@ -1412,26 +1419,36 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         for (uint32_t l = 0; l < pp->leaf_count; l++) {
             const crisp__cell *L = &pp->leaves[l];
             if (L->culled) continue;
-            if (L->tau > plan->face_tau[f]) plan->face_tau[f] = L->tau;
+            if (L->tau > plan->face_tau[f]) {
+                if (!plan->face_tau[f]) {
+                    /* (active patches ascend, face after face: so do the faces listed) */
+                    if ((st = crisp_grow((void **)&plan->visible, &plan->visible_cap,
+                                         plan->visible_count + 1, sizeof *plan->visible)))
+                        return st;
+                    plan->visible[plan->visible_count++] = f;
+                }
+                plan->face_tau[f] = L->tau;
+            }
             float rows = L->group ? (float)L->tau / (float)L->iy : (float)L->tau;
             if (rows > plan->face_rows[f]) plan->face_rows[f] = rows;
         }
     }
-    if ((st = make_lods(plan, sc, 0, sc->face_count, pool))) return st;
+    if ((st = make_lods(plan, sc, plan->visible, plan->visible_count, pool))) return st;
     size_t *scratch_used = plan->trim_used;
     for (int w = 0; w < workers; w++) {
         plan->worker_status[w] = CRISP_OK;
         scratch_used[w] = 0;
         if ((st = crisp_arena_reserve(plan->arenas[w], plan->trim_scratch))) return st;
     }
-    trim_ctx trc = {plan, sc, desc ? desc->strip_count : 0, plan->worker_status, scratch_used};
-    crisp_pool_parallel_for(pool, sc->face_count, 1, plan_trims, &trc);
+    trim_ctx trc = {
+        plan, sc, plan->visible, desc ? desc->strip_count : 0, plan->worker_status, scratch_used};
+    crisp_pool_parallel_for(pool, plan->visible_count, 1, plan_trims, &trc);
     for (int w = 0; w < workers; w++) {
         if (plan->worker_status[w]) return plan->worker_status[w];
         if (scratch_used[w] > plan->trim_scratch) plan->trim_scratch = scratch_used[w];
     }
-    for (uint32_t f = 0; f < sc->face_count; f++) {
-        if (!plan->face_tau[f]) continue;
+    for (size_t i = 0; i < plan->visible_count; i++) {
+        uint32_t f = plan->visible[i];
         s->visible_faces++;
         s->table_rows += plan->trims[f].table.row_count;
         s->table_bytes += crisp_trim_table_bytes(&plan->trims[f].table);
@@ -1451,10 +1468,10 @@ crisp_status crisp__trees_replan_trim(crisp__trees *plan, const crisp_scene *sc,
         return crisp_error(CRISP_ERR_INVALID_ARG, "face %u: the scene has %u faces", f,
                            sc->face_count);
     if (!plan->face_tau[f]) return CRISP_OK; /* not visible: nothing to plan */
-    crisp_status status = make_lods(plan, sc, f, f + 1, NULL);
+    crisp_status status = make_lods(plan, sc, &f, 1, NULL);
     if (status) return status;
     size_t used = 0;
-    trim_ctx trc = {plan, sc, strip_count, &status, &used};
-    plan_trims(&trc, f, f + 1, 0);
+    trim_ctx trc = {plan, sc, &f, strip_count, &status, &used};
+    plan_trims(&trc, 0, 1, 0);
     return status;
 }

@@ -151,6 +151,10 @@ typedef struct crisp__trees {
     float *face_rows;   /* per visible face: largest tessellation rows per patch row of a leaf
                            (tau; a group leaf's tau over the patch rows of its block) */
     uint32_t face_cap;
+    uint32_t *visible; /* the faces with face_tau > 0 as crisp__trees_build set it, ascending (its
+                          per-face passes go over these, not every face: issue 12's far views draw
+                          most faces as splats) */
+    size_t visible_count, visible_cap;
     crisp_arena **arenas;
     void **build_state;
     crisp_status *worker_status;

@@ -18,6 +18,9 @@ typedef struct crisp__splat_scratch {
     size_t list_cap;
     uint32_t *band_start, *band_list, *band_fill; /* per band of rows: its ranges (list indices) */
     size_t band_start_cap, band_list_cap, band_fill_cap;
+    /* per range drawn: the first and last band it meets (first > last: none) */
+    uint32_t (*span)[2];
+    size_t span_cap;
     uint32_t *chunk_first; /* per range drawn: its first chunk (chunks of SPLAT_CHUNK splats) */
     double *chunk_box;     /* per chunk: its box and largest 1 / W, as box */
     size_t chunk_first_cap, chunk_box_cap;

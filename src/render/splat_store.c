@@ -20,6 +20,7 @@
  * alike. Every
  * point p of the face that a pixel centre sees is within r of a splat s, so s projects within
  * h - margin px of the pixel centre in x and in y and its square (half-size h) covers it. */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,21 +32,33 @@
 #include "splat.h"
 #include "splat_store.h"
 
+/* What every frame reads of a face (the choice and publish): one cache line per face, so that a
+ * frame of many faces a few pixels across reads 64 bytes of each (session 15: the sets' ranges
+ * and radii of all 40 levels beside them made it 700, and the faces' lines were read from memory
+ * three times a plan). A built level's radius is the level's (level_radius: build_range stores a
+ * set at R_k, store_set takes no other), so it is not kept. */
 typedef struct face_sets {
-    double s0;       /* radius of level 0: the face box's diagonal (0: never splatted) */
-    uint64_t built;  /* bit k: level k is in the store */
+    double s0;        /* radius of level 0: the face box's diagonal (0: never splatted) */
+    uint64_t built;   /* bit k: level k is in the store */
+    double origin[3]; /* the face's splat origin (its first set's): p are offsets from it */
+    uint32_t draw_first, draw_count; /* the set of level draw_level: its splats in the store */
+    int8_t draw_level;               /* -1: none (face_levels holds every built level's) */
     uint8_t refused; /* levels >= refused are over the budget (CRISP_SPLAT_LEVELS: none) */
     uint8_t has_origin;
-    double origin[3]; /* the face's splat origin (its first set's): p are offsets from it */
-    double radius[CRISP_SPLAT_LEVELS]; /* proven radius of each built level */
+    uint8_t pad[13];
+} face_sets;
+
+/* The rest of a face's sets, read when a face changes level or its sets change. */
+typedef struct face_levels {
     uint32_t first[CRISP_SPLAT_LEVELS], count[CRISP_SPLAT_LEVELS];
     uint64_t trim_hash; /* of the face's trim pieces when its sets were built */
-} face_sets;
+} face_levels;
 
 struct crisp__splat_store {
     uint64_t serial, trim_serial; /* the scene the store was built from (0: none) */
     uint32_t face_count;
-    face_sets *faces;
+    face_sets *faces; /* 64-byte aligned */
+    face_levels *levels;
     double *box;                 /* 6 per face: the union of its patches' boxes */
     double *log_s0;              /* per face: 2 log2 s0 (the choice per group of faces) */
     crisp__face_tree tree;       /* of the faces with s0 > 0 (their boxes) */
@@ -55,6 +68,11 @@ struct crisp__splat_store {
     size_t count, cap, dead; /* splats stored, allocated, and belonging to dropped sets */
     int8_t *want;            /* per face this frame: the level drawn, -1: not splatted */
     double *near;            /* per face this frame: its box's least W (the draw order) */
+    uint8_t *ready;          /* per face: the choice found its level built, and set its clip
+                                origin and range (the others: publish does) */
+    uint32_t (*range)[2];    /* per face with ready: first and count of its set */
+    uint32_t *key;           /* per face drawn: near as a float rounded up, its bits (the order) */
+    uint32_t *chunk_todo;    /* per chunk of the tree: its faces whose wanted level is not built */
     uint32_t *todo;          /* faces whose wanted level is built this frame */
     size_t todo_cap;
     crisp_splat_set *sets; /* per todo entry */
@@ -86,6 +104,12 @@ crisp_status crisp__splat_store_create(crisp__splat_store **dest)
 static void clear_scene(crisp__splat_store *s)
 {
     free(s->faces);
+    free(s->levels);
+    free(s->ready);
+    free(s->range);
+    free(s->key);
+    free(s->chunk_todo);
+    s->levels = NULL, s->ready = NULL, s->range = NULL, s->key = NULL, s->chunk_todo = NULL;
     free(s->box);
     free(s->want);
     free(s->near);
@@ -172,11 +196,14 @@ void crisp__splat_store_drop_face(crisp__splat_store *s, uint32_t f)
     if (!s->faces || f >= s->face_count) return;
     face_sets *fs = &s->faces[f];
     for (int k = 0; k < CRISP_SPLAT_LEVELS; k++)
-        if (fs->built >> k & 1u) s->dead += fs->count[k];
+        if (fs->built >> k & 1u) s->dead += s->levels[f].count[k];
     double s0 = fs->s0;
     memset(fs, 0, sizeof *fs);
+    memset(&s->levels[f], 0, sizeof s->levels[f]);
     fs->s0 = s0;
     fs->refused = CRISP_SPLAT_LEVELS;
+    fs->draw_level = -1;
+    s->ready[f] = 0;
     s->changed = 1;
 }
 
@@ -187,12 +214,19 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
     if (s->serial != sc->serial || s->face_count != sc->face_count) {
         clear_scene(s);
         size_t n = sc->face_count ? sc->face_count : 1;
-        s->faces = calloc(n, sizeof *s->faces);
+        _Static_assert(sizeof(face_sets) == 64, "face_sets: one cache line");
+        s->faces = n <= SIZE_MAX / 64 ? aligned_alloc(64, n * sizeof *s->faces) : NULL;
+        if (s->faces) memset(s->faces, 0, n * sizeof *s->faces);
+        s->levels = calloc(n, sizeof *s->levels);
         s->box = crisp_malloc_array(n, 6 * sizeof *s->box);
         s->want = crisp_malloc_array(n, sizeof *s->want);
         s->near = crisp_malloc_array(n, sizeof *s->near);
         s->log_s0 = crisp_malloc_array(n, sizeof *s->log_s0);
-        if (!s->faces || !s->box || !s->want || !s->near || !s->log_s0) {
+        s->ready = calloc(n, sizeof *s->ready);
+        s->range = crisp_malloc_array(n, sizeof *s->range);
+        s->key = crisp_malloc_array(n, sizeof *s->key);
+        if (!s->faces || !s->levels || !s->box || !s->want || !s->near || !s->log_s0 || !s->ready ||
+            !s->range || !s->key) {
             clear_scene(s);
             return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
         }
@@ -213,13 +247,15 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
             d = sqrt(d);
             s->faces[f].s0 = sf->patch_count && isfinite(d) && d > 0 ? d : 0;
             s->faces[f].refused = CRISP_SPLAT_LEVELS;
+            s->faces[f].draw_level = -1;
             s->log_s0[f] = s->faces[f].s0 > 0 ? 2 * log2(s->faces[f].s0) : 0;
             s->want[f] = s->faces[f].s0 > 0; /* (the tree's faces) */
         }
         crisp_status st =
             crisp__face_tree_build(s->box, (const uint8_t *)s->want, sc->face_count, &s->tree);
-        if (!st && !(s->chunk_counts = crisp_malloc_array(
-                         s->tree.chunk_count ? s->tree.chunk_count : 1, sizeof *s->chunk_counts)))
+        size_t nc = s->tree.chunk_count ? s->tree.chunk_count : 1;
+        if (!st && (!(s->chunk_counts = crisp_malloc_array(nc, sizeof *s->chunk_counts)) ||
+                    !(s->chunk_todo = crisp_malloc_array(nc, sizeof *s->chunk_todo))))
             st = crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
         if (st) {
             clear_scene(s);
@@ -231,7 +267,7 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
     }
     if (s->trim_serial != sc->trim_serial) {
         for (uint32_t f = 0; f < sc->face_count; f++)
-            if (s->faces[f].built && trim_hash(sc, f) != s->faces[f].trim_hash)
+            if (s->faces[f].built && trim_hash(sc, f) != s->levels[f].trim_hash)
                 crisp__splat_store_drop_face(s, f);
         s->trim_serial = sc->trim_serial;
     }
@@ -239,11 +275,14 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
         size_t at = 0;
         for (uint32_t f = 0; f < s->face_count; f++) {
             face_sets *fs = &s->faces[f];
+            face_levels *fl = &s->levels[f];
+            fs->draw_level = -1;
+            s->ready[f] = 0;
             for (int k = 0; k < CRISP_SPLAT_LEVELS; k++) {
                 if (!(fs->built >> k & 1u)) continue;
-                memmove(s->splats + at, s->splats + fs->first[k], fs->count[k] * sizeof *s->splats);
-                fs->first[k] = (uint32_t)at;
-                at += fs->count[k];
+                memmove(s->splats + at, s->splats + fl->first[k], fl->count[k] * sizeof *s->splats);
+                fl->first[k] = (uint32_t)at;
+                at += fl->count[k];
             }
         }
         s->count = at;
@@ -253,10 +292,18 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
     return CRISP_OK;
 }
 
-/* The radius of level k of a face whose level 0 is s0: s0 2^(-k/2). */
-static double level_radius(double s0, int k)
+/* The radius of level k of a face whose level 0 is s0: s0 2^(-k/2), as ldexp(s0, -(k / 2)) times
+ * 1 / sqrt 2 for odd k. The choice computes it for every face a frame: ldexp's call (about 50
+ * instructions) is a product with the power of two, exact and so the same bits, unless the product
+ * is subnormal, zero or not finite (then ldexp itself). */
+static inline double level_radius(double s0, int k)
 {
-    return ldexp(s0, -(k / 2)) * (k & 1 ? 0.70710678118654752440 : 1.0);
+    uint64_t bits = (uint64_t)(1023 - k / 2) << 52; /* 2^-(k/2), 0 <= k < CRISP_SPLAT_LEVELS */
+    double p;
+    memcpy(&p, &bits, sizeof p);
+    double r = s0 * p;
+    if (!(fabs(r) >= DBL_MIN && fabs(r) <= DBL_MAX)) r = ldexp(s0, -(k / 2));
+    return r * (k & 1 ? 0.70710678118654752440 : 1.0);
 }
 
 static uint32_t budget(const crisp_scene *sc, uint32_t f)
@@ -270,6 +317,8 @@ typedef struct choose_ctx {
     const crisp_scene *sc;
     int width, height;
     double row[3][3]; /* rows x, y and w of view_proj's linear part */
+    double w[4];      /* view_proj's W row: W = w[0] x + w[1] y + w[2] z + w[3] */
+    int wlow[3];      /* per axis, the box coordinate (0 .. 5) at which W is least (face_wmin) */
 } choose_ctx;
 
 /* The level face f wants this frame (-1: planned as patches); its box's least W in *near. */
@@ -320,8 +369,8 @@ static int want_level(const choose_ctx *c, uint32_t f, double *near)
         k++;
     if (k >= CRISP_SPLAT_LEVELS || k >= fs->refused) return -1;
     /* A coarser set already built whose proven radius is small enough. */
-    if (k > 0 && (fs->built >> (k - 1) & 1u) && fs->radius[k - 1] <= rt) k--;
-    if ((fs->built >> k & 1u) && !(fs->radius[k] <= rt)) return -1;
+    if (k > 0 && (fs->built >> (k - 1) & 1u) && level_radius(fs->s0, k - 1) <= rt) k--;
+    if ((fs->built >> k & 1u) && !(level_radius(fs->s0, k) <= rt)) return -1;
     return k;
 }
 
@@ -358,14 +407,20 @@ static int want_level(const choose_ctx *c, uint32_t f, double *near)
 /* The least W over face f's box, bit for bit as want_level's least of its 8 corners: the computed
  * W is monotone in each coordinate (products and sums round monotonically), so the corner with
  * each coordinate at the end that lowers W gives the least computed value. */
-static double face_wmin(const choose_ctx *c, uint32_t f)
+static inline double face_wmin(const choose_ctx *c, uint32_t f)
 {
     const double *b = c->s->box + 6 * (size_t)f;
-    const crisp_mat4 *m = (const crisp_mat4 *)&c->s->view_proj;
-    double p[3];
-    for (int j = 0; j < 3; j++)
-        p[j] = (*m)[j][3] >= 0 ? b[j] : b[j + 3];
-    return (*m)[0][3] * p[0] + (*m)[1][3] * p[1] + (*m)[2][3] * p[2] + (*m)[3][3];
+    return c->w[0] * b[c->wlow[0]] + c->w[1] * b[c->wlow[1]] + c->w[2] * b[c->wlow[2]] + c->w[3];
+}
+
+/* ceil(a) for the choice's 2 log2 (s0 / rt) bounds (a few tens), without a libm call: exact for
+ * |a| < 2^31 (ceil's value, -0 as +0: the callers compare it and convert it to an int); the
+ * library's beyond. */
+static inline double ceil_level(double a)
+{
+    if (!(fabs(a) < 2147483648.0)) return ceil(a);
+    double t = (double)(int32_t)a; /* towards zero: ceil for a <= 0, floor for a > 0 */
+    return t < a ? t + 1 : t;
 }
 
 typedef struct group_view {
@@ -460,7 +515,7 @@ static int want_level_grouped(const choose_ctx *c, const group_view *v, uint32_t
     if (!(fs->s0 > 0) || !fs->refused) return -1;
     double lo = s->log_s0[f] + v->a_lo - GROUP_DELTA, hi = s->log_s0[f] + v->a_hi + 2 * GROUP_DELTA;
     if (lo > CRISP_SPLAT_LEVELS - 1) return -1; /* want_level's k at CRISP_SPLAT_LEVELS or more */
-    double kk = ceil(hi);
+    double kk = ceil_level(hi);
     int k;
     if (kk <= 0)
         k = 0;
@@ -471,18 +526,50 @@ static int want_level_grouped(const choose_ctx *c, const group_view *v, uint32_t
     if (k >= CRISP_SPLAT_LEVELS || k >= fs->refused) return -1;
     *near = face_wmin(c, f);
     if (k > 0 && (fs->built >> (k - 1) & 1u)) {
-        if (fs->radius[k - 1] <= v->rt_lo)
+        double r = level_radius(fs->s0, k - 1);
+        if (r <= v->rt_lo)
             k--;
-        else if (!(fs->radius[k - 1] > v->rt_hi))
+        else if (!(r > v->rt_hi))
             return UNDECIDED;
     }
-    if ((fs->built >> k & 1u) && !(fs->radius[k] <= v->rt_lo))
-        return fs->radius[k] > v->rt_hi ? -1 : UNDECIDED;
+    if (fs->built >> k & 1u) {
+        double r = level_radius(fs->s0, k);
+        if (!(r <= v->rt_lo)) return r > v->rt_hi ? -1 : UNDECIDED;
+    }
     return k;
 }
 
-/* Chunk i of the faces' tree: its faces' want and near (want is -1 for every face on entry);
- * counts: faces decided [0] culled with their node, [1] by their node's bound, [2] one by one. */
+/* Face f drawn at built level k: its set's range (range[f], through the face's cached level) and
+ * its splat origin's clip position (4 floats at co, from the store's view_proj). */
+static void draw_set(crisp__splat_store *s, uint32_t f, int k, float *co)
+{
+    face_sets *fs = &s->faces[f];
+    if (fs->draw_level != k) {
+        fs->draw_first = s->levels[f].first[k];
+        fs->draw_count = s->levels[f].count[k];
+        fs->draw_level = (int8_t)k;
+    }
+    s->range[f][0] = fs->draw_first, s->range[f][1] = fs->draw_count;
+    const crisp_mat4 *m = (const crisp_mat4 *)&s->view_proj;
+    for (int q = 0; q < 4; q++)
+        co[q] = (float)((*m)[0][q] * fs->origin[0] + (*m)[1][q] * fs->origin[1] +
+                        (*m)[2][q] * fs->origin[2] + (*m)[3][q]);
+}
+
+/* The draw order's key of a face whose box's least W is w > 0: w as a float rounded up (its bits
+ * order as the values; the next float up is the bits plus one, as nextafterf gives). */
+static inline uint32_t near_key(double w)
+{
+    float fw = (float)w;
+    uint32_t bits;
+    memcpy(&bits, &fw, sizeof bits);
+    return (double)fw < w ? bits + 1 : bits;
+}
+
+/* Chunk i of the faces' tree: its faces' want and near (want is -1 and ready 0 for every face on
+ * entry), and for those whose level is built, their range and clip origin (draw_set; ready);
+ * counts: faces decided [0] culled with their node, [1] by their node's bound, [2] one by one;
+ * chunk_todo: faces whose level is not built. */
 static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
@@ -490,8 +577,10 @@ static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
     crisp__splat_store *s = c->s;
     const crisp__face_tree *t = &s->tree;
     for (size_t i = begin; i < end; i++) {
-        uint64_t *counts = s->chunk_counts[i];
-        counts[0] = counts[1] = counts[2] = 0;
+        /* counted here and stored once: neighbouring chunks' counts share a cache line, which two
+         * threads writing per face passed back and forth */
+        uint64_t counts[3] = {0, 0, 0};
+        uint32_t todo = 0;
         uint32_t stack[64];
         int top = 0;
         stack[top++] = t->chunks[i];
@@ -520,8 +609,18 @@ static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
                     counts[1]++;
                 }
                 s->want[f] = (int8_t)k;
+                if (k < 0) continue;
+                s->key[f] = near_key(s->near[f]);
+                if (s->faces[f].built >> k & 1u) {
+                    draw_set(s, f, k, s->clip_origin + 4 * (size_t)f);
+                    s->ready[f] = 1;
+                } else {
+                    todo++;
+                }
             }
         }
+        memcpy(s->chunk_counts[i], counts, sizeof counts);
+        s->chunk_todo[i] = todo;
     }
 }
 
@@ -531,26 +630,49 @@ void crisp__splat_store_choice_counts(const crisp__splat_store *s, uint64_t dest
 }
 
 /* want and near of every face for view_proj (the store's sets as they are): by the faces' tree
- * (grouped) or face by face. */
-static void choose_levels(crisp__splat_store *s, const crisp_scene *sc, crisp_mat4 view_proj,
-                          int width, int height, crisp_pool *pool, int grouped)
+ * (grouped; then also ready, range and clip origin: choose_chunk) or face by face. Returns the
+ * faces whose level is wanted and not built (grouped; face by face: the face count, an upper
+ * bound). */
+static size_t choose_levels(crisp__splat_store *s, const crisp_scene *sc, crisp_mat4 view_proj,
+                            int width, int height, crisp_pool *pool, int grouped)
 {
     crisp_mat4_copy(view_proj, s->view_proj);
     choose_ctx c = {.s = s, .sc = sc, .width = width, .height = height};
     for (int a = 0; a < 3; a++)
         for (int q = 0; q < 3; q++)
             c.row[q][a] = view_proj[a][q == 2 ? 3 : q];
+    for (int j = 0; j < 4; j++)
+        c.w[j] = view_proj[j][3];
+    for (int j = 0; j < 3; j++)
+        c.wlow[j] = view_proj[j][3] >= 0 ? j : j + 3;
     memset(s->counts, 0, sizeof s->counts);
+    memset(s->ready, 0, sc->face_count);
     if (!grouped) {
-        for (uint32_t f = 0; f < sc->face_count; f++)
+        for (uint32_t f = 0; f < sc->face_count; f++) {
             s->want[f] = (int8_t)want_level(&c, f, &s->near[f]);
-        return;
+            if (s->want[f] >= 0) s->key[f] = near_key(s->near[f]);
+        }
+        return sc->face_count;
     }
     memset(s->want, -1, sc->face_count);
-    crisp_pool_parallel_for(pool, s->tree.chunk_count, 1, choose_chunk, &c);
-    for (uint32_t i = 0; i < s->tree.chunk_count; i++)
+    /* runs of neighbouring chunks per item: neighbours (one instance's halves at imp49 far) hold
+     * faces of interleaved indices, whose per-face outputs share cache lines */
+    size_t grain = s->tree.chunk_count / 16 > 1 ? s->tree.chunk_count / 16 : 1;
+    crisp_pool_parallel_for(pool, s->tree.chunk_count, grain, choose_chunk, &c);
+    size_t todo = 0;
+    for (uint32_t i = 0; i < s->tree.chunk_count; i++) {
         for (int k = 0; k < 3; k++)
             s->counts[k] += s->chunk_counts[i][k];
+        todo += s->chunk_todo[i];
+    }
+    return todo;
+}
+
+/* The clip origins' array for the scene's faces (choose_chunk writes them). */
+static crisp_status grow_clip(crisp__splat_store *s, const crisp_scene *sc)
+{
+    size_t nf = sc->face_count ? sc->face_count : 1;
+    return crisp_grow((void **)&s->clip_origin, &s->clip_cap, 4 * nf, sizeof *s->clip_origin);
 }
 
 crisp_status crisp__splat_store_test_want(crisp__splat_store *s, const crisp_scene *sc,
@@ -558,7 +680,7 @@ crisp_status crisp__splat_store_test_want(crisp__splat_store *s, const crisp_sce
                                           int8_t *want, double *near)
 {
     crisp_status st = ensure_scene(s, sc);
-    if (st) return st;
+    if (st || (st = grow_clip(s, sc))) return st;
     choose_levels(s, sc, view_proj, width, height, NULL, grouped);
     memcpy(want, s->want, sc->face_count * sizeof *want);
     memcpy(near, s->near, sc->face_count * sizeof *near);
@@ -586,31 +708,53 @@ static uint64_t cell_hash(const int64_t k[3])
     return h ^ h >> 29;
 }
 
-/* Sorts n keys ascending by their upper 32 bits, equal ones kept in their order (LSD radix, 8-bit
- * digits, stable; the four digits' counts in one pass; tmp: n more). publish's and
- * crisp__splat_thin's keys hold their index in the lower bits and come in index order, so that is
- * their full order (ties in index order) with half the passes. */
+/* Sorts n keys ascending by their upper 32 bits, equal ones kept in their order (LSD radix,
+ * stable; every digit's counts in one pass; tmp: n more). publish's and crisp__splat_thin's keys
+ * hold their index in the lower bits and come in index order, so that is their full order (ties in
+ * index order) with half the passes. Digits of 8 bits (4 passes) for a few keys, of 11 bits (3
+ * passes: 2,048 counts each) from RADIX_WIDE keys on; each pass moves the keys between key and
+ * tmp (copied back once at the end when they end in tmp), a digit that every key shares moves
+ * nothing. */
+#define RADIX_WIDE 4096
+/* One digit's pass: keys from -> to by digit d (counts c, `size` of them, the first 0). Returns 0
+ * when every key has the same digit (nothing moved). */
+static inline int radix_pass(const uint64_t *from, uint64_t *to, uint32_t n, uint32_t *c,
+                             uint32_t size, int shift, uint32_t mask)
+{
+    for (uint32_t v = 1; v < size; v++)
+        if (c[v] == n) return 0;
+    for (uint32_t v = 0; v + 1 < size; v++)
+        c[v + 1] += c[v];
+    for (uint32_t i = 0; i < n; i++)
+        to[c[from[i] >> shift & mask]++] = from[i];
+    return 1;
+}
+
 static void radix_sort(uint64_t *key, uint64_t *tmp, uint32_t n)
 {
-    uint32_t count[4][257] = {{0}};
-    for (uint32_t i = 0; i < n; i++) {
-        uint32_t hi = (uint32_t)(key[i] >> 32);
-        count[0][(hi & 0xffu) + 1]++, count[1][(hi >> 8 & 0xffu) + 1]++;
-        count[2][(hi >> 16 & 0xffu) + 1]++, count[3][(hi >> 24) + 1]++;
+    uint64_t *from = key, *to = tmp, *t;
+    if (n >= RADIX_WIDE) {
+        uint32_t count[3][2049] = {{0}}; /* (24 KB of stack) */
+        for (uint32_t i = 0; i < n; i++) {
+            uint32_t hi = (uint32_t)(key[i] >> 32);
+            count[0][(hi & 0x7ffu) + 1]++, count[1][(hi >> 11 & 0x7ffu) + 1]++;
+            count[2][(hi >> 22) + 1]++;
+        }
+        for (int d = 0; d < 3; d++)
+            if (radix_pass(from, to, n, count[d], 2049, 32 + 11 * d, 0x7ffu))
+                t = from, from = to, to = t;
+    } else {
+        uint32_t count[4][257] = {{0}};
+        for (uint32_t i = 0; i < n; i++) {
+            uint32_t hi = (uint32_t)(key[i] >> 32);
+            count[0][(hi & 0xffu) + 1]++, count[1][(hi >> 8 & 0xffu) + 1]++;
+            count[2][(hi >> 16 & 0xffu) + 1]++, count[3][(hi >> 24) + 1]++;
+        }
+        for (int d = 0; d < 4; d++)
+            if (radix_pass(from, to, n, count[d], 257, 32 + 8 * d, 0xffu))
+                t = from, from = to, to = t;
     }
-    for (int d = 0; d < 4; d++) {
-        uint32_t *c = count[d];
-        int one = 0; /* every key has the same digit: nothing moves */
-        for (int v = 1; v <= 256 && !one; v++)
-            one = c[v] == n;
-        if (one) continue;
-        for (int v = 0; v < 256; v++)
-            c[v + 1] += c[v];
-        int shift = 32 + 8 * d;
-        for (uint32_t i = 0; i < n; i++)
-            tmp[c[key[i] >> shift & 0xffu]++] = key[i];
-        memcpy(key, tmp, n * sizeof *key);
-    }
+    if (from != key) memcpy(key, from, n * sizeof *key);
 }
 
 uint32_t crisp__splat_thin(crisp_splat *sp, uint32_t n, double radius)
@@ -751,7 +895,7 @@ static crisp_status store_set(crisp__splat_store *s, const crisp_scene *sc, uint
     if (!fs->has_origin) {
         memcpy(fs->origin, set->origin, sizeof fs->origin);
         fs->has_origin = 1;
-        fs->trim_hash = trim_hash(sc, f);
+        s->levels[f].trim_hash = trim_hash(sc, f);
     }
     double d[3];
     for (int a = 0; a < 3; a++)
@@ -765,10 +909,9 @@ static crisp_status store_set(crisp__splat_store *s, const crisp_scene *sc, uint
         dst[i].n = crisp__splat_pack_normal(src->n);
         dst[i].uv[0] = src->uv[0], dst[i].uv[1] = src->uv[1];
     }
-    fs->first[k] = (uint32_t)s->count;
-    fs->count[k] = set->count;
-    fs->radius[k] = set->radius;
-    fs->built |= (uint64_t)1 << k;
+    s->levels[f].first[k] = (uint32_t)s->count;
+    s->levels[f].count[k] = set->count;
+    fs->built |= (uint64_t)1 << k; /* (its radius is level_radius's: the caller checked) */
     s->count += set->count;
     s->changed = 1;
     return CRISP_OK;
@@ -806,12 +949,12 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
                                        uint64_t build_limit, crisp_pool *pool, uint8_t *splat)
 {
     crisp_status st = ensure_scene(s, sc);
-    if (st) return st;
-    choose_levels(s, sc, view_proj, width, height, pool, 1);
+    if (st || (st = grow_clip(s, sc))) return st;
+    size_t unbuilt = choose_levels(s, sc, view_proj, width, height, pool, 1);
     /* The sets wanted and not built yet: built in parallel, stored in face order. */
     size_t n = 0;
-    for (uint32_t f = 0; f < sc->face_count; f++)
-        if (s->want[f] >= 0 && !(s->faces[f].built >> s->want[f] & 1u)) {
+    for (uint32_t f = 0; f < sc->face_count && unbuilt; f++)
+        if (s->want[f] >= 0 && !s->ready[f]) {
             if ((st = crisp_grow((void **)&s->todo, &s->todo_cap, n + 1, sizeof *s->todo)))
                 return st;
             s->todo[n++] = f;
@@ -882,11 +1025,11 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
     size_t nf = sc->face_count ? sc->face_count : 1;
     crisp_status st;
     if ((st = crisp_grow((void **)&s->ranges, &s->range_cap, nf, sizeof *s->ranges)) ||
-        (st = crisp_grow((void **)&s->clip_origin, &s->clip_cap, 4 * nf, sizeof *s->clip_origin)))
+        (st = grow_clip(s, sc)) ||
+        (st = crisp_grow((void **)&s->order, &s->order_cap, 2 * nf, sizeof *s->order)))
         return st;
     uint32_t nr = 0, nfaces = 0;
     uint64_t drawn = 0;
-    crisp_mat4 *m = (crisp_mat4 *)&s->view_proj;
     for (uint32_t f = 0; f < sc->face_count; f++) {
         float *co = s->clip_origin + 4 * (size_t)f;
         int k = splat[f] && s->faces && f < s->face_count ? s->want[f] : -1;
@@ -894,36 +1037,28 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
             co[0] = co[1] = co[2] = co[3] = 0;
             continue;
         }
-        const face_sets *fs = &s->faces[f];
-        for (int q = 0; q < 4; q++)
-            co[q] = (float)((*m)[0][q] * fs->origin[0] + (*m)[1][q] * fs->origin[1] +
-                            (*m)[2][q] * fs->origin[2] + (*m)[3][q]);
+        if (!s->ready[f]) draw_set(s, f, k, co); /* built after the choice */
         faces[f].flags |= CRISP_PLAN_FACE_SPLATS;
-        s->ranges[nr++] = (crisp_plan_splat_range){fs->first[k], fs->count[k], f};
+        s->ranges[nr] = (crisp_plan_splat_range){s->range[f][0], s->range[f][1], f};
+        /* the draw order's key (near_key, set by the choice), then the range's index (ranges are
+         * in face order) */
+        s->order[nr] = (uint64_t)s->key[f] << 32 | nr;
+        nr++;
         nfaces++;
-        drawn += fs->count[k];
+        drawn += s->range[f][1];
     }
     /* Nearest first (the least W of the faces' boxes; ties in face order): a backend that keeps
      * the depth drawn skips the ranges hidden by nearer ones (splat_raster.c). */
     if (nr > 1) {
-        if ((st = crisp_grow((void **)&s->order, &s->order_cap, 2 * (size_t)nr, sizeof *s->order)))
-            return st;
-        /* key: the least W as a float (rounded up; W > 0: its bits order as the values), then
-         * the range's index (ranges are in face order) */
-        for (uint32_t i = 0; i < nr; i++) {
-            double w = s->near[s->ranges[i].face];
-            float f = (float)w;
-            if ((double)f < w) f = nextafterf(f, INFINITY);
-            uint32_t bits;
-            memcpy(&bits, &f, sizeof bits);
-            s->order[i] = (uint64_t)bits << 32 | i;
-        }
         radix_sort(s->order, s->order + nr, nr);
         if ((st = crisp_grow((void **)&s->sorted, &s->sorted_cap, nr, sizeof *s->sorted)))
             return st;
         for (uint32_t i = 0; i < nr; i++)
             s->sorted[i] = s->ranges[(uint32_t)s->order[i]];
-        memcpy(s->ranges, s->sorted, nr * sizeof *s->ranges);
+        crisp_plan_splat_range *r = s->ranges; /* (the two arrays trade places) */
+        size_t cap = s->range_cap;
+        s->ranges = s->sorted, s->range_cap = s->sorted_cap;
+        s->sorted = r, s->sorted_cap = cap;
     }
     out->splats = s->splats;
     out->splat_count = (uint32_t)s->count;
@@ -936,7 +1071,8 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
     out->stats.splat_faces = nfaces;
     out->stats.splat_pending = s->pending;
     out->stats.splats_drawn = drawn;
-    out->stats.splat_bytes = s->cap * sizeof *s->splats +
-                             (size_t)s->face_count * (sizeof *s->faces + 6 * sizeof(double) + 1);
+    out->stats.splat_bytes =
+        s->cap * sizeof *s->splats +
+        (size_t)s->face_count * (sizeof *s->faces + sizeof *s->levels + 6 * sizeof(double) + 1);
     return CRISP_OK;
 }
