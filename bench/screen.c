@@ -206,10 +206,9 @@ static crisp_model *scene_model(const char *name)
 /* One warm frame and one plan, kept out of line so that callgrind can count them alone
  * (--toggle-collect=warm_frame, --toggle-collect=warm_plan: the warm-up frame, which builds what
  * the planner keeps, is not counted; no_icf: GCC would fold the identical first_frame into it). */
-static __attribute__((noinline, no_icf)) int warm_frame(crisp_planner *pl, crisp_renderer *r,
-                                                const crisp_scene *sc, const crisp_camera *cam,
-                                                const crisp_frame_plan **plan, crisp_image *img,
-                                                crisp_render_stats *st)
+static __attribute__((noinline, no_icf)) int
+warm_frame(crisp_planner *pl, crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,
+           const crisp_frame_plan **plan, crisp_image *img, crisp_render_stats *st)
 {
     return crisp_planner_plan(pl, sc, cam, plan) ||
            crisp_render_cpu_plan(r, sc, *plan, cam, img, st);
@@ -217,18 +216,17 @@ static __attribute__((noinline, no_icf)) int warm_frame(crisp_planner *pl, crisp
 
 /* The first frame (what the planner keeps is built: per-patch bounds, splat sets), out of line
  * for --toggle-collect=first_frame. */
-static __attribute__((noinline, no_icf)) int first_frame(crisp_planner *pl, crisp_renderer *r,
-                                                 const crisp_scene *sc, const crisp_camera *cam,
-                                                 const crisp_frame_plan **plan, crisp_image *img,
-                                                 crisp_render_stats *st)
+static __attribute__((noinline, no_icf)) int
+first_frame(crisp_planner *pl, crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,
+            const crisp_frame_plan **plan, crisp_image *img, crisp_render_stats *st)
 {
     return crisp_planner_plan(pl, sc, cam, plan) ||
            crisp_render_cpu_plan(r, sc, *plan, cam, img, st);
 }
 
 static __attribute__((noinline, no_icf)) int warm_plan(crisp_planner *pl, const crisp_scene *sc,
-                                               const crisp_camera *cam,
-                                               const crisp_frame_plan **plan)
+                                                       const crisp_camera *cam,
+                                                       const crisp_frame_plan **plan)
 {
     return crisp_planner_plan(pl, sc, cam, plan);
 }
