@@ -54,6 +54,7 @@ void crisp_planner_destroy(crisp_planner *p)
     free(p->ribbon_first);
     free(p->ribbon_quads);
     free(p->strips_used);
+    free(p->face_fixed);
     crisp__stages_free(&p->stages);
     free(p);
 }
@@ -62,31 +63,53 @@ void crisp_planner_destroy(crisp_planner *p)
  * four lanes of every fourth word, joined at the end: each lane's chain of multiplies is
  * independent, so the processor runs them side by side (one chain over the plan's faces, 870 KB at
  * imp49 far, took ~0.15 ms). Each step is one-to-one in the word, so a change in one word changes
- * its lane's value and the joined value. */
-static uint64_t hash_bytes(const void *data, size_t bytes)
+ * its lane's value and the joined value. hash4_step takes 32 bytes: a caller that writes an array
+ * in blocks of 32 bytes hashes each as it writes it (lay_out_faces), the same value as hash_bytes
+ * over the array. */
+#define HASH_PRIME 1099511628211ull
+typedef struct hash4 {
+    uint64_t lane[4];
+} hash4;
+
+static inline hash4 hash4_start(void)
 {
-    const unsigned char *b = data;
-    const uint64_t prime = 1099511628211ull;
-    uint64_t lane[4] = {1469598103934665603ull, 1469598103934665603ull ^ 1,
-                        1469598103934665603ull ^ 2, 1469598103934665603ull ^ 3};
-    size_t k = 0;
-    for (; k + 32 <= bytes; k += 32) {
-        uint64_t w[4];
-        memcpy(w, b + k, 32);
-        lane[0] = (lane[0] ^ w[0]) * prime, lane[1] = (lane[1] ^ w[1]) * prime;
-        lane[2] = (lane[2] ^ w[2]) * prime, lane[3] = (lane[3] ^ w[3]) * prime;
-    }
-    uint64_t h = lane[0];
+    return (hash4){{1469598103934665603ull, 1469598103934665603ull ^ 1, 1469598103934665603ull ^ 2,
+                    1469598103934665603ull ^ 3}};
+}
+
+static inline void hash4_step(hash4 *h, const void *block)
+{
+    uint64_t w[4];
+    memcpy(w, block, 32);
+    h->lane[0] = (h->lane[0] ^ w[0]) * HASH_PRIME, h->lane[1] = (h->lane[1] ^ w[1]) * HASH_PRIME;
+    h->lane[2] = (h->lane[2] ^ w[2]) * HASH_PRIME, h->lane[3] = (h->lane[3] ^ w[3]) * HASH_PRIME;
+}
+
+/* The lanes joined, then the last bytes (fewer than 32). */
+static uint64_t hash4_end(const hash4 *h4, const unsigned char *b, size_t bytes)
+{
+    uint64_t h = h4->lane[0];
     for (int l = 1; l < 4; l++)
-        h = (h ^ lane[l]) * prime;
+        h = (h ^ h4->lane[l]) * HASH_PRIME;
+    size_t k = 0;
     for (; k + 8 <= bytes; k += 8) {
         uint64_t w;
         memcpy(&w, b + k, 8);
-        h = (h ^ w) * prime;
+        h = (h ^ w) * HASH_PRIME;
     }
     for (; k < bytes; k++)
-        h = (h ^ b[k]) * prime;
+        h = (h ^ b[k]) * HASH_PRIME;
     return h;
+}
+
+static uint64_t hash_bytes(const void *data, size_t bytes)
+{
+    const unsigned char *b = data;
+    hash4 h = hash4_start();
+    size_t k = 0;
+    for (; k + 32 <= bytes; k += 32)
+        hash4_step(&h, b + k);
+    return hash4_end(&h, b + k, bytes - k);
 }
 
 /* Triangles of a leaf at its levels (0 when refused: the draw reports it). */
@@ -98,11 +121,16 @@ static uint64_t leaf_triangles(const crisp_plan_leaf *L)
     return crisp_tess_mesh_counts(&lv, &nv, &nt) ? 0 : nt;
 }
 
-/* The visible leaves, face after face (patches are stored face after face), and the faces' leaf
- * ranges and levels. kept (NULL: none): per face, its leaves are the earlier stages' (kept_leaves)
- * instead of the trees'. */
-crisp_status crisp__planner_lay_out_leaves(crisp_planner *p, const crisp_scene *sc,
-                                           const uint8_t *kept)
+/* Where the lay-out of the faces has got to: leaves written, the next active patch, triangles;
+ * strips, rows and crossings of the tables written. */
+typedef struct lay_out_at {
+    size_t leaf, next;
+    uint64_t triangles;
+    size_t strip, row, crossing;
+} lay_out_at;
+
+/* The leaves' room for this frame (kept: as crisp__planner_lay_out_leaves). */
+static crisp_status grow_leaves(crisp_planner *p, const crisp_scene *sc, const uint8_t *kept)
 {
     const crisp__trees *t = p->trees;
     size_t n = 0;
@@ -113,60 +141,78 @@ crisp_status crisp__planner_lay_out_leaves(crisp_planner *p, const crisp_scene *
             if (kept[f]) n += p->stages.kept[5 * (size_t)f + 1];
     if (n > UINT32_MAX / 2)
         return crisp_error(CRISP_ERR_LIMIT, "%zu leaves in one frame: too many", n);
-    crisp_status st = crisp_grow((void **)&p->leaves, &p->leaf_cap, n ? n : 1, sizeof *p->leaves);
-    if (st) return st;
-    uint64_t triangles = 0;
-    size_t at = 0, next = 0; /* the active patches are ascending: face after face */
-    for (uint32_t f = 0; f < sc->face_count; f++) {
-        const crisp_scene_face *sf = &sc->faces[f];
-        crisp_plan_face *pf = &p->faces[f];
-        pf->first_leaf = (uint32_t)at;
-        if (kept && kept[f]) {
-            const uint32_t *k = p->stages.kept + 5 * (size_t)f;
-            for (uint32_t l = 0; l < k[1]; l++) {
-                p->leaves[at] = p->stages.kept_leaves[k[0] + l];
-                triangles += leaf_triangles(&p->leaves[at++]);
-            }
-            pf->leaf_count = k[1];
-            pf->tau_max = t->face_tau[f];
-            continue;
+    return crisp_grow((void **)&p->leaves, &p->leaf_cap, n ? n : 1, sizeof *p->leaves);
+}
+
+/* Face f's visible leaves appended at at->leaf (the active patches ascend: face after face), its
+ * leaf range and level in pf. */
+static inline void lay_out_face_leaves(crisp_planner *p, const crisp_scene *sc, const uint8_t *kept,
+                                       uint32_t f, crisp_plan_face *pf, lay_out_at *at)
+{
+    const crisp__trees *t = p->trees;
+    pf->first_leaf = (uint32_t)at->leaf;
+    pf->tau_max = t->face_tau[f];
+    if (kept && kept[f]) {
+        const uint32_t *k = p->stages.kept + 5 * (size_t)f;
+        for (uint32_t l = 0; l < k[1]; l++) {
+            p->leaves[at->leaf] = p->stages.kept_leaves[k[0] + l];
+            at->triangles += leaf_triangles(&p->leaves[at->leaf++]);
         }
-        for (; next < t->active_count && t->active[next] < sf->first_patch + sf->patch_count;
-             next++) {
-            uint32_t q = t->active[next];
-            const crisp__patch_tree *pt = &t->patches[q];
-            if (!pt->visible_leaves) continue;
-            for (uint32_t l = 0; l < pt->leaf_count; l++) {
-                const crisp__cell *c = &pt->leaves[l];
-                if (c->culled) continue;
-                crisp_plan_leaf *L = &p->leaves[at++];
-                *L = (crisp_plan_leaf){.patch = q, .face = f, .depth = c->depth, .tau = c->tau};
-                if (c->group) {
-                    L->group = c->group;
-                    L->block = c->ix | c->iy << 16;
-                } else {
-                    L->ix = c->ix;
-                    L->iy = c->iy;
-                }
-                for (int k = 0; k < 4; k++)
-                    L->edge[k] = c->edge[k];
-                triangles += leaf_triangles(L);
-            }
-        }
-        pf->leaf_count = (uint32_t)at - pf->first_leaf;
-        pf->tau_max = t->face_tau[f];
+        pf->leaf_count = k[1];
+        return;
     }
-    p->out.leaf_count = (uint32_t)at;
-    p->out.stats.triangles = triangles;
+    for (; at->next < t->active_count &&
+           t->active[at->next] < sc->faces[f].first_patch + sc->faces[f].patch_count;
+         at->next++) {
+        uint32_t q = t->active[at->next];
+        const crisp__patch_tree *pt = &t->patches[q];
+        if (!pt->visible_leaves) continue;
+        for (uint32_t l = 0; l < pt->leaf_count; l++) {
+            const crisp__cell *c = &pt->leaves[l];
+            if (c->culled) continue;
+            crisp_plan_leaf *L = &p->leaves[at->leaf++];
+            *L = (crisp_plan_leaf){.patch = q, .face = f, .depth = c->depth, .tau = c->tau};
+            if (c->group) {
+                L->group = c->group;
+                L->block = c->ix | c->iy << 16;
+            } else {
+                L->ix = c->ix;
+                L->iy = c->iy;
+            }
+            for (int k = 0; k < 4; k++)
+                L->edge[k] = c->edge[k];
+            at->triangles += leaf_triangles(L);
+        }
+    }
+    pf->leaf_count = (uint32_t)at->leaf - pf->first_leaf;
+}
+
+/* The visible leaves, face after face (patches are stored face after face), and the faces' leaf
+ * ranges and levels. kept (NULL: none): per face, its leaves are the earlier stages' (kept_leaves)
+ * instead of the trees'. */
+crisp_status crisp__planner_lay_out_leaves(crisp_planner *p, const crisp_scene *sc,
+                                           const uint8_t *kept)
+{
+    crisp_status st = grow_leaves(p, sc, kept);
+    if (st) return st;
+    lay_out_at at = {0};
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        lay_out_face_leaves(p, sc, kept, f, &p->faces[f], &at);
+    p->out.leaf_count = (uint32_t)at.leaf;
+    p->out.stats.triangles = at.triangles;
     return CRISP_OK;
 }
 
-/* Every visible face's trim table, concatenated: strips, rows (global offsets), crossings. */
-crisp_status crisp__planner_lay_out_tables(crisp_planner *p, const crisp_scene *sc)
+/* The tables' room: the visible faces' strips, rows and crossings. listed: the faces with
+ * face_tau > 0 are the trees' visible list (a plan in stages sets the kept faces' face_tau
+ * without listing them: then every face is looked at). */
+static crisp_status grow_tables(crisp_planner *p, const crisp_scene *sc, int listed)
 {
     const crisp__trees *t = p->trees;
     size_t strips = 0, rows = 0, crossings = 0;
-    for (uint32_t f = 0; f < sc->face_count; f++) {
+    size_t n = listed ? t->visible_count : sc->face_count;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t f = listed ? t->visible[i] : (uint32_t)i;
         if (!t->face_tau[f]) continue;
         const crisp_trim_table *tb = &t->trims[f].table;
         if (tb->all_inside) continue;
@@ -184,42 +230,82 @@ crisp_status crisp__planner_lay_out_tables(crisp_planner *p, const crisp_scene *
         (st = crisp_grow((void **)&p->crossings, &p->crossing_cap, crossings ? crossings : 1,
                          sizeof *p->crossings)))
         return st;
-    size_t s_at = 0, r_at = 0, c_at = 0;
     p->row_offset[0] = 0;
+    return CRISP_OK;
+}
+
+/* What the plan's face records take from the scene's faces (the patch grid, the orientation),
+ * kept per scene: a face's record is then written from the planner's own arrays (imp49 far: the
+ * scene face's line and its model face's line, another for `reversed`, read for 13,573 faces a
+ * plan). */
+static crisp_status ensure_face_fixed(crisp_planner *p, const crisp_scene *sc)
+{
+    if (p->fixed_serial == sc->serial && p->fixed_count == sc->face_count) return CRISP_OK;
+    crisp_status st = crisp_grow((void **)&p->face_fixed, &p->face_fixed_cap,
+                                 sc->face_count ? sc->face_count : 1, sizeof *p->face_fixed);
+    if (st) return st;
     for (uint32_t f = 0; f < sc->face_count; f++) {
-        crisp_plan_face *pf = &p->faces[f];
-        pf->first_strip = (uint32_t)s_at;
-        pf->strip_count = 0;
-        pf->v0 = pf->v1 = pf->strip_scale = 0;
-        pf->flags = sc->faces[f].src->reversed ? CRISP_PLAN_FACE_REVERSED : 0;
-        if (!t->face_tau[f]) continue;
-        const crisp_trim_table *tb = &t->trims[f].table;
-        pf->flags |= CRISP_PLAN_FACE_VISIBLE;
-        pf->v0 = tb->v0;
-        pf->v1 = tb->v1;
-        pf->strip_scale = tb->strip_scale;
-        if (tb->all_inside) {
-            pf->flags |= CRISP_PLAN_FACE_ALL_INSIDE;
-            continue;
-        }
-        pf->strip_count = (uint32_t)tb->strip_count;
-        for (int i = 0; i < tb->strip_count; i++) {
-            crisp_plan_strip *ps = &p->strips[s_at++];
-            ps->a = tb->row_v[2 * i];
-            ps->row_scale = tb->row_scale[i];
-            ps->first_row = (uint32_t)r_at + tb->row_base[i];
-            ps->row_count = tb->row_base[i + 1] - tb->row_base[i];
-        }
-        uint32_t nc = tb->row_count ? tb->row_offset[tb->row_count] : 0;
-        for (uint32_t r = 0; r < tb->row_count; r++)
-            p->row_offset[r_at + r + 1] = (uint32_t)c_at + tb->row_offset[r + 1];
-        if (nc) memcpy(p->crossings + c_at, tb->u, nc * sizeof(double));
-        r_at += tb->row_count;
-        c_at += nc;
+        const crisp_scene_face *sf = &sc->faces[f];
+        p->face_fixed[f] = (crisp__face_fixed){sf->grid_u, sf->grid_v,
+                                               sf->src->reversed ? CRISP_PLAN_FACE_REVERSED : 0};
     }
-    p->out.strip_count = (uint32_t)s_at;
-    p->out.row_count = (uint32_t)r_at;
-    p->out.crossing_count = (uint32_t)c_at;
+    p->fixed_serial = sc->serial;
+    p->fixed_count = sc->face_count;
+    return CRISP_OK;
+}
+
+/* Face f's trim table appended at at's strips, rows and crossings; its table fields and flags
+ * (no CRISP_PLAN_FACE_SPLATS) in pf. */
+static inline void lay_out_face_table(crisp_planner *p, uint32_t f, crisp_plan_face *pf,
+                                      lay_out_at *at)
+{
+    const crisp__trees *t = p->trees;
+    pf->first_strip = (uint32_t)at->strip;
+    pf->strip_count = 0;
+    pf->v0 = pf->v1 = pf->strip_scale = 0;
+    pf->flags = p->face_fixed[f].flags;
+    if (!t->face_tau[f]) return;
+    const crisp_trim_table *tb = &t->trims[f].table;
+    pf->flags |= CRISP_PLAN_FACE_VISIBLE;
+    pf->v0 = tb->v0;
+    pf->v1 = tb->v1;
+    pf->strip_scale = tb->strip_scale;
+    if (tb->all_inside) {
+        pf->flags |= CRISP_PLAN_FACE_ALL_INSIDE;
+        return;
+    }
+    pf->strip_count = (uint32_t)tb->strip_count;
+    for (int i = 0; i < tb->strip_count; i++) {
+        crisp_plan_strip *ps = &p->strips[at->strip++];
+        ps->a = tb->row_v[2 * i];
+        ps->row_scale = tb->row_scale[i];
+        ps->first_row = (uint32_t)at->row + tb->row_base[i];
+        ps->row_count = tb->row_base[i + 1] - tb->row_base[i];
+    }
+    uint32_t nc = tb->row_count ? tb->row_offset[tb->row_count] : 0;
+    for (uint32_t r = 0; r < tb->row_count; r++)
+        p->row_offset[at->row + r + 1] = (uint32_t)at->crossing + tb->row_offset[r + 1];
+    if (nc) memcpy(p->crossings + at->crossing, tb->u, nc * sizeof(double));
+    at->row += tb->row_count;
+    at->crossing += nc;
+}
+
+static void tables_counted(crisp_planner *p, const lay_out_at *at)
+{
+    p->out.strip_count = (uint32_t)at->strip;
+    p->out.row_count = (uint32_t)at->row;
+    p->out.crossing_count = (uint32_t)at->crossing;
+}
+
+/* Every visible face's trim table, concatenated: strips, rows (global offsets), crossings. */
+crisp_status crisp__planner_lay_out_tables(crisp_planner *p, const crisp_scene *sc)
+{
+    crisp_status st;
+    if ((st = ensure_face_fixed(p, sc)) || (st = grow_tables(p, sc, 0))) return st;
+    lay_out_at at = {0};
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        lay_out_face_table(p, f, &p->faces[f], &at);
+    tables_counted(p, &at);
     return CRISP_OK;
 }
 
@@ -239,15 +325,17 @@ crisp_status crisp__planner_ensure_faces(crisp_planner *p, uint32_t faces)
     return CRISP_OK;
 }
 
-/* The faces' ribbon ranges and patch grids, and the public plan pointed at the arrays. */
-void crisp__planner_point_out(crisp_planner *p, const crisp_scene *sc)
+/* Face f's ribbon range and patch grid in pf (ensure_face_fixed done). */
+static inline void point_out_face(const crisp_planner *p, uint32_t f, crisp_plan_face *pf)
 {
-    for (uint32_t f = 0; f < sc->face_count; f++) {
-        p->faces[f].first_ribbon = p->ribbon_first[f];
-        p->faces[f].ribbon_count = p->trees->face_tau[f] ? p->ribbon_quads[f] : 0;
-        p->faces[f].grid_u = sc->faces[f].grid_u;
-        p->faces[f].grid_v = sc->faces[f].grid_v;
-    }
+    pf->first_ribbon = p->ribbon_first[f];
+    pf->ribbon_count = p->trees->face_tau[f] ? p->ribbon_quads[f] : 0;
+    pf->grid_u = p->face_fixed[f].grid_u;
+    pf->grid_v = p->face_fixed[f].grid_v;
+}
+
+static void point_out_arrays(crisp_planner *p, const crisp_scene *sc)
+{
     crisp_frame_plan *o = &p->out;
     o->leaves = p->leaves;
     o->faces = p->faces;
@@ -258,27 +346,97 @@ void crisp__planner_point_out(crisp_planner *p, const crisp_scene *sc)
     o->ribbon_vertices = p->ribbon_verts;
 }
 
-/* Point the public plan at the arrays, set the ribbon ranges, and bump what changed. After a
- * re-plan of one face (one_face) the leaves are known unchanged and the tables and ribbons known
- * changed: hashing them (megabytes of ribbons on a large model) would cost more than the re-plan,
- * so their versions move without it and their hashes are forgotten (the next full plan bumps
- * them once more, which only re-sends them). */
-static void publish(crisp_planner *p, const crisp_scene *sc, int one_face)
+/* The faces' ribbon ranges and patch grids, and the public plan pointed at the arrays (after
+ * crisp__planner_lay_out_tables, which keeps the grids). */
+void crisp__planner_point_out(crisp_planner *p, const crisp_scene *sc)
+{
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        point_out_face(p, f, &p->faces[f]);
+    point_out_arrays(p, sc);
+}
+
+/* The 8 bytes of two uint32_t fields in a row, lo first in memory (whatever the byte order). */
+static inline uint64_t word_pair(uint32_t lo, uint32_t hi)
+{
+    uint32_t v[2] = {lo, hi};
+    uint64_t w;
+    memcpy(&w, v, sizeof w);
+    return w;
+}
+
+/* The three above and the splat faces' flag in one pass over the faces, each face's record
+ * written once and hashed as it is written (*face_hash: hash_bytes of the faces' array): at imp49
+ * far (13,573 faces, all drawn as splats) the four passes and the hash read and wrote the 870 KB
+ * array five times a plan. */
+static crisp_status lay_out_faces(crisp_planner *p, const crisp_scene *sc, const uint8_t *kept,
+                                  uint64_t *face_hash)
+{
+    crisp_status st;
+    if ((st = ensure_face_fixed(p, sc)) || (st = grow_leaves(p, sc, kept)) ||
+        (st = grow_tables(p, sc, !kept)))
+        return st;
+    _Static_assert(sizeof(crisp_plan_face) == 64, "a face record: two hash4 blocks");
+    const crisp__trees *t = p->trees;
+    lay_out_at at = {0};
+    hash4 h = hash4_start();
+    for (uint32_t f = 0; f < sc->face_count; f++) {
+        crisp_plan_face *pf = &p->faces[f];
+        uint32_t splat = p->splat_face[f] ? CRISP_PLAN_FACE_SPLATS : 0;
+        if (t->face_tau[f] || (kept && kept[f]) ||
+            (at.next < t->active_count &&
+             t->active[at.next] < sc->faces[f].first_patch + sc->faces[f].patch_count)) {
+            lay_out_face_leaves(p, sc, kept, f, pf, &at);
+            lay_out_face_table(p, f, pf, &at);
+            point_out_face(p, f, pf);
+            pf->flags |= splat;
+            hash4_step(&h, pf);
+            hash4_step(&h, (const unsigned char *)pf + 32);
+            continue;
+        }
+        /* A face without leaves or a table (most faces of a far view: splats or culled): what
+         * the three steps write, as the record's eight words (plan_layout.c's offsets; v0, v1
+         * and strip_scale 0.0) built in registers. */
+        const crisp__face_fixed *fx = &p->face_fixed[f];
+        uint64_t w[8] = {0,
+                         0,
+                         0,
+                         word_pair((uint32_t)at.strip, 0),
+                         word_pair((uint32_t)at.leaf, 0),
+                         word_pair(fx->flags | splat, 0),
+                         word_pair(p->ribbon_first[f], 0),
+                         word_pair(fx->grid_u, fx->grid_v)};
+        memcpy(pf, w, sizeof w);
+        hash4_step(&h, w);
+        hash4_step(&h, w + 4);
+    }
+    p->out.leaf_count = (uint32_t)at.leaf;
+    p->out.stats.triangles = at.triangles;
+    tables_counted(p, &at);
+    point_out_arrays(p, sc);
+    *face_hash = hash4_end(&h, NULL, 0);
+    return CRISP_OK;
+}
+
+/* Bump what changed. After a re-plan of one face (one_face) the leaves are known unchanged and
+ * the tables and ribbons known changed: hashing them (megabytes of ribbons on a large model) would
+ * cost more than the re-plan, so their versions move without it and their hashes are forgotten
+ * (the next full plan bumps them once more, which only re-sends them). face_hash: the faces'
+ * hash when the caller has it (lay_out_faces), else NULL. */
+static void publish(crisp_planner *p, const crisp_scene *sc, int one_face,
+                    const uint64_t *face_hash)
 {
     crisp_frame_plan *o = &p->out;
-    crisp__planner_point_out(p, sc);
     uint64_t *version[4] = {&o->leaves_version, &o->faces_version, &o->table_version,
                             &o->ribbons_version};
+    uint64_t hf = face_hash ? *face_hash : hash_bytes(p->faces, sc->face_count * sizeof *p->faces);
     if (one_face) {
-        uint64_t hf = hash_bytes(p->faces, sc->face_count * sizeof *p->faces);
         if (hf != p->hash[1]) o->faces_version++, p->hash[1] = hf;
         o->table_version++;
         o->ribbons_version++;
         p->hash[2] = p->hash[3] = 0;
     } else {
         uint64_t h[4] = {
-            hash_bytes(p->leaves, o->leaf_count * sizeof *p->leaves),
-            hash_bytes(p->faces, sc->face_count * sizeof *p->faces),
+            hash_bytes(p->leaves, o->leaf_count * sizeof *p->leaves), hf,
             hash_bytes(p->strips, o->strip_count * sizeof *p->strips) ^
                 3 * hash_bytes(p->row_offset, (o->row_count + 1) * sizeof *p->row_offset) ^
                 7 * hash_bytes(p->crossings, o->crossing_count * sizeof *p->crossings),
@@ -332,7 +490,10 @@ crisp_status crisp__planner_plan_faces(crisp_planner *p, const crisp_scene *sc,
     o->ribbon_quad_count = 0;
     memset(p->ribbon_quads, 0, sc->face_count * sizeof *p->ribbon_quads);
     memset(p->ribbon_first, 0, sc->face_count * sizeof *p->ribbon_first);
-    if (!p->desc.no_ribbons && sc->face_count &&
+    /* No face planned as patches (a far view of splats): no ribbon, every face's range empty at
+     * 0, as the build would lay them out, without its passes over the faces. */
+    int none = !p->trees->visible_count && p->ribbon_verts;
+    if (!p->desc.no_ribbons && sc->face_count && !none &&
         (st = crisp__ribbons_build(p->ribbons, p->trees, sc, UINT32_MAX, p->pool, &p->ribbon_verts,
                                    &p->ribbon_cap, p->ribbon_first, p->ribbon_quads,
                                    &o->ribbon_quad_count)))
@@ -359,18 +520,19 @@ crisp_status crisp__planner_finish_plan(crisp_planner *p, const crisp_scene *sc,
     crisp_status st;
     crisp_frame_plan *o = &p->out;
     crisp_plan_stats stats = o->stats;
-    if ((st = crisp__planner_lay_out_leaves(p, sc, kept))) return st;
+    uint64_t face_hash;
+    if ((st = lay_out_faces(p, sc, kept, &face_hash))) return st;
     stats.triangles = o->stats.triangles;
     o->stats = stats;
-    if ((st = crisp__planner_lay_out_tables(p, sc))) return st;
     /* (the faces planned this frame: the others' trim plans, and so their counts, are as before;
      * a face without a plan is not re-planned) */
     for (size_t i = 0; i < p->trees->visible_count; i++) {
         uint32_t f = p->trees->visible[i];
         p->strips_used[f] = p->trees->trims[f].strip_count;
     }
-    if ((st = crisp__splat_store_publish(p->splats, sc, p->splat_face, p->faces, o))) return st;
-    publish(p, sc, 0);
+    /* (the splat faces' flags are lay_out_faces') */
+    if ((st = crisp__splat_store_publish(p->splats, sc, p->splat_face, NULL, o))) return st;
+    publish(p, sc, 0, &face_hash);
     p->cam = *cam;
     p->scene = sc;
     p->planned = 1;
@@ -450,7 +612,8 @@ crisp_status crisp_planner_replan_face(crisp_planner *p, const crisp_scene *sc, 
     o->stats.ms_levels = o->stats.ms_edges = 0;
     o->stats.ms_trim = 1e3 * (t1 - t0);
     o->stats.ms_ribbons = 1e3 * (t2 - t1);
-    publish(p, sc, 1);
+    crisp__planner_point_out(p, sc);
+    publish(p, sc, 1, NULL);
     p->finished = 1;
     *dest = o;
     return CRISP_OK;

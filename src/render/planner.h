@@ -46,6 +46,11 @@ typedef struct crisp__stages {
     uint64_t face_box_serial, face_box_trim;
 } crisp__stages;
 
+/* What a face's plan record takes from the scene (planner.c: per scene, not per frame). */
+typedef struct crisp__face_fixed {
+    uint32_t grid_u, grid_v, flags; /* flags: CRISP_PLAN_FACE_REVERSED or 0 */
+} crisp__face_fixed;
+
 struct crisp_planner {
     crisp_planner_desc desc;
     crisp_pool *pool;
@@ -72,6 +77,10 @@ struct crisp_planner {
     crisp__splat_store *splats;
     uint8_t *splat_face; /* per face: drawn as splats this frame */
     size_t splat_face_cap;
+    crisp__face_fixed *face_fixed; /* per face of the scene fixed_serial (fixed_count faces) */
+    size_t face_fixed_cap;
+    uint64_t fixed_serial;
+    uint32_t fixed_count;
     crisp_camera cam; /* of the last plan (a re-plan of a splatted face plans it again) */
     const crisp_scene *scene;
     int planned;
@@ -98,7 +107,8 @@ crisp_status crisp__planner_lay_out_leaves(crisp_planner *p, const crisp_scene *
                                            const uint8_t *kept);
 /* Every visible face's trim table, concatenated: strips, rows (global offsets), crossings. */
 crisp_status crisp__planner_lay_out_tables(crisp_planner *p, const crisp_scene *sc);
-/* The faces' ribbon ranges and patch grids, and the public plan pointed at the arrays. */
+/* The faces' ribbon ranges and patch grids, and the public plan pointed at the arrays (after
+ * crisp__planner_lay_out_tables). */
 void crisp__planner_point_out(crisp_planner *p, const crisp_scene *sc);
 /* Leaves and tables laid out (kept: as crisp__planner_lay_out_leaves), the splats and the
  * versions published. */

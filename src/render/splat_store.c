@@ -1038,7 +1038,7 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
             continue;
         }
         if (!s->ready[f]) draw_set(s, f, k, co); /* built after the choice */
-        faces[f].flags |= CRISP_PLAN_FACE_SPLATS;
+        if (faces) faces[f].flags |= CRISP_PLAN_FACE_SPLATS;
         s->ranges[nr] = (crisp_plan_splat_range){s->range[f][0], s->range[f][1], f};
         /* the draw order's key (near_key, set by the choice), then the range's index (ranges are
          * in face order) */

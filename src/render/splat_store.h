@@ -66,7 +66,7 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
 /* Fill the plan's splat fields (splats, ranges, clip origins, half size, splats_version and the
  * splat stats, the last choose's pending faces included) for the faces with splat[f] != 0 (a subset
  * of the last choose's; all 0: none) and flag their records (faces: the plan's, sc->face_count of
- * them) with CRISP_PLAN_FACE_SPLATS. */
+ * them; NULL: the caller flags them) with CRISP_PLAN_FACE_SPLATS. */
 crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene *sc,
                                         const uint8_t *splat, crisp_plan_face *faces,
                                         crisp_frame_plan *out);
