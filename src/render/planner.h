@@ -81,6 +81,13 @@ struct crisp_planner {
     size_t face_fixed_cap;
     uint64_t fixed_serial;
     uint32_t fixed_count;
+    /* The faces' array holds every face's plain record (no leaves, table or ribbons) with the
+     * splat flag of plain_splat (lay_out_faces), hashed plain_hash; 0 once anything else wrote
+     * the array. */
+    int plain;
+    uint8_t *plain_splat;
+    size_t plain_splat_cap;
+    uint64_t plain_hash;
     crisp_camera cam; /* of the last plan (a re-plan of a splatted face plans it again) */
     const crisp_scene *scene;
     int planned;

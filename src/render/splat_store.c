@@ -318,6 +318,7 @@ typedef struct choose_ctx {
     int width, height;
     double row[3][3]; /* rows x, y and w of view_proj's linear part */
     double w[4];      /* view_proj's W row: W = w[0] x + w[1] y + w[2] z + w[3] */
+    uint8_t *splat;   /* NULL, or per face: set to 1 for the faces whose level is built */
     int wlow[3];      /* per axis, the box coordinate (0 .. 5) at which W is least (face_wmin) */
 } choose_ctx;
 
@@ -614,6 +615,7 @@ static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
                 if (s->faces[f].built >> k & 1u) {
                     draw_set(s, f, k, s->clip_origin + 4 * (size_t)f);
                     s->ready[f] = 1;
+                    if (c->splat) c->splat[f] = 1;
                 } else {
                     todo++;
                 }
@@ -634,10 +636,10 @@ void crisp__splat_store_choice_counts(const crisp__splat_store *s, uint64_t dest
  * faces whose level is wanted and not built (grouped; face by face: the face count, an upper
  * bound). */
 static size_t choose_levels(crisp__splat_store *s, const crisp_scene *sc, crisp_mat4 view_proj,
-                            int width, int height, crisp_pool *pool, int grouped)
+                            int width, int height, crisp_pool *pool, int grouped, uint8_t *splat)
 {
     crisp_mat4_copy(view_proj, s->view_proj);
-    choose_ctx c = {.s = s, .sc = sc, .width = width, .height = height};
+    choose_ctx c = {.s = s, .sc = sc, .width = width, .height = height, .splat = splat};
     for (int a = 0; a < 3; a++)
         for (int q = 0; q < 3; q++)
             c.row[q][a] = view_proj[a][q == 2 ? 3 : q];
@@ -681,7 +683,7 @@ crisp_status crisp__splat_store_test_want(crisp__splat_store *s, const crisp_sce
 {
     crisp_status st = ensure_scene(s, sc);
     if (st || (st = grow_clip(s, sc))) return st;
-    choose_levels(s, sc, view_proj, width, height, NULL, grouped);
+    choose_levels(s, sc, view_proj, width, height, NULL, grouped, NULL);
     memcpy(want, s->want, sc->face_count * sizeof *want);
     memcpy(near, s->near, sc->face_count * sizeof *near);
     return CRISP_OK;
@@ -950,7 +952,14 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
 {
     crisp_status st = ensure_scene(s, sc);
     if (st || (st = grow_clip(s, sc))) return st;
-    size_t unbuilt = choose_levels(s, sc, view_proj, width, height, pool, 1);
+    /* (the faces whose level is built are marked by the choice: when none is to be built, those
+     * are the faces drawn) */
+    memset(splat, 0, sc->face_count);
+    size_t unbuilt = choose_levels(s, sc, view_proj, width, height, pool, 1, splat);
+    if (!unbuilt) {
+        s->pending = 0;
+        return CRISP_OK;
+    }
     /* The sets wanted and not built yet: built in parallel, stored in face order. */
     size_t n = 0;
     for (uint32_t f = 0; f < sc->face_count && unbuilt; f++)

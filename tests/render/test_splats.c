@@ -878,6 +878,60 @@ static void test_range_order(void **state)
     crisp_model_destroy(m);
 }
 
+/* A far view whose faces are all splats or culled lays out every face's record plain (no leaves,
+ * table or ribbons), and the planner keeps the array as it is when the next such plan has the same
+ * splat faces (planner.c, lay_out_faces). Through views that change the splat faces (parts off
+ * screen), views repeated, and a nearer view with faces planned as patches in between, each plan's
+ * face records equal a fresh planner's at that view byte for byte, and faces_version moves exactly
+ * when the records' bytes change. Leaving the array as it is when the splat faces changed (the
+ * shortcut without its comparison) fails it. */
+static void test_plain_faces(void **state)
+{
+    (void)state;
+    crisp_model *m = instanced("impeller.igs", 2);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_planner *pl;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    size_t bytes = sc->face_count * sizeof(crisp_plan_face);
+    crisp_plan_face *last = malloc(bytes);
+    assert_non_null(last);
+    crisp_camera views[3];
+    for (int v = 0; v < 3; v++)
+        views[v] = group_view_camera(sc, 10 + 4 * v, v ? 16.0 : 0.0, 3, 320, 240);
+    crisp_camera near = group_view_camera(sc, 3000, 0.0, 3, 320, 240);
+    static const int seq[] = {0, 0, 1, 1, 2, 0, 3, 0, 0, 2, 2, 1};
+    uint64_t version = 0;
+    int changed = 0, kept = 0, plain = 0;
+    for (size_t i = 0; i < sizeof seq / sizeof seq[0]; i++) {
+        const crisp_camera *cam = seq[i] == 3 ? &near : &views[seq[i]];
+        const crisp_frame_plan *plan, *ref;
+        assert_int_equal(crisp_planner_plan(pl, sc, cam, &plan), CRISP_OK);
+        crisp_planner *fresh;
+        assert_int_equal(crisp_planner_create(NULL, NULL, &fresh), CRISP_OK);
+        assert_int_equal(crisp_planner_plan(fresh, sc, cam, &ref), CRISP_OK);
+        assert_int_equal(memcmp(plan->faces, ref->faces, bytes), 0);
+        int all_plain = 1;
+        for (uint32_t f = 0; f < sc->face_count; f++)
+            all_plain &= !(plan->faces[f].flags & CRISP_PLAN_FACE_VISIBLE);
+        plain += all_plain;
+        if (i > 0) {
+            int differs = memcmp(last, plan->faces, bytes) != 0;
+            assert_int_equal(plan->faces_version != version, differs);
+            changed += differs, kept += !differs && all_plain;
+        }
+        version = plan->faces_version;
+        memcpy(last, plan->faces, bytes);
+        crisp_planner_destroy(fresh);
+    }
+    printf("%d plain plans, %d kept as they were, %d changed\n", plain, kept, changed);
+    assert_true(plain >= 8 && kept >= 3 && changed >= 4);
+    free(last);
+    crisp_planner_destroy(pl);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 /* With a build limit the store builds the faces of the largest patches / 2^level first
  * (splat_store.c, order_todo): after one limited choice, every splatted face's key is at least
  * every pending face's (refused faces are neither). Face order (the earlier rule) fails it. */
@@ -977,7 +1031,7 @@ int main(void)
         cmocka_unit_test(test_solids_far),     cmocka_unit_test(test_near_edges),
         cmocka_unit_test(test_group_choice),   cmocka_unit_test(test_range_order),
         cmocka_unit_test(test_build_limit),    cmocka_unit_test(test_build_order),
-        cmocka_unit_test(test_trim_rule),
+        cmocka_unit_test(test_trim_rule),      cmocka_unit_test(test_plain_faces),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
