@@ -48,6 +48,10 @@ typedef struct face_sets {
     uint8_t pad[13];
 } face_sets;
 
+/* The draw key of a face not drawn (above every drawn face's: near_key's bits are a positive
+ * float's). */
+#define DRAW_NONE UINT64_MAX
+
 /* The rest of a face's sets, read when a face changes level or its sets change. */
 typedef struct face_levels {
     uint32_t first[CRISP_SPLAT_LEVELS], count[CRISP_SPLAT_LEVELS];
@@ -71,9 +75,10 @@ struct crisp__splat_store {
     uint8_t *ready;          /* per face: the choice found its level built, and set its clip
                                 origin and range (the others: publish does) */
     uint32_t (*range)[2];    /* per face with ready: first and count of its set */
-    uint32_t *key;           /* per face drawn: near as a float rounded up, its bits (the order) */
-    uint32_t *chunk_todo;    /* per chunk of the tree: its faces whose wanted level is not built */
-    uint32_t *todo;          /* faces whose wanted level is built this frame */
+    uint64_t *key; /* per face: its draw key when its level is built and chosen (near as a float
+                      rounded up, its bits, then the face: the draw order), else DRAW_NONE */
+    uint32_t *chunk_todo; /* per chunk of the tree: its faces whose wanted level is not built */
+    uint32_t *todo;       /* faces whose wanted level is built this frame */
     size_t todo_cap;
     crisp_splat_set *sets; /* per todo entry */
     crisp_status *status;
@@ -85,12 +90,11 @@ struct crisp__splat_store {
     size_t range_cap;
     uint64_t *order; /* publish's sort: keys, then the same count of scratch */
     size_t order_cap;
-    crisp_plan_splat_range *sorted;
-    size_t sorted_cap;
     float *clip_origin;
     size_t clip_cap;
     crisp_mat4 view_proj;
-    int changed; /* the splats array changed since the last publish */
+    int changed;    /* the splats array changed since the last publish */
+    int clip_fresh; /* a new scene: its clip origins are to be zeroed */
 };
 
 crisp_status crisp__splat_store_create(crisp__splat_store **dest)
@@ -135,7 +139,6 @@ void crisp__splat_store_destroy(crisp__splat_store *s)
     free(s->made);
     free(s->ranges);
     free(s->order);
-    free(s->sorted);
     free(s->clip_origin);
     free(s);
 }
@@ -204,6 +207,7 @@ void crisp__splat_store_drop_face(crisp__splat_store *s, uint32_t f)
     fs->refused = CRISP_SPLAT_LEVELS;
     fs->draw_level = -1;
     s->ready[f] = 0;
+    s->key[f] = DRAW_NONE;
     s->changed = 1;
 }
 
@@ -225,6 +229,7 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
         s->ready = calloc(n, sizeof *s->ready);
         s->range = crisp_malloc_array(n, sizeof *s->range);
         s->key = crisp_malloc_array(n, sizeof *s->key);
+        s->clip_fresh = 1; /* (grow_clip's new room: zeroed by choose) */
         if (!s->faces || !s->levels || !s->box || !s->want || !s->near || !s->log_s0 || !s->ready ||
             !s->range || !s->key) {
             clear_scene(s);
@@ -250,6 +255,7 @@ static crisp_status ensure_scene(crisp__splat_store *s, const crisp_scene *sc)
             s->faces[f].draw_level = -1;
             s->log_s0[f] = s->faces[f].s0 > 0 ? 2 * log2(s->faces[f].s0) : 0;
             s->want[f] = s->faces[f].s0 > 0; /* (the tree's faces) */
+            s->key[f] = DRAW_NONE;           /* (faces outside the tree are never drawn) */
         }
         crisp_status st =
             crisp__face_tree_build(s->box, (const uint8_t *)s->want, sc->face_count, &s->tree);
@@ -567,6 +573,22 @@ static inline uint32_t near_key(double w)
     return (double)fw < w ? bits + 1 : bits;
 }
 
+/* Face f drawn at built level k: its range and clip origin (draw_set), ready, its draw key. */
+static inline void drawn(crisp__splat_store *s, uint32_t f, int k)
+{
+    draw_set(s, f, k, s->clip_origin + 4 * (size_t)f);
+    s->ready[f] = 1;
+    s->key[f] = (uint64_t)near_key(s->near[f]) << 32 | f;
+}
+
+/* Face f not drawn (yet): no draw key, its clip origin 0. */
+static inline void not_drawn(crisp__splat_store *s, uint32_t f)
+{
+    float *co = s->clip_origin + 4 * (size_t)f;
+    co[0] = co[1] = co[2] = co[3] = 0;
+    s->key[f] = DRAW_NONE;
+}
+
 /* Chunk i of the faces' tree: its faces' want and near (want is -1 and ready 0 for every face on
  * entry), and for those whose level is built, their range and clip origin (draw_set; ready);
  * counts: faces decided [0] culled with their node, [1] by their node's bound, [2] one by one;
@@ -591,6 +613,8 @@ static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
             view_group(c, n->box, &v);
             if (v.culled) {
                 counts[0] += n->count;
+                for (uint32_t j = n->first; j < n->first + n->count; j++)
+                    not_drawn(s, t->order[j]);
                 continue;
             }
             int leaf = n->child[0] < 0;
@@ -610,14 +634,12 @@ static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
                     counts[1]++;
                 }
                 s->want[f] = (int8_t)k;
-                if (k < 0) continue;
-                s->key[f] = near_key(s->near[f]);
-                if (s->faces[f].built >> k & 1u) {
-                    draw_set(s, f, k, s->clip_origin + 4 * (size_t)f);
-                    s->ready[f] = 1;
+                if (k >= 0 && s->faces[f].built >> k & 1u) {
+                    drawn(s, f, k);
                     if (c->splat) c->splat[f] = 1;
                 } else {
-                    todo++;
+                    not_drawn(s, f);
+                    todo += k >= 0;
                 }
             }
         }
@@ -652,7 +674,7 @@ static size_t choose_levels(crisp__splat_store *s, const crisp_scene *sc, crisp_
     if (!grouped) {
         for (uint32_t f = 0; f < sc->face_count; f++) {
             s->want[f] = (int8_t)want_level(&c, f, &s->near[f]);
-            if (s->want[f] >= 0) s->key[f] = near_key(s->near[f]);
+            s->key[f] = DRAW_NONE; /* (nothing is drawn from this choice) */
         }
         return sc->face_count;
     }
@@ -712,11 +734,11 @@ static uint64_t cell_hash(const int64_t k[3])
 
 /* Sorts n keys ascending by their upper 32 bits, equal ones kept in their order (LSD radix,
  * stable; every digit's counts in one pass; tmp: n more). publish's and crisp__splat_thin's keys
- * hold their index in the lower bits and come in index order, so that is their full order (ties in
- * index order) with half the passes. Digits of 8 bits (4 passes) for a few keys, of 11 bits (3
- * passes: 2,048 counts each) from RADIX_WIDE keys on; each pass moves the keys between key and
- * tmp (copied back once at the end when they end in tmp), a digit that every key shares moves
- * nothing. */
+ * hold their face or index in the lower bits and come in that order, so that is their full order
+ * (ties in face or index order) with half the passes. Digits of 8 bits (4 passes) for a few keys,
+ * of 11 bits (3 passes: 2,048 counts each) from RADIX_WIDE keys on; each pass moves the keys
+ * between key and tmp (copied back once at the end when they end in tmp), a digit that every key
+ * shares moves nothing. */
 #define RADIX_WIDE 4096
 /* One digit's pass: keys from -> to by digit d (counts c, `size` of them, the first 0). Returns 0
  * when every key has the same digit (nothing moved). */
@@ -952,6 +974,10 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
 {
     crisp_status st = ensure_scene(s, sc);
     if (st || (st = grow_clip(s, sc))) return st;
+    if (s->clip_fresh) { /* (the faces outside the faces' tree are never written again) */
+        memset(s->clip_origin, 0, 4 * (size_t)sc->face_count * sizeof *s->clip_origin);
+        s->clip_fresh = 0;
+    }
     /* (the faces whose level is built are marked by the choice: when none is to be built, those
      * are the faces drawn) */
     memset(splat, 0, sc->face_count);
@@ -1022,8 +1048,14 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
     s->pending = c0 < n ? (uint32_t)(n - c0) : 0;
     for (; c0 < n; c0++)
         s->want[s->todo[c0]] = -1;
-    for (uint32_t f = 0; f < sc->face_count; f++)
-        splat[f] = s->want[f] >= 0;
+    /* the faces built now: drawn as those the choice found built */
+    for (size_t i = 0; i < n; i++) {
+        uint32_t f = s->todo[i];
+        if (s->want[f] >= 0) {
+            drawn(s, f, s->want[f]);
+            splat[f] = 1;
+        }
+    }
     return CRISP_OK;
 }
 
@@ -1037,37 +1069,30 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
         (st = grow_clip(s, sc)) ||
         (st = crisp_grow((void **)&s->order, &s->order_cap, 2 * nf, sizeof *s->order)))
         return st;
-    uint32_t nr = 0, nfaces = 0;
+    uint32_t nr = 0;
     uint64_t drawn = 0;
-    for (uint32_t f = 0; f < sc->face_count; f++) {
-        float *co = s->clip_origin + 4 * (size_t)f;
-        int k = splat[f] && s->faces && f < s->face_count ? s->want[f] : -1;
-        if (k < 0) {
-            co[0] = co[1] = co[2] = co[3] = 0;
-            continue;
+    if (!s->faces || s->face_count != sc->face_count) /* (no choice for this scene) */
+        memset(s->clip_origin, 0, 4 * nf * sizeof *s->clip_origin);
+    else
+        /* The drawn faces' keys (the choice's), in face order; a face chosen but left out of
+         * splat loses its clip origin as the faces not chosen have. */
+        for (uint32_t f = 0; f < sc->face_count; f++) {
+            uint64_t key = s->key[f];
+            if (key == DRAW_NONE) continue;
+            if (splat[f])
+                s->order[nr++] = key;
+            else
+                memset(s->clip_origin + 4 * (size_t)f, 0, 4 * sizeof *s->clip_origin);
         }
-        if (!s->ready[f]) draw_set(s, f, k, co); /* built after the choice */
-        if (faces) faces[f].flags |= CRISP_PLAN_FACE_SPLATS;
-        s->ranges[nr] = (crisp_plan_splat_range){s->range[f][0], s->range[f][1], f};
-        /* the draw order's key (near_key, set by the choice), then the range's index (ranges are
-         * in face order) */
-        s->order[nr] = (uint64_t)s->key[f] << 32 | nr;
-        nr++;
-        nfaces++;
+    /* Nearest first (the least W of the faces' boxes; ties in face order: the keys' face below
+     * their W, and the sort is stable on the W): a backend that keeps the depth drawn skips the
+     * ranges hidden by nearer ones (splat_raster.c). */
+    if (nr > 1) radix_sort(s->order, s->order + nr, nr);
+    for (uint32_t i = 0; i < nr; i++) {
+        uint32_t f = (uint32_t)s->order[i];
+        s->ranges[i] = (crisp_plan_splat_range){s->range[f][0], s->range[f][1], f};
         drawn += s->range[f][1];
-    }
-    /* Nearest first (the least W of the faces' boxes; ties in face order): a backend that keeps
-     * the depth drawn skips the ranges hidden by nearer ones (splat_raster.c). */
-    if (nr > 1) {
-        radix_sort(s->order, s->order + nr, nr);
-        if ((st = crisp_grow((void **)&s->sorted, &s->sorted_cap, nr, sizeof *s->sorted)))
-            return st;
-        for (uint32_t i = 0; i < nr; i++)
-            s->sorted[i] = s->ranges[(uint32_t)s->order[i]];
-        crisp_plan_splat_range *r = s->ranges; /* (the two arrays trade places) */
-        size_t cap = s->range_cap;
-        s->ranges = s->sorted, s->range_cap = s->sorted_cap;
-        s->sorted = r, s->sorted_cap = cap;
+        if (faces) faces[f].flags |= CRISP_PLAN_FACE_SPLATS;
     }
     out->splats = s->splats;
     out->splat_count = (uint32_t)s->count;
@@ -1077,7 +1102,7 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
     out->splat_half_px = CRISP_SPLAT_HALF_PX;
     if (s->changed) out->splats_version++;
     s->changed = 0;
-    out->stats.splat_faces = nfaces;
+    out->stats.splat_faces = nr;
     out->stats.splat_pending = s->pending;
     out->stats.splats_drawn = drawn;
     out->stats.splat_bytes =
