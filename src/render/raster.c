@@ -1371,6 +1371,46 @@ store_row1_avx(const quad_planes *qp, block_planes *bp, double dy, const double 
     }
     return (unsigned)__builtin_popcount(m);
 }
+
+/* A block's rows on the one-sample AVX2 path when every fragment that passes the depth test is
+ * kept (no clip plane, the triangle's fragment test decided "keep" for all of it): what
+ * raster_tile_s's row loop does for such a block (the empty row skip, row_mask_avx2,
+ * store_row1_avx), the same expressions in the same order, in a loop of its own with few live
+ * values (the general loop kept the edge values and most of its state on the stack). Returns
+ * the fragments stored. */
+typedef struct block_rows {
+    int64_t e[3];     /* edge values at the block's first pixel */
+    int64_t bstep[3]; /* per row */
+    int64_t rmax[3];  /* an edge's greatest value along a row over its first */
+    int full, n;      /* every sample covered; lanes in a row */
+    int j0, j1;       /* pixel rows (whole image) */
+    double q0, qy, off_y, oy;
+    size_t idx0, stride; /* the first row's first sample; samples a row */
+} block_rows;
+
+__attribute__((target("avx2"))) static inline unsigned
+block_rows_avx2(const block_rows *b, __m128i lane_step[3][BLOCK / 2], const quad_planes *qp,
+                block_planes *bp, double *restrict inv_w, int32_t *restrict fbuf,
+                float *restrict abuf, int32_t face_id)
+{
+    int64_t e0 = b->e[0], e1 = b->e[1], e2 = b->e[2];
+    const int64_t s0 = b->bstep[0], s1 = b->bstep[1], s2 = b->bstep[2];
+    const int64_t r0 = b->rmax[0], r1 = b->rmax[1], r2 = b->rmax[2];
+    const int full = b->full;
+    const unsigned lanes = (1u << b->n) - 1;
+    unsigned wrote = 0;
+    size_t idx0 = b->idx0;
+    for (int j = b->j0; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2) {
+        if (!full && ((e0 + r0) | (e1 + r1) | (e2 + r2)) < 0) continue;
+        double dy = j + b->off_y - b->oy;
+        double base = b->q0 + b->qy * dy;
+        const int64_t e[3] = {e0, e1, e2};
+        double iwv[BLOCK];
+        unsigned m = row_mask_avx2(e, lane_step, full, base, bp, inv_w + idx0, iwv) & lanes;
+        if (m) wrote += store_row1_avx(qp, bp, dy, iwv, m, idx0, inv_w, fbuf, abuf, face_id);
+    }
+    return wrote;
+}
 #else
 #define HAVE_AVX_TILES 0
 #endif
@@ -1647,8 +1687,25 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                     dx0s[s] = (double)bx0 + c->off_x[s] - st->ox;
                 const int in_row = bx0 - tx0 + BLOCK <= (int)tw;
 #if HAVE_AVX_TILES
-                if (avx && S == 1 && !slack && vectors && in_row)
+                if (avx && S == 1 && !slack && vectors && in_row) {
                     block_planes_avx(&bp, st->qx[0], dx0s[0]);
+                    if (avx == 2 && !clip_on && tdec == 1) {
+                        block_rows br = {
+                            {er[0][0], er[0][1], er[0][2]},
+                            {bstep0, bstep1, bstep2},
+                            {rmax[0], rmax[1], rmax[2]},
+                            full, n, by0, by1, st->q0[0], st->qy[0], c->off_y[0], st->oy,
+                            ((size_t)(by0 - ty0) * tw + (size_t)(bx0 - tx0)), tw};
+                        uint32_t k = block_rows_avx2(&br, lane_step, &qp, &bp, inv_w, fbuf, abuf,
+                                                     face_id);
+                        if (run_test)
+                            boxed += k;
+                        else if (c->test)
+                            untested += k;
+                        writes[blk] += k;
+                        continue;
+                    }
+                }
 #endif
                 size_t row0 = ((size_t)(by0 - ty0) * tw + (size_t)(bx0 - tx0)) * S;
                 for (int j = by0; j <= by1; j++, row0 += tw * S)
