@@ -120,6 +120,7 @@ struct crisp_raster {
     crisp_raster_box_fn box_test; /* crisp__raster_set_box_test */
     const double *occl_hiz;       /* crisp__raster_set_occlusion: per block, least 1/W drawn */
     int occl_size;
+    int occl_shift; /* log2 of occl_size when a power of two, else -1 */
     int clip_on;    /* crisp__raster_set_clip */
     double clip[4]; /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
     double *live;   /* crisp__raster_set_live_depth: the block depth kept by the draws */
@@ -146,6 +147,9 @@ void crisp__raster_set_occlusion(crisp_raster *r, const double *hiz, int size)
 {
     r->occl_hiz = hiz;
     r->occl_size = size > 0 ? size : 1;
+    r->occl_shift = -1;
+    for (int k = 0; k < 30; k++)
+        if (r->occl_size == 1 << k) r->occl_shift = k;
 }
 
 void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count)
@@ -693,9 +697,18 @@ static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t,
 {
     const double *hz = r->occl_hiz;
     if (!hz) return 0;
-    int n = r->occl_size, bw = (t->width + n - 1) / n;
-    int bx0 = (x0 - t->x0) / n, bx1 = (x1 - t->x0) / n, by0 = (y0 - t->y0) / n,
-        by1 = (y1 - t->y0) / n;
+    /* The box lies in the target (tri_pixel_box): its offsets are >= 0, so a shift divides them
+     * by a power-of-two block size (no integer divisions on this path). */
+    int n = r->occl_size, sh = r->occl_shift, bw, bx0, bx1, by0, by1;
+    if (sh >= 0) {
+        bw = (t->width + n - 1) >> sh;
+        bx0 = (x0 - t->x0) >> sh, bx1 = (x1 - t->x0) >> sh;
+        by0 = (y0 - t->y0) >> sh, by1 = (y1 - t->y0) >> sh;
+    } else {
+        bw = (t->width + n - 1) / n;
+        bx0 = (x0 - t->x0) / n, bx1 = (x1 - t->x0) / n;
+        by0 = (y0 - t->y0) / n, by1 = (y1 - t->y0) / n;
+    }
     /* The first block: most visible triangles stop here. */
     double first = hz[(size_t)by0 * bw + bx0];
     if (!(first > 0)) return 0;
@@ -720,6 +733,28 @@ static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t,
     }
     if (!(best < first)) return 0; /* also NaN */
     double low = first;
+#if defined(__SSE2__)
+    /* Two blocks at a time: the same compares; the least of values all above best (no NaN
+     * among them), in any order. */
+    const __m128d vbest = _mm_set1_pd(best);
+    __m128d vlow = _mm_set1_pd(first);
+    for (int by = by0; by <= by1; by++) {
+        const double *row = hz + (size_t)by * bw;
+        int bx = bx0;
+        for (; bx + 1 <= bx1; bx += 2) {
+            __m128d v = _mm_loadu_pd(row + bx);
+            if (_mm_movemask_pd(_mm_cmplt_pd(vbest, v)) != 3) return 0;
+            vlow = _mm_min_pd(vlow, v);
+        }
+        if (bx <= bx1) {
+            __m128d v = _mm_load_sd(row + bx);
+            if (!(_mm_movemask_pd(_mm_cmplt_sd(vbest, v)) & 1)) return 0;
+            vlow = _mm_min_sd(vlow, v);
+        }
+    }
+    vlow = _mm_min_sd(vlow, _mm_unpackhi_pd(vlow, vlow));
+    low = _mm_cvtsd_f64(vlow);
+#else
     for (int by = by0; by <= by1; by++) {
         const double *row = hz + (size_t)by * bw;
         for (int bx = bx0; bx <= bx1; bx++) {
@@ -727,6 +762,7 @@ static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t,
             low = row[bx] < low ? row[bx] : low;
         }
     }
+#endif
     if (least) *least = low;
     return 1;
 }
