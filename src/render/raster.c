@@ -1244,6 +1244,8 @@ static inline unsigned store_row1(const planes *pl, const pair_planes *pp, doubl
 typedef double v4d __attribute__((vector_size(32))); /* __m256d's type */
 typedef struct quad_planes {
     v4d q0[CRISP_RASTER_ATTRS], qx[CRISP_RASTER_ATTRS], qy[CRISP_RASTER_ATTRS]; /* attribute k's */
+    const planes *pl; /* the triangle's, broadcast into the above at its first store (ok) */
+    int ok;
 } quad_planes;
 
 /* The terms of a block's rows that depend on the column only, each the same product or sum as
@@ -1353,10 +1355,19 @@ __attribute__((target("avx"))) static inline void store_lane(float *dst, __m128 
 }
 
 __attribute__((target("avx"))) static unsigned
-store_row1_avx(const quad_planes *qp, block_planes *bp, double dy, const double *iwv, unsigned m,
+store_row1_avx(quad_planes *qp, block_planes *bp, double dy, const double *iwv, unsigned m,
                size_t idx0, double *restrict inv_w, int32_t *restrict fbuf, float *restrict abuf,
                int32_t face_id)
 {
+    if (!qp->ok) {
+        UNROLL(5)
+        for (int k = 0; k < CRISP_RASTER_ATTRS; k++) {
+            qp->q0[k] = _mm256_set1_pd(qp->pl->q0[k + 1]);
+            qp->qx[k] = _mm256_set1_pd(qp->pl->qx[k + 1]);
+            qp->qy[k] = _mm256_set1_pd(qp->pl->qy[k + 1]);
+        }
+        qp->ok = 1;
+    }
     const __m256d vdy = _mm256_set1_pd(dy);
     __m256d qyd[CRISP_RASTER_ATTRS];
     UNROLL(5)
@@ -1425,7 +1436,7 @@ typedef struct block_rows {
 } block_rows;
 
 __attribute__((target("avx2"))) static inline unsigned
-block_rows_avx2(const block_rows *b, __m128i lane_step[3][BLOCK / 2], const quad_planes *qp,
+block_rows_avx2(const block_rows *b, __m128i lane_step[3][BLOCK / 2], quad_planes *qp,
                 block_planes *bp, double *restrict inv_w, int32_t *restrict fbuf,
                 float *restrict abuf, int32_t face_id)
 {
@@ -1577,6 +1588,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
     const float *slack = c->slack, *slack2 = c->slack2;
 #if HAVE_AVX_TILES
     block_planes bp = {0}; /* the block's (block_planes_avx), on the AVX path */
+    quad_planes qp = {0};  /* the triangle's, on the AVX path */
 #endif
     for (uint32_t bi = r->bin_start[tile]; bi < r->bin_start[tile + 1]; bi++) {
         const setup_tri *st = r->bin_items[bi];
@@ -1618,13 +1630,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
             for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
                 pp.q0[k] = _mm_set1_pd(pl.q0[k + 1]), pp.qx[k] = _mm_set1_pd(pl.qx[k + 1]);
 #if HAVE_AVX_TILES
-        quad_planes qp;
-        if (avx)
-            for (int k = 0; k < CRISP_RASTER_ATTRS; k++) {
-                double a = pl.q0[k + 1], b = pl.qx[k + 1], d = pl.qy[k + 1];
-                qp.q0[k] = (v4d){a, a, a, a}, qp.qx[k] = (v4d){b, b, b, b};
-                qp.qy[k] = (v4d){d, d, d, d};
-            }
+        qp.pl = &pl, qp.ok = 0;
 #endif
 #else
         vectors = 0;
