@@ -120,6 +120,7 @@ struct crisp_raster {
     crisp_raster_box_fn box_test; /* crisp__raster_set_box_test */
     const double *occl_hiz;       /* crisp__raster_set_occlusion: per block, least 1/W drawn */
     int occl_size;
+    int occl_shift; /* log2 of occl_size when a power of two, else -1 */
     int clip_on;    /* crisp__raster_set_clip */
     double clip[4]; /* keep k0 + k1 x + k2 y + k3 / W >= 0 */
     double *live;   /* crisp__raster_set_live_depth: the block depth kept by the draws */
@@ -146,6 +147,9 @@ void crisp__raster_set_occlusion(crisp_raster *r, const double *hiz, int size)
 {
     r->occl_hiz = hiz;
     r->occl_size = size > 0 ? size : 1;
+    r->occl_shift = -1;
+    for (int k = 0; k < 30; k++)
+        if (r->occl_size == 1 << k) r->occl_shift = k;
 }
 
 void crisp__raster_set_untested_faces(crisp_raster *r, const uint8_t *untested, size_t count)
@@ -693,9 +697,18 @@ static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t,
 {
     const double *hz = r->occl_hiz;
     if (!hz) return 0;
-    int n = r->occl_size, bw = (t->width + n - 1) / n;
-    int bx0 = (x0 - t->x0) / n, bx1 = (x1 - t->x0) / n, by0 = (y0 - t->y0) / n,
-        by1 = (y1 - t->y0) / n;
+    /* The box lies in the target (tri_pixel_box): its offsets are >= 0, so a shift divides them
+     * by a power-of-two block size (no integer divisions on this path). */
+    int n = r->occl_size, sh = r->occl_shift, bw, bx0, bx1, by0, by1;
+    if (sh >= 0) {
+        bw = (t->width + n - 1) >> sh;
+        bx0 = (x0 - t->x0) >> sh, bx1 = (x1 - t->x0) >> sh;
+        by0 = (y0 - t->y0) >> sh, by1 = (y1 - t->y0) >> sh;
+    } else {
+        bw = (t->width + n - 1) / n;
+        bx0 = (x0 - t->x0) / n, bx1 = (x1 - t->x0) / n;
+        by0 = (y0 - t->y0) / n, by1 = (y1 - t->y0) / n;
+    }
     /* The first block: most visible triangles stop here. */
     double first = hz[(size_t)by0 * bw + bx0];
     if (!(first > 0)) return 0;
@@ -720,6 +733,28 @@ static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t,
     }
     if (!(best < first)) return 0; /* also NaN */
     double low = first;
+#if defined(__SSE2__)
+    /* Two blocks at a time: the same compares; the least of values all above best (no NaN
+     * among them), in any order. */
+    const __m128d vbest = _mm_set1_pd(best);
+    __m128d vlow = _mm_set1_pd(first);
+    for (int by = by0; by <= by1; by++) {
+        const double *row = hz + (size_t)by * bw;
+        int bx = bx0;
+        for (; bx + 1 <= bx1; bx += 2) {
+            __m128d v = _mm_loadu_pd(row + bx);
+            if (_mm_movemask_pd(_mm_cmplt_pd(vbest, v)) != 3) return 0;
+            vlow = _mm_min_pd(vlow, v);
+        }
+        if (bx <= bx1) {
+            __m128d v = _mm_load_sd(row + bx);
+            if (!(_mm_movemask_pd(_mm_cmplt_sd(vbest, v)) & 1)) return 0;
+            vlow = _mm_min_sd(vlow, v);
+        }
+    }
+    vlow = _mm_min_sd(vlow, _mm_unpackhi_pd(vlow, vlow));
+    low = _mm_cvtsd_f64(vlow);
+#else
     for (int by = by0; by <= by1; by++) {
         const double *row = hz + (size_t)by * bw;
         for (int bx = bx0; bx <= bx1; bx++) {
@@ -727,6 +762,7 @@ static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t,
             low = row[bx] < low ? row[bx] : low;
         }
     }
+#endif
     if (least) *least = low;
     return 1;
 }
@@ -1207,22 +1243,47 @@ static inline unsigned store_row1(const planes *pl, const pair_planes *pp, doubl
  * py dy) * w, w = 1 / iw; no fused multiply-add), so the same values bit for bit. */
 typedef double v4d __attribute__((vector_size(32))); /* __m256d's type */
 typedef struct quad_planes {
-    v4d q0[CRISP_RASTER_ATTRS], qx[CRISP_RASTER_ATTRS]; /* attribute k's, on four lanes */
+    v4d q0[CRISP_RASTER_ATTRS], qx[CRISP_RASTER_ATTRS], qy[CRISP_RASTER_ATTRS]; /* attribute k's */
+    const planes *pl; /* the triangle's, broadcast into the above at its first store (ok) */
+    int ok;
 } quad_planes;
 
-/* The depth half of row_mask_avx and row_mask_avx2: 1/W of the row's eight lanes into iwv and
- * the lanes where it is above the stored 1/W (base + gx (dx0 + q); the compare ordered and
- * signalling, as _mm_cmpgt_pd). */
-__attribute__((target("avx"))) static inline unsigned
-depth_mask_avx(double base, double gx, double dx0, const double *stored, double *iwv)
+/* The terms of a block's rows that depend on the column only, each the same product or sum as
+ * the row's own expression computed (so the rows' values are those bit for bit): the 1/W plane's
+ * gx (dx0 + lane) for each quarter row (iwx; block_planes_avx), and attribute k's q0 + qx (dx0 +
+ * lane) (ax) for the quarters whose bit is set in ax_ok, each worked out when a row first stores
+ * in that quarter (store_row1_avx). */
+typedef struct block_planes {
+    v4d iwx[BLOCK / 4];
+    v4d ax[BLOCK / 4][CRISP_RASTER_ATTRS];
+    double dx0;
+    unsigned ax_ok;
+} block_planes;
+
+static const double lane_x[BLOCK] = {0, 1, 2, 3, 4, 5, 6, 7};
+
+__attribute__((target("avx"))) static inline void block_planes_avx(block_planes *bp, double gx,
+                                                                  double dx0)
 {
-    static const double lane[BLOCK] = {0, 1, 2, 3, 4, 5, 6, 7};
+    const __m256d vg = _mm256_set1_pd(gx), vd = _mm256_set1_pd(dx0);
+    UNROLL(2)
+    for (int h = 0; h < BLOCK / 4; h++)
+        bp->iwx[h] = _mm256_mul_pd(vg, _mm256_add_pd(vd, _mm256_loadu_pd(lane_x + 4 * h)));
+    bp->dx0 = dx0;
+    bp->ax_ok = 0;
+}
+
+/* The depth half of row_mask_avx and row_mask_avx2: 1/W of the row's eight lanes into iwv and
+ * the lanes where it is above the stored 1/W (base + gx (dx0 + q), the column term from the
+ * block's bp; the compare ordered and signalling, as _mm_cmpgt_pd). */
+__attribute__((target("avx"))) static inline unsigned
+depth_mask_avx(double base, const block_planes *bp, const double *stored, double *iwv)
+{
     unsigned m = 0;
-    const __m256d vb = _mm256_set1_pd(base), vg = _mm256_set1_pd(gx), vd = _mm256_set1_pd(dx0);
+    const __m256d vb = _mm256_set1_pd(base);
     UNROLL(2)
     for (int h = 0; h < BLOCK / 4; h++) {
-        __m256d q = _mm256_loadu_pd(lane + 4 * h);
-        __m256d iw = _mm256_add_pd(vb, _mm256_mul_pd(vg, _mm256_add_pd(vd, q)));
+        __m256d iw = _mm256_add_pd(vb, bp->iwx[h]);
         _mm256_storeu_pd(iwv + 4 * h, iw);
         m |= (unsigned)_mm256_movemask_pd(
                  _mm256_cmp_pd(iw, _mm256_loadu_pd(stored + 4 * h), _CMP_GT_OS))
@@ -1234,20 +1295,20 @@ depth_mask_avx(double base, double gx, double dx0, const double *stored, double 
 /* row_mask with the 1/W and depth test four lanes at a time (depth_mask_avx: the same IEEE
  * operations per lane). */
 __attribute__((target("avx"))) static inline unsigned
-row_mask_avx(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base, double gx,
-             double dx0, const double *stored, double *iwv)
+row_mask_avx(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base,
+             const block_planes *bp, const double *stored, double *iwv)
 {
-    unsigned m = depth_mask_avx(base, gx, dx0, stored, iwv);
+    unsigned m = depth_mask_avx(base, bp, stored, iwv);
     return full ? m : m & ~edge_neg_sse2(e, lane_step);
 }
 
 /* row_mask_avx with the edge tests four lanes at a time too (AVX2's 64-bit integer lanes; the
  * same exact sums, their sign bits ORed). */
 __attribute__((target("avx2"))) static inline unsigned
-row_mask_avx2(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base, double gx,
-              double dx0, const double *stored, double *iwv)
+row_mask_avx2(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base,
+              const block_planes *bp, const double *stored, double *iwv)
 {
-    unsigned m = depth_mask_avx(base, gx, dx0, stored, iwv), neg = 0;
+    unsigned m = depth_mask_avx(base, bp, stored, iwv), neg = 0;
     if (!full) {
         const __m256i e0 = _mm256_set1_epi64x(e[0]), e1 = _mm256_set1_epi64x(e[1]),
                       e2 = _mm256_set1_epi64x(e[2]);
@@ -1265,62 +1326,137 @@ row_mask_avx2(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, dou
     return m & ~neg;
 }
 
-__attribute__((target("avx"))) static unsigned
-store_row1_avx(const planes *pl, const quad_planes *qp, double dx0, double dy, const double *iwv,
-               unsigned m, size_t idx0, double *restrict inv_w, int32_t *restrict fbuf,
-               float *restrict abuf, int32_t face_id)
+/* Lane q of a quarter row is stored where bit q of its bits is set: all ones in its 32-bit
+ * (sel32) and 64-bit (sel64) element (integer constants: no floating-point compare, whose
+ * answer for the bits as doubles would depend on the denormals-are-zero mode). */
+#define SEL_L(b, q) (((b) >> (q) & 1) ? -1 : 0)
+#define SEL_ROW(b) {SEL_L(b, 0), SEL_L(b, 1), SEL_L(b, 2), SEL_L(b, 3)}
+#define SEL_ALL                                                                                    \
+    {SEL_ROW(0),  SEL_ROW(1),  SEL_ROW(2),  SEL_ROW(3),  SEL_ROW(4),  SEL_ROW(5),                   \
+     SEL_ROW(6),  SEL_ROW(7),  SEL_ROW(8),  SEL_ROW(9),  SEL_ROW(10), SEL_ROW(11),                  \
+     SEL_ROW(12), SEL_ROW(13), SEL_ROW(14), SEL_ROW(15)}
+static const int32_t sel32[16][4] __attribute__((aligned(16))) = SEL_ALL;
+static const int64_t sel64[16][4] __attribute__((aligned(32))) = SEL_ALL;
+#undef SEL_ALL
+#undef SEL_ROW
+#undef SEL_L
+
+/* Float q of v to dst (a float: memcpy keeps the types apart; one extract-and-store). */
+__attribute__((target("avx"))) static inline void store_lane(float *dst, __m128 v, const int q)
 {
-    const __m256d *q0 = qp->q0, *qx = qp->qx;
+    int bits;
+    switch (q) {
+    case 0: bits = _mm_extract_ps(v, 0); break;
+    case 1: bits = _mm_extract_ps(v, 1); break;
+    case 2: bits = _mm_extract_ps(v, 2); break;
+    default: bits = _mm_extract_ps(v, 3); break;
+    }
+    memcpy(dst, &bits, sizeof bits);
+}
+
+__attribute__((target("avx"))) static unsigned
+store_row1_avx(quad_planes *qp, block_planes *bp, double dy, const double *iwv, unsigned m,
+               size_t idx0, double *restrict inv_w, int32_t *restrict fbuf, float *restrict abuf,
+               int32_t face_id)
+{
+    if (!qp->ok) {
+        UNROLL(5)
+        for (int k = 0; k < CRISP_RASTER_ATTRS; k++) {
+            qp->q0[k] = _mm256_set1_pd(qp->pl->q0[k + 1]);
+            qp->qx[k] = _mm256_set1_pd(qp->pl->qx[k + 1]);
+            qp->qy[k] = _mm256_set1_pd(qp->pl->qy[k + 1]);
+        }
+        qp->ok = 1;
+    }
+    const __m256d vdy = _mm256_set1_pd(dy);
     __m256d qyd[CRISP_RASTER_ATTRS];
     UNROLL(5)
     for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
-        qyd[k] = _mm256_set1_pd(pl->qy[k + 1] * dy);
-    const __m256d one = _mm256_set1_pd(1.0), vd = _mm256_set1_pd(dx0);
+        qyd[k] = _mm256_mul_pd(qp->qy[k], vdy);
+    const __m256d one = _mm256_set1_pd(1.0);
     const __m128 face = _mm_castsi128_ps(_mm_set1_epi32(face_id));
+    UNROLL(2)
     for (int h = 0; h < BLOCK / 4; h++) {
         unsigned bits = (m >> (4 * h)) & 15u;
         if (!bits) continue;
+        if (!(bp->ax_ok >> h & 1u)) {
+            const __m256d dx = _mm256_add_pd(_mm256_set1_pd(bp->dx0), _mm256_loadu_pd(lane_x + 4 * h));
+            UNROLL(5)
+            for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+                bp->ax[h][k] = _mm256_add_pd(qp->q0[k], _mm256_mul_pd(qp->qx[k], dx));
+            bp->ax_ok |= 1u << h;
+        }
         size_t idx = idx0 + (size_t)(4 * h);
         __m256d iw = _mm256_loadu_pd(iwv + 4 * h);
         __m256d w = _mm256_div_pd(one, iw);
-        __m256d dx = _mm256_add_pd(vd, _mm256_set_pd(4 * h + 3, 4 * h + 2, 4 * h + 1, 4 * h));
         __m128 f[CRISP_RASTER_ATTRS];
         UNROLL(5)
         for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
-            f[k] = _mm256_cvtpd_ps(_mm256_mul_pd(
-                _mm256_add_pd(_mm256_add_pd(q0[k], _mm256_mul_pd(qx[k], dx)), qyd[k]), w));
+            f[k] = _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_add_pd(bp->ax[h][k], qyd[k]), w));
         _MM_TRANSPOSE4_PS(f[0], f[1], f[2], f[3]); /* f[q]: lane q's attributes 0..3 */
         float *dst = abuf + idx * CRISP_RASTER_ATTRS;
         if (bits == 15u) {
-            for (int q = 0; q < 4; q++)
-                _mm_storeu_ps(dst + 5 * q, f[q]);
+            _mm_storeu_ps(dst, f[0]);
             _mm_store_ss(dst + 4, f[4]);
-            _mm_store_ss(dst + 9, _mm_shuffle_ps(f[4], f[4], 1));
-            _mm_store_ss(dst + 14, _mm_shuffle_ps(f[4], f[4], 2));
-            _mm_store_ss(dst + 19, _mm_shuffle_ps(f[4], f[4], 3));
+            _mm_storeu_ps(dst + 5, f[1]);
+            store_lane(dst + 9, f[4], 1);
+            _mm_storeu_ps(dst + 10, f[2]);
+            store_lane(dst + 14, f[4], 2);
+            _mm_storeu_ps(dst + 15, f[3]);
+            store_lane(dst + 19, f[4], 3);
             _mm256_storeu_pd(inv_w + idx, iw);
             _mm_storeu_ps((float *)(fbuf + idx), face);
             continue;
         }
-        float a4[4];
-        _mm_storeu_ps(a4, f[4]);
-        for (unsigned b = bits; b; b &= b - 1) {
-            int q = __builtin_ctz(b);
-            _mm_storeu_ps(dst + 5 * q, f[q]);
-            dst[5 * q + 4] = a4[q];
-        }
-        /* Lane q is stored where bit q of bits is set: all ones in its 32-bit (sel32) and 64-bit
-         * (sel64) element, from integer compares (a floating-point compare of the bits would
-         * depend on the denormals-are-zero mode). */
-        const __m128i lanes32 = _mm_set_epi32(8, 4, 2, 1);
-        __m128i sel32 = _mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32((int)bits), lanes32), lanes32);
-        __m256i sel64 =
-            _mm256_insertf128_si256(_mm256_castsi128_si256(_mm_unpacklo_epi32(sel32, sel32)),
-                                    _mm_unpackhi_epi32(sel32, sel32), 1);
-        _mm256_maskstore_pd(inv_w + idx, sel64, iw);
-        _mm_maskstore_ps((float *)(fbuf + idx), sel32, face);
+        if (bits & 1u) _mm_storeu_ps(dst, f[0]), _mm_store_ss(dst + 4, f[4]);
+        if (bits & 2u) _mm_storeu_ps(dst + 5, f[1]), store_lane(dst + 9, f[4], 1);
+        if (bits & 4u) _mm_storeu_ps(dst + 10, f[2]), store_lane(dst + 14, f[4], 2);
+        if (bits & 8u) _mm_storeu_ps(dst + 15, f[3]), store_lane(dst + 19, f[4], 3);
+        _mm256_maskstore_pd(inv_w + idx, _mm256_load_si256((const __m256i *)sel64[bits]), iw);
+        _mm_maskstore_ps((float *)(fbuf + idx), _mm_load_si128((const __m128i *)sel32[bits]),
+                         face);
     }
     return (unsigned)__builtin_popcount(m);
+}
+
+/* A block's rows on the one-sample AVX2 path when every fragment that passes the depth test is
+ * kept (no clip plane, the triangle's fragment test decided "keep" for all of it): what
+ * raster_tile_s's row loop does for such a block (the empty row skip, row_mask_avx2,
+ * store_row1_avx), the same expressions in the same order, in a loop of its own with few live
+ * values (the general loop kept the edge values and most of its state on the stack). Returns
+ * the fragments stored. */
+typedef struct block_rows {
+    int64_t e[3];     /* edge values at the block's first pixel */
+    int64_t bstep[3]; /* per row */
+    int64_t rmax[3];  /* an edge's greatest value along a row over its first */
+    int full, n;      /* every sample covered; lanes in a row */
+    int j0, j1;       /* pixel rows (whole image) */
+    double q0, qy, off_y, oy;
+    size_t idx0, stride; /* the first row's first sample; samples a row */
+} block_rows;
+
+__attribute__((target("avx2"))) static inline unsigned
+block_rows_avx2(const block_rows *b, __m128i lane_step[3][BLOCK / 2], quad_planes *qp,
+                block_planes *bp, double *restrict inv_w, int32_t *restrict fbuf,
+                float *restrict abuf, int32_t face_id)
+{
+    int64_t e0 = b->e[0], e1 = b->e[1], e2 = b->e[2];
+    const int64_t s0 = b->bstep[0], s1 = b->bstep[1], s2 = b->bstep[2];
+    const int64_t r0 = b->rmax[0], r1 = b->rmax[1], r2 = b->rmax[2];
+    const int full = b->full;
+    const unsigned lanes = (1u << b->n) - 1;
+    unsigned wrote = 0;
+    size_t idx0 = b->idx0;
+    for (int j = b->j0; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2) {
+        if (!full && ((e0 + r0) | (e1 + r1) | (e2 + r2)) < 0) continue;
+        double dy = j + b->off_y - b->oy;
+        double base = b->q0 + b->qy * dy;
+        const int64_t e[3] = {e0, e1, e2};
+        double iwv[BLOCK];
+        unsigned m = row_mask_avx2(e, lane_step, full, base, bp, inv_w + idx0, iwv) & lanes;
+        if (m) wrote += store_row1_avx(qp, bp, dy, iwv, m, idx0, inv_w, fbuf, abuf, face_id);
+    }
+    return wrote;
 }
 #else
 #define HAVE_AVX_TILES 0
@@ -1450,6 +1586,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
     const size_t tw = (size_t)t->width;
     const int tx0 = t->x0, ty0 = t->y0;
     const float *slack = c->slack, *slack2 = c->slack2;
+#if HAVE_AVX_TILES
+    block_planes bp = {0}; /* the block's (block_planes_avx), on the AVX path */
+    quad_planes qp = {0};  /* the triangle's, on the AVX path */
+#endif
     for (uint32_t bi = r->bin_start[tile]; bi < r->bin_start[tile + 1]; bi++) {
         const setup_tri *st = r->bin_items[bi];
         planes pl;
@@ -1490,12 +1630,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
             for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
                 pp.q0[k] = _mm_set1_pd(pl.q0[k + 1]), pp.qx[k] = _mm_set1_pd(pl.qx[k + 1]);
 #if HAVE_AVX_TILES
-        quad_planes qp;
-        if (avx)
-            for (int k = 0; k < CRISP_RASTER_ATTRS; k++) {
-                double a = pl.q0[k + 1], b = pl.qx[k + 1];
-                qp.q0[k] = (v4d){a, a, a, a}, qp.qx[k] = (v4d){b, b, b, b};
-            }
+        qp.pl = &pl, qp.ok = 0;
 #endif
 #else
         vectors = 0;
@@ -1593,6 +1728,27 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                 for (int s = 0; s < S; s++)
                     dx0s[s] = (double)bx0 + c->off_x[s] - st->ox;
                 const int in_row = bx0 - tx0 + BLOCK <= (int)tw;
+#if HAVE_AVX_TILES
+                if (avx && S == 1 && !slack && vectors && in_row) {
+                    block_planes_avx(&bp, st->qx[0], dx0s[0]);
+                    if (avx == 2 && !clip_on && tdec == 1) {
+                        block_rows br = {
+                            {er[0][0], er[0][1], er[0][2]},
+                            {bstep0, bstep1, bstep2},
+                            {rmax[0], rmax[1], rmax[2]},
+                            full, n, by0, by1, st->q0[0], st->qy[0], c->off_y[0], st->oy,
+                            ((size_t)(by0 - ty0) * tw + (size_t)(bx0 - tx0)), tw};
+                        uint32_t k = block_rows_avx2(&br, lane_step, &qp, &bp, inv_w, fbuf, abuf,
+                                                     face_id);
+                        if (run_test)
+                            boxed += k;
+                        else if (c->test)
+                            untested += k;
+                        writes[blk] += k;
+                        continue;
+                    }
+                }
+#endif
                 size_t row0 = ((size_t)(by0 - ty0) * tw + (size_t)(bx0 - tx0)) * S;
                 for (int j = by0; j <= by1; j++, row0 += tw * S)
                     for (int s = 0; s < S; s++) {
@@ -1619,11 +1775,10 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                              * is read at 8 lanes: inside the image's row). */
 #if HAVE_AVX_TILES
                             if (avx == 2)
-                                m = row_mask_avx2(e, lane_step, full, base, gx, dx0, inv_w + idx0,
+                                m = row_mask_avx2(e, lane_step, full, base, &bp, inv_w + idx0,
                                                   iwv);
                             else if (avx)
-                                m = row_mask_avx(e, lane_step, full, base, gx, dx0, inv_w + idx0,
-                                                 iwv);
+                                m = row_mask_avx(e, lane_step, full, base, &bp, inv_w + idx0, iwv);
                             else
 #endif
                                 m = row_mask(e, lane_step, full, base, gx, dx0, inv_w + idx0, iwv);
@@ -1721,8 +1876,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             unsigned k;
 #if HAVE_AVX_TILES
                             if (avx)
-                                k = store_row1_avx(&pl, &qp, dx0, dy, iwv, m, idx0, inv_w, fbuf,
-                                                   abuf, face_id);
+                                k = store_row1_avx(&qp, &bp, dy, iwv, m, idx0, inv_w, fbuf, abuf,
+                                                   face_id);
                             else
 #endif
                                 k = store_row1(&pl, &pp, dx0, dy, iwv, m, idx0, inv_w, fbuf, abuf,
