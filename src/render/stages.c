@@ -6,6 +6,7 @@
  * laid out as that one is, from the steps planner.c shares (planner.h). Whether stages pay is
  * decided frame by frame (STAGE_PAYS). */
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -364,13 +365,21 @@ static int net_hidden(const hull_net *n, int width, int height, const int win[4]
            net_hidden(&h[1], width, height, win, hiz, blocks_x, level + 1, scratch + 2 * np);
 }
 
-/* Patch z's control net projected by m into n (its points: (1 + 2 HULL_SPLITS) nets of room,
- * allocated here; NULL when z's degrees are above 15 or there is no memory). */
-static double (*hull_project(const crisp_bezier_patch *z, crisp_mat4 m, hull_net *n))[4]
+/* Room for a net and its halvings: HULL_ROOM nets of up to HULL_SMALL points (degrees up to 5
+ * both ways) on the caller's stack (the later stages' face test is on the hot path of a close-up:
+ * a malloc per patch was a tenth of it), larger nets on the heap. */
+#define HULL_ROOM (1 + 2 * HULL_SPLITS)
+#define HULL_SMALL 36
+
+/* Patch z's control net projected by m into n; its points go to room (HULL_ROOM nets of
+ * HULL_SMALL points) when they fit, else to memory allocated here (free it when the result is
+ * not room). NULL when z's degrees are above 15 or there is no memory. */
+static double (*hull_project(const crisp_bezier_patch *z, crisp_mat4 m, hull_net *n,
+                             double (*room)[4]))[4]
 {
     if (z->du < 0 || z->dv < 0 || z->du > 15 || z->dv > 15) return NULL;
     int np = (z->du + 1) * (z->dv + 1);
-    double(*p)[4] = malloc((size_t)(1 + 2 * HULL_SPLITS) * (size_t)np * sizeof *p);
+    double(*p)[4] = np <= HULL_SMALL ? room : malloc((size_t)HULL_ROOM * (size_t)np * sizeof *p);
     if (!p) return NULL;
     *n = (hull_net){z->du + 1, z->dv + 1, p};
     for (int k = 0; k < np; k++) {
@@ -389,10 +398,11 @@ static int patch_hidden(const crisp_bezier_patch *z, crisp_mat4 m, int width, in
                         const int win[4], const double *hiz, int blocks_x)
 {
     hull_net n;
-    double(*p)[4] = hull_project(z, m, &n);
+    double room[HULL_ROOM * HULL_SMALL][4];
+    double(*p)[4] = hull_project(z, m, &n, room);
     if (!p) return 0;
     int hidden = net_hidden(&n, width, height, win, hiz, blocks_x, 0, p + n.nu * n.nv);
-    free(p);
+    if (p != room) free(p);
     return hidden;
 }
 
@@ -400,9 +410,10 @@ int crisp__stages_hull_piece(const crisp_bezier_patch *z, crisp_mat4 m, int widt
                              int splits, unsigned piece, double lo[2], double hi[2], double *w0)
 {
     hull_net n;
-    double(*p)[4] = hull_project(z, m, &n);
+    double room[HULL_ROOM * HULL_SMALL][4];
+    double(*p)[4] = hull_project(z, m, &n, room);
     if (!p || splits < 0 || splits > HULL_SPLITS) {
-        free(p);
+        if (p != room) free(p);
         return 0;
     }
     int np = n.nu * n.nv;
@@ -413,7 +424,7 @@ int crisp__stages_hull_piece(const crisp_bezier_patch *z, crisp_mat4 m, int widt
         n = h[(piece >> level) & 1];
     }
     int ok = hull_screen(&n, width, height, lo, hi, w0);
-    free(p);
+    if (p != room) free(p);
     return ok;
 }
 
@@ -468,6 +479,88 @@ static int face_hidden(const crisp_planner *p, const crisp_scene *sc, uint32_t f
             return 0;
     }
     return 1;
+}
+
+/* The pieces (crisp__ribbons_set_hidden) of net n's parameter rectangle whose hulls, or the
+ * hulls of their halvings, rect_hidden finds hidden, as a mask (net_hidden's halvings, all of
+ * them: the 2^HULL_SPLITS pieces are a CRISP__RIBBON_PIECES square grid, u halved on even levels,
+ * v on odd ones). level: the halvings done; the net covers cells [c0, c0 + nc) x [r0, r0 + nr);
+ * scratch as net_hidden's. */
+_Static_assert(1 << HULL_SPLITS == CRISP__RIBBON_PIECES * CRISP__RIBBON_PIECES,
+               "a patch's pieces are its hull pieces of HULL_SPLITS halvings");
+static uint32_t net_pieces(const hull_net *n, int width, int height, const int win[4],
+                           const double *hiz, int blocks_x, int level, int c0, int r0, int nc,
+                           int nr, double (*scratch)[4])
+{
+    double lo[2], hi[2], w0;
+    if (!hull_screen(n, width, height, lo, hi, &w0)) return 0;
+    if (rect_hidden(lo, hi, w0, win, hiz, blocks_x)) {
+        uint32_t row = ((1u << nc) - 1) << c0, m = 0;
+        for (int r = r0; r < r0 + nr; r++)
+            m |= row << (CRISP__RIBBON_PIECES * r);
+        return m;
+    }
+    if (level == HULL_SPLITS) return 0;
+    int np = n->nu * n->nv, u = !(level & 1);
+    hull_net h[2] = {{0, 0, scratch}, {0, 0, scratch + np}};
+    hull_split(n, level & 1, &h[0], &h[1]);
+    int hc = u ? nc / 2 : nc, hr = u ? nr : nr / 2;
+    return net_pieces(&h[0], width, height, win, hiz, blocks_x, level + 1, c0, r0, hc, hr,
+                      scratch + 2 * np) |
+           net_pieces(&h[1], width, height, win, hiz, blocks_x, level + 1, u ? c0 + hc : c0,
+                      u ? r0 : r0 + hr, hc, hr, scratch + 2 * np);
+}
+
+uint32_t crisp__stages_patch_pieces(const crisp_bezier_patch *z, const double box[6], crisp_mat4 m,
+                                    int width, int height, const int win[4], const double *hiz)
+{
+    const uint32_t all = (1u << (CRISP__RIBBON_PIECES * CRISP__RIBBON_PIECES)) - 1;
+    int blocks_x = (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
+    double lo[2], hi[2], w0, w1;
+    if (box_screen(box, m, width, height, lo, hi, &w0, &w1) &&
+        rect_hidden(lo, hi, w0, win, hiz, blocks_x))
+        return all;
+    hull_net n;
+    double room[HULL_ROOM * HULL_SMALL][4];
+    double(*p)[4] = hull_project(z, m, &n, room);
+    if (!p) return 0;
+    uint32_t mask = net_pieces(&n, width, height, win, hiz, blocks_x, 0, 0, 0, CRISP__RIBBON_PIECES,
+                               CRISP__RIBBON_PIECES, p + n.nu * n.nv);
+    if (p != room) free(p);
+    return mask;
+}
+
+/* The ribbons' hidden test of a later stage (crisp__ribbons_set_hidden): crisp__stages_patch_pieces
+ * against the
+ * depth drawn by the earlier stages, computed when first asked and kept for the stage (a patch's
+ * mask in bits 0-15, bit 16 set once it is known). Sound for the final draw: the depth stored at
+ * a sample only gets nearer (the surfaces' and splats' depth tests, the fill pass's slack test
+ * and its cores' take only nearer fragments), so a ribbon fragment of a hidden piece, no nearer
+ * than its curve points (a quad's 1/W and its core's lie between its two curve points'), is
+ * refused wherever it lands, as the draw's own ribbon cull would find. */
+typedef struct pieces_ctx {
+    const crisp_scene *sc;
+    crisp_mat4 m;
+    int width, height;
+    const int *win;
+    const double *hiz;
+    _Atomic uint32_t *mask; /* per scene patch */
+} pieces_ctx;
+
+static uint32_t later_pieces(const void *vctx, uint32_t q)
+{
+    const pieces_ctx *c = vctx;
+    uint32_t m = atomic_load_explicit(&c->mask[q], memory_order_relaxed);
+    if (!m) {
+        /* Two workers may compute the same mask: both store the same value. */
+        crisp_mat4 vp;
+        memcpy(vp, c->m, sizeof vp);
+        const crisp_scene_patch *z = &c->sc->patches[q];
+        m = 1u << 16 |
+            crisp__stages_patch_pieces(&z->bez, z->box, vp, c->width, c->height, c->win, c->hiz);
+        atomic_store_explicit(&c->mask[q], m, memory_order_relaxed);
+    }
+    return m & 0xffffu;
 }
 
 typedef struct hidden_ctx {
@@ -525,7 +618,23 @@ crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, c
         more |= s->stage[f] > next && s->stage[f] != STAGE_HIDDEN;
     }
     s->stage_at = next;
-    if (next < STAGES && (st = plan_stage(p, sc, cam))) return st;
+    if (next < STAGES) {
+        /* The ribbons of the stage's faces left out where the depth drawn hides them. */
+        pieces_ctx pc = {
+            .sc = sc, .width = cam->width, .height = cam->height, .win = win, .hiz = hiz};
+        memcpy(pc.m, p->trees->view_proj, sizeof pc.m);
+        if (hiz) {
+            if ((st = crisp_grow((void **)&s->piece_mask, &s->piece_mask_cap,
+                                 sc->patch_count ? sc->patch_count : 1, sizeof *s->piece_mask)))
+                return st;
+            memset((void *)s->piece_mask, 0, sc->patch_count * sizeof *s->piece_mask);
+            pc.mask = s->piece_mask;
+            crisp__ribbons_set_hidden(p->ribbons, later_pieces, &pc);
+        }
+        st = plan_stage(p, sc, cam);
+        crisp__ribbons_set_hidden(p->ribbons, NULL, NULL);
+        if (st) return st;
+    }
     *last = !more;
     *dest = o;
     if (more) return CRISP_OK;
@@ -607,4 +716,5 @@ void crisp__stages_free(crisp__stages *s)
     free(s->seen);
     free(s->face_box);
     free(s->patch_in);
+    free((void *)s->piece_mask);
 }
