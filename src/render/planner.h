@@ -46,6 +46,8 @@ typedef struct crisp__stages {
     uint64_t face_box_serial, face_box_trim;
     _Atomic uint32_t *piece_mask; /* per patch: its hidden pieces in a later stage (stages.c) */
     size_t piece_mask_cap;
+    double *depth_cells; /* a later stage's coarse block depth (stages.c) */
+    size_t depth_cells_cap;
 } crisp__stages;
 
 struct crisp_planner {

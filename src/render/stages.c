@@ -345,24 +345,36 @@ static void hull_split(const hull_net *n, int dir, hull_net *a, hull_net *b)
     }
 }
 
+/* The block depth drawn by the earlier stages (crisp__occl_hidden's hiz, blocks_x x blocks_y
+ * blocks) and a coarser level of it: per cell of DEPTH_CELL x DEPTH_CELL blocks the least of
+ * their values (NaN when one is NaN), so that a rectangle's test reads a cell where it covers all
+ * of its blocks (coarse NULL: none). */
+#define DEPTH_CELL 4
+typedef struct depth_drawn {
+    const double *hiz;
+    int blocks_x, blocks_y;
+    const double *coarse;
+    int cells_x;
+} depth_drawn;
+
 static int rect_hidden(const double lo_in[2], const double hi_in[2], double w0, const int win[4],
-                       const double *hiz, int blocks_x);
+                       const depth_drawn *d);
 
 /* 1 when rect_hidden holds for the net's hull, or for those of both its halves (level: the
  * halvings done; the next is in u on even levels, in v on odd ones; scratch: room for two nets
  * per halving left). */
-static int net_hidden(const hull_net *n, int width, int height, const int win[4], const double *hiz,
-                      int blocks_x, int level, double (*scratch)[4])
+static int net_hidden(const hull_net *n, int width, int height, const int win[4],
+                      const depth_drawn *d, int level, double (*scratch)[4])
 {
     double lo[2], hi[2], w0;
     if (!hull_screen(n, width, height, lo, hi, &w0)) return 0;
-    if (rect_hidden(lo, hi, w0, win, hiz, blocks_x)) return 1;
+    if (rect_hidden(lo, hi, w0, win, d)) return 1;
     if (level == HULL_SPLITS) return 0;
     int np = n->nu * n->nv;
     hull_net h[2] = {{0, 0, scratch}, {0, 0, scratch + np}};
     hull_split(n, level & 1, &h[0], &h[1]);
-    return net_hidden(&h[0], width, height, win, hiz, blocks_x, level + 1, scratch + 2 * np) &&
-           net_hidden(&h[1], width, height, win, hiz, blocks_x, level + 1, scratch + 2 * np);
+    return net_hidden(&h[0], width, height, win, d, level + 1, scratch + 2 * np) &&
+           net_hidden(&h[1], width, height, win, d, level + 1, scratch + 2 * np);
 }
 
 /* Room for a net and its halvings: HULL_ROOM nets of up to HULL_SMALL points (degrees up to 5
@@ -395,13 +407,13 @@ static double (*hull_project(const crisp_bezier_patch *z, crisp_mat4 m, hull_net
 
 /* net_hidden of patch z's control net (not hidden when it cannot be projected: always safe). */
 static int patch_hidden(const crisp_bezier_patch *z, crisp_mat4 m, int width, int height,
-                        const int win[4], const double *hiz, int blocks_x)
+                        const int win[4], const depth_drawn *d)
 {
     hull_net n;
     double room[HULL_ROOM * HULL_SMALL][4];
     double(*p)[4] = hull_project(z, m, &n, room);
     if (!p) return 0;
-    int hidden = net_hidden(&n, width, height, win, hiz, blocks_x, 0, p + n.nu * n.nv);
+    int hidden = net_hidden(&n, width, height, win, d, 0, p + n.nu * n.nv);
     if (p != room) free(p);
     return hidden;
 }
@@ -428,17 +440,75 @@ int crisp__stages_hull_piece(const crisp_bezier_patch *z, crisp_mat4 m, int widt
     return ok;
 }
 
+/* The least of n values from v on, stride apart (NaN when one is NaN). */
+static double least(const double *v, int n, ptrdiff_t stride, double m)
+{
+    for (int k = 0; k < n; k++) {
+        double x = v[k * stride];
+        m = x < m || x != x ? x : m;
+    }
+    return m;
+}
+
+/* crisp__occl_hidden(o, d->hiz, d->blocks_x), the same answer: o's bound is below every block of
+ * its rectangle; the cells of the coarse level that the rectangle covers whole are read there. */
+static int depth_hides(const crisp_occl_leaf *o, const depth_drawn *d)
+{
+    double iw = o->iw;
+    if (!d->coarse) return crisp__occl_hidden(o, d->hiz, d->blocks_x);
+    if (!(iw < INFINITY)) return 0;
+    int x0 = o->bx0, y0 = o->by0, x1 = o->bx1 + 1, y1 = o->by1 + 1;      /* blocks [x0, x1) */
+    int cx0 = (x0 + DEPTH_CELL - 1) / DEPTH_CELL, cx1 = x1 / DEPTH_CELL; /* cells [cx0, cx1) */
+    int cy0 = (y0 + DEPTH_CELL - 1) / DEPTH_CELL, cy1 = y1 / DEPTH_CELL;
+    if (cx0 >= cx1 || cy0 >= cy1) return crisp__occl_hidden(o, d->hiz, d->blocks_x);
+    for (int cy = cy0; cy < cy1; cy++)
+        if (!(iw < least(d->coarse + (size_t)cy * d->cells_x + cx0, cx1 - cx0, 1, INFINITY)))
+            return 0;
+    /* The blocks around the cells: rows above and below, columns left and right between them. */
+    int bxa = cx0 * DEPTH_CELL, bxb = cx1 * DEPTH_CELL, bya = cy0 * DEPTH_CELL,
+        byb = cy1 * DEPTH_CELL;
+    for (int by = y0; by < y1; by++) {
+        const double *row = d->hiz + (size_t)by * d->blocks_x;
+        double m = INFINITY;
+        if (by < bya || by >= byb) {
+            m = least(row + x0, x1 - x0, 1, m);
+        } else {
+            m = least(row + x0, bxa - x0, 1, m);
+            m = least(row + bxb, x1 - bxb, 1, m);
+        }
+        if (!(iw < m)) return 0;
+    }
+    return 1;
+}
+
+/* The coarse level of d (DEPTH_CELL x DEPTH_CELL blocks a cell) into coarse. */
+static void depth_cells(const depth_drawn *d, double *coarse)
+{
+    int cells_y = (d->blocks_y + DEPTH_CELL - 1) / DEPTH_CELL;
+    for (int cy = 0; cy < cells_y; cy++)
+        for (int cx = 0; cx < d->cells_x; cx++) {
+            int nx = d->blocks_x - cx * DEPTH_CELL, ny = d->blocks_y - cy * DEPTH_CELL;
+            nx = nx < DEPTH_CELL ? nx : DEPTH_CELL, ny = ny < DEPTH_CELL ? ny : DEPTH_CELL;
+            double m = INFINITY;
+            for (int j = 0; j < ny; j++)
+                m = least(d->hiz + (size_t)(cy * DEPTH_CELL + j) * d->blocks_x + cx * DEPTH_CELL,
+                          nx, 1, m);
+            coarse[(size_t)cy * d->cells_x + cx] = m;
+        }
+}
+
 /* 1 when the screen box lo, hi widened by 2 px (the ribbons reach 1 px from their curve points)
- * at least W w0 is hidden by hiz (crisp__occl_hidden), or holds no sample of the window. */
+ * at least W w0 is hidden by the depth drawn (crisp__occl_hidden), or holds no sample of the
+ * window. */
 static int rect_hidden(const double lo_in[2], const double hi_in[2], double w0, const int win[4],
-                       const double *hiz, int blocks_x)
+                       const depth_drawn *d)
 {
     double lo[2] = {lo_in[0] - 2, lo_in[1] - 2}, hi[2] = {hi_in[0] + 2, hi_in[1] + 2};
     if (hi[0] < win[0] || hi[1] < win[1] || lo[0] > win[0] + win[2] || lo[1] > win[1] + win[3])
         return 1; /* no sample of the window */
     crisp_occl_leaf o;
     crisp__occl_set(&o, win, lo, hi, 1.0 / w0);
-    return crisp__occl_hidden(&o, hiz, blocks_x);
+    return depth_hides(&o, d);
 }
 
 /* 1 when every sample that face f's surface or ribbons could reach holds a nearer depth in hiz:
@@ -446,7 +516,7 @@ static int rect_hidden(const double lo_in[2], const double hi_in[2], double w0, 
  * outside the widened frustum, or in front of the eye with its screen box widened by 2 px (the
  * ribbons reach 1 px from their curve points) hidden (crisp__occl_hidden at the box's least W). */
 static int face_hidden(const crisp_planner *p, const crisp_scene *sc, uint32_t f, crisp_mat4 m,
-                       int width, int height, const int win[4], const double *hiz, int blocks_x)
+                       int width, int height, const int win[4], const depth_drawn *d)
 {
     const crisp__stages *s = &p->stages;
     const crisp_scene_face *sf = &sc->faces[f];
@@ -474,8 +544,8 @@ static int face_hidden(const crisp_planner *p, const crisp_scene *sc, uint32_t f
             if (out[0] | out[1] | out[2] | out[3]) continue;
             return 0;
         }
-        if (!rect_hidden(lo, hi, w0, win, hiz, blocks_x) &&
-            !patch_hidden(&sc->patches[q].bez, m, width, height, win, hiz, blocks_x))
+        if (!rect_hidden(lo, hi, w0, win, d) &&
+            !patch_hidden(&sc->patches[q].bez, m, width, height, win, d))
             return 0;
     }
     return 1;
@@ -489,12 +559,12 @@ static int face_hidden(const crisp_planner *p, const crisp_scene *sc, uint32_t f
 _Static_assert(1 << HULL_SPLITS == CRISP__RIBBON_PIECES * CRISP__RIBBON_PIECES,
                "a patch's pieces are its hull pieces of HULL_SPLITS halvings");
 static uint32_t net_pieces(const hull_net *n, int width, int height, const int win[4],
-                           const double *hiz, int blocks_x, int level, int c0, int r0, int nc,
-                           int nr, double (*scratch)[4])
+                           const depth_drawn *d, int level, int c0, int r0, int nc, int nr,
+                           double (*scratch)[4])
 {
     double lo[2], hi[2], w0;
     if (!hull_screen(n, width, height, lo, hi, &w0)) return 0;
-    if (rect_hidden(lo, hi, w0, win, hiz, blocks_x)) {
+    if (rect_hidden(lo, hi, w0, win, d)) {
         uint32_t row = ((1u << nc) - 1) << c0, m = 0;
         for (int r = r0; r < r0 + nr; r++)
             m |= row << (CRISP__RIBBON_PIECES * r);
@@ -505,28 +575,57 @@ static uint32_t net_pieces(const hull_net *n, int width, int height, const int w
     hull_net h[2] = {{0, 0, scratch}, {0, 0, scratch + np}};
     hull_split(n, level & 1, &h[0], &h[1]);
     int hc = u ? nc / 2 : nc, hr = u ? nr : nr / 2;
-    return net_pieces(&h[0], width, height, win, hiz, blocks_x, level + 1, c0, r0, hc, hr,
-                      scratch + 2 * np) |
-           net_pieces(&h[1], width, height, win, hiz, blocks_x, level + 1, u ? c0 + hc : c0,
-                      u ? r0 : r0 + hr, hc, hr, scratch + 2 * np);
+    return net_pieces(&h[0], width, height, win, d, level + 1, c0, r0, hc, hr, scratch + 2 * np) |
+           net_pieces(&h[1], width, height, win, d, level + 1, u ? c0 + hc : c0, u ? r0 : r0 + hr,
+                      hc, hr, scratch + 2 * np);
 }
 
-uint32_t crisp__stages_patch_pieces(const crisp_bezier_patch *z, const double box[6], crisp_mat4 m,
-                                    int width, int height, const int win[4], const double *hiz)
+/* crisp__stages_patch_pieces against the depth drawn d. */
+static uint32_t patch_pieces(const crisp_bezier_patch *z, const double box[6], crisp_mat4 m,
+                             int width, int height, const int win[4], const depth_drawn *d)
 {
     const uint32_t all = (1u << (CRISP__RIBBON_PIECES * CRISP__RIBBON_PIECES)) - 1;
-    int blocks_x = (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
     double lo[2], hi[2], w0, w1;
-    if (box_screen(box, m, width, height, lo, hi, &w0, &w1) &&
-        rect_hidden(lo, hi, w0, win, hiz, blocks_x))
+    if (box_screen(box, m, width, height, lo, hi, &w0, &w1) && rect_hidden(lo, hi, w0, win, d))
         return all;
     hull_net n;
     double room[HULL_ROOM * HULL_SMALL][4];
     double(*p)[4] = hull_project(z, m, &n, room);
     if (!p) return 0;
-    uint32_t mask = net_pieces(&n, width, height, win, hiz, blocks_x, 0, 0, 0, CRISP__RIBBON_PIECES,
+    uint32_t mask = net_pieces(&n, width, height, win, d, 0, 0, 0, CRISP__RIBBON_PIECES,
                                CRISP__RIBBON_PIECES, p + n.nu * n.nv);
     if (p != room) free(p);
+    return mask;
+}
+
+/* The depth drawn of the window win: hiz and its coarse level in coarse (room for depth_cells'
+ * cells; NULL: none). */
+static depth_drawn depth_of(const double *hiz, const int win[4], double *coarse)
+{
+    depth_drawn d = {hiz, (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+                     (win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK, NULL, 0};
+    d.cells_x = (d.blocks_x + DEPTH_CELL - 1) / DEPTH_CELL;
+    if (coarse) {
+        depth_cells(&d, coarse);
+        d.coarse = coarse;
+    }
+    return d;
+}
+
+static size_t depth_cell_count(const int win[4])
+{
+    size_t bx = (size_t)(win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+           by = (size_t)(win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
+    return ((bx + DEPTH_CELL - 1) / DEPTH_CELL) * ((by + DEPTH_CELL - 1) / DEPTH_CELL);
+}
+
+uint32_t crisp__stages_patch_pieces(const crisp_bezier_patch *z, const double box[6], crisp_mat4 m,
+                                    int width, int height, const int win[4], const double *hiz)
+{
+    double *coarse = malloc(depth_cell_count(win) * sizeof *coarse);
+    depth_drawn d = depth_of(hiz, win, coarse); /* without memory: no coarse level */
+    uint32_t mask = patch_pieces(z, box, m, width, height, win, &d);
+    free(coarse);
     return mask;
 }
 
@@ -543,7 +642,7 @@ typedef struct pieces_ctx {
     crisp_mat4 m;
     int width, height;
     const int *win;
-    const double *hiz;
+    const depth_drawn *d;
     _Atomic uint32_t *mask; /* per scene patch */
 } pieces_ctx;
 
@@ -556,8 +655,7 @@ static uint32_t later_pieces(const void *vctx, uint32_t q)
         crisp_mat4 vp;
         memcpy(vp, c->m, sizeof vp);
         const crisp_scene_patch *z = &c->sc->patches[q];
-        m = 1u << 16 |
-            crisp__stages_patch_pieces(&z->bez, z->box, vp, c->width, c->height, c->win, c->hiz);
+        m = 1u << 16 | patch_pieces(&z->bez, z->box, vp, c->width, c->height, c->win, c->d);
         atomic_store_explicit(&c->mask[q], m, memory_order_relaxed);
     }
     return m & 0xffffu;
@@ -566,7 +664,7 @@ static uint32_t later_pieces(const void *vctx, uint32_t q)
 typedef struct hidden_ctx {
     const crisp_planner *p;
     const crisp_scene *sc;
-    const double *hiz;
+    const depth_drawn *d;
     const int *win;
     uint8_t *hidden; /* per face: face_hidden, for the later stages' faces not yet hidden */
 } hidden_ctx;
@@ -577,11 +675,10 @@ static void faces_hidden(void *vctx, size_t begin, size_t end, int worker)
     const hidden_ctx *c = vctx;
     const crisp__stages *s = &c->p->stages;
     const crisp_camera *cam = &c->p->cam;
-    int blocks_x = (c->win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
     for (size_t f = begin; f < end; f++)
         c->hidden[f] = s->stage[f] > s->stage_at && s->stage[f] != STAGE_HIDDEN &&
                        face_hidden(c->p, c->sc, (uint32_t)f, c->p->trees->view_proj, cam->width,
-                                   cam->height, c->win, c->hiz, blocks_x);
+                                   cam->height, c->win, c->d);
 }
 
 crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, const double *hiz,
@@ -598,8 +695,13 @@ crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, c
     /* The later stages' faces that the depth drawn hides get nothing (tested in parallel into
      * skip, which plan_stage sets afresh). */
     int next = STAGES;
+    depth_drawn d = {0};
     if (hiz) {
-        hidden_ctx hc = {p, sc, hiz, win, s->skip};
+        if ((st = crisp_grow((void **)&s->depth_cells, &s->depth_cells_cap, depth_cell_count(win),
+                             sizeof *s->depth_cells)))
+            return st;
+        d = depth_of(hiz, win, s->depth_cells);
+        hidden_ctx hc = {p, sc, &d, win, s->skip};
         crisp_pool_parallel_for(p->pool, n, 4, faces_hidden, &hc);
     }
     for (uint32_t f = 0; f < n; f++) {
@@ -620,8 +722,7 @@ crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, c
     s->stage_at = next;
     if (next < STAGES) {
         /* The ribbons of the stage's faces left out where the depth drawn hides them. */
-        pieces_ctx pc = {
-            .sc = sc, .width = cam->width, .height = cam->height, .win = win, .hiz = hiz};
+        pieces_ctx pc = {.sc = sc, .width = cam->width, .height = cam->height, .win = win, .d = &d};
         memcpy(pc.m, p->trees->view_proj, sizeof pc.m);
         if (hiz) {
             if ((st = crisp_grow((void **)&s->piece_mask, &s->piece_mask_cap,
@@ -717,4 +818,5 @@ void crisp__stages_free(crisp__stages *s)
     free(s->face_box);
     free(s->patch_in);
     free((void *)s->piece_mask);
+    free(s->depth_cells);
 }
