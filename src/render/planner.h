@@ -125,5 +125,11 @@ int crisp__stages_hull_piece(const crisp_bezier_patch *z, crisp_mat4 m, int widt
  * crisp__stages_hull_piece makes them, up to 4), is so hidden. */
 uint32_t crisp__stages_patch_pieces(const crisp_bezier_patch *z, const double box[6], crisp_mat4 m,
                                     int width, int height, const int win[4], const double *hiz);
+/* 1 when a later stage leaves ribbon quad v out of its kept ribbons (stages.c's quad_unseen):
+ * every corner behind the eye, or its corners' screen box (pixels of a width x height image)
+ * outside the window win or hidden by hiz (crisp__occl_hidden's block depth of win) at their
+ * largest 1/W. For tests. */
+int crisp__stages_quad_unseen(const crisp_plan_ribbon_vertex v[4], int width, int height,
+                              const int win[4], const double *hiz);
 
 #endif

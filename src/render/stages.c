@@ -177,8 +177,16 @@ static crisp_status choose_stages(crisp_planner *p, const crisp_scene *sc, const
     return CRISP_OK;
 }
 
-/* The current stage's faces (later) kept: their leaves (laid out), ribbons, levels and stats. */
-static crisp_status keep_stage(crisp_planner *p, const crisp_scene *sc)
+typedef struct depth_drawn depth_drawn;
+static depth_drawn depth_of(const double *hiz, const int win[4], double *coarse);
+static int quad_unseen(const crisp_plan_ribbon_vertex *v, int width, int height, const int win[4],
+                       const depth_drawn *d);
+
+/* The current stage's faces (later) kept: their leaves (laid out), ribbons, levels and stats;
+ * with the depth drawn by the earlier stages d (of the window win; NULL: none), not the ribbon
+ * quads it finds unseen (quad_unseen). */
+static crisp_status keep_stage(crisp_planner *p, const crisp_scene *sc, const depth_drawn *d,
+                               const int win[4])
 {
     crisp__stages *s = &p->stages;
     crisp_status st;
@@ -201,9 +209,16 @@ static crisp_status keep_stage(crisp_planner *p, const crisp_scene *sc)
         s->kept_leaf_count += pf->leaf_count;
         k[2] = (uint32_t)s->kept_quads;
         k[3] = p->trees->face_tau[f] ? p->ribbon_quads[f] : 0;
-        memcpy(s->kept_ribbons + 4 * s->kept_quads,
-               p->ribbon_verts + 4 * (size_t)p->ribbon_first[f],
-               4 * (size_t)k[3] * sizeof *p->ribbon_verts);
+        const crisp_plan_ribbon_vertex *v = p->ribbon_verts + 4 * (size_t)p->ribbon_first[f];
+        if (!d) {
+            memcpy(s->kept_ribbons + 4 * s->kept_quads, v, 4 * (size_t)k[3] * sizeof *v);
+        } else {
+            uint32_t kept = 0;
+            for (uint32_t q = 0; q < k[3]; q++, v += 4)
+                if (!quad_unseen(v, p->cam.width, p->cam.height, win, d))
+                    memcpy(s->kept_ribbons + 4 * (s->kept_quads + kept++), v, 4 * sizeof *v);
+            k[3] = kept;
+        }
         s->kept_quads += k[3];
         k[4] = p->trees->face_tau[f];
         s->kept_rows[f] = p->trees->face_rows[f];
@@ -227,8 +242,10 @@ static crisp_status keep_stage(crisp_planner *p, const crisp_scene *sc)
     return CRISP_OK;
 }
 
-/* Plan the faces of the current stage (later), laid out to be drawn; kept for the final plan. */
-static crisp_status plan_stage(crisp_planner *p, const crisp_scene *sc, const crisp_camera *cam)
+/* Plan the faces of the current stage (later), laid out to be drawn; kept for the final plan
+ * (keep_stage with d and win). */
+static crisp_status plan_stage(crisp_planner *p, const crisp_scene *sc, const crisp_camera *cam,
+                               const depth_drawn *d, const int win[4])
 {
     crisp__stages *s = &p->stages;
     crisp_status st;
@@ -240,7 +257,7 @@ static crisp_status plan_stage(crisp_planner *p, const crisp_scene *sc, const cr
         return st;
     crisp__planner_point_out(p, sc);
     p->out.splat_range_count = 0;
-    return keep_stage(p, sc);
+    return keep_stage(p, sc, d, win);
 }
 
 crisp_status crisp__planner_plan_near(crisp_planner *p, const crisp_scene *sc,
@@ -285,7 +302,7 @@ crisp_status crisp__planner_plan_near(crisp_planner *p, const crisp_scene *sc,
     s->stage_at = 0;
     for (uint32_t f = 0; f < sc->face_count; f++)
         s->later[f] = s->stage[f] == 0;
-    if ((st = plan_stage(p, sc, cam))) return st;
+    if ((st = plan_stage(p, sc, cam, NULL, NULL))) return st;
     p->staged = 2;
     p->cam = *cam;
     p->scene = sc;
@@ -350,12 +367,12 @@ static void hull_split(const hull_net *n, int dir, hull_net *a, hull_net *b)
  * their values (NaN when one is NaN), so that a rectangle's test reads a cell where it covers all
  * of its blocks (coarse NULL: none). */
 #define DEPTH_CELL 4
-typedef struct depth_drawn {
+struct depth_drawn {
     const double *hiz;
     int blocks_x, blocks_y;
     const double *coarse;
     int cells_x;
-} depth_drawn;
+};
 
 static int rect_hidden(const double lo_in[2], const double hi_in[2], double w0, const int win[4],
                        const depth_drawn *d);
@@ -509,6 +526,45 @@ static int rect_hidden(const double lo_in[2], const double hi_in[2], double w0, 
     crisp_occl_leaf o;
     crisp__occl_set(&o, win, lo, hi, 1.0 / w0);
     return depth_hides(&o, d);
+}
+
+/* 1 when ribbon quad v can write no sample in the final draw: every corner behind the eye
+ * (build_quads' quads at a break of the ribbon), or every corner in front of it and its
+ * corners' screen box, at their largest 1/W, outside the window or hidden by the depth drawn d
+ * (the quad's fragments, and its core's, lie in that box and are no nearer than its corners:
+ * crisp__raster_quad_hidden's test at the earlier stages' depth, which the final depth only
+ * makes nearer). */
+static int quad_unseen(const crisp_plan_ribbon_vertex *v, int width, int height, const int win[4],
+                       const depth_drawn *d)
+{
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
+    int behind = 0;
+    for (int k = 0; k < 4; k++) {
+        const double *c = v[k].clip;
+        if (c[3] < 0) {
+            behind++;
+            continue;
+        }
+        if (!(c[3] > 0) || !isfinite(c[0] + c[1] + c[3])) return 0;
+        double px = (c[0] / c[3] + 1) * 0.5 * width, py = (1 - c[1] / c[3]) * 0.5 * height;
+        lo[0] = fmin(lo[0], px), hi[0] = fmax(hi[0], px);
+        lo[1] = fmin(lo[1], py), hi[1] = fmax(hi[1], py);
+        iw = fmax(iw, 1 / c[3]);
+    }
+    if (behind) return behind == 4;
+    if (hi[0] + 1 < win[0] || hi[1] + 1 < win[1] || lo[0] - 1 > win[0] + win[2] ||
+        lo[1] - 1 > win[1] + win[3])
+        return 1; /* no sample of the window */
+    crisp_occl_leaf o;
+    crisp__occl_set(&o, win, lo, hi, iw);
+    return depth_hides(&o, d);
+}
+
+int crisp__stages_quad_unseen(const crisp_plan_ribbon_vertex v[4], int width, int height,
+                              const int win[4], const double *hiz)
+{
+    depth_drawn d = depth_of(hiz, win, NULL);
+    return quad_unseen(v, width, height, win, &d);
 }
 
 /* 1 when every sample that face f's surface or ribbons could reach holds a nearer depth in hiz:
@@ -732,7 +788,7 @@ crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, c
             pc.mask = s->piece_mask;
             crisp__ribbons_set_hidden(p->ribbons, later_pieces, &pc);
         }
-        st = plan_stage(p, sc, cam);
+        st = plan_stage(p, sc, cam, hiz ? &d : NULL, win);
         crisp__ribbons_set_hidden(p->ribbons, NULL, NULL);
         if (st) return st;
     }
