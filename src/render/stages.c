@@ -498,20 +498,34 @@ static int depth_hides(const crisp_occl_leaf *o, const depth_drawn *d)
     return 1;
 }
 
-/* The coarse level of d (DEPTH_CELL x DEPTH_CELL blocks a cell) into coarse. */
+/* The coarse level of d (DEPTH_CELL x DEPTH_CELL blocks a cell) into coarse: block row after
+ * block row into the cells' row (one pass over hiz in memory order), NaN kept by a flag. */
+_Static_assert(DEPTH_CELL == 4, "depth_cells reads a cell's blocks of a row four at a time");
 static void depth_cells(const depth_drawn *d, double *coarse)
 {
-    int cells_y = (d->blocks_y + DEPTH_CELL - 1) / DEPTH_CELL;
-    for (int cy = 0; cy < cells_y; cy++)
-        for (int cx = 0; cx < d->cells_x; cx++) {
-            int nx = d->blocks_x - cx * DEPTH_CELL, ny = d->blocks_y - cy * DEPTH_CELL;
-            nx = nx < DEPTH_CELL ? nx : DEPTH_CELL, ny = ny < DEPTH_CELL ? ny : DEPTH_CELL;
-            double m = INFINITY;
-            for (int j = 0; j < ny; j++)
-                m = least(d->hiz + (size_t)(cy * DEPTH_CELL + j) * d->blocks_x + cx * DEPTH_CELL,
-                          nx, 1, m);
-            coarse[(size_t)cy * d->cells_x + cx] = m;
+    int full = d->blocks_x / DEPTH_CELL; /* cells with all their columns */
+    for (int by = 0; by < d->blocks_y; by++) {
+        double *out = coarse + (size_t)(by / DEPTH_CELL) * d->cells_x;
+        const double *row = d->hiz + (size_t)by * d->blocks_x;
+        int nan = 0;
+        if (by % DEPTH_CELL == 0)
+            for (int cx = 0; cx < d->cells_x; cx++)
+                out[cx] = INFINITY;
+        for (int cx = 0; cx < full; cx++) {
+            const double *r = row + DEPTH_CELL * cx;
+            double a = r[0] < r[1] ? r[0] : r[1], b = r[2] < r[3] ? r[2] : r[3];
+            a = a < b ? a : b;
+            out[cx] = a < out[cx] ? a : out[cx];
+            nan |= (r[0] != r[0]) | (r[1] != r[1]) | (r[2] != r[2]) | (r[3] != r[3]);
         }
+        for (int b = full * DEPTH_CELL; b < d->blocks_x; b++) {
+            out[full] = row[b] < out[full] ? row[b] : out[full];
+            nan |= row[b] != row[b];
+        }
+        if (nan) /* rare: the cells of this row with a NaN block are NaN (and stay so) */
+            for (int b = 0; b < d->blocks_x; b++)
+                if (row[b] != row[b]) out[b / DEPTH_CELL] = row[b];
+    }
 }
 
 /* 1 when the screen box lo, hi widened by 2 px (the ribbons reach 1 px from their curve points)
