@@ -17,6 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/compiler.h"
 #include "raster.h"
 #include "render_internal.h"
 #include "ribbon.h"
@@ -100,9 +101,10 @@ void crisp__ribbons_destroy(crisp__ribbons *rb)
 
 /* The column iu and row iv of the patch of face f's grid (its patches P) that holds (u, v):
  * binary searches over the first row's u-ends and the first column's v-ends, each monotone in its
- * coordinate (a box of (u, v) maps into the cells between those of its corners). */
-static void grid_cell(const crisp_scene_face *f, const crisp_scene_patch *P, double u, double v,
-                      uint32_t *iu, uint32_t *iv)
+ * coordinate (a box of (u, v) maps into the cells between those of its corners). Inlined:
+ * grid_patch's search, on the path of every ribbon sample. */
+static ALWAYS_INLINE void grid_cell(const crisp_scene_face *f, const crisp_scene_patch *P, double u,
+                                    double v, uint32_t *iu, uint32_t *iv)
 {
     uint32_t lo = 0, hi = f->grid_u - 1;
     while (lo < hi) {
