@@ -396,7 +396,7 @@ static int net_hidden(const hull_net *n, int width, int height, const int win[4]
 
 /* Room for a net and its halvings: HULL_ROOM nets of up to HULL_SMALL points (degrees up to 5
  * both ways) on the caller's stack (the later stages' face test is on the hot path of a close-up:
- * a malloc per patch was a tenth of it), larger nets on the heap. */
+ * no malloc per patch), larger nets on the heap. */
 #define HULL_ROOM (1 + 2 * HULL_SPLITS)
 #define HULL_SMALL 36
 
@@ -457,11 +457,11 @@ int crisp__stages_hull_piece(const crisp_bezier_patch *z, crisp_mat4 m, int widt
     return ok;
 }
 
-/* The least of n values from v on, stride apart (NaN when one is NaN). */
-static double least(const double *v, int n, ptrdiff_t stride, double m)
+/* The least of m and the n values from v on (NaN when one is NaN). */
+static double least(const double *v, int n, double m)
 {
     for (int k = 0; k < n; k++) {
-        double x = v[k * stride];
+        double x = v[k];
         m = x < m || x != x ? x : m;
     }
     return m;
@@ -479,8 +479,7 @@ static int depth_hides(const crisp_occl_leaf *o, const depth_drawn *d)
     int cy0 = (y0 + DEPTH_CELL - 1) / DEPTH_CELL, cy1 = y1 / DEPTH_CELL;
     if (cx0 >= cx1 || cy0 >= cy1) return crisp__occl_hidden(o, d->hiz, d->blocks_x);
     for (int cy = cy0; cy < cy1; cy++)
-        if (!(iw < least(d->coarse + (size_t)cy * d->cells_x + cx0, cx1 - cx0, 1, INFINITY)))
-            return 0;
+        if (!(iw < least(d->coarse + (size_t)cy * d->cells_x + cx0, cx1 - cx0, INFINITY))) return 0;
     /* The blocks around the cells: rows above and below, columns left and right between them. */
     int bxa = cx0 * DEPTH_CELL, bxb = cx1 * DEPTH_CELL, bya = cy0 * DEPTH_CELL,
         byb = cy1 * DEPTH_CELL;
@@ -488,10 +487,10 @@ static int depth_hides(const crisp_occl_leaf *o, const depth_drawn *d)
         const double *row = d->hiz + (size_t)by * d->blocks_x;
         double m = INFINITY;
         if (by < bya || by >= byb) {
-            m = least(row + x0, x1 - x0, 1, m);
+            m = least(row + x0, x1 - x0, m);
         } else {
-            m = least(row + x0, bxa - x0, 1, m);
-            m = least(row + bxb, x1 - bxb, 1, m);
+            m = least(row + x0, bxa - x0, m);
+            m = least(row + bxb, x1 - bxb, m);
         }
         if (!(iw < m)) return 0;
     }
