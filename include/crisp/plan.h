@@ -232,7 +232,9 @@ crisp_status crisp_planner_plan(crisp_planner *planner, const crisp_scene *scene
  * has none or its last plan did not finish. Valid until the planner plans again. A frame planned
  * in stages leaves out the faces it found hidden (stats.hidden_faces: no leaves, table or
  * ribbons, not CRISP_PLAN_FACE_VISIBLE; they would draw no sample); every other face's leaves,
- * record, table and ribbons are those crisp_planner_plan gives it. */
+ * record (but its ribbon range), table and ribbon quads are those crisp_planner_plan gives it,
+ * but that a face of a later stage lacks the quads the depth drawn by the earlier stages hides
+ * (they too would draw no sample). */
 const crisp_frame_plan *crisp_planner_last_plan(const crisp_planner *planner);
 
 /* After face `face`'s trim pieces changed in the scene (crisp_scene_update_trim), re-plan only

@@ -44,6 +44,10 @@ typedef struct crisp__stages {
     uint8_t *patch_in; /* per patch: its parameter box meets its face's trim pieces' box */
     size_t patch_in_cap;
     uint64_t face_box_serial, face_box_trim;
+    _Atomic uint32_t *piece_mask; /* per patch: its hidden pieces in a later stage (stages.c) */
+    size_t piece_mask_cap;
+    double *depth_cells; /* a later stage's coarse block depth (stages.c) */
+    size_t depth_cells_cap;
 } crisp__stages;
 
 /* What a face's plan record takes from the scene (planner.c: per scene, not per frame). */
@@ -131,5 +135,18 @@ void crisp__stages_free(crisp__stages *s);
  * is set). 0 when a control point is not in front of the eye. For tests. */
 int crisp__stages_hull_piece(const crisp_bezier_patch *z, crisp_mat4 m, int width, int height,
                              int splits, unsigned piece, double lo[2], double hi[2], double *w0);
+/* The pieces (crisp__ribbons_set_hidden) of patch z (box: a box that holds it) that the later
+ * stages' ribbon test finds hidden by hiz (crisp__occl_hidden's block depth of the window win of
+ * a width x height image) under m, as a mask: all when the box's screen box, widened by 2 px, is
+ * hidden at its least W; else each piece whose control-net hull, or those of its halvings (as
+ * crisp__stages_hull_piece makes them, up to 4), is so hidden. */
+uint32_t crisp__stages_patch_pieces(const crisp_bezier_patch *z, const double box[6], crisp_mat4 m,
+                                    int width, int height, const int win[4], const double *hiz);
+/* 1 when a later stage leaves ribbon quad v out of its kept ribbons (stages.c's quad_unseen):
+ * every corner behind the eye, or its corners' screen box (pixels of a width x height image)
+ * outside the window win or hidden by hiz (crisp__occl_hidden's block depth of win) at their
+ * largest 1/W. For tests. */
+int crisp__stages_quad_unseen(const crisp_plan_ribbon_vertex v[4], int width, int height,
+                              const int win[4], const double *hiz);
 
 #endif

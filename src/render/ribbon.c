@@ -17,6 +17,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "core/compiler.h"
 #include "raster.h"
 #include "render_internal.h"
 #include "ribbon.h"
@@ -47,7 +48,9 @@ struct crisp__ribbons {
     size_t last_used;              /* bytes of samples over all workers in the last build */
     crisp_raster_vertex **scratch; /* per worker: one job's samples while it is sampled */
     uint32_t *scratch_cap;
-    uint32_t last_max; /* most samples of one job in the last build */
+    uint32_t last_max;              /* most samples of one job in the last build */
+    crisp__ribbon_pieces_fn hidden; /* crisp__ribbons_set_hidden (NULL: none) */
+    const void *hidden_ctx;
 };
 
 typedef struct ribbon_ctx {
@@ -96,15 +99,13 @@ void crisp__ribbons_destroy(crisp__ribbons *rb)
     free(rb);
 }
 
-/* The face's Bézier patch holding (u, v) and the local (s, t) there, found in the face's patch
- * grid (binary search over the first row's u-ends and the first column's v-ends); NULL when its
- * patches do not form a grid. */
-static const crisp_bezier_patch *grid_patch(const crisp_scene *sc, uint32_t face, double u,
-                                            double v, double *s, double *t)
+/* The column iu and row iv of the patch of face f's grid (its patches P) that holds (u, v):
+ * binary searches over the first row's u-ends and the first column's v-ends, each monotone in its
+ * coordinate (a box of (u, v) maps into the cells between those of its corners). Inlined:
+ * grid_patch's search, on the path of every ribbon sample. */
+static ALWAYS_INLINE void grid_cell(const crisp_scene_face *f, const crisp_scene_patch *P, double u,
+                                    double v, uint32_t *iu, uint32_t *iv)
 {
-    const crisp_scene_face *f = &sc->faces[face];
-    if (!f->patch_count || f->grid_u * f->grid_v != f->patch_count) return NULL;
-    const crisp_scene_patch *P = sc->patches + f->first_patch;
     uint32_t lo = 0, hi = f->grid_u - 1;
     while (lo < hi) {
         uint32_t mid = lo + (hi - lo) / 2;
@@ -113,7 +114,7 @@ static const crisp_bezier_patch *grid_patch(const crisp_scene *sc, uint32_t face
         else
             lo = mid + 1;
     }
-    uint32_t iu = lo;
+    *iu = lo;
     lo = 0, hi = f->grid_v - 1;
     while (lo < hi) {
         uint32_t mid = lo + (hi - lo) / 2;
@@ -122,7 +123,73 @@ static const crisp_bezier_patch *grid_patch(const crisp_scene *sc, uint32_t face
         else
             lo = mid + 1;
     }
-    const crisp_bezier_patch *b = &P[(size_t)lo * f->grid_u + iu].bez;
+    *iv = lo;
+}
+
+void crisp__ribbons_set_hidden(crisp__ribbons *rb, crisp__ribbon_pieces_fn fn, const void *ctx)
+{
+    rb->hidden = fn;
+    rb->hidden_ctx = ctx;
+}
+
+/* The pieces (crisp__ribbons_set_hidden) of the patch b that hold points with s in [s0, s1] and
+ * t in [t0, t1] (clamped to [0, 1]), as a mask: the cells reached, widened by 1e-9 so that a
+ * point on a cut between pieces, which is in both of their hulls, may be counted in either. */
+static uint32_t pieces_reached(double s0, double s1, double t0, double t1)
+{
+    const int n = CRISP__RIBBON_PIECES;
+    double e = 1e-9;
+    int c0 = (int)fmax(0, fmin(n - 1, floor((s0 - e) * n))),
+        c1 = (int)fmax(0, fmin(n - 1, floor((s1 + e) * n)));
+    int r0 = (int)fmax(0, fmin(n - 1, floor((t0 - e) * n))),
+        r1 = (int)fmax(0, fmin(n - 1, floor((t1 + e) * n)));
+    uint32_t row = ((1u << (c1 + 1)) - 1) & ~((1u << c0) - 1), m = 0;
+    for (int r = r0; r <= r1; r++)
+        m |= row << (n * r);
+    return m;
+}
+
+/* 1 when every point ribbon_vertex takes on the (u, v) segment from p to q of face f (each point
+ * of its box, in the grid patch grid_patch finds for it, at the clamped (s, t) there) lies in a
+ * piece rb's hidden test marks: each patch of the grid cells between those of the box's corners,
+ * and in it the pieces of the box's (s, t) range. */
+static int pieces_hidden(const crisp__ribbons *rb, const crisp_scene *sc, uint32_t face,
+                         const double p[2], const double q[2])
+{
+    const crisp_scene_face *f = &sc->faces[face];
+    if (!f->patch_count || f->grid_u * f->grid_v != f->patch_count) return 0;
+    double ulo = fmin(p[0], q[0]), uhi = fmax(p[0], q[0]);
+    double vlo = fmin(p[1], q[1]), vhi = fmax(p[1], q[1]);
+    if (!isfinite(ulo + uhi + vlo + vhi)) return 0;
+    const crisp_scene_patch *P = sc->patches + f->first_patch;
+    uint32_t i0, j0, i1, j1;
+    grid_cell(f, P, ulo, vlo, &i0, &j0);
+    grid_cell(f, P, uhi, vhi, &i1, &j1);
+    for (uint32_t j = j0; j <= j1; j++)
+        for (uint32_t i = i0; i <= i1; i++) {
+            uint32_t k = j * f->grid_u + i;
+            uint32_t hidden = rb->hidden(rb->hidden_ctx, f->first_patch + k);
+            const crisp_bezier_patch *b = &P[k].bez;
+            if (!hidden || !(b->u1 > b->u0) || !(b->v1 > b->v0)) return 0;
+            double s0 = (ulo - b->u0) / (b->u1 - b->u0), s1 = (uhi - b->u0) / (b->u1 - b->u0);
+            double t0 = (vlo - b->v0) / (b->v1 - b->v0), t1 = (vhi - b->v0) / (b->v1 - b->v0);
+            uint32_t need = pieces_reached(s0, s1, t0, t1);
+            if ((hidden & need) != need) return 0;
+        }
+    return 1;
+}
+
+/* The face's Bézier patch holding (u, v) and the local (s, t) there, found in the face's patch
+ * grid (grid_cell); NULL when its patches do not form a grid. */
+static const crisp_bezier_patch *grid_patch(const crisp_scene *sc, uint32_t face, double u,
+                                            double v, double *s, double *t)
+{
+    const crisp_scene_face *f = &sc->faces[face];
+    if (!f->patch_count || f->grid_u * f->grid_v != f->patch_count) return NULL;
+    const crisp_scene_patch *P = sc->patches + f->first_patch;
+    uint32_t iu, iv;
+    grid_cell(f, P, u, v, &iu, &iv);
+    const crisp_bezier_patch *b = &P[(size_t)iv * f->grid_u + iu].bez;
     *s = fmin(1.0, fmax(0.0, (u - b->u0) / (b->u1 - b->u0)));
     *t = fmin(1.0, fmax(0.0, (v - b->v0) / (b->v1 - b->v0)));
     return b;
@@ -221,6 +288,7 @@ typedef struct sampler {
     double w, h, gx, gy;
     const crisp_trim_plan *tp; /* a face with chains: its strips (speed bounds); else NULL */
     int failed;
+    const crisp__ribbons *rb; /* its hidden test (crisp__ribbons_set_hidden) when set */
 } sampler;
 
 static void emit(sampler *s, const crisp_raster_vertex *v)
@@ -327,6 +395,16 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
         split = mid.clip[3] > 0 && chord_dist(a, &mid, b, s->w, s->h) > RIBBON_BOW_PX;
     }
     if (depth < RIBBON_MAX_DEPTH && split && (va || vb || d < INFINITY)) {
+        /* A part of a segment (the whole was tested in sample_ribbons) whose (u, v) box lies in
+         * hidden pieces: its samples, and the quads between them, are hidden; the ribbon breaks
+         * there, as it does off screen. */
+        if (depth && s->rb && pieces_hidden(s->rb, s->sc, s->face, a->attr, b->attr)) {
+            crisp_raster_vertex brk = *b;
+            brk.clip[3] = -1;
+            emit(s, &brk);
+            emit(s, b);
+            return;
+        }
         /* The middle becomes a sample: its point and normal (over the position looked at). */
         ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
                       0.5 * (a->attr[1] + b->attr[1]), &mid);
@@ -455,7 +533,8 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
                      .w = plan->width,
                      .h = plan->height,
                      .gx = 1 + 4.0 / plan->width,
-                     .gy = 1 + 4.0 / plan->height};
+                     .gy = 1 + 4.0 / plan->height,
+                     .rb = c->rb->hidden ? c->rb : NULL};
         /* The face's strips say where its surface is off screen (not for a face drawn whole:
          * its trim plan is not this frame's). */
         const crisp_trim_plan *tp = &plan->trims[job->face];
@@ -469,7 +548,8 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
         int have_a = 0, open = 0; /* open: the ribbon so far ends at a */
         for (int k = 0; k + 1 < n; k++) {
             path_point(c, job, k + 1, uv);
-            if (tp && uv_hidden(tp, uv0, uv)) {
+            if ((tp && uv_hidden(tp, uv0, uv)) ||
+                (c->rb->hidden && pieces_hidden(c->rb, c->sc, job->face, uv0, uv))) {
                 if (open) {
                     crisp_raster_vertex brk = a;
                     brk.clip[3] = -1;

@@ -31,6 +31,19 @@ void crisp__ribbons_destroy(crisp__ribbons *rb);
 #define CRISP__RIBBON_CORE_PX 0.35
 #define CRISP__RIBBON_CORE_SLACK 0.95
 
+/* A patch's pieces (crisp__ribbons_set_hidden): its parameter rectangle cut into
+ * CRISP__RIBBON_PIECES equal parts in s and in t; the piece in column i (along s) and row j
+ * (along t) is bit CRISP__RIBBON_PIECES j + i of a mask. */
+#define CRISP__RIBBON_PIECES 4
+typedef uint32_t (*crisp__ribbon_pieces_fn)(const void *ctx, uint32_t patch);
+/* While fn is set (NULL: off), a build leaves out the ribbon along a segment of a face's trim
+ * polyline (or domain edge) whose (u, v) box lies in pieces of the face's patch grid that
+ * fn(ctx, patch) (the scene's patch index; callable from several threads) marks hidden: pieces
+ * where no sample the ribbons of its surface points can reach would take their fragments (the
+ * later stages' depth, stages.c). Such a segment, or such a part of one that the sampling
+ * splits, gets no samples: the ribbon breaks there, as off screen. */
+void crisp__ribbons_set_hidden(crisp__ribbons *rb, crisp__ribbon_pieces_fn fn, const void *ctx);
+
 crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
                                   const crisp_scene *sc, uint32_t only_face, crisp_pool *pool,
                                   crisp_plan_ribbon_vertex **verts, size_t *cap,

@@ -6,6 +6,7 @@
  * laid out as that one is, from the steps planner.c shares (planner.h). Whether stages pay is
  * decided frame by frame (STAGE_PAYS). */
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -176,8 +177,16 @@ static crisp_status choose_stages(crisp_planner *p, const crisp_scene *sc, const
     return CRISP_OK;
 }
 
-/* The current stage's faces (later) kept: their leaves (laid out), ribbons, levels and stats. */
-static crisp_status keep_stage(crisp_planner *p, const crisp_scene *sc)
+typedef struct depth_drawn depth_drawn;
+static depth_drawn depth_of(const double *hiz, const int win[4], double *coarse);
+static int quad_unseen(const crisp_plan_ribbon_vertex *v, int width, int height, const int win[4],
+                       const depth_drawn *d);
+
+/* The current stage's faces (later) kept: their leaves (laid out), ribbons, levels and stats;
+ * with the depth drawn by the earlier stages d (of the window win; NULL: none), not the ribbon
+ * quads it finds unseen (quad_unseen). */
+static crisp_status keep_stage(crisp_planner *p, const crisp_scene *sc, const depth_drawn *d,
+                               const int win[4])
 {
     crisp__stages *s = &p->stages;
     crisp_status st;
@@ -200,9 +209,16 @@ static crisp_status keep_stage(crisp_planner *p, const crisp_scene *sc)
         s->kept_leaf_count += pf->leaf_count;
         k[2] = (uint32_t)s->kept_quads;
         k[3] = p->trees->face_tau[f] ? p->ribbon_quads[f] : 0;
-        memcpy(s->kept_ribbons + 4 * s->kept_quads,
-               p->ribbon_verts + 4 * (size_t)p->ribbon_first[f],
-               4 * (size_t)k[3] * sizeof *p->ribbon_verts);
+        const crisp_plan_ribbon_vertex *v = p->ribbon_verts + 4 * (size_t)p->ribbon_first[f];
+        if (!d) {
+            memcpy(s->kept_ribbons + 4 * s->kept_quads, v, 4 * (size_t)k[3] * sizeof *v);
+        } else {
+            uint32_t kept = 0;
+            for (uint32_t q = 0; q < k[3]; q++, v += 4)
+                if (!quad_unseen(v, p->cam.width, p->cam.height, win, d))
+                    memcpy(s->kept_ribbons + 4 * (s->kept_quads + kept++), v, 4 * sizeof *v);
+            k[3] = kept;
+        }
         s->kept_quads += k[3];
         k[4] = p->trees->face_tau[f];
         s->kept_rows[f] = p->trees->face_rows[f];
@@ -226,8 +242,10 @@ static crisp_status keep_stage(crisp_planner *p, const crisp_scene *sc)
     return CRISP_OK;
 }
 
-/* Plan the faces of the current stage (later), laid out to be drawn; kept for the final plan. */
-static crisp_status plan_stage(crisp_planner *p, const crisp_scene *sc, const crisp_camera *cam)
+/* Plan the faces of the current stage (later), laid out to be drawn; kept for the final plan
+ * (keep_stage with d and win). */
+static crisp_status plan_stage(crisp_planner *p, const crisp_scene *sc, const crisp_camera *cam,
+                               const depth_drawn *d, const int win[4])
 {
     crisp__stages *s = &p->stages;
     crisp_status st;
@@ -239,7 +257,7 @@ static crisp_status plan_stage(crisp_planner *p, const crisp_scene *sc, const cr
         return st;
     crisp__planner_point_out(p, sc);
     p->out.splat_range_count = 0;
-    return keep_stage(p, sc);
+    return keep_stage(p, sc, d, win);
 }
 
 crisp_status crisp__planner_plan_near(crisp_planner *p, const crisp_scene *sc,
@@ -284,7 +302,7 @@ crisp_status crisp__planner_plan_near(crisp_planner *p, const crisp_scene *sc,
     s->stage_at = 0;
     for (uint32_t f = 0; f < sc->face_count; f++)
         s->later[f] = s->stage[f] == 0;
-    if ((st = plan_stage(p, sc, cam))) return st;
+    if ((st = plan_stage(p, sc, cam, NULL, NULL))) return st;
     p->staged = 2;
     p->cam = *cam;
     p->scene = sc;
@@ -344,33 +362,53 @@ static void hull_split(const hull_net *n, int dir, hull_net *a, hull_net *b)
     }
 }
 
+/* The block depth drawn by the earlier stages (crisp__occl_hidden's hiz, blocks_x x blocks_y
+ * blocks) and a coarser level of it: per cell of DEPTH_CELL x DEPTH_CELL blocks the least of
+ * their values (NaN when one is NaN), so that a rectangle's test reads a cell where it covers all
+ * of its blocks (coarse NULL: none). */
+#define DEPTH_CELL 4
+struct depth_drawn {
+    const double *hiz;
+    int blocks_x, blocks_y;
+    const double *coarse;
+    int cells_x;
+};
+
 static int rect_hidden(const double lo_in[2], const double hi_in[2], double w0, const int win[4],
-                       const double *hiz, int blocks_x);
+                       const depth_drawn *d);
 
 /* 1 when rect_hidden holds for the net's hull, or for those of both its halves (level: the
  * halvings done; the next is in u on even levels, in v on odd ones; scratch: room for two nets
  * per halving left). */
-static int net_hidden(const hull_net *n, int width, int height, const int win[4], const double *hiz,
-                      int blocks_x, int level, double (*scratch)[4])
+static int net_hidden(const hull_net *n, int width, int height, const int win[4],
+                      const depth_drawn *d, int level, double (*scratch)[4])
 {
     double lo[2], hi[2], w0;
     if (!hull_screen(n, width, height, lo, hi, &w0)) return 0;
-    if (rect_hidden(lo, hi, w0, win, hiz, blocks_x)) return 1;
+    if (rect_hidden(lo, hi, w0, win, d)) return 1;
     if (level == HULL_SPLITS) return 0;
     int np = n->nu * n->nv;
     hull_net h[2] = {{0, 0, scratch}, {0, 0, scratch + np}};
     hull_split(n, level & 1, &h[0], &h[1]);
-    return net_hidden(&h[0], width, height, win, hiz, blocks_x, level + 1, scratch + 2 * np) &&
-           net_hidden(&h[1], width, height, win, hiz, blocks_x, level + 1, scratch + 2 * np);
+    return net_hidden(&h[0], width, height, win, d, level + 1, scratch + 2 * np) &&
+           net_hidden(&h[1], width, height, win, d, level + 1, scratch + 2 * np);
 }
 
-/* Patch z's control net projected by m into n (its points: (1 + 2 HULL_SPLITS) nets of room,
- * allocated here; NULL when z's degrees are above 15 or there is no memory). */
-static double (*hull_project(const crisp_bezier_patch *z, crisp_mat4 m, hull_net *n))[4]
+/* Room for a net and its halvings: HULL_ROOM nets of up to HULL_SMALL points (degrees up to 5
+ * both ways) on the caller's stack (the later stages' face test is on the hot path of a close-up:
+ * no malloc per patch), larger nets on the heap. */
+#define HULL_ROOM (1 + 2 * HULL_SPLITS)
+#define HULL_SMALL 36
+
+/* Patch z's control net projected by m into n; its points go to room (HULL_ROOM nets of
+ * HULL_SMALL points) when they fit, else to memory allocated here (free it when the result is
+ * not room). NULL when z's degrees are above 15 or there is no memory. */
+static double (*hull_project(const crisp_bezier_patch *z, crisp_mat4 m, hull_net *n,
+                             double (*room)[4]))[4]
 {
     if (z->du < 0 || z->dv < 0 || z->du > 15 || z->dv > 15) return NULL;
     int np = (z->du + 1) * (z->dv + 1);
-    double(*p)[4] = malloc((size_t)(1 + 2 * HULL_SPLITS) * (size_t)np * sizeof *p);
+    double(*p)[4] = np <= HULL_SMALL ? room : malloc((size_t)HULL_ROOM * (size_t)np * sizeof *p);
     if (!p) return NULL;
     *n = (hull_net){z->du + 1, z->dv + 1, p};
     for (int k = 0; k < np; k++) {
@@ -386,13 +424,14 @@ static double (*hull_project(const crisp_bezier_patch *z, crisp_mat4 m, hull_net
 
 /* net_hidden of patch z's control net (not hidden when it cannot be projected: always safe). */
 static int patch_hidden(const crisp_bezier_patch *z, crisp_mat4 m, int width, int height,
-                        const int win[4], const double *hiz, int blocks_x)
+                        const int win[4], const depth_drawn *d)
 {
     hull_net n;
-    double(*p)[4] = hull_project(z, m, &n);
+    double room[HULL_ROOM * HULL_SMALL][4];
+    double(*p)[4] = hull_project(z, m, &n, room);
     if (!p) return 0;
-    int hidden = net_hidden(&n, width, height, win, hiz, blocks_x, 0, p + n.nu * n.nv);
-    free(p);
+    int hidden = net_hidden(&n, width, height, win, d, 0, p + n.nu * n.nv);
+    if (p != room) free(p);
     return hidden;
 }
 
@@ -400,9 +439,10 @@ int crisp__stages_hull_piece(const crisp_bezier_patch *z, crisp_mat4 m, int widt
                              int splits, unsigned piece, double lo[2], double hi[2], double *w0)
 {
     hull_net n;
-    double(*p)[4] = hull_project(z, m, &n);
+    double room[HULL_ROOM * HULL_SMALL][4];
+    double(*p)[4] = hull_project(z, m, &n, room);
     if (!p || splits < 0 || splits > HULL_SPLITS) {
-        free(p);
+        if (p != room) free(p);
         return 0;
     }
     int np = n.nu * n.nv;
@@ -413,21 +453,131 @@ int crisp__stages_hull_piece(const crisp_bezier_patch *z, crisp_mat4 m, int widt
         n = h[(piece >> level) & 1];
     }
     int ok = hull_screen(&n, width, height, lo, hi, w0);
-    free(p);
+    if (p != room) free(p);
     return ok;
 }
 
+/* The least of m and the n values from v on (NaN when one is NaN). */
+static double least(const double *v, int n, double m)
+{
+    for (int k = 0; k < n; k++) {
+        double x = v[k];
+        m = x < m || x != x ? x : m;
+    }
+    return m;
+}
+
+/* crisp__occl_hidden(o, d->hiz, d->blocks_x), the same answer: o's bound is below every block of
+ * its rectangle; the cells of the coarse level that the rectangle covers whole are read there. */
+static int depth_hides(const crisp_occl_leaf *o, const depth_drawn *d)
+{
+    double iw = o->iw;
+    if (!d->coarse) return crisp__occl_hidden(o, d->hiz, d->blocks_x);
+    if (!(iw < INFINITY)) return 0;
+    int x0 = o->bx0, y0 = o->by0, x1 = o->bx1 + 1, y1 = o->by1 + 1;      /* blocks [x0, x1) */
+    int cx0 = (x0 + DEPTH_CELL - 1) / DEPTH_CELL, cx1 = x1 / DEPTH_CELL; /* cells [cx0, cx1) */
+    int cy0 = (y0 + DEPTH_CELL - 1) / DEPTH_CELL, cy1 = y1 / DEPTH_CELL;
+    if (cx0 >= cx1 || cy0 >= cy1) return crisp__occl_hidden(o, d->hiz, d->blocks_x);
+    for (int cy = cy0; cy < cy1; cy++)
+        if (!(iw < least(d->coarse + (size_t)cy * d->cells_x + cx0, cx1 - cx0, INFINITY))) return 0;
+    /* The blocks around the cells: rows above and below, columns left and right between them. */
+    int bxa = cx0 * DEPTH_CELL, bxb = cx1 * DEPTH_CELL, bya = cy0 * DEPTH_CELL,
+        byb = cy1 * DEPTH_CELL;
+    for (int by = y0; by < y1; by++) {
+        const double *row = d->hiz + (size_t)by * d->blocks_x;
+        double m = INFINITY;
+        if (by < bya || by >= byb) {
+            m = least(row + x0, x1 - x0, m);
+        } else {
+            m = least(row + x0, bxa - x0, m);
+            m = least(row + bxb, x1 - bxb, m);
+        }
+        if (!(iw < m)) return 0;
+    }
+    return 1;
+}
+
+/* The coarse level of d (DEPTH_CELL x DEPTH_CELL blocks a cell) into coarse: block row after
+ * block row into the cells' row (one pass over hiz in memory order), NaN kept by a flag. */
+_Static_assert(DEPTH_CELL == 4, "depth_cells reads a cell's blocks of a row four at a time");
+static void depth_cells(const depth_drawn *d, double *coarse)
+{
+    int full = d->blocks_x / DEPTH_CELL; /* cells with all their columns */
+    for (int by = 0; by < d->blocks_y; by++) {
+        double *out = coarse + (size_t)(by / DEPTH_CELL) * d->cells_x;
+        const double *row = d->hiz + (size_t)by * d->blocks_x;
+        int nan = 0;
+        if (by % DEPTH_CELL == 0)
+            for (int cx = 0; cx < d->cells_x; cx++)
+                out[cx] = INFINITY;
+        for (int cx = 0; cx < full; cx++) {
+            const double *r = row + DEPTH_CELL * cx;
+            double a = r[0] < r[1] ? r[0] : r[1], b = r[2] < r[3] ? r[2] : r[3];
+            a = a < b ? a : b;
+            out[cx] = a < out[cx] ? a : out[cx];
+            nan |= (r[0] != r[0]) | (r[1] != r[1]) | (r[2] != r[2]) | (r[3] != r[3]);
+        }
+        for (int b = full * DEPTH_CELL; b < d->blocks_x; b++) {
+            out[full] = row[b] < out[full] ? row[b] : out[full];
+            nan |= row[b] != row[b];
+        }
+        if (nan) /* rare: the cells of this row with a NaN block are NaN (and stay so) */
+            for (int b = 0; b < d->blocks_x; b++)
+                if (row[b] != row[b]) out[b / DEPTH_CELL] = row[b];
+    }
+}
+
 /* 1 when the screen box lo, hi widened by 2 px (the ribbons reach 1 px from their curve points)
- * at least W w0 is hidden by hiz (crisp__occl_hidden), or holds no sample of the window. */
+ * at least W w0 is hidden by the depth drawn (crisp__occl_hidden), or holds no sample of the
+ * window. */
 static int rect_hidden(const double lo_in[2], const double hi_in[2], double w0, const int win[4],
-                       const double *hiz, int blocks_x)
+                       const depth_drawn *d)
 {
     double lo[2] = {lo_in[0] - 2, lo_in[1] - 2}, hi[2] = {hi_in[0] + 2, hi_in[1] + 2};
     if (hi[0] < win[0] || hi[1] < win[1] || lo[0] > win[0] + win[2] || lo[1] > win[1] + win[3])
         return 1; /* no sample of the window */
     crisp_occl_leaf o;
     crisp__occl_set(&o, win, lo, hi, 1.0 / w0);
-    return crisp__occl_hidden(&o, hiz, blocks_x);
+    return depth_hides(&o, d);
+}
+
+/* 1 when ribbon quad v can write no sample in the final draw: every corner behind the eye
+ * (build_quads' quads at a break of the ribbon), or every corner in front of it and its
+ * corners' screen box, at their largest 1/W, outside the window or hidden by the depth drawn d
+ * (the quad's fragments, and its core's, lie in that box and are no nearer than its corners:
+ * crisp__raster_quad_hidden's test at the earlier stages' depth, which the final depth only
+ * makes nearer). */
+static int quad_unseen(const crisp_plan_ribbon_vertex *v, int width, int height, const int win[4],
+                       const depth_drawn *d)
+{
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY}, iw = 0;
+    int behind = 0;
+    for (int k = 0; k < 4; k++) {
+        const double *c = v[k].clip;
+        if (c[3] < 0) {
+            behind++;
+            continue;
+        }
+        if (!(c[3] > 0) || !isfinite(c[0] + c[1] + c[3])) return 0;
+        double px = (c[0] / c[3] + 1) * 0.5 * width, py = (1 - c[1] / c[3]) * 0.5 * height;
+        lo[0] = fmin(lo[0], px), hi[0] = fmax(hi[0], px);
+        lo[1] = fmin(lo[1], py), hi[1] = fmax(hi[1], py);
+        iw = fmax(iw, 1 / c[3]);
+    }
+    if (behind) return behind == 4;
+    if (hi[0] + 1 < win[0] || hi[1] + 1 < win[1] || lo[0] - 1 > win[0] + win[2] ||
+        lo[1] - 1 > win[1] + win[3])
+        return 1; /* no sample of the window */
+    crisp_occl_leaf o;
+    crisp__occl_set(&o, win, lo, hi, iw);
+    return depth_hides(&o, d);
+}
+
+int crisp__stages_quad_unseen(const crisp_plan_ribbon_vertex v[4], int width, int height,
+                              const int win[4], const double *hiz)
+{
+    depth_drawn d = depth_of(hiz, win, NULL);
+    return quad_unseen(v, width, height, win, &d);
 }
 
 /* 1 when every sample that face f's surface or ribbons could reach holds a nearer depth in hiz:
@@ -435,7 +585,7 @@ static int rect_hidden(const double lo_in[2], const double hi_in[2], double w0, 
  * outside the widened frustum, or in front of the eye with its screen box widened by 2 px (the
  * ribbons reach 1 px from their curve points) hidden (crisp__occl_hidden at the box's least W). */
 static int face_hidden(const crisp_planner *p, const crisp_scene *sc, uint32_t f, crisp_mat4 m,
-                       int width, int height, const int win[4], const double *hiz, int blocks_x)
+                       int width, int height, const int win[4], const depth_drawn *d)
 {
     const crisp__stages *s = &p->stages;
     const crisp_scene_face *sf = &sc->faces[f];
@@ -463,17 +613,127 @@ static int face_hidden(const crisp_planner *p, const crisp_scene *sc, uint32_t f
             if (out[0] | out[1] | out[2] | out[3]) continue;
             return 0;
         }
-        if (!rect_hidden(lo, hi, w0, win, hiz, blocks_x) &&
-            !patch_hidden(&sc->patches[q].bez, m, width, height, win, hiz, blocks_x))
+        if (!rect_hidden(lo, hi, w0, win, d) &&
+            !patch_hidden(&sc->patches[q].bez, m, width, height, win, d))
             return 0;
     }
     return 1;
 }
 
+/* The pieces (crisp__ribbons_set_hidden) of net n's parameter rectangle whose hulls, or the
+ * hulls of their halvings, rect_hidden finds hidden, as a mask (net_hidden's halvings, all of
+ * them: the 2^HULL_SPLITS pieces are a CRISP__RIBBON_PIECES square grid, u halved on even levels,
+ * v on odd ones). level: the halvings done; the net covers cells [c0, c0 + nc) x [r0, r0 + nr);
+ * scratch as net_hidden's. */
+_Static_assert(1 << HULL_SPLITS == CRISP__RIBBON_PIECES * CRISP__RIBBON_PIECES,
+               "a patch's pieces are its hull pieces of HULL_SPLITS halvings");
+static uint32_t net_pieces(const hull_net *n, int width, int height, const int win[4],
+                           const depth_drawn *d, int level, int c0, int r0, int nc, int nr,
+                           double (*scratch)[4])
+{
+    double lo[2], hi[2], w0;
+    if (!hull_screen(n, width, height, lo, hi, &w0)) return 0;
+    if (rect_hidden(lo, hi, w0, win, d)) {
+        uint32_t row = ((1u << nc) - 1) << c0, m = 0;
+        for (int r = r0; r < r0 + nr; r++)
+            m |= row << (CRISP__RIBBON_PIECES * r);
+        return m;
+    }
+    if (level == HULL_SPLITS) return 0;
+    int np = n->nu * n->nv, u = !(level & 1);
+    hull_net h[2] = {{0, 0, scratch}, {0, 0, scratch + np}};
+    hull_split(n, level & 1, &h[0], &h[1]);
+    int hc = u ? nc / 2 : nc, hr = u ? nr : nr / 2;
+    return net_pieces(&h[0], width, height, win, d, level + 1, c0, r0, hc, hr, scratch + 2 * np) |
+           net_pieces(&h[1], width, height, win, d, level + 1, u ? c0 + hc : c0, u ? r0 : r0 + hr,
+                      hc, hr, scratch + 2 * np);
+}
+
+/* crisp__stages_patch_pieces against the depth drawn d. */
+static uint32_t patch_pieces(const crisp_bezier_patch *z, const double box[6], crisp_mat4 m,
+                             int width, int height, const int win[4], const depth_drawn *d)
+{
+    const uint32_t all = (1u << (CRISP__RIBBON_PIECES * CRISP__RIBBON_PIECES)) - 1;
+    double lo[2], hi[2], w0, w1;
+    if (box_screen(box, m, width, height, lo, hi, &w0, &w1) && rect_hidden(lo, hi, w0, win, d))
+        return all;
+    hull_net n;
+    double room[HULL_ROOM * HULL_SMALL][4];
+    double(*p)[4] = hull_project(z, m, &n, room);
+    if (!p) return 0;
+    uint32_t mask = net_pieces(&n, width, height, win, d, 0, 0, 0, CRISP__RIBBON_PIECES,
+                               CRISP__RIBBON_PIECES, p + n.nu * n.nv);
+    if (p != room) free(p);
+    return mask;
+}
+
+/* The depth drawn of the window win: hiz and its coarse level in coarse (room for depth_cells'
+ * cells; NULL: none). */
+static depth_drawn depth_of(const double *hiz, const int win[4], double *coarse)
+{
+    depth_drawn d = {hiz, (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+                     (win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK, NULL, 0};
+    d.cells_x = (d.blocks_x + DEPTH_CELL - 1) / DEPTH_CELL;
+    if (coarse) {
+        depth_cells(&d, coarse);
+        d.coarse = coarse;
+    }
+    return d;
+}
+
+static size_t depth_cell_count(const int win[4])
+{
+    size_t bx = (size_t)(win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+           by = (size_t)(win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
+    return ((bx + DEPTH_CELL - 1) / DEPTH_CELL) * ((by + DEPTH_CELL - 1) / DEPTH_CELL);
+}
+
+uint32_t crisp__stages_patch_pieces(const crisp_bezier_patch *z, const double box[6], crisp_mat4 m,
+                                    int width, int height, const int win[4], const double *hiz)
+{
+    double *coarse = malloc(depth_cell_count(win) * sizeof *coarse);
+    depth_drawn d = depth_of(hiz, win, coarse); /* without memory: no coarse level */
+    uint32_t mask = patch_pieces(z, box, m, width, height, win, &d);
+    free(coarse);
+    return mask;
+}
+
+/* The ribbons' hidden test of a later stage (crisp__ribbons_set_hidden): crisp__stages_patch_pieces
+ * against the
+ * depth drawn by the earlier stages, computed when first asked and kept for the stage (a patch's
+ * mask in bits 0-15, bit 16 set once it is known). Sound for the final draw: the depth stored at
+ * a sample only gets nearer (the surfaces' and splats' depth tests, the fill pass's slack test
+ * and its cores' take only nearer fragments), so a ribbon fragment of a hidden piece, no nearer
+ * than its curve points (a quad's 1/W and its core's lie between its two curve points'), is
+ * refused wherever it lands, as the draw's own ribbon cull would find. */
+typedef struct pieces_ctx {
+    const crisp_scene *sc;
+    crisp_mat4 m;
+    int width, height;
+    const int *win;
+    const depth_drawn *d;
+    _Atomic uint32_t *mask; /* per scene patch */
+} pieces_ctx;
+
+static uint32_t later_pieces(const void *vctx, uint32_t q)
+{
+    const pieces_ctx *c = vctx;
+    uint32_t m = atomic_load_explicit(&c->mask[q], memory_order_relaxed);
+    if (!m) {
+        /* Two workers may compute the same mask: both store the same value. */
+        crisp_mat4 vp;
+        memcpy(vp, c->m, sizeof vp);
+        const crisp_scene_patch *z = &c->sc->patches[q];
+        m = 1u << 16 | patch_pieces(&z->bez, z->box, vp, c->width, c->height, c->win, c->d);
+        atomic_store_explicit(&c->mask[q], m, memory_order_relaxed);
+    }
+    return m & 0xffffu;
+}
+
 typedef struct hidden_ctx {
     const crisp_planner *p;
     const crisp_scene *sc;
-    const double *hiz;
+    const depth_drawn *d;
     const int *win;
     uint8_t *hidden; /* per face: face_hidden, for the later stages' faces not yet hidden */
 } hidden_ctx;
@@ -484,11 +744,10 @@ static void faces_hidden(void *vctx, size_t begin, size_t end, int worker)
     const hidden_ctx *c = vctx;
     const crisp__stages *s = &c->p->stages;
     const crisp_camera *cam = &c->p->cam;
-    int blocks_x = (c->win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
     for (size_t f = begin; f < end; f++)
         c->hidden[f] = s->stage[f] > s->stage_at && s->stage[f] != STAGE_HIDDEN &&
                        face_hidden(c->p, c->sc, (uint32_t)f, c->p->trees->view_proj, cam->width,
-                                   cam->height, c->win, c->hiz, blocks_x);
+                                   cam->height, c->win, c->d);
 }
 
 crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, const double *hiz,
@@ -505,8 +764,13 @@ crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, c
     /* The later stages' faces that the depth drawn hides get nothing (tested in parallel into
      * skip, which plan_stage sets afresh). */
     int next = STAGES;
+    depth_drawn d = {0};
     if (hiz) {
-        hidden_ctx hc = {p, sc, hiz, win, s->skip};
+        if ((st = crisp_grow((void **)&s->depth_cells, &s->depth_cells_cap, depth_cell_count(win),
+                             sizeof *s->depth_cells)))
+            return st;
+        d = depth_of(hiz, win, s->depth_cells);
+        hidden_ctx hc = {p, sc, &d, win, s->skip};
         crisp_pool_parallel_for(p->pool, n, 4, faces_hidden, &hc);
     }
     for (uint32_t f = 0; f < n; f++) {
@@ -525,7 +789,22 @@ crisp_status crisp__planner_plan_next(crisp_planner *p, const crisp_scene *sc, c
         more |= s->stage[f] > next && s->stage[f] != STAGE_HIDDEN;
     }
     s->stage_at = next;
-    if (next < STAGES && (st = plan_stage(p, sc, cam))) return st;
+    if (next < STAGES) {
+        /* The ribbons of the stage's faces left out where the depth drawn hides them. */
+        pieces_ctx pc = {.sc = sc, .width = cam->width, .height = cam->height, .win = win, .d = &d};
+        memcpy(pc.m, p->trees->view_proj, sizeof pc.m);
+        if (hiz) {
+            if ((st = crisp_grow((void **)&s->piece_mask, &s->piece_mask_cap,
+                                 sc->patch_count ? sc->patch_count : 1, sizeof *s->piece_mask)))
+                return st;
+            memset((void *)s->piece_mask, 0, sc->patch_count * sizeof *s->piece_mask);
+            pc.mask = s->piece_mask;
+            crisp__ribbons_set_hidden(p->ribbons, later_pieces, &pc);
+        }
+        st = plan_stage(p, sc, cam, hiz ? &d : NULL, win);
+        crisp__ribbons_set_hidden(p->ribbons, NULL, NULL);
+        if (st) return st;
+    }
     *last = !more;
     *dest = o;
     if (more) return CRISP_OK;
@@ -607,4 +886,6 @@ void crisp__stages_free(crisp__stages *s)
     free(s->seen);
     free(s->face_box);
     free(s->patch_in);
+    free((void *)s->piece_mask);
+    free(s->depth_cells);
 }

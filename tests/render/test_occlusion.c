@@ -381,10 +381,26 @@ static crisp_model *wall(void)
     return m;
 }
 
+/* 1 when ribbon quad v has every corner in front of the eye (ribbon.c gives a quad that is not
+ * drawn, as at a break of the ribbon, W = -1). */
+static int quad_drawn(const crisp_plan_ribbon_vertex *v)
+{
+    for (int k = 0; k < 4; k++)
+        if (!(v[k].clip[3] > 0)) return 0;
+    return 1;
+}
+
+/* Ribbon quads of the one-stage plans that the staged plans left out (a later stage's pieces
+ * hidden by the depth drawn), over the calls of assert_plans_agree. */
+static long quads_left_out;
+
 /* The final plan of a frame in stages (pa: crisp_planner_last_plan after crisp_render_cpu)
  * against crisp_planner_plan's (pb) for the same camera: every face pa shows has the same record
- * (but its ranges' starts), leaves, trim table and ribbons bit for bit; the faces pb shows and pa
- * does not are at most the hidden ones (stats.hidden_faces, which pa reports). */
+ * (but its ranges' starts and ribbon counts), leaves, trim table bit for bit, and its drawn
+ * ribbon quads are pb's drawn quads of the face bit for bit, in order, but those a later stage
+ * left out where the depth drawn by the earlier stages hides them (stages.c: check_stages finds
+ * the images the same); the faces pb shows and pa does not are at most the hidden ones
+ * (stats.hidden_faces, which pa reports). */
 static void assert_plans_agree(const crisp_frame_plan *pa, const crisp_frame_plan *pb,
                                uint32_t hidden)
 {
@@ -402,7 +418,6 @@ static void assert_plans_agree(const crisp_frame_plan *pa, const crisp_frame_pla
         assert_int_equal(a->leaf_count, b->leaf_count);
         assert_int_equal(a->tau_max, b->tau_max);
         assert_int_equal(a->strip_count, b->strip_count);
-        assert_int_equal(a->ribbon_count, b->ribbon_count);
         assert_int_equal(a->grid_u, b->grid_u);
         assert_int_equal(a->grid_v, b->grid_v);
         assert_memory_equal(&a->v0, &b->v0, sizeof a->v0);
@@ -411,10 +426,29 @@ static void assert_plans_agree(const crisp_frame_plan *pa, const crisp_frame_pla
         if (a->leaf_count)
             assert_memory_equal(pa->leaves + a->first_leaf, pb->leaves + b->first_leaf,
                                 a->leaf_count * sizeof *pa->leaves);
-        if (a->ribbon_count)
+        if (a->ribbon_count == b->ribbon_count && a->ribbon_count)
             assert_memory_equal(pa->ribbon_vertices + 4 * (size_t)a->first_ribbon,
                                 pb->ribbon_vertices + 4 * (size_t)b->first_ribbon,
                                 4 * (size_t)a->ribbon_count * sizeof *pa->ribbon_vertices);
+        if (a->ribbon_count != b->ribbon_count) {
+            uint32_t at = 0, drawn = 0; /* pa's drawn quads found in pb's, in order */
+            for (uint32_t q = 0; q < a->ribbon_count; q++) {
+                const crisp_plan_ribbon_vertex *va =
+                    pa->ribbon_vertices + 4 * (size_t)(a->first_ribbon + q);
+                if (!quad_drawn(va)) continue;
+                while (at < b->ribbon_count &&
+                       memcmp(va, pb->ribbon_vertices + 4 * (size_t)(b->first_ribbon + at),
+                              4 * sizeof *va))
+                    at++;
+                assert_true(at < b->ribbon_count);
+                at++;
+                drawn++;
+            }
+            for (uint32_t q = 0; q < b->ribbon_count; q++)
+                quads_left_out +=
+                    quad_drawn(pb->ribbon_vertices + 4 * (size_t)(b->first_ribbon + q));
+            quads_left_out -= drawn;
+        }
         for (uint32_t s = 0; s < a->strip_count; s++) {
             const crisp_plan_strip *x = &pa->strips[a->first_strip + s],
                                    *y = &pb->strips[b->first_strip + s];
@@ -523,8 +557,10 @@ static void test_hidden_faces(void **state)
             crisp_renderer_destroy(a);
             crisp_renderer_destroy(b);
         }
-        printf("%s: faces hidden before planning %u in the frontal views, %u in the others\n",
-               s ? "layers" : "wall", frontal, other);
+        printf("%s: faces hidden before planning %u in the frontal views, %u in the others; "
+               "ribbon quads left out as hidden %ld\n",
+               s ? "layers" : "wall", frontal, other, quads_left_out);
+        quads_left_out = 0;
         if (s == 0) assert_true(frontal >= 16); /* the wall hides something in every view */
         crisp_scene_destroy(sc);
         crisp_model_destroy(models[s]);
@@ -716,13 +752,172 @@ static void test_hull_bound(void **state)
     assert_true(ratio / ratios < 4);
 }
 
+/* crisp__stages_patch_pieces (the later stages' ribbon test, stages.c): 300 random rational
+ * patches (degrees 1-4, weights 0.3-3) under cameras all around, each against a block depth of
+ * random blocks near or beyond the patch's 1/W range; every piece found hidden has its 13 x 13
+ * points of its (s, t) cell in front of the eye and nearer than no block within 1 px of them (a
+ * ribbon's reach from its curve point) inside the image: each such block holds a larger 1/W. Some
+ * pieces of some patches are found hidden and others not. */
+static void test_piece_bound(void **state)
+{
+    (void)state;
+    enum {
+        BX = (W + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+        BY = (H + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK
+    };
+    const int n = CRISP__RIBBON_PIECES, win[4] = {0, 0, W, H};
+    long points = 0, hidden = 0, pieces = 0;
+    for (int k = 0; k < 300; k++) {
+        crisp_bezier_patch z = {.du = 1 + (int)(4 * rnd()),
+                                .dv = 1 + (int)(4 * rnd()),
+                                .rational = 1,
+                                .u0 = 0,
+                                .u1 = 1,
+                                .v0 = 0,
+                                .v1 = 1};
+        double cpw[25 * 4],
+            box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+        z.cpw = cpw;
+        for (int j = 0; j <= z.dv; j++)
+            for (int i = 0; i <= z.du; i++) {
+                double *c = cpw + 4 * (j * (z.du + 1) + i), w = 0.3 + 2.7 * rnd();
+                double p[3] = {(double)i / z.du - 0.5 + 0.3 * (rnd() - 0.5),
+                               (double)j / z.dv - 0.5 + 0.3 * (rnd() - 0.5), rnd() - 0.5};
+                for (int a = 0; a < 3; a++) {
+                    c[a] = p[a] * w;
+                    box[a] = fmin(box[a], p[a]), box[a + 3] = fmax(box[a + 3], p[a]);
+                }
+                c[3] = w;
+            }
+        double a = 2 * M_PI * rnd(), e = M_PI * (rnd() - 0.5), dist = 1.5 + 3 * rnd();
+        double eye[3] = {dist * cos(e) * cos(a), dist * cos(e) * sin(a), dist * sin(e)};
+        double target[3] = {0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5)};
+        crisp_camera cam = camera(eye, target, 30 + 60 * rnd());
+        crisp_camera_matrices cm;
+        crisp_camera_matrices_compute(&cam, &cm);
+        double(*m)[4] = cm.view_proj;
+        /* The patch's 1/W range; the blocks on one side of a random line hide all of it (but a
+         * few), on the other side a random part of it. */
+        double iw0 = INFINITY, iw1 = 0;
+        for (int j = 0; j <= 8; j++)
+            for (int i = 0; i <= 8; i++) {
+                double p[3];
+                crisp_bezier_patch_eval(&z, i / 8.0, j / 8.0, p);
+                double w = m[0][3] * p[0] + m[1][3] * p[1] + m[2][3] * p[2] + m[3][3];
+                iw0 = fmin(iw0, 1 / w), iw1 = fmax(iw1, 1 / w);
+            }
+        double hiz[BX * BY], dir = 2 * M_PI * rnd(), ox = BX * rnd(), oy = BY * rnd();
+        for (int b = 0; b < BX * BY; b++) {
+            int side = cos(dir) * (b % BX - ox) + sin(dir) * (b / BX - oy) > 0;
+            hiz[b] = side && rnd() < 0.95 ? 2 * iw1 : iw0 + (iw1 - iw0) * rnd();
+        }
+        uint32_t mask = crisp__stages_patch_pieces(&z, box, m, W, H, win, hiz);
+        pieces += n * n;
+        for (int r = 0; r < n; r++)
+            for (int c = 0; c < n; c++) {
+                if (!(mask >> (n * r + c) & 1)) continue;
+                hidden++;
+                for (int j = 0; j <= 12; j++)
+                    for (int i = 0; i <= 12; i++) {
+                        double p[3];
+                        crisp_bezier_patch_eval(&z, (c + i / 12.0) / n, (r + j / 12.0) / n, p);
+                        double x = m[0][0] * p[0] + m[1][0] * p[1] + m[2][0] * p[2] + m[3][0];
+                        double y = m[0][1] * p[0] + m[1][1] * p[1] + m[2][1] * p[2] + m[3][1];
+                        double w = m[0][3] * p[0] + m[1][3] * p[1] + m[2][3] * p[2] + m[3][3];
+                        assert_true(w > 0);
+                        double px = (x / w + 1) * 0.5 * W, py = (1 - y / w) * 0.5 * H;
+                        for (int by = 0; by < BY; by++)
+                            for (int bx = 0; bx < BX; bx++) {
+                                double x0 = bx * CRISP_OCCL_BLOCK, y0 = by * CRISP_OCCL_BLOCK;
+                                if (px + 1 < x0 || px - 1 > x0 + CRISP_OCCL_BLOCK || py + 1 < y0 ||
+                                    py - 1 > y0 + CRISP_OCCL_BLOCK)
+                                    continue;
+                                assert_true(hiz[by * BX + bx] > 1 / w);
+                            }
+                        points++;
+                    }
+            }
+    }
+    printf("piece bound: %ld of %ld pieces hidden, %ld points\n", hidden, pieces, points);
+    assert_true(hidden > pieces / 20 && hidden < pieces - pieces / 20);
+}
+
+/* crisp__stages_quad_unseen (a later stage's kept ribbon quads): 20,000 random quads like a
+ * ribbon's (up to 6 px long, 1.4 px wide, 1/W up to 30% apart between its ends, some across the
+ * image's edge) against block depths of random blocks near their 1/W: every point of a quad
+ * found unseen (13 x 13 of each of its two triangles, 1/W affine on screen as the rasterizer
+ * interpolates it) lies outside the image or in a block holding a larger 1/W; a quad with a
+ * corner behind the eye is unseen only when all are. Some quads are found unseen and others
+ * not. */
+static void test_quad_unseen(void **state)
+{
+    (void)state;
+    enum {
+        BX = (W + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+        BY = (H + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK
+    };
+    const int win[4] = {0, 0, W, H};
+    long unseen = 0, quads = 0, points = 0;
+    for (int k = 0; k < 20000; k++) {
+        double cx = -4 + (W + 8) * rnd(), cy = -4 + (H + 8) * rnd(), a = 2 * M_PI * rnd();
+        double len = 6 * rnd(), e[2] = {cos(a), sin(a)}, nrm[2] = {-e[1], e[0]};
+        double iw0 = 0.2 + rnd(), iw1 = iw0 * (0.7 + 0.6 * rnd());
+        crisp_plan_ribbon_vertex v[4];
+        double px[4][2], iw[4];
+        for (int c = 0; c < 4; c++) {
+            double along = c < 2 ? -0.7 : len + 0.7, side = (c == 0 || c == 3) ? -0.7 : 0.7;
+            px[c][0] = cx + along * e[0] + side * nrm[0];
+            px[c][1] = cy + along * e[1] + side * nrm[1];
+            iw[c] = c < 2 ? iw0 : iw1;
+            double w = 1 / iw[c];
+            v[c] = (crisp_plan_ribbon_vertex){0};
+            v[c].clip[0] = (px[c][0] / W * 2 - 1) * w;
+            v[c].clip[1] = (1 - px[c][1] / H * 2) * w;
+            v[c].clip[3] = w;
+        }
+        double hiz[BX * BY];
+        for (int b = 0; b < BX * BY; b++)
+            hiz[b] = rnd() < 0.2 ? 0 : fmax(iw0, iw1) * (0.95 + 0.1 * rnd());
+        if (k % 10 == 0) { /* corners behind the eye */
+            int behind = 0;
+            for (int c = 0; c < 4; c++)
+                if (rnd() < 0.6) v[c].clip[3] = -1, behind++;
+            if (behind) {
+                assert_int_equal(crisp__stages_quad_unseen(v, W, H, win, hiz), behind == 4);
+                continue;
+            }
+        }
+        quads++;
+        if (!crisp__stages_quad_unseen(v, W, H, win, hiz)) continue;
+        unseen++;
+        static const int tri[2][3] = {{0, 1, 2}, {0, 2, 3}};
+        for (int t = 0; t < 2; t++)
+            for (int j = 0; j <= 12; j++)
+                for (int i = 0; i <= 12 - j; i++) {
+                    double l[3] = {i / 12.0, j / 12.0, 1 - i / 12.0 - j / 12.0}, p[2] = {0, 0},
+                           q = 0;
+                    for (int c = 0; c < 3; c++) {
+                        p[0] += l[c] * px[tri[t][c]][0], p[1] += l[c] * px[tri[t][c]][1];
+                        q += l[c] * iw[tri[t][c]];
+                    }
+                    points++;
+                    if (p[0] < 0 || p[1] < 0 || p[0] >= W || p[1] >= H) continue;
+                    int b = (int)(p[1] / CRISP_OCCL_BLOCK) * BX + (int)(p[0] / CRISP_OCCL_BLOCK);
+                    assert_true(hiz[b] > q);
+                }
+    }
+    printf("quad unseen: %ld of %ld quads, %ld points\n", unseen, quads, points);
+    assert_true(unseen > quads / 20 && unseen < quads - quads / 20);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_frontal),    cmocka_unit_test(test_random),
-        cmocka_unit_test(test_pieces),     cmocka_unit_test(test_hidden_faces),
-        cmocka_unit_test(test_occl_set),   cmocka_unit_test(test_seen_marks),
-        cmocka_unit_test(test_hull_bound),
+        cmocka_unit_test(test_frontal),     cmocka_unit_test(test_random),
+        cmocka_unit_test(test_pieces),      cmocka_unit_test(test_hidden_faces),
+        cmocka_unit_test(test_occl_set),    cmocka_unit_test(test_seen_marks),
+        cmocka_unit_test(test_hull_bound),  cmocka_unit_test(test_piece_bound),
+        cmocka_unit_test(test_quad_unseen),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
