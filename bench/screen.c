@@ -327,7 +327,7 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     }
     uint32_t hash = bench_image_hash(&img); /* culling must not change it */
     printf(
-        "| %s | %s | %s | %s | %u | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %u | %u | %llu | "
+        "| %s | %s | %s | %s | %u | %.1f | %.1f | %.2f | %.2f | %.1f | %.1f | %u | %u | %llu | "
         "%llu | %llu | %zu | %.2f | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %u | %llu | %.2f | "
         "%.1f | %.1f | %.1f | %d | %.1f | %08x |\n",
         scene_name, cam_name,
