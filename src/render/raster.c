@@ -1263,7 +1263,7 @@ typedef struct block_planes {
 static const double lane_x[BLOCK] = {0, 1, 2, 3, 4, 5, 6, 7};
 
 __attribute__((target("avx"))) static inline void block_planes_avx(block_planes *bp, double gx,
-                                                                  double dx0)
+                                                                   double dx0)
 {
     const __m256d vg = _mm256_set1_pd(gx), vd = _mm256_set1_pd(dx0);
     UNROLL(2)
@@ -1329,12 +1329,17 @@ row_mask_avx2(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, dou
 /* Lane q of a quarter row is stored where bit q of its bits is set: all ones in its 32-bit
  * (sel32) and 64-bit (sel64) element (integer constants: no floating-point compare, whose
  * answer for the bits as doubles would depend on the denormals-are-zero mode). */
-#define SEL_L(b, q) (((b) >> (q) & 1) ? -1 : 0)
-#define SEL_ROW(b) {SEL_L(b, 0), SEL_L(b, 1), SEL_L(b, 2), SEL_L(b, 3)}
+#define SEL_L(b, q) (((b) >> (q)&1) ? -1 : 0)
+#define SEL_ROW(b)                                                                                 \
+    {                                                                                              \
+        SEL_L(b, 0), SEL_L(b, 1), SEL_L(b, 2), SEL_L(b, 3)                                         \
+    }
 #define SEL_ALL                                                                                    \
-    {SEL_ROW(0),  SEL_ROW(1),  SEL_ROW(2),  SEL_ROW(3),  SEL_ROW(4),  SEL_ROW(5),                   \
-     SEL_ROW(6),  SEL_ROW(7),  SEL_ROW(8),  SEL_ROW(9),  SEL_ROW(10), SEL_ROW(11),                  \
-     SEL_ROW(12), SEL_ROW(13), SEL_ROW(14), SEL_ROW(15)}
+    {                                                                                              \
+        SEL_ROW(0), SEL_ROW(1), SEL_ROW(2), SEL_ROW(3), SEL_ROW(4), SEL_ROW(5), SEL_ROW(6),        \
+            SEL_ROW(7), SEL_ROW(8), SEL_ROW(9), SEL_ROW(10), SEL_ROW(11), SEL_ROW(12),             \
+            SEL_ROW(13), SEL_ROW(14), SEL_ROW(15)                                                  \
+    }
 static const int32_t sel32[16][4] __attribute__((aligned(16))) = SEL_ALL;
 static const int64_t sel64[16][4] __attribute__((aligned(32))) = SEL_ALL;
 #undef SEL_ALL
@@ -1346,10 +1351,18 @@ __attribute__((target("avx"))) static inline void store_lane(float *dst, __m128 
 {
     int bits;
     switch (q) {
-    case 0: bits = _mm_extract_ps(v, 0); break;
-    case 1: bits = _mm_extract_ps(v, 1); break;
-    case 2: bits = _mm_extract_ps(v, 2); break;
-    default: bits = _mm_extract_ps(v, 3); break;
+    case 0:
+        bits = _mm_extract_ps(v, 0);
+        break;
+    case 1:
+        bits = _mm_extract_ps(v, 1);
+        break;
+    case 2:
+        bits = _mm_extract_ps(v, 2);
+        break;
+    default:
+        bits = _mm_extract_ps(v, 3);
+        break;
     }
     memcpy(dst, &bits, sizeof bits);
 }
@@ -1380,7 +1393,8 @@ store_row1_avx(quad_planes *qp, block_planes *bp, double dy, const double *iwv, 
         unsigned bits = (m >> (4 * h)) & 15u;
         if (!bits) continue;
         if (!(bp->ax_ok >> h & 1u)) {
-            const __m256d dx = _mm256_add_pd(_mm256_set1_pd(bp->dx0), _mm256_loadu_pd(lane_x + 4 * h));
+            const __m256d dx =
+                _mm256_add_pd(_mm256_set1_pd(bp->dx0), _mm256_loadu_pd(lane_x + 4 * h));
             UNROLL(5)
             for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
                 bp->ax[h][k] = _mm256_add_pd(qp->q0[k], _mm256_mul_pd(qp->qx[k], dx));
@@ -1413,8 +1427,7 @@ store_row1_avx(quad_planes *qp, block_planes *bp, double dy, const double *iwv, 
         if (bits & 4u) _mm_storeu_ps(dst + 10, f[2]), store_lane(dst + 14, f[4], 2);
         if (bits & 8u) _mm_storeu_ps(dst + 15, f[3]), store_lane(dst + 19, f[4], 3);
         _mm256_maskstore_pd(inv_w + idx, _mm256_load_si256((const __m256i *)sel64[bits]), iw);
-        _mm_maskstore_ps((float *)(fbuf + idx), _mm_load_si128((const __m128i *)sel32[bits]),
-                         face);
+        _mm_maskstore_ps((float *)(fbuf + idx), _mm_load_si128((const __m128i *)sel32[bits]), face);
     }
     return (unsigned)__builtin_popcount(m);
 }
@@ -1732,14 +1745,21 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                 if (avx && S == 1 && !slack && vectors && in_row) {
                     block_planes_avx(&bp, st->qx[0], dx0s[0]);
                     if (avx == 2 && !clip_on && tdec == 1) {
-                        block_rows br = {
-                            {er[0][0], er[0][1], er[0][2]},
-                            {bstep0, bstep1, bstep2},
-                            {rmax[0], rmax[1], rmax[2]},
-                            full, n, by0, by1, st->q0[0], st->qy[0], c->off_y[0], st->oy,
-                            ((size_t)(by0 - ty0) * tw + (size_t)(bx0 - tx0)), tw};
-                        uint32_t k = block_rows_avx2(&br, lane_step, &qp, &bp, inv_w, fbuf, abuf,
-                                                     face_id);
+                        block_rows br = {{er[0][0], er[0][1], er[0][2]},
+                                         {bstep0, bstep1, bstep2},
+                                         {rmax[0], rmax[1], rmax[2]},
+                                         full,
+                                         n,
+                                         by0,
+                                         by1,
+                                         st->q0[0],
+                                         st->qy[0],
+                                         c->off_y[0],
+                                         st->oy,
+                                         ((size_t)(by0 - ty0) * tw + (size_t)(bx0 - tx0)),
+                                         tw};
+                        uint32_t k =
+                            block_rows_avx2(&br, lane_step, &qp, &bp, inv_w, fbuf, abuf, face_id);
                         if (run_test)
                             boxed += k;
                         else if (c->test)
@@ -1775,8 +1795,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                              * is read at 8 lanes: inside the image's row). */
 #if HAVE_AVX_TILES
                             if (avx == 2)
-                                m = row_mask_avx2(e, lane_step, full, base, &bp, inv_w + idx0,
-                                                  iwv);
+                                m = row_mask_avx2(e, lane_step, full, base, &bp, inv_w + idx0, iwv);
                             else if (avx)
                                 m = row_mask_avx(e, lane_step, full, base, &bp, inv_w + idx0, iwv);
                             else
