@@ -663,6 +663,35 @@ static void test_occl_set(void **state)
     printf("occl_set: %ld records as the library's arithmetic\n", same);
 }
 
+/* A random rational Bezier patch into z (degrees 1-4 each way, weights 0.3-3, its points within
+ * 0.65 of the origin in each coordinate; its control points in cpw, room for 25; box NULL or its
+ * points' box, least x, y, z then largest) and a random camera looking at it from all around. */
+static crisp_camera random_patch_view(crisp_bezier_patch *z, double cpw[25 * 4], double box[6])
+{
+    *z = (crisp_bezier_patch){.du = 1 + (int)(4 * rnd()), .rational = 1, .u1 = 1, .v1 = 1};
+    z->dv = 1 + (int)(4 * rnd());
+    z->cpw = cpw;
+    if (box)
+        for (int a = 0; a < 3; a++)
+            box[a] = INFINITY, box[a + 3] = -INFINITY;
+    for (int j = 0; j <= z->dv; j++)
+        for (int i = 0; i <= z->du; i++) {
+            double *c = cpw + 4 * (j * (z->du + 1) + i), w = 0.3 + 2.7 * rnd();
+            double x = (double)i / z->du - 0.5 + 0.3 * (rnd() - 0.5),
+                   y = (double)j / z->dv - 0.5 + 0.3 * (rnd() - 0.5), zz = rnd() - 0.5;
+            double p[3] = {x, y, zz};
+            for (int a = 0; a < 3; a++) {
+                c[a] = p[a] * w;
+                if (box) box[a] = fmin(box[a], p[a]), box[a + 3] = fmax(box[a + 3], p[a]);
+            }
+            c[3] = w;
+        }
+    double a = 2 * M_PI * rnd(), e = M_PI * (rnd() - 0.5), dist = 1.5 + 3 * rnd();
+    double eye[3] = {dist * cos(e) * cos(a), dist * cos(e) * sin(a), dist * sin(e)};
+    double target[3] = {0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5)};
+    return camera(eye, target, 30 + 60 * rnd());
+}
+
 /* The bound of the later stages' face test (crisp__stages_hull_piece): every point of a patch
  * piece lies on screen inside the box of its control net's hull and at a W no less than its least
  * W. Random rational patches (degrees 1..4, weights 0.3..3), cameras all around them; the piece's
@@ -676,26 +705,9 @@ static void test_hull_bound(void **state)
     double ratio = 0;
     int ratios = 0;
     for (int k = 0; k < 300; k++) {
-        crisp_bezier_patch z = {.du = 1 + (int)(4 * rnd()),
-                                .dv = 1 + (int)(4 * rnd()),
-                                .rational = 1,
-                                .u0 = 0,
-                                .u1 = 1,
-                                .v0 = 0,
-                                .v1 = 1};
+        crisp_bezier_patch z;
         double cpw[25 * 4];
-        z.cpw = cpw;
-        for (int j = 0; j <= z.dv; j++)
-            for (int i = 0; i <= z.du; i++) {
-                double *c = cpw + 4 * (j * (z.du + 1) + i), w = 0.3 + 2.7 * rnd();
-                double x = (double)i / z.du - 0.5 + 0.3 * (rnd() - 0.5),
-                       y = (double)j / z.dv - 0.5 + 0.3 * (rnd() - 0.5), zz = rnd() - 0.5;
-                c[0] = x * w, c[1] = y * w, c[2] = zz * w, c[3] = w;
-            }
-        double a = 2 * M_PI * rnd(), e = M_PI * (rnd() - 0.5), dist = 1.5 + 3 * rnd();
-        double eye[3] = {dist * cos(e) * cos(a), dist * cos(e) * sin(a), dist * sin(e)};
-        double target[3] = {0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5)};
-        crisp_camera cam = camera(eye, target, 30 + 60 * rnd());
+        crisp_camera cam = random_patch_view(&z, cpw, NULL);
         crisp_camera_matrices cm;
         crisp_camera_matrices_compute(&cam, &cm);
         for (int splits = 0; splits <= 4; splits++)
@@ -768,31 +780,9 @@ static void test_piece_bound(void **state)
     const int n = CRISP__RIBBON_PIECES, win[4] = {0, 0, W, H};
     long points = 0, hidden = 0, pieces = 0;
     for (int k = 0; k < 300; k++) {
-        crisp_bezier_patch z = {.du = 1 + (int)(4 * rnd()),
-                                .dv = 1 + (int)(4 * rnd()),
-                                .rational = 1,
-                                .u0 = 0,
-                                .u1 = 1,
-                                .v0 = 0,
-                                .v1 = 1};
-        double cpw[25 * 4],
-            box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
-        z.cpw = cpw;
-        for (int j = 0; j <= z.dv; j++)
-            for (int i = 0; i <= z.du; i++) {
-                double *c = cpw + 4 * (j * (z.du + 1) + i), w = 0.3 + 2.7 * rnd();
-                double p[3] = {(double)i / z.du - 0.5 + 0.3 * (rnd() - 0.5),
-                               (double)j / z.dv - 0.5 + 0.3 * (rnd() - 0.5), rnd() - 0.5};
-                for (int a = 0; a < 3; a++) {
-                    c[a] = p[a] * w;
-                    box[a] = fmin(box[a], p[a]), box[a + 3] = fmax(box[a + 3], p[a]);
-                }
-                c[3] = w;
-            }
-        double a = 2 * M_PI * rnd(), e = M_PI * (rnd() - 0.5), dist = 1.5 + 3 * rnd();
-        double eye[3] = {dist * cos(e) * cos(a), dist * cos(e) * sin(a), dist * sin(e)};
-        double target[3] = {0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5), 0.4 * (rnd() - 0.5)};
-        crisp_camera cam = camera(eye, target, 30 + 60 * rnd());
+        crisp_bezier_patch z;
+        double cpw[25 * 4], box[6];
+        crisp_camera cam = random_patch_view(&z, cpw, box);
         crisp_camera_matrices cm;
         crisp_camera_matrices_compute(&cam, &cm);
         double(*m)[4] = cm.view_proj;
