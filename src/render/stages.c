@@ -681,11 +681,11 @@ static depth_drawn depth_of(const double *hiz, const int win[4], double *coarse)
     return d;
 }
 
+/* The cells of the coarse level of the window win's depth (depth_of's sizes). */
 static size_t depth_cell_count(const int win[4])
 {
-    size_t bx = (size_t)(win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
-           by = (size_t)(win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
-    return ((bx + DEPTH_CELL - 1) / DEPTH_CELL) * ((by + DEPTH_CELL - 1) / DEPTH_CELL);
+    depth_drawn d = depth_of(NULL, win, NULL);
+    return (size_t)d.cells_x * (size_t)((d.blocks_y + DEPTH_CELL - 1) / DEPTH_CELL);
 }
 
 uint32_t crisp__stages_patch_pieces(const crisp_bezier_patch *z, const double box[6], crisp_mat4 m,
@@ -698,8 +698,7 @@ uint32_t crisp__stages_patch_pieces(const crisp_bezier_patch *z, const double bo
     return mask;
 }
 
-/* The ribbons' hidden test of a later stage (crisp__ribbons_set_hidden): crisp__stages_patch_pieces
- * against the
+/* The ribbons' hidden test of a later stage (crisp__ribbons_set_hidden): patch_pieces against the
  * depth drawn by the earlier stages, computed when first asked and kept for the stage (a patch's
  * mask in bits 0-15, bit 16 set once it is known). Sound for the final draw: the depth stored at
  * a sample only gets nearer (the surfaces' and splats' depth tests, the fill pass's slack test
