@@ -71,7 +71,7 @@ typedef struct splat_ctx {
     int piece_count;
     double piece_box[4]; /* umin, umax, vmin, vmax of every piece's control points */
     double (*boxes)[4];  /* per piece */
-    uint8_t *poly;       /* per piece: every weight is 1 (curve_point_uv, curve_point_near_uv) */
+    uint8_t *poly;       /* per piece: every weight is 1 (see sub_point) */
     /* The pieces the cell tests look at, in piece order: every piece in block_cells; in
      * patch_cells those that can meet the patch's cells (near: their box meets the patch's
      * rectangle; left: they can cross a scan line of the patch left of its points). */
@@ -309,55 +309,34 @@ static crisp_status emit(splat_ctx *c, double u, double v, const double x[3], do
 /* ---- cell-curve test --------------------------------------------------------------------------
  */
 
-/* Whether the sub-curve (homogeneous uv points, degree d) meets the closed rectangle rect
- * (u0, u1, v0, v1): 0 when it provably does not (its control-point box, which holds it, misses
- * the rectangle at every level), 1 with a point of the curve in the rectangle in pt (an end
- * point of a sub-curve), 2 when the halvings ran out (2^-SPLAT_FIND_DEPTH of the piece's parameter
- * range, or SPLAT_FIND_BUDGET sub-pieces) with a sub-curve's box still touching the rectangle: pt
- * is that sub-curve's end point clamped into the rectangle, within the box's size of the curve.
- * The cell then counts as near a curve: its sample still covers it (any point of the cell does,
- * by (1)); only its being on the curve is approximate. */
-static int curve_point(const double *cpw, int d, const double rect[4], int depth, int *budget,
-                       double pt[2])
+/* The searches below read a sub-curve of degree d as d + 1 points at stride st: a rational
+ * piece's homogeneous (u w, v w, w) (rational = 1), or a polynomial piece's (u, v) alone (every
+ * weight 1: the halvings keep every weight exactly 1, 0.5 * 1 + 0.5 * 1, and u = x / 1 = x, so
+ * the two take the same steps on the same numbers, the polynomial one without divisions). */
+static inline void sub_point(const double *c, ptrdiff_t st, int rational, int i, double x[2])
 {
-    double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
-    for (int i = 0; i <= d; i++)
-        for (int q = 0; q < 2; q++) {
-            double x = cpw[3 * i + q] / cpw[3 * i + 2];
-            lo[q] = x < lo[q] ? x : lo[q];
-            hi[q] = x > hi[q] ? x : hi[q];
-        }
-    if (hi[0] < rect[0] || lo[0] > rect[1] || hi[1] < rect[2] || lo[1] > rect[3]) return 0;
-    for (int e = 0; e <= d; e += d) {
-        double u = cpw[3 * e] / cpw[3 * e + 2], v = cpw[3 * e + 1] / cpw[3 * e + 2];
-        if (u >= rect[0] && u <= rect[1] && v >= rect[2] && v <= rect[3]) {
-            pt[0] = u, pt[1] = v;
-            return 1;
-        }
-    }
-    if (depth >= SPLAT_FIND_DEPTH || --*budget < 0) {
-        pt[0] = fmin(fmax(cpw[0] / cpw[2], rect[0]), rect[1]);
-        pt[1] = fmin(fmax(cpw[1] / cpw[2], rect[2]), rect[3]);
-        return 2;
-    }
-    double l[3 * (CRISP_MAX_DEGREE + 1)], r[3 * (CRISP_MAX_DEGREE + 1)];
-    split_points(cpw, d, 3, 0.5, l, r);
-    /* The middle point first: a curve crossing the rectangle is found at the first levels. */
-    int got = curve_point(l, d, rect, depth + 1, budget, pt);
-    if (got == 1) return 1;
-    double p2[2];
-    int got2 = curve_point(r, d, rect, depth + 1, budget, p2);
-    if (got2 == 1 || (got2 && !got)) {
-        pt[0] = p2[0], pt[1] = p2[1];
-        return got2;
-    }
-    return got;
+    const double *q = c + st * i;
+    if (rational)
+        x[0] = q[0] / q[2], x[1] = q[1] / q[2];
+    else
+        x[0] = q[0], x[1] = q[1];
 }
 
-/* Polynomial pieces (every weight 1): the halvings keep every weight exactly 1 (0.5 * 1 + 0.5 * 1)
- * and u = x / 1 = x, so curve_point and curve_point_near take the same steps on the same numbers
- * with the (u, v) coordinates alone and no divisions. halve_uv: split_points at 0.5 of the (u, v)
- * of d + 1 points (stride st doubles: 3 for a piece's cpw, 2 for a half) into lo, hi (stride 2). */
+/* The (u, v) box of a sub-curve's points. */
+static void sub_box(const double *c, ptrdiff_t st, int rational, int d, double lo[2], double hi[2])
+{
+    lo[0] = lo[1] = HUGE_VAL, hi[0] = hi[1] = -HUGE_VAL;
+    for (int i = 0; i <= d; i++) {
+        double x[2];
+        sub_point(c, st, rational, i, x);
+        for (int q = 0; q < 2; q++) {
+            lo[q] = x[q] < lo[q] ? x[q] : lo[q];
+            hi[q] = x[q] > hi[q] ? x[q] : hi[q];
+        }
+    }
+}
+
+/* split_points at 0.5 of a polynomial sub-curve's (u, v) (stride st) into lo, hi (stride 2). */
 static void halve_uv(const double *c, ptrdiff_t st, int d, double *lo, double *hi)
 {
     const double t = 0.5;
@@ -376,36 +355,54 @@ static void halve_uv(const double *c, ptrdiff_t st, int d, double *lo, double *h
     }
 }
 
-/* curve_point of a polynomial piece's (u, v) points (stride st). */
-static int curve_point_uv(const double *c, ptrdiff_t st, int d, const double rect[4], int depth,
-                          int *budget, double pt[2])
+/* A sub-curve halved at 0.5 into lo and hi (room for 3 (d + 1) doubles each); returns their
+ * stride. A rational sub-curve's points are contiguous (st = 3). */
+static ptrdiff_t halve(const double *c, ptrdiff_t st, int rational, int d, double *lo, double *hi)
 {
-    double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
-    for (int i = 0; i <= d; i++)
-        for (int q = 0; q < 2; q++) {
-            double x = c[st * i + q];
-            lo[q] = x < lo[q] ? x : lo[q];
-            hi[q] = x > hi[q] ? x : hi[q];
-        }
+    if (rational) {
+        split_points(c, d, 3, 0.5, lo, hi);
+        return 3;
+    }
+    halve_uv(c, st, d, lo, hi);
+    return 2;
+}
+
+/* Whether the sub-curve meets the closed rectangle rect (u0, u1, v0, v1): 0 when it provably does
+ * not (its control-point box, which holds it, misses the rectangle at every level), 1 with a
+ * point of the curve in the rectangle in pt (an end point of a sub-curve), 2 when the halvings ran
+ * out (2^-SPLAT_FIND_DEPTH of the piece's parameter range, or SPLAT_FIND_BUDGET sub-pieces) with a
+ * sub-curve's box still touching the rectangle: pt is that sub-curve's end point clamped into the
+ * rectangle, within the box's size of the curve. The cell then counts as near a curve: its sample
+ * still covers it (any point of the cell does, by (1)); only its being on the curve is
+ * approximate. */
+static int curve_point(const double *c, ptrdiff_t st, int rational, int d, const double rect[4],
+                       int depth, int *budget, double pt[2])
+{
+    double lo[2], hi[2];
+    sub_box(c, st, rational, d, lo, hi);
     if (hi[0] < rect[0] || lo[0] > rect[1] || hi[1] < rect[2] || lo[1] > rect[3]) return 0;
     for (int e = 0; e <= d; e += d) {
-        double u = c[st * e], v = c[st * e + 1];
-        if (u >= rect[0] && u <= rect[1] && v >= rect[2] && v <= rect[3]) {
-            pt[0] = u, pt[1] = v;
+        double x[2];
+        sub_point(c, st, rational, e, x);
+        if (x[0] >= rect[0] && x[0] <= rect[1] && x[1] >= rect[2] && x[1] <= rect[3]) {
+            pt[0] = x[0], pt[1] = x[1];
             return 1;
         }
     }
     if (depth >= SPLAT_FIND_DEPTH || --*budget < 0) {
-        pt[0] = fmin(fmax(c[0], rect[0]), rect[1]);
-        pt[1] = fmin(fmax(c[1], rect[2]), rect[3]);
+        double x[2];
+        sub_point(c, st, rational, 0, x);
+        pt[0] = fmin(fmax(x[0], rect[0]), rect[1]);
+        pt[1] = fmin(fmax(x[1], rect[2]), rect[3]);
         return 2;
     }
-    double l[2 * (CRISP_MAX_DEGREE + 1)], r[2 * (CRISP_MAX_DEGREE + 1)];
-    halve_uv(c, st, d, l, r);
-    int got = curve_point_uv(l, 2, d, rect, depth + 1, budget, pt);
+    double l[3 * (CRISP_MAX_DEGREE + 1)], r[3 * (CRISP_MAX_DEGREE + 1)];
+    ptrdiff_t hs = halve(c, st, rational, d, l, r);
+    /* The middle point first: a curve crossing the rectangle is found at the first levels. */
+    int got = curve_point(l, hs, rational, d, rect, depth + 1, budget, pt);
     if (got == 1) return 1;
     double p2[2];
-    int got2 = curve_point_uv(r, 2, d, rect, depth + 1, budget, p2);
+    int got2 = curve_point(r, hs, rational, d, rect, depth + 1, budget, p2);
     if (got2 == 1 || (got2 && !got)) {
         pt[0] = p2[0], pt[1] = p2[1];
         return got2;
@@ -424,8 +421,7 @@ static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
         int budget = SPLAT_FIND_BUDGET;
         const crisp_bezier_curve *p = &c->pieces[k];
-        int g = c->poly[k] ? curve_point_uv(p->cpw, 3, p->degree, rect, 0, &budget, q)
-                           : curve_point(p->cpw, p->degree, rect, 0, &budget, q);
+        int g = curve_point(p->cpw, 3, !c->poly[k], p->degree, rect, 0, &budget, q);
         if (g == 1) {
             pt[0] = q[0], pt[1] = q[1];
             return 1;
@@ -442,64 +438,31 @@ static int cell_curve_point(const splat_ctx *c, const double rect[4], double pt[
  * smaller hull radius than one at the rectangle's edge): the sub-curves' end points in the
  * rectangle, searched nearer half first and pruned by box distance, down to sub-curves of a
  * sixteenth of the rectangle. best: squared uv distance of pt to m so far. */
-static void curve_point_near(const double *cpw, int d, const double rect[4], const double m[2],
-                             double tiny, int depth, double pt[2], double *best)
+static void curve_point_near(const double *c, ptrdiff_t st, int rational, int d,
+                             const double rect[4], const double m[2], double tiny, int depth,
+                             double pt[2], double *best)
 {
-    double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
-    for (int i = 0; i <= d; i++)
-        for (int q = 0; q < 2; q++) {
-            double x = cpw[3 * i + q] / cpw[3 * i + 2];
-            lo[q] = x < lo[q] ? x : lo[q];
-            hi[q] = x > hi[q] ? x : hi[q];
-        }
+    double lo[2], hi[2];
+    sub_box(c, st, rational, d, lo, hi);
     if (hi[0] < rect[0] || lo[0] > rect[1] || hi[1] < rect[2] || lo[1] > rect[3]) return;
     double ex = fmax(fmax(lo[0] - m[0], m[0] - hi[0]), 0.0);
     double ey = fmax(fmax(lo[1] - m[1], m[1] - hi[1]), 0.0);
     if (ex * ex + ey * ey >= *best) return;
     for (int e = 0; e <= d; e += d) {
-        double u = cpw[3 * e] / cpw[3 * e + 2], v = cpw[3 * e + 1] / cpw[3 * e + 2];
-        double dd = (u - m[0]) * (u - m[0]) + (v - m[1]) * (v - m[1]);
-        if (u >= rect[0] && u <= rect[1] && v >= rect[2] && v <= rect[3] && dd < *best) {
+        double x[2];
+        sub_point(c, st, rational, e, x);
+        double dd = (x[0] - m[0]) * (x[0] - m[0]) + (x[1] - m[1]) * (x[1] - m[1]);
+        if (x[0] >= rect[0] && x[0] <= rect[1] && x[1] >= rect[2] && x[1] <= rect[3] &&
+            dd < *best) {
             *best = dd;
-            pt[0] = u, pt[1] = v;
+            pt[0] = x[0], pt[1] = x[1];
         }
     }
     if (depth >= SPLAT_FIND_DEPTH || fmax(hi[0] - lo[0], hi[1] - lo[1]) <= tiny) return;
     double l[3 * (CRISP_MAX_DEGREE + 1)], r[3 * (CRISP_MAX_DEGREE + 1)];
-    split_points(cpw, d, 3, 0.5, l, r);
-    curve_point_near(l, d, rect, m, tiny, depth + 1, pt, best);
-    curve_point_near(r, d, rect, m, tiny, depth + 1, pt, best);
-}
-
-/* curve_point_near of a polynomial piece's (u, v) points (stride st; see halve_uv). */
-static void curve_point_near_uv(const double *c, ptrdiff_t st, int d, const double rect[4],
-                                const double m[2], double tiny, int depth, double pt[2],
-                                double *best)
-{
-    double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
-    for (int i = 0; i <= d; i++)
-        for (int q = 0; q < 2; q++) {
-            double x = c[st * i + q];
-            lo[q] = x < lo[q] ? x : lo[q];
-            hi[q] = x > hi[q] ? x : hi[q];
-        }
-    if (hi[0] < rect[0] || lo[0] > rect[1] || hi[1] < rect[2] || lo[1] > rect[3]) return;
-    double ex = fmax(fmax(lo[0] - m[0], m[0] - hi[0]), 0.0);
-    double ey = fmax(fmax(lo[1] - m[1], m[1] - hi[1]), 0.0);
-    if (ex * ex + ey * ey >= *best) return;
-    for (int e = 0; e <= d; e += d) {
-        double u = c[st * e], v = c[st * e + 1];
-        double dd = (u - m[0]) * (u - m[0]) + (v - m[1]) * (v - m[1]);
-        if (u >= rect[0] && u <= rect[1] && v >= rect[2] && v <= rect[3] && dd < *best) {
-            *best = dd;
-            pt[0] = u, pt[1] = v;
-        }
-    }
-    if (depth >= SPLAT_FIND_DEPTH || fmax(hi[0] - lo[0], hi[1] - lo[1]) <= tiny) return;
-    double l[2 * (CRISP_MAX_DEGREE + 1)], r[2 * (CRISP_MAX_DEGREE + 1)];
-    halve_uv(c, st, d, l, r);
-    curve_point_near_uv(l, 2, d, rect, m, tiny, depth + 1, pt, best);
-    curve_point_near_uv(r, 2, d, rect, m, tiny, depth + 1, pt, best);
+    ptrdiff_t hs = halve(c, st, rational, d, l, r);
+    curve_point_near(l, hs, rational, d, rect, m, tiny, depth + 1, pt, best);
+    curve_point_near(r, hs, rational, d, rect, m, tiny, depth + 1, pt, best);
 }
 
 /* pt: a point of the curves in the rectangle (cell_curve_point's); moved to one nearer the
@@ -514,10 +477,7 @@ static void cell_curve_point_near(const splat_ctx *c, const double rect[4], doub
         const double *b = c->boxes[k];
         if (b[1] < rect[0] || b[0] > rect[1] || b[3] < rect[2] || b[2] > rect[3]) continue;
         const crisp_bezier_curve *p = &c->pieces[k];
-        if (c->poly[k])
-            curve_point_near_uv(p->cpw, 3, p->degree, rect, m, tiny, 0, pt, &best);
-        else
-            curve_point_near(p->cpw, p->degree, rect, m, tiny, 0, pt, &best);
+        curve_point_near(p->cpw, 3, !c->poly[k], p->degree, rect, m, tiny, 0, pt, &best);
     }
 }
 
