@@ -23,6 +23,16 @@ static inline crisp_model *rt_load_model(const char *name)
     return m;
 }
 
+/* data/nurbs/NAME loaded into *model (the scene reads it: destroy the scene first) and its scene
+ * prepared. */
+static inline crisp_scene *rt_load_scene(const char *name, crisp_model **model)
+{
+    *model = rt_load_model(name);
+    crisp_scene *sc = NULL;
+    assert_int_equal(crisp_scene_prepare(*model, &sc), CRISP_OK);
+    return sc;
+}
+
 /* A random perspective camera for the bound tests, drawing from rnd() (uniform in [0, 1)): the
  * eye at distance dist from the origin, at a polar angle up to th_max from +Z, looking at a point
  * off the origin by up to off * dist in x and y, +Y up. With random_size, a field of view of

@@ -126,9 +126,8 @@ static void test_surface_accuracy(void **state)
     crisp_renderer *r;
     assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
     for (int mi = 0; mi < 3; mi++) {
-        crisp_model *m = rt_load_model(models[mi]);
-        crisp_scene *sc;
-        assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+        crisp_model *m;
+        crisp_scene *sc = rt_load_scene(models[mi], &m);
         double worst = 0;
         for (int view = 0; view < 8; view++) {
             crisp_camera cam = random_camera(sc->box, 320, 240, 0.05);
@@ -173,9 +172,8 @@ static int exact_classify(void *ctx, const crisp_scene *sc, uint32_t face, doubl
 
 static void compare_with_exact(const char *name, int views, int w, int h)
 {
-    crisp_model *m = rt_load_model(name);
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_model *m;
+    crisp_scene *sc = rt_load_scene(name, &m);
     crisp_renderer *r;
     assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
     long compared = 0, differ = 0;
@@ -510,9 +508,8 @@ static void test_threads_equal(void **state)
 {
     (void)state;
     if (rb_kind != RENDER_CPU) skip();
-    crisp_model *m = rt_load_model("occt_bearing.iges");
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_model *m;
+    crisp_scene *sc = rt_load_scene("occt_bearing.iges", &m);
     static const int threads[3] = {1, 3, 8};
     crisp_renderer *r[3];
     for (int k = 0; k < 3; k++)
@@ -532,9 +529,8 @@ static void test_vectors_equal_scalar(void **state)
 {
     (void)state;
     if (rb_kind != RENDER_CPU) skip();
-    crisp_model *m = rt_load_model("occt_bearing.iges");
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_model *m;
+    crisp_scene *sc = rt_load_scene("occt_bearing.iges", &m);
     /* A colour of its own per face: the resolve's lanes of different faces must not mix. */
     for (uint32_t f = 0; f < sc->face_count; f++) {
         sc->faces[f].color[0] = (float)(f % 7) / 7.0f;

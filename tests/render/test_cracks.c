@@ -25,6 +25,7 @@
 #include <string.h>
 
 #include "crisp/construct.h"
+#include "render/render_test_util.h"
 #include "crisp/io.h"
 #include "crisp/plan.h"
 #include "crisp/render.h"
@@ -200,15 +201,6 @@ static crisp_model *box_with_hole(void)
         crisp_face f = {.surface = s, .reversed = 1};
         assert_int_equal(crisp_model_add_face(m, &f), CRISP_OK);
     }
-    return m;
-}
-
-static crisp_model *load(const char *name)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
-    crisp_model *m = NULL;
-    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
     return m;
 }
 
@@ -429,7 +421,7 @@ static void test_box_with_hole(void **state)
 static void test_linkrods(void **state)
 {
     (void)state;
-    crisp_model *m = load("occt_linkrods.step");
+    crisp_model *m = rt_load_model("occt_linkrods.step");
     check_solid("occt_linkrods.step", m, full_run ? 50 : 10);
     crisp_model_destroy(m);
 }
@@ -444,7 +436,7 @@ static void test_bundled(void **state)
                                   "occt_hammer.iges", "Ventilator.stp"};
     long cracks = 0; /* every model is drawn before the verdict */
     for (int k = 0; k < 5; k++) {
-        crisp_model *m = load(names[k]);
+        crisp_model *m = rt_load_model(names[k]);
         cracks += check_views(names[k], m, full_run ? 50 : 5, NULL);
         crisp_model_destroy(m);
     }
@@ -456,7 +448,7 @@ static void test_bundled(void **state)
 static void test_bearing_zoom(void **state)
 {
     (void)state;
-    crisp_model *m = load("occt_bearing.iges");
+    crisp_model *m = rt_load_model("occt_bearing.iges");
     crisp_camera cam = {
         .width = 120,
         .height = 90,
@@ -477,7 +469,7 @@ static void test_bearing_zoom(void **state)
 static void test_bearing_fold(void **state)
 {
     (void)state;
-    crisp_model *m = load("occt_bearing.iges");
+    crisp_model *m = rt_load_model("occt_bearing.iges");
     crisp_camera cam = {
         .width = 120,
         .height = 90,
@@ -524,7 +516,7 @@ static void test_torus_seam(void **state)
 static void test_linkrods_steep_behind(void **state)
 {
     (void)state;
-    crisp_model *m = load("occt_linkrods.step");
+    crisp_model *m = rt_load_model("occt_linkrods.step");
     crisp_camera cam = {
         .width = 120,
         .height = 90,
@@ -544,7 +536,7 @@ static void test_linkrods_steep_behind(void **state)
 static void test_linkrods_seam_at_border(void **state)
 {
     (void)state;
-    crisp_model *m = load("occt_linkrods.step");
+    crisp_model *m = rt_load_model("occt_linkrods.step");
     crisp_camera cam = {
         .width = 120,
         .height = 90,
@@ -572,8 +564,9 @@ static double own_rnd(uint64_t *s)
 static void test_tiny_faces(void **state)
 {
     (void)state;
-    crisp_model *models[4] = {box_with_hole(), capped_cylinder(), load("occt_linkrods.step"),
-                              load("occt_bearing.iges")};
+    crisp_model *models[4] = {box_with_hole(), capped_cylinder(),
+                              rt_load_model("occt_linkrods.step"),
+                              rt_load_model("occt_bearing.iges")};
     static const char *names[4] = {"box with a round hole, tiny", "capped cylinder, tiny",
                                    "occt_linkrods.step, tiny", "occt_bearing.iges, tiny"};
     static const double radius_px[4] = {12, 16, 22, 30};
@@ -641,8 +634,9 @@ static double seg_dist(const double p[2], const double a[2], const double b[2])
 static void test_ribbons_follow_curves(void **state)
 {
     (void)state;
-    crisp_model *models[4] = {box_with_hole(), capped_cylinder(), load("occt_bearing.iges"),
-                              load("occt_linkrods.step")};
+    crisp_model *models[4] = {box_with_hole(), capped_cylinder(),
+                              rt_load_model("occt_bearing.iges"),
+                              rt_load_model("occt_linkrods.step")};
     uint64_t seed = 0x51ed270b27c4d3a5ull;
     double worst = 0;
     long checked = 0, missed = 0;

@@ -22,6 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "render/render_test_util.h"
 #include "crisp/io.h"
 #include "crisp/plan.h"
 #include "crisp/render.h"
@@ -749,12 +750,8 @@ static void test_kept_sigmas(void **state)
 static void test_parallel_build(void **state)
 {
     (void)state;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/impeller.igs", CRISP_DATA_DIR);
     crisp_model *m;
-    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_scene *sc = rt_load_scene("impeller.igs", &m);
     crisp_pool *one, *three;
     assert_int_equal(crisp_pool_create(1, &one), CRISP_OK);
     assert_int_equal(crisp_pool_create(3, &three), CRISP_OK);
@@ -816,12 +813,8 @@ static size_t classify_all(crisp__groups *g, const crisp_scene *sc, const crisp_
 static void test_lazy_faces(void **state)
 {
     (void)state;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/impeller.igs", CRISP_DATA_DIR);
     crisp_model *m;
-    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_scene *sc = rt_load_scene("impeller.igs", &m);
     size_t np = sc->patch_count;
     uint8_t *skip = calloc(sc->face_count, 1), *mode[2], *gg[2];
     uint32_t *active[2] = {NULL, NULL};

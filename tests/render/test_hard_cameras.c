@@ -480,9 +480,8 @@ static void test_grazing(void **state)
 static void test_zoom_tables(void **state)
 {
     (void)state;
-    crisp_model *m = rt_load_model("impeller.igs");
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_model *m;
+    crisp_scene *sc = rt_load_scene("impeller.igs", &m);
     crisp_renderer *r;
     assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
     static const double fovs[] = {1e-4, 1e-7};

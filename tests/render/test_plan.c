@@ -14,19 +14,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "render/render_test_util.h"
 #include "crisp/io.h"
 #include "crisp/plan.h"
 #include "crisp/trim.h"
 #include "render/render_internal.h"
-
-static crisp_model *load(const char *name)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
-    crisp_model *m;
-    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
-    return m;
-}
 
 static uint64_t rng = 88172645463325252ull;
 static double rnd(void)
@@ -191,7 +183,7 @@ static void check_plan(const crisp_scene *sc, const crisp_frame_plan *plan, cons
 
 static void run_model(const char *name, uint32_t *splits)
 {
-    crisp_model *m = load(name);
+    crisp_model *m = rt_load_model(name);
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     crisp_planner *pl;
@@ -279,7 +271,7 @@ static void test_level_splits(void **state)
 static void test_versions_and_replan(void **state)
 {
     (void)state;
-    crisp_model *m = load("occt_hammer.iges");
+    crisp_model *m = rt_load_model("occt_hammer.iges");
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     crisp_planner *pl, *fresh;

@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "render/render_test_util.h"
 #include "crisp/io.h"
 #include "crisp/render.h"
 
@@ -42,12 +43,8 @@ void *__wrap_realloc(void *p, size_t n)
 static void test_steady_state(void **state)
 {
     (void)state;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/occt_bearing.iges", CRISP_DATA_DIR);
     crisp_model *m;
-    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_scene *sc = rt_load_scene("occt_bearing.iges", &m);
     crisp_renderer *r;
     assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
     crisp_camera cam;
@@ -91,12 +88,8 @@ static void test_steady_state(void **state)
 static void test_extreme_zoom_memory(void **state)
 {
     (void)state;
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/occt_bearing.iges", CRISP_DATA_DIR);
     crisp_model *m;
-    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_scene *sc = rt_load_scene("occt_bearing.iges", &m);
     crisp_image img;
     assert_int_equal(crisp_image_init(&img, 160, 120), CRISP_OK);
     for (double fov = 1; fov >= 1e-8; fov *= 0.01) {

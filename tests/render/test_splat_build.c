@@ -496,9 +496,8 @@ static void test_degenerate(void **state)
 
 static void check_model(const char *name, int faces)
 {
-    crisp_model *m = rt_load_model(name);
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_model *m;
+    crisp_scene *sc = rt_load_scene(name, &m);
     double worst = 0.0;
     long samples = 0, splats = 0;
     for (int i = 0; i < faces; i++) {

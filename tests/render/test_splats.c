@@ -35,6 +35,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "render/render_test_util.h"
 #include "crisp/io.h"
 #include "crisp/plan.h"
 #include "crisp/render.h"
@@ -326,15 +327,6 @@ static int exact_classify(void *ctx, const crisp_scene *sc, uint32_t face, doubl
     return crisp_trim_exact_classify(sc->pieces + f->first_piece, (int)f->piece_count, u, v);
 }
 
-static crisp_model *load(const char *name)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/nurbs/%s", CRISP_DATA_DIR, name);
-    crisp_model *m = NULL;
-    assert_int_equal(crisp_model_load(path, NULL, &m), CRISP_OK);
-    return m;
-}
-
 /* A view of the scene from a random direction with its bounding sphere radius_px on screen. */
 static crisp_camera far_view(const crisp_scene *sc, double radius_px, int w, int h)
 {
@@ -378,7 +370,7 @@ static void run_cases(check_fn check, long *counts, int views)
 {
     long splat_faces = 0;
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
-        crisp_model *m = load(cases[k].model);
+        crisp_model *m = rt_load_model(cases[k].model);
         crisp_scene *sc;
         assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
         crisp_renderer *r;
@@ -497,7 +489,7 @@ static void test_solids_far(void **state)
     static const char *names[2] = {"occt_linkrods.step", "occt_bearing.iges"};
     long inside = 0, background = 0, splat_faces = 0, patch_faces = 0;
     for (int k = 0; k < 2; k++) {
-        crisp_model *m = load(names[k]);
+        crisp_model *m = rt_load_model(names[k]);
         crisp_scene *sc;
         assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
         for (int samples = 1; samples <= 4; samples *= 4) {
@@ -565,7 +557,7 @@ static void test_near_edges(void **state)
     (void)state;
     long differ = 0, inner = 0, splat_faces = 0;
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
-        crisp_model *m = load(cases[k].model);
+        crisp_model *m = rt_load_model(cases[k].model);
         crisp_scene *sc;
         assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
         crisp_renderer *on, *off;
@@ -634,7 +626,7 @@ static void test_build_limit(void **state)
     static const view_case lim_cases[] = {{"impeller.igs", 60}, {"occt_bearing.iges", 40}};
     long frames = 0, counts_tp[2] = {0, 0}, counts_nh[2] = {0, 0}, inner = 0;
     for (size_t k = 0; k < sizeof lim_cases / sizeof lim_cases[0]; k++) {
-        crisp_model *m = load(lim_cases[k].model);
+        crisp_model *m = rt_load_model(lim_cases[k].model);
         crisp_scene *sc;
         assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
         crisp_renderer *r;
@@ -718,7 +710,7 @@ static void test_build_limit(void **state)
 /* impeller.igs n x n times in a grid (bench/bench_scenes.h's instancing) */
 static crisp_model *instanced(const char *name, int n)
 {
-    crisp_model *src = load(name), *m;
+    crisp_model *src = rt_load_model(name), *m;
     assert_int_equal(crisp_model_create(&m), CRISP_OK);
     double box[6];
     crisp_model_bbox(src, box);
@@ -769,7 +761,7 @@ static void test_group_choice(void **state)
     uint64_t total[3] = {0, 0, 0};
     long faces = 0, splatted = 0, differ = 0;
     for (int k = 0; k < 2; k++) {
-        crisp_model *m = k ? load("occt_linkrods.step") : instanced("impeller.igs", 3);
+        crisp_model *m = k ? rt_load_model("occt_linkrods.step") : instanced("impeller.igs", 3);
         crisp_scene *sc;
         assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
         crisp__splat_store *s;
@@ -940,7 +932,7 @@ static void test_build_order(void **state)
     (void)state;
     static const view_case cases[] = {{"impeller.igs", 60}, {"occt_bearing.iges", 40}};
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
-        crisp_model *m = load(cases[k].model);
+        crisp_model *m = rt_load_model(cases[k].model);
         crisp_scene *sc;
         assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
         const int w = 240, h = 180;
@@ -990,7 +982,7 @@ static void test_trim_rule(void **state)
 {
     (void)state;
 #ifdef __GLIBC__
-    crisp_model *m = load("impeller.igs");
+    crisp_model *m = rt_load_model("impeller.igs");
     int t0 = trims;
     crisp_scene *sc;
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
