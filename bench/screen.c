@@ -22,7 +22,9 @@
  * model's patches), "frame B/tri" (frame memory over the surface triangles, as before session 7)
  * and "frame B/drawn tri" (over every triangle drawn: surfaces and trim ribbons, whose quads are
  * two triangles and a core of two more). Warm frame = median of FRAMES plan + crisp_render_cpu_plan
- * calls after one warm-up frame, on THREADS threads; plan = median of crisp_renderer_plan alone;
+ * calls after one warm-up frame, on THREADS threads; plan = median of crisp_renderer_plan alone
+ * (at least PLAN_CALLS calls: a plan takes well under a millisecond at a distance, where a few
+ * calls' median would follow the machine's noise);
  * the CPU columns are the mean CPU time of the process (all threads) per frame or plan, less
  * sensitive to a loaded machine than wall time. tri/px = surface triangles per covered pixel. Each
  * row runs twice: with the default planner (group leaves) and with crisp_planner_desc.no_groups (at
@@ -40,6 +42,10 @@
  * BENCH_SCREEN_OCCLUSION=both runs each row with the default planner, culling off then on, instead
  * of the two planners (the image hash must be the same). BENCH_SCREEN_PNG=folder writes each row's
  * image there. BENCH_SCREEN_PERF_CTL=FIFO: perf_control below.
+ *
+ * The run ends with the issue's ratios measured in it (the default planner's rows): gen100 over
+ * gen50 at each camera (a model refined to 4x the patches), imp49:far over imp:far10 (49
+ * instances against one at the same coverage), each frame and plan against the 1.3x target.
  *
  *   bench_screen [FRAMES] [THREADS] [ROWS...]     (defaults 3, 2, all rows; a row is e.g.
  * gen50:far) */
@@ -246,8 +252,16 @@ static void perf_control(const char *command)
 
 /* One row: variant 0 = group leaves (the default planner), 1 = no group leaves (at least one
  * leaf per visible patch, as before issue 12's group leaves). */
+enum { PLAN_CALLS = 51 };
+
+/* What a row's child process hands back to the run (through a pipe). */
+typedef struct row_result {
+    int done;
+    double frame_ms, plan_ms;
+} row_result;
+
 static void row(const char *scene_name, const char *cam_name, int frames, int threads,
-                int no_groups, int occlusion, int no_splats)
+                int no_groups, int occlusion, int no_splats, row_result *result)
 {
     crisp_model *m = scene_model(scene_name);
     crisp_scene *sc;
@@ -269,7 +283,8 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     if (crisp_image_init(&img, cam.width, cam.height)) die("image");
     double scene_kb = status_kb("VmRSS:");
     reset_peak();
-    double *tf = calloc((size_t)frames, sizeof *tf), *tp = calloc((size_t)frames, sizeof *tp);
+    int plans = frames > PLAN_CALLS ? frames : PLAN_CALLS;
+    double *tf = calloc((size_t)frames, sizeof *tf), *tp = calloc((size_t)plans, sizeof *tp);
     double *tt = calloc((size_t)frames, sizeof *tt), *tr = calloc((size_t)frames, sizeof *tr);
     crisp_render_stats st = {0};
     const crisp_frame_plan *plan = NULL;
@@ -300,7 +315,7 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         tr[f] = st.ms_raster;
     }
     perf_control("disable");
-    for (int f = 0; f < frames; f++) {
+    for (int f = 0; f < plans; f++) {
         double a = crisp_time_now(), c0 = bench_cpu_ms();
         if (warm_plan(pl, sc, &cam, &plan)) die("plan");
         tp[f] = 1e3 * (crisp_time_now() - a);
@@ -335,7 +350,7 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         : no_splats ? "groups, no splats"
                     : "groups, splats",
         occlusion ? "on" : "off", sc->patch_count, bench_median(tf, frames), cpu_frames / frames,
-        bench_median(tp, frames), cpu_plans / frames, bench_median(tt, frames),
+        bench_median(tp, plans), cpu_plans / plans, bench_median(tt, frames),
         bench_median(tr, frames), plan->leaf_count, plan->stats.group_leaves,
         (unsigned long long)st.triangles, (unsigned long long)st.occluded_triangles,
         (unsigned long long)st.ribbon_triangles, covered,
@@ -349,12 +364,48 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         plan->stats.splat_bytes / 1048576.0, ms_first, cpu_first, build_frames, ms_built,
         (unsigned)hash);
     fflush(stdout);
+    *result = (row_result){
+        .done = 1, .frame_ms = bench_median(tf, frames), .plan_ms = bench_median(tp, plans)};
     free(tf), free(tp), free(tt), free(tr);
     crisp_image_free(&img);
     crisp_planner_destroy(pl);
     crisp_renderer_destroy(r);
     crisp_scene_destroy(sc);
     crisp_model_destroy(m);
+}
+
+/* The issue's ratios from this run's default-planner rows (variant 0), where both rows ran. */
+static void print_ratios(const char *rows[][2], size_t n, row_result (*results)[2])
+{
+    static const char *pairs[][4] = {{"gen100", "default", "gen50", "default"},
+                                     {"gen100", "close", "gen50", "close"},
+                                     {"gen100", "far", "gen50", "far"},
+                                     {"imp49", "far", "imp", "far10"}};
+    int header = 0;
+    for (size_t p = 0; p < sizeof pairs / sizeof pairs[0]; p++) {
+        const row_result *a = NULL, *b = NULL;
+        for (size_t k = 0; k < n; k++) {
+            if (!results[k][0].done) continue;
+            if (!strcmp(rows[k][0], pairs[p][0]) && !strcmp(rows[k][1], pairs[p][1]))
+                a = &results[k][0];
+            if (!strcmp(rows[k][0], pairs[p][2]) && !strcmp(rows[k][1], pairs[p][3]))
+                b = &results[k][0];
+        }
+        if (!a || !b) continue;
+        if (!header) {
+            printf("\nRatios in this run (default planner; issue 12's target: at most 1.3x)\n\n"
+                   "| row | against | frame ratio | plan ratio | within 1.3x |\n"
+                   "|---|---|---:|---:|---|\n");
+            header = 1;
+        }
+        double fr = a->frame_ms / b->frame_ms, pr = a->plan_ms / b->plan_ms;
+        printf("| %s:%s | %s:%s | %.2f | %.2f | %s |\n", pairs[p][0], pairs[p][1], pairs[p][2],
+               pairs[p][3], fr, pr,
+               fr <= 1.3 && pr <= 1.3 ? "yes"
+               : fr <= 1.3            ? "frame only"
+               : pr <= 1.3            ? "plan only"
+                                      : "no");
+    }
 }
 
 int main(int argc, char **argv)
@@ -378,6 +429,8 @@ int main(int argc, char **argv)
                                     {"gen100", "close"},  {"gen50", "far"},      {"gen100", "far"},
                                     {"imp", "default"},   {"imp49", "default"},  {"imp49", "close"},
                                     {"imp49", "far"},     {"imp", "far10"}};
+    enum { ROWS = sizeof rows / sizeof rows[0] };
+    row_result results[ROWS][2] = {{{0}}}; /* [row][variant], from the rows' child processes */
     bench_print_machine(stdout);
     printf("load average at start %.2f; 1920x1080, %d threads, median of %d warm frames\n\n",
            bench_load_average(), threads, frames);
@@ -390,7 +443,7 @@ int main(int argc, char **argv)
     printf("|---|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
            "---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
     fflush(stdout);
-    for (size_t k = 0; k < sizeof rows / sizeof rows[0]; k++) {
+    for (size_t k = 0; k < ROWS; k++) {
         char key[64];
         snprintf(key, sizeof key, "%s:%s", rows[k][0], rows[k][1]);
         int wanted = argc <= 3;
@@ -398,16 +451,26 @@ int main(int argc, char **argv)
             wanted |= !strcmp(argv[a], key);
         if (!wanted) continue;
         for (int variant = variants - 1; variant >= 0; variant--) {
+            int fd[2];
+            if (pipe(fd)) die("pipe");
             pid_t pid = fork();
             if (pid == 0) {
+                row_result res = {0};
+                close(fd[0]);
                 if (splats_both)
-                    row(rows[k][0], rows[k][1], frames, threads, 0, 1, variant);
+                    row(rows[k][0], rows[k][1], frames, threads, 0, 1, variant, &res);
                 else if (occl_both)
-                    row(rows[k][0], rows[k][1], frames, threads, 0, !variant, 0);
+                    row(rows[k][0], rows[k][1], frames, threads, 0, !variant, 0, &res);
                 else
-                    row(rows[k][0], rows[k][1], frames, threads, variant, 1, 0);
-                _exit(0);
+                    row(rows[k][0], rows[k][1], frames, threads, variant, 1, 0, &res);
+                /* under PIPE_BUF bytes: written whole before the parent reads */
+                _exit(write(fd[1], &res, sizeof res) != (ssize_t)sizeof res);
             }
+            close(fd[1]);
+            if (read(fd[0], &results[k][variant], sizeof results[k][variant]) !=
+                (ssize_t)sizeof results[k][variant])
+                results[k][variant].done = 0;
+            close(fd[0]);
             int status = 0;
             waitpid(pid, &status, 0);
             if (!WIFEXITED(status) || WEXITSTATUS(status))
@@ -417,6 +480,7 @@ int main(int argc, char **argv)
                                    : (variant ? "no groups" : "groups"));
         }
     }
+    print_ratios(rows, ROWS, results);
     printf("\nload average at the end %.2f\n", bench_load_average());
     return 0;
 }
