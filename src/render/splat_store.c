@@ -88,7 +88,8 @@ struct crisp__splat_store {
     size_t sets_cap;
     crisp_plan_splat_range *ranges;
     size_t range_cap;
-    uint64_t *order; /* publish's sort: keys, then the same count of scratch */
+    uint32_t ranges_drawn; /* the last publish's ranges (its draw order; 0: none, a new scene) */
+    uint64_t *order;       /* publish's sort: keys, then the same count of scratch */
     size_t order_cap;
     float *clip_origin;
     size_t clip_cap;
@@ -124,6 +125,7 @@ static void clear_scene(crisp__splat_store *s)
     s->chunk_counts = NULL;
     s->face_count = 0;
     s->count = s->dead = 0;
+    s->ranges_drawn = 0;
     s->serial = s->trim_serial = 0;
     s->changed = 1;
 }
@@ -1059,6 +1061,40 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
     return CRISP_OK;
 }
 
+/* The draw keys of the faces in the last publish's order when they are this frame's drawn faces
+ * (nr of them: each of the last ranges' faces has a key and is in splat) and sorting them moves
+ * few (at most 2 nr steps of an insertion sort): then sorted into dest (nr), 1. Else 0 (dest
+ * holds some keys): publish sorts the keys gathered in face order. The same order either way:
+ * the keys are distinct (their face below their W), and the radix sort's order, stable on the W
+ * from face order, is the keys' order. A view that moves a little keeps most of its draw order,
+ * a view that stays keeps all of it: imp49 far's radix sort was 0.56 M instructions a plan of
+ * 4.5 M (session 17). */
+static int sorted_as_before(const crisp__splat_store *s, const uint8_t *splat, uint32_t nr,
+                            uint64_t *dest)
+{
+    if (nr != s->ranges_drawn) return 0;
+    uint64_t budget = 2 * (uint64_t)nr, last = 0;
+    uint32_t i = 0;
+    for (; i < nr; i++) { /* (in order so far) */
+        uint32_t f = s->ranges[i].face;
+        uint64_t key = s->key[f];
+        if (key == DRAW_NONE || !splat[f]) return 0;
+        if (key < last) break;
+        dest[i] = last = key;
+    }
+    for (; i < nr; i++) { /* (an insertion sort from the first key out of order) */
+        uint32_t f = s->ranges[i].face, j = i;
+        uint64_t key = s->key[f];
+        if (key == DRAW_NONE || !splat[f]) return 0;
+        for (; j > 0 && dest[j - 1] > key; j--) {
+            if (!budget--) return 0;
+            dest[j] = dest[j - 1];
+        }
+        dest[j] = key;
+    }
+    return 1;
+}
+
 crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene *sc,
                                         const uint8_t *splat, crisp_plan_face *faces,
                                         crisp_frame_plan *out)
@@ -1087,9 +1123,13 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
     /* Nearest first (the least W of the faces' boxes; ties in face order: the keys' face below
      * their W, and the sort is stable on the W): a backend that keeps the depth drawn skips the
      * ranges hidden by nearer ones (splat_raster.c). */
-    if (nr > 1) radix_sort(s->order, s->order + nr, nr);
+    const uint64_t *sorted = s->order;
+    if (nr > 1 && sorted_as_before(s, splat, nr, s->order + nr))
+        sorted = s->order + nr;
+    else if (nr > 1)
+        radix_sort(s->order, s->order + nr, nr);
     for (uint32_t i = 0; i < nr; i++) {
-        uint32_t f = (uint32_t)s->order[i];
+        uint32_t f = (uint32_t)sorted[i];
         s->ranges[i] = (crisp_plan_splat_range){s->range[f][0], s->range[f][1], f};
         drawn += s->range[f][1];
         if (faces) faces[f].flags |= CRISP_PLAN_FACE_SPLATS;
@@ -1098,6 +1138,7 @@ crisp_status crisp__splat_store_publish(crisp__splat_store *s, const crisp_scene
     out->splat_count = (uint32_t)s->count;
     out->splat_ranges = s->ranges;
     out->splat_range_count = nr;
+    s->ranges_drawn = nr;
     out->splat_clip_origin = s->clip_origin;
     out->splat_half_px = CRISP_SPLAT_HALF_PX;
     if (s->changed) out->splats_version++;
