@@ -151,6 +151,51 @@ static void test_pool(void **state)
     crisp_pool_destroy(NULL);
 }
 
+/* Back-to-back jobs of a few items (a frame's small passes): a worker that wakes late finds the
+ * caller done and the job's door closed, or joins a later job. No chunk may run after its
+ * caller returned (live is cleared then) or twice, and every item runs once. */
+typedef struct {
+    atomic_int hits[3];
+    atomic_int live, late;
+} small_job;
+
+static void mark_small(void *vctx, size_t b, size_t e, int worker)
+{
+    small_job *j = vctx;
+    if (!atomic_load(&j->live)) atomic_fetch_add(&j->late, 1);
+    if (worker) /* a worker's chunk ends after the caller's: the caller must wait for it */
+        for (int k = 0; k < 2000 && atomic_load(&j->live); k++)
+            ;
+    for (size_t i = b; i < e; i++)
+        atomic_fetch_add(&j->hits[i], 1);
+}
+
+static void test_pool_small_jobs(void **state)
+{
+    (void)state;
+    enum { JOBS = 20000 };
+    static small_job jobs[JOBS];
+    for (int threads = 2; threads <= 4; threads++) {
+        crisp_pool *p;
+        assert_int_equal(crisp_pool_create(threads, &p), CRISP_OK);
+        memset(jobs, 0, sizeof jobs);
+        for (int k = 0; k < JOBS; k++) {
+            atomic_store(&jobs[k].live, 1);
+            crisp_pool_parallel_for(p, 2 + k % 2, 1, mark_small, &jobs[k]);
+            atomic_store(&jobs[k].live, 0);
+            /* a stale worker's chunk of job k would count here or in a later job's check */
+            for (int i = 0; i < 3; i++)
+                assert_int_equal(atomic_load(&jobs[k].hits[i]), i < 2 + k % 2);
+        }
+        crisp_pool_destroy(p);
+        for (int k = 0; k < JOBS; k++) {
+            assert_int_equal(atomic_load(&jobs[k].late), 0);
+            for (int i = 0; i < 3; i++)
+                assert_int_equal(atomic_load(&jobs[k].hits[i]), i < 2 + k % 2);
+        }
+    }
+}
+
 static void mark_error_everywhere(void *vctx, size_t b, size_t e, int worker)
 {
     (void)vctx, (void)b, (void)e;
@@ -281,6 +326,7 @@ int main(void)
         cmocka_unit_test(test_arena_reuse),
         cmocka_unit_test(test_mat4),
         cmocka_unit_test(test_pool),
+        cmocka_unit_test(test_pool_small_jobs),
         cmocka_unit_test(test_time),
         cmocka_unit_test(test_pool_worker_error),
         cmocka_unit_test(test_pool_nested_kept_progress),

@@ -822,6 +822,50 @@ static void test_group_choice(void **state)
 /* The plan's splat ranges come nearest first: by the least W of the face's box (as a float
  * rounded up), ties in face order (publish's radix sort; the draw's culling and its ties rely on
  * it). */
+/* The plan's splat ranges are its splat faces (CRISP_PLAN_FACE_SPLATS), each once, nearest first:
+ * by their boxes' least W as a float rounded up, ties in face order. Returns the ranges. */
+static long check_range_order(const crisp_scene *sc, const crisp_camera *cam,
+                              const crisp_frame_plan *plan)
+{
+    crisp_camera_matrices cm;
+    crisp_camera_matrices_compute(cam, &cm);
+    uint8_t *seen = calloc(sc->face_count, 1);
+    assert_non_null(seen);
+    float last = 0;
+    uint32_t last_face = 0;
+    for (uint32_t i = 0; i < plan->splat_range_count; i++) {
+        uint32_t f = plan->splat_ranges[i].face;
+        assert_true(f < sc->face_count && !seen[f]);
+        assert_true(plan->faces[f].flags & CRISP_PLAN_FACE_SPLATS);
+        seen[f] = 1;
+        const crisp_scene_face *sf = &sc->faces[f];
+        double b[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+        for (uint32_t p = 0; p < sf->patch_count; p++)
+            for (int a = 0; a < 3; a++) {
+                b[a] = fmin(b[a], sc->patches[sf->first_patch + p].box[a]);
+                b[a + 3] = fmax(b[a + 3], sc->patches[sf->first_patch + p].box[a + 3]);
+            }
+        double w = INFINITY;
+        for (int k = 0; k < 8; k++)
+            w = fmin(w, cm.view_proj[0][3] * b[k & 1 ? 3 : 0] +
+                            cm.view_proj[1][3] * b[k & 2 ? 4 : 1] +
+                            cm.view_proj[2][3] * b[k & 4 ? 5 : 2] + cm.view_proj[3][3]);
+        float key = (float)w;
+        if ((double)key < w) key = nextafterf(key, INFINITY);
+        if (i > 0) {
+            assert_true(key >= last);
+            if (key == last) assert_true(f > last_face);
+        }
+        last = key, last_face = f;
+    }
+    uint32_t flagged = 0;
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        flagged += (plan->faces[f].flags & CRISP_PLAN_FACE_SPLATS) != 0;
+    assert_int_equal(flagged, plan->splat_range_count);
+    free(seen);
+    return plan->splat_range_count;
+}
+
 static void test_range_order(void **state)
 {
     (void)state;
@@ -835,36 +879,49 @@ static void test_range_order(void **state)
         crisp_camera cam = group_view_camera(sc, 30 + 40 * v, 0.3, 3, 320, 240);
         const crisp_frame_plan *plan;
         assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
-        crisp_camera_matrices cm;
-        crisp_camera_matrices_compute(&cam, &cm);
-        float last = 0;
-        uint32_t last_face = 0;
-        for (uint32_t i = 0; i < plan->splat_range_count; i++) {
-            uint32_t f = plan->splat_ranges[i].face;
-            const crisp_scene_face *sf = &sc->faces[f];
-            double b[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
-            for (uint32_t p = 0; p < sf->patch_count; p++)
-                for (int a = 0; a < 3; a++) {
-                    b[a] = fmin(b[a], sc->patches[sf->first_patch + p].box[a]);
-                    b[a + 3] = fmax(b[a + 3], sc->patches[sf->first_patch + p].box[a + 3]);
-                }
-            double w = INFINITY;
-            for (int k = 0; k < 8; k++)
-                w = fmin(w, cm.view_proj[0][3] * b[k & 1 ? 3 : 0] +
-                                cm.view_proj[1][3] * b[k & 2 ? 4 : 1] +
-                                cm.view_proj[2][3] * b[k & 4 ? 5 : 2] + cm.view_proj[3][3]);
-            float key = (float)w;
-            if ((double)key < w) key = nextafterf(key, INFINITY);
-            if (i > 0) {
-                assert_true(key >= last);
-                if (key == last) assert_true(f > last_face);
-            }
-            last = key, last_face = f;
-            ranges++;
-        }
+        ranges += check_range_order(sc, &cam, plan);
     }
     printf("%ld ranges in order\n", ranges);
     assert_true(ranges > 100);
+    crisp_planner_destroy(pl);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
+/* publish starts from the last plan's draw order when the splat faces are the same
+ * (splat_store.c, sorted_as_before): through a view repeated, turned by small steps (the order
+ * changes a little), turned by a large one, and moved so that parts leave the screen (the faces
+ * change), every plan's ranges are its splat faces in the draw order (check_range_order).
+ * Taking the last order without sorting it fails it. */
+static void test_kept_order(void **state)
+{
+    (void)state;
+    crisp_model *m = instanced("impeller.igs", 2);
+    crisp_scene *sc;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_planner *pl;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    crisp_camera base = group_view_camera(sc, 60, 0.0, 3, 320, 240);
+    static const double turn[] = {0, 0, 0.2, 0.4, 0.4, 0.6, 8, 8.2, 30, 30, 30.1};
+    long ranges = 0, same = 0;
+    uint32_t last_count = 0;
+    for (size_t i = 0; i < sizeof turn / sizeof turn[0] + 2; i++) {
+        crisp_camera cam = base;
+        double a = i < sizeof turn / sizeof turn[0] ? turn[i] * M_PI / 180 : 0;
+        double d[2] = {cam.eye[0] - cam.target[0], cam.eye[1] - cam.target[1]};
+        cam.eye[0] = cam.target[0] + cos(a) * d[0] - sin(a) * d[1];
+        cam.eye[1] = cam.target[1] + sin(a) * d[0] + cos(a) * d[1];
+        if (i >= sizeof turn / sizeof turn[0]) /* the target moved: parts off screen */
+            for (int q = 0; q < 2; q++)
+                cam.target[q] += (i % 2 ? 0.35 : 0.2) * (sc->box[q + 3] - sc->box[q]);
+        const crisp_frame_plan *plan;
+        assert_int_equal(crisp_planner_plan(pl, sc, &cam, &plan), CRISP_OK);
+        ranges += check_range_order(sc, &cam, plan);
+        same += i > 0 && plan->splat_range_count == last_count;
+        last_count = plan->splat_range_count;
+    }
+    printf("%ld ranges in order, %ld plans with as many as the last\n", ranges, same);
+    assert_true(ranges > 100 && same >= 5);
     crisp_planner_destroy(pl);
     crisp_scene_destroy(sc);
     crisp_model_destroy(m);
@@ -1022,8 +1079,9 @@ int main(void)
         cmocka_unit_test(test_true_points),    cmocka_unit_test(test_no_holes),
         cmocka_unit_test(test_solids_far),     cmocka_unit_test(test_near_edges),
         cmocka_unit_test(test_group_choice),   cmocka_unit_test(test_range_order),
-        cmocka_unit_test(test_build_limit),    cmocka_unit_test(test_build_order),
-        cmocka_unit_test(test_trim_rule),      cmocka_unit_test(test_plain_faces),
+        cmocka_unit_test(test_kept_order),     cmocka_unit_test(test_build_limit),
+        cmocka_unit_test(test_build_order),    cmocka_unit_test(test_trim_rule),
+        cmocka_unit_test(test_plain_faces),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
