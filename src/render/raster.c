@@ -2148,7 +2148,111 @@ typedef struct slack_tiles_ctx {
     const slack_ctx *c;
     const uint8_t *mask;
     int cells_x;
+    int avx2; /* one-sample cells CELL pixels wide through slack_cell_avx2 */
 } slack_tiles_ctx;
+
+#if HAVE_AVX_TILES
+/* slack_tiles' work for one cell CELL pixels wide of a one-sample target, four pixels at a time
+ * (AVX2): the same values bit for bit. Per sample of the cell and its border: its face and side
+ * as one key (2 f + side; -1: none or outside the image; two samples pair up exactly when their
+ * keys are equal and not -1) and W = 1 / inv_w (also computed for empty samples, whose W no pair
+ * reads); the side's dot product is slack_tiles' (0 + a2 c0, then + a3 c1, + a4 c2, the same
+ * IEEE operations on each lane; no fused multiply-add). Then each sample's largest |W_n - W|
+ * over its paired neighbours n in the same order (left, right, up, down): max_pd(d, m) is d > m
+ * ? d : m, slack_tiles' step, with d = 0 for an unpaired neighbour (never above m >= 0). */
+__attribute__((target("avx2"))) static void slack_cell_avx2(const slack_ctx *c, int px0, int py0,
+                                                            int py1, const double colp[3][CELL + 2])
+{
+    enum { L = CELL + 2 };
+    const crisp_raster_target *t = c->t;
+    const crisp_raster_view *v = c->view;
+    int w = t->width, h = t->height, ih = image_h(t);
+    int64_t key[L * L] __attribute__((aligned(32)));
+    double wl[L * L] __attribute__((aligned(32)));
+    const __m128i lane5 = _mm_setr_epi32(0, 5, 10, 15);
+    for (int j = py0 - 1; j <= py1; j++) {
+        int64_t *krow = key + (j - py0 + 1) * L;
+        double *wrow = wl + (j - py0 + 1) * L;
+        if (j < 0 || j >= h) {
+            for (int l = 0; l < L; l++)
+                krow[l] = -1, wrow[l] = 0;
+            continue;
+        }
+        double y = v ? (0.5 * ih - (t->y0 + j) - 0.5) * v->ky : 0;
+        __m256d yu[3];
+        for (int k = 0; k < 3; k++)
+            yu[k] = _mm256_set1_pd(v ? y * v->u[k] : 0);
+        /* the border columns, as slack_tiles */
+        for (int e = 0; e < 2; e++) {
+            int i = e ? px0 + CELL : px0 - 1, l = e ? L - 1 : 0;
+            krow[l] = -1, wrow[l] = 0;
+            if (i < 0 || i >= w) continue;
+            size_t idx = (size_t)j * w + i;
+            int32_t f = t->face[idx];
+            if (f < 0) continue;
+            int side = 0;
+            if (v) {
+                const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
+                double dot = 0;
+                dot += a[2] * (colp[0][l] + y * v->u[0]);
+                dot += a[3] * (colp[1][l] + y * v->u[1]);
+                dot += a[4] * (colp[2][l] + y * v->u[2]);
+                side = dot < 0;
+            }
+            krow[l] = 2 * (int64_t)f + side;
+            wrow[l] = 1.0 / t->inv_w[idx];
+        }
+        UNROLL(4)
+        for (int q = 0; q < CELL / 4; q++) {
+            size_t idx = (size_t)j * w + px0 + 4 * q;
+            __m256i f = _mm256_cvtepi32_epi64(_mm_loadu_si128((const __m128i *)(t->face + idx)));
+            __m256i k2 = _mm256_add_epi64(f, f);
+            if (v) {
+                const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
+                __m256d dot = _mm256_setzero_pd();
+                for (int k = 0; k < 3; k++) {
+                    __m256d ak = _mm256_cvtps_pd(_mm_i32gather_ps(a + 2 + k, lane5, 4));
+                    __m256d ck = _mm256_add_pd(_mm256_loadu_pd(&colp[k][1 + 4 * q]), yu[k]);
+                    dot = _mm256_add_pd(dot, _mm256_mul_pd(ak, ck));
+                }
+                __m256i side = _mm256_castpd_si256(
+                    _mm256_cmp_pd(dot, _mm256_setzero_pd(), _CMP_LT_OQ)); /* -1 where < 0 */
+                k2 = _mm256_sub_epi64(k2, side);
+            }
+            /* -1 where the face is negative */
+            __m256i none = _mm256_cmpgt_epi64(_mm256_setzero_si256(), f);
+            _mm256_storeu_si256((__m256i *)(krow + 1 + 4 * q), _mm256_or_si256(k2, none));
+            _mm256_storeu_pd(wrow + 1 + 4 * q,
+                             _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_loadu_pd(t->inv_w + idx)));
+        }
+    }
+    const __m256d scale = _mm256_set1_pd(c->scale), scale2 = _mm256_set1_pd(c->scale2);
+    const __m256d sign = _mm256_set1_pd(-0.0);
+    for (int j = py0; j < py1; j++) {
+        UNROLL(4)
+        for (int q = 0; q < CELL / 4; q++) {
+            int l = (j - py0 + 1) * L + 1 + 4 * q;
+            __m256i kl = _mm256_loadu_si256((const __m256i *)(key + l));
+            __m256d W = _mm256_loadu_pd(wl + l), m = _mm256_setzero_pd();
+            const int nb[4] = {l - 1, l + 1, l - L, l + L}; /* left right up down */
+            UNROLL(4)
+            for (int k = 0; k < 4; k++) {
+                __m256d same = _mm256_castsi256_pd(
+                    _mm256_cmpeq_epi64(_mm256_loadu_si256((const __m256i *)(key + nb[k])), kl));
+                __m256d d = _mm256_andnot_pd(sign, _mm256_sub_pd(_mm256_loadu_pd(wl + nb[k]), W));
+                m = _mm256_max_pd(_mm256_and_pd(same, d), m);
+            }
+            /* 0 where the sample itself is empty */
+            m = _mm256_andnot_pd(
+                _mm256_castsi256_pd(_mm256_cmpgt_epi64(_mm256_setzero_si256(), kl)), m);
+            size_t out = (size_t)j * w + px0 + 4 * q;
+            _mm_storeu_ps(c->slack + out, _mm256_cvtpd_ps(_mm256_mul_pd(scale, m)));
+            if (c->slack2)
+                _mm_storeu_ps(c->slack2 + out, _mm256_cvtpd_ps(_mm256_mul_pd(scale2, m)));
+        }
+    }
+}
+#endif
 
 static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
 {
@@ -2177,6 +2281,12 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
                 for (int k = 0; k < 3; k++)
                     colp[k][i - px0 + 1] = v->f[k] + x * v->r[k];
             }
+#if HAVE_AVX_TILES
+        if (tc->avx2 && S == 1 && px1 - px0 == CELL) {
+            slack_cell_avx2(c, px0, py0, py1, (const double(*)[L])colp);
+            continue;
+        }
+#endif
         for (int s = 0; s < S; s++) {
             for (int j = py0 - 1; j <= py1; j++) {
                 double y = v ? (0.5 * ih - (t->y0 + j) - 0.5) * v->ky : 0;
@@ -2349,7 +2459,10 @@ crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster
                 r->tile_mask[(size_t)ty * tiles_x + tx] = 1;
     }
     slack_ctx c = {t, view, scale, slack, scale2, slack2};
-    slack_tiles_ctx tc = {&c, r->tile_mask, tiles_x};
+    slack_tiles_ctx tc = {&c, r->tile_mask, tiles_x, 0};
+#if HAVE_AVX_TILES
+    tc.avx2 = !r->no_vectors && !r->no_avx2 && __builtin_cpu_supports("avx2");
+#endif
     crisp_pool_parallel_for(pool, tiles, 16, slack_tiles, &tc);
     return CRISP_OK;
 }
