@@ -1648,7 +1648,9 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
 #else
         vectors = 0;
 #endif
-        /* Rounding allowance of the 1/W plane evaluated at a block corner (see the hi-z test). */
+        /* Rounding allowance of the 1/W plane evaluated at a block corner (see the hi-z test),
+         * and the corner where the plane is largest. */
+        const int hi_x = st->qx[0] > 0, hi_y = st->qy[0] > 0;
         double slop = 1e-12 * (fabs(st->q0[0]) +
                                fabs(st->qx[0]) * (fabs(x0 - st->ox) + fabs(x1 + 1 - st->ox)) +
                                fabs(st->qy[0]) * (fabs(y0 - st->oy) + fabs(y1 + 1 - st->oy)));
@@ -1700,17 +1702,15 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                         hiz[blk] = block_min(t, inv_w, gx, gy, gx1, gy1);
                         writes[blk] = 0;
                     }
-                    /* The triangle's largest 1/W over the block's rectangle (an affine function:
-                     * at a corner). No sample of it can pass the depth test when that is not
-                     * above every stored value. */
-                    double best = -INFINITY;
-                    for (int cy = 0; cy < 2; cy++)
-                        for (int cx = 0; cx < 2; cx++) {
-                            double dx = (cx ? bx1 + 1 : bx0) - st->ox,
-                                   dy = (cy ? by1 + 1 : by0) - st->oy;
-                            double v = st->q0[0] + st->qx[0] * dx + st->qy[0] * dy;
-                            best = v > best ? v : best;
-                        }
+                    /* The triangle's largest 1/W over the block's rectangle: an affine function,
+                     * largest at the corner its gradient's signs pick (hi_x, hi_y; either corner
+                     * of a zero gradient); evaluated there, within slop of every sample's
+                     * computed 1/W bound (the exact value at the corner bounds the exact value
+                     * at every sample; slop covers the two evaluations' rounding). No sample
+                     * can pass the depth test when it is not above every stored value. NaN
+                     * planes skip nothing. */
+                    double best = st->q0[0] + st->qx[0] * ((hi_x ? bx1 + 1 : bx0) - st->ox) +
+                                  st->qy[0] * ((hi_y ? by1 + 1 : by0) - st->oy);
                     if (best + slop < hiz[blk]) {
                         skipped++;
                         continue;
