@@ -1627,17 +1627,30 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
         int tdec = !run_test ? 1 : box_on ? st->boxed : -1, xdec = -3;
         const double *tbox = box_on && st->tbox_ok ? st->tbox : NULL;
         int part_blocks = x0 / BLOCK != x1 / BLOCK || y0 / BLOCK != y1 / BLOCK;
+        /* band_span pays where a band has blocks to drop: not in a part one block wide (its
+         * block's own edge test costs less than the search) */
+        const int wide = x0 / BLOCK != x1 / BLOCK;
         int beyond = st->x0 < px0 || st->x1 > px1 || st->y0 < py0 || st->y1 > py1;
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         const int64_t *A = st->ea, *B = st->eb;
         int64_t step[3] = {A[0] * SUB, A[1] * SUB, A[2] * SUB};
         const int64_t bstep0 = B[0] * SUB, bstep1 = B[1] * SUB, bstep2 = B[2] * SUB;
+        /* rmax (below) of a block BLOCK pixels wide */
+        int64_t rmax8[3];
+        UNROLL(3)
+        for (int k = 0; k < 3; k++)
+            rmax8[k] = step[k] > 0 ? step[k] * (BLOCK - 1) : 0;
 #if defined(__SSE2__)
         /* Lanes 2h, 2h + 1 of a block row: edge k's steps from its first pixel (row_mask). */
         __m128i lane_step[3][BLOCK / 2];
-        for (int k = 0; k < 3; k++)
-            for (int h = 0; h < BLOCK / 2; h++)
-                lane_step[k][h] = _mm_set_epi64x((2 * h + 1) * step[k], 2 * h * step[k]);
+        UNROLL(3)
+        for (int k = 0; k < 3; k++) { /* q step as sums of steps (exact integers) */
+            const __m128i two = _mm_set1_epi64x(2 * step[k]);
+            lane_step[k][0] = _mm_set_epi64x(step[k], 0);
+            UNROLL(3)
+            for (int h = 1; h < BLOCK / 2; h++)
+                lane_step[k][h] = _mm_add_epi64(lane_step[k][h - 1], two);
+        }
         pair_planes pp;
         if (!avx)
             for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
@@ -1657,10 +1670,17 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
         for (int by0 = y0; by0 <= y1; by0 = (by0 / BLOCK + 1) * BLOCK) {
             int by1 = (by0 / BLOCK + 1) * BLOCK - 1 < y1 ? (by0 / BLOCK + 1) * BLOCK - 1 : y1;
             int bxs = x0, bxe = x1; /* the band's blocks that may be non-empty (band_span) */
-            if (!band_span(st, c, by0, by1, &bxs, &bxe)) continue;
+            if (wide && !band_span(st, c, by0, by1, &bxs, &bxe)) continue;
             /* The edge test's row part over the band (exact integers, so the sums below are
-             * those of the whole expression): least and greatest of B sy + C. */
-            int64_t eyl[3], eyh[3];
+             * those of the whole expression): least and greatest of B sy + C; and each sample's
+             * B py + C at the band's first row (the blocks' first edge values, below). */
+            int64_t eyl[3], eyh[3], eyr[16][3];
+            for (int s = 0; s < S; s++) {
+                int64_t py = (int64_t)by0 * SUB + c->off_fy[s];
+                UNROLL(3)
+                for (int k = 0; k < 3; k++)
+                    eyr[s][k] = B[k] * py + st->ec[k];
+            }
             {
                 int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
                         sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
@@ -1671,9 +1691,12 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                     eyh[k] = (ey0 > ey1 ? ey0 : ey1) + st->ec[k];
                 }
             }
-            for (int bx0 = bxs; bx0 <= bxe; bx0 = (bx0 / BLOCK + 1) * BLOCK) {
-                int bx1 = (bx0 / BLOCK + 1) * BLOCK - 1 < x1 ? (bx0 / BLOCK + 1) * BLOCK - 1 : x1;
-                int blk = ((by0 - py0) / BLOCK) * BLOCKS + (bx0 - px0) / BLOCK;
+            /* Pixels are >= 0 (a window lies inside the image): a block's last column is
+             * bx0 | (BLOCK - 1), its index in the tile a shift. */
+            const int brow = (by0 - py0) / BLOCK * BLOCKS;
+            for (int bx0 = bxs; bx0 <= bxe; bx0 = (bx0 | (BLOCK - 1)) + 1) {
+                int bx1 = (bx0 | (BLOCK - 1)) < x1 ? (bx0 | (BLOCK - 1)) : x1;
+                int blk = brow + (int)((unsigned)(bx0 - px0) / BLOCK);
                 if (tdec == 0 || xdec == 0) goto triangle_done; /* every fragment discarded */
                 /* Each edge function over the block's samples (inside the rectangle of sample
                  * positions; affine, so extreme at its corners): a block outside an edge has no
@@ -1721,19 +1744,20 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                 /* Edge values at the block's first pixel of each sample, stepped by rows. */
                 int64_t er[16][3];
                 for (int s = 0; s < S; s++) {
-                    int64_t px = (int64_t)bx0 * SUB + c->off_fx[s],
-                            py = (int64_t)by0 * SUB + c->off_fy[s];
+                    int64_t px = (int64_t)bx0 * SUB + c->off_fx[s];
                     for (int k = 0; k < 3; k++)
-                        er[s][k] = A[k] * px + B[k] * py + st->ec[k];
+                        er[s][k] = A[k] * px + eyr[s][k];
                 }
                 /* Edge k's greatest value along a row over its first: a row whose greatest
                  * value is negative for one edge has no covered lane (a thin triangle's block has
                  * many such rows) and is skipped before any per-lane work. */
                 const int n = bx1 - bx0 + 1;
-                int64_t rmax[3];
-                UNROLL(3)
-                for (int k = 0; k < 3; k++)
-                    rmax[k] = step[k] > 0 ? step[k] * (n - 1) : 0;
+                int64_t rmax[3] = {rmax8[0], rmax8[1], rmax8[2]};
+                if (n != BLOCK) {
+                    UNROLL(3)
+                    for (int k = 0; k < 3; k++)
+                        rmax[k] = step[k] > 0 ? step[k] * (n - 1) : 0;
+                }
                 /* The block's own per-row values: each sample's column offset from the planes'
                  * origin, the first row's first sample, whether its rows are whole BLOCK lanes
                  * inside the image (the vector paths). */
