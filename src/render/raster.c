@@ -1627,17 +1627,30 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
         int tdec = !run_test ? 1 : box_on ? st->boxed : -1, xdec = -3;
         const double *tbox = box_on && st->tbox_ok ? st->tbox : NULL;
         int part_blocks = x0 / BLOCK != x1 / BLOCK || y0 / BLOCK != y1 / BLOCK;
+        /* band_span pays where a band has blocks to drop: not in a part one block wide (its
+         * block's own edge test costs less than the search) */
+        const int wide = x0 / BLOCK != x1 / BLOCK;
         int beyond = st->x0 < px0 || st->x1 > px1 || st->y0 < py0 || st->y1 > py1;
         /* Edge k: E = A (px - x_a0) + B (py - y_a0), stepped by A * SUB per pixel. */
         const int64_t *A = st->ea, *B = st->eb;
         int64_t step[3] = {A[0] * SUB, A[1] * SUB, A[2] * SUB};
         const int64_t bstep0 = B[0] * SUB, bstep1 = B[1] * SUB, bstep2 = B[2] * SUB;
+        /* rmax (below) of a block BLOCK pixels wide */
+        int64_t rmax8[3];
+        UNROLL(3)
+        for (int k = 0; k < 3; k++)
+            rmax8[k] = step[k] > 0 ? step[k] * (BLOCK - 1) : 0;
 #if defined(__SSE2__)
         /* Lanes 2h, 2h + 1 of a block row: edge k's steps from its first pixel (row_mask). */
         __m128i lane_step[3][BLOCK / 2];
-        for (int k = 0; k < 3; k++)
-            for (int h = 0; h < BLOCK / 2; h++)
-                lane_step[k][h] = _mm_set_epi64x((2 * h + 1) * step[k], 2 * h * step[k]);
+        UNROLL(3)
+        for (int k = 0; k < 3; k++) { /* q step as sums of steps (exact integers) */
+            const __m128i two = _mm_set1_epi64x(2 * step[k]);
+            lane_step[k][0] = _mm_set_epi64x(step[k], 0);
+            UNROLL(3)
+            for (int h = 1; h < BLOCK / 2; h++)
+                lane_step[k][h] = _mm_add_epi64(lane_step[k][h - 1], two);
+        }
         pair_planes pp;
         if (!avx)
             for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
@@ -1648,17 +1661,26 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
 #else
         vectors = 0;
 #endif
-        /* Rounding allowance of the 1/W plane evaluated at a block corner (see the hi-z test). */
+        /* Rounding allowance of the 1/W plane evaluated at a block corner (see the hi-z test),
+         * and the corner where the plane is largest. */
+        const int hi_x = st->qx[0] > 0, hi_y = st->qy[0] > 0;
         double slop = 1e-12 * (fabs(st->q0[0]) +
                                fabs(st->qx[0]) * (fabs(x0 - st->ox) + fabs(x1 + 1 - st->ox)) +
                                fabs(st->qy[0]) * (fabs(y0 - st->oy) + fabs(y1 + 1 - st->oy)));
         for (int by0 = y0; by0 <= y1; by0 = (by0 / BLOCK + 1) * BLOCK) {
             int by1 = (by0 / BLOCK + 1) * BLOCK - 1 < y1 ? (by0 / BLOCK + 1) * BLOCK - 1 : y1;
             int bxs = x0, bxe = x1; /* the band's blocks that may be non-empty (band_span) */
-            if (!band_span(st, c, by0, by1, &bxs, &bxe)) continue;
+            if (wide && !band_span(st, c, by0, by1, &bxs, &bxe)) continue;
             /* The edge test's row part over the band (exact integers, so the sums below are
-             * those of the whole expression): least and greatest of B sy + C. */
-            int64_t eyl[3], eyh[3];
+             * those of the whole expression): least and greatest of B sy + C; and each sample's
+             * B py + C at the band's first row (the blocks' first edge values, below). */
+            int64_t eyl[3], eyh[3], eyr[16][3];
+            for (int s = 0; s < S; s++) {
+                int64_t py = (int64_t)by0 * SUB + c->off_fy[s];
+                UNROLL(3)
+                for (int k = 0; k < 3; k++)
+                    eyr[s][k] = B[k] * py + st->ec[k];
+            }
             {
                 int64_t sy0 = (int64_t)by0 * SUB + c->off_fmin[1],
                         sy1 = (int64_t)by1 * SUB + c->off_fmax[1];
@@ -1669,9 +1691,12 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                     eyh[k] = (ey0 > ey1 ? ey0 : ey1) + st->ec[k];
                 }
             }
-            for (int bx0 = bxs; bx0 <= bxe; bx0 = (bx0 / BLOCK + 1) * BLOCK) {
-                int bx1 = (bx0 / BLOCK + 1) * BLOCK - 1 < x1 ? (bx0 / BLOCK + 1) * BLOCK - 1 : x1;
-                int blk = ((by0 - py0) / BLOCK) * BLOCKS + (bx0 - px0) / BLOCK;
+            /* Pixels are >= 0 (a window lies inside the image): a block's last column is
+             * bx0 | (BLOCK - 1), its index in the tile a shift. */
+            const int brow = (by0 - py0) / BLOCK * BLOCKS;
+            for (int bx0 = bxs; bx0 <= bxe; bx0 = (bx0 | (BLOCK - 1)) + 1) {
+                int bx1 = (bx0 | (BLOCK - 1)) < x1 ? (bx0 | (BLOCK - 1)) : x1;
+                int blk = brow + (int)((unsigned)(bx0 - px0) / BLOCK);
                 if (tdec == 0 || xdec == 0) goto triangle_done; /* every fragment discarded */
                 /* Each edge function over the block's samples (inside the rectangle of sample
                  * positions; affine, so extreme at its corners): a block outside an edge has no
@@ -1700,17 +1725,15 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                         hiz[blk] = block_min(t, inv_w, gx, gy, gx1, gy1);
                         writes[blk] = 0;
                     }
-                    /* The triangle's largest 1/W over the block's rectangle (an affine function:
-                     * at a corner). No sample of it can pass the depth test when that is not
-                     * above every stored value. */
-                    double best = -INFINITY;
-                    for (int cy = 0; cy < 2; cy++)
-                        for (int cx = 0; cx < 2; cx++) {
-                            double dx = (cx ? bx1 + 1 : bx0) - st->ox,
-                                   dy = (cy ? by1 + 1 : by0) - st->oy;
-                            double v = st->q0[0] + st->qx[0] * dx + st->qy[0] * dy;
-                            best = v > best ? v : best;
-                        }
+                    /* The triangle's largest 1/W over the block's rectangle: an affine function,
+                     * largest at the corner its gradient's signs pick (hi_x, hi_y; either corner
+                     * of a zero gradient); evaluated there, within slop of every sample's
+                     * computed 1/W bound (the exact value at the corner bounds the exact value
+                     * at every sample; slop covers the two evaluations' rounding). No sample
+                     * can pass the depth test when it is not above every stored value. NaN
+                     * planes skip nothing. */
+                    double best = st->q0[0] + st->qx[0] * ((hi_x ? bx1 + 1 : bx0) - st->ox) +
+                                  st->qy[0] * ((hi_y ? by1 + 1 : by0) - st->oy);
                     if (best + slop < hiz[blk]) {
                         skipped++;
                         continue;
@@ -1721,19 +1744,20 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                 /* Edge values at the block's first pixel of each sample, stepped by rows. */
                 int64_t er[16][3];
                 for (int s = 0; s < S; s++) {
-                    int64_t px = (int64_t)bx0 * SUB + c->off_fx[s],
-                            py = (int64_t)by0 * SUB + c->off_fy[s];
+                    int64_t px = (int64_t)bx0 * SUB + c->off_fx[s];
                     for (int k = 0; k < 3; k++)
-                        er[s][k] = A[k] * px + B[k] * py + st->ec[k];
+                        er[s][k] = A[k] * px + eyr[s][k];
                 }
                 /* Edge k's greatest value along a row over its first: a row whose greatest
                  * value is negative for one edge has no covered lane (a thin triangle's block has
                  * many such rows) and is skipped before any per-lane work. */
                 const int n = bx1 - bx0 + 1;
-                int64_t rmax[3];
-                UNROLL(3)
-                for (int k = 0; k < 3; k++)
-                    rmax[k] = step[k] > 0 ? step[k] * (n - 1) : 0;
+                int64_t rmax[3] = {rmax8[0], rmax8[1], rmax8[2]};
+                if (n != BLOCK) {
+                    UNROLL(3)
+                    for (int k = 0; k < 3; k++)
+                        rmax[k] = step[k] > 0 ? step[k] * (n - 1) : 0;
+                }
                 /* The block's own per-row values: each sample's column offset from the planes'
                  * origin, the first row's first sample, whether its rows are whole BLOCK lanes
                  * inside the image (the vector paths). */
@@ -2148,7 +2172,111 @@ typedef struct slack_tiles_ctx {
     const slack_ctx *c;
     const uint8_t *mask;
     int cells_x;
+    int avx2; /* one-sample cells CELL pixels wide through slack_cell_avx2 */
 } slack_tiles_ctx;
+
+#if HAVE_AVX_TILES
+/* slack_tiles' work for one cell CELL pixels wide of a one-sample target, four pixels at a time
+ * (AVX2): the same values bit for bit. Per sample of the cell and its border: its face and side
+ * as one key (2 f + side; -1: none or outside the image; two samples pair up exactly when their
+ * keys are equal and not -1) and W = 1 / inv_w (also computed for empty samples, whose W no pair
+ * reads); the side's dot product is slack_tiles' (0 + a2 c0, then + a3 c1, + a4 c2, the same
+ * IEEE operations on each lane; no fused multiply-add). Then each sample's largest |W_n - W|
+ * over its paired neighbours n in the same order (left, right, up, down): max_pd(d, m) is d > m
+ * ? d : m, slack_tiles' step, with d = 0 for an unpaired neighbour (never above m >= 0). */
+__attribute__((target("avx2"))) static void slack_cell_avx2(const slack_ctx *c, int px0, int py0,
+                                                            int py1, const double colp[3][CELL + 2])
+{
+    enum { L = CELL + 2 };
+    const crisp_raster_target *t = c->t;
+    const crisp_raster_view *v = c->view;
+    int w = t->width, h = t->height, ih = image_h(t);
+    int64_t key[L * L] __attribute__((aligned(32)));
+    double wl[L * L] __attribute__((aligned(32)));
+    const __m128i lane5 = _mm_setr_epi32(0, 5, 10, 15);
+    for (int j = py0 - 1; j <= py1; j++) {
+        int64_t *krow = key + (j - py0 + 1) * L;
+        double *wrow = wl + (j - py0 + 1) * L;
+        if (j < 0 || j >= h) {
+            for (int l = 0; l < L; l++)
+                krow[l] = -1, wrow[l] = 0;
+            continue;
+        }
+        double y = v ? (0.5 * ih - (t->y0 + j) - 0.5) * v->ky : 0;
+        __m256d yu[3];
+        for (int k = 0; k < 3; k++)
+            yu[k] = _mm256_set1_pd(v ? y * v->u[k] : 0);
+        /* the border columns, as slack_tiles */
+        for (int e = 0; e < 2; e++) {
+            int i = e ? px0 + CELL : px0 - 1, l = e ? L - 1 : 0;
+            krow[l] = -1, wrow[l] = 0;
+            if (i < 0 || i >= w) continue;
+            size_t idx = (size_t)j * w + i;
+            int32_t f = t->face[idx];
+            if (f < 0) continue;
+            int side = 0;
+            if (v) {
+                const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
+                double dot = 0;
+                dot += a[2] * (colp[0][l] + y * v->u[0]);
+                dot += a[3] * (colp[1][l] + y * v->u[1]);
+                dot += a[4] * (colp[2][l] + y * v->u[2]);
+                side = dot < 0;
+            }
+            krow[l] = 2 * (int64_t)f + side;
+            wrow[l] = 1.0 / t->inv_w[idx];
+        }
+        UNROLL(4)
+        for (int q = 0; q < CELL / 4; q++) {
+            size_t idx = (size_t)j * w + px0 + 4 * q;
+            __m256i f = _mm256_cvtepi32_epi64(_mm_loadu_si128((const __m128i *)(t->face + idx)));
+            __m256i k2 = _mm256_add_epi64(f, f);
+            if (v) {
+                const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
+                __m256d dot = _mm256_setzero_pd();
+                for (int k = 0; k < 3; k++) {
+                    __m256d ak = _mm256_cvtps_pd(_mm_i32gather_ps(a + 2 + k, lane5, 4));
+                    __m256d ck = _mm256_add_pd(_mm256_loadu_pd(&colp[k][1 + 4 * q]), yu[k]);
+                    dot = _mm256_add_pd(dot, _mm256_mul_pd(ak, ck));
+                }
+                __m256i side = _mm256_castpd_si256(
+                    _mm256_cmp_pd(dot, _mm256_setzero_pd(), _CMP_LT_OQ)); /* -1 where < 0 */
+                k2 = _mm256_sub_epi64(k2, side);
+            }
+            /* -1 where the face is negative */
+            __m256i none = _mm256_cmpgt_epi64(_mm256_setzero_si256(), f);
+            _mm256_storeu_si256((__m256i *)(krow + 1 + 4 * q), _mm256_or_si256(k2, none));
+            _mm256_storeu_pd(wrow + 1 + 4 * q,
+                             _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_loadu_pd(t->inv_w + idx)));
+        }
+    }
+    const __m256d scale = _mm256_set1_pd(c->scale), scale2 = _mm256_set1_pd(c->scale2);
+    const __m256d sign = _mm256_set1_pd(-0.0);
+    for (int j = py0; j < py1; j++) {
+        UNROLL(4)
+        for (int q = 0; q < CELL / 4; q++) {
+            int l = (j - py0 + 1) * L + 1 + 4 * q;
+            __m256i kl = _mm256_loadu_si256((const __m256i *)(key + l));
+            __m256d W = _mm256_loadu_pd(wl + l), m = _mm256_setzero_pd();
+            const int nb[4] = {l - 1, l + 1, l - L, l + L}; /* left right up down */
+            UNROLL(4)
+            for (int k = 0; k < 4; k++) {
+                __m256d same = _mm256_castsi256_pd(
+                    _mm256_cmpeq_epi64(_mm256_loadu_si256((const __m256i *)(key + nb[k])), kl));
+                __m256d d = _mm256_andnot_pd(sign, _mm256_sub_pd(_mm256_loadu_pd(wl + nb[k]), W));
+                m = _mm256_max_pd(_mm256_and_pd(same, d), m);
+            }
+            /* 0 where the sample itself is empty */
+            m = _mm256_andnot_pd(
+                _mm256_castsi256_pd(_mm256_cmpgt_epi64(_mm256_setzero_si256(), kl)), m);
+            size_t out = (size_t)j * w + px0 + 4 * q;
+            _mm_storeu_ps(c->slack + out, _mm256_cvtpd_ps(_mm256_mul_pd(scale, m)));
+            if (c->slack2)
+                _mm_storeu_ps(c->slack2 + out, _mm256_cvtpd_ps(_mm256_mul_pd(scale2, m)));
+        }
+    }
+}
+#endif
 
 static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
 {
@@ -2177,6 +2305,12 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
                 for (int k = 0; k < 3; k++)
                     colp[k][i - px0 + 1] = v->f[k] + x * v->r[k];
             }
+#if HAVE_AVX_TILES
+        if (tc->avx2 && S == 1 && px1 - px0 == CELL) {
+            slack_cell_avx2(c, px0, py0, py1, (const double(*)[L])colp);
+            continue;
+        }
+#endif
         for (int s = 0; s < S; s++) {
             for (int j = py0 - 1; j <= py1; j++) {
                 double y = v ? (0.5 * ih - (t->y0 + j) - 0.5) * v->ky : 0;
@@ -2349,7 +2483,10 @@ crisp_status crisp__raster_depth_slack2_tris(crisp_raster *r, const crisp_raster
                 r->tile_mask[(size_t)ty * tiles_x + tx] = 1;
     }
     slack_ctx c = {t, view, scale, slack, scale2, slack2};
-    slack_tiles_ctx tc = {&c, r->tile_mask, tiles_x};
+    slack_tiles_ctx tc = {&c, r->tile_mask, tiles_x, 0};
+#if HAVE_AVX_TILES
+    tc.avx2 = !r->no_vectors && !r->no_avx2 && __builtin_cpu_supports("avx2");
+#endif
     crisp_pool_parallel_for(pool, tiles, 16, slack_tiles, &tc);
     return CRISP_OK;
 }

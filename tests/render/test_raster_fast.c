@@ -238,6 +238,83 @@ static void test_hiz_and_batches_change_nothing(void **state)
     crisp__raster_target_free(&b);
 }
 
+/* A vertex at NDC (x, y) with inverse depth iw (W = 1 / iw), inside the clip planes. */
+static void plane_vertex(crisp_raster_vertex *p, double x, double y, double iw)
+{
+    double w = 1 / iw;
+    p->clip[0] = x * w, p->clip[1] = y * w, p->clip[2] = 0.9 * w - 0.2, p->clip[3] = w;
+    for (int a = 0; a < CRISP_RASTER_ATTRS; a++)
+        p->attr[a] = 0.25 * a + 0.1 * x;
+}
+
+/* The depth bound of a block (raster_tile_s' hi-z test) reads the triangle's 1/W at the one
+ * corner of the block that its gradient's signs pick, plus a rounding allowance. Over a surface:
+ * small triangles behind it but for a corner near one vertex (gradients of every direction),
+ * then triangles on the surface's own plane (equal 1/W but for rounding); drawn with and without
+ * the bound, the targets must be the same bit for bit (1 and 4 samples, every path), with blocks
+ * skipped and the corners' fragments drawn. A bound at another corner (the opposite one in x,
+ * or a fixed one) skips blocks whose corner pokes out, and fails (checked). */
+static void test_hiz_corner(void **state)
+{
+    (void)state;
+    enum { N = 800 };
+    static crisp_raster_vertex v[4 + 3 * N];
+    static crisp_raster_tri tri[2 + N];
+    /* flat: a surface of 1/W 0.3 but for a few ulps per vertex: the planes' gradients are of
+     * rounding's size, the corner's value and the samples' differ by rounding alone (an allowance
+     * of 0 skips more blocks here but none that holds a passing sample: not caught) */
+    for (int flat = 0; flat < 2; flat++) {
+#define PLANE(x, y)                                                                                \
+    (flat ? 0.3 * (1 + 0x1p-52 * (int)(5 * rnd() - 2.5)) : 0.5 + 0.05 * (x)-0.03 * (y))
+        static const double corner[4][2] = {{-1.2, -1.2}, {1.2, -1.2}, {1.2, 1.2}, {-1.2, 1.2}};
+        rng_state = 77;
+        for (int k = 0; k < 4; k++)
+            plane_vertex(&v[k], corner[k][0], corner[k][1], PLANE(corner[k][0], corner[k][1]));
+        tri[0] = (crisp_raster_tri){{0, 1, 2}, 1};
+        tri[1] = (crisp_raster_tri){{0, 2, 3}, 1};
+        for (int i = 0; i < N; i++) {
+            double cx = rnd() * 1.8 - 0.9, cy = rnd() * 1.8 - 0.9, size = 0.1 + 0.25 * rnd();
+            int front = (int)(rnd() * 3), coplanar = i >= N / 2;
+            for (int k = 0; k < 3; k++) {
+                double x = cx + size * (rnd() - 0.5), y = cy + size * (rnd() - 0.5);
+                double iw = PLANE(x, y) + (coplanar ? 0 : k == front ? 0.01 : -0.02);
+                plane_vertex(&v[4 + 3 * i + k], x, y, iw);
+            }
+            tri[2 + i] = (crisp_raster_tri){{4 + 3 * i, 5 + 3 * i, 6 + 3 * i}, coplanar ? 3 : 2};
+        }
+#undef PLANE
+        for (int samples = 1; samples <= 4; samples += 3)
+            for (int vec = 0; vec < 3; vec++) {
+                crisp_raster_target t[2] = {{0}, {0}};
+                crisp_raster_stats st[2];
+                for (int hiz = 0; hiz < 2; hiz++) {
+                    crisp_raster *r;
+                    assert_int_equal(crisp__raster_create(&r), CRISP_OK);
+                    crisp__raster_set_vectors(r, vec);
+                    crisp__raster_set_hiz(r, hiz);
+                    assert_int_equal(crisp__raster_target_init(&t[hiz], W, H, samples), CRISP_OK);
+                    crisp__raster_target_clear(&t[hiz]);
+                    assert_int_equal(crisp__raster_draw(r, &t[hiz], NULL, v, 4 + 3 * N, tri, 2,
+                                                        NULL, NULL, &st[hiz]),
+                                     CRISP_OK);
+                    assert_int_equal(crisp__raster_draw(r, &t[hiz], NULL, v, 4 + 3 * N, tri + 2, N,
+                                                        NULL, NULL, &st[hiz]),
+                                     CRISP_OK);
+                    crisp__raster_destroy(r);
+                }
+                assert_same(&t[0], &t[1]);
+                size_t n = (size_t)W * H * samples, poke = 0, tie = 0;
+                for (size_t k = 0; k < n; k++)
+                    poke += t[1].face[k] == 2, tie += t[1].face[k] == 3;
+                assert_true(poke > n / 50);
+                assert_true(tie > 0);
+                assert_true(st[1].blocks_skipped > 100);
+                crisp__raster_target_free(&t[0]);
+                crisp__raster_target_free(&t[1]);
+            }
+    }
+}
+
 static void test_no_test_flag(void **state)
 {
     (void)state;
@@ -844,6 +921,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hiz_and_batches_change_nothing),
+        cmocka_unit_test(test_hiz_corner),
         cmocka_unit_test(test_ties_keep_earlier),
         cmocka_unit_test(test_no_test_flag),
         cmocka_unit_test(test_slack_for_triangles),
