@@ -985,8 +985,10 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
 typedef struct ribbon_cull_ctx {
     crisp_renderer *r;
     const crisp_raster_target *t;
-    const uint32_t *keep; /* the plan's quads looked at (NULL: all) */
-    uint8_t *hidden;      /* per quad looked at */
+    const uint32_t *keep;   /* the plan's quads looked at (NULL: all) */
+    uint8_t *hidden;        /* per quad looked at */
+    int win[2];             /* the target's origin in the image */
+    int blocks_x, blocks_y; /* of r->hiz */
 } ribbon_cull_ctx;
 
 typedef struct core_src {
@@ -1008,6 +1010,20 @@ static void cull_ribbons(void *vctx, size_t begin, size_t end, int worker)
     for (size_t q = begin; q < end; q++) {
         size_t pq = c->keep ? c->keep[q] : q;
         const crisp_plan_ribbon_vertex *src = plan->ribbon_vertices + 4 * pq;
+        /* A quad with a corner at or in front of its block's depth is not hidden (most quads
+         * lie on visible edges): kept without the full test's projection and block scans. */
+        int seen = 0;
+        for (int k = 0; k < 4 && !seen; k++) {
+            const double *cl = src[k].clip;
+            if (!(cl[3] > 0)) continue;
+            double x = (cl[0] / cl[3] + 1) * 0.5 * plan->width - c->win[0],
+                   y = (1 - cl[1] / cl[3]) * 0.5 * plan->height - c->win[1];
+            seen = crisp__occl_point_seen(c->r->hiz, c->blocks_x, c->blocks_y, x, y, 1 / cl[3]);
+        }
+        if (seen) {
+            c->hidden[q] = 0;
+            continue;
+        }
         const double *clip[4] = {src[0].clip, src[1].clip, src[2].clip, src[3].clip};
         core_src cs = {src, plan->width, plan->height};
         c->hidden[q] = (uint8_t)crisp__raster_quad_hidden(c->r->raster, c->t, clip, quad_core, &cs);
@@ -1995,7 +2011,13 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
             (st = crisp_grow((void **)&r->ribbon_hidden, &r->ribbon_hidden_cap, quads,
                              sizeof *r->ribbon_hidden)))
             return st;
-        ribbon_cull_ctx cc = {r, tg, keep, r->ribbon_hidden};
+        ribbon_cull_ctx cc = {r,
+                              tg,
+                              keep,
+                              r->ribbon_hidden,
+                              {win[0], win[1]},
+                              (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+                              (win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK};
         crisp_pool_parallel_for(r->pool, quads, 256, cull_ribbons, &cc);
         size_t kept = 0; /* in order; in place when keep is already the list */
         for (size_t q = 0; q < quads; q++)
