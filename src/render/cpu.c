@@ -35,11 +35,11 @@
  * of its derivatives (occt_linkrods default: about 1,100 vertices a frame at 40 k instructions
  * each, 6% of its frame): kept across frames in a table of POLE_SLOTS keyed by the scene (serial),
  * the patch and the bits of (s, t): the same inputs give the same normal, bit for bit. The
- * tessellation's workers only read the table; what each finds missing (up to POLE_FRESH a pass)
- * goes in between passes (keep_pole_normals). */
-#define POLE_BITS 12
+ * tessellation's workers only read the table (a key's slot and its neighbour, slot ^ 1); what
+ * each finds missing (up to POLE_FRESH a pass) goes in between passes (keep_pole_normals). */
+#define POLE_BITS 13
 #define POLE_SLOTS (1u << POLE_BITS)
-#define POLE_FRESH 256
+#define POLE_FRESH 1024
 typedef struct pole_normal {
     uint64_t serial, s, t; /* serial 0: an empty slot */
     uint32_t patch;
@@ -51,6 +51,11 @@ static size_t pole_slot(uint32_t patch, uint64_t s, uint64_t t)
     return (size_t)(((s * 0x9E3779B97F4A7C15ull) ^ (t * 0xC2B2AE3D27D4EB4Full) ^
                      (patch * 0x165667B19E3779F9ull)) >>
                     (64 - POLE_BITS));
+}
+
+static int pole_is(const pole_normal *e, uint64_t serial, uint32_t patch, uint64_t s, uint64_t t)
+{
+    return e->serial == serial && e->patch == patch && e->s == s && e->t == t;
 }
 
 /* Per worker: a patch's rows evaluated at a few s values (crisp__bezier_patch_rows_s) and whole
@@ -362,8 +367,8 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             if (crisp__normal_degenerate(Ps, Pt, n)) {
                 size_t ps = pole_slot(pi, sbits, tbits);
                 const pole_normal *e = r->poles ? &r->poles[ps] : NULL;
-                if (e && e->serial == c->sc->serial && e->patch == pi && e->s == sbits &&
-                    e->t == tbits) {
+                if (e && !pole_is(e, c->sc->serial, pi, sbits, tbits)) e = &r->poles[ps ^ 1];
+                if (e && pole_is(e, c->sc->serial, pi, sbits, tbits)) {
                     memcpy(n, e->n, sizeof e->n);
                 } else {
                     crisp_bezier_patch_normal(&sp->bez, s, t, n);
@@ -393,7 +398,12 @@ static void keep_pole_normals(crisp_renderer *r)
         if (tc->fresh_count && !r->poles) r->poles = calloc(POLE_SLOTS, sizeof *r->poles);
         for (int i = 0; r->poles && i < tc->fresh_count; i++) {
             const pole_normal *e = &tc->fresh[i];
-            r->poles[pole_slot(e->patch, e->s, e->t)] = *e;
+            /* Two slots a key: the second when the first holds another key of this scene. */
+            size_t ps = pole_slot(e->patch, e->s, e->t);
+            if (r->poles[ps].serial == e->serial &&
+                !pole_is(&r->poles[ps], e->serial, e->patch, e->s, e->t))
+                ps ^= 1;
+            r->poles[ps] = *e;
         }
         tc->fresh_count = 0;
     }
