@@ -30,6 +30,34 @@
 #define TESS_VERT_BITS 8
 #define NET5 ((CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 5) /* find_empty_leaves' nets */
 
+/* Normals at degenerate points (crisp__normal_degenerate: an apex, a pole, a collapsed side),
+ * where crisp_bezier_patch_normal takes the limit from inside the patch over several evaluations
+ * of its derivatives (occt_linkrods default: about 1,100 vertices a frame at 40 k instructions
+ * each, 6% of its frame): kept across frames in a table of POLE_SLOTS keyed by the scene (serial),
+ * the patch and the bits of (s, t): the same inputs give the same normal, bit for bit. The
+ * tessellation's workers only read the table (a key's slot and its neighbour, slot ^ 1); what
+ * each finds missing (up to POLE_FRESH a pass) goes in between passes (keep_pole_normals). */
+#define POLE_BITS 13
+#define POLE_SLOTS (1u << POLE_BITS)
+#define POLE_FRESH 1024
+typedef struct pole_normal {
+    uint64_t serial, s, t; /* serial 0: an empty slot */
+    uint32_t patch;
+    double n[3];
+} pole_normal;
+
+static size_t pole_slot(uint32_t patch, uint64_t s, uint64_t t)
+{
+    return (size_t)(((s * 0x9E3779B97F4A7C15ull) ^ (t * 0xC2B2AE3D27D4EB4Full) ^
+                     (patch * 0x165667B19E3779F9ull)) >>
+                    (64 - POLE_BITS));
+}
+
+static int pole_is(const pole_normal *e, uint64_t serial, uint32_t patch, uint64_t s, uint64_t t)
+{
+    return e->serial == serial && e->patch == patch && e->s == s && e->t == t;
+}
+
 /* Per worker: a patch's rows evaluated at a few s values (crisp__bezier_patch_rows_s) and whole
  * vertices at a few (s, t), keyed by the patch and the bits of its local s (and t), valid for one
  * tessellation pass (generation: the same scene, patches and view). A vertex is a function of
@@ -43,6 +71,8 @@ typedef struct tess_cache {
     uint64_t vgen[1 << TESS_VERT_BITS], vs[1 << TESS_VERT_BITS], vt[1 << TESS_VERT_BITS];
     uint32_t vpatch[1 << TESS_VERT_BITS];
     crisp_raster_vertex vert[1 << TESS_VERT_BITS];
+    pole_normal fresh[POLE_FRESH]; /* the degenerate normals this pass computed */
+    int fresh_count;
 } tess_cache;
 
 struct crisp_renderer {
@@ -80,7 +110,8 @@ struct crisp_renderer {
     size_t ribbon_keep_cap;
     uint8_t *ribbon_hidden; /* per ribbon quad looked at: hidden (cull_ribbons) */
     size_t ribbon_hidden_cap;
-    tess_cache *cache;        /* per worker (tessellate) */
+    tess_cache *cache;
+    pole_normal *poles; /* POLE_SLOTS (NULL: none yet) */ /* per worker (tessellate) */
     uint64_t tess_generation; /* of the last tessellation pass (tess_cache) */
     double *col;              /* the resolve's per-column view direction part (resolve_row1) */
     size_t col_cap;
@@ -169,6 +200,7 @@ void crisp_renderer_destroy(crisp_renderer *r)
             free(r->pidx[w]);
     free(r->pidx);
     free(r->cache);
+    free(r->poles);
     crisp_planner_destroy(r->planner);
     crisp_pool_destroy(r->pool);
     crisp__raster_destroy(r->raster);
@@ -332,7 +364,19 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             crisp_vec3_cross(Ps, Pt, n);
             /* At an apex, a pole or a collapsed side the cross product vanishes: take the limit
              * from inside the patch (each generator of a cone keeps its own normal). */
-            if (crisp__normal_degenerate(Ps, Pt, n)) crisp_bezier_patch_normal(&sp->bez, s, t, n);
+            if (crisp__normal_degenerate(Ps, Pt, n)) {
+                size_t ps = pole_slot(pi, sbits, tbits);
+                const pole_normal *e = r->poles ? &r->poles[ps] : NULL;
+                if (e && !pole_is(e, c->sc->serial, pi, sbits, tbits)) e = &r->poles[ps ^ 1];
+                if (e && pole_is(e, c->sc->serial, pi, sbits, tbits)) {
+                    memcpy(n, e->n, sizeof e->n);
+                } else {
+                    crisp_bezier_patch_normal(&sp->bez, s, t, n);
+                    if (tc->fresh_count < POLE_FRESH)
+                        tc->fresh[tc->fresh_count++] =
+                            (pole_normal){c->sc->serial, sbits, tbits, pi, {n[0], n[1], n[2]}};
+                }
+            }
             if (reversed) crisp_vec3_scale(n, -1, n);
             crisp_vec3_normalize(n, v->attr + 2);
             if (!side) continue;
@@ -342,6 +386,26 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             tc->vpatch[vslot] = pi;
             tc->vert[vslot] = *v;
         }
+    }
+}
+
+/* The degenerate normals the workers computed in the last pass, into the table (which is made
+ * on first use; without memory they are not kept). */
+static void keep_pole_normals(crisp_renderer *r)
+{
+    for (int w = 0; w < r->workers; w++) {
+        tess_cache *tc = &r->cache[w];
+        if (tc->fresh_count && !r->poles) r->poles = calloc(POLE_SLOTS, sizeof *r->poles);
+        for (int i = 0; r->poles && i < tc->fresh_count; i++) {
+            const pole_normal *e = &tc->fresh[i];
+            /* Two slots a key: the second when the first holds another key of this scene. */
+            size_t ps = pole_slot(e->patch, e->s, e->t);
+            if (r->poles[ps].serial == e->serial &&
+                !pole_is(&r->poles[ps], e->serial, e->patch, e->s, e->t))
+                ps ^= 1;
+            r->poles[ps] = *e;
+        }
+        tc->fresh_count = 0;
     }
 }
 
@@ -985,8 +1049,10 @@ static void copy_ribbons(void *vctx, size_t begin, size_t end, int worker)
 typedef struct ribbon_cull_ctx {
     crisp_renderer *r;
     const crisp_raster_target *t;
-    const uint32_t *keep; /* the plan's quads looked at (NULL: all) */
-    uint8_t *hidden;      /* per quad looked at */
+    const uint32_t *keep;   /* the plan's quads looked at (NULL: all) */
+    uint8_t *hidden;        /* per quad looked at */
+    int win[2];             /* the target's origin in the image */
+    int blocks_x, blocks_y; /* of r->hiz */
 } ribbon_cull_ctx;
 
 typedef struct core_src {
@@ -1008,6 +1074,20 @@ static void cull_ribbons(void *vctx, size_t begin, size_t end, int worker)
     for (size_t q = begin; q < end; q++) {
         size_t pq = c->keep ? c->keep[q] : q;
         const crisp_plan_ribbon_vertex *src = plan->ribbon_vertices + 4 * pq;
+        /* A quad with a corner at or in front of its block's depth is not hidden (most quads
+         * lie on visible edges): kept without the full test's projection and block scans. */
+        int seen = 0;
+        for (int k = 0; k < 4 && !seen; k++) {
+            const double *cl = src[k].clip;
+            if (!(cl[3] > 0)) continue;
+            double x = (cl[0] / cl[3] + 1) * 0.5 * plan->width - c->win[0],
+                   y = (1 - cl[1] / cl[3]) * 0.5 * plan->height - c->win[1];
+            seen = crisp__occl_point_seen(c->r->hiz, c->blocks_x, c->blocks_y, x, y, 1 / cl[3]);
+        }
+        if (seen) {
+            c->hidden[q] = 0;
+            continue;
+        }
         const double *clip[4] = {src[0].clip, src[1].clip, src[2].clip, src[3].clip};
         core_src cs = {src, plan->width, plan->height};
         c->hidden[q] = (uint8_t)crisp__raster_quad_hidden(c->r->raster, c->t, clip, quad_core, &cs);
@@ -1875,6 +1955,7 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
         tess_ctx tc = {
             r, sc, list, kept, (uint32_t)vb0, (uint32_t)nv, (uint32_t)nt, ++r->tess_generation};
         crisp_pool_parallel_for(r->pool, kept, 8, tessellate, &tc);
+        keep_pole_normals(r);
         double tb = crisp_time_now();
         /* Each pass projects only its own vertices: the batch's, later the ribbons'. The block
          * depth also drops the kept leaves' hidden triangles at set-up. */
@@ -1995,7 +2076,13 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
             (st = crisp_grow((void **)&r->ribbon_hidden, &r->ribbon_hidden_cap, quads,
                              sizeof *r->ribbon_hidden)))
             return st;
-        ribbon_cull_ctx cc = {r, tg, keep, r->ribbon_hidden};
+        ribbon_cull_ctx cc = {r,
+                              tg,
+                              keep,
+                              r->ribbon_hidden,
+                              {win[0], win[1]},
+                              (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+                              (win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK};
         crisp_pool_parallel_for(r->pool, quads, 256, cull_ribbons, &cc);
         size_t kept = 0; /* in order; in place when keep is already the list */
         for (size_t q = 0; q < quads; q++)

@@ -66,6 +66,16 @@ void crisp__occl_set(crisp_occl_leaf *o, const int win[4], const double lo[2], c
     o->iw = f;
 }
 
+int crisp__occl_point_seen(const double *hiz, int blocks_x, int blocks_y, double x, double y,
+                           double iw)
+{
+    if (!(x >= 0 && y >= 0 && x < (double)blocks_x * CRISP_OCCL_BLOCK &&
+          y < (double)blocks_y * CRISP_OCCL_BLOCK))
+        return 0;
+    int bx = (int)x / CRISP_OCCL_BLOCK, by = (int)y / CRISP_OCCL_BLOCK;
+    return iw >= hiz[(size_t)by * blocks_x + bx];
+}
+
 size_t crisp__occl_order(const crisp_occl_leaf *occl, const uint8_t *skip, const uint32_t *tris,
                          size_t count, uint32_t *order, uint32_t bstart[CRISP_OCCL_BATCHES + 1])
 {

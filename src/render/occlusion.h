@@ -42,6 +42,13 @@ size_t crisp__occl_order(const crisp_occl_leaf *occl, const uint8_t *skip, const
  * least 1/W drawn in block (bx, by) (0 where a sample is empty; crisp__raster_block_depth). */
 int crisp__occl_hidden(const crisp_occl_leaf *o, const double *hiz, int blocks_x);
 
+/* 1 when the point (x, y) (pixels of the target) with 1/W iw is in a block of hiz (blocks_x x
+ * blocks_y) whose least 1/W is at most iw: then no triangle with the point among its vertices is
+ * hidden by hiz (the hidden tests need a bound of its 1/W, so at least iw, below every block its
+ * box covers). 0 outside the blocks, or at a NaN block or iw. */
+int crisp__occl_point_seen(const double *hiz, int blocks_x, int blocks_y, double x, double y,
+                           double iw);
+
 /* skip[list[i]] = 2 for each hidden leaf of the list (the others are left as they are). */
 void crisp__occl_cull(crisp_pool *pool, const crisp_occl_leaf *occl, const uint32_t *list,
                       size_t count, const double *hiz, int blocks_x, uint8_t *skip);
