@@ -24,7 +24,8 @@
  * two triangles and a core of two more). Warm frame = median of FRAMES plan + crisp_render_cpu_plan
  * calls after one warm-up frame, on THREADS threads; plan = median of crisp_renderer_plan alone
  * (at least PLAN_CALLS calls: a plan takes well under a millisecond at a distance, where a few
- * calls' median would follow the machine's noise);
+ * calls' median would follow the machine's noise; BENCH_SCREEN_PLANS=N: N calls, e.g. for a
+ * profile of the plan alone);
  * the CPU columns are the mean CPU time of the process (all threads) per frame or plan, less
  * sensitive to a loaded machine than wall time. tri/px = surface triangles per covered pixel. Each
  * row runs twice: with the default planner (group leaves) and with crisp_planner_desc.no_groups (at
@@ -284,6 +285,8 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     double scene_kb = status_kb("VmRSS:");
     reset_peak();
     int plans = frames > PLAN_CALLS ? frames : PLAN_CALLS;
+    if (getenv("BENCH_SCREEN_PLANS"))
+        plans = atoi(getenv("BENCH_SCREEN_PLANS")) > 0 ? atoi(getenv("BENCH_SCREEN_PLANS")) : plans;
     double *tf = calloc((size_t)frames, sizeof *tf), *tp = calloc((size_t)plans, sizeof *tp);
     double *tt = calloc((size_t)frames, sizeof *tt), *tr = calloc((size_t)frames, sizeof *tr);
     crisp_render_stats st = {0};
