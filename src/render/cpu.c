@@ -110,8 +110,8 @@ struct crisp_renderer {
     size_t ribbon_keep_cap;
     uint8_t *ribbon_hidden; /* per ribbon quad looked at: hidden (cull_ribbons) */
     size_t ribbon_hidden_cap;
-    tess_cache *cache;
-    pole_normal *poles; /* POLE_SLOTS (NULL: none yet) */ /* per worker (tessellate) */
+    tess_cache *cache;        /* per worker (tessellate) */
+    pole_normal *poles;       /* POLE_SLOTS (NULL: none yet) */
     uint64_t tess_generation; /* of the last tessellation pass (tess_cache) */
     double *col;              /* the resolve's per-column view direction part (resolve_row1) */
     size_t col_cap;
