@@ -866,14 +866,23 @@ static long check_range_order(const crisp_scene *sc, const crisp_camera *cam,
     return plan->splat_range_count;
 }
 
+/* impeller.igs instanced twice, its scene, and a planner with the defaults (the draw order and
+ * face record tests). */
+static crisp_scene *two_impellers(crisp_model **m, crisp_planner **pl)
+{
+    *m = instanced("impeller.igs", 2);
+    crisp_scene *sc = NULL;
+    assert_int_equal(crisp_scene_prepare(*m, &sc), CRISP_OK);
+    assert_int_equal(crisp_planner_create(NULL, NULL, pl), CRISP_OK);
+    return sc;
+}
+
 static void test_range_order(void **state)
 {
     (void)state;
-    crisp_model *m = instanced("impeller.igs", 2);
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_model *m;
     crisp_planner *pl;
-    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    crisp_scene *sc = two_impellers(&m, &pl);
     long ranges = 0;
     for (int v = 0; v < 6; v++) {
         crisp_camera cam = group_view_camera(sc, 30 + 40 * v, 0.3, 3, 320, 240);
@@ -896,11 +905,9 @@ static void test_range_order(void **state)
 static void test_kept_order(void **state)
 {
     (void)state;
-    crisp_model *m = instanced("impeller.igs", 2);
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_model *m;
     crisp_planner *pl;
-    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    crisp_scene *sc = two_impellers(&m, &pl);
     crisp_camera base = group_view_camera(sc, 60, 0.0, 3, 320, 240);
     static const double turn[] = {0, 0, 0.2, 0.4, 0.4, 0.6, 8, 8.2, 30, 30, 30.1};
     long ranges = 0, same = 0;
@@ -937,11 +944,9 @@ static void test_kept_order(void **state)
 static void test_plain_faces(void **state)
 {
     (void)state;
-    crisp_model *m = instanced("impeller.igs", 2);
-    crisp_scene *sc;
-    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_model *m;
     crisp_planner *pl;
-    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    crisp_scene *sc = two_impellers(&m, &pl);
     size_t bytes = sc->face_count * sizeof(crisp_plan_face);
     crisp_plan_face *last = malloc(bytes);
     assert_non_null(last);
