@@ -267,13 +267,21 @@ crisp_planner *crisp_renderer_planner(crisp_renderer *r)
     return r->planner;
 }
 
+/* The pixel position p (x right, y down) of the clip-space point c in a width x height image. */
+static inline void clip_px(const double c[4], int width, int height, double p[2])
+{
+    p[0] = (c[0] / c[3] + 1) * 0.5 * width;
+    p[1] = (1 - c[1] / c[3]) * 0.5 * height;
+}
+
 /* Extends the pixel box [lo, hi] of the plan's image by the clip-space point c (W > 0). */
 static inline void box_add_clip(const crisp_frame_plan *plan, const double c[4], double lo[2],
                                 double hi[2])
 {
-    double x = (c[0] / c[3] + 1) * 0.5 * plan->width, y = (1 - c[1] / c[3]) * 0.5 * plan->height;
-    lo[0] = fmin(lo[0], x), hi[0] = fmax(hi[0], x);
-    lo[1] = fmin(lo[1], y), hi[1] = fmax(hi[1], y);
+    double p[2];
+    clip_px(c, plan->width, plan->height, p);
+    lo[0] = fmin(lo[0], p[0]), hi[0] = fmax(hi[0], p[0]);
+    lo[1] = fmin(lo[1], p[1]), hi[1] = fmax(hi[1], p[1]);
 }
 
 /* ---- tessellation -------------------------------------------------------------------------- */
@@ -997,8 +1005,7 @@ static void ribbon_core(const crisp_plan_ribbon_vertex *q, double width, double 
             *k = none;
             return;
         }
-        p[c][0] = (q[c].clip[0] / q[c].clip[3] + 1) * 0.5 * width;
-        p[c][1] = (1 - q[c].clip[1] / q[c].clip[3]) * 0.5 * height;
+        clip_px(q[c].clip, width, height, p[c]);
     }
     double pa[2] = {0.5 * (p[0][0] + p[1][0]), 0.5 * (p[0][1] + p[1][1])};
     double pb[2] = {0.5 * (p[2][0] + p[3][0]), 0.5 * (p[2][1] + p[3][1])};
@@ -1080,9 +1087,10 @@ static void cull_ribbons(void *vctx, size_t begin, size_t end, int worker)
         for (int k = 0; k < 4 && !seen; k++) {
             const double *cl = src[k].clip;
             if (!(cl[3] > 0)) continue;
-            double x = (cl[0] / cl[3] + 1) * 0.5 * plan->width - c->win[0],
-                   y = (1 - cl[1] / cl[3]) * 0.5 * plan->height - c->win[1];
-            seen = crisp__occl_point_seen(c->r->hiz, c->blocks_x, c->blocks_y, x, y, 1 / cl[3]);
+            double p[2];
+            clip_px(cl, plan->width, plan->height, p);
+            seen = crisp__occl_point_seen(c->r->hiz, c->blocks_x, c->blocks_y, p[0] - c->win[0],
+                                          p[1] - c->win[1], 1 / cl[3]);
         }
         if (seen) {
             c->hidden[q] = 0;
