@@ -2112,6 +2112,17 @@ static int seen_side(const crisp_raster_view *v, int w, int h, int i, int j, con
     return dot < 0;
 }
 
+/* seen_side's test with the view direction's column part f + x r (c0, c1, c2) and row part y u
+ * (yu) each computed once (slack_tiles, slack_cell_avx2): the same sums in the same order. */
+static inline int side_at(const float *a, double c0, double c1, double c2, const double yu[3])
+{
+    double dot = 0;
+    dot += a[2] * (c0 + yu[0]);
+    dot += a[3] * (c1 + yu[1]);
+    dot += a[4] * (c2 + yu[2]);
+    return dot < 0;
+}
+
 /* Rows [begin, end): each pair of horizontally or vertically adjacent samples of one face (and
  * one side of it) is looked at once, from its left or upper member, and raises both members'
  * slack. A worker writes
@@ -2203,9 +2214,10 @@ __attribute__((target("avx2"))) static void slack_cell_avx2(const slack_ctx *c, 
             continue;
         }
         double y = v ? (0.5 * ih - (t->y0 + j) - 0.5) * v->ky : 0;
+        double yus[3] = {v ? y * v->u[0] : 0, v ? y * v->u[1] : 0, v ? y * v->u[2] : 0};
         __m256d yu[3];
         for (int k = 0; k < 3; k++)
-            yu[k] = _mm256_set1_pd(v ? y * v->u[k] : 0);
+            yu[k] = _mm256_set1_pd(yus[k]);
         /* the border columns, as slack_tiles */
         for (int e = 0; e < 2; e++) {
             int i = e ? px0 + CELL : px0 - 1, l = e ? L - 1 : 0;
@@ -2214,15 +2226,9 @@ __attribute__((target("avx2"))) static void slack_cell_avx2(const slack_ctx *c, 
             size_t idx = (size_t)j * w + i;
             int32_t f = t->face[idx];
             if (f < 0) continue;
-            int side = 0;
-            if (v) {
-                const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
-                double dot = 0;
-                dot += a[2] * (colp[0][l] + y * v->u[0]);
-                dot += a[3] * (colp[1][l] + y * v->u[1]);
-                dot += a[4] * (colp[2][l] + y * v->u[2]);
-                side = dot < 0;
-            }
+            int side = v ? side_at(t->attr + idx * CRISP_RASTER_ATTRS, colp[0][l], colp[1][l],
+                                   colp[2][l], yus)
+                         : 0;
             krow[l] = 2 * (int64_t)f + side;
             wrow[l] = 1.0 / t->inv_w[idx];
         }
@@ -2324,16 +2330,10 @@ static void slack_tiles(void *vctx, size_t begin, size_t end, int worker)
                     if (f < 0) continue;
                     fl[l] = f;
                     wl[l] = 1.0 / t->inv_w[idx];
-                    side[l] = 0;
-                    if (v) {
-                        const float *a = t->attr + idx * CRISP_RASTER_ATTRS;
-                        int ii = i - px0 + 1;
-                        double dot = 0;
-                        dot += a[2] * (colp[0][ii] + yu[0]);
-                        dot += a[3] * (colp[1][ii] + yu[1]);
-                        dot += a[4] * (colp[2][ii] + yu[2]);
-                        side[l] = dot < 0;
-                    }
+                    int ii = i - px0 + 1;
+                    side[l] = (int8_t)(v ? side_at(t->attr + idx * CRISP_RASTER_ATTRS, colp[0][ii],
+                                                   colp[1][ii], colp[2][ii], yu)
+                                         : 0);
                 }
             }
             for (int j = py0; j < py1; j++)
