@@ -285,8 +285,8 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
     double scene_kb = status_kb("VmRSS:");
     reset_peak();
     int plans = frames > PLAN_CALLS ? frames : PLAN_CALLS;
-    if (getenv("BENCH_SCREEN_PLANS"))
-        plans = atoi(getenv("BENCH_SCREEN_PLANS")) > 0 ? atoi(getenv("BENCH_SCREEN_PLANS")) : plans;
+    const char *np = getenv("BENCH_SCREEN_PLANS");
+    if (np && atoi(np) > 0) plans = atoi(np);
     double *tf = calloc((size_t)frames, sizeof *tf), *tp = calloc((size_t)plans, sizeof *tp);
     double *tt = calloc((size_t)frames, sizeof *tt), *tr = calloc((size_t)frames, sizeof *tr);
     crisp_render_stats st = {0};
