@@ -84,6 +84,7 @@ typedef struct build_state {
     size_t node_cap, leaf_cap;
     const crisp__forced *forced; /* this patch's forced splits */
     size_t forced_count;
+    struct crisp__sub_keep **keep; /* the patch's kept sub-patches (cell_patch) */
     crisp_status st;
 } build_state;
 
@@ -106,6 +107,65 @@ static void halve_points(const double *src, ptrdiff_t st, int n, double *left, d
         for (int c = 0; c < 4; c++)
             left[r * st + c] = q[c], right[(n - r) * st + c] = q[4 * (n - r) + c];
     }
+}
+
+/* Sub-patches kept across frames (issue 12, session 18): a cell's sub-patch depends on the
+ * scene patch and (depth, ix, iy) only, not on the camera, and de Casteljau's cuts of a
+ * high-degree patch cost thousands of instructions (occt_linkrods.step default: 1,250 a warm
+ * frame, about 21 M instructions, each cell cut once for children_cost and again for its own
+ * build_cell). Per scene patch a block of KEEP_SUBS entries, carved on first need from one
+ * allocation made when the scene changes (no allocation in a later frame): an entry holds the key,
+ * the build that last used it, the parameter box and the control points, copied out bit for bit
+ * as crisp__subpatch made them. A full block replaces an entry the current build has not used;
+ * when every one was used, the sub-patch is not kept. Only the worker that plans a patch reads or
+ * writes its block (a patch is planned by one worker per pass; passes are joined). */
+#define KEEP_SUBS 64
+#define KEEP_BYTES_MAX ((size_t)48 << 20) /* one scene's kept sub-patches at most */
+typedef struct crisp__sub_keep {
+    uint32_t count, doubles; /* entries used; control-point doubles an entry */
+    uint64_t key[KEEP_SUBS];
+    uint32_t used[KEEP_SUBS];
+    double data[]; /* per entry: u0, u1, v0, v1, then the control points */
+} crisp__sub_keep;
+
+static uint64_t sub_key(int depth, int ix, int iy)
+{
+    return (uint64_t)depth << 56 | (uint64_t)(uint32_t)ix << 28 | (uint64_t)(uint32_t)iy;
+}
+
+static size_t keep_block_bytes(const crisp_bezier_patch *p)
+{
+    size_t n = (size_t)(p->du + 1) * (size_t)(p->dv + 1) * 4;
+    return (sizeof(crisp__sub_keep) + KEEP_SUBS * (4 + n) * sizeof(double) + 63) & ~(size_t)63;
+}
+
+/* The kept entry of (depth, ix, iy) (marked used), or where to keep it (-(slot + 1)), or
+ * -(KEEP_SUBS + 1) when it cannot be kept. */
+static int keep_find(build_state *b, uint64_t key, crisp__sub_keep **blockp)
+{
+    crisp__trees *plan = b->c->plan;
+    crisp__sub_keep *k = *b->keep;
+    if (!k) {
+        size_t bytes = keep_block_bytes(b->root);
+        if (atomic_load_explicit(&plan->keep_used, memory_order_relaxed) >= plan->keep_bytes)
+            return -(KEEP_SUBS + 1); /* (every block carved) */
+        size_t at = atomic_fetch_add_explicit(&plan->keep_used, bytes, memory_order_relaxed);
+        if (at + bytes > plan->keep_bytes) return -(KEEP_SUBS + 1);
+        k = (crisp__sub_keep *)(plan->keep + at);
+        k->count = 0;
+        k->doubles = (uint32_t)((size_t)(b->root->du + 1) * (size_t)(b->root->dv + 1) * 4);
+        *b->keep = k;
+    }
+    *blockp = k;
+    int free_slot = k->count < KEEP_SUBS ? (int)k->count : -1;
+    for (uint32_t e = 0; e < k->count; e++) {
+        if (k->key[e] == key) {
+            k->used[e] = plan->frame;
+            return (int)e;
+        }
+        if (free_slot < 0 && k->used[e] != plan->frame) free_slot = (int)e;
+    }
+    return free_slot < 0 ? -(KEEP_SUBS + 1) : -(free_slot + 1);
 }
 
 /* Sub-patch (depth, ix, iy) of the patch into storage (or the kept quarter at depth 1). */
@@ -137,8 +197,28 @@ static void cell_patch(build_state *b, int depth, int ix, int iy, double *storag
         *dest = b->quarter_patch[ix + 2 * iy];
         return;
     }
+    crisp__sub_keep *k = NULL;
+    uint64_t key = sub_key(depth, ix, iy);
+    int e = b->keep ? keep_find(b, key, &k) : -(KEEP_SUBS + 1);
+    if (e >= 0) {
+        const double *d = k->data + (size_t)e * (4 + k->doubles);
+        *dest = *b->root;
+        dest->u0 = d[0], dest->u1 = d[1], dest->v0 = d[2], dest->v1 = d[3];
+        memcpy(storage, d + 4, k->doubles * sizeof *storage);
+        dest->cpw = storage;
+        return;
+    }
     double sz = ldexp(1.0, -depth);
     crisp__subpatch(b->root, ix * sz, (ix + 1) * sz, iy * sz, (iy + 1) * sz, storage, tmp, dest);
+    if (e > -(KEEP_SUBS + 1)) {
+        int slot = -e - 1;
+        double *d = k->data + (size_t)slot * (4 + k->doubles);
+        d[0] = dest->u0, d[1] = dest->u1, d[2] = dest->v0, d[3] = dest->v1;
+        memcpy(d + 4, dest->cpw, k->doubles * sizeof *d);
+        k->key[slot] = key;
+        k->used[slot] = b->c->plan->frame;
+        if ((uint32_t)slot == k->count) k->count++;
+    }
 }
 
 static int32_t push_node(build_state *b)
@@ -606,6 +686,7 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
             b->forced_count = k1 - k0;
         }
         b->arena = arena;
+        b->keep = plan->keep && !plan->keep_off ? &plan->keep_of[p] : NULL;
         b->node_cap = b->leaf_cap = 0;
         b->have_quarters = 0;
         b->st = CRISP_OK;
@@ -1034,6 +1115,8 @@ void crisp__trees_destroy(crisp__trees *p)
     free(p->active);
     free(p->tree_frame);
     free(p->group_g);
+    free(p->keep_of);
+    free(p->keep);
     for (int k = 0; k < TREE_CHUNKS; k++)
         crisp_arena_destroy(p->chunk_arenas[k]);
     for (uint32_t f = 0; f < p->face_cap; f++) {
@@ -1289,6 +1372,32 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* The kept sub-patches (cell_patch) emptied for a new scene: the blocks' room made once per scene
+ * (KEEP_SUBS entries for each patch, up to KEEP_BYTES_MAX; kept when large enough), carved by the
+ * patches that split below their quarters first. */
+static crisp_status keep_for_scene(crisp__trees *plan, const crisp_scene *sc)
+{
+    if (plan->keep_serial == sc->serial && plan->keep) return CRISP_OK;
+    size_t np = sc->patch_count ? sc->patch_count : 1, bytes = 0;
+    crisp_status st =
+        crisp_grow((void **)&plan->keep_of, &plan->keep_of_cap, np, sizeof *plan->keep_of);
+    if (st) return st;
+    memset(plan->keep_of, 0, np * sizeof *plan->keep_of);
+    for (uint32_t p = 0; p < sc->patch_count && bytes < KEEP_BYTES_MAX; p++)
+        bytes += keep_block_bytes(&sc->patches[p].bez);
+    if (bytes > KEEP_BYTES_MAX) bytes = KEEP_BYTES_MAX;
+    if (bytes > plan->keep_bytes || !plan->keep) {
+        free(plan->keep);
+        plan->keep_bytes = 0;
+        plan->keep = malloc(bytes ? bytes : 64);
+        if (!plan->keep) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for sub-patches");
+        plan->keep_bytes = bytes;
+    }
+    atomic_store_explicit(&plan->keep_used, 0, memory_order_relaxed);
+    plan->keep_serial = sc->serial;
+    return CRISP_OK;
+}
+
 crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const crisp_camera *cam,
                                 const crisp__trees_desc *desc, crisp_pool *pool)
 {
@@ -1370,11 +1479,13 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
         memset(plan->tree_frame + old_cap, 0,
                (plan->tree_frame_cap - old_cap) * sizeof *plan->tree_frame);
     /* A new frame: no patch has a tree yet (stamps of 0 never match; after 2^32 builds every
-     * stamp is cleared once). */
+     * stamp is cleared once, and the kept sub-patches with them). */
     if (++plan->frame == 0) {
         memset(plan->tree_frame, 0, plan->tree_frame_cap * sizeof *plan->tree_frame);
         plan->frame = 1;
+        plan->keep_serial = 0;
     }
+    if ((st = keep_for_scene(plan, sc))) return st;
     crisp__patch_groups pg = {plan->patch_mode,  plan->group_g,
                               &plan->active,     &plan->active_count,
                               &plan->active_cap, desc ? desc->skip_faces : NULL};
@@ -1459,6 +1570,11 @@ crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *sc, const
     s->ms_edges = 1e3 * (t2 - t1);
     s->ms_trim = 1e3 * (t3 - t2);
     return CRISP_OK;
+}
+
+void crisp__trees_keep_subpatches(crisp__trees *plan, int on)
+{
+    plan->keep_off = !on;
 }
 
 crisp_status crisp__trees_replan_trim(crisp__trees *plan, const crisp_scene *sc, uint32_t f,

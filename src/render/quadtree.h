@@ -4,6 +4,7 @@
 #ifndef CRISP_RENDER_QUADTREE_H
 #define CRISP_RENDER_QUADTREE_H
 
+#include <stdatomic.h>
 #include <stdint.h>
 
 #include "crisp/plan.h"
@@ -177,6 +178,16 @@ typedef struct crisp__trees {
     uint8_t *group_g; /* per patch this frame (group leaves' lower-left patches): the block's g */
     size_t group_g_cap;
     int no_groups; /* 1: no group leaves (crisp__trees_desc.no_groups) */
+    /* Sub-patches kept across frames (quadtree.c, cell_patch): per scene patch its block in keep
+     * (NULL: none yet), the blocks carved from keep (keep_bytes, made once per scene) at
+     * keep_used; keep_serial: the scene they are of (0: none). */
+    struct crisp__sub_keep **keep_of;
+    size_t keep_of_cap;
+    unsigned char *keep;
+    size_t keep_bytes;
+    _Atomic size_t keep_used;
+    uint64_t keep_serial;
+    int keep_off; /* 1: no sub-patch kept or read (crisp__trees_keep_subpatches) */
     crisp_plan_stats stats;
 } crisp__trees;
 
@@ -187,6 +198,9 @@ void crisp__trees_destroy(crisp__trees *plan);
 crisp_status crisp__trees_build(crisp__trees *plan, const crisp_scene *scene,
                                 const crisp_camera *cam, const crisp__trees_desc *desc,
                                 crisp_pool *pool);
+/* Test hook (tests/render/test_plan.c): on 0, the builds neither keep nor read sub-patches across
+ * frames (every cell's sub-patch cut afresh, as before session 18); on 1 (the default), they do. */
+void crisp__trees_keep_subpatches(crisp__trees *plan, int on);
 /* Re-plan face f's trim for the camera of the last build (its strips' count is kept). */
 crisp_status crisp__trees_replan_trim(crisp__trees *plan, const crisp_scene *scene, uint32_t f,
                                       int strip_count);

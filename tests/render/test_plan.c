@@ -18,6 +18,7 @@
 #include "crisp/io.h"
 #include "crisp/plan.h"
 #include "crisp/trim.h"
+#include "render/planner.h"
 #include "render/render_internal.h"
 
 static uint64_t rng = 88172645463325252ull;
@@ -328,12 +329,59 @@ static void test_versions_and_replan(void **state)
     crisp_model_destroy(m);
 }
 
+/* The sub-patches a planner keeps across frames (quadtree.c, cell_patch) give every plan what
+ * cutting them afresh gives: one planner plans the linkrods (patches of degree up to 6 x 10, split
+ * well below their quarters) from five cameras in turn, three rounds, and each plan's leaves equal
+ * those of a new planner that keeps none (crisp__trees_keep_subpatches off), bit for bit. */
+static void test_kept_subpatches(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    crisp_scene *sc = rt_load_scene("occt_linkrods.step", &m);
+    crisp_camera cams[8];
+    int n = cameras(sc, cams, 480, 360);
+    crisp_plan_leaf *want[8];
+    uint32_t want_count[8];
+    long deep = 0;
+    for (int c = 0; c < n; c++) {
+        crisp_planner *fresh;
+        const crisp_frame_plan *plan;
+        assert_int_equal(crisp_planner_create(NULL, NULL, &fresh), CRISP_OK);
+        crisp__trees_keep_subpatches(fresh->trees, 0);
+        assert_int_equal(crisp_planner_plan(fresh, sc, &cams[c], &plan), CRISP_OK);
+        want_count[c] = plan->leaf_count;
+        want[c] = malloc((plan->leaf_count ? plan->leaf_count : 1) * sizeof *want[c]);
+        assert_non_null(want[c]);
+        memcpy(want[c], plan->leaves, plan->leaf_count * sizeof *want[c]);
+        for (uint32_t l = 0; l < plan->leaf_count; l++)
+            deep += plan->leaves[l].depth >= 3;
+        crisp_planner_destroy(fresh);
+    }
+    printf("leaves below depth 2 over %d cameras: %ld\n", n, deep);
+    assert_true(deep > 100);
+    crisp_planner *pl;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
+    for (int round = 0; round < 3; round++)
+        for (int c = 0; c < n; c++) {
+            const crisp_frame_plan *plan;
+            assert_int_equal(crisp_planner_plan(pl, sc, &cams[c], &plan), CRISP_OK);
+            assert_int_equal(plan->leaf_count, want_count[c]);
+            assert_memory_equal(plan->leaves, want[c], want_count[c] * sizeof *want[c]);
+        }
+    crisp_planner_destroy(pl);
+    for (int c = 0; c < n; c++)
+        free(want[c]);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_plan_models),
         cmocka_unit_test(test_level_splits),
         cmocka_unit_test(test_versions_and_replan),
+        cmocka_unit_test(test_kept_subpatches),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
