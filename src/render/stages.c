@@ -64,6 +64,19 @@ static crisp_status face_boxes(crisp_planner *p, const crisp_scene *sc)
     return CRISP_OK;
 }
 
+/* fmin / fmax of an accumulator that is never NaN (it starts at +-INFINITY) and a finite value:
+ * the same comparisons downstream, without the library call (hull_screen, box_screen and
+ * quad_unseen run per control point or corner, about a million times a frame on impeller.igs
+ * close; their results feed block indices and comparisons only). */
+static inline double lesser(double acc, double v)
+{
+    return v < acc ? v : acc;
+}
+static inline double greater(double acc, double v)
+{
+    return v > acc ? v : acc;
+}
+
 /* The box's corners in clip space: screen box lo, hi (pixels, y down) and the W range. Returns 0
  * when a corner is not in front of the eye (W <= 0 or not finite): then nothing is set but w0. */
 static int box_screen(const double box[6], crisp_mat4 m, int width, int height, double lo[2],
@@ -81,9 +94,9 @@ static int box_screen(const double box[6], crisp_mat4 m, int width, int height, 
             return 0;
         }
         double px = (x / w + 1) * 0.5 * width, py = (1 - y / w) * 0.5 * height;
-        lo[0] = fmin(lo[0], px), hi[0] = fmax(hi[0], px);
-        lo[1] = fmin(lo[1], py), hi[1] = fmax(hi[1], py);
-        *w0 = fmin(*w0, w), *w1 = fmax(*w1, w);
+        lo[0] = lesser(lo[0], px), hi[0] = greater(hi[0], px);
+        lo[1] = lesser(lo[1], py), hi[1] = greater(hi[1], py);
+        *w0 = lesser(*w0, w), *w1 = greater(*w1, w);
     }
     return 1;
 }
@@ -335,9 +348,9 @@ static int hull_screen(const hull_net *n, int width, int height, double lo[2], d
         const double *c = n->p[k];
         if (!(c[2] > 0 && c[3] > 0) || !isfinite(c[0] + c[1] + c[2] + c[3])) return 0;
         double px = (c[0] / c[2] + 1) * 0.5 * width, py = (1 - c[1] / c[2]) * 0.5 * height;
-        lo[0] = fmin(lo[0], px), hi[0] = fmax(hi[0], px);
-        lo[1] = fmin(lo[1], py), hi[1] = fmax(hi[1], py);
-        *w0 = fmin(*w0, c[2] / c[3]);
+        lo[0] = lesser(lo[0], px), hi[0] = greater(hi[0], px);
+        lo[1] = lesser(lo[1], py), hi[1] = greater(hi[1], py);
+        *w0 = lesser(*w0, c[2] / c[3]);
     }
     return 1;
 }
@@ -560,9 +573,9 @@ static int quad_unseen(const crisp_plan_ribbon_vertex *v, int width, int height,
         }
         if (!(c[3] > 0) || !isfinite(c[0] + c[1] + c[3])) return 0;
         double px = (c[0] / c[3] + 1) * 0.5 * width, py = (1 - c[1] / c[3]) * 0.5 * height;
-        lo[0] = fmin(lo[0], px), hi[0] = fmax(hi[0], px);
-        lo[1] = fmin(lo[1], py), hi[1] = fmax(hi[1], py);
-        iw = fmax(iw, 1 / c[3]);
+        lo[0] = lesser(lo[0], px), hi[0] = greater(hi[0], px);
+        lo[1] = lesser(lo[1], py), hi[1] = greater(hi[1], py);
+        iw = greater(iw, 1 / c[3]);
     }
     if (behind) return behind == 4;
     if (hi[0] + 1 < win[0] || hi[1] + 1 < win[1] || lo[0] - 1 > win[0] + win[2] ||
