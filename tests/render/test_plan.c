@@ -329,19 +329,11 @@ static void test_versions_and_replan(void **state)
     crisp_model_destroy(m);
 }
 
-/* The sub-patches a planner keeps across frames (quadtree.c, cell_patch) give every plan what
- * cutting them afresh gives: one planner plans the linkrods (patches of degree up to 6 x 10, split
- * well below their quarters) from five cameras in turn, three rounds, and each plan's leaves equal
- * those of a new planner that keeps none (crisp__trees_keep_subpatches off), bit for bit. */
-static void test_kept_subpatches(void **state)
+/* Each camera's leaves from a new planner that keeps no sub-patches across frames
+ * (crisp__trees_keep_subpatches off): want[c], count[c]; returns the leaves below depth 2. */
+static long fresh_leaves(const crisp_scene *sc, const crisp_camera *cams, int n,
+                         crisp_plan_leaf **want, uint32_t *count)
 {
-    (void)state;
-    crisp_model *m;
-    crisp_scene *sc = rt_load_scene("occt_linkrods.step", &m);
-    crisp_camera cams[8];
-    int n = cameras(sc, cams, 480, 360);
-    crisp_plan_leaf *want[8];
-    uint32_t want_count[8];
     long deep = 0;
     for (int c = 0; c < n; c++) {
         crisp_planner *fresh;
@@ -349,7 +341,7 @@ static void test_kept_subpatches(void **state)
         assert_int_equal(crisp_planner_create(NULL, NULL, &fresh), CRISP_OK);
         crisp__trees_keep_subpatches(fresh->trees, 0);
         assert_int_equal(crisp_planner_plan(fresh, sc, &cams[c], &plan), CRISP_OK);
-        want_count[c] = plan->leaf_count;
+        count[c] = plan->leaf_count;
         want[c] = malloc((plan->leaf_count ? plan->leaf_count : 1) * sizeof *want[c]);
         assert_non_null(want[c]);
         memcpy(want[c], plan->leaves, plan->leaf_count * sizeof *want[c]);
@@ -357,22 +349,55 @@ static void test_kept_subpatches(void **state)
             deep += plan->leaves[l].depth >= 3;
         crisp_planner_destroy(fresh);
     }
-    printf("leaves below depth 2 over %d cameras: %ld\n", n, deep);
-    assert_true(deep > 100);
+    return deep;
+}
+
+static void plans_equal(crisp_planner *pl, const crisp_scene *sc, const crisp_camera *cams, int n,
+                        crisp_plan_leaf *const *want, const uint32_t *count)
+{
+    for (int c = 0; c < n; c++) {
+        const crisp_frame_plan *plan;
+        assert_int_equal(crisp_planner_plan(pl, sc, &cams[c], &plan), CRISP_OK);
+        assert_int_equal(plan->leaf_count, count[c]);
+        assert_memory_equal(plan->leaves, want[c], count[c] * sizeof *want[c]);
+    }
+}
+
+/* The sub-patches a planner keeps across frames (quadtree.c, cell_patch) give every plan what
+ * cutting them afresh gives: one planner plans the linkrods (patches of degree up to 6 x 10, split
+ * well below their quarters) from five cameras in turn, three rounds, then the bearing (another
+ * scene: its patches must not read the linkrods' sub-patches), then the linkrods again; each
+ * plan's leaves equal those of a new planner that keeps none (crisp__trees_keep_subpatches off),
+ * bit for bit. */
+static void test_kept_subpatches(void **state)
+{
+    (void)state;
+    crisp_model *m[2];
+    crisp_scene *sc[2] = {rt_load_scene("occt_linkrods.step", &m[0]),
+                          rt_load_scene("occt_bearing.iges", &m[1])};
+    crisp_camera cams[2][8];
+    crisp_plan_leaf *want[2][8];
+    uint32_t count[2][8];
+    int n[2];
+    for (int k = 0; k < 2; k++) {
+        n[k] = cameras(sc[k], cams[k], 480, 360);
+        long deep = fresh_leaves(sc[k], cams[k], n[k], want[k], count[k]);
+        printf("scene %d: leaves below depth 2 over %d cameras: %ld\n", k, n[k], deep);
+        assert_true(deep > (k ? 20 : 100));
+    }
     crisp_planner *pl;
     assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
     for (int round = 0; round < 3; round++)
-        for (int c = 0; c < n; c++) {
-            const crisp_frame_plan *plan;
-            assert_int_equal(crisp_planner_plan(pl, sc, &cams[c], &plan), CRISP_OK);
-            assert_int_equal(plan->leaf_count, want_count[c]);
-            assert_memory_equal(plan->leaves, want[c], want_count[c] * sizeof *want[c]);
-        }
+        plans_equal(pl, sc[0], cams[0], n[0], want[0], count[0]);
+    plans_equal(pl, sc[1], cams[1], n[1], want[1], count[1]);
+    plans_equal(pl, sc[0], cams[0], n[0], want[0], count[0]);
     crisp_planner_destroy(pl);
-    for (int c = 0; c < n; c++)
-        free(want[c]);
-    crisp_scene_destroy(sc);
-    crisp_model_destroy(m);
+    for (int k = 0; k < 2; k++) {
+        for (int c = 0; c < n[k]; c++)
+            free(want[k][c]);
+        crisp_scene_destroy(sc[k]);
+        crisp_model_destroy(m[k]);
+    }
 }
 
 int main(void)
