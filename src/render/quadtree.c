@@ -121,6 +121,9 @@ static void halve_points(const double *src, ptrdiff_t st, int n, double *left, d
  * writes its block (a patch is planned by one worker per pass; passes are joined). */
 #define KEEP_SUBS 64
 #define KEEP_BYTES_MAX ((size_t)48 << 20) /* one scene's kept sub-patches at most */
+#define KEEP_DEGREE                                                                                \
+    4 /* only patches of this degree or more in u or v (lower degrees' cuts cost                   \
+         little more than the copy: no change on impeller.igs close) */
 typedef struct crisp__sub_keep {
     uint32_t count, doubles; /* entries used; control-point doubles an entry */
     uint64_t key[KEEP_SUBS];
@@ -131,6 +134,11 @@ typedef struct crisp__sub_keep {
 static uint64_t sub_key(int depth, int ix, int iy)
 {
     return (uint64_t)depth << 56 | (uint64_t)(uint32_t)ix << 28 | (uint64_t)(uint32_t)iy;
+}
+
+static int keeps_subs(const crisp_bezier_patch *p)
+{
+    return p->du >= KEEP_DEGREE || p->dv >= KEEP_DEGREE;
 }
 
 static size_t keep_block_bytes(const crisp_bezier_patch *p)
@@ -686,7 +694,7 @@ static void build_range(tree_ctx *c, size_t begin, size_t end, int worker, crisp
             b->forced_count = k1 - k0;
         }
         b->arena = arena;
-        b->keep = plan->keep && !plan->keep_off ? &plan->keep_of[p] : NULL;
+        b->keep = plan->keep && !plan->keep_off && keeps_subs(b->root) ? &plan->keep_of[p] : NULL;
         b->node_cap = b->leaf_cap = 0;
         b->have_quarters = 0;
         b->st = CRISP_OK;
@@ -1373,8 +1381,8 @@ static void plan_trims(void *vctx, size_t begin, size_t end, int worker)
 }
 
 /* The kept sub-patches (cell_patch) emptied for a new scene: the blocks' room made once per scene
- * (KEEP_SUBS entries for each patch, up to KEEP_BYTES_MAX; kept when large enough), carved by the
- * patches that split below their quarters first. */
+ * (KEEP_SUBS entries for each patch of KEEP_DEGREE, up to KEEP_BYTES_MAX; kept when large enough),
+ * carved by the patches that split below their quarters first. */
 static crisp_status keep_for_scene(crisp__trees *plan, const crisp_scene *sc)
 {
     if (plan->keep_serial == sc->serial && plan->keep) return CRISP_OK;
@@ -1384,7 +1392,7 @@ static crisp_status keep_for_scene(crisp__trees *plan, const crisp_scene *sc)
     if (st) return st;
     memset(plan->keep_of, 0, np * sizeof *plan->keep_of);
     for (uint32_t p = 0; p < sc->patch_count && bytes < KEEP_BYTES_MAX; p++)
-        bytes += keep_block_bytes(&sc->patches[p].bez);
+        if (keeps_subs(&sc->patches[p].bez)) bytes += keep_block_bytes(&sc->patches[p].bez);
     if (bytes > KEEP_BYTES_MAX) bytes = KEEP_BYTES_MAX;
     if (bytes > plan->keep_bytes || !plan->keep) {
         free(plan->keep);
