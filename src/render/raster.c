@@ -1436,8 +1436,12 @@ store_row1_avx(quad_planes *qp, block_planes *bp, double dy, const double *iwv, 
  * kept (no clip plane, the triangle's fragment test decided "keep" for all of it): what
  * raster_tile_s's row loop does for such a block (the empty row skip, row_mask_avx2,
  * store_row1_avx), the same expressions in the same order, in a loop of its own with few live
- * values (the general loop kept the edge values and most of its state on the stack). Returns
- * the fragments stored. */
+ * values (the general loop kept the edge values and most of its state on the stack). The rows
+ * that cover no sample are a run at each end of the block: for each edge a row's greatest value
+ * over its first (e + rmax) changes by the same step from row to row, so the rows where it is
+ * >= 0 are a prefix or a suffix of the block's rows, and the rows where all three are a run
+ * (none, all, or between); the loop leaves the block at the run's end rather than testing the
+ * rows after it. Returns the fragments stored. */
 typedef struct block_rows {
     int64_t e[3];     /* edge values at the block's first pixel */
     int64_t bstep[3]; /* per row */
@@ -1460,8 +1464,12 @@ block_rows_avx2(const block_rows *b, __m128i lane_step[3][BLOCK / 2], quad_plane
     const unsigned lanes = (1u << b->n) - 1;
     unsigned wrote = 0;
     size_t idx0 = b->idx0;
-    for (int j = b->j0; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2) {
-        if (!full && ((e0 + r0) | (e1 + r1) | (e2 + r2)) < 0) continue;
+    int j = b->j0;
+    if (!full) /* the leading rows that cover no sample */
+        for (; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2)
+            if (((e0 + r0) | (e1 + r1) | (e2 + r2)) >= 0) break;
+    for (; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2) {
+        if (!full && ((e0 + r0) | (e1 + r1) | (e2 + r2)) < 0) break; /* the run's end */
         double dy = j + b->off_y - b->oy;
         double base = b->q0 + b->qy * dy;
         const int64_t e[3] = {e0, e1, e2};
