@@ -712,6 +712,16 @@ static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t,
     /* The first block: most visible triangles stop here. */
     double first = hz[(size_t)by0 * bw + bx0];
     if (!(first > 0)) return 0;
+    /* For the set-up (least not wanted): a vertex's 1/W at or above the first block's value, the
+     * triangle is taken as not hidden before its plane is worked out (most visible triangles
+     * stop here). Not hidden is always a safe answer: the triangle is then drawn, and its
+     * fragments' own depth tests decide (a hidden triangle's write nothing). */
+    if (!least) {
+        double va = a->val[0], vb = b->val[0], vd = d->val[0];
+        double vm = va > vb ? va : vb;
+        vm = vd > vm ? vd : vm;
+        if (vm >= first) return 0;
+    }
     double det = (b->sx - a->sx) * (d->sy - a->sy) - (b->sy - a->sy) * (d->sx - a->sx);
     if (!(fabs(det) > 0)) return 0;
     double d1 = b->val[0] - a->val[0], d2 = d->val[0] - a->val[0];
