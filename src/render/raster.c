@@ -377,6 +377,36 @@ typedef struct block_depth_ctx {
     double *dest;
 } block_depth_ctx;
 
+#if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
+#define HAVE_AVX_DEPTH 1
+/* Whole 4 x 4 blocks bx .. bxe - 1 of block row by of a one-sample target (its pixel rows up to
+ * j1), two at a time with AVX where the processor has it (chosen at run time): each block's least
+ * 1/W into out[bx]. A least value: the order of the compares does not matter (stored values are
+ * never NaN, and their zeros are +0). Returns the first block left. */
+__attribute__((target("avx"))) static int block_depth4_avx(const crisp_raster_target *t, int by,
+                                                           int bx, int bxe, int j1, double *out)
+{
+    for (; bx + 1 < bxe; bx += 2) {
+        const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
+        __m256d a = _mm256_loadu_pd(p), b = _mm256_loadu_pd(p + 4);
+        for (int j = by * 4 + 1; j < j1; j++) {
+            p += t->width;
+            a = _mm256_min_pd(a, _mm256_loadu_pd(p));
+            b = _mm256_min_pd(b, _mm256_loadu_pd(p + 4));
+        }
+        /* a0 a1 b0 b1 against a2 a3 b2 b3, then each pair's two */
+        __m256d m =
+            _mm256_min_pd(_mm256_permute2f128_pd(a, b, 0x20), _mm256_permute2f128_pd(a, b, 0x31));
+        m = _mm256_min_pd(m, _mm256_permute_pd(m, 5));
+        out[bx] = _mm256_cvtsd_f64(m);
+        out[bx + 1] = _mm_cvtsd_f64(_mm256_extractf128_pd(m, 1));
+    }
+    return bx;
+}
+#else
+#define HAVE_AVX_DEPTH 0
+#endif
+
 /* Blocks bx0 .. bx1 of block row by (size n): the least 1/W of each, row by row of pixels. */
 static void block_depth_row(const crisp_raster_target *t, int n, int by, int bx0, int bx1,
                             double *dest)
@@ -390,7 +420,11 @@ static void block_depth_row(const crisp_raster_target *t, int n, int by, int bx0
 #if defined(__SSE2__)
     if (S == 1 && n == 4) { /* the common case: each block's 4 x 4 values in registers */
         int bxe = bx1 < t->width / 4 ? bx1 + 1 : t->width / 4; /* whole blocks */
-        for (int bx = bx0; bx < bxe; bx++) {
+        int bx = bx0;
+#if HAVE_AVX_DEPTH
+        if (__builtin_cpu_supports("avx")) bx = block_depth4_avx(t, by, bx, bxe, j1, out);
+#endif
+        for (; bx < bxe; bx++) {
             const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
             __m128d m2 = _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2));
             for (int j = by * 4 + 1; j < j1; j++) {
