@@ -1495,6 +1495,18 @@ static void resolve_groups(void *vctx, size_t begin, size_t end, int worker)
             int32_t last = -1; /* neighbouring pixels mostly show the same face */
             int i = c->x0;
 #if defined(__SSE2__)
+            for (; i + 7 < c->x1; i += 8) { /* eight pixels of the last face: nothing to mark */
+                const __m128i l4 = _mm_set1_epi32(last);
+                __m128i e = _mm_and_si128(
+                    _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)(face + i)), l4),
+                    _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)(face + i + 4)), l4));
+                if (_mm_movemask_epi8(e) == 0xffff) continue;
+                for (int q = 0; q < 8; q++)
+                    if (face[i + q] != last) {
+                        last = face[i + q];
+                        if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
+                    }
+            }
             for (; i + 3 < c->x1; i += 4) { /* four pixels of the last face: nothing to mark */
                 __m128i f4 = _mm_loadu_si128((const __m128i *)(face + i));
                 if (_mm_movemask_epi8(_mm_cmpeq_epi32(f4, _mm_set1_epi32(last))) == 0xffff)

@@ -377,6 +377,36 @@ typedef struct block_depth_ctx {
     double *dest;
 } block_depth_ctx;
 
+#if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
+#define HAVE_AVX_DEPTH 1
+/* Whole 4 x 4 blocks bx .. bxe - 1 of block row by of a one-sample target (its pixel rows up to
+ * j1), two at a time with AVX where the processor has it (chosen at run time): each block's least
+ * 1/W into out[bx]. A least value: the order of the compares does not matter (stored values are
+ * never NaN, and their zeros are +0). Returns the first block left. */
+__attribute__((target("avx"))) static int block_depth4_avx(const crisp_raster_target *t, int by,
+                                                           int bx, int bxe, int j1, double *out)
+{
+    for (; bx + 1 < bxe; bx += 2) {
+        const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
+        __m256d a = _mm256_loadu_pd(p), b = _mm256_loadu_pd(p + 4);
+        for (int j = by * 4 + 1; j < j1; j++) {
+            p += t->width;
+            a = _mm256_min_pd(a, _mm256_loadu_pd(p));
+            b = _mm256_min_pd(b, _mm256_loadu_pd(p + 4));
+        }
+        /* a0 a1 b0 b1 against a2 a3 b2 b3, then each pair's two */
+        __m256d m =
+            _mm256_min_pd(_mm256_permute2f128_pd(a, b, 0x20), _mm256_permute2f128_pd(a, b, 0x31));
+        m = _mm256_min_pd(m, _mm256_permute_pd(m, 5));
+        out[bx] = _mm256_cvtsd_f64(m);
+        out[bx + 1] = _mm_cvtsd_f64(_mm256_extractf128_pd(m, 1));
+    }
+    return bx;
+}
+#else
+#define HAVE_AVX_DEPTH 0
+#endif
+
 /* Blocks bx0 .. bx1 of block row by (size n): the least 1/W of each, row by row of pixels. */
 static void block_depth_row(const crisp_raster_target *t, int n, int by, int bx0, int bx1,
                             double *dest)
@@ -390,7 +420,11 @@ static void block_depth_row(const crisp_raster_target *t, int n, int by, int bx0
 #if defined(__SSE2__)
     if (S == 1 && n == 4) { /* the common case: each block's 4 x 4 values in registers */
         int bxe = bx1 < t->width / 4 ? bx1 + 1 : t->width / 4; /* whole blocks */
-        for (int bx = bx0; bx < bxe; bx++) {
+        int bx = bx0;
+#if HAVE_AVX_DEPTH
+        if (__builtin_cpu_supports("avx")) bx = block_depth4_avx(t, by, bx, bxe, j1, out);
+#endif
+        for (; bx < bxe; bx++) {
             const double *p = t->inv_w + (size_t)by * 4 * t->width + (size_t)bx * 4;
             __m128d m2 = _mm_min_pd(_mm_loadu_pd(p), _mm_loadu_pd(p + 2));
             for (int j = by * 4 + 1; j < j1; j++) {
@@ -712,6 +746,16 @@ static int tri_hidden_least(const crisp_raster *r, const crisp_raster_target *t,
     /* The first block: most visible triangles stop here. */
     double first = hz[(size_t)by0 * bw + bx0];
     if (!(first > 0)) return 0;
+    /* For the set-up (least not wanted): a vertex's 1/W at or above the first block's value, the
+     * triangle is taken as not hidden before its plane is worked out (most visible triangles
+     * stop here). Not hidden is always a safe answer: the triangle is then drawn, and its
+     * fragments' own depth tests decide (a hidden triangle's write nothing). */
+    if (!least) {
+        double va = a->val[0], vb = b->val[0], vd = d->val[0];
+        double vm = va > vb ? va : vb;
+        vm = vd > vm ? vd : vm;
+        if (vm >= first) return 0;
+    }
     double det = (b->sx - a->sx) * (d->sy - a->sy) - (b->sy - a->sy) * (d->sx - a->sx);
     if (!(fabs(det) > 0)) return 0;
     double d1 = b->val[0] - a->val[0], d2 = d->val[0] - a->val[0];
@@ -1436,8 +1480,12 @@ store_row1_avx(quad_planes *qp, block_planes *bp, double dy, const double *iwv, 
  * kept (no clip plane, the triangle's fragment test decided "keep" for all of it): what
  * raster_tile_s's row loop does for such a block (the empty row skip, row_mask_avx2,
  * store_row1_avx), the same expressions in the same order, in a loop of its own with few live
- * values (the general loop kept the edge values and most of its state on the stack). Returns
- * the fragments stored. */
+ * values (the general loop kept the edge values and most of its state on the stack). The rows
+ * that cover no sample are a run at each end of the block: for each edge a row's greatest value
+ * over its first (e + rmax) changes by the same step from row to row, so the rows where it is
+ * >= 0 are a prefix or a suffix of the block's rows, and the rows where all three are a run
+ * (none, all, or between); the loop leaves the block at the run's end rather than testing the
+ * rows after it. Returns the fragments stored. */
 typedef struct block_rows {
     int64_t e[3];     /* edge values at the block's first pixel */
     int64_t bstep[3]; /* per row */
@@ -1460,8 +1508,12 @@ block_rows_avx2(const block_rows *b, __m128i lane_step[3][BLOCK / 2], quad_plane
     const unsigned lanes = (1u << b->n) - 1;
     unsigned wrote = 0;
     size_t idx0 = b->idx0;
-    for (int j = b->j0; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2) {
-        if (!full && ((e0 + r0) | (e1 + r1) | (e2 + r2)) < 0) continue;
+    int j = b->j0;
+    if (!full) /* the leading rows that cover no sample */
+        for (; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2)
+            if (((e0 + r0) | (e1 + r1) | (e2 + r2)) >= 0) break;
+    for (; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2) {
+        if (!full && ((e0 + r0) | (e1 + r1) | (e2 + r2)) < 0) break; /* the run's end */
         double dy = j + b->off_y - b->oy;
         double base = b->q0 + b->qy * dy;
         const int64_t e[3] = {e0, e1, e2};

@@ -5,7 +5,8 @@
  * fragment test but otherwise draw exactly as with a test that keeps everything; the depth slack
  * computed only where some triangles land equals the whole image's there; a box test (the trim
  * test decided per triangle or block for a box of (u, v)) changes no bit, and the CPU backend's
- * box test for plan tables agrees with crisp_plan_trim_test. */
+ * box test for plan tables agrees with crisp_plan_trim_test; the set-up drops the triangles a block
+ * depth hides and no others. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -21,6 +22,7 @@
 #include "crisp/plan.h"
 #include "render/raster.h"
 #include "render/render_internal.h"
+#include "render/render_test_util.h"
 
 static uint64_t rng_state = 0x2545F4914F6CDD1Dull;
 static double rnd(void)
@@ -313,6 +315,116 @@ static void test_hiz_corner(void **state)
                 crisp__raster_target_free(&t[1]);
             }
     }
+}
+
+/* A draw's set-up drops the triangles the block depth (crisp__raster_set_occlusion) hides, and
+ * takes a triangle with a vertex at or in front of its box's first block as not hidden before
+ * working out its plane. Over a surface of 1/W 0.5: triangles wholly behind it (1/W 0.3), in
+ * front of it (0.6) and behind but for one vertex (0.55 there), drawn with the surface's block
+ * depth and without it: the same targets bit for bit, every poking triangle drawn somewhere, and
+ * exactly the triangles not wholly behind set up. Fails when the early answer is taken the other
+ * way round (hidden triangles set up) or as hidden (poking vertices lost) (checked). */
+static void test_hidden_setup(void **state)
+{
+    (void)state;
+    enum { N = 600, BX = (W + 3) / 4, BY = (H + 3) / 4 };
+    static crisp_raster_vertex v[4 + 3 * N];
+    static crisp_raster_tri tri[2 + N];
+    static double hiz[BX * BY];
+    static const double corner[4][2] = {{-1.2, -1.2}, {1.2, -1.2}, {1.2, 1.2}, {-1.2, 1.2}};
+    rng_state = 5;
+    for (int k = 0; k < 4; k++)
+        plane_vertex(&v[k], corner[k][0], corner[k][1], 0.5);
+    tri[0] = (crisp_raster_tri){{0, 1, 2}, 1};
+    tri[1] = (crisp_raster_tri){{0, 2, 3}, 1};
+    size_t behind = 0;
+    for (int i = 0; i < N; i++) {
+        double cx = rnd() * 1.6 - 0.8, cy = rnd() * 1.6 - 0.8, size = 0.1 + 0.2 * rnd();
+        int kind = i % 3; /* 0: behind, 1: in front, 2: behind but for vertex 0 */
+        behind += kind == 0;
+        for (int k = 0; k < 3; k++) {
+            double x = cx + size * (rnd() - 0.5), y = cy + size * (rnd() - 0.5);
+            double iw = kind == 1 ? 0.6 : kind == 2 && k == 0 ? 0.55 : 0.3;
+            plane_vertex(&v[4 + 3 * i + k], x, y, iw);
+        }
+        tri[2 + i] = (crisp_raster_tri){{4 + 3 * i, 5 + 3 * i, 6 + 3 * i}, (uint32_t)(2 + kind)};
+    }
+    crisp_raster_target t[2] = {{0}, {0}};
+    crisp_raster_stats st[2];
+    for (int occl = 0; occl < 2; occl++) {
+        crisp_raster *r;
+        assert_int_equal(crisp__raster_create(&r), CRISP_OK);
+        assert_int_equal(crisp__raster_target_init(&t[occl], W, H, 1), CRISP_OK);
+        crisp__raster_target_clear(&t[occl]);
+        assert_int_equal(
+            crisp__raster_draw(r, &t[occl], NULL, v, 4 + 3 * N, tri, 2, NULL, NULL, &st[occl]),
+            CRISP_OK);
+        if (occl) {
+            crisp__raster_block_depth(&t[occl], NULL, 4, NULL, hiz);
+            crisp__raster_set_occlusion(r, hiz, 4);
+        }
+        assert_int_equal(
+            crisp__raster_draw(r, &t[occl], NULL, v, 4 + 3 * N, tri + 2, N, NULL, NULL, &st[occl]),
+            CRISP_OK);
+        crisp__raster_destroy(r);
+    }
+    assert_same(&t[0], &t[1]);
+    size_t poke = 0;
+    for (size_t k = 0; k < (size_t)W * H; k++)
+        poke += t[1].face[k] == 4;
+    assert_true(poke > 0);
+    assert_int_equal(st[0].triangles_setup, N);
+    assert_int_equal(st[1].triangles_setup, N - behind);
+    crisp__raster_target_free(&t[0]);
+    crisp__raster_target_free(&t[1]);
+}
+
+/* The faces the resolve marks as shown (the planner's next first stage: crisp__renderer_seen)
+ * are exactly the faces of the image's pixels: impeller.igs, many faces a few pixels wide, at
+ * image widths that leave the marking loops' tails (8, 4 and 1 pixels at a time), framed and
+ * nearer. Fails when the eight-pixel loop leaves out its first or last pixel (checked). */
+static void test_seen_faces(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    crisp_scene *sc = rt_load_scene("impeller.igs", &m);
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.threads = 2}, &r), CRISP_OK);
+    crisp__planner_always_stages(crisp_renderer_planner(r), 1);
+    static const int sizes[3][2] = {{203, 117}, {96, 64}, {131, 77}};
+    uint8_t *shown = malloc(sc->face_count);
+    size_t faces = 0;
+    for (int z = 0; z < 3; z++)
+        for (int near = 0; near < 3; near++) {
+            int w = sizes[z][0], h = sizes[z][1];
+            crisp_camera cam;
+            assert_int_equal(crisp_camera_frame_box(sc->box, w, h, &cam), CRISP_OK);
+            for (int k = 0; k < 3; k++)
+                cam.eye[k] = cam.target[k] + (cam.eye[k] - cam.target[k]) * (1 - 0.3 * near);
+            crisp_image img;
+            assert_int_equal(crisp_image_init(&img, w, h), CRISP_OK);
+            assert_int_equal(crisp_render_cpu(r, sc, &cam, &img, NULL), CRISP_OK);
+            const int32_t *seen;
+            size_t count, listed = 0;
+            crisp__renderer_seen(r, &seen, &count);
+            memset(shown, 0, sc->face_count);
+            for (size_t i = 0; i < (size_t)w * h; i++)
+                if (img.face[i] >= 0) shown[img.face[i]] = 1;
+            for (uint32_t f = 0; f < sc->face_count; f++)
+                if (shown[f]) {
+                    assert_true(listed < count);
+                    assert_int_equal(seen[listed++], (int32_t)f);
+                }
+            assert_int_equal(listed, count);
+            faces += count;
+            crisp_image_free(&img);
+        }
+    printf("seen faces: %zu in 9 images\n", faces);
+    assert_true(faces > 9 * 20);
+    free(shown);
+    crisp_renderer_destroy(r);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
 }
 
 static void test_no_test_flag(void **state)
@@ -922,6 +1034,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_hiz_and_batches_change_nothing),
         cmocka_unit_test(test_hiz_corner),
+        cmocka_unit_test(test_hidden_setup),
+        cmocka_unit_test(test_seen_faces),
         cmocka_unit_test(test_ties_keep_earlier),
         cmocka_unit_test(test_no_test_flag),
         cmocka_unit_test(test_slack_for_triangles),
