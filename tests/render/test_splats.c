@@ -1084,7 +1084,8 @@ static void test_trim_rule(void **state)
  * splats), views from beside one instance across the others (near instances as patches, far ones
  * as splats), close views and repeats: each plan's face records, its splat ranges (face and
  * count, in order) with their clip origins, and its leaves and triangles equal a fresh planner's.
- * Walking faces in runs of eight when any of them is skipped fails it (tried). */
+ * publish taking the last order when the last ranges' faces are keyed, without counting the keyed
+ * faces (a view with more splat faces after one with fewer), fails it (tried). */
 static crisp_camera beside_view(const crisp_scene *sc, double at, double up, int w, int h)
 {
     crisp_camera cam = far_view(sc, 100, w, h);
@@ -1107,12 +1108,31 @@ static void test_plan_history(void **state)
     assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
     crisp_planner *pl;
     assert_int_equal(crisp_planner_create(NULL, NULL, &pl), CRISP_OK);
-    crisp_camera views[6] = {
+    crisp_camera views[8] = {
         group_view_camera(sc, 20, 0.0, 3, 320, 240),  group_view_camera(sc, 25, 0.5, 3, 320, 240),
         beside_view(sc, 0.05, 0.6, 320, 240),         beside_view(sc, 0.15, 1.5, 320, 240),
         group_view_camera(sc, 600, 0.0, 3, 320, 240), group_view_camera(sc, 60, 0.2, 3, 320, 240),
     };
-    static const int seq[] = {0, 0, 2, 2, 0, 3, 1, 2, 4, 0, 5, 3, 3, 0, 1, 1, 4, 2};
+    crisp_camera moved = group_view_camera(sc, 60, 0.0, 3, 320, 240);
+    views[7] = moved; /* and with parts of the scene off screen (test_kept_order's move) */
+    {                 /* sideways by 2.7 radii: the scene's centre near the screen's side */
+        double f[3], rt[3], n = 0, r = 0;
+        for (int q = 0; q < 3; q++) {
+            f[q] = moved.target[q] - moved.eye[q];
+            r += 0.25 * (sc->box[q + 3] - sc->box[q]) * (sc->box[q + 3] - sc->box[q]);
+        }
+        for (int q = 0; q < 3; q++) {
+            rt[q] = f[(q + 1) % 3] * moved.up[(q + 2) % 3] - f[(q + 2) % 3] * moved.up[(q + 1) % 3];
+            n += rt[q] * rt[q];
+        }
+        for (int q = 0; q < 3; q++) {
+            double d = 2.7 * sqrt(r) * rt[q] / sqrt(n);
+            moved.eye[q] += d, moved.target[q] += d;
+        }
+    }
+    views[6] = moved;
+    static const int seq[] = {0, 0, 2, 2, 0, 3, 1, 2, 4, 0, 5, 3,
+                              3, 0, 7, 6, 7, 6, 6, 7, 1, 1, 4, 2};
     size_t bytes = sc->face_count * sizeof(crisp_plan_face);
     int mixed = 0;
     for (size_t i = 0; i < sizeof seq / sizeof seq[0]; i++) {
