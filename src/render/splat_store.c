@@ -711,7 +711,7 @@ void crisp__splat_store_choice_counts(const crisp__splat_store *s, uint64_t dest
 }
 
 /* want and near of every face for view_proj (the store's sets as they are): by the faces' tree
- * (grouped; then also ready, range and clip origin: choose_chunk) or face by face. Returns the
+ * (grouped; then also the keys, ranges and clip origins: choose_chunk) or face by face. Returns the
  * faces whose level is wanted and not built (grouped; face by face: the face count, an upper
  * bound). */
 static size_t choose_levels(crisp__splat_store *s, const crisp_scene *sc, crisp_mat4 view_proj,
