@@ -101,6 +101,13 @@ struct crisp__groups {
     /* Per patch: (frame << 32) | the lower-left patch of the group leaf that draws it, written
      * for the patches on the perimeter of each group leaf's block (crisp__groups_owner). */
     uint64_t *patch_owner;
+    /* The faces the last classify walked (not skipped), ascending: only theirs of face_small,
+     * face_px, counts and face_active_count may differ from a skipped face's (0, INFINITY, 0,
+     * 0); the next classify resets those and walks its own list, so that a far view of faces
+     * all drawn as splats passes over none of them (issue 12, inst5: imp49 far's 13,573 faces
+     * were two passes over five per-face arrays, one of them parallel). */
+    uint32_t *walked;
+    uint32_t walked_count;
     int oom; /* a walk ran out of memory */
 };
 
@@ -486,7 +493,10 @@ static void free_frame_state(crisp__groups *g)
     free(g->face_active_count);
     free(g->face_active_cap);
     free(g->patch_owner);
+    free(g->walked);
     g->patch_owner = NULL;
+    g->walked = NULL;
+    g->walked_count = 0;
     g->face_active = NULL;
     g->face_active_count = NULL;
     g->face_active_cap = NULL;
@@ -612,8 +622,13 @@ static crisp_status ensure_built(crisp__groups *g, const crisp_scene *sc)
     g->face_active_count = calloc(nf, sizeof *g->face_active_count);
     g->face_active_cap = calloc(nf, sizeof *g->face_active_cap);
     g->patch_owner = calloc(sc->patch_count ? sc->patch_count : 1, sizeof *g->patch_owner);
-    if (!g->face_active || !g->face_active_count || !g->face_active_cap || !g->patch_owner)
+    g->walked = crisp_malloc_array(nf, sizeof *g->walked);
+    if (!g->face_active || !g->face_active_count || !g->face_active_cap || !g->patch_owner ||
+        !g->walked)
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
+    for (uint32_t f = 0; f < sc->face_count; f++) /* (every face as a skipped one's) */
+        g->face_px[f] = INFINITY;
+    g->walked_count = 0;
     crisp_status st = build_quarter_slots(g, sc);
     if (st) return st;
     g->scene = sc;
@@ -675,7 +690,8 @@ typedef struct walk_ctx {
     double depth_scale; /* crisp__depth_px_scale: a pixel's world size per unit of clip W */
     int width, height;
     crisp__patch_groups *out;
-    uint32_t *counts; /* group leaves per face */
+    uint32_t *counts;      /* group leaves per face */
+    const uint32_t *faces; /* the faces walked (walk_faces' items index it) */
 } walk_ctx;
 
 /* Depth along the view (issue 13, depth_bound.c): a leaf drawn at level 1 without a tree of its
@@ -1125,13 +1141,9 @@ static void walk_faces(void *vctx, size_t begin, size_t end, int worker)
     (void)worker;
     walk_ctx *c = vctx;
     crisp__groups *g = c->g;
-    for (size_t fi = begin; fi < end; fi++) {
+    for (size_t i = begin; i < end; i++) {
+        size_t fi = c->faces[i]; /* (not skipped; its values reset by crisp__groups_classify) */
         const crisp_scene_face *f = &c->sc->faces[fi];
-        g->face_small[fi] = 0;
-        g->face_px[fi] = INFINITY;
-        g->face_active_count[fi] = 0;
-        c->counts[fi] = 0;
-        if (c->out->skip_faces && c->out->skip_faces[fi]) continue; /* drawn as splats */
         if (!face_has_groups(f)) {
             for (uint32_t p = 0; p < f->patch_count; p++)
                 activate(c, (uint32_t)fi, f->first_patch + p, CRISP__PATCH_OPEN);
@@ -1220,6 +1232,28 @@ crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, cri
         g->frame = 1;
     }
     g->oom = 0;
+    /* The last walk's faces back to a skipped face's values, then this walk's faces listed (the
+     * faces not skipped, ascending). */
+    for (uint32_t i = 0; i < g->walked_count; i++) {
+        uint32_t f = g->walked[i];
+        g->face_small[f] = 0;
+        g->face_px[f] = INFINITY;
+        g->face_active_count[f] = 0;
+        counts[f] = 0;
+    }
+    uint32_t n = 0;
+    const uint8_t *skip = out->skip_faces;
+    for (uint32_t f = 0; f < sc->face_count;) {
+        uint64_t word;
+        if (skip && f + 8 <= sc->face_count &&
+            (memcpy(&word, skip + f, sizeof word), word == 0x0101010101010101ull)) {
+            f += 8; /* (eight faces drawn as splats; skip's values are 0 or 1) */
+            continue;
+        }
+        if (!skip || !skip[f]) g->walked[n++] = f;
+        f++;
+    }
+    g->walked_count = n;
     walk_ctx c = {.g = g,
                   .sc = sc,
                   .gx = gx,
@@ -1229,30 +1263,31 @@ crisp_status crisp__groups_classify(crisp__groups *g, const crisp_scene *sc, cri
                   .height = height,
                   .out = out,
                   .counts = counts,
+                  .faces = g->walked,
                   .depth_scale = crisp__depth_px_scale(view_proj, width, height)};
     crisp_mat4_copy(view_proj, c.m);
     /* Grain: 4 faces, or a 64th of them (issue 12, inst2: imp49 far's 13,573 faces, all skipped
      * as splats, in items of 4 cost 0.35 ms on 2 threads, the workers trading the item counter's
      * and the per-face arrays' cache lines) */
-    size_t grain = sc->face_count / 64 > 4 ? sc->face_count / 64 : 4;
-    crisp_pool_parallel_for(pool, sc->face_count, grain, walk_faces, &c);
+    size_t grain = n / 64 > 4 ? n / 64 : 4;
+    if (n) crisp_pool_parallel_for(pool, n, grain, walk_faces, &c);
     if (g->oom) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for patch groups");
     g->group_leaves = 0;
     size_t total = 0;
-    for (uint32_t f = 0; f < sc->face_count; f++) {
-        g->group_leaves += counts[f];
-        total += g->face_active_count[f];
+    for (uint32_t i = 0; i < n; i++) {
+        g->group_leaves += counts[g->walked[i]];
+        total += g->face_active_count[g->walked[i]];
     }
     if ((st = crisp_grow((void **)out->active, out->active_cap, total ? total : 1,
                          sizeof **out->active)))
         return st;
     size_t at = 0;
-    for (uint32_t f = 0; f < sc->face_count; f++) {
-        uint32_t n = g->face_active_count[f];
-        if (!n) continue;
-        memcpy(*out->active + at, g->face_active[f], n * sizeof **out->active);
-        qsort(*out->active + at, n, sizeof **out->active, u32_cmp);
-        at += n;
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t f = g->walked[i], m = g->face_active_count[f];
+        if (!m) continue;
+        memcpy(*out->active + at, g->face_active[f], m * sizeof **out->active);
+        qsort(*out->active + at, m, sizeof **out->active, u32_cmp);
+        at += m;
     }
     *out->active_count = at;
     return CRISP_OK;

@@ -892,6 +892,83 @@ static void test_lazy_faces(void **state)
     crisp_model_destroy(m);
 }
 
+/* classify walks only the faces not skipped and resets the last walk's faces to a skipped face's
+ * values (session 18, inst5): through a sequence of views (close to far, where whole faces are
+ * within a pixel) and skip patterns (none, all, every other face, runs of skipped faces longer
+ * and shorter than eight), a groups object that has walked before gives the same active patches,
+ * modes, group_g, face_small and face_px (every face) as a fresh one at the same view and skip.
+ * Not resetting the last walk's face_small fails it (tried). */
+static void test_walk_history(void **state)
+{
+    (void)state;
+    crisp_model *m;
+    crisp_scene *sc = rt_load_scene("impeller.igs", &m);
+    size_t np = sc->patch_count;
+    uint32_t nf = sc->face_count;
+    uint8_t *skip[5], *mode[2], *gg[2];
+    uint32_t *active[2] = {NULL, NULL};
+    size_t cap[2] = {0, 0};
+    for (int k = 0; k < 2; k++) {
+        mode[k] = calloc(np, 1);
+        gg[k] = calloc(np, 1);
+    }
+    for (int k = 0; k < 5; k++)
+        skip[k] = calloc(nf, 1);
+    for (uint32_t f = 0; f < nf; f++) {
+        skip[1][f] = 1;
+        skip[2][f] = f % 2;
+        skip[3][f] = f % 23 < 13; /* runs of 13 skipped, 10 walked */
+        skip[4][f] = f % 11 < 3;
+    }
+    crisp__groups *kept;
+    assert_int_equal(crisp__groups_create(&kept), CRISP_OK);
+    static const double facs[] = {1, 8, 30, 120, 0.3};
+    static const int seq[][2] = {{0, 0}, {2, 1}, {0, 2}, {3, 0}, {2, 3}, {1, 4}, {3, 2},
+                                 {3, 3}, {2, 0}, {4, 4}, {2, 2}, {3, 4}, {0, 1}, {3, 0}};
+    long small = 0, walked = 0;
+    for (size_t i = 0; i < sizeof seq / sizeof seq[0]; i++) {
+        crisp_camera cam;
+        assert_int_equal(crisp_camera_frame_box(sc->box, 640, 480, &cam), CRISP_OK);
+        double fac = facs[seq[i][0]];
+        for (int k = 0; k < 3; k++)
+            cam.eye[k] = cam.target[k] + fac * (cam.eye[k] - cam.target[k]);
+        cam.znear *= fac < 1 ? fac * 0.5 : 1;
+        cam.zfar *= fac > 1 ? fac + 2 : 1;
+        const uint8_t *sk = skip[seq[i][1]];
+        crisp__groups *fresh;
+        assert_int_equal(crisp__groups_create(&fresh), CRISP_OK);
+        size_t n0 = classify_all(kept, sc, &cam, sk, mode[0], gg[0], &active[0], &cap[0]);
+        size_t n1 = classify_all(fresh, sc, &cam, sk, mode[1], gg[1], &active[1], &cap[1]);
+        assert_int_equal(n0, n1);
+        if (n1) assert_memory_equal(active[0], active[1], n1 * sizeof *active[0]);
+        for (size_t j = 0; j < n1; j++) {
+            uint32_t q = active[1][j];
+            assert_int_equal(mode[0][q], mode[1][q]);
+            if (mode[1][q] == CRISP__PATCH_GROUP) assert_int_equal(gg[0][q], gg[1][q]);
+        }
+        for (uint32_t f = 0; f < nf; f++) {
+            assert_int_equal(crisp__groups_face_small(kept, f), crisp__groups_face_small(fresh, f));
+            double a = crisp__groups_face_px(kept, f), b = crisp__groups_face_px(fresh, f);
+            assert_true(a == b || (isinf(a) && isinf(b)));
+            small += crisp__groups_face_small(fresh, f);
+            walked += !sk[f];
+        }
+        crisp__groups_destroy(fresh);
+    }
+    printf("walk history: %ld faces walked, %ld small, the same as fresh walks\n", walked, small);
+    assert_true(small > 50 && walked > 1000);
+    crisp__groups_destroy(kept);
+    for (int k = 0; k < 2; k++) {
+        free(mode[k]);
+        free(gg[k]);
+        free(active[k]);
+    }
+    for (int k = 0; k < 5; k++)
+        free(skip[k]);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -899,7 +976,7 @@ int main(void)
         cmocka_unit_test(test_rational),           cmocka_unit_test(test_block_deviation),
         cmocka_unit_test(test_tau_cells),          cmocka_unit_test(test_quarter_cells),
         cmocka_unit_test(test_kept_sigmas),        cmocka_unit_test(test_parallel_build),
-        cmocka_unit_test(test_lazy_faces),
+        cmocka_unit_test(test_lazy_faces),         cmocka_unit_test(test_walk_history),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
