@@ -731,6 +731,21 @@ static crisp_model *instanced(const char *name, int n)
 /* A view from a random direction with the scene's bounding sphere radius_px on screen, aimed at a
  * random point up to `off` radii from its centre (so part of it may be off screen), the near
  * plane at `cut` radii in front of the centre (below 1: through the scene). */
+/* cam planned by pl (which planned other views before) and by a new planner (returned, for the
+ * caller to destroy after comparing more): their face records must be the same bytes. */
+static crisp_planner *plan_beside_fresh(crisp_planner *pl, const crisp_scene *sc,
+                                        const crisp_camera *cam, const crisp_frame_plan **plan,
+                                        const crisp_frame_plan **ref)
+{
+    crisp_planner *fresh;
+    assert_int_equal(crisp_planner_plan(pl, sc, cam, plan), CRISP_OK);
+    assert_int_equal(crisp_planner_create(NULL, NULL, &fresh), CRISP_OK);
+    assert_int_equal(crisp_planner_plan(fresh, sc, cam, ref), CRISP_OK);
+    assert_int_equal(
+        memcmp((*plan)->faces, (*ref)->faces, sc->face_count * sizeof(crisp_plan_face)), 0);
+    return fresh;
+}
+
 static crisp_camera group_view_camera(const crisp_scene *sc, double radius_px, double off,
                                       double cut, int w, int h)
 {
@@ -960,11 +975,7 @@ static void test_plain_faces(void **state)
     for (size_t i = 0; i < sizeof seq / sizeof seq[0]; i++) {
         const crisp_camera *cam = seq[i] == 3 ? &near : &views[seq[i]];
         const crisp_frame_plan *plan, *ref;
-        assert_int_equal(crisp_planner_plan(pl, sc, cam, &plan), CRISP_OK);
-        crisp_planner *fresh;
-        assert_int_equal(crisp_planner_create(NULL, NULL, &fresh), CRISP_OK);
-        assert_int_equal(crisp_planner_plan(fresh, sc, cam, &ref), CRISP_OK);
-        assert_int_equal(memcmp(plan->faces, ref->faces, bytes), 0);
+        crisp_planner *fresh = plan_beside_fresh(pl, sc, cam, &plan, &ref);
         int all_plain = 1;
         for (uint32_t f = 0; f < sc->face_count; f++)
             all_plain &= !(plan->faces[f].flags & CRISP_PLAN_FACE_VISIBLE);
@@ -1133,16 +1144,11 @@ static void test_plan_history(void **state)
     views[6] = moved;
     static const int seq[] = {0, 0, 2, 2, 0, 3, 1, 2, 4, 0, 5, 3,
                               3, 0, 7, 6, 7, 6, 6, 7, 1, 1, 4, 2};
-    size_t bytes = sc->face_count * sizeof(crisp_plan_face);
     int mixed = 0;
     for (size_t i = 0; i < sizeof seq / sizeof seq[0]; i++) {
         const crisp_camera *cam = &views[seq[i]];
         const crisp_frame_plan *plan, *ref;
-        assert_int_equal(crisp_planner_plan(pl, sc, cam, &plan), CRISP_OK);
-        crisp_planner *fresh;
-        assert_int_equal(crisp_planner_create(NULL, NULL, &fresh), CRISP_OK);
-        assert_int_equal(crisp_planner_plan(fresh, sc, cam, &ref), CRISP_OK);
-        assert_int_equal(memcmp(plan->faces, ref->faces, bytes), 0);
+        crisp_planner *fresh = plan_beside_fresh(pl, sc, cam, &plan, &ref);
         assert_int_equal(plan->splat_range_count, ref->splat_range_count);
         for (uint32_t r = 0; r < plan->splat_range_count; r++) {
             const crisp_plan_splat_range *a = &plan->splat_ranges[r], *b = &ref->splat_ranges[r];
