@@ -1586,8 +1586,9 @@ static void faces_region(const crisp_renderer *r, const crisp_frame_plan *plan, 
             if (v[0].clip[3] < 0 || v[1].clip[3] < 0 || v[2].clip[3] < 0 || v[3].clip[3] < 0)
                 continue; /* a quad not drawn */
             for (int k = 0; k < 4; k++) {
-                double x = (v[k].clip[0] / v[k].clip[3] + 1) * 0.5 * plan->width,
-                       y = (1 - v[k].clip[1] / v[k].clip[3]) * 0.5 * plan->height;
+                double px[2];
+                clip_px(v[k].clip, plan->width, plan->height, px);
+                double x = px[0], y = px[1];
                 if (!(v[k].clip[3] > 0) || !isfinite(x) || !isfinite(y)) {
                     x = -INFINITY, y = -INFINITY; /* through the eye plane: anywhere */
                     rhi[0] = rhi[1] = INFINITY;
