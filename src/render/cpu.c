@@ -267,19 +267,12 @@ crisp_planner *crisp_renderer_planner(crisp_renderer *r)
     return r->planner;
 }
 
-/* The pixel position p (x right, y down) of the clip-space point c in a width x height image. */
-static inline void clip_px(const double c[4], int width, int height, double p[2])
-{
-    p[0] = (c[0] / c[3] + 1) * 0.5 * width;
-    p[1] = (1 - c[1] / c[3]) * 0.5 * height;
-}
-
 /* Extends the pixel box [lo, hi] of the plan's image by the clip-space point c (W > 0). */
 static inline void box_add_clip(const crisp_frame_plan *plan, const double c[4], double lo[2],
                                 double hi[2])
 {
     double p[2];
-    clip_px(c, plan->width, plan->height, p);
+    crisp__clip_px(c, plan->width, plan->height, p);
     lo[0] = fmin(lo[0], p[0]), hi[0] = fmax(hi[0], p[0]);
     lo[1] = fmin(lo[1], p[1]), hi[1] = fmax(hi[1], p[1]);
 }
@@ -1005,7 +998,7 @@ static void ribbon_core(const crisp_plan_ribbon_vertex *q, double width, double 
             *k = none;
             return;
         }
-        clip_px(q[c].clip, width, height, p[c]);
+        crisp__clip_px(q[c].clip, width, height, p[c]);
     }
     double pa[2] = {0.5 * (p[0][0] + p[1][0]), 0.5 * (p[0][1] + p[1][1])};
     double pb[2] = {0.5 * (p[2][0] + p[3][0]), 0.5 * (p[2][1] + p[3][1])};
@@ -1088,7 +1081,7 @@ static void cull_ribbons(void *vctx, size_t begin, size_t end, int worker)
             const double *cl = src[k].clip;
             if (!(cl[3] > 0)) continue;
             double p[2];
-            clip_px(cl, plan->width, plan->height, p);
+            crisp__clip_px(cl, plan->width, plan->height, p);
             seen = crisp__occl_point_seen(c->r->hiz, c->blocks_x, c->blocks_y, p[0] - c->win[0],
                                           p[1] - c->win[1], 1 / cl[3]);
         }
@@ -1587,7 +1580,7 @@ static void faces_region(const crisp_renderer *r, const crisp_frame_plan *plan, 
                 continue; /* a quad not drawn */
             for (int k = 0; k < 4; k++) {
                 double px[2];
-                clip_px(v[k].clip, plan->width, plan->height, px);
+                crisp__clip_px(v[k].clip, plan->width, plan->height, px);
                 double x = px[0], y = px[1];
                 if (!(v[k].clip[3] > 0) || !isfinite(x) || !isfinite(y)) {
                     x = -INFINITY, y = -INFINITY; /* through the eye plane: anywhere */

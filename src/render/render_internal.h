@@ -44,6 +44,14 @@ static inline int crisp__normal_degenerate(const double a[3], const double b[3],
     return !(aa > t2 * bb) || !(bb > t2 * aa) || !(nn > t2 * aa * bb);
 }
 
+/* The pixel position p (x right, y down) of the clip-space point c (x, y, z, W) in a width x
+ * height image (an int size converts exactly, so int and double callers get the same bits). */
+static inline void crisp__clip_px(const double c[4], double width, double height, double p[2])
+{
+    p[0] = (c[0] / c[3] + 1) * 0.5 * width;
+    p[1] = (1 - c[1] / c[3]) * 0.5 * height;
+}
+
 /* Doubles in the largest patch's control net. */
 #define CRISP__PATCH_DOUBLES ((CRISP_MAX_DEGREE + 1) * (CRISP_MAX_DEGREE + 1) * 4)
 

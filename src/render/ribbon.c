@@ -262,14 +262,13 @@ static int segment_may_show(const crisp_raster_vertex *a, const crisp_raster_ver
                             double h)
 {
     if (!(a->clip[3] > 0) || !(b->clip[3] > 0)) return 1; /* let refine() split it */
-    double ax = (a->clip[0] / a->clip[3] + 1) * 0.5 * w,
-           ay = (1 - a->clip[1] / a->clip[3]) * 0.5 * h;
-    double bx = (b->clip[0] / b->clip[3] + 1) * 0.5 * w,
-           by = (1 - b->clip[1] / b->clip[3]) * 0.5 * h;
-    double len = hypot(bx - ax, by - ay) + 2;
+    double pa[2], pb[2];
+    crisp__clip_px(a->clip, w, h, pa);
+    crisp__clip_px(b->clip, w, h, pb);
+    double len = hypot(pb[0] - pa[0], pb[1] - pa[1]) + 2;
     if (!isfinite(len)) return 1;
-    return fmax(ax, bx) + len >= 0 && fmin(ax, bx) - len <= w && fmax(ay, by) + len >= 0 &&
-           fmin(ay, by) - len <= h;
+    return fmax(pa[0], pb[0]) + len >= 0 && fmin(pa[0], pb[0]) - len <= w &&
+           fmax(pa[1], pb[1]) + len >= 0 && fmin(pa[1], pb[1]) - len <= h;
 }
 
 /* A job's samples go to the worker's scratch buffer (kept from frame to frame), then exactly

@@ -572,9 +572,10 @@ static int quad_unseen(const crisp_plan_ribbon_vertex *v, int width, int height,
             continue;
         }
         if (!(c[3] > 0) || !isfinite(c[0] + c[1] + c[3])) return 0;
-        double px = (c[0] / c[3] + 1) * 0.5 * width, py = (1 - c[1] / c[3]) * 0.5 * height;
-        lo[0] = lesser(lo[0], px), hi[0] = greater(hi[0], px);
-        lo[1] = lesser(lo[1], py), hi[1] = greater(hi[1], py);
+        double px[2];
+        crisp__clip_px(c, width, height, px);
+        lo[0] = lesser(lo[0], px[0]), hi[0] = greater(hi[0], px[0]);
+        lo[1] = lesser(lo[1], px[1]), hi[1] = greater(hi[1], px[1]);
         iw = greater(iw, 1 / c[3]);
     }
     if (behind) return behind == 4;
