@@ -1468,6 +1468,19 @@ static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
         resolve_rows_s(c, begin, end, c->target->samples);
 }
 
+/* Marks in seen (fc faces) each face of pixels face[i0 .. i1) that differs from the pixel before
+ * it (last: the face of the pixel before i0); returns the face of pixel i1 - 1 (last if none). */
+static inline int32_t mark_faces(const int32_t *face, int i0, int i1, int32_t last, uint8_t *seen,
+                                 uint32_t fc)
+{
+    for (int i = i0; i < i1; i++)
+        if (face[i] != last) {
+            last = face[i];
+            if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
+        }
+    return last;
+}
+
 /* The rows in groups shared out as the rasterizer's tiles (crisp_raster_share): a worker resolves
  * the band of rows whose tiles it mostly drew, their samples still in its caches, and two workers
  * seldom read and write neighbouring rows at once. */
@@ -1493,29 +1506,11 @@ static void resolve_groups(void *vctx, size_t begin, size_t end, int worker)
                 __m128i e = _mm_and_si128(
                     _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)(face + i)), l4),
                     _mm_cmpeq_epi32(_mm_loadu_si128((const __m128i *)(face + i + 4)), l4));
-                if (_mm_movemask_epi8(e) == 0xffff) continue;
-                for (int q = 0; q < 8; q++)
-                    if (face[i + q] != last) {
-                        last = face[i + q];
-                        if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
-                    }
-            }
-            for (; i + 3 < c->x1; i += 4) { /* four pixels of the last face: nothing to mark */
-                __m128i f4 = _mm_loadu_si128((const __m128i *)(face + i));
-                if (_mm_movemask_epi8(_mm_cmpeq_epi32(f4, _mm_set1_epi32(last))) == 0xffff)
-                    continue;
-                for (int q = 0; q < 4; q++)
-                    if (face[i + q] != last) {
-                        last = face[i + q];
-                        if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
-                    }
+                if (_mm_movemask_epi8(e) != 0xffff)
+                    last = mark_faces(face, i, i + 8, last, seen, fc);
             }
 #endif
-            for (; i < c->x1; i++)
-                if (face[i] != last) {
-                    last = face[i];
-                    if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
-                }
+            mark_faces(face, i, c->x1, last, seen, fc); /* (the row's last pixels) */
         }
     }
 }
