@@ -45,7 +45,9 @@ static inline int crisp__normal_degenerate(const double a[3], const double b[3],
 }
 
 /* The pixel position p (x right, y down) of the clip-space point c (x, y, z, W) in a width x
- * height image (an int size converts exactly, so int and double callers get the same bits). */
+ * height image (an int size converts exactly, so int and double callers get the same bits).
+ * Not crisp_camera_to_pixel: that multiplies by 1 / W, which rounds otherwise than the division
+ * here, and the backends' pixel boxes and culls must keep their bits. */
 static inline void crisp__clip_px(const double c[4], double width, double height, double p[2])
 {
     p[0] = (c[0] / c[3] + 1) * 0.5 * width;
