@@ -5,6 +5,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 
 #include "crisp/io.h"
 #include "crisp/render.h"
@@ -80,6 +81,28 @@ static inline double rt_point_error(const crisp_camera *cam, crisp_mat4 vp,
     crisp_mat4_mulp(vp, P, pc);
     crisp_camera_to_pixel(cam, pc, sp);
     return fmax(fabs(sp[0] - x), fabs(sp[1] - y));
+}
+
+/* The faces the renderer's last resolve listed as shown (crisp__renderer_seen, the planner's next
+ * first stage) are exactly the faces of img's pixels, ascending. Returns how many. */
+static inline size_t rt_assert_seen_faces(const crisp_renderer *r, const crisp_scene *sc,
+                                          const crisp_image *img)
+{
+    const int32_t *seen;
+    size_t count, listed = 0;
+    crisp__renderer_seen(r, &seen, &count);
+    uint8_t *shown = calloc(sc->face_count + 1, 1);
+    assert_non_null(shown);
+    for (size_t i = 0; i < (size_t)img->width * img->height; i++)
+        if (img->face[i] >= 0) shown[img->face[i]] = 1;
+    for (uint32_t f = 0; f < sc->face_count; f++)
+        if (shown[f]) {
+            assert_true(listed < count);
+            assert_int_equal(seen[listed++], (int32_t)f);
+        }
+    assert_int_equal(listed, count);
+    free(shown);
+    return count;
 }
 
 /* Largest screen distance (max norm, pixels) between the last frame's triangles in front of the

@@ -31,6 +31,7 @@
 #include "render/planner.h"
 #include "render/raster.h"
 #include "render/render_internal.h"
+#include "render/render_test_util.h"
 
 #define W 128
 #define H 96
@@ -488,19 +489,7 @@ static uint32_t check_stages(crisp_renderer *a, crisp_renderer *b, const crisp_s
     for (int rep = 0; rep < 2; rep++) {
         assert_int_equal(crisp_render_cpu(a, sc, cam, &ia, &sa), CRISP_OK);
         /* The faces the resolve listed for the next first stage: those the image shows. */
-        const int32_t *seen;
-        size_t seen_count, listed = 0;
-        crisp__renderer_seen(a, &seen, &seen_count);
-        uint8_t *shown = calloc(sc->face_count + 1, 1);
-        for (size_t i = 0; i < (size_t)W * H; i++)
-            if (ia.face[i] >= 0) shown[ia.face[i]] = 1;
-        for (uint32_t f = 0; f < sc->face_count; f++)
-            if (shown[f]) {
-                assert_true(listed < seen_count);
-                assert_int_equal(seen[listed++], (int32_t)f);
-            }
-        assert_int_equal(listed, seen_count);
-        free(shown);
+        rt_assert_seen_faces(a, sc, &ia);
         assert_int_equal(crisp_planner_plan(crisp_renderer_planner(b), sc, cam, &plan), CRISP_OK);
         assert_int_equal(crisp_render_cpu_plan(b, sc, plan, cam, &ib, &sb), CRISP_OK);
         assert_same(a, b, &ia, &ib, "stages");
