@@ -121,9 +121,9 @@ static void halve_points(const double *src, ptrdiff_t st, int n, double *left, d
  * writes its block (a patch is planned by one worker per pass; passes are joined). */
 #define KEEP_SUBS 64
 #define KEEP_BYTES_MAX ((size_t)48 << 20) /* one scene's kept sub-patches at most */
-#define KEEP_DEGREE                                                                                \
-    4 /* only patches of this degree or more in u or v (lower degrees' cuts cost                   \
-         little more than the copy: no change on impeller.igs close) */
+/* Only patches of this degree or more in u or v (lower degrees' cuts cost little more than the
+ * copy: no change on impeller.igs close). */
+#define KEEP_DEGREE 4
 typedef struct crisp__sub_keep {
     uint32_t count, doubles; /* entries used; control-point doubles an entry */
     uint64_t key[KEEP_SUBS];
