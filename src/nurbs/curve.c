@@ -77,7 +77,7 @@ void crisp_curve_destroy(crisp_curve *c)
 crisp_status crisp_curve_copy(const crisp_curve *c, crisp_curve **dest)
 {
     *dest = NULL;
-    crisp_curve *n;
+    crisp_curve *n = NULL;
     crisp_status st = curve_alloc(c->dim, c->degree, c->count, &n);
     if (st) return st;
     n->rational = c->rational;

@@ -865,7 +865,7 @@ int crisp__raster_quad_hidden(const crisp_raster *r, const crisp_raster_target *
      * out; a hidden one is with the core when the core's bound (tri_hidden's, on the same
      * triangle and box) is also below the least block value of the box. */
     double least[2];
-    int box[2][4];
+    int box[2][4] = {{0}};
     if (!tri_dropped(r, t, &v[0], &v[1], &v[2], &least[0], box[0]) ||
         !tri_dropped(r, t, &v[0], &v[2], &v[3], &least[1], box[1]))
         return 0;

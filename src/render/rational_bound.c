@@ -127,8 +127,8 @@ static double ratio_bound(const double *num, const double *den, int p, int depth
     if (depth == 0 || r <= best) return dmax(best, r);
     /* the end coefficients are the function's values there */
     best = dmax(best, dmax(fabs(num[0]) / den[0], fabs(num[p]) / den[p]));
-    double nl[CRISP_MAX_DEGREE + 2], nr[CRISP_MAX_DEGREE + 2], dl[CRISP_MAX_DEGREE + 2],
-        dr[CRISP_MAX_DEGREE + 2];
+    double nl[CRISP_MAX_DEGREE + 2] = {0}, nr[CRISP_MAX_DEGREE + 2] = {0},
+                                 dl[CRISP_MAX_DEGREE + 2] = {0}, dr[CRISP_MAX_DEGREE + 2] = {0};
     halve(num, p, nl, nr);
     halve(den, p, dl, dr);
     best = ratio_bound(nl, dl, p, depth - 1, best);

@@ -126,7 +126,7 @@ static double distance_to_curves(const iges_curves *c, const double p[3])
 {
     double best = INFINITY;
     for (int i = 0; i < c->count; i++) {
-        double t0, t1, prev[3];
+        double t0, t1, prev[3] = {0, 0, 0};
         crisp_curve_domain(c->items[i], &t0, &t1);
         const int n = 400;
         for (int k = 0; k <= n; k++) {

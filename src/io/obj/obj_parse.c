@@ -158,7 +158,7 @@ static crisp_status parse_ref(parser *ps, const tok *t, int count, const char *w
     tok head = *t;
     const char *slash = memchr(t->s, '/', (size_t)t->len);
     if (slash) head.len = (int)(slash - t->s);
-    int k;
+    int k = 0;
     crisp_status st = parse_int(ps, &head, &k);
     if (st != CRISP_OK) return st;
     int idx = k > 0 ? k - 1 : count + k;
