@@ -1345,12 +1345,30 @@ static void resolve_row1(const resolve_ctx *c, size_t j)
 
 #if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
 #define HAVE_AVX_RESOLVE 1
+/* The pixels [i0, i1) of row p0 / width one at a time (resolve_pixel1), their faces marked in
+ * seen (NULL: not wanted) as mark_faces would. */
+static ALWAYS_INLINE void resolve_pixels1(const resolve_ctx *c, const crisp_raster_target *t,
+                                          const crisp_image *img, size_t p0, int i0, int i1,
+                                          double ru0, double ru1, double ru2, uint8_t *seen,
+                                          uint32_t fc)
+{
+    for (int i = i0; i < i1; i++) {
+        resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
+        int32_t f = t->face[p0 + (size_t)i];
+        if (seen && f >= 0 && (uint32_t)f < fc) seen[f] = 1;
+    }
+}
+
 /* resolve_row1 four covered pixels at a time with AVX where the processor has it (chosen at run
  * time): the same IEEE operations on each lane as resolve_pixel1 (sqrt, division and the
  * conversions to float are correctly rounded in every form; no fused multiply-add), so the same
- * values bit for bit (test_vectors_equal_scalar compares it with the scalar resolve). Groups of
- * four with a background pixel: all background stored at once, mixed ones pixel by pixel. */
-__attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c, size_t j)
+ * values bit for bit (test_resolve compares it with the scalar resolve). Groups of four with a
+ * background pixel: all background stored at once, mixed ones pixel by pixel. The faces'
+ * colours are kept from the last group while its four pixels show the same face. Marks in seen
+ * (NULL: not wanted) the faces the row shows, as mark_faces would: a group of the kept face marks
+ * nothing new. */
+__attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c, size_t j,
+                                                            uint8_t *seen, uint32_t fc)
 {
     const crisp_raster_target *t = c->target;
     const crisp_image *img = c->img;
@@ -1371,10 +1389,15 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
     const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0),
                   sign = _mm256_set1_pd(-0.0);
     const __m256d k0 = _mm256_set1_pd(0.25), k1 = _mm256_set1_pd(0.75);
+    int32_t kept = -1; /* the face whose colours base holds (-1: none) */
+    __m128i kept4 = _mm_set1_epi32(-1);
+    __m256d base[3] = {zero, zero, zero};
     int i = c->x0;
-    for (; i + 3 < c->x1; i += 4) {
-        int32_t f0 = face[i], f1 = face[i + 1], f2 = face[i + 2], f3 = face[i + 3];
-        if ((f0 & f1 & f2 & f3) < 0) { /* four background pixels */
+    const int x1 = c->x1;
+    for (; i + 3 < x1; i += 4) {
+        const __m128i fv = _mm_loadu_si128((const __m128i *)(face + i));
+        int neg = _mm_movemask_ps(_mm_castsi128_ps(fv));
+        if (neg == 0xf) { /* four background pixels */
             __m128 z = _mm_setzero_ps();
             for (int q = 0; q < 4; q++)
                 _mm_storeu_ps(rgba + 4 * (size_t)(i + q), z);
@@ -1386,9 +1409,8 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
             _mm_storeu_ps(depth + i, _mm_set1_ps(INFINITY));
             continue;
         }
-        if ((f0 | f1 | f2 | f3) < 0) {
-            for (int q = 0; q < 4; q++)
-                resolve_pixel1(c, t, img, p0, i + q, ru0, ru1, ru2);
+        if (neg) {
+            resolve_pixels1(c, t, img, p0, i, i + 4, ru0, ru1, ru2, seen, fc);
             continue;
         }
         const float *a = attr + (size_t)i * CRISP_RASTER_ATTRS; /* pixel q's at a + 5 q */
@@ -1412,16 +1434,24 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
             _mm256_and_pd(_mm256_cmp_pd(nn, zero, _CMP_GT_OQ), _mm256_cmp_pd(vv, zero, _CMP_GT_OQ));
         cs = _mm256_or_pd(_mm256_and_pd(ok, cs), _mm256_andnot_pd(ok, one));
         __m256d k = _mm256_add_pd(k0, _mm256_mul_pd(k1, cs));
-        /* The faces' colours, per lane (one load each when the four pixels show one face). */
-        __m256d base[3];
-        const float *c0 = faces[f0].color;
-        if (f0 == f1 && f0 == f2 && f0 == f3) {
-            for (int q = 0; q < 3; q++)
-                base[q] = _mm256_set1_pd(c0[q]);
-        } else {
-            const float *c1 = faces[f1].color, *c2 = faces[f2].color, *c3 = faces[f3].color;
-            for (int q = 0; q < 3; q++)
-                base[q] = _mm256_set_pd(c3[q], c2[q], c1[q], c0[q]);
+        /* The faces' colours per lane: the kept ones, one face's broadcast, or one by one. */
+        if (_mm_movemask_epi8(_mm_cmpeq_epi32(fv, kept4)) != 0xffff) {
+            int32_t f0 = face[i], f1 = face[i + 1], f2 = face[i + 2], f3 = face[i + 3];
+            const float *c0 = faces[f0].color;
+            if (f0 == f1 && f0 == f2 && f0 == f3) {
+                for (int q = 0; q < 3; q++)
+                    base[q] = _mm256_set1_pd(c0[q]);
+                kept = f0;
+                if (seen && (uint32_t)f0 < fc) seen[f0] = 1;
+            } else {
+                const float *c1 = faces[f1].color, *c2 = faces[f2].color, *c3 = faces[f3].color;
+                for (int q = 0; q < 3; q++)
+                    base[q] = _mm256_set_pd(c3[q], c2[q], c1[q], c0[q]);
+                kept = -1;
+                for (int l = 0; seen && l < 4; l++)
+                    if ((uint32_t)face[i + l] < fc) seen[face[i + l]] = 1;
+            }
+            kept4 = _mm_set1_epi32(kept);
         }
         __m128 zf = _mm_setzero_ps();
         __m128 cr = _mm_add_ps(zf, _mm256_cvtpd_ps(_mm256_mul_pd(base[0], k)));
@@ -1434,7 +1464,7 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
         _mm_storeu_ps(rgba + 4 * (size_t)i + 8, cb);
         _mm_storeu_ps(rgba + 4 * (size_t)i + 12, co);
         _mm_storeu_ps(depth + i, _mm256_cvtpd_ps(_mm256_div_pd(one, _mm256_loadu_pd(inv_w + i))));
-        _mm_storeu_si128((__m128i *)(oface + i), _mm_loadu_si128((const __m128i *)(face + i)));
+        _mm_storeu_si128((__m128i *)(oface + i), fv);
         for (int h = 0; h < 4; h += 2) { /* a pair's (u, v) and normals, as resolve_row1 */
             const float *pa = a + 5 * h, *pb = pa + CRISP_RASTER_ATTRS;
             size_t ii = (size_t)(i + h);
@@ -1446,23 +1476,8 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
             _mm_storeu_ps(normal + 3 * ii + 2, _mm_shuffle_ps(t4, fb1, _MM_SHUFFLE(3, 2, 2, 0)));
         }
     }
-    for (; i < c->x1; i++)
-        resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
+    resolve_pixels1(c, t, img, p0, i, x1, ru0, ru1, ru2, seen, fc);
 }
-/* The pixels [i0, i1) of row p0 / width one at a time (resolve_pixel1), their faces marked in
- * seen (NULL: not wanted) as mark_faces would. */
-static ALWAYS_INLINE void resolve_pixels1(const resolve_ctx *c, const crisp_raster_target *t,
-                                          const crisp_image *img, size_t p0, int i0, int i1,
-                                          double ru0, double ru1, double ru2, uint8_t *seen,
-                                          uint32_t fc)
-{
-    for (int i = i0; i < i1; i++) {
-        resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
-        int32_t f = t->face[p0 + (size_t)i];
-        if (seen && f >= 0 && (uint32_t)f < fc) seen[f] = 1;
-    }
-}
-
 #if defined(__GNUC__) && (defined(__clang__) || __GNUC__ >= 7)
 #define HAVE_AVX512_RESOLVE 1
 /* resolve_row1 eight covered pixels at a time with AVX-512 (F, DQ, VL; chosen at run time):
@@ -1499,7 +1514,8 @@ resolve_row1_avx512(const resolve_ctx *c, size_t j, uint8_t *seen, uint32_t fc)
     /* Attribute a of pixel q is float 5 q + a of the group's 40: A0 holds floats 0-15, A1 16-31,
      * A2 24-39. (u, v) of the eight pixels from A0, A1 (floats 35, 36 from A2); the normals'
      * first 16 floats from A0, A1, their last 8 from A2; then each normal component's eight. */
-    const __m512i i_uv = _mm512_setr_epi32(0, 1, 5, 6, 10, 11, 15, 16, 20, 21, 25, 26, 30, 31, 0, 0);
+    const __m512i i_uv =
+        _mm512_setr_epi32(0, 1, 5, 6, 10, 11, 15, 16, 20, 21, 25, 26, 30, 31, 0, 0);
     const __m512i i_uv2 = _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 11, 12);
     const __m512i i_n0 =
         _mm512_setr_epi32(2, 3, 4, 7, 8, 9, 12, 13, 14, 17, 18, 19, 22, 23, 24, 27);
@@ -1516,11 +1532,13 @@ resolve_row1_avx512(const resolve_ctx *c, size_t j, uint8_t *seen, uint32_t fc)
     /* The colour stride in floats (the scene's faces are an array of structs): a gather's
      * indices; kept only while the face count keeps them in 32 bits. */
     const int stride = (int)(sizeof *faces / sizeof(float));
-    const int gather = sizeof *faces % sizeof(float) == 0 && c->sc->face_count <= (uint32_t)(INT32_MAX / stride);
+    const int gather =
+        sizeof *faces % sizeof(float) == 0 && c->sc->face_count <= (uint32_t)(INT32_MAX / stride);
     int32_t kept = -1; /* the face whose colours base holds (-1: none) */
-    __m512d base[3] = {zero, zero, zero};
+    __m512d base0 = zero, base1 = zero, base2 = zero;
     int i = c->x0;
-    for (; i + 7 < c->x1; i += 8) {
+    const int x1 = c->x1;
+    for (; i + 7 < x1; i += 8) {
         const __m256i fv = _mm256_loadu_si256((const __m256i *)(face + i));
         int neg = _mm256_movemask_ps(_mm256_castsi256_ps(fv));
         if (neg == 0xff) { /* eight background pixels */
@@ -1558,8 +1576,8 @@ resolve_row1_avx512(const resolve_ctx *c, size_t j, uint8_t *seen, uint32_t fc)
         __m512d dot = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(n0, d0), _mm512_mul_pd(n1, d1)),
                                     _mm512_mul_pd(n2, d2));
         __m512d cs = _mm512_div_pd(_mm512_andnot_pd(sign, dot), _mm512_mul_pd(nn, vv));
-        __mmask8 ok = _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(nn, zero, _CMP_GT_OQ), vv, zero,
-                                              _CMP_GT_OQ);
+        __mmask8 ok =
+            _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(nn, zero, _CMP_GT_OQ), vv, zero, _CMP_GT_OQ);
         cs = _mm512_mask_blend_pd(ok, one, cs);
         __m512d k = _mm512_add_pd(k0, _mm512_mul_pd(k1, cs));
         /* The faces' colours per lane: the kept ones, one face's broadcast, or gathered. */
@@ -1567,42 +1585,46 @@ resolve_row1_avx512(const resolve_ctx *c, size_t j, uint8_t *seen, uint32_t fc)
             int32_t f0 = face[i];
             if (_mm256_cmpeq_epi32_mask(fv, _mm256_set1_epi32(f0)) == 0xff) {
                 const float *c0 = faces[f0].color;
-                for (int q = 0; q < 3; q++)
-                    base[q] = _mm512_set1_pd(c0[q]);
+                base0 = _mm512_set1_pd(c0[0]);
+                base1 = _mm512_set1_pd(c0[1]);
+                base2 = _mm512_set1_pd(c0[2]);
                 kept = f0;
                 if (seen && (uint32_t)f0 < fc) seen[f0] = 1;
             } else {
                 if (gather) {
                     __m256i ix = _mm256_mullo_epi32(fv, _mm256_set1_epi32(stride));
-                    for (int q = 0; q < 3; q++)
-                        base[q] = _mm512_cvtps_pd(_mm256_i32gather_ps(faces->color + q, ix, 4));
+                    base0 = _mm512_cvtps_pd(_mm256_i32gather_ps(faces->color, ix, 4));
+                    base1 = _mm512_cvtps_pd(_mm256_i32gather_ps(faces->color + 1, ix, 4));
+                    base2 = _mm512_cvtps_pd(_mm256_i32gather_ps(faces->color + 2, ix, 4));
                 } else {
                     double b[3][8];
                     for (int l = 0; l < 8; l++)
                         for (int q = 0; q < 3; q++)
                             b[q][l] = faces[face[i + l]].color[q];
-                    for (int q = 0; q < 3; q++)
-                        base[q] = _mm512_loadu_pd(b[q]);
+                    base0 = _mm512_loadu_pd(b[0]);
+                    base1 = _mm512_loadu_pd(b[1]);
+                    base2 = _mm512_loadu_pd(b[2]);
                 }
                 kept = -1;
                 for (int l = 0; seen && l < 8; l++)
                     if ((uint32_t)face[i + l] < fc) seen[face[i + l]] = 1;
             }
         }
-        __m256 cr = _mm256_add_ps(zf, _mm512_cvtpd_ps(_mm512_mul_pd(base[0], k)));
-        __m256 cg = _mm256_add_ps(zf, _mm512_cvtpd_ps(_mm512_mul_pd(base[1], k)));
-        __m256 cb = _mm256_add_ps(zf, _mm512_cvtpd_ps(_mm512_mul_pd(base[2], k)));
+        __m256 cr = _mm256_add_ps(zf, _mm512_cvtpd_ps(_mm512_mul_pd(base0, k)));
+        __m256 cg = _mm256_add_ps(zf, _mm512_cvtpd_ps(_mm512_mul_pd(base1, k)));
+        __m256 cb = _mm256_add_ps(zf, _mm512_cvtpd_ps(_mm512_mul_pd(base2, k)));
         __m512 rg = _mm512_insertf32x8(_mm512_castps256_ps512(cr), cg, 1);
         __m512 b1 = _mm512_insertf32x8(ones, cb, 0);
         _mm512_storeu_ps(rgba + 4 * (size_t)i, _mm512_permutex2var_ps(rg, i_c0, b1));
         _mm512_storeu_ps(rgba + 4 * (size_t)i + 16, _mm512_permutex2var_ps(rg, i_c1, b1));
-        _mm256_storeu_ps(depth + i, _mm512_cvtpd_ps(_mm512_div_pd(one, _mm512_loadu_pd(inv_w + i))));
+        _mm256_storeu_ps(depth + i,
+                         _mm512_cvtpd_ps(_mm512_div_pd(one, _mm512_loadu_pd(inv_w + i))));
         _mm256_storeu_si256((__m256i *)(oface + i), fv);
         _mm512_storeu_ps(uv + 2 * (size_t)i, uvs);
         _mm512_storeu_ps(normal + 3 * (size_t)i, N0);
         _mm256_storeu_ps(normal + 3 * (size_t)i + 16, _mm512_castps512_ps256(N1));
     }
-    resolve_pixels1(c, t, img, p0, i, c->x1, ru0, ru1, ru2, seen, fc);
+    resolve_pixels1(c, t, img, p0, i, x1, ru0, ru1, ru2, seen, fc);
 }
 #else
 #define HAVE_AVX512_RESOLVE 0
@@ -1628,8 +1650,8 @@ static int resolve_rows(resolve_ctx *c, size_t begin, size_t end, uint8_t *seen,
 #if HAVE_AVX_RESOLVE
     case RESOLVE_AVX:
         for (size_t j = begin + y0; j < end + y0; j++)
-            resolve_row1_avx(c, j);
-        return 0;
+            resolve_row1_avx(c, j, seen, fc);
+        return 1;
 #endif
     case RESOLVE_ROW1:
         for (size_t j = begin + y0; j < end + y0; j++)
@@ -1725,11 +1747,10 @@ static void resolve_groups(void *vctx, size_t begin, size_t end, int worker)
 /* Resolves the rectangle rect (x0, y0, x1, y1) of target tg into img by the given path (with a
  * base image: only the faces of only drawn, base's pixels elsewhere); with seen, lists the faces
  * the resolved pixels show in r->seen_list (r->seen_count 0 without). */
-static crisp_status resolve_image(crisp_renderer *r, const crisp_scene *sc,
-                                  const crisp_camera *cam, const crisp_raster_view *view,
-                                  const crisp_raster_target *tg, const int rect[4],
-                                  const uint8_t *only, const crisp_image *base, int seen, int path,
-                                  crisp_image *img)
+static crisp_status resolve_image(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,
+                                  const crisp_raster_view *view, const crisp_raster_target *tg,
+                                  const int rect[4], const uint8_t *only, const crisp_image *base,
+                                  int seen, int path, crisp_image *img)
 {
     crisp_status st;
     resolve_ctx rc = {.r = r,

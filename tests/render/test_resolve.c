@@ -39,11 +39,16 @@ static int rnd_int(int n)
 static float normal_part(int kind)
 {
     switch (kind) {
-    case 0: return 0.0f;
-    case 1: return 1e-41f * (float)(rnd() - 0.5);
-    case 2: return 3e37f * (float)(rnd() - 0.5);
-    case 3: return NAN;
-    default: return (float)(2 * rnd() - 1);
+    case 0:
+        return 0.0f;
+    case 1:
+        return 1e-41f * (float)(rnd() - 0.5);
+    case 2:
+        return 3e37f * (float)(rnd() - 0.5);
+    case 3:
+        return NAN;
+    default:
+        return (float)(2 * rnd() - 1);
     }
 }
 
@@ -164,8 +169,8 @@ static void test_random_targets(void **state)
                 int x0 = 8 * (1 + rnd_int(4)), y0 = 8 * rnd_int(3);
                 cam.width = x0 + width + rnd_int(20);
                 cam.height = y0 + height + rnd_int(20);
-                assert_int_equal(
-                    crisp__raster_target_window(&t, x0, y0, cam.width, cam.height), CRISP_OK);
+                assert_int_equal(crisp__raster_target_window(&t, x0, y0, cam.width, cam.height),
+                                 CRISP_OK);
             }
             int rect[4] = {0, 0, width, height};
             if (shape == 2) {
