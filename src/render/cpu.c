@@ -116,6 +116,7 @@ struct crisp_renderer {
     double *col;              /* the resolve's per-column view direction part (resolve_row1) */
     size_t col_cap;
     int no_vectors;  /* crisp__renderer_set_vectors */
+    int resolve_cap; /* crisp__renderer_set_resolve: 1 + the fastest resolve path allowed; 0: any */
     uint32_t *order; /* the leaves drawn, batch after batch (crisp__occl_order) */
     size_t order_cap;
     crisp_occl_leaf *occl; /* per plan leaf: its blocks and nearest depth (occlusion culling) */
@@ -1120,7 +1121,7 @@ typedef struct resolve_ctx {
     const uint8_t *only;
     const crisp_image *base;
     const double *col;        /* f + nx r per column of the target: x, y, z planes; NULL: none */
-    int avx;                  /* resolve_row1_avx rather than resolve_row1 */
+    int path;                 /* RESOLVE_SCALAR, ... (draw_plan: resolve_path) */
     size_t rows;              /* rows [0, rows) of the region */
     crisp_raster_share share; /* groups of RESOLVE_ROWS rows, one home range per worker */
     /* Per worker, per face: 1 where a resolved pixel shows it (the planner's seen faces, marked
@@ -1129,6 +1130,10 @@ typedef struct resolve_ctx {
 } resolve_ctx;
 
 #define RESOLVE_ROWS 8 /* rows a worker takes at a time */
+
+/* The resolve's paths, slowest first: resolve_rows_s for any target; resolve_row1 (SSE2),
+ * resolve_row1_avx, resolve_row1_avx512 for one-sample targets without a base image. */
+enum { RESOLVE_SCALAR, RESOLVE_ROW1, RESOLVE_AVX, RESOLVE_AVX512 };
 
 static void copy_pixel(const crisp_image *src, crisp_image *dst, size_t px)
 {
@@ -1340,12 +1345,30 @@ static void resolve_row1(const resolve_ctx *c, size_t j)
 
 #if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
 #define HAVE_AVX_RESOLVE 1
+/* The pixels [i0, i1) of row p0 / width one at a time (resolve_pixel1), their faces marked in
+ * seen (NULL: not wanted) as mark_faces would. */
+static ALWAYS_INLINE void resolve_pixels1(const resolve_ctx *c, const crisp_raster_target *t,
+                                          const crisp_image *img, size_t p0, int i0, int i1,
+                                          double ru0, double ru1, double ru2, uint8_t *seen,
+                                          uint32_t fc)
+{
+    for (int i = i0; i < i1; i++) {
+        resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
+        int32_t f = t->face[p0 + (size_t)i];
+        if (seen && f >= 0 && (uint32_t)f < fc) seen[f] = 1;
+    }
+}
+
 /* resolve_row1 four covered pixels at a time with AVX where the processor has it (chosen at run
  * time): the same IEEE operations on each lane as resolve_pixel1 (sqrt, division and the
  * conversions to float are correctly rounded in every form; no fused multiply-add), so the same
- * values bit for bit (test_vectors_equal_scalar compares it with the scalar resolve). Groups of
- * four with a background pixel: all background stored at once, mixed ones pixel by pixel. */
-__attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c, size_t j)
+ * values bit for bit (test_resolve compares it with the scalar resolve). Groups of four with a
+ * background pixel: all background stored at once, mixed ones pixel by pixel. The faces'
+ * colours are kept from the last group while its four pixels show the same face. Marks in seen
+ * (NULL: not wanted) the faces the row shows, as mark_faces would: a group of the kept face marks
+ * nothing new. */
+__attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c, size_t j,
+                                                            uint8_t *seen, uint32_t fc)
 {
     const crisp_raster_target *t = c->target;
     const crisp_image *img = c->img;
@@ -1366,10 +1389,15 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
     const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0),
                   sign = _mm256_set1_pd(-0.0);
     const __m256d k0 = _mm256_set1_pd(0.25), k1 = _mm256_set1_pd(0.75);
+    int32_t kept = -1; /* the face whose colours base holds (-1: none) */
+    __m128i kept4 = _mm_set1_epi32(-1);
+    __m256d base[3] = {zero, zero, zero};
     int i = c->x0;
-    for (; i + 3 < c->x1; i += 4) {
-        int32_t f0 = face[i], f1 = face[i + 1], f2 = face[i + 2], f3 = face[i + 3];
-        if ((f0 & f1 & f2 & f3) < 0) { /* four background pixels */
+    const int x1 = c->x1;
+    for (; i + 3 < x1; i += 4) {
+        const __m128i fv = _mm_loadu_si128((const __m128i *)(face + i));
+        int neg = _mm_movemask_ps(_mm_castsi128_ps(fv));
+        if (neg == 0xf) { /* four background pixels */
             __m128 z = _mm_setzero_ps();
             for (int q = 0; q < 4; q++)
                 _mm_storeu_ps(rgba + 4 * (size_t)(i + q), z);
@@ -1381,9 +1409,8 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
             _mm_storeu_ps(depth + i, _mm_set1_ps(INFINITY));
             continue;
         }
-        if ((f0 | f1 | f2 | f3) < 0) {
-            for (int q = 0; q < 4; q++)
-                resolve_pixel1(c, t, img, p0, i + q, ru0, ru1, ru2);
+        if (neg) {
+            resolve_pixels1(c, t, img, p0, i, i + 4, ru0, ru1, ru2, seen, fc);
             continue;
         }
         const float *a = attr + (size_t)i * CRISP_RASTER_ATTRS; /* pixel q's at a + 5 q */
@@ -1407,16 +1434,24 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
             _mm256_and_pd(_mm256_cmp_pd(nn, zero, _CMP_GT_OQ), _mm256_cmp_pd(vv, zero, _CMP_GT_OQ));
         cs = _mm256_or_pd(_mm256_and_pd(ok, cs), _mm256_andnot_pd(ok, one));
         __m256d k = _mm256_add_pd(k0, _mm256_mul_pd(k1, cs));
-        /* The faces' colours, per lane (one load each when the four pixels show one face). */
-        __m256d base[3];
-        const float *c0 = faces[f0].color;
-        if (f0 == f1 && f0 == f2 && f0 == f3) {
-            for (int q = 0; q < 3; q++)
-                base[q] = _mm256_set1_pd(c0[q]);
-        } else {
-            const float *c1 = faces[f1].color, *c2 = faces[f2].color, *c3 = faces[f3].color;
-            for (int q = 0; q < 3; q++)
-                base[q] = _mm256_set_pd(c3[q], c2[q], c1[q], c0[q]);
+        /* The faces' colours per lane: the kept ones, one face's broadcast, or one by one. */
+        if (_mm_movemask_epi8(_mm_cmpeq_epi32(fv, kept4)) != 0xffff) {
+            int32_t f0 = face[i], f1 = face[i + 1], f2 = face[i + 2], f3 = face[i + 3];
+            const float *c0 = faces[f0].color;
+            if (f0 == f1 && f0 == f2 && f0 == f3) {
+                for (int q = 0; q < 3; q++)
+                    base[q] = _mm256_set1_pd(c0[q]);
+                kept = f0;
+                if (seen && (uint32_t)f0 < fc) seen[f0] = 1;
+            } else {
+                const float *c1 = faces[f1].color, *c2 = faces[f2].color, *c3 = faces[f3].color;
+                for (int q = 0; q < 3; q++)
+                    base[q] = _mm256_set_pd(c3[q], c2[q], c1[q], c0[q]);
+                kept = -1;
+                for (int l = 0; seen && l < 4; l++)
+                    if ((uint32_t)face[i + l] < fc) seen[face[i + l]] = 1;
+            }
+            kept4 = _mm_set1_epi32(kept);
         }
         __m128 zf = _mm_setzero_ps();
         __m128 cr = _mm_add_ps(zf, _mm256_cvtpd_ps(_mm256_mul_pd(base[0], k)));
@@ -1429,7 +1464,7 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
         _mm_storeu_ps(rgba + 4 * (size_t)i + 8, cb);
         _mm_storeu_ps(rgba + 4 * (size_t)i + 12, co);
         _mm_storeu_ps(depth + i, _mm256_cvtpd_ps(_mm256_div_pd(one, _mm256_loadu_pd(inv_w + i))));
-        _mm_storeu_si128((__m128i *)(oface + i), _mm_loadu_si128((const __m128i *)(face + i)));
+        _mm_storeu_si128((__m128i *)(oface + i), fv);
         for (int h = 0; h < 4; h += 2) { /* a pair's (u, v) and normals, as resolve_row1 */
             const float *pa = a + 5 * h, *pb = pa + CRISP_RASTER_ATTRS;
             size_t ii = (size_t)(i + h);
@@ -1441,31 +1476,225 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
             _mm_storeu_ps(normal + 3 * ii + 2, _mm_shuffle_ps(t4, fb1, _MM_SHUFFLE(3, 2, 2, 0)));
         }
     }
-    for (; i < c->x1; i++)
-        resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
+    resolve_pixels1(c, t, img, p0, i, x1, ru0, ru1, ru2, seen, fc);
+}
+#if defined(__GNUC__) && (defined(__clang__) || __GNUC__ >= 7)
+#define HAVE_AVX512_RESOLVE 1
+/* resolve_row1 eight covered pixels at a time with AVX-512 (F, DQ, VL; chosen at run time):
+ * the same IEEE operations on each lane as resolve_pixel1, as resolve_row1_avx (no fused
+ * multiply-add: the library is built as ISO C, -ffp-contract=off, and test_resolve compares
+ * every path with the scalar one). The pixels' attributes (five floats each) are transposed by
+ * permutes; the faces' colours are kept from the last group while its eight pixels show the
+ * same face (the usual case on a close view). Groups of eight with a background pixel: all
+ * background stored at once, mixed ones pixel by pixel, as the row's last pixels. Marks in seen
+ * (NULL: not wanted) the faces the row shows, as mark_faces would: a group of the kept face
+ * marks nothing new. */
+__attribute__((target("avx512f,avx512dq,avx512vl"))) static void
+resolve_row1_avx512(const resolve_ctx *c, size_t j, uint8_t *seen, uint32_t fc)
+{
+    const crisp_raster_target *t = c->target;
+    const crisp_image *img = c->img;
+    size_t p0 = j * (size_t)t->width;
+    const int32_t *restrict face = t->face + p0;
+    const double *restrict inv_w = t->inv_w + p0;
+    const float *restrict attr = t->attr + p0 * CRISP_RASTER_ATTRS;
+    float *restrict rgba = img->rgba + 4 * p0, *restrict depth = img->depth + p0;
+    float *restrict normal = img->normal + 3 * p0, *restrict uv = img->uv + 2 * p0;
+    int32_t *restrict oface = img->face + p0;
+    const double *restrict colx = c->col, *restrict coly = colx + t->width,
+                           *restrict colz = coly + t->width;
+    const crisp_scene_face *faces = c->sc->faces;
+    int gj = t->y0 + (int)j;
+    double ny = (0.5 * c->cam->height - gj - 0.5) * c->view.ky;
+    const double ru0 = ny * c->view.u[0], ru1 = ny * c->view.u[1], ru2 = ny * c->view.u[2];
+    const __m512d vr0 = _mm512_set1_pd(ru0), vr1 = _mm512_set1_pd(ru1), vr2 = _mm512_set1_pd(ru2);
+    const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0),
+                  sign = _mm512_set1_pd(-0.0);
+    const __m512d k0 = _mm512_set1_pd(0.25), k1 = _mm512_set1_pd(0.75);
+    /* Attribute a of pixel q is float 5 q + a of the group's 40: A0 holds floats 0-15, A1 16-31,
+     * A2 24-39. (u, v) of the eight pixels from A0, A1 (floats 35, 36 from A2); the normals'
+     * first 16 floats from A0, A1, their last 8 from A2; then each normal component's eight. */
+    const __m512i i_uv =
+        _mm512_setr_epi32(0, 1, 5, 6, 10, 11, 15, 16, 20, 21, 25, 26, 30, 31, 0, 0);
+    const __m512i i_uv2 = _mm512_setr_epi32(0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 11, 12);
+    const __m512i i_n0 =
+        _mm512_setr_epi32(2, 3, 4, 7, 8, 9, 12, 13, 14, 17, 18, 19, 22, 23, 24, 27);
+    const __m512i i_n1 = _mm512_setr_epi32(4, 5, 8, 9, 10, 13, 14, 15, 0, 0, 0, 0, 0, 0, 0, 0);
+    const __m512i i_nx = _mm512_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21, 0, 0, 0, 0, 0, 0, 0, 0);
+    const __m512i i_ny = _mm512_setr_epi32(1, 4, 7, 10, 13, 16, 19, 22, 0, 0, 0, 0, 0, 0, 0, 0);
+    const __m512i i_nz = _mm512_setr_epi32(2, 5, 8, 11, 14, 17, 20, 23, 0, 0, 0, 0, 0, 0, 0, 0);
+    /* r g b 1 of pixels 0-3 from [r0..r7 g0..g7] and [b0..b7 1 ... 1]; pixels 4-7: + 4. */
+    const __m512i i_c0 =
+        _mm512_setr_epi32(0, 8, 16, 24, 1, 9, 17, 25, 2, 10, 18, 26, 3, 11, 19, 27);
+    const __m512i i_c1 = _mm512_add_epi32(i_c0, _mm512_set1_epi32(4));
+    const __m512 ones = _mm512_set1_ps(1.0f);
+    const __m256 zf = _mm256_setzero_ps();
+    /* The colour stride in floats (the scene's faces are an array of structs): a gather's
+     * indices; kept only while the face count keeps them in 32 bits. */
+    const int stride = (int)(sizeof *faces / sizeof(float));
+    const int gather =
+        sizeof *faces % sizeof(float) == 0 && c->sc->face_count <= (uint32_t)(INT32_MAX / stride);
+    int32_t kept = -1; /* the face whose colours base holds (-1: none) */
+    __m512d base0 = zero, base1 = zero, base2 = zero;
+    int i = c->x0;
+    const int x1 = c->x1;
+    for (; i + 7 < x1; i += 8) {
+        const __m256i fv = _mm256_loadu_si256((const __m256i *)(face + i));
+        int neg = _mm256_movemask_ps(_mm256_castsi256_ps(fv));
+        if (neg == 0xff) { /* eight background pixels */
+            const __m512 z = _mm512_setzero_ps();
+            _mm512_storeu_ps(rgba + 4 * (size_t)i, z);
+            _mm512_storeu_ps(rgba + 4 * (size_t)i + 16, z);
+            _mm512_storeu_ps(normal + 3 * (size_t)i, z);
+            _mm256_storeu_ps(normal + 3 * (size_t)i + 16, _mm256_setzero_ps());
+            _mm512_storeu_ps(uv + 2 * (size_t)i, z);
+            _mm256_storeu_si256((__m256i *)(oface + i), _mm256_set1_epi32(-1));
+            _mm256_storeu_ps(depth + i, _mm256_set1_ps(INFINITY));
+            continue;
+        }
+        if (neg) {
+            resolve_pixels1(c, t, img, p0, i, i + 8, ru0, ru1, ru2, seen, fc);
+            continue;
+        }
+        const float *a = attr + (size_t)i * CRISP_RASTER_ATTRS;
+        const __m512 A0 = _mm512_loadu_ps(a), A1 = _mm512_loadu_ps(a + 16),
+                     A2 = _mm512_loadu_ps(a + 24);
+        __m512 uvs = _mm512_permutex2var_ps(A0, i_uv, A1);
+        uvs = _mm512_mask_permutexvar_ps(uvs, 0xc000, i_uv2, A2);
+        const __m512 N0 = _mm512_permutex2var_ps(A0, i_n0, A1);
+        const __m512 N1 = _mm512_permutexvar_ps(i_n1, A2);
+        __m512d n0 = _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_permutex2var_ps(N0, i_nx, N1)));
+        __m512d n1 = _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_permutex2var_ps(N0, i_ny, N1)));
+        __m512d n2 = _mm512_cvtps_pd(_mm512_castps512_ps256(_mm512_permutex2var_ps(N0, i_nz, N1)));
+        __m512d d0 = _mm512_add_pd(_mm512_loadu_pd(colx + i), vr0);
+        __m512d d1 = _mm512_add_pd(_mm512_loadu_pd(coly + i), vr1);
+        __m512d d2 = _mm512_add_pd(_mm512_loadu_pd(colz + i), vr2);
+        __m512d nn = _mm512_sqrt_pd(_mm512_add_pd(
+            _mm512_add_pd(_mm512_mul_pd(n0, n0), _mm512_mul_pd(n1, n1)), _mm512_mul_pd(n2, n2)));
+        __m512d vv = _mm512_sqrt_pd(_mm512_add_pd(
+            _mm512_add_pd(_mm512_mul_pd(d0, d0), _mm512_mul_pd(d1, d1)), _mm512_mul_pd(d2, d2)));
+        __m512d dot = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(n0, d0), _mm512_mul_pd(n1, d1)),
+                                    _mm512_mul_pd(n2, d2));
+        __m512d cs = _mm512_div_pd(_mm512_andnot_pd(sign, dot), _mm512_mul_pd(nn, vv));
+        __mmask8 ok =
+            _mm512_mask_cmp_pd_mask(_mm512_cmp_pd_mask(nn, zero, _CMP_GT_OQ), vv, zero, _CMP_GT_OQ);
+        cs = _mm512_mask_blend_pd(ok, one, cs);
+        __m512d k = _mm512_add_pd(k0, _mm512_mul_pd(k1, cs));
+        /* The faces' colours per lane: the kept ones, one face's broadcast, or gathered. */
+        if (_mm256_cmpeq_epi32_mask(fv, _mm256_set1_epi32(kept)) != 0xff) {
+            int32_t f0 = face[i];
+            if (_mm256_cmpeq_epi32_mask(fv, _mm256_set1_epi32(f0)) == 0xff) {
+                const float *c0 = faces[f0].color;
+                base0 = _mm512_set1_pd(c0[0]);
+                base1 = _mm512_set1_pd(c0[1]);
+                base2 = _mm512_set1_pd(c0[2]);
+                kept = f0;
+                if (seen && (uint32_t)f0 < fc) seen[f0] = 1;
+            } else {
+                if (gather) {
+                    __m256i ix = _mm256_mullo_epi32(fv, _mm256_set1_epi32(stride));
+                    base0 = _mm512_cvtps_pd(_mm256_i32gather_ps(faces->color, ix, 4));
+                    base1 = _mm512_cvtps_pd(_mm256_i32gather_ps(faces->color + 1, ix, 4));
+                    base2 = _mm512_cvtps_pd(_mm256_i32gather_ps(faces->color + 2, ix, 4));
+                } else {
+                    double b[3][8];
+                    for (int l = 0; l < 8; l++)
+                        for (int q = 0; q < 3; q++)
+                            b[q][l] = faces[face[i + l]].color[q];
+                    base0 = _mm512_loadu_pd(b[0]);
+                    base1 = _mm512_loadu_pd(b[1]);
+                    base2 = _mm512_loadu_pd(b[2]);
+                }
+                kept = -1;
+                for (int l = 0; seen && l < 8; l++)
+                    if ((uint32_t)face[i + l] < fc) seen[face[i + l]] = 1;
+            }
+        }
+        __m256 cr = _mm256_add_ps(zf, _mm512_cvtpd_ps(_mm512_mul_pd(base0, k)));
+        __m256 cg = _mm256_add_ps(zf, _mm512_cvtpd_ps(_mm512_mul_pd(base1, k)));
+        __m256 cb = _mm256_add_ps(zf, _mm512_cvtpd_ps(_mm512_mul_pd(base2, k)));
+        __m512 rg = _mm512_insertf32x8(_mm512_castps256_ps512(cr), cg, 1);
+        __m512 b1 = _mm512_insertf32x8(ones, cb, 0);
+        _mm512_storeu_ps(rgba + 4 * (size_t)i, _mm512_permutex2var_ps(rg, i_c0, b1));
+        _mm512_storeu_ps(rgba + 4 * (size_t)i + 16, _mm512_permutex2var_ps(rg, i_c1, b1));
+        _mm256_storeu_ps(depth + i,
+                         _mm512_cvtpd_ps(_mm512_div_pd(one, _mm512_loadu_pd(inv_w + i))));
+        _mm256_storeu_si256((__m256i *)(oface + i), fv);
+        _mm512_storeu_ps(uv + 2 * (size_t)i, uvs);
+        _mm512_storeu_ps(normal + 3 * (size_t)i, N0);
+        _mm256_storeu_ps(normal + 3 * (size_t)i + 16, _mm512_castps512_ps256(N1));
+    }
+    resolve_pixels1(c, t, img, p0, i, x1, ru0, ru1, ru2, seen, fc);
 }
 #else
+#define HAVE_AVX512_RESOLVE 0
+#endif
+#else
 #define HAVE_AVX_RESOLVE 0
+#define HAVE_AVX512_RESOLVE 0
 #endif
 
-static void resolve_rows(void *vctx, size_t begin, size_t end, int worker)
+/* Rows y0 + [begin, end) by the context's path; returns 1 when it marked the faces the rows show
+ * in seen (fc faces; NULL: not wanted) itself, else 0. */
+static int resolve_rows(resolve_ctx *c, size_t begin, size_t end, uint8_t *seen, uint32_t fc)
 {
-    (void)worker;
-    resolve_ctx *c = vctx;
-    if (c->target->samples == 1 && !c->base && c->col) {
-#if HAVE_AVX_RESOLVE
-        if (c->avx) {
-            for (size_t j = begin + (size_t)c->y0; j < end + (size_t)c->y0; j++)
-                resolve_row1_avx(c, j);
-            return;
-        }
+    (void)seen, (void)fc;
+    size_t y0 = (size_t)c->y0;
+    switch (c->path) {
+#if HAVE_AVX512_RESOLVE
+    case RESOLVE_AVX512:
+        for (size_t j = begin + y0; j < end + y0; j++)
+            resolve_row1_avx512(c, j, seen, fc);
+        return 1;
 #endif
-        for (size_t j = begin + (size_t)c->y0; j < end + (size_t)c->y0; j++)
+#if HAVE_AVX_RESOLVE
+    case RESOLVE_AVX:
+        for (size_t j = begin + y0; j < end + y0; j++)
+            resolve_row1_avx(c, j, seen, fc);
+        return 1;
+#endif
+    case RESOLVE_ROW1:
+        for (size_t j = begin + y0; j < end + y0; j++)
             resolve_row1(c, j);
-    } else if (c->target->samples == 1)
-        resolve_rows_s(c, begin, end, 1);
-    else
-        resolve_rows_s(c, begin, end, c->target->samples);
+        return 0;
+    default:
+        if (c->target->samples == 1)
+            resolve_rows_s(c, begin, end, 1);
+        else
+            resolve_rows_s(c, begin, end, c->target->samples);
+        return 0;
+    }
+}
+
+/* The fastest one-sample resolve path the processor has. */
+static int resolve_best(void)
+{
+    int path = RESOLVE_ROW1;
+#if HAVE_AVX_RESOLVE
+    if (__builtin_cpu_supports("avx")) path = RESOLVE_AVX;
+#endif
+#if HAVE_AVX512_RESOLVE
+    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+        __builtin_cpu_supports("avx512vl"))
+        path = RESOLVE_AVX512;
+#endif
+    return path;
+}
+
+/* The resolve path for target t (over base: NULL for none): the fastest the processor has that
+ * crisp__renderer_set_resolve allows. */
+static int resolve_path(const crisp_renderer *r, const crisp_raster_target *t,
+                        const crisp_image *base)
+{
+    if (r->no_vectors || t->samples != 1 || base) return RESOLVE_SCALAR;
+    int path = resolve_best();
+    return r->resolve_cap && path > r->resolve_cap - 1 ? r->resolve_cap - 1 : path;
+}
+
+int crisp__renderer_set_resolve(crisp_renderer *r, int path)
+{
+    r->resolve_cap = path < 0 ? 0 : path + 1;
+    return resolve_best();
 }
 
 /* Marks in seen (fc faces) each face of pixels face[i0 .. i1) that differs from the pixel before
@@ -1495,7 +1724,7 @@ static void resolve_groups(void *vctx, size_t begin, size_t end, int worker)
     while (crisp__raster_share_next(&c->share, worker, &k, &g)) {
         size_t j0 = g * RESOLVE_ROWS,
                j1 = j0 + RESOLVE_ROWS < c->rows ? j0 + RESOLVE_ROWS : c->rows;
-        resolve_rows(c, j0, j1, worker);
+        if (resolve_rows(c, j0, j1, seen, fc)) continue; /* (the seen faces marked) */
         for (size_t j = j0 + (size_t)c->y0; seen && j < j1 + (size_t)c->y0; j++) {
             const int32_t *face = c->img->face + j * (size_t)c->img->width;
             int32_t last = -1; /* neighbouring pixels mostly show the same face */
@@ -1513,6 +1742,74 @@ static void resolve_groups(void *vctx, size_t begin, size_t end, int worker)
             mark_faces(face, i, c->x1, last, seen, fc); /* (the row's last pixels) */
         }
     }
+}
+
+/* Resolves the rectangle rect (x0, y0, x1, y1) of target tg into img by the given path (with a
+ * base image: only the faces of only drawn, base's pixels elsewhere); with seen, lists the faces
+ * the resolved pixels show in r->seen_list (r->seen_count 0 without). */
+static crisp_status resolve_image(crisp_renderer *r, const crisp_scene *sc, const crisp_camera *cam,
+                                  const crisp_raster_view *view, const crisp_raster_target *tg,
+                                  const int rect[4], const uint8_t *only, const crisp_image *base,
+                                  int seen, int path, crisp_image *img)
+{
+    crisp_status st;
+    resolve_ctx rc = {.r = r,
+                      .sc = sc,
+                      .cam = cam,
+                      .view = *view,
+                      .img = img,
+                      .target = tg,
+                      .x0 = rect[0],
+                      .x1 = rect[2],
+                      .y0 = rect[1],
+                      .only = only,
+                      .base = base,
+                      .path = path};
+    /* The view direction's column part, f + nx r, once per column (resolve_row1). */
+    if ((st = crisp_grow((void **)&r->col, &r->col_cap, 3 * (size_t)tg->width, sizeof *r->col)))
+        return st;
+    for (int i = 0; i < tg->width; i++) {
+        double nx = (tg->x0 + i + 0.5 - 0.5 * cam->width) * view->kx;
+        for (int k = 0; k < 3; k++)
+            r->col[(size_t)k * tg->width + i] = view->f[k] + nx * view->r[k];
+    }
+    rc.col = r->col;
+    rc.rows = (size_t)(rect[3] - rect[1]);
+    uint32_t fc = sc->face_count;
+    r->seen_count = 0;
+    if (seen) {
+        if ((st = crisp_grow((void **)&r->seen_marks, &r->seen_marks_cap,
+                             (size_t)r->workers * (fc ? fc : 1), 1)) ||
+            (st = crisp_grow((void **)&r->seen_list, &r->seen_list_cap, fc ? fc : 1,
+                             sizeof *r->seen_list)))
+            return st;
+        memset(r->seen_marks, 0, (size_t)r->workers * fc);
+        rc.seen = r->seen_marks;
+    }
+    crisp__raster_share_init(&rc.share, (rc.rows + RESOLVE_ROWS - 1) / RESOLVE_ROWS, r->workers);
+    crisp_pool_parallel_for(r->pool, (size_t)rc.share.ranges, 1, resolve_groups, &rc);
+    if (seen) {
+        size_t n = 0;
+        for (uint32_t f = 0; f < fc; f++) {
+            uint8_t any = 0;
+            for (int w = 0; w < r->workers; w++)
+                any |= r->seen_marks[(size_t)w * fc + f];
+            if (any) r->seen_list[n++] = (int32_t)f;
+        }
+        r->seen_count = n;
+    }
+    return CRISP_OK;
+}
+
+crisp_status crisp__renderer_resolve(crisp_renderer *r, const crisp_scene *sc,
+                                     const crisp_camera *cam, const crisp_raster_target *t,
+                                     const int rect[4], int path, int seen, crisp_image *img)
+{
+    crisp_raster_view view;
+    raster_view(cam, &view);
+    if (path < 0 || path > resolve_best()) path = resolve_best();
+    if (t->samples != 1) path = RESOLVE_SCALAR;
+    return resolve_image(r, sc, cam, &view, t, rect, NULL, NULL, seen, path, img);
 }
 
 void crisp__renderer_mesh(const crisp_renderer *r, const crisp_raster_vertex **verts,
@@ -2152,54 +2449,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
     crisp__raster_set_occlusion(r->raster, NULL, 0);
     double t2 = crisp_time_now();
     t_raster += t2 - t2b;
-    resolve_ctx rc = {.r = r,
-                      .sc = sc,
-                      .cam = cam,
-                      .view = view,
-                      .img = img,
-                      .target = tg,
-                      .x0 = rect[0],
-                      .x1 = rect[2],
-                      .y0 = rect[1],
-                      .only = only,
-                      .base = base};
-    /* The view direction's column part, f + nx r, once per column (resolve_row1). */
-    if ((st = crisp_grow((void **)&r->col, &r->col_cap, 3 * (size_t)tg->width, sizeof *r->col)))
+    if ((st = resolve_image(r, sc, cam, &view, tg, rect, only, base, part && part->seen,
+                            resolve_path(r, tg, base), img)))
         return st;
-    for (int i = 0; i < tg->width; i++) {
-        double nx = (tg->x0 + i + 0.5 - 0.5 * cam->width) * view.kx;
-        for (int k = 0; k < 3; k++)
-            r->col[(size_t)k * tg->width + i] = view.f[k] + nx * view.r[k];
-    }
-    rc.col = r->no_vectors ? NULL : r->col; /* NULL: resolve_rows_s for every target */
-#if HAVE_AVX_RESOLVE
-    rc.avx = __builtin_cpu_supports("avx");
-#endif
-    rc.rows = (size_t)(rect[3] - rect[1]);
-    uint32_t fc = plan->face_count;
-    int seen = part && part->seen;
-    r->seen_count = 0;
-    if (seen) {
-        if ((st = crisp_grow((void **)&r->seen_marks, &r->seen_marks_cap,
-                             (size_t)r->workers * (fc ? fc : 1), 1)) ||
-            (st = crisp_grow((void **)&r->seen_list, &r->seen_list_cap, fc ? fc : 1,
-                             sizeof *r->seen_list)))
-            return st;
-        memset(r->seen_marks, 0, (size_t)r->workers * fc);
-        rc.seen = r->seen_marks;
-    }
-    crisp__raster_share_init(&rc.share, (rc.rows + RESOLVE_ROWS - 1) / RESOLVE_ROWS, r->workers);
-    crisp_pool_parallel_for(r->pool, (size_t)rc.share.ranges, 1, resolve_groups, &rc);
-    if (seen) {
-        size_t n = 0;
-        for (uint32_t f = 0; f < fc; f++) {
-            uint8_t any = 0;
-            for (int w = 0; w < r->workers; w++)
-                any |= r->seen_marks[(size_t)w * fc + f];
-            if (any) r->seen_list[n++] = (int32_t)f;
-        }
-        r->seen_count = n;
-    }
     double t3 = crisp_time_now();
     copy_plan_stats(&plan->stats, stats);
     stats->vertices = surface_v;

@@ -122,6 +122,18 @@ void crisp__renderer_seen(const crisp_renderer *r, const int32_t **faces, size_t
  * or off (the scalar code, for tests that compare the two bit for bit); 2: on, but not the
  * rasterizer's AVX2 tiles (crisp__raster_set_vectors). */
 void crisp__renderer_set_vectors(crisp_renderer *r, int on);
+/* The fastest resolve path the renderer may take for one-sample targets (tests that compare
+ * them): 0 the scalar code, 1 two pixels at a time (SSE2), 2 four (AVX), 3 eight (AVX-512);
+ * -1: the fastest the processor has (the default). Returns the fastest the processor has. */
+int crisp__renderer_set_resolve(crisp_renderer *r, int path);
+/* Resolves the rectangle rect (x0, y0, x1, y1) of target t (the pixels of cam's image that t's
+ * window holds) into img (t's size) by the given path (as crisp__renderer_set_resolve; a path
+ * the processor lacks, or -1: its fastest; several samples: the scalar code), as the CPU
+ * backend's draws do; with seen, the faces shown then in crisp__renderer_seen. For tests that
+ * compare the paths on targets they fill. */
+crisp_status crisp__renderer_resolve(crisp_renderer *r, const crisp_scene *sc,
+                                     const crisp_camera *cam, const struct crisp_raster_target *t,
+                                     const int rect[4], int path, int seen, crisp_image *img);
 
 /* The trim table the planner built for face f in its last plan (for tests that hold the plan's
  * flat arrays against it). */
