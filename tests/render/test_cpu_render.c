@@ -721,9 +721,9 @@ static void assert_images_equal(const crisp_image *a, const crisp_image *b)
 }
 
 /* The leaves' world-space vertices kept across frames (cpu.c, kept_leaf) and the ribbon samples'
- * (ribbon.c, ribbon_point_kept): one renderer draws the
- * linkrods from cameras that move a little (most leaves keep their cells, many change levels)
- * and back, then the bearing (another scene), then the linkrods again; every image, all its
+ * (ribbon.c, ribbon_point_kept): one renderer draws the linkrods from cameras that move a little
+ * (most leaves keep their cells, many change levels) and back, then the bearing (another scene),
+ * then the linkrods again; every image, all its
  * channels, is bit for bit a new renderer's first frame of that scene and camera (a first frame
  * reads no kept vertex). Fails (each tried) with the levels or the cell left out of the leaves'
  * key, and with the face left out of the ribbon points' key; the tables not emptied for a new
