@@ -71,9 +71,47 @@ typedef struct tess_cache {
     uint64_t vgen[1 << TESS_VERT_BITS], vs[1 << TESS_VERT_BITS], vt[1 << TESS_VERT_BITS];
     uint32_t vpatch[1 << TESS_VERT_BITS];
     crisp_raster_vertex vert[1 << TESS_VERT_BITS];
-    pole_normal fresh[POLE_FRESH]; /* the degenerate normals this pass computed */
+    double vp[1 << TESS_VERT_BITS][3]; /* vert's world-space positions (the kept leaves') */
+    pole_normal fresh[POLE_FRESH];     /* the degenerate normals this pass computed */
     int fresh_count;
 } tess_cache;
+
+/* Leaves' world-space vertices kept across frames (issue 12, session 19). A leaf's vertices are
+ * a function of the scene and of the leaf's record alone: its (s, t) grid is the generator's for
+ * its levels, and each vertex's position, (u, v) and normal are its patch's at (s, t) (the face's
+ * orientation and the kept degenerate normals included); only the clip position depends on the
+ * camera. A leaf whose record was drawn before in the scene therefore projects its kept positions
+ * (the same crisp_mat4_mulp of the same point: the same clip position) instead of evaluating its
+ * patch again, bit for bit the same vertices. The table is keyed by the whole leaf record and
+ * emptied for a new scene (serial); which leaves read and which fill it is decided between passes
+ * (keep_decide), so the workers never write a record another reads. Bounded: KEEP_MAX_VERTS
+ * vertices (64 MB) and KEEP_LEAF_SLOTS records; when full and missing more than it finds it is
+ * emptied at the next pass. */
+#define KEEP_LEAF_BITS 16
+#define KEEP_LEAF_SLOTS (1u << KEEP_LEAF_BITS)
+#define KEEP_PROBES 8
+#define KEEP_MAX_VERTS ((size_t)1 << 20)
+enum { KEEP_NONE = 0, KEEP_READ = 1, KEEP_FILL = 2 };
+typedef struct kept_vertex {
+    double p[3], attr[CRISP_RASTER_ATTRS];
+} kept_vertex;
+typedef struct kept_leaf {
+    crisp_plan_leaf key;
+    uint32_t epoch; /* the record is valid while this is the table's epoch (0: never) */
+    uint32_t first; /* into the kept vertices */
+    uint64_t pass;  /* the tessellation pass that filled it */
+} kept_leaf;
+typedef struct leaf_keep {
+    kept_leaf *leaves; /* KEEP_LEAF_SLOTS (NULL: none yet) */
+    kept_vertex *verts;
+    size_t verts_cap, used, count; /* vertices and records in use */
+    uint64_t serial;               /* the scene they are of */
+    uint32_t epoch;
+    int full;             /* a leaf found no room since the last emptying */
+    size_t found, missed; /* leaves since the last emptying */
+    uint64_t *src;        /* per leaf of the pass: first vertex << 2 | KEEP_* */
+    size_t src_cap;
+} leaf_keep;
 
 struct crisp_renderer {
     crisp_render_desc desc;
@@ -113,6 +151,7 @@ struct crisp_renderer {
     tess_cache *cache;        /* per worker (tessellate) */
     pole_normal *poles;       /* POLE_SLOTS (NULL: none yet) */
     uint64_t tess_generation; /* of the last tessellation pass (tess_cache) */
+    leaf_keep keep;           /* leaves' world-space vertices kept across frames */
     double *col;              /* the resolve's per-column view direction part (resolve_row1) */
     size_t col_cap;
     int no_vectors;  /* crisp__renderer_set_vectors */
@@ -202,6 +241,9 @@ void crisp_renderer_destroy(crisp_renderer *r)
     free(r->pidx);
     free(r->cache);
     free(r->poles);
+    free(r->keep.leaves);
+    free(r->keep.verts);
+    free(r->keep.src);
     crisp_planner_destroy(r->planner);
     crisp_pool_destroy(r->pool);
     crisp__raster_destroy(r->raster);
@@ -297,8 +339,93 @@ typedef struct tess_ctx {
     const uint32_t *list;
     size_t count;
     uint32_t vorigin, vend, tend;
-    uint64_t generation; /* the pass's (tess_cache) */
+    uint64_t generation;  /* the pass's (tess_cache) */
+    const uint64_t *keep; /* per list entry: first kept vertex << 2 | KEEP_* (NULL: none kept) */
 } tess_ctx;
+
+static uint64_t leaf_hash(const crisp_plan_leaf *L)
+{
+    uint32_t w[sizeof *L / sizeof(uint32_t)];
+    memcpy(w, L, sizeof w);
+    uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (size_t i = 0; i < sizeof w / sizeof w[0]; i++)
+        h = (h ^ w[i]) * 0xff51afd7ed558ccdull;
+    h ^= h >> 33;
+    h *= 0xc4ceb9fe1a85ec53ull;
+    return h ^ (h >> 33);
+}
+
+/* Before a tessellation pass over list[0 .. count) (vertices up to vend): which leaves read their
+ * kept vertices (KEEP_READ), which fill a new record (KEEP_FILL) and which neither (kept_leaf).
+ * Returns the per-entry decisions, NULL where nothing is kept (no memory). */
+static const uint64_t *keep_decide(crisp_renderer *r, const crisp_scene *sc, const uint32_t *list,
+                                   size_t count, uint32_t vend, uint64_t pass)
+{
+    leaf_keep *kp = &r->keep;
+    if (!kp->leaves && !(kp->leaves = calloc(KEEP_LEAF_SLOTS, sizeof *kp->leaves))) return NULL;
+    if (kp->src_cap < count) {
+        uint64_t *q = crisp_realloc_array(kp->src, count, sizeof *q);
+        if (!q) return NULL;
+        kp->src = q, kp->src_cap = count;
+    }
+    if (kp->serial != sc->serial || !kp->epoch || (kp->full && kp->missed > kp->found)) {
+        /* a new scene, or full of what is no longer drawn: empty it */
+        if (++kp->epoch == 0) {
+            memset(kp->leaves, 0, KEEP_LEAF_SLOTS * sizeof *kp->leaves);
+            kp->epoch = 1;
+        }
+        kp->serial = sc->serial;
+        kp->used = kp->count = kp->found = kp->missed = 0;
+        kp->full = 0;
+    }
+    const crisp_frame_plan *plan = r->plan;
+    for (size_t i = 0; i < count; i++) {
+        const crisp_plan_leaf *L = &plan->leaves[list[i]];
+        uint32_t v0 = r->leaf_vbase[list[i]],
+                 v1 = i + 1 < count ? r->leaf_vbase[list[i + 1]] : vend;
+        size_t n = v1 - v0, slot = (size_t)(leaf_hash(L) >> (64 - KEEP_LEAF_BITS));
+        kept_leaf *e = NULL, *room = NULL;
+        kp->src[i] = KEEP_NONE;
+        for (int k = 0; k < KEEP_PROBES; k++) {
+            kept_leaf *x = &kp->leaves[(slot + (size_t)k) & (KEEP_LEAF_SLOTS - 1)];
+            if (x->epoch != kp->epoch) {
+                room = x;
+                break;
+            }
+            if (!memcmp(&x->key, L, sizeof *L)) {
+                e = x;
+                break;
+            }
+        }
+        if (e) {
+            /* (a record filled in this very pass is not read: another worker may be writing it) */
+            if (e->pass != pass) kp->src[i] = (uint64_t)e->first << 2 | KEEP_READ, kp->found++;
+            continue;
+        }
+        kp->missed++;
+        if (!room || kp->count >= KEEP_LEAF_SLOTS / 2 || kp->used + n > KEEP_MAX_VERTS) {
+            kp->full = 1;
+            continue;
+        }
+        if (kp->used + n > kp->verts_cap) {
+            size_t cap = kp->verts_cap ? kp->verts_cap : 4096;
+            while (cap < kp->used + n)
+                cap *= 2;
+            cap = cap < KEEP_MAX_VERTS ? cap : KEEP_MAX_VERTS;
+            kept_vertex *q = crisp_realloc_array(kp->verts, cap, sizeof *q);
+            if (!q) {
+                kp->full = 1;
+                continue;
+            }
+            kp->verts = q, kp->verts_cap = cap;
+        }
+        *room = (kept_leaf){*L, kp->epoch, (uint32_t)kp->used, pass};
+        kp->src[i] = (uint64_t)kp->used << 2 | KEEP_FILL;
+        kp->used += n;
+        kp->count++;
+    }
+    return kp->src;
+}
 
 static void tessellate(void *vctx, size_t begin, size_t end, int worker)
 {
@@ -323,6 +450,16 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             crisp_raster_tri tri = {{idx[3 * k], idx[3 * k + 1], idx[3 * k + 2]}, L->face};
             r->tris[tbase + k] = tri;
         }
+        int mode = c->keep ? (int)(c->keep[i] & 3) : KEEP_NONE;
+        kept_vertex *kv = mode ? r->keep.verts + (c->keep[i] >> 2) : NULL;
+        if (mode == KEEP_READ) {
+            for (size_t k = 0; k < nv; k++) {
+                crisp_raster_vertex *v = &r->verts[vbase + k];
+                crisp_mat4_mulp(*m, kv[k].p, v->clip);
+                memcpy(v->attr, kv[k].attr, sizeof v->attr);
+            }
+            continue;
+        }
         int reversed = (plan->faces[L->face].flags & CRISP_PLAN_FACE_REVERSED) != 0;
         /* Vertices that share s (a column of the inner grid, a side of the boundary) share the
          * first half of the evaluation: the patch's rows at s, kept in a small table keyed by the
@@ -346,6 +483,10 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             if (side && tc->vgen[vslot] == c->generation && tc->vs[vslot] == sbits &&
                 tc->vt[vslot] == tbits && tc->vpatch[vslot] == pi) {
                 *v = tc->vert[vslot];
+                if (kv) {
+                    memcpy(kv[k].p, tc->vp[vslot], sizeof kv[k].p);
+                    memcpy(kv[k].attr, v->attr, sizeof kv[k].attr);
+                }
                 continue;
             }
             double P[3], Ps[3], Pt[3], n[3];
@@ -381,12 +522,17 @@ static void tessellate(void *vctx, size_t begin, size_t end, int worker)
             }
             if (reversed) crisp_vec3_scale(n, -1, n);
             crisp_vec3_normalize(n, v->attr + 2);
+            if (kv) {
+                memcpy(kv[k].p, P, sizeof kv[k].p);
+                memcpy(kv[k].attr, v->attr, sizeof kv[k].attr);
+            }
             if (!side) continue;
             tc->vgen[vslot] = c->generation;
             tc->vs[vslot] = sbits;
             tc->vt[vslot] = tbits;
             tc->vpatch[vslot] = pi;
             tc->vert[vslot] = *v;
+            memcpy(tc->vp[vslot], P, sizeof P);
         }
     }
 }
@@ -2259,7 +2405,9 @@ static crisp_status draw_plan(crisp_renderer *r, const crisp_scene *sc,
             (st = crisp_grow((void **)&r->tris, &r->tri_cap, nt ? nt : 1, sizeof *r->tris)))
             return st;
         tess_ctx tc = {
-            r, sc, list, kept, (uint32_t)vb0, (uint32_t)nv, (uint32_t)nt, ++r->tess_generation};
+            r,   sc, list, kept, (uint32_t)vb0, (uint32_t)nv, (uint32_t)nt, ++r->tess_generation,
+            NULL};
+        tc.keep = keep_decide(r, sc, list, kept, (uint32_t)nv, tc.generation);
         crisp_pool_parallel_for(r->pool, kept, 8, tessellate, &tc);
         keep_pole_normals(r);
         double tb = crisp_time_now();

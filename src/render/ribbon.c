@@ -32,6 +32,42 @@
  * on itself: those are shared within the face's own crack-free mesh). */
 #define RIBBON_EDGE 0x80000000u
 
+/* Ribbon samples' world-space points and normals kept across frames (issue 12, session 19): a
+ * sample's position and normal are a function of the scene, its face and the bits of its (u, v)
+ * alone (ribbon_vertex); only the clip position depends on the camera, and projecting the kept
+ * point (the same crisp_mat4_mulp of the same point) gives the same clip position bit for bit.
+ * Keyed by the scene (serial: a new scene's keys never match), the face and (u, v); two slots a
+ * key. The workers only read the table; what each finds missing (up to RPT_FRESH a build) goes
+ * in after the sampling pass (keep_points). */
+#define RPT_BITS 16
+#define RPT_SLOTS (1u << RPT_BITS)
+#define RPT_FRESH 8192
+typedef struct ribbon_point_kept {
+    uint64_t serial, u, v; /* serial 0: an empty slot */
+    uint32_t face;
+    double p[3], n[3]; /* the point, the unit normal (the face's orientation applied) */
+} ribbon_point_kept;
+
+typedef struct point_keep {
+    const ribbon_point_kept *table; /* RPT_SLOTS, NULL: none */
+    ribbon_point_kept *fresh;       /* this worker's misses (RPT_FRESH) */
+    uint32_t *fresh_count;
+    uint64_t serial;
+} point_keep;
+
+static size_t rpt_slot(uint32_t face, uint64_t u, uint64_t v)
+{
+    return (size_t)(((u * 0x9E3779B97F4A7C15ull) ^ (v * 0xC2B2AE3D27D4EB4Full) ^
+                     (face * 0x165667B19E3779F9ull)) >>
+                    (64 - RPT_BITS));
+}
+
+static int rpt_is(const ribbon_point_kept *e, uint64_t serial, uint32_t face, uint64_t u,
+                  uint64_t v)
+{
+    return e->serial == serial && e->face == face && e->u == u && e->v == v;
+}
+
 typedef struct ribbon_job {
     uint32_t face, piece; /* piece of the trim polyline, or RIBBON_EDGE + k: edge k of the domain */
     crisp_raster_vertex *pts; /* samples (per-worker arena, valid this frame) */
@@ -51,6 +87,9 @@ struct crisp__ribbons {
     uint32_t last_max;              /* most samples of one job in the last build */
     crisp__ribbon_pieces_fn hidden; /* crisp__ribbons_set_hidden (NULL: none) */
     const void *hidden_ctx;
+    ribbon_point_kept *points; /* RPT_SLOTS (NULL: none yet) */
+    ribbon_point_kept **fresh; /* per worker: RPT_FRESH */
+    uint32_t *fresh_count;     /* per worker */
 };
 
 typedef struct ribbon_ctx {
@@ -69,9 +108,12 @@ crisp_status crisp__ribbons_create(int workers, crisp__ribbons **dest)
     rb->wstatus = calloc((size_t)workers, sizeof *rb->wstatus);
     rb->scratch = calloc((size_t)workers, sizeof *rb->scratch);
     rb->scratch_cap = calloc((size_t)workers, sizeof *rb->scratch_cap);
-    crisp_status st = rb->arena && rb->wstatus && rb->scratch && rb->scratch_cap
-                          ? CRISP_OK
-                          : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
+    rb->fresh = calloc((size_t)workers, sizeof *rb->fresh);
+    rb->fresh_count = calloc((size_t)workers, sizeof *rb->fresh_count);
+    crisp_status st =
+        rb->arena && rb->wstatus && rb->scratch && rb->scratch_cap && rb->fresh && rb->fresh_count
+            ? CRISP_OK
+            : crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for trim ribbons");
     for (int w = 0; !st && w < workers; w++)
         st = crisp_arena_create(1 << 16, &rb->arena[w]);
     if (st) {
@@ -95,6 +137,12 @@ void crisp__ribbons_destroy(crisp__ribbons *rb)
             free(rb->scratch[w]);
     free(rb->scratch);
     free(rb->scratch_cap);
+    if (rb->fresh)
+        for (int w = 0; w < rb->workers; w++)
+            free(rb->fresh[w]);
+    free(rb->fresh);
+    free(rb->fresh_count);
+    free(rb->points);
     free(rb->jobs);
     free(rb);
 }
@@ -198,8 +246,25 @@ static const crisp_bezier_patch *grid_patch(const crisp_scene *sc, uint32_t face
 /* The surface point at (u, v) with its normal, in clip space: from the face's Bézier patch (a
  * few times cheaper than the B-spline evaluation, issue 12), else from the surface. */
 static void ribbon_vertex(const crisp_scene *sc, uint32_t face, const crisp_surface *surf,
-                          int reversed, crisp_mat4 m, double u, double v, crisp_raster_vertex *out)
+                          int reversed, crisp_mat4 m, double u, double v, crisp_raster_vertex *out,
+                          const point_keep *pk)
 {
+    uint64_t ub, vb;
+    memcpy(&ub, &u, sizeof ub);
+    memcpy(&vb, &v, sizeof vb);
+    size_t slot = 0;
+    if (pk && pk->table) {
+        slot = rpt_slot(face, ub, vb);
+        const ribbon_point_kept *e = &pk->table[slot];
+        if (!rpt_is(e, pk->serial, face, ub, vb)) e = &pk->table[slot ^ 1];
+        if (rpt_is(e, pk->serial, face, ub, vb)) {
+            crisp_mat4_mulp(m, e->p, out->clip);
+            out->attr[0] = u;
+            out->attr[1] = v;
+            memcpy(out->attr + 2, e->n, sizeof e->n);
+            return;
+        }
+    }
     double P[3], Su[3], Sv[3], n[3], s, t;
     const crisp_bezier_patch *b = grid_patch(sc, face, u, v, &s, &t);
     if (b) {
@@ -219,6 +284,15 @@ static void ribbon_vertex(const crisp_scene *sc, uint32_t face, const crisp_surf
         crisp_surface_normal(surf, u, v, n); /* apex, pole, collapsed side: the limit from inside */
     if (reversed) crisp_vec3_scale(n, -1, n);
     crisp_vec3_normalize(n, out->attr + 2);
+    if (pk && pk->fresh && *pk->fresh_count < RPT_FRESH) {
+        ribbon_point_kept *e = &pk->fresh[(*pk->fresh_count)++];
+        *e = (ribbon_point_kept){pk->serial,
+                                 ub,
+                                 vb,
+                                 face,
+                                 {P[0], P[1], P[2]},
+                                 {out->attr[2], out->attr[3], out->attr[4]}};
+    }
 }
 
 /* ribbon_vertex's clip position and (u, v) alone (no normal): a chord's middle looked at only for
@@ -288,6 +362,7 @@ typedef struct sampler {
     const crisp_trim_plan *tp; /* a face with chains: its strips (speed bounds); else NULL */
     int failed;
     const crisp__ribbons *rb; /* its hidden test (crisp__ribbons_set_hidden) when set */
+    point_keep pk;            /* the kept sample points */
 } sampler;
 
 static void emit(sampler *s, const crisp_raster_vertex *v)
@@ -406,7 +481,7 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
         }
         /* The middle becomes a sample: its point and normal (over the position looked at). */
         ribbon_vertex(s->sc, s->face, s->surf, s->reversed, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
-                      0.5 * (a->attr[1] + b->attr[1]), &mid);
+                      0.5 * (a->attr[1] + b->attr[1]), &mid, &s->pk);
         /* Both ends and the middle outside the view and neither half's widened screen box
          * meeting the view: nothing of it shows. (At extreme zoom a piece crossing the window
          * would otherwise be sampled along its whole length, most of it far off screen; only the
@@ -533,7 +608,9 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
                      .h = plan->height,
                      .gx = 1 + 4.0 / plan->width,
                      .gy = 1 + 4.0 / plan->height,
-                     .rb = c->rb->hidden ? c->rb : NULL};
+                     .rb = c->rb->hidden ? c->rb : NULL,
+                     .pk = {c->rb->points, c->rb->fresh[worker], &c->rb->fresh_count[worker],
+                            c->sc->serial}};
         /* The face's strips say where its surface is off screen (not for a face drawn whole:
          * its trim plan is not this frame's). */
         const crisp_trim_plan *tp = &plan->trims[job->face];
@@ -560,9 +637,10 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
                 continue;
             }
             if (!have_a)
-                ribbon_vertex(c->sc, job->face, s.surf, s.reversed, *s.m, uv0[0], uv0[1], &a);
+                ribbon_vertex(c->sc, job->face, s.surf, s.reversed, *s.m, uv0[0], uv0[1], &a,
+                              &s.pk);
             have_a = 1;
-            ribbon_vertex(c->sc, job->face, s.surf, s.reversed, *s.m, uv[0], uv[1], &b);
+            ribbon_vertex(c->sc, job->face, s.surf, s.reversed, *s.m, uv[0], uv[1], &b, &s.pk);
             /* Segments that cannot reach the view are left out without a sample (at extreme zoom
              * almost all of a polyline is off screen); where the image may run far from the
              * chord, refine() looks at the middle. */
@@ -641,6 +719,26 @@ static void build_quads(void *vctx, size_t begin, size_t end, int worker)
     }
 }
 
+/* The samples the workers found missing in the last pass, into the table (made on first use;
+ * without memory none is kept). */
+static void keep_points(crisp__ribbons *rb)
+{
+    for (int w = 0; w < rb->workers; w++) {
+        uint32_t n = rb->fresh[w] ? rb->fresh_count[w] : 0;
+        if (n && !rb->points) rb->points = calloc(RPT_SLOTS, sizeof *rb->points);
+        for (uint32_t i = 0; rb->points && i < n; i++) {
+            const ribbon_point_kept *e = &rb->fresh[w][i];
+            /* Two slots a key: the second when the first holds another key of this scene. */
+            size_t k = rpt_slot(e->face, e->u, e->v);
+            if (rb->points[k].serial == e->serial &&
+                !rpt_is(&rb->points[k], e->serial, e->face, e->u, e->v))
+                k ^= 1;
+            rb->points[k] = *e;
+        }
+        rb->fresh_count[w] = 0;
+    }
+}
+
 crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
                                   const crisp_scene *sc, uint32_t only_face, crisp_pool *pool,
                                   crisp_plan_ribbon_vertex **verts, size_t *cap,
@@ -687,8 +785,13 @@ crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
         }
         rb->wstatus[w] = CRISP_OK;
     }
+    for (int w = 0; w < rb->workers; w++) {
+        rb->fresh_count[w] = 0;
+        if (!rb->fresh[w]) rb->fresh[w] = malloc(RPT_FRESH * sizeof *rb->fresh[w]);
+    }
     ribbon_ctx c = {rb, trees, sc, NULL};
     crisp_pool_parallel_for(pool, jobs, 4, sample_ribbons, &c);
+    keep_points(rb);
     rb->last_used = 0;
     for (int w = 0; w < rb->workers; w++) {
         if (rb->wstatus[w]) return rb->wstatus[w];

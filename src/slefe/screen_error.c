@@ -74,6 +74,22 @@ static void derivative_bounds(const double *clip, int du, int dv, int r, double 
     *dst = du * dv * (c + round);
 }
 
+/* derivative_bounds of the net clip through nb (formed once; nb NULL: each time). */
+static void net_derivs(crisp__slefe_net_bounds *nb, const double *clip, int du, int dv, int r,
+                       double *dss, double *dtt, double *dst)
+{
+    if (!nb) {
+        derivative_bounds(clip, du, dv, r, dss, dtt, dst);
+        return;
+    }
+    double *d = nb->d[r];
+    if (!(nb->formed >> r & 1u)) {
+        derivative_bounds(clip, du, dv, r, &d[0], &d[1], &d[2]);
+        nb->formed |= 1u << r;
+    }
+    *dss = d[0], *dtt = d[1], *dst = d[2];
+}
+
 /* First-difference bounds of coordinate r over the control net: bounds on |X_s|, |X_t| over the
  * patch (the hodograph's control points), widened for rounding. */
 static void speed_bounds(const double *c, int du, int dv, int r, double *ds, double *dt)
@@ -92,17 +108,37 @@ static void speed_bounds(const double *c, int du, int dv, int r, double *ds, dou
     *dt = dv * (b + round);
 }
 
+/* speed_bounds through nb, slot k (the clip net's coordinate r = k, or k = 2: the weights',
+ * coordinate 3 of c). */
+static void net_speeds(crisp__slefe_net_bounds *nb, int k, const double *c, int du, int dv, int r,
+                       double *ds, double *dt)
+{
+    if (!nb) {
+        speed_bounds(c, du, dv, r, ds, dt);
+        return;
+    }
+    double *d = nb->s[k];
+    if (!(nb->formed >> (4 + k) & 1u)) {
+        speed_bounds(c, du, dv, r, &d[0], &d[1]);
+        nb->formed |= 1u << (4 + k);
+    }
+    *ds = d[0], *dt = d[1];
+}
+
 /* The weights of a (sub-)patch: its homogeneous control points (coordinate 3 is the weight) and
  * their range; cpw is NULL when the weights are all equal (no redistribution term, see the top
  * comment). */
 typedef struct weights {
     const double *cpw;
     double lo, hi;
+    /* the difference bounds of the clip-space net these weights go with and of the weights,
+     * kept as they are formed (NULL: formed at each use) */
+    crisp__slefe_net_bounds *nb;
 } weights;
 
 static weights weights_of(const crisp_bezier_patch *p, const double *cpw)
 {
-    weights w = {NULL, 1.0, 1.0};
+    weights w = {NULL, 1.0, 1.0, NULL};
     if (!p->rational) return w;
     int n = (p->du + 1) * (p->dv + 1);
     w.lo = w.hi = cpw[3];
@@ -166,7 +202,7 @@ static crisp_status error_classic2(const char *fn, const crisp_bezier_patch *p, 
     double hu = 1.0 / tu, hv = 1.0 / tv, e[4];
     for (int r = 0; r < 4; r += r == 1 ? 2 : 1) { /* X, Y, W */
         double dss, dtt, dst;
-        derivative_bounds(clip, p->du, p->dv, r, &dss, &dtt, &dst);
+        net_derivs(wt->nb, clip, p->du, p->dv, r, &dss, &dtt, &dst);
         e[r] = hu * hu * dss / 8.0 + hv * hv * dtt / 8.0 + hu * hv * dst / 4.0;
     }
     double ax = max_abs_ratio(hl[0], hh[0], hl[3], hh[3]);
@@ -181,10 +217,10 @@ static crisp_status error_classic2(const char *fn, const crisp_bezier_patch *p, 
             return CRISP_OK;
         }
         double ws, wtt, xs, xt, ys, yt, cs, ct;
-        speed_bounds(wt->cpw, p->du, p->dv, 3, &ws, &wtt);
-        speed_bounds(clip, p->du, p->dv, 0, &xs, &xt);
-        speed_bounds(clip, p->du, p->dv, 1, &ys, &yt);
-        speed_bounds(clip, p->du, p->dv, 3, &cs, &ct);
+        net_speeds(wt->nb, 2, wt->cpw, p->du, p->dv, 3, &ws, &wtt);
+        net_speeds(wt->nb, 0, clip, p->du, p->dv, 0, &xs, &xt);
+        net_speeds(wt->nb, 1, clip, p->du, p->dv, 1, &ys, &yt);
+        net_speeds(wt->nb, 3, clip, p->du, p->dv, 3, &cs, &ct);
         double q = (hu * ws + hv * wtt) / (4.0 * wt->lo) * (1.0 + 1e-12), wd = hu * cs + hv * ct;
         ex += q * (hu * xs + hv * xt + ax * wd) / hl[3];
         ey += q * (hu * ys + hv * yt + ay * wd) / hl[3];
@@ -278,7 +314,7 @@ static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p, con
     double h2 = 1.0 / ((double)tau * tau), twist[4] = {0, 0, 0, 0};
     for (int r = 0; r < 4; r += r == 1 ? 2 : 1) {
         double dss, dtt, dst;
-        derivative_bounds(clip, p->du, p->dv, r, &dss, &dtt, &dst);
+        net_derivs(wt->nb, clip, p->du, p->dv, r, &dss, &dtt, &dst);
         twist[r] = h2 * dst / 4.0;
     }
     /* The weight's SLEFE (the rasterizer's point, see the top comment). */
@@ -400,6 +436,7 @@ static crisp_status screen_error_split(const char *fn, const crisp_bezier_patch 
             for (int i = 0; i <= du; i++)
                 restrict_range(sub + i * 4, dv, (du + 1) * 4, (double)cb0 / tau, (double)cb1 / tau);
             weights sw = *wt;
+            sw.nb = NULL; /* another net */
             if (wt->cpw) {
                 /* the block's weights: restricted the same way (de Casteljau keeps them within
                  * the patch's range, which the bounds use as the least weight) */
@@ -595,6 +632,8 @@ static crisp_status search_begin(const char *fn, crisp__slefe_search *sr,
     s = crisp__slefe_to_clip(fn, p, view, clip, err, hl, hh);
     if (s) return s;
     weights wt = weights_of(p, p->cpw);
+    sr->nb.formed = 0;
+    wt.nb = &sr->nb;
     sr->wcpw = wt.cpw, sr->wlo = wt.lo, sr->whi = wt.hi;
     sr->eps = eps, sr->max_level = max_level;
     /* The classic bound falls exactly as 1 / tau^2, so it names a sound level at once: the answer
@@ -659,7 +698,7 @@ static crisp_status search_finish(const char *fn, crisp__slefe_search *sr,
 {
     const crisp_slefe_view *view = &sr->view;
     const double *clip = sr->clip, *err = sr->err, *hl = sr->hl, *hh = sr->hh;
-    weights wt = {sr->wcpw, sr->wlo, sr->whi};
+    weights wt = {sr->wcpw, sr->wlo, sr->whi, &sr->nb};
     double eps = sr->eps;
     int max_level = sr->max_level, t = sr->t, t_classic = sr->t_classic;
     crisp_status s;

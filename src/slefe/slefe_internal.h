@@ -136,6 +136,15 @@ typedef struct crisp__slefe_euclid_sums {
  * comes before the search's loop; *tau > 0 where the level is decided there, else *tau = 0 and the
  * level finish names lies in [*lo, *hi] or is max_level + 1. finish (only after a begin that left
  * *tau = 0, with the same p): the loop. info: as crisp__slefe_patch_tess_level's. */
+/* The control-net difference bounds of a search's clip-space net (screen_error.c's
+ * derivative_bounds and speed_bounds), formed once per search: it asks for them at every level it
+ * tries, with the same net. formed: bit r for the derivative bounds of coordinate r, bit 4 + r for
+ * its speed bounds (r = 2: the weights'). */
+typedef struct crisp__slefe_net_bounds {
+    unsigned formed;
+    double d[4][3], s[4][2];
+} crisp__slefe_net_bounds;
+
 typedef struct crisp__slefe_search {
     crisp_slefe_view view; /* the view centred on the patch */
     double clip[(CRISP_SLEFE_MAX_DEGREE + 1) * (CRISP_SLEFE_MAX_DEGREE + 1) * 4];
@@ -143,6 +152,7 @@ typedef struct crisp__slefe_search {
     const double *wcpw; /* the weights (p's control points) when they vary, else NULL */
     double wlo, whi;
     crisp__slefe_euclid_sums sums;
+    crisp__slefe_net_bounds nb;
     int max_level, t, t_classic;
 } crisp__slefe_search;
 crisp_status crisp__slefe_search_begin(crisp__slefe_search *s, const crisp_bezier_patch *p,

@@ -710,6 +710,80 @@ static void test_pole_normals(void **state)
     }
 }
 
+static void assert_images_equal(const crisp_image *a, const crisp_image *b)
+{
+    size_t n = (size_t)a->width * (size_t)a->height;
+    assert_true(memcmp(a->rgba, b->rgba, 4 * n * sizeof(float)) == 0);
+    assert_true(memcmp(a->depth, b->depth, n * sizeof(float)) == 0);
+    assert_true(memcmp(a->normal, b->normal, 3 * n * sizeof(float)) == 0);
+    assert_true(memcmp(a->uv, b->uv, 2 * n * sizeof(float)) == 0);
+    assert_true(memcmp(a->face, b->face, n * sizeof(int32_t)) == 0);
+}
+
+/* The leaves' world-space vertices kept across frames (cpu.c, kept_leaf) and the ribbon samples'
+ * (ribbon.c, ribbon_point_kept): one renderer draws the linkrods from cameras that move a little
+ * (most leaves keep their cells, many change levels) and back, then the bearing (another scene),
+ * then the linkrods again; every image, all its
+ * channels, is bit for bit a new renderer's first frame of that scene and camera (a first frame
+ * reads no kept vertex). Fails (each tried) with the levels or the cell left out of the leaves'
+ * key, and with the face left out of the ribbon points' key; the tables not emptied for a new
+ * scene (leaves) or the scene left out of the key (ribbon points) fail test_pole_normals (the
+ * same leaf records and (u, v) there), the latter this test too. */
+static void test_kept_vertices(void **state)
+{
+    (void)state;
+    if (rb_kind != RENDER_CPU) skip(); /* the CPU backend's tessellation */
+    enum { KW = 320, KH = 240, NC = 4 };
+    crisp_model *m[2];
+    crisp_scene *sc[2] = {rt_load_scene("occt_linkrods.step", &m[0]),
+                          rt_load_scene("occt_bearing.iges", &m[1])};
+    crisp_camera cam[2][NC];
+    rng = 0x2545f4914f6cdd1dull; /* the same cameras whatever the tests before drew */
+    for (int k = 0; k < 2; k++) {
+        cam[k][0] = random_camera(sc[k]->box, KW, KH, 0.05);
+        for (int c = 1; c < NC; c++) { /* the eye 6%, 12%, 18% nearer, and a little aside */
+            cam[k][c] = cam[k][0];
+            for (int a = 0; a < 3; a++)
+                cam[k][c].eye[a] -=
+                    (0.06 * c + (a == 1 ? 0.01 : 0.0)) * (cam[k][0].eye[a] - cam[k][0].target[a]);
+        }
+    }
+    crisp_image ref[2][NC], img;
+    for (int k = 0; k < 2; k++)
+        for (int c = 0; c < NC; c++) {
+            crisp_renderer *r0;
+            assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.samples = 1}, &r0),
+                             CRISP_OK);
+            crisp_image_init(&ref[k][c], KW, KH);
+            assert_int_equal(crisp_render_cpu(r0, sc[k], &cam[k][c], &ref[k][c], NULL), CRISP_OK);
+            crisp_renderer_destroy(r0);
+        }
+    crisp_image_init(&img, KW, KH);
+    crisp_renderer *r;
+    assert_int_equal(crisp_renderer_create(&(crisp_render_desc){.samples = 1}, &r), CRISP_OK);
+    static const int seq[][2] = {{0, 0}, {0, 0}, {0, 1}, {0, 2}, {0, 0}, {0, 3}, {0, 3},
+                                 {1, 0}, {1, 1}, {1, 1}, {1, 3}, {0, 1}, {0, 0}};
+    long covered = 0;
+    for (size_t f = 0; f < sizeof seq / sizeof seq[0]; f++) {
+        int k = seq[f][0], c = seq[f][1];
+        assert_int_equal(crisp_render_cpu(r, sc[k], &cam[k][c], &img, NULL), CRISP_OK);
+        for (int i = 0; i < KW * KH; i++)
+            covered += img.face[i] >= 0;
+        assert_images_equal(&img, &ref[k][c]);
+    }
+    printf("kept vertices: %ld covered pixels over %zu frames\n", covered,
+           sizeof seq / sizeof seq[0]);
+    assert_true(covered > (long)(sizeof seq / sizeof seq[0]) * KW * KH / 20);
+    crisp_renderer_destroy(r);
+    crisp_image_free(&img);
+    for (int k = 0; k < 2; k++) {
+        for (int c = 0; c < NC; c++)
+            crisp_image_free(&ref[k][c]);
+        crisp_scene_destroy(sc[k]);
+        crisp_model_destroy(m[k]);
+    }
+}
+
 int main(int argc, char **argv)
 {
     rb_parse_args(argc, argv);
@@ -718,7 +792,7 @@ int main(int argc, char **argv)
         cmocka_unit_test(test_close_cameras),        cmocka_unit_test(test_degenerate),
         cmocka_unit_test(test_against_exact),        cmocka_unit_test(test_clip_plane),
         cmocka_unit_test(test_vectors_equal_scalar), cmocka_unit_test(test_threads_equal),
-        cmocka_unit_test(test_pole_normals),
+        cmocka_unit_test(test_pole_normals),         cmocka_unit_test(test_kept_vertices),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
