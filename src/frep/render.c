@@ -311,7 +311,7 @@ static void leaf_2d(crisp_frep_renderer *r, frep_worker *w, const frep_ins *ins,
 static void leaves_2d(crisp_frep_renderer *r, frep_worker *w, frep_span t, int i0, int i1, int j0,
                       int j1)
 {
-    float bx[6][FREP_LANES];
+    float bx[6][FREP_LANES] = {{0}};
     int bi[16], bj[16], n = 0;
     for (int j = j0; j < j1; j += LEAF)
         for (int i = i0; i < i1 && n < 16; i += LEAF) {
