@@ -1489,20 +1489,31 @@ static void resolve_row1(const resolve_ctx *c, size_t j)
         resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
 }
 
+/* Marks in seen (fc faces) each face of pixels face[i0 .. i1) that differs from the pixel before
+ * it (last: the face of the pixel before i0); returns the face of pixel i1 - 1 (last if none). */
+static inline int32_t mark_faces(const int32_t *face, int i0, int i1, int32_t last, uint8_t *seen,
+                                 uint32_t fc)
+{
+    for (int i = i0; i < i1; i++)
+        if (face[i] != last) {
+            last = face[i];
+            if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
+        }
+    return last;
+}
+
 #if defined(__GNUC__) && defined(__x86_64__) && defined(__SSE2__)
 #define HAVE_AVX_RESOLVE 1
 /* The pixels [i0, i1) of row p0 / width one at a time (resolve_pixel1), their faces marked in
- * seen (NULL: not wanted) as mark_faces would. */
+ * seen (NULL: not wanted) by mark_faces. */
 static ALWAYS_INLINE void resolve_pixels1(const resolve_ctx *c, const crisp_raster_target *t,
                                           const crisp_image *img, size_t p0, int i0, int i1,
                                           double ru0, double ru1, double ru2, uint8_t *seen,
                                           uint32_t fc)
 {
-    for (int i = i0; i < i1; i++) {
+    for (int i = i0; i < i1; i++)
         resolve_pixel1(c, t, img, p0, i, ru0, ru1, ru2);
-        int32_t f = t->face[p0 + (size_t)i];
-        if (seen && f >= 0 && (uint32_t)f < fc) seen[f] = 1;
-    }
+    if (seen) mark_faces(t->face + p0, i0, i1, -1, seen, fc);
 }
 
 /* resolve_row1 four covered pixels at a time with AVX where the processor has it (chosen at run
@@ -1594,8 +1605,7 @@ __attribute__((target("avx"))) static void resolve_row1_avx(const resolve_ctx *c
                 for (int q = 0; q < 3; q++)
                     base[q] = _mm256_set_pd(c3[q], c2[q], c1[q], c0[q]);
                 kept = -1;
-                for (int l = 0; seen && l < 4; l++)
-                    if ((uint32_t)face[i + l] < fc) seen[face[i + l]] = 1;
+                if (seen) mark_faces(face, i, i + 4, -1, seen, fc);
             }
             kept4 = _mm_set1_epi32(kept);
         }
@@ -1752,8 +1762,7 @@ resolve_row1_avx512(const resolve_ctx *c, size_t j, uint8_t *seen, uint32_t fc)
                     base2 = _mm512_loadu_pd(b[2]);
                 }
                 kept = -1;
-                for (int l = 0; seen && l < 8; l++)
-                    if ((uint32_t)face[i + l] < fc) seen[face[i + l]] = 1;
+                if (seen) mark_faces(face, i, i + 8, -1, seen, fc);
             }
         }
         __m256 cr = _mm256_add_ps(zf, _mm512_cvtpd_ps(_mm512_mul_pd(base0, k)));
@@ -1841,19 +1850,6 @@ int crisp__renderer_set_resolve(crisp_renderer *r, int path)
 {
     r->resolve_cap = path < 0 ? 0 : path + 1;
     return resolve_best();
-}
-
-/* Marks in seen (fc faces) each face of pixels face[i0 .. i1) that differs from the pixel before
- * it (last: the face of the pixel before i0); returns the face of pixel i1 - 1 (last if none). */
-static inline int32_t mark_faces(const int32_t *face, int i0, int i1, int32_t last, uint8_t *seen,
-                                 uint32_t fc)
-{
-    for (int i = i0; i < i1; i++)
-        if (face[i] != last) {
-            last = face[i];
-            if (last >= 0 && (uint32_t)last < fc) seen[last] = 1;
-        }
-    return last;
 }
 
 /* The rows in groups shared out as the rasterizer's tiles (crisp_raster_share): a worker resolves
