@@ -109,6 +109,7 @@ struct crisp_raster {
     int no_hiz;              /* hierarchical depth rejection off (crisp__raster_set_hiz) */
     int no_vectors;          /* the scalar path only (crisp__raster_set_vectors) */
     int no_avx2;             /* not the AVX2 tiles (crisp__raster_set_vectors(r, 2)) */
+    int no_avx512;           /* not the AVX-512 tiles (crisp__raster_set_vectors(r, 3)) */
     const uint8_t *untested; /* per face (crisp__raster_set_untested_faces) */
     size_t untested_count;
     uint8_t *tile_mask; /* per cell (crisp__raster_depth_slack_tris) */
@@ -183,6 +184,7 @@ int crisp__raster_set_vectors(crisp_raster *r, int on)
 {
     r->no_vectors = !on;
     r->no_avx2 = on == 2;
+    r->no_avx512 = on == 2 || on == 3;
     return HAVE_VECTORS;
 }
 
@@ -1056,7 +1058,7 @@ typedef struct {
      * something, or whatever it draws when not defer (crisp__raster_set_defer_clear). */
     uint8_t *pending;
     int defer;
-    int avx; /* one-sample tiles through raster_tile1_avx (1) or raster_tile1_avx2 (2) */
+    int avx; /* one-sample tiles through raster_tile1_avx (1), _avx2 (2) or _avx512 (3) */
     atomic_size_t tested, discarded, untested, blocks_skipped, boxed;
     crisp_raster_share share; /* the tiles, one home range per worker (raster_tiles) */
     /* The live block depth at size live_size (crisp__raster_set_live_depth): a tile that the draw
@@ -1523,8 +1525,133 @@ block_rows_avx2(const block_rows *b, __m128i lane_step[3][BLOCK / 2], quad_plane
     }
     return wrote;
 }
+
+/* The AVX-512 block walk (processors with AVX-512 F, DQ, VL and BW and BMI2, chosen at run time
+ * as cpu.c's resolve is): block_rows_avx2 with a block row's eight lanes as one vector: the
+ * three edges' values of the row's lanes kept as 8 x 64-bit vectors stepped by rows (the same
+ * exact sums as e + lane_step), their sign bits and the depth test as k-masks, 1/W and the five
+ * attributes one vector each, and the stores masked by the lanes that pass (no per-lane
+ * branches). The same IEEE operations per lane as block_rows_avx2 (1/W: base + gx (dx0 + lane);
+ * attribute k: ((q0 + qx (dx0 + lane)) + qy dy) * (1 / iw), converted to float; no fused
+ * multiply-add: the file is ISO C, compiled without contraction), so the same values bit for bit
+ * (test_raster_fast runs every path against the scalar one). A 4 x 4 pixel square would also be
+ * 16 lanes, but 1/W and the attributes are doubles (8 to a vector either way) and the target's
+ * rows are contiguous: a block row is one load and one store per array. */
+#define AVX512_TILES "avx2,bmi2,avx512f,avx512dq,avx512vl,avx512bw"
+#define HAVE_AVX512_TILES 1
+
+/* Where float i of a row's 40 (pixel i / 5's attribute i % 5) comes from: attributes 0..3 of
+ * the eight pixels as two 16-float vectors a01 (0 and 1) and a23 (2 and 3), attribute 4 as a4.
+ * perm_ab[v][l]: float 16 v + l's index in a01 : a23 (32 floats; attribute 4's lanes 0, replaced
+ * after), perm_c[v][l]: its pixel in a4. */
+#define P5(i) ((i) % 5 == 4 || (i) >= 40 ? 0 : ((i) % 5) / 2 * 16 + ((i) % 5) % 2 * 8 + (i) / 5)
+#define P5ROW(v)                                                                                   \
+    {                                                                                              \
+        P5(16 * (v) + 0), P5(16 * (v) + 1), P5(16 * (v) + 2), P5(16 * (v) + 3), P5(16 * (v) + 4),  \
+            P5(16 * (v) + 5), P5(16 * (v) + 6), P5(16 * (v) + 7), P5(16 * (v) + 8),                \
+            P5(16 * (v) + 9), P5(16 * (v) + 10), P5(16 * (v) + 11), P5(16 * (v) + 12),             \
+            P5(16 * (v) + 13), P5(16 * (v) + 14), P5(16 * (v) + 15)                                \
+    }
+static const int32_t perm_ab[3][16] __attribute__((aligned(64))) = {P5ROW(0), P5ROW(1), P5ROW(2)};
+#undef P5
+#undef P5ROW
+#define C5(i) ((i) / 5 < 8 ? (i) / 5 : 0)
+#define C5ROW(v)                                                                                   \
+    {                                                                                              \
+        C5(16 * (v) + 0), C5(16 * (v) + 1), C5(16 * (v) + 2), C5(16 * (v) + 3), C5(16 * (v) + 4),  \
+            C5(16 * (v) + 5), C5(16 * (v) + 6), C5(16 * (v) + 7), C5(16 * (v) + 8),                \
+            C5(16 * (v) + 9), C5(16 * (v) + 10), C5(16 * (v) + 11), C5(16 * (v) + 12),             \
+            C5(16 * (v) + 13), C5(16 * (v) + 14), C5(16 * (v) + 15)                                \
+    }
+static const int32_t perm_c[3][16] __attribute__((aligned(64))) = {C5ROW(0), C5ROW(1), C5ROW(2)};
+#undef C5
+#undef C5ROW
+/* Floats 16 v + l with l % 5 == 4 (attribute 4), per vector v: 0x8421 shifted by v's phase. */
+#define A4_LANES(v) ((__mmask16)((0x4210842108421ull << 4 >> (16 * (v))) & 0xffffu))
+
+__attribute__((target(AVX512_TILES))) static inline unsigned
+block_rows_avx512(const block_rows *b, __m128i lane_step[3][BLOCK / 2], const planes *pl,
+                  double *restrict inv_w, int32_t *restrict fbuf, float *restrict abuf,
+                  int32_t face_id, double gx, double dx0)
+{
+    int64_t e0 = b->e[0], e1 = b->e[1], e2 = b->e[2];
+    const int64_t s0 = b->bstep[0], s1 = b->bstep[1], s2 = b->bstep[2];
+    const int64_t r0 = b->rmax[0], r1 = b->rmax[1], r2 = b->rmax[2];
+    const int full = b->full;
+    const __mmask8 lanes = (__mmask8)((1u << b->n) - 1);
+    unsigned wrote = 0;
+    size_t idx0 = b->idx0;
+    int j = b->j0;
+    if (!full) /* the leading rows that cover no sample */
+        for (; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2)
+            if (((e0 + r0) | (e1 + r1) | (e2 + r2)) >= 0) break;
+    /* The lanes' edge values (e + lane_step: lane q's q steps as a sum of steps, exact) */
+    __m512i v0 = _mm512_add_epi64(_mm512_set1_epi64(e0), _mm512_loadu_si512(lane_step[0])),
+            v1 = _mm512_add_epi64(_mm512_set1_epi64(e1), _mm512_loadu_si512(lane_step[1])),
+            v2 = _mm512_add_epi64(_mm512_set1_epi64(e2), _mm512_loadu_si512(lane_step[2]));
+    const __m512i vs0 = _mm512_set1_epi64(s0), vs1 = _mm512_set1_epi64(s1),
+                  vs2 = _mm512_set1_epi64(s2);
+    const __m512d dx = _mm512_add_pd(_mm512_set1_pd(dx0), _mm512_loadu_pd(lane_x));
+    const __m512d iwx = _mm512_mul_pd(_mm512_set1_pd(gx), dx);
+    __m512d ax[CRISP_RASTER_ATTRS]; /* q0 + qx dx: at the block's first store */
+    int ax_ok = 0;
+    const __m512d one = _mm512_set1_pd(1.0);
+    const __m256i face = _mm256_set1_epi32(face_id);
+    for (; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2,
+                       v0 = _mm512_add_epi64(v0, vs0), v1 = _mm512_add_epi64(v1, vs1),
+                       v2 = _mm512_add_epi64(v2, vs2)) {
+        if (!full && ((e0 + r0) | (e1 + r1) | (e2 + r2)) < 0) break; /* the run's end */
+        double dy = j + b->off_y - b->oy;
+        double base = b->q0 + b->qy * dy;
+        __m512d iw = _mm512_add_pd(_mm512_set1_pd(base), iwx);
+        __mmask8 m = _mm512_mask_cmp_pd_mask(lanes, iw, _mm512_loadu_pd(inv_w + idx0), _CMP_GT_OS);
+        if (!full) /* lanes outside an edge: the sign bit of the OR of the three values */
+            m &= (__mmask8)~_mm512_movepi64_mask(_mm512_ternarylogic_epi64(v0, v1, v2, 0xfe));
+        if (!m) continue;
+        if (!ax_ok) {
+            UNROLL(5)
+            for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+                ax[k] = _mm512_add_pd(_mm512_set1_pd(pl->q0[k + 1]),
+                                      _mm512_mul_pd(_mm512_set1_pd(pl->qx[k + 1]), dx));
+            ax_ok = 1;
+        }
+        const __m512d vdy = _mm512_set1_pd(dy);
+        const __m512d w = _mm512_div_pd(one, iw);
+        __m256 f[CRISP_RASTER_ATTRS];
+        UNROLL(5)
+        for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+            f[k] = _mm512_cvtpd_ps(_mm512_mul_pd(
+                _mm512_add_pd(ax[k], _mm512_mul_pd(_mm512_set1_pd(pl->qy[k + 1]), vdy)), w));
+        const __m512 a01 = _mm512_insertf32x8(_mm512_castps256_ps512(f[0]), f[1], 1),
+                     a23 = _mm512_insertf32x8(_mm512_castps256_ps512(f[2]), f[3], 1),
+                     a4 = _mm512_castps256_ps512(f[4]);
+        /* Pixel q's five floats stored where bit q of m is set (bits 5 q .. 5 q + 4). */
+        const uint64_t fm = _pdep_u64(m, 0x0842108421ull) * 0x1fu;
+        float *dst = abuf + idx0 * CRISP_RASTER_ATTRS;
+        UNROLL(3)
+        for (int v = 0; v < 3; v++) {
+            __m512 o = _mm512_permutex2var_ps(a01, _mm512_load_si512(perm_ab[v]), a23);
+            o = _mm512_mask_permutexvar_ps(o, A4_LANES(v), _mm512_load_si512(perm_c[v]), a4);
+            _mm512_mask_storeu_ps(dst + 16 * v, (__mmask16)(fm >> (16 * v)), o);
+        }
+        _mm512_mask_storeu_pd(inv_w + idx0, m, iw);
+        _mm256_mask_storeu_epi32(fbuf + idx0, m, face);
+        wrote += (unsigned)__builtin_popcount(m);
+    }
+    return wrote;
+}
+#undef A4_LANES
+
+/* 1 when the processor (and the OS, for the zmm state) has what block_rows_avx512 needs. */
+static int avx512_tiles(void)
+{
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+           __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("bmi2");
+}
 #else
 #define HAVE_AVX_TILES 0
+#define HAVE_AVX512_TILES 0
 #endif
 
 #if defined(__SSE2__)
@@ -1819,8 +1946,8 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                 const int in_row = bx0 - tx0 + BLOCK <= (int)tw;
 #if HAVE_AVX_TILES
                 if (avx && S == 1 && !slack && vectors && in_row) {
-                    block_planes_avx(&bp, st->qx[0], dx0s[0]);
-                    if (avx == 2 && !clip_on && tdec == 1) {
+                    if (avx != 3 || clip_on || tdec != 1) block_planes_avx(&bp, st->qx[0], dx0s[0]);
+                    if (avx >= 2 && !clip_on && tdec == 1) {
                         block_rows br = {{er[0][0], er[0][1], er[0][2]},
                                          {bstep0, bstep1, bstep2},
                                          {rmax[0], rmax[1], rmax[2]},
@@ -1834,8 +1961,15 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                                          st->oy,
                                          ((size_t)(by0 - ty0) * tw + (size_t)(bx0 - tx0)),
                                          tw};
-                        uint32_t k =
-                            block_rows_avx2(&br, lane_step, &qp, &bp, inv_w, fbuf, abuf, face_id);
+                        uint32_t k;
+#if HAVE_AVX512_TILES
+                        if (avx == 3)
+                            k = block_rows_avx512(&br, lane_step, &pl, inv_w, fbuf, abuf, face_id,
+                                                  st->qx[0], dx0s[0]);
+                        else
+#endif
+                            k = block_rows_avx2(&br, lane_step, &qp, &bp, inv_w, fbuf, abuf,
+                                                face_id);
                         if (run_test)
                             boxed += k;
                         else if (c->test)
@@ -1870,7 +2004,7 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             /* The same tests on 8 lanes, two at a time (the row's stored 1/W
                              * is read at 8 lanes: inside the image's row). */
 #if HAVE_AVX_TILES
-                            if (avx == 2)
+                            if (avx >= 2)
                                 m = row_mask_avx2(e, lane_step, full, base, &bp, inv_w + idx0, iwv);
                             else if (avx)
                                 m = row_mask_avx(e, lane_step, full, base, &bp, inv_w + idx0, iwv);
@@ -2060,7 +2194,16 @@ __attribute__((target("avx2"), flatten)) static void raster_tile1_avx2(raster_ct
 {
     raster_tile_s(c, tile, 1, fresh, 2);
 }
-#else
+#endif
+#if HAVE_AVX512_TILES
+/* The same compiled for AVX-512 (block_rows_avx512). */
+__attribute__((target(AVX512_TILES), flatten)) static void
+raster_tile1_avx512(raster_ctx *c, size_t tile, int fresh)
+{
+    raster_tile_s(c, tile, 1, fresh, 3);
+}
+#endif
+#if !HAVE_AVX_TILES
 #define raster_tile1_avx(c, tile, fresh) raster_tile_s(c, tile, 1, fresh, 0)
 #define raster_tile1_avx2(c, tile, fresh) raster_tile_s(c, tile, 1, fresh, 0)
 #endif
@@ -2076,7 +2219,12 @@ static void raster_tile(raster_ctx *c, size_t tile)
         clear_tile(c->t, c->tiles_x, tile);
         c->pending[tile] = 0;
     }
-    if (c->t->samples == 1 && c->avx == 2)
+#if HAVE_AVX512_TILES
+    if (c->t->samples == 1 && c->avx == 3)
+        raster_tile1_avx512(c, tile, fresh);
+    else
+#endif
+        if (c->t->samples == 1 && c->avx == 2)
         raster_tile1_avx2(c, tile, fresh);
     else if (c->t->samples == 1 && c->avx)
         raster_tile1_avx(c, tile, fresh);
@@ -2695,6 +2843,9 @@ static crisp_status draw(crisp_raster *r, crisp_raster_target *t, crisp_pool *po
     rc.avx = !r->no_vectors && __builtin_cpu_supports("avx")
                  ? (!r->no_avx2 && __builtin_cpu_supports("avx2") ? 2 : 1)
                  : 0;
+#endif
+#if HAVE_AVX512_TILES
+    if (rc.avx == 2 && !r->no_avx512 && avx512_tiles()) rc.avx = 3;
 #endif
     for (int s = 0; s < t->samples; s++) {
         double off[2];

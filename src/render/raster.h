@@ -138,7 +138,8 @@ void crisp__raster_set_hiz(crisp_raster *r, int on);
 /* The vector path for per-fragment arithmetic (on by default where the compiler has vector
  * extensions; it gives the scalar path's values bit for bit): on 0 the scalar path, 1 every
  * vector path the processor has, 2 not the AVX2 tiles (tests: the AVX ones where AVX2 is there
- * too). Returns 1 when the build has it. */
+ * too), 3 not the AVX-512 tiles (the AVX2 ones where the processor has AVX-512 too). Returns 1
+ * when the build has it. */
 int crisp__raster_set_vectors(crisp_raster *r, int on);
 /* Faces whose fragments skip the fragment test (kept as if it said 1): untested[f] != 0 for face
  * f < count (a face without trim loops: CRISP_PLAN_FACE_ALL_INSIDE). The array is read by later

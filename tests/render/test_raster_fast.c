@@ -105,8 +105,9 @@ static const uint8_t *untested_faces; /* crisp__raster_set_untested_faces for re
 static int edge_soup;              /* render(): u within 3 ulps of THRESH on every other triangle */
 static crisp_raster_box_fn box_fn; /* crisp__raster_set_box_test for render() */
 static int scalar_only;            /* crisp__raster_set_vectors(r, 0) in render() */
-static int vector_level = 1; /* else crisp__raster_set_vectors(r, vector_level) (2: no AVX2) */
-static int deferred_clear;   /* render() fills the target with junk, then clear_depth */
+static int vector_level =
+    1; /* else crisp__raster_set_vectors(r, vector_level) (2, 3: no AVX2, AVX-512) */
+static int deferred_clear; /* render() fills the target with junk, then clear_depth */
 
 static void render(int samples, int hiz, size_t batch, int flag_no_test, crisp_raster_test_fn fn,
                    const float *slack, crisp_raster_target *t, test_ctx *tc,
@@ -181,7 +182,7 @@ static void test_ties_keep_earlier(void **state)
     for (int i = 0; i < NT; i++)
         tri[NT + i] = (crisp_raster_tri){{tri[i].v[0], tri[i].v[1], tri[i].v[2]}, tri[i].face + 7};
     for (int samples = 1; samples <= 4; samples += 3)
-        for (int vec = 0; vec < 3; vec++) /* scalar, every vector path, not AVX2 */
+        for (int vec = 0; vec < 4; vec++) /* scalar, every path, not AVX2, not AVX-512 */
             for (int hiz = 0; hiz < 2; hiz++) {
                 crisp_raster_target a = {0}, b = {0};
                 crisp_raster *r;
@@ -286,7 +287,7 @@ static void test_hiz_corner(void **state)
         }
 #undef PLANE
         for (int samples = 1; samples <= 4; samples += 3)
-            for (int vec = 0; vec < 3; vec++) {
+            for (int vec = 0; vec < 4; vec++) { /* scalar, every path, not AVX2, not AVX-512 */
                 crisp_raster_target t[2] = {{0}, {0}};
                 crisp_raster_stats st[2];
                 for (int hiz = 0; hiz < 2; hiz++) {
@@ -468,8 +469,8 @@ static void test_vectors_equal_scalar(void **state)
                 scalar_only = 1;
                 render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &a, &ta, &sa);
                 scalar_only = 0;
-                /* every vector path, then without the AVX2 tiles */
-                for (vector_level = 2; vector_level >= 1; vector_level--) {
+                /* without the AVX-512 tiles, without the AVX2 ones, every vector path */
+                for (vector_level = 3; vector_level >= 1; vector_level--) {
                     tb.calls = 0;
                     render(samples, 1, 0, 0, some_test, fill ? slack : NULL, &b, &tb, &sb);
                     assert_same(&a, &b);
@@ -481,6 +482,113 @@ static void test_vectors_equal_scalar(void **state)
                 crisp__raster_target_free(&a);
                 crisp__raster_target_free(&b);
             }
+}
+
+/* A vertex at pixel (px, py) of an iw x ih image with 1/W = inv (attributes spread widely, some
+ * of them huge or tiny so the float conversions round far from the double's bits). */
+static void pixel_vertex(crisp_raster_vertex *p, double px, double py, double inv, int iw, int ih)
+{
+    double w = 1 / inv;
+    p->clip[0] = (px / iw * 2 - 1) * w, p->clip[1] = (1 - py / ih * 2) * w;
+    p->clip[2] = 0.9 * w - 0.2, p->clip[3] = w;
+    static const double scale[CRISP_RASTER_ATTRS] = {1, 1e-3, 3e5, 1e-30, 7};
+    for (int a = 0; a < CRISP_RASTER_ATTRS; a++)
+        p->attr[a] = scale[a] * (rnd() - 0.3);
+}
+
+/* The block walk's keep-all paths (AVX-512: a block row as one 8-lane vector, masked stores;
+ * AVX2: quarter rows) give the scalar path's targets bit for bit on what a close-up draws:
+ * thousands of small triangles (1-64 px, most 17-32), slivers a pixel or less wide, edges on
+ * pixel rows and columns, fans of triangles sharing vertices, overlapping in depth so that about
+ * half of the covered samples fail the depth test; without a fragment test, with every face
+ * untested, and with a test (the box test deciding blocks); on targets whose width is not a
+ * multiple of 8 (the last block's lanes cut) and on a window of a larger image; two draws into
+ * the same target, depth rejection on and off. Every path: scalar, every vector path the
+ * processor has (AVX-512 where it has it), not AVX-512, not AVX2. */
+static void test_block_walk_paths(void **state)
+{
+    (void)state;
+    enum { N = 6000, IW = 203, IH = 149 };
+    static crisp_raster_vertex v[3 * N];
+    static crisp_raster_tri tri[N];
+    rng_state = 0x9E3779B97F4A7C15ull;
+    for (int i = 0; i < N; i++) {
+        double cx = rnd() * (IW + 20) - 10, cy = rnd() * (IH + 20) - 10;
+        int kind = (int)(rnd() * 8);
+        double size = kind == 0 ? 1 + 8 * rnd() : kind == 1 ? 33 + 31 * rnd() : 17 + 15 * rnd();
+        double px[3], py[3];
+        for (int k = 0; k < 3; k++)
+            px[k] = cx + size * (rnd() - 0.5), py[k] = cy + size * (rnd() - 0.5);
+        if (kind == 2) /* a sliver: the third vertex within a pixel of the first two's line */
+            px[2] = 0.5 * (px[0] + px[1]) + rnd() - 0.5, py[2] = 0.5 * (py[0] + py[1]);
+        if (kind == 3) /* an edge on a pixel row and one on a pixel column */
+            py[1] = py[0] = floor(py[0]) + (rnd() < 0.5 ? 0.5 : 0), px[2] = px[1] = floor(px[1]);
+        double inv = 0.2 + 0.6 * rnd(), gx = 0.004 * (rnd() - 0.5), gy = 0.004 * (rnd() - 0.5);
+        for (int k = 0; k < 3; k++) {
+            /* a fan: two vertices of the last triangle */
+            const crisp_raster_vertex *prev =
+                kind == 4 && i > 0 && k < 2 ? &v[3 * (i - 1) + k + 1] : NULL;
+            if (prev)
+                v[3 * i + k] = *prev;
+            else
+                pixel_vertex(&v[3 * i + k], px[k], py[k],
+                             inv + gx * (px[k] - cx) + gy * (py[k] - cy), IW, IH);
+        }
+        tri[i] = (crisp_raster_tri){{3 * i, 3 * i + 1, 3 * i + 2}, (uint32_t)(i % 5)};
+    }
+    static const uint8_t all[5] = {1, 1, 1, 1, 1};
+    /* The whole image at 203 x 149 (its last block column 3 lanes wide), a window of it at
+     * (64, 40) of 77 x 61 (a block column of 5 lanes, rows cut at the window's edge). */
+    static const int win[2][4] = {{0, 0, IW, IH}, {64, 40, 77, 61}};
+    int paths = 0;
+    for (int w = 0; w < 2; w++)
+        for (int mode = 0; mode < 3; mode++) /* no test; every face untested; a box test */
+            for (int hiz = 0; hiz < 2; hiz++) {
+                crisp_raster_target ref = {0};
+                /* scalar (the reference), every vector path, not AVX2, not AVX-512 */
+                for (int vec = 0; vec < 4; vec++) {
+                    crisp_raster_target t = {0};
+                    crisp_raster *r;
+                    assert_int_equal(crisp__raster_create(&r), CRISP_OK);
+                    crisp__raster_set_vectors(r, vec);
+                    crisp__raster_set_hiz(r, hiz);
+                    crisp__raster_set_untested_faces(r, mode == 1 ? all : NULL, 5);
+                    crisp__raster_set_box_test(r, mode == 2 ? thresh_box : NULL);
+                    crisp_raster_test_fn fn = mode ? thresh_test : NULL;
+                    test_ctx tc = {0};
+                    crisp_raster_target *dst = vec == 0 ? &ref : &t;
+                    assert_int_equal(crisp__raster_target_init(dst, win[w][2], win[w][3], 1),
+                                     CRISP_OK);
+                    if (w)
+                        assert_int_equal(
+                            crisp__raster_target_window(dst, win[w][0], win[w][1], IW, IH),
+                            CRISP_OK);
+                    crisp__raster_target_clear(dst);
+                    crisp_pool *pool;
+                    assert_int_equal(crisp_pool_create(2, &pool), CRISP_OK);
+                    assert_int_equal(
+                        crisp__raster_draw(r, dst, pool, v, 3 * N, tri, N / 2, fn, &tc, NULL),
+                        CRISP_OK);
+                    assert_int_equal(crisp__raster_draw(r, dst, pool, v, 3 * N, tri + N / 2,
+                                                        N - N / 2, fn, &tc, NULL),
+                                     CRISP_OK);
+                    crisp_pool_destroy(pool);
+                    crisp__raster_destroy(r);
+                    if (vec == 0) {
+                        /* most samples drawn, several triangles per sample */
+                        size_t n = (size_t)dst->width * dst->height, covered = 0;
+                        for (size_t k = 0; k < n; k++)
+                            covered += dst->face[k] >= 0;
+                        assert_true(covered > n * 9 / 10);
+                        continue;
+                    }
+                    assert_same(&ref, &t);
+                    paths++;
+                    crisp__raster_target_free(&t);
+                }
+                crisp__raster_target_free(&ref);
+            }
+    assert_int_equal(paths, 2 * 3 * 2 * 3);
 }
 
 /* clear_depth, deferred to the next draw's tiles, leaves what a full clear leaves (attributes
@@ -555,7 +663,7 @@ static void test_box_enclosure_sound(void **state)
     (void)state;
     edge_soup = 1;
     for (int samples = 1; samples <= 4; samples += 3)
-        for (int vec = 0; vec < 3; vec++) { /* scalar, every vector path, not AVX2 */
+        for (int vec = 0; vec < 4; vec++) { /* scalar, every path, not AVX2, not AVX-512 */
             crisp_raster_target ref = {0}, a = {0};
             test_ctx t_ref = {0}, t_box = {0};
             crisp_raster_stats st_ref, st;
@@ -1030,6 +1138,7 @@ int main(void)
         cmocka_unit_test(test_block_depth),
         cmocka_unit_test(test_live_depth),
         cmocka_unit_test(test_vectors_equal_scalar),
+        cmocka_unit_test(test_block_walk_paths),
         cmocka_unit_test(test_deferred_clear),
         cmocka_unit_test(test_plan_trim_box),
         cmocka_unit_test(test_plan_trim_box_cached),
