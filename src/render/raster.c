@@ -1569,6 +1569,47 @@ static const int32_t perm_c[3][16] __attribute__((aligned(64))) = {C5ROW(0), C5R
 /* Floats 16 v + l with l % 5 == 4 (attribute 4), per vector v: 0x8421 shifted by v's phase. */
 #define A4_LANES(v) ((__mmask16)((0x4210842108421ull << 4 >> (16 * (v))) & 0xffffu))
 
+/* The lanes m of a block row stored: 1/W iw, the face, and attribute k's ((ax[k] + qy dy) * w
+ * with w = 1 / iw (ax[k] = q0 + qx (dx0 + lane), the column's part), the 40 floats interleaved by
+ * permutes and stored masked. */
+__attribute__((target(AVX512_TILES))) static inline void
+store_row8_avx512(const __m512d ax[CRISP_RASTER_ATTRS], const planes *pl, double dy, __m512d iw,
+                  __mmask8 m, size_t idx0, double *restrict inv_w, int32_t *restrict fbuf,
+                  float *restrict abuf, int32_t face_id)
+{
+    const __m512d vdy = _mm512_set1_pd(dy);
+    const __m512d w = _mm512_div_pd(_mm512_set1_pd(1.0), iw);
+    __m256 f[CRISP_RASTER_ATTRS];
+    UNROLL(5)
+    for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+        f[k] = _mm512_cvtpd_ps(_mm512_mul_pd(
+            _mm512_add_pd(ax[k], _mm512_mul_pd(_mm512_set1_pd(pl->qy[k + 1]), vdy)), w));
+    const __m512 a01 = _mm512_insertf32x8(_mm512_castps256_ps512(f[0]), f[1], 1),
+                 a23 = _mm512_insertf32x8(_mm512_castps256_ps512(f[2]), f[3], 1),
+                 a4 = _mm512_castps256_ps512(f[4]);
+    /* Pixel q's five floats stored where bit q of m is set (bits 5 q .. 5 q + 4). */
+    const uint64_t fm = _pdep_u64(m, 0x0842108421ull) * 0x1fu;
+    float *dst = abuf + idx0 * CRISP_RASTER_ATTRS;
+    UNROLL(3)
+    for (int v = 0; v < 3; v++) {
+        __m512 o = _mm512_permutex2var_ps(a01, _mm512_load_si512(perm_ab[v]), a23);
+        o = _mm512_mask_permutexvar_ps(o, A4_LANES(v), _mm512_load_si512(perm_c[v]), a4);
+        _mm512_mask_storeu_ps(dst + 16 * v, (__mmask16)(fm >> (16 * v)), o);
+    }
+    _mm512_mask_storeu_pd(inv_w + idx0, m, iw);
+    _mm256_mask_storeu_epi32(fbuf + idx0, m, _mm256_set1_epi32(face_id));
+}
+
+/* The column parts of a block's attributes: q0 + qx dx for each attribute (dx = dx0 + lane). */
+__attribute__((target(AVX512_TILES))) static inline void
+block_ax_avx512(const planes *pl, __m512d dx, __m512d ax[CRISP_RASTER_ATTRS])
+{
+    UNROLL(5)
+    for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
+        ax[k] = _mm512_add_pd(_mm512_set1_pd(pl->q0[k + 1]),
+                              _mm512_mul_pd(_mm512_set1_pd(pl->qx[k + 1]), dx));
+}
+
 __attribute__((target(AVX512_TILES))) static inline unsigned
 block_rows_avx512(const block_rows *b, __m128i lane_step[3][BLOCK / 2], const planes *pl,
                   double *restrict inv_w, int32_t *restrict fbuf, float *restrict abuf,
@@ -1593,10 +1634,8 @@ block_rows_avx512(const block_rows *b, __m128i lane_step[3][BLOCK / 2], const pl
                   vs2 = _mm512_set1_epi64(s2);
     const __m512d dx = _mm512_add_pd(_mm512_set1_pd(dx0), _mm512_loadu_pd(lane_x));
     const __m512d iwx = _mm512_mul_pd(_mm512_set1_pd(gx), dx);
-    __m512d ax[CRISP_RASTER_ATTRS]; /* q0 + qx dx: at the block's first store */
+    __m512d ax[CRISP_RASTER_ATTRS]; /* at the block's first store */
     int ax_ok = 0;
-    const __m512d one = _mm512_set1_pd(1.0);
-    const __m256i face = _mm256_set1_epi32(face_id);
     for (; j <= b->j1; j++, idx0 += b->stride, e0 += s0, e1 += s1, e2 += s2,
                        v0 = _mm512_add_epi64(v0, vs0), v1 = _mm512_add_epi64(v1, vs1),
                        v2 = _mm512_add_epi64(v2, vs2)) {
@@ -1608,37 +1647,44 @@ block_rows_avx512(const block_rows *b, __m128i lane_step[3][BLOCK / 2], const pl
         if (!full) /* lanes outside an edge: the sign bit of the OR of the three values */
             m &= (__mmask8)~_mm512_movepi64_mask(_mm512_ternarylogic_epi64(v0, v1, v2, 0xfe));
         if (!m) continue;
-        if (!ax_ok) {
-            UNROLL(5)
-            for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
-                ax[k] = _mm512_add_pd(_mm512_set1_pd(pl->q0[k + 1]),
-                                      _mm512_mul_pd(_mm512_set1_pd(pl->qx[k + 1]), dx));
-            ax_ok = 1;
-        }
-        const __m512d vdy = _mm512_set1_pd(dy);
-        const __m512d w = _mm512_div_pd(one, iw);
-        __m256 f[CRISP_RASTER_ATTRS];
-        UNROLL(5)
-        for (int k = 0; k < CRISP_RASTER_ATTRS; k++)
-            f[k] = _mm512_cvtpd_ps(_mm512_mul_pd(
-                _mm512_add_pd(ax[k], _mm512_mul_pd(_mm512_set1_pd(pl->qy[k + 1]), vdy)), w));
-        const __m512 a01 = _mm512_insertf32x8(_mm512_castps256_ps512(f[0]), f[1], 1),
-                     a23 = _mm512_insertf32x8(_mm512_castps256_ps512(f[2]), f[3], 1),
-                     a4 = _mm512_castps256_ps512(f[4]);
-        /* Pixel q's five floats stored where bit q of m is set (bits 5 q .. 5 q + 4). */
-        const uint64_t fm = _pdep_u64(m, 0x0842108421ull) * 0x1fu;
-        float *dst = abuf + idx0 * CRISP_RASTER_ATTRS;
-        UNROLL(3)
-        for (int v = 0; v < 3; v++) {
-            __m512 o = _mm512_permutex2var_ps(a01, _mm512_load_si512(perm_ab[v]), a23);
-            o = _mm512_mask_permutexvar_ps(o, A4_LANES(v), _mm512_load_si512(perm_c[v]), a4);
-            _mm512_mask_storeu_ps(dst + 16 * v, (__mmask16)(fm >> (16 * v)), o);
-        }
-        _mm512_mask_storeu_pd(inv_w + idx0, m, iw);
-        _mm256_mask_storeu_epi32(fbuf + idx0, m, face);
+        if (!ax_ok) block_ax_avx512(pl, dx, ax), ax_ok = 1;
+        store_row8_avx512(ax, pl, dy, iw, m, idx0, inv_w, fbuf, abuf, face_id);
         wrote += (unsigned)__builtin_popcount(m);
     }
     return wrote;
+}
+
+/* row_mask_avx2 with a block row's eight lanes as one vector (raster_tile_s's general rows on
+ * the AVX-512 tiles): 1/W base + bp's column term into iwv, the lanes above the stored 1/W and,
+ * unless full, inside the three edges. */
+__attribute__((target(AVX512_TILES))) static inline unsigned
+row_mask_avx512(const int64_t e[3], __m128i lane_step[3][BLOCK / 2], int full, double base,
+                const block_planes *bp, const double *stored, double *iwv)
+{
+    __m512d iw = _mm512_add_pd(_mm512_set1_pd(base), _mm512_loadu_pd((const double *)bp->iwx));
+    _mm512_storeu_pd(iwv, iw);
+    __mmask8 m = _mm512_cmp_pd_mask(iw, _mm512_loadu_pd(stored), _CMP_GT_OS);
+    if (!full) {
+        __m512i o = _mm512_ternarylogic_epi64(
+            _mm512_add_epi64(_mm512_set1_epi64(e[0]), _mm512_loadu_si512(lane_step[0])),
+            _mm512_add_epi64(_mm512_set1_epi64(e[1]), _mm512_loadu_si512(lane_step[1])),
+            _mm512_add_epi64(_mm512_set1_epi64(e[2]), _mm512_loadu_si512(lane_step[2])), 0xfe);
+        m &= (__mmask8)~_mm512_movepi64_mask(o);
+    }
+    return m;
+}
+
+/* store_row1_avx on the AVX-512 tiles: the row's lanes m (1/W in iwv) stored at once. */
+__attribute__((target(AVX512_TILES))) static inline unsigned
+store_row1_avx512(const planes *pl, const block_planes *bp, double dy, const double *iwv,
+                  unsigned m, size_t idx0, double *restrict inv_w, int32_t *restrict fbuf,
+                  float *restrict abuf, int32_t face_id)
+{
+    __m512d ax[CRISP_RASTER_ATTRS];
+    block_ax_avx512(pl, _mm512_add_pd(_mm512_set1_pd(bp->dx0), _mm512_loadu_pd(lane_x)), ax);
+    store_row8_avx512(ax, pl, dy, _mm512_loadu_pd(iwv), (__mmask8)m, idx0, inv_w, fbuf, abuf,
+                      face_id);
+    return (unsigned)__builtin_popcount(m);
 }
 #undef A4_LANES
 
@@ -2004,7 +2050,13 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                             /* The same tests on 8 lanes, two at a time (the row's stored 1/W
                              * is read at 8 lanes: inside the image's row). */
 #if HAVE_AVX_TILES
-                            if (avx >= 2)
+#if HAVE_AVX512_TILES
+                            if (avx == 3)
+                                m = row_mask_avx512(e, lane_step, full, base, &bp, inv_w + idx0,
+                                                    iwv);
+                            else
+#endif
+                                if (avx >= 2)
                                 m = row_mask_avx2(e, lane_step, full, base, &bp, inv_w + idx0, iwv);
                             else if (avx)
                                 m = row_mask_avx(e, lane_step, full, base, &bp, inv_w + idx0, iwv);
@@ -2103,8 +2155,14 @@ static ALWAYS_INLINE void raster_tile_s(raster_ctx *c, size_t tile, const int S,
                              * among them): no per-fragment work but the attributes and the
                              * stores, two (AVX: four) lanes at a time. */
                             unsigned k;
+#if HAVE_AVX512_TILES
+                            if (avx == 3)
+                                k = store_row1_avx512(&pl, &bp, dy, iwv, m, idx0, inv_w, fbuf, abuf,
+                                                      face_id);
+                            else
+#endif
 #if HAVE_AVX_TILES
-                            if (avx)
+                                if (avx)
                                 k = store_row1_avx(&qp, &bp, dy, iwv, m, idx0, inv_w, fbuf, abuf,
                                                    face_id);
                             else
