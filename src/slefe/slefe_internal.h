@@ -213,12 +213,25 @@ static inline void crisp__slefe_side_range(int d, const double *b, int stride, d
     }
 }
 
-/* crisp__slefe_side_range over every k = 0..m. */
+/* crisp__slefe_side_range over every k = 0..m, written out (as a call of the range form it made
+ * patch.c's copies a few percent dearer: gpucast_teapot.igs close's plan +0.4%). */
 static inline void crisp__slefe_side(int d, const double *b, int stride, double guard,
                                      const double *first, const double *second, double sign, int m,
                                      double *out, int ostride)
 {
-    crisp__slefe_side_range(d, b, stride, guard, first, second, sign, m, 0, m, out, ostride);
+    double pos[CRISP_SLEFE_MAX_DEGREE], neg[CRISP_SLEFE_MAX_DEGREE];
+    double b0 = b[0], bd = b[d * stride];
+    double bmax = crisp__slefe_second_differences(d, b, stride, pos, neg);
+    double margin = sign * guard * bmax;
+    double inv_m = 1.0 / m;
+    for (int k = 0; k <= m; k++) {
+        double tk = k * inv_m;
+        double v = (1.0 - tk) * b0 + tk * bd;
+        for (int j = 1; j < d; j++)
+            v += pos[j - 1] * first[(j - 1) * (m + 1) + k] +
+                 neg[j - 1] * second[(j - 1) * (m + 1) + k];
+        out[k * ostride] = v + margin;
+    }
 }
 
 /* Outward-rounded [xl, xu] / [wl, wu] for wl > 0. */
