@@ -49,17 +49,18 @@ static inline double crisp__slefe_second_differences(int d, const double *b, int
 }
 
 /* Enclosure of sum_i b[i * stride] B_i^d on m segments with table t (d >= 1; t.upper may be NULL
- * for d == 1). Writes lo[k * ostride], up[k * ostride] for k = 0..m. No checks. */
-static inline void crisp__slefe_kernel(int d, const double *b, int stride,
-                                       const crisp_slefe_table *t, int m, double *lo, int lstride,
-                                       double *up, int ustride)
+ * for d == 1), at k = k0..k1 only: lo[(k - k0) * lstride], up[(k - k0) * ustride] (each k's value
+ * the same whichever range it is formed in). No checks. */
+static inline void crisp__slefe_kernel_range(int d, const double *b, int stride,
+                                             const crisp_slefe_table *t, int m, int k0, int k1,
+                                             double *lo, int lstride, double *up, int ustride)
 {
     double pos[CRISP_SLEFE_MAX_DEGREE], neg[CRISP_SLEFE_MAX_DEGREE];
     double b0 = b[0], bd = b[d * stride];
     double bmax = crisp__slefe_second_differences(d, b, stride, pos, neg);
     double margin = t->guard * bmax;
     double inv_m = 1.0 / m;
-    for (int k = 0; k <= m; k++) {
+    for (int k = k0; k <= k1; k++) {
         double tk = k * inv_m;
         double line = (1.0 - tk) * b0 + tk * bd;
         double u = line, l = line;
@@ -68,9 +69,17 @@ static inline void crisp__slefe_kernel(int d, const double *b, int stride,
             u += pos[j - 1] * uj + neg[j - 1] * lj;
             l += pos[j - 1] * lj + neg[j - 1] * uj;
         }
-        up[k * ustride] = u + margin;
-        lo[k * lstride] = l - margin;
+        up[(k - k0) * ustride] = u + margin;
+        lo[(k - k0) * lstride] = l - margin;
     }
+}
+
+/* crisp__slefe_kernel_range over every k = 0..m: lo[k * lstride], up[k * ustride]. */
+static inline void crisp__slefe_kernel(int d, const double *b, int stride,
+                                       const crisp_slefe_table *t, int m, double *lo, int lstride,
+                                       double *up, int ustride)
+{
+    crisp__slefe_kernel_range(d, b, stride, t, m, 0, m, lo, lstride, up, ustride);
 }
 
 /* Validates a patch (degrees, finite control points) for the public entry point fn. */
@@ -161,6 +170,15 @@ crisp_status crisp__slefe_search_begin(crisp__slefe_search *s, const crisp_bezie
 crisp_status crisp__slefe_search_finish(crisp__slefe_search *s, const crisp_bezier_patch *p,
                                         int *tau, crisp__slefe_level_info *info);
 
+/* crisp__slefe_patch_coordinate's lo, up of coordinate c at the four grid points of tile (ku, kv)
+ * of m x m alone, bit for bit its values: lo[(j * 2 + i) * 4 + c] for the point (ku + i, kv + j)
+ * (screen_error.c: the level search rejects a level from one tile's term of its bound). */
+void crisp__slefe_coordinate_tile(const crisp_bezier_patch *p, int m, int c, int ku, int kv,
+                                  double *lo, double *up);
+/* Test hook: nonzero makes the level search form every level's bound whole (no rejection from
+ * one tile), as before session 20. */
+extern int crisp__slefe_quick_off;
+
 /* crisp_slefe_patch_tess_level, and (info not NULL) what it formed on the way. */
 crisp_status crisp__slefe_patch_tess_level(const crisp_bezier_patch *p,
                                            const crisp_slefe_view *view, double eps, int max_level,
@@ -172,8 +190,31 @@ crisp_status crisp__slefe_patch_tess_level(const crisp_bezier_patch *p,
 crisp_status crisp__slefe_euclid_screen_error(const crisp_bezier_patch *p, int tau,
                                               const crisp_slefe_view *view, double *err_px);
 
-/* One side of the enclosure: with (first, second) = (upper, lower) tables and sign = +1 this is
- * up[k]; with (lower, upper) and sign = -1 it is lo[k]. */
+/* One side of the enclosure, at k = k0..k1 only (out[(k - k0) * ostride]): with (first, second) =
+ * (upper, lower) tables and sign = +1 this is up[k]; with (lower, upper) and sign = -1 it is lo[k].
+ * Each k's value is the same whichever range it is formed in (a level search forms one tile's,
+ * screen_error.c). */
+static inline void crisp__slefe_side_range(int d, const double *b, int stride, double guard,
+                                           const double *first, const double *second, double sign,
+                                           int m, int k0, int k1, double *out, int ostride)
+{
+    double pos[CRISP_SLEFE_MAX_DEGREE], neg[CRISP_SLEFE_MAX_DEGREE];
+    double b0 = b[0], bd = b[d * stride];
+    double bmax = crisp__slefe_second_differences(d, b, stride, pos, neg);
+    double margin = sign * guard * bmax;
+    double inv_m = 1.0 / m;
+    for (int k = k0; k <= k1; k++) {
+        double tk = k * inv_m;
+        double v = (1.0 - tk) * b0 + tk * bd;
+        for (int j = 1; j < d; j++)
+            v += pos[j - 1] * first[(j - 1) * (m + 1) + k] +
+                 neg[j - 1] * second[(j - 1) * (m + 1) + k];
+        out[(k - k0) * ostride] = v + margin;
+    }
+}
+
+/* crisp__slefe_side_range over every k = 0..m, written out (as a call of the range form it made
+ * patch.c's copies a few percent dearer: gpucast_teapot.igs close's plan +0.4%). */
 static inline void crisp__slefe_side(int d, const double *b, int stride, double guard,
                                      const double *first, const double *second, double sign, int m,
                                      double *out, int ostride)

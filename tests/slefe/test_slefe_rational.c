@@ -18,6 +18,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "crisp/render.h"
 #include "crisp/slefe.h"
@@ -286,11 +287,95 @@ static void test_euclid_bound(void **state)
     assert_true(tight[n - 1] > 0.2); /* not vacuous */
 }
 
+/* The level search's one-tile enclosure (session 20: screen_error.c rejects a level from one
+ * corner tile of its SLEFE bound): crisp__slefe_coordinate_tile's values at every tile of every
+ * grid equal crisp__slefe_patch_coordinate's, bit for bit, for degrees 1..6 in each direction
+ * (the constant-degree copies and the degree-1 kernel included) and 1..16 segments. */
+static void test_coordinate_tile(void **state)
+{
+    (void)state;
+    rng r = {20261204};
+    enum { G = CRISP_SLEFE_GRID(CRISP_SLEFE_MAX_SEGMENTS) * 4 };
+    static double lo[G], up[G];
+    int checked = 0;
+    crisp__slefe_tables_init();
+    for (int trial = 0; trial < 120; trial++) {
+        double cpw[MAXN];
+        int du = 1 + trial % 6, dv = 1 + trial / 6 % 6, m = rng_int(&r, 1, 16);
+        if (trial % 5 == 0) du = 3, dv = 2;
+        if (trial % 7 == 0) du = dv = m = 3; /* patch.c's bicubic3 */
+        crisp_bezier_patch p = {.du = du, .dv = dv, .rational = 1, .u1 = 1, .v1 = 1, .cpw = cpw};
+        for (int i = 0; i < (du + 1) * (dv + 1) * 4; i++)
+            cpw[i] = rng_uniform(&r, -3, 3) + (i % 4 == 3 ? 4 : 0);
+        for (int c = 0; c < 4; c++) {
+            crisp__slefe_patch_coordinate(&p, m, c, lo, up);
+            for (int kv = 0; kv < m; kv++)
+                for (int ku = 0; ku < m; ku++) {
+                    double tl[16], tu[16];
+                    crisp__slefe_coordinate_tile(&p, m, c, ku, kv, tl, tu);
+                    for (int j = 0; j < 2; j++)
+                        for (int i = 0; i < 2; i++) {
+                            int g = ((kv + j) * (m + 1) + ku + i) * 4 + c, t = (j * 2 + i) * 4 + c;
+                            if (memcmp(&lo[g], &tl[t], sizeof(double)) ||
+                                memcmp(&up[g], &tu[t], sizeof(double)))
+                                fail_msg("%d x %d, m %d, coordinate %d, tile (%d, %d) point (%d, "
+                                         "%d): [%.17g, %.17g] against [%.17g, %.17g]",
+                                         du, dv, m, c, ku, kv, i, j, tl[t], tu[t], lo[g], up[g]);
+                            checked++;
+                        }
+                }
+        }
+    }
+    assert_true(checked > 10000);
+}
+
+/* The level search with the one-tile rejection names the same level, and forms the same
+ * curvature sums for the depth bound, as the search that forms every bound whole
+ * (crisp__slefe_quick_off), on rational patches of degrees 1..4 and cylinder strips from any
+ * camera, for tolerances 0.1..2 px and level limits 8..64: the rejection must be sound (the
+ * level the search names, not only a sound level). */
+static void test_quick_reject_same_level(void **state)
+{
+    (void)state;
+    rng r = {20261205};
+    int searched = 0, above1 = 0;
+    for (int trial = 0; trial < 1500; trial++) {
+        double cpw[MAXN];
+        crisp_bezier_patch p;
+        rational_patch(&r, trial % 3 == 1, cpw, &p);
+        crisp_slefe_view v;
+        any_view(&r, trial % 4 == 3, &v);
+        double eps = exp(rng_uniform(&r, log(0.1), log(2.0)));
+        int max_level = trial % 5 == 0 ? 8 : 64;
+        int tq = 0, tf = 0;
+        crisp__slefe_level_info iq, iff;
+        crisp__slefe_quick_off = 0;
+        crisp_status sq = crisp__slefe_patch_tess_level(&p, &v, eps, max_level, &tq, &iq);
+        crisp__slefe_quick_off = 1;
+        crisp_status sf = crisp__slefe_patch_tess_level(&p, &v, eps, max_level, &tf, &iff);
+        crisp__slefe_quick_off = 0;
+        assert_int_equal(sq, sf);
+        if (sq) continue;
+        if (tq != tf)
+            fail_msg("trial %d (%d x %d, eps %g): level %d with the one-tile rejection, %d without",
+                     trial, p.du, p.dv, eps, tq, tf);
+        for (int i = 0; i < 3; i++)
+            assert_true((isnan(iq.kw[i]) && isnan(iff.kw[i])) || iq.kw[i] == iff.kw[i]);
+        searched++;
+        above1 += tq > 2;
+    }
+    printf("one-tile rejection: %d searches, %d with a level above 2, the same levels\n", searched,
+           above1);
+    assert_true(above1 > 300);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rational_screen_error),
         cmocka_unit_test(test_euclid_bound),
+        cmocka_unit_test(test_coordinate_tile),
+        cmocka_unit_test(test_quick_reject_same_level),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
