@@ -487,45 +487,57 @@ static double window_px(const crisp_bezier_patch *p, crisp_mat4 m, int width, in
 /* The leaf mesh of crisp_tess_mesh_generate at inner level tau >= 2 in both directions, with
  * every edge level >= tau (the planner's edge rule gives each edge at least the density of the
  * leaves on both sides), puts every triangle in a cell [i h, (i + 1) h] x [j h, (j + 1) h] of the
- * tau x tau grid (h = 1 / tau) or in one of four windows of two cells at the corners where each
- * side's stitching ends. The inner grid's triangles are in its cells. The ring between a side
- * (outer vertices k / n, n >= tau) and the inner grid's first row (inner points (j + 1) h at
- * depth h) is stitched by crisp_tess's zipper, walking the side from its first corner: it takes
- * the outer segment [i/n, (i + 1)/n] against inner point j while the segment's midpoint is at
- * most the inner segment's, and an inner segment otherwise. A triangle (outer segment, inner
- * point j) thus has its midpoint within h / 2 of (j + 1) h and lies in the cell on one side of
- * that point; a triangle (outer point, inner segment j..j + 1) has the outer point on
- * [(j + 1) h, (j + 2) h]; after the last inner point, 1 - h, the remaining outer segments start
- * beyond 1 - 2 h: the window [1 - 2 h, 1] x [0, h] at the side's end (side t = 0 walks to s = 1,
- * s = 1 to t = 1, t = 1 to s = 0, s = 0 to t = 0). So the distance between the patch and the
- * mesh is at most the largest of those windows' bounds (window_px). */
+ * tau x tau grid (h = 1 / tau) or in a window of two neighbouring cells of the ring along a side.
+ * The inner grid's triangles are in its cells. The ring between a side (outer vertices k / n,
+ * n >= tau) and the inner grid's first row (inner points (j + 1) h at depth h) is stitched by
+ * crisp_tess's zipper, walking the side from its first corner: it takes the outer segment
+ * [i/n, (i + 1)/n] against inner point j while the segment's midpoint is at most the inner
+ * segment's, and an inner segment otherwise. A triangle (outer segment, inner point j) thus has
+ * its midpoint within h / 2 of (j + 1) h, and the segment (at most h long) lies in
+ * [j h, (j + 2) h]: in the ring's two cells beside that point, and in both of them where n is not
+ * a multiple of tau and the segment crosses a cell side (session 20, gen9's test_tau_windows: an
+ * earlier version of this bound took only the four windows at the corners); a triangle (outer
+ * point, inner segment j..j + 1) has the outer point on [(j + 1) h, (j + 2) h], in one cell;
+ * after the last inner point, 1 - h, the remaining outer segments start beyond 1 - 2 h: the
+ * window [1 - 2 h, 1] x [0, h] at the side's end. So the distance between the patch and the mesh
+ * is at most the largest of the bounds (window_px) of the tau - 1 two-cell windows along each
+ * side and of the inner cells. */
 double crisp__rational_level_px(const crisp_bezier_patch *p, int tau, crisp_mat4 m, int width,
                                 int height, double accept)
 {
     if (tau <= 1) return window_px(p, m, width, height, accept);
     double storage[2 * CRISP__PATCH_DOUBLES], tmp[CRISP__PATCH_DOUBLES], worst = 0, h = 1.0 / tau;
     crisp_bezier_patch sub;
-    /* The four corner windows first (the widest: a rejection is found soonest), then the cells. */
-    const double corner[4][4] = {
-        {1 - 2 * h, 1, 0, h}, {1 - h, 1, 1 - 2 * h, 1}, {0, 2 * h, 1 - h, 1}, {0, h, 0, 2 * h}};
-    for (int k = 0; k < 4; k++) {
-        crisp__subpatch(p, dmax(corner[k][0], 0), corner[k][1], dmax(corner[k][2], 0), corner[k][3],
-                        storage, tmp, &sub);
-        worst = dmax(worst, window_px(&sub, m, width, height, accept));
-        if (accept > 0 && worst > accept) return worst;
-    }
+#define AT(k) ((k) >= tau ? 1.0 : (k)*h)
+    /* The ring's windows, the four at the sides' ends first (the widest: a rejection is found
+     * soonest): side t = 0 walks to s = 1, s = 1 to t = 1, t = 1 to s = 0, s = 0 to t = 0. */
+    for (int round = 0; round < 2; round++)
+        for (int i = tau - 2; i >= 0; i--) {
+            if ((i == tau - 2) != (round == 0)) continue;
+            const double a = AT(i), b = AT(i + 2),
+                         side[4][4] = {{a, b, 0, h},
+                                       {1 - h, 1, a, b},
+                                       {1 - b, 1 - a, 1 - h, 1},
+                                       {0, h, 1 - b, 1 - a}};
+            for (int k = 0; k < 4; k++) {
+                crisp__subpatch(p, dmax(side[k][0], 0), side[k][1], dmax(side[k][2], 0), side[k][3],
+                                storage, tmp, &sub);
+                worst = dmax(worst, window_px(&sub, m, width, height, accept));
+                if (accept > 0 && worst > accept) return worst;
+            }
+        }
+    /* The inner cells (the ring's are in its windows), a row of cells first, then each cell. */
     crisp_bezier_patch strip;
     double sstore[2 * CRISP__PATCH_DOUBLES], stmp[CRISP__PATCH_DOUBLES];
-    for (int j = 0; j < tau; j++) {
-        /* the row of cells first, then each cell of it */
-        crisp__subpatch(p, 0, 1, j * h, j + 1 == tau ? 1.0 : (j + 1) * h, sstore, stmp, &strip);
-        for (int i = 0; i < tau; i++) {
-            crisp__subpatch(&strip, i * h, i + 1 == tau ? 1.0 : (i + 1) * h, 0, 1, storage, tmp,
-                            &sub);
+    for (int j = 1; j + 1 < tau; j++) {
+        crisp__subpatch(p, 0, 1, AT(j), AT(j + 1), sstore, stmp, &strip);
+        for (int i = 1; i + 1 < tau; i++) {
+            crisp__subpatch(&strip, AT(i), AT(i + 1), 0, 1, storage, tmp, &sub);
             worst = dmax(worst, window_px(&sub, m, width, height, accept));
             if (accept > 0 && worst > accept) return worst;
         }
     }
+#undef AT
     return worst;
 }
 

@@ -314,6 +314,58 @@ static void test_levels(void **state)
     assert_true(n > TRIALS / 2);
 }
 
+/* The premise of crisp__rational_level_px's windows: at level tau with any edge levels >= tau,
+ * every triangle of the leaf mesh lies in a cell of the tau x tau grid or in two neighbouring
+ * cells of the ring along a side, and with edge levels that are not multiples of tau some lie
+ * in such a window away from the corners (the four corner windows alone, an earlier form of the
+ * bound, do not hold them). */
+static void test_ring_windows(void **state)
+{
+    (void)state;
+    size_t off_corner = 0;
+    for (int trial = 0; trial < 400; trial++) {
+        int tau = 2 + trial % 7;
+        double slack = 1e-12;
+        crisp_tess_levels lv = {{tau, tau}, {0}};
+        for (int k = 0; k < 4; k++)
+            lv.outer[k] = tau + (int)(3 * tau * rnd());
+        size_t nt;
+        double(*t3)[3][2] = mesh_triangles(&lv, &nt);
+        for (size_t k = 0; k < nt; k++) {
+            double lo[2] = {1, 1}, hi[2] = {0, 0};
+            for (int v = 0; v < 3; v++)
+                for (int a = 0; a < 2; a++)
+                    lo[a] = fmin(lo[a], t3[k][v][a]), hi[a] = fmax(hi[a], t3[k][v][a]);
+            /* the cells' index ranges the triangle's box meets */
+            int c0[2], c1[2];
+            for (int a = 0; a < 2; a++) {
+                c0[a] = (int)floor(lo[a] * tau + slack * tau);
+                c1[a] = (int)ceil(hi[a] * tau - slack * tau) - 1;
+                if (c0[a] > tau - 1) c0[a] = tau - 1;
+                if (c1[a] < c0[a]) c1[a] = c0[a];
+            }
+            int ns = c1[0] - c0[0] + 1, nq = c1[1] - c0[1] + 1;
+            if (ns == 1 && nq == 1) continue; /* one cell */
+            /* two cells of the ring along a side: along s in the first or last row, or along t
+             * in the first or last column */
+            int ok = (ns == 2 && nq == 1 && (c0[1] == 0 || c0[1] == tau - 1)) ||
+                     (nq == 2 && ns == 1 && (c0[0] == 0 || c0[0] == tau - 1));
+            if (!ok)
+                fail_msg("level %d, edges %d %d %d %d: triangle (%g %g) (%g %g) (%g %g) in "
+                         "cells s %d..%d, t %d..%d",
+                         tau, lv.outer[0], lv.outer[1], lv.outer[2], lv.outer[3], t3[k][0][0],
+                         t3[k][0][1], t3[k][1][0], t3[k][1][1], t3[k][2][0], t3[k][2][1], c0[0],
+                         c1[0], c0[1], c1[1]);
+            int corner = (ns == 2 && (c0[0] == 0 || c1[0] == tau - 1)) ||
+                         (nq == 2 && (c0[1] == 0 || c1[1] == tau - 1));
+            off_corner += !corner;
+        }
+        free(t3);
+    }
+    printf("ring windows: %zu triangles across two ring cells away from the corners\n", off_corner);
+    assert_true(off_corner > 0);
+}
+
 /* Blocks of a rational B-spline surface: the bound against triangles with vertices anywhere in
  * the block. (The planner's O(1) form of it, patch_groups.c, is rational_bound.c's last step on
  * ranges that hold the control points' deviations: tests/render/test_group_leaves.c checks those
@@ -500,9 +552,9 @@ static void test_depth_part(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_reparam),    cmocka_unit_test(test_patches),
-        cmocka_unit_test(test_levels),     cmocka_unit_test(test_blocks),
-        cmocka_unit_test(test_depth_part),
+        cmocka_unit_test(test_reparam), cmocka_unit_test(test_patches),
+        cmocka_unit_test(test_levels),  cmocka_unit_test(test_ring_windows),
+        cmocka_unit_test(test_blocks),  cmocka_unit_test(test_depth_part),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
