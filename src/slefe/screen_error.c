@@ -361,6 +361,20 @@ static inline int tile_term(const double *lo, const double *up, const double *wl
     return 1;
 }
 
+/* The enclosures of points (X, Y, W of each of count grid points, 4 doubles a point) widened by
+ * the clip net's error err (X, Y, W at 0, 1, 3). */
+static inline void widen_xyw(double *lo, double *up, const double *err, int count)
+{
+    for (int g = 0; g < count; g++) {
+        UNROLL(3)
+        for (int ri = 0; ri < 3; ri++) {
+            const int r = ri == 2 ? 3 : ri;
+            lo[g * 4 + r] -= err[r];
+            up[g * 4 + r] += err[r];
+        }
+    }
+}
+
 /* The bound from the SLEFE at m = tau (tau <= 16), per tile. */
 static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p, const weights *wt,
                                 const crisp_slefe_view *view, const double *clip, const double *err,
@@ -373,14 +387,7 @@ static crisp_status error_slefe(const char *fn, const crisp_bezier_patch *p, con
     double lo[CRISP_SLEFE_GRID(MAXM) * 4], up[CRISP_SLEFE_GRID(MAXM) * 4];
     for (int r = 0; r < 4; r += r == 1 ? 2 : 1) /* X, Y, W: Z plays no part */
         crisp__slefe_patch_coordinate(&q, m, r, lo, up);
-    for (int g = 0; g < n * n; g++) {
-        UNROLL(3)
-        for (int ri = 0; ri < 3; ri++) {
-            const int r = ri == 2 ? 3 : ri;
-            lo[g * 4 + r] -= err[r];
-            up[g * 4 + r] += err[r];
-        }
-    }
+    widen_xyw(lo, up, err, n * n);
     double twist[4];
     slefe_twist(p, wt, clip, tau, twist);
     /* The weight's SLEFE (the rasterizer's point, see the top comment). */
@@ -493,14 +500,7 @@ static int slefe_tile_lower(const crisp_bezier_patch *p, const weights *wt,
     double lo[4 * 4], up[4 * 4], wlo[4 * 4], wup[4 * 4];
     for (int r = 0; r < 4; r += r == 1 ? 2 : 1)
         coordinate_tile(&q, tau, r, ku, kv, lo, up);
-    for (int g = 0; g < 4; g++) {
-        UNROLL(3)
-        for (int ri = 0; ri < 3; ri++) {
-            const int r = ri == 2 ? 3 : ri;
-            lo[g * 4 + r] -= err[r];
-            up[g * 4 + r] += err[r];
-        }
-    }
+    widen_xyw(lo, up, err, 4);
     double twist[4];
     slefe_twist(p, wt, clip, tau, twist);
     if (wt->cpw) {
