@@ -511,21 +511,19 @@ double crisp__rational_level_px(const crisp_bezier_patch *p, int tau, crisp_mat4
 #define AT(k) ((k) >= tau ? 1.0 : (k)*h)
     /* The ring's windows, the four at the sides' ends first (the widest: a rejection is found
      * soonest): side t = 0 walks to s = 1, s = 1 to t = 1, t = 1 to s = 0, s = 0 to t = 0. */
-    for (int round = 0; round < 2; round++)
-        for (int i = tau - 2; i >= 0; i--) {
-            if ((i == tau - 2) != (round == 0)) continue;
-            const double a = AT(i), b = AT(i + 2),
-                         side[4][4] = {{a, b, 0, h},
-                                       {1 - h, 1, a, b},
-                                       {1 - b, 1 - a, 1 - h, 1},
-                                       {0, h, 1 - b, 1 - a}};
-            for (int k = 0; k < 4; k++) {
-                crisp__subpatch(p, dmax(side[k][0], 0), side[k][1], dmax(side[k][2], 0), side[k][3],
-                                storage, tmp, &sub);
-                worst = dmax(worst, window_px(&sub, m, width, height, accept));
-                if (accept > 0 && worst > accept) return worst;
-            }
+    for (int i = tau - 2; i >= 0; i--) {
+        const double a = AT(i), b = AT(i + 2),
+                     side[4][4] = {{a, b, 0, h},
+                                   {1 - h, 1, a, b},
+                                   {1 - b, 1 - a, 1 - h, 1},
+                                   {0, h, 1 - b, 1 - a}};
+        for (int k = 0; k < 4; k++) {
+            crisp__subpatch(p, dmax(side[k][0], 0), side[k][1], dmax(side[k][2], 0), side[k][3],
+                            storage, tmp, &sub);
+            worst = dmax(worst, window_px(&sub, m, width, height, accept));
+            if (accept > 0 && worst > accept) return worst;
         }
+    }
     /* The inner cells (the ring's are in its windows), a row of cells first, then each cell. */
     crisp_bezier_patch strip;
     double sstore[2 * CRISP__PATCH_DOUBLES], stmp[CRISP__PATCH_DOUBLES];
