@@ -253,7 +253,7 @@ static void perf_control(const char *command)
 
 /* One row: variant 0 = group leaves (the default planner), 1 = no group leaves (at least one
  * leaf per visible patch, as before issue 12's group leaves). */
-enum { PLAN_CALLS = 51 };
+enum { PLAN_CALLS = 51, MAX_SAMPLES = 1 << 20 };
 
 /* What a row's child process hands back to the run (through a pipe). */
 typedef struct row_result {
@@ -261,69 +261,154 @@ typedef struct row_result {
     double frame_ms, plan_ms;
 } row_result;
 
-static void row(const char *scene_name, const char *cam_name, int frames, int threads,
-                int no_groups, int occlusion, int no_splats, row_result *result)
+/* The least wall time (ms) that a row's warm frames, and apart from them its plans, fill: a 3 ms
+ * frame's median over 7 frames follows the machine's passing load, one over 0.5 s of frames far
+ * less. BENCH_SCREEN_MIN_MS=N: N ms (0: exactly FRAMES frames). FRAMES = 1 runs exactly one warm
+ * frame and PLAN_CALLS plans whatever the setting (the count the callgrind recipes rely on). */
+static double fill_ms(int frames)
 {
-    crisp_model *m = scene_model(scene_name);
+    const char *e = getenv("BENCH_SCREEN_MIN_MS");
+    if (frames <= 1) return 0;
+    return e ? atof(e) : 500;
+}
+
+/* A growing list of samples (ms). */
+typedef struct samples {
+    double *v;
+    int n, cap;
+} samples;
+
+static void add_sample(samples *s, double x)
+{
+    if (s->n == s->cap) {
+        s->cap = s->cap ? 2 * s->cap : 64;
+        s->v = realloc(s->v, (size_t)s->cap * sizeof *s->v);
+        if (!s->v) die("out of memory for samples");
+    }
+    s->v[s->n++] = x;
+}
+
+/* Whether a timed loop goes on: at least `least` runs, and until `ms` of wall time from t0. */
+static int keep_going(int n, int least, double t0, double ms)
+{
+    return n < least || (n < MAX_SAMPLES && 1e3 * (crisp_time_now() - t0) < ms);
+}
+
+/* A scene, camera, planner and renderer ready to draw (a row, or one side of a pair). */
+typedef struct row_state {
+    const char *scene_name, *cam_name;
+    int no_groups, no_splats;
+    crisp_model *m;
     crisp_scene *sc;
-    if (crisp_scene_prepare(m, &sc)) die("prepare");
-    crisp_camera cam = camera(sc, cam_name);
+    crisp_camera cam;
     crisp_renderer *r;
-    if (crisp_renderer_create(&(crisp_render_desc){.threads = threads, .no_occlusion = !occlusion},
-                              &r))
-        die("renderer");
     crisp_planner *pl;
+    crisp_image img;
+    crisp_render_stats st;
+    const crisp_frame_plan *plan;
+    double ms_first, cpu_first, ms_built;
+    int build_frames;
+} row_state;
+
+static void row_open(row_state *s, const char *scene_name, const char *cam_name, int threads,
+                     int no_groups, int occlusion, int no_splats)
+{
+    *s = (row_state){.scene_name = scene_name,
+                     .cam_name = cam_name,
+                     .no_groups = no_groups,
+                     .no_splats = no_splats};
+    s->m = scene_model(scene_name);
+    if (crisp_scene_prepare(s->m, &s->sc)) die("prepare");
+    s->cam = camera(s->sc, cam_name);
+    if (crisp_renderer_create(&(crisp_render_desc){.threads = threads, .no_occlusion = !occlusion},
+                              &s->r))
+        die("renderer");
     const char *lim = getenv("BENCH_SCREEN_BUILD_LIMIT");
     if (crisp_planner_create(
             &(crisp_planner_desc){.no_groups = no_groups,
                                   .no_splats = no_splats,
                                   .splat_build_limit = lim ? strtoull(lim, NULL, 10) : 0},
-            NULL, &pl))
+            NULL, &s->pl))
         die("planner");
-    crisp_image img;
-    if (crisp_image_init(&img, cam.width, cam.height)) die("image");
+    if (crisp_image_init(&s->img, s->cam.width, s->cam.height)) die("image");
+}
+
+/* The first frame; with a build limit, the frames after it until no splat set is pending (then
+ * the warm frames are those of the unlimited planner). */
+static void row_first(row_state *s)
+{
+    double c_first = bench_cpu_ms(), t_first = crisp_time_now();
+    if (first_frame(s->pl, s->r, s->sc, &s->cam, &s->plan, &s->img, &s->st)) die("render");
+    s->ms_first = 1e3 * (crisp_time_now() - t_first);
+    s->cpu_first = bench_cpu_ms() - c_first;
+    s->build_frames = 1;
+    while (s->plan->stats.splat_pending) {
+        if (crisp_planner_plan(s->pl, s->sc, &s->cam, &s->plan) ||
+            crisp_render_cpu_plan(s->r, s->sc, s->plan, &s->cam, &s->img, &s->st))
+            die("render");
+        s->build_frames++;
+    }
+    s->ms_built = 1e3 * (crisp_time_now() - t_first);
+}
+
+/* One warm frame of s: its wall time (ms); *cpu += its process CPU time. */
+static double row_frame(row_state *s, double *cpu)
+{
+    double c0 = bench_cpu_ms(), a = crisp_time_now();
+    if (warm_frame(s->pl, s->r, s->sc, &s->cam, &s->plan, &s->img, &s->st)) die("render");
+    double b = crisp_time_now();
+    *cpu += bench_cpu_ms() - c0;
+    return 1e3 * (b - a);
+}
+
+/* One warm plan of s alone: its wall time (ms); *cpu += its process CPU time. */
+static double row_plan(row_state *s, double *cpu)
+{
+    double a = crisp_time_now(), c0 = bench_cpu_ms();
+    if (warm_plan(s->pl, s->sc, &s->cam, &s->plan)) die("plan");
+    double b = crisp_time_now();
+    *cpu += bench_cpu_ms() - c0;
+    return 1e3 * (b - a);
+}
+
+static void row_close(row_state *s)
+{
+    crisp_image_free(&s->img);
+    crisp_planner_destroy(s->pl);
+    crisp_renderer_destroy(s->r);
+    crisp_scene_destroy(s->sc);
+    crisp_model_destroy(s->m);
+}
+
+static void row(const char *scene_name, const char *cam_name, int frames, int threads,
+                int no_groups, int occlusion, int no_splats, row_result *result)
+{
+    row_state rs;
+    row_open(&rs, scene_name, cam_name, threads, no_groups, occlusion, no_splats);
     double scene_kb = status_kb("VmRSS:");
     reset_peak();
     int plans = frames > PLAN_CALLS ? frames : PLAN_CALLS;
+    double least_ms = fill_ms(frames), least_plan_ms = least_ms;
     const char *np = getenv("BENCH_SCREEN_PLANS");
-    if (np && atoi(np) > 0) plans = atoi(np);
-    double *tf = calloc((size_t)frames, sizeof *tf), *tp = calloc((size_t)plans, sizeof *tp);
-    double *tt = calloc((size_t)frames, sizeof *tt), *tr = calloc((size_t)frames, sizeof *tr);
-    crisp_render_stats st = {0};
-    const crisp_frame_plan *plan = NULL;
+    if (np && atoi(np) > 0) plans = atoi(np), least_plan_ms = 0;
+    samples tf = {0}, tp = {0}, tt = {0}, tr = {0};
     double cpu_frames = 0, cpu_plans = 0;
-    /* The first frame; with a build limit, the frames after it until no splat set is pending
-     * (then the warm frames are those of the unlimited planner). */
-    double c_first = bench_cpu_ms(), t_first = crisp_time_now();
-    if (first_frame(pl, r, sc, &cam, &plan, &img, &st)) die("render");
-    double ms_first = 1e3 * (crisp_time_now() - t_first);
-    double cpu_first = bench_cpu_ms() - c_first;
-    int build_frames = 1;
-    while (plan->stats.splat_pending) {
-        if (crisp_planner_plan(pl, sc, &cam, &plan) ||
-            crisp_render_cpu_plan(r, sc, plan, &cam, &img, &st))
-            die("render");
-        build_frames++;
-    }
-    double ms_built = 1e3 * (crisp_time_now() - t_first);
+    row_first(&rs);
     perf_control("enable");
-    for (int f = 0; f < frames; f++) {
-        double c0 = bench_cpu_ms();
-        double a = crisp_time_now();
-        if (warm_frame(pl, r, sc, &cam, &plan, &img, &st)) die("render");
-        double b = crisp_time_now();
-        cpu_frames += bench_cpu_ms() - c0;
-        tf[f] = 1e3 * (b - a);
-        tt[f] = st.ms_tess;
-        tr[f] = st.ms_raster;
+    double t0 = crisp_time_now();
+    while (keep_going(tf.n, frames, t0, least_ms)) {
+        add_sample(&tf, row_frame(&rs, &cpu_frames));
+        add_sample(&tt, rs.st.ms_tess);
+        add_sample(&tr, rs.st.ms_raster);
     }
     perf_control("disable");
-    for (int f = 0; f < plans; f++) {
-        double a = crisp_time_now(), c0 = bench_cpu_ms();
-        if (warm_plan(pl, sc, &cam, &plan)) die("plan");
-        tp[f] = 1e3 * (crisp_time_now() - a);
-        cpu_plans += bench_cpu_ms() - c0;
-    }
+    t0 = crisp_time_now();
+    while (keep_going(tp.n, plans, t0, least_plan_ms))
+        add_sample(&tp, row_plan(&rs, &cpu_plans));
+    const crisp_frame_plan *plan = rs.plan;
+    const crisp_render_stats st = rs.st;
+    const crisp_image img = rs.img;
+    const crisp_scene *sc = rs.sc;
     if (getenv("BENCH_SCREEN_STAGES"))
         fprintf(stderr,
                 "%s %s %s: levels %.1f edges %.1f trim %.1f ribbons %.1f ms; %u visible faces, "
@@ -352,9 +437,9 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
         no_groups   ? "no groups"
         : no_splats ? "groups, no splats"
                     : "groups, splats",
-        occlusion ? "on" : "off", sc->patch_count, bench_median(tf, frames), cpu_frames / frames,
-        bench_median(tp, plans), cpu_plans / plans, bench_median(tt, frames),
-        bench_median(tr, frames), plan->leaf_count, plan->stats.group_leaves,
+        occlusion ? "on" : "off", sc->patch_count, bench_median(tf.v, tf.n), cpu_frames / tf.n,
+        bench_median(tp.v, tp.n), cpu_plans / tp.n, bench_median(tt.v, tt.n),
+        bench_median(tr.v, tr.n), plan->leaf_count, plan->stats.group_leaves,
         (unsigned long long)st.triangles, (unsigned long long)st.occluded_triangles,
         (unsigned long long)st.ribbon_triangles, covered,
         covered ? (double)st.triangles / covered : 0.0, peak_kb / 1024, scene_kb / 1024, frame_mb,
@@ -364,28 +449,107 @@ static void row(const char *scene_name, const char *cam_name, int frames, int th
             : 0.0,
         plan->stats.splat_faces, (unsigned long long)plan->stats.splats_drawn,
         covered ? (double)(st.triangles + plan->stats.splats_drawn) / covered : 0.0,
-        plan->stats.splat_bytes / 1048576.0, ms_first, cpu_first, build_frames, ms_built,
-        (unsigned)hash);
+        plan->stats.splat_bytes / 1048576.0, rs.ms_first, rs.cpu_first, rs.build_frames,
+        rs.ms_built, (unsigned)hash);
     fflush(stdout);
     *result = (row_result){
-        .done = 1, .frame_ms = bench_median(tf, frames), .plan_ms = bench_median(tp, plans)};
-    free(tf), free(tp), free(tt), free(tr);
-    crisp_image_free(&img);
-    crisp_planner_destroy(pl);
-    crisp_renderer_destroy(r);
-    crisp_scene_destroy(sc);
-    crisp_model_destroy(m);
+        .done = 1, .frame_ms = bench_median(tf.v, tf.n), .plan_ms = bench_median(tp.v, tp.n)};
+    free(tf.v), free(tp.v), free(tt.v), free(tr.v);
+    row_close(&rs);
+}
+
+/* The issue's pairs: row A (scene, camera) over row B, each against the 1.3x target. */
+static const char *pairs[][4] = {{"gen100", "default", "gen50", "default"},
+                                 {"gen100", "close", "gen50", "close"},
+                                 {"gen100", "far", "gen50", "far"},
+                                 {"imp49", "far", "imp", "far10"}};
+enum { PAIRS = sizeof pairs / sizeof pairs[0] };
+
+/* Median of the ratios a[k] / b[k] over the k where b[k] > 0 (0 when there is none). */
+static double median_ratio(const samples *a, const samples *b)
+{
+    samples r = {0};
+    for (int k = 0; k < a->n && k < b->n; k++)
+        if (b->v[k] > 0) add_sample(&r, a->v[k] / b->v[k]);
+    double m = r.n ? bench_median(r.v, r.n) : 0;
+    free(r.v);
+    return m;
+}
+
+static void print_ratio(double x)
+{
+    if (x > 0 && isfinite(x))
+        printf(" %.2f |", x);
+    else
+        printf(" - |");
+}
+
+/* Pair p measured in one process, its two rows' frames alternating (A B, B A, A B, ...: each
+ * ratio a frame of A over the frame of B next to it), then their plans alternating the same way,
+ * each side filling fill_ms(frames) or more: a change in the machine's speed over the run
+ * (another process's load, the CPU's clock) reaches both sides alike. Prints the ratio of the
+ * two sides' medians and the median of the per-frame ratios, and the two images' hashes (the
+ * separate rows' ones). */
+static void pair(size_t p, int frames, int threads)
+{
+    row_state a, b;
+    row_open(&a, pairs[p][0], pairs[p][1], threads, 0, 1, 0);
+    row_open(&b, pairs[p][2], pairs[p][3], threads, 0, 1, 0);
+    row_first(&a);
+    row_first(&b);
+    double least_ms = 2 * fill_ms(frames); /* both sides */
+    samples fa = {0}, fb = {0}, pa = {0}, pb = {0};
+    double cfa = 0, cfb = 0, cpa = 0, cpb = 0;
+    double t0 = crisp_time_now();
+    while (keep_going(fa.n, frames, t0, least_ms)) {
+        double x, y;
+        if (fa.n % 2 == 0)
+            x = row_frame(&a, &cfa), y = row_frame(&b, &cfb);
+        else
+            y = row_frame(&b, &cfb), x = row_frame(&a, &cfa);
+        add_sample(&fa, x), add_sample(&fb, y);
+    }
+    int plans = frames > PLAN_CALLS ? frames : PLAN_CALLS;
+    t0 = crisp_time_now();
+    while (keep_going(pa.n, plans, t0, least_ms)) {
+        double x, y;
+        if (pa.n % 2 == 0)
+            x = row_plan(&a, &cpa), y = row_plan(&b, &cpb);
+        else
+            y = row_plan(&b, &cpb), x = row_plan(&a, &cpa);
+        add_sample(&pa, x), add_sample(&pb, y);
+    }
+    /* the per-frame ratios before the medians sort the samples */
+    double fr_med = median_ratio(&fa, &fb), pr_med = median_ratio(&pa, &pb);
+    double fma = bench_median(fa.v, fa.n), fmb = bench_median(fb.v, fb.n);
+    double pma = bench_median(pa.v, pa.n), pmb = bench_median(pb.v, pb.n);
+    printf("| %s:%s/%s:%s | %d | %.2f | %.2f |", pairs[p][0], pairs[p][1], pairs[p][2], pairs[p][3],
+           fa.n, fma, fmb);
+    print_ratio(fma / fmb);
+    print_ratio(fr_med);
+    print_ratio(cfa / cfb);
+    printf(" %d | %.3f | %.3f |", pa.n, pma, pmb);
+    print_ratio(pma / pmb);
+    print_ratio(pr_med);
+    print_ratio(cpa / cpb);
+    int fok = fma <= 1.3 * fmb && fr_med <= 1.3, pok = pma <= 1.3 * pmb && pr_med <= 1.3;
+    printf(" %s | %08x %08x |\n",
+           fok && pok ? "yes"
+           : fok      ? "frame only"
+           : pok      ? "plan only"
+                      : "no",
+           (unsigned)bench_image_hash(&a.img), (unsigned)bench_image_hash(&b.img));
+    fflush(stdout);
+    free(fa.v), free(fb.v), free(pa.v), free(pb.v);
+    row_close(&a);
+    row_close(&b);
 }
 
 /* The issue's ratios from this run's default-planner rows (variant 0), where both rows ran. */
 static void print_ratios(const char *rows[][2], size_t n, row_result (*results)[2])
 {
-    static const char *pairs[][4] = {{"gen100", "default", "gen50", "default"},
-                                     {"gen100", "close", "gen50", "close"},
-                                     {"gen100", "far", "gen50", "far"},
-                                     {"imp49", "far", "imp", "far10"}};
     int header = 0;
-    for (size_t p = 0; p < sizeof pairs / sizeof pairs[0]; p++) {
+    for (size_t p = 0; p < PAIRS; p++) {
         const row_result *a = NULL, *b = NULL;
         for (size_t k = 0; k < n; k++) {
             if (!results[k][0].done) continue;
@@ -396,7 +560,8 @@ static void print_ratios(const char *rows[][2], size_t n, row_result (*results)[
         }
         if (!a || !b) continue;
         if (!header) {
-            printf("\nRatios in this run (default planner; issue 12's target: at most 1.3x)\n\n"
+            printf("\nRatios in this run (default planner, each row its own process: the ratio of "
+                   "the rows' medians; issue 12's target: at most 1.3x)\n\n"
                    "| row | against | frame ratio | plan ratio | within 1.3x |\n"
                    "|---|---|---:|---:|---|\n");
             header = 1;
@@ -435,8 +600,10 @@ int main(int argc, char **argv)
     enum { ROWS = sizeof rows / sizeof rows[0] };
     row_result results[ROWS][2] = {{{0}}}; /* [row][variant], from the rows' child processes */
     bench_print_machine(stdout);
-    printf("load average at start %.2f; 1920x1080, %d threads, median of %d warm frames\n\n",
-           bench_load_average(), threads, frames);
+    printf("load average at start %.2f; 1920x1080, %d threads, median of at least %d warm frames "
+           "filling %.0f ms or more (plans the same, at least %d)\n\n",
+           bench_load_average(), threads, frames, fill_ms(frames),
+           frames > PLAN_CALLS ? frames : PLAN_CALLS);
     printf(
         "| scene | camera | planner | occlusion | patches | frame ms | frame CPU ms | plan ms | "
         "plan CPU ms | tess ms | raster ms | leaves | group leaves | triangles | occluded tri | "
@@ -484,6 +651,45 @@ int main(int argc, char **argv)
         }
     }
     print_ratios(rows, ROWS, results);
+    /* The pairs measured alternately in one process: those named (e.g. imp49:far/imp:far10) and
+     * those whose two rows ran above (BENCH_SCREEN_PAIRS=0: none). */
+    const char *pe = getenv("BENCH_SCREEN_PAIRS");
+    int pair_header = 0;
+    for (size_t p = 0; p < PAIRS && !(pe && !strcmp(pe, "0")); p++) {
+        char key[128];
+        snprintf(key, sizeof key, "%s:%s/%s:%s", pairs[p][0], pairs[p][1], pairs[p][2],
+                 pairs[p][3]);
+        int wanted = 0, ran = 0;
+        for (int a = 3; a < argc; a++)
+            wanted |= !strcmp(argv[a], key);
+        for (size_t k = 0; k < ROWS; k++)
+            ran += results[k][0].done &&
+                   ((!strcmp(rows[k][0], pairs[p][0]) && !strcmp(rows[k][1], pairs[p][1])) ||
+                    (!strcmp(rows[k][0], pairs[p][2]) && !strcmp(rows[k][1], pairs[p][3])));
+        if (!wanted && ran < 2) continue;
+        if (!pair_header) {
+            printf("\nThe pairs measured alternately in one process (default planner, %d threads; "
+                   "warm frames, then plans, of the two rows alternating, each side at least %d "
+                   "and %.0f ms or more; ratio of the medians, median of the per-frame ratios, "
+                   "ratio of the process CPU times)\n\n"
+                   "| pair (row:camera/against:camera) | frames | frame ms | against frame ms | "
+                   "frame ratio | median frame "
+                   "ratio | frame CPU ratio | plans | plan ms | against plan ms | plan ratio | "
+                   "median plan ratio | plan CPU ratio | within 1.3x | image hashes |\n"
+                   "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n",
+                   threads, frames, fill_ms(frames));
+            fflush(stdout);
+            pair_header = 1;
+        }
+        pid_t pid = fork();
+        if (pid == 0) {
+            pair(p, frames, threads);
+            _exit(0);
+        }
+        int status = 0;
+        waitpid(pid, &status, 0);
+        if (!WIFEXITED(status) || WEXITSTATUS(status)) printf("| %s | failed |\n", key);
+    }
     printf("\nload average at the end %.2f\n", bench_load_average());
     return 0;
 }
