@@ -5,7 +5,9 @@
  * centre is covered and shows a true point of the face within h px.
  *
  * Two passes: each range's screen box and nearest depth (its splats projected), and those of its
- * chunks (runs of SPLAT_CHUNK splats), range by range in parallel; then bands of rows in
+ * chunks (runs of SPLAT_CHUNK splats), and the bands of rows it meets, range by range in parallel
+ * (at a distance a frame holds one small range per face: imp49 far's 13,573, whose serial
+ * bookkeeping had cost as much as a third of the draw's parallel work); then bands of rows in
  * parallel, each band drawing every range that reaches it in plan order (the splats of its chunks
  * that reach the band projected again), so a sample's writes come in the same order whatever the
  * thread count. The planner orders the ranges nearest first; a band skips a range, and then a
@@ -17,6 +19,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <immintrin.h>
+#endif
 
 #include "occlusion.h"
 #include "splat_raster.h"
@@ -32,7 +37,6 @@ void crisp__splat_scratch_free(crisp__splat_scratch *s)
 {
     free(s->list);
     free(s->box);
-    free(s->hidden);
     free(s->band_start);
     free(s->band_list);
     free(s->band_fill);
@@ -49,8 +53,16 @@ static inline int project(const crisp_frame_plan *plan, const float *o, const cr
 {
     const float *m = plan->view_proj_f;
     float cl[4];
+#ifdef __SSE2__
+    /* the same float operations in the same order, four lanes at once */
+    __m128 c = _mm_add_ps(_mm_loadu_ps(o), _mm_mul_ps(_mm_loadu_ps(m), _mm_set1_ps(sp->p[0])));
+    c = _mm_add_ps(c, _mm_mul_ps(_mm_loadu_ps(m + 4), _mm_set1_ps(sp->p[1])));
+    c = _mm_add_ps(c, _mm_mul_ps(_mm_loadu_ps(m + 8), _mm_set1_ps(sp->p[2])));
+    _mm_storeu_ps(cl, c);
+#else
     for (int q = 0; q < 4; q++)
         cl[q] = o[q] + m[q] * sp->p[0] + m[q + 4] * sp->p[1] + m[q + 8] * sp->p[2];
+#endif
     double w = cl[3];
     if (!(w > 0) || !(cl[2] >= -w) || !(cl[2] <= w) || !isfinite(cl[0] + cl[1])) return 0;
     *x = ((double)cl[0] / w + 1) * sx, *y = (1 - (double)cl[1] / w) * sy, *iw = 1.0 / w;
@@ -61,8 +73,43 @@ typedef struct project_ctx {
     crisp__splat_scratch *s;
     const crisp__splat_draw_desc *d;
     const crisp_frame_plan *plan;
-    int bw; /* the hiz's blocks per row */
+    const crisp_raster_target *t;
+    int bw;       /* the hiz's blocks per row */
+    size_t bands; /* bands of BAND_ROWS rows of t */
+    /* per worker: the union of the boxes of the ranges not hidden (lo x, lo y, hi x, hi y) and
+     * the count of those hidden, a cache line each */
+    struct project_sums {
+        _Alignas(64) double un[4];
+        size_t hidden;
+    } * sums;
 } project_ctx;
+
+/* ceil(a), a clamped to +-1e9 first (pixel positions), without a libm call. */
+static inline int ceil_px(double a)
+{
+    a = a < -1e9 ? -1e9 : a > 1e9 ? 1e9 : a;
+    int i = (int)a; /* towards zero: ceil for a <= 0, floor for a > 0 */
+    return i < a ? i + 1 : i;
+}
+
+/* floor(a), a clamped to +-1e9 first, without a libm call. */
+static inline int floor_px(double a)
+{
+    a = a < -1e9 ? -1e9 : a > 1e9 ? 1e9 : a;
+    int i = (int)a; /* towards zero: floor for a >= 0, ceil for a < 0 */
+    return i > a ? i - 1 : i;
+}
+
+/* Whether draw_bands draws anything of a range or chunk of box b in band `band` of t (window
+ * win): its box meets the band's rows and the target's columns. */
+static inline int band_meets(const crisp_raster_target *t, const int win[4], const double *b,
+                             size_t band)
+{
+    const int x0 = win[0], y0 = win[1];
+    int r0 = y0 + (int)band * BAND_ROWS, r1 = r0 + BAND_ROWS;
+    if (r1 > y0 + t->height) r1 = y0 + t->height;
+    return !(b[3] < r0 || b[1] >= r1 || b[2] < x0 || b[0] >= x0 + t->width);
+}
 
 /* Chunks of fewer splats than this get their box from their splats' projections (as chunks that
  * may reach W <= 0 do) rather than chunk_box: a projection costs about a third of chunk_box's
@@ -113,10 +160,12 @@ static int chunk_box(const crisp_frame_plan *plan, const float *o, const crisp_p
 
 static void project_ranges(void *vctx, size_t begin, size_t end, int worker)
 {
-    (void)worker;
     project_ctx *c = vctx;
     const crisp_frame_plan *plan = c->plan;
     double h = plan->splat_half_px, sx = 0.5 * plan->width, sy = 0.5 * plan->height;
+    struct project_sums *sum = &c->sums[worker];
+    double u[4] = {sum->un[0], sum->un[1], sum->un[2], sum->un[3]};
+    size_t hidden_ranges = 0;
     for (size_t i = begin; i < end; i++) {
         const crisp_plan_splat_range *rg = &plan->splat_ranges[c->s->list[i]];
         const float *o = plan->splat_clip_origin + 4 * (size_t)rg->face;
@@ -153,16 +202,32 @@ static void project_ranges(void *vctx, size_t begin, size_t end, int worker)
             crisp__occl_set(&ol, c->d->win, b, b + 2, b[4]);
             hidden = (uint8_t)crisp__occl_hidden(&ol, c->d->hiz, c->bw);
         }
-        c->s->hidden[i] = hidden;
+        c->s->span[i][0] = 1, c->s->span[i][1] = 0;
+        if (hidden) {
+            hidden_ranges++;
+            continue;
+        }
+        /* finite: some splat of the range was projected */
+        u[0] = b[0] < u[0] ? b[0] : u[0], u[1] = b[1] < u[1] ? b[1] : u[1];
+        u[2] = b[2] > u[2] ? b[2] : u[2], u[3] = b[3] > u[3] ? b[3] : u[3];
+        /* The bands band_meets accepts, an interval of them (the box's rows are one): from
+         * those of the box's rows, one more each side for the rounding, trimmed by it. */
+        const crisp_raster_target *t = c->t;
+        const int *win = c->d->win;
+        long b0 = (long)floor_px((b[1] - win[1]) * (1.0 / BAND_ROWS)) - 1,
+             b1 = (long)floor_px((b[3] - win[1]) * (1.0 / BAND_ROWS)) + 1;
+        if (b0 < 0) b0 = 0;
+        if (b1 > (long)c->bands - 1) b1 = (long)c->bands - 1;
+        while (b0 <= b1 && !band_meets(t, win, b, (size_t)b0))
+            b0++;
+        while (b1 > b0 && !band_meets(t, win, b, (size_t)b1))
+            b1--;
+        if (b0 > b1) continue;
+        c->s->span[i][0] = (uint32_t)b0, c->s->span[i][1] = (uint32_t)b1;
     }
-}
-
-/* ceil(a), a clamped to +-1e9 first (pixel positions), without a libm call. */
-static inline int ceil_px(double a)
-{
-    a = a < -1e9 ? -1e9 : a > 1e9 ? 1e9 : a;
-    int i = (int)a; /* towards zero: ceil for a <= 0, floor for a > 0 */
-    return i < a ? i + 1 : i;
+    for (int k = 0; k < 4; k++)
+        sum->un[k] = u[k];
+    sum->hidden += hidden_ranges;
 }
 
 typedef struct band_ctx {
@@ -256,17 +321,6 @@ static int box_hidden(const band_ctx *c, const double *b, int r0, int r1)
     return 1;
 }
 
-/* Whether draw_bands draws anything of a range or chunk of box b in band `band` of t (window
- * win): its box meets the band's rows and the target's columns. */
-static inline int band_meets(const crisp_raster_target *t, const int win[4], const double *b,
-                             size_t band)
-{
-    const int x0 = win[0], y0 = win[1];
-    int r0 = y0 + (int)band * BAND_ROWS, r1 = r0 + BAND_ROWS;
-    if (r1 > y0 + t->height) r1 = y0 + t->height;
-    return !(b[3] < r0 || b[1] >= r1 || b[2] < x0 || b[0] >= x0 + t->width);
-}
-
 static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
 {
     band_ctx *c = vctx;
@@ -280,8 +334,7 @@ static void draw_bands(void *vctx, size_t begin, size_t end, int worker)
         if (r1 > y0 + t->height) r1 = y0 + t->height;
         for (uint32_t e = c->s->band_start[band]; e < c->s->band_start[band + 1]; e++) {
             size_t i = c->s->band_list[e];
-            const double *b = c->s->box + 5 * i;
-            if (c->s->hidden[i] || !band_meets(t, c->d->win, b, band)) continue;
+            const double *b = c->s->box + 5 * i; /* not hidden, meets the band (its span) */
             /* behind every sample the range's squares may cover in the band (what the surfaces
              * and the nearer ranges drew: the ranges come nearest first, splat_store.c) */
             if (c->occlude && box_hidden(c, b, r0, r1)) {
@@ -327,47 +380,50 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
     double *box = realloc(s->box, cap * 5 * sizeof *box);
     if (!box) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for splats");
     s->box = box;
-    uint8_t *hidden = realloc(s->hidden, cap);
-    if (!hidden) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for splats");
-    s->hidden = hidden;
-    size_t count = 0, splats = 0;
+    /* The ranges drawn and each one's first chunk. */
+    if ((st = crisp_grow((void **)&s->chunk_first, &s->chunk_first_cap, n + 1,
+                         sizeof *s->chunk_first)))
+        return st;
+    size_t count = 0, splats = 0, chunks = 0;
     for (size_t r = 0; r < n; r++) {
         const crisp_plan_splat_range *rg = &plan->splat_ranges[r];
         if (!rg->count) continue;
         if (d->only && !d->only[rg->face]) continue;
         s->list[count] = (uint32_t)r;
+        s->chunk_first[count] = (uint32_t)chunks;
         count++;
         splats += rg->count;
+        chunks += (rg->count + SPLAT_CHUNK - 1) / SPLAT_CHUNK;
     }
     if (!count) return CRISP_OK;
-    /* each range's first chunk */
-    if ((st = crisp_grow((void **)&s->chunk_first, &s->chunk_first_cap, count + 1,
-                         sizeof *s->chunk_first)))
-        return st;
-    size_t chunks = 0;
-    for (size_t i = 0; i < count; i++) {
-        s->chunk_first[i] = (uint32_t)chunks;
-        chunks += (plan->splat_ranges[s->list[i]].count + SPLAT_CHUNK - 1) / SPLAT_CHUNK;
-    }
     if (chunks > UINT32_MAX)
         return crisp_error(CRISP_ERR_LIMIT, "%zu splat chunks in a frame", chunks);
     s->chunk_first[count] = (uint32_t)chunks;
+    size_t bands = (size_t)(t->height + BAND_ROWS - 1) / BAND_ROWS;
     if ((st = crisp_grow((void **)&s->chunk_box, &s->chunk_box_cap, 5 * (chunks ? chunks : 1),
-                         sizeof *s->chunk_box)))
+                         sizeof *s->chunk_box)) ||
+        (st = crisp_grow((void **)&s->band_start, &s->band_start_cap, bands + 1,
+                         sizeof *s->band_start)) ||
+        (st = crisp_grow((void **)&s->span, &s->span_cap, count, sizeof *s->span)))
         return st;
-    /* The ranges' boxes, and those hidden whole by the depth drawn (project_ranges); then the
-     * blocks the others can reach. */
-    project_ctx pc = {s, d, plan, (d->win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK};
+    /* The ranges' boxes, those hidden whole by the depth drawn, and the bands each of the others
+     * meets (project_ranges); the union of their boxes per worker. */
+    enum { MAX_WORKERS = 64 };
+    if (crisp_pool_threads(pool) > MAX_WORKERS) pool = NULL;
+    struct project_sums sums[MAX_WORKERS];
+    for (int w = 0; w < MAX_WORKERS; w++) {
+        sums[w].un[0] = sums[w].un[1] = INFINITY, sums[w].un[2] = sums[w].un[3] = -INFINITY;
+        sums[w].hidden = 0;
+    }
+    project_ctx pc = {s,     d,   plan, t, (d->win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+                      bands, sums};
     crisp_pool_parallel_for(pool, count, 16, project_ranges, &pc);
     double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
-    for (size_t i = 0; i < count; i++) {
-        const double *b = s->box + 5 * i;
-        if (s->hidden[i]) {
-            stats->hidden_ranges++;
-            continue;
-        }
-        lo[0] = fmin(lo[0], b[0]), lo[1] = fmin(lo[1], b[1]);
-        hi[0] = fmax(hi[0], b[2]), hi[1] = fmax(hi[1], b[3]);
+    for (int w = 0; w < MAX_WORKERS; w++) {
+        const double *u = sums[w].un;
+        stats->hidden_ranges += sums[w].hidden;
+        lo[0] = u[0] < lo[0] ? u[0] : lo[0], lo[1] = u[1] < lo[1] ? u[1] : lo[1];
+        hi[0] = u[2] > hi[0] ? u[2] : hi[0], hi[1] = u[3] > hi[1] ? u[3] : hi[1];
     }
     if (lo[0] <= hi[0]) {
         double bx0 = floor((lo[0] - d->win[0] - 1) / CRISP_OCCL_BLOCK),
@@ -378,8 +434,7 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
         stats->box[0] = (int)fmax(0, fmin(bx0, mx)), stats->box[1] = (int)fmax(0, fmin(by0, my));
         stats->box[2] = (int)fmax(0, fmin(bx1, mx)), stats->box[3] = (int)fmax(0, fmin(by1, my));
     }
-    size_t written[64] = {0}, culled[64] = {0}, chunks_culled[64] = {0}; /* per worker */
-    if (crisp_pool_threads(pool) > 64) pool = NULL;
+    size_t written[MAX_WORKERS] = {0}, culled[MAX_WORKERS] = {0}, chunks_culled[MAX_WORKERS] = {0};
     band_ctx bc = {.s = s,
                    .d = d,
                    .t = t,
@@ -396,30 +451,9 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
             bc.omax[a] = bc.off[q][a] > bc.omax[a] ? bc.off[q][a] : bc.omax[a];
         }
     }
-    size_t bands = (size_t)(t->height + BAND_ROWS - 1) / BAND_ROWS;
     /* Each band's ranges, in list order: those that draw_bands draws something of there (the
-     * bands of a range's box, one more each side, less those band_meets refuses: the box's rows
-     * are an interval, so the bands it meets are one too). */
-    if ((st = crisp_grow((void **)&s->band_start, &s->band_start_cap, bands + 1,
-                         sizeof *s->band_start)) ||
-        (st = crisp_grow((void **)&s->span, &s->span_cap, count, sizeof *s->span)))
-        return st;
+     * spans project_ranges found). */
     memset(s->band_start, 0, (bands + 1) * sizeof *s->band_start);
-    for (size_t i = 0; i < count; i++) {
-        const double *b = s->box + 5 * i;
-        s->span[i][0] = 1, s->span[i][1] = 0;
-        if (s->hidden[i]) continue;
-        double lo = floor((b[1] - d->win[1]) / BAND_ROWS) - 1,
-               hi = floor((b[3] - d->win[1]) / BAND_ROWS) + 1;
-        if (!(hi >= 0) || !(lo <= (double)bands - 1)) continue;
-        size_t b0 = lo < 0 ? 0 : (size_t)lo, b1 = hi > (double)bands - 1 ? bands - 1 : (size_t)hi;
-        while (b0 <= b1 && !band_meets(t, d->win, b, b0))
-            b0++;
-        while (b1 > b0 && !band_meets(t, d->win, b, b1))
-            b1--;
-        if (b0 > b1) continue;
-        s->span[i][0] = (uint32_t)b0, s->span[i][1] = (uint32_t)b1;
-    }
     for (int pass = 0; pass < 2; pass++) {
         size_t total = 0;
         for (size_t i = 0; i < count; i++) {
@@ -447,7 +481,7 @@ crisp_status crisp__splat_draw(crisp__splat_scratch *s, crisp_raster_target *t, 
     crisp_pool_parallel_for(pool, bands, 1, draw_bands, &bc);
     stats->ranges = count;
     stats->splats = splats;
-    for (int w = 0; w < 64; w++) {
+    for (int w = 0; w < MAX_WORKERS; w++) {
         stats->samples_written += written[w];
         stats->culled += culled[w];
         stats->chunks_culled += chunks_culled[w];

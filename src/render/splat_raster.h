@@ -14,11 +14,10 @@ typedef struct crisp__splat_scratch {
     uint32_t *list; /* the ranges drawn (plan indices) */
     double *box;    /* per range drawn: lo x, lo y, hi x, hi y of its squares, then its largest
                        1 / W */
-    uint8_t *hidden;
     size_t list_cap;
     uint32_t *band_start, *band_list, *band_fill; /* per band of rows: its ranges (list indices) */
     size_t band_start_cap, band_list_cap, band_fill_cap;
-    /* per range drawn: the first and last band it meets (first > last: none) */
+    /* per range drawn: the first and last band it meets (first > last: none, or hidden whole) */
     uint32_t (*span)[2];
     size_t span_cap;
     uint32_t *chunk_first; /* per range drawn: its first chunk (chunks of SPLAT_CHUNK splats) */

@@ -69,7 +69,11 @@ static double rnd(void)
 
 #define NF 3
 
-static void draw_case(int samples, int width, int height)
+/* The plan's splats drawn into a target that is the window win (x0, y0, width, height) of a
+ * width x height image, against every splat tested at every sample of the image in draw order.
+ * small: the splats as many ranges of 1 to 6 splats each, each about one point (a far view of
+ * many small faces: ranges a few pixels across, many across a band's edge). */
+static void draw_case_window(int samples, int width, int height, const int win[4], int small)
 {
     crisp_camera cam = {.eye = {0.3, -0.2, 6},
                         .target = {0, 0, 0},
@@ -101,26 +105,43 @@ static void draw_case(int samples, int width, int height)
             clip_origin[4 * f + q] = (float)h[q];
     }
     plan.splat_clip_origin = clip_origin;
-    enum { N = 440, NR = NF + 1 };
+    enum { N = 440, MAX_NR = N };
     crisp_plan_splat sp[N];
     uint32_t sp_face[N];
     /* the last range: behind the surface drawn over the left half (culled with occlude) */
-    crisp_plan_splat_range ranges[NR] = {{0, 150, 0}, {150, 130, 1}, {280, 120, 2}, {400, 40, 0}};
+    crisp_plan_splat_range ranges[MAX_NR] = {
+        {0, 150, 0}, {150, 130, 1}, {280, 120, 2}, {400, 40, 0}};
+    int NR = NF + 1;
+    if (small) /* ranges of 1 to 6 splats up to 400, then the hidden one */
+        for (uint32_t first = 0, r = 0;; r++) {
+            uint32_t n = first + 6 > 400 ? 400 - first : 1 + (uint32_t)(6 * rnd()) % 6;
+            ranges[r] = (crisp_plan_splat_range){first, n, r % NF};
+            first += n;
+            if (first == 400) {
+                ranges[r + 1] = (crisp_plan_splat_range){400, 40, 0};
+                NR = (int)r + 2;
+                break;
+            }
+        }
+    double centre[3] = {0};
     for (int r = 0, k = 0; r < NR; r++)
         for (uint32_t q = 0; q < ranges[r].count; q++, k++) {
             crisp_plan_splat *s = &sp[k];
             int f = (int)ranges[r].face;
             sp_face[k] = (uint32_t)f;
+            if (small && q == 0)
+                for (int a = 0; a < 3; a++)
+                    centre[a] = 2.4 * rnd() - 1.2;
             for (int a = 0; a < 3; a++)
-                s->p[a] = (float)(2.4 * rnd() - 1.2);
-            if (r == NF) {
+                s->p[a] = (float)(small ? centre[a] + 0.03 * rnd() : 2.4 * rnd() - 1.2);
+            if (r == NR - 1) {
                 s->p[0] = (float)(-1.5 - 0.4 * rnd()), s->p[1] = (float)(0.6 * rnd() - 0.5);
                 s->p[2] = (float)(-0.3 - 0.5 * rnd());
             }
             if (k % 37 == 0) s->p[2] = (float)(7 - origin[f][2]);   /* behind the eye */
             if (k % 41 == 0) s->p[2] = (float)(5.5 - origin[f][2]); /* before the near plane */
             if (k % 43 == 0) s->p[2] = s->p[2] - 4.5f;              /* beyond the far plane */
-            if (k % 5 == 0 && k && r < NF)
+            if (k % 5 == 0 && k && r < NR - 1)
                 s->p[0] = sp[k - 1].p[0], s->p[1] = sp[k - 1].p[1],
                 s->p[2] = sp[k - 1].p[2]; /* a tie: the earlier stays */
             float n[3] = {(float)rnd(), (float)rnd(), k % 3 ? 1.0f : -1.0f};
@@ -135,12 +156,12 @@ static void draw_case(int samples, int width, int height)
 
     crisp_raster_target t[4]; /* 1 and 3 threads; culling from the splats, and from hiz too */
     memset(t, 0, sizeof t);
-    size_t ns = (size_t)width * height * samples;
+    size_t ns = (size_t)width * height * samples, nw = (size_t)win[2] * win[3] * samples;
     double *ref_iw = calloc(ns, sizeof *ref_iw);
     int32_t *ref_face = malloc(ns * sizeof *ref_face);
     float *ref_attr = calloc(ns * CRISP_RASTER_ATTRS, sizeof *ref_attr);
     for (int k = 0; k < 4; k++) {
-        assert_int_equal(crisp__raster_target_init(&t[k], width, height, samples), CRISP_OK);
+        assert_int_equal(crisp__raster_target_init(&t[k], win[2], win[3], samples), CRISP_OK);
         crisp__raster_target_clear(&t[k]);
     }
     /* Depth already drawn (a surface at W = 6 over the left half): splats behind it stay hidden. */
@@ -154,11 +175,21 @@ static void draw_case(int samples, int width, int height)
                 ref_attr[i * CRISP_RASTER_ATTRS + a] = -3;
         }
     }
-    for (int k = 0; k < 4; k++) {
-        memcpy(t[k].inv_w, ref_iw, ns * sizeof *ref_iw);
-        memcpy(t[k].face, ref_face, ns * sizeof *ref_face);
-        memcpy(t[k].attr, ref_attr, ns * CRISP_RASTER_ATTRS * sizeof *ref_attr);
-    }
+    /* sample s of pixel (x, y) of the window: sample at[s] of the image */
+    size_t *at = malloc(nw * sizeof *at);
+    for (int y = 0; y < win[3]; y++)
+        for (int x = 0; x < win[2]; x++)
+            for (int q = 0; q < samples; q++)
+                at[((size_t)y * win[2] + x) * samples + q] =
+                    ((size_t)(y + win[1]) * width + (x + win[0])) * samples + q;
+    for (int k = 0; k < 4; k++)
+        for (size_t i = 0; i < nw; i++) {
+            t[k].inv_w[i] = ref_iw[at[i]], t[k].face[i] = ref_face[at[i]];
+            memcpy(t[k].attr + i * CRISP_RASTER_ATTRS, ref_attr + at[i] * CRISP_RASTER_ATTRS,
+                   CRISP_RASTER_ATTRS * sizeof *ref_attr);
+        }
+    double *start_iw = malloc(nw * sizeof *start_iw);
+    memcpy(start_iw, t[0].inv_w, nw * sizeof *start_iw);
     /* The reference: every splat against every sample, in draw order. */
     long covered = 0;
     for (int k = 0; k < N; k++) {
@@ -195,14 +226,26 @@ static void draw_case(int samples, int width, int height)
     crisp_pool *pool;
     assert_int_equal(crisp_pool_create(3, &pool), CRISP_OK);
     crisp__splat_scratch scratch = {0};
-    crisp__splat_draw_desc d = {.plan = &plan, .win = {0, 0, width, height}};
+    crisp__splat_draw_desc d = {.plan = &plan, .win = {win[0], win[1], win[2], win[3]}};
     crisp__splat_draw_stats stats;
     assert_int_equal(crisp__splat_draw(&scratch, &t[0], NULL, &d, &stats), CRISP_OK);
     assert_int_equal(stats.ranges, NR);
-    assert_int_equal(crisp__splat_draw(&scratch, &t[1], pool, &d, NULL), CRISP_OK);
+    /* every sample written lies in the blocks the stats name */
+    for (size_t i = 0; i < nw; i++) {
+        if (t[0].inv_w[i] == start_iw[i]) continue;
+        int x = (int)(i / (size_t)samples % (size_t)win[2]),
+            y = (int)(i / (size_t)samples / (size_t)win[2]);
+        assert_true(x / CRISP_OCCL_BLOCK >= stats.box[0] && x / CRISP_OCCL_BLOCK <= stats.box[2]);
+        assert_true(y / CRISP_OCCL_BLOCK >= stats.box[1] && y / CRISP_OCCL_BLOCK <= stats.box[3]);
+    }
+    /* the same ranges hidden on 3 threads */
+    crisp__splat_draw_stats stats3;
+    assert_int_equal(crisp__splat_draw(&scratch, &t[1], pool, &d, &stats3), CRISP_OK);
+    assert_int_equal(stats3.hidden_ranges, stats.hidden_ranges);
+    assert_memory_equal(stats3.box, stats.box, sizeof stats.box);
     /* Culling (occlude) skips only what could not be drawn: the same samples. */
-    int bw = (width + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
-        bh = (height + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
+    int bw = (win[2] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK,
+        bh = (win[3] + CRISP_OCCL_BLOCK - 1) / CRISP_OCCL_BLOCK;
     double *hiz = malloc((size_t)bw * bh * sizeof *hiz);
     crisp__raster_block_depth(&t[3], NULL, CRISP_OCCL_BLOCK, NULL, hiz);
     crisp__splat_draw_desc dc = d;
@@ -213,31 +256,38 @@ static void draw_case(int samples, int width, int height)
     assert_int_equal(crisp__splat_draw(&scratch, &t[3], NULL, &dc, &sc), CRISP_OK);
     assert_true(sc.hidden_ranges + sc.culled + sc.chunks_culled > 0);
     for (int k = 2; k < 4; k++) {
-        assert_memory_equal(t[0].inv_w, t[k].inv_w, ns * sizeof *ref_iw);
-        assert_memory_equal(t[0].face, t[k].face, ns * sizeof *ref_face);
-        assert_memory_equal(t[0].attr, t[k].attr, ns * CRISP_RASTER_ATTRS * sizeof *ref_attr);
+        assert_memory_equal(t[0].inv_w, t[k].inv_w, nw * sizeof *ref_iw);
+        assert_memory_equal(t[0].face, t[k].face, nw * sizeof *ref_face);
+        assert_memory_equal(t[0].attr, t[k].attr, nw * CRISP_RASTER_ATTRS * sizeof *ref_attr);
     }
     free(hiz);
     long differ = 0;
-    for (size_t i = 0; i < ns; i++) {
-        int bad = t[0].face[i] != ref_face[i] || t[0].inv_w[i] != ref_iw[i] ||
-                  memcmp(t[0].attr + i * CRISP_RASTER_ATTRS, ref_attr + i * CRISP_RASTER_ATTRS,
+    for (size_t i = 0; i < nw; i++) {
+        size_t r = at[i];
+        int bad = t[0].face[i] != ref_face[r] || t[0].inv_w[i] != ref_iw[r] ||
+                  memcmp(t[0].attr + i * CRISP_RASTER_ATTRS, ref_attr + r * CRISP_RASTER_ATTRS,
                          CRISP_RASTER_ATTRS * sizeof(float));
         if (bad && differ < 5)
             fprintf(stderr, "%d samples: sample %zu: face %d iw %g, reference face %d iw %g\n",
-                    samples, i, t[0].face[i], t[0].inv_w[i], ref_face[i], ref_iw[i]);
+                    samples, i, t[0].face[i], t[0].inv_w[i], ref_face[r], ref_iw[r]);
         differ += bad;
     }
     assert_int_equal(differ, 0);
     /* The same on 3 threads, bit for bit. */
-    assert_memory_equal(t[0].inv_w, t[1].inv_w, ns * sizeof *ref_iw);
-    assert_memory_equal(t[0].face, t[1].face, ns * sizeof *ref_face);
-    assert_memory_equal(t[0].attr, t[1].attr, ns * CRISP_RASTER_ATTRS * sizeof *ref_attr);
+    assert_memory_equal(t[0].inv_w, t[1].inv_w, nw * sizeof *ref_iw);
+    assert_memory_equal(t[0].face, t[1].face, nw * sizeof *ref_face);
+    assert_memory_equal(t[0].attr, t[1].attr, nw * CRISP_RASTER_ATTRS * sizeof *ref_attr);
+    free(at), free(start_iw);
     crisp__splat_scratch_free(&scratch);
     crisp_pool_destroy(pool);
     for (int k = 0; k < 4; k++)
         crisp__raster_target_free(&t[k]);
     free(ref_iw), free(ref_face), free(ref_attr);
+}
+
+static void draw_case(int samples, int width, int height)
+{
+    draw_case_window(samples, width, height, (int[4]){0, 0, width, height}, 0);
 }
 
 static void test_draw_reference(void **state)
@@ -247,6 +297,19 @@ static void test_draw_reference(void **state)
     draw_case(4, 29, 41);
     draw_case(16, 19, 17);
     draw_case(1, 64, 48);
+}
+
+/* Many small ranges (each a few pixels across, many across the edge of a band of rows), and
+ * targets that are a window of the image (bands counted from the window's first row). */
+static void test_draw_small_ranges(void **state)
+{
+    (void)state;
+    draw_case_window(1, 64, 48, (int[4]){0, 0, 64, 48}, 1);
+    draw_case_window(1, 96, 80, (int[4]){0, 0, 96, 80}, 1);
+    draw_case_window(1, 96, 80, (int[4]){13, 7, 61, 53}, 1);
+    draw_case_window(4, 96, 80, (int[4]){5, 21, 70, 45}, 1);
+    draw_case_window(1, 64, 48, (int[4]){9, 11, 40, 30}, 0);
+    draw_case_window(16, 40, 36, (int[4]){3, 5, 30, 25}, 1);
 }
 
 /* ---- the choice ------------------------------------------------------------------------------ */
@@ -1180,13 +1243,14 @@ static void test_plan_history(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_draw_reference), cmocka_unit_test(test_choice_near_plane),
-        cmocka_unit_test(test_true_points),    cmocka_unit_test(test_no_holes),
-        cmocka_unit_test(test_solids_far),     cmocka_unit_test(test_near_edges),
-        cmocka_unit_test(test_group_choice),   cmocka_unit_test(test_range_order),
-        cmocka_unit_test(test_kept_order),     cmocka_unit_test(test_build_limit),
-        cmocka_unit_test(test_build_order),    cmocka_unit_test(test_trim_rule),
-        cmocka_unit_test(test_plain_faces),    cmocka_unit_test(test_plan_history),
+        cmocka_unit_test(test_draw_reference),    cmocka_unit_test(test_draw_small_ranges),
+        cmocka_unit_test(test_choice_near_plane), cmocka_unit_test(test_true_points),
+        cmocka_unit_test(test_no_holes),          cmocka_unit_test(test_solids_far),
+        cmocka_unit_test(test_near_edges),        cmocka_unit_test(test_group_choice),
+        cmocka_unit_test(test_range_order),       cmocka_unit_test(test_kept_order),
+        cmocka_unit_test(test_build_limit),       cmocka_unit_test(test_build_order),
+        cmocka_unit_test(test_trim_rule),         cmocka_unit_test(test_plain_faces),
+        cmocka_unit_test(test_plan_history),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
