@@ -21,11 +21,13 @@
  * prepared scene). Per patch and per triangle drawn: "peak B/patch" (the whole peak over the
  * model's patches), "frame B/tri" (frame memory over the surface triangles, as before session 7)
  * and "frame B/drawn tri" (over every triangle drawn: surfaces and trim ribbons, whose quads are
- * two triangles and a core of two more). Warm frame = median of FRAMES plan + crisp_render_cpu_plan
- * calls after one warm-up frame, on THREADS threads; plan = median of crisp_renderer_plan alone
- * (at least PLAN_CALLS calls: a plan takes well under a millisecond at a distance, where a few
- * calls' median would follow the machine's noise; BENCH_SCREEN_PLANS=N: N calls, e.g. for a
- * profile of the plan alone);
+ * two triangles and a core of two more). Warm frame = median of the plan +
+ * crisp_render_cpu_plan calls after one warm-up frame, on THREADS threads: at least FRAMES of them
+ * and as many more as fill 0.5 s (BENCH_SCREEN_MIN_MS=N: N ms, 0: exactly FRAMES; FRAMES = 1:
+ * exactly one, as callgrind's --toggle-collect=warm_frame recipes expect); a 3 ms frame's median
+ * over 7 frames followed the machine's passing load. Plan = median of crisp_renderer_plan alone,
+ * at least PLAN_CALLS calls (a plan takes well under a millisecond at a distance) and filling the
+ * same time (BENCH_SCREEN_PLANS=N: exactly N calls, e.g. for a profile of the plan alone);
  * the CPU columns are the mean CPU time of the process (all threads) per frame or plan, less
  * sensitive to a loaded machine than wall time. tri/px = surface triangles per covered pixel. Each
  * row runs twice: with the default planner (group leaves) and with crisp_planner_desc.no_groups (at
@@ -46,10 +48,23 @@
  *
  * The run ends with the issue's ratios measured in it (the default planner's rows): gen100 over
  * gen50 at each camera (a model refined to 4x the patches), imp49:far over imp:far10 (49
- * instances against one at the same coverage), each frame and plan against the 1.3x target.
+ * instances against one at the same coverage), each frame and plan against the 1.3x target:
+ * first as the ratio of the two rows' medians (each row its own process, so a change in the
+ * machine's speed between the two processes goes into the ratio: imp49 far / imp far10's frame
+ * gave 0.74-1.08x with 7 frames a row and 1.00-1.86x with 0.5 s a row, in six runs each at load
+ * 2.6-4.1), then each pair whose two rows ran (or that is
+ * named, e.g. imp49:far/imp:far10) measured alternately in one child process: both scenes
+ * prepared and their first frames drawn, then a warm frame of one, a warm frame of the other (the
+ * order swapped every round), until each side has at least FRAMES frames and 0.5 s, then their
+ * plans the same way. Its table gives the medians, their ratio, the median of the per-round
+ * ratios (each frame of A over the frame of B beside it: a slow spell reaches both), the ratio of
+ * the process CPU times, "within 1.3x" from both ratios, and the two images' hashes (those of the
+ * rows). The same pair gave 0.96-1.08x (median of the ratios 1.00-1.09) in the same six runs.
+ * BENCH_SCREEN_PAIRS=0: no pairs.
+ * Lines of both ratio tables hold a ':' (the scripts that keep the rows drop them).
  *
  *   bench_screen [FRAMES] [THREADS] [ROWS...]     (defaults 3, 2, all rows; a row is e.g.
- * gen50:far) */
+ * gen50:far, a pair imp49:far/imp:far10) */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
