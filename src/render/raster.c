@@ -216,10 +216,7 @@ void crisp__raster_destroy(crisp_raster *r)
     free(r);
 }
 
-/* n elements of size bytes starting on a cache line (64 bytes; NULL on overflow): a block row's
- * eight 1/W then fill one line, and the tiles' and the resolve's 64-byte vector loads and stores
- * do not straddle two (malloc's large blocks start 16 bytes past a page). */
-static void *alloc_lines(size_t n, size_t size)
+void *crisp__alloc_lines(size_t n, size_t size)
 {
     if (size && n > (SIZE_MAX - 63) / size) return NULL;
     return aligned_alloc(64, (n * size + 63) / 64 * 64);
@@ -241,9 +238,9 @@ crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int he
         return CRISP_OK;
     }
     crisp__raster_target_free(t);
-    t->inv_w = alloc_lines(n, sizeof *t->inv_w);
-    t->attr = alloc_lines(n, CRISP_RASTER_ATTRS * sizeof *t->attr);
-    t->face = alloc_lines(n, sizeof *t->face);
+    t->inv_w = crisp__alloc_lines(n, sizeof *t->inv_w);
+    t->attr = crisp__alloc_lines(n, CRISP_RASTER_ATTRS * sizeof *t->attr);
+    t->face = crisp__alloc_lines(n, sizeof *t->face);
     if (!t->inv_w || !t->attr || !t->face) {
         crisp__raster_target_free(t);
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for a %dx%d image with %d samples",

@@ -310,9 +310,10 @@ static void test_bad_input(void **state)
     crisp__raster_destroy(r);
 }
 
-/* The target's buffers start on a cache line (the tiles' and the resolve's 64-byte vector loads
- * and stores of a block row then do not straddle two lines), at any size and sample count, and
- * hold every sample (written whole here: the sanitizer build checks the bounds). */
+/* The target's buffers and the image's planes start on a cache line (crisp__alloc_lines: the
+ * tiles' and the resolve's 64-byte vector loads and stores then do not straddle two lines), at
+ * any size and sample count, and hold every sample (cleared whole here: the sanitizer build checks
+ * the bounds). */
 static void test_target_lines(void **state)
 {
     (void)state;
@@ -334,6 +335,18 @@ static void test_target_lines(void **state)
     assert_int_equal(crisp__raster_target_init(&t, 1, 3, 1), CRISP_OK);
     assert_int_equal((uintptr_t)t.inv_w % 64, 0);
     crisp__raster_target_free(&t);
+    /* The image's planes too (the resolve's stores), cleared whole. */
+    crisp_image img;
+    assert_int_equal(crisp_image_init(&img, 203, 149), CRISP_OK);
+    assert_int_equal((uintptr_t)img.rgba % 64, 0);
+    assert_int_equal((uintptr_t)img.depth % 64, 0);
+    assert_int_equal((uintptr_t)img.normal % 64, 0);
+    assert_int_equal((uintptr_t)img.uv % 64, 0);
+    assert_int_equal((uintptr_t)img.face % 64, 0);
+    size_t n = 203 * 149;
+    assert_true(img.rgba[4 * n - 1] == 0 && img.normal[3 * n - 1] == 0 && img.uv[2 * n - 1] == 0);
+    assert_true(isinf(img.depth[n - 1]) && img.face[n - 1] == -1);
+    crisp_image_free(&img);
 }
 
 static void test_camera(void **state)
