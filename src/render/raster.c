@@ -216,6 +216,12 @@ void crisp__raster_destroy(crisp_raster *r)
     free(r);
 }
 
+void *crisp__alloc_lines(size_t n, size_t size)
+{
+    if (size && n > (SIZE_MAX - 63) / size) return NULL;
+    return aligned_alloc(64, (n * size + 63) / 64 * 64);
+}
+
 crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int height, int samples)
 {
     if (width <= 0 || height <= 0 || width > 65536 || height > 65536)
@@ -232,9 +238,9 @@ crisp_status crisp__raster_target_init(crisp_raster_target *t, int width, int he
         return CRISP_OK;
     }
     crisp__raster_target_free(t);
-    t->inv_w = crisp_malloc_array(n, sizeof *t->inv_w);
-    t->attr = crisp_malloc_array(n, CRISP_RASTER_ATTRS * sizeof *t->attr);
-    t->face = crisp_malloc_array(n, sizeof *t->face);
+    t->inv_w = crisp__alloc_lines(n, sizeof *t->inv_w);
+    t->attr = crisp__alloc_lines(n, CRISP_RASTER_ATTRS * sizeof *t->attr);
+    t->face = crisp__alloc_lines(n, sizeof *t->face);
     if (!t->inv_w || !t->attr || !t->face) {
         crisp__raster_target_free(t);
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for a %dx%d image with %d samples",

@@ -62,6 +62,12 @@ typedef struct crisp_raster_target {
 
 typedef struct crisp_raster crisp_raster; /* reusable scratch (setup, bins) */
 
+/* n elements of size bytes starting on a cache line (64 bytes), for free(); NULL when out of
+ * memory or n * size overflows. The target's buffers and the image's planes: a block row's eight
+ * 1/W then fill one line, and the tiles' and the resolve's 64-byte vector loads and stores do
+ * not straddle two (malloc's large blocks start 16 bytes past a page). */
+void *crisp__alloc_lines(size_t n, size_t size);
+
 crisp_status crisp__raster_create(crisp_raster **dest);
 void crisp__raster_destroy(crisp_raster *r);
 

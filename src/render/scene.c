@@ -3,6 +3,7 @@
  * when the model changes. */
 #include "crisp/cells.h" /* crisp_hash_bytes */
 #include "crisp/slefe.h"
+#include "raster.h" /* crisp__alloc_lines */
 #include "render_internal.h"
 
 #include <math.h>
@@ -520,11 +521,12 @@ crisp_status crisp_image_init(crisp_image *img, int width, int height)
     memset(img, 0, sizeof *img);
     img->width = width;
     img->height = height;
-    img->rgba = crisp_calloc_array(n, 4 * sizeof(float));
-    img->depth = crisp_malloc_array(n, sizeof(float));
-    img->normal = crisp_calloc_array(n, 3 * sizeof(float));
-    img->uv = crisp_calloc_array(n, 2 * sizeof(float));
-    img->face = crisp_malloc_array(n, sizeof(int32_t));
+    /* On cache lines (the resolve's stores; crisp__image_clear below writes every value). */
+    img->rgba = crisp__alloc_lines(n, 4 * sizeof(float));
+    img->depth = crisp__alloc_lines(n, sizeof(float));
+    img->normal = crisp__alloc_lines(n, 3 * sizeof(float));
+    img->uv = crisp__alloc_lines(n, 2 * sizeof(float));
+    img->face = crisp__alloc_lines(n, sizeof(int32_t));
     if (!img->rgba || !img->depth || !img->normal || !img->uv || !img->face) {
         crisp_image_free(img);
         return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for a %dx%d image", width, height);

@@ -310,6 +310,45 @@ static void test_bad_input(void **state)
     crisp__raster_destroy(r);
 }
 
+/* The target's buffers and the image's planes start on a cache line (crisp__alloc_lines: the
+ * tiles' and the resolve's 64-byte vector loads and stores then do not straddle two lines), at
+ * any size and sample count, and hold every sample (cleared whole here: the sanitizer build checks
+ * the bounds). */
+static void test_target_lines(void **state)
+{
+    (void)state;
+    static const int size[][3] = {{1, 1, 1},   {7, 3, 4},       {203, 149, 1},
+                                  {13, 5, 16}, {1920, 1080, 1}, {3, 1, 1}};
+    crisp_raster_target t = {0};
+    for (size_t k = 0; k < sizeof size / sizeof *size; k++) {
+        assert_int_equal(crisp__raster_target_init(&t, size[k][0], size[k][1], size[k][2]),
+                         CRISP_OK);
+        assert_int_equal((uintptr_t)t.inv_w % 64, 0);
+        assert_int_equal((uintptr_t)t.attr % 64, 0);
+        assert_int_equal((uintptr_t)t.face % 64, 0);
+        crisp__raster_target_clear(&t);
+        size_t n = (size_t)size[k][0] * size[k][1] * size[k][2];
+        assert_int_equal(t.face[n - 1], -1);
+        assert_true(t.inv_w[n - 1] == 0 && t.attr[CRISP_RASTER_ATTRS * n - 1] == 0);
+    }
+    /* Reused for the same sample count in another shape: still aligned. */
+    assert_int_equal(crisp__raster_target_init(&t, 1, 3, 1), CRISP_OK);
+    assert_int_equal((uintptr_t)t.inv_w % 64, 0);
+    crisp__raster_target_free(&t);
+    /* The image's planes too (the resolve's stores), cleared whole. */
+    crisp_image img;
+    assert_int_equal(crisp_image_init(&img, 203, 149), CRISP_OK);
+    assert_int_equal((uintptr_t)img.rgba % 64, 0);
+    assert_int_equal((uintptr_t)img.depth % 64, 0);
+    assert_int_equal((uintptr_t)img.normal % 64, 0);
+    assert_int_equal((uintptr_t)img.uv % 64, 0);
+    assert_int_equal((uintptr_t)img.face % 64, 0);
+    size_t n = 203 * 149;
+    assert_true(img.rgba[4 * n - 1] == 0 && img.normal[3 * n - 1] == 0 && img.uv[2 * n - 1] == 0);
+    assert_true(isinf(img.depth[n - 1]) && img.face[n - 1] == -1);
+    crisp_image_free(&img);
+}
+
 static void test_camera(void **state)
 {
     (void)state;
@@ -344,9 +383,10 @@ static void test_camera(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_watertight), cmocka_unit_test(test_perspective_correct),
-        cmocka_unit_test(test_near_plane), cmocka_unit_test(test_threads_identical),
-        cmocka_unit_test(test_bad_input),  cmocka_unit_test(test_camera),
+        cmocka_unit_test(test_watertight),   cmocka_unit_test(test_perspective_correct),
+        cmocka_unit_test(test_near_plane),   cmocka_unit_test(test_threads_identical),
+        cmocka_unit_test(test_bad_input),    cmocka_unit_test(test_camera),
+        cmocka_unit_test(test_target_lines),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
