@@ -199,14 +199,21 @@ void crisp__ribbons_set_hidden(crisp__ribbons *rb, crisp__ribbon_pieces_fn fn, c
 /* The pieces (crisp__ribbons_set_hidden) of the patch b that hold points with s in [s0, s1] and
  * t in [t0, t1] (clamped to [0, 1]), as a mask: the cells reached, widened by 1e-9 so that a
  * point on a cut between pieces, which is in both of their hulls, may be counted in either. */
+static inline int piece_index(double x)
+{
+    /* (int)fmax(0, fmin(n - 1, x)) without the library calls: NaN gives n - 1 as fmin's rule,
+     * and a zero of either sign gives 0 */
+    const double top = CRISP__RIBBON_PIECES - 1;
+    double y = x < top ? x : top;
+    return (int)(y > 0 ? y : 0);
+}
+
 static uint32_t pieces_reached(double s0, double s1, double t0, double t1)
 {
     const int n = CRISP__RIBBON_PIECES;
     double e = 1e-9;
-    int c0 = (int)fmax(0, fmin(n - 1, floor((s0 - e) * n))),
-        c1 = (int)fmax(0, fmin(n - 1, floor((s1 + e) * n)));
-    int r0 = (int)fmax(0, fmin(n - 1, floor((t0 - e) * n))),
-        r1 = (int)fmax(0, fmin(n - 1, floor((t1 + e) * n)));
+    int c0 = piece_index(floor((s0 - e) * n)), c1 = piece_index(floor((s1 + e) * n));
+    int r0 = piece_index(floor((t0 - e) * n)), r1 = piece_index(floor((t1 + e) * n));
     uint32_t row = ((1u << (c1 + 1)) - 1) & ~((1u << c0) - 1), m = 0;
     for (int r = r0; r <= r1; r++)
         m |= row << (n * r);
