@@ -74,7 +74,8 @@ static void segment_crossings(crisp_trim_table *t, double ua, double va, double 
                               int fill)
 {
     if (va == vb || !(isfinite(va) && isfinite(vb))) return;
-    double lo = fmin(va, vb), hi = fmax(va, vb);
+    /* fmin and fmax without the library calls: va and vb are finite and differ */
+    double lo = va < vb ? va : vb, hi = va < vb ? vb : va;
     if (hi < t->v0 || lo > t->v1) return;
     int n = t->strip_count;
     double span = t->v1 - t->v0;
