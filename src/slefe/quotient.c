@@ -475,6 +475,52 @@ PEEL_LOOPS static void split_half(const double *c, int st, int from, int du, int
         split_half_body(c, st, from, du, dv, dir, lo, hi);
 }
 
+#if QUOTIENT_AVX2
+/* split_half_body for four values a control point (st = 4), the four as lanes: the same
+ * 0.5 * (a + b) per lane; coordinates from `from` on are then the source's, as the scalar body
+ * copies them (a blend, so that no value of theirs goes through the sums). */
+__attribute__((target("avx2"))) static INLINE_BODY void
+split_half4_body(const double *c, int from, int du, int dv, int dir, double *lo, double *hi)
+{
+    int d = dir ? dv : du, rows = dir ? du + 1 : dv + 1;
+    int stride = dir ? 4 * (du + 1) : 4, row_step = dir ? 4 : 4 * (du + 1);
+    __m256d tmp[QN], half = _mm256_set1_pd(0.5);
+    /* lanes q >= from: all ones (take the source) */
+    __m256d keep = _mm256_castsi256_pd(
+        _mm256_cmpgt_epi64(_mm256_set_epi64x(3, 2, 1, 0), _mm256_set1_epi64x(from - 1)));
+    for (int row = 0; row < rows; row++) {
+        const double *x = c + row * row_step;
+        double *L = lo + row * row_step, *H = hi + row * row_step;
+        for (int i = 0; i <= d; i++)
+            tmp[i] = _mm256_loadu_pd(x + i * stride);
+        _mm256_storeu_pd(L, tmp[0]);
+        _mm256_storeu_pd(H + d * stride, tmp[d]);
+        for (int r = 1; r <= d; r++) {
+            for (int i = 0; i <= d - r; i++)
+                tmp[i] = _mm256_mul_pd(half, _mm256_add_pd(tmp[i], tmp[i + 1]));
+            _mm256_storeu_pd(L + r * stride,
+                             _mm256_blendv_pd(tmp[0], _mm256_loadu_pd(x + r * stride), keep));
+            _mm256_storeu_pd(
+                H + (d - r) * stride,
+                _mm256_blendv_pd(tmp[d - r], _mm256_loadu_pd(x + (d - r) * stride), keep));
+        }
+    }
+}
+
+__attribute__((target("avx2"))) PEEL_LOOPS static void
+split_half4(const double *c, int from, int du, int dv, int dir, double *lo, double *hi)
+{
+    if (du == 3 && dv == 2 && dir)
+        split_half4_body(c, from, 3, 2, 1, lo, hi);
+    else if (du == 3 && dv == 2)
+        split_half4_body(c, from, 3, 2, 0, lo, hi);
+    else if (du == 3 && dv == 3)
+        split_half4_body(c, from, 3, 3, dir, lo, hi);
+    else
+        split_half4_body(c, from, du, dv, dir, lo, hi);
+}
+#endif
+
 /* The largest piece_sums over the pieces of c halved su times in s and sv times in t, into K
  * (the caller's maxima so far). */
 static void halves(const double *c, int nc, int from, int du, int dv, int su, int sv, int mid_only,
@@ -489,7 +535,12 @@ static void halves(const double *c, int nc, int from, int du, int dv, int su, in
     }
     double lo[4 * QN * QN], hi[4 * QN * QN];
     int dir = su ? 0 : 1;
-    split_half(c, nc + 1, from, du, dv, dir, lo, hi);
+#if QUOTIENT_AVX2
+    if (nc == 3 && use_lanes())
+        split_half4(c, from, du, dv, dir, lo, hi);
+    else
+#endif
+        split_half(c, nc + 1, from, du, dv, dir, lo, hi);
     halves(lo, nc, from, du, dv, su - !dir, sv - dir, mid_only, K);
     halves(hi, nc, from, du, dv, su - !dir, sv - dir, mid_only, K);
 }
