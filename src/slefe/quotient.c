@@ -417,9 +417,6 @@ static int use_lanes(void)
  * patches (impeller.igs), bicubic, linear by quadratic and 6 x 10 (occt_linkrods.step). */
 PEEL_LOOPS static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, double *K)
 {
-#if QUOTIENT_AVX2
-    if (nc == 3 && !mid_only && use_lanes() && piece_sums3(c, du, dv, K)) return;
-#endif
     if (du == 3 && dv == 2)
         piece_sums_body(c, nc, 3, 2, mid_only, K);
     else if (du == 3 && dv == 3)
@@ -535,20 +532,45 @@ static void halves(const double *c, int nc, int from, int du, int dv, int su, in
     }
     double lo[4 * QN * QN], hi[4 * QN * QN];
     int dir = su ? 0 : 1;
-#if QUOTIENT_AVX2
-    if (nc == 3 && use_lanes())
-        split_half4(c, from, du, dv, dir, lo, hi);
-    else
-#endif
-        split_half(c, nc + 1, from, du, dv, dir, lo, hi);
+    split_half(c, nc + 1, from, du, dv, dir, lo, hi);
     halves(lo, nc, from, du, dv, su - !dir, sv - dir, mid_only, K);
     halves(hi, nc, from, du, dv, su - !dir, sv - dir, mid_only, K);
 }
 
+#if QUOTIENT_AVX2
+/* halves for three coordinates with the lanes paths (piece_sums3, split_half4; the scalar body
+ * where piece_sums3 declines): the same pieces, the same maxima. A copy, so that halves and
+ * piece_sums for the other callers (depth_bound.c, one coordinate) stay as they were. */
+static void halves3(const double *c, int from, int du, int dv, int su, int sv, double *K)
+{
+    if (!su && !sv) {
+        double Kp[4];
+        if (!piece_sums3(c, du, dv, Kp)) piece_sums(c, 3, du, dv, 0, Kp);
+        for (int r = 0; r < 3; r++)
+            K[r] = crisp__max(K[r], Kp[r]);
+        return;
+    }
+    double lo[4 * QN * QN], hi[4 * QN * QN];
+    int dir = su ? 0 : 1;
+    split_half4(c, from, du, dv, dir, lo, hi);
+    halves3(lo, from, du, dv, su - !dir, sv - dir, K);
+    halves3(hi, from, du, dv, su - !dir, sv - dir, K);
+}
+#endif
+
 static void curvature(const double *c, int nc, int du, int dv, int k, int mid_only, double *K)
 {
+#if QUOTIENT_AVX2
+    int lanes = nc == 3 && !mid_only && use_lanes();
+#else
+    int lanes = 0;
+    (void)lanes;
+#endif
     int st = nc + 1, n = (du + 1) * (dv + 1);
     if (k <= 1 || du >= QN - 1 || dv >= QN - 1) {
+#if QUOTIENT_AVX2
+        if (lanes && piece_sums3(c, du, dv, K)) return;
+#endif
         piece_sums(c, nc, du, dv, mid_only, K);
         return;
     }
@@ -560,7 +582,12 @@ static void curvature(const double *c, int nc, int du, int dv, int k, int mid_on
     int levels = k >= 4 ? 2 : 1;
     for (int r = 0; r < nc; r++)
         K[r] = 0;
-    halves(c, nc, from, du, dv, levels, levels, mid_only, K);
+#if QUOTIENT_AVX2
+    if (lanes)
+        halves3(c, from, du, dv, levels, levels, K);
+    else
+#endif
+        halves(c, nc, from, du, dv, levels, levels, mid_only, K);
     for (int r = 0; r < nc; r++)
         K[r] *= (double)k * k * (1 + 1e-9);
 }
