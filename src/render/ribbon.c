@@ -68,6 +68,22 @@ static int rpt_is(const ribbon_point_kept *e, uint64_t serial, uint32_t face, ui
     return e->serial == serial && e->face == face && e->u == u && e->v == v;
 }
 
+/* Ask for the two slots of (u, v)'s key ahead of their look-up (ribbon_vertex): the table is
+ * 5 MB and its keys are spread on purpose, so a look-up not asked for ahead waits on memory
+ * (perf, impeller.igs close: ribbon_vertex then took more time than any other plan function for
+ * a tenth of their instructions). Reads nothing; changes no value. */
+static ALWAYS_INLINE void rpt_prefetch(const point_keep *pk, uint32_t face, double u, double v)
+{
+    if (!pk->table) return;
+    uint64_t ub, vb;
+    memcpy(&ub, &u, sizeof ub);
+    memcpy(&vb, &v, sizeof vb);
+    const ribbon_point_kept *e = &pk->table[rpt_slot(face, ub, vb) & ~(size_t)1];
+    __builtin_prefetch(e);
+    __builtin_prefetch((const char *)e + 64);
+    __builtin_prefetch((const char *)(e + 2) - 1);
+}
+
 typedef struct ribbon_job {
     uint32_t face, piece; /* piece of the trim polyline, or RIBBON_EDGE + k: edge k of the domain */
     crisp_raster_vertex *pts; /* samples (per-worker arena, valid this frame) */
@@ -183,14 +199,21 @@ void crisp__ribbons_set_hidden(crisp__ribbons *rb, crisp__ribbon_pieces_fn fn, c
 /* The pieces (crisp__ribbons_set_hidden) of the patch b that hold points with s in [s0, s1] and
  * t in [t0, t1] (clamped to [0, 1]), as a mask: the cells reached, widened by 1e-9 so that a
  * point on a cut between pieces, which is in both of their hulls, may be counted in either. */
+static inline int piece_index(double x)
+{
+    /* (int)fmax(0, fmin(n - 1, x)) without the library calls: NaN gives n - 1 as fmin's rule,
+     * and a zero of either sign gives 0 */
+    const double top = CRISP__RIBBON_PIECES - 1;
+    double y = x < top ? x : top;
+    return (int)(y > 0 ? y : 0);
+}
+
 static uint32_t pieces_reached(double s0, double s1, double t0, double t1)
 {
     const int n = CRISP__RIBBON_PIECES;
     double e = 1e-9;
-    int c0 = (int)fmax(0, fmin(n - 1, floor((s0 - e) * n))),
-        c1 = (int)fmax(0, fmin(n - 1, floor((s1 + e) * n)));
-    int r0 = (int)fmax(0, fmin(n - 1, floor((t0 - e) * n))),
-        r1 = (int)fmax(0, fmin(n - 1, floor((t1 + e) * n)));
+    int c0 = piece_index(floor((s0 - e) * n)), c1 = piece_index(floor((s1 + e) * n));
+    int r0 = piece_index(floor((t0 - e) * n)), r1 = piece_index(floor((t1 + e) * n));
     uint32_t row = ((1u << (c1 + 1)) - 1) & ~((1u << c0) - 1), m = 0;
     for (int r = r0; r <= r1; r++)
         m |= row << (n * r);
@@ -319,6 +342,38 @@ static int in_view(const crisp_raster_vertex *a, double gx, double gy)
            fabs(c[1]) <= gy * c[3];
 }
 
+/* The screen offset in pixels from b to a, or behind (nonzero) when either is behind the eye:
+ * screen_dist's value is then INFINITY, else hypot(dx, dy). */
+typedef struct screen_offset {
+    double dx, dy;
+    int behind;
+} screen_offset;
+
+static screen_offset screen_offset_of(const crisp_raster_vertex *a, const crisp_raster_vertex *b,
+                                      double w, double h)
+{
+    screen_offset o = {0, 0, 1};
+    if (!(a->clip[3] > 0 && b->clip[3] > 0)) return o;
+    o.dx = (a->clip[0] / a->clip[3] - b->clip[0] / b->clip[3]) * 0.5 * w;
+    o.dy = (a->clip[1] / a->clip[3] - b->clip[1] / b->clip[3]) * 0.5 * h;
+    o.behind = 0;
+    return o;
+}
+
+/* screen_dist(a, b) > c (c positive, finite) */
+static int offset_above(const screen_offset *o, double c)
+{
+    return o->behind || crisp__ribbon_length_above(o->dx, o->dy, c);
+}
+
+/* screen_dist(a, b) < INFINITY: a finite square means a finite length */
+static int offset_finite(const screen_offset *o)
+{
+    if (o->behind) return 0;
+    double s2 = o->dx * o->dx + o->dy * o->dy;
+    return s2 < INFINITY || hypot(o->dx, o->dy) < INFINITY;
+}
+
 /* Screen distance in pixels (infinite when either point is behind the eye). */
 static double screen_dist(const crisp_raster_vertex *a, const crisp_raster_vertex *b, double w,
                           double h)
@@ -381,16 +436,17 @@ static void emit(sampler *s, const crisp_raster_vertex *v)
     (*s->pts)[s->count++] = *v;
 }
 
-/* Screen distance in pixels from m to the chord from a to b (all three in front of the eye). */
-static double chord_dist(const crisp_raster_vertex *a, const crisp_raster_vertex *m,
-                         const crisp_raster_vertex *b, double w, double h)
+/* Screen distance in pixels from m to the chord from a to b (all three in front of the eye)
+ * above c: hypot(x, y) > c of the offset below (crisp__ribbon_length_above). */
+static int chord_above(const crisp_raster_vertex *a, const crisp_raster_vertex *m,
+                       const crisp_raster_vertex *b, double w, double h, double c)
 {
     double ax = a->clip[0] / a->clip[3] * 0.5 * w, ay = a->clip[1] / a->clip[3] * 0.5 * h;
     double bx = b->clip[0] / b->clip[3] * 0.5 * w - ax, by = b->clip[1] / b->clip[3] * 0.5 * h - ay;
     double mx = m->clip[0] / m->clip[3] * 0.5 * w - ax, my = m->clip[1] / m->clip[3] * 0.5 * h - ay;
     double len2 = bx * bx + by * by, t = len2 > 0 ? (mx * bx + my * by) / len2 : 0;
     t = t < 0 ? 0 : (t > 1 ? 1 : t);
-    return hypot(mx - t * bx, my - t * by);
+    return crisp__ribbon_length_above(mx - t * bx, my - t * by, c);
 }
 
 /* The largest finite speed bounds (pixels per unit u and v) of the strips that v-range [va, vb]
@@ -431,21 +487,25 @@ static int image_may_be_long(const sampler *s, const crisp_raster_vertex *a,
  * edge 1.3 px off it, a one-pixel hole beside the ribbon; test_cracks' test_bearing_fold). The
  * middle is evaluated for that only where the piece's parent bowed more than 4 RIBBON_BOW_PX off
  * its own chord (a half of a smooth piece bows about a quarter as much), or the piece has no
- * parent (parent_bow infinite): most pieces cost no extra evaluation. */
+ * parent or its bow was not formed (parent_bowed 1): most pieces cost no extra evaluation.
+ * Distances are compared, never used as values, so most need no hypot (crisp__ribbon_length_above).
+ */
 static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_vertex *b,
-                   int depth, double parent_bow)
+                   int depth, int parent_bowed)
 {
     if (s->failed) return;
     int va = in_view(a, s->gx, s->gy), vb = in_view(b, s->gx, s->gy);
-    double d = screen_dist(a, b, s->w, s->h);
-    int split = d > RIBBON_STEP_PX;
+    /* d = screen_dist(a, b), looked at only through its comparisons */
+    screen_offset d = screen_offset_of(a, b, s->w, s->h);
+    int d_long = offset_above(&d, RIBBON_STEP_PX), d_finite = offset_finite(&d);
+    int split = d_long;
     crisp_raster_vertex mid;
     int have_mid = 0;
     /* The ends' distance does not bound the image of the uv segment between them: a chord of a
      * chain (crisp_trim_polyline_chains) can run along a closed surface's seam and end where it
      * starts on screen. Where the strips' speed bounds allow an image longer than a step, the
      * middle is looked at: a path through it longer than a step splits too. */
-    if (!split && s->tp && depth < RIBBON_MAX_DEPTH && d < INFINITY) {
+    if (!split && s->tp && depth < RIBBON_MAX_DEPTH && d_finite) {
         double ru, rv;
         strip_speeds(s->tp, a->attr[1], b->attr[1], &ru, &rv);
         double len = ru * fabs(b->attr[0] - a->attr[0]) + rv * fabs(b->attr[1] - a->attr[1]);
@@ -460,15 +520,15 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
     /* The bow of a short piece (above); where the middle was looked at, also of a chord whose
      * ends are one point (a chain around a closed turn only a few pixels across, at a far view:
      * occt_linkrods.step face 5, 4.4 px from a ribbon that was one point; issue 13). */
-    if (!split && depth < RIBBON_MAX_DEPTH && (d > RIBBON_BOW_PX || have_mid) && d < INFINITY &&
-        (va || vb) && (have_mid || parent_bow > 4 * RIBBON_BOW_PX)) {
+    if (!split && depth < RIBBON_MAX_DEPTH && (have_mid || offset_above(&d, RIBBON_BOW_PX)) &&
+        d_finite && (va || vb) && (have_mid || parent_bowed)) {
         if (!have_mid)
             ribbon_point(s->sc, s->face, s->surf, *s->m, 0.5 * (a->attr[0] + b->attr[0]),
                          0.5 * (a->attr[1] + b->attr[1]), &mid);
         have_mid = 1;
-        split = mid.clip[3] > 0 && chord_dist(a, &mid, b, s->w, s->h) > RIBBON_BOW_PX;
+        split = mid.clip[3] > 0 && chord_above(a, &mid, b, s->w, s->h, RIBBON_BOW_PX);
     }
-    if (depth < RIBBON_MAX_DEPTH && split && (va || vb || d < INFINITY)) {
+    if (depth < RIBBON_MAX_DEPTH && split && (va || vb || d_finite)) {
         /* A part of a segment (the whole was tested in sample_ribbons) whose (u, v) box lies in
          * hidden pieces: its samples, and the quads between them, are hidden; the ribbon breaks
          * there, as it does off screen. */
@@ -488,6 +548,11 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
          * halves near the window are split further, a few per level. A piece crossing the window
          * is split however deep that takes: a cut at depth 8 left a one-pixel crack on the
          * bearing at fov 1.1e-5 degree, test_cracks' test_bearing_zoom.) */
+        /* the halves' middles, which refine() looks up next if it splits them */
+        rpt_prefetch(&s->pk, s->face, 0.5 * (a->attr[0] + mid.attr[0]),
+                     0.5 * (a->attr[1] + mid.attr[1]));
+        rpt_prefetch(&s->pk, s->face, 0.5 * (mid.attr[0] + b->attr[0]),
+                     0.5 * (mid.attr[1] + b->attr[1]));
         int mid_out = !in_view(&mid, s->gx, s->gy);
         if (!va && !vb && mid_out && !segment_may_show(a, &mid, s->w, s->h) &&
             !segment_may_show(&mid, b, s->w, s->h)) {
@@ -497,13 +562,14 @@ static void refine(sampler *s, const crisp_raster_vertex *a, const crisp_raster_
             emit(s, b);
             return;
         }
-        double bow =
-            d < INFINITY && mid.clip[3] > 0 ? chord_dist(a, &mid, b, s->w, s->h) : INFINITY;
-        refine(s, a, &mid, depth + 1, bow);
-        refine(s, &mid, b, depth + 1, bow);
+        /* (the bow, INFINITY where not formed, above 4 RIBBON_BOW_PX) */
+        int bowed = !(d_finite && mid.clip[3] > 0) ||
+                    chord_above(a, &mid, b, s->w, s->h, 4 * RIBBON_BOW_PX);
+        refine(s, a, &mid, depth + 1, bowed);
+        refine(s, &mid, b, depth + 1, bowed);
         return;
     }
-    if (d > RIBBON_STEP_PX) {
+    if (d_long) {
         /* Not resolved (behind the eye or at the depth limit): break the ribbon here. */
         crisp_raster_vertex brk = *b;
         brk.clip[3] = -1;
@@ -624,6 +690,13 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
         int have_a = 0, open = 0; /* open: the ribbon so far ends at a */
         for (int k = 0; k + 1 < n; k++) {
             path_point(c, job, k + 1, uv);
+            /* (this segment's middle, where refine() splits it first, and the next point) */
+            rpt_prefetch(&s.pk, job->face, 0.5 * (uv0[0] + uv[0]), 0.5 * (uv0[1] + uv[1]));
+            if (k + 2 < n) {
+                double nx[2];
+                path_point(c, job, k + 2, nx);
+                rpt_prefetch(&s.pk, job->face, nx[0], nx[1]);
+            }
             if ((tp && uv_hidden(tp, uv0, uv)) ||
                 (c->rb->hidden && pieces_hidden(c->rb, c->sc, job->face, uv0, uv))) {
                 if (open) {
@@ -653,7 +726,7 @@ static void sample_ribbons(void *vctx, size_t begin, size_t end, int worker)
                 }
             } else {
                 if (!open) emit(&s, &a);
-                refine(&s, &a, &b, 0, INFINITY);
+                refine(&s, &a, &b, 0, 1);
                 open = 1;
             }
             a = b;

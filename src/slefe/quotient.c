@@ -199,6 +199,220 @@ static INLINE_BODY void piece_sums_body(const double *c, int nc, int du, int dv,
     }
 }
 
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#define QUOTIENT_AVX2 1
+#include <immintrin.h>
+
+/* piece_sums_body for three coordinates (screen_error.c's X, Y, W with the weight fourth: nc = 3,
+ * one control point = one 4-lane load), the coordinates as lanes: every lane does the scalar
+ * body's operations in its order (no contraction: -std=c11; _mm256_max_pd(a, b) is a > b ? a : b
+ * and _mm256_min_pd(a, b) is a < b ? a : b, crisp__max's and crisp__min's rules), so each K[r] is
+ * the scalar body's bit for bit (tests/slefe/test_slefe_rational.c, test_quotient_lanes). The
+ * weight's own parts (w, we and their bounds) are the scalar body's, shared. Lane 3 (the weight
+ * divided by itself) is computed and dropped. */
+#define V __m256d
+#define VSET(x) _mm256_set1_pd(x)
+#define VABS(x) _mm256_andnot_pd(_mm256_set1_pd(-0.0), (x))
+
+__attribute__((target("avx2"))) static INLINE_BODY void diff_bounds4(const V *x, int du, int dv,
+                                                                     V d1[2], V d2[3])
+{
+    V a = VSET(0), b = a, c = a, e = a, f = a, mag = a, two = VSET(2);
+    int n = du + 1;
+    for (int j = 0; j <= dv; j++) {
+        const V *r = x + j * n;
+        for (int i = 0; i <= du; i++)
+            mag = _mm256_max_pd(mag, VABS(r[i]));
+        for (int i = 0; i < du; i++)
+            e = _mm256_max_pd(e, VABS(_mm256_sub_pd(r[i + 1], r[i])));
+        for (int i = 0; i + 2 <= du; i++)
+            a = _mm256_max_pd(a, VABS(_mm256_add_pd(
+                                     _mm256_sub_pd(r[i], _mm256_mul_pd(two, r[i + 1])), r[i + 2])));
+        if (j == dv) continue;
+        const V *q = r + n;
+        for (int i = 0; i <= du; i++)
+            f = _mm256_max_pd(f, VABS(_mm256_sub_pd(q[i], r[i])));
+        for (int i = 0; i < du; i++)
+            c = _mm256_max_pd(
+                c,
+                VABS(_mm256_add_pd(_mm256_sub_pd(_mm256_sub_pd(r[i], r[i + 1]), q[i]), q[i + 1])));
+        if (j + 2 > dv) continue;
+        const V *o = q + n;
+        for (int i = 0; i <= du; i++)
+            b = _mm256_max_pd(
+                b, VABS(_mm256_add_pd(_mm256_sub_pd(r[i], _mm256_mul_pd(two, q[i])), o[i])));
+    }
+    V round = _mm256_mul_pd(VSET(16.0 * DBL_EPSILON), mag);
+    d1[0] = _mm256_mul_pd(VSET(du), _mm256_add_pd(e, round));
+    d1[1] = _mm256_mul_pd(VSET(dv), _mm256_add_pd(f, round));
+    d2[0] = _mm256_mul_pd(VSET(du * (du - 1)), _mm256_add_pd(a, round));
+    d2[1] = _mm256_mul_pd(VSET(dv * (dv - 1)), _mm256_add_pd(b, round));
+    d2[2] = _mm256_mul_pd(VSET(du * dv), _mm256_add_pd(c, round));
+}
+
+/* quotient_sum with h's coefficients as lanes (w1, w2, wlo the weight's, shared). */
+__attribute__((target("avx2"))) static INLINE_BODY V quotient_sum4(const V *h, const double w1[2],
+                                                                   const double w2[3], int n, int m,
+                                                                   V Q, double wlo)
+{
+    V h1[2], h2[3], two = VSET(2), vlo = VSET(wlo);
+    diff_bounds4(h, n, m, h1, h2);
+    V qs = _mm256_div_pd(_mm256_add_pd(h1[0], _mm256_mul_pd(Q, VSET(w1[0]))), vlo);
+    V qt = _mm256_div_pd(_mm256_add_pd(h1[1], _mm256_mul_pd(Q, VSET(w1[1]))), vlo);
+    V A = _mm256_div_pd(
+        _mm256_add_pd(_mm256_add_pd(h2[0], _mm256_mul_pd(_mm256_mul_pd(two, qs), VSET(w1[0]))),
+                      _mm256_mul_pd(Q, VSET(w2[0]))),
+        vlo);
+    V B = _mm256_div_pd(
+        _mm256_add_pd(_mm256_add_pd(h2[1], _mm256_mul_pd(_mm256_mul_pd(two, qt), VSET(w1[1]))),
+                      _mm256_mul_pd(Q, VSET(w2[1]))),
+        vlo);
+    V C = _mm256_div_pd(
+        _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(h2[2], _mm256_mul_pd(qs, VSET(w1[1]))),
+                                    _mm256_mul_pd(qt, VSET(w1[0]))),
+                      _mm256_mul_pd(Q, VSET(w2[2]))),
+        vlo);
+    return _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(A, B), _mm256_mul_pd(two, C)), VSET(1 + 1e-9));
+}
+
+/* raise_plus(x, l, y) with x and l as lanes, y shared (y non-NULL). */
+__attribute__((target("avx2"))) static INLINE_BODY void
+raise_plus4(const V *x, const V l[4], const double *y, int du, int dv, V *dest)
+{
+    int n = du + 1, m = dv + 1;
+    double cs[2][QN + 1], ct[2][QN + 1];
+    for (int i = 0; i <= n; i++)
+        cs[0][i] = (double)(n - i) / n, cs[1][i] = (double)i / n;
+    for (int k = 0; k <= m; k++)
+        ct[0][k] = (double)(m - k) / m, ct[1][k] = (double)k / m;
+    for (int i = 0; i < (n + 1) * (m + 1); i++)
+        dest[i] = VSET(0);
+    for (int kk = 0; kk <= dv; kk++)
+        for (int ii = 0; ii <= du; ii++) {
+            V v = x[kk * n + ii], yv = VSET(y[kk * n + ii]);
+            V *d0 = dest + kk * (n + 1) + ii, *d1 = d0 + (n + 1);
+            double a0 = cs[0][ii], a1 = cs[1][ii + 1], b0 = ct[0][kk], b1 = ct[1][kk + 1];
+            d0[0] = _mm256_add_pd(
+                d0[0], _mm256_mul_pd(VSET(a0 * b0), _mm256_add_pd(v, _mm256_mul_pd(l[0], yv))));
+            d0[1] = _mm256_add_pd(
+                d0[1], _mm256_mul_pd(VSET(a1 * b0), _mm256_add_pd(v, _mm256_mul_pd(l[1], yv))));
+            d1[0] = _mm256_add_pd(
+                d1[0], _mm256_mul_pd(VSET(a0 * b1), _mm256_add_pd(v, _mm256_mul_pd(l[2], yv))));
+            d1[1] = _mm256_add_pd(
+                d1[1], _mm256_mul_pd(VSET(a1 * b1), _mm256_add_pd(v, _mm256_mul_pd(l[3], yv))));
+        }
+}
+
+/* piece_sums_body(c, 3, du, dv, 0, K) with the coordinates as lanes; returns 0 (K untouched) where
+ * the scalar body is to run instead: a weight not positive, or all the weights equal. */
+__attribute__((target("avx2"))) static INLINE_BODY int piece_sums3_body(const double *c, int du,
+                                                                        int dv, double *K)
+{
+    int n = (du + 1) * (dv + 1), ne = (du + 2) * (dv + 2);
+    double w[QN * QN], we[QN * QN], wlo = INFINITY, whi = -INFINITY;
+    if (n < 1 || n > QN * QN) return 0;
+    for (int i = 0; i < n; i++) {
+        w[i] = c[4 * i + 3];
+        if (!(w[i] > 0)) return 0;
+        wlo = crisp__min(wlo, w[i]), whi = crisp__max(whi, w[i]);
+    }
+    if (!(whi > wlo)) return 0;
+    double w1[2], w2[3], we1[2] = {0, 0}, we2[3] = {0, 0, 0};
+    diff_bounds(w, du, dv, w1, w2);
+    int fit = du + 1 < QN && dv + 1 < QN;
+    if (fit) {
+        raise_plus(w, NULL, NULL, du, dv, we);
+        diff_bounds(we, du + 1, dv + 1, we1, we2);
+    }
+    V g[QN * QN], d[QN * QN], lo = VSET(INFINITY), hi = VSET(-INFINITY), big = VSET(INFINITY);
+    V ok = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    for (int i = 0; i < n; i++) {
+        g[i] = _mm256_loadu_pd(c + 4 * i);
+        d[i] = _mm256_div_pd(g[i], VSET(w[i]));
+        ok = _mm256_and_pd(ok, _mm256_cmp_pd(VABS(d[i]), big, _CMP_LT_OQ));
+        lo = _mm256_min_pd(lo, d[i]), hi = _mm256_max_pd(hi, d[i]);
+    }
+    V half = VSET(0.5);
+    V mid = _mm256_mul_pd(half, _mm256_add_pd(lo, hi));
+    V mag = _mm256_max_pd(VABS(lo), VABS(hi));
+    for (int i = 0; i < n; i++)
+        g[i] = _mm256_sub_pd(g[i], _mm256_mul_pd(mid, VSET(w[i])));
+    V Q0 = _mm256_add_pd(_mm256_mul_pd(_mm256_mul_pd(half, _mm256_sub_pd(hi, lo)), VSET(1 + 1e-12)),
+                         _mm256_mul_pd(VSET(8 * DBL_EPSILON), mag));
+    V k = quotient_sum4(g, w1, w2, du, dv, Q0, wlo);
+    if (fit) {
+        V bs = VSET(0), ct = VSET(0), mean = VSET(0);
+        for (int j = 0; j <= dv; j++)
+            bs = _mm256_add_pd(bs, _mm256_sub_pd(d[j * (du + 1) + du], d[j * (du + 1)]));
+        for (int i = 0; i <= du; i++)
+            ct = _mm256_add_pd(ct, _mm256_sub_pd(d[dv * (du + 1) + i], d[i]));
+        bs = _mm256_div_pd(bs, VSET(dv + 1)), ct = _mm256_div_pd(ct, VSET(du + 1));
+        for (int j = 0; j <= dv; j++)
+            for (int i = 0; i <= du; i++)
+                mean = _mm256_add_pd(
+                    mean,
+                    _mm256_sub_pd(_mm256_sub_pd(d[j * (du + 1) + i],
+                                                _mm256_mul_pd(bs, VSET(du ? (double)i / du : 0))),
+                                  _mm256_mul_pd(ct, VSET(dv ? (double)j / dv : 0))));
+        mean = _mm256_div_pd(mean, VSET(n));
+        V zero = VSET(-0.0); /* -x as the scalar's negation: the sign bit flipped */
+        V l[4] = {_mm256_xor_pd(mean, zero), _mm256_xor_pd(_mm256_add_pd(mean, bs), zero),
+                  _mm256_xor_pd(_mm256_add_pd(mean, ct), zero),
+                  _mm256_xor_pd(_mm256_add_pd(_mm256_add_pd(mean, bs), ct), zero)};
+        V he[QN * QN], Q = VSET(0), gmax = VSET(0), lmax = VSET(0);
+        double wmax = 0;
+        for (int i = 0; i < n; i++) {
+            g[i] = _mm256_loadu_pd(c + 4 * i);
+            gmax = _mm256_max_pd(gmax, VABS(g[i])), wmax = crisp__max(wmax, w[i]);
+        }
+        for (int q = 0; q < 4; q++)
+            lmax = _mm256_max_pd(lmax, VABS(l[q]));
+        raise_plus4(g, l, w, du, dv, he);
+        for (int i = 0; i < ne; i++)
+            Q = _mm256_max_pd(Q, VABS(_mm256_div_pd(he[i], VSET(we[i]))));
+        V emag = _mm256_add_pd(gmax, _mm256_mul_pd(lmax, VSET(wmax)));
+        Q = _mm256_add_pd(_mm256_mul_pd(Q, VSET(1 + 1e-12)),
+                          _mm256_div_pd(_mm256_mul_pd(VSET(16 * DBL_EPSILON), emag), VSET(wlo)));
+        k = _mm256_min_pd(k, quotient_sum4(he, we1, we2, du + 1, dv + 1, Q, wlo));
+    }
+    /* a lane whose values are not all finite keeps INFINITY, as the scalar body's continue */
+    double out[4];
+    _mm256_storeu_pd(out, _mm256_blendv_pd(big, k, ok));
+    K[0] = out[0], K[1] = out[1], K[2] = out[2];
+    return 1;
+}
+
+__attribute__((target("avx2"))) PEEL_LOOPS static int piece_sums3(const double *c, int du, int dv,
+                                                                  double *K)
+{
+    if (du == 3 && dv == 2) return piece_sums3_body(c, 3, 2, K);
+    if (du == 3 && dv == 3) return piece_sums3_body(c, 3, 3, K);
+    if (du == 1 && dv == 2) return piece_sums3_body(c, 1, 2, K);
+    if (du == 6 && dv == 10) return piece_sums3_body(c, 6, 10, K);
+    return piece_sums3_body(c, du, dv, K);
+}
+#undef V
+#undef VSET
+#undef VABS
+#else
+#define QUOTIENT_AVX2 0
+#endif
+
+/* 1: piece_sums takes the lanes path (piece_sums3) where it applies and the processor has AVX2;
+ * 0: the scalar body always (a test hook). Set once. */
+int crisp__slefe_quotient_lanes = -1;
+
+static int use_lanes(void)
+{
+#if QUOTIENT_AVX2
+    if (crisp__slefe_quotient_lanes < 0)
+        crisp__slefe_quotient_lanes = __builtin_cpu_supports("avx2") ? 1 : 0;
+    return crisp__slefe_quotient_lanes;
+#else
+    return 0;
+#endif
+}
+
 /* piece_sums_body with constant degrees where they are common: cubic by quadratic rational
  * patches (impeller.igs), bicubic, linear by quadratic and 6 x 10 (occt_linkrods.step). */
 PEEL_LOOPS static void piece_sums(const double *c, int nc, int du, int dv, int mid_only, double *K)
@@ -258,6 +472,52 @@ PEEL_LOOPS static void split_half(const double *c, int st, int from, int du, int
         split_half_body(c, st, from, du, dv, dir, lo, hi);
 }
 
+#if QUOTIENT_AVX2
+/* split_half_body for four values a control point (st = 4), the four as lanes: the same
+ * 0.5 * (a + b) per lane; coordinates from `from` on are then the source's, as the scalar body
+ * copies them (a blend, so that no value of theirs goes through the sums). */
+__attribute__((target("avx2"))) static INLINE_BODY void
+split_half4_body(const double *c, int from, int du, int dv, int dir, double *lo, double *hi)
+{
+    int d = dir ? dv : du, rows = dir ? du + 1 : dv + 1;
+    int stride = dir ? 4 * (du + 1) : 4, row_step = dir ? 4 : 4 * (du + 1);
+    __m256d tmp[QN], half = _mm256_set1_pd(0.5);
+    /* lanes q >= from: all ones (take the source) */
+    __m256d keep = _mm256_castsi256_pd(
+        _mm256_cmpgt_epi64(_mm256_set_epi64x(3, 2, 1, 0), _mm256_set1_epi64x(from - 1)));
+    for (int row = 0; row < rows; row++) {
+        const double *x = c + row * row_step;
+        double *L = lo + row * row_step, *H = hi + row * row_step;
+        for (int i = 0; i <= d; i++)
+            tmp[i] = _mm256_loadu_pd(x + i * stride);
+        _mm256_storeu_pd(L, tmp[0]);
+        _mm256_storeu_pd(H + d * stride, tmp[d]);
+        for (int r = 1; r <= d; r++) {
+            for (int i = 0; i <= d - r; i++)
+                tmp[i] = _mm256_mul_pd(half, _mm256_add_pd(tmp[i], tmp[i + 1]));
+            _mm256_storeu_pd(L + r * stride,
+                             _mm256_blendv_pd(tmp[0], _mm256_loadu_pd(x + r * stride), keep));
+            _mm256_storeu_pd(
+                H + (d - r) * stride,
+                _mm256_blendv_pd(tmp[d - r], _mm256_loadu_pd(x + (d - r) * stride), keep));
+        }
+    }
+}
+
+__attribute__((target("avx2"))) PEEL_LOOPS static void
+split_half4(const double *c, int from, int du, int dv, int dir, double *lo, double *hi)
+{
+    if (du == 3 && dv == 2 && dir)
+        split_half4_body(c, from, 3, 2, 1, lo, hi);
+    else if (du == 3 && dv == 2)
+        split_half4_body(c, from, 3, 2, 0, lo, hi);
+    else if (du == 3 && dv == 3)
+        split_half4_body(c, from, 3, 3, dir, lo, hi);
+    else
+        split_half4_body(c, from, du, dv, dir, lo, hi);
+}
+#endif
+
 /* The largest piece_sums over the pieces of c halved su times in s and sv times in t, into K
  * (the caller's maxima so far). */
 static void halves(const double *c, int nc, int from, int du, int dv, int su, int sv, int mid_only,
@@ -277,10 +537,40 @@ static void halves(const double *c, int nc, int from, int du, int dv, int su, in
     halves(hi, nc, from, du, dv, su - !dir, sv - dir, mid_only, K);
 }
 
+#if QUOTIENT_AVX2
+/* halves for three coordinates with the lanes paths (piece_sums3, split_half4; the scalar body
+ * where piece_sums3 declines): the same pieces, the same maxima. A copy, so that halves and
+ * piece_sums for the other callers (depth_bound.c, one coordinate) stay as they were. */
+static void halves3(const double *c, int from, int du, int dv, int su, int sv, double *K)
+{
+    if (!su && !sv) {
+        double Kp[4];
+        if (!piece_sums3(c, du, dv, Kp)) piece_sums(c, 3, du, dv, 0, Kp);
+        for (int r = 0; r < 3; r++)
+            K[r] = crisp__max(K[r], Kp[r]);
+        return;
+    }
+    double lo[4 * QN * QN], hi[4 * QN * QN];
+    int dir = su ? 0 : 1;
+    split_half4(c, from, du, dv, dir, lo, hi);
+    halves3(lo, from, du, dv, su - !dir, sv - dir, K);
+    halves3(hi, from, du, dv, su - !dir, sv - dir, K);
+}
+#endif
+
 static void curvature(const double *c, int nc, int du, int dv, int k, int mid_only, double *K)
 {
+#if QUOTIENT_AVX2
+    int lanes = nc == 3 && !mid_only && use_lanes();
+#else
+    int lanes = 0;
+    (void)lanes;
+#endif
     int st = nc + 1, n = (du + 1) * (dv + 1);
     if (k <= 1 || du >= QN - 1 || dv >= QN - 1) {
+#if QUOTIENT_AVX2
+        if (lanes && piece_sums3(c, du, dv, K)) return;
+#endif
         piece_sums(c, nc, du, dv, mid_only, K);
         return;
     }
@@ -292,7 +582,12 @@ static void curvature(const double *c, int nc, int du, int dv, int k, int mid_on
     int levels = k >= 4 ? 2 : 1;
     for (int r = 0; r < nc; r++)
         K[r] = 0;
-    halves(c, nc, from, du, dv, levels, levels, mid_only, K);
+#if QUOTIENT_AVX2
+    if (lanes)
+        halves3(c, from, du, dv, levels, levels, K);
+    else
+#endif
+        halves(c, nc, from, du, dv, levels, levels, mid_only, K);
     for (int r = 0; r < nc; r++)
         K[r] *= (double)k * k * (1 + 1e-9);
 }

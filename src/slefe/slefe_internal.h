@@ -178,6 +178,9 @@ void crisp__slefe_coordinate_tile(const crisp_bezier_patch *p, int m, int c, int
 /* Test hook: nonzero makes the level search form every level's bound whole (no rejection from
  * one tile), as before session 20. */
 extern int crisp__slefe_quick_off;
+/* Test hook (quotient.c): 0 makes the piece bounds of three coordinates take the scalar body,
+ * 1 the lanes one (AVX2 processors only), -1 (the start) chooses by the processor. */
+extern int crisp__slefe_quotient_lanes;
 
 /* crisp_slefe_patch_tess_level, and (info not NULL) what it formed on the way. */
 crisp_status crisp__slefe_patch_tess_level(const crisp_bezier_patch *p,

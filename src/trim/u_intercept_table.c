@@ -47,8 +47,10 @@ static int row_range(double a, double b, uint32_t mu, double lo, double hi, uint
 {
     double h = (b - a) / mu;
     double fs = (lo - a) / h - 0.5, fe = (hi - a) / h - 0.5;
-    fs = fmin(fmax(fs, -1.0), (double)mu);
-    fe = fmin(fmax(fe, -1.0), (double)mu);
+    /* fmin(fmax(x, -1), mu) without the library calls: NaN gives -1 as fmax's rule; only
+     * floor's integer is used, the same for a zero of either sign */
+    fs = fs > -1.0 ? fs : -1.0, fe = fe > -1.0 ? fe : -1.0;
+    fs = fs < (double)mu ? fs : (double)mu, fe = fe < (double)mu ? fe : (double)mu;
     long s = (long)floor(fs) + 1, e = (long)floor(fe);
     if (s < 0) s = 0;
     if (e > (long)mu - 1) e = (long)mu - 1;
@@ -69,12 +71,14 @@ static int row_range(double a, double b, uint32_t mu, double lo, double hi, uint
 }
 
 /* Visit the crossings of segment (ua, va) - (ub, vb) with the table's scan lines. fill == 0 counts
- * into row_offset[r + 1], fill == 1 writes u at row_offset[r + 1]++. */
+ * into row_offset as differences (row r's count is the sum of row_offset[1..r + 1]), fill == 1
+ * writes u at row_offset[r + 1]++. */
 static void segment_crossings(crisp_trim_table *t, double ua, double va, double ub, double vb,
                               int fill)
 {
     if (va == vb || !(isfinite(va) && isfinite(vb))) return;
-    double lo = fmin(va, vb), hi = fmax(va, vb);
+    /* fmin and fmax without the library calls: va and vb are finite and differ */
+    double lo = va < vb ? va : vb, hi = va < vb ? vb : va;
     if (hi < t->v0 || lo > t->v1) return;
     int n = t->strip_count;
     double span = t->v1 - t->v0;
@@ -92,15 +96,19 @@ static void segment_crossings(crisp_trim_table *t, double ua, double va, double 
         double a = t->row_v[2 * i], b = t->row_v[2 * i + 1];
         uint32_t j0, j1;
         if (!row_range(a, b, mu, lo, hi, &j0, &j1)) continue;
+        if (!fill) {
+            /* rows j0..j1 each one more: as differences, summed after the pass */
+            uint32_t r0 = t->row_base[i] + j0, r1 = t->row_base[i] + j1;
+            t->row_offset[r0 + 1]++;
+            if (r1 + 2 <= t->row_count) t->row_offset[r1 + 2]--;
+            continue;
+        }
         for (uint32_t j = j0; j <= j1; j++) {
             uint32_t r = t->row_base[i] + j;
-            if (!fill) {
-                t->row_offset[r + 1]++;
-            } else {
-                double u = ua + (scan_v(a, b, mu, j) - va) * slope;
-                u = fmin(fmax(u, umin), umax);
-                t->u[t->row_offset[r + 1]++] = u;
-            }
+            double u = ua + (scan_v(a, b, mu, j) - va) * slope;
+            /* (strictly inside: the clamp below would return u itself) */
+            if (!(u > umin && u < umax)) u = fmin(fmax(u, umin), umax);
+            t->u[t->row_offset[r + 1]++] = u;
         }
     }
 }
@@ -191,8 +199,9 @@ crisp_status crisp_trim_table_build(const crisp_trim_table_desc *desc, crisp_tri
     /* Pass 1: count per row into row_offset[r + 1], guarding the 32-bit total. */
     for_each_segment(t, pl, 0);
     uint64_t total = 0;
+    uint32_t run = 0; /* the differences' running sum (mod 2^32, as the counts were) */
     for (uint32_t r = 0; r < t->row_count; r++) {
-        uint32_t c = t->row_offset[r + 1];
+        uint32_t c = run += t->row_offset[r + 1];
         t->row_offset[r + 1] = (uint32_t)total; /* start of row r; pass 2 advances it to the end */
         total += c;
     }

@@ -9,6 +9,7 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -400,13 +401,56 @@ static void test_kept_subpatches(void **state)
     }
 }
 
+/* ribbon.c's distance comparisons without hypot (crisp__ribbon_length_above) answer as
+ * hypot(x, y) > c does: at lengths within a few hundred ulps of c (where x x + y y alone decides
+ * some differently: counted, so the test is sharp), at random lengths, and at zeros, subnormals,
+ * huge, infinite and NaN coordinates. */
+static void test_ribbon_length_compare(void **state)
+{
+    (void)state;
+    uint64_t z = 12;
+    double cs[] = {4.0, 0.1, 4 * 0.1, 1.0, 3.7e-3, 1234.5};
+    long compared = 0, square_differs = 0;
+    for (int ci = 0; ci < 6; ci++) {
+        double c = cs[ci];
+        for (int k = 0; k < 200000; k++) {
+            z = z * 6364136223846793005ull + 1442695040888963407ull;
+            double a = (double)(z >> 11) * 0x1.0p-53 * 6.283185307179586;
+            z = z * 6364136223846793005ull + 1442695040888963407ull;
+            int ulps = (int)(z >> 40) % 601 - 300;
+            double r = k % 4 == 3 ? c * (double)(z >> 11) * 0x1.0p-52 : c * (1 + ulps * 0x1.0p-52);
+            double x = r * cos(a), y = r * sin(a);
+            if (k % 7 == 1) x = -x;
+            int want = hypot(x, y) > c, got = crisp__ribbon_length_above(x, y, c);
+            if (want != got) {
+                printf("x %.17g y %.17g c %.17g: hypot %.17g, got %d\n", x, y, c, hypot(x, y), got);
+                fail();
+            }
+            square_differs += (x * x + y * y > c * c) != want;
+            compared++;
+        }
+    }
+    double sp[] = {0.0,     -0.0,     0x1p-1074, 1e-300, 1e154, 1.5e154, 1e300,
+                   DBL_MAX, INFINITY, -INFINITY, NAN,    4.0,   -4.0,    0.1};
+    int m = (int)(sizeof sp / sizeof sp[0]);
+    for (int i = 0; i < m; i++)
+        for (int j = 0; j < m; j++)
+            for (int ci = 0; ci < 6; ci++) {
+                assert_int_equal(crisp__ribbon_length_above(sp[i], sp[j], cs[ci]),
+                                 hypot(sp[i], sp[j]) > cs[ci]);
+                compared++;
+            }
+    printf("length comparisons: %ld equal to hypot's, %ld where the square alone differs\n",
+           compared, square_differs);
+    assert_true(square_differs > 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_plan_models),
-        cmocka_unit_test(test_level_splits),
-        cmocka_unit_test(test_versions_and_replan),
-        cmocka_unit_test(test_kept_subpatches),
+        cmocka_unit_test(test_plan_models),           cmocka_unit_test(test_level_splits),
+        cmocka_unit_test(test_versions_and_replan),   cmocka_unit_test(test_kept_subpatches),
+        cmocka_unit_test(test_ribbon_length_compare),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -369,6 +369,69 @@ static void test_quick_reject_same_level(void **state)
     assert_true(above1 > 300);
 }
 
+/* quotient.c's lanes path (three coordinates as AVX2 lanes) against its scalar body: the bounds
+ * crisp__slefe_quotient_curvature forms (whole patch, 2 x 2 and 4 x 4 pieces) equal bit for bit
+ * for degrees 1..6 x 1..6, 6 x 10 and 15 x 15 (no degree raise above 15), coefficients of any
+ * scale, weights varying, equal, not positive, and values whose quotient overflows (that lane's
+ * bound INFINITY, the others finite). */
+static void test_quotient_lanes(void **state)
+{
+    (void)state;
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+    if (!__builtin_cpu_supports("avx2")) {
+        printf("test_quotient_lanes: no AVX2, skipped\n");
+        return;
+    }
+#else
+    return;
+#endif
+    rng r = {0x5eed10};
+    int compared = 0, infinite = 0;
+    static double c[MAXN];
+    for (int trial = 0; trial < 6000; trial++) {
+        int du, dv;
+        if (trial % 10 == 9)
+            du = rng_int(&r, 0, 1) ? 6 : 15, dv = du == 6 ? 10 : 15;
+        else
+            du = rng_int(&r, 1, 6), dv = rng_int(&r, 1, 6);
+        int n = (du + 1) * (dv + 1), kind = rng_int(&r, 0, 9);
+        double scale = exp(rng_uniform(&r, -20, 20));
+        for (int i = 0; i < n; i++) {
+            for (int q = 0; q < 3; q++)
+                c[4 * i + q] = scale * rng_uniform(&r, -1, 1);
+            c[4 * i + 3] = kind == 0 ? 1.25 : weight(&r);
+        }
+        if (kind == 1) c[4 * rng_int(&r, 0, n - 1) + 3] = rng_int(&r, 0, 1) ? 0.0 : -0.5;
+        if (kind == 2) { /* one coordinate's quotient overflows */
+            int i = rng_int(&r, 0, n - 1);
+            c[4 * i + rng_int(&r, 0, 2)] = 1e300, c[4 * i + 3] = 1e-10;
+        }
+        if (kind == 4) /* a weight the same everywhere and huge: halves copy it, never sum it */
+            for (int i = 0; i < n; i++)
+                c[4 * i + 3] = 1e308;
+        if (kind == 3) /* a coordinate constant */
+            for (int i = 0; i < n; i++)
+                c[4 * i + 1] = 0.5 * c[3];
+        int k = 1 << rng_int(&r, 0, 2);
+        double Ks[3], Kv[3];
+        crisp__slefe_quotient_lanes = 0;
+        crisp__slefe_quotient_curvature(c, 3, du, dv, k, Ks);
+        crisp__slefe_quotient_lanes = 1;
+        crisp__slefe_quotient_curvature(c, 3, du, dv, k, Kv);
+        if (memcmp(Ks, Kv, sizeof Ks)) {
+            printf("trial %d (%d x %d, k %d, kind %d): scalar %.17g %.17g %.17g, lanes %.17g %.17g "
+                   "%.17g\n",
+                   trial, du, dv, k, kind, Ks[0], Ks[1], Ks[2], Kv[0], Kv[1], Kv[2]);
+            fail();
+        }
+        compared++;
+        infinite += kind == 2 && isinf(Ks[0]) + isinf(Ks[1]) + isinf(Ks[2]) == 1;
+    }
+    crisp__slefe_quotient_lanes = -1;
+    printf("test_quotient_lanes: %d compared, %d with one lane infinite\n", compared, infinite);
+    assert_true(infinite > 100);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -376,6 +439,7 @@ int main(void)
         cmocka_unit_test(test_euclid_bound),
         cmocka_unit_test(test_coordinate_tile),
         cmocka_unit_test(test_quick_reject_same_level),
+        cmocka_unit_test(test_quotient_lanes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

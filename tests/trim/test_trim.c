@@ -9,6 +9,8 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <math.h>
+#include <string.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -1000,6 +1002,95 @@ static void test_bad_input(void **state)
     assert_int_equal(m3[2], 0);
 }
 
+static int cmp_u(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Every row of crisp_trim_table_build's table against the crossings found row by row, segment by
+ * segment (the scan line in (min v, max v] of a segment, u on the segment clamped to its u-range),
+ * bit for bit: random closed polylines with points on scan lines and level segments, strips
+ * with 0..40 rows, row ranges part of a strip, one table reused across builds (the counting
+ * pass's differences, the fill's clamp skipped strictly inside, issue 12 session 21). */
+static void test_table_rows_brute(void **state)
+{
+    (void)state;
+    crisp_trim_table t = {0};
+    int rows_checked = 0, crossings = 0;
+    for (int trial = 0; trial < 400; trial++) {
+        int strips = 1 + (int)(rnd() * 8), npts = 3 + (int)(rnd() * 40);
+        double v0 = rnd_in(-1, 0.2), v1 = v0 + rnd_in(0.2, 2);
+        uint32_t mu[8];
+        double row_v[16];
+        for (int i = 0; i < strips; i++) {
+            mu[i] = rnd() < 0.1 ? 0 : (uint32_t)(rnd() * 40);
+            double a = v0 + (v1 - v0) * ((double)i / strips),
+                   b = v0 + (v1 - v0) * ((double)(i + 1) / strips);
+            double x = rnd_in(a, b), y = rnd_in(a, b);
+            row_v[2 * i] = x < y ? x : y, row_v[2 * i + 1] = x < y ? y : x;
+        }
+        int use_row_v = trial % 3 == 0;
+        /* the table's scan lines, to put polyline points on them */
+        double uv[2 * 48];
+        int first[2] = {0, npts + 1};
+        for (int k = 0; k < npts; k++) {
+            uv[2 * k] = rnd_in(-0.5, 1.5);
+            uv[2 * k + 1] = rnd_in(v0 - 0.2, v1 + 0.2);
+            if (k && rnd() < 0.15) uv[2 * k + 1] = uv[2 * k - 1]; /* level */
+        }
+        uv[2 * npts] = uv[0], uv[2 * npts + 1] = uv[1];
+        crisp_trim_polyline pl = {.piece_count = 1, .first = first, .uv = uv};
+        crisp_trim_table_desc d = {.polyline = &pl,
+                                   .v0 = v0,
+                                   .v1 = v1,
+                                   .strip_count = strips,
+                                   .mu = mu,
+                                   .row_v = use_row_v ? row_v : NULL};
+        assert_int_equal(crisp_trim_table_build(&d, &t), CRISP_OK);
+        /* points on scan lines: rebuild with some points moved onto the first build's lines */
+        for (int k = 0; k < npts && t.row_count; k++)
+            if (rnd() < 0.3) {
+                uint32_t r = (uint32_t)(rnd() * t.row_count);
+                int i = 0;
+                while (t.row_base[i + 1] <= r)
+                    i++;
+                uint32_t j = r - t.row_base[i], m = t.row_base[i + 1] - t.row_base[i];
+                double a = t.row_v[2 * i], b = t.row_v[2 * i + 1];
+                uv[2 * k + 1] = a + (b - a) * ((j + 0.5) / m);
+            }
+        uv[2 * npts] = uv[0], uv[2 * npts + 1] = uv[1];
+        assert_int_equal(crisp_trim_table_build(&d, &t), CRISP_OK);
+        for (int i = 0; i < strips; i++)
+            for (uint32_t j = 0; j < mu[i]; j++) {
+                uint32_t r = t.row_base[i] + j;
+                double a = t.row_v[2 * i], b = t.row_v[2 * i + 1];
+                double v = a + (b - a) * ((j + 0.5) / mu[i]), want[64];
+                int n = 0;
+                for (int k = 0; k < npts; k++) {
+                    double ua = uv[2 * k], va = uv[2 * k + 1], ub = uv[2 * k + 2],
+                           vb = uv[2 * k + 3];
+                    double lo = va < vb ? va : vb, hi = va < vb ? vb : va;
+                    if (va == vb || !(v > lo && v <= hi)) continue;
+                    double u = ua + (v - va) * ((ub - ua) / (vb - va));
+                    want[n++] = fmin(fmax(u, fmin(ua, ub)), fmax(ua, ub));
+                }
+                qsort(want, (size_t)n, sizeof *want, cmp_u);
+                uint32_t got = t.row_offset[r + 1] - t.row_offset[r];
+                if (got != (uint32_t)n || memcmp(want, t.u + t.row_offset[r], n * sizeof *want)) {
+                    printf("trial %d strip %d row %u: %u crossings, want %d\n", trial, i, j, got,
+                           n);
+                    fail();
+                }
+                rows_checked++;
+                crossings += n;
+            }
+    }
+    crisp_trim_table_free(&t);
+    printf("table rows: %d rows, %d crossings equal\n", rows_checked, crossings);
+    assert_true(crossings > 10000);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1016,6 +1107,7 @@ int main(void)
         cmocka_unit_test(test_near_plane_paths),
         cmocka_unit_test(test_plan_reuses_buffers),
         cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_table_rows_brute),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
