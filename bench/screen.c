@@ -499,6 +499,23 @@ static void print_ratio(double x)
         printf(" - |");
 }
 
+/* Runs of one (row_frame or row_plan) on a and b alternating (A B, B A, A B, ...) until each side
+ * has at least `least` samples and least_ms have passed (keep_going): samples into sa and sb, CPU
+ * times added to ca and cb. */
+static void alternate(row_state *a, row_state *b, double (*one)(row_state *, double *), int least,
+                      double least_ms, samples *sa, samples *sb, double *ca, double *cb)
+{
+    double t0 = crisp_time_now();
+    while (keep_going(sa->n, least, t0, least_ms)) {
+        double x, y;
+        if (sa->n % 2 == 0)
+            x = one(a, ca), y = one(b, cb);
+        else
+            y = one(b, cb), x = one(a, ca);
+        add_sample(sa, x), add_sample(sb, y);
+    }
+}
+
 /* Pair p measured in one process, its two rows' frames alternating (A B, B A, A B, ...: each
  * ratio a frame of A over the frame of B next to it), then their plans alternating the same way,
  * each side filling fill_ms(frames) or more: a change in the machine's speed over the run
@@ -515,25 +532,9 @@ static void pair(size_t p, int frames, int threads)
     double least_ms = 2 * fill_ms(frames); /* both sides */
     samples fa = {0}, fb = {0}, pa = {0}, pb = {0};
     double cfa = 0, cfb = 0, cpa = 0, cpb = 0;
-    double t0 = crisp_time_now();
-    while (keep_going(fa.n, frames, t0, least_ms)) {
-        double x, y;
-        if (fa.n % 2 == 0)
-            x = row_frame(&a, &cfa), y = row_frame(&b, &cfb);
-        else
-            y = row_frame(&b, &cfb), x = row_frame(&a, &cfa);
-        add_sample(&fa, x), add_sample(&fb, y);
-    }
-    int plans = frames > PLAN_CALLS ? frames : PLAN_CALLS;
-    t0 = crisp_time_now();
-    while (keep_going(pa.n, plans, t0, least_ms)) {
-        double x, y;
-        if (pa.n % 2 == 0)
-            x = row_plan(&a, &cpa), y = row_plan(&b, &cpb);
-        else
-            y = row_plan(&b, &cpb), x = row_plan(&a, &cpa);
-        add_sample(&pa, x), add_sample(&pb, y);
-    }
+    alternate(&a, &b, row_frame, frames, least_ms, &fa, &fb, &cfa, &cfb);
+    alternate(&a, &b, row_plan, frames > PLAN_CALLS ? frames : PLAN_CALLS, least_ms, &pa, &pb, &cpa,
+              &cpb);
     /* the per-frame ratios before the medians sort the samples */
     double fr_med = median_ratio(&fa, &fb), pr_med = median_ratio(&pa, &pb);
     double fma = bench_median(fa.v, fa.n), fmb = bench_median(fb.v, fb.n);
