@@ -38,17 +38,12 @@ void crisp__ribbons_destroy(crisp__ribbons *rb);
  * (along t) is bit CRISP__RIBBON_PIECES j + i of a mask. */
 #define CRISP__RIBBON_PIECES 4
 typedef uint32_t (*crisp__ribbon_pieces_fn)(const void *ctx, uint32_t patch);
-/* While fn is set (NULL: off), a build leaves out the ribbon along a segment of a face's trim
- * polyline (or domain edge) whose (u, v) box lies in pieces of the face's patch grid that
- * fn(ctx, patch) (the scene's patch index; callable from several threads) marks hidden: pieces
- * where no sample the ribbons of its surface points can reach would take their fragments (the
- * later stages' depth, stages.c). Such a segment, or such a part of one that the sampling
- * splits, gets no samples: the ribbon breaks there, as off screen. */
-/* hypot(x, y) > c for a positive finite c, mostly without hypot: x x + y y rounds by under
- * 3 2^-53 of itself, and glibc's hypot is within an ulp (2^-52 relative) of the true length, so
- * a square more than 2^-40 of c^2 from c^2 decides it as hypot would; an overflowing square
- * (infinite) means a length above c as well (hypot is then at least |x| or |y|, above 1e154); NaN
- * or the narrow band around c^2 asks hypot itself. The same answer bit for bit as
+
+/* hypot(x, y) > c for a positive finite c (above 1e-150: c^2 normal), mostly without hypot: x x + y
+ * y rounds by under 3 2^-53 of itself, and glibc's hypot is within an ulp (2^-52 relative) of the
+ * true length, so a square more than 2^-40 of c^2 from c^2 decides it as hypot would; an
+ * overflowing square (infinite) means a length above c as well (hypot is then at least |x| or |y|,
+ * above 1e154); NaN or the narrow band around c^2 asks hypot itself. The same answer bit for bit as
  * hypot(x, y) > c (tests/render/test_plan.c, test_ribbon_length_compare). */
 static inline int crisp__ribbon_length_above(double x, double y, double c)
 {
@@ -58,6 +53,12 @@ static inline int crisp__ribbon_length_above(double x, double y, double c)
     return hypot(x, y) > c;
 }
 
+/* While fn is set (NULL: off), a build leaves out the ribbon along a segment of a face's trim
+ * polyline (or domain edge) whose (u, v) box lies in pieces of the face's patch grid that
+ * fn(ctx, patch) (the scene's patch index; callable from several threads) marks hidden: pieces
+ * where no sample the ribbons of its surface points can reach would take their fragments (the
+ * later stages' depth, stages.c). Such a segment, or such a part of one that the sampling
+ * splits, gets no samples: the ribbon breaks there, as off screen. */
 void crisp__ribbons_set_hidden(crisp__ribbons *rb, crisp__ribbon_pieces_fn fn, const void *ctx);
 
 crisp_status crisp__ribbons_build(crisp__ribbons *rb, const crisp__trees *trees,
