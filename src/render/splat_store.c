@@ -22,10 +22,15 @@
  * h - margin px of the pixel centre in x and in y and its square (half-size h) covers it. */
 #include <float.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef __SSE2__
 #include <emmintrin.h>
+#endif
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#define CHOICE_LANES 1 /* choose_faces4 */
 #endif
 #ifdef __GLIBC__ /* (defined by the headers above) */
 #include <malloc.h>
@@ -106,14 +111,16 @@ struct crisp__splat_store {
     float *clip_origin;
     size_t clip_cap;
     crisp_mat4 view_proj;
-    int changed;    /* the splats array changed since the last publish */
-    int clip_fresh; /* a new scene: its clip origins are to be zeroed */
+    uint64_t choice_work; /* the last choice's work (choose_levels; UINT64_MAX: none yet) */
+    int changed;          /* the splats array changed since the last publish */
+    int clip_fresh;       /* a new scene: its clip origins are to be zeroed */
 };
 
 crisp_status crisp__splat_store_create(crisp__splat_store **dest)
 {
     crisp__splat_store *s = calloc(1, sizeof *s);
     if (!s) return crisp_error(CRISP_ERR_NO_MEMORY, "out of memory for the splat store");
+    s->choice_work = UINT64_MAX;
     *dest = s;
     return CRISP_OK;
 }
@@ -140,6 +147,7 @@ static void clear_scene(crisp__splat_store *s)
     s->ranges_drawn = 0;
     s->serial = s->trim_serial = 0;
     s->changed = 1;
+    s->choice_work = UINT64_MAX;
 }
 
 void crisp__splat_store_destroy(crisp__splat_store *s)
@@ -445,6 +453,14 @@ static int want_level(const choose_ctx *c, uint32_t j, double *near)
  *   than the rounding), decided with a few additions; else want_level decides the face. The
  *   face's least W (the draw order) is computed exactly as want_level does (face_wmin). */
 
+/* A choice whose last run had less work than this (a face culled with its node: 1/8, decided by
+ * its node's bound: 1, one by one by want_level: 32) runs on the calling thread. At
+ * imp49 far (13,573 faces decided by their nodes' bounds, about 0.09 ms on one thread) the pool's
+ * hand-off and the outputs' cache lines moving to the thread that publishes them made the choice
+ * on this 2-core machine's two threads slower than on one: the plan 0.15-0.18 ms against 0.12-0.13
+ * (session 22). The outputs do not depend on the threads. */
+#define CHOICE_SERIAL_WORK 32768
+
 /* The rounding allowance in 2 log2 (s0 / rt): the two computations' errors are about 1e-13. */
 #define GROUP_DELTA 1e-9
 /* A node within the frustum is decided as a group when its interval's width times its faces is
@@ -452,13 +468,13 @@ static int want_level(const choose_ctx *c, uint32_t j, double *near)
  * children are tried (each costs about one face's want_level). */
 #define GROUP_SPREAD 2.0
 
-/* The least W over the box of the face at slot j, bit for bit as want_level's least of its 8
- * corners: the computed W is monotone in each coordinate (products and sums round monotonically),
- * so the corner with each coordinate at the end that lowers W gives the least computed value. */
-static inline double face_wmin(const choose_ctx *c, uint32_t j)
+/* The least W over a face's box b, bit for bit as want_level's least of its 8 corners (w:
+ * choose_ctx's W row, wlow its corner): the computed W is monotone in each coordinate (products
+ * and sums round monotonically), so the corner with each coordinate at the end that lowers W gives
+ * the least computed value. */
+static inline double face_wmin(const double w[4], const int wlow[3], const double *b)
 {
-    const double *b = c->s->box + 6 * (size_t)j;
-    return c->w[0] * b[c->wlow[0]] + c->w[1] * b[c->wlow[1]] + c->w[2] * b[c->wlow[2]] + c->w[3];
+    return w[0] * b[wlow[0]] + w[1] * b[wlow[1]] + w[2] * b[wlow[2]] + w[3];
 }
 
 /* ceil(a) for the choice's 2 log2 (s0 / rt) bounds (a few tens), without a libm call: exact for
@@ -468,7 +484,7 @@ static inline double ceil_level(double a)
 {
     if (!(fabs(a) < 2147483648.0)) return ceil(a);
     double t = (double)(int32_t)a; /* towards zero: ceil for a <= 0, floor for a > 0 */
-    return t < a ? t + 1 : t;
+    return t + (double)(t < a);    /* (no branch: whether t < a changes from face to face) */
 }
 
 typedef struct group_view {
@@ -555,13 +571,12 @@ static void view_group(const choose_ctx *c, const double *b, group_view *v)
 
 #define UNDECIDED (-2)
 
-/* want_level's answer for the face at slot j of a node inside the frustum (v), or UNDECIDED. */
-static int want_level_grouped(const choose_ctx *c, const group_view *v, uint32_t j, double *near)
+/* want_level's answer for the face fs of a node inside the frustum whose group_view has a_lo and
+ * a_hi, or UNDECIDED. */
+static inline int want_level_grouped(const face_sets *fs, double a_lo, double a_hi)
 {
-    const crisp__splat_store *s = c->s;
-    const face_sets *fs = &s->faces[j];
     if (!(fs->s0 > 0) || !fs->refused) return -1;
-    double lo = fs->log_s0 + v->a_lo - GROUP_DELTA, hi = fs->log_s0 + v->a_hi + 2 * GROUP_DELTA;
+    double lo = fs->log_s0 + a_lo - GROUP_DELTA, hi = fs->log_s0 + a_hi + 2 * GROUP_DELTA;
     if (lo > CRISP_SPLAT_LEVELS - 1) return -1; /* want_level's k at CRISP_SPLAT_LEVELS or more */
     double kk = ceil_level(hi);
     int k;
@@ -572,7 +587,6 @@ static int want_level_grouped(const choose_ctx *c, const group_view *v, uint32_t
     else
         return UNDECIDED;
     if (k >= CRISP_SPLAT_LEVELS || k >= fs->refused) return -1;
-    *near = face_wmin(c, j);
     /* want_level's two checks of built levels' radii against rt are decided by the interval
      * too, so they are not made (session 18, inst5: two level_radius a face, about a quarter of
      * the choice's instructions at imp49 far). With R_k = s0 2^(-k/2), a face's 2 log2 (s0 / rt)
@@ -586,34 +600,44 @@ static int want_level_grouped(const choose_ctx *c, const group_view *v, uint32_t
     return k;
 }
 
-/* Face f (at slot j) drawn at built level k: its set's range (range[f], through the face's cached
- * level) and its splat origin's clip position (4 floats at co, from the store's view_proj). */
-static inline void draw_set(crisp__splat_store *s, uint32_t f, uint32_t j, int k, float *co)
+/* view_proj's rows as the clip origins take them (origin_rows_load: once per chunk of faces). */
+typedef struct origin_rows {
+#ifdef __SSE2__
+    __m128d r[4][2]; /* row i's entries 0, 1 and 2, 3 */
+#else
+    double r[4][4];
+#endif
+} origin_rows;
+
+static inline void origin_rows_load(crisp_mat4 m, origin_rows *o)
 {
-    face_sets *fs = &s->faces[j];
-    if (fs->draw_level != k) {
-        fs->draw_first = s->levels[f].first[k];
-        fs->draw_count = s->levels[f].count[k];
-        fs->draw_level = (int8_t)k;
+    for (int i = 0; i < 4; i++) {
+#ifdef __SSE2__
+        o->r[i][0] = _mm_loadu_pd(&m[i][0]), o->r[i][1] = _mm_loadu_pd(&m[i][2]);
+#else
+        memcpy(o->r[i], m[i], sizeof o->r[i]);
+#endif
     }
-    s->range[f][0] = fs->draw_first, s->range[f][1] = fs->draw_count;
-    const crisp_mat4 *m = (const crisp_mat4 *)&s->view_proj;
+}
+
+/* The clip position of a face's splat origin (4 floats at co). */
+static inline void clip_origin_of(const origin_rows *o, const double origin[3], float *co)
+{
 #ifdef __SSE2__
     /* two rows a vector: the same products and sums in the same order per row, so the same bits
      * as the loop below (about half its instructions: a face's clip origin was 30 of them) */
-    __m128d o0 = _mm_set1_pd(fs->origin[0]), o1 = _mm_set1_pd(fs->origin[1]),
-            o2 = _mm_set1_pd(fs->origin[2]);
-    for (int q = 0; q < 4; q += 2) {
-        __m128d h = _mm_add_pd(_mm_add_pd(_mm_add_pd(_mm_mul_pd(_mm_loadu_pd(&(*m)[0][q]), o0),
-                                                     _mm_mul_pd(_mm_loadu_pd(&(*m)[1][q]), o1)),
-                                          _mm_mul_pd(_mm_loadu_pd(&(*m)[2][q]), o2)),
-                               _mm_loadu_pd(&(*m)[3][q]));
-        _mm_storel_pi((__m64 *)(co + q), _mm_cvtpd_ps(h));
+    __m128d o0 = _mm_set1_pd(origin[0]), o1 = _mm_set1_pd(origin[1]), o2 = _mm_set1_pd(origin[2]);
+    for (int q = 0; q < 2; q++) {
+        __m128d h = _mm_add_pd(
+            _mm_add_pd(_mm_add_pd(_mm_mul_pd(o->r[0][q], o0), _mm_mul_pd(o->r[1][q], o1)),
+                       _mm_mul_pd(o->r[2][q], o2)),
+            o->r[3][q]);
+        _mm_storel_pi((__m64 *)(co + 2 * q), _mm_cvtpd_ps(h));
     }
 #else
     for (int q = 0; q < 4; q++)
-        co[q] = (float)((*m)[0][q] * fs->origin[0] + (*m)[1][q] * fs->origin[1] +
-                        (*m)[2][q] * fs->origin[2] + (*m)[3][q]);
+        co[q] = (float)(o->r[0][q] * origin[0] + o->r[1][q] * origin[1] + o->r[2][q] * origin[2] +
+                        o->r[3][q]);
 #endif
 }
 
@@ -624,15 +648,24 @@ static inline uint32_t near_key(double w)
     float fw = (float)w;
     uint32_t bits;
     memcpy(&bits, &fw, sizeof bits);
-    return (double)fw < w ? bits + 1 : bits;
+    return bits + (uint32_t)((double)fw < w);
 }
 
-/* Face f (at slot j, its box's least W near) drawn at built level k: its range and clip origin
- * (draw_set), its draw key. */
-static inline void drawn(crisp__splat_store *s, uint32_t f, uint32_t j, int k, double near)
+/* Face f (at fs, its sets fl, its box's least W near) drawn at built level k: its set's range (at
+ * range, through the face's cached level), its splat origin's clip position (4 floats at co), its
+ * draw key (at key). */
+static inline void draw_face(face_sets *fs, const face_levels *fl, const origin_rows *rows,
+                             uint32_t f, int k, double near, uint32_t *range, float *co,
+                             uint64_t *key)
 {
-    draw_set(s, f, j, k, s->clip_origin + 4 * (size_t)f);
-    s->key[f] = (uint64_t)near_key(near) << 32 | f;
+    if (fs->draw_level != k) {
+        fs->draw_first = fl->first[k];
+        fs->draw_count = fl->count[k];
+        fs->draw_level = (int8_t)k;
+    }
+    range[0] = fs->draw_first, range[1] = fs->draw_count;
+    clip_origin_of(rows, fs->origin, co);
+    *key = (uint64_t)near_key(near) << 32 | f;
 }
 
 /* Face f not drawn (yet): no draw key, its clip origin 0. */
@@ -643,22 +676,252 @@ static inline void not_drawn(crisp__splat_store *s, uint32_t f)
     s->key[f] = DRAW_NONE;
 }
 
+/* What choose_chunk counts (see there). */
+typedef struct chunk_tally {
+    uint64_t counts[3];
+    uint32_t todo, keyed;
+} chunk_tally;
+
+/* The faces at slots first .. end - 1, of nodes not culled: inside the frustum (a_lo, a_hi: per
+ * face, from first, its node's group_view's a_lo and a_hi) or not (a_lo NULL). Each face's level
+ * by its node's interval (want_level_grouped) when the node lies inside the frustum and the
+ * interval decides it, else by want_level; its want, and its range, clip origin and key when its
+ * level is built (else its near). The store's arrays and the view are held in locals: want and
+ * splat are byte arrays, whose stores the compiler must take to change any memory, so with the
+ * arrays read through s and c it reloaded every pointer and the W row after each of them. */
+static void choose_faces(const choose_ctx *c, const double *a_lo, const double *a_hi,
+                         uint32_t first, uint32_t end, const origin_rows *rows, chunk_tally *tl)
+{
+    crisp__splat_store *s = c->s;
+    face_sets *faces = s->faces;
+    const face_levels *levels = s->levels;
+    const double *box = s->box;
+    const uint32_t *order = s->tree.order;
+    int8_t *restrict want = s->want;
+    uint8_t *restrict splat = c->splat;
+    double *restrict nearv = s->near;
+    uint32_t(*restrict range)[2] = s->range;
+    uint64_t *restrict key = s->key;
+    float *restrict clip = s->clip_origin;
+    const double w[4] = {c->w[0], c->w[1], c->w[2], c->w[3]};
+    const int wlow[3] = {c->wlow[0], c->wlow[1], c->wlow[2]};
+    const int all_near = c->all_near;
+    chunk_tally t = *tl;
+    for (uint32_t j = first; j < end; j++) {
+        uint32_t f = order[j]; /* (at slot j) */
+        face_sets *fs = &faces[j];
+        double near = 0;
+        int k = a_lo ? want_level_grouped(fs, a_lo[j - first], a_hi[j - first]) : UNDECIDED;
+        if (k == UNDECIDED) {
+            k = want_level(c, j, &near);
+            t.counts[2]++;
+        } else {
+            if (k >= 0) near = face_wmin(w, wlow, box + 6 * (size_t)j);
+            t.counts[1]++;
+        }
+        want[f] = (int8_t)k;
+        if (k >= 0 && fs->built >> k & 1u) {
+            draw_face(fs, &levels[f], rows, f, k, near, range[f], clip + 4 * (size_t)f, &key[f]);
+            t.keyed++;
+            if (splat) splat[f] = 1;
+            if (all_near) nearv[f] = near;
+        } else {
+            float *co = clip + 4 * (size_t)f;
+            co[0] = co[1] = co[2] = co[3] = 0;
+            key[f] = DRAW_NONE;
+            if (k >= 0) nearv[f] = near, t.todo++;
+        }
+    }
+    *tl = t;
+}
+
+int crisp__splat_choice_lanes = -1;
+unsigned long long crisp__splat_lane_faces;
+
+#ifdef CHOICE_LANES
+/* choose_faces for four faces a lane (a_lo, a_hi from first as there; inside the frustum), from
+ * slot j, as long as all four of a group are decided by their intervals at a level that is built;
+ * returns the slot of the first group that is not (then nothing of it was written) or of the
+ * fewer than four faces left. The same IEEE operations per lane as the scalar code
+ * (want_level_grouped, face_wmin, near_key, clip_origin_of), so the same bits (test_splats'
+ * test_choice_lanes). The faces' lines are four 64-byte rows, read as two 4 x 4 blocks of 8-byte
+ * fields and transposed: s0, log_s0, built, origin x (the first), origin y, z, the range (first |
+ * count << 32), draw_level | refused << 8 (the second). A face drawn at another level before gets
+ * its line's range from its levels, as draw_face does. At imp49 far the scalar code took about 150
+ * instructions a face, this about 50 (session 22). */
+__attribute__((target("avx2"))) static uint32_t
+choose_faces4(const choose_ctx *c, const double *a_lo, const double *a_hi, uint32_t first,
+              uint32_t j, uint32_t end, chunk_tally *tl)
+{
+    _Static_assert(offsetof(face_sets, draw_first) == 48 && offsetof(face_sets, draw_level) == 56 &&
+                       offsetof(face_sets, refused) == 57 && offsetof(face_sets, origin) == 24,
+                   "face_sets: the fields choose_faces4 reads by position");
+    crisp__splat_store *s = c->s;
+    face_sets *faces = s->faces;
+    const double *lines = (const double *)faces;
+    const face_levels *levels = s->levels;
+    const double *box = s->box;
+    const uint32_t *order = s->tree.order;
+    int8_t *restrict want = s->want;
+    uint8_t *restrict splat = c->splat;
+    uint32_t(*restrict range)[2] = s->range;
+    uint64_t *restrict key = s->key;
+    float *restrict clip = s->clip_origin;
+    __m256d mr[4][4]; /* view_proj's entries [i][r] */
+    for (int i = 0; i < 4; i++)
+        for (int r = 0; r < 4; r++)
+            mr[i][r] = _mm256_set1_pd(s->view_proj[i][r]);
+    const __m256d d1 = _mm256_set1_pd(GROUP_DELTA), d2 = _mm256_set1_pd(2 * GROUP_DELTA);
+    const __m256d last = _mm256_set1_pd(CRISP_SPLAT_LEVELS - 1), big = _mm256_set1_pd(2147483648.0);
+    const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
+    const __m256d sign = _mm256_set1_pd(-0.0);
+    const __m256i levels_n = _mm256_set1_epi64x(CRISP_SPLAT_LEVELS);
+    const __m256i byte = _mm256_set1_epi64x(0xff), bit = _mm256_set1_epi64x(1);
+    const __m256d w0 = _mm256_set1_pd(c->w[0]), w1 = _mm256_set1_pd(c->w[1]),
+                  w2 = _mm256_set1_pd(c->w[2]), w3 = _mm256_set1_pd(c->w[3]);
+    const __m128i six = _mm_setr_epi32(0, 6, 12, 18);
+    const __m128i wl0 = _mm_set1_epi32(c->wlow[0]), wl1 = _mm_set1_epi32(c->wlow[1]),
+                  wl2 = _mm_set1_epi32(c->wlow[2]);
+    uint32_t taken = 0;
+    for (; end - j >= 4; j += 4) {
+        const double *l = lines + 8 * (size_t)j;
+        __m256d a0 = _mm256_loadu_pd(l), a1 = _mm256_loadu_pd(l + 8), a2 = _mm256_loadu_pd(l + 16),
+                a3 = _mm256_loadu_pd(l + 24);
+        __m256d lo01 = _mm256_unpacklo_pd(a0, a1), hi01 = _mm256_unpackhi_pd(a0, a1),
+                lo23 = _mm256_unpacklo_pd(a2, a3), hi23 = _mm256_unpackhi_pd(a2, a3);
+        __m256d s0 = _mm256_permute2f128_pd(lo01, lo23, 0x20);
+        __m256d log_s0 = _mm256_permute2f128_pd(hi01, hi23, 0x20);
+        __m256i built = _mm256_castpd_si256(_mm256_permute2f128_pd(lo01, lo23, 0x31));
+        __m256d ox = _mm256_permute2f128_pd(hi01, hi23, 0x31);
+        /* want_level_grouped: s0 > 0, lo <= the last level, |hi| < 2^31 (ceil_level without
+         * the library) and the level decided; a NaN fails each compare (the scalar code then) */
+        __m256d lo = _mm256_sub_pd(_mm256_add_pd(log_s0, _mm256_loadu_pd(a_lo + (j - first))), d1);
+        __m256d hi = _mm256_add_pd(_mm256_add_pd(log_s0, _mm256_loadu_pd(a_hi + (j - first))), d2);
+        __m256d t = _mm256_round_pd(hi, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC);
+        __m256d kk = _mm256_add_pd(t, _mm256_and_pd(_mm256_cmp_pd(t, hi, _CMP_LT_OQ), one));
+        __m256d pos = _mm256_cmp_pd(kk, zero, _CMP_GT_OQ);
+        __m256d ok =
+            _mm256_and_pd(_mm256_cmp_pd(s0, zero, _CMP_GT_OQ), _mm256_cmp_pd(lo, last, _CMP_LE_OQ));
+        ok = _mm256_and_pd(ok, _mm256_cmp_pd(_mm256_andnot_pd(sign, hi), big, _CMP_LT_OQ));
+        ok = _mm256_and_pd(ok, _mm256_or_pd(_mm256_cmp_pd(kk, zero, _CMP_LE_OQ),
+                                            _mm256_cmp_pd(lo, _mm256_sub_pd(kk, one), _CMP_GT_OQ)));
+        if (_mm256_movemask_pd(ok) != 0xf) break;
+        __m256i k = _mm256_cvtepi32_epi64(_mm256_cvttpd_epi32(_mm256_and_pd(kk, pos)));
+        __m256d b0 = _mm256_loadu_pd(l + 4), b1 = _mm256_loadu_pd(l + 12),
+                b2 = _mm256_loadu_pd(l + 20), b3 = _mm256_loadu_pd(l + 28);
+        __m256d plo01 = _mm256_unpacklo_pd(b0, b1), phi01 = _mm256_unpackhi_pd(b0, b1),
+                plo23 = _mm256_unpacklo_pd(b2, b3), phi23 = _mm256_unpackhi_pd(b2, b3);
+        __m256d oy = _mm256_permute2f128_pd(plo01, plo23, 0x20);
+        __m256d oz = _mm256_permute2f128_pd(phi01, phi23, 0x20);
+        __m256i rng = _mm256_castpd_si256(_mm256_permute2f128_pd(plo01, plo23, 0x31));
+        __m256i misc = _mm256_castpd_si256(_mm256_permute2f128_pd(phi01, phi23, 0x31));
+        /* k < CRISP_SPLAT_LEVELS, k < refused, level k built */
+        __m256i refused = _mm256_and_si256(_mm256_srli_epi64(misc, 8), byte);
+        __m256i good =
+            _mm256_and_si256(_mm256_cmpgt_epi64(levels_n, k), _mm256_cmpgt_epi64(refused, k));
+        good = _mm256_and_si256(
+            good, _mm256_cmpeq_epi64(_mm256_and_si256(_mm256_srlv_epi64(built, k), bit), bit));
+        if (_mm256_movemask_pd(_mm256_castsi256_pd(good)) != 0xf) break;
+        int moved = 0xf & ~_mm256_movemask_pd(_mm256_castsi256_pd(
+                              _mm256_cmpeq_epi64(_mm256_and_si256(misc, byte), k)));
+        /* near (face_wmin): the box's coordinates at wlow */
+        __m128i at = _mm_add_epi32(six, _mm_set1_epi32((int)(6 * j)));
+        __m256d bx = _mm256_i32gather_pd(box, _mm_add_epi32(at, wl0), 8);
+        __m256d by = _mm256_i32gather_pd(box, _mm_add_epi32(at, wl1), 8);
+        __m256d bz = _mm256_i32gather_pd(box, _mm_add_epi32(at, wl2), 8);
+        __m256d near =
+            _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(w0, bx), _mm256_mul_pd(w1, by)),
+                                        _mm256_mul_pd(w2, bz)),
+                          w3);
+        /* near_key: the float rounded up */
+        __m128 fw = _mm256_cvtpd_ps(near);
+        __m256i up = _mm256_castpd_si256(_mm256_cmp_pd(_mm256_cvtps_pd(fw), near, _CMP_LT_OQ));
+        __m128i f4 = _mm_loadu_si128((const __m128i *)(order + j));
+        __m256i keys = _mm256_or_si256(
+            _mm256_slli_epi64(_mm256_sub_epi64(_mm256_cvtepu32_epi64(_mm_castps_si128(fw)), up),
+                              32),
+            _mm256_cvtepu32_epi64(f4));
+        /* the clip origins (clip_origin_of per lane), then one face's four floats a vector */
+        __m128 q[4];
+        for (int r = 0; r < 4; r++)
+            q[r] = _mm256_cvtpd_ps(
+                _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(mr[0][r], ox),
+                                                          _mm256_mul_pd(mr[1][r], oy)),
+                                            _mm256_mul_pd(mr[2][r], oz)),
+                              mr[3][r]));
+        _MM_TRANSPOSE4_PS(q[0], q[1], q[2], q[3]);
+        uint32_t f[4];
+        uint64_t kv[4], rv[4];
+        int64_t lv[4];
+        _mm_storeu_si128((__m128i *)f, f4);
+        _mm256_storeu_si256((__m256i *)kv, keys);
+        _mm256_storeu_si256((__m256i *)rv, rng);
+        _mm256_storeu_si256((__m256i *)lv, k);
+        for (int i = 0; i < 4; i++) {
+            if (moved >> i & 1) { /* (draw_face's change of level) */
+                face_sets *fs = &faces[j + (uint32_t)i];
+                fs->draw_first = levels[f[i]].first[lv[i]];
+                fs->draw_count = levels[f[i]].count[lv[i]];
+                fs->draw_level = (int8_t)lv[i];
+                rv[i] = (uint64_t)fs->draw_first | (uint64_t)fs->draw_count << 32;
+            }
+            want[f[i]] = (int8_t)lv[i];
+            memcpy(range[f[i]], &rv[i], sizeof rv[i]);
+            _mm_storeu_ps(clip + 4 * (size_t)f[i], q[i]);
+            key[f[i]] = kv[i];
+            splat[f[i]] = 1;
+        }
+        taken += 4;
+    }
+    tl->counts[1] += taken;
+    tl->keyed += taken;
+    if (taken) __atomic_fetch_add(&crisp__splat_lane_faces, taken, __ATOMIC_RELAXED);
+    return j;
+}
+#endif
+
+/* choose_faces for a run of faces inside the frustum (a_lo, a_hi as there), four at a time
+ * (choose_faces4) where it can. */
+static void choose_run(const choose_ctx *c, const double *a_lo, const double *a_hi, uint32_t first,
+                       uint32_t end, const origin_rows *rows, chunk_tally *tl)
+{
+    uint32_t j = first;
+#ifdef CHOICE_LANES
+    if (crisp__splat_choice_lanes && c->splat && !c->all_near &&
+        c->s->face_count < (1u << 28)) /* (choose_faces4's box indices in 32 bits) */
+        while (end - j >= 4) {
+            j = choose_faces4(c, a_lo, a_hi, first, j, end, tl);
+            if (end - j < 4) break;
+            /* (a group the lanes do not take) */
+            choose_faces(c, a_lo + (j - first), a_hi + (j - first), j, j + 4, rows, tl);
+            j += 4;
+        }
+#endif
+    choose_faces(c, a_lo + (j - first), a_hi + (j - first), j, end, rows, tl);
+}
+
 /* Chunk i of the faces' tree: its faces' want (-1 for every face on entry), and for those whose
  * level is built, their range, clip origin and key (drawn), for the others near (with all_near:
  * every face's with want >= 0); counts: faces decided [0] culled with their node, [1] by their
- * node's bound, [2] one by one; chunk_todo: faces whose level is not built, faces drawn. */
+ * node's bound, [2] one by one; chunk_todo: faces whose level is not built, faces drawn. The faces
+ * of nodes inside the frustum are gathered in runs of neighbouring slots (the nodes a walk decides
+ * one after another hold neighbouring ranges of slots), each face with its node's interval, so
+ * that the four lanes take faces of nodes of fewer than four faces too. */
 static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
 {
     (void)worker;
     choose_ctx *c = vctx;
     crisp__splat_store *s = c->s;
     const crisp__face_tree *t = &s->tree;
+    origin_rows rows;
+    origin_rows_load(s->view_proj, &rows);
+    enum { RUN = 256 };
+    double a_lo[RUN], a_hi[RUN];
     for (size_t i = begin; i < end; i++) {
         /* counted here and stored once: neighbouring chunks' counts share a cache line, which two
          * threads writing per face passed back and forth */
-        uint64_t counts[3] = {0, 0, 0};
-        uint32_t todo = 0, keyed = 0;
-        uint32_t stack[64];
+        chunk_tally tl = {{0, 0, 0}, 0, 0};
+        uint32_t stack[64], run_first = 0, run_end = 0;
         int top = 0;
         stack[top++] = t->chunks[i];
         while (top > 0) {
@@ -666,7 +929,7 @@ static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
             group_view v = {0};
             view_group(c, n->box, &v);
             if (v.culled) {
-                counts[0] += n->count;
+                tl.counts[0] += n->count;
                 for (uint32_t j = n->first; j < n->first + n->count; j++)
                     not_drawn(s, t->order[j]);
                 continue;
@@ -678,30 +941,24 @@ static void choose_chunk(void *vctx, size_t begin, size_t end, int worker)
                 stack[top++] = (uint32_t)n->child[0];
                 continue;
             }
-            for (uint32_t j = n->first; j < n->first + n->count; j++) {
-                uint32_t f = t->order[j]; /* (at slot j) */
-                double near;
-                int k = v.inside ? want_level_grouped(c, &v, j, &near) : UNDECIDED;
-                if (k == UNDECIDED) {
-                    k = want_level(c, j, &near);
-                    counts[2]++;
-                } else {
-                    counts[1]++;
+            if (!v.inside) {
+                choose_faces(c, NULL, NULL, n->first, n->first + n->count, &rows, &tl);
+                continue;
+            }
+            for (uint32_t j = n->first, e = n->first + n->count; j < e;) {
+                if (j != run_end || run_end - run_first == RUN) {
+                    choose_run(c, a_lo, a_hi, run_first, run_end, &rows, &tl);
+                    run_first = run_end = j;
                 }
-                s->want[f] = (int8_t)k;
-                if (k >= 0 && s->faces[j].built >> k & 1u) {
-                    drawn(s, f, j, k, near);
-                    keyed++;
-                    if (c->splat) c->splat[f] = 1;
-                    if (c->all_near) s->near[f] = near;
-                } else {
-                    not_drawn(s, f);
-                    if (k >= 0) s->near[f] = near, todo++;
-                }
+                uint32_t at = run_end - run_first, m = e - j < RUN - at ? e - j : RUN - at;
+                for (uint32_t q = at; q < at + m; q++)
+                    a_lo[q] = v.a_lo, a_hi[q] = v.a_hi;
+                run_end += m, j += m;
             }
         }
-        memcpy(s->chunk_counts[i], counts, sizeof counts);
-        s->chunk_todo[i][0] = todo, s->chunk_todo[i][1] = keyed;
+        choose_run(c, a_lo, a_hi, run_first, run_end, &rows, &tl);
+        memcpy(s->chunk_counts[i], tl.counts, sizeof tl.counts);
+        s->chunk_todo[i][0] = tl.todo, s->chunk_todo[i][1] = tl.keyed;
     }
 }
 
@@ -741,9 +998,16 @@ static size_t choose_levels(crisp__splat_store *s, const crisp_scene *sc, crisp_
         return sc->face_count;
     }
     memset(s->want, -1, sc->face_count);
+#ifdef CHOICE_LANES
+    if (crisp__splat_choice_lanes < 0)
+        crisp__splat_choice_lanes = __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    crisp__splat_choice_lanes = 0;
+#endif
     /* runs of neighbouring chunks per item: neighbours (one instance's halves at imp49 far) hold
      * faces of interleaved indices, whose per-face outputs share cache lines */
     size_t grain = s->tree.chunk_count / 16 > 1 ? s->tree.chunk_count / 16 : 1;
+    if (s->choice_work < CHOICE_SERIAL_WORK) grain = s->tree.chunk_count; /* (one item) */
     crisp_pool_parallel_for(pool, s->tree.chunk_count, grain, choose_chunk, &c);
     size_t todo = 0;
     s->keyed = 0; /* (every face of the tree was drawn or not; the others have no key) */
@@ -753,6 +1017,7 @@ static size_t choose_levels(crisp__splat_store *s, const crisp_scene *sc, crisp_
         todo += s->chunk_todo[i][0];
         s->keyed += s->chunk_todo[i][1];
     }
+    s->choice_work = s->counts[0] / 8 + s->counts[1] + 32 * s->counts[2];
     return todo;
 }
 
@@ -1116,10 +1381,13 @@ crisp_status crisp__splat_store_choose(crisp__splat_store *s, const crisp_scene 
     for (; c0 < n; c0++)
         s->want[s->todo[c0]] = -1;
     /* the faces built now: drawn as those the choice found built */
+    origin_rows rows;
+    origin_rows_load(s->view_proj, &rows);
     for (size_t i = 0; i < n; i++) {
         uint32_t f = s->todo[i];
         if (s->want[f] >= 0) {
-            drawn(s, f, s->slot[f], s->want[f], s->near[f]);
+            draw_face(&s->faces[s->slot[f]], &s->levels[f], &rows, f, s->want[f], s->near[f],
+                      s->range[f], s->clip_origin + 4 * (size_t)f, &s->key[f]);
             s->keyed++;
             splat[f] = 1;
         }

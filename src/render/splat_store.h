@@ -90,5 +90,10 @@ void crisp__splat_store_choice_counts(const crisp__splat_store *s, uint64_t dest
 crisp_status crisp__splat_store_test_want(crisp__splat_store *s, const crisp_scene *sc,
                                           crisp_mat4 view_proj, int width, int height, int grouped,
                                           int8_t *want, double *near);
+/* The choice takes four faces at a time with AVX2 (1; where the CPU has it) or one at a time (0);
+ * -1: not known yet (set on the first choice). Tests set it to compare the two. */
+extern int crisp__splat_choice_lanes;
+/* Faces the four-lane path took since the program started (tests: that it ran). */
+extern unsigned long long crisp__splat_lane_faces;
 
 #endif

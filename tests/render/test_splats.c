@@ -1240,6 +1240,70 @@ static void test_plan_history(void **state)
     crisp_model_destroy(m);
 }
 
+/* The choice's four-lane path (choose_faces4, AVX2) against its scalar path: two planners plan
+ * the same sequence of views of impeller.igs 4 x 4 (far, a few pixels a face, to near enough that
+ * faces leave the splats; off to a side), one with the lanes, one without; every plan's splat
+ * ranges, clip origins (bit for bit), face records and counts must be the same, and the lanes
+ * must have taken most faces of the far views (where the CPU has AVX2). The two planners build
+ * the same sets in the same order, so the ranges' places in the store match too. */
+static void test_choice_lanes(void **state)
+{
+    (void)state;
+    crisp_model *m = instanced("impeller.igs", 4);
+    crisp_scene *sc = NULL;
+    assert_int_equal(crisp_scene_prepare(m, &sc), CRISP_OK);
+    crisp_planner *with, *without;
+    assert_int_equal(crisp_planner_create(NULL, NULL, &with), CRISP_OK);
+    assert_int_equal(crisp_planner_create(NULL, NULL, &without), CRISP_OK);
+    crisp_camera views[6] = {
+        group_view_camera(sc, 30, 0.0, 3, 640, 360),    group_view_camera(sc, 80, 0.3, 3, 640, 360),
+        group_view_camera(sc, 400, 0.0, 3, 640, 360),   group_view_camera(sc, 30, 1.5, 3, 640, 360),
+        group_view_camera(sc, 150, 0.2, 0.5, 640, 360), beside_view(sc, 0.05, 0.6, 640, 360),
+    };
+    static const int seq[] = {0, 0, 1, 1, 0, 2, 2, 3, 3, 4, 4, 0, 5, 5, 1, 0};
+    unsigned long long taken = 0;
+    const crisp_frame_plan *first;
+    assert_int_equal(crisp_planner_plan(with, sc, &views[5], &first), CRISP_OK);
+    const int lanes = crisp__splat_choice_lanes; /* (known after a choice) */
+    assert_true(lanes >= 0);
+    crisp__splat_choice_lanes = 0;
+    assert_int_equal(crisp_planner_plan(without, sc, &views[5], &first), CRISP_OK);
+    for (size_t i = 0; i < sizeof seq / sizeof seq[0]; i++) {
+        const crisp_camera *cam = &views[seq[i]];
+        const crisp_frame_plan *a, *b;
+        unsigned long long before = crisp__splat_lane_faces;
+        crisp__splat_choice_lanes = lanes;
+        assert_int_equal(crisp_planner_plan(with, sc, cam, &a), CRISP_OK);
+        unsigned long long now = crisp__splat_lane_faces - before;
+        taken += now;
+        crisp__splat_choice_lanes = 0;
+        before = crisp__splat_lane_faces;
+        assert_int_equal(crisp_planner_plan(without, sc, cam, &b), CRISP_OK);
+        assert_true(crisp__splat_lane_faces == before);
+        assert_int_equal(a->splat_range_count, b->splat_range_count);
+        for (uint32_t r = 0; r < a->splat_range_count; r++) {
+            const crisp_plan_splat_range *ra = &a->splat_ranges[r], *rb = &b->splat_ranges[r];
+            assert_int_equal(ra->face, rb->face);
+            assert_int_equal(ra->first, rb->first);
+            assert_int_equal(ra->count, rb->count);
+            assert_int_equal(memcmp(a->splat_clip_origin + 4 * (size_t)ra->face,
+                                    b->splat_clip_origin + 4 * (size_t)ra->face, 4 * sizeof(float)),
+                             0);
+        }
+        assert_int_equal(memcmp(a->faces, b->faces, sc->face_count * sizeof(crisp_plan_face)), 0);
+        assert_int_equal(a->stats.triangles, b->stats.triangles);
+        assert_int_equal(a->stats.splats_drawn, b->stats.splats_drawn);
+        printf("view %d: %u splat faces, the lanes took %llu\n", seq[i], a->splat_range_count, now);
+    }
+    crisp__splat_choice_lanes = lanes;
+    printf("lanes %d: %llu faces taken four at a time\n", lanes, taken);
+    if (lanes > 0) assert_true(taken > 4 * sc->face_count);
+    crisp_planner_destroy(with);
+    crisp_planner_destroy(without);
+    crisp_scene_destroy(sc);
+    crisp_model_destroy(m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1250,7 +1314,7 @@ int main(void)
         cmocka_unit_test(test_range_order),       cmocka_unit_test(test_kept_order),
         cmocka_unit_test(test_build_limit),       cmocka_unit_test(test_build_order),
         cmocka_unit_test(test_trim_rule),         cmocka_unit_test(test_plain_faces),
-        cmocka_unit_test(test_plan_history),
+        cmocka_unit_test(test_plan_history),      cmocka_unit_test(test_choice_lanes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
