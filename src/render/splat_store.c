@@ -651,6 +651,14 @@ static inline uint32_t near_key(double w)
     return bits + (uint32_t)((double)fw < w);
 }
 
+/* The face's line (fs) caches its built level k's set (from its sets fl): the range drawn. */
+static inline void draw_level_set(face_sets *fs, const face_levels *fl, int k)
+{
+    fs->draw_first = fl->first[k];
+    fs->draw_count = fl->count[k];
+    fs->draw_level = (int8_t)k;
+}
+
 /* Face f (at fs, its sets fl, its box's least W near) drawn at built level k: its set's range (at
  * range, through the face's cached level), its splat origin's clip position (4 floats at co), its
  * draw key (at key). */
@@ -658,22 +666,23 @@ static inline void draw_face(face_sets *fs, const face_levels *fl, const origin_
                              uint32_t f, int k, double near, uint32_t *range, float *co,
                              uint64_t *key)
 {
-    if (fs->draw_level != k) {
-        fs->draw_first = fl->first[k];
-        fs->draw_count = fl->count[k];
-        fs->draw_level = (int8_t)k;
-    }
+    if (fs->draw_level != k) draw_level_set(fs, fl, k);
     range[0] = fs->draw_first, range[1] = fs->draw_count;
     clip_origin_of(rows, fs->origin, co);
     *key = (uint64_t)near_key(near) << 32 | f;
 }
 
-/* Face f not drawn (yet): no draw key, its clip origin 0. */
+/* A face not drawn (yet): no draw key (at key), its clip origin 0 (4 floats at co). */
+static inline void not_drawn_at(float *co, uint64_t *key)
+{
+    co[0] = co[1] = co[2] = co[3] = 0;
+    *key = DRAW_NONE;
+}
+
+/* Face f not drawn (yet). */
 static inline void not_drawn(crisp__splat_store *s, uint32_t f)
 {
-    float *co = s->clip_origin + 4 * (size_t)f;
-    co[0] = co[1] = co[2] = co[3] = 0;
-    s->key[f] = DRAW_NONE;
+    not_drawn_at(s->clip_origin + 4 * (size_t)f, &s->key[f]);
 }
 
 /* What choose_chunk counts (see there). */
@@ -726,9 +735,7 @@ static void choose_faces(const choose_ctx *c, const double *a_lo, const double *
             if (splat) splat[f] = 1;
             if (all_near) nearv[f] = near;
         } else {
-            float *co = clip + 4 * (size_t)f;
-            co[0] = co[1] = co[2] = co[3] = 0;
-            key[f] = DRAW_NONE;
+            not_drawn_at(clip + 4 * (size_t)f, &key[f]);
             if (k >= 0) nearv[f] = near, t.todo++;
         }
     }
@@ -860,9 +867,7 @@ choose_faces4(const choose_ctx *c, const double *a_lo, const double *a_hi, uint3
         for (int i = 0; i < 4; i++) {
             if (moved >> i & 1) { /* (draw_face's change of level) */
                 face_sets *fs = &faces[j + (uint32_t)i];
-                fs->draw_first = levels[f[i]].first[lv[i]];
-                fs->draw_count = levels[f[i]].count[lv[i]];
-                fs->draw_level = (int8_t)lv[i];
+                draw_level_set(fs, &levels[f[i]], (int)lv[i]);
                 rv[i] = (uint64_t)fs->draw_first | (uint64_t)fs->draw_count << 32;
             }
             want[f[i]] = (int8_t)lv[i];

@@ -1174,6 +1174,23 @@ static crisp_camera beside_view(const crisp_scene *sc, double at, double up, int
     return cam;
 }
 
+/* Two plans draw the same splat ranges in the same order (face and count; with same_store, also
+ * their places in the store: planners that built the same sets in the same order) at the same
+ * clip origins, bit for bit. */
+static void assert_same_splats(const crisp_frame_plan *a, const crisp_frame_plan *b, int same_store)
+{
+    assert_int_equal(a->splat_range_count, b->splat_range_count);
+    for (uint32_t r = 0; r < a->splat_range_count; r++) {
+        const crisp_plan_splat_range *ra = &a->splat_ranges[r], *rb = &b->splat_ranges[r];
+        assert_int_equal(ra->face, rb->face);
+        if (same_store) assert_int_equal(ra->first, rb->first);
+        assert_int_equal(ra->count, rb->count);
+        assert_int_equal(memcmp(a->splat_clip_origin + 4 * (size_t)ra->face,
+                                b->splat_clip_origin + 4 * (size_t)ra->face, 4 * sizeof(float)),
+                         0);
+    }
+}
+
 static void test_plan_history(void **state)
 {
     (void)state;
@@ -1212,16 +1229,7 @@ static void test_plan_history(void **state)
         const crisp_camera *cam = &views[seq[i]];
         const crisp_frame_plan *plan, *ref;
         crisp_planner *fresh = plan_beside_fresh(pl, sc, cam, &plan, &ref);
-        assert_int_equal(plan->splat_range_count, ref->splat_range_count);
-        for (uint32_t r = 0; r < plan->splat_range_count; r++) {
-            const crisp_plan_splat_range *a = &plan->splat_ranges[r], *b = &ref->splat_ranges[r];
-            assert_int_equal(a->face, b->face);
-            assert_int_equal(a->count, b->count);
-            assert_int_equal(memcmp(plan->splat_clip_origin + 4 * (size_t)a->face,
-                                    ref->splat_clip_origin + 4 * (size_t)a->face,
-                                    4 * sizeof(float)),
-                             0);
-        }
+        assert_same_splats(plan, ref, 0);
         assert_int_equal(plan->stats.leaves, ref->stats.leaves);
         assert_int_equal(plan->stats.group_leaves, ref->stats.group_leaves);
         assert_int_equal(plan->stats.visible_patches, ref->stats.visible_patches);
@@ -1280,16 +1288,7 @@ static void test_choice_lanes(void **state)
         before = crisp__splat_lane_faces;
         assert_int_equal(crisp_planner_plan(without, sc, cam, &b), CRISP_OK);
         assert_true(crisp__splat_lane_faces == before);
-        assert_int_equal(a->splat_range_count, b->splat_range_count);
-        for (uint32_t r = 0; r < a->splat_range_count; r++) {
-            const crisp_plan_splat_range *ra = &a->splat_ranges[r], *rb = &b->splat_ranges[r];
-            assert_int_equal(ra->face, rb->face);
-            assert_int_equal(ra->first, rb->first);
-            assert_int_equal(ra->count, rb->count);
-            assert_int_equal(memcmp(a->splat_clip_origin + 4 * (size_t)ra->face,
-                                    b->splat_clip_origin + 4 * (size_t)ra->face, 4 * sizeof(float)),
-                             0);
-        }
+        assert_same_splats(a, b, 1);
         assert_int_equal(memcmp(a->faces, b->faces, sc->face_count * sizeof(crisp_plan_face)), 0);
         assert_int_equal(a->stats.triangles, b->stats.triangles);
         assert_int_equal(a->stats.splats_drawn, b->stats.splats_drawn);
